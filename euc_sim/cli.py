@@ -1,0 +1,105 @@
+"""The ``euc-sim`` command line.
+
+Each subcommand is a ``_cmd_NAME(args) -> int`` function registered in
+:func:`build_parser`.  Bad input (a ``ValueError`` or ``OSError`` raised anywhere
+below) becomes one line on stderr and exit code 2; nothing half-written is left,
+since every output goes through :mod:`euc_sim.io`'s atomic writes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Sequence
+
+EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+
+
+class UsageError(ValueError):
+    """A command-line argument that cannot be used; the message names it."""
+
+
+def _say(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+def _parse_params(items: Sequence[str] | None):
+    """``--param NAME=VALUE`` pairs → Params (Table 3 for the rest)."""
+    from euc_sim.parameters import Params
+
+    values = {}
+    for item in items or ():
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise UsageError(f"--param expects NAME=VALUE, got {item!r}")
+        try:
+            values[name.strip()] = float(value)
+        except ValueError:
+            raise UsageError(f"--param {name.strip()}: expected a number, got {value!r}") from None
+    return Params.from_mapping(values)
+
+
+# --- crosscheck ---------------------------------------------------------------------
+def _cmd_crosscheck(args: argparse.Namespace) -> int:
+    from euc_sim import crosscheck
+    from euc_sim.io import check_writable, write_json
+
+    if args.json:
+        check_writable(args.json)
+    if args.samples < 1:
+        raise UsageError(f"--samples must be at least 1, got {args.samples}")
+    if args.mjcf is not None:
+        from euc_sim.mujoco_model import load_model
+        load_model(mjcf=args.mjcf)          # fail early on a bad file
+    sets = dict(crosscheck.PARAMETER_SETS)
+    if args.param:
+        sets = {"user": _parse_params(args.param)}
+    checks = crosscheck.run_all(args.samples, progress=lambda s: _say(f"crosscheck: {s} ..."),
+                                sets=sets, mjcf=args.mjcf)
+    width = max(len(c.name) for c in checks)
+    print(f"{'check':<{width}}  {'worst':>10}  {'bound':>8}  ok")
+    for c in checks:
+        print(f"{c.name:<{width}}  {c.value:10.2e}  {c.bound:8.0e}  {'yes' if c.ok else 'NO'}")
+        if c.detail:
+            print(f"{'':<{width}}    {c.detail}")
+    ok = all(c.ok for c in checks)
+    print("all bounds hold" if ok else "BOUND BROKEN: see the rows marked NO")
+    if args.json:
+        write_json(args.json, {"ok": ok, "checks": [c.as_json() for c in checks]})
+    return EXIT_OK if ok else EXIT_FAIL
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="euc-sim",
+        description="Electric-unicycle-with-rider simulation, identification and diagnosis.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    p = sub.add_parser("crosscheck", help="prove the MuJoCo model against the analytic equations")
+    p.add_argument("--json", metavar="FILE", help="write the figures and bounds as JSON")
+    p.add_argument("--samples", type=int, default=2500,
+                   help="random states per parameter set (4 sets; default 2500)")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="check one user parameter set instead of the built-in four")
+    p.add_argument("--mjcf", metavar="FILE", help="MJCF file (default mjcf/euc_planar.xml)")
+    p.set_defaults(func=_cmd_crosscheck)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``euc-sim``; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args))
+    except (ValueError, OSError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        print(f"euc-sim {args.command}: error: {msg}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print(f"euc-sim {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,150 @@
+"""Model parameters of the EUC-rider system (the paper's Table 3).
+
+One immutable, validated object.  Lengths in m, masses in kg, inertias in kg·m²,
+``g`` in m/s².
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+#: Parameters that describe an offset or an inertia which the reduced 2-DoF model
+#: (Section 3.2) sets to zero; they may be zero but not negative.
+MAY_BE_ZERO = frozenset({"J0", "h0", "l0"})
+
+UNITS = {
+    "R": "m", "m": "kg", "m0": "kg", "mw": "kg", "J": "kg·m²", "Jw": "kg·m²",
+    "J0": "kg·m²", "h0": "m", "l0": "m", "h": "m", "g": "m/s²",
+}
+
+DESCRIPTION = {
+    "R": "wheel radius",
+    "m": "rider's mass",
+    "m0": "EUC body's mass",
+    "mw": "wheel's mass",
+    "J": "rider's mass moment of inertia about G",
+    "Jw": "wheel's mass moment of inertia about C",
+    "J0": "EUC body's mass moment of inertia about G0",
+    "h0": "distance C-G0 (EUC body's centre of gravity above the wheel centre)",
+    "l0": "distance A-C (ankle hinge below the wheel centre)",
+    "h": "distance A-G (rider's centre of gravity above the ankle)",
+    "g": "gravitational acceleration",
+}
+
+
+class ParameterError(ValueError):
+    """An invalid model parameter; the message names it and its value."""
+
+
+@dataclass(frozen=True)
+class Params:
+    """Parameters of the 3-DoF model, Table 3 of the paper (``h`` defaults to 0.6 m).
+
+    Attributes
+    ----------
+    R : float
+        Wheel radius, m.
+    m, m0, mw : float
+        Masses of the rider, the EUC body and the wheel, kg.
+    J, Jw, J0 : float
+        Mass moments of inertia of the rider (about G), the wheel (about C) and the
+        EUC body (about G0), kg·m².
+    h0 : float
+        Distance C–G0, m (EUC body's centre of gravity above the wheel centre).
+    l0 : float
+        Distance A–C, m (ankle hinge below the wheel centre).
+    h : float
+        Distance A–G, m (rider's centre of gravity above the ankle).
+    g : float
+        Gravitational acceleration, m/s².
+
+    Raises
+    ------
+    ParameterError
+        (a ``ValueError``) for a non-finite value, a negative value, or a zero value
+        of anything but ``J0``, ``h0``, ``l0``.
+    """
+
+    R: float = 0.2
+    m: float = 65.0
+    m0: float = 13.0
+    mw: float = 3.0
+    J: float = 16.6
+    Jw: float = 0.12
+    J0: float = 0.5
+    h0: float = 0.075
+    l0: float = 0.05
+    h: float = 0.6
+    g: float = 9.81
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise ParameterError(
+                    f"parameter {f.name!r} ({DESCRIPTION[f.name]}) must be a number, got {value!r}"
+                ) from None
+            if not math.isfinite(value):
+                raise ParameterError(
+                    f"parameter {f.name!r} ({DESCRIPTION[f.name]}) must be finite, got {value!r}"
+                )
+            if value < 0 or (value == 0 and f.name not in MAY_BE_ZERO):
+                need = "non-negative" if f.name in MAY_BE_ZERO else "positive"
+                raise ParameterError(
+                    f"parameter {f.name!r} ({DESCRIPTION[f.name]}) must be {need}, "
+                    f"got {value!r} {UNITS[f.name]}"
+                )
+            object.__setattr__(self, f.name, value)
+
+    # -- derived quantities -------------------------------------------------
+    @property
+    def m_eq(self) -> float:
+        """Equivalent translating mass m + m0 + mw + Jw/R², kg (eq. 13)."""
+        return self.m + self.m0 + self.mw + self.Jw / self.R**2
+
+    @property
+    def total_mass(self) -> float:
+        """m + m0 + mw, kg."""
+        return self.m + self.m0 + self.mw
+
+    def replace(self, **changes: Any) -> "Params":
+        """Return a copy with some parameters changed (validated again).
+
+        Raises
+        ------
+        ParameterError
+            for an unknown name or an invalid value.
+        """
+        unknown = sorted(set(changes) - set(names()))
+        if unknown:
+            raise ParameterError(
+                f"unknown parameter {unknown[0]!r}; expected one of {', '.join(names())}"
+            )
+        return dataclasses.replace(self, **changes)
+
+    def as_dict(self) -> dict[str, float]:
+        """The parameters as a plain ``{name: value}`` dictionary."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any] | None) -> "Params":
+        """Table 3 with the given entries overriding it; unknown names are an error."""
+        return TABLE3.replace(**dict(values or {}))
+
+    def reduced(self) -> "Params":
+        """The reduced 2-DoF model's parameters: J0 = h0 = l0 = 0 (Section 3.2)."""
+        return self.replace(J0=0.0, h0=0.0, l0=0.0)
+
+
+def names() -> tuple[str, ...]:
+    """Parameter names in Table 3's order."""
+    return tuple(f.name for f in dataclasses.fields(Params))
+
+
+#: The paper's Table 3 with h = 0.6 m.
+TABLE3 = Params()
