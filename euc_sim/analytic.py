@@ -19,9 +19,10 @@ from euc_sim.parameters import Params
 
 __all__ = [
     "mass_matrix", "nonlinear_terms", "generalized_forces", "gravity_forces",
-    "forward_dynamics", "inverse_dynamics", "driving_torque_1", "driving_torque_2",
+    "forward_dynamics", "inverse_dynamics", "driving_torque_1", "driving_torque_2", "torques",
     "rider_torque", "kinetic_energy", "potential_energy", "state_derivative",
     "reduced_driving_torque_1", "reduced_driving_torque_2",
+    "residual_gain", "moment_about_contact", "kinematic_residual",
 ]
 
 
@@ -145,9 +146,24 @@ def inverse_dynamics(p: Params, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) 
     numpy.ndarray, shape (..., 3)
         N, N·m, N·m.
     """
-    qdd = np.asarray(qdd, dtype=float)
-    Mqdd = np.einsum("...ij,...j->...i", mass_matrix(p, q), qdd)
-    return Mqdd + nonlinear_terms(p, q, qd) - gravity_forces(p, q)
+    _, gamma, phi = _split(q)
+    _, gamma_d, phi_d = _split(qd)
+    x_dd, gamma_dd, phi_dd = _split(qdd)
+    # rows of eq. (5) written out (eqs. 6-8) so that no (N, 3, 3) array is built
+    cos_g, sin_g = np.cos(gamma), np.sin(gamma)
+    cos_p, sin_p = np.cos(phi), np.sin(phi)
+    cos_pg = cos_p * cos_g + sin_p * sin_g    # cos(φ − γ), sin(φ − γ) without more trig
+    sin_pg = sin_p * cos_g - cos_p * sin_g
+    a_g = p.m * p.l0 - p.m0 * p.h0            # −m_12 / cos γ
+    mh, mhl0 = p.m * p.h, p.m * p.h * p.l0
+    out = np.empty(np.broadcast_shapes(gamma.shape, gamma_d.shape, x_dd.shape) + (3,))
+    out[..., 0] = (p.m_eq * x_dd - a_g * cos_g * gamma_dd + mh * cos_p * phi_dd
+                   - mh * phi_d**2 * sin_p + a_g * gamma_d**2 * sin_g)
+    out[..., 1] = (-a_g * cos_g * x_dd + (p.J0 + p.m0 * p.h0**2 + p.m * p.l0**2) * gamma_dd
+                   - mhl0 * cos_pg * phi_dd + mhl0 * phi_d**2 * sin_pg + a_g * p.g * sin_g)
+    out[..., 2] = (mh * cos_p * x_dd - mhl0 * cos_pg * gamma_dd + (p.J + mh * p.h) * phi_dd
+                   - mhl0 * gamma_d**2 * sin_pg - mh * p.g * sin_p)
+    return out
 
 
 def driving_torque_1(p: Params, q, qd, qdd) -> np.ndarray:
@@ -158,21 +174,25 @@ def driving_torque_1(p: Params, q, qd, qdd) -> np.ndarray:
 def driving_torque_2(p: Params, q, qd, qdd) -> np.ndarray:
     """M_d,2: the driving torque with ẍ eliminated using all three rows, eq. (10), N·m.
 
-    Adding rows 2 and 3 of eq. (5) gives −M_d + (gravity) with the ankle torque
-    cancelled; eliminating ẍ with row 1 leaves::
+    Rows 2 + 3 of eq. (5) contain −M_d with the ankle torque cancelled; eliminating ẍ
+    with row 1 leaves, with ID = M q̈ + h − Q_gravity (:func:`inverse_dynamics`) and
+    a = m_21 + m_31::
 
-        M_d,2 = R [m_11 (G_2 + G_3 − s_2 − s_3) + (m_21 + m_31) s_1] / (m_11 R + m_21 + m_31)
+        M_d,2 = R (a ID_1 − m_11 (ID_2 + ID_3)) / (m_11 R + a)
 
-    with s_i = m_i2 γ̈ + m_i3 φ̈ + h_i and G the gravity part of Q.
+    in which ẍ cancels exactly: M_d,2 does not depend on the ẍ given.
     """
-    M = mass_matrix(p, q)
-    s = (np.einsum("...ij,...j->...i", M[..., :, 1:], np.asarray(qdd, float)[..., 1:])
-         + nonlinear_terms(p, q, qd))
-    G = gravity_forces(p, q)
-    m_11 = M[..., 0, 0]
-    a = M[..., 1, 0] + M[..., 2, 0]
-    return p.R * (m_11 * (G[..., 1] + G[..., 2] - s[..., 1] - s[..., 2]) + a * s[..., 0]) / (
-        m_11 * p.R + a)                                                   # eq. (10)
+    return torques(p, q, qd, qdd)[1]
+
+
+def torques(p: Params, q, qd, qdd) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(M_d,1, M_d,2, M_h) of eqs. (9), (10) and row 3 of eq. (5) in one pass, N·m."""
+    ID = inverse_dynamics(p, q, qd, qdd)
+    _, gamma, phi = _split(q)
+    a = -(p.m * p.l0 - p.m0 * p.h0) * np.cos(gamma) + p.m * p.h * np.cos(phi)   # m_21 + m_31, eq. (6)
+    M_d1 = p.R * ID[..., 0]                                                      # eq. (9)
+    M_d2 = p.R * (a * ID[..., 0] - p.m_eq * (ID[..., 1] + ID[..., 2])) / (p.m_eq * p.R + a)  # eq. (10)
+    return M_d1, M_d2, -ID[..., 2]
 
 
 def rider_torque(p: Params, q, qd, qdd) -> np.ndarray:
@@ -202,6 +222,35 @@ def state_derivative(p: Params, y: np.ndarray, M_d=0.0, M_h=0.0) -> np.ndarray:
     y = np.asarray(y, dtype=float)
     qdd = forward_dynamics(p, y[..., :3], y[..., 3:], M_d, M_h)
     return np.concatenate([y[..., 3:], qdd], axis=-1)
+
+
+# --- what M_d,1 − M_d,2 sees ------------------------------------------------------------
+def moment_about_contact(p: Params, Q) -> np.ndarray:
+    """R Q_x + Q_γ + Q_φ: the power of Q in a rigid rotation of the whole system about P.
+
+    A rotation δω of everything about the contact point P has δẋ = R δω and
+    δγ̇ = δφ̇ = δω, so this is the moment of the forces about P, N·m.  Torques between
+    bodies give zero: (M_d/R)·R − M_d = 0, M_h − M_h = 0.
+    """
+    Q = np.asarray(Q, dtype=float)
+    return p.R * Q[..., 0] + Q[..., 1] + Q[..., 2]
+
+
+def residual_gain(p: Params, q) -> np.ndarray:
+    """κ(q) = R m_11 / (m_11 R + m_21 + m_31) > 0, dimensionless.
+
+    With an extra generalised force Q_e acting (eq. 5 with Q + Q_e), the torques of
+    eqs. (9)-(10) computed by the nominal model differ by
+    M_d,1 − M_d,2 = κ(q) (R Q_e,x + Q_e,γ + Q_e,φ).
+    """
+    _, gamma, phi = _split(q)
+    a = -(p.m * p.l0 - p.m0 * p.h0) * np.cos(gamma) + p.m * p.h * np.cos(phi)   # m_21 + m_31
+    return p.R * p.m_eq / (p.m_eq * p.R + a)
+
+
+def kinematic_residual(p: Params, q, Q_e) -> np.ndarray:
+    """M_d,1 − M_d,2 produced by an extra generalised force Q_e, N·m (see residual_gain)."""
+    return residual_gain(p, q) * moment_about_contact(p, Q_e)
 
 
 # --- the reduced 2-DoF model, Section 3.2 ---------------------------------------------

@@ -69,6 +69,54 @@ def _cmd_crosscheck(args: argparse.Namespace) -> int:
     return EXIT_OK if ok else EXIT_FAIL
 
 
+# --- dynamics --------------------------------------------------------------------------
+def _parse_vector(text: str, n: int, option: str):
+    import numpy as np
+
+    parts = [s for s in text.replace(";", ",").split(",") if s.strip()]
+    if len(parts) != n:
+        raise UsageError(f"{option} expects {n} comma-separated numbers, got {text!r}")
+    try:
+        v = np.array([float(s) for s in parts])
+    except ValueError:
+        raise UsageError(f"{option} expects numbers, got {text!r}") from None
+    if not np.all(np.isfinite(v)):
+        raise UsageError(f"{option} must be finite, got {text!r}")
+    return v
+
+
+def _cmd_dynamics(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from euc_sim import analytic
+    from euc_sim.io import write_json
+    from euc_sim.mujoco_model import EucMujoco
+
+    p = _parse_params(args.param)
+    q = _parse_vector(args.q, 3, "--q (x, gamma, phi)")
+    qd = _parse_vector(args.qd, 3, "--qd (x_d, gamma_d, phi_d)")
+    M_d, M_h = _parse_vector(args.torques, 2, "--torques (M_d, M_h)")
+    qdd = analytic.forward_dynamics(p, q, qd, M_d, M_h)
+    sim = EucMujoco(p, "ideal", args.mjcf)
+    gen = sim.inverse(q, qd, qdd)
+    out = {
+        "q": q, "qd": qd, "M_d": M_d, "M_h": M_h,
+        "qdd_analytic": qdd,
+        "generalized_force_mujoco_inverse": gen,
+        "generalized_force_eq8": analytic.inverse_dynamics(p, q, qd, qdd),
+        "M_d1": float(analytic.driving_torque_1(p, q, qd, qdd)),
+        "M_d2": float(analytic.driving_torque_2(p, q, qd, qdd)),
+        "M_h_row3": float(analytic.rider_torque(p, q, qd, qdd)),
+    }
+    np.set_printoptions(precision=6, suppress=False)
+    print(f"q̈ = (ẍ, γ̈, φ̈) = {qdd} (m/s², rad/s², rad/s²)")
+    print(f"mj_inverse, mapped: {gen}   eq. (8): {out['generalized_force_eq8']}")
+    print(f"M_d,1 = {out['M_d1']:.9g} N·m, M_d,2 = {out['M_d2']:.9g} N·m, M_h = {out['M_h_row3']:.9g} N·m")
+    if args.json:
+        write_json(args.json, out)
+    return EXIT_OK
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="euc-sim",
@@ -83,6 +131,15 @@ def build_parser() -> argparse.ArgumentParser:
                    help="check one user parameter set instead of the built-in four")
     p.add_argument("--mjcf", metavar="FILE", help="MJCF file (default mjcf/euc_planar.xml)")
     p.set_defaults(func=_cmd_crosscheck)
+
+    p = sub.add_parser("dynamics", help="evaluate both models at one state: accelerations and torques")
+    p.add_argument("--q", required=True, metavar="X,GAMMA,PHI", help="m, rad, rad")
+    p.add_argument("--qd", default="0,0,0", metavar="XD,GD,PD", help="m/s, rad/s, rad/s")
+    p.add_argument("--torques", default="0,0", metavar="M_D,M_H", help="N·m")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="override a Table 3 value")
+    p.add_argument("--mjcf", metavar="FILE", help="MJCF file (default mjcf/euc_planar.xml)")
+    p.add_argument("--json", metavar="FILE", help="write the figures as JSON")
+    p.set_defaults(func=_cmd_dynamics)
     return parser
 
 

@@ -1,0 +1,40 @@
+import json
+import math
+
+import numpy as np
+import pytest
+
+from euc_sim.io import atomic_write, check_writable, to_jsonable, write_json
+
+
+def test_atomic_write_leaves_nothing_on_failure(tmp_path):
+    target = tmp_path / "out.csv"
+
+    def boom(path):
+        path.write_text("half")
+        raise RuntimeError("interrupted")
+
+    with pytest.raises(RuntimeError):
+        atomic_write(target, boom)
+    assert not target.exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_atomic_write_replaces_and_creates_folders(tmp_path):
+    target = tmp_path / "a" / "b" / "out.json"
+    write_json(target, {"x": np.float64(1.5), "v": np.arange(3), "bad": math.nan})
+    assert json.loads(target.read_text()) == {"x": 1.5, "v": [0, 1, 2], "bad": None}
+    write_json(target, {"x": 2})
+    assert json.loads(target.read_text()) == {"x": 2}
+
+
+def test_check_writable_names_the_path(tmp_path):
+    (tmp_path / "f").write_text("")
+    with pytest.raises(OSError, match=r"cannot write .*f/x.json"):
+        check_writable(tmp_path / "f" / "x.json")
+    with pytest.raises(IsADirectoryError, match="is a directory"):
+        check_writable(tmp_path)
+
+
+def test_to_jsonable():
+    assert to_jsonable((np.int64(2), [np.inf])) == [2, [None]]
