@@ -140,6 +140,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--mjcf", metavar="FILE", help="MJCF file (default mjcf/euc_planar.xml)")
     p.add_argument("--json", metavar="FILE", help="write the figures as JSON")
     p.set_defaults(func=_cmd_dynamics)
+
+    from euc_sim.cli_sim import add_commands as add_sim_commands
+    add_sim_commands(sub)        # euc-sim simulate / dataset / stability (issue 3)
+
+    from euc_sim.identify_commands import add_identify_parser, add_torques_parser
+    add_torques_parser(sub)      # euc-sim torques REC --out T.csv (issue 4)
+    add_identify_parser(sub)     # euc-sim identify REC... --json --plot (issue 4)
+
+    from euc_sim.cli_diagnose import add_commands as add_diagnose_commands
+    add_diagnose_commands(sub)   # euc-sim diagnose REC --json --report / demo (issue 5)
+
+    from euc_sim.ride_commands import add_ride_parser
+    add_ride_parser(sub)         # euc-sim ride LOG --compare OTHER --report --json (issue 6)
     return parser
 
 

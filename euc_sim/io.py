@@ -13,7 +13,8 @@ import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
-__all__ = ["atomic_write", "write_text", "write_json", "to_jsonable", "check_writable"]
+__all__ = ["atomic_write", "write_text", "write_json", "to_jsonable", "check_writable",
+           "write_recording", "sidecar_paths", "FLOAT_FORMAT"]
 
 
 def check_writable(path: str | Path) -> Path:
@@ -103,3 +104,90 @@ def to_jsonable(obj: Any) -> Any:
 def write_json(path: str | Path, obj: Any) -> Path:
     """Write one JSON object atomically, indented, with a final newline."""
     return write_text(path, json.dumps(to_jsonable(obj), indent=2, ensure_ascii=False) + "\n")
+
+
+#: printf format of floats in recording CSVs: 10 significant digits (0.1 µm at 1 km,
+#: 1e-10 rad), fixed so that the same run gives the same bytes.
+FLOAT_FORMAT = "%.10g"
+
+
+def sidecar_paths(path: str | Path) -> tuple[Path, Path]:
+    """``NAME.json`` and ``NAME.truth.json`` beside ``NAME.csv`` / ``NAME.parquet``."""
+    path = Path(path)
+    stem = path.with_suffix("")
+    return stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".truth.json")
+
+
+def write_recording(df, path: str | Path, meta: dict, truth: dict | None = None) -> Path:
+    """Write a recording (CONTRACT) with its sidecar ``NAME.json`` and optional ``NAME.truth.json``.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        The recording's columns (``t`` first, SI units, radians).
+    path : path
+        ``NAME.csv`` or ``NAME.parquet`` (the format follows the extension).
+    meta : dict
+        The sidecar: ``{"params": ..., "maneuver": ..., "source": ...}``.
+    truth : dict, optional
+        What the analysis must not see (injected effects, true parameters).
+
+    Returns
+    -------
+    pathlib.Path
+        The recording's path.
+
+    Raises
+    ------
+    ValueError
+        for another extension or non-finite values in the table.
+    OSError
+        for an unwritable destination (nothing is written then).
+
+    Notes
+    -----
+    Every file goes to a temporary name first; the renames happen only after all of
+    them were written, recording last, so a failure leaves none of them behind.
+    Floats are written with :data:`FLOAT_FORMAT`: the same table gives the same bytes.
+    """
+    import numpy as np
+
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext not in (".csv", ".parquet"):
+        raise ValueError(f"recording path must end in .csv or .parquet, got {path.name!r}")
+    values = df.select_dtypes(include="number").to_numpy(dtype=float)
+    if not np.all(np.isfinite(values)):
+        raise ValueError(f"recording for {path} holds non-finite values; refusing to write it")
+    meta_path, truth_path = sidecar_paths(path)
+    check_writable(path)
+
+    def write_table(tmp: Path) -> None:
+        if ext == ".csv":
+            df.to_csv(tmp, index=False, float_format=FLOAT_FORMAT, lineterminator="\n")
+        else:
+            df.to_parquet(tmp, index=False)
+
+    jobs = [(meta_path, lambda p: p.write_text(json.dumps(to_jsonable(meta), indent=2,
+                                                          ensure_ascii=False) + "\n", encoding="utf-8"))]
+    if truth is not None:
+        jobs.append((truth_path, lambda p: p.write_text(json.dumps(to_jsonable(truth), indent=2,
+                                                                   ensure_ascii=False) + "\n",
+                                                        encoding="utf-8")))
+    jobs.append((path, write_table))
+    temps: list[tuple[Path, Path]] = []
+    try:
+        for dest, write in jobs:
+            fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent)
+            os.close(fd)
+            temps.append((Path(tmp), dest))
+            write(Path(tmp))
+        for tmp, dest in temps:
+            os.replace(tmp, dest)
+    except BaseException:
+        for tmp, _ in temps:
+            tmp.unlink(missing_ok=True)
+        raise
+    if truth is None:
+        truth_path.unlink(missing_ok=True)    # no stale truth from an earlier run
+    return path

@@ -97,8 +97,176 @@ def bench_inverse() -> dict:
     return rate
 
 
+# --- issue 3: closed-loop simulation -------------------------------------------------------
+def bench_closed_loop() -> dict:
+    """Closed-loop real-time factor at 1 kHz on one core vs a bare mj_step loop."""
+    import mujoco
+
+    from euc_sim.mujoco_model import EucMujoco
+    from euc_sim.simulation import default_rider, simulate
+
+    duration = 15.0
+    n = int(duration / 1e-3)
+    sim = EucMujoco()
+    sim.model.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_ENERGY)  # as simulate() runs it
+    m, d = sim.model, sim.data
+
+    def bare():
+        sim.set_state([0.0, 0.0, 0.0], [3.0, 0.0, 0.0])
+        for _ in range(n):
+            mujoco.mj_step(m, d)
+
+    rider = default_rider(noise_std=3.0)
+    simulate("stop_and_go", 0.1, rider=rider)                          # warm caches
+    t_bare = timed(bare)
+    t_loop = timed(lambda: simulate("stop_and_go", duration, rider=rider, seed=1))
+    t_eff = timed(lambda: simulate("stop_and_go", duration, rider=rider, seed=1,
+                                   effects={"aerodynamic_drag": 0.4, "rolling_resistance": 0.02}))
+    t_an = timed(lambda: simulate("stop_and_go", 1.0, rider=rider, engine="analytic"), repeat=1)
+    out = {
+        "bare_mj_step_real_time_factor": duration / t_bare,
+        "closed_loop_real_time_factor": duration / t_loop,
+        "closed_loop_with_effects_real_time_factor": duration / t_eff,
+        "analytic_engine_real_time_factor": 1.0 / t_an,
+    }
+    out["closed_loop_cost_vs_bare_step"] = t_loop / t_bare
+    print(f"  bare mj_step loop (RK4, 1 ms)      : {out['bare_mj_step_real_time_factor']:7.1f}x real time")
+    print(f"  closed loop, motor + rider, 1 kHz  : {out['closed_loop_real_time_factor']:7.1f}x real time (aim ≥ 150x)")
+    print(f"  closed loop with drag + rolling    : {out['closed_loop_with_effects_real_time_factor']:7.1f}x real time")
+    print(f"  analytic engine (solve_ivp/step)   : {out['analytic_engine_real_time_factor']:7.2f}x real time")
+    print(f"  ratio closed loop / bare step time = {out['closed_loop_cost_vs_bare_step']:.2f}")
+    return out
+
+
+def bench_dataset() -> dict:
+    """Dataset throughput (recordings/s): one process vs all cores."""
+    import tempfile
+
+    from euc_sim.dataset import dataset_plan, run_dataset
+
+    cores = os.cpu_count() or 1
+    counts = (("constant_speed", 2 * cores), ("deceleration", 2 * cores))
+    specs = dataset_plan(seed=0, duration=10.0, counts=counts)
+    with tempfile.TemporaryDirectory() as tmp:
+        t1 = timed(lambda: run_dataset(f"{tmp}/one", specs, workers=1, progress=False), repeat=1)
+        tn = timed(lambda: run_dataset(f"{tmp}/all", specs, workers=cores, progress=False), repeat=1)
+    out = {"recordings": len(specs), "cores": cores, "one_core_per_s": len(specs) / t1,
+           "all_cores_per_s": len(specs) / tn}
+    out["speedup"] = t1 / tn
+    print(f"  {len(specs)} recordings of 10 s each")
+    print(f"  1 process   : {out['one_core_per_s']:6.2f} recordings/s")
+    print(f"  {cores} processes : {out['all_cores_per_s']:6.2f} recordings/s (speed-up {out['speedup']:.2f}x)")
+    return out
+
+
+# --- issue 4: identifying h -------------------------------------------------------------------
+def bench_identify() -> dict:
+    """Identify h on 34 recordings of 30 s at 120 Hz, both models, with curves: s, and vs a direct search."""
+    from scipy.optimize import minimize_scalar
+
+    from euc_sim import analytic
+    from euc_sim.identification import MODELS, identify_h, residual_poly
+    from euc_sim.mocap import motion_capture
+    from euc_sim.parameters import TABLE3
+    from euc_sim.processing import kinematics
+    from euc_sim.simulation import simulate
+
+    runs = [simulate(m, 30.0) for m in ("deceleration", "acceleration", "constant_speed", "stop_and_go")]
+    recs = [motion_capture(runs[i % 4], TABLE3, noise="paper", seed=i) for i in range(34)]
+
+    def ours(recordings, n_boot=0):
+        polys = {m: [] for m in MODELS}
+        for r in recordings:
+            kin = kinematics(r, TABLE3)
+            for m in MODELS:
+                rp = residual_poly(kin, TABLE3, m)
+                polys[m].append(rp)
+                identify_h([rp], n_boot=n_boot)                   # per recording, curve kept
+        return {m: identify_h(polys[m], n_boot=n_boot) for m in MODELS}   # pooled
+
+    def direct(recordings):
+        """Reference: analytic torques re-evaluated at every h (curve + bounded search)."""
+        fns = {"3dof": (analytic.driving_torque_1, analytic.driving_torque_2),
+               "2dof": (analytic.reduced_driving_torque_1, analytic.reduced_driving_torque_2)}
+        for r in recordings:
+            kin = kinematics(r, TABLE3)
+            sl = kin.interior
+            for m in MODELS:
+                f1, f2 = fns[m]
+
+                def rmse(h):
+                    p = TABLE3.replace(h=float(h))
+                    d = (f1(p, kin.q, kin.qd, kin.qdd) - f2(p, kin.q, kin.qd, kin.qdd))[sl]
+                    return float(np.sqrt(np.mean(d**2)))
+                [rmse(h) for h in np.linspace(0.1, 1.5, 71)]
+                minimize_scalar(rmse, bounds=(0.1, 1.5), method="bounded")
+
+    ours(recs[:2])                                                # warm caches
+    t_ours = timed(lambda: ours(recs))
+    t_boot = timed(lambda: ours(recs, n_boot=400), repeat=1)
+    sub = recs[:4]
+    t_sub = timed(lambda: ours(sub))
+    t_direct = timed(lambda: direct(sub), repeat=1)
+    out = {"recordings": len(recs), "seconds_each": 30.0, "identify_s": t_ours,
+           "identify_with_bootstrap_400_s": t_boot, "direct_search_4_recordings_s": t_direct,
+           "ours_4_recordings_s": t_sub}
+    out["ratio_direct_vs_ours"] = t_direct / t_sub
+    print(f"  34 recordings x 30 s, both models, curves + pooled : {t_ours:6.3f} s (aim < 1 s, one core)")
+    print(f"  the same with a 400-replicate block bootstrap      : {t_boot:6.3f} s")
+    print(f"  direct search (analytic torques at every h), 4 rec : {t_direct:6.3f} s vs {t_sub:.3f} s: "
+          f"ratio {out['ratio_direct_vs_ours']:.1f}x")
+    return out
+
+
+# --- issue 5: diagnosing a recording --------------------------------------------------------
+def bench_diagnose() -> dict:
+    """Diagnose a 60 s recording at 120 Hz (one core): s, against identifying h on it alone."""
+    import warnings
+
+    from euc_sim import dataset, diagnosis
+    from euc_sim.identification import identify_h, residual_poly
+    from euc_sim.parameters import TABLE3
+    from euc_sim.processing import kinematics
+    from euc_sim.simulation import make_maneuver
+
+    spec = dataset.RecordingSpec("bench", make_maneuver("stop_and_go", cycles=6), 60.0, 5,
+                                 effects=(("aerodynamic_drag", 0.35),), hide_torques=True)
+    rec, meta, _ = dataset.simulated_recording(spec)
+    meta = {**meta, "maneuver_options": {"cycles": 6}}
+    warnings.simplefilter("ignore")
+
+    def full():
+        return diagnosis.diagnose(rec, meta=meta, resimulate=True)
+
+    def selection_only():
+        return diagnosis.diagnose(rec, meta=meta, resimulate=False)
+
+    def identify_only():
+        kin = kinematics(rec, TABLE3)
+        return identify_h([residual_poly(kin, TABLE3)], n_boot=0)
+
+    res = selection_only()                                          # warm caches
+    t_full = timed(full, repeat=1)
+    t_sel = timed(selection_only, repeat=2)
+    t_id = timed(identify_only)
+    out = {"samples": len(rec), "seconds_recorded": 60.0, "diagnose_s": t_full,
+           "diagnose_without_resimulation_s": t_sel, "identify_h_s": t_id,
+           "ratio_diagnose_vs_identify": t_sel / t_id,
+           "effects_found": [e["name"] for e in res["effects"]]}
+    print(f"  60 s at 120 Hz ({len(rec)} samples), found {out['effects_found']}")
+    print(f"  diagnose, with re-simulation      : {t_full:6.2f} s (aim < 10 s, one core)")
+    print(f"  diagnose, no re-simulation        : {t_sel:6.2f} s")
+    print(f"  identify h alone (reference)      : {t_id:6.3f} s; ratio diagnose / identify = "
+          f"{out['ratio_diagnose_vs_identify']:.0f}x")
+    return out
+
+
 SECTIONS: dict[str, Callable[[], dict]] = {
     "inverse": bench_inverse,
+    "closed_loop": bench_closed_loop,
+    "dataset": bench_dataset,
+    "identify": bench_identify,
+    "diagnose": bench_diagnose,
 }
 
 

@@ -1,0 +1,235 @@
+"""Design of the rider's gains with python-control.
+
+The plant is the analytic linearisation of eq. (5) (:func:`euc_sim.linearize.jacobians`)
+at upright riding, with the motor PD (:class:`controllers.motor.MotorPD`) closed
+inside it, reduced to s = (ẋ, γ, φ, γ̇, φ̇) (x is cyclic) and driven by M_h:
+
+    ṡ = A_s s + B_s M_h,   A_s = (A + B_d K_motor)|_s,   B_s = B_h|_s.
+
+The rider's gains K minimise ∫ sᵀQs + R M_h² (``control.lqr``), with Q and R from
+the largest tolerable deviations (Bryson's rule, :data:`DEFAULT_SCALES`).  The
+reaction delay is handled by the predictor of :mod:`controllers.rider`; its rows are
+built here (:func:`predictor_rows`), and :func:`delayed_closed_loop_radius` checks
+the sampled loop with the delay buffer exactly as the simulation runs it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from controllers.motor import MotorPD
+from controllers.rider import Rider
+from euc_sim.linearize import REDUCED_STATE, discretize, jacobians, motor_feedback_row
+from euc_sim.parameters import Params, TABLE3
+
+__all__ = ["DEFAULT_SCALES", "STATE_NAMES", "linear_plant", "rider_plant", "design_rider", "predictor_rows",
+           "delayed_closed_loop_matrix", "delayed_closed_loop_radius", "delay_tolerance"]
+
+#: Bryson's-rule scales: tolerable speed error (m/s), body and rider pitch errors (rad),
+#: their rates (rad/s; None: not weighted), the integral of the speed error (m; None:
+#: no integral action) and the ankle torque (N·m).  The integral is weighted lightly:
+#: it only removes steady speed errors (slopes, drag), slowly, like a rider adapting.
+DEFAULT_SCALES = {"x_dot": 0.15, "gamma": 0.2, "phi": 0.1, "gamma_dot": None, "phi_dot": None,
+                  "x_int": 0.5, "M_h": 5.0}
+STATE_NAMES = ("x_dot", "gamma", "phi", "gamma_dot", "phi_dot", "x_int")
+
+
+def linear_plant(p: Params = TABLE3, motor: MotorPD | None = None,
+                 speed: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """The linearised plant with the motor PD inside, reduced to (ẋ, γ, φ, γ̇, φ̇).
+
+    Parameters
+    ----------
+    p : Params
+    motor : MotorPD, optional
+    speed : float
+        Operating speed, m/s.
+
+    Returns
+    -------
+    A_s : numpy.ndarray, shape (5, 5)
+    B_s : numpy.ndarray, shape (5, 1)
+        Input M_h, N·m.
+    """
+    motor = motor or MotorPD()
+    y0 = np.zeros(6)
+    y0[3] = speed
+    A, B = jacobians(p, y0)
+    Km = motor_feedback_row(motor.Kp, motor.Kd, motor.dgamma_ref_dv(speed))
+    Am = A + B[:, [0]] @ Km
+    idx = list(REDUCED_STATE)
+    return Am[np.ix_(idx, idx)], B[idx][:, [1]]
+
+
+def rider_plant(p: Params = TABLE3, motor: MotorPD | None = None, integral: bool = True,
+                speed: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`linear_plant`, with the integral of the speed error appended when ``integral``.
+
+    The sixth state ∫(ẋ − v_ref) dt (m) obeys ż = s_0.
+
+    Returns
+    -------
+    A : numpy.ndarray, shape (6, 6) or (5, 5)
+    B : numpy.ndarray, shape (6, 1) or (5, 1)
+    """
+    A, B = linear_plant(p, motor, speed)
+    if not integral:
+        return A, B
+    Aa = np.zeros((6, 6))
+    Aa[:5, :5] = A
+    Aa[5, 0] = 1.0
+    return Aa, np.vstack([B, [[0.0]]])
+
+
+def _has_integral(K) -> bool:
+    n = np.asarray(K).size
+    if n not in (5, 6):
+        raise ValueError(f"rider gains must have 5 or 6 entries, got {n}")
+    return n == 6
+
+
+def design_rider(p: Params = TABLE3, motor: MotorPD | None = None, delay: float = 0.15,
+                 scales: dict | None = None, **rider_settings) -> Rider:
+    """LQR gains of the rider on the linearised loop with the motor PD in it.
+
+    Parameters
+    ----------
+    p : Params
+    motor : MotorPD, optional
+    delay : float
+        Reaction delay of the returned rider, s.
+    scales : dict, optional
+        Overrides of :data:`DEFAULT_SCALES`.
+    **rider_settings
+        Other :class:`~controllers.rider.Rider` fields (noise_std, predictor, ...).
+
+    Returns
+    -------
+    Rider
+        With K such that M_h = −K s stabilises ṡ = A_s s + B_s M_h (s with the
+        speed-error integral appended unless ``scales["x_int"]`` is None).
+    """
+    import control  # python-control; imported here, it takes seconds to load
+
+    motor = motor or MotorPD()
+    sc = dict(DEFAULT_SCALES)
+    sc.update(scales or {})
+    integral = sc["x_int"] is not None
+    A, B = rider_plant(p, motor, integral)
+    names = STATE_NAMES[:6 if integral else 5]
+    Q = np.diag([0.0 if sc[n] is None else 1.0 / sc[n] ** 2 for n in names])
+    R = np.array([[1.0 / sc["M_h"] ** 2]])
+    K, _, E = control.lqr(A, B, Q, R)
+    if np.max(np.real(E)) >= 0:  # pragma: no cover - lqr returns a stabilising gain
+        raise ValueError(f"LQR design is not stabilising: eigenvalues {E}")
+    return Rider(K=tuple(float(k) for k in np.asarray(K).ravel()), delay=delay, **rider_settings)
+
+
+def predictor_rows(p: Params, motor: MotorPD, K, dt: float, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Rows of the delay-compensating predictor, premultiplied by K.
+
+    With Φ, Γ the ZOH discretisation of (A_s, B_s) at dt, the predicted state is
+    ŝ_k = Φⁿ s_{k−n} + Σ_{i<n} Φ^{n−1−i} Γ δu_{k−n+i}; the rider applies −K ŝ_k.
+
+    Returns
+    -------
+    KPn : numpy.ndarray, shape (5,) or (6,)
+        K Φⁿ.
+    KG : numpy.ndarray, shape (n,)
+        (K Φ^{n−1} Γ, …, K Γ): weights of the last n commands, oldest first.
+    """
+    A, B = rider_plant(p, motor, _has_integral(K))
+    Phi, Gam = discretize(A, B, dt)
+    K = np.asarray(K, dtype=float).reshape(1, -1)
+    KG = np.empty(n)
+    row = K.copy()                      # K Φ^j, j = 0, 1, ...
+    for j in range(n):
+        KG[n - 1 - j] = (row @ Gam)[0, 0]
+        row = row @ Phi
+    return row.ravel(), KG
+
+
+def delayed_closed_loop_matrix(p: Params, motor: MotorPD, rider: Rider, dt: float,
+                               true_delay: float | None = None) -> np.ndarray:
+    """Transition matrix of the sampled loop with the delay buffer and the predictor.
+
+    State (s_k, s_{k−1}, …, s_{k−D}, δu_{k−1}, …, δu_{k−n}) with D = true delay / dt
+    (the plant's) and n = rider.delay / dt (the predictor's).
+
+    Parameters
+    ----------
+    p : Params
+    motor : MotorPD
+    rider : Rider
+    dt : float
+        Control period, s.
+    true_delay : float, optional
+        The actual delay, s (default: the rider's own).
+    """
+    K = np.asarray(rider.K, dtype=float)
+    A, B = rider_plant(p, motor, _has_integral(K))
+    Phi, Gam = discretize(A, B, dt)
+    m = len(K)
+    n = int(round(rider.delay / dt))
+    D = n if true_delay is None else int(round(true_delay / dt))
+    if rider.predictor and n > 0:
+        KPn, KG = predictor_rows(p, motor, K, dt, n)
+    else:
+        KPn, KG = K, np.zeros(n)
+    ns = m * (D + 1)
+    N = ns + n
+    T = np.zeros((N, N))
+    # u_k = −KPn s_{k−D} − Σ KG_i δu_{k−n+i}
+    u_row = np.zeros(N)
+    u_row[m * D:m * D + m] = -KPn
+    for i in range(n):                               # δu_{k−n+i} sits at ns + (n−1−i)
+        u_row[ns + (n - 1 - i)] -= KG[i]
+    T[0:m, 0:m] = Phi
+    T[0:m, :] += Gam @ u_row[None, :]
+    for d in range(1, D + 1):                        # shift the state buffer
+        T[m * d:m * d + m, m * (d - 1):m * d] = np.eye(m)
+    if n:
+        T[ns, :] = u_row                             # newest δu
+        for i in range(1, n):
+            T[ns + i, ns + i - 1] = 1.0
+    return T
+
+
+def delayed_closed_loop_radius(p: Params = TABLE3, motor: MotorPD | None = None,
+                               rider: Rider | None = None, speed: float = 0.0,
+                               dt: float = 0.005, true_delay: float | None = None) -> float:
+    """Spectral radius of :func:`delayed_closed_loop_matrix` (< 1: stable).
+
+    ``dt`` defaults to 5 ms to keep the matrix small; the simulation runs at 1 ms.
+    """
+    motor = motor or MotorPD()
+    rider = rider or design_rider(p, motor)
+    T = delayed_closed_loop_matrix(p, motor, rider, dt, true_delay)
+    return float(np.max(np.abs(np.linalg.eigvals(T))))
+
+
+def delay_tolerance(p: Params = TABLE3, motor: MotorPD | None = None, rider: Rider | None = None,
+                    dt: float = 0.005, max_delay: float = 0.6) -> tuple[float, float]:
+    """Range of actual delays the rider (with its predictor tuned to rider.delay) survives.
+
+    Returns
+    -------
+    (lo, hi) : tuple of float
+        Smallest and largest actual delay, s, on a dt grid, for which the sampled loop
+        stays stable, searched outward from the rider's own delay.
+    """
+    motor = motor or MotorPD()
+    rider = rider or design_rider(p, motor)
+    n = int(round(rider.delay / dt))
+    stable = lambda D: delayed_closed_loop_radius(p, motor, rider, 0.0, dt, D * dt) < 1.0  # noqa: E731
+    if not stable(n):
+        return (math.nan, math.nan)
+    lo = n
+    while lo > 0 and stable(lo - 1):
+        lo -= 1
+    hi = n
+    while (hi + 1) * dt <= max_delay and stable(hi + 1):
+        hi += 1
+    return lo * dt, hi * dt

@@ -1,0 +1,93 @@
+"""The EUC's motor controller: a PD law on the body pitch.
+
+The paper (Section 3) suspects the embedded law is based on γ and γ̇; the simplest
+such law is
+
+    M_d = K_p (γ − γ_ref(ẋ)) + K_d γ̇,        |M_d| ≤ M_max,
+
+with γ_ref = 0 unless tilt-back is on: above ``tiltback_speed`` real EUCs tilt the
+pedals back, γ_ref = −k_tb (|ẋ| − v_tb) sign(ẋ), so the rider has to lean back and
+slows down.  M_d > 0 drives the wheel forward and pitches the body back (eq. 8).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+__all__ = ["MotorPD", "MotorError"]
+
+
+class MotorError(ValueError):
+    """An invalid motor-controller setting; the message names it."""
+
+
+@dataclass(frozen=True)
+class MotorPD:
+    """PD law M_d = K_p (γ − γ_ref) + K_d γ̇ with a torque limit and optional tilt-back.
+
+    Attributes
+    ----------
+    Kp : float
+        Proportional gain, N·m/rad.  With Table 3 a forward acceleration a needs
+        γ ≈ R m_11 a / K_p, about 1.6° per m/s² at the default.
+    Kd : float
+        Derivative gain, N·m·s/rad.
+    torque_limit : float
+        |M_d| limit, N·m (a hub motor's peak torque).
+    tiltback_speed : float
+        Speed above which the set-point tilts back, m/s; ``inf`` (default) for none.
+    tiltback_gain : float
+        Tilt-back slope, rad per m/s above ``tiltback_speed``.
+    """
+
+    Kp: float = 600.0
+    Kd: float = 40.0
+    torque_limit: float = 250.0
+    tiltback_speed: float = math.inf
+    tiltback_gain: float = 0.03
+
+    def __post_init__(self) -> None:
+        for name in ("Kp", "Kd", "torque_limit", "tiltback_gain"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise MotorError(f"motor setting {name!r} must be a finite non-negative number, got {v!r}")
+        if self.Kp <= 0 or self.torque_limit <= 0:
+            raise MotorError(f"motor Kp and torque_limit must be positive, got Kp={self.Kp!r}, "
+                             f"torque_limit={self.torque_limit!r}")
+        if not (self.tiltback_speed > 0):
+            raise MotorError(f"motor tiltback_speed must be positive (inf for none), got {self.tiltback_speed!r}")
+
+    def gamma_ref(self, speed: float) -> float:
+        """Pitch set-point γ_ref(ẋ), rad (0 below the tilt-back speed)."""
+        excess = abs(speed) - self.tiltback_speed
+        if excess <= 0.0:
+            return 0.0
+        return -math.copysign(self.tiltback_gain * excess, speed)
+
+    def dgamma_ref_dv(self, speed: float) -> float:
+        """∂γ_ref/∂ẋ at ``speed``, rad·s/m (for the linearisation)."""
+        return -self.tiltback_gain if abs(speed) > self.tiltback_speed else 0.0
+
+    def torque(self, gamma: float, gamma_dot: float, speed: float = 0.0) -> float:
+        """Motor torque M_d, N·m, limited to ±``torque_limit``.
+
+        Parameters
+        ----------
+        gamma : float
+            EUC body pitch, rad.
+        gamma_dot : float
+            Its rate, rad/s.
+        speed : float
+            Forward speed ẋ, m/s (used by tilt-back only).
+        """
+        M = self.Kp * (gamma - self.gamma_ref(speed)) + self.Kd * gamma_dot
+        lim = self.torque_limit
+        return lim if M > lim else (-lim if M < -lim else M)
+
+    def as_dict(self) -> dict:
+        """Settings as a JSON-ready dict (``inf`` tilt-back speed as ``None``)."""
+        d = asdict(self)
+        if not math.isfinite(d["tiltback_speed"]):
+            d["tiltback_speed"] = None
+        return d

@@ -1,0 +1,261 @@
+"""The human rider: an ankle torque M_h that balances the rider over the wheel and
+follows a desired speed profile.
+
+To speed up the rider leans forward (φ > 0), to slow down leans back (φ < 0), as the
+paper's deceleration data show (Fig. 6(c)-(d)).  The law is a trim (feedforward) for
+the planned acceleration plus state feedback on the deviation from it:
+
+    M_h(t) = M_h*(a_ref) − K · ŝ(t),    s = (ẋ − v_ref, γ − γ*, φ − φ*, γ̇, φ̇, ∫(ẋ − v_ref)dt),
+
+with the trim (γ*, φ*, M_d*, M_h*) of steady acceleration a from eqs. (5)-(8)
+(:func:`trim`) and K from ``control.lqr`` (:mod:`controllers.design`).
+
+The rider senses the state with a reaction delay τ (default 0.15 s), implemented as a
+buffer: at step k the rider sees s_{k−n}, n = τ/dt.  A delay that long is close to
+the limit of what plain state feedback tolerates on this plant (the rider
+pendulum's unstable pole is near 4 rad/s; see ``euc-sim stability``), so by default
+the rider compensates it with an internal model, as in the optimal-control model
+of the human operator (Kleinman, Baron and Levison): the sensed state is predicted
+over the delay with the linearised closed loop and the rider's own recent commands,
+
+    ŝ_k = Φⁿ s_{k−n} + Σ_{i<n} Φ^{n−1−i} Γ δu_{k−n+i}.
+
+Optional motor noise: an Ornstein–Uhlenbeck torque added to M_h, seeded.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from controllers.motor import MotorPD
+from euc_sim.parameters import Params
+
+__all__ = ["Rider", "RiderError", "trim", "motor_noise", "RiderRun", "DEFAULT_RIDER_NOISE"]
+
+#: Rider motor noise of generated recordings (command line, datasets), N·m, 1 sigma:
+#: the rider sways, as the paper's constant-speed recordings show.
+DEFAULT_RIDER_NOISE = 3.0
+
+
+class RiderError(ValueError):
+    """An invalid rider setting; the message names it."""
+
+
+@dataclass(frozen=True)
+class Rider:
+    """Rider controller settings.
+
+    Attributes
+    ----------
+    K : tuple of 5 or 6 floats
+        Feedback gains on (ẋ − v_ref [m/s], γ − γ* [rad], φ − φ* [rad], γ̇ [rad/s],
+        φ̇ [rad/s]) and optionally ∫(ẋ − v_ref) dt [m], in N·s, N·m/rad, N·m/rad,
+        N·m·s/rad, N·m·s/rad, N.
+    delay : float
+        Reaction delay, s.
+    predictor : bool
+        Compensate the delay with the internal model (default True).
+    noise_std : float
+        Standard deviation of the motor noise added to M_h, N·m (0: none).
+    noise_tau : float
+        Correlation time of the motor noise, s.
+    torque_limit : float
+        |M_h| limit, N·m (ankle strength).
+    anticipation : float
+        Preview, s: the rider sets up the lean for the acceleration planned this far
+        ahead (the plant is non-minimum-phase in speed: to slow down the wheel must
+        first run ahead of the rider), and tracks the speed planned this far ahead.
+    """
+
+    K: tuple = field(default=(0.0,) * 5)
+    delay: float = 0.15
+    predictor: bool = True
+    noise_std: float = 0.0
+    noise_tau: float = 0.05
+    torque_limit: float = 400.0
+    anticipation: float = 0.3
+
+    def __post_init__(self) -> None:
+        K = tuple(float(k) for k in self.K)
+        if len(K) not in (5, 6) or not all(math.isfinite(k) for k in K):
+            raise RiderError(f"rider gains K must be 5 or 6 finite numbers, got {self.K!r}")
+        object.__setattr__(self, "K", K)
+        for name in ("delay", "noise_std", "anticipation"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v >= 0):
+                raise RiderError(f"rider {name!r} must be finite and non-negative, got {v!r}")
+        for name in ("noise_tau", "torque_limit"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise RiderError(f"rider {name!r} must be positive, got {v!r}")
+
+    def as_dict(self) -> dict:
+        """Settings as a JSON-ready dict."""
+        return {"K": list(self.K), "delay": self.delay, "predictor": self.predictor,
+                "noise_std": self.noise_std, "noise_tau": self.noise_tau,
+                "torque_limit": self.torque_limit, "anticipation": self.anticipation}
+
+    def replace(self, **changes) -> "Rider":
+        """A copy with some settings changed (validated again)."""
+        import dataclasses
+        return dataclasses.replace(self, **changes)
+
+
+def trim(p: Params, motor: MotorPD, a, v=0.0):
+    """Steady acceleration a at speed v: (γ*, φ*, M_d*, M_h*) from eqs. (5)-(8).
+
+    With q̈ = (a, 0, 0) and no rates, eq. (5) row 1 gives M_d = R m_11 a; the motor
+    law gives γ* = γ_ref(v) + M_d/K_p; row 2 gives M_h = M_d + m_21 a − (m0 h0 − m l0)
+    g sin γ*; row 3, m h (g sin φ − a cos φ) = M_h, gives φ* = atan2(a, g) +
+    asin(M_h / (m h √(g² + a²))).
+
+    Parameters
+    ----------
+    p : Params
+        The rider's model of the system (nominal parameters).
+    motor : MotorPD
+    a : float or array_like
+        Acceleration, m/s².
+    v : float or array_like
+        Speed, m/s (tilt-back set-point only).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        γ* (rad), φ* (rad), M_d* (N·m), M_h* (N·m), broadcast over a and v.
+    """
+    a = np.asarray(a, dtype=float)
+    v = np.broadcast_to(np.asarray(v, dtype=float), a.shape)
+    m11 = p.m + p.m0 + p.mw + p.Jw / p.R**2                              # eq. (6)
+    M_d = p.R * m11 * a                                                   # eq. (5) row 1
+    g_ref = np.vectorize(motor.gamma_ref, otypes=[float])(v) if np.isfinite(motor.tiltback_speed) \
+        else np.zeros_like(a)
+    gamma = g_ref + M_d / motor.Kp
+    m21 = -(p.m * p.l0 - p.m0 * p.h0) * np.cos(gamma)
+    M_h = M_d + m21 * a - (p.m0 * p.h0 - p.m * p.l0) * p.g * np.sin(gamma)  # eq. (5) row 2
+    mh = p.m * p.h
+    ratio = np.clip(M_h / (mh * np.hypot(p.g, a)), -1.0, 1.0)
+    phi = np.arctan2(a, p.g) + np.arcsin(ratio)                           # eq. (5) row 3
+    return gamma, phi, M_d, M_h
+
+
+def motor_noise(n: int, dt: float, std: float, tau: float, seed: int) -> np.ndarray:
+    """Ornstein–Uhlenbeck noise, n samples at step dt, stationary std ``std``, N·m.
+
+    Parameters
+    ----------
+    n : int
+        Number of samples.
+    dt : float
+        Sample time, s.
+    std : float
+        Stationary standard deviation, N·m (0 gives zeros).
+    tau : float
+        Correlation time, s.
+    seed : int
+        Seed of ``numpy.random.default_rng``.
+    """
+    if std == 0.0:
+        return np.zeros(n)
+    from scipy.signal import lfilter
+
+    rng = np.random.default_rng(seed)
+    w = rng.standard_normal(n)
+    rho = math.exp(-dt / tau)
+    drive = std * math.sqrt(1.0 - rho * rho) * w
+    drive[0] = std * w[0]                       # start from the stationary distribution
+    return lfilter([1.0], [1.0, -rho], drive)
+
+
+class RiderRun:
+    """The rider's law for one run: trims, predictor rows and noise, precomputed.
+
+    Parameters
+    ----------
+    rider : Rider
+    p : Params
+        The rider's model (nominal parameters).
+    motor : MotorPD
+    v_ref, a_ref : numpy.ndarray, shape (N,)
+        Planned speed (m/s) and acceleration (m/s²) at each control step.
+    dt : float
+        Control period, s.
+    seed : int
+        Seed of the motor noise.
+
+    Notes
+    -----
+    :meth:`command` is called once per control step with the state history; it
+    returns the ankle torque to apply.  The state history is a list of 6-tuples
+    whose first n entries hold the (steady) state before t = 0, so that the delay
+    buffer is simply a look-back of n entries.
+    """
+
+    def __init__(self, rider: Rider, p: Params, motor: MotorPD, v_ref: np.ndarray,
+                 a_ref: np.ndarray, dt: float, seed: int):
+        from controllers.design import predictor_rows
+
+        self.rider = rider
+        self.n = n = int(round(rider.delay / dt))
+        N = len(v_ref)
+        if rider.anticipation > 0:                # preview: the plan T_a ahead, held at the end
+            steps = np.arange(N) + rider.anticipation / dt
+            v_ref = np.interp(steps, np.arange(N), v_ref)
+            a_ref = np.interp(steps, np.arange(N), a_ref)
+        gam, phi, _, M_h = trim(p, motor, a_ref, v_ref)
+        pad = lambda arr: np.concatenate([np.full(n, arr[0]), arr])       # noqa: E731
+        # reference state and torque over the padded timeline (index j = k + n)
+        # Python lists: indexing them costs less than numpy scalars in the 1 kHz loop
+        self.v_ref = pad(np.asarray(v_ref, float)).tolist()
+        self.gamma_ref, self.phi_ref = pad(gam).tolist(), pad(phi).tolist()
+        self.u_ref = pad(M_h).tolist()
+        self.du = np.zeros(N + n)               # commanded M_h − M_h*, padded history
+        self.noise = motor_noise(N, dt, rider.noise_std, rider.noise_tau, seed).tolist()
+        K = np.asarray(rider.K, dtype=float)
+        if rider.predictor and n > 0:
+            KPn, KG = predictor_rows(p, motor, K, dt, n)
+        else:
+            KPn, KG = K, np.zeros(n)
+        self.k_pred = [float(k) for k in KPn]
+        self.integral = len(K) == 6
+        self.z = 0.0                            # ∫(ẋ − v_ref) dt over the sensed samples, m
+        self.dt = dt
+        self.k_hist = np.ascontiguousarray(KG)
+        self.limit = rider.torque_limit
+
+    def initial_state(self) -> tuple[float, float, float, float]:
+        """(v, γ, φ) of the trim at t = 0 and the trim M_h, for the initial condition."""
+        n = self.n
+        return float(self.v_ref[n]), float(self.gamma_ref[n]), float(self.phi_ref[n]), float(self.u_ref[n])
+
+    def command(self, k: int, Y) -> tuple[float, float]:
+        """Ankle torque at control step k: (commanded M_h, applied M_h with noise), N·m.
+
+        Parameters
+        ----------
+        k : int
+            Step index (0 at t = 0).
+        Y : sequence of 6-tuples
+            Padded state history (x, γ, φ, ẋ, γ̇, φ̇): the delay buffer.  Entry
+            k + n is the state now, entry k the delayed state the rider senses.
+        """
+        y = Y[k]                                 # padded index k: the state n steps ago
+        kp = self.k_pred
+        e_v = y[3] - self.v_ref[k]
+        fb = (kp[0] * e_v + kp[1] * (y[1] - self.gamma_ref[k])
+              + kp[2] * (y[2] - self.phi_ref[k]) + kp[3] * y[4] + kp[4] * y[5])
+        if self.integral:
+            fb += kp[5] * self.z
+            self.z += e_v * self.dt
+        n = self.n
+        if n:
+            fb += self.k_hist.dot(self.du[k:k + n])
+        u_ref = self.u_ref[k + n]
+        u = u_ref - fb
+        lim = self.limit
+        u = lim if u > lim else (-lim if u < -lim else u)
+        self.du[k + n] = u - u_ref
+        return u, u + self.noise[k]

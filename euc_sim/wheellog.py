@@ -1,0 +1,504 @@
+"""Readers for electric-unicycle telemetry logs (WheelLog CSV and relatives).
+
+Every layout is read **by column name, never by position**.  The result is one
+:class:`RideLog`: a table in SI units (time from the first sample in s, speeds in
+m/s, angles in rad, distances in m) plus the list of everything the reader had to
+do to the file (``warnings``) and the channels it found missing (``absent``).
+
+Layouts
+-------
+``wheellog``
+    The WheelLog Android app (``date,time,speed,voltage,current,power,...``).  The
+    older layout has ``system_temp,cpu_temp,tilt,roll,mode,alert``; the newer one
+    adds ``latitude,longitude,gps_speed,gps_alt,gps_heading,gps_distance`` after
+    ``time`` and ``phase_current,torque,pwm`` after ``voltage`` (and may call
+    ``cpu_temp`` ``temp2``).  Units as the app writes them (its ``LoggingService``):
+    speed and gps_speed km/h, voltage V, currents A, power W, distances m,
+    gps_alt m, tilt/roll/gps_heading degrees.  GPS fields are empty strings while
+    the phone has no fix.
+``eucworld``
+    EUC World CSV export (``datetime,speed,voltage,current,current_phase,power,
+    pwm|safety_margin,battery,distance,distance_total,temp,tilt,roll,gps_lat,
+    gps_lon,gps_speed,gps_alt,gps_bearing,gps_distance,...``): km/h, V, A, W, km,
+    degrees, m.  **Layout taken from a third-party parser, not from the app's own
+    documentation** (none was found); treat as best effort.
+``darknessbot``
+    DarknessBot CSV export (``Date,Speed,Voltage,PWM,Current,Power,Battery level,
+    Total mileage,Temperature,Pitch,Roll,Latitude,Longitude,Altitude``), ``Date``
+    ISO 8601 or ``DD.MM.YYYY HH:MM:SS.fff``; km/h, V, A, W, km, degrees, m.
+    **Also from third-party parsers only**; the speed unit is assumed km/h.
+
+What the reader does about problems
+-----------------------------------
+- Missing required column (time, speed), a non-numeric value, an unreadable time,
+  an empty file, a file with a header and no rows: :class:`LogFormatError` (a
+  ``ValueError``) naming the file, the column and the line.
+- Repeated timestamps: rows sharing a timestamp are averaged into one row; the
+  number of rows merged is a counted warning.
+- Time running backwards: rows are put in time order; counted warning.
+- Irregular sampling: summarised in one warning (median and extreme intervals,
+  number of gaps longer than ``gap_warn`` s).
+- Tilt/roll missing or all zero: reported absent (not put in the table) with a
+  warning; the same for any other optional channel that is all zero or empty.
+- Empty GPS fields: kept as NaN, counted in a warning.
+- A truncated last line (missing required cells, as when the app is killed while
+  writing): dropped, with a warning naming the line.
+
+Each problem is a string in :attr:`RideLog.warnings`; :func:`read_log` also issues
+each through :mod:`warnings` as a :class:`RideLogWarning` unless told not to.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings as _warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+import pandas as pd
+
+__all__ = [
+    "LogFormatError", "RideLogWarning", "RideLog", "Channel", "LAYOUTS", "CHANNEL_UNITS",
+    "read_log", "read_wheellog", "detect_layout",
+]
+
+KMH = 1.0 / 3.6            # km/h -> m/s
+DEG = math.pi / 180.0       # degree -> rad
+KM = 1000.0                 # km -> m
+#: Intervals shorter than this, s, are counted as near-repeated time stamps (kept).
+NEAR_REPEAT = 0.02
+
+
+class LogFormatError(ValueError):
+    """A log file that cannot be read; the message names file, column and line.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    column : str or None
+        The offending column, where there is one.
+    line : int or None
+        1-based line number in the file (the header is line 1), where there is one.
+    """
+
+    def __init__(self, path, message: str, column: str | None = None, line: int | None = None):
+        self.path = str(path)
+        self.column = column
+        self.line = line
+        where = []
+        if column is not None:
+            where.append(f"column {column!r}")
+        if line is not None:
+            where.append(f"line {line}")
+        loc = (", ".join(where) + ": ") if where else ""
+        super().__init__(f"{self.path}: {loc}{message}")
+
+
+class RideLogWarning(UserWarning):
+    """Something the reader did to a log (merged, sorted, dropped, found absent)."""
+
+
+@dataclass(frozen=True)
+class Channel:
+    """Where a canonical channel comes from in one layout.
+
+    Attributes
+    ----------
+    columns : tuple of str
+        Source column names, first present wins.
+    scale : float
+        Factor from the file's unit to SI.
+    """
+
+    columns: tuple[str, ...]
+    scale: float = 1.0
+
+
+#: Canonical channel -> SI unit (in the :class:`RideLog` table).
+CHANNEL_UNITS: dict[str, str] = {
+    "t": "s", "v": "m/s", "voltage": "V", "current": "A", "power": "W",
+    "phase_current": "A", "torque": "N·m (as the wheel reports it; unverified)",
+    "pwm": "%", "battery": "%", "distance": "m", "total_distance": "m",
+    "temperature": "°C", "temperature2": "°C", "tilt": "rad", "roll": "rad",
+    "latitude": "deg", "longitude": "deg", "gps_speed": "m/s", "gps_alt": "m",
+    "gps_heading": "rad", "gps_distance": "m",
+}
+
+_GPS = ("latitude", "longitude", "gps_speed", "gps_alt", "gps_heading", "gps_distance")
+
+
+@dataclass(frozen=True)
+class Layout:
+    """A log layout: how its time stamp is built and where each channel lives."""
+
+    name: str
+    time_columns: tuple[str, ...]           # joined with a space, then parsed
+    time_formats: tuple[str | None, ...]    # tried in order; None = ISO 8601
+    speed: Channel
+    channels: Mapping[str, Channel]
+    signature: tuple[str, ...]              # columns whose presence identifies it
+    source: str
+
+
+LAYOUTS: dict[str, Layout] = {
+    "wheellog": Layout(
+        name="wheellog",
+        time_columns=("date", "time"),
+        time_formats=(None,),
+        speed=Channel(("speed",), KMH),
+        channels={
+            "voltage": Channel(("voltage",)), "current": Channel(("current",)),
+            "power": Channel(("power",)), "phase_current": Channel(("phase_current",)),
+            "torque": Channel(("torque",)), "pwm": Channel(("pwm",)),
+            "battery": Channel(("battery_level",)), "distance": Channel(("distance",)),
+            "total_distance": Channel(("totaldistance",)),
+            "temperature": Channel(("system_temp",)),
+            "temperature2": Channel(("temp2", "cpu_temp")),
+            "tilt": Channel(("tilt",), DEG), "roll": Channel(("roll",), DEG),
+            "latitude": Channel(("latitude",)), "longitude": Channel(("longitude",)),
+            "gps_speed": Channel(("gps_speed",), KMH), "gps_alt": Channel(("gps_alt",)),
+            "gps_heading": Channel(("gps_heading",), DEG),
+            "gps_distance": Channel(("gps_distance",)),
+        },
+        signature=("date", "time"),
+        source="WheelLog Android app, LoggingService (Wheellog/Wheellog.Android)",
+    ),
+    "eucworld": Layout(
+        name="eucworld",
+        time_columns=("datetime",),
+        time_formats=(None,),
+        speed=Channel(("speed",), KMH),
+        channels={
+            "voltage": Channel(("voltage",)), "current": Channel(("current",)),
+            "power": Channel(("power",)), "phase_current": Channel(("current_phase",)),
+            "pwm": Channel(("pwm", "safety_margin")), "battery": Channel(("battery",)),
+            "distance": Channel(("distance",), KM),
+            "total_distance": Channel(("distance_total",), KM),
+            "temperature": Channel(("temp",)), "temperature2": Channel(("temp_motor",)),
+            "tilt": Channel(("tilt",), DEG), "roll": Channel(("roll",), DEG),
+            "latitude": Channel(("gps_lat",)), "longitude": Channel(("gps_lon",)),
+            "gps_speed": Channel(("gps_speed",), KMH), "gps_alt": Channel(("gps_alt",)),
+            "gps_heading": Channel(("gps_bearing",), DEG),
+            "gps_distance": Channel(("gps_distance",), KM),
+        },
+        signature=("datetime",),
+        source="EUC World CSV export, as read by third-party parsers (unofficial)",
+    ),
+    "darknessbot": Layout(
+        name="darknessbot",
+        time_columns=("Date",),
+        time_formats=(None, "%d.%m.%Y %H:%M:%S.%f", "%d.%m.%Y %H:%M:%S"),
+        speed=Channel(("Speed",), KMH),
+        channels={
+            "voltage": Channel(("Voltage",)), "current": Channel(("Current",)),
+            "power": Channel(("Power",)), "pwm": Channel(("PWM",)),
+            "battery": Channel(("Battery level",)),
+            "total_distance": Channel(("Total mileage",), KM),
+            "temperature": Channel(("Temperature",)),
+            "tilt": Channel(("Pitch",), DEG), "roll": Channel(("Roll",), DEG),
+            "latitude": Channel(("Latitude",)), "longitude": Channel(("Longitude",)),
+            "gps_speed": Channel(("GPS Speed", "GPS speed"), KMH),
+            "gps_alt": Channel(("Altitude",)),
+        },
+        signature=("Date", "Speed"),
+        source="DarknessBot CSV export, as read by third-party parsers (unofficial)",
+    ),
+}
+
+
+@dataclass(frozen=True)
+class RideLog:
+    """A ride log in SI units.
+
+    Attributes
+    ----------
+    path : str
+        The file read.
+    layout : str
+        ``"wheellog"``, ``"eucworld"`` or ``"darknessbot"``; :attr:`variant` tells
+        the WheelLog layouts apart.
+    variant : str
+        ``"old"`` / ``"new"`` for WheelLog (``"new"`` when GPS or phase-current
+        columns are present), else ``""``.
+    data : pandas.DataFrame
+        One row per distinct time stamp, sorted, columns ``t`` (s from the first
+        sample), ``v`` (wheel speed, m/s) and whichever optional channels are
+        present (see :data:`CHANNEL_UNITS`); empty GPS cells are NaN.
+    start : pandas.Timestamp
+        Wall-clock time of ``t = 0`` (naive, the phone's local time).
+    absent : tuple of str
+        Canonical channels the file lacks, or has only as zeros or empty cells.
+    warnings : tuple of str
+        One line per problem handled.
+    n_rows_read : int
+        Data rows in the file.
+    n_rows_merged : int
+        Rows removed by averaging repeated time stamps.
+    """
+
+    path: str
+    layout: str
+    variant: str
+    data: pd.DataFrame
+    start: pd.Timestamp
+    absent: tuple[str, ...]
+    warnings: tuple[str, ...]
+    n_rows_read: int
+    n_rows_merged: int
+    units: Mapping[str, str] = field(default_factory=lambda: dict(CHANNEL_UNITS))
+
+    def has(self, channel: str) -> bool:
+        """True when ``channel`` is in :attr:`data` (present and not all zero)."""
+        return channel in self.data.columns
+
+    @property
+    def duration(self) -> float:
+        """Time from the first to the last sample, s."""
+        return float(self.data["t"].iloc[-1]) if len(self.data) else 0.0
+
+
+# --------------------------------------------------------------------------------------
+def detect_layout(columns, path="<log>") -> Layout:
+    """The layout whose signature columns are all among ``columns``.
+
+    Raises
+    ------
+    LogFormatError
+        naming the missing required column when no layout fits.
+    """
+    cols = set(columns)
+    if {"date", "time"} <= cols or "speed" in cols and ("date" in cols or "time" in cols):
+        lay = LAYOUTS["wheellog"]
+    elif "datetime" in cols:
+        lay = LAYOUTS["eucworld"]
+    elif "Date" in cols or "Speed" in cols:
+        lay = LAYOUTS["darknessbot"]
+    elif "speed" in cols:
+        raise LogFormatError(
+            path, "missing required time column: expected 'date' and 'time' (WheelLog) "
+            "or 'datetime' (EUC World)", column="time")
+    else:
+        shown = ", ".join(list(columns)[:6])
+        raise LogFormatError(
+            path, f"not a recognised EUC log: no speed column (expected 'speed' or 'Speed'); "
+            f"header starts {shown!r}", column="speed")
+    for col in lay.time_columns + lay.speed.columns:
+        if col not in cols:
+            raise LogFormatError(path, f"missing required column for the {lay.name} layout "
+                                       f"(found {len(cols)} columns)", column=col)
+    return lay
+
+
+def _numeric(raw: pd.Series, column: str, path, required: bool) -> np.ndarray:
+    """Strings -> float; empty cells -> NaN; anything else non-numeric -> error."""
+    s = raw.astype(str).str.strip()
+    empty = s.eq("") | s.str.lower().isin(["nan", "null", "none"])
+    vals = pd.to_numeric(s.where(~empty), errors="coerce")
+    bad = vals.isna() & ~empty
+    if bad.any():
+        i = int(np.flatnonzero(bad.to_numpy())[0])
+        raise LogFormatError(path, f"expected a number, got {s.iloc[i]!r} "
+                                   f"({int(bad.sum())} such cell(s) in this column)",
+                             column=column, line=i + 2)
+    if required and empty.any():
+        i = int(np.flatnonzero(empty.to_numpy())[0])
+        raise LogFormatError(path, f"empty cell in a required column "
+                                   f"({int(empty.sum())} such cell(s))", column=column, line=i + 2)
+    return vals.to_numpy(dtype=float)
+
+
+def _times(frame: pd.DataFrame, lay: Layout, path) -> pd.Series:
+    """Parse the time stamp columns; the first unparsable one is an error."""
+    text = frame[lay.time_columns[0]].astype(str).str.strip()
+    for col in lay.time_columns[1:]:
+        text = text + " " + frame[col].astype(str).str.strip()
+    best = None
+    for fmt in lay.time_formats:
+        try:
+            parsed = pd.to_datetime(text, format=fmt if fmt else "ISO8601", errors="coerce")
+        except (ValueError, TypeError):
+            continue
+        if best is None or parsed.notna().sum() > best.notna().sum():
+            best = parsed
+        if best.notna().all():
+            break
+    if best is None or best.isna().any():
+        i = 0 if best is None else int(np.flatnonzero(best.isna().to_numpy())[0])
+        col = "+".join(lay.time_columns)
+        raise LogFormatError(path, f"cannot read the time stamp {text.iloc[i]!r} "
+                                   f"(expected e.g. '2020-05-16 08:02:10.002')",
+                             column=col, line=i + 2)
+    if getattr(best.dt, "tz", None) is not None:
+        best = best.dt.tz_convert("UTC").dt.tz_localize(None)
+    return best
+
+
+def _sampling_summary(t: np.ndarray, gap_warn: float) -> str | None:
+    dt = np.diff(t)
+    if dt.size == 0:
+        return None
+    med = float(np.median(dt))
+    lo, hi = float(dt.min()), float(dt.max())
+    n_gap = int((dt > gap_warn).sum())
+    n_near = int((dt < NEAR_REPEAT).sum())
+    if hi - lo <= 0.05 * max(med, 1e-9) and n_gap == 0:
+        return None
+    return (f"irregular sampling: intervals {lo:.3f}-{hi:.3f} s (median {med:.3f} s, "
+            f"about {1 / med if med > 0 else float('nan'):.1f} Hz); "
+            f"{n_gap} gap(s) longer than {gap_warn:g} s; {n_near} interval(s) shorter than "
+            f"{NEAR_REPEAT * 1000:.0f} ms (near-repeats, kept)")
+
+
+def _check_field_counts(path: Path) -> None:
+    """A row with more (non-empty) fields than the header is an error, not a silent cut."""
+    import csv
+
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            reader = csv.reader(fh)
+            header = next(reader, None)
+            if header is None:
+                return
+            for line, row in enumerate(reader, start=2):
+                if len(row) > len(header) and any(f.strip() for f in row[len(header):]):
+                    raise LogFormatError(path, f"{len(row)} fields, but the header has "
+                                               f"{len(header)}", line=line)
+    except UnicodeDecodeError as exc:
+        raise LogFormatError(path, f"not a UTF-8 text CSV file ({exc.reason})") from None
+
+
+def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
+             emit_warnings: bool = True) -> RideLog:
+    """Read an EUC telemetry log (WheelLog, EUC World or DarknessBot CSV).
+
+    Parameters
+    ----------
+    path : str or path
+        The CSV file.
+    layout : str, optional
+        Force a layout (one of :data:`LAYOUTS`); by default it is recognised from
+        the header.
+    gap_warn : float
+        Intervals longer than this, s, are counted in the sampling warning.
+    emit_warnings : bool
+        Also issue each warning as a :class:`RideLogWarning` (default True).
+
+    Returns
+    -------
+    RideLog
+
+    Raises
+    ------
+    LogFormatError
+        (a ``ValueError``) for an empty file, a missing required column, a
+        non-numeric value, an unreadable time stamp; the message names the file,
+        the column and the line.
+    FileNotFoundError
+        when ``path`` does not exist.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such file")
+    _check_field_counts(path)
+    try:
+        raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True,
+                          index_col=False)
+    except pd.errors.EmptyDataError:
+        raise LogFormatError(path, "empty file: expected a header row and data rows") from None
+    except pd.errors.ParserError as exc:
+        raise LogFormatError(path, f"not a readable CSV table ({str(exc).strip()})") from None
+    except UnicodeDecodeError as exc:
+        raise LogFormatError(path, f"not a text CSV file ({exc.reason})") from None
+    raw.columns = [str(c).strip() for c in raw.columns]
+    if len(raw) == 0:
+        raise LogFormatError(path, "header only, no data rows")
+    if layout is not None:
+        if layout not in LAYOUTS:
+            raise ValueError(f"unknown layout {layout!r}; expected one of {', '.join(LAYOUTS)}")
+        lay = LAYOUTS[layout]
+        for col in lay.time_columns + lay.speed.columns[:1]:
+            if col not in raw.columns:
+                raise LogFormatError(path, f"missing required column for the {lay.name} layout",
+                                     column=col)
+    else:
+        lay = detect_layout(raw.columns, path)
+    notes: list[str] = []
+    n_read = len(raw)
+
+    # A truncated last line (required cells empty) is dropped, loudly.
+    speed_col = next(c for c in lay.speed.columns if c in raw.columns)
+    req = list(lay.time_columns) + [speed_col]
+    last_empty = raw.iloc[-1][req].astype(str).str.strip().eq("").any()
+    if last_empty and len(raw) > 1:
+        notes.append(f"dropped the truncated last line {len(raw) + 1} (empty "
+                     f"{', '.join(c for c in req if not str(raw.iloc[-1][c]).strip())})")
+        raw = raw.iloc[:-1]
+
+    stamps = _times(raw, lay, path)
+    out = {"v": _numeric(raw[speed_col], speed_col, path, required=True) * lay.speed.scale}
+    absent: list[str] = []
+    for name, ch in lay.channels.items():
+        col = next((c for c in ch.columns if c in raw.columns), None)
+        if col is None:
+            absent.append(name)
+            continue
+        vals = _numeric(raw[col], col, path, required=False) * ch.scale
+        finite = np.isfinite(vals)
+        if not finite.any():
+            absent.append(name)
+            if name in ("tilt", "roll") or name in _GPS:
+                notes.append(f"{col}: all {len(vals)} cells empty; treated as absent")
+            continue
+        if np.all(vals[finite] == 0.0) and name != "distance":
+            absent.append(name)
+            notes.append(f"{col}: all {len(vals)} values are zero (the wheel does not "
+                         f"report it); treated as absent")
+            continue
+        n_empty = int((~finite).sum())
+        if n_empty:
+            notes.append(f"{col}: {n_empty} of {len(vals)} cells empty (kept as NaN)")
+        out[name] = vals
+    # tilt/roll with no column at all are worth saying too.
+    for name in ("tilt", "roll"):
+        if not any(c in raw.columns for c in lay.channels[name].columns):
+            notes.append(f"{name}: no such column in this log; treated as absent")
+    table = pd.DataFrame(out)
+    t_abs = stamps.to_numpy()
+    start = pd.Timestamp(t_abs.min())
+    table.insert(0, "t", (stamps - start).dt.total_seconds().to_numpy())
+
+    # Time order.
+    back = int((np.diff(table["t"].to_numpy()) < 0).sum())
+    if back:
+        notes.append(f"time ran backwards at {back} row(s); rows put in time order")
+        table = table.sort_values("t", kind="stable").reset_index(drop=True)
+    # Repeated time stamps: average.
+    counts = table["t"].value_counts()
+    rep = counts[counts > 1]
+    n_merged = 0
+    if len(rep):
+        n_merged = int(rep.sum() - len(rep))
+        table = table.groupby("t", sort=True, as_index=False).mean()
+        notes.append(f"repeated time stamps: {len(rep)} time stamp(s) shared by "
+                     f"{int(rep.sum())} rows; averaged into one row each ({n_merged} rows merged)")
+    summary = _sampling_summary(table["t"].to_numpy(), gap_warn)
+    if summary:
+        notes.append(summary)
+    variant = ""
+    if lay.name == "wheellog":
+        newcols = {"latitude", "gps_speed", "phase_current", "torque", "pwm"}
+        variant = "new" if newcols & set(raw.columns) else "old"
+    if emit_warnings:
+        for n in notes:
+            _warnings.warn(f"{path.name}: {n}", RideLogWarning, stacklevel=2)
+    return RideLog(path=str(path), layout=lay.name, variant=variant,
+                   data=table.reset_index(drop=True), start=start, absent=tuple(absent),
+                   warnings=tuple(notes), n_rows_read=n_read, n_rows_merged=n_merged)
+
+
+def read_wheellog(path, **kwargs) -> RideLog:
+    """:func:`read_log` with the WheelLog layout forced."""
+    return read_log(path, layout="wheellog", **kwargs)
