@@ -27,6 +27,11 @@ def _parse_params(items: Sequence[str] | None):
     """``--param NAME=VALUE`` pairs → Params (Table 3 for the rest)."""
     from euc_sim.parameters import Params
 
+    return Params.from_mapping(param_values(items))
+
+
+def param_values(items: Sequence[str] | None) -> dict[str, float]:
+    """``--param NAME=VALUE`` pairs → ``{name: value}`` (names are checked by Params)."""
     values = {}
     for item in items or ():
         name, sep, value = item.partition("=")
@@ -36,7 +41,7 @@ def _parse_params(items: Sequence[str] | None):
             values[name.strip()] = float(value)
         except ValueError:
             raise UsageError(f"--param {name.strip()}: expected a number, got {value!r}") from None
-    return Params.from_mapping(values)
+    return values
 
 
 # --- crosscheck ---------------------------------------------------------------------
@@ -144,14 +149,14 @@ def build_parser() -> argparse.ArgumentParser:
     from euc_sim.cli_sim import add_commands as add_sim_commands
     add_sim_commands(sub)        # euc-sim simulate / dataset / stability (issue 3)
 
-    from euc_sim.identify_commands import add_identify_parser, add_torques_parser
+    from euc_sim.cli_identify import add_identify_parser, add_torques_parser
     add_torques_parser(sub)      # euc-sim torques REC --out T.csv (issue 4)
     add_identify_parser(sub)     # euc-sim identify REC... --json --plot (issue 4)
 
     from euc_sim.cli_diagnose import add_commands as add_diagnose_commands
     add_diagnose_commands(sub)   # euc-sim diagnose REC --json --report / demo (issue 5)
 
-    from euc_sim.ride_commands import add_ride_parser
+    from euc_sim.cli_ride import add_ride_parser
     add_ride_parser(sub)         # euc-sim ride LOG --compare OTHER --report --json (issue 6)
     return parser
 

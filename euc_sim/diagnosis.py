@@ -944,7 +944,11 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     periodic = gen_gain >= th.generic_gain      # a periodic structure is a finding in itself
     decidable = bool(detectable) and (h_ok or periodic)
     notes = []
-    if not h_ok:
+    if not h_ok and periodic:
+        notes.append(f"h is unreliable here (h = {fit_f.h:.2f} m ± {1.96 * h_se_f:.2f} m"
+                     f"{', at the search bound' if h_at_bound else ''}): the structure left "
+                     "unexplained pulls it")
+    elif not h_ok:
         notes.append(f"h is not identifiable here (h = {fit_f.h:.2f} m ± {1.96 * h_se_f:.2f} m"
                      f"{', at the search bound' if h_at_bound else ''}): too little excitation; "
                      "a constant force and a wrong h look the same without speed changes")
@@ -954,8 +958,8 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
         elif c in limits and limits[c]["status"] != "detectable":
             lim = limits[c]["detectable_above"]
             why = "without torques (NOTES facts 2-3)" if not has_w else "in this recording"
-            notes.append(f"{c} is near the noise floor {why}: only above {lim:.3g} "
-                         f"{limits[c]['unit']} could be seen")
+            unit = "" if limits[c]["unit"] == "1" else f" {limits[c]['unit']}"
+            notes.append(f"{c} is near the noise floor {why}: only above {lim:.3g}{unit} could be seen")
     tentative = []
     if unexplained and eff_out:
         # a wrong name is worse than none: with structure left unexplained, keep only

@@ -257,6 +257,21 @@ def write_report(result: dict, outdir: str | Path) -> Path:
         md.append("")
         md += [f"- {e['evidence']}" for e in r["effects"]]
         md.append("")
+    if r["unexplained"] or r.get("tentative"):
+        g = r["generic"]
+        md += ["## What no catalogued effect explains", ""]
+        if r["unexplained"]:
+            md.append(f"Structure is left after the catalogued effects: a generic periodic term (the best "
+                      f"sinusoid between 0.1 and 3 Hz, fitted on the training blocks only) cuts the "
+                      f"held-out RMSE by {100 * g['gain']:.0f}% ({g['heldout_without']:.3f} → "
+                      f"{g['heldout_with']:.3f} N·m), and the residual is {g['floor_ratio']:.1f}× the noise "
+                      "floor.  No catalogued name is given to it: a wrong name is worse than none.")
+        if r.get("tentative"):
+            md.append("")
+            md.append("Accepted by the selection but not named (each explained less than half of the "
+                      "mismatch while structure is left, or the recording cannot decide): " +
+                      ", ".join(f"`{e['name']}` ({e['estimate']:.3g} {e['unit']})" for e in r["tentative"]) + ".")
+        md.append("")
     md += ["## How much better the model became", "",
            f"Held-out residual RMSE (blocked in time, h re-identified in every fold): "
            f"**{r['nominal_rmse']:.3f} N·m** with the nominal model, **{r['augmented_rmse']:.3f} N·m** "
@@ -281,8 +296,8 @@ def write_report(result: dict, outdir: str | Path) -> Path:
     if has_resim:
         rs = r["resimulation"]
         md += ["## Re-simulation", "",
-               f"The maneuver re-simulated ({rs['engine']} engine, default controllers, the recording's "
-               "speed as the rider's plan), nominal and with the accepted effects injected as physics.", ""]
+               f"The maneuver re-simulated ({rs['engine']} engine, default controllers; plan: "
+               f"{rs['maneuver']}), nominal and with the accepted effects injected as physics.", ""]
         for label in ("nominal", "augmented"):
             v = rs.get(label, {})
             if "rmse_phi" in v:
@@ -296,7 +311,8 @@ def write_report(result: dict, outdir: str | Path) -> Path:
            "| --- | --- | --- | --- | --- |"]
     for name, lim in r["limits"].items():
         vis = r["visibility"][name]
-        da = "—" if lim["detectable_above"] is None else f"{lim['detectable_above']:.3g} {lim['unit']}"
+        unit = "" if lim["unit"] == "1" else f" {lim['unit']}"
+        da = "—" if lim["detectable_above"] is None else f"{lim['detectable_above']:.3g}{unit}"
         md.append(f"| `{name}` | {'yes via ' + vis['through'] if vis['visible'] else 'no'} | {da} | "
                   f"{lim['plausible'][0]:g} … {lim['plausible'][1]:g} | {lim['status']} |")
     md.append("")

@@ -132,10 +132,17 @@ def motion_capture(run: pd.DataFrame, params: Params, *, noise: str = "paper", s
     run_psi = run["psi"].to_numpy() if "psi" in run.columns else np.zeros(len(ts))
     vx = run["x_dot"].to_numpy()
     def path(f):
+        # trapezoidal integral of the ground velocity, sampled by cubic Hermite with that
+        # velocity as its slope: linear interpolation would put corners in the path and
+        # millimetre-per-second² errors into the Section 2 acceleration
         g = vx * f(run_psi)
-        return np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * dt_src)])
-    X = np.interp(t, ts, path(np.cos)) + float(run["x"].iloc[0])
-    Y = np.interp(t, ts, path(np.sin))
+        s = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * dt_src)])
+        return _hermite(ts, s, g, t)
+    if "psi" in run.columns:
+        X = path(np.cos) + float(run["x"].iloc[0])
+        Y = path(np.sin)
+    else:                       # straight running: the path is x itself
+        X, Y = x.copy(), np.zeros(n)
     P = np.column_stack([X, Y, np.zeros(n)])
     up = lambda a: np.column_stack([np.sin(a), np.zeros(n), np.cos(a)])          # noqa: E731
     C = P + _rotate(psi, theta, np.column_stack([np.zeros(n), np.zeros(n), np.full(n, params.R)]))

@@ -162,6 +162,8 @@ def build_spec(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path
     rolling_eq = _find(spec, "equality", "rolling", path)
     spec.delete(_find(spec, "tendon", "rolling", path))
     if variant == "ideal":
+        # no contacts exist in the ideal variant: skip collision detection altogether
+        spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
         tendon = spec.add_tendon(name="rolling")       # x − R (gamma + wheel_spin) = 0
         tendon.wrap_joint("x", 1.0)
         tendon.wrap_joint("euc_pitch", -p.R)

@@ -414,6 +414,7 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     RideSimulation
     """
     from euc_sim.diagnosis import localise
+    from euc_sim.ride_page import split_at_gaps
     from euc_sim.simulation import default_rider
 
     A = sig.assumptions
@@ -472,6 +473,7 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
         loc = localise(t[good], r[good], {"speed": table["v_log"].to_numpy()[good],
                                           "acceleration": frame["a"].to_numpy()[good]},
                        smooth=window_smooth, min_len=window_min)
+        loc = dict(loc, windows=split_at_gaps(loc["windows"], t[good], window_min))
     return RideSimulation(label=label or str(sig.path), table=table, errors=errors, effects=eff,
                           parameters={"nominal": _drivetrain(nominal),
                                       "augmented": _drivetrain(augmented)},

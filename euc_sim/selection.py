@@ -17,8 +17,9 @@ strongly correlated.  Three consequences are built in:
 
 - the information criterion (BIC) counts an *effective* number of samples
   n_eff = n / τ_int, τ_int the integrated autocorrelation time of the residual;
-- held-out validation is blocked in time (contiguous blocks, with a guard gap so
-  the filter does not leak the held-out block into the training set);
+- held-out validation is blocked in time (contiguous blocks of
+  :data:`BLOCK_LENGTH` s dealt to the folds in turn, with a guard gap so the filter
+  does not leak the held-out blocks into the training set);
 - standard errors come from a cluster ("blocked residuals") sandwich covariance.
 
 Forward stepwise selection keeps the history of every step (all trials, their BIC
@@ -26,9 +27,9 @@ and held-out RMSE, why the best one was or was not accepted).
 
 Public functions
 ----------------
-:func:`fit_set`, :func:`heldout_rmse`, :func:`forward_select`,
-:func:`find_aliases`, :func:`generic_gain`, :func:`correlation_time`,
-:func:`time_blocks`.
+:func:`fit_set`, :func:`heldout_rmse`, :func:`covariance`, :func:`bic`,
+:func:`forward_select`, :func:`find_aliases`, :func:`generic_gain`,
+:func:`sinusoid_basis`, :func:`correlation_time`, :func:`time_blocks`.
 """
 
 from __future__ import annotations
@@ -40,8 +41,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 __all__ = ["SelectionError", "Problem", "Fit", "Step", "Selection", "time_blocks",
-           "correlation_time", "fit_set", "heldout_rmse", "forward_select",
-           "find_aliases", "generic_gain", "sinusoid_basis"]
+           "correlation_time", "fit_set", "heldout_rmse", "covariance", "bic", "forward_select",
+           "find_aliases", "generic_gain", "sinusoid_basis", "BLOCK_LENGTH"]
 
 
 class SelectionError(ValueError):

@@ -94,10 +94,13 @@ def test_residual_matches_the_paper_torques_and_the_catalog_term(noise_free):
     model = diagnosis.residual_model(prep)
     k = prep.keep
     p = TABLE3
-    # the closed form in h is eqs. (9)-(10), term-filtered (identification.torques)
+    # the closed form in h is eqs. (9)-(10), term-filtered (identification.torques filters
+    # M_d,1 and M_d,2 themselves, the closed form their numerator over a common
+    # denominator: the two differ by the filter's action on the slowly varying κ, a few
+    # mN·m against a residual of about 1 N·m here)
     from euc_sim import identification
     tq = identification.torques(prep.kin, p.replace(h=0.6))
-    assert np.max(np.abs(model.kinematic(0.6) - (tq["M_d1"] - tq["M_d2"]).to_numpy()[k])) < 0.05
+    assert np.max(np.abs(model.kinematic(0.6) - (tq["M_d1"] - tq["M_d2"]).to_numpy()[k])) < 0.01
     # the rolling-resistance term explains the residual: θ ≈ C_rr, RMSE ≪ the effect
     prob, info = diagnosis.build_problem(prep, 0.6)
     from euc_sim import selection as sel
@@ -248,3 +251,15 @@ def test_motion_capture_columns_alone_give_the_same_diagnosis(study, tmp_path):
     assert [e["name"] for e in res["effects"]][:1] == ["aerodynamic_drag"]
     assert res["unexplained"] is False
     assert res["noise_sd"]["phi"] == pytest.approx(np.radians(0.5), rel=0.3)
+
+
+def test_diagnose_does_not_modify_its_input(study):
+    out, _ = study
+    df = pd.read_csv(out / "t07.csv")
+    before = df.copy()
+    meta = json.loads((out / "t07.json").read_text())
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = diagnosis.diagnose(df, meta=meta, resimulate=False)
+    pd.testing.assert_frame_equal(df, before)
+    assert res["effects"] == []

@@ -38,3 +38,12 @@ def test_check_writable_names_the_path(tmp_path):
 
 def test_to_jsonable():
     assert to_jsonable((np.int64(2), [np.inf])) == [2, [None]]
+
+
+def test_written_files_get_the_usual_mode(tmp_path):
+    import os
+    import stat
+    target = write_json(tmp_path / "m.json", {})
+    mask = os.umask(0)
+    os.umask(mask)
+    assert stat.S_IMODE(target.stat().st_mode) == 0o666 & ~mask

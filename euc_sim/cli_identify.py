@@ -47,20 +47,13 @@ def smoothing_from_args(args: argparse.Namespace):
 
 
 def _load(path: str, args: argparse.Namespace, h: float | None = None):
-    from euc_sim.cli import UsageError
+    from euc_sim.cli import param_values
     from euc_sim.identification import load
     from euc_sim.recordings import params_from_meta, read_sidecar
 
     meta = read_sidecar(path)
     values = dict(meta.get("params") or {})
-    for item in args.param or ():
-        name, sep, value = item.partition("=")
-        if not sep:
-            raise UsageError(f"--param expects NAME=VALUE, got {item!r}")
-        try:
-            values[name.strip()] = float(value)
-        except ValueError:
-            raise UsageError(f"--param {name.strip()}: expected a number, got {value!r}") from None
+    values.update(param_values(args.param))
     if h is not None:
         values["h"] = h
     p = params_from_meta({"params": values}, path)
