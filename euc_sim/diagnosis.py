@@ -890,7 +890,7 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
                                    max_bic=th.alias_bic, cosine=th.alias_cosine)
         before = s.cv_nominal if i == 0 else s.cv_path[i - 1]
         after = s.cv_path[i] if i < len(selected) - 1 else cv_after_all
-        ref = 0.0 if c in slopes and c != "rider_mass" else (prep.params.m if c == "rider_mass" else info_f[c]["offset"])
+        ref = prep.params.m if c == "rider_mass" else 0.0     # the value of "no effect"
         t_stat = abs(est - ref) / se if se > 0 else float("inf")
         item = {"name": c, "estimate": est, "unit": effects.get(c).unit, "ci95": ci,
                 "rmse_after": after, "aliases": aliases,
@@ -988,6 +988,8 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
 
     if tentative:      # the model that is reported is the one with the named effects only
         named = tuple(e["name"] for e in eff_out)
+        if any(e["name"] in _NONLINEAR for e in tentative):
+            prob_f = problem            # the refined residual carried a dropped effect
         if named:
             cv_after_all = sel.heldout_rmse(prob_f, named)
             fit_f = sel.fit_set(prob_f, named)

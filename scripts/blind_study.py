@@ -250,6 +250,7 @@ def score(results: list[dict]) -> dict:
             if first and first["name"] == c["effect"] and res["decidable"]:
                 d["first"] += 1
                 d["errors"].append((first["estimate"] - c["value"]) / abs(c["value"]))
+                d["covered"] = d.get("covered", 0) + int(first["ci95"][0] <= c["value"] <= first["ci95"][1])
             named = [e["name"] for e in res["effects"]] + sum((e["aliases"] for e in res["effects"]), [])
             if c["effect"] in named:
                 d["named_or_alias"] += 1
@@ -280,6 +281,7 @@ def score(results: list[dict]) -> dict:
     n_alias_ok = sum(d["named_or_alias"] for d in per.values())
     n_det = sum(d["n_det"] for d in per.values())
     n_first_det = sum(d["first_det"] for d in per.values())
+    n_cov = sum(d.get("covered", 0) for d in per.values())
     targets = {
         "right effect first >= 90%": {"value": n_first / n_eff if n_eff else float("nan"),
                                       "met": n_eff > 0 and n_first / n_eff >= 0.9},
@@ -309,6 +311,7 @@ def score(results: list[dict]) -> dict:
                                "median_rmse_ratio": float(np.median(d["ratio"])) if d["ratio"] else None}
                            for k, d in per.items()},
             "targets": targets, "push_flagged": f"{push_flag}/{len(pushes)}",
+            "ci95_coverage": f"{n_cov}/{n_first}",
             "invisible_not_named": f"{inv_ok}/{len(inv)}",
             "constant_speed_undecidable": f"{sum(1 for r in const if not r['result']['decidable'])}/{len(const)}",
             "constant_speed_named_or_alias": f"{const_named}/{len(const)}",
@@ -340,6 +343,7 @@ def print_report(summary: dict, out=print) -> None:
         f"{summary['constant_speed_undecidable']}, right effect named or aliased "
         f"{summary['constant_speed_named_or_alias']}")
     out(f"out-of-catalog push flagged unexplained: {summary['push_flagged']}")
+    out(f"true value inside the reported 95% interval (correct names): {summary['ci95_coverage']}")
     if summary["dropped"]:
         out(f"dropped (simulation failed): {summary['dropped']}")
     out("")
