@@ -54,6 +54,9 @@ class RecordingSpec:
     motor: MotorPD = field(default_factory=MotorPD)
     rider: Rider | None = None
     rolling_model: str = "moment"
+    #: an out-of-catalog disturbance F(t) at G, N (see simulation.simulate); its
+    #: description goes to the truth file only
+    external_force: object = None
 
 
 def simulated_recording(spec: RecordingSpec):
@@ -74,7 +77,7 @@ def simulated_recording(spec: RecordingSpec):
     rider = spec.rider or default_rider(spec.params, spec.motor)
     run = simulate(spec.maneuver, spec.duration, params=spec.params, motor=spec.motor, rider=rider,
                    seed=spec.seed, engine=spec.engine, variant=spec.variant, effects=eff,
-                   rolling_model=spec.rolling_model)
+                   rolling_model=spec.rolling_model, external_force=spec.external_force)
     p_true = true_params(spec.params, eff)
     rec = motion_capture(run, p_true, noise=spec.noise, seed=spec.seed, effects=eff,
                          hide_torques=spec.hide_torques)
@@ -101,6 +104,9 @@ def simulated_recording(spec: RecordingSpec):
         "variant": spec.variant,
         "rolling_model": spec.rolling_model,
     }
+    if spec.external_force is not None:
+        describe = getattr(spec.external_force, "as_dict", None)
+        truth["out_of_catalog"] = describe() if describe else repr(spec.external_force)
     return rec, meta, truth
 
 

@@ -131,18 +131,11 @@ def visibility(columns) -> dict[str, dict]:
     for name, e in effects.CATALOG.items():
         missing = [c for c in e.needs if c not in cols]
         if missing:
-            reason = (f"needs column(s) {', '.join(missing)}; "
-                      + ("it acts between bodies, so it cancels from M_d,1 − M_d,2 (moment about P)"
-                         if e.kind == "internal" else "not in this recording"))
+            reason = f"needs column(s) {', '.join(missing)}; {e.hidden_because or 'not in this recording'}"
             out[name] = {"visible": False, "through": "", "reason": reason}
-        elif name == "rider_mass" and "M_d" not in cols:
-            out[name] = {"visible": False, "through": "",
-                         "reason": ("without M_d a wrong rider mass is absorbed by h: the lean for an "
-                                    "acceleration is ≈ a/g whatever the mass (NOTES fact 2), and the "
-                                    "residual's RMSE falls with m only because m scales the noise")}
-        elif e.kind == "internal":
+        elif not e.kinematic_visible:
             out[name] = {"visible": True, "through": "wheel row (M_d recorded)",
-                         "reason": "internal torque: cancels from M_d,1 − M_d,2 but not from M_d,1 − M_d"}
+                         "reason": f"hidden from M_d,1 − M_d,2 ({e.hidden_because}) but not from M_d,1 − M_d"}
         else:
             through = "M_d,1 − M_d,2" + (" and wheel row" if "M_d" in cols else "")
             out[name] = {"visible": True, "through": through, "reason": ""}

@@ -55,6 +55,8 @@ class Effect:
         Recording columns needed beyond t, x, gamma, phi.
     plausible : tuple of float
         Range of magnitudes met in practice (for blind studies and plausibility).
+    hidden_because : str
+        Why a recording without the ``needs`` columns cannot reveal it.
     """
 
     name: str
@@ -64,6 +66,7 @@ class Effect:
     kinematic_visible: bool
     needs: tuple[str, ...] = ()
     plausible: tuple[float, float] = (0.0, 0.0)
+    hidden_because: str = ""
 
 
 CATALOG: dict[str, Effect] = {e.name: e for e in (
@@ -81,16 +84,21 @@ CATALOG: dict[str, Effect] = {e.name: e for e in (
            "measurement", True, plausible=(0.01, 0.1)),
     Effect("rider_mass", "kg",
            "the rider's actual mass differs from the nominal one",
-           "parameter", True, plausible=(45.0, 110.0)),
+           "parameter", False, needs=("M_d",), plausible=(45.0, 110.0),
+           hidden_because=("without M_d a wrong rider mass is absorbed by h: the lean for an "
+                           "acceleration is ≈ a/g whatever the mass (NOTES fact 2), and the "
+                           "residual's RMSE falls with m only because m scales the noise")),
     Effect("cog_height_drift", "m",
            "h changes during the recording (crouching, standing up); estimate is its peak-to-peak change",
            "parameter", True, plausible=(0.05, 0.25)),
     Effect("lateral_dynamics", "rad",
            "yaw rate and tilt change the gravity felt in the pitch plane; estimate is the peak tilt",
-           "external", True, needs=("psi", "theta"), plausible=(0.05, 0.4)),
+           "external", True, needs=("psi", "theta"), plausible=(0.05, 0.4),
+           hidden_because="the recording has no yaw and tilt channels"),
     Effect("wheel_bearing_friction", "N·m·s/rad",
            "viscous torque b·(ẋ/R − γ̇) between wheel and EUC body",
-           "internal", False, needs=("M_d",), plausible=(0.2, 3.0)),
+           "internal", False, needs=("M_d",), plausible=(0.2, 3.0),
+           hidden_because="it acts between bodies, so it cancels from M_d,1 − M_d,2 (moment about P)"),
 )}
 
 

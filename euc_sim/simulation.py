@@ -64,7 +64,7 @@ from euc_sim.parameters import Params, TABLE3
 
 __all__ = ["ENGINES", "MANEUVERS", "FALL_BOUNDS", "COLUMNS", "SimulationError", "FallError",
            "Maneuver", "make_maneuver", "load_speed_profile", "simulate", "lateral_profile",
-           "true_params", "default_rider"]
+           "true_params", "default_rider", "PeriodicPush"]
 
 ENGINES = ("mujoco", "analytic")
 MANEUVERS = ("constant_speed", "acceleration", "deceleration", "stop_and_go", "profile")
@@ -339,6 +339,23 @@ def default_rider(params: Params = TABLE3, motor: MotorPD | None = None,
     return _RIDERS[key].replace(noise_std=noise_std, delay=delay)
 
 
+@dataclass(frozen=True)
+class PeriodicPush:
+    """A horizontal force A·sin(2π f t) at the rider's G, N: a disturbance outside the catalog.
+
+    Picklable, so it can travel to worker processes with a :class:`euc_sim.dataset.RecordingSpec`.
+    """
+
+    amplitude: float
+    frequency: float
+
+    def __call__(self, t: float) -> float:
+        return self.amplitude * math.sin(2.0 * math.pi * self.frequency * t)
+
+    def as_dict(self) -> dict:
+        return {"kind": "periodic_push_at_G", "amplitude_N": self.amplitude, "frequency_Hz": self.frequency}
+
+
 # --- engines -------------------------------------------------------------------------
 class _MujocoStepper:
     """One control step of MuJoCo with held torques and per-step effects."""
@@ -459,7 +476,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
              engine: str = "mujoco", variant: str = "ideal",
              effects: Mapping[str, float] | None = None, dt: float = 1e-3,
              fall_bounds: Mapping[str, float] | None = None, contact=None,
-             rolling_model: str = "moment") -> pd.DataFrame:
+             rolling_model: str = "moment", external_force=None) -> pd.DataFrame:
     """Run one maneuver in closed loop and return the true trajectory.
 
     Parameters
@@ -470,13 +487,14 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     duration : float
         Length of the run, s.
     params : Params
-        Nominal parameters: the rider's model and, unless an effect changes them,
-        the simulated physics.
+        Nominal parameters.  With the effects applied (:func:`true_params`) they are
+        the simulated physics and the rider's model of his own body: a rider knows
+        his weight, whatever the analyst assumes.
     motor : MotorPD, optional
         The EUC's controller (default gains when omitted).
     rider : Rider, optional
-        The rider (``controllers.design.design_rider(params, motor)`` when omitted:
-        0.15 s delay, no motor noise).
+        The rider (``controllers.design.design_rider(true_params(params, effects), motor)``
+        when omitted: 0.15 s delay, no motor noise).
     seed : int
         Seed of the rider's motor noise (no other randomness here).
     engine : {"mujoco", "analytic"}
@@ -494,6 +512,11 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         How ``rolling_resistance`` acts: an applied moment −C_rr N R sign(ẋ) on the
         wheel (both engines, CONTRACT's definition), or MuJoCo's own rolling friction
         of the tyre contact (coefficient C_rr·R, m; MuJoCo engine, contact variant).
+    external_force : callable, optional
+        ``F(t)``: a horizontal force, N, along +x at the rider's centre of gravity G,
+        held over each control step in both engines.  It is not a catalog effect: use
+        it to put disturbances the catalog does not know into a run (for example
+        :class:`PeriodicPush`, the out-of-catalog case of the blind study).
 
     Returns
     -------
@@ -528,14 +551,14 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     bounds = dict(FALL_BOUNDS)
     bounds.update(fall_bounds or {})
     motor = motor or MotorPD()
-    if rider is None:
-        rider = default_rider(params, motor)
     p_true = true_params(params, eff)
+    if rider is None:
+        rider = default_rider(p_true, motor)
 
     N = int(round(duration / dt))
     t = np.arange(N + 1) * dt
     v_ref, a_ref = man.reference(t)
-    run = RiderRun(rider, params, motor, v_ref, a_ref, dt, seed)
+    run = RiderRun(rider, p_true, motor, v_ref, a_ref, dt, seed)
     n = run.n
     v0, g0, f0, u0 = run.initial_state()
     y0 = (0.0, g0, f0, v0, 0.0, 0.0)
@@ -551,7 +574,10 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         C_rr = 0.0                              # the contact itself resists the rolling
     k_drag = eff.get("aerodynamic_drag", 0.0)
     N_load = fx.normal_load(p_true) if C_rr else 0.0
-    per_step = bool(C_rr or k_drag or h_t is not None or lat is not None)
+    if external_force is not None and not callable(external_force):
+        raise SimulationError(f"external_force must be a callable F(t) in N, got {external_force!r}")
+    push = external_force or (lambda _t: 0.0)
+    per_step = bool(C_rr or k_drag or h_t is not None or lat is not None or external_force is not None)
 
     if engine == "mujoco":
         stepper = _MujocoStepper(p_true, variant, dt, eff, contact)
@@ -583,7 +609,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
             if lat is not None:  # effects.generalized_force("lateral_dynamics"), held over the step
                 th = lat[0][k]
                 gs = math.cos(th) + xd_ * lat[1][k] * math.sin(th) / p_true.g
-            stepper.set_effects(-k_drag * xd_ * abs(xd_),
+            stepper.set_effects(-k_drag * xd_ * abs(xd_) + float(push(k * dt)),
                                 -C_rr * N_load * R * math.tanh(xd_ / sign_v),
                                 None if h_list is None else h_list[k], gs)
         y = step(M_d, M_h)

@@ -32,7 +32,6 @@ Every random draw is seeded from ``--seed``.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
 import sys
@@ -118,54 +117,24 @@ def plan(seed: int, per_effect: int, nulls: int, pushes: int, constant: int, dur
     return cases
 
 
-@contextlib.contextmanager
-def periodic_push(amplitude: float, frequency: float):
-    """An out-of-catalog disturbance: a horizontal force A sin(2π f t) at the rider's G.
-
-    Implemented by wrapping the MuJoCo stepper of :mod:`euc_sim.simulation` (its
-    per-step force at G, the same path as aerodynamic drag); the simulator has no
-    public hook for a time-dependent external force.
-    """
-    from euc_sim import simulation
-
-    base = simulation._MujocoStepper
-
-    class PushStepper(base):
-        def set_effects(self, Fx_drag, tau_roll, h, gscale):
-            F = amplitude * math.sin(2.0 * math.pi * frequency * self.d.time)
-            super().set_effects(Fx_drag + F, tau_roll, h, gscale)
-
-    simulation._MujocoStepper = PushStepper
-    try:
-        yield
-    finally:
-        simulation._MujocoStepper = base
-
-
 def make_recording(case: dict, out: Path) -> Path:
     """Simulate one case and write NAME.csv, NAME.json (no truth in it), NAME.truth.json."""
     from euc_sim import dataset, io
     from euc_sim.parameters import TABLE3
-    from euc_sim.simulation import default_rider, make_maneuver, true_params
+    from euc_sim.simulation import PeriodicPush, default_rider, make_maneuver, true_params
 
     man = make_maneuver(case["maneuver"], **case["options"])
     eff = {case["effect"]: case["value"]} if case["effect"] else {}
-    if case["push"]:
-        eff = {"aerodynamic_drag": 1e-12}     # switches the per-step forces on; negligible
     # the rider's own balance law is designed for the rider's true body (a heavier
     # rider knows his weight); the analysis still assumes Table 3
     rider = default_rider(true_params(TABLE3, eff), noise_std=RIDER_NOISE)
     spec = dataset.RecordingSpec(case["name"], man, case["duration"], case["seed"],
                                  effects=tuple(eff.items()), hide_torques=case["hide_torques"],
-                                 rider=rider)
-    ctx = periodic_push(**case["push"]) if case["push"] else contextlib.nullcontext()
-    with ctx:
-        rec, meta, truth = dataset.simulated_recording(spec)
+                                 rider=rider,
+                                 external_force=PeriodicPush(**case["push"]) if case["push"] else None)
+    rec, meta, truth = dataset.simulated_recording(spec)
     meta = {**meta, "maneuver_options": case["options"]}
     truth = {**truth, "case": case}
-    if case["push"]:
-        truth["effects"] = {}
-        truth["out_of_catalog"] = {"periodic_push_at_G": case["push"]}
     path = out / f"{case['name']}.csv"
     io.write_recording(rec, path, meta, truth)
     return path

@@ -249,3 +249,16 @@ def test_dataset_is_reproducible(tmp_path):
     assert json.loads((tmp_path / "a" / "dataset.json").read_text())["recordings"][2] == "deceleration_01.csv"
     meta = json.loads((tmp_path / "a" / "deceleration_01.json").read_text())
     assert make_maneuver(meta["maneuver"], **meta["maneuver_options"]) == specs[2].maneuver
+
+
+def test_external_force_hook_acts_alike_in_both_engines():
+    """An out-of-catalog push F(t) at G: both engines see the same physics."""
+    from euc_sim.simulation import PeriodicPush, simulate
+    push = PeriodicPush(amplitude=40.0, frequency=0.5)
+    a = simulate("constant_speed", 3.0, external_force=push)
+    b = simulate("constant_speed", 3.0, external_force=push, engine="analytic")
+    still = simulate("constant_speed", 3.0)
+    assert np.max(np.abs(a["phi"] - still["phi"])) > 1e-3        # the push moved the rider
+    assert np.max(np.abs(a[["gamma", "phi"]].to_numpy() - b[["gamma", "phi"]].to_numpy())) < 1e-6
+    with pytest.raises(ValueError, match="external_force must be a callable"):
+        simulate("constant_speed", 1.0, external_force=3.0)
