@@ -368,7 +368,6 @@ class _MujocoStepper:
         self.mj = mujoco
         self.sim = EucMujoco(p, variant, contact=contact, timestep=dt)
         m = self.sim.model
-        m.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_ENERGY)   # not needed here
         self.m, self.d = m, self.sim.data
         idx = self.sim.index
         self.ix, self.ig, self.ir = idx.qpos["x"], idx.qpos["euc_pitch"], idx.qpos["rider_pitch"]

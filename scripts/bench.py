@@ -108,7 +108,6 @@ def bench_closed_loop() -> dict:
     duration = 15.0
     n = int(duration / 1e-3)
     sim = EucMujoco()
-    sim.model.opt.enableflags &= ~int(mujoco.mjtEnableBit.mjENBL_ENERGY)  # as simulate() runs it
     m, d = sim.model, sim.data
 
     def bare():
