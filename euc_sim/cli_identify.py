@@ -102,7 +102,8 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--h-max", type=float, default=1.5, metavar="M", help="search bound, m")
     p.add_argument("--bootstrap", type=int, default=400, metavar="N",
                    help="block-bootstrap replicates for the 95%% interval (default 400)")
-    p.add_argument("--block", type=float, default=2.0, metavar="S", help="bootstrap block, s")
+    p.add_argument("--block", type=float, default=None, metavar="S",
+                   help="bootstrap block, s (default identification.BOOTSTRAP_BLOCK, 1 s)")
     p.add_argument("--seed", type=int, default=0, help="bootstrap seed")
     add_smoothing_arguments(p)
     p.set_defaults(func=cmd_identify)
@@ -117,8 +118,9 @@ def _figure_paths(plot: str, names: list[str]) -> list[Path]:
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify h (both models, per recording and pooled), the controller and the rider."""
     from euc_sim.cli import UsageError
-    from euc_sim.identification import (identify_base_parameters, identify_controller,
-                                        identify_recordings, identify_rider_delay, torques)
+    from euc_sim.identification import (BOOTSTRAP_BLOCK, identify_base_parameters,
+                                        identify_controller, identify_recordings,
+                                        identify_rider_delay, torques)
     from euc_sim.io import check_writable, write_json
 
     if args.json:
@@ -127,6 +129,9 @@ def cmd_identify(args: argparse.Namespace) -> int:
         check_writable(args.plot)
     if args.bootstrap < 0:
         raise UsageError(f"--bootstrap must be non-negative, got {args.bootstrap}")
+    block = BOOTSTRAP_BLOCK if args.block is None else args.block
+    if not block > 0:
+        raise UsageError(f"--block must be positive seconds, got {args.block}")
     if not (0 < args.h_min < args.h_max):
         raise UsageError(f"need 0 < --h-min < --h-max, got {args.h_min} and {args.h_max}")
     names = [str(r) for r in args.recordings]
@@ -134,7 +139,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         raise UsageError("a recording is given twice")
     recs = [_load(n, args) for n in names]
     res = identify_recordings(recs, bounds=(args.h_min, args.h_max), n_boot=args.bootstrap,
-                              block=args.block, seed=args.seed)
+                              block=block, seed=args.seed)
     pooled, per = res["pooled"], res["per_recording"]
 
     per_json = []
@@ -169,7 +174,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         "per_recording": per_json,
         "smoothing": recs[0].kin.smoothing.describe(),
         "bounds": [args.h_min, args.h_max],
-        "bootstrap": {"replicates": args.bootstrap, "block_s": args.block, "seed": args.seed},
+        "bootstrap": {"replicates": args.bootstrap, "block_s": block, "seed": args.seed},
         "figures": figures,
     }
     print(f"{'recording':<32} {'model':<5} {'h [m]':>7} {'95% interval [m]':>18} "

@@ -18,7 +18,8 @@ import sys
 import numpy as np
 
 
-def study(maneuvers, seeds: int, smoothing, n_boot: int, block: float, duration: float) -> dict:
+def study(maneuvers, seeds: int, smoothing, n_boot: int, block: float, duration: float,
+          first_seed: int = 0) -> dict:
     from euc_sim.identification import identify_h, residual_poly
     from euc_sim.mocap import motion_capture
     from euc_sim.parameters import TABLE3
@@ -29,7 +30,7 @@ def study(maneuvers, seeds: int, smoothing, n_boot: int, block: float, duration:
     for man in maneuvers:
         run = simulate(man, duration, params=TABLE3)
         hs, lo, hi, ident = [], [], [], []
-        for seed in range(seeds):
+        for seed in range(first_seed, first_seed + seeds):
             rec = motion_capture(run, TABLE3, noise="paper", seed=1000 + seed)
             kin = kinematics(rec, TABLE3, smoothing)
             fit = identify_h([residual_poly(kin, TABLE3, "3dof")], n_boot=n_boot, block=block,
@@ -59,15 +60,19 @@ def main(argv=None) -> int:
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=50)
+    ap.add_argument("--first-seed", type=int, default=0,
+                    help="first noise seed (a fresh range validates settings chosen on another)")
     ap.add_argument("--maneuvers", nargs="+", default=["deceleration", "acceleration"])
     ap.add_argument("--smoothing", choices=("consistent", "savgol"), default="consistent")
     ap.add_argument("--bootstrap", type=int, default=400)
-    ap.add_argument("--block", type=float, default=2.0, help="bootstrap block, s")
+    ap.add_argument("--block", type=float, default=None, help="bootstrap block, s (default: the tool's)")
     ap.add_argument("--duration", type=float, default=15.0, help="simulated ride, s")
     ap.add_argument("--json", metavar="FILE")
     args = ap.parse_args(argv)
+    from euc_sim.identification import BOOTSTRAP_BLOCK
+    block = BOOTSTRAP_BLOCK if args.block is None else args.block
     res = study(args.maneuvers, args.seeds, Smoothing(method=args.smoothing), args.bootstrap,
-                args.block, args.duration)
+                block, args.duration, args.first_seed)
     if args.json:
         from euc_sim.io import write_json
         write_json(args.json, {"settings": vars(args), "results": res})
