@@ -107,13 +107,13 @@ def check_time(df: pd.DataFrame, name: str) -> None:
     bad = ~np.isfinite(t)
     if bad.any():
         raise RecordingError(f"{name}: column 't' row {_first_row(bad)}: time must be finite, "
-                             f"got {t[bad][0]!r}")
+                             f"got {float(t[bad][0])!r}")
     dt = np.diff(t)
     if (dt <= 0).any():
         i = int(np.flatnonzero(dt <= 0)[0]) + 1
         what = "duplicate" if dt[i - 1] == 0 else "decreasing"
-        raise RecordingError(f"{name}: column 't' row {i + 1}: {what} time {t[i]!r} s after "
-                             f"{t[i - 1]!r} s; time must be strictly increasing")
+        raise RecordingError(f"{name}: column 't' row {i + 1}: {what} time {float(t[i]):g} s after "
+                             f"{float(t[i - 1]):g} s; time must be strictly increasing")
     if len(dt) and (dt.max() > 1.5 * np.median(dt) * 1.0001 + 1e-12):
         i = int(np.argmax(dt)) + 1
         raise RecordingError(f"{name}: column 't' row {i + 1}: time step {dt[i - 1]:.4g} s "
