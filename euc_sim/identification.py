@@ -671,13 +671,23 @@ def _lstsq_fit(y: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, float, float]:
     return coef, r2, float(np.sqrt(np.mean(res**2)))
 
 
-def _controller_rows(kin: Kinematics, p: Params, terms) -> tuple[np.ndarray, np.ndarray]:
-    """Filtered M_d,2 and regressors of one recording, interior samples."""
+def _check_terms(terms, what: str) -> None:
+    unknown = [t for t in terms if t not in _TERMS]
+    if unknown:
+        raise ValueError(f"unknown {what} term {unknown[0]!r}; expected {', '.join(_TERMS)}")
+
+
+def _filtered_rows(kin: Kinematics, y: np.ndarray, terms) -> tuple[np.ndarray, np.ndarray]:
+    """Target y and the named regressors through the same term filter, interior samples."""
     sig = kin.smoothing.sigma_samples(kin.dt)
     sl = kin.interior
-    y = term_filter(analytic.driving_torque_2(p, kin.q, kin.qd, kin.qdd), sig)[sl]
     X = np.column_stack([term_filter(_TERMS[t](kin), sig)[sl] for t in terms])
-    return y, X
+    return term_filter(y, sig)[sl], X
+
+
+def _controller_rows(kin: Kinematics, p: Params, terms) -> tuple[np.ndarray, np.ndarray]:
+    """Filtered M_d,2 and regressors of one recording, interior samples."""
+    return _filtered_rows(kin, analytic.driving_torque_2(p, kin.q, kin.qd, kin.qdd), terms)
 
 
 def identify_controller(kin, p, terms=("gamma", "gamma_d")) -> ControllerFit:
@@ -699,9 +709,7 @@ def identify_controller(kin, p, terms=("gamma", "gamma_d")) -> ControllerFit:
     -------
     ControllerFit
     """
-    unknown = [t for t in terms if t not in _TERMS]
-    if unknown:
-        raise ValueError(f"unknown controller term {unknown[0]!r}; expected {', '.join(_TERMS)}")
+    _check_terms(terms, "controller")
     kins = kin if isinstance(kin, (list, tuple)) else [kin]
     ps = p if isinstance(p, (list, tuple)) else [p] * len(kins)
     rows = [_controller_rows(k, pp, terms) for k, pp in zip(kins, ps)]
@@ -744,13 +752,8 @@ def identify_rider_delay(kin: Kinematics, p: Params, terms=("phi", "phi_d", "con
     -------
     RiderFit
     """
-    unknown = [t for t in terms if t not in _TERMS]
-    if unknown:
-        raise ValueError(f"unknown rider term {unknown[0]!r}; expected {', '.join(_TERMS)}")
-    sig = kin.smoothing.sigma_samples(kin.dt)
-    sl = kin.interior
-    y = term_filter(analytic.rider_torque(p, kin.q, kin.qd, kin.qdd), sig)[sl]
-    X = np.column_stack([term_filter(_TERMS[t](kin), sig)[sl] for t in terms])
+    _check_terms(terms, "rider")
+    y, X = _filtered_rows(kin, analytic.rider_torque(p, kin.q, kin.qd, kin.qdd), terms)
     fit = fit_delayed_law(y, X, kin.dt, max_delay)
     coef = fit.pop("coef")
     return RiderFit(gains={t: float(c) for t, c in zip(terms, coef)},

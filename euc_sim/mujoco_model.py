@@ -425,7 +425,11 @@ class EucMujoco:
         return self.T.T @ self.data.qfrc_bias
 
     def inverse(self, q, qd, qdd) -> np.ndarray:
-        """Generalised forces for (q, q̇, q̈) by ``mj_inverse``, mapped: Tᵀ qfrc_inverse, (3,)."""
+        """Generalised forces for (q, q̇, q̈) by ``mj_inverse``, mapped: Tᵀ qfrc_inverse, (3,).
+
+        This loads (q, q̇, q̈) into the wrapper's ``data``: the state held before the call
+        is replaced (call :meth:`set_state` before stepping again).
+        """
         qpos, qvel, qacc = to_mujoco(self.index, self.params.R, q, qd, qdd)
         if self.index.has_z:
             qpos[self.index.qpos["z"]] = self.data.qpos[self.index.qpos["z"]]
