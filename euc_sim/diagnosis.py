@@ -106,6 +106,10 @@ THRESHOLDS = Thresholds()
 SELECT_RATE = 30.0
 #: Savitzky–Golay window for the tilt and yaw channels, s.
 LATERAL_WINDOW = 1.0
+#: Rebuilds of the candidate columns at the augmented h (at most), and the change of
+#: h, m, below which they stop.
+COLUMN_ITERATIONS = 3
+COLUMN_H_TOL = 0.01
 #: Search interval of h, m.
 H_BOUNDS = (0.25, 1.2)
 #: Period of the catalog's h drift law, s (effects.cog_height).
@@ -156,8 +160,10 @@ class Prepared:
         The term filter's standard deviation, samples.
     M_d : numpy.ndarray or None
         (N,) recorded driving torque (unfiltered), N·m.
-    theta, psi_d : numpy.ndarray or None
-        Tilt (rad) and yaw rate (rad/s) where recorded.
+    lateral : dict or None
+        Where ``psi`` and ``theta`` are recorded: the smoothed inputs of the lateral
+        term, keys :data:`euc_sim.effects.LATERAL_INPUTS` ((N,) arrays: rad, rad/s,
+        rad/s, rad/s²).
     keep : numpy.ndarray
         Absolute indices of the residual samples used (interior of the filters,
         decimated to :data:`SELECT_RATE`).
@@ -176,8 +182,7 @@ class Prepared:
     kin: Any
     sigma: float
     M_d: np.ndarray | None
-    theta: np.ndarray | None
-    psi_d: np.ndarray | None
+    lateral: dict | None
     keep: np.ndarray
     params: Params
     meta: dict
@@ -279,18 +284,19 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
         raise DiagnosisError(f"recording {name}: duration {t[-1] - t[0]:.2f} s too short; expected at "
                              f"least {(2 * edge) * dt + 2.0:.1f} s for the filters")
     M_d = df["M_d"].to_numpy(float) if "M_d" in df.columns else None
-    theta = psi_d = None
+    lateral = None
     if "theta" in df.columns and "psi" in df.columns:
         # tilt and yaw are inputs of the lateral term, not terms of the balance: a longer
         # fit (LATERAL_WINDOW) keeps their noise out of the column (errors in variables)
         w = int(round(LATERAL_WINDOW / dt)) | 1
         o = 3
-        theta = processing.savgol_derivatives(df["theta"].to_numpy(float), dt, w, o)[0]
-        psi_d = processing.savgol_derivatives(np.unwrap(df["psi"].to_numpy(float)), dt, w, o)[1]
+        theta, theta_d, _ = processing.savgol_derivatives(df["theta"].to_numpy(float), dt, w, o)
+        _, psi_d, psi_dd = processing.savgol_derivatives(np.unwrap(df["psi"].to_numpy(float)), dt, w, o)
+        lateral = {"theta": theta, "theta_d": theta_d, "psi_d": psi_d, "psi_dd": psi_dd}
     step = max(1, int(round(1.0 / (dt * rate))))
     keep = np.arange(edge, t.size - edge, step)
     noise = {c: _noise_sd(ch) for c, ch in _raw_channels(df).items()}
-    return Prepared(kin, sm.sigma_samples(dt), M_d, theta, psi_d, keep, p, meta, name, noise, df)
+    return Prepared(kin, sm.sigma_samples(dt), M_d, lateral, keep, p, meta, name, noise, df)
 
 
 def _raw_channels(df: pd.DataFrame) -> dict[str, np.ndarray]:
@@ -416,7 +422,7 @@ def _force_columns(name: str, prep: Prepared, p: Params, h: float) -> tuple[np.n
     kin = prep.kin
     extra = None
     if name == "lateral_dynamics":
-        extra = {"theta": prep.theta, "psi_d": prep.psi_d}
+        extra = prep.lateral
     Q = effects.generalized_force(name, _REF[name], ph, kin.q, kin.qd, extra) / _REF[name]
     kappa = analytic.residual_gain(ph, kin.q[prep.keep])
     return kappa * prep.filtered(analytic.moment_about_contact(ph, Q)), p.R * prep.filtered(Q[:, 0])
@@ -486,7 +492,7 @@ def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[s
         if name == "lateral_dynamics":
             # the coupling is ≈ ϑ²/2 of gravity (coordinated turn): a fitted coupling
             # strength s means an effective peak tilt √s · max|ϑ| (CONTRACT: peak tilt)
-            info[name] = {"scale": float(np.max(np.abs(prep.theta[k]))), "offset": 0.0, "sqrt": True}
+            info[name] = {"scale": float(np.max(np.abs(prep.lateral["theta"][k]))), "offset": 0.0, "sqrt": True}
         else:
             info[name] = {"scale": 1.0, "offset": 0.0}
     # rider mass: r(m_nom) ≈ −∂r/∂m · Δm  ⇒  column −∂r/∂m, θ = Δm (kg)
@@ -659,9 +665,9 @@ def _signals(prep: Prepared) -> dict[str, np.ndarray]:
     k = prep.keep
     out = {"speed": prep.qd[k, 0], "acceleration": prep.qdd[k, 0], "lean_phi": prep.q[k, 2],
            "pitch_gamma": prep.q[k, 1]}
-    if prep.theta is not None:
-        out["tilt_theta"] = prep.theta[k]
-        out["yaw_rate"] = prep.psi_d[k]
+    if prep.lateral is not None:
+        out["tilt_theta"] = prep.lateral["theta"][k]
+        out["yaw_rate"] = prep.lateral["psi_d"][k]
     return out
 
 
@@ -854,10 +860,18 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     say(f"nominal h = {h0:.3f} m; noise floor")
     floor = noise_floor(prep, h0, seed)
     n_eff = max(time.size / floor["tau_int"], 5.0)
-    problem, info = build_problem(prep, h0)
-    say(f"selecting among {len(problem.candidates)} candidate terms")
-    s = sel.forward_select(problem, min_bic_drop=th.min_bic_drop, min_cv_gain=th.min_cv_gain,
-                           min_t=th.min_t, n_eff=n_eff)
+    h_cols = h0
+    for _ in range(COLUMN_ITERATIONS):
+        # the candidate columns depend on h: a large missing effect drags the nominal h
+        # away (to the search bound for a strong slalom), so the columns are rebuilt at
+        # the augmented model's h and the selection is run again until h settles
+        problem, info = build_problem(prep, h_cols)
+        say(f"selecting among {len(problem.candidates)} candidate terms (columns at h = {h_cols:.3f} m)")
+        s = sel.forward_select(problem, min_bic_drop=th.min_bic_drop, min_cv_gain=th.min_cv_gain,
+                               min_t=th.min_t, n_eff=n_eff)
+        if not s.selected or abs(s.fit.h - h_cols) < COLUMN_H_TOL:
+            break
+        h_cols = s.fit.h
     cov_nom, _ = sel.covariance(problem, s.nominal, cluster=2.0)
     h_se = float(np.sqrt(cov_nom[-1, -1]))
 
@@ -1121,7 +1135,7 @@ def resimulate_recording(prep: Prepared, result: dict, engine: str = "mujoco") -
         if name == "sensor_time_offset":
             tau = val
             continue
-        if name == "lateral_dynamics" and prep.theta is None:
+        if name == "lateral_dynamics" and prep.lateral is None:
             continue
         eff[name] = abs(val) if name in ("cog_height_drift", "lateral_dynamics") else val
     runs = {"nominal": (_sim_params(prep.params, result["h_nominal"]), {}),

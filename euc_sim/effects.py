@@ -28,7 +28,7 @@ import numpy as np
 from euc_sim.parameters import Params
 
 __all__ = ["Effect", "CATALOG", "names", "get", "parse_assignment", "SIGN_SPEED",
-           "smooth_sign", "normal_load", "generalized_force", "apply_to_params",
+           "smooth_sign", "normal_load", "generalized_force", "lateral_forces", "LATERAL_INPUTS", "apply_to_params",
            "cog_height", "delay_signal"]
 
 Kind = Literal["external", "internal", "parameter", "measurement"]
@@ -181,8 +181,8 @@ def generalized_force(name: str, value: float, p: Params, q, qd, extra=None) -> 
     p : Params
     q, qd : array_like, shape (..., 3)
     extra : dict, optional
-        ``lateral_dynamics`` needs ``{"theta": ..., "psi_d": ...}`` (tilt, rad; yaw
-        rate, rad/s) broadcastable to q's leading shape.
+        ``lateral_dynamics`` needs the keys of :data:`LATERAL_INPUTS` (see
+        :func:`lateral_forces`), broadcastable to q's leading shape.
 
     Returns
     -------
@@ -221,20 +221,93 @@ def generalized_force(name: str, value: float, p: Params, q, qd, extra=None) -> 
         Q[..., 0] = tau / p.R
         Q[..., 1] = -tau
     elif name == "lateral_dynamics":
-        # In a pitch plane tilted by ϑ and turning at ψ̇, gravity and the centrifugal
-        # acceleration ẋ ψ̇ project onto the plane's vertical as g cos ϑ + ẋ ψ̇ sin ϑ:
-        # the gravity part of eq. (8) scales by that over g.
-        from euc_sim.analytic import gravity_forces
-        if extra is None or "theta" not in extra or "psi_d" not in extra:
-            raise ValueError("lateral_dynamics needs extra={'theta': tilt, 'psi_d': yaw rate}")
-        theta = np.asarray(extra["theta"], dtype=float)
-        psi_d = np.asarray(extra["psi_d"], dtype=float)
-        scale = np.cos(theta) + x_d * psi_d * np.sin(theta) / p.g - 1.0
-        Q = value * scale[..., None] * gravity_forces(p, q)
+        if extra is None or any(k not in extra for k in LATERAL_INPUTS):
+            raise ValueError("lateral_dynamics needs extra with keys " + ", ".join(LATERAL_INPUTS)
+                             + f"; got {sorted(extra or {})}")
+        Q = value * lateral_forces(p, q, qd, **{k: extra[k] for k in LATERAL_INPUTS})
         Q = np.broadcast_to(Q, shape).copy()
     else:
         raise ValueError(f"effect {name!r} ({kind}) has no generalised force; "
                          "it acts through the parameters or the recording")
+    return Q
+
+
+#: The tilt and yaw signals the ``lateral_dynamics`` term needs (rad, rad/s, rad/s²).
+LATERAL_INPUTS = ("theta", "theta_d", "psi_d", "psi_dd")
+
+
+def lateral_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd) -> np.ndarray:
+    """Generalised force of yaw and tilt on the pitch plane (``lateral_dynamics``).
+
+    The paper's plane (Fig. 2) is carried by the EUC: its origin, the contact point P,
+    runs along the ground with speed ẋ and heading ψ, and it is tilted by ϑ about the
+    heading.  A point of a body at (ξ, ζ) in the plane (ξ ahead of P, ζ along the
+    tilted up-axis e_u) is at r = P + ξ e_f + ζ e_u.  Its acceleration, less the
+    planar one (ẍ + ξ̈, ζ̈), and gravity, less the planar g, are, along e_f and e_u,
+
+        δa_f = −ξ ψ̇² − 2 ζ̇ ψ̇ sin ϑ − ζ (2 ϑ̇ ψ̇ cos ϑ + ψ̈ sin ϑ),
+        δa_u = (ẋ + 2 ξ̇) ψ̇ sin ϑ + ξ ψ̈ sin ϑ − ζ (ϑ̇² + ψ̇² sin² ϑ) + g (cos ϑ − 1),
+
+    and each body's pitch rate gains −ψ̇ sin ϑ (the yaw rate seen about the tilted
+    pitch axis).  By Kane's method (x is a path length, so the x-row is not a plain
+    Lagrange equation), with the partial velocities ∂(ξ, ζ)/∂q of eq. (A.1)'s geometry,
+
+        Q_i = −Σ_b m_b (δa_f ∂ξ_b/∂q_i + δa_u ∂ζ_b/∂q_i)
+              + Σ_b J_b (ψ̈ sin ϑ + ψ̇ ϑ̇ cos ϑ) ∂ω_b/∂q̇_i.
+
+    In a steady coordinated turn (ψ̇ = g tan ϑ / ẋ, ϑ̇ = ψ̈ = 0) the gravity part is the
+    familiar g/cos ϑ felt in the plane; in a slalom the yaw acceleration acting on the
+    rider's inward-leaning centre of gravity dominates.  Only the bodies' pitch-axis
+    inertias (Table 3) are known, so gyroscopic terms of the other axes are left out.
+    ``euc_sim.symbolic.derive_lateral`` derives the same from the 3-D positions.
+
+    Parameters
+    ----------
+    p : Params
+    q, qd : array_like, shape (..., 3)
+        Paper coordinates and rates (x is the distance run along the path).
+    theta, theta_d : array_like
+        Tilt ϑ, rad, positive towards the side the path turns to when ψ̇ > 0, and its
+        rate, rad/s.
+    psi_d, psi_dd : array_like
+        Yaw rate ψ̇, rad/s, and yaw acceleration ψ̈, rad/s².
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+        (N, N·m, N·m) to add to the right-hand side of eq. (5).
+    """
+    q = np.asarray(q, dtype=float)
+    qd = np.asarray(qd, dtype=float)
+    gamma, phi = q[..., 1], q[..., 2]
+    x_d, gamma_d, phi_d = qd[..., 0], qd[..., 1], qd[..., 2]
+    th, th_d = np.asarray(theta, dtype=float), np.asarray(theta_d, dtype=float)
+    ps_d, ps_dd = np.asarray(psi_d, dtype=float), np.asarray(psi_dd, dtype=float)
+    s_th, c_th = np.sin(th), np.cos(th)
+    sg, cg, sp_, cp = np.sin(gamma), np.cos(gamma), np.sin(phi), np.cos(phi)
+    zero = np.zeros_like(gamma)
+
+    # (m, ξ, ζ, ξ̇, ζ̇, ∂ξ/∂(γ, φ), ∂ζ/∂(γ, φ)) of wheel centre C, body G0, rider G
+    bodies = (
+        (p.mw, zero, zero + p.R, zero, zero, (zero, zero), (zero, zero)),
+        (p.m0, p.h0 * sg, p.R + p.h0 * cg, p.h0 * cg * gamma_d, -p.h0 * sg * gamma_d,
+         (p.h0 * cg, zero), (-p.h0 * sg, zero)),
+        (p.m, -p.l0 * sg + p.h * sp_, p.R - p.l0 * cg + p.h * cp,
+         -p.l0 * cg * gamma_d + p.h * cp * phi_d, p.l0 * sg * gamma_d - p.h * sp_ * phi_d,
+         (-p.l0 * cg, p.h * cp), (p.l0 * sg, -p.h * sp_)),
+    )
+    Q = np.zeros(np.broadcast_shapes(gamma.shape, x_d.shape, th.shape, ps_d.shape) + (3,))
+    for m_b, xi, zeta, xi_d, zeta_d, dxi, dzeta in bodies:
+        da_f = -xi * ps_d**2 - 2.0 * zeta_d * ps_d * s_th - zeta * (2.0 * th_d * ps_d * c_th + ps_dd * s_th)
+        da_u = ((x_d + 2.0 * xi_d) * ps_d * s_th + xi * ps_dd * s_th
+                - zeta * (th_d**2 + ps_d**2 * s_th**2) + p.g * (c_th - 1.0))
+        Q[..., 0] -= m_b * da_f                       # ∂ξ/∂x = 1: P moves with x
+        Q[..., 1] -= m_b * (da_f * dxi[0] + da_u * dzeta[0])
+        Q[..., 2] -= m_b * (da_f * dxi[1] + da_u * dzeta[1])
+    spin = ps_dd * s_th + ps_d * th_d * c_th          # −d/dt of the pitch rate's −ψ̇ sin ϑ
+    Q[..., 0] += p.Jw / p.R * spin                    # the wheel turns at ẋ/R
+    Q[..., 1] += p.J0 * spin
+    Q[..., 2] += p.J * spin
     return Q
 
 

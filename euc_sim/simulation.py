@@ -41,8 +41,9 @@ the contact variant), ``aerodynamic_drag`` (force at G; MuJoCo: ``xfrc_applied``
 ``rider``), ``road_slope`` (``model.opt.gravity`` tilted in the road frame),
 ``wheel_bearing_friction`` (damping of ``wheel_spin``), ``rider_mass`` (parameters
 through MjSpec), ``cog_height_drift`` (``model.body_ipos`` of ``rider`` each step),
-``lateral_dynamics`` (a prescribed slalom tilt ϑ(t) with the yaw rate of a
-coordinated turn scales the gravity felt in the pitch plane).  Velocity-dependent
+``lateral_dynamics`` (a prescribed slalom, tilt ϑ(t) with the yaw rate of a
+coordinated turn, acts through :func:`euc_sim.effects.lateral_forces`; MuJoCo:
+``qfrc_applied``).  Velocity-dependent
 external forces are evaluated at the start of each step and held, in both engines.
 ``sensor_time_offset`` acts on the recording only (:mod:`euc_sim.recording`).
 """
@@ -63,7 +64,7 @@ from euc_sim import analytic, effects as fx
 from euc_sim.parameters import Params, TABLE3
 
 __all__ = ["ENGINES", "MANEUVERS", "FALL_BOUNDS", "COLUMNS", "SimulationError", "FallError",
-           "Maneuver", "make_maneuver", "load_speed_profile", "simulate", "lateral_profile",
+           "Maneuver", "make_maneuver", "load_speed_profile", "simulate", "lateral_profile", "LateralMotion",
            "true_params", "default_rider", "PeriodicPush"]
 
 ENGINES = ("mujoco", "analytic")
@@ -74,6 +75,8 @@ COLUMNS = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_
 #: Period of the lateral_dynamics slalom, s, and the speed floor of its yaw rate, m/s.
 LATERAL_PERIOD = 6.0
 LATERAL_MIN_SPEED = 1.0
+#: Speed from which the slalom reaches its full tilt, m/s.
+LATERAL_FULL_TILT_SPEED = 2.0
 #: Effects handled by the simulator as physics (all of CONTRACT's catalog).
 SIM_EFFECTS = ("rolling_resistance", "aerodynamic_drag", "road_slope", "wheel_bearing_friction",
                "rider_mass", "cog_height_drift", "lateral_dynamics", "sensor_time_offset")
@@ -306,21 +309,56 @@ def true_params(params: Params, effects: Mapping[str, float] | None) -> Params:
     return p
 
 
-def lateral_profile(peak_tilt: float, t, v_ref) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Slalom of the ``lateral_dynamics`` effect: tilt ϑ(t), yaw rate ψ̇(t), yaw ψ(t).
+@dataclass(frozen=True)
+class LateralMotion:
+    """Prescribed tilt and yaw of the ``lateral_dynamics`` slalom (arrays over t).
 
-    ϑ = ϑ_peak sin(2π t / 6 s); the yaw rate is that of a coordinated turn at the
-    planned speed, ψ̇ = g tan ϑ / max(v_ref, 1 m/s), with g = 9.81 m/s².
+    Attributes: ``theta`` (rad), ``theta_d`` (rad/s), ``psi`` (rad), ``psi_d`` (rad/s),
+    ``psi_dd`` (rad/s²).
+    """
+
+    theta: np.ndarray
+    theta_d: np.ndarray
+    psi: np.ndarray
+    psi_d: np.ndarray
+    psi_dd: np.ndarray
+
+    def inputs(self, k: int) -> dict[str, float]:
+        """The keys of :data:`euc_sim.effects.LATERAL_INPUTS` at sample k."""
+        return {"theta": float(self.theta[k]), "theta_d": float(self.theta_d[k]),
+                "psi_d": float(self.psi_d[k]), "psi_dd": float(self.psi_dd[k])}
+
+
+def lateral_profile(peak_tilt: float, t, v_ref) -> LateralMotion:
+    """Slalom of the ``lateral_dynamics`` effect.
+
+    The tilt is ϑ ∝ sin(2π t / 6 s) · min(1, |v_ref| / 2 m/s), scaled so that its
+    peak is ``peak_tilt`` (riders lean into turns less at walking pace); the yaw rate
+    is that of a coordinated turn at the planned speed, ψ̇ = g tan ϑ / max(|v_ref|,
+    1 m/s), g = 9.81 m/s².  Rates are central differences on the grid t.
+
+    Parameters
+    ----------
+    peak_tilt : float
+        max |ϑ|, rad.
+    t : array_like
+        Times, s, increasing.
+    v_ref : array_like
+        Planned speed at t, m/s.
 
     Returns
     -------
-    theta (rad), psi_dot (rad/s), psi (rad), each shaped like t.
+    LateralMotion
     """
     t = np.asarray(t, dtype=float)
-    theta = peak_tilt * np.sin(2.0 * np.pi * t / LATERAL_PERIOD)
-    psi_d = 9.81 * np.tan(theta) / np.maximum(np.abs(np.asarray(v_ref, dtype=float)), LATERAL_MIN_SPEED)
+    speed = np.abs(np.asarray(v_ref, dtype=float))
+    shape = np.sin(2.0 * np.pi * t / LATERAL_PERIOD) * np.minimum(1.0, speed / LATERAL_FULL_TILT_SPEED)
+    peak = float(np.max(np.abs(shape))) if t.size else 0.0
+    theta = peak_tilt * shape / peak if peak > 0 else np.zeros_like(t)
+    psi_d = 9.81 * np.tan(theta) / np.maximum(speed, LATERAL_MIN_SPEED)
     psi = np.concatenate([[0.0], np.cumsum(0.5 * (psi_d[1:] + psi_d[:-1]) * np.diff(t))]) if t.size else t
-    return theta, psi_d, psi
+    rate = (lambda y: np.gradient(y, t)) if t.size > 1 else np.zeros_like
+    return LateralMotion(theta, rate(theta), psi, psi_d, rate(psi_d))
 
 
 _RIDERS: dict = {}
@@ -389,15 +427,18 @@ class _MujocoStepper:
     def reset(self, y) -> None:
         self.sim.set_state(y[:3], y[3:])
 
-    def set_effects(self, Fx_drag: float, tau_roll: float, h: float | None, gscale: float | None) -> None:
+    def set_effects(self, Fx_drag: float, tau_roll: float, h: float | None, Q_lat) -> None:
         xf = self.d.xfrc_applied
         xf[self.b_rider, 0] = Fx_drag          # force at the rider's CoM G, world (road) frame
         xf[self.b_wheel, 4] = tau_roll         # moment about +y on the wheel
         if h is not None:
             self.m.body_ipos[self.b_rider, 2] = h
             self.m.site_pos[self.site_G, 2] = h
-        if gscale is not None:
-            self.m.opt.gravity[:] = gscale * self.g0
+        if Q_lat is not None:            # paper Q → MuJoCo: Q_paper = Tᵀ Q_mj (paper_jacobian)
+            qf = self.d.qfrc_applied
+            qf[self.vx] = Q_lat[0]
+            qf[self.vg] = Q_lat[1] + Q_lat[2]
+            qf[self.vr] = Q_lat[2]
 
     def step(self, M_d: float, M_h: float):
         ctrl = self._ctrl
@@ -425,22 +466,20 @@ class _AnalyticStepper:
         self.y = np.array(y, dtype=float)
         self.t = 0.0
 
-    def set_effects(self, Fx_drag: float, tau_roll: float, h: float | None, gscale: float | None) -> None:
-        self.held = (Fx_drag, tau_roll, h, gscale)
+    def set_effects(self, Fx_drag: float, tau_roll: float, h: float | None, Q_lat) -> None:
+        self.held = (Fx_drag, tau_roll, h, Q_lat)
 
     def rhs(self, t, y, M_d, M_h):
         """ẏ of eq. (5) with the effects' generalised forces added to Q (eq. 8)."""
-        Fx, tau, h, gscale = self.held
+        Fx, tau, h, Q_lat = self.held
         p = self.p if h is None else self.p_h
         eff = self.eff
         q, qd = y[:3], y[3:]
         Q = analytic.generalized_forces(p, q, M_d, M_h)                   # eq. (8)
-        if "road_slope" in eff or gscale is not None:
-            G = analytic.gravity_forces(p, q)
-            G_road = G
-            if "road_slope" in eff:
-                G_road = G + fx.generalized_force("road_slope", eff["road_slope"], p, q, qd)
-            Q = Q + ((G_road if gscale is None else gscale * G_road) - G)
+        if "road_slope" in eff:
+            Q = Q + fx.generalized_force("road_slope", eff["road_slope"], p, q, qd)
+        if Q_lat is not None:
+            Q = Q + Q_lat
         if "wheel_bearing_friction" in eff:
             Q = Q + fx.generalized_force("wheel_bearing_friction", eff["wheel_bearing_friction"], p, q, qd)
         if Fx:                                  # held force at G: F ∂x_G/∂q
@@ -606,8 +645,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         if per_step:
             gs = None
             if lat is not None:  # effects.generalized_force("lateral_dynamics"), held over the step
-                th = lat[0][k]
-                gs = math.cos(th) + xd_ * lat[1][k] * math.sin(th) / p_true.g
+                gs = fx.lateral_forces(p_true, (x_, g_, f_), (xd_, gd_, fd_), **lat.inputs(k))
             stepper.set_effects(-k_drag * xd_ * abs(xd_) + float(push(k * dt)),
                                 -C_rr * N_load * R * math.tanh(xd_ / sign_v),
                                 None if h_list is None else h_list[k], gs)
@@ -625,8 +663,8 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     if h_t is not None:
         df["h"] = h_t
     if lat is not None:
-        df["psi"] = lat[2]
-        df["theta"] = lat[0]
+        df["psi"] = lat.psi
+        df["theta"] = lat.theta
     df.attrs.update({
         "maneuver": man.as_dict(), "duration": float(duration), "dt": dt, "engine": engine,
         "variant": variant, "seed": int(seed), "params": params.as_dict(),

@@ -22,7 +22,7 @@ import sympy as sp
 from sympy.physics.mechanics import dynamicsymbols
 
 __all__ = ["Derivation", "derive", "paper_equations", "paper_reduced_torques",
-           "reduced_torques_from_lagrange"]
+           "reduced_torques_from_lagrange", "derive_lateral"]
 
 
 @dataclass(frozen=True)
@@ -147,3 +147,67 @@ def reduced_torques_from_lagrange(d: Derivation) -> tuple[sp.Expr, sp.Expr]:
     xdd = d.qdd[0]
     sol = sp.solve([L[0], L[1] + L[2]], [d.M_d, xdd], dict=True)[0]
     return Md1, sol[d.M_d]
+
+
+@lru_cache(maxsize=1)
+def derive_lateral() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
+    """The ``lateral_dynamics`` generalised force from the 3-D positions, by Kane's method.
+
+    The paper's plane is carried along the ground by the contact point P (velocity
+    ẋ e_f(ψ)), yawed by ψ(t) and tilted by ϑ(t) about the heading e_f.  Bodies sit in
+    it as in Fig. 5; each body turns about the tilted pitch axis e_a = e_u × e_f at
+    its pitch rate plus the frame's own rate Ω·e_a.  With the partial velocities
+    ∂v/∂q̇ (Kane: x is a path length, so P's position is not a function of x alone),
+    the generalised inertia and gravity forces are compared with the planar ones
+    (ψ = ϑ = 0 and their rates zero); the difference, with its sign for the
+    right-hand side of eq. (5), is the lateral generalised force.
+
+    Returns
+    -------
+    symbols : tuple of sympy.Symbol
+        ``(R, m, m0, mw, J, Jw, J0, h0, l0, h, g, gamma, phi, x_d, gamma_d, phi_d,
+        theta, theta_d, psi_d, psi_dd)``, plain symbols for ``sympy.lambdify``.
+    Q : sympy.Matrix, shape (3, 1)
+        (N, N·m, N·m); :func:`euc_sim.effects.lateral_forces` is the same in numpy.
+    """
+    t = sp.Symbol("t")
+    R, m, m0, mw, J, Jw, J0, h0, l0, h, g = sp.symbols("R m m0 mw J Jw J0 h0 l0 h g", positive=True)
+    x, gamma, phi, psi, th = dynamicsymbols("x gamma phi psi theta")
+    qd = [s.diff(t) for s in (x, gamma, phi)]
+    e_f = sp.Matrix([sp.cos(psi), sp.sin(psi), 0])
+    e_l = sp.Matrix([-sp.sin(psi), sp.cos(psi), 0])
+    e_z = sp.Matrix([0, 0, 1])
+    e_u = sp.cos(th) * e_z + sp.sin(th) * e_l
+    e_a = e_u.cross(e_f)
+    Omega = psi.diff(t) * e_z + th.diff(t) * e_f
+    w_frame = (Omega.T * e_a)[0]
+
+    def velocity(xi, zeta):     # Ṗ = ẋ e_f, r − P = ξ e_f + ζ e_u
+        return qd[0] * e_f + (xi * e_f).diff(t) + (zeta * e_u).diff(t)
+
+    bodies = ((mw, sp.Integer(0), R, Jw, qd[0] / R + w_frame),
+              (m0, h0 * sp.sin(gamma), R + h0 * sp.cos(gamma), J0, qd[1] + w_frame),
+              (m, -l0 * sp.sin(gamma) + h * sp.sin(phi), R - l0 * sp.cos(gamma) + h * sp.cos(phi),
+               J, qd[2] + w_frame))
+    F = sp.zeros(3, 1)
+    for mass, xi, zeta, inertia, w in bodies:
+        v = velocity(xi, zeta)
+        a = v.diff(t)
+        for i, u in enumerate(qd):
+            F[i] += mass * ((a + g * e_z).T * v.diff(u))[0] + inertia * w.diff(t) * sp.diff(w, u)
+    # plain symbols; the planar case sets every ψ, ϑ term to zero
+    sym = sp.symbols("gamma phi x_d gamma_d phi_d theta theta_d psi_d psi_dd")
+    rep = {th.diff(t): sym[6], psi.diff(t, 2): sym[8], psi.diff(t): sym[7]}
+    flat = {}
+    for k, s in enumerate((x, gamma, phi)):
+        flat[s.diff(t, 2)] = sp.Symbol(f"acc{k}")
+    flat.update({qd[0]: sym[2], qd[1]: sym[3], qd[2]: sym[4], gamma: sym[0], phi: sym[1], th: sym[5]})
+
+    def plain(e):
+        e = e.subs({th.diff(t, 2): sp.Symbol("theta_dd")}).subs(rep).subs(flat)
+        return e.subs(psi, 0)   # ψ itself drops out of every projection
+    full = F.applyfunc(plain)
+    planar = full.subs({sym[5]: 0, sym[6]: 0, sym[7]: 0, sym[8]: 0, sp.Symbol("theta_dd"): 0})
+    c2 = {sp.cos(sym[5])**2: 1 - sp.sin(sym[5])**2}    # e_u·e_u = 1
+    Q = (planar - full).applyfunc(lambda e: sp.expand(sp.expand(e).subs(c2)))
+    return (R, m, m0, mw, J, Jw, J0, h0, l0, h, g) + tuple(sym), Q

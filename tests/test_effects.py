@@ -85,12 +85,58 @@ def test_internal_torque_has_no_moment_about_P():
     assert np.max(np.abs(Q[:, 0])) > 1.0
 
 
-def test_lateral_coupling_vanishes_without_tilt():
-    extra = {"theta": np.zeros(20), "psi_d": np.full(20, 0.5)}
+def _lateral_inputs(n, rng):
+    return {"theta": rng.uniform(-0.4, 0.4, n), "theta_d": rng.normal(0, 0.3, n),
+            "psi_d": rng.normal(0, 1.0, n), "psi_dd": rng.normal(0, 2.0, n)}
+
+
+def test_lateral_coupling_vanishes_without_tilt_or_yaw():
+    extra = {"theta": np.zeros(20), "theta_d": np.zeros(20), "psi_d": np.zeros(20), "psi_dd": np.zeros(20)}
     Q = E.generalized_force("lateral_dynamics", 1.0, p, Q_STATES, QD_STATES, extra)
     np.testing.assert_array_equal(Q, 0.0)
-    with pytest.raises(ValueError, match="lateral_dynamics needs extra"):
-        E.generalized_force("lateral_dynamics", 1.0, p, Q_STATES, QD_STATES)
+    with pytest.raises(ValueError, match="lateral_dynamics needs extra with keys theta, theta_d"):
+        E.generalized_force("lateral_dynamics", 1.0, p, Q_STATES, QD_STATES, {"theta": 0.1})
+
+
+def test_lateral_forces_match_the_3d_derivation():
+    """The numpy term against Kane's method on the 3-D positions (symbolic.derive_lateral)."""
+    import sympy as sp
+
+    from euc_sim.symbolic import derive_lateral
+
+    syms, Q_sym = derive_lateral()
+    f = sp.lambdify(syms, list(Q_sym), "numpy")
+    rng = np.random.default_rng(11)
+    lat = _lateral_inputs(20, rng)
+    for params in (p, p.replace(h=0.9, l0=0.2, h0=0.3)):
+        Q = E.lateral_forces(params, Q_STATES, QD_STATES, **lat)
+        args = [getattr(params, k) for k in "R m m0 mw J Jw J0 h0 l0 h g".split()]
+        ref = np.array(f(*args, Q_STATES[:, 1], Q_STATES[:, 2], QD_STATES[:, 0], QD_STATES[:, 1],
+                         QD_STATES[:, 2], lat["theta"], lat["theta_d"], lat["psi_d"], lat["psi_dd"])).T
+        np.testing.assert_allclose(Q, ref, rtol=1e-10, atol=1e-9)
+        assert np.max(np.abs(ref)) > 10.0          # not a comparison of zeros
+
+
+def test_fast_coordinated_turn_feels_g_over_cos_tilt():
+    """ẋ → ∞ with ẋψ̇ = g tan ϑ: only the plane's gravity g/cos ϑ is left (a closed form)."""
+    theta = 0.3
+    speed = 1e5
+    qd = QD_STATES.copy()
+    qd[:, 0] = speed
+    qd[:, 1:] = 0.0
+    Q = E.lateral_forces(p, Q_STATES, qd, theta, 0.0, p.g * np.tan(theta) / speed, 0.0)
+    expected = (1.0 / np.cos(theta) - 1.0) * A.gravity_forces(p, Q_STATES)
+    np.testing.assert_allclose(Q, expected, rtol=1e-6, atol=1e-6)
+
+
+def test_yaw_acceleration_pushes_an_inward_leaning_rider_forward():
+    """ψ̈ > 0 with ϑ > 0: the centre of gravity, inward of P, is dragged backwards in
+    the turning frame, so the d'Alembert force tips the upright rider forward."""
+    q = np.zeros(3)
+    Q = E.lateral_forces(p, q, np.zeros(3), 0.2, 0.0, 0.0, 1.0)
+    z_G = p.R - p.l0 + p.h
+    expected = (p.J + p.m * p.h * z_G) * np.sin(0.2)
+    assert Q[2] == pytest.approx(expected, rel=1e-12)
 
 
 def test_parameter_and_measurement_effects_have_no_force():

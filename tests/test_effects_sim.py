@@ -94,11 +94,33 @@ def test_lateral_dynamics_tilts_and_turns():
     assert run.theta.abs().max() == pytest.approx(0.2, rel=1e-3)
     rec = motion_capture(run, TABLE3, noise="none")
     assert rec.C_Y.abs().max() > 0.1 and rec.psi.abs().max() > 0.05
-    assert run.phi.abs().max() < 1e-10      # upright and steady: more gravity changes nothing
-    # in a coordinated turn the pitch plane feels g / cos ϑ: a leaning rider responds
+    # the slalom's yaw acceleration acts on the inward-leaning rider: he pitches
+    assert run.phi.abs().max() > 1e-3
     turning = simulate(MOVING, 3.0, effects={"lateral_dynamics": 0.2})
     straight = simulate(MOVING, 3.0)
     assert np.max(np.abs(turning.phi - straight.phi)) > 1e-3
+
+
+def test_lateral_dynamics_obeys_the_equations_it_was_given():
+    """The simulated motion satisfies eq. (5) plus effects.lateral_forces, not eq. (5) alone."""
+    from euc_sim import analytic
+    from euc_sim.simulation import lateral_profile
+
+    run = simulate(MOVING, 4.0, effects={"lateral_dynamics": 0.3})
+    t = run.t.to_numpy()
+    q = run[["x", "gamma", "phi"]].to_numpy()
+    qd = run[["x_dot", "gamma_dot", "phi_dot"]].to_numpy()
+    qdd = np.gradient(qd, t, axis=0)
+    lat = lateral_profile(0.3, t, run.v_ref.to_numpy())
+    Q_lat = fx.lateral_forces(TABLE3, q, qd, lat.theta, lat.theta_d, lat.psi_d, lat.psi_dd)
+    lhs = (np.einsum("nij,nj->ni", analytic.mass_matrix(TABLE3, q), qdd)
+           + analytic.nonlinear_terms(TABLE3, q, qd) - analytic.gravity_forces(TABLE3, q))
+    # the motor and ankle cancel from the moment about P (NOTES fact 1)
+    inner = slice(50, -50)
+    with_lat = analytic.moment_about_contact(TABLE3, lhs - Q_lat)[inner]
+    without = analytic.moment_about_contact(TABLE3, lhs)[inner]
+    assert np.sqrt(np.mean(without ** 2)) > 5.0
+    assert np.sqrt(np.mean(with_lat ** 2)) < 0.01 * np.sqrt(np.mean(without ** 2))
 
 
 @pytest.mark.parametrize("eff, match", [

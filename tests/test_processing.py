@@ -102,8 +102,10 @@ def test_eqs_1_2_undo_yaw_and_tilt():
     kin = kinematics(rec, TABLE3, EXACT, source="mocap", phi_from="A")
     sl = kin.interior
     assert np.ptp(rec["psi"]) > 0.5 and np.abs(rec["theta"]).max() > 0.1
+    # agreement to the motion-capture path's interpolation (≈ 2e-7 rad with the slalom's
+    # pitching rider), four orders under the 1e-3 rad leak without eq. (1) below
     np.testing.assert_allclose(kin.q[sl, 2], savgol_derivatives(rec["phi"], 1 / 120, 9, 6)[0][sl],
-                               atol=1e-7)
+                               atol=1e-6)
     # without eq. (1) the lateral lean leaks into phi
     R_CG = (rec[["G_X", "G_Y", "G_Z"]].to_numpy() - rec[["C_X", "C_Y", "C_Z"]].to_numpy())
     r_no_tilt = moving_frame(R_CG, rec["psi"].to_numpy(), np.zeros(len(rec)))
