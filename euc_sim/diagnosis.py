@@ -1144,9 +1144,20 @@ def resimulate_recording(prep: Prepared, result: dict, engine: str = "mujoco") -
            "effects_injected": eff, "sensor_time_offset_applied": tau}
     rec_phi, rec_gam, rec_v = prep.q[k, 2], prep.q[k, 1], prep.qd[k, 0]
     series = {"t": t[k], "recording_phi": rec_phi, "recording_speed": rec_v, "recording_gamma": rec_gam}
+    sim_dt = 1e-3
+    lat_motion = None
+    if "lateral_dynamics" in eff:     # the recording's own tilt and yaw, on the run's grid
+        from scipy.integrate import cumulative_trapezoid
+
+        grid = np.arange(int(round(duration / sim_dt)) + 1) * sim_dt + t[0]
+        on = {key: np.interp(grid, t, v) for key, v in prep.lateral.items()}
+        lat_motion = simulation.LateralMotion(on["theta"], on["theta_d"],
+                                              cumulative_trapezoid(on["psi_d"], grid, initial=0.0),
+                                              on["psi_d"], on["psi_dd"])
     for label, (p, e) in runs.items():
         try:
-            run = simulation.simulate(man, duration, params=p, engine=engine, effects=e)
+            run = simulation.simulate(man, duration, params=p, engine=engine, effects=e, dt=sim_dt,
+                                      lateral_motion=lat_motion if e else None)
         except ValueError as exc:      # FallError and SimulationError are ValueErrors
             out[label] = {"error": str(exc).splitlines()[0]}
             continue

@@ -92,7 +92,7 @@ CATALOG: dict[str, Effect] = {e.name: e for e in (
            "h changes during the recording (crouching, standing up); estimate is its peak-to-peak change",
            "parameter", True, plausible=(0.05, 0.25)),
     Effect("lateral_dynamics", "rad",
-           "yaw rate and tilt change the gravity felt in the pitch plane; estimate is the peak tilt",
+           "yaw and tilt of the pitch plane: yaw acceleration and Coriolis forces on the inward-leaning bodies, gravity g cos ϑ and the turn's centripetal acceleration; estimate is the peak tilt",
            "external", True, needs=("psi", "theta"), plausible=(0.05, 0.4),
            hidden_because="the recording has no yaw and tilt channels"),
     Effect("wheel_bearing_friction", "N·m·s/rad",

@@ -514,7 +514,8 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
              engine: str = "mujoco", variant: str = "ideal",
              effects: Mapping[str, float] | None = None, dt: float = 1e-3,
              fall_bounds: Mapping[str, float] | None = None, contact=None,
-             rolling_model: str = "moment", external_force=None) -> pd.DataFrame:
+             rolling_model: str = "moment", external_force=None,
+             lateral_motion: LateralMotion | None = None) -> pd.DataFrame:
     """Run one maneuver in closed loop and return the true trajectory.
 
     Parameters
@@ -555,6 +556,11 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         held over each control step in both engines.  It is not a catalog effect: use
         it to put disturbances the catalog does not know into a run (for example
         :class:`PeriodicPush`, the out-of-catalog case of the blind study).
+    lateral_motion : LateralMotion, optional
+        With ``lateral_dynamics``: the tilt and yaw to use (arrays on the run's grid,
+        ``round(duration / dt) + 1`` samples), for example a recording's, instead of
+        the built-in slalom.  The effect's value is then an effective peak tilt: the
+        coupling is scaled by (value / max|ϑ|)², so value = max|ϑ| is the physics.
 
     Returns
     -------
@@ -602,7 +608,15 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     y0 = (0.0, g0, f0, v0, 0.0, 0.0)
 
     h_t = (fx.cog_height(p_true.h, eff["cog_height_drift"], t) if "cog_height_drift" in eff else None)
-    lat = lateral_profile(eff["lateral_dynamics"], t, v_ref) if "lateral_dynamics" in eff else None
+    lat, lat_scale = None, 1.0
+    if "lateral_dynamics" in eff:
+        lat = lateral_profile(eff["lateral_dynamics"], t, v_ref) if lateral_motion is None else lateral_motion
+        if lateral_motion is not None:
+            if np.shape(lat.theta) != t.shape:
+                raise SimulationError(f"lateral_motion: expected arrays of {t.size} samples (the run's grid), "
+                                      f"got {np.shape(lat.theta)}")
+            peak = float(np.max(np.abs(lat.theta)))
+            lat_scale = (eff["lateral_dynamics"] / peak) ** 2 if peak > 0 else 0.0
     C_rr = eff.get("rolling_resistance", 0.0)
     if rolling_model == "contact":
         import dataclasses
@@ -645,7 +659,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         if per_step:
             gs = None
             if lat is not None:  # effects.generalized_force("lateral_dynamics"), held over the step
-                gs = fx.lateral_forces(p_true, (x_, g_, f_), (xd_, gd_, fd_), **lat.inputs(k))
+                gs = lat_scale * fx.lateral_forces(p_true, (x_, g_, f_), (xd_, gd_, fd_), **lat.inputs(k))
             stepper.set_effects(-k_drag * xd_ * abs(xd_) + float(push(k * dt)),
                                 -C_rr * N_load * R * math.tanh(xd_ / sign_v),
                                 None if h_list is None else h_list[k], gs)

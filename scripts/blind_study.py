@@ -236,6 +236,12 @@ def score(results: list[dict]) -> dict:
     all_ratio = [x for d in per.values() for x in d["ratio"] if True]
     found_ratio = [x for r in results if "result" in r and r["case"]["kind"] == "effect"
                    and r["result"]["effects"] for x in [r["result"]["augmented_rmse"] / r["result"]["nominal_rmse"]]]
+    # the same, split by how far the nominal RMSE stood above the noise floor: the
+    # augmented RMSE cannot go below the floor, so from under 2x the floor halving is
+    # out of reach by arithmetic, whatever the model
+    above_floor = [r["result"]["augmented_rmse"] / r["result"]["nominal_rmse"] for r in results
+                   if "result" in r and r["case"]["kind"] == "effect" and r["result"]["effects"]
+                   and r["result"]["nominal_rmse"] >= 2.0 * r["result"]["noise_floor"]]
     nulls = [r for r in results if "result" in r and r["case"]["kind"] == "null"]
     null_clean = sum(1 for r in nulls if not r["result"]["effects"])
     pushes = [r for r in results if "result" in r and r["case"]["kind"] == "push"]
@@ -281,6 +287,8 @@ def score(results: list[dict]) -> dict:
                            for k, d in per.items()},
             "targets": targets, "push_flagged": f"{push_flag}/{len(pushes)}",
             "ci95_coverage": f"{n_cov}/{n_first}",
+            "halved_where_nominal_above_2x_floor": (f"{sum(x <= 0.5 for x in above_floor)}/{len(above_floor)}"),
+            "halved_found_cases": f"{sum(x <= 0.5 for x in found_ratio)}/{len(found_ratio)}",
             "invisible_not_named": f"{inv_ok}/{len(inv)}",
             "constant_speed_undecidable": f"{sum(1 for r in const if not r['result']['decidable'])}/{len(const)}",
             "constant_speed_named_or_alias": f"{const_named}/{len(const)}",
@@ -313,6 +321,9 @@ def print_report(summary: dict, out=print) -> None:
         f"{summary['constant_speed_named_or_alias']}")
     out(f"out-of-catalog push flagged unexplained: {summary['push_flagged']}")
     out(f"true value inside the reported 95% interval (correct names): {summary['ci95_coverage']}")
+    out(f"held-out RMSE halved: {summary['halved_found_cases']} recordings with an effect named; "
+        f"{summary['halved_where_nominal_above_2x_floor']} of those whose nominal RMSE was at least "
+        "twice the noise floor (below that, halving is out of reach)")
     if summary["dropped"]:
         out(f"dropped (simulation failed): {summary['dropped']}")
     out("")

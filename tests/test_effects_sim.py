@@ -131,3 +131,18 @@ def test_lateral_dynamics_obeys_the_equations_it_was_given():
 def test_bad_effect_values(eff, match):
     with pytest.raises(ValueError, match=match):
         simulate("constant_speed", 1.0, effects=eff)
+
+
+def test_a_given_lateral_motion_replaces_the_slalom():
+    from euc_sim.simulation import SimulationError, lateral_profile
+
+    run = simulate(MOVING, 2.0, effects={"lateral_dynamics": 0.2})
+    motion = lateral_profile(0.2, run.t.to_numpy(), run.v_ref.to_numpy())
+    same = simulate(MOVING, 2.0, effects={"lateral_dynamics": 0.2}, lateral_motion=motion)
+    np.testing.assert_array_equal(same.phi, run.phi)
+    # the value is an effective peak tilt: twice the tilt is four times the coupling
+    stronger = simulate(MOVING, 2.0, effects={"lateral_dynamics": 0.4}, lateral_motion=motion)
+    assert np.max(np.abs(stronger.phi - run.phi)) > 1e-3
+    with pytest.raises(SimulationError, match="lateral_motion: expected arrays of 2001 samples"):
+        simulate(MOVING, 2.0, effects={"lateral_dynamics": 0.2},
+                 lateral_motion=lateral_profile(0.2, run.t.to_numpy()[:10], run.v_ref.to_numpy()[:10]))
