@@ -490,8 +490,9 @@ def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[s
             continue
         cands[name] = col
         if name == "lateral_dynamics":
-            # the coupling is ≈ ϑ²/2 of gravity (coordinated turn): a fitted coupling
-            # strength s means an effective peak tilt √s · max|ϑ| (CONTRACT: peak tilt)
+            # every term of effects.lateral_forces is of second order in the turn
+            # (ϑψ̈, ψ̇ϑ̇, ψ̇², ẋψ̇ϑ, ϑ² with ψ̇ ∝ tan ϑ): a fitted coupling strength s
+            # means an effective peak tilt √s · max|ϑ| (CONTRACT: peak tilt)
             info[name] = {"scale": float(np.max(np.abs(prep.lateral["theta"][k]))), "offset": 0.0, "sqrt": True}
         else:
             info[name] = {"scale": 1.0, "offset": 0.0}
