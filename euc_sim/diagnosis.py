@@ -1145,7 +1145,7 @@ def resimulate_recording(prep: Prepared, result: dict, engine: str = "mujoco") -
            "effects_injected": eff, "sensor_time_offset_applied": tau}
     rec_phi, rec_gam, rec_v = prep.q[k, 2], prep.q[k, 1], prep.qd[k, 0]
     series = {"t": t[k], "recording_phi": rec_phi, "recording_speed": rec_v, "recording_gamma": rec_gam}
-    sim_dt = 1e-3
+    sim_dt = simulation.DEFAULT_DT
     lat_motion = None
     if "lateral_dynamics" in eff:     # the recording's own tilt and yaw, on the run's grid
         from scipy.integrate import cumulative_trapezoid

@@ -28,7 +28,7 @@ import numpy as np
 from euc_sim.parameters import Params
 
 __all__ = ["Effect", "CATALOG", "names", "get", "parse_assignment", "SIGN_SPEED",
-           "smooth_sign", "normal_load", "generalized_force", "lateral_forces", "LATERAL_INPUTS", "apply_to_params",
+           "smooth_sign", "normal_load", "generalized_force", "lateral_forces", "lateral_force_rows", "LATERAL_INPUTS", "apply_to_params",
            "cog_height", "delay_signal"]
 
 Kind = Literal["external", "internal", "parameter", "measurement"]
@@ -279,36 +279,46 @@ def lateral_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd) -> np.ndarra
     """
     q = np.asarray(q, dtype=float)
     qd = np.asarray(qd, dtype=float)
-    gamma, phi = q[..., 1], q[..., 2]
-    x_d, gamma_d, phi_d = qd[..., 0], qd[..., 1], qd[..., 2]
-    th, th_d = np.asarray(theta, dtype=float), np.asarray(theta_d, dtype=float)
-    ps_d, ps_dd = np.asarray(psi_d, dtype=float), np.asarray(psi_dd, dtype=float)
-    s_th, c_th = np.sin(th), np.cos(th)
-    sg, cg, sp_, cp = np.sin(gamma), np.cos(gamma), np.sin(phi), np.cos(phi)
-    zero = np.zeros_like(gamma)
+    gamma, phi, th = q[..., 1], q[..., 2], np.asarray(theta, dtype=float)
+    rows = lateral_force_rows(p, np.sin(gamma), np.cos(gamma), np.sin(phi), np.cos(phi),
+                              qd[..., 0], qd[..., 1], qd[..., 2], np.sin(th), np.cos(th),
+                              np.asarray(theta_d, dtype=float), np.asarray(psi_d, dtype=float),
+                              np.asarray(psi_dd, dtype=float))
+    Q = np.zeros(np.broadcast_shapes(*(np.shape(r) for r in rows)) + (3,))
+    Q[..., 0], Q[..., 1], Q[..., 2] = rows
+    return Q
 
+
+def lateral_force_rows(p: Params, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, phi_d,
+                       s_theta, c_theta, theta_d, psi_d, psi_dd) -> tuple:
+    """(Q_x, Q_γ, Q_φ) of :func:`lateral_forces` from the angles' sines and cosines.
+
+    Plain arithmetic on its arguments, so Python floats (the simulator's call, once a
+    step) and numpy arrays (:func:`lateral_forces`) give the same force; units and
+    symbols as there.
+    """
+    sg, cg, sp_, cp = s_gamma, c_gamma, s_phi, c_phi
+    s_th, c_th, th_d, ps_d, ps_dd = s_theta, c_theta, theta_d, psi_d, psi_dd
     # (m, ξ, ζ, ξ̇, ζ̇, ∂ξ/∂(γ, φ), ∂ζ/∂(γ, φ)) of wheel centre C, body G0, rider G
     bodies = (
-        (p.mw, zero, zero + p.R, zero, zero, (zero, zero), (zero, zero)),
+        (p.mw, 0.0, p.R, 0.0, 0.0, (0.0, 0.0), (0.0, 0.0)),
         (p.m0, p.h0 * sg, p.R + p.h0 * cg, p.h0 * cg * gamma_d, -p.h0 * sg * gamma_d,
-         (p.h0 * cg, zero), (-p.h0 * sg, zero)),
+         (p.h0 * cg, 0.0), (-p.h0 * sg, 0.0)),
         (p.m, -p.l0 * sg + p.h * sp_, p.R - p.l0 * cg + p.h * cp,
          -p.l0 * cg * gamma_d + p.h * cp * phi_d, p.l0 * sg * gamma_d - p.h * sp_ * phi_d,
          (-p.l0 * cg, p.h * cp), (p.l0 * sg, -p.h * sp_)),
     )
-    Q = np.zeros(np.broadcast_shapes(gamma.shape, x_d.shape, th.shape, ps_d.shape) + (3,))
+    Q_x = Q_gamma = Q_phi = 0.0
     for m_b, xi, zeta, xi_d, zeta_d, dxi, dzeta in bodies:
         da_f = -xi * ps_d**2 - 2.0 * zeta_d * ps_d * s_th - zeta * (2.0 * th_d * ps_d * c_th + ps_dd * s_th)
         da_u = ((x_d + 2.0 * xi_d) * ps_d * s_th + xi * ps_dd * s_th
                 - zeta * (th_d**2 + ps_d**2 * s_th**2) + p.g * (c_th - 1.0))
-        Q[..., 0] -= m_b * da_f                       # ∂ξ/∂x = 1: P moves with x
-        Q[..., 1] -= m_b * (da_f * dxi[0] + da_u * dzeta[0])
-        Q[..., 2] -= m_b * (da_f * dxi[1] + da_u * dzeta[1])
+        Q_x = Q_x - m_b * da_f                        # ∂ξ/∂x = 1: P moves with x
+        Q_gamma = Q_gamma - m_b * (da_f * dxi[0] + da_u * dzeta[0])
+        Q_phi = Q_phi - m_b * (da_f * dxi[1] + da_u * dzeta[1])
     spin = ps_dd * s_th + ps_d * th_d * c_th          # −d/dt of the pitch rate's −ψ̇ sin ϑ
-    Q[..., 0] += p.Jw / p.R * spin                    # the wheel turns at ẋ/R
-    Q[..., 1] += p.J0 * spin
-    Q[..., 2] += p.J * spin
-    return Q
+    # the wheel turns at ẋ/R
+    return Q_x + p.Jw / p.R * spin, Q_gamma + p.J0 * spin, Q_phi + p.J * spin
 
 
 def cog_height(h: float, peak_to_peak: float, t, period: float = 12.0) -> np.ndarray:

@@ -72,6 +72,8 @@ MANEUVERS = ("constant_speed", "acceleration", "deceleration", "stop_and_go", "p
 #: Fall bounds, rad: |φ| (rider) and |γ| (EUC body) beyond these end the run.
 FALL_BOUNDS = {"phi": 0.7, "gamma": 0.5}
 COLUMNS = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref")
+#: Control period and MuJoCo timestep of :func:`simulate` by default, s.
+DEFAULT_DT = 1e-3
 #: Period of the lateral_dynamics slalom, s, and the speed floor of its yaw rate, m/s.
 LATERAL_PERIOD = 6.0
 LATERAL_MIN_SPEED = 1.0
@@ -323,11 +325,6 @@ class LateralMotion:
     psi_d: np.ndarray
     psi_dd: np.ndarray
 
-    def inputs(self, k: int) -> dict[str, float]:
-        """The keys of :data:`euc_sim.effects.LATERAL_INPUTS` at sample k."""
-        return {"theta": float(self.theta[k]), "theta_d": float(self.theta_d[k]),
-                "psi_d": float(self.psi_d[k]), "psi_dd": float(self.psi_dd[k])}
-
 
 def lateral_profile(peak_tilt: float, t, v_ref) -> LateralMotion:
     """Slalom of the ``lateral_dynamics`` effect.
@@ -512,7 +509,7 @@ class _AnalyticStepper:
 def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Params = TABLE3,
              motor: MotorPD | None = None, rider: Rider | None = None, seed: int = 0,
              engine: str = "mujoco", variant: str = "ideal",
-             effects: Mapping[str, float] | None = None, dt: float = 1e-3,
+             effects: Mapping[str, float] | None = None, dt: float = DEFAULT_DT,
              fall_bounds: Mapping[str, float] | None = None, contact=None,
              rolling_model: str = "moment", external_force=None,
              lateral_motion: LateralMotion | None = None) -> pd.DataFrame:
@@ -645,6 +642,9 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     torque, command, step = motor.torque, run.command, stepper.step
     R, sign_v = p_true.R, fx.SIGN_SPEED
     h_list = None if h_t is None else h_t.tolist()
+    if lat is not None:     # per-step Python floats: the loop's arithmetic stays off numpy
+        lat_s, lat_c = np.sin(lat.theta).tolist(), np.cos(lat.theta).tolist()
+        lat_th_d, lat_ps_d, lat_ps_dd = lat.theta_d.tolist(), lat.psi_d.tolist(), lat.psi_dd.tolist()
     y = y0
     for k in range(N + 1):
         x_, g_, f_, xd_, gd_, fd_ = y
@@ -657,12 +657,14 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         if k == N:
             break
         if per_step:
-            gs = None
-            if lat is not None:  # effects.generalized_force("lateral_dynamics"), held over the step
-                gs = lat_scale * fx.lateral_forces(p_true, (x_, g_, f_), (xd_, gd_, fd_), **lat.inputs(k))
+            Q_lat = None
+            if lat is not None:  # effects.lateral_forces, held over the step
+                Q_lat = [lat_scale * v for v in fx.lateral_force_rows(
+                    p_true, math.sin(g_), math.cos(g_), math.sin(f_), math.cos(f_), xd_, gd_, fd_,
+                    lat_s[k], lat_c[k], lat_th_d[k], lat_ps_d[k], lat_ps_dd[k])]
             stepper.set_effects(-k_drag * xd_ * abs(xd_) + float(push(k * dt)),
                                 -C_rr * N_load * R * math.tanh(xd_ / sign_v),
-                                None if h_list is None else h_list[k], gs)
+                                None if h_list is None else h_list[k], Q_lat)
         y = step(M_d, M_h)
         Y.append(y)
     states = np.array(Y[n:], dtype=float)
