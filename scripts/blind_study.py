@@ -47,6 +47,8 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from euc_sim.processing import DEFAULT_SMOOTHING  # noqa: E402
+
 MANEUVERS = ("acceleration", "deceleration", "stop_and_go")
 #: Effects concealed in recordings without torques / with M_d recorded.
 KINEMATIC = ("rolling_resistance", "aerodynamic_drag", "road_slope", "sensor_time_offset",
@@ -54,6 +56,8 @@ KINEMATIC = ("rolling_resistance", "aerodynamic_drag", "road_slope", "sensor_tim
 WITH_TORQUE = ("wheel_bearing_friction", "rider_mass")
 #: Rider motor noise of the study's recordings, N·m (dataset.DEFAULT_RIDER_NOISE).
 RIDER_NOISE = 3.0
+#: The diagnosis's term filter, s: the library's default, at which the thresholds were set.
+TERM_SIGMA = DEFAULT_SMOOTHING.term_sigma
 
 
 def maneuver_options(name: str, rng: np.random.Generator) -> dict:
@@ -141,7 +145,7 @@ def make_recording(case: dict, out: Path) -> Path:
 
 
 def _work(args):
-    case, out, resimulate = args
+    case, out, resimulate, term_sigma = args
     from euc_sim import diagnosis
     warnings.simplefilter("ignore")
     path = out / f"{case['name']}.csv"
@@ -152,7 +156,8 @@ def _work(args):
     except ValueError as exc:          # a fall: the case is dropped, and said so
         return {"case": case, "error": f"simulation: {str(exc).splitlines()[0]}"}
     t1 = time.perf_counter()
-    res = diagnosis.diagnose(path, resimulate=resimulate)       # the CSV and its sidecar only
+    res = diagnosis.diagnose(path, resimulate=resimulate,       # the CSV and its sidecar only
+                             smoothing=DEFAULT_SMOOTHING.replace(term_sigma=term_sigma))
     t2 = time.perf_counter()
     view = diagnosis.json_view(res)
     (out / f"{case['name']}.diagnosis.json").write_text(json.dumps(_jsonable(view), indent=1))
@@ -169,10 +174,10 @@ def _jsonable(x):
 
 
 def run(cases: list[dict], out: Path, workers: int = 2, resimulate: bool = False,
-        progress=print) -> list[dict]:
-    """Make and diagnose every case, in parallel processes."""
+        progress=print, term_sigma: float = TERM_SIGMA) -> list[dict]:
+    """Make and diagnose every case, in parallel processes (term filter ``term_sigma`` s)."""
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(c, out, resimulate) for c in cases]
+    jobs = [(c, out, resimulate, term_sigma) for c in cases]
     results = []
     if workers <= 1:
         for j in jobs:
@@ -334,7 +339,31 @@ def print_report(summary: dict, out=print) -> None:
         out(f"  {'MET    ' if v['met'] else 'NOT MET'}  {k}: {val}")
 
 
-def calibrate(out: Path, seed: int, n: int, workers: int, duration: float) -> dict:
+def first_step_best(history: list[dict]) -> dict:
+    """The strongest candidate of a diagnosis's first selection step.
+
+    Parameters
+    ----------
+    history : list of dict
+        The diagnosis JSON's ``history``.
+
+    Returns
+    -------
+    dict
+        ``bic_drop`` (largest BIC drop below the nominal model), ``t`` (largest
+        |θ|/se judged) and ``cv_gain`` (largest held-out gain judged); 0 when no
+        candidate was tried.  On null recordings these are what acceptance must
+        stay above.
+    """
+    base = history[0]["trials"][0]["bic"]
+    trials = history[1]["trials"] if len(history) > 1 else []
+    return {"bic_drop": max((base - d["bic"] for d in trials), default=0.0),
+            "t": max((d.get("t", 0.0) for d in trials), default=0.0),
+            "cv_gain": max((d.get("cv_gain", 0.0) for d in trials), default=0.0)}
+
+
+def calibrate(out: Path, seed: int, n: int, workers: int, duration: float,
+              term_sigma: float = TERM_SIGMA) -> dict:
     """Null recordings only (other seeds than the study): the distribution of the
     statistics that decide 'unexplained' and acceptance, for choosing thresholds."""
     rng = np.random.default_rng(seed)
@@ -344,13 +373,17 @@ def calibrate(out: Path, seed: int, n: int, workers: int, duration: float) -> di
         cases.append({"name": f"null{j:03d}", "kind": "null", "effect": None, "value": 0.0, "maneuver": m,
                       "options": maneuver_options(m, rng), "hide_torques": True, "push": None,
                       "seed": int(rng.integers(1, 2**31 - 1)), "duration": duration})
-    results = run(cases, out, workers)
+    results = run(cases, out, workers, term_sigma=term_sigma)
     gains = [r["result"]["generic"]["gain"] for r in results if "result" in r]
     ratios = [r["result"]["generic"]["floor_ratio"] for r in results if "result" in r]
     named = [r["result"]["effects"][0]["name"] for r in results if "result" in r and r["result"]["effects"]]
+    best = [first_step_best(json.loads((out / f"{r['case']['name']}.diagnosis.json").read_text())["history"])
+            for r in results if "result" in r]
+    bic_drop, t_best, cv_best = ([b[k] for b in best] for k in ("bic_drop", "t", "cv_gain"))
     return {"n": len(results), "generic_gain_max": max(gains), "generic_gain_p90": float(np.percentile(gains, 90)),
             "floor_ratio_max": max(ratios), "floor_ratio_p90": float(np.percentile(ratios, 90)),
-            "effects_named": named}
+            "effects_named": named, "bic_drop_max": max(bic_drop), "bic_drop_p90": float(np.percentile(bic_drop, 90)),
+            "t_max": max(t_best), "cv_gain_max": max(cv_best)}
 
 
 def main(argv=None) -> int:
@@ -365,16 +398,20 @@ def main(argv=None) -> int:
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--resimulate", action="store_true", help="also re-simulate each maneuver (slower)")
     ap.add_argument("--calibrate", action="store_true", help="null recordings only (seed + 1000)")
+    ap.add_argument("--term-sigma", type=float, default=TERM_SIGMA, metavar="S",
+                    help=f"the diagnosis's term filter, s (default {TERM_SIGMA:g}; the thresholds "
+                         "were set at the default: other values are for the filter study)")
     args = ap.parse_args(argv)
     out = Path(args.out)
     t0 = time.perf_counter()
     if args.calibrate:
-        cal = calibrate(out / "calibration", args.seed + 1000, max(args.nulls, 12), args.workers, args.duration)
+        cal = calibrate(out / "calibration", args.seed + 1000, max(args.nulls, 12), args.workers, args.duration,
+                        args.term_sigma)
         print(json.dumps(cal, indent=1))
         return 0
     cases = plan(args.seed, args.per_effect, args.nulls, args.pushes, args.constant, args.duration)
     print(f"blind study: {len(cases)} recordings in {out}/ (seed {args.seed})")
-    results = run(cases, out, args.workers, args.resimulate)
+    results = run(cases, out, args.workers, args.resimulate, term_sigma=args.term_sigma)
     summary = score(results)
     summary["seconds"] = time.perf_counter() - t0
     summary["command"] = " ".join(sys.argv)

@@ -253,6 +253,20 @@ def test_motion_capture_columns_alone_give_the_same_diagnosis(study, tmp_path):
     assert res["noise_sd"]["phi"] == pytest.approx(np.radians(0.5), rel=0.3)
 
 
+def test_null_recordings_stay_below_the_acceptance_thresholds(study):
+    """The calibration statistic: on every null, even the strongest candidate of the
+    first step is refused by the BIC (the test that separates nulls, see Thresholds)."""
+    th = diagnosis.THRESHOLDS
+    nulls = _by(study, kind="null")
+    assert nulls
+    for r in nulls:
+        hist = json.loads((study[0] / f"{r['case']['name']}.diagnosis.json").read_text())["history"]
+        best = BLIND.first_step_best(hist)
+        assert best["bic_drop"] < th.min_bic_drop, (r["case"]["name"], best)
+        assert best["bic_drop"] == pytest.approx(hist[0]["trials"][0]["bic"]
+                                                 - min(d["bic"] for d in hist[1]["trials"]))
+
+
 def test_diagnose_does_not_modify_its_input(study):
     out, _ = study
     df = pd.read_csv(out / "t07.csv")
