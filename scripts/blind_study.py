@@ -164,7 +164,7 @@ def _work(args):
     return {"case": case, "result": {k: view[k] for k in ("effects", "unexplained", "nominal_rmse",
                                                          "augmented_rmse", "verdict", "decidable",
                                                          "noise_floor", "generic", "h_nominal",
-                                                         "h_augmented", "limits")},
+                                                         "h_augmented", "limits", "history")},
             "t_sim": t1 - t0, "t_diag": t2 - t1}
 
 
@@ -377,8 +377,7 @@ def calibrate(out: Path, seed: int, n: int, workers: int, duration: float,
     gains = [r["result"]["generic"]["gain"] for r in results if "result" in r]
     ratios = [r["result"]["generic"]["floor_ratio"] for r in results if "result" in r]
     named = [r["result"]["effects"][0]["name"] for r in results if "result" in r and r["result"]["effects"]]
-    best = [first_step_best(json.loads((out / f"{r['case']['name']}.diagnosis.json").read_text())["history"])
-            for r in results if "result" in r]
+    best = [first_step_best(r["result"]["history"]) for r in results if "result" in r]
     bic_drop, t_best, cv_best = ([b[k] for b in best] for k in ("bic_drop", "t", "cv_gain"))
     return {"n": len(results), "generic_gain_max": max(gains), "generic_gain_p90": float(np.percentile(gains, 90)),
             "floor_ratio_max": max(ratios), "floor_ratio_p90": float(np.percentile(ratios, 90)),
