@@ -1,6 +1,6 @@
 """Design of the rider's gains with python-control.
 
-The plant is the analytic linearisation of eq. (5) (:func:`euc_sim.linearize.jacobians`)
+The plant is the analytic linearisation of eq. (5) (:func:`euc_sim.model.linearize.jacobians`)
 at upright riding, with the motor PD (:class:`controllers.motor.MotorPD`) closed
 inside it, reduced to s = (ẋ, γ, φ, γ̇, φ̇) (x is cyclic) and driven by M_h:
 
@@ -8,8 +8,8 @@ inside it, reduced to s = (ẋ, γ, φ, γ̇, φ̇) (x is cyclic) and driven by 
 
 The rider's gains K minimise ∫ sᵀQs + R M_h² (``control.lqr``), with Q and R from
 the largest tolerable deviations (Bryson's rule, :data:`DEFAULT_SCALES`).  The
-reaction delay is handled by the predictor of :mod:`controllers.rider`; its rows are
-built here (:func:`predictor_rows`), and :func:`delayed_closed_loop_radius` checks
+reaction delay is handled by the predictor of :mod:`controllers.rider` (its rows:
+:func:`controllers.plant.predictor_rows`), and :func:`delayed_closed_loop_radius` checks
 the sampled loop with the delay buffer exactly as the simulation runs it.
 """
 
@@ -21,10 +21,11 @@ import numpy as np
 
 from controllers.motor import MotorPD
 from controllers.rider import Rider
-from euc_sim.linearize import REDUCED_STATE, discretize, jacobians, motor_feedback_row
-from euc_sim.parameters import Params, TABLE3
+from controllers.plant import has_integral, predictor_rows, rider_plant
+from euc_sim.model.linearize import discretize
+from euc_sim.model.parameters import Params, TABLE3
 
-__all__ = ["DEFAULT_SCALES", "STATE_NAMES", "linear_plant", "rider_plant", "design_rider", "predictor_rows",
+__all__ = ["DEFAULT_SCALES", "STATE_NAMES", "design_rider",
            "delayed_closed_loop_matrix", "delayed_closed_loop_radius", "delay_tolerance"]
 
 #: Bryson's-rule scales: tolerable speed error (m/s), body and rider pitch errors (rad),
@@ -34,60 +35,6 @@ __all__ = ["DEFAULT_SCALES", "STATE_NAMES", "linear_plant", "rider_plant", "desi
 DEFAULT_SCALES = {"x_dot": 0.15, "gamma": 0.2, "phi": 0.1, "gamma_dot": None, "phi_dot": None,
                   "x_int": 0.5, "M_h": 5.0}
 STATE_NAMES = ("x_dot", "gamma", "phi", "gamma_dot", "phi_dot", "x_int")
-
-
-def linear_plant(p: Params = TABLE3, motor: MotorPD | None = None,
-                 speed: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """The linearised plant with the motor PD inside, reduced to (ẋ, γ, φ, γ̇, φ̇).
-
-    Parameters
-    ----------
-    p : Params
-    motor : MotorPD, optional
-    speed : float
-        Operating speed, m/s.
-
-    Returns
-    -------
-    A_s : numpy.ndarray, shape (5, 5)
-    B_s : numpy.ndarray, shape (5, 1)
-        Input M_h, N·m.
-    """
-    motor = motor or MotorPD()
-    y0 = np.zeros(6)
-    y0[3] = speed
-    A, B = jacobians(p, y0)
-    Km = motor_feedback_row(motor.Kp, motor.Kd, motor.dgamma_ref_dv(speed))
-    Am = A + B[:, [0]] @ Km
-    idx = list(REDUCED_STATE)
-    return Am[np.ix_(idx, idx)], B[idx][:, [1]]
-
-
-def rider_plant(p: Params = TABLE3, motor: MotorPD | None = None, integral: bool = True,
-                speed: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`linear_plant`, with the integral of the speed error appended when ``integral``.
-
-    The sixth state ∫(ẋ − v_ref) dt (m) obeys ż = s_0.
-
-    Returns
-    -------
-    A : numpy.ndarray, shape (6, 6) or (5, 5)
-    B : numpy.ndarray, shape (6, 1) or (5, 1)
-    """
-    A, B = linear_plant(p, motor, speed)
-    if not integral:
-        return A, B
-    Aa = np.zeros((6, 6))
-    Aa[:5, :5] = A
-    Aa[5, 0] = 1.0
-    return Aa, np.vstack([B, [[0.0]]])
-
-
-def _has_integral(K) -> bool:
-    n = np.asarray(K).size
-    if n not in (5, 6):
-        raise ValueError(f"rider gains must have 5 or 6 entries, got {n}")
-    return n == 6
 
 
 def design_rider(p: Params = TABLE3, motor: MotorPD | None = None, delay: float = 0.15,
@@ -127,30 +74,6 @@ def design_rider(p: Params = TABLE3, motor: MotorPD | None = None, delay: float 
     return Rider(K=tuple(float(k) for k in np.asarray(K).ravel()), delay=delay, **rider_settings)
 
 
-def predictor_rows(p: Params, motor: MotorPD, K, dt: float, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Rows of the delay-compensating predictor, premultiplied by K.
-
-    With Φ, Γ the ZOH discretisation of (A_s, B_s) at dt, the predicted state is
-    ŝ_k = Φⁿ s_{k−n} + Σ_{i<n} Φ^{n−1−i} Γ δu_{k−n+i}; the rider applies −K ŝ_k.
-
-    Returns
-    -------
-    KPn : numpy.ndarray, shape (5,) or (6,)
-        K Φⁿ.
-    KG : numpy.ndarray, shape (n,)
-        (K Φ^{n−1} Γ, …, K Γ): weights of the last n commands, oldest first.
-    """
-    A, B = rider_plant(p, motor, _has_integral(K))
-    Phi, Gam = discretize(A, B, dt)
-    K = np.asarray(K, dtype=float).reshape(1, -1)
-    KG = np.empty(n)
-    row = K.copy()                      # K Φ^j, j = 0, 1, ...
-    for j in range(n):
-        KG[n - 1 - j] = (row @ Gam)[0, 0]
-        row = row @ Phi
-    return row.ravel(), KG
-
-
 def delayed_closed_loop_matrix(p: Params, motor: MotorPD, rider: Rider, dt: float,
                                true_delay: float | None = None) -> np.ndarray:
     """Transition matrix of the sampled loop with the delay buffer and the predictor.
@@ -169,7 +92,7 @@ def delayed_closed_loop_matrix(p: Params, motor: MotorPD, rider: Rider, dt: floa
         The actual delay, s (default: the rider's own).
     """
     K = np.asarray(rider.K, dtype=float)
-    A, B = rider_plant(p, motor, _has_integral(K))
+    A, B = rider_plant(p, motor, has_integral(K))
     Phi, Gam = discretize(A, B, dt)
     m = len(K)
     n = int(round(rider.delay / dt))

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from controllers.motor import MotorPD
-from euc_sim.parameters import Params
+from euc_sim.model.parameters import Params
 
 __all__ = ["Rider", "RiderError", "trim", "motor_noise", "RiderRun", "DEFAULT_RIDER_NOISE"]
 
@@ -196,7 +196,7 @@ class RiderRun:
 
     def __init__(self, rider: Rider, p: Params, motor: MotorPD, v_ref: np.ndarray,
                  a_ref: np.ndarray, dt: float, seed: int):
-        from controllers.design import predictor_rows
+        from controllers.plant import predictor_rows
 
         self.rider = rider
         self.n = n = int(round(rider.delay / dt))

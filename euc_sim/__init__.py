@@ -5,7 +5,7 @@ Dynamics of an Electric Unicycle with a Human Rider"; equation numbers in the co
 refer to it.  Signs and file formats follow CONTRACT.md.
 """
 
-from euc_sim.parameters import Params, TABLE3
+from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["Params", "TABLE3"]
 __version__ = "0.1.0"

@@ -15,7 +15,6 @@ prints its own lines and returns its figures (printed again as JSON at the end).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -41,10 +40,10 @@ def bench_inverse() -> dict:
     """Samples/s of the vectorised analytic inverse dynamics vs mj_inverse and mj_step loops."""
     import mujoco
 
-    from euc_sim import analytic
-    from euc_sim.crosscheck import random_states
-    from euc_sim.mujoco_model import EucMujoco, to_mujoco
-    from euc_sim.parameters import TABLE3
+    from euc_sim.model import analytic
+    from euc_sim.model.crosscheck import random_states
+    from euc_sim.model.mujoco_model import EucMujoco, to_mujoco
+    from euc_sim.model.parameters import TABLE3
 
     n_vec, n_loop = 200_000, 20_000
     q, qd, qdd = random_states(n_vec, seed=0)
@@ -102,8 +101,8 @@ def bench_closed_loop() -> dict:
     """Closed-loop real-time factor at 1 kHz on one core vs a bare mj_step loop."""
     import mujoco
 
-    from euc_sim.mujoco_model import EucMujoco
-    from euc_sim.simulation import default_rider, simulate
+    from euc_sim.model.mujoco_model import EucMujoco
+    from euc_sim.simulation.engine import default_rider, simulate
 
     duration = 15.0
     n = int(duration / 1e-3)
@@ -141,7 +140,7 @@ def bench_dataset() -> dict:
     """Dataset throughput (recordings/s): one process vs all cores."""
     import tempfile
 
-    from euc_sim.dataset import dataset_plan, run_dataset
+    from euc_sim.simulation.dataset import dataset_plan, run_dataset
 
     cores = os.cpu_count() or 1
     counts = (("constant_speed", 2 * cores), ("deceleration", 2 * cores))
@@ -163,12 +162,13 @@ def bench_identify() -> dict:
     """Identify h on 34 recordings of 30 s at 120 Hz, both models, with curves: s, and vs a direct search."""
     from scipy.optimize import minimize_scalar
 
-    from euc_sim import analytic
-    from euc_sim.identification import MODELS, identify_h, residual_poly
-    from euc_sim.mocap import motion_capture
-    from euc_sim.parameters import TABLE3
-    from euc_sim.processing import kinematics
-    from euc_sim.simulation import simulate
+    from euc_sim.model import analytic
+    from euc_sim.identification.torques import MODELS
+    from euc_sim.identification.h_fit import identify_h, residual_poly
+    from euc_sim.simulation.mocap import motion_capture
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.identification.processing import kinematics
+    from euc_sim.simulation.engine import simulate
 
     runs = [simulate(m, 30.0) for m in ("deceleration", "acceleration", "constant_speed", "stop_and_go")]
     recs = [motion_capture(runs[i % 4], TABLE3, noise="paper", seed=i) for i in range(34)]
@@ -222,11 +222,12 @@ def bench_diagnose() -> dict:
     """Diagnose a 60 s recording at 120 Hz (one core): s, against identifying h on it alone."""
     import warnings
 
-    from euc_sim import dataset, diagnosis
-    from euc_sim.identification import identify_h, residual_poly
-    from euc_sim.parameters import TABLE3
-    from euc_sim.processing import kinematics
-    from euc_sim.simulation import make_maneuver
+    from euc_sim.simulation import dataset
+    from euc_sim.diagnosis import pipeline as diagnosis
+    from euc_sim.identification.h_fit import identify_h, residual_poly
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.identification.processing import kinematics
+    from euc_sim.simulation.maneuvers import make_maneuver
 
     spec = dataset.RecordingSpec("bench", make_maneuver("stop_and_go", cycles=6), 60.0, 5,
                                  effects=(("aerodynamic_drag", 0.35),), hide_torques=True)

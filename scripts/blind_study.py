@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 import warnings
@@ -47,7 +46,7 @@ ROOT = Path(__file__).resolve().parent.parent
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from euc_sim.processing import DEFAULT_SMOOTHING  # noqa: E402
+from euc_sim.identification.processing import DEFAULT_SMOOTHING  # noqa: E402
 
 MANEUVERS = ("acceleration", "deceleration", "stop_and_go")
 #: Effects concealed in recordings without torques / with M_d recorded.
@@ -77,7 +76,7 @@ def maneuver_options(name: str, rng: np.random.Generator) -> dict:
 
 def draw_magnitude(name: str, rng: np.random.Generator, nominal_mass: float = 65.0) -> float:
     """A magnitude in the catalog's plausible range, in CONTRACT's unit."""
-    from euc_sim import effects
+    from euc_sim.simulation import effects
     lo, hi = effects.get(name).plausible
     if name == "road_slope":
         return float(rng.choice([-1.0, 1.0]) * rng.uniform(0.01, max(abs(lo), abs(hi))))
@@ -123,9 +122,11 @@ def plan(seed: int, per_effect: int, nulls: int, pushes: int, constant: int, dur
 
 def make_recording(case: dict, out: Path) -> Path:
     """Simulate one case and write NAME.csv, NAME.json (no truth in it), NAME.truth.json."""
-    from euc_sim import dataset, io
-    from euc_sim.parameters import TABLE3
-    from euc_sim.simulation import PeriodicPush, default_rider, make_maneuver, true_params
+    from euc_sim.simulation import dataset
+    from euc_sim import io
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.simulation.engine import PeriodicPush, default_rider, true_params
+    from euc_sim.simulation.maneuvers import make_maneuver
 
     man = make_maneuver(case["maneuver"], **case["options"])
     eff = {case["effect"]: case["value"]} if case["effect"] else {}
@@ -146,7 +147,7 @@ def make_recording(case: dict, out: Path) -> Path:
 
 def _work(args):
     case, out, resimulate, term_sigma = args
-    from euc_sim import diagnosis
+    from euc_sim.diagnosis import pipeline as diagnosis
     warnings.simplefilter("ignore")
     path = out / f"{case['name']}.csv"
     t0 = time.perf_counter()

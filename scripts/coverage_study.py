@@ -20,11 +20,11 @@ import numpy as np
 
 def study(maneuvers, seeds: int, smoothing, n_boot: int, block: float, duration: float,
           first_seed: int = 0) -> dict:
-    from euc_sim.identification import identify_h, residual_poly
-    from euc_sim.mocap import motion_capture
-    from euc_sim.parameters import TABLE3
-    from euc_sim.processing import kinematics
-    from euc_sim.simulation import simulate
+    from euc_sim.identification.h_fit import identify_h, residual_poly
+    from euc_sim.simulation.mocap import motion_capture
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.identification.processing import kinematics
+    from euc_sim.simulation.engine import simulate
 
     out = {}
     for man in maneuvers:
@@ -56,7 +56,7 @@ def study(maneuvers, seeds: int, smoothing, n_boot: int, block: float, duration:
 
 
 def main(argv=None) -> int:
-    from euc_sim.processing import Smoothing
+    from euc_sim.identification.processing import Smoothing
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=50)
@@ -69,7 +69,7 @@ def main(argv=None) -> int:
     ap.add_argument("--duration", type=float, default=15.0, help="simulated ride, s")
     ap.add_argument("--json", metavar="FILE")
     args = ap.parse_args(argv)
-    from euc_sim.identification import BOOTSTRAP_BLOCK
+    from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK
     block = BOOTSTRAP_BLOCK if args.block is None else args.block
     res = study(args.maneuvers, args.seeds, Smoothing(method=args.smoothing), args.bootstrap,
                 block, args.duration, args.first_seed)

@@ -17,7 +17,7 @@ import numpy as np
 
 
 def recipes():
-    from euc_sim.processing import Smoothing
+    from euc_sim.identification.processing import Smoothing
 
     out = {f"paper SG {w:.1f} s": Smoothing(method="savgol", window=w) for w in (0.5, 1.0, 1.5)}
     out.update({f"consistent σ={s:.1f} s": Smoothing(term_sigma=s) for s in (0.2, 0.3, 0.4)})
@@ -25,11 +25,11 @@ def recipes():
 
 
 def main(argv=None) -> int:
-    from euc_sim.identification import identify_h, residual_poly
-    from euc_sim.mocap import motion_capture
-    from euc_sim.parameters import TABLE3
-    from euc_sim.processing import kinematics
-    from euc_sim.simulation import simulate
+    from euc_sim.identification.h_fit import identify_h, residual_poly
+    from euc_sim.simulation.mocap import motion_capture
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.identification.processing import kinematics
+    from euc_sim.simulation.engine import simulate
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=10)

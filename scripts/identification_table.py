@@ -1,9 +1,9 @@
 #!/usr/bin/env python
 """The README's identification table: synthetic analogues of the paper's recordings.
 
-Each analogue is a closed-loop ride (``euc_sim.simulation.simulate``, MuJoCo engine,
+Each analogue is a closed-loop ride (``euc_sim.simulation.engine.simulate``, MuJoCo engine,
 Table 3 with h = 0.6 m, 20 s) sampled like the paper's motion capture
-(``euc_sim.mocap.motion_capture``: 120 Hz, 0.2 mm / 0.5° noise, seed 1), then
+(``euc_sim.simulation.mocap.motion_capture``: 120 Hz, 0.2 mm / 0.5° noise, seed 1), then
 identified with both models exactly as ``euc-sim identify`` does.  Prints markdown
 rows; ``--json`` writes the figures.
 
@@ -27,11 +27,12 @@ ANALOGUES = [
 
 
 def rows(seed: int = 1, duration: float = 20.0, smoothing=None):
-    from euc_sim.identification import MODELS, identify_h, residual_poly
-    from euc_sim.mocap import motion_capture
-    from euc_sim.parameters import TABLE3
-    from euc_sim.processing import Smoothing, kinematics
-    from euc_sim.simulation import simulate
+    from euc_sim.identification.torques import MODELS
+    from euc_sim.identification.h_fit import identify_h, residual_poly
+    from euc_sim.simulation.mocap import motion_capture
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.identification.processing import Smoothing, kinematics
+    from euc_sim.simulation.engine import simulate
 
     smoothing = smoothing or Smoothing()
     out = []
@@ -48,7 +49,7 @@ def rows(seed: int = 1, duration: float = 20.0, smoothing=None):
 
 
 def main(argv=None) -> int:
-    from euc_sim.processing import Smoothing
+    from euc_sim.identification.processing import Smoothing
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seed", type=int, default=1)

@@ -2,7 +2,7 @@
 
     python scripts/plot_maneuver.py --maneuver deceleration --out docs/deceleration.png
 
-Runs :func:`euc_sim.simulation.simulate` (noise-free, MuJoCo) and, with ``--recording``,
+Runs :func:`euc_sim.simulation.engine.simulate` (noise-free, MuJoCo) and, with ``--recording``,
 overlays a recording's 120 Hz samples (e.g. one written by ``euc-sim simulate``).
 """
 
@@ -56,7 +56,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", required=True, help="PNG file")
     args = ap.parse_args(argv)
     from euc_sim.io import atomic_write
-    from euc_sim.simulation import default_rider, simulate
+    from euc_sim.simulation.engine import default_rider, simulate
 
     run = simulate(args.maneuver, args.duration, engine=args.engine, seed=args.seed,
                    rider=default_rider(noise_std=args.rider_noise))

@@ -1,0 +1,163 @@
+"""The ``euc-sim`` command line.
+
+Each subcommand is a ``_cmd_NAME(args) -> int`` function registered in
+:func:`build_parser`.  Bad input (a ``ValueError`` or ``OSError`` raised anywhere
+below) becomes one line on stderr and exit code 2; nothing half-written is left,
+since every output goes through :mod:`euc_sim.io`'s atomic writes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Sequence
+
+
+
+from euc_sim.cli.common import EXIT_FAIL, EXIT_OK, EXIT_USAGE, UsageError, parse_params, say
+
+
+# --- crosscheck ---------------------------------------------------------------------
+def _cmd_crosscheck(args: argparse.Namespace) -> int:
+    from euc_sim.model import crosscheck
+    from euc_sim.io import check_writable, write_json
+
+    if args.json:
+        check_writable(args.json)
+    if args.samples < 1:
+        raise UsageError(f"--samples must be at least 1, got {args.samples}")
+    if args.mjcf is not None:
+        from euc_sim.model.mujoco_model import load_model
+        load_model(mjcf=args.mjcf)          # fail early on a bad file
+    sets = dict(crosscheck.PARAMETER_SETS)
+    if args.param:
+        sets = {"user": parse_params(args.param)}
+    checks = crosscheck.run_all(args.samples, progress=lambda s: say(f"crosscheck: {s} ..."),
+                                sets=sets, mjcf=args.mjcf)
+    width = max(len(c.name) for c in checks)
+    print(f"{'check':<{width}}  {'worst':>10}  {'bound':>8}  ok")
+    for c in checks:
+        print(f"{c.name:<{width}}  {c.value:10.2e}  {c.bound:8.0e}  {'yes' if c.ok else 'NO'}")
+        if c.detail:
+            print(f"{'':<{width}}    {c.detail}")
+    ok = all(c.ok for c in checks)
+    print("all bounds hold" if ok else "BOUND BROKEN: see the rows marked NO")
+    if args.json:
+        write_json(args.json, {"ok": ok, "checks": [c.as_json() for c in checks]})
+    return EXIT_OK if ok else EXIT_FAIL
+
+
+# --- dynamics --------------------------------------------------------------------------
+def _parse_vector(text: str, n: int, option: str):
+    import numpy as np
+
+    parts = [s for s in text.replace(";", ",").split(",") if s.strip()]
+    if len(parts) != n:
+        raise UsageError(f"{option} expects {n} comma-separated numbers, got {text!r}")
+    try:
+        v = np.array([float(s) for s in parts])
+    except ValueError:
+        raise UsageError(f"{option} expects numbers, got {text!r}") from None
+    if not np.all(np.isfinite(v)):
+        raise UsageError(f"{option} must be finite, got {text!r}")
+    return v
+
+
+def _cmd_dynamics(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from euc_sim.model import analytic
+    from euc_sim.io import write_json
+    from euc_sim.model.mujoco_model import EucMujoco
+
+    p = parse_params(args.param)
+    q = _parse_vector(args.q, 3, "--q (x, gamma, phi)")
+    qd = _parse_vector(args.qd, 3, "--qd (x_d, gamma_d, phi_d)")
+    M_d, M_h = _parse_vector(args.torques, 2, "--torques (M_d, M_h)")
+    qdd = analytic.forward_dynamics(p, q, qd, M_d, M_h)
+    sim = EucMujoco(p, "ideal", args.mjcf)
+    gen = sim.inverse(q, qd, qdd)
+    out = {
+        "q": q, "qd": qd, "M_d": M_d, "M_h": M_h,
+        "qdd_analytic": qdd,
+        "generalized_force_mujoco_inverse": gen,
+        "generalized_force_eq8": analytic.inverse_dynamics(p, q, qd, qdd),
+        "M_d1": float(analytic.driving_torque_1(p, q, qd, qdd)),
+        "M_d2": float(analytic.driving_torque_2(p, q, qd, qdd)),
+        "M_h_row3": float(analytic.rider_torque(p, q, qd, qdd)),
+    }
+    np.set_printoptions(precision=6, suppress=False)
+    print(f"q̈ = (ẍ, γ̈, φ̈) = {qdd} (m/s², rad/s², rad/s²)")
+    print(f"mj_inverse, mapped: {gen}   eq. (8): {out['generalized_force_eq8']}")
+    print(f"M_d,1 = {out['M_d1']:.9g} N·m, M_d,2 = {out['M_d2']:.9g} N·m, M_h = {out['M_h_row3']:.9g} N·m")
+    if args.json:
+        write_json(args.json, out)
+    return EXIT_OK
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="euc-sim",
+        description="Electric-unicycle-with-rider simulation, identification and diagnosis.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+
+    p = sub.add_parser("crosscheck", help="prove the MuJoCo model against the analytic equations")
+    p.add_argument("--json", metavar="FILE", help="write the figures and bounds as JSON")
+    p.add_argument("--samples", type=int, default=2500,
+                   help="random states per parameter set (4 sets; default 2500)")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="check one user parameter set instead of the built-in four")
+    p.add_argument("--mjcf", metavar="FILE", help="MJCF file (default mjcf/euc_planar.xml)")
+    p.set_defaults(func=_cmd_crosscheck)
+
+    p = sub.add_parser("dynamics", help="evaluate both models at one state: accelerations and torques")
+    p.add_argument("--q", required=True, metavar="X,GAMMA,PHI", help="m, rad, rad")
+    p.add_argument("--qd", default="0,0,0", metavar="XD,GD,PD", help="m/s, rad/s, rad/s")
+    p.add_argument("--torques", default="0,0", metavar="M_D,M_H", help="N·m")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="override a Table 3 value")
+    p.add_argument("--mjcf", metavar="FILE", help="MJCF file (default mjcf/euc_planar.xml)")
+    p.add_argument("--json", metavar="FILE", help="write the figures as JSON")
+    p.set_defaults(func=_cmd_dynamics)
+
+    from euc_sim.cli.sim import add_commands as add_sim_commands
+    add_sim_commands(sub)        # euc-sim simulate / dataset / stability (issue 3)
+
+    from euc_sim.cli.identify import add_identify_parser, add_torques_parser
+    add_torques_parser(sub)      # euc-sim torques REC --out T.csv (issue 4)
+    add_identify_parser(sub)     # euc-sim identify REC... --json --plot (issue 4)
+
+    from euc_sim.cli.diagnose import add_commands as add_diagnose_commands
+    add_diagnose_commands(sub)   # euc-sim diagnose REC --json --report / demo (issue 5)
+
+    from euc_sim.cli.ride import add_ride_parser
+    add_ride_parser(sub)         # euc-sim ride LOG --compare OTHER --report --json (issue 6)
+    return parser
+
+
+def _one_line_warning(message, category, filename, lineno, line=None) -> str:
+    return f"euc-sim: warning: {message}\n"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of ``euc-sim``; returns the exit code."""
+    import warnings
+
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    previous = warnings.formatwarning
+    warnings.formatwarning = _one_line_warning     # for people: no source paths
+    try:
+        return int(args.func(args))
+    except (ValueError, OSError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        print(f"euc-sim {args.command}: error: {msg}", file=sys.stderr)
+        return EXIT_USAGE
+    except KeyboardInterrupt:
+        print(f"euc-sim {args.command}: interrupted", file=sys.stderr)
+        return 130
+    finally:
+        warnings.formatwarning = previous
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,64 @@
+"""``euc-sim diagnose`` and ``euc-sim demo``.
+
+Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_commands`; bad input
+raises ``ValueError`` or ``OSError`` (exit 2, one line) and nothing half-written is
+left (every output goes through :mod:`euc_sim.io`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import warnings
+
+__all__ = ["add_commands"]
+
+
+def _cmd_diagnose(args: argparse.Namespace) -> int:
+    from euc_sim.diagnosis import pipeline as diagnosis
+    from euc_sim.cli.common import parse_params, say
+    from euc_sim.diagnosis.report import summary, write_report
+    from euc_sim.io import check_writable, write_json
+
+    if args.json:
+        check_writable(args.json)
+    params = parse_params(args.param) if args.param else None
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # repaired gaps are reported by the reader
+        result = diagnosis.diagnose(args.recording, params=params,
+                                    resimulate=not args.no_resimulate,
+                                    progress=(lambda s: say(f"diagnose: {s} ...")) if args.verbose else None)
+    if args.json:
+        write_json(args.json, diagnosis.json_view(result))
+    if args.report:
+        page = write_report(result, args.report)
+        say(f"diagnose: report written to {page}")
+    print(summary(result))
+    return 0
+
+
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from euc_sim.cli.common import say
+    from euc_sim.cli.demo import run_demo
+
+    page = run_demo(args.out, seed=args.seed, progress=lambda s: say(f"demo: {s}"))
+    print(f"demo written: {page}")
+    return 0
+
+
+def add_commands(sub) -> None:
+    """Register ``diagnose`` and ``demo`` on the subparsers ``sub``."""
+    p = sub.add_parser("diagnose", help="find the physics the nominal model leaves out of a recording")
+    p.add_argument("recording", metavar="REC.csv", help="a CONTRACT recording (.csv or .parquet)")
+    p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's diagnosis object")
+    p.add_argument("--report", metavar="DIR", help="write DIR/index.md with figures")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="nominal parameter (default: the sidecar's, else Table 3; h is identified)")
+    p.add_argument("--no-resimulate", action="store_true",
+                   help="skip re-simulating the maneuver with the accepted effects")
+    p.add_argument("--verbose", action="store_true", help="show progress")
+    p.set_defaults(func=_cmd_diagnose)
+
+    p = sub.add_parser("demo", help="the main job on embedded defaults: simulate, identify, diagnose")
+    p.add_argument("--out", default="euc-sim-demo", metavar="DIR", help="output folder (default ./euc-sim-demo)")
+    p.add_argument("--seed", type=int, default=1, help="seed of every random draw (default 1)")
+    p.set_defaults(func=_cmd_demo)

@@ -1,0 +1,205 @@
+"""The ``euc-sim torques`` and ``euc-sim identify`` commands (registered in :mod:`euc_sim.cli.app`).
+
+Both read recordings with :func:`euc_sim.identification.recordings.read_recording`, differentiate
+them with :mod:`euc_sim.identification.processing` and write through :mod:`euc_sim.io`'s atomic
+writes; bad input raises ``ValueError``/``OSError`` which the CLI turns into one
+line and exit code 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+__all__ = ["add_smoothing_arguments", "add_torques_parser", "add_identify_parser",
+           "cmd_torques", "cmd_identify", "smoothing_from_args"]
+
+
+def add_smoothing_arguments(p: argparse.ArgumentParser) -> None:
+    """Options shared by ``torques`` and ``identify``."""
+    g = p.add_argument_group("smoothing and processing")
+    g.add_argument("--smoothing", choices=("consistent", "savgol"), default="consistent",
+                   help="consistent: short Savitzky-Golay derivatives + one Gaussian filter on "
+                        "every torque term (default); savgol: the paper's recipe")
+    g.add_argument("--window", type=float, metavar="S",
+                   help="Savitzky-Golay window, s (default 0.25 consistent, 1.0 savgol)")
+    g.add_argument("--order", type=int, metavar="N",
+                   help="Savitzky-Golay order (default 5 consistent, 3 savgol)")
+    g.add_argument("--term-sigma", type=float, default=0.3, metavar="S",
+                   help="Gaussian term filter's standard deviation, s (consistent; default 0.3)")
+    g.add_argument("--source", choices=("auto", "state", "mocap"), default="auto",
+                   help="use x, gamma, phi (state) or the motion-capture columns (Section 2)")
+    g.add_argument("--phi-from", choices=("A", "C"), default="A",
+                   help="Section 2: phi as the direction ankle A -> G (exact, CONTRACT's phi; "
+                        "default) or by the paper's eq. (3) from the wheel centre C")
+    g.add_argument("--d-ce", type=float, metavar="M",
+                   help="C-E distance for motion-capture files without C columns, m")
+    g.add_argument("--param", action="append", metavar="NAME=VALUE",
+                   help="override a parameter (else the sidecar's, else Table 3)")
+
+
+def smoothing_from_args(args: argparse.Namespace):
+    """The :class:`euc_sim.identification.processing.Smoothing` of the command line."""
+    from euc_sim.identification.processing import Smoothing
+
+    return Smoothing(method=args.smoothing, window=args.window, order=args.order,
+                     term_sigma=args.term_sigma)
+
+
+def _load(path: str, args: argparse.Namespace, h: float | None = None):
+    from euc_sim.cli.common import param_values
+    from euc_sim.identification.h_fit import load
+    from euc_sim.identification.recordings import params_from_meta, read_sidecar
+
+    meta = read_sidecar(path)
+    values = dict(meta.get("params") or {})
+    values.update(param_values(args.param))
+    if h is not None:
+        values["h"] = h
+    p = params_from_meta({"params": values}, path)
+    return load(path, smoothing_from_args(args), params=p, d_CE=args.d_ce,
+                phi_from=args.phi_from, source=args.source)
+
+
+# --- torques -----------------------------------------------------------------------------
+def add_torques_parser(sub) -> argparse.ArgumentParser:
+    p = sub.add_parser("torques", help="driving and ankle torques from a recording (eqs. 9, 10, 13)")
+    p.add_argument("recording", help="CONTRACT recording (CSV or Parquet)")
+    p.add_argument("--h", type=float, metavar="M",
+                   help="rider's CoG height, m (default: the sidecar's h, else Table 3's 0.6 m)")
+    p.add_argument("--out", required=True, metavar="FILE",
+                   help="CSV with t, M_d1, M_d2, M_h, M_d1_2dof, M_d2_2dof (N·m)")
+    add_smoothing_arguments(p)
+    p.set_defaults(func=cmd_torques)
+    return p
+
+
+def cmd_torques(args: argparse.Namespace) -> int:
+    """Write the five torque estimates of one recording as CSV."""
+    from euc_sim.identification.torques import torques
+    from euc_sim.io import atomic_write, check_writable
+
+    check_writable(args.out)
+    rec = _load(args.recording, args, h=args.h)
+    T = torques(rec.kin, rec.params)
+    atomic_write(args.out, lambda path: T.to_csv(path, index=False, float_format="%.10g"))
+    sl = rec.kin.interior
+    d = (T["M_d1"] - T["M_d2"]).to_numpy()[sl]
+    print(f"{rec.name}: h = {rec.params.h:.4g} m, {len(T)} samples; "
+          f"RMSE(M_d1 - M_d2) = {float((d**2).mean() ** 0.5):.4g} N·m on the "
+          f"{len(d)} interior samples; wrote {args.out}")
+    return 0
+
+
+# --- identify ------------------------------------------------------------------------------
+def add_identify_parser(sub) -> argparse.ArgumentParser:
+    p = sub.add_parser("identify", help="identify the rider's CoG height h (and more) from recordings")
+    p.add_argument("recordings", nargs="+", help="CONTRACT recordings (CSV or Parquet)")
+    p.add_argument("--json", metavar="FILE", help="write the results (CONTRACT's identify form)")
+    p.add_argument("--plot", metavar="FILE",
+                   help="Fig. 8 (RMSE against h) to FILE, Figs. 6/7 per recording beside it")
+    p.add_argument("--h-min", type=float, default=0.1, metavar="M", help="search bound, m")
+    p.add_argument("--h-max", type=float, default=1.5, metavar="M", help="search bound, m")
+    p.add_argument("--bootstrap", type=int, default=400, metavar="N",
+                   help="block-bootstrap replicates for the 95%% interval (default 400)")
+    p.add_argument("--block", type=float, default=None, metavar="S",
+                   help="bootstrap block, s (default identification.BOOTSTRAP_BLOCK, 1 s)")
+    p.add_argument("--seed", type=int, default=0, help="bootstrap seed")
+    add_smoothing_arguments(p)
+    p.set_defaults(func=cmd_identify)
+    return p
+
+
+def _figure_paths(plot: str, names: list[str]) -> list[Path]:
+    base = Path(plot)
+    return [base.with_name(f"{base.stem}-{Path(n).stem}{base.suffix or '.png'}") for n in names]
+
+
+def cmd_identify(args: argparse.Namespace) -> int:
+    """Identify h (both models, per recording and pooled), the controller and the rider."""
+    from euc_sim.cli.common import UsageError
+    from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, identify_recordings
+    from euc_sim.identification.base_params import identify_base_parameters
+    from euc_sim.identification.controller_fit import identify_controller, identify_rider_delay
+    from euc_sim.identification.torques import torques
+    from euc_sim.io import check_writable, write_json
+
+    if args.json:
+        check_writable(args.json)
+    if args.plot:
+        check_writable(args.plot)
+    if args.bootstrap < 0:
+        raise UsageError(f"--bootstrap must be non-negative, got {args.bootstrap}")
+    block = BOOTSTRAP_BLOCK if args.block is None else args.block
+    if not block > 0:
+        raise UsageError(f"--block must be positive seconds, got {args.block}")
+    if not (0 < args.h_min < args.h_max):
+        raise UsageError(f"need 0 < --h-min < --h-max, got {args.h_min} and {args.h_max}")
+    names = [str(r) for r in args.recordings]
+    if len(set(names)) != len(names):
+        raise UsageError("a recording is given twice")
+    recs = [_load(n, args) for n in names]
+    res = identify_recordings(recs, bounds=(args.h_min, args.h_max), n_boot=args.bootstrap,
+                              block=block, seed=args.seed)
+    pooled, per = res["pooled"], res["per_recording"]
+
+    per_json = []
+    figures = []
+    fig_paths = _figure_paths(args.plot, names) if args.plot else [None] * len(recs)
+    for rec, fits, fig_path in zip(recs, per, fig_paths):
+        p_h = rec.params.replace(h=fits["3dof"].h)
+        entry = {"recording": rec.name,
+                 "models": {m: f.as_json() for m, f in fits.items()},
+                 "controller": identify_controller(rec.kin, p_h).as_json(),
+                 "rider": identify_rider_delay(rec.kin, p_h).as_json()}
+        if "M_d" in rec.df.columns:
+            M_h = rec.df["M_h"].to_numpy() if "M_h" in rec.df.columns else None
+            entry["base_parameters"] = identify_base_parameters(
+                rec.kin, rec.df["M_d"].to_numpy(), M_h, rec.params).as_json()
+        per_json.append(entry)
+        if fig_path is not None:
+            from euc_sim.identification.plots import plot_recording
+
+            figures.append(str(plot_recording(rec, torques(rec.kin, p_h), fits["3dof"], fig_path)))
+    if args.plot:
+        from euc_sim.identification.plots import plot_rmse_curves
+
+        figures.insert(0, str(plot_rmse_curves(names, per, pooled, args.plot)))
+
+    h_per = [rec.params.replace(h=fits["3dof"].h) for rec, fits in zip(recs, per)]
+    controller = identify_controller([r.kin for r in recs], h_per)
+    out = {
+        "recordings": names,
+        "models": {m: f.as_json() for m, f in pooled.items()},
+        "controller": controller.as_json(),
+        "per_recording": per_json,
+        "smoothing": recs[0].kin.smoothing.describe(),
+        "bounds": [args.h_min, args.h_max],
+        "bootstrap": {"replicates": args.bootstrap, "block_s": block, "seed": args.seed},
+        "figures": figures,
+    }
+    print(f"{'recording':<32} {'model':<5} {'h [m]':>7} {'95% interval [m]':>18} "
+          f"{'RMSE [N·m]':>10}  identifiable")
+    rows = [(Path(n).name, f) for n, f in zip(names, per)]
+    if len(recs) > 1:
+        rows.append(("pooled", pooled))
+    for label, fits in rows:
+        for m, f in fits.items():
+            ci = f"[{f.h_ci95[0]:.3f}, {f.h_ci95[1]:.3f}]"
+            print(f"{label[:32]:<32} {m:<5} {f.h:7.3f} {ci:>18} {f.rmse:10.4g}  "
+                  f"{'yes' if f.identifiable else 'NO: ' + f.reason}")
+    for rec, e in zip(recs, per_json):
+        g = e["controller"]["gains"]
+        r = e["rider"]
+        print(f"{Path(rec.name).name}: controller K_p = {g['gamma']:.4g} N·m/rad, "
+              f"K_d = {g['gamma_d']:.4g} N·m·s/rad (R² {e['controller']['r2']:.3f}); "
+              f"rider delay {r['delay']:.3f} s (R² {r['r2']:.3f})")
+    if len(recs) > 1:
+        g = controller.gains
+        print(f"pooled: controller K_p = {g['gamma']:.4g} N·m/rad, K_d = {g['gamma_d']:.4g} "
+              f"N·m·s/rad (R² {controller.r2:.3f})")
+    if args.json:
+        write_json(args.json, out)
+    for f in figures:
+        print(f"wrote {f}")
+    return 0

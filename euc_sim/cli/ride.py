@@ -1,0 +1,206 @@
+"""``euc-sim ride LOG.csv [--compare OTHER.csv] --report DIR --json OUT.json``.
+
+Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_ride_parser`.
+Bad input (a missing or malformed log, an unusable option, an unwritable
+output) raises ``ValueError`` or ``OSError``: one line, exit 2.  Outputs are
+checked writable before any work and written atomically (:mod:`euc_sim.io`),
+the JSON last.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+__all__ = ["add_ride_parser", "run_ride", "MIN_BOOT"]
+
+#: Fewest bootstrap replicates the command accepts: effects are accepted on their
+#: 95 % interval, and without replicates there is none (nothing would be accepted).
+MIN_BOOT = 10
+
+
+def _assumptions(args: argparse.Namespace):
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.rides.balance import RideAssumptions
+
+    for opt, val in (("--mass", args.mass), ("--radius", args.radius)):
+        if val is not None and not (math.isfinite(val) and val > 0):
+            raise ValueError(f"{opt} must be a positive number, got {val!r}")
+    if not (math.isfinite(args.efficiency) and 0 < args.efficiency <= 1):
+        raise ValueError(f"--efficiency must be in (0, 1], got {args.efficiency!r}")
+    p = TABLE3
+    if args.radius is not None:
+        p = p.replace(R=args.radius)
+    if args.mass is not None:
+        m = args.mass - p.m0 - p.mw
+        if m <= 0:
+            raise ValueError(f"--mass is the total of rider and EUC, kg; {args.mass:g} does not "
+                             f"exceed the EUC's own {p.m0 + p.mw:g} kg")
+        p = p.replace(m=m)
+    return RideAssumptions.from_params(p, efficiency=args.efficiency)
+
+
+def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assumptions=None,
+             n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
+             progress=None) -> dict:
+    """Everything ``euc-sim ride`` computes; writes the report folder when given.
+
+    Parameters
+    ----------
+    log, compare : path
+        The ride to fit, and optionally the ride to test on.
+    report_dir : path, optional
+        Folder for ``index.md`` and the figures (``ride_balance.png``,
+        ``ride_residuals.png``, ``ride_simulation.png``) and tables.
+    domain : {"power", "torque"}
+    assumptions : RideAssumptions, optional
+    n_boot, seed : int
+        Bootstrap replicates and the seed of every random draw.
+    simulate : bool
+        Run the closed-loop simulator along the tested ride's speed profile.
+    jobs : int
+        Processes for the nominal and augmented simulations (1 or 2).
+    progress : callable, optional
+        Called with a short status string.
+
+    Returns
+    -------
+    dict
+        CONTRACT's ``euc-sim ride`` object plus ``windows`` (s, where the
+        inertia-only residual of LOG concentrates), ``localisation``,
+        ``residual_traces``, ``simulation`` and ``report``.
+    """
+    from euc_sim.rides.balance import RideAssumptions, ride_analysis
+    from euc_sim.rides.page import plot_residuals, residual_windows, write_page
+
+    say = progress or (lambda s: None)
+    assumptions = assumptions or RideAssumptions()
+    say("fitting the balance")
+    an = ride_analysis(log, compare, report_dir=report_dir, assumptions=assumptions,
+                       domain=domain, n_boot=n_boot, seed=seed)
+    rep = dict(an.report)
+    cr = an.cross
+    nom, aug = cr.nominal.estimate, cr.augmented.estimate
+    traces = [residual_windows(an.sig_fit, nom, aug, domain, Path(log).name, True)]
+    if an.sig_test is not None:
+        traces.append(residual_windows(an.sig_test, nom, aug, domain, Path(compare).name, False))
+    loc = traces[0].localisation
+    rep["windows"] = loc["windows"]
+    rep["localisation"] = {"residual": f"inertia-only balance residual of {Path(log).name}, "
+                                       f"{rep['error_unit']}",
+                           "share": loc["share"], "correlations": loc["correlations"]}
+    rep["residual_traces"] = [tr.as_json() for tr in traces]
+    rep["simulation"] = None
+    if simulate:
+        from euc_sim.rides.simulate import simulate_ride
+
+        sig = an.sig_test if an.sig_test is not None else an.sig_fit
+        ride_path = compare if compare is not None else log
+        scored = None
+        if an.sig_test is None:          # score the held-out second half only
+            t = sig.frame["t"].to_numpy()
+            scored = t >= 0.5 * (t[0] + t[-1])
+        say(f"simulating {Path(ride_path).name} (nominal and augmented)")
+        sim = simulate_ride(sig, nom, aug, cr.accepted, ride_path, scored=scored,
+                            label=Path(ride_path).name, seed=seed, workers=jobs)
+        rep["simulation"] = sim.as_json()
+    rep["report"] = None
+    if report_dir is not None:
+        from euc_sim.io import atomic_write
+
+        out = Path(report_dir)
+        figures = {"cross_ride": "ride_balance.png",
+                   "residuals": plot_residuals(traces, out / "ride_residuals.png").name}
+        if simulate:
+            from euc_sim.rides.simulate import plot_ride_simulation
+
+            figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
+            atomic_write(out / "ride_simulation.csv",
+                         lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
+            rep["simulation"]["table"] = str(out / "ride_simulation.csv")
+            rep["simulation"]["figure"] = str(out / "ride_simulation.png")
+        rep["figures"] = {k: str(out / v) for k, v in figures.items()}
+        rep["report"] = str(write_page(rep, out, figures))
+    return rep
+
+
+def _cmd_ride(args: argparse.Namespace) -> int:
+    from euc_sim.cli.common import say
+    from euc_sim.io import check_writable, write_json
+
+    if args.domain not in ("power", "torque"):
+        raise ValueError(f"--domain must be power or torque, got {args.domain!r}")
+    if args.jobs < 1:
+        raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
+    if args.n_boot < MIN_BOOT:
+        raise ValueError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
+                         f"bootstrap interval), got {args.n_boot}")
+    assumptions = _assumptions(args)
+    from euc_sim.rides.balance import ride_signals
+
+    for p in [args.log] + ([args.compare] if args.compare else []):
+        if not Path(p).is_file():
+            raise FileNotFoundError(f"{p}: no such log file")
+        ride_signals(p, assumptions)        # a malformed log fails here, before any output exists
+    if args.json:
+        check_writable(args.json)
+    if args.report:
+        out = Path(args.report)
+        if out.exists() and not out.is_dir():
+            raise NotADirectoryError(f"--report {out}: exists and is not a folder")
+        check_writable(out / "index.md")
+    rep = run_ride(args.log, args.compare, report_dir=args.report, domain=args.domain,
+                   assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
+                   simulate=not args.no_simulate, jobs=args.jobs,
+                   progress=(lambda s: say(f"ride: {s} ...")) if args.verbose else None)
+    if args.json:
+        write_json(args.json, rep)
+    u = rep["error_unit"]
+    print(f"held-out error ({rep['error_measure']}): inertia-only "
+          f"{rep['heldout_error_nominal']:.1f} {u}, augmented {rep['heldout_error_augmented']:.1f} "
+          f"{u}, ratio {rep['ratio']:.2f}")
+    for e in rep["effects"]:
+        flag = "" if e["plausible"] else "  IMPLAUSIBLE"
+        al = f"  aliases: {', '.join(e['aliases'])}" if e["aliases"] else ""
+        print(f"  left out: {e['name']} = {e['estimate']:.4g} {e['unit']} "
+              f"95% [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]{flag}{al}")
+    if not rep["effects"]:
+        print("  nothing accepted: the inertia-only balance explains this ride")
+    if rep["windows"]:
+        print("  windows (s): " + ", ".join(f"{a:.1f}-{b:.1f}" for a, b in rep["windows"][:8])
+              + (" ..." if len(rep["windows"]) > 8 else ""))
+    sim = rep["simulation"]
+    if sim:
+        e = sim["errors"]
+        print(f"  simulation along {sim['ride']}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
+              f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
+    if rep["report"]:
+        say(f"ride: report written to {rep['report']}")
+    return 0
+
+
+def add_ride_parser(sub) -> None:
+    """Register ``ride`` on the subparsers ``sub``."""
+    p = sub.add_parser("ride", help="diagnose a real EUC ride log (WheelLog, EUC World, DarknessBot)")
+    p.add_argument("log", metavar="LOG.csv", help="ride log to fit")
+    p.add_argument("--compare", metavar="OTHER.csv",
+                   help="ride to test on (default: fit the first half, test the second)")
+    p.add_argument("--report", metavar="DIR", help="write DIR/index.md with figures and tables")
+    p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's ride object")
+    p.add_argument("--domain", default="power", metavar="power|torque",
+                   help="residual in battery power, W (default), or divided by ω, N·m")
+    p.add_argument("--mass", type=float, metavar="KG",
+                   help="rider + EUC mass, kg (default Table 3: 81)")
+    p.add_argument("--radius", type=float, metavar="M", help="wheel radius, m (default 0.2)")
+    p.add_argument("--efficiency", type=float, default=0.8, metavar="ETA",
+                   help="drivetrain efficiency used only to infer the logged torque from power "
+                        "(default 0.8; the balance fit estimates its own)")
+    p.add_argument("--n-boot", type=int, default=200, metavar="N", help=f"bootstrap replicates, at least {MIN_BOOT} (default 200)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of every random draw (default 0)")
+    p.add_argument("--jobs", type=int, default=2, metavar="N",
+                   help="processes for the nominal and augmented simulations (default 2)")
+    p.add_argument("--no-simulate", action="store_true",
+                   help="skip the closed-loop simulation along the ride's speed profile")
+    p.add_argument("--verbose", action="store_true", help="show progress")
+    p.set_defaults(func=_cmd_ride)

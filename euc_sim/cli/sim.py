@@ -1,0 +1,202 @@
+"""``euc-sim simulate``, ``euc-sim dataset`` and ``euc-sim stability``.
+
+Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_commands`; bad input
+raises ``ValueError`` (exit 2, one line) and nothing is written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+__all__ = ["add_commands"]
+
+
+def _effects(items) -> dict[str, float]:
+    from euc_sim.simulation import effects as fx
+    out: dict[str, float] = {}
+    for item in items or ():
+        name, value = fx.parse_assignment(item)
+        if name in out:
+            raise ValueError(f"--effect {name} given twice")
+        out[name] = value
+    return out
+
+
+def _check_choice(option: str, value: str, valid) -> None:
+    if value not in valid:
+        raise ValueError(f"{option}: unknown value {value!r}; valid: {', '.join(valid)}")
+
+
+def _motor(args):
+    from controllers.motor import MotorPD
+    return MotorPD(Kp=args.kp, Kd=args.kd, torque_limit=args.motor_limit,
+                   tiltback_speed=math.inf if args.tiltback_speed is None else args.tiltback_speed)
+
+
+def _cmd_simulate(args: argparse.Namespace) -> int:
+    from euc_sim.cli.common import parse_params, say
+    from euc_sim.simulation.dataset import RecordingSpec, write_simulated
+    from euc_sim.io import check_writable
+    from euc_sim.simulation.mocap import NOISE_LEVELS
+    from euc_sim.simulation.engine import ENGINES, default_rider
+    from euc_sim.simulation.maneuvers import MANEUVERS, load_speed_profile, make_maneuver
+    from euc_sim.model.mujoco_model import VARIANTS
+
+    out = Path(args.out)
+    if out.suffix.lower() not in (".csv", ".parquet"):
+        raise ValueError(f"--out must end in .csv or .parquet, got {str(out)!r}")
+    check_writable(out)
+    _check_choice("--noise", args.noise, tuple(NOISE_LEVELS))
+    _check_choice("--engine", args.engine, ENGINES)
+    _check_choice("--variant", args.variant, VARIANTS)
+    _check_choice("--rolling-model", args.rolling_model, ("moment", "contact"))
+    if args.rolling_model == "contact" and (args.variant != "contact" or args.engine != "mujoco"):
+        raise ValueError("--rolling-model contact needs --variant contact and --engine mujoco")
+    if not (math.isfinite(args.duration) and args.duration > 0):
+        raise ValueError(f"--duration must be a positive number of seconds, got {args.duration!r}")
+    if args.profile:
+        if args.maneuver not in (None, "profile"):
+            raise ValueError(f"--profile replaces --maneuver, got --maneuver {args.maneuver!r} too")
+        man = load_speed_profile(args.profile)
+    else:
+        name = args.maneuver or "constant_speed"
+        if name == "profile":
+            raise ValueError("--maneuver profile needs --profile FILE (a CSV with columns t, v)")
+        _check_choice("--maneuver", name, MANEUVERS)
+        man = make_maneuver(name)
+    eff = _effects(args.effect)
+    params = parse_params(args.param)
+    motor = _motor(args)
+    rider = default_rider(params, motor, noise_std=args.rider_noise, delay=args.rider_delay)
+    spec = RecordingSpec(out.with_suffix("").name, man, float(args.duration), int(args.seed), params,
+                         tuple(sorted(eff.items())), args.noise, args.engine, args.variant,
+                         bool(args.hide_torques), motor, rider, args.rolling_model)
+    path = write_simulated(out, spec)
+    say(f"simulate: wrote {path} ({man.name}, {args.duration:g} s, {args.engine}, seed {args.seed})")
+    return 0
+
+
+def _cmd_dataset(args: argparse.Namespace) -> int:
+    import time
+
+    from euc_sim.cli.common import parse_params, say
+    from euc_sim.simulation.dataset import dataset_plan, run_dataset
+    from euc_sim.simulation.mocap import NOISE_LEVELS
+    from euc_sim.simulation.engine import ENGINES
+
+    _check_choice("--noise", args.noise, tuple(NOISE_LEVELS))
+    _check_choice("--engine", args.engine, ENGINES)
+    _check_choice("--format", args.format, ("csv", "parquet"))
+    if args.workers is not None and args.workers < 1:
+        raise ValueError(f"--workers must be at least 1, got {args.workers}")
+    if not (math.isfinite(args.duration) and args.duration > 0):
+        raise ValueError(f"--duration must be a positive number of seconds, got {args.duration!r}")
+    specs = dataset_plan(args.seed, args.duration, params=parse_params(args.param), noise=args.noise,
+                         rider_noise=args.rider_noise, engine=args.engine, effects=_effects(args.effect))
+    t0 = time.perf_counter()
+    paths = run_dataset(args.out, specs, workers=args.workers, progress=not args.no_progress,
+                        ext="." + args.format)
+    say(f"dataset: wrote {len(paths)} recordings to {args.out} in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def _cmd_stability(args: argparse.Namespace) -> int:
+    from euc_sim.cli.common import parse_params
+    from euc_sim.io import check_writable, write_json
+    from euc_sim.simulation.stability import stability_report
+    from euc_sim.simulation.engine import default_rider
+    from controllers.design import delay_tolerance
+
+    if args.json:
+        check_writable(args.json)
+    p = parse_params(args.param)
+    motor = _motor(args)
+    rider = default_rider(p, motor, delay=args.rider_delay)
+    rep = stability_report(p, motor, rider, speed=args.speed, check_mujoco=True)
+    lo, hi = delay_tolerance(p, motor, rider)
+    rep["rider_loop"]["tolerated_actual_delay"] = [lo, hi]
+    jc = rep["jacobian_check"]
+    jac_ok = jc["analytic_vs_central_difference"] < 1e-5 and \
+        jc["analytic_vs_mjd_transitionFD"]["relative_error"] < 1e-4
+    stable = rep["max_real_part"]["motor_pd_and_rider"] < 0 and rep["rider_loop"]["stable_with_delay"]
+    rep["ok"] = bool(jac_ok and stable)
+
+    def eig_text(ev):
+        return ", ".join(f"{re:.3g}{im:+.3g}j" if abs(im) > 1e-9 else f"{re:.3g}" for re, im in ev)
+
+    print(f"operating point: upright at {args.speed:g} m/s; motor Kp = {motor.Kp:g} N·m/rad, "
+          f"Kd = {motor.Kd:g} N·m·s/rad")
+    print(f"rider gains K on (ẋ−v, γ−γ*, φ−φ*, γ̇, φ̇, ∫(ẋ−v)): {', '.join(f'{k:.4g}' for k in rider.K)}")
+    for key, label in (("open_loop", "open loop (no torques)"), ("motor_pd", "motor PD only"),
+                       ("motor_pd_and_rider", "motor PD + rider, no delay")):
+        print(f"eigenvalues, {label} [1/s]: {eig_text(rep['eigenvalues'][key])}")
+    rl = rep["rider_loop"]
+    print(f"rider loop: delay margin without prediction {rl['delay_margin_without_predictor']:.3f} s "
+          f"(crossover {rl['crossover_frequency']:.2f} rad/s); reaction delay {rl['reaction_delay']:g} s")
+    print(f"with the rider's predictor: spectral radius {rl['discrete_spectral_radius_with_delay']:.5f} "
+          f"(sampled at 5 ms, {'stable' if rl['stable_with_delay'] else 'UNSTABLE'}); "
+          f"stable for actual delays {lo:.3f}-{hi:.3f} s")
+    print(f"Jacobians: analytic vs central differences {jc['analytic_vs_central_difference']:.2e}; "
+          f"vs mjd_transitionFD (relative) {jc['analytic_vs_mjd_transitionFD']['relative_error']:.2e}")
+    print("ok" if rep["ok"] else "NOT OK: see above")
+    if args.json:
+        write_json(args.json, rep)
+    return 0 if rep["ok"] else 1
+
+
+def _controller_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--kp", type=float, default=600.0, help="motor PD K_p, N·m/rad (default 600)")
+    p.add_argument("--kd", type=float, default=40.0, help="motor PD K_d, N·m·s/rad (default 40)")
+    p.add_argument("--motor-limit", type=float, default=250.0, help="motor torque limit, N·m")
+    p.add_argument("--tiltback-speed", type=float, default=None,
+                   help="speed above which the EUC tilts back, m/s (default none)")
+    p.add_argument("--rider-delay", type=float, default=0.15, help="rider reaction delay, s (default 0.15)")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="override a Table 3 value")
+
+
+def add_commands(sub) -> None:
+    """Register ``simulate``, ``dataset`` and ``stability`` on the subparsers ``sub``."""
+    from controllers.rider import DEFAULT_RIDER_NOISE
+
+    p = sub.add_parser("simulate", help="closed-loop simulation of a maneuver, written as a recording")
+    p.add_argument("--maneuver", default=None,
+                   help="constant_speed (default), acceleration, deceleration, stop_and_go")
+    p.add_argument("--profile", metavar="CSV", help="speed profile with columns t (s), v (m/s)")
+    p.add_argument("--duration", type=float, default=15.0, help="s (default 15)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the rider and sensor noise")
+    p.add_argument("--out", required=True, metavar="NAME.csv", help="recording (.csv or .parquet)")
+    p.add_argument("--effect", action="append", metavar="NAME=VALUE",
+                   help="inject an effect of CONTRACT's catalog (repeatable)")
+    p.add_argument("--noise", default="paper", help="measurement noise: paper (default) or none")
+    p.add_argument("--engine", default="mujoco", help="mujoco (default) or analytic")
+    p.add_argument("--variant", default="ideal", help="MuJoCo ground: ideal (default) or contact")
+    p.add_argument("--hide-torques", action="store_true", help="leave M_d, M_h out of the recording")
+    p.add_argument("--rolling-model", default="moment",
+                   help="rolling_resistance as an applied moment (default) or as MuJoCo's own rolling "
+                        "friction of the tyre (contact; needs --variant contact)")
+    p.add_argument("--rider-noise", type=float, default=DEFAULT_RIDER_NOISE,
+                   help=f"rider motor noise, N·m (default {DEFAULT_RIDER_NOISE:g})")
+    _controller_options(p)
+    p.set_defaults(func=_cmd_simulate)
+
+    p = sub.add_parser("dataset", help="a paper-like set of synthetic recordings, in parallel")
+    p.add_argument("--out", required=True, metavar="DIR")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--duration", type=float, default=15.0, help="s per recording (default 15)")
+    p.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
+    p.add_argument("--noise", default="paper", help="paper (default) or none")
+    p.add_argument("--engine", default="mujoco", help="mujoco (default) or analytic")
+    p.add_argument("--format", default="csv", help="csv (default) or parquet")
+    p.add_argument("--effect", action="append", metavar="NAME=VALUE", help="inject in every recording")
+    p.add_argument("--rider-noise", type=float, default=DEFAULT_RIDER_NOISE, help="N·m")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="override a Table 3 value")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_dataset)
+
+    p = sub.add_parser("stability", help="linearisation, eigenvalues and the rider's delay margin")
+    p.add_argument("--json", metavar="FILE", help="write the report as JSON")
+    p.add_argument("--speed", type=float, default=0.0, help="operating speed, m/s")
+    _controller_options(p)
+    p.set_defaults(func=_cmd_stability)

@@ -1,0 +1,387 @@
+"""Torques and parameters from a recording: the paper's Section 4, and beyond it.
+
+* :func:`torques` — M_d,1 (eq. 9), M_d,2 (eq. 10), M_h (row 3 of eq. 5) of the 3-DoF
+  model and M̄_d,1, M̄_d,2 (eq. 13) of the reduced model, all from
+  :mod:`euc_sim.model.analytic`, with the consistent term filter applied.
+* :func:`identify_h` — h minimising RMSE(M_d,1 − M_d,2), both models, per recording
+  or pooled, with the whole RMSE(h) curve, a block-bootstrap 95 % interval and an
+  identifiability verdict.
+* :func:`identify_base_parameters` — where M_d is known, the base-parameter groups
+  by linear least squares on the regressor form of eqs. (5)–(8).
+* :func:`identify_controller` — M_d ≈ K_p γ + K_d γ̇ (+ more terms) fitted to M_d,2,
+  which needs no torque measurement.
+* :func:`identify_rider_delay` — a delayed PD law fitted to the estimated M_h.
+
+Why the RMSE curve is cheap: for a fixed recording M_d,1 is affine in h and
+M_d,1 − M_d,2 = P(h)/D(h) with P quadratic and D = m_11 R + m_21 + m_31 affine in h
+(see :func:`euc_sim.model.analytic.driving_torque_2`).  :func:`residual_poly` recovers
+P's and D's coefficients per sample exactly from three evaluations of the
+analytic torques, so RMSE(h) on a whole grid of h is a few array operations.
+
+Consistent filtering: the numerator P is a linear combination, with constant
+coefficients, of the terms of the angular-momentum balance about the contact point
+(NOTES.md, item 1).  The same Gaussian low-pass is applied to P's three coefficient
+series (and hence to every term) while D, which varies by < 1 % along a ride, scales
+the filtered balance back to N·m.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import minimize_scalar
+
+from euc_sim.model import analytic
+from euc_sim.model.parameters import Params
+from euc_sim.identification.processing import DEFAULT_SMOOTHING, Kinematics, Smoothing, kinematics, term_filter
+from euc_sim.identification.torques import MODELS, model_functions
+
+
+#: Values of h at which the analytic torques are evaluated to recover their
+#: polynomial coefficients in h, m (any three distinct positive values).
+_H_NODES = np.array([0.5, 1.0, 1.5])
+
+
+@dataclass(frozen=True)
+class ResidualPoly:
+    """M_d,1 − M_d,2 of one recording as P(h)/D(h), filtered, interior samples only.
+
+    Attributes
+    ----------
+    model : str
+    P : ndarray, shape (3, N)
+        Coefficients of h⁰, h¹, h² of the numerator (M_d,1 − M_d,2)·D, term-filtered,
+        N·m·kg·m per power of h.
+    D : ndarray, shape (2, N)
+        Coefficients of h⁰, h¹ of D = m_11 R + m_21 + m_31, kg·m.
+    t : ndarray, shape (N,)
+    """
+
+    model: str
+    P: np.ndarray
+    D: np.ndarray
+    t: np.ndarray
+
+    def residual(self, h) -> np.ndarray:
+        """M_d,1 − M_d,2 (filtered) for scalar h → (N,) or h of shape (K,) → (K, N), N·m."""
+        h = np.asarray(h, dtype=float)[..., None]
+        return (self.P[0] + h * (self.P[1] + h * self.P[2])) / (self.D[0] + h * self.D[1])
+
+    def sum_squares(self, h) -> np.ndarray:
+        """Σ_t residual², N²·m², for scalar or (K,) h."""
+        return np.sum(self.residual(h) ** 2, axis=-1)
+
+    @property
+    def n(self) -> int:
+        """Number of samples."""
+        return self.P.shape[1]
+
+
+def _lagrange_coefficients(nodes: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """Coefficients (c0, c1, c2, ...) of the polynomial through (nodes, values), per column."""
+    V = np.vander(nodes, len(nodes), increasing=True)
+    return np.linalg.solve(V, values.reshape(len(nodes), -1)).reshape(values.shape)
+
+
+def residual_poly(kin: Kinematics, p: Params, model: str = "3dof") -> ResidualPoly:
+    """The exact polynomial form in h of M_d,1 − M_d,2 for one recording.
+
+    Evaluates the analytic torques (eqs. 9, 10 or 13) at three values of h, recovers
+    the coefficients of the numerator P(h) = (M_d,1 − M_d,2)·D(h) and of the
+    denominator D(h) = m_11 R + m_21 + m_31 (reduced: m_21 = 0), filters P's
+    coefficients with the term filter, and keeps the interior samples.
+
+    Parameters
+    ----------
+    kin : Kinematics
+    p : Params
+        Every parameter but h is used.
+    model : {"3dof", "2dof"}
+
+    Returns
+    -------
+    ResidualPoly
+    """
+    md1, md2, mass_params = model_functions(model)
+    num, den = [], []
+    for h in _H_NODES:
+        ph = p.replace(h=float(h))
+        M = analytic.mass_matrix(mass_params(ph), kin.q)
+        D = M[..., 0, 0] * ph.R + M[..., 1, 0] + M[..., 2, 0]
+        num.append((md1(ph, kin.q, kin.qd, kin.qdd) - md2(ph, kin.q, kin.qd, kin.qdd)) * D)
+        den.append(D)
+    P = _lagrange_coefficients(_H_NODES, np.array(num))
+    D1 = (den[1] - den[0]) / (_H_NODES[1] - _H_NODES[0])
+    D = np.array([den[0] - _H_NODES[0] * D1, D1])
+    P = term_filter(P, kin.smoothing.sigma_samples(kin.dt), axis=-1)
+    sl = kin.interior
+    return ResidualPoly(model=model, P=P[:, sl], D=D[:, sl], t=kin.t[sl])
+
+
+# --- identifying h ---------------------------------------------------------------------------
+@dataclass
+class HFit:
+    """h identified from one or several recordings, one model.
+
+    Attributes
+    ----------
+    model : str
+    h : float
+        Minimiser of RMSE(M_d,1 − M_d,2), m.
+    rmse : float
+        RMSE at the minimum, N·m.
+    h_ci95 : tuple of float
+        95 % moving-block bootstrap interval (basic, i.e. reverse percentile), m,
+        clipped to the search bounds (NaN without bootstrap).
+    identifiable : bool
+        False when the curve is flat: the minimum lies at a search bound, the
+        interval touches a bound or is wider than ``max_ci_width``, or the RMSE rises
+        by less than ``min_rise`` within ±0.1 m.
+    flatness : float
+        RMSE(h ± 0.1 m)/RMSE(h) − 1, the smaller side: how much the curve rises.
+    h_grid, rmse_grid : ndarray
+        The RMSE(h) curve, m and N·m.
+    boot : ndarray
+        Bootstrap minimisers, m.
+    n_samples : int
+    reason : str
+        One sentence on the verdict.
+    """
+
+    model: str
+    h: float
+    rmse: float
+    h_ci95: tuple
+    identifiable: bool
+    flatness: float
+    h_grid: np.ndarray
+    rmse_grid: np.ndarray
+    boot: np.ndarray = field(repr=False)
+    n_samples: int = 0
+    reason: str = ""
+
+    def as_json(self, curve: bool = True) -> dict:
+        """The CONTRACT form (``h, h_ci95, rmse, identifiable``) plus extras."""
+        out = {"h": self.h, "h_ci95": list(self.h_ci95), "rmse": self.rmse,
+               "identifiable": bool(self.identifiable), "flatness": self.flatness,
+               "n_samples": self.n_samples, "reason": self.reason}
+        if curve:
+            out["curve"] = {"h": self.h_grid, "rmse": self.rmse_grid}
+        return out
+
+
+def rmse_curve(polys: list[ResidualPoly], h_grid: np.ndarray) -> np.ndarray:
+    """Pooled RMSE(M_d,1 − M_d,2) on a grid of h, N·m."""
+    ss = sum(rp.sum_squares(h_grid) for rp in polys)
+    return np.sqrt(ss / sum(rp.n for rp in polys))
+
+
+def _parabolic_min(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
+    """Grid minimiser along the last axis refined by a parabola through 3 points."""
+    k = np.clip(np.argmin(J, axis=-1), 1, J.shape[-1] - 2)
+    idx = np.arange(J.shape[0]) if J.ndim == 2 else None
+    if J.ndim == 1:
+        j0, j1, j2 = J[k - 1], J[k], J[k + 1]
+    else:
+        j0, j1, j2 = J[idx, k - 1], J[idx, k], J[idx, k + 1]
+    den = j0 - 2 * j1 + j2
+    step = grid[1] - grid[0]
+    off = np.where(den > 0, 0.5 * (j0 - j2) / np.where(den > 0, den, 1.0), 0.0)
+    return grid[k] + np.clip(off, -1.0, 1.0) * step
+
+
+#: Moving-block bootstrap block, s.  The residual of the consistently filtered torques is
+#: correlated over about three term-filter σ (0.3 s), i.e. ~1 s; longer blocks are fewer
+#: per ride and, when a ride's information sits in one braking event, make the interval
+#: too narrow.  On 100 noise seeds not used to choose it (scripts/coverage_study.py
+#: --first-seed 50 --seeds 100) 1 s blocks cover the true h in 91 % (deceleration) and
+#: 93 % (acceleration) of rides, 2 s blocks in 88 % and 91 %.
+BOOTSTRAP_BLOCK = 1.0
+
+
+def _block_sums(x: np.ndarray, L: int, starts: np.ndarray) -> np.ndarray:
+    """Sums of x (K, N) over the drawn blocks [s, s + L) of each replicate → (n_boot, K).
+
+    Only the ratio to the total drawn length matters for the minimiser, and every
+    recording contributes ceil(N/L) blocks of L samples, so sums are not normalised.
+    """
+    cs = np.concatenate([np.zeros((x.shape[0], 1)), np.cumsum(x, axis=1)], axis=1)
+    return (cs[:, starts + L] - cs[:, starts]).sum(axis=2).T
+
+
+def identify_h(polys: list[ResidualPoly], bounds=(0.1, 1.5), grid_step: float = 0.02,
+               n_boot: int = 400, block: float = BOOTSTRAP_BLOCK, seed: int = 0,
+               max_ci_width: float = 0.15, min_rise: float = 0.2) -> HFit:
+    """Minimise the pooled RMSE(M_d,1 − M_d,2) over h in ``bounds``.
+
+    A grid search (``grid_step``) keeps the whole curve; a bounded Brent search
+    (``scipy.optimize.minimize_scalar``) in the bracket around the grid minimum
+    refines it.  The 95 % interval is a moving-block bootstrap over time: per
+    recording, blocks of ``block`` seconds are drawn with replacement (seeded), the
+    minimiser is recomputed on the grid (parabolic refinement), and the basic
+    (reverse-percentile) interval [2ĥ − q97.5, 2ĥ − q2.5] is reported.
+
+    Parameters
+    ----------
+    polys : list of ResidualPoly
+        One per recording, same model.
+    bounds : (float, float)
+        Search interval for h, m.
+    grid_step : float
+        Grid spacing, m.
+    n_boot : int
+        Bootstrap replicates (0: no interval, verdict from the curve only).
+    block : float
+        Block length, s.
+    seed : int
+        Seed of the bootstrap draws.
+    max_ci_width : float
+        Widest 95 % interval still called identifiable, m.
+    min_rise : float
+        Smallest relative rise of the RMSE within ±0.1 m of the minimum still called
+        identifiable (a flatter curve lets the noise pick h: on a simulated
+        constant-speed ride with 1.5° of sway h came out 0.54-0.61 m with rises of
+        5-10 %; braking and accelerating rides rise by 100-300 %).
+
+    Returns
+    -------
+    HFit
+    """
+    lo, hi = map(float, bounds)
+    if not (0 < lo < hi):
+        raise ValueError(f"h bounds must satisfy 0 < lo < hi, got {bounds!r}")
+    if not polys:
+        raise ValueError("no recordings to identify h from")
+    model = polys[0].model
+    grid = np.linspace(lo, hi, int(round((hi - lo) / grid_step)) + 1)
+    n_tot = sum(rp.n for rp in polys)
+    rng = np.random.default_rng(seed)
+    draws = []                                     # bootstrap block starts per recording
+    ss = np.zeros(len(grid))
+    boot_tot = np.zeros((n_boot, len(grid)))
+    for rp in polys:                               # one recording at a time: (K, N_i) arrays
+        x = rp.residual(grid) ** 2
+        ss += x.sum(axis=1)
+        if n_boot > 0:
+            dt = float(rp.t[1] - rp.t[0]) if rp.n > 1 else 1.0
+            L = int(min(max(1, round(block / dt)), rp.n))
+            starts = rng.integers(0, rp.n - L + 1, size=(n_boot, int(math.ceil(rp.n / L))))
+            draws.append((L, starts))
+            boot_tot += _block_sums(x, L, starts)
+    J = ss / n_tot
+    k = int(np.argmin(J))
+    a, b = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
+    f = lambda h: float(sum(rp.sum_squares(h) for rp in polys)) / n_tot      # noqa: E731
+    res = minimize_scalar(f, bounds=(a, b), method="bounded", options={"xatol": 1e-10})
+    h_opt = float(res.x) if res.fun <= J[k] else float(grid[k])
+    rmse = math.sqrt(min(res.fun, J[k]))
+
+    boot = np.array([])
+    ci = (math.nan, math.nan)
+    if n_boot > 0:
+        boot = _parabolic_min(grid, boot_tot)
+        # refine twice on finer grids spanning the replicates' minima (the same draws)
+        step = grid[1] - grid[0]
+        for _ in range(2):
+            fine = np.linspace(max(lo, boot.min() - step), min(hi, boot.max() + step), 41)
+            fine_tot = np.zeros((n_boot, len(fine)))
+            for rp, (L, starts) in zip(polys, draws):
+                fine_tot += _block_sums(rp.residual(fine) ** 2, L, starts)
+            boot = _parabolic_min(fine, fine_tot)
+            step = 2 * (fine[1] - fine[0])
+        # basic (reverse-percentile) interval: the replicates' spread reflected about
+        # h_opt.  Resampling blocks of a ride whose information sits in one maneuver
+        # skews the replicates; the plain percentile interval then covered the true h
+        # in only 74-80 % of 50 noise seeds, the basic one in 90-94 %
+        # (scripts/coverage_study.py).
+        q_lo, q_hi = np.percentile(boot, [2.5, 97.5])
+        ci = (float(max(lo, 2 * h_opt - q_hi)), float(min(hi, 2 * h_opt - q_lo)))
+
+    curve = np.sqrt(J)
+    side = [np.interp(h_opt + d, grid, curve) for d in (-0.1, 0.1) if lo <= h_opt + d <= hi]
+    flatness = float(min(side) / rmse - 1.0) if side and rmse > 0 else math.inf
+    margin = 2 * grid_step
+    if h_opt < lo + margin or h_opt > hi - margin:
+        ok, why = False, f"the minimum lies at the search bound ({h_opt:.3f} m in [{lo}, {hi}] m)"
+    elif n_boot > 0 and (ci[0] < lo + margin or ci[1] > hi - margin):
+        ok, why = False, (f"the 95% interval [{ci[0]:.3f}, {ci[1]:.3f}] m reaches the search "
+                          f"bound: the RMSE curve is flat")
+    elif n_boot > 0 and ci[1] - ci[0] > max_ci_width:
+        ok, why = False, (f"the 95% interval is {ci[1] - ci[0]:.3f} m wide (> {max_ci_width} m): "
+                          f"the RMSE curve is flat")
+    elif flatness < min_rise:
+        ok, why = False, (f"the RMSE rises only {100 * flatness:.1f}% within ±0.1 m of the minimum "
+                          f"(< {100 * min_rise:.0f}%): the curve is flat and h is at the mercy "
+                          f"of the noise")
+    else:
+        ok, why = True, (f"interior minimum, RMSE rises {100 * flatness:.1f}% within ±0.1 m"
+                         + (f", 95% interval {ci[1] - ci[0]:.3f} m wide" if n_boot > 0 else ""))
+    return HFit(model=model, h=h_opt, rmse=rmse, h_ci95=ci, identifiable=ok, flatness=flatness,
+                h_grid=grid, rmse_grid=curve, boot=boot, n_samples=n_tot, reason=why)
+
+
+# --- recordings, end to end ------------------------------------------------------------------
+@dataclass
+class Recording:
+    """A loaded recording: its data, metadata, parameters and kinematics."""
+
+    name: str
+    df: pd.DataFrame
+    meta: dict
+    params: Params
+    kin: Kinematics
+
+
+def load(path, smoothing: Smoothing = DEFAULT_SMOOTHING, params: Params | None = None,
+         d_CE: float | None = None, phi_from: str = "A", source: str = "auto") -> Recording:
+    """Read, validate and differentiate one recording.
+
+    Parameters
+    ----------
+    path : path
+    smoothing : Smoothing
+    params : Params, optional
+        Overrides the sidecar's parameters (else Table 3 with the sidecar's entries).
+    d_CE : float, optional
+        C–E distance for motion-capture files, m (else the sidecar's ``"d_CE"``).
+    phi_from : {"A", "C"}
+        The exact rider pitch (default) or eq. (3), motion-capture files only.
+    source : {"auto", "state", "mocap"}
+        See :func:`euc_sim.identification.processing.kinematics`.
+
+    Raises
+    ------
+    euc_sim.identification.recordings.RecordingError, FileNotFoundError
+    """
+    from euc_sim.identification.recordings import params_from_meta, read_recording
+
+    df, meta = read_recording(path)
+    p = params if params is not None else params_from_meta(meta, path)
+    if d_CE is None and meta.get("d_CE") is not None:
+        d_CE = float(meta["d_CE"])
+    kin = kinematics(df, p, smoothing, d_CE=d_CE, phi_from=phi_from, name=str(path), source=source)
+    return Recording(name=str(path), df=df, meta=meta, params=p, kin=kin)
+
+
+def identify_recordings(recs: list[Recording], bounds=(0.1, 1.5), grid_step: float = 0.02,
+                        n_boot: int = 400, block: float = BOOTSTRAP_BLOCK, seed: int = 0,
+                        max_ci_width: float = 0.15) -> dict:
+    """Per-recording and pooled h for both models.
+
+    Returns
+    -------
+    dict
+        ``{"pooled": {model: HFit}, "per_recording": [{model: HFit}, ...],
+        "polys": [{model: ResidualPoly}, ...]}``.
+    """
+    kw = dict(bounds=bounds, grid_step=grid_step, n_boot=n_boot, block=block,
+              max_ci_width=max_ci_width)
+    polys = [{m: residual_poly(r.kin, r.params, m) for m in MODELS} for r in recs]
+    per = [{m: identify_h([pp[m]], seed=seed + i, **kw) for m in MODELS}
+           for i, pp in enumerate(polys)]
+    pooled = ({m: identify_h([pp[m] for pp in polys], seed=seed, **kw) for m in MODELS}
+              if len(recs) > 1 else per[0])
+    return {"pooled": pooled, "per_recording": per, "polys": polys}

@@ -1,0 +1,396 @@
+"""From a recording to (q, q̇, q̈): the paper's Section 2 and the smoothing.
+
+Two recipes, one :class:`Smoothing` setting:
+
+``"consistent"`` (the default)
+    Derivatives from a *short* Savitzky–Golay fit (0.25 s, order 5 at 120 Hz, whose
+    bias on ~1 Hz motion is negligible), then **one** linear low-pass, a Gaussian of
+    ``term_sigma`` seconds, applied identically to every term of the torque
+    equations (:func:`term_filter`).  This is the state-variable-filter idea of
+    classical identification: since the same filter multiplies every term, an
+    equation that holds sample by sample still holds after filtering, so the filter
+    removes the noise without biasing the balance of the terms.
+``"savgol"`` (the paper's recipe)
+    q, q̇, q̈ straight from one long Savitzky–Golay fit (1 s, order 3), each
+    derivative from the fitted polynomial (``savgol_filter(deriv=k)``).  Each
+    derivative then has its own frequency response; on ~1 Hz motion the mismatch
+    biases h low by 5-10 % (NOTES.md, item 4) and sets the residual floor.
+
+Measured by ``scripts/filter_study.py`` (simulated 15 s deceleration, true h = 0.6 m,
+the paper's noise, 10 seeds): the null residual RMSE(M_d,1 − M_d,2) at the true h is
+0.17 N·m consistent (σ = 0.3 s) against 0.50 N·m with the paper's recipe (1 s
+window), noise-free 3e-5 against 0.26 N·m; h comes out 0.596 ± 0.005 m against
+0.565 ± 0.005 m (noise-free 0.60000 against 0.570 m).
+
+Section 2 for motion-capture files (:func:`mocap_state`): C from the EUC pivot E
+with the Euler angles (yaw-tilt-pitch) and the C–E distance, r_CG in the moving
+frame by eqs. (1)–(2), φ by eq. (3) or exactly from the ankle A (the default: eq. (3)
+measures the lean from C and overstates it by about l0 (φ − γ)/(h − l0)), and v_Cx,
+a_Cx as the longitudinal components of Ṙ_C, R̈_C in the moving frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pandas as pd
+from scipy.integrate import cumulative_trapezoid
+from scipy.ndimage import gaussian_filter1d
+from scipy.signal import savgol_filter
+
+from euc_sim.model.parameters import Params
+
+__all__ = [
+    "Smoothing", "Kinematics", "DEFAULT_SMOOTHING", "PAPER_SMOOTHING", "savgol_derivatives",
+    "term_filter", "T_psi", "T_theta", "T_pitch", "moving_frame", "wheel_centre",
+    "mocap_state", "kinematics", "sample_period",
+]
+
+#: Gaussian truncation of :func:`term_filter`, standard deviations.
+_TRUNCATE = 4.0
+
+
+@dataclass(frozen=True)
+class Smoothing:
+    """How derivatives are estimated and the torque terms filtered.
+
+    Attributes
+    ----------
+    method : {"consistent", "savgol"}
+        ``"consistent"``: short Savitzky–Golay derivatives, then one Gaussian
+        low-pass applied identically to every torque term.  ``"savgol"``: the paper's
+        recipe, derivatives from one long Savitzky–Golay fit, no term filter.
+    window : float or None
+        Savitzky–Golay window, s (rounded to an odd number of samples); ``None`` for
+        the method's default: 0.25 s consistent, 1.0 s savgol.
+    order : int or None
+        Savitzky–Golay polynomial order; ``None``: 5 consistent, 3 savgol.
+    term_sigma : float
+        Standard deviation of the Gaussian term filter, s (consistent only); 0 turns
+        it off.
+
+    Raises
+    ------
+    ValueError
+        for an unknown method, a non-positive window or an order below 2.
+    """
+
+    method: str = "consistent"
+    window: float | None = None
+    order: int | None = None
+    term_sigma: float = 0.3
+
+    def __post_init__(self) -> None:
+        if self.method not in ("consistent", "savgol"):
+            raise ValueError(f"smoothing method must be 'consistent' or 'savgol', got {self.method!r}")
+        if self.window is None:
+            object.__setattr__(self, "window", 0.25 if self.method == "consistent" else 1.0)
+        if self.order is None:
+            object.__setattr__(self, "order", 5 if self.method == "consistent" else 3)
+        if not (math.isfinite(self.window) and self.window > 0):
+            raise ValueError(f"smoothing window must be positive, got {self.window!r} s")
+        if int(self.order) != self.order or self.order < 2:
+            raise ValueError(f"smoothing order must be an integer ≥ 2 (for q̈), got {self.order!r}")
+        if not (math.isfinite(self.term_sigma) and self.term_sigma >= 0):
+            raise ValueError(f"term filter sigma must be non-negative, got {self.term_sigma!r} s")
+        if self.method == "savgol":
+            object.__setattr__(self, "term_sigma", 0.0)
+
+    def samples(self, dt: float) -> int:
+        """The window in samples: odd, and larger than the order."""
+        n = int(round(self.window / dt))
+        n += 1 - n % 2
+        return max(n, self.order + 1 + (self.order % 2))
+
+    def sigma_samples(self, dt: float) -> float:
+        """The term filter's standard deviation in samples (0: no filter)."""
+        return self.term_sigma / dt
+
+    def edge(self, dt: float) -> int:
+        """Samples at each end where the filters lack support; dropped from fits."""
+        return self.samples(dt) // 2 + int(math.ceil(3.0 * self.sigma_samples(dt)))
+
+    def min_samples(self, dt: float) -> int:
+        """Shortest usable recording: both edges plus one window of interior."""
+        return 2 * self.edge(dt) + self.samples(dt)
+
+    def describe(self) -> dict:
+        """JSON-friendly description."""
+        return {"method": self.method, "window_s": self.window, "order": self.order,
+                "term_sigma_s": self.term_sigma}
+
+    def replace(self, **changes) -> "Smoothing":
+        """A copy with some settings changed."""
+        return replace(self, **changes)
+
+
+#: The default: consistent filtering.
+DEFAULT_SMOOTHING = Smoothing()
+#: The paper's recipe.
+PAPER_SMOOTHING = Smoothing(method="savgol")
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """Coordinates and their derivatives on a uniform time grid.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Time, s.
+    q, qd, qdd : ndarray, shape (N, 3)
+        (x, γ, φ) in m, rad; rates m/s, rad/s; accelerations m/s², rad/s².
+    extra : dict of str to ndarray
+        Yaw and tilt (``psi``, ``theta``) in rad where recorded, for figures: as
+        recorded for state-level files, smoothed for motion-capture files.
+    smoothing : Smoothing
+        How they were obtained; its term filter is still to be applied to the
+        torque terms (:func:`term_filter`).
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    extra: dict
+    smoothing: Smoothing
+
+    @property
+    def dt(self) -> float:
+        """Sample period, s."""
+        return float(self.t[1] - self.t[0])
+
+    @property
+    def interior(self) -> slice:
+        """The samples with full filter support."""
+        e = self.smoothing.edge(self.dt)
+        return slice(e, len(self.t) - e)
+
+
+def sample_period(t: np.ndarray) -> float:
+    """The (uniform) sample period of a time column, s."""
+    t = np.asarray(t, dtype=float)
+    return float((t[-1] - t[0]) / (len(t) - 1))
+
+
+def savgol_derivatives(y: np.ndarray, dt: float, window: int, order: int, axis: int = 0):
+    """Smoothed signal and its first two derivatives from one Savitzky–Golay fit.
+
+    Each is the value or derivative of the local fitted polynomial at the centre
+    sample (``scipy.signal.savgol_filter`` with ``deriv``); ``mode="interp"`` fits the
+    end polynomials to the first and last windows.
+
+    Parameters
+    ----------
+    y : ndarray
+        Samples, uniform in time along ``axis``.
+    dt : float
+        Sample period, s.
+    window : int
+        Odd window length, samples.
+    order : int
+        Polynomial order.
+
+    Returns
+    -------
+    y0, y1, y2 : ndarray
+        Same shape as ``y``; units of y, y/s, y/s².
+    """
+    y = np.asarray(y, dtype=float)
+    return tuple(savgol_filter(y, window, order, deriv=k, delta=dt, axis=axis, mode="interp")
+                 for k in (0, 1, 2))
+
+
+def term_filter(y: np.ndarray, sigma_samples: float, axis: int = -1) -> np.ndarray:
+    """The consistent low-pass: a Gaussian of ``sigma_samples`` along ``axis``.
+
+    Linear and time-invariant, so applying it to every term of an equation that
+    holds sample by sample keeps the equation; returns ``y`` unchanged (a copy) for
+    ``sigma_samples == 0``.
+    """
+    y = np.asarray(y, dtype=float)
+    if sigma_samples <= 0:
+        return y.copy()
+    return gaussian_filter1d(y, sigma_samples, axis=axis, mode="nearest", truncate=_TRUNCATE)
+
+
+# --- Section 2: rotations, eqs. (1)-(2) --------------------------------------------------
+def T_psi(psi: np.ndarray) -> np.ndarray:
+    """Yaw rotation T_ψ of eq. (2), shape (..., 3, 3)."""
+    psi = np.asarray(psi, dtype=float)
+    c, s = np.cos(psi), np.sin(psi)
+    o, z = np.ones_like(psi), np.zeros_like(psi)
+    return np.stack([np.stack([c, -s, z], -1), np.stack([s, c, z], -1), np.stack([z, z, o], -1)], -2)
+
+
+def T_theta(theta: np.ndarray) -> np.ndarray:
+    """Tilt rotation T_ϑ of eq. (2) (about the longitudinal axis), shape (..., 3, 3)."""
+    theta = np.asarray(theta, dtype=float)
+    c, s = np.cos(theta), np.sin(theta)
+    o, z = np.ones_like(theta), np.zeros_like(theta)
+    return np.stack([np.stack([o, z, z], -1), np.stack([z, c, -s], -1), np.stack([z, s, c], -1)], -2)
+
+
+def T_pitch(gamma: np.ndarray) -> np.ndarray:
+    """Pitch rotation about the lateral axis, positive tipping the top forward (+x)."""
+    gamma = np.asarray(gamma, dtype=float)
+    c, s = np.cos(gamma), np.sin(gamma)
+    o, z = np.ones_like(gamma), np.zeros_like(gamma)
+    return np.stack([np.stack([c, z, s], -1), np.stack([z, o, z], -1), np.stack([-s, z, c], -1)], -2)
+
+
+def moving_frame(vec_ground: np.ndarray, psi: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """Eq. (1): r = T_ϑᵀ T_ψᵀ R, a ground-frame vector in the moving frame (x, y, z).
+
+    Parameters
+    ----------
+    vec_ground : ndarray, shape (N, 3)
+    psi, theta : ndarray, shape (N,)
+        Yaw and tilt of the EUC, rad.
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+    """
+    rot = np.einsum("...ji,...kj->...ik", T_theta(theta), T_psi(psi))   # T_ϑᵀ T_ψᵀ
+    return np.einsum("...ij,...j->...i", rot, np.asarray(vec_ground, dtype=float))
+
+
+def wheel_centre(E: np.ndarray, psi, theta, gamma, d_CE: float) -> np.ndarray:
+    """C from the EUC pivot E: E lies d_CE from C along the EUC body's axis.
+
+    The body axis in the ground frame is T_ψ T_ϑ T_γ e_z (yaw-tilt-pitch).
+
+    Returns
+    -------
+    ndarray, shape (N, 3)
+        C in the ground frame, m.
+    """
+    rot = T_psi(psi) @ T_theta(theta) @ T_pitch(gamma)
+    return np.asarray(E, dtype=float) - d_CE * rot[..., :, 2]
+
+
+def mocap_state(df: pd.DataFrame, p: Params, smoothing: Smoothing, d_CE: float | None = None,
+                phi_from: str = "A") -> Kinematics:
+    """The paper's Section 2: motion-capture columns to (q, q̇, q̈).
+
+    Parameters
+    ----------
+    df : DataFrame
+        ``t``, ``psi, theta, gamma`` (rad), ``G_X, G_Y, G_Z`` and either ``C_X..C_Z``
+        or ``E_X..E_Z`` (m, ground frame).
+    p : Params
+        Uses ``l0`` for ``phi_from="A"``.
+    smoothing : Smoothing
+    d_CE : float, optional
+        Distance C–E along the EUC body, m; needed when C is not recorded.
+    phi_from : {"A", "C"}
+        ``"C"``: eq. (3), φ = arctan(x_CG / z_CG), the rider's pitch seen from the
+        wheel centre.  The model's φ is measured from the ankle A, l0 below C along
+        the EUC body, so eq. (3) overstates the lean by about l0 (φ − γ)/(h − l0)
+        (9 % of the rider's lean relative to the board for l0 = 0.05 m, h = 0.6 m).
+        ``"A"`` (the default) is the exact alternative, CONTRACT's φ:
+        φ = atan2(x_CG + l0 sin γ, z_CG + l0 cos γ), the direction A→G.  On the
+        synthetic deceleration of ``tests/test_processing.py`` with the paper's noise
+        eq. (3) moves the identified h from 0.593 m to 0.474 m (true 0.6 m).
+
+    Returns
+    -------
+    Kinematics
+        x = ∫ v_Cx dt, ẋ = v_Cx, ẍ = a_Cx (longitudinal components of Ṙ_C, R̈_C in
+        the moving frame); γ, φ with derivatives from the smoothing; ψ, ϑ in
+        ``extra``.
+
+    Raises
+    ------
+    ValueError
+        when C is not recorded and ``d_CE`` is not given, or ``phi_from`` is unknown.
+    """
+    if phi_from not in ("C", "A"):
+        raise ValueError(f"phi_from must be 'C' (eq. 3) or 'A' (exact), got {phi_from!r}")
+    t = df["t"].to_numpy(dtype=float)
+    dt = sample_period(t)
+    w, o = smoothing.samples(dt), smoothing.order
+    ang = {k: df[k].to_numpy(dtype=float) for k in ("psi", "theta", "gamma")}
+    G = df[["G_X", "G_Y", "G_Z"]].to_numpy(dtype=float)
+    if {"C_X", "C_Y", "C_Z"} <= set(df.columns):
+        C = df[["C_X", "C_Y", "C_Z"]].to_numpy(dtype=float)
+    else:
+        if d_CE is None:
+            raise ValueError("column 'C_X' missing: the C–E distance (d_CE, m) is needed to "
+                             "place the wheel centre from the pivot E")
+        if not (math.isfinite(d_CE) and d_CE > 0):
+            raise ValueError(f"the C–E distance d_CE must be a positive length, got {d_CE!r} m")
+        E = df[["E_X", "E_Y", "E_Z"]].to_numpy(dtype=float)
+        C = wheel_centre(E, ang["psi"], ang["theta"], ang["gamma"], d_CE)
+    C0, C1, C2 = savgol_derivatives(C, dt, w, o, axis=0)
+    psi, _, _ = savgol_derivatives(ang["psi"], dt, w, o)
+    theta, _, _ = savgol_derivatives(ang["theta"], dt, w, o)
+    G0 = savgol_derivatives(G, dt, w, o, axis=0)[0]
+    r_CG = moving_frame(G0 - C0, psi, theta)                                  # eq. (1)
+    gamma_raw = ang["gamma"]
+    if phi_from == "C":
+        phi_raw = np.arctan2(r_CG[:, 0], r_CG[:, 2])                           # eq. (3)
+    else:
+        g0 = savgol_derivatives(gamma_raw, dt, w, o)[0]
+        phi_raw = np.arctan2(r_CG[:, 0] + p.l0 * np.sin(g0), r_CG[:, 2] + p.l0 * np.cos(g0))
+    v_C = moving_frame(C1, psi, theta)                                        # v_Cx
+    a_C = moving_frame(C2, psi, theta)                                        # a_Cx
+    x = cumulative_trapezoid(v_C[:, 0], t, initial=0.0)
+    gam = savgol_derivatives(gamma_raw, dt, w, o)
+    phi = savgol_derivatives(phi_raw, dt, w, o)
+    q = np.column_stack([x, gam[0], phi[0]])
+    qd = np.column_stack([v_C[:, 0], gam[1], phi[1]])
+    qdd = np.column_stack([a_C[:, 0], gam[2], phi[2]])
+    return Kinematics(t=t, q=q, qd=qd, qdd=qdd, extra={"psi": psi, "theta": theta},
+                      smoothing=smoothing)
+
+
+def kinematics(df: pd.DataFrame, p: Params, smoothing: Smoothing = DEFAULT_SMOOTHING,
+               d_CE: float | None = None, phi_from: str = "A", name: str = "recording",
+               source: str = "auto") -> Kinematics:
+    """(q, q̇, q̈) of a validated recording, state-level or motion-capture level.
+
+    Parameters
+    ----------
+    df : DataFrame
+        A validated recording (:func:`euc_sim.identification.recordings.read_recording`).
+    p : Params
+    smoothing : Smoothing
+    d_CE, phi_from
+        Motion-capture files only, see :func:`mocap_state`.
+    name : str
+        The file, for messages.
+    source : {"auto", "state", "mocap"}
+        Which columns to use: ``"auto"`` takes x, γ, φ when present and the
+        motion-capture columns (Section 2) otherwise; ``"mocap"`` forces Section 2.
+
+    Raises
+    ------
+    euc_sim.identification.recordings.RecordingError
+        when the recording is too short for the smoothing.
+    """
+    from euc_sim.identification.recordings import check_length, is_mocap
+
+    t = df["t"].to_numpy(dtype=float)
+    dt = sample_period(t)
+    check_length(df, name, smoothing.min_samples(dt),
+                 f"the smoothing window ({smoothing.samples(dt)} samples and "
+                 f"{smoothing.edge(dt)} edge samples each side)")
+    if source not in ("auto", "state", "mocap"):
+        raise ValueError(f"source must be 'auto', 'state' or 'mocap', got {source!r}")
+    has_mocap = {"G_X", "G_Y", "G_Z", "psi", "theta", "gamma"} <= set(df.columns) and (
+        {"C_X", "C_Y", "C_Z"} <= set(df.columns) or {"E_X", "E_Y", "E_Z"} <= set(df.columns))
+    if source == "mocap" and not has_mocap:
+        from euc_sim.identification.recordings import RecordingError
+        raise RecordingError(f"{name}: column 'G_X' row 0: motion-capture columns (C or E, G, "
+                             f"psi, theta, gamma) are needed for Section 2 processing")
+    if source == "mocap" or (source == "auto" and is_mocap(df)):
+        return mocap_state(df, p, smoothing, d_CE=d_CE, phi_from=phi_from)
+    w, o = smoothing.samples(dt), smoothing.order
+    Q = df[["x", "gamma", "phi"]].to_numpy(dtype=float)
+    q, qd, qdd = savgol_derivatives(Q, dt, w, o, axis=0)
+    extra = {k: df[k].to_numpy(dtype=float) for k in ("psi", "theta") if k in df.columns}
+    return Kinematics(t=t, q=q, qd=qd, qdd=qdd, extra=extra, smoothing=smoothing)

@@ -1,0 +1,303 @@
+"""Reading and validating recordings (CONTRACT.md, "A recording").
+
+A recording is a CSV or Parquet file with a header row, one sample a row, SI units
+and angles in radians, and an optional sidecar ``NAME.json`` with metadata.  The
+truth file ``NAME.truth.json`` of a synthetic recording is never read here.
+
+Every problem is a :class:`RecordingError` (a ``ValueError``) whose one-line message
+names the file, the column and the row (1-based data row, header excluded), so that
+``euc-sim`` can print it as is.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from euc_sim.model.parameters import Params
+
+__all__ = [
+    "RecordingError", "RecordingWarning", "STATE_COLUMNS", "MOCAP_COLUMNS", "ANGLE_COLUMNS",
+    "read_recording", "read_sidecar", "params_from_meta", "validate_recording",
+    "check_time", "check_finite", "check_angles", "check_length", "is_mocap",
+]
+
+#: The generalized coordinates every state-level recording carries.
+STATE_COLUMNS = ("t", "x", "gamma", "phi")
+#: The motion-capture level columns of Section 2 (C may be replaced by E).
+MOCAP_COLUMNS = ("t", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z", "psi", "theta", "gamma")
+#: Columns holding angles, rad.
+ANGLE_COLUMNS = ("gamma", "phi", "psi", "theta")
+#: Largest |angle| (rad) a pitch or tilt may reach before it looks like degrees.
+PITCH_LIMIT = math.radians(60.0)
+#: Longest run of missing samples that is interpolated (with a warning), samples.
+MAX_GAP = 5
+
+
+class RecordingError(ValueError):
+    """A recording that cannot be used; the one-line message names file, column, row."""
+
+
+class RecordingWarning(UserWarning):
+    """Something was repaired (short gaps interpolated); the message says how much."""
+
+
+def is_mocap(df: pd.DataFrame) -> bool:
+    """True when the frame carries motion-capture columns instead of x and phi."""
+    return "phi" not in df.columns and {"G_X", "G_Z", "gamma", "psi", "theta"} <= set(df.columns)
+
+
+def read_sidecar(path: str | Path) -> dict[str, Any]:
+    """The metadata in ``NAME.json`` beside ``NAME.csv``; ``{}`` when there is none.
+
+    ``NAME.truth.json`` is never read.
+
+    Raises
+    ------
+    RecordingError
+        when the sidecar exists but is not a JSON object.
+    """
+    path = Path(path)
+    side = path.with_suffix(".json")
+    if side.name.endswith(".truth.json") or not side.is_file():
+        return {}
+    try:
+        meta = json.loads(side.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise RecordingError(f"{side}: sidecar is not valid JSON ({exc})") from None
+    if not isinstance(meta, dict):
+        raise RecordingError(f"{side}: sidecar must hold a JSON object, got {type(meta).__name__}")
+    return meta
+
+
+def params_from_meta(meta: dict[str, Any], source: str | Path = "sidecar") -> Params:
+    """Table 3 overridden by ``meta["params"]``.
+
+    Raises
+    ------
+    RecordingError
+        naming the sidecar and the offending parameter.
+    """
+    try:
+        return Params.from_mapping(meta.get("params") or {})
+    except (ValueError, TypeError) as exc:
+        raise RecordingError(f"{source}: {exc}") from None
+
+
+def _first_row(mask: np.ndarray) -> int:
+    """1-based data row of the first True."""
+    return int(np.flatnonzero(mask)[0]) + 1
+
+
+def check_time(df: pd.DataFrame, name: str) -> None:
+    """Strictly increasing, finite time.
+
+    Raises
+    ------
+    RecordingError
+        naming the first row where ``t`` repeats or goes back.
+    """
+    t = df["t"].to_numpy(dtype=float)
+    bad = ~np.isfinite(t)
+    if bad.any():
+        raise RecordingError(f"{name}: column 't' row {_first_row(bad)}: time must be finite, "
+                             f"got {float(t[bad][0])!r}")
+    dt = np.diff(t)
+    if (dt <= 0).any():
+        i = int(np.flatnonzero(dt <= 0)[0]) + 1
+        what = "duplicate" if dt[i - 1] == 0 else "decreasing"
+        raise RecordingError(f"{name}: column 't' row {i + 1}: {what} time {float(t[i]):g} s after "
+                             f"{float(t[i - 1]):g} s; time must be strictly increasing")
+    if len(dt) and (dt.max() > 1.5 * np.median(dt) * 1.0001 + 1e-12):
+        i = int(np.argmax(dt)) + 1
+        raise RecordingError(f"{name}: column 't' row {i + 1}: time step {dt[i - 1]:.4g} s "
+                             f"is uneven (median {np.median(dt):.4g} s); resample the recording "
+                             f"to a uniform rate")
+
+
+def check_finite(df: pd.DataFrame, name: str, columns, max_gap: int = MAX_GAP) -> pd.DataFrame:
+    """Interpolate short runs of NaN/inf, refuse long ones; returns a new frame.
+
+    Parameters
+    ----------
+    df : DataFrame
+    name : str
+        The file, for messages.
+    columns : iterable of str
+        Columns to check (the others pass through).
+    max_gap : int
+        Longest run of consecutive missing samples that is interpolated.
+
+    Raises
+    ------
+    RecordingError
+        naming the column and the first row of a gap longer than ``max_gap`` (or of
+        a gap at either end, which cannot be interpolated).
+
+    Warns
+    -----
+    RecordingWarning
+        with the number of interpolated samples.
+    """
+    out = df.copy()
+    repaired = 0
+    for col in columns:
+        y = out[col].to_numpy(dtype=float, copy=True)
+        bad = ~np.isfinite(y)
+        if not bad.any():
+            continue
+        edges = np.diff(np.concatenate([[0], bad.astype(int), [0]]))
+        starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+        for s, e in zip(starts, ends):
+            if e - s > max_gap or s == 0 or e == len(y):
+                where = "at the start" if s == 0 else "at the end" if e == len(y) else "long"
+                raise RecordingError(
+                    f"{name}: column {col!r} row {s + 1}: {e - s} missing or non-finite "
+                    f"value(s) ({where} gap; at most {max_gap} inside the recording are "
+                    f"interpolated)")
+        idx = np.arange(len(y))
+        y[bad] = np.interp(idx[bad], idx[~bad], y[~bad])
+        out[col] = y
+        repaired += int(bad.sum())
+    if repaired:
+        warnings.warn(f"{name}: interpolated {repaired} missing or non-finite sample(s)",
+                      RecordingWarning, stacklevel=2)
+    return out
+
+
+def check_angles(df: pd.DataFrame, name: str) -> None:
+    """Refuse pitch/tilt columns that look like degrees.
+
+    ``gamma``, ``phi`` and ``theta`` beyond ±60° are not a ridden EUC; ``psi`` (yaw)
+    may wind up, so it is refused only when its steps exceed 1 rad per sample.
+
+    Raises
+    ------
+    RecordingError
+        naming the column and the row of the first implausible value.
+    """
+    for col in ("gamma", "phi", "theta"):
+        if col in df.columns:
+            y = df[col].to_numpy(dtype=float)
+            bad = np.abs(y) > PITCH_LIMIT
+            if bad.any():
+                raise RecordingError(
+                    f"{name}: column {col!r} row {_first_row(bad)}: {y[bad][0]:.4g} looks like "
+                    f"degrees (|angle| > {math.degrees(PITCH_LIMIT):.0f}° in radians); angles "
+                    f"must be in radians")
+    if "psi" in df.columns:
+        step = np.abs(np.diff(df["psi"].to_numpy(dtype=float)))
+        bad = step > 1.0
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0]) + 1
+            raise RecordingError(f"{name}: column 'psi' row {i + 1}: yaw jumps by {step[i - 1]:.4g} "
+                                 f"in one sample; angles must be in radians and unwrapped")
+
+
+def check_length(df: pd.DataFrame, name: str, min_samples: int, why: str = "the smoothing window") -> None:
+    """Refuse a recording shorter than ``min_samples`` rows.
+
+    Raises
+    ------
+    RecordingError
+    """
+    if len(df) < min_samples:
+        raise RecordingError(f"{name}: column 't' row {len(df)}: only {len(df)} samples, "
+                             f"too short for {why} (needs at least {min_samples})")
+
+
+def validate_recording(df: pd.DataFrame, name: str = "recording", max_gap: int = MAX_GAP) -> pd.DataFrame:
+    """Check a recording's columns, time, values and angles; returns a repaired copy.
+
+    Either the state columns (``t, x, gamma, phi``) or the motion-capture columns
+    (``t``, C or E, G, ``psi, theta, gamma``) must be present.
+
+    Raises
+    ------
+    RecordingError
+    """
+    cols = set(df.columns)
+    if "t" not in cols:
+        raise RecordingError(f"{name}: column 't' row 0: missing required column 't' "
+                             f"(found {', '.join(map(str, df.columns)) or 'none'})")
+    if is_mocap(df) or any(c.startswith(("G_", "E_", "C_")) for c in cols) and "phi" not in cols:
+        need = ["t", "G_X", "G_Y", "G_Z", "psi", "theta", "gamma"]
+        if not {"C_X", "C_Y", "C_Z"} <= cols:
+            need += ["E_X", "E_Y", "E_Z"]
+    else:
+        need = list(STATE_COLUMNS)
+    missing = [c for c in need if c not in cols]
+    if missing:
+        raise RecordingError(f"{name}: column {missing[0]!r} row 0: missing required column(s) "
+                             f"{', '.join(missing)}")
+    numeric = [c for c in df.columns
+               if c in need or c in ANGLE_COLUMNS or c in ("M_d", "M_h")
+               or c.startswith(("C_", "E_", "G_"))]
+    for c in numeric:
+        if not pd.api.types.is_numeric_dtype(df[c]):
+            conv = pd.to_numeric(df[c], errors="coerce")
+            bad = conv.isna() & df[c].notna()
+            if bad.any():
+                row = _first_row(bad.to_numpy())
+                raise RecordingError(f"{name}: column {c!r} row {row}: not a number: "
+                                     f"{df[c].iloc[row - 1]!r}")
+            df = df.assign(**{c: conv})
+    check_time(df, name)
+    df = check_finite(df, name, [c for c in numeric if c != "t"], max_gap=max_gap)
+    check_angles(df, name)
+    check_length(df, name, 8, "any derivative")
+    return df
+
+
+def read_recording(path: str | Path, max_gap: int = MAX_GAP) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """Read and validate a recording and its sidecar.
+
+    Parameters
+    ----------
+    path : path
+        ``NAME.csv`` or ``NAME.parquet`` (CONTRACT.md).
+    max_gap : int
+        Longest run of non-finite samples interpolated (with a warning).
+
+    Returns
+    -------
+    df : pandas.DataFrame
+        The validated columns (a new frame; short gaps interpolated).
+    meta : dict
+        The sidecar ``NAME.json`` (``{}`` when absent) plus ``"path"``.
+
+    Raises
+    ------
+    RecordingError
+        (a ``ValueError``) for any invalid content, naming file, column and row.
+    FileNotFoundError
+        when the file does not exist.
+    """
+    path = Path(path)
+    name = str(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{name}: no such recording")
+    suffix = path.suffix.lower()
+    try:
+        if suffix in (".parquet", ".pq"):
+            df = pd.read_parquet(path)
+        elif suffix in (".csv", ".txt", ""):
+            df = pd.read_csv(path)
+        else:
+            raise RecordingError(f"{name}: unknown recording format {suffix!r}; expected .csv or .parquet")
+    except RecordingError:
+        raise
+    except (ValueError, OSError, pd.errors.ParserError) as exc:
+        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise RecordingError(f"{name}: cannot read as {suffix.lstrip('.') or 'csv'}: {msg}") from None
+    df.columns = [str(c).strip() for c in df.columns]
+    df = validate_recording(df, name, max_gap=max_gap)
+    meta = read_sidecar(path)
+    meta = dict(meta, path=name)
+    return df, meta

@@ -1,0 +1,276 @@
+"""Proof that the MuJoCo model and the analytic Lagrange equations agree.
+
+Every check returns a :class:`Check` with the worst error found and its bound;
+``euc-sim crosscheck`` prints them and writes CONTRACT's JSON form.
+
+Relative errors are ‖MuJoCo − analytic‖∞ / ‖analytic‖∞ per sample, the
+denominator floored at ``1e-6 · m g h`` (N·m) for vectors that happen to be near
+zero at a sample, so that round-off on a zero entry is not read as a relative error.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Callable, Iterable
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from euc_sim.model import analytic
+from euc_sim.model.mujoco_model import ContactSettings, EucMujoco
+from euc_sim.model.parameters import Params, TABLE3
+
+__all__ = ["Check", "PARAMETER_SETS", "random_states", "check_mass_matrix", "check_bias",
+           "check_inverse", "simulate_mujoco", "simulate_analytic", "check_forward",
+           "check_energy", "contact_convergence", "check_contact", "run_all"]
+
+#: Parameter sets of the cross-check: Table 3, a light tall rider, a heavy short one
+#: on a bigger wheel, and one with the EUC's centre of gravity below C.
+PARAMETER_SETS: dict[str, Params] = {
+    "table3": TABLE3,
+    "light_tall": TABLE3.replace(m=45.0, J=9.0, h=0.75, l0=0.08),
+    "heavy_short": TABLE3.replace(m=110.0, J=25.0, h=0.5, R=0.254, m0=22.0, J0=0.9, mw=6.0, Jw=0.25),
+    "low_body": TABLE3.replace(h0=0.02, l0=0.12, J0=0.3, m0=9.0),
+}
+
+#: Bounds of the issue: 1e-8 relative for the static checks (ideal), 1e-6 rad for the
+#: 5 s trajectories, 1e-6 relative energy drift.
+STATIC_BOUND = 1e-8
+TRAJECTORY_BOUND = 1e-6
+ENERGY_BOUND = 1e-6
+#: Contact variant against pure rolling over 2 s at the stiffest setting (see
+#: contact_convergence): the soft contact sinks the wheel by ~R·1e-4 and lets the tyre
+#: creep, which a rigid rolling model does not have.
+CONTACT_BOUND = 1e-2
+
+
+@dataclass(frozen=True)
+class Check:
+    """One cross-check figure: the worst error and its bound."""
+
+    name: str
+    value: float
+    bound: float
+    detail: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return bool(np.isfinite(self.value) and self.value <= self.bound)
+
+    def as_json(self) -> dict:
+        d = asdict(self)
+        d["ok"] = self.ok
+        return d
+
+
+def random_states(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Random (q, q̇, q̈), each (n, 3): angles over the full circle, rates up to a few rad/s.
+
+    Parameters
+    ----------
+    n : int
+        Number of states.
+    seed : int
+        Seed of the generator.
+    """
+    rng = np.random.default_rng(seed)
+    q = np.column_stack([rng.uniform(-5, 5, n), rng.uniform(-np.pi, np.pi, (n, 2))])
+    qd = rng.normal(0.0, [3.0, 3.0, 3.0], (n, 3))
+    qdd = rng.normal(0.0, [5.0, 20.0, 20.0], (n, 3))
+    return q, qd, qdd
+
+
+def _rel_err(mj: np.ndarray, an: np.ndarray, floor: float) -> float:
+    axes = tuple(range(1, an.ndim))
+    num = np.max(np.abs(mj - an), axis=axes)
+    den = np.maximum(np.max(np.abs(an), axis=axes), floor)
+    return float(np.max(num / den))
+
+
+def _static_pass(p: Params, q, qd, qdd, what: str, mjcf=None) -> tuple[np.ndarray, np.ndarray]:
+    sim = EucMujoco(p, "ideal", mjcf)
+    out = []
+    for i in range(len(q)):
+        if what == "mass":
+            sim.set_state(q[i], qd[i])
+            out.append(sim.mass_matrix())
+        elif what == "bias":
+            sim.set_state(q[i], qd[i])
+            out.append(sim.bias())
+        else:
+            out.append(sim.inverse(q[i], qd[i], qdd[i]))
+    mj = np.array(out)
+    if what == "mass":
+        an = analytic.mass_matrix(p, q)
+    elif what == "bias":
+        an = analytic.nonlinear_terms(p, q, qd) - analytic.gravity_forces(p, q)
+    else:
+        an = analytic.inverse_dynamics(p, q, qd, qdd)
+    return mj, an
+
+
+def _static_check(what: str, label: str, sets: dict[str, Params], n: int, seed: int,
+                  mjcf=None) -> Check:
+    worst, where = 0.0, ""
+    for k, (name, p) in enumerate(sets.items()):
+        q, qd, qdd = random_states(n, seed + k)
+        mj, an = _static_pass(p, q, qd, qdd, what, mjcf)
+        err = _rel_err(mj, an, 1e-6 * p.m * p.g * p.h)
+        if err >= worst:
+            worst, where = err, name
+    total = n * len(sets)
+    return Check(label, worst, STATIC_BOUND,
+                 f"{total} random states over {len(sets)} parameter sets; worst in {where!r}")
+
+
+def check_mass_matrix(sets=PARAMETER_SETS, n: int = 2500, seed: int = 0, mjcf=None) -> Check:
+    """MuJoCo's mass matrix mapped to (x, γ, φ) against eq. (6), worst relative error."""
+    return _static_check("mass", "mass_matrix_eq6", sets, n, seed, mjcf)
+
+
+def check_bias(sets=PARAMETER_SETS, n: int = 2500, seed: int = 100, mjcf=None) -> Check:
+    """MuJoCo's bias forces against h − (gravity part of Q), eqs. (7)-(8)."""
+    return _static_check("bias", "bias_forces_eq7_eq8", sets, n, seed, mjcf)
+
+
+def check_inverse(sets=PARAMETER_SETS, n: int = 2500, seed: int = 200, mjcf=None) -> Check:
+    """``mj_inverse`` against the analytic inverse dynamics M q̈ + h − Q_gravity."""
+    return _static_check("inverse", "inverse_dynamics", sets, n, seed, mjcf)
+
+
+# --- trajectories -------------------------------------------------------------------
+TorqueLaw = Callable[[float], tuple[float, float]]
+
+
+def simulate_mujoco(sim: EucMujoco, q0, qd0, duration: float, torques=(0.0, 0.0)):
+    """Step MuJoCo with constant torques; return times and paper states (N, 6)."""
+    sim.set_state(q0, qd0)
+    sim.set_torques(*torques)
+    n = int(round(duration / sim.model.opt.timestep))
+    t, y, e = [0.0], [np.concatenate([sim.q, sim.qd])], [sim.energy()]
+    for _ in range(n):
+        sim.step()
+        t.append(sim.data.time)
+        y.append(np.concatenate([sim.q, sim.qd]))
+        e.append(sim.energy())
+    return np.array(t), np.array(y), np.array(e)
+
+
+def simulate_analytic(p: Params, q0, qd0, t_eval, torques=(0.0, 0.0)) -> np.ndarray:
+    """Integrate eq. (5) with ``solve_ivp`` (DOP853, rtol = atol = 1e-12); states (N, 6)."""
+    M_d, M_h = torques
+    sol = solve_ivp(lambda t, y: analytic.state_derivative(p, y, M_d, M_h),
+                    (t_eval[0], t_eval[-1]), np.concatenate([q0, qd0]), method="DOP853",
+                    t_eval=t_eval, rtol=1e-12, atol=1e-12)
+    if not sol.success:
+        raise RuntimeError(f"analytic integration failed: {sol.message}")
+    return sol.y.T
+
+
+#: Initial states and torques of the trajectory checks: passive (the rider falls over
+#: and swings through, rates up to 30 rad/s), and constant motor and ankle torques
+#: (M_d = 20 N·m, M_h = 10 N·m; rates up to 27 rad/s).  Beyond ~100 rad/s RK4 at 1 kHz
+#: itself departs by more than 1e-6 rad; that is integration error, not model error.
+TRAJECTORY_CASES = {
+    "passive": ((0.0, 0.05, 0.1), (0.5, 0.0, 0.0), (0.0, 0.0)),
+    "constant_torques": ((0.0, 0.1, -0.05), (0.0, 0.0, 0.0), (20.0, 10.0)),
+}
+
+
+def check_forward(p: Params = TABLE3, duration: float = 5.0, mjcf=None) -> list[Check]:
+    """MuJoCo (RK4, 1 kHz, ideal) against scipy on eq. (5): worst |Δγ|, |Δφ| over 5 s."""
+    sim = EucMujoco(p, "ideal", mjcf)
+    checks = []
+    for case, (q0, qd0, torques) in TRAJECTORY_CASES.items():
+        t, y_mj, _ = simulate_mujoco(sim, q0, qd0, duration, torques)
+        y_an = simulate_analytic(p, np.array(q0), np.array(qd0), t, torques)
+        ang = float(np.max(np.abs(y_mj[:, 1:3] - y_an[:, 1:3])))
+        dx = float(np.max(np.abs(y_mj[:, 0] - y_an[:, 0])))
+        checks.append(Check(f"forward_{case}_ideal", ang, TRAJECTORY_BOUND,
+                            f"max |Δγ|,|Δφ| in rad over {duration:g} s; max |Δx| = {dx:.2e} m; "
+                            f"final φ = {y_an[-1, 2]:.2f} rad"))
+    return checks
+
+
+def check_energy(p: Params = TABLE3, duration: float = 5.0, mjcf=None) -> list[Check]:
+    """Passive motion: MuJoCo's energy against analytic T + V, and its drift."""
+    sim = EucMujoco(p, "ideal", mjcf)
+    q0, qd0, _ = TRAJECTORY_CASES["passive"]
+    t, y, e_mj = simulate_mujoco(sim, q0, qd0, duration)
+    e_an = analytic.kinetic_energy(p, y[:, :3], y[:, 3:]) + analytic.potential_energy(p, y[:, :3])
+    scale = abs(e_an[0])
+    return [
+        Check("energy_mujoco_vs_analytic", float(np.max(np.abs(e_mj - e_an)) / scale), ENERGY_BOUND,
+              "max |E_mj − (T+V)| / |E(0)| along the passive MuJoCo trajectory"),
+        Check("energy_drift", float(np.max(np.abs(e_mj - e_mj[0])) / scale), ENERGY_BOUND,
+              f"max |E(t) − E(0)| / |E(0)| over {duration:g} s, no torque"),
+    ]
+
+
+#: Contact stiffness ladder: solref time constants, s (down to one timestep).
+CONTACT_TIMECONSTS = (0.02, 0.008, 0.002, 0.001)
+
+
+def contact_convergence(p: Params = TABLE3, duration: float = 2.0,
+                        timeconsts: Iterable[float] = CONTACT_TIMECONSTS,
+                        mjcf=None) -> list[tuple[float, float]]:
+    """Contact variant against pure rolling, for stiffer and stiffer contact.
+
+    The case is the constant-torque trajectory; returns ``(timeconst, max |Δγ|,|Δφ|)``.
+    """
+    q0, qd0, torques = TRAJECTORY_CASES["constant_torques"]
+    rows = []
+    for tc in timeconsts:
+        sim = EucMujoco(p, "contact", mjcf, contact=ContactSettings(timeconst=tc))
+        t, y_mj, _ = simulate_mujoco(sim, q0, qd0, duration, torques)
+        y_an = simulate_analytic(p, np.array(q0), np.array(qd0), t, torques)
+        rows.append((tc, float(np.max(np.abs(y_mj[:, 1:3] - y_an[:, 1:3])))))
+    return rows
+
+
+def check_contact(p: Params = TABLE3, mjcf=None) -> list[Check]:
+    """The contact variant's tolerance, and that it shrinks as the contact stiffens."""
+    rows = contact_convergence(p, mjcf=mjcf)
+    errs = [e for _, e in rows]
+    ladder = ", ".join(f"tc={tc:g} s: {e:.2e} rad" for tc, e in rows)
+    shrinking = all(b < a for a, b in zip(errs, errs[1:]))
+    return [
+        Check("forward_contact_stiffest", errs[-1], CONTACT_BOUND, ladder),
+        Check("contact_error_shrinks_with_stiffness", 0.0 if shrinking else 1.0, 0.0,
+              "1 when the error does not fall at each stiffer step: " + ladder),
+    ]
+
+
+def run_all(n_per_set: int = 2500, progress: Callable[[str], None] | None = None,
+            sets: dict[str, Params] | None = None, mjcf=None) -> list[Check]:
+    """All cross-checks.
+
+    Parameters
+    ----------
+    n_per_set : int
+        Random states per parameter set for the static checks (2500 × 4 sets = 10,000).
+    progress : callable, optional
+        Called with the name of each stage.
+    sets : dict, optional
+        Parameter sets for the static checks (default :data:`PARAMETER_SETS`); the
+        trajectory and energy checks use the first one.
+    mjcf : path, optional
+        MJCF file (default ``mjcf/euc_planar.xml``).
+    """
+    say = progress or (lambda s: None)
+    sets = sets or PARAMETER_SETS
+    p0 = next(iter(sets.values()))
+    checks = []
+    say("mass matrix")
+    checks.append(check_mass_matrix(sets, n_per_set, mjcf=mjcf))
+    say("bias forces")
+    checks.append(check_bias(sets, n_per_set, mjcf=mjcf))
+    say("inverse dynamics")
+    checks.append(check_inverse(sets, n_per_set, mjcf=mjcf))
+    say("forward simulation (ideal)")
+    checks += check_forward(p0, mjcf=mjcf)
+    say("energy")
+    checks += check_energy(p0, mjcf=mjcf)
+    say("contact variant")
+    checks += check_contact(p0, mjcf=mjcf)
+    return checks

@@ -1,0 +1,444 @@
+"""The MuJoCo model: build it from ``mjcf/euc_planar.xml`` with any parameters, and
+read it in the paper's coordinates.
+
+Parameters are applied through :class:`mujoco.MjSpec`, never by editing XML text.
+Two ground models:
+
+``ideal``
+    pure rolling, an equality constraint on the fixed tendon
+    x − R (euc_pitch + wheel_spin) = 0 (the XML as written);
+``contact``
+    the wheel rolls on the floor through friction; the EUC body gets a vertical
+    slide ``z`` and the wheel may slip.
+
+The map between MuJoCo's (qpos, qvel, qacc) and the paper's (q, q̇, q̈), in both
+directions, is :func:`to_mujoco` / :func:`from_mujoco`; everything is read by
+joint name, never by a fixed index.
+
+MuJoCo coordinates (by joint name):
+
+=============  ======================================  =====================
+joint          meaning                                  in paper coordinates
+=============  ======================================  =====================
+``x``          slide of the wheel centre C              x
+``z``          (contact only) height of C above R       0 when rolling
+``euc_pitch``  EUC body pitch                           gamma
+``wheel_spin`` wheel angle relative to the EUC body      x / R − gamma
+``rider_pitch`` rider pitch relative to the EUC body     phi − gamma
+=============  ======================================  =====================
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from euc_sim.model.parameters import Params, TABLE3
+
+__all__ = [
+    "MJCF_PATH", "VARIANTS", "ModelError", "ContactSettings", "JointIndex", "build_spec",
+    "load_model", "paper_jacobian", "to_mujoco", "from_mujoco", "EucMujoco",
+]
+
+#: The hand-written model, beside the package.
+MJCF_PATH = Path(__file__).resolve().parents[2] / "mjcf" / "euc_planar.xml"
+#: Ground models.
+VARIANTS = ("ideal", "contact")
+
+JOINTS = ("x", "euc_pitch", "wheel_spin", "rider_pitch")
+ACTUATORS = ("motor", "ankle")
+
+
+class ModelError(ValueError):
+    """The MJCF file is missing, unreadable, lacks a named element, or does not compile."""
+
+
+@dataclass(frozen=True)
+class ContactSettings:
+    """Wheel–floor contact of the ``contact`` variant.
+
+    Attributes
+    ----------
+    timeconst : float
+        Contact ``solref`` time constant, s: smaller is stiffer (≥ 2 timesteps).
+    dampratio : float
+        Contact ``solref`` damping ratio.
+    friction : float
+        Sliding friction coefficient of the tyre on the floor.
+    rolling_friction : float
+        MuJoCo rolling-friction coefficient, m (torque = coefficient × normal force);
+        non-zero switches the contact to ``condim`` 6.  The rolling-resistance
+        coefficient C_rr of CONTRACT is this divided by R.
+    impratio : float
+        Ratio of frictional to normal constraint impedance; large values make the
+        friction cone stiffer (less creep).
+    """
+
+    timeconst: float = 0.002
+    dampratio: float = 1.0
+    friction: float = 1.5
+    rolling_friction: float = 0.0
+    impratio: float = 100.0
+
+    def __post_init__(self) -> None:
+        for name in ("timeconst", "dampratio", "friction", "impratio"):
+            value = getattr(self, name)
+            if not np.isfinite(value) or value <= 0:
+                raise ModelError(f"contact setting {name!r} must be positive and finite, got {value!r}")
+        if not np.isfinite(self.rolling_friction) or self.rolling_friction < 0:
+            raise ModelError(
+                f"contact setting 'rolling_friction' must be non-negative, got {self.rolling_friction!r}")
+
+
+def _find(spec: mujoco.MjSpec, kind: str, name: str, path: Path):
+    element = getattr(spec, kind)(name)
+    if element is None:
+        raise ModelError(f"{path}: {kind} {name!r} not found (euc-sim reads it by name)")
+    return element
+
+
+def build_spec(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path | None = None,
+               contact: ContactSettings | None = None) -> mujoco.MjSpec:
+    """Load the MJCF file and apply parameters and the ground variant through MjSpec.
+
+    Parameters
+    ----------
+    params : Params
+        Model parameters (Table 3 by default).
+    variant : {"ideal", "contact"}
+        Ground model.
+    mjcf : path, optional
+        MJCF file; ``mjcf/euc_planar.xml`` by default.
+    contact : ContactSettings, optional
+        Used by the ``contact`` variant.
+
+    Returns
+    -------
+    mujoco.MjSpec
+
+    Raises
+    ------
+    ModelError
+        for an unknown variant, a missing file or a missing named element.
+    """
+    if variant not in VARIANTS:
+        raise ModelError(f"unknown ground variant {variant!r}; expected one of {', '.join(VARIANTS)}")
+    path = Path(mjcf) if mjcf is not None else MJCF_PATH
+    if not path.is_file():
+        raise ModelError(f"MJCF file not found: {path}")
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+    except Exception as exc:  # mujoco raises a plain ValueError with a multi-line text
+        raise ModelError(f"{path}: cannot parse MJCF: {str(exc).splitlines()[0]}") from None
+    p = params
+    euc = _find(spec, "body", "euc", path)
+    wheel = _find(spec, "body", "wheel", path)
+    rider = _find(spec, "body", "rider", path)
+    for name in JOINTS:
+        _find(spec, "joint", name, path)
+    for name in ACTUATORS:
+        _find(spec, "actuator", name, path)
+
+    spec.option.gravity = [0.0, 0.0, -p.g]
+    euc.pos = [0.0, 0.0, p.R]
+    euc.mass, euc.ipos = p.m0, [0.0, 0.0, p.h0]
+    euc.inertia = [p.J0, p.J0, 0.2 * p.J0]
+    wheel.mass, wheel.ipos = p.mw, [0.0, 0.0, 0.0]
+    wheel.inertia = [0.6 * p.Jw, p.Jw, 0.6 * p.Jw]
+    rider.pos = [0.0, 0.0, -p.l0]
+    rider.mass, rider.ipos = p.m, [0.0, 0.0, p.h]
+    rider.inertia = [p.J, p.J, 0.2 * p.J]
+    _find(spec, "geom", "wheel_contact", path).size = [p.R, 0.0, 0.0]
+    tyre = spec.geom("tyre")
+    if tyre is not None:
+        tyre.size = [p.R, tyre.size[1], 0.0]
+    site_G = spec.site("G")
+    if site_G is not None:
+        site_G.pos = [0.0, 0.0, p.h]
+
+    rolling_eq = _find(spec, "equality", "rolling", path)
+    spec.delete(_find(spec, "tendon", "rolling", path))
+    if variant == "ideal":
+        # no contacts exist in the ideal variant: skip collision detection altogether
+        spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+        tendon = spec.add_tendon(name="rolling")       # x − R (gamma + wheel_spin) = 0
+        tendon.wrap_joint("x", 1.0)
+        tendon.wrap_joint("euc_pitch", -p.R)
+        tendon.wrap_joint("wheel_spin", -p.R)
+    else:
+        spec.delete(rolling_eq)
+        _make_contact(spec, p, contact or ContactSettings(), path)
+    return spec
+
+
+def _make_contact(spec: mujoco.MjSpec, p: Params, c: ContactSettings, path: Path) -> None:
+    """Turn the ideal model into the contact one: vertical slide, wheel–floor friction."""
+    euc = spec.body("euc")
+    # Joints of a body act in order; z must precede the pitch hinge so that it slides
+    # along the world vertical, hence the pitch joint is re-added after it.
+    pitch = spec.joint("euc_pitch")
+    spec.delete(pitch)
+    euc.add_joint(name="z", type=mujoco.mjtJoint.mjJNT_SLIDE, axis=[0, 0, 1])
+    euc.add_joint(name="euc_pitch", type=mujoco.mjtJoint.mjJNT_HINGE, axis=[0, 1, 0])
+    geom = _find(spec, "geom", "wheel_contact", path)
+    geom.contype, geom.conaffinity = 1, 1
+    geom.condim = 6 if c.rolling_friction > 0 else 3
+    geom.friction = [c.friction, 0.0, c.rolling_friction]
+    geom.solref = [c.timeconst, c.dampratio]
+    geom.solimp = [0.99, 0.999, 0.001, 0.5, 2.0]
+    floor = _find(spec, "geom", "floor", path)
+    floor.friction = [c.friction, 0.0, c.rolling_friction]
+    spec.option.impratio = c.impratio
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+
+
+def load_model(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path | None = None,
+               contact: ContactSettings | None = None) -> mujoco.MjModel:
+    """Compile the model with the given parameters and ground variant (see :func:`build_spec`)."""
+    spec = build_spec(params, variant, mjcf, contact)
+    try:
+        return spec.compile()
+    except Exception as exc:
+        raise ModelError(f"MJCF does not compile with these parameters: {str(exc).splitlines()[0]}") from None
+
+
+@dataclass(frozen=True)
+class JointIndex:
+    """qpos/qvel addresses of the named joints of a compiled model."""
+
+    qpos: dict[str, int]
+    dof: dict[str, int]
+    nq: int
+    nv: int
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel) -> "JointIndex":
+        qpos, dof = {}, {}
+        for name in JOINTS + ("z",):
+            jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
+            if jid < 0:
+                if name == "z":
+                    continue
+                raise ModelError(f"model has no joint {name!r}")
+            qpos[name] = int(model.jnt_qposadr[jid])
+            dof[name] = int(model.jnt_dofadr[jid])
+        return cls(qpos, dof, int(model.nq), int(model.nv))
+
+    @property
+    def has_z(self) -> bool:
+        return "z" in self.qpos
+
+
+def paper_jacobian(index: JointIndex, R: float) -> np.ndarray:
+    """T with qvel = T q̇ under pure rolling, shape (nv, 3).
+
+    Generalised quantities map with it: M_paper = Tᵀ M_mj T, bias_paper = Tᵀ bias_mj,
+    Q_paper = Tᵀ Q_mj.  Constraint forces of the rolling equality lie in the null
+    space of Tᵀ, so the map is exact for the ideal variant.
+    """
+    T = np.zeros((index.nv, 3))
+    d = index.dof
+    T[d["x"], 0] = 1.0
+    T[d["euc_pitch"], 1] = 1.0
+    T[d["wheel_spin"], 0] = 1.0 / R          # wheel_spin = x/R − gamma
+    T[d["wheel_spin"], 1] = -1.0
+    T[d["rider_pitch"], 1] = -1.0            # rider_pitch = phi − gamma
+    T[d["rider_pitch"], 2] = 1.0
+    return T
+
+
+def to_mujoco(index: JointIndex, R: float, q, qd=None, qdd=None):
+    """Paper coordinates → MuJoCo's (qpos, qvel, qacc), assuming pure rolling.
+
+    Parameters
+    ----------
+    index : JointIndex
+    R : float
+        Wheel radius, m.
+    q, qd, qdd : array_like, shape (..., 3)
+        (x, gamma, phi) and their rates; ``qd`` and ``qdd`` default to zero.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        qpos (..., nq), qvel (..., nv), qacc (..., nv); z = 0 in the contact variant
+        (the wheel centre at height R).
+    """
+    q = np.asarray(q, dtype=float)
+    qd = np.zeros_like(q) if qd is None else np.asarray(qd, dtype=float)
+    qdd = np.zeros_like(q) if qdd is None else np.asarray(qdd, dtype=float)
+    T = paper_jacobian(index, R)
+    qpos = np.zeros(q.shape[:-1] + (index.nq,))
+    qpos[..., index.qpos["x"]] = q[..., 0]
+    qpos[..., index.qpos["euc_pitch"]] = q[..., 1]
+    qpos[..., index.qpos["wheel_spin"]] = q[..., 0] / R - q[..., 1]
+    qpos[..., index.qpos["rider_pitch"]] = q[..., 2] - q[..., 1]
+    return qpos, qd @ T.T, qdd @ T.T
+
+
+def from_mujoco(index: JointIndex, qpos, qvel=None, qacc=None):
+    """MuJoCo's (qpos, qvel, qacc) → paper coordinates (q, q̇, q̈).
+
+    x is read from the slide joint (the wheel centre), gamma from the pitch hinge and
+    phi = gamma + rider_pitch; the wheel's spin is not needed (under pure rolling it
+    equals x/R − gamma; under contact the difference is slip).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        q, q̇, q̈, each (..., 3); q̇ and q̈ are ``None`` when not given.
+    """
+    def pick(arr, adr):
+        arr = np.asarray(arr, dtype=float)
+        x, g, r = arr[..., adr["x"]], arr[..., adr["euc_pitch"]], arr[..., adr["rider_pitch"]]
+        return np.stack([x, g, g + r], axis=-1)
+
+    q = pick(qpos, index.qpos)
+    qd = None if qvel is None else pick(qvel, index.dof)
+    qdd = None if qacc is None else pick(qacc, index.dof)
+    return q, qd, qdd
+
+
+class EucMujoco:
+    """A compiled model with its data and named readouts in the paper's coordinates.
+
+    Parameters
+    ----------
+    params : Params
+    variant : {"ideal", "contact"}
+    mjcf : path, optional
+    contact : ContactSettings, optional
+    timestep : float, optional
+        Overrides the XML's 1 ms, s.
+
+    Examples
+    --------
+    >>> sim = EucMujoco()
+    >>> sim.set_state([0.0, 0.02, 0.05], [1.0, 0.0, 0.0])
+    >>> sim.q.round(3).tolist()
+    [0.0, 0.02, 0.05]
+    """
+
+    def __init__(self, params: Params = TABLE3, variant: str = "ideal", mjcf=None,
+                 contact: ContactSettings | None = None, timestep: float | None = None):
+        self.params = params
+        self.variant = variant
+        self.model = load_model(params, variant, mjcf, contact)
+        if timestep is not None:
+            if not np.isfinite(timestep) or timestep <= 0:
+                raise ModelError(f"timestep must be positive, got {timestep!r}")
+            self.model.opt.timestep = timestep
+        self.data = mujoco.MjData(self.model)
+        self.index = JointIndex.of(self.model)
+        self.T = paper_jacobian(self.index, params.R)
+        self._act = {name: mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_ACTUATOR, name)
+                     for name in ACTUATORS}
+        self._M = np.zeros((self.model.nv, self.model.nv))
+        if self.index.has_z:   # start resting on the floor, at the contact's equilibrium depth
+            self.settle()
+
+    # -- state --------------------------------------------------------------------
+    def set_state(self, q, qd=None, time: float = 0.0) -> None:
+        """Set the state from paper coordinates (pure rolling) and run ``mj_forward``.
+
+        Raises
+        ------
+        ValueError
+            for a non-finite state.
+        """
+        q = np.asarray(q, dtype=float)
+        qd = np.zeros(3) if qd is None else np.asarray(qd, dtype=float)
+        if q.shape != (3,) or qd.shape != (3,):
+            raise ValueError(f"state must be q, qd of shape (3,), got {q.shape} and {qd.shape}")
+        if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
+            raise ValueError(f"state must be finite, got q={q.tolist()}, qd={qd.tolist()}")
+        z = self.data.qpos[self.index.qpos["z"]] if self.index.has_z else 0.0
+        qpos, qvel, _ = to_mujoco(self.index, self.params.R, q, qd)
+        if self.index.has_z:
+            qpos[self.index.qpos["z"]] = z
+        self.data.qpos[:] = qpos
+        self.data.qvel[:] = qvel
+        self.data.qacc_warmstart[:] = 0.0
+        self.data.time = time
+        mujoco.mj_forward(self.model, self.data)
+
+    def settle(self) -> None:
+        """Contact variant: put the wheel centre at the static sinkage of the soft contact."""
+        zi = self.index.qpos["z"]
+        lo, hi = -0.01, 0.0
+        for _ in range(60):  # bisect z until the contact carries the total weight
+            mid = 0.5 * (lo + hi)
+            self.data.qpos[:] = 0.0
+            self.data.qpos[zi] = mid
+            self.data.qvel[:] = 0.0
+            mujoco.mj_forward(self.model, self.data)
+            if self.data.qacc[self.index.dof["z"]] > 0:
+                lo = mid
+            else:
+                hi = mid
+        self.data.qpos[zi] = 0.5 * (lo + hi)
+        mujoco.mj_forward(self.model, self.data)
+
+    @property
+    def q(self) -> np.ndarray:
+        """(x [m], gamma [rad], phi [rad])."""
+        return from_mujoco(self.index, self.data.qpos)[0]
+
+    @property
+    def qd(self) -> np.ndarray:
+        """(ẋ [m/s], γ̇ [rad/s], φ̇ [rad/s])."""
+        return from_mujoco(self.index, self.data.qpos, self.data.qvel)[1]
+
+    @property
+    def qdd(self) -> np.ndarray:
+        """(ẍ, γ̈, φ̈) of the last ``mj_forward``/step, SI."""
+        return from_mujoco(self.index, self.data.qpos, self.data.qvel, self.data.qacc)[2]
+
+    @property
+    def wheel_slip(self) -> float:
+        """x − R (gamma + wheel_spin), m: zero under pure rolling."""
+        i = self.index.qpos
+        qp = self.data.qpos
+        return float(qp[i["x"]] - self.params.R * (qp[i["euc_pitch"]] + qp[i["wheel_spin"]]))
+
+    # -- actuation and stepping ---------------------------------------------------------
+    def set_torques(self, M_d: float, M_h: float) -> None:
+        """Set the motor torque M_d and the ankle torque M_h, N·m (CONTRACT signs)."""
+        self.data.ctrl[self._act["motor"]] = M_d
+        self.data.ctrl[self._act["ankle"]] = M_h
+
+    def step(self, n: int = 1) -> None:
+        """Advance n timesteps with the torques held."""
+        mujoco.mj_step(self.model, self.data, nstep=n)
+
+    # -- quantities in paper coordinates ------------------------------------------------
+    def mass_matrix(self) -> np.ndarray:
+        """Tᵀ M_mj T at the current state, (3, 3): compare eq. (6)."""
+        mujoco.mj_fullM(self.model, self.data, self._M)
+        return self.T.T @ self._M @ self.T
+
+    def bias(self) -> np.ndarray:
+        """Tᵀ qfrc_bias at the current state, (3,): compare h − Q_gravity of eqs. (7)-(8)."""
+        return self.T.T @ self.data.qfrc_bias
+
+    def inverse(self, q, qd, qdd) -> np.ndarray:
+        """Generalised forces for (q, q̇, q̈) by ``mj_inverse``, mapped: Tᵀ qfrc_inverse, (3,).
+
+        This loads (q, q̇, q̈) into the wrapper's ``data``: the state held before the call
+        is replaced (call :meth:`set_state` before stepping again).
+        """
+        qpos, qvel, qacc = to_mujoco(self.index, self.params.R, q, qd, qdd)
+        if self.index.has_z:
+            qpos[self.index.qpos["z"]] = self.data.qpos[self.index.qpos["z"]]
+        self.data.qpos[:], self.data.qvel[:], self.data.qacc[:] = qpos, qvel, qacc
+        mujoco.mj_inverse(self.model, self.data)
+        return self.T.T @ (self.data.qfrc_inverse + self.data.qfrc_constraint)
+
+    def energy(self) -> float:
+        """Kinetic plus gravitational potential energy, J (ground at z = 0)."""
+        mujoco.mj_energyPos(self.model, self.data)
+        mujoco.mj_energyVel(self.model, self.data)
+        return float(self.data.energy[0] + self.data.energy[1])

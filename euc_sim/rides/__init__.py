@@ -1,0 +1,1 @@
+"""Real rides: log readers, the longitudinal balance, the ride simulation and the ride page."""

@@ -1,0 +1,335 @@
+"""Where a ride's balance residual concentrates, its figure, and the ride's report page.
+
+:func:`residual_windows` evaluates the fitted inertia-only and augmented
+balances (:mod:`euc_sim.rides.balance`) over a whole ride and hands the inertia-only
+residual to the diagnosis module's :func:`euc_sim.diagnosis.pipeline.localise`, which
+returns the windows (s) where the mismatch concentrates, as ``euc-sim diagnose``
+does for a recording.  :func:`plot_residuals` draws the residuals over time
+with those windows shaded and :func:`write_page` writes ``DIR/index.md``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from euc_sim.rides.balance import RideSignals, balance_design
+
+__all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "plot_residuals", "write_page",
+           "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
+
+#: localise() settings for rides, s: minutes-long logs at ~5 Hz need a longer
+#: smoothing of the residual power and a longer shortest window than its
+#: 1 s / 0.5 s defaults (made for 120 Hz motion capture), else the windows
+#: fragment into dozens of sub-second pieces.
+WINDOW_SMOOTH = 5.0
+WINDOW_MIN = 3.0
+#: Moving-mean length, s, of the residual's slow part (hills, wind, temperature).
+SLOW_S = 30.0
+
+
+@dataclass(frozen=True)
+class ResidualTrace:
+    """A ride's balance residual over time under two parameter sets.
+
+    Attributes
+    ----------
+    label : str
+    t : numpy.ndarray
+        s, rows the design uses (gaps and segment ends left out).
+    nominal, augmented : numpy.ndarray
+        Measured − predicted battery power, W (or N·m in the torque domain).
+    unit : str
+    localisation : dict
+        :func:`euc_sim.diagnosis.pipeline.localise` of ``nominal``: ``windows`` [[t0, t1], ...]
+        s, ``share`` of the residual energy inside them, ``correlations``.
+    in_sample : bool
+        True when the parameters were fitted on this ride.
+    """
+
+    label: str
+    t: np.ndarray
+    nominal: np.ndarray
+    augmented: np.ndarray
+    unit: str
+    localisation: dict
+    in_sample: bool
+
+    def slow(self, which: str = "augmented", span: float = SLOW_S) -> np.ndarray:
+        """Moving mean of a residual over ``span`` s (same unit), its slow part."""
+        r = getattr(self, which)
+        dt = float(np.median(np.diff(self.t))) if self.t.size > 1 else 1.0
+        w = max(1, int(round(span / dt)))
+        num = np.convolve(r, np.ones(w), mode="same")
+        den = np.convolve(np.ones_like(r), np.ones(w), mode="same")
+        return num / den
+
+    def as_json(self) -> dict:
+        loc = self.localisation
+        return {"ride": self.label, "in_sample": self.in_sample, "unit": self.unit,
+                "windows": loc["windows"], "share": loc["share"],
+                "correlations": loc["correlations"],
+                "rms_nominal": float(np.sqrt(np.mean(self.nominal ** 2))),
+                "rms_augmented": float(np.sqrt(np.mean(self.augmented ** 2))),
+                "slow_rms_augmented": float(np.sqrt(np.mean(self.slow() ** 2)))}
+
+
+def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
+                     augmented: Mapping[str, float], domain: str = "power",
+                     label: str | None = None, in_sample: bool = True,
+                     smooth: float = WINDOW_SMOOTH, min_len: float = WINDOW_MIN) -> ResidualTrace:
+    """The inertia-only and augmented residuals of a whole ride, and where they concentrate.
+
+    Parameters
+    ----------
+    sig : RideSignals
+    nominal, augmented : mapping
+        Fitted parameters (``CrossRide.nominal.estimate``, ``.augmented.estimate``).
+    domain : {"power", "torque"}
+    label : str, optional
+    in_sample : bool
+        Whether the parameters were fitted on this ride (reported, not used).
+    smooth, min_len : float
+        s, passed to :func:`euc_sim.diagnosis.pipeline.localise`.
+
+    Returns
+    -------
+    ResidualTrace
+        The rows are the design's: uniform 1/rate except across the gaps where
+        the ride was split, which ``localise`` (made for uniform sampling) sees
+        as adjacent samples; its windows are then cut at those gaps
+        (:func:`split_at_gaps`).
+    """
+    from euc_sim.diagnosis.pipeline import localise
+
+    d = balance_design(sig, domain)
+    r_nom = d.residual(nominal)
+    r_aug = d.residual(augmented)
+    v = d.v
+    loc = localise(d.t, r_nom, {"speed": v, "speed_cubed": np.abs(v) ** 3,
+                                "inertial_power": d.columns_full["inertia"].to_numpy()[d.use]},
+                   smooth=smooth, min_len=min_len)
+    loc = dict(loc, windows=split_at_gaps(loc["windows"], d.t, min_len))
+    return ResidualTrace(label=label or str(sig.path), t=d.t, nominal=r_nom, augmented=r_aug,
+                         unit=d.unit, localisation=loc, in_sample=in_sample)
+
+
+def split_at_gaps(windows, t: np.ndarray, min_len: float = 0.0) -> list[list[float]]:
+    """Cut windows where the rows they span have a gap, so none claims time without data.
+
+    Parameters
+    ----------
+    windows : sequence of [t0, t1]
+        s.
+    t : array_like
+        Times of the rows, s, increasing; a gap is a step over 1.5 × the median step.
+    min_len : float
+        Pieces shorter than this, s, are dropped.
+
+    Returns
+    -------
+    list of [t0, t1]
+        s, each inside one gap-free run of rows.
+    """
+    t = np.asarray(t, float)
+    if t.size < 2:
+        return [list(map(float, w)) for w in windows]
+    step = float(np.median(np.diff(t)))
+    cut = np.flatnonzero(np.diff(t) > 1.5 * step)
+    starts = np.concatenate([[t[0]], t[cut + 1]])
+    ends = np.concatenate([t[cut], [t[-1]]])
+    out = []
+    for a, b in windows:
+        for s0, s1 in zip(starts, ends):
+            lo, hi = max(a, s0), min(b, s1)
+            if hi > lo and hi - lo >= min_len:
+                out.append([float(lo), float(hi)])
+    return out
+
+
+def plot_residuals(traces, path) -> Path:
+    """Figure: balance residuals over time, one panel per ride, windows shaded.
+
+    Each panel: the inertia-only and augmented residuals, the augmented one's
+    30 s moving mean (slow: a hill, wind), and the windows where the
+    inertia-only residual concentrates.  PNG, atomic (matplotlib Agg).
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from euc_sim.io import atomic_write
+    from euc_sim.rides.balance import _broken
+
+    traces = list(traces)
+    fig, axes = plt.subplots(len(traces), 1, figsize=(11, 3.8 * len(traces)), squeeze=False)
+    for ax, tr in zip(axes[:, 0], traces):
+        tt, rn, ra, sl = _broken(tr.t, tr.nominal, tr.augmented, tr.slow())
+        j = tr.as_json()
+        ax.plot(tt, rn, lw=0.6, label=f"inertia only: RMS {j['rms_nominal']:.0f} {tr.unit}")
+        ax.plot(tt, ra, lw=0.6, label=f"augmented: RMS {j['rms_augmented']:.0f} {tr.unit}")
+        ax.plot(tt, sl, color="k", lw=1.4,
+                label=f"augmented, {SLOW_S:.0f} s moving mean: RMS {j['slow_rms_augmented']:.0f} "
+                      f"{tr.unit}")
+        for i, (a, b) in enumerate(tr.localisation["windows"]):
+            ax.axvspan(a, b, color="tab:orange", alpha=0.2, lw=0,
+                       label=(f"windows where the inertia-only residual concentrates "
+                              f"({100 * tr.localisation['share']:.0f} % of its energy)")
+                       if i == 0 else None)
+        ax.axhline(0, color="grey", lw=0.5)
+        kind = "in sample (fitted here)" if tr.in_sample else "held out (fitted on the other ride)"
+        ax.set(xlabel="time from start of log [s]",
+               ylabel=f"measured − predicted [{tr.unit}]",
+               title=f"{tr.label}: balance residual, {kind}")
+        ax.legend(loc="upper right", fontsize=7)
+    fig.tight_layout()
+    try:
+        return atomic_write(path, lambda p: fig.savefig(p, dpi=100, format="png"))
+    finally:
+        plt.close(fig)
+
+
+def _fmt(x, nd=3) -> str:
+    if x is None:
+        return "–"
+    try:
+        return f"{x:.{nd}g}"
+    except (TypeError, ValueError):
+        return str(x)
+
+
+def _interval(ci) -> str:
+    return f"[{_fmt(ci[0])}, {_fmt(ci[1])}]" if ci else "–"
+
+
+def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
+    """Write ``out_dir/index.md``: the ride's findings with its figures.
+
+    Parameters
+    ----------
+    report : dict
+        The ``euc-sim ride`` JSON object (with ``windows``, ``localisation`` and,
+        when run, ``simulation``).
+    out_dir : path
+    figures : mapping
+        ``{"cross_ride"|"residuals"|"simulation": file name inside out_dir}``.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    from euc_sim.io import write_text
+
+    r = report
+    unit = r["error_unit"]
+    md = [f"# Ride diagnosis: {Path(r['recording']).name}", ""]
+    test = Path(r["compare"]).name if r.get("compare") else "the second half of the same ride"
+    md += [f"Fitted on **{Path(r['recording']).name}**"
+           f"{' (first half)' if not r.get('compare') else ''}, tested on **{test}**. "
+           f"Model: the wheel's longitudinal balance in the {r['domain']} domain "
+           f"({r['error_measure']}).", ""]
+    named = ", ".join(f"`{e['name']}`" for e in r["effects"]) or "nothing"
+    md += ["## Verdict", "",
+           f"- What the inertia-only model leaves out: {named}.",
+           f"- Held-out error: inertia-only {r['heldout_error_nominal']:.1f} {unit}, augmented "
+           f"{r['heldout_error_augmented']:.1f} {unit}; ratio **{r['ratio']:.2f}** "
+           f"({'better' if r['ratio'] < 1 else 'NOT better'} out of sample).", ""]
+    if "cross_ride" in figures:
+        md += ["## Cross-ride prediction", "",
+               f"![cross-ride prediction]({figures['cross_ride']})", ""]
+    md += ["## Estimates", "",
+           "| parameter | estimate | unit | 95 % interval | plausible range | plausible | aliases |",
+           "| --- | --- | --- | --- | --- | --- | --- |"]
+    for name, e in r["nominal_parameters"].items():
+        md.append(f"| {name} ({e['symbol']}) | {_fmt(e['estimate'])} | {e['unit']} | "
+                  f"{_interval(e['ci95'])} | {_interval(e['plausible_range'])} | "
+                  f"{'yes' if e['plausible'] else '**no**'} | – |")
+    for e in r["effects"]:
+        md.append(f"| {e['name']} | {_fmt(e['estimate'])} | {e['unit']} | {_interval(e['ci95'])} | "
+                  f"{_interval(e['plausible_range'])} | {'yes' if e['plausible'] else '**no**'} | "
+                  f"{', '.join(e['aliases']) or '–'} |")
+    md.append("")
+    for e in r["effects"]:
+        md += [f"- **{e['name']}**: {e['evidence']}."]
+        if "drag_area_m2" in e:
+            md[-1] += (f" As a drag area C_dA = {_fmt(e['drag_area_m2'])} m² "
+                       f"(95 % {_interval(e['drag_area_m2_ci95'])}); a standing rider is 0.3–1 m².")
+    md += ["", "Every candidate fitted together (the ride cannot separate them all):", "",
+           "| parameter | estimate | unit | 95 % interval | plausible |", "| --- | --- | --- | --- | --- |"]
+    for name, e in r["all_estimates"].items():
+        md.append(f"| {name} | {_fmt(e['estimate'])} | {e['unit']} | {_interval(e['ci95'])} | "
+                  f"{'yes' if e['plausible'] else '**no**'} |")
+    md += ["", "## What this ride cannot tell apart", ""]
+    seen: set = set()
+    for name, al in r["aliases"].items():
+        pairs = [a for a in al if frozenset((name, a)) not in seen]
+        seen.update(frozenset((name, a)) for a in al)
+        if pairs:
+            md.append(f"- `{name}` and {', '.join(f'`{a}`' for a in pairs)}: identical columns "
+                      f"(the speed never changes sign), only their sum is estimated (reported "
+                      f"as `{name}`).")
+    for name, al in r.get("confounded", {}).items():
+        pairs = [a for a in al if frozenset((name, a)) not in seen]
+        seen.update(frozenset((name, a)) for a in al)
+        if pairs:
+            md.append(f"- `{name}` trades off against {', '.join(f'`{a}`' for a in pairs)} "
+                      f"(bootstrap correlation beyond ±0.8 in the fit with every candidate).")
+    for n in r.get("notes", []):
+        if "masses are assumed" in n or "GPS" in n:
+            md.append(f"- {n}.")
+    loc = r.get("localisation", {})
+    md += ["", "## Where the mismatch concentrates", ""]
+    if r.get("windows"):
+        md.append("Windows (s) where the inertia-only residual of "
+                  f"{Path(r['recording']).name} concentrates "
+                  f"({100 * (loc.get('share') or 0):.0f} % of its energy): "
+                  + ", ".join(f"{a:.1f}–{b:.1f}" for a, b in r["windows"]) + ".")
+    else:
+        md.append("No window stands out: the residual is spread over the ride.")
+    if loc.get("correlations"):
+        md.append("Correlation of that residual with: " + ", ".join(
+            f"{k} {v:+.2f}" for k, v in loc["correlations"].items()) + ".")
+    for tr in r.get("residual_traces", []):
+        md.append(f"- {tr['ride']} ({'in sample' if tr['in_sample'] else 'held out'}): RMS "
+                  f"inertia-only {tr['rms_nominal']:.0f} {tr['unit']}, augmented "
+                  f"{tr['rms_augmented']:.0f}, of which the {SLOW_S:.0f} s moving mean "
+                  f"(slow: hills, wind) {tr['slow_rms_augmented']:.0f} {tr['unit']}.")
+    if "residuals" in figures:
+        md += ["", f"![residual over time]({figures['residuals']})", ""]
+    sim = r.get("simulation")
+    md += ["## Simulation against the ride", ""]
+    if sim:
+        e = sim["errors"]
+        md += [f"The simulator's rider rode the logged speed profile of **{sim['ride']}** "
+               f"(MuJoCo, 1 kHz); its motor torque gave the battery power through the fitted "
+               f"drivetrain. Errors on {sim['scored_rows']} rows of the 10 Hz grid, both sides "
+               f"smoothed alike:", "",
+               "| simulation | battery power RMS | torque RMS | speed RMS |", "| --- | --- | --- | --- |"]
+        for k in ("nominal", "augmented"):
+            md.append(f"| {k} | {e[k]['P_W']:.0f} W | {e[k]['M_Nm']:.1f} N·m | "
+                      f"{e[k]['v_mps']:.2f} m/s |")
+        inj = ", ".join(f"{k} = {_fmt(v)}" for k, v in sim["effects_injected"].items()) or "none"
+        md += ["", f"Augmented / nominal battery-power error: **{e['ratio_P']:.2f}** "
+               f"(effects injected as physics: {inj}). Logged torque inferred by "
+               f"{e['M_log_method']} (assumed efficiency "
+               f"{r['assumptions']['efficiency_for_torque']:g}).", ""]
+        if sim.get("windows"):
+            md.append("Windows (s) where the augmented simulation's power error concentrates: "
+                      + ", ".join(f"{a:.1f}–{b:.1f}" for a, b in sim["windows"]) + ".")
+        for n in sim.get("notes", []):
+            md.append(f"- {n}")
+        if "simulation" in figures:
+            md += ["", f"![simulation against the log]({figures['simulation']})", ""]
+    else:
+        md += ["Not run (--no-simulate).", ""]
+    md += ["## Assumptions and notes", ""]
+    a = r["assumptions"]
+    md.append(f"- Wheel radius R = {a['R']:g} m, total mass {a['total_mass']:g} kg, "
+              f"m_eq = {a['m_eq']:.3g} kg ({a['source']}); torque from "
+              f"{r['torque_method']}, power from {r['power_source']}.")
+    md += [f"- {n}" for n in r.get("notes", [])]
+    md.append("")
+    return write_text(Path(out_dir) / "index.md", "\n".join(md))

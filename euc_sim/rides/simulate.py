@@ -1,0 +1,538 @@
+"""The closed-loop simulator driven along a real ride's speed profile.
+
+A ride log gives the wheel speed v(t) and the battery power P(t), nothing about
+the rider.  Here the simulator's rider (:func:`euc_sim.simulation.engine.simulate`,
+maneuver ``profile``) rides the logged speed profile
+(:func:`euc_sim.rides.balance.speed_profile`); the simulation then *predicts* the motor
+torque M_d the ride needed and, through the drivetrain model of
+:mod:`euc_sim.rides.balance`, the battery power:
+
+    P_mech = M_d·(ẋ/R − γ̇)                    (motor torque × wheel speed relative to the body)
+    P̂ = P₀ + P_mech/η_m   (P_mech > 0),   P₀ + η_r·P_mech   (P_mech ≤ 0)
+
+with η_m, η_r, P₀ fitted by :func:`euc_sim.rides.balance.cross_ride` (on the fit ride: on
+a compare ride the prediction is out of sample).  Two simulations are run:
+
+``nominal``
+    the paper's model alone (no resistance), efficiencies of the inertia-only fit;
+``augmented``
+    the accepted effects injected as physics (``simulate(effects=...)``:
+    ``rolling_resistance`` C_rr, ``aerodynamic_drag`` k, ``road_slope`` α) and
+    the augmented fit's efficiencies and idle drain P₀.
+
+Both are compared with the log on the log's 10 Hz grid after the *same*
+Savitzky–Golay smoothing the log gets (:meth:`RideSignals.filt`), so filtering
+does not count as model error.
+
+When the rider falls (:class:`~euc_sim.simulation.errors.FallError`) on an aggressive
+part of a real profile, the profile's acceleration is limited
+(:func:`limit_acceleration`) step by step until the rider can follow it; every
+step is recorded in the notes, never hidden.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import math
+from dataclasses import dataclass, field
+from typing import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from euc_sim.model.parameters import TABLE3, Params
+from euc_sim.rides.balance import RideAssumptions, RideSignals, speed_profile
+
+__all__ = ["SIM_EFFECTS", "A_LIMITS", "ride_params", "limit_acceleration", "effects_to_inject",
+           "battery_power", "to_grid", "simulate_profile", "ProfileRun", "RideSimulation",
+           "simulate_ride", "plot_ride_simulation"]
+
+#: Fitted balance parameters that the simulator can inject as physics, and how.
+SIM_EFFECTS = ("rolling_resistance", "aerodynamic_drag", "road_slope")
+#: Acceleration limits tried in turn, m/s², when the rider falls on the raw profile.
+A_LIMITS = (3.0, 2.0, 1.5, 1.0, 0.7, 0.5)
+
+
+def ride_params(assumptions: RideAssumptions, base: Params = TABLE3) -> Params:
+    """Simulator parameters matching a ride's assumed radius and total mass.
+
+    The wheel radius is ``assumptions.R``; the rider's mass m is set so that
+    m + m0 + mw equals ``assumptions.total_mass`` (the EUC's own m0, mw from
+    ``base``).  Everything else is ``base`` (Table 3).
+
+    Raises
+    ------
+    ValueError
+        when the total mass does not exceed the EUC's own mass m0 + mw.
+    """
+    m = assumptions.total_mass - base.m0 - base.mw
+    if m <= 0:
+        raise ValueError(f"total mass {assumptions.total_mass:g} kg must exceed the EUC's own "
+                         f"mass m0 + mw = {base.m0 + base.mw:g} kg")
+    return base.replace(m=m, R=assumptions.R)
+
+
+def limit_acceleration(t: np.ndarray, v: np.ndarray, a_max: float) -> np.ndarray:
+    """A speed profile whose slope never exceeds ±``a_max``, close to ``v``.
+
+    A rate limiter run forwards and one run backwards over time, averaged: each
+    has |dv/dt| ≤ a_max, so their mean does too, and the lag of one cancels the
+    lead of the other (no net time shift).  ``v`` is not modified.
+
+    Parameters
+    ----------
+    t : array_like
+        s, strictly increasing.
+    v : array_like
+        m/s.
+    a_max : float
+        m/s², positive.
+
+    Returns
+    -------
+    numpy.ndarray
+        m/s, same shape as ``v``.
+    """
+    if not (math.isfinite(a_max) and a_max > 0):
+        raise ValueError(f"a_max must be a positive number of m/s², got {a_max!r}")
+    t = np.asarray(t, float)
+    v = np.asarray(v, float)
+    dv = a_max * np.diff(t)
+
+    def one_way(x: np.ndarray, steps: np.ndarray) -> np.ndarray:
+        out = x.copy()
+        for i in range(1, out.size):
+            out[i] = min(max(out[i], out[i - 1] - steps[i - 1]), out[i - 1] + steps[i - 1])
+        return out
+
+    fwd = one_way(v, dv)
+    bwd = one_way(v[::-1], dv[::-1])[::-1]
+    return 0.5 * (fwd + bwd)
+
+
+def effects_to_inject(estimates: Mapping[str, float], accepted: Sequence[str]) -> tuple[dict, list]:
+    """The accepted balance effects as ``simulate(effects=...)`` values.
+
+    Parameters
+    ----------
+    estimates : mapping
+        Fitted values (units of :data:`euc_sim.rides.balance.CANDIDATES`).
+    accepted : sequence of str
+        Accepted effect names.
+
+    Returns
+    -------
+    effects : dict
+        ``rolling_resistance`` C_rr (1), ``aerodynamic_drag`` k (kg/m),
+        ``road_slope`` α (rad, from sin α).
+    notes : list of str
+        Accepted effects that are not physics of the simulator and how they are
+        used instead.
+    """
+    eff, notes = {}, []
+    for name in accepted:
+        val = float(estimates[name])
+        if name == "road_slope":
+            eff[name] = math.asin(max(-1.0, min(1.0, val)))
+        elif name in SIM_EFFECTS:
+            eff[name] = val
+        elif name == "drivetrain_idle_loss":
+            notes.append(f"drivetrain_idle_loss P₀ = {val:.3g} W is electrical: added to the "
+                         f"predicted battery power, not to the mechanics")
+        else:
+            notes.append(f"{name} is not a constant force the simulator can inject: left out "
+                         f"of the augmented simulation")
+    return eff, notes
+
+
+def battery_power(M_d: np.ndarray, x_dot: np.ndarray, gamma_dot: np.ndarray, R: float,
+                  eta_motor: float, eta_regen: float, idle: float = 0.0) -> np.ndarray:
+    """Battery power, W, from the motor torque through :mod:`euc_sim.rides.balance`'s drivetrain model.
+
+    Parameters
+    ----------
+    M_d : array_like
+        Motor torque, wheel on body, N·m (CONTRACT sign).
+    x_dot : array_like
+        Wheel-centre speed, m/s.
+    gamma_dot : array_like
+        Body pitch rate, rad/s.
+    R : float
+        Wheel radius, m.
+    eta_motor, eta_regen : float
+        Efficiencies, 1.
+    idle : float
+        Constant electrical drain P₀, W.
+
+    Returns
+    -------
+    numpy.ndarray
+        P₀ + P_mech/η_m where the motor drives (P_mech > 0), P₀ + η_r·P_mech
+        where it brakes; P_mech = M_d·(ẋ/R − γ̇), W.
+    """
+    P_mech = np.asarray(M_d, float) * (np.asarray(x_dot, float) / R - np.asarray(gamma_dot, float))
+    return idle + np.where(P_mech > 0, P_mech / eta_motor, eta_regen * P_mech)
+
+
+def to_grid(t_fine: np.ndarray, y: np.ndarray, t_grid: np.ndarray) -> np.ndarray:
+    """Mean of a fine signal over each grid interval centred on ``t_grid``.
+
+    Parameters
+    ----------
+    t_fine, y : array_like
+        Uniformly sampled fine signal (s, any unit).
+    t_grid : array_like
+        Uniform grid, s, coarser than ``t_fine``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Same unit as ``y``; NaN where the interval holds no fine sample.
+    """
+    t_fine = np.asarray(t_fine, float)
+    y = np.asarray(y, float)
+    t_grid = np.asarray(t_grid, float)
+    step = float(np.median(np.diff(t_grid))) if t_grid.size > 1 else 1.0
+    edges = np.concatenate([t_grid - step / 2, [t_grid[-1] + step / 2]])
+    idx = np.searchsorted(edges, t_fine, side="right") - 1
+    ok = (idx >= 0) & (idx < t_grid.size)
+    s = np.bincount(idx[ok], weights=y[ok], minlength=t_grid.size)
+    n = np.bincount(idx[ok], minlength=t_grid.size)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, s / np.maximum(n, 1), np.nan)
+
+
+@dataclass(frozen=True)
+class ProfileRun:
+    """One closed-loop run along a speed profile.
+
+    Attributes
+    ----------
+    frame : pandas.DataFrame or None
+        :func:`euc_sim.simulation.engine.simulate`'s output (1/dt Hz); None when the
+        rider fell on every profile tried.
+    a_limit : float or None
+        Acceleration limit applied to the profile, m/s² (None: the profile as logged).
+    notes : tuple of str
+        Falls and limits, in order.
+    """
+
+    frame: pd.DataFrame | None
+    a_limit: float | None
+    notes: tuple[str, ...]
+
+
+def _track(t, v_target, v_plan, params, effects, seed, dt):
+    """One run along the plan v_plan; its speed on the profile grid, m/s, and RMS error."""
+    from euc_sim.simulation.maneuvers import Maneuver
+    from euc_sim.simulation.engine import default_rider, simulate
+
+    man = Maneuver("profile", float(v_plan[0]), (), (tuple(t.tolist()), tuple(v_plan.tolist())))
+    df = simulate(man, float(t[-1]), params=params, rider=default_rider(params), seed=seed,
+                  effects=dict(effects), dt=dt)
+    v_sim = to_grid(df["t"].to_numpy(), df["x_dot"].to_numpy(), t)
+    v_sim = np.where(np.isfinite(v_sim), v_sim, v_plan)
+    return df, v_sim, float(np.sqrt(np.mean((v_target - v_sim) ** 2)))
+
+
+def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapping[str, float],
+                     seed: int = 0, dt: float = 1e-3, a_limits: Sequence[float] = A_LIMITS,
+                     track_iterations: int = 1, track_window: float = 10.0) -> ProfileRun:
+    """Ride the speed profile (t, v) in closed loop (MuJoCo); limit it if the rider falls.
+
+    The simulated rider has no integral action: a resisting force (drag, rolling
+    resistance, a climb) can make it ride slower than planned.  A real rider
+    corrects such a lag, so after a run the slow part of the speed error
+    (Savitzky–Golay smoothed over ``track_window`` s, so that only the lag, not
+    the rider's own sway, is corrected) is added to the plan and the ride is run
+    again, ``track_iterations`` times (iterative learning); the run closest to
+    the profile is kept, and the notes say what each correction did.
+
+    Parameters
+    ----------
+    t, v : array_like
+        Profile, s and m/s, uniform, t starting at 0.
+    params : Params
+    effects : mapping
+        CONTRACT effect values injected as physics.
+    seed : int
+        Seed of the simulation (the default rider has no motor noise).
+    dt : float
+        Control period and MuJoCo step, s.
+    a_limits : sequence of float
+        Acceleration limits, m/s², tried in turn after a fall.
+    track_iterations : int
+        Plan corrections after the first run (0: the plan is the profile).
+    track_window : float
+        s.
+
+    Returns
+    -------
+    ProfileRun
+    """
+    from euc_sim.rides.balance import sg
+    from euc_sim.simulation.errors import FallError
+
+    t = np.asarray(t, float)
+    v = np.asarray(v, float)
+    notes: list[str] = []
+    a_peak = float(np.max(np.abs(np.gradient(v, t)))) if t.size > 1 else 0.0
+    rate = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    one = np.zeros(t.size, int)
+    for a_lim in (None, *a_limits):
+        if a_lim is not None and a_lim >= a_peak:
+            continue
+        target = v if a_lim is None else limit_acceleration(t, v, a_lim)
+        try:
+            df, v_sim, err = _track(t, target, target, params, effects, seed, dt)
+        except FallError as exc:
+            what = "the logged profile" if a_lim is None else f"the profile limited to ±{a_lim:g} m/s²"
+            notes.append(f"rider fell on {what} ({exc})")
+            continue
+        if a_lim is not None:
+            changed = float(np.sqrt(np.mean((target - v) ** 2)))
+            notes.append(f"profile acceleration limited to ±{a_lim:g} m/s² (logged peak "
+                         f"{a_peak:.2f} m/s²; RMS speed change {changed:.3f} m/s) so the "
+                         f"simulated rider can follow it")
+        plan = target
+        for it in range(track_iterations):
+            if t.size < 5:
+                break
+            plan = plan + sg(target - v_sim, one, rate, track_window, 2)
+            try:
+                df2, v2, err2 = _track(t, target, plan, params, effects, seed, dt)
+            except FallError as exc:
+                notes.append(f"tracking correction {it + 1}: rider fell ({exc}); kept the "
+                             f"previous run")
+                break
+            notes.append(f"tracking correction {it + 1}: RMS speed error {err:.3f} -> "
+                         f"{err2:.3f} m/s")
+            if err2 >= err:
+                break
+            df, v_sim, err = df2, v2, err2
+        return ProfileRun(df, a_lim, tuple(notes))
+    notes.append("the rider fell on every acceleration limit tried: no simulation")
+    return ProfileRun(None, None, tuple(notes))
+
+
+@dataclass(frozen=True)
+class RideSimulation:
+    """Simulated against logged ride, on the log's grid, consistently smoothed.
+
+    Attributes
+    ----------
+    label : str
+        The simulated ride.
+    table : pandas.DataFrame
+        ``t`` s, ``v_log``, ``v_nominal``, ``v_augmented`` m/s, ``M_log`` (torque
+        inferred from the log, see ``torque_method``), ``M_nominal``,
+        ``M_augmented`` N·m, ``P_log``, ``P_nominal``, ``P_augmented`` W,
+        ``scored`` (bool: the rows the errors are measured on).
+    errors : dict
+        RMS over the scored rows: ``{"nominal"|"augmented": {"P_W", "M_Nm",
+        "v_mps"}}``; ``ratio_P`` = augmented / nominal battery-power error.
+    effects : dict
+        Effects injected into the augmented run.
+    parameters : dict
+        ``{"nominal"|"augmented": {eta_motor, eta_regen, drivetrain_idle_loss}}``.
+    a_limit : dict
+        ``{"nominal"|"augmented": m/s² or None}``.
+    localisation : dict
+        :func:`euc_sim.diagnosis.pipeline.localise` on the augmented power error (W):
+        windows (s), share, correlations.
+    notes : tuple of str
+    """
+
+    label: str
+    table: pd.DataFrame
+    errors: dict
+    effects: dict
+    parameters: dict
+    a_limit: dict
+    localisation: dict
+    notes: tuple[str, ...] = field(default=())
+
+    def as_json(self) -> dict:
+        """JSON-ready summary (the table goes to CSV)."""
+        return {"ride": self.label, "errors": self.errors, "effects_injected": self.effects,
+                "drivetrain": self.parameters, "acceleration_limit_mps2": self.a_limit,
+                "windows": self.localisation.get("windows", []),
+                "windows_share": self.localisation.get("share"),
+                "correlations": self.localisation.get("correlations", {}),
+                "scored_rows": int(self.table["scored"].sum()), "notes": list(self.notes)}
+
+
+def _drivetrain(est: Mapping[str, float]) -> dict:
+    return {"eta_motor": float(est["eta_motor"]), "eta_regen": float(est["eta_regen"]),
+            "drivetrain_idle_loss": float(est.get("drivetrain_idle_loss", 0.0))}
+
+
+def _rms(x: np.ndarray) -> float:
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x ** 2))) if x.size else float("nan")
+
+
+def _simulate_job(job: tuple) -> ProfileRun:
+    """:func:`simulate_profile` on a tuple of its arguments (picklable, for a process pool)."""
+    return simulate_profile(*job)
+
+
+def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Mapping[str, float],
+                  accepted: Sequence[str], log, scored: np.ndarray | None = None,
+                  label: str | None = None, seed: int = 0, dt: float = 1e-3,
+                  a_limits: Sequence[float] = A_LIMITS, track_iterations: int = 1,
+                  window_smooth: float = 5.0, window_min: float = 3.0,
+                  workers: int = 1) -> RideSimulation:
+    """Simulate a ride's speed profile, nominal and augmented, and compare with its log.
+
+    Parameters
+    ----------
+    sig : RideSignals
+        The ride (:func:`euc_sim.rides.balance.ride_signals`).
+    nominal, augmented : mapping
+        Fitted parameters of the inertia-only and the augmented balance
+        (``CrossRide.nominal.estimate``, ``CrossRide.augmented.estimate``).
+    accepted : sequence of str
+        Accepted effects (``CrossRide.accepted``).
+    log : RideLog or path
+        The same ride, for :func:`euc_sim.rides.balance.speed_profile`.
+    scored : array of bool, optional
+        Grid rows the errors are measured on (default: every row where the
+        log's smoothed signals are defined).
+    label : str, optional
+    seed, dt, a_limits, track_iterations :
+        See :func:`simulate_profile`.
+    workers : int
+        Processes for the two simulations (2: nominal and augmented side by
+        side; the results do not depend on it).
+    window_smooth, window_min : float
+        s: ``smooth`` and ``min_len`` of :func:`euc_sim.diagnosis.pipeline.localise`
+        (longer than its 1 s / 0.5 s defaults: a ride is minutes long and
+        sampled at 5 Hz).
+
+    Returns
+    -------
+    RideSimulation
+    """
+    from euc_sim.diagnosis.pipeline import localise
+    from euc_sim.rides.page import split_at_gaps
+    from euc_sim.simulation.engine import default_rider
+
+    A = sig.assumptions
+    params = ride_params(A)
+    prof = speed_profile(log, sig.rate, sig.window, sig.polyorder)
+    t_p, v_p = prof["t"].to_numpy(), prof["v"].to_numpy()
+    eff, notes = effects_to_inject(augmented, accepted)
+    notes = list(prof.attrs.get("notes", [])) + notes
+    frame = sig.frame
+    t = frame["t"].to_numpy()
+    out = {"t": t, "v_log": frame["v"].to_numpy(), "M_log": frame["M"].to_numpy(),
+           "P_log": frame["P"].to_numpy()}
+    runs = {"nominal": ({}, nominal), "augmented": (eff, augmented)}
+    a_limit = {}
+    jobs = [(t_p, v_p, params, effects, seed, dt, tuple(a_limits), track_iterations)
+            for effects, _ in runs.values()]
+    if workers > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        default_rider(params)              # designed once here, inherited by forked workers
+        with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
+            done = list(pool.map(_simulate_job, jobs))
+    else:
+        done = [_simulate_job(j) for j in jobs]
+    for (name, (effects, est)), run in zip(runs.items(), done):
+        notes += [f"{name}: {n}" for n in run.notes]
+        a_limit[name] = run.a_limit
+        if run.frame is None:
+            for col in ("v", "M", "P"):
+                out[f"{col}_{name}"] = np.full(t.size, np.nan)
+            continue
+        df = run.frame
+        P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], params.R, est["eta_motor"],
+                          est["eta_regen"], est.get("drivetrain_idle_loss", 0.0))
+        ts = df["t"].to_numpy()
+        out[f"v_{name}"] = sig.filt(to_grid(ts, df["x_dot"], t))
+        out[f"M_{name}"] = sig.filt(to_grid(ts, df["M_d"], t))
+        out[f"P_{name}"] = sig.filt(to_grid(ts, P, t))
+    table = pd.DataFrame(out)
+    ok = frame["interior"].to_numpy() & np.isfinite(table["P_log"].to_numpy())
+    if scored is not None:
+        ok &= np.asarray(scored, bool)
+    table["scored"] = ok
+    errors = {}
+    for name in runs:
+        errors[name] = {"P_W": _rms((table["P_log"] - table[f"P_{name}"])[ok]),
+                        "M_Nm": _rms((table["M_log"] - table[f"M_{name}"])[ok]),
+                        "v_mps": _rms((table["v_log"] - table[f"v_{name}"])[ok])}
+    nom_P = errors["nominal"]["P_W"]
+    errors["ratio_P"] = errors["augmented"]["P_W"] / nom_P if nom_P > 0 else float("nan")
+    errors["M_log_method"] = sig.torque_method
+    r = (table["P_log"] - table["P_augmented"]).to_numpy()
+    good = ok & np.isfinite(r)
+    loc = {"windows": [], "share": None, "correlations": {}}
+    if good.sum() >= 4:
+        loc = localise(t[good], r[good], {"speed": table["v_log"].to_numpy()[good],
+                                          "acceleration": frame["a"].to_numpy()[good]},
+                       smooth=window_smooth, min_len=window_min)
+        loc = dict(loc, windows=split_at_gaps(loc["windows"], t[good], window_min))
+    return RideSimulation(label=label or str(sig.path), table=table, errors=errors, effects=eff,
+                          parameters={"nominal": _drivetrain(nominal),
+                                      "augmented": _drivetrain(augmented)},
+                          a_limit=a_limit, localisation=loc, notes=tuple(notes))
+
+
+def plot_ride_simulation(sim: RideSimulation, path) -> "Path":
+    """Figure: the simulated rider on the logged profile against the log.
+
+    Panels: speed (log, nominal and augmented simulation), m/s; motor torque
+    (inferred from the log, simulated), N·m; battery power (log, predicted), W;
+    the power error log − simulation with the windows where it concentrates
+    shaded, W.  PNG, written atomically (matplotlib Agg).
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from euc_sim.io import atomic_write
+    from euc_sim.rides.balance import _broken
+
+    tb = sim.table
+    t = tb["t"].to_numpy()
+    e = sim.errors
+    fig, ax = plt.subplots(4, 1, figsize=(11, 12), sharex=True)
+    series = [("v", "speed [m/s]", "Wheel speed: logged, and followed by the simulated rider",
+               "v_mps", "m/s"),
+              ("M", "motor torque M_d [N·m]",
+               f"Motor torque: inferred from the log ({e['M_log_method']}), and simulated",
+               "M_Nm", "N·m"),
+              ("P", "battery power [W]", "Battery power: logged V·I, and predicted from the "
+               "simulated torque", "P_W", "W")]
+    for k, (col, ylab, title, key, unit) in enumerate(series):
+        tt, y_log, y_n, y_a = _broken(t, tb[f"{col}_log"], tb[f"{col}_nominal"],
+                                      tb[f"{col}_augmented"])
+        ax[k].plot(tt, y_log, color="k", lw=0.9, label="log")
+        ax[k].plot(tt, y_n, lw=0.8, label=f"nominal simulation (RMS diff {e['nominal'][key]:.3g} {unit})")
+        ax[k].plot(tt, y_a, lw=0.8, label=f"augmented simulation (RMS diff "
+                                          f"{e['augmented'][key]:.3g} {unit})")
+        ax[k].set(ylabel=ylab, title=title)
+        ax[k].legend(loc="upper right", fontsize=8)
+    eff = ", ".join(f"{k}={v:.3g}" for k, v in sim.effects.items()) or "none"
+    tt, rn, ra = _broken(t, tb["P_log"] - tb["P_nominal"], tb["P_log"] - tb["P_augmented"])
+    ax[3].plot(tt, rn, lw=0.7, label=f"nominal: RMS {e['nominal']['P_W']:.0f} W")
+    ax[3].plot(tt, ra, lw=0.7, label=f"augmented ({eff}): RMS {e['augmented']['P_W']:.0f} W")
+    for i, (a, b) in enumerate(sim.localisation.get("windows", [])):
+        ax[3].axvspan(a, b, color="tab:orange", alpha=0.2, lw=0,
+                      label="windows where the augmented error concentrates" if i == 0 else None)
+    ax[3].axhline(0, color="grey", lw=0.5)
+    ax[3].set(ylabel="log − simulation [W]", xlabel="time from start of log [s]",
+              title=f"Battery-power error of the simulation; ratio augmented / nominal = "
+                    f"{e['ratio_P']:.2f}")
+    ax[3].legend(loc="upper right", fontsize=8)
+    fig.suptitle(f"Simulated rider along {sim.label}", fontsize=11)
+    fig.tight_layout()
+    try:
+        return atomic_write(path, lambda p: fig.savefig(p, dpi=100, format="png"))
+    finally:
+        plt.close(fig)

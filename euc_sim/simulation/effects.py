@@ -1,0 +1,352 @@
+"""The effect catalog: physics the nominal model of the paper leaves out.
+
+Each effect carries its CONTRACT name, the unit of its estimate, where it acts, and
+its physics as a generalised force in the paper's coordinates q = (x, gamma, phi),
+found by virtual power as in the paper's Appendix A:
+
+    δP = Q_e · δq̇  ⇒  M q̈ + h = Q(M_d, M_h) + Q_e.                          (5)+
+
+The simulator adds ``Q_e`` to the equations it integrates; the diagnosis turns it into
+a candidate term of the residual.  Effects that change a parameter (rider mass,
+centre-of-gravity height) or a measurement (time offset of the rider channel) have no
+generalised force: they act through :func:`apply_to_params` or on the recording.
+
+What a recording without torques can reveal (NOTES.md, fact 1): the driving-torque
+residual M_d,1 − M_d,2 equals κ(q)·(R Q_e,x + Q_e,γ + Q_e,φ) (see
+:func:`euc_sim.model.analytic.kinematic_residual`): the moment of the extra forces about
+the wheel–ground contact point P.  Torques between bodies (motor, ankle, bearing
+friction) have R Q_x + Q_γ + Q_φ = 0 and cancel.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from euc_sim.model.parameters import Params
+
+__all__ = ["Effect", "CATALOG", "names", "get", "parse_assignment", "SIGN_SPEED",
+           "smooth_sign", "normal_load", "generalized_force", "lateral_forces", "lateral_force_rows", "LATERAL_INPUTS", "apply_to_params",
+           "cog_height", "delay_signal"]
+
+Kind = Literal["external", "internal", "parameter", "measurement"]
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One catalogued effect.
+
+    Attributes
+    ----------
+    name : str
+        CONTRACT's name.
+    unit : str
+        Unit of the estimate.
+    physics : str
+        One sentence: what acts, where.
+    kind : {"external", "internal", "parameter", "measurement"}
+        Where it acts: from outside the EUC–rider system, between its bodies, through
+        a parameter, or on the recording.
+    kinematic_visible : bool
+        Whether M_d,1 − M_d,2 (no torque measured) can reveal it.
+    needs : tuple of str
+        Recording columns needed beyond t, x, gamma, phi.
+    plausible : tuple of float
+        Range of magnitudes met in practice (for blind studies and plausibility).
+    hidden_because : str
+        Why a recording without the ``needs`` columns cannot reveal it.
+    """
+
+    name: str
+    unit: str
+    physics: str
+    kind: Kind
+    kinematic_visible: bool
+    needs: tuple[str, ...] = ()
+    plausible: tuple[float, float] = (0.0, 0.0)
+    hidden_because: str = ""
+
+
+CATALOG: dict[str, Effect] = {e.name: e for e in (
+    Effect("rolling_resistance", "1",
+           "resisting moment C_rr·N·R·sign(ẋ) on the wheel from the ground, N the normal load",
+           "external", True, plausible=(0.008, 0.04)),
+    Effect("aerodynamic_drag", "kg/m",
+           "force k·ẋ·|ẋ| against the motion, acting at the rider's centre of gravity G",
+           "external", True, plausible=(0.15, 0.6)),
+    Effect("road_slope", "rad",
+           "the ground rises by α in +x: gravity tilted by α in the road frame",
+           "external", True, plausible=(-0.06, 0.06)),
+    Effect("sensor_time_offset", "s",
+           "the rider channel lags the EUC channels: φ_recorded(t) = φ(t − τ)",
+           "measurement", True, plausible=(0.01, 0.1)),
+    Effect("rider_mass", "kg",
+           "the rider's actual mass differs from the nominal one",
+           "parameter", False, needs=("M_d",), plausible=(45.0, 110.0),
+           hidden_because=("without M_d a wrong rider mass is absorbed by h: the lean for an "
+                           "acceleration is ≈ a/g whatever the mass (NOTES fact 2), and the "
+                           "residual's RMSE falls with m only because m scales the noise")),
+    Effect("cog_height_drift", "m",
+           "h changes during the recording (crouching, standing up); estimate is its peak-to-peak change",
+           "parameter", True, plausible=(0.05, 0.25)),
+    Effect("lateral_dynamics", "rad",
+           "yaw and tilt of the pitch plane: yaw acceleration and Coriolis forces on the inward-leaning bodies, gravity g cos ϑ and the turn's centripetal acceleration; estimate is the peak tilt",
+           "external", True, needs=("psi", "theta"), plausible=(0.05, 0.4),
+           hidden_because="the recording has no yaw and tilt channels"),
+    Effect("wheel_bearing_friction", "N·m·s/rad",
+           "viscous torque b·(ẋ/R − γ̇) between wheel and EUC body",
+           "internal", False, needs=("M_d",), plausible=(0.2, 3.0),
+           hidden_because="it acts between bodies, so it cancels from M_d,1 − M_d,2 (moment about P)"),
+)}
+
+
+def names() -> tuple[str, ...]:
+    """The catalog's effect names."""
+    return tuple(CATALOG)
+
+
+def get(name: str) -> Effect:
+    """The effect called ``name``.
+
+    Raises
+    ------
+    ValueError
+        for an unknown name, listing the valid ones.
+    """
+    try:
+        return CATALOG[name]
+    except KeyError:
+        raise ValueError(f"unknown effect {name!r}; valid effects: {', '.join(CATALOG)}") from None
+
+
+def parse_assignment(text: str) -> tuple[str, float]:
+    """``"rolling_resistance=0.02"`` → ``("rolling_resistance", 0.02)``, validated."""
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    if not sep:
+        raise ValueError(f"effect must be given as NAME=VALUE, got {text!r}")
+    get(name)
+    try:
+        v = float(value)
+    except ValueError:
+        raise ValueError(f"effect {name}: expected a number in {CATALOG[name].unit}, got {value!r}") from None
+    if not np.isfinite(v):
+        raise ValueError(f"effect {name}: value must be finite, got {value!r}")
+    return name, v
+
+
+#: Speed below which sign(ẋ) is smoothed, m/s: a Coulomb moment needs a continuous
+#: law to be integrated; 1 cm/s is far below riding speeds.
+SIGN_SPEED = 0.01
+
+
+def smooth_sign(v: np.ndarray, scale: float = SIGN_SPEED) -> np.ndarray:
+    """tanh(v / scale): sign(v) made continuous within ±scale."""
+    return np.tanh(np.asarray(v, dtype=float) / scale)
+
+
+def normal_load(p: Params, alpha: float = 0.0) -> float:
+    """Static normal load of the wheel on the road, (m + m0 + mw)·g·cos α, N.
+
+    Vertical accelerations of the centres of mass change the load by a few per cent
+    in riding; the catalog uses the static value in simulation and diagnosis alike.
+    """
+    return p.total_mass * p.g * np.cos(alpha)
+
+
+def _gravity_along_road(p: Params, q: np.ndarray) -> np.ndarray:
+    """Σ m_i ∂x_i/∂q: the generalised force of a unit horizontal field (per unit g)."""
+    q = np.asarray(q, dtype=float)
+    gamma, phi = q[..., 1], q[..., 2]
+    out = np.empty(q.shape)
+    out[..., 0] = p.total_mass
+    out[..., 1] = (p.m0 * p.h0 - p.m * p.l0) * np.cos(gamma)
+    out[..., 2] = p.m * p.h * np.cos(phi)
+    return out
+
+
+def generalized_force(name: str, value: float, p: Params, q, qd, extra=None) -> np.ndarray:
+    """Generalised force Q_e of an effect in the paper's coordinates, by virtual power.
+
+    Parameters
+    ----------
+    name : str
+        An effect with a force: ``rolling_resistance``, ``aerodynamic_drag``,
+        ``road_slope``, ``wheel_bearing_friction``, ``lateral_dynamics``.
+    value : float
+        Its magnitude in the catalog's unit (C_rr; k in kg/m; α in rad; b in N·m·s/rad;
+        for ``lateral_dynamics`` a scale, 1 for the physical coupling).
+    p : Params
+    q, qd : array_like, shape (..., 3)
+    extra : dict, optional
+        ``lateral_dynamics`` needs the keys of :data:`LATERAL_INPUTS` (see
+        :func:`lateral_forces`), broadcastable to q's leading shape.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+        (N, N·m, N·m) to add to the right-hand side of eq. (5).
+
+    Raises
+    ------
+    ValueError
+        for an effect that has no generalised force or an unknown name.
+    """
+    q = np.asarray(q, dtype=float)
+    qd = np.asarray(qd, dtype=float)
+    shape = np.broadcast_shapes(q.shape, qd.shape)
+    Q = np.zeros(shape)
+    x_d, gamma, phi = qd[..., 0], q[..., 1], q[..., 2]
+    kind = get(name).kind
+    if name == "rolling_resistance":
+        # moment −C_rr N R sign(ẋ) on the wheel, whose absolute rate is ẋ/R:
+        # δP = −C_rr N R sign(ẋ) δẋ/R  ⇒  Q_x = −C_rr N sign(ẋ)
+        Q[..., 0] = -value * normal_load(p) * smooth_sign(x_d)
+    elif name == "aerodynamic_drag":
+        # force F = −k ẋ|ẋ| at G, x_G = x − l0 sin γ + h sin φ: Q = F ∂x_G/∂q
+        F = -value * x_d * np.abs(x_d)
+        Q[..., 0] = F
+        Q[..., 1] = -F * p.l0 * np.cos(gamma)
+        Q[..., 2] = F * p.h * np.cos(phi)
+    elif name == "road_slope":
+        # V = g Σ m_i (z_i cos α + x_i sin α); minus the level-ground gravity of eq. (8)
+        from euc_sim.model.analytic import gravity_forces
+        Q = (np.cos(value) - 1.0) * gravity_forces(p, q) - p.g * np.sin(value) * _gravity_along_road(p, q)
+        Q = np.broadcast_to(Q, shape).copy()
+    elif name == "wheel_bearing_friction":
+        # torque −b ω_rel on the wheel, +b ω_rel on the body, ω_rel = ẋ/R − γ̇
+        tau = -value * (x_d / p.R - qd[..., 1])
+        Q[..., 0] = tau / p.R
+        Q[..., 1] = -tau
+    elif name == "lateral_dynamics":
+        if extra is None or any(k not in extra for k in LATERAL_INPUTS):
+            raise ValueError("lateral_dynamics needs extra with keys " + ", ".join(LATERAL_INPUTS)
+                             + f"; got {sorted(extra or {})}")
+        Q = value * lateral_forces(p, q, qd, **{k: extra[k] for k in LATERAL_INPUTS})
+        Q = np.broadcast_to(Q, shape).copy()
+    else:
+        raise ValueError(f"effect {name!r} ({kind}) has no generalised force; "
+                         "it acts through the parameters or the recording")
+    return Q
+
+
+#: The tilt and yaw signals the ``lateral_dynamics`` term needs (rad, rad/s, rad/s²).
+LATERAL_INPUTS = ("theta", "theta_d", "psi_d", "psi_dd")
+
+
+def lateral_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd) -> np.ndarray:
+    """Generalised force of yaw and tilt on the pitch plane (``lateral_dynamics``).
+
+    The paper's plane (Fig. 2) is carried by the EUC: its origin, the contact point P,
+    runs along the ground with speed ẋ and heading ψ, and it is tilted by ϑ about the
+    heading.  A point of a body at (ξ, ζ) in the plane (ξ ahead of P, ζ along the
+    tilted up-axis e_u) is at r = P + ξ e_f + ζ e_u.  Its acceleration, less the
+    planar one (ẍ + ξ̈, ζ̈), and gravity, less the planar g, are, along e_f and e_u,
+
+        δa_f = −ξ ψ̇² − 2 ζ̇ ψ̇ sin ϑ − ζ (2 ϑ̇ ψ̇ cos ϑ + ψ̈ sin ϑ),
+        δa_u = (ẋ + 2 ξ̇) ψ̇ sin ϑ + ξ ψ̈ sin ϑ − ζ (ϑ̇² + ψ̇² sin² ϑ) + g (cos ϑ − 1),
+
+    and each body's pitch rate gains −ψ̇ sin ϑ (the yaw rate seen about the tilted
+    pitch axis).  By Kane's method (x is a path length, so the x-row is not a plain
+    Lagrange equation), with the partial velocities ∂(ξ, ζ)/∂q of eq. (A.1)'s geometry,
+
+        Q_i = −Σ_b m_b (δa_f ∂ξ_b/∂q_i + δa_u ∂ζ_b/∂q_i)
+              + Σ_b J_b (ψ̈ sin ϑ + ψ̇ ϑ̇ cos ϑ) ∂ω_b/∂q̇_i.
+
+    In a steady coordinated turn (ψ̇ = g tan ϑ / ẋ, ϑ̇ = ψ̈ = 0) the gravity part is the
+    familiar g/cos ϑ felt in the plane; in a slalom the yaw acceleration acting on the
+    rider's inward-leaning centre of gravity dominates.  Only the bodies' pitch-axis
+    inertias (Table 3) are known, so gyroscopic terms of the other axes are left out.
+    ``euc_sim.model.symbolic.derive_lateral`` derives the same from the 3-D positions.
+
+    Parameters
+    ----------
+    p : Params
+    q, qd : array_like, shape (..., 3)
+        Paper coordinates and rates (x is the distance run along the path).
+    theta, theta_d : array_like
+        Tilt ϑ, rad, positive towards the side the path turns to when ψ̇ > 0, and its
+        rate, rad/s.
+    psi_d, psi_dd : array_like
+        Yaw rate ψ̇, rad/s, and yaw acceleration ψ̈, rad/s².
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+        (N, N·m, N·m) to add to the right-hand side of eq. (5).
+    """
+    q = np.asarray(q, dtype=float)
+    qd = np.asarray(qd, dtype=float)
+    gamma, phi, th = q[..., 1], q[..., 2], np.asarray(theta, dtype=float)
+    rows = lateral_force_rows(p, np.sin(gamma), np.cos(gamma), np.sin(phi), np.cos(phi),
+                              qd[..., 0], qd[..., 1], qd[..., 2], np.sin(th), np.cos(th),
+                              np.asarray(theta_d, dtype=float), np.asarray(psi_d, dtype=float),
+                              np.asarray(psi_dd, dtype=float))
+    Q = np.zeros(np.broadcast_shapes(*(np.shape(r) for r in rows)) + (3,))
+    Q[..., 0], Q[..., 1], Q[..., 2] = rows
+    return Q
+
+
+def lateral_force_rows(p: Params, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, phi_d,
+                       s_theta, c_theta, theta_d, psi_d, psi_dd) -> tuple:
+    """(Q_x, Q_γ, Q_φ) of :func:`lateral_forces` from the angles' sines and cosines.
+
+    Plain arithmetic on its arguments, so Python floats (the simulator's call, once a
+    step) and numpy arrays (:func:`lateral_forces`) give the same force; units and
+    symbols as there.
+    """
+    sg, cg, sp_, cp = s_gamma, c_gamma, s_phi, c_phi
+    s_th, c_th, th_d, ps_d, ps_dd = s_theta, c_theta, theta_d, psi_d, psi_dd
+    # (m, ξ, ζ, ξ̇, ζ̇, ∂ξ/∂(γ, φ), ∂ζ/∂(γ, φ)) of wheel centre C, body G0, rider G
+    bodies = (
+        (p.mw, 0.0, p.R, 0.0, 0.0, (0.0, 0.0), (0.0, 0.0)),
+        (p.m0, p.h0 * sg, p.R + p.h0 * cg, p.h0 * cg * gamma_d, -p.h0 * sg * gamma_d,
+         (p.h0 * cg, 0.0), (-p.h0 * sg, 0.0)),
+        (p.m, -p.l0 * sg + p.h * sp_, p.R - p.l0 * cg + p.h * cp,
+         -p.l0 * cg * gamma_d + p.h * cp * phi_d, p.l0 * sg * gamma_d - p.h * sp_ * phi_d,
+         (-p.l0 * cg, p.h * cp), (p.l0 * sg, -p.h * sp_)),
+    )
+    Q_x = Q_gamma = Q_phi = 0.0
+    for m_b, xi, zeta, xi_d, zeta_d, dxi, dzeta in bodies:
+        da_f = -xi * ps_d**2 - 2.0 * zeta_d * ps_d * s_th - zeta * (2.0 * th_d * ps_d * c_th + ps_dd * s_th)
+        da_u = ((x_d + 2.0 * xi_d) * ps_d * s_th + xi * ps_dd * s_th
+                - zeta * (th_d**2 + ps_d**2 * s_th**2) + p.g * (c_th - 1.0))
+        Q_x = Q_x - m_b * da_f                        # ∂ξ/∂x = 1: P moves with x
+        Q_gamma = Q_gamma - m_b * (da_f * dxi[0] + da_u * dzeta[0])
+        Q_phi = Q_phi - m_b * (da_f * dxi[1] + da_u * dzeta[1])
+    spin = ps_dd * s_th + ps_d * th_d * c_th          # −d/dt of the pitch rate's −ψ̇ sin ϑ
+    # the wheel turns at ẋ/R
+    return Q_x + p.Jw / p.R * spin, Q_gamma + p.J0 * spin, Q_phi + p.J * spin
+
+
+def cog_height(h: float, peak_to_peak: float, t, period: float = 12.0) -> np.ndarray:
+    """h(t) of the ``cog_height_drift`` effect: h + (Δh/2) sin(2π t / period), m.
+
+    The drift is slow (period 12 s by default) so that the rider's own ḣ terms, which
+    eqs. (5)-(8) do not carry, stay negligible; simulation and diagnosis share it.
+    """
+    return h + 0.5 * peak_to_peak * np.sin(2.0 * np.pi * np.asarray(t, dtype=float) / period)
+
+
+def apply_to_params(p: Params, name: str, value: float) -> Params:
+    """Parameters with a parameter-type effect applied (``rider_mass``: m = value).
+
+    Other effects leave the parameters unchanged.
+    """
+    if get(name).kind != "parameter" or name == "cog_height_drift":
+        return p
+    if name == "rider_mass":
+        # the rider's inertia about G scales with the mass (same body shape)
+        return p.replace(m=value, J=p.J * value / p.m)
+    raise AssertionError(name)  # pragma: no cover - every parameter effect is handled above
+
+
+def delay_signal(t: np.ndarray, y: np.ndarray, tau: float) -> np.ndarray:
+    """y(t − τ) by linear interpolation, holding the first value before the start.
+
+    The ``sensor_time_offset`` effect applies this to the rider channel φ.
+    """
+    t = np.asarray(t, dtype=float)
+    return np.interp(t - tau, t, np.asarray(y, dtype=float))

@@ -1,0 +1,450 @@
+"""Closed-loop simulation: the EUC's motor PD and the rider on either engine.
+
+:func:`simulate` runs one maneuver and returns a DataFrame at the control rate
+(1 kHz by default), one row per control step:
+
+=============  =====  ==========================================================
+column         unit   meaning
+=============  =====  ==========================================================
+``t``          s      time of the step
+``x``          m      wheel-centre position (CONTRACT)
+``gamma``      rad    EUC body pitch (CONTRACT)
+``phi``        rad    rider pitch (CONTRACT)
+``x_dot``      m/s    ẋ
+``gamma_dot``  rad/s  γ̇
+``phi_dot``    rad/s  φ̇
+``M_d``        N·m    true motor torque held over [t, t + dt) (CONTRACT sign)
+``M_h``        N·m    true ankle torque held over [t, t + dt), noise included
+``v_ref``      m/s    the rider's planned speed
+``h``          m      rider CoG height, only with ``cog_height_drift``
+``psi``        rad    yaw, only with ``lateral_dynamics``
+``theta``      rad    tilt, only with ``lateral_dynamics``
+=============  =====  ==========================================================
+
+Both controllers run at 1/dt with a zero-order hold; the rider's reaction delay is a
+look-back buffer over the state history (:class:`controllers.rider.RiderRun`).
+
+Engines
+-------
+``mujoco``
+    :class:`euc_sim.model.mujoco_model.EucMujoco` (RK4 at dt), state read by joint name.
+``analytic``
+    eqs. (5)-(8) plus the effects' generalised forces
+    (:func:`euc_sim.simulation.effects.generalized_force`), integrated over each control step
+    by ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-10) with the same held torques,
+    so the two engines are comparable sample by sample.
+
+Effects (CONTRACT's catalog) act as physics in both engines:
+``rolling_resistance`` (moment on the wheel; MuJoCo: ``xfrc_applied`` on ``wheel``,
+or true rolling friction with ``contact=ContactSettings(rolling_friction=...)`` on
+the contact variant), ``aerodynamic_drag`` (force at G; MuJoCo: ``xfrc_applied`` on
+``rider``), ``road_slope`` (``model.opt.gravity`` tilted in the road frame),
+``wheel_bearing_friction`` (damping of ``wheel_spin``), ``rider_mass`` (parameters
+through MjSpec), ``cog_height_drift`` (``model.body_ipos`` of ``rider`` each step),
+``lateral_dynamics`` (a prescribed slalom, tilt ϑ(t) with the yaw rate of a
+coordinated turn, acts through :func:`euc_sim.simulation.effects.lateral_forces`; MuJoCo:
+``qfrc_applied``).  Velocity-dependent
+external forces are evaluated at the start of each step and held, in both engines.
+``sensor_time_offset`` acts on the recording only (:mod:`euc_sim.recording`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Mapping
+
+import numpy as np
+import pandas as pd
+
+from controllers.motor import MotorPD
+from controllers.rider import Rider, RiderRun
+from euc_sim.model import analytic
+from euc_sim.simulation import effects as fx
+from euc_sim.model.parameters import Params, TABLE3
+from euc_sim.simulation.errors import FallError, SimulationError
+from euc_sim.simulation.maneuvers import LateralMotion, as_maneuver, lateral_profile
+
+
+ENGINES = ("mujoco", "analytic")
+#: Fall bounds, rad: |φ| (rider) and |γ| (EUC body) beyond these end the run.
+FALL_BOUNDS = {"phi": 0.7, "gamma": 0.5}
+COLUMNS = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref")
+#: Control period and MuJoCo timestep of :func:`simulate` by default, s.
+DEFAULT_DT = 1e-3
+#: Effects handled by the simulator as physics (all of CONTRACT's catalog).
+SIM_EFFECTS = ("rolling_resistance", "aerodynamic_drag", "road_slope", "wheel_bearing_friction",
+               "rider_mass", "cog_height_drift", "lateral_dynamics", "sensor_time_offset")
+
+
+
+# --- effects -------------------------------------------------------------------------
+def _check_effects(effects: Mapping[str, float] | None) -> dict[str, float]:
+    out = {}
+    for name, value in dict(effects or {}).items():
+        try:
+            fx.get(name)                                # unknown name: lists the valid ones
+        except ValueError as exc:
+            raise SimulationError(str(exc)) from None
+        try:
+            v = float(value)
+        except (TypeError, ValueError):
+            raise SimulationError(f"effect {name}: expected a number, got {value!r}") from None
+        if not math.isfinite(v):
+            raise SimulationError(f"effect {name}: value must be finite, got {value!r}")
+        if name in ("rolling_resistance", "aerodynamic_drag", "wheel_bearing_friction",
+                    "cog_height_drift", "lateral_dynamics", "sensor_time_offset") and v < 0:
+            raise SimulationError(f"effect {name}: value must be non-negative, got {v!r}")
+        if name == "rider_mass" and v <= 0:
+            raise SimulationError(f"effect rider_mass: the mass must be positive, got {v!r} kg")
+        out[name] = v
+    return out
+
+
+def true_params(params: Params, effects: Mapping[str, float] | None) -> Params:
+    """The parameters of the simulated physics: ``params`` with parameter effects applied."""
+    p = params
+    for name, value in _check_effects(effects).items():
+        p = fx.apply_to_params(p, name, value)
+    return p
+
+
+_RIDERS: dict = {}
+
+
+def default_rider(params: Params = TABLE3, motor: MotorPD | None = None,
+                  noise_std: float = 0.0, delay: float = 0.15) -> Rider:
+    """The LQR-designed rider of :func:`controllers.design.design_rider`, cached per
+    (params, motor), with the given motor noise (N·m) and reaction delay (s)."""
+    from controllers.design import design_rider
+
+    motor = motor or MotorPD()
+    key = (params, motor)
+    if key not in _RIDERS:
+        _RIDERS[key] = design_rider(params, motor)
+    return _RIDERS[key].replace(noise_std=noise_std, delay=delay)
+
+
+@dataclass(frozen=True)
+class PeriodicPush:
+    """A horizontal force A·sin(2π f t) at the rider's G, N: a disturbance outside the catalog.
+
+    Picklable, so it can travel to worker processes with a :class:`euc_sim.simulation.dataset.RecordingSpec`.
+    """
+
+    amplitude: float
+    frequency: float
+
+    def __call__(self, t: float) -> float:
+        return self.amplitude * math.sin(2.0 * math.pi * self.frequency * t)
+
+    def as_dict(self) -> dict:
+        return {"kind": "periodic_push_at_G", "amplitude_N": self.amplitude, "frequency_Hz": self.frequency}
+
+
+# --- engines -------------------------------------------------------------------------
+class _MujocoStepper:
+    """One control step of MuJoCo with held torques and per-step effects."""
+
+    def __init__(self, p: Params, variant: str, dt: float, eff: dict, contact):
+        import mujoco
+
+        from euc_sim.model.mujoco_model import EucMujoco
+
+        self.mj = mujoco
+        self.sim = EucMujoco(p, variant, contact=contact, timestep=dt)
+        m = self.sim.model
+        self.m, self.d = m, self.sim.data
+        idx = self.sim.index
+        self.ix, self.ig, self.ir = idx.qpos["x"], idx.qpos["euc_pitch"], idx.qpos["rider_pitch"]
+        self.vx, self.vg, self.vr = idx.dof["x"], idx.dof["euc_pitch"], idx.dof["rider_pitch"]
+        body = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, n)   # noqa: E731
+        self.b_wheel, self.b_rider = body("wheel"), body("rider")
+        self.site_G = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, "G")
+        self.a_motor = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, "motor")
+        self.a_ankle = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, "ankle")
+        alpha = eff.get("road_slope", 0.0)
+        self.g0 = np.array([-p.g * math.sin(alpha), 0.0, -p.g * math.cos(alpha)])  # road frame
+        m.opt.gravity[:] = self.g0
+        if "wheel_bearing_friction" in eff:
+            m.dof_damping[idx.dof["wheel_spin"]] = eff["wheel_bearing_friction"]
+        self.p = p
+        # views into MjData, cached: attribute access costs more than the step's arithmetic
+        self._ctrl, self._qpos, self._qvel = self.d.ctrl, self.d.qpos, self.d.qvel
+
+    def reset(self, y) -> None:
+        self.sim.set_state(y[:3], y[3:])
+
+    def set_effects(self, Fx_drag: float, tau_roll: float, h: float | None, Q_lat) -> None:
+        xf = self.d.xfrc_applied
+        xf[self.b_rider, 0] = Fx_drag          # force at the rider's CoM G, world (road) frame
+        xf[self.b_wheel, 4] = tau_roll         # moment about +y on the wheel
+        if h is not None:
+            self.m.body_ipos[self.b_rider, 2] = h
+            self.m.site_pos[self.site_G, 2] = h
+        if Q_lat is not None:            # paper Q → MuJoCo: Q_paper = Tᵀ Q_mj (paper_jacobian)
+            qf = self.d.qfrc_applied
+            qf[self.vx] = Q_lat[0]
+            qf[self.vg] = Q_lat[1] + Q_lat[2]
+            qf[self.vr] = Q_lat[2]
+
+    def step(self, M_d: float, M_h: float):
+        ctrl = self._ctrl
+        ctrl[self.a_motor] = M_d
+        ctrl[self.a_ankle] = M_h
+        self.mj.mj_step(self.m, self.d)
+        qp, qv = self._qpos.tolist(), self._qvel.tolist()   # Python floats: cheaper downstream
+        g = qp[self.ig]
+        gd = qv[self.vg]
+        return (qp[self.ix], g, g + qp[self.ir], qv[self.vx], gd, gd + qv[self.vr])
+
+
+class _AnalyticStepper:
+    """One control step of eqs. (5)-(8) with solve_ivp, torques and held forces fixed."""
+
+    RTOL, ATOL = 1e-10, 1e-12
+
+    def __init__(self, p: Params, dt: float, eff: dict):
+        self.p, self.dt, self.eff = p, dt, eff
+        self.y = np.zeros(6)
+        self.t = 0.0
+        self.held = (0.0, 0.0, None, None)
+
+    def reset(self, y) -> None:
+        self.y = np.array(y, dtype=float)
+        self.t = 0.0
+
+    def set_effects(self, Fx_drag: float, tau_roll: float, h: float | None, Q_lat) -> None:
+        self.held = (Fx_drag, tau_roll, h, Q_lat)
+
+    def rhs(self, t, y, M_d, M_h):
+        """ẏ of eq. (5) with the effects' generalised forces added to Q (eq. 8)."""
+        Fx, tau, h, Q_lat = self.held
+        p = self.p if h is None else self.p_h
+        eff = self.eff
+        q, qd = y[:3], y[3:]
+        Q = analytic.generalized_forces(p, q, M_d, M_h)                   # eq. (8)
+        if "road_slope" in eff:
+            Q = Q + fx.generalized_force("road_slope", eff["road_slope"], p, q, qd)
+        if Q_lat is not None:
+            Q = Q + Q_lat
+        if "wheel_bearing_friction" in eff:
+            Q = Q + fx.generalized_force("wheel_bearing_friction", eff["wheel_bearing_friction"], p, q, qd)
+        if Fx:                                  # held force at G: F ∂x_G/∂q
+            Q = Q + Fx * np.array([1.0, -p.l0 * math.cos(q[1]), p.h * math.cos(q[2])])
+        if tau:                                 # held moment on the wheel: Q_x = τ/R
+            Q[0] += tau / p.R
+        qdd = np.linalg.solve(analytic.mass_matrix(p, q), Q - analytic.nonlinear_terms(p, q, qd))
+        out = np.empty(6)
+        out[:3] = qd
+        out[3:] = qdd
+        return out
+
+    def step(self, M_d: float, M_h: float):
+        from scipy.integrate import solve_ivp
+
+        h = self.held[2]
+        if h is not None:
+            self.p_h = self.p.replace(h=h)
+        t_end = self.t + self.dt
+        sol = solve_ivp(self.rhs, (self.t, t_end), self.y, method="DOP853", rtol=self.RTOL,
+                        atol=self.ATOL, args=(M_d, M_h), first_step=t_end - self.t)
+        if not sol.success:
+            raise SimulationError(f"analytic integration failed at t = {self.t:.3f} s: {sol.message}")
+        self.y = sol.y[:, -1]
+        self.t = t_end
+        return tuple(self.y.tolist())
+
+
+# --- the simulation ----------------------------------------------------------------
+def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Params = TABLE3,
+             motor: MotorPD | None = None, rider: Rider | None = None, seed: int = 0,
+             engine: str = "mujoco", variant: str = "ideal",
+             effects: Mapping[str, float] | None = None, dt: float = DEFAULT_DT,
+             fall_bounds: Mapping[str, float] | None = None, contact=None,
+             rolling_model: str = "moment", external_force=None,
+             lateral_motion: LateralMotion | None = None) -> pd.DataFrame:
+    """Run one maneuver in closed loop and return the true trajectory.
+
+    Parameters
+    ----------
+    maneuver : str or Maneuver
+        A name of :data:`MANEUVERS` (not ``profile``), or a :class:`Maneuver` from
+        :func:`make_maneuver` / :func:`load_speed_profile`.
+    duration : float
+        Length of the run, s.
+    params : Params
+        Nominal parameters.  With the effects applied (:func:`true_params`) they are
+        the simulated physics and the rider's model of his own body: a rider knows
+        his weight, whatever the analyst assumes.
+    motor : MotorPD, optional
+        The EUC's controller (default gains when omitted).
+    rider : Rider, optional
+        The rider (``controllers.design.design_rider(true_params(params, effects), motor)``
+        when omitted: 0.15 s delay, no motor noise).
+    seed : int
+        Seed of the rider's motor noise (no other randomness here).
+    engine : {"mujoco", "analytic"}
+    variant : {"ideal", "contact"}
+        MuJoCo ground model (the analytic engine is pure rolling).
+    effects : mapping, optional
+        ``{name: value}`` in the units of CONTRACT's effect catalog.
+    dt : float
+        Control period and MuJoCo timestep, s.
+    fall_bounds : mapping, optional
+        ``{"phi": rad, "gamma": rad}`` (default :data:`FALL_BOUNDS`).
+    contact : ContactSettings, optional
+        MuJoCo contact variant settings.
+    rolling_model : {"moment", "contact"}
+        How ``rolling_resistance`` acts: an applied moment −C_rr N R sign(ẋ) on the
+        wheel (both engines, CONTRACT's definition), or MuJoCo's own rolling friction
+        of the tyre contact (coefficient C_rr·R, m; MuJoCo engine, contact variant).
+    external_force : callable, optional
+        ``F(t)``: a horizontal force, N, along +x at the rider's centre of gravity G,
+        held over each control step in both engines.  It is not a catalog effect: use
+        it to put disturbances the catalog does not know into a run (for example
+        :class:`PeriodicPush`, the out-of-catalog case of the blind study).
+    lateral_motion : LateralMotion, optional
+        With ``lateral_dynamics``: the tilt and yaw to use (arrays on the run's grid,
+        ``round(duration / dt) + 1`` samples), for example a recording's, instead of
+        the built-in slalom.  The effect's value is then an effective peak tilt: the
+        coupling is scaled by (value / max|ϑ|)², so value = max|ϑ| is the physics.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns as in the module docstring, ``round(duration / dt) + 1`` rows;
+        ``df.attrs`` holds the run's description (maneuver, params, effects, engine,
+        controllers, seed).
+
+    Raises
+    ------
+    FallError
+        (a ``ValueError``) when |φ| or |γ| passes its bound or the state is not finite;
+        the message gives the time of the fall.
+    SimulationError
+        for an unknown engine, maneuver, effect or a bad duration.
+    """
+    if engine not in ENGINES:
+        raise SimulationError(f"unknown engine {engine!r}; valid engines: {', '.join(ENGINES)}")
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise SimulationError(f"duration must be a positive number of seconds, got {duration!r}")
+    if not (math.isfinite(dt) and 0 < dt <= 0.01):
+        raise SimulationError(f"dt must be in (0, 0.01] s, got {dt!r}")
+    man = as_maneuver(maneuver)
+    eff = _check_effects(effects)
+    if engine == "analytic" and variant != "ideal":
+        raise SimulationError(f"the analytic engine is pure rolling: variant must be 'ideal', got {variant!r}")
+    if rolling_model not in ("moment", "contact"):
+        raise SimulationError(f"rolling_model must be 'moment' or 'contact', got {rolling_model!r}")
+    if rolling_model == "contact" and (engine != "mujoco" or variant != "contact"):
+        raise SimulationError("rolling_model 'contact' needs engine 'mujoco' and variant 'contact', "
+                              f"got engine {engine!r}, variant {variant!r}")
+    bounds = dict(FALL_BOUNDS)
+    bounds.update(fall_bounds or {})
+    motor = motor or MotorPD()
+    p_true = true_params(params, eff)
+    if rider is None:
+        rider = default_rider(p_true, motor)
+
+    N = int(round(duration / dt))
+    t = np.arange(N + 1) * dt
+    v_ref, a_ref = man.reference(t)
+    run = RiderRun(rider, p_true, motor, v_ref, a_ref, dt, seed)
+    n = run.n
+    v0, g0, f0, u0 = run.initial_state()
+    y0 = (0.0, g0, f0, v0, 0.0, 0.0)
+
+    h_t = (fx.cog_height(p_true.h, eff["cog_height_drift"], t) if "cog_height_drift" in eff else None)
+    lat, lat_scale = None, 1.0
+    if "lateral_dynamics" in eff:
+        lat = lateral_profile(eff["lateral_dynamics"], t, v_ref) if lateral_motion is None else lateral_motion
+        if lateral_motion is not None:
+            if np.shape(lat.theta) != t.shape:
+                raise SimulationError(f"lateral_motion: expected arrays of {t.size} samples (the run's grid), "
+                                      f"got {np.shape(lat.theta)}")
+            peak = float(np.max(np.abs(lat.theta)))
+            lat_scale = (eff["lateral_dynamics"] / peak) ** 2 if peak > 0 else 0.0
+    C_rr = eff.get("rolling_resistance", 0.0)
+    if rolling_model == "contact":
+        import dataclasses
+
+        from euc_sim.model.mujoco_model import ContactSettings
+        contact = dataclasses.replace(contact or ContactSettings(), rolling_friction=C_rr * p_true.R)
+        C_rr = 0.0                              # the contact itself resists the rolling
+    k_drag = eff.get("aerodynamic_drag", 0.0)
+    N_load = fx.normal_load(p_true) if C_rr else 0.0
+    if external_force is not None and not callable(external_force):
+        raise SimulationError(f"external_force must be a callable F(t) in N, got {external_force!r}")
+    push = external_force or (lambda _t: 0.0)
+    per_step = bool(C_rr or k_drag or h_t is not None or lat is not None or external_force is not None)
+
+    if engine == "mujoco":
+        stepper = _MujocoStepper(p_true, variant, dt, eff, contact)
+    else:
+        stepper = _AnalyticStepper(p_true, dt, eff)
+    if h_t is not None:
+        stepper.set_effects(0.0, 0.0, float(h_t[0]), None)
+    stepper.reset(y0)
+
+    Y = [y0] * (n + 1)                         # padded state history: the delay buffer
+    Md_hist, Mh_hist = [], []
+    phi_max, gam_max = bounds["phi"], bounds["gamma"]
+    torque, command, step = motor.torque, run.command, stepper.step
+    R, sign_v = p_true.R, fx.SIGN_SPEED
+    h_list = None if h_t is None else h_t.tolist()
+    if lat is not None:     # per-step Python floats: the loop's arithmetic stays off numpy
+        lat_s, lat_c = np.sin(lat.theta).tolist(), np.cos(lat.theta).tolist()
+        lat_th_d, lat_ps_d, lat_ps_dd = lat.theta_d.tolist(), lat.psi_d.tolist(), lat.psi_dd.tolist()
+    y = y0
+    for k in range(N + 1):
+        x_, g_, f_, xd_, gd_, fd_ = y
+        if not (abs(f_) <= phi_max and abs(g_) <= gam_max):
+            _raise_fall(k * dt, y, phi_max, gam_max)
+        M_d = torque(g_, gd_, xd_)
+        M_h = command(k, Y)[1]
+        Md_hist.append(M_d)
+        Mh_hist.append(M_h)
+        if k == N:
+            break
+        if per_step:
+            Q_lat = None
+            if lat is not None:  # effects.lateral_forces, held over the step
+                Q_lat = [lat_scale * v for v in fx.lateral_force_rows(
+                    p_true, math.sin(g_), math.cos(g_), math.sin(f_), math.cos(f_), xd_, gd_, fd_,
+                    lat_s[k], lat_c[k], lat_th_d[k], lat_ps_d[k], lat_ps_dd[k])]
+            stepper.set_effects(-k_drag * xd_ * abs(xd_) + float(push(k * dt)),
+                                -C_rr * N_load * R * math.tanh(xd_ / sign_v),
+                                None if h_list is None else h_list[k], Q_lat)
+        y = step(M_d, M_h)
+        Y.append(y)
+    states = np.array(Y[n:], dtype=float)
+    U = np.column_stack([Md_hist, Mh_hist])
+    if not np.all(np.isfinite(states)):  # pragma: no cover - caught by the loop
+        raise FallError(float(t[-1]), "state", float("nan"), None)
+    df = pd.DataFrame({
+        "t": t, "x": states[:, 0], "gamma": states[:, 1], "phi": states[:, 2],
+        "x_dot": states[:, 3], "gamma_dot": states[:, 4], "phi_dot": states[:, 5],
+        "M_d": U[:, 0], "M_h": U[:, 1], "v_ref": v_ref,
+    })
+    if h_t is not None:
+        df["h"] = h_t
+    if lat is not None:
+        df["psi"] = lat.psi
+        df["theta"] = lat.theta
+    df.attrs.update({
+        "maneuver": man.as_dict(), "duration": float(duration), "dt": dt, "engine": engine,
+        "variant": variant, "seed": int(seed), "params": params.as_dict(),
+        "true_params": p_true.as_dict(), "effects": eff, "motor": motor.as_dict(),
+        "rider": rider.as_dict(), "rolling_model": rolling_model,
+    })
+    return df
+
+
+def _raise_fall(t: float, y, phi_max: float, gam_max: float) -> None:
+    x_, g_, f_ = y[0], y[1], y[2]
+    if not all(math.isfinite(v) for v in y):
+        raise FallError(t, "state", [float(v) for v in y][int(np.argmin(np.isfinite(y)))], None)
+    if abs(f_) > phi_max:
+        raise FallError(t, "phi", float(f_), phi_max)
+    raise FallError(t, "gamma", float(g_), gam_max)

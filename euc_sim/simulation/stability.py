@@ -1,0 +1,88 @@
+"""Stability of the closed loops: the plant's linearisation with the motor PD and the rider designed on it.
+
+It sits above both :mod:`euc_sim.model.linearize` (the plant) and :mod:`controllers` (the laws designed on it).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from controllers.design import delayed_closed_loop_radius, design_rider
+from controllers.plant import rider_plant
+from controllers.motor import MotorPD
+from euc_sim.model.linearize import check_against_mujoco, delay_margin, jacobians, numeric_jacobians
+from euc_sim.model.parameters import Params, TABLE3
+
+
+def _eig_list(A: np.ndarray) -> list[list[float]]:
+    ev = np.linalg.eigvals(A)
+    ev = ev[np.lexsort((ev.imag, ev.real))]
+    return [[float(e.real), float(e.imag)] for e in ev]
+
+
+def stability_report(p: Params = TABLE3, motor=None, rider=None, speed: float = 0.0,
+                     check_mujoco: bool = True) -> dict:
+    """Linearisation at upright riding at ``speed``, eigenvalues and the rider's delay margin.
+
+    Parameters
+    ----------
+    p : Params
+    motor : controllers.motor.MotorPD, optional
+        Default gains when omitted.
+    rider : controllers.rider.Rider, optional
+        Designed by :func:`controllers.design.design_rider` when omitted.
+    speed : float
+        Forward speed of the operating point, m/s (x is cyclic; speed enters only
+        through the tilt-back set-point).
+    check_mujoco : bool
+        Also compare the Jacobians with ``mjd_transitionFD``.
+
+    Returns
+    -------
+    dict
+        JSON-ready: eigenvalues ([re, im] pairs, 1/s) of the open loop, the loop with
+        the motor PD, the full loop without delay and the discrete loop with the
+        rider's delay and predictor; the delay margins; the Jacobian checks.
+    """
+
+    motor = motor or MotorPD()
+    rider = rider or design_rider(p, motor)
+    y0 = np.zeros(6)
+    y0[3] = speed
+    A, B = jacobians(p, y0)
+    An, Bn = numeric_jacobians(p, y0)
+    K = np.asarray(rider.K, dtype=float)[None, :]
+    As, Bs = rider_plant(p, motor, K.size == 6, speed)
+    Acl = As - Bs @ K
+    tau, wc = delay_margin(As, Bs, K)
+    rho = delayed_closed_loop_radius(p, motor, rider, speed=speed)
+    out = {
+        "operating_point": {"speed": speed, "gamma": 0.0, "phi": 0.0},
+        "state_order": ["x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot"],
+        "reduced_state_order": ["x_dot", "gamma", "phi", "gamma_dot", "phi_dot", "x_int"][:K.size],
+        "motor": motor.as_dict(),
+        "rider": rider.as_dict(),
+        "eigenvalues": {
+            "open_loop": _eig_list(A),
+            "motor_pd": _eig_list(As[:5, :5]),
+            "motor_pd_and_rider": _eig_list(Acl),
+        },
+        "max_real_part": {
+            "open_loop": float(np.max(np.linalg.eigvals(A).real)),
+            "motor_pd": float(np.max(np.linalg.eigvals(As[:5, :5]).real)),
+            "motor_pd_and_rider": float(np.max(np.linalg.eigvals(Acl).real)),
+        },
+        "rider_loop": {
+            "delay_margin_without_predictor": tau,
+            "crossover_frequency": wc,
+            "reaction_delay": rider.delay,
+            "discrete_spectral_radius_with_delay": rho,
+            "stable_with_delay": bool(rho < 1.0),
+        },
+        "jacobian_check": {
+            "analytic_vs_central_difference": float(max(np.max(np.abs(A - An)), np.max(np.abs(B - Bn)))),
+        },
+    }
+    if check_mujoco:
+        out["jacobian_check"]["analytic_vs_mjd_transitionFD"] = check_against_mujoco(p)
+    return out

@@ -1,0 +1,255 @@
+"""``euc-sim ride``: the command on synthetic logs the tests write (known physics,
+see :mod:`ridesynth`), its bad-input behaviour, the simulation helpers of
+:mod:`euc_sim.rides.simulate`, and the issue's done-criterion on the two real rides
+(skipped when ../shared is absent)."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from euc_sim.cli import main
+from euc_sim.rides.balance import RideAssumptions
+from euc_sim.rides.page import split_at_gaps
+from euc_sim.rides.simulate import battery_power, effects_to_inject, limit_acceleration, ride_params, simulate_profile, to_grid
+from ridesynth import OLD_HEADER, synth_log
+
+SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "wheellog"
+RIDE_A = SHARED / "2020_05_16_08_02_06.csv"
+RIDE_B = SHARED / "2020_05_28_07_52_00.csv"
+DURATION = 60.0       # s: long enough for the fit, short enough for four 1 kHz simulations
+
+
+def run(argv, capsys):
+    """Run the CLI; (exit code, stdout, stderr lines)."""
+    code = main([str(a) for a in argv])
+    out = capsys.readouterr()
+    return code, out.out, [ln for ln in out.err.splitlines() if ln.strip()]
+
+
+@pytest.fixture(scope="module")
+def logs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("logs")
+    return (synth_log(d / "fit.csv", seed=11, duration=DURATION, gap_at=DURATION / 2),
+            synth_log(d / "test.csv", seed=12, duration=DURATION, gap_at=DURATION / 2))
+
+
+@pytest.fixture(scope="module")
+def full_run(logs, tmp_path_factory):
+    """One complete run: --compare, --report, --json, simulation included."""
+    d = tmp_path_factory.mktemp("out")
+    code = main(["ride", str(logs[0]), "--compare", str(logs[1]), "--report", str(d / "rep"),
+                 "--json", str(d / "out.json"), "--n-boot", "40", "--seed", "3"])
+    assert code == 0
+    return json.loads((d / "out.json").read_text()), d / "rep"
+
+
+# --- the command on synthetic logs -------------------------------------------------------
+def test_json_has_contract_form(full_run):
+    rep, _ = full_run
+    for key in ("effects", "heldout_error_nominal", "heldout_error_augmented", "error_unit",
+                "windows"):
+        assert key in rep
+    assert rep["error_unit"] == "W"
+    for e in rep["effects"]:
+        assert {"name", "estimate", "unit", "ci95", "rmse_after", "aliases", "evidence"} <= set(e)
+        assert e["ci95"][0] <= e["estimate"] <= e["ci95"][1]
+    for a, b in rep["windows"]:
+        assert 0.0 <= a < b <= DURATION
+
+
+def test_names_what_the_synthetic_ride_hides(full_run):
+    """The logs were made with C_rr = 0.015, k = 0.35 kg/m and P₀ = 20 W."""
+    rep, _ = full_run
+    names = {e["name"] for e in rep["effects"]}
+    assert {"rolling_resistance", "aerodynamic_drag"} <= names
+    assert rep["heldout_error_augmented"] < rep["heldout_error_nominal"]
+    assert "road_slope" in rep["aliases"]["rolling_resistance"]       # the speed keeps one sign
+
+
+def test_simulation_against_the_log(full_run):
+    """The simulated rider follows the profile; the augmented physics predicts the power better."""
+    rep, d = full_run
+    sim = rep["simulation"]
+    assert sim["ride"] == "test.csv"
+    e = sim["errors"]
+    assert e["nominal"]["v_mps"] < 0.3 and e["augmented"]["v_mps"] < 0.3
+    assert e["augmented"]["P_W"] < e["nominal"]["P_W"]
+    assert set(sim["effects_injected"]) == {"rolling_resistance", "aerodynamic_drag"}
+    assert sim["acceleration_limit_mps2"] == {"nominal": None, "augmented": None}
+    table = np.genfromtxt(d / "ride_simulation.csv", delimiter=",", names=True)
+    for col in ("t", "v_log", "v_nominal", "v_augmented", "M_log", "M_nominal", "M_augmented",
+                "P_log", "P_nominal", "P_augmented", "scored"):
+        assert col in table.dtype.names
+
+
+def test_report_folder(full_run):
+    rep, d = full_run
+    page = (d / "index.md").read_text()
+    assert rep["report"] == str(d / "index.md")
+    linked = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", page)
+    assert set(linked) == {"ride_balance.png", "ride_residuals.png", "ride_simulation.png"}
+    for name in linked:
+        assert (d / name).stat().st_size > 20_000
+    for word in ("aerodynamic_drag", "kg/m", "cannot tell apart", "Windows (s)", "plausible"):
+        assert word in page
+    assert not list(d.glob(".*.tmp"))                     # no temporary files left
+
+
+def test_halves_and_torque_domain_without_simulation(logs, tmp_path, capsys):
+    code, out, err = run(["ride", logs[0], "--json", tmp_path / "o.json", "--domain", "torque",
+                          "--no-simulate", "--n-boot", "20"], capsys)
+    assert code == 0, err
+    rep = json.loads((tmp_path / "o.json").read_text())
+    assert rep["error_unit"] == "N·m" and rep["compare"] is None
+    assert "second half" in rep["error_measure"] and rep["simulation"] is None
+    assert "held-out error" in out
+
+
+def test_mass_and_radius_reach_the_assumptions(logs, tmp_path, capsys):
+    code, _, err = run(["ride", logs[0], "--json", tmp_path / "o.json", "--mass", "100",
+                        "--radius", "0.25", "--efficiency", "0.9", "--no-simulate",
+                        "--n-boot", "10"], capsys)
+    assert code == 0, err
+    a = json.loads((tmp_path / "o.json").read_text())["assumptions"]
+    assert a["total_mass"] == pytest.approx(100.0) and a["R"] == 0.25
+    assert a["m_eq"] == pytest.approx(100.0 + 0.12 / 0.25 ** 2)
+    assert a["efficiency_for_torque"] == 0.9
+
+
+# --- bad input: one line, exit 2, nothing written -----------------------------------------
+def _bad(argv, capsys, tmp_path, outputs=("o.json", "rep")):
+    code, _, err = run(argv, capsys)
+    assert code == 2
+    assert len(err) == 1 and err[0].startswith("euc-sim ride: error:"), err
+    for name in outputs:
+        assert not (tmp_path / name).exists()
+    return err[0]
+
+
+def test_missing_log(tmp_path, capsys):
+    msg = _bad(["ride", tmp_path / "nope.csv", "--json", tmp_path / "o.json",
+                "--report", tmp_path / "rep"], capsys, tmp_path)
+    assert "nope.csv" in msg
+
+
+def test_missing_compare_log(logs, tmp_path, capsys):
+    msg = _bad(["ride", logs[0], "--compare", tmp_path / "other.csv", "--json",
+                tmp_path / "o.json"], capsys, tmp_path)
+    assert "other.csv" in msg
+
+
+def test_malformed_log_names_the_column(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text(OLD_HEADER + "\n" + "2024-06-01,10:00:00.000,12.5,65.0,1.0,65.0,90,0,1000,30,0,"
+                   "0.00,0.00,0,\n" + "2024-06-01,10:00:00.200,fast,65.0,1.0,65.0,90,0,1000,30,0,"
+                   "0.00,0.00,0,\n")
+    msg = _bad(["ride", bad, "--json", tmp_path / "o.json", "--report", tmp_path / "rep"],
+               capsys, tmp_path)
+    assert "bad.csv" in msg and "speed" in msg
+
+
+def test_log_without_power(tmp_path, capsys):
+    log = tmp_path / "nopower.csv"
+    rows = [f"2024-06-01,10:00:{i // 5:02d}.{200 * (i % 5):03d},{10 + i % 7}.0" for i in range(100)]
+    log.write_text("date,time,speed\n" + "\n".join(rows) + "\n")
+    msg = _bad(["ride", log, "--json", tmp_path / "o.json"], capsys, tmp_path)
+    assert "power" in msg
+
+
+def test_unwritable_json(logs, tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    msg = _bad(["ride", logs[0], "--json", blocker / "o.json", "--report", tmp_path / "rep"],
+               capsys, tmp_path)
+    assert "o.json" in msg
+    assert blocker.read_text() == "not a folder"
+
+
+def test_report_is_a_file(logs, tmp_path, capsys):
+    (tmp_path / "rep").write_text("x")
+    _bad(["ride", logs[0], "--report", tmp_path / "rep", "--json", tmp_path / "o.json"],
+         capsys, tmp_path, outputs=("o.json",))
+    assert (tmp_path / "rep").read_text() == "x"
+
+
+@pytest.mark.parametrize("opt", [["--mass", "10"], ["--mass", "-80"], ["--radius", "0"],
+                                 ["--efficiency", "1.5"], ["--domain", "speed"],
+                                 ["--n-boot", "0"]])
+def test_bad_options(logs, tmp_path, capsys, opt):
+    _bad(["ride", logs[0], "--json", tmp_path / "o.json", *opt], capsys, tmp_path)
+
+
+# --- the simulation helpers ---------------------------------------------------------------
+def test_limit_acceleration_bounds_slope_without_shift():
+    t = np.arange(0.0, 20.0, 0.1)
+    v = np.where(t > 5.05, 6.0, 0.0)                   # a step at t = 5.05 s
+    out = limit_acceleration(t, v, 1.5)
+    assert np.max(np.abs(np.diff(out) / np.diff(t))) <= 1.5 + 1e-9
+    # mean of a lagging and a leading limiter: the step's midpoint stays where it was
+    assert np.interp(3.0, out, t) == pytest.approx(5.05, abs=0.06)
+    assert out[t > 5.05 + 6.0 / 1.5] == pytest.approx(6.0)
+    assert out[t < 5.05 - 6.0 / 1.5] == pytest.approx(0.0)
+    assert v[t > 5.05].min() == 6.0                    # input untouched
+    with pytest.raises(ValueError):
+        limit_acceleration(t, v, 0.0)
+
+
+def test_rider_falls_on_a_step_and_the_limited_profile_is_said():
+    t = np.arange(0.0, 6.0, 0.1)
+    v = np.clip((t - 1.0) / 0.2, 0.0, 1.0) * 6.0          # 0 -> 6 m/s in 0.2 s: 30 m/s²
+    run = simulate_profile(t, v, ride_params(RideAssumptions()), {}, track_iterations=0)
+    assert run.frame is not None and run.a_limit is not None
+    assert any("fell" in n for n in run.notes)
+    assert any(f"±{run.a_limit:g} m/s²" in n for n in run.notes)
+
+
+def test_windows_are_cut_at_gaps():
+    t = np.concatenate([np.arange(0.0, 10.0, 0.1), np.arange(13.0, 20.0, 0.1)])
+    assert split_at_gaps([[8.0, 15.0], [1.0, 2.0]], t, min_len=0.5) == [
+        [8.0, pytest.approx(9.9)], [13.0, 15.0], [1.0, 2.0]]
+    assert split_at_gaps([[9.8, 13.2]], t, min_len=0.5) == []
+
+
+def test_battery_power_regimes():
+    P = battery_power([10.0, -10.0], [2.0, 2.0], [0.0, 0.0], 0.2, 0.8, 0.5, idle=5.0)
+    assert P == pytest.approx([5.0 + 100.0 / 0.8, 5.0 - 50.0])
+
+
+def test_to_grid_is_the_interval_mean():
+    tf = np.arange(0.0, 1.0, 0.001)
+    out = to_grid(tf, tf, np.array([0.2, 0.5]))
+    assert out == pytest.approx([0.2, 0.5], abs=1e-3)
+
+
+def test_effects_to_inject():
+    eff, notes = effects_to_inject({"road_slope": 0.05, "aerodynamic_drag": 0.3,
+                                    "drivetrain_idle_loss": 20.0},
+                                   ["road_slope", "aerodynamic_drag", "drivetrain_idle_loss"])
+    assert eff == pytest.approx({"road_slope": np.arcsin(0.05), "aerodynamic_drag": 0.3})
+    assert len(notes) == 1 and "electrical" in notes[0]
+
+
+# --- the real rides ------------------------------------------------------------------------
+@pytest.mark.skipif(not SHARED.is_dir(), reason=f"{SHARED} absent (user's clone)")
+def test_real_rides_done_criterion(tmp_path, capsys):
+    """Issue 6's done-criterion: on the two real rides the tool names what the
+    nominal model leaves out, and the cross-ride error drops (ratio < 1), with the figure."""
+    code, out, err = run(["ride", RIDE_A, "--compare", RIDE_B, "--json", tmp_path / "o.json",
+                          "--report", tmp_path / "rep", "--n-boot", "50", "--no-simulate"],
+                         capsys)
+    assert code == 0, err
+    rep = json.loads((tmp_path / "o.json").read_text())
+    assert rep["effects"], "nothing named"
+    for e in rep["effects"]:
+        assert e["evidence"] and e["unit"] and "plausible" in e
+    assert rep["heldout_error_augmented"] / rep["heldout_error_nominal"] < 1.0
+    assert rep["aliases"]["rolling_resistance"] == ["road_slope"]
+    assert rep["windows"] and all(0.0 <= a < b <= 340.0 for a, b in rep["windows"])
+    for name in ("ride_balance.png", "ride_residuals.png", "index.md"):
+        assert (tmp_path / "rep" / name).stat().st_size > 2_000
+    assert "left out:" in out

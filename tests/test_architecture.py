@@ -1,0 +1,91 @@
+"""The layout is the architecture: layers import only downwards, no import cycles, no huge modules."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+#: Layers, lowest first: a module may import from its own layer or any layer below it.
+LAYERS = ["euc_sim.io", "euc_sim.model", "controllers", "euc_sim.simulation", "euc_sim.identification",
+          "euc_sim.diagnosis", "euc_sim.rides", "euc_sim.cli"]
+MAX_LINES = 650
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for pkg in ("euc_sim", "controllers"):
+        for path in (ROOT / pkg).rglob("*.py"):
+            parts = path.relative_to(ROOT).with_suffix("").parts
+            name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+            out[name] = path
+    return out
+
+
+def _imports(path: Path, modules: dict[str, Path]) -> set[str]:
+    """Project modules imported anywhere in the file (function-level imports included)."""
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            for alias in node.names:
+                full = f"{node.module}.{alias.name}"
+                found.add(full if full in modules else node.module)
+        elif isinstance(node, ast.Import):
+            found.update(a.name for a in node.names)
+    return {m for m in found if m in modules}
+
+
+def _layer(module: str) -> int:
+    best = -1
+    for i, prefix in enumerate(LAYERS):
+        if module == prefix or module.startswith(prefix + "."):
+            best = i
+    return best
+
+
+GRAPH = {name: _imports(path, _modules()) for name, path in _modules().items()}
+
+
+def test_every_module_has_a_layer():
+    missing = [m for m in GRAPH if _layer(m) < 0 and m != "euc_sim"]
+    assert missing == []
+
+
+def test_layers_import_only_downwards():
+    upward = [(m, d) for m, deps in GRAPH.items() for d in deps
+              if m != "euc_sim" and d != "euc_sim" and _layer(d) > _layer(m)]
+    assert upward == []
+
+
+def test_no_import_cycles():
+    # Tarjan-free check: depth-first search for a back edge
+    colour, cycles = {}, []
+
+    def visit(m, stack):
+        colour[m] = 1
+        for d in sorted(GRAPH[m]):
+            if d == "euc_sim" or d.startswith(m + "."):
+                continue
+            if colour.get(d) == 1:
+                cycles.append(stack[stack.index(d):] + [d] if d in stack else [m, d])
+            elif d not in colour:
+                visit(d, stack + [d])
+        colour[m] = 2
+
+    for m in sorted(GRAPH):
+        if m not in colour:
+            visit(m, [m])
+    assert cycles == []
+
+
+#: Modules still over the limit, to be split (issue 11); strict: the mark fails once they are split.
+PENDING_SPLIT = {"euc_sim.rides.balance", "euc_sim.diagnosis.pipeline", "euc_sim.identification.selection"}
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason="split pending"))
+                                  if n in PENDING_SPLIT else n for n in sorted(_modules())])
+def test_no_module_over_the_limit(name):
+    n = len(_modules()[name].read_text().splitlines())
+    assert n <= MAX_LINES, f"{name}: {n} lines"
