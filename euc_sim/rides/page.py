@@ -2,7 +2,7 @@
 
 :func:`residual_windows` evaluates the fitted inertia-only and augmented
 balances (:mod:`euc_sim.rides.balance`) over a whole ride and hands the inertia-only
-residual to the diagnosis module's :func:`euc_sim.diagnosis.pipeline.localise`, which
+residual to the diagnosis module's :func:`euc_sim.diagnosis.localise.localise`, which
 returns the windows (s) where the mismatch concentrates, as ``euc-sim diagnose``
 does for a recording.  :func:`plot_residuals` draws the residuals over time
 with those windows shaded and :func:`write_page` writes ``DIR/index.md``.
@@ -44,7 +44,7 @@ class ResidualTrace:
         Measured − predicted battery power, W (or N·m in the torque domain).
     unit : str
     localisation : dict
-        :func:`euc_sim.diagnosis.pipeline.localise` of ``nominal``: ``windows`` [[t0, t1], ...]
+        :func:`euc_sim.diagnosis.localise.localise` of ``nominal``: ``windows`` [[t0, t1], ...]
         s, ``share`` of the residual energy inside them, ``correlations``.
     in_sample : bool
         True when the parameters were fitted on this ride.
@@ -93,7 +93,7 @@ def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
     in_sample : bool
         Whether the parameters were fitted on this ride (reported, not used).
     smooth, min_len : float
-        s, passed to :func:`euc_sim.diagnosis.pipeline.localise`.
+        s, passed to :func:`euc_sim.diagnosis.localise.localise`.
 
     Returns
     -------
@@ -103,7 +103,7 @@ def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
         as adjacent samples; its windows are then cut at those gaps
         (:func:`split_at_gaps`).
     """
-    from euc_sim.diagnosis.pipeline import localise
+    from euc_sim.diagnosis.localise import localise
 
     d = balance_design(sig, domain)
     r_nom = d.residual(nominal)

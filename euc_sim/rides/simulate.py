@@ -339,7 +339,7 @@ class RideSimulation:
     a_limit : dict
         ``{"nominal"|"augmented": m/s² or None}``.
     localisation : dict
-        :func:`euc_sim.diagnosis.pipeline.localise` on the augmented power error (W):
+        :func:`euc_sim.diagnosis.localise.localise` on the augmented power error (W):
         windows (s), share, correlations.
     notes : tuple of str
     """
@@ -408,7 +408,7 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
         Processes for the two simulations (2: nominal and augmented side by
         side; the results do not depend on it).
     window_smooth, window_min : float
-        s: ``smooth`` and ``min_len`` of :func:`euc_sim.diagnosis.pipeline.localise`
+        s: ``smooth`` and ``min_len`` of :func:`euc_sim.diagnosis.localise.localise`
         (longer than its 1 s / 0.5 s defaults: a ride is minutes long and
         sampled at 5 Hz).
 
@@ -416,7 +416,7 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     -------
     RideSimulation
     """
-    from euc_sim.diagnosis.pipeline import localise
+    from euc_sim.diagnosis.localise import localise
     from euc_sim.rides.page import split_at_gaps
     from euc_sim.simulation.engine import default_rider
 

@@ -19,7 +19,8 @@ import pandas as pd
 import pytest
 
 from euc_sim.model import analytic
-from euc_sim.diagnosis import pipeline as diagnosis
+from euc_sim.diagnosis import candidates, localise, pipeline as diagnosis, prepare, residual
+from euc_sim.diagnosis.common import THRESHOLDS
 from euc_sim.simulation import effects
 from euc_sim.model.parameters import TABLE3
 
@@ -92,8 +93,8 @@ def noise_free(tmp_path_factory):
 
 
 def test_residual_matches_the_paper_torques_and_the_catalog_term(noise_free):
-    prep = diagnosis.prepare(noise_free)
-    model = diagnosis.residual_model(prep)
+    prep = prepare.prepare(noise_free)
+    model = residual.residual_model(prep)
     k = prep.keep
     p = TABLE3
     # the closed form in h is eqs. (9)-(10), term-filtered (identification.torques filters
@@ -104,12 +105,12 @@ def test_residual_matches_the_paper_torques_and_the_catalog_term(noise_free):
     tq = torques(prep.kin, p.replace(h=0.6))
     assert np.max(np.abs(model.kinematic(0.6) - (tq["M_d1"] - tq["M_d2"]).to_numpy()[k])) < 0.01
     # the rolling-resistance term explains the residual: θ ≈ C_rr, RMSE ≪ the effect
-    prob, info = diagnosis.build_problem(prep, 0.6)
-    from euc_sim.identification import selection as sel
-    f = sel.fit_set(prob, ("rolling_resistance",))
+    prob, info = candidates.build_problem(prep, 0.6)
+    from euc_sim.identification import regression as reg
+    f = reg.fit_set(prob, ("rolling_resistance",))
     assert f.theta["rolling_resistance"][0] == pytest.approx(0.02, rel=0.03)
     assert f.h == pytest.approx(0.6, abs=0.01)
-    assert f.rmse < 0.1 * sel.fit_set(prob, ()).rmse
+    assert f.rmse < 0.1 * reg.fit_set(prob, ()).rmse
 
 
 def test_bearing_friction_cancels_from_the_kinematic_residual():
@@ -123,12 +124,12 @@ def test_bearing_friction_cancels_from_the_kinematic_residual():
 
 
 def test_visibility_depends_on_the_columns():
-    v = diagnosis.visibility(["t", "x", "gamma", "phi"])
+    v = candidates.visibility(["t", "x", "gamma", "phi"])
     assert not v["wheel_bearing_friction"]["visible"]
     assert not v["rider_mass"]["visible"]
     assert not v["lateral_dynamics"]["visible"]
     assert v["rolling_resistance"]["visible"]
-    w = diagnosis.visibility(["t", "x", "gamma", "phi", "M_d", "psi", "theta"])
+    w = candidates.visibility(["t", "x", "gamma", "phi", "M_d", "psi", "theta"])
     assert w["wheel_bearing_friction"]["visible"] and w["rider_mass"]["visible"]
     assert w["lateral_dynamics"]["visible"]
 
@@ -137,13 +138,13 @@ def test_localise_finds_the_window_and_the_correlation():
     t = np.arange(0, 20, 1 / 30)
     speed = 2 + np.sin(t)
     r = 0.05 * np.sin(7 * t) + np.where((t > 8) & (t < 11), 1.0, 0.0) * speed
-    loc = diagnosis.localise(t, r, {"speed": speed, "other": np.cos(3 * t)})
+    loc = localise.localise(t, r, {"speed": speed, "other": np.cos(3 * t)})
     assert len(loc["windows"]) == 1
     a, b = loc["windows"][0]
     assert 7.0 < a < 8.8 and 10.2 < b < 12.0
     assert loc["share"] > 0.9
     with pytest.raises(ValueError, match="same length"):
-        diagnosis.localise(t, r[:-1], {})
+        localise.localise(t, r[:-1], {})
 
 
 # --- the small blind study -------------------------------------------------------------
@@ -258,7 +259,7 @@ def test_motion_capture_columns_alone_give_the_same_diagnosis(study, tmp_path):
 def test_null_recordings_stay_below_the_acceptance_thresholds(study):
     """The calibration statistic: on every null, even the strongest candidate of the
     first step is refused by the BIC (the test that separates nulls, see Thresholds)."""
-    th = diagnosis.THRESHOLDS
+    th = THRESHOLDS
     nulls = _by(study, kind="null")
     assert nulls
     for r in nulls:

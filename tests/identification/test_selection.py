@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from scipy.ndimage import gaussian_filter1d
 
+from euc_sim.identification import regression as reg
 from euc_sim.identification import selection as sel
 
 N = 1200
@@ -41,42 +42,42 @@ def _problem(true: dict, seed: int, h_true: float = 0.6, sd: float = 0.2, validi
     def target(h):
         return (h - h_true) * hook + signal + e
 
-    return sel.Problem(target, cands, T, (0.2, 1.2), validity=validity or {})
+    return reg.Problem(target, cands, T, (0.2, 1.2), validity=validity or {})
 
 
 def test_correlation_time_white_and_correlated():
     rng = np.random.default_rng(1)
-    assert sel.correlation_time(rng.normal(size=20000)) == pytest.approx(1.0, abs=0.2)
+    assert reg.correlation_time(rng.normal(size=20000)) == pytest.approx(1.0, abs=0.2)
     # AR(1) with ρ = 0.9: τ_int = (1 + ρ)/(1 − ρ) = 19
     x = np.zeros(20000)
     z = rng.normal(size=20000)
     for i in range(1, x.size):
         x[i] = 0.9 * x[i - 1] + z[i]
-    assert sel.correlation_time(x) == pytest.approx(19.0, rel=0.15)
+    assert reg.correlation_time(x) == pytest.approx(19.0, rel=0.15)
 
 
 def test_time_blocks_contiguous_and_validated():
-    b = sel.time_blocks(T, 5)
+    b = reg.time_blocks(T, 5)
     assert set(b) == {0, 1, 2, 3, 4}
     assert np.all(np.diff(b) >= 0)
     with pytest.raises(ValueError, match="n_blocks"):
-        sel.time_blocks(T, 1)
+        reg.time_blocks(T, 1)
 
 
 def test_fit_set_recovers_nuisance_and_coefficient():
     prob = _problem({"quad": 0.3}, seed=2)
-    f = sel.fit_set(prob, ("quad",))
+    f = reg.fit_set(prob, ("quad",))
     assert f.h == pytest.approx(0.6, abs=0.01)
     assert f.theta["quad"][0] == pytest.approx(0.3, rel=0.05)
-    f0 = sel.fit_set(prob, ())
+    f0 = reg.fit_set(prob, ())
     assert f0.rss > f.rss
 
 
 def test_forward_select_finds_the_term_and_its_interval_covers_truth():
     prob = _problem({"quad": 0.3}, seed=3)
-    s = sel.forward_select(prob, n_eff=N / sel.correlation_time(_noise(103)))
+    s = sel.forward_select(prob, n_eff=N / reg.correlation_time(_noise(103)))
     assert s.selected == ("quad",)
-    cov, dof = sel.covariance(prob, s.fit, cluster=2.0)
+    cov, dof = reg.covariance(prob, s.fit, cluster=2.0)
     se = np.sqrt(cov[0, 0])
     assert abs(s.fit.theta["quad"][0] - 0.3) < 3 * se
     assert s.cv_final < 0.5 * s.cv_nominal
@@ -103,16 +104,16 @@ def test_interval_covers_when_the_residual_is_correlated_beyond_the_blocks():
         def target(h, e=e):
             return (h - 0.6) * 30.0 * lean + 0.05 * X + e
 
-        prob = sel.Problem(target, {"quad": X}, T, (0.2, 1.2))
-        f = sel.fit_set(prob, ("quad",))
-        cov, dof = sel.covariance(prob, f, cluster=2.0)
+        prob = reg.Problem(target, {"quad": X}, T, (0.2, 1.2))
+        f = reg.fit_set(prob, ("quad",))
+        cov, dof = reg.covariance(prob, f, cluster=2.0)
         covered += int(abs(f.theta["quad"][0] - 0.05) <= stats.t.ppf(0.975, dof) * np.sqrt(cov[0, 0]))
     assert covered / n >= 0.88
 
 
 def test_forward_select_null_selects_nothing():
     prob = _problem({}, seed=4)
-    s = sel.forward_select(prob, n_eff=N / sel.correlation_time(_noise(104)))
+    s = sel.forward_select(prob, n_eff=N / reg.correlation_time(_noise(104)))
     assert s.selected == ()
     assert s.fit.h == pytest.approx(0.6, abs=0.02)
 
@@ -122,7 +123,7 @@ def test_validity_refusal_lets_the_next_candidate_in():
     # preferred blindly either; here it is refused too, and "rate" is the real term
     refuse = {"const": lambda th: "refused for the test", "twin": lambda th: "refused for the test"}
     prob = _problem({"const": 0.5, "rate": 2.0}, seed=5, validity=refuse)
-    s = sel.forward_select(prob, n_eff=N / sel.correlation_time(_noise(105)))
+    s = sel.forward_select(prob, n_eff=N / reg.correlation_time(_noise(105)))
     assert "rate" in s.selected
     assert "const" not in s.selected and "twin" not in s.selected
     assert "refused for the test" in s.history[1].reason
@@ -130,7 +131,7 @@ def test_validity_refusal_lets_the_next_candidate_in():
 
 def test_aliases_reported_for_near_collinear_terms():
     prob = _problem({"const": 0.5}, seed=6)
-    n_eff = N / sel.correlation_time(_noise(106))
+    n_eff = N / reg.correlation_time(_noise(106))
     s = sel.forward_select(prob, n_eff=n_eff)
     assert s.selected[0] in ("const", "twin")
     other = "twin" if s.selected[0] == "const" else "const"
@@ -143,7 +144,7 @@ def test_generic_periodic_basis_beats_the_catalog_only_on_a_periodic_disturbance
     periodic = _problem({}, seed=7)
     base = periodic.target
     push = 0.8 * np.sin(2 * np.pi * 0.55 * T + 0.4)
-    prob_push = sel.Problem(lambda h: base(h) + push, periodic.candidates, T, periodic.bounds)
+    prob_push = reg.Problem(lambda h: base(h) + push, periodic.candidates, T, periodic.bounds)
     a, b = sel.generic_gain(prob_push, (), sel.sinusoid_basis(T))
     assert b / a < 0.5           # the periodic basis removes more than half
     a0, b0 = sel.generic_gain(periodic, (), sel.sinusoid_basis(T))
@@ -152,8 +153,8 @@ def test_generic_periodic_basis_beats_the_catalog_only_on_a_periodic_disturbance
 
 def test_problem_rejects_bad_shapes_naming_the_argument():
     with pytest.raises(ValueError, match="candidate 'x'"):
-        sel.Problem(lambda h: np.zeros(N), {"x": np.ones(N - 1)}, T, (0.2, 1.0))
+        reg.Problem(lambda h: np.zeros(N), {"x": np.ones(N - 1)}, T, (0.2, 1.0))
     with pytest.raises(ValueError, match="bounds"):
-        sel.Problem(lambda h: np.zeros(N), {}, T, (1.0, 0.2))
+        reg.Problem(lambda h: np.zeros(N), {}, T, (1.0, 0.2))
     with pytest.raises(ValueError, match="unknown candidate"):
-        sel.fit_set(sel.Problem(lambda h: np.zeros(N), {}, T, (0.2, 1.0)), ("nope",))
+        reg.fit_set(reg.Problem(lambda h: np.zeros(N), {}, T, (0.2, 1.0)), ("nope",))

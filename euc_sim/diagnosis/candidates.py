@@ -1,0 +1,231 @@
+"""Step 3, candidates: one term per catalog effect, from its physics; what a recording can see.
+
+κ·(R Q_e,x + Q_e,γ + Q_e,φ) with Q_e from
+:func:`euc_sim.simulation.effects.generalized_force` (virtual power, the paper's
+Appendix A), or a finite-difference sensitivity of the residual for parameter and
+measurement effects (rider mass, h drift, time offset).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from euc_sim.diagnosis.common import DRIFT_PERIOD, H_BOUNDS
+from euc_sim.diagnosis.prepare import Prepared
+from euc_sim.diagnosis.residual import residual_model
+from euc_sim.identification import regression as reg
+from euc_sim.model import analytic
+from euc_sim.model.parameters import Params
+from euc_sim.simulation import effects
+
+__all__ = ["visibility", "build_problem", "DRIFT_FILTER"]
+
+
+# --- visibility -------------------------------------------------------------------------
+def visibility(columns) -> dict[str, dict]:
+    """Which catalog effects a recording with these columns can reveal, and why not.
+
+    Parameters
+    ----------
+    columns : iterable of str
+        The recording's columns.
+
+    Returns
+    -------
+    dict
+        ``{effect: {"visible": bool, "through": str, "reason": str}}``.
+    """
+    cols = set(columns)
+    out = {}
+    for name, e in effects.CATALOG.items():
+        missing = [c for c in e.needs if c not in cols]
+        if missing:
+            reason = f"needs column(s) {', '.join(missing)}; {e.hidden_because or 'not in this recording'}"
+            out[name] = {"visible": False, "through": "", "reason": reason}
+        elif not e.kinematic_visible:
+            out[name] = {"visible": True, "through": "wheel row (M_d recorded)",
+                         "reason": f"hidden from M_d,1 − M_d,2 ({e.hidden_because}) but not from M_d,1 − M_d"}
+        else:
+            through = "M_d,1 − M_d,2" + (" and wheel row" if "M_d" in cols else "")
+            out[name] = {"visible": True, "through": through, "reason": ""}
+    return out
+
+
+# --- the candidate library ---------------------------------------------------------------
+#: Reference magnitude for each force effect's unit column (linear ones are exact).
+_REF = {"rolling_resistance": 1.0, "aerodynamic_drag": 1.0, "road_slope": 1e-3,
+        "wheel_bearing_friction": 1.0, "lateral_dynamics": 1.0}
+
+
+def _force_columns(name: str, prep: Prepared, p: Params, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """(kinematic, wheel-row) columns of a force effect per unit of its estimate.
+
+    κ(q) · F[R Q_e,x + Q_e,γ + Q_e,φ] and F[R Q_e,x], F the term filter: the same
+    filter as every term of the residual (NOTES fact 4).
+    """
+    ph = p.replace(h=h)
+    kin = prep.kin
+    extra = None
+    if name == "lateral_dynamics":
+        extra = prep.lateral
+    Q = effects.generalized_force(name, _REF[name], ph, kin.q, kin.qd, extra) / _REF[name]
+    kappa = analytic.residual_gain(ph, kin.q[prep.keep])
+    return kappa * prep.filtered(analytic.moment_about_contact(ph, Q)), p.R * prep.filtered(Q[:, 0])
+
+
+#: Term filter of the h-drift columns, as a multiple of the default (1: the same
+#: filter; a heavier one was tried and biased the drift estimate by +20 to +30 %).
+DRIFT_FILTER = 1.0
+
+
+def _sensitivity(prep: Prepared, p: Params, h: float, vary: Callable[[float], tuple],
+                 sigma: float | None) -> np.ndarray:
+    """Central difference of the stacked residual for a perturbed (params, prep)."""
+    pa, pra = vary(-1.0)
+    pb, prb = vary(1.0)
+    return (residual_model(prb, pb, sigma)(h) - residual_model(pra, pa, sigma)(h)) / 2.0
+
+
+def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[reg.Problem, dict]:
+    """The selection problem: residual r(h), candidate columns and validity rules.
+
+    Parameters
+    ----------
+    prep : Prepared
+    h0 : float
+        h at which the candidate columns are evaluated, m (the nominal estimate).
+    p : Params, optional
+        Nominal parameters (``prep.params`` by default).
+
+    Returns
+    -------
+    problem : regression.Problem
+    info : dict
+        Per candidate: how its coefficient maps to CONTRACT's estimate
+        (``{"scale": s, "offset": o}``: estimate = o + s·θ; ``"amplitude"`` for the
+        two-column h drift, whose estimate is |θ|).
+
+    Notes
+    -----
+    The rider-mass term is the wheel row's only (it needs M_d): in the kinematic row
+    the residual's sensitivity to m is mostly the noise's own (m scales the noisy
+    rider terms), and a regression on it would "explain" noise by a rider mass near
+    zero.
+    """
+    p = prep.params if p is None else p
+    model = residual_model(prep, p)
+    vis = visibility(prep.raw.columns)
+    has_w = model.W is not None
+    cands, info = _force_candidates(prep, p, h0, vis, has_w)
+    more, more_info = _parameter_candidates(prep, p, h0, vis, has_w)
+    cands.update(more)
+    info.update(more_info)
+    t = prep.t[prep.keep]
+    time = np.concatenate([t, t]) if has_w else t
+    validity = _validity(p)
+    problem = reg.Problem(target=model, candidates=cands, time=time, bounds=H_BOUNDS,
+                          validity={c: v for c, v in validity.items() if c in cands})
+    return problem, info
+
+
+def _force_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bool):
+    """Columns and estimate maps of the force effects the recording can see."""
+    k = prep.keep
+    cands: dict[str, np.ndarray] = {}
+    info: dict[str, dict] = {}
+    for name in ("rolling_resistance", "aerodynamic_drag", "road_slope",
+                 "lateral_dynamics", "wheel_bearing_friction"):
+        if not vis[name]["visible"]:
+            continue
+        kin, wh = _force_columns(name, prep, p, h0)
+        col = np.concatenate([kin, wh]) if has_w else kin
+        if not np.any(np.abs(col) > 1e-9):
+            continue
+        cands[name] = col
+        if name == "lateral_dynamics":
+            # every term of effects.lateral_forces is of second order in the turn
+            # (ϑψ̈, ψ̇ϑ̇, ψ̇², ẋψ̇ϑ, ϑ² with ψ̇ ∝ tan ϑ): a fitted coupling strength s
+            # means an effective peak tilt √s · max|ϑ| (CONTRACT: peak tilt)
+            info[name] = {"scale": float(np.max(np.abs(prep.lateral["theta"][k]))), "offset": 0.0, "sqrt": True}
+        else:
+            info[name] = {"scale": 1.0, "offset": 0.0}
+    return cands, info
+
+
+def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bool):
+    """Columns of the parameter and measurement effects: sensitivities of the residual."""
+    k = prep.keep
+    t = prep.t[k]
+    time = np.concatenate([t, t]) if has_w else t
+    cands: dict[str, np.ndarray] = {}
+    info: dict[str, dict] = {}
+    # rider mass: r(m_nom) ≈ −∂r/∂m · Δm  ⇒  column −∂r/∂m, θ = Δm (kg)
+    dm = 5.0
+
+    def vary_m(s):
+        return effects.apply_to_params(p, "rider_mass", p.m + s * dm), prep
+
+    if vis["rider_mass"]["visible"]:
+        # visible only with M_d (see visibility): the wheel row sees m_11 ẍ plainly; the
+        # kinematic row's sensitivity to m is mostly the noise's, so the term is the
+        # wheel row's alone
+        col = -_sensitivity(prep, p, h0, vary_m, None) / dm
+        col[:k.size] = 0.0
+        cands["rider_mass"] = col
+        info["rider_mass"] = {"scale": 1.0, "offset": p.m}
+    # time offset of the rider channel: φ_rec(t) = φ(t − τ) ⇒ r(0) ≈ −∂r/∂τ · τ
+    # (the plain filter here: a shift does not scale the noise)
+    dtau = 0.005
+
+    def vary_tau(s):
+        return p, prep.shifted(s * dtau)
+
+    cands["sensor_time_offset"] = -_sensitivity(prep, p, h0, vary_tau, None) / dtau
+    info["sensor_time_offset"] = {"scale": 1.0, "offset": 0.0}
+    # h drift, the catalog's law h(t) = h + (Δh/2) sin(2π t/T): −∂r/∂h · (½ sin, ½ cos)
+    dh = 1e-4
+    model_s = residual_model(prep, p, prep.sigma * DRIFT_FILTER)
+    drdh = (model_s(h0 + dh) - model_s(h0 - dh)) / (2 * dh)
+    ph = 2 * np.pi * time / DRIFT_PERIOD
+    cands["cog_height_drift"] = np.column_stack([-drdh * 0.5 * np.sin(ph), -drdh * 0.5 * np.cos(ph)])
+    info["cog_height_drift"] = {"scale": 1.0, "offset": 0.0, "amplitude": True}
+    return cands, info
+
+
+def _validity(p: Params) -> dict:
+    """Physical-range checks of each candidate's coefficients (None: valid, else why not)."""
+
+    def positive(lo, hi, unit):
+        def check(theta):
+            v = float(theta[0])
+            if v <= 0:
+                return f"estimate {v:.3g} {unit} has the wrong sign for this physics"
+            if v > hi:
+                return f"estimate {v:.3g} {unit} is beyond physical range (> {hi:g})"
+            return None
+        return check
+
+    def bounded(lo, hi, unit, offset=0.0):
+        def check(theta):
+            v = offset + float(theta[0])
+            if not lo <= v <= hi:
+                return f"estimate {v:.3g} {unit} is outside the physical range [{lo:g}, {hi:g}]"
+            return None
+        return check
+
+    def drift(theta):
+        a = float(np.hypot(*theta))
+        return None if a <= 0.6 else f"h drift {a:.2f} m is beyond physical range (> 0.6 m)"
+
+    return {
+        "rolling_resistance": positive(0, 0.2, ""),
+        "aerodynamic_drag": positive(0, 3.0, "kg/m"),
+        "wheel_bearing_friction": positive(0, 30.0, "N·m·s/rad"),
+        "road_slope": bounded(-0.3, 0.3, "rad"),
+        "lateral_dynamics": bounded(0.5, 2.0, "(coupling scale)"),
+        "rider_mass": bounded(30.0, 200.0, "kg", offset=p.m),
+        "sensor_time_offset": bounded(-0.3, 0.3, "s"),
+        "cog_height_drift": drift,
+    }

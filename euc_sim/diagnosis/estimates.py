@@ -1,0 +1,159 @@
+"""Step 4, what the selection names: CONTRACT estimates, intervals, aliases, evidence, limits."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from euc_sim.diagnosis.common import NONLINEAR, plausible_range
+from euc_sim.identification import regression as reg
+from euc_sim.identification import selection as sel
+from euc_sim.model.parameters import Params
+from euc_sim.simulation import effects
+
+__all__ = ["estimate_of", "sub_cov", "is_plausible", "plausible_alias", "evidence", "effect_items",
+           "detection_limits"]
+
+
+def estimate_of(info: dict, theta: np.ndarray, cov: np.ndarray, dof: float) -> tuple[float, list[float], float]:
+    """CONTRACT estimate, its 95% interval and standard error from θ and its covariance."""
+    from scipy.stats import t as student
+    q = float(student.ppf(0.975, max(dof, 1.0)))
+    if info.get("amplitude"):
+        a = float(np.hypot(*theta))
+        g = theta / a if a > 0 else np.zeros_like(theta)
+        se = float(np.sqrt(max(g @ cov @ g, 0.0)))
+        return a, [max(a - q * se, 0.0), a + q * se], se
+    if info.get("sqrt"):      # estimate = scale·√θ, interval mapped through the same law
+        s, se_s = float(theta[0]), float(np.sqrt(max(cov[0, 0], 0.0)))
+        lo, hi = max(s - q * se_s, 0.0), max(s + q * se_s, 0.0)
+        est = info["scale"] * math.sqrt(max(s, 0.0))
+        se = info["scale"] * se_s / (2.0 * math.sqrt(s)) if s > 0 else float("inf")
+        return est, [info["scale"] * math.sqrt(lo), info["scale"] * math.sqrt(hi)], se
+    est = info["offset"] + info["scale"] * float(theta[0])
+    se = abs(info["scale"]) * float(np.sqrt(max(cov[0, 0], 0.0)))
+    return est, [est - q * se, est + q * se], se
+
+
+def sub_cov(problem: reg.Problem, names, cov: np.ndarray, name: str) -> np.ndarray:
+    i = 0
+    for c in names:
+        k = problem.candidates[c].shape[1]
+        if c == name:
+            return cov[i:i + k, i:i + k]
+        i += k
+    raise KeyError(name)
+
+
+def is_plausible(name: str, est: float, p: Params) -> bool:
+    """Whether an estimate lies in the catalog's plausible range (|α| for the slope)."""
+    lo, hi = effects.get(name).plausible
+    if name == "road_slope":
+        return abs(est) <= max(abs(lo), abs(hi))
+    if name == "rider_mass":
+        return lo <= est <= hi
+    return lo * 0.5 <= est <= hi * 1.5
+
+
+def plausible_alias(problem: reg.Problem, selected, name: str, aliases, info, p: Params, dof: float):
+    """The best-fitting alias whose swapped-in estimate is plausible, or None."""
+    without = tuple(c for c in selected if c != name)
+    best = None
+    for a in aliases:
+        f = reg.fit_set(problem, without + (a,))
+        if info[a].get("amplitude") or a in NONLINEAR:
+            continue
+        cov, _ = reg.covariance(problem, f, cluster=2.0)
+        C = sub_cov(problem, without + (a,), cov, a)
+        est, ci, se = estimate_of(info[a], f.theta[a], C, dof)
+        if is_plausible(a, est, p) and (best is None or f.rss < best[0]):
+            best = (f.rss, {"name": a, "estimate": est, "unit": effects.get(a).unit, "ci95": ci,
+                            "t": abs(est) / se if se > 0 else float("inf")})
+    return None if best is None else best[1]
+
+
+def evidence(name: str, est: float, unit: str, before: float, after: float, t_stat: float,
+              aliases: list[str]) -> str:
+    u = f" {unit}" if unit and unit != "1" else ""
+    txt = (f"adding {name} ({est:.4g}{u}) cuts the held-out residual RMSE from {before:.3g} "
+           f"to {after:.3g} N·m; its term stands {t_stat:.0f} standard errors from zero")
+    if aliases:
+        txt += f", but this recording cannot tell it from {', '.join(aliases)}"
+    return txt + "."
+
+
+
+
+def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, thresholds) -> list[dict]:
+    """CONTRACT's ``effects`` list of the selected set: estimate, interval, aliases, evidence.
+
+    Parameters
+    ----------
+    prep : prepare.Prepared
+    problem, info : the selection problem and its estimate maps (``build_problem``)
+    s : selection.Selection
+    fin : refine.Final
+    n_eff : float
+        Effective sample count of the BIC.
+    thresholds : common.Thresholds
+    """
+    th = thresholds
+    selected = tuple(s.selected)
+    out = []
+    for i, c in enumerate(selected):
+        C = sub_cov(fin.problem, selected, fin.cov, c)
+        if c in fin.slopes:   # θ ≈ −(v − v̂)·|dθ/dv|: se_v = se_θ / |dθ/dv|
+            C = C / max(fin.slopes[c] ** 2, 1e-12)
+            est, ci, se = estimate_of({"offset": fin.info[c]["offset"], "scale": 1.0}, np.zeros(1), C, fin.dof)
+        else:
+            est, ci, se = estimate_of(fin.info[c], fin.fit.theta[c], C, fin.dof)
+        aliases = sel.find_aliases(problem, selected, c, list(problem.candidates), n_eff,
+                                   max_bic=th.alias_bic, cosine=th.alias_cosine)
+        before = s.cv_nominal if i == 0 else s.cv_path[i - 1]
+        after = s.cv_path[i] if i < len(selected) - 1 else fin.cv
+        ref = prep.params.m if c == "rider_mass" else 0.0     # the value of "no effect"
+        t_stat = abs(est - ref) / se if se > 0 else float("inf")
+        item = {"name": c, "estimate": est, "unit": effects.get(c).unit, "ci95": ci,
+                "rmse_after": after, "aliases": aliases,
+                "evidence": evidence(c, est, effects.get(c).unit, before, after, t_stat, aliases)}
+        if aliases and not is_plausible(c, est, prep.params):
+            swap = plausible_alias(problem, selected, c, aliases, info, prep.params, fin.dof)
+            if swap is not None:
+                item = {**swap, "rmse_after": after,
+                        "aliases": [c] + [a for a in aliases if a != swap["name"]]}
+                item["evidence"] = (evidence(swap["name"], swap["estimate"], swap["unit"], before, after,
+                                             swap["t"], item["aliases"])
+                                    + f" Named before {c}, whose estimate {est:.3g} is outside its plausible range.")
+                item.pop("t", None)
+        out.append(item)
+    return out
+
+
+def detection_limits(problem: reg.Problem, info: dict, s, vis: dict, thresholds) -> dict:
+    """What this recording could have seen: per effect, the smallest value it would name.
+
+    An effect is named when its term stands ``min_t`` standard errors from zero, so
+    the limit is ``min_t`` × its standard error (in the estimate's unit), judged
+    against the catalog's plausible range; invisible effects give the reason.
+    """
+    limits = {}
+    for c in problem.candidates:
+        base_set = tuple(x for x in s.selected if x != c) + (c,)
+        f1 = reg.fit_set(problem, base_set)
+        cov1, _ = reg.covariance(problem, f1, cluster=2.0)
+        C = sub_cov(problem, base_set, cov1, c)
+        se_theta = float(np.sqrt(np.trace(C) / C.shape[0]))
+        if info[c].get("sqrt"):      # lateral: the coupling grows as tilt², the limit is a tilt
+            lim = info[c]["scale"] * math.sqrt(thresholds.min_t * se_theta)
+        else:
+            lim = thresholds.min_t * se_theta * abs(info[c]["scale"])
+        lo, hi = plausible_range(c)
+        status = ("detectable" if lim <= lo else "only large values" if lim <= hi else "not detectable")
+        limits[c] = {"detectable_above": lim, "unit": effects.get(c).unit, "plausible": [lo, hi],
+                     "status": status}
+    for c, v in vis.items():
+        if not v["visible"]:
+            limits[c] = {"detectable_above": None, "unit": effects.get(c).unit,
+                         "plausible": list(plausible_range(c)), "status": "invisible: " + v["reason"]}
+    return limits

@@ -1,0 +1,83 @@
+"""Localisation: windows where the squared residual concentrates, and what it moves with."""
+
+from __future__ import annotations
+
+from typing import Mapping
+
+import numpy as np
+
+from euc_sim.diagnosis.common import DiagnosisError
+from euc_sim.diagnosis.prepare import Prepared
+
+__all__ = ["localise", "signals_of"]
+
+
+# --- localisation --------------------------------------------------------------------------
+def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
+             smooth: float = 1.0, factor: float = 2.0, min_len: float = 0.5) -> dict:
+    """Where the residual concentrates and what it moves with.
+
+    Parameters
+    ----------
+    t, r : numpy.ndarray
+        Time (s) and residual (N·m), same length, uniformly sampled.
+    signals : mapping of str to numpy.ndarray
+        Signals to correlate with (speed, acceleration, lean, ...), same length.
+    smooth : float
+        Moving-average length for the residual's power, s.
+    factor : float
+        A window is where the smoothed power exceeds ``factor`` × its median.
+    min_len : float
+        Shortest window, s.
+
+    Returns
+    -------
+    dict
+        ``windows``: list of [t0, t1] (s); ``share``: fraction of the residual's energy
+        inside them; ``correlations``: Pearson correlation with each signal.
+    """
+    t = np.asarray(t, float)
+    r = np.asarray(r, float)
+    if t.size != r.size or t.size < 4:
+        raise DiagnosisError(f"t and r must have the same length ≥ 4, got {t.size} and {r.size}")
+    dt = float(np.median(np.diff(t)))
+    w = max(1, int(round(smooth / dt)))
+    power = np.convolve(r ** 2, np.ones(w) / w, mode="same")
+    thr = factor * max(float(np.median(power)), 1e-12)
+    hot = power > thr
+    windows = []
+    i = 0
+    while i < hot.size:
+        if hot[i]:
+            j = i
+            while j + 1 < hot.size and hot[j + 1]:
+                j += 1
+            if t[j] - t[i] >= min_len:
+                windows.append([float(t[i]), float(t[j])])
+            i = j + 1
+        else:
+            i += 1
+    inside = np.zeros(t.size, bool)
+    for a, b in windows:
+        inside |= (t >= a) & (t <= b)
+    energy = float(np.sum(r ** 2))
+    corr = {}
+    for name, s in signals.items():
+        s = np.asarray(s, float)
+        if s.size != r.size or np.std(s) < 1e-12 or np.std(r) < 1e-12:
+            continue
+        corr[name] = float(np.corrcoef(s, r)[0, 1])
+    return {"windows": windows, "share": float(np.sum(r[inside] ** 2) / energy) if energy > 0 else 0.0,
+            "correlations": corr}
+
+
+def signals_of(prep: Prepared) -> dict[str, np.ndarray]:
+    k = prep.keep
+    out = {"speed": prep.qd[k, 0], "acceleration": prep.qdd[k, 0], "lean_phi": prep.q[k, 2],
+           "pitch_gamma": prep.q[k, 1]}
+    if prep.lateral is not None:
+        out["tilt_theta"] = prep.lateral["theta"][k]
+        out["yaw_rate"] = prep.lateral["psi_d"][k]
+    return out
+
+

@@ -1,0 +1,209 @@
+"""Step 1, prepare: read, validate and differentiate a recording; its sensor noise.
+
+One linear filter applied consistently to q, q̇, q̈ (and to M_d where recorded):
+:mod:`euc_sim.identification.processing` (filter every term of the residual the same
+way, or its noise is scaled unequally).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+import pandas as pd
+
+from euc_sim.diagnosis.common import SELECT_RATE, LATERAL_WINDOW, DiagnosisError
+from euc_sim.model.parameters import Params
+
+__all__ = ["Prepared", "prepare", "noise_sd"]
+
+
+# --- preparing the signals ----------------------------------------------------------------
+@dataclass(frozen=True)
+class Prepared:
+    """A recording differentiated and ready for the residual.
+
+    Attributes
+    ----------
+    kin : processing.Kinematics
+        Short Savitzky–Golay (q, q̇, q̈) of every sample; the consistent term filter
+        is still to be applied to each torque term (:func:`processing.term_filter`).
+    sigma : float
+        The term filter's standard deviation, samples.
+    M_d : numpy.ndarray or None
+        (N,) recorded driving torque (unfiltered), N·m.
+    lateral : dict or None
+        Where ``psi`` and ``theta`` are recorded: the smoothed inputs of the lateral
+        term, keys :data:`euc_sim.simulation.effects.LATERAL_INPUTS` ((N,) arrays: rad, rad/s,
+        rad/s, rad/s²).
+    keep : numpy.ndarray
+        Absolute indices of the residual samples used (interior of the filters,
+        decimated to :data:`SELECT_RATE`).
+    params : Params
+        Nominal parameters (Table 3 overridden by the sidecar; h is identified).
+    meta : dict
+        Sidecar metadata.
+    name : str
+        Recording name.
+    noise_sd : dict
+        Estimated white-noise standard deviation per channel (m or rad).
+    raw : pandas.DataFrame
+        The validated recording (not modified).
+    """
+
+    kin: Any
+    sigma: float
+    M_d: np.ndarray | None
+    lateral: dict | None
+    keep: np.ndarray
+    params: Params
+    meta: dict
+    name: str
+    noise_sd: dict
+    raw: pd.DataFrame
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.kin.t
+
+    @property
+    def q(self) -> np.ndarray:
+        return self.kin.q
+
+    @property
+    def qd(self) -> np.ndarray:
+        return self.kin.qd
+
+    @property
+    def qdd(self) -> np.ndarray:
+        return self.kin.qdd
+
+    def shifted(self, tau: float) -> "Prepared":
+        """The rider channel advanced by τ s: φ(t + τ), φ̇, φ̈ likewise (undoes a lag τ)."""
+        k = self.kin
+        arrs = []
+        for a in (k.q, k.qd, k.qdd):
+            b = a.copy()
+            b[:, 2] = np.interp(k.t + tau, k.t, a[:, 2])
+            arrs.append(b)
+        return replace(self, kin=replace(k, q=arrs[0], qd=arrs[1], qdd=arrs[2]))
+
+    def with_kin(self, q, qd, qdd) -> "Prepared":
+        """The same recording with other (q, q̇, q̈) (for noise propagation)."""
+        return replace(self, kin=replace(self.kin, q=q, qd=qd, qdd=qdd))
+
+    def filtered(self, y: np.ndarray, sigma: float | None = None) -> np.ndarray:
+        """The consistent term filter applied along the last axis, at the kept samples."""
+        from euc_sim.identification.processing import term_filter
+        return term_filter(y, self.sigma if sigma is None else sigma, axis=-1)[..., self.keep]
+
+
+def _read(source, meta: Mapping | None):
+    from euc_sim.identification import recordings
+    if isinstance(source, pd.DataFrame):
+        name = str(dict(meta or {}).get("name", "<DataFrame>"))
+        df = recordings.validate_recording(source.copy(), name)
+        return df, dict(meta or {}), name
+    path = Path(source)
+    df, file_meta = recordings.read_recording(path)
+    return df, {**file_meta, **dict(meta or {})}, path.name
+
+
+def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None = None,
+            smoothing=None, rate: float = SELECT_RATE) -> Prepared:
+    """Read, validate and differentiate a recording (processing.py's consistent recipe).
+
+    Parameters
+    ----------
+    source : path or pandas.DataFrame
+        A CONTRACT recording (CSV/Parquet with its sidecar, state or motion-capture
+        columns) or its table.
+    params : Params or mapping, optional
+        Nominal parameters; default: the sidecar's, else Table 3.
+    meta : mapping, optional
+        Metadata for a DataFrame source (the sidecar's content).
+    smoothing : processing.Smoothing, optional
+        Default: ``processing.DEFAULT_SMOOTHING`` (consistent filtering, NOTES fact 4).
+    rate : float
+        Residual samples kept per second, Hz.
+
+    Returns
+    -------
+    Prepared
+
+    Raises
+    ------
+    DiagnosisError
+        for a recording too short for the filters.
+    """
+    from euc_sim.identification import processing, recordings
+    df, meta, name = _read(source, meta)
+    if isinstance(params, Params):
+        p = params
+    elif params is not None:
+        p = Params.from_mapping({k: v for k, v in dict(params).items() if k != "h"})
+    else:
+        p = recordings.params_from_meta(meta, name)
+    sm = smoothing or processing.DEFAULT_SMOOTHING
+    if sm.method != "consistent" or sm.term_sigma <= 0:
+        raise DiagnosisError(f"smoothing must be the consistent recipe with a term filter, got {sm.describe()}")
+    kin = processing.kinematics(df, p, sm, name=name)
+    t = kin.t
+    dt = kin.dt
+    edge = sm.edge(dt)
+    if t.size < 2 * edge + int(2.0 / dt):
+        raise DiagnosisError(f"recording {name}: duration {t[-1] - t[0]:.2f} s too short; expected at "
+                             f"least {(2 * edge) * dt + 2.0:.1f} s for the filters")
+    M_d = df["M_d"].to_numpy(float) if "M_d" in df.columns else None
+    lateral = None
+    if "theta" in df.columns and "psi" in df.columns:
+        # tilt and yaw are inputs of the lateral term, not terms of the balance: a longer
+        # fit (LATERAL_WINDOW) keeps their noise out of the column (errors in variables)
+        w = int(round(LATERAL_WINDOW / dt)) | 1
+        o = 3
+        theta, theta_d, _ = processing.savgol_derivatives(df["theta"].to_numpy(float), dt, w, o)
+        _, psi_d, psi_dd = processing.savgol_derivatives(np.unwrap(df["psi"].to_numpy(float)), dt, w, o)
+        lateral = {"theta": theta, "theta_d": theta_d, "psi_d": psi_d, "psi_dd": psi_dd}
+    step = max(1, int(round(1.0 / (dt * rate))))
+    keep = np.arange(edge, t.size - edge, step)
+    noise = {c: noise_sd(ch) for c, ch in _raw_channels(df).items()}
+    return Prepared(kin, sm.sigma_samples(dt), M_d, lateral, keep, p, meta, name, noise, df)
+
+
+def _raw_channels(df: pd.DataFrame) -> dict[str, np.ndarray]:
+    """Unsmoothed x, γ, φ (or their motion-capture stand-ins) for the noise estimate.
+
+    A motion-capture file has no x or φ column: φ is taken as the lean of C→G (E→G)
+    in the heading plane, atan2((G − C)·(cos ψ, sin ψ), G_Z − C_Z), and x's noise as
+    that of C_X (E_X).  Only their sample-to-sample noise matters here.
+    """
+    out = {}
+    base = "C" if {"C_X", "C_Y", "C_Z"} <= set(df.columns) else "E"
+    if "x" in df.columns:
+        out["x"] = df["x"].to_numpy(float)
+    else:
+        out["x"] = df[f"{base}_X"].to_numpy(float)
+    out["gamma"] = df["gamma"].to_numpy(float)
+    if "phi" in df.columns:
+        out["phi"] = df["phi"].to_numpy(float)
+    else:
+        psi = np.unwrap(df["psi"].to_numpy(float))
+        dx = df["G_X"].to_numpy(float) - df[f"{base}_X"].to_numpy(float)
+        dy = df["G_Y"].to_numpy(float) - df[f"{base}_Y"].to_numpy(float)
+        dz = df["G_Z"].to_numpy(float) - df[f"{base}_Z"].to_numpy(float)
+        out["phi"] = np.arctan2(dx * np.cos(psi) + dy * np.sin(psi), dz)
+    return out
+
+
+def noise_sd(y: np.ndarray) -> float:
+    """White-noise level of a channel from its third differences (robust, MAD).
+
+    For white noise of sd σ, Δ³y has sd σ·√20; smooth motion at 120 Hz contributes
+    little to Δ³.
+    """
+    d3 = np.diff(np.asarray(y, float), 3)
+    return float(1.4826 * np.median(np.abs(d3 - np.median(d3))) / math.sqrt(20.0))
+

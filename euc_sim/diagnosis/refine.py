@@ -1,0 +1,123 @@
+"""Step 5, refine: nonlinear effects (time offset, rider mass) by a 1-D search each."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from euc_sim.diagnosis.candidates import build_problem
+from euc_sim.diagnosis.common import NONLINEAR
+from euc_sim.diagnosis.prepare import Prepared
+from euc_sim.diagnosis.residual import residual_model
+from euc_sim.identification import regression as reg
+from euc_sim.simulation import effects
+
+__all__ = ["refine", "Final", "final_model"]
+
+
+def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: float):
+    """Estimate nonlinear effects (time offset, rider mass) by a 1-D search each.
+
+    Their columns are linearisations; the estimate is refined by minimising the
+    residual's RSS over the effect's value itself (re-aligned rider channel, rider
+    mass changed), with h and the linear effects profiled out.  Returns the state
+    ``{name: value}``, the rebuilt (problem, info), the fit, and the slope dθ/dv of
+    each linearised coefficient (to convert its standard error).
+    """
+    from scipy.optimize import minimize_scalar
+
+    p = prep.params
+    nonlin = [c for c in selected if c in NONLINEAR]
+    linear = tuple(c for c in selected if c not in NONLINEAR)
+    state = {"sensor_time_offset": 0.0, "rider_mass": p.m}
+    state.update({c: estimates[c] for c in nonlin})
+    lin_cols = {c: problem.candidates[c] for c in linear}
+
+    def residual_of(st):
+        pr = prep.shifted(st["sensor_time_offset"]) if st["sensor_time_offset"] else prep
+        pp = effects.apply_to_params(p, "rider_mass", st["rider_mass"]) if st["rider_mass"] != p.m else p
+        return pr, pp
+
+    def rss(c, v):
+        st = {**state, c: v}
+        pr, pp = residual_of(st)
+        prob = reg.Problem(residual_model(pr, pp), lin_cols, problem.time, problem.bounds)
+        return reg.fit_set(prob, linear).rss
+
+    for _ in range(2 if len(nonlin) > 1 else 1):
+        for c in nonlin:
+            lo, hi = NONLINEAR[c]
+            v0 = state[c]
+            w = 0.05 if c == "sensor_time_offset" else 25.0
+            res = minimize_scalar(lambda v: rss(c, v), bounds=(max(lo, v0 - w), min(hi, v0 + w)),
+                                  method="bounded", options={"xatol": 1e-4 if c != "rider_mass" else 0.05})
+            state[c] = float(res.x)
+
+    def build(st):
+        pr, pp = residual_of(st)
+        return build_problem(pr, h, pp)
+
+    prob, info = build(state)
+    f = reg.fit_set(prob, selected)
+    slopes = {}
+    for c in nonlin:
+        d = 0.005 if c == "sensor_time_offset" else 2.0
+        pa, _ = build({**state, c: state[c] - d})
+        pb, _ = build({**state, c: state[c] + d})
+        ta = reg.fit_set(pa, selected).theta[c][0]
+        tb = reg.fit_set(pb, selected).theta[c][0]
+        slopes[c] = float((tb - ta) / (2 * d))
+        info[c] = {**info[c], "offset": state[c], "scale": 0.0}
+    return state, prob, info, f, slopes
+
+
+
+
+@dataclass(frozen=True)
+class Final:
+    """The model after selection and refinement: the one whose estimates are reported.
+
+    Attributes
+    ----------
+    problem : regression.Problem
+        Its columns (rebuilt at the refined nonlinear values, when there are any).
+    info : dict
+        Per candidate, how θ maps to CONTRACT's estimate (see ``build_problem``).
+    fit : regression.Fit
+        Fit of the selected set.
+    slopes : dict
+        dθ/dv of each refined nonlinear effect (to convert its standard error).
+    cov : numpy.ndarray
+        Covariance of (θ, h) (``regression.covariance``, 2 s clusters).
+    dof : float
+        Its degrees of freedom.
+    cv : float
+        Held-out RMSE of the selected set, N·m.
+    """
+
+    problem: reg.Problem
+    info: dict
+    fit: reg.Fit
+    slopes: dict
+    cov: np.ndarray
+    dof: float
+    cv: float
+
+
+def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress=None) -> Final:
+    """The selected set's model, its nonlinear effects refined (:func:`refine`).
+
+    ``s`` is the :class:`~euc_sim.identification.selection.Selection` on ``problem``.
+    """
+    selected = tuple(s.selected)
+    estimates = {c: info[c]["offset"] + info[c]["scale"] * float(s.fit.theta[c][0])
+                 for c in selected if not info[c].get("amplitude")}
+    prob_f, info_f, fit_f, slopes = problem, info, s.fit, {}
+    if any(c in selected for c in NONLINEAR):
+        if progress:
+            progress("refining the nonlinear estimates")
+        _, prob_f, info_f, fit_f, slopes = refine(prep, problem, selected, estimates, s.fit.h)
+    cov_f, dof_f = reg.covariance(prob_f, fit_f, cluster=2.0)
+    cv = reg.heldout_rmse(prob_f, selected) if selected else s.cv_nominal
+    return Final(prob_f, info_f, fit_f, slopes, cov_f, dof_f, cv)

@@ -1,0 +1,130 @@
+"""Step 2, the residual: r(h) = M_d,1 − M_d,2 (eqs. 9-10) in closed form in h, and its noise floor.
+
+r = κ(q)·(moment about the contact point P of whatever the model leaves out); with
+M_d recorded, also the wheel row r_w = M_d,1 − M_d = R·Q_e,x.  r depends on the
+nuisance h as κ(h)·(e₀ + e₁h + e₂h²) (eq. 6: m_13 ∝ h, m_33 = J + m h²), so it is
+evaluated for any h in closed form.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from euc_sim.diagnosis.prepare import Prepared
+from euc_sim.identification import regression as reg
+from euc_sim.model import analytic
+from euc_sim.model.parameters import Params
+
+__all__ = ["ResidualModel", "residual_model", "noise_floor"]
+
+
+# --- the residual --------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ResidualModel:
+    """Residual of the nominal model as a closed-form function of h, kept samples.
+
+    Kinematic row (identification.residual_poly): r(h) = P(h)/D(h) = M_d,1 − M_d,2,
+    P's coefficients term-filtered.  With M_d recorded the wheel row
+    r_w(h) = M_d,1(h) − M_d = w₀ + w₁ h (both term-filtered) is stacked below.
+    """
+
+    P: np.ndarray                # (3, n)
+    D: np.ndarray                # (2, n)
+    W: np.ndarray | None         # (2, n)
+
+    def kinematic(self, h: float) -> np.ndarray:
+        return (self.P[0] + h * (self.P[1] + h * self.P[2])) / (self.D[0] + h * self.D[1])
+
+    def wheel(self, h: float) -> np.ndarray | None:
+        return None if self.W is None else self.W[0] + h * self.W[1]
+
+    def kappa(self, h: float, R: float, m11: float) -> np.ndarray:
+        """κ = R m_11 / D(h), the gain of analytic.residual_gain."""
+        return R * m11 / (self.D[0] + h * self.D[1])
+
+    def __call__(self, h: float) -> np.ndarray:
+        r = self.kinematic(h)
+        w = self.wheel(h)
+        return r if w is None else np.concatenate([r, w])
+
+
+_H_NODES = np.array([0.5, 1.0, 1.5])
+
+
+def residual_model(prep: Prepared, p: Params | None = None, sigma: float | None = None) -> ResidualModel:
+    """Build r(h) (and r_w(h) with M_d recorded) on the kept samples.
+
+    The kinematic row is :func:`euc_sim.identification.h_fit.residual_poly` when the
+    default filter is used; its samples are the interior ones, of which ``keep`` is a
+    subset.  With another ``sigma`` (a different term filter, samples)
+    the same polynomial is built here on the full length.
+    """
+    from euc_sim.identification import h_fit as ident
+    p = prep.params if p is None else p
+    kin = prep.kin
+    if sigma is None:
+        rp = ident.residual_poly(kin, p)
+        start = kin.interior.start
+        idx = prep.keep - start
+        P, D = rp.P[:, idx], rp.D[:, idx]
+    else:
+        num, den = [], []
+        for h in _H_NODES:
+            ph = p.replace(h=float(h))
+            M = analytic.mass_matrix(ph, kin.q)
+            Dh = M[..., 0, 0] * ph.R + M[..., 1, 0] + M[..., 2, 0]
+            num.append((analytic.driving_torque_1(ph, kin.q, kin.qd, kin.qdd)
+                        - analytic.driving_torque_2(ph, kin.q, kin.qd, kin.qdd)) * Dh)
+            den.append(Dh)
+        V = np.vander(_H_NODES, 3, increasing=True)
+        P = prep.filtered(np.linalg.solve(V, np.array(num)), sigma)
+        D1 = (den[1] - den[0]) / (_H_NODES[1] - _H_NODES[0])
+        D = np.array([den[0] - _H_NODES[0] * D1, D1])[:, prep.keep]
+    W = None
+    if prep.M_d is not None:
+        w = [analytic.driving_torque_1(p.replace(h=float(h)), kin.q, kin.qd, kin.qdd) - prep.M_d
+             for h in _H_NODES[:2]]
+        w1 = (w[1] - w[0]) / (_H_NODES[1] - _H_NODES[0])
+        W = prep.filtered(np.array([w[0] - _H_NODES[0] * w1, w1]), sigma)
+    return ResidualModel(P, D, W)
+
+
+# --- noise floor ---------------------------------------------------------------------------
+def noise_floor(prep: Prepared, h: float, seed: int = 0) -> dict:
+    """The residual that the recording's own sensor noise produces through the filter.
+
+    White noise with the level estimated from each channel (:func:`noise_sd`) is
+    filtered like the data and propagated to the residual (linearised about the
+    filtered motion).  Its RMS is the floor below which nothing can be named; its
+    correlation time gives the effective sample count n_eff of the BIC.
+
+    Parameters
+    ----------
+    prep : Prepared
+    h : float
+        m.
+    seed : int
+        Seed of the noise draw.
+
+    Returns
+    -------
+    dict
+        ``rms`` (N·m, kinematic residual), ``rms_stacked`` (all rows), ``tau_int``
+        (kept samples), ``noise``: the residual samples (stacked).
+    """
+    from euc_sim.identification import processing
+    rng = np.random.default_rng(seed)
+    n = prep.t.size
+    sm = prep.kin.smoothing
+    dt = prep.kin.dt
+    Z = np.column_stack([rng.normal(0.0, prep.noise_sd[c], n) for c in ("x", "gamma", "phi")])
+    dq, dqd, dqdd = processing.savgol_derivatives(Z, dt, sm.samples(dt), sm.order, axis=0)
+    base = residual_model(prep)(h)
+    pert = residual_model(prep.with_kin(prep.q + dq, prep.qd + dqd, prep.qdd + dqdd))(h)
+    r = pert - base
+    nk = prep.keep.size
+    return {"rms": float(np.sqrt(np.mean(r[:nk] ** 2))), "rms_stacked": float(np.sqrt(np.mean(r ** 2))),
+            "tau_int": reg.correlation_time(r[:nk]), "noise": r}
+

@@ -1,0 +1,129 @@
+"""Step 7, the verdict: structure left over, whether the recording can decide, what is named.
+
+A generic periodic basis and the noise floor decide ``unexplained``; detection limits
+and h's interval decide whether the recording can decide anything; with structure left
+unexplained, only effects that explained most of the mismatch are named.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from euc_sim.diagnosis.common import H_BOUNDS
+from euc_sim.identification import selection as sel
+
+__all__ = ["leftover", "judge"]
+
+
+def leftover(fin, selected, floor_stacked: float, thresholds) -> dict:
+    """Structure left after the selected set: a generic periodic basis, and the noise floor.
+
+    Parameters
+    ----------
+    fin : refine.Final
+    selected : sequence of str
+    floor_stacked : float
+        Noise floor of all residual rows, N·m.
+    thresholds : common.Thresholds
+
+    Returns
+    -------
+    dict
+        ``heldout_without``, ``heldout_with`` (N·m), ``gain``, ``floor_ratio`` and
+        ``unexplained`` (bool).
+    """
+    cv_wo, cv_gen = sel.generic_gain(fin.problem, selected, sel.sinusoid_basis(fin.problem.time))
+    gain = 1.0 - cv_gen / cv_wo
+    ratio = fin.cv / floor_stacked if floor_stacked > 0 else float("inf")
+    return {"heldout_without": cv_wo, "heldout_with": cv_gen, "gain": gain, "floor_ratio": ratio,
+            "unexplained": bool(gain >= thresholds.generic_gain or ratio >= thresholds.floor_ratio)}
+
+
+def _h_notes(fin, h_ok: bool, periodic: bool, h_at_bound: bool) -> list[str]:
+    h_se_f = float(np.sqrt(max(fin.cov[-1, -1], 0.0)))
+    where = f"h = {fin.fit.h:.2f} m ± {1.96 * h_se_f:.2f} m{', at the search bound' if h_at_bound else ''}"
+    if not h_ok and periodic:
+        return [f"h is unreliable here ({where}): the structure left unexplained pulls it"]
+    if not h_ok:
+        return [f"h is not identifiable here ({where}): too little excitation; "
+                "a constant force and a wrong h look the same without speed changes"]
+    return []
+
+
+def _limit_notes(limits: dict, vis: dict, has_w: bool) -> list[str]:
+    notes = []
+    for c in ("rider_mass", "cog_height_drift"):
+        if c in limits and limits[c]["detectable_above"] is None:
+            notes.append(f"{c} cannot be revealed by this recording: {vis[c]['reason']}")
+        elif c in limits and limits[c]["status"] != "detectable":
+            lim = limits[c]["detectable_above"]
+            why = "without torques (NOTES facts 2-3)" if not has_w else "in this recording"
+            unit = "" if limits[c]["unit"] == "1" else f" {limits[c]['unit']}"
+            notes.append(f"{c} is near the noise floor {why}: only above {lim:.3g}{unit} could be seen")
+    return notes
+
+
+def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: dict, left: dict,
+          has_w: bool, thresholds) -> dict:
+    """The verdict, the effects named and those only tentative, and the notes.
+
+    Parameters
+    ----------
+    effects_out : list of dict
+        :func:`euc_sim.diagnosis.estimates.effect_items`, strongest first.
+    cv_nominal : float
+        Held-out RMSE of the nominal model, N·m.
+    fin : refine.Final
+    limits : dict
+        :func:`euc_sim.diagnosis.estimates.detection_limits`.
+    vis : dict
+        :func:`euc_sim.diagnosis.candidates.visibility`.
+    left : dict
+        :func:`leftover`.
+    has_w : bool
+        Whether M_d is recorded (the wheel row).
+    thresholds : common.Thresholds
+
+    Returns
+    -------
+    dict
+        ``verdict`` (str), ``effects``, ``tentative`` (lists of dict), ``unexplained``,
+        ``decidable`` (bool), ``notes`` (list of str).
+    """
+    th = thresholds
+    unexplained = left["unexplained"]
+    detectable = [c for c, v in limits.items() if v["status"] in ("detectable", "only large values")]
+    lo_b, hi_b = H_BOUNDS
+    h_se_f = float(np.sqrt(max(fin.cov[-1, -1], 0.0)))      # h with the accepted effects
+    h_at_bound = min(fin.fit.h - lo_b, hi_b - fin.fit.h) < 0.01
+    h_ok = (1.96 * h_se_f <= th.max_h_halfwidth) and not h_at_bound
+    periodic = left["gain"] >= th.generic_gain      # a periodic structure is a finding in itself
+    decidable = bool(detectable) and (h_ok or periodic)
+    notes = _h_notes(fin, h_ok, periodic, h_at_bound) + _limit_notes(limits, vis, has_w)
+    eff_out, tentative = list(effects_out), []
+    if unexplained and eff_out:
+        # a wrong name is worse than none: with structure left unexplained, keep only
+        # effects that explain most of the mismatch (held-out RMSE at least halved)
+        keep_eff = []
+        for i, e in enumerate(eff_out):
+            before = cv_nominal if i == 0 else eff_out[i - 1]["rmse_after"]
+            (keep_eff if e["rmse_after"] <= th.unexplained_keep * before else tentative).append(e)
+        eff_out = keep_eff
+        if tentative:
+            notes.append("with structure left unexplained, not named (each explained less than half "
+                         "of the mismatch): " + ", ".join(e["name"] for e in tentative))
+    if not decidable:
+        verdict = "too little excitation or too much noise to decide"
+        unexplained = False
+        tentative += eff_out
+        eff_out = []
+    elif eff_out:
+        verdict = "missing physics found"
+    elif unexplained:
+        verdict = "structure left that no catalogued effect explains"
+    else:
+        verdict = "nothing missing"
+    if unexplained and eff_out:
+        verdict += "; structure is left that no catalogued effect explains"
+    return {"verdict": verdict, "effects": eff_out, "tentative": tentative, "unexplained": unexplained,
+            "decidable": decidable, "notes": notes}

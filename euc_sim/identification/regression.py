@@ -1,0 +1,383 @@
+"""Least squares with a nuisance parameter, blocked in time: the regression behind selection.
+
+The model of a residual y (length n) is::
+
+    y(h) = Σ_{c ∈ S} X_c θ_c + e,
+
+where ``y(h)`` depends on a scalar nuisance parameter ``h`` (the rider's centre-of-
+gravity height in euc-sim) that is re-identified for every candidate set S by a
+bounded 1-D search with θ profiled out by linear least squares, each candidate ``c``
+is a named group of one or more columns ``X_c`` (n × k_c), and e is a residual that
+is *not* white: it has been through a smoothing filter, so successive samples are
+strongly correlated.  Two consequences are built in here (the third, the BIC with an
+effective sample count, is in :mod:`euc_sim.identification.selection`):
+
+- held-out validation is blocked in time (contiguous blocks of
+  :data:`BLOCK_LENGTH` s dealt to the folds in turn, with a guard gap so the filter
+  does not leak the held-out blocks into the training set);
+- standard errors come from a cluster ("blocked residuals") sandwich covariance.
+
+Public functions
+----------------
+:func:`fit_set`, :func:`heldout_rmse`, :func:`covariance`, :func:`correlation_time`,
+:func:`time_blocks`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+from scipy.optimize import minimize_scalar
+
+__all__ = ["SelectionError", "Problem", "Fit", "time_blocks", "correlation_time", "fit_set",
+           "heldout_rmse", "covariance", "BLOCK_LENGTH"]
+
+
+class SelectionError(ValueError):
+    """Invalid input to the selection; the message names the argument."""
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A residual, its nuisance parameter and the named candidate terms.
+
+    Attributes
+    ----------
+    target : callable
+        ``target(h) -> y``, the residual (shape (n,)) for nuisance value ``h``.
+    candidates : mapping of str to numpy.ndarray
+        Named candidate groups, each (n, k) with k ≥ 1 (or (n,) for one column).
+    time : numpy.ndarray
+        (n,) time of each residual sample, s; samples may repeat a time (stacked
+        residuals), blocking is by time.
+    bounds : tuple of float
+        Search interval of the nuisance parameter.
+    validity : mapping of str to callable, optional
+        ``validity[name](theta) -> None | str``: a reason to refuse the candidate
+        with coefficients ``theta`` (a wrong sign, a magnitude out of physics).
+    weights : numpy.ndarray, optional
+        (n,) non-negative weights of the residual samples (default 1).
+    """
+
+    target: Callable[[float], np.ndarray]
+    candidates: Mapping[str, np.ndarray]
+    time: np.ndarray
+    bounds: tuple[float, float]
+    validity: Mapping[str, Callable[[np.ndarray], str | None]] = field(default_factory=dict)
+    weights: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        t = np.asarray(self.time, dtype=float)
+        if t.ndim != 1 or t.size < 10 or not np.all(np.isfinite(t)):
+            raise SelectionError(f"time must be a finite 1-D array of at least 10 samples, got shape {t.shape}")
+        lo, hi = self.bounds
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise SelectionError(f"bounds must be finite with lo < hi, got {self.bounds!r}")
+        cols = {}
+        for name, X in self.candidates.items():
+            X = np.asarray(X, dtype=float)
+            X = X[:, None] if X.ndim == 1 else X
+            if X.shape[0] != t.size or X.ndim != 2:
+                raise SelectionError(
+                    f"candidate {name!r} must have {t.size} rows, got shape {X.shape}")
+            if not np.all(np.isfinite(X)):
+                raise SelectionError(f"candidate {name!r} has non-finite values")
+            cols[name] = X
+        object.__setattr__(self, "candidates", cols)
+        object.__setattr__(self, "time", t)
+        if self.weights is not None:
+            w = np.asarray(self.weights, dtype=float)
+            if w.shape != t.shape or np.any(w < 0) or not np.all(np.isfinite(w)):
+                raise SelectionError(f"weights must be {t.shape} non-negative, got shape {w.shape}")
+            object.__setattr__(self, "weights", w)
+
+    @property
+    def n(self) -> int:
+        return int(self.time.size)
+
+    def design(self, names: Sequence[str]) -> np.ndarray:
+        """Columns of the named candidates side by side, (n, Σk)."""
+        if not names:
+            return np.zeros((self.n, 0))
+        return np.hstack([self.candidates[c] for c in names])
+
+    def y(self, h: float) -> np.ndarray:
+        y = np.asarray(self.target(h), dtype=float)
+        if y.shape != (self.n,):
+            raise SelectionError(f"target(h) must return shape ({self.n},), got {y.shape}")
+        return y
+
+
+@dataclass(frozen=True)
+class Fit:
+    """A least-squares fit of one candidate set with the nuisance profiled.
+
+    Attributes
+    ----------
+    names : tuple of str
+    h : float
+        Nuisance parameter at the optimum.
+    theta : dict of str to numpy.ndarray
+        Coefficients per candidate.
+    rss : float
+        Weighted residual sum of squares on the fitted samples.
+    n : int
+        Samples fitted.
+    """
+
+    names: tuple[str, ...]
+    h: float
+    theta: dict[str, np.ndarray]
+    rss: float
+    n: int
+
+    @property
+    def rmse(self) -> float:
+        return float(np.sqrt(self.rss / max(self.n, 1)))
+
+    def coef_vector(self) -> np.ndarray:
+        if not self.names:
+            return np.zeros(0)
+        return np.concatenate([self.theta[c] for c in self.names])
+
+
+def time_blocks(time: np.ndarray, n_blocks: int) -> np.ndarray:
+    """Index 0..n_blocks-1 of the contiguous time block of each sample.
+
+    Raises
+    ------
+    SelectionError
+        when ``n_blocks`` < 2.
+    """
+    if n_blocks < 2:
+        raise SelectionError(f"n_blocks must be at least 2, got {n_blocks}")
+    t = np.asarray(time, dtype=float)
+    t0, t1 = t.min(), t.max()
+    b = np.floor((t - t0) / (t1 - t0 + 1e-12) * n_blocks).astype(int)
+    return np.clip(b, 0, n_blocks - 1)
+
+
+def correlation_time(e: np.ndarray, max_lag: int | None = None) -> float:
+    """Integrated autocorrelation time of a residual, in samples (≥ 1).
+
+    τ_int = 1 + 2 Σ_k ρ_k summed up to the first non-positive ρ_k (Geyer's initial
+    positive sequence, simplified).  A white residual gives about 1.
+    """
+    e = np.asarray(e, dtype=float)
+    e = e - e.mean()
+    n = e.size
+    max_lag = min(n // 4, max_lag or n // 4)
+    if n < 8 or not np.any(e):
+        return 1.0
+    f = np.fft.rfft(e, 2 * n)
+    ac = np.fft.irfft(f * np.conj(f))[: max_lag + 1]
+    rho = ac / ac[0]
+    tau = 1.0
+    for k in range(1, max_lag + 1):
+        if rho[k] <= 0:
+            break
+        tau += 2.0 * rho[k]
+    return float(max(tau, 1.0))
+
+
+def _profile(problem: Problem, X: np.ndarray, idx: np.ndarray, n_grid: int = 13):
+    """Minimise over h the weighted RSS of y(h) − Xθ on samples idx; returns (h, θ, rss)."""
+    w = np.ones(problem.n) if problem.weights is None else problem.weights
+    sw = np.sqrt(w[idx])
+    Xi = X[idx] * sw[:, None]
+    if Xi.shape[1]:
+        Qm, Rm = np.linalg.qr(Xi)
+    else:
+        Qm = Rm = None
+
+    def rss(h: float) -> float:
+        yi = problem.y(h)[idx] * sw
+        if Qm is not None:
+            yi = yi - Qm @ (Qm.T @ yi)
+        return float(yi @ yi)
+
+    lo, hi = problem.bounds
+    grid = np.linspace(lo, hi, n_grid)
+    vals = np.array([rss(h) for h in grid])
+    k = int(np.argmin(vals))
+    a, b = grid[max(k - 1, 0)], grid[min(k + 1, n_grid - 1)]
+    res = minimize_scalar(rss, bounds=(a, b), method="bounded", options={"xatol": 1e-5})
+    h = float(res.x) if res.fun <= vals[k] else float(grid[k])
+    yi = problem.y(h)[idx] * sw
+    if Qm is not None:
+        theta = np.linalg.solve(Rm, Qm.T @ yi) if np.all(np.abs(np.diag(Rm)) > 1e-12) else \
+            np.linalg.lstsq(Xi, yi, rcond=None)[0]
+    else:
+        theta = np.zeros(0)
+    e = yi - Xi @ theta
+    return h, theta, float(e @ e)
+
+
+def _split_theta(problem: Problem, names: Sequence[str], theta: np.ndarray) -> dict[str, np.ndarray]:
+    out, i = {}, 0
+    for c in names:
+        k = problem.candidates[c].shape[1]
+        out[c] = theta[i:i + k].copy()
+        i += k
+    return out
+
+
+def fit_set(problem: Problem, names: Sequence[str], idx: np.ndarray | None = None) -> Fit:
+    """Fit the candidate set ``names`` jointly with the nuisance parameter.
+
+    Parameters
+    ----------
+    problem : Problem
+    names : sequence of str
+        Candidates to include (may be empty: the nuisance alone).
+    idx : numpy.ndarray of int, optional
+        Samples to fit (all by default).
+
+    Returns
+    -------
+    Fit
+    """
+    names = tuple(names)
+    unknown = [c for c in names if c not in problem.candidates]
+    if unknown:
+        raise SelectionError(f"unknown candidate {unknown[0]!r}; expected one of {', '.join(problem.candidates)}")
+    idx = np.arange(problem.n) if idx is None else np.asarray(idx)
+    X = problem.design(names)
+    h, theta, rss = _profile(problem, X, idx)
+    return Fit(names, h, _split_theta(problem, names, theta), rss, int(idx.size))
+
+
+#: Length of the contiguous held-out blocks, s (several correlation times of the
+#: filtered residual).
+BLOCK_LENGTH = 2.0
+
+
+def _train_test(problem: Problem, n_blocks: int, guard: float, block: float = BLOCK_LENGTH):
+    """Folds of blocked cross-validation.
+
+    The record is cut into contiguous blocks of ``block`` s; block i belongs to fold
+    i mod ``n_blocks``, so every fold holds out blocks spread over the whole maneuver
+    (a maneuver is not stationary: holding out its whole first fifth would test
+    extrapolation to speeds the training never saw).  Training samples closer than
+    ``guard`` s to any held-out sample are dropped, so the filter does not leak.
+    """
+    t = problem.time
+    span = t.max() - t.min()
+    G = max(n_blocks, int(np.floor(span / block)))
+    blk = time_blocks(t, G)
+    folds = []
+    order = np.argsort(t, kind="stable")
+    ts = t[order]
+    for f in range(n_blocks):
+        test_mask = (blk % n_blocks) == f
+        test = np.flatnonzero(test_mask)
+        # distance of every sample to the nearest held-out sample, via the sorted times
+        tt = np.unique(t[test])
+        pos = np.searchsorted(tt, ts)
+        left = np.abs(ts - tt[np.clip(pos - 1, 0, tt.size - 1)])
+        right = np.abs(tt[np.clip(pos, 0, tt.size - 1)] - ts)
+        near = np.empty(t.size, bool)
+        near[order] = np.minimum(left, right) <= guard
+        train = np.flatnonzero(~test_mask & ~near)
+        folds.append((train, test))
+    return folds
+
+
+def heldout_rmse(problem: Problem, names: Sequence[str], n_blocks: int = 10,
+                 guard: float = 0.5, extra: Callable | None = None) -> float:
+    """Held-out RMSE of a candidate set, blocked in time, h re-identified per fold.
+
+    Parameters
+    ----------
+    problem : Problem
+    names : sequence of str
+    n_blocks : int
+        Folds: contiguous blocks of :data:`BLOCK_LENGTH` s are dealt to the folds in
+        turn; each fold is held out once.
+    guard : float
+        Time, s, dropped from the training set on each side of the held-out block
+        (the smoothing filter's reach).
+    extra : callable, optional
+        ``extra(train_idx, train_residual, h) -> (n, k) columns`` built from the
+        training samples only (a generic basis, see :func:`generic_gain`); added to
+        the design of that fold.
+
+    Returns
+    -------
+    float
+        sqrt(Σ e² / Σ n) over the held-out samples, the residual's unit.
+    """
+    names = tuple(names)
+    X = problem.design(names)
+    w = np.ones(problem.n) if problem.weights is None else problem.weights
+    sse, cnt = 0.0, 0
+    for train, test in _train_test(problem, n_blocks, guard):
+        if train.size < 10:
+            raise SelectionError(f"n_blocks={n_blocks} and guard={guard} leave a fold without training samples")
+        h, theta, _ = _profile(problem, X, train)
+        Xf = X
+        if extra is not None:
+            y = problem.y(h)
+            r_train = y[train] - X[train] @ theta
+            E = np.asarray(extra(train, r_train, h), dtype=float)
+            if E.size:
+                Xf = np.hstack([X, E])
+                h, theta, _ = _profile(problem, Xf, train)
+        e = problem.y(h)[test] - Xf[test] @ theta
+        sse += float(np.sum(w[test] * e * e))
+        cnt += int(test.size)
+    return float(np.sqrt(sse / cnt))
+
+
+def _jacobian_h(problem: Problem, h: float, step: float = 1e-4) -> np.ndarray:
+    return (problem.y(h + step) - problem.y(h - step)) / (2 * step)
+
+
+def covariance(problem: Problem, fit: Fit, cluster: float) -> tuple[np.ndarray, float]:
+    """Covariance of (θ, h): cluster-robust, never below the autocorrelation-scaled one.
+
+    The residual is linearised in h at the optimum: J = [X, −∂y/∂h]; the sandwich
+    (JᵀJ)⁻¹ (Σ_b J_bᵀ e_b e_bᵀ J_b) (JᵀJ)⁻¹ · G/(G−1) over G blocks.  With G ≈ 10
+    blocks the sandwich is biased low, most for a column that varies slowly from
+    block to block (the 12 s h drift: on null recordings it gave |θ|/se up to 14).
+    So each parameter's variance is raised, where lower, to the conventional one
+    s² (JᵀJ)⁻¹ scaled by the residual's integrated correlation time τ_int; the
+    sandwich's correlations are kept.  This is the rule "the larger of the robust and
+    the conventional standard error" (Angrist & Pischke, *Mostly Harmless
+    Econometrics*, 2009, §8.2.3).  In the blind study it lifted the 95 % intervals'
+    coverage from 84–88 % to 96–99 %.
+
+    Returns
+    -------
+    cov : numpy.ndarray
+        ((Σk + 1) × (Σk + 1)); the last row/column is h.
+    dof : float
+        G − 1, for a Student-t quantile.
+    """
+    X = problem.design(fit.names)
+    y = problem.y(fit.h)
+    e = y - X @ fit.coef_vector()
+    J = np.hstack([X, -_jacobian_h(problem, fit.h)[:, None]])
+    w = np.ones(problem.n) if problem.weights is None else problem.weights
+    J = J * np.sqrt(w)[:, None]
+    e = e * np.sqrt(w)
+    span = problem.time.max() - problem.time.min()
+    G = int(max(2, np.floor(span / max(cluster, 1e-9))))
+    blk = time_blocks(problem.time, G)
+    A = J.T @ J
+    try:
+        Ainv = np.linalg.inv(A)
+    except np.linalg.LinAlgError:
+        Ainv = np.linalg.pinv(A)
+    S = np.zeros_like(A)
+    for b in range(G):
+        sel = blk == b
+        g = J[sel].T @ e[sel]
+        S += np.outer(g, g)
+    robust = Ainv @ S @ Ainv * G / (G - 1)
+    conventional = Ainv * float(e @ e) / max(e.size - J.shape[1], 1) * correlation_time(e)
+    se_r = np.sqrt(np.maximum(np.diag(robust), 1e-300))
+    raise_by = np.maximum(np.sqrt(np.maximum(np.diag(conventional), 0.0)) / se_r, 1.0)
+    return robust * np.outer(raise_by, raise_by), float(G - 1)
