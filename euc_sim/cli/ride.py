@@ -22,7 +22,7 @@ MIN_BOOT = 10
 
 def _assumptions(args: argparse.Namespace):
     from euc_sim.model.parameters import TABLE3
-    from euc_sim.rides.balance import RideAssumptions
+    from euc_sim.rides.signals import RideAssumptions
 
     for opt, val in (("--mass", args.mass), ("--radius", args.radius)):
         if val is not None and not (math.isfinite(val) and val > 0):
@@ -71,7 +71,8 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
         inertia-only residual of LOG concentrates), ``localisation``,
         ``residual_traces``, ``simulation`` and ``report``.
     """
-    from euc_sim.rides.balance import RideAssumptions, ride_analysis
+    from euc_sim.rides.analysis import ride_analysis
+    from euc_sim.rides.signals import RideAssumptions
     from euc_sim.rides.page import plot_residuals, residual_windows, write_page
 
     say = progress or (lambda s: None)
@@ -137,7 +138,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         raise ValueError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
                          f"bootstrap interval), got {args.n_boot}")
     assumptions = _assumptions(args)
-    from euc_sim.rides.balance import ride_signals
+    from euc_sim.rides.signals import ride_signals
 
     for p in [args.log] + ([args.compare] if args.compare else []):
         if not Path(p).is_file():

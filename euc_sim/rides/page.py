@@ -1,7 +1,7 @@
 """Where a ride's balance residual concentrates, its figure, and the ride's report page.
 
 :func:`residual_windows` evaluates the fitted inertia-only and augmented
-balances (:mod:`euc_sim.rides.balance`) over a whole ride and hands the inertia-only
+balances (:mod:`euc_sim.rides.fit`) over a whole ride and hands the inertia-only
 residual to the diagnosis module's :func:`euc_sim.diagnosis.localise.localise`, which
 returns the windows (s) where the mismatch concentrates, as ``euc-sim diagnose``
 does for a recording.  :func:`plot_residuals` draws the residuals over time
@@ -16,7 +16,8 @@ from typing import Mapping
 
 import numpy as np
 
-from euc_sim.rides.balance import RideSignals, balance_design
+from euc_sim.rides.design import balance_design
+from euc_sim.rides.signals import RideSignals, break_at_gaps
 
 __all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "plot_residuals", "write_page",
            "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
@@ -162,12 +163,11 @@ def plot_residuals(traces, path) -> Path:
     import matplotlib.pyplot as plt
 
     from euc_sim.io import atomic_write
-    from euc_sim.rides.balance import _broken
 
     traces = list(traces)
     fig, axes = plt.subplots(len(traces), 1, figsize=(11, 3.8 * len(traces)), squeeze=False)
     for ax, tr in zip(axes[:, 0], traces):
-        tt, rn, ra, sl = _broken(tr.t, tr.nominal, tr.augmented, tr.slow())
+        tt, rn, ra, sl = break_at_gaps(tr.t, tr.nominal, tr.augmented, tr.slow())
         j = tr.as_json()
         ax.plot(tt, rn, lw=0.6, label=f"inertia only: RMS {j['rms_nominal']:.0f} {tr.unit}")
         ax.plot(tt, ra, lw=0.6, label=f"augmented: RMS {j['rms_augmented']:.0f} {tr.unit}")

@@ -3,14 +3,14 @@
 A ride log gives the wheel speed v(t) and the battery power P(t), nothing about
 the rider.  Here the simulator's rider (:func:`euc_sim.simulation.engine.simulate`,
 maneuver ``profile``) rides the logged speed profile
-(:func:`euc_sim.rides.balance.speed_profile`); the simulation then *predicts* the motor
+(:func:`euc_sim.rides.profile.speed_profile`); the simulation then *predicts* the motor
 torque M_d the ride needed and, through the drivetrain model of
-:mod:`euc_sim.rides.balance`, the battery power:
+:mod:`euc_sim.rides.design`, the battery power:
 
     P_mech = M_d·(ẋ/R − γ̇)                    (motor torque × wheel speed relative to the body)
     P̂ = P₀ + P_mech/η_m   (P_mech > 0),   P₀ + η_r·P_mech   (P_mech ≤ 0)
 
-with η_m, η_r, P₀ fitted by :func:`euc_sim.rides.balance.cross_ride` (on the fit ride: on
+with η_m, η_r, P₀ fitted by :func:`euc_sim.rides.crossride.cross_ride` (on the fit ride: on
 a compare ride the prediction is out of sample).  Two simulations are run:
 
 ``nominal``
@@ -42,7 +42,8 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.model.parameters import TABLE3, Params
-from euc_sim.rides.balance import RideAssumptions, RideSignals, speed_profile
+from euc_sim.rides.profile import speed_profile
+from euc_sim.rides.signals import RideAssumptions, RideSignals, break_at_gaps, sg
 
 __all__ = ["SIM_EFFECTS", "A_LIMITS", "ride_params", "limit_acceleration", "effects_to_inject",
            "battery_power", "to_grid", "simulate_profile", "ProfileRun", "RideSimulation",
@@ -117,7 +118,7 @@ def effects_to_inject(estimates: Mapping[str, float], accepted: Sequence[str]) -
     Parameters
     ----------
     estimates : mapping
-        Fitted values (units of :data:`euc_sim.rides.balance.CANDIDATES`).
+        Fitted values (units of :data:`euc_sim.rides.design.CANDIDATES`).
     accepted : sequence of str
         Accepted effect names.
 
@@ -148,7 +149,7 @@ def effects_to_inject(estimates: Mapping[str, float], accepted: Sequence[str]) -
 
 def battery_power(M_d: np.ndarray, x_dot: np.ndarray, gamma_dot: np.ndarray, R: float,
                   eta_motor: float, eta_regen: float, idle: float = 0.0) -> np.ndarray:
-    """Battery power, W, from the motor torque through :mod:`euc_sim.rides.balance`'s drivetrain model.
+    """Battery power, W, from the motor torque through :mod:`euc_sim.rides.design`'s drivetrain model.
 
     Parameters
     ----------
@@ -271,7 +272,6 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     -------
     ProfileRun
     """
-    from euc_sim.rides.balance import sg
     from euc_sim.simulation.errors import FallError
 
     t = np.asarray(t, float)
@@ -390,14 +390,14 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     Parameters
     ----------
     sig : RideSignals
-        The ride (:func:`euc_sim.rides.balance.ride_signals`).
+        The ride (:func:`euc_sim.rides.signals.ride_signals`).
     nominal, augmented : mapping
         Fitted parameters of the inertia-only and the augmented balance
         (``CrossRide.nominal.estimate``, ``CrossRide.augmented.estimate``).
     accepted : sequence of str
         Accepted effects (``CrossRide.accepted``).
     log : RideLog or path
-        The same ride, for :func:`euc_sim.rides.balance.speed_profile`.
+        The same ride, for :func:`euc_sim.rides.profile.speed_profile`.
     scored : array of bool, optional
         Grid rows the errors are measured on (default: every row where the
         log's smoothed signals are defined).
@@ -496,7 +496,6 @@ def plot_ride_simulation(sim: RideSimulation, path) -> "Path":
     import matplotlib.pyplot as plt
 
     from euc_sim.io import atomic_write
-    from euc_sim.rides.balance import _broken
 
     tb = sim.table
     t = tb["t"].to_numpy()
@@ -510,7 +509,7 @@ def plot_ride_simulation(sim: RideSimulation, path) -> "Path":
               ("P", "battery power [W]", "Battery power: logged V·I, and predicted from the "
                "simulated torque", "P_W", "W")]
     for k, (col, ylab, title, key, unit) in enumerate(series):
-        tt, y_log, y_n, y_a = _broken(t, tb[f"{col}_log"], tb[f"{col}_nominal"],
+        tt, y_log, y_n, y_a = break_at_gaps(t, tb[f"{col}_log"], tb[f"{col}_nominal"],
                                       tb[f"{col}_augmented"])
         ax[k].plot(tt, y_log, color="k", lw=0.9, label="log")
         ax[k].plot(tt, y_n, lw=0.8, label=f"nominal simulation (RMS diff {e['nominal'][key]:.3g} {unit})")
@@ -519,7 +518,7 @@ def plot_ride_simulation(sim: RideSimulation, path) -> "Path":
         ax[k].set(ylabel=ylab, title=title)
         ax[k].legend(loc="upper right", fontsize=8)
     eff = ", ".join(f"{k}={v:.3g}" for k, v in sim.effects.items()) or "none"
-    tt, rn, ra = _broken(t, tb["P_log"] - tb["P_nominal"], tb["P_log"] - tb["P_augmented"])
+    tt, rn, ra = break_at_gaps(t, tb["P_log"] - tb["P_nominal"], tb["P_log"] - tb["P_augmented"])
     ax[3].plot(tt, rn, lw=0.7, label=f"nominal: RMS {e['nominal']['P_W']:.0f} W")
     ax[3].plot(tt, ra, lw=0.7, label=f"augmented ({eff}): RMS {e['augmented']['P_W']:.0f} W")
     for i, (a, b) in enumerate(sim.localisation.get("windows", [])):

@@ -1,4 +1,4 @@
-"""Tests of euc_sim.rides.balance: resampling, consistent filtering, torque inference and the
+"""Tests of euc_sim.rides (signals, design, fit, crossride, analysis, profile): resampling, consistent filtering, torque inference and the
 longitudinal-balance fit, with a seeded twin experiment (a synthetic WheelLog file
 made from known C_rr, k, η and noise) and, where ../shared is present, the two
 real rides."""
@@ -13,20 +13,12 @@ import pandas as pd
 import pytest
 from ridesynth import TRUTH, A, synth_log
 
-from euc_sim.rides import balance as ride
-from euc_sim.rides.balance import (
-    RideAssumptions,
-    balance_design,
-    cross_ride,
-    fit_balance,
-    plausibility,
-    resample,
-    ride_report,
-    ride_signals,
-    sg,
-    speed_profile,
-    wheel_torque,
-)
+from euc_sim.rides.analysis import ride_report
+from euc_sim.rides.crossride import cross_ride
+from euc_sim.rides.design import balance_design
+from euc_sim.rides.fit import fit_balance, plausibility
+from euc_sim.rides.profile import speed_profile, write_speed_profile
+from euc_sim.rides.signals import RideAssumptions, resample, ride_signals, sg, wheel_torque
 from euc_sim.rides.logs import read_log
 from euc_sim.simulation.maneuvers import load_speed_profile
 
@@ -118,7 +110,7 @@ def test_speed_profile_is_uniform_and_continuous(twin):
 
 
 def test_written_speed_profile_loads_in_simulator(twin, tmp_path):
-    out = ride.write_speed_profile(twin[0], tmp_path / "profile.csv")
+    out = write_speed_profile(twin[0], tmp_path / "profile.csv")
     back = pd.read_csv(out)
     assert list(back.columns) == ["t", "v"] and np.all(np.diff(back["t"]) > 0)
     man = load_speed_profile(out)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from euc_sim.cli import main
-from euc_sim.rides.balance import RideAssumptions
+from euc_sim.rides.signals import RideAssumptions
 from euc_sim.rides.page import split_at_gaps
 from euc_sim.rides.simulate import battery_power, effects_to_inject, limit_acceleration, ride_params, simulate_profile, to_grid
 from ridesynth import OLD_HEADER, synth_log

@@ -1,0 +1,172 @@
+"""Inertia-only against augmented balance: fitted on one ride, tested on another.
+
+:func:`cross_ride` accepts the effects whose 95 % interval excludes zero,
+:func:`effect_entries` writes them as CONTRACT's effect entries and
+:func:`plot_cross_ride` draws the held-out prediction.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from euc_sim.rides.design import CANDIDATES, NOMINAL, Design
+from euc_sim.rides.fit import BalanceFit, fit_balance, plausibility
+from euc_sim.rides.signals import RideSignals, break_at_gaps
+
+__all__ = ["CrossRide", "cross_ride", "effect_entries", "plot_cross_ride"]
+
+
+@dataclass(frozen=True)
+class CrossRide:
+    """Inertia-only against augmented balance, fitted on one ride, tested on another.
+
+    Attributes
+    ----------
+    nominal, full, augmented : BalanceFit
+        Fits on the fit ride: inertia only (η_m, η_r); every candidate the ride
+        supports; nominal plus the accepted effects.
+    accepted : tuple of str
+        Effects whose full-fit 95 % interval excludes zero on the physical side,
+        strongest (largest in-sample improvement alone) first.
+    heldout_nominal, heldout_augmented, heldout_full : float
+        RMS residual on the test ride, W or N·m.
+    """
+
+    fit_design: Design
+    test_design: Design
+    nominal: BalanceFit
+    full: BalanceFit
+    augmented: BalanceFit
+    accepted: tuple[str, ...]
+    heldout_nominal: float
+    heldout_augmented: float
+    heldout_full: float
+    fit_label: str
+    test_label: str
+
+    @property
+    def ratio(self) -> float:
+        """heldout_augmented / heldout_nominal (< 1: the augmented model predicts better)."""
+        return self.heldout_augmented / self.heldout_nominal
+
+
+def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block_s: float = 10.0,
+               seed: int = 0, fit_label: str = "fit", test_label: str = "test") -> CrossRide:
+    """Fit the nominal and augmented balances on one design, measure both on another.
+
+    An effect is *accepted* when its 95 % interval in the full fit excludes zero on
+    the physical side (C_rr, k, P₀ > 0; a slope or GPS gain of either sign).
+    """
+    common = [c for c in fit_design.candidates if c in test_design.candidates]
+    nominal = fit_balance(fit_design, list(NOMINAL), n_boot, block_s, seed)
+    full = fit_balance(fit_design, common, n_boot, block_s, seed)
+    accepted = []
+    for c in full.names:
+        if c in NOMINAL:
+            continue
+        lo, hi = full.ci95[c]
+        if (lo > 0) or (c.startswith("road_slope") and hi < 0):
+            accepted.append(c)
+    alone = sorted(accepted, key=lambda c: fit_balance(fit_design, list(NOMINAL) + [c], 0).rmse)
+    augmented = fit_balance(fit_design, list(NOMINAL) + alone, n_boot, block_s, seed)
+    return CrossRide(fit_design=fit_design, test_design=test_design, nominal=nominal, full=full,
+                     augmented=augmented, accepted=tuple(alone),
+                     heldout_nominal=nominal.rmse_on(test_design),
+                     heldout_augmented=augmented.rmse_on(test_design),
+                     heldout_full=full.rmse_on(test_design),
+                     fit_label=fit_label, test_label=test_label)
+
+
+def effect_entries(cr: CrossRide) -> list[dict]:
+    """CONTRACT's effect entries for the accepted effects, strongest first."""
+    out = []
+    cum = list(NOMINAL)
+    phys = plausibility(cr.augmented)
+    for c in cr.accepted:
+        cum.append(c)
+        rmse_after = fit_balance(cr.fit_design, cum, n_boot=0).rmse
+        ph = phys[c]
+        exact = list(cr.fit_design.aliases.get(c, ()))
+        confounded = [x for x in cr.full.confounded(c) if x not in exact]
+        aliases = exact + confounded
+        ev = (f"adding {ph['symbol']} ({ph['meaning']}) lowers the RMS battery-power residual "
+              f"on {cr.fit_label} from {cr.nominal.rmse:.0f} to {rmse_after:.0f} {cr.nominal.unit}, "
+              f"95% interval {ph['ci95'][0]:.3g} to {ph['ci95'][1]:.3g} {ph['unit']}")
+        if exact:
+            ev += (f"; the speed never changes sign, so it is the sum of this and "
+                   f"{' and '.join(exact)} (a constant road grade looks the same)")
+        if confounded:
+            ev += (f"; in the fit with every candidate its estimate trades off against "
+                   f"{' and '.join(confounded)} (bootstrap correlation beyond ±0.8): this ride "
+                   f"cannot tell them apart")
+        if not ph["plausible"]:
+            ev += (f"; OUTSIDE the plausible range {ph['plausible_range'][0]:g} to "
+                   f"{ph['plausible_range'][1]:g} {ph['unit']}: it also absorbs something else")
+        entry = {"name": c, "estimate": ph["estimate"], "unit": ph["unit"], "ci95": ph["ci95"],
+                 "rmse_after": rmse_after, "aliases": aliases, "evidence": ev,
+                 "plausible": ph["plausible"], "plausible_range": ph["plausible_range"]}
+        for extra in ("drag_area_m2", "drag_area_m2_ci95", "angle_rad"):
+            if extra in ph:
+                entry[extra] = ph[extra]
+        out.append(entry)
+    return out
+
+
+def plot_cross_ride(cr: CrossRide, path, sig_fit: RideSignals | None = None,
+                    sig_test: RideSignals | None = None) -> Path:
+    """Figure: the test ride's battery power, inertia-only against augmented prediction.
+
+    Panels: (1) wheel speed of both rides, m/s; (2) on the test ride, the measured
+    battery power against both models' predictions (parameters from the fit
+    ride), W; (3) their residuals with RMS values and the ratio.  PNG, written
+    atomically (matplotlib Agg).
+    """
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from euc_sim.io import atomic_write
+
+    td = cr.test_design
+    pn = td.predict(cr.nominal.estimate)
+    pa = td.predict(cr.augmented.estimate)
+    fig, ax = plt.subplots(3, 1, figsize=(11, 9.5))
+    if sig_fit is not None:
+        ax[0].plot(*break_at_gaps(sig_fit.frame["t"], sig_fit.frame["v"]), lw=0.8,
+                   label=f"{cr.fit_label} (fit)")
+    if sig_test is not None:
+        ax[0].plot(*break_at_gaps(sig_test.frame["t"], sig_test.frame["v"]), lw=0.8,
+                   label=f"{cr.test_label} (test)")
+    ax[0].set(ylabel="wheel speed v [m/s]", xlabel="time from start of log [s]",
+              title="Logged wheel speed (10 Hz grid, Savitzky–Golay 1.5 s)")
+    ax[0].legend(loc="upper right", fontsize=8)
+    nom = cr.nominal.estimate
+    aug = cr.augmented.estimate
+    tt, P_b, pn_b, pa_b = break_at_gaps(td.t, td.P, pn, pa)
+    ax[1].plot(tt, P_b, color="k", lw=0.9, label="measured battery power V·I")
+    ax[1].plot(tt, pn_b, lw=0.8, label=f"inertia only (η_m={nom['eta_motor']:.2f}, "
+                                       f"η_r={nom['eta_regen']:.2f})")
+    sym = lambda c: CANDIDATES[c][0] + ("+sin α" if c == "rolling_resistance"  # noqa: E731
+                                        and cr.fit_design.aliases.get(c) else "")
+    lab = ", ".join(f"{sym(c)}={aug[c]:.3g}" for c in cr.accepted) or "nothing accepted"
+    ax[1].plot(tt, pa_b, lw=0.8, label=f"augmented ({lab})")
+    ax[1].set(ylabel="battery power [W]", xlabel="time from start of log [s]",
+              title=f"{cr.test_label}: predicted from its speed with parameters fitted on "
+                    f"{cr.fit_label}")
+    ax[1].legend(loc="upper right", fontsize=8)
+    rn = td.weight * (td.P - pn)           # W, or N·m in the torque domain
+    ra = td.weight * (td.P - pa)
+    tt, rn, ra = break_at_gaps(td.t, rn, ra)
+    ax[2].plot(tt, rn, lw=0.7, label=f"inertia only: RMS {cr.heldout_nominal:.0f} {td.unit}")
+    ax[2].plot(tt, ra, lw=0.7, label=f"augmented: RMS {cr.heldout_augmented:.0f} {td.unit}")
+    ax[2].axhline(0, color="grey", lw=0.5)
+    what = "measured − predicted" if td.domain == "power" else "(measured − predicted)·R/v"
+    ax[2].set(ylabel=f"{what} [{td.unit}]", xlabel="time from start of log [s]",
+              title=f"Held-out residual; error ratio augmented / inertia-only = {cr.ratio:.2f}")
+    ax[2].legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    try:
+        return atomic_write(path, lambda p: fig.savefig(p, dpi=110, format="png"))
+    finally:
+        plt.close(fig)

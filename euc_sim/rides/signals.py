@@ -1,0 +1,384 @@
+"""A ride log on a uniform grid: resampled, smoothed alike, battery power and torque.
+
+A ride log (:mod:`euc_sim.rides.logs`) has wheel speed and battery voltage and
+current at ~5 Hz, irregularly, and no rider lean.  This module
+
+1. resamples it onto a uniform grid (:func:`resample`), interpolating linearly
+   across gaps up to ``max_gap`` s and **splitting** the ride into segments at
+   longer gaps (never bridging them);
+2. smooths and differentiates with one Savitzky–Golay fit (:func:`sg`), the same
+   linear filter applied to every term of the balance equation (the
+   state-variable-filter idea of NOTES.md item 4);
+3. computes battery power P = V·I and infers the motor torque
+   (:func:`wheel_torque`), stating which method was used.
+
+The balance itself is fitted by :mod:`euc_sim.rides.design` and
+:mod:`euc_sim.rides.fit`.  Wheel radius and masses are unknown for real rides:
+:class:`RideAssumptions` takes Table 3's (R = 0.2 m, m + m0 + mw = 81 kg,
+m_eq = 84 kg), overridable.
+
+Window choice
+-------------
+WheelLog rows arrive at ~5 Hz (median interval 0.2 s, up to ~0.3 s, occasional
+1 s gaps).  The grid is 10 Hz so no sample is lost, and the default
+Savitzky–Golay fit is quadratic over 1.5 s (15 grid points, ~7 raw samples): by
+Schafer's rule its −3 dB frequency is ≈ (p+1)/(3.2·N − 4.6)·f_s ≈ 0.7 Hz, above
+the ~0.1–0.5 Hz of a rider's speed changes and well below the 2.5 Hz Nyquist
+frequency of the raw data, so interpolation artefacts and the 0.01 km/h speed
+quantisation are suppressed while accelerations are kept.  A longer window
+lowers noise but biases accelerations (NOTES.md item 4); filtering every term
+alike cancels most of that bias in the regression.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy.signal import savgol_filter
+
+from euc_sim.model.parameters import TABLE3, Params
+from euc_sim.rides.logs import RideLog, read_log
+
+__all__ = ["RideAssumptions", "RideSignals", "as_log", "resample", "sg", "window_samples",
+           "wheel_torque", "ride_signals", "break_at_gaps"]
+
+
+# --------------------------------------------------------------------------------------
+# Assumptions
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RideAssumptions:
+    """What a ride log does not say, with Table 3 / CONTRACT defaults.
+
+    Attributes
+    ----------
+    R : float
+        Wheel radius, m (Table 3: 0.2).
+    total_mass : float
+        m + m0 + mw, kg: rider, EUC body and wheel (Table 3: 81); the normal load
+        is N = total_mass·g.
+    m_eq : float
+        Equivalent translating mass m + m0 + mw + Jw/R², kg (eq. 13; Table 3: 84).
+    g : float
+        m/s².
+    efficiency : float
+        Drivetrain efficiency η used only to *infer* torque from power
+        (:func:`wheel_torque`); the regression estimates its own.
+    torque_constant : float or None
+        Motor torque constant k_t, N·m/A; with a phase-current channel it gives
+        M = k_t·I_phase.  None: not known, torque comes from power.
+    v_min : float
+        Speeds below this, m/s, leave the torque undefined (P/ω blows up).
+    """
+
+    R: float = TABLE3.R
+    total_mass: float = TABLE3.total_mass
+    m_eq: float = TABLE3.m_eq
+    g: float = TABLE3.g
+    efficiency: float = 0.8
+    torque_constant: float | None = None
+    v_min: float = 0.5
+
+    def __post_init__(self) -> None:
+        for name in ("R", "total_mass", "m_eq", "g", "v_min"):
+            val = getattr(self, name)
+            if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+                raise ValueError(f"RideAssumptions.{name} must be a positive number, got {val!r}")
+        if not (0 < self.efficiency <= 1):
+            raise ValueError(f"RideAssumptions.efficiency must be in (0, 1], got {self.efficiency!r}")
+        if self.torque_constant is not None and not self.torque_constant > 0:
+            raise ValueError(f"RideAssumptions.torque_constant must be positive, "
+                             f"got {self.torque_constant!r}")
+
+    @classmethod
+    def from_params(cls, p: Params, **kw) -> "RideAssumptions":
+        """R, total mass and m_eq from a :class:`~euc_sim.model.parameters.Params`."""
+        return cls(R=p.R, total_mass=p.total_mass, m_eq=p.m_eq, g=p.g, **kw)
+
+    def as_dict(self) -> dict:
+        return {"R": self.R, "total_mass": self.total_mass, "m_eq": self.m_eq, "g": self.g,
+                "efficiency_for_torque": self.efficiency,
+                "torque_constant": self.torque_constant, "v_min": self.v_min,
+                "source": "CONTRACT / Table 3 defaults unless overridden"}
+
+
+# --------------------------------------------------------------------------------------
+# Resampling and filtering
+# --------------------------------------------------------------------------------------
+def as_log(log) -> RideLog:
+    if isinstance(log, RideLog):
+        return log
+    return read_log(log, emit_warnings=False)
+
+
+def resample(log, rate: float = 10.0, max_gap: float = 1.0) -> tuple[pd.DataFrame, list[str]]:
+    """Resample a log onto a uniform grid, split at gaps longer than ``max_gap``.
+
+    Parameters
+    ----------
+    log : RideLog or path
+    rate : float
+        Grid rate, Hz; grid points are multiples of 1/rate from the log's start.
+    max_gap : float
+        Longest interval between samples, s, bridged by linear interpolation.
+        Longer gaps end a segment; the next one starts after the gap.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        Columns ``t`` (s), ``segment`` (int, 0-based) and every numeric channel
+        of the log linearly interpolated (channels with empty cells, e.g. GPS,
+        are interpolated between their finite samples; NaN where a segment has
+        fewer than two).
+    notes : list of str
+        One line per gap split.
+    """
+    if rate <= 0 or max_gap <= 0:
+        raise ValueError(f"rate and max_gap must be positive, got rate={rate}, max_gap={max_gap}")
+    log = as_log(log)
+    d = log.data
+    t = d["t"].to_numpy(float)
+    if len(t) < 2:
+        raise ValueError(f"{log.path}: need at least two samples to resample, got {len(t)}")
+    cuts = np.flatnonzero(np.diff(t) > max_gap)
+    bounds = np.split(np.arange(len(t)), cuts + 1)
+    notes = [f"gap of {t[i + 1] - t[i]:.2f} s at t = {t[i]:.2f} s (> max_gap {max_gap:g} s): "
+             f"ride split there, not bridged" for i in cuts]
+    chans = [c for c in d.columns if c != "t"]
+    parts = []
+    for k, idx in enumerate(bounds):
+        ts = t[idx]
+        grid = np.arange(math.ceil(ts[0] * rate - 1e-9), math.floor(ts[-1] * rate + 1e-9) + 1) / rate
+        if grid.size == 0:
+            continue
+        part = {"t": grid, "segment": np.full(grid.size, k)}
+        for c in chans:
+            y = d[c].to_numpy(float)[idx]
+            ok = np.isfinite(y)
+            part[c] = np.interp(grid, ts[ok], y[ok]) if ok.sum() >= 2 else np.full(grid.size, np.nan)
+        parts.append(pd.DataFrame(part))
+    frame = pd.concat(parts, ignore_index=True)
+    return frame, notes
+
+
+def sg(x: np.ndarray, segment: np.ndarray, rate: float, window: float = 1.5,
+       polyorder: int = 2, deriv: int = 0) -> np.ndarray:
+    """Savitzky–Golay smoothing or derivative, applied segment by segment.
+
+    Parameters
+    ----------
+    x : array_like
+        Signal on the uniform grid.
+    segment : array_like of int
+        Segment label of each sample; the filter never crosses a boundary.
+    rate : float
+        Grid rate, Hz.
+    window : float
+        Window length, s (rounded to an odd number of samples ≥ polyorder + 2).
+    polyorder : int
+        Degree of the local polynomial.
+    deriv : int
+        0 smooths, 1 gives d/dt (unit of x per s), from the same polynomial fit.
+
+    Returns
+    -------
+    numpy.ndarray
+        NaN in segments shorter than the window.
+    """
+    x = np.asarray(x, float)
+    segment = np.asarray(segment)
+    n = window_samples(window, rate, polyorder)
+    out = np.full(x.shape, np.nan)
+    for s in np.unique(segment):
+        m = segment == s
+        if m.sum() < n:
+            continue
+        out[m] = savgol_filter(x[m], n, polyorder, deriv=deriv, delta=1.0 / rate, mode="interp")
+    return out
+
+
+def window_samples(window: float, rate: float, polyorder: int) -> int:
+    n = int(round(window * rate))
+    n = max(n, polyorder + 2)
+    return n + 1 if n % 2 == 0 else n
+
+
+def _interior(segment: np.ndarray, half: int) -> np.ndarray:
+    """True for samples at least ``half`` samples from their segment's ends."""
+    segment = np.asarray(segment)
+    keep = np.zeros(segment.shape, bool)
+    for s in np.unique(segment):
+        idx = np.flatnonzero(segment == s)
+        if idx.size > 2 * half:
+            keep[idx[half: idx.size - half]] = True
+    return keep
+
+
+# --------------------------------------------------------------------------------------
+# Torque
+# --------------------------------------------------------------------------------------
+def wheel_torque(v: np.ndarray, power: np.ndarray, assumptions: RideAssumptions = RideAssumptions(),
+                 phase_current: np.ndarray | None = None) -> tuple[np.ndarray, str]:
+    """Motor torque on the wheel, N·m, and how it was obtained.
+
+    With a phase-current channel *and* a known torque constant:
+    ``M = k_t·I_phase`` (method ``"phase_current"``).  Otherwise from battery power
+    over wheel angular speed ω = v/R with the assumed efficiency η:
+    ``M = η·P/ω`` when motoring (P·v > 0 … P > 0) and ``M = P/(η·ω)`` when
+    regenerating (P < 0); undefined (NaN) where |v| < ``v_min``
+    (method ``"power_efficiency"``).
+
+    Parameters
+    ----------
+    v : array_like
+        Wheel speed, m/s.
+    power : array_like
+        Battery power, W (positive drawn from the battery).
+    assumptions : RideAssumptions
+    phase_current : array_like, optional
+        Motor phase current, A.
+
+    Returns
+    -------
+    M : numpy.ndarray
+        N·m.
+    method : str
+        ``"phase_current"`` or ``"power_efficiency"``.
+    """
+    v = np.asarray(v, float)
+    if phase_current is not None and assumptions.torque_constant is not None:
+        return assumptions.torque_constant * np.asarray(phase_current, float), "phase_current"
+    P = np.asarray(power, float)
+    eta = assumptions.efficiency
+    with np.errstate(divide="ignore", invalid="ignore"):
+        omega = v / assumptions.R
+        mech = np.where(P >= 0, eta * P, P / eta)
+        M = np.where(np.abs(v) >= assumptions.v_min, mech / omega, np.nan)
+    return M, "power_efficiency"
+
+
+# --------------------------------------------------------------------------------------
+# Signals
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RideSignals:
+    """A ride on a uniform grid, raw and consistently smoothed.
+
+    Attributes
+    ----------
+    path : str
+    raw : pandas.DataFrame
+        Resampled, unfiltered: ``t, segment, v, P`` (battery power, W) and the
+        log's other channels.
+    frame : pandas.DataFrame
+        ``t`` s, ``segment``, ``interior`` (bool: far enough from a segment end
+        for the filter to be centred), ``v`` m/s, ``a`` m/s², ``P`` W (all
+        smoothed by the same Savitzky–Golay fit), ``M`` N·m (inferred torque).
+    rate, window : float
+        Hz, s.
+    polyorder : int
+    power_source : str
+        ``"voltage*current"`` or ``"power column"``.
+    torque_method : str
+        See :func:`wheel_torque`.
+    assumptions : RideAssumptions
+    notes : tuple of str
+        Reader warnings and resampling notes.
+    """
+
+    path: str
+    raw: pd.DataFrame
+    frame: pd.DataFrame
+    rate: float
+    window: float
+    polyorder: int
+    power_source: str
+    torque_method: str
+    assumptions: RideAssumptions
+    notes: tuple[str, ...]
+    has_gps_alt: bool = False
+
+    def filt(self, x, deriv: int = 0) -> np.ndarray:
+        """The signals' Savitzky–Golay filter applied to another grid signal."""
+        return sg(x, self.raw["segment"].to_numpy(), self.rate, self.window, self.polyorder, deriv)
+
+
+def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = 10.0,
+                 max_gap: float = 1.0, window: float = 1.5, polyorder: int = 2) -> RideSignals:
+    """Resample, smooth and differentiate a ride; battery power and inferred torque.
+
+    Parameters
+    ----------
+    log : RideLog or path
+    assumptions : RideAssumptions
+    rate : float
+        Grid rate, Hz.
+    max_gap : float
+        Longest gap bridged, s (see :func:`resample`).
+    window : float
+        Savitzky–Golay window, s (module docstring: why 1.5 s for ~5 Hz logs).
+    polyorder : int
+
+    Returns
+    -------
+    RideSignals
+
+    Raises
+    ------
+    ValueError
+        when the log has neither voltage and current nor a power column, or no
+        segment is as long as the filter window.
+    """
+    log = as_log(log)
+    raw, notes = resample(log, rate, max_gap)
+    if log.has("voltage") and log.has("current"):
+        P = raw["voltage"].to_numpy() * raw["current"].to_numpy()
+        source = "voltage*current"
+    elif log.has("power"):
+        P = raw["power"].to_numpy()
+        source = "power column"
+    else:
+        raise ValueError(f"{log.path}: no battery power: need columns voltage and current, "
+                         f"or power")
+    raw = raw.assign(P=P)
+    n = window_samples(window, rate, polyorder)
+    seg = raw["segment"].to_numpy()
+    sizes = pd.Series(seg).value_counts()
+    short = sizes[sizes < n]
+    for s, size in short.items():
+        notes.append(f"segment {s} has {size} samples, fewer than the {n}-sample filter "
+                     f"window: left out")
+    if len(short) == len(sizes):
+        raise ValueError(f"{log.path}: no stretch of the ride is as long as the {window:g} s "
+                         f"filter window")
+    f = lambda x, d=0: sg(x, seg, rate, window, polyorder, d)  # noqa: E731
+    v = f(raw["v"].to_numpy())
+    a = f(raw["v"].to_numpy(), 1)
+    Ps = f(P)
+    phase = f(raw["phase_current"].to_numpy()) if "phase_current" in raw else None
+    M, method = wheel_torque(v, Ps, assumptions, phase)
+    if "phase_current" in raw and assumptions.torque_constant is None:
+        notes.append("phase current present but no torque constant given: torque inferred "
+                     "from power with the assumed efficiency")
+    frame = pd.DataFrame({"t": raw["t"], "segment": seg,
+                          "interior": _interior(seg, n // 2) & np.isfinite(v),
+                          "v": v, "a": a, "P": Ps, "M": M})
+    return RideSignals(path=log.path, raw=raw, frame=frame, rate=rate, window=window,
+                       polyorder=polyorder, power_source=source, torque_method=method,
+                       assumptions=assumptions, notes=tuple(log.warnings) + tuple(notes),
+                       has_gps_alt="gps_alt" in raw and np.isfinite(raw["gps_alt"]).mean() > 0.5)
+
+
+def break_at_gaps(t: np.ndarray, *ys: np.ndarray):
+    """Insert NaN where rows are missing so a line plot does not bridge them."""
+    t = np.asarray(t, float)
+    if t.size < 2:
+        return (t,) + tuple(np.asarray(y, float) for y in ys)
+    step = np.median(np.diff(t))
+    cut = np.flatnonzero(np.diff(t) > 1.5 * step) + 1
+    out = [np.insert(t, cut, np.nan)]
+    out += [np.insert(np.asarray(y, float), cut, np.nan) for y in ys]
+    return tuple(out)
