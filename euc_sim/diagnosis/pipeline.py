@@ -184,6 +184,7 @@ def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limi
         "decidable": decision["decidable"],
         "verdict": decision["verdict"],
         "notes": decision["notes"],
+        "cannot_see": decision["cannot_see"],
         "limits": limits,
         "visibility": vis,
         "correlations": loc["correlations"],

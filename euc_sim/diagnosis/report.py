@@ -47,11 +47,15 @@ def summary(result: dict) -> str:
         A few lines, no trailing newline.
     """
     r = result
-    lines = [f"{r['recording']}: {r['verdict']}",
-             f"  residual {r['residual']}; held-out RMSE {r['nominal_rmse']:.3f} N·m nominal"
-             f" -> {r['augmented_rmse']:.3f} N·m with the accepted effects (noise floor "
-             f"{r['noise_floor']:.3f} N·m)",
-             f"  h = {r['h_nominal']:.3f} m nominal, {r['h_augmented']:.3f} m with the effects"]
+    found = bool(r["effects"])
+    lines = [f"{r['recording']}: {r['verdict']}"]
+    rmse = f"  residual {r['residual']}; held-out RMSE {r['nominal_rmse']:.3f} N·m nominal"
+    if found:
+        rmse += f" -> {r['augmented_rmse']:.3f} N·m with the accepted effects"
+        h = f"  h = {r['h_nominal']:.3f} m nominal, {r['h_augmented']:.3f} m with the effects"
+    else:
+        h = f"  h = {r['h_nominal']:.3f} m"
+    lines += [rmse + f" (noise floor {r['noise_floor']:.3f} N·m)", h]
     for e in r["effects"]:
         lines.append("  found: " + _fmt_effect(e))
     if r["unexplained"]:
@@ -59,24 +63,33 @@ def summary(result: dict) -> str:
         lines.append(f"  UNEXPLAINED: structure is left that no catalogued effect explains "
                      f"(a generic periodic term gains {100 * g['gain']:.0f}% held-out; residual "
                      f"{g['floor_ratio']:.1f}× the noise floor)")
+    if found or r["unexplained"]:
+        lines += _where(r)
+    for n, why in r.get("cannot_see", {}).items():
+        lines.append(f"  cannot see: {n}: {why}")
+    for n in r["notes"]:
+        lines.append(f"  note: {n}")
+    rs = r.get("resimulation")
+    if rs and rs.get("done") and "rmse_phi" in rs.get("nominal", {}):
+        txt = f"  re-simulated lean φ vs recording: RMSE {np.degrees(rs['nominal']['rmse_phi']):.2f}° nominal"
+        if found and "rmse_phi" in rs.get("augmented", {}):
+            txt += f", {np.degrees(rs['augmented']['rmse_phi']):.2f}° augmented"
+        lines.append(txt)
+    return "\n".join(lines)
+
+
+def _where(r: dict) -> list[str]:
+    """Where the mismatch is and what it moves with (only said when there is one)."""
+    lines = []
     if r["windows"]:
         w = ", ".join(f"{a:.1f}–{b:.1f}" for a, b in r["windows"][:6])
         lines.append(f"  mismatch concentrates in t = {w} s ({r.get('localised_on', 'M_d,1 - M_d,2')})")
-    elif r["effects"] or r["unexplained"]:
+    else:
         lines.append("  the mismatch is spread over the whole recording (no window concentrates it)")
     if r.get("correlations"):
         c = max(r["correlations"].items(), key=lambda kv: abs(kv[1]))
         lines.append(f"  nominal residual correlates most with {c[0]} (r = {c[1]:+.2f})")
-    invisible = [n for n, v in r["visibility"].items() if not v["visible"]]
-    if invisible:
-        lines.append(f"  cannot be revealed by this recording: {', '.join(invisible)}")
-    for n in r["notes"]:
-        lines.append(f"  note: {n}")
-    rs = r.get("resimulation")
-    if rs and rs.get("done") and "rmse_phi" in rs.get("nominal", {}) and "rmse_phi" in rs.get("augmented", {}):
-        lines.append(f"  re-simulated lean φ vs recording: RMSE {np.degrees(rs['nominal']['rmse_phi']):.2f}° "
-                     f"nominal, {np.degrees(rs['augmented']['rmse_phi']):.2f}° augmented")
-    return "\n".join(lines)
+    return lines
 
 
 def _plt():

@@ -12,7 +12,7 @@ import numpy as np
 from euc_sim.diagnosis.common import H_BOUNDS
 from euc_sim.identification import selection as sel
 
-__all__ = ["leftover", "judge"]
+__all__ = ["leftover", "judge", "cannot_see"]
 
 
 def leftover(fin, selected, floor_stacked: float, thresholds) -> dict:
@@ -50,19 +50,6 @@ def _h_notes(fin, h_ok: bool, periodic: bool, h_at_bound: bool) -> list[str]:
     return []
 
 
-def _limit_notes(limits: dict, vis: dict, has_w: bool) -> list[str]:
-    notes = []
-    for c in ("rider_mass", "cog_height_drift"):
-        if c in limits and limits[c]["detectable_above"] is None:
-            notes.append(f"{c} cannot be revealed by this recording: {vis[c]['reason']}")
-        elif c in limits and limits[c]["status"] != "detectable":
-            lim = limits[c]["detectable_above"]
-            why = "without torques (NOTES facts 2-3)" if not has_w else "in this recording"
-            unit = "" if limits[c]["unit"] == "1" else f" {limits[c]['unit']}"
-            notes.append(f"{c} is near the noise floor {why}: only above {lim:.3g}{unit} could be seen")
-    return notes
-
-
 def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: dict, left: dict,
           has_w: bool, thresholds) -> dict:
     """The verdict, the effects named and those only tentative, and the notes.
@@ -88,7 +75,8 @@ def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: di
     -------
     dict
         ``verdict`` (str), ``effects``, ``tentative`` (lists of dict), ``unexplained``,
-        ``decidable`` (bool), ``notes`` (list of str).
+        ``decidable`` (bool), ``notes`` (list of str), ``cannot_see``
+        (:func:`cannot_see`).
     """
     th = thresholds
     unexplained = left["unexplained"]
@@ -99,7 +87,8 @@ def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: di
     h_ok = (1.96 * h_se_f <= th.max_h_halfwidth) and not h_at_bound
     periodic = left["gain"] >= th.generic_gain      # a periodic structure is a finding in itself
     decidable = bool(detectable) and (h_ok or periodic)
-    notes = _h_notes(fin, h_ok, periodic, h_at_bound) + _limit_notes(limits, vis, has_w)
+    notes = _h_notes(fin, h_ok, periodic, h_at_bound)
+    unseen = cannot_see(limits, vis)
     eff_out, tentative = list(effects_out), []
     if unexplained and eff_out:
         # a wrong name is worse than none: with structure left unexplained, keep only
@@ -122,8 +111,37 @@ def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: di
     elif unexplained:
         verdict = "structure left that no catalogued effect explains"
     else:
-        verdict = "nothing missing"
+        verdict = "nothing missing" + (" that this recording can reveal" if unseen else "")
     if unexplained and eff_out:
         verdict += "; structure is left that no catalogued effect explains"
     return {"verdict": verdict, "effects": eff_out, "tentative": tentative, "unexplained": unexplained,
-            "decidable": decidable, "notes": notes}
+            "decidable": decidable, "notes": notes, "cannot_see": unseen}
+
+
+def cannot_see(limits: dict, vis: dict) -> dict[str, str]:
+    """Effects this recording could not reveal at a plausible size, and why.
+
+    Parameters
+    ----------
+    limits : dict
+        :func:`euc_sim.diagnosis.estimates.detection_limits`.
+    vis : dict
+        :func:`euc_sim.diagnosis.candidates.visibility`.
+
+    Returns
+    -------
+    dict
+        ``{effect: why}``: invisible effects (a column is missing: the reason from the
+        catalog's observability) and effects whose detection limit lies above the
+        lower end of their plausible range.
+    """
+    out = {}
+    for name, lim in limits.items():
+        unit = "" if lim["unit"] in ("1", "") else f" {lim['unit']}"
+        if lim["detectable_above"] is None:
+            out[name] = vis[name]["reason"]
+        elif lim["status"] != "detectable":
+            what = "a change of the rider's mass" if name == "rider_mass" else "values"
+            out[name] = (f"near the noise floor here: only {what} above {lim['detectable_above']:.3g}{unit} "
+                         f"could be seen (plausible {lim['plausible'][0]:g} to {lim['plausible'][1]:g}{unit})")
+    return out

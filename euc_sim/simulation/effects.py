@@ -85,9 +85,9 @@ CATALOG: dict[str, Effect] = {e.name: e for e in (
     Effect("rider_mass", "kg",
            "the rider's actual mass differs from the nominal one",
            "parameter", False, needs=("M_d",), plausible=(45.0, 110.0),
-           hidden_because=("without M_d a wrong rider mass is absorbed by h: the lean for an "
-                           "acceleration is ≈ a/g whatever the mass (NOTES fact 2), and the "
-                           "residual's RMSE falls with m only because m scales the noise")),
+           hidden_because=("without M_d a wrong rider mass is absorbed by h: a rider leans about a/g "
+                           "for an acceleration a whatever he weighs, so the mass shows in M_d,1 − M_d,2 "
+                           "only through the EUC's own mass and inertia, near the noise floor")),
     Effect("cog_height_drift", "m",
            "h changes during the recording (crouching, standing up); estimate is its peak-to-peak change",
            "parameter", True, plausible=(0.05, 0.25)),

@@ -1,0 +1,41 @@
+"""User-found rough edges of ``diagnose`` and its report (one test each)."""
+
+from __future__ import annotations
+
+import warnings
+
+import pytest
+
+from euc_sim.diagnosis import pipeline as diagnosis
+from euc_sim.diagnosis.report import summary
+
+
+def _recording(name, maneuver="stop_and_go", effects=(), hide=True, seed=8, duration=15.0, **opts):
+    from euc_sim.simulation import dataset
+    from euc_sim.simulation.maneuvers import make_maneuver
+    spec = dataset.RecordingSpec(name, make_maneuver(maneuver, **opts), duration, seed, effects=effects,
+                                 hide_torques=hide, engine="analytic")
+    rec, meta, _ = dataset.simulated_recording(spec)
+    return rec, meta
+
+
+@pytest.fixture(scope="module")
+def concealed_friction():
+    """Bearing friction without M_d: invisible to M_d,1 − M_d,2."""
+    rec, meta = _recording("bf", effects=(("wheel_bearing_friction", 1.5),))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return diagnosis.diagnose(rec, meta=meta, resimulate=False)
+
+
+def test_nothing_missing_says_what_the_recording_cannot_see(concealed_friction):
+    res = concealed_friction
+    assert res["effects"] == []
+    assert res["verdict"] == "nothing missing that this recording can reveal"
+    assert "wheel_bearing_friction" in res["cannot_see"]
+    assert "M_d" in res["cannot_see"]["wheel_bearing_friction"]
+    text = summary(res)
+    assert "cannot see: wheel_bearing_friction" in text
+    assert "with the accepted effects" not in text
+    assert "mismatch concentrates" not in text
+    assert "NOTES" not in text
