@@ -26,7 +26,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         warnings.simplefilter("ignore")          # repaired gaps are reported by the reader
         result = diagnosis.diagnose(args.recording, params=params,
                                     resimulate=not args.no_resimulate,
-                                    progress=(lambda s: say(f"diagnose: {s} ...")) if args.verbose else None)
+                                    progress=None if args.quiet else (lambda s: say(f"diagnose: {s} ...")))
     if args.json:
         write_json(args.json, diagnosis.json_view(result))
     if args.report:
@@ -55,7 +55,8 @@ def add_commands(sub) -> None:
                    help="nominal parameter (default: the sidecar's, else Table 3; h is identified)")
     p.add_argument("--no-resimulate", action="store_true",
                    help="skip re-simulating the maneuver with the accepted effects")
-    p.add_argument("--verbose", action="store_true", help="show progress")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr (shown by default)")
+    p.add_argument("--verbose", action="store_true", help=argparse.SUPPRESS)   # progress is the default now
     p.set_defaults(func=_cmd_diagnose)
 
     p = sub.add_parser("demo", help="the main job on embedded defaults: simulate, identify, diagnose")

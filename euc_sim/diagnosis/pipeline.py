@@ -66,7 +66,7 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     smoothing : processing.Smoothing, optional
         The consistent recipe (default ``processing.DEFAULT_SMOOTHING``).
     progress : callable, optional
-        Receives short progress messages.
+        Receives a short message at the start of each step ("1/6 prepare: ...").
 
     Returns
     -------
@@ -78,26 +78,27 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     """
     say = progress or (lambda s: None)
     th = thresholds
-    say("filtering the recording")
+    say("1/6 prepare: filtering and differentiating the recording")
     prep = prepare(source, params, meta, smoothing=smoothing)                       # 1 prepare
     vis = visibility(prep.raw.columns)
     model = residual_model(prep)                                                    # 2 residual
     time = _stacked_time(prep, model)
     h0 = reg.fit_set(reg.Problem(model, {}, time, H_BOUNDS), ()).h
-    say(f"nominal h = {h0:.3f} m; noise floor")
+    say(f"2/6 residual: nominal h = {h0:.3f} m; the noise floor")
     floor = noise_floor(prep, h0, seed)
     n_eff = max(time.size / floor["tau_int"], 5.0)
     problem, info, s = _select(prep, h0, n_eff, th, say)                            # 3-4 candidates, select
+    say("4/6 refine: estimates and intervals")
     fin = final_model(prep, problem, info, s, say)                                  # 5 refine
     eff_out = effect_items(prep, problem, info, s, fin, n_eff, th)
     limits = detection_limits(problem, info, s, vis, th)
-    say("testing what is left")
+    say("5/6 verdict: detection limits, testing what is left")
     left = leftover(fin, tuple(s.selected), floor["rms_stacked"], th)               # 6 verdict
     decision = judge(eff_out, s.cv_nominal, fin, limits, vis, left, model.W is not None, th)
     reported = _reported_model(problem, s, fin, decision)
     result = _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limits, vis, left, th)
     if resimulate:                                                                  # 7 model it
-        say("re-simulating the maneuver")
+        say("6/6 model it: re-simulating the maneuver, nominal and augmented")
         rs = resimulate_recording(prep, result)
         result["_series"]["resimulation"] = rs.pop("series", None)
         result["resimulation"] = rs
@@ -120,7 +121,8 @@ def _select(prep: Prepared, h0: float, n_eff: float, th: Thresholds, say):
     h_cols = h0
     for _ in range(COLUMN_ITERATIONS):
         problem, info = build_problem(prep, h_cols)
-        say(f"selecting among {len(problem.candidates)} candidate terms (columns at h = {h_cols:.3f} m)")
+        say(f"3/6 candidates and selection: {len(problem.candidates)} candidate terms "
+            f"(columns at h = {h_cols:.3f} m)")
         s = sel.forward_select(problem, min_bic_drop=th.min_bic_drop, min_cv_gain=th.min_cv_gain,
                                min_t=th.min_t, n_eff=n_eff)
         if not s.selected or abs(s.fit.h - h_cols) < COLUMN_H_TOL:

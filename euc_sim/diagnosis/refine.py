@@ -116,7 +116,7 @@ def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress=No
     prob_f, info_f, fit_f, slopes = problem, info, s.fit, {}
     if any(c in selected for c in NONLINEAR):
         if progress:
-            progress("refining the nonlinear estimates")
+            progress("4/6 refine: 1-D search of the nonlinear estimates")
         _, prob_f, info_f, fit_f, slopes = refine(prep, problem, selected, estimates, s.fit.h)
     cov_f, dof_f = reg.covariance(prob_f, fit_f, cluster=2.0)
     cv = reg.heldout_rmse(prob_f, selected) if selected else s.cv_nominal

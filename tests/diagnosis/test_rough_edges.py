@@ -39,3 +39,24 @@ def test_nothing_missing_says_what_the_recording_cannot_see(concealed_friction):
     assert "with the accepted effects" not in text
     assert "mismatch concentrates" not in text
     assert "NOTES" not in text
+
+
+@pytest.fixture(scope="module")
+def recording_file(tmp_path_factory):
+    """A short stop-and-go with rolling resistance, written with its sidecar."""
+    import json
+    out = tmp_path_factory.mktemp("rec")
+    rec, meta = _recording("rr", effects=(("rolling_resistance", 0.03),), duration=12.0)
+    rec.to_csv(out / "rr.csv", index=False)
+    (out / "rr.json").write_text(json.dumps(meta))
+    return out / "rr.csv"
+
+
+def test_diagnose_shows_its_steps_on_stderr(recording_file, capsys):
+    from euc_sim.cli import main
+    assert main(["diagnose", str(recording_file), "--no-resimulate"]) == 0
+    err = capsys.readouterr().err
+    for step in ("1/6 prepare", "2/6 residual", "3/6 candidates", "4/6 refine", "5/6 verdict"):
+        assert step in err
+    assert main(["diagnose", str(recording_file), "--no-resimulate", "--quiet"]) == 0
+    assert "1/6" not in capsys.readouterr().err
