@@ -26,7 +26,7 @@ from typing import Callable, Mapping
 import numpy as np
 
 from euc_sim.diagnosis.candidates import build_problem, visibility
-from euc_sim.diagnosis.common import COLUMN_H_TOL, COLUMN_ITERATIONS, H_BOUNDS, NONLINEAR, THRESHOLDS, Thresholds
+from euc_sim.diagnosis.common import DiagnosisError, COLUMN_H_TOL, COLUMN_ITERATIONS, H_BOUNDS, NONLINEAR, THRESHOLDS, Thresholds
 from euc_sim.diagnosis.estimates import detection_limits, effect_items
 from euc_sim.diagnosis.localise import localise, signals_of
 from euc_sim.diagnosis.prepare import Prepared, prepare
@@ -82,6 +82,7 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     prep = prepare(source, params, meta, smoothing=smoothing)                       # 1 prepare
     vis = visibility(prep.raw.columns)
     model = residual_model(prep)                                                    # 2 residual
+    _check_excitation(prep, model)
     time = _stacked_time(prep, model)
     h0 = reg.fit_set(reg.Problem(model, {}, time, H_BOUNDS), ()).h
     say(f"2/6 residual: nominal h = {h0:.3f} m; the noise floor")
@@ -109,6 +110,24 @@ def _stacked_time(prep: Prepared, model: ResidualModel) -> np.ndarray:
     """Time of each residual sample, s: the kinematic row, then the wheel row with M_d."""
     t = prep.t[prep.keep]
     return np.concatenate([t, t]) if model.W is not None else t
+
+
+def _check_excitation(prep: Prepared, model: ResidualModel) -> None:
+    """Refuse a recording whose residual is zero whatever h is (nothing moves).
+
+    Raises
+    ------
+    DiagnosisError
+        naming the recording: a motionless recording, or one that the nominal model
+        matches exactly at every h, leaves nothing to select on (every RMSE is zero).
+    """
+    lo, hi = H_BOUNDS
+    rms = max(float(np.sqrt(np.mean(model(h) ** 2))) for h in (lo, 0.5 * (lo + hi), hi))
+    if rms < 1e-9:
+        ptp = ", ".join(f"{c} {np.ptp(prep.q[:, i]):.2g}" for i, c in enumerate(("x", "γ", "φ")))
+        raise DiagnosisError(f"{prep.name}: too little excitation to diagnose anything: the residual "
+                             f"M_d,1 − M_d,2 is zero at every h (range over the recording: {ptp}; "
+                             "a motionless recording)")
 
 
 def _select(prep: Prepared, h0: float, n_eff: float, th: Thresholds, say):

@@ -200,7 +200,7 @@ def _judge(problem: Problem, f: Fit, d: dict, cur_bic: float, cur_cv: float,
             wald = 0.0
         t_new = float(np.sqrt(max(wald - (k_new - 1), 0.0)))
     d["t"] = t_new
-    d["cv_gain"] = 1.0 - d["cv_rmse"] / cur_cv
+    d["cv_gain"] = 1.0 - d["cv_rmse"] / cur_cv if cur_cv > 0 else 0.0     # a zero residual: no gain
     reasons = []
     if cur_bic - d["bic"] < min_bic_drop:
         reasons.append(f"BIC drop {cur_bic - d['bic']:.1f} < {min_bic_drop:g}")

@@ -60,3 +60,22 @@ def test_diagnose_shows_its_steps_on_stderr(recording_file, capsys):
         assert step in err
     assert main(["diagnose", str(recording_file), "--no-resimulate", "--quiet"]) == 0
     assert "1/6" not in capsys.readouterr().err
+
+
+def test_a_motionless_recording_is_one_line_naming_the_file(recording_file, tmp_path, capsys):
+    import json
+
+    import pandas as pd
+
+    from euc_sim.cli import main
+    df = pd.read_csv(recording_file)
+    for c in df.columns:
+        if c != "t":
+            df[c] = 0.0
+    df.to_csv(tmp_path / "still.csv", index=False)
+    (tmp_path / "still.json").write_text(recording_file.with_suffix(".json").read_text())
+    assert main(["diagnose", str(tmp_path / "still.csv"), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err
+    assert "still.csv" in err and "too little excitation" in err
+    assert json.loads((tmp_path / "still.json").read_text())      # the sidecar untouched
