@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["summary", "write_report"]
+__all__ = ["summary", "write_report", "report_paths"]
 
 
 def _fmt_effect(e: dict) -> str:
@@ -99,7 +99,16 @@ def _plt():
     return plt
 
 
-def _fig_residual(result: dict, path: Path) -> None:
+def _png(fig, dpi: int) -> bytes:
+    """The figure as PNG bytes (closed afterwards): written only once the whole report is made."""
+    import io
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=dpi, format="png")
+    _plt().close(fig)
+    return buf.getvalue()
+
+
+def _fig_residual(result: dict) -> bytes:
     plt = _plt()
     s = result["_series"]
     has_w = s.get("wheel_nominal") is not None
@@ -133,11 +142,10 @@ def _fig_residual(result: dict, path: Path) -> None:
         ax.legend(loc="best", fontsize=8)
     axes[-1, 0].set_xlabel("time t (s)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return _png(fig, 110)
 
 
-def _fig_terms(result: dict, path: Path) -> None:
+def _fig_terms(result: dict) -> bytes:
     plt = _plt()
     s = result["_series"]
     fits = s["single_fits"]
@@ -169,11 +177,10 @@ def _fig_terms(result: dict, path: Path) -> None:
     fig.suptitle(f"{row} against each candidate term (nominal held-out RMSE "
                  f"{result['nominal_rmse']:.3f} N·m)")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    return _png(fig, 100)
 
 
-def _fig_before_after(result: dict, path: Path) -> None:
+def _fig_before_after(result: dict) -> bytes:
     plt = _plt()
     labels = ["nominal"]
     values = [result["nominal_rmse"]]
@@ -189,14 +196,13 @@ def _fig_before_after(result: dict, path: Path) -> None:
     ax.set_title("held-out residual before and after adding the accepted effects")
     ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    return _png(fig, 110)
 
 
-def _fig_resim(result: dict, path: Path) -> bool:
+def _fig_resim(result: dict) -> bytes | None:
     s = (result.get("_series") or {}).get("resimulation")
     if not s or "nominal_phi" not in s:
-        return False
+        return None
     plt = _plt()
     fig, axes = plt.subplots(3, 1, figsize=(10, 8.5), sharex=True)
     names = ", ".join(e["name"] for e in result["effects"]) or "no effect"
@@ -221,13 +227,14 @@ def _fig_resim(result: dict, path: Path) -> bool:
     axes[0].set_title("recording against the nominal and the augmented closed-loop simulation")
     axes[2].set_xlabel("time t (s)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return True
+    return _png(fig, 110)
 
 
 def write_report(result: dict, outdir: str | Path) -> Path:
     """Write ``outdir/index.md`` with the figures of a diagnosis.
+
+    Everything is made in memory first and each file written atomically, ``index.md``
+    last: a failure leaves no half-written file and no page.
 
     Parameters
     ----------
@@ -245,18 +252,32 @@ def write_report(result: dict, outdir: str | Path) -> Path:
     ------
     ValueError
         when ``result`` has no ``_series`` (it was read back from JSON).
+    OSError
+        naming the path that cannot be written.
     """
-    from euc_sim.io import write_text
+    from euc_sim.io import atomic_write, write_text
 
     if "_series" not in result:
         raise ValueError("result: expected the dict returned by diagnose() (with '_series'), "
                          "got one without its arrays")
     out = Path(outdir)
-    out.mkdir(parents=True, exist_ok=True)
-    _fig_residual(result, out / "residual.png")
-    _fig_terms(result, out / "terms.png")
-    _fig_before_after(result, out / "before_after.png")
-    has_resim = _fig_resim(result, out / "resimulation.png")
+    figures = {"residual.png": _fig_residual(result), "terms.png": _fig_terms(result),
+               "before_after.png": _fig_before_after(result), "resimulation.png": _fig_resim(result)}
+    page = _markdown(result, has_resim=figures["resimulation.png"] is not None)
+    for name, png in figures.items():
+        if png is not None:
+            atomic_write(out / name, lambda path, data=png: path.write_bytes(data))
+    return write_text(out / "index.md", page)
+
+
+def report_paths(outdir: str | Path) -> list[Path]:
+    """The files :func:`write_report` writes into ``outdir`` (to check them before any work)."""
+    out = Path(outdir)
+    return [out / n for n in ("index.md", "residual.png", "terms.png", "before_after.png", "resimulation.png")]
+
+
+def _markdown(result: dict, has_resim: bool) -> str:
+    """The report page (Markdown)."""
     r = result
     md = [f"# Diagnosis of `{r['recording']}`", "",
           f"**Verdict: {r['verdict']}.**", ""]
@@ -337,6 +358,4 @@ def write_report(result: dict, outdir: str | Path) -> Path:
         md.append(f"| {st['step']} | {st['chosen'] or '(h only)'} | {'yes' if st['accepted'] else 'no'} | "
                   f"{st['reason'].replace('|', '/')} |")
     md.append("")
-    path = out / "index.md"
-    write_text(path, "\n".join(md))
-    return path
+    return "\n".join(md)

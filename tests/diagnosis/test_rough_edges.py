@@ -79,3 +79,33 @@ def test_a_motionless_recording_is_one_line_naming_the_file(recording_file, tmp_
     assert "\n" not in err and "Traceback" not in err
     assert "still.csv" in err and "too little excitation" in err
     assert json.loads((tmp_path / "still.json").read_text())      # the sidecar untouched
+
+
+def test_an_unwritable_report_is_found_before_any_work(recording_file, tmp_path, capsys):
+    from euc_sim.cli import main
+    blocker = tmp_path / "blocker"
+    blocker.write_text("a file where the report folder should go")
+    code = main(["diagnose", str(recording_file), "--no-resimulate", "--json", str(tmp_path / "o.json"),
+                 "--report", str(blocker / "rep")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert "1/6" not in err                    # refused before the first step
+    assert "blocker" in err
+    assert not (tmp_path / "o.json").exists()
+
+
+def test_a_failing_report_leaves_no_json(recording_file, tmp_path, capsys, monkeypatch):
+    from euc_sim.cli import main
+    from euc_sim.diagnosis import report
+
+    def broken(result):
+        raise ValueError("figure: cannot be drawn (simulated failure)")
+
+    monkeypatch.setattr(report, "_fig_terms", broken)
+    code = main(["diagnose", str(recording_file), "--no-resimulate", "--quiet",
+                 "--json", str(tmp_path / "o.json"), "--report", str(tmp_path / "rep")])
+    assert code == 2
+    assert "simulated failure" in capsys.readouterr().err
+    assert not (tmp_path / "o.json").exists()
+    assert not (tmp_path / "rep" / "index.md").exists()
+    assert not list((tmp_path / "rep").glob("*.png")) if (tmp_path / "rep").exists() else True
