@@ -21,6 +21,7 @@ Public API: :func:`diagnose`, :func:`json_view`.
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Callable, Mapping
 
 import numpy as np
@@ -197,6 +198,7 @@ def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limi
         "h_nominal_ci95": [s.nominal.h - 1.96 * h_se, s.nominal.h + 1.96 * h_se],
         "h_augmented_ci95": [fit_f.h - 1.96 * h_se_f, fit_f.h + 1.96 * h_se_f],
         "h_augmented": fit_f.h,
+        "nominal_params": {k: v for k, v in dataclasses.asdict(prep.params).items() if k != "h"},
         "residual": "M_d,1 - M_d,2" + (" and wheel row M_d,1 - M_d" if has_w else ""),
         "rmse_unit": "N·m",
         "noise_floor": floor["rms_stacked"],

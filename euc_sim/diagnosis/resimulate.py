@@ -26,7 +26,9 @@ def _maneuver_of(prep: Prepared):
     opts = prep.meta.get("maneuver_options") or {}
     if isinstance(name, str) and name in maneuvers.MANEUVERS and name != "profile":
         try:
-            return maneuvers.make_maneuver(name, **opts), f"{name} {opts or '(defaults)'} from the sidecar"
+            args = ", ".join(f"{k} = {v:g}" if isinstance(v, (int, float)) else f"{k} = {v}"
+                             for k, v in opts.items()) or "its default options"
+            return maneuvers.make_maneuver(name, **opts), f"the sidecar's {name} ({args})"
         except ValueError:
             pass
     t = prep.t

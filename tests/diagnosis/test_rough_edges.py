@@ -109,3 +109,22 @@ def test_a_failing_report_leaves_no_json(recording_file, tmp_path, capsys, monke
     assert not (tmp_path / "o.json").exists()
     assert not (tmp_path / "rep" / "index.md").exists()
     assert not list((tmp_path / "rep").glob("*.png")) if (tmp_path / "rep").exists() else True
+
+
+def test_the_report_reads_as_text_for_people(tmp_path):
+    """No raw Python dict, no broken table markup, ranges with units, no citation of a
+    file users do not have, and the re-simulation's gain explained."""
+    from euc_sim.diagnosis.report import write_report
+    rec, meta = _recording("opt", effects=(("aerodynamic_drag", 0.5),), duration=12.0, v=3.0)
+    assert meta.get("maneuver_options")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = diagnosis.diagnose(rec, meta=meta)
+    page = write_report(res, tmp_path / "rep").read_text()
+    assert "{'" not in page and "'}" not in page
+    assert "/θ//se" not in page
+    assert "NOTES" not in page
+    assert "0.15 to 0.6 kg/m" in page                      # aerodynamic_drag's plausible range, with its unit
+    assert "from the nominal 65 kg" in page                # rider_mass: a change, said so
+    assert "not the test of the effect" in page            # the re-simulation's meaning
+    assert "v = 3" in page
