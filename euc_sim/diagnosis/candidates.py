@@ -12,7 +12,7 @@ from typing import Callable
 
 import numpy as np
 
-from euc_sim.diagnosis.common import DRIFT_PERIOD, H_BOUNDS
+from euc_sim.diagnosis.common import DRIFT_PERIOD, H_BOUNDS, RIDER_MASS_RANGE
 from euc_sim.diagnosis.prepare import Prepared
 from euc_sim.diagnosis.residual import residual_model
 from euc_sim.identification import regression as reg
@@ -225,7 +225,7 @@ def _validity(p: Params) -> dict:
         "wheel_bearing_friction": positive(0, 30.0, "N·m·s/rad"),
         "road_slope": bounded(-0.3, 0.3, "rad"),
         "lateral_dynamics": bounded(0.5, 2.0, "(coupling scale)"),
-        "rider_mass": bounded(30.0, 200.0, "kg", offset=p.m),
+        "rider_mass": bounded(*RIDER_MASS_RANGE, "kg", offset=p.m),
         "sensor_time_offset": bounded(-0.3, 0.3, "s"),
         "cog_height_drift": drift,
     }

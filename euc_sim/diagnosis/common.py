@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from euc_sim.simulation import effects
 
 __all__ = ["DiagnosisError", "Thresholds", "THRESHOLDS", "SELECT_RATE", "LATERAL_WINDOW",
-           "COLUMN_ITERATIONS", "COLUMN_H_TOL", "H_BOUNDS", "DRIFT_PERIOD", "NONLINEAR",
+           "COLUMN_ITERATIONS", "COLUMN_H_TOL", "H_BOUNDS", "DRIFT_PERIOD", "NONLINEAR", "RIDER_MASS_RANGE",
            "plausible_range"]
 
 
@@ -90,8 +90,11 @@ COLUMN_H_TOL = 0.01
 H_BOUNDS = (0.25, 1.2)
 #: Period of the catalog's h drift law, s (effects.cog_height).
 DRIFT_PERIOD = 12.0
+#: Physical range of a rider's mass, kg: a nominal mass outside it is refused, an
+#: estimate outside it is not physics.
+RIDER_MASS_RANGE = (30.0, 200.0)
 #: Nonlinear effects refined by a 1-D search, with their search intervals.
-NONLINEAR = {"sensor_time_offset": (-0.3, 0.3), "rider_mass": (30.0, 200.0)}
+NONLINEAR = {"sensor_time_offset": (-0.3, 0.3), "rider_mass": RIDER_MASS_RANGE}
 
 
 #: Magnitudes against which detection limits are judged: the catalog's plausible range,

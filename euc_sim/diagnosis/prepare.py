@@ -15,7 +15,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from euc_sim.diagnosis.common import SELECT_RATE, LATERAL_WINDOW, DiagnosisError
+from euc_sim.diagnosis.common import LATERAL_WINDOW, RIDER_MASS_RANGE, SELECT_RATE, DiagnosisError
 from euc_sim.model.parameters import Params
 
 __all__ = ["Prepared", "prepare", "noise_sd"]
@@ -112,6 +112,36 @@ def _read(source, meta: Mapping | None):
     return df, {**file_meta, **dict(meta or {})}, path.name
 
 
+def _nominal_params(params, meta: dict, source, name: str) -> Params:
+    """The nominal parameters: ``params`` when given, else the sidecar's (or Table 3).
+
+    Raises
+    ------
+    DiagnosisError
+        naming where the parameters came from (the sidecar file and its field
+        ``params.m``, or the argument) when the rider's mass is outside
+        :data:`RIDER_MASS_RANGE`: the diagnosis varies it by several kg.
+    """
+    from euc_sim.identification import recordings
+    from euc_sim.io import sidecar_paths
+    if isinstance(params, Params):
+        p, where = params, "params"
+    elif params is not None:
+        p, where = Params.from_mapping({k: v for k, v in dict(params).items() if k != "h"}), "params"
+    else:
+        if isinstance(source, pd.DataFrame):
+            where = f"meta of {name}"
+        else:
+            where = f"{sidecar_paths(source)[0].name} (sidecar of {name})"
+        p = recordings.params_from_meta(meta, where)
+        where += ": field params.m"
+    lo, hi = RIDER_MASS_RANGE
+    if not lo <= p.m <= hi:
+        raise DiagnosisError(f"{where}: rider's mass m = {p.m:g} kg is not a rider's mass; expected "
+                             f"{lo:g} to {hi:g} kg (the total of rider and clothes, not a change)")
+    return p
+
+
 def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None = None,
             smoothing=None, rate: float = SELECT_RATE) -> Prepared:
     """Read, validate and differentiate a recording (processing.py's consistent recipe).
@@ -139,14 +169,9 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
     DiagnosisError
         for a recording too short for the filters.
     """
-    from euc_sim.identification import processing, recordings
+    from euc_sim.identification import processing
     df, meta, name = _read(source, meta)
-    if isinstance(params, Params):
-        p = params
-    elif params is not None:
-        p = Params.from_mapping({k: v for k, v in dict(params).items() if k != "h"})
-    else:
-        p = recordings.params_from_meta(meta, name)
+    p = _nominal_params(params, meta, source, name)
     sm = smoothing or processing.DEFAULT_SMOOTHING
     if sm.method != "consistent" or sm.term_sigma <= 0:
         raise DiagnosisError(f"smoothing must be the consistent recipe with a term filter, got {sm.describe()}")

@@ -128,3 +128,22 @@ def test_the_report_reads_as_text_for_people(tmp_path):
     assert "from the nominal 65 kg" in page                # rider_mass: a change, said so
     assert "not the test of the effect" in page            # the re-simulation's meaning
     assert "v = 3" in page
+
+
+@pytest.mark.parametrize("m, says", [(1.0, "m = 1 kg is not a rider's mass"), (-4.0, "must be positive")])
+def test_a_wrong_sidecar_mass_is_an_error_naming_the_sidecar_and_field(recording_file, tmp_path, capsys, m, says):
+    """A sidecar mass of 1 kg gave '-4.0 kg' (the rider-mass term's 5 kg finite step)
+    with no file named; a negative one named the recording, not the sidecar."""
+    import json
+    import shutil
+
+    from euc_sim.cli import main
+    shutil.copy(recording_file, tmp_path / "light.csv")
+    meta = json.loads(recording_file.with_suffix(".json").read_text())
+    meta["params"]["m"] = m
+    (tmp_path / "light.json").write_text(json.dumps(meta))
+    assert main(["diagnose", str(tmp_path / "light.csv"), "--quiet", "--no-resimulate"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err
+    assert "light.json (sidecar of light.csv)" in err and says in err
+    assert "-4.0 kg" not in err or m == -4.0
