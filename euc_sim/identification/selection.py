@@ -141,17 +141,8 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
         remaining = [c for c in pool if c not in current]
         if not remaining:
             break
-        trials = []
-        for c in remaining:
-            f = fit_set(problem, current + (c,))
-            k = sum(problem.candidates[n].shape[1] for n in f.names) + 1
-            b = bic(f.rss, f.n, n_eff, k)
-            cv = heldout_rmse(problem, f.names, n_blocks, guard)
-            trials.append({"name": c, "bic": b, "cv_rmse": cv, "rmse": f.rmse, "h": f.h,
-                           "theta": f.theta[c].tolist(), "_fit": f})
-            say(f"step {step}: {c}: BIC {b:.1f}, held-out RMSE {cv:.3f}")
-        trials.sort(key=lambda d: d["bic"])
-        fits = {d["name"]: d.pop("_fit") for d in trials}
+        trials, fits = _trials(problem, current, remaining, n_eff, n_blocks, guard,
+                               lambda m: say(f"step {step}: {m}"))
         accepted, chosen, reason, f, best = False, None, "no candidate left", None, None
         refused = []
         for d in trials:
@@ -175,6 +166,22 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
         pool = [c for c in pool if c not in refused_names(refused)]
         cv_path.append(cur_cv)
     return Selection(current, cur_fit, nominal, cv_nom, cur_cv, cv_path, n_eff, tau, history)
+
+
+def _trials(problem: Problem, current: tuple, remaining: list, n_eff: float, n_blocks: int,
+            guard: float, say) -> tuple[list[dict], dict]:
+    """Every remaining candidate added to the current set: BIC and held-out RMSE, best BIC first."""
+    trials = []
+    for c in remaining:
+        f = fit_set(problem, current + (c,))
+        k = sum(problem.candidates[n].shape[1] for n in f.names) + 1
+        b = bic(f.rss, f.n, n_eff, k)
+        cv = heldout_rmse(problem, f.names, n_blocks, guard)
+        trials.append({"name": c, "bic": b, "cv_rmse": cv, "rmse": f.rmse, "h": f.h,
+                       "theta": f.theta[c].tolist(), "_fit": f})
+        say(f"{c}: BIC {b:.1f}, held-out RMSE {cv:.3f}")
+    trials.sort(key=lambda d: d["bic"])
+    return trials, {d["name"]: d.pop("_fit") for d in trials}
 
 
 def refused_names(refused: list[str]) -> set[str]:
