@@ -72,10 +72,21 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     rider = default_rider(params, motor, noise_std=args.rider_noise, delay=args.rider_delay)
     spec = RecordingSpec(out.with_suffix("").name, man, float(args.duration), int(args.seed), params,
                          tuple(sorted(eff.items())), args.noise, args.engine, args.variant,
-                         bool(args.hide_torques), motor, rider, args.rolling_model)
+                         bool(args.hide_torques), motor, rider, args.rolling_model,
+                         drift_shape=_drift_shape(args.drift_shape, eff))
     path = write_simulated(out, spec)
     say(f"simulate: wrote {path} ({man.name}, {args.duration:g} s, {args.engine}, seed {args.seed})")
     return 0
+
+
+def _drift_shape(text, eff):
+    """``--drift-shape`` (needs ``--effect cog_height_drift=VALUE``), or None."""
+    if text is None:
+        return None
+    if "cog_height_drift" not in eff:
+        raise ValueError("--drift-shape shapes the cog_height_drift effect; add --effect cog_height_drift=VALUE")
+    from euc_sim.simulation.drift import parse_drift_shape
+    return parse_drift_shape(text)
 
 
 def _cmd_dataset(args: argparse.Namespace) -> int:
@@ -169,6 +180,9 @@ def add_commands(sub) -> None:
     p.add_argument("--out", required=True, metavar="NAME.csv", help="recording (.csv or .parquet)")
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
                    help="inject an effect of CONTRACT's catalog (repeatable)")
+    p.add_argument("--drift-shape", metavar="KIND[,start=S,length=S,sign=±1,seed=N]",
+                   help="shape of h(t) for cog_height_drift: sine (default, period 12 s), ramp, dip "
+                        "or wander, e.g. ramp,start=5,length=4,sign=-1 (crouch by VALUE m over 5-9 s)")
     p.add_argument("--noise", default="paper", help="measurement noise: paper (default) or none")
     p.add_argument("--engine", default="mujoco", help="mujoco (default) or analytic")
     p.add_argument("--variant", default="ideal", help="MuJoCo ground: ideal (default) or contact")

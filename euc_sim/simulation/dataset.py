@@ -58,6 +58,9 @@ class RecordingSpec:
     #: an out-of-catalog disturbance F(t) at G, N (see simulation.simulate); its
     #: description goes to the truth file only
     external_force: object = None
+    #: shape of h(t) with ``cog_height_drift`` (:class:`euc_sim.simulation.drift.DriftShape`;
+    #: None: the catalog's 12 s sine); it goes to the truth file only
+    drift_shape: object = None
 
 
 def simulated_recording(spec: RecordingSpec):
@@ -78,7 +81,8 @@ def simulated_recording(spec: RecordingSpec):
     rider = spec.rider or default_rider(spec.params, spec.motor)
     run = simulate(spec.maneuver, spec.duration, params=spec.params, motor=spec.motor, rider=rider,
                    seed=spec.seed, engine=spec.engine, variant=spec.variant, effects=eff,
-                   rolling_model=spec.rolling_model, external_force=spec.external_force)
+                   rolling_model=spec.rolling_model, external_force=spec.external_force,
+                   drift_shape=spec.drift_shape)
     p_true = true_params(spec.params, eff)
     rec = motion_capture(run, p_true, noise=spec.noise, seed=spec.seed, effects=eff,
                          hide_torques=spec.hide_torques)
@@ -105,6 +109,8 @@ def simulated_recording(spec: RecordingSpec):
         "variant": spec.variant,
         "rolling_model": spec.rolling_model,
     }
+    if spec.drift_shape is not None:
+        truth["drift_shape"] = spec.drift_shape.as_dict()
     if spec.external_force is not None:
         describe = getattr(spec.external_force, "as_dict", None)
         truth["out_of_catalog"] = describe() if describe else repr(spec.external_force)

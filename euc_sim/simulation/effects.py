@@ -29,7 +29,7 @@ from euc_sim.model.parameters import Params
 
 __all__ = ["Effect", "CATALOG", "names", "get", "parse_assignment", "SIGN_SPEED",
            "smooth_sign", "normal_load", "generalized_force", "lateral_forces", "lateral_force_rows", "LATERAL_INPUTS", "apply_to_params",
-           "cog_height", "delay_signal"]
+           "delay_signal"]
 
 Kind = Literal["external", "internal", "parameter", "measurement"]
 
@@ -319,15 +319,6 @@ def lateral_force_rows(p: Params, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, 
     spin = ps_dd * s_th + ps_d * th_d * c_th          # −d/dt of the pitch rate's −ψ̇ sin ϑ
     # the wheel turns at ẋ/R
     return Q_x + p.Jw / p.R * spin, Q_gamma + p.J0 * spin, Q_phi + p.J * spin
-
-
-def cog_height(h: float, peak_to_peak: float, t, period: float = 12.0) -> np.ndarray:
-    """h(t) of the ``cog_height_drift`` effect: h + (Δh/2) sin(2π t / period), m.
-
-    The drift is slow (period 12 s by default) so that the rider's own ḣ terms, which
-    eqs. (5)-(8) do not carry, stay negligible; simulation and diagnosis share it.
-    """
-    return h + 0.5 * peak_to_peak * np.sin(2.0 * np.pi * np.asarray(t, dtype=float) / period)
 
 
 def apply_to_params(p: Params, name: str, value: float) -> Params:

@@ -60,6 +60,7 @@ import pandas as pd
 from controllers.motor import MotorPD
 from controllers.rider import Rider, RiderRun
 from euc_sim.model import analytic
+from euc_sim.simulation import drift
 from euc_sim.simulation import effects as fx
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation.errors import FallError, SimulationError
@@ -263,7 +264,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
              effects: Mapping[str, float] | None = None, dt: float = DEFAULT_DT,
              fall_bounds: Mapping[str, float] | None = None, contact=None,
              rolling_model: str = "moment", external_force=None,
-             lateral_motion: LateralMotion | None = None) -> pd.DataFrame:
+             lateral_motion: LateralMotion | None = None, drift_shape=None) -> pd.DataFrame:
     """Run one maneuver in closed loop and return the true trajectory.
 
     Parameters
@@ -309,6 +310,11 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         ``round(duration / dt) + 1`` samples), for example a recording's, instead of
         the built-in slalom.  The effect's value is then an effective peak tilt: the
         coupling is scaled by (value / max|ϑ|)², so value = max|ϑ| is the physics.
+    drift_shape : euc_sim.simulation.drift.DriftShape, optional
+        With ``cog_height_drift``: the shape of h(t) (ramp, dip, wander, sine, profile;
+        default the catalog's 12 s sine); the effect's value stays its peak-to-peak
+        change, m.  The inertial forces of G moving along the rider's axis (the ḣ
+        terms, :func:`euc_sim.simulation.drift.drift_forces`) act in both engines.
 
     Returns
     -------
@@ -355,7 +361,11 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     v0, g0, f0, u0 = run.initial_state()
     y0 = (0.0, g0, f0, v0, 0.0, 0.0)
 
-    h_t = (fx.cog_height(p_true.h, eff["cog_height_drift"], t) if "cog_height_drift" in eff else None)
+    h_t = (drift.cog_height(p_true.h, eff["cog_height_drift"], t, drift_shape)
+           if "cog_height_drift" in eff else None)
+    if h_t is not None and float(np.min(h_t)) < 0.2:
+        raise SimulationError(f"cog_height_drift: h(t) falls to {float(np.min(h_t)):.2f} m; a rider's centre "
+                              "of gravity stays above 0.2 m (lower the drift or raise h)")
     lat, lat_scale = None, 1.0
     if "lateral_dynamics" in eff:
         lat = lateral_profile(eff["lateral_dynamics"], t, v_ref) if lateral_motion is None else lateral_motion
@@ -393,6 +403,9 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     torque, command, step = motor.torque, run.command, stepper.step
     R, sign_v = p_true.R, fx.SIGN_SPEED
     h_list = None if h_t is None else h_t.tolist()
+    if h_t is not None:
+        h_d_list, h_dd_list = (a.tolist() for a in drift.drift_rates(h_t, dt))
+        m_r, l0_r = p_true.m, p_true.l0
     if lat is not None:     # per-step Python floats: the loop's arithmetic stays off numpy
         lat_s, lat_c = np.sin(lat.theta).tolist(), np.cos(lat.theta).tolist()
         lat_th_d, lat_ps_d, lat_ps_dd = lat.theta_d.tolist(), lat.psi_d.tolist(), lat.psi_dd.tolist()
@@ -413,6 +426,9 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
                 Q_lat = [lat_scale * v for v in fx.lateral_force_rows(
                     p_true, math.sin(g_), math.cos(g_), math.sin(f_), math.cos(f_), xd_, gd_, fd_,
                     lat_s[k], lat_c[k], lat_th_d[k], lat_ps_d[k], lat_ps_dd[k])]
+            if h_list is not None:   # G moving along the rider's axis: drift.drift_forces
+                Q_h = drift.drift_force_row(m_r, l0_r, h_list[k], h_d_list[k], h_dd_list[k], g_, f_, fd_)
+                Q_lat = list(Q_h) if Q_lat is None else [a + b for a, b in zip(Q_lat, Q_h)]
             stepper.set_effects(-k_drag * xd_ * abs(xd_) + float(push(k * dt)),
                                 -C_rr * N_load * R * math.tanh(xd_ / sign_v),
                                 None if h_list is None else h_list[k], Q_lat)

@@ -1,6 +1,8 @@
 """Injected effects act as physics, the same in both engines, with CONTRACT's units."""
 
 import numpy as np
+
+from euc_sim.simulation import drift
 import pytest
 
 from euc_sim.simulation import effects as fx
@@ -84,10 +86,10 @@ def test_rider_mass_changes_the_physics_not_the_rider_model():
 
 def test_cog_height_drift_moves_g():
     run = simulate("constant_speed", 6.0, effects={"cog_height_drift": 0.2})
-    np.testing.assert_allclose(run.h, fx.cog_height(0.6, 0.2, run.t))
+    np.testing.assert_allclose(run.h, drift.cog_height(0.6, 0.2, run.t))
     rec = motion_capture(run, TABLE3, noise="none")
     height = np.hypot(rec.G_X - rec.C_X + 0.05 * np.sin(rec.gamma), rec.G_Z - rec.C_Z + 0.05 * np.cos(rec.gamma))
-    np.testing.assert_allclose(height, fx.cog_height(0.6, 0.2, rec.t), atol=1e-9)
+    np.testing.assert_allclose(height, drift.cog_height(0.6, 0.2, rec.t), atol=1e-9)
 
 
 def test_lateral_dynamics_tilts_and_turns():
