@@ -12,7 +12,8 @@ from typing import Callable
 
 import numpy as np
 
-from euc_sim.diagnosis.common import DRIFT_PERIOD, H_BOUNDS, RIDER_MASS_RANGE
+from euc_sim.diagnosis import drift_term
+from euc_sim.diagnosis.common import H_BOUNDS, RIDER_MASS_RANGE
 from euc_sim.diagnosis.prepare import Prepared
 from euc_sim.diagnosis.residual import residual_model
 from euc_sim.identification import regression as reg
@@ -20,7 +21,7 @@ from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 from euc_sim.simulation import effects
 
-__all__ = ["visibility", "build_problem", "DRIFT_FILTER"]
+__all__ = ["visibility", "build_problem"]
 
 
 # --- visibility -------------------------------------------------------------------------
@@ -75,11 +76,6 @@ def _force_columns(name: str, prep: Prepared, p: Params, h: float) -> tuple[np.n
     return kappa * prep.filtered(analytic.moment_about_contact(ph, Q)), p.R * prep.filtered(Q[:, 0])
 
 
-#: Term filter of the h-drift columns, as a multiple of the default (1: the same
-#: filter; a heavier one was tried and biased the drift estimate by +20 to +30 %).
-DRIFT_FILTER = 1.0
-
-
 def _sensitivity(prep: Prepared, p: Params, h: float, vary: Callable[[float], tuple],
                  sigma: float | None) -> np.ndarray:
     """Central difference of the stacked residual for a perturbed (params, prep)."""
@@ -104,8 +100,9 @@ def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[r
     problem : regression.Problem
     info : dict
         Per candidate: how its coefficient maps to CONTRACT's estimate
-        (``{"scale": s, "offset": o}``: estimate = o + s·θ; ``"amplitude"`` for the
-        two-column h drift, whose estimate is |θ|).
+        (``{"scale": s, "offset": o}``: estimate = o + s·θ; ``"drift"`` for the h
+        drift's splines, whose estimate is the peak-to-peak change of Δh(t) over
+        ``"span"``, :mod:`euc_sim.diagnosis.drift_term`).
 
     Notes
     -----
@@ -124,9 +121,11 @@ def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[r
     info.update(more_info)
     t = prep.t[prep.keep]
     time = np.concatenate([t, t]) if has_w else t
-    validity = _validity(p)
+    validity = _validity(p, (float(prep.t[0]), float(prep.t[-1])), info.get("cog_height_drift", {}).get("drift"))
+    drift_shape = info.get("cog_height_drift", {}).get("drift") or {}
     problem = reg.Problem(target=model, candidates=cands, time=time, bounds=H_BOUNDS,
-                          validity={c: v for c, v in validity.items() if c in cands})
+                          validity={c: v for c, v in validity.items() if c in cands},
+                          shape_params={"cog_height_drift": 2 if "start" in drift_shape else 0})
     return problem, info
 
 
@@ -157,8 +156,6 @@ def _force_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bo
 def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bool):
     """Columns of the parameter and measurement effects: sensitivities of the residual."""
     k = prep.keep
-    t = prep.t[k]
-    time = np.concatenate([t, t]) if has_w else t
     cands: dict[str, np.ndarray] = {}
     info: dict[str, dict] = {}
     # rider mass: r(m_nom) ≈ −∂r/∂m · Δm  ⇒  column −∂r/∂m, θ = Δm (kg)
@@ -184,18 +181,26 @@ def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w
 
     cands["sensor_time_offset"] = -_sensitivity(prep, p, h0, vary_tau, None) / dtau
     info["sensor_time_offset"] = {"scale": 1.0, "offset": 0.0}
-    # h drift, the catalog's law h(t) = h + (Δh/2) sin(2π t/T): −∂r/∂h · (½ sin, ½ cos)
+    # h drift of any smooth shape: splines of Δh(t), with the ḣ terms (drift_term)
     dh = 1e-4
-    model_s = residual_model(prep, p, prep.sigma * DRIFT_FILTER)
-    drdh = (model_s(h0 + dh) - model_s(h0 - dh)) / (2 * dh)
-    ph = 2 * np.pi * time / DRIFT_PERIOD
-    cands["cog_height_drift"] = np.column_stack([-drdh * 0.5 * np.sin(ph), -drdh * 0.5 * np.cos(ph)])
-    info["cog_height_drift"] = {"scale": 1.0, "offset": 0.0, "amplitude": True}
+    model = residual_model(prep, p)
+    drdh = (model(h0 + dh) - model(h0 - dh)) / (2 * dh)
+    t = prep.t[k]
+    time = np.concatenate([t, t]) if has_w else t
+    shape = drift_term.choose_shape(time, model(h0), drdh, max(time.size / 10.0, 5.0))
+    cands["cog_height_drift"] = drift_term.drift_columns(prep, p, h0, drdh, has_w, shape)
+    info["cog_height_drift"] = {"scale": 1.0, "offset": 0.0, "drift": shape,
+                                "span": (float(prep.t[0]), float(prep.t[-1]))}
     return cands, info
 
 
-def _validity(p: Params) -> dict:
-    """Physical-range checks of each candidate's coefficients (None: valid, else why not)."""
+def _validity(p: Params, span: tuple, shape: dict | None) -> dict:
+    """Physical-range checks of each candidate's coefficients (None: valid, else why not).
+
+    ``span``: the recording's first and last time, s; ``shape``: the drift's
+    (:func:`euc_sim.diagnosis.drift_term.shape_profile`).
+    """
+    grid = np.linspace(span[0], span[1], 201)
 
     def positive(lo, hi, unit):
         def check(theta):
@@ -216,8 +221,8 @@ def _validity(p: Params) -> dict:
         return check
 
     def drift(theta):
-        a = float(np.hypot(*theta))
-        return None if a <= 0.6 else f"h drift {a:.2f} m is beyond physical range (> 0.6 m)"
+        a = float(np.ptp(drift_term.shape_profile(shape, grid) @ theta))
+        return None if a <= 0.6 else f"h drift {a:.2f} m peak to peak is beyond physical range (> 0.6 m)"
 
     return {
         "rolling_resistance": positive(0, 0.2, ""),

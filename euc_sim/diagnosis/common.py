@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from euc_sim.simulation import effects
 
 __all__ = ["DiagnosisError", "Thresholds", "THRESHOLDS", "SELECT_RATE", "LATERAL_WINDOW",
-           "COLUMN_ITERATIONS", "COLUMN_H_TOL", "H_BOUNDS", "DRIFT_PERIOD", "NONLINEAR", "RIDER_MASS_RANGE",
+           "COLUMN_ITERATIONS", "COLUMN_H_TOL", "H_BOUNDS", "NONLINEAR", "RIDER_MASS_RANGE",
            "plausible_range"]
 
 
@@ -88,8 +88,6 @@ COLUMN_ITERATIONS = 3
 COLUMN_H_TOL = 0.01
 #: Search interval of h, m.
 H_BOUNDS = (0.25, 1.2)
-#: Period of the catalog's h drift law, s (effects.cog_height).
-DRIFT_PERIOD = 12.0
 #: Physical range of a rider's mass, kg: a nominal mass outside it is refused, an
 #: estimate outside it is not physics.
 RIDER_MASS_RANGE = (30.0, 200.0)

@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from euc_sim.diagnosis import drift_term
 from euc_sim.diagnosis.common import NONLINEAR, plausible_range
 from euc_sim.identification import regression as reg
 from euc_sim.identification import selection as sel
@@ -13,17 +14,15 @@ from euc_sim.model.parameters import Params
 from euc_sim.simulation import effects
 
 __all__ = ["estimate_of", "sub_cov", "is_plausible", "plausible_alias", "evidence", "effect_items",
-           "detection_limits"]
+           "detection_limits", "drift_of_time"]
 
 
 def estimate_of(info: dict, theta: np.ndarray, cov: np.ndarray, dof: float) -> tuple[float, list[float], float]:
     """CONTRACT estimate, its 95% interval and standard error from θ and its covariance."""
     from scipy.stats import t as student
     q = float(student.ppf(0.975, max(dof, 1.0)))
-    if info.get("amplitude"):
-        a = float(np.hypot(*theta))
-        g = theta / a if a > 0 else np.zeros_like(theta)
-        se = float(np.sqrt(max(g @ cov @ g, 0.0)))
+    if info.get("drift"):      # peak-to-peak change of the spline Δh(t), delta method
+        a, se = drift_term.peak_to_peak(info["drift"], info["span"], np.asarray(theta, float), cov)
         return a, [max(a - q * se, 0.0), a + q * se], se
     if info.get("sqrt"):      # estimate = scale·√θ, interval mapped through the same law
         s, se_s = float(theta[0]), float(np.sqrt(max(cov[0, 0], 0.0)))
@@ -62,7 +61,7 @@ def plausible_alias(problem: reg.Problem, selected, name: str, aliases, info, p:
     best = None
     for a in aliases:
         f = reg.fit_set(problem, without + (a,))
-        if info[a].get("amplitude") or a in NONLINEAR:
+        if info[a].get("drift") or a in NONLINEAR:
             continue
         cov, _ = reg.covariance(problem, f, cluster=2.0)
         C = sub_cov(problem, without + (a,), cov, a)
@@ -117,6 +116,8 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
         item = {"name": c, "estimate": est, "unit": effects.get(c).unit, "ci95": ci,
                 "rmse_after": after, "aliases": aliases,
                 "evidence": evidence(c, est, effects.get(c).unit, before, after, t_stat, aliases)}
+        if fin.info[c].get("drift"):
+            item.update(drift_of_time(fin.info[c], fin.fit.theta[c], C, fin.fit.h, fin.dof))
         if aliases and not is_plausible(c, est, prep.params):
             swap = plausible_alias(problem, selected, c, aliases, info, prep.params, fin.dof)
             if swap is not None:
@@ -144,7 +145,10 @@ def detection_limits(problem: reg.Problem, info: dict, s, vis: dict, thresholds)
         cov1, _ = reg.covariance(problem, f1, cluster=2.0)
         C = sub_cov(problem, base_set, cov1, c)
         se_theta = float(np.sqrt(np.trace(C) / C.shape[0]))
-        if info[c].get("sqrt"):      # lateral: the coupling grows as tilt², the limit is a tilt
+        if info[c].get("drift"):     # the shape this recording shows (its single fit), scaled
+            lim = drift_term.unit_shape_limit(info[c]["drift"], info[c]["span"], np.asarray(f1.theta[c], float),
+                                              C, thresholds.min_t)
+        elif info[c].get("sqrt"):      # lateral: the coupling grows as tilt², the limit is a tilt
             lim = info[c]["scale"] * math.sqrt(thresholds.min_t * se_theta)
         else:
             lim = thresholds.min_t * se_theta * abs(info[c]["scale"])
@@ -157,3 +161,25 @@ def detection_limits(problem: reg.Problem, info: dict, s, vis: dict, thresholds)
             limits[c] = {"detectable_above": None, "unit": effects.get(c).unit,
                          "plausible": list(plausible_range(c)), "status": "invisible: " + v["reason"]}
     return limits
+
+
+def drift_of_time(info: dict, theta, cov: np.ndarray, h: float, dof: float, step: float = 0.25) -> dict:
+    """The drift's shape and h(t) with its 95 % band, every ``step`` s (for JSON and the report).
+
+    Returns
+    -------
+    dict
+        ``shape`` (the scanned shape: kind, start and length in s), ``h_of_t``:
+        ``{"t": [s], "h": [m], "ci95_halfwidth": [m]}`` and ``windows``: where h changes
+        ([[t0, t1], ...], s).
+    """
+    from scipy.stats import t as student
+    t0, t1 = info["span"]
+    grid = np.arange(t0, t1 + 1e-9, step)
+    theta = np.asarray(theta, float)
+    dh, se = drift_term.drift_curve(grid, info["drift"], theta, cov)
+    q = float(student.ppf(0.975, max(dof, 1.0)))
+    shape = {k: (list(v) if isinstance(v, tuple) else v) for k, v in info["drift"].items()}
+    return {"shape": shape,
+            "h_of_t": {"t": grid.tolist(), "h": (h + dh).tolist(), "ci95_halfwidth": (q * se).tolist()},
+            "windows": drift_term.drift_windows(grid, info["drift"], theta)}

@@ -186,6 +186,10 @@ def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limi
     h_se = float(np.sqrt(cov_nom[-1, -1]))
     h_se_f = float(np.sqrt(max(fin.cov[-1, -1], 0.0)))
     loc, loc_row = _localisation(prep, model, s.nominal.h)
+    named = decision["effects"]
+    if named and named[0].get("windows") is not None:    # a drift: where h changes
+        loc = {**loc, "windows": named[0]["windows"]}
+        loc_row = "h(t) of cog_height_drift, where it changes"
     result = {
         "recording": prep.name,
         "nominal_rmse": s.cv_nominal,

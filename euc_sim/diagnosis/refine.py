@@ -112,7 +112,7 @@ def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress=No
     """
     selected = tuple(s.selected)
     estimates = {c: info[c]["offset"] + info[c]["scale"] * float(s.fit.theta[c][0])
-                 for c in selected if not info[c].get("amplitude")}
+                 for c in selected if not info[c].get("drift")}
     prob_f, info_f, fit_f, slopes = problem, info, s.fit, {}
     if any(c in selected for c in NONLINEAR):
         if progress:

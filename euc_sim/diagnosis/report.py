@@ -10,7 +10,8 @@
 - ``before_after.png``: held-out residual RMSE before and after, against the noise
   floor;
 - ``resimulation.png``: the recording against the nominal and the augmented
-  simulation (rider lean φ, speed ẋ).
+  simulation (rider lean φ, speed ẋ);
+- ``drift.png``: with ``cog_height_drift`` named, h(t) with its 95 % band.
 
 Figures use degrees only for display; everything else is SI.
 """
@@ -230,6 +231,32 @@ def _fig_resim(result: dict) -> bytes | None:
     return _png(fig, 110)
 
 
+def _fig_drift(result: dict) -> bytes | None:
+    """h(t) of a named cog_height_drift with its 95 % band, the windows where it changes."""
+    item = next((e for e in result["effects"] if e["name"] == "cog_height_drift" and "h_of_t" in e), None)
+    if item is None:
+        return None
+    plt = _plt()
+    ht = item["h_of_t"]
+    t, h, w = (np.asarray(ht[k], float) for k in ("t", "h", "ci95_halfwidth"))
+    fig, ax = plt.subplots(figsize=(9, 3.6))
+    for a, b in item.get("windows", []):
+        ax.axvspan(a, b, color="tab:orange", alpha=0.18, lw=0)
+    ax.fill_between(t, h - w, h + w, color="tab:blue", alpha=0.25, label="95 % band")
+    ax.plot(t, h, color="tab:blue", lw=1.5,
+            label=f"h(t) identified ({item['shape']['kind']}; peak to peak {item['estimate']:.3f} m)")
+    ax.axhline(result["h_nominal"], color="tab:red", ls="--", lw=1,
+               label=f"constant h of the nominal model ({result['h_nominal']:.3f} m)")
+    if item.get("windows"):
+        ax.plot([], [], color="tab:orange", alpha=0.4, lw=6, label="where h changes")
+    ax.set_xlabel("time t (s)")
+    ax.set_ylabel("rider's CoG height h (m)")
+    ax.set_title(f"{result['recording']}: the rider's centre of gravity over the ride")
+    ax.legend(fontsize=8, loc="best")
+    fig.tight_layout()
+    return _png(fig, 110)
+
+
 def write_report(result: dict, outdir: str | Path) -> Path:
     """Write ``outdir/index.md`` with the figures of a diagnosis.
 
@@ -262,7 +289,8 @@ def write_report(result: dict, outdir: str | Path) -> Path:
                          "got one without its arrays")
     out = Path(outdir)
     figures = {"residual.png": _fig_residual(result), "terms.png": _fig_terms(result),
-               "before_after.png": _fig_before_after(result), "resimulation.png": _fig_resim(result)}
+               "before_after.png": _fig_before_after(result), "resimulation.png": _fig_resim(result),
+               "drift.png": _fig_drift(result)}
     page = _markdown(result, has_resim=figures["resimulation.png"] is not None)
     for name, png in figures.items():
         if png is not None:
@@ -273,7 +301,8 @@ def write_report(result: dict, outdir: str | Path) -> Path:
 def report_paths(outdir: str | Path) -> list[Path]:
     """The files :func:`write_report` writes into ``outdir`` (to check them before any work)."""
     out = Path(outdir)
-    return [out / n for n in ("index.md", "residual.png", "terms.png", "before_after.png", "resimulation.png")]
+    return [out / n for n in ("index.md", "residual.png", "terms.png", "before_after.png", "resimulation.png",
+                              "drift.png")]
 
 
 def _markdown(result: dict, has_resim: bool) -> str:
@@ -291,6 +320,10 @@ def _markdown(result: dict, has_resim: bool) -> str:
         md.append("")
         md += [f"- {e['evidence']}" for e in r["effects"]]
         md.append("")
+        if any(e["name"] == "cog_height_drift" and "h_of_t" in e for e in r["effects"]):
+            md += ["The rider's centre of gravity over the ride: h(t) of the shape that fits best "
+                   "(ramps and dips of every start and length, the 12 s sine, a slow wander), with its "
+                   "95 % band; shaded where h changes.", "", "![h over time](drift.png)", ""]
     if r["unexplained"] or r.get("tentative"):
         g = r["generic"]
         md += ["## What no catalogued effect explains", ""]

@@ -74,7 +74,8 @@ def resimulate_recording(prep: Prepared, result: dict, engine: str = "mujoco") -
     for label, (p, e) in runs.items():
         try:
             run = simulation.simulate(man, duration, params=p, engine=engine, effects=e, dt=sim_dt,
-                                      lateral_motion=lat_motion if e else None)
+                                      lateral_motion=lat_motion if e else None,
+                                      drift_shape=_drift_profile(result) if "cog_height_drift" in e else None)
         except ValueError as exc:      # FallError and SimulationError are ValueErrors
             out[label] = {"error": str(exc).splitlines()[0]}
             continue
@@ -120,3 +121,13 @@ def _lateral_motion(prep: Prepared, duration: float, sim_dt: float):
     return maneuvers.LateralMotion(on["theta"], on["theta_d"],
                                    cumulative_trapezoid(on["psi_d"], grid, initial=0.0),
                                    on["psi_d"], on["psi_dd"])
+
+
+def _drift_profile(result: dict):
+    """The named drift's h(t) as the simulator's ``profile`` shape (times from the recording's start)."""
+    from euc_sim.simulation.drift import DriftShape
+    item = next(e for e in result["effects"] if e["name"] == "cog_height_drift")
+    ht = item["h_of_t"]
+    t = np.asarray(ht["t"], float)
+    return DriftShape("profile", knots_t=tuple((t - t[0]).tolist()),
+                      knots_dh=tuple((np.asarray(ht["h"], float) - result["h_augmented"]).tolist()))

@@ -59,6 +59,9 @@ class Problem:
         with coefficients ``theta`` (a wrong sign, a magnitude out of physics).
     weights : numpy.ndarray, optional
         (n,) non-negative weights of the residual samples (default 1).
+    shape_params : mapping of str to int, optional
+        Parameters of a candidate that the data chose before the fit (a shape's start
+        and length): counted in the BIC with its columns (default 0).
     """
 
     target: Callable[[float], np.ndarray]
@@ -67,6 +70,7 @@ class Problem:
     bounds: tuple[float, float]
     validity: Mapping[str, Callable[[np.ndarray], str | None]] = field(default_factory=dict)
     weights: np.ndarray | None = None
+    shape_params: Mapping[str, int] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         t = np.asarray(self.time, dtype=float)

@@ -174,7 +174,7 @@ def _trials(problem: Problem, current: tuple, remaining: list, n_eff: float, n_b
     trials = []
     for c in remaining:
         f = fit_set(problem, current + (c,))
-        k = sum(problem.candidates[n].shape[1] for n in f.names) + 1
+        k = sum(problem.candidates[n].shape[1] + problem.shape_params.get(n, 0) for n in f.names) + 1
         b = bic(f.rss, f.n, n_eff, k)
         cv = heldout_rmse(problem, f.names, n_blocks, guard)
         trials.append({"name": c, "bic": b, "cv_rmse": cv, "rmse": f.rmse, "h": f.h,

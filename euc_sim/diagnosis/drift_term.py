@@ -1,0 +1,223 @@
+"""The candidate term of ``cog_height_drift``: h(t) of unknown smooth shape.
+
+h(t) = h + Δh(t), Δh(t) = Σ_j θ_j C_j(t) with C_j half-range cosines of the
+recording's length (:func:`spline_basis`, resolution :data:`KNOT_SPACING` s), each
+zero-mean so that h stays the mean height and the nuisance h and the drift do not
+alias.  A ramp that starts and ends anywhere, a dip and return, a slow wander: all
+are such curves; the data choose the shape.
+
+The residual of the nominal model for a moving G is, to first order in Δh,
+
+    r ≈ −∂r/∂h · Δh(t)  +  κ·F[R Q_x + Q_γ + Q_φ](Q_drift(ḣ, ḧ)),
+
+the second part the inertial forces of G moving along the rider's axis
+(:func:`euc_sim.simulation.drift.drift_forces`, the ḣ terms of the kinetic energy),
+linear in θ through Ċ_j, C̈_j; with M_d recorded, the wheel row likewise.
+
+The estimate is CONTRACT's peak-to-peak change of h, max Δh − min Δh over the
+recording, its standard error by the delta method (the difference of the spline
+rows at the arg-max and arg-min), and the band of Δh(t) from the covariance of θ.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from euc_sim.diagnosis.prepare import Prepared
+from euc_sim.model import analytic
+from euc_sim.model.parameters import Params
+from euc_sim.simulation import drift
+
+__all__ = ["KNOT_SPACING", "spline_basis", "shape_profile", "candidate_shapes", "choose_shape",
+           "drift_columns", "drift_curve", "peak_to_peak", "unit_shape_limit", "drift_windows"]
+
+#: Resolution of the drift's basis, s: a crouch or a stand-up takes one to a few
+#: seconds; finer terms would follow the rider's sway (the residual's own band).
+KNOT_SPACING = 4.0
+
+
+def spline_basis(t: np.ndarray, t0: float, t1: float, spacing: float = KNOT_SPACING,
+                 derivative: int = 0) -> np.ndarray:
+    """The drift's basis (or its derivative) at times ``t`` (s), shape (n, k).
+
+    Half-range cosines cos(jπ(t − t0)/(t1 − t0)), j = 1 … k, k = round((t1 − t0) /
+    ``spacing``): smooth, zero-mean over the recording (so h stays the mean height),
+    and global, so that every coefficient is fixed by the whole ride and a held-out
+    block is interpolated, not extrapolated (local splines were tried: a held-out
+    block at either end, or in a hold where ∂r/∂h ≈ 0, left their coefficient free
+    and the held-out RMSE exploded).  Resolution about ``spacing`` s: a crouch of a
+    few seconds, a dip, a slow wander.
+    """
+    L = float(t1 - t0)
+    k = max(int(round(L / spacing)), 2)
+    j = np.arange(1, k + 1)
+    w = j * np.pi / L
+    u = np.clip(np.asarray(t, float), t0, t1)[:, None] - t0
+    if derivative == 0:
+        return np.cos(w * u)
+    if derivative == 1:
+        return -w * np.sin(w * u)
+    if derivative == 2:
+        return -(w ** 2) * np.cos(w * u)
+    raise ValueError(f"derivative must be 0, 1 or 2, got {derivative!r}")
+
+
+#: Lengths (s) of the ramp and dip shapes scanned, and the step of their start (s).
+SHAPE_LENGTHS = (2.0, 3.0, 4.0, 6.0, 8.0)
+START_STEP = 1.0
+
+
+def shape_profile(shape: dict, t: np.ndarray, derivative: int = 0) -> np.ndarray:
+    """Unit profile g(t) (or ġ, g̈) of a drift shape, shape (n, k).
+
+    ``{"kind": "ramp"|"dip", "start": s, "length": s}``: one column, unit peak to peak
+    (half-cosine ramp, 1 − cos dip: the simulator's laws, smooth in h and ḣ);
+    ``{"kind": "sine"}``: the catalog's 12 s sine and cosine (two columns, ½ each);
+    ``{"kind": "smooth", "span": (t0, t1)}``: the half-range cosines of
+    :func:`spline_basis` (a slow wander).
+    """
+    t = np.asarray(t, float)
+    kind = shape["kind"]
+    if kind == "smooth":
+        return spline_basis(t, *shape["span"], derivative=derivative)
+    if kind == "sine":
+        w = 2.0 * np.pi / 12.0
+        base = [np.sin(w * t), np.cos(w * t)]
+        if derivative == 1:
+            base = [w * np.cos(w * t), -w * np.sin(w * t)]
+        elif derivative == 2:
+            base = [-w * w * np.sin(w * t), -w * w * np.cos(w * t)]
+        return 0.5 * np.column_stack(base)
+    L = shape["length"]
+    u = (t - shape["start"]) / L
+    inside = (u > 0.0) & (u < 1.0)
+    f = np.pi if kind == "ramp" else 2.0 * np.pi
+    if derivative == 0:
+        g = 0.5 * (1.0 - np.cos(f * np.clip(u, 0.0, 1.0)))
+        g = g if kind == "ramp" else np.where(inside, g, 0.0)
+    elif derivative == 1:
+        g = np.where(inside, 0.5 * f / L * np.sin(f * u), 0.0)
+    else:
+        g = np.where(inside, 0.5 * (f / L) ** 2 * np.cos(f * u), 0.0)
+    return g[:, None]
+
+
+def candidate_shapes(t0: float, t1: float) -> list[dict]:
+    """The shapes scanned: ramps and dips of every start and length, the sine, a wander."""
+    out = [{"kind": "sine"}, {"kind": "smooth", "span": (t0, t1)}]
+    for kind in ("ramp", "dip"):
+        for L in SHAPE_LENGTHS:
+            for s in np.arange(t0, t1 - L + 1e-9, START_STEP):
+                out.append({"kind": kind, "start": float(s), "length": float(L)})
+    return out
+
+
+def choose_shape(t: np.ndarray, y: np.ndarray, drdh: np.ndarray, n_eff: float) -> dict:
+    """The shape whose term −∂r/∂h·g(t) best explains y with h free (BIC with n_eff).
+
+    A scan on the first-order term only (no ḣ terms): y ≈ a·∂r/∂h + (−∂r/∂h·G)θ by
+    least squares for every shape, ``n_eff`` ln RSS + k ln n_eff, smallest wins.
+    ``t``, ``y``, ``drdh``: the stacked residual's times, values and ∂r/∂h.
+    """
+    t0, t1 = float(np.min(t)), float(np.max(t))
+    best, best_crit = None, np.inf
+    for shape in candidate_shapes(t0, t1):
+        G = -drdh[:, None] * shape_profile(shape, t)
+        X = np.column_stack([drdh, G])
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        rss = float(np.sum((y - X @ coef) ** 2))
+        k = G.shape[1] + (2 if "start" in shape else 0)      # start and length are chosen too
+        crit = n_eff * np.log(max(rss, 1e-300)) + k * np.log(n_eff)
+        if crit < best_crit:
+            best, best_crit = shape, crit
+    return best
+
+
+def drift_columns(prep: Prepared, p: Params, h0: float, drdh: np.ndarray, has_w: bool,
+                  shape: dict) -> np.ndarray:
+    """Stacked residual columns of a drift shape (m of Δh per unit θ_j), with the ḣ terms.
+
+    Parameters
+    ----------
+    prep : Prepared
+    p : Params
+    h0 : float
+        h at which the columns are evaluated, m.
+    drdh : numpy.ndarray
+        ∂r/∂h of the stacked residual at h0, N·m/m (kept samples, rows stacked).
+    has_w : bool
+        Whether the wheel row (M_d recorded) is stacked below.
+    shape : dict
+        :func:`shape_profile`'s description.
+    """
+    kin = prep.kin
+    k = prep.keep
+    B = shape_profile(shape, kin.t[k])
+    Bd = shape_profile(shape, kin.t, derivative=1)
+    Bdd = shape_profile(shape, kin.t, derivative=2)
+    ph = p.replace(h=h0)
+    kappa = analytic.residual_gain(ph, kin.q[k])
+    nk = k.size
+    cols = []
+    for j in range(B.shape[1]):
+        Q = drift.drift_forces(ph, kin.q, kin.qd, h0, Bd[:, j], Bdd[:, j])
+        kin_col = -drdh[:nk] * B[:, j] + kappa * prep.filtered(analytic.moment_about_contact(ph, Q))
+        if has_w:
+            wh = -drdh[nk:] * B[:, j] + p.R * prep.filtered(Q[:, 0])
+            cols.append(np.concatenate([kin_col, wh]))
+        else:
+            cols.append(kin_col)
+    return np.column_stack(cols)
+
+
+def drift_curve(t: np.ndarray, shape: dict, theta: np.ndarray,
+                cov: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
+    """Δh(t) (m) and, with θ's covariance, its standard error at each time (m)."""
+    B = shape_profile(shape, t)
+    dh = B @ theta
+    if cov is None:
+        return dh, None
+    return dh, np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", B, cov, B), 0.0))
+
+
+def peak_to_peak(shape: dict, span: tuple, theta: np.ndarray, cov: np.ndarray) -> tuple[float, float]:
+    """max Δh − min Δh over the recording's ``span`` (s), m, and its standard error (delta method, m)."""
+    grid = np.linspace(span[0], span[1], 801)
+    B = shape_profile(shape, grid)
+    dh = B @ theta
+    g = B[int(np.argmax(dh))] - B[int(np.argmin(dh))]
+    return float(np.ptp(dh)), float(np.sqrt(max(g @ cov @ g, 0.0)))
+
+
+def unit_shape_limit(shape: dict, span: tuple, theta: np.ndarray, cov: np.ndarray, min_t: float) -> float:
+    """Smallest peak-to-peak change of this shape the selection would accept, m.
+
+    For θ = Δ·s (s: the shape of ``theta`` with unit peak-to-peak change) the group's
+    statistic is √(W − (k − 1)), W = Δ² sᵀC⁻¹s; it reaches ``min_t`` at
+    Δ = √((min_t² + k − 1) / sᵀC⁻¹s).
+    """
+    ptp, _ = peak_to_peak(shape, span, theta, np.zeros((theta.size, theta.size)))
+    if ptp <= 0:
+        return float("inf")
+    s = theta / ptp
+    info = float(s @ np.linalg.pinv(cov) @ s)
+    return float(np.sqrt((min_t ** 2 + theta.size - 1) / info)) if info > 0 else float("inf")
+
+
+def drift_windows(t: np.ndarray, shape: dict, theta: np.ndarray, share: float = 0.25,
+                  min_len: float = 0.5) -> list[list[float]]:
+    """Where h changes: |dΔh/dt| above ``share`` of its maximum, windows of at least ``min_len`` s."""
+    rate = np.abs(shape_profile(shape, t, derivative=1) @ theta)
+    hot = rate >= share * float(np.max(rate)) if np.max(rate) > 0 else np.zeros(t.size, bool)
+    out, i = [], 0
+    while i < t.size:
+        if hot[i]:
+            j = i
+            while j + 1 < t.size and hot[j + 1]:
+                j += 1
+            if t[j] - t[i] >= min_len:
+                out.append([float(t[i]), float(t[j])])
+            i = j + 1
+        else:
+            i += 1
+    return out
