@@ -14,7 +14,7 @@ def _recording(name, maneuver="stop_and_go", effects=(), hide=True, seed=8, dura
     from euc_sim.simulation import dataset
     from euc_sim.simulation.maneuvers import make_maneuver
     spec = dataset.RecordingSpec(name, make_maneuver(maneuver, **opts), duration, seed, effects=effects,
-                                 hide_torques=hide, engine="analytic")
+                                 hide_torques=hide)
     rec, meta, _ = dataset.simulated_recording(spec)
     return rec, meta
 
