@@ -1,10 +1,11 @@
 """The candidate term of ``cog_height_drift``: h(t) of unknown smooth shape.
 
-h(t) = h + Δh(t), Δh(t) = Σ_j θ_j C_j(t) with C_j half-range cosines of the
-recording's length (:func:`spline_basis`, resolution :data:`KNOT_SPACING` s), each
-zero-mean so that h stays the mean height and the nuisance h and the drift do not
-alias.  A ramp that starts and ends anywhere, a dip and return, a slow wander: all
-are such curves; the data choose the shape.
+h(t) = h + Δh(t), Δh(t) = θ·g(t) with g a shape the data choose
+(:func:`choose_shape`): a half-cosine ramp or a 1 − cos dip of any start (1 s steps)
+and length (:data:`SHAPE_LENGTHS`), the catalog's 12 s sine (two columns), or a slow
+wander (half-range cosines of the ride's length, :func:`wander_basis`, zero mean so
+that the nuisance h and the drift do not alias).  A ramp's or dip's start and length
+count as two parameters in the BIC.
 
 The residual of the nominal model for a moving G is, to first order in Δh,
 
@@ -12,10 +13,10 @@ The residual of the nominal model for a moving G is, to first order in Δh,
 
 the second part the inertial forces of G moving along the rider's axis
 (:func:`euc_sim.simulation.drift.drift_forces`, the ḣ terms of the kinetic energy),
-linear in θ through Ċ_j, C̈_j; with M_d recorded, the wheel row likewise.
+linear in θ through ġ, g̈; with M_d recorded, the wheel row likewise.
 
 The estimate is CONTRACT's peak-to-peak change of h, max Δh − min Δh over the
-recording, its standard error by the delta method (the difference of the spline
+recording, its standard error by the delta method (the difference of the shape's
 rows at the arg-max and arg-min), and the band of Δh(t) from the covariance of θ.
 """
 
@@ -23,20 +24,21 @@ from __future__ import annotations
 
 import numpy as np
 
+from euc_sim.diagnosis.localise import hot_windows
 from euc_sim.diagnosis.prepare import Prepared
 from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 from euc_sim.simulation import drift
 
-__all__ = ["KNOT_SPACING", "spline_basis", "shape_profile", "candidate_shapes", "choose_shape",
+__all__ = ["WANDER_RESOLUTION", "wander_basis", "shape_profile", "candidate_shapes", "choose_shape",
            "drift_columns", "drift_curve", "peak_to_peak", "unit_shape_limit", "drift_windows"]
 
 #: Resolution of the drift's basis, s: a crouch or a stand-up takes one to a few
 #: seconds; finer terms would follow the rider's sway (the residual's own band).
-KNOT_SPACING = 4.0
+WANDER_RESOLUTION = 4.0
 
 
-def spline_basis(t: np.ndarray, t0: float, t1: float, spacing: float = KNOT_SPACING,
+def wander_basis(t: np.ndarray, t0: float, t1: float, spacing: float = WANDER_RESOLUTION,
                  derivative: int = 0) -> np.ndarray:
     """The drift's basis (or its derivative) at times ``t`` (s), shape (n, k).
 
@@ -74,12 +76,12 @@ def shape_profile(shape: dict, t: np.ndarray, derivative: int = 0) -> np.ndarray
     (half-cosine ramp, 1 − cos dip: the simulator's laws, smooth in h and ḣ);
     ``{"kind": "sine"}``: the catalog's 12 s sine and cosine (two columns, ½ each);
     ``{"kind": "smooth", "span": (t0, t1)}``: the half-range cosines of
-    :func:`spline_basis` (a slow wander).
+    :func:`wander_basis` (a slow wander).
     """
     t = np.asarray(t, float)
     kind = shape["kind"]
     if kind == "smooth":
-        return spline_basis(t, *shape["span"], derivative=derivative)
+        return wander_basis(t, *shape["span"], derivative=derivative)
     if kind == "sine":
         w = 2.0 * np.pi / 12.0
         base = [np.sin(w * t), np.cos(w * t)]
@@ -209,15 +211,4 @@ def drift_windows(t: np.ndarray, shape: dict, theta: np.ndarray, share: float = 
     """Where h changes: |dΔh/dt| above ``share`` of its maximum, windows of at least ``min_len`` s."""
     rate = np.abs(shape_profile(shape, t, derivative=1) @ theta)
     hot = rate >= share * float(np.max(rate)) if np.max(rate) > 0 else np.zeros(t.size, bool)
-    out, i = [], 0
-    while i < t.size:
-        if hot[i]:
-            j = i
-            while j + 1 < t.size and hot[j + 1]:
-                j += 1
-            if t[j] - t[i] >= min_len:
-                out.append([float(t[i]), float(t[j])])
-            i = j + 1
-        else:
-            i += 1
-    return out
+    return hot_windows(t, hot, min_len)

@@ -9,10 +9,27 @@ import numpy as np
 from euc_sim.diagnosis.common import DiagnosisError
 from euc_sim.diagnosis.prepare import Prepared
 
-__all__ = ["localise", "signals_of"]
+__all__ = ["localise", "signals_of", "hot_windows"]
 
 
 # --- localisation --------------------------------------------------------------------------
+def hot_windows(t: np.ndarray, hot: np.ndarray, min_len: float) -> list[list[float]]:
+    """Runs of True in ``hot`` lasting at least ``min_len`` s, as [[t0, t1], ...] (s)."""
+    windows = []
+    i = 0
+    while i < hot.size:
+        if hot[i]:
+            j = i
+            while j + 1 < hot.size and hot[j + 1]:
+                j += 1
+            if t[j] - t[i] >= min_len:
+                windows.append([float(t[i]), float(t[j])])
+            i = j + 1
+        else:
+            i += 1
+    return windows
+
+
 def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
              smooth: float = 1.0, factor: float = 2.0, min_len: float = 0.5) -> dict:
     """Where the residual concentrates and what it moves with.
@@ -44,19 +61,7 @@ def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
     w = max(1, int(round(smooth / dt)))
     power = np.convolve(r ** 2, np.ones(w) / w, mode="same")
     thr = factor * max(float(np.median(power)), 1e-12)
-    hot = power > thr
-    windows = []
-    i = 0
-    while i < hot.size:
-        if hot[i]:
-            j = i
-            while j + 1 < hot.size and hot[j + 1]:
-                j += 1
-            if t[j] - t[i] >= min_len:
-                windows.append([float(t[i]), float(t[j])])
-            i = j + 1
-        else:
-            i += 1
+    windows = hot_windows(t, power > thr, min_len)
     inside = np.zeros(t.size, bool)
     for a, b in windows:
         inside |= (t >= a) & (t <= b)
