@@ -121,7 +121,7 @@ class Channel:
 CHANNEL_UNITS: dict[str, str] = {
     "t": "s", "v": "m/s", "voltage": "V", "current": "A", "power": "W",
     "phase_current": "A", "torque": "N·m (as the wheel reports it; unverified)",
-    "pwm": "%", "battery": "%", "distance": "m", "total_distance": "m",
+    "pwm": "%", "safety_margin": "%", "battery": "%", "distance": "m", "total_distance": "m",
     "temperature": "°C", "temperature2": "°C", "tilt": "rad", "roll": "rad",
     "latitude": "deg", "longitude": "deg", "gps_speed": "m/s", "gps_alt": "m",
     "gps_heading": "rad", "gps_distance": "m",
@@ -174,7 +174,8 @@ LAYOUTS: dict[str, Layout] = {
         channels={
             "voltage": Channel(("voltage",)), "current": Channel(("current",)),
             "power": Channel(("power",)), "phase_current": Channel(("current_phase",)),
-            "pwm": Channel(("pwm", "safety_margin")), "battery": Channel(("battery",)),
+            "pwm": Channel(("pwm",)), "safety_margin": Channel(("safety_margin",)),
+            "battery": Channel(("battery",)),
             "distance": Channel(("distance",), KM),
             "total_distance": Channel(("distance_total",), KM),
             "temperature": Channel(("temp",)), "temperature2": Channel(("temp_motor",)),
@@ -465,6 +466,13 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
     for name in ("tilt", "roll"):
         if not any(c in raw.columns for c in lay.channels[name].columns):
             notes.append(f"{name}: no such column in this log; treated as absent")
+    if "pwm" not in out and "safety_margin" in out:
+        # EUC World's safety margin is the headroom left before the motor's voltage
+        # limit, % (100 at rest): the duty is its complement.
+        out["pwm"] = 100.0 - out["safety_margin"]
+        absent = [a for a in absent if a != "pwm"]
+        notes.append("pwm: taken as 100 - safety_margin (EUC World's headroom before the "
+                     "voltage limit)")
     table = pd.DataFrame(out)
     t_abs = stamps.to_numpy()
     start = pd.Timestamp(t_abs.min())
