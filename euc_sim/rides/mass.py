@@ -60,7 +60,7 @@ from euc_sim.rides.balance import resample, sg
 from euc_sim.rides.logs import RideLog, read_log
 
 __all__ = ["MassSettings", "SpeedScale", "PowerSignals", "MassFit", "speed_scale",
-           "power_signals", "mass_regressors", "fit_mass", "G", "RHO_AIR", "NO_GPS_SCALE_SD"]
+           "power_signals", "mass_regressors", "fit_mass", "predict_power", "heldout_rmse", "RideDataError", "G", "RHO_AIR", "NO_GPS_SCALE_SD"]
 
 G = 9.81               # m/s²
 RHO_AIR = 1.2          # kg/m³ at about 20 °C
@@ -483,3 +483,19 @@ def _unidentified(log: RideLog, sig: PowerSignals) -> dict:
         out["winding_resistance"] = ("no phase current: copper loss R_w·I_ph² cannot be separated "
                                      "from the efficiency")
     return out
+
+
+def predict_power(sig: PowerSignals, fit: MassFit, v_min: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Battery power predicted by ``fit`` on the signals ``sig`` (possibly another ride), and the logged one, W.
+
+    Only samples faster than ``v_min`` (m/s) where every regressor exists.
+    For an unsigned log the prediction is ``|P̂|`` (what such a log records).
+    """
+    lag = int(round(fit.lag * (1.0 / np.median(np.diff(sig.t)))))
+    cols = mass_regressors(sig, lag)
+    names = list(fit.coef)
+    if any(n not in cols for n in names):        # e.g. grade fitted, no altitude here
+        names = [n for n in names if n in cols]
+    ok = _rows(sig, {n: cols[n] for n in names}, v_min)
+    pred = sum(fit.coef[n] * cols[n][ok] for n in names)
+    return (pred if sig.signed else np.abs(pred)), sig.P[ok]

@@ -1,0 +1,205 @@
+"""One ride's mass, drivetrain, PWM and cut-out envelope, as the ride JSON carries them.
+
+:func:`drivetrain_report` runs :mod:`euc_sim.rides.mass` and
+:mod:`euc_sim.rides.drivetrain` on a log (and, with ``compare``, predicts the
+other ride's battery power and PWM from this one's fit) and returns the
+CONTRACT's ``total_mass``, ``drivetrain`` and ``pwm`` objects plus the
+``envelope``.  :func:`plot_envelope` and :func:`plot_pwm` draw the page's
+figures.  The rider's stated weight is never read.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from euc_sim.rides.drivetrain import Drivetrain, envelope, fit_drivetrain, predict_pwm
+from euc_sim.rides.logs import read_log
+from euc_sim.rides.mass import MassFit, MassSettings, PowerSignals, fit_mass, power_signals, predict_power
+from euc_sim.rides.spec import WheelSpec
+
+__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "plot_pwm",
+           "COMPUTED_PWM_RMS"]
+
+#: A logged duty that its model explains better than this, percentage points, is
+#: taken to be computed by the app from speed and voltage, not measured.
+COMPUTED_PWM_RMS = 0.3
+
+
+@dataclass(frozen=True)
+class RideDrivetrain:
+    """Everything identified on one ride (see :func:`analyse`)."""
+
+    path: str
+    sig: PowerSignals
+    mass: MassFit
+    drivetrain: Drivetrain
+    spec: WheelSpec
+
+
+def analyse(path, spec: WheelSpec = WheelSpec(), settings: MassSettings = MassSettings()
+            ) -> RideDrivetrain:
+    """Read, filter and fit one ride (mass, then drivetrain)."""
+    log = read_log(path, emit_warnings=False)
+    sig = power_signals(log, settings)
+    mass = fit_mass(log, settings, sig=sig)
+    dt = fit_drivetrain(sig, mass, radius=spec.radius, n_boot=max(10, settings.n_boot // 2),
+                        seed=settings.seed)
+    return RideDrivetrain(str(path), sig, mass, dt, spec)
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x)))) if x.size else float("nan")
+
+
+def _pwm_note(r: RideDrivetrain) -> str | None:
+    if r.drivetrain.pwm_coef is None:
+        return None
+    pred, obs = predict_pwm(r.sig, r.drivetrain.pwm_coef)
+    rms = _rms(pred - obs)
+    if rms < COMPUTED_PWM_RMS:
+        return (f"the logged duty follows speed and voltage to {rms:.2f} percentage points: "
+                f"the app computes it, it is not measured; the resistive drop is not identified")
+    return None
+
+
+def _total_mass(r: RideDrivetrain) -> dict:
+    m = r.mass
+    out = {"estimate": m.estimate, "ci95": list(m.ci95) if m.ci95 else None,
+           "unit": "kg", "efficiency": m.efficiency,
+           "efficiency_ci95": list(m.efficiency_ci95) if m.efficiency_ci95 else None,
+           "lag_s": m.lag, "speed_scale": m.scale.estimate, "speed_scale_source": m.scale.source,
+           "signed_current": m.signed, "terms": m.terms, "balance": m.history,
+           "n_samples": m.n_samples}
+    if m.estimate is None:
+        out["why"] = m.why
+    if m.efficiency is not None and not 0.5 < m.efficiency <= 1.0:
+        out["flag"] = (f"efficiency {m.efficiency:.2f} outside (0.5, 1]: the driving/braking "
+                       f"asymmetry this estimate rests on is not what the log shows")
+    if r.spec.wheel_mass is not None and m.estimate is not None:
+        out["rider_mass"] = {"estimate": m.estimate - r.spec.wheel_mass,
+                             "ci95": [x - r.spec.wheel_mass for x in m.ci95] if m.ci95 else None,
+                             "note": "total minus the spec's net weight (rider with gear)"}
+    else:
+        out["rider_mass"] = None
+        out["rider_mass_why"] = ("no wheel weight (give --wheel SPEC.csv or --wheel-mass)"
+                                 if m.estimate is not None else m.why)
+    return out
+
+
+def _envelope(r: RideDrivetrain) -> dict:
+    dt = r.drivetrain
+    if dt.pwm_coef is None or not dt.mass:
+        return {"why": "needs the PWM model and the mass: "
+                       + (dt.unidentified.get("pwm") or r.mass.why or "unavailable")}
+    if _pwm_note(r):
+        return {"why": _pwm_note(r)}
+    V = r.spec.battery_voltage or (dt.battery_coef["E0"] if dt.battery_coef else None)
+    src = "spec" if r.spec.battery_voltage else "open-circuit voltage fitted at the ride's start"
+    env = envelope(dt, V, v_max=max(10.0, 1.3 * float(np.nanmax(r.sig.v))))
+    env["voltage_source"] = src
+    return env
+
+
+def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
+                      settings: MassSettings = MassSettings(), fitted: RideDrivetrain | None = None
+                      ) -> tuple[dict, RideDrivetrain, RideDrivetrain | None]:
+    """The ride JSON's ``total_mass``, ``drivetrain``, ``pwm``, ``envelope`` and ``wheel``.
+
+    Parameters
+    ----------
+    path : path
+        The ride log.
+    spec : WheelSpec
+        Wheel radius, weight, voltage where known.
+    compare : path, optional
+        Another ride of the same wheel: its battery power and PWM are predicted
+        from this ride's fit (held out).
+    settings : MassSettings
+    fitted : RideDrivetrain, optional
+        :func:`analyse` of ``path`` already done.
+
+    Returns
+    -------
+    report : dict
+    fit, test : RideDrivetrain
+        The analyses (``test`` None without ``compare``).
+    """
+    r = fitted or analyse(path, spec, settings)
+    dtj = r.drivetrain.as_json()
+    note = _pwm_note(r)
+    if note:
+        dtj["resistive_drop"] = {"estimate": None, "ci95": None, "unit": "V/N", "why": note}
+        dtj.pop("winding_resistance", None)
+    rep = {"total_mass": _total_mass(r), "drivetrain": dtj, "envelope": _envelope(r),
+           "wheel": r.spec.as_json(), "unidentified": dict(r.drivetrain.unidentified)}
+    test = None
+    if compare is not None:
+        test = analyse(compare, spec, settings)
+        pred, obs = predict_power(test.sig, r.mass)
+        rep["power_heldout"] = {"rmse": _rms(pred - obs), "rms_power": _rms(obs), "unit": "W"}
+        if r.drivetrain.pwm_coef is not None and "pwm" in test.sig.extra:
+            pp, po = predict_pwm(test.sig, r.drivetrain.pwm_coef)
+            rep["pwm"] = {"heldout_rmse": _rms(pp - po), "unit": "%"}
+            if note:
+                rep["pwm"]["note"] = note
+        else:
+            rep["pwm"] = {"heldout_rmse": None, "unit": "%",
+                          "why": "no PWM or safety-margin column in "
+                                 + (Path(compare).name if r.drivetrain.pwm_coef else Path(path).name)}
+    return rep, r, test
+
+
+def plot_envelope(env: dict, path, title: str = "") -> Path:
+    """The acceleration envelope (and lean) against speed, full and low charge, PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from euc_sim.io import atomic_write
+
+    v = np.asarray(env["speed"]) * 3.6
+    fig, ax = plt.subplots(figsize=(7, 4.2))
+    for name, style in (("full", "-"), ("low", "--")):
+        a = np.asarray(env[name]["accel"], float)
+        ax.plot(v, a, style, label=f"{name} charge ({env[name]['voltage']:.0f} V)")
+    ax.set_xlabel("speed, km/h")
+    ax.set_ylabel("highest sustained acceleration, m/s²")
+    sec = ax.secondary_yaxis("right", functions=(lambda a: np.degrees(np.arctan(a / 9.81)),
+                                                 lambda d: 9.81 * np.tan(np.radians(d))))
+    sec.set_ylabel("forward lean it takes, deg")
+    ax.set_title(title or "Cut-out envelope: duty 100 % leaves no torque")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    out = atomic_write(path, lambda p: fig.savefig(p, dpi=110, format="png"))
+    plt.close(fig)
+    return out
+
+
+def plot_pwm(r: RideDrivetrain, path, coef: dict | None = None, title: str = "") -> Path:
+    """PWM predicted by the drivetrain model against the logged one, PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from euc_sim.io import atomic_write
+
+    coef = coef or r.drivetrain.pwm_coef
+    pred, obs = predict_pwm(r.sig, coef)
+    fig, ax = plt.subplots(figsize=(5, 5))
+    ax.plot(obs, pred, ".", ms=1.5, alpha=0.3, label=f"rms {_rms(pred - obs):.1f} points")
+    lim = [0, max(100.0, float(np.nanmax(obs)))]
+    ax.plot(lim, lim, "k-", lw=0.8, label="equal")
+    ax.set_xlabel("logged PWM, %")
+    ax.set_ylabel("predicted PWM, %")
+    ax.set_title(title or "PWM: (back-EMF + resistive drop) / battery voltage")
+    ax.legend()
+    fig.tight_layout()
+    out = atomic_write(path, lambda p: fig.savefig(p, dpi=110, format="png"))
+    plt.close(fig)
+    return out
