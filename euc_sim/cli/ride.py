@@ -43,7 +43,7 @@ def _assumptions(args: argparse.Namespace):
 
 def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assumptions=None,
              n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
-             progress=None) -> dict:
+             progress=None, spec=None) -> dict:
     """Everything ``euc-sim ride`` computes; writes the report folder when given.
 
     Parameters
@@ -63,6 +63,9 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
         Processes for the nominal and augmented simulations (1 or 2).
     progress : callable, optional
         Called with a short status string.
+    spec : WheelSpec, optional
+        The wheel's radius, weight and voltage where known
+        (:func:`euc_sim.rides.spec.wheel_spec`).
 
     Returns
     -------
@@ -77,10 +80,13 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
 
     say = progress or (lambda s: None)
     assumptions = assumptions or RideAssumptions()
+    say("finding the total mass and the drivetrain")
+    physics = _drivetrain(log, compare, spec, n_boot, seed)   # bad logs fail before any output
     say("fitting the balance")
     an = ride_analysis(log, compare, report_dir=report_dir, assumptions=assumptions,
                        domain=domain, n_boot=n_boot, seed=seed)
     rep = dict(an.report)
+    rep.update(physics[0])
     cr = an.cross
     nom, aug = cr.nominal.estimate, cr.augmented.estimate
     traces = [residual_windows(an.sig_fit, nom, aug, domain, Path(log).name, True)]
@@ -121,9 +127,56 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
                          lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
             rep["simulation"]["table"] = str(out / "ride_simulation.csv")
             rep["simulation"]["figure"] = str(out / "ride_simulation.png")
+        figures.update(_drivetrain_figures(physics, out))
         rep["figures"] = {k: str(out / v) for k, v in figures.items()}
         rep["report"] = str(write_page(rep, out, figures))
     return rep
+
+
+def _drivetrain(log, compare, spec, n_boot: int, seed: int):
+    """Mass, drivetrain, PWM and envelope (:mod:`euc_sim.rides.drivetrain_report`)."""
+    from euc_sim.rides.drivetrain_report import drivetrain_report
+    from euc_sim.rides.mass import MassSettings
+    from euc_sim.rides.spec import WheelSpec
+
+    return drivetrain_report(log, spec or WheelSpec(), compare,
+                             MassSettings(n_boot=n_boot, seed=seed))
+
+
+def _drivetrain_figures(physics, out: Path) -> dict:
+    """The envelope and the PWM figures of the ride page, by key -> file name."""
+    from euc_sim.rides.drivetrain_report import plot_envelope, plot_pwm
+
+    rep, fit, test = physics
+    figs = {}
+    if "speed" in rep["envelope"]:
+        figs["envelope"] = plot_envelope(rep["envelope"], out / "ride_envelope.png").name
+    if fit.drivetrain.pwm_coef is not None:
+        target = test if test is not None and "pwm" in test.sig.extra else fit
+        figs["pwm"] = plot_pwm(target, out / "ride_pwm.png", fit.drivetrain.pwm_coef,
+                               title=f"PWM of {Path(target.path).name}, model fitted on "
+                                     f"{Path(fit.path).name}").name
+    return figs
+
+
+def _mass_lines(rep: dict) -> list[str]:
+    """The console summary of the mass, the drivetrain and the PWM."""
+    tm = rep["total_mass"]
+    if tm["estimate"] is None:
+        lines = [f"  total mass: not identified ({tm['why']})"]
+    else:
+        ci = tm["ci95"]
+        lines = [f"  total mass (rider + wheel): {tm['estimate']:.0f} kg"
+                 + (f" 95% [{ci[0]:.0f}, {ci[1]:.0f}]" if ci else "")
+                 + (f"  FLAG: {tm['flag']}" if "flag" in tm else "")]
+        if tm.get("rider_mass"):
+            rm = tm["rider_mass"]
+            lines.append(f"  rider (with gear): {rm['estimate']:.0f} kg")
+    for name, why in rep["unidentified"].items():
+        lines.append(f"  not identified: {name}: {why}")
+    if rep.get("pwm") and rep["pwm"].get("heldout_rmse") is not None:
+        lines.append(f"  PWM held out: {rep['pwm']['heldout_rmse']:.1f} percentage points RMS")
+    return lines
 
 
 def _cmd_ride(args: argparse.Namespace) -> int:
@@ -139,6 +192,10 @@ def _cmd_ride(args: argparse.Namespace) -> int:
                          f"bootstrap interval), got {args.n_boot}")
     assumptions = _assumptions(args)
     from euc_sim.rides.signals import ride_signals
+    from euc_sim.rides.spec import wheel_spec
+
+    spec = wheel_spec(args.wheel, radius=args.radius, wheel_mass=args.wheel_mass,
+                      battery_voltage=args.battery_voltage)
 
     for p in [args.log] + ([args.compare] if args.compare else []):
         if not Path(p).is_file():
@@ -154,7 +211,8 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     rep = run_ride(args.log, args.compare, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
                    simulate=not args.no_simulate, jobs=args.jobs,
-                   progress=(lambda s: say(f"ride: {s} ...")) if args.verbose else None)
+                   progress=(lambda s: say(f"ride: {s} ...")) if args.verbose else None,
+                   spec=spec)
     if args.json:
         write_json(args.json, rep)
     u = rep["error_unit"]
@@ -168,6 +226,8 @@ def _cmd_ride(args: argparse.Namespace) -> int:
               f"95% [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]{flag}{al}")
     if not rep["effects"]:
         print("  nothing accepted: the inertia-only balance explains this ride")
+    for line in _mass_lines(rep):
+        print(line)
     if rep["windows"]:
         print("  windows (s): " + ", ".join(f"{a:.1f}-{b:.1f}" for a, b in rep["windows"][:8])
               + (" ..." if len(rep["windows"]) > 8 else ""))
@@ -193,7 +253,15 @@ def add_ride_parser(sub) -> None:
                    help="residual in battery power, W (default), or divided by ω, N·m")
     p.add_argument("--mass", type=float, metavar="KG",
                    help="rider + EUC mass, kg (default Table 3: 81)")
-    p.add_argument("--radius", type=float, metavar="M", help="wheel radius, m (default 0.2)")
+    p.add_argument("--radius", type=float, metavar="M",
+                   help="wheel radius, m (default 0.2; overrides the spec's diameter)")
+    p.add_argument("--wheel", metavar="SPEC.csv",
+                   help="the wheel's specification (Field|Data rows: wheel diameter, net weight, "
+                        "battery voltage 'Tension')")
+    p.add_argument("--wheel-mass", type=float, metavar="KG",
+                   help="the wheel's net weight, kg (overrides the spec)")
+    p.add_argument("--battery-voltage", type=float, metavar="V",
+                   help="full-charge battery voltage, V (overrides the spec)")
     p.add_argument("--efficiency", type=float, default=0.8, metavar="ETA",
                    help="drivetrain efficiency used only to infer the logged torque from power "
                         "(default 0.8; the balance fit estimates its own)")

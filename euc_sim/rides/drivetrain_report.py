@@ -171,7 +171,7 @@ def plot_envelope(env: dict, path, title: str = "") -> Path:
     sec = ax.secondary_yaxis("right", functions=(lambda a: np.degrees(np.arctan(a / 9.81)),
                                                  lambda d: 9.81 * np.tan(np.radians(d))))
     sec.set_ylabel("forward lean it takes, deg")
-    ax.set_title(title or "Cut-out envelope: duty 100 % leaves no torque")
+    ax.set_title(title or "Cut-out envelope (voltage limit, duty 100 %; the\ncontroller's current limit is not in the log)", fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend()
     fig.tight_layout()

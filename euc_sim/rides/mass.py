@@ -56,7 +56,7 @@ from typing import Mapping
 
 import numpy as np
 
-from euc_sim.rides.balance import resample, sg
+from euc_sim.rides.signals import resample, sg
 from euc_sim.rides.logs import RideLog, read_log
 
 __all__ = ["MassSettings", "SpeedScale", "PowerSignals", "MassFit", "speed_scale",

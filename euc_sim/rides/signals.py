@@ -186,7 +186,7 @@ def sg(x: np.ndarray, segment: np.ndarray, rate: float, window: float = 1.5,
     Returns
     -------
     numpy.ndarray
-        NaN in segments shorter than the window.
+        NaN in segments shorter than the window or holding a non-finite value.
     """
     x = np.asarray(x, float)
     segment = np.asarray(segment)
@@ -194,7 +194,7 @@ def sg(x: np.ndarray, segment: np.ndarray, rate: float, window: float = 1.5,
     out = np.full(x.shape, np.nan)
     for s in np.unique(segment):
         m = segment == s
-        if m.sum() < n:
+        if m.sum() < n or not np.isfinite(x[m]).all():    # e.g. a segment without GPS fix
             continue
         out[m] = savgol_filter(x[m], n, polyorder, deriv=deriv, delta=1.0 / rate, mode="interp")
     return out
