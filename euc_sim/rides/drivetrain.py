@@ -202,15 +202,18 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
     if mass.efficiency is not None:
         terms["efficiency"] = Term(mass.efficiency, mass.efficiency_ci95, "1")
     c = mass.coef
-    road = {"c1": c.get("rolling", 0.0), "c3": c.get("drag", 0.0)}
+    # the driving coefficients are c/η: times η for the road's own constants
+    # (their intervals scaled by the point η, its own uncertainty left out)
+    eta = mass.efficiency or 1.0
+    road = {"c1": c.get("rolling", 0.0) * eta, "c3": c.get("drag", 0.0) * eta}
     if "rolling" in c and m:
         ci = mass.coef_ci95.get("rolling")
-        terms["C_rr"] = Term(c["rolling"] / (m * G),
-                             tuple(x / (m * G) for x in ci) if ci else None, "1")
+        terms["C_rr"] = Term(road["c1"] / (m * G),
+                             tuple(x * eta / (m * G) for x in ci) if ci else None, "1")
     if "drag" in c:
         ci = mass.coef_ci95.get("drag")
-        terms["C_dA"] = Term(2 * c["drag"] / RHO_AIR,
-                             tuple(2 * x / RHO_AIR for x in ci) if ci else None, "m^2")
+        terms["C_dA"] = Term(2 * road["c3"] / RHO_AIR,
+                             tuple(2 * x * eta / RHO_AIR for x in ci) if ci else None, "m^2")
     if "no_load" in c:
         terms["no_load_power"] = Term(c["no_load"], mass.coef_ci95.get("no_load"), "W")
     terms["speed_scale"] = Term(mass.scale.estimate,

@@ -244,6 +244,9 @@ def _shift(x: np.ndarray, lag: int) -> np.ndarray:
     return out
 
 
+#: Refits with driving and braking told apart by the sign of the fitted mechanical power.
+PARTITION_PASSES = 4
+
 #: Candidate terms beyond the inertia pair, by name: (physics, unit of the coefficient).
 CANDIDATES = {
     "rolling": ("c₁·v, rolling resistance C_rr·m·g", "N"),
@@ -253,22 +256,50 @@ CANDIDATES = {
 }
 
 
-def mass_regressors(sig: PowerSignals, lag: int) -> dict[str, np.ndarray]:
+def mass_regressors(sig: PowerSignals, lag: int, coef: Mapping[str, float] | None = None
+                    ) -> dict[str, np.ndarray]:
     """Columns of the battery-power model, the speed signals delayed by ``lag`` samples.
+
+    Every mechanical term appears twice: times the driving indicator (the
+    battery gives D/η) and, with the suffix ``_b``, times the braking one (it
+    takes back η·D).
+
+    Parameters
+    ----------
+    sig : PowerSignals
+    lag : int
+        Samples.
+    coef : dict, optional
+        A fit's coefficients: the motor drives where the mechanical power they
+        give, ``β₊·a·v + c₁·v + c₃·v³ + β_h·g·ḣ`` (D/η), is positive.  Without
+        them, where ``a·v > 0`` (first pass).
 
     Returns
     -------
     dict
-        ``drive`` (a·v)⁺ and ``brake`` (a·v)⁻ (W/kg), ``rolling`` v (m/s),
-        ``drag`` v³ (m³/s³), ``no_load`` 1, and ``grade`` g·ḣ (W/kg) when the
-        log has GPS altitude.
+        ``drive``/``brake`` a·v (W/kg), ``rolling[_b]`` v (m/s), ``drag[_b]``
+        v³ (m³/s³), ``no_load`` 1, and ``grade[_b]`` g·ḣ (W/kg) when the log has
+        GPS altitude.
     """
     av, v = _shift(sig.av, lag), _shift(sig.v, lag)
-    cols = {"drive": np.where(av > 0, av, 0.0), "brake": np.where(av < 0, av, 0.0),
-            "rolling": v, "drag": v ** 3, "no_load": np.ones_like(v)}
+    mech = {"rolling": v, "drag": v ** 3}
     if sig.climb is not None:
-        cols["grade"] = _shift(sig.climb, lag)
+        mech["grade"] = _shift(sig.climb, lag)
+    D = av.copy()
+    if coef is not None:
+        D = coef["drive"] * av + sum(coef[k] * np.nan_to_num(mech[k]) for k in mech if k in coef)
+    drive = D > 0
+    cols = {"drive": np.where(drive, av, 0.0), "brake": np.where(drive, 0.0, av)}
+    for k, x in mech.items():
+        cols[k] = np.where(drive, x, 0.0)
+        cols[k + "_b"] = np.where(drive, 0.0, x)
+    cols["no_load"] = np.ones_like(v)
     return cols
+
+
+def _group(cols: Mapping[str, np.ndarray], name: str) -> list[str]:
+    """The columns of candidate term ``name`` (its driving and braking parts)."""
+    return [c for c in (name, name + "_b") if c in cols]
 
 
 def _solve(X: np.ndarray, y: np.ndarray, signed: bool) -> np.ndarray:
@@ -347,6 +378,7 @@ def _best_lag(sig: PowerSignals, settings: MassSettings) -> int:
     for lag in range(-n, n + 1):
         cols = mass_regressors(sig, lag)
         cols.pop("grade", None)
+        cols.pop("grade_b", None)
         ok = _rows(sig, cols, settings.v_min)
         X = np.column_stack([c[ok] for c in cols.values()])
         beta, *_ = np.linalg.lstsq(X, sig.P[ok], rcond=None)
@@ -376,13 +408,13 @@ def _select(cols: dict, y: np.ndarray, t: np.ndarray, signed: bool,
     X = lambda names: np.column_stack([cols[c] for c in names])   # noqa: E731
     cur = heldout_rmse(X(chosen), y, t, signed)
     history = [{"term": "inertia (drive, brake)", "heldout_rmse": cur}]
-    left = [c for c in cols if c not in chosen]
+    left = [c for c in CANDIDATES if c in cols]
     while left:
-        trial = {c: heldout_rmse(X(chosen + [c]), y, t, signed) for c in left}
+        trial = {c: heldout_rmse(X(chosen + _group(cols, c)), y, t, signed) for c in left}
         best = min(trial, key=trial.get)
         if trial[best] > cur * (1.0 - min_gain):
             break
-        chosen.append(best)
+        chosen += _group(cols, best)
         left.remove(best)
         cur = trial[best]
         history.append({"term": best, "heldout_rmse": cur})
@@ -454,6 +486,10 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
     names, history = _select(cols, y, t, sig.signed)
     X = np.column_stack([cols[c] for c in names])
     beta = dict(zip(names, _solve(X, y, sig.signed)))
+    for _ in range(PARTITION_PASSES):      # drive/brake by the sign of the fitted D
+        full = mass_regressors(sig, lag, beta)
+        X = np.column_stack([full[c][ok] for c in names])
+        beta = dict(zip(names, _solve(X, y, sig.signed)))
     boot = _bootstrap(X, y, t, names, sig.signed, settings, sig.scale)
     m = _mass(beta)
     why = "" if math.isfinite(m) else (
@@ -464,7 +500,7 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
         estimate=m if math.isfinite(m) else None, ci95=_ci(boot[:, 0]) if math.isfinite(m) else None,
         efficiency=eta, efficiency_ci95=_ci(boot[:, 1]) if eta is not None else None,
         coef=beta, coef_ci95={n: _ci(boot[:, 2 + i]) for i, n in enumerate(names)},
-        terms=names[2:], history=history, lag=lag / settings.rate, scale=sig.scale,
+        terms=[h["term"] for h in history[1:]], history=history, lag=lag / settings.rate, scale=sig.scale,
         signed=sig.signed, n_samples=int(ok.sum()), unidentified=_unidentified(log, sig), why=why)
 
 
@@ -492,7 +528,7 @@ def predict_power(sig: PowerSignals, fit: MassFit, v_min: float = 1.0) -> tuple[
     For an unsigned log the prediction is ``|P̂|`` (what such a log records).
     """
     lag = int(round(fit.lag * (1.0 / np.median(np.diff(sig.t)))))
-    cols = mass_regressors(sig, lag)
+    cols = mass_regressors(sig, lag, fit.coef)
     names = list(fit.coef)
     if any(n not in cols for n in names):        # e.g. grade fitted, no altitude here
         names = [n for n in names if n in cols]

@@ -1,0 +1,88 @@
+"""Synthetic EUC World ride logs with a known total mass and drivetrain (the twin).
+
+:func:`drive_log` writes an EUC World CSV whose battery current, voltage and
+safety margin follow :mod:`euc_sim.rides.mass` and :mod:`euc_sim.rides.drivetrain`'s
+models with the constants in ``DRIVE``: one efficiency both ways, rolling and
+drag, a constant drain, a Thevenin battery and a PWM from back-EMF plus
+resistive drop.  Rows at irregular 0.15-0.25 s intervals with repeated stamps,
+speed in km/h at 0.01 resolution, GPS speed reading ``1/scale`` of the wheel's.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+HEADER = ("datetime,speed,voltage,current,current_phase,power,safety_margin,battery,tilt,roll,"
+          "gps_lat,gps_lon,gps_speed,gps_alt,extra")
+
+DRIVE = {"mass": 112.0, "eta": 0.85, "c1": 60.0, "c3": 0.30, "P0": 40.0,
+         "E0": 84.0, "k_Q": 1.5, "R_int": 0.15, "K_v": 6.0, "r_F": 0.01, "scale": 0.95}
+
+
+def _speed(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Speeds 0-10 m/s with accelerations of a few seconds, stops at both ends."""
+    v = np.zeros_like(t)
+    for f, amp in ((0.009, 2.5), (0.031, 1.5), (0.083, 0.9), (0.21, 0.35)):
+        v += amp * np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi))
+    T = t[-1]
+    env = np.clip(t / 15.0, 0, 1) * np.clip((T - t) / 15.0, 0, 1)
+    return env * (5.5 + v)
+
+
+def drive_log(path: Path, seed: int, duration: float = 600.0, truth=DRIVE, signed: bool = True,
+              noise_w: float = 30.0, gps: bool = True) -> Path:
+    """Write the twin ride; returns ``path``.
+
+    True speed v; the wheel logs v/scale.  Mechanical power
+    D = m·a·v + c1·v + c3·v³; battery P = P0 + D/η (D > 0) or P0 + η·D;
+    V = E0 − k_Q·Q − R_int·I; duty d = (K_v·v_wheel + r_F·F)/V with
+    F = P/v_wheel; EUC World's safety margin = 100 − 100·d.
+    """
+    rng = np.random.default_rng(seed)
+    dt = 0.01
+    tf = np.arange(0.0, duration, dt)
+    v = _speed(tf, rng)
+    a = np.gradient(v, tf)
+    D = truth["mass"] * a * v + truth["c1"] * v + truth["c3"] * v ** 3
+    P = truth["P0"] + np.where(D > 0, D / truth["eta"], D * truth["eta"])
+    rho = math.exp(-dt / 0.3)
+    w = rng.normal(0, noise_w * math.sqrt(1 - rho ** 2), tf.size)
+    noise = np.empty_like(w)
+    acc = 0.0
+    for i, x in enumerate(w):
+        acc = rho * acc + x
+        noise[i] = acc
+    P = P + noise
+    # battery: solve V = E - R·P/V for V (positive root), coulomb-count Q
+    V = np.full_like(P, truth["E0"])
+    Q = 0.0
+    for i in range(P.size):
+        E = truth["E0"] - truth["k_Q"] * Q
+        V[i] = 0.5 * (E + math.sqrt(max(E * E - 4 * truth["R_int"] * P[i], 1.0)))
+        Q += P[i] / V[i] * dt / 3600.0
+    I = P / V
+    v_wheel = v / truth["scale"]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        F = np.where(v_wheel > 0.5, P / np.maximum(v_wheel, 0.5), 0.0)
+    duty = np.clip((truth["K_v"] * v_wheel + truth["r_F"] * F) / V, 0, 1)
+    ts = np.cumsum(rng.uniform(0.15, 0.25, int(duration / 0.15)))
+    ts = ts[ts < duration - 0.5]
+    pick = lambda x: np.interp(ts, tf, x)   # noqa: E731
+    vs, Vs, Is, ds, vt = pick(v_wheel), pick(V), pick(I), pick(duty), pick(v)
+    if not signed:
+        Is = np.abs(Is)
+    stamps = pd.Timestamp("2025-07-01 10:00:00") + pd.to_timedelta(np.round(ts, 3), unit="s")
+    rows = []
+    for k, (s, vv, vo, cu, d, g) in enumerate(zip(stamps, vs, Vs, Is, ds, vt)):
+        gps_cells = (f"48.1,-1.7,{g * 3.6:.2f},50.0" if gps and k % 5 == 0 else ",,,")
+        rows.append(f"{s:%Y-%m-%dT%H:%M:%S}.{s.microsecond // 1000:03d}+0200,{vv * 3.6:.2f},"
+                    f"{vo:.2f},{cu:.2f},,{vo * cu:.0f},{100 - 100 * d:.1f},90,,,"
+                    f"{gps_cells},euc.distance=0")
+    for i in rng.choice(np.arange(10, len(rows) - 10), 4, replace=False):
+        rows.insert(i, rows[i])
+    path.write_text(HEADER + "\n" + "\n".join(rows) + "\n")
+    return path
