@@ -199,23 +199,25 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
     """
     terms, why = {}, dict(mass.unidentified)
     m = mass.estimate
-    if mass.efficiency is not None:
-        terms["efficiency"] = Term(mass.efficiency, mass.efficiency_ci95, "1")
     c = mass.coef
-    # the driving coefficients are c/η: times η for the road's own constants
-    # (their intervals scaled by the point η, its own uncertainty left out)
-    eta = mass.efficiency or 1.0
-    road = {"c1": c.get("rolling", 0.0) * eta, "c3": c.get("drag", 0.0) * eta}
+    # c₁ and c₃ hold the road's resistances and the losses with the same speed law
+    road = {"c1": c.get("rolling", 0.0), "c3": c.get("drag", 0.0)}
     if "rolling" in c and m:
         ci = mass.coef_ci95.get("rolling")
         terms["C_rr"] = Term(road["c1"] / (m * G),
-                             tuple(x * eta / (m * G) for x in ci) if ci else None, "1")
+                             tuple(x / (m * G) for x in ci) if ci else None, "1")
     if "drag" in c:
         ci = mass.coef_ci95.get("drag")
         terms["C_dA"] = Term(2 * road["c3"] / RHO_AIR,
-                             tuple(2 * x * eta / RHO_AIR for x in ci) if ci else None, "m^2")
+                             tuple(2 * x / RHO_AIR for x in ci) if ci else None, "m^2")
     if "no_load" in c:
         terms["no_load_power"] = Term(c["no_load"], mass.coef_ci95.get("no_load"), "W")
+    if "copper" in c:
+        name, unit = (("winding_resistance", "ohm") if "phase_current" in sig.extra
+                      else ("copper_loss_per_accel2", "W/(m/s^2)^2"))
+        terms[name] = Term(c["copper"], mass.coef_ci95.get("copper"), unit)
+    if "grade" in c:
+        terms["grade_mass"] = Term(c["grade"], mass.coef_ci95.get("grade"), "kg")
     terms["speed_scale"] = Term(mass.scale.estimate,
                                 (mass.scale.estimate - 1.96 * mass.scale.sd,
                                  mass.scale.estimate + 1.96 * mass.scale.sd), "1")
@@ -234,7 +236,7 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
         terms["resistive_drop"] = Term(pcoef["r_F"], pci["r_F"], "V/N")
         if "phase_current" in sig.extra:
             r, rci = _phase_resistance(sig, n_boot, seed)
-            terms["winding_resistance"] = Term(r, rci, "ohm")
+            terms["phase_resistance_pwm"] = Term(r, rci, "ohm")
     else:
         why["pwm"] = "no PWM or safety-margin column: back-EMF and the duty limit cannot be identified"
     return Drivetrain(terms=terms, unidentified=why, pwm_coef=pcoef, battery_coef=bcoef,
@@ -246,7 +248,8 @@ def envelope(dt: Drivetrain, voltage_full: float, n_cells: int | None = None,
     """The highest sustained acceleration, and the lean it takes, against speed.
 
     At full duty ``V_t = K_v·v + r_F·F`` with the terminal voltage sagging under
-    the battery current, ``V_t = V_ocv − R_int·F·v/(η·V_ocv)``, so::
+    the battery current, ``V_t = V_ocv − R_int·F·v/(η·V_ocv)`` (η = 1: the
+    drivetrain's losses are left out of the sag), so::
 
         F_max = (V_ocv − K_v·v) / (r_F + R_int·v/(η·V_ocv))
         a_max = (F_max − c₁ − c₃·v²)/m,   lean φ = atan(a_max/g)
@@ -282,7 +285,7 @@ def envelope(dt: Drivetrain, voltage_full: float, n_cells: int | None = None,
     speed = np.linspace(0.0, v_max, n)
     K, r = dt.pwm_coef["K_v"], dt.pwm_coef["r_F"]
     R_int = max(dt.battery_coef["R_int"], 0.0) if dt.battery_coef else 0.0
-    eta = dt.terms["efficiency"].estimate if "efficiency" in dt.terms else 1.0
+    eta = 1.0       # battery current ≈ F·v/V: losses left out of the sag (small at the limit)
     out = {"speed": speed.tolist()}
     for name, V in (("full", voltage_full), ("low", cells * CELL_LOW)):
         F = (V - K * speed) / (r + R_int * speed / (eta * V))
@@ -299,5 +302,5 @@ def max_force(dt: Drivetrain, speed: float, voltage: float) -> float:
     """Largest wheel force, N, the motor can give at ``speed`` (m/s) and open-circuit ``voltage`` (V)."""
     K, r = dt.pwm_coef["K_v"], dt.pwm_coef["r_F"]
     R_int = max(dt.battery_coef["R_int"], 0.0) if dt.battery_coef else 0.0
-    eta = dt.terms["efficiency"].estimate if "efficiency" in dt.terms else 1.0
+    eta = 1.0
     return max((voltage - K * abs(speed)) / (r + R_int * abs(speed) / (eta * voltage)), 0.0)

@@ -68,16 +68,11 @@ def _pwm_note(r: RideDrivetrain) -> str | None:
 def _total_mass(r: RideDrivetrain) -> dict:
     m = r.mass
     out = {"estimate": m.estimate, "ci95": list(m.ci95) if m.ci95 else None,
-           "unit": "kg", "efficiency": m.efficiency,
-           "efficiency_ci95": list(m.efficiency_ci95) if m.efficiency_ci95 else None,
-           "lag_s": m.lag, "speed_scale": m.scale.estimate, "speed_scale_source": m.scale.source,
+           "unit": "kg", "lag_s": m.lag, "speed_scale": m.scale.estimate, "speed_scale_source": m.scale.source,
            "signed_current": m.signed, "terms": m.terms, "balance": m.history,
            "n_samples": m.n_samples}
     if m.estimate is None:
         out["why"] = m.why
-    if m.efficiency is not None and not 0.5 < m.efficiency <= 1.0:
-        out["flag"] = (f"efficiency {m.efficiency:.2f} outside (0.5, 1]: the driving/braking "
-                       f"asymmetry this estimate rests on is not what the log shows")
     if r.spec.wheel_mass is not None and m.estimate is not None:
         out["rider_mass"] = {"estimate": m.estimate - r.spec.wheel_mass,
                              "ci95": [x - r.spec.wheel_mass for x in m.ci95] if m.ci95 else None,

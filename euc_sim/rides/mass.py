@@ -2,27 +2,25 @@
 
 Physics
 -------
-The mechanical power the wheel gives the road, W, is (``m`` the translating
-mass of rider and wheel plus the wheel's rotating inertia J/R², kg)::
+The battery gives the road's mechanical power plus the drivetrain's losses
+(``m`` the translating mass of rider and wheel plus the wheel's rotating
+inertia J/R², kg)::
 
-    D = m·a·v + m·g·ḣ + c₁·v + c₃·v³
+    P = V·I = m·a·v + m·g·ḣ + c₁·v + c₃·v³ + k_cu·I_ph² + P₀
 
-with ``a·v = d/dt(v²/2)`` (kinetic energy), ``g·ḣ`` the climb (potential energy,
-from GPS altitude where logged), ``c₁ = C_rr·m·g`` (rolling, N) and
-``c₃ = ½·ρ·C_dA`` (drag, kg/m).  Between the road and the battery sit the motor
-and the controller.  Their losses (copper loss in the phase current squared,
-switching, iron) are taken as one fraction of the power that passes through
-them, **the same both ways**: the battery gives ``D/η`` while driving and takes
-back ``η·D`` while braking (regeneration), plus a constant drain ``P₀``.  The
-acceleration-correlated part of battery power is therefore::
-
-    P = β₊·(a·v)⁺ + β₋·(a·v)⁻ + (speed-only terms)      β₊ = m/η,  β₋ = m·η
-
-so ``m = √(β₊·β₋)`` and ``η = √(β₋/β₊)``.  One efficiency alone
-(``P = m·a·v/η``) cannot tell mass from efficiency; the asymmetry between
-driving and braking can.  Accelerations are nearly uncorrelated with the
-speed-only terms (rolling, drag, no-load loss), which is what makes ``m``
-identifiable from a free ride.
+``a·v = d/dt(v²/2)`` (kinetic energy), ``g·ḣ`` the climb (potential energy, from
+GPS altitude where logged), ``c₁·v`` rolling resistance plus every loss linear
+in speed (bearings, the motor's no-load loss), ``c₃ = ½·ρ·C_dA`` plus losses
+growing with v³, ``k_cu·I_ph²`` the copper loss in the winding resistance (with
+the logged phase current; without it, its proxy ``a²``, since
+``I_ph ∝ F ≈ m·a`` + slowly varying terms) and ``P₀`` a constant drain.  The
+losses are **added**: the same copper loss is paid driving and braking, and
+regeneration is simply ``P < 0``.  Energy conservation then fixes the
+coefficient of ``a·v`` to the mass itself — no efficiency multiplies it — and
+accelerations are nearly uncorrelated with the speed-only terms, which is what
+makes ``m`` identifiable from a free ride.  (A single efficiency,
+``P = m·a·v/η``, cannot tell mass from efficiency; that is the baseline this
+replaces.)
 
 Signals
 -------
@@ -226,10 +224,28 @@ def power_signals(log, settings: MassSettings = MassSettings()) -> PowerSignals:
         climb[~np.isfinite(alt)] = np.nan
     extra = {c: f(frame[c].to_numpy(float)) for c in
              ("voltage", "current", "pwm", "phase_current") if c in frame}
+    if _current_from_phase(log):
+        extra.pop("phase_current")
     signed = bool((log.data["current"] < -0.5).mean() > 0.005)
     return PowerSignals(t=frame["t"].to_numpy(float), segment=seg, v=f(v_raw),
                         a=f(v_raw, 1), av=f(0.5 * v_raw ** 2, 1), P=f(P), climb=climb,
                         signed=signed, scale=k, extra=extra)
+
+
+def _current_from_phase(log: RideLog) -> bool:
+    """True when the battery current is the app's duty × phase current, not a measurement.
+
+    Then the phase current carries no information beyond the battery power and
+    its square cannot stand for the copper loss (it is dropped).
+    """
+    d = log.data
+    if not {"current", "phase_current", "pwm"} <= set(d.columns):
+        return False
+    m = (d["current"].abs() > 2.0) & (d["pwm"] > 5.0)
+    if m.sum() < 100:
+        return False
+    ratio = (d["current"][m].abs() / (d["pwm"][m] / 100.0 * d["phase_current"][m].abs())).to_numpy()
+    return bool(np.median(np.abs(ratio - 1.0)) < 0.03)
 
 
 def _shift(x: np.ndarray, lag: int) -> np.ndarray:
@@ -244,62 +260,37 @@ def _shift(x: np.ndarray, lag: int) -> np.ndarray:
     return out
 
 
-#: Refits with driving and braking told apart by the sign of the fitted mechanical power.
-PARTITION_PASSES = 4
-
-#: Candidate terms beyond the inertia pair, by name: (physics, unit of the coefficient).
+#: Candidate loss and road terms beyond the inertia, by name: (physics, unit of the coefficient).
 CANDIDATES = {
-    "rolling": ("c₁·v, rolling resistance C_rr·m·g", "N"),
-    "drag": ("c₃·v³, aerodynamic drag ½ρC_dA", "kg/m"),
-    "no_load": ("P₀, constant drain (controller, lights)", "W"),
-    "grade": ("β_h·g·ḣ, climb from GPS altitude", "kg"),
+    "rolling": ("c₁·v: rolling resistance and losses linear in speed", "N"),
+    "drag": ("c₃·v³: aerodynamic drag ½ρC_dA and losses growing with v³", "kg/m"),
+    "no_load": ("P₀: constant drain (controller, lights)", "W"),
+    "grade": ("β_h·g·ḣ: climb from GPS altitude (β_h ≈ m, attenuated by altitude noise)", "kg"),
+    "copper": ("k_cu·I_ph²: winding loss (R_w, ohm, with phase current; else a² proxy)", "ohm"),
 }
 
 
-def mass_regressors(sig: PowerSignals, lag: int, coef: Mapping[str, float] | None = None
-                    ) -> dict[str, np.ndarray]:
+def mass_regressors(sig: PowerSignals, lag: int) -> dict[str, np.ndarray]:
     """Columns of the battery-power model, the speed signals delayed by ``lag`` samples.
-
-    Every mechanical term appears twice: times the driving indicator (the
-    battery gives D/η) and, with the suffix ``_b``, times the braking one (it
-    takes back η·D).
-
-    Parameters
-    ----------
-    sig : PowerSignals
-    lag : int
-        Samples.
-    coef : dict, optional
-        A fit's coefficients: the motor drives where the mechanical power they
-        give, ``β₊·a·v + c₁·v + c₃·v³ + β_h·g·ḣ`` (D/η), is positive.  Without
-        them, where ``a·v > 0`` (first pass).
 
     Returns
     -------
     dict
-        ``drive``/``brake`` a·v (W/kg), ``rolling[_b]`` v (m/s), ``drag[_b]``
-        v³ (m³/s³), ``no_load`` 1, and ``grade[_b]`` g·ḣ (W/kg) when the log has
-        GPS altitude.
+        ``inertia`` a·v (W/kg), ``rolling`` v (m/s), ``drag`` v³ (m³/s³),
+        ``no_load`` 1, ``copper`` I_ph² (A², phase current not delayed) or a²
+        ((m/s²)², when the log has no phase current) and ``grade`` g·ḣ (W/kg)
+        when the log has GPS altitude.
     """
-    av, v = _shift(sig.av, lag), _shift(sig.v, lag)
-    mech = {"rolling": v, "drag": v ** 3}
+    v = _shift(sig.v, lag)
+    cols = {"inertia": _shift(sig.av, lag), "rolling": v, "drag": v ** 3,
+            "no_load": np.ones_like(v)}
+    if "phase_current" in sig.extra:
+        cols["copper"] = sig.extra["phase_current"] ** 2
+    else:
+        cols["copper"] = _shift(sig.a, lag) ** 2
     if sig.climb is not None:
-        mech["grade"] = _shift(sig.climb, lag)
-    D = av.copy()
-    if coef is not None:
-        D = coef["drive"] * av + sum(coef[k] * np.nan_to_num(mech[k]) for k in mech if k in coef)
-    drive = D > 0
-    cols = {"drive": np.where(drive, av, 0.0), "brake": np.where(drive, 0.0, av)}
-    for k, x in mech.items():
-        cols[k] = np.where(drive, x, 0.0)
-        cols[k + "_b"] = np.where(drive, 0.0, x)
-    cols["no_load"] = np.ones_like(v)
+        cols["grade"] = _shift(sig.climb, lag)
     return cols
-
-
-def _group(cols: Mapping[str, np.ndarray], name: str) -> list[str]:
-    """The columns of candidate term ``name`` (its driving and braking parts)."""
-    return [c for c in (name, name + "_b") if c in cols]
 
 
 def _solve(X: np.ndarray, y: np.ndarray, signed: bool) -> np.ndarray:
@@ -310,7 +301,7 @@ def _solve(X: np.ndarray, y: np.ndarray, signed: bool) -> np.ndarray:
     from scipy.optimize import least_squares
 
     x0 = beta.copy()
-    x0[0] = x0[1] = max(abs(beta[0]), 50.0)     # start from a symmetric efficiency
+    x0[0] = max(beta[0], 50.0)                  # a positive mass to start from
     res = least_squares(lambda b: np.abs(X @ b) - y, x0, method="lm")
     return res.x
 
@@ -326,8 +317,6 @@ class MassFit:
         None when the fit gives β₊·β₋ ≤ 0 (see ``why``).
     ci95 : tuple of float or None
         2.5 and 97.5 % bootstrap percentiles, kg.
-    efficiency, efficiency_ci95 : float, tuple
-        η = √(β₋/β₊), motor and controller, one way.
     coef : dict
         Coefficient of every accepted term, SI (see :data:`CANDIDATES`).
     coef_ci95 : dict
@@ -336,7 +325,7 @@ class MassFit:
         Accepted terms in order of acceptance.
     history : list of dict
         ``{"term", "heldout_rmse"}`` (W) after each step, the first the inertia
-        pair alone: the balance before and after each accepted term.
+        alone: the balance before and after each accepted term.
     lag : float
         Delay of the speed signals against the current, s (positive: speed later).
     scale : SpeedScale
@@ -350,8 +339,6 @@ class MassFit:
 
     estimate: float | None
     ci95: tuple[float, float] | None
-    efficiency: float | None
-    efficiency_ci95: tuple[float, float] | None
     coef: dict
     coef_ci95: dict
     terms: list
@@ -378,7 +365,6 @@ def _best_lag(sig: PowerSignals, settings: MassSettings) -> int:
     for lag in range(-n, n + 1):
         cols = mass_regressors(sig, lag)
         cols.pop("grade", None)
-        cols.pop("grade_b", None)
         ok = _rows(sig, cols, settings.v_min)
         X = np.column_stack([c[ok] for c in cols.values()])
         beta, *_ = np.linalg.lstsq(X, sig.P[ok], rcond=None)
@@ -404,17 +390,17 @@ def heldout_rmse(X: np.ndarray, y: np.ndarray, t: np.ndarray, signed: bool,
 def _select(cols: dict, y: np.ndarray, t: np.ndarray, signed: bool,
             min_gain: float = 0.005) -> tuple[list, list]:
     """Forward selection of speed-only terms by blocked held-out RMSE."""
-    chosen = ["drive", "brake"]
+    chosen = ["inertia"]
     X = lambda names: np.column_stack([cols[c] for c in names])   # noqa: E731
     cur = heldout_rmse(X(chosen), y, t, signed)
-    history = [{"term": "inertia (drive, brake)", "heldout_rmse": cur}]
+    history = [{"term": "inertia", "heldout_rmse": cur}]
     left = [c for c in CANDIDATES if c in cols]
     while left:
-        trial = {c: heldout_rmse(X(chosen + _group(cols, c)), y, t, signed) for c in left}
+        trial = {c: heldout_rmse(X(chosen + [c]), y, t, signed) for c in left}
         best = min(trial, key=trial.get)
         if trial[best] > cur * (1.0 - min_gain):
             break
-        chosen += _group(cols, best)
+        chosen.append(best)
         left.remove(best)
         cur = trial[best]
         history.append({"term": best, "heldout_rmse": cur})
@@ -422,12 +408,11 @@ def _select(cols: dict, y: np.ndarray, t: np.ndarray, signed: bool,
 
 
 def _mass(beta: dict) -> float:
-    prod = beta["drive"] * beta["brake"]
-    return math.sqrt(prod) if prod > 0 else float("nan")
+    return float(beta["inertia"]) if beta["inertia"] > 0 else float("nan")
 
 
 def _bootstrap(X, y, t, names, signed, settings: MassSettings, scale: SpeedScale):
-    """Moving-block bootstrap of the coefficients, the mass and the efficiency."""
+    """Moving-block bootstrap of the coefficients and the mass."""
     rng = np.random.default_rng(settings.seed)
     label = np.floor((t - t[0]) / settings.block).astype(int)
     blocks = [np.flatnonzero(label == b) for b in np.unique(label)]
@@ -439,9 +424,7 @@ def _bootstrap(X, y, t, names, signed, settings: MassSettings, scale: SpeedScale
         beta = dict(zip(names, _solve(X[idx], y[idx], signed)))
         s_ratio = 1.0 + rng.normal(0.0, scale.sd)
         m = _mass(beta) / s_ratio ** 2
-        eta = math.sqrt(beta["brake"] / beta["drive"]) if beta["brake"] * beta["drive"] > 0 \
-            else float("nan")
-        out.append([m, eta] + [beta[n] for n in names])
+        out.append([m] + [beta[n] for n in names])
     return np.asarray(out)
 
 
@@ -486,20 +469,18 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
     names, history = _select(cols, y, t, sig.signed)
     X = np.column_stack([cols[c] for c in names])
     beta = dict(zip(names, _solve(X, y, sig.signed)))
-    for _ in range(PARTITION_PASSES):      # drive/brake by the sign of the fitted D
-        full = mass_regressors(sig, lag, beta)
-        X = np.column_stack([full[c][ok] for c in names])
-        beta = dict(zip(names, _solve(X, y, sig.signed)))
     boot = _bootstrap(X, y, t, names, sig.signed, settings, sig.scale)
     m = _mass(beta)
     why = "" if math.isfinite(m) else (
-        f"driving and braking slopes of opposite sign (β₊ = {beta['drive']:.3g}, "
-        f"β₋ = {beta['brake']:.3g} kg): the acceleration power does not show the mass")
-    eta = math.sqrt(beta["brake"] / beta["drive"]) if math.isfinite(m) else None
+        f"the coefficient of a·v is {beta['inertia']:.3g} kg, not positive: the "
+        f"acceleration power does not show the mass")
+    if not sig.signed:
+        m, why = float("nan"), ("the battery current is never negative: braking cannot be told "
+                                "from driving, so the acceleration power's sign is lost and the "
+                                "mass is not identified")
     return MassFit(
         estimate=m if math.isfinite(m) else None, ci95=_ci(boot[:, 0]) if math.isfinite(m) else None,
-        efficiency=eta, efficiency_ci95=_ci(boot[:, 1]) if eta is not None else None,
-        coef=beta, coef_ci95={n: _ci(boot[:, 2 + i]) for i, n in enumerate(names)},
+        coef=beta, coef_ci95={n: _ci(boot[:, 1 + i]) for i, n in enumerate(names)},
         terms=[h["term"] for h in history[1:]], history=history, lag=lag / settings.rate, scale=sig.scale,
         signed=sig.signed, n_samples=int(ok.sum()), unidentified=_unidentified(log, sig), why=why)
 
@@ -509,15 +490,19 @@ def _unidentified(log: RideLog, sig: PowerSignals) -> dict:
     out = {}
     if not sig.signed:
         out["regeneration"] = ("battery current is never negative in this log: braking cannot "
-                               "be told from driving; |P| fitted, efficiency from its shape only")
+                               "be told from driving; the log is taken to carry |P| and |model| "
+                               "is fitted")
     if sig.climb is None:
         out["grade"] = "no GPS altitude: road grade cannot be identified (left in the residual)"
     if sig.scale.source != "gps":
         out["speed_scale"] = (f"no GPS speed: speedometer scale assumed 1 ± "
                               f"{NO_GPS_SCALE_SD:.0%}, propagated into the mass interval")
-    if "phase_current" not in log.data:
-        out["winding_resistance"] = ("no phase current: copper loss R_w·I_ph² cannot be separated "
-                                     "from the efficiency")
+    if _current_from_phase(log):
+        out["phase_current"] = ("the battery current is the app's duty × phase current (to 3 %), "
+                                "not measured: the phase current is not used for the copper loss")
+    if "phase_current" not in sig.extra:
+        out["winding_resistance"] = ("no phase current: the copper loss is fitted on its proxy "
+                                     "a², so the winding resistance itself is not identified")
     return out
 
 
@@ -528,7 +513,7 @@ def predict_power(sig: PowerSignals, fit: MassFit, v_min: float = 1.0) -> tuple[
     For an unsigned log the prediction is ``|P̂|`` (what such a log records).
     """
     lag = int(round(fit.lag * (1.0 / np.median(np.diff(sig.t)))))
-    cols = mass_regressors(sig, lag, fit.coef)
+    cols = mass_regressors(sig, lag)
     names = list(fit.coef)
     if any(n not in cols for n in names):        # e.g. grade fitted, no altitude here
         names = [n for n in names if n in cols]
