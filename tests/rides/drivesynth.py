@@ -2,9 +2,10 @@
 
 :func:`drive_log` writes an EUC World CSV whose battery current, voltage and
 safety margin follow :mod:`euc_sim.rides.mass` and :mod:`euc_sim.rides.drivetrain`'s
-models with the constants in ``DRIVE``: one efficiency both ways, rolling and
-drag, a constant drain, a Thevenin battery and a PWM from back-EMF plus
-resistive drop.  Rows at irregular 0.15-0.25 s intervals with repeated stamps,
+models with the constants in ``DRIVE``: rolling and drag, copper loss in the
+phase current squared (the phase current proportional to the wheel's force),
+a constant drain, a Thevenin battery and a PWM from back-EMF plus resistive
+drop.  Rows at irregular 0.15-0.25 s intervals with repeated stamps,
 speed in km/h at 0.01 resolution, GPS speed reading ``1/scale`` of the wheel's.
 """
 
@@ -19,7 +20,7 @@ import pandas as pd
 HEADER = ("datetime,speed,voltage,current,current_phase,power,safety_margin,battery,tilt,roll,"
           "gps_lat,gps_lon,gps_speed,gps_alt,extra")
 
-DRIVE = {"mass": 112.0, "eta": 0.85, "c1": 60.0, "c3": 0.30, "P0": 40.0,
+DRIVE = {"mass": 112.0, "c1": 60.0, "c3": 0.30, "P0": 40.0, "R_w": 0.15, "amp_per_N": 0.13,
          "E0": 84.0, "k_Q": 1.5, "R_int": 0.15, "K_v": 6.0, "r_F": 0.01, "scale": 0.95}
 
 
@@ -34,11 +35,12 @@ def _speed(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 
 
 def drive_log(path: Path, seed: int, duration: float = 600.0, truth=DRIVE, signed: bool = True,
-              noise_w: float = 30.0, gps: bool = True) -> Path:
+              noise_w: float = 30.0, gps: bool = True, phase: bool = True) -> Path:
     """Write the twin ride; returns ``path``.
 
-    True speed v; the wheel logs v/scale.  Mechanical power
-    D = m·a·v + c1·v + c3·v³; battery P = P0 + D/η (D > 0) or P0 + η·D;
+    True speed v; the wheel logs v/scale.  Force F = m·a + c1 + c3·v², mechanical
+    power D = F·v; phase current I_ph = amp_per_N·|F|; battery
+    P = D + R_w·I_ph² + P0 (regeneration where negative);
     V = E0 − k_Q·Q − R_int·I; duty d = (K_v·v_wheel + r_F·F)/V with
     F = P/v_wheel; EUC World's safety margin = 100 − 100·d.
     """
@@ -47,8 +49,9 @@ def drive_log(path: Path, seed: int, duration: float = 600.0, truth=DRIVE, signe
     tf = np.arange(0.0, duration, dt)
     v = _speed(tf, rng)
     a = np.gradient(v, tf)
-    D = truth["mass"] * a * v + truth["c1"] * v + truth["c3"] * v ** 3
-    P = truth["P0"] + np.where(D > 0, D / truth["eta"], D * truth["eta"])
+    F = truth["mass"] * a + truth["c1"] + truth["c3"] * v ** 2
+    Iph = truth["amp_per_N"] * np.abs(F)
+    P = F * v + truth["R_w"] * Iph ** 2 + truth["P0"]
     rho = math.exp(-dt / 0.3)
     w = rng.normal(0, noise_w * math.sqrt(1 - rho ** 2), tf.size)
     noise = np.empty_like(w)
@@ -66,21 +69,21 @@ def drive_log(path: Path, seed: int, duration: float = 600.0, truth=DRIVE, signe
         Q += P[i] / V[i] * dt / 3600.0
     I = P / V
     v_wheel = v / truth["scale"]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        F = np.where(v_wheel > 0.5, P / np.maximum(v_wheel, 0.5), 0.0)
-    duty = np.clip((truth["K_v"] * v_wheel + truth["r_F"] * F) / V, 0, 1)
+    Fb = np.where(v_wheel > 0.5, P / np.maximum(v_wheel, 0.5), 0.0)
+    duty = np.clip((truth["K_v"] * v_wheel + truth["r_F"] * Fb) / V
+                   + rng.normal(0, 0.01, V.size), 0, 1)        # a reading with 1 point of noise
     ts = np.cumsum(rng.uniform(0.15, 0.25, int(duration / 0.15)))
     ts = ts[ts < duration - 0.5]
     pick = lambda x: np.interp(ts, tf, x)   # noqa: E731
-    vs, Vs, Is, ds, vt = pick(v_wheel), pick(V), pick(I), pick(duty), pick(v)
+    vs, Vs, Is, ds, vt, ph = pick(v_wheel), pick(V), pick(I), pick(duty), pick(v), pick(Iph)
     if not signed:
         Is = np.abs(Is)
     stamps = pd.Timestamp("2025-07-01 10:00:00") + pd.to_timedelta(np.round(ts, 3), unit="s")
     rows = []
-    for k, (s, vv, vo, cu, d, g) in enumerate(zip(stamps, vs, Vs, Is, ds, vt)):
+    for k, (s, vv, vo, cu, d, g, i_ph) in enumerate(zip(stamps, vs, Vs, Is, ds, vt, ph)):
         gps_cells = (f"48.1,-1.7,{g * 3.6:.2f},50.0" if gps and k % 5 == 0 else ",,,")
         rows.append(f"{s:%Y-%m-%dT%H:%M:%S}.{s.microsecond // 1000:03d}+0200,{vv * 3.6:.2f},"
-                    f"{vo:.2f},{cu:.2f},,{vo * cu:.0f},{100 - 100 * d:.1f},90,,,"
+                    f"{vo:.2f},{cu:.2f},{f'{i_ph:.2f}' if phase else ''},{vo * cu:.0f},{100 - 100 * d:.1f},90,,,"
                     f"{gps_cells},euc.distance=0")
     for i in rng.choice(np.arange(10, len(rows) - 10), 4, replace=False):
         rows.insert(i, rows[i])
