@@ -8,6 +8,12 @@ such law is
 with γ_ref = 0 unless tilt-back is on: above ``tiltback_speed`` real EUCs tilt the
 pedals back, γ_ref = −k_tb (|ẋ| − v_tb) sign(ẋ), so the rider has to lean back and
 slows down.  M_d > 0 drives the wheel forward and pitches the body back (eq. 8).
+
+Voltage limit (optional, from a ride's identified drivetrain): at full duty the
+controller applies the battery voltage V to the motor, ``V = K_v·|ẋ| + r_M·M``
+(back-EMF plus resistive drop), so while motoring (M·ẋ > 0) the torque cannot
+exceed ``M_V(ẋ) = (V − K_v·|ẋ|)/r_M``, which falls with speed and with charge.
+Braking is not voltage-limited (the back-EMF helps it).
 """
 
 from __future__ import annotations
@@ -39,6 +45,12 @@ class MotorPD:
         Speed above which the set-point tilts back, m/s; ``inf`` (default) for none.
     tiltback_gain : float
         Tilt-back slope, rad per m/s above ``tiltback_speed``.
+    voltage : float
+        Battery voltage for the voltage limit, V; ``inf`` (default) for none.
+    back_emf : float
+        K_v, back-EMF per forward speed, V·s/m.
+    drop : float
+        r_M, resistive drop per torque, V/(N·m) (the ride's V/N over the wheel radius).
     """
 
     Kp: float = 600.0
@@ -46,9 +58,15 @@ class MotorPD:
     torque_limit: float = 250.0
     tiltback_speed: float = math.inf
     tiltback_gain: float = 0.03
+    voltage: float = math.inf
+    back_emf: float = 0.0
+    drop: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("Kp", "Kd", "torque_limit", "tiltback_gain"):
+        if math.isfinite(self.voltage) and not (self.voltage > 0 and self.drop > 0):
+            raise MotorError(f"motor voltage limit needs voltage > 0 and drop > 0, got "
+                             f"voltage={self.voltage!r}, drop={self.drop!r}")
+        for name in ("Kp", "Kd", "torque_limit", "tiltback_gain", "back_emf", "drop"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise MotorError(f"motor setting {name!r} must be a finite non-negative number, got {v!r}")
@@ -83,11 +101,22 @@ class MotorPD:
         """
         M = self.Kp * (gamma - self.gamma_ref(speed)) + self.Kd * gamma_dot
         lim = self.torque_limit
-        return lim if M > lim else (-lim if M < -lim else M)
+        M = lim if M > lim else (-lim if M < -lim else M)
+        if self.voltage != math.inf and M * speed > 0.0:
+            M_v = self.voltage_torque(speed)
+            M = M_v if M > M_v else (-M_v if M < -M_v else M)
+        return M
+
+    def voltage_torque(self, speed: float) -> float:
+        """Largest motoring torque the battery voltage allows at ``speed`` (m/s), N·m (≥ 0)."""
+        if self.voltage == math.inf:
+            return math.inf
+        return max((self.voltage - self.back_emf * abs(speed)) / self.drop, 0.0)
 
     def as_dict(self) -> dict:
         """Settings as a JSON-ready dict (``inf`` tilt-back speed as ``None``)."""
         d = asdict(self)
-        if not math.isfinite(d["tiltback_speed"]):
-            d["tiltback_speed"] = None
+        for k in ("tiltback_speed", "voltage"):
+            if not math.isfinite(d[k]):
+                d[k] = None
         return d

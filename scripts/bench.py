@@ -261,12 +261,47 @@ def bench_diagnose() -> dict:
     return out
 
 
+# --- issue 12: a 60-minute real ride, mass and drivetrain ---------------------------------
+def bench_ride_mass() -> dict:
+    """A 64-minute real ride (Blitz 4): mass + drivetrain, and the whole ride command without simulation."""
+    import warnings
+    from pathlib import Path
+
+    from euc_sim.rides.drivetrain_report import analyse
+    from euc_sim.rides.logs import read_log
+    from euc_sim.rides.spec import read_spec
+
+    root = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"
+    log = root / "trips/begode/blitz/4/4.csv"
+    if not log.is_file():
+        print(f"  {log} absent: skipped")
+        return {"skipped": str(log)}
+    warnings.simplefilter("ignore")
+    spec = read_spec(root / "specs/blitz.csv")
+    t_read = timed(lambda: read_log(log, emit_warnings=False), repeat=1)
+    t_mass = timed(lambda: analyse(log, spec), repeat=1)
+
+    def whole():
+        from euc_sim.cli.ride import run_ride
+        return run_ride(log, simulate=False, spec=spec)
+
+    t_all = timed(whole, repeat=1)
+    minutes = read_log(log, emit_warnings=False).duration / 60.0
+    out = {"ride_minutes": minutes, "read_s": t_read, "mass_drivetrain_s": t_mass,
+           "ride_no_simulate_s": t_all, "ratio_mass_vs_read": t_mass / t_read}
+    print(f"  {minutes:.0f}-minute ride: read {t_read:.2f} s; mass + drivetrain (200 bootstrap) "
+          f"{t_mass:.2f} s ({t_mass / t_read:.1f}x reading)")
+    print(f"  euc-sim ride --no-simulate, everything: {t_all:.1f} s (aim < 20 s, one core)")
+    return out
+
+
 SECTIONS: dict[str, Callable[[], dict]] = {
     "inverse": bench_inverse,
     "closed_loop": bench_closed_loop,
     "dataset": bench_dataset,
     "identify": bench_identify,
     "diagnose": bench_diagnose,
+    "ride_mass": bench_ride_mass,
 }
 
 

@@ -29,10 +29,49 @@ def _check_choice(option: str, value: str, valid) -> None:
         raise ValueError(f"{option}: unknown value {value!r}; valid: {', '.join(valid)}")
 
 
-def _motor(args):
+def _voltage_limit(path, R: float, voltage: float | None) -> dict:
+    """``MotorPD`` voltage-limit settings from a ride JSON's identified drivetrain.
+
+    K_v (V per m/s) and the resistive drop r_F (V/N) give r_M = r_F/R (V/(N·m));
+    the voltage is ``voltage`` or the envelope's full-charge voltage.
+    """
+    import json
+
+    try:
+        rep = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise ValueError(f"--drivetrain {path}: not a readable ride JSON ({exc})") from None
+    dt = rep.get("drivetrain") if isinstance(rep, dict) else None
+    need = ("back_emf_per_speed", "resistive_drop")
+    for k in need:
+        if not isinstance(dt, dict) or not isinstance(dt.get(k), dict) or \
+                not isinstance(dt[k].get("estimate"), (int, float)):
+            raise ValueError(f"--drivetrain {path}: field 'drivetrain.{k}.estimate' missing "
+                             f"(written by euc-sim ride on a log with PWM)")
+    if voltage is None:
+        env = rep.get("envelope") or {}
+        voltage = (env.get("full") or {}).get("voltage") or \
+            ((dt.get("ocv_start") or {}).get("estimate"))
+    if not (isinstance(voltage, (int, float)) and voltage > 0):
+        raise ValueError(f"--drivetrain {path}: no battery voltage; give --battery-voltage V")
+    r_F = dt["resistive_drop"]["estimate"]
+    if not r_F > 0:
+        raise ValueError(f"--drivetrain {path}: field 'drivetrain.resistive_drop.estimate' must be "
+                         f"positive for a voltage limit, got {r_F!r}")
+    return {"voltage": float(voltage), "back_emf": float(dt["back_emf_per_speed"]["estimate"]),
+            "drop": float(r_F) / R}
+
+
+def _motor(args, R: float = 0.2):
     from controllers.motor import MotorPD
+    lim = {}
+    if getattr(args, "drivetrain", None):
+        lim = _voltage_limit(args.drivetrain, R, args.battery_voltage)
+    elif getattr(args, "battery_voltage", None) is not None:
+        raise ValueError("--battery-voltage needs --drivetrain RIDE.json")
     return MotorPD(Kp=args.kp, Kd=args.kd, torque_limit=args.motor_limit,
-                   tiltback_speed=math.inf if args.tiltback_speed is None else args.tiltback_speed)
+                   tiltback_speed=math.inf if args.tiltback_speed is None else args.tiltback_speed,
+                   **lim)
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -68,7 +107,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         man = make_maneuver(name)
     eff = _effects(args.effect)
     params = parse_params(args.param)
-    motor = _motor(args)
+    motor = _motor(args, params.R)
     rider = default_rider(params, motor, noise_std=args.rider_noise, delay=args.rider_delay)
     spec = RecordingSpec(out.with_suffix("").name, man, float(args.duration), int(args.seed), params,
                          tuple(sorted(eff.items())), args.noise, args.engine, args.variant,
@@ -187,6 +226,11 @@ def add_commands(sub) -> None:
     p.add_argument("--engine", default="mujoco", help="mujoco (default) or analytic")
     p.add_argument("--variant", default="ideal", help="MuJoCo ground: ideal (default) or contact")
     p.add_argument("--hide-torques", action="store_true", help="leave M_d, M_h out of the recording")
+    p.add_argument("--drivetrain", metavar="RIDE.json",
+                   help="voltage-limited motor from a ride's identified drivetrain "
+                        "(euc-sim ride --json): its torque falls with speed and battery voltage")
+    p.add_argument("--battery-voltage", type=float, metavar="V",
+                   help="battery voltage for --drivetrain, V (default: the ride's full charge)")
     p.add_argument("--rolling-model", default="moment",
                    help="rolling_resistance as an applied moment (default) or as MuJoCo's own rolling "
                         "friction of the tyre (contact; needs --variant contact)")
