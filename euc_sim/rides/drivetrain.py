@@ -270,8 +270,8 @@ def envelope(dt: Drivetrain, voltage_full: float, n_cells: int | None = None,
     dict
         ``speed`` (m/s), and for ``full`` and ``low``: ``voltage`` (V),
         ``accel`` (m/s², NaN past the speed where nothing is left), ``lean``
-        (rad), ``v_limit`` (m/s, speed at which the motor has no margin at all
-        even at constant speed).
+        (rad), ``v_limit`` (m/s, the highest speed with any acceleration left:
+        above it the motor cannot even hold the speed; None when the grid ends first).
 
     Raises
     ------
@@ -294,7 +294,7 @@ def envelope(dt: Drivetrain, voltage_full: float, n_cells: int | None = None,
         ok = np.isfinite(a)
         out[name] = {"voltage": float(V), "accel": a.tolist(),
                      "lean": np.arctan(a / G).tolist(),
-                     "v_limit": float(speed[ok][-1]) if ok.any() else 0.0}
+                     "v_limit": (float(speed[ok][-1]) if ok.any() else 0.0) if not ok[-1] else None}
     return out
 
 

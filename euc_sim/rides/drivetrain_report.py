@@ -20,7 +20,7 @@ from euc_sim.rides.logs import read_log
 from euc_sim.rides.mass import MassFit, MassSettings, PowerSignals, fit_mass, power_signals, predict_power
 from euc_sim.rides.spec import WheelSpec
 
-__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "plot_pwm",
+__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "plot_pwm", "page_section",
            "COMPUTED_PWM_RMS"]
 
 #: A logged duty that its model explains better than this, percentage points, is
@@ -93,8 +93,10 @@ def _envelope(r: RideDrivetrain) -> dict:
         return {"why": _pwm_note(r)}
     V = r.spec.battery_voltage or (dt.battery_coef["E0"] if dt.battery_coef else None)
     src = "spec" if r.spec.battery_voltage else "open-circuit voltage fitted at the ride's start"
-    env = envelope(dt, V, v_max=max(10.0, 1.3 * float(np.nanmax(r.sig.v))))
+    env = envelope(dt, V, v_max=1.05 * V / dt.pwm_coef["K_v"] if dt.pwm_coef["K_v"] > 0
+                   else 2.0 * float(np.nanmax(r.sig.v)))
     env["voltage_source"] = src
+    env["ride_top_speed"] = float(np.nanmax(r.sig.v))
     return env
 
 
@@ -198,3 +200,60 @@ def plot_pwm(r: RideDrivetrain, path, coef: dict | None = None, title: str = "")
     out = atomic_write(path, lambda p: fig.savefig(p, dpi=110, format="png"))
     plt.close(fig)
     return out
+
+
+def page_section(rep: dict, figures: dict) -> list[str]:
+    """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope."""
+    tm = rep["total_mass"]
+    md = ["## What the wheel weighs with its rider, and how close to a cut-out", ""]
+    if tm["estimate"] is None:
+        md.append(f"- Total mass (rider + wheel): **not identified**: {tm['why']}.")
+    else:
+        ci = tm["ci95"]
+        md.append(f"- Total mass (rider + wheel, with the wheel's rotating inertia): "
+                  f"**{tm['estimate']:.0f} kg**, 95 % interval "
+                  + (f"{ci[0]:.0f}–{ci[1]:.0f} kg" if ci else "–")
+                  + f" (from battery power alone; speed scale {tm['speed_scale']:.3f}, "
+                    f"{tm['speed_scale_source']}; current–speed delay {tm['lag_s']:+.1f} s).")
+        if tm.get("rider_mass"):
+            md.append(f"- Rider with gear: {tm['rider_mass']['estimate']:.0f} kg "
+                      f"(total minus the spec's net weight).")
+    md += ["", "Battery-power balance, held-out RMS error after each accepted term "
+               "(the physics the nominal model was missing):", "",
+           "| step | held-out RMS, W |", "|---|---|"]
+    md += [f"| + {h['term']} | {h['heldout_rmse']:.0f} |" for h in tm["balance"]]
+    dt = rep["drivetrain"]
+    md += ["", "| drivetrain term | estimate | 95 % interval | unit |", "|---|---|---|---|"]
+    for name, t in dt.items():
+        if t.get("estimate") is None:
+            md.append(f"| {name} | not identified | {t.get('why', '')} | |")
+        else:
+            ci = t.get("ci95")
+            md.append(f"| {name} | {t['estimate']:.4g} | "
+                      + (f"{ci[0]:.4g} – {ci[1]:.4g}" if ci else "–") + f" | {t['unit']} |")
+    if "grade_mass" in dt and dt["grade_mass"].get("estimate") is not None and tm["estimate"]:
+        md += ["", f"Grade from GPS altitude: its power coefficient is "
+                   f"{dt['grade_mass']['estimate']:.0f} kg against the mass's {tm['estimate']:.0f} kg "
+                   f"(ratio {dt['grade_mass']['estimate'] / tm['estimate']:.2f}; below 1 where the "
+                   f"altitude's noise attenuates it)."]
+    if rep.get("pwm"):
+        p = rep["pwm"]
+        md += ["", f"PWM of the other ride predicted from this one: "
+                   + (f"**{p['heldout_rmse']:.1f} percentage points RMS**" if p.get("heldout_rmse")
+                      is not None else f"not available ({p.get('why', '')})")]
+    if "pwm" in figures:
+        md += ["", f"![PWM predicted against logged]({figures['pwm']})"]
+    env = rep["envelope"]
+    if "speed" in env:
+        kmh = lambda x: f"{x * 3.6:.0f} km/h" if x is not None else "the end of the grid"  # noqa: E731
+        md += ["", f"Envelope (voltage limit): no acceleration is left above "
+                   f"{kmh(env['full']['v_limit'])} at full charge ({env['full']['voltage']:.0f} V) "
+                   f"and {kmh(env['low']['v_limit'])} at low charge ({env['low']['voltage']:.0f} V); "
+                   f"this ride's top speed was {env.get("ride_top_speed", float("nan")) * 3.6:.0f} km/h."]
+    else:
+        md += ["", f"Envelope: {env.get('why', 'not available')}."]
+    if "envelope" in figures:
+        md += ["", f"![cut-out envelope]({figures['envelope']})"]
+    for name, why in rep.get("unidentified", {}).items():
+        md.append(f"- Not identified, {name}: {why}.")
+    return md + [""]

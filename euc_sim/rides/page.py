@@ -237,6 +237,9 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
            f"- Held-out error: inertia-only {r['heldout_error_nominal']:.1f} {unit}, augmented "
            f"{r['heldout_error_augmented']:.1f} {unit}; ratio **{r['ratio']:.2f}** "
            f"({'better' if r['ratio'] < 1 else 'NOT better'} out of sample).", ""]
+    if "total_mass" in r:
+        from euc_sim.rides.drivetrain_report import page_section
+        md += page_section(r, figures)
     if "cross_ride" in figures:
         md += ["## Cross-ride prediction", "",
                f"![cross-ride prediction]({figures['cross_ride']})", ""]
