@@ -249,7 +249,7 @@ def page_section(rep: dict, figures: dict) -> list[str]:
         md += ["", f"Envelope (voltage limit): no acceleration is left above "
                    f"{kmh(env['full']['v_limit'])} at full charge ({env['full']['voltage']:.0f} V) "
                    f"and {kmh(env['low']['v_limit'])} at low charge ({env['low']['voltage']:.0f} V); "
-                   f"this ride's top speed was {env.get("ride_top_speed", float("nan")) * 3.6:.0f} km/h."]
+                   f"this ride's top speed was {env.get('ride_top_speed', float('nan')) * 3.6:.0f} km/h."]
     else:
         md += ["", f"Envelope: {env.get('why', 'not available')}."]
     if "envelope" in figures:
