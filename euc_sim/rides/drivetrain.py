@@ -192,7 +192,7 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
     ----------
     sig : PowerSignals
     mass : MassFit
-        Gives the mass, the efficiency and the road terms.
+        Gives the mass, the loss and the road terms.
     radius : float, optional
         Wheel radius, m (from the spec): converts K_v to the back-EMF constant
         K_e = K_v·R, V·s/rad.
