@@ -89,7 +89,7 @@ def make_path(name: str, length: float) -> Path3D:
         start, prev = 0.0, 0.0
         for seg_len, k in _segments(name, length + 5.0):
             u = np.clip((s - start + 0.5 * _RAMP) / _RAMP, 0.0, 1.0)   # centred on the joint
-            kappa = np.where(s >= start, prev + (k - prev) * 0.5 * (1.0 - np.cos(np.pi * u)), kappa)
+            kappa = np.where(s >= start - 0.5 * _RAMP, prev + (k - prev) * 0.5 * (1.0 - np.cos(np.pi * u)), kappa)
             start, prev = start + seg_len, k
     heading = np.concatenate([[0.0], np.cumsum(0.5 * (kappa[1:] + kappa[:-1]) * _DS)])
     X = np.concatenate([[0.0], np.cumsum(0.5 * (np.cos(heading[1:]) + np.cos(heading[:-1])) * _DS)])
