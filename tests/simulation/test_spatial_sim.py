@@ -60,7 +60,8 @@ def test_paths_have_the_stated_geometry():
     eight = make_path("figure_eight", 2 + 2 * lap)
     mid1, mid2 = (np.searchsorted(eight.s, 2 + f * lap) for f in (0.5, 1.5))
     assert eight.kappa[mid1] == pytest.approx(1 / 3.0) and eight.kappa[mid2] == pytest.approx(-1 / 3.0)
-    assert eight.heading[mid2] == pytest.approx(eight.heading[mid1], abs=1e-3)   # left lap undone by the right
+    # the left lap undone by the right, to one 1 cm sample of κ = 1/3 m⁻¹ at either end
+    assert eight.heading[mid2] == pytest.approx(eight.heading[mid1], abs=2 * 0.01 / 3.0)
     with pytest.raises(SimulationError, match="unknown path 'loop'"):
         make_path("loop", 10.0)
     assert set(PATHS) >= {"circle", "u_turn", "slalom", "figure_eight"}
