@@ -51,6 +51,10 @@ class TyreContact:
         Sliding friction coefficient of tyre on floor.
     impratio : float
         Frictional to normal impedance ratio (stiffer friction cone, less creep).
+    torsional : float
+        Torsional (spin) friction coefficient of the contact patch, m (MuJoCo's
+        ``condim`` 4): the patch's resistance to spinning about the normal, which
+        carries the yaw moment a turn needs (a point contact would carry none).
     """
 
     crown_radius: float = 0.04
@@ -58,12 +62,16 @@ class TyreContact:
     dampratio: float = 1.0
     friction: float = 1.5
     impratio: float = 10.0
+    torsional: float = 0.02
 
     def __post_init__(self) -> None:
         for name in ("crown_radius", "timeconst", "dampratio", "friction", "impratio"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
                 raise ModelError(f"tyre setting {name!r} must be positive and finite, got {value!r}")
+        if not (isinstance(self.torsional, (int, float)) and math.isfinite(self.torsional)
+                and self.torsional >= 0):
+            raise ModelError(f"tyre setting 'torsional' must be non-negative, got {self.torsional!r}")
 
 
 def _find(spec: mujoco.MjSpec, kind: str, name: str, path: Path):
@@ -118,8 +126,9 @@ def build_spatial_spec(params: Params = TABLE3, tyre: TyreContact | None = None,
     geom.size = [p.R, math.sqrt(tyre.crown_radius * p.R), p.R]   # crown radius w²/R = r_c
     geom.solref = [tyre.timeconst, tyre.dampratio]
     geom.solimp = [0.99, 0.999, 0.001, 0.5, 2.0]
-    geom.friction = [tyre.friction, 0.0, 0.0]
-    _find(spec, "geom", "floor", path).friction = [tyre.friction, 0.0, 0.0]
+    geom.friction = [tyre.friction, tyre.torsional, 0.0]
+    geom.condim = 4 if tyre.torsional > 0 else 3
+    _find(spec, "geom", "floor", path).friction = [tyre.friction, tyre.torsional, 0.0]
     visual = spec.geom("tyre")
     if visual is not None:
         visual.size = [p.R, visual.size[1], 0.0]

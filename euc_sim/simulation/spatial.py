@@ -9,12 +9,12 @@ lateral loop by :mod:`controllers.lateral` (lean and twist) on the path errors.
 Paths (:data:`PATHS`) are curvature profiles κ(s) of arc length, integrated from the
 origin heading +X, at a constant planned speed:
 
-``circle``  2 m straight, then a left circle of radius 3 m;
-``u_turn``  6 m straight, a left half circle of radius 2.5 m, straight back;
-``slalom``  κ = κ0 sin(2π s / 8 m) after 2 m straight, κ0 = 1/4 m⁻¹;
-``figure_eight``  2 m straight, then alternating full left and right circles of radius 3 m.
+``circle``  2 m straight, then a left circle of radius 4 m;
+``u_turn``  6 m straight, a left half circle of radius 4 m, straight back;
+``slalom``  κ = κ0 sin(2π s / 10 m) after 2 m straight, κ0 = 0.15 m⁻¹;
+``figure_eight``  2 m straight, then alternating full left and right circles of radius 4 m.
 
-Curvature changes are cosine ramps over 1 m (no step in the lean).  Falls (|ϑ| >
+Curvature changes are cosine ramps over 2.5 m centred on the joints (no step in the lean).  Falls (|ϑ| >
 0.6 rad, |φ| or |γ| beyond the planar bounds) raise :class:`FallError` with the time.
 """
 
@@ -38,9 +38,13 @@ __all__ = ["PATHS", "PATH_SPEEDS", "TILT_BOUND", "Path3D", "make_path", "simulat
 
 PATHS = ("straight", "circle", "u_turn", "slalom", "figure_eight")
 #: Planned speed of each path, m/s (walking-to-jogging pace, as the paper's indoor runs).
-PATH_SPEEDS = {"straight": 3.0, "circle": 2.5, "u_turn": 2.5, "slalom": 3.0, "figure_eight": 2.5}
+PATH_SPEEDS = {"straight": 3.0, "circle": 2.0, "u_turn": 2.0, "slalom": 2.0, "figure_eight": 2.0}
 #: |ϑ| beyond this ends the run as a fall, rad.
 TILT_BOUND = 0.6
+#: Radius of the circle and of the figure-eight's loops, m.
+RADIUS = 4.0
+#: Peak curvature (1/m) and wavelength (m) of the slalom.
+SLALOM_KAPPA, SLALOM_WAVELENGTH = 0.15, 10.0
 _RAMP = 2.5     # m, length of a curvature change
 _DS = 0.01      # m, path sampling
 
@@ -63,14 +67,14 @@ def _segments(name: str, length: float) -> list[tuple[float, float]]:
     if name == "straight":
         return [(length, 0.0)]
     if name == "circle":
-        return [(2.0, 0.0), (length, 1.0 / 3.0)]
+        return [(2.0, 0.0), (length, 1.0 / RADIUS)]
     if name == "u_turn":
-        return [(6.0, 0.0), (math.pi * 2.5, 1.0 / 2.5), (length, 0.0)]
+        return [(6.0, 0.0), (math.pi * RADIUS, 1.0 / RADIUS), (length, 0.0)]
     if name == "figure_eight":
-        lap = 2.0 * math.pi * 3.0
+        lap = 2.0 * math.pi * RADIUS
         pieces = [(2.0, 0.0)]
         while sum(p[0] for p in pieces) < length:
-            pieces += [(lap, 1.0 / 3.0), (lap, -1.0 / 3.0)]
+            pieces += [(lap, 1.0 / RADIUS), (lap, -1.0 / RADIUS)]
         return pieces
     raise SimulationError(f"unknown path {name!r}; valid paths: {', '.join(PATHS)}")
 
@@ -81,9 +85,8 @@ def make_path(name: str, length: float) -> Path3D:
         raise SimulationError(f"unknown path {name!r}; valid paths: {', '.join(PATHS)}")
     s = np.arange(0.0, length + 5.0, _DS)
     if name == "slalom":
-        k0 = 0.25
         ramp = np.clip((s - 2.0) / _RAMP, 0.0, 1.0)
-        kappa = k0 * np.sin(2.0 * np.pi * np.maximum(s - 2.0, 0.0) / 8.0) * ramp
+        kappa = SLALOM_KAPPA * np.sin(2.0 * np.pi * np.maximum(s - 2.0, 0.0) / SLALOM_WAVELENGTH) * ramp
     else:
         kappa = np.zeros_like(s)
         start, prev = 0.0, 0.0
@@ -129,11 +132,11 @@ def _wrap(a: float) -> float:
 _LATERAL: dict = {}
 
 
-def default_lateral(params: Params, speed: float, dt: float) -> LateralRider:
-    """:func:`controllers.lateral.design_lateral`, cached per (params, speed, dt)."""
-    key = (params, round(speed, 6), dt)
+def default_lateral(params: Params, speed: float, dt: float, tyre=None) -> LateralRider:
+    """:func:`controllers.lateral.design_lateral`, cached per (params, speed, dt, tyre)."""
+    key = (params, round(speed, 6), dt, tyre)
     if key not in _LATERAL:
-        _LATERAL[key] = design_lateral(params, speed, dt)
+        _LATERAL[key] = design_lateral(params, speed, dt, tyre)
     return _LATERAL[key]
 
 
@@ -193,7 +196,7 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
         raise SimulationError(f"speed must be in [0.5, 8] m/s, got {speed!r}")
     motor = motor or MotorPD()
     rider = rider or default_rider(params, motor)
-    lateral = lateral or default_lateral(params, speed, dt)
+    lateral = lateral or default_lateral(params, speed, dt, tyre)
     man = maneuver or make_maneuver("constant_speed", v=speed)
     N = int(round(duration / dt))
     t = np.arange(N + 1) * dt

@@ -53,15 +53,15 @@ def test_lateral_design_is_stabilising_with_a_delay_margin():
 def test_paths_have_the_stated_geometry():
     circle = make_path("circle", 40.0)
     tail = circle.s > 6.0
-    assert np.allclose(circle.kappa[tail], 1 / 3.0)
+    assert np.allclose(circle.kappa[tail], 1 / 4.0)
     u = make_path("u_turn", 30.0)
-    assert u.heading[-1] == pytest.approx(np.pi, abs=0.01 / 2.5)   # one 1 cm sample of κ = 1/2.5 m⁻¹
-    lap = 2 * np.pi * 3.0
+    assert u.heading[-1] == pytest.approx(np.pi, abs=0.01 / 4.0)   # one 1 cm sample of κ = 1/4 m⁻¹
+    lap = 2 * np.pi * 4.0
     eight = make_path("figure_eight", 2 + 2 * lap)
     mid1, mid2 = (np.searchsorted(eight.s, 2 + f * lap) for f in (0.5, 1.5))
-    assert eight.kappa[mid1] == pytest.approx(1 / 3.0) and eight.kappa[mid2] == pytest.approx(-1 / 3.0)
-    # the left lap undone by the right, to one 1 cm sample of κ = 1/3 m⁻¹ at either end
-    assert eight.heading[mid2] == pytest.approx(eight.heading[mid1], abs=2 * 0.01 / 3.0)
+    assert eight.kappa[mid1] == pytest.approx(1 / 4.0) and eight.kappa[mid2] == pytest.approx(-1 / 4.0)
+    # the left lap undone by the right, to one 1 cm sample of κ = 1/4 m⁻¹ at either end
+    assert eight.heading[mid2] == pytest.approx(eight.heading[mid1], abs=2 * 0.01 / 4.0)
     with pytest.raises(SimulationError, match="unknown path 'loop'"):
         make_path("loop", 10.0)
     assert set(PATHS) >= {"circle", "u_turn", "slalom", "figure_eight"}
