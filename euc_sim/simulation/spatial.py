@@ -320,3 +320,48 @@ def spatial_recording(run: pd.DataFrame, *, noise: str = "paper", seed: int = 0,
         cols["M_d"] = run["M_d"].to_numpy()[zoh]
         cols["M_h"] = run["M_h"].to_numpy()[zoh]
     return pd.DataFrame(cols)
+
+
+def write_spatial(out, path: str, duration: float, *, params: Params = TABLE3, seed: int = 0,
+                  noise: str = "paper", rider_noise: float = 0.0, speed: float | None = None,
+                  motor: MotorPD | None = None, rider_delay: float = 0.15, hide_torques: bool = False):
+    """Simulate ``path`` in the spatial model and write a recording with sidecars.
+
+    ``NAME.csv`` (or ``.parquet``) holds :func:`spatial_recording`'s motion-capture
+    columns; ``NAME.json`` the known parameters (not h) and the maneuver;
+    ``NAME.truth.json`` the true parameters, controllers and the path-following error.
+
+    Returns
+    -------
+    pathlib.Path
+        The written recording.
+
+    Raises
+    ------
+    FallError
+        when the rider falls (nothing is written).
+    """
+    from euc_sim import io
+    from euc_sim.simulation.engine import default_rider
+
+    motor = motor or MotorPD()
+    rider = default_rider(params, motor, noise_std=rider_noise, delay=rider_delay)
+    run = simulate_3d(path, duration, params=params, speed=speed, motor=motor, rider=rider, seed=seed)
+    rec = spatial_recording(run, noise=noise, seed=seed, hide_torques=hide_torques)
+    e_y = run["e_y"].to_numpy()
+    meta = {
+        "params": {k: v for k, v in params.as_dict().items() if k != "h"},
+        "maneuver": path,
+        "source": (f"euc-sim simulate --model 3d: mjcf/euc_3d.xml, {path} at {run.attrs['speed']:g} m/s, "
+                   f"{duration:g} s at 1 kHz sampled at 120 Hz, noise {noise}, seed {seed}"),
+        "duration": duration, "noise": noise,
+        "torques": "hidden" if hide_torques else "true M_d, M_h of the simulation",
+    }
+    truth = {
+        "params": params.as_dict(), "model": "3d", "path": path, "speed": run.attrs["speed"],
+        "seed": seed, "motor": motor.as_dict(), "rider": rider.as_dict(),
+        "lateral": run.attrs["lateral"], "tyre": run.attrs["tyre"], "effects": {},
+        "path_error": {"rms_m": float(np.sqrt(np.mean(e_y ** 2))), "max_m": float(np.max(np.abs(e_y)))},
+        "peak_tilt_rad": float(np.max(np.abs(run["theta"].to_numpy()))),
+    }
+    return io.write_recording(rec, out, meta, truth)
