@@ -179,10 +179,12 @@ class EucSpatial:
     timestep : float, optional
         Overrides the XML's 1 ms, s.
     mjcf : path, optional
+    integrator : {"implicitfast", "RK4", "Euler"}, optional
+        Overrides the XML's ``implicitfast`` (``mjd_transitionFD`` does not support RK4).
     """
 
     def __init__(self, params: Params = TABLE3, tyre: TyreContact | None = None,
-                 timestep: float | None = None, mjcf=None):
+                 timestep: float | None = None, mjcf=None, integrator: str | None = None):
         self.params = params
         self.tyre = tyre or TyreContact()
         self.model = load_spatial_model(params, self.tyre, mjcf)
@@ -190,6 +192,12 @@ class EucSpatial:
             if not (math.isfinite(timestep) and timestep > 0):
                 raise ModelError(f"timestep must be positive, got {timestep!r}")
             self.model.opt.timestep = timestep
+        if integrator is not None:
+            kinds = {"implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+                     "RK4": mujoco.mjtIntegrator.mjINT_RK4, "Euler": mujoco.mjtIntegrator.mjINT_EULER}
+            if integrator not in kinds:
+                raise ModelError(f"integrator must be one of {', '.join(kinds)}, got {integrator!r}")
+            self.model.opt.integrator = kinds[integrator]
         self.data = mujoco.MjData(self.model)
         m = self.model
         jid = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n)  # noqa: E731

@@ -32,6 +32,7 @@ from controllers.rider import RiderRun
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation.errors import FallError, SimulationError
 from euc_sim.simulation.maneuvers import make_maneuver
+from euc_sim.simulation.mocap import E_HEIGHT
 
 __all__ = ["PATHS", "PATH_SPEEDS", "TILT_BOUND", "Path3D", "make_path", "simulate_3d",
            "spatial_recording"]
@@ -143,7 +144,7 @@ def default_lateral(params: Params, speed: float, dt: float, tyre=None) -> Later
 def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: Params = TABLE3,
                 speed: float | None = None, motor: MotorPD | None = None, rider=None,
                 lateral: LateralRider | None = None, seed: int = 0, dt: float = 1e-3,
-                tyre=None, maneuver=None) -> pd.DataFrame:
+                tyre=None, maneuver=None, integrator: str | None = None) -> pd.DataFrame:
     """Ride a path in the spatial model, closed loop, and return the true run at 1/dt.
 
     Parameters
@@ -168,6 +169,9 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     maneuver : Maneuver, optional
         Planned speed profile (constant ``speed`` by default); the lateral gains stay
         those designed at ``speed``.
+    integrator : str, optional
+        MuJoCo integrator of the run (:class:`EucSpatial`; the lateral design always
+        linearises the XML's ``implicitfast``).
 
     Returns
     -------
@@ -184,10 +188,8 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     SimulationError
         for a bad path, duration or speed.
     """
-    import mujoco
-
     from euc_sim.model.spatial import EucSpatial
-    from euc_sim.simulation.engine import FALL_BOUNDS, default_rider
+    from euc_sim.simulation.engine import default_rider
 
     if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
         raise SimulationError(f"duration must be a positive number of seconds, got {duration!r}")
@@ -205,31 +207,65 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     run = RiderRun(rider, params, motor, v_ref, a_ref, dt, seed)
     v0, g0, f0, _ = run.initial_state()
 
-    sim = EucSpatial(params, tyre, timestep=dt)
+    sim = EucSpatial(params, tyre, timestep=dt, integrator=integrator)
     sim.set_straight(v0, g0, f0)
-    m, d = sim.model, sim.data
+    rows = _ride(sim, run, motor, lateral, track, v_ref.tolist(), N, dt, (0.0, g0, f0, v0, 0.0, 0.0))
+    cols = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref", "psi",
+            "theta", "psi_dot", "theta_dot", "M_lean", "M_twist", "e_y",
+            "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
+    df = pd.DataFrame(rows, columns=cols)
+    df["psi"] = np.unwrap(df["psi"].to_numpy())
+    df.attrs.update({"path": path, "speed": speed, "duration": float(duration), "dt": dt,
+                     "seed": int(seed), "params": params.as_dict(), "motor": motor.as_dict(),
+                     "rider": rider.as_dict(), "lateral": lateral.as_dict(),
+                     "model": "mjcf/euc_3d.xml", "tyre": vars(sim.tyre).copy()})
+    return df
+
+
+def _pose(qp, rq: int, ip: int, il: int, p: Params):
+    """Body rotation (row-major 9-list) and the sites C, E, G from qpos, ground frame.
+
+    From qpos itself, not from ``data.xmat``/``site_xpos``: after ``mj_step`` those
+    still hold the kinematics of the step's start, one timestep behind qpos.
+    """
+    w, x, y, z = qp[rq + 3:rq + 7]
+    R = [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+         2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+         2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]
+    C = qp[rq:rq + 3]
+    sp_, cp_, sl, cl = math.sin(qp[ip]), math.cos(qp[ip]), math.sin(qp[il]), math.cos(qp[il])
+    # A − C = (0, 0, −l0); G − A = Ry(pitch) Rx(lean) (0, 0, h) in the body frame (twist: about z)
+    gb = (p.h * cl * sp_, -p.h * sl, p.h * cl * cp_ - p.l0)
+    G = [C[i] + R[3 * i] * gb[0] + R[3 * i + 1] * gb[1] + R[3 * i + 2] * gb[2] for i in range(3)]
+    E = [C[i] + R[3 * i + 2] * E_HEIGHT for i in range(3)]
+    return R, C, E, G
+
+
+def _ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, track: "_Tracker",
+          v_ref: list, N: int, dt: float, y0: tuple) -> list:
+    """The 1 kHz loop of :func:`simulate_3d`: one row per step (its column order)."""
+    import mujoco
+
+    from euc_sim.simulation.engine import FALL_BOUNDS
+
+    m, d, params = sim.model, sim.data, sim.params
     rq, rv = sim.qadr["root"], sim.vadr["root"]
     ip, il, it = sim.qadr["rider_pitch"], sim.qadr["rider_lean"], sim.qadr["rider_twist"]
     vp, vl, vt = sim.vadr["rider_pitch"], sim.vadr["rider_lean"], sim.vadr["rider_twist"]
     a_m, a_h, a_l, a_t = (sim.act[n] for n in ("motor", "ankle", "lean", "twist"))
-    b_euc = sim.body["euc"]
-    sC, sE, sG = (sim.site[n] for n in ("C", "E", "G"))
-    K = np.asarray(lateral.K, dtype=float).tolist()
-    K0, K1 = K[0], K[1]
+    K0, K1 = np.asarray(lateral.K, dtype=float).tolist()
     lim, g = lateral.torque_limit, params.g
     phi_max, gam_max = FALL_BOUNDS["phi"], FALL_BOUNDS["gamma"]
-    n = run.n
-    Y = [(0.0, g0, f0, v0, 0.0, 0.0)] * n
+    Y = [y0] * run.n
     rows = []
     x_s, z_int = 0.0, 0.0
-    qpos, qvel, xmat, ctrl, sxp = d.qpos, d.qvel, d.xmat, d.ctrl, d.site_xpos
+    qpos, qvel, ctrl = d.qpos, d.qvel, d.ctrl
     for k in range(N + 1):
-        R = xmat[b_euc].tolist()
-        psi = math.atan2(-R[1], R[4])
+        qv, qp = qvel.tolist(), qpos.tolist()
+        R, C, E, G = _pose(qp, rq, ip, il, params)
+        psi = math.atan2(-R[1], R[4])                      # euler_yaw_tilt_pitch, inlined
         theta = math.asin(max(-1.0, min(1.0, R[7])))
         gamma = math.atan2(-R[6], R[8])
-        qv = qvel.tolist()
-        qp = qpos.tolist()
         wl = qv[rv + 3:rv + 6]                             # body-frame angular velocity
         wx = R[0] * wl[0] + R[1] * wl[1] + R[2] * wl[2]
         wy = R[3] * wl[0] + R[4] * wl[1] + R[5] * wl[2]
@@ -241,40 +277,25 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
         vX, vY = qv[rv], qv[rv + 1]
         x_dot = cp * vX + sp * vY
         phi, phi_d = gamma + qp[ip], gamma_d + qv[vp]
-        y = (x_s, gamma, phi, x_dot, gamma_d, phi_d)
         if not (abs(theta) <= TILT_BOUND and abs(phi) <= phi_max and abs(gamma) <= gam_max):
             _fall(k * dt, theta, phi, gamma, phi_max, gam_max)
-        Y.append(y)
+        Y.append((x_s, gamma, phi, x_dot, gamma_d, phi_d))
         M_d = motor.torque(gamma, gamma_d, x_dot)
         M_h = run.command(k, Y)[1]
         e_y, h_p, kap = track.errors(qp[rq], qp[rq + 1])
-        e_psi = _wrap(psi - h_p)
-        v_lat = -math.sin(h_p) * vX + math.cos(h_p) * vY
-        z = (e_y, e_psi, theta + math.atan(x_dot * x_dot * kap / g), qp[il], qp[it],
-             v_lat, theta_d, psi_d - x_dot * kap, qv[vl], qv[vt], z_int)
-        u_l = -sum(a * b for a, b in zip(K0, z))
-        u_t = -sum(a * b for a, b in zip(K1, z))
-        u_l = max(-lim, min(lim, u_l))
-        u_t = max(-lim, min(lim, u_t))
-        rows.append((k * dt, x_s, gamma, phi, x_dot, gamma_d, phi_d, M_d, M_h, float(v_ref[k]), psi,
-                     theta, psi_d, theta_d, u_l, u_t, e_y, *sxp[sC].tolist(), *sxp[sE].tolist(),
-                     *sxp[sG].tolist()))
+        z = (e_y, _wrap(psi - h_p), theta + math.atan(x_dot * x_dot * kap / g), qp[il], qp[it],
+             -math.sin(h_p) * vX + math.cos(h_p) * vY, theta_d, psi_d - x_dot * kap, qv[vl], qv[vt], z_int)
+        u_l = max(-lim, min(lim, -sum(a * b for a, b in zip(K0, z))))
+        u_t = max(-lim, min(lim, -sum(a * b for a, b in zip(K1, z))))
+        rows.append((k * dt, x_s, gamma, phi, x_dot, gamma_d, phi_d, M_d, M_h, v_ref[k], psi,
+                     theta, psi_d, theta_d, u_l, u_t, e_y, *C, *E, *G))
         if k == N:
             break
         z_int += e_y * dt
         ctrl[a_m], ctrl[a_h], ctrl[a_l], ctrl[a_t] = M_d, M_h, u_l, u_t
         mujoco.mj_step(m, d)
         x_s += dt * 0.5 * (x_dot + _forward_speed(qvel, rv, psi))
-    cols = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref", "psi",
-            "theta", "psi_dot", "theta_dot", "M_lean", "M_twist", "e_y",
-            "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
-    df = pd.DataFrame(rows, columns=cols)
-    df["psi"] = np.unwrap(df["psi"].to_numpy())
-    df.attrs.update({"path": path, "speed": speed, "duration": float(duration), "dt": dt,
-                     "seed": int(seed), "params": params.as_dict(), "motor": motor.as_dict(),
-                     "rider": rider.as_dict(), "lateral": lateral.as_dict(),
-                     "model": "mjcf/euc_3d.xml", "tyre": vars(sim.tyre).copy()})
-    return df
+    return rows
 
 
 def _forward_speed(qvel, rv: int, psi: float) -> float:

@@ -26,16 +26,19 @@ def _gap(run, ref):
 def test_straight_deceleration_reproduces_the_planar_model(planar):
     """3-D deceleration (no lateral input) against euc_planar.xml's pure rolling.
 
-    Tolerance: 5 mm in x, 5 mm/s in speed, 0.5 mrad in γ and 1 mrad in φ over 3 s
-    (measured 3.1 mm, 3.5 mm/s, 0.29 and 0.71 mrad at timeconst 2 ms); the gap is the
-    soft contact's sinkage and creep, and it shrinks as the contact stiffens.
+    Both with RK4 at 1 ms.  Tolerance at contact timeconst 2 ms: 2 mm in x, 2.5 mm/s
+    in speed, 0.2 mrad in γ, 0.4 mrad in φ over 3 s (measured 1.05 mm, 1.47 mm/s,
+    0.076 and 0.20 mrad; at 8 ms 1.67 mm, 2.33 mm/s, 0.12 and 0.32 mrad): the gap is
+    the soft contact's sinkage and creep, and it shrinks as the contact stiffens.
+    (With the run's default ``implicitfast`` the gap is about 6 mm: the integrator's.)
     """
-    soft = _gap(simulate_3d("straight", 3.0, maneuver=MAN, speed=4.0,
+    soft = _gap(simulate_3d("straight", 3.0, maneuver=MAN, speed=4.0, integrator="RK4",
                             tyre=TyreContact(timeconst=0.008)), planar)
-    stiff_run = simulate_3d("straight", 3.0, maneuver=MAN, speed=4.0, tyre=TyreContact(timeconst=0.002))
+    stiff_run = simulate_3d("straight", 3.0, maneuver=MAN, speed=4.0, integrator="RK4",
+                            tyre=TyreContact(timeconst=0.002))
     stiff = _gap(stiff_run, planar)
-    assert stiff["x"] < 5e-3 and stiff["x_dot"] < 5e-3
-    assert stiff["gamma"] < 5e-4 and stiff["phi"] < 1e-3
+    assert stiff["x"] < 2e-3 and stiff["x_dot"] < 2.5e-3
+    assert stiff["gamma"] < 2e-4 and stiff["phi"] < 4e-4
     assert all(stiff[c] < soft[c] for c in stiff)
     assert np.max(np.abs(stiff_run["theta"])) < 1e-9 and np.max(np.abs(stiff_run["e_y"])) < 1e-9
 
