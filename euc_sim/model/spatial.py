@@ -22,7 +22,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from euc_sim.model.mujoco_model import ModelError
+from euc_sim.model.mujoco_model import ModelError, _find
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["MJCF_3D_PATH", "TyreContact", "build_spatial_spec", "load_spatial_model",
@@ -72,13 +72,6 @@ class TyreContact:
         if not (isinstance(self.torsional, (int, float)) and math.isfinite(self.torsional)
                 and self.torsional >= 0):
             raise ModelError(f"tyre setting 'torsional' must be non-negative, got {self.torsional!r}")
-
-
-def _find(spec: mujoco.MjSpec, kind: str, name: str, path: Path):
-    element = getattr(spec, kind)(name)
-    if element is None:
-        raise ModelError(f"{path}: {kind} {name!r} not found (euc-sim reads it by name)")
-    return element
 
 
 def build_spatial_spec(params: Params = TABLE3, tyre: TyreContact | None = None,
