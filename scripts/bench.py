@@ -136,6 +136,37 @@ def bench_closed_loop() -> dict:
     return out
 
 
+# --- issue 14: the spatial closed loop ----------------------------------------------------
+def bench_spatial() -> dict:
+    """3-D closed loop (figure-eight, 1 kHz) real-time factor vs a bare mj_step loop of
+    mjcf/euc_3d.xml, both timed here; the lateral design is cached before timing."""
+    import mujoco
+
+    from euc_sim.model.spatial import EucSpatial
+    from euc_sim.simulation.spatial import simulate_3d
+
+    duration = 10.0
+    n = int(duration / 1e-3)
+    sim = EucSpatial()
+    m, d = sim.model, sim.data
+
+    def bare():
+        sim.set_straight(2.0)
+        for _ in range(n):
+            mujoco.mj_step(m, d)
+
+    simulate_3d("figure_eight", 0.1)                                   # design and warm caches
+    t_bare = timed(bare)
+    t_loop = timed(lambda: simulate_3d("figure_eight", duration, seed=1))
+    out = {"bare_mj_step_3d_real_time_factor": duration / t_bare,
+           "closed_loop_3d_real_time_factor": duration / t_loop}
+    out["closed_loop_3d_cost_vs_bare_step"] = t_loop / t_bare
+    print(f"  bare mj_step loop, euc_3d (1 ms)   : {out['bare_mj_step_3d_real_time_factor']:7.1f}x real time")
+    print(f"  3-D closed loop, figure-eight      : {out['closed_loop_3d_real_time_factor']:7.1f}x real time (aim ≥ 20x)")
+    print(f"  ratio closed loop / bare step time = {out['closed_loop_3d_cost_vs_bare_step']:.2f}")
+    return out
+
+
 def bench_dataset() -> dict:
     """Dataset throughput (recordings/s): one process vs all cores."""
     import tempfile
@@ -302,6 +333,7 @@ SECTIONS: dict[str, Callable[[], dict]] = {
     "identify": bench_identify,
     "diagnose": bench_diagnose,
     "ride_mass": bench_ride_mass,
+    "spatial": bench_spatial,
 }
 
 

@@ -87,6 +87,11 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise ValueError(f"--out must end in .csv or .parquet, got {str(out)!r}")
     check_writable(out)
+    _check_choice("--model", args.model, ("planar", "3d"))
+    if args.model == "3d":          # the spatial model (issue 14)
+        from euc_sim.cli.spatial import simulate_3d_command
+        _check_choice("--noise", args.noise, tuple(NOISE_LEVELS))
+        return simulate_3d_command(args, _motor(args))
     _check_choice("--noise", args.noise, tuple(NOISE_LEVELS))
     _check_choice("--engine", args.engine, ENGINES)
     _check_choice("--variant", args.variant, VARIANTS)
@@ -212,7 +217,9 @@ def add_commands(sub) -> None:
 
     p = sub.add_parser("simulate", help="closed-loop simulation of a maneuver, written as a recording")
     p.add_argument("--maneuver", default=None,
-                   help="constant_speed (default), acceleration, deceleration, stop_and_go")
+                   help="constant_speed (default), acceleration, deceleration, stop_and_go; "
+                        "with --model 3d: straight, circle, u_turn, slalom, figure_eight (default)")
+    p.add_argument("--model", default="planar", help="planar (default) or 3d (mjcf/euc_3d.xml)")
     p.add_argument("--profile", metavar="CSV", help="speed profile with columns t (s), v (m/s)")
     p.add_argument("--duration", type=float, default=15.0, help="s (default 15)")
     p.add_argument("--seed", type=int, default=0, help="seed of the rider and sensor noise")

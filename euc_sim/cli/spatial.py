@@ -1,0 +1,60 @@
+"""``euc-sim simulate --model 3d`` and ``euc-sim render``: the spatial model on the
+command line.  Bad input raises ``ValueError`` (exit 2, one line); nothing is written
+half-way (atomic writes of :mod:`euc_sim.io`)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+__all__ = ["simulate_3d_command", "add_render_parser"]
+
+
+def simulate_3d_command(args: argparse.Namespace, motor) -> int:
+    """The ``--model 3d`` branch of ``euc-sim simulate``: ``--maneuver`` names a path."""
+    from euc_sim.cli.common import parse_params, say
+    from euc_sim.simulation.spatial import PATHS, write_spatial
+
+    name = args.maneuver or "figure_eight"
+    if args.profile or name not in PATHS:
+        raise ValueError(f"--model 3d: --maneuver must be one of {', '.join(PATHS)}, got "
+                         f"{args.profile and '--profile' or repr(name)}")
+    for option, value, default in (("--engine", args.engine, "mujoco"), ("--variant", args.variant, "ideal"),
+                                   ("--rolling-model", args.rolling_model, "moment")):
+        if value != default:
+            raise ValueError(f"--model 3d has its own contact model: {option} {value!r} does not apply")
+    if args.effect:
+        raise ValueError("--model 3d: --effect is not supported (the 3-D physics has no catalog effects)")
+    path = write_spatial(Path(args.out), name, float(args.duration), params=parse_params(args.param),
+                         seed=int(args.seed), noise=args.noise, rider_noise=args.rider_noise,
+                         motor=motor, rider_delay=args.rider_delay, hide_torques=bool(args.hide_torques))
+    say(f"simulate: wrote {path} ({name}, 3-D model, {args.duration:g} s, seed {args.seed})")
+    return 0
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    from euc_sim.cli.common import say
+    from euc_sim.simulation.render import render_recording
+
+    out = Path(args.out)
+    if out.suffix.lower() not in (".mp4", ".gif", ".png"):
+        raise ValueError(f"--out must end in .mp4, .gif or .png, got {str(out)!r}")
+    if not (math.isfinite(args.fps) and 1 <= args.fps <= 120):
+        raise ValueError(f"--fps must be in [1, 120], got {args.fps!r}")
+    n = render_recording(args.recording, out, fps=args.fps, width=args.width, height=args.height,
+                         frame_time=args.time)
+    say(f"render: wrote {out} ({n} frame{'s' if n != 1 else ''})")
+    return 0
+
+
+def add_render_parser(sub) -> None:
+    """Register ``euc-sim render REC --out ride.mp4|ride.gif|frame.png``."""
+    p = sub.add_parser("render", help="replay a recording in the 3-D model (offscreen MuJoCo renderer)")
+    p.add_argument("recording", metavar="REC.csv", help="a recording with psi, theta, gamma and C (or E) columns")
+    p.add_argument("--out", required=True, metavar="ride.mp4", help=".mp4, .gif or .png (one frame)")
+    p.add_argument("--fps", type=float, default=30.0, help="frames per second of the video (default 30)")
+    p.add_argument("--width", type=int, default=640, help="pixels (default 640)")
+    p.add_argument("--height", type=int, default=480, help="pixels (default 480)")
+    p.add_argument("--time", type=float, default=None, help="with .png: the time of the frame, s (default: middle)")
+    p.set_defaults(func=_cmd_render)

@@ -1,0 +1,287 @@
+"""The spatial MuJoCo model (``mjcf/euc_3d.xml``): an EUC with a rounded tyre rolling
+on a plane through frictional contact, and a rider hinged at the ankle in pitch,
+lateral lean and twist.
+
+Parameters are applied through :class:`mujoco.MjSpec` (Table 3, the tyre's crown
+radius, the contact's stiffness), never by editing XML text.  Everything is read by
+name: the free joint ``root`` of the EUC body, the hinges ``wheel_spin``,
+``rider_pitch``, ``rider_lean``, ``rider_twist``, the sites ``C``, ``E``, ``G`` and
+the collision geom ``tyre_contact``.
+
+Angles of the paper's Fig. 2: the EUC body's orientation is Rz(ψ) Rx(ϑ) Ry(γ)
+(yaw ψ, tilt ϑ, pitch γ; :func:`euler_yaw_tilt_pitch`).  The rider's pitch is
+φ = γ + rider_pitch (CONTRACT's sign: top forward positive).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from euc_sim.model.mujoco_model import ModelError, _find
+from euc_sim.model.parameters import Params, TABLE3
+
+__all__ = ["MJCF_3D_PATH", "TyreContact", "build_spatial_spec", "load_spatial_model",
+           "euler_yaw_tilt_pitch", "euler_rates", "EucSpatial"]
+
+#: The hand-written spatial model, beside the package.
+MJCF_3D_PATH = Path(__file__).resolve().parents[2] / "mjcf" / "euc_3d.xml"
+HINGES = ("wheel_spin", "rider_pitch", "rider_lean", "rider_twist")
+ACTUATORS = ("motor", "ankle", "lean", "twist")
+
+
+@dataclass(frozen=True)
+class TyreContact:
+    """The tyre's shape and its frictional contact with the floor.
+
+    Attributes
+    ----------
+    crown_radius : float
+        Radius of the tyre's cross-section at the tread, m (a 16 x 3 inch EUC tyre:
+        about 0.04 m).  The collision ellipsoid has semi-axes (R, √(r_c R), R).
+    timeconst : float
+        Contact ``solref`` time constant, s: smaller is stiffer (≥ 2 timesteps).
+    dampratio : float
+        Contact ``solref`` damping ratio.
+    friction : float
+        Sliding friction coefficient of tyre on floor.
+    impratio : float
+        Frictional to normal impedance ratio (stiffer friction cone, less creep).
+    torsional : float
+        Torsional (spin) friction coefficient of the contact patch, m (MuJoCo's
+        ``condim`` 4): the patch's resistance to spinning about the normal, which
+        carries the yaw moment a turn needs (a point contact would carry none).
+    """
+
+    crown_radius: float = 0.04
+    timeconst: float = 0.004
+    dampratio: float = 1.0
+    friction: float = 1.5
+    impratio: float = 10.0
+    torsional: float = 0.02
+
+    def __post_init__(self) -> None:
+        for name in ("crown_radius", "timeconst", "dampratio", "friction", "impratio"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ModelError(f"tyre setting {name!r} must be positive and finite, got {value!r}")
+        if not (isinstance(self.torsional, (int, float)) and math.isfinite(self.torsional)
+                and self.torsional >= 0):
+            raise ModelError(f"tyre setting 'torsional' must be non-negative, got {self.torsional!r}")
+
+
+def build_spatial_spec(params: Params = TABLE3, tyre: TyreContact | None = None,
+                       mjcf: str | Path | None = None) -> mujoco.MjSpec:
+    """Load ``mjcf/euc_3d.xml`` and apply Table 3 parameters and the tyre through MjSpec.
+
+    Parameters
+    ----------
+    params : Params
+        Model parameters.  The rider's lateral inertia about G is J (as in pitch),
+        his yaw inertia 0.2 J; the EUC body's x inertia J0; the wheel's diametral
+        inertia 0.6 Jw.
+    tyre : TyreContact, optional
+        Crown radius and contact settings (defaults of :class:`TyreContact`).
+    mjcf : path, optional
+        The MJCF file (``mjcf/euc_3d.xml`` by default).
+
+    Raises
+    ------
+    ModelError
+        for a missing file, an unparsable file or a missing named element.
+    """
+    tyre = tyre or TyreContact()
+    path = Path(mjcf) if mjcf is not None else MJCF_3D_PATH
+    if not path.is_file():
+        raise ModelError(f"MJCF file not found: {path}")
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+    except Exception as exc:  # mujoco raises a plain ValueError with a multi-line text
+        raise ModelError(f"{path}: cannot parse MJCF: {str(exc).splitlines()[0]}") from None
+    p = params
+    euc, wheel, rider = (_find(spec, "body", n, path) for n in ("euc", "wheel", "rider"))
+    for name in ("root",) + HINGES:
+        _find(spec, "joint", name, path)
+    for name in ACTUATORS:
+        _find(spec, "actuator", name, path)
+    spec.option.gravity = [0.0, 0.0, -p.g]
+    euc.pos = [0.0, 0.0, p.R]
+    euc.mass, euc.ipos, euc.inertia = p.m0, [0.0, 0.0, p.h0], [p.J0, p.J0, 0.2 * p.J0]
+    wheel.mass, wheel.ipos, wheel.inertia = p.mw, [0.0, 0.0, 0.0], [0.6 * p.Jw, p.Jw, 0.6 * p.Jw]
+    rider.pos = [0.0, 0.0, -p.l0]
+    rider.mass, rider.ipos, rider.inertia = p.m, [0.0, 0.0, p.h], [p.J, p.J, 0.2 * p.J]
+    _find(spec, "site", "G", path).pos = [0.0, 0.0, p.h]
+    geom = _find(spec, "geom", "tyre_contact", path)
+    geom.size = [p.R, math.sqrt(tyre.crown_radius * p.R), p.R]   # crown radius w²/R = r_c
+    geom.solref = [tyre.timeconst, tyre.dampratio]
+    geom.solimp = [0.99, 0.999, 0.001, 0.5, 2.0]
+    geom.friction = [tyre.friction, tyre.torsional, 0.0]
+    geom.condim = 4 if tyre.torsional > 0 else 3
+    _find(spec, "geom", "floor", path).friction = [tyre.friction, tyre.torsional, 0.0]
+    visual = spec.geom("tyre")
+    if visual is not None:
+        visual.size = [p.R, visual.size[1], 0.0]
+    spec.option.impratio = tyre.impratio
+    return spec
+
+
+def load_spatial_model(params: Params = TABLE3, tyre: TyreContact | None = None,
+                       mjcf: str | Path | None = None) -> mujoco.MjModel:
+    """Compile :func:`build_spatial_spec`."""
+    spec = build_spatial_spec(params, tyre, mjcf)
+    try:
+        return spec.compile()
+    except Exception as exc:
+        raise ModelError(f"MJCF does not compile with these parameters: {str(exc).splitlines()[0]}") from None
+
+
+def euler_yaw_tilt_pitch(xmat) -> tuple[float, float, float]:
+    """(ψ, ϑ, γ), rad, of a rotation matrix Rz(ψ) Rx(ϑ) Ry(γ) (row-major, 9 or 3x3)."""
+    r = np.asarray(xmat, dtype=float).ravel()
+    psi = math.atan2(-r[1], r[4])
+    theta = math.asin(max(-1.0, min(1.0, r[7])))
+    gamma = math.atan2(-r[6], r[8])
+    return psi, theta, gamma
+
+
+def euler_rates(psi: float, theta: float, omega_world) -> tuple[float, float, float]:
+    """(ψ̇, ϑ̇, γ̇), rad/s, from the body's angular velocity in the ground frame, rad/s.
+
+    ω = ψ̇ e_Z + ϑ̇ Rz(ψ) e_x + γ̇ Rz(ψ) Rx(ϑ) e_y, solved for the rates.
+    """
+    cp, sp, ct, st = math.cos(psi), math.sin(psi), math.cos(theta), math.sin(theta)
+    wx, wy, wz = (float(w) for w in omega_world)
+    # e_x' = (cp, sp, 0), e_y'' = (−sp ct, cp ct, st)
+    gamma_d = (-sp * wx + cp * wy) / ct
+    theta_d = cp * wx + sp * wy
+    psi_d = wz - gamma_d * st
+    return psi_d, theta_d, gamma_d
+
+
+class EucSpatial:
+    """The compiled spatial model with its data and named readouts.
+
+    Parameters
+    ----------
+    params : Params
+    tyre : TyreContact, optional
+    timestep : float, optional
+        Overrides the XML's 1 ms, s.
+    mjcf : path, optional
+    integrator : {"implicitfast", "RK4", "Euler"}, optional
+        Overrides the XML's ``implicitfast`` (``mjd_transitionFD`` does not support RK4).
+    """
+
+    def __init__(self, params: Params = TABLE3, tyre: TyreContact | None = None,
+                 timestep: float | None = None, mjcf=None, integrator: str | None = None):
+        self.params = params
+        self.tyre = tyre or TyreContact()
+        self.model = load_spatial_model(params, self.tyre, mjcf)
+        if timestep is not None:
+            if not (math.isfinite(timestep) and timestep > 0):
+                raise ModelError(f"timestep must be positive, got {timestep!r}")
+            self.model.opt.timestep = timestep
+        if integrator is not None:
+            kinds = {"implicitfast": mujoco.mjtIntegrator.mjINT_IMPLICITFAST,
+                     "RK4": mujoco.mjtIntegrator.mjINT_RK4, "Euler": mujoco.mjtIntegrator.mjINT_EULER}
+            if integrator not in kinds:
+                raise ModelError(f"integrator must be one of {', '.join(kinds)}, got {integrator!r}")
+            self.model.opt.integrator = kinds[integrator]
+        self.data = mujoco.MjData(self.model)
+        m = self.model
+        jid = lambda n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, n)  # noqa: E731
+        self.qadr = {n: int(m.jnt_qposadr[jid(n)]) for n in ("root",) + HINGES}
+        self.vadr = {n: int(m.jnt_dofadr[jid(n)]) for n in ("root",) + HINGES}
+        self.act = {n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in ACTUATORS}
+        self.site = {n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_SITE, n) for n in ("C", "E", "G")}
+        self.body = {n: mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, n) for n in ("euc", "wheel", "rider")}
+        self.tyre_geom = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_GEOM, "tyre_contact")
+
+    # -- state -----------------------------------------------------------------------
+    def set_straight(self, speed: float, gamma: float = 0.0, phi: float = 0.0,
+                     heading: float = 0.0) -> None:
+        """Upright rolling at ``speed`` (m/s) along ``heading`` (rad), body pitch γ and
+        rider pitch φ (rad), the wheel resting at the contact's static sinkage."""
+        for name, v in (("speed", speed), ("gamma", gamma), ("phi", phi), ("heading", heading)):
+            if not math.isfinite(v):
+                raise ValueError(f"initial {name} must be finite, got {v!r}")
+        a, v = self.qadr, self.vadr
+        d = self.data
+        d.qpos[:] = 0.0
+        d.qvel[:] = 0.0
+        quat = np.empty(4)
+        mat = (_rot_z(heading) @ _rot_y(gamma)).ravel()
+        mujoco.mju_mat2Quat(quat, mat)
+        d.qpos[a["root"] + 3:a["root"] + 7] = quat
+        d.qpos[a["rider_pitch"]] = phi - gamma
+        self._settle()
+        d.qvel[v["root"]:v["root"] + 2] = speed * math.cos(heading), speed * math.sin(heading)
+        d.qvel[v["wheel_spin"]] = speed / self.params.R
+        d.qacc_warmstart[:] = 0.0
+        d.time = 0.0
+        mujoco.mj_forward(self.model, self.data)
+
+    def _settle(self) -> None:
+        """Bisect the height of C until the contact carries the weight (velocities zero)."""
+        zi, zv = self.qadr["root"] + 2, self.vadr["root"] + 2
+        R = self.params.R
+        lo, hi = R - 0.01, R
+        for _ in range(50):
+            mid = 0.5 * (lo + hi)
+            self.data.qpos[zi] = mid
+            mujoco.mj_forward(self.model, self.data)
+            if self.data.qacc[zv] > 0:
+                lo = mid
+            else:
+                hi = mid
+        self.data.qpos[zi] = 0.5 * (lo + hi)
+        mujoco.mj_forward(self.model, self.data)
+
+    # -- readouts ----------------------------------------------------------------------
+    def euler(self) -> tuple[float, float, float]:
+        """(ψ, ϑ, γ) of the EUC body, rad (yaw, tilt, pitch of Fig. 2)."""
+        return euler_yaw_tilt_pitch(self.data.xmat[self.body["euc"]])
+
+    def site_pos(self, name: str) -> np.ndarray:
+        """Ground-frame position of site ``C``, ``E`` or ``G``, m (a copy)."""
+        return self.data.site_xpos[self.site[name]].copy()
+
+    def contact(self) -> tuple[np.ndarray, np.ndarray]:
+        """Tyre contact point (ground frame, m) and the force of the floor on the tyre
+        (ground frame, N: normal along +Z, friction in the plane); NaN and zeros
+        when the tyre is off the floor."""
+        d = self.data
+        for i in range(d.ncon):
+            c = d.contact[i]
+            if self.tyre_geom in (c.geom1, c.geom2):
+                f6 = np.zeros(6)
+                mujoco.mj_contactForce(self.model, d, i, f6)
+                frame = c.frame.reshape(3, 3)             # rows: normal, tangent 1, tangent 2
+                f = frame.T @ f6[:3]
+                if f[2] < 0:                               # the floor pushes the tyre up
+                    f = -f
+                return c.pos.copy(), f
+        return np.full(3, np.nan), np.zeros(3)
+
+    def set_torques(self, M_d: float, M_h: float, M_lean: float = 0.0, M_twist: float = 0.0) -> None:
+        """Motor, ankle-pitch, lateral-lean and twist torques, N·m (+ on the EUC body)."""
+        c, a = self.data.ctrl, self.act
+        c[a["motor"]], c[a["ankle"]], c[a["lean"]], c[a["twist"]] = M_d, M_h, M_lean, M_twist
+
+    def step(self, n: int = 1) -> None:
+        """Advance n timesteps with the torques held."""
+        mujoco.mj_step(self.model, self.data, nstep=n)
+
+
+def _rot_z(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _rot_y(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])

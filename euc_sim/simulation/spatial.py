@@ -1,0 +1,388 @@
+"""Closed loop of the spatial model: a rider who balances, steers and follows a path.
+
+:func:`simulate_3d` runs one path in :class:`euc_sim.model.spatial.EucSpatial` at
+1 kHz.  Longitudinal loop as in the planar work (motor PD on γ, the delayed rider
+with predictor of :mod:`controllers.rider`, fed the paper's state read from the 3-D
+model: x the travelled distance, γ the pitch of Fig. 2, φ = γ + rider_pitch);
+lateral loop by :mod:`controllers.lateral` (lean and twist) on the path errors.
+
+Paths (:data:`PATHS`) are curvature profiles κ(s) of arc length, integrated from the
+origin heading +X, at a constant planned speed:
+
+``circle``  2 m straight, then a left circle of radius 4 m;
+``u_turn``  6 m straight, a left half circle of radius 4 m, straight back;
+``slalom``  κ = κ0 sin(2π s / 10 m) after 2 m straight, κ0 = 0.15 m⁻¹;
+``figure_eight``  2 m straight, then alternating full left and right circles of radius 4 m.
+
+Curvature changes are cosine ramps over 2.5 m centred on the joints (no step in the lean).  Falls (|ϑ| >
+0.6 rad, |φ| or |γ| beyond the planar bounds) raise :class:`FallError` with the time.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from controllers.lateral import LateralRider, design_lateral
+from controllers.motor import MotorPD
+from controllers.rider import RiderRun
+from euc_sim.model.parameters import Params, TABLE3
+from euc_sim.simulation.errors import FallError, SimulationError
+from euc_sim.simulation.maneuvers import make_maneuver
+from euc_sim.simulation.mocap import E_HEIGHT
+
+__all__ = ["PATHS", "PATH_SPEEDS", "TILT_BOUND", "Path3D", "make_path", "simulate_3d",
+           "spatial_recording"]
+
+PATHS = ("straight", "circle", "u_turn", "slalom", "figure_eight")
+#: Planned speed of each path, m/s (walking-to-jogging pace, as the paper's indoor runs).
+PATH_SPEEDS = {"straight": 3.0, "circle": 2.0, "u_turn": 2.0, "slalom": 2.0, "figure_eight": 2.0}
+#: |ϑ| beyond this ends the run as a fall, rad.
+TILT_BOUND = 0.6
+#: Radius of the circle and of the figure-eight's loops, m.
+RADIUS = 4.0
+#: Peak curvature (1/m) and wavelength (m) of the slalom.
+SLALOM_KAPPA, SLALOM_WAVELENGTH = 0.15, 10.0
+_RAMP = 2.5     # m, length of a curvature change
+_DS = 0.01      # m, path sampling
+
+
+@dataclass(frozen=True)
+class Path3D:
+    """A planar path sampled every 1 cm: arc length s, ground X, Y (m), heading (rad),
+    curvature κ (1/m, left positive)."""
+
+    name: str
+    s: np.ndarray
+    X: np.ndarray
+    Y: np.ndarray
+    heading: np.ndarray
+    kappa: np.ndarray
+
+
+def _segments(name: str, length: float) -> list[tuple[float, float]]:
+    """(segment length m, curvature 1/m) pieces of a path, repeated to cover ``length``."""
+    if name == "straight":
+        return [(length, 0.0)]
+    if name == "circle":
+        return [(2.0, 0.0), (length, 1.0 / RADIUS)]
+    if name == "u_turn":
+        return [(6.0, 0.0), (math.pi * RADIUS, 1.0 / RADIUS), (length, 0.0)]
+    if name == "figure_eight":
+        lap = 2.0 * math.pi * RADIUS
+        pieces = [(2.0, 0.0)]
+        while sum(p[0] for p in pieces) < length:
+            pieces += [(lap, 1.0 / RADIUS), (lap, -1.0 / RADIUS)]
+        return pieces
+    raise SimulationError(f"unknown path {name!r}; valid paths: {', '.join(PATHS)}")
+
+
+def make_path(name: str, length: float) -> Path3D:
+    """The path ``name`` (:data:`PATHS`) sampled over ``length`` m of arc length."""
+    if name not in PATHS:
+        raise SimulationError(f"unknown path {name!r}; valid paths: {', '.join(PATHS)}")
+    s = np.arange(0.0, length + 5.0, _DS)
+    if name == "slalom":
+        ramp = np.clip((s - 2.0) / _RAMP, 0.0, 1.0)
+        kappa = SLALOM_KAPPA * np.sin(2.0 * np.pi * np.maximum(s - 2.0, 0.0) / SLALOM_WAVELENGTH) * ramp
+    else:
+        kappa = np.zeros_like(s)
+        start, prev = 0.0, 0.0
+        for seg_len, k in _segments(name, length + 5.0):
+            u = np.clip((s - start + 0.5 * _RAMP) / _RAMP, 0.0, 1.0)   # centred on the joint
+            kappa = np.where(s >= start - 0.5 * _RAMP, prev + (k - prev) * 0.5 * (1.0 - np.cos(np.pi * u)), kappa)
+            start, prev = start + seg_len, k
+    heading = np.concatenate([[0.0], np.cumsum(0.5 * (kappa[1:] + kappa[:-1]) * _DS)])
+    X = np.concatenate([[0.0], np.cumsum(0.5 * (np.cos(heading[1:]) + np.cos(heading[:-1])) * _DS)])
+    Y = np.concatenate([[0.0], np.cumsum(0.5 * (np.sin(heading[1:]) + np.sin(heading[:-1])) * _DS)])
+    return Path3D(name, s, X, Y, heading, kappa)
+
+
+class _Tracker:
+    """Nearest path point, searched forward from the last one (paths do not fold back
+    within a step)."""
+
+    def __init__(self, path: Path3D):
+        self.X, self.Y = path.X.tolist(), path.Y.tolist()
+        self.h, self.k = path.heading.tolist(), path.kappa.tolist()
+        self.i = 0
+        self.n = len(self.X)
+
+    def errors(self, X: float, Y: float):
+        """(e_y m left positive, path heading rad, κ 1/m) for the point (X, Y)."""
+        Xs, Ys, i = self.X, self.Y, self.i
+        d = (Xs[i] - X) ** 2 + (Ys[i] - Y) ** 2
+        while i + 1 < self.n:
+            d1 = (Xs[i + 1] - X) ** 2 + (Ys[i + 1] - Y) ** 2
+            if d1 > d:
+                break
+            i, d = i + 1, d1
+        self.i = i
+        h = self.h[i]
+        e_y = -math.sin(h) * (X - Xs[i]) + math.cos(h) * (Y - Ys[i])
+        return e_y, h, self.k[i]
+
+
+def _wrap(a: float) -> float:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+_LATERAL: dict = {}
+
+
+def default_lateral(params: Params, speed: float, dt: float, tyre=None) -> LateralRider:
+    """:func:`controllers.lateral.design_lateral`, cached per (params, speed, dt, tyre)."""
+    key = (params, round(speed, 6), dt, tyre)
+    if key not in _LATERAL:
+        _LATERAL[key] = design_lateral(params, speed, dt, tyre)
+    return _LATERAL[key]
+
+
+def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: Params = TABLE3,
+                speed: float | None = None, motor: MotorPD | None = None, rider=None,
+                lateral: LateralRider | None = None, seed: int = 0, dt: float = 1e-3,
+                tyre=None, maneuver=None, integrator: str | None = None) -> pd.DataFrame:
+    """Ride a path in the spatial model, closed loop, and return the true run at 1/dt.
+
+    Parameters
+    ----------
+    path : str
+        One of :data:`PATHS`.
+    duration : float
+        s.
+    params : Params
+    speed : float, optional
+        Planned speed, m/s (:data:`PATH_SPEEDS` by default).
+    motor : MotorPD, optional
+    rider : controllers.rider.Rider, optional
+        Longitudinal rider (the planar LQR design, 0.15 s delay, no noise).
+    lateral : LateralRider, optional
+        Lateral rider (designed at ``speed`` when omitted).
+    seed : int
+        Seed of the rider's motor noise.
+    dt : float
+        Control period and timestep, s.
+    tyre : TyreContact, optional
+    maneuver : Maneuver, optional
+        Planned speed profile (constant ``speed`` by default); the lateral gains stay
+        those designed at ``speed``.
+    integrator : str, optional
+        MuJoCo integrator of the run (:class:`EucSpatial`; the lateral design always
+        linearises the XML's ``implicitfast``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns t, x, gamma, phi, x_dot, gamma_dot, phi_dot, M_d, M_h, v_ref, psi,
+        theta, psi_dot, theta_dot, M_lean, M_twist, e_y (m, path offset), C_X..G_Z
+        (site positions, m), P_X, P_Y (tyre contact point, m), F_X, F_Y, F_Z (floor on
+        tyre, N); ``attrs`` describe the run.
+
+    Raises
+    ------
+    FallError
+        when |ϑ| > :data:`TILT_BOUND`, |φ| > 0.7 or |γ| > 0.5 rad (the message gives the time).
+    SimulationError
+        for a bad path, duration or speed.
+    """
+    from euc_sim.model.spatial import EucSpatial
+    from euc_sim.simulation.engine import default_rider
+
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise SimulationError(f"duration must be a positive number of seconds, got {duration!r}")
+    speed = PATH_SPEEDS.get(path, 2.5) if speed is None else float(speed)
+    if not (math.isfinite(speed) and 0.5 <= speed <= 8.0):
+        raise SimulationError(f"speed must be in [0.5, 8] m/s, got {speed!r}")
+    motor = motor or MotorPD()
+    rider = rider or default_rider(params, motor)
+    lateral = lateral or default_lateral(params, speed, dt, tyre)
+    man = maneuver or make_maneuver("constant_speed", v=speed)
+    N = int(round(duration / dt))
+    t = np.arange(N + 1) * dt
+    v_ref, a_ref = man.reference(t)
+    track = _Tracker(make_path(path, float(np.max(np.abs(v_ref))) * duration + 5.0))
+    run = RiderRun(rider, params, motor, v_ref, a_ref, dt, seed)
+    v0, g0, f0, _ = run.initial_state()
+
+    sim = EucSpatial(params, tyre, timestep=dt, integrator=integrator)
+    sim.set_straight(v0, g0, f0)
+    rows = _ride(sim, run, motor, lateral, track, v_ref.tolist(), N, dt, (0.0, g0, f0, v0, 0.0, 0.0))
+    cols = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref", "psi",
+            "theta", "psi_dot", "theta_dot", "M_lean", "M_twist", "e_y",
+            "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
+    df = pd.DataFrame(rows, columns=cols)
+    df["psi"] = np.unwrap(df["psi"].to_numpy())
+    df.attrs.update({"path": path, "speed": speed, "duration": float(duration), "dt": dt,
+                     "seed": int(seed), "params": params.as_dict(), "motor": motor.as_dict(),
+                     "rider": rider.as_dict(), "lateral": lateral.as_dict(),
+                     "model": "mjcf/euc_3d.xml", "tyre": vars(sim.tyre).copy()})
+    return df
+
+
+def _pose(qp, rq: int, ip: int, il: int, p: Params):
+    """Body rotation (row-major 9-list) and the sites C, E, G from qpos, ground frame.
+
+    From qpos itself, not from ``data.xmat``/``site_xpos``: after ``mj_step`` those
+    still hold the kinematics of the step's start, one timestep behind qpos.
+    """
+    w, x, y, z = qp[rq + 3:rq + 7]
+    R = [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+         2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+         2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]
+    C = qp[rq:rq + 3]
+    sp_, cp_, sl, cl = math.sin(qp[ip]), math.cos(qp[ip]), math.sin(qp[il]), math.cos(qp[il])
+    # A − C = (0, 0, −l0); G − A = Ry(pitch) Rx(lean) (0, 0, h) in the body frame (twist: about z)
+    gb = (p.h * cl * sp_, -p.h * sl, p.h * cl * cp_ - p.l0)
+    G = [C[i] + R[3 * i] * gb[0] + R[3 * i + 1] * gb[1] + R[3 * i + 2] * gb[2] for i in range(3)]
+    E = [C[i] + R[3 * i + 2] * E_HEIGHT for i in range(3)]
+    return R, C, E, G
+
+
+def _ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, track: "_Tracker",
+          v_ref: list, N: int, dt: float, y0: tuple) -> list:
+    """The 1 kHz loop of :func:`simulate_3d`: one row per step (its column order)."""
+    import mujoco
+
+    from euc_sim.simulation.engine import FALL_BOUNDS
+
+    m, d, params = sim.model, sim.data, sim.params
+    rq, rv = sim.qadr["root"], sim.vadr["root"]
+    ip, il, it = sim.qadr["rider_pitch"], sim.qadr["rider_lean"], sim.qadr["rider_twist"]
+    vp, vl, vt = sim.vadr["rider_pitch"], sim.vadr["rider_lean"], sim.vadr["rider_twist"]
+    a_m, a_h, a_l, a_t = (sim.act[n] for n in ("motor", "ankle", "lean", "twist"))
+    K0, K1 = np.asarray(lateral.K, dtype=float).tolist()
+    lim, g = lateral.torque_limit, params.g
+    phi_max, gam_max = FALL_BOUNDS["phi"], FALL_BOUNDS["gamma"]
+    Y = [y0] * run.n
+    rows = []
+    x_s, z_int = 0.0, 0.0
+    qpos, qvel, ctrl = d.qpos, d.qvel, d.ctrl
+    for k in range(N + 1):
+        qv, qp = qvel.tolist(), qpos.tolist()
+        R, C, E, G = _pose(qp, rq, ip, il, params)
+        psi = math.atan2(-R[1], R[4])                      # euler_yaw_tilt_pitch, inlined
+        theta = math.asin(max(-1.0, min(1.0, R[7])))
+        gamma = math.atan2(-R[6], R[8])
+        wl = qv[rv + 3:rv + 6]                             # body-frame angular velocity
+        wx = R[0] * wl[0] + R[1] * wl[1] + R[2] * wl[2]
+        wy = R[3] * wl[0] + R[4] * wl[1] + R[5] * wl[2]
+        wz = R[6] * wl[0] + R[7] * wl[1] + R[8] * wl[2]
+        cp, sp, ct, st = math.cos(psi), math.sin(psi), math.cos(theta), math.sin(theta)
+        gamma_d = (-sp * wx + cp * wy) / ct                # euler_rates, inlined
+        theta_d = cp * wx + sp * wy
+        psi_d = wz - gamma_d * st
+        vX, vY = qv[rv], qv[rv + 1]
+        x_dot = cp * vX + sp * vY
+        phi, phi_d = gamma + qp[ip], gamma_d + qv[vp]
+        if not (abs(theta) <= TILT_BOUND and abs(phi) <= phi_max and abs(gamma) <= gam_max):
+            _fall(k * dt, theta, phi, gamma, phi_max, gam_max)
+        Y.append((x_s, gamma, phi, x_dot, gamma_d, phi_d))
+        M_d = motor.torque(gamma, gamma_d, x_dot)
+        M_h = run.command(k, Y)[1]
+        e_y, h_p, kap = track.errors(qp[rq], qp[rq + 1])
+        z = (e_y, _wrap(psi - h_p), theta + math.atan(x_dot * x_dot * kap / g), qp[il], qp[it],
+             -math.sin(h_p) * vX + math.cos(h_p) * vY, theta_d, psi_d - x_dot * kap, qv[vl], qv[vt], z_int)
+        u_l = max(-lim, min(lim, -sum(a * b for a, b in zip(K0, z))))
+        u_t = max(-lim, min(lim, -sum(a * b for a, b in zip(K1, z))))
+        rows.append((k * dt, x_s, gamma, phi, x_dot, gamma_d, phi_d, M_d, M_h, v_ref[k], psi,
+                     theta, psi_d, theta_d, u_l, u_t, e_y, *C, *E, *G))
+        if k == N:
+            break
+        z_int += e_y * dt
+        ctrl[a_m], ctrl[a_h], ctrl[a_l], ctrl[a_t] = M_d, M_h, u_l, u_t
+        mujoco.mj_step(m, d)
+        x_s += dt * 0.5 * (x_dot + _forward_speed(qvel, rv, psi))
+    return rows
+
+
+def _forward_speed(qvel, rv: int, psi: float) -> float:
+    return math.cos(psi) * float(qvel[rv]) + math.sin(psi) * float(qvel[rv + 1])
+
+
+def _fall(t, theta, phi, gamma, phi_max, gam_max):
+    if not all(math.isfinite(v) for v in (theta, phi, gamma)):
+        raise FallError(t, "state", float("nan"), None)
+    if abs(theta) > TILT_BOUND:
+        raise FallError(t, "theta", theta, TILT_BOUND)
+    if abs(phi) > phi_max:
+        raise FallError(t, "phi", phi, phi_max)
+    raise FallError(t, "gamma", gamma, gam_max)
+
+
+def spatial_recording(run: pd.DataFrame, *, noise: str = "paper", seed: int = 0,
+                      rate: float = 120.0, hide_torques: bool = False) -> pd.DataFrame:
+    """Sample a :func:`simulate_3d` run like the paper's motion capture.
+
+    Columns t, psi, theta, gamma (angle noise), C_X..G_Z (position noise) from the
+    model's own sites by cubic spline of the 1 kHz samples, and the held M_d, M_h
+    (unless hidden): no ``x``, no ``phi``, so the Section 2 pipeline (eqs. 1-3)
+    computes the state itself.  Noise levels of :data:`euc_sim.simulation.mocap.NOISE_LEVELS`.
+    """
+    from scipy.interpolate import CubicSpline
+
+    from euc_sim.simulation.mocap import NOISE_LEVELS, sample_times
+
+    if noise not in NOISE_LEVELS:
+        raise ValueError(f"unknown noise level {noise!r}; valid: {', '.join(NOISE_LEVELS)}")
+    sig_pos, sig_ang = NOISE_LEVELS[noise]
+    ts = run["t"].to_numpy()
+    t = sample_times(float(ts[-1]), rate)
+    rng = np.random.default_rng([int(seed), 3, 120])
+    cols = {"t": t}
+    for name in ("psi", "theta", "gamma"):
+        cols[name] = CubicSpline(ts, run[name].to_numpy())(t) + (rng.normal(0, sig_ang, t.size) if sig_ang else 0)
+    for name in ("C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z"):
+        cols[name] = CubicSpline(ts, run[name].to_numpy())(t) + (rng.normal(0, sig_pos, t.size) if sig_pos else 0)
+    if not hide_torques:
+        zoh = np.minimum(np.searchsorted(ts, t + 1e-9, side="right") - 1, len(ts) - 1)
+        cols["M_d"] = run["M_d"].to_numpy()[zoh]
+        cols["M_h"] = run["M_h"].to_numpy()[zoh]
+    return pd.DataFrame(cols)
+
+
+def write_spatial(out, path: str, duration: float, *, params: Params = TABLE3, seed: int = 0,
+                  noise: str = "paper", rider_noise: float = 0.0, speed: float | None = None,
+                  motor: MotorPD | None = None, rider_delay: float = 0.15, hide_torques: bool = False):
+    """Simulate ``path`` in the spatial model and write a recording with sidecars.
+
+    ``NAME.csv`` (or ``.parquet``) holds :func:`spatial_recording`'s motion-capture
+    columns; ``NAME.json`` the known parameters (not h) and the maneuver;
+    ``NAME.truth.json`` the true parameters, controllers and the path-following error.
+
+    Returns
+    -------
+    pathlib.Path
+        The written recording.
+
+    Raises
+    ------
+    FallError
+        when the rider falls (nothing is written).
+    """
+    from euc_sim import io
+    from euc_sim.simulation.engine import default_rider
+
+    motor = motor or MotorPD()
+    rider = default_rider(params, motor, noise_std=rider_noise, delay=rider_delay)
+    run = simulate_3d(path, duration, params=params, speed=speed, motor=motor, rider=rider, seed=seed)
+    rec = spatial_recording(run, noise=noise, seed=seed, hide_torques=hide_torques)
+    e_y = run["e_y"].to_numpy()
+    meta = {
+        "params": {k: v for k, v in params.as_dict().items() if k != "h"},
+        "maneuver": path,
+        "source": (f"euc-sim simulate --model 3d: mjcf/euc_3d.xml, {path} at {run.attrs['speed']:g} m/s, "
+                   f"{duration:g} s at 1 kHz sampled at 120 Hz, noise {noise}, seed {seed}"),
+        "duration": duration, "noise": noise,
+        "torques": "hidden" if hide_torques else "true M_d, M_h of the simulation",
+    }
+    truth = {
+        "params": params.as_dict(), "model": "3d", "path": path, "speed": run.attrs["speed"],
+        "seed": seed, "motor": motor.as_dict(), "rider": rider.as_dict(),
+        "lateral": run.attrs["lateral"], "tyre": run.attrs["tyre"], "effects": {},
+        "path_error": {"rms_m": float(np.sqrt(np.mean(e_y ** 2))), "max_m": float(np.max(np.abs(e_y)))},
+        "peak_tilt_rad": float(np.max(np.abs(run["theta"].to_numpy()))),
+    }
+    return io.write_recording(rec, out, meta, truth)

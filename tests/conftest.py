@@ -1,0 +1,10 @@
+"""Test-session setup: headless OpenGL for MuJoCo's offscreen renderer.
+
+MuJoCo chooses its OpenGL backend when first imported; whichever test module imports
+it first, EGL must already be chosen where there is no display (as ``euc_sim`` does).
+"""
+
+import os
+
+if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+    os.environ.setdefault("MUJOCO_GL", "egl")
