@@ -131,6 +131,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     from euc_sim.cli.ride import add_ride_parser
     add_ride_parser(sub)         # euc-sim ride LOG --compare OTHER --report --json (issue 6)
+
+    from euc_sim.cli.design import add_commands as add_design_commands
+    add_design_commands(sub)     # euc-sim design --maneuvers A,B --json --plot (issue 15)
     return parser
 
 
