@@ -90,13 +90,15 @@ def test_dask_reports_a_fall_by_name_and_finishes_the_rest():
     assert rep.ordered() == [0, 1, 4, 16]
 
 
-def test_dataset_fall_in_parallel_is_named_exit_2(tmp_path, capsys):
-    """Issue 11: a rider fall inside a parallel dataset broke the pool with a traceback."""
+@pytest.mark.parametrize("workers", ["1", "2"])
+def test_dataset_fall_is_named_exit_2(tmp_path, capsys, workers):
+    """Issue 11: a rider fall inside a parallel dataset broke the pool with a traceback;
+    with one worker the run ended without saying which recording fell."""
     from euc_sim.cli.app import main
 
     out = tmp_path / "d"
     code = main(["dataset", "--out", str(out), "--effect", "road_slope=0.6", "--duration", "2",
-                 "--workers", "2", "--no-progress"])
+                 "--workers", workers, "--no-progress"])
     err = capsys.readouterr().err
     assert code == 2
     assert "Traceback" not in err
