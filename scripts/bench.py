@@ -188,6 +188,53 @@ def bench_dataset() -> dict:
     return out
 
 
+# --- issue 15: the batch engine ------------------------------------------------------------
+def _batch_chunk(args) -> int:
+    """Worker: one chunk of rides on the batch engine; returns how many fell."""
+    from euc_sim.simulation.batch import simulate_batch
+    from euc_sim.simulation.engine import default_rider
+    from euc_sim.simulation.maneuvers import make_maneuver
+
+    seeds, duration = args
+    mans = [make_maneuver("stop_and_go", v=2.0 + 0.5 * (s % 3)) for s in seeds]
+    run = simulate_batch(mans, duration, seeds=seeds, rider=default_rider(noise_std=3.0), stride=1000)
+    return int(run.fell.sum())
+
+
+def bench_batch(rides: int = 1000, duration: float = 20.0) -> dict:
+    """Aggregate real-time factor of the batch engine (rides on all cores) beside the
+    per-ride MuJoCo closed loop, in the same run."""
+    from euc_sim.simulation.engine import default_rider, simulate
+    from euc_sim.simulation.runner import run_tasks
+
+    cores = os.cpu_count() or 1
+    rider = default_rider(noise_std=3.0)
+    simulate("stop_and_go", 0.1, rider=rider)                          # warm caches
+    t_one = timed(lambda: simulate("stop_and_go", duration, rider=rider, seed=1), repeat=1)
+    per = -(-rides // cores)
+    chunks = [(f"chunk{i}", (list(range(i * per, min(rides, (i + 1) * per))), duration)) for i in range(cores)]
+    t_serial_small = timed(lambda: _batch_chunk((list(range(50)), duration)), repeat=1)
+    rep = None
+
+    def parallel():
+        nonlocal rep
+        rep = run_tasks(_batch_chunk, chunks, workers=cores, progress=False)
+    t_batch = timed(parallel, repeat=1)
+    out = {"rides": rides, "duration_s": duration, "cores": cores,
+           "per_ride_mujoco_real_time_factor": duration / t_one,
+           "batch_50_rides_one_core_real_time_factor": 50 * duration / t_serial_small,
+           "batch_aggregate_real_time_factor": rides * duration / t_batch,
+           "batch_wall_s": t_batch, "fell": sum(rep.results.values()), "failed_chunks": len(rep.failed)}
+    out["ratio_batch_vs_per_ride"] = out["batch_aggregate_real_time_factor"] / out["per_ride_mujoco_real_time_factor"]
+    print(f"  per-ride MuJoCo closed loop      : {out['per_ride_mujoco_real_time_factor']:8.1f}x real time (aim ≥ 150x)")
+    print(f"  batch engine, 50 rides, 1 core   : {out['batch_50_rides_one_core_real_time_factor']:8.1f}x real time")
+    print(f"  batch engine, {rides} rides of {duration:g} s on {cores} cores: "
+          f"{out['batch_aggregate_real_time_factor']:8.1f}x real time aggregate (aim ≥ 2000x), "
+          f"{t_batch:.1f} s wall, {out['fell']} fell")
+    print(f"  ratio batch aggregate / per-ride = {out['ratio_batch_vs_per_ride']:.1f}x")
+    return out
+
+
 # --- issue 4: identifying h -------------------------------------------------------------------
 def bench_identify() -> dict:
     """Identify h on 34 recordings of 30 s at 120 Hz, both models, with curves: s, and vs a direct search."""
@@ -330,6 +377,7 @@ SECTIONS: dict[str, Callable[[], dict]] = {
     "inverse": bench_inverse,
     "closed_loop": bench_closed_loop,
     "dataset": bench_dataset,
+    "batch": bench_batch,
     "identify": bench_identify,
     "diagnose": bench_diagnose,
     "ride_mass": bench_ride_mass,

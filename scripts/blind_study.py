@@ -37,7 +37,6 @@ import sys
 import time
 import warnings
 from collections import Counter, defaultdict
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -199,22 +198,18 @@ def _jsonable(x):
 
 
 def run(cases: list[dict], out: Path, workers: int = 2, resimulate: bool = False,
-        progress=print, term_sigma: float = TERM_SIGMA) -> list[dict]:
-    """Make and diagnose every case, in parallel processes (term filter ``term_sigma`` s)."""
+        progress=print, term_sigma: float = TERM_SIGMA, scheduler: str | None = None) -> list[dict]:
+    """Make and diagnose every case (term filter ``term_sigma`` s) with
+    :func:`euc_sim.simulation.runner.run_tasks`: ``workers`` processes, or Dask with
+    ``scheduler`` ("local" or an address; a remote cluster's workers must see ``out``)."""
+    from euc_sim.simulation.runner import run_tasks
+
     out.mkdir(parents=True, exist_ok=True)
-    jobs = [(c, out, resimulate, term_sigma) for c in cases]
-    results = []
-    if workers <= 1:
-        for j in jobs:
-            results.append(_work(j))
-            progress(f"  {len(results)}/{len(jobs)}")
-    else:
-        with ProcessPoolExecutor(workers) as ex:
-            for r in ex.map(_work, jobs):
-                results.append(r)
-                if len(results) % 10 == 0 or len(results) == len(jobs):
-                    progress(f"  {len(results)}/{len(jobs)} diagnosed")
-    return results
+    rep = run_tasks(_work, [(c["name"], (c, out, resimulate, term_sigma)) for c in cases],
+                    scheduler=scheduler, workers=workers, desc="blind study")
+    progress(rep.table())
+    return [rep.results[c["name"]] if c["name"] in rep.results else {"case": c, "error": rep.failed[c["name"]]}
+            for c in cases]
 
 
 def _outcome(res: dict) -> str:
@@ -510,7 +505,10 @@ def main(argv=None) -> int:
     ap.add_argument("--pushes", type=int, default=3)
     ap.add_argument("--constant", type=int, default=3, help="constant-speed recordings")
     ap.add_argument("--duration", type=float, default=20.0, help="s")
-    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--workers", type=int, default=2,
+                    help="processes on this machine (1: in this process), or the workers of --scheduler local")
+    ap.add_argument("--scheduler", default=None, metavar="local|ADDRESS",
+                    help="run on Dask: 'local' starts a local cluster, tcp://HOST:PORT uses a running one")
     ap.add_argument("--resimulate", action="store_true", help="also re-simulate each maneuver (slower)")
     ap.add_argument("--calibrate", action="store_true", help="null recordings only (seed + 1000)")
     ap.add_argument("--term-sigma", type=float, default=TERM_SIGMA, metavar="S",
@@ -526,7 +524,8 @@ def main(argv=None) -> int:
         return 0
     cases = plan(args.seed, args.per_effect, args.nulls, args.pushes, args.constant, args.duration)
     print(f"blind study: {len(cases)} recordings in {out}/ (seed {args.seed})")
-    results = run(cases, out, args.workers, args.resimulate, term_sigma=args.term_sigma)
+    results = run(cases, out, args.workers, args.resimulate, term_sigma=args.term_sigma,
+                  scheduler=args.scheduler)
     summary = score(results)
     summary["seconds"] = time.perf_counter() - t0
     summary["command"] = " ".join(sys.argv)

@@ -134,6 +134,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     from euc_sim.cli.spatial import add_render_parser
     add_render_parser(sub)       # euc-sim render REC --out ride.mp4 (issue 14)
+
+    from euc_sim.cli.design import add_commands as add_design_commands
+    add_design_commands(sub)     # euc-sim design --maneuvers A,B --json --plot (issue 15)
     return parser
 
 

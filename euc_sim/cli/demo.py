@@ -65,7 +65,10 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
     # 1. the paper's maneuvers
     say("1/4 simulating the paper's longitudinal maneuvers (14 recordings, 15 s each)")
     specs = dataset.dataset_plan(seed=seed, duration=15.0)
-    paths = dataset.run_dataset(out / "recordings", specs, workers=workers, progress=True)
+    report = dataset.run_dataset(out / "recordings", specs, workers=workers, progress=True)
+    if report.failed:
+        raise ValueError(f"demo: recordings failed: {report.failed}")
+    paths = report.ordered()
 
     # 2. h with both models
     say("2/4 identifying h with the 3-DoF and the reduced 2-DoF model")

@@ -3,7 +3,8 @@
 :func:`simulated_recording` makes one recording in memory; :func:`write_simulated`
 writes it (``NAME.csv`` + ``NAME.json`` + ``NAME.truth.json``); :func:`run_dataset`
 makes a set shaped like the paper's longitudinal recordings (Table 1: constant
-speed 7, acceleration 3, deceleration 2; plus stop-and-go) in parallel processes.
+speed 7, acceleration 3, deceleration 2; plus stop-and-go) in parallel
+(:mod:`euc_sim.simulation.runner`: a process pool or Dask).
 
 Seeds: a recording with seed s draws the rider's motor noise from s and the
 measurement noise from (s, 120); a dataset with seed S gives recording i the seed
@@ -14,8 +15,6 @@ is reproducible on its own.
 from __future__ import annotations
 
 import math
-import os
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
@@ -179,57 +178,59 @@ def dataset_plan(seed: int = 0, duration: float = 15.0, counts=PAPER_SET, params
     return specs
 
 
-def _work(args):
-    out_dir, spec, ext = args
-    path = Path(out_dir) / f"{spec.name}{ext}"
-    write_simulated(path, spec)
-    return str(path)
+def _make(spec: RecordingSpec):
+    """Worker side: one recording in memory (written by the parent, atomically)."""
+    return simulated_recording(spec)
 
 
 def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | None = None,
-                progress: bool = True, ext: str = ".csv") -> list[Path]:
-    """Write every spec's recording into ``out_dir``, in parallel processes.
+                progress: bool = True, ext: str = ".csv", scheduler: str | None = None):
+    """Write every spec's recording into ``out_dir``, in parallel (:mod:`runner`).
+
+    Workers simulate and return the recording; this process writes each one as it
+    arrives (``euc_sim.io``: temp file then rename), so an interrupted run leaves
+    complete recordings only, and a remote Dask cluster needs no shared folder.
+    A recording whose rider falls (or whose worker dies) is named in the report and
+    the manifest; the others are written.
 
     Parameters
     ----------
     out_dir : path
     specs : list of RecordingSpec
     workers : int, optional
-        Worker processes (default: all cores); 1 runs in this process.
+        Worker processes (default: all cores; 1 runs in this process), or the local
+        Dask cluster's workers.
     progress : bool
-        Show a tqdm progress bar on stderr.
+        A progress bar on stderr.
     ext : {".csv", ".parquet"}
+    scheduler : {None, "local"} or str
+        See :func:`euc_sim.simulation.runner.run_tasks`.
 
     Returns
     -------
-    list of pathlib.Path
-        In the order of ``specs``; a manifest ``dataset.json`` is written beside them.
+    RunReport
+        ``results`` maps each written recording's name to its path; ``failed`` maps
+        the others to the reason.  A manifest ``dataset.json`` is written beside
+        them (``recordings`` in the order of ``specs``, ``failed``: name -> reason).
     """
-    from tqdm import tqdm
+    from euc_sim.simulation.runner import run_tasks
 
     out_dir = Path(out_dir)
     io.check_writable(out_dir / "dataset.json")
-    workers = workers or os.cpu_count() or 1
-    jobs = [(str(out_dir), s, ext) for s in specs]
-    bar = tqdm(total=len(jobs), desc="dataset", unit="rec", disable=not progress)
-    try:
-        if workers == 1:
-            paths = []
-            for job in jobs:
-                paths.append(_work(job))
-                bar.update()
-        else:
-            with ProcessPoolExecutor(max_workers=workers) as pool:
-                futures = {pool.submit(_work, job): k for k, job in enumerate(jobs)}
-                paths = [None] * len(jobs)
-                for fut in as_completed(futures):
-                    paths[futures[fut]] = fut.result()
-                    bar.update()
-    finally:
-        bar.close()
+
+    written: dict[str, Path] = {}
+
+    def write(name: str, value) -> None:
+        rec, meta, truth = value
+        written[name] = io.write_recording(rec, out_dir / f"{name}{ext}", meta, truth)
+
+    report = run_tasks(_make, [(s.name, s) for s in specs], scheduler=scheduler, workers=workers,
+                       progress=progress, desc="dataset", on_result=write)
+    report.results = {n: written[n] for n in report.names if n in written}
     io.write_json(out_dir / "dataset.json", {
-        "recordings": [Path(p).name for p in paths],
+        "recordings": [p.name for p in report.results.values()],
         "maneuvers": {s.name: s.maneuver.name for s in specs},
         "duration": specs[0].duration if specs else math.nan,
+        "failed": report.failed,
     })
-    return [Path(p) for p in paths]
+    return report

@@ -79,7 +79,8 @@ def motion_capture(run: pd.DataFrame, params: Params, *, noise: str = "paper", s
         gamma_dot, phi_dot, M_d, M_h; h, psi, theta when present).
     params : Params
         The true parameters (R, l0 and h place C and G).
-    noise : {"paper", "none"}
+    noise : {"paper", "none"} or (float, float)
+        A level of :data:`NOISE_LEVELS` or (position σ [m], angle σ [rad]).
     seed : int
         Seed of the measurement noise.
     effects : mapping, optional
@@ -99,13 +100,13 @@ def motion_capture(run: pd.DataFrame, params: Params, *, noise: str = "paper", s
     ValueError
         for an unknown noise level or a run without the needed columns.
     """
-    if noise not in NOISE_LEVELS:
+    if isinstance(noise, str) and noise not in NOISE_LEVELS:
         raise ValueError(f"unknown noise level {noise!r}; valid: {', '.join(NOISE_LEVELS)}")
     need = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h")
     missing = [c for c in need if c not in run.columns]
     if missing:
         raise ValueError(f"run is missing columns {', '.join(missing)}")
-    sig_pos, sig_ang = NOISE_LEVELS[noise]
+    sig_pos, sig_ang = NOISE_LEVELS[noise] if isinstance(noise, str) else (float(v) for v in noise)
     tau = float(dict(effects or {}).get("sensor_time_offset", 0.0))
     ts = run["t"].to_numpy()
     t = sample_times(float(ts[-1]), rate)

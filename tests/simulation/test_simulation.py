@@ -240,10 +240,10 @@ def test_simulate_fall_is_exit_2_without_files(tmp_path, capsys):
 def test_dataset_is_reproducible(tmp_path):
     from euc_sim.simulation.dataset import dataset_plan, run_dataset
     specs = dataset_plan(seed=0, duration=2.0, counts=(("constant_speed", 2), ("deceleration", 1)))
-    a = run_dataset(tmp_path / "a", specs, workers=2, progress=False)
+    a = run_dataset(tmp_path / "a", specs, workers=2, progress=False).ordered()
     b = run_dataset(tmp_path / "b", dataset_plan(seed=0, duration=2.0,
                                                  counts=(("constant_speed", 2), ("deceleration", 1))),
-                    workers=1, progress=False)
+                    workers=1, progress=False).ordered()
     assert [p.name for p in a] == ["constant_speed_01.csv", "constant_speed_02.csv", "deceleration_01.csv"]
     assert [_digest(p) for p in a] == [_digest(p) for p in b]
     assert _digest(a[0]) != _digest(a[1])

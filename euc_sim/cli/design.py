@@ -1,0 +1,78 @@
+"""``euc-sim design``: which maneuvers identify h, and how many recordings of each.
+
+Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_commands`; the
+computation is :func:`euc_sim.identification.design.design`.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+__all__ = ["add_commands"]
+
+
+def _floats(text: str, option: str) -> list[float]:
+    try:
+        return [float(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        raise ValueError(f"{option} expects comma-separated numbers, got {text!r}") from None
+
+
+def _cmd_design(args: argparse.Namespace) -> int:
+    from euc_sim.cli.common import parse_params, say
+    from euc_sim.identification.design import design, plot_design
+    from euc_sim.io import check_writable, write_json
+    from euc_sim.simulation.runner import check_backend
+
+    for path in (args.json, args.plot):
+        if path:
+            check_writable(path)
+    check_backend(args.scheduler, args.workers)
+    res = design([m.strip() for m in args.maneuvers.split(",") if m.strip()], rides=args.rides,
+                 duration=args.duration, noise_scales=_floats(args.noise_scales, "--noise-scales"),
+                 targets=_floats(args.targets, "--targets"), seed=args.seed, params=parse_params(args.param),
+                 rider_noise=args.rider_noise, scheduler=args.scheduler, workers=args.workers,
+                 progress=not args.no_progress)
+    targets = [f"{t:g}" for t in res["targets"]]
+    head = f"{'maneuver':<16}{'h sd MC (mm)':>13}{'Fisher (mm)':>12}{'bias (mm)':>10}" + "".join(
+        f"{'n for ' + t + ' m':>14}" for t in targets)
+    print(f"h = {res['h_true']:g} m, {res['rides']} rides of {res['duration']:g} s per maneuver, "
+          f"sensor noise of the paper (0.2 mm, 0.5°)")
+    print(head)
+    for r in res["maneuvers"]:
+        print(f"{r['maneuver']:<16}{r['h_sd'] * 1e3:13.2f}{r['h_sd_fisher'] * 1e3:12.2f}{r['h_bias'] * 1e3:10.2f}"
+              + "".join(f"{r['recordings_for'][t]:14d}" for t in targets)
+              + ("   flat" if r["maneuver"] in res["flat"] else ""))
+    print(res["recommendation"])
+    if args.json:
+        write_json(args.json, {k: v for k, v in res.items() if k != "curves"})
+    if args.plot:
+        plot_design(res, args.plot)
+        say(f"design: wrote {args.plot}")
+    return 0
+
+
+def add_commands(sub) -> None:
+    """Register ``design`` on the subparsers ``sub``."""
+    from euc_sim.identification.design import DESIGN_MANEUVERS
+
+    p = sub.add_parser("design", help="experiment design: how precisely each maneuver identifies h")
+    p.add_argument("--maneuvers", default="constant_speed,deceleration,stop_and_go", metavar="A,B,...",
+                   help=f"comma-separated, of {', '.join(DESIGN_MANEUVERS)} "
+                        "(default constant_speed,deceleration,stop_and_go)")
+    p.add_argument("--rides", type=int, default=40, help="Monte Carlo rides per maneuver (default 40)")
+    p.add_argument("--duration", type=float, default=15.0, help="s per recording (default 15)")
+    p.add_argument("--noise-scales", default="0.5,1,2", metavar="S,...",
+                   help="sensor noise as multiples of the paper's 0.2 mm, 0.5° (must include 1; default 0.5,1,2)")
+    p.add_argument("--targets", default="0.05,0.02,0.01", metavar="SD,...",
+                   help="target standard deviations of h, m (default 0.05,0.02,0.01)")
+    p.add_argument("--rider-noise", type=float, default=3.0, help="rider motor noise, N·m (default 3)")
+    p.add_argument("--param", action="append", metavar="NAME=VALUE", help="override a Table 3 value (h: the truth)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the rider and sensor noise (default 0)")
+    p.add_argument("--json", metavar="FILE", help="write the results as JSON (CONTRACT)")
+    p.add_argument("--plot", metavar="FILE.png", help="figure: RMSE(h) curves and h's sd across noise levels")
+    p.add_argument("--workers", type=int, default=None, help="processes (default: all cores; 1: in this process)")
+    p.add_argument("--scheduler", default=None, metavar="local|ADDRESS",
+                   help="run on Dask: 'local' starts a local cluster, tcp://HOST:PORT uses a running one")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.set_defaults(func=_cmd_design)

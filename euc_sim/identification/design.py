@@ -1,0 +1,307 @@
+"""Experiment design: which maneuvers identify h, and how many recordings of each.
+
+Before recording, for a rider, the sensor noise and a list of maneuvers:
+
+* Monte Carlo: R rides of each maneuver on the batch engine
+  (:func:`euc_sim.simulation.batch.simulate_batch`, the rider's motor noise seeded
+  per ride), sampled like motion capture at each noise level
+  (:func:`euc_sim.simulation.mocap.motion_capture`, seeded), and h fitted per ride as
+  the paper does (:func:`euc_sim.identification.h_fit.identify_h`, 3-DoF model,
+  RMSE(M_d,1 − M_d,2) minimised).  ``h_sd`` is the spread of the R estimates (one
+  recording each).
+* Fisher information: the fit minimises Σ r_k(h)² with r = M_d,1 − M_d,2 (filtered).
+  Linearised at the true h, ĥ − h ≈ −Σ s_k e_k / Σ s_k², with s = ∂r/∂h on the
+  noise-free recording (exact, from the polynomial form of r) and e the residual
+  the sensor noise leaves at the true h.  With e's autocovariance C (stationary,
+  pooled over the rides, Bartlett-tapered to ``FISHER_MAX_LAG``),
+
+      var ĥ = sᵀ C s / (sᵀ s)²,
+
+  which is 1/I(h), the inverse Fisher information, when e is white; with a
+  correlated e it is the variance of the unweighted fit (the sandwich form).
+  ``h_sd_fisher`` is its square root, averaged over the rides' variances.
+
+Recordings needed for a target precision σ*: independent recordings of one
+maneuver pool to h_sd/√n, so n = ⌈(h_sd/σ*)²⌉.  A maneuver is *flat* (the paper's
+constant speed and figure-eight) when it needs at least ``FLAT_FACTOR`` times
+the recordings of the best maneuver for the same precision.
+
+Seeds: run seed S gives maneuver i the child ``SeedSequence(S).spawn(M)[i]``; ride r
+draws its rider-noise and sensor-noise seeds from it.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from typing import Sequence
+
+import numpy as np
+
+from euc_sim.identification.h_fit import identify_h, residual_poly
+from euc_sim.identification.processing import DEFAULT_SMOOTHING, kinematics
+from euc_sim.model.parameters import Params, TABLE3
+from euc_sim.simulation.mocap import NOISE_LEVELS
+
+__all__ = ["DESIGN_MANEUVERS", "FLAT_FACTOR", "FISHER_MAX_LAG", "maneuver_study", "design",
+           "recommendation", "plot_design"]
+
+#: Maneuvers the design can simulate (the built-in ones; a profile needs a file).
+DESIGN_MANEUVERS = ("constant_speed", "acceleration", "deceleration", "stop_and_go")
+#: A maneuver needing this many times the recordings of the best one is flat.
+FLAT_FACTOR = 10.0
+#: Longest lag of the residual's autocovariance in the Fisher prediction, s.
+FISHER_MAX_LAG = 1.0
+#: Search interval of h, m (as ``euc-sim identify``).
+H_BOUNDS = (0.1, 1.5)
+
+
+def _sensitivity(poly, h: float) -> np.ndarray:
+    """∂r/∂h at h of r = P(h)/D(h), N·m per m."""
+    P, D = poly.P, poly.D
+    num = P[0] + h * (P[1] + h * P[2])
+    den = D[0] + h * D[1]
+    return ((P[1] + 2.0 * h * P[2]) * den - num * D[1]) / den**2
+
+
+def _autocovariance(e: np.ndarray, max_lag: int) -> np.ndarray:
+    """Biased autocovariance of the rows of e (pooled), lags 0..max_lag, Bartlett-tapered."""
+    from scipy.signal import correlate
+
+    n = e.shape[1]
+    acov = np.mean([correlate(row, row, mode="full", method="fft")[n - 1:n + max_lag] / n for row in e], axis=0)
+    return acov * (1.0 - np.arange(max_lag + 1) / (max_lag + 1))
+
+
+def _sandwich_variance(s: np.ndarray, acov: np.ndarray) -> float:
+    """sᵀ C s / (sᵀ s)² with C Toeplitz from ``acov`` (lags 0..L), m²."""
+    from scipy.signal import correlate
+
+    n, L = s.size, acov.size - 1
+    rs = correlate(s, s, mode="full", method="fft")[n - 1:n + L]        # Σ_k s_k s_{k+τ}
+    quad = acov[0] * rs[0] + 2.0 * float(np.dot(acov[1:], rs[1:]))
+    return quad / rs[0] ** 2
+
+
+def _fit(rec, p: Params):
+    kin = kinematics(rec, p, DEFAULT_SMOOTHING)
+    poly = residual_poly(kin, p, "3dof")
+    return poly, identify_h([poly], bounds=H_BOUNDS, n_boot=0)
+
+
+def maneuver_study(args) -> dict:
+    """One maneuver: R rides on the batch engine, the fit at each noise scale.
+
+    Parameters
+    ----------
+    args : tuple
+        ``(maneuver, rides, duration, noise_scales, (seed, index), params, rider_noise)``:
+        name, number of rides, s, multiples of the paper's sensor noise, the run seed
+        and the maneuver's index (its ``SeedSequence`` child), Params, rider motor noise N·m.  (One tuple: a task of
+        :func:`euc_sim.simulation.runner.run_tasks`.)
+
+    Returns
+    -------
+    dict
+        ``h`` (scales × rides) estimates, m; ``fisher_var`` (scales,), m²;
+        ``identifiable`` (scales × rides); ``h_grid`` and ``rmse_rel`` (scales × grid),
+        the mean RMSE(h) curve over the rides divided by its minimum; ``fell``.
+    """
+    from euc_sim.simulation.batch import simulate_batch
+    from euc_sim.simulation.engine import default_rider
+    from euc_sim.simulation.maneuvers import make_maneuver
+    from euc_sim.simulation.mocap import motion_capture
+
+    name, rides, duration, scales, (seed, index), p, rider_noise = args
+    states = [c.generate_state(2) for c in np.random.SeedSequence(seed, spawn_key=(index,)).spawn(rides)]
+    seeds, sensor_seeds = [int(s[0]) for s in states], [int(s[1]) for s in states]
+    rider = default_rider(p, noise_std=rider_noise)
+    run = simulate_batch([make_maneuver(name)] * rides, duration, seeds=seeds, params=p, rider=rider)
+    ok = [r for r in range(rides) if not run.fell[r]]
+    sig_pos, sig_ang = NOISE_LEVELS["paper"]
+    out = {"h": [], "fisher_var": [], "identifiable": [], "rmse_rel": [], "fell": int(run.fell.sum())}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        clean = {r: _fit(motion_capture(run.ride(r), p, noise="none"), p)[0] for r in ok}
+        for scale in scales:
+            hs, idents, curves, errors = [], [], [], []
+            for r in ok:
+                rec = motion_capture(run.ride(r), p, noise=(scale * sig_pos, scale * sig_ang), seed=sensor_seeds[r])
+                poly, fit = _fit(rec, p)
+                hs.append(fit.h)
+                idents.append(bool(fit.identifiable))
+                curves.append(fit.rmse_grid / fit.rmse)
+                errors.append(poly.residual(p.h) - clean[r].residual(p.h))
+                out["h_grid"] = fit.h_grid
+            lag = int(round(FISHER_MAX_LAG / float(np.median(np.diff(clean[ok[0]].t)))))
+            acov = _autocovariance(np.array(errors), lag)
+            var = [_sandwich_variance(_sensitivity(clean[r], p.h), acov) for r in ok]
+            out["h"].append(hs)
+            out["identifiable"].append(idents)
+            out["rmse_rel"].append(np.mean(curves, axis=0))
+            out["fisher_var"].append(float(np.mean(var)))
+    return {k: (np.asarray(v) if k not in ("fell", "h_grid") else v) for k, v in out.items()}
+
+
+def recordings_for(h_sd: float, targets: Sequence[float]) -> dict:
+    """``{"σ*": n}``: recordings of one maneuver that pool to σ* m, n = ⌈(h_sd/σ*)²⌉."""
+    return {f"{t:g}": max(1, int(math.ceil((h_sd / t) ** 2))) for t in targets}
+
+
+def design(maneuvers: Sequence[str], *, rides: int = 40, duration: float = 15.0,
+           noise_scales: Sequence[float] = (0.5, 1.0, 2.0), targets: Sequence[float] = (0.05, 0.02, 0.01),
+           seed: int = 0, params: Params = TABLE3, rider_noise: float = 3.0,
+           scheduler: str | None = None, workers: int | None = None, progress: bool = True) -> dict:
+    """How precisely each maneuver identifies h, by Monte Carlo and Fisher information.
+
+    Parameters
+    ----------
+    maneuvers : sequence of str
+        Names of :data:`DESIGN_MANEUVERS`.
+    rides : int
+        Monte Carlo rides per maneuver (at least 3).
+    duration : float
+        Length of each recording, s.
+    noise_scales : sequence of float
+        Sensor noise as multiples of the paper's (0.2 mm, 0.5°); 1.0 must be among them.
+    targets : sequence of float
+        Target standard deviations of h, m.
+    seed : int
+    params : Params
+    rider_noise : float
+        Rider motor noise, N·m.
+    scheduler, workers
+        See :func:`euc_sim.simulation.runner.run_tasks` (one task per maneuver).
+    progress : bool
+
+    Returns
+    -------
+    dict
+        CONTRACT's ``euc-sim design`` JSON: ``maneuvers`` (one entry per maneuver, at
+        the paper's noise, with ``by_noise`` across the scales), ``h_true``, the
+        settings, ``flat`` and ``recommendation``; plus ``curves`` for the figure.
+
+    Raises
+    ------
+    ValueError
+        naming the argument, for unknown maneuvers or bad numbers; and when a
+        maneuver's rides all fall or fail.
+    """
+    from euc_sim.simulation.runner import run_tasks
+
+    _check(maneuvers, rides, duration, noise_scales, targets)
+    tasks = [(m, (m, rides, float(duration), tuple(noise_scales), (int(seed), i), params, rider_noise))
+             for i, m in enumerate(maneuvers)]
+    rep = run_tasks(maneuver_study, tasks, scheduler=scheduler, workers=workers, progress=progress,
+                    desc="design")
+    if rep.failed:
+        raise ValueError("design: maneuvers failed: " + "; ".join(f"{n}: {r}" for n, r in rep.failed.items()))
+    i_ref = list(noise_scales).index(1.0)
+    rows, curves = [], {}
+    for m in maneuvers:
+        res = rep.results[m]
+        if len(res["h"][0]) < 3:
+            raise ValueError(f"design: maneuver {m}: {res['fell']} of {rides} rides fell, too few left")
+        by_noise = [{"noise_scale": float(s), "h_sd": float(np.std(res["h"][j], ddof=1)),
+                     "h_sd_fisher": float(math.sqrt(res["fisher_var"][j])),
+                     "h_bias": float(np.mean(res["h"][j]) - params.h),
+                     "identifiable_fraction": float(np.mean(res["identifiable"][j]))}
+                    for j, s in enumerate(noise_scales)]
+        ref = by_noise[i_ref]
+        rows.append({"maneuver": m, "h_sd": ref["h_sd"], "h_sd_fisher": ref["h_sd_fisher"],
+                     "h_bias": ref["h_bias"], "identifiable_fraction": ref["identifiable_fraction"],
+                     "recordings_for": recordings_for(ref["h_sd"], targets), "rides": len(res["h"][0]),
+                     "fell": res["fell"], "by_noise": by_noise})
+        curves[m] = {"h_grid": res["h_grid"], "rmse_rel": res["rmse_rel"]}
+    best = min(rows, key=lambda r: r["h_sd"])
+    flat = [r["maneuver"] for r in rows if (r["h_sd"] / best["h_sd"]) ** 2 >= FLAT_FACTOR]
+    out = {"maneuvers": rows, "h_true": params.h, "rides": rides, "duration": float(duration),
+           "noise": {"position_m": NOISE_LEVELS["paper"][0], "angle_rad": NOISE_LEVELS["paper"][1],
+                     "scales": [float(s) for s in noise_scales]},
+           "rider_noise": rider_noise, "seed": int(seed), "targets": [float(t) for t in targets],
+           "flat": flat, "best": best["maneuver"]}
+    out["recommendation"] = recommendation(out)
+    out["curves"] = curves
+    return out
+
+
+def _check(maneuvers, rides, duration, noise_scales, targets) -> None:
+    bad = [m for m in maneuvers if m not in DESIGN_MANEUVERS]
+    if not maneuvers or bad:
+        raise ValueError(f"--maneuvers: unknown {', '.join(bad) or '(none given)'}; "
+                         f"valid: {', '.join(DESIGN_MANEUVERS)}")
+    if len(set(maneuvers)) != len(maneuvers):
+        raise ValueError(f"--maneuvers: a maneuver is listed twice in {','.join(maneuvers)}")
+    if not (isinstance(rides, int) and rides >= 3):
+        raise ValueError(f"--rides must be an integer of at least 3, got {rides!r}")
+    if not (math.isfinite(duration) and duration >= 5.0):
+        raise ValueError(f"--duration must be at least 5 s (the fit's filters need it), got {duration!r}")
+    if not all(math.isfinite(s) and s > 0 for s in noise_scales) or 1.0 not in noise_scales:
+        raise ValueError(f"--noise-scales must be positive and include 1 (the paper's noise), got {list(noise_scales)}")
+    if not targets or not all(math.isfinite(t) and t > 0 for t in targets):
+        raise ValueError(f"--targets must be positive standard deviations in m, got {list(targets)}")
+
+
+def recommendation(result: dict) -> str:
+    """One paragraph for people: which maneuvers are flat and what to record instead."""
+    rows = {r["maneuver"]: r for r in result["maneuvers"]}
+    best = rows[result["best"]]
+    tight = min(result["targets"])
+    lines = []
+    for m in result["flat"]:
+        r = rows[m]
+        lines.append(f"{m} is flat in h: one recording gives ±{r['h_sd'] * 1000:.1f} mm (1 sd), "
+                     f"{(r['h_sd'] / best['h_sd']) ** 2:.0f}x the recordings of {best['maneuver']} for "
+                     f"the same precision.")
+    lines.append(f"Record {best['maneuver']}: {best['recordings_for'][f'{tight:g}']} recording(s) of "
+                 f"{result['duration']:g} s reach ±{tight * 1000:g} mm (one gives ±{best['h_sd'] * 1000:.1f} mm).")
+    return " ".join(lines)
+
+
+def plot_design(result: dict, path) -> "Path":
+    """The RMSE(h) curves (like the paper's Fig. 8) at each noise scale and h's sd across
+    noise scales (Monte Carlo and Fisher), one colour per maneuver."""
+    from euc_sim.identification.plots import _pyplot, _save
+
+    plt = _pyplot()
+    scales = result["noise"]["scales"]
+    fig, axes = plt.subplots(2, len(scales), figsize=(4.2 * len(scales), 7.5), squeeze=False)
+    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    for j, s in enumerate(scales):
+        ax = axes[0, j]
+        for i, row in enumerate(result["maneuvers"]):
+            c = result["curves"][row["maneuver"]]
+            ax.plot(c["h_grid"], c["rmse_rel"][j], color=colors[i % len(colors)], label=row["maneuver"])
+        ax.axvline(result["h_true"], color="k", lw=0.8, ls=":", label=f"true h = {result['h_true']:g} m")
+        ax.set(title=f"sensor noise {s:g}x paper", xlabel="h (m)", ylabel="RMSE(M_d,1 - M_d,2) / minimum",
+               ylim=(0.95, None))
+        ax.legend(fontsize=7)
+    for j in range(len(scales)):
+        ax = axes[1, j]
+        if j:
+            ax.axis("off")
+            continue
+        for i, row in enumerate(result["maneuvers"]):
+            col = colors[i % len(colors)]
+            sd = [b["h_sd"] * 1000 for b in row["by_noise"]]
+            fi = [b["h_sd_fisher"] * 1000 for b in row["by_noise"]]
+            ax.plot(scales, sd, "o", color=col, label=f"{row['maneuver']} (Monte Carlo)")
+            ax.plot(scales, fi, "--", color=col, label=f"{row['maneuver']} (Fisher)")
+        ax.set(xscale="log", yscale="log", xlabel="sensor noise (x paper: 0.2 mm, 0.5 deg)",
+               ylabel="sd of h from one recording (mm)",
+               title=f"h from one {result['duration']:g} s recording ({result['rides']} rides)")
+        ax.legend(fontsize=7)
+    if len(scales) > 1:
+        text = "\n".join(f"{r['maneuver']}: {r['h_sd'] * 1000:.1f} mm (MC), {r['h_sd_fisher'] * 1000:.1f} mm "
+                         f"(Fisher); n for ±10 mm: {recordings_for(r['h_sd'], [0.01])['0.01']}"
+                         for r in result["maneuvers"])
+        axes[1, 1].text(0.0, 0.95, "At the paper's noise:\n" + text + "\n\n" + _wrap(result["recommendation"]),
+                        va="top", fontsize=8, transform=axes[1, 1].transAxes)
+    fig.suptitle("Experiment design: how precisely each maneuver identifies h")
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def _wrap(text: str, width: int = 70) -> str:
+    import textwrap
+    return "\n".join(textwrap.wrap(text, width))

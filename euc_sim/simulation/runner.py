@@ -1,0 +1,301 @@
+"""Run many named tasks (rides, recordings, diagnoses) serially, in a process pool or on Dask.
+
+One engine for ``euc-sim dataset``, ``scripts/blind_study.py`` and the sweeps of
+``euc-sim design``: :func:`run_tasks` calls ``fn(arg)`` for every named task and
+returns a :class:`RunReport` (results by name, failures by name, a summary table).
+
+Backends
+--------
+``scheduler=None, workers=1``
+    in this process, in order.
+``scheduler=None, workers=N``
+    a :class:`concurrent.futures.ProcessPoolExecutor` of N processes on this
+    machine.  Workers ignore Ctrl-C (the parent handles it) and die with their
+    parent (Linux ``prctl(PR_SET_PDEATHSIG, SIGKILL)``), so a parent killed even by
+    SIGKILL leaves no worker running.
+``scheduler="local"``
+    a :class:`dask.distributed.LocalCluster` of ``workers`` single-threaded worker
+    processes (default 2), started and closed by the run.
+``scheduler="tcp://HOST:PORT"``
+    an existing Dask cluster (``dask scheduler`` / ``dask worker``); its workers need
+    this package installed.
+
+Failures
+--------
+``fn`` raising (a rider fall is a ``ValueError``) fails that task only: the reason
+(exception type and first line) is kept by name and the other tasks finish.  A
+worker process that dies (killed, segfault) fails the tasks it was running: in
+the process pool they are retried one at a time in fresh single-process pools, so
+only the task that kills its worker is reported (``worker died``); Dask retries on
+other workers itself and reports ``KilledWorker`` by name.
+
+Interruption: Ctrl-C, and SIGTERM while :func:`run_tasks` runs, raise
+``KeyboardInterrupt`` in the parent, which kills the pool's processes or closes the
+Dask cluster before re-raising.  Results are handed to ``on_result`` in the parent as
+they arrive, so outputs are written by one process only.
+
+Determinism: a task's result depends on its argument only (seeds travel in the
+argument), never on the backend, the worker or the order of completion.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
+
+__all__ = ["RunReport", "run_tasks", "check_backend"]
+
+
+@dataclass
+class RunReport:
+    """The outcome of :func:`run_tasks`.
+
+    Attributes
+    ----------
+    names : list of str
+        Every task, in the order given.
+    results : dict
+        ``{name: fn(arg)}`` of the tasks that succeeded.
+    failed : dict
+        ``{name: reason}`` (one line) of the tasks that failed.
+    backend : str
+        ``serial``, ``pool of N`` or ``dask <address>``.
+    seconds : float
+        Wall time of the run, s.
+    """
+
+    names: list
+    results: dict = field(default_factory=dict)
+    failed: dict = field(default_factory=dict)
+    backend: str = "serial"
+    seconds: float = 0.0
+
+    def ordered(self) -> list:
+        """Results of the successful tasks, in task order."""
+        return [self.results[n] for n in self.names if n in self.results]
+
+    def table(self) -> str:
+        """A plain-text summary: counts, time, and every failed task by name."""
+        lines = [f"{'tasks':<10}{len(self.names):>8}",
+                 f"{'finished':<10}{len(self.results):>8}",
+                 f"{'failed':<10}{len(self.failed):>8}",
+                 f"{'backend':<10}{self.backend:>8}",
+                 f"{'wall time':<10}{self.seconds:>7.1f}s"]
+        if self.failed:
+            width = max(len(n) for n in self.failed)
+            lines.append("failed tasks:")
+            lines += [f"  {n:<{width}}  {self.failed[n]}" for n in self.names if n in self.failed]
+        return "\n".join(lines)
+
+
+def check_backend(scheduler: str | None, workers: int | None) -> None:
+    """Raise ``ValueError`` naming the option for an unusable ``--scheduler``/``--workers``."""
+    if workers is not None and (not isinstance(workers, int) or workers < 1):
+        raise ValueError(f"--workers must be a positive integer, got {workers!r}")
+    if scheduler is None or scheduler == "local":
+        return
+    if not isinstance(scheduler, str) or "://" not in scheduler and ":" not in scheduler:
+        raise ValueError(f"--scheduler must be 'local' or a Dask scheduler address such as "
+                         f"tcp://HOST:8786, got {scheduler!r}")
+
+
+def _reason(exc: BaseException) -> str:
+    text = str(exc).strip().splitlines()
+    return f"{type(exc).__name__}: {text[0] if text else ''}".rstrip(": ")
+
+
+def _guarded(fn: Callable, arg) -> tuple[bool, Any]:
+    """``(True, fn(arg))`` or ``(False, reason)``: exceptions cross process bounds as text."""
+    try:
+        return True, fn(arg)
+    except Exception as exc:           # a fall or any other failure of this task alone
+        return False, _reason(exc)
+
+
+def _worker_init(parent: int) -> None:
+    """Pool worker: ignore Ctrl-C (the parent stops the pool) and die with the parent."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        import ctypes
+
+        PR_SET_PDEATHSIG = 1
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+        except (OSError, AttributeError):       # pragma: no cover - no prctl
+            pass
+    if os.getppid() != parent:                   # the parent died before prctl took effect
+        os._exit(1)
+
+
+class _Progress:
+    def __init__(self, total: int, desc: str, enabled: bool):
+        from tqdm import tqdm
+        self.bar = tqdm(total=total, desc=desc, unit="task", disable=not enabled, file=sys.stderr)
+
+    def update(self, failed: int) -> None:
+        self.bar.update()
+        if failed:
+            self.bar.set_postfix(failed=failed)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def _sigterm_as_interrupt():
+    """Make SIGTERM raise KeyboardInterrupt (main thread only); returns the old handler."""
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def handler(signum, frame):
+        raise KeyboardInterrupt(f"signal {signum}")
+    return signal.signal(signal.SIGTERM, handler)
+
+
+def run_tasks(fn: Callable, tasks: Sequence[tuple[str, Any]], *, scheduler: str | None = None,
+              workers: int | None = None, progress: bool = True, desc: str = "tasks",
+              on_result: Callable[[str, Any], None] | None = None) -> RunReport:
+    """Run ``fn(arg)`` for every ``(name, arg)`` in ``tasks``.
+
+    Parameters
+    ----------
+    fn : callable
+        A module-level function (picklable), one argument.
+    tasks : sequence of (str, object)
+        Unique names and arguments.
+    scheduler : {None, "local"} or str
+        None: this machine (``workers`` processes); ``"local"``: a local Dask cluster;
+        otherwise the address of a running Dask scheduler.
+    workers : int, optional
+        Processes of the pool (default: all cores; 1 runs in this process) or of the
+        local Dask cluster (default 2).
+    progress : bool
+        A progress bar over the whole run on stderr.
+    desc : str
+        The bar's label.
+    on_result : callable, optional
+        ``on_result(name, value)`` in this process for each success, as it arrives.
+
+    Returns
+    -------
+    RunReport
+    """
+    check_backend(scheduler, workers)
+    names = [n for n, _ in tasks]
+    if len(set(names)) != len(names):
+        raise ValueError("run_tasks: task names must be unique")
+    report = RunReport(names=names)
+    bar = _Progress(len(tasks), desc, progress)
+
+    def done(name: str, ok: bool, value) -> None:
+        if ok:
+            report.results[name] = value
+            if on_result is not None:
+                on_result(name, value)
+        else:
+            report.failed[name] = value
+        bar.update(len(report.failed))
+
+    t0 = time.perf_counter()
+    old = _sigterm_as_interrupt()
+    try:
+        if scheduler is not None:
+            report.backend = _run_dask(fn, tasks, scheduler, workers, done)
+        elif (workers or os.cpu_count() or 1) == 1 or len(tasks) <= 1:
+            report.backend = "serial"
+            for name, arg in tasks:
+                done(name, *_guarded(fn, arg))
+        else:
+            n = workers or os.cpu_count() or 1
+            report.backend = f"pool of {n}"
+            _run_pool(fn, tasks, n, done)
+    finally:
+        bar.close()
+        if old is not None:
+            signal.signal(signal.SIGTERM, old)
+        report.seconds = time.perf_counter() - t0
+        report.results = {n: report.results[n] for n in names if n in report.results}
+        report.failed = {n: report.failed[n] for n in names if n in report.failed}
+    return report
+
+
+def _kill(pool: ProcessPoolExecutor) -> None:
+    terminate = getattr(pool, "terminate_workers", None)          # Python >= 3.14
+    if terminate is not None:
+        terminate()
+    else:
+        for proc in list((getattr(pool, "_processes", None) or {}).values()):
+            proc.kill()
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+def _pool_round(fn, tasks, workers: int, done) -> list:
+    """Run ``tasks`` in one pool; returns those whose worker died (pool broken)."""
+    broken = []
+    pool = ProcessPoolExecutor(workers, initializer=_worker_init, initargs=(os.getpid(),))
+    try:
+        futures = {pool.submit(_guarded, fn, arg): (name, arg) for name, arg in tasks}
+        for fut in as_completed(futures):
+            name, arg = futures[fut]
+            try:
+                ok, value = fut.result()
+            except BrokenProcessPool:
+                broken.append((name, arg))
+                continue
+            done(name, ok, value)
+    except BaseException:
+        _kill(pool)
+        raise
+    pool.shutdown(wait=True)
+    return broken
+
+
+def _run_pool(fn, tasks, workers: int, done) -> None:
+    broken = _pool_round(fn, tasks, workers, done)
+    for name, arg in broken:                 # one at a time: the task that kills its worker
+        if _pool_round(fn, [(name, arg)], 1, done):
+            done(name, False, "worker died (its process ended without a result)")
+
+
+def _run_dask(fn, tasks, scheduler: str, workers: int | None, done) -> str:
+    from distributed import Client, LocalCluster, as_completed as dask_completed
+    from distributed.scheduler import KilledWorker
+
+    cluster = None
+    if scheduler == "local":
+        cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+        backend = f"dask local, {workers or 2} workers"
+    else:
+        client = Client(scheduler, timeout=30)
+        backend = f"dask {scheduler}"
+    futures = []
+    try:
+        futures = [client.submit(_guarded, fn, arg, key=f"{name}-{i}-{os.getpid()}-{time.time_ns()}",
+                                 pure=False) for i, (name, arg) in enumerate(tasks)]
+        by_key = {f.key: name for f, (name, _) in zip(futures, tasks)}
+        for fut in dask_completed(futures):
+            name = by_key[fut.key]
+            try:
+                ok, value = fut.result()
+            except KilledWorker:
+                ok, value = False, "worker died (KilledWorker: Dask gave up after retries)"
+            except Exception as exc:        # the task could not run or its result not return
+                ok, value = False, _reason(exc)
+            done(name, ok, value)
+            fut.release()
+    finally:
+        if futures:
+            client.cancel(futures)
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return backend
