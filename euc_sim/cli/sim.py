@@ -134,8 +134,7 @@ def _cmd_stability(args: argparse.Namespace) -> int:
     stable = rep["max_real_part"]["motor_pd_and_rider"] < 0 and rep["rider_loop"]["stable_with_delay"]
     rep["ok"] = bool(jac_ok and stable)
 
-    def eig_text(ev):
-        return ", ".join(f"{re:.3g}{im:+.3g}j" if abs(im) > 1e-9 else f"{re:.3g}" for re, im in ev)
+    from euc_sim.cli.common import format_eigenvalues as eig_text
 
     print(f"operating point: upright at {args.speed:g} m/s; motor Kp = {motor.Kp:g} N·m/rad, "
           f"Kd = {motor.Kd:g} N·m·s/rad")
@@ -170,13 +169,15 @@ def _controller_options(p: argparse.ArgumentParser) -> None:
 def add_commands(sub) -> None:
     """Register ``simulate``, ``dataset`` and ``stability`` on the subparsers ``sub``."""
     from controllers.rider import DEFAULT_RIDER_NOISE
+    from euc_sim.cli.common import seed
 
     p = sub.add_parser("simulate", help="closed-loop simulation of a maneuver, written as a recording")
     p.add_argument("--maneuver", default=None,
                    help="constant_speed (default), acceleration, deceleration, stop_and_go")
     p.add_argument("--profile", metavar="CSV", help="speed profile with columns t (s), v (m/s)")
     p.add_argument("--duration", type=float, default=15.0, help="s (default 15)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the rider and sensor noise")
+    p.add_argument("--seed", type=seed, default=0,
+                   help="seed of the rider and sensor noise, a non-negative integer (default 0)")
     p.add_argument("--out", required=True, metavar="NAME.csv", help="recording (.csv or .parquet)")
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
                    help="inject an effect of CONTRACT's catalog (repeatable)")
@@ -196,8 +197,10 @@ def add_commands(sub) -> None:
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser("dataset", help="a paper-like set of synthetic recordings, in parallel")
-    p.add_argument("--out", required=True, metavar="DIR")
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="folder for the recordings, NAME.csv with NAME.json and NAME.truth.json")
+    p.add_argument("--seed", type=seed, default=0,
+                   help="seed of the whole set (each recording's seed is drawn from it; default 0)")
     p.add_argument("--duration", type=float, default=15.0, help="s per recording (default 15)")
     p.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     p.add_argument("--noise", default="paper", help="paper (default) or none")
