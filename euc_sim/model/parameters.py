@@ -39,7 +39,7 @@ DESCRIPTION = {
 #: unit (:data:`UNITS`): what a user-given value (``--param``, ``--h``, a sidecar) is
 #: checked against by :func:`check_plausible`.  Table 3 sits well inside.
 PLAUSIBLE = {
-    "R": (0.05, 0.5), "m": (10.0, 300.0), "m0": (1.0, 150.0), "mw": (0.2, 50.0),
+    "R": (0.05, 0.5), "m": (30.0, 200.0), "m0": (1.0, 150.0), "mw": (0.2, 50.0),
     "J": (0.1, 100.0), "Jw": (1e-3, 5.0), "J0": (0.0, 20.0), "h0": (0.0, 0.5),
     "l0": (0.0, 0.5), "h": (0.05, 2.5), "g": (1.0, 30.0),
 }
