@@ -74,7 +74,7 @@ def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
     tmp_path = Path(tmp)
     try:
         write(tmp_path)
-        os.chmod(tmp_path, 0o666 & ~_umask())   # mkstemp makes 0600; give the usual mode
+        _usual_mode(tmp_path)
         os.replace(tmp_path, path)
     except BaseException:
         tmp_path.unlink(missing_ok=True)
@@ -86,6 +86,11 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+def _usual_mode(path: Path) -> None:
+    """Give a temporary file (``mkstemp`` makes 0600) the mode of a normal new file: 0666 & ~umask."""
+    os.chmod(path, 0o666 & ~_umask())
 
 
 def write_text(path: str | Path, text: str) -> Path:
@@ -189,6 +194,7 @@ def write_recording(df, path: str | Path, meta: dict, truth: dict | None = None)
             os.close(fd)
             temps.append((Path(tmp), dest))
             write(Path(tmp))
+            _usual_mode(Path(tmp))
         for tmp, dest in temps:
             os.replace(tmp, dest)
     except BaseException:

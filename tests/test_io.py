@@ -47,3 +47,18 @@ def test_written_files_get_the_usual_mode(tmp_path):
     mask = os.umask(0)
     os.umask(mask)
     assert stat.S_IMODE(target.stat().st_mode) == 0o666 & ~mask
+
+
+def test_recordings_get_the_usual_mode_too(tmp_path):
+    import os
+    import stat
+
+    import pandas as pd
+
+    from euc_sim.io import write_recording
+    path = write_recording(pd.DataFrame({"t": [0.0, 1.0], "x": [0.0, 1.0]}), tmp_path / "r.csv",
+                           {"params": {}}, {"effects": {}})
+    mask = os.umask(0)
+    os.umask(mask)
+    for f in (path, tmp_path / "r.json", tmp_path / "r.truth.json"):
+        assert stat.S_IMODE(f.stat().st_mode) == 0o666 & ~mask, f

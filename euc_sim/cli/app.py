@@ -99,6 +99,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="euc-sim",
         description="Electric-unicycle-with-rider simulation, identification and diagnosis.")
+    from euc_sim import __version__
+    parser.add_argument("--version", action="version", version=f"euc-sim {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser("crosscheck", help="prove the MuJoCo model against the analytic equations")
@@ -140,6 +142,11 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Exit code when the reader of stdout went away: 128 + SIGPIPE, what a shell reports
+#: for ``cat`` in ``cat big | head -1``.
+EXIT_BROKEN_PIPE = 141
+
+
 def _one_line_warning(message, category, filename, lineno, line=None) -> str:
     return f"euc-sim: warning: {message}\n"
 
@@ -154,6 +161,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     warnings.formatwarning = _one_line_warning     # for people: no source paths
     try:
         return int(args.func(args))
+    except BrokenPipeError:             # the reader left (| head): stop quietly, as cat does
+        import os
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())    # no second error when Python flushes stdout
+        return EXIT_BROKEN_PIPE
     except (ValueError, OSError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"euc-sim {args.command}: error: {msg}", file=sys.stderr)

@@ -5,8 +5,8 @@
    paper's noise (:func:`euc_sim.simulation.dataset.run_dataset`).
 2. Identify h with both models, per recording and pooled, and put the results beside
    the paper's (:func:`euc_sim.identification.h_fit.identify_recordings`).
-3. Conceal one effect (aerodynamic drag at a seeded random magnitude) in a
-   stop-and-go recording and diagnose it blind (:func:`euc_sim.diagnosis.pipeline.diagnose`),
+3. Conceal one effect (drawn by the seed from :data:`CONCEALABLE`, at a seeded
+   random magnitude) in a stop-and-go recording and diagnose it blind (:func:`euc_sim.diagnosis.pipeline.diagnose`),
    then compare with the truth file.
 4. Write everything to ``OUT/`` with ``OUT/index.md``.
 
@@ -22,10 +22,35 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["run_demo", "PAPER_RESULTS"]
+__all__ = ["run_demo", "PAPER_RESULTS", "CONCEALABLE", "draw_concealed_effect"]
 
 #: The paper's identified h and RMSE (Section 4, Figs. 6-8), 3-DoF model.
 PAPER_RESULTS = (("deceleration", 0.61, 4.76), ("figure-eight", 0.28, 13.56))
+
+
+#: Effects the demo may conceal: those a stop-and-go recording without torques reveals
+#: (kinematically visible, no M_d or yaw and tilt channels needed).
+CONCEALABLE = ("aerodynamic_drag", "rolling_resistance", "road_slope")
+
+
+def draw_concealed_effect(rng: np.random.Generator) -> tuple[str, float]:
+    """The demo's concealed effect and its magnitude, both drawn from ``rng``.
+
+    The magnitude is uniform in the upper half of the effect's plausible range (in
+    its CONTRACT unit), so that a 20 s ride can show it; a slope gets a random sign.
+
+    Returns
+    -------
+    (name, value) : (str, float)
+    """
+    from euc_sim.simulation import effects
+
+    name = CONCEALABLE[int(rng.integers(len(CONCEALABLE)))]
+    hi = max(abs(v) for v in effects.get(name).plausible)
+    value = float(rng.uniform(0.5 * hi, hi))
+    if name == "road_slope" and rng.random() < 0.5:
+        value = -value
+    return name, value
 
 
 def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
@@ -93,11 +118,11 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
     # 3. one concealed effect, diagnosed blind
     say("3/4 concealing an effect in a new recording and diagnosing it blind")
     rng = np.random.default_rng([seed, 5])
-    lo, hi = effects.get("aerodynamic_drag").plausible
-    k_true = float(rng.uniform(lo, hi))
+    effect, k_true = draw_concealed_effect(rng)
+    unit = effects.get(effect).unit
     v = float(rng.uniform(2.0, 3.0))
     spec = dataset.RecordingSpec("concealed", make_maneuver("stop_and_go", v=v), 20.0,
-                                 int(rng.integers(1, 2**31 - 1)), effects=(("aerodynamic_drag", k_true),),
+                                 int(rng.integers(1, 2**31 - 1)), effects=((effect, k_true),),
                                  hide_torques=True, rider=dataset.default_rider(noise_std=dataset.DEFAULT_RIDER_NOISE))
     rec, meta, truth = dataset.simulated_recording(spec)
     meta = {**meta, "maneuver_options": {"v": v}}
@@ -139,16 +164,18 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
            "model gives the larger h; see the table for what happened here).", "",
            "![RMSE(h)](identification.png)", "",
            "## 3. A concealed effect, found blind", "",
-           "A stop-and-go recording with one catalog effect injected at a random magnitude; "
+           f"A stop-and-go recording with one effect injected, drawn by the seed among "
+           f"{', '.join(f'`{e}`' for e in CONCEALABLE)} at a random magnitude; "
            "`euc-sim diagnose` read only the CSV and its sidecar.", "",
            "```", text, "```", "",
            f"Truth (from `concealed/concealed.truth.json`, read only here, after the diagnosis): "
-           f"`aerodynamic_drag` = {k_true:.4g} kg/m.", ""]
+           f"`{effect}` = {k_true:.4g} {unit}.", ""]
     if result["effects"]:
         e = result["effects"][0]
         md.append(f"Found first: `{e['name']}` = {e['estimate']:.4g} {e['unit']} "
                   f"(95% CI {e['ci95'][0]:.3g}–{e['ci95'][1]:.3g}); error "
-                  f"{100 * (e['estimate'] - k_true) / k_true:+.1f}% when the name is right.")
+                  + (f"{100 * (e['estimate'] - k_true) / k_true:+.1f}%." if e["name"] == effect
+                     else "the name is wrong."))
     md += ["", f"Held-out residual RMSE {result['nominal_rmse']:.3f} → {result['augmented_rmse']:.3f} N·m.",
            "", "Full report: [concealed/report/index.md](concealed/report/index.md); JSON: "
            "[concealed/diagnosis.json](concealed/diagnosis.json).", "",

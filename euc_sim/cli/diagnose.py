@@ -7,6 +7,8 @@ left (every output goes through :mod:`euc_sim.io`).
 
 from __future__ import annotations
 
+from euc_sim.cli.common import seed
+
 import argparse
 import warnings
 
@@ -62,5 +64,5 @@ def add_commands(sub) -> None:
 
     p = sub.add_parser("demo", help="the main job on embedded defaults: simulate, identify, diagnose")
     p.add_argument("--out", default="euc-sim-demo", metavar="DIR", help="output folder (default ./euc-sim-demo)")
-    p.add_argument("--seed", type=int, default=1, help="seed of every random draw (default 1)")
+    p.add_argument("--seed", type=seed, default=1, help="seed of every random draw (default 1)")
     p.set_defaults(func=_cmd_demo)

@@ -47,11 +47,14 @@ def smoothing_from_args(args: argparse.Namespace):
 
 
 def _load(path: str, args: argparse.Namespace, h: float | None = None):
-    from euc_sim.cli.common import param_values
+    from euc_sim.cli.common import param_values, parse_params
     from euc_sim.identification.h_fit import load
     from euc_sim.identification.recordings import params_from_meta, read_sidecar
+    from euc_sim.io import sidecar_paths
 
     meta = read_sidecar(path)
+    params_from_meta(meta, sidecar_paths(path)[0])     # the sidecar's values, naming it
+    parse_params(args.param)                          # --param's, naming the parameter
     values = dict(meta.get("params") or {})
     values.update(param_values(args.param))
     if h is not None:
@@ -61,6 +64,17 @@ def _load(path: str, args: argparse.Namespace, h: float | None = None):
                 phi_from=args.phi_from, source=args.source)
 
 
+def _check_option(option: str, name: str, value: float) -> None:
+    """A parameter given as an option, against its plausible range (message names the option)."""
+    from euc_sim.cli.common import UsageError
+    from euc_sim.model.parameters import PLAUSIBLE, UNITS
+
+    lo, hi = PLAUSIBLE[name]
+    if not lo <= value <= hi:
+        raise UsageError(f"{option} must lie in [{lo:g}, {hi:g}] {UNITS[name]} for a rider, "
+                         f"got {value:g} {UNITS[name]}")
+
+
 # --- torques -----------------------------------------------------------------------------
 def add_torques_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser("torques", help="driving and ankle torques from a recording (eqs. 9, 10, 13)")
@@ -68,51 +82,77 @@ def add_torques_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--h", type=float, metavar="M",
                    help="rider's CoG height, m (default: the sidecar's h, else Table 3's 0.6 m)")
     p.add_argument("--out", required=True, metavar="FILE",
-                   help="CSV with t, M_d1, M_d2, M_h, M_d1_2dof, M_d2_2dof (N·m)")
+                   help="CSV with t, M_d1, M_d2, M_h, M_d1_2dof, M_d2_2dof (N·m) and valid "
+                        "(0 on the edge samples where the filters lack support, 1 elsewhere)")
     add_smoothing_arguments(p)
     p.set_defaults(func=cmd_torques)
     return p
 
 
 def cmd_torques(args: argparse.Namespace) -> int:
-    """Write the five torque estimates of one recording as CSV."""
+    """Write the five torque estimates of one recording as CSV, with a ``valid`` column.
+
+    ``valid`` is 1 on the interior samples and 0 on the samples within a filter's
+    half-width of either end (:attr:`Kinematics.interior`), where the Savitzky-Golay
+    end fits and the term filter lack support and the torques are not to be trusted.
+    """
+    import numpy as np
+
     from euc_sim.identification.torques import torques
     from euc_sim.io import atomic_write, check_writable
 
     check_writable(args.out)
+    if args.h is not None:
+        _check_option("--h", "h", args.h)
     rec = _load(args.recording, args, h=args.h)
     T = torques(rec.kin, rec.params)
-    atomic_write(args.out, lambda path: T.to_csv(path, index=False, float_format="%.10g"))
     sl = rec.kin.interior
+    valid = np.zeros(len(T), dtype=int)
+    valid[sl] = 1                      # 0: within a filter's half-width of either end
+    T = T.assign(valid=valid)
+    atomic_write(args.out, lambda path: T.to_csv(path, index=False, float_format="%.10g"))
     d = (T["M_d1"] - T["M_d2"]).to_numpy()[sl]
     print(f"{rec.name}: h = {rec.params.h:.4g} m, {len(T)} samples; "
           f"RMSE(M_d1 - M_d2) = {float((d**2).mean() ** 0.5):.4g} N·m on the "
-          f"{len(d)} interior samples; wrote {args.out}")
+          f"{len(d)} interior samples (valid = 1; the {len(T) - len(d)} edge samples, valid = 0, "
+          f"lack filter support); wrote {args.out}")
     return 0
 
 
 # --- identify ------------------------------------------------------------------------------
 def add_identify_parser(sub) -> argparse.ArgumentParser:
+    from euc_sim.cli.common import seed
+
     p = sub.add_parser("identify", help="identify the rider's CoG height h (and more) from recordings")
     p.add_argument("recordings", nargs="+", help="CONTRACT recordings (CSV or Parquet)")
     p.add_argument("--json", metavar="FILE", help="write the results (CONTRACT's identify form)")
     p.add_argument("--plot", metavar="FILE",
-                   help="Fig. 8 (RMSE against h) to FILE, Figs. 6/7 per recording beside it")
+                   help="Fig. 8 (RMSE against h) to FILE, Figs. 6/7 beside it as "
+                        "STEM-torques.png (one recording) or STEM-torques-REC.png")
     p.add_argument("--h-min", type=float, default=0.1, metavar="M", help="search bound, m")
     p.add_argument("--h-max", type=float, default=1.5, metavar="M", help="search bound, m")
     p.add_argument("--bootstrap", type=int, default=400, metavar="N",
                    help="block-bootstrap replicates for the 95%% interval (default 400)")
     p.add_argument("--block", type=float, default=None, metavar="S",
-                   help="bootstrap block, s (default identification.BOOTSTRAP_BLOCK, 1 s)")
-    p.add_argument("--seed", type=int, default=0, help="bootstrap seed")
+                   help="bootstrap block, s (default 1 s, about the correlation time of the "
+                        "filtered residual)")
+    p.add_argument("--seed", type=seed, default=0,
+                   help="seed of the bootstrap draws, a non-negative integer (default 0)")
     add_smoothing_arguments(p)
     p.set_defaults(func=cmd_identify)
     return p
 
 
 def _figure_paths(plot: str, names: list[str]) -> list[Path]:
+    """Figs. 6/7 beside the ``--plot`` figure: ``STEM-torques.png`` for one recording,
+    ``STEM-torques-REC.png`` (numbered where two recordings share a name) for several."""
     base = Path(plot)
-    return [base.with_name(f"{base.stem}-{Path(n).stem}{base.suffix or '.png'}") for n in names]
+    suffix = base.suffix or ".png"
+    if len(names) == 1:
+        return [base.with_name(f"{base.stem}-torques{suffix}")]
+    stems = [Path(n).stem for n in names]
+    tags = [s if stems.count(s) == 1 else f"{s}-{i + 1}" for i, s in enumerate(stems)]
+    return [base.with_name(f"{base.stem}-torques-{t}{suffix}") for t in tags]
 
 
 def cmd_identify(args: argparse.Namespace) -> int:
@@ -127,6 +167,9 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.json:
         check_writable(args.json)
     if args.plot:
+        from euc_sim.identification.plots import check_figure_path
+
+        check_figure_path(args.plot)
         check_writable(args.plot)
     if args.bootstrap < 0:
         raise UsageError(f"--bootstrap must be non-negative, got {args.bootstrap}")
@@ -135,6 +178,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
         raise UsageError(f"--block must be positive seconds, got {args.block}")
     if not (0 < args.h_min < args.h_max):
         raise UsageError(f"need 0 < --h-min < --h-max, got {args.h_min} and {args.h_max}")
+    _check_option("--h-min", "h", args.h_min)
+    _check_option("--h-max", "h", args.h_max)
     names = [str(r) for r in args.recordings]
     if len(set(names)) != len(names):
         raise UsageError("a recording is given twice")

@@ -9,6 +9,8 @@ the JSON last.
 
 from __future__ import annotations
 
+from euc_sim.cli.common import seed
+
 import argparse
 import math
 from pathlib import Path
@@ -266,7 +268,7 @@ def add_ride_parser(sub) -> None:
                    help="drivetrain efficiency used only to infer the logged torque from power "
                         "(default 0.8; the balance fit estimates its own)")
     p.add_argument("--n-boot", type=int, default=200, metavar="N", help=f"bootstrap replicates, at least {MIN_BOOT} (default 200)")
-    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of every random draw (default 0)")
+    p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
     p.add_argument("--jobs", type=int, default=2, metavar="N",
                    help="processes for the nominal and augmented simulations (default 2)")
     p.add_argument("--no-simulate", action="store_true",

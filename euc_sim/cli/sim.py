@@ -184,8 +184,7 @@ def _cmd_stability(args: argparse.Namespace) -> int:
     stable = rep["max_real_part"]["motor_pd_and_rider"] < 0 and rep["rider_loop"]["stable_with_delay"]
     rep["ok"] = bool(jac_ok and stable)
 
-    def eig_text(ev):
-        return ", ".join(f"{re:.3g}{im:+.3g}j" if abs(im) > 1e-9 else f"{re:.3g}" for re, im in ev)
+    from euc_sim.cli.common import format_eigenvalues as eig_text
 
     print(f"operating point: upright at {args.speed:g} m/s; motor Kp = {motor.Kp:g} N·m/rad, "
           f"Kd = {motor.Kd:g} N·m·s/rad")
@@ -220,6 +219,7 @@ def _controller_options(p: argparse.ArgumentParser) -> None:
 def add_commands(sub) -> None:
     """Register ``simulate``, ``dataset`` and ``stability`` on the subparsers ``sub``."""
     from controllers.rider import DEFAULT_RIDER_NOISE
+    from euc_sim.cli.common import seed
 
     p = sub.add_parser("simulate", help="closed-loop simulation of a maneuver, written as a recording")
     p.add_argument("--maneuver", default=None,
@@ -228,7 +228,8 @@ def add_commands(sub) -> None:
     p.add_argument("--model", default="planar", help="planar (default) or 3d (mjcf/euc_3d.xml)")
     p.add_argument("--profile", metavar="CSV", help="speed profile with columns t (s), v (m/s)")
     p.add_argument("--duration", type=float, default=15.0, help="s (default 15)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the rider and sensor noise")
+    p.add_argument("--seed", type=seed, default=0,
+                   help="seed of the rider and sensor noise, a non-negative integer (default 0)")
     p.add_argument("--out", required=True, metavar="NAME.csv", help="recording (.csv or .parquet)")
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
                    help="inject an effect of CONTRACT's catalog (repeatable)")
@@ -255,8 +256,8 @@ def add_commands(sub) -> None:
     p = sub.add_parser("dataset", help="a paper-like set of synthetic recordings, in parallel")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="folder for the recordings (NAME.csv + NAME.json + NAME.truth.json) and dataset.json")
-    p.add_argument("--seed", type=int, default=0,
-                   help="dataset seed: speeds, rider and sensor noise of every recording (default 0)")
+    p.add_argument("--seed", type=seed, default=0,
+                   help="dataset seed: speeds, rider and sensor noise of every recording, a non-negative integer (default 0)")
     p.add_argument("--duration", type=float, default=15.0, help="s per recording (default 15)")
     p.add_argument("--workers", type=int, default=None,
                    help="processes on this machine (default: all cores; 1: in this process), "

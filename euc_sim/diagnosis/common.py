@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from euc_sim.model.parameters import PLAUSIBLE
 from euc_sim.simulation import effects
 
 __all__ = ["DiagnosisError", "Thresholds", "THRESHOLDS", "SELECT_RATE", "LATERAL_WINDOW",
@@ -90,7 +91,7 @@ COLUMN_H_TOL = 0.01
 H_BOUNDS = (0.25, 1.2)
 #: Physical range of a rider's mass, kg: a nominal mass outside it is refused, an
 #: estimate outside it is not physics.
-RIDER_MASS_RANGE = (30.0, 200.0)
+RIDER_MASS_RANGE = PLAUSIBLE["m"]
 #: Nonlinear effects refined by a 1-D search, with their search intervals.
 NONLINEAR = {"sensor_time_offset": (-0.3, 0.3), "rider_mass": RIDER_MASS_RANGE}
 

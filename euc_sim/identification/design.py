@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 import warnings
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -258,7 +259,7 @@ def recommendation(result: dict) -> str:
     return " ".join(lines)
 
 
-def plot_design(result: dict, path) -> "Path":
+def plot_design(result: dict, path) -> Path:
     """The RMSE(h) curves (like the paper's Fig. 8) at each noise scale and h's sd across
     noise scales (Monte Carlo and Fisher), one colour per maneuver."""
     from euc_sim.identification.plots import _pyplot, _save

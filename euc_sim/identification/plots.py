@@ -10,7 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["plot_recording", "plot_rmse_curves"]
+from euc_sim.identification.h_fit import MIN_RISE
+
+__all__ = ["plot_recording", "plot_rmse_curves", "check_figure_path"]
 
 
 def _pyplot():
@@ -20,6 +22,25 @@ def _pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def check_figure_path(path) -> Path:
+    """Refuse, before any work, a figure name whose extension matplotlib cannot write.
+
+    Raises
+    ------
+    ValueError
+        naming the path, the extension and the supported ones.
+    """
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    path = Path(path)
+    kinds = FigureCanvasBase.get_supported_filetypes()
+    suffix = path.suffix.lstrip(".").lower()
+    if suffix and suffix not in kinds:
+        raise ValueError(f"figure {path}: unknown format {suffix!r}; expected one of "
+                         f"{', '.join(sorted(kinds))} (e.g. .png)")
+    return path
 
 
 def _save(fig, path) -> Path:
@@ -107,14 +128,16 @@ def plot_rmse_curves(names, per_recording, pooled, path) -> Path:
     n = len(items)
     cols = min(n, 4)
     rows = int(math.ceil(n / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.4 * rows), squeeze=False)
+    # at least 2 panels wide, so that one recording's title and legend are not clipped
+    fig, axes = plt.subplots(rows, cols, figsize=(max(4.2 * cols, 8.4), 3.4 * rows + 0.6),
+                             squeeze=False)
     style = {"3dof": ("tab:blue", "3 DoF"), "2dof": ("tab:orange", "2 DoF (reduced)")}
     for ax, (title, fits), letter in zip(axes.flat, items, "abcdefghijklmnopqrstuvwxyz" * 3):
         for model, fit in fits.items():
             color, label = style[model]
             ax.plot(fit.h_grid, fit.rmse_grid, color=color,
-                    label=f"{label}: h = {fit.h:.3f} m, {fit.rmse:.3g} N·m"
-                    + ("" if fit.identifiable else " (flat)"))
+                    label=f"{label}: h = {fit.h:.3f} m, {fit.rmse:.3g} N·m, rise "
+                    f"{100 * fit.flatness:.0f}%" + ("" if fit.identifiable else " (not identifiable)"))
             ax.plot([fit.h], [fit.rmse], "o", color=color)
             if np.all(np.isfinite(fit.h_ci95)):
                 ax.axvspan(*fit.h_ci95, color=color, alpha=0.15)
@@ -125,7 +148,8 @@ def plot_rmse_curves(names, per_recording, pooled, path) -> Path:
         ax.legend(fontsize=7, loc="upper center")
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
-    fig.suptitle("RMSE between $M_{d,1}$ and $M_{d,2}$ against h (cf. the paper's Fig. 8); "
-                 "shaded: 95% bootstrap interval", fontsize=10)
+    fig.suptitle("RMSE between $M_{d,1}$ and $M_{d,2}$ against h (cf. the paper's Fig. 8)\n"
+                 "shaded: 95% bootstrap interval; rise: RMSE increase within ±0.1 m of the minimum, "
+                 f"identifiable from {100 * MIN_RISE:.0f}%", fontsize=10)
     fig.tight_layout()
     return _save(fig, path)

@@ -25,7 +25,7 @@ from euc_sim.model.parameters import Params
 __all__ = [
     "RecordingError", "RecordingWarning", "STATE_COLUMNS", "MOCAP_COLUMNS", "ANGLE_COLUMNS",
     "read_recording", "read_sidecar", "params_from_meta", "validate_recording",
-    "check_time", "check_finite", "check_angles", "check_length", "is_mocap",
+    "check_time", "check_finite", "check_angles", "check_magnitudes", "check_length", "is_mocap",
 ]
 
 #: The generalized coordinates every state-level recording carries.
@@ -34,8 +34,17 @@ STATE_COLUMNS = ("t", "x", "gamma", "phi")
 MOCAP_COLUMNS = ("t", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z", "psi", "theta", "gamma")
 #: Columns holding angles, rad.
 ANGLE_COLUMNS = ("gamma", "phi", "psi", "theta")
-#: Largest |angle| (rad) a pitch or tilt may reach before it looks like degrees.
-PITCH_LIMIT = math.radians(60.0)
+#: Largest |angle| (rad) a pitch or tilt may reach before it looks like degrees: a
+#: ridden EUC pitches a few degrees and a rider leans at most ~20°; 30° in radians is
+#: 0.52, so a recording in degrees is refused as soon as any angle exceeds 0.52°.
+PITCH_LIMIT = math.radians(30.0)
+#: Plausible sample period of a recording, s: 10 kHz to 10 Hz.  Milliseconds (120 Hz
+#: gives 8.3) and sample indices (1) fall outside.
+SAMPLE_PERIOD_RANGE = (1e-4, 0.1)
+#: Largest plausible |value| of a column, in its SI unit: positions (m), torques (N·m).
+MAGNITUDE_LIMITS = {"x": 1e5, "M_d": 1e4, "M_h": 1e4}
+#: Largest plausible |coordinate| of a motion-capture column, m.
+MOCAP_LIMIT = 1e5
 #: Longest run of missing samples that is interpolated (with a warning), samples.
 MAX_GAP = 5
 
@@ -69,10 +78,23 @@ def read_sidecar(path: str | Path) -> dict[str, Any]:
         return {}
     try:
         meta = json.loads(side.read_text(encoding="utf-8"))
-    except (OSError, json.JSONDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        raise RecordingError(f"{side}: sidecar is not UTF-8 text (byte {exc.start}: "
+                             f"{exc.object[exc.start:exc.start + 1]!r})") from None
+    except (OSError, ValueError, RecursionError) as exc:
         raise RecordingError(f"{side}: sidecar is not valid JSON ({exc})") from None
     if not isinstance(meta, dict):
         raise RecordingError(f"{side}: sidecar must hold a JSON object, got {type(meta).__name__}")
+    params = meta.get("params")
+    if params is not None and not isinstance(params, dict):
+        raise RecordingError(f"{side}: \"params\" must be an object {{NAME: value}}, "
+                             f"got {type(params).__name__}")
+    for name, value in (params or {}).items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise RecordingError(f"{side}: \"params\".{name} must be a number, got {value!r}")
+    if meta.get("d_CE") is not None and (isinstance(meta["d_CE"], bool)
+                                         or not isinstance(meta["d_CE"], (int, float))):
+        raise RecordingError(f"{side}: \"d_CE\" must be a number (m), got {meta['d_CE']!r}")
     return meta
 
 
@@ -84,8 +106,14 @@ def params_from_meta(meta: dict[str, Any], source: str | Path = "sidecar") -> Pa
     RecordingError
         naming the sidecar and the offending parameter.
     """
+    from euc_sim.model.parameters import check_plausible
+
+    values = meta.get("params") or {}
+    if not isinstance(values, dict):
+        raise RecordingError(f"{source}: \"params\" must be an object {{NAME: value}}, "
+                             f"got {type(values).__name__}")
     try:
-        return Params.from_mapping(meta.get("params") or {})
+        return check_plausible(Params.from_mapping(values), values)
     except (ValueError, TypeError) as exc:
         raise RecordingError(f"{source}: {exc}") from None
 
@@ -109,6 +137,14 @@ def check_time(df: pd.DataFrame, name: str) -> None:
         raise RecordingError(f"{name}: column 't' row {_first_row(bad)}: time must be finite, "
                              f"got {float(t[bad][0])!r}")
     dt = np.diff(t)
+    if len(dt) and (dt > 0).all():
+        period = float(np.median(dt))
+        lo, hi = SAMPLE_PERIOD_RANGE
+        if not lo <= period <= hi:
+            guess = (" (sample indices?)" if period == 1.0 else
+                     " (milliseconds?)" if lo <= 1e-3 * period <= hi else "")
+            raise RecordingError(f"{name}: column 't' row 2: sample period {period:.4g}{guess}; "
+                                 f"time must be in seconds with a period of {lo:g}-{hi:g} s")
     if (dt <= 0).any():
         i = int(np.flatnonzero(dt <= 0)[0]) + 1
         what = "duplicate" if dt[i - 1] == 0 else "decreasing"
@@ -189,8 +225,8 @@ def check_angles(df: pd.DataFrame, name: str) -> None:
             if bad.any():
                 raise RecordingError(
                     f"{name}: column {col!r} row {_first_row(bad)}: {y[bad][0]:.4g} looks like "
-                    f"degrees (|angle| > {math.degrees(PITCH_LIMIT):.0f}° in radians); angles "
-                    f"must be in radians")
+                    f"degrees (expected |angle| <= {PITCH_LIMIT:.2f} rad, i.e. "
+                    f"{math.degrees(PITCH_LIMIT):.0f}°); angles must be in radians")
     if "psi" in df.columns:
         step = np.abs(np.diff(df["psi"].to_numpy(dtype=float)))
         bad = step > 1.0
@@ -198,6 +234,26 @@ def check_angles(df: pd.DataFrame, name: str) -> None:
             i = int(np.flatnonzero(bad)[0]) + 1
             raise RecordingError(f"{name}: column 'psi' row {i + 1}: yaw jumps by {step[i - 1]:.4g} "
                                  f"in one sample; angles must be in radians and unwrapped")
+
+
+def check_magnitudes(df: pd.DataFrame, name: str) -> None:
+    """Refuse values no ride reaches (1e300 m, 1e6 N·m): a wrong unit or a corrupt file.
+
+    Raises
+    ------
+    RecordingError
+        naming the column, the row, the value and the limit.
+    """
+    limits = dict(MAGNITUDE_LIMITS)
+    limits.update({c: MOCAP_LIMIT for c in df.columns if str(c).startswith(("C_", "E_", "G_"))})
+    for col, limit in limits.items():
+        if col in df.columns:
+            y = df[col].to_numpy(dtype=float)
+            bad = np.abs(y) > limit
+            if bad.any():
+                raise RecordingError(f"{name}: column {col!r} row {_first_row(bad)}: "
+                                     f"{y[bad][0]:.4g} is implausible (expected |value| <= {limit:g} "
+                                     f"in SI units)")
 
 
 def check_length(df: pd.DataFrame, name: str, min_samples: int, why: str = "the smoothing window") -> None:
@@ -240,6 +296,12 @@ def validate_recording(df: pd.DataFrame, name: str = "recording", max_gap: int =
                if c in need or c in ANGLE_COLUMNS or c in ("M_d", "M_h")
                or c.startswith(("C_", "E_", "G_"))]
     for c in numeric:
+        if (pd.api.types.is_timedelta64_dtype(df[c]) or pd.api.types.is_datetime64_any_dtype(df[c])
+                or isinstance(df[c].dtype, pd.CategoricalDtype)):
+            raise RecordingError(f"{name}: column {c!r} row 1: expected plain numbers in SI units "
+                                 f"(seconds, m, rad), got {df[c].dtype} values")
+        if pd.api.types.is_bool_dtype(df[c]):
+            raise RecordingError(f"{name}: column {c!r} row 1: expected numbers, got booleans")
         if not pd.api.types.is_numeric_dtype(df[c]):
             conv = pd.to_numeric(df[c], errors="coerce")
             bad = conv.isna() & df[c].notna()
@@ -251,6 +313,7 @@ def validate_recording(df: pd.DataFrame, name: str = "recording", max_gap: int =
     check_time(df, name)
     df = check_finite(df, name, [c for c in numeric if c != "t"], max_gap=max_gap)
     check_angles(df, name)
+    check_magnitudes(df, name)
     check_length(df, name, 8, "any derivative")
     return df
 

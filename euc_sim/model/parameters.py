@@ -35,6 +35,16 @@ DESCRIPTION = {
 }
 
 
+#: Physically plausible range of each parameter for an EUC with a human rider, in its
+#: unit (:data:`UNITS`): what a user-given value (``--param``, ``--h``, a sidecar) is
+#: checked against by :func:`check_plausible`.  Table 3 sits well inside.
+PLAUSIBLE = {
+    "R": (0.05, 0.5), "m": (30.0, 200.0), "m0": (1.0, 150.0), "mw": (0.2, 50.0),
+    "J": (0.1, 100.0), "Jw": (1e-3, 5.0), "J0": (0.0, 20.0), "h0": (0.0, 0.5),
+    "l0": (0.0, 0.5), "h": (0.05, 2.5), "g": (1.0, 30.0),
+}
+
+
 class ParameterError(ValueError):
     """An invalid model parameter; the message names it and its value."""
 
@@ -139,6 +149,35 @@ class Params:
     def reduced(self) -> "Params":
         """The reduced 2-DoF model's parameters: J0 = h0 = l0 = 0 (Section 3.2)."""
         return self.replace(J0=0.0, h0=0.0, l0=0.0)
+
+
+def check_plausible(p: "Params", given: Mapping[str, Any] | None = None) -> "Params":
+    """Refuse parameters outside :data:`PLAUSIBLE` (``--h 1e6``, ``m=1e300``).
+
+    Parameters
+    ----------
+    p : Params
+    given : mapping, optional
+        Only these names are checked (default: all).
+
+    Returns
+    -------
+    Params
+        ``p`` itself.
+
+    Raises
+    ------
+    ParameterError
+        naming the parameter, the expected range with its unit, and the value.
+    """
+    for name in (given if given is not None else names()):
+        lo, hi = PLAUSIBLE[name]
+        value = getattr(p, name)
+        if not lo <= value <= hi:
+            raise ParameterError(
+                f"parameter {name!r} ({DESCRIPTION[name]}) must lie in [{lo:g}, {hi:g}] "
+                f"{UNITS[name]} for an EUC with a rider, got {value:g} {UNITS[name]}")
+    return p
 
 
 def names() -> tuple[str, ...]:

@@ -14,7 +14,6 @@ encoding: ``imageio`` with ``imageio-ffmpeg`` (MP4) or Pillow (GIF).
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 
 import numpy as np

@@ -18,3 +18,13 @@ def test_demo_writes_its_pages_and_finds_the_concealed_effect(tmp_path, capsys):
     assert abs(estimate - t["value"]) < 0.25 * abs(t["value"])
     assert (out / "concealed" / "report" / "index.md").exists()
     assert "demo" in capsys.readouterr().err          # progress was shown
+
+
+def test_the_seed_draws_the_concealed_effect_too():
+    import numpy as np
+
+    from euc_sim.cli.demo import CONCEALABLE, draw_concealed_effect
+    drawn = {draw_concealed_effect(np.random.default_rng([s, 5]))[0] for s in range(1, 9)}
+    assert drawn == set(CONCEALABLE)
+    assert draw_concealed_effect(np.random.default_rng([3, 5])) == \
+        draw_concealed_effect(np.random.default_rng([3, 5]))

@@ -130,7 +130,8 @@ def test_the_report_reads_as_text_for_people(tmp_path):
     assert "v = 3" in page
 
 
-@pytest.mark.parametrize("m, says", [(1.0, "m = 1 kg is not a rider's mass"), (-4.0, "must be positive")])
+@pytest.mark.parametrize("m, says", [(1.0, "parameter 'm' (rider's mass) must lie in [30, 200] kg"),
+                                     (-4.0, "must be positive")])
 def test_a_wrong_sidecar_mass_is_an_error_naming_the_sidecar_and_field(recording_file, tmp_path, capsys, m, says):
     """A sidecar mass of 1 kg gave '-4.0 kg' (the rider-mass term's 5 kg finite step)
     with no file named; a negative one named the recording, not the sidecar."""

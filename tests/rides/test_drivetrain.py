@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivesynth import DRIVE, HEADER, drive_log
+from drivesynth import DRIVE, drive_log
 from euc_sim.cli import main
 from euc_sim.rides.drivetrain import envelope, max_force
 from euc_sim.rides.drivetrain_report import analyse, drivetrain_report
