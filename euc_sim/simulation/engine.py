@@ -331,21 +331,9 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     SimulationError
         for an unknown engine, maneuver, effect or a bad duration.
     """
-    if engine not in ENGINES:
-        raise SimulationError(f"unknown engine {engine!r}; valid engines: {', '.join(ENGINES)}")
-    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
-        raise SimulationError(f"duration must be a positive number of seconds, got {duration!r}")
-    if not (math.isfinite(dt) and 0 < dt <= 0.01):
-        raise SimulationError(f"dt must be in (0, 0.01] s, got {dt!r}")
+    _check_request(engine, duration, dt, variant, rolling_model)
     man = as_maneuver(maneuver)
     eff = _check_effects(effects)
-    if engine == "analytic" and variant != "ideal":
-        raise SimulationError(f"the analytic engine is pure rolling: variant must be 'ideal', got {variant!r}")
-    if rolling_model not in ("moment", "contact"):
-        raise SimulationError(f"rolling_model must be 'moment' or 'contact', got {rolling_model!r}")
-    if rolling_model == "contact" and (engine != "mujoco" or variant != "contact"):
-        raise SimulationError("rolling_model 'contact' needs engine 'mujoco' and variant 'contact', "
-                              f"got engine {engine!r}, variant {variant!r}")
     bounds = dict(FALL_BOUNDS)
     bounds.update(fall_bounds or {})
     motor = motor or MotorPD()
@@ -357,10 +345,72 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     t = np.arange(N + 1) * dt
     v_ref, a_ref = man.reference(t)
     run = RiderRun(rider, p_true, motor, v_ref, a_ref, dt, seed)
-    n = run.n
     v0, g0, f0, u0 = run.initial_state()
     y0 = (0.0, g0, f0, v0, 0.0, 0.0)
+    ext = _external_inputs(p_true, eff, t, v_ref, rolling_model, contact, external_force,
+                           lateral_motion, drift_shape)
+    if engine == "mujoco":
+        stepper = _MujocoStepper(p_true, variant, dt, eff, ext.contact)
+    else:
+        stepper = _AnalyticStepper(p_true, dt, eff)
+    if ext.h_t is not None:
+        stepper.set_effects(0.0, 0.0, float(ext.h_t[0]), None)
+    stepper.reset(y0)
 
+    states, U = _closed_loop(stepper, motor, run, ext, p_true, dt, N, y0, bounds)
+    df = _trajectory(t, states, U, v_ref, ext)
+    df.attrs.update({
+        "maneuver": man.as_dict(), "duration": float(duration), "dt": dt, "engine": engine,
+        "variant": variant, "seed": int(seed), "params": params.as_dict(),
+        "true_params": p_true.as_dict(), "effects": eff, "motor": motor.as_dict(),
+        "rider": rider.as_dict(), "rolling_model": rolling_model,
+    })
+    return df
+
+
+def _check_request(engine: str, duration, dt: float, variant: str, rolling_model: str) -> None:
+    """Refuse an engine, duration, step or ground model :func:`simulate` cannot run, naming it."""
+    if engine not in ENGINES:
+        raise SimulationError(f"unknown engine {engine!r}; valid engines: {', '.join(ENGINES)}")
+    if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
+        raise SimulationError(f"duration must be a positive number of seconds, got {duration!r}")
+    if not (math.isfinite(dt) and 0 < dt <= 0.01):
+        raise SimulationError(f"dt must be in (0, 0.01] s, got {dt!r}")
+    if engine == "analytic" and variant != "ideal":
+        raise SimulationError(f"the analytic engine is pure rolling: variant must be 'ideal', got {variant!r}")
+    if rolling_model not in ("moment", "contact"):
+        raise SimulationError(f"rolling_model must be 'moment' or 'contact', got {rolling_model!r}")
+    if rolling_model == "contact" and (engine != "mujoco" or variant != "contact"):
+        raise SimulationError("rolling_model 'contact' needs engine 'mujoco' and variant 'contact', "
+                              f"got engine {engine!r}, variant {variant!r}")
+
+
+@dataclass(frozen=True)
+class _ExternalInputs:
+    """What acts on the plant besides the motor and ankle torques, on the run's grid.
+
+    ``C_rr`` (1) and ``N_load`` (N): the rolling-resistance moment; ``k_drag`` (kg/m);
+    ``push``: F(t) at G, N; ``h_t``: h over the grid, m (``cog_height_drift``);
+    ``lat`` and ``lat_scale``: the tilt and yaw of ``lateral_dynamics``; ``contact``:
+    the MuJoCo contact settings (with the tyre's rolling friction under
+    ``rolling_model="contact"``); ``per_step``: whether any of them must be
+    evaluated at every step.
+    """
+
+    C_rr: float
+    N_load: float
+    k_drag: float
+    push: object
+    h_t: np.ndarray | None
+    lat: LateralMotion | None
+    lat_scale: float
+    contact: object
+    per_step: bool
+
+
+def _external_inputs(p_true: Params, eff: dict, t: np.ndarray, v_ref: np.ndarray, rolling_model: str,
+                     contact, external_force, lateral_motion, drift_shape) -> _ExternalInputs:
+    """The effects' inputs of one run (see :class:`_ExternalInputs`), checked."""
     h_t = (drift.cog_height(p_true.h, eff["cog_height_drift"], t, drift_shape)
            if "cog_height_drift" in eff else None)
     if h_t is not None and float(np.min(h_t)) < 0.2:
@@ -383,30 +433,34 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         contact = dataclasses.replace(contact or ContactSettings(), rolling_friction=C_rr * p_true.R)
         C_rr = 0.0                              # the contact itself resists the rolling
     k_drag = eff.get("aerodynamic_drag", 0.0)
-    N_load = fx.normal_load(p_true) if C_rr else 0.0
     if external_force is not None and not callable(external_force):
         raise SimulationError(f"external_force must be a callable F(t) in N, got {external_force!r}")
-    push = external_force or (lambda _t: 0.0)
     per_step = bool(C_rr or k_drag or h_t is not None or lat is not None or external_force is not None)
+    return _ExternalInputs(C_rr=C_rr, N_load=fx.normal_load(p_true) if C_rr else 0.0, k_drag=k_drag,
+                           push=external_force or (lambda _t: 0.0), h_t=h_t, lat=lat, lat_scale=lat_scale,
+                           contact=contact, per_step=per_step)
 
-    if engine == "mujoco":
-        stepper = _MujocoStepper(p_true, variant, dt, eff, contact)
-    else:
-        stepper = _AnalyticStepper(p_true, dt, eff)
-    if h_t is not None:
-        stepper.set_effects(0.0, 0.0, float(h_t[0]), None)
-    stepper.reset(y0)
 
+def _closed_loop(stepper, motor: MotorPD, run: RiderRun, ext: _ExternalInputs, p_true: Params,
+                 dt: float, N: int, y0: tuple, bounds: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+    """Step the plant N times under the held motor and ankle torques; states (N+1, 6) and torques (N+1, 2).
+
+    Velocity-dependent external forces are evaluated at the start of each step and
+    held over it.  Per-step quantities are Python floats: the loop stays off numpy.
+    """
+    n = run.n
     Y = [y0] * (n + 1)                         # padded state history: the delay buffer
     Md_hist, Mh_hist = [], []
     phi_max, gam_max = bounds["phi"], bounds["gamma"]
     torque, command, step = motor.torque, run.command, stepper.step
     R, sign_v = p_true.R, fx.SIGN_SPEED
-    h_list = None if h_t is None else h_t.tolist()
-    if h_t is not None:
-        h_d_list, h_dd_list = (a.tolist() for a in drift.drift_rates(h_t, dt))
+    C_rr, N_load, k_drag, push, lat, lat_scale = (ext.C_rr, ext.N_load, ext.k_drag, ext.push, ext.lat,
+                                                  ext.lat_scale)
+    h_list = None if ext.h_t is None else ext.h_t.tolist()
+    if h_list is not None:
+        h_d_list, h_dd_list = (a.tolist() for a in drift.drift_rates(ext.h_t, dt))
         m_r, l0_r = p_true.m, p_true.l0
-    if lat is not None:     # per-step Python floats: the loop's arithmetic stays off numpy
+    if lat is not None:
         lat_s, lat_c = np.sin(lat.theta).tolist(), np.cos(lat.theta).tolist()
         lat_th_d, lat_ps_d, lat_ps_dd = lat.theta_d.tolist(), lat.psi_d.tolist(), lat.psi_dd.tolist()
     y = y0
@@ -420,7 +474,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         Mh_hist.append(M_h)
         if k == N:
             break
-        if per_step:
+        if ext.per_step:
             Q_lat = None
             if lat is not None:  # effects.lateral_forces, held over the step
                 Q_lat = [lat_scale * v for v in fx.lateral_force_rows(
@@ -435,25 +489,24 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         y = step(M_d, M_h)
         Y.append(y)
     states = np.array(Y[n:], dtype=float)
-    U = np.column_stack([Md_hist, Mh_hist])
     if not np.all(np.isfinite(states)):  # pragma: no cover - caught by the loop
-        raise FallError(float(t[-1]), "state", float("nan"), None)
+        raise FallError(float(N * dt), "state", float("nan"), None)
+    return states, np.column_stack([Md_hist, Mh_hist])
+
+
+def _trajectory(t: np.ndarray, states: np.ndarray, U: np.ndarray, v_ref: np.ndarray,
+                ext: _ExternalInputs) -> pd.DataFrame:
+    """The run as the module docstring's columns."""
     df = pd.DataFrame({
         "t": t, "x": states[:, 0], "gamma": states[:, 1], "phi": states[:, 2],
         "x_dot": states[:, 3], "gamma_dot": states[:, 4], "phi_dot": states[:, 5],
         "M_d": U[:, 0], "M_h": U[:, 1], "v_ref": v_ref,
     })
-    if h_t is not None:
-        df["h"] = h_t
-    if lat is not None:
-        df["psi"] = lat.psi
-        df["theta"] = lat.theta
-    df.attrs.update({
-        "maneuver": man.as_dict(), "duration": float(duration), "dt": dt, "engine": engine,
-        "variant": variant, "seed": int(seed), "params": params.as_dict(),
-        "true_params": p_true.as_dict(), "effects": eff, "motor": motor.as_dict(),
-        "rider": rider.as_dict(), "rolling_model": rolling_model,
-    })
+    if ext.h_t is not None:
+        df["h"] = ext.h_t
+    if ext.lat is not None:
+        df["psi"] = ext.lat.psi
+        df["theta"] = ext.lat.theta
     return df
 
 
