@@ -274,11 +274,33 @@ def identify_h(polys: list[ResidualPoly], bounds=(0.1, 1.5), grid_step: float = 
         raise ValueError(f"h bounds must satisfy 0 < lo < hi, got {bounds!r}")
     if not polys:
         raise ValueError("no recordings to identify h from")
-    model = polys[0].model
     grid = np.linspace(lo, hi, int(round((hi - lo) / grid_step)) + 1)
     n_tot = sum(rp.n for rp in polys)
+    J, boot_tot, draws = _curve_and_draws(polys, grid, n_boot, block, seed)
+    h_opt, rmse = _refined_minimum(polys, grid, J)
+    boot, ci = np.array([]), (math.nan, math.nan)
+    if n_boot > 0:
+        boot, ci = _bootstrap_interval(polys, grid, boot_tot, draws, h_opt)
+    curve = np.sqrt(J)
+    side = [np.interp(h_opt + d, grid, curve) for d in (-0.1, 0.1) if lo <= h_opt + d <= hi]
+    flatness = float(min(side) / rmse - 1.0) if side and rmse > 0 else math.inf
+    blocks = sum(int(math.ceil(rp.n / L)) for rp, (L, _) in zip(polys, draws))
+    ok, why = _verdict(h_opt, ci, flatness, (lo, hi), 2 * grid_step, n_boot, block, blocks,
+                       max_ci_width, min_rise)
+    return HFit(model=polys[0].model, h=h_opt, rmse=rmse, h_ci95=ci, identifiable=ok, flatness=flatness,
+                h_grid=grid, rmse_grid=curve, boot=boot, n_samples=n_tot, reason=why)
+
+
+def _curve_and_draws(polys: list[ResidualPoly], grid: np.ndarray, n_boot: int, block: float,
+                     seed: int) -> tuple[np.ndarray, np.ndarray, list]:
+    """Pooled mean square residual on the grid, the bootstrap replicates' sums, and their draws.
+
+    Returns ``J`` (len(grid),), N·m²; ``boot_tot`` (n_boot, len(grid)); and per recording
+    ``(L, starts)``: the block length in samples and the drawn block starts (seeded).
+    """
+    n_tot = sum(rp.n for rp in polys)
     rng = np.random.default_rng(seed)
-    draws = []                                     # bootstrap block starts per recording
+    draws = []
     ss = np.zeros(len(grid))
     boot_tot = np.zeros((n_boot, len(grid)))
     for rp in polys:                               # one recording at a time: (K, N_i) arrays
@@ -290,63 +312,69 @@ def identify_h(polys: list[ResidualPoly], bounds=(0.1, 1.5), grid_step: float = 
             starts = rng.integers(0, rp.n - L + 1, size=(n_boot, int(math.ceil(rp.n / L))))
             draws.append((L, starts))
             boot_tot += _block_sums(x, L, starts)
-    J = ss / n_tot
+    return ss / n_tot, boot_tot, draws
+
+
+def _refined_minimum(polys: list[ResidualPoly], grid: np.ndarray, J: np.ndarray) -> tuple[float, float]:
+    """The grid minimum refined by a bounded Brent search in its bracket: (h, m; RMSE, N·m)."""
+    n_tot = sum(rp.n for rp in polys)
     k = int(np.argmin(J))
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
     f = lambda h: float(sum(rp.sum_squares(h) for rp in polys)) / n_tot      # noqa: E731
     res = minimize_scalar(f, bounds=(a, b), method="bounded", options={"xatol": 1e-10})
     h_opt = float(res.x) if res.fun <= J[k] else float(grid[k])
-    rmse = math.sqrt(min(res.fun, J[k]))
+    return h_opt, math.sqrt(min(res.fun, J[k]))
 
-    boot = np.array([])
-    ci = (math.nan, math.nan)
-    if n_boot > 0:
-        boot = _parabolic_min(grid, boot_tot)
-        # refine twice on finer grids spanning the replicates' minima (the same draws)
-        step = grid[1] - grid[0]
-        for _ in range(2):
-            fine = np.linspace(max(lo, boot.min() - step), min(hi, boot.max() + step), 41)
-            fine_tot = np.zeros((n_boot, len(fine)))
-            for rp, (L, starts) in zip(polys, draws):
-                fine_tot += _block_sums(rp.residual(fine) ** 2, L, starts)
-            boot = _parabolic_min(fine, fine_tot)
-            step = 2 * (fine[1] - fine[0])
-        # basic (reverse-percentile) interval: the replicates' spread reflected about
-        # h_opt.  Resampling blocks of a ride whose information sits in one maneuver
-        # skews the replicates; the plain percentile interval then covered the true h
-        # in only 74-80 % of 50 noise seeds, the basic one in 90-94 %
-        # (scripts/coverage_study.py).
-        q_lo, q_hi = np.percentile(boot, [2.5, 97.5])
-        ci = (float(max(lo, 2 * h_opt - q_hi)), float(min(hi, 2 * h_opt - q_lo)))
 
-    curve = np.sqrt(J)
-    side = [np.interp(h_opt + d, grid, curve) for d in (-0.1, 0.1) if lo <= h_opt + d <= hi]
-    flatness = float(min(side) / rmse - 1.0) if side and rmse > 0 else math.inf
-    margin = 2 * grid_step
-    blocks = sum(int(math.ceil(rp.n / L)) for rp, (L, _) in zip(polys, draws))
+def _bootstrap_interval(polys: list[ResidualPoly], grid: np.ndarray, boot_tot: np.ndarray, draws: list,
+                        h_opt: float) -> tuple[np.ndarray, tuple[float, float]]:
+    """The replicates' minimisers and the basic (reverse-percentile) 95 % interval, m."""
+    lo, hi = float(grid[0]), float(grid[-1])
+    n_boot = boot_tot.shape[0]
+    boot = _parabolic_min(grid, boot_tot)
+    # refine twice on finer grids spanning the replicates' minima (the same draws)
+    step = grid[1] - grid[0]
+    for _ in range(2):
+        fine = np.linspace(max(lo, boot.min() - step), min(hi, boot.max() + step), 41)
+        fine_tot = np.zeros((n_boot, len(fine)))
+        for rp, (L, starts) in zip(polys, draws):
+            fine_tot += _block_sums(rp.residual(fine) ** 2, L, starts)
+        boot = _parabolic_min(fine, fine_tot)
+        step = 2 * (fine[1] - fine[0])
+    # basic (reverse-percentile) interval: the replicates' spread reflected about
+    # h_opt.  Resampling blocks of a ride whose information sits in one maneuver
+    # skews the replicates; the plain percentile interval then covered the true h
+    # in only 74-80 % of 50 noise seeds, the basic one in 90-94 %
+    # (scripts/coverage_study.py).
+    q_lo, q_hi = np.percentile(boot, [2.5, 97.5])
+    return boot, (float(max(lo, 2 * h_opt - q_hi)), float(min(hi, 2 * h_opt - q_lo)))
+
+
+def _verdict(h_opt: float, ci: tuple[float, float], flatness: float, bounds: tuple[float, float],
+             margin: float, n_boot: int, block: float, blocks: int, max_ci_width: float,
+             min_rise: float) -> tuple[bool, str]:
+    """Identifiable or not, and why, by the rules of :func:`identify_h`'s docstring."""
+    lo, hi = bounds
     if h_opt < lo + margin or h_opt > hi - margin:
-        ok, why = False, f"the minimum lies at the search bound ({h_opt:.3f} m in [{lo}, {hi}] m)"
-    elif n_boot < MIN_BOOT:
-        ok, why = False, (f"{n_boot} bootstrap replicates are too few for a 95% interval "
-                          f"(need at least {MIN_BOOT}); no verdict without one")
-    elif blocks < MIN_BLOCKS:
-        ok, why = False, (f"the bootstrap block ({block:g} s) cuts the data into only {blocks} "
-                          f"block(s) (need at least {MIN_BLOCKS}): the interval cannot be trusted")
-    elif ci[0] < lo + margin or ci[1] > hi - margin:
-        ok, why = False, (f"the 95% interval [{ci[0]:.3f}, {ci[1]:.3f}] m reaches the search "
-                          f"bound: the RMSE curve is flat")
-    elif ci[1] - ci[0] > max_ci_width:
-        ok, why = False, (f"the 95% interval is {ci[1] - ci[0]:.3f} m wide (> {max_ci_width} m): "
-                          f"the RMSE curve is too shallow")
-    elif flatness < min_rise:
-        ok, why = False, (f"the RMSE rises only {100 * flatness:.1f}% within ±0.1 m of the minimum "
-                          f"(identifiable from {100 * min_rise:.0f}%, as braking and accelerating "
-                          f"rides): too shallow, the noise moves h")
-    else:
-        ok, why = True, (f"interior minimum, RMSE rises {100 * flatness:.1f}% within ±0.1 m "
-                         f"(≥ {100 * min_rise:.0f}%), 95% interval {ci[1] - ci[0]:.3f} m wide")
-    return HFit(model=model, h=h_opt, rmse=rmse, h_ci95=ci, identifiable=ok, flatness=flatness,
-                h_grid=grid, rmse_grid=curve, boot=boot, n_samples=n_tot, reason=why)
+        return False, f"the minimum lies at the search bound ({h_opt:.3f} m in [{lo}, {hi}] m)"
+    if n_boot < MIN_BOOT:
+        return False, (f"{n_boot} bootstrap replicates are too few for a 95% interval "
+                       f"(need at least {MIN_BOOT}); no verdict without one")
+    if blocks < MIN_BLOCKS:
+        return False, (f"the bootstrap block ({block:g} s) cuts the data into only {blocks} "
+                       f"block(s) (need at least {MIN_BLOCKS}): the interval cannot be trusted")
+    if ci[0] < lo + margin or ci[1] > hi - margin:
+        return False, (f"the 95% interval [{ci[0]:.3f}, {ci[1]:.3f}] m reaches the search "
+                       f"bound: the RMSE curve is flat")
+    if ci[1] - ci[0] > max_ci_width:
+        return False, (f"the 95% interval is {ci[1] - ci[0]:.3f} m wide (> {max_ci_width} m): "
+                       f"the RMSE curve is too shallow")
+    if flatness < min_rise:
+        return False, (f"the RMSE rises only {100 * flatness:.1f}% within ±0.1 m of the minimum "
+                       f"(identifiable from {100 * min_rise:.0f}%, as braking and accelerating "
+                       f"rides): too shallow, the noise moves h")
+    return True, (f"interior minimum, RMSE rises {100 * flatness:.1f}% within ±0.1 m "
+                  f"(≥ {100 * min_rise:.0f}%), 95% interval {ci[1] - ci[0]:.3f} m wide")
 
 
 # --- recordings, end to end ------------------------------------------------------------------
