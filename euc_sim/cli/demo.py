@@ -73,36 +73,47 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
     pathlib.Path
         The index page.
     """
-    from euc_sim.simulation import dataset
-    from euc_sim.diagnosis import pipeline as diagnosis
-    from euc_sim.simulation import effects
-    from euc_sim.identification import h_fit as identification
     from euc_sim import io
-    from euc_sim.diagnosis.report import summary, write_report
-    from euc_sim.identification.plots import plot_rmse_curves
-    from euc_sim.simulation.maneuvers import make_maneuver
 
     say = progress or (lambda s: None)
     out = Path(out)
     io.check_writable(out / "index.md")
     t0 = time.perf_counter()
-
-    # 1. the paper's maneuvers
     say("1/4 simulating the paper's longitudinal maneuvers (14 recordings, 15 s each)")
+    specs, paths = _simulate_maneuvers(out / "recordings", seed, workers)
+    say("2/4 identifying h with the 3-DoF and the reduced 2-DoF model")
+    rows, pooled = _identify(specs, paths, out / "identification.png", seed)
+    say("3/4 concealing an effect in a new recording and diagnosing it blind")
+    concealed = _conceal_and_diagnose(out / "concealed", seed, say)
+    say("4/4 writing the index page")
+    md = _index(seed, time.perf_counter() - t0, len(paths), rows, pooled, concealed)
+    page = io.write_text(out / "index.md", "\n".join(md))
+    say(f"done in {time.perf_counter() - t0:.0f} s: {page}")
+    return page
+
+
+def _simulate_maneuvers(folder: Path, seed: int, workers: int | None) -> tuple[list, list[Path]]:
+    """Step 1: the paper's maneuvers as recordings; their specs and paths."""
+    from euc_sim.simulation import dataset
+
     specs = dataset.dataset_plan(seed=seed, duration=15.0)
-    report = dataset.run_dataset(out / "recordings", specs, workers=workers, progress=True)
+    report = dataset.run_dataset(folder, specs, workers=workers, progress=True)
     if report.failed:
         raise ValueError(f"demo: recordings failed: {report.failed}")
-    paths = report.ordered()
+    return specs, report.ordered()
 
-    # 2. h with both models
-    say("2/4 identifying h with the 3-DoF and the reduced 2-DoF model")
+
+def _identify(specs: list, paths: list[Path], figure: Path, seed: int) -> tuple[list[tuple], dict]:
+    """Step 2: h per recording and pooled, both models; table rows per maneuver and the pooled fits."""
+    from euc_sim.identification import h_fit
+    from euc_sim.identification.plots import plot_rmse_curves
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        recs = [identification.load(p) for p in paths]
-    res = identification.identify_recordings(recs, n_boot=200, seed=seed)
+        recs = [h_fit.load(p) for p in paths]
+    res = h_fit.identify_recordings(recs, n_boot=200, seed=seed)
     per, pooled = res["per_recording"], res["pooled"]
-    plot_rmse_curves([str(p) for p in paths], per, pooled, out / "identification.png")
+    plot_rmse_curves([str(p) for p in paths], per, pooled, figure)
     by_man: dict[str, list] = {}
     for spec, fits in zip(specs, per):
         by_man.setdefault(spec.maneuver.name, []).append(fits)
@@ -114,35 +125,48 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
             ident = sum(f[m].identifiable for f in fits)
             rows.append((man, m, len(fits), float(np.median(hs)), float(np.min(hs)), float(np.max(hs)),
                          float(np.median(rm)), ident))
+    return rows, pooled
 
-    # 3. one concealed effect, diagnosed blind
-    say("3/4 concealing an effect in a new recording and diagnosing it blind")
+
+def _conceal_and_diagnose(folder: Path, seed: int, say: Callable[[str], None]) -> dict:
+    """Step 3: one effect drawn by the seed, concealed in a stop-and-go ride, diagnosed blind.
+
+    Returns ``{"effect", "value", "unit", "result", "summary"}``.
+    """
+    from euc_sim import io
+    from euc_sim.diagnosis import pipeline as diagnosis
+    from euc_sim.diagnosis.report import summary, write_report
+    from euc_sim.simulation import dataset, effects
+    from euc_sim.simulation.maneuvers import make_maneuver
+
     rng = np.random.default_rng([seed, 5])
     effect, k_true = draw_concealed_effect(rng)
-    unit = effects.get(effect).unit
     v = float(rng.uniform(2.0, 3.0))
     spec = dataset.RecordingSpec("concealed", make_maneuver("stop_and_go", v=v), 20.0,
                                  int(rng.integers(1, 2**31 - 1)), effects=((effect, k_true),),
                                  hide_torques=True, rider=dataset.default_rider(noise_std=dataset.DEFAULT_RIDER_NOISE))
     rec, meta, truth = dataset.simulated_recording(spec)
     meta = {**meta, "maneuver_options": {"v": v}}
-    conc = out / "concealed" / "concealed.csv"
+    conc = folder / "concealed.csv"
     io.write_recording(rec, conc, meta, truth)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         result = diagnosis.diagnose(conc, progress=lambda s: say(f"    diagnose: {s}"))
-    io.write_json(out / "concealed" / "diagnosis.json", diagnosis.json_view(result))
-    write_report(result, out / "concealed" / "report")
-    text = summary(result)
-    say("4/4 writing the index page")
+    io.write_json(folder / "diagnosis.json", diagnosis.json_view(result))
+    write_report(result, folder / "report")
+    return {"effect": effect, "value": k_true, "unit": effects.get(effect).unit, "result": result,
+            "summary": summary(result)}
 
-    # 4. the index
+
+def _index(seed: int, seconds: float, n_recordings: int, rows: list[tuple], pooled: dict,
+           concealed: dict) -> list[str]:
+    """Step 4: the lines of ``index.md``."""
     md = ["# euc-sim demo", "",
-          f"Seed {seed}; {time.perf_counter() - t0:.0f} s on this machine. Everything here was made by "
+          f"Seed {seed}; {seconds:.0f} s on this machine. Everything here was made by "
           "`euc-sim demo` from the embedded defaults (Table 3, h = 0.6 m, default motor PD and "
           "LQR rider, the paper's noise: 0.2 mm, 0.5°).", "",
           "## 1. The paper's longitudinal maneuvers", "",
-          f"{len(paths)} synthetic recordings in [`recordings/`](recordings/) (15 s each, 120 Hz, "
+          f"{n_recordings} synthetic recordings in [`recordings/`](recordings/) (15 s each, 120 Hz, "
           "motion-capture and state columns, sidecars; the truth of each run in `NAME.truth.json`).", "",
           "## 2. h identified with both models (true h = 0.60 m)", "",
           "| source | maneuver | model | recordings | h median (m) | h range (m) | RMSE median (N·m) | identifiable |",
@@ -152,24 +176,30 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
                   f"{rmed:.3f} | {ident}/{n} |")
     for m in ("3dof", "2dof"):
         f = pooled[m]
-        md.append(f"| euc-sim, synthetic | pooled | {m} | {len(paths)} | {f.h:.3f} | "
+        md.append(f"| euc-sim, synthetic | pooled | {m} | {n_recordings} | {f.h:.3f} | "
                   f"{f.h_ci95[0]:.3f}–{f.h_ci95[1]:.3f} (95% CI) | {f.rmse:.3f} | "
                   f"{'yes' if f.identifiable else 'no'} |")
     for man, h, rmse in PAPER_RESULTS:
         md.append(f"| the paper, measured | {man} | 3dof | 1 | {h:.2f} | — | {rmse:.2f} | — |")
-    md += ["", "The paper's rows are real rides (a human, a real EUC); ours are simulations of "
-           "the 3-DoF model itself (with a swaying rider, motor noise 3 N·m), so their RMSEs are "
-           "far lower and only the pattern compares: which maneuvers identify h, and whether the "
-           "3-DoF minimum lies below the 2-DoF one (the paper found it does, and that the 3-DoF "
-           "model gives the larger h; see the table for what happened here).", "",
-           "![RMSE(h)](identification.png)", "",
-           "## 3. A concealed effect, found blind", "",
-           f"A stop-and-go recording with one effect injected, drawn by the seed among "
-           f"{', '.join(f'`{e}`' for e in CONCEALABLE)} at a random magnitude; "
-           "`euc-sim diagnose` read only the CSV and its sidecar.", "",
-           "```", text, "```", "",
-           f"Truth (from `concealed/concealed.truth.json`, read only here, after the diagnosis): "
-           f"`{effect}` = {k_true:.4g} {unit}.", ""]
+    return md + _index_concealed(concealed)
+
+
+def _index_concealed(c: dict) -> list[str]:
+    """The lines of ``index.md`` from the paper comparison's note to the concealed effect."""
+    result, effect, k_true = c["result"], c["effect"], c["value"]
+    md = ["", "The paper's rows are real rides (a human, a real EUC); ours are simulations of "
+          "the 3-DoF model itself (with a swaying rider, motor noise 3 N·m), so their RMSEs are "
+          "far lower and only the pattern compares: which maneuvers identify h, and whether the "
+          "3-DoF minimum lies below the 2-DoF one (the paper found it does, and that the 3-DoF "
+          "model gives the larger h; see the table for what happened here).", "",
+          "![RMSE(h)](identification.png)", "",
+          "## 3. A concealed effect, found blind", "",
+          f"A stop-and-go recording with one effect injected, drawn by the seed among "
+          f"{', '.join(f'`{e}`' for e in CONCEALABLE)} at a random magnitude; "
+          "`euc-sim diagnose` read only the CSV and its sidecar.", "",
+          "```", c["summary"], "```", "",
+          f"Truth (from `concealed/concealed.truth.json`, read only here, after the diagnosis): "
+          f"`{effect}` = {k_true:.4g} {c['unit']}.", ""]
     if result["effects"]:
         e = result["effects"][0]
         md.append(f"Found first: `{e['name']}` = {e['estimate']:.4g} {e['unit']} "
@@ -181,6 +211,4 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
            "[concealed/diagnosis.json](concealed/diagnosis.json).", "",
            "![before and after](concealed/report/before_after.png)", "",
            "![re-simulation](concealed/report/resimulation.png)", ""]
-    page = io.write_text(out / "index.md", "\n".join(md))
-    say(f"done in {time.perf_counter() - t0:.0f} s: {page}")
-    return page
+    return md
