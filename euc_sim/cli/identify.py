@@ -223,6 +223,17 @@ def cmd_identify(args: argparse.Namespace) -> int:
         "bootstrap": {"replicates": args.bootstrap, "block_s": block, "seed": args.seed},
         "figures": figures,
     }
+    _print_results(names, recs, per, pooled, per_json, controller)
+    if args.json:
+        write_json(args.json, out)
+    for f in figures:
+        print(f"wrote {f}")
+    return 0
+
+
+def _print_results(names: list[str], recs: list, per: list[dict], pooled: dict, per_json: list[dict],
+                   controller) -> None:
+    """The table of h per recording and pooled, and the controller and rider laws, on stdout."""
     print(f"{'recording':<32} {'model':<5} {'h [m]':>7} {'95% interval [m]':>18} "
           f"{'RMSE [N·m]':>10}  identifiable")
     rows = [(Path(n).name, f) for n, f in zip(names, per)]
@@ -243,8 +254,3 @@ def cmd_identify(args: argparse.Namespace) -> int:
         g = controller.gains
         print(f"pooled: controller K_p = {g['gamma']:.4g} N·m/rad, K_d = {g['gamma_d']:.4g} "
               f"N·m·s/rad (R² {controller.r2:.3f})")
-    if args.json:
-        write_json(args.json, out)
-    for f in figures:
-        print(f"wrote {f}")
-    return 0
