@@ -223,7 +223,14 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
     """
     from euc_sim.io import write_text
 
-    r = report
+    md = (_verdict_md(report, figures) + _estimates_md(report) + _aliases_md(report)
+          + _localisation_md(report, figures) + _simulation_md(report, figures)
+          + _assumptions_md(report))
+    return write_text(Path(out_dir) / "index.md", "\n".join(md))
+
+
+def _verdict_md(r: dict, figures: Mapping[str, str]) -> list[str]:
+    """Title, what was fitted on what, the verdict and the cross-ride figure."""
     unit = r["error_unit"]
     md = [f"# Ride diagnosis: {Path(r['recording']).name}", ""]
     test = Path(r["compare"]).name if r.get("compare") else "the second half of the same ride"
@@ -243,9 +250,14 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
     if "cross_ride" in figures:
         md += ["## Cross-ride prediction", "",
                f"![cross-ride prediction]({figures['cross_ride']})", ""]
-    md += ["## Estimates", "",
-           "| parameter | estimate | unit | 95 % interval | plausible range | plausible | aliases |",
-           "| --- | --- | --- | --- | --- | --- | --- |"]
+    return md
+
+
+def _estimates_md(r: dict) -> list[str]:
+    """The estimates table, each effect's evidence, and the full fit's table."""
+    md = ["## Estimates", "",
+          "| parameter | estimate | unit | 95 % interval | plausible range | plausible | aliases |",
+          "| --- | --- | --- | --- | --- | --- | --- |"]
     for name, e in r["nominal_parameters"].items():
         md.append(f"| {name} ({e['symbol']}) | {_fmt(e['estimate'])} | {e['unit']} | "
                   f"{_interval(e['ci95'])} | {_interval(e['plausible_range'])} | "
@@ -265,7 +277,12 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
     for name, e in r["all_estimates"].items():
         md.append(f"| {name} | {_fmt(e['estimate'])} | {e['unit']} | {_interval(e['ci95'])} | "
                   f"{'yes' if e['plausible'] else '**no**'} |")
-    md += ["", "## What this ride cannot tell apart", ""]
+    return md
+
+
+def _aliases_md(r: dict) -> list[str]:
+    """What the ride cannot tell apart: exact aliases, confounded pairs, caveats."""
+    md = ["", "## What this ride cannot tell apart", ""]
     seen: set = set()
     for name, al in r["aliases"].items():
         pairs = [a for a in al if frozenset((name, a)) not in seen]
@@ -283,8 +300,13 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
     for n in r.get("notes", []):
         if "masses are assumed" in n or "GPS" in n:
             md.append(f"- {n}.")
+    return md
+
+
+def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
+    """Where the inertia-only residual concentrates, with its figure."""
     loc = r.get("localisation", {})
-    md += ["", "## Where the mismatch concentrates", ""]
+    md = ["", "## Where the mismatch concentrates", ""]
     if r.get("windows"):
         md.append("Windows (s) where the inertia-only residual of "
                   f"{Path(r['recording']).name} concentrates "
@@ -302,8 +324,13 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
                   f"(slow: hills, wind) {tr['slow_rms_augmented']:.0f} {tr['unit']}.")
     if "residuals" in figures:
         md += ["", f"![residual over time]({figures['residuals']})", ""]
+    return md
+
+
+def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
+    """The closed-loop simulation along the ride against its log."""
     sim = r.get("simulation")
-    md += ["## Simulation against the ride", ""]
+    md = ["## Simulation against the ride", ""]
     if sim:
         e = sim["errors"]
         md += [f"The simulator's rider rode the logged speed profile of **{sim['ride']}** "
@@ -328,11 +355,16 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
             md += ["", f"![simulation against the log]({figures['simulation']})", ""]
     else:
         md += ["Not run (--no-simulate).", ""]
-    md += ["## Assumptions and notes", ""]
+    return md
+
+
+def _assumptions_md(r: dict) -> list[str]:
+    """Assumptions and every note."""
+    md = ["## Assumptions and notes", ""]
     a = r["assumptions"]
     md.append(f"- Wheel radius R = {a['R']:g} m, total mass {a['total_mass']:g} kg, "
               f"m_eq = {a['m_eq']:.3g} kg ({a['source']}); torque from "
               f"{r['torque_method']}, power from {r['power_source']}.")
     md += [f"- {n}" for n in r.get("notes", [])]
     md.append("")
-    return write_text(Path(out_dir) / "index.md", "\n".join(md))
+    return md

@@ -379,6 +379,48 @@ def _simulate_job(job: tuple) -> ProfileRun:
     return simulate_profile(*job)
 
 
+def _run_jobs(jobs: list, params: Params, workers: int) -> list[ProfileRun]:
+    """:func:`simulate_profile` on each job, in ``workers`` processes when more than 1."""
+    if workers <= 1:
+        return [_simulate_job(j) for j in jobs]
+    from concurrent.futures import ProcessPoolExecutor
+
+    from euc_sim.simulation.engine import default_rider
+
+    default_rider(params)              # designed once here, inherited by forked workers
+    with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
+        return list(pool.map(_simulate_job, jobs))
+
+
+def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict:
+    """RMS of log − simulation over the scored rows, per run, and the power-error ratio."""
+    errors = {}
+    for name in names:
+        errors[name] = {"P_W": _rms((table["P_log"] - table[f"P_{name}"])[ok]),
+                        "M_Nm": _rms((table["M_log"] - table[f"M_{name}"])[ok]),
+                        "v_mps": _rms((table["v_log"] - table[f"v_{name}"])[ok])}
+    nom_P = errors["nominal"]["P_W"]
+    errors["ratio_P"] = errors["augmented"]["P_W"] / nom_P if nom_P > 0 else float("nan")
+    return errors
+
+
+def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: float,
+                    min_len: float) -> dict:
+    """Where the augmented simulation's battery-power error concentrates (windows in s)."""
+    from euc_sim.diagnosis.localise import localise
+    from euc_sim.rides.page import split_at_gaps
+
+    t = table["t"].to_numpy()
+    r = (table["P_log"] - table["P_augmented"]).to_numpy()
+    good = ok & np.isfinite(r)
+    if good.sum() < 4:
+        return {"windows": [], "share": None, "correlations": {}}
+    loc = localise(t[good], r[good], {"speed": table["v_log"].to_numpy()[good],
+                                      "acceleration": a[good]},
+                   smooth=smooth, min_len=min_len)
+    return dict(loc, windows=split_at_gaps(loc["windows"], t[good], min_len))
+
+
 def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Mapping[str, float],
                   accepted: Sequence[str], log, scored: np.ndarray | None = None,
                   label: str | None = None, seed: int = 0, dt: float = 1e-3,
@@ -416,10 +458,6 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     -------
     RideSimulation
     """
-    from euc_sim.diagnosis.localise import localise
-    from euc_sim.rides.page import split_at_gaps
-    from euc_sim.simulation.engine import default_rider
-
     A = sig.assumptions
     params = ride_params(A)
     prof = speed_profile(log, sig.rate, sig.window, sig.polyorder)
@@ -434,14 +472,7 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     a_limit = {}
     jobs = [(t_p, v_p, params, effects, seed, dt, tuple(a_limits), track_iterations)
             for effects, _ in runs.values()]
-    if workers > 1:
-        from concurrent.futures import ProcessPoolExecutor
-
-        default_rider(params)              # designed once here, inherited by forked workers
-        with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
-            done = list(pool.map(_simulate_job, jobs))
-    else:
-        done = [_simulate_job(j) for j in jobs]
+    done = _run_jobs(jobs, params, workers)
     for (name, (effects, est)), run in zip(runs.items(), done):
         notes += [f"{name}: {n}" for n in run.notes]
         a_limit[name] = run.a_limit
@@ -461,22 +492,9 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     if scored is not None:
         ok &= np.asarray(scored, bool)
     table["scored"] = ok
-    errors = {}
-    for name in runs:
-        errors[name] = {"P_W": _rms((table["P_log"] - table[f"P_{name}"])[ok]),
-                        "M_Nm": _rms((table["M_log"] - table[f"M_{name}"])[ok]),
-                        "v_mps": _rms((table["v_log"] - table[f"v_{name}"])[ok])}
-    nom_P = errors["nominal"]["P_W"]
-    errors["ratio_P"] = errors["augmented"]["P_W"] / nom_P if nom_P > 0 else float("nan")
+    errors = _errors(table, ok, tuple(runs))
     errors["M_log_method"] = sig.torque_method
-    r = (table["P_log"] - table["P_augmented"]).to_numpy()
-    good = ok & np.isfinite(r)
-    loc = {"windows": [], "share": None, "correlations": {}}
-    if good.sum() >= 4:
-        loc = localise(t[good], r[good], {"speed": table["v_log"].to_numpy()[good],
-                                          "acceleration": frame["a"].to_numpy()[good]},
-                       smooth=window_smooth, min_len=window_min)
-        loc = dict(loc, windows=split_at_gaps(loc["windows"], t[good], window_min))
+    loc = _localise_error(table, frame["a"].to_numpy(), ok, window_smooth, window_min)
     return RideSimulation(label=label or str(sig.path), table=table, errors=errors, effects=eff,
                           parameters={"nominal": _drivetrain(nominal),
                                       "augmented": _drivetrain(augmented)},
