@@ -151,14 +151,24 @@ def _one_line_warning(message, category, filename, lineno, line=None) -> str:
     return f"euc-sim: warning: {message}\n"
 
 
+def _terminated(signum, frame):
+    """SIGTERM handled like Ctrl-C: unwinds, so temporary files and workers are cleaned up."""
+    raise KeyboardInterrupt("SIGTERM")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of ``euc-sim``; returns the exit code."""
+    """Entry point of ``euc-sim``; returns the exit code (130 on Ctrl-C, 143 on SIGTERM)."""
+    import signal
+    import threading
     import warnings
 
     parser = build_parser()
     args = parser.parse_args(argv)
     previous = warnings.formatwarning
     warnings.formatwarning = _one_line_warning     # for people: no source paths
+    on_term = None
+    if threading.current_thread() is threading.main_thread():
+        on_term = signal.signal(signal.SIGTERM, _terminated)
     try:
         return int(args.func(args))
     except BrokenPipeError:             # the reader left (| head): stop quietly, as cat does
@@ -170,11 +180,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         print(f"euc-sim {args.command}: error: {msg}", file=sys.stderr)
         return EXIT_USAGE
-    except KeyboardInterrupt:
-        print(f"euc-sim {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        term = str(exc) == "SIGTERM"
+        print(f"euc-sim {args.command}: interrupted{' (SIGTERM)' if term else ''}", file=sys.stderr)
+        return 143 if term else 130
     finally:
         warnings.formatwarning = previous
+        if on_term is not None:
+            signal.signal(signal.SIGTERM, on_term)
 
 
 if __name__ == "__main__":

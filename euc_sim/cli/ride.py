@@ -13,6 +13,8 @@ from euc_sim.cli.common import seed
 
 import argparse
 import math
+import os
+import warnings
 from pathlib import Path
 
 __all__ = ["add_ride_parser", "run_ride", "MIN_BOOT"]
@@ -64,7 +66,8 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     jobs : int
         Processes for the nominal and augmented simulations (1 or 2).
     progress : callable, optional
-        Called with a short status string.
+        Called with a short status string at each step (from the simulation's
+        worker processes too when it can be pickled).
     spec : WheelSpec, optional
         The wheel's radius, weight and voltage where known
         (:func:`euc_sim.rides.spec.wheel_spec`).
@@ -74,19 +77,20 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     dict
         CONTRACT's ``euc-sim ride`` object plus ``windows`` (s, where the
         inertia-only residual of LOG concentrates), ``localisation``,
-        ``residual_traces``, ``simulation`` and ``report``.
+        ``residual_traces``, ``simulation`` and ``report``.  Files are named
+        relative to ``report_dir`` (file names), never by absolute path.
     """
     from euc_sim.rides.analysis import ride_analysis
+    from euc_sim.rides.page import residual_windows
     from euc_sim.rides.signals import RideAssumptions
-    from euc_sim.rides.page import plot_residuals, residual_windows, write_page
 
     say = progress or (lambda s: None)
     assumptions = assumptions or RideAssumptions()
     say("finding the total mass and the drivetrain")
     physics = _drivetrain(log, compare, spec, n_boot, seed)   # bad logs fail before any output
-    say("fitting the balance")
-    an = ride_analysis(log, compare, report_dir=report_dir, assumptions=assumptions,
-                       domain=domain, n_boot=n_boot, seed=seed)
+    an = ride_analysis(log, compare, assumptions=assumptions, domain=domain, n_boot=n_boot,
+                       seed=seed, progress=say)
+    say("locating the residual")
     rep = dict(an.report)
     rep.update(physics[0])
     cr = an.cross
@@ -100,39 +104,83 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
                                        f"{rep['error_unit']}",
                            "share": loc["share"], "correlations": loc["correlations"]}
     rep["residual_traces"] = [tr.as_json() for tr in traces]
-    rep["simulation"] = None
+    sim = None
     if simulate:
-        from euc_sim.rides.simulate import simulate_ride
+        from euc_sim.rides.simulate import simulation_obstacle
 
-        sig = an.sig_test if an.sig_test is not None else an.sig_fit
-        ride_path = compare if compare is not None else log
-        scored = None
-        if an.sig_test is None:          # score the held-out second half only
-            t = sig.frame["t"].to_numpy()
-            scored = t >= 0.5 * (t[0] + t[-1])
-        say(f"simulating {Path(ride_path).name} (nominal and augmented)")
-        sim = simulate_ride(sig, nom, aug, cr.accepted, ride_path, scored=scored,
-                            label=Path(ride_path).name, seed=seed, workers=jobs)
-        rep["simulation"] = sim.as_json()
+        why = simulation_obstacle(an.sig_test if an.sig_test is not None else an.sig_fit)
+        if why is None:
+            sim = _simulate(an, log, compare, seed, jobs, progress)
+        else:
+            warnings.warn(why, stacklevel=2)
+            rep["notes"] = list(rep["notes"]) + [why]
+    rep["simulation"] = None if sim is None else sim.as_json()
     rep["report"] = None
-    if report_dir is not None:
-        from euc_sim.io import atomic_write
-
-        out = Path(report_dir)
-        figures = {"cross_ride": "ride_balance.png",
-                   "residuals": plot_residuals(traces, out / "ride_residuals.png").name}
-        if simulate:
-            from euc_sim.rides.simulate import plot_ride_simulation
-
-            figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
-            atomic_write(out / "ride_simulation.csv",
-                         lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
-            rep["simulation"]["table"] = str(out / "ride_simulation.csv")
-            rep["simulation"]["figure"] = str(out / "ride_simulation.png")
-        figures.update(_drivetrain_figures(physics, out))
-        rep["figures"] = {k: str(out / v) for k, v in figures.items()}
-        rep["report"] = str(write_page(rep, out, figures))
+    if report_dir is not None:          # every file at the end: an interrupted run writes none
+        say(f"writing the report to {report_dir}")
+        _write_report(rep, an, traces, sim, physics, Path(report_dir))
     return rep
+
+
+def _simulate(an, log, compare, seed: int, jobs: int, progress):
+    """The closed-loop rider along the tested ride (its second half scored without compare)."""
+    from euc_sim.rides.simulate import simulate_ride
+
+    sig = an.sig_test if an.sig_test is not None else an.sig_fit
+    ride_path = compare if compare is not None else log
+    scored = None
+    if an.sig_test is None:          # score the held-out second half only
+        t = sig.frame["t"].to_numpy()
+        scored = t >= an.cross.test_design.t.min()      # the test half's first row
+    if progress is not None:
+        progress(f"simulating the rider along {Path(ride_path).name}: nominal and augmented, "
+                 f"{min(jobs, 2)} process(es)")
+    cr = an.cross
+    return simulate_ride(sig, cr.nominal.estimate, cr.augmented.estimate, cr.accepted, ride_path,
+                         scored=scored, label=Path(ride_path).name, seed=seed, workers=jobs,
+                         progress=progress)
+
+
+def _write_report(rep: dict, an, traces, sim, physics, out: Path) -> None:
+    """Figures, tables and ``index.md`` into ``out``; ``rep`` gets their file names.
+
+    Everything is first written into a hidden folder inside ``out`` and moved into
+    place (``index.md`` last) only once all of it exists: a failure or an
+    interruption half-way leaves ``out`` as it was.
+    """
+    import shutil
+    import tempfile
+
+    out.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".ride-report-", dir=out))
+    try:
+        _write_report_files(rep, an, traces, sim, physics, stage)
+        names = sorted((p.name for p in stage.iterdir()), key=lambda n: n == "index.md")
+        for name in names:
+            os.replace(stage / name, out / name)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
+    from euc_sim.io import atomic_write
+    from euc_sim.rides.analysis import write_balance
+    from euc_sim.rides.page import plot_residuals, write_page
+
+    figures = {"cross_ride": write_balance(an, out).name,
+               "residuals": plot_residuals(traces, out / "ride_residuals.png").name}
+    rep["figure"] = figures["cross_ride"]
+    if sim is not None:
+        from euc_sim.rides.simulate import plot_ride_simulation
+
+        figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
+        atomic_write(out / "ride_simulation.csv",
+                     lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
+        rep["simulation"]["table"] = "ride_simulation.csv"
+        rep["simulation"]["figure"] = figures["simulation"]
+    figures.update(_drivetrain_figures(physics, out))
+    rep["figures"] = dict(figures)
+    rep["report"] = write_page(rep, out, figures).name
 
 
 def _drivetrain(log, compare, spec, n_boot: int, seed: int):
@@ -181,6 +229,14 @@ def _mass_lines(rep: dict) -> list[str]:
     return lines
 
 
+def _progress(msg: str) -> None:
+    """Progress line on stderr (module-level: picklable for the simulation's workers)."""
+    import sys
+
+    sys.stderr.write(f"ride: {msg} ...\n")     # one write: lines of two workers never mix
+    sys.stderr.flush()
+
+
 def _cmd_ride(args: argparse.Namespace) -> int:
     from euc_sim.cli.common import say
     from euc_sim.io import check_writable, write_json
@@ -193,7 +249,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         raise ValueError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
                          f"bootstrap interval), got {args.n_boot}")
     assumptions = _assumptions(args)
-    from euc_sim.rides.signals import ride_signals
+    from euc_sim.rides.analysis import check_data
     from euc_sim.rides.spec import wheel_spec
 
     spec = wheel_spec(args.wheel, radius=args.radius, wheel_mass=args.wheel_mass,
@@ -202,7 +258,8 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     for p in [args.log] + ([args.compare] if args.compare else []):
         if not Path(p).is_file():
             raise FileNotFoundError(f"{p}: no such log file")
-        ride_signals(p, assumptions)        # a malformed log fails here, before any output exists
+    # a malformed or too short log fails here, before any output exists
+    check_data(args.log, args.compare, assumptions=assumptions, domain=args.domain)
     if args.json:
         check_writable(args.json)
     if args.report:
@@ -213,9 +270,11 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     rep = run_ride(args.log, args.compare, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
                    simulate=not args.no_simulate, jobs=args.jobs,
-                   progress=(lambda s: say(f"ride: {s} ...")) if args.verbose else None,
-                   spec=spec)
+                   progress=None if args.quiet else _progress, spec=spec)
     if args.json:
+        if args.report:         # where the named files are, from the JSON's folder
+            rep["report_dir"] = Path(os.path.relpath(Path(args.report).resolve(),
+                                                     Path(args.json).resolve().parent)).as_posix()
         write_json(args.json, rep)
     u = rep["error_unit"]
     print(f"held-out error ({rep['error_measure']}): inertia-only "
@@ -239,7 +298,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         print(f"  simulation along {sim['ride']}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
               f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
     if rep["report"]:
-        say(f"ride: report written to {rep['report']}")
+        say(f"ride: report written to {Path(args.report) / rep['report']}")
     return 0
 
 
@@ -273,5 +332,6 @@ def add_ride_parser(sub) -> None:
                    help="processes for the nominal and augmented simulations (default 2)")
     p.add_argument("--no-simulate", action="store_true",
                    help="skip the closed-loop simulation along the ride's speed profile")
-    p.add_argument("--verbose", action="store_true", help="show progress")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--verbose", action="store_true", help=argparse.SUPPRESS)   # progress is the default
     p.set_defaults(func=_cmd_ride)

@@ -7,17 +7,19 @@ cross-ride comparison (:mod:`euc_sim.rides.crossride`) and assembles the report;
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import pandas as pd
 
 from euc_sim.rides.crossride import CrossRide, cross_ride, effect_entries, plot_cross_ride
 from euc_sim.rides.design import NOMINAL, Design, balance_design
-from euc_sim.rides.fit import plausibility
+from euc_sim.rides.fit import FEW_BLOCKS, block_rows, plausibility
 from euc_sim.rides.signals import RideAssumptions, RideSignals, ride_signals
 
-__all__ = ["RideAnalysis", "ride_report", "ride_analysis"]
+__all__ = ["RideAnalysis", "ride_report", "ride_analysis", "write_balance", "check_data"]
 
 
 @dataclass(frozen=True)
@@ -51,7 +53,7 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
                   assumptions: RideAssumptions = RideAssumptions(), rate: float = 10.0,
                   max_gap: float = 1.0, window: float = 1.5, polyorder: int = 2,
                   domain: str = "power", n_boot: int = 200, block_s: float = 10.0,
-                  seed: int = 0) -> RideAnalysis:
+                  seed: int = 0, progress: Callable[[str], None] | None = None) -> RideAnalysis:
     """Diagnose a ride's longitudinal balance; CONTRACT's ``euc-sim ride`` JSON form.
 
     Fits the inertia-only balance (η_m, η_r) and the augmented one on
@@ -73,6 +75,8 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
     domain : {"power", "torque"}
     n_boot, block_s, seed :
         See :func:`fit_balance`.
+    progress : callable, optional
+        Called with a short line at each step.
 
     Returns
     -------
@@ -83,19 +87,46 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
         of the augmented fit, with plausibility flags), ``all_estimates`` (every
         candidate of the full fit, flagged), ``aliases``, ``torque_method``,
         ``power_source``, ``assumptions``, ``filter``, ``bootstrap``, ``notes``,
-        ``figure``.
+        ``figure`` (file name inside ``report_dir``); ``recording`` and
+        ``compare`` are file names (no folder: no machine path in outputs).
     """
+    say = progress or (lambda msg: None)
+    say(f"reading {Path(log_path).name}" + ("" if compare_path is None else
+                                            f" and {Path(compare_path).name}"))
     sig_fit = ride_signals(log_path, assumptions, rate, max_gap, window, polyorder)
     sig_test = (None if compare_path is None else
                 ride_signals(compare_path, assumptions, rate, max_gap, window, polyorder))
     d_fit, d_test, fit_label, test_label = _fit_and_test(sig_fit, sig_test, log_path, compare_path,
                                                          domain)
-    cr = cross_ride(d_fit, d_test, n_boot, block_s, seed, fit_label, test_label)
-    aug_phys = plausibility(cr.augmented)
+    cr = cross_ride(d_fit, d_test, n_boot, block_s, seed, fit_label, test_label, progress=say)
     notes = _notes(sig_fit, sig_test, d_fit, assumptions, test_label)
-    report = {
-        "recording": str(log_path),
-        "compare": None if compare_path is None else str(compare_path),
+    blocks = len(d_fit.P) / (block_s * rate)
+    if n_boot and blocks < FEW_BLOCKS:
+        notes.append(_few_blocks(fit_label, blocks, block_s))
+        warnings.warn(notes[-1], stacklevel=2)
+    report = _report(cr, sig_fit, d_fit, d_test, (fit_label, test_label), notes, domain,
+                     assumptions, dict(log_path=log_path, compare_path=compare_path, rate=rate,
+                                       window=window, polyorder=polyorder, max_gap=max_gap,
+                                       n_boot=n_boot, block_s=block_s, seed=seed))
+    an = RideAnalysis(report=report, cross=cr, sig_fit=sig_fit, sig_test=sig_test)
+    if report_dir is not None:
+        report["figure"] = write_balance(an, report_dir).name
+    return an
+
+
+def _report(cr: CrossRide, sig_fit: RideSignals, d_fit: Design, d_test: Design,
+            labels: tuple[str, str], notes: list[str], domain: str,
+            assumptions: RideAssumptions, settings: dict) -> dict:
+    """CONTRACT's ``euc-sim ride`` dict from the cross-ride fits (``figure`` still None)."""
+    fit_label, test_label = labels
+    log_path, compare_path = settings["log_path"], settings["compare_path"]
+    rate, window, polyorder = settings["rate"], settings["window"], settings["polyorder"]
+    max_gap, n_boot = settings["max_gap"], settings["n_boot"]
+    block_s, seed = settings["block_s"], settings["seed"]
+    aug_phys = plausibility(cr.augmented)
+    return {
+        "recording": Path(log_path).name,
+        "compare": None if compare_path is None else Path(compare_path).name,
         "effects": effect_entries(cr),
         "heldout_error_nominal": cr.heldout_nominal,
         "heldout_error_augmented": cr.heldout_augmented,
@@ -126,9 +157,32 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
         "notes": notes,
         "figure": None,
     }
-    if report_dir is not None:
-        report["figure"] = str(_write_balance(cr, d_test, sig_fit, sig_test, Path(report_dir)))
-    return RideAnalysis(report=report, cross=cr, sig_fit=sig_fit, sig_test=sig_test)
+
+
+def check_data(log_path, compare_path=None, *, assumptions: RideAssumptions = RideAssumptions(),
+               domain: str = "power", block_s: float = 10.0) -> None:
+    """Fail early, naming the file, on a log :func:`ride_analysis` cannot use.
+
+    Reads the log(s) and checks the fit part (LOG, or its first half without
+    ``compare_path``) holds enough rows for the bootstrap (:func:`block_rows`).
+
+    Raises
+    ------
+    ValueError, OSError
+        naming the file and what is missing.
+    """
+    sig_fit = ride_signals(log_path, assumptions)
+    sig_test = None if compare_path is None else ride_signals(compare_path, assumptions)
+    d_fit, d_test, _, _ = _fit_and_test(sig_fit, sig_test, log_path, compare_path, domain)
+    block_rows(d_fit, block_s)
+    if len(d_test.P) == 0:
+        raise ValueError(f"{d_test.path}: no usable rows to test on")
+
+
+def _few_blocks(fit_label: str, blocks: float, block_s: float) -> str:
+    return (f"{fit_label} gives only {blocks:.1f} bootstrap blocks of {block_s:g} s: the 95 % "
+            f"intervals are rough (fewer than {FEW_BLOCKS} blocks); a longer ride gives "
+            f"firmer ones")
 
 
 def _fit_and_test(sig_fit: RideSignals, sig_test: RideSignals | None, log_path, compare_path,
@@ -154,12 +208,18 @@ def _notes(sig_fit: RideSignals, sig_test: RideSignals | None, d_fit: Design,
     return notes
 
 
-def _write_balance(cr: CrossRide, d_test: Design, sig_fit: RideSignals,
-                   sig_test: RideSignals | None, report_dir: Path) -> Path:
-    """Write ``ride_balance.png`` and ``ride_balance.csv`` (the test ride) atomically."""
+def write_balance(an: RideAnalysis, report_dir) -> Path:
+    """Write ``ride_balance.png`` and ``ride_balance.csv`` (the test ride) atomically.
+
+    Returns
+    -------
+    pathlib.Path
+        The figure.
+    """
     from euc_sim.io import atomic_write
 
-    fig = plot_cross_ride(cr, report_dir / "ride_balance.png", sig_fit, sig_test)
+    cr, d_test, report_dir = an.cross, an.cross.test_design, Path(report_dir)
+    fig = plot_cross_ride(cr, report_dir / "ride_balance.png", an.sig_fit, an.sig_test)
     table = pd.DataFrame({"t": d_test.t, "v": d_test.v, "P_measured": d_test.P,
                           "P_nominal": d_test.predict(cr.nominal.estimate),
                           "P_augmented": d_test.predict(cr.augmented.estimate)})

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 from euc_sim.rides.design import CANDIDATES, NOMINAL, Design
 from euc_sim.rides.fit import BalanceFit, fit_balance, plausibility
@@ -52,14 +53,20 @@ class CrossRide:
 
 
 def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block_s: float = 10.0,
-               seed: int = 0, fit_label: str = "fit", test_label: str = "test") -> CrossRide:
+               seed: int = 0, fit_label: str = "fit", test_label: str = "test",
+               progress: Callable[[str], None] | None = None) -> CrossRide:
     """Fit the nominal and augmented balances on one design, measure both on another.
 
     An effect is *accepted* when its 95 % interval in the full fit excludes zero on
     the physical side (C_rr, k, P₀ > 0; a slope or GPS gain of either sign).
+    ``progress``, when given, is called with a short line before each bootstrapped fit.
     """
+    say = progress or (lambda msg: None)
     common = [c for c in fit_design.candidates if c in test_design.candidates]
+    boot = f"{n_boot} bootstrap replicates"
+    say(f"fitting the inertia-only balance on {fit_label} (1/3, {boot})")
     nominal = fit_balance(fit_design, list(NOMINAL), n_boot, block_s, seed)
+    say(f"fitting every candidate on {fit_label} (2/3, {boot})")
     full = fit_balance(fit_design, common, n_boot, block_s, seed)
     accepted = []
     for c in full.names:
@@ -69,6 +76,7 @@ def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block
         if (lo > 0) or (c.startswith("road_slope") and hi < 0):
             accepted.append(c)
     alone = sorted(accepted, key=lambda c: fit_balance(fit_design, list(NOMINAL) + [c], 0).rmse)
+    say(f"fitting the augmented balance ({', '.join(alone) or 'nothing accepted'}) (3/3, {boot})")
     augmented = fit_balance(fit_design, list(NOMINAL) + alone, n_boot, block_s, seed)
     return CrossRide(fit_design=fit_design, test_design=test_design, nominal=nominal, full=full,
                      augmented=augmented, accepted=tuple(alone),

@@ -15,7 +15,13 @@ import numpy as np
 
 from euc_sim.rides.design import CANDIDATES, NOMINAL, PLAUSIBLE, RHO_AIR, Design
 
-__all__ = ["BalanceFit", "fit_balance", "plausibility"]
+__all__ = ["BalanceFit", "fit_balance", "block_rows", "plausibility", "MIN_BLOCKS", "FEW_BLOCKS"]
+
+#: Fewest bootstrap blocks a fit with intervals accepts: with one block every
+#: replicate resamples the whole residual in order, and the interval has zero width.
+MIN_BLOCKS = 2
+#: Below this many blocks the intervals are rough (reported as a note).
+FEW_BLOCKS = 5
 
 #: Start values and bounds of the least-squares fit.
 _START = {"eta_motor": 0.8, "eta_regen": 0.8, "rolling_resistance": 0.0,
@@ -88,6 +94,52 @@ def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray |
     return res
 
 
+def block_rows(design: Design, block_s: float = 10.0, check: bool = True) -> int:
+    """Rows per bootstrap block of ``block_s`` s on ``design``'s grid.
+
+    Raises
+    ------
+    ValueError
+        (with ``check``) naming the ride, when its rows in use hold fewer than
+        :data:`MIN_BLOCKS` blocks: too little data for an interval.
+    """
+    if not (math.isfinite(block_s) and block_s > 0):
+        raise ValueError(f"block_s must be a positive number of seconds, got {block_s!r}")
+    n = len(design.P)
+    dt = float(np.median(np.diff(design.t))) if n > 1 else 0.1
+    L = max(1, int(round(block_s / dt))) if dt > 0 else 1
+    if check and n < MIN_BLOCKS * L:
+        raise ValueError(f"{design.path}: {n} usable rows ({n * dt:.1f} s of ride) to fit on, too "
+                         f"few for a 95 % interval: the block bootstrap needs at least "
+                         f"{MIN_BLOCKS} blocks of {block_s:g} s ({MIN_BLOCKS * L} rows, "
+                         f"{MIN_BLOCKS * block_s:g} s after gaps and filter ends)")
+    return L
+
+
+def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P: np.ndarray,
+               e_P: np.ndarray, L: int, n_boot: int, seed: int):
+    """Moving-block residual bootstrap: 2.5/97.5 percentiles and replicate correlations."""
+    n = len(e_P)
+    rng = np.random.default_rng(seed)
+    n_blocks = int(math.ceil(n / L))
+    boots = np.empty((n_boot, len(names)))
+    for i in range(n_boot):
+        starts = rng.integers(0, n - L + 1, size=n_blocks)
+        e_star = np.concatenate([e_P[s:s + L] for s in starts])[:n]
+        boots[i] = _solve(design, names, theta, P=fitted_P + e_star).x
+    corr = {}
+    if not n_boot:
+        nan = np.full(len(names), np.nan)
+        return nan, nan, corr
+    lo, hi = np.percentile(boots, [2.5, 97.5], axis=0)
+    if n_boot > 2:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            C = np.corrcoef(boots, rowvar=False)
+        corr = {(a, b): float(C[i, j]) for i, a in enumerate(names)
+                for j, b in enumerate(names) if i != j and np.isfinite(C[i, j])}
+    return lo, hi, corr
+
+
 def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int = 200,
                 block_s: float = 10.0, seed: int = 0) -> BalanceFit:
     """Least squares (scipy ``least_squares``) with moving-block bootstrap 95 % intervals.
@@ -113,6 +165,13 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
     Returns
     -------
     BalanceFit
+
+    Raises
+    ------
+    ValueError
+        naming the ride, when it has too few rows for the parameters, or (with
+        ``n_boot`` > 0) fewer than :data:`MIN_BLOCKS` blocks: with one block every
+        replicate is the fit itself and the interval would have zero width.
     """
     names = list(names) if names is not None else list(design.candidates)
     for n in NOMINAL:
@@ -125,6 +184,7 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
     n = len(design.P)
     if n <= len(names) + 2:
         raise ValueError(f"{design.path}: {n} usable rows, too few for {len(names)} parameters")
+    L = block_rows(design, block_s, check=n_boot > 0)
     x0 = np.array([_START[k] for k in names])
     res = _solve(design, names, x0)
     theta = res.x
@@ -140,25 +200,7 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
         se = np.sqrt(np.clip(np.diag(cov), 0, None))
     except np.linalg.LinAlgError:
         se = np.full(len(names), np.nan)
-    dt = float(np.median(np.diff(design.t))) if n > 1 else 0.1
-    L = max(1, min(n, int(round(block_s / dt)))) if dt > 0 else 1
-    rng = np.random.default_rng(seed)
-    n_blocks = int(math.ceil(n / L))
-    boots = np.empty((n_boot, len(names)))
-    for i in range(n_boot):
-        starts = rng.integers(0, n - L + 1, size=n_blocks)
-        e_star = np.concatenate([e_P[s:s + L] for s in starts])[:n]
-        boots[i] = _solve(design, names, theta, P=fitted_P + e_star).x
-    corr = {}
-    if n_boot:
-        lo, hi = np.percentile(boots, [2.5, 97.5], axis=0)
-        if n_boot > 2:
-            with np.errstate(invalid="ignore", divide="ignore"):
-                C = np.corrcoef(boots, rowvar=False)
-            corr = {(a, b): float(C[i, j]) for i, a in enumerate(names)
-                    for j, b in enumerate(names) if i != j and np.isfinite(C[i, j])}
-    else:
-        lo = hi = np.full(len(names), np.nan)
+    lo, hi, corr = _bootstrap(design, names, theta, fitted_P, e_P, L, n_boot, seed)
     return BalanceFit(names=tuple(names), estimate=est,
                       ci95={k: (float(a), float(b)) for k, a, b in zip(names, lo, hi)},
                       se_naive=dict(zip(names, map(float, se))),

@@ -32,11 +32,12 @@ step is recorded in the notes, never hidden.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import math
+import pickle
+from functools import partial
+from pathlib import Path
 from dataclasses import dataclass, field
-from typing import Mapping, Sequence
+from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -237,9 +238,38 @@ def _track(t, v_target, v_plan, params, effects, seed, dt):
     return df, v_sim, float(np.sqrt(np.mean((v_target - v_sim) ** 2)))
 
 
+def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, window: float,
+                  notes: list, say) -> pd.DataFrame:
+    """Iterative learning: add the slow speed error to the plan and ride again.
+
+    Returns the frame of the run closest to ``target``; appends to ``notes``.
+    """
+    from euc_sim.simulation.errors import FallError
+
+    df, v_sim, err = run
+    rate = 1.0 / float(np.median(np.diff(t)))
+    plan = target
+    for it in range(iterations):
+        plan = plan + sg(target - v_sim, np.zeros(t.size, int), rate, window, 2)
+        say(f"tracking correction {it + 1} of {iterations}")
+        try:
+            df2, v2, err2 = _track(t, target, plan, params, effects, seed, dt)
+        except FallError as exc:
+            notes.append(f"tracking correction {it + 1}: rider fell ({exc}); kept the "
+                         f"previous run")
+            break
+        notes.append(f"tracking correction {it + 1}: RMS speed error {err:.3f} -> "
+                     f"{err2:.3f} m/s")
+        if err2 >= err:
+            break
+        df, v_sim, err = df2, v2, err2
+    return df
+
+
 def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapping[str, float],
                      seed: int = 0, dt: float = 1e-3, a_limits: Sequence[float] = A_LIMITS,
-                     track_iterations: int = 1, track_window: float = 10.0) -> ProfileRun:
+                     track_iterations: int = 1, track_window: float = 10.0,
+                     progress: Callable[[str], None] | None = None) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); limit it if the rider falls.
 
     The simulated rider has no integral action: a resisting force (drag, rolling
@@ -267,6 +297,8 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         Plan corrections after the first run (0: the plan is the profile).
     track_window : float
         s.
+    progress : callable, optional
+        Called with a short line before each closed-loop run.
 
     Returns
     -------
@@ -274,16 +306,17 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     """
     from euc_sim.simulation.errors import FallError
 
+    say = progress or (lambda msg: None)
     t = np.asarray(t, float)
     v = np.asarray(v, float)
     notes: list[str] = []
     a_peak = float(np.max(np.abs(np.gradient(v, t)))) if t.size > 1 else 0.0
-    rate = 1.0 / float(np.median(np.diff(t))) if t.size > 1 else 1.0
-    one = np.zeros(t.size, int)
     for a_lim in (None, *a_limits):
         if a_lim is not None and a_lim >= a_peak:
             continue
         target = v if a_lim is None else limit_acceleration(t, v, a_lim)
+        say(f"riding {t[-1] - t[0]:.0f} s of " + ("the logged profile" if a_lim is None else
+                                                 f"the profile limited to ±{a_lim:g} m/s²"))
         try:
             df, v_sim, err = _track(t, target, target, params, effects, seed, dt)
         except FallError as exc:
@@ -295,22 +328,9 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
             notes.append(f"profile acceleration limited to ±{a_lim:g} m/s² (logged peak "
                          f"{a_peak:.2f} m/s²; RMS speed change {changed:.3f} m/s) so the "
                          f"simulated rider can follow it")
-        plan = target
-        for it in range(track_iterations):
-            if t.size < 5:
-                break
-            plan = plan + sg(target - v_sim, one, rate, track_window, 2)
-            try:
-                df2, v2, err2 = _track(t, target, plan, params, effects, seed, dt)
-            except FallError as exc:
-                notes.append(f"tracking correction {it + 1}: rider fell ({exc}); kept the "
-                             f"previous run")
-                break
-            notes.append(f"tracking correction {it + 1}: RMS speed error {err:.3f} -> "
-                         f"{err2:.3f} m/s")
-            if err2 >= err:
-                break
-            df, v_sim, err = df2, v2, err2
+        if t.size >= 5:
+            df = _correct_plan(t, target, (df, v_sim, err), params, effects, seed, dt,
+                               track_iterations, track_window, notes, say)
         return ProfileRun(df, a_lim, tuple(notes))
     notes.append("the rider fell on every acceleration limit tried: no simulation")
     return ProfileRun(None, None, tuple(notes))
@@ -379,17 +399,39 @@ def _simulate_job(job: tuple) -> ProfileRun:
     return simulate_profile(*job)
 
 
-def _run_jobs(jobs: list, params: Params, workers: int) -> list[ProfileRun]:
-    """:func:`simulate_profile` on each job, in ``workers`` processes when more than 1."""
-    if workers <= 1:
-        return [_simulate_job(j) for j in jobs]
-    from concurrent.futures import ProcessPoolExecutor
+def _say_prefixed(progress: Callable[[str], None], prefix: str, msg: str) -> None:
+    progress(f"{prefix}: {msg}")
 
-    from euc_sim.simulation.engine import default_rider
 
-    default_rider(params)              # designed once here, inherited by forked workers
-    with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
-        return list(pool.map(_simulate_job, jobs))
+def _prefixed(progress, name: str, workers: int):
+    """``progress`` with the run's name in front, or None when it cannot reach a worker."""
+    if progress is None:
+        return None
+    out = partial(_say_prefixed, progress, name)
+    if workers > 1:
+        try:
+            pickle.dumps(out)
+        except (pickle.PicklingError, AttributeError, TypeError):
+            return None                 # a lambda: progress from the parent only
+    return out
+
+
+def _run_jobs(jobs: list, names: Sequence[str], params: Params, workers: int,
+              progress: Callable[[str], None] | None = None) -> list[ProfileRun]:
+    """:func:`simulate_profile` on each job, in ``workers`` processes when more than 1.
+
+    The workers die with this process, and an interruption kills them at once
+    (:func:`euc_sim.rides.pool.run_jobs`).
+    """
+    from euc_sim.rides.pool import run_jobs
+
+    say = progress or (lambda msg: None)
+    if workers > 1:
+        from euc_sim.simulation.engine import default_rider
+
+        default_rider(params)              # designed once here, inherited by forked workers
+    return run_jobs(_simulate_job, jobs, workers,
+                    on_done=lambda i, k: say(f"simulation {k}/{len(jobs)} done ({names[i]})"))
 
 
 def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict:
@@ -421,12 +463,27 @@ def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: 
     return dict(loc, windows=split_at_gaps(loc["windows"], t[good], min_len))
 
 
+def _on_grid(df: pd.DataFrame | None, sig: RideSignals, est: Mapping[str, float], R: float,
+             name: str) -> dict:
+    """A run's speed, torque and battery power on the log's grid, smoothed like the log."""
+    t = sig.frame["t"].to_numpy()
+    if df is None:
+        return {f"{col}_{name}": np.full(t.size, np.nan) for col in ("v", "M", "P")}
+    P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], R, est["eta_motor"],
+                      est["eta_regen"], est.get("drivetrain_idle_loss", 0.0))
+    ts = df["t"].to_numpy()
+    return {f"v_{name}": sig.filt(to_grid(ts, df["x_dot"], t)),
+            f"M_{name}": sig.filt(to_grid(ts, df["M_d"], t)),
+            f"P_{name}": sig.filt(to_grid(ts, P, t))}
+
+
 def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Mapping[str, float],
                   accepted: Sequence[str], log, scored: np.ndarray | None = None,
                   label: str | None = None, seed: int = 0, dt: float = 1e-3,
                   a_limits: Sequence[float] = A_LIMITS, track_iterations: int = 1,
                   window_smooth: float = 5.0, window_min: float = 3.0,
-                  workers: int = 1) -> RideSimulation:
+                  workers: int = 1,
+                  progress: Callable[[str], None] | None = None) -> RideSimulation:
     """Simulate a ride's speed profile, nominal and augmented, and compare with its log.
 
     Parameters
@@ -448,7 +505,11 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
         See :func:`simulate_profile`.
     workers : int
         Processes for the two simulations (2: nominal and augmented side by
-        side; the results do not depend on it).
+        side; the results do not depend on it).  Workers die with this process
+        and are killed when it is interrupted.
+    progress : callable, optional
+        Called with a short line as each run starts and ends (from the workers
+        too when it can be pickled, e.g. a module-level function).
     window_smooth, window_min : float
         s: ``smooth`` and ``min_len`` of :func:`euc_sim.diagnosis.localise.localise`
         (longer than its 1 s / 0.5 s defaults: a ride is minutes long and
@@ -470,23 +531,13 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
            "P_log": frame["P"].to_numpy()}
     runs = {"nominal": ({}, nominal), "augmented": (eff, augmented)}
     a_limit = {}
-    jobs = [(t_p, v_p, params, effects, seed, dt, tuple(a_limits), track_iterations)
-            for effects, _ in runs.values()]
-    done = _run_jobs(jobs, params, workers)
+    jobs = [(t_p, v_p, params, effects, seed, dt, tuple(a_limits), track_iterations, 10.0,
+             _prefixed(progress, name, workers)) for name, (effects, _) in runs.items()]
+    done = _run_jobs(jobs, list(runs), params, workers, progress)
     for (name, (effects, est)), run in zip(runs.items(), done):
         notes += [f"{name}: {n}" for n in run.notes]
         a_limit[name] = run.a_limit
-        if run.frame is None:
-            for col in ("v", "M", "P"):
-                out[f"{col}_{name}"] = np.full(t.size, np.nan)
-            continue
-        df = run.frame
-        P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], params.R, est["eta_motor"],
-                          est["eta_regen"], est.get("drivetrain_idle_loss", 0.0))
-        ts = df["t"].to_numpy()
-        out[f"v_{name}"] = sig.filt(to_grid(ts, df["x_dot"], t))
-        out[f"M_{name}"] = sig.filt(to_grid(ts, df["M_d"], t))
-        out[f"P_{name}"] = sig.filt(to_grid(ts, P, t))
+        out.update(_on_grid(run.frame, sig, est, params.R, name))
     table = pd.DataFrame(out)
     ok = frame["interior"].to_numpy() & np.isfinite(table["P_log"].to_numpy())
     if scored is not None:

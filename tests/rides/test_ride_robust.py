@@ -1,0 +1,191 @@
+"""``euc-sim ride`` as a new user meets it: progress on stderr, outputs that name no
+machine path, interruption (SIGTERM, SIGINT, SIGKILL of the parent) that stops the
+workers and leaves no temporary file, honest refusal of too little data, and a
+hypothesis fuzz over malformed ride logs (exit 0 or 2, never a traceback, never a
+partial output)."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from ridesynth import synth_log
+
+from euc_sim.cli import main
+from euc_sim.rides.design import balance_design
+from euc_sim.rides.fit import MIN_BLOCKS, fit_balance
+from euc_sim.rides.signals import ride_signals
+
+#: 60 s logs give ~2.9 bootstrap blocks per half: the warning is tested once, below.
+pytestmark = pytest.mark.filterwarnings("ignore:.*bootstrap blocks:UserWarning")
+
+
+def run(argv, capsys):
+    """Run the CLI in this process; (exit code, stdout, stderr lines)."""
+    code = main([str(a) for a in argv])
+    out = capsys.readouterr()
+    return code, out.out, [ln for ln in out.err.splitlines() if ln.strip()]
+
+
+@pytest.fixture(scope="module")
+def log(tmp_path_factory):
+    """A 60 s synthetic ride (known physics), long enough for the bootstrap."""
+    return synth_log(tmp_path_factory.mktemp("robust") / "ride.csv", seed=21, duration=60.0,
+                     gap_at=None)
+
+
+# --- progress ------------------------------------------------------------------------------
+def test_progress_on_stderr_without_asking(log, tmp_path, capsys):
+    code, out, err = run(["ride", log, "--no-simulate", "--n-boot", "10"], capsys)
+    assert code == 0, err
+    steps = [ln for ln in err if ln.startswith("ride: ")]
+    assert any("fitting the inertia-only balance" in ln and "(1/3" in ln for ln in steps), err
+    assert any("(3/3" in ln for ln in steps) and any("locating" in ln for ln in steps)
+    assert "held-out error" in out                      # results stay on stdout
+
+
+def test_quiet_silences_progress(log, capsys):
+    code, _, err = run(["ride", log, "--no-simulate", "--n-boot", "10", "--quiet"], capsys)
+    assert code == 0
+    assert not [ln for ln in err if ln.startswith("ride: ")]
+
+
+# --- outputs name no machine path -------------------------------------------------------------
+def test_outputs_record_no_absolute_path(log, tmp_path, capsys):
+    out = tmp_path / "out"
+    code, _, err = run(["ride", log.resolve(), "--no-simulate", "--n-boot", "10",
+                        "--report", out / "rep", "--json", out / "ride.json"], capsys)
+    assert code == 0, err
+    text = (out / "ride.json").read_text()
+    for machine in (str(tmp_path), str(log.resolve().parent)):
+        assert machine not in text
+        assert machine not in (out / "rep" / "index.md").read_text()
+    rep = json.loads(text)
+    assert rep["recording"] == log.name and rep["report_dir"] == "rep"
+    base = out / rep["report_dir"]
+    assert (base / rep["report"]).is_file() and (base / rep["figure"]).is_file()
+    for name in rep["figures"].values():
+        assert (base / name).is_file()
+
+
+# --- too little data --------------------------------------------------------------------------
+def test_too_little_data_is_one_line_naming_the_file(tmp_path, capsys):
+    short = synth_log(tmp_path / "short.csv", seed=3, duration=6.0, gap_at=None, repeats=1)
+    code, _, err = run(["ride", short, "--no-simulate", "--json", tmp_path / "o.json",
+                        "--report", tmp_path / "rep"], capsys)
+    assert code == 2
+    errors = [ln for ln in err if not ln.startswith("ride: ")]
+    assert len(errors) == 1 and errors[0].startswith("euc-sim ride: error:"), err
+    assert "short.csv" in errors[0] and "block" in errors[0] and "s of ride" in errors[0]
+    assert not (tmp_path / "o.json").exists() and not (tmp_path / "rep").exists()
+
+
+def test_one_block_never_gives_a_zero_width_interval(tmp_path):
+    short = synth_log(tmp_path / "short.csv", seed=3, duration=12.0, gap_at=None, repeats=1)
+    d = balance_design(ride_signals(short))
+    with pytest.raises(ValueError, match=r"short\.csv: \d+ usable rows .* at least 2 blocks"):
+        fit_balance(d, n_boot=20, block_s=10.0)
+    fit = fit_balance(d, n_boot=20, block_s=len(d.P) * 0.1 / MIN_BLOCKS)    # exactly 2 blocks
+    assert all(hi > lo for lo, hi in fit.ci95.values())
+
+
+def test_few_blocks_warn(log, tmp_path, capsys):
+    with pytest.warns(UserWarning, match=r"ride\.csv \(first half\) gives only 2\.\d bootstrap "
+                                         r"blocks of 10 s: the 95 % intervals are rough"):
+        code, _, err = run(["ride", log, "--no-simulate", "--n-boot", "10", "--json",
+                            tmp_path / "o.json"], capsys)
+    assert code == 0
+    assert any("rough" in n for n in json.loads((tmp_path / "o.json").read_text())["notes"])
+
+
+# --- interruption -----------------------------------------------------------------------------
+def _children(pid: int) -> set[int]:
+    """Live (not zombie) processes whose parent is ``pid``, from /proc."""
+    out = set()
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+        except OSError:
+            continue
+        fields = stat[stat.rindex(")") + 2:].split()
+        if int(fields[1]) == pid and fields[0] != "Z":
+            out.add(int(entry.name))
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return False
+    return stat[stat.rindex(")") + 2:].split()[0] != "Z"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("sig, code", [(signal.SIGTERM, 143), (signal.SIGINT, 130),
+                                       (signal.SIGKILL, -signal.SIGKILL)])
+def test_interrupt_stops_workers_and_leaves_nothing(log, tmp_path, sig, code):
+    """A real ``euc-sim ride`` is signalled once its two simulation workers run."""
+    argv = [sys.executable, "-c", "import sys; from euc_sim.cli import main; sys.exit(main())",
+            "ride", str(log), "--n-boot", "10", "--jobs", "2", "--report", str(tmp_path / "rep"),
+            "--json", str(tmp_path / "o.json")]
+    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    lines = []
+    try:
+        for line in proc.stderr:                  # the workers print "riding ..." when they start
+            lines.append(line)
+            if sum("riding" in ln for ln in lines) == 2:
+                break
+        workers = _children(proc.pid)
+        assert len(workers) == 2, lines
+        proc.send_signal(sig)
+        assert proc.wait(timeout=20) == code
+        rest = proc.stderr.read().splitlines()
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    deadline = time.monotonic() + 10
+    while any(_alive(w) for w in workers) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not any(_alive(w) for w in workers)
+    assert not (tmp_path / "o.json").exists()
+    assert not list(tmp_path.rglob("*.tmp"))
+    assert not [p for p in (tmp_path / "rep").rglob("*") if p.is_file()]     # no partial report
+    if sig != signal.SIGKILL:
+        said = [ln for ln in rest if ln.strip() and not ln.startswith("ride: ")]
+        assert said == [f"euc-sim ride: interrupted{' (SIGTERM)' if sig == signal.SIGTERM else ''}"]
+
+
+def test_sigterm_during_a_write_removes_the_temporary_file(log, tmp_path, capsys, monkeypatch):
+    """SIGTERM arriving while a figure is being written: exit 143, no .tmp, no JSON."""
+    import euc_sim.io as io
+
+    real = io.atomic_write
+
+    def write_then_terminated(path, write):
+        def w(p):
+            write(p)
+            assert Path(p).exists()
+            os.kill(os.getpid(), signal.SIGTERM)
+        return real(path, w)
+
+    def unhandled(signum, frame):
+        raise RuntimeError("SIGTERM reached the test: euc-sim did not handle it")
+
+    monkeypatch.setattr(io, "atomic_write", write_then_terminated)
+    previous = signal.signal(signal.SIGTERM, unhandled)
+    try:
+        code, _, err = run(["ride", log, "--no-simulate", "--n-boot", "10", "--quiet",
+                            "--report", tmp_path / "rep", "--json", tmp_path / "o.json"], capsys)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    assert code == 143 and err == ["euc-sim ride: interrupted (SIGTERM)"]
+    assert not list(tmp_path.rglob("*.tmp")) and not (tmp_path / "o.json").exists()
