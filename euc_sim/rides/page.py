@@ -63,7 +63,7 @@ class ResidualTrace:
         """Moving mean of a residual over ``span`` s (same unit), its slow part."""
         r = getattr(self, which)
         dt = float(np.median(np.diff(self.t))) if self.t.size > 1 else 1.0
-        w = max(1, int(round(span / dt)))
+        w = max(1, min(r.size, int(round(span / dt))))     # "same" keeps r's length
         num = np.convolve(r, np.ones(w), mode="same")
         den = np.convolve(np.ones_like(r), np.ones(w), mode="same")
         return num / den

@@ -43,7 +43,7 @@ from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.logs import RideLog, read_log
 
 __all__ = ["RideAssumptions", "RideSignals", "as_log", "resample", "sg", "window_samples",
-           "wheel_torque", "ride_signals", "break_at_gaps"]
+           "wheel_torque", "ride_signals", "break_at_gaps", "check_readings", "PLAUSIBLE_READING"]
 
 
 # --------------------------------------------------------------------------------------
@@ -306,6 +306,35 @@ class RideSignals:
         return sg(x, self.raw["segment"].to_numpy(), self.rate, self.window, self.polyorder, deriv)
 
 
+#: Largest magnitude of a plausible reading, by channel of :class:`RideLog` (SI unit):
+#: beyond it a value is a logging fault (or an overflow), not a measurement.
+PLAUSIBLE_READING: dict[str, tuple[float, str]] = {
+    "v": (100.0, "m/s"), "voltage": (1000.0, "V"), "current": (1000.0, "A"),
+    "power": (1e6, "W"), "phase_current": (1e4, "A"), "gps_alt": (1e5, "m"),
+}
+
+
+def check_readings(log: RideLog) -> None:
+    """Raise ``ValueError`` naming the file, channel and time of an impossible reading.
+
+    Infinite values and magnitudes beyond :data:`PLAUSIBLE_READING` are refused
+    (empty cells, NaN, stay: they are interpolated over or left out).
+    """
+    t = log.data["t"].to_numpy(float)
+    for ch, (limit, unit) in PLAUSIBLE_READING.items():
+        if ch not in log.data:
+            continue
+        x = log.data[ch].to_numpy(float)
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(np.isinf(x) | (np.abs(x) > limit))
+        if bad.size:
+            i = bad[0]
+            name = "speed" if ch == "v" else ch
+            raise ValueError(f"{log.path}: {name} = {x[i]:.3g} {unit} at t = {t[i]:.1f} s from the "
+                             f"start ({bad.size} such row(s)): beyond ±{limit:g} {unit}, not a "
+                             f"plausible reading")
+
+
 def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = 10.0,
                  max_gap: float = 1.0, window: float = 1.5, polyorder: int = 2) -> RideSignals:
     """Resample, smooth and differentiate a ride; battery power and inferred torque.
@@ -333,6 +362,7 @@ def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         segment is as long as the filter window.
     """
     log = as_log(log)
+    check_readings(log)
     raw, notes = resample(log, rate, max_gap)
     if log.has("voltage") and log.has("current"):
         P = raw["voltage"].to_numpy() * raw["current"].to_numpy()

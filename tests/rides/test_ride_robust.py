@@ -189,3 +189,33 @@ def test_sigterm_during_a_write_removes_the_temporary_file(log, tmp_path, capsys
         signal.signal(signal.SIGTERM, previous)
     assert code == 143 and err == ["euc-sim ride: interrupted (SIGTERM)"]
     assert not list(tmp_path.rglob("*.tmp")) and not (tmp_path / "o.json").exists()
+
+
+# --- impossible readings ---------------------------------------------------------------------
+@pytest.mark.parametrize("column, value, said", [(2, "1e308", "speed = 2.78e+307 m/s"),
+                                                 (4, "-inf", "current = -inf A")])
+def test_impossible_reading_names_file_channel_and_time(log, tmp_path, capsys, column, value, said):
+    """Found by the fuzz test: a huge speed ended in 'array must not contain infs or NaNs'."""
+    header, *rows = log.read_text().splitlines()
+    cells = rows[30].split(",")
+    cells[column] = value
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join([header] + rows[:30] + [",".join(cells)] + rows[31:]) + "\n")
+    code, _, err = run(["ride", bad, "--no-simulate", "--json", tmp_path / "o.json"], capsys)
+    assert code == 2 and len(err) == 1, err
+    assert err[0].startswith(f"euc-sim ride: error: {bad}: {said} at t = ")
+    assert "not a plausible reading" in err[0] and not (tmp_path / "o.json").exists()
+
+
+def test_slow_part_of_a_trace_shorter_than_its_span():
+    """Found by the fuzz test: a 25 s trace and a 30 s moving mean broke the residual figure."""
+    import numpy as np
+
+    from euc_sim.rides.page import ResidualTrace
+
+    t = np.arange(250) * 0.1
+    r = np.sin(t)
+    tr = ResidualTrace("x", t, r, r, "W", {"windows": [], "share": None, "correlations": {}}, True)
+    slow = tr.slow(span=30.0)
+    assert slow.shape == r.shape
+    assert np.all(np.isfinite(slow)) and np.all((slow >= r.min()) & (slow <= r.max()))
