@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
 import pandas as pd
 
 from euc_sim.rides.crossride import CrossRide, cross_ride, effect_entries, plot_cross_ride
@@ -19,7 +20,8 @@ from euc_sim.rides.design import NOMINAL, Design, balance_design
 from euc_sim.rides.fit import FEW_BLOCKS, block_rows, plausibility
 from euc_sim.rides.signals import RideAssumptions, RideSignals, ride_signals
 
-__all__ = ["RideAnalysis", "ride_report", "ride_analysis", "write_balance", "check_data"]
+__all__ = ["RideAnalysis", "ride_report", "ride_analysis", "write_balance", "check_data",
+           "split_time"]
 
 
 @dataclass(frozen=True)
@@ -185,13 +187,23 @@ def _few_blocks(fit_label: str, blocks: float, block_s: float) -> str:
             f"firmer ones")
 
 
+def split_time(t) -> float:
+    """Where a ride is cut into fit and test halves, s: half its usable rows on each side.
+
+    Not the midpoint of the clock: a log left recording through a long pause
+    would put all the riding on one side.
+    """
+    t = np.sort(np.asarray(t, float))
+    return float(t[len(t) // 2])
+
+
 def _fit_and_test(sig_fit: RideSignals, sig_test: RideSignals | None, log_path, compare_path,
                   domain: str) -> tuple[Design, Design, str, str]:
     """The fit and test designs and their labels: two rides, or one ride's halves."""
     d_all = balance_design(sig_fit, domain)
     if sig_test is not None:
         return d_all, balance_design(sig_test, domain), Path(log_path).name, Path(compare_path).name
-    t_mid = 0.5 * (d_all.t[0] + d_all.t[-1])
+    t_mid = split_time(d_all.t)
     return (d_all.rows(d_all.t < t_mid), d_all.rows(d_all.t >= t_mid),
             f"{Path(log_path).name} (first half)", f"{Path(log_path).name} (second half)")
 

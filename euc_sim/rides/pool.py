@@ -53,6 +53,11 @@ def run_jobs(fn: Callable[[Any], Any], jobs: Sequence, workers: int,
     -------
     list
         Results in the order of ``jobs`` (a job's exception is re-raised here).
+
+    Raises
+    ------
+    ChildProcessError
+        (an ``OSError``) when a worker process dies without a result.
     """
     note = on_done or (lambda i, k: None)
     if workers <= 1 or len(jobs) <= 1:
@@ -63,6 +68,7 @@ def run_jobs(fn: Callable[[Any], Any], jobs: Sequence, workers: int,
         return out
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
 
     pool = ProcessPoolExecutor(min(workers, len(jobs)), mp_context=multiprocessing.get_context("fork"),
                                initializer=_worker_init, initargs=(os.getpid(),))
@@ -70,7 +76,12 @@ def run_jobs(fn: Callable[[Any], Any], jobs: Sequence, workers: int,
     try:
         futures = {pool.submit(fn, job): i for i, job in enumerate(jobs)}
         for fut in as_completed(futures):
-            done[futures[fut]] = fut.result()
+            try:
+                done[futures[fut]] = fut.result()
+            except BrokenProcessPool:
+                raise ChildProcessError(f"a worker process died during job {futures[fut] + 1} of "
+                                        f"{len(jobs)} (killed, e.g. by the system when memory "
+                                        f"ran out)") from None
             note(futures[fut], len(done))
     except BaseException:
         for proc in list((getattr(pool, "_processes", None) or {}).values()):

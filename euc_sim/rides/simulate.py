@@ -46,7 +46,7 @@ from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.profile import speed_profile
 from euc_sim.rides.signals import RideAssumptions, RideSignals, break_at_gaps, sg
 
-__all__ = ["SIM_EFFECTS", "A_LIMITS", "ride_params", "limit_acceleration", "effects_to_inject",
+__all__ = ["SIM_EFFECTS", "A_LIMITS", "MAX_BRIDGED_GAP", "simulation_obstacle", "ride_params", "limit_acceleration", "effects_to_inject",
            "battery_power", "to_grid", "simulate_profile", "ProfileRun", "RideSimulation",
            "simulate_ride", "plot_ride_simulation"]
 
@@ -54,6 +54,28 @@ __all__ = ["SIM_EFFECTS", "A_LIMITS", "ride_params", "limit_acceleration", "effe
 SIM_EFFECTS = ("rolling_resistance", "aerodynamic_drag", "road_slope")
 #: Acceleration limits tried in turn, m/s², when the rider falls on the raw profile.
 A_LIMITS = (3.0, 2.0, 1.5, 1.0, 0.7, 0.5)
+
+
+#: Longest gap in a log, s, that the simulation bridges (linearly, at the logged speeds);
+#: a log with a longer one (the app left running for hours) is not simulated.
+MAX_BRIDGED_GAP = 120.0
+
+
+def simulation_obstacle(sig: RideSignals, max_gap: float = MAX_BRIDGED_GAP) -> str | None:
+    """Why a ride cannot be simulated as one profile, or None.
+
+    The simulation rides the whole log as one continuous profile, every gap
+    bridged; a gap of hours would be hours of 1 kHz simulation (and memory).
+    """
+    t = sig.raw["t"].to_numpy(float)
+    gaps = np.diff(t)
+    long = np.flatnonzero(gaps > max_gap)
+    if not long.size:
+        return None
+    listed = ", ".join(f"{gaps[i]:.0f} s at t = {t[i]:.0f} s" for i in long[:3])
+    return (f"simulation skipped: {Path(sig.path).name} has {long.size} gap(s) longer than "
+            f"{max_gap:g} s ({listed}); bridging them would simulate {t[-1] - t[0]:.0f} s of "
+            f"ride: split the log into its rides to simulate one")
 
 
 def ride_params(assumptions: RideAssumptions, base: Params = TABLE3) -> Params:

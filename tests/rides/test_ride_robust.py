@@ -219,3 +219,29 @@ def test_slow_part_of_a_trace_shorter_than_its_span():
     slow = tr.slow(span=30.0)
     assert slow.shape == r.shape
     assert np.all(np.isfinite(slow)) and np.all((slow >= r.min()) & (slow <= r.max()))
+
+
+# --- a log left recording through a long pause --------------------------------------------------
+def test_halves_split_the_rows_not_the_clock_and_long_gaps_are_not_simulated(tmp_path, capsys):
+    """Real case: wheellog_android_log_test1.csv has a 13 h pause; the clock's midpoint put
+    every riding row in the fit half, and the simulation bridged 14.6 h (out of memory)."""
+    import pandas as pd
+
+    a = synth_log(tmp_path / "a.csv", seed=7, duration=60.0, gap_at=None, repeats=1)
+    header, *rows = a.read_text().splitlines()
+    later = []
+    for row in rows[: len(rows) // 4]:            # 15 s more, 10 h later
+        cells = row.split(",")
+        stamp = pd.Timestamp(f"{cells[0]} {cells[1]}") + pd.Timedelta(hours=10)
+        cells[0], cells[1] = f"{stamp:%Y-%m-%d}", f"{stamp:%H:%M:%S}.{stamp.microsecond // 1000:03d}"
+        later.append(",".join(cells))
+    log = tmp_path / "paused.csv"
+    log.write_text("\n".join([header] + rows + later) + "\n")
+    with pytest.warns(UserWarning, match=r"simulation skipped: paused\.csv has 1 gap\(s\) longer"):
+        code, _, err = run(["ride", log, "--n-boot", "10", "--json", tmp_path / "o.json",
+                            "--report", tmp_path / "rep"], capsys)
+    assert code == 0, err
+    rep = json.loads((tmp_path / "o.json").read_text())
+    assert rep["simulation"] is None
+    assert abs(rep["rows"]["fit"] - rep["rows"]["test"]) < 0.1 * rep["rows"]["fit"]
+    assert "Simulation skipped" in (tmp_path / "rep" / "index.md").read_text()
