@@ -181,7 +181,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"euc-sim {args.command}: error: {msg}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt as exc:
-        term = str(exc) == "SIGTERM"
+        term = str(exc) in ("SIGTERM", f"signal {int(signal.SIGTERM)}")   # ours, simulation.runner's
         print(f"euc-sim {args.command}: interrupted{' (SIGTERM)' if term else ''}", file=sys.stderr)
         return 143 if term else 130
     finally:
