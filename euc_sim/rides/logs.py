@@ -401,6 +401,35 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
         when ``path`` does not exist.
     """
     path = Path(path)
+    raw = _read_table(path)
+    lay = _layout_of(raw, layout, path)
+    notes: list[str] = []
+    n_read = len(raw)
+    speed_col = next(c for c in lay.speed.columns if c in raw.columns)
+    raw = _drop_truncated_last(raw, list(lay.time_columns) + [speed_col], notes)
+    stamps = _times(raw, lay, path)
+    out, absent = _channels(raw, lay, speed_col, path, notes)
+    table = pd.DataFrame(out)
+    start = pd.Timestamp(stamps.to_numpy().min())
+    table.insert(0, "t", (stamps - start).dt.total_seconds().to_numpy())
+    table, n_merged = _time_ordered(table, notes)
+    summary = _sampling_summary(table["t"].to_numpy(), gap_warn)
+    if summary:
+        notes.append(summary)
+    variant = ""
+    if lay.name == "wheellog":
+        newcols = {"latitude", "gps_speed", "phase_current", "torque", "pwm"}
+        variant = "new" if newcols & set(raw.columns) else "old"
+    if emit_warnings:
+        for n in notes:
+            _warnings.warn(f"{path.name}: {n}", RideLogWarning, stacklevel=2)
+    return RideLog(path=str(path), layout=lay.name, variant=variant,
+                   data=table.reset_index(drop=True), start=start, absent=tuple(absent),
+                   warnings=tuple(notes), n_rows_read=n_read, n_rows_merged=n_merged)
+
+
+def _read_table(path: Path) -> pd.DataFrame:
+    """The CSV as text cells with stripped column names; one-line errors naming the file."""
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")
     _check_field_counts(path)
@@ -416,29 +445,35 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
     raw.columns = [str(c).strip() for c in raw.columns]
     if len(raw) == 0:
         raise LogFormatError(path, "header only, no data rows")
-    if layout is not None:
-        if layout not in LAYOUTS:
-            raise ValueError(f"unknown layout {layout!r}; expected one of {', '.join(LAYOUTS)}")
-        lay = LAYOUTS[layout]
-        for col in lay.time_columns + lay.speed.columns[:1]:
-            if col not in raw.columns:
-                raise LogFormatError(path, f"missing required column for the {lay.name} layout",
-                                     column=col)
-    else:
-        lay = detect_layout(raw.columns, path)
-    notes: list[str] = []
-    n_read = len(raw)
+    return raw
 
-    # A truncated last line (required cells empty) is dropped, loudly.
-    speed_col = next(c for c in lay.speed.columns if c in raw.columns)
-    req = list(lay.time_columns) + [speed_col]
-    last_empty = raw.iloc[-1][req].astype(str).str.strip().eq("").any()
+
+def _layout_of(raw: pd.DataFrame, layout: str | None, path: Path):
+    """The forced layout, its required columns checked, or the one recognised from the header."""
+    if layout is None:
+        return detect_layout(raw.columns, path)
+    if layout not in LAYOUTS:
+        raise ValueError(f"unknown layout {layout!r}; expected one of {', '.join(LAYOUTS)}")
+    lay = LAYOUTS[layout]
+    for col in lay.time_columns + lay.speed.columns[:1]:
+        if col not in raw.columns:
+            raise LogFormatError(path, f"missing required column for the {lay.name} layout", column=col)
+    return lay
+
+
+def _drop_truncated_last(raw: pd.DataFrame, required: list[str], notes: list[str]) -> pd.DataFrame:
+    """A truncated last line (required cells empty) is dropped, loudly (a note)."""
+    last_empty = raw.iloc[-1][required].astype(str).str.strip().eq("").any()
     if last_empty and len(raw) > 1:
         notes.append(f"dropped the truncated last line {len(raw) + 1} (empty "
-                     f"{', '.join(c for c in req if not str(raw.iloc[-1][c]).strip())})")
-        raw = raw.iloc[:-1]
+                     f"{', '.join(c for c in required if not str(raw.iloc[-1][c]).strip())})")
+        return raw.iloc[:-1]
+    return raw
 
-    stamps = _times(raw, lay, path)
+
+def _channels(raw: pd.DataFrame, lay, speed_col: str, path: Path,
+              notes: list[str]) -> tuple[dict[str, np.ndarray], list[str]]:
+    """The layout's channels in SI units (``v`` first) and the names of the absent ones."""
     out = {"v": _numeric(raw[speed_col], speed_col, path, required=True) * lay.speed.scale}
     absent: list[str] = []
     for name, ch in lay.channels.items():
@@ -473,17 +508,15 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
         absent = [a for a in absent if a != "pwm"]
         notes.append("pwm: taken as 100 - safety_margin (EUC World's headroom before the "
                      "voltage limit)")
-    table = pd.DataFrame(out)
-    t_abs = stamps.to_numpy()
-    start = pd.Timestamp(t_abs.min())
-    table.insert(0, "t", (stamps - start).dt.total_seconds().to_numpy())
+    return out, absent
 
-    # Time order.
+
+def _time_ordered(table: pd.DataFrame, notes: list[str]) -> tuple[pd.DataFrame, int]:
+    """Rows in time order, repeated time stamps averaged into one row; the number merged."""
     back = int((np.diff(table["t"].to_numpy()) < 0).sum())
     if back:
         notes.append(f"time ran backwards at {back} row(s); rows put in time order")
         table = table.sort_values("t", kind="stable").reset_index(drop=True)
-    # Repeated time stamps: average.
     counts = table["t"].value_counts()
     rep = counts[counts > 1]
     n_merged = 0
@@ -492,19 +525,7 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
         table = table.groupby("t", sort=True, as_index=False).mean()
         notes.append(f"repeated time stamps: {len(rep)} time stamp(s) shared by "
                      f"{int(rep.sum())} rows; averaged into one row each ({n_merged} rows merged)")
-    summary = _sampling_summary(table["t"].to_numpy(), gap_warn)
-    if summary:
-        notes.append(summary)
-    variant = ""
-    if lay.name == "wheellog":
-        newcols = {"latitude", "gps_speed", "phase_current", "torque", "pwm"}
-        variant = "new" if newcols & set(raw.columns) else "old"
-    if emit_warnings:
-        for n in notes:
-            _warnings.warn(f"{path.name}: {n}", RideLogWarning, stacklevel=2)
-    return RideLog(path=str(path), layout=lay.name, variant=variant,
-                   data=table.reset_index(drop=True), start=start, absent=tuple(absent),
-                   warnings=tuple(notes), n_rows_read=n_read, n_rows_merged=n_merged)
+    return table, n_merged
 
 
 def read_wheellog(path, **kwargs) -> RideLog:
