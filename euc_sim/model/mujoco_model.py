@@ -100,6 +100,23 @@ def _find(spec: mujoco.MjSpec, kind: str, name: str, path: Path):
     return element
 
 
+def load_spec(path: str | Path) -> mujoco.MjSpec:
+    """An MJCF file as an editable ``mujoco.MjSpec``.
+
+    Raises
+    ------
+    ModelError
+        naming the file when it is missing or cannot be parsed.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ModelError(f"MJCF file not found: {path}")
+    try:
+        return mujoco.MjSpec.from_file(str(path))
+    except Exception as exc:  # mujoco raises a plain ValueError with a multi-line text
+        raise ModelError(f"{path}: cannot parse MJCF: {str(exc).splitlines()[0]}") from None
+
+
 def build_spec(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path | None = None,
                contact: ContactSettings | None = None) -> mujoco.MjSpec:
     """Load the MJCF file and apply parameters and the ground variant through MjSpec.
@@ -127,12 +144,7 @@ def build_spec(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path
     if variant not in VARIANTS:
         raise ModelError(f"unknown ground variant {variant!r}; expected one of {', '.join(VARIANTS)}")
     path = Path(mjcf) if mjcf is not None else MJCF_PATH
-    if not path.is_file():
-        raise ModelError(f"MJCF file not found: {path}")
-    try:
-        spec = mujoco.MjSpec.from_file(str(path))
-    except Exception as exc:  # mujoco raises a plain ValueError with a multi-line text
-        raise ModelError(f"{path}: cannot parse MJCF: {str(exc).splitlines()[0]}") from None
+    spec = load_spec(path)
     p = params
     euc = _find(spec, "body", "euc", path)
     wheel = _find(spec, "body", "wheel", path)

@@ -22,7 +22,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from euc_sim.model.mujoco_model import ModelError, _find
+from euc_sim.model.mujoco_model import ModelError, _find, load_spec
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["MJCF_3D_PATH", "TyreContact", "build_spatial_spec", "load_spatial_model",
@@ -96,12 +96,7 @@ def build_spatial_spec(params: Params = TABLE3, tyre: TyreContact | None = None,
     """
     tyre = tyre or TyreContact()
     path = Path(mjcf) if mjcf is not None else MJCF_3D_PATH
-    if not path.is_file():
-        raise ModelError(f"MJCF file not found: {path}")
-    try:
-        spec = mujoco.MjSpec.from_file(str(path))
-    except Exception as exc:  # mujoco raises a plain ValueError with a multi-line text
-        raise ModelError(f"{path}: cannot parse MJCF: {str(exc).splitlines()[0]}") from None
+    spec = load_spec(path)
     p = params
     euc, wheel, rider = (_find(spec, "body", n, path) for n in ("euc", "wheel", "rider"))
     for name in ("root",) + HINGES:

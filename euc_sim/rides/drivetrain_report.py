@@ -238,7 +238,7 @@ def page_section(rep: dict, figures: dict) -> list[str]:
                    f"altitude's noise attenuates it)."]
     if rep.get("pwm"):
         p = rep["pwm"]
-        md += ["", f"PWM of the other ride predicted from this one: "
+        md += ["", "PWM of the other ride predicted from this one: "
                    + (f"**{p['heldout_rmse']:.1f} percentage points RMS**" if p.get("heldout_rmse")
                       is not None else f"not available ({p.get('why', '')})")]
     if "pwm" in figures:

@@ -11,27 +11,11 @@ SIGKILL)``), and kills the workers when the parent is interrupted
 from __future__ import annotations
 
 import os
-import signal
-import sys
 from typing import Any, Callable, Sequence
 
+from euc_sim.simulation.runner import worker_init
+
 __all__ = ["run_jobs"]
-
-
-def _worker_init(parent: int) -> None:
-    """Pool worker: ignore Ctrl-C, default SIGTERM, and die with the parent."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
-    if sys.platform.startswith("linux"):
-        import ctypes
-
-        PR_SET_PDEATHSIG = 1
-        try:
-            ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
-        except (OSError, AttributeError):       # pragma: no cover - no prctl
-            pass
-    if os.getppid() != parent:                   # the parent died before prctl took effect
-        os._exit(1)
 
 
 def run_jobs(fn: Callable[[Any], Any], jobs: Sequence, workers: int,
@@ -71,7 +55,7 @@ def run_jobs(fn: Callable[[Any], Any], jobs: Sequence, workers: int,
     from concurrent.futures.process import BrokenProcessPool
 
     pool = ProcessPoolExecutor(min(workers, len(jobs)), mp_context=multiprocessing.get_context("fork"),
-                               initializer=_worker_init, initargs=(os.getpid(),))
+                               initializer=worker_init, initargs=(os.getpid(),))
     done: dict[int, Any] = {}
     try:
         futures = {pool.submit(fn, job): i for i, job in enumerate(jobs)}

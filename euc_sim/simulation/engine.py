@@ -511,7 +511,7 @@ def _trajectory(t: np.ndarray, states: np.ndarray, U: np.ndarray, v_ref: np.ndar
 
 
 def _raise_fall(t: float, y, phi_max: float, gam_max: float) -> None:
-    x_, g_, f_ = y[0], y[1], y[2]
+    g_, f_ = y[1], y[2]
     if not all(math.isfinite(v) for v in y):
         raise FallError(t, "state", [float(v) for v in y][int(np.argmin(np.isfinite(y)))], None)
     if abs(f_) > phi_max:

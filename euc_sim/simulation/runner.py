@@ -118,9 +118,15 @@ def _guarded(fn: Callable, arg) -> tuple[bool, Any]:
         return False, _reason(exc)
 
 
-def _worker_init(parent: int) -> None:
-    """Pool worker: ignore Ctrl-C (the parent stops the pool) and die with the parent."""
+def worker_init(parent: int) -> None:
+    """Pool worker: ignore Ctrl-C, default SIGTERM (the parent stops the pool) and die with the parent.
+
+    Pass as ``ProcessPoolExecutor(initializer=worker_init, initargs=(os.getpid(),))``;
+    on Linux the worker asks the kernel for SIGKILL when its parent dies
+    (``prctl(PR_SET_PDEATHSIG)``), so even a SIGKILLed command leaves no worker behind.
+    """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if sys.platform.startswith("linux"):
         import ctypes
 
@@ -239,7 +245,7 @@ def _kill(pool: ProcessPoolExecutor) -> None:
 def _pool_round(fn, tasks, workers: int, done) -> list:
     """Run ``tasks`` in one pool; returns those whose worker died (pool broken)."""
     broken = []
-    pool = ProcessPoolExecutor(workers, initializer=_worker_init, initargs=(os.getpid(),))
+    pool = ProcessPoolExecutor(workers, initializer=worker_init, initargs=(os.getpid(),))
     try:
         futures = {pool.submit(_guarded, fn, arg): (name, arg) for name, arg in tasks}
         for fut in as_completed(futures):
