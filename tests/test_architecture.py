@@ -12,6 +12,8 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = ["euc_sim.io", "euc_sim.model", "controllers", "euc_sim.simulation", "euc_sim.identification",
           "euc_sim.diagnosis", "euc_sim.rides", "euc_sim.cli"]
 MAX_LINES = 650
+#: Longest function, in lines of code (its docstring not counted).
+MAX_FUNCTION_LINES = 80
 
 
 def _modules() -> dict[str, Path]:
@@ -80,12 +82,22 @@ def test_no_import_cycles():
     assert cycles == []
 
 
-#: Modules still over the limit, to be split (issue 11); strict: the mark fails once they are split.
-PENDING_SPLIT: set[str] = set()
-
-
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.xfail(strict=True, reason="split pending"))
-                                  if n in PENDING_SPLIT else n for n in sorted(_modules())])
+@pytest.mark.parametrize("name", sorted(_modules()))
 def test_no_module_over_the_limit(name):
     n = len(_modules()[name].read_text().splitlines())
     assert n <= MAX_LINES, f"{name}: {n} lines"
+
+
+def _code_lines(fn: ast.FunctionDef | ast.AsyncFunctionDef) -> int:
+    """Lines from the def to the end, less the docstring."""
+    first = fn.body[0]
+    doc = isinstance(first, ast.Expr) and isinstance(first.value, ast.Constant) and isinstance(first.value.value, str)
+    return fn.end_lineno - fn.lineno + 1 - ((first.end_lineno - first.lineno + 1) if doc else 0)
+
+
+@pytest.mark.parametrize("name", sorted(_modules()))
+def test_no_function_over_the_limit(name):
+    tree = ast.parse(_modules()[name].read_text())
+    long = [(fn.name, _code_lines(fn)) for fn in ast.walk(tree)
+            if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)) and _code_lines(fn) > MAX_FUNCTION_LINES]
+    assert long == []
