@@ -154,7 +154,8 @@ def derive_lateral() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
     """The ``lateral_dynamics`` generalised force from the 3-D positions, by Kane's method.
 
     The paper's plane is carried along the ground by the contact point P (velocity
-    ẋ e_f(ψ)), yawed by ψ(t) and tilted by ϑ(t) about the heading e_f.  Bodies sit in
+    ẋ e_f(ψ)), yawed by ψ(t) and tilted by ϑ(t) about the heading e_f, positive to the
+    right as in eq. (2).  Bodies sit in
     it as in Fig. 5; each body turns about the tilted pitch axis e_a = e_u × e_f at
     its pitch rate plus the frame's own rate Ω·e_a.  With the partial velocities
     ∂v/∂q̇ (Kane: x is a path length, so P's position is not a function of x alone),
@@ -177,7 +178,7 @@ def derive_lateral() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
     e_f = sp.Matrix([sp.cos(psi), sp.sin(psi), 0])
     e_l = sp.Matrix([-sp.sin(psi), sp.cos(psi), 0])
     e_z = sp.Matrix([0, 0, 1])
-    e_u = sp.cos(th) * e_z + sp.sin(th) * e_l
+    e_u = sp.cos(th) * e_z - sp.sin(th) * e_l      # ϑ > 0 tilts to the right (eq. 2, CONTRACT)
     e_a = e_u.cross(e_f)
     Omega = psi.diff(t) * e_z + th.diff(t) * e_f
     w_frame = (Omega.T * e_a)[0]

@@ -240,22 +240,22 @@ def lateral_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd) -> np.ndarra
     """Generalised force of yaw and tilt on the pitch plane (``lateral_dynamics``).
 
     The paper's plane (Fig. 2) is carried by the EUC: its origin, the contact point P,
-    runs along the ground with speed ẋ and heading ψ, and it is tilted by ϑ about the
-    heading.  A point of a body at (ξ, ζ) in the plane (ξ ahead of P, ζ along the
+    runs along the ground with speed ẋ and heading ψ, and it is tilted about the
+    heading by ϑ_l = −ϑ towards the left (CONTRACT's ϑ, eq. 2, is positive to the right).  A point of a body at (ξ, ζ) in the plane (ξ ahead of P, ζ along the
     tilted up-axis e_u) is at r = P + ξ e_f + ζ e_u.  Its acceleration, less the
     planar one (ẍ + ξ̈, ζ̈), and gravity, less the planar g, are, along e_f and e_u,
 
-        δa_f = −ξ ψ̇² − 2 ζ̇ ψ̇ sin ϑ − ζ (2 ϑ̇ ψ̇ cos ϑ + ψ̈ sin ϑ),
-        δa_u = (ẋ + 2 ξ̇) ψ̇ sin ϑ + ξ ψ̈ sin ϑ − ζ (ϑ̇² + ψ̇² sin² ϑ) + g (cos ϑ − 1),
+        δa_f = −ξ ψ̇² − 2 ζ̇ ψ̇ sin ϑ_l − ζ (2 ϑ̇_l ψ̇ cos ϑ_l + ψ̈ sin ϑ_l),
+        δa_u = (ẋ + 2 ξ̇) ψ̇ sin ϑ_l + ξ ψ̈ sin ϑ_l − ζ (ϑ̇_l² + ψ̇² sin² ϑ_l) + g (cos ϑ_l − 1),
 
-    and each body's pitch rate gains −ψ̇ sin ϑ (the yaw rate seen about the tilted
+    and each body's pitch rate gains −ψ̇ sin ϑ_l (the yaw rate seen about the tilted
     pitch axis).  By Kane's method (x is a path length, so the x-row is not a plain
     Lagrange equation), with the partial velocities ∂(ξ, ζ)/∂q of eq. (A.1)'s geometry,
 
         Q_i = −Σ_b m_b (δa_f ∂ξ_b/∂q_i + δa_u ∂ζ_b/∂q_i)
-              + Σ_b J_b (ψ̈ sin ϑ + ψ̇ ϑ̇ cos ϑ) ∂ω_b/∂q̇_i.
+              + Σ_b J_b (ψ̈ sin ϑ_l + ψ̇ ϑ̇_l cos ϑ_l) ∂ω_b/∂q̇_i.
 
-    In a steady coordinated turn (ψ̇ = g tan ϑ / ẋ, ϑ̇ = ψ̈ = 0) the gravity part is the
+    In a steady coordinated turn (ψ̇ = g tan ϑ_l / ẋ, ϑ̇ = ψ̈ = 0) the gravity part is the
     familiar g/cos ϑ felt in the plane; in a slalom the yaw acceleration acting on the
     rider's inward-leaning centre of gravity dominates.  Only the bodies' pitch-axis
     inertias (Table 3) are known, so gyroscopic terms of the other axes are left out.
@@ -267,8 +267,8 @@ def lateral_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd) -> np.ndarra
     q, qd : array_like, shape (..., 3)
         Paper coordinates and rates (x is the distance run along the path).
     theta, theta_d : array_like
-        Tilt ϑ, rad, positive towards the side the path turns to when ψ̇ > 0, and its
-        rate, rad/s.
+        Tilt ϑ, rad, positive to the right (CONTRACT, eq. 2: a turn with ψ̇ > 0, to the
+        left, leans the rider to ϑ < 0), and its rate, rad/s.
     psi_d, psi_dd : array_like
         Yaw rate ψ̇, rad/s, and yaw acceleration ψ̈, rad/s².
 
@@ -298,7 +298,9 @@ def lateral_force_rows(p: Params, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, 
     symbols as there.
     """
     sg, cg, sp_, cp = s_gamma, c_gamma, s_phi, c_phi
-    s_th, c_th, th_d, ps_d, ps_dd = s_theta, c_theta, theta_d, psi_d, psi_dd
+    # CONTRACT's ϑ (eq. 2) is positive tilting to the right; the derivation below leans
+    # the plane by ϑ_l = −ϑ towards the left, the side a turn with ψ̇ > 0 goes to
+    s_th, c_th, th_d, ps_d, ps_dd = -s_theta, c_theta, -theta_d, psi_d, psi_dd
     # (m, ξ, ζ, ξ̇, ζ̇, ∂ξ/∂(γ, φ), ∂ζ/∂(γ, φ)) of wheel centre C, body G0, rider G
     bodies = (
         (p.mw, 0.0, p.R, 0.0, 0.0, (0.0, 0.0), (0.0, 0.0)),

@@ -211,8 +211,9 @@ def lateral_profile(peak_tilt: float, t, v_ref) -> LateralMotion:
 
     The tilt is ϑ ∝ sin(2π t / 6 s) · min(1, |v_ref| / 2 m/s), scaled so that its
     peak is ``peak_tilt`` (riders lean into turns less at walking pace); the yaw rate
-    is that of a coordinated turn at the planned speed, ψ̇ = g tan ϑ / max(|v_ref|,
-    1 m/s), g = 9.81 m/s².  Rates are central differences on the grid t.
+    is that of a coordinated turn at the planned speed, ψ̇ = −g tan ϑ / max(|v_ref|,
+    1 m/s), g = 9.81 m/s²: the rider leans into the turn, to the left (ϑ < 0 in
+    CONTRACT's sign, eq. 2) while the path turns left (ψ̇ > 0).  Rates are central differences on the grid t.
 
     Parameters
     ----------
@@ -231,8 +232,9 @@ def lateral_profile(peak_tilt: float, t, v_ref) -> LateralMotion:
     speed = np.abs(np.asarray(v_ref, dtype=float))
     shape = np.sin(2.0 * np.pi * t / LATERAL_PERIOD) * np.minimum(1.0, speed / LATERAL_FULL_TILT_SPEED)
     peak = float(np.max(np.abs(shape))) if t.size else 0.0
-    theta = peak_tilt * shape / peak if peak > 0 else np.zeros_like(t)
-    psi_d = 9.81 * np.tan(theta) / np.maximum(speed, LATERAL_MIN_SPEED)
+    lean = peak_tilt * shape / peak if peak > 0 else np.zeros_like(t)   # into the turn
+    theta = -lean                          # CONTRACT's ϑ, positive to the right (eq. 2)
+    psi_d = 9.81 * np.tan(lean) / np.maximum(speed, LATERAL_MIN_SPEED)
     psi = np.concatenate([[0.0], np.cumsum(0.5 * (psi_d[1:] + psi_d[:-1]) * np.diff(t))]) if t.size else t
     rate = (lambda y: np.gradient(y, t)) if t.size > 1 else np.zeros_like
     return LateralMotion(theta, rate(theta), psi, psi_d, rate(psi_d))

@@ -126,16 +126,18 @@ def test_fast_coordinated_turn_feels_g_over_cos_tilt():
     qd = QD_STATES.copy()
     qd[:, 0] = speed
     qd[:, 1:] = 0.0
-    Q = E.lateral_forces(p, Q_STATES, qd, theta, 0.0, p.g * np.tan(theta) / speed, 0.0)
+    # a left turn (ψ̇ > 0) leans the rider left: ϑ = −0.3 rad in CONTRACT's sign (eq. 2)
+    Q = E.lateral_forces(p, Q_STATES, qd, -theta, 0.0, p.g * np.tan(theta) / speed, 0.0)
     expected = (1.0 / np.cos(theta) - 1.0) * A.gravity_forces(p, Q_STATES)
     np.testing.assert_allclose(Q, expected, rtol=1e-6, atol=1e-6)
 
 
 def test_yaw_acceleration_pushes_an_inward_leaning_rider_forward():
-    """ψ̈ > 0 with ϑ > 0: the centre of gravity, inward of P, is dragged backwards in
-    the turning frame, so the d'Alembert force tips the upright rider forward."""
+    """ψ̈ > 0 (turning left ever faster) with the rider leaning left (ϑ < 0, eq. 2): the
+    centre of gravity, inward of P, is dragged backwards in the turning frame, so the
+    d'Alembert force tips the upright rider forward."""
     q = np.zeros(3)
-    Q = E.lateral_forces(p, q, np.zeros(3), 0.2, 0.0, 0.0, 1.0)
+    Q = E.lateral_forces(p, q, np.zeros(3), -0.2, 0.0, 0.0, 1.0)
     z_G = p.R - p.l0 + p.h
     expected = (p.J + p.m * p.h * z_G) * np.sin(0.2)
     assert Q[2] == pytest.approx(expected, rel=1e-12)
