@@ -15,7 +15,8 @@ import pytest
 from euc_sim.cli import main
 from euc_sim.rides.signals import RideAssumptions
 from euc_sim.rides.page import split_at_gaps
-from euc_sim.rides.simulate import battery_power, effects_to_inject, limit_acceleration, ride_params, simulate_profile, to_grid
+from euc_sim.rides.simulate import battery_power, effects_to_inject, ride_params
+from euc_sim.rides.tracking import limit_acceleration, simulate_profile, to_grid
 from ridesynth import OLD_HEADER, synth_log
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "wheellog"
