@@ -17,6 +17,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ridesynth import ar1_noise
+
 HEADER = ("datetime,speed,voltage,current,current_phase,power,safety_margin,battery,tilt,roll,"
           "gps_lat,gps_lon,gps_speed,gps_alt,extra")
 
@@ -53,13 +55,7 @@ def drive_log(path: Path, seed: int, duration: float = 600.0, truth=DRIVE, signe
     Iph = truth["amp_per_N"] * np.abs(F)
     P = F * v + truth["R_w"] * Iph ** 2 + truth["P0"]
     rho = math.exp(-dt / 0.3)
-    w = rng.normal(0, noise_w * math.sqrt(1 - rho ** 2), tf.size)
-    noise = np.empty_like(w)
-    acc = 0.0
-    for i, x in enumerate(w):
-        acc = rho * acc + x
-        noise[i] = acc
-    P = P + noise
+    P = P + ar1_noise(rng, tf.size, noise_w, rho)
     # battery: solve V = E - R·P/V for V (positive root), coulomb-count Q
     V = np.full_like(P, truth["E0"])
     Q = 0.0

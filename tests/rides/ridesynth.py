@@ -25,6 +25,14 @@ TRUTH = {"eta_motor": 0.80, "eta_regen": 0.70, "rolling_resistance": 0.015,
          "aerodynamic_drag": 0.35, "drivetrain_idle_loss": 20.0}
 
 
+
+def ar1_noise(rng: np.random.Generator, n: int, sigma: float, rho: float) -> np.ndarray:
+    """Stationary AR(1) noise of standard deviation ``sigma`` (W) and lag-one correlation ``rho``."""
+    from scipy.signal import lfilter
+
+    w = rng.normal(0, sigma * math.sqrt(1 - rho ** 2), n)
+    return lfilter([1.0], [1.0, -rho], w)
+
 def _speed(t: np.ndarray, rng: np.random.Generator, backwards: bool) -> np.ndarray:
     """A smooth ride: stops at both ends, speeds 0-8 m/s (and some reversing)."""
     ph = rng.uniform(0, 2 * np.pi, 4)
@@ -59,13 +67,7 @@ def synth_log(path: Path, seed: int, duration: float = 300.0, truth=TRUTH, slope
     P = truth["drivetrain_idle_loss"] + np.where(D > 0, D / truth["eta_motor"],
                                                  D * truth["eta_regen"])
     rho = math.exp(-0.01 / 0.3)
-    w = rng.normal(0, noise_w * math.sqrt(1 - rho ** 2), tf.size)
-    noise = np.empty_like(w)
-    acc = 0.0
-    for i, x in enumerate(w):
-        acc = rho * acc + x
-        noise[i] = acc
-    P = P + noise
+    P = P + ar1_noise(rng, tf.size, noise_w, rho)
     ts = np.cumsum(rng.uniform(0.1, 0.3, int(duration / 0.1)))
     ts = ts[ts < duration - 0.5]
     if gap_at is not None:
