@@ -70,7 +70,8 @@ def _total_mass(r: RideDrivetrain) -> dict:
     out = {"estimate": m.estimate, "ci95": list(m.ci95) if m.ci95 else None,
            "unit": "kg", "lag_s": m.lag, "speed_scale": m.scale.estimate, "speed_scale_source": m.scale.source,
            "signed_current": m.signed, "terms": m.terms, "balance": m.history,
-           "n_samples": m.n_samples}
+           "n_samples": m.n_samples,
+           "by_window": [{"window_s": w, "estimate": x} for w, x in m.by_window.items()]}
     if m.estimate is None:
         out["why"] = m.why
     if r.spec.wheel_mass is not None and m.estimate is not None:
@@ -215,6 +216,10 @@ def page_section(rep: dict, figures: dict) -> list[str]:
                   + (f"{ci[0]:.0f}–{ci[1]:.0f} kg" if ci else "–")
                   + f" (from battery power alone; speed scale {tm['speed_scale']:.3f}, "
                     f"{tm['speed_scale_source']}; current–speed delay {tm['lag_s']:+.1f} s).")
+        if tm.get("by_window"):
+            md.append("- Energy balance over windows of " + ", ".join(
+                f"{w['window_s']:g} s: {w['estimate']:.0f} kg" for w in tm["by_window"])
+                + " (the interval pools them: the log cannot choose one).")
         if tm.get("rider_mass"):
             md.append(f"- Rider with gear: {tm['rider_mass']['estimate']:.0f} kg "
                       f"(total minus the spec's net weight).")
