@@ -62,6 +62,7 @@ from typing import Mapping
 
 import numpy as np
 
+from euc_sim.rides.channels import current_from_phase, power_not_measured
 from euc_sim.rides.energy import window_difference, window_mean, window_samples_odd
 from euc_sim.rides.signals import resample, sg
 from euc_sim.rides.logs import RideLog, read_log
@@ -245,7 +246,7 @@ def power_signals(log, settings: MassSettings = MassSettings()) -> PowerSignals:
         raw["h"] = np.where(np.isfinite(alt), sg(np.nan_to_num(alt), seg, settings.rate, 10.0, 2), np.nan)
     extra = {c: f(frame[c].to_numpy(float)) for c in
              ("voltage", "current", "pwm", "phase_current") if c in frame}
-    if _current_from_phase(log):
+    if current_from_phase(log):
         extra.pop("phase_current")
     elif "phase_current" in frame:
         raw["phase_current"] = frame["phase_current"].to_numpy(float)
@@ -253,22 +254,6 @@ def power_signals(log, settings: MassSettings = MassSettings()) -> PowerSignals:
     return PowerSignals(t=frame["t"].to_numpy(float), segment=seg, v=f(v_raw),
                         a=f(v_raw, 1), av=f(0.5 * v_raw ** 2, 1), P=f(P), climb=climb,
                         signed=signed, scale=k, extra=extra, raw=raw)
-
-
-def _current_from_phase(log: RideLog) -> bool:
-    """True when the battery current is the app's duty × phase current, not a measurement.
-
-    Then the phase current carries no information beyond the battery power and
-    its square cannot stand for the copper loss (it is dropped).
-    """
-    d = log.data
-    if not {"current", "phase_current", "pwm"} <= set(d.columns):
-        return False
-    m = (d["current"].abs() > 2.0) & (d["pwm"] > 5.0)
-    if m.sum() < 100:
-        return False
-    ratio = (d["current"][m].abs() / (d["pwm"][m] / 100.0 * d["phase_current"][m].abs())).to_numpy()
-    return bool(np.median(np.abs(ratio - 1.0)) < 0.03)
 
 
 def _shift(x: np.ndarray, lag: int) -> np.ndarray:
@@ -578,6 +563,8 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
         m, why = float("nan"), ("the battery current is never negative: braking cannot be told "
                                 "from driving, so the acceleration power's sign is lost and the "
                                 "mass is not identified")
+        if power_not_measured(log):
+            why += "; " + power_not_measured(log)
     ok = math.isfinite(m)
     return MassFit(
         estimate=m if ok else None, ci95=_ci(masses) if ok else None,
@@ -599,7 +586,9 @@ def _unidentified(log: RideLog, sig: PowerSignals) -> dict:
     if sig.scale.source != "gps":
         out["speed_scale"] = (f"no GPS speed: speedometer scale assumed 1 ± "
                               f"{NO_GPS_SCALE_SD:.0%}, propagated into the mass interval")
-    if _current_from_phase(log):
+    if power_not_measured(log):
+        out["battery_power"] = power_not_measured(log)
+    if current_from_phase(log):
         out["phase_current"] = ("the battery current is the app's duty × phase current (to 3 %), "
                                 "not measured: the phase current is not used for the copper loss")
     if "phase_current" not in sig.extra:

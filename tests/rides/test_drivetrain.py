@@ -265,4 +265,6 @@ def test_real_ride_mass_does_not_hang_on_the_window():
 def test_real_unsigned_current_is_said():
     m = fit_mass(SHARED / "trips/begode/mten4/3/3.csv", MassSettings(n_boot=10))
     assert m.estimate is None and not m.signed and "regeneration" in m.unidentified
+    # the app's duty is 6.000·v/V and its current duty × |phase current|: V·I is no battery power
+    assert "V·I is not battery power" in m.why and "6.000 V per m/s" in m.unidentified["battery_power"]
     assert speed_scale(SHARED / "trips/begode/mten4/3/3.csv").source == "assumed"
