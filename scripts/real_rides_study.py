@@ -10,7 +10,9 @@ stated weight in ``meta.csv`` and the spec's net weight are used here, and only
 here, to score it: truth = rider weight + wheel net weight.
 
 Every ride's mass comes from that ride alone (no constant is learnt from other
-rides, so nothing needs leaving out).  Held-out errors: this ride's fit predicts
+rides, so nothing needs leaving out), from the energy balance over 2, 4 and 8 s
+windows (the column "by window"; the estimate is their median, the interval
+pools them).  Held-out errors: this ride's fit predicts
 each other ride of the same wheel (battery power, W; PWM, percentage points), and
 the column gives their mean.  Prints one markdown table and the summary lines.
 """
@@ -83,6 +85,7 @@ def study(n_boot: int, seed: int, progress=print) -> list[dict]:
                      "scale_source": m.scale.source, "signed": m.signed,
                      "power_heldout_W": float(np.mean(p_err)) if p_err else None,
                      "pwm_heldout_pp": float(np.mean(pwm_err)) if pwm_err else None,
+                     "by_window": {f"{w:g}": x for w, x in m.by_window.items()},
                      "terms": m.terms, "unidentified": list(r.drivetrain.unidentified)})
     return rows
 
@@ -91,8 +94,9 @@ def table(rows: list[dict]) -> str:
     """The markdown table and the summary."""
     f = lambda x, fmt: "–" if x is None or x != x else format(x, fmt)   # noqa: E731
     lines = ["| wheel | ride | app | rider kg (logged) | truth kg | total mass found kg (95 %) "
-             "| error | in CI | speed scale | held-out power W | held-out PWM pts | accepted terms |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| error | in CI | by window (2/4/8 s) kg | speed scale | held-out power W | held-out PWM pts "
+             "| accepted terms |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         ci = f"[{r['ci95'][0]:.0f}, {r['ci95'][1]:.0f}]" if r["ci95"] else ""
         found = f"{r['estimate']:.0f} {ci}" if r["estimate"] is not None else "not identified"
@@ -101,7 +105,7 @@ def table(rows: list[dict]) -> str:
             f"| {r['wheel']} | {r['ride']} | {r['app']}{'' if r['signed'] else ' (unsigned I)'} "
             f"| {r['rider_weight']:g} | {r['truth']:.1f} | {found} "
             f"| {f(100 * r['error'], '+.0f')} % | {'yes' if r['inside'] else 'no'} "
-            f"| {scale} | {f(r['power_heldout_W'], '.0f')} "
+            f"| {'/'.join(format(x, '.0f') for x in r['by_window'].values()) or '–'} | {scale} | {f(r['power_heldout_W'], '.0f')} "
             f"| {f(r['pwm_heldout_pp'], '.1f')} | {', '.join(r['terms']) or '–'} |")
     # a ride whose mass the tool cannot identify counts as a 100 % error
     err = np.array([abs(r["error"]) if r["error"] == r["error"] else 1.0 for r in rows])
