@@ -37,6 +37,9 @@ def test_twin_total_mass_inside_interval(twin):
     assert abs(m.estimate / DRIVE["mass"] - 1) < 0.05
     assert m.scale.source == "gps" and m.scale.estimate == pytest.approx(DRIVE["scale"], rel=0.01)
     assert "copper" in m.terms and "rolling" in m.terms
+    # the model is complete on the twin: every energy-balance window gives the same mass
+    masses = np.array(list(m.by_window.values()))
+    assert masses.size == 3 and masses.max() / masses.min() - 1 < 0.02
 
 
 def test_twin_drivetrain_terms(twin):
