@@ -89,7 +89,9 @@ class MassSettings:
     rate : float
         Grid rate, Hz.
     window : float
-        Savitzky–Golay window, s (quadratic).
+        Savitzky–Golay window, s (quadratic), of the filtered signals the
+        drivetrain's fits, the delay search and the a² proxy use; the mass
+        itself comes from the energy balance over ``windows``.
     max_gap : float
         Longest interval bridged by interpolation, s (routine 1–1.5 s logging
         gaps are bridged; longer ones split the ride).
