@@ -18,6 +18,7 @@ import numpy as np
 from euc_sim.rides.drivetrain import Drivetrain, envelope, fit_drivetrain, predict_pwm
 from euc_sim.rides.logs import read_log
 from euc_sim.rides.mass import MassFit, MassSettings, PowerSignals, fit_mass, power_signals, predict_power
+from euc_sim.rides.rotating import without_rotating_inertia
 from euc_sim.rides.spec import WheelSpec
 
 __all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "plot_pwm", "page_section",
@@ -44,10 +45,11 @@ def analyse(path, spec: WheelSpec = WheelSpec(), settings: MassSettings = MassSe
     """Read, filter and fit one ride (mass, then drivetrain)."""
     log = read_log(path, emit_warnings=False)
     sig = power_signals(log, settings)
-    mass = fit_mass(log, settings, sig=sig)
-    dt = fit_drivetrain(sig, mass, radius=spec.radius, n_boot=max(10, settings.n_boot // 2),
+    m_eq = fit_mass(log, settings, sig=sig)
+    # the drivetrain balances power with m_eq (eq. 6): the rotating inertia is accelerated too
+    dt = fit_drivetrain(sig, m_eq, radius=spec.radius, n_boot=max(10, settings.n_boot // 2),
                         seed=settings.seed)
-    return RideDrivetrain(str(path), sig, mass, dt, spec)
+    return RideDrivetrain(str(path), sig, without_rotating_inertia(m_eq, spec.wheel_mass), dt, spec)
 
 
 def _rms(x: np.ndarray) -> float:
@@ -71,7 +73,8 @@ def _total_mass(r: RideDrivetrain) -> dict:
            "unit": "kg", "lag_s": m.lag, "speed_scale": m.scale.estimate, "speed_scale_source": m.scale.source,
            "signed_current": m.signed, "terms": m.terms, "balance": m.history,
            "n_samples": m.n_samples,
-           "by_window": [{"window_s": w, "estimate": x} for w, x in m.by_window.items()]}
+           "by_window": [{"window_s": w, "estimate": x} for w, x in m.by_window.items()],
+           "equivalent_mass": m.equivalent or None}
     if m.estimate is None:
         out["why"] = m.why
     if r.spec.wheel_mass is not None and m.estimate is not None:
@@ -211,11 +214,18 @@ def page_section(rep: dict, figures: dict) -> list[str]:
         md.append(f"- Total mass (rider + wheel): **not identified**: {tm['why']}.")
     else:
         ci = tm["ci95"]
-        md.append(f"- Total mass (rider + wheel, with the wheel's rotating inertia): "
-                  f"**{tm['estimate']:.0f} kg**, 95 % interval "
+        eq = tm.get("equivalent_mass")
+        md.append(f"- Total mass (rider + wheel"
+                  + ("" if eq else ", with the wheel's rotating inertia: no net weight given")
+                  + f"): **{tm['estimate']:.0f} kg**, 95 % interval "
                   + (f"{ci[0]:.0f}–{ci[1]:.0f} kg" if ci else "–")
                   + f" (from battery power alone; speed scale {tm['speed_scale']:.3f}, "
                     f"{tm['speed_scale_source']}; current–speed delay {tm['lag_s']:+.1f} s).")
+        if eq:
+            md.append(f"- The energy balance finds m_eq = {eq['estimate']:.0f} kg (eq. 6: it also "
+                      f"accelerates the wheel's rotating inertia J_w/R², taken as "
+                      f"{eq['rotating_inertia']:.1f} kg, {eq['rotating_inertia_range'][0]:.1f}–"
+                      f"{eq['rotating_inertia_range'][1]:.1f} kg, from the net weight).")
         if tm.get("by_window"):
             md.append("- Energy balance over windows of " + ", ".join(
                 f"{w['window_s']:g} s: {w['estimate']:.0f} kg" for w in tm["by_window"])

@@ -323,8 +323,11 @@ class MassFit:
     Attributes
     ----------
     estimate : float or None
-        Total mass m (rider + wheel, with the wheel's rotating inertia), kg;
-        None when the fit gives β₊·β₋ ≤ 0 (see ``why``).
+        Mass of the ``a·v`` term, kg: the paper's m_eq (eq. 6, rider + wheel +
+        the wheel's rotating inertia J_w/R²) as :func:`fit_mass` returns it, the
+        rider plus wheel once :func:`euc_sim.rides.rotating.without_rotating_inertia`
+        has taken J_w/R² out (then ``equivalent`` keeps m_eq); None when the fit
+        gives β₊·β₋ ≤ 0 (see ``why``).
     ci95 : tuple of float or None
         2.5 and 97.5 % bootstrap percentiles, kg.
     coef : dict
@@ -348,6 +351,9 @@ class MassFit:
     by_window : dict
         Energy-balance window (s) -> the mass it gives, kg (the spread the
         interval carries); empty when the mass is not identified.
+    equivalent : dict
+        ``{"estimate", "ci95", "rotating_inertia"}`` (kg): m_eq and the J_w/R²
+        taken from it, once it has been; empty before.
     """
 
     estimate: float | None
@@ -363,6 +369,7 @@ class MassFit:
     unidentified: dict
     why: str = ""
     by_window: dict = field(default_factory=dict)
+    equivalent: dict = field(default_factory=dict)
 
 
 def _rows(sig: PowerSignals, cols: dict, v_min: float) -> np.ndarray:

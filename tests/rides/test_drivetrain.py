@@ -19,6 +19,7 @@ from euc_sim.rides.drivetrain_report import analyse, drivetrain_report
 from euc_sim.rides.logs import LogFormatError, read_log
 from euc_sim.rides.mass import MassSettings, RideDataError, fit_mass, power_signals, speed_scale
 from euc_sim.rides.spec import SpecError, read_spec, wheel_spec
+from euc_sim.rides.rotating import ROTATING_SHARE, without_rotating_inertia
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core"
 FAST = MassSettings(n_boot=40)
@@ -271,3 +272,21 @@ def test_real_unsigned_current_is_said():
     # the app's duty is 6.000·v/V and its current duty × |phase current|: V·I is no battery power
     assert "V·I is not battery power" in m.why and "6.000 V per m/s" in m.unidentified["battery_power"]
     assert speed_scale(SHARED / "trips/begode/mten4/3/3.csv").source == "assumed"
+
+
+def test_rotating_inertia_is_taken_out_of_m_eq_with_a_net_weight(twin):
+    # the twin's power balance is driven by m_eq = DRIVE["mass"] (eq. 6); a 30 kg wheel turns
+    # 0.19·30 = 5.6 kg of it, so rider + wheel is DRIVE["mass"] - 5.6 kg
+    assert "rotating_inertia" in twin.mass.unidentified and not twin.mass.equivalent
+    m = without_rotating_inertia(twin.mass, 30.0)
+    truth = DRIVE["mass"] - ROTATING_SHARE * 30.0
+    assert m.estimate == pytest.approx(twin.mass.estimate - ROTATING_SHARE * 30.0)
+    assert m.ci95[0] <= truth <= m.ci95[1]
+    assert m.ci95[1] - m.ci95[0] == pytest.approx(twin.mass.ci95[1] - twin.mass.ci95[0] + 0.18 * 30.0)
+    assert m.equivalent["estimate"] == twin.mass.estimate and twin.mass.estimate > m.estimate
+    with pytest.raises(ValueError, match="already been taken out"):
+        without_rotating_inertia(m, 30.0)
+
+
+def test_rotating_share_is_table3s():
+    assert ROTATING_SHARE == pytest.approx(0.12 / 0.2 ** 2 / 16.0)
