@@ -18,6 +18,7 @@ import numpy as np
 from euc_sim.rides.drivetrain import Drivetrain, envelope, fit_drivetrain, predict_pwm
 from euc_sim.rides.logs import read_log
 from euc_sim.rides.mass import MassFit, MassSettings, PowerSignals, fit_mass, power_signals, predict_power
+from euc_sim.rides.pwm import no_force_speed
 from euc_sim.rides.spec import WheelSpec
 
 __all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "plot_pwm", "page_section",
@@ -94,8 +95,8 @@ def _envelope(r: RideDrivetrain) -> dict:
         return {"why": _pwm_note(r)}
     V = r.spec.battery_voltage or (dt.battery_coef["E0"] if dt.battery_coef else None)
     src = "spec" if r.spec.battery_voltage else "open-circuit voltage fitted at the ride's start"
-    env = envelope(dt, V, v_max=1.05 * V / dt.pwm_coef["K_v"] if dt.pwm_coef["K_v"] > 0
-                   else 2.0 * float(np.nanmax(r.sig.v)))
+    v_zero = no_force_speed(dt.pwm_coef, V)
+    env = envelope(dt, V, v_max=1.05 * v_zero if v_zero else 2.0 * float(np.nanmax(r.sig.v)))
     env["voltage_source"] = src
     env["ride_top_speed"] = float(np.nanmax(r.sig.v))
     return env
