@@ -159,7 +159,8 @@ def fit_pwm(sig: PowerSignals, n_boot: int = 100, seed: int = 0):
     -------
     coef : dict
         ``K_v`` (V per m/s of the wheel's speed reading), ``r_F`` (V/N), and any
-        kept ``dead_time`` (1), ``flux_weakening`` (V/(m/s)²).
+        kept ``dead_time`` (1), ``flux_weakening`` (V/(m/s)²) with ``v_fw`` (m/s,
+        the fastest speed fitted: the weakening is not extrapolated beyond it).
     ci : dict
     """
     ok = _pwm_rows(sig)
@@ -168,7 +169,10 @@ def fit_pwm(sig: PowerSignals, n_boot: int = 100, seed: int = 0):
     V, duty = sig.extra["voltage"][ok], sig.extra["pwm"][ok] / 100.0
     names, _ = select_pwm_terms(v, F, V, duty, sig.t[ok])
     beta, ci = _lstsq_boot(pwm_columns(v, F, V, names), duty * V, sig.t[ok], n_boot, seed)
-    return dict(zip(names, map(float, beta))), dict(zip(names, ci))
+    coef = dict(zip(names, map(float, beta)))
+    if "flux_weakening" in coef:
+        coef["v_fw"] = float(np.max(v))
+    return coef, dict(zip(names, ci))
 
 
 def predict_pwm(sig: PowerSignals, coef: dict) -> tuple[np.ndarray, np.ndarray]:
@@ -177,7 +181,8 @@ def predict_pwm(sig: PowerSignals, coef: dict) -> tuple[np.ndarray, np.ndarray]:
     v = _raw_speed(sig)[ok]
     V = sig.extra["voltage"][ok]
     names = [n for n in BASE + tuple(EXTRA) if n in coef]
-    pred = pwm_columns(v, sig.P[ok] / v, V, names) @ np.array([coef[n] for n in names]) / V * 100.0
+    X = pwm_columns(v, sig.P[ok] / v, V, names, coef.get("v_fw", np.inf))
+    pred = X @ np.array([coef[n] for n in names]) / V * 100.0
     return pred, sig.extra["pwm"][ok]
 
 
@@ -243,6 +248,8 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
         for name, (_, unit) in EXTRA.items():
             if name in pcoef:
                 terms[name] = Term(pcoef[name], pci[name], unit)
+        if "v_fw" in pcoef:
+            terms["flux_weakening_up_to"] = Term(pcoef["v_fw"], None, "m/s")
         if "phase_current" in sig.extra:
             r, rci = _phase_resistance(sig, n_boot, seed)
             terms["phase_resistance_pwm"] = Term(r, rci, "ohm")

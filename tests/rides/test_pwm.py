@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from euc_sim.rides.pwm import (BASE, full_duty_force, no_force_speed, pwm_columns,
+from controllers.motor import MotorError, MotorPD
+from euc_sim.rides.pwm import (BASE, back_emf, full_duty_force, no_force_speed, pwm_columns,
                                select_pwm_terms)
 
 TRUE = {"K_v": 7.4, "r_F": 0.03, "dead_time": 0.03, "flux_weakening": 0.09}
@@ -53,3 +54,27 @@ def test_no_force_speed_is_the_root_and_none_when_weakening_wins():
     assert full_duty_force(TRUE, np.array([v0]), 140.0)[0] == pytest.approx(0.0, abs=1e-9)
     assert no_force_speed({"K_v": 7.0, "r_F": 0.03}, 140.0) == pytest.approx(20.0)
     assert no_force_speed({"K_v": 7.0, "r_F": 0.03, "flux_weakening": 0.2}, 140.0) is None
+
+
+def test_flux_weakening_is_not_extrapolated_past_the_fitted_speeds():
+    coef = dict(TRUE, v_fw=10.0)
+    e = back_emf(coef, np.array([5.0, 10.0, 20.0]))
+    K, c = TRUE["K_v"], TRUE["flux_weakening"]
+    np.testing.assert_allclose(e, [K * 5 - c * 25, K * 10 - c * 100, K * 20 - c * 200])
+    v0 = no_force_speed(coef, 140.0)
+    assert v0 > 10.0 and full_duty_force(coef, np.array([v0]), 140.0)[0] == pytest.approx(0, abs=1e-9)
+    cols = pwm_columns(np.array([20.0]), np.array([0.0]), np.array([1.0]), ["flux_weakening"], 10.0)
+    assert cols[0, 0] == -200.0
+
+
+def test_the_simulators_motor_has_the_same_limit():
+    coef, R = dict(TRUE, v_fw=12.0), 0.2
+    motor = MotorPD(voltage=140.0, back_emf=coef["K_v"], drop=coef["r_F"] / R,
+                    dead_time=coef["dead_time"], flux_weakening=coef["flux_weakening"],
+                    fw_speed=coef["v_fw"])
+    for v in (0.0, 6.0, 12.0, 18.0):
+        want = max(full_duty_force(coef, np.array([v]), 140.0)[0], 0.0) * R
+        assert motor.voltage_torque(v) == pytest.approx(want, rel=1e-12)
+    assert "fw_speed" not in MotorPD().as_dict() and motor.as_dict()["fw_speed"] == 12.0
+    with pytest.raises(MotorError, match="dead_time"):
+        MotorPD(voltage=140.0, drop=0.1, dead_time=1.5)
