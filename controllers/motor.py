@@ -51,6 +51,14 @@ class MotorPD:
         K_v, back-EMF per forward speed, V·s/m.
     drop : float
         r_M, resistive drop per torque, V/(N·m) (the ride's V/N over the wheel radius).
+    dead_time : float
+        c_dt, duty lost to the bridge's dead time (1): the motor sees (1 − c_dt)·V.
+    flux_weakening : float
+        c_fw, fall of the back-EMF per speed with speed, V/(m/s)²: back-EMF
+        K_v·|ẋ| − c_fw·|ẋ|·min(|ẋ|, fw_speed) (:mod:`euc_sim.rides.pwm`).
+    fw_speed : float
+        Speed, m/s, beyond which the flux weakening stops growing (the fastest
+        of the ride it was fitted on); ``inf`` for none.
     """
 
     Kp: float = 600.0
@@ -61,6 +69,9 @@ class MotorPD:
     voltage: float = math.inf
     back_emf: float = 0.0
     drop: float = 0.0
+    dead_time: float = 0.0
+    flux_weakening: float = 0.0
+    fw_speed: float = math.inf
 
     def __post_init__(self) -> None:
         if math.isfinite(self.voltage) and not (self.voltage > 0 and self.drop > 0):
@@ -70,6 +81,13 @@ class MotorPD:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise MotorError(f"motor setting {name!r} must be a finite non-negative number, got {v!r}")
+        if not (isinstance(self.dead_time, (int, float)) and -1.0 < self.dead_time < 1.0):
+            raise MotorError(f"motor setting 'dead_time' must be a duty in (-1, 1), got {self.dead_time!r}")
+        if not (isinstance(self.flux_weakening, (int, float)) and math.isfinite(self.flux_weakening)):
+            raise MotorError(f"motor setting 'flux_weakening' must be a finite number, got "
+                             f"{self.flux_weakening!r}")
+        if not (self.fw_speed > 0):
+            raise MotorError(f"motor fw_speed must be positive (inf for none), got {self.fw_speed!r}")
         if self.Kp <= 0 or self.torque_limit <= 0:
             raise MotorError(f"motor Kp and torque_limit must be positive, got Kp={self.Kp!r}, "
                              f"torque_limit={self.torque_limit!r}")
@@ -111,12 +129,18 @@ class MotorPD:
         """Largest motoring torque the battery voltage allows at ``speed`` (m/s), N·m (≥ 0)."""
         if self.voltage == math.inf:
             return math.inf
-        return max((self.voltage - self.back_emf * abs(speed)) / self.drop, 0.0)
+        v = abs(speed)
+        emf = self.back_emf * v - self.flux_weakening * v * min(v, self.fw_speed)
+        return max(((1.0 - self.dead_time) * self.voltage - emf) / self.drop, 0.0)
 
     def as_dict(self) -> dict:
-        """Settings as a JSON-ready dict (``inf`` tilt-back speed as ``None``)."""
+        """Settings as a JSON-ready dict (``inf`` tilt-back speed as ``None``; the
+        dead-time and flux-weakening settings only where a drivetrain set them)."""
         d = asdict(self)
-        for k in ("tiltback_speed", "voltage"):
-            if not math.isfinite(d[k]):
+        for k, default in (("dead_time", 0.0), ("flux_weakening", 0.0), ("fw_speed", math.inf)):
+            if d[k] == default:
+                del d[k]
+        for k in ("tiltback_speed", "voltage", "fw_speed"):
+            if k in d and not math.isfinite(d[k]):
                 d[k] = None
         return d

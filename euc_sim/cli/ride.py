@@ -194,11 +194,16 @@ def _drivetrain(log, compare, spec, n_boot: int, seed: int):
 
 
 def _drivetrain_figures(physics, out: Path) -> dict:
-    """The envelope and the PWM figures of the ride page, by key -> file name."""
+    """The envelope, PWM and grade figures of the ride page, by key -> file name."""
     from euc_sim.rides.drivetrain_report import plot_envelope, plot_pwm
+    from euc_sim.rides.grade import plot_grade
 
     rep, fit, test = physics
     figs = {}
+    if fit.grade is not None:
+        figs["grade"] = plot_grade(fit.grade, out / "ride_grade.png",
+                                   title=f"{Path(fit.path).name}: the altitude the battery-power "
+                                         f"balance implies, against GPS altitude").name
     if "speed" in rep["envelope"]:
         figs["envelope"] = plot_envelope(rep["envelope"], out / "ride_envelope.png").name
     if fit.drivetrain.pwm_coef is not None:

@@ -32,8 +32,9 @@ def _check_choice(option: str, value: str, valid) -> None:
 def _voltage_limit(path, R: float, voltage: float | None) -> dict:
     """``MotorPD`` voltage-limit settings from a ride JSON's identified drivetrain.
 
-    K_v (V per m/s) and the resistive drop r_F (V/N) give r_M = r_F/R (V/(N·m));
-    the voltage is ``voltage`` or the envelope's full-charge voltage.
+    K_v (V per m/s) and the resistive drop r_F (V/N) give r_M = r_F/R (V/(N·m)),
+    with the dead time and flux weakening where the ride kept them; the voltage
+    is ``voltage`` or the envelope's full-charge voltage.
     """
     import json
 
@@ -58,8 +59,12 @@ def _voltage_limit(path, R: float, voltage: float | None) -> dict:
     if not r_F > 0:
         raise ValueError(f"--drivetrain {path}: field 'drivetrain.resistive_drop.estimate' must be "
                          f"positive for a voltage limit, got {r_F!r}")
+    extra = {k: float(dt[j]["estimate"]) for k, j in (("dead_time", "dead_time"),
+                                                      ("flux_weakening", "flux_weakening"),
+                                                      ("fw_speed", "flux_weakening_up_to"))
+             if isinstance(dt.get(j), dict) and isinstance(dt[j].get("estimate"), (int, float))}
     return {"voltage": float(voltage), "back_emf": float(dt["back_emf_per_speed"]["estimate"]),
-            "drop": float(r_F) / R}
+            "drop": float(r_F) / R, **extra}
 
 
 def _motor(args, R: float = 0.2):

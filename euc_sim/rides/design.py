@@ -35,7 +35,8 @@ here; the fit and its intervals in :mod:`euc_sim.rides.fit`.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from typing import Mapping
+from functools import cached_property
+from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -43,7 +44,7 @@ import pandas as pd
 from euc_sim.rides.signals import RideSignals, sg, window_samples
 
 __all__ = ["RHO_AIR", "CANDIDATES", "NOMINAL", "PLAUSIBLE", "PRE_WINDOW", "Design",
-           "balance_design"]
+           "Operator", "balance_design", "filter_matrix"]
 
 RHO_AIR = 1.2  # kg/m³, air density used to turn k into a drag area
 
@@ -166,19 +167,143 @@ class Design:
         use[np.flatnonzero(self.use)[~np.asarray(mask, bool)]] = False
         return replace(self, use=use)
 
+    @cached_property
+    def operator(self) -> "Operator":
+        """The model's linear pieces on the rows it touches (built once per design)."""
+        K, support = filter_matrix(self.segment, self.kernel, np.flatnonzero(self.use))
+        X = self.columns_full.iloc[support]
+        return Operator(K=K, columns={c: X[c].to_numpy() for c in X.columns})
+
+    def demand(self, names: Sequence[str], Theta: np.ndarray) -> np.ndarray:
+        """Demanded mechanical power D of B parameter sets on the operator's support, W.
+
+        ``Theta`` holds one row per name (shape len(names) × B); resistances not
+        named are 0.  Returns support × B.
+        """
+        op = self.operator
+        Theta = np.asarray(Theta, float)
+        D = np.repeat(op.columns["inertia"][:, None], Theta.shape[1], axis=1)
+        for j, name in enumerate(names):
+            col = CANDIDATES[name][3] if name in CANDIDATES else None
+            if col is not None:
+                D += op.columns[col][:, None] * Theta[j]
+        return D
+
+    def predict_many(self, names: Sequence[str], Theta: np.ndarray,
+                     D: np.ndarray | None = None) -> np.ndarray:
+        """Battery power P̂ of B parameter sets on the rows in use, W (rows × B).
+
+        ``D`` is :meth:`demand` when already computed.
+        """
+        Theta = np.asarray(Theta, float)
+        D = self.demand(names, Theta) if D is None else D
+        eta_m, eta_r = Theta[names.index("eta_motor")], Theta[names.index("eta_regen")]
+        g = np.where(D > 0, D / eta_m, D * eta_r)
+        P_hat = np.asarray(self.operator.K @ g)
+        if "drivetrain_idle_loss" in names:
+            P_hat += Theta[names.index("drivetrain_idle_loss")]
+        return P_hat
+
     def predict(self, params: Mapping[str, float]) -> np.ndarray:
         """Battery power P̂, W, on the rows in use (missing resistances are 0)."""
-        D = self.columns_full["inertia"].to_numpy().copy()
-        for name, (_, _, _, col, _) in CANDIDATES.items():
-            if col is not None and name in params:
-                D += params[name] * self.columns_full[col].to_numpy()
-        g = np.where(D > 0, D / params["eta_motor"], D * params["eta_regen"])
-        return params.get("drivetrain_idle_loss", 0.0) + _conv(g, self.segment, self.kernel)[self.use]
+        names = list(params)
+        return self.predict_many(names, np.array([[params[k]] for k in names], float))[:, 0]
 
     def residual(self, params: Mapping[str, float], target: np.ndarray | None = None) -> np.ndarray:
         """Weighted residual (measured − predicted) on the rows in use, W or N·m."""
         P = self.P if target is None else target
         return self.weight * (P - self.predict(params))
+
+    def jacobian_many(self, names: Sequence[str], Theta: np.ndarray,
+                      D: np.ndarray | None = None) -> np.ndarray:
+        """∂ residual / ∂ parameter of B parameter sets, rows × len(names) × B (analytic).
+
+        With D the demanded power and s = 1/η_m where D > 0, η_r elsewhere:
+        ∂P̂/∂θ_j = L₂[s·column_j], ∂P̂/∂η_m = L₂[−D⁺/η_m²], ∂P̂/∂η_r = L₂[D⁻],
+        ∂P̂/∂P₀ = 1; the residual's derivative is −weight times these.
+        """
+        op = self.operator
+        Theta = np.asarray(Theta, float)
+        D = self.demand(names, Theta) if D is None else D
+        eta_m, eta_r = Theta[names.index("eta_motor")], Theta[names.index("eta_regen")]
+        s = np.where(D > 0, 1.0 / eta_m, eta_r)
+        G = np.zeros((D.shape[0], len(names), D.shape[1]))
+        for j, name in enumerate(names):
+            col = CANDIDATES[name][3]
+            if name == "eta_motor":
+                G[:, j] = -np.maximum(D, 0.0) / eta_m ** 2
+            elif name == "eta_regen":
+                G[:, j] = np.minimum(D, 0.0)
+            elif col is not None:
+                G[:, j] = s * op.columns[col][:, None]
+        J = np.asarray(op.K @ G.reshape(D.shape[0], -1)).reshape(-1, len(names), D.shape[1])
+        if "drivetrain_idle_loss" in names:
+            J[:, names.index("drivetrain_idle_loss")] = 1.0
+        return -self.weight[:, None, None] * J
+
+
+@dataclass(frozen=True)
+class Operator:
+    """A design's model as matrices: P̂ = P₀ + K·g(D) on the rows in use.
+
+    Attributes
+    ----------
+    K : scipy.sparse.csr_matrix
+        The long filter L₂ from the rows it touches (the support) to the rows in
+        use: ``K @ x[support] == _conv(x, segment, kernel)[use]``.
+    columns : dict
+        ``columns_full`` on the support: name -> array (``inertia`` in W, ...).
+    """
+
+    K: object
+    columns: Mapping[str, np.ndarray]
+
+
+def filter_matrix(segment: np.ndarray, kernel: np.ndarray, rows: np.ndarray):
+    """A segment-wise convolution as a sparse matrix on the rows it touches.
+
+    Parameters
+    ----------
+    segment : numpy.ndarray of int
+        Segment label of each sample; the filter never crosses a boundary.
+    kernel : numpy.ndarray
+        Convolution coefficients (odd length M), as for ``numpy.convolve``.
+    rows : numpy.ndarray of int
+        Output rows, each at least M//2 samples inside its segment.
+
+    Returns
+    -------
+    K : scipy.sparse.csr_matrix, shape (len(rows), len(support))
+    support : numpy.ndarray of int
+        The samples the rows read, sorted: ``K @ x[support]`` equals the
+        segment-wise ``numpy.convolve(x, kernel, mode="same")`` at ``rows``.
+
+    Raises
+    ------
+    ValueError
+        if a row lies within M//2 samples of its segment's end.
+    """
+    from scipy import sparse
+
+    segment, rows = np.asarray(segment), np.asarray(rows, int)
+    kernel = np.asarray(kernel, float)
+    half = len(kernel) // 2
+    order = np.argsort(segment, kind="stable")       # samples grouped by segment, in time order
+    where = np.empty(len(segment), int)
+    where[order] = np.arange(len(segment))
+    seg_sorted = segment[order]
+    q = where[rows]
+    lo = np.searchsorted(seg_sorted, seg_sorted[q], "left")
+    hi = np.searchsorted(seg_sorted, seg_sorted[q], "right")
+    if np.any(q - half < lo) or np.any(q + half >= hi):
+        raise ValueError(f"rows must lie at least {half} samples inside their segment")
+    # numpy.convolve 'same': y[i] = sum_j kernel[j] * x[i + half - j]
+    cols = order[q[:, None] + half - np.arange(len(kernel))[None, :]]
+    support, idx = np.unique(cols, return_inverse=True)
+    data = np.broadcast_to(kernel, cols.shape).ravel()
+    K = sparse.csr_matrix((data, idx.ravel(), np.arange(0, cols.size + 1, len(kernel))),
+                          shape=(len(rows), len(support)))
+    return K, support
 
 
 def _conv(x: np.ndarray, segment: np.ndarray, kernel: np.ndarray) -> np.ndarray:

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from euc_sim.rides.mass import G, RHO_AIR, MassFit, PowerSignals
+from euc_sim.rides.pwm import BASE, EXTRA, full_duty_force, pwm_columns, select_pwm_terms
 
 __all__ = ["Term", "Drivetrain", "fit_battery", "fit_pwm", "predict_pwm", "fit_drivetrain",
            "envelope", "max_force", "CELL_FULL", "CELL_LOW"]
@@ -151,27 +152,37 @@ def _raw_speed(sig: PowerSignals) -> np.ndarray:
 
 
 def fit_pwm(sig: PowerSignals, n_boot: int = 100, seed: int = 0):
-    """Back-EMF and resistive drop from the logged duty: d·V = K_v·v + r_F·F.
+    """Back-EMF and resistive drop from the logged duty: d·V = K_v·v + r_F·F (+ the
+    dead-time and flux-weakening terms that held-out validation keeps, :mod:`euc_sim.rides.pwm`).
 
     Returns
     -------
     coef : dict
-        ``K_v`` (V per m/s of the wheel's speed reading), ``r_F`` (V/N).
+        ``K_v`` (V per m/s of the wheel's speed reading), ``r_F`` (V/N), and any
+        kept ``dead_time`` (1), ``flux_weakening`` (V/(m/s)²) with ``v_fw`` (m/s,
+        the fastest speed fitted: the weakening is not extrapolated beyond it).
     ci : dict
     """
     ok = _pwm_rows(sig)
     v = _raw_speed(sig)[ok]
     F = sig.P[ok] / v
-    y = sig.extra["pwm"][ok] / 100.0 * sig.extra["voltage"][ok]
-    beta, ci = _lstsq_boot(np.column_stack([v, F]), y, sig.t[ok], n_boot, seed)
-    return {"K_v": float(beta[0]), "r_F": float(beta[1])}, {"K_v": ci[0], "r_F": ci[1]}
+    V, duty = sig.extra["voltage"][ok], sig.extra["pwm"][ok] / 100.0
+    names, _ = select_pwm_terms(v, F, V, duty, sig.t[ok])
+    beta, ci = _lstsq_boot(pwm_columns(v, F, V, names), duty * V, sig.t[ok], n_boot, seed)
+    coef = dict(zip(names, map(float, beta)))
+    if "flux_weakening" in coef:
+        coef["v_fw"] = float(np.max(v))
+    return coef, dict(zip(names, ci))
 
 
 def predict_pwm(sig: PowerSignals, coef: dict) -> tuple[np.ndarray, np.ndarray]:
     """Duty predicted from speed, power and voltage, and the logged one, %, where both exist."""
     ok = _pwm_rows(sig)
     v = _raw_speed(sig)[ok]
-    pred = (coef["K_v"] * v + coef["r_F"] * sig.P[ok] / v) / sig.extra["voltage"][ok] * 100.0
+    V = sig.extra["voltage"][ok]
+    names = [n for n in BASE + tuple(EXTRA) if n in coef]
+    X = pwm_columns(v, sig.P[ok] / v, V, names, coef.get("v_fw", np.inf))
+    pred = X @ np.array([coef[n] for n in names]) / V * 100.0
     return pred, sig.extra["pwm"][ok]
 
 
@@ -234,6 +245,11 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
                                               tuple(x * radius for x in pci["K_v"]) if pci["K_v"]
                                               else None, "V*s/rad")
         terms["resistive_drop"] = Term(pcoef["r_F"], pci["r_F"], "V/N")
+        for name, (_, unit) in EXTRA.items():
+            if name in pcoef:
+                terms[name] = Term(pcoef[name], pci[name], unit)
+        if "v_fw" in pcoef:
+            terms["flux_weakening_up_to"] = Term(pcoef["v_fw"], None, "m/s")
         if "phase_current" in sig.extra:
             r, rci = _phase_resistance(sig, n_boot, seed)
             terms["phase_resistance_pwm"] = Term(r, rci, "ohm")
@@ -247,11 +263,12 @@ def envelope(dt: Drivetrain, voltage_full: float, n_cells: int | None = None,
              v_max: float = 30.0, n: int = 61) -> dict:
     """The highest sustained acceleration, and the lean it takes, against speed.
 
-    At full duty ``V_t = K_v·v + r_F·F`` with the terminal voltage sagging under
-    the battery current, ``V_t = V_ocv − R_int·F·v/(η·V_ocv)`` (η = 1: the
-    drivetrain's losses are left out of the sag), so::
+    At full duty ``V_t = K_v·v + r_F·F`` (plus the kept dead-time and
+    flux-weakening terms) with the terminal voltage sagging under the battery
+    current, ``V_t = V_ocv − R_int·F·v/V_ocv`` (the drivetrain's losses are left
+    out of the sag), so (:func:`euc_sim.rides.pwm.full_duty_force`)::
 
-        F_max = (V_ocv − K_v·v) / (r_F + R_int·v/(η·V_ocv))
+        F_max = (V_ocv − K_v·v) / (r_F + R_int·v/V_ocv)
         a_max = (F_max − c₁ − c₃·v²)/m,   lean φ = atan(a_max/g)
 
     Parameters
@@ -283,12 +300,10 @@ def envelope(dt: Drivetrain, voltage_full: float, n_cells: int | None = None,
                          f"pwm={dt.pwm_coef is not None}, mass={dt.mass}")
     cells = n_cells or max(1, round(voltage_full / CELL_FULL))
     speed = np.linspace(0.0, v_max, n)
-    K, r = dt.pwm_coef["K_v"], dt.pwm_coef["r_F"]
     R_int = max(dt.battery_coef["R_int"], 0.0) if dt.battery_coef else 0.0
-    eta = 1.0       # battery current ≈ F·v/V: losses left out of the sag (small at the limit)
     out = {"speed": speed.tolist()}
     for name, V in (("full", voltage_full), ("low", cells * CELL_LOW)):
-        F = (V - K * speed) / (r + R_int * speed / (eta * V))
+        F = full_duty_force(dt.pwm_coef, speed, V, R_int)
         a = (F - dt.road["c1"] - dt.road["c3"] * speed ** 2) / dt.mass
         a = np.where(a > 0, a, np.nan)
         ok = np.isfinite(a)
@@ -300,7 +315,5 @@ def envelope(dt: Drivetrain, voltage_full: float, n_cells: int | None = None,
 
 def max_force(dt: Drivetrain, speed: float, voltage: float) -> float:
     """Largest wheel force, N, the motor can give at ``speed`` (m/s) and open-circuit ``voltage`` (V)."""
-    K, r = dt.pwm_coef["K_v"], dt.pwm_coef["r_F"]
     R_int = max(dt.battery_coef["R_int"], 0.0) if dt.battery_coef else 0.0
-    eta = 1.0
-    return max((voltage - K * abs(speed)) / (r + R_int * abs(speed) / (eta * voltage)), 0.0)
+    return max(float(full_duty_force(dt.pwm_coef, speed, voltage, R_int)), 0.0)

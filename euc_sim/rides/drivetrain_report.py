@@ -16,8 +16,10 @@ from pathlib import Path
 import numpy as np
 
 from euc_sim.rides.drivetrain import Drivetrain, envelope, fit_drivetrain, predict_pwm
+from euc_sim.rides.grade import GradeProfile, grade_profile
 from euc_sim.rides.logs import read_log
 from euc_sim.rides.mass import MassFit, MassSettings, PowerSignals, fit_mass, power_signals, predict_power
+from euc_sim.rides.pwm import no_force_speed
 from euc_sim.rides.rotating import without_rotating_inertia
 from euc_sim.rides.spec import WheelSpec
 
@@ -38,18 +40,21 @@ class RideDrivetrain:
     mass: MassFit
     drivetrain: Drivetrain
     spec: WheelSpec
+    grade: GradeProfile | None = None
 
 
 def analyse(path, spec: WheelSpec = WheelSpec(), settings: MassSettings = MassSettings()
             ) -> RideDrivetrain:
-    """Read, filter and fit one ride (mass, then drivetrain)."""
+    """Read, filter and fit one ride (mass, then drivetrain, then the grade it implies)."""
     log = read_log(path, emit_warnings=False)
     sig = power_signals(log, settings)
     m_eq = fit_mass(log, settings, sig=sig)
     # the drivetrain balances power with m_eq (eq. 6): the rotating inertia is accelerated too
     dt = fit_drivetrain(sig, m_eq, radius=spec.radius, n_boot=max(10, settings.n_boot // 2),
                         seed=settings.seed)
-    return RideDrivetrain(str(path), sig, without_rotating_inertia(m_eq, spec.wheel_mass), dt, spec)
+    alt = log.data["gps_alt"].to_numpy(float) if "gps_alt" in log.data else None
+    grade = None if alt is None else grade_profile(sig, m_eq, log.data["t"].to_numpy(float), alt)
+    return RideDrivetrain(str(path), sig, without_rotating_inertia(m_eq, spec.wheel_mass), dt, spec, grade)
 
 
 def _rms(x: np.ndarray) -> float:
@@ -97,8 +102,8 @@ def _envelope(r: RideDrivetrain) -> dict:
         return {"why": _pwm_note(r)}
     V = r.spec.battery_voltage or (dt.battery_coef["E0"] if dt.battery_coef else None)
     src = "spec" if r.spec.battery_voltage else "open-circuit voltage fitted at the ride's start"
-    env = envelope(dt, V, v_max=1.05 * V / dt.pwm_coef["K_v"] if dt.pwm_coef["K_v"] > 0
-                   else 2.0 * float(np.nanmax(r.sig.v)))
+    v_zero = no_force_speed(dt.pwm_coef, V)
+    env = envelope(dt, V, v_max=1.05 * v_zero if v_zero else 2.0 * float(np.nanmax(r.sig.v)))
     env["voltage_source"] = src
     env["ride_top_speed"] = float(np.nanmax(r.sig.v))
     return env
@@ -135,7 +140,9 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
         dtj["resistive_drop"] = {"estimate": None, "ci95": None, "unit": "V/N", "why": note}
         dtj.pop("winding_resistance", None)
     rep = {"total_mass": _total_mass(r), "drivetrain": dtj, "envelope": _envelope(r),
-           "wheel": r.spec.as_json(), "unidentified": dict(r.drivetrain.unidentified)}
+           "wheel": r.spec.as_json(), "unidentified": dict(r.drivetrain.unidentified),
+           "grade": (r.grade.as_json() if r.grade is not None else
+                     {"why": "no GPS altitude, or no mass identified: no implied grade"})}
     test = None
     if compare is not None:
         test = analyse(compare, spec, settings)
@@ -167,6 +174,10 @@ def plot_envelope(env: dict, path, title: str = "") -> Path:
     for name, style in (("full", "-"), ("low", "--")):
         a = np.asarray(env[name]["accel"], float)
         ax.plot(v, a, style, label=f"{name} charge ({env[name]['voltage']:.0f} V)")
+    top = env.get("ride_top_speed")
+    if top is not None and top * 3.6 < v[-1]:
+        ax.axvspan(top * 3.6, v[-1], color="grey", alpha=0.15,
+                   label="faster than this ride: extrapolated")
     ax.set_xlabel("speed, km/h")
     ax.set_ylabel("highest sustained acceleration, m/s²")
     sec = ax.secondary_yaxis("right", functions=(lambda a: np.degrees(np.arctan(a / 9.81)),
@@ -251,6 +262,15 @@ def page_section(rep: dict, figures: dict) -> list[str]:
                    f"{dt['grade_mass']['estimate']:.0f} kg against the mass's {tm['estimate']:.0f} kg "
                    f"(ratio {dt['grade_mass']['estimate'] / tm['estimate']:.2f}; below 1 where the "
                    f"altitude's noise attenuates it)."]
+    g = rep.get("grade", {})
+    if "rms_implied_vs_gps_m" in g:
+        md += ["", f"Road grade as the battery sees it: integrating the power the balance "
+                   f"leaves unexplained without its grade term, over {g['distance_km']:.1f} km, "
+                   f"gives an altitude {g['rms_implied_vs_gps_m']:.0f} m RMS from GPS altitude "
+                   f"(ascent {g['ascent_implied_m']:.0f} m against GPS's "
+                   f"{g['ascent_gps_m']:.0f} m)."]
+    if "grade" in figures:
+        md += ["", f"![altitude implied by the balance against GPS altitude]({figures['grade']})"]
     if rep.get("pwm"):
         p = rep["pwm"]
         md += ["", "PWM of the other ride predicted from this one: "
@@ -260,11 +280,16 @@ def page_section(rep: dict, figures: dict) -> list[str]:
         md += ["", f"![PWM predicted against logged]({figures['pwm']})"]
     env = rep["envelope"]
     if "speed" in env:
-        kmh = lambda x: f"{x * 3.6:.0f} km/h" if x is not None else "the end of the grid"  # noqa: E731
-        md += ["", f"Envelope (voltage limit): no acceleration is left above "
-                   f"{kmh(env['full']['v_limit'])} at full charge ({env['full']['voltage']:.0f} V) "
-                   f"and {kmh(env['low']['v_limit'])} at low charge ({env['low']['voltage']:.0f} V); "
-                   f"this ride's top speed was {env.get('ride_top_speed', float('nan')) * 3.6:.0f} km/h."]
+        end = env["speed"][-1] * 3.6
+
+        def left(name):
+            x = env[name]["v_limit"]
+            return (f"none is left above {x * 3.6:.0f} km/h" if x is not None else
+                    f"some is still left at {end:.0f} km/h, the figure's end")
+        md += ["", f"Envelope (voltage limit): at full charge ({env['full']['voltage']:.0f} V) "
+                   f"{left('full')}; at low charge ({env['low']['voltage']:.0f} V) {left('low')}. "
+                   f"This ride's top speed was {env.get('ride_top_speed', float('nan')) * 3.6:.0f} "
+                   f"km/h: faster than that the envelope is extrapolated (shaded)."]
     else:
         md += ["", f"Envelope: {env.get('why', 'not available')}."]
     if "envelope" in figures:

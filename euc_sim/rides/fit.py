@@ -82,16 +82,27 @@ class BalanceFit:
         return float(np.sqrt(np.mean(r ** 2)))
 
 
-def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray | None = None):
-    from scipy.optimize import least_squares
+def _scale(names: Sequence[str]) -> np.ndarray:
+    """Typical size of each parameter: ``least_squares``'s ``x_scale`` and the step test."""
+    return np.array([{"drivetrain_idle_loss": 10.0, "aerodynamic_drag": 0.1,
+                      "rolling_resistance": 0.01, "road_slope": 0.01}.get(n, 0.1) for n in names])
 
+
+def _bounds(names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
     lo = np.array([_BOUNDS.get(n, (-np.inf, np.inf))[0] for n in names])
     hi = np.array([_BOUNDS.get(n, (-np.inf, np.inf))[1] for n in names])
-    scale = np.array([{"drivetrain_idle_loss": 10.0, "aerodynamic_drag": 0.1,
-                       "rolling_resistance": 0.01, "road_slope": 0.01}.get(n, 0.1) for n in names])
-    res = least_squares(lambda th: design.residual(dict(zip(names, th)), P), np.clip(x0, lo + 1e-9, hi - 1e-9),
-                        bounds=(lo, hi), x_scale=scale, method="trf")
-    return res
+    return lo, hi
+
+
+def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray | None = None):
+    """scipy's bounded ``least_squares`` (trf) with the design's analytic Jacobian."""
+    from scipy.optimize import least_squares
+
+    lo, hi = _bounds(names)
+    return least_squares(lambda th: design.residual(dict(zip(names, th)), P),
+                         np.clip(x0, lo + 1e-9, hi - 1e-9),
+                         jac=lambda th: design.jacobian_many(names, th[:, None])[:, :, 0],
+                         bounds=(lo, hi), x_scale=_scale(names), method="trf")
 
 
 def block_rows(design: Design, block_s: float = 10.0, check: bool = True) -> int:
@@ -118,15 +129,25 @@ def block_rows(design: Design, block_s: float = 10.0, check: bool = True) -> int
 
 def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P: np.ndarray,
                e_P: np.ndarray, L: int, n_boot: int, seed: int):
-    """Moving-block residual bootstrap: 2.5/97.5 percentiles and replicate correlations."""
+    """Moving-block residual bootstrap: 2.5/97.5 percentiles and replicate correlations.
+
+    The replicates' fits are solved together (:func:`_batch_solve`, Gauss-Newton
+    from the fit's estimate); one that leaves the bounds or does not converge is
+    refitted alone by :func:`_solve`, as every replicate once was.
+    """
     n = len(e_P)
     rng = np.random.default_rng(seed)
     n_blocks = int(math.ceil(n / L))
-    boots = np.empty((n_boot, len(names)))
+    targets = np.empty((n, n_boot))
     for i in range(n_boot):
         starts = rng.integers(0, n - L + 1, size=n_blocks)
-        e_star = np.concatenate([e_P[s:s + L] for s in starts])[:n]
-        boots[i] = _solve(design, names, theta, P=fitted_P + e_star).x
+        targets[:, i] = fitted_P + np.concatenate([e_P[s:s + L] for s in starts])[:n]
+    boots = np.empty((n_boot, len(names)))
+    for c in range(0, n_boot, _CHUNK):
+        sl = slice(c, min(c + _CHUNK, n_boot))
+        boots[sl], done = _batch_solve(design, names, theta, targets[:, sl])
+        for i in np.flatnonzero(~done) + c:
+            boots[i] = _solve(design, names, theta, P=targets[:, i]).x
     corr = {}
     if not n_boot:
         nan = np.full(len(names), np.nan)
@@ -138,6 +159,119 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
         corr = {(a, b): float(C[i, j]) for i, a in enumerate(names)
                 for j, b in enumerate(names) if i != j and np.isfinite(C[i, j])}
     return lo, hi, corr
+
+
+#: Bootstrap replicates solved together (bounds the memory: rows × parameters × chunk).
+_CHUNK = 25
+#: Gauss-Newton stops when every step is below this fraction of the parameter's size.
+_STEP_TOL = 1e-10
+#: ... or when an iteration lowers the cost by less than this fraction of it.
+_COST_TOL = 1e-13
+_MAX_ITER = 50
+
+
+def _gauss_newton_step(J: np.ndarray, r: np.ndarray, Theta: np.ndarray, lo: np.ndarray,
+                       hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per replicate, the step minimising |r + J·δ|² with the bounds' active set held.
+
+    A parameter on its bound whose cost gradient points out of the box stays
+    there (δ = 0); the others take the Gauss-Newton step, from the normal
+    equations scaled by their diagonal.
+
+    Returns ``(delta, ok)``: parameters × B, and False where the scaled normal
+    matrix is nearly singular (those replicates are left to :func:`_solve`).
+    """
+    Jb = np.ascontiguousarray(J.transpose(2, 1, 0))     # B × parameters × rows
+    A = Jb @ Jb.transpose(0, 2, 1)
+    g = (Jb @ r.T[:, :, None])[:, :, 0]                 # ∇(½|r|²)
+    fixed = (((Theta <= lo[:, None]) & (g.T > 0)) | ((Theta >= hi[:, None]) & (g.T < 0))).T
+    A = np.where(fixed[:, :, None] | fixed[:, None, :], np.eye(A.shape[1]), A)
+    g = np.where(fixed, 0.0, g)
+    d = np.sqrt(np.einsum("bii->bi", A))
+    ok = (d > 0).all(axis=1)
+    d = np.where(d > 0, d, 1.0)
+    A_s = A / (d[:, :, None] * d[:, None, :])
+    ev = np.linalg.eigvalsh(A_s)
+    ok &= ev[:, 0] > 1e-12 * ev[:, -1]
+    A_s[~ok] = np.eye(A.shape[1])
+    delta = -np.linalg.solve(A_s, (g / d)[:, :, None])[:, :, 0] / d
+    return delta.T, ok
+
+
+def _batch_solve(design: Design, names: Sequence[str], theta: np.ndarray,
+                 targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares for many targets at once: Gauss-Newton from ``theta``, all together.
+
+    Each replicate takes the Gauss-Newton step, halved until its cost does not
+    rise (:func:`_line_search`).  It is done when the full step is below
+    ``_STEP_TOL`` of every parameter's size, or when the cost no longer falls by
+    more than ``_COST_TOL`` of itself (``least_squares`` stops at 1e-8: its
+    ``ftol``); near a switch between motoring and regenerating the cost has a
+    kink, where that second test ends the iteration.  Bounds: a parameter on its
+    bound with the cost falling outwards is held there, and steps are projected
+    into the box (:func:`_gauss_newton_step`).
+
+    Returns ``(Theta, done)``: B × parameters, and True where the iteration
+    converged; the others (a nearly singular Jacobian, no convergence in
+    ``_MAX_ITER`` steps) are for :func:`_solve`.
+    """
+    names = list(names)
+    B = targets.shape[1]
+    lo, hi = _bounds(names)
+    size = np.abs(theta) + _scale(names)
+    Theta = np.repeat(np.asarray(theta, float)[:, None], B, axis=1)
+    D = design.demand(names, Theta)
+    r = design.weight[:, None] * (targets - design.predict_many(names, Theta, D))
+    cost = np.einsum("nb,nb->b", r, r)
+    active, done = np.ones(B, bool), np.zeros(B, bool)
+    for _ in range(_MAX_ITER):
+        idx = np.flatnonzero(active)
+        if not idx.size:
+            break
+        delta, ok = _gauss_newton_step(design.jacobian_many(names, Theta[:, idx], D[:, idx]),
+                                       r[:, idx], Theta[:, idx], lo, hi)
+        small = (np.abs(delta) <= _STEP_TOL * size[:, None]).all(axis=0)
+        Theta_t, D_t, r_t, cost_t, fell = _line_search(design, names, Theta[:, idx], delta,
+                                                       targets[:, idx], cost[idx])
+        flat = ~fell | (cost[idx] - cost_t <= _COST_TOL * cost[idx])
+        keep = idx[ok & fell]
+        Theta[:, keep], D[:, keep] = Theta_t[:, ok & fell], D_t[:, ok & fell]
+        r[:, keep], cost[keep] = r_t[:, ok & fell], cost_t[ok & fell]
+        done[idx[ok & (small | flat)]] = True
+        active[idx[~ok | small | flat]] = False
+    return Theta.T, done
+
+
+def _line_search(design: Design, names: list[str], Theta: np.ndarray, delta: np.ndarray,
+                 targets: np.ndarray, cost: np.ndarray, halvings: int = 20):
+    """The step Theta + t·delta (projected on the bounds), t = 1, ½, ¼, …: the largest t
+    whose cost is no higher.
+
+    Returns ``(Theta_t, D_t, r_t, cost_t, fell)``, one column per replicate;
+    ``fell`` is False where no such t was found (the columns are then unset).
+    """
+    B = Theta.shape[1]
+    lo, hi = _bounds(names)
+    out = [np.empty_like(Theta), None, np.empty_like(targets), np.full(B, np.inf),
+           np.zeros(B, bool)]
+    todo = np.arange(B)
+    t = 1.0
+    for _ in range(halvings):
+        trial = np.clip(Theta[:, todo] + t * delta[:, todo], lo[:, None], hi[:, None])
+        D_t = design.demand(names, trial)
+        r_t = design.weight[:, None] * (targets[:, todo] - design.predict_many(names, trial, D_t))
+        c_t = np.einsum("nb,nb->b", r_t, r_t)
+        good = np.isfinite(c_t) & (c_t <= cost[todo])
+        if out[1] is None:
+            out[1] = np.empty((D_t.shape[0], B))
+        j = todo[good]
+        out[0][:, j], out[1][:, j], out[2][:, j] = trial[:, good], D_t[:, good], r_t[:, good]
+        out[3][j], out[4][j] = c_t[good], True
+        todo = todo[~good]
+        if not todo.size:
+            break
+        t /= 2
+    return tuple(out)
 
 
 def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int = 200,

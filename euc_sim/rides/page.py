@@ -10,6 +10,7 @@ with those windows shaded and :func:`write_page` writes ``DIR/index.md``.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
@@ -20,6 +21,7 @@ from euc_sim.rides.design import balance_design
 from euc_sim.rides.signals import RideSignals, break_at_gaps
 
 __all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "plot_residuals", "write_page",
+           "summarise_notes",
            "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
 #: localise() settings for rides, s: minutes-long logs at ~5 Hz need a longer
@@ -366,6 +368,54 @@ def _assumptions_md(r: dict) -> list[str]:
     md.append(f"- Wheel radius R = {a['R']:g} m, total mass {a['total_mass']:g} kg, "
               f"m_eq = {a['m_eq']:.3g} kg ({a['source']}); torque from "
               f"{r['torque_method']}, power from {r['power_source']}.")
-    md += [f"- {n}" for n in r.get("notes", [])]
+    tm = r.get("total_mass") or {}
+    if tm.get("estimate") is not None:
+        md.append(f"- The balance fit of the sections 'Cross-ride prediction' and 'Estimates' "
+                  f"uses these assumed masses; the total mass found from this log is "
+                  f"{tm['estimate']:.0f} kg (see 'What the wheel weighs').")
+    md += [f"- {n}" for n in summarise_notes(r.get("notes", []))]
     md.append("")
     return md
+
+
+_GAP = re.compile(r"^(?P<who>.*?)gap of (?P<len>[\d.]+) s at t = (?P<t>[\d.]+) s "
+                  r"\(> max_gap (?P<max>[\d.]+) s\): ride split there, not bridged$")
+_SHORT = re.compile(r"^(?P<who>.*?)segment \d+ has (?P<n>\d+) samples, fewer than the "
+                    r"(?P<win>\d+)-sample filter window: left out$")
+
+
+def summarise_notes(notes, shown: int = 5) -> list[str]:
+    """The notes for people: the gap splits and the too-short segments of each ride in one
+    line each (the JSON keeps every one); the other notes as they are, in order."""
+    gaps: dict[str, list] = {}
+    short: dict[str, list] = {}
+    out: list = []
+    for n in notes:
+        m, k = _GAP.match(n), _SHORT.match(n)
+        if m:
+            if m["who"] not in gaps:
+                out.append(("gap", m["who"]))
+            gaps.setdefault(m["who"], []).append((float(m["len"]), float(m["t"]), m["max"]))
+        elif k:
+            if k["who"] not in short:
+                out.append(("short", k["who"]))
+            short.setdefault(k["who"], []).append((int(k["n"]), k["win"]))
+        else:
+            out.append(n)
+    lines = []
+    for item in out:
+        if isinstance(item, str):
+            lines.append(item)
+        elif item[0] == "gap":
+            g = gaps[item[1]]
+            lens = [x[0] for x in g]
+            at = ", ".join(f"{x[1]:.0f}" for x in g[:shown]) + (", …" if len(g) > shown else "")
+            lines.append(f"{item[1]}{len(g)} logging gap(s) longer than {g[0][2]} s "
+                         f"({min(lens):.2f}–{max(lens):.2f} s; at t = {at} s) split the ride; "
+                         f"not bridged (every one is listed in the JSON's notes)")
+        else:
+            k = short[item[1]]
+            lines.append(f"{item[1]}{len(k)} piece(s) between gaps shorter than the "
+                         f"{k[0][1]}-sample filter window ({sum(x[0] for x in k)} samples in all) "
+                         f"left out")
+    return lines

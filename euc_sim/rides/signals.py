@@ -371,8 +371,9 @@ def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         P = raw["power"].to_numpy()
         source = "power column"
     else:
-        raise ValueError(f"{log.path}: no battery power: need columns voltage and current, "
-                         f"or power")
+        lacking = [c for c in ("voltage", "current") if not log.has(c)]
+        raise ValueError(f"{log.path}: column {' and '.join(map(repr, lacking))}: absent, empty "
+                         f"or all zero, and no 'power' column: battery power is needed")
     raw = raw.assign(P=P)
     n = window_samples(window, rate, polyorder)
     seg = raw["segment"].to_numpy()
