@@ -331,28 +331,43 @@ def _right_first(case: dict, res: dict) -> bool:
     return first["name"] == case["effect"] or case["effect"] in first.get("aliases", [])
 
 
+def _truth_estimate(case: dict, res: dict) -> dict | None:
+    """The estimate and 95 % interval the diagnosis gives for the concealed effect.
+
+    Named first: its own.  In the first name's alias pair: the identified quantity
+    mapped to the concealed effect's unit (the diagnosis's ``alias_estimates``, e.g.
+    the constant force of a slope expressed as a C_rr).  Otherwise None.
+    """
+    if not _right_first(case, res):
+        return None
+    first = res["effects"][0]
+    if first["name"] == case["effect"]:
+        return first
+    return first.get("alias_estimates", {}).get(case["effect"])
+
+
 def targets_issue13(results: list[dict]) -> dict:
     """The targets of issue 13 (README): right first ≥ 95 % (an alias pair counts),
     no effect on nulls, the push unexplained, estimates within ±25 % and the held-out
     RMSE halved where the nominal RMSE is ≥ 2× the noise floor (below that the
     augmented RMSE within 1.2× the floor), 95 % intervals covering the truth in
-    90-98 % of the cases named right."""
+    90-98 % of the cases named right.  A case named by its alias pair is scored on
+    the identified quantity mapped to the concealed effect (:func:`_truth_estimate`),
+    in the estimates and in the coverage."""
     eff = [r for r in results if "result" in r and r["case"]["kind"] == "effect"]
     right = [r for r in eff if _right_first(r["case"], r["result"])]
     big = [r for r in eff if r["result"]["nominal_rmse"] >= 2.0 * r["result"]["noise_floor"]]
     small = [r for r in eff if r not in big]
 
     def est_ok(r):
-        res, c = r["result"], r["case"]
-        if not (res["effects"] and res["effects"][0]["name"] == c["effect"] and res["decidable"]):
-            return False
-        return abs(res["effects"][0]["estimate"] - c["value"]) <= 0.25 * abs(c["value"])
+        e = _truth_estimate(r["case"], r["result"])
+        return e is not None and abs(e["estimate"] - r["case"]["value"]) <= 0.25 * abs(r["case"]["value"])
 
     big_est = sum(est_ok(r) for r in big)
     big_half = sum(r["result"]["augmented_rmse"] <= 0.5 * r["result"]["nominal_rmse"] for r in big)
     small_ok = sum(r["result"]["augmented_rmse"] <= 1.2 * r["result"]["noise_floor"] for r in small)
-    named = [r for r in right if r["result"]["effects"][0]["name"] == r["case"]["effect"]]
-    cov = sum(e["ci95"][0] <= r["case"]["value"] <= e["ci95"][1] for r in named for e in [r["result"]["effects"][0]])
+    named = [(r, e) for r in right for e in [_truth_estimate(r["case"], r["result"])] if e is not None]
+    cov = sum(e["ci95"][0] <= r["case"]["value"] <= e["ci95"][1] for r, e in named)
     nulls = [r for r in results if "result" in r and r["case"]["kind"] == "null"]
     pushes = [r for r in results if "result" in r and r["case"]["kind"] == "push"]
     null_ok = sum(not r["result"]["effects"] for r in nulls)
@@ -370,7 +385,7 @@ def targets_issue13(results: list[dict]) -> dict:
                                                                "met": big_half == len(big)},
         "nominal < 2x floor: augmented RMSE within 1.2x floor": {"value": f"{small_ok}/{len(small)}",
                                                                  "met": small_ok == len(small)},
-        "95% intervals cover the truth in 90-98% of named cases": {
+        "95% intervals cover the truth in 90-98% of named cases (alias pairs mapped)": {
             "value": f"{cov}/{len(named)}", "met": bool(named) and 0.90 <= cov / len(named) <= 0.98},
     }
 

@@ -160,10 +160,13 @@ def test_blind_right_effect_first_estimate_and_improvement(study, effect):
         assert effect in names          # NOTES fact 5: they may alias; both must be reported
     else:
         assert first["name"] == effect
-    if first["name"] == effect:
-        assert first["estimate"] == pytest.approx(r["case"]["value"], rel=0.25)
-        lo, hi = first["ci95"]
-        assert lo < first["estimate"] < hi
+    for a in set(first["aliases"]) & {"rolling_resistance", "road_slope"}:
+        assert set(first["alias_estimates"][a]) == {"estimate", "unit", "ci95"}
+    # named by its alias: the identified constant force mapped to the concealed effect's unit
+    est = first if first["name"] == effect else first["alias_estimates"][effect]
+    assert est["estimate"] == pytest.approx(r["case"]["value"], rel=0.25)
+    lo, hi = est["ci95"]
+    assert lo < est["estimate"] < hi
     assert res["augmented_rmse"] <= 0.5 * res["nominal_rmse"]
 
 
