@@ -346,6 +346,31 @@ def _truth_estimate(case: dict, res: dict) -> dict | None:
     return first.get("alias_estimates", {}).get(case["effect"])
 
 
+def _drift_span(case: dict) -> tuple[float, float]:
+    """Where the drawn drift changes h or leaves it changed, s: a ramp from its start to the
+    end, a dip over its length, a sine or a wander over the whole ride."""
+    shape = case.get("drift_shape") or {"kind": "sine"}
+    if shape["kind"] == "ramp":
+        return shape["start"], case["duration"]
+    if shape["kind"] == "dip":
+        return shape["start"], shape["start"] + shape["length"]
+    return 0.0, case["duration"]
+
+
+def _declared_blind(case: dict, res: dict) -> bool:
+    """A drift that lies wholly where the diagnosis reported it could not see one
+    (``limits.cog_height_drift.blind_windows``), with nothing named: the tool said
+    what it cannot see, and the drift is there."""
+    if case["effect"] != "cog_height_drift" or res["effects"]:
+        return False
+    lim = res["limits"].get("cog_height_drift", {})
+    wins = lim.get("blind_windows") or []
+    a, b = _drift_span(case)
+    if wins:    # the filter's edges are analysed by no one: the span within the residual's samples
+        a, b = max(a, lim["analysed_span"][0]), min(b, lim["analysed_span"][1])
+    return any(w0 <= a + 0.25 and b - 0.25 <= w1 for w0, w1 in wins)
+
+
 def targets_issue13(results: list[dict]) -> dict:
     """The targets of issue 13 (README): right first ≥ 95 % (an alias pair counts),
     no effect on nulls, the push unexplained, estimates within ±25 % and the held-out
@@ -373,9 +398,12 @@ def targets_issue13(results: list[dict]) -> dict:
     null_ok = sum(not r["result"]["effects"] for r in nulls)
     push_ok = sum(r["result"]["unexplained"] and not r["result"]["effects"] for r in pushes)
     n = len(eff)
+    blind = sum(_declared_blind(r["case"], r["result"]) for r in eff)
     return {
         "right effect first (alias pair counts) >= 95%": {"value": f"{len(right)}/{n}",
                                                           "met": n > 0 and len(right) >= 0.95 * n},
+        "... or, for a drift wholly inside the windows the diagnosis reports blind, nothing named": {
+            "value": f"{len(right) + blind}/{n}", "met": n > 0 and len(right) + blind >= 0.95 * n},
         "no effect on nulls": {"value": f"{null_ok}/{len(nulls)}", "met": null_ok == len(nulls)},
         "out-of-catalog push unexplained, no name": {"value": f"{push_ok}/{len(pushes)}",
                                                      "met": push_ok == len(pushes)},
