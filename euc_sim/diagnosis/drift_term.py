@@ -31,7 +31,8 @@ from euc_sim.model.parameters import Params
 from euc_sim.simulation import drift
 
 __all__ = ["WANDER_RESOLUTION", "wander_basis", "shape_profile", "candidate_shapes", "choose_shape",
-           "drift_columns", "drift_curve", "peak_to_peak", "unit_shape_limit", "drift_windows"]
+           "drift_columns", "drift_curve", "peak_to_peak", "unit_shape_limit", "drift_windows",
+           "blind_windows"]
 
 #: Resolution of the drift's basis, s: a crouch or a stand-up takes one to a few
 #: seconds; finer terms would follow the rider's sway (the residual's own band).
@@ -212,3 +213,57 @@ def drift_windows(t: np.ndarray, shape: dict, theta: np.ndarray, share: float = 
     rate = np.abs(shape_profile(shape, t, derivative=1) @ theta)
     hot = rate >= share * float(np.max(rate)) if np.max(rate) > 0 else np.zeros(t.size, bool)
     return hot_windows(t, hot, min_len)
+
+
+#: Time step of the placements scanned by :func:`blind_windows`, s.
+BLIND_STEP = 0.5
+
+
+def blind_windows(t: np.ndarray, drdh: np.ndarray, floor_rms: float, tau_int: float, min_t: float,
+                  dh_max: float) -> list[list[float]]:
+    """Where even the largest plausible drift would stay hidden: [[t0, t1], ...], s.
+
+    h enters the residual through ∂r/∂h (NOTES fact 3), which follows the rider's
+    torque: large in speed changes, only the sway's in a hold at constant speed.  A
+    drift placed at [a, b] (a dip of ``length`` in :data:`SHAPE_LENGTHS`: h leaves
+    and comes back; or a ramp starting at a: h leaves and stays until the end) has
+    first-order term −∂r/∂h·g(t); with the noise floor's variance scaled by its
+    correlation time, its smallest nameable peak-to-peak change is
+    ``min_t`` σ √(τ / Σ(∂r/∂h g)²); it is seen when that is at most ``dh_max``.
+    Blindness belongs to a placement, not to a time:
+    each window is a longest interval holding no placement this recording could see
+    (windows may overlap), so that a drift wholly inside one, on the scan's grid,
+    cannot be seen at any plausible size.  Its ḣ terms, second order for slow
+    changes, are left out of this bound.
+
+    Parameters
+    ----------
+    t, drdh : numpy.ndarray
+        Times (s) and ∂r/∂h (N·m/m) of the stacked residual samples.
+    floor_rms : float
+        Noise floor, N·m.
+    tau_int : float
+        Correlation time of the noise-only residual, samples.
+    min_t : float
+        The selection's |θ|/se threshold.
+    dh_max : float
+        Largest plausible peak-to-peak change, m.
+    """
+    t = np.asarray(t, float)
+    t0, t1 = float(np.min(t)), float(np.max(t))
+    visible = []                         # (start, end) of every placement this recording could see
+    for L in SHAPE_LENGTHS:
+        for a in np.arange(t0, t1 - L + 1e-9, BLIND_STEP):
+            for kind, end in (("dip", a + L), ("ramp", t1)):
+                g = shape_profile({"kind": kind, "start": float(a), "length": float(L)}, t)[:, 0]
+                info = float(np.sum((drdh * g) ** 2)) / (floor_rms ** 2 * max(tau_int, 1.0))
+                if info > 0 and min_t / np.sqrt(info) <= dh_max:
+                    visible.append((float(a), float(end)))
+    windows: list[list[float]] = []
+    for u in np.arange(t0, t1 - SHAPE_LENGTHS[0] + 1e-9, BLIND_STEP):
+        # the window from u ends where the first visible placement starting at or after u ends
+        e = min((b for a, b in visible if a >= u - 1e-9), default=t1 + BLIND_STEP) - BLIND_STEP
+        e = min(e, t1)
+        if e - u >= SHAPE_LENGTHS[0] and not any(w0 <= u and e <= w1 for w0, w1 in windows):
+            windows.append([float(u), float(e)])
+    return windows

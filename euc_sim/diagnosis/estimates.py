@@ -13,7 +13,7 @@ from euc_sim.identification import selection as sel
 from euc_sim.model.parameters import Params
 from euc_sim.simulation import effects
 
-__all__ = ["estimate_of", "sub_cov", "is_plausible", "plausible_alias", "evidence", "effect_items",
+__all__ = ["estimate_of", "sub_cov", "is_plausible", "alias_estimates", "plausible_alias", "evidence", "effect_items",
            "detection_limits", "drift_of_time"]
 
 
@@ -55,21 +55,56 @@ def is_plausible(name: str, est: float, p: Params) -> bool:
     return lo * 0.5 <= est <= hi * 1.5
 
 
-def plausible_alias(problem: reg.Problem, selected, name: str, aliases, info, p: Params, dof: float):
-    """The best-fitting alias whose swapped-in estimate is plausible, or None."""
+def alias_estimates(problem: reg.Problem, selected, name: str, aliases, info: dict, dof: float) -> dict:
+    """What the recording identifies, expressed as each alias's own estimate.
+
+    Two aliases explain the residual with the same term (rolling resistance and a
+    slope: both a constant force along the road while the speed keeps one sign,
+    NOTES fact 5).  The identified quantity is that combined term; swapping the
+    alias's column for ``name`` in the accepted set (h re-identified) maps it to the
+    alias's CONTRACT unit: a C_rr for rolling resistance, α (rad) for a slope.
+
+    Parameters
+    ----------
+    problem : regression.Problem
+    selected : sequence of str
+        The accepted set, containing ``name``.
+    name : str
+    aliases : sequence of str
+        :func:`euc_sim.identification.selection.find_aliases` of ``name``.
+    info : dict
+        Estimate maps of the candidates (``candidates.build_problem``).
+    dof : float
+        Degrees of freedom of the Student-t interval.
+
+    Returns
+    -------
+    dict
+        ``{alias: {"estimate", "unit", "ci95", "t", "rss"}}`` for every alias with a
+        linear, single-column term (not the h drift's shape, not the nonlinear time
+        offset or rider mass, whose swapped column is a linearisation only).
+    """
     without = tuple(c for c in selected if c != name)
-    best = None
+    out = {}
     for a in aliases:
-        f = reg.fit_set(problem, without + (a,))
-        if info[a].get("drift") or a in NONLINEAR:
+        if info[a].get("drift") or a in NONLINEAR or problem.candidates[a].shape[1] != 1:
             continue
+        f = reg.fit_set(problem, without + (a,))
         cov, _ = reg.covariance(problem, f, cluster=2.0)
-        C = sub_cov(problem, without + (a,), cov, a)
-        est, ci, se = estimate_of(info[a], f.theta[a], C, dof)
-        if is_plausible(a, est, p) and (best is None or f.rss < best[0]):
-            best = (f.rss, {"name": a, "estimate": est, "unit": effects.get(a).unit, "ci95": ci,
-                            "t": abs(est) / se if se > 0 else float("inf")})
-    return None if best is None else best[1]
+        est, ci, se = estimate_of(info[a], f.theta[a], sub_cov(problem, without + (a,), cov, a), dof)
+        out[a] = {"estimate": est, "unit": effects.get(a).unit, "ci95": ci,
+                  "t": abs(est) / se if se > 0 else float("inf"), "rss": f.rss}
+    return out
+
+
+def plausible_alias(swapped: dict, p: Params):
+    """The best-fitting alias (of :func:`alias_estimates`) whose estimate is plausible, or None."""
+    ok = [(v["rss"], a) for a, v in swapped.items() if is_plausible(a, v["estimate"], p)]
+    if not ok:
+        return None
+    a = min(ok)[1]
+    v = swapped[a]
+    return {"name": a, "estimate": v["estimate"], "unit": v["unit"], "ci95": v["ci95"], "t": v["t"]}
 
 
 def evidence(name: str, est: float, unit: str, before: float, after: float, t_stat: float,
@@ -118,8 +153,9 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
                 "evidence": evidence(c, est, effects.get(c).unit, before, after, t_stat, aliases)}
         if fin.info[c].get("drift"):
             item.update(drift_of_time(fin.info[c], fin.fit.theta[c], C, fin.fit.h, fin.dof))
+        swapped = alias_estimates(problem, selected, c, aliases, info, fin.dof)
         if aliases and not is_plausible(c, est, prep.params):
-            swap = plausible_alias(problem, selected, c, aliases, info, prep.params, fin.dof)
+            swap = plausible_alias(swapped, prep.params)
             if swap is not None:
                 item = {**swap, "rmse_after": after,
                         "aliases": [c] + [a for a in aliases if a != swap["name"]]}
@@ -127,6 +163,10 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
                                              swap["t"], item["aliases"])
                                     + f" Named before {c}, whose estimate {est:.3g} is outside its plausible range.")
                 item.pop("t", None)
+                swapped = {**{k: v for k, v in swapped.items() if k != swap["name"]},
+                           c: {"estimate": est, "unit": effects.get(c).unit, "ci95": ci}}
+        if swapped:     # the identified quantity in each alias's unit (CONTRACT: an extra field)
+            item["alias_estimates"] = {a: {k: v[k] for k in ("estimate", "unit", "ci95")} for a, v in swapped.items()}
         out.append(item)
     return out
 

@@ -26,6 +26,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from euc_sim.diagnosis import drift_term
 from euc_sim.diagnosis.candidates import build_problem, visibility
 from euc_sim.diagnosis.common import DiagnosisError, COLUMN_H_TOL, COLUMN_ITERATIONS, H_BOUNDS, NONLINEAR, THRESHOLDS, Thresholds
 from euc_sim.diagnosis.estimates import detection_limits, effect_items
@@ -94,6 +95,7 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     fin = final_model(prep, problem, info, s, say)                                  # 5 refine
     eff_out = effect_items(prep, problem, info, s, fin, n_eff, th)
     limits = detection_limits(problem, info, s, vis, th)
+    _add_blind_windows(limits, model, time, s.fit.h, floor, th)
     say("5/6 verdict: detection limits, testing what is left")
     left = leftover(fin, tuple(s.selected), floor["rms_stacked"], th)               # 6 verdict
     decision = judge(eff_out, s.cv_nominal, fin, limits, vis, left, model.W is not None, th)
@@ -149,6 +151,21 @@ def _select(prep: Prepared, h0: float, n_eff: float, th: Thresholds, say):
             break
         h_cols = s.fit.h
     return problem, info, s
+
+
+def _add_blind_windows(limits: dict, model: ResidualModel, time: np.ndarray, h: float, floor: dict,
+                       th: Thresholds) -> None:
+    """``limits["cog_height_drift"]["blind_windows"]``: where no plausible drift could be seen
+    (:func:`euc_sim.diagnosis.drift_term.blind_windows`, ∂r/∂h at h, m), and
+    ``analysed_span``: the first and last residual sample, s (the filter's edges are cut)."""
+    if "cog_height_drift" not in limits:
+        return
+    dh = 1e-4
+    drdh = (model(h + dh) - model(h - dh)) / (2 * dh)
+    lim = limits["cog_height_drift"]
+    lim["analysed_span"] = [float(np.min(time)), float(np.max(time))]
+    lim["blind_windows"] = drift_term.blind_windows(time, drdh, floor["rms_stacked"], floor["tau_int"],
+                                                    th.min_t, lim["plausible"][1])
 
 
 def _reported_model(problem: reg.Problem, s, fin: Final, decision: dict) -> tuple:

@@ -31,6 +31,9 @@ def _fmt_effect(e: dict) -> str:
     txt = f"{e['name']} = {e['estimate']:.4g}{unit} (95% CI {lo:.4g}…{hi:.4g})"
     if e.get("aliases"):
         txt += f"; cannot be told apart here from {', '.join(e['aliases'])}"
+    for a, v in e.get("alias_estimates", {}).items():     # the same identified term in the alias's unit
+        u = "" if v["unit"] in ("1", "") else f" {v['unit']}"
+        txt += f" (as {a}: {v['estimate']:.4g}{u}, 95% CI {v['ci95'][0]:.4g}…{v['ci95'][1]:.4g})"
     return txt
 
 

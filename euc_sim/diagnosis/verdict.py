@@ -144,4 +144,16 @@ def cannot_see(limits: dict, vis: dict) -> dict[str, str]:
             what = "a change of the rider's mass" if name == "rider_mass" else "values"
             out[name] = (f"near the noise floor here: only {what} above {lim['detectable_above']:.3g}{unit} "
                          f"could be seen (plausible {lim['plausible'][0]:g} to {lim['plausible'][1]:g}{unit})")
+        if lim.get("blind_windows"):
+            spans: list[list[float]] = []          # the (overlapping) windows' extent, for people
+            for a, b in sorted(lim["blind_windows"]):
+                if spans and a <= spans[-1][1]:
+                    spans[-1][1] = max(spans[-1][1], b)
+                else:
+                    spans.append([a, b])
+            where = ", ".join(f"{a:.1f}-{b:.1f} s" for a, b in spans)
+            out[name] = ((out[name] + "; ") if name in out else "") + (
+                f"a drift wholly inside one of the {len(lim['blind_windows'])} windows of "
+                f"limits.blind_windows (within {where}) could not be seen at any plausible size "
+                f"(up to {lim['plausible'][1]:g} m): ∂r/∂h there follows only the rider's sway")
     return out

@@ -160,10 +160,13 @@ def test_blind_right_effect_first_estimate_and_improvement(study, effect):
         assert effect in names          # NOTES fact 5: they may alias; both must be reported
     else:
         assert first["name"] == effect
-    if first["name"] == effect:
-        assert first["estimate"] == pytest.approx(r["case"]["value"], rel=0.25)
-        lo, hi = first["ci95"]
-        assert lo < first["estimate"] < hi
+    for a in set(first["aliases"]) & {"rolling_resistance", "road_slope"}:
+        assert set(first["alias_estimates"][a]) == {"estimate", "unit", "ci95"}
+    # named by its alias: the identified constant force mapped to the concealed effect's unit
+    est = first if first["name"] == effect else first["alias_estimates"][effect]
+    assert est["estimate"] == pytest.approx(r["case"]["value"], rel=0.25)
+    lo, hi = est["ci95"]
+    assert lo < est["estimate"] < hi
     assert res["augmented_rmse"] <= 0.5 * res["nominal_rmse"]
 
 
@@ -280,3 +283,22 @@ def test_diagnose_does_not_modify_its_input(study):
         res = diagnosis.diagnose(df, meta=meta, resimulate=False)
     pd.testing.assert_frame_equal(df, before)
     assert res["effects"] == []
+
+
+def test_blind_study_scores_an_alias_pair_on_its_mapped_estimate_and_a_declared_blind_drift():
+    case = {"effect": "rolling_resistance", "value": 0.033, "kind": "effect"}
+    first = {"name": "road_slope", "estimate": 0.010, "ci95": [0.0095, 0.0105], "aliases": ["rolling_resistance"],
+             "alias_estimates": {"rolling_resistance": {"estimate": 0.0327, "unit": "1", "ci95": [0.031, 0.0343]}}}
+    res = {"decidable": True, "effects": [first]}
+    assert BLIND._truth_estimate(case, res)["estimate"] == 0.0327
+    assert BLIND._truth_estimate({**case, "effect": "aerodynamic_drag"}, res) is None
+    drift = {"effect": "cog_height_drift", "value": 0.1, "kind": "effect", "duration": 20.0,
+             "drift_shape": {"kind": "dip", "start": 11.0, "length": 3.0, "sign": 1.0}}
+    lim = {"cog_height_drift": {"blind_windows": [[1.0, 4.0], [9.5, 16.0]], "analysed_span": [1.0, 19.0]}}
+    quiet = {"decidable": True, "effects": [], "limits": lim}
+    assert BLIND._declared_blind(drift, quiet)
+    assert not BLIND._declared_blind({**drift, "drift_shape": {**drift["drift_shape"], "start": 14.0}}, quiet)
+    ramp = {**drift, "drift_shape": {"kind": "ramp", "start": 12.0, "length": 2.0, "sign": 1.0}}
+    assert not BLIND._declared_blind(ramp, quiet)        # h stays changed to the end, outside the window
+    named = {**quiet, "effects": [{"name": "road_slope"}]}
+    assert not BLIND._declared_blind(drift, named)       # something was named: not a declaration

@@ -56,3 +56,16 @@ def test_peak_to_peak_and_its_error_by_the_delta_method():
     shape = {"kind": "dip", "start": 4.0, "length": 3.0}
     a, se = drift_term.peak_to_peak(shape, (0.0, 12.0), np.array([-0.12]), np.array([[0.01 ** 2]]))
     assert a == pytest.approx(0.12, rel=1e-3) and se == pytest.approx(0.01, rel=1e-3)
+
+
+def test_blind_windows_are_the_holds_where_no_plausible_drift_shows():
+    t = np.arange(0.0, 20.0, 1 / 30)
+    accel = (t > 5.0) & (t < 9.0)                     # a speed change: ∂r/∂h large
+    drdh = np.where(accel, 20.0, 0.5) + 0.1 * np.sin(3.0 * t)
+    wins = drift_term.blind_windows(t, drdh, floor_rms=0.2, tau_int=10.0, min_t=4.0, dh_max=0.25)
+    assert wins, "the holds must be reported blind"
+    for a, b in wins:     # no window reaches into the speed change beyond a dip's flat edge
+        assert b <= 5.5 + 1e-9 or a >= 8.5 - 1e-9
+    assert any(a <= 10.0 and b >= 19.0 for a, b in wins)     # the hold after it
+    # a recording that is all speed changes has no blind window
+    assert drift_term.blind_windows(t, np.full(t.size, 20.0), 0.2, 10.0, 4.0, 0.25) == []
