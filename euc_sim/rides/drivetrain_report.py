@@ -24,7 +24,7 @@ from euc_sim.rides.rotating import without_rotating_inertia
 from euc_sim.rides.spec import WheelSpec
 
 __all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "plot_pwm", "page_section",
-           "COMPUTED_PWM_RMS"]
+           "COMPUTED_PWM_RMS", "computed_pwm_note"]
 
 #: A logged duty that its model explains better than this, percentage points, is
 #: taken to be computed by the app from speed and voltage, not measured.
@@ -61,7 +61,8 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(x)))) if x.size else float("nan")
 
 
-def _pwm_note(r: RideDrivetrain) -> str | None:
+def computed_pwm_note(r: RideDrivetrain) -> str | None:
+    """Why the logged duty of ``r`` is taken as computed by the app, or None if measured."""
     if r.drivetrain.pwm_coef is None:
         return None
     pred, obs = predict_pwm(r.sig, r.drivetrain.pwm_coef)
@@ -98,8 +99,8 @@ def _envelope(r: RideDrivetrain) -> dict:
     if dt.pwm_coef is None or not dt.mass:
         return {"why": "needs the PWM model and the mass: "
                        + (dt.unidentified.get("pwm") or r.mass.why or "unavailable")}
-    if _pwm_note(r):
-        return {"why": _pwm_note(r)}
+    if computed_pwm_note(r):
+        return {"why": computed_pwm_note(r)}
     V = r.spec.battery_voltage or (dt.battery_coef["E0"] if dt.battery_coef else None)
     src = "spec" if r.spec.battery_voltage else "open-circuit voltage fitted at the ride's start"
     v_zero = no_force_speed(dt.pwm_coef, V)
@@ -135,7 +136,7 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
     """
     r = fitted or analyse(path, spec, settings)
     dtj = r.drivetrain.as_json()
-    note = _pwm_note(r)
+    note = computed_pwm_note(r)
     if note:
         dtj["resistive_drop"] = {"estimate": None, "ci95": None, "unit": "V/N", "why": note}
         dtj.pop("winding_resistance", None)
