@@ -117,7 +117,8 @@ class MotorPD:
         speed : float
             Forward speed ẋ, m/s (used by tilt-back only).
         """
-        M = self.Kp * (gamma - self.gamma_ref(speed)) + self.Kd * gamma_dot
+        g_ref = 0.0 if self.tiltback_speed == math.inf else self.gamma_ref(speed)
+        M = self.Kp * (gamma - g_ref) + self.Kd * gamma_dot
         lim = self.torque_limit
         M = lim if M > lim else (-lim if M < -lim else M)
         if self.voltage != math.inf and M * speed > 0.0:

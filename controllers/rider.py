@@ -27,8 +27,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
+from scipy.linalg.lapack import dtrtrs
 
 from controllers.motor import MotorPD
 from euc_sim.model.parameters import Params
@@ -196,8 +198,6 @@ class RiderRun:
 
     def __init__(self, rider: Rider, p: Params, motor: MotorPD, v_ref: np.ndarray,
                  a_ref: np.ndarray, dt: float, seed: int):
-        from controllers.plant import predictor_rows
-
         self.rider = rider
         self.n = n = int(round(rider.delay / dt))
         N = len(v_ref)
@@ -214,17 +214,15 @@ class RiderRun:
         self.u_ref = pad(M_h).tolist()
         self.du = np.zeros(N + n)               # commanded M_h − M_h*, padded history
         self.noise = motor_noise(N, dt, rider.noise_std, rider.noise_tau, seed).tolist()
-        K = np.asarray(rider.K, dtype=float)
-        if rider.predictor and n > 0:
-            KPn, KG = predictor_rows(p, motor, K, dt, n)
-        else:
-            KPn, KG = K, np.zeros(n)
-        self.k_pred = [float(k) for k in KPn]
-        self.integral = len(K) == 6
+        self.k_pred, self.k_hist, lower, past = _delay_law(p, motor, rider.K, dt, n, rider.predictor)
+        self.integral = len(rider.K) == 6
         self.z = 0.0                            # ∫(ẋ − v_ref) dt over the sensed samples, m
         self.dt = dt
-        self.k_hist = np.ascontiguousarray(KG)
         self.limit = rider.torque_limit
+        self._chunk = (lower, past)
+        # the same references as arrays, for blocks of steps (:meth:`commands`)
+        self._arrays = tuple(np.asarray(a) for a in (self.v_ref, self.gamma_ref, self.phi_ref,
+                                                      self.u_ref, self.noise))
 
     def initial_state(self) -> tuple[float, float, float, float]:
         """(v, γ, φ) of the trim at t = 0 and the trim M_h, for the initial condition."""
@@ -259,3 +257,117 @@ class RiderRun:
         u = lim if u > lim else (-lim if u < -lim else u)
         self.du[k + n] = u - u_ref
         return u, u + self.noise[k]
+
+    def commands(self, k0: int, Y_sensed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Ankle torques of steps k0 … k0 + L − 1 at once: the law of :meth:`command`, vectorised.
+
+        The rider senses states n steps old, so a block of up to n + 1 steps needs
+        only states already simulated; the commands' own history enters through the
+        predictor's Σ KG_i δu term, a linear recursion solved exactly for the whole
+        block as a unit lower-triangular system (forward substitution).  A block in
+        which the torque limit binds is done step by step by :meth:`command`.
+
+        Parameters
+        ----------
+        k0 : int
+            First step of the block.
+        Y_sensed : numpy.ndarray, shape (L, 6), L ≤ n + 1
+            The padded history's entries k0 … k0 + L − 1: the states the rider senses.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            Commanded and applied (with noise) M_h, each (L,), N·m.
+        """
+        Y_sensed = np.asarray(Y_sensed, dtype=float)
+        L, n = len(Y_sensed), self.n
+        if L > n + 1:
+            raise RiderError(f"a block of rider commands spans at most n + 1 = {n + 1} steps, got {L}")
+        z0, du0 = self.z, self.du[k0:k0 + n].copy()
+        kp = self.k_pred
+        v_ref, gamma_ref, phi_ref, u_ref, noise = self._arrays
+        y, j = Y_sensed, slice(k0, k0 + L)
+        e_v = y[:, 3] - v_ref[j]
+        fb = (kp[0] * e_v + kp[1] * (y[:, 1] - gamma_ref[j])
+              + kp[2] * (y[:, 2] - phi_ref[j]) + kp[3] * y[:, 4] + kp[4] * y[:, 5])
+        if self.integral:
+            z = np.cumsum(np.concatenate([[z0], e_v * self.dt]))   # z_{k+1} = z_k + e_v dt, in order
+            fb += kp[5] * z[:L]
+            self.z = float(z[L])
+        u_ref = u_ref[k0 + n:k0 + n + L]
+        rhs = -fb
+        if n:
+            lower, past = self._chunk
+            rhs -= past[:L] @ du0
+            if L < n + 1:
+                lower = np.asfortranarray(lower[:L, :L])
+            du, info = dtrtrs(lower, rhs, lower=1, unitdiag=1)   # forward substitution (LAPACK)
+        else:
+            du = rhs
+        u = u_ref + du
+        if np.any(np.abs(u) > self.limit):      # the limit binds: step by step, clipping each
+            self.z, self.du[k0:k0 + n] = z0, du0
+            return self._commands_stepwise(k0, Y_sensed)
+        self.du[k0 + n:k0 + n + L] = du
+        return u, u + noise[k0:k0 + L]
+
+    def _commands_stepwise(self, k0: int, Y_sensed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`commands` one step at a time through :meth:`command` (the limit binds)."""
+        out = np.empty((len(Y_sensed), 2))
+        hist = _Lookup(k0, Y_sensed)
+        for i in range(len(Y_sensed)):
+            out[i] = self.command(k0 + i, hist)
+        return out[:, 0], out[:, 1]
+
+
+class _Lookup:
+    """``Y[k]`` for k in a block, backed by the block's sensed states (for :meth:`RiderRun.command`)."""
+
+    def __init__(self, k0: int, Y_sensed: np.ndarray):
+        self.k0, self.rows = k0, Y_sensed.tolist()
+
+    def __getitem__(self, k: int):
+        return self.rows[k - self.k0]
+
+
+@lru_cache(maxsize=32)
+def _delay_law(p: Params, motor: MotorPD, K: tuple, dt: float, n: int, predictor: bool):
+    """The rider's delayed law for (p, motor, K, dt, n), cached: the predictor's rows
+    (:func:`controllers.plant.predictor_rows`, a matrix exponential) and the block
+    matrices of :func:`_chunk_matrices`.  Arrays are read-only (shared between runs).
+
+    Returns
+    -------
+    tuple
+        K Φⁿ as a tuple of floats, KG (n,), lower (n+1, n+1), past (n+1, n).
+    """
+    from controllers.plant import predictor_rows
+
+    K = np.asarray(K, dtype=float)
+    if predictor and n > 0:
+        KPn, KG = predictor_rows(p, motor, K, dt, n)
+    else:
+        KPn, KG = K, np.zeros(n)
+    KG = np.ascontiguousarray(KG)
+    lower, past = _chunk_matrices(KG)
+    for arr in (KG, lower, past):
+        arr.setflags(write=False)
+    return tuple(float(k) for k in KPn), KG, lower, past
+
+
+def _chunk_matrices(KG: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The predictor's command recursion over a block of n + 1 steps, as matrices.
+
+    With δu_k + Σ_{i<n} KG_i δu_{k−n+i} = r_k for the block's steps k = k0 + j, the
+    terms on the block's own earlier commands form the unit lower-triangular
+    ``lower`` ((n+1) × (n+1), entry (j, j') = KG_{n−j+j'} for j' < j) and those on the
+    n commands before the block the matrix ``past`` ((n+1) × n, entry (j, m) = KG_{m−j}
+    for m ≥ j), so that ``lower`` δu_block = r − ``past`` δu_before.
+    """
+    n = len(KG)
+    lower = np.eye(n + 1, order="F")
+    past = np.zeros((n + 1, n))
+    for j in range(n + 1):
+        lower[j, :j] = KG[n - j:n]
+        past[j, j:] = KG[:n - j]
+    return lower, past

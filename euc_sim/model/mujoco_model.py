@@ -5,8 +5,13 @@ Parameters are applied through :class:`mujoco.MjSpec`, never by editing XML text
 Two ground models:
 
 ``ideal``
-    pure rolling, an equality constraint on the fixed tendon
-    x − R (euc_pitch + wheel_spin) = 0 (the XML as written);
+    pure rolling in exact reduced coordinates: the wheel has no hinge of its own.
+    Its absolute angle is x/R, so its spin inertia J_w enters the kinetic energy as
+    ½ J_w (ẋ/R)², exactly the slide's ``armature`` J_w/R²; the motor acts on the
+    fixed tendon ``motor_shaft`` = x/R − gamma (the rotor angle relative to the
+    body), so M_d gives M_d/R on x and −M_d on gamma (eq. 8).  No constraint is
+    solved: the XML's rolling equality is removed (the XML as written is the same
+    model with a wheel hinge and that equality; it is 1.7× slower to step);
 ``contact``
     the wheel rolls on the floor through friction; the EUC body gets a vertical
     slide ``z`` and the wheel may slip.
@@ -23,14 +28,20 @@ joint          meaning                                  in paper coordinates
 ``x``          slide of the wheel centre C              x
 ``z``          (contact only) height of C above R       0 when rolling
 ``euc_pitch``  EUC body pitch                           gamma
-``wheel_spin`` wheel angle relative to the EUC body      x / R − gamma
+``wheel_spin`` (contact only) wheel angle relative to      x / R − gamma
+               the EUC body
 ``rider_pitch`` rider pitch relative to the EUC body     phi − gamma
 =============  ======================================  =====================
+
+The wheel's absolute angle is a derived readout in both variants
+(:attr:`EucMujoco.wheel_angle`).
 """
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import mujoco
@@ -40,7 +51,7 @@ from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = [
     "MJCF_PATH", "VARIANTS", "ModelError", "ContactSettings", "JointIndex", "build_spec",
-    "load_model", "paper_jacobian", "to_mujoco", "from_mujoco", "EucMujoco",
+    "load_model", "SHAFT_TENDON", "paper_jacobian", "to_mujoco", "from_mujoco", "EucMujoco",
 ]
 
 #: The hand-written model, beside the package.
@@ -49,7 +60,11 @@ MJCF_PATH = Path(__file__).resolve().parents[2] / "mjcf" / "euc_planar.xml"
 VARIANTS = ("ideal", "contact")
 
 JOINTS = ("x", "euc_pitch", "wheel_spin", "rider_pitch")
+#: Joints a compiled model may lack: ``z`` (ideal) and ``wheel_spin`` (ideal: reduced coordinates).
+OPTIONAL_JOINTS = ("z", "wheel_spin")
 ACTUATORS = ("motor", "ankle")
+#: The ideal variant's motor transmission: the rotor angle x/R − gamma, rad.
+SHAFT_TENDON = "motor_shaft"
 
 
 class ModelError(ValueError):
@@ -171,19 +186,32 @@ def build_spec(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path
     if site_G is not None:
         site_G.pos = [0.0, 0.0, p.h]
 
-    rolling_eq = _find(spec, "equality", "rolling", path)
+    spec.delete(_find(spec, "equality", "rolling", path))
     spec.delete(_find(spec, "tendon", "rolling", path))
     if variant == "ideal":
-        # no contacts exist in the ideal variant: skip collision detection altogether
-        spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
-        tendon = spec.add_tendon(name="rolling")       # x − R (gamma + wheel_spin) = 0
-        tendon.wrap_joint("x", 1.0)
-        tendon.wrap_joint("euc_pitch", -p.R)
-        tendon.wrap_joint("wheel_spin", -p.R)
+        _make_reduced(spec, p, path)
     else:
-        spec.delete(rolling_eq)
         _make_contact(spec, p, contact or ContactSettings(), path)
     return spec
+
+
+def _make_reduced(spec: mujoco.MjSpec, p: Params, path: Path) -> None:
+    """Pure rolling in reduced coordinates (x, gamma, rider_pitch): see the module docstring."""
+    # no contacts and no constraints exist in the ideal variant: skip both stages
+    spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
+    shaft = spec.add_tendon(name=SHAFT_TENDON)          # rotor angle: x/R − gamma
+    shaft.wrap_joint("x", 1.0 / p.R)
+    shaft.wrap_joint("euc_pitch", -1.0)
+    motor = _find(spec, "actuator", "motor", path)
+    motor.trntype = mujoco.mjtTrn.mjTRN_TENDON
+    motor.target = SHAFT_TENDON
+    spec.delete(_find(spec, "joint", "wheel_spin", path))
+    # the wheel turns at x/R whatever gamma does: its spin inertia J_w moves from the
+    # body (where it would turn with gamma) to the slide, ½ J_w (ẋ/R)² = ½ (J_w/R²) ẋ²
+    wheel = _find(spec, "body", "wheel", path)
+    wheel.inertia = [0.6 * p.Jw, 0.0, 0.6 * p.Jw]
+    x = _find(spec, "joint", "x", path)
+    x.armature = x.armature + p.Jw / p.R**2
 
 
 def _make_contact(spec: mujoco.MjSpec, p: Params, c: ContactSettings, path: Path) -> None:
@@ -209,8 +237,19 @@ def _make_contact(spec: mujoco.MjSpec, p: Params, c: ContactSettings, path: Path
 
 def load_model(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path | None = None,
                contact: ContactSettings | None = None) -> mujoco.MjModel:
-    """Compile the model with the given parameters and ground variant (see :func:`build_spec`)."""
-    spec = build_spec(params, variant, mjcf, contact)
+    """Compile the model with the given parameters and ground variant (see :func:`build_spec`).
+
+    Compiled models are cached by (parameters, variant, file and its modification
+    time, contact settings); each call returns its own copy, free to modify.
+    """
+    path = Path(mjcf) if mjcf is not None else MJCF_PATH
+    stamp = path.stat().st_mtime_ns if path.is_file() else None     # a missing file: build_spec says so
+    return copy.copy(_compiled(params, variant, str(path), stamp, contact))
+
+
+@lru_cache(maxsize=16)
+def _compiled(params: Params, variant: str, path: str, stamp, contact) -> mujoco.MjModel:
+    spec = build_spec(params, variant, path, contact)
     try:
         return spec.compile()
     except Exception as exc:
@@ -232,7 +271,7 @@ class JointIndex:
         for name in JOINTS + ("z",):
             jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)
             if jid < 0:
-                if name == "z":
+                if name in OPTIONAL_JOINTS:
                     continue
                 raise ModelError(f"model has no joint {name!r}")
             qpos[name] = int(model.jnt_qposadr[jid])
@@ -243,20 +282,26 @@ class JointIndex:
     def has_z(self) -> bool:
         return "z" in self.qpos
 
+    @property
+    def has_spin(self) -> bool:
+        """Whether the wheel has its own hinge (contact variant) or turns at x/R (ideal)."""
+        return "wheel_spin" in self.qpos
+
 
 def paper_jacobian(index: JointIndex, R: float) -> np.ndarray:
     """T with qvel = T q̇ under pure rolling, shape (nv, 3).
 
     Generalised quantities map with it: M_paper = Tᵀ M_mj T, bias_paper = Tᵀ bias_mj,
-    Q_paper = Tᵀ Q_mj.  Constraint forces of the rolling equality lie in the null
-    space of Tᵀ, so the map is exact for the ideal variant.
+    Q_paper = Tᵀ Q_mj.  The ideal variant has no wheel hinge (reduced coordinates), so
+    there T only reorders and maps rider_pitch = phi − gamma: the map is exact.
     """
     T = np.zeros((index.nv, 3))
     d = index.dof
     T[d["x"], 0] = 1.0
     T[d["euc_pitch"], 1] = 1.0
-    T[d["wheel_spin"], 0] = 1.0 / R          # wheel_spin = x/R − gamma
-    T[d["wheel_spin"], 1] = -1.0
+    if index.has_spin:
+        T[d["wheel_spin"], 0] = 1.0 / R      # wheel_spin = x/R − gamma
+        T[d["wheel_spin"], 1] = -1.0
     T[d["rider_pitch"], 1] = -1.0            # rider_pitch = phi − gamma
     T[d["rider_pitch"], 2] = 1.0
     return T
@@ -286,7 +331,8 @@ def to_mujoco(index: JointIndex, R: float, q, qd=None, qdd=None):
     qpos = np.zeros(q.shape[:-1] + (index.nq,))
     qpos[..., index.qpos["x"]] = q[..., 0]
     qpos[..., index.qpos["euc_pitch"]] = q[..., 1]
-    qpos[..., index.qpos["wheel_spin"]] = q[..., 0] / R - q[..., 1]
+    if index.has_spin:
+        qpos[..., index.qpos["wheel_spin"]] = q[..., 0] / R - q[..., 1]
     qpos[..., index.qpos["rider_pitch"]] = q[..., 2] - q[..., 1]
     return qpos, qd @ T.T, qdd @ T.T
 
@@ -410,11 +456,29 @@ class EucMujoco:
         return from_mujoco(self.index, self.data.qpos, self.data.qvel, self.data.qacc)[2]
 
     @property
-    def wheel_slip(self) -> float:
-        """x − R (gamma + wheel_spin), m: zero under pure rolling."""
+    def wheel_angle(self) -> float:
+        """The wheel's absolute angle about +y, rad: x/R (ideal), gamma + wheel_spin (contact)."""
         i = self.index.qpos
         qp = self.data.qpos
-        return float(qp[i["x"]] - self.params.R * (qp[i["euc_pitch"]] + qp[i["wheel_spin"]]))
+        if not self.index.has_spin:
+            return float(qp[i["x"]] / self.params.R)
+        return float(qp[i["euc_pitch"]] + qp[i["wheel_spin"]])
+
+    @property
+    def wheel_slip(self) -> float:
+        """x − R · wheel angle, m: zero under pure rolling (identically so in the ideal variant)."""
+        return float(self.data.qpos[self.index.qpos["x"]] - self.params.R * self.wheel_angle)
+
+    def set_bearing_damping(self, c: float) -> None:
+        """Viscous friction of the wheel bearing, N·m·s/rad, on the rotor speed ẋ/R − γ̇.
+
+        Ideal variant: damping of the ``motor_shaft`` tendon; contact: of ``wheel_spin``.
+        """
+        if self.index.has_spin:
+            self.model.dof_damping[self.index.dof["wheel_spin"]] = c
+        else:
+            tid = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_TENDON, SHAFT_TENDON)
+            self.model.tendon_damping[tid] = c
 
     # -- actuation and stepping ---------------------------------------------------------
     def set_torques(self, M_d: float, M_h: float) -> None:

@@ -35,11 +35,12 @@ Engines
     so the two engines are comparable sample by sample.
 
 Effects (CONTRACT's catalog) act as physics in both engines:
-``rolling_resistance`` (moment on the wheel; MuJoCo: ``xfrc_applied`` on ``wheel``,
+``rolling_resistance`` (moment on the wheel; MuJoCo: τ/R in ``qfrc_applied`` on ``x``,
+the wheel's angle being x/R, or ``xfrc_applied`` on ``wheel`` in the contact variant,
 or true rolling friction with ``contact=ContactSettings(rolling_friction=...)`` on
 the contact variant), ``aerodynamic_drag`` (force at G; MuJoCo: ``xfrc_applied`` on
 ``rider``), ``road_slope`` (``model.opt.gravity`` tilted in the road frame),
-``wheel_bearing_friction`` (damping of ``wheel_spin``), ``rider_mass`` (parameters
+``wheel_bearing_friction`` (damping of the rotor speed ẋ/R − γ̇), ``rider_mass`` (parameters
 through MjSpec), ``cog_height_drift`` (``model.body_ipos`` of ``rider`` each step),
 ``lateral_dynamics`` (a prescribed slalom, tilt ϑ(t) with the yaw rate of a
 coordinated turn, acts through :func:`euc_sim.simulation.effects.lateral_forces`; MuJoCo:
@@ -52,6 +53,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import chain
 from typing import Mapping
 
 import numpy as np
@@ -168,10 +170,12 @@ class _MujocoStepper:
         self.g0 = np.array([-p.g * math.sin(alpha), 0.0, -p.g * math.cos(alpha)])  # road frame
         m.opt.gravity[:] = self.g0
         if "wheel_bearing_friction" in eff:
-            m.dof_damping[idx.dof["wheel_spin"]] = eff["wheel_bearing_friction"]
+            self.sim.set_bearing_damping(eff["wheel_bearing_friction"])
         self.p = p
+        self.spin = idx.has_spin
         # views into MjData, cached: attribute access costs more than the step's arithmetic
         self._ctrl, self._qpos, self._qvel = self.d.ctrl, self.d.qpos, self.d.qvel
+        self.step = self._make_step()
 
     def reset(self, y) -> None:
         self.sim.set_state(y[:3], y[3:])
@@ -179,25 +183,40 @@ class _MujocoStepper:
     def set_effects(self, Fx_drag: float, tau_roll: float, h: float | None, Q_lat) -> None:
         xf = self.d.xfrc_applied
         xf[self.b_rider, 0] = Fx_drag          # force at the rider's CoM G, world (road) frame
-        xf[self.b_wheel, 4] = tau_roll         # moment about +y on the wheel
+        Q_x = 0.0
+        if self.spin:
+            xf[self.b_wheel, 4] = tau_roll     # moment about +y on the wheel
+        else:                                  # the wheel turns at x/R: τ dθ = (τ/R) dx
+            Q_x = tau_roll / self.p.R
         if h is not None:
             self.m.body_ipos[self.b_rider, 2] = h
             self.m.site_pos[self.site_G, 2] = h
-        if Q_lat is not None:            # paper Q → MuJoCo: Q_paper = Tᵀ Q_mj (paper_jacobian)
+        if Q_lat is not None or not self.spin:   # paper Q → MuJoCo: Q_paper = Tᵀ Q_mj (paper_jacobian)
+            Q_lat = (0.0, 0.0, 0.0) if Q_lat is None else Q_lat
             qf = self.d.qfrc_applied
-            qf[self.vx] = Q_lat[0]
+            qf[self.vx] = Q_lat[0] + Q_x
             qf[self.vg] = Q_lat[1] + Q_lat[2]
             qf[self.vr] = Q_lat[2]
 
-    def step(self, M_d: float, M_h: float):
-        ctrl = self._ctrl
-        ctrl[self.a_motor] = M_d
-        ctrl[self.a_ankle] = M_h
-        self.mj.mj_step(self.m, self.d)
-        qp, qv = self._qpos.tolist(), self._qvel.tolist()   # Python floats: cheaper downstream
-        g = qp[self.ig]
-        gd = qv[self.vg]
-        return (qp[self.ix], g, g + qp[self.ir], qv[self.vx], gd, gd + qv[self.vr])
+    def _make_step(self):
+        """``step(M_d, M_h)`` as a closure over MjData's views: attribute look-ups cost more
+        than the step's own arithmetic at 1 kHz."""
+        from functools import partial
+
+        mj_step = partial(self.mj.mj_step, self.m, self.d)
+        ctrl, qpos, qvel = self._ctrl, self._qpos, self._qvel
+        a_motor, a_ankle = self.a_motor, self.a_ankle
+        ix, ig, ir, vx, vg, vr = self.ix, self.ig, self.ir, self.vx, self.vg, self.vr
+
+        def step(M_d: float, M_h: float):
+            ctrl[a_motor] = M_d
+            ctrl[a_ankle] = M_h
+            mj_step()
+            qp, qv = qpos.tolist(), qvel.tolist()      # Python floats: cheaper downstream
+            g, gd = qp[ig], qv[vg]
+            return (qp[ix], g, g + qp[ir], qv[vx], gd, gd + qv[vr])
+
+        return step
 
 
 class _AnalyticStepper:
@@ -445,53 +464,75 @@ def _closed_loop(stepper, motor: MotorPD, run: RiderRun, ext: _ExternalInputs, p
                  dt: float, N: int, y0: tuple, bounds: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
     """Step the plant N times under the held motor and ankle torques; states (N+1, 6) and torques (N+1, 2).
 
-    Velocity-dependent external forces are evaluated at the start of each step and
-    held over it.  Per-step quantities are Python floats: the loop stays off numpy.
+    The rider senses states n = delay/dt steps old, so his ankle torques are computed
+    a block of n + 1 steps at a time (:meth:`controllers.rider.RiderRun.commands`);
+    the motor PD sees the current state and runs at every step.  Velocity-dependent
+    external forces are evaluated at the start of each step and held over it.
+    Per-step quantities are Python floats: the loop stays off numpy.
     """
     n = run.n
     Y = [y0] * (n + 1)                         # padded state history: the delay buffer
     Md_hist, Mh_hist = [], []
     phi_max, gam_max = bounds["phi"], bounds["gamma"]
-    torque, command, step = motor.torque, run.command, stepper.step
-    R, sign_v = p_true.R, fx.SIGN_SPEED
-    C_rr, N_load, k_drag, push, lat, lat_scale = (ext.C_rr, ext.N_load, ext.k_drag, ext.push, ext.lat,
-                                                  ext.lat_scale)
-    h_list = None if ext.h_t is None else ext.h_t.tolist()
-    if h_list is not None:
-        h_d_list, h_dd_list = (a.tolist() for a in drift.drift_rates(ext.h_t, dt))
-        m_r, l0_r = p_true.m, p_true.l0
-    if lat is not None:
-        lat_s, lat_c = np.sin(lat.theta).tolist(), np.cos(lat.theta).tolist()
-        lat_th_d, lat_ps_d, lat_ps_dd = lat.theta_d.tolist(), lat.psi_d.tolist(), lat.psi_dd.tolist()
+    torque, step, keep_Md, keep_y = motor.torque, stepper.step, Md_hist.append, Y.append
+    effects = _EffectsRow(ext, p_true, dt) if ext.per_step else None
     y = y0
-    for k in range(N + 1):
-        x_, g_, f_, xd_, gd_, fd_ = y
-        if not (abs(f_) <= phi_max and abs(g_) <= gam_max):
-            _raise_fall(k * dt, y, phi_max, gam_max)
-        M_d = torque(g_, gd_, xd_)
-        M_h = command(k, Y)[1]
-        Md_hist.append(M_d)
-        Mh_hist.append(M_h)
-        if k == N:
-            break
-        if ext.per_step:
-            Q_lat = None
-            if lat is not None:  # effects.lateral_forces, held over the step
-                Q_lat = [lat_scale * v for v in fx.lateral_force_rows(
-                    p_true, math.sin(g_), math.cos(g_), math.sin(f_), math.cos(f_), xd_, gd_, fd_,
-                    lat_s[k], lat_c[k], lat_th_d[k], lat_ps_d[k], lat_ps_dd[k])]
-            if h_list is not None:   # G moving along the rider's axis: drift.drift_forces
-                Q_h = drift.drift_force_row(m_r, l0_r, h_list[k], h_d_list[k], h_dd_list[k], g_, f_, fd_)
-                Q_lat = list(Q_h) if Q_lat is None else [a + b for a, b in zip(Q_lat, Q_h)]
-            stepper.set_effects(-k_drag * xd_ * abs(xd_) + float(push(k * dt)),
-                                -C_rr * N_load * R * math.tanh(xd_ / sign_v),
-                                None if h_list is None else h_list[k], Q_lat)
-        y = step(M_d, M_h)
-        Y.append(y)
-    states = np.array(Y[n:], dtype=float)
+    for k0 in range(0, N + 1, n + 1):
+        block = min(n + 1, N + 1 - k0)
+        M_h_block = run.commands(k0, _rows(Y[k0:k0 + block]))[1].tolist()
+        Mh_hist += M_h_block
+        for k, M_h in enumerate(M_h_block, start=k0):
+            x_, g_, f_, xd_, gd_, fd_ = y
+            if not (abs(f_) <= phi_max and abs(g_) <= gam_max):
+                _raise_fall(k * dt, y, phi_max, gam_max)
+            M_d = torque(g_, gd_, xd_)
+            keep_Md(M_d)
+            if k == N:
+                break
+            if effects is not None:
+                stepper.set_effects(*effects(k, y))
+            y = step(M_d, M_h)
+            keep_y(y)
+    states = _rows(Y[n:])
     if not np.all(np.isfinite(states)):  # pragma: no cover - caught by the loop
         raise FallError(float(N * dt), "state", float("nan"), None)
     return states, np.column_stack([Md_hist, Mh_hist])
+
+
+def _rows(states: list) -> np.ndarray:
+    """A list of 6-tuples as an (n, 6) array (``np.fromiter``: twice as fast as ``np.array``)."""
+    return np.fromiter(chain.from_iterable(states), float, 6 * len(states)).reshape(len(states), 6)
+
+
+class _EffectsRow:
+    """The external inputs held over step k, from the state at its start (for ``set_effects``)."""
+
+    def __init__(self, ext: _ExternalInputs, p: Params, dt: float):
+        self.ext, self.p, self.dt = ext, p, dt
+        self.h_list = None if ext.h_t is None else ext.h_t.tolist()
+        if self.h_list is not None:
+            self.h_d, self.h_dd = (a.tolist() for a in drift.drift_rates(ext.h_t, dt))
+        lat = ext.lat
+        if lat is not None:
+            self.lat_s, self.lat_c = np.sin(lat.theta).tolist(), np.cos(lat.theta).tolist()
+            self.th_d, self.ps_d, self.ps_dd = lat.theta_d.tolist(), lat.psi_d.tolist(), lat.psi_dd.tolist()
+
+    def __call__(self, k: int, y) -> tuple:
+        """(F_x at G [N], wheel moment [N·m], h [m] or None, Q [paper coordinates] or None)."""
+        ext, p = self.ext, self.p
+        x_, g_, f_, xd_, gd_, fd_ = y
+        Q_lat = None
+        if ext.lat is not None:  # effects.lateral_forces, held over the step
+            Q_lat = [ext.lat_scale * v for v in fx.lateral_force_rows(
+                p, math.sin(g_), math.cos(g_), math.sin(f_), math.cos(f_), xd_, gd_, fd_,
+                self.lat_s[k], self.lat_c[k], self.th_d[k], self.ps_d[k], self.ps_dd[k])]
+        h = None
+        if self.h_list is not None:   # G moving along the rider's axis: drift.drift_forces
+            h = self.h_list[k]
+            Q_h = drift.drift_force_row(p.m, p.l0, h, self.h_d[k], self.h_dd[k], g_, f_, fd_)
+            Q_lat = list(Q_h) if Q_lat is None else [a + b for a, b in zip(Q_lat, Q_h)]
+        return (-ext.k_drag * xd_ * abs(xd_) + float(ext.push(k * self.dt)),
+                -ext.C_rr * ext.N_load * p.R * math.tanh(xd_ / fx.SIGN_SPEED), h, Q_lat)
 
 
 def _trajectory(t: np.ndarray, states: np.ndarray, U: np.ndarray, v_ref: np.ndarray,

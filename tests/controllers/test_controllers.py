@@ -158,3 +158,37 @@ def test_stability_cli_bad_output(tmp_path, capsys):
     (tmp_path / "f").write_text("")
     assert main(["stability", "--json", str(tmp_path / "f" / "s.json")]) == 2
     assert "cannot write" in capsys.readouterr().err
+
+
+def _rider_runs(limit=400.0, integral=False):
+    import numpy as np
+
+    from controllers.rider import RiderRun
+    from euc_sim.simulation.engine import default_rider
+    from euc_sim.simulation.maneuvers import as_maneuver
+
+    t = np.arange(3001) * 1e-3
+    v, a = as_maneuver("stop_and_go").reference(t)
+    rider = default_rider(TABLE3, MotorPD(), noise_std=3.0).replace(torque_limit=limit)
+    K = tuple(rider.K[:5]) + ((5.0,) if integral else ())
+    rider = rider.replace(K=K)
+    return (RiderRun(rider, TABLE3, MotorPD(), v, a, 1e-3, 1), RiderRun(rider, TABLE3, MotorPD(), v, a, 1e-3, 1))
+
+
+@pytest.mark.parametrize("limit, integral", [(400.0, False), (400.0, True), (60.0, True)])
+def test_rider_commands_in_blocks_equal_the_step_by_step_law(limit, integral):
+    """commands() solves the predictor's recursion for n + 1 steps at once; it must give
+    command()'s torques (to round-off), also where the torque limit binds (60 N·m)."""
+    import numpy as np
+
+    one, blocks = _rider_runs(limit, integral)
+    n = one.n
+    rng = np.random.default_rng(4)
+    Y = rng.normal(size=(3001 + n, 6)) * [0.0, 0.02, 0.05, 0.3, 0.2, 0.3]
+    stepwise = np.array([one.command(k, Y) for k in range(3001)])
+    blocked = np.vstack([np.column_stack(blocks.commands(k0, Y[k0:min(k0 + n + 1, 3001)]))
+                         for k0 in range(0, 3001, n + 1)])
+    np.testing.assert_allclose(blocked, stepwise, rtol=0, atol=1e-9 * np.max(np.abs(stepwise)))
+    assert (np.max(np.abs(stepwise[:, 0])) == limit) == (limit == 60.0)      # the limit binds at 60 N·m only
+    with pytest.raises(ValueError, match="at most n \\+ 1 = 151 steps, got 152"):
+        blocks.commands(0, Y[:152])

@@ -30,9 +30,25 @@ def test_params_applied_through_mjspec():
     assert m.body("rider").pos[2] == pytest.approx(-0.07)
     assert m.body("euc").ipos[2] == pytest.approx(0.1)
     assert m.body("euc").pos[2] == pytest.approx(0.25)
-    assert m.body("wheel").inertia[1] == pytest.approx(0.2)
+    # ideal variant, reduced coordinates: the wheel turns at x/R, its spin inertia is the
+    # slide's armature J_w/R², and it does not turn with the body
+    assert m.body("wheel").inertia[1] == 0.0
+    assert m.dof_armature[m.joint("x").dofadr[0]] == pytest.approx(0.2 / 0.25**2)
     assert m.body("rider").inertia[1] == pytest.approx(20.0)
     assert m.geom("wheel_contact").size[0] == pytest.approx(0.25)
+    mc = load_model(p, "contact")
+    assert mc.body("wheel").inertia[1] == pytest.approx(0.2)
+    assert mc.dof_armature[mc.joint("x").dofadr[0]] == 0.0
+
+
+def test_ideal_variant_is_reduced():
+    """No wheel hinge, no equality: three DoF, the motor on the rotor tendon x/R − gamma."""
+    m = load_model()
+    idx = JointIndex.of(m)
+    assert (m.nq, m.nv, m.neq, m.nu) == (3, 3, 0, 2) and not idx.has_spin
+    motor = m.actuator("motor")
+    assert motor.trntype[0] == mujoco.mjtTrn.mjTRN_TENDON
+    assert m.tendon(motor.trnid[0]).name == "motor_shaft"
 
 
 def test_missing_file_and_missing_element(tmp_path):
@@ -64,9 +80,10 @@ def test_map_round_trips(values, variant, R):
     np.testing.assert_allclose(q2, q, atol=1e-12)
     np.testing.assert_allclose(qd2, qd, atol=1e-12)
     np.testing.assert_allclose(qdd2, qdd, atol=1e-12)
-    # the MuJoCo side satisfies pure rolling: x = R (euc_pitch + wheel_spin)
+    # the contact variant's wheel hinge is set to pure rolling: x = R (euc_pitch + wheel_spin)
     i = idx.qpos
-    assert qpos[i["x"]] == pytest.approx(R * (qpos[i["euc_pitch"]] + qpos[i["wheel_spin"]]), abs=1e-9)
+    if variant == "contact":
+        assert qpos[i["x"]] == pytest.approx(R * (qpos[i["euc_pitch"]] + qpos[i["wheel_spin"]]), abs=1e-9)
 
 
 IDEAL_INDEX = JointIndex.of(load_model())
@@ -74,7 +91,7 @@ IDEAL_INDEX = JointIndex.of(load_model())
 
 def test_map_by_name_not_by_position():
     """Reordering bodies in the XML changes qpos addresses but not the map's meaning."""
-    spec = build_spec()
+    spec = build_spec(variant="contact")            # the variant with a wheel hinge
     xml = spec.to_xml()
     # move the rider before the wheel: rider_pitch gets the lower address
     m = mujoco.MjModel.from_xml_string(xml)
@@ -90,7 +107,10 @@ def test_named_readouts_and_state():
     sim.set_state([0.3, 0.02, -0.05], [1.2, 0.1, -0.2])
     np.testing.assert_allclose(sim.q, [0.3, 0.02, -0.05])
     np.testing.assert_allclose(sim.qd, [1.2, 0.1, -0.2])
-    assert abs(sim.wheel_slip) < 1e-12
+    assert sim.wheel_angle == pytest.approx(0.3 / TABLE3.R) and sim.wheel_slip == 0.0
+    contact = EucMujoco(variant="contact")
+    contact.set_state([0.3, 0.02, -0.05], [1.2, 0.1, -0.2])
+    assert contact.wheel_angle == pytest.approx(0.3 / TABLE3.R) and abs(contact.wheel_slip) < 1e-12
     with pytest.raises(ValueError, match="state must be finite"):
         sim.set_state([0.0, np.nan, 0.0])
 
@@ -126,3 +146,15 @@ def test_disc_rolls_down_incline_in_contact_variant():
 def test_contact_settings_validated():
     with pytest.raises(ModelError, match=r"'friction' must be positive"):
         ContactSettings(friction=0.0)
+
+
+def test_disc_rolls_down_incline_in_ideal_variant():
+    """Reduced coordinates: a uniform disc on a slope accelerates at exactly 2 g sin α / 3
+    (the spin inertia on the slide's armature, no constraint to soften it)."""
+    tiny = 1e-9
+    p = TABLE3.replace(m=tiny, m0=tiny, J=tiny, J0=tiny, Jw=0.5 * 3.0 * 0.2**2)
+    sim = EucMujoco(p)
+    alpha = 0.1
+    sim.model.opt.gravity[:] = [-p.g * np.sin(alpha), 0.0, -p.g * np.cos(alpha)]
+    sim.set_state([0.0, 0.0, 0.0], [0.0, 0.0, 0.0])
+    assert sim.qdd[0] == pytest.approx(-2 * p.g * np.sin(alpha) / 3, rel=1e-7)
