@@ -24,10 +24,15 @@ def _cmd_design(args: argparse.Namespace) -> int:
     from euc_sim.io import check_writable, write_json
     from euc_sim.simulation.runner import check_backend
 
-    for path in (args.json, args.plot):
+    for path in (args.json, args.plot, args.effects_plot):
         if path:
             check_writable(path)
     check_backend(args.scheduler, args.workers)
+    if args.effects:                            # refuse bad effect settings before the long h study
+        from euc_sim.diagnosis.design import parse_effects
+        parse_effects(args.effects)
+        if args.effect_rides < 3:
+            raise ValueError(f"--effect-rides must be an integer of at least 3, got {args.effect_rides!r}")
     res = design([m.strip() for m in args.maneuvers.split(",") if m.strip()], rides=args.rides,
                  duration=args.duration, noise_scales=_floats(args.noise_scales, "--noise-scales"),
                  targets=_floats(args.targets, "--targets"), seed=args.seed, params=parse_params(args.param),
@@ -44,12 +49,50 @@ def _cmd_design(args: argparse.Namespace) -> int:
               + "".join(f"{r['recordings_for'][t]:14d}" for t in targets)
               + ("   flat" if r["maneuver"] in res["flat"] else ""))
     print(res["recommendation"])
+    out = {k: v for k, v in res.items() if k != "curves"}
+    if args.effects:
+        eff = _effects(args, res)
+        for row in out["maneuvers"]:
+            row["effects"] = eff["by_maneuver"][row["maneuver"]]
+        out["effects_design"] = {k: v for k, v in eff.items() if k != "by_maneuver"}
     if args.json:
-        write_json(args.json, {k: v for k, v in res.items() if k != "curves"})
+        write_json(args.json, out)
     if args.plot:
         plot_design(res, args.plot)
         say(f"design: wrote {args.plot}")
     return 0
+
+
+def _effects(args: argparse.Namespace, res: dict) -> dict:
+    """The catalog effects' part of ``design``: run, print a table, draw the figure."""
+    from euc_sim.cli.common import parse_params, say
+    from euc_sim.diagnosis.design import effects_design, parse_effects, plot_effects_design
+
+    eff = effects_design([r["maneuver"] for r in res["maneuvers"]], parse_effects(args.effects),
+                         rides=args.effect_rides,
+                         duration=args.duration, seed=args.seed, params=parse_params(args.param),
+                         rider_noise=args.rider_noise, with_torques=args.with_torques,
+                         scheduler=args.scheduler, workers=args.workers, progress=not args.no_progress)
+    print(f"\neffects at their nominal magnitude, {eff['rides']} rides per maneuver, torques "
+          f"{'recorded' if eff['with_torques'] else 'not recorded'}: sd of one recording (Monte Carlo / "
+          f"covariance), recordings for sd = 10 % of the magnitude, and to name it ({eff['min_t']:g} sd)")
+    mans = [r["maneuver"] for r in res["maneuvers"]]
+    print(f"{'effect':<24}{'nominal':>12}" + "".join(f"{m:>30}" for m in mans))
+    for e, info in eff["effects"].items():
+        head = f"{e:<24}{info['nominal']:>9.3g} {info['unit'][:3]:<3}"
+        if not info["visible"]:
+            print(head + "  not visible: " + info["reason"].split(";")[0])
+            continue
+        cells = []
+        for m in mans:
+            c = eff["by_maneuver"][m].get(e, {})
+            cells.append(f"{c['sd']:.2g}/{c['sd_cov']:.2g} n={c['recordings_for']['0.1']},{c['recordings_to_detect']}"
+                         if c.get("sd") is not None else c.get("why", c.get("failed", "-"))[:28])
+        print(head + "".join(f"{x:>30}" for x in cells))
+    if args.effects_plot:
+        plot_effects_design(eff, args.effects_plot)
+        say(f"design: wrote {args.effects_plot}")
+    return eff
 
 
 def add_commands(sub) -> None:
@@ -74,5 +117,13 @@ def add_commands(sub) -> None:
     p.add_argument("--workers", type=int, default=None, help="processes (default: all cores; 1: in this process)")
     p.add_argument("--scheduler", default=None, metavar="local|ADDRESS",
                    help="run on Dask: 'local' starts a local cluster, tcp://HOST:PORT uses a running one")
+    p.add_argument("--effects", default="", metavar="all|A,B,...",
+                   help="also the catalog effects (CONTRACT names, or 'all'): how precisely each maneuver "
+                        "measures each, by Monte Carlo with the effect present and by the diagnosis's covariance")
+    p.add_argument("--effect-rides", type=int, default=10,
+                   help="Monte Carlo rides per maneuver and effect (default 10)")
+    p.add_argument("--with-torques", action="store_true",
+                   help="effects: the recordings carry M_d and M_h (default: motion capture only, as the paper)")
+    p.add_argument("--effects-plot", metavar="FILE.png", help="figure: each effect's sd per maneuver")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_design)

@@ -60,3 +60,29 @@ def test_cli_design_bad_input_is_one_line_exit_2(argv, message, capsys, tmp_path
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert not (tmp_path / "d.json").exists()
+
+
+def test_cli_design_with_effects_extends_the_contract_json(tmp_path, capsys):
+    out, png = tmp_path / "d.json", tmp_path / "e.png"
+    code = main(["design", "--maneuvers", "stop_and_go", "--rides", "3", "--duration", "6",
+                 "--noise-scales", "1", "--effects", "aerodynamic_drag,wheel_bearing_friction",
+                 "--effect-rides", "3", "--json", str(out), "--effects-plot", str(png),
+                 "--workers", "1", "--no-progress"])
+    assert code == 0
+    data = json.loads(out.read_text())
+    row = data["maneuvers"][0]
+    assert math.isfinite(row["h_sd"])                                    # CONTRACT's fields stay
+    drag = row["effects"]["aerodynamic_drag"]
+    assert drag["rides"] == 3 and 0 < drag["sd"] < 0.3 and 0 < drag["sd_cov"] < 0.3
+    assert set(drag["recordings_for"]) == {"0.25", "0.1"} and drag["recordings_to_detect"] >= 1
+    assert "wheel_bearing_friction" not in row["effects"]                 # cancels without M_d
+    assert not data["effects_design"]["effects"]["wheel_bearing_friction"]["visible"]
+    assert png.stat().st_size > 10_000
+    assert "aerodynamic_drag" in capsys.readouterr().out
+
+
+def test_cli_design_refuses_unknown_effects_before_running(tmp_path, capsys):
+    assert main(["design", "--effects", "aerodynamic_drag,gremlins", "--json", str(tmp_path / "d.json")]) == 2
+    err = capsys.readouterr().err
+    assert "--effects: unknown gremlins; valid: all, rolling_resistance" in err and "Traceback" not in err
+    assert not (tmp_path / "d.json").exists()
