@@ -190,7 +190,8 @@ class _MujocoStepper:
             Q_x = tau_roll / self.p.R
         if h is not None:
             self.m.body_ipos[self.b_rider, 2] = h
-            self.m.site_pos[self.site_G, 2] = h
+            if self.site_G >= 0:                # the contact variant keeps its sites
+                self.m.site_pos[self.site_G, 2] = h
         if Q_lat is not None or not self.spin:   # paper Q → MuJoCo: Q_paper = Tᵀ Q_mj (paper_jacobian)
             Q_lat = (0.0, 0.0, 0.0) if Q_lat is None else Q_lat
             qf = self.d.qfrc_applied

@@ -28,17 +28,18 @@ def test_params_applied_through_mjspec():
     assert m.body("rider").mass[0] == 80.0
     assert m.body("rider").ipos[2] == pytest.approx(0.75)
     assert m.body("rider").pos[2] == pytest.approx(-0.07)
-    assert m.body("euc").ipos[2] == pytest.approx(0.1)
+    assert m.body("euc").ipos[2] == pytest.approx((p.m0 * 0.1) / (p.m0 + p.mw))   # with the wheel at C
     assert m.body("euc").pos[2] == pytest.approx(0.25)
     # ideal variant, reduced coordinates: the wheel turns at x/R, its spin inertia is the
-    # slide's armature J_w/R², and it does not turn with the body
-    assert m.body("wheel").inertia[1] == 0.0
+    # slide's armature J_w/R², and its body (no joint) is fused into the EUC body
     assert m.dof_armature[m.joint("x").dofadr[0]] == pytest.approx(0.2 / 0.25**2)
+    assert m.body("euc").mass[0] == pytest.approx(p.m0 + p.mw)
     assert m.body("rider").inertia[1] == pytest.approx(20.0)
-    assert m.geom("wheel_contact").size[0] == pytest.approx(0.25)
     mc = load_model(p, "contact")
     assert mc.body("wheel").inertia[1] == pytest.approx(0.2)
     assert mc.dof_armature[mc.joint("x").dofadr[0]] == 0.0
+    assert mc.geom("wheel_contact").size[0] == pytest.approx(0.25)
+    assert mc.body("euc").ipos[2] == pytest.approx(0.1) and mc.body("euc").pos[2] == pytest.approx(0.25)
 
 
 def test_ideal_variant_is_reduced():
@@ -46,6 +47,7 @@ def test_ideal_variant_is_reduced():
     m = load_model()
     idx = JointIndex.of(m)
     assert (m.nq, m.nv, m.neq, m.nu) == (3, 3, 0, 2) and not idx.has_spin
+    assert m.ngeom == 0 and m.nsite == 0 and m.nbody == 3            # physics only, wheel fused
     motor = m.actuator("motor")
     assert motor.trntype[0] == mujoco.mjtTrn.mjTRN_TENDON
     assert m.tendon(motor.trnid[0]).name == "motor_shaft"
