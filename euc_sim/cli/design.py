@@ -77,9 +77,9 @@ def _effects(args: argparse.Namespace, res: dict) -> dict:
           f"{'recorded' if eff['with_torques'] else 'not recorded'}: sd of one recording (Monte Carlo / "
           f"covariance), recordings for sd = 10 % of the magnitude, and to name it ({eff['min_t']:g} sd)")
     mans = [r["maneuver"] for r in res["maneuvers"]]
-    print(f"{'effect':<24}{'nominal':>12}" + "".join(f"{m:>30}" for m in mans))
+    print(f"{'effect':<24}{'nominal':>20}" + "".join(f"{m:>30}" for m in mans))
     for e, info in eff["effects"].items():
-        head = f"{e:<24}{info['nominal']:>9.3g} {info['unit'][:3]:<3}"
+        head = f"{e:<24}{info['nominal']:>9.3g} {info['unit']:<10}"
         if not info["visible"]:
             print(head + "  not visible: " + info["reason"].split(";")[0])
             continue
