@@ -208,21 +208,18 @@ class RiderRun:
         gam, phi, _, M_h = trim(p, motor, a_ref, v_ref)
         pad = lambda arr: np.concatenate([np.full(n, arr[0]), arr])       # noqa: E731
         # reference state and torque over the padded timeline (index j = k + n)
-        # Python lists: indexing them costs less than numpy scalars in the 1 kHz loop
-        self.v_ref = pad(np.asarray(v_ref, float)).tolist()
-        self.gamma_ref, self.phi_ref = pad(gam).tolist(), pad(phi).tolist()
-        self.u_ref = pad(M_h).tolist()
+        self.v_ref = pad(np.asarray(v_ref, float))
+        self.gamma_ref, self.phi_ref = pad(gam), pad(phi)
+        self.u_ref = pad(M_h)
         self.du = np.zeros(N + n)               # commanded M_h − M_h*, padded history
-        self.noise = motor_noise(N, dt, rider.noise_std, rider.noise_tau, seed).tolist()
+        self.noise = motor_noise(N, dt, rider.noise_std, rider.noise_tau, seed)
+        self._lists = None                      # the same as Python lists, for command()
         self.k_pred, self.k_hist, lower, past = _delay_law(p, motor, rider.K, dt, n, rider.predictor)
         self.integral = len(rider.K) == 6
         self.z = 0.0                            # ∫(ẋ − v_ref) dt over the sensed samples, m
         self.dt = dt
         self.limit = rider.torque_limit
         self._chunk = (lower, past)
-        # the same references as arrays, for blocks of steps (:meth:`commands`)
-        self._arrays = tuple(np.asarray(a) for a in (self.v_ref, self.gamma_ref, self.phi_ref,
-                                                      self.u_ref, self.noise))
 
     def initial_state(self) -> tuple[float, float, float, float]:
         """(v, γ, φ) of the trim at t = 0 and the trim M_h, for the initial condition."""
@@ -240,23 +237,27 @@ class RiderRun:
             Padded state history (x, γ, φ, ẋ, γ̇, φ̇): the delay buffer.  Entry
             k + n is the state now, entry k the delayed state the rider senses.
         """
+        if self._lists is None:   # Python lists: indexing them costs less than numpy scalars
+            self._lists = tuple(a.tolist() for a in (self.v_ref, self.gamma_ref, self.phi_ref,
+                                                     self.u_ref, self.noise))
+        v_ref, gamma_ref, phi_ref, u_refs, noise = self._lists
         y = Y[k]                                 # padded index k: the state n steps ago
         kp = self.k_pred
-        e_v = y[3] - self.v_ref[k]
-        fb = (kp[0] * e_v + kp[1] * (y[1] - self.gamma_ref[k])
-              + kp[2] * (y[2] - self.phi_ref[k]) + kp[3] * y[4] + kp[4] * y[5])
+        e_v = y[3] - v_ref[k]
+        fb = (kp[0] * e_v + kp[1] * (y[1] - gamma_ref[k])
+              + kp[2] * (y[2] - phi_ref[k]) + kp[3] * y[4] + kp[4] * y[5])
         if self.integral:
             fb += kp[5] * self.z
             self.z += e_v * self.dt
         n = self.n
         if n:
             fb += self.k_hist.dot(self.du[k:k + n])
-        u_ref = self.u_ref[k + n]
+        u_ref = u_refs[k + n]
         u = u_ref - fb
         lim = self.limit
         u = lim if u > lim else (-lim if u < -lim else u)
         self.du[k + n] = u - u_ref
-        return u, u + self.noise[k]
+        return u, u + noise[k]
 
     def commands(self, k0: int, Y_sensed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Ankle torques of steps k0 … k0 + L − 1 at once: the law of :meth:`command`, vectorised.
@@ -285,7 +286,7 @@ class RiderRun:
             raise RiderError(f"a block of rider commands spans at most n + 1 = {n + 1} steps, got {L}")
         z0, du0 = self.z, self.du[k0:k0 + n].copy()
         kp = self.k_pred
-        v_ref, gamma_ref, phi_ref, u_ref, noise = self._arrays
+        v_ref, gamma_ref, phi_ref, u_ref, noise = self.v_ref, self.gamma_ref, self.phi_ref, self.u_ref, self.noise
         y, j = Y_sensed, slice(k0, k0 + L)
         e_v = y[:, 3] - v_ref[j]
         fb = (kp[0] * e_v + kp[1] * (y[:, 1] - gamma_ref[j])
