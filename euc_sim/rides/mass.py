@@ -63,6 +63,7 @@ from typing import Mapping
 import numpy as np
 
 from euc_sim.rides.channels import current_from_phase, power_not_measured
+from euc_sim.rides.heldout import select_by_heldout
 from euc_sim.rides.energy import window_difference, window_mean, window_samples_odd
 from euc_sim.rides.signals import resample, sg
 from euc_sim.rides.logs import RideLog, read_log
@@ -415,21 +416,9 @@ def heldout_rmse(X: np.ndarray, y: np.ndarray, t: np.ndarray, signed: bool,
 def _select(cols: dict, y: np.ndarray, t: np.ndarray, signed: bool,
             min_gain: float = 0.005) -> tuple[list, list]:
     """Forward selection of speed-only terms by blocked held-out RMSE."""
-    chosen = ["inertia"]
     X = lambda names: np.column_stack([cols[c] for c in names])   # noqa: E731
-    cur = heldout_rmse(X(chosen), y, t, signed)
-    history = [{"term": "inertia", "heldout_rmse": cur}]
-    left = [c for c in CANDIDATES if c in cols]
-    while left:
-        trial = {c: heldout_rmse(X(chosen + [c]), y, t, signed) for c in left}
-        best = min(trial, key=trial.get)
-        if trial[best] > cur * (1.0 - min_gain):
-            break
-        chosen.append(best)
-        left.remove(best)
-        cur = trial[best]
-        history.append({"term": best, "heldout_rmse": cur})
-    return chosen, history
+    return select_by_heldout(lambda names: heldout_rmse(X(names), y, t, signed), ["inertia"],
+                          [c for c in CANDIDATES if c in cols], min_gain)
 
 
 def _mass(beta: dict) -> float:

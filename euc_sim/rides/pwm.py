@@ -32,6 +32,7 @@ from typing import Mapping
 
 import numpy as np
 
+from euc_sim.rides.heldout import select_by_heldout
 from euc_sim.rides.mass import heldout_rmse
 
 __all__ = ["BASE", "EXTRA", "MIN_GAIN", "pwm_columns", "select_pwm_terms", "full_duty_force",
@@ -89,20 +90,8 @@ def select_pwm_terms(v: np.ndarray, F: np.ndarray, V: np.ndarray, duty: np.ndarr
         ``{"term", "heldout_rmse"}`` (V) after each step, the base model first.
     """
     y = duty * V
-    names = list(BASE)
-    cur = heldout_rmse(pwm_columns(v, F, V, names), y, t, True)
-    history = [{"term": "+".join(BASE), "heldout_rmse": cur}]
-    left = list(EXTRA)
-    while left:
-        trial = {c: heldout_rmse(pwm_columns(v, F, V, names + [c]), y, t, True) for c in left}
-        best = min(trial, key=trial.get)
-        if trial[best] > cur * (1.0 - MIN_GAIN):
-            break
-        names.append(best)
-        left.remove(best)
-        cur = trial[best]
-        history.append({"term": best, "heldout_rmse": cur})
-    return names, history
+    return select_by_heldout(lambda names: heldout_rmse(pwm_columns(v, F, V, names), y, t, True),
+                          list(BASE), list(EXTRA), MIN_GAIN)
 
 
 def full_duty_force(coef: Mapping[str, float], speed: np.ndarray, voltage: float,
