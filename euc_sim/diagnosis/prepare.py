@@ -38,7 +38,9 @@ class Prepared:
     lateral : dict or None
         Where ``psi`` and ``theta`` are recorded: the smoothed inputs of the lateral
         term, keys :data:`euc_sim.simulation.effects.LATERAL_INPUTS` ((N,) arrays: rad, rad/s,
-        rad/s, rad/s²).
+        rad/s, rad/s²); with C and G recorded also those of
+        :data:`~euc_sim.simulation.effects.LEAN_INPUTS` (the rider's lean, from G out
+        of the EUC's plane).
     keep : numpy.ndarray
         Absolute indices of the residual samples used (interior of the filters,
         decimated to :data:`SELECT_RATE`).
@@ -189,13 +191,35 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
         # fit (LATERAL_WINDOW) keeps their noise out of the column (errors in variables)
         w = int(round(LATERAL_WINDOW / dt)) | 1
         o = 3
-        theta, theta_d, _ = processing.savgol_derivatives(df["theta"].to_numpy(float), dt, w, o)
-        _, psi_d, psi_dd = processing.savgol_derivatives(np.unwrap(df["psi"].to_numpy(float)), dt, w, o)
+        theta, theta_d, theta_dd = processing.savgol_derivatives(df["theta"].to_numpy(float), dt, w, o)
+        psi, psi_d, psi_dd = processing.savgol_derivatives(np.unwrap(df["psi"].to_numpy(float)), dt, w, o)
         lateral = {"theta": theta, "theta_d": theta_d, "psi_d": psi_d, "psi_dd": psi_dd}
+        lean = _rider_lean(df, psi, theta, kin.q[:, 1], p.l0, dt, w, o)
+        if lean is not None:
+            lateral.update(lean=lean[0], lean_d=lean[1], theta_dd=theta_dd)
     step = max(1, int(round(1.0 / (dt * rate))))
     keep = np.arange(edge, t.size - edge, step)
     noise = {c: noise_sd(ch) for c, ch in _raw_channels(df).items()}
     return Prepared(kin, sm.sigma_samples(dt), M_d, lateral, keep, p, meta, name, noise, df)
+
+
+def _rider_lean(df: pd.DataFrame, psi, theta, gamma, l0: float, dt: float, w: int, o: int):
+    """The rider's lateral lean λ relative to the EUC body and its rate (rad, rad/s),
+    or None without C and G columns.
+
+    G seen from the ankle A in the EUC's tilted frame (eq. 1) is
+    (h cos λ sin φ, −h sin λ, h cos λ cos φ): λ = atan2(−y_AG, z_AG), whatever h.
+    """
+    from euc_sim.identification import processing
+    cols = ("C_X", "C_Y", "C_Z", "G_X", "G_Y", "G_Z")
+    if not set(cols) <= set(df.columns):
+        return None
+    C = df[list(cols[:3])].to_numpy(float)
+    G = df[list(cols[3:])].to_numpy(float)
+    r = processing.moving_frame(G - C, psi, theta)                      # eq. (1)
+    lam = np.arctan2(-r[:, 1], r[:, 2] + l0 * np.cos(gamma))
+    lam, lam_d, _ = processing.savgol_derivatives(lam, dt, w, o)
+    return lam, lam_d
 
 
 def _raw_channels(df: pd.DataFrame) -> dict[str, np.ndarray]:
