@@ -1,0 +1,86 @@
+"""effects.rider_lean_forces against Kane's method done numerically on the rider body
+of ``mjcf/euc_3d.xml``'s geometry: G − A = R_t Ry(φ) Rx(λ) (0, 0, h), inertia
+diag(J, J, J_z) in the rider's frame, the frame R_t = Rz(ψ) Rx(ϑ) carried by P."""
+
+import numpy as np
+
+from euc_sim.model.parameters import TABLE3
+from euc_sim.simulation import effects
+
+
+def _rot(axis, a):
+    c, s = np.cos(a), np.sin(a)
+    o, z = np.ones_like(a), np.zeros_like(a)
+    rows = {"x": ((o, z, z), (z, c, -s), (z, s, c)), "y": ((c, z, s), (z, o, z), (-s, z, c)),
+            "z": ((c, -s, z), (s, c, z), (z, z, o))}[axis]
+    return np.stack([np.stack(r, -1) for r in rows], -2)
+
+
+def _rider_forces(p, t, x_d, gamma, phi, psi, theta, lean):
+    """Generalised inertia and gravity forces of the rider alone, (N, 3), numerically."""
+    dt = t[1] - t[0]
+    Rt = _rot("z", psi) @ _rot("x", theta)
+    e_f, e_a, e_u = Rt[..., 0], Rt[..., 1], Rt[..., 2]
+    P = np.cumsum(x_d[:, None] * e_f, axis=0) * dt
+    A = P + (p.R - p.l0 * np.cos(gamma))[:, None] * e_u - (p.l0 * np.sin(gamma))[:, None] * e_f
+    Rr = Rt @ _rot("y", phi) @ _rot("x", lean)
+    G = A + p.h * Rr[..., 2]
+    a = np.gradient(np.gradient(G, dt, axis=0), dt, axis=0)
+    W = np.gradient(Rr, dt, axis=0) @ np.swapaxes(Rr, -1, -2)
+    w = np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], -1)
+    I = Rr @ np.diag([p.J, p.J, effects.RIDER_YAW_INERTIA_RATIO * p.J]) @ np.swapaxes(Rr, -1, -2)
+    dL = np.gradient(np.einsum("nij,nj->ni", I, w), dt, axis=0)
+    f = p.m * (a + np.array([0.0, 0.0, p.g]))
+    # partial velocities: ∂v_G/∂ẋ = e_f, ∂v_G/∂γ̇ = ∂(G − P)/∂γ, ∂v_G/∂φ̇ = ∂(G − P)/∂φ; ∂ω/∂φ̇ = e_a
+    dG_dgamma = p.l0 * (np.sin(gamma)[:, None] * e_u - np.cos(gamma)[:, None] * e_f)
+    n0 = _rot("x", lean)[..., 2]                               # Rx(λ) e_z = (0, −sin λ, cos λ)
+    dRy_n0 = np.stack([-np.sin(phi) * n0[:, 0] + np.cos(phi) * n0[:, 2], np.zeros_like(phi),
+                       -np.cos(phi) * n0[:, 0] - np.sin(phi) * n0[:, 2]], -1)   # (dRy/dφ) n0
+    dG_dphi = p.h * np.einsum("nij,nj->ni", Rt, dRy_n0)
+    return np.column_stack([np.einsum("ni,ni->n", f, e_f), np.einsum("ni,ni->n", f, dG_dgamma),
+                            np.einsum("ni,ni->n", f, dG_dphi) + np.einsum("ni,ni->n", dL, e_a)])
+
+
+def test_rider_lean_forces_match_kanes_method_on_the_3d_geometry():
+    p = TABLE3
+    t = np.arange(0.0, 4.0, 1e-3)
+    x_d = 2.0 + 0.3 * np.sin(1.1 * t)
+    gamma = 0.03 * np.sin(2.3 * t)
+    phi = 0.05 * np.sin(1.7 * t + 0.4)
+    psi = 0.5 * t + 0.4 * np.sin(0.9 * t)
+    theta = -0.08 + 0.05 * np.sin(1.3 * t)
+    lean = -0.07 + 0.06 * np.sin(1.9 * t + 1.0)
+    full = _rider_forces(p, t, x_d, gamma, phi, psi, theta, lean)
+    zero = np.zeros_like(t)
+    planar = _rider_forces(p, t, x_d, gamma, phi, zero, zero, zero)
+    exact = planar - full                                      # right-hand side of eq. (5)
+    d = lambda y, k=1: np.gradient(y, 1e-3) if k == 1 else np.gradient(np.gradient(y, 1e-3), 1e-3)  # noqa: E731
+    q = np.column_stack([np.zeros_like(t), gamma, phi])
+    qd = np.column_stack([x_d, d(gamma), d(phi)])
+    # the rider's share of lateral_forces (linear in m and J): twice the change when both halve
+    half = p.replace(m=p.m / 2, J=p.J / 2)
+    lat = 2 * (effects.lateral_forces(p, q, qd, theta, d(theta), d(psi), d(psi, 2))
+               - effects.lateral_forces(half, q, qd, theta, d(theta), d(psi), d(psi, 2)))
+    lean_q = effects.rider_lean_forces(p, q, qd, theta, d(theta), d(psi), d(psi, 2), lean, d(lean), d(theta, 2))
+    k = slice(50, -50)
+    err_with = (lat + lean_q - exact)[k]
+    err_without = (lat - exact)[k]
+    for row in range(3):
+        scale = np.sqrt(np.mean(exact[k, row] ** 2))
+        rms_with = np.sqrt(np.mean(err_with[:, row] ** 2))
+        rms_without = np.sqrt(np.mean(err_without[:, row] ** 2))
+        # what is left is of second order in the lean (h cos λ in the plane, J_z sin²λ φ̈)
+        assert rms_with < 0.03 * scale, (row, rms_with, scale)
+        assert rms_with < 0.2 * rms_without, (row, rms_with, rms_without)
+
+
+def test_lateral_dynamics_adds_the_lean_only_when_given():
+    p = TABLE3
+    q, qd = np.array([0.0, 0.02, 0.03]), np.array([2.0, 0.1, -0.1])
+    lat = dict(theta=-0.1, theta_d=0.05, psi_d=0.5, psi_dd=0.3)
+    base = effects.generalized_force("lateral_dynamics", 1.0, p, q, qd, lat)
+    np.testing.assert_array_equal(base, effects.lateral_forces(p, q, qd, **lat))
+    leaned = effects.generalized_force("lateral_dynamics", 1.0, p, q, qd, dict(lat, lean=-0.1, lean_d=0.2, theta_dd=0.1))
+    np.testing.assert_allclose(leaned - base, effects.rider_lean_forces(p, q, qd, lean=-0.1, lean_d=0.2, theta_dd=0.1, **lat),
+                               atol=1e-12)
+    assert np.all(np.abs(leaned - base) > 1e-3)
