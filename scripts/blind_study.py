@@ -139,8 +139,30 @@ def plan(seed: int, per_effect: int, nulls: int, pushes: int, constant: int, dur
     return cases
 
 
+def plan_spatial(seed: int, n: int, duration: float) -> list[dict]:
+    """n 3-D cases (``--spatial N``): a path of the spatial model with its speed drawn
+    (:func:`euc_sim.simulation.spatial.draw_spatial_ride`), scored as
+    ``lateral_dynamics`` cases; the true value, the simulated peak tilt, is filled in
+    from the recording's truth file."""
+    from euc_sim.simulation.spatial import draw_spatial_ride
+    rng = np.random.default_rng([seed, 14])
+    cases = []
+    for j in range(n):
+        path, speed = draw_spatial_ride(j, rng)
+        cases.append({"name": f"spatial{j:03d}", "kind": "effect", "model": "3d", "effect": "lateral_dynamics",
+                      "value": None, "maneuver": path, "options": {"speed": speed}, "hide_torques": False,
+                      "push": None, "seed": int(rng.integers(1, 2**31 - 1)), "duration": duration,
+                      "drift_shape": None})
+    return cases
+
+
 def make_recording(case: dict, out: Path) -> Path:
     """Simulate one case and write NAME.csv, NAME.json (no truth in it), NAME.truth.json."""
+    if case.get("model") == "3d":
+        from euc_sim.simulation.spatial import write_spatial
+        return write_spatial(out / f"{case['name']}.csv", case["maneuver"], case["duration"], seed=case["seed"],
+                             rider_noise=RIDER_NOISE, speed=case["options"]["speed"],
+                             hide_torques=case["hide_torques"])
     from euc_sim.simulation import dataset
     from euc_sim import io
     from euc_sim.model.parameters import TABLE3
@@ -178,6 +200,9 @@ def _work(args):
             make_recording(case, out)
     except ValueError as exc:          # a fall: the case is dropped, and said so
         return {"case": case, "error": f"simulation: {str(exc).splitlines()[0]}"}
+    if case.get("model") == "3d":      # the truth of a 3-D ride: its simulated peak tilt
+        truth = json.loads((out / f"{case['name']}.truth.json").read_text())
+        case = {**case, "value": truth["peak_tilt_rad"]}
     t1 = time.perf_counter()
     res = diagnosis.diagnose(path, resimulate=resimulate,       # the CSV and its sidecar only
                              smoothing=DEFAULT_SMOOTHING.replace(term_sigma=term_sigma))
@@ -553,6 +578,8 @@ def main(argv=None) -> int:
     ap.add_argument("--scheduler", default=None, metavar="local|ADDRESS",
                     help="run on Dask: 'local' starts a local cluster, tcp://HOST:PORT uses a running one")
     ap.add_argument("--resimulate", action="store_true", help="also re-simulate each maneuver (slower)")
+    ap.add_argument("--spatial", type=int, default=0, metavar="N",
+                    help="also N rides of the 3-D model (circle, slalom, figure-eight, U-turn)")
     ap.add_argument("--calibrate", action="store_true", help="null recordings only (seed + 1000)")
     ap.add_argument("--term-sigma", type=float, default=TERM_SIGMA, metavar="S",
                     help=f"the diagnosis's term filter, s (default {TERM_SIGMA:g}; the thresholds "
@@ -566,6 +593,7 @@ def main(argv=None) -> int:
         print(json.dumps(cal, indent=1))
         return 0
     cases = plan(args.seed, args.per_effect, args.nulls, args.pushes, args.constant, args.duration)
+    cases += plan_spatial(args.seed, args.spatial, max(args.duration, 20.0))
     print(f"blind study: {len(cases)} recordings in {out}/ (seed {args.seed})")
     results = run(cases, out, args.workers, args.resimulate, term_sigma=args.term_sigma,
                   scheduler=args.scheduler)

@@ -35,7 +35,7 @@ from euc_sim.simulation.maneuvers import make_maneuver
 from euc_sim.simulation.mocap import E_HEIGHT
 
 __all__ = ["PATHS", "PATH_SPEEDS", "TILT_BOUND", "Path3D", "make_path", "simulate_3d",
-           "spatial_recording"]
+           "spatial_recording", "TURNING_PATHS", "RIDEABLE_SPEEDS", "draw_spatial_ride"]
 
 PATHS = ("straight", "circle", "u_turn", "slalom", "figure_eight")
 #: Planned speed of each path, m/s (walking-to-jogging pace, as the paper's indoor runs).
@@ -61,6 +61,20 @@ class Path3D:
     Y: np.ndarray
     heading: np.ndarray
     kappa: np.ndarray
+
+
+#: The turning paths, in the order :func:`draw_spatial_ride` cycles through them.
+TURNING_PATHS = ("circle", "slalom", "figure_eight", "u_turn")
+#: Speeds drawn for the turning paths, m/s: the lateral rider follows all four at 2 m/s
+#: (docs/spatial.md) and falls on circles of radius 3 m at 2.5 m/s; on the paths' 4 m
+#: radius up to 2.2 m/s keeps the lateral acceleration within 1.2 m/s².
+RIDEABLE_SPEEDS = (1.5, 2.2)
+
+
+def draw_spatial_ride(j: int, rng: np.random.Generator) -> tuple[str, float]:
+    """The j-th ride of a 3-D study: (path of :data:`TURNING_PATHS` in turn, speed
+    drawn uniformly in :data:`RIDEABLE_SPEEDS`, m/s), from the seeded ``rng``."""
+    return TURNING_PATHS[j % len(TURNING_PATHS)], round(float(rng.uniform(*RIDEABLE_SPEEDS)), 3)
 
 
 def _segments(name: str, length: float) -> list[tuple[float, float]]:

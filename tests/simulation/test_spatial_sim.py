@@ -85,3 +85,12 @@ def test_bad_requests_are_named():
         simulate_3d("straight", -1.0)
     with pytest.raises(SimulationError, match="speed"):
         simulate_3d("straight", 1.0, speed=20.0)
+
+
+def test_spatial_rides_are_drawn_from_the_seed_within_the_rideable_speeds():
+    from euc_sim.simulation.spatial import RIDEABLE_SPEEDS, TURNING_PATHS, draw_spatial_ride
+    a = [draw_spatial_ride(j, np.random.default_rng(5)) for j in range(8)]
+    b = [draw_spatial_ride(j, np.random.default_rng(5)) for j in range(8)]
+    assert a == b
+    assert [p for p, _ in a] == [TURNING_PATHS[j % 4] for j in range(8)]
+    assert all(RIDEABLE_SPEEDS[0] <= v <= RIDEABLE_SPEEDS[1] for _, v in a)
