@@ -30,7 +30,7 @@ import numpy as np
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["LATERAL_SCALES", "LATERAL_STATE", "LateralRider", "lateral_plant", "design_lateral",
-           "lateral_delay_margin"]
+           "lateral_delay_margin", "lateral_predictor_rows"]
 
 LATERAL_STATE = ("e_y", "e_psi", "theta", "lean", "twist", "e_y_dot", "theta_dot", "psi_dot",
                  "lean_dot", "twist_dot", "e_y_int")
@@ -53,9 +53,20 @@ class LateralRider:
     dt : float
         Control period of the design, s.
     delay_margin : float
-        Largest common delay of both inputs the sampled loop tolerates, s.
+        Largest common delay of both inputs the sampled loop tolerates, s; with a
+        reaction ``delay``, the largest delay beyond it (the predictor expecting
+        ``delay``).
     torque_limit : float
         |M_lean|, |M_twist| limit, N·m.
+    delay : float
+        The rider's reaction delay, s: he senses z(t − delay).
+    K_pred : numpy.ndarray, shape (2, 11)
+        K Φⁿ (n = delay/dt): the gains on the sensed, delayed state.
+    K_hist : numpy.ndarray, shape (2, 2n)
+        (K Φ^{n−1} Γ, …, K Γ) side by side: the gains on the last n commands (oldest
+        first), so that u = −K ẑ(t) with the predicted present state
+        ẑ = Φⁿ z(t − delay) + Σ Φ^{n−1−i} Γ u_{k−n+i} (as the longitudinal rider,
+        :func:`controllers.plant.predictor_rows`).
     """
 
     K: np.ndarray
@@ -63,10 +74,19 @@ class LateralRider:
     dt: float
     delay_margin: float
     torque_limit: float = 300.0
+    delay: float = 0.0
+    K_pred: np.ndarray | None = None
+    K_hist: np.ndarray | None = None
+
+    @property
+    def n_delay(self) -> int:
+        """The reaction delay in control steps."""
+        return int(round(self.delay / self.dt))
 
     def as_dict(self) -> dict:
         return {"K": np.asarray(self.K).tolist(), "state": list(LATERAL_STATE), "speed": self.speed,
                 "dt": self.dt, "delay_margin": self.delay_margin, "torque_limit": self.torque_limit,
+                "delay": self.delay, "predictor": self.n_delay > 0,
                 "design": "control.dlqr on mujoco.mjd_transitionFD of mjcf/euc_3d.xml"}
 
 
@@ -118,8 +138,12 @@ def lateral_plant(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3,
 
 
 def design_lateral(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3,
-                   tyre=None, scales: dict | None = None) -> LateralRider:
+                   tyre=None, scales: dict | None = None, delay: float = 0.0) -> LateralRider:
     """LQR lateral rider (``control.dlqr``) on :func:`lateral_plant`.
+
+    With a reaction ``delay`` (s) the rider senses the lateral state ``delay`` late
+    and predicts the present one on the same plant (:func:`lateral_predictor_rows`);
+    the delay margin is then the extra delay the predicting loop tolerates.
 
     Raises
     ------
@@ -139,33 +163,80 @@ def design_lateral(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3
     K = np.asarray(K)
     if np.max(np.abs(E)) >= 1.0:  # pragma: no cover - dlqr returns a stabilising gain
         raise ValueError(f"lateral LQR does not stabilise: eigenvalue modulus {np.max(np.abs(E)):.4f}")
-    margin = lateral_delay_margin(Phi, Gam, K, dt)
-    return LateralRider(K=K, speed=float(speed), dt=dt, delay_margin=margin)
+    if not (math.isfinite(delay) and delay >= 0):
+        raise ValueError(f"lateral reaction delay must be a non-negative number of seconds, got {delay!r}")
+    n = int(round(delay / dt))
+    K_pred, K_hist = lateral_predictor_rows(Phi, Gam, K, n)
+    margin = lateral_delay_margin(Phi, Gam, K, dt, delay=n * dt)
+    return LateralRider(K=K, speed=float(speed), dt=dt, delay_margin=margin, delay=n * dt,
+                        K_pred=K_pred, K_hist=K_hist)
+
+
+def lateral_predictor_rows(Phi: np.ndarray, Gam: np.ndarray, K: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """K Φⁿ and (K Φ^{n−1} Γ, …, K Γ): the predictor's gains for a delay of n steps.
+
+    Returns
+    -------
+    K_pred : numpy.ndarray, shape (2, 11)
+    K_hist : numpy.ndarray, shape (2, 2n)
+        Column pairs weight the commands u_{k−n}, …, u_{k−1} (oldest first).
+    """
+    K = np.asarray(K, dtype=float)
+    m = Gam.shape[1]
+    K_hist = np.zeros((K.shape[0], m * n))
+    row = K.copy()                                  # K Φ^j
+    for j in range(n):
+        K_hist[:, m * (n - 1 - j):m * (n - j)] = row @ Gam
+        row = row @ Phi
+    return row, K_hist
 
 
 def lateral_delay_margin(Phi: np.ndarray, Gam: np.ndarray, K: np.ndarray, dt: float,
-                         block: int = 5, max_delay: float = 0.5) -> float:
+                         block: int = 5, max_delay: float = 0.5, delay: float = 0.0) -> float:
     """Largest common input delay (s, on a ``block·dt`` grid) for which the loop
     z⁺ = Φ z + Γ u(t − τ), u = −K z stays stable (spectral radius < 1).
 
+    With a reaction ``delay`` the rider senses z(t − delay) and predicts the present
+    state (:func:`lateral_predictor_rows`, at the ``block·dt`` resolution); the margin
+    is then the largest delay τ beyond ``delay`` that the predicting loop tolerates.
     The loop is resampled at ``block·dt`` (Φᵇ, Σ Φⁱ Γ) to keep the delay line short.
     """
     Pb = np.linalg.matrix_power(Phi, block)
     Gb = sum(np.linalg.matrix_power(Phi, i) for i in range(block)) @ Gam
-    n, m = Gam.shape
+    S = int(round(delay / (block * dt)))
+    K_pred, K_hist = lateral_predictor_rows(Pb, Gb, K, S)
     best = -1
     for D in range(int(max_delay / (block * dt)) + 1):
-        N = n + m * D
-        T = np.zeros((N, N))
-        T[:n, :n] = Pb
-        if D == 0:
-            T[:n, :n] -= Gb @ K
-        else:
-            T[:n, n + m * (D - 1):] = Gb          # the oldest command acts now
-            T[n:n + m, :n] = -K                    # newest command
-            for i in range(1, D):
-                T[n + m * i:n + m * (i + 1), n + m * (i - 1):n + m * i] = np.eye(m)
-        if np.max(np.abs(np.linalg.eigvals(T))) >= 1.0:
+        if np.max(np.abs(np.linalg.eigvals(_delayed_loop(Pb, Gb, K_pred, K_hist, S, D)))) >= 1.0:
             break
         best = D
     return best * block * dt if best >= 0 else 0.0
+
+
+def _delayed_loop(Pb, Gb, K_pred, K_hist, S: int, D: int) -> np.ndarray:
+    """Transition matrix of the sampled loop with sensing delay S (predicted) and an
+    unpredicted input delay D, blocks; state (z_k, z_{k−1}, …, z_{k−S}, u_{k−1}, …,
+    u_{k−S−D})."""
+    n, m = Gb.shape
+    H = max(S + D, 1)                              # commands kept
+    N = n * (S + 1) + m * H
+    T = np.zeros((N, N))
+    u0 = n * (S + 1)                               # offset of u_{k−1}
+    # u_k = −K_pred z_{k−S} − K_hist (u_{k−S}, …, u_{k−1})
+    u_row = np.zeros((m, N))
+    u_row[:, n * S:n * (S + 1)] = -K_pred
+    for i in range(S):                             # K_hist pair i weights u_{k−S+i}
+        lag = S - i                                # u_{k−lag}
+        u_row[:, u0 + m * (lag - 1):u0 + m * lag] -= K_hist[:, m * i:m * (i + 1)]
+    # plant: z_{k+1} = Pb z_k + Gb u_{k−D}
+    T[:n, :n] = Pb
+    if D == 0:
+        T[:n] += Gb @ u_row
+    else:
+        T[:n, u0 + m * (D - 1):u0 + m * D] += Gb
+    for j in range(S):                             # shift the sensed states
+        T[n * (j + 1):n * (j + 2), n * j:n * (j + 1)] = np.eye(n)
+    T[u0:u0 + m] = u_row                           # newest command
+    for j in range(1, H):                          # shift the commands
+        T[u0 + m * j:u0 + m * (j + 1), u0 + m * (j - 1):u0 + m * j] = np.eye(m)
+    return T

@@ -47,6 +47,8 @@ RADIUS = 4.0
 #: Peak curvature (1/m) and wavelength (m) of the slalom.
 SLALOM_KAPPA, SLALOM_WAVELENGTH = 0.15, 10.0
 _RAMP = 2.5     # m, length of a curvature change
+#: Time constant of the delayed lateral rider's estimate of a turn's steady effort, s.
+TURN_EFFORT_TIME = 1.0
 _DS = 0.01      # m, path sampling
 
 
@@ -77,27 +79,31 @@ def draw_spatial_ride(j: int, rng: np.random.Generator) -> tuple[str, float]:
     return TURNING_PATHS[j % len(TURNING_PATHS)], round(float(rng.uniform(*RIDEABLE_SPEEDS)), 3)
 
 
-def _segments(name: str, length: float) -> list[tuple[float, float]]:
+def _segments(name: str, length: float, radius: float = RADIUS) -> list[tuple[float, float]]:
     """(segment length m, curvature 1/m) pieces of a path, repeated to cover ``length``."""
     if name == "straight":
         return [(length, 0.0)]
     if name == "circle":
-        return [(2.0, 0.0), (length, 1.0 / RADIUS)]
+        return [(2.0, 0.0), (length, 1.0 / radius)]
     if name == "u_turn":
-        return [(6.0, 0.0), (math.pi * RADIUS, 1.0 / RADIUS), (length, 0.0)]
+        return [(6.0, 0.0), (math.pi * radius, 1.0 / radius), (length, 0.0)]
     if name == "figure_eight":
-        lap = 2.0 * math.pi * RADIUS
+        lap = 2.0 * math.pi * radius
         pieces = [(2.0, 0.0)]
         while sum(p[0] for p in pieces) < length:
-            pieces += [(lap, 1.0 / RADIUS), (lap, -1.0 / RADIUS)]
+            pieces += [(lap, 1.0 / radius), (lap, -1.0 / radius)]
         return pieces
     raise SimulationError(f"unknown path {name!r}; valid paths: {', '.join(PATHS)}")
 
 
-def make_path(name: str, length: float) -> Path3D:
-    """The path ``name`` (:data:`PATHS`) sampled over ``length`` m of arc length."""
+def make_path(name: str, length: float, radius: float | None = None) -> Path3D:
+    """The path ``name`` (:data:`PATHS`) sampled over ``length`` m of arc length, its
+    turns of ``radius`` m (:data:`RADIUS` by default)."""
     if name not in PATHS:
         raise SimulationError(f"unknown path {name!r}; valid paths: {', '.join(PATHS)}")
+    radius = RADIUS if radius is None else radius
+    if not (isinstance(radius, (int, float)) and math.isfinite(radius) and radius >= 1.0):
+        raise SimulationError(f"turn radius must be at least 1 m, got {radius!r}")
     s = np.arange(0.0, length + 5.0, _DS)
     if name == "slalom":
         ramp = np.clip((s - 2.0) / _RAMP, 0.0, 1.0)
@@ -105,7 +111,7 @@ def make_path(name: str, length: float) -> Path3D:
     else:
         kappa = np.zeros_like(s)
         start, prev = 0.0, 0.0
-        for seg_len, k in _segments(name, length + 5.0):
+        for seg_len, k in _segments(name, length + 5.0, radius):
             u = np.clip((s - start + 0.5 * _RAMP) / _RAMP, 0.0, 1.0)   # centred on the joint
             kappa = np.where(s >= start - 0.5 * _RAMP, prev + (k - prev) * 0.5 * (1.0 - np.cos(np.pi * u)), kappa)
             start, prev = start + seg_len, k
@@ -147,18 +153,19 @@ def _wrap(a: float) -> float:
 _LATERAL: dict = {}
 
 
-def default_lateral(params: Params, speed: float, dt: float, tyre=None) -> LateralRider:
-    """:func:`controllers.lateral.design_lateral`, cached per (params, speed, dt, tyre)."""
-    key = (params, round(speed, 6), dt, tyre)
+def default_lateral(params: Params, speed: float, dt: float, tyre=None, delay: float = 0.0) -> LateralRider:
+    """:func:`controllers.lateral.design_lateral`, cached per (params, speed, dt, tyre, delay)."""
+    key = (params, round(speed, 6), dt, tyre, round(delay, 6))
     if key not in _LATERAL:
-        _LATERAL[key] = design_lateral(params, speed, dt, tyre)
+        _LATERAL[key] = design_lateral(params, speed, dt, tyre, delay=delay)
     return _LATERAL[key]
 
 
 def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: Params = TABLE3,
                 speed: float | None = None, motor: MotorPD | None = None, rider=None,
                 lateral: LateralRider | None = None, seed: int = 0, dt: float = 1e-3,
-                tyre=None, maneuver=None, integrator: str | None = None) -> pd.DataFrame:
+                tyre=None, maneuver=None, integrator: str | None = None, lateral_delay: float = 0.0,
+                radius: float | None = None) -> pd.DataFrame:
     """Ride a path in the spatial model, closed loop, and return the true run at 1/dt.
 
     Parameters
@@ -174,7 +181,7 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     rider : controllers.rider.Rider, optional
         Longitudinal rider (the planar LQR design, 0.15 s delay, no noise).
     lateral : LateralRider, optional
-        Lateral rider (designed at ``speed`` when omitted).
+        Lateral rider (designed at ``speed`` with ``lateral_delay`` when omitted).
     seed : int
         Seed of the rider's motor noise.
     dt : float
@@ -186,6 +193,12 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     integrator : str, optional
         MuJoCo integrator of the run (:class:`EucSpatial`; the lateral design always
         linearises the XML's ``implicitfast``).
+    lateral_delay : float
+        Reaction delay of the default lateral rider, s (0: none; 0.15 s is the
+        longitudinal rider's), compensated by a predictor.
+    radius : float, optional
+        Turn radius of ``circle``, ``u_turn`` and ``figure_eight``, m (:data:`RADIUS`
+        by default).
 
     Returns
     -------
@@ -212,12 +225,12 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
         raise SimulationError(f"speed must be in [0.5, 8] m/s, got {speed!r}")
     motor = motor or MotorPD()
     rider = rider or default_rider(params, motor)
-    lateral = lateral or default_lateral(params, speed, dt, tyre)
+    lateral = lateral or default_lateral(params, speed, dt, tyre, lateral_delay)
     man = maneuver or make_maneuver("constant_speed", v=speed)
     N = int(round(duration / dt))
     t = np.arange(N + 1) * dt
     v_ref, a_ref = man.reference(t)
-    track = _Tracker(make_path(path, float(np.max(np.abs(v_ref))) * duration + 5.0))
+    track = _Tracker(make_path(path, float(np.max(np.abs(v_ref))) * duration + 5.0, radius))
     run = RiderRun(rider, params, motor, v_ref, a_ref, dt, seed)
     v0, g0, f0, _ = run.initial_state()
 
@@ -267,6 +280,14 @@ def _ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, track: "_Tr
     ip, il, it = sim.qadr["rider_pitch"], sim.qadr["rider_lean"], sim.qadr["rider_twist"]
     vp, vl, vt = sim.vadr["rider_pitch"], sim.vadr["rider_lean"], sim.vadr["rider_twist"]
     a_m, a_h, a_l, a_t = (sim.act[n] for n in ("motor", "ankle", "lean", "twist"))
+    nd = lateral.n_delay
+    if nd:        # the rider senses z nd steps late and predicts the present (LateralRider)
+        KP = np.asarray(lateral.K_pred, dtype=float)
+        KH = np.asarray(lateral.K_hist, dtype=float)
+        u_hist = np.zeros(2 * (N + 1 + nd))      # command changes, oldest first, zero before t = 0
+        z_hist: list = []
+        u_bar = [0.0, 0.0]                       # the turn's steady effort: commands low-passed
+        a_bar = dt / TURN_EFFORT_TIME
     K0, K1 = np.asarray(lateral.K, dtype=float).tolist()
     lim, g = lateral.torque_limit, params.g
     phi_max, gam_max = FALL_BOUNDS["phi"], FALL_BOUNDS["gamma"]
@@ -299,8 +320,16 @@ def _ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, track: "_Tr
         e_y, h_p, kap = track.errors(qp[rq], qp[rq + 1])
         z = (e_y, _wrap(psi - h_p), theta + math.atan(x_dot * x_dot * kap / g), qp[il], qp[it],
              -math.sin(h_p) * vX + math.cos(h_p) * vY, theta_d, psi_d - x_dot * kap, qv[vl], qv[vt], z_int)
-        u_l = max(-lim, min(lim, -sum(a * b for a, b in zip(K0, z))))
-        u_t = max(-lim, min(lim, -sum(a * b for a, b in zip(K1, z))))
+        if nd:
+            z_hist.append(z)
+            u = -(KP @ z_hist[max(k - nd, 0)] + KH @ u_hist[2 * k:2 * (k + nd)])
+            u_l, u_t = max(-lim, min(lim, float(u[0]))), max(-lim, min(lim, float(u[1])))
+            u_bar[0] += a_bar * (u_l - u_bar[0])
+            u_bar[1] += a_bar * (u_t - u_bar[1])
+            u_hist[2 * (k + nd)], u_hist[2 * (k + nd) + 1] = u_l - u_bar[0], u_t - u_bar[1]
+        else:
+            u_l = max(-lim, min(lim, -sum(a * b for a, b in zip(K0, z))))
+            u_t = max(-lim, min(lim, -sum(a * b for a, b in zip(K1, z))))
         rows.append((k * dt, x_s, gamma, phi, x_dot, gamma_d, phi_d, M_d, M_h, v_ref[k], psi,
                      theta, psi_d, theta_d, u_l, u_t, e_y, *C, *E, *G))
         if k == N:

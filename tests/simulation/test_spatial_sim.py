@@ -94,3 +94,32 @@ def test_spatial_rides_are_drawn_from_the_seed_within_the_rideable_speeds():
     assert a == b
     assert [p for p, _ in a] == [TURNING_PATHS[j % 4] for j in range(8)]
     assert all(RIDEABLE_SPEEDS[0] <= v <= RIDEABLE_SPEEDS[1] for _, v in a)
+
+
+def test_the_lateral_predictor_restores_the_undelayed_loop():
+    """With the reaction delay predicted on the design plant, the sampled loop has the
+    undelayed closed loop's poles (and zeros for the delay line); an extra
+    unpredicted delay beyond the margin destabilises it."""
+    from controllers.lateral import _delayed_loop, design_lateral, lateral_plant, lateral_predictor_rows
+
+    Phi, Gam = lateral_plant(speed=2.0)
+    lat = design_lateral(speed=2.0)
+    block = 10
+    Pb = np.linalg.matrix_power(Phi, block)
+    Gb = sum(np.linalg.matrix_power(Phi, i) for i in range(block)) @ Gam
+    rho0 = np.max(np.abs(np.linalg.eigvals(Pb - Gb @ lat.K)))
+    for S in (3, 8):
+        K_pred, K_hist = lateral_predictor_rows(Pb, Gb, lat.K, S)
+        rho = np.max(np.abs(np.linalg.eigvals(_delayed_loop(Pb, Gb, K_pred, K_hist, S, 0))))
+        assert rho == pytest.approx(rho0, abs=1e-6)
+        assert np.max(np.abs(np.linalg.eigvals(_delayed_loop(Pb, Gb, K_pred, K_hist, S, 10)))) > 1.0
+    with pytest.raises(ValueError, match="lateral reaction delay"):
+        design_lateral(speed=2.0, delay=-0.1)
+
+
+def test_a_delayed_lateral_rider_with_predictor_rides_a_circle():
+    run = simulate_3d("circle", 4.0, lateral_delay=0.05)
+    assert run.attrs["lateral"]["delay"] == pytest.approx(0.05)
+    assert np.max(np.abs(run["e_y"])) < 0.6
+    with pytest.raises(SimulationError, match="turn radius"):
+        make_path("circle", 10.0, radius=0.5)
