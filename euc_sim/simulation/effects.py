@@ -93,7 +93,7 @@ CATALOG: dict[str, Effect] = {e.name: e for e in (
            "h changes during the recording (crouching, standing up); estimate is its peak-to-peak change",
            "parameter", True, plausible=(0.05, 0.25)),
     Effect("lateral_dynamics", "rad",
-           "yaw and tilt of the pitch plane: yaw acceleration and Coriolis forces on the inward-leaning bodies, gravity g cos ϑ and the turn's centripetal acceleration; estimate is the peak tilt",
+           "yaw and tilt of the pitch plane: yaw acceleration and Coriolis forces on the inward-leaning bodies, gravity g cos ϑ and the turn's centripetal acceleration; with C and G recorded also the rider's lateral lean out of that plane; estimate is the peak tilt",
            "external", True, needs=("psi", "theta"), plausible=(0.05, 0.4),
            hidden_because="the recording has no yaw and tilt channels"),
     Effect("wheel_bearing_friction", "N·m·s/rad",
@@ -358,7 +358,7 @@ def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lea
 
     Terms of second order in λ times φ̈ (inertia, not force) are left out.  On the
     3-D model's circle (30 s, seed 1, no sensor noise) the two terms take the
-    remainder left by :func:`lateral_forces` from 0.45 to 0.16 N·m RMS
+    remainder left by :func:`lateral_forces` from 0.45 to 0.11 N·m RMS
     (``docs/spatial.md``).
 
     Parameters
