@@ -196,7 +196,7 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
         lateral = {"theta": theta, "theta_d": theta_d, "psi_d": psi_d, "psi_dd": psi_dd}
         lean = _rider_lean(df, psi, theta, kin.q[:, 1], p.l0, dt, w, o)
         if lean is not None:
-            lateral.update(lean=lean[0], lean_d=lean[1], theta_dd=theta_dd)
+            lateral.update(lean=lean[0], lean_d=lean[1], lean_dd=lean[2], theta_dd=theta_dd)
     step = max(1, int(round(1.0 / (dt * rate))))
     keep = np.arange(edge, t.size - edge, step)
     noise = {c: noise_sd(ch) for c, ch in _raw_channels(df).items()}
@@ -204,8 +204,8 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
 
 
 def _rider_lean(df: pd.DataFrame, psi, theta, gamma, l0: float, dt: float, w: int, o: int):
-    """The rider's lateral lean λ relative to the EUC body and its rate (rad, rad/s),
-    or None without C and G columns.
+    """The rider's lateral lean λ relative to the EUC body and its rates (rad, rad/s,
+    rad/s²), or None without C and G columns.
 
     G seen from the ankle A in the EUC's tilted frame (eq. 1) is
     (h cos λ sin φ, −h sin λ, h cos λ cos φ): λ = atan2(−y_AG, z_AG), whatever h.
@@ -218,8 +218,7 @@ def _rider_lean(df: pd.DataFrame, psi, theta, gamma, l0: float, dt: float, w: in
     G = df[list(cols[3:])].to_numpy(float)
     r = processing.moving_frame(G - C, psi, theta)                      # eq. (1)
     lam = np.arctan2(-r[:, 1], r[:, 2] + l0 * np.cos(gamma))
-    lam, lam_d, _ = processing.savgol_derivatives(lam, dt, w, o)
-    return lam, lam_d
+    return processing.savgol_derivatives(lam, dt, w, o)
 
 
 def _raw_channels(df: pd.DataFrame) -> dict[str, np.ndarray]:

@@ -22,7 +22,7 @@ import sympy as sp
 from sympy.physics.mechanics import dynamicsymbols
 
 __all__ = ["Derivation", "derive", "paper_equations", "paper_reduced_torques",
-           "reduced_torques_from_lagrange", "derive_lateral"]
+           "reduced_torques_from_lagrange", "derive_lateral", "derive_rider_lean"]
 
 
 @dataclass(frozen=True)
@@ -212,3 +212,65 @@ def derive_lateral() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
     c2 = {sp.cos(sym[5])**2: 1 - sp.sin(sym[5])**2}    # e_u·e_u = 1
     Q = (planar - full).applyfunc(lambda e: sp.expand(sp.expand(e).subs(c2)))
     return (R, m, m0, mw, J, Jw, J0, h0, l0, h, g) + tuple(sym), Q
+
+
+@lru_cache(maxsize=1)
+def derive_rider_lean() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
+    """The rider's share of the spatial coupling that :func:`derive_lateral` leaves out.
+
+    :func:`derive_lateral` keeps the rider in the EUC's tilted plane with an isotropic
+    inertia J.  In ``mjcf/euc_3d.xml`` he leans by λ about his fore-aft axis after his
+    pitch φ: G = A + h n with n = cos λ e_z' − sin λ e_a, e_z' = sin φ e_f + cos φ e_u;
+    his angular velocity is ω = Ω + φ̇ e_a + λ̇ e_x' (e_x' = cos φ e_f − sin φ e_u), his
+    inertia about G is J 1 + (J_z − J) n nᵀ.  By Kane's method (partial velocities
+    ∂v_G/∂q̇, ∂ω/∂φ̇ = e_a), the generalised inertia and gravity forces of this rider,
+    subtracted from those of the in-plane isotropic rider of :func:`derive_lateral`,
+    give the force :func:`euc_sim.simulation.effects.rider_lean_forces` approximates
+    (it keeps the terms of first order in λ, and every order at λ = 0).
+
+    Returns
+    -------
+    symbols : tuple of sympy.Symbol
+        ``(R, m, J, J_z, l0, h, g, gamma, phi, x_d, gamma_d, phi_d, theta, theta_d,
+        psi_d, psi_dd, lean, lean_d, theta_dd, acc0, acc1, acc2, lean_dd)`` for
+        ``sympy.lambdify`` (acc0..acc2: ẍ, γ̈, φ̈).
+    Q : sympy.Matrix, shape (3, 1)
+        (N, N·m, N·m) on the right-hand side of eq. (5); not simplified.
+    """
+    t = sp.Symbol("t")
+    R, m, J, J_z, l0, h, g = sp.symbols("R m J J_z l0 h g", positive=True)
+    x, gamma, phi, psi, th, lam = dynamicsymbols("x gamma phi psi theta lean")
+    qd = [s.diff(t) for s in (x, gamma, phi)]
+    e_f = sp.Matrix([sp.cos(psi), sp.sin(psi), 0])
+    e_l = sp.Matrix([-sp.sin(psi), sp.cos(psi), 0])
+    e_z = sp.Matrix([0, 0, 1])
+    e_u = sp.cos(th) * e_z - sp.sin(th) * e_l      # ϑ > 0 tilts to the right (eq. 2)
+    e_a = e_u.cross(e_f)
+    Omega = psi.diff(t) * e_z + th.diff(t) * e_f
+    e_z1 = sp.sin(phi) * e_f + sp.cos(phi) * e_u
+    e_x1 = sp.cos(phi) * e_f - sp.sin(phi) * e_u
+
+    def rider(lean, J_axis):
+        """Kane's generalised forces (x, γ, φ rows) of the rider leaning by ``lean``."""
+        n = sp.cos(lean) * e_z1 - sp.sin(lean) * e_a
+        r_PG = (R - l0 * sp.cos(gamma)) * e_u - l0 * sp.sin(gamma) * e_f + h * n
+        v = qd[0] * e_f + r_PG.diff(t)
+        a = v.diff(t)
+        w = Omega + qd[2] * e_a + lean.diff(t) * e_x1
+        I = J * sp.eye(3) + (J_axis - J) * n * n.T
+        rot = I * w.diff(t) + w.cross(I * w)
+        F = sp.zeros(3, 1)
+        for i, u in enumerate(qd):
+            F[i] = m * ((a + g * e_z).T * v.diff(u))[0] + (rot.T * w.diff(u))[0]
+        return F
+
+    Q = rider(sp.Integer(0), J) - rider(lam, J_z)
+    sym = sp.symbols("gamma phi x_d gamma_d phi_d theta theta_d psi_d psi_dd lean lean_d theta_dd "
+                     "acc0 acc1 acc2 lean_dd")
+    rep = [(lam.diff(t, 2), sym[15]), (th.diff(t, 2), sym[11]), (psi.diff(t, 2), sym[8])]
+    rep += [(s.diff(t, 2), sym[12 + k]) for k, s in enumerate((x, gamma, phi))]
+    rep += [(lam.diff(t), sym[10]), (th.diff(t), sym[6]), (psi.diff(t), sym[7])]
+    rep += [(qd[0], sym[2]), (qd[1], sym[3]), (qd[2], sym[4])]
+    rep += [(gamma, sym[0]), (phi, sym[1]), (th, sym[5]), (lam, sym[9])]
+    Q = Q.subs(rep).subs(psi, 0)    # ψ itself drops out of every projection
+    return (R, m, J, J_z, l0, h, g) + tuple(sym), Q

@@ -328,16 +328,16 @@ def lateral_force_rows(p: Params, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, 
     return Q_x + p.Jw / p.R * spin, Q_gamma + p.J0 * spin, Q_phi + p.J * spin
 
 
-#: The rider's lateral lean relative to the EUC body and the tilt acceleration
-#: (rad, rad/s, rad/s²) that :func:`rider_lean_forces` needs.
-LEAN_INPUTS = ("lean", "lean_d", "theta_dd")
+#: The rider's lateral lean relative to the EUC body, its rates and the tilt
+#: acceleration (rad, rad/s, rad/s², rad/s²) that :func:`rider_lean_forces` needs.
+LEAN_INPUTS = ("lean", "lean_d", "lean_dd", "theta_dd")
 #: The rider's inertia about his long axis over J (his pitch and lateral inertia about
 #: G): a standing body is slender, its yaw inertia a fraction of the pitch one.  The
 #: spatial model (``model.spatial.build_spatial_spec``) uses the same ratio.
 RIDER_YAW_INERTIA_RATIO = 0.2
 
 
-def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lean_d, theta_dd) -> np.ndarray:
+def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lean_d, lean_dd, theta_dd) -> np.ndarray:
     """Generalised force of the rider's lateral lean λ relative to the EUC body.
 
     :func:`lateral_forces` carries every body in the EUC's plane, tilted by ϑ.  A
@@ -349,14 +349,19 @@ def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lea
 
     * the offset y, carried by the frame's rotation Ω = ψ̇ e_z + ϑ̇ e_f, accelerates G by
       a_f = y (−ψ̈ cos ϑ + 2 ϑ̇ ψ̇ sin ϑ) − 2 ẏ ψ̇ cos ϑ and
-      a_u = y (ϑ̈ + ψ̇² sin ϑ cos ϑ) + 2 ẏ ϑ̇; Q_i = −m (a_f ∂ξ_G/∂q_i + a_u ∂ζ_G/∂q_i);
+      a_u = y (ϑ̈ + ψ̇² sin ϑ cos ϑ) + 2 ẏ ϑ̇, and the in-plane arm shortened to
+      h cos λ adds d²/dt² [h (cos λ − 1)(sin φ, cos φ)] (without its φ̈ part) and the
+      frame's terms of :func:`lateral_force_rows` on that change;
+      Q_i = −m (a_f ∂ξ_G/∂q_i + a_u ∂ζ_G/∂q_i);
     * the rider's rotation with inertia I = J 1 + (J_z − J) n nᵀ about G
       (J_z = :data:`RIDER_YAW_INERTIA_RATIO` · J): beyond J φ̈ and the frame's own
       pitch rate (in :func:`lateral_forces`), e_a · d(I ω)/dt has
       J λ̇ Ω·e_z' + (J_z − J) (−sin λ · d(n·ω)/dt + (n·ω) e_a·ṅ),
       e_z' = (sin φ, 0, cos φ) the rider's axis before the lean.
 
-    Terms of second order in λ times φ̈ (inertia, not force) are left out.  On the
+    Terms of second order in λ times q̈ (inertia, not force) and in the partial
+    velocities are left out: the force is exact at λ = 0 and to first order in λ
+    (``euc_sim.model.symbolic.derive_rider_lean``, a test).  On the
     3-D model's circle (30 s, seed 1, no sensor noise) the two terms take the
     remainder left by :func:`lateral_forces` from 0.45 to 0.11 N·m RMS
     (``docs/spatial.md``).
@@ -369,9 +374,9 @@ def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lea
         EUC tilt ϑ (CONTRACT, positive to the right), rad, and its rates.
     psi_d, psi_dd : array_like
         Yaw rate, rad/s, and acceleration, rad/s².
-    lean, lean_d : array_like
+    lean, lean_d, lean_dd : array_like
         The rider's lean λ relative to the EUC body, rad (positive to the right), and
-        its rate, rad/s (λ̈ moves G along e_a only: no pitch-plane force).
+        its rates, rad/s, rad/s².
 
     Returns
     -------
@@ -389,6 +394,17 @@ def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lea
     y, y_d = -p.h * s_l, -p.h * c_l * lam_d
     a_f = y * (-ps_dd * c_th + 2.0 * th_d * ps_d * s_th) - 2.0 * y_d * ps_d * c_th
     a_u = y * (th_dd + ps_d**2 * s_th * c_th) + 2.0 * y_d * th_d
+    # in-plane arm h cos λ instead of h: c = cos λ − 1 and its rates
+    c, c_d = c_l - 1.0, -s_l * lam_d
+    c_dd = -c_l * lam_d**2 - s_l * np.asarray(lean_dd, dtype=float)
+    a_f = a_f + p.h * (c_dd * s_p + 2.0 * c_d * phi_d * c_p - c * phi_d**2 * s_p)
+    a_u = a_u + p.h * (c_dd * c_p - 2.0 * c_d * phi_d * s_p - c * phi_d**2 * c_p)
+    # ... and the frame's rotation acting on that change of arm, as in lateral_force_rows
+    d_xi, d_zeta = p.h * c * s_p, p.h * c * c_p
+    d_xi_d, d_zeta_d = p.h * (c_d * s_p + c * c_p * phi_d), p.h * (c_d * c_p - c * s_p * phi_d)
+    s_tl, t_ld = -s_th, -th_d                       # the left tilt ϑ_l = −ϑ of lateral_force_rows
+    a_f = a_f - d_xi * ps_d**2 - 2.0 * d_zeta_d * ps_d * s_tl - d_zeta * (2.0 * t_ld * ps_d * c_th + ps_dd * s_tl)
+    a_u = a_u + 2.0 * d_xi_d * ps_d * s_tl + d_xi * ps_dd * s_tl - d_zeta * (t_ld**2 + ps_d**2 * s_tl**2)
     Q = np.zeros(np.broadcast_shapes(q.shape, np.shape(lam) + (3,), np.shape(th) + (3,)))
     Q[..., 0] = -p.m * a_f
     Q[..., 1] = -p.m * (a_f * (-p.l0 * np.cos(gamma)) + a_u * p.l0 * np.sin(gamma))

@@ -64,3 +64,33 @@ def test_code_matches_symbolic_equations(d):
         numeric = (analytic.mass_matrix(p, q) @ qdd + analytic.nonlinear_terms(p, q, qd)
                    - analytic.generalized_forces(p, q, Md, Mh))
         np.testing.assert_allclose(numeric, symbolic, atol=1e-9)
+
+
+def test_rider_lean_forces_are_the_derivation_to_first_order_in_the_lean():
+    """effects.rider_lean_forces against symbolic.derive_rider_lean (Kane's method on
+    the leaning, slender rider): exact at λ = 0 (the slender rider's own term), and
+    the difference falls as λ² (the terms left out are of second order)."""
+    from euc_sim.model.parameters import TABLE3 as p
+    from euc_sim.model.symbolic import derive_rider_lean
+    from euc_sim.simulation import effects
+
+    syms, Q = derive_rider_lean()
+    f = sp.lambdify(syms, list(Q), "numpy")
+    rng = np.random.default_rng(0)
+    scale = np.array([0.05, 0.05, 1, .2, .2, .1, .2, .5, .5, 0, .2, .3, .5, .5, .5, .5])
+    worst = {}
+    for eps in (0.0, 1e-2, 1e-3):
+        worst[eps], size = 0.0, 0.0
+        for _ in range(10):
+            v = rng.normal(size=16) * scale + np.r_[0, 0, 2.0, np.zeros(13)]
+            v[9] = eps * rng.choice([-1, 1])
+            g_, ph, xd, gd, pd, th, thd, psd, psdd, lam, lamd, thdd, a0, a1, a2, lamdd = v
+            exact = np.array(f(p.R, p.m, p.J, effects.RIDER_YAW_INERTIA_RATIO * p.J, p.l0, p.h, p.g, *v), dtype=float)
+            ours = effects.rider_lean_forces(p, np.array([0.0, g_, ph]), np.array([xd, gd, pd]), th, thd, psd, psdd,
+                                             lam, lamd, lamdd, thdd)
+            worst[eps] = max(worst[eps], float(np.max(np.abs(exact - ours))))
+            size = max(size, float(np.max(np.abs(exact))))
+        assert size > 1.0
+    assert worst[0.0] < 1e-10
+    assert worst[1e-2] < 1e-3 * size
+    assert worst[1e-3] < worst[1e-2] / 50.0          # second order: 100× for 10× less lean

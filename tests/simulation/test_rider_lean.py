@@ -61,7 +61,7 @@ def test_rider_lean_forces_match_kanes_method_on_the_3d_geometry():
     half = p.replace(m=p.m / 2, J=p.J / 2)
     lat = 2 * (effects.lateral_forces(p, q, qd, theta, d(theta), d(psi), d(psi, 2))
                - effects.lateral_forces(half, q, qd, theta, d(theta), d(psi), d(psi, 2)))
-    lean_q = effects.rider_lean_forces(p, q, qd, theta, d(theta), d(psi), d(psi, 2), lean, d(lean), d(theta, 2))
+    lean_q = effects.rider_lean_forces(p, q, qd, theta, d(theta), d(psi), d(psi, 2), lean, d(lean), d(lean, 2), d(theta, 2))
     k = slice(50, -50)
     err_with = (lat + lean_q - exact)[k]
     err_without = (lat - exact)[k]
@@ -80,7 +80,7 @@ def test_lateral_dynamics_adds_the_lean_only_when_given():
     lat = dict(theta=-0.1, theta_d=0.05, psi_d=0.5, psi_dd=0.3)
     base = effects.generalized_force("lateral_dynamics", 1.0, p, q, qd, lat)
     np.testing.assert_array_equal(base, effects.lateral_forces(p, q, qd, **lat))
-    leaned = effects.generalized_force("lateral_dynamics", 1.0, p, q, qd, dict(lat, lean=-0.1, lean_d=0.2, theta_dd=0.1))
-    np.testing.assert_allclose(leaned - base, effects.rider_lean_forces(p, q, qd, lean=-0.1, lean_d=0.2, theta_dd=0.1, **lat),
+    leaned = effects.generalized_force("lateral_dynamics", 1.0, p, q, qd, dict(lat, lean=-0.1, lean_d=0.2, lean_dd=0.3, theta_dd=0.1))
+    np.testing.assert_allclose(leaned - base, effects.rider_lean_forces(p, q, qd, lean=-0.1, lean_d=0.2, lean_dd=0.3, theta_dd=0.1, **lat),
                                atol=1e-12)
     assert np.all(np.abs(leaned - base) > 1e-3)
