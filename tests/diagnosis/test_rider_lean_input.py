@@ -2,17 +2,10 @@
 
 import numpy as np
 import pandas as pd
+from scipy.spatial.transform import Rotation
 
 from euc_sim.diagnosis.prepare import prepare
 from euc_sim.model.parameters import TABLE3
-
-
-def _rot(axis, a):
-    c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    rows = {"x": ((o, z, z), (z, c, -s), (z, s, c)), "y": ((c, z, s), (z, o, z), (-s, z, c)),
-            "z": ((c, -s, z), (s, c, z), (z, z, o))}[axis]
-    return np.stack([np.stack(r, -1) for r in rows], -2)
 
 
 def _turning_recording(lean_amplitude: float):
@@ -26,9 +19,10 @@ def _turning_recording(lean_amplitude: float):
     phi = 0.03 * np.sin(1.1 * t)
     lean = lean_amplitude * np.sin(0.8 * t)
     C = np.column_stack([4.0 * np.sin(psi), 4.0 * (1 - np.cos(psi)), np.full_like(t, p.R)])
-    Rt = _rot("z", psi) @ _rot("x", theta)
-    A = C + np.einsum("nij,j->ni", Rt @ _rot("y", gamma), [0.0, 0.0, -p.l0])
-    G = A + np.einsum("nij,j->ni", Rt @ _rot("y", phi) @ _rot("x", lean), [0.0, 0.0, p.h])
+    body = Rotation.from_euler("ZXY", np.column_stack([psi, theta, gamma]))     # Rz Rx Ry, intrinsic
+    rider = Rotation.from_euler("ZXY", np.column_stack([psi, theta, phi])) * Rotation.from_euler("X", lean[:, None])
+    A = C + body.apply([0.0, 0.0, -p.l0])
+    G = A + rider.apply([0.0, 0.0, p.h])
     df = pd.DataFrame({"t": t, "psi": psi, "theta": theta, "gamma": gamma,
                        **{f"C_{a}": C[:, i] for i, a in enumerate("XYZ")},
                        **{f"G_{a}": G[:, i] for i, a in enumerate("XYZ")}})

@@ -3,27 +3,28 @@ of ``mjcf/euc_3d.xml``'s geometry: G − A = R_t Ry(φ) Rx(λ) (0, 0, h), inerti
 diag(J, J, J_z) in the rider's frame, the frame R_t = Rz(ψ) Rx(ϑ) carried by P."""
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from euc_sim.model.parameters import TABLE3
 from euc_sim.simulation import effects
 
 
-def _rot(axis, a):
-    c, s = np.cos(a), np.sin(a)
-    o, z = np.ones_like(a), np.zeros_like(a)
-    rows = {"x": ((o, z, z), (z, c, -s), (z, s, c)), "y": ((c, z, s), (z, o, z), (-s, z, c)),
-            "z": ((c, -s, z), (s, c, z), (z, z, o))}[axis]
-    return np.stack([np.stack(r, -1) for r in rows], -2)
+def _rot(axes: str, *angles):
+    """Intrinsic rotations, e.g. ``_rot("ZX", ψ, ϑ)`` = Rz(ψ) Rx(ϑ), shape (N, 3, 3)."""
+    r = Rotation.from_euler(axes[:3], np.column_stack(angles[:3]))
+    if len(axes) > 3:
+        r = r * Rotation.from_euler(axes[3], np.asarray(angles[3])[:, None])
+    return r.as_matrix()
 
 
 def _rider_forces(p, t, x_d, gamma, phi, psi, theta, lean):
     """Generalised inertia and gravity forces of the rider alone, (N, 3), numerically."""
     dt = t[1] - t[0]
-    Rt = _rot("z", psi) @ _rot("x", theta)
+    Rt = _rot("ZX", psi, theta)
     e_f, e_a, e_u = Rt[..., 0], Rt[..., 1], Rt[..., 2]
     P = np.cumsum(x_d[:, None] * e_f, axis=0) * dt
     A = P + (p.R - p.l0 * np.cos(gamma))[:, None] * e_u - (p.l0 * np.sin(gamma))[:, None] * e_f
-    Rr = Rt @ _rot("y", phi) @ _rot("x", lean)
+    Rr = _rot("ZXYX", psi, theta, phi, lean)
     G = A + p.h * Rr[..., 2]
     a = np.gradient(np.gradient(G, dt, axis=0), dt, axis=0)
     W = np.gradient(Rr, dt, axis=0) @ np.swapaxes(Rr, -1, -2)
@@ -33,7 +34,7 @@ def _rider_forces(p, t, x_d, gamma, phi, psi, theta, lean):
     f = p.m * (a + np.array([0.0, 0.0, p.g]))
     # partial velocities: ∂v_G/∂ẋ = e_f, ∂v_G/∂γ̇ = ∂(G − P)/∂γ, ∂v_G/∂φ̇ = ∂(G − P)/∂φ; ∂ω/∂φ̇ = e_a
     dG_dgamma = p.l0 * (np.sin(gamma)[:, None] * e_u - np.cos(gamma)[:, None] * e_f)
-    n0 = _rot("x", lean)[..., 2]                               # Rx(λ) e_z = (0, −sin λ, cos λ)
+    n0 = np.column_stack([0 * lean, -np.sin(lean), np.cos(lean)])   # Rx(λ) e_z
     dRy_n0 = np.stack([-np.sin(phi) * n0[:, 0] + np.cos(phi) * n0[:, 2], np.zeros_like(phi),
                        -np.cos(phi) * n0[:, 0] - np.sin(phi) * n0[:, 2]], -1)   # (dRy/dφ) n0
     dG_dphi = p.h * np.einsum("nij,nj->ni", Rt, dRy_n0)
