@@ -140,7 +140,7 @@ def plan(seed: int, per_effect: int, nulls: int, pushes: int, constant: int, dur
 
 
 def plan_spatial(seed: int, n: int, duration: float) -> list[dict]:
-    """n 3-D cases (``--spatial N``): a path of the spatial model with its speed drawn
+    """n 3-D cases (``--spatial N``): a path of the spatial model with its speed and radius drawn
     (:func:`euc_sim.simulation.spatial.draw_spatial_ride`), scored as
     ``lateral_dynamics`` cases; the true value, the simulated peak tilt, is filled in
     from the recording's truth file."""
@@ -148,9 +148,10 @@ def plan_spatial(seed: int, n: int, duration: float) -> list[dict]:
     rng = np.random.default_rng([seed, 14])
     cases = []
     for j in range(n):
-        path, speed = draw_spatial_ride(j, rng)
+        ride = draw_spatial_ride(j, rng)
         cases.append({"name": f"spatial{j:03d}", "kind": "effect", "model": "3d", "effect": "lateral_dynamics",
-                      "value": None, "maneuver": path, "options": {"speed": speed}, "hide_torques": False,
+                      "value": None, "maneuver": ride["path"],
+                      "options": {"speed": ride["speed"], "radius": ride["radius"]}, "hide_torques": False,
                       "push": None, "seed": int(rng.integers(1, 2**31 - 1)), "duration": duration,
                       "drift_shape": None})
     return cases
@@ -162,7 +163,7 @@ def make_recording(case: dict, out: Path) -> Path:
         from euc_sim.simulation.spatial import write_spatial
         return write_spatial(out / f"{case['name']}.csv", case["maneuver"], case["duration"], seed=case["seed"],
                              rider_noise=RIDER_NOISE, speed=case["options"]["speed"],
-                             hide_torques=case["hide_torques"])
+                             radius=case["options"]["radius"], hide_torques=case["hide_torques"])
     from euc_sim.simulation import dataset
     from euc_sim import io
     from euc_sim.model.parameters import TABLE3

@@ -35,7 +35,8 @@ from euc_sim.simulation.maneuvers import make_maneuver
 from euc_sim.simulation.mocap import E_HEIGHT
 
 __all__ = ["PATHS", "PATH_SPEEDS", "TILT_BOUND", "Path3D", "make_path", "simulate_3d",
-           "spatial_recording", "TURNING_PATHS", "RIDEABLE_SPEEDS", "draw_spatial_ride"]
+           "spatial_recording", "TURNING_PATHS", "RIDEABLE_SPEEDS", "RIDEABLE_RADII", "RIDEABLE_LATERAL_ACCEL",
+           "draw_spatial_ride"]
 
 PATHS = ("straight", "circle", "u_turn", "slalom", "figure_eight")
 #: Planned speed of each path, m/s (walking-to-jogging pace, as the paper's indoor runs).
@@ -68,15 +69,32 @@ class Path3D:
 #: The turning paths, in the order :func:`draw_spatial_ride` cycles through them.
 TURNING_PATHS = ("circle", "slalom", "figure_eight", "u_turn")
 #: Speeds drawn for the turning paths, m/s: the lateral rider follows all four at 2 m/s
-#: (docs/spatial.md) and falls on circles of radius 3 m at 2.5 m/s; on the paths' 4 m
-#: radius up to 2.2 m/s keeps the lateral acceleration within 1.2 m/s².
+#: (docs/spatial.md) and falls on circles of radius 3 m at 2.5 m/s.
 RIDEABLE_SPEEDS = (1.5, 2.2)
+#: Turn radii drawn, m, and the largest lateral acceleration v²/R drawn per path, m/s²:
+#: the rider follows a circle of R = 3 m at 2 m/s (1.33 m/s²) and falls at 2.5 m; the
+#: figure-eight's reversals are harder: R = 4 m at 2 m/s (1.0 m/s²) is ridden, 3.9 m
+#: at 2 m/s fell at 15.9 s (blind-study seed 3).
+RIDEABLE_RADII = (3.5, 5.5)
+RIDEABLE_LATERAL_ACCEL = {"circle": 1.25, "u_turn": 1.25, "figure_eight": 0.9}
 
 
-def draw_spatial_ride(j: int, rng: np.random.Generator) -> tuple[str, float]:
-    """The j-th ride of a 3-D study: (path of :data:`TURNING_PATHS` in turn, speed
-    drawn uniformly in :data:`RIDEABLE_SPEEDS`, m/s), from the seeded ``rng``."""
-    return TURNING_PATHS[j % len(TURNING_PATHS)], round(float(rng.uniform(*RIDEABLE_SPEEDS)), 3)
+def draw_spatial_ride(j: int, rng: np.random.Generator) -> dict:
+    """The j-th ride of a 3-D study from the seeded ``rng``.
+
+    Returns
+    -------
+    dict
+        ``path`` (:data:`TURNING_PATHS` in turn), ``speed`` (m/s, uniform in
+        :data:`RIDEABLE_SPEEDS`) and ``radius`` (m, uniform in :data:`RIDEABLE_RADII`
+        above v² / :data:`RIDEABLE_LATERAL_ACCEL` of the path; None for the slalom,
+        whose curvature is its own).
+    """
+    path = TURNING_PATHS[j % len(TURNING_PATHS)]
+    speed = round(float(rng.uniform(*RIDEABLE_SPEEDS)), 3)
+    lo = max(RIDEABLE_RADII[0], speed**2 / RIDEABLE_LATERAL_ACCEL.get(path, 1.0))
+    radius = round(float(rng.uniform(lo, RIDEABLE_RADII[1])), 3)
+    return {"path": path, "speed": speed, "radius": None if path == "slalom" else radius}
 
 
 def _segments(name: str, length: float, radius: float = RADIUS) -> list[tuple[float, float]]:
@@ -388,7 +406,8 @@ def spatial_recording(run: pd.DataFrame, *, noise: str = "paper", seed: int = 0,
 
 def write_spatial(out, path: str, duration: float, *, params: Params = TABLE3, seed: int = 0,
                   noise: str = "paper", rider_noise: float = 0.0, speed: float | None = None,
-                  motor: MotorPD | None = None, rider_delay: float = 0.15, hide_torques: bool = False):
+                  motor: MotorPD | None = None, rider_delay: float = 0.15, hide_torques: bool = False,
+                  radius: float | None = None):
     """Simulate ``path`` in the spatial model and write a recording with sidecars.
 
     ``NAME.csv`` (or ``.parquet``) holds :func:`spatial_recording`'s motion-capture
@@ -410,7 +429,8 @@ def write_spatial(out, path: str, duration: float, *, params: Params = TABLE3, s
 
     motor = motor or MotorPD()
     rider = default_rider(params, motor, noise_std=rider_noise, delay=rider_delay)
-    run = simulate_3d(path, duration, params=params, speed=speed, motor=motor, rider=rider, seed=seed)
+    run = simulate_3d(path, duration, params=params, speed=speed, motor=motor, rider=rider, seed=seed,
+                      radius=radius)
     rec = spatial_recording(run, noise=noise, seed=seed, hide_torques=hide_torques)
     e_y = run["e_y"].to_numpy()
     meta = {
@@ -423,6 +443,7 @@ def write_spatial(out, path: str, duration: float, *, params: Params = TABLE3, s
     }
     truth = {
         "params": params.as_dict(), "model": "3d", "path": path, "speed": run.attrs["speed"],
+        "radius": None if path in ("straight", "slalom") else (RADIUS if radius is None else radius),
         "seed": seed, "motor": motor.as_dict(), "rider": rider.as_dict(),
         "lateral": run.attrs["lateral"], "tyre": run.attrs["tyre"], "effects": {},
         "path_error": {"rms_m": float(np.sqrt(np.mean(e_y ** 2))), "max_m": float(np.max(np.abs(e_y)))},

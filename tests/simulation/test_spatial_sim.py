@@ -87,13 +87,19 @@ def test_bad_requests_are_named():
         simulate_3d("straight", 1.0, speed=20.0)
 
 
-def test_spatial_rides_are_drawn_from_the_seed_within_the_rideable_speeds():
-    from euc_sim.simulation.spatial import RIDEABLE_SPEEDS, TURNING_PATHS, draw_spatial_ride
-    a = [draw_spatial_ride(j, np.random.default_rng(5)) for j in range(8)]
-    b = [draw_spatial_ride(j, np.random.default_rng(5)) for j in range(8)]
-    assert a == b
-    assert [p for p, _ in a] == [TURNING_PATHS[j % 4] for j in range(8)]
-    assert all(RIDEABLE_SPEEDS[0] <= v <= RIDEABLE_SPEEDS[1] for _, v in a)
+def test_spatial_rides_are_drawn_from_the_seed_within_what_the_rider_follows():
+    from euc_sim.simulation.spatial import (RIDEABLE_LATERAL_ACCEL, RIDEABLE_RADII, RIDEABLE_SPEEDS,
+                                            TURNING_PATHS, draw_spatial_ride)
+    rng_a, rng_b = np.random.default_rng(5), np.random.default_rng(5)
+    a = [draw_spatial_ride(j, rng_a) for j in range(40)]
+    assert a == [draw_spatial_ride(j, rng_b) for j in range(40)]
+    assert [r["path"] for r in a] == [TURNING_PATHS[j % 4] for j in range(40)]
+    assert all(RIDEABLE_SPEEDS[0] <= r["speed"] <= RIDEABLE_SPEEDS[1] for r in a)
+    turns = [r for r in a if r["path"] != "slalom"]
+    assert all(r["radius"] is None for r in a if r["path"] == "slalom")
+    assert all(RIDEABLE_RADII[0] <= r["radius"] <= RIDEABLE_RADII[1] for r in turns)
+    assert all(r["speed"] ** 2 / r["radius"] <= RIDEABLE_LATERAL_ACCEL[r["path"]] + 1e-3 for r in turns)
+    assert len({r["radius"] for r in turns}) > 0.9 * len(turns)   # drawn, not fixed
 
 
 def test_the_lateral_predictor_restores_the_undelayed_loop():
