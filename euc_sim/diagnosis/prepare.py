@@ -194,7 +194,7 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
         theta, theta_d, theta_dd = processing.savgol_derivatives(df["theta"].to_numpy(float), dt, w, o)
         psi, psi_d, psi_dd = processing.savgol_derivatives(np.unwrap(df["psi"].to_numpy(float)), dt, w, o)
         lateral = {"theta": theta, "theta_d": theta_d, "psi_d": psi_d, "psi_dd": psi_dd}
-        lean = _rider_lean(df, psi, theta, kin.q[:, 1], p.l0, dt, w, o)
+        lean = _rider_lean(df, psi, kin.q[:, 1], p.l0, dt, w, o)
         if lean is not None:
             lateral.update(lean=lean[0], lean_d=lean[1], lean_dd=lean[2], theta_dd=theta_dd)
     step = max(1, int(round(1.0 / (dt * rate))))
@@ -203,20 +203,27 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
     return Prepared(kin, sm.sigma_samples(dt), M_d, lateral, keep, p, meta, name, noise, df)
 
 
-def _rider_lean(df: pd.DataFrame, psi, theta, gamma, l0: float, dt: float, w: int, o: int):
+def _rider_lean(df: pd.DataFrame, psi, gamma, l0: float, dt: float, w: int, o: int):
     """The rider's lateral lean λ relative to the EUC body and its rates (rad, rad/s,
-    rad/s²), or None without C and G columns.
+    rad/s²), or None without the C, E and G columns.
 
-    G seen from the ankle A in the EUC's tilted frame (eq. 1) is
+    The EUC's tilt is taken from its own markers, ϑ_E = atan2(−b_y, b_z) with
+    b = T_ψᵀ (E − C) = (sin γ, −sin ϑ cos γ, cos ϑ cos γ): 0.2 mm over the 0.42 m of C–E
+    is 12× finer than the recorded angle's 0.5°, whose noise would otherwise enter λ
+    whole (and, through the lean terms, attenuate the lateral coupling fitted on it).
+    G seen from the ankle A in that tilted frame (eq. 1) is
     (h cos λ sin φ, −h sin λ, h cos λ cos φ): λ = atan2(−y_AG, z_AG), whatever h.
     """
     from euc_sim.identification import processing
-    cols = ("C_X", "C_Y", "C_Z", "G_X", "G_Y", "G_Z")
+    cols = ("C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
     if not set(cols) <= set(df.columns):
         return None
     C = df[list(cols[:3])].to_numpy(float)
-    G = df[list(cols[3:])].to_numpy(float)
-    r = processing.moving_frame(G - C, psi, theta)                      # eq. (1)
+    E = df[list(cols[3:6])].to_numpy(float)
+    G = df[list(cols[6:])].to_numpy(float)
+    b = processing.moving_frame(E - C, psi, np.zeros_like(psi))        # T_ψᵀ (E − C)
+    theta_E = np.arctan2(-b[:, 1], b[:, 2])
+    r = processing.moving_frame(G - C, psi, theta_E)                    # eq. (1)
     lam = np.arctan2(-r[:, 1], r[:, 2] + l0 * np.cos(gamma))
     return processing.savgol_derivatives(lam, dt, w, o)
 

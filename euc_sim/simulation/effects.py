@@ -359,12 +359,15 @@ def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lea
       J λ̇ Ω·e_z' + (J_z − J) (−sin λ · d(n·ω)/dt + (n·ω) e_a·ṅ),
       e_z' = (sin φ, 0, cos φ) the rider's axis before the lean.
 
-    Terms of second order in λ times q̈ (inertia, not force) and in the partial
-    velocities are left out: the force is exact at λ = 0 and to first order in λ
-    (``euc_sim.model.symbolic.derive_rider_lean``, a test).  On the
+    Less the upright slender rider's own term (λ = λ̇ = λ̈ = 0, the (J_z − J) term),
+    which :func:`lateral_forces` leaves out with its isotropic rider: a recording
+    without lean (the planar simulator's lateral cases) then sees exactly the physics
+    that was injected.  Terms of second order in λ times q̈ (inertia, not force) and in
+    the partial velocities are left out: the force is exact at λ = 0 and to first order
+    in λ (``euc_sim.model.symbolic.derive_rider_lean``, a test).  On the
     3-D model's circle (30 s, seed 1, no sensor noise) the two terms take the
     remainder left by :func:`lateral_forces` from 0.45 to 0.11 N·m RMS
-    (``docs/spatial.md``).
+    (before the upright slender term was taken out; ``docs/spatial.md``).
 
     Parameters
     ----------
@@ -420,7 +423,10 @@ def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lea
     ea_ndot = -w_f * c_l * c_p + w_u * c_l * s_p
     J, J_z = p.J, RIDER_YAW_INERTIA_RATIO * p.J
     M_rot = J * lam_d * (ps_d * c_th * c_p + th_d * s_p) + (J_z - J) * (-s_l * s_d + s * ea_ndot)
-    Q[..., 2] = Q[..., 2] - M_rot
+    # less the upright slender rider's own term (λ = λ̇ = λ̈ = 0), which lateral_forces
+    # (and so the planar simulator) leaves out with its isotropic rider
+    M_rot0 = (J_z - J) * (ps_d * c_th * c_p + th_d * s_p) * (-th_d * c_p + ps_d * c_th * s_p)
+    Q[..., 2] = Q[..., 2] - (M_rot - M_rot0)
     return Q
 
 

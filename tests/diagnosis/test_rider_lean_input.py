@@ -23,8 +23,10 @@ def _turning_recording(lean_amplitude: float):
     rider = Rotation.from_euler("ZXY", np.column_stack([psi, theta, phi])) * Rotation.from_euler("X", lean[:, None])
     A = C + body.apply([0.0, 0.0, -p.l0])
     G = A + rider.apply([0.0, 0.0, p.h])
+    E = C + body.apply([0.0, 0.0, 0.42])
     df = pd.DataFrame({"t": t, "psi": psi, "theta": theta, "gamma": gamma,
                        **{f"C_{a}": C[:, i] for i, a in enumerate("XYZ")},
+                       **{f"E_{a}": E[:, i] for i, a in enumerate("XYZ")},
                        **{f"G_{a}": G[:, i] for i, a in enumerate("XYZ")}})
     return df, lean, 0.8 * lean_amplitude * np.cos(0.8 * t)
 

@@ -68,8 +68,9 @@ def test_code_matches_symbolic_equations(d):
 
 def test_rider_lean_forces_are_the_derivation_to_first_order_in_the_lean():
     """effects.rider_lean_forces against symbolic.derive_rider_lean (Kane's method on
-    the leaning, slender rider): exact at λ = 0 (the slender rider's own term), and
-    the difference falls as λ² (the terms left out are of second order)."""
+    the leaning, slender rider) less its value for the upright rider (λ = λ̇ = λ̈ = 0,
+    which lateral_forces' isotropic rider leaves out): exact at λ = 0, and the
+    difference falls as λ² (the terms left out are of second order)."""
     from euc_sim.model.parameters import TABLE3 as p
     from euc_sim.model.symbolic import derive_rider_lean
     from euc_sim.simulation import effects
@@ -78,14 +79,17 @@ def test_rider_lean_forces_are_the_derivation_to_first_order_in_the_lean():
     f = sp.lambdify(syms, list(Q), "numpy")
     rng = np.random.default_rng(0)
     scale = np.array([0.05, 0.05, 1, .2, .2, .1, .2, .5, .5, 0, .2, .3, .5, .5, .5, .5])
+    consts = (p.R, p.m, p.J, effects.RIDER_YAW_INERTIA_RATIO * p.J, p.l0, p.h, p.g)
     worst = {}
     for eps in (0.0, 1e-2, 1e-3):
         worst[eps], size = 0.0, 0.0
         for _ in range(10):
             v = rng.normal(size=16) * scale + np.r_[0, 0, 2.0, np.zeros(13)]
             v[9] = eps * rng.choice([-1, 1])
+            upright = v.copy()
+            upright[[9, 10, 15]] = 0.0                       # λ, λ̇, λ̈
+            exact = np.array(f(*consts, *v), dtype=float) - np.array(f(*consts, *upright), dtype=float)
             g_, ph, xd, gd, pd, th, thd, psd, psdd, lam, lamd, thdd, a0, a1, a2, lamdd = v
-            exact = np.array(f(p.R, p.m, p.J, effects.RIDER_YAW_INERTIA_RATIO * p.J, p.l0, p.h, p.g, *v), dtype=float)
             ours = effects.rider_lean_forces(p, np.array([0.0, g_, ph]), np.array([xd, gd, pd]), th, thd, psd, psdd,
                                              lam, lamd, lamdd, thdd)
             worst[eps] = max(worst[eps], float(np.max(np.abs(exact - ours))))
