@@ -145,6 +145,11 @@ def main(argv=None) -> int:
     ap.add_argument("--nulls", nargs="+", default=[], help="calibration folders (null recordings)")
     ap.add_argument("--study", nargs="+", default=[], help="blind-study folders")
     args = ap.parse_args(argv)
+    missing = [f for f in args.nulls + args.study if not Path(f).is_dir()]
+    if missing:
+        print(f"acceptance_roc: {missing[0]}: no such folder (expected a blind_study.py --out folder)",
+              file=sys.stderr)
+        return 2
     rows = [r for f in args.nulls + args.study for r in load(Path(f))]
     neg = [r for r in rows if r["kind"] in ("null", "invisible")]
     pos = [r for r in rows if r["kind"] == "effect" and r["ratio"] < 2.0]

@@ -41,3 +41,9 @@ def test_an_accepted_trial_after_a_physics_refusal():
     fs = roc.first_step(h)
     assert fs["name"] == "lateral_dynamics" and fs["accepted"]
     assert roc.first_step(h[:1])["name"] is None
+
+
+def test_a_missing_folder_is_one_line_and_exit_2(tmp_path, capsys):
+    assert roc.main(["--nulls", str(tmp_path / "nowhere")]) == 2
+    assert "nowhere: no such folder" in capsys.readouterr().err
+    assert roc.main(["--nulls", str(tmp_path)]) == 2       # a folder with nothing diagnosed in it
