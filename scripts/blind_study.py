@@ -142,8 +142,9 @@ def plan(seed: int, per_effect: int, nulls: int, pushes: int, constant: int, dur
 def plan_spatial(seed: int, n: int, duration: float) -> list[dict]:
     """n 3-D cases (``--spatial N``): a path of the spatial model with its speed and radius drawn
     (:func:`euc_sim.simulation.spatial.draw_spatial_ride`), scored as
-    ``lateral_dynamics`` cases; the true value, the simulated peak tilt, is filled in
-    from the recording's truth file."""
+    ``lateral_dynamics`` cases; the true value, the simulated peak tilt over the couplings'
+    bandwidth (:func:`euc_sim.simulation.effects.band_peak_tilt` of the true 1 kHz tilt,
+    CONTRACT's peak tilt), is filled in from the recording's truth file."""
     from euc_sim.simulation.spatial import draw_spatial_ride
     rng = np.random.default_rng([seed, 14])
     cases = []
@@ -201,7 +202,7 @@ def _work(args):
             make_recording(case, out)
     except ValueError as exc:          # a fall: the case is dropped, and said so
         return {"case": case, "error": f"simulation: {str(exc).splitlines()[0]}"}
-    if case.get("model") == "3d":      # the truth of a 3-D ride: its simulated peak tilt
+    if case.get("model") == "3d":      # the truth of a 3-D ride: its simulated peak tilt (band_peak_tilt)
         truth = json.loads((out / f"{case['name']}.truth.json").read_text())
         case = {**case, "value": truth["peak_tilt_rad"]}
     t1 = time.perf_counter()

@@ -13,7 +13,7 @@ from typing import Callable
 import numpy as np
 
 from euc_sim.diagnosis import drift_term
-from euc_sim.diagnosis.common import H_BOUNDS, RIDER_MASS_RANGE
+from euc_sim.diagnosis.common import H_BOUNDS, LATERAL_WINDOW, RIDER_MASS_RANGE
 from euc_sim.diagnosis.prepare import Prepared
 from euc_sim.diagnosis.residual import residual_model
 from euc_sim.identification import regression as reg
@@ -144,13 +144,52 @@ def _force_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bo
             continue
         cands[name] = col
         if name == "lateral_dynamics":
-            # every term of effects.lateral_forces is of second order in the turn
-            # (ϑψ̈, ψ̇ϑ̇, ψ̇², ẋψ̇ϑ, ϑ² with ψ̇ ∝ tan ϑ): a fitted coupling strength s
-            # means an effective peak tilt √s · max|ϑ| (CONTRACT: peak tilt)
-            info[name] = {"scale": float(np.max(np.abs(prep.lateral["theta"][k]))), "offset": 0.0, "sqrt": True}
+            info[name] = _lateral_info(prep, p, h0, col, has_w)
         else:
             info[name] = {"scale": 1.0, "offset": 0.0}
     return cands, info
+
+
+def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: bool) -> dict:
+    """The estimate map of ``lateral_dynamics``: its peak tilt, rad, from the coupling s.
+
+    Every term of effects.lateral_forces is of second order in the turn (ϑψ̈, ψ̇ϑ̇, ψ̇²,
+    ẋψ̇ϑ, ϑ² with ψ̇ ∝ tan ϑ): a fitted coupling strength s means a tilt √s times the
+    recorded one, and the estimate is √s · :func:`effects.band_peak_tilt` of the recorded
+    tilt channel (CONTRACT's peak tilt: the peak over the couplings' bandwidth).
+
+    Two choices the recording cannot make move that number, and their envelope widens
+    the interval (``scale_range``, rad per √s): the tilt whose peak is read (the angle
+    channel, or the EUC's C, E markers, 12× finer) and the couplings' window
+    (:data:`LATERAL_WINDOW` halved or doubled: s fitted on that window's column, s_w, is
+    taken as the projection of the fitted term s·c onto it, s_w = s ⟨c_w, c⟩ / ⟨c_w, c_w⟩);
+    where the markers show the rider's lean, also the rider's yaw inertia, which no
+    recording measures: isotropic (the column's convention) or slender
+    (:func:`effects.upright_slender_moment` added to the column, projected the same way).
+    """
+    from dataclasses import replace
+
+    from euc_sim.diagnosis.prepare import lateral_inputs, marker_tilt
+    df, dt = prep.raw, prep.kin.dt
+    psi = np.unwrap(df["psi"].to_numpy(float))
+    tilts = [df["theta"].to_numpy(float), marker_tilt(df, psi)]
+    peaks = [effects.band_peak_tilt(th, dt, LATERAL_WINDOW) for th in tilts if th is not None]
+    gains = [1.0]
+    for w in (LATERAL_WINDOW / 2, LATERAL_WINDOW * 2):
+        alt = replace(prep, lateral=lateral_inputs(df, prep.kin.q[:, 1], p.l0, dt, w))
+        kin, wh = _force_columns("lateral_dynamics", alt, p, h0)
+        c_w = np.concatenate([kin, wh]) if has_w else kin
+        gains.append(float(c_w @ col / (c_w @ c_w)))
+    if prep.lateral.get("lean") is not None:      # the slender rider's upright term added
+        lat, q = prep.lateral, prep.kin.q
+        Q = np.zeros_like(q)
+        Q[:, 2] = -effects.upright_slender_moment(p.replace(h=h0), q[:, 2], lat["theta"], lat["theta_d"], lat["psi_d"])
+        ph = p.replace(h=h0)
+        extra = analytic.residual_gain(ph, q[prep.keep]) * prep.filtered(analytic.moment_about_contact(ph, Q))
+        c_w = col + (np.concatenate([extra, np.zeros_like(extra)]) if has_w else extra)
+        gains.append(float(c_w @ col / (c_w @ c_w)))
+    scales = [np.sqrt(max(g, 0.0)) * pk for g in gains for pk in peaks]
+    return {"scale": peaks[0], "offset": 0.0, "sqrt": True, "scale_range": [float(min(scales)), float(max(scales))]}
 
 
 def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bool):

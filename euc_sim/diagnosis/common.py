@@ -81,11 +81,9 @@ THRESHOLDS = Thresholds()
 
 #: Residual samples kept per second for selection (the filtered residual is smooth).
 SELECT_RATE = 30.0
-#: Savitzky–Golay window for the tilt and yaw channels, s.  0.5 s follows the
-#: figure-eight's yaw reversals (1.25 s curvature ramps) with the paper's angle noise:
-#: held-out 0.245 -> 0.175 N·m on the 3-D figure-eight, 0.082 -> 0.075 on the circle,
-#: and equal or lower on the planar lateral cases of blind-study seeds 7 and 21.
-LATERAL_WINDOW = 0.5
+#: Savitzky–Golay window for the tilt and yaw channels, s: the couplings' bandwidth
+#: (:data:`euc_sim.simulation.effects.LATERAL_WINDOW`).
+LATERAL_WINDOW = effects.LATERAL_WINDOW
 #: Rebuilds of the candidate columns at the augmented h (at most), and the change of
 #: h, m, below which they stop.
 COLUMN_ITERATIONS = 3

@@ -29,7 +29,9 @@ def estimate_of(info: dict, theta: np.ndarray, cov: np.ndarray, dof: float) -> t
         lo, hi = max(s - q * se_s, 0.0), max(s + q * se_s, 0.0)
         est = info["scale"] * math.sqrt(max(s, 0.0))
         se = info["scale"] * se_s / (2.0 * math.sqrt(s)) if s > 0 else float("inf")
-        return est, [info["scale"] * math.sqrt(lo), info["scale"] * math.sqrt(hi)], se
+        # the scales of the choices the data cannot make (candidates._lateral_info) widen it
+        a, b = info.get("scale_range", (info["scale"], info["scale"]))
+        return est, [min(a, info["scale"]) * math.sqrt(lo), max(b, info["scale"]) * math.sqrt(hi)], se
     est = info["offset"] + info["scale"] * float(theta[0])
     se = abs(info["scale"]) * float(np.sqrt(max(cov[0, 0], 0.0)))
     return est, [est - q * se, est + q * se], se

