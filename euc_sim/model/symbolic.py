@@ -157,7 +157,13 @@ def derive_lateral() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
     ẋ e_f(ψ)), yawed by ψ(t) and tilted by ϑ(t) about the heading e_f, positive to the
     right as in eq. (2).  Bodies sit in
     it as in Fig. 5; each body turns about the tilted pitch axis e_a = e_u × e_f at
-    its pitch rate plus the frame's own rate Ω·e_a.  With the partial velocities
+    its pitch rate plus the frame's own rate Ω·e_a.  The wheel and the EUC body are
+    isotropic (Table 3 gives their pitch inertias alone); the rider's inertia is
+    diag(J, J, k·J) about G in his own frame, with the full Euler equation
+    I ω̇ + ω × I ω, ω = Ω + φ̇ e_a: k = 1 is the isotropic rider of
+    :func:`euc_sim.simulation.effects.lateral_forces`, k =
+    ``effects.RIDER_YAW_INERTIA_RATIO`` (0.2) the 3-D model's slender rider, whose
+    difference is ``effects.upright_slender_moment``.  With the partial velocities
     ∂v/∂q̇ (Kane: x is a path length, so P's position is not a function of x alone),
     the generalised inertia and gravity forces are compared with the planar ones
     (ψ = ϑ = 0 and their rates zero); the difference, with its sign for the
@@ -166,13 +172,14 @@ def derive_lateral() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
     Returns
     -------
     symbols : tuple of sympy.Symbol
-        ``(R, m, m0, mw, J, Jw, J0, h0, l0, h, g, gamma, phi, x_d, gamma_d, phi_d,
-        theta, theta_d, psi_d, psi_dd)``, plain symbols for ``sympy.lambdify``.
+        ``(R, m, m0, mw, J, Jw, J0, h0, l0, h, g, k, gamma, phi, x_d, gamma_d, phi_d,
+        theta, theta_d, psi_d, psi_dd)``, plain symbols for ``sympy.lambdify`` (k: the
+        rider's yaw over pitch inertia).
     Q : sympy.Matrix, shape (3, 1)
         (N, N·m, N·m); :func:`euc_sim.simulation.effects.lateral_forces` is the same in numpy.
     """
     t = sp.Symbol("t")
-    R, m, m0, mw, J, Jw, J0, h0, l0, h, g = sp.symbols("R m m0 mw J Jw J0 h0 l0 h g", positive=True)
+    R, m, m0, mw, J, Jw, J0, h0, l0, h, g, k_yaw = sp.symbols("R m m0 mw J Jw J0 h0 l0 h g k", positive=True)
     x, gamma, phi, psi, th = dynamicsymbols("x gamma phi psi theta")
     qd = [s.diff(t) for s in (x, gamma, phi)]
     e_f = sp.Matrix([sp.cos(psi), sp.sin(psi), 0])
@@ -186,16 +193,28 @@ def derive_lateral() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
     def velocity(xi, zeta):     # Ṗ = ẋ e_f, r − P = ξ e_f + ζ e_u
         return qd[0] * e_f + (xi * e_f).diff(t) + (zeta * e_u).diff(t)
 
+    # wheel and EUC body isotropic (their pitch inertias alone are known): (I ω̇)·∂ω/∂u
+    # reduces to inertia · d/dt(ω·e_a) · ∂(ω·e_a)/∂u, ω·ė_a = ω·(Ω × e_a) = 0
     bodies = ((mw, sp.Integer(0), R, Jw, qd[0] / R + w_frame),
               (m0, h0 * sp.sin(gamma), R + h0 * sp.cos(gamma), J0, qd[1] + w_frame),
               (m, -l0 * sp.sin(gamma) + h * sp.sin(phi), R - l0 * sp.cos(gamma) + h * sp.cos(phi),
-               J, qd[2] + w_frame))
+               None, None))
+    # the rider: inertia J 1 + (k J − J) n nᵀ about G (diag(J, J, k J) in his
+    # own frame, n his long axis), ω = Ω + φ̇ e_a; Euler: I ω̇ + ω × I ω
+    n = sp.sin(phi) * e_f + sp.cos(phi) * e_u
+    w_rider = Omega + qd[2] * e_a
+    I_rider = J * sp.eye(3) + (k_yaw * J - J) * n * n.T
+    rot_rider = I_rider * w_rider.diff(t) + w_rider.cross(I_rider * w_rider)
     F = sp.zeros(3, 1)
     for mass, xi, zeta, inertia, w in bodies:
         v = velocity(xi, zeta)
         a = v.diff(t)
         for i, u in enumerate(qd):
-            F[i] += mass * ((a + g * e_z).T * v.diff(u))[0] + inertia * w.diff(t) * sp.diff(w, u)
+            F[i] += mass * ((a + g * e_z).T * v.diff(u))[0]
+            if inertia is None:
+                F[i] += (rot_rider.T * w_rider.diff(u))[0]
+            else:
+                F[i] += inertia * w.diff(t) * sp.diff(w, u)
     # plain symbols; the planar case sets every ψ, ϑ term to zero
     sym = sp.symbols("gamma phi x_d gamma_d phi_d theta theta_d psi_d psi_dd")
     rep = {th.diff(t): sym[6], psi.diff(t, 2): sym[8], psi.diff(t): sym[7]}
@@ -211,20 +230,19 @@ def derive_lateral() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
     planar = full.subs({sym[5]: 0, sym[6]: 0, sym[7]: 0, sym[8]: 0, sp.Symbol("theta_dd"): 0})
     c2 = {sp.cos(sym[5])**2: 1 - sp.sin(sym[5])**2}    # e_u·e_u = 1
     Q = (planar - full).applyfunc(lambda e: sp.expand(sp.expand(e).subs(c2)))
-    return (R, m, m0, mw, J, Jw, J0, h0, l0, h, g) + tuple(sym), Q
+    return (R, m, m0, mw, J, Jw, J0, h0, l0, h, g, k_yaw) + tuple(sym), Q
 
 
 @lru_cache(maxsize=1)
 def derive_rider_lean() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
     """The rider's share of the spatial coupling that :func:`derive_lateral` leaves out.
 
-    :func:`derive_lateral` keeps the rider in the EUC's tilted plane with an isotropic
-    inertia J.  In ``mjcf/euc_3d.xml`` he leans by λ about his fore-aft axis after his
+    :func:`derive_lateral` keeps the rider upright in the EUC's tilted plane.  In ``mjcf/euc_3d.xml`` he leans by λ about his fore-aft axis after his
     pitch φ: G = A + h n with n = cos λ e_z' − sin λ e_a, e_z' = sin φ e_f + cos φ e_u;
     his angular velocity is ω = Ω + φ̇ e_a + λ̇ e_x' (e_x' = cos φ e_f − sin φ e_u), his
     inertia about G is J 1 + (J_z − J) n nᵀ.  By Kane's method (partial velocities
     ∂v_G/∂q̇, ∂ω/∂φ̇ = e_a), the generalised inertia and gravity forces of this rider,
-    subtracted from those of the in-plane isotropic rider of :func:`derive_lateral`,
+    subtracted from those of the in-plane isotropic rider of :func:`derive_lateral` (k = 1),
     give the force :func:`euc_sim.simulation.effects.rider_lean_forces` approximates
     (it keeps the terms of first order in λ, and every order at λ = 0).
 

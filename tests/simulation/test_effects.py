@@ -112,11 +112,19 @@ def test_lateral_forces_match_the_3d_derivation():
     lat = _lateral_inputs(20, rng)
     for params in (p, p.replace(h=0.9, l0=0.2, h0=0.3)):
         Q = E.lateral_forces(params, Q_STATES, QD_STATES, **lat)
-        args = [getattr(params, k) for k in "R m m0 mw J Jw J0 h0 l0 h g".split()]
-        ref = np.array(f(*args, Q_STATES[:, 1], Q_STATES[:, 2], QD_STATES[:, 0], QD_STATES[:, 1],
-                         QD_STATES[:, 2], lat["theta"], lat["theta_d"], lat["psi_d"], lat["psi_dd"])).T
+        args = [getattr(params, k) for k in "R m m0 mw J Jw J0 h0 l0 h g".split()] + [1.0]   # isotropic rider
+        states = (Q_STATES[:, 1], Q_STATES[:, 2], QD_STATES[:, 0], QD_STATES[:, 1],
+                  QD_STATES[:, 2], lat["theta"], lat["theta_d"], lat["psi_d"], lat["psi_dd"])
+        ref = np.array(f(*args, *states)).T
         np.testing.assert_allclose(Q, ref, rtol=1e-10, atol=1e-9)
         assert np.max(np.abs(ref)) > 10.0          # not a comparison of zeros
+        # the slender rider (yaw inertia k J, the 3-D model's) differs in the φ row alone,
+        # by −upright_slender_moment (the diagnosis's alternative for the interval)
+        slender = np.array(f(*args[:-1], E.RIDER_YAW_INERTIA_RATIO, *states)).T
+        M_z = E.upright_slender_moment(params, Q_STATES[:, 2], lat["theta"], lat["theta_d"], lat["psi_d"])
+        np.testing.assert_allclose(slender[:, :2], ref[:, :2], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(slender[:, 2] - ref[:, 2], -M_z, rtol=1e-10, atol=1e-9)
+        assert np.max(np.abs(M_z)) > 1e-2
 
 
 def test_fast_coordinated_turn_feels_g_over_cos_tilt():
