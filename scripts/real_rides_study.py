@@ -30,7 +30,8 @@ import numpy as np
 from euc_sim.io import write_json
 from euc_sim.rides.drivetrain import predict_pwm
 from euc_sim.rides.drivetrain_report import analyse, computed_pwm_note
-from euc_sim.rides.mass import MassSettings, predict_power
+from euc_sim.rides.mass import predict_power
+from euc_sim.rides.power import MassSettings
 from euc_sim.rides.spec import read_spec
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"

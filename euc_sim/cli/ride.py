@@ -186,7 +186,7 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
 def _drivetrain(log, compare, spec, n_boot: int, seed: int):
     """Mass, drivetrain, PWM and envelope (:mod:`euc_sim.rides.drivetrain_report`)."""
     from euc_sim.rides.drivetrain_report import drivetrain_report
-    from euc_sim.rides.mass import MassSettings
+    from euc_sim.rides.power import MassSettings
     from euc_sim.rides.spec import WheelSpec
 
     return drivetrain_report(log, spec or WheelSpec(), compare,

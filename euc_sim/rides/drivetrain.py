@@ -26,7 +26,7 @@ largest force the motor can give at speed v and battery voltage V is
 with charge.  A rider who asks for more falls (a cut-out).
 
 Each fit is linear least squares on the 1 s Savitzky–Golay-filtered signals of
-:func:`euc_sim.rides.mass.power_signals`, with a moving-block bootstrap 95 %
+:func:`euc_sim.rides.power.power_signals`, with a moving-block bootstrap 95 %
 interval (30 s blocks).
 """
 
@@ -36,7 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from euc_sim.rides.mass import G, RHO_AIR, MassFit, PowerSignals
+from euc_sim.rides.mass import MassFit
+from euc_sim.rides.power import G, RHO_AIR, PowerSignals
 from euc_sim.rides.pwm import BASE, EXTRA, full_duty_force, pwm_columns, select_pwm_terms
 
 __all__ = ["Term", "Drivetrain", "fit_battery", "fit_pwm", "predict_pwm", "fit_drivetrain",

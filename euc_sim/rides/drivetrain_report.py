@@ -18,7 +18,8 @@ import numpy as np
 from euc_sim.rides.drivetrain import Drivetrain, envelope, fit_drivetrain, predict_pwm
 from euc_sim.rides.grade import GradeProfile, grade_profile
 from euc_sim.rides.logs import read_log
-from euc_sim.rides.mass import MassFit, MassSettings, PowerSignals, fit_mass, power_signals, predict_power
+from euc_sim.rides.mass import MassFit, fit_mass, predict_power
+from euc_sim.rides.power import MassSettings, PowerSignals, power_signals
 from euc_sim.rides.pwm import no_force_speed
 from euc_sim.rides.rotating import without_rotating_inertia
 from euc_sim.rides.spec import WheelSpec

@@ -21,7 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from euc_sim.rides.mass import G, MassFit, PowerSignals, mass_regressors
+from euc_sim.rides.mass import MassFit, mass_regressors
+from euc_sim.rides.power import G, PowerSignals
 
 __all__ = ["GradeProfile", "grade_profile", "plot_grade", "V_STILL"]
 

@@ -24,7 +24,7 @@ replaces.)
 
 Signals
 -------
-- speed is the wheel's; its scale against GPS speed (:func:`speed_scale`)
+- speed is the wheel's; its scale against GPS speed (:func:`euc_sim.rides.power.speed_scale`)
   corrects every speed (a 6 % optimistic speedometer makes m 12 % low, since
   ``a·v`` scales with the square);
 - the balance is integrated over windows (:mod:`euc_sim.rides.energy`): the
@@ -58,206 +58,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 
 from euc_sim.rides.channels import current_from_phase, power_not_measured
-from euc_sim.rides.heldout import select_by_heldout
 from euc_sim.rides.energy import window_difference, window_mean, window_samples_odd
-from euc_sim.rides.signals import resample, sg
-from euc_sim.rides.logs import RideLog, read_log
+from euc_sim.rides.heldout import select_by_heldout
+from euc_sim.rides.logs import RideLog
+from euc_sim.rides.power import (G, NO_GPS_SCALE_SD, MassSettings, PowerSignals, RideDataError,
+                                 SpeedScale, as_ride_log, power_signals)
 
-__all__ = ["MassSettings", "SpeedScale", "PowerSignals", "MassFit", "speed_scale",
-           "power_signals", "mass_regressors", "energy_regressors", "fit_mass", "predict_power", "heldout_rmse", "RideDataError", "G", "RHO_AIR", "NO_GPS_SCALE_SD"]
-
-G = 9.81               # m/s²
-RHO_AIR = 1.2          # kg/m³ at about 20 °C
-#: Speedometer-scale standard deviation, when no GPS speed measures it (relative).
-NO_GPS_SCALE_SD = 0.05
-
-
-class RideDataError(ValueError):
-    """A log without what the mass estimate needs; names the file and the column."""
-
-
-@dataclass(frozen=True)
-class MassSettings:
-    """How the mass is estimated.
-
-    Attributes
-    ----------
-    rate : float
-        Grid rate, Hz.
-    window : float
-        Savitzky–Golay window, s (quadratic), of the filtered signals the
-        drivetrain's fits, the delay search and the a² proxy use; the mass
-        itself comes from the energy balance over ``windows``.
-    max_gap : float
-        Longest interval bridged by interpolation, s (routine 1–1.5 s logging
-        gaps are bridged; longer ones split the ride).
-    v_min : float
-        Samples slower than this, m/s, are not fitted (standing, walking).
-    max_lag : float
-        Largest delay between current and speed searched, s.
-    windows : tuple of float
-        Energy-balance windows, s (:mod:`euc_sim.rides.energy`): the mass is
-        fitted on each and the interval pools them.  From 5× the longest
-        routine logging interval (0.4 s) to about a manoeuvre's length.
-    block : float
-        Bootstrap block, s.
-    n_boot : int
-        Bootstrap replicates.
-    seed : int
-        Seed of every random draw.
-    """
-
-    rate: float = 10.0
-    window: float = 1.0
-    max_gap: float = 2.5
-    v_min: float = 1.0
-    max_lag: float = 1.0
-    windows: tuple = (2.0, 4.0, 8.0)
-    block: float = 30.0
-    n_boot: int = 200
-    seed: int = 0
-
-
-@dataclass(frozen=True)
-class SpeedScale:
-    """True speed over logged wheel speed.
-
-    Attributes
-    ----------
-    estimate, sd : float
-        The ratio and its standard deviation (relative to 1).
-    source : str
-        ``"gps"`` or ``"assumed"``.
-    """
-
-    estimate: float
-    sd: float
-    source: str
-
-
-@dataclass(frozen=True)
-class PowerSignals:
-    """Filtered signals on the grid, one entry per sample.
-
-    Attributes
-    ----------
-    t : numpy.ndarray
-        s.
-    segment : numpy.ndarray
-        Segment label (ride split at gaps longer than ``max_gap``).
-    v : numpy.ndarray
-        Corrected speed, m/s.
-    a : numpy.ndarray
-        Acceleration, m/s².
-    av : numpy.ndarray
-        d/dt(v²/2), W/kg.
-    P : numpy.ndarray
-        Battery power V·I, W.
-    climb : numpy.ndarray or None
-        g·ḣ from GPS altitude, W/kg.
-    signed : bool
-        Whether the log's current is signed (regeneration visible).
-    scale : SpeedScale
-    extra : dict
-        Other filtered channels (``voltage``, ``current``, ``pwm``, ``phase_current``).
-    raw : dict
-        Unfiltered grid channels for the energy balance: ``v`` (corrected, m/s),
-        ``P`` (W), ``h`` (GPS altitude smoothed over 10 s, m, where logged) and
-        ``phase_current`` (A, where used).
-    """
-
-    t: np.ndarray
-    segment: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    av: np.ndarray
-    P: np.ndarray
-    climb: np.ndarray | None
-    signed: bool
-    scale: SpeedScale
-    extra: Mapping[str, np.ndarray] = field(default_factory=dict)
-    raw: Mapping[str, np.ndarray] = field(default_factory=dict)
-
-
-def _as_log(log) -> RideLog:
-    return log if isinstance(log, RideLog) else read_log(log, emit_warnings=False)
-
-
-def speed_scale(log, v_min: float = 4.0) -> SpeedScale:
-    """Ratio of GPS speed to wheel speed, least squares through the origin.
-
-    Parameters
-    ----------
-    log : RideLog or path
-    v_min : float
-        Both speeds above this, m/s (GPS speed is poor when slow).
-
-    Returns
-    -------
-    SpeedScale
-        ``source="assumed"`` (1 ± :data:`NO_GPS_SCALE_SD`) without GPS speed.
-    """
-    log = _as_log(log)
-    d = log.data
-    if "gps_speed" not in d:
-        return SpeedScale(1.0, NO_GPS_SCALE_SD, "assumed")
-    v, g = d["v"].to_numpy(float), d["gps_speed"].to_numpy(float)
-    ok = np.isfinite(g) & (v > v_min) & (g > v_min)
-    if ok.sum() < 50:
-        return SpeedScale(1.0, NO_GPS_SCALE_SD, "assumed")
-    k = float(np.sum(g[ok] * v[ok]) / np.sum(v[ok] ** 2))
-    # GPS speed is good to about 1 % in the mean (Doppler); the scatter of
-    # single samples is averaged over thousands of them.
-    return SpeedScale(k, 0.01, "gps")
-
-
-def power_signals(log, settings: MassSettings = MassSettings()) -> PowerSignals:
-    """Resample, correct the speed scale and filter every channel alike.
-
-    Raises
-    ------
-    RideDataError
-        naming the file and the column: no voltage or current column, or a
-        speed that never exceeds ``settings.v_min``.
-    """
-    log = _as_log(log)
-    for col in ("voltage", "current"):
-        if col not in log.data:
-            raise RideDataError(f"{log.path}: column {col!r}: absent or all zero; battery "
-                                f"power V·I is needed for the mass and the drivetrain")
-    if not (log.data["v"] > settings.v_min).any():
-        raise RideDataError(f"{log.path}: column 'speed': never above "
-                            f"{settings.v_min * 3.6:.1f} km/h; nothing was ridden")
-    frame, _ = resample(log, rate=settings.rate, max_gap=settings.max_gap)
-    seg = frame["segment"].to_numpy()
-    k = speed_scale(log)
-    f = lambda x, deriv=0: sg(x, seg, settings.rate, settings.window, 2, deriv)   # noqa: E731
-    v_raw = frame["v"].to_numpy(float) * k.estimate
-    P = frame["voltage"].to_numpy(float) * frame["current"].to_numpy(float)
-    climb = None
-    raw = {"v": v_raw, "P": P}
-    if "gps_alt" in frame and np.isfinite(frame["gps_alt"]).mean() > 0.5:
-        # GPS altitude is noisy (metres): its climb rate from a 10 s fit.
-        alt = frame["gps_alt"].to_numpy(float)
-        climb = G * sg(np.nan_to_num(alt), seg, settings.rate, 10.0, 2, 1)
-        climb[~np.isfinite(alt)] = np.nan
-        raw["h"] = np.where(np.isfinite(alt), sg(np.nan_to_num(alt), seg, settings.rate, 10.0, 2), np.nan)
-    extra = {c: f(frame[c].to_numpy(float)) for c in
-             ("voltage", "current", "pwm", "phase_current") if c in frame}
-    if current_from_phase(log):
-        extra.pop("phase_current")
-    elif "phase_current" in frame:
-        raw["phase_current"] = frame["phase_current"].to_numpy(float)
-    signed = bool((log.data["current"] < -0.5).mean() > 0.005)
-    return PowerSignals(t=frame["t"].to_numpy(float), segment=seg, v=f(v_raw),
-                        a=f(v_raw, 1), av=f(0.5 * v_raw ** 2, 1), P=f(P), climb=climb,
-                        signed=signed, scale=k, extra=extra, raw=raw)
-
+__all__ = ["MassFit", "mass_regressors", "energy_regressors", "fit_mass", "predict_power",
+           "heldout_rmse"]
 
 def _shift(x: np.ndarray, lag: int) -> np.ndarray:
     """x delayed by ``lag`` samples (x(t − lag)); NaN where undefined."""
@@ -540,7 +352,7 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
         naming the file and the column, for a log without voltage or current
         or one that was never ridden.
     """
-    log = _as_log(log)
+    log = as_ride_log(log)
     sig = sig if sig is not None else power_signals(log, settings)
     lag = _best_lag(sig, settings)
     designs = [_design(sig, lag, w, settings) for w in sorted(settings.windows)]

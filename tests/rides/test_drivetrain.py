@@ -17,7 +17,8 @@ from euc_sim.cli import main
 from euc_sim.rides.drivetrain import envelope, max_force
 from euc_sim.rides.drivetrain_report import analyse, drivetrain_report
 from euc_sim.rides.logs import LogFormatError, read_log
-from euc_sim.rides.mass import MassSettings, RideDataError, fit_mass, power_signals, speed_scale
+from euc_sim.rides.mass import fit_mass
+from euc_sim.rides.power import MassSettings, RideDataError, power_signals, speed_scale
 from euc_sim.rides.spec import SpecError, read_spec, wheel_spec
 from euc_sim.rides.rotating import ROTATING_SHARE, without_rotating_inertia
 

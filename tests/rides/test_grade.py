@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from euc_sim.rides.grade import grade_profile, plot_grade
-from euc_sim.rides.mass import G, MassFit, PowerSignals, SpeedScale
+from euc_sim.rides.mass import MassFit
+from euc_sim.rides.power import G, PowerSignals, SpeedScale
 
 
 def _ride(m=110.0, c1=50.0, gap_at=300.0, gps_noise=0.0, seed=0):
