@@ -37,6 +37,7 @@ def _blind_module():
 
 
 BLIND = _blind_module()
+import blind_scoring as SCORING  # noqa: E402  (beside blind_study, on the path it set)
 SEED = 2024
 DURATION = 15.0
 
@@ -290,15 +291,15 @@ def test_blind_study_scores_an_alias_pair_on_its_mapped_estimate_and_a_declared_
     first = {"name": "road_slope", "estimate": 0.010, "ci95": [0.0095, 0.0105], "aliases": ["rolling_resistance"],
              "alias_estimates": {"rolling_resistance": {"estimate": 0.0327, "unit": "1", "ci95": [0.031, 0.0343]}}}
     res = {"decidable": True, "effects": [first]}
-    assert BLIND._truth_estimate(case, res)["estimate"] == 0.0327
-    assert BLIND._truth_estimate({**case, "effect": "aerodynamic_drag"}, res) is None
+    assert SCORING.truth_estimate(case, res)["estimate"] == 0.0327
+    assert SCORING.truth_estimate({**case, "effect": "aerodynamic_drag"}, res) is None
     drift = {"effect": "cog_height_drift", "value": 0.1, "kind": "effect", "duration": 20.0,
              "drift_shape": {"kind": "dip", "start": 11.0, "length": 3.0, "sign": 1.0}}
     lim = {"cog_height_drift": {"blind_windows": [[1.0, 4.0], [9.5, 16.0]], "analysed_span": [1.0, 19.0]}}
     quiet = {"decidable": True, "effects": [], "limits": lim}
-    assert BLIND._declared_blind(drift, quiet)
-    assert not BLIND._declared_blind({**drift, "drift_shape": {**drift["drift_shape"], "start": 14.0}}, quiet)
+    assert SCORING.declared_blind(drift, quiet)
+    assert not SCORING.declared_blind({**drift, "drift_shape": {**drift["drift_shape"], "start": 14.0}}, quiet)
     ramp = {**drift, "drift_shape": {"kind": "ramp", "start": 12.0, "length": 2.0, "sign": 1.0}}
-    assert not BLIND._declared_blind(ramp, quiet)        # h stays changed to the end, outside the window
+    assert not SCORING.declared_blind(ramp, quiet)        # h stays changed to the end, outside the window
     named = {**quiet, "effects": [{"name": "road_slope"}]}
-    assert not BLIND._declared_blind(drift, named)       # something was named: not a declaration
+    assert not SCORING.declared_blind(drift, named)       # something was named: not a declaration
