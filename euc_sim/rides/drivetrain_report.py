@@ -95,13 +95,14 @@ def _total_mass(r: RideDrivetrain) -> dict:
     return out
 
 
-def _envelope(r: RideDrivetrain) -> dict:
+def _envelope(r: RideDrivetrain, computed_note: str | None) -> dict:
+    """The cut-out envelope, or why there is none (``computed_note``: :func:`computed_pwm_note`)."""
     dt = r.drivetrain
     if dt.pwm_coef is None or not dt.mass:
         return {"why": "needs the PWM model and the mass: "
                        + (dt.unidentified.get("pwm") or r.mass.why or "unavailable")}
-    if computed_pwm_note(r):
-        return {"why": computed_pwm_note(r)}
+    if computed_note:
+        return {"why": computed_note}
     V = r.spec.battery_voltage or (dt.battery_coef["E0"] if dt.battery_coef else None)
     src = "spec" if r.spec.battery_voltage else "open-circuit voltage fitted at the ride's start"
     v_zero = no_force_speed(dt.pwm_coef, V)
@@ -141,7 +142,7 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
     if note:
         dtj["resistive_drop"] = {"estimate": None, "ci95": None, "unit": "V/N", "why": note}
         dtj.pop("winding_resistance", None)
-    rep = {"total_mass": _total_mass(r), "drivetrain": dtj, "envelope": _envelope(r),
+    rep = {"total_mass": _total_mass(r), "drivetrain": dtj, "envelope": _envelope(r, note),
            "wheel": r.spec.as_json(), "unidentified": dict(r.drivetrain.unidentified),
            "grade": (r.grade.as_json() if r.grade is not None else
                      {"why": "no GPS altitude, or no mass identified: no implied grade"})}
