@@ -99,10 +99,30 @@ def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray |
     from scipy.optimize import least_squares
 
     lo, hi = _bounds(names)
-    return least_squares(lambda th: design.residual(dict(zip(names, th)), P),
-                         np.clip(x0, lo + 1e-9, hi - 1e-9),
-                         jac=lambda th: design.jacobian_many(names, th[:, None])[:, :, 0],
-                         bounds=(lo, hi), x_scale=_scale(names), method="trf")
+    res = least_squares(lambda th: design.residual(dict(zip(names, th)), P),
+                        np.clip(x0, lo + 1e-9, hi - 1e-9),
+                        jac=lambda th: design.jacobian_many(names, th[:, None])[:, :, 0],
+                        bounds=(lo, hi), x_scale=_scale(names), method="trf")
+    res.x = _snap_to_bounds(res.x, lo, hi, _scale(names))
+    return res
+
+
+#: A parameter within this fraction of its typical size from a bound sits on it.
+_BOUND_SNAP = 1e-12
+
+
+def _snap_to_bounds(x: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+                    scale: np.ndarray) -> np.ndarray:
+    """``x`` with values within ``_BOUND_SNAP``·scale of a bound set exactly on it.
+
+    scipy's trf keeps iterates strictly inside the box, so a parameter whose
+    optimum is a bound comes back a rounding error (1e-30) away from it; with
+    the value on the bound, the Gauss-Newton replicates hold it there and the
+    page can say that it sits on its bound.  Returns a new array.
+    """
+    x = np.array(x, dtype=float)
+    x = np.where(np.abs(x - lo) <= _BOUND_SNAP * scale, lo, x)
+    return np.where(np.abs(hi - x) <= _BOUND_SNAP * scale, hi, x)
 
 
 def block_rows(design: Design, block_s: float = 10.0, check: bool = True) -> int:
