@@ -54,6 +54,10 @@ def _texts(ax, renderer) -> list[tuple[str, object]]:
     return out
 
 
+def _title(ax) -> str:
+    return ax.title.get_text() or ax._left_title.get_text() or ax._right_title.get_text()
+
+
 def _shows_x_ticks(ax) -> bool:
     return any(t.get_visible() and t.get_text() for t in ax.xaxis.get_ticklabels())
 
@@ -130,11 +134,10 @@ def figure_problems(fig) -> list[str]:
     if not panels:
         return ["no visible axes"]
     sup = fig._suptitle
-    if not (sup is not None and sup.get_text()) and not all(
-            ax.get_title() or ax.get_title("left") for ax in panels if ax in fig.axes):
+    if not (sup is not None and sup.get_text()) and not all(_title(ax) for ax in panels if ax in fig.axes):
         out.append("no title: neither a suptitle nor a title on every panel")
     for i, ax in enumerate(panels):
-        name = f"panel {i} ({ax.get_title() or ax.get_title('left') or 'untitled'!r:.60})"
+        name = f"panel {i} ({_title(ax) or 'untitled'!r:.60})"
         if not ax.get_ylabel() and any(t.get_text() for t in ax.yaxis.get_ticklabels()):
             out.append(f"{name}: no y label")
         if not ax.get_xlabel() and _shows_x_ticks(ax):
