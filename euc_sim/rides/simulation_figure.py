@@ -117,7 +117,7 @@ def ride_simulation_figure(sim):
         for (name, st), y in zip(styles, cols[1:]):
             rms = "" if name == "log" else f"\n(RMS diff on the scored rows {e[name][key]:.3g} {unit})"
             ax[k].plot(cols[0], y, label=("log" if name == "log" else f"{name} simulation") + rms, **st)
-        ax[k].set(ylabel=ylab, xlabel="time from start of log [s]",
+        ax[k].set(ylabel=ylab, xlabel="time from start of log [s]", xlim=(lo, hi),
                   title=f"({'abcde'[k]}) zoom on {lo:.0f}–{hi:.0f} s, where the two simulations "
                         f"differ most: {what}")
         _legend_right(ax[k])
