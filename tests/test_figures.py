@@ -154,6 +154,16 @@ def test_terms_says_each_panels_h(demo):
     assert "its own h" in fig._suptitle.get_text()
 
 
+def test_identify_plot_figures_are_readable(demo, tmp_path, monkeypatch):
+    """``identify --plot``: Fig. 8 and the recording's Figs. 6-7 (``F-torques.png``)."""
+    saved = _watch_savefig(monkeypatch)
+    rec = sorted((demo[0] / "recordings").glob("deceleration*.csv"))[0]
+    assert main(["identify", str(rec), "--bootstrap", "50", "--plot", str(tmp_path / "f.png")]) == 0
+    assert len(saved) == len(list(tmp_path.glob("*.png"))) == 2
+    for fig in saved:
+        assert_readable(fig)
+
+
 # --- euc-sim design --plot --------------------------------------------------------------
 def test_design_figure_is_readable(tmp_path, monkeypatch):
     """Item 10: one figure legend (none over the Monte Carlo points), plain tick labels."""
