@@ -3,7 +3,8 @@
 :func:`figure_problems` draws a figure (Agg) and lists, in words, what a reader would
 trip over; ``assert_readable(fig)`` fails a test with that list.  Checked:
 
-- the figure has a title (a suptitle, or a title on every panel);
+- the figure has a title (a suptitle, or a title on every panel); titles and axis
+  labels lie inside the figure;
 - every panel has a y label, and an x label where its x tick labels show;
 - no tick label in the ``4×10^1`` or ``10^1`` form (log axes get plain numbers);
 - every legend lies inside the figure, and either inside its own panel or clear of
@@ -136,8 +137,13 @@ def figure_problems(fig) -> list[str]:
     sup = fig._suptitle
     if not (sup is not None and sup.get_text()) and not all(_title(ax) for ax in panels if ax in fig.axes):
         out.append("no title: neither a suptitle nor a title on every panel")
+    if sup is not None and sup.get_text() and not _inside(sup.get_window_extent(renderer), fig.bbox):
+        out.append("the figure's title runs off the figure")
     for i, ax in enumerate(panels):
         name = f"panel {i} ({_title(ax) or 'untitled'!r:.60})"
+        for what, box in _texts(ax, renderer):
+            if "tick" not in what and not _inside(box, fig.bbox):
+                out.append(f"{name}: its {what} runs off the figure")
         if not ax.get_ylabel() and any(t.get_text() for t in ax.yaxis.get_ticklabels()):
             out.append(f"{name}: no y label")
         if not ax.get_xlabel() and _shows_x_ticks(ax):

@@ -65,6 +65,14 @@ def test_the_checker_sees_a_legend_on_the_data_and_scientific_tick_labels():
     assert any("not a plain number" in p for p in problems)
 
 
+def test_the_checker_sees_a_title_wider_than_the_figure():
+    fig = Figure(figsize=(3, 2), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot([0, 1], [0, 1])
+    ax.set(xlabel="x [m]", ylabel="y [m]", title="a title that is far too long for so small a figure")
+    assert any("title runs off" in p for p in figure_problems(fig))
+
+
 def test_the_checker_passes_a_readable_figure():
     fig = Figure(figsize=(7, 3), layout="constrained")
     ax = fig.add_subplot()
@@ -165,14 +173,19 @@ def test_identify_plot_figures_are_readable(demo, tmp_path, monkeypatch):
 
 
 # --- euc-sim design --plot --------------------------------------------------------------
-def test_design_figure_is_readable(tmp_path, monkeypatch):
-    """Item 10: one figure legend (none over the Monte Carlo points), plain tick labels."""
+def test_design_figures_are_readable(tmp_path, monkeypatch):
+    """Item 10: one figure legend (none over the Monte Carlo points), plain tick labels;
+    and the effects figure beside it."""
     saved = _watch_savefig(monkeypatch)
     assert main(["design", "--maneuvers", "constant_speed,deceleration", "--rides", "3",
-                 "--duration", "8", "--plot", str(tmp_path / "design.png"), "--no-progress"]) == 0
-    (fig,) = saved
-    assert_readable(fig)
-    assert all(ax.get_legend() is None for ax in fig.axes) and len(fig.legends) == 1
+                 "--duration", "8", "--plot", str(tmp_path / "design.png"),
+                 "--effects", "aerodynamic_drag,wheel_bearing_friction", "--effect-rides", "3",
+                 "--effects-plot", str(tmp_path / "effects.png"), "--no-progress"]) == 0
+    assert len(saved) == len(list(tmp_path.glob("*.png"))) == 2
+    for fig in saved:
+        assert_readable(fig)
+    design = next(f for f in saved if "Experiment design" in _titles(f))
+    assert all(ax.get_legend() is None for ax in design.axes) and len(design.legends) == 1
 
 
 # --- euc-sim ride on real logs ----------------------------------------------------------

@@ -313,7 +313,8 @@ def effects_design_figure(result: dict):
     """
     from matplotlib import rcParamsDefault
     from matplotlib.figure import Figure
-    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
+
+    from euc_sim.identification.plots import plain_log_ticks
 
     names = [e for e, v in result["effects"].items() if v["visible"]]
     mans = list(result["by_maneuver"])
@@ -340,14 +341,12 @@ def effects_design_figure(result: dict):
     ax.set_xticklabels([f"{e}\n{result['effects'][e]['nominal']:.3g} {result['effects'][e]['unit']}"
                         for e in names], fontsize=8)
     ax.set(yscale="log", ylabel="sd of the estimate / effect magnitude (one recording)",
-           xlabel="effect (its magnitude in the study)",
-           title=(f"How precisely each maneuver measures each effect ({result['rides']} rides of "
+           xlabel="effect (its magnitude in the study)")
+    fig.suptitle((f"How precisely each maneuver measures each effect\n({result['rides']} rides of "
                   f"{result['duration']:g} s, sensor noise {result['noise_scale']:g}x paper, "
-                  f"torques {'recorded' if result['with_torques'] else 'not recorded'})"))
-    ax.title.set_fontsize(9)
-    ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-    ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
-    ax.yaxis.set_minor_formatter(NullFormatter())
+                  f"torques {'recorded' if result['with_torques'] else 'not recorded'})"),
+                 fontsize=9)
+    plain_log_ticks(ax.yaxis)
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     hidden = [f"{e}: {v['reason']}" for e, v in result["effects"].items() if not v["visible"]]
     if hidden:

@@ -199,7 +199,7 @@ def before_after_figure(result: dict):
     A logarithmic N·m axis with plain numbers and a second axis in multiples of
     the noise floor: a bar near the floor stays distinct from it; every bar is labelled.
     """
-    from matplotlib.ticker import FormatStrFormatter, LogLocator, NullFormatter
+    from euc_sim.identification.plots import plain_log_ticks
 
     floor = result["noise_floor"]
     labels, values = ["nominal"], [result["nominal_rmse"]]
@@ -219,9 +219,7 @@ def before_after_figure(result: dict):
     ax.set_yscale("log")
     lo = min(min(values), floor) / 2.0
     ax.set_ylim(lo, max(max(values), floor) * 4.0)
-    ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-    ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
-    ax.yaxis.set_minor_formatter(NullFormatter())
+    plain_log_ticks(ax.yaxis)
     ax.set_xticks(x, labels, rotation=15, fontsize=8)
     ax.set_xlim(-0.6, len(values) - 0.4)
     ax.set_xlabel("model")

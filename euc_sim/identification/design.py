@@ -278,6 +278,8 @@ def design_figure(result: dict):
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
+    from euc_sim.identification.plots import plain_log_ticks
+
     scales = result["noise"]["scales"]
     fig = Figure(figsize=(max(4.4 * len(scales), 9.0), 8.2), layout="constrained")
     axes = fig.subplots(2, len(scales), squeeze=False)
@@ -298,7 +300,8 @@ def design_figure(result: dict):
     ax.set(xscale="log", yscale="log", xlabel="sensor noise (x paper: 0.2 mm, 0.5 deg)",
            ylabel="sd of h from one recording (mm)",
            title=f"h from one {result['duration']:g} s recording ({result['rides']} rides)")
-    _plain_log_ticks(ax, scales)
+    plain_log_ticks(ax.xaxis, scales)
+    plain_log_ticks(ax.yaxis)
     for j in range(1, len(scales)):
         axes[1, j].axis("off")
     if len(scales) > 1:
@@ -315,18 +318,6 @@ def design_figure(result: dict):
     fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 4), fontsize=8)
     fig.suptitle("Experiment design: how precisely each maneuver identifies h")
     return fig
-
-
-def _plain_log_ticks(ax, xticks) -> None:
-    """Plain-number tick labels (0.5, 1, 2, 20, 50) on a log-log axes, never ``4×10^1``."""
-    from matplotlib.ticker import FixedLocator, FormatStrFormatter, LogLocator, NullFormatter
-
-    ax.xaxis.set_major_locator(FixedLocator(list(xticks)))
-    ax.xaxis.set_major_formatter(FormatStrFormatter("%g"))
-    ax.xaxis.set_minor_formatter(NullFormatter())
-    ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-    ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
-    ax.yaxis.set_minor_formatter(NullFormatter())
 
 
 def _wrap(text: str, width: int = 70) -> str:

@@ -16,7 +16,7 @@ from euc_sim.identification.h_fit import MIN_RISE
 from euc_sim.io import save_figure
 
 __all__ = ["plot_recording", "recording_figure", "plot_rmse_curves", "rmse_curves_figure",
-           "check_figure_path"]
+           "check_figure_path", "plain_log_ticks"]
 
 
 def check_figure_path(path) -> Path:
@@ -179,10 +179,25 @@ _STYLE = {"3dof": ("tab:blue", "3 DoF"), "2dof": ("tab:orange", "2 DoF")}
 
 def _relative_log_axis(ax, top: float) -> None:
     """A logarithmic ratio axis from 0.9 to ``top`` with plain tick labels (1, 1.5, 2, 5, ...)."""
-    from matplotlib.ticker import FixedLocator, FormatStrFormatter, NullLocator
-
     ax.set_yscale("log")
     ax.set_ylim(0.9, max(top, 2.0) * 1.1)
-    ax.yaxis.set_major_locator(FixedLocator([1, 1.5, 2, 3, 5, 10, 20]))
-    ax.yaxis.set_major_formatter(FormatStrFormatter("%g"))
-    ax.yaxis.set_minor_locator(NullLocator())
+    plain_log_ticks(ax.yaxis, [1, 1.5, 2, 3, 5, 10, 20])
+
+
+def plain_log_ticks(axis, ticks=None) -> None:
+    """Plain-number tick labels on a logarithmic axis (``40``, ``0.5``; never ``4×10^1``).
+
+    Parameters
+    ----------
+    axis : matplotlib.axis.Axis
+        ``ax.xaxis`` or ``ax.yaxis`` of a log-scaled axes.
+    ticks : sequence of float, optional
+        The tick positions; by default 1, 2 and 5 of every decade.
+    """
+    from matplotlib.ticker import FixedLocator, FormatStrFormatter, LogLocator, NullFormatter, NullLocator
+
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)) if ticks is None else FixedLocator(list(ticks)))
+    axis.set_major_formatter(FormatStrFormatter("%g"))
+    axis.set_minor_formatter(NullFormatter())
+    if ticks is not None:
+        axis.set_minor_locator(NullLocator())
