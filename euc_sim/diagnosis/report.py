@@ -13,6 +13,8 @@
   simulation (rider lean φ, speed ẋ);
 - ``drift.png``: with ``cog_height_drift`` named, h(t) with its 95 % band.
 
+Each figure is built by a pure function of the result that returns a matplotlib
+Figure (:data:`FIGURES`: file name -> builder); :func:`write_report` renders them.
 Figures use degrees only for display; everything else is SI.
 """
 
