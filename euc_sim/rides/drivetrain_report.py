@@ -249,7 +249,7 @@ def pwm_figure(r: RideDrivetrain, coef: dict | None = None, title: str = ""):
     ax.set_xlabel("logged PWM, %")
     ax.set_ylabel("predicted PWM, %")
     fig.suptitle(title or "PWM: (back-EMF + resistive drop) / battery voltage", fontsize=10)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0.0)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0.0, markerscale=6)
     return fig
 
 
