@@ -13,4 +13,4 @@ import sys
 from pathlib import Path
 
 # helpers shared by every test folder (figcheck) import by name
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.append(str(Path(__file__).resolve().parent))

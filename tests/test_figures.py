@@ -154,6 +154,19 @@ def test_before_after_null_case_keeps_the_floor_off_the_frame(demo):
     assert math.log(hi / floor) > 0.5 and math.log(floor / lo) > 0.3
 
 
+def test_drift_figure_is_readable():
+    """``drift.png`` (only with cog_height_drift named): h(t), its band, the windows."""
+    from euc_sim.diagnosis.report import drift_figure
+
+    t = np.linspace(0.0, 20.0, 400)
+    h = 0.6 + 0.05 * np.clip((t - 8.0) / 4.0, 0.0, 1.0)
+    item = {"name": "cog_height_drift", "estimate": 0.05, "shape": {"kind": "ramp"}, "windows": [[8.0, 12.0]],
+            "h_of_t": {"t": t.tolist(), "h": h.tolist(), "ci95_halfwidth": np.full(t.size, 0.01).tolist()}}
+    fig = drift_figure({"effects": [item], "h_nominal": 0.62, "recording": "drift.csv"})
+    assert_readable(fig)
+    assert drift_figure({"effects": [], "h_nominal": 0.6, "recording": "x.csv"}) is None
+
+
 def test_terms_says_each_panels_h(demo):
     """Item 9: each panel's residual is at its own h, and its title says which."""
     fig = next(f for f in demo[1] if "candidate term" in _titles(f))
@@ -196,22 +209,29 @@ def _ride(argv, monkeypatch) -> tuple[list[Figure], int]:
     return saved, len(list(out.glob("*.png")))
 
 
+def _cut(src: Path, rows: slice, out: Path) -> Path:
+    """Rows of a real log (header kept) in a temporary file: a shorter ride, same columns."""
+    lines = src.read_text().splitlines()
+    out.write_text("\n".join(lines[:1] + lines[rows]) + "\n")
+    return out
+
+
 @needs_shared
-def test_ride_figures_on_a_real_ride_with_its_simulation(tmp_path, monkeypatch):
-    """A 2-minute cut of a real WheelLog ride: balance (item 13), residuals, simulation (item 12)."""
+def test_ride_figures_on_two_real_rides_with_the_simulation(tmp_path, monkeypatch):
+    """The README's ``ride LOG --compare OTHER`` on 2-minute cuts of two real WheelLog rides:
+    balance, residuals, simulation (item 12: a zoom and the error over time)."""
     from euc_sim.rides.simulation_figure import ZOOM_S
 
-    lines = (SHARED / "wheellog" / "2020_05_28_07_52_00.csv").read_text().splitlines()
-    log = tmp_path / "cut.csv"
-    log.write_text("\n".join(lines[:1] + lines[170:770]) + "\n")
-    saved, written = _ride(["ride", log, "--report", tmp_path / "rep", "--n-boot", "20"], monkeypatch)
+    wl = SHARED / "wheellog"
+    fit = _cut(wl / "2020_05_16_08_02_06.csv", slice(1, 600), tmp_path / "a.csv")
+    test = _cut(wl / "2020_05_28_07_52_00.csv", slice(170, 770), tmp_path / "b.csv")
+    saved, written = _ride(["ride", fit, "--compare", test, "--report", tmp_path / "rep", "--n-boot", "20"],
+                           monkeypatch)
     assert len(saved) == written == 3
     for fig in saved:
         assert_readable(fig)
-    balance, = [f for f in saved if "Battery-power balance fitted" in _titles(f)]
-    labels = line_labels(balance)
-    assert not any("first half) (fit)" in s for s in labels)
-    assert any("whole ride" in s for s in labels) and any("held out" in s for s in labels)
+    labels = line_labels(next(f for f in saved if "Battery-power balance fitted" in _titles(f)))
+    assert any("a.csv (fit)" in s for s in labels) and any("b.csv (test)" in s for s in labels)
     sim, = [f for f in saved if "Simulated rider" in _titles(f)]
     spans = [ax.get_xlim()[1] - ax.get_xlim()[0] for ax in sim.axes]
     assert min(spans) == pytest.approx(ZOOM_S) and max(spans) > 1.5 * ZOOM_S   # a zoom, the whole ride
@@ -220,7 +240,8 @@ def test_ride_figures_on_a_real_ride_with_its_simulation(tmp_path, monkeypatch):
 
 @needs_shared
 def test_ride_figures_with_the_drivetrain(tmp_path, monkeypatch):
-    """A real ride with PWM and GPS altitude: envelope (item 11), PWM, grade, balance, residuals."""
+    """A real ride with PWM and GPS altitude, split in halves: envelope (item 11), PWM, grade,
+    balance (item 13: the whole ride is labelled as such), residuals."""
     from euc_sim.rides.drivetrain_report import TYRE_MU
     from euc_sim.rides.power import G
 
@@ -236,3 +257,6 @@ def test_ride_figures_with_the_drivetrain(tmp_path, monkeypatch):
     assert np.nanmax(drawn) <= TYRE_MU * G + 1e-9
     assert ax.get_ylim()[1] < 1.2 * TYRE_MU * G
     assert "current limit" in _titles(env)
+    labels = line_labels(next(f for f in saved if "Battery-power balance fitted" in _titles(f)))
+    assert not any("first half) (fit)" in s for s in labels)
+    assert any("whole ride" in s for s in labels) and any("held out" in s for s in labels)
