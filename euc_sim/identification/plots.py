@@ -12,7 +12,7 @@ import numpy as np
 
 from euc_sim.identification.h_fit import MIN_RISE
 
-__all__ = ["plot_recording", "plot_rmse_curves", "check_figure_path"]
+__all__ = ["plot_recording", "plot_rmse_curves", "plot_rollout", "check_figure_path"]
 
 
 def _pyplot():
@@ -151,5 +151,37 @@ def plot_rmse_curves(names, per_recording, pooled, path) -> Path:
     fig.suptitle("RMSE between $M_{d,1}$ and $M_{d,2}$ against h (cf. the paper's Fig. 8)\n"
                  "shaded: 95% bootstrap interval; rise: RMSE increase within ±0.1 m of the minimum, "
                  f"identifiable from {100 * MIN_RISE:.0f}%", fontsize=10)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def plot_rollout(name: str, fit, path) -> Path:
+    """The rollout fit of h (:mod:`euc_sim.identification.rollout_fit`): each window's
+    rollout over the recorded γ and φ, and the parameter correlation matrix."""
+    plt = _pyplot()
+    fig = plt.figure(figsize=(12, 7.5))
+    gs = fig.add_gridspec(2, 2, width_ratios=[2.2, 1])
+    for row, (j, label) in enumerate(((1, "EUC pitch γ [°]"), (2, "rider pitch φ [°]"))):
+        ax = fig.add_subplot(gs[row, 0])
+        for w in range(fit.windows):
+            ax.plot(fit.t[w], np.degrees(fit.q_rec[w, :, j]), ".", ms=1.5, color="0.6",
+                    label="recorded" if w == 0 else None)
+            ax.plot(fit.t[w], np.degrees(fit.q_fit[w, :, j]), "-", lw=1.2, color=f"C{w % 2}",
+                    label="rollout (one window, free initial state)" if w == 0 else None)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+        if row == 0:
+            ax.set_title(f"{Path(name).name}: {fit.windows} windows, h = {fit.h:.4f} m "
+                         f"[{fit.h_ci95[0]:.4f}, {fit.h_ci95[1]:.4f}]"
+                         + ("  (ON ITS BOUND)" if fit.at_bound else ""))
+            ax.legend(loc="upper right", fontsize=8)
+        else:
+            ax.set_xlabel("t [s]")
+    ax = fig.add_subplot(gs[:, 1])
+    im = ax.imshow(fit.correlation, vmin=-1, vmax=1, cmap="RdBu_r", interpolation="nearest")
+    ax.set_title("parameter correlation\n(h, then x, γ, φ, ẋ, γ̇, φ̇ per window)", fontsize=9)
+    ax.set_xlabel("parameter index")
+    ax.set_ylabel("parameter index")
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04, label="correlation")
     fig.tight_layout()
     return _save(fig, path)
