@@ -499,7 +499,7 @@ def identify_recordings(recs: list[Recording], bounds=(0.1, 1.5), grid_step: flo
     if n_noise > 0:
         grid = nb.replicate_grid(bounds)
         curves = [nb.noise_curves(r.df, r.params, r.kin.smoothing, grid, {m: f.h for m, f in fits.items()},
-                                  n_noise, seed=seed + i, **r.kin_kw)
+                                  residual_poly, n_noise, seed=seed + i, **r.kin_kw)
                   for i, (r, fits) in enumerate(zip(recs, per))]
 
         def widen(fit, cs, rps):

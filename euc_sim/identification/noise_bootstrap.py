@@ -162,7 +162,7 @@ class NoiseCurves:
 
 
 def noise_curves(df: pd.DataFrame, p: Params, smoothing: Smoothing, grid: np.ndarray, h_ref: dict,
-                 n_rep: int = N_REPLICATES, seed: int = 0, **kin_kw) -> NoiseCurves:
+                 residual_poly, n_rep: int = N_REPLICATES, seed: int = 0, **kin_kw) -> NoiseCurves:
     """The RMSE(h) curves of ``n_rep`` replicates of a recording with fresh noise.
 
     Parameters
@@ -176,6 +176,9 @@ def noise_curves(df: pd.DataFrame, p: Params, smoothing: Smoothing, grid: np.nda
         h at which the curves are evaluated, m (:func:`replicate_grid`).
     h_ref : dict of str to float
         Per model, the recording's own ĥ (m), where :func:`sum_squares_near` is exact.
+    residual_poly : callable
+        :func:`euc_sim.identification.h_fit.residual_poly` (passed in: h_fit calls this
+        module).
     n_rep : int
         Replicates.
     seed : int
@@ -188,8 +191,6 @@ def noise_curves(df: pd.DataFrame, p: Params, smoothing: Smoothing, grid: np.nda
     -------
     NoiseCurves
     """
-    from euc_sim.identification.h_fit import residual_poly
-
     if int(n_rep) != n_rep or n_rep < 0:
         raise ValueError(f"n_rep must be a non-negative integer, got {n_rep!r}")
     models = tuple(h_ref)

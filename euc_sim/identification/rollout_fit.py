@@ -229,13 +229,35 @@ def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
         B = np.stack([((out[1 + j] - out[0]) / _DS[j]).reshape(n_win, -1) for j in range(6)], axis=-1)
         return a, B
 
-    h, S, nfev = float(theta0[0]), s0.copy(), 0
+    h, S, r, cost, nfev = _levenberg_marquardt(fun, jac, float(theta0[0]), s0.copy(), lo, hi)
+    corr, sd_h = _correlation(*jac(h, S), cost, r.size)
+    sd = np.array([sd_h])
+    q_fit = roller.run(np.full(n_win, h), S, wins)
+    tol = BOUND_TOL * (hi - lo)
+    at_bound = ["h"] if (h - lo < tol or hi - h < tol) else []
+    ci = (max(lo, h - 1.96 * sd[0]), min(hi, h + 1.96 * sd[0]))
+    rms = np.sqrt(np.mean((q_fit - q_rec) ** 2, axis=(0, 1)))
+    return RolloutFit(h=h, h_ci95=ci, seconds=time.perf_counter() - t0, windows=n_win,
+                      at_bound=at_bound, correlation=corr, t=t[idx], q_rec=q_rec, q_fit=q_fit,
+                      rms=rms, nfev=nfev)
+
+
+def _levenberg_marquardt(fun, jac, h: float, S: np.ndarray, lo: float, hi: float):
+    """Minimise Σ fun(h, S)² over h in [lo, hi] and the window states S (W, 6).
+
+    Each step solves the damped normal equations through the Schur complement of their
+    block-arrow form (h couples every window; a window's state only its own rows).
+
+    Returns
+    -------
+    (h, S, r, cost, nfev)
+    """
+    n_win = len(S)
     r = fun(h, S).reshape(n_win, -1)
-    cost = float(np.sum(r ** 2))
-    mu = 1e-3
+    cost, mu, nfev = float(np.sum(r ** 2)), 1e-3, 1
     for _ in range(MAX_ITER):
         a, B = jac(h, S)
-        nfev += 1
+        nfev += 8
         g_h, g_w = float(np.sum(a * r)), np.einsum("wnj,wn->wj", B, r)
         H_hh, H_hw, H_ww = float(np.sum(a * a)), np.einsum("wnj,wn->wj", B, a), np.einsum("wni,wnj->wij", B, B)
         improved = False
@@ -251,15 +273,19 @@ def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
             nfev += 1
             cost_new = float(np.sum(r_new ** 2))
             if cost_new < cost:
-                step = abs(h_new - h)
-                h, S, r, rel = h_new, S + dS, r_new, (cost - cost_new) / cost
-                cost, mu, improved = cost_new, max(mu / 3, 1e-9), True
+                step, rel = abs(h_new - h), (cost - cost_new) / cost
+                h, S, r, cost, mu, improved = h_new, S + dS, r_new, cost_new, max(mu / 3, 1e-9), True
                 break
             mu *= 4
         if not improved or (step < 1e-6 and rel < 1e-7):
             break
-    # Gauss-Newton covariance at the optimum, all parameters (h first)
-    a, B = jac(h, S)
+    return h, S, r, cost, nfev
+
+
+def _correlation(a: np.ndarray, B: np.ndarray, cost: float, n_res: int):
+    """Gauss–Newton covariance of (h, window states) at the optimum: the correlation
+    matrix and h's standard deviation (m)."""
+    n_win = len(B)
     W6 = 6 * n_win
     J_states = np.zeros((n_win, a.shape[1], W6))
     for w in range(n_win):
@@ -268,15 +294,7 @@ def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
     H[0, 0] = np.sum(a * a)
     H[0, 1:] = H[1:, 0] = np.einsum("wn,wnk->k", a, J_states)
     H[1:, 1:] = np.einsum("wnk,wnl->kl", J_states, J_states)
-    dof = max(1, r.size - (1 + W6))
-    cov = cost / dof * np.linalg.pinv(H)
+    cov = cost / max(1, n_res - (1 + W6)) * np.linalg.pinv(H)
     sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     corr = cov / np.outer(np.where(sd > 0, sd, 1.0), np.where(sd > 0, sd, 1.0))
-    q_fit = roller.run(np.full(n_win, h), S, wins)
-    tol = BOUND_TOL * (hi - lo)
-    at_bound = ["h"] if (h - lo < tol or hi - h < tol) else []
-    ci = (max(lo, h - 1.96 * sd[0]), min(hi, h + 1.96 * sd[0]))
-    rms = np.sqrt(np.mean((q_fit - q_rec) ** 2, axis=(0, 1)))
-    return RolloutFit(h=h, h_ci95=ci, seconds=time.perf_counter() - t0, windows=n_win,
-                      at_bound=at_bound, correlation=corr, t=t[idx], q_rec=q_rec, q_fit=q_fit,
-                      rms=rms, nfev=nfev)
+    return corr, float(sd[0])
