@@ -10,7 +10,7 @@ Prints per maneuver kind and model: coverage of the reported interval and of the
 block bootstrap's alone, mean and sd of the error, mean width, how often identifiable.
 
     python scripts/coverage_study.py [--rides 200] [--kinds deceleration acceleration ...]
-        [--first-seed 0] [--workers 2 | --scheduler local] [--json F]
+        [--first-seed 0] [--workers 2 | --scheduler local] [--rollout] [--json F]
 
 Seeds: ride i of a kind has seed KIND_OFFSET[kind] + first_seed + i.  The interval's
 rule was chosen on first seeds 0 (and the ablations of scripts/noise_ablation.py);
@@ -30,12 +30,12 @@ if str(ROOT) not in sys.path:
 
 
 def run(kinds, rides: int, first_seed: int, duration: float, n_boot: int, n_noise: int,
-        workers: int | None, scheduler: str | None) -> tuple[list[dict], dict]:
+        workers: int | None, scheduler: str | None, rollout: bool = False) -> tuple[list[dict], dict]:
     """All rides (on :func:`euc_sim.simulation.runner.run_tasks`), their rows and failures."""
     from euc_sim.identification.coverage import one_ride, ride_seed
     from euc_sim.simulation.runner import run_tasks
 
-    tasks = [(f"{k}-{ride_seed(k, i, first_seed)}", (k, ride_seed(k, i, first_seed), duration, n_boot, n_noise))
+    tasks = [(f"{k}-{ride_seed(k, i, first_seed)}", (k, ride_seed(k, i, first_seed), duration, n_boot, n_noise, rollout))
              for k in kinds for i in range(rides)]
     rep = run_tasks(one_ride, tasks, scheduler=scheduler, workers=workers, desc="coverage")
     rows = [rep.results[n] for n, _ in tasks if n in rep.results]
@@ -51,6 +51,13 @@ def report(summary: dict, failed: dict) -> None:
                   f"{100 * r['coverage_block']:9.1f}% {r['mean_error_mm']:+7.2f}mm "
                   f"{r['sd_error_mm']:5.2f}mm {r['mean_width_mm']:5.1f}mm "
                   f"{100 * r['identifiable']:11.1f}%")
+    for kind, per in summary.items():
+        r = per["3dof"].get("rollout")
+        if r:
+            print(f"{kind:<14} rollout (3dof, {r['rides']} rides): coverage {100 * r['coverage']:.1f}%, "
+                  f"mean err {r['mean_error_mm']:+.2f} mm, sd {r['sd_error_mm']:.2f} mm; intervals overlap "
+                  f"{100 * r['intervals_overlap']:.0f}%, each h in the other's interval "
+                  f"{100 * r['each_in_the_others']:.0f}%; {r['seconds_median']:.1f} s per ride")
     if failed:
         print(f"{len(failed)} rides failed: " + "; ".join(f"{k}: {v}" for k, v in failed.items()))
 
@@ -69,6 +76,8 @@ def main(argv=None) -> int:
     ap.add_argument("--noise-replicates", type=int, default=N_REPLICATES)
     ap.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     ap.add_argument("--scheduler", default=None, metavar="local|ADDRESS", help="run on Dask")
+    ap.add_argument("--rollout", action="store_true",
+                    help="also fit h by rollout (3-DoF, euc-sim identify --method rollout)")
     ap.add_argument("--json", metavar="FILE")
     args = ap.parse_args(argv)
     if args.rides < 1:
@@ -78,7 +87,7 @@ def main(argv=None) -> int:
 
     t0 = time.perf_counter()
     rows, failed = run(args.kinds, args.rides, args.first_seed, args.duration, args.bootstrap,
-                       args.noise_replicates, args.workers, args.scheduler)
+                       args.noise_replicates, args.workers, args.scheduler, args.rollout)
     wall = time.perf_counter() - t0
     summary = summarize(rows)
     report(summary, failed)

@@ -80,7 +80,9 @@ def one_ride(arg: tuple) -> dict:
 
     Parameters
     ----------
-    arg : (kind, seed, duration, n_boot, n_noise)
+    arg : (kind, seed, duration, n_boot, n_noise[, rollout])
+        ``rollout`` true adds the 3-DoF rollout fit
+        (:func:`euc_sim.identification.rollout_fit.fit_rollout`) as ``3dof.rollout``.
 
     Returns
     -------
@@ -94,7 +96,7 @@ def one_ride(arg: tuple) -> dict:
     from euc_sim.simulation.engine import default_rider, simulate
     from euc_sim.simulation.mocap import motion_capture
 
-    kind, seed, duration, n_boot, n_noise = arg
+    kind, seed, duration, n_boot, n_noise, *more = arg
     rng = np.random.default_rng([int(seed), 22])
     man = draw_maneuver(kind, rng, duration)
     run = simulate(man, duration, params=TABLE3, rider=default_rider(TABLE3, noise_std=3.0), seed=seed)
@@ -114,6 +116,13 @@ def one_ride(arg: tuple) -> dict:
                   "ci": list(f.h_ci95), "ci_block": list(f.h_ci95_block),
                   "noise_sd": f.noise_sd, "noise_bias": f.noise_bias,
                   "identifiable": bool(f.identifiable)}
+    if more and more[0]:
+        from euc_sim.identification.rollout_fit import fit_rollout
+
+        r = rec("paper")
+        rf = fit_rollout(r.df, r.kin, TABLE3, h0=fits["3dof"].h)
+        out["3dof"]["rollout"] = {"h": rf.h, "ci": list(rf.h_ci95), "seconds": rf.seconds,
+                                  "at_bound": rf.at_bound}
     return out
 
 
@@ -146,4 +155,22 @@ def summarize(rows: list[dict], models=("3dof", "2dof")) -> dict:
                 "mean_width_mm": 1e3 * float(np.mean(ci[:, 1] - ci[:, 0])),
                 "identifiable": float(np.mean([r[m]["identifiable"] for r in rs])),
             }
+            ro = [r[m]["rollout"] for r in rs if "rollout" in r[m]]
+            if ro:
+                sel = [r for r in rs if "rollout" in r[m]]
+                rh = np.array([x["h"] for x in ro])
+                rci = np.array([x["ci"] for x in ro])
+                eh = np.array([r[m]["h"] for r in sel])
+                eci = np.array([r[m]["ci"] for r in sel])
+                rtr = np.array([r[m]["truth"] for r in sel])
+                out[kind][m]["rollout"] = {
+                    "rides": len(ro),
+                    "coverage": float(np.mean((rci[:, 0] <= rtr) & (rtr <= rci[:, 1]))),
+                    "mean_error_mm": 1e3 * float(np.mean(rh - rtr)),
+                    "sd_error_mm": 1e3 * float(np.std(rh - rtr, ddof=1)) if len(ro) > 1 else math.nan,
+                    "intervals_overlap": float(np.mean((rci[:, 0] <= eci[:, 1]) & (eci[:, 0] <= rci[:, 1]))),
+                    "each_in_the_others": float(np.mean((rci[:, 0] <= eh) & (eh <= rci[:, 1])
+                                                        & (eci[:, 0] <= rh) & (rh <= eci[:, 1]))),
+                    "seconds_median": float(np.median([x["seconds"] for x in ro])),
+                }
     return out
