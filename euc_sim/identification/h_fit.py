@@ -208,9 +208,10 @@ def _parabolic_min(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
 #: Moving-block bootstrap block, s.  The residual of the consistently filtered torques is
 #: correlated over about three term-filter σ (0.3 s), i.e. ~1 s; longer blocks are fewer
 #: per ride and, when a ride's information sits in one braking event, make the interval
-#: too narrow.  On 100 noise seeds not used to choose it (scripts/coverage_study.py
-#: --first-seed 50 --seeds 100) 1 s blocks cover the true h in 91 % (deceleration) and
-#: 93 % (acceleration) of rides, 2 s blocks in 88 % and 91 %.
+#: too narrow.  Over measurement noise on one trajectory 1 s blocks covered the true h
+#: in 91 % (deceleration) and 93 % (acceleration), 2 s blocks in 88 % and 91 %; over
+#: independent rides (scripts/coverage_study.py, issue 22) 1 s blocks alone cover
+#: 85-96.5 %, which is why :func:`with_noise` widens the interval.
 BOOTSTRAP_BLOCK = 1.0
 
 
@@ -391,8 +392,8 @@ def _bootstrap_interval(polys: list[ResidualPoly], grid: np.ndarray, boot_tot: n
     # basic (reverse-percentile) interval: the replicates' spread reflected about
     # h_opt.  Resampling blocks of a ride whose information sits in one maneuver
     # skews the replicates; the plain percentile interval then covered the true h
-    # in only 74-80 % of 50 noise seeds, the basic one in 90-94 %
-    # (scripts/coverage_study.py).
+    # in only 74-80 % of 50 noise seeds, the basic one in 90-94 % (the measurement-noise
+    # study that preceded issue 22's scripts/coverage_study.py).
     q_lo, q_hi = np.percentile(boot, [2.5, 97.5])
     return boot, (float(max(lo, 2 * h_opt - q_hi)), float(min(hi, 2 * h_opt - q_lo)))
 

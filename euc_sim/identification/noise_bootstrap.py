@@ -2,15 +2,15 @@
 
 Why it is needed (issue 22): on noise-free recordings the consistent filter returns
 h = 0.6 m to 1e-5 m whatever the rider's sway, the filter's σ or the trajectory, so the
-whole error of ĥ comes from the measurement noise, and almost all of it from the
-0.5° noise on the rider's pitch φ (noise on γ alone moves h by < 0.3 mm, on the
-positions by < 0.1 mm).  φ enters the regressors of M_d,1 − M_d,2 (sin φ, φ̇², φ̈
-multiplying h), so its noise both scatters ĥ (sd 4.8 mm on a 15 s deceleration) and,
-as errors in variables do, biases it by an amount that grows with the noise variance
-(−0.4, −1.0, −3.2 mm at ½, 1 and 2 times the paper's noise over 160 rides each;
-``scripts/noise_ablation.py``).  The moving-block bootstrap over time
-resamples the filtered residual and sees only part of that scatter: its intervals
-held the truth on 3 of 6 independent decelerations.
+whole error of ĥ comes from the measurement noise (``scripts/noise_ablation.py``, 80
+decelerations per variant).  Its scatter comes from the 0.5° noise on the rider's
+pitch φ: sd 4.4 mm with φ's noise alone, against 5.0 mm with all of it (γ alone
+0.24 mm, x alone 0.03 mm).  The angles enter the regressors that multiply h, so their
+noise also biases ĥ, as errors in variables do: −1.3 mm at the paper's noise (−0.1 mm
+with φ's noise alone), −0.5 and −3.7 mm at ½ and 2 times it, −2.9 and −0.9 mm with a
+term filter of 0.2 and 0.5 s.  The moving-block bootstrap over time resamples the
+filtered residual and misses part of the scatter: its intervals held the truth on 3
+of 6 independent decelerations, and on 85-96.5 % of 200 (``scripts/coverage_study.py``).
 
 Here the noise itself is resampled: each measured column is split into a smooth part
 (a Savitzky–Golay fit of :data:`BASE_WINDOW`) and white noise whose σ is estimated from
