@@ -16,7 +16,7 @@ from euc_sim.identification.h_fit import MIN_RISE
 from euc_sim.io import save_figure
 
 __all__ = ["plot_recording", "recording_figure", "plot_rmse_curves", "rmse_curves_figure",
-           "check_figure_path", "plain_log_ticks"]
+           "plot_rollout", "rollout_figure", "check_figure_path", "plain_log_ticks"]
 
 
 def check_figure_path(path) -> Path:
@@ -201,3 +201,46 @@ def plain_log_ticks(axis, ticks=None) -> None:
     axis.set_minor_formatter(NullFormatter())
     if ticks is not None:
         axis.set_minor_locator(NullLocator())
+
+
+def plot_rollout(name: str, fit, path) -> Path:
+    """Write :func:`rollout_figure` to ``path`` (atomically)."""
+    return save_figure(rollout_figure(name, fit), path)
+
+
+def rollout_figure(name: str, fit):
+    """The rollout fit of h (:mod:`euc_sim.identification.rollout_fit`): each window's
+    rollout over the recorded γ and φ, and the parameter correlation matrix.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(12, 7.5), layout="constrained")
+    gs = fig.add_gridspec(2, 2, width_ratios=[2.2, 1])
+    for row, (j, label) in enumerate(((1, "EUC pitch γ [°]"), (2, "rider pitch φ [°]"))):
+        ax = fig.add_subplot(gs[row, 0])
+        for w in range(fit.windows):
+            ax.plot(fit.t[w], np.degrees(fit.q_rec[w, :, j]), ".", ms=1.5, color="0.6",
+                    label="recorded" if w == 0 and row == 0 else None)
+            ax.plot(fit.t[w], np.degrees(fit.q_fit[w, :, j]), "-", lw=1.2, color=f"C{w % 2}",
+                    label="rollout (one window, free initial state)" if w == 0 and row == 0 else None)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+        if row == 0:
+            ax.set_title(f"{Path(name).name}: {fit.windows} windows, h = {fit.h:.4f} m "
+                         f"[{fit.h_ci95[0]:.4f}, {fit.h_ci95[1]:.4f}]"
+                         + ("  (ON ITS BOUND)" if fit.at_bound else ""))
+        else:
+            ax.set_xlabel("t [s]")
+    ax = fig.add_subplot(gs[:, 1])
+    im = ax.imshow(fit.correlation, vmin=-1, vmax=1, cmap="RdBu_r", interpolation="nearest")
+    ax.set_title("parameter correlation\n(h, then x, γ, φ, ẋ, γ̇, φ̇ per window)", fontsize=9)
+    ax.set_xlabel("parameter index")
+    ax.set_ylabel("parameter index")
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04, label="correlation")
+    fig.legend(loc="outside lower center", ncol=2, fontsize=8)
+    fig.suptitle("Rollout fit of h: MuJoCo over 1 s windows with free initial states")
+    return fig
