@@ -217,7 +217,7 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
     if "rolling" in c and m:
         ci = mass.coef_ci95.get("rolling")
         terms["C_rr"] = Term(road["c1"] / (m * G),
-                             tuple(x / (m * G) for x in ci) if ci else None, "1")
+                             tuple(x / (m * G) for x in ci) if ci else None, "dimensionless")
     if "drag" in c:
         ci = mass.coef_ci95.get("drag")
         terms["C_dA"] = Term(2 * road["c3"] / RHO_AIR,
@@ -232,7 +232,7 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
         terms["grade_mass"] = Term(c["grade"], mass.coef_ci95.get("grade"), "kg")
     terms["speed_scale"] = Term(mass.scale.estimate,
                                 (mass.scale.estimate - 1.96 * mass.scale.sd,
-                                 mass.scale.estimate + 1.96 * mass.scale.sd), "1")
+                                 mass.scale.estimate + 1.96 * mass.scale.sd), "dimensionless")
     bcoef, bci = fit_battery(sig, n_boot, seed)
     for k, unit in (("E0", "V"), ("k_Q", "V/Ah"), ("R_int", "ohm")):
         terms[{"E0": "ocv_start", "k_Q": "ocv_per_Ah", "R_int": "internal_resistance"}[k]] = \

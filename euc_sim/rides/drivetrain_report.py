@@ -23,6 +23,7 @@ from euc_sim.rides.power import MassSettings, PowerSignals, power_signals
 from euc_sim.rides.pwm import no_force_speed
 from euc_sim.rides.rotating import without_rotating_inertia
 from euc_sim.rides.spec import WheelSpec
+from euc_sim.rides.verdict import unit_label
 
 __all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "plot_pwm", "page_section",
            "COMPUTED_PWM_RMS", "computed_pwm_note"]
@@ -259,7 +260,7 @@ def page_section(rep: dict, figures: dict) -> list[str]:
         else:
             ci = t.get("ci95")
             md.append(f"| {name} | {t['estimate']:.4g} | "
-                      + (f"{ci[0]:.4g} – {ci[1]:.4g}" if ci else "–") + f" | {t['unit']} |")
+                      + (f"{ci[0]:.4g} – {ci[1]:.4g}" if ci else "–") + f" | {unit_label(t['unit'])} |")
     if "grade_mass" in dt and dt["grade_mass"].get("estimate") is not None and tm["estimate"]:
         md += ["", f"Grade from GPS altitude: its power coefficient is "
                    f"{dt['grade_mass']['estimate']:.0f} kg against the mass's {tm['estimate']:.0f} kg "
