@@ -225,8 +225,9 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
     if "no_load" in c:
         terms["no_load_power"] = Term(c["no_load"], mass.coef_ci95.get("no_load"), "W")
     if "copper" in c:
-        name, unit = (("winding_resistance", "ohm") if "phase_current" in sig.extra
-                      else ("copper_loss_per_accel2", "W/(m/s^2)^2"))
+        name, unit = {"phase_current": ("winding_resistance", "ohm"),
+                      "force": ("copper_loss_per_force2", "W/N^2")}.get(
+                          mass.copper_column, ("copper_loss_per_accel2", "W/(m/s^2)^2"))
         terms[name] = Term(c["copper"], mass.coef_ci95.get("copper"), unit)
     if "grade" in c:
         terms["grade_mass"] = Term(c["grade"], mass.coef_ci95.get("grade"), "kg")

@@ -82,7 +82,10 @@ def _total_mass(r: RideDrivetrain) -> dict:
            "signed_current": m.signed, "terms": m.terms, "balance": m.history,
            "n_samples": m.n_samples,
            "by_window": [{"window_s": w, "estimate": x} for w, x in m.by_window.items()],
-           "equivalent_mass": m.equivalent or None}
+           "equivalent_mass": m.equivalent or None,
+           "systematic": dict(m.systematic) if m.estimate is not None else None,
+           "statistical_ci95": list(m.stat_ci95) if m.stat_ci95 else None,
+           "copper_column": m.copper_column}
     if m.estimate is None:
         out["why"] = m.why
     if r.spec.wheel_mass is not None and m.estimate is not None:
@@ -241,6 +244,12 @@ def page_section(rep: dict, figures: dict) -> list[str]:
                       f"accelerates the wheel's rotating inertia J_w/R², taken as "
                       f"{eq['rotating_inertia']:.1f} kg, {eq['rotating_inertia_range'][0]:.1f}–"
                       f"{eq['rotating_inertia_range'][1]:.1f} kg, from the net weight).")
+        if tm.get("systematic") and tm.get("statistical_ci95"):
+            st = tm["statistical_ci95"]
+            md.append(f"- The interval is the bootstrap's ({st[0]:.0f}–{st[1]:.0f} kg) with what the "
+                      f"log cannot calibrate added in quadrature (95 % half-widths: " + ", ".join(
+                          f"{k.replace('_', ' ')} {v:.1f} kg" for k, v in tm["systematic"].items())
+                      + ").")
         if tm.get("by_window"):
             md.append("- Energy balance over windows of " + ", ".join(
                 f"{w['window_s']:g} s: {w['estimate']:.0f} kg" for w in tm["by_window"])
