@@ -10,6 +10,7 @@ figures.  The rider's stated weight is never read.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -23,6 +24,8 @@ from euc_sim.rides.power import MassSettings, PowerSignals, power_signals
 from euc_sim.rides.pwm import no_force_speed
 from euc_sim.rides.rotating import without_rotating_inertia
 from euc_sim.rides.spec import WheelSpec
+from euc_sim.rides.sanity import input_warnings, mass_suspicion
+from euc_sim.rides.systematic import mass_difference
 from euc_sim.rides.verdict import unit_label
 
 __all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "plot_pwm", "page_section",
@@ -77,6 +80,10 @@ def computed_pwm_note(r: RideDrivetrain) -> str | None:
 
 def _total_mass(r: RideDrivetrain) -> dict:
     m = r.mass
+    why = mass_suspicion(m.estimate)
+    if why is not None:                 # never a confident absurd mass
+        m = dataclasses.replace(m, estimate=None, ci95=None, stat_ci95=None, why=why, by_window={},
+                                equivalent={})
     out = {"estimate": m.estimate, "ci95": list(m.ci95) if m.ci95 else None,
            "unit": "kg", "lag_s": m.lag, "speed_scale": m.scale.estimate, "speed_scale_source": m.scale.source,
            "signed_current": m.signed, "terms": m.terms, "balance": m.history,
@@ -147,12 +154,14 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
         dtj["resistive_drop"] = {"estimate": None, "ci95": None, "unit": "V/N", "why": note}
         dtj.pop("winding_resistance", None)
     rep = {"total_mass": _total_mass(r), "drivetrain": dtj, "envelope": _envelope(r, note),
+           "input_warnings": input_warnings(read_log(path, emit_warnings=False), r.spec, r.mass.scale),
            "wheel": r.spec.as_json(), "unidentified": dict(r.drivetrain.unidentified),
            "grade": (r.grade.as_json() if r.grade is not None else
                      {"why": "no GPS altitude, or no mass identified: no implied grade"})}
     test = None
     if compare is not None:
         test = analyse(compare, spec, settings)
+        rep["mass_difference"] = mass_difference(r.mass, test.mass)
         pred, obs = predict_power(test.sig, r.mass)
         rep["power_heldout"] = {"rmse": _rms(pred - obs), "rms_power": _rms(obs), "unit": "W"}
         if r.drivetrain.pwm_coef is not None and "pwm" in test.sig.extra:
@@ -257,6 +266,14 @@ def page_section(rep: dict, figures: dict) -> list[str]:
         if tm.get("rider_mass"):
             md.append(f"- Rider with gear: {tm['rider_mass']['estimate']:.0f} kg "
                       f"(total minus the spec's net weight).")
+    for w in rep.get("input_warnings", []):
+        md.append(f"- **Warning**: {w}.")
+    d = rep.get("mass_difference")
+    if d:
+        md.append("- The compared ride minus this one: " + (
+            f"**{d['estimate']:+.0f} kg**, 95 % interval {d['ci95'][0]:+.0f} to {d['ci95'][1]:+.0f} "
+            f"kg: **{d['verdict']}**" if d.get("estimate") is not None else
+            f"**cannot tell** ({d.get('why', '')})") + ".")
     md += ["", "Battery-power balance, held-out RMS error after each accepted term "
                "(the physics the nominal model was missing):", "",
            "| step | held-out RMS, W |", "|---|---|"]

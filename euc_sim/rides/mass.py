@@ -480,8 +480,9 @@ def _unidentified(log: RideLog, sig: PowerSignals) -> dict:
         out["phase_current"] = ("the battery current is the app's duty × phase current (to 3 %), "
                                 "not measured: the phase current is not used for the copper loss")
     if "phase_current" not in sig.extra:
-        out["winding_resistance"] = ("no phase current: the copper loss is fitted on its proxy "
-                                     "a², so the winding resistance itself is not identified")
+        out["winding_resistance"] = ("no phase current: the copper loss is fitted as κ·F², F the "
+                                     "drive force the fit implies (m·a + c₁ + c₃v²; or its proxy a²), "
+                                     "so the winding resistance itself is not identified")
     return out
 
 

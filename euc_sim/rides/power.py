@@ -166,8 +166,8 @@ def speed_scale(log, v_min: float = 4.0, method: str = "mean") -> SpeedScale:
     GPS fixes over the wheel's ∫v dt between them, both moving).  On the
     shared rides the track reads 0.2–4.5 % above the Doppler ratio (issue 20:
     integrated Doppler speed reads low at city speeds); neither is known to be
-    right, so by default the estimate is their mean and its standard deviation
-    covers both: √(0.01² + (difference/2)²).
+    right, so the standard deviation covers both: √(0.01² + (difference/2)²).
+    ``method`` picks the estimate (:class:`MassSettings`'s ``scale_method``).
 
     Parameters
     ----------
@@ -180,7 +180,8 @@ def speed_scale(log, v_min: float = 4.0, method: str = "mean") -> SpeedScale:
     -------
     SpeedScale
         ``source="assumed"`` (1 ± :data:`NO_GPS_SCALE_SD`) without GPS speed;
-        ``"gps"`` (Doppler only, 1 %), ``"gps track"`` or ``"gps doppler+track"``.
+        ``"gps"`` (Doppler), ``"gps track"`` or ``"gps doppler+track"``; the sd
+        is 1 % with Doppler alone, √(0.01² + (difference/2)²) with both.
     """
     if method not in ("mean", "doppler", "track"):
         raise ValueError(f"method must be 'mean', 'doppler' or 'track', got {method!r}")
@@ -194,14 +195,17 @@ def speed_scale(log, v_min: float = 4.0, method: str = "mean") -> SpeedScale:
         return SpeedScale(1.0, NO_GPS_SCALE_SD, "assumed")
     k = float(np.sum(g[ok] * v[ok]) / np.sum(v[ok] ** 2))
     k_track = track_scale(log, v_min)
-    if method == "doppler" or k_track is None:
+    if k_track is None:
         # GPS speed is good to about 1 % in the mean (Doppler); the scatter of
         # single samples is averaged over thousands of them.
         return SpeedScale(k, 0.01, "gps")
+    # the two GPS measurements disagree by more than either's noise: the sd covers both
+    sd = float(np.hypot(0.01, 0.5 * (k_track - k)))
+    if method == "doppler":
+        return SpeedScale(k, sd, "gps")
     if method == "track":
-        return SpeedScale(k_track, max(0.01, abs(k_track - k)), "gps track")
-    return SpeedScale(0.5 * (k + k_track), float(np.hypot(0.01, 0.5 * (k_track - k))),
-                      "gps doppler+track")
+        return SpeedScale(k_track, sd, "gps track")
+    return SpeedScale(0.5 * (k + k_track), sd, "gps doppler+track")
 
 
 def track_scale(log, v_min: float = 4.0, max_dt: float = 3.0) -> float | None:

@@ -29,7 +29,10 @@ from __future__ import annotations
 import math
 
 __all__ = ["CURRENT_SCALE_SD", "GRADE_SHARE", "combined_interval", "speed_scale_kg",
-           "current_scale_kg"]
+           "current_scale_kg", "mass_difference", "SHARED_BY_A_WHEEL"]
+
+#: Systematic parts one wheel shares between its rides: they cancel from a difference.
+SHARED_BY_A_WHEEL = ("current_scale", "rotating_share")
 
 #: Relative standard deviation of a wheel's battery-current scale (prior).
 CURRENT_SCALE_SD = 0.05
@@ -70,3 +73,46 @@ def combined_interval(estimate: float, stat_ci95, systematic: dict) -> tuple[flo
     lo, hi = stat_ci95
     below, above = max(estimate - lo, 0.0), max(hi - estimate, 0.0)
     return (estimate - math.sqrt(below ** 2 + s2), estimate + math.sqrt(above ** 2 + s2))
+
+
+def mass_difference(a, b) -> dict:
+    """Total mass of ride ``b`` minus ride ``a`` of the same wheel, with its 95 % interval.
+
+    The bootstrap intervals of the two rides are independent, and so are the
+    parts each ride measures on its own (grade, the copper-loss model, a GPS
+    speed scale); the wheel's current-sensor scale and rotating inertia are the
+    same on both rides and cancel (:data:`SHARED_BY_A_WHEEL`), as does an
+    assumed speed scale when neither ride has GPS (one speedometer).  All are
+    added in quadrature.
+
+    Parameters
+    ----------
+    a, b : MassFit
+        The two rides' fits (:mod:`euc_sim.rides.mass`), the rotating inertia
+        taken out or not, alike.
+
+    Returns
+    -------
+    dict
+        ``{"estimate", "ci95", "unit": "kg", "verdict"}`` with verdict
+        "heavier" (the interval above zero: ``b`` carried more), "lighter" or
+        "cannot tell"; ``estimate`` None with a ``why`` when either mass is not
+        identified.
+    """
+    if a.estimate is None or b.estimate is None or not a.stat_ci95 or not b.stat_ci95:
+        which = "this ride" if a.estimate is None else "the compared ride"
+        return {"estimate": None, "ci95": None, "unit": "kg", "verdict": "cannot tell",
+                "why": f"the mass of {which} is not identified"}
+    both_assumed = a.scale.source == "assumed" and b.scale.source == "assumed"
+    shared = set(SHARED_BY_A_WHEEL) | ({"speed_scale"} if both_assumed else set())
+    s2 = sum(x * x for f in (a, b) for k, x in f.systematic.items()
+             if k not in shared and x is not None and math.isfinite(x))
+    d = b.estimate - a.estimate
+    lo_b, hi_b = b.estimate - b.stat_ci95[0], b.stat_ci95[1] - b.estimate
+    lo_a, hi_a = a.estimate - a.stat_ci95[0], a.stat_ci95[1] - a.estimate
+    ci = (d - math.sqrt(max(lo_b, 0) ** 2 + max(hi_a, 0) ** 2 + s2),
+          d + math.sqrt(max(hi_b, 0) ** 2 + max(lo_a, 0) ** 2 + s2))
+    verdict = "heavier" if ci[0] > 0 else "lighter" if ci[1] < 0 else "cannot tell"
+    return {"estimate": d, "ci95": list(ci), "unit": "kg", "verdict": verdict,
+            "cancelled": sorted(shared),
+            "note": "the compared ride minus this one; 'heavier': the compared ride carried more"}

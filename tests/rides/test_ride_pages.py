@@ -142,3 +142,14 @@ def test_units_are_named_never_1(pages):
         assert not re.search(r"\| 1 \|\s*$|\| 1 \| \[", page, re.M), log          # table unit columns
         assert not re.search(r"to -?[\d.]+(e[-+]?\d+)? 1[;:,.]", page), log          # evidence text
         assert "dimensionless" in page, log
+
+
+def test_the_real_logs_raise_no_false_suspicion_and_carry_the_systematic_parts(pages):
+    for log, spec, rep, _ in pages:
+        assert rep["input_warnings"] == [], (log, rep["input_warnings"])
+        tm = rep["total_mass"]
+        if tm["estimate"] is not None:
+            assert set(tm["systematic"]) >= {"speed_scale", "current_scale", "efficiency_model", "grade"}
+            assert ("rotating_share" in tm["systematic"]) == (spec is not None), log
+            lo, hi = tm["statistical_ci95"]
+            assert tm["ci95"][0] <= min(lo, tm["estimate"]) and tm["ci95"][1] >= max(hi, tm["estimate"])
