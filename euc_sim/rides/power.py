@@ -60,9 +60,10 @@ class MassSettings:
         routine logging interval (0.4 s) to about a manoeuvre's length.
     block : float
         Bootstrap block, s.
-    scale_method : {"mean", "doppler", "track"}
+    scale_method : {"doppler", "mean", "track"}
         The speed scale from GPS Doppler speed, from GPS track distance, or
-        their mean (:func:`speed_scale`).
+        their mean (:func:`speed_scale`); Doppler gives the lowest median error
+        on the shared rides (a choice the leave-one-wheel-out study re-makes).
     copper_model : {"force", "accel"}
         Without phase current, the copper loss's column: the squared drive
         force (m·a + c₁ + c₃v²)² from the fit itself (iterated), or its proxy a²
@@ -86,7 +87,7 @@ class MassSettings:
     block: float = 30.0
     n_boot: int = 200
     seed: int = 0
-    scale_method: str = "mean"
+    scale_method: str = "doppler"
     copper_model: str = "force"
     current_scale_sd: float = CURRENT_SCALE_SD
     grade_share: float = GRADE_SHARE
@@ -158,7 +159,7 @@ def as_ride_log(log) -> RideLog:
     return log if isinstance(log, RideLog) else read_log(log, emit_warnings=False)
 
 
-def speed_scale(log, v_min: float = 4.0, method: str = "mean") -> SpeedScale:
+def speed_scale(log, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
     """True speed over logged wheel speed, from GPS.
 
     Two measurements: the Doppler speed (least squares through the origin of
