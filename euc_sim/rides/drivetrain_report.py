@@ -233,8 +233,8 @@ def plot_pwm(r: RideDrivetrain, path, coef: dict | None = None, title: str = "")
     return out
 
 
-def page_section(rep: dict, figures: dict) -> list[str]:
-    """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope."""
+def _mass_md(rep: dict) -> list[str]:
+    """The page's lines on the total mass, its interval's parts, warnings and the difference."""
     tm = rep["total_mass"]
     md = ["## What the wheel weighs with its rider, and how close to a cut-out", ""]
     if tm["estimate"] is None:
@@ -274,6 +274,13 @@ def page_section(rep: dict, figures: dict) -> list[str]:
             f"**{d['estimate']:+.0f} kg**, 95 % interval {d['ci95'][0]:+.0f} to {d['ci95'][1]:+.0f} "
             f"kg: **{d['verdict']}**" if d.get("estimate") is not None else
             f"**cannot tell** ({d.get('why', '')})") + ".")
+    return md
+
+
+def page_section(rep: dict, figures: dict) -> list[str]:
+    """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope."""
+    tm = rep["total_mass"]
+    md = _mass_md(rep)
     md += ["", "Battery-power balance, held-out RMS error after each accepted term "
                "(the physics the nominal model was missing):", "",
            "| step | held-out RMS, W |", "|---|---|"]

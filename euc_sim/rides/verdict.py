@@ -43,6 +43,7 @@ def ride_verdict(report: dict) -> dict:
     effects = report.get("effects") or []
     named = [e["name"] for e in effects if e.get("plausible", True)]
     cand = [e["name"] for e in effects if not e.get("plausible", True)]
+    shown = {e["name"]: _with_numbers(e) for e in effects}
     out = {"battery_power": not_power is None, "named": named, "candidates": cand}
     if not_power is not None:
         out["text"] = ("no battery-power verdict: this log's V·I is not battery power, so "
@@ -53,9 +54,10 @@ def ride_verdict(report: dict) -> dict:
     if named:
         text = "the inertia-only model leaves out " + ", ".join(named)
         if cand:
-            text += f"; also accepted but implausible (candidates, not named): {', '.join(cand)}"
+            text += (f"; also accepted but implausible (candidates, not named): "
+                     f"{'; '.join(shown[c] for c in cand)}")
     elif cand:
-        text = f"{NOT_EXPLAINED} (candidates, each implausible: {', '.join(cand)})"
+        text = f"{NOT_EXPLAINED} (candidates, each implausible: {'; '.join(shown[c] for c in cand)})"
     else:
         text = "nothing is missing that this ride can reveal" + _why_nothing(report)
     out["text"] = text
@@ -72,3 +74,11 @@ def _why_nothing(report: dict) -> str:
         return ""
     return (": in the fit with every candidate each 95 % interval holds zero ("
             + "; ".join(held) + "), so none is accepted")
+
+
+def _with_numbers(e: dict) -> str:
+    """``name estimate unit (plausible lo–hi)``: an effect entry in words."""
+    u = unit_label(e.get("unit"))
+    rng = e.get("plausible_range")
+    out = f"{e['name']} {e['estimate']:.3g} {u}"
+    return out + (f" (plausible {rng[0]:.3g}–{rng[1]:.3g})" if rng else "")
