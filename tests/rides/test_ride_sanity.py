@@ -113,3 +113,17 @@ def test_compare_reports_the_mass_difference(tmp_path, capsys):
     assert d["unit"] == "kg" and d["verdict"] in ("heavier", "lighter", "cannot tell")
     assert d["ci95"][0] <= d["estimate"] <= d["ci95"][1]
     assert d["ci95"][0] <= 0.0 <= d["ci95"][1] and d["verdict"] == "cannot tell"   # same truth
+
+
+def test_the_spec_radius_and_the_found_mass_reach_the_balance_fit():
+    from euc_sim.cli.ride import with_found_values
+    from euc_sim.rides.signals import RideAssumptions
+
+    tm = {"estimate": 115.0, "equivalent_mass": {"estimate": 122.0}}
+    a = with_found_values(RideAssumptions(), WheelSpec(radius=0.254, name="Blitz"), tm)
+    assert (a.R, a.total_mass, a.m_eq) == (0.254, 115.0, 122.0)
+    assert a.source_of("R").startswith("spec (Blitz") and a.source_of("total_mass").startswith("found")
+    given = RideAssumptions(R=0.22, sources=(("R", "--radius"),))
+    b = with_found_values(given, WheelSpec(radius=0.254), {"estimate": None})
+    assert b.R == 0.22 and b.source_of("R") == "--radius"
+    assert b.total_mass == RideAssumptions().total_mass and b.source_of("total_mass") == "default (Table 3)"
