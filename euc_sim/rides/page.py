@@ -386,7 +386,9 @@ def _assumptions_md(r: dict) -> list[str]:
                  "battery_voltage_V": ("battery voltage", "V")}
         have = [f"{name} {w[k]:.4g} {u}" for k, (name, u) in given.items() if w.get(k) is not None]
         miss = [name for k, (name, _) in given.items() if w.get(k) is None]
-        md.append(f"- From the wheel's specification ({w.get('source') or 'none'}): "
+        src = " + ".join(Path(x.strip()).name if x.strip().endswith(".csv") else x.strip()
+                         for x in str(w.get("source") or "none").split("+"))
+        md.append(f"- From the wheel's specification ({src}): "
                   f"{', '.join(have) or 'nothing'}"
                   + (f"; not given: {', '.join(miss)} (" + _missing_effect(miss) + ")" if miss else "")
                   + ".")

@@ -42,9 +42,12 @@ def input_warnings(log, spec, scale) -> list[str]:
     scale : SpeedScale
         The wheel's speed scale against GPS (:func:`euc_sim.rides.power.speed_scale`).
     """
+    from pathlib import Path
+
+    name = Path(str(log.path)).name                 # no machine path in outputs
     out = []
     if scale.source != "assumed" and not SPEED_SCALE_RANGE[0] <= scale.estimate <= SPEED_SCALE_RANGE[1]:
-        out.append(f"{log.path}: the wheel's speed reads {1 / scale.estimate:.2f} × GPS speed: the "
+        out.append(f"{name}: the wheel's speed reads {1 / scale.estimate:.2f} × GPS speed: the "
                    f"speed column may be in other units (mph read as km/h gives 0.62) or from "
                    f"another wheel size; every speed was rescaled by GPS, check the log")
     if spec.battery_voltage is not None and "voltage" in log.data:
@@ -53,9 +56,10 @@ def input_warnings(log, spec, scale) -> list[str]:
         if v.size:
             hi, med = float(np.percentile(v, 99)), float(np.median(v))
             if hi > 1.1 * spec.battery_voltage or med < 0.65 * spec.battery_voltage:
-                out.append(f"{log.path}: battery voltage {med:.0f} V (median), up to {hi:.0f} V, "
+                out.append(f"{name}: battery voltage {med:.0f} V (median), up to {hi:.0f} V, "
                            f"against the spec's full charge {spec.battery_voltage:g} V "
-                           f"({spec.source}): the spec may be another wheel's, or the voltage "
+                           f"({Path(str(spec.source).split(' + ')[0]).name}): the spec may be "
+                           f"another wheel's, or the voltage "
                            f"column in other units")
     return out
 
