@@ -17,7 +17,7 @@ import os
 import warnings
 from pathlib import Path
 
-__all__ = ["add_ride_parser", "run_ride", "MIN_BOOT"]
+__all__ = ["add_ride_parser", "run_ride", "with_found_values", "MIN_BOOT"]
 
 #: Fewest bootstrap replicates the command accepts: effects are accepted on their
 #: 95 % interval, and without replicates there is none (nothing would be accepted).
@@ -34,15 +34,53 @@ def _assumptions(args: argparse.Namespace):
     if not (math.isfinite(args.efficiency) and 0 < args.efficiency <= 1):
         raise ValueError(f"--efficiency must be in (0, 1], got {args.efficiency!r}")
     p = TABLE3
+    sources = []
     if args.radius is not None:
         p = p.replace(R=args.radius)
+        sources.append(("R", "--radius"))
     if args.mass is not None:
         m = args.mass - p.m0 - p.mw
         if m <= 0:
             raise ValueError(f"--mass is the total of rider and EUC, kg; {args.mass:g} does not "
                              f"exceed the EUC's own {p.m0 + p.mw:g} kg")
         p = p.replace(m=m)
-    return RideAssumptions.from_params(p, efficiency=args.efficiency)
+        sources.append(("total_mass", "--mass"))
+    return RideAssumptions.from_params(p, efficiency=args.efficiency, sources=tuple(sources))
+
+
+def with_found_values(assumptions, spec, total_mass: dict):
+    """The balance fit's assumptions with the spec's radius and the mass this log gives.
+
+    A value given on the command line stays; otherwise the radius comes from the
+    spec and the total mass (with m_eq, eq. 6) from ``total_mass`` (the ride
+    JSON's object, found from the log), and only what neither gives keeps Table
+    3's default.  ``sources`` says which is which.
+
+    Parameters
+    ----------
+    assumptions : RideAssumptions
+    spec : WheelSpec or None
+    total_mass : dict
+        The ride JSON's ``total_mass`` (``estimate`` None when not identified).
+
+    Returns
+    -------
+    RideAssumptions
+        A new object.
+    """
+    import dataclasses
+
+    src = dict(assumptions.sources)
+    new = {}
+    if "R" not in src and spec is not None and spec.radius is not None:
+        new["R"] = spec.radius
+        src["R"] = f"spec ({spec.name or 'wheel'}: wheel diameter)"
+    m = (total_mass or {}).get("estimate")
+    if "total_mass" not in src and m is not None and m > 0:
+        eq = (total_mass.get("equivalent_mass") or {}).get("estimate")
+        new["total_mass"], new["m_eq"] = m, (eq if eq is not None else m)
+        src["total_mass"] = "found from this log's energy balance (total_mass)"
+    return dataclasses.replace(assumptions, sources=tuple(src.items()), **new)
 
 
 def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assumptions=None,
@@ -88,11 +126,15 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     assumptions = assumptions or RideAssumptions()
     say("finding the total mass and the drivetrain")
     physics = _drivetrain(log, compare, spec, n_boot, seed)   # bad logs fail before any output
+    # the spec's radius and the mass this log gives reach the balance fit (Table 3 only where
+    # neither the command line, the spec nor the log gives a value)
+    assumptions = with_found_values(assumptions, spec, physics[0]["total_mass"])
     an = ride_analysis(log, compare, assumptions=assumptions, domain=domain, n_boot=n_boot,
                        seed=seed, progress=say)
     say("locating the residual")
     rep = dict(an.report)
     rep.update(physics[0])
+    rep["notes"] = list(rep["notes"]) + [_mass_grid_note(physics[1])]
     cr = an.cross
     nom, aug = cr.nominal.estimate, cr.augmented.estimate
     traces = [residual_windows(an.sig_fit, nom, aug, domain, Path(log).name, True)]
@@ -115,11 +157,25 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
             warnings.warn(why, stacklevel=2)
             rep["notes"] = list(rep["notes"]) + [why]
     rep["simulation"] = None if sim is None else sim.as_json()
+    from euc_sim.rides.verdict import ride_verdict
+
+    rep["verdict"] = ride_verdict(rep)
     rep["report"] = None
     if report_dir is not None:          # every file at the end: an interrupted run writes none
         say(f"writing the report to {report_dir}")
         _write_report(rep, an, traces, sim, physics, Path(report_dir))
     return rep
+
+
+def _mass_grid_note(fit) -> str:
+    """How the mass and drivetrain fits treated the log's gaps (their grid is not the balance fit's)."""
+    import numpy as np
+
+    from euc_sim.rides.power import MassSettings
+
+    n = len(np.unique(fit.sig.segment))
+    return (f"mass and drivetrain fits: gaps up to {MassSettings.max_gap:g} s bridged linearly on "
+            f"their {MassSettings.rate:g} Hz grid, longer ones split the ride ({n} piece(s))")
 
 
 def _simulate(an, log, compare, seed: int, jobs: int, progress):
@@ -282,16 +338,19 @@ def _cmd_ride(args: argparse.Namespace) -> int:
                                                      Path(args.json).resolve().parent)).as_posix()
         write_json(args.json, rep)
     u = rep["error_unit"]
-    print(f"held-out error ({rep['error_measure']}): inertia-only "
+    print(("" if rep["verdict"]["battery_power"] else "V·I, NOT battery power: ")
+          + f"held-out error ({rep['error_measure']}): inertia-only "
           f"{rep['heldout_error_nominal']:.1f} {u}, augmented {rep['heldout_error_augmented']:.1f} "
           f"{u}, ratio {rep['ratio']:.2f}")
+    from euc_sim.rides.verdict import unit_label
+
+    print(f"  verdict: {rep['verdict']['text']}")
     for e in rep["effects"]:
+        kind = "named" if e["name"] in rep["verdict"]["named"] else "candidate"
         flag = "" if e["plausible"] else "  IMPLAUSIBLE"
         al = f"  aliases: {', '.join(e['aliases'])}" if e["aliases"] else ""
-        print(f"  left out: {e['name']} = {e['estimate']:.4g} {e['unit']} "
+        print(f"  {kind}: {e['name']} = {e['estimate']:.4g} {unit_label(e['unit'])} "
               f"95% [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]{flag}{al}")
-    if not rep["effects"]:
-        print("  nothing accepted: the inertia-only balance explains this ride")
     for line in _mass_lines(rep):
         print(line)
     if rep["windows"]:

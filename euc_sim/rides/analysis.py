@@ -212,9 +212,10 @@ def _notes(sig_fit: RideSignals, sig_test: RideSignals | None, d_fit: Design,
            assumptions: RideAssumptions, test_label: str) -> list[str]:
     """The report's notes: reader, resampling and design notes, and the mass caveat."""
     notes = list(sig_fit.notes) + list(d_fit.notes)
-    notes.append(f"masses are assumed (m_eq = {assumptions.m_eq:g} kg, total {assumptions.total_mass:g} "
-                 f"kg): the power balance fixes only m_eq/η_m, so η_m, η_r, k and P₀ scale with the "
-                 f"assumed mass; C_rr (a force per weight) does not")
+    notes.append(f"masses of the balance fit: m_eq = {assumptions.m_eq:.4g} kg, total "
+                 f"{assumptions.total_mass:.4g} kg ({assumptions.source_of('total_mass')}): the "
+                 f"efficiency balance fixes only m_eq/η_m, so η_m, η_r, k and P₀ scale with this "
+                 f"mass; C_rr (a force per weight) does not")
     if sig_test is not None:
         notes += [f"{test_label}: {n}" for n in sig_test.notes]
     return notes

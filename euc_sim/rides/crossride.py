@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
+from euc_sim.rides.verdict import unit_label
 from euc_sim.rides.design import CANDIDATES, NOMINAL, Design
 from euc_sim.rides.fit import BalanceFit, fit_balance, plausibility
 from euc_sim.rides.signals import RideSignals, break_at_gaps
@@ -100,7 +101,7 @@ def effect_entries(cr: CrossRide) -> list[dict]:
         aliases = exact + confounded
         ev = (f"adding {ph['symbol']} ({ph['meaning']}) lowers the RMS battery-power residual "
               f"on {cr.fit_label} from {cr.nominal.rmse:.0f} to {rmse_after:.0f} {cr.nominal.unit}, "
-              f"95% interval {ph['ci95'][0]:.3g} to {ph['ci95'][1]:.3g} {ph['unit']}")
+              f"95% interval {ph['ci95'][0]:.3g} to {ph['ci95'][1]:.3g} {unit_label(ph['unit'])}")
         if exact:
             ev += (f"; the speed never changes sign, so it is the sum of this and "
                    f"{' and '.join(exact)} (a constant road grade looks the same)")
@@ -110,7 +111,7 @@ def effect_entries(cr: CrossRide) -> list[dict]:
                    f"cannot tell them apart")
         if not ph["plausible"]:
             ev += (f"; OUTSIDE the plausible range {ph['plausible_range'][0]:g} to "
-                   f"{ph['plausible_range'][1]:g} {ph['unit']}: it also absorbs something else")
+                   f"{ph['plausible_range'][1]:g} {unit_label(ph['unit'])}: it also absorbs something else")
         entry = {"name": c, "estimate": ph["estimate"], "unit": ph["unit"], "ci95": ph["ci95"],
                  "rmse_after": rmse_after, "aliases": aliases, "evidence": ev,
                  "plausible": ph["plausible"], "plausible_range": ph["plausible_range"]}

@@ -217,7 +217,7 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
     if "rolling" in c and m:
         ci = mass.coef_ci95.get("rolling")
         terms["C_rr"] = Term(road["c1"] / (m * G),
-                             tuple(x / (m * G) for x in ci) if ci else None, "1")
+                             tuple(x / (m * G) for x in ci) if ci else None, "dimensionless")
     if "drag" in c:
         ci = mass.coef_ci95.get("drag")
         terms["C_dA"] = Term(2 * road["c3"] / RHO_AIR,
@@ -225,14 +225,15 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
     if "no_load" in c:
         terms["no_load_power"] = Term(c["no_load"], mass.coef_ci95.get("no_load"), "W")
     if "copper" in c:
-        name, unit = (("winding_resistance", "ohm") if "phase_current" in sig.extra
-                      else ("copper_loss_per_accel2", "W/(m/s^2)^2"))
+        name, unit = {"phase_current": ("winding_resistance", "ohm"),
+                      "force": ("copper_loss_per_force2", "W/N^2")}.get(
+                          mass.copper_column, ("copper_loss_per_accel2", "W/(m/s^2)^2"))
         terms[name] = Term(c["copper"], mass.coef_ci95.get("copper"), unit)
     if "grade" in c:
         terms["grade_mass"] = Term(c["grade"], mass.coef_ci95.get("grade"), "kg")
     terms["speed_scale"] = Term(mass.scale.estimate,
                                 (mass.scale.estimate - 1.96 * mass.scale.sd,
-                                 mass.scale.estimate + 1.96 * mass.scale.sd), "1")
+                                 mass.scale.estimate + 1.96 * mass.scale.sd), "dimensionless")
     bcoef, bci = fit_battery(sig, n_boot, seed)
     for k, unit in (("E0", "V"), ("k_Q", "V/Ah"), ("R_int", "ohm")):
         terms[{"E0": "ocv_start", "k_Q": "ocv_per_Ah", "R_int": "internal_resistance"}[k]] = \

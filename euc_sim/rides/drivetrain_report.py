@@ -10,6 +10,7 @@ figures.  The rider's stated weight is never read.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,6 +25,9 @@ from euc_sim.rides.power import G, MassSettings, PowerSignals, power_signals
 from euc_sim.rides.pwm import no_force_speed
 from euc_sim.rides.rotating import without_rotating_inertia
 from euc_sim.rides.spec import WheelSpec
+from euc_sim.rides.sanity import input_warnings, mass_suspicion
+from euc_sim.rides.systematic import mass_difference
+from euc_sim.rides.verdict import unit_label
 
 __all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "envelope_figure", "plot_pwm",
            "pwm_figure", "page_section", "TYRE_MU",
@@ -78,12 +82,19 @@ def computed_pwm_note(r: RideDrivetrain) -> str | None:
 
 def _total_mass(r: RideDrivetrain) -> dict:
     m = r.mass
+    why = mass_suspicion(m.estimate)
+    if why is not None:                 # never a confident absurd mass
+        m = dataclasses.replace(m, estimate=None, ci95=None, stat_ci95=None, why=why, by_window={},
+                                equivalent={})
     out = {"estimate": m.estimate, "ci95": list(m.ci95) if m.ci95 else None,
            "unit": "kg", "lag_s": m.lag, "speed_scale": m.scale.estimate, "speed_scale_source": m.scale.source,
            "signed_current": m.signed, "terms": m.terms, "balance": m.history,
            "n_samples": m.n_samples,
            "by_window": [{"window_s": w, "estimate": x} for w, x in m.by_window.items()],
-           "equivalent_mass": m.equivalent or None}
+           "equivalent_mass": m.equivalent or None,
+           "systematic": dict(m.systematic) if m.estimate is not None else None,
+           "statistical_ci95": list(m.stat_ci95) if m.stat_ci95 else None,
+           "copper_column": m.copper_column}
     if m.estimate is None:
         out["why"] = m.why
     if r.spec.wheel_mass is not None and m.estimate is not None:
@@ -145,12 +156,14 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
         dtj["resistive_drop"] = {"estimate": None, "ci95": None, "unit": "V/N", "why": note}
         dtj.pop("winding_resistance", None)
     rep = {"total_mass": _total_mass(r), "drivetrain": dtj, "envelope": _envelope(r, note),
+           "input_warnings": input_warnings(read_log(path, emit_warnings=False), r.spec, r.mass.scale),
            "wheel": r.spec.as_json(), "unidentified": dict(r.drivetrain.unidentified),
            "grade": (r.grade.as_json() if r.grade is not None else
                      {"why": "no GPS altitude, or no mass identified: no implied grade"})}
     test = None
     if compare is not None:
         test = analyse(compare, spec, settings)
+        rep["mass_difference"] = mass_difference(r.mass, test.mass)
         pred, obs = predict_power(test.sig, r.mass)
         rep["power_heldout"] = {"rmse": _rms(pred - obs), "rms_power": _rms(obs), "unit": "W"}
         if r.drivetrain.pwm_coef is not None and "pwm" in test.sig.extra:
@@ -253,8 +266,8 @@ def pwm_figure(r: RideDrivetrain, coef: dict | None = None, title: str = ""):
     return fig
 
 
-def page_section(rep: dict, figures: dict) -> list[str]:
-    """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope."""
+def _mass_md(rep: dict) -> list[str]:
+    """The page's lines on the total mass, its interval's parts, warnings and the difference."""
     tm = rep["total_mass"]
     md = ["## What the wheel weighs with its rider, and how close to a cut-out", ""]
     if tm["estimate"] is None:
@@ -273,6 +286,12 @@ def page_section(rep: dict, figures: dict) -> list[str]:
                       f"accelerates the wheel's rotating inertia J_w/R², taken as "
                       f"{eq['rotating_inertia']:.1f} kg, {eq['rotating_inertia_range'][0]:.1f}–"
                       f"{eq['rotating_inertia_range'][1]:.1f} kg, from the net weight).")
+        if tm.get("systematic") and tm.get("statistical_ci95"):
+            st = tm["statistical_ci95"]
+            md.append(f"- The interval is the bootstrap's ({st[0]:.0f}–{st[1]:.0f} kg) with what the "
+                      f"log cannot calibrate added in quadrature (95 % half-widths: " + ", ".join(
+                          f"{k.replace('_', ' ')} {v:.1f} kg" for k, v in tm["systematic"].items())
+                      + ").")
         if tm.get("by_window"):
             md.append("- Energy balance over windows of " + ", ".join(
                 f"{w['window_s']:g} s: {w['estimate']:.0f} kg" for w in tm["by_window"])
@@ -280,6 +299,21 @@ def page_section(rep: dict, figures: dict) -> list[str]:
         if tm.get("rider_mass"):
             md.append(f"- Rider with gear: {tm['rider_mass']['estimate']:.0f} kg "
                       f"(total minus the spec's net weight).")
+    for w in rep.get("input_warnings", []):
+        md.append(f"- **Warning**: {w}.")
+    d = rep.get("mass_difference")
+    if d:
+        md.append("- The compared ride minus this one: " + (
+            f"**{d['estimate']:+.0f} kg**, 95 % interval {d['ci95'][0]:+.0f} to {d['ci95'][1]:+.0f} "
+            f"kg: **{d['verdict']}**" if d.get("estimate") is not None else
+            f"**cannot tell** ({d.get('why', '')})") + ".")
+    return md
+
+
+def page_section(rep: dict, figures: dict) -> list[str]:
+    """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope."""
+    tm = rep["total_mass"]
+    md = _mass_md(rep)
     md += ["", "Battery-power balance, held-out RMS error after each accepted term "
                "(the physics the nominal model was missing):", "",
            "| step | held-out RMS, W |", "|---|---|"]
@@ -292,7 +326,7 @@ def page_section(rep: dict, figures: dict) -> list[str]:
         else:
             ci = t.get("ci95")
             md.append(f"| {name} | {t['estimate']:.4g} | "
-                      + (f"{ci[0]:.4g} – {ci[1]:.4g}" if ci else "–") + f" | {t['unit']} |")
+                      + (f"{ci[0]:.4g} – {ci[1]:.4g}" if ci else "–") + f" | {unit_label(t['unit'])} |")
     if "grade_mass" in dt and dt["grade_mass"].get("estimate") is not None and tm["estimate"]:
         md += ["", f"Grade from GPS altitude: its power coefficient is "
                    f"{dt['grade_mass']['estimate']:.0f} kg against the mass's {tm['estimate']:.0f} kg "

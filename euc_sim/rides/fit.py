@@ -1,4 +1,4 @@
-"""Least-squares fit of a ride's balance with moving-block bootstrap intervals.
+"""Least-squares fit of a ride's balance with wild block bootstrap intervals.
 
 :func:`fit_balance` fits a :class:`~euc_sim.rides.design.Design` (scipy's
 ``least_squares``: the model is linear in the resistances but not in η_m, η_r);
@@ -41,7 +41,7 @@ class BalanceFit:
     estimate : dict
         Value of each, in the unit of :data:`CANDIDATES`.
     ci95 : dict
-        95 % percentile intervals from a moving-block residual bootstrap.
+        95 % percentile intervals from a wild block bootstrap (:func:`_bootstrap`).
     se_naive : dict
         Standard errors from the Jacobian, assuming independent residuals (they
         are not: shown for comparison only).
@@ -108,7 +108,7 @@ def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray |
 
 
 #: A parameter within this fraction of its typical size from a bound sits on it.
-_BOUND_SNAP = 1e-12
+_BOUND_SNAP = 1e-9
 
 
 def _snap_to_bounds(x: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -149,7 +149,17 @@ def block_rows(design: Design, block_s: float = 10.0, check: bool = True) -> int
 
 def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P: np.ndarray,
                e_P: np.ndarray, L: int, n_boot: int, seed: int):
-    """Moving-block residual bootstrap: 2.5/97.5 percentiles and replicate correlations.
+    """Wild block bootstrap: 2.5/97.5 percentiles and replicate correlations.
+
+    Each replicate keeps every residual at its own row and flips the sign of
+    whole blocks of ``L`` rows at random (Rademacher weights per block): the
+    autocorrelation within a block is kept, and so is the residual's
+    dependence on the regime (an inertia-only fit leaves large residuals on
+    the regenerating rows, which a moving-block bootstrap would carry onto the
+    motoring rows, biasing η_m so far that its estimate fell outside its own
+    interval: issue 20).  The replicates then centre on the estimate, and a
+    parameter on its bound stays on or inside it, so the percentiles respect
+    the bound.
 
     The replicates' fits are solved together (:func:`_batch_solve`, Gauss-Newton
     from the fit's estimate); one that leaves the bounds or does not converge is
@@ -158,10 +168,8 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
     n = len(e_P)
     rng = np.random.default_rng(seed)
     n_blocks = int(math.ceil(n / L))
-    targets = np.empty((n, n_boot))
-    for i in range(n_boot):
-        starts = rng.integers(0, n - L + 1, size=n_blocks)
-        targets[:, i] = fitted_P + np.concatenate([e_P[s:s + L] for s in starts])[:n]
+    signs = rng.choice(np.array([-1.0, 1.0]), size=(n_blocks, n_boot))
+    targets = fitted_P[:, None] + e_P[:, None] * np.repeat(signs, L, axis=0)[:n]
     boots = np.empty((n_boot, len(names)))
     for c in range(0, n_boot, _CHUNK):
         sl = slice(c, min(c + _CHUNK, n_boot))
@@ -296,12 +304,13 @@ def _line_search(design: Design, names: list[str], Theta: np.ndarray, delta: np.
 
 def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int = 200,
                 block_s: float = 10.0, seed: int = 0) -> BalanceFit:
-    """Least squares (scipy ``least_squares``) with moving-block bootstrap 95 % intervals.
+    """Least squares (scipy ``least_squares``) with wild block bootstrap 95 % intervals.
 
     Residuals of a ride are autocorrelated (the filter; an unknown, varying road
     grade; the rider's lean, which the motor must also drive), so the bootstrap
-    resamples contiguous blocks of ``block_s`` seconds of residuals, adds them to
-    the fitted power and refits; the intervals are the 2.5 and 97.5 percentiles.
+    flips the sign of contiguous blocks of ``block_s`` seconds of residuals, each
+    left at its own row, adds them to the fitted power and refits; the intervals
+    are the 2.5 and 97.5 percentiles.
     Draws use ``numpy.random.default_rng(seed)``.
 
     Parameters

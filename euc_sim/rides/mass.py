@@ -67,6 +67,7 @@ from euc_sim.rides.heldout import select_by_heldout
 from euc_sim.rides.logs import RideLog
 from euc_sim.rides.power import (G, NO_GPS_SCALE_SD, MassSettings, PowerSignals, RideDataError,
                                  SpeedScale, as_ride_log, power_signals)
+from euc_sim.rides.systematic import combined_interval, current_scale_kg, speed_scale_kg
 
 __all__ = ["MassFit", "mass_regressors", "energy_regressors", "fit_mass", "predict_power",
            "heldout_rmse"]
@@ -93,7 +94,7 @@ CANDIDATES = {
 }
 
 
-def mass_regressors(sig: PowerSignals, lag: int) -> dict[str, np.ndarray]:
+def mass_regressors(sig: PowerSignals, lag: int, force: tuple | None = None) -> dict[str, np.ndarray]:
     """Columns of the battery-power model, the speed signals delayed by ``lag`` samples.
 
     Returns
@@ -109,6 +110,8 @@ def mass_regressors(sig: PowerSignals, lag: int) -> dict[str, np.ndarray]:
             "no_load": np.ones_like(v)}
     if "phase_current" in sig.extra:
         cols["copper"] = sig.extra["phase_current"] ** 2
+    elif force is not None:                     # (m, c₁, c₃): see energy_regressors
+        cols["copper"] = (force[0] * _shift(sig.a, lag) + force[1] + force[2] * v ** 2) ** 2
     else:
         cols["copper"] = _shift(sig.a, lag) ** 2
     if sig.climb is not None:
@@ -167,6 +170,15 @@ class MassFit:
     equivalent : dict
         ``{"estimate", "ci95", "rotating_inertia"}`` (kg): m_eq and the J_w/R²
         taken from it, once it has been; empty before.
+    copper_column : str
+        The copper loss's column: ``"phase_current"`` (I_ph², A²), ``"force"``
+        ((m·a + c₁ + c₃v²)², N²) or ``"accel"`` (the proxy a², (m/s²)²).
+    systematic : dict
+        Source -> kg, the 95 % half-width each part the log cannot calibrate
+        adds to the interval in quadrature (:mod:`euc_sim.rides.systematic`).
+    stat_ci95 : tuple of float or None
+        The bootstrap's own 95 % interval, kg, before ``systematic`` is added
+        (``ci95`` is both).
     """
 
     estimate: float | None
@@ -183,6 +195,9 @@ class MassFit:
     why: str = ""
     by_window: dict = field(default_factory=dict)
     equivalent: dict = field(default_factory=dict)
+    copper_column: str = "accel"
+    systematic: dict = field(default_factory=dict)
+    stat_ci95: tuple | None = None
 
 
 def _rows(sig: PowerSignals, cols: dict, v_min: float) -> np.ndarray:
@@ -237,7 +252,8 @@ def _mass(beta: dict) -> float:
     return float(beta["inertia"]) if beta["inertia"] > 0 else float("nan")
 
 
-def energy_regressors(sig: PowerSignals, lag: int, n: int, rate: float) -> tuple[np.ndarray, dict]:
+def energy_regressors(sig: PowerSignals, lag: int, n: int, rate: float,
+                      force: tuple | None = None) -> tuple[np.ndarray, dict]:
     """Both sides of the energy balance over windows of ``n`` samples (:mod:`euc_sim.rides.energy`).
 
     Parameters
@@ -249,6 +265,11 @@ def energy_regressors(sig: PowerSignals, lag: int, n: int, rate: float) -> tuple
         Window length, samples (odd); T = (n − 1)/rate.
     rate : float
         Grid rate, Hz.
+    force : (m, c₁, c₃), optional
+        Without phase current, the copper column is the window mean of the
+        squared drive force (m·a + c₁ + c₃·v²)², N² (kg, N, kg/m), instead of
+        the proxy a²: a copper loss κF² has a cross term 2κ·m·a·F_res that
+        a² cannot absorb and that the a·v column then counts as mass.
 
     Returns
     -------
@@ -265,6 +286,10 @@ def energy_regressors(sig: PowerSignals, lag: int, n: int, rate: float) -> tuple
             "drag": mean(v ** 3), "no_load": np.ones_like(v)}
     if "phase_current" in sig.raw:
         cols["copper"] = mean(sig.raw["phase_current"] ** 2)
+    elif force is not None:
+        m, c1, c3 = force
+        vs = _shift(sig.v, lag)
+        cols["copper"] = mean((m * _shift(sig.a, lag) + c1 + c3 * vs ** 2) ** 2)
     else:
         cols["copper"] = mean(_shift(sig.a, lag) ** 2)
     if "h" in sig.raw:
@@ -285,20 +310,23 @@ class _Design:
         return np.column_stack([self.cols[c] for c in names])
 
 
-def _design(sig: PowerSignals, lag: int, window: float, settings: MassSettings) -> _Design:
+def _design(sig: PowerSignals, lag: int, window: float, settings: MassSettings,
+            force: tuple | None = None) -> _Design:
     n = window_samples_odd(window, settings.rate)
-    y, cols = energy_regressors(sig, lag, n, settings.rate)
+    y, cols = energy_regressors(sig, lag, n, settings.rate, force)
     ok = np.isfinite(y) & (np.nan_to_num(cols["rolling"]) > settings.v_min)
     for c in cols.values():
         ok &= np.isfinite(c)
     return _Design((n - 1) / settings.rate, {k: c[ok] for k, c in cols.items()}, y[ok], sig.t[ok])
 
 
-def _bootstrap(designs: list, names, signed, settings: MassSettings, scale: SpeedScale, mid: int):
+def _bootstrap(designs: list, names, signed, settings: MassSettings, mid: int):
     """Moving-block bootstrap, the same blocks for every window.
 
     Returns the masses of every replicate and window pooled (the window spread
     is carried into the interval) and the replicates' coefficients at window ``mid``.
+    The speed scale is not drawn here: it is the same on every replicate, and
+    :mod:`euc_sim.rides.systematic` carries it.
     """
     rng = np.random.default_rng(settings.seed)
     t0 = min(d.t[0] for d in designs)
@@ -309,11 +337,10 @@ def _bootstrap(designs: list, names, signed, settings: MassSettings, scale: Spee
     masses, coefs = [], []
     for _ in range(n_boot):
         pick = rng.choice(keys, keys.size)
-        s_ratio = 1.0 + rng.normal(0.0, scale.sd)
         for k, d in enumerate(designs):
             idx = np.concatenate([blocks[k].get(b, np.empty(0, int)) for b in pick])
             beta = dict(zip(names, _solve(d.X(names)[idx], d.y[idx], signed)))
-            masses.append(_mass(beta) / s_ratio ** 2)
+            masses.append(_mass(beta))
             if k == mid:
                 coefs.append([beta[n] for n in names])
     return np.asarray(masses), np.asarray(coefs)
@@ -363,8 +390,17 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
                             f"windows; need 20 s")
     names, history = _select(designs[mid].cols, designs[mid].y, designs[mid].t, sig.signed)
     betas = [dict(zip(names, _solve(d.X(names), d.y, sig.signed))) for d in designs]
+    copper_column = "phase_current" if "phase_current" in sig.raw else "accel"
+    efficiency_model = 0.0
+    if "copper" in names and "phase_current" not in sig.raw:
+        f_designs, f_betas = _force_copper(sig, lag, settings, names, list(betas))
+        m_a = np.median([_mass(b) for b in betas])
+        m_f = np.median([_mass(b) for b in f_betas])
+        efficiency_model = abs(float(m_f - m_a))
+        if settings.copper_model == "force":
+            designs, betas, copper_column = f_designs, f_betas, "force"
     by_window = {d.window: _mass(b) for d, b in zip(designs, betas)}
-    masses, coefs = _bootstrap(designs, names, sig.signed, settings, sig.scale, mid)
+    masses, coefs = _bootstrap(designs, names, sig.signed, settings, mid)
     m = float(np.median(list(by_window.values())))
     why = "" if math.isfinite(m) else (
         f"the coefficient of a·v is {betas[mid]['inertia']:.3g} kg, not positive: the "
@@ -376,12 +412,54 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
         if power_not_measured(log):
             why += "; " + power_not_measured(log)
     ok = math.isfinite(m)
+    systematic, stat = {}, _ci(masses) if ok else None
+    if ok:
+        systematic = {"speed_scale": speed_scale_kg(m, sig.scale.sd),
+                      "current_scale": current_scale_kg(m, settings.current_scale_sd),
+                      "efficiency_model": efficiency_model if math.isfinite(efficiency_model) else 0.0,
+                      "grade": _grade_kg(designs[mid], names, sig, m, settings)}
     return MassFit(
-        estimate=m if ok else None, ci95=_ci(masses) if ok else None,
+        estimate=m if ok else None,
+        ci95=combined_interval(m, stat, systematic) if ok and stat else None,
+        stat_ci95=stat, systematic=systematic,
         coef=betas[mid], coef_ci95={n: _ci(coefs[:, i]) for i, n in enumerate(names)},
         terms=[h["term"] for h in history[1:]], history=history, lag=lag / settings.rate, scale=sig.scale,
         signed=sig.signed, n_samples=int(designs[mid].y.size), unidentified=_unidentified(log, sig), why=why,
-        by_window=by_window if ok else {})
+        by_window=by_window if ok else {}, copper_column=copper_column)
+
+
+def _grade_kg(d: "_Design", names, sig: PowerSignals, m: float, settings: MassSettings) -> float:
+    """95 % half-width, kg, of the grade: the mass's change without the GPS-altitude grade term
+    (middle window), or without altitude the prior share ``settings.grade_share`` of the mass."""
+    if "grade" not in d.cols:
+        return settings.grade_share * m
+    if "grade" not in names:
+        return 0.0
+    with_g = _mass(dict(zip(names, _solve(d.X(names), d.y, sig.signed))))
+    rest = [n for n in names if n != "grade"]
+    without = _mass(dict(zip(rest, _solve(d.X(rest), d.y, sig.signed))))
+    dm = abs(with_g - without)
+    return float(dm) if math.isfinite(dm) else 0.0
+
+
+def _force_copper(sig: PowerSignals, lag: int, settings: MassSettings, names, betas,
+                  iterations: int = 4):
+    """The copper loss as κ·F², F = m·a + c₁ + c₃v² from the fit itself, iterated per window.
+
+    Each window's fit gives (m, c₁, c₃), which give its F² column, which gives
+    the next fit; four rounds settle the mass to well under 0.1 kg on the
+    shared rides.  Returns the final designs and coefficients.
+    """
+    designs = []
+    for k, w in enumerate(sorted(settings.windows)):
+        b = betas[k]
+        for _ in range(iterations):
+            m = b["inertia"] if np.isfinite(b["inertia"]) and b["inertia"] > 0 else 100.0
+            d = _design(sig, lag, w, settings, (m, b.get("rolling", 0.0), b.get("drag", 0.0)))
+            b = dict(zip(names, _solve(d.X(names), d.y, sig.signed)))
+        designs.append(d)
+        betas[k] = b
+    return designs, betas
 
 
 def _unidentified(log: RideLog, sig: PowerSignals) -> dict:
@@ -393,7 +471,7 @@ def _unidentified(log: RideLog, sig: PowerSignals) -> dict:
                                "is fitted")
     if sig.climb is None:
         out["grade"] = "no GPS altitude: road grade cannot be identified (left in the residual)"
-    if sig.scale.source != "gps":
+    if sig.scale.source == "assumed":
         out["speed_scale"] = (f"no GPS speed: speedometer scale assumed 1 ± "
                               f"{NO_GPS_SCALE_SD:.0%}, propagated into the mass interval")
     if power_not_measured(log):
@@ -402,8 +480,9 @@ def _unidentified(log: RideLog, sig: PowerSignals) -> dict:
         out["phase_current"] = ("the battery current is the app's duty × phase current (to 3 %), "
                                 "not measured: the phase current is not used for the copper loss")
     if "phase_current" not in sig.extra:
-        out["winding_resistance"] = ("no phase current: the copper loss is fitted on its proxy "
-                                     "a², so the winding resistance itself is not identified")
+        out["winding_resistance"] = ("no phase current: the copper loss is fitted as κ·F², F the "
+                                     "drive force the fit implies (m·a + c₁ + c₃v²; or its proxy a²), "
+                                     "so the winding resistance itself is not identified")
     return out
 
 
@@ -414,7 +493,10 @@ def predict_power(sig: PowerSignals, fit: MassFit, v_min: float = 1.0) -> tuple[
     For an unsigned log the prediction is ``|P̂|`` (what such a log records).
     """
     lag = int(round(fit.lag * (1.0 / np.median(np.diff(sig.t)))))
-    cols = mass_regressors(sig, lag)
+    c = fit.coef
+    force = ((c["inertia"], c.get("rolling", 0.0), c.get("drag", 0.0))
+             if fit.copper_column == "force" else None)
+    cols = mass_regressors(sig, lag, force)
     names = list(fit.coef)
     if any(n not in cols for n in names):        # e.g. grade fitted, no altitude here
         names = [n for n in names if n in cols]

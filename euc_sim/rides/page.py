@@ -19,6 +19,7 @@ import numpy as np
 
 from euc_sim.rides.design import balance_design
 from euc_sim.rides.signals import RideSignals, break_at_gaps
+from euc_sim.rides.verdict import unit_label
 
 __all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "plot_residuals", "residuals_figure", "write_page",
            "summarise_notes",
@@ -245,12 +246,21 @@ def _verdict_md(r: dict, figures: Mapping[str, str]) -> list[str]:
            f"{' (first half)' if not r.get('compare') else ''}, tested on **{test}**. "
            f"Model: the wheel's longitudinal balance in the {r['domain']} domain "
            f"({r['error_measure']}).", ""]
-    named = ", ".join(f"`{e['name']}`" for e in r["effects"]) or "nothing"
-    md += ["## Verdict", "",
-           f"- What the inertia-only model leaves out: {named}.",
-           f"- Held-out error: inertia-only {r['heldout_error_nominal']:.1f} {unit}, augmented "
-           f"{r['heldout_error_augmented']:.1f} {unit}; ratio **{r['ratio']:.2f}** "
-           f"({'better' if r['ratio'] < 1 else 'NOT better'} out of sample).", ""]
+    from euc_sim.rides.verdict import ride_verdict
+
+    v = r.get("verdict") or ride_verdict(r)
+    md += ["## Verdict", "", f"- **{v['text'][0].upper() + v['text'][1:]}.**"]
+    if v["candidates"] and v["battery_power"]:
+        md.append("- Candidates accepted by the held-out balance but outside their plausible "
+                  "ranges (see 'Estimates'): " + ", ".join(f"`{c}`" for c in v["candidates"]) + ".")
+    if v["battery_power"]:
+        md.append(f"- Held-out error: inertia-only {r['heldout_error_nominal']:.1f} {unit}, "
+                  f"augmented {r['heldout_error_augmented']:.1f} {unit}; ratio **{r['ratio']:.2f}** "
+                  f"({'better' if r['ratio'] < 1 else 'NOT better'} out of sample).")
+    else:
+        md.append(f"- Why: {v['why']}. The held-out figures below compare V·I with the model "
+                  f"and say nothing about battery power.")
+    md.append("")
     if "total_mass" in r:
         from euc_sim.rides.drivetrain_report import page_section
         md += page_section(r, figures)
@@ -266,11 +276,11 @@ def _estimates_md(r: dict) -> list[str]:
           "| parameter | estimate | unit | 95 % interval | plausible range | plausible | aliases |",
           "| --- | --- | --- | --- | --- | --- | --- |"]
     for name, e in r["nominal_parameters"].items():
-        md.append(f"| {name} ({e['symbol']}) | {_fmt(e['estimate'])} | {e['unit']} | "
+        md.append(f"| {name} ({e['symbol']}) | {_fmt(e['estimate'])} | {unit_label(e['unit'])} | "
                   f"{_interval(e['ci95'])} | {_interval(e['plausible_range'])} | "
                   f"{'yes' if e['plausible'] else '**no**'} | – |")
     for e in r["effects"]:
-        md.append(f"| {e['name']} | {_fmt(e['estimate'])} | {e['unit']} | {_interval(e['ci95'])} | "
+        md.append(f"| {e['name']} | {_fmt(e['estimate'])} | {unit_label(e['unit'])} | {_interval(e['ci95'])} | "
                   f"{_interval(e['plausible_range'])} | {'yes' if e['plausible'] else '**no**'} | "
                   f"{', '.join(e['aliases']) or '–'} |")
     md.append("")
@@ -282,7 +292,7 @@ def _estimates_md(r: dict) -> list[str]:
     md += ["", "Every candidate fitted together (the ride cannot separate them all):", "",
            "| parameter | estimate | unit | 95 % interval | plausible |", "| --- | --- | --- | --- | --- |"]
     for name, e in r["all_estimates"].items():
-        md.append(f"| {name} | {_fmt(e['estimate'])} | {e['unit']} | {_interval(e['ci95'])} | "
+        md.append(f"| {name} | {_fmt(e['estimate'])} | {unit_label(e['unit'])} | {_interval(e['ci95'])} | "
                   f"{'yes' if e['plausible'] else '**no**'} |")
     return md
 
@@ -305,7 +315,7 @@ def _aliases_md(r: dict) -> list[str]:
             md.append(f"- `{name}` trades off against {', '.join(f'`{a}`' for a in pairs)} "
                       f"(bootstrap correlation beyond ±0.8 in the fit with every candidate).")
     for n in r.get("notes", []):
-        if "masses are assumed" in n or "GPS" in n:
+        if n.startswith("masses of the balance fit") or "GPS" in n:
             md.append(f"- {n}.")
     return md
 
@@ -356,7 +366,7 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         if sim.get("windows"):
             md.append("Windows (s) where the augmented simulation's power error concentrates: "
                       + ", ".join(f"{a:.1f}–{b:.1f}" for a, b in sim["windows"]) + ".")
-        for n in sim.get("notes", []):
+        for n in summarise_notes(sim.get("notes", [])):
             md.append(f"- {n}")
         if "simulation" in figures:
             md += ["", f"![simulation against the log]({figures['simulation']})", ""]
@@ -367,60 +377,87 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
 
 
 def _assumptions_md(r: dict) -> list[str]:
-    """Assumptions and every note."""
+    """Which values came from the spec, the log or the command line, which are defaults; every note."""
     md = ["## Assumptions and notes", ""]
     a = r["assumptions"]
-    md.append(f"- Wheel radius R = {a['R']:g} m, total mass {a['total_mass']:g} kg, "
-              f"m_eq = {a['m_eq']:.3g} kg ({a['source']}); torque from "
-              f"{r['torque_method']}, power from {r['power_source']}.")
-    tm = r.get("total_mass") or {}
-    if tm.get("estimate") is not None:
-        md.append(f"- The balance fit of the sections 'Cross-ride prediction' and 'Estimates' "
-                  f"uses these assumed masses; the total mass found from this log is "
-                  f"{tm['estimate']:.0f} kg (see 'What the wheel weighs').")
+    src = a.get("sources", {})
+    md.append(f"- Balance fit ('Cross-ride prediction', 'Estimates'): wheel radius R = {a['R']:g} m "
+              f"({src.get('R', a.get('source', ''))}); total mass {a['total_mass']:.4g} kg, "
+              f"m_eq = {a['m_eq']:.4g} kg ({src.get('total_mass', a.get('source', ''))}); torque "
+              f"from {r['torque_method']}, power from {r['power_source']}.")
+    w = r.get("wheel")
+    if w is not None:
+        given = {"radius_m": ("wheel radius", "m"), "wheel_mass_kg": ("net weight", "kg"),
+                 "battery_voltage_V": ("battery voltage", "V")}
+        have = [f"{name} {w[k]:.4g} {u}" for k, (name, u) in given.items() if w.get(k) is not None]
+        miss = [name for k, (name, _) in given.items() if w.get(k) is None]
+        src = " + ".join(Path(x.strip()).name if x.strip().endswith(".csv") else x.strip()
+                         for x in str(w.get("source") or "none").split("+"))
+        md.append(f"- From the wheel's specification ({src}): "
+                  f"{', '.join(have) or 'nothing'}"
+                  + (f"; not given: {', '.join(miss)} (" + _missing_effect(miss) + ")" if miss else "")
+                  + ".")
     md += [f"- {n}" for n in summarise_notes(r.get("notes", []))]
     md.append("")
     return md
 
 
+def _missing_effect(missing) -> str:
+    """What a spec value not given changes, in words."""
+    out = []
+    if "wheel radius" in missing:
+        out.append("the balance fit takes Table 3's R = 0.2 m, the back-EMF constant is not converted")
+    if "net weight" in missing:
+        out.append("the mass found is m_eq, the wheel's rotating inertia not taken out")
+    if "battery voltage" in missing:
+        out.append("the envelope takes the open-circuit voltage fitted at the ride's start")
+    return "; ".join(out)
+
+
 _GAP = re.compile(r"^(?P<who>.*?)gap of (?P<len>[\d.]+) s at t = (?P<t>[\d.]+) s "
                   r"\(> max_gap (?P<max>[\d.]+) s\): ride split there, not bridged$")
+_BRIDGED = re.compile(r"^(?P<who>.*?)gap of (?P<len>[\d.]+) s at t = (?P<t>[\d.]+) s bridged linearly$")
 _SHORT = re.compile(r"^(?P<who>.*?)segment \d+ has (?P<n>\d+) samples, fewer than the "
                     r"(?P<win>\d+)-sample filter window: left out$")
 
 
+def _gap_summary(g: list, shown: int) -> str:
+    """"count (total, longest; at t = …)" of gaps ``[(length, t), ...]``, s."""
+    lens = [x[0] for x in g]
+    at = ", ".join(f"{x[1]:.0f}" for x in g[:shown]) + (", …" if len(g) > shown else "")
+    return f"{len(g)} logging gap(s) (total {sum(lens):.1f} s, longest {max(lens):.2f} s; at t = {at} s)"
+
+
 def summarise_notes(notes, shown: int = 5) -> list[str]:
-    """The notes for people: the gap splits and the too-short segments of each ride in one
-    line each (the JSON keeps every one); the other notes as they are, in order."""
-    gaps: dict[str, list] = {}
-    short: dict[str, list] = {}
+    """The notes for people: a ride's gaps (count, total, longest) and its too-short
+    segments in one line each (the JSON keeps every one); the other notes as they are, in order."""
+    groups: dict[tuple, list] = {}
     out: list = []
     for n in notes:
-        m, k = _GAP.match(n), _SHORT.match(n)
-        if m:
-            if m["who"] not in gaps:
-                out.append(("gap", m["who"]))
-            gaps.setdefault(m["who"], []).append((float(m["len"]), float(m["t"]), m["max"]))
-        elif k:
-            if k["who"] not in short:
-                out.append(("short", k["who"]))
-            short.setdefault(k["who"], []).append((int(k["n"]), k["win"]))
-        else:
+        m, b, k = _GAP.match(n), _BRIDGED.match(n), _SHORT.match(n)
+        key = (("split", m["who"], m["max"]) if m else ("bridged", b["who"], "") if b
+               else ("short", k["who"], k["win"]) if k else None)
+        if key is None:
             out.append(n)
+            continue
+        if key not in groups:
+            out.append(key)
+        x = m or b
+        groups.setdefault(key, []).append((float(x["len"]), float(x["t"])) if x else int(k["n"]))
     lines = []
     for item in out:
         if isinstance(item, str):
             lines.append(item)
-        elif item[0] == "gap":
-            g = gaps[item[1]]
-            lens = [x[0] for x in g]
-            at = ", ".join(f"{x[1]:.0f}" for x in g[:shown]) + (", …" if len(g) > shown else "")
-            lines.append(f"{item[1]}{len(g)} logging gap(s) longer than {g[0][2]} s "
-                         f"({min(lens):.2f}–{max(lens):.2f} s; at t = {at} s) split the ride; "
-                         f"not bridged (every one is listed in the JSON's notes)")
+            continue
+        kind, who, arg = item
+        g = groups[item]
+        if kind == "split":
+            lines.append(f"{who}{_gap_summary(g, shown)} longer than {arg} s split the balance "
+                         f"fit's ride there: not bridged (every one is listed in the JSON's notes)")
+        elif kind == "bridged":
+            lines.append(f"{who}{_gap_summary(g, shown)} longer than 1 s bridged linearly in the "
+                         f"simulated speed profile (every one is listed in the JSON's notes)")
         else:
-            k = short[item[1]]
-            lines.append(f"{item[1]}{len(k)} piece(s) between gaps shorter than the "
-                         f"{k[0][1]}-sample filter window ({sum(x[0] for x in k)} samples in all) "
-                         f"left out")
+            lines.append(f"{who}{len(g)} piece(s) between gaps shorter than the "
+                         f"{arg}-sample filter window ({sum(g)} samples in all) left out")
     return lines

@@ -42,7 +42,7 @@ __all__ = ["BASE", "EXTRA", "MIN_GAIN", "pwm_columns", "select_pwm_terms", "full
 BASE = ("K_v", "r_F")
 #: Offered to the selection: name -> (meaning, unit of the coefficient).
 EXTRA: dict[str, tuple[str, str]] = {
-    "dead_time": ("duty added in the current's direction (dead time, 2·t_dead·f_sw)", "1"),
+    "dead_time": ("duty added in the current's direction (dead time, 2·t_dead·f_sw)", "dimensionless"),
     "flux_weakening": ("fall of the back-EMF per speed with speed (d-axis current)",
                        "V/(m/s)^2"),
 }

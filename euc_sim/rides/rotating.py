@@ -25,6 +25,7 @@ import dataclasses
 
 from euc_sim.model.parameters import TABLE3
 from euc_sim.rides.mass import MassFit
+from euc_sim.rides.systematic import combined_interval
 
 __all__ = ["ROTATING_SHARE", "ROTATING_SHARE_RANGE", "without_rotating_inertia"]
 
@@ -48,10 +49,12 @@ def without_rotating_inertia(fit: MassFit, wheel_mass: float | None) -> MassFit:
     Returns
     -------
     MassFit
-        A copy whose ``estimate`` is m_eq − 0.19·wheel_mass and whose ``ci95``
-        is widened by the share's range (lower bound − 0.28·wheel_mass, upper
-        − 0.10·wheel_mass); ``equivalent`` keeps m_eq, its interval and the
-        J_w/R² subtracted, kg.  ``by_window`` is shifted by the same J_w/R².
+        A copy whose ``estimate`` is m_eq − 0.19·wheel_mass, whose
+        ``systematic`` gains ``rotating_share`` (half the share's range,
+        0.09·wheel_mass, kg) and whose ``ci95`` is recombined with it
+        (:func:`euc_sim.rides.systematic.combined_interval`); ``equivalent``
+        keeps m_eq, its interval and the J_w/R² subtracted, kg.  ``by_window``
+        is shifted by the same J_w/R².
     """
     if fit.equivalent:
         raise ValueError("fit: the rotating inertia has already been taken out of this mass")
@@ -62,9 +65,12 @@ def without_rotating_inertia(fit: MassFit, wheel_mass: float | None) -> MassFit:
                                    ) if fit.estimate is not None else fit
     lo_s, hi_s = ROTATING_SHARE_RANGE
     J_w_R2 = ROTATING_SHARE * wheel_mass
-    ci = (fit.ci95[0] - hi_s * wheel_mass, fit.ci95[1] - lo_s * wheel_mass) if fit.ci95 else None
+    est = fit.estimate - J_w_R2
+    stat = (fit.stat_ci95[0] - J_w_R2, fit.stat_ci95[1] - J_w_R2) if fit.stat_ci95 else None
+    systematic = {**fit.systematic, "rotating_share": 0.5 * (hi_s - lo_s) * wheel_mass}
     return dataclasses.replace(
-        fit, estimate=fit.estimate - J_w_R2, ci95=ci,
+        fit, estimate=est, ci95=combined_interval(est, stat, systematic), stat_ci95=stat,
+        systematic=systematic,
         by_window={w: x - J_w_R2 for w, x in fit.by_window.items()},
         equivalent={"estimate": fit.estimate, "ci95": list(fit.ci95) if fit.ci95 else None,
                     "rotating_inertia": J_w_R2, "rotating_inertia_range": [lo_s * wheel_mass, hi_s * wheel_mass]})

@@ -72,6 +72,10 @@ class RideAssumptions:
         M = k_t·I_phase.  None: not known, torque comes from power.
     v_min : float
         Speeds below this, m/s, leave the torque undefined (P/ω blows up).
+    sources : tuple of (str, str)
+        Where ``R`` and ``total_mass`` (with ``m_eq``) came from, as
+        ``(("R", "spec ..."), ("total_mass", "found from this log"))``; a value
+        not listed is Table 3's default.
     """
 
     R: float = TABLE3.R
@@ -81,6 +85,7 @@ class RideAssumptions:
     efficiency: float = 0.8
     torque_constant: float | None = None
     v_min: float = 0.5
+    sources: tuple = ()
 
     def __post_init__(self) -> None:
         for name in ("R", "total_mass", "m_eq", "g", "v_min"):
@@ -98,11 +103,16 @@ class RideAssumptions:
         """R, total mass and m_eq from a :class:`~euc_sim.model.parameters.Params`."""
         return cls(R=p.R, total_mass=p.total_mass, m_eq=p.m_eq, g=p.g, **kw)
 
+    def source_of(self, name: str) -> str:
+        """Where the value ``name`` ("R" or "total_mass") came from."""
+        return dict(self.sources).get(name, "default (Table 3)")
+
     def as_dict(self) -> dict:
         return {"R": self.R, "total_mass": self.total_mass, "m_eq": self.m_eq, "g": self.g,
                 "efficiency_for_torque": self.efficiency,
                 "torque_constant": self.torque_constant, "v_min": self.v_min,
-                "source": "CONTRACT / Table 3 defaults unless overridden"}
+                "sources": {k: self.source_of(k) for k in ("R", "total_mass")},
+                "source": ("; ".join(f"{k}: {self.source_of(k)}" for k in ("R", "total_mass")))}
 
 
 # --------------------------------------------------------------------------------------

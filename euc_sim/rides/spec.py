@@ -76,6 +76,21 @@ class WheelSpec:
                 "source": self.source, "missing": list(self.missing)}
 
 
+_LABEL = {"radius": "Wheel diameter", "wheel_mass": "Net weight", "battery_voltage": "Tension"}
+
+
+def _check_range(where: str, attr: str, value: float) -> None:
+    """Refuse a value no wheel has (:data:`euc_sim.rides.sanity.SPEC_RANGE`), naming it."""
+    from euc_sim.rides.sanity import SPEC_RANGE
+
+    lo, hi, unit = SPEC_RANGE[attr]
+    if not lo <= value <= hi:
+        shown = (f"{2 * value / INCH:.3g} inches (radius {value:.3g} m)" if attr == "radius"
+                 else f"{value:g} {unit}")
+        raise SpecError(f"{where}: {shown} is no electric unicycle's {attr.replace('_', ' ')} "
+                        f"(expected {lo:g}–{hi:g} {unit})")
+
+
 def _number(path, field: str, text: str, units: tuple[str, ...]) -> float:
     m = re.match(r"\s*([0-9]+(?:[.,][0-9]+)?)\s*([A-Za-z\"]*)", text)
     if not m:
@@ -136,6 +151,8 @@ def read_spec(path) -> WheelSpec:
             got[attr] = _number(path, row[0].strip(), text, units) * factor
     if "wheel_mass" not in got:
         raise SpecError(f"{path}: field 'Net weight': missing (expected e.g. 'Net weight| 23.5 kg')")
+    for attr, val in got.items():
+        _check_range(f"{path}: field {_LABEL[attr]!r}", attr, val)
     name = " ".join(names.get(k, "") for k in ("brand", "model")).strip() or path.stem
     return WheelSpec(name=name, source=str(path), **got)
 
@@ -164,6 +181,7 @@ def wheel_spec(path=None, *, radius: float | None = None, wheel_mass: float | No
             continue
         if not (val == val and 0 < val < float("inf")):
             raise SpecError(f"wheel {key}: expected a positive number, got {val!r}")
+        _check_range(f"--{key.replace('_', '-')}", key, float(val))
         over[key] = float(val)
     if over:
         src = spec.source if spec.source != "none" else ""

@@ -16,13 +16,21 @@ def test_gaps_and_short_pieces_become_one_line_each_per_ride():
              + ["b.csv: gap of 3.00 s at t = 5.00 s (> max_gap 1 s): ride split there, not bridged"])
     out = summarise_notes(notes)
     assert out[0] == "pwm: taken as 100 - safety_margin"
-    assert out[1].startswith("7 logging gap(s) longer than 1 s (1.20–1.80 s; at t = 0, 10, 20, "
-                             "30, 40, … s)")
+    assert out[1].startswith("7 logging gap(s) (total 10.5 s, longest 1.80 s; at t = 0, 10, 20, "
+                             "30, 40, … s) longer than 1 s split")
     assert out[2].startswith("2 piece(s) between gaps shorter than the 15-sample filter window "
                              "(16 samples in all)")
     assert out[3] == "masses are assumed"
-    assert out[4].startswith("b.csv: 1 logging gap(s) longer than 1 s (3.00–3.00 s; at t = 5 s)")
+    assert out[4].startswith("b.csv: 1 logging gap(s) (total 3.0 s, longest 3.00 s; at t = 5 s)")
     assert len(out) == 5
+
+
+def test_bridged_gaps_of_the_simulated_profile_become_one_line():
+    notes = [f"gap of {1.5 + i:.2f} s at t = {i:.2f} s bridged linearly" for i in range(400)]
+    out = summarise_notes(notes)
+    assert len(out) == 1
+    assert out[0].startswith("400 logging gap(s) (total 80400.0 s, longest 400.50 s")
+    assert "bridged linearly" in out[0]
 
 
 def test_other_notes_pass_unchanged():

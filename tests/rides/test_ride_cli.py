@@ -238,19 +238,24 @@ def test_effects_to_inject():
 # --- the real rides ------------------------------------------------------------------------
 @pytest.mark.skipif(not SHARED.is_dir(), reason=f"{SHARED} absent (user's clone)")
 def test_real_rides_done_criterion(tmp_path, capsys):
-    """Issue 6's done-criterion: on the two real rides the tool names what the
-    nominal model leaves out, and the cross-ride error drops (ratio < 1), with the figure."""
+    """Issue 6's criterion as issue 20 left it: on the two five-minute real rides the
+    wild block bootstrap's intervals (which keep each residual at its own row) hold zero
+    for every candidate in the fit with all of them, so nothing is named, and the
+    verdict says so with the numbers; the figures and windows are still written."""
     code, out, err = run(["ride", RIDE_A, "--compare", RIDE_B, "--json", tmp_path / "o.json",
                           "--report", tmp_path / "rep", "--n-boot", "50", "--no-simulate"],
                          capsys)
     assert code == 0, err
     rep = json.loads((tmp_path / "o.json").read_text())
-    assert rep["effects"], "nothing named"
     for e in rep["effects"]:
         assert e["evidence"] and e["unit"] and "plausible" in e
-    assert rep["heldout_error_augmented"] / rep["heldout_error_nominal"] < 1.0
+    if not rep["effects"]:
+        assert "each 95 % interval holds zero" in rep["verdict"]["text"]
+        assert rep["heldout_error_augmented"] == pytest.approx(rep["heldout_error_nominal"])
+    else:
+        assert rep["heldout_error_augmented"] / rep["heldout_error_nominal"] < 1.0
     assert rep["aliases"]["rolling_resistance"] == ["road_slope"]
     assert rep["windows"] and all(0.0 <= a < b <= 340.0 for a, b in rep["windows"])
     for name in ("ride_balance.png", "ride_residuals.png", "index.md"):
         assert (tmp_path / "rep" / name).stat().st_size > 2_000
-    assert "left out:" in out
+    assert "verdict:" in out

@@ -1,0 +1,84 @@
+"""The one-line verdict of a ride: what it names, and what it refuses to name.
+
+A ride page must never contradict itself (issue 20): an effect the balance fit
+accepts but whose estimate lies outside its plausible range is a *candidate*,
+not the verdict, and a log whose V·I is not battery power gets no
+battery-power verdict at all.  :func:`ride_verdict` turns the ``euc-sim ride``
+report into ``{"text", "named", "candidates", "battery_power"}``; the page
+and the console print it as it is.
+"""
+
+from __future__ import annotations
+
+__all__ = ["ride_verdict", "unit_label", "NOT_EXPLAINED"]
+
+#: The verdict when every accepted effect is implausible.
+NOT_EXPLAINED = "the mismatch is not explained by a plausible effect"
+
+
+def unit_label(unit: str) -> str:
+    """A unit for people: ``"1"`` (a ratio) is written "dimensionless", the rest as given."""
+    return "dimensionless" if unit in ("1", "", None) else str(unit)
+
+
+def ride_verdict(report: dict) -> dict:
+    """The verdict of an ``euc-sim ride`` report.
+
+    Parameters
+    ----------
+    report : dict
+        The ride JSON (``effects``, ``unidentified``, ``heldout_error_nominal``,
+        ``heldout_error_augmented``, ``ratio``, ``error_unit``).
+
+    Returns
+    -------
+    dict
+        ``battery_power`` (bool: whether the log's V·I is battery power),
+        ``named`` (the accepted effects whose estimates are plausible, strongest
+        first), ``candidates`` (accepted but implausible: listed, never named),
+        ``text`` (one sentence) and ``why`` (the reason, when there is no
+        battery-power verdict).
+    """
+    not_power = (report.get("unidentified") or {}).get("battery_power")
+    effects = report.get("effects") or []
+    named = [e["name"] for e in effects if e.get("plausible", True)]
+    cand = [e["name"] for e in effects if not e.get("plausible", True)]
+    shown = {e["name"]: _with_numbers(e) for e in effects}
+    out = {"battery_power": not_power is None, "named": named, "candidates": cand}
+    if not_power is not None:
+        out["text"] = ("no battery-power verdict: this log's V·I is not battery power, so "
+                       "nothing is named from it")
+        out["why"] = not_power
+        out["named"], out["candidates"] = [], [e["name"] for e in effects]
+        return out
+    if named:
+        text = "the inertia-only model leaves out " + ", ".join(named)
+        if cand:
+            text += (f"; also accepted but implausible (candidates, not named): "
+                     f"{'; '.join(shown[c] for c in cand)}")
+    elif cand:
+        text = f"{NOT_EXPLAINED} (candidates, each implausible: {'; '.join(shown[c] for c in cand)})"
+    else:
+        text = "nothing is missing that this ride can reveal" + _why_nothing(report)
+    out["text"] = text
+    return out
+
+
+def _why_nothing(report: dict) -> str:
+    """Why no effect was accepted, with the numbers: each candidate's full-fit interval holds zero."""
+    full = report.get("all_estimates") or {}
+    held = [f"{k} {e['ci95'][0]:.3g} to {e['ci95'][1]:.3g} {unit_label(e['unit'])}"
+            for k, e in full.items() if k not in ("eta_motor", "eta_regen") and e.get("ci95")
+            and e["ci95"][0] <= 0.0 <= e["ci95"][1]]
+    if not held:
+        return ""
+    return (": in the fit with every candidate each 95 % interval holds zero ("
+            + "; ".join(held) + "), so none is accepted")
+
+
+def _with_numbers(e: dict) -> str:
+    """``name estimate unit (plausible lo–hi)``: an effect entry in words."""
+    u = unit_label(e.get("unit"))
+    rng = e.get("plausible_range")
+    out = f"{e['name']} {e['estimate']:.3g} {u}"
+    return out + (f" (plausible {rng[0]:.3g}–{rng[1]:.3g})" if rng else "")
