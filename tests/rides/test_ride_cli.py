@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from euc_sim.cli import main
+from euc_sim.io import is_temporary
 from euc_sim.rides.signals import RideAssumptions
 from euc_sim.rides.page import split_at_gaps
 from euc_sim.rides.simulate import battery_power, effects_to_inject, ride_params
@@ -98,7 +99,7 @@ def test_report_folder(full_run):
         assert (d / name).stat().st_size > 20_000
     for word in ("aerodynamic_drag", "kg/m", "cannot tell apart", "Windows (s)", "plausible"):
         assert word in page
-    assert not list(d.glob(".*.tmp"))                     # no temporary files left
+    assert not [p for p in d.iterdir() if is_temporary(p)]                     # no temporary files left
 
 
 def test_halves_and_torque_domain_without_simulation(logs, tmp_path, capsys):

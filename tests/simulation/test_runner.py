@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from euc_sim.io import is_temporary
 from euc_sim.simulation.runner import check_backend, run_tasks
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -105,7 +106,7 @@ def test_dataset_fall_is_named_exit_2(tmp_path, capsys, workers):
     assert "constant_speed_01  FallError: fall at t = " in err
     manifest = json.loads((out / "dataset.json").read_text())
     assert manifest["recordings"] == [] and len(manifest["failed"]) == 14
-    assert not list(out.glob("*.tmp")) and not list(out.glob(".*.tmp"))
+    assert not [p for p in out.iterdir() if is_temporary(p)]
 
 
 def test_dataset_help_describes_out_and_seed(capsys):
@@ -182,4 +183,4 @@ def test_sigterm_stops_a_dataset_at_once_and_leaves_no_temp_files(tmp_path):
     assert proc.returncode == 143, err          # 128 + SIGTERM, as the shell reports it
     assert "interrupted" in err and "Traceback" not in err
     assert _wait(lambda: not any(_alive(p) for p in workers), 10)
-    assert not out.exists() or not [p for p in out.iterdir() if p.name.endswith(".tmp")]
+    assert not out.exists() or not [p for p in out.iterdir() if is_temporary(p)]
