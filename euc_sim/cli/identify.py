@@ -189,14 +189,16 @@ def cmd_identify(args: argparse.Namespace) -> int:
     pooled, per = res["pooled"], res["per_recording"]
 
     per_json = []
+    riders = []
     figures = []
     fig_paths = _figure_paths(args.plot, names) if args.plot else [None] * len(recs)
     for rec, fits, fig_path in zip(recs, per, fig_paths):
         p_h = rec.params.replace(h=fits["3dof"].h)
+        riders.append(identify_rider_delay(rec.kin, p_h))
         entry = {"recording": rec.name,
                  "models": {m: f.as_json() for m, f in fits.items()},
                  "controller": identify_controller(rec.kin, p_h).as_json(),
-                 "rider": identify_rider_delay(rec.kin, p_h).as_json()}
+                 "rider": riders[-1].as_json()}
         if "M_d" in rec.df.columns:
             M_h = rec.df["M_h"].to_numpy() if "M_h" in rec.df.columns else None
             entry["base_parameters"] = identify_base_parameters(
@@ -213,6 +215,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
     h_per = [rec.params.replace(h=fits["3dof"].h) for rec, fits in zip(recs, per)]
     controller = identify_controller([r.kin for r in recs], h_per)
+    bound_hits = _at_bound(names, per, pooled, riders)
     out = {
         "recordings": names,
         "models": {m: f.as_json() for m, f in pooled.items()},
@@ -222,8 +225,11 @@ def cmd_identify(args: argparse.Namespace) -> int:
         "bounds": [args.h_min, args.h_max],
         "bootstrap": {"replicates": args.bootstrap, "block_s": block, "seed": args.seed},
         "figures": figures,
+        "at_bound": [key for key, _ in bound_hits],
     }
-    _print_results(names, recs, per, pooled, per_json, controller)
+    _print_results(names, recs, per, pooled, per_json, controller, riders)
+    for sentence in dict.fromkeys(s for _, s in bound_hits):
+        print(f"WARNING: {sentence}")
     if args.json:
         write_json(args.json, out)
     for f in figures:
@@ -231,8 +237,41 @@ def cmd_identify(args: argparse.Namespace) -> int:
     return 0
 
 
+def _at_bound(names: list[str], per: list[dict], pooled: dict, riders: list) -> list[tuple[str, str]]:
+    """Every fitted quantity that ends on its search bound: (JSON path, a sentence).
+
+    The paths name the quantity in the identify JSON (``models.3dof.h``,
+    ``per_recording[0].rider.delay``); one recording's pooled fit is its own, so the
+    sentence is shared.
+    """
+    hits = []
+    what = {"h": "h = {h:.3f} m lies on the search bound [{lo:g}, {hi:g}] m: it is a bound, "
+                 "not a minimum (widen --h-min/--h-max or use a ride that identifies h)",
+            "h_ci95": "the 95% interval of h [{c0:.3f}, {c1:.3f}] m is cut off by the search bound "
+                      "[{lo:g}, {hi:g}] m: the true interval is wider"}
+
+    def h_hits(prefix: str, label: str, fits: dict) -> None:
+        for m, f in fits.items():
+            for q in f.at_bound():
+                text = what[q].format(h=f.h, c0=f.h_ci95[0], c1=f.h_ci95[1],
+                                      lo=float(f.h_grid[0]), hi=float(f.h_grid[-1]))
+                hits.append((f"{prefix}models.{m}.{q}", f"{label} {m}: {text}"))
+
+    for i, (name, fits, rider) in enumerate(zip(names, per, riders)):
+        label = Path(name).name
+        h_hits(f"per_recording[{i}].", label, fits)
+        if rider.at_bound:
+            lo, hi = float(rider.delay_curve[0][0]), float(rider.delay_curve[0][-1])
+            hits.append((f"per_recording[{i}].rider.delay",
+                         f"{label}: rider delay {rider.delay:.3f} s lies on the search bound "
+                         f"[{lo:g}, {hi:g}] s: it is a bound, not an estimate, and the rider's "
+                         f"law (R² {rider.r2:.3f}) is the bounded fit's"))
+    h_hits("", "pooled" if len(names) > 1 else Path(names[0]).name, pooled)
+    return hits
+
+
 def _print_results(names: list[str], recs: list, per: list[dict], pooled: dict, per_json: list[dict],
-                   controller) -> None:
+                   controller, riders: list) -> None:
     """The table of h per recording and pooled, and the controller and rider laws, on stdout."""
     print(f"{'recording':<32} {'model':<5} {'h [m]':>7} {'95% interval [m]':>18} "
           f"{'RMSE [N·m]':>10}  identifiable")
@@ -244,12 +283,13 @@ def _print_results(names: list[str], recs: list, per: list[dict], pooled: dict, 
             ci = f"[{f.h_ci95[0]:.3f}, {f.h_ci95[1]:.3f}]"
             print(f"{label[:32]:<32} {m:<5} {f.h:7.3f} {ci:>18} {f.rmse:10.4g}  "
                   f"{'yes' if f.identifiable else 'NO: ' + f.reason}")
-    for rec, e in zip(recs, per_json):
+    for rec, e, rider in zip(recs, per_json, riders):
         g = e["controller"]["gains"]
         r = e["rider"]
         print(f"{Path(rec.name).name}: controller K_p = {g['gamma']:.4g} N·m/rad, "
               f"K_d = {g['gamma_d']:.4g} N·m·s/rad (R² {e['controller']['r2']:.3f}); "
-              f"rider delay {r['delay']:.3f} s (R² {r['r2']:.3f})")
+              f"rider delay {r['delay']:.3f} s (R² {r['r2']:.3f})"
+              f"{' AT THE SEARCH BOUND' if rider.at_bound else ''}")
     if len(recs) > 1:
         g = controller.gains
         print(f"pooled: controller K_p = {g['gamma']:.4g} N·m/rad, K_d = {g['gamma_d']:.4g} "

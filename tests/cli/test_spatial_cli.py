@@ -26,10 +26,16 @@ def test_simulate_3d_writes_a_mocap_recording(eight):
     assert truth["model"] == "3d" and truth["path_error"]["max_m"] < 1.0
 
 
-def test_section_2_runs_on_a_3d_recording(eight, tmp_path):
+def test_section_2_runs_on_a_3d_recording(eight, tmp_path, capsys):
     out = tmp_path / "id.json"
     assert main(["identify", str(eight), "--json", str(out), "--bootstrap", "20"]) == 0
-    assert out.is_file()
+    res = json.loads(out.read_text())
+    rider = res["per_recording"][0]["rider"]
+    on_bound = min(abs(rider["delay"] - b) for b in rider["search"]) < 1e-9
+    printed = capsys.readouterr().out
+    # issue 19, item 3: a rider delay on the search's end is said, in print and in the JSON
+    assert on_bound == ("per_recording[0].rider.delay" in res["at_bound"])
+    assert on_bound == ("rider delay" in printed and "AT THE SEARCH BOUND" in printed)
 
 
 def test_simulate_3d_bad_input_is_one_line(tmp_path, capsys):
