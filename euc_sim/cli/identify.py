@@ -127,8 +127,9 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("recordings", nargs="+", help="CONTRACT recordings (CSV or Parquet)")
     p.add_argument("--json", metavar="FILE", help="write the results (CONTRACT's identify form)")
     p.add_argument("--plot", metavar="FILE",
-                   help="Fig. 8 (RMSE against h) to FILE, Figs. 6/7 beside it as "
-                        "STEM-torques.png (one recording) or STEM-torques-REC.png")
+                   help="Fig. 8 (RMSE against h) to FILE; ALSO writes Figs. 6/7 beside it, "
+                        "STEM-torques.png (one recording) or STEM-torques-REC.png (one per "
+                        "recording); every file written is printed")
     p.add_argument("--h-min", type=float, default=0.1, metavar="M", help="search bound, m")
     p.add_argument("--h-max", type=float, default=1.5, metavar="M", help="search bound, m")
     p.add_argument("--bootstrap", type=int, default=400, metavar="N",
