@@ -367,7 +367,8 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     runs = {"nominal": ({}, nominal), "augmented": (eff, augmented)}
     falls = []
     jobs = [(t_p, v_p, params, effects, seed, dt, track_iterations, 10.0,
-             _prefixed(progress, name, workers), name) for name, (effects, _) in runs.items()]
+             _prefixed(progress, name, workers), name, i)
+            for i, (name, (effects, _)) in enumerate(runs.items())]
     done = _run_jobs(jobs, list(runs), params, workers, progress)
     for (name, (effects, est)), run in zip(runs.items(), done):
         notes += [f"{name}: {n}" for n in run.notes]

@@ -114,13 +114,13 @@ class ProfileRun:
 class _RideClock:
     """A tqdm bar over the ride's seconds (stderr), fed by the engine's ``progress(t)``."""
 
-    def __init__(self, total: float, desc: str, enabled: bool):
+    def __init__(self, total: float, desc: str, enabled: bool, position: int = 0):
         import sys
 
         from tqdm import tqdm
 
         self.bar = tqdm(total=round(total, 1), desc=desc, unit="s", unit_scale=False, file=sys.stderr,
-                        disable=not enabled, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
+                        disable=not enabled, position=position, mininterval=1.0, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
                         "{n:.0f}/{total:.0f} s of ride [{elapsed}<{remaining}]")
 
     def __call__(self, t: float) -> None:
@@ -179,7 +179,7 @@ def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, wi
 def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapping[str, float],
                      seed: int = 0, dt: float = 1e-3, track_iterations: int = 1,
                      track_window: float = 10.0, progress: Callable[[str], None] | None = None,
-                     label: str = "ride") -> ProfileRun:
+                     label: str = "ride", position: int = 0) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
     The simulated rider has no integral action: a resisting force (drag, rolling
@@ -214,6 +214,8 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         bar over the ride's seconds is shown on stderr too.
     label : str
         The bar's name (the run: ``nominal``, ``augmented``).
+    position : int
+        The bar's line (0 first): runs side by side in processes keep their own line.
 
     Returns
     -------
@@ -227,7 +229,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     notes: list[str] = []
 
     def clock_of(what: str) -> _RideClock:
-        return _RideClock(float(t[-1] - t[0]), f"{label} {what}", progress is not None)
+        return _RideClock(float(t[-1] - t[0]), f"{label} {what}", progress is not None, position)
 
     say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
     clock = clock_of("ride")

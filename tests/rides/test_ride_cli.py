@@ -284,7 +284,7 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
     real = simulate_mod.simulate_profile
     t_fall = 40.0
 
-    def nominal_falls(t, v, params, effects, seed, dt, iterations, window, progress, label):
+    def nominal_falls(t, v, params, effects, seed, dt, iterations, window, progress, label, position):
         run = real(t, v, params, effects, seed, dt, 0, window, None, label)
         if label != "nominal":
             return run
@@ -300,3 +300,16 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
     for run in ("nominal", "augmented"):
         assert all(np.isfinite(list(sim["errors"][run].values())))
     assert 0 < sim["scored_rows"]
+
+
+def test_the_falls_are_said_once_with_the_runs_they_ended():
+    from euc_sim.rides.page import falls_sentence
+
+    cause = "|phi| = 0.700 rad exceeds the bound 0.7 rad"
+    both = [{"t": 842.921, "cause": cause, "run": "nominal"}, {"t": 842.921, "cause": cause, "run": "augmented"}]
+    text = falls_sentence(both, 0)
+    assert text.count("842.9 s") == 1 and text.count(cause) == 1 and "nominal and augmented" in text
+    assert "not ridden again" in text and "no error to report" in text
+    one = falls_sentence(both[:1], 120)
+    assert "(nominal: " in one and "over the 120 scored rows ridden before it" in one
+    assert falls_sentence([], 10) is None
