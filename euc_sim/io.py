@@ -14,7 +14,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 __all__ = ["atomic_write", "write_text", "write_json", "to_jsonable", "check_writable",
-           "write_recording", "sidecar_paths", "temporary_beside", "is_temporary", "FLOAT_FORMAT"]
+           "write_recording", "sidecar_paths", "temporary_beside", "is_temporary", "FLOAT_FORMAT",
+           "save_figure", "figure_png"]
 
 #: What marks a temporary file of :func:`atomic_write`: ``.NAME.tmp-XXXXXXXX.EXT``.
 _TEMP_MARK = ".tmp-"
@@ -126,6 +127,39 @@ def _usual_mode(path: Path) -> None:
 def write_text(path: str | Path, text: str) -> Path:
     """Write text atomically (UTF-8)."""
     return atomic_write(path, lambda p: p.write_text(text, encoding="utf-8"))
+
+
+def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
+    """Write a matplotlib Figure atomically, in the format its extension names (PNG by default).
+
+    Figures are built by pure functions that return them (``matplotlib.figure.Figure``,
+    not registered with pyplot, so nothing needs closing); this is the one place they
+    are written.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    path : path
+        Destination; its suffix (``.png``, ``.pdf``, ...) chooses the format.
+    dpi : int
+        Dots per inch.
+
+    Returns
+    -------
+    pathlib.Path
+        The destination.
+    """
+    kind = Path(path).suffix.lstrip(".").lower() or "png"
+    return atomic_write(path, lambda p: fig.savefig(p, dpi=dpi, format=kind))
+
+
+def figure_png(fig, dpi: int = 110) -> bytes:
+    """A matplotlib Figure as PNG bytes (for pages written only once all is made)."""
+    import io
+
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=dpi, format="png")
+    return buf.getvalue()
 
 
 def to_jsonable(obj: Any) -> Any:

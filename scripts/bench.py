@@ -403,6 +403,33 @@ def bench_ride_mass() -> dict:
     return out
 
 
+# --- issue 22: h's interval over fresh noise, and the rollout second opinion -----------------
+def bench_uncertainty() -> dict:
+    """One 15 s deceleration: identify with 40 noise replicates and by rollout, vs identify alone."""
+    from euc_sim.identification.h_fit import Recording, identify_recordings
+    from euc_sim.identification.processing import kinematics
+    from euc_sim.identification.rollout_fit import fit_rollout
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.simulation.engine import default_rider, simulate
+    from euc_sim.simulation.mocap import motion_capture
+
+    run = simulate("deceleration", 15.0, rider=default_rider(TABLE3, noise_std=3.0), seed=1)
+    df = motion_capture(run, TABLE3, noise="paper", seed=1)
+    rec = Recording("bench", df, {}, TABLE3, kinematics(df, TABLE3))
+    t_plain = timed(lambda: identify_recordings([rec], n_boot=400, n_noise=0))
+    t_noise = timed(lambda: identify_recordings([rec], n_boot=400, n_noise=40), repeat=1)
+    t_roll = timed(lambda: fit_rollout(df, rec.kin, TABLE3, h0=0.6), repeat=1)
+    out = {"identify_s": t_plain, "identify_noise_40_s": t_noise, "rollout_s": t_roll,
+           "ratio_noise_replicates_vs_identify": t_noise / t_plain,
+           "ratio_rollout_vs_identify": t_roll / t_plain}
+    print(f"  identify (block bootstrap 400), 15 s, both models : {t_plain:6.3f} s")
+    print(f"  + 40 noise replicates                             : {t_noise:6.3f} s "
+          f"({out['ratio_noise_replicates_vs_identify']:.1f}x)")
+    print(f"  rollout fit (3-DoF, 15 windows)                   : {t_roll:6.3f} s "
+          f"({out['ratio_rollout_vs_identify']:.0f}x; aim <= 10 s)")
+    return out
+
+
 SECTIONS: dict[str, Callable[[], dict]] = {
     "inverse": bench_inverse,
     "closed_loop": bench_closed_loop,
@@ -412,6 +439,7 @@ SECTIONS: dict[str, Callable[[], dict]] = {
     "diagnose": bench_diagnose,
     "ride_mass": bench_ride_mass,
     "spatial": bench_spatial,
+    "uncertainty": bench_uncertainty,
 }
 
 

@@ -32,7 +32,8 @@ def main(argv=None) -> int:
     rows = []
     for seed in args.seeds:
         specs = dataset.dataset_plan(seed=seed, duration=15.0)
-        paths = dataset.run_dataset(Path(args.out) / f"seed{seed}", specs, workers=args.workers)
+        rep = dataset.run_dataset(Path(args.out) / f"seed{seed}", specs, workers=args.workers)
+        paths = [rep.results[s.name] for s in specs]
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             recs = [h_fit.load(p) for p in paths]

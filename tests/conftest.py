@@ -8,3 +8,9 @@ import os
 
 if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
     os.environ.setdefault("MUJOCO_GL", "egl")
+
+import sys
+from pathlib import Path
+
+# helpers shared by every test folder (figcheck) import by name
+sys.path.append(str(Path(__file__).resolve().parent))

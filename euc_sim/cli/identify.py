@@ -139,6 +139,13 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
                         "filtered residual)")
     p.add_argument("--seed", type=seed, default=0,
                    help="seed of the bootstrap draws, a non-negative integer (default 0)")
+    p.add_argument("--noise-replicates", type=int, default=None, metavar="N",
+                   help="replicates with fresh measurement noise that widen the 95%% interval "
+                        "(default 40; 0: the block bootstrap alone)")
+    p.add_argument("--method", choices=("equation", "rollout"), default="equation",
+                   help="equation: h by the equation error of eqs. 9-10 (default); rollout: "
+                        "also h by the simulation error of 1 s MuJoCo rollouts with free initial "
+                        "states, where the recordings carry M_d and M_h (3-DoF model)")
     add_smoothing_arguments(p)
     p.set_defaults(func=cmd_identify)
     return p
@@ -174,6 +181,10 @@ def cmd_identify(args: argparse.Namespace) -> int:
         check_writable(args.plot)
     if args.bootstrap < 0:
         raise UsageError(f"--bootstrap must be non-negative, got {args.bootstrap}")
+    from euc_sim.identification.noise_bootstrap import N_REPLICATES
+    n_noise = N_REPLICATES if args.noise_replicates is None else args.noise_replicates
+    if n_noise < 0:
+        raise UsageError(f"--noise-replicates must be non-negative, got {n_noise}")
     block = BOOTSTRAP_BLOCK if args.block is None else args.block
     if not block > 0:
         raise UsageError(f"--block must be positive seconds, got {args.block}")
@@ -186,7 +197,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         raise UsageError("a recording is given twice")
     recs = [_load(n, args) for n in names]
     res = identify_recordings(recs, bounds=(args.h_min, args.h_max), n_boot=args.bootstrap,
-                              block=block, seed=args.seed)
+                              block=block, seed=args.seed, n_noise=n_noise)
     pooled, per = res["pooled"], res["per_recording"]
 
     per_json = []
@@ -224,10 +235,16 @@ def cmd_identify(args: argparse.Namespace) -> int:
         "per_recording": per_json,
         "smoothing": recs[0].kin.smoothing.describe(),
         "bounds": [args.h_min, args.h_max],
-        "bootstrap": {"replicates": args.bootstrap, "block_s": block, "seed": args.seed},
+        "bootstrap": {"replicates": args.bootstrap, "block_s": block, "seed": args.seed,
+                      "noise_replicates": n_noise},
         "figures": figures,
         "at_bound": [key for key, _ in bound_hits],
     }
+    if args.method == "rollout":
+        _rollout(args, recs, per, pooled, per_json, out)
+        for prefix, entry in [(f"per_recording[{i}].", e) for i, e in enumerate(per_json)] + [("", out)]:
+            out["at_bound"] += [f"{prefix}models.3dof.{q}" for q in entry["models"]["3dof"].get("at_bound", [])
+                                if q.startswith("rollout.")]
     _print_results(names, recs, per, pooled, per_json, controller, riders)
     for sentence in dict.fromkeys(s for _, s in bound_hits):
         print(f"WARNING: {sentence}")
@@ -269,6 +286,48 @@ def _at_bound(names: list[str], per: list[dict], pooled: dict, riders: list) -> 
                          f"law (R² {rider.r2:.3f}) is the bounded fit's"))
     h_hits("", "pooled" if len(names) > 1 else Path(names[0]).name, pooled)
     return hits
+
+
+def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dict], out: dict) -> None:
+    """``--method rollout``: h by simulation error per recording, pooled by inverse variance;
+    added to the 3-DoF entries of the JSON, printed, and (with ``--plot``) drawn."""
+    import math
+
+    from euc_sim.cli.common import UsageError
+    from euc_sim.identification.rollout_fit import fit_rollout
+
+    for rec in recs:
+        missing = [c for c in ("M_d", "M_h", "x", "gamma", "phi") if c not in rec.df.columns]
+        if missing:
+            raise UsageError(f"{rec.name}: --method rollout needs column {missing[0]!r} "
+                             f"(both recorded torques M_d, M_h and the states x, gamma, phi)")
+    fits = []
+    for rec, f, entry in zip(recs, per, per_json):
+        r = fit_rollout(rec.df, rec.kin, rec.params, h0=f["3dof"].h, bounds=(args.h_min, args.h_max))
+        fits.append(r)
+        m = entry["models"]["3dof"]
+        m["rollout"] = r.as_json()
+        m.setdefault("at_bound", []).extend(f"rollout.{q}" for q in r.at_bound)
+        warn = f"  WARNING: h ends on its search bound [{args.h_min}, {args.h_max}] m" if r.at_bound else ""
+        print(f"{Path(rec.name).name}: rollout h = {r.h:.4f} m [{r.h_ci95[0]:.4f}, {r.h_ci95[1]:.4f}] "
+              f"({r.windows} windows of 1 s, {r.seconds:.1f} s; largest |correlation| of h with a "
+              f"window state {m['rollout']['max_abs_correlation_h']:.2f}){warn}")
+        if args.plot:
+            from euc_sim.identification.plots import plot_rollout
+
+            base = Path(args.plot)
+            tag = "" if len(recs) == 1 else f"-{Path(rec.name).stem}"
+            fig = plot_rollout(rec.name, r, base.with_name(f"{base.stem}-rollout{tag}{base.suffix or '.png'}"))
+            out["figures"].append(str(fig))
+    w = [1.0 / max(((r.h_ci95[1] - r.h_ci95[0]) / 3.92) ** 2, 1e-18) for r in fits]
+    h = sum(wi * r.h for wi, r in zip(w, fits)) / sum(w)
+    sd = math.sqrt(1.0 / sum(w))
+    pooled_json = {"h": h, "h_ci95": [h - 1.96 * sd, h + 1.96 * sd],
+                   "seconds": sum(r.seconds for r in fits), "windows": sum(r.windows for r in fits),
+                   "at_bound": sorted({q for r in fits for q in r.at_bound})}
+    m = out["models"]["3dof"]
+    m["rollout"] = pooled_json
+    m.setdefault("at_bound", []).extend(f"rollout.{q}" for q in pooled_json["at_bound"])
 
 
 def _print_results(names: list[str], recs: list, per: list[dict], pooled: dict, per_json: list[dict],

@@ -53,6 +53,7 @@ from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation import effects as fx
 
 __all__ = ["nominal_magnitude", "effect_estimate", "effect_study", "effects_design", "plot_effects_design",
+           "effects_design_figure",
            "RELATIVE_TARGETS", "parse_effects"]
 
 #: Target standard deviations as fractions of the effect's magnitude.
@@ -295,17 +296,32 @@ def _check(maneuvers, effect_names, rides, duration, noise_scale, valid_maneuver
 
 
 def plot_effects_design(result: dict, path) -> Path:
+    """Write :func:`effects_design_figure` to ``path`` (atomically)."""
+    from euc_sim.io import save_figure
+
+    return save_figure(effects_design_figure(result), path)
+
+
+def effects_design_figure(result: dict):
     """Each effect's sd from one recording relative to its magnitude, per maneuver:
     Monte Carlo (bars) and the covariance prediction (markers), with the diagnosis's
-    detection line (1/min_t)."""
-    from euc_sim.identification.plots import _pyplot, _save
+    detection line (1/min_t).
 
-    plt = _pyplot()
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib import rcParamsDefault
+    from matplotlib.figure import Figure
+
+    from euc_sim.identification.plots import plain_log_ticks
+
     names = [e for e, v in result["effects"].items() if v["visible"]]
     mans = list(result["by_maneuver"])
-    fig, ax = plt.subplots(figsize=(max(6.0, 1.6 * len(names) + 2.0), 4.8))
+    fig = Figure(figsize=(max(6.0, 1.6 * len(names) + 2.0) + 3.0, 5.2), layout="constrained")
+    ax = fig.add_subplot()
     width = 0.8 / max(len(mans), 1)
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    colors = rcParamsDefault["axes.prop_cycle"].by_key()["color"]
     for i, m in enumerate(mans):
         xs, sd, cov = [], [], []
         for k, e in enumerate(names):
@@ -325,13 +341,14 @@ def plot_effects_design(result: dict, path) -> Path:
     ax.set_xticklabels([f"{e}\n{result['effects'][e]['nominal']:.3g} {result['effects'][e]['unit']}"
                         for e in names], fontsize=8)
     ax.set(yscale="log", ylabel="sd of the estimate / effect magnitude (one recording)",
-           title=(f"How precisely each maneuver measures each effect ({result['rides']} rides of "
+           xlabel="effect (its magnitude in the study)")
+    fig.suptitle((f"How precisely each maneuver measures each effect\n({result['rides']} rides of "
                   f"{result['duration']:g} s, sensor noise {result['noise_scale']:g}x paper, "
-                  f"torques {'recorded' if result['with_torques'] else 'not recorded'})"))
-    ax.title.set_fontsize(9)
-    ax.legend(fontsize=7, ncol=2)
+                  f"torques {'recorded' if result['with_torques'] else 'not recorded'})"),
+                 fontsize=9)
+    plain_log_ticks(ax.yaxis)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0)
     hidden = [f"{e}: {v['reason']}" for e, v in result["effects"].items() if not v["visible"]]
     if hidden:
-        fig.text(0.01, 0.01, "Not visible: " + "; ".join(hidden), fontsize=6, wrap=True)
-    fig.tight_layout(rect=(0, 0.06 if hidden else 0, 1, 1))
-    return _save(fig, path)
+        fig.supxlabel("Not visible: " + "; ".join(hidden), fontsize=6, wrap=True)
+    return fig

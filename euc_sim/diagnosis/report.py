@@ -13,6 +13,8 @@
   simulation (rider lean φ, speed ẋ);
 - ``drift.png``: with ``cog_height_drift`` named, h(t) with its 95 % band.
 
+Each figure is built by a pure function of the result that returns a matplotlib
+Figure (:data:`FIGURES`: file name -> builder); :func:`write_report` renders them.
 Figures use degrees only for display; everything else is SI.
 """
 
@@ -22,7 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["summary", "write_report", "report_paths", "resimulation_change_text"]
+__all__ = ["summary", "write_report", "report_paths", "resimulation_change_text", "FIGURES",
+           "residual_figure", "terms_figure", "before_after_figure", "resimulation_figure", "drift_figure"]
 
 
 def _fmt_effect(e: dict) -> str:
@@ -111,46 +114,42 @@ def _where(r: dict) -> list[str]:
     return lines
 
 
-def _plt():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
+def _figure(figsize):
+    """A new Figure (not registered with pyplot) laid out by constrained layout."""
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, layout="constrained")
 
 
-def _png(fig, dpi: int) -> bytes:
-    """The figure as PNG bytes (closed afterwards): written only once the whole report is made."""
-    import io
-    buf = io.BytesIO()
-    fig.savefig(buf, dpi=dpi, format="png")
-    _plt().close(fig)
-    return buf.getvalue()
+def _legend_right(ax, **kw) -> None:
+    """The panel's legend outside its right edge: it never covers the data."""
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0.0, **kw)
 
 
-def _fig_residual(result: dict) -> bytes:
-    plt = _plt()
+def residual_figure(result: dict):
+    """``residual.png``: the residual over time, nominal and with the accepted effects."""
     s = result["_series"]
     has_w = s.get("wheel_nominal") is not None
-    fig, axes = plt.subplots(2 if has_w else 1, 1, figsize=(10, 6.5 if has_w else 4), sharex=True,
-                             squeeze=False)
+    fig = _figure((12, 6.5 if has_w else 4))
+    axes = fig.subplots(2 if has_w else 1, 1, sharex=True, squeeze=False)
     ax = axes[1, 0] if has_w and "wheel" in result.get("localised_on", "") else axes[0, 0]
     for a, b in result["windows"]:
         ax.axvspan(a, b, color="tab:orange", alpha=0.18, lw=0)
     if result["windows"]:
-        ax.plot([], [], color="tab:orange", alpha=0.4, lw=6, label="windows where the mismatch concentrates")
+        ax.plot([], [], color="tab:orange", alpha=0.4, lw=6, label="windows where the\nmismatch concentrates")
     ax = axes[0, 0]
     rows = " (both rows)" if has_w else ""
     ax.plot(s["t"], s["residual_nominal"], color="tab:red", lw=1.2,
-            label=f"nominal (held-out RMSE{rows} {result['nominal_rmse']:.3f} N·m)")
+            label=f"nominal\n(held-out RMSE{rows} {result['nominal_rmse']:.3f} N·m)")
     names = ", ".join(e["name"] for e in result["effects"]) or "none accepted"
     ax.plot(s["t"], s["residual_augmented"], color="tab:blue", lw=1.2,
-            label=f"with {names} (held-out RMSE{rows} {result['augmented_rmse']:.3f} N·m)")
+            label=f"with {names}\n(held-out RMSE{rows} {result['augmented_rmse']:.3f} N·m)")
     ax.axhline(0.0, color="k", lw=0.6)
     ax.fill_between(s["t"], -result["noise_floor"], result["noise_floor"], color="0.8", alpha=0.5,
                     label=f"± noise floor ({result['noise_floor']:.3f} N·m)")
     ax.set_ylabel("M_d,1 − M_d,2 (N·m)")
     ax.set_title(f"{result['recording']}: kinematic residual (moment balance about the contact point P)")
-    ax.legend(loc="best", fontsize=8)
+    _legend_right(ax)
     if has_w:
         ax = axes[1, 0]
         ax.plot(s["t"], s["wheel_nominal"], color="tab:red", lw=1.2, label="nominal")
@@ -158,20 +157,26 @@ def _fig_residual(result: dict) -> bytes:
         ax.axhline(0.0, color="k", lw=0.6)
         ax.set_ylabel("M_d,1 − M_d recorded (N·m)")
         ax.set_title("wheel row (M_d recorded): sees internal torques such as bearing friction")
-        ax.legend(loc="best", fontsize=8)
+        _legend_right(ax)
     axes[-1, 0].set_xlabel("time t (s)")
-    fig.tight_layout()
-    return _png(fig, 110)
+    return fig
 
 
-def _fig_terms(result: dict) -> bytes:
-    plt = _plt()
+def terms_figure(result: dict):
+    """``terms.png``: the residual against each candidate term fitted alone.
+
+    Each candidate is fitted jointly with h, so each panel's residual is at its
+    own h (in its title); one legend for the figure.
+    """
+    from matplotlib.lines import Line2D
+
     s = result["_series"]
     fits = s["single_fits"]
     names = list(fits)
     cols = 2
     rows = int(np.ceil(len(names) / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(11, 2.4 * rows), squeeze=False, sharex=True)
+    fig = _figure((11, 2.5 * rows + 1.4))
+    axes = fig.subplots(rows, cols, squeeze=False, sharex=True)
     accepted = {e["name"] for e in result["effects"]}
     trials = {d["name"]: d for d in (result["history"][1]["trials"] if len(result["history"]) > 1 else [])}
     wheel = "wheel" in result.get("localised_on", "")
@@ -180,99 +185,129 @@ def _fig_terms(result: dict) -> bytes:
         y, term, h, y_w, term_w = fits[name]
         if wheel:
             y, term = y_w, term_w
-        ax.plot(s["t"], y, color="0.55", lw=1.0, label=f"nominal residual (h = {h:.2f} m)")
-        ax.plot(s["t"], term, color="tab:green" if name in accepted else "tab:purple", lw=1.2,
-                label="best fit of this term alone")
+        ax.plot(s["t"], y, color="0.55", lw=1.0)
+        ax.plot(s["t"], term, color="tab:green" if name in accepted else "tab:purple", lw=1.2)
         cv = trials.get(name, {}).get("cv_rmse")
-        extra = f", held-out RMSE {cv:.3f} N·m" if cv is not None else ""
-        ax.set_title(f"{name}{' (accepted)' if name in accepted else ''}{extra}", fontsize=9)
-        ax.set_ylabel("N·m", fontsize=8)
-        ax.legend(fontsize=7, loc="best")
+        extra = f"; held-out RMSE {cv:.3f} N·m" if cv is not None else ""
+        ax.set_title(f"{name}{' (accepted)' if name in accepted else ''}: h = {h:.2f} m{extra}", fontsize=9)
+        ax.set_ylabel("torque (N·m)", fontsize=8)
     for j in range(len(names), rows * cols):
         axes[j // cols, j % cols].axis("off")
-    for ax in axes[-1]:
-        ax.set_xlabel("time t (s)")
+    for j, ax in enumerate(axes[-1]):
+        if rows * cols - cols + j < len(names):
+            ax.set_xlabel("time t (s)")
+        elif rows > 1:
+            axes[-2, j].set_xlabel("time t (s)")
+            axes[-2, j].xaxis.set_tick_params(labelbottom=True)
     row = "wheel row M_d,1 − M_d" if wheel else "residual M_d,1 − M_d,2"
-    fig.suptitle(f"{row} against each candidate term (nominal held-out RMSE "
-                 f"{result['nominal_rmse']:.3f} N·m)")
-    fig.tight_layout()
-    return _png(fig, 100)
+    fig.legend(handles=[Line2D([], [], color="0.55", label="residual at the h fitted with this term (h in the title)"),
+                        Line2D([], [], color="tab:purple", label="best fit of this term alone"),
+                        Line2D([], [], color="tab:green", label="best fit of this term alone (accepted)")],
+               loc="outside lower center", ncol=3, fontsize=8)
+    fig.suptitle(f"{row} against each candidate term (nominal held-out RMSE {result['nominal_rmse']:.3f} N·m)\n"
+                 f"each term is fitted alone jointly with h, so each panel's residual is at its own h "
+                 f"(nominal h = {result['h_nominal']:.2f} m)", fontsize=10)
+    return fig
 
 
-def _fig_before_after(result: dict) -> bytes:
-    plt = _plt()
-    labels = ["nominal"]
-    values = [result["nominal_rmse"]]
+def before_after_figure(result: dict):
+    """``before_after.png``: held-out residual RMSE before and after each accepted effect.
+
+    A logarithmic N·m axis with plain numbers and a second axis in multiples of
+    the noise floor: a bar near the floor stays distinct from it; every bar is labelled.
+    """
+    from euc_sim.identification.plots import plain_log_ticks
+
+    floor = result["noise_floor"]
+    labels, values = ["nominal"], [result["nominal_rmse"]]
     for e in result["effects"]:
         labels.append("+ " + e["name"])
         values.append(e["rmse_after"])
-    fig, ax = plt.subplots(figsize=(7, 3.6))
-    ax.bar(range(len(values)), values, color=["tab:red"] + ["tab:blue"] * (len(values) - 1),
-           label="held-out residual RMSE")
-    ax.axhline(result["noise_floor"], color="k", ls="--", lw=1, label="noise floor")
-    ax.set_xticks(range(len(values)), labels, rotation=15, fontsize=8)
-    ax.set_ylabel("held-out RMSE of M_d,1 − M_d,2 (N·m)")
-    ax.set_title("held-out residual before and after adding the accepted effects")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    return _png(fig, 110)
+    fig = _figure((8.5, 4.2))
+    ax = fig.add_subplot()
+    x = np.arange(len(values))
+    ax.bar(x[:1], values[:1], color="tab:red", label="nominal model")
+    if len(values) > 1:
+        ax.bar(x[1:], values[1:], color="tab:blue", label="with the accepted effects, added in turn")
+    for xi, v in zip(x, values):
+        ax.annotate(f"{v:.3f} N·m\n({v / floor:.2f}× floor)" if floor > 0 else f"{v:.3f} N·m",
+                    (xi, v), xytext=(0, 3), textcoords="offset points", ha="center", va="bottom", fontsize=8)
+    ax.axhline(floor, color="k", ls="--", lw=1, label=f"noise floor ({floor:.3f} N·m)")
+    ax.set_yscale("log")
+    lo = min(min(values), floor) / 2.0
+    ax.set_ylim(lo, max(max(values), floor) * 4.0)
+    plain_log_ticks(ax.yaxis)
+    ax.set_xticks(x, labels, rotation=15, fontsize=8)
+    ax.set_xlim(-0.6, len(values) - 0.4)
+    ax.set_xlabel("model")
+    ax.set_ylabel("held-out RMSE of M_d,1 − M_d,2 (N·m, log)")
+    ax.set_title("held-out residual before and after adding the accepted effects" if result["effects"]
+                 else "held-out residual of the nominal model (no effect accepted)")
+    _legend_right(ax)
+    return fig
 
 
-def _fig_resim(result: dict) -> bytes | None:
+def resimulation_figure(result: dict):
+    """``resimulation.png``: the recording against the nominal and augmented simulation (None without one)."""
     s = (result.get("_series") or {}).get("resimulation")
     if not s or "nominal_phi" not in s:
         return None
-    plt = _plt()
-    fig, axes = plt.subplots(3, 1, figsize=(10, 8.5), sharex=True)
+    fig = _figure((12, 8.5))
+    axes = fig.subplots(3, 1, sharex=True)
     names = ", ".join(e["name"] for e in result["effects"]) or "no effect"
     ax = axes[2]
     for label, color, ls in (("nominal", "tab:red", "-"), ("augmented", "tab:blue", "--")):
         if f"{label}_phi" in s:
             d = np.degrees(s["recording_phi"] - s[f"{label}_phi"])
             ax.plot(s["t"], d, color=color, ls=ls, lw=1.0,
-                    label=f"recording − {label} simulation (RMS {np.sqrt(np.mean(d ** 2)):.2f}°)")
+                    label=f"recording − {label}\nsimulation (RMS {np.sqrt(np.mean(d ** 2)):.2f}°)")
     ax.axhline(0.0, color="k", lw=0.6)
     ax.set_ylabel("lean difference (deg)")
-    ax.legend(fontsize=8, loc="best")
+    _legend_right(ax)
     for ax, key, unit, conv in ((axes[0], "phi", "rider lean φ (deg)", np.degrees),
                                 (axes[1], "speed", "speed ẋ (m/s)", lambda v: v)):
         ax.plot(s["t"], conv(s[f"recording_{key}"]), color="k", lw=1.4, label="recording (filtered)")
         ax.plot(s["t"], conv(s[f"nominal_{key}"]), color="tab:red", lw=1.0, label="nominal simulation")
         if f"augmented_{key}" in s:
             ax.plot(s["t"], conv(s[f"augmented_{key}"]), color="tab:blue", lw=1.0, ls="--",
-                    label=f"augmented simulation ({names})")
+                    label=f"augmented simulation\n({names})")
         ax.set_ylabel(unit)
-        ax.legend(fontsize=8, loc="best")
-    axes[0].set_title("recording against the nominal and the augmented closed-loop simulation")
+        _legend_right(ax)
+    fig.suptitle(f"{result['recording']}: recording against the nominal and the augmented closed-loop "
+                 "simulation")
     axes[2].set_xlabel("time t (s)")
-    fig.tight_layout()
-    return _png(fig, 110)
+    return fig
 
 
-def _fig_drift(result: dict) -> bytes | None:
-    """h(t) of a named cog_height_drift with its 95 % band, the windows where it changes."""
+def drift_figure(result: dict):
+    """``drift.png``: h(t) of a named cog_height_drift with its 95 % band (None without one)."""
     item = next((e for e in result["effects"] if e["name"] == "cog_height_drift" and "h_of_t" in e), None)
     if item is None:
         return None
-    plt = _plt()
     ht = item["h_of_t"]
     t, h, w = (np.asarray(ht[k], float) for k in ("t", "h", "ci95_halfwidth"))
-    fig, ax = plt.subplots(figsize=(9, 3.6))
+    fig = _figure((11, 3.8))
+    ax = fig.add_subplot()
     for a, b in item.get("windows", []):
         ax.axvspan(a, b, color="tab:orange", alpha=0.18, lw=0)
     ax.fill_between(t, h - w, h + w, color="tab:blue", alpha=0.25, label="95 % band")
     ax.plot(t, h, color="tab:blue", lw=1.5,
-            label=f"h(t) identified ({item['shape']['kind']}; peak to peak {item['estimate']:.3f} m)")
+            label=f"h(t) identified ({item['shape']['kind']};\npeak to peak {item['estimate']:.3f} m)")
     ax.axhline(result["h_nominal"], color="tab:red", ls="--", lw=1,
-               label=f"constant h of the nominal model ({result['h_nominal']:.3f} m)")
+               label=f"constant h of the nominal\nmodel ({result['h_nominal']:.3f} m)")
     if item.get("windows"):
         ax.plot([], [], color="tab:orange", alpha=0.4, lw=6, label="where h changes")
     ax.set_xlabel("time t (s)")
     ax.set_ylabel("rider's CoG height h (m)")
     ax.set_title(f"{result['recording']}: the rider's centre of gravity over the ride")
-    ax.legend(fontsize=8, loc="best")
-    fig.tight_layout()
-    return _png(fig, 110)
+    _legend_right(ax)
+    return fig
+
+
+#: The report's figures: file name -> (builder, dpi).
+FIGURES = {"residual.png": (residual_figure, 110), "terms.png": (terms_figure, 100),
+           "before_after.png": (before_after_figure, 110), "resimulation.png": (resimulation_figure, 110),
+           "drift.png": (drift_figure, 110)}
 
 
 def write_report(result: dict, outdir: str | Path) -> Path:
@@ -300,15 +335,16 @@ def write_report(result: dict, outdir: str | Path) -> Path:
     OSError
         naming the path that cannot be written.
     """
-    from euc_sim.io import atomic_write, write_text
+    from euc_sim.io import atomic_write, figure_png, write_text
 
     if "_series" not in result:
         raise ValueError("result: expected the dict returned by diagnose() (with '_series'), "
                          "got one without its arrays")
     out = Path(outdir)
-    figures = {"residual.png": _fig_residual(result), "terms.png": _fig_terms(result),
-               "before_after.png": _fig_before_after(result), "resimulation.png": _fig_resim(result),
-               "drift.png": _fig_drift(result)}
+    figures = {}
+    for name, (build, dpi) in FIGURES.items():
+        fig = build(result)
+        figures[name] = None if fig is None else figure_png(fig, dpi)
     page = _markdown(result, has_resim=figures["resimulation.png"] is not None)
     for name, png in figures.items():
         if png is not None:

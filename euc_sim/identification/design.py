@@ -45,7 +45,7 @@ from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation.mocap import NOISE_LEVELS
 
 __all__ = ["DESIGN_MANEUVERS", "FLAT_FACTOR", "FISHER_MAX_LAG", "maneuver_study", "design",
-           "recommendation", "plot_design"]
+           "recommendation", "plot_design", "design_figure"]
 
 #: Maneuvers the design can simulate (the built-in ones; a profile needs a file).
 DESIGN_MANEUVERS = ("constant_speed", "acceleration", "deceleration", "stop_and_go")
@@ -260,47 +260,64 @@ def recommendation(result: dict) -> str:
 
 
 def plot_design(result: dict, path) -> Path:
-    """The RMSE(h) curves (like the paper's Fig. 8) at each noise scale and h's sd across
-    noise scales (Monte Carlo and Fisher), one colour per maneuver."""
-    from euc_sim.identification.plots import _pyplot, _save
+    """Write :func:`design_figure` to ``path`` (atomically)."""
+    from euc_sim.io import save_figure
 
-    plt = _pyplot()
+    return save_figure(design_figure(result), path)
+
+
+def design_figure(result: dict):
+    """The RMSE(h) curves (like the paper's Fig. 8) at each noise scale and h's sd across
+    noise scales (Monte Carlo and Fisher), one colour per maneuver, one legend for the figure.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib import rcParamsDefault
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    from euc_sim.identification.plots import plain_log_ticks
+
     scales = result["noise"]["scales"]
-    fig, axes = plt.subplots(2, len(scales), figsize=(4.2 * len(scales), 7.5), squeeze=False)
-    colors = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    fig = Figure(figsize=(max(4.4 * len(scales), 9.0), 8.2), layout="constrained")
+    axes = fig.subplots(2, len(scales), squeeze=False)
+    colors = rcParamsDefault["axes.prop_cycle"].by_key()["color"]
     for j, s in enumerate(scales):
         ax = axes[0, j]
         for i, row in enumerate(result["maneuvers"]):
             c = result["curves"][row["maneuver"]]
-            ax.plot(c["h_grid"], c["rmse_rel"][j], color=colors[i % len(colors)], label=row["maneuver"])
-        ax.axvline(result["h_true"], color="k", lw=0.8, ls=":", label=f"true h = {result['h_true']:g} m")
+            ax.plot(c["h_grid"], c["rmse_rel"][j], color=colors[i % len(colors)])
+        ax.axvline(result["h_true"], color="k", lw=0.8, ls=":")
         ax.set(title=f"sensor noise {s:g}x paper", xlabel="h (m)", ylabel="RMSE(M_d,1 - M_d,2) / minimum",
                ylim=(0.95, None))
-        ax.legend(fontsize=7)
-    for j in range(len(scales)):
-        ax = axes[1, j]
-        if j:
-            ax.axis("off")
-            continue
-        for i, row in enumerate(result["maneuvers"]):
-            col = colors[i % len(colors)]
-            sd = [b["h_sd"] * 1000 for b in row["by_noise"]]
-            fi = [b["h_sd_fisher"] * 1000 for b in row["by_noise"]]
-            ax.plot(scales, sd, "o", color=col, label=f"{row['maneuver']} (Monte Carlo)")
-            ax.plot(scales, fi, "--", color=col, label=f"{row['maneuver']} (Fisher)")
-        ax.set(xscale="log", yscale="log", xlabel="sensor noise (x paper: 0.2 mm, 0.5 deg)",
-               ylabel="sd of h from one recording (mm)",
-               title=f"h from one {result['duration']:g} s recording ({result['rides']} rides)")
-        ax.legend(fontsize=7)
+    ax = axes[1, 0]
+    for i, row in enumerate(result["maneuvers"]):
+        col = colors[i % len(colors)]
+        ax.plot(scales, [b["h_sd"] * 1000 for b in row["by_noise"]], "o", color=col, ms=6, zorder=3)
+        ax.plot(scales, [b["h_sd_fisher"] * 1000 for b in row["by_noise"]], "--", color=col, zorder=2)
+    ax.set(xscale="log", yscale="log", xlabel="sensor noise (x paper: 0.2 mm, 0.5 deg)",
+           ylabel="sd of h from one recording (mm)",
+           title=f"h from one {result['duration']:g} s recording ({result['rides']} rides)")
+    plain_log_ticks(ax.xaxis, scales)
+    plain_log_ticks(ax.yaxis)
+    for j in range(1, len(scales)):
+        axes[1, j].axis("off")
     if len(scales) > 1:
         text = "\n".join(f"{r['maneuver']}: {r['h_sd'] * 1000:.1f} mm (MC), {r['h_sd_fisher'] * 1000:.1f} mm "
                          f"(Fisher); n for ±10 mm: {recordings_for(r['h_sd'], [0.01])['0.01']}"
                          for r in result["maneuvers"])
         axes[1, 1].text(0.0, 0.95, "At the paper's noise:\n" + text + "\n\n" + _wrap(result["recommendation"]),
                         va="top", fontsize=8, transform=axes[1, 1].transAxes)
+    handles = [Line2D([], [], color=colors[i % len(colors)], label=r["maneuver"])
+               for i, r in enumerate(result["maneuvers"])]
+    handles += [Line2D([], [], color="k", ls=":", lw=0.8, label=f"true h = {result['h_true']:g} m"),
+                Line2D([], [], color="0.4", ls="", marker="o", label="sd of h: Monte Carlo"),
+                Line2D([], [], color="0.4", ls="--", label="sd of h: Fisher prediction")]
+    fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 4), fontsize=8)
     fig.suptitle("Experiment design: how precisely each maneuver identifies h")
-    fig.tight_layout()
-    return _save(fig, path)
+    return fig
 
 
 def _wrap(text: str, width: int = 70) -> str:

@@ -9,19 +9,14 @@ import math
 from pathlib import Path
 
 import numpy as np
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 
 from euc_sim.identification.h_fit import MIN_RISE
+from euc_sim.io import save_figure
 
-__all__ = ["plot_recording", "plot_rmse_curves", "check_figure_path"]
-
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
-    return plt
+__all__ = ["plot_recording", "recording_figure", "plot_rmse_curves", "rmse_curves_figure",
+           "plot_rollout", "rollout_figure", "check_figure_path", "plain_log_ticks"]
 
 
 def check_figure_path(path) -> Path:
@@ -43,16 +38,12 @@ def check_figure_path(path) -> Path:
     return path
 
 
-def _save(fig, path) -> Path:
-    from euc_sim.io import atomic_write
-
-    suffix = Path(path).suffix.lstrip(".") or "png"
-    out = atomic_write(path, lambda p: fig.savefig(p, dpi=110, format=suffix))
-    _pyplot().close(fig)
-    return out
-
-
 def plot_recording(rec, torques_df, fit, path) -> Path:
+    """Write :func:`recording_figure` to ``path`` (atomically)."""
+    return save_figure(recording_figure(rec, torques_df, fit), path)
+
+
+def recording_figure(rec, torques_df, fit):
     """Fig. 6/7 of the paper for one recording.
 
     Panels (ψ), (ϑ) where recorded, then γ, φ, and M_d,1 against M_d,2 of the
@@ -65,14 +56,18 @@ def plot_recording(rec, torques_df, fit, path) -> Path:
         :func:`euc_sim.identification.torques.torques` at the identified h.
     fit : HFit
         The 3-DoF fit of this recording.
-    path : path
-        Output PNG (written atomically).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
-    plt = _pyplot()
+    from matplotlib.figure import Figure
+
     kin = rec.kin
     panels = [(k, lab) for k, lab in (("psi", "yaw ψ"), ("theta", "tilt ϑ")) if k in kin.extra]
     panels += [("gamma", "EUC pitch γ"), ("phi", "rider pitch φ"), ("torque", "")]
-    fig, axes = plt.subplots(len(panels), 1, figsize=(8, 1.9 * len(panels) + 0.6), sharex=True)
+    fig = Figure(figsize=(10, 1.9 * len(panels) + 0.8), layout="constrained")
+    axes = fig.subplots(len(panels), 1, sharex=True)
     t = kin.t
     for ax, (key, label), letter in zip(axes, panels, "abcdefg"):
         if key == "torque":
@@ -94,7 +89,7 @@ def plot_recording(rec, torques_df, fit, path) -> Path:
             ax.set_ylabel("torque [N·m]")
             ax.set_title(f"({letter}) driving torque, 3-DoF model, h = {fit.h:.3f} m: "
                          f"RMSE($M_{{d,1}} - M_{{d,2}}$) = {fit.rmse:.3f} N·m", fontsize=9)
-            ax.legend(loc="best", fontsize=8)
+            ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
         else:
             y = kin.extra[key] if key in kin.extra else kin.q[:, 1 if key == "gamma" else 2]
             ax.plot(t, np.degrees(y), color="k", lw=1.0)
@@ -104,52 +99,148 @@ def plot_recording(rec, torques_df, fit, path) -> Path:
     axes[-1].set_xlabel("time t [s]")
     fig.suptitle(f"{Path(rec.name).name}: processed data (cf. the paper's Figs. 6-7); "
                  f"smoothing {kin.smoothing.method}", fontsize=10)
-    fig.tight_layout()
-    return _save(fig, path)
+    return fig
 
 
 def plot_rmse_curves(names, per_recording, pooled, path) -> Path:
+    """Write :func:`rmse_curves_figure` to ``path`` (atomically)."""
+    return save_figure(rmse_curves_figure(names, per_recording, pooled), path)
+
+
+def rmse_curves_figure(names, per_recording, pooled):
     """Fig. 8 of the paper: RMSE(M_d,1 − M_d,2) against h, 3-DoF and 2-DoF.
 
     One panel per recording plus a pooled panel (when more than one), each with
-    both models' curves, their minima and 95 % intervals.
+    both models' curves divided by their own minimum, on one logarithmic scale
+    shared by every panel: the rise within ±0.1 m of the minimum (the
+    identifiability verdict's statistic, :attr:`HFit.flatness`) reads the same
+    in every panel, against the threshold :data:`MIN_RISE`.  Minima, the points
+    at ±0.1 m and the 95 % intervals are marked; one legend for the figure.
 
     Parameters
     ----------
     names : list of str
     per_recording : list of dict of model → HFit
     pooled : dict of model → HFit
-    path : path
+
+    Returns
+    -------
+    matplotlib.figure.Figure
     """
-    plt = _pyplot()
+    from matplotlib.figure import Figure
+
     items = list(zip([Path(n).name for n in names], per_recording))
     if len(items) > 1:
         items.append(("pooled", pooled))
     n = len(items)
     cols = min(n, 4)
     rows = int(math.ceil(n / cols))
-    # at least 2 panels wide, so that one recording's title and legend are not clipped
-    fig, axes = plt.subplots(rows, cols, figsize=(max(4.2 * cols, 8.4), 3.4 * rows + 0.6),
-                             squeeze=False)
-    style = {"3dof": ("tab:blue", "3 DoF"), "2dof": ("tab:orange", "2 DoF (reduced)")}
+    fig = Figure(figsize=(max(4.4 * cols, 8.8), 3.3 * rows + 1.6), layout="constrained")
+    axes = fig.subplots(rows, cols, squeeze=False, sharey=True)
+    top = min(20.0, max(float(np.nanmax(f.rmse_grid / f.rmse)) for _, fits in items
+                        for f in fits.values() if f.rmse > 0))
     for ax, (title, fits), letter in zip(axes.flat, items, "abcdefghijklmnopqrstuvwxyz" * 3):
+        lines = [f"({letter}) {title}"]
         for model, fit in fits.items():
-            color, label = style[model]
-            ax.plot(fit.h_grid, fit.rmse_grid, color=color,
-                    label=f"{label}: h = {fit.h:.3f} m, {fit.rmse:.3g} N·m, rise "
-                    f"{100 * fit.flatness:.0f}%" + ("" if fit.identifiable else " (not identifiable)"))
-            ax.plot([fit.h], [fit.rmse], "o", color=color)
+            color, label = _STYLE[model]
+            ax.plot(fit.h_grid, fit.rmse_grid / fit.rmse, color=color)
+            ax.plot([fit.h], [1.0], "o", color=color, ms=5)
+            sides = [fit.h + d for d in (-0.1, 0.1) if fit.h_grid[0] <= fit.h + d <= fit.h_grid[-1]]
+            ax.plot(sides, np.interp(sides, fit.h_grid, fit.rmse_grid) / fit.rmse, "^", color=color,
+                    mec="k", ms=5)
             if np.all(np.isfinite(fit.h_ci95)):
-                ax.axvspan(*fit.h_ci95, color=color, alpha=0.15)
-        ax.set_title(f"({letter}) {title}", fontsize=9)
+                ax.axvspan(*fit.h_ci95, color=color, alpha=0.15, lw=0)
+            lines.append(f"{label}: h {fit.h:.3f} m, {fit.rmse:.3g} N·m, rise {100 * fit.flatness:.0f}%"
+                         + ("" if fit.identifiable else " (not ident.)"))
+        ax.axhline(1.0 + MIN_RISE, color="k", ls=":", lw=1.0)
+        ax.set_title("\n".join(lines), fontsize=8, loc="left")
         ax.set_xlabel("h [m]")
-        ax.set_ylabel("RMSE($M_{d,1} - M_{d,2}$) [N·m]")
+        ax.set_ylabel("RMSE / its minimum")
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7, loc="upper center")
+    _relative_log_axis(axes[0, 0], top)
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
-    fig.suptitle("RMSE between $M_{d,1}$ and $M_{d,2}$ against h (cf. the paper's Fig. 8)\n"
-                 "shaded: 95% bootstrap interval; rise: RMSE increase within ±0.1 m of the minimum, "
-                 f"identifiable from {100 * MIN_RISE:.0f}%", fontsize=10)
-    fig.tight_layout()
-    return _save(fig, path)
+    handles = [Line2D([], [], color=c, label=lab) for c, lab in _STYLE.values()]
+    handles += [Line2D([], [], ls="", marker="o", color="0.4", label="minimum: the identified h"),
+                Line2D([], [], ls="", marker="^", color="0.4", mec="k",
+                       label="RMSE at h ± 0.1 m: the rise is the lower one"),
+                Line2D([], [], color="k", ls=":", label=f"identifiable from a rise of {100 * MIN_RISE:.0f}%"),
+                Patch(color="0.4", alpha=0.3, label="95% bootstrap interval of h")]
+    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=8)
+    fig.suptitle("RMSE between $M_{d,1}$ and $M_{d,2}$ against h (cf. the paper's Fig. 8), each curve "
+                 "divided by its minimum,\non one scale: the rise within ±0.1 m of the minimum decides "
+                 "whether h is identifiable", fontsize=10)
+    return fig
+
+
+#: Colour and name of each model in the figures.
+_STYLE = {"3dof": ("tab:blue", "3 DoF"), "2dof": ("tab:orange", "2 DoF")}
+
+
+def _relative_log_axis(ax, top: float) -> None:
+    """A logarithmic ratio axis from 0.9 to ``top`` with plain tick labels (1, 1.5, 2, 5, ...)."""
+    ax.set_yscale("log")
+    ax.set_ylim(0.9, max(top, 2.0) * 1.1)
+    plain_log_ticks(ax.yaxis, [1, 1.5, 2, 3, 5, 10, 20])
+
+
+def plain_log_ticks(axis, ticks=None) -> None:
+    """Plain-number tick labels on a logarithmic axis (``40``, ``0.5``; never ``4×10^1``).
+
+    Parameters
+    ----------
+    axis : matplotlib.axis.Axis
+        ``ax.xaxis`` or ``ax.yaxis`` of a log-scaled axes.
+    ticks : sequence of float, optional
+        The tick positions; by default 1, 2 and 5 of every decade.
+    """
+    from matplotlib.ticker import FixedLocator, FormatStrFormatter, LogLocator, NullFormatter, NullLocator
+
+    axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)) if ticks is None else FixedLocator(list(ticks)))
+    axis.set_major_formatter(FormatStrFormatter("%g"))
+    axis.set_minor_formatter(NullFormatter())
+    if ticks is not None:
+        axis.set_minor_locator(NullLocator())
+
+
+def plot_rollout(name: str, fit, path) -> Path:
+    """Write :func:`rollout_figure` to ``path`` (atomically)."""
+    return save_figure(rollout_figure(name, fit), path)
+
+
+def rollout_figure(name: str, fit):
+    """The rollout fit of h (:mod:`euc_sim.identification.rollout_fit`): each window's
+    rollout over the recorded γ and φ, and the parameter correlation matrix.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(12, 7.5), layout="constrained")
+    gs = fig.add_gridspec(2, 2, width_ratios=[2.2, 1])
+    for row, (j, label) in enumerate(((1, "EUC pitch γ [°]"), (2, "rider pitch φ [°]"))):
+        ax = fig.add_subplot(gs[row, 0])
+        for w in range(fit.windows):
+            ax.plot(fit.t[w], np.degrees(fit.q_rec[w, :, j]), ".", ms=1.5, color="0.6",
+                    label="recorded" if w == 0 and row == 0 else None)
+            ax.plot(fit.t[w], np.degrees(fit.q_fit[w, :, j]), "-", lw=1.2, color=f"C{w % 2}",
+                    label="rollout (one window, free initial state)" if w == 0 and row == 0 else None)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+        if row == 0:
+            ax.set_title(f"{Path(name).name}: {fit.windows} windows, h = {fit.h:.4f} m "
+                         f"[{fit.h_ci95[0]:.4f}, {fit.h_ci95[1]:.4f}]"
+                         + ("  (ON ITS BOUND)" if fit.at_bound else ""))
+        else:
+            ax.set_xlabel("t [s]")
+    ax = fig.add_subplot(gs[:, 1])
+    im = ax.imshow(fit.correlation, vmin=-1, vmax=1, cmap="RdBu_r", interpolation="nearest")
+    ax.set_title("parameter correlation\n(h, then x, γ, φ, ẋ, γ̇, φ̇ per window)", fontsize=9)
+    ax.set_xlabel("parameter index")
+    ax.set_ylabel("parameter index")
+    fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04, label="correlation")
+    fig.legend(loc="outside lower center", ncol=2, fontsize=8)
+    fig.suptitle("Rollout fit of h: MuJoCo over 1 s windows with free initial states")
+    return fig

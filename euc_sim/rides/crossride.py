@@ -15,7 +15,7 @@ from euc_sim.rides.design import CANDIDATES, NOMINAL, Design
 from euc_sim.rides.fit import BalanceFit, fit_balance, plausibility
 from euc_sim.rides.signals import RideSignals, break_at_gaps
 
-__all__ = ["CrossRide", "cross_ride", "effect_entries", "plot_cross_ride"]
+__all__ = ["CrossRide", "cross_ride", "effect_entries", "plot_cross_ride", "cross_ride_figure"]
 
 
 @dataclass(frozen=True)
@@ -123,58 +123,76 @@ def effect_entries(cr: CrossRide) -> list[dict]:
 
 def plot_cross_ride(cr: CrossRide, path, sig_fit: RideSignals | None = None,
                     sig_test: RideSignals | None = None) -> Path:
+    """Write :func:`cross_ride_figure` to ``path`` (PNG, atomically)."""
+    from euc_sim.io import save_figure
+
+    return save_figure(cross_ride_figure(cr, sig_fit, sig_test), path)
+
+
+def cross_ride_figure(cr: CrossRide, sig_fit: RideSignals | None = None,
+                      sig_test: RideSignals | None = None):
     """Figure: the test ride's battery power, inertia-only against augmented prediction.
 
-    Panels: (1) wheel speed of both rides, m/s; (2) on the test ride, the measured
-    battery power against both models' predictions (parameters from the fit
-    ride), W; (3) their residuals with RMS values and the ratio.  PNG, written
-    atomically (matplotlib Agg).
-    """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    Panels: (1) wheel speed of both rides, m/s (one ride split in halves: the
+    whole ride, its held-out second half shaded); (2) on the test ride, the
+    measured battery power against both models' predictions (parameters from the
+    fit ride), W; (3) their residuals with RMS values and the ratio.
 
-    from euc_sim.io import atomic_write
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
 
     td = cr.test_design
     pn = td.predict(cr.nominal.estimate)
     pa = td.predict(cr.augmented.estimate)
-    fig, ax = plt.subplots(3, 1, figsize=(11, 9.5))
-    if sig_fit is not None:
-        ax[0].plot(*break_at_gaps(sig_fit.frame["t"], sig_fit.frame["v"]), lw=0.8,
-                   label=f"{cr.fit_label} (fit)")
-    if sig_test is not None:
-        ax[0].plot(*break_at_gaps(sig_test.frame["t"], sig_test.frame["v"]), lw=0.8,
-                   label=f"{cr.test_label} (test)")
-    ax[0].set(ylabel="wheel speed v [m/s]", xlabel="time from start of log [s]",
-              title="Logged wheel speed (10 Hz grid, Savitzky–Golay 1.5 s)")
-    ax[0].legend(loc="upper right", fontsize=8)
+    fig = Figure(figsize=(13, 10), layout="constrained")
+    ax = fig.subplots(3, 1)
+    _speed_panel(ax[0], cr, sig_fit, sig_test)
     nom = cr.nominal.estimate
     aug = cr.augmented.estimate
     tt, P_b, pn_b, pa_b = break_at_gaps(td.t, td.P, pn, pa)
     ax[1].plot(tt, P_b, color="k", lw=0.9, label="measured battery power V·I")
-    ax[1].plot(tt, pn_b, lw=0.8, label=f"inertia only (η_m={nom['eta_motor']:.2f}, "
+    ax[1].plot(tt, pn_b, lw=0.8, label=f"inertia only\n(η_m={nom['eta_motor']:.2f}, "
                                        f"η_r={nom['eta_regen']:.2f})")
     sym = lambda c: CANDIDATES[c][0] + ("+sin α" if c == "rolling_resistance"  # noqa: E731
                                         and cr.fit_design.aliases.get(c) else "")
     lab = ", ".join(f"{sym(c)}={aug[c]:.3g}" for c in cr.accepted) or "nothing accepted"
-    ax[1].plot(tt, pa_b, lw=0.8, label=f"augmented ({lab})")
+    ax[1].plot(tt, pa_b, lw=0.8, label=f"augmented\n({lab})")
     ax[1].set(ylabel="battery power [W]", xlabel="time from start of log [s]",
               title=f"{cr.test_label}: predicted from its speed with parameters fitted on "
                     f"{cr.fit_label}")
-    ax[1].legend(loc="upper right", fontsize=8)
     rn = td.weight * (td.P - pn)           # W, or N·m in the torque domain
     ra = td.weight * (td.P - pa)
     tt, rn, ra = break_at_gaps(td.t, rn, ra)
-    ax[2].plot(tt, rn, lw=0.7, label=f"inertia only: RMS {cr.heldout_nominal:.0f} {td.unit}")
-    ax[2].plot(tt, ra, lw=0.7, label=f"augmented: RMS {cr.heldout_augmented:.0f} {td.unit}")
+    ax[2].plot(tt, rn, lw=0.7, label=f"inertia only:\nRMS {cr.heldout_nominal:.0f} {td.unit}")
+    ax[2].plot(tt, ra, lw=0.7, label=f"augmented:\nRMS {cr.heldout_augmented:.0f} {td.unit}")
     ax[2].axhline(0, color="grey", lw=0.5)
     what = "measured − predicted" if td.domain == "power" else "(measured − predicted)·R/v"
     ax[2].set(ylabel=f"{what} [{td.unit}]", xlabel="time from start of log [s]",
               title=f"Held-out residual; error ratio augmented / inertia-only = {cr.ratio:.2f}")
-    ax[2].legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
-    try:
-        return atomic_write(path, lambda p: fig.savefig(p, dpi=110, format="png"))
-    finally:
-        plt.close(fig)
+    for a in ax:
+        a.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0.0)
+    fig.suptitle(f"Battery-power balance fitted on {cr.fit_label}, tested on {cr.test_label}",
+                 fontsize=11)
+    return fig
+
+
+def _speed_panel(ax, cr: CrossRide, sig_fit: RideSignals | None, sig_test: RideSignals | None) -> None:
+    """Logged speed: both rides, or one ride with its held-out second half shaded."""
+    if sig_fit is not None and sig_test is None:          # one ride, split in halves
+        t = sig_fit.frame["t"].to_numpy()
+        ax.plot(*break_at_gaps(t, sig_fit.frame["v"]), lw=0.8,
+                label=f"{Path(str(sig_fit.path)).name}, the whole ride")
+        ax.axvspan(float(cr.test_design.t.min()), float(t.max()), color="tab:orange", alpha=0.15,
+                   lw=0, label="second half: held out (test);\nthe first half is the fit")
+    else:
+        if sig_fit is not None:
+            ax.plot(*break_at_gaps(sig_fit.frame["t"], sig_fit.frame["v"]), lw=0.8,
+                    label=f"{cr.fit_label} (fit)")
+        if sig_test is not None:
+            ax.plot(*break_at_gaps(sig_test.frame["t"], sig_test.frame["v"]), lw=0.8,
+                    label=f"{cr.test_label} (test)")
+    ax.set(ylabel="wheel speed v [m/s]", xlabel="time from start of log [s]",
+           title="Logged wheel speed (10 Hz grid, Savitzky–Golay 1.5 s)")

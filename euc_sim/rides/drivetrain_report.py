@@ -15,16 +15,18 @@ from pathlib import Path
 
 import numpy as np
 
+from euc_sim.io import save_figure
 from euc_sim.rides.drivetrain import Drivetrain, envelope, fit_drivetrain, predict_pwm
 from euc_sim.rides.grade import GradeProfile, grade_profile
 from euc_sim.rides.logs import read_log
 from euc_sim.rides.mass import MassFit, fit_mass, predict_power
-from euc_sim.rides.power import MassSettings, PowerSignals, power_signals
+from euc_sim.rides.power import G, MassSettings, PowerSignals, power_signals
 from euc_sim.rides.pwm import no_force_speed
 from euc_sim.rides.rotating import without_rotating_inertia
 from euc_sim.rides.spec import WheelSpec
 
-__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "plot_pwm", "page_section",
+__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "envelope_figure", "plot_pwm",
+           "pwm_figure", "page_section", "TYRE_MU",
            "COMPUTED_PWM_RMS", "computed_pwm_note"]
 
 #: A logged duty that its model explains better than this, percentage points, is
@@ -163,61 +165,92 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
     return rep, r, test
 
 
+#: Tyre-road friction coefficient the envelope figure assumes (dry asphalt, about 1):
+#: no tyre carries a sustained acceleration above μ·g, whatever the motor could give.
+TYRE_MU = 1.0
+
+
 def plot_envelope(env: dict, path, title: str = "") -> Path:
-    """The acceleration envelope (and lean) against speed, full and low charge, PNG."""
-    import matplotlib
+    """Write :func:`envelope_figure` to ``path`` (PNG, atomically)."""
+    return save_figure(envelope_figure(env, title), path)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    from euc_sim.io import atomic_write
+def envelope_figure(env: dict, title: str = ""):
+    """The acceleration the battery voltage allows (and the lean it takes) against speed.
+
+    Full and low charge.  The voltage limit is drawn only where it is below what the
+    tyre can carry (a ≤ :data:`TYRE_MU`·g, lean atan(μ)); above, the model says
+    nothing (the controller's current limit, not in the log, or the tyre's grip
+    decides) and the figure says so.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
 
     v = np.asarray(env["speed"]) * 3.6
-    fig, ax = plt.subplots(figsize=(7, 4.2))
+    a_tyre = TYRE_MU * G
+    fig = Figure(figsize=(9, 4.6), layout="constrained")
+    ax = fig.add_subplot()
+    clipped = False
     for name, style in (("full", "-"), ("low", "--")):
         a = np.asarray(env[name]["accel"], float)
-        ax.plot(v, a, style, label=f"{name} charge ({env[name]['voltage']:.0f} V)")
+        clipped |= bool(np.any(a > a_tyre))
+        ax.plot(v, np.where(a <= a_tyre, a, np.nan), style,
+                label=f"{name} charge ({env[name]['voltage']:.0f} V): voltage limit")
+    ax.axhline(a_tyre, color="k", lw=1.0, ls=":",
+               label=f"tyre grip, μ ≈ {TYRE_MU:g}: at most {a_tyre:.1f} m/s²")
+    if clipped:
+        ax.axhspan(a_tyre, 1.15 * a_tyre, color="tab:red", alpha=0.08, lw=0,
+                   label="above the tyre's grip: the model\nsays nothing, not drawn")
     top = env.get("ride_top_speed")
     if top is not None and top * 3.6 < v[-1]:
         ax.axvspan(top * 3.6, v[-1], color="grey", alpha=0.15,
                    label="faster than this ride: extrapolated")
+    ax.set_ylim(0.0, 1.15 * a_tyre)
+    ax.set_xlim(0.0, v[-1])
     ax.set_xlabel("speed, km/h")
-    ax.set_ylabel("highest sustained acceleration, m/s²")
-    sec = ax.secondary_yaxis("right", functions=(lambda a: np.degrees(np.arctan(a / 9.81)),
-                                                 lambda d: 9.81 * np.tan(np.radians(d))))
+    ax.set_ylabel("acceleration the voltage allows, m/s²")
+    sec = ax.secondary_yaxis("right", functions=(lambda a: np.degrees(np.arctan(np.asarray(a) / G)),
+                                                 lambda d: G * np.tan(np.radians(d))))
     sec.set_ylabel("forward lean it takes, deg")
-    ax.set_title(title or "Cut-out envelope (voltage limit, duty 100 %; the\ncontroller's current limit is not in the log)", fontsize=10)
+    ax.set_title("Upper bound only: the controller's current limit is not in the log and can be "
+                 "lower;\nwhere the voltage would allow more than the tyre carries, the model says "
+                 "nothing (not drawn)", fontsize=8)
+    fig.suptitle(title or "Cut-out envelope: the acceleration left at full duty (100 %) against speed",
+                 fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    out = atomic_write(path, lambda p: fig.savefig(p, dpi=110, format="png"))
-    plt.close(fig)
-    return out
+    ax.legend(loc="upper left", bbox_to_anchor=(1.12, 1.0), fontsize=8, borderaxespad=0.0)
+    return fig
 
 
 def plot_pwm(r: RideDrivetrain, path, coef: dict | None = None, title: str = "") -> Path:
-    """PWM predicted by the drivetrain model against the logged one, PNG."""
-    import matplotlib
+    """Write :func:`pwm_figure` to ``path`` (PNG, atomically)."""
+    return save_figure(pwm_figure(r, coef, title), path)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    from euc_sim.io import atomic_write
+def pwm_figure(r: RideDrivetrain, coef: dict | None = None, title: str = ""):
+    """PWM predicted by the drivetrain model against the logged one.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
 
     coef = coef or r.drivetrain.pwm_coef
     pred, obs = predict_pwm(r.sig, coef)
-    fig, ax = plt.subplots(figsize=(5, 5))
-    ax.plot(obs, pred, ".", ms=1.5, alpha=0.3, label=f"rms {_rms(pred - obs):.1f} points")
+    fig = Figure(figsize=(7.5, 5.2), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(obs, pred, ".", ms=1.5, alpha=0.3, label=f"log samples:\nrms {_rms(pred - obs):.1f} points")
     lim = [0, max(100.0, float(np.nanmax(obs)))]
     ax.plot(lim, lim, "k-", lw=0.8, label="equal")
     ax.set_xlabel("logged PWM, %")
     ax.set_ylabel("predicted PWM, %")
-    ax.set_title(title or "PWM: (back-EMF + resistive drop) / battery voltage")
-    ax.legend()
-    fig.tight_layout()
-    out = atomic_write(path, lambda p: fig.savefig(p, dpi=110, format="png"))
-    plt.close(fig)
-    return out
+    fig.suptitle(title or "PWM: (back-EMF + resistive drop) / battery voltage", fontsize=10)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0.0, markerscale=6)
+    return fig
 
 
 def page_section(rep: dict, figures: dict) -> list[str]:

@@ -24,7 +24,7 @@ import numpy as np
 from euc_sim.rides.mass import MassFit, mass_regressors
 from euc_sim.rides.power import G, PowerSignals
 
-__all__ = ["GradeProfile", "grade_profile", "plot_grade", "V_STILL"]
+__all__ = ["GradeProfile", "grade_profile", "plot_grade", "grade_figure", "V_STILL"]
 
 #: Below this speed, m/s, nothing is climbed: the implied climb rate is taken as 0.
 V_STILL = 1.0
@@ -135,19 +135,27 @@ def grade_profile(sig: PowerSignals, fit: MassFit, gps_t: np.ndarray,
 
 
 def plot_grade(g: GradeProfile, path, title: str = "") -> Path:
-    """Altitude against distance: GPS, implied by the balance, and the fitted grade term. PNG."""
-    import matplotlib
+    """Write :func:`grade_figure` to ``path`` (PNG, atomically)."""
+    from euc_sim.io import save_figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    return save_figure(grade_figure(g, title), path)
 
-    from euc_sim.io import atomic_write
+
+def grade_figure(g: GradeProfile, title: str = ""):
+    """Altitude against distance: GPS, implied by the balance, and the fitted grade term.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
 
     def broken(y):          # NaN between segments: the implied altitude restarts at each
         cut = np.flatnonzero(g.segment[1:] != g.segment[:-1]) + 1
         return np.insert(g.distance, cut, np.nan), np.insert(y, cut, np.nan)
 
-    fig, ax = plt.subplots(figsize=(9, 5.2))
+    fig = Figure(figsize=(9, 5.6), layout="constrained")
+    ax = fig.add_subplot()
     ax.plot(*broken(g.gps), color="k", lw=1.2,
             label=f"GPS altitude (ascent {g.climb_gps_m:.0f} m)")
     ax.plot(*broken(g.implied), color="tab:blue", lw=1.0,
@@ -160,12 +168,8 @@ def plot_grade(g: GradeProfile, path, title: str = "") -> Path:
                       "attenuates it)")
     ax.set_xlabel("distance ridden, km")
     ax.set_ylabel("altitude, m")
-    ax.set_title(title or "Road grade: the altitude the battery-power balance implies, "
+    fig.suptitle(title or "Road grade: the altitude the battery-power balance implies, "
                           "against GPS altitude", fontsize=10)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14))
-    fig.tight_layout()
-    try:
-        return atomic_write(path, lambda p: fig.savefig(p, dpi=110, format="png"))
-    finally:
-        plt.close(fig)
+    fig.legend(loc="outside lower center", fontsize=8)
+    return fig

@@ -20,7 +20,7 @@ import numpy as np
 from euc_sim.rides.design import balance_design
 from euc_sim.rides.signals import RideSignals, break_at_gaps
 
-__all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "plot_residuals", "write_page",
+__all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "plot_residuals", "residuals_figure", "write_page",
            "summarise_notes", "falls_sentence",
            "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
@@ -154,31 +154,39 @@ def split_at_gaps(windows, t: np.ndarray, min_len: float = 0.0) -> list[list[flo
 
 
 def plot_residuals(traces, path) -> Path:
+    """Write :func:`residuals_figure` to ``path`` (PNG, atomically)."""
+    from euc_sim.io import save_figure
+
+    return save_figure(residuals_figure(traces), path, dpi=100)
+
+
+def residuals_figure(traces):
     """Figure: balance residuals over time, one panel per ride, windows shaded.
 
     Each panel: the inertia-only and augmented residuals, the augmented one's
     30 s moving mean (slow: a hill, wind), and the windows where the
-    inertia-only residual concentrates.  PNG, atomic (matplotlib Agg).
-    """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    inertia-only residual concentrates; its legend beside it.
 
-    from euc_sim.io import atomic_write
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
 
     traces = list(traces)
-    fig, axes = plt.subplots(len(traces), 1, figsize=(11, 3.8 * len(traces)), squeeze=False)
+    fig = Figure(figsize=(13, 3.8 * len(traces) + 0.5), layout="constrained")
+    axes = fig.subplots(len(traces), 1, squeeze=False)
     for ax, tr in zip(axes[:, 0], traces):
         tt, rn, ra, sl = break_at_gaps(tr.t, tr.nominal, tr.augmented, tr.slow())
         j = tr.as_json()
         ax.plot(tt, rn, lw=0.6, label=f"inertia only: RMS {j['rms_nominal']:.0f} {tr.unit}")
         ax.plot(tt, ra, lw=0.6, label=f"augmented: RMS {j['rms_augmented']:.0f} {tr.unit}")
         ax.plot(tt, sl, color="k", lw=1.4,
-                label=f"augmented, {SLOW_S:.0f} s moving mean: RMS {j['slow_rms_augmented']:.0f} "
+                label=f"augmented, {SLOW_S:.0f} s moving mean:\nRMS {j['slow_rms_augmented']:.0f} "
                       f"{tr.unit}")
         for i, (a, b) in enumerate(tr.localisation["windows"]):
             ax.axvspan(a, b, color="tab:orange", alpha=0.2, lw=0,
-                       label=(f"windows where the inertia-only residual concentrates "
+                       label=(f"windows where the inertia-only\nresidual concentrates "
                               f"({100 * tr.localisation['share']:.0f} % of its energy)")
                        if i == 0 else None)
         ax.axhline(0, color="grey", lw=0.5)
@@ -186,12 +194,9 @@ def plot_residuals(traces, path) -> Path:
         ax.set(xlabel="time from start of log [s]",
                ylabel=f"measured − predicted [{tr.unit}]",
                title=f"{tr.label}: balance residual, {kind}")
-        ax.legend(loc="upper right", fontsize=7)
-    fig.tight_layout()
-    try:
-        return atomic_write(path, lambda p: fig.savefig(p, dpi=100, format="png"))
-    finally:
-        plt.close(fig)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0.0)
+    fig.suptitle("Battery-power balance residual over time", fontsize=11)
+    return fig
 
 
 def _fmt(x, nd=3) -> str:

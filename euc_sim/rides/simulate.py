@@ -43,7 +43,7 @@ import pandas as pd
 
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.profile import speed_profile
-from euc_sim.rides.signals import RideAssumptions, RideSignals, break_at_gaps
+from euc_sim.rides.signals import RideAssumptions, RideSignals
 from euc_sim.rides.tracking import ProfileRun, simulate_profile, to_grid
 
 __all__ = ["SIM_EFFECTS", "MAX_BRIDGED_GAP", "simulation_obstacle", "ride_params", "effects_to_inject",
@@ -394,54 +394,8 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
 
 
 def plot_ride_simulation(sim: RideSimulation, path) -> "Path":
-    """Figure: the simulated rider on the logged profile against the log.
+    """Write :func:`euc_sim.rides.simulation_figure.ride_simulation_figure` to ``path`` (PNG, atomically)."""
+    from euc_sim.io import save_figure
+    from euc_sim.rides.simulation_figure import ride_simulation_figure
 
-    Panels: speed (log, nominal and augmented simulation), m/s; motor torque
-    (inferred from the log, simulated), N·m; battery power (log, predicted), W;
-    the power error log − simulation with the windows where it concentrates
-    shaded, W.  PNG, written atomically (matplotlib Agg).
-    """
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from euc_sim.io import atomic_write
-
-    tb = sim.table
-    t = tb["t"].to_numpy()
-    e = sim.errors
-    fig, ax = plt.subplots(4, 1, figsize=(11, 12), sharex=True)
-    series = [("v", "speed [m/s]", "Wheel speed: logged, and followed by the simulated rider",
-               "v_mps", "m/s"),
-              ("M", "motor torque M_d [N·m]",
-               f"Motor torque: inferred from the log ({e['M_log_method']}), and simulated",
-               "M_Nm", "N·m"),
-              ("P", "battery power [W]", "Battery power: logged V·I, and predicted from the "
-               "simulated torque", "P_W", "W")]
-    for k, (col, ylab, title, key, unit) in enumerate(series):
-        tt, y_log, y_n, y_a = break_at_gaps(t, tb[f"{col}_log"], tb[f"{col}_nominal"],
-                                      tb[f"{col}_augmented"])
-        ax[k].plot(tt, y_log, color="k", lw=0.9, label="log")
-        ax[k].plot(tt, y_n, lw=0.8, label=f"nominal simulation (RMS diff {e['nominal'][key]:.3g} {unit})")
-        ax[k].plot(tt, y_a, lw=0.8, label=f"augmented simulation (RMS diff "
-                                          f"{e['augmented'][key]:.3g} {unit})")
-        ax[k].set(ylabel=ylab, title=title)
-        ax[k].legend(loc="upper right", fontsize=8)
-    eff = ", ".join(f"{k}={v:.3g}" for k, v in sim.effects.items()) or "none"
-    tt, rn, ra = break_at_gaps(t, tb["P_log"] - tb["P_nominal"], tb["P_log"] - tb["P_augmented"])
-    ax[3].plot(tt, rn, lw=0.7, label=f"nominal: RMS {e['nominal']['P_W']:.0f} W")
-    ax[3].plot(tt, ra, lw=0.7, label=f"augmented ({eff}): RMS {e['augmented']['P_W']:.0f} W")
-    for i, (a, b) in enumerate(sim.localisation.get("windows", [])):
-        ax[3].axvspan(a, b, color="tab:orange", alpha=0.2, lw=0,
-                      label="windows where the augmented error concentrates" if i == 0 else None)
-    ax[3].axhline(0, color="grey", lw=0.5)
-    ax[3].set(ylabel="log − simulation [W]", xlabel="time from start of log [s]",
-              title=f"Battery-power error of the simulation; ratio augmented / nominal = "
-                    f"{e['ratio_P']:.2f}")
-    ax[3].legend(loc="upper right", fontsize=8)
-    fig.suptitle(f"Simulated rider along {sim.label}", fontsize=11)
-    fig.tight_layout()
-    try:
-        return atomic_write(path, lambda p: fig.savefig(p, dpi=100, format="png"))
-    finally:
-        plt.close(fig)
+    return save_figure(ride_simulation_figure(sim), path, dpi=100)

@@ -101,7 +101,7 @@ def test_a_failing_report_leaves_no_json(recording_file, tmp_path, capsys, monke
     def broken(result):
         raise ValueError("figure: cannot be drawn (simulated failure)")
 
-    monkeypatch.setattr(report, "_fig_terms", broken)
+    monkeypatch.setitem(report.FIGURES, "terms.png", (broken, 100))
     code = main(["diagnose", str(recording_file), "--no-resimulate", "--quiet",
                  "--json", str(tmp_path / "o.json"), "--report", str(tmp_path / "rep")])
     assert code == 2
