@@ -167,9 +167,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     """Identify h (both models, per recording and pooled), the controller and the rider."""
     from euc_sim.cli.common import UsageError
     from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, identify_recordings
-    from euc_sim.identification.base_params import identify_base_parameters
-    from euc_sim.identification.controller_fit import identify_controller, identify_rider_delay
-    from euc_sim.identification.torques import torques
+    from euc_sim.identification.controller_fit import identify_controller
     from euc_sim.io import check_writable, write_json
 
     if args.json:
@@ -200,26 +198,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
                               block=block, seed=args.seed, n_noise=n_noise)
     pooled, per = res["pooled"], res["per_recording"]
 
-    per_json = []
-    riders = []
-    figures = []
-    fig_paths = _figure_paths(args.plot, names) if args.plot else [None] * len(recs)
-    for rec, fits, fig_path in zip(recs, per, fig_paths):
-        p_h = rec.params.replace(h=fits["3dof"].h)
-        riders.append(identify_rider_delay(rec.kin, p_h))
-        entry = {"recording": rec.name,
-                 "models": {m: f.as_json() for m, f in fits.items()},
-                 "controller": identify_controller(rec.kin, p_h).as_json(),
-                 "rider": riders[-1].as_json()}
-        if "M_d" in rec.df.columns:
-            M_h = rec.df["M_h"].to_numpy() if "M_h" in rec.df.columns else None
-            entry["base_parameters"] = identify_base_parameters(
-                rec.kin, rec.df["M_d"].to_numpy(), M_h, rec.params).as_json()
-        per_json.append(entry)
-        if fig_path is not None:
-            from euc_sim.identification.plots import plot_recording
-
-            figures.append(str(plot_recording(rec, torques(rec.kin, p_h), fits["3dof"], fig_path)))
+    per_json, riders, figures = _per_recording(args, names, recs, per)
     if args.plot:
         from euc_sim.identification.plots import plot_rmse_curves
 
@@ -243,7 +222,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.method == "rollout":
         _rollout(args, recs, per, pooled, per_json, out)
         for prefix, entry in [(f"per_recording[{i}].", e) for i, e in enumerate(per_json)] + [("", out)]:
-            out["at_bound"] += [f"{prefix}models.3dof.{q}" for q in entry["models"]["3dof"].get("at_bound", [])
+            out["at_bound"] += [f"{prefix}models.3dof.{q}" for q in entry["models"]["3dof"]["at_bound"]
                                 if q.startswith("rollout.")]
     _print_results(names, recs, per, pooled, per_json, controller, riders)
     for sentence in dict.fromkeys(s for _, s in bound_hits):
@@ -253,6 +232,34 @@ def cmd_identify(args: argparse.Namespace) -> int:
     for f in figures:
         print(f"wrote {f}")
     return 0
+
+
+def _per_recording(args: argparse.Namespace, names: list[str], recs: list, per: list[dict]):
+    """Each recording's JSON entry (models, controller, rider, base parameters), its rider
+    fit, and the Figs. 6/7 written beside ``--plot``: (entries, rider fits, figure paths)."""
+    from euc_sim.identification.base_params import identify_base_parameters
+    from euc_sim.identification.controller_fit import identify_controller, identify_rider_delay
+    from euc_sim.identification.torques import torques
+
+    per_json, riders, figures = [], [], []
+    fig_paths = _figure_paths(args.plot, names) if args.plot else [None] * len(recs)
+    for rec, fits, fig_path in zip(recs, per, fig_paths):
+        p_h = rec.params.replace(h=fits["3dof"].h)
+        riders.append(identify_rider_delay(rec.kin, p_h))
+        entry = {"recording": rec.name,
+                 "models": {m: f.as_json() for m, f in fits.items()},
+                 "controller": identify_controller(rec.kin, p_h).as_json(),
+                 "rider": riders[-1].as_json()}
+        if "M_d" in rec.df.columns:
+            M_h = rec.df["M_h"].to_numpy() if "M_h" in rec.df.columns else None
+            entry["base_parameters"] = identify_base_parameters(
+                rec.kin, rec.df["M_d"].to_numpy(), M_h, rec.params).as_json()
+        per_json.append(entry)
+        if fig_path is not None:
+            from euc_sim.identification.plots import plot_recording
+
+            figures.append(str(plot_recording(rec, torques(rec.kin, p_h), fits["3dof"], fig_path)))
+    return per_json, riders, figures
 
 
 def _at_bound(names: list[str], per: list[dict], pooled: dict, riders: list) -> list[tuple[str, str]]:

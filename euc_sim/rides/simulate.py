@@ -371,7 +371,8 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
             for i, (name, (effects, _)) in enumerate(runs.items())]
     done = _run_jobs(jobs, list(runs), params, workers, progress)
     for (name, (effects, est)), run in zip(runs.items(), done):
-        notes += [f"{name}: {n}" for n in run.notes]
+        if not run.falls:            # a fall is said once, from ``falls`` (page.falls_sentence)
+            notes += [f"{name}: {n}" for n in run.notes]
         falls += [{**f, "run": name} for f in run.falls]
         out.update(_on_grid(run.frame, sig, est, params.R, name, fell=bool(run.falls)))
     table = pd.DataFrame(out)

@@ -275,7 +275,7 @@ def test_real_rides_done_criterion(tmp_path, capsys):
     assert "left out:" in out
 
 
-def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, monkeypatch):
+def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, monkeypatch, tmp_path):
     """The ride JSON's simulation.falls (CONTRACT) and a common scored span after a fall."""
     import euc_sim.rides.simulate as simulate_mod
     from euc_sim.cli.ride import run_ride
@@ -289,12 +289,17 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
         if label != "nominal":
             return run
         frame = run.frame[run.frame["t"] < t_fall]
-        return ProfileRun(frame, ({"t": t_fall, "cause": "|gamma| = 0.6 rad exceeds the bound"},),
-                          (f"rider fell at t = {t_fall} s",))
+        cause = "|gamma| = 0.6 rad exceeds the bound"
+        return ProfileRun(frame, ({"t": t_fall, "cause": cause},),
+                          (f"rider fell at t = {t_fall} s ({cause}): the simulation stops there",))
 
     monkeypatch.setattr(simulate_mod, "simulate_profile", nominal_falls)
-    rep = run_ride(logs[1], n_boot=20, seed=3, jobs=1)
+    rep = run_ride(logs[1], n_boot=20, seed=3, jobs=1, report_dir=tmp_path / "rep")
     sim = rep["simulation"]
+    page = (tmp_path / "rep" / "index.md").read_text()
+    assert f"The simulated rider fell at t = {t_fall:.1f} s (nominal: " in page          # said once
+    assert page.count("exceeds the bound") == 1
+    assert (tmp_path / "rep" / "ride_simulation.png").stat().st_size > 20_000
     assert sim["falls"] == [{"t": t_fall, "cause": "|gamma| = 0.6 rad exceeds the bound", "run": "nominal"}]
     assert any(f"scored up to t = {t_fall:.1f} s" in n for n in sim["notes"])
     for run in ("nominal", "augmented"):
