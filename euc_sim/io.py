@@ -14,7 +14,39 @@ from pathlib import Path
 from typing import Any, Callable
 
 __all__ = ["atomic_write", "write_text", "write_json", "to_jsonable", "check_writable",
-           "write_recording", "sidecar_paths", "FLOAT_FORMAT", "save_figure", "figure_png"]
+           "write_recording", "sidecar_paths", "temporary_beside", "is_temporary", "FLOAT_FORMAT",
+           "save_figure", "figure_png"]
+
+#: What marks a temporary file of :func:`atomic_write`: ``.NAME.tmp-XXXXXXXX.EXT``.
+_TEMP_MARK = ".tmp-"
+
+
+def temporary_beside(path: str | Path) -> Path:
+    """Create an empty temporary file beside ``path`` that keeps its extension.
+
+    ``ride.mp4`` gets ``.ride.tmp-XXXXXXXX.mp4``: a writer that picks its format from
+    the extension (ffmpeg, matplotlib, pandas) reads the right one.
+
+    Parameters
+    ----------
+    path : path
+        The destination; its folder must exist.
+
+    Returns
+    -------
+    pathlib.Path
+        The temporary file (mode 0600, empty).
+    """
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}{_TEMP_MARK}", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    return Path(tmp)
+
+
+def is_temporary(path: str | Path) -> bool:
+    """True for a name :func:`temporary_beside` makes (for checks that nothing was left behind)."""
+    name = Path(path).name
+    return name.startswith(".") and _TEMP_MARK in name
 
 
 def check_writable(path: str | Path) -> Path:
@@ -52,7 +84,8 @@ def check_writable(path: str | Path) -> Path:
 def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
     """Call ``write(tmp_path)`` then rename the temporary file onto ``path``.
 
-    The folder is created when missing.  On any error the temporary file is removed
+    ``tmp_path`` keeps the extension of ``path`` (:func:`temporary_beside`), so a writer
+    may choose its format from it.  The folder is created when missing.  On any error the temporary file is removed
     and nothing appears at ``path``.
 
     Parameters
@@ -69,9 +102,7 @@ def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
     """
     path = check_writable(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(fd)
-    tmp_path = Path(tmp)
+    tmp_path = temporary_beside(path)
     try:
         write(tmp_path)
         _usual_mode(tmp_path)
@@ -223,11 +254,10 @@ def write_recording(df, path: str | Path, meta: dict, truth: dict | None = None)
     temps: list[tuple[Path, Path]] = []
     try:
         for dest, write in jobs:
-            fd, tmp = tempfile.mkstemp(prefix=f".{dest.name}.", suffix=".tmp", dir=dest.parent)
-            os.close(fd)
-            temps.append((Path(tmp), dest))
-            write(Path(tmp))
-            _usual_mode(Path(tmp))
+            tmp = temporary_beside(dest)
+            temps.append((tmp, dest))
+            write(tmp)
+            _usual_mode(tmp)
         for tmp, dest in temps:
             os.replace(tmp, dest)
     except BaseException:

@@ -4,7 +4,7 @@ import math
 import numpy as np
 import pytest
 
-from euc_sim.io import atomic_write, check_writable, to_jsonable, write_json
+from euc_sim.io import atomic_write, check_writable, is_temporary, to_jsonable, write_json
 
 
 def test_atomic_write_leaves_nothing_on_failure(tmp_path):
@@ -18,6 +18,28 @@ def test_atomic_write_leaves_nothing_on_failure(tmp_path):
         atomic_write(target, boom)
     assert not target.exists()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_temporary_name_keeps_the_extension(tmp_path):
+    """ffmpeg and matplotlib choose their format from the extension (issue 19, item 2)."""
+    seen = []
+    atomic_write(tmp_path / "ride.mp4", lambda p: (seen.append(p), p.write_bytes(b"x")))
+    (tmp,) = seen
+    assert tmp.parent == tmp_path and tmp.suffix == ".mp4" and tmp.name.startswith(".ride.")
+    assert is_temporary(tmp) and not is_temporary(tmp_path / "ride.mp4") and not tmp.exists()
+
+
+def test_recording_temporaries_keep_their_extensions(tmp_path, monkeypatch):
+    import pandas as pd
+
+    import euc_sim.io as io
+
+    made = []
+    real = io.temporary_beside
+    monkeypatch.setattr(io, "temporary_beside", lambda p: made.append(real(p)) or made[-1])
+    io.write_recording(pd.DataFrame({"t": [0.0, 1.0]}), tmp_path / "r.parquet", {"source": "t"}, {"x": 1})
+    assert sorted(p.suffix for p in made) == [".json", ".json", ".parquet"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["r.json", "r.parquet", "r.truth.json"]
 
 
 def test_atomic_write_replaces_and_creates_folders(tmp_path):

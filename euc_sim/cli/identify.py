@@ -127,8 +127,9 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("recordings", nargs="+", help="CONTRACT recordings (CSV or Parquet)")
     p.add_argument("--json", metavar="FILE", help="write the results (CONTRACT's identify form)")
     p.add_argument("--plot", metavar="FILE",
-                   help="Fig. 8 (RMSE against h) to FILE, Figs. 6/7 beside it as "
-                        "STEM-torques.png (one recording) or STEM-torques-REC.png")
+                   help="Fig. 8 (RMSE against h) to FILE; ALSO writes Figs. 6/7 beside it, "
+                        "STEM-torques.png (one recording) or STEM-torques-REC.png (one per "
+                        "recording); every file written is printed")
     p.add_argument("--h-min", type=float, default=0.1, metavar="M", help="search bound, m")
     p.add_argument("--h-max", type=float, default=1.5, metavar="M", help="search bound, m")
     p.add_argument("--bootstrap", type=int, default=400, metavar="N",
@@ -166,9 +167,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     """Identify h (both models, per recording and pooled), the controller and the rider."""
     from euc_sim.cli.common import UsageError
     from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, identify_recordings
-    from euc_sim.identification.base_params import identify_base_parameters
-    from euc_sim.identification.controller_fit import identify_controller, identify_rider_delay
-    from euc_sim.identification.torques import torques
+    from euc_sim.identification.controller_fit import identify_controller
     from euc_sim.io import check_writable, write_json
 
     if args.json:
@@ -199,24 +198,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
                               block=block, seed=args.seed, n_noise=n_noise)
     pooled, per = res["pooled"], res["per_recording"]
 
-    per_json = []
-    figures = []
-    fig_paths = _figure_paths(args.plot, names) if args.plot else [None] * len(recs)
-    for rec, fits, fig_path in zip(recs, per, fig_paths):
-        p_h = rec.params.replace(h=fits["3dof"].h)
-        entry = {"recording": rec.name,
-                 "models": {m: f.as_json() for m, f in fits.items()},
-                 "controller": identify_controller(rec.kin, p_h).as_json(),
-                 "rider": identify_rider_delay(rec.kin, p_h).as_json()}
-        if "M_d" in rec.df.columns:
-            M_h = rec.df["M_h"].to_numpy() if "M_h" in rec.df.columns else None
-            entry["base_parameters"] = identify_base_parameters(
-                rec.kin, rec.df["M_d"].to_numpy(), M_h, rec.params).as_json()
-        per_json.append(entry)
-        if fig_path is not None:
-            from euc_sim.identification.plots import plot_recording
-
-            figures.append(str(plot_recording(rec, torques(rec.kin, p_h), fits["3dof"], fig_path)))
+    per_json, riders, figures = _per_recording(args, names, recs, per)
     if args.plot:
         from euc_sim.identification.plots import plot_rmse_curves
 
@@ -224,6 +206,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
     h_per = [rec.params.replace(h=fits["3dof"].h) for rec, fits in zip(recs, per)]
     controller = identify_controller([r.kin for r in recs], h_per)
+    bound_hits = _at_bound(names, per, pooled, riders)
     out = {
         "recordings": names,
         "models": {m: f.as_json() for m, f in pooled.items()},
@@ -234,15 +217,82 @@ def cmd_identify(args: argparse.Namespace) -> int:
         "bootstrap": {"replicates": args.bootstrap, "block_s": block, "seed": args.seed,
                       "noise_replicates": n_noise},
         "figures": figures,
+        "at_bound": [key for key, _ in bound_hits],
     }
     if args.method == "rollout":
         _rollout(args, recs, per, pooled, per_json, out)
-    _print_results(names, recs, per, pooled, per_json, controller)
+        for prefix, entry in [(f"per_recording[{i}].", e) for i, e in enumerate(per_json)] + [("", out)]:
+            out["at_bound"] += [f"{prefix}models.3dof.{q}" for q in entry["models"]["3dof"]["at_bound"]
+                                if q.startswith("rollout.")]
+    _print_results(names, recs, per, pooled, per_json, controller, riders)
+    for sentence in dict.fromkeys(s for _, s in bound_hits):
+        print(f"WARNING: {sentence}")
     if args.json:
         write_json(args.json, out)
     for f in figures:
         print(f"wrote {f}")
     return 0
+
+
+def _per_recording(args: argparse.Namespace, names: list[str], recs: list, per: list[dict]):
+    """Each recording's JSON entry (models, controller, rider, base parameters), its rider
+    fit, and the Figs. 6/7 written beside ``--plot``: (entries, rider fits, figure paths)."""
+    from euc_sim.identification.base_params import identify_base_parameters
+    from euc_sim.identification.controller_fit import identify_controller, identify_rider_delay
+    from euc_sim.identification.torques import torques
+
+    per_json, riders, figures = [], [], []
+    fig_paths = _figure_paths(args.plot, names) if args.plot else [None] * len(recs)
+    for rec, fits, fig_path in zip(recs, per, fig_paths):
+        p_h = rec.params.replace(h=fits["3dof"].h)
+        riders.append(identify_rider_delay(rec.kin, p_h))
+        entry = {"recording": rec.name,
+                 "models": {m: f.as_json() for m, f in fits.items()},
+                 "controller": identify_controller(rec.kin, p_h).as_json(),
+                 "rider": riders[-1].as_json()}
+        if "M_d" in rec.df.columns:
+            M_h = rec.df["M_h"].to_numpy() if "M_h" in rec.df.columns else None
+            entry["base_parameters"] = identify_base_parameters(
+                rec.kin, rec.df["M_d"].to_numpy(), M_h, rec.params).as_json()
+        per_json.append(entry)
+        if fig_path is not None:
+            from euc_sim.identification.plots import plot_recording
+
+            figures.append(str(plot_recording(rec, torques(rec.kin, p_h), fits["3dof"], fig_path)))
+    return per_json, riders, figures
+
+
+def _at_bound(names: list[str], per: list[dict], pooled: dict, riders: list) -> list[tuple[str, str]]:
+    """Every fitted quantity that ends on its search bound: (JSON path, a sentence).
+
+    The paths name the quantity in the identify JSON (``models.3dof.h``,
+    ``per_recording[0].rider.delay``); one recording's pooled fit is its own, so the
+    sentence is shared.
+    """
+    hits = []
+    what = {"h": "h = {h:.3f} m lies on the search bound [{lo:g}, {hi:g}] m: it is a bound, "
+                 "not a minimum (widen --h-min/--h-max or use a ride that identifies h)",
+            "h_ci95": "the 95% interval of h [{c0:.3f}, {c1:.3f}] m is cut off by the search bound "
+                      "[{lo:g}, {hi:g}] m: the true interval is wider"}
+
+    def h_hits(prefix: str, label: str, fits: dict) -> None:
+        for m, f in fits.items():
+            for q in f.at_bound():
+                text = what[q].format(h=f.h, c0=f.h_ci95[0], c1=f.h_ci95[1],
+                                      lo=float(f.h_grid[0]), hi=float(f.h_grid[-1]))
+                hits.append((f"{prefix}models.{m}.{q}", f"{label} {m}: {text}"))
+
+    for i, (name, fits, rider) in enumerate(zip(names, per, riders)):
+        label = Path(name).name
+        h_hits(f"per_recording[{i}].", label, fits)
+        if rider.at_bound:
+            lo, hi = float(rider.delay_curve[0][0]), float(rider.delay_curve[0][-1])
+            hits.append((f"per_recording[{i}].rider.delay",
+                         f"{label}: rider delay {rider.delay:.3f} s lies on the search bound "
+                         f"[{lo:g}, {hi:g}] s: it is a bound, not an estimate, and the rider's "
+                         f"law (R² {rider.r2:.3f}) is the bounded fit's"))
+    h_hits("", "pooled" if len(names) > 1 else Path(names[0]).name, pooled)
+    return hits
 
 
 def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dict], out: dict) -> None:
@@ -288,7 +338,7 @@ def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dic
 
 
 def _print_results(names: list[str], recs: list, per: list[dict], pooled: dict, per_json: list[dict],
-                   controller) -> None:
+                   controller, riders: list) -> None:
     """The table of h per recording and pooled, and the controller and rider laws, on stdout."""
     print(f"{'recording':<32} {'model':<5} {'h [m]':>7} {'95% interval [m]':>18} "
           f"{'RMSE [N·m]':>10}  identifiable")
@@ -300,12 +350,13 @@ def _print_results(names: list[str], recs: list, per: list[dict], pooled: dict, 
             ci = f"[{f.h_ci95[0]:.3f}, {f.h_ci95[1]:.3f}]"
             print(f"{label[:32]:<32} {m:<5} {f.h:7.3f} {ci:>18} {f.rmse:10.4g}  "
                   f"{'yes' if f.identifiable else 'NO: ' + f.reason}")
-    for rec, e in zip(recs, per_json):
+    for rec, e, rider in zip(recs, per_json, riders):
         g = e["controller"]["gains"]
         r = e["rider"]
         print(f"{Path(rec.name).name}: controller K_p = {g['gamma']:.4g} N·m/rad, "
               f"K_d = {g['gamma_d']:.4g} N·m·s/rad (R² {e['controller']['r2']:.3f}); "
-              f"rider delay {r['delay']:.3f} s (R² {r['r2']:.3f})")
+              f"rider delay {r['delay']:.3f} s (R² {r['r2']:.3f})"
+              f"{' AT THE SEARCH BOUND' if rider.at_bound else ''}")
     if len(recs) > 1:
         g = controller.gains
         print(f"pooled: controller K_p = {g['gamma']:.4g} N·m/rad, K_d = {g['gamma_d']:.4g} "

@@ -359,8 +359,14 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     sim = rep["simulation"]
     if sim:
         e = sim["errors"]
-        print(f"  simulation along {sim['ride']}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
-              f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
+        from euc_sim.rides.page import falls_sentence
+
+        if sim["scored_rows"]:
+            print(f"  simulation along {sim['ride']}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
+                  f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
+        fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
+        if fell:
+            print(f"  simulation along {sim['ride']}: {fell}")
     if rep["report"]:
         say(f"ride: report written to {Path(args.report) / rep['report']}")
     return 0

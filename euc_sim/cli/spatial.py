@@ -43,7 +43,7 @@ def _cmd_render(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.fps) and 1 <= args.fps <= 120):
         raise ValueError(f"--fps must be in [1, 120], got {args.fps!r}")
     n = render_recording(args.recording, out, fps=args.fps, width=args.width, height=args.height,
-                         frame_time=args.time)
+                         frame_time=args.time, progress=not args.no_progress)
     say(f"render: wrote {out} ({n} frame{'s' if n != 1 else ''})")
     return 0
 
@@ -57,4 +57,5 @@ def add_render_parser(sub) -> None:
     p.add_argument("--width", type=int, default=640, help="pixels (default 640)")
     p.add_argument("--height", type=int, default=480, help="pixels (default 480)")
     p.add_argument("--time", type=float, default=None, help="with .png: the time of the frame, s (default: middle)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar (shown on stderr by default)")
     p.set_defaults(func=_cmd_render)

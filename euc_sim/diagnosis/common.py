@@ -14,7 +14,7 @@ from euc_sim.simulation import effects
 
 __all__ = ["DiagnosisError", "Thresholds", "THRESHOLDS", "SELECT_RATE", "LATERAL_WINDOW",
            "COLUMN_ITERATIONS", "COLUMN_H_TOL", "H_BOUNDS", "NONLINEAR", "RIDER_MASS_RANGE",
-           "plausible_range"]
+           "plausible_range", "H_BOUND_MARGIN", "h_at_bound", "heldout_over_floor"]
 
 
 class DiagnosisError(ValueError):
@@ -93,6 +93,38 @@ H_BOUNDS = (0.25, 1.2)
 #: Physical range of a rider's mass, kg: a nominal mass outside it is refused, an
 #: estimate outside it is not physics.
 RIDER_MASS_RANGE = PLAUSIBLE["m"]
+#: An h closer than this to an end of :data:`H_BOUNDS` lies on the bound, m.
+H_BOUND_MARGIN = 0.01
+
+
+def h_at_bound(h: float) -> bool:
+    """Whether an identified h lies on the search bound :data:`H_BOUNDS` (a bound, not a minimum)."""
+    lo, hi = H_BOUNDS
+    return min(h - lo, hi - h) < H_BOUND_MARGIN
+
+
+def heldout_over_floor(heldout_rmse: float, noise_floor: float) -> float:
+    """The held-out RMSE over the noise floor: how far a model is from explaining all but noise.
+
+    The one "× the noise floor" figure of the diagnosis, printed and in the JSON
+    (``heldout_over_floor`` of the reported model; ``generic.floor_ratio`` of every
+    selected effect, the figure the ``unexplained`` test uses).
+
+    Parameters
+    ----------
+    heldout_rmse : float
+        Held-out RMSE of the residual under a model, N·m.
+    noise_floor : float
+        RMS of the residual that measurement noise alone leaves, N·m.
+
+    Returns
+    -------
+    float
+        Dimensionless; inf for a zero floor.
+    """
+    return heldout_rmse / noise_floor if noise_floor > 0 else float("inf")
+
+
 #: Nonlinear effects refined by a 1-D search, with their search intervals.
 NONLINEAR = {"sensor_time_offset": (-0.3, 0.3), "rider_mass": RIDER_MASS_RANGE}
 

@@ -29,6 +29,7 @@ import numpy as np
 from euc_sim.diagnosis import drift_term
 from euc_sim.diagnosis.candidates import build_problem, visibility
 from euc_sim.diagnosis.common import DiagnosisError, COLUMN_H_TOL, COLUMN_ITERATIONS, H_BOUNDS, NONLINEAR, THRESHOLDS, Thresholds
+from euc_sim.diagnosis.common import h_at_bound, heldout_over_floor
 from euc_sim.diagnosis.estimates import detection_limits, effect_items
 from euc_sim.diagnosis.localise import localise, signals_of
 from euc_sim.diagnosis.prepare import Prepared, prepare
@@ -106,6 +107,8 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
         rs = resimulate_recording(prep, result)
         result["_series"]["resimulation"] = rs.pop("series", None)
         result["resimulation"] = rs
+    # the one "× the noise floor" of the summary and the JSON, of the model reported
+    result["heldout_over_floor"] = heldout_over_floor(result["augmented_rmse"], result["noise_floor"])
     return result
 
 
@@ -227,7 +230,7 @@ def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limi
         "n_eff": n_eff,
         "decidable": decision["decidable"],
         "verdict": decision["verdict"],
-        "notes": decision["notes"],
+        "notes": list(decision["notes"]),
         "cannot_see": decision["cannot_see"],
         "limits": limits,
         "visibility": vis,
@@ -240,6 +243,9 @@ def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limi
                     for st in s.history],
         "thresholds": th.__dict__,
     }
+    hits = _at_bound(s.nominal.h, fit_f.h, fin, decision)
+    result["at_bound"] = [key for key, _ in hits]
+    result["notes"] += [sentence for _, sentence in hits if sentence]
     nk = prep.keep.size
     y_fin = prob_f.y(fit_f.h) - prob_f.design(fit_f.names) @ fit_f.coef_vector()
     result["_series"] = {
@@ -253,6 +259,34 @@ def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limi
         "signals": signals_of(prep),
     }
     return result
+
+
+def _at_bound(h_nominal: float, h_augmented: float, fin: Final, decision: dict) -> list[tuple[str, str]]:
+    """Every fitted quantity that ends on its search bound: (JSON key, a note or "").
+
+    h is searched in :data:`H_BOUNDS`; the time offset and the rider mass by a 1-D
+    search each (:func:`~euc_sim.diagnosis.refine.refine`).  The verdict's own note
+    already says when the augmented h lies on the bound (its sentence is then "").
+    """
+    lo, hi = H_BOUNDS
+    hits = []
+    if h_at_bound(h_nominal):
+        hits.append(("h_nominal", f"the nominal h = {h_nominal:.3f} m lies on the search bound "
+                                  f"[{lo:g}, {hi:g}] m: it is a bound, not a minimum"))
+    if h_at_bound(h_augmented):
+        said = h_at_bound(fin.fit.h)             # the verdict's note names it
+        hits.append(("h_augmented", "" if said else
+                     f"h = {h_augmented:.3f} m with the named effects lies on the search bound "
+                     f"[{lo:g}, {hi:g}] m: it is a bound, not a minimum"))
+    for where in ("effects", "tentative"):
+        for e in decision[where]:
+            info = fin.info.get(e["name"], {})
+            if info.get("at_bound"):
+                a, b = info["search"]
+                hits.append((f"{where}.{e['name']}",
+                             f"{e['name']} = {e['estimate']:.4g} {e['unit']} lies on its search bound "
+                             f"[{a:.4g}, {b:.4g}] {e['unit']}: it is a bound, not an estimate"))
+    return hits
 
 
 def _single_fits(problem: reg.Problem, nk: int) -> dict:

@@ -23,7 +23,9 @@ def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: f
     residual's RSS over the effect's value itself (re-aligned rider channel, rider
     mass changed), with h and the linear effects profiled out.  Returns the state
     ``{name: value}``, the rebuilt (problem, info), the fit, and the slope dθ/dv of
-    each linearised coefficient (to convert its standard error).
+    each linearised coefficient (to convert its standard error).  The info of each
+    refined effect carries its last ``search`` interval and ``at_bound`` (the value
+    ends within three search tolerances of an end of it).
     """
     from scipy.optimize import minimize_scalar
 
@@ -45,14 +47,18 @@ def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: f
         prob = reg.Problem(residual_model(pr, pp), lin_cols, problem.time, problem.bounds)
         return reg.fit_set(prob, linear).rss
 
+    searched = {}
     for _ in range(2 if len(nonlin) > 1 else 1):
         for c in nonlin:
             lo, hi = NONLINEAR[c]
             v0 = state[c]
             w = 0.05 if c == "sensor_time_offset" else 25.0
-            res = minimize_scalar(lambda v: rss(c, v), bounds=(max(lo, v0 - w), min(hi, v0 + w)),
-                                  method="bounded", options={"xatol": 1e-4 if c != "rider_mass" else 0.05})
+            xatol = 1e-4 if c != "rider_mass" else 0.05
+            a, b = max(lo, v0 - w), min(hi, v0 + w)
+            res = minimize_scalar(lambda v: rss(c, v), bounds=(a, b), method="bounded",
+                                  options={"xatol": xatol})
             state[c] = float(res.x)
+            searched[c] = ((a, b), min(state[c] - a, b - state[c]) <= 3 * xatol)
 
     def build(st):
         pr, pp = residual_of(st)
@@ -68,7 +74,8 @@ def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: f
         ta = reg.fit_set(pa, selected).theta[c][0]
         tb = reg.fit_set(pb, selected).theta[c][0]
         slopes[c] = float((tb - ta) / (2 * d))
-        info[c] = {**info[c], "offset": state[c], "scale": 0.0}
+        info[c] = {**info[c], "offset": state[c], "scale": 0.0, "search": searched[c][0],
+                   "at_bound": bool(searched[c][1])}
     return state, prob, info, f, slopes
 
 

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["summary", "write_report", "report_paths", "FIGURES", "residual_figure", "terms_figure",
-           "before_after_figure", "resimulation_figure", "drift_figure"]
+__all__ = ["summary", "write_report", "report_paths", "resimulation_change_text", "FIGURES",
+           "residual_figure", "terms_figure", "before_after_figure", "resimulation_figure", "drift_figure"]
 
 
 def _fmt_effect(e: dict) -> str:
@@ -56,20 +56,22 @@ def summary(result: dict) -> str:
     r = result
     found = bool(r["effects"])
     lines = [f"{r['recording']}: {r['verdict']}"]
+    bound = set(r.get("at_bound", []))
+    mark = {k: " (AT THE SEARCH BOUND)" if k in bound else "" for k in ("h_nominal", "h_augmented")}
     rmse = f"  residual {r['residual']}; held-out RMSE {r['nominal_rmse']:.3f} N·m nominal"
     if found:
         rmse += f" -> {r['augmented_rmse']:.3f} N·m with the accepted effects"
-        h = f"  h = {r['h_nominal']:.3f} m nominal, {r['h_augmented']:.3f} m with the effects"
+        h = (f"  h = {r['h_nominal']:.3f} m nominal{mark['h_nominal']}, {r['h_augmented']:.3f} m "
+             f"with the effects{mark['h_augmented']}")
     else:
-        h = f"  h = {r['h_nominal']:.3f} m"
-    lines += [rmse + f" (noise floor {r['noise_floor']:.3f} N·m)", h]
+        h = f"  h = {r['h_nominal']:.3f} m{mark['h_nominal']}"
+    lines += [rmse + f" (noise floor {r['noise_floor']:.3f} N·m; held-out RMSE over the noise floor "
+              f"{r['heldout_over_floor']:.1f}×)", h]
     for e in r["effects"]:
-        lines.append("  found: " + _fmt_effect(e))
+        at = " (AT ITS SEARCH BOUND)" if f"effects.{e['name']}" in bound else ""
+        lines.append("  found: " + _fmt_effect(e) + at)
     if r["unexplained"]:
-        g = r["generic"]
-        lines.append(f"  UNEXPLAINED: structure is left that no catalogued effect explains "
-                     f"(a generic periodic term gains {100 * g['gain']:.0f}% held-out; residual "
-                     f"{g['floor_ratio']:.1f}× the noise floor)")
+        lines.append(f"  UNEXPLAINED: structure is left that no catalogued effect explains ({_unexplained_why(r)})")
     if found or r["unexplained"]:
         lines += _where(r)
     for n, why in r.get("cannot_see", {}).items():
@@ -83,6 +85,19 @@ def summary(result: dict) -> str:
             txt += f", {np.degrees(rs['augmented']['rmse_phi']):.2f}° augmented"
         lines.append(txt)
     return "\n".join(lines)
+
+
+def _floor_ratio_text(r: dict) -> str:
+    """The ``unexplained`` test's held-out RMSE over the noise floor, named: it counts the
+    tentative effects too, so it differs from ``heldout_over_floor`` when there are any."""
+    whose = ("with every selected effect, the tentative ones too" if r.get("tentative")
+             else "with the accepted effects")
+    return f"held-out RMSE over the noise floor {r['generic']['floor_ratio']:.1f}× {whose}"
+
+
+def _unexplained_why(r: dict) -> str:
+    """The two statistics of the ``unexplained`` test."""
+    return f"a generic periodic term gains {100 * r['generic']['gain']:.0f}% held-out; {_floor_ratio_text(r)}"
 
 
 def _where(r: dict) -> list[str]:
@@ -370,8 +385,8 @@ def _markdown(result: dict, has_resim: bool) -> str:
             md.append(f"Structure is left after the catalogued effects: a generic periodic term (the best "
                       f"sinusoid between 0.1 and 3 Hz, fitted on the training blocks only) cuts the "
                       f"held-out RMSE by {100 * g['gain']:.0f}% ({g['heldout_without']:.3f} → "
-                      f"{g['heldout_with']:.3f} N·m), and the residual is {g['floor_ratio']:.1f}× the noise "
-                      "floor.  No catalogued name is given to it: a wrong name is worse than none.")
+                      f"{g['heldout_with']:.3f} N·m); {_floor_ratio_text(r)}.  No catalogued "
+                      "name is given to it: a wrong name is worse than none.")
         if r.get("tentative"):
             md.append("")
             md.append("Accepted by the selection but not named (each explained less than half of the "
@@ -445,6 +460,48 @@ def _limits_section(r: dict) -> list[str]:
     return md
 
 
+#: Relative changes of the re-simulated lean's RMSE, %, below which the text calls the change
+#: "hardly any" and above which (a fall) "large"; wording only, no decision rests on them.
+RESIM_SMALL_CHANGE, RESIM_LARGE_FALL = 5.0, 25.0
+
+
+def resimulation_change_text(change: float) -> str:
+    """The report's sentence on how the lean's re-simulated RMSE changed, worded by its size.
+
+    Parameters
+    ----------
+    change : float
+        Relative change of the RMSE of the lean φ, augmented against nominal, % (negative:
+        the augmented re-simulation follows the recording more closely).
+
+    Returns
+    -------
+    str
+        One paragraph: the change said as a fall, a rise or hardly any, and what it means.
+    """
+    check = ("This is a check that the augmented model, run forward in closed loop, reproduces the "
+             "ride at least as well as the nominal one, not the test of the effect (that is the "
+             "held-out residual above).")
+    why_small = ("the simulated rider and motor controllers compensate a missing force or moment (the "
+                 "rider leans a little further to hold his speed), so the effect changes the motion only "
+                 "by that compensation; and most of the difference left is the recorded rider's own "
+                 "random balance corrections and the sensor noise, which no simulation reproduces sample "
+                 "by sample.")
+    if change > RESIM_SMALL_CHANGE:
+        return (f"The lean's RMSE rises by {change:.0f} % with the effects: the augmented model reproduces "
+                f"the ride worse than the nominal one, so the named effect, or its estimate, does not "
+                f"describe the ride.  {check}")
+    if change >= -RESIM_SMALL_CHANGE:
+        return (f"The lean's RMSE hardly changes with the effects ({change:+.0f} %).  {check}  A small "
+                f"change is expected: {why_small}")
+    if change > -RESIM_LARGE_FALL:
+        return (f"The lean's RMSE falls by {-change:.0f} % with the effects.  {check}  The fall is modest, "
+                f"as expected: {why_small}")
+    return (f"The lean's RMSE falls by {-change:.0f} % with the effects: re-simulated with the named "
+            f"effect, the closed-loop ride follows the recording much more closely, so the effect changes "
+            f"the motion, not only the torques.  {check}")
+
+
 def _resim_section(r: dict) -> list[str]:
     """The re-simulation, with what its (often small) gain means."""
     rs = r["resimulation"]
@@ -461,14 +518,6 @@ def _resim_section(r: dict) -> list[str]:
     nom, aug = rs.get("nominal", {}), rs.get("augmented", {})
     if "rmse_phi" in nom and "rmse_phi" in aug and r["effects"]:
         change = 100.0 * (aug["rmse_phi"] / nom["rmse_phi"] - 1.0) if nom["rmse_phi"] > 0 else 0.0
-        md += ["", f"The lean's RMSE changes by {change:+.0f} % with the effects.  This is a check that "
-               "the augmented model, run forward in closed loop, reproduces the ride at least as well as "
-               "the nominal one, not the test of the effect (that is the held-out residual above).  Its "
-               "gain is small by nature: the simulated rider and motor controllers compensate a missing "
-               "force or moment (the rider leans a little further to hold his speed), so the effect "
-               "changes the motion only by that compensation; and most of the difference left is the "
-               "recorded rider's own random balance corrections and the sensor noise, which no "
-               "simulation reproduces sample by sample.  A rise instead of a fall would mean the "
-               "named effect does not describe the ride."]
+        md += ["", resimulation_change_text(change)]
     md += ["", "![re-simulation](resimulation.png)", ""]
     return md

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from euc_sim.diagnosis.common import H_BOUNDS
+from euc_sim.diagnosis.common import h_at_bound as _h_at_bound, heldout_over_floor
 from euc_sim.identification import selection as sel
 
 __all__ = ["leftover", "judge", "cannot_see"]
@@ -29,12 +29,13 @@ def leftover(fin, selected, floor_stacked: float, thresholds) -> dict:
     Returns
     -------
     dict
-        ``heldout_without``, ``heldout_with`` (N·m), ``gain``, ``floor_ratio`` and
-        ``unexplained`` (bool).
+        ``heldout_without``, ``heldout_with`` (N·m), ``gain``, ``floor_ratio``
+        (:func:`~euc_sim.diagnosis.common.heldout_over_floor` of every selected effect,
+        tentative ones too) and ``unexplained`` (bool).
     """
     cv_wo, cv_gen = sel.generic_gain(fin.problem, selected, sel.sinusoid_basis(fin.problem.time))
     gain = 1.0 - cv_gen / cv_wo
-    ratio = fin.cv / floor_stacked if floor_stacked > 0 else float("inf")
+    ratio = heldout_over_floor(fin.cv, floor_stacked)
     return {"heldout_without": cv_wo, "heldout_with": cv_gen, "gain": gain, "floor_ratio": ratio,
             "unexplained": bool(gain >= thresholds.generic_gain or ratio >= thresholds.floor_ratio)}
 
@@ -81,9 +82,8 @@ def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: di
     th = thresholds
     unexplained = left["unexplained"]
     detectable = [c for c, v in limits.items() if v["status"] in ("detectable", "only large values")]
-    lo_b, hi_b = H_BOUNDS
     h_se_f = float(np.sqrt(max(fin.cov[-1, -1], 0.0)))      # h with the accepted effects
-    h_at_bound = min(fin.fit.h - lo_b, hi_b - fin.fit.h) < 0.01
+    h_at_bound = _h_at_bound(fin.fit.h)
     h_ok = (1.96 * h_se_f <= th.max_h_halfwidth) and not h_at_bound
     periodic = left["gain"] >= th.generic_gain      # a periodic structure is a finding in itself
     decidable = bool(detectable) and (h_ok or periodic)

@@ -113,13 +113,20 @@ def identify_controller(kin, p, terms=("gamma", "gamma_d")) -> ControllerFit:
 
 @dataclass
 class RiderFit(ControllerFit):
-    """The rider's delayed law; ``delay_curve`` holds (delays, rmse)."""
+    """The rider's delayed law; ``delay_curve`` holds (delays, rmse).
+
+    ``at_bound`` is True when the best delay is the first or last one searched
+    (``delay_curve[0][0]`` or ``[-1]``): the residual may fall further outside the
+    search, and the delay is a bound, not an estimate.
+    """
 
     delay_curve: tuple = ()
+    at_bound: bool = False
 
     def as_json(self) -> dict:
         out = super().as_json()
         out["delay_curve"] = {"delay": self.delay_curve[0], "rmse": self.delay_curve[1]}
+        out["search"] = [float(self.delay_curve[0][0]), float(self.delay_curve[0][-1])]
         return out
 
 
@@ -169,7 +176,8 @@ def fit_delayed_law(y: np.ndarray, X: np.ndarray, dt: float, max_delay: float) -
     Returns
     -------
     dict
-        ``coef``, ``r2``, ``rmse``, ``delay`` (s) and ``delay_curve`` (delays s, rmse).
+        ``coef``, ``r2``, ``rmse``, ``delay`` (s), ``delay_curve`` (delays s, rmse) and
+        ``at_bound`` (the best delay is the first or the last one searched).
     """
     n_max = int(min(round(max_delay / dt), len(y) // 2))
     fits = [_lstsq_fit(y[n:], X[: len(X) - n]) for n in range(n_max + 1)]
@@ -177,4 +185,4 @@ def fit_delayed_law(y: np.ndarray, X: np.ndarray, dt: float, max_delay: float) -
     best = int(np.argmin(rm))
     coef, r2, rmse = fits[best]
     return {"coef": coef, "r2": r2, "rmse": rmse, "delay": round(best * dt, 9),
-            "delay_curve": (np.arange(n_max + 1) * dt, rm)}
+            "delay_curve": (np.arange(n_max + 1) * dt, rm), "at_bound": best in (0, n_max)}

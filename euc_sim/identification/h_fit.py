@@ -173,13 +173,27 @@ class HFit:
     noise_sd: float = math.nan
     noise_bias: float = math.nan
 
+    def at_bound(self) -> list[str]:
+        """The fitted quantities that end on the search bounds: ``"h"``, ``"h_ci95"``.
+
+        Within two grid steps of ``h_grid[0]`` or ``h_grid[-1]``, the margin the
+        verdict uses: h there is a bound, not a minimum; an interval there was clipped.
+        """
+        lo, hi = float(self.h_grid[0]), float(self.h_grid[-1])
+        margin = 2 * float(self.h_grid[1] - self.h_grid[0])
+        out = ["h"] if not (lo + margin <= self.h <= hi - margin) else []
+        ci = [c for c in self.h_ci95 if math.isfinite(c)]
+        if ci and (min(ci) < lo + margin or max(ci) > hi - margin):
+            out.append("h_ci95")
+        return out
+
     def as_json(self, curve: bool = True) -> dict:
         """The CONTRACT form (``h, h_ci95, rmse, identifiable``) plus extras."""
         out = {"h": self.h, "h_ci95": list(self.h_ci95), "rmse": self.rmse,
                "identifiable": bool(self.identifiable), "flatness": self.flatness,
                "n_samples": self.n_samples, "reason": self.reason,
                "h_ci95_block": list(self.h_ci95_block), "noise_sd": self.noise_sd,
-               "noise_bias": self.noise_bias}
+               "noise_bias": self.noise_bias, "at_bound": self.at_bound()}
         if curve:
             out["curve"] = {"h": self.h_grid, "rmse": self.rmse_grid}
         return out

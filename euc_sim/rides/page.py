@@ -22,7 +22,7 @@ from euc_sim.rides.signals import RideSignals, break_at_gaps
 from euc_sim.rides.verdict import unit_label
 
 __all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "plot_residuals", "residuals_figure", "write_page",
-           "summarise_notes",
+           "summarise_notes", "falls_sentence",
            "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
 #: localise() settings for rides, s: minutes-long logs at ~5 Hz need a longer
@@ -344,6 +344,20 @@ def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     return md
 
 
+def falls_sentence(falls: list, scored_rows: int) -> str | None:
+    """One sentence on the simulated rider's falls (``simulation.falls``), each time and cause
+    said once with the runs it ended; None without a fall."""
+    if not falls:
+        return None
+    groups: dict[tuple, list[str]] = {}
+    for f in falls:
+        groups.setdefault((round(float(f["t"]), 1), f["cause"]), []).append(f.get("run", "run"))
+    said = "; ".join(f"at t = {t:.1f} s ({' and '.join(runs)}: {cause})" for (t, cause), runs in groups.items())
+    tail = ("no scored row was ridden before it, so there is no error to report" if scored_rows == 0
+            else f"errors are over the {scored_rows} scored rows ridden before it")
+    return f"the simulated rider fell {said}; the profile was not ridden again, and {tail}"
+
+
 def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     """The closed-loop simulation along the ride against its log."""
     sim = r.get("simulation")
@@ -366,6 +380,9 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         if sim.get("windows"):
             md.append("Windows (s) where the augmented simulation's power error concentrates: "
                       + ", ".join(f"{a:.1f}–{b:.1f}" for a, b in sim["windows"]) + ".")
+        fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
+        if fell:
+            md += [fell[0].upper() + fell[1:] + ".", ""]
         for n in summarise_notes(sim.get("notes", [])):
             md.append(f"- {n}")
         if "simulation" in figures:

@@ -24,10 +24,9 @@ Both are compared with the log on the log's 10 Hz grid after the *same*
 Savitzky–Golay smoothing the log gets (:meth:`RideSignals.filt`), so filtering
 does not count as model error.
 
-When the rider falls (:class:`~euc_sim.simulation.errors.FallError`) on an aggressive
-part of a real profile, the profile's acceleration is limited
-(:func:`euc_sim.rides.tracking.limit_acceleration`) step by step until the rider can follow it; every
-step is recorded in the notes, never hidden.
+When the rider falls (:class:`~euc_sim.simulation.errors.FallError`), that run stops
+at the fall, which is reported once (``falls``: time and cause); the profile is never
+ridden again after a fall, and both runs are scored on the rows both of them rode.
 """
 
 from __future__ import annotations
@@ -45,7 +44,7 @@ import pandas as pd
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.profile import speed_profile
 from euc_sim.rides.signals import RideAssumptions, RideSignals
-from euc_sim.rides.tracking import A_LIMITS, ProfileRun, simulate_profile, to_grid
+from euc_sim.rides.tracking import ProfileRun, simulate_profile, to_grid
 
 __all__ = ["SIM_EFFECTS", "MAX_BRIDGED_GAP", "simulation_obstacle", "ride_params", "effects_to_inject",
            "battery_power", "RideSimulation", "simulate_ride", "plot_ride_simulation"]
@@ -179,8 +178,9 @@ class RideSimulation:
         Effects injected into the augmented run.
     parameters : dict
         ``{"nominal"|"augmented": {eta_motor, eta_regen, drivetrain_idle_loss}}``.
-    a_limit : dict
-        ``{"nominal"|"augmented": m/s² or None}``.
+    falls : list of dict
+        ``{"t": s, "cause": str, "run": "nominal"|"augmented"}`` of each run that ended
+        in a fall (CONTRACT's ``simulation.falls``).
     localisation : dict
         :func:`euc_sim.diagnosis.localise.localise` on the augmented power error (W):
         windows (s), share, correlations.
@@ -192,14 +192,14 @@ class RideSimulation:
     errors: dict
     effects: dict
     parameters: dict
-    a_limit: dict
+    falls: list
     localisation: dict
     notes: tuple[str, ...] = field(default=())
 
     def as_json(self) -> dict:
         """JSON-ready summary (the table goes to CSV)."""
         return {"ride": self.label, "errors": self.errors, "effects_injected": self.effects,
-                "drivetrain": self.parameters, "acceleration_limit_mps2": self.a_limit,
+                "drivetrain": self.parameters, "falls": list(self.falls),
                 "windows": self.localisation.get("windows", []),
                 "windows_share": self.localisation.get("share"),
                 "correlations": self.localisation.get("correlations", {}),
@@ -287,23 +287,34 @@ def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: 
 
 
 def _on_grid(df: pd.DataFrame | None, sig: RideSignals, est: Mapping[str, float], R: float,
-             name: str) -> dict:
-    """A run's speed, torque and battery power on the log's grid, smoothed like the log."""
+             name: str, fell: bool = False) -> dict:
+    """A run's speed, torque and battery power on the log's grid, smoothed like the log.
+
+    A run that ended in a fall (``fell``) is kept up to one smoothing window before the
+    fall (the falling itself is not riding) and is NaN after it.
+    """
     t = sig.frame["t"].to_numpy()
     if df is None:
         return {f"{col}_{name}": np.full(t.size, np.nan) for col in ("v", "M", "P")}
+    from euc_sim.rides.signals import sg
+
     P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], R, est["eta_motor"],
                       est["eta_regen"], est.get("drivetrain_idle_loss", 0.0))
     ts = df["t"].to_numpy()
-    return {f"v_{name}": sig.filt(to_grid(ts, df["x_dot"], t)),
-            f"M_{name}": sig.filt(to_grid(ts, df["M_d"], t)),
-            f"P_{name}": sig.filt(to_grid(ts, P, t))}
+    segment = sig.raw["segment"].to_numpy().copy()
+    if fell:
+        segment[t > ts[-1] - sig.window] = -1    # its own segment, NaN: the filter never crosses
+
+    def filt(x):
+        return sg(to_grid(ts, x, t), segment, sig.rate, sig.window, sig.polyorder)
+
+    return {f"v_{name}": filt(df["x_dot"]), f"M_{name}": filt(df["M_d"]), f"P_{name}": filt(P)}
 
 
 def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Mapping[str, float],
                   accepted: Sequence[str], log, scored: np.ndarray | None = None,
                   label: str | None = None, seed: int = 0, dt: float = 1e-3,
-                  a_limits: Sequence[float] = A_LIMITS, track_iterations: int = 1,
+                  track_iterations: int = 1,
                   window_smooth: float = 5.0, window_min: float = 3.0,
                   workers: int = 1,
                   progress: Callable[[str], None] | None = None) -> RideSimulation:
@@ -324,7 +335,7 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
         Grid rows the errors are measured on (default: every row where the
         log's smoothed signals are defined).
     label : str, optional
-    seed, dt, a_limits, track_iterations :
+    seed, dt, track_iterations :
         See :func:`simulate_profile`.
     workers : int
         Processes for the two simulations (2: nominal and augmented side by
@@ -332,7 +343,8 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
         and are killed when it is interrupted.
     progress : callable, optional
         Called with a short line as each run starts and ends (from the workers
-        too when it can be pickled, e.g. a module-level function).
+        too when it can be pickled, e.g. a module-level function); when it reaches
+        a run, a progress bar over the ride's seconds is shown on stderr too.
     window_smooth, window_min : float
         s: ``smooth`` and ``min_len`` of :func:`euc_sim.diagnosis.localise.localise`
         (longer than its 1 s / 0.5 s defaults: a ride is minutes long and
@@ -353,18 +365,25 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     out = {"t": t, "v_log": frame["v"].to_numpy(), "M_log": frame["M"].to_numpy(),
            "P_log": frame["P"].to_numpy()}
     runs = {"nominal": ({}, nominal), "augmented": (eff, augmented)}
-    a_limit = {}
-    jobs = [(t_p, v_p, params, effects, seed, dt, tuple(a_limits), track_iterations, 10.0,
-             _prefixed(progress, name, workers)) for name, (effects, _) in runs.items()]
+    falls = []
+    jobs = [(t_p, v_p, params, effects, seed, dt, track_iterations, 10.0,
+             _prefixed(progress, name, workers), name, i)
+            for i, (name, (effects, _)) in enumerate(runs.items())]
     done = _run_jobs(jobs, list(runs), params, workers, progress)
     for (name, (effects, est)), run in zip(runs.items(), done):
-        notes += [f"{name}: {n}" for n in run.notes]
-        a_limit[name] = run.a_limit
-        out.update(_on_grid(run.frame, sig, est, params.R, name))
+        if not run.falls:            # a fall is said once, from ``falls`` (page.falls_sentence)
+            notes += [f"{name}: {n}" for n in run.notes]
+        falls += [{**f, "run": name} for f in run.falls]
+        out.update(_on_grid(run.frame, sig, est, params.R, name, fell=bool(run.falls)))
     table = pd.DataFrame(out)
     ok = frame["interior"].to_numpy() & np.isfinite(table["P_log"].to_numpy())
     if scored is not None:
         ok &= np.asarray(scored, bool)
+    if falls:                # both runs scored where both rode: up to the first fall
+        rode = np.logical_and.reduce([np.isfinite(table[f"P_{name}"].to_numpy()) for name in runs])
+        notes.append(f"both runs are scored up to t = {min(f['t'] for f in falls):.1f} s, where the "
+                     f"first fall ended a run ({int((ok & rode).sum())} of {int(ok.sum())} scored rows)")
+        ok &= rode
     table["scored"] = ok
     errors = _errors(table, ok, tuple(runs))
     errors["M_log_method"] = sig.torque_method
@@ -372,7 +391,7 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     return RideSimulation(label=label or str(sig.path), table=table, errors=errors, effects=eff,
                           parameters={"nominal": _drivetrain(nominal),
                                       "augmented": _drivetrain(augmented)},
-                          a_limit=a_limit, localisation=loc, notes=tuple(notes))
+                          falls=falls, localisation=loc, notes=tuple(notes))
 
 
 def plot_ride_simulation(sim: RideSimulation, path) -> "Path":

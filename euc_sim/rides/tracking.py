@@ -1,10 +1,11 @@
 """The simulated rider riding a logged speed profile: acceleration limits, plan corrections, the log's grid.
 
 :func:`simulate_profile` drives the closed-loop simulator's rider
-(:func:`euc_sim.simulation.engine.simulate`, maneuver ``profile``) along a ride's speed;
-when he falls on an aggressive part of a real profile, the profile's acceleration is
-limited (:func:`limit_acceleration`) step by step until he can follow it, and his plan
-is corrected so that the simulated speed tracks the logged one.  :func:`to_grid`
+(:func:`euc_sim.simulation.engine.simulate`, maneuver ``profile``) along a ride's speed,
+with a progress bar over the ride's seconds; when he falls, the run stops there and the
+fall is reported once (the profile is never ridden again after a fall); otherwise his
+plan is corrected so that the simulated speed tracks the logged one.
+:func:`limit_acceleration` smooths a profile to a given acceleration.  :func:`to_grid`
 brings the 1 kHz simulation onto the log's grid.
 """
 
@@ -20,10 +21,7 @@ import pandas as pd
 from euc_sim.model.parameters import Params
 from euc_sim.rides.signals import sg
 
-__all__ = ["A_LIMITS", "limit_acceleration", "to_grid", "ProfileRun", "simulate_profile"]
-
-#: Acceleration limits tried in turn, m/s², when the rider falls on the raw profile.
-A_LIMITS = (3.0, 2.0, 1.5, 1.0, 0.7, 0.5)
+__all__ = ["limit_acceleration", "to_grid", "ProfileRun", "simulate_profile"]
 
 
 def limit_acceleration(t: np.ndarray, v: np.ndarray, a_max: float) -> np.ndarray:
@@ -99,34 +97,56 @@ class ProfileRun:
     Attributes
     ----------
     frame : pandas.DataFrame or None
-        :func:`euc_sim.simulation.engine.simulate`'s output (1/dt Hz); None when the
-        rider fell on every profile tried.
-    a_limit : float or None
-        Acceleration limit applied to the profile, m/s² (None: the profile as logged).
+        :func:`euc_sim.simulation.engine.simulate`'s output (1/dt Hz), up to the fall
+        when the rider fell; None when he fell before the first step.
+    falls : tuple of dict
+        ``{"t": s, "cause": str}`` of the fall that ended the run (at most one: the
+        profile is never ridden again after a fall).
     notes : tuple of str
-        Falls and limits, in order.
+        The fall and the plan corrections, in order.
     """
 
     frame: pd.DataFrame | None
-    a_limit: float | None
+    falls: tuple[dict, ...]
     notes: tuple[str, ...]
 
 
-def _track(t, v_target, v_plan, params, effects, seed, dt):
+class _RideClock:
+    """A tqdm bar over the ride's seconds (stderr), fed by the engine's ``progress(t)``."""
+
+    def __init__(self, total: float, desc: str, enabled: bool, position: int = 0):
+        import sys
+
+        from tqdm import tqdm
+
+        self.bar = tqdm(total=round(total, 1), desc=desc, unit="s", unit_scale=False, file=sys.stderr,
+                        disable=not enabled, position=position, mininterval=1.0, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
+                        "{n:.0f}/{total:.0f} s of ride [{elapsed}<{remaining}]")
+
+    def __call__(self, t: float) -> None:
+        self.bar.update(max(0.0, round(t, 1) - self.bar.n))
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None):
     """One run along the plan v_plan; its speed on the profile grid, m/s, and RMS error."""
     from euc_sim.simulation.maneuvers import Maneuver
     from euc_sim.simulation.engine import default_rider, simulate
 
     man = Maneuver("profile", float(v_plan[0]), (), (tuple(t.tolist()), tuple(v_plan.tolist())))
     df = simulate(man, float(t[-1]), params=params, rider=default_rider(params), seed=seed,
-                  effects=dict(effects), dt=dt)
+                  effects=dict(effects), dt=dt, progress=clock)
+    if clock is not None:
+        clock(float(t[-1]))                # the whole ride ridden
     v_sim = to_grid(df["t"].to_numpy(), df["x_dot"].to_numpy(), t)
     v_sim = np.where(np.isfinite(v_sim), v_sim, v_plan)
     return df, v_sim, float(np.sqrt(np.mean((v_target - v_sim) ** 2)))
 
 
 def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, window: float,
-                  notes: list, say) -> pd.DataFrame:
+                  notes: list, say, clock_of) -> pd.DataFrame:
     """Iterative learning: add the slow speed error to the plan and ride again.
 
     Returns the frame of the run closest to ``target``; appends to ``notes``.
@@ -138,13 +158,16 @@ def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, wi
     plan = target
     for it in range(iterations):
         plan = plan + sg(target - v_sim, np.zeros(t.size, int), rate, window, 2)
-        say(f"tracking correction {it + 1} of {iterations}")
+        say(f"tracking correction {it + 1} of {iterations}: riding the corrected plan")
+        clock = clock_of(f"correction {it + 1}")
         try:
-            df2, v2, err2 = _track(t, target, plan, params, effects, seed, dt)
+            df2, v2, err2 = _track(t, target, plan, params, effects, seed, dt, clock)
         except FallError as exc:
             notes.append(f"tracking correction {it + 1}: rider fell ({exc}); kept the "
                          f"previous run")
             break
+        finally:
+            clock.close()
         notes.append(f"tracking correction {it + 1}: RMS speed error {err:.3f} -> "
                      f"{err2:.3f} m/s")
         if err2 >= err:
@@ -154,10 +177,10 @@ def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, wi
 
 
 def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapping[str, float],
-                     seed: int = 0, dt: float = 1e-3, a_limits: Sequence[float] = A_LIMITS,
-                     track_iterations: int = 1, track_window: float = 10.0,
-                     progress: Callable[[str], None] | None = None) -> ProfileRun:
-    """Ride the speed profile (t, v) in closed loop (MuJoCo); limit it if the rider falls.
+                     seed: int = 0, dt: float = 1e-3, track_iterations: int = 1,
+                     track_window: float = 10.0, progress: Callable[[str], None] | None = None,
+                     label: str = "ride", position: int = 0) -> ProfileRun:
+    """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
     The simulated rider has no integral action: a resisting force (drag, rolling
     resistance, a climb) can make it ride slower than planned.  A real rider
@@ -166,6 +189,10 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     the rider's own sway, is corrected) is added to the plan and the ride is run
     again, ``track_iterations`` times (iterative learning); the run closest to
     the profile is kept, and the notes say what each correction did.
+
+    When the rider falls, the run ends there: its frame stops at the fall, the fall's
+    time and cause are reported once (``falls``), and the profile is not ridden again
+    (no correction either).
 
     Parameters
     ----------
@@ -178,14 +205,17 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         Seed of the simulation (the default rider has no motor noise).
     dt : float
         Control period and MuJoCo step, s.
-    a_limits : sequence of float
-        Acceleration limits, m/s², tried in turn after a fall.
     track_iterations : int
         Plan corrections after the first run (0: the plan is the profile).
     track_window : float
         s.
     progress : callable, optional
-        Called with a short line before each closed-loop run.
+        Called with a short line before each closed-loop run; when given, a progress
+        bar over the ride's seconds is shown on stderr too.
+    label : str
+        The bar's name (the run: ``nominal``, ``augmented``).
+    position : int
+        The bar's line (0 first): runs side by side in processes keep their own line.
 
     Returns
     -------
@@ -197,27 +227,24 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     t = np.asarray(t, float)
     v = np.asarray(v, float)
     notes: list[str] = []
-    a_peak = float(np.max(np.abs(np.gradient(v, t)))) if t.size > 1 else 0.0
-    for a_lim in (None, *a_limits):
-        if a_lim is not None and a_lim >= a_peak:
-            continue
-        target = v if a_lim is None else limit_acceleration(t, v, a_lim)
-        say(f"riding {t[-1] - t[0]:.0f} s of " + ("the logged profile" if a_lim is None else
-                                                 f"the profile limited to ±{a_lim:g} m/s²"))
-        try:
-            df, v_sim, err = _track(t, target, target, params, effects, seed, dt)
-        except FallError as exc:
-            what = "the logged profile" if a_lim is None else f"the profile limited to ±{a_lim:g} m/s²"
-            notes.append(f"rider fell on {what} ({exc})")
-            continue
-        if a_lim is not None:
-            changed = float(np.sqrt(np.mean((target - v) ** 2)))
-            notes.append(f"profile acceleration limited to ±{a_lim:g} m/s² (logged peak "
-                         f"{a_peak:.2f} m/s²; RMS speed change {changed:.3f} m/s) so the "
-                         f"simulated rider can follow it")
-        if t.size >= 5:
-            df = _correct_plan(t, target, (df, v_sim, err), params, effects, seed, dt,
-                               track_iterations, track_window, notes, say)
-        return ProfileRun(df, a_lim, tuple(notes))
-    notes.append("the rider fell on every acceleration limit tried: no simulation")
-    return ProfileRun(None, None, tuple(notes))
+
+    def clock_of(what: str) -> _RideClock:
+        return _RideClock(float(t[-1] - t[0]), f"{label} {what}", progress is not None, position)
+
+    say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
+    clock = clock_of("ride")
+    try:
+        df, v_sim, err = _track(t, v, v, params, effects, seed, dt, clock)
+    except FallError as exc:
+        cause = str(exc).split(": ", 1)[-1]
+        notes.append(f"rider fell at t = {exc.t:.1f} s of {t[-1] - t[0]:.0f} s ({cause}): the "
+                     f"simulation stops there and the profile is not ridden again")
+        say(notes[-1])
+        frame = exc.trajectory if exc.trajectory is not None and len(exc.trajectory) else None
+        return ProfileRun(frame, ({"t": float(exc.t), "cause": cause},), tuple(notes))
+    finally:
+        clock.close()
+    if t.size >= 5:
+        df = _correct_plan(t, v, (df, v_sim, err), params, effects, seed, dt,
+                           track_iterations, track_window, notes, say, clock_of)
+    return ProfileRun(df, (), tuple(notes))

@@ -216,6 +216,7 @@ def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | 
     from euc_sim.simulation.runner import run_tasks
 
     out_dir = Path(out_dir)
+    created = [d for d in (out_dir, *out_dir.parents) if not d.exists()]   # deepest first
     io.check_writable(out_dir / "dataset.json")
 
     written: dict[str, Path] = {}
@@ -224,8 +225,14 @@ def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | 
         rec, meta, truth = value
         written[name] = io.write_recording(rec, out_dir / f"{name}{ext}", meta, truth)
 
-    report = run_tasks(_make, [(s.name, s) for s in specs], scheduler=scheduler, workers=workers,
-                       progress=progress, desc="dataset", on_result=write)
+    try:
+        report = run_tasks(_make, [(s.name, s) for s in specs], scheduler=scheduler, workers=workers,
+                           progress=progress, desc="dataset", on_result=write)
+    except BaseException:        # no scheduler, an interruption: no folder left that this run made empty
+        for d in created:
+            if d.is_dir() and not any(d.iterdir()):
+                d.rmdir()
+        raise
     report.results = {n: written[n] for n in report.names if n in written}
     io.write_json(out_dir / "dataset.json", {
         "recordings": [p.name for p in report.results.values()],

@@ -54,7 +54,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from itertools import chain
-from typing import Mapping
+from typing import Callable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -284,7 +284,8 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
              effects: Mapping[str, float] | None = None, dt: float = DEFAULT_DT,
              fall_bounds: Mapping[str, float] | None = None, contact=None,
              rolling_model: str = "moment", external_force=None,
-             lateral_motion: LateralMotion | None = None, drift_shape=None) -> pd.DataFrame:
+             lateral_motion: LateralMotion | None = None, drift_shape=None,
+             progress: Callable[[float], None] | None = None) -> pd.DataFrame:
     """Run one maneuver in closed loop and return the true trajectory.
 
     Parameters
@@ -335,6 +336,9 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         default the catalog's 12 s sine); the effect's value stays its peak-to-peak
         change, m.  The inertial forces of G moving along the rider's axis (the ḣ
         terms, :func:`euc_sim.simulation.drift.drift_forces`) act in both engines.
+    progress : callable, optional
+        ``progress(t)`` with the simulated time, s, every rider block (about 0.15 s of
+        ride): for a progress bar over a long run.
 
     Returns
     -------
@@ -347,7 +351,8 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     ------
     FallError
         (a ``ValueError``) when |φ| or |γ| passes its bound or the state is not finite;
-        the message gives the time of the fall.
+        the message gives the time of the fall, and its ``trajectory`` the run up to it
+        (the columns ``t`` … ``v_ref`` above).
     SimulationError
         for an unknown engine, maneuver, effect or a bad duration.
     """
@@ -377,7 +382,16 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         stepper.set_effects(0.0, 0.0, float(ext.h_t[0]), None)
     stepper.reset(y0)
 
-    states, U = _closed_loop(stepper, motor, run, ext, p_true, dt, N, y0, bounds)
+    try:
+        states, U = _closed_loop(stepper, motor, run, ext, p_true, dt, N, y0, bounds, progress)
+    except FallError as exc:             # the run up to the fall, for a caller that keeps it
+        if exc.partial is not None:
+            st, u = exc.partial
+            exc.trajectory = pd.DataFrame({
+                "t": t[:len(st)], "x": st[:, 0], "gamma": st[:, 1], "phi": st[:, 2], "x_dot": st[:, 3],
+                "gamma_dot": st[:, 4], "phi_dot": st[:, 5], "M_d": u[:, 0], "M_h": u[:, 1],
+                "v_ref": v_ref[:len(st)]})
+        raise
     df = _trajectory(t, states, U, v_ref, ext)
     df.attrs.update({
         "maneuver": man.as_dict(), "duration": float(duration), "dt": dt, "engine": engine,
@@ -462,7 +476,8 @@ def _external_inputs(p_true: Params, eff: dict, t: np.ndarray, v_ref: np.ndarray
 
 
 def _closed_loop(stepper, motor: MotorPD, run: RiderRun, ext: _ExternalInputs, p_true: Params,
-                 dt: float, N: int, y0: tuple, bounds: Mapping[str, float]) -> tuple[np.ndarray, np.ndarray]:
+                 dt: float, N: int, y0: tuple, bounds: Mapping[str, float],
+                 progress: Callable[[float], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Step the plant N times under the held motor and ankle torques; states (N+1, 6) and torques (N+1, 2).
 
     The rider senses states n = delay/dt steps old, so his ankle torques are computed
@@ -480,12 +495,19 @@ def _closed_loop(stepper, motor: MotorPD, run: RiderRun, ext: _ExternalInputs, p
     y = y0
     for k0 in range(0, N + 1, n + 1):
         block = min(n + 1, N + 1 - k0)
+        if progress is not None:
+            progress(k0 * dt)
         M_h_block = run.commands(k0, _rows(Y[k0:k0 + block]))[1].tolist()
         Mh_hist += M_h_block
         for k, M_h in enumerate(M_h_block, start=k0):
             x_, g_, f_, xd_, gd_, fd_ = y
             if not (abs(f_) <= phi_max and abs(g_) <= gam_max):
-                _raise_fall(k * dt, y, phi_max, gam_max)
+                try:
+                    _raise_fall(k * dt, y, phi_max, gam_max)
+                except FallError as exc:     # the states and torques of steps 0 … k − 1
+                    exc.partial = (_rows(Y[n:n + k]), np.column_stack([Md_hist[:k], Mh_hist[:k]])
+                                   if k else np.empty((0, 2)))
+                    raise
             M_d = torque(g_, gd_, xd_)
             keep_Md(M_d)
             if k == N:

@@ -18,7 +18,12 @@ class FallError(SimulationError):
         ``"phi"``, ``"gamma"`` or ``"state"`` (non-finite).
     value : float
         The offending value, rad.
+    trajectory : pandas.DataFrame or None
+        The run up to the fall, where the simulator provides it.
     """
+
+    partial = None
+    trajectory = None
 
     def __init__(self, t: float, quantity: str, value: float, bound: float | None):
         self.t, self.quantity, self.value, self.bound = t, quantity, value, bound

@@ -91,8 +91,24 @@ def poses(df: pd.DataFrame, p: Params = TABLE3, name: str = "recording") -> dict
 
 
 def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, height: int = 480,
-                     frame_time: float | None = None, params: Params = TABLE3) -> int:
+                     frame_time: float | None = None, params: Params = TABLE3, progress: bool = True) -> int:
     """Render ``recording`` to ``out`` (.mp4, .gif, or .png for one frame at ``frame_time``).
+
+    Parameters
+    ----------
+    recording, out : path
+        The recording (CSV or Parquet) and the file to write; the extension of ``out``
+        chooses the format.
+    fps : float
+        Frames per second of a video.
+    width, height : int
+        Frame size, pixels.
+    frame_time : float, optional
+        With ``.png``: the time of the frame, s (default: the middle of the recording).
+    params : Params
+        The model drawn.
+    progress : bool
+        A progress bar over the frames on stderr.
 
     Returns
     -------
@@ -109,9 +125,14 @@ def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, hei
     from euc_sim import io
     from euc_sim.model.spatial import EucSpatial
 
+    import sys
+
+    from tqdm import tqdm
+
     recording, out = Path(recording), Path(out)
     if not (16 <= width <= 4096 and 16 <= height <= 4096):
         raise RenderError(f"frame size must be 16-4096 pixels, got {width} x {height}")
+    io.check_writable(out)             # before the rendering, not after it
     df = _read(recording)
     pose = poses(df, params, str(recording))
     t = df["t"].to_numpy(dtype=float)
@@ -135,6 +156,8 @@ def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, hei
     a = sim.qadr
     quat = np.empty(4)
     frames = []
+    bar = tqdm(total=len(frames_at), desc=f"render {out.name}", unit="frame", file=sys.stderr,
+               disable=not progress or len(frames_at) < 2)
     try:
         for i in frames_at:
             d.qpos[a["root"]:a["root"] + 3] = pose["C"][i]
@@ -148,7 +171,9 @@ def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, hei
             mujoco.mj_camlight(m, d)
             renderer.update_scene(d, camera=cam)
             frames.append(renderer.render().copy())
+            bar.update()
     finally:
+        bar.close()
         renderer.close()
     _write_frames(out, frames, fps, io)
     return len(frames)
@@ -160,12 +185,16 @@ def _write_frames(out: Path, frames, fps: float, io) -> None:
     suffix = out.suffix.lower()
 
     def write(tmp: Path) -> None:
-        if suffix == ".png":
-            iio.imwrite(tmp, frames[0], extension=".png")
-        elif suffix == ".gif":
-            iio.imwrite(tmp, np.stack(frames), extension=".gif", duration=1000.0 / fps, loop=0)
-        else:
-            iio.imwrite(tmp, np.stack(frames), extension=".mp4", fps=fps, codec="libx264",
-                        macro_block_size=8)
+        try:
+            if suffix == ".png":
+                iio.imwrite(tmp, frames[0], extension=".png")
+            elif suffix == ".gif":
+                iio.imwrite(tmp, np.stack(frames), extension=".gif", duration=1000.0 / fps, loop=0)
+            else:
+                iio.imwrite(tmp, np.stack(frames), extension=".mp4", fps=fps, codec="libx264",
+                            macro_block_size=8)
+        except OSError as exc:         # the encoder (ffmpeg, a pipe) failed: say which file
+            raise RenderError(f"{out}: the {suffix} encoder failed ({type(exc).__name__}: "
+                              f"{str(exc).splitlines()[0] if str(exc) else ''})") from None
 
     io.atomic_write(out, write)

@@ -274,10 +274,22 @@ def _run_dask(fn, tasks, scheduler: str, workers: int | None, done) -> str:
     from distributed import Client, LocalCluster, as_completed as dask_completed
     from distributed.scheduler import KilledWorker
 
+    import contextlib
+    import tempfile
+
+    import dask
+
     cluster = None
+    scratch = contextlib.ExitStack()           # a local cluster's dask-scratch-space, removed after
     if scheduler == "local":
-        cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+        tmp = scratch.enter_context(tempfile.TemporaryDirectory(prefix="euc-sim-dask-"))
+        scratch.enter_context(dask.config.set({"temporary-directory": tmp}))
+        try:
+            cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, local_directory=tmp)
+        except BaseException:
+            scratch.close()
+            raise
         client = Client(cluster)
         backend = f"dask local, {workers or 2} workers"
     else:
@@ -304,4 +316,5 @@ def _run_dask(fn, tasks, scheduler: str, workers: int | None, done) -> str:
         client.close()
         if cluster is not None:
             cluster.close()
+        scratch.close()
     return backend

@@ -118,6 +118,14 @@ def test_single_recording_figures_are_named_for_what_they_show(tmp_path, capsys)
     assert main(["identify", str(rec), "--bootstrap", "50", "--plot", str(tmp_path / "decel.png")]) == 0
     assert (tmp_path / "decel.png").exists() and (tmp_path / "decel-torques.png").exists()
     assert not (tmp_path / "decel-decel.png").exists()
+    # issue 19, item 14: every file written is announced, and the help says there are two
+    printed = [ln.removeprefix("wrote ") for ln in capsys.readouterr().out.splitlines() if ln.startswith("wrote ")]
+    on_disk = sorted(str(p) for p in tmp_path.glob("decel*.png"))
+    assert sorted(printed) == on_disk == [str(tmp_path / "decel-torques.png"), str(tmp_path / "decel.png")]
+    from euc_sim.cli.app import build_parser
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["identify", "--help"])
+    assert "ALSO writes Figs. 6/7 beside it" in " ".join(capsys.readouterr().out.split())
 
 
 def test_version_and_help_texts(capsys):

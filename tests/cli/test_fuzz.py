@@ -20,6 +20,7 @@ hypothesis = pytest.importorskip("hypothesis")
 from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
 
 from euc_sim.cli import main  # noqa: E402
+from euc_sim.io import is_temporary  # noqa: E402
 
 SETTINGS = settings(max_examples=30, deadline=None, derandomize=True,
                     suppress_health_check=[HealthCheck.too_slow, HealthCheck.function_scoped_fixture])
@@ -84,7 +85,7 @@ def _run(argv, folder: Path, outputs: list[str]) -> None:
     assert code in (0, 2), code
     after = set(folder.iterdir()) - before
     names = {p.name for p in after}
-    assert not any(n.endswith((".tmp", ".probe")) or n.startswith(".") for n in names), names
+    assert not any(is_temporary(n) or n.endswith(".probe") or n.startswith(".") for n in names), names
     if code == 2:
         assert not after, names
     else:

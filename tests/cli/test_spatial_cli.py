@@ -26,10 +26,16 @@ def test_simulate_3d_writes_a_mocap_recording(eight):
     assert truth["model"] == "3d" and truth["path_error"]["max_m"] < 1.0
 
 
-def test_section_2_runs_on_a_3d_recording(eight, tmp_path):
+def test_section_2_runs_on_a_3d_recording(eight, tmp_path, capsys):
     out = tmp_path / "id.json"
     assert main(["identify", str(eight), "--json", str(out), "--bootstrap", "20"]) == 0
-    assert out.is_file()
+    res = json.loads(out.read_text())
+    rider = res["per_recording"][0]["rider"]
+    on_bound = min(abs(rider["delay"] - b) for b in rider["search"]) < 1e-9
+    printed = capsys.readouterr().out
+    # issue 19, item 3: a rider delay on the search's end is said, in print and in the JSON
+    assert on_bound == ("per_recording[0].rider.delay" in res["at_bound"])
+    assert on_bound == ("rider delay" in printed and "AT THE SEARCH BOUND" in printed)
 
 
 def test_simulate_3d_bad_input_is_one_line(tmp_path, capsys):
@@ -52,7 +58,8 @@ def _gl_available() -> bool:
     return True
 
 
-def test_render_a_frame_and_a_gif(eight, tmp_path):
+def test_render_a_frame_a_gif_and_an_mp4(eight, tmp_path, capsys):
+    """Each format the README names, read back; the mp4 of a 3-D ride has its frames (issue 19)."""
     if not _gl_available():
         pytest.skip("no OpenGL backend (MUJOCO_GL=egl needs libegl1 + libegl-mesa0)")
     import imageio.v3 as iio
@@ -65,6 +72,43 @@ def test_render_a_frame_and_a_gif(eight, tmp_path):
     assert main(["render", str(eight), "--out", str(gif), "--fps", "4", "--width", "64",
                  "--height", "48"]) == 0
     assert iio.imread(gif).shape[0] == 12                          # 3 s at 4 frames/s
+    capsys.readouterr()
+    mp4 = tmp_path / "ride.mp4"
+    assert main(["render", str(eight), "--out", str(mp4), "--fps", "4", "--width", "64",
+                 "--height", "48"]) == 0
+    err = capsys.readouterr().err
+    assert "12/12" in err and "frame" in err                       # progress on stderr
+    video = iio.imread(mp4)                                        # imageio-ffmpeg decodes it
+    assert video.shape == (12, 48, 64, 3) and video.std() > 5
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.png", "r.gif", "ride.mp4"]
+
+
+def test_render_progress_can_be_switched_off(eight, tmp_path, capsys):
+    if not _gl_available():
+        pytest.skip("no OpenGL backend (MUJOCO_GL=egl needs libegl1 + libegl-mesa0)")
+    assert main(["render", str(eight), "--out", str(tmp_path / "r.gif"), "--fps", "2", "--width", "32",
+                 "--height", "32", "--no-progress"]) == 0
+    assert capsys.readouterr().err.splitlines() == [f"render: wrote {tmp_path / 'r.gif'} (6 frames)"]
+
+
+def test_an_encoder_failure_is_one_line_and_leaves_nothing(eight, tmp_path, capsys, monkeypatch):
+    """ffmpeg dying (a broken pipe) names the file; no temporary file stays behind."""
+    if not _gl_available():
+        pytest.skip("no OpenGL backend (MUJOCO_GL=egl needs libegl1 + libegl-mesa0)")
+    import imageio.v3 as iio
+
+    def broken(path, *a, **k):
+        from pathlib import Path
+        Path(path).write_bytes(b"half")
+        raise BrokenPipeError(32, "Broken pipe")
+
+    monkeypatch.setattr(iio, "imwrite", broken)
+    out = tmp_path / "ride.mp4"
+    assert main(["render", str(eight), "--out", str(out), "--fps", "2", "--width", "32",
+                 "--height", "32", "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(out) in err[0] and "encoder failed" in err[0]
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_render_bad_input_is_one_line(eight, tmp_path, capsys):

@@ -303,3 +303,71 @@ def test_blind_study_scores_an_alias_pair_on_its_mapped_estimate_and_a_declared_
     assert not SCORING.declared_blind(ramp, quiet)        # h stays changed to the end, outside the window
     named = {**quiet, "effects": [{"name": "road_slope"}]}
     assert not SCORING.declared_blind(drift, named)       # something was named: not a declaration
+
+
+def test_one_floor_ratio_named_wherever_it_is_printed(study):
+    """Issue 19, item 4: the summary's "× the noise floor" is the JSON's ``heldout_over_floor``
+    (the reported model's held-out RMSE over the floor); the unexplained test's own ratio is
+    named as the one that counts tentative effects too."""
+    from euc_sim.diagnosis.common import h_at_bound
+    from euc_sim.diagnosis.report import summary
+
+    out, results = study
+    for name, r in results.items():
+        if "result" not in r:
+            continue
+        res = json.loads((out / f"{name}.diagnosis.json").read_text())     # the whole JSON
+        ratio = res["augmented_rmse"] / res["noise_floor"]
+        assert res["heldout_over_floor"] == pytest.approx(ratio, rel=1e-12), name
+        if not res["tentative"]:
+            assert res["generic"]["floor_ratio"] == pytest.approx(ratio, rel=1e-12), name
+        text = summary(res)
+        assert f"held-out RMSE over the noise floor {ratio:.1f}×)" in text, name
+        if res["unexplained"]:
+            whose = "the tentative ones too" if res["tentative"] else "with the accepted effects"
+            assert f"{res['generic']['floor_ratio']:.1f}× {whose}" in text, name
+        # issue 19, item 3: an h on its search bound is listed and marked
+        for key in ("h_nominal", "h_augmented"):
+            assert (key in res["at_bound"]) == h_at_bound(res[key]), (name, key)
+
+
+def test_the_summary_marks_quantities_on_their_search_bound():
+    from euc_sim.diagnosis.report import summary
+
+    eff = {"name": "sensor_time_offset", "estimate": 0.05, "unit": "s", "ci95": [0.04, 0.06],
+           "aliases": [], "rmse_after": 0.2, "evidence": "."}
+    res = {"recording": "r.csv", "verdict": "missing physics found", "effects": [eff], "tentative": [],
+           "unexplained": True, "residual": "M_d,1 - M_d,2", "nominal_rmse": 1.0, "augmented_rmse": 0.2,
+           "noise_floor": 0.05, "heldout_over_floor": 4.0, "h_nominal": 1.2, "h_augmented": 0.6,
+           "generic": {"gain": 0.3, "floor_ratio": 4.0}, "windows": [], "correlations": {},
+           "notes": ["sensor_time_offset = 0.05 s lies on its search bound [-0.05, 0.05] s: it is a "
+                     "bound, not an estimate"], "at_bound": ["h_nominal", "effects.sensor_time_offset"]}
+    text = summary(res)
+    assert "h = 1.200 m nominal (AT THE SEARCH BOUND), 0.600 m with the effects\n" in text
+    assert "found: sensor_time_offset = 0.05 s (95% CI 0.04…0.06) (AT ITS SEARCH BOUND)" in text
+    assert "note: sensor_time_offset = 0.05 s lies on its search bound" in text
+    assert "(noise floor 0.050 N·m; held-out RMSE over the noise floor 4.0×)" in text
+    assert "noise floor 4.0× with the accepted effects)" in text
+    res = {**res, "tentative": [eff], "at_bound": []}
+    text = summary(res)
+    assert "noise floor 4.0× with every selected effect, the tentative ones too)" in text
+    assert "AT" not in text.replace("UNEXPLAINED", "")
+
+
+def test_refined_estimates_and_h_on_their_bounds_are_listed_once():
+    from types import SimpleNamespace
+
+    from euc_sim.diagnosis.common import H_BOUNDS
+
+    fin = SimpleNamespace(fit=SimpleNamespace(h=H_BOUNDS[1]),
+                          info={"rider_mass": {"at_bound": True, "search": (60.0, 85.0)},
+                                "road_slope": {}})
+    decision = {"effects": [{"name": "road_slope", "estimate": 0.02, "unit": "rad"}],
+                "tentative": [{"name": "rider_mass", "estimate": 85.0, "unit": "kg"}]}
+    hits = dict(diagnosis._at_bound(0.6, H_BOUNDS[1] - 0.001, fin, decision))
+    assert list(hits) == ["h_augmented", "tentative.rider_mass"]
+    assert hits["h_augmented"] == ""                     # the verdict's note already says it
+    assert "rider_mass = 85 kg lies on its search bound [60, 85] kg" in hits["tentative.rider_mass"]
+    fin.fit.h = 0.6                                      # the reported h alone on the bound: said here
+    assert "lies on the search bound" in dict(diagnosis._at_bound(0.6, H_BOUNDS[1], fin, decision))["h_augmented"]
+    assert list(dict(diagnosis._at_bound(H_BOUNDS[0], 0.6, fin, {"effects": [], "tentative": []}))) == ["h_nominal"]

@@ -148,3 +148,19 @@ def test_a_wrong_sidecar_mass_is_an_error_naming_the_sidecar_and_field(recording
     assert "\n" not in err
     assert "light.json (sidecar of light.csv)" in err and says in err
     assert "-4.0 kg" not in err or m == -4.0
+
+
+@pytest.mark.parametrize("change, says, never", [
+    (-80.0, "falls by 80 %", ("small", "modest", "hardly", "rises")),
+    (-12.0, "falls by 12 %", ("much more closely", "hardly", "rises")),
+    (-2.0, "hardly changes with the effects (-2 %)", ("falls", "rises", "much more closely")),
+    (3.0, "hardly changes with the effects (+3 %)", ("falls", "rises")),
+    (40.0, "rises by 40 %", ("falls", "small", "hardly", "much more closely")),
+])
+def test_the_resimulation_sentence_follows_its_number(change, says, never):
+    """Issue 19, item 5: a −80 % change is not called small by nature."""
+    from euc_sim.diagnosis.report import resimulation_change_text
+
+    text = resimulation_change_text(change)
+    assert says in text
+    assert not any(w in text for w in never), text

@@ -189,8 +189,22 @@ def test_delayed_law_recovers_a_known_delay():
     y[n:] = X[:-n] @ np.array([700.0, 120.0, 1.5])
     y[:n] = y[n]
     fit = fit_delayed_law(y, X, dt, 0.5)
-    assert fit["delay"] == pytest.approx(0.15)
+    assert fit["delay"] == pytest.approx(0.15) and not fit["at_bound"]
     np.testing.assert_allclose(fit["coef"], [700.0, 120.0, 1.5], rtol=1e-6)
+    short = fit_delayed_law(y, X, dt, 0.1)               # the true delay lies beyond the search
+    assert short["delay"] == pytest.approx(0.1) and short["at_bound"]
+
+
+def test_h_on_its_search_bound_is_flagged():
+    """h searched below the true 0.6 m ends on the bound: "h" (and its clipped interval) listed."""
+    from euc_sim.identification.h_fit import identify_h, residual_poly
+
+    kin = kinematics(idsim.recording("deceleration", noise="paper", seed=1), TABLE3)
+    poly = residual_poly(kin, TABLE3, "3dof")
+    free = identify_h([poly], bounds=(0.1, 1.5), n_boot=60)
+    assert abs(free.h - 0.6) < 0.1 and free.at_bound() == []
+    capped = identify_h([poly], bounds=(0.1, 0.45), n_boot=60)
+    assert capped.h > 0.45 - 0.04 and capped.at_bound() == ["h", "h_ci95"]
 
 
 def test_rider_delay_runs_on_simulated_data():
@@ -251,6 +265,28 @@ def test_cli_identify_writes_the_contract_json(written, capsys):
             assert fh.read(8) == b"\x89PNG\r\n\x1a\n"
     assert len(out["figures"]) == 3
     assert {"gamma", "gamma_d"} == set(out["controller"]["gains"])
+
+
+def test_cli_identify_says_which_fits_end_on_a_bound(written, capsys):
+    """Issue 19, item 3: h searched up to 0.45 m (truth 0.6 m) is a bound, said in print and JSON."""
+    d, paths = written
+    assert main(["identify", str(paths[0]), "--json", str(d / "free.json"), "--bootstrap", "60"]) == 0
+    free = json.loads((d / "free.json").read_text())
+    out = capsys.readouterr().out
+    assert [k for k in free["at_bound"] if not k.endswith("rider.delay")] == [] and "h lies" not in out
+    assert main(["identify", *map(str, paths), "--json", str(d / "capped.json"), "--bootstrap", "60",
+                 "--h-max", "0.45"]) == 0
+    capped = json.loads((d / "capped.json").read_text())
+    out = capsys.readouterr().out
+    for where in ("per_recording[0].", "per_recording[1].", ""):
+        for model in MODELS:
+            assert f"{where}models.{model}.h" in capped["at_bound"], (where, model, capped["at_bound"])
+    assert "WARNING: pooled 3dof: h = 0.4" in out and "lies on the search bound [0.1, 0.45] m" in out
+    for key in capped["at_bound"]:                       # each path names a value in the JSON
+        node = capped
+        for part in key.replace("[", ".").replace("]", "").split("."):
+            node = node[int(part)] if part.isdigit() else node[part]
+        assert node is not None
 
 
 def test_cli_torques_columns(written, capsys):

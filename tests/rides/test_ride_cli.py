@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from euc_sim.cli import main
+from euc_sim.io import is_temporary
 from euc_sim.rides.signals import RideAssumptions
 from euc_sim.rides.page import split_at_gaps
 from euc_sim.rides.simulate import battery_power, effects_to_inject, ride_params
@@ -81,7 +82,7 @@ def test_simulation_against_the_log(full_run):
     assert e["nominal"]["v_mps"] < 0.3 and e["augmented"]["v_mps"] < 0.3
     assert e["augmented"]["P_W"] < e["nominal"]["P_W"]
     assert set(sim["effects_injected"]) == {"rolling_resistance", "aerodynamic_drag"}
-    assert sim["acceleration_limit_mps2"] == {"nominal": None, "augmented": None}
+    assert sim["falls"] == []
     table = np.genfromtxt(d / "ride_simulation.csv", delimiter=",", names=True)
     for col in ("t", "v_log", "v_nominal", "v_augmented", "M_log", "M_nominal", "M_augmented",
                 "P_log", "P_nominal", "P_augmented", "scored"):
@@ -98,7 +99,7 @@ def test_report_folder(full_run):
         assert (d / name).stat().st_size > 20_000
     for word in ("aerodynamic_drag", "kg/m", "cannot tell apart", "Windows (s)", "plausible"):
         assert word in page
-    assert not list(d.glob(".*.tmp"))                     # no temporary files left
+    assert not [p for p in d.iterdir() if is_temporary(p)]                     # no temporary files left
 
 
 def test_halves_and_torque_domain_without_simulation(logs, tmp_path, capsys):
@@ -200,13 +201,31 @@ def test_limit_acceleration_bounds_slope_without_shift():
         limit_acceleration(t, v, 0.0)
 
 
-def test_rider_falls_on_a_step_and_the_limited_profile_is_said():
+def test_a_fall_ends_the_run_once_and_is_reported(capsys):
+    """Issue 19, item 6: the profile is not ridden again after a fall; time and cause said once;
+    the progress bar counts the ride's seconds."""
     t = np.arange(0.0, 6.0, 0.1)
     v = np.clip((t - 1.0) / 0.2, 0.0, 1.0) * 6.0          # 0 -> 6 m/s in 0.2 s: 30 m/s²
-    run = simulate_profile(t, v, ride_params(RideAssumptions()), {}, track_iterations=0)
-    assert run.frame is not None and run.a_limit is not None
-    assert any("fell" in n for n in run.notes)
-    assert any(f"±{run.a_limit:g} m/s²" in n for n in run.notes)
+    said = []
+    run = simulate_profile(t, v, ride_params(RideAssumptions()), {}, track_iterations=1,
+                           progress=said.append, label="nominal")
+    (fall,) = run.falls
+    assert 0.0 < fall["t"] < t[-1] and "exceeds the bound" in fall["cause"]
+    assert run.frame is not None and run.frame["t"].iloc[-1] < fall["t"] <= run.frame["t"].iloc[-1] + 0.002
+    assert len([n for n in run.notes if "fell" in n]) == 1 and "not ridden again" in run.notes[0]
+    assert [m for m in said if m.startswith("riding")] == ["riding 6 s of the logged profile"]
+    assert not any("correction" in m for m in said)        # no second run after the fall
+    err = capsys.readouterr().err
+    assert "nominal ride" in err and "s of ride" in err
+
+
+def test_a_run_that_stays_up_shows_its_ride_seconds(capsys):
+    t = np.arange(0.0, 3.0, 0.1)
+    run = simulate_profile(t, np.full(t.size, 3.0), ride_params(RideAssumptions()), {},
+                           track_iterations=0, progress=lambda m: None, label="augmented")
+    assert run.falls == () and len(run.frame) == 2901
+    err = capsys.readouterr().err
+    assert "augmented ride: 100%" in err and "3/3 s of ride" in err
 
 
 def test_windows_are_cut_at_gaps():
@@ -255,3 +274,48 @@ def test_real_rides_done_criterion(tmp_path, capsys):
     for name in ("ride_balance.png", "ride_residuals.png", "index.md"):
         assert (tmp_path / "rep" / name).stat().st_size > 2_000
     assert "verdict:" in out
+
+
+def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, monkeypatch, tmp_path):
+    """The ride JSON's simulation.falls (CONTRACT) and a common scored span after a fall."""
+    import euc_sim.rides.simulate as simulate_mod
+    from euc_sim.cli.ride import run_ride
+    from euc_sim.rides.tracking import ProfileRun
+
+    real = simulate_mod.simulate_profile
+    t_fall = 40.0
+
+    def nominal_falls(t, v, params, effects, seed, dt, iterations, window, progress, label, position):
+        run = real(t, v, params, effects, seed, dt, 0, window, None, label)
+        if label != "nominal":
+            return run
+        frame = run.frame[run.frame["t"] < t_fall]
+        cause = "|gamma| = 0.6 rad exceeds the bound"
+        return ProfileRun(frame, ({"t": t_fall, "cause": cause},),
+                          (f"rider fell at t = {t_fall} s ({cause}): the simulation stops there",))
+
+    monkeypatch.setattr(simulate_mod, "simulate_profile", nominal_falls)
+    rep = run_ride(logs[1], n_boot=20, seed=3, jobs=1, report_dir=tmp_path / "rep")
+    sim = rep["simulation"]
+    page = (tmp_path / "rep" / "index.md").read_text()
+    assert f"The simulated rider fell at t = {t_fall:.1f} s (nominal: " in page          # said once
+    assert page.count("exceeds the bound") == 1
+    assert (tmp_path / "rep" / "ride_simulation.png").stat().st_size > 20_000
+    assert sim["falls"] == [{"t": t_fall, "cause": "|gamma| = 0.6 rad exceeds the bound", "run": "nominal"}]
+    assert any(f"scored up to t = {t_fall:.1f} s" in n for n in sim["notes"])
+    for run in ("nominal", "augmented"):
+        assert all(np.isfinite(list(sim["errors"][run].values())))
+    assert 0 < sim["scored_rows"]
+
+
+def test_the_falls_are_said_once_with_the_runs_they_ended():
+    from euc_sim.rides.page import falls_sentence
+
+    cause = "|phi| = 0.700 rad exceeds the bound 0.7 rad"
+    both = [{"t": 842.921, "cause": cause, "run": "nominal"}, {"t": 842.921, "cause": cause, "run": "augmented"}]
+    text = falls_sentence(both, 0)
+    assert text.count("842.9 s") == 1 and text.count(cause) == 1 and "nominal and augmented" in text
+    assert "not ridden again" in text and "no error to report" in text
+    one = falls_sentence(both[:1], 120)
+    assert "(nominal: " in one and "over the 120 scored rows ridden before it" in one
+    assert falls_sentence([], 10) is None

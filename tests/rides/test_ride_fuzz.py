@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 from ridesynth import synth_log
 
 from euc_sim.cli import main
+from euc_sim.io import is_temporary
 from euc_sim.rides.logs import RideLog, read_log
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
@@ -98,7 +99,7 @@ def _mutate(data: bytes, mutation) -> bytes:
 
 
 def _leftovers(folder: Path) -> list[Path]:
-    return [p for p in folder.rglob("*") if p.suffix in (".tmp", ".probe")]
+    return [p for p in folder.rglob("*") if is_temporary(p) or p.suffix == ".probe"]
 
 
 @settings(max_examples=30, deadline=None, derandomize=True,

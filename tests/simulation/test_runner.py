@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 
+from euc_sim.io import is_temporary
 from euc_sim.simulation.runner import check_backend, run_tasks
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -105,7 +106,7 @@ def test_dataset_fall_is_named_exit_2(tmp_path, capsys, workers):
     assert "constant_speed_01  FallError: fall at t = " in err
     manifest = json.loads((out / "dataset.json").read_text())
     assert manifest["recordings"] == [] and len(manifest["failed"]) == 14
-    assert not list(out.glob("*.tmp")) and not list(out.glob(".*.tmp"))
+    assert not [p for p in out.iterdir() if is_temporary(p)]
 
 
 def test_dataset_help_describes_out_and_seed(capsys):
@@ -182,4 +183,39 @@ def test_sigterm_stops_a_dataset_at_once_and_leaves_no_temp_files(tmp_path):
     assert proc.returncode == 143, err          # 128 + SIGTERM, as the shell reports it
     assert "interrupted" in err and "Traceback" not in err
     assert _wait(lambda: not any(_alive(p) for p in workers), 10)
-    assert not out.exists() or not [p for p in out.iterdir() if p.name.endswith(".tmp")]
+    assert not out.exists() or not [p for p in out.iterdir() if is_temporary(p)]
+
+
+def test_a_local_dask_run_leaves_no_scratch_space_in_the_temp_dir(tmp_path):
+    """Issue 19, item 14: the local cluster's dask-scratch-space goes to a folder removed after."""
+    env = {**os.environ, "TMPDIR": str(tmp_path), "PYTHONPATH": str(ROOT)}
+    code = textwrap.dedent("""
+        from euc_sim.simulation.runner import run_tasks
+        rep = run_tasks(abs, [("a", -2), ("b", 3)], scheduler="local", workers=1, progress=False)
+        assert rep.ordered() == [2, 3], rep
+        print("ok")
+    """)
+    proc = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and proc.stdout.strip() == "ok", proc.stderr[-2000:]
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_dataset_that_cannot_start_leaves_no_folder_it_made(tmp_path, capsys, monkeypatch):
+    """Issue 19, item 14: an unreachable scheduler fails in one line, and the --out folder
+    this run created (with its parents) is gone; a folder that was there stays."""
+    import euc_sim.simulation.runner as runner
+    from euc_sim.cli import main
+
+    def unreachable(*args, **kwargs):
+        raise OSError("Timed out trying to connect to tcp://127.0.0.1:1 after 30 s")
+
+    monkeypatch.setattr(runner, "run_tasks", unreachable)
+    argv = ["dataset", "--scheduler", "tcp://127.0.0.1:1", "--duration", "1", "--no-progress", "--out"]
+    assert main(argv + [str(tmp_path / "new" / "set")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "127.0.0.1:1" in err[0]
+    assert list(tmp_path.iterdir()) == []
+    (tmp_path / "old").mkdir()
+    (tmp_path / "old" / "keep.txt").write_text("mine")
+    assert main(argv + [str(tmp_path / "old")]) == 2
+    assert [p.name for p in (tmp_path / "old").iterdir()] == ["keep.txt"]
