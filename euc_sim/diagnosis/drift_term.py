@@ -115,18 +115,23 @@ def candidate_shapes(t0: float, t1: float) -> list[dict]:
     return out
 
 
-def choose_shape(t: np.ndarray, y: np.ndarray, drdh: np.ndarray, n_eff: float) -> dict:
+def choose_shape(t: np.ndarray, y: np.ndarray, drdh: np.ndarray, n_eff: float,
+                 given: np.ndarray | None = None) -> dict:
     """The shape whose term −∂r/∂h·g(t) best explains y with h free (BIC with n_eff).
 
     A scan on the first-order term only (no ḣ terms): y ≈ a·∂r/∂h + (−∂r/∂h·G)θ by
     least squares for every shape, ``n_eff`` ln RSS + k ln n_eff, smallest wins.
-    ``t``, ``y``, ``drdh``: the stacked residual's times, values and ∂r/∂h.
+    ``t``, ``y``, ``drdh``: the stacked residual's times, values and ∂r/∂h;
+    ``given``: columns (n, k) of other effects fitted with every shape (the drift is
+    then the shape that best explains what they leave: a second effect would
+    otherwise pull the scan to a shape that imitates it).
     """
     t0, t1 = float(np.min(t)), float(np.max(t))
+    base = drdh[:, None] if given is None or given.size == 0 else np.column_stack([drdh, given])
     best, best_crit = None, np.inf
     for shape in candidate_shapes(t0, t1):
         G = -drdh[:, None] * shape_profile(shape, t)
-        X = np.column_stack([drdh, G])
+        X = np.column_stack([base, G])
         coef, *_ = np.linalg.lstsq(X, y, rcond=None)
         rss = float(np.sum((y - X @ coef) ** 2))
         k = G.shape[1] + (2 if "start" in shape else 0)      # start and length are chosen too
