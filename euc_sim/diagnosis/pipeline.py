@@ -153,6 +153,25 @@ def _check_excitation(prep: Prepared, model: ResidualModel) -> None:
                              "a motionless recording)")
 
 
+def _nonlinear_hint(problem: reg.Problem, info: dict, s, n_eff: float, th: Thresholds) -> dict | None:
+    """A rider mass or time offset that the last selection step refused although it dropped
+    the BIC by ``min_bic_drop`` (its linear column, taken at the nominal value, is poor far
+    from it): ``{name: value at its trial}``, the largest drop; None otherwise."""
+    last = s.history[-1]
+    if last.accepted or not last.trials:
+        return None
+    base = sel.bic(s.fit.rss, s.fit.n, n_eff, sel.n_params(problem, s.selected))
+    best = None
+    for d in last.trials:
+        c = d.get("name")
+        if c in NONLINEAR and base - d["bic"] >= th.min_bic_drop and (best is None or d["bic"] < best[0]):
+            lo, hi = NONLINEAR[c]
+            v = info[c]["offset"] + info[c]["scale"] * float(d["theta"][0])
+            if lo <= v <= hi:
+                best = (d["bic"], c, v)
+    return None if best is None else {best[1]: best[2]}
+
+
 def _periodic_columns(fin: Final, time: np.ndarray) -> np.ndarray:
     """The sinusoid (0.1-3 Hz, two columns) that best fits what the final model leaves
     (:func:`selection.sinusoid_basis` on every sample)."""
@@ -177,6 +196,11 @@ def _select(prep: Prepared, h0: float, n_eff: float, th: Thresholds, say, given=
         s = sel.forward_select(problem, min_bic_drop=th.min_bic_drop, min_cv_gain=th.min_cv_gain,
                                min_t=th.min_t, n_eff=n_eff, pairs=True)
         nonlin = [c for c in s.selected if c in NONLINEAR]
+        hint = _nonlinear_hint(problem, info, s, n_eff, th) if not nonlin and state is None else None
+        if hint and it < COLUMN_ITERATIONS + RELINEARISE - 1:
+            # refused only where its linear column is poor: select again about its trial value
+            state, h_cols = {"sensor_time_offset": 0.0, "rider_mass": prep.params.m, **hint}, s.fit.h
+            continue
         if nonlin and it < COLUMN_ITERATIONS + RELINEARISE - 1:
             # a nonlinear effect far from nominal: select again about its refined value
             est = {c: info[c]["offset"] + info[c]["scale"] * float(s.fit.theta[c][0]) for c in nonlin}

@@ -179,6 +179,16 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
         if not pairs:
             pool = [c for c in pool if c not in refused_names(refused)]
             continue
+        # swap: a member that another candidate replaces decisively, given the rest (an alias
+        # chosen before the set's other members were known)
+        swap = _swap(problem, cur_fit, cur_bic, [c for c in pool if c not in current], n_eff, min_bic_drop,
+                     min_t, cluster)
+        if swap is not None:
+            old_name, g, b_new = swap
+            history.append(Step(step, current, [], g.names[-1], True,
+                                f"swapped {old_name} for {g.names[-1]}: BIC {cur_bic:.1f} -> {b_new:.1f}"))
+            current, cur_fit, cur_bic = g.names, g, b_new
+            cur_cv = heldout_rmse(problem, current, n_blocks, guard)
         # backward: a term that the later ones made redundant leaves the set
         gone, why = _backward(problem, cur_fit, cur_bic, n_eff, min_bic_drop, min_t, cluster)
         dropped = (gone,) if gone else ()
@@ -247,6 +257,26 @@ def _pair_step(problem: Problem, current: tuple, remaining: list, n_eff: float, 
                 "theta": np.concatenate([f.theta[a], f.theta[b]]).tolist(), "t": min(t.values()),
                 "cv_gain": gain, "_fit": f}
     return None
+
+
+def _swap(problem: Problem, f: Fit, cur_bic: float, others: list, n_eff: float, min_bic_drop: float,
+          min_t: float, cluster: float):
+    """The best replacement of one member by a candidate outside the set, when it lowers the
+    BIC by ``min_bic_drop`` with every member physics and the newcomer ``min_t`` standard
+    errors from zero: (replaced name, its fit, its BIC); None otherwise."""
+    if len(f.names) < 2:
+        return None
+    best = None
+    for c in f.names:
+        rest = tuple(n for n in f.names if n != c)
+        for a in others:
+            g = fit_set(problem, rest + (a,))
+            b = bic(g.rss, g.n, n_eff, n_params(problem, g.names))
+            if cur_bic - b >= min_bic_drop and (best is None or b < best[2]) and not invalid_terms(problem, g):
+                cov, _ = covariance(problem, g, cluster)
+                if group_t(problem, g, cov, a) >= min_t:
+                    best = (c, g, b)
+    return best
 
 
 def _backward(problem: Problem, f: Fit, cur_bic: float, n_eff: float, min_bic_drop: float, min_t: float,
