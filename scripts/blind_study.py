@@ -25,6 +25,11 @@ Usage::
 
     python scripts/blind_study.py --out blind/ --per-effect 10 --nulls 6 --seed 0
     python scripts/blind_study.py --calibrate      # null recordings only, other seeds
+    python scripts/blind_study.py --out pairs/ --per-effect 0 --nulls 0 --pushes 0 --constant 0 --pairs 36
+
+``--pairs N`` adds N recordings holding two effects of different families (issue 24),
+each member's size with the other known measured on its twin (the member alone, same
+seed), scored by ``blind_scoring.score_pairs``.
 
 Every random draw is seeded from ``--seed``.
 """
