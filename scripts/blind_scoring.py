@@ -13,7 +13,8 @@ from collections import Counter, defaultdict
 
 import numpy as np
 
-__all__ = ["score", "targets_issue13", "drift_by_shape", "print_report", "right_first",
+__all__ = ["score", "targets_issue13", "drift_by_shape", "print_report", "right_first", "score_pairs",
+           "print_pairs", "pair_outcome", "member_estimate",
            "truth_estimate", "drift_span", "declared_blind", "outcome"]
 
 
@@ -296,3 +297,104 @@ def print_report(summary: dict, out=print) -> None:
         val = v["value"]
         val = f"{val:.1%}" if isinstance(val, float) else val
         out(f"  {'MET    ' if v['met'] else 'NOT MET'}  {k}: {val}")
+
+
+# --- pairs (issue 24) ----------------------------------------------------------------------
+#: Pairs that are one constant force along the road while the speed keeps one sign (NOTES
+#: fact 5): the recording cannot split them, so they are scored apart from the target.
+ALIAS_FAMILIES = {frozenset({"rolling_resistance", "road_slope"})}
+
+
+def member_estimate(res: dict, member: str) -> dict | None:
+    """The named item giving ``member``'s estimate: named itself, or a named effect with
+    ``member`` among its aliases and a mapped estimate (``alias_estimates``); else None."""
+    for e in res["effects"]:
+        if e["name"] == member:
+            return e
+    for e in res["effects"]:
+        if member in e.get("aliases", []) and member in e.get("alias_estimates", {}):
+            return {"name": e["name"], **e["alias_estimates"][member]}
+    return None
+
+
+def pair_outcome(case: dict, res: dict) -> dict:
+    """One pair scored: each member named (and its relative error), the false extras, and
+    the pass rule of issue 24 (both named, each within ±25 %, nothing else named;
+    ``unexplained`` exactly when the pair holds the push)."""
+    members = list(case["effects"])
+    push = bool(case.get("push"))
+    found = {m: member_estimate(res, m) if res["decidable"] else None for m in members}
+    used = {found[m]["name"] for m in members if found[m]}
+    extras = [e["name"] for e in res["effects"] if e["name"] not in used] if res["decidable"] else []
+    err = {m: (None if found[m] is None else (found[m]["estimate"] - case["effects"][m]) / abs(case["effects"][m]))
+           for m in members}
+    n_right = sum(f is not None for f in found.values()) + int(push and res["unexplained"])
+    n_all = len(members) + int(push)
+    ok = (n_right == n_all and not extras and all(abs(e) <= 0.25 for e in err.values() if e is not None)
+          and bool(res["unexplained"]) == push)
+    ratios = case.get("twin_ratio") or {}
+    above = all((ratios.get(m) or 0.0) >= 2.0 for m in members)
+    return {"family": case["family"], "right": n_right, "of": n_all, "extras": extras, "errors": err,
+            "pass": ok, "above_2x": above, "ratios": ratios, "alias_family": frozenset(members) in ALIAS_FAMILIES,
+            "unexplained": bool(res["unexplained"]), "verdict": res["verdict"], "name": case["name"]}
+
+
+def score_pairs(results: list[dict]) -> dict:
+    """Issue 24's tallies over the pair recordings: by family, right-both, right-one, false
+    extras and estimate errors; the target (pairs whose members each stand ≥ 2× the floor
+    with the other known: pass on ≥ 90 %), alias families apart."""
+    rows = [pair_outcome(r["case"], r["result"]) for r in results if "result" in r and r["case"]["kind"] == "pair"]
+    fams: dict = {}
+    for o in rows:
+        d = fams.setdefault(o["family"], {"n": 0, "both": 0, "one": 0, "none": 0, "extras": 0, "pass": 0,
+                                          "errors": []})
+        d["n"] += 1
+        d["both" if o["right"] == o["of"] else "one" if o["right"] else "none"] += 1
+        d["extras"] += len(o["extras"])
+        d["pass"] += int(o["pass"])
+        d["errors"] += [abs(e) for e in o["errors"].values() if e is not None]
+    for d in fams.values():
+        e = d.pop("errors")
+        d["median_abs_error"] = float(np.median(e)) if e else None
+        d["max_abs_error"] = float(np.max(e)) if e else None
+    big = [o for o in rows if o["above_2x"] and not o["alias_family"]]
+    small = [o for o in rows if not o["above_2x"] and not o["alias_family"]]
+    alias = [o for o in rows if o["alias_family"]]
+    fails = [{k: (sorted(v) if isinstance(v, frozenset) else v) for k, v in o.items()}
+             for o in big if not o["pass"]]
+    return {"n": len(rows), "families": fams,
+            "right_both": sum(o["right"] == o["of"] for o in rows),
+            "right_one": sum(0 < o["right"] < o["of"] for o in rows),
+            "right_none": sum(o["right"] == 0 for o in rows),
+            "false_extras": sum(len(o["extras"]) for o in rows),
+            "target_above_2x": {"value": f"{sum(o['pass'] for o in big)}/{len(big)}",
+                                "met": bool(big) and sum(o["pass"] for o in big) >= 0.9 * len(big)},
+            "below_2x_pass": f"{sum(o['pass'] for o in small)}/{len(small)}",
+            "below_2x_false_extras": sum(len(o["extras"]) for o in small),
+            "alias_families": f"{sum(o['right'] >= 1 and not o['extras'] for o in alias)}/{len(alias)} "
+                              "named as one constant force, nothing else",
+            "failures_above_2x": fails}
+
+
+def print_pairs(summary: dict, out=print) -> None:
+    """The pair tallies as text."""
+    if not summary["n"]:
+        return
+    out("")
+    out(f"pairs: {summary['n']} recordings; right both {summary['right_both']}, right one "
+        f"{summary['right_one']}, none {summary['right_none']}; false extras {summary['false_extras']}")
+    out(f"{'family':<48} {'n':>3} {'both':>4} {'one':>4} {'none':>4} {'extra':>5} {'pass':>4} {'med|err|':>9} {'max|err|':>9}")
+    fmt = lambda v: "—" if v is None else f"{v:9.1%}"   # noqa: E731
+    for k in sorted(summary["families"]):
+        d = summary["families"][k]
+        out(f"{k:<48} {d['n']:>3} {d['both']:>4} {d['one']:>4} {d['none']:>4} {d['extras']:>5} {d['pass']:>4} "
+            f"{fmt(d['median_abs_error'])} {fmt(d['max_abs_error'])}")
+    t = summary["target_above_2x"]
+    out(f"  {'MET    ' if t['met'] else 'NOT MET'}  pairs with each member >= 2x the floor (the other known): "
+        f"both named, each within ±25 %, nothing else, >= 90 %: {t['value']}")
+    out(f"  below 2x the floor: pass {summary['below_2x_pass']}, false extras {summary['below_2x_false_extras']}")
+    out(f"  rolling resistance + slope (one force while the speed keeps one sign): {summary['alias_families']}")
+    for f in summary["failures_above_2x"]:
+        ratios = ", ".join(f"{k} {v:.1f}x" if v is not None else f"{k} ?" for k, v in f["ratios"].items())
+        errs = ", ".join(f"{k} {v:+.0%}" if v is not None else f"{k} missed" for k, v in f["errors"].items())
+        out(f"    {f['name']} {f['family']} ({ratios}): {errs}; extras {f['extras']}; {f['verdict']}")

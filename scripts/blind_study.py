@@ -25,6 +25,11 @@ Usage::
 
     python scripts/blind_study.py --out blind/ --per-effect 10 --nulls 6 --seed 0
     python scripts/blind_study.py --calibrate      # null recordings only, other seeds
+    python scripts/blind_study.py --out pairs/ --per-effect 0 --nulls 0 --pushes 0 --constant 0 --pairs 36
+
+``--pairs N`` adds N recordings holding two effects of different families (issue 24),
+each member's size with the other known measured on its twin (the member alone, same
+seed), scored by ``blind_scoring.score_pairs``.
 
 Every random draw is seeded from ``--seed``.
 """
@@ -47,7 +52,7 @@ if str(ROOT) not in sys.path:
 if str(ROOT / "scripts") not in sys.path:         # blind_scoring sits beside this script
     sys.path.insert(0, str(ROOT / "scripts"))
 
-from blind_scoring import print_report, score  # noqa: E402
+from blind_scoring import print_pairs, print_report, score, score_pairs  # noqa: E402
 from euc_sim.identification.processing import DEFAULT_SMOOTHING  # noqa: E402
 
 MANEUVERS = ("acceleration", "deceleration", "stop_and_go")
@@ -142,6 +147,81 @@ def plan(seed: int, per_effect: int, nulls: int, pushes: int, constant: int, dur
     return cases
 
 
+#: Every catalog effect a pair may hold; a pair holding one of WITH_TORQUE records M_d.
+PAIR_EFFECTS = KINEMATIC + WITH_TORQUE
+#: The out-of-catalog push, as a pair's second member.
+PUSH = "push"
+
+
+def pair_families() -> list[tuple[str, str]]:
+    """Every pair of different catalog effects, and every effect with the push (issue 24)."""
+    fam = [(a, b) for i, a in enumerate(PAIR_EFFECTS) for b in PAIR_EFFECTS[i + 1:]]
+    return fam + [(a, PUSH) for a in PAIR_EFFECTS]
+
+
+def draw_push(rng: np.random.Generator) -> dict:
+    """An out-of-catalog periodic push at G: amplitude N, frequency Hz."""
+    return {"amplitude": float(rng.uniform(15.0, 30.0)), "frequency": float(rng.uniform(0.3, 0.8))}
+
+
+def plan_pairs(seed: int, n: int, duration: float) -> list[dict]:
+    """n recordings holding two effects of different families (``--pairs N``).
+
+    The families (:func:`pair_families`) are dealt in a shuffled order, the
+    magnitudes drawn as for single effects (:func:`draw_magnitude`, an h drift's
+    shape by :func:`draw_drift_shape`), the maneuvers in turn; M_d is recorded when
+    either member is internal or near the floor without it (``WITH_TORQUE``).  A
+    stream of its own (``[seed, 24]``), so that adding pairs leaves the single cases
+    unchanged.
+    """
+    rng = np.random.default_rng([seed, 24])
+    fams = pair_families()
+    order = [fams[i] for i in rng.permutation(len(fams))]
+    cases = []
+    for j in range(n):
+        a, b = order[j % len(order)]
+        maneuver = MANEUVERS[j % len(MANEUVERS)]
+        eff = {e: draw_magnitude(e, rng) for e in (a, b) if e != PUSH}
+        shape = draw_drift_shape(int(rng.integers(0, 4)), duration, rng) if "cog_height_drift" in eff else None
+        cases.append({"name": f"pair{j:03d}", "kind": "pair", "effect": None, "value": 0.0, "effects": eff,
+                      "family": f"{a}+{b}", "maneuver": maneuver, "options": maneuver_options(maneuver, rng),
+                      "hide_torques": not any(e in WITH_TORQUE for e in (a, b)),
+                      "push": draw_push(rng) if b == PUSH else None, "seed": int(rng.integers(1, 2**31 - 1)),
+                      "duration": duration, "drift_shape": shape})
+    return cases
+
+
+def twins(case: dict) -> list[dict]:
+    """A pair's members alone, on the same maneuver, seed and noise: each twin's nominal
+    RMSE over its noise floor is that effect's size with the other known (the push too)."""
+    members = list(case["effects"]) + ([PUSH] if case.get("push") else [])
+    out = []
+    for e in members:
+        alone = {k: v for k, v in case["effects"].items() if k == e}
+        out.append({**case, "name": f"{case['name']}_{e}", "kind": "twin", "effects": alone, "member": e,
+                    "push": case["push"] if e == PUSH else None,
+                    "drift_shape": case["drift_shape"] if e == "cog_height_drift" else None})
+    return out
+
+
+def floor_ratio(path: Path) -> dict:
+    """The nominal model's held-out RMSE over the noise floor of a recording (as
+    :func:`euc_sim.diagnosis.pipeline.diagnose` computes both, without the selection)."""
+    from euc_sim.diagnosis.common import H_BOUNDS
+    from euc_sim.diagnosis.prepare import prepare
+    from euc_sim.diagnosis.residual import noise_floor, residual_model
+    from euc_sim.identification import regression as reg
+    prep = prepare(path, None, None)
+    model = residual_model(prep)
+    t = prep.t[prep.keep]
+    time_ = np.concatenate([t, t]) if model.W is not None else t
+    problem = reg.Problem(model, {}, time_, H_BOUNDS)
+    h0 = reg.fit_set(problem, ()).h
+    floor = noise_floor(prep, h0, 0)["rms_stacked"]
+    nominal = reg.heldout_rmse(problem, ())
+    return {"nominal_rmse": nominal, "noise_floor": floor, "ratio": nominal / floor}
+
+
 def plan_spatial(seed: int, n: int, duration: float) -> list[dict]:
     """n 3-D cases (``--spatial N``): a path of the spatial model with its speed and radius drawn
     (:func:`euc_sim.simulation.spatial.draw_spatial_ride`), scored as
@@ -176,7 +256,7 @@ def make_recording(case: dict, out: Path) -> Path:
     from euc_sim.simulation.maneuvers import make_maneuver
 
     man = make_maneuver(case["maneuver"], **case["options"])
-    eff = {case["effect"]: case["value"]} if case["effect"] else {}
+    eff = dict(case["effects"]) if case.get("effects") else ({case["effect"]: case["value"]} if case["effect"] else {})
     # the rider's own balance law is designed for the rider's true body (a heavier
     # rider knows his weight); the analysis still assumes Table 3
     rider = default_rider(true_params(TABLE3, eff), noise_std=RIDER_NOISE)
@@ -214,12 +294,28 @@ def _work(args):
     t2 = time.perf_counter()
     view = diagnosis.json_view(res)
     (out / f"{case['name']}.diagnosis.json").write_text(json.dumps(_jsonable(view), indent=1))
+    if case["kind"] == "pair":       # each member's size with the other known: its twin alone
+        case = {**case, "twin_ratio": _twin_ratios(case, out)}
     return {"case": case, "result": {k: view[k] for k in ("effects", "unexplained", "nominal_rmse",
                                                          "augmented_rmse", "verdict", "decidable",
                                                          "noise_floor", "generic", "h_nominal",
                                                          "h_augmented", "limits", "history",
-                                                         "windows")},
+                                                         "windows", "tentative", "cannot_see")},
             "t_sim": t1 - t0, "t_diag": t2 - t1}
+
+
+def _twin_ratios(case: dict, out: Path) -> dict:
+    """{member: nominal RMSE / noise floor of the member alone} (None where its twin fell)."""
+    ratios = {}
+    for tw in twins(case):
+        path = out / f"{tw['name']}.csv"
+        try:
+            if not path.exists():
+                make_recording(tw, out)
+            ratios[tw["member"]] = floor_ratio(path)["ratio"]
+        except ValueError:
+            ratios[tw["member"]] = None
+    return ratios
 
 
 def _jsonable(x):
@@ -304,6 +400,8 @@ def main(argv=None) -> int:
     ap.add_argument("--resimulate", action="store_true", help="also re-simulate each maneuver (slower)")
     ap.add_argument("--spatial", type=int, default=0, metavar="N",
                     help="also N rides of the 3-D model (circle, slalom, figure-eight, U-turn)")
+    ap.add_argument("--pairs", type=int, default=0, metavar="N",
+                    help="also N recordings holding two effects of different families (issue 24)")
     ap.add_argument("--calibrate", action="store_true", help="null recordings only (seed + 1000)")
     ap.add_argument("--term-sigma", type=float, default=TERM_SIGMA, metavar="S",
                     help=f"the diagnosis's term filter, s (default {TERM_SIGMA:g}; the thresholds "
@@ -318,13 +416,18 @@ def main(argv=None) -> int:
         return 0
     cases = plan(args.seed, args.per_effect, args.nulls, args.pushes, args.constant, args.duration)
     cases += plan_spatial(args.seed, args.spatial, max(args.duration, 20.0))
+    cases += plan_pairs(args.seed, args.pairs, args.duration)
     print(f"blind study: {len(cases)} recordings in {out}/ (seed {args.seed})")
     results = run(cases, out, args.workers, args.resimulate, term_sigma=args.term_sigma,
                   scheduler=args.scheduler)
-    summary = score(results)
+    singles = [r for r in results if r["case"]["kind"] != "pair"]
+    summary = score(singles) if singles else {}
+    summary["pairs"] = score_pairs(results)
     summary["seconds"] = time.perf_counter() - t0
     summary["command"] = " ".join(sys.argv)
-    print_report(summary)
+    if singles:
+        print_report(summary)
+    print_pairs(summary["pairs"])
     print(f"\n{summary['seconds']:.0f} s")
     from euc_sim.io import write_json
     write_json(out / "summary.json", summary)

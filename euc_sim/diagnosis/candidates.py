@@ -21,7 +21,7 @@ from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 from euc_sim.simulation import effects
 
-__all__ = ["visibility", "build_problem"]
+__all__ = ["visibility", "build_problem", "DriftGiven", "freeze", "validity_rules"]
 
 
 # --- visibility -------------------------------------------------------------------------
@@ -121,11 +121,15 @@ def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[r
     info.update(more_info)
     t = prep.t[prep.keep]
     time = np.concatenate([t, t]) if has_w else t
-    validity = _validity(p, (float(prep.t[0]), float(prep.t[-1])), info.get("cog_height_drift", {}).get("drift"))
+    validity = validity_rules(p, (float(prep.t[0]), float(prep.t[-1])), info.get("cog_height_drift", {}).get("drift"))
     drift_shape = info.get("cog_height_drift", {}).get("drift") or {}
+    span = (float(prep.t[0]), float(prep.t[-1]))
+    fixed = {c: v for c, v in cands.items() if c != "cog_height_drift"}
+    adaptive = {"cog_height_drift": DriftGiven(prep, p, h0, fixed, span)} if "cog_height_drift" in cands else {}
     problem = reg.Problem(target=model, candidates=cands, time=time, bounds=H_BOUNDS,
                           validity={c: v for c, v in validity.items() if c in cands},
-                          shape_params={"cog_height_drift": 2 if "start" in drift_shape else 0})
+                          shape_params={"cog_height_drift": 2 if "start" in drift_shape else 0},
+                          adaptive=adaptive)
     return problem, info
 
 
@@ -233,7 +237,56 @@ def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w
     return cands, info
 
 
-def _validity(p: Params, span: tuple, shape: dict | None) -> dict:
+class DriftGiven:
+    """The h drift's term inside a candidate set: its shape scanned on what the set's other
+    members leave (:func:`drift_term.choose_shape` with their columns), so that a second
+    effect does not pull the shape (the adaptive hook of :class:`regression.Problem`).
+
+    Calling it with the other members' names (a sorted tuple) gives
+    :class:`regression.Adapted`; :meth:`shape` the shape chosen for them.  Results are
+    cached per set.
+    """
+
+    def __init__(self, prep: Prepared, p: Params, h0: float, cands: dict, span: tuple):
+        self.prep, self.p, self.h0, self.cands, self.span = prep, p, h0, cands, span
+        model = residual_model(prep, p)
+        dh = 1e-4
+        self.drdh = (model(h0 + dh) - model(h0 - dh)) / (2 * dh)
+        self.y = model(h0)
+        self.has_w = model.W is not None
+        t = prep.t[prep.keep]
+        self.time = np.concatenate([t, t]) if self.has_w else t
+        self._cache: dict = {}
+
+    def shape(self, others: tuple) -> dict:
+        return self._get(others)[1]
+
+    def _get(self, others: tuple):
+        if others not in self._cache:
+            given = np.column_stack([np.asarray(self.cands[c], float).reshape(self.y.size, -1) for c in others]) if others else None
+            shape = drift_term.choose_shape(self.time, self.y, self.drdh, max(self.time.size / 10.0, 5.0), given)
+            cols = drift_term.drift_columns(self.prep, self.p, self.h0, self.drdh, self.has_w, shape)
+            check = validity_rules(self.p, self.span, shape)["cog_height_drift"]
+            self._cache[others] = (reg.Adapted(cols, 2 if "start" in shape else 0, check), shape)
+        return self._cache[others]
+
+    def __call__(self, others: tuple) -> reg.Adapted:
+        return self._get(others)[0]
+
+
+def freeze(problem: reg.Problem, info: dict, names) -> tuple[reg.Problem, dict]:
+    """The problem with the drift's term fixed as it is inside the set ``names`` (as it would
+    join it, when it is not a member), and ``info`` with that set's drift shape."""
+    hook = problem.adaptive.get("cog_height_drift")
+    if hook is None:
+        return problem, info
+    names = tuple(names)
+    others = tuple(sorted(c for c in names if c != "cog_height_drift"))
+    info = {**info, "cog_height_drift": {**info["cog_height_drift"], "drift": hook.shape(others)}}
+    return problem.frozen(names), info
+
+
+def validity_rules(p: Params, span: tuple, shape: dict | None) -> dict:
     """Physical-range checks of each candidate's coefficients (None: valid, else why not).
 
     ``span``: the recording's first and last time, s; ``shape``: the drift's

@@ -115,25 +115,55 @@ def candidate_shapes(t0: float, t1: float) -> list[dict]:
     return out
 
 
-def choose_shape(t: np.ndarray, y: np.ndarray, drdh: np.ndarray, n_eff: float) -> dict:
+def choose_shape(t: np.ndarray, y: np.ndarray, drdh: np.ndarray, n_eff: float,
+                 given: np.ndarray | None = None) -> dict:
     """The shape whose term −∂r/∂h·g(t) best explains y with h free (BIC with n_eff).
 
     A scan on the first-order term only (no ḣ terms): y ≈ a·∂r/∂h + (−∂r/∂h·G)θ by
     least squares for every shape, ``n_eff`` ln RSS + k ln n_eff, smallest wins.
-    ``t``, ``y``, ``drdh``: the stacked residual's times, values and ∂r/∂h.
+    ``t``, ``y``, ``drdh``: the stacked residual's times, values and ∂r/∂h;
+    ``given``: columns (n, k) of other effects fitted with every shape (the drift is
+    then the shape that best explains what they leave: a second effect would
+    otherwise pull the scan to a shape that imitates it).
     """
     t0, t1 = float(np.min(t)), float(np.max(t))
+    base = drdh[:, None] if given is None or given.size == 0 else np.column_stack([drdh, given])
+    # the base fitted with every shape: both projected off the base once (Frisch-Waugh-Lovell)
+    Qb, _ = np.linalg.qr(base)
+    y_r = y - Qb @ (Qb.T @ y)
+    yy = float(y_r @ y_r)
     best, best_crit = None, np.inf
-    for shape in candidate_shapes(t0, t1):
+    for shape in candidate_shapes(t0, t1)[:2]:          # the sine and the wander: groups of columns
         G = -drdh[:, None] * shape_profile(shape, t)
-        X = np.column_stack([drdh, G])
-        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-        rss = float(np.sum((y - X @ coef) ** 2))
-        k = G.shape[1] + (2 if "start" in shape else 0)      # start and length are chosen too
-        crit = n_eff * np.log(max(rss, 1e-300)) + k * np.log(n_eff)
+        G_r = G - Qb @ (Qb.T @ G)
+        coef, *_ = np.linalg.lstsq(G_r, y_r, rcond=None)
+        rss = float(np.sum((y_r - G_r @ coef) ** 2))
+        crit = n_eff * np.log(max(rss, 1e-300)) + G.shape[1] * np.log(n_eff)
         if crit < best_crit:
             best, best_crit = shape, crit
+    for kind in ("ramp", "dip"):                          # one column each, every start at once
+        for L in SHAPE_LENGTHS:
+            starts = np.arange(t0, t1 - L + 1e-9, START_STEP)
+            if starts.size == 0:
+                continue
+            G = -drdh[:, None] * _unit_profiles(kind, L, starts, t)
+            G_r = G - Qb @ (Qb.T @ G)
+            gg = np.einsum("ij,ij->j", G_r, G_r)
+            gy = G_r.T @ y_r
+            rss = yy - np.where(gg > 1e-300, gy ** 2 / np.maximum(gg, 1e-300), 0.0)
+            crit = n_eff * np.log(np.maximum(rss, 1e-300)) + 3 * np.log(n_eff)   # start and length chosen too
+            j = int(np.argmin(crit))
+            if crit[j] < best_crit:
+                best, best_crit = {"kind": kind, "start": float(starts[j]), "length": float(L)}, float(crit[j])
     return best
+
+
+def _unit_profiles(kind: str, L: float, starts: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """:func:`shape_profile` of a ramp or dip of length ``L`` for every start at once, (n, m)."""
+    u = (np.asarray(t, float)[:, None] - starts[None, :]) / L
+    f = np.pi if kind == "ramp" else 2.0 * np.pi
+    g = 0.5 * (1.0 - np.cos(f * np.clip(u, 0.0, 1.0)))
+    return g if kind == "ramp" else np.where((u > 0.0) & (u < 1.0), g, 0.0)
 
 
 def drift_columns(prep: Prepared, p: Params, h0: float, drdh: np.ndarray, has_w: bool,

@@ -27,13 +27,13 @@ from typing import Callable, Mapping
 import numpy as np
 
 from euc_sim.diagnosis import drift_term
-from euc_sim.diagnosis.candidates import build_problem, visibility
+from euc_sim.diagnosis.candidates import build_problem, freeze, visibility
 from euc_sim.diagnosis.common import DiagnosisError, COLUMN_H_TOL, COLUMN_ITERATIONS, H_BOUNDS, NONLINEAR, THRESHOLDS, Thresholds
 from euc_sim.diagnosis.common import h_at_bound, heldout_over_floor
 from euc_sim.diagnosis.estimates import detection_limits, effect_items
 from euc_sim.diagnosis.localise import localise, signals_of
 from euc_sim.diagnosis.prepare import Prepared, prepare
-from euc_sim.diagnosis.refine import Final, final_model
+from euc_sim.diagnosis.refine import Final, final_model, refine, relinearised
 from euc_sim.diagnosis.residual import ResidualModel, noise_floor, residual_model
 from euc_sim.diagnosis.resimulate import resimulate_recording
 from euc_sim.diagnosis.verdict import judge, leftover
@@ -42,6 +42,11 @@ from euc_sim.identification import selection as sel
 from euc_sim.model.parameters import Params
 
 __all__ = ["diagnose", "json_view"]
+
+#: Passes of the selection about refined nonlinear values (:func:`refine.relinearised`), and
+#: the change of each value below which they stop (s, kg).
+RELINEARISE = 2
+RELINEARISE_TOL = {"sensor_time_offset": 0.002, "rider_mass": 0.5}
 
 
 def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | None = None,
@@ -94,14 +99,29 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     problem, info, s = _select(prep, h0, n_eff, th, say)                            # 3-4 candidates, select
     say("4/6 refine: estimates and intervals")
     fin = final_model(prep, problem, info, s, say)                                  # 5 refine
+    left = leftover(fin, tuple(s.selected), floor["rms_stacked"], th)               # 6 verdict
+    cv_nominal, periodic = s.cv_nominal, None
+    if left["gain"] >= th.generic_gain:
+        # a periodic structure no candidate explains: select again with it fitted beside
+        # every set, so that it masks no catalogued effect (issue 24)
+        periodic = _periodic_columns(fin, problem.time)
+        say("3/6 selection again, beside the periodic structure left")
+        problem, info, s = _select(prep, h0, n_eff, th, say, periodic)
+        fin = final_model(prep, problem, info, s, say, periodic)
     eff_out = effect_items(prep, problem, info, s, fin, n_eff, th)
     limits = detection_limits(problem, info, s, vis, th)
     _add_blind_windows(limits, model, time, s.fit.h, floor, th)
     say("5/6 verdict: detection limits, testing what is left")
-    left = leftover(fin, tuple(s.selected), floor["rms_stacked"], th)               # 6 verdict
-    decision = judge(eff_out, s.cv_nominal, fin, limits, vis, left, model.W is not None, th)
+    decision = judge(eff_out, cv_nominal, fin, limits, vis, left, model.W is not None, th,
+                     beside_structure=periodic is not None)
     reported = _reported_model(problem, s, fin, decision)
     result = _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limits, vis, left, th)
+    if periodic is not None:       # held-out RMSEs of the recording itself, the structure not removed
+        result["nominal_rmse"] = cv_nominal
+        names = tuple(e["name"] for e in decision["effects"])
+        plain, _ = freeze(*build_problem(prep, s.fit.h), names)
+        result["augmented_rmse"] = reg.heldout_rmse(plain, names) if names else cv_nominal
+        result["periodic_structure"] = {"given": True, "heldout_gain": left["gain"]}
     if resimulate:                                                                  # 7 model it
         say("6/6 model it: re-simulating the maneuver, nominal and augmented")
         rs = resimulate_recording(prep, result)
@@ -136,23 +156,66 @@ def _check_excitation(prep: Prepared, model: ResidualModel) -> None:
                              "a motionless recording)")
 
 
-def _select(prep: Prepared, h0: float, n_eff: float, th: Thresholds, say):
-    """Candidates and forward selection, the columns rebuilt at the augmented h until it settles.
+def _nonlinear_hint(problem: reg.Problem, info: dict, s, n_eff: float, th: Thresholds) -> dict | None:
+    """A rider mass or time offset that the last selection step refused although it dropped
+    the BIC by ``min_bic_drop`` (its linear column, taken at the nominal value, is poor far
+    from it): ``{name: value at its trial}``, the largest drop; None otherwise."""
+    last = s.history[-1]
+    if last.accepted or not last.trials:
+        return None
+    base = sel.bic(s.fit.rss, s.fit.n, n_eff, sel.n_params(problem, s.selected))
+    best = None
+    for d in last.trials:
+        c = d.get("name")
+        if c in NONLINEAR and base - d["bic"] >= th.min_bic_drop and (best is None or d["bic"] < best[0]):
+            lo, hi = NONLINEAR[c]
+            v = info[c]["offset"] + info[c]["scale"] * float(d["theta"][0])
+            if lo <= v <= hi:
+                best = (d["bic"], c, v)
+    return None if best is None else {best[1]: best[2]}
+
+
+def _periodic_columns(fin: Final, time: np.ndarray) -> np.ndarray:
+    """The sinusoid (0.1-3 Hz, two columns) that best fits what the final model leaves
+    (:func:`selection.sinusoid_basis` on every sample)."""
+    y = fin.problem.y(fin.fit.h) - fin.problem.design(fin.fit.names) @ fin.fit.coef_vector()
+    return sel.sinusoid_basis(time)(np.arange(time.size), y, fin.fit.h)
+
+
+def _select(prep: Prepared, h0: float, n_eff: float, th: Thresholds, say, given=None):
+    """Candidates and selection, the columns rebuilt at the augmented h until it settles.
 
     The candidate columns depend on h: a large missing effect drags the nominal h away
     (to the search bound for a strong slalom), so the columns are rebuilt at the
-    augmented model's h and the selection is run again until h settles.
+    augmented model's h and the selection is run again until h settles.  ``given``:
+    columns fitted beside every set (:func:`selection.project_out`), or None.
     """
-    h_cols = h0
-    for _ in range(COLUMN_ITERATIONS):
-        problem, info = build_problem(prep, h_cols)
+    h_cols, state = h0, None
+    for it in range(COLUMN_ITERATIONS + RELINEARISE):
+        problem, info = build_problem(prep, h_cols) if state is None else relinearised(prep, h_cols, state)
+        problem = sel.project_out(problem, given)
         say(f"3/6 candidates and selection: {len(problem.candidates)} candidate terms "
             f"(columns at h = {h_cols:.3f} m)")
         s = sel.forward_select(problem, min_bic_drop=th.min_bic_drop, min_cv_gain=th.min_cv_gain,
-                               min_t=th.min_t, n_eff=n_eff)
+                               min_t=th.min_t, n_eff=n_eff, pairs=True)
+        nonlin = [c for c in s.selected if c in NONLINEAR]
+        hint = _nonlinear_hint(problem, info, s, n_eff, th) if not nonlin and state is None else None
+        if hint and it < COLUMN_ITERATIONS + RELINEARISE - 1:
+            # refused only where its linear column is poor: select again about its trial value
+            state, h_cols = {"sensor_time_offset": 0.0, "rider_mass": prep.params.m, **hint}, s.fit.h
+            continue
+        if nonlin and it < COLUMN_ITERATIONS + RELINEARISE - 1:
+            # a nonlinear effect far from nominal: select again about its refined value
+            est = {c: info[c]["offset"] + info[c]["scale"] * float(s.fit.theta[c][0]) for c in nonlin}
+            new = refine(prep, freeze(problem, info, s.selected)[0], s.selected, est, s.fit.h, given)[0]
+            moved = state is None or any(abs(new[c] - state[c]) > RELINEARISE_TOL[c] for c in NONLINEAR)
+            state, h_cols = new, s.fit.h
+            if moved:
+                continue
         if not s.selected or abs(s.fit.h - h_cols) < COLUMN_H_TOL:
             break
         h_cols = s.fit.h
+    problem, info = freeze(problem, info, s.selected)      # the drift's shape of the selected set
     return problem, info, s
 
 

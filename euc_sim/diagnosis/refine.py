@@ -6,17 +6,18 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from euc_sim.diagnosis.candidates import build_problem
+from euc_sim.diagnosis.candidates import build_problem, freeze, validity_rules
 from euc_sim.diagnosis.common import NONLINEAR
 from euc_sim.diagnosis.prepare import Prepared
 from euc_sim.diagnosis.residual import residual_model
 from euc_sim.identification import regression as reg
+from euc_sim.identification import selection as sel
 from euc_sim.simulation import effects
 
-__all__ = ["refine", "Final", "final_model"]
+__all__ = ["refine", "relinearised", "Final", "final_model"]
 
 
-def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: float):
+def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: float, given=None):
     """Estimate nonlinear effects (time offset, rider mass) by a 1-D search each.
 
     Their columns are linearisations; the estimate is refined by minimising the
@@ -25,7 +26,8 @@ def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: f
     ``{name: value}``, the rebuilt (problem, info), the fit, and the slope dθ/dv of
     each linearised coefficient (to convert its standard error).  The info of each
     refined effect carries its last ``search`` interval and ``at_bound`` (the value
-    ends within three search tolerances of an end of it).
+    ends within three search tolerances of an end of it).  ``given``: columns
+    fitted beside every set (:func:`selection.project_out`), or None.
     """
     from scipy.optimize import minimize_scalar
 
@@ -44,7 +46,9 @@ def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: f
     def rss(c, v):
         st = {**state, c: v}
         pr, pp = residual_of(st)
-        prob = reg.Problem(residual_model(pr, pp), lin_cols, problem.time, problem.bounds)
+        prob = reg.Problem(residual_model(pr, pp), {}, problem.time, problem.bounds)
+        prob = sel.project_out(prob, given)
+        prob = reg.Problem(prob.target, lin_cols, prob.time, prob.bounds)
         return reg.fit_set(prob, linear).rss
 
     searched = {}
@@ -62,7 +66,8 @@ def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: f
 
     def build(st):
         pr, pp = residual_of(st)
-        return build_problem(pr, h, pp)
+        prob, inf = build_problem(pr, h, pp)
+        return freeze(sel.project_out(prob, given), inf, selected)
 
     prob, info = build(state)
     f = reg.fit_set(prob, selected)
@@ -79,6 +84,33 @@ def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: f
     return state, prob, info, f, slopes
 
 
+
+
+def relinearised(prep: Prepared, h: float, state: dict) -> tuple[reg.Problem, dict]:
+    """The selection problem linearised about refined nonlinear values instead of the nominal ones.
+
+    A rider mass or time offset far from nominal (tens of kg) leaves a second-order misfit
+    in its linear column that other candidates would explain.  Columns are rebuilt at the
+    values ``state`` (:func:`refine`), and the target is r_v(h) + Σ X_v·(v − v_0), equal
+    to the nominal residual to first order about v: the nonlinear candidate's θ is again
+    v − v_0 (the estimate maps of the nominal problem), and fits exactly where v is right.
+    """
+    p = prep.params
+    nominal = {"sensor_time_offset": 0.0, "rider_mass": p.m}
+    delta = {c: state[c] - nominal[c] for c in nominal if abs(state[c] - nominal[c]) > 0}
+    pr = prep.shifted(state["sensor_time_offset"]) if state["sensor_time_offset"] else prep
+    pp = effects.apply_to_params(p, "rider_mass", state["rider_mass"]) if state["rider_mass"] != p.m else p
+    prob, info = build_problem(pr, h, pp)
+    shift = sum(prob.candidates[c][:, 0] * d for c, d in delta.items() if c in prob.candidates)
+
+    def target(hh):
+        return prob.y(hh) + shift
+
+    info = {**info, **{c: {**info[c], "offset": nominal[c]} for c in nominal if c in info}}
+    rules = validity_rules(p, (float(prep.t[0]), float(prep.t[-1])), None)    # θ is v − v_0 again
+    validity = {**prob.validity, **{c: rules[c] for c in nominal if c in prob.validity}}
+    return reg.Problem(target, prob.candidates, prob.time, prob.bounds, validity, prob.weights,
+                       prob.shape_params, prob.adaptive), info
 
 
 @dataclass(frozen=True)
@@ -112,10 +144,11 @@ class Final:
     cv: float
 
 
-def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress=None) -> Final:
+def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress=None, given=None) -> Final:
     """The selected set's model, its nonlinear effects refined (:func:`refine`).
 
-    ``s`` is the :class:`~euc_sim.identification.selection.Selection` on ``problem``.
+    ``s`` is the :class:`~euc_sim.identification.selection.Selection` on ``problem``;
+    ``given``: columns fitted beside every set (a periodic structure), or None.
     """
     selected = tuple(s.selected)
     estimates = {c: info[c]["offset"] + info[c]["scale"] * float(s.fit.theta[c][0])
@@ -124,7 +157,7 @@ def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress=No
     if any(c in selected for c in NONLINEAR):
         if progress:
             progress("4/6 refine: 1-D search of the nonlinear estimates")
-        _, prob_f, info_f, fit_f, slopes = refine(prep, problem, selected, estimates, s.fit.h)
+        _, prob_f, info_f, fit_f, slopes = refine(prep, problem, selected, estimates, s.fit.h, given)
     cov_f, dof_f = reg.covariance(prob_f, fit_f, cluster=2.0)
     cv = reg.heldout_rmse(prob_f, selected) if selected else s.cv_nominal
     return Final(prob_f, info_f, fit_f, slopes, cov_f, dof_f, cv)

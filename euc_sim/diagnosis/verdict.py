@@ -25,6 +25,9 @@ def leftover(fin, selected, floor_stacked: float, thresholds) -> dict:
     floor_stacked : float
         Noise floor of all residual rows, N·m.
     thresholds : common.Thresholds
+    beside_structure : bool
+        The effects were selected with the periodic structure left fitted beside them:
+        each earned its place given it, so they are named beside ``unexplained``.
 
     Returns
     -------
@@ -52,7 +55,7 @@ def _h_notes(fin, h_ok: bool, periodic: bool, h_at_bound: bool) -> list[str]:
 
 
 def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: dict, left: dict,
-          has_w: bool, thresholds) -> dict:
+          has_w: bool, thresholds, beside_structure: bool = False) -> dict:
     """The verdict, the effects named and those only tentative, and the notes.
 
     Parameters
@@ -90,7 +93,7 @@ def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: di
     notes = _h_notes(fin, h_ok, periodic, h_at_bound)
     unseen = cannot_see(limits, vis)
     eff_out, tentative = list(effects_out), []
-    if unexplained and eff_out:
+    if unexplained and eff_out and not beside_structure:
         # a wrong name is worse than none: with structure left unexplained, keep only
         # effects that explain most of the mismatch (held-out RMSE at least halved)
         keep_eff = []

@@ -31,7 +31,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-__all__ = ["SelectionError", "Problem", "Fit", "time_blocks", "correlation_time", "fit_set",
+__all__ = ["SelectionError", "Problem", "Adapted", "Fit", "time_blocks", "correlation_time", "fit_set",
            "heldout_rmse", "covariance", "BLOCK_LENGTH"]
 
 
@@ -62,6 +62,11 @@ class Problem:
     shape_params : mapping of str to int, optional
         Parameters of a candidate that the data chose before the fit (a shape's start
         and length): counted in the BIC with its columns (default 0).
+    adaptive : mapping of str to callable, optional
+        ``adaptive[name](others) -> Adapted``: a candidate whose columns the data choose
+        given the other candidates of the set (``others``, a sorted tuple of names),
+        e.g. a shape scanned on what the others leave; it replaces ``candidates[name]``,
+        ``shape_params[name]`` and ``validity[name]`` inside a set (:meth:`columns`).
     """
 
     target: Callable[[float], np.ndarray]
@@ -71,6 +76,7 @@ class Problem:
     validity: Mapping[str, Callable[[np.ndarray], str | None]] = field(default_factory=dict)
     weights: np.ndarray | None = None
     shape_params: Mapping[str, int] = field(default_factory=dict)
+    adaptive: Mapping[str, Callable[[tuple], "Adapted"]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         t = np.asarray(self.time, dtype=float)
@@ -101,17 +107,56 @@ class Problem:
     def n(self) -> int:
         return int(self.time.size)
 
+    def adapted(self, name: str, names: Sequence[str]) -> "Adapted":
+        """Candidate ``name`` inside the set ``names``: its columns, chosen parameters and
+        validity (the adaptive hook's, given the set's other members, where it has one)."""
+        if name in self.adaptive:
+            a = self.adaptive[name](tuple(sorted(c for c in names if c != name)))
+            X = np.asarray(a.columns, dtype=float)
+            X = X[:, None] if X.ndim == 1 else X
+            if X.shape[0] != self.n or not np.all(np.isfinite(X)):
+                raise SelectionError(f"adaptive candidate {name!r} must give {self.n} finite rows, got {X.shape}")
+            return Adapted(X, a.n_shape, a.check)
+        return Adapted(self.candidates[name], self.shape_params.get(name, 0), self.validity.get(name))
+
+    def columns(self, name: str, names: Sequence[str] = ()) -> np.ndarray:
+        """Columns of candidate ``name`` inside the set ``names`` (n, k)."""
+        return self.adapted(name, names).columns
+
     def design(self, names: Sequence[str]) -> np.ndarray:
         """Columns of the named candidates side by side, (n, Σk)."""
         if not names:
             return np.zeros((self.n, 0))
-        return np.hstack([self.candidates[c] for c in names])
+        return np.hstack([self.columns(c, names) for c in names])
+
+    def frozen(self, names: Sequence[str]) -> "Problem":
+        """The problem with every adaptive candidate fixed as it is inside the set ``names``
+        (a candidate outside it: as it would join it)."""
+        if not self.adaptive:
+            return self
+        cands, shape, valid = dict(self.candidates), dict(self.shape_params), dict(self.validity)
+        for c in self.adaptive:
+            a = self.adapted(c, tuple(names) + ((c,) if c not in names else ()))
+            cands[c], shape[c] = a.columns, a.n_shape
+            if a.check is not None:
+                valid[c] = a.check
+        return Problem(self.target, cands, self.time, self.bounds, valid, self.weights, shape)
 
     def y(self, h: float) -> np.ndarray:
         y = np.asarray(self.target(h), dtype=float)
         if y.shape != (self.n,):
             raise SelectionError(f"target(h) must return shape ({self.n},), got {y.shape}")
         return y
+
+
+@dataclass(frozen=True)
+class Adapted:
+    """An adaptive candidate inside one set: its columns (n, k), the parameters the data
+    chose for it (counted in the BIC), and its validity check (``check(θ) -> None | str``)."""
+
+    columns: np.ndarray
+    n_shape: int = 0
+    check: Callable[[np.ndarray], str | None] | None = None
 
 
 @dataclass(frozen=True)
@@ -222,7 +267,7 @@ def _profile(problem: Problem, X: np.ndarray, idx: np.ndarray, n_grid: int = 13)
 def _split_theta(problem: Problem, names: Sequence[str], theta: np.ndarray) -> dict[str, np.ndarray]:
     out, i = {}, 0
     for c in names:
-        k = problem.candidates[c].shape[1]
+        k = problem.columns(c, names).shape[1]
         out[c] = theta[i:i + k].copy()
         i += k
     return out

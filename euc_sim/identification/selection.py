@@ -26,11 +26,11 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from euc_sim.identification.regression import (Fit, Problem, correlation_time, covariance, fit_set,
-                                               heldout_rmse)
+from euc_sim.identification.regression import (Adapted, Fit, Problem, correlation_time, covariance,
+                                               fit_set, heldout_rmse)
 
 __all__ = ["Step", "Selection", "bic", "forward_select", "find_aliases", "generic_gain",
-           "sinusoid_basis"]
+           "sinusoid_basis", "project_out", "n_params", "group_t", "invalid_terms"]
 
 
 @dataclass(frozen=True)
@@ -88,7 +88,7 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
                    min_bic_drop: float = 10.0, min_cv_gain: float = 0.10,
                    min_t: float = 4.0, cluster: float = 2.0, max_terms: int = 3,
                    allowed: Sequence[str] | None = None, n_eff: float | None = None,
-                   progress: Callable[[str], None] | None = None) -> Selection:
+                   pairs: bool = False, progress: Callable[[str], None] | None = None) -> Selection:
     """Forward stepwise selection with blocked held-out validation and BIC.
 
     At each step every remaining candidate is added in turn to the accepted set, the
@@ -119,6 +119,12 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
         Effective sample count for the BIC; by default n / τ_int of the nominal
         residual (which overstates the correlation when an effect dominates it:
         prefer τ_int of a noise-only residual, as :func:`euc_sim.diagnosis.residual.noise_floor` does).
+    pairs : bool
+        Find effects jointly: when no single candidate earns its place, try every pair of
+        the remaining ones added together (each must earn its place given the other; two
+        effects can mask each other); after each acceptance drop a member that the others
+        made redundant (backward step); a candidate refused in one step is offered again
+        in the next, given the new set.  Default False: plain forward selection.
 
     Returns
     -------
@@ -136,10 +142,11 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
     history: list[Step] = [Step(0, (), [{"name": None, "bic": cur_bic, "cv_rmse": cv_nom,
                                          "rmse": nominal.rmse, "h": nominal.h}], None, True,
                                 "nominal model: h only")]
-    cv_path: list[float] = []
-    for step in range(1, max_terms + 1):
-        remaining = [c for c in pool if c not in current]
-        if not remaining:
+    judge = dict(min_bic_drop=min_bic_drop, min_cv_gain=min_cv_gain, min_t=min_t, cluster=cluster)
+    dropped: tuple = ()
+    for step in range(1, 2 * max_terms + 2):
+        remaining = [c for c in pool if c not in current and c not in dropped]
+        if not remaining or len(current) >= max_terms:
             break
         trials, fits = _trials(problem, current, remaining, n_eff, n_blocks, guard,
                                lambda m: say(f"step {step}: {m}"))
@@ -147,8 +154,7 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
         refused = []
         for d in trials:
             f = fits[d["name"]]
-            reasons = _judge(problem, f, d, cur_bic, cur_cv, min_bic_drop, min_cv_gain,
-                             min_t, cluster)
+            reasons = _judge(problem, f, d, cur_bic, cur_cv, **judge)
             if not reasons:
                 accepted, chosen, best = True, d["name"], d
                 break
@@ -159,12 +165,41 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
             refused.append(f"{d['name']}: " + "; ".join(reasons))   # refused on physics: try the next
         reason = "accepted" + (f" (refused before it: {' | '.join(refused)})" if refused else "") \
             if accepted else " | ".join(refused) or reason
+        if not accepted and pairs and len(current) + 2 <= max_terms:
+            # no single term earns its place: two that only show together (each masks the other)
+            pair = _pair_step(problem, current, remaining, n_eff, cur_bic, cur_cv, n_blocks, guard, judge)
+            if pair is not None:
+                accepted, chosen, f, best = True, "+".join(pair["names"]), pair["_fit"], pair
+                reason = f"accepted as a pair (alone: {' | '.join(refused)})"
+                trials = trials + [{k: v for k, v in pair.items() if k != "_fit"}]
         history.append(Step(step, current, trials, chosen, accepted, reason))
         if not accepted:
             break
         current, cur_fit, cur_cv, cur_bic = f.names, f, best["cv_rmse"], best["bic"]
-        pool = [c for c in pool if c not in refused_names(refused)]
-        cv_path.append(cur_cv)
+        if not pairs:
+            pool = [c for c in pool if c not in refused_names(refused)]
+            continue
+        # swap: a member that another candidate replaces decisively, given the rest (an alias
+        # chosen before the set's other members were known)
+        swap = _swap(problem, cur_fit, cur_bic, [c for c in pool if c not in current], n_eff, min_bic_drop,
+                     min_t, cluster)
+        if swap is not None:
+            old_name, g, b_new = swap
+            history.append(Step(step, current, [], g.names[-1], True,
+                                f"swapped {old_name} for {g.names[-1]}: BIC {cur_bic:.1f} -> {b_new:.1f}"))
+            current, cur_fit, cur_bic = g.names, g, b_new
+            cur_cv = heldout_rmse(problem, current, n_blocks, guard)
+        # backward: a term that the later ones made redundant leaves the set
+        gone, why = _backward(problem, cur_fit, cur_bic, n_eff, min_bic_drop, min_t, cluster)
+        dropped = (gone,) if gone else ()
+        if gone:
+            current = tuple(c for c in current if c != gone)
+            cur_fit = fit_set(problem, current)
+            cur_bic = bic(cur_fit.rss, cur_fit.n, n_eff, n_params(problem, current))
+            cur_cv = heldout_rmse(problem, current, n_blocks, guard)
+            history.append(Step(step, f.names, [], gone, False, f"dropped {gone}: {why}"))
+    cv_path = [heldout_rmse(problem, current[:i + 1], n_blocks, guard) for i in range(len(current) - 1)] + \
+        ([cur_cv] if current else [])
     return Selection(current, cur_fit, nominal, cv_nom, cur_cv, cv_path, n_eff, tau, history)
 
 
@@ -174,14 +209,130 @@ def _trials(problem: Problem, current: tuple, remaining: list, n_eff: float, n_b
     trials = []
     for c in remaining:
         f = fit_set(problem, current + (c,))
-        k = sum(problem.candidates[n].shape[1] + problem.shape_params.get(n, 0) for n in f.names) + 1
-        b = bic(f.rss, f.n, n_eff, k)
+        b = bic(f.rss, f.n, n_eff, n_params(problem, f.names))
         cv = heldout_rmse(problem, f.names, n_blocks, guard)
         trials.append({"name": c, "bic": b, "cv_rmse": cv, "rmse": f.rmse, "h": f.h,
                        "theta": f.theta[c].tolist(), "_fit": f})
         say(f"{c}: BIC {b:.1f}, held-out RMSE {cv:.3f}")
     trials.sort(key=lambda d: d["bic"])
     return trials, {d["name"]: d.pop("_fit") for d in trials}
+
+
+def _pair_step(problem: Problem, current: tuple, remaining: list, n_eff: float, cur_bic: float, cur_cv: float,
+               n_blocks: int, guard: float, judge: dict) -> dict | None:
+    """The best pair of remaining candidates added together, when it earns its place.
+
+    Accepted when the pair's BIC drops by ``min_bic_drop`` and its held-out RMSE by
+    ``min_cv_gain``, each member stands ``min_t`` standard errors from zero, every
+    member of the set is physics, and each of the two drops the BIC by ``min_bic_drop``
+    given the other (neither is a passenger of the other).  Pairs are tried in order
+    of BIC, the held-out RMSE only for those passing the rest.
+    """
+    tried = []
+    for i, a in enumerate(remaining):
+        for b in remaining[i + 1:]:
+            f = fit_set(problem, current + (a, b))
+            tried.append((bic(f.rss, f.n, n_eff, n_params(problem, f.names)), a, b, f))
+    tried.sort(key=lambda x: x[0])
+    for b_ab, a, b, f in tried:
+        if cur_bic - b_ab < judge["min_bic_drop"]:
+            return None
+        if invalid_terms(problem, f):
+            continue
+        cov, _ = covariance(problem, f, judge["cluster"])
+        t = {c: group_t(problem, f, cov, c) for c in (a, b)}
+        if min(t.values()) < judge["min_t"]:
+            continue
+        alone = {}
+        for c, other in ((a, b), (b, a)):
+            g = fit_set(problem, current + (other,))
+            alone[c] = bic(g.rss, g.n, n_eff, n_params(problem, g.names)) - b_ab
+        if min(alone.values()) < judge["min_bic_drop"]:
+            continue
+        cv = heldout_rmse(problem, f.names, n_blocks, guard)
+        gain = 1.0 - cv / cur_cv if cur_cv > 0 else 0.0
+        if gain < judge["min_cv_gain"]:
+            continue
+        return {"name": f"{a}+{b}", "names": (a, b), "bic": b_ab, "cv_rmse": cv, "rmse": f.rmse, "h": f.h,
+                "theta": np.concatenate([f.theta[a], f.theta[b]]).tolist(), "t": min(t.values()),
+                "cv_gain": gain, "_fit": f}
+    return None
+
+
+def _swap(problem: Problem, f: Fit, cur_bic: float, others: list, n_eff: float, min_bic_drop: float,
+          min_t: float, cluster: float):
+    """The best replacement of one member by a candidate outside the set, when it lowers the
+    BIC by ``min_bic_drop`` with every member physics and the newcomer ``min_t`` standard
+    errors from zero: (replaced name, its fit, its BIC); None otherwise."""
+    if len(f.names) < 2:
+        return None
+    best = None
+    for c in f.names:
+        rest = tuple(n for n in f.names if n != c)
+        for a in others:
+            g = fit_set(problem, rest + (a,))
+            b = bic(g.rss, g.n, n_eff, n_params(problem, g.names))
+            if cur_bic - b >= min_bic_drop and (best is None or b < best[2]) and not invalid_terms(problem, g):
+                cov, _ = covariance(problem, g, cluster)
+                if group_t(problem, g, cov, a) >= min_t:
+                    best = (c, g, b)
+    return best
+
+
+def _backward(problem: Problem, f: Fit, cur_bic: float, n_eff: float, min_bic_drop: float, min_t: float,
+              cluster: float) -> tuple[str | None, str]:
+    """The member of the set that no longer earns its place given the others (the one whose
+    removal costs the least BIC, when that is below ``min_bic_drop`` or its |θ|/se is below
+    ``min_t``), and why; (None, "") when every member does."""
+    if len(f.names) < 2:
+        return None, ""
+    cov, _ = covariance(problem, f, cluster)
+    worst, why, worst_cost = None, "", np.inf
+    for c in f.names:
+        rest = tuple(n for n in f.names if n != c)
+        g = fit_set(problem, rest)
+        cost = bic(g.rss, g.n, n_eff, n_params(problem, rest)) - cur_bic
+        t = group_t(problem, f, cov, c)
+        if (cost < min_bic_drop or t < min_t) and cost < worst_cost:
+            worst, worst_cost = c, cost
+            why = f"given {', '.join(rest)} it lowers the BIC by {cost:.1f} (|θ|/se {t:.1f})"
+    return worst, why
+
+
+def n_params(problem: Problem, names: Sequence[str]) -> int:
+    """Parameters of a set counted by the BIC: its columns, the shapes' chosen parameters, h."""
+    ad = [problem.adapted(c, names) for c in names]
+    return sum(a.columns.shape[1] + a.n_shape for a in ad) + 1
+
+
+def group_t(problem: Problem, f: Fit, cov: np.ndarray, name: str) -> float:
+    """|θ|/se of candidate ``name`` in the fit ``f`` (a group of k columns: its Wald
+    statistic as an equivalent |t|, √max(W − (k − 1), 0))."""
+    i0 = 0
+    for c in f.names:
+        k = f.theta[c].size
+        if c == name:
+            break
+        i0 += k
+    tg, Cg = f.theta[name], cov[i0:i0 + k, i0:i0 + k]
+    if k == 1:
+        return float(abs(tg[0]) / np.sqrt(max(Cg[0, 0], 1e-300)))
+    try:
+        wald = float(tg @ np.linalg.solve(Cg, tg))
+    except np.linalg.LinAlgError:
+        wald = 0.0
+    return float(np.sqrt(max(wald - (k - 1), 0.0)))
+
+
+def invalid_terms(problem: Problem, f: Fit) -> list[str]:
+    """Every member of the fitted set whose estimate is not physics, with why."""
+    out = []
+    for c in f.names:
+        check = problem.adapted(c, f.names).check
+        why = check(f.theta[c]) if check else None
+        if why:
+            out.append(f"{c}: {why}")
+    return out
 
 
 def refused_names(refused: list[str]) -> set[str]:
@@ -194,18 +345,7 @@ def _judge(problem: Problem, f: Fit, d: dict, cur_bic: float, cur_cv: float,
     """Reasons to refuse the trial ``d`` (fit ``f``); empty when it is accepted."""
     name = d["name"]
     cov, _ = covariance(problem, f, cluster)
-    theta = f.coef_vector()
-    k_new = problem.candidates[name].shape[1]
-    se = np.sqrt(np.maximum(np.diag(cov)[:-1], 1e-300))
-    t_new = float(np.min(np.abs(theta[-k_new:]) / se[-k_new:]))
-    if k_new > 1:   # a group: its joint size (Wald), as an equivalent |t|
-        i0 = len(theta) - k_new
-        Cg, tg = cov[i0:len(theta), i0:len(theta)], theta[-k_new:]
-        try:
-            wald = float(tg @ np.linalg.solve(Cg, tg))
-        except np.linalg.LinAlgError:
-            wald = 0.0
-        t_new = float(np.sqrt(max(wald - (k_new - 1), 0.0)))
+    t_new = group_t(problem, f, cov, name)
     d["t"] = t_new
     d["cv_gain"] = 1.0 - d["cv_rmse"] / cur_cv if cur_cv > 0 else 0.0     # a zero residual: no gain
     reasons = []
@@ -215,10 +355,8 @@ def _judge(problem: Problem, f: Fit, d: dict, cur_bic: float, cur_cv: float,
         reasons.append(f"held-out RMSE gain {100 * d['cv_gain']:.1f}% < {100 * min_cv_gain:.0f}%")
     if t_new < min_t:
         reasons.append(f"|θ|/se {t_new:.1f} < {min_t:g}")
-    check = problem.validity.get(name)
-    why = check(f.theta[name]) if check else None
-    if why:
-        reasons.append(why)
+    for why in invalid_terms(problem, f):      # every member: a new term may turn an old one unphysical
+        reasons.append(why.split(": ", 1)[1] if why.startswith(name + ":") else why)
     return reasons
 
 
@@ -255,19 +393,48 @@ def find_aliases(problem: Problem, selected: Sequence[str], name: str,
     for a in candidates:
         if a == name or a in selected:
             continue
-        Xa, Xn = problem.candidates[a], problem.candidates[name]
+        Xa, Xn = problem.columns(a, without + (a,)), problem.columns(name, selected)
         cos = 0.0
         if Xa.shape[1] == 1 and Xn.shape[1] == 1:
             na, nn = np.linalg.norm(Xa), np.linalg.norm(Xn)
             cos = float(abs(Xa[:, 0] @ Xn[:, 0]) / (na * nn)) if na > 0 and nn > 0 else 0.0
         f_a = fit_set(problem, without + (a,))
-        check = problem.validity.get(a)
-        valid = not (check and check(f_a.theta[a]))
-        k_extra = Xa.shape[1] - Xn.shape[1]
+        valid = not invalid_terms(problem, f_a)
+        k_extra = n_params(problem, f_a.names) - n_params(problem, selected)
         d_bic = n_eff * np.log(max(f_a.rss, 1e-300) / max(f_with.rss, 1e-300)) + k_extra * np.log(n_eff)
         if valid and (cos >= cosine or d_bic < max_bic):
             out.append(a)
     return out
+
+
+def project_out(problem: Problem, P: np.ndarray | None) -> Problem:
+    """The problem with the columns ``P`` (n, k) fitted alongside every set: the target and
+    every candidate projected onto P's orthogonal complement (a nuisance structure, e.g. a
+    periodic disturbance no candidate explains, that each candidate is then tested beside).
+    ``None`` returns ``problem``."""
+    if P is None:
+        return problem
+    P = np.asarray(P, dtype=float).reshape(problem.n, -1)
+    Q, _ = np.linalg.qr(P)
+
+    def proj(X):
+        X = np.asarray(X, dtype=float)
+        return X - Q @ (Q.T @ X)
+
+    def target(h):
+        return proj(problem.y(h))
+
+    def wrap(hook):
+        def adapted(others):
+            a = hook(others)
+            return Adapted(proj(np.asarray(a.columns, float)), a.n_shape, a.check)
+        if hasattr(hook, "shape"):
+            adapted.shape = hook.shape
+        return adapted
+
+    return Problem(target, {c: proj(X) for c, X in problem.candidates.items()}, problem.time, problem.bounds,
+                   problem.validity, problem.weights, problem.shape_params,
+                   {c: wrap(hk) for c, hk in problem.adaptive.items()})
 
 
 def sinusoid_basis(time: np.ndarray, fmin: float = 0.1, fmax: float = 3.0, n_freq: int = 300):

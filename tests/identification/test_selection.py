@@ -158,3 +158,98 @@ def test_problem_rejects_bad_shapes_naming_the_argument():
         reg.Problem(lambda h: np.zeros(N), {}, T, (1.0, 0.2))
     with pytest.raises(ValueError, match="unknown candidate"):
         reg.fit_set(reg.Problem(lambda h: np.zeros(N), {}, T, (0.2, 1.0)), ("nope",))
+
+
+def _masking_problem(seed: int, both: bool = True):
+    """Two terms that hide each other: X1 = u + εv, X2 = u (ε = 0.1), y = 10·(X1 − X2) = v
+    (when ``both``): alone each explains about ε² of y; together, all of it."""
+    speed, lean = _signals(seed)
+    u, v = speed - speed.mean(), np.gradient(lean, T)
+    v = v / v.std()
+    u = u / u.std()
+    cands = {"a": u + 0.1 * v, "b": u, "const": np.ones(N)}
+    e = _noise(seed + 100, 0.2)
+    signal = 10.0 * (cands["a"] - cands["b"]) if both else 0.0
+
+    def target(h):
+        return (h - 0.6) * 30.0 * lean + signal + e
+
+    return reg.Problem(target, cands, T, (0.2, 1.2))
+
+
+def test_pair_step_finds_two_terms_that_mask_each_other_and_not_on_a_null():
+    p = _masking_problem(3)
+    plain = sel.forward_select(p, n_eff=100.0)
+    assert plain.selected == ()              # forward steps alone: neither term earns its place
+    joint = sel.forward_select(p, n_eff=100.0, pairs=True)
+    assert set(joint.selected) == {"a", "b"}
+    assert joint.fit.theta["a"][0] == pytest.approx(10.0, rel=0.05)
+    assert joint.fit.theta["b"][0] == pytest.approx(-10.0, rel=0.05)
+    assert "pair" in joint.history[1].reason
+    for seed in range(4):                    # the same candidates, no effect: nothing
+        assert sel.forward_select(_masking_problem(seed, both=False), n_eff=100.0, pairs=True).selected == ()
+
+
+def test_backward_step_drops_a_member_the_later_ones_made_redundant():
+    """y = 3(u + v): the blend u + v + 0.6w enters first (it alone explains most of y); u or v
+    alone adds little beside it, together they explain y (the pair step), and the blend,
+    then redundant, is dropped (the backward step); plain forward selection stops at it."""
+    speed, lean = _signals(5)
+    unit = [x / x.std() for x in (speed - speed.mean(), np.gradient(lean, T), np.sin(2 * np.pi * T / 7.7))]
+    u, v, w = unit[0], unit[1] - unit[0] * (unit[0] @ unit[1]) / (unit[0] @ unit[0]), unit[2]
+    cands = {"blend": u + v + 0.6 * w, "u": u, "v": v}
+    e = _noise(105, 0.2)
+
+    def target(h):
+        return (h - 0.6) * 30.0 * lean + 3.0 * (u + v) + e
+
+    p = reg.Problem(target, cands, T, (0.2, 1.2))
+    plain = sel.forward_select(p, n_eff=100.0)
+    assert plain.selected == ("blend",)
+    s = sel.forward_select(p, n_eff=100.0, pairs=True)
+    assert set(s.selected) == {"u", "v"}
+    assert any(st.chosen == "blend" and st.reason.startswith("dropped") for st in s.history)
+    assert s.fit.theta["u"][0] == pytest.approx(3.0, rel=0.05)
+
+
+def test_project_out_tests_candidates_beside_a_structure():
+    """A large sinusoid that no candidate explains hides a small constant term; beside the
+    sinusoid's columns the constant is found, with its value."""
+    speed, lean = _signals(7)
+    sine = 5.0 * np.sin(2 * np.pi * 0.45 * T + 0.3)
+    cands = {"const": np.ones(N), "quad": speed * np.abs(speed)}
+    e = _noise(107, 0.2)
+
+    def target(h):
+        return (h - 0.6) * 30.0 * lean + 0.3 * cands["const"] + sine + e
+
+    p = reg.Problem(target, cands, T, (0.2, 1.2))
+    P = np.column_stack([np.sin(2 * np.pi * 0.45 * T), np.cos(2 * np.pi * 0.45 * T)])
+    beside = sel.forward_select(sel.project_out(p, P), n_eff=100.0, pairs=True)
+    assert beside.selected == ("const",)
+    assert beside.fit.theta["const"][0] == pytest.approx(0.3, abs=0.05)
+    assert sel.project_out(p, None) is p
+
+
+def test_adaptive_candidate_columns_depend_on_the_set():
+    """An adaptive candidate's columns are chosen given the set's other members; frozen()
+    fixes them as inside a given set."""
+    speed, lean = _signals(2)
+    calls = []
+
+    def hook(others):
+        calls.append(others)
+        col = np.ones(N) if "quad" in others else np.gradient(lean, T)
+        return reg.Adapted(col, 1, None)
+
+    p = reg.Problem(lambda h: (h - 0.6) * lean, {"quad": speed * np.abs(speed), "ad": np.zeros(N)}, T,
+                    (0.2, 1.2), adaptive={"ad": hook})
+    assert np.allclose(p.columns("ad", ("ad", "quad")), 1.0)
+    assert np.allclose(p.columns("ad", ("ad",))[:, 0], np.gradient(lean, T))
+    assert sel.n_params(p, ("ad", "quad")) == 4          # 2 columns, 1 chosen parameter, h
+    f = p.frozen(("quad",))
+    assert f.adaptive == {} and np.allclose(f.candidates["ad"], 1.0) and f.shape_params["ad"] == 1
+    bad = reg.Problem(lambda h: lean, {"ad": np.zeros(N)}, T, (0.2, 1.2),
+                      adaptive={"ad": lambda o: reg.Adapted(np.zeros(N - 1))})
+    with pytest.raises(reg.SelectionError, match="'ad'"):
+        bad.columns("ad", ("ad",))
