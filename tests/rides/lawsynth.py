@@ -20,12 +20,12 @@ import numpy as np
 import pandas as pd
 
 #: The concealed law: PD gains, tilt-back 2° reached 10 km/h above its 30 km/h onset, a limit.
-LAW = {"Kp": 3000.0, "Kd": 300.0, "tiltback_speed": 30.0 / 3.6,
-       "tiltback_gain": math.radians(2.0) / (10.0 / 3.6), "torque_limit": 32.0}
+LAW = {"Kp": 2000.0, "Kd": 200.0, "tiltback_speed": 30.0 / 3.6,
+       "tiltback_gain": math.radians(2.0) / (10.0 / 3.6), "torque_limit": 45.0}
 #: Torque constant of the written phase current, N·m/A.
 K_T = 1.6
 #: The rider: reaction delay, s, and motor noise, N·m.
-RIDER = {"delay": 0.2, "noise_std": 3.0}
+RIDER = {"delay": 0.2, "noise_std": 5.0}
 #: Body drag and rolling resistance of the simulated ride.
 ROAD = {"aerodynamic_drag": 0.3, "rolling_resistance": 0.01}
 
@@ -40,7 +40,7 @@ def profile(seed: int, duration: float) -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, duration, 0.5)
     v = np.zeros_like(t)
-    for f, amp in ((0.004, 3.0), (0.011, 2.0), (0.03, 1.0), (0.07, 0.4)):
+    for f, amp in ((0.004, 3.0), (0.011, 2.0), (0.03, 2.0), (0.07, 1.2)):
         v += amp * np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi))
     env = np.clip(t / 20.0, 0, 1) * np.clip((duration - t) / 20.0, 0, 1)
     return t, env * np.clip(7.5 + v, 0.5, 12.5)
@@ -61,9 +61,17 @@ def law_ride(seed: int = 1, duration: float = 300.0, law=LAW) -> pd.DataFrame:
     return df[["t", "x_dot", "gamma", "gamma_dot", "M_d"]]
 
 
-def _sample(ride: pd.DataFrame, ts: np.ndarray) -> dict:
+def _sample(ride: pd.DataFrame, ts: np.ndarray, mean_over: float = 0.2) -> dict:
+    """The wheel's telemetry at times ``ts``: each channel's mean over the ``mean_over`` s
+    before (a wheel reports its readings averaged over its telemetry period)."""
     t = ride["t"].to_numpy()
-    return {c: np.interp(ts, t, ride[c].to_numpy()) for c in ("x_dot", "gamma", "M_d")}
+    n = max(1, int(round(mean_over / (t[1] - t[0]))))
+    out = {}
+    for c in ("x_dot", "gamma", "M_d"):
+        x = np.cumsum(np.r_[0.0, ride[c].to_numpy()])
+        mean = (x[n:] - x[:-n]) / n                      # mean of the n samples ending at t[k]
+        out[c] = np.interp(ts, t[n - 1:], mean)
+    return out
 
 
 def eucworld_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = -1,
