@@ -135,6 +135,10 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     rep = dict(an.report)
     rep.update(physics[0])
     rep["notes"] = list(rep["notes"]) + [_mass_grid_note(physics[1])]
+    say("reading the wheel's balance law")
+    from euc_sim.rides.controller_report import controller_json, torque_constant
+    rep["controller"] = controller_json(log, compare, torque_constant(rep.get("drivetrain")),
+                                        n_boot, seed)
     cr = an.cross
     nom, aug = cr.nominal.estimate, cr.augmented.estimate
     traces = [residual_windows(an.sig_fit, nom, aug, domain, Path(log).name, True)]

@@ -72,11 +72,34 @@ def _motor(args, R: float = 0.2):
     lim = {}
     if getattr(args, "drivetrain", None):
         lim = _voltage_limit(args.drivetrain, R, args.battery_voltage)
+        measured = _firmware(args.drivetrain, lim)
+        if measured is not None:
+            return measured
     elif getattr(args, "battery_voltage", None) is not None:
         raise ValueError("--battery-voltage needs --drivetrain RIDE.json")
     return MotorPD(Kp=args.kp, Kd=args.kd, torque_limit=args.motor_limit,
                    tiltback_speed=math.inf if args.tiltback_speed is None else args.tiltback_speed,
                    **lim)
+
+
+def _firmware(path, lim: dict):
+    """The wheel's measured balance law (the ride JSON's ``controller``, :mod:`controllers.firmware`)
+    with the voltage limit, or None when the ride shows no law (the paper's PD is then used)."""
+    import json
+
+    from controllers.firmware import FirmwareError, firmware_motor
+    from euc_sim.cli.common import say
+
+    ctrl = json.loads(Path(path).read_text(encoding="utf-8")).get("controller")
+    if not isinstance(ctrl, dict) or ctrl.get("law") is None:
+        return None
+    try:
+        motor, notes = firmware_motor(ctrl, **lim)
+    except FirmwareError as exc:
+        raise ValueError(f"--drivetrain {path}: {exc}") from None
+    say(f"simulate: the wheel's measured law replaces the PD gains: K_p = {motor.Kp:.0f} N·m/rad, "
+        f"K_d = {motor.Kd:.0f} N·m·s/rad" + "".join(f"; {n}" for n in notes))
+    return motor
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:

@@ -264,6 +264,9 @@ def _verdict_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     if "total_mass" in r:
         from euc_sim.rides.drivetrain_report import page_section
         md += page_section(r, figures)
+    if "controller" in r:
+        from euc_sim.rides.controller_report import page_lines
+        md += page_lines(r["controller"])
     if "cross_ride" in figures:
         md += ["## Cross-ride prediction", "",
                f"![cross-ride prediction]({figures['cross_ride']})", ""]

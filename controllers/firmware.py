@@ -1,0 +1,106 @@
+"""The wheel's measured balance law as the simulator's motor controller.
+
+``euc-sim ride`` writes the law a real wheel's firmware runs into the ride JSON's
+``controller`` entry (:mod:`euc_sim.rides.controller_law`): a PD on the pitch,
+M_d = K_p (γ − γ_ref) + K_d γ̇, with the catalogued terms that held-out
+validation kept.  :func:`firmware_motor` turns that entry into a
+:class:`controllers.motor.MotorPD`, the interface the simulator's engines and the
+rider's design use, carrying K_p, K_d, the torque limit and the tilt-back
+(onset and slope) where the ride identified them.
+
+Not carried (listed by :func:`firmware_motor` in its notes): a set-point moving
+with acceleration, integral action and a braking gain unlike the driving one;
+MotorPD has no state for them.  The law must be in N·m (the ride had a torque
+constant: ``--wheel`` with the wheel's diameter, or a logged torque).
+"""
+
+from __future__ import annotations
+
+import math
+
+from controllers.motor import MotorPD
+
+__all__ = ["FirmwareError", "firmware_settings", "firmware_motor", "CARRIED"]
+
+#: Terms of the ``controller`` entry that MotorPD carries -> its setting.
+CARRIED = {"K_p": "Kp", "K_d": "Kd", "torque_limit": "torque_limit",
+           "tiltback_speed": "tiltback_speed", "tiltback_gain": "tiltback_gain"}
+
+
+class FirmwareError(ValueError):
+    """A ride JSON ``controller`` entry that cannot drive the simulator; the message says why."""
+
+
+def firmware_settings(ctrl) -> tuple[dict, list[str]]:
+    """MotorPD settings from a ride JSON's ``controller`` entry, and notes.
+
+    Parameters
+    ----------
+    ctrl : dict
+        CONTRACT's ``controller`` object (``law``, ``terms`` [{name, estimate, unit}], ``sign``).
+
+    Returns
+    -------
+    settings : dict
+        ``Kp`` (N·m/rad), ``Kd`` (N·m·s/rad, a negative estimate taken as 0) and,
+        where identified, ``torque_limit`` (N·m), ``tiltback_speed`` (m/s),
+        ``tiltback_gain`` (rad per m/s).
+    notes : list of str
+        What was not carried, or changed.
+
+    Raises
+    ------
+    FirmwareError
+        for a missing law (``law`` null: its ``why`` is quoted), a law not in N·m,
+        or a term that is not a finite number.
+    """
+    if not isinstance(ctrl, dict):
+        raise FirmwareError(f"controller: expected an object, got {type(ctrl).__name__}")
+    if ctrl.get("law") is None:
+        raise FirmwareError(f"controller: the ride shows no law ({ctrl.get('why', 'no why given')})")
+    terms = {t.get("name"): t for t in ctrl.get("terms", []) if isinstance(t, dict)}
+    if "K_p" not in terms:
+        raise FirmwareError("controller: no 'K_p' term")
+    if not str(terms["K_p"].get("unit", "")).startswith("N·m"):
+        raise FirmwareError(f"controller: K_p is in {terms['K_p'].get('unit')!r}, expected N·m/rad "
+                            f"(run euc-sim ride with --wheel SPEC.csv so the torque constant is known)")
+    settings, notes = {}, []
+    for name, key in CARRIED.items():
+        if name not in terms:
+            continue
+        val = terms[name].get("estimate")
+        if not (isinstance(val, (int, float)) and math.isfinite(val)):
+            raise FirmwareError(f"controller: term {name!r} estimate must be a finite number, got {val!r}")
+        settings[key] = float(val)
+    if settings.get("Kd", 0.0) < 0:
+        notes.append(f"K_d = {settings['Kd']:.3g} N·m·s/rad measured; taken as 0 (MotorPD needs K_d ≥ 0)")
+        settings["Kd"] = 0.0
+    if settings.get("tiltback_gain", 0.0) < 0:
+        notes.append("a tilt-back gain below zero (set-point tilting forward) is not carried")
+        settings.pop("tiltback_gain"), settings.pop("tiltback_speed", None)
+    if "tiltback_speed" in settings and "tiltback_gain" not in settings:
+        settings.pop("tiltback_speed")
+    for name in terms:
+        if name not in CARRIED and name != "pitch_zero":
+            notes.append(f"{name} = {terms[name].get('estimate'):.3g} {terms[name].get('unit', '')} "
+                         f"measured but not simulated (MotorPD has no such term)")
+    if "torque_limit" not in settings:
+        notes.append(f"no torque limit identified: MotorPD's default {MotorPD.torque_limit:g} N·m kept")
+    return settings, notes
+
+
+def firmware_motor(ctrl, **limits) -> tuple[MotorPD, list[str]]:
+    """The measured law as a :class:`MotorPD` (``limits``: its voltage-limit settings), and notes.
+
+    Raises
+    ------
+    FirmwareError
+        see :func:`firmware_settings`; also when the settings are out of MotorPD's range.
+    """
+    from controllers.motor import MotorError
+
+    settings, notes = firmware_settings(ctrl)
+    try:
+        return MotorPD(**settings, **limits), notes
+    except MotorError as exc:
+        raise FirmwareError(f"controller: {exc}") from None

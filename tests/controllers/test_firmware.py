@@ -1,0 +1,65 @@
+"""The measured balance law in the simulator (issue 21, item 2): ``controllers.firmware``."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from controllers.firmware import FirmwareError, firmware_motor
+from euc_sim.model.parameters import TABLE3
+from euc_sim.simulation.engine import default_rider, simulate
+from euc_sim.simulation.maneuvers import make_maneuver
+
+#: A ``controller`` entry as ``euc-sim ride`` wrote it for Lynx ride 0 (--wheel lynx.csv).
+LYNX = {"law": "PD on the pitch", "sign": -1,
+        "terms": [{"name": "K_p", "estimate": 5365.2, "ci95": [5301.5, 5420.8], "unit": "N·m/rad"},
+                  {"name": "K_d", "estimate": 29.37, "ci95": [5.09, 49.83], "unit": "N·m·s/rad"},
+                  {"name": "pitch_zero", "estimate": -0.0348, "ci95": None, "unit": "rad (logged)"},
+                  {"name": "accel_setpoint_gain", "estimate": -2.98e-4, "ci95": None,
+                   "unit": "rad/(m/s^2)"}],
+        "heldout": {"r2": 0.982, "channel": "phase_current"}}
+
+
+def test_measured_law_rides_in_closed_loop():
+    motor, notes = firmware_motor(LYNX)
+    assert motor.Kp == pytest.approx(5365.2) and motor.Kd == pytest.approx(29.37)
+    assert any("accel_setpoint_gain" in n for n in notes)      # said, not silently dropped
+    df = simulate(make_maneuver("stop_and_go"), 20.0, motor=motor, rider=default_rider(TABLE3, motor))
+    assert df["x_dot"].max() > 2.0                              # rode the maneuver, no fall
+    assert abs(df["gamma"]).max() < 0.05                        # a stiff law keeps the body near level
+
+
+def test_tiltback_and_limit_carried():
+    ctrl = dict(LYNX, terms=LYNX["terms"] + [
+        {"name": "tiltback_speed", "estimate": 8.3, "unit": "m/s"},
+        {"name": "tiltback_gain", "estimate": 0.0126, "unit": "rad/(m/s)"},
+        {"name": "torque_limit", "estimate": 110.0, "unit": "N·m"}])
+    motor, _ = firmware_motor(ctrl)
+    assert motor.tiltback_speed == 8.3 and motor.torque_limit == 110.0
+    assert motor.gamma_ref(10.0) == pytest.approx(-0.0126 * 1.7)
+
+
+@pytest.mark.parametrize("ctrl, words", [
+    ({"law": None, "why": "no pitch"}, "no pitch"),
+    (dict(LYNX, terms=[{"name": "K_p", "estimate": 2800.0, "unit": "A/rad"}]), "N·m/rad"),
+    (dict(LYNX, terms=[{"name": "K_p", "estimate": float("nan"), "unit": "N·m/rad"}]), "finite"),
+    ("law", "expected an object"),
+])
+def test_bad_entries_named(ctrl, words):
+    with pytest.raises(FirmwareError, match=words):
+        firmware_motor(ctrl)
+
+
+def test_simulate_uses_the_measured_law(tmp_path, capsys):
+    from euc_sim.cli.app import main
+
+    ride = {"drivetrain": {"back_emf_per_speed": {"estimate": 7.5}, "resistive_drop": {"estimate": 0.01},
+                           "ocv_start": {"estimate": 150.0}},
+            "controller": LYNX}
+    (tmp_path / "ride.json").write_text(json.dumps(ride))
+    rc = main(["simulate", "--maneuver", "acceleration", "--duration", "8", "--drivetrain",
+               str(tmp_path / "ride.json"), "--out", str(tmp_path / "sim.csv")])
+    assert rc == 0
+    meta = json.loads((tmp_path / "sim.truth.json").read_text())     # the test reads the truth
+    assert meta["motor"]["Kp"] == pytest.approx(5365.2) and meta["motor"]["voltage"] == 150.0

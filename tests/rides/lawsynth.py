@@ -1,0 +1,117 @@
+"""Rides with a concealed firmware balance law, written as real logs are written.
+
+:func:`law_ride` rides a speed profile in closed loop (MuJoCo, the LQR rider with
+a reaction delay and motor noise) under a known motor law (``LAW``: a PD of a
+few thousand N·m/rad, tilt-back above 30 km/h, a torque limit);
+:func:`eucworld_log` writes it as EUC World does (rows every 0.18-0.22 s at
+irregular times, pitch in 0.1° steps in the brand's sign convention and with a
+mounting offset, phase current = M_d/K_t in 0.1 A steps with noise);
+:func:`wheellog_log` as WheelLog does (0.2 s rows, a third of the time stamps
+repeated, pitch in 0.01°, the wheel's ``torque`` in 0.01 N·m).  The truth is
+returned, never written beside the log.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+#: The concealed law: PD gains, tilt-back 2° reached 10 km/h above its 30 km/h onset, a limit.
+LAW = {"Kp": 2000.0, "Kd": 200.0, "tiltback_speed": 30.0 / 3.6,
+       "tiltback_gain": math.radians(2.0) / (10.0 / 3.6), "torque_limit": 45.0}
+#: Torque constant of the written phase current, N·m/A.
+K_T = 1.6
+#: The rider: reaction delay, s, and motor noise, N·m.
+RIDER = {"delay": 0.2, "noise_std": 5.0}
+#: Body drag and rolling resistance of the simulated ride.
+ROAD = {"aerodynamic_drag": 0.3, "rolling_resistance": 0.01}
+
+EW_HEADER = "datetime,speed,voltage,current,current_phase,power,safety_margin,battery,tilt,roll,extra"
+WL_HEADER = ("date,time,latitude,longitude,gps_speed,gps_alt,gps_heading,gps_distance,speed,"
+             "voltage,phase_current,torque,pwm,current,power,battery_level,distance,totaldistance,"
+             "system_temp,temp2,tilt,roll,mode,alert")
+
+
+def profile(seed: int, duration: float) -> tuple[np.ndarray, np.ndarray]:
+    """A speed plan 0 → up to about 45 km/h and back, m/s on a 0.5 s grid."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration, 0.5)
+    v = np.zeros_like(t)
+    for f, amp in ((0.004, 3.0), (0.011, 2.0), (0.03, 2.0), (0.07, 1.2)):
+        v += amp * np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi))
+    env = np.clip(t / 20.0, 0, 1) * np.clip((duration - t) / 20.0, 0, 1)
+    return t, env * np.clip(7.5 + v, 0.5, 12.5)
+
+
+def law_ride(seed: int = 1, duration: float = 300.0, law=LAW) -> pd.DataFrame:
+    """The closed-loop ride at 1 kHz: columns t, x_dot, gamma, gamma_dot, M_d (SI)."""
+    from controllers.motor import MotorPD
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.simulation.engine import default_rider, simulate
+    from euc_sim.simulation.maneuvers import Maneuver
+
+    motor = MotorPD(**law)
+    rider = default_rider(TABLE3, motor, **RIDER)
+    t, v = profile(seed, duration)
+    man = Maneuver(name="profile", table=(tuple(t.tolist()), tuple(v.tolist())))
+    df = simulate(man, duration, motor=motor, rider=rider, seed=seed, effects=ROAD)
+    return df[["t", "x_dot", "gamma", "gamma_dot", "M_d"]]
+
+
+def _sample(ride: pd.DataFrame, ts: np.ndarray, mean_over: float = 0.2) -> dict:
+    """The wheel's telemetry at times ``ts``: each channel's mean over the ``mean_over`` s
+    before (a wheel reports its readings averaged over its telemetry period)."""
+    t = ride["t"].to_numpy()
+    n = max(1, int(round(mean_over / (t[1] - t[0]))))
+    out = {}
+    for c in ("x_dot", "gamma", "M_d"):
+        x = np.cumsum(np.r_[0.0, ride[c].to_numpy()])
+        mean = (x[n:] - x[:-n]) / n                      # mean of the n samples ending at t[k]
+        out[c] = np.interp(ts, t[n - 1:], mean)
+    return out
+
+
+def eucworld_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = -1,
+                 offset_deg: float = -2.0, k_t: float = K_T) -> Path:
+    """EUC World CSV: irregular 5 Hz rows, 0.1° pitch steps, 0.1 A phase current with noise."""
+    rng = np.random.default_rng(seed)
+    T = float(ride["t"].iloc[-1])
+    ts = np.cumsum(rng.uniform(0.18, 0.22, int(T / 0.18)))
+    ts = ts[ts < T - 0.5]
+    s = _sample(ride, ts)
+    tilt = np.round(sign * np.degrees(s["gamma"]) + offset_deg, 1)
+    I_ph = np.round(s["M_d"] / k_t + rng.normal(0.0, 0.5, ts.size), 1)
+    stamps = pd.Timestamp("2025-07-01 10:00:00") + pd.to_timedelta(np.round(ts, 3), unit="s")
+    lines = [EW_HEADER]
+    for st, v, i, g in zip(stamps, s["x_dot"], I_ph, tilt):
+        lines.append(f"{st:%Y-%m-%dT%H:%M:%S}.{st.microsecond // 1000:03d}+0200,{v * 3.6:.2f},"
+                     f"84.00,{i * 0.3:.2f},{i:.1f},{84 * i * 0.3:.0f},80,90,{g:.1f},0.0,")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def wheellog_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = 1,
+                 offset_deg: float = 0.5) -> Path:
+    """WheelLog CSV (newer layout): 0.2 s rows, a third of them sharing the previous stamp
+    (written a few ms later by the app), pitch in 0.01°, torque in 0.01 N·m with noise."""
+    rng = np.random.default_rng(seed)
+    T = float(ride["t"].iloc[-1])
+    ts = np.arange(0.2, T - 0.5, 0.2)
+    s = _sample(ride, ts)
+    stamp_t = ts.copy()
+    rep = np.flatnonzero(rng.uniform(size=ts.size) < 1 / 3)
+    rep = rep[rep > 0]
+    stamp_t[rep] = stamp_t[rep - 1]                      # the app's repeated time stamps
+    tilt = np.round(sign * np.degrees(s["gamma"]) + offset_deg, 2)
+    torque = np.round(s["M_d"] + rng.normal(0.0, 0.8, ts.size), 2)
+    stamps = pd.Timestamp("2025-07-01 10:00:00") + pd.to_timedelta(np.round(stamp_t, 3), unit="s")
+    lines = [WL_HEADER]
+    for st, v, q, g in zip(stamps, s["x_dot"], torque, tilt):
+        lines.append(f"{st:%Y-%m-%d},{st:%H:%M:%S}.{st.microsecond // 1000:03d},,,,,,,{v * 3.6:.2f},"
+                     f"84.00,{q / K_T:.2f},{q:.2f},40,{q / K_T * 0.3:.2f},{84 * q / K_T * 0.3:.0f},"
+                     f"90,0,0,30,30,{g:.2f},0.00,0,")
+    path.write_text("\n".join(lines) + "\n")
+    return path
