@@ -100,6 +100,9 @@ def bench_inverse() -> dict:
 def bench_closed_loop() -> dict:
     """Closed-loop real-time factor at 1 kHz on one core vs bare mj_step loops.
 
+    The closed loop is :func:`simulate`'s default, the native loop (the motor PD a numba
+    MuJoCo control callback, issue 23); the Python loop (``native=False``) beside it.
+
     Beside the model the closed loop runs (ideal variant, reduced coordinates, RK4),
     the bare step of the XML as written (wheel hinge + rolling equality, the model
     before issue 15) and of the same reduced model with a one-evaluation integrator
@@ -127,10 +130,17 @@ def bench_closed_loop() -> dict:
                 mujoco.mj_step(model, data)
         return run
 
+    def bare_in_c():                     # the same steps in one call: no Python per step at all
+        d.qpos[:] = 0.0
+        d.qvel[:] = 0.0
+        mujoco.mj_step(m, d, nstep=n)
+
     rider = default_rider(noise_std=3.0)
     simulate("stop_and_go", 0.1, rider=rider)                          # warm caches
     t_bare = timed(bare(m, d))
+    t_bare_c = timed(bare_in_c)
     t_loop = timed(lambda: simulate("stop_and_go", duration, rider=rider, seed=1))
+    t_py = timed(lambda: simulate("stop_and_go", duration, rider=rider, seed=1, native=False))
     t_old = timed(bare(constrained, d_c))
     t_euler = timed(bare(euler.model, euler.data))
     t_eff = timed(lambda: simulate("stop_and_go", duration, rider=rider, seed=1,
@@ -146,7 +156,9 @@ def bench_closed_loop() -> dict:
         "bare_step_us": t_bare / n * 1e6,
         "closed_loop_step_us": t_loop / n * 1e6,
     }
-    out["closed_loop_cost_vs_bare_step"] = t_loop / t_bare
+    out["closed_loop_cost_vs_bare_step"] = t_loop / t_bare          # native loop (issue 23)
+    out["closed_loop_python_cost_vs_bare_step"] = t_py / t_bare     # native=False
+    out["closed_loop_cost_vs_bare_nstep"] = t_loop / t_bare_c       # vs mj_step(m, d, nstep=n)
     print(f"  bare mj_step loop (RK4, 1 ms)      : {out['bare_mj_step_real_time_factor']:7.1f}x real time "
           f"({out['bare_step_us']:.2f} us/step)")
     print(f"  closed loop, motor + rider, 1 kHz  : {out['closed_loop_real_time_factor']:7.1f}x real time "
@@ -157,7 +169,12 @@ def bench_closed_loop() -> dict:
           f"(one evaluation per step; not used: 2e-4 rad from the analytic engine)")
     print(f"  closed loop with drag + rolling    : {out['closed_loop_with_effects_real_time_factor']:7.1f}x real time")
     print(f"  analytic engine (solve_ivp/step)   : {out['analytic_engine_real_time_factor']:7.2f}x real time")
-    print(f"  ratio closed loop / bare step time = {out['closed_loop_cost_vs_bare_step']:.2f}")
+    print(f"  ratio closed loop / bare step time = {out['closed_loop_cost_vs_bare_step']:.2f} "
+          f"(native callback; aim <= 1.11)")
+    print(f"  ratio Python loop / bare step time = {out['closed_loop_python_cost_vs_bare_step']:.2f} "
+          f"(native=False)")
+    print(f"  ratio closed loop / mj_step(nstep)  = {out['closed_loop_cost_vs_bare_nstep']:.2f} "
+          f"(bare steps all in C)")
     return out
 
 
