@@ -34,10 +34,10 @@ __all__ = ["native_loop", "available", "field_offsets"]
 
 # context slots: _I (int64) and _F (float64)
 _I_CALLS, _I_PER, _I_K, _I_ROWS, _I_STATE, _I_MD, _I_MH = range(7)
-_I_IX, _I_IG, _I_IR, _I_VX, _I_VG, _I_VR, _I_AM, _I_AA = range(7, 15)
+_I_IX, _I_IG, _I_IR, _I_VX, _I_VG, _I_VR, _I_AM, _I_AA, _I_FALL = range(7, 16)
 _I = np.zeros(16, dtype=np.int64)
 _F = np.zeros(16, dtype=np.float64)       # 0..10: MotorPD.law_args(); 11, 12: held M_d, M_h
-_F_MD, _F_MH = 11, 12
+_F_MD, _F_MH, _F_PHI_MAX, _F_GAM_MAX = 11, 12, 13, 14
 
 _CALLBACK = None                          # the compiled cfunc, or False when it cannot be built
 _UNUSABLE_REASON = ""
@@ -139,6 +139,12 @@ def _compile():
                 row[3] = xd
                 row[4] = gd
                 row[5] = gd + qvel[iv[12]]
+                if iv[15] < 0:                  # the first fall: a bound passed or a non-finite state
+                    fine = abs(row[2]) <= fv[13] and abs(g) <= fv[14]
+                    for j in range(6):
+                        fine = fine and row[j] - row[j] == 0.0
+                    if not fine:
+                        iv[15] = k
                 M_d = law(g, gd, xd, fv[0], fv[1], fv[2], fv[3], fv[4], fv[5], fv[6], fv[7],
                           fv[8], fv[9], fv[10])
                 f64p(iv[5])[k] = M_d
@@ -185,11 +191,13 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
         stepper.a_motor, stepper.a_ankle)
     _F[:] = 0.0
     _F[:11] = motor.law_args()
+    _F[_F_PHI_MAX], _F[_F_GAM_MAX] = bounds["phi"], bounds["gamma"]
     previous = mujoco.get_mjcb_control()
     mujoco.set_mjcb_control(callback.ctypes)
     try:
         _I[_I_PER] = _calls_per_step(m, d)
         _I[_I_CALLS] = _I[_I_K] = 0
+        _I[_I_FALL] = -1
         _I[_I_ROWS] = N + 1
         _I[_I_STATE], _I[_I_MD], _I[_I_MH] = P[n:].ctypes.data, M_d.ctypes.data, M_h.ctypes.data
         phi_max, gam_max = bounds["phi"], bounds["gamma"]
@@ -200,7 +208,9 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
             steps = block if k0 + block <= N else block - 1
             if steps:
                 mujoco.mj_step(m, d, nstep=steps)
-            _check_falls(P[n + k0:n + k0 + steps], k0, dt, phi_max, gam_max, raise_fall)
+            if _I[_I_FALL] >= 0:
+                k = int(_I[_I_FALL])
+                _check_falls(P[n + k:n + k + 1], k, dt, phi_max, gam_max, raise_fall)
     finally:
         mujoco.set_mjcb_control(previous)
     # the last state: after the last step, read as the Python stepper reads it
@@ -218,7 +228,7 @@ def _calls_per_step(m, d) -> int:
 
     probe = mujoco.MjData(m)
     mujoco.mj_copyData(probe, m, d)
-    _I[_I_PER], _I[_I_CALLS], _I[_I_ROWS] = 1, 0, 0
+    _I[_I_PER], _I[_I_CALLS], _I[_I_ROWS], _I[_I_FALL] = 1, 0, 0, -1
     mujoco.mj_step(m, probe)
     calls = int(_I[_I_CALLS])
     if calls < 1:
