@@ -13,7 +13,8 @@ mjData fields (``qpos``, ``qvel``, ``ctrl``) are read through offsets in the str
 at import from a live ``MjData`` (the word holding ``data.qpos.ctypes.data`` etc. from
 ``data._address``), never hard-coded.  The run's context (counters, indices, motor
 settings, buffer addresses) lives in two module arrays whose addresses are compiled in:
-like MuJoCo's callback itself it is process-global, so one native run at a time per process.
+like MuJoCo's callback itself it is process-global, so one native run at a time per
+process (a lock); a run that finds it taken (threads) takes the Python loop, same result.
 
 Where numba is missing or cannot compile, :func:`native_loop` says so in one line on
 stderr and returns ``None``; the caller runs the Python loop.
@@ -23,6 +24,7 @@ from __future__ import annotations
 
 import ctypes
 import sys
+import threading
 from typing import Mapping
 
 import numpy as np
@@ -34,11 +36,12 @@ __all__ = ["native_loop", "available", "field_offsets"]
 
 # context slots: _I (int64) and _F (float64)
 _I_CALLS, _I_PER, _I_K, _I_ROWS, _I_STATE, _I_MD, _I_MH = range(7)
-_I_IX, _I_IG, _I_IR, _I_VX, _I_VG, _I_VR, _I_AM, _I_AA, _I_FALL = range(7, 16)
-_I = np.zeros(16, dtype=np.int64)
+_I_IX, _I_IG, _I_IR, _I_VX, _I_VG, _I_VR, _I_AM, _I_AA, _I_FALL, _I_DATA = range(7, 17)
+_I = np.zeros(24, dtype=np.int64)
 _F = np.zeros(16, dtype=np.float64)       # 0..10: MotorPD.law_args(); 11, 12: held M_d, M_h
 _F_MD, _F_MH, _F_PHI_MAX, _F_GAM_MAX = 11, 12, 13, 14
 
+_LOCK = threading.Lock()
 _CALLBACK = None                          # the compiled cfunc, or False when it cannot be built
 _UNUSABLE_REASON = ""
 
@@ -119,10 +122,20 @@ def _compile():
 
     law = njit(pd_torque)
 
+    @intrinsic
+    def address(typingctx, ptr):
+        sig = types.int64(ptr)
+
+        def codegen(context, builder, signature, args):
+            return builder.ptrtoint(args[0], context.get_value_type(types.int64))
+        return sig, codegen
+
     @cfunc(types.void(types.voidptr, types.CPointer(types.int64)))
     def control(m, d):
-        iv = carray(i64p(I_ADDR), 16)
+        iv = carray(i64p(I_ADDR), 24)
         fv = carray(f64p(F_ADDR), 16)
+        if address(d) != iv[16]:                 # another simulation (another thread): not ours
+            return
         calls = iv[0]
         iv[0] = calls + 1
         if calls % iv[1] == 0:               # the first call of a control step: fresh state
@@ -177,6 +190,16 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
         print(f"euc-sim: native closed loop unavailable ({_UNUSABLE_REASON}); using the Python loop",
               file=sys.stderr)
         return None
+    if not _LOCK.acquire(blocking=False):     # another thread's native run holds the callback
+        return None
+    try:
+        return _run(callback, stepper, motor, run, dt, N, y0, bounds, raise_fall)
+    finally:
+        _LOCK.release()
+
+
+def _run(callback, stepper, motor, run, dt, N, y0, bounds, raise_fall):
+    """:func:`native_loop` with the callback built and the lock held."""
     import mujoco
 
     m, d = stepper.m, stepper.d
@@ -189,6 +212,7 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
     _I[[_I_IX, _I_IG, _I_IR, _I_VX, _I_VG, _I_VR, _I_AM, _I_AA]] = (
         stepper.ix, stepper.ig, stepper.ir, stepper.vx, stepper.vg, stepper.vr,
         stepper.a_motor, stepper.a_ankle)
+    _I[_I_DATA] = d._address
     _F[:] = 0.0
     _F[:11] = motor.law_args()
     _F[_F_PHI_MAX], _F[_F_GAM_MAX] = bounds["phi"], bounds["gamma"]
@@ -228,9 +252,10 @@ def _calls_per_step(m, d) -> int:
 
     probe = mujoco.MjData(m)
     mujoco.mj_copyData(probe, m, d)
-    _I[_I_PER], _I[_I_CALLS], _I[_I_ROWS], _I[_I_FALL] = 1, 0, 0, -1
+    _I[_I_PER], _I[_I_CALLS], _I[_I_ROWS], _I[_I_FALL], _I[_I_DATA] = 1, 0, 0, -1, probe._address
     mujoco.mj_step(m, probe)
     calls = int(_I[_I_CALLS])
+    _I[_I_DATA] = d._address
     if calls < 1:
         raise RuntimeError("the control callback was not called by mj_step")
     return calls

@@ -84,3 +84,15 @@ def test_per_step_effects_keep_the_python_loop(rider):
     native._I[native._I_K] = -7                          # marker: untouched by a Python run
     simulate("stop_and_go", 1.0, rider=rider, effects={"aerodynamic_drag": 0.4})
     assert int(native._I[native._I_K]) == -7
+
+
+def test_threads_share_the_callback_safely(rider):
+    """Runs on threads: one holds the callback, the others take the Python loop; all exact."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    seeds = [0, 1, 2, 3]
+    with ThreadPoolExecutor(4) as pool:
+        runs = list(pool.map(lambda s: simulate("stop_and_go", 3.0, rider=rider, seed=s), seeds))
+    for s, a in zip(seeds, runs):
+        assert _gap(a, simulate("stop_and_go", 3.0, rider=rider, seed=s, native=False)) <= TOL
+    assert mujoco.get_mjcb_control() is None
