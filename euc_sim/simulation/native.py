@@ -181,7 +181,8 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
     """:func:`euc_sim.simulation.engine._closed_loop` for a MuJoCo stepper without per-step effects.
 
     Same states (N+1, 6) and torques (N+1, 2); ``None`` (and one line on stderr) when the
-    callback cannot be built, so the caller runs the Python loop.  ``raise_fall(t, y,
+    callback cannot be built, ``None`` silently when another thread's native run holds it:
+    the caller then runs the Python loop.  ``raise_fall(t, y,
     phi_max, gam_max)`` raises at the first recorded state outside ``bounds``, as the
     Python loop does.
     """
