@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
-__all__ = ["MotorPD", "MotorError"]
+__all__ = ["MotorPD", "MotorError", "pd_torque"]
 
 
 class MotorError(ValueError):
@@ -106,7 +106,7 @@ class MotorPD:
         return -self.tiltback_gain if abs(speed) > self.tiltback_speed else 0.0
 
     def torque(self, gamma: float, gamma_dot: float, speed: float = 0.0) -> float:
-        """Motor torque M_d, N·m, limited to ±``torque_limit``.
+        """Motor torque M_d, N·m, limited to ±``torque_limit`` (:func:`pd_torque`).
 
         Parameters
         ----------
@@ -117,14 +117,13 @@ class MotorPD:
         speed : float
             Forward speed ẋ, m/s (used by tilt-back only).
         """
-        g_ref = 0.0 if self.tiltback_speed == math.inf else self.gamma_ref(speed)
-        M = self.Kp * (gamma - g_ref) + self.Kd * gamma_dot
-        lim = self.torque_limit
-        M = lim if M > lim else (-lim if M < -lim else M)
-        if self.voltage != math.inf and M * speed > 0.0:
-            M_v = self.voltage_torque(speed)
-            M = M_v if M > M_v else (-M_v if M < -M_v else M)
-        return M
+        return pd_torque(gamma, gamma_dot, speed, *self.law_args())
+
+    def law_args(self) -> tuple:
+        """The settings :func:`pd_torque` takes after (γ, γ̇, ẋ), in its order."""
+        return (self.Kp, self.Kd, self.torque_limit, self.tiltback_speed, self.tiltback_gain,
+                self.voltage, self.back_emf, self.drop, self.dead_time, self.flux_weakening,
+                self.fw_speed)
 
     def voltage_torque(self, speed: float) -> float:
         """Largest motoring torque the battery voltage allows at ``speed`` (m/s), N·m (≥ 0)."""
@@ -145,3 +144,27 @@ class MotorPD:
             if k in d and not math.isfinite(d[k]):
                 d[k] = None
         return d
+
+
+def pd_torque(gamma: float, gamma_dot: float, speed: float, Kp: float, Kd: float, torque_limit: float,
+              tiltback_speed: float, tiltback_gain: float, voltage: float, back_emf: float, drop: float,
+              dead_time: float, flux_weakening: float, fw_speed: float) -> float:
+    """The law of :class:`MotorPD` as a pure function of floats, N·m.
+
+    The one source of the motor law: :meth:`MotorPD.torque` calls it, and
+    :mod:`euc_sim.simulation.native` compiles it (numba) into MuJoCo's control callback.
+    Arguments after ``speed`` are :meth:`MotorPD.law_args`; γ in rad, γ̇ in rad/s, ẋ in m/s.
+    """
+    g_ref = 0.0
+    if tiltback_speed != math.inf:                  # γ_ref(ẋ), MotorPD.gamma_ref
+        excess = abs(speed) - tiltback_speed
+        if excess > 0.0:
+            g_ref = -math.copysign(tiltback_gain * excess, speed)
+    M = Kp * (gamma - g_ref) + Kd * gamma_dot
+    M = torque_limit if M > torque_limit else (-torque_limit if M < -torque_limit else M)
+    if voltage != math.inf and M * speed > 0.0:     # MotorPD.voltage_torque
+        v = abs(speed)
+        emf = back_emf * v - flux_weakening * v * min(v, fw_speed)
+        M_v = max(((1.0 - dead_time) * voltage - emf) / drop, 0.0)
+        M = M_v if M > M_v else (-M_v if M < -M_v else M)
+    return M

@@ -199,6 +199,12 @@ class _MujocoStepper:
             qf[self.vg] = Q_lat[1] + Q_lat[2]
             qf[self.vr] = Q_lat[2]
 
+    def state(self) -> tuple:
+        """(x, γ, φ, ẋ, γ̇, φ̇) now, as ``step`` returns it."""
+        qp, qv = self._qpos.tolist(), self._qvel.tolist()
+        g, gd = qp[self.ig], qv[self.vg]
+        return (qp[self.ix], g, g + qp[self.ir], qv[self.vx], gd, gd + qv[self.vr])
+
     def _make_step(self):
         """``step(M_d, M_h)`` as a closure over MjData's views: attribute look-ups cost more
         than the step's own arithmetic at 1 kHz."""
@@ -285,7 +291,8 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
              fall_bounds: Mapping[str, float] | None = None, contact=None,
              rolling_model: str = "moment", external_force=None,
              lateral_motion: LateralMotion | None = None, drift_shape=None,
-             progress: Callable[[float], None] | None = None) -> pd.DataFrame:
+             progress: Callable[[float], None] | None = None,
+             native: bool = True) -> pd.DataFrame:
     """Run one maneuver in closed loop and return the true trajectory.
 
     Parameters
@@ -339,6 +346,14 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     progress : callable, optional
         ``progress(t)`` with the simulated time, s, every rider block (about 0.15 s of
         ride): for a progress bar over a long run.
+    native : bool
+        Run the MuJoCo loop without Python per step (:mod:`euc_sim.simulation.native`:
+        the motor PD as a numba-compiled MuJoCo control callback, the rider per block).
+        It applies to the ``mujoco`` engine when no input needs Python at every step:
+        ``rolling_resistance`` (as a moment), ``aerodynamic_drag``, ``cog_height_drift``,
+        ``lateral_dynamics`` and ``external_force`` keep the Python loop, as does
+        ``native=False`` or a machine where numba cannot compile (one line on stderr).
+        Both loops agree to rounding (≤ 1e-9 rad over a ride, ``tests/simulation/test_native.py``).
 
     Returns
     -------
@@ -383,7 +398,14 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     stepper.reset(y0)
 
     try:
-        states, U = _closed_loop(stepper, motor, run, ext, p_true, dt, N, y0, bounds, progress)
+        result = None
+        if native and engine == "mujoco" and not ext.per_step:
+            from euc_sim.simulation.native import native_loop
+
+            result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress)
+        if result is None:
+            result = _closed_loop(stepper, motor, run, ext, p_true, dt, N, y0, bounds, progress)
+        states, U = result
     except FallError as exc:             # the run up to the fall, for a caller that keeps it
         if exc.partial is not None:
             st, u = exc.partial
