@@ -18,7 +18,8 @@ drift away from what is run; a mapping entry the README no longer shows fails to
 The shortened commands run in the order of ``SHORTENED`` (a command that reads another's output
 comes after it), as ``python -m euc_sim.cli ...`` in a subprocess with a temporary folder as
 working directory. Each must exit 0, and every file it names with ``--out``, ``--json``,
-``--plot`` (and ``--report DIR``: ``DIR/index.md``) must exist afterwards. ``../shared`` is
+``--plot`` (and ``--report DIR``: ``DIR/index.md``; ``simulate --out NAME.csv``: ``NAME.json``
+and ``NAME.truth.json``; ``identify --plot F.png``: ``F-torques.png``) must exist afterwards. ``../shared`` is
 resolved relative to the repository root; commands reading it are skipped when it is absent
 (their dependants too).
 """
@@ -134,6 +135,11 @@ def _written(argv: list[str]) -> list[str]:
             out.append(value)
         elif flag == "--report":
             out.append(str(Path(value) / "index.md"))
+        if argv[0] == "simulate" and flag == "--out":      # the README: NAME.json, NAME.truth.json
+            out += [str(Path(value).with_suffix(".json")),
+                    str(Path(value).with_suffix(".truth.json"))]
+        if argv[0] == "identify" and flag == "--plot":     # the README: F-torques.png
+            out.append(str(Path(value).with_name(Path(value).stem + "-torques.png")))
     return out
 
 
