@@ -1,0 +1,187 @@
+"""Every ``euc-sim`` command the README shows runs, shortened, and writes what it claims.
+
+Extraction rule (one rule, kept here):
+
+* every line of a fenced code block (```...```) of README.md whose first word is
+  ``euc-sim`` is a command (one command per line; a trailing ``\\`` joins the next line);
+* every inline code span (`...`) starting with ``euc-sim `` inside a **table row** (a line
+  starting with ``|``) is a command as well.
+
+Inline code in prose (``euc-sim <cmd> --help``, ``euc-sim ride --wheel ... --json``) is
+description, not a command, and is not extracted.
+
+Each extracted command must be a key of ``SHORTENED``, the reviewed mapping from the README's
+command to the one the test runs (shorter durations, fewer bootstrap replicates, no
+re-simulation). A README command missing from the mapping fails the test, so the README cannot
+drift away from what is run; a mapping entry the README no longer shows fails too.
+
+The shortened commands run in the order of ``SHORTENED`` (a command that reads another's output
+comes after it), as ``python -m euc_sim.cli ...`` in a subprocess with a temporary folder as
+working directory. Each must exit 0, and every file it names with ``--out``, ``--json``,
+``--plot`` (and ``--report DIR``: ``DIR/index.md``; ``simulate --out NAME.csv``: ``NAME.json``
+and ``NAME.truth.json``; ``identify --plot F.png``: ``F-torques.png``) must exist afterwards. ``../shared`` is
+resolved relative to the repository root; commands reading it are skipped when it is absent
+(their dependants too).
+"""
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+SHARED = ROOT.parent / "shared"
+
+_WL = "../shared/data/wheellog/"
+_V9 = "../shared/data/euc_core/trips/inmotion/v9/0/0.csv"
+_V9_SPEC = "../shared/data/euc_core/specs/v9.csv"
+
+#: README command -> the command the test runs, in the order they run.
+SHORTENED: dict[str, str] = {
+    "euc-sim crosscheck --json runs/crosscheck.json":
+        "euc-sim crosscheck --json runs/crosscheck.json",
+    "euc-sim dynamics --q 0,0.05,0.1 --torques 20,10":
+        "euc-sim dynamics --q 0,0.05,0.1 --torques 20,10",
+    "euc-sim simulate --maneuver deceleration --duration 15 --seed 1 --out runs/decel.csv":
+        "euc-sim simulate --maneuver deceleration --duration 8 --seed 1 --out runs/decel.csv",
+    "euc-sim simulate --model 3d --maneuver figure_eight --duration 30 --seed 1 "
+    "--out runs/figure_eight.csv":
+        "euc-sim simulate --model 3d --maneuver figure_eight --duration 3 --seed 1 "
+        "--out runs/figure_eight.csv",
+    "euc-sim dataset --out runs/dataset --seed 0 --workers 2":
+        "euc-sim dataset --out runs/dataset --seed 0 --workers 1 --duration 3 --no-progress",
+    "euc-sim design --maneuvers constant_speed,acceleration,deceleration,stop_and_go --rides 40 "
+    "--duration 15 --json runs/design.json --plot runs/design.png":
+        "euc-sim design --maneuvers acceleration,stop_and_go --rides 4 --duration 6 "
+        "--json runs/design.json --plot runs/design.png --no-progress",
+    "euc-sim render runs/figure_eight.csv --out runs/ride.mp4":
+        "euc-sim render runs/figure_eight.csv --out runs/ride.mp4 --fps 10 --width 160 "
+        "--height 120 --no-progress",
+    "euc-sim stability --json runs/stability.json":
+        "euc-sim stability --json runs/stability.json",
+    "euc-sim torques runs/decel.csv --h 0.6 --out runs/torques.csv":
+        "euc-sim torques runs/decel.csv --h 0.6 --out runs/torques.csv",
+    "euc-sim identify runs/decel.csv --json runs/identify.json --plot runs/identify.png":
+        "euc-sim identify runs/decel.csv --json runs/identify.json --plot runs/identify.png "
+        "--bootstrap 20 --noise-replicates 5",
+    "euc-sim simulate --maneuver deceleration --duration 15 --seed 2 --noise none "
+    "--out runs/decel_torques.csv":
+        "euc-sim simulate --maneuver deceleration --duration 6 --seed 2 --noise none "
+        "--out runs/decel_torques.csv",
+    "euc-sim identify runs/decel_torques.csv --method rollout --json runs/rollout.json":
+        "euc-sim identify runs/decel_torques.csv --method rollout --json runs/rollout.json "
+        "--bootstrap 20 --noise-replicates 5",
+    "euc-sim simulate --maneuver stop_and_go --duration 20 --seed 3 "
+    "--effect aerodynamic_drag=0.3 --out runs/hidden.csv":
+        "euc-sim simulate --maneuver stop_and_go --duration 10 --seed 3 "
+        "--effect aerodynamic_drag=0.3 --out runs/hidden.csv",
+    "euc-sim diagnose runs/hidden.csv --json runs/diagnose.json --report runs/diagnose":
+        "euc-sim diagnose runs/hidden.csv --json runs/diagnose.json --report runs/diagnose "
+        "--no-resimulate --quiet",
+    "euc-sim demo --out runs/demo":
+        "euc-sim demo --out runs/demo",
+    f"euc-sim ride {_WL}2020_05_16_08_02_06.csv --compare {_WL}2020_05_28_07_52_00.csv "
+    "--report runs/ride --json runs/ride/ride.json":
+        f"euc-sim ride {_WL}2020_05_16_08_02_06.csv --compare {_WL}2020_05_28_07_52_00.csv "
+        "--report runs/ride --json runs/ride/ride.json --n-boot 10 --no-simulate --quiet",
+    f"euc-sim ride {_V9} --wheel {_V9_SPEC} --no-simulate --json runs/ride.json":
+        f"euc-sim ride {_V9} --wheel {_V9_SPEC} --no-simulate --json runs/ride.json "
+        "--n-boot 10 --quiet",
+    "euc-sim simulate --maneuver acceleration --duration 15 --drivetrain runs/ride.json "
+    "--out runs/accel_dt.csv":
+        "euc-sim simulate --maneuver acceleration --duration 4 --drivetrain runs/ride.json "
+        "--out runs/accel_dt.csv",
+}
+
+_FENCE = re.compile(r"^```")
+_INLINE = re.compile(r"`(euc-sim [^`]+)`")
+
+
+def readme_commands(text: str) -> list[str]:
+    """The ``euc-sim`` commands of a README text, by the module's extraction rule."""
+    commands: list[str] = []
+    in_block = False
+    pending = ""
+    for line in text.splitlines():
+        if _FENCE.match(line.strip()):
+            in_block = not in_block
+            pending = ""
+            continue
+        if in_block:
+            stripped = (pending + " " + line.strip()).strip() if pending else line.strip()
+            if stripped.endswith("\\"):
+                pending = stripped[:-1].strip()
+                continue
+            pending = ""
+            if stripped.split(" ", 1)[0] == "euc-sim":
+                commands.append(" ".join(stripped.split()))
+        elif line.lstrip().startswith("|"):
+            commands.extend(" ".join(m.split()) for m in _INLINE.findall(line))
+    return commands
+
+
+def _written(argv: list[str]) -> list[str]:
+    """The files a command claims to write: --out, --json, --plot and DIR/index.md of --report."""
+    out = []
+    for flag, value in zip(argv, argv[1:]):
+        if flag in ("--out", "--json", "--plot"):
+            out.append(value)
+        elif flag == "--report":
+            out.append(str(Path(value) / "index.md"))
+        if argv[0] == "simulate" and flag == "--out":      # the README: NAME.json, NAME.truth.json
+            out += [str(Path(value).with_suffix(".json")),
+                    str(Path(value).with_suffix(".truth.json"))]
+        if argv[0] == "identify" and flag == "--plot":     # the README: F-torques.png
+            out.append(str(Path(value).with_name(Path(value).stem + "-torques.png")))
+    return out
+
+
+def test_extraction_rule():
+    text = ("x `euc-sim prose --no`\n| a | `euc-sim table --x 1` |\n```bash\n"
+            "euc-sim a \\\n  --b 1\n# euc-sim comment\necho euc-sim\n```\n")
+    assert readme_commands(text) == ["euc-sim table --x 1", "euc-sim a --b 1"]
+
+
+def test_every_readme_command_is_mapped():
+    shown = readme_commands(README.read_text(encoding="utf-8"))
+    assert len(shown) >= 12
+    missing = [c for c in shown if c not in SHORTENED]
+    assert not missing, f"README commands without a shortened form in SHORTENED: {missing}"
+    stale = [c for c in SHORTENED if c not in shown]
+    assert not stale, f"SHORTENED entries the README no longer shows: {stale}"
+    for full, short in SHORTENED.items():
+        assert short.split()[:2] == full.split()[:2], (full, short)
+
+
+def test_readme_commands_run(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
+    skipped: list[str] = []
+    times: list[tuple[float, str]] = []
+    for full, short in SHORTENED.items():
+        argv = shlex.split(short)[1:]
+        if any(a.startswith("../shared") for a in argv) and not SHARED.is_dir():
+            skipped.append(short)
+            continue
+        if any(a in _written(shlex.split(s)[1:]) for s in skipped for a in argv):
+            skipped.append(short)      # reads the output of a skipped command
+            continue
+        argv = [str(SHARED / a[len("../shared/"):]) if a.startswith("../shared/") else a
+                for a in argv]
+        t0 = time.perf_counter()
+        p = subprocess.run([sys.executable, "-m", "euc_sim.cli", *argv], cwd=tmp_path, env=env,
+                           capture_output=True, text=True, timeout=300)
+        times.append((time.perf_counter() - t0, short))
+        assert p.returncode == 0, f"{short}\nexit {p.returncode}\n{p.stderr[-2000:]}"
+        for f in _written(argv):
+            assert (tmp_path / f).exists(), f"{short}: {f} was not written"
+    for seconds, short in times:
+        print(f"{seconds:6.1f} s  {short}")
+    if skipped:
+        pytest.skip(f"../shared absent: skipped {len(skipped)} commands")
