@@ -251,7 +251,8 @@ def make_recording(case: dict, out: Path) -> Path:
     from euc_sim.simulation import dataset
     from euc_sim import io
     from euc_sim.model.parameters import TABLE3
-    from euc_sim.simulation.engine import PeriodicPush, default_rider, true_params
+    from euc_sim.simulation.effects import PeriodicPush
+    from euc_sim.simulation.engine import default_rider, true_params
     from euc_sim.simulation.drift import DriftShape
     from euc_sim.simulation.maneuvers import make_maneuver
 

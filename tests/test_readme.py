@@ -30,7 +30,6 @@ import re
 import shlex
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -163,7 +162,6 @@ def test_every_readme_command_is_mapped():
 def test_readme_commands_run(tmp_path):
     env = dict(os.environ, PYTHONPATH=str(ROOT), MUJOCO_GL=os.environ.get("MUJOCO_GL", "egl"))
     skipped: list[str] = []
-    times: list[tuple[float, str]] = []
     for full, short in SHORTENED.items():
         argv = shlex.split(short)[1:]
         if any(a.startswith("../shared") for a in argv) and not SHARED.is_dir():
@@ -174,14 +172,10 @@ def test_readme_commands_run(tmp_path):
             continue
         argv = [str(SHARED / a[len("../shared/"):]) if a.startswith("../shared/") else a
                 for a in argv]
-        t0 = time.perf_counter()
         p = subprocess.run([sys.executable, "-m", "euc_sim.cli", *argv], cwd=tmp_path, env=env,
                            capture_output=True, text=True, timeout=300)
-        times.append((time.perf_counter() - t0, short))
         assert p.returncode == 0, f"{short}\nexit {p.returncode}\n{p.stderr[-2000:]}"
         for f in _written(argv):
             assert (tmp_path / f).exists(), f"{short}: {f} was not written"
-    for seconds, short in times:
-        print(f"{seconds:6.1f} s  {short}")
     if skipped:
         pytest.skip(f"../shared absent: skipped {len(skipped)} commands")

@@ -20,6 +20,7 @@ friction) have R Q_x + Q_γ + Q_φ = 0 and cancel.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Literal
 
@@ -27,7 +28,7 @@ import numpy as np
 
 from euc_sim.model.parameters import Params
 
-__all__ = ["Effect", "CATALOG", "names", "get", "parse_assignment", "SIGN_SPEED",
+__all__ = ["PeriodicPush", "Effect", "CATALOG", "names", "get", "parse_assignment", "SIGN_SPEED",
            "smooth_sign", "normal_load", "generalized_force", "lateral_forces", "lateral_force_rows", "LATERAL_INPUTS", "LEAN_INPUTS",
            "LATERAL_WINDOW", "band_peak_tilt",
            "RIDER_YAW_INERTIA_RATIO", "rider_lean_forces", "upright_slender_moment", "apply_to_params",
@@ -512,3 +513,20 @@ def delay_signal(t: np.ndarray, y: np.ndarray, tau: float) -> np.ndarray:
     """
     t = np.asarray(t, dtype=float)
     return np.interp(t - tau, t, np.asarray(y, dtype=float))
+
+
+@dataclass(frozen=True)
+class PeriodicPush:
+    """A horizontal force A·sin(2π f t) at the rider's G, N: a disturbance outside the catalog.
+
+    Picklable, so it can travel to worker processes with a :class:`euc_sim.simulation.dataset.RecordingSpec`.
+    """
+
+    amplitude: float
+    frequency: float
+
+    def __call__(self, t: float) -> float:
+        return self.amplitude * math.sin(2.0 * math.pi * self.frequency * t)
+
+    def as_dict(self) -> dict:
+        return {"kind": "periodic_push_at_G", "amplitude_N": self.amplitude, "frequency_Hz": self.frequency}

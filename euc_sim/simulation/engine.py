@@ -128,23 +128,6 @@ def default_rider(params: Params = TABLE3, motor: MotorPD | None = None,
     return _RIDERS[key].replace(noise_std=noise_std, delay=delay)
 
 
-@dataclass(frozen=True)
-class PeriodicPush:
-    """A horizontal force A·sin(2π f t) at the rider's G, N: a disturbance outside the catalog.
-
-    Picklable, so it can travel to worker processes with a :class:`euc_sim.simulation.dataset.RecordingSpec`.
-    """
-
-    amplitude: float
-    frequency: float
-
-    def __call__(self, t: float) -> float:
-        return self.amplitude * math.sin(2.0 * math.pi * self.frequency * t)
-
-    def as_dict(self) -> dict:
-        return {"kind": "periodic_push_at_G", "amplitude_N": self.amplitude, "frequency_Hz": self.frequency}
-
-
 # --- engines -------------------------------------------------------------------------
 class _MujocoStepper:
     """One control step of MuJoCo with held torques and per-step effects."""
@@ -332,7 +315,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         ``F(t)``: a horizontal force, N, along +x at the rider's centre of gravity G,
         held over each control step in both engines.  It is not a catalog effect: use
         it to put disturbances the catalog does not know into a run (for example
-        :class:`PeriodicPush`, the out-of-catalog case of the blind study).
+        :class:`euc_sim.simulation.effects.PeriodicPush`, the out-of-catalog case of the blind study).
     lateral_motion : LateralMotion, optional
         With ``lateral_dynamics``: the tilt and yaw to use (arrays on the run's grid,
         ``round(duration / dt) + 1`` samples), for example a recording's, instead of

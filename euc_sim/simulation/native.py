@@ -105,21 +105,18 @@ def _compile():
     W_QPOS, W_QVEL, W_CTRL = offs["qpos"] // 8, offs["qvel"] // 8, offs["ctrl"] // 8
     I_ADDR, F_ADDR = _I.ctypes.data, _F.ctypes.data
 
-    @intrinsic
-    def f64p(typingctx, addr):
-        sig = types.CPointer(types.float64)(types.int64)
+    def pointer_to(element):
+        """An intrinsic casting an int64 address to a pointer to ``element``."""
+        @intrinsic
+        def cast(typingctx, addr):
+            sig = types.CPointer(element)(types.int64)
 
-        def codegen(context, builder, signature, args):
-            return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-        return sig, codegen
+            def codegen(context, builder, signature, args):
+                return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+            return sig, codegen
+        return cast
 
-    @intrinsic
-    def i64p(typingctx, addr):
-        sig = types.CPointer(types.int64)(types.int64)
-
-        def codegen(context, builder, signature, args):
-            return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-        return sig, codegen
+    f64p, i64p = pointer_to(types.float64), pointer_to(types.int64)
 
     law = njit(pd_torque)
 

@@ -254,7 +254,8 @@ def test_dataset_is_reproducible(tmp_path):
 
 def test_external_force_hook_acts_alike_in_both_engines():
     """An out-of-catalog push F(t) at G: both engines see the same physics."""
-    from euc_sim.simulation.engine import PeriodicPush, simulate
+    from euc_sim.simulation.effects import PeriodicPush
+    from euc_sim.simulation.engine import simulate
     push = PeriodicPush(amplitude=40.0, frequency=0.5)
     a = simulate("constant_speed", 3.0, external_force=push)
     b = simulate("constant_speed", 3.0, external_force=push, engine="analytic")
