@@ -50,7 +50,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from euc_sim.rides.heldout import select_by_heldout
+from euc_sim.rides.heldout import select_by_heldout, time_blocks
 from euc_sim.rides.logs import RideLog
 
 __all__ = ["LawUnavailable", "LawRows", "Law", "CATALOG", "BASE", "V_MIN", "MIN_GAIN",
@@ -310,15 +310,10 @@ def r2(y: np.ndarray, pred: np.ndarray) -> float:
     return float(1.0 - np.sum((y - pred) ** 2) / np.sum((y - np.mean(y)) ** 2))
 
 
-def _blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
-    edges = np.quantile(t, np.linspace(0, 1, n_blocks + 1))
-    return np.clip(np.searchsorted(edges, t, side="right") - 1, 0, n_blocks - 1)
-
-
 def heldout_score(rows: LawRows, names, n_blocks: int = 10) -> tuple[float, float]:
     """Blocked held-out RMS error (unit of y) and R² of the torque: each of ``n_blocks``
     contiguous time blocks predicted from a fit on the others (grids re-found per fold)."""
-    label = _blocks(rows.t, n_blocks)
+    label = time_blocks(rows.t, n_blocks)
     pred = np.empty_like(rows.y)
     for b in range(n_blocks):
         test = label == b
@@ -334,7 +329,7 @@ def _without_pitch_r2(rows: LawRows, n_blocks: int = 10, accel: bool = True,
     if np.isfinite(v_tb):
         cols.append(np.maximum(rows.v - v_tb, 0.0))
     X = np.column_stack(cols + ([rows.a] if accel else []))
-    label = _blocks(rows.t, n_blocks)
+    label = time_blocks(rows.t, n_blocks)
     pred = np.empty_like(rows.y)
     for b in range(n_blocks):
         test = label == b

@@ -8,7 +8,27 @@ the held-out score alone decides, through :func:`select_by_heldout`.
 
 from __future__ import annotations
 
-__all__ = ["select_by_heldout"]
+import numpy as np
+
+__all__ = ["select_by_heldout", "time_blocks"]
+
+
+def time_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
+    """Fold label 0 … n_blocks − 1 of each sample: contiguous time blocks of equal counts.
+
+    Parameters
+    ----------
+    t : ndarray
+        Sample times, s, increasing.
+    n_blocks : int
+        Number of blocks.
+
+    Returns
+    -------
+    ndarray of int
+    """
+    edges = np.quantile(t, np.linspace(0, 1, n_blocks + 1))
+    return np.clip(np.searchsorted(edges, t, side="right") - 1, 0, n_blocks - 1)
 
 
 def select_by_heldout(score, base: list, candidates: list, min_gain: float) -> tuple[list, list]:

@@ -63,7 +63,7 @@ import numpy as np
 
 from euc_sim.rides.channels import current_from_phase, power_not_measured
 from euc_sim.rides.energy import window_difference, window_mean, window_samples_odd
-from euc_sim.rides.heldout import select_by_heldout
+from euc_sim.rides.heldout import select_by_heldout, time_blocks
 from euc_sim.rides.logs import RideLog
 from euc_sim.rides.power import (G, NO_GPS_SCALE_SD, MassSettings, PowerSignals, RideDataError,
                                  SpeedScale, as_ride_log, power_signals)
@@ -229,8 +229,7 @@ def heldout_rmse(X: np.ndarray, y: np.ndarray, t: np.ndarray, signed: bool,
     ``n_blocks`` defaults to 10, or 4 for an unsigned log (whose fits are nonlinear).
     """
     n_blocks = n_blocks or (10 if signed else 4)
-    edges = np.quantile(t, np.linspace(0, 1, n_blocks + 1))
-    label = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, n_blocks - 1)
+    label = time_blocks(t, n_blocks)
     err = np.empty_like(y)
     for b in range(n_blocks):
         test = label == b
