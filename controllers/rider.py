@@ -35,7 +35,7 @@ from scipy.linalg.lapack import dtrtrs
 from controllers.motor import MotorPD
 from euc_sim.model.parameters import Params
 
-__all__ = ["Rider", "RiderError", "trim", "motor_noise", "RiderRun", "DEFAULT_RIDER_NOISE"]
+__all__ = ["Rider", "RiderError", "trim", "motor_noise", "RiderRun", "DEFAULT_RIDER_NOISE", "delayed_lqr_torque"]
 
 #: Rider motor noise of generated recordings (command line, datasets), N·m, 1 sigma:
 #: the rider sways, as the paper's constant-speed recordings show.
@@ -242,20 +242,14 @@ class RiderRun:
                                                      self.u_ref, self.noise))
         v_ref, gamma_ref, phi_ref, u_refs, noise = self._lists
         y = Y[k]                                 # padded index k: the state n steps ago
-        kp = self.k_pred
+        n, z = self.n, self.z
         e_v = y[3] - v_ref[k]
-        fb = (kp[0] * e_v + kp[1] * (y[1] - gamma_ref[k])
-              + kp[2] * (y[2] - phi_ref[k]) + kp[3] * y[4] + kp[4] * y[5])
         if self.integral:
-            fb += kp[5] * self.z
-            self.z += e_v * self.dt
-        n = self.n
-        if n:
-            fb += self.k_hist.dot(self.du[k:k + n])
+            self.z = z + e_v * self.dt
         u_ref = u_refs[k + n]
-        u = u_ref - fb
-        lim = self.limit
-        u = lim if u > lim else (-lim if u < -lim else u)
+        u = delayed_lqr_torque(e_v, y[1] - gamma_ref[k], y[2] - phi_ref[k], y[4], y[5], z,
+                               self.k_hist.dot(self.du[k:k + n]) if n else 0.0, u_ref,
+                               self.k_pred, self.integral, self.limit)
         self.du[k + n] = u - u_ref
         return u, u + noise[k]
 
@@ -319,6 +313,44 @@ class RiderRun:
         for i in range(len(Y_sensed)):
             out[i] = self.command(k0 + i, hist)
         return out[:, 0], out[:, 1]
+
+
+def delayed_lqr_torque(e_v: float, e_gamma: float, e_phi: float, gamma_dot: float, phi_dot: float,
+                       z: float, history: float, u_ref: float, k_pred, integral: bool, limit: float) -> float:
+    """The rider's commanded ankle torque at one step, N·m: the law of :meth:`RiderRun.command`.
+
+    M_h = sat(M_h* − (K Φⁿ ŝ + Σ KG_i δu_{k−n+i})) with ŝ the sensed deviation from the
+    trim and the last n commands' deviations δu (the predictor's history term).  The one
+    source of the per-step law: :meth:`RiderRun.command` calls it and
+    :mod:`euc_sim.simulation.native_kernels` compiles it (numba) into MuJoCo's control
+    callback.  Pure function of floats (``k_pred`` indexable).
+
+    Parameters
+    ----------
+    e_v, e_gamma, e_phi : float
+        Sensed ẋ − v_ref (m/s), γ − γ* (rad), φ − φ* (rad), n steps old.
+    gamma_dot, phi_dot : float
+        Sensed γ̇, φ̇, rad/s.
+    z : float
+        ∫(ẋ − v_ref) dt before this step, m (used when ``integral``).
+    history : float
+        Σ_{i<n} KG_i δu_{k−n+i}, N·m (0 without predictor or delay).
+    u_ref : float
+        The trim M_h* now, N·m.
+    k_pred : sequence of 5 or 6 floats
+        K Φⁿ (:func:`_delay_law`); the sixth weighs z.
+    integral : bool
+        Whether the gains include the integral of the speed error.
+    limit : float
+        |M_h| limit, N·m.
+    """
+    fb = (k_pred[0] * e_v + k_pred[1] * e_gamma + k_pred[2] * e_phi
+          + k_pred[3] * gamma_dot + k_pred[4] * phi_dot)
+    if integral:
+        fb += k_pred[5] * z
+    fb += history
+    u = u_ref - fb
+    return limit if u > limit else (-limit if u < -limit else u)
 
 
 class _Lookup:

@@ -1,20 +1,23 @@
-"""The planar MuJoCo closed loop without Python per step: the motor PD as a native callback.
+"""The planar MuJoCo closed loop without Python per step: motor and rider as a native callback.
 
-:func:`controllers.motor.pd_torque` (the one motor law) is compiled by numba's ``cfunc``
-into MuJoCo's control callback ``void(const mjModel*, mjData*)`` and installed with
-``mujoco.set_mjcb_control`` for the run only.  ``mj_step(model, data, nstep)`` then runs a
-whole block of the rider's delay (n + 1 steps, :class:`controllers.rider.RiderRun`) in C:
-at the first callback call of each step (RK4 calls it once per stage; the count per step
-is measured on the model, not assumed) the callback records the state, computes M_d from
-it and holds it with the block's ankle torque M_h over the step (zero-order hold at dt).
-The rider's law stays in Python, once per block.
+The motor PD (:func:`controllers.motor.pd_torque`) and the rider's delayed LQR with its
+predictor, integral speed tracking and motor noise (:func:`controllers.rider.delayed_lqr_torque`
+on the buffers of :class:`controllers.rider.RiderRun`) are compiled by numba into MuJoCo's
+control callback (:mod:`euc_sim.simulation.native_kernels`).  At the first callback call
+of each step (RK4 calls it once per stage; the count per step is measured on the model,
+not assumed) the callback records the state, computes M_d from it and M_h from the
+state n steps old and the last n commands, and holds both over the step (zero-order
+hold at dt).  ``mj_step(model, data, nstep)`` then runs the whole ride in C, in chunks
+between which Python only looks for a fall (and reports progress).
 
-mjData fields (``qpos``, ``qvel``, ``ctrl``) are read through offsets in the struct found
-at import from a live ``MjData`` (the word holding ``data.qpos.ctypes.data`` etc. from
-``data._address``), never hard-coded.  The run's context (counters, indices, motor
-settings, buffer addresses) lives in two module arrays whose addresses are compiled in:
-like MuJoCo's callback itself it is process-global, so one native run at a time per
-process (a lock); a run that finds it taken (threads) takes the Python loop, same result.
+The run's state lives in its own context (:mod:`euc_sim.simulation.native_core`),
+registered for its ``MjData`` only: runs on several threads go native together.  The
+rider's ``du`` buffer is the :class:`RiderRun`'s own; its z is written back at the end.
+
+The rider's per-step law is the Python reference's (:meth:`RiderRun.command`) step by
+step, where the Python loop solves each block of n + 1 steps at once
+(:meth:`RiderRun.commands`): the two loops agree to rounding (≤ 1e-9 rad over a ride,
+``tests/simulation/test_native.py``), not bit for bit.
 
 Where numba is missing or cannot compile, :func:`native_loop` says so in one line on
 stderr and returns ``None``; the caller runs the Python loop.
@@ -22,156 +25,23 @@ stderr and returns ``None``; the caller runs the Python loop.
 
 from __future__ import annotations
 
-import ctypes
-import sys
-import threading
 from typing import Mapping
 
 import numpy as np
 
-from controllers.motor import MotorPD, pd_torque
+from controllers.motor import MotorPD
 from controllers.rider import RiderRun
+from euc_sim.simulation import native_core as nc
 from euc_sim.simulation.errors import FallError
 
-__all__ = ["native_loop", "available", "field_offsets"]
+__all__ = ["native_loop", "available", "LAST_RUN", "CHUNK_STEPS"]
 
-# context slots: _I (int64) and _F (float64)
-_I_CALLS, _I_PER, _I_K, _I_ROWS, _I_STATE, _I_MD, _I_MH = range(7)
-_I_IX, _I_IG, _I_IR, _I_VX, _I_VG, _I_VR, _I_AM, _I_AA, _I_FALL, _I_DATA = range(7, 17)
-_I = np.zeros(24, dtype=np.int64)
-_F = np.zeros(16, dtype=np.float64)       # 0..10: MotorPD.law_args(); 11, 12: held M_d, M_h
-_F_MD, _F_MH, _F_PHI_MAX, _F_GAM_MAX = 11, 12, 13, 14
+#: Steps run in C between two looks for a fall when no progress is asked for.
+CHUNK_STEPS = 2000
+#: The last native run of this process: rows recorded by the callback, its calls, calls per step.
+LAST_RUN: dict = {}
 
-_LOCK = threading.Lock()
-_CALLBACK = None                          # the compiled cfunc, or False when it cannot be built
-_UNUSABLE_REASON = ""
-
-
-def field_offsets() -> dict[str, int]:
-    """Byte offsets in ``mjData`` of the pointers ``qpos``, ``qvel``, ``ctrl``, found on a live MjData.
-
-    Each is the first 8-byte word of the struct equal to the array's address, and must
-    agree on a second MjData of another model.
-    """
-    import mujoco
-
-    found: list[dict[str, int]] = []
-    models = [
-        '<mujoco><worldbody><body><joint name="a"/><geom size=".1"/></body></worldbody>'
-        '<actuator><motor joint="a"/></actuator></mujoco>',
-        '<mujoco><worldbody><body><joint name="a" type="slide"/><geom size=".1"/><body>'
-        '<joint name="b"/><geom size=".1"/></body></body></worldbody>'
-        '<actuator><motor joint="a"/><motor joint="b"/></actuator></mujoco>',
-    ]
-    for xml in models:
-        m = mujoco.MjModel.from_xml_string(xml)
-        d = mujoco.MjData(m)
-        targets = {"qpos": d.qpos.ctypes.data, "qvel": d.qvel.ctypes.data, "ctrl": d.ctrl.ctypes.data}
-        base, offs, words = int(d._address), {}, 64
-        while len(offs) < len(targets):
-            if words > 1 << 20:
-                raise RuntimeError(f"mjData pointers not found in its first {words * 8} bytes")
-            buf = (ctypes.c_int64 * words).from_address(base)
-            w = np.frombuffer(buf, dtype=np.int64)
-            for name, addr in targets.items():
-                hit = np.flatnonzero(w == addr)
-                if name not in offs and hit.size:
-                    offs[name] = int(hit[0]) * 8
-            words *= 4
-        found.append(offs)
-    if found[0] != found[1]:
-        raise RuntimeError(f"mjData field offsets disagree between two models: {found}")
-    return found[0]
-
-
-def _build():
-    """Compile the callback (once per process); ``False`` with a reason when impossible."""
-    global _CALLBACK, _UNUSABLE_REASON
-    if _CALLBACK is not None:
-        return _CALLBACK
-    try:
-        _CALLBACK = _compile()
-    except Exception as exc:  # noqa: BLE001 - any failure means: use the Python loop
-        _CALLBACK, _UNUSABLE_REASON = False, f"{type(exc).__name__}: {exc}".splitlines()[0]
-    return _CALLBACK
-
-
-def _compile():
-    """numba ``cfunc`` of the motor PD with MuJoCo's control-callback signature."""
-    from numba import carray, cfunc, njit, types
-    from numba.core.extending import intrinsic
-
-    offs = field_offsets()
-    W_QPOS, W_QVEL, W_CTRL = offs["qpos"] // 8, offs["qvel"] // 8, offs["ctrl"] // 8
-    I_ADDR, F_ADDR = _I.ctypes.data, _F.ctypes.data
-
-    def pointer_to(element):
-        """An intrinsic casting an int64 address to a pointer to ``element``."""
-        @intrinsic
-        def cast(typingctx, addr):
-            sig = types.CPointer(element)(types.int64)
-
-            def codegen(context, builder, signature, args):
-                return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-            return sig, codegen
-        return cast
-
-    f64p, i64p = pointer_to(types.float64), pointer_to(types.int64)
-
-    law = njit(pd_torque)
-
-    @intrinsic
-    def address(typingctx, ptr):
-        sig = types.int64(ptr)
-
-        def codegen(context, builder, signature, args):
-            return builder.ptrtoint(args[0], context.get_value_type(types.int64))
-        return sig, codegen
-
-    @cfunc(types.void(types.voidptr, types.CPointer(types.int64)))
-    def control(m, d):
-        iv = carray(i64p(I_ADDR), 24)
-        fv = carray(f64p(F_ADDR), 16)
-        if address(d) != iv[16]:                 # another simulation (another thread): not ours
-            return
-        calls = iv[0]
-        iv[0] = calls + 1
-        if calls % iv[1] == 0:               # the first call of a control step: fresh state
-            k = iv[2]
-            if k < iv[3]:
-                qpos, qvel = f64p(d[W_QPOS]), f64p(d[W_QVEL])
-                g = qpos[iv[8]]
-                gd = qvel[iv[11]]
-                xd = qvel[iv[10]]
-                row = f64p(iv[4] + 48 * k)
-                row[0] = qpos[iv[7]]
-                row[1] = g
-                row[2] = g + qpos[iv[9]]
-                row[3] = xd
-                row[4] = gd
-                row[5] = gd + qvel[iv[12]]
-                if iv[15] < 0:                  # the first fall: a bound passed or a non-finite state
-                    fine = abs(row[2]) <= fv[13] and abs(g) <= fv[14]
-                    for j in range(6):
-                        fine = fine and row[j] - row[j] == 0.0
-                    if not fine:
-                        iv[15] = k
-                M_d = law(g, gd, xd, fv[0], fv[1], fv[2], fv[3], fv[4], fv[5], fv[6], fv[7],
-                          fv[8], fv[9], fv[10])
-                f64p(iv[5])[k] = M_d
-                fv[11] = M_d
-                fv[12] = f64p(iv[6])[k]
-                iv[2] = k + 1
-        ctrl = f64p(d[W_CTRL])
-        ctrl[iv[13]] = fv[11]
-        ctrl[iv[14]] = fv[12]
-
-    return control
-
-
-def available() -> bool:
-    """Whether the native callback compiles here (compiles it on first call)."""
-    return bool(_build())
+available = nc.available
 
 
 def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: tuple,
@@ -180,97 +50,65 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
     """:func:`euc_sim.simulation.engine._closed_loop` for a MuJoCo stepper without per-step effects.
 
     Same states (N+1, 6) and torques (N+1, 2); ``None`` (and one line on stderr) when the
-    callback cannot be built, ``None`` silently when another thread's native run holds it:
-    the caller then runs the Python loop.  ``raise_fall(t, y,
+    callback cannot be built: the caller then runs the Python loop.  ``raise_fall(t, y,
     phi_max, gam_max)`` raises at the first recorded state outside ``bounds``, as the
     Python loop does; the ``FallError`` carries ``partial``, the states and torques of
     steps 0 … k − 1, as the Python loop's does.  ``progress(t)``: the simulated time, s,
-    at every rider block.
+    at every rider block (n + 1 steps), as in the Python loop.
     """
-    callback = _build()
-    if not callback:
-        print(f"euc-sim: native closed loop unavailable ({_UNUSABLE_REASON}); using the Python loop",
-              file=sys.stderr)
+    if nc.callback() is None:
         return None
-    if not _LOCK.acquire(blocking=False):     # another thread's native run holds the callback
-        return None
-    try:
-        return _run(callback, stepper, motor, run, dt, N, y0, bounds, raise_fall, progress)
-    finally:
-        _LOCK.release()
+    return _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress)
 
 
-def _run(callback, stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None):
-    """:func:`native_loop` with the callback built and the lock held."""
+def _context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bounds):
+    """The run's context (state indices, motor settings, rider block) and the arrays the
+    callback fills: padded history P (N + 1 + n, 6), M_d and M_h (N + 1)."""
+    n = run.n
+    ctx = nc.Context(nc.KIND_PLANAR, N + 1)
+    P = ctx.put(nc.P_HIST, np.empty((N + 1 + n, 6)))      # padded state history: the delay buffer
+    P[:n + 1] = y0                                         # row 0 is y0 as given
+    M_d = ctx.put(nc.P_MD, np.zeros(N + 1))
+    M_h = ctx.put(nc.P_MH, np.zeros(N + 1))
+    ctx.c[nc.P_IX:nc.P_VR + 1] = (stepper.ix, stepper.ig, stepper.ir, stepper.vx, stepper.vg, stepper.vr)
+    ctx.actuators(stepper.a_motor, stepper.a_ankle)
+    ctx.f[:11] = motor.law_args()
+    ctx.f[nc.F_PHI_MAX], ctx.f[nc.F_GAM_MAX] = bounds["phi"], bounds["gamma"]
+    ctx.rider(nc.P_RIDER, run)
+    return ctx, P, M_d, M_h
+
+
+def _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None):
+    """:func:`native_loop` with the callback built."""
     import mujoco
 
-    m, d = stepper.m, stepper.d
-    n = run.n
-    P = np.empty((N + 1 + n, 6))              # padded state history: the rider's delay buffer
-    P[:n] = y0
-    M_d = np.zeros(N + 1)
-    M_h = np.zeros(N + 1)
-    _I[:] = 0
-    _I[[_I_IX, _I_IG, _I_IR, _I_VX, _I_VG, _I_VR, _I_AM, _I_AA]] = (
-        stepper.ix, stepper.ig, stepper.ir, stepper.vx, stepper.vg, stepper.vr,
-        stepper.a_motor, stepper.a_ankle)
-    _I[_I_DATA] = d._address
-    _F[:] = 0.0
-    _F[:11] = motor.law_args()
-    _F[_F_PHI_MAX], _F[_F_GAM_MAX] = bounds["phi"], bounds["gamma"]
-    previous = mujoco.get_mjcb_control()
-    mujoco.set_mjcb_control(callback.ctypes)
-    try:
-        _I[_I_PER] = _calls_per_step(m, d)
-        _I[_I_CALLS] = _I[_I_K] = 0
-        _I[_I_FALL] = -1
-        _I[_I_ROWS] = N + 1
-        _I[_I_STATE], _I[_I_MD], _I[_I_MH] = P[n:].ctypes.data, M_d.ctypes.data, M_h.ctypes.data
-        phi_max, gam_max = bounds["phi"], bounds["gamma"]
-        for k0 in range(0, N + 1, n + 1):
-            block = min(n + 1, N + 1 - k0)
+    m, d, n = stepper.m, stepper.d, run.n
+    ctx, P, M_d, M_h = _context(stepper, motor, run, N, y0, bounds)
+    phi_max, gam_max = bounds["phi"], bounds["gamma"]
+    ctx.c[nc.C_PER] = nc.calls_per_step(m, d)
+    chunk = n + 1 if progress is not None else CHUNK_STEPS
+    with nc.registered(d, ctx):
+        for k0 in range(0, N + 1, chunk):
             if progress is not None:
                 progress(k0 * dt)
-            P[n + k0] = y0 if k0 == 0 else stepper.state()   # the callback records it again
-            M_h[k0:k0 + block] = run.commands(k0, P[k0:k0 + block])[1]
-            steps = block if k0 + block <= N else block - 1
+            steps = min(chunk, N - k0)
             if steps:
                 mujoco.mj_step(m, d, nstep=steps)
-            if _I[_I_FALL] >= 0:
-                k = int(_I[_I_FALL])
-                try:
-                    _check_falls(P[n + k:n + k + 1], k, dt, phi_max, gam_max, raise_fall)
-                except FallError as exc:          # the states and torques of steps 0 … k − 1
-                    exc.partial = (P[n:n + k].copy(), np.column_stack([M_d[:k], M_h[:k]]))
-                    raise
-    finally:
-        mujoco.set_mjcb_control(previous)
-    # the last state: after the last step, read as the Python stepper reads it
-    y = stepper.state()
-    P[n + N] = y
-    P[n] = y0                                 # as given, not as read back from qpos
-    try:
-        _check_falls(P[n + N:n + N + 1], N, dt, phi_max, gam_max, raise_fall)
-    except FallError as exc:
-        exc.partial = (P[n:n + N].copy(), np.column_stack([M_d[:N], M_h[:N]]))
-        raise
-    M_d[N] = motor.torque(y[1], y[4], y[3])
+            if ctx.c[nc.C_FALL] >= 0:
+                break
+        else:                                 # the last row: the callback once more, no step
+            ctx.c[nc.C_CALLS] = 0
+            mujoco.mj_forward(m, d)
+    run.z = ctx.rider_z(nc.P_RIDER)
+    LAST_RUN.update(rows=int(ctx.c[nc.C_K]), calls=int(ctx.c[nc.C_CALLS]), per=int(ctx.c[nc.C_PER]))
+    if ctx.c[nc.C_FALL] >= 0:
+        k = int(ctx.c[nc.C_FALL])
+        try:
+            _check_falls(P[n + k:n + k + 1], k, dt, phi_max, gam_max, raise_fall)
+        except FallError as exc:          # the states and torques of steps 0 … k − 1
+            exc.partial = (P[n:n + k].copy(), np.column_stack([M_d[:k], M_h[:k]]))
+            raise
     return P[n:], np.column_stack([M_d, M_h])
-
-
-def _calls_per_step(m, d) -> int:
-    """Callback calls per ``mj_step`` of this model (4 for RK4), counted on a copy of ``d``."""
-    import mujoco
-
-    probe = mujoco.MjData(m)
-    mujoco.mj_copyData(probe, m, d)
-    _I[_I_PER], _I[_I_CALLS], _I[_I_ROWS], _I[_I_FALL], _I[_I_DATA] = 1, 0, 0, -1, probe._address
-    mujoco.mj_step(m, probe)
-    calls = int(_I[_I_CALLS])
-    _I[_I_DATA] = d._address
-    if calls < 1:
-        raise RuntimeError("the control callback was not called by mj_step")
-    return calls
 
 
 def _check_falls(rows: np.ndarray, k0: int, dt: float, phi_max: float, gam_max: float, raise_fall) -> None:

@@ -184,7 +184,7 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
                 speed: float | None = None, motor: MotorPD | None = None, rider=None,
                 lateral: LateralRider | None = None, seed: int = 0, dt: float = 1e-3,
                 tyre=None, maneuver=None, integrator: str | None = None, lateral_delay: float = 0.0,
-                radius: float | None = None) -> pd.DataFrame:
+                radius: float | None = None, native: bool = True) -> pd.DataFrame:
     """Ride a path in the spatial model, closed loop, and return the true run at 1/dt.
 
     Parameters
@@ -218,6 +218,11 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     radius : float, optional
         Turn radius of ``circle``, ``u_turn`` and ``figure_eight``, m (:data:`RADIUS`
         by default).
+    native : bool
+        Run the loop without Python per step (:mod:`euc_sim.simulation.native_spatial`: motor,
+        riders and path tracking as a numba-compiled MuJoCo control callback).  ``False``,
+        or a machine where numba cannot compile (one line on stderr), runs the Python loop,
+        the reference; the two agree to rounding (``tests/simulation/test_native_spatial.py``).
 
     Returns
     -------
@@ -249,13 +254,21 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     N = int(round(duration / dt))
     t = np.arange(N + 1) * dt
     v_ref, a_ref = man.reference(t)
-    track = _Tracker(make_path(path, float(np.max(np.abs(v_ref))) * duration + 5.0, radius))
+    route = make_path(path, float(np.max(np.abs(v_ref))) * duration + 5.0, radius)
     run = RiderRun(rider, params, motor, v_ref, a_ref, dt, seed)
     v0, g0, f0, _ = run.initial_state()
 
     sim = EucSpatial(params, tyre, timestep=dt, integrator=integrator)
     sim.set_straight(v0, g0, f0)
-    rows = _ride(sim, run, motor, lateral, track, v_ref.tolist(), N, dt, (0.0, g0, f0, v0, 0.0, 0.0))
+    y0, rows = (0.0, g0, f0, v0, 0.0, 0.0), None
+    if native:
+        from euc_sim.simulation.engine import FALL_BOUNDS
+        from euc_sim.simulation.native_spatial import native_ride
+
+        rows = native_ride(sim, run, motor, lateral, route, v_ref, N, dt, y0, FALL_BOUNDS, TILT_BOUND,
+                           TURN_EFFORT_TIME)
+    if rows is None:
+        rows = _ride(sim, run, motor, lateral, _Tracker(route), v_ref.tolist(), N, dt, y0)
     cols = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref", "psi",
             "theta", "psi_dot", "theta_dot", "M_lean", "M_twist", "e_y",
             "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")

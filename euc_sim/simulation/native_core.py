@@ -1,0 +1,221 @@
+"""The machinery the native MuJoCo loops share: one control callback, a registry of runs.
+
+MuJoCo's control callback ``mjcb_control`` is one process-wide function pointer.  The
+callback here (compiled by numba's ``cfunc`` in :mod:`euc_sim.simulation.native_kernels`)
+is installed while at least one native run is active, and serves every registered
+``MjData`` at once: the registry is a table of (``MjData`` address, context address)
+pairs, and each run's context — an int64 array of indices and buffer addresses, with
+its float settings and buffers — holds all of that simulation's controller state.
+Simulations on other threads, or in ``mujoco.batch``, each register their own
+``MjData`` and context; an ``MjData`` not registered is left alone by the callback.
+
+Interface of a context (for a caller building its own, e.g. a batch of rides): the
+``C_*`` slots are common; ``KIND_PLANAR`` runs use ``P_*`` and a rider block at
+``P_RIDER``, ``KIND_SPATIAL`` runs ``S_*`` and a rider block at ``S_RIDER`` (``R_*``
+offsets); floats at the ``F_*`` slots of the array whose address is ``C_FLOATS``.
+:class:`Context` fills them; :func:`registered` registers a ``MjData`` with one for the
+duration of a ``with`` block.
+
+``mjData`` fields (``qpos``, ``qvel``, ``ctrl``) are read through offsets in the struct
+found at run time on a live ``MjData`` (:func:`field_offsets`), never hard-coded.
+Where numba is missing or cannot compile, :func:`callback` returns ``None`` after one
+line on stderr and the callers run their Python loops.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import sys
+import threading
+from contextlib import contextmanager
+
+import numpy as np
+
+__all__ = ["field_offsets", "callback", "available", "Context", "registered", "calls_per_step",
+           "SLOTS", "KIND_PLANAR", "KIND_SPATIAL", "KIND_COUNT"]
+
+KIND_PLANAR, KIND_SPATIAL, KIND_COUNT = 1, 2, 3
+# common int slots: kind, callback calls, calls per step, next row k, rows, first fall (−1), floats, actuators
+C_KIND, C_CALLS, C_PER, C_K, C_ROWS, C_FALL, C_FLOATS, C_NACT, C_ACT = range(9)   # C_ACT .. C_ACT + 3
+# a rider block (controllers.rider.RiderRun): offsets from its first slot
+R_VREF, R_GREF, R_PREF, R_UREF, R_NOISE, R_DU, R_KHIST, R_INTEGRAL, R_N, R_FLOATS = range(10)
+# planar: state indices, padded history, torques, rider block
+P_IX, P_IG, P_IR, P_VX, P_VG, P_VR, P_HIST, P_MD, P_MH, P_RIDER = range(12, 22)
+# spatial: qpos/qvel addresses, output rows, history, plan, path, lateral rider, fall kind, rider block
+(S_RQ, S_RV, S_IP, S_IL, S_IT, S_VP, S_VL, S_VT, S_OUT, S_HIST, S_PLAN, S_PX, S_PY, S_PH, S_PK, S_PN, S_PI,
+ S_ND, S_KP, S_KH, S_ZHIST, S_UHIST, S_K, S_FALL_KIND, S_RIDER) = range(12, 37)
+C_SIZE = 48
+# float slots: the motor law's settings (MotorPD.law_args) 0 … 10, then
+F_HELD = 11                                        # the held controls, 11 … 14
+(F_PHI_MAX, F_GAM_MAX, F_TILT, F_DT, F_LAT_LIM, F_G, F_XS, F_ZINT, F_UBAR, _, F_ABAR, F_XDOT, F_PSI,
+ F_H, F_L0, F_EH, F_FALL_VALUE) = range(15, 32)
+F_SIZE = 32
+SLOTS = 64                                         # simulations served at once
+
+_REGISTRY = np.zeros(2 * SLOTS, dtype=np.int64)    # (MjData address, context address); 0: free
+_LOCK = threading.Lock()
+_STATE = {"callback": None, "reason": "", "active": 0, "previous": None}
+
+
+class Context:
+    """One run's context: the int64 slots, the float slots and the arrays they point at."""
+
+    def __init__(self, kind: int, rows: int, calls_per_step: int = 1):
+        self.c = np.zeros(C_SIZE, dtype=np.int64)
+        self.f = np.zeros(F_SIZE, dtype=np.float64)
+        self._keep = [self.f]
+        self._rider_floats: dict[int, np.ndarray] = {}
+        self.c[[C_KIND, C_PER, C_ROWS, C_FALL, C_FLOATS]] = kind, calls_per_step, rows, -1, self.f.ctypes.data
+
+    def put(self, slot: int, array: np.ndarray) -> np.ndarray:
+        """Point int slot ``slot`` at ``array`` (C-contiguous float64, kept alive here)."""
+        if array.dtype != np.float64 or not array.flags.c_contiguous:
+            raise TypeError(f"context arrays must be C-contiguous float64, got {array.dtype} "
+                            f"contiguous={array.flags.c_contiguous}")
+        self._keep.append(array)
+        self.c[slot] = array.ctypes.data
+        return array
+
+    def actuators(self, *ids: int) -> None:
+        """The actuators whose controls the callback holds, in the order of ``F_HELD``."""
+        self.c[C_NACT] = len(ids)
+        self.c[C_ACT:C_ACT + len(ids)] = ids
+
+    def rider(self, first: int, run) -> None:
+        """The rider block at slot ``first`` from a :class:`controllers.rider.RiderRun` (its own
+        ``du`` buffer: the run's state stays in it; z in the block's floats, read back by
+        :meth:`rider_z`)."""
+        for off, arr in ((R_VREF, run.v_ref), (R_GREF, run.gamma_ref), (R_PREF, run.phi_ref),
+                         (R_UREF, run.u_ref), (R_NOISE, run.noise), (R_DU, run.du), (R_KHIST, run.k_hist)):
+            self.put(first + off, np.ascontiguousarray(arr, dtype=np.float64))
+        rf = np.zeros(9)
+        rf[0], rf[1], rf[2] = run.dt, run.limit, run.z
+        rf[3:3 + len(run.k_pred)] = run.k_pred
+        self._rider_floats[first] = self.put(first + R_FLOATS, rf)
+        self.c[first + R_INTEGRAL], self.c[first + R_N] = int(run.integral), run.n
+
+    def rider_z(self, first: int) -> float:
+        """The rider's integrator z now, m."""
+        return float(self._rider_floats[first][2])
+
+    @property
+    def address(self) -> int:
+        return int(self.c.ctypes.data)
+
+
+def field_offsets() -> dict[str, int]:
+    """Byte offsets in ``mjData`` of the pointers ``qpos``, ``qvel``, ``ctrl``, found on a live MjData.
+
+    Each is the first 8-byte word of the struct equal to the array's address, and must
+    agree on a second MjData of another model.
+    """
+    import mujoco
+
+    found: list[dict[str, int]] = []
+    models = [
+        '<mujoco><worldbody><body><joint name="a"/><geom size=".1"/></body></worldbody>'
+        '<actuator><motor joint="a"/></actuator></mujoco>',
+        '<mujoco><worldbody><body><joint name="a" type="slide"/><geom size=".1"/><body>'
+        '<joint name="b"/><geom size=".1"/></body></body></worldbody>'
+        '<actuator><motor joint="a"/><motor joint="b"/></actuator></mujoco>',
+    ]
+    for xml in models:
+        m = mujoco.MjModel.from_xml_string(xml)
+        d = mujoco.MjData(m)
+        targets = {"qpos": d.qpos.ctypes.data, "qvel": d.qvel.ctypes.data, "ctrl": d.ctrl.ctypes.data}
+        base, offs, words = int(d._address), {}, 64
+        while len(offs) < len(targets):
+            if words > 1 << 20:
+                raise RuntimeError(f"mjData pointers not found in its first {words * 8} bytes")
+            buf = (ctypes.c_int64 * words).from_address(base)
+            w = np.frombuffer(buf, dtype=np.int64)
+            for name, addr in targets.items():
+                hit = np.flatnonzero(w == addr)
+                if name not in offs and hit.size:
+                    offs[name] = int(hit[0]) * 8
+            words *= 4
+        found.append(offs)
+    if found[0] != found[1]:
+        raise RuntimeError(f"mjData field offsets disagree between two models: {found}")
+    return found[0]
+
+
+def callback():
+    """The compiled control callback (built once per process), or ``None`` after one line on
+    stderr saying why the Python loop runs instead."""
+    if _STATE["callback"] is None:
+        try:
+            _STATE["callback"] = _compile()
+        except Exception as exc:  # noqa: BLE001 - any failure means: use the Python loop
+            _STATE["callback"], _STATE["reason"] = False, f"{type(exc).__name__}: {exc}".splitlines()[0]
+    if not _STATE["callback"]:
+        print(f"euc-sim: native closed loop unavailable ({_STATE['reason']}); using the Python loop",
+              file=sys.stderr)
+        return None
+    return _STATE["callback"]
+
+
+def available() -> bool:
+    """Whether the native callback compiles here (compiles it on first call)."""
+    if _STATE["callback"] is None:
+        callback()
+    return bool(_STATE["callback"])
+
+
+def _compile():
+    """numba ``cfunc`` of the kernels with MuJoCo's control-callback signature."""
+    from euc_sim.simulation.native_kernels import build_callback
+
+    offs = field_offsets()
+    return build_callback(offs["qpos"] // 8, offs["qvel"] // 8, offs["ctrl"] // 8,
+                          int(_REGISTRY.ctypes.data), SLOTS)
+
+
+@contextmanager
+def registered(data, context: Context):
+    """Serve ``data`` (an ``MjData``) with ``context`` by the callback inside the block.
+
+    Installs the callback for the first active run and restores the previous one after
+    the last.  Raises RuntimeError when all :data:`SLOTS` are taken.
+    """
+    import mujoco
+
+    cb = _STATE["callback"]
+    with _LOCK:
+        free = np.flatnonzero(_REGISTRY[0::2] == 0)
+        if not free.size:
+            raise RuntimeError(f"all {SLOTS} native simulation slots are taken")
+        s = int(free[0])
+        _REGISTRY[2 * s + 1] = context.address        # the context first, then the key
+        _REGISTRY[2 * s] = int(data._address)
+        if _STATE["active"] == 0:
+            _STATE["previous"] = mujoco.get_mjcb_control()
+            mujoco.set_mjcb_control(cb.ctypes)
+        _STATE["active"] += 1
+    try:
+        yield s
+    finally:
+        with _LOCK:
+            _REGISTRY[2 * s] = 0
+            _REGISTRY[2 * s + 1] = 0
+            _STATE["active"] -= 1
+            if _STATE["active"] == 0:
+                mujoco.set_mjcb_control(_STATE["previous"])
+                _STATE["previous"] = None
+
+
+def calls_per_step(m, d) -> int:
+    """Callback calls per ``mj_step`` of this model (4 for RK4), counted on a copy of ``d``.
+
+    Call with the callback built (:func:`callback`)."""
+    import mujoco
+
+    probe = mujoco.MjData(m)
+    mujoco.mj_copyData(probe, m, d)
+    ctx = Context(KIND_COUNT, 0)
+    with registered(probe, ctx):
+        mujoco.mj_step(m, probe)
+    calls = int(ctx.c[C_CALLS])
+    if calls < 1:
+        raise RuntimeError("the control callback was not called by mj_step")
+    return calls

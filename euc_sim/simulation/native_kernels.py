@@ -1,0 +1,298 @@
+"""The numba kernels of the native MuJoCo loops and the one control callback that runs them.
+
+Imported only by :func:`euc_sim.simulation.native_core.build_callback` (it needs numba).
+The callback ``void(const mjModel*, mjData*)`` looks its ``mjData`` up in the registry
+of :mod:`euc_sim.simulation.native_core` (pairs of MjData address, context address) and
+runs that simulation's kernel on its own context: the state of every run (counters,
+delay buffers, predictor history, integrators, the recorded rows) lives in that run's
+arrays, so any number of simulations, on any threads, can run at once.  An MjData not
+in the registry is left alone.
+
+Contexts are int64 arrays whose slots are the ``C_*`` / ``P_*`` / ``S_*`` indices of
+:mod:`euc_sim.simulation.native_core`; float settings and buffers are reached through
+the addresses they hold.  The laws are the project's own pure functions compiled here:
+:func:`controllers.motor.pd_torque` and :func:`controllers.rider.delayed_lqr_torque`.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import carray, cfunc, njit, types
+from numba.core.extending import intrinsic
+
+from controllers.motor import pd_torque
+from controllers.rider import delayed_lqr_torque
+from euc_sim.simulation import native_core as nc
+
+__all__ = ["build_callback"]
+
+
+def _pointer_to(element):
+    """An intrinsic casting an int64 address to a pointer to ``element``."""
+    @intrinsic
+    def cast(typingctx, addr):
+        sig = types.CPointer(element)(types.int64)
+
+        def codegen(context, builder, signature, args):
+            return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+        return sig, codegen
+    return cast
+
+
+f64p, i64p = _pointer_to(types.float64), _pointer_to(types.int64)
+
+
+@intrinsic
+def _address(typingctx, ptr):
+    sig = types.int64(ptr)
+
+    def codegen(context, builder, signature, args):
+        return builder.ptrtoint(args[0], context.get_value_type(types.int64))
+    return sig, codegen
+
+
+_motor = njit(pd_torque)
+_rider_law = njit(delayed_lqr_torque)
+
+
+@njit
+def _rider(c, k, Y, r):
+    """The longitudinal rider's applied M_h at step k (:meth:`controllers.rider.RiderRun.command`).
+
+    ``Y``: the padded state history (row k: the state n steps ago); ``r``: the context
+    slot of the rider's block (:data:`euc_sim.simulation.native_core.RIDER_SLOTS`).
+    """
+    n = c[r + nc.R_N]
+    rf = f64p(c[r + nc.R_FLOATS])                 # dt, limit, z, K Φⁿ (6)
+    y = Y[k]
+    e_v = y[3] - f64p(c[r + nc.R_VREF])[k]
+    z = rf[2]
+    integral = c[r + nc.R_INTEGRAL] != 0
+    if integral:
+        rf[2] = z + e_v * rf[0]
+    history = 0.0
+    du = f64p(c[r + nc.R_DU])
+    if n:
+        kh = f64p(c[r + nc.R_KHIST])
+        for i in range(n):
+            history += kh[i] * du[k + i]
+    u_ref = f64p(c[r + nc.R_UREF])[k + n]
+    u = _rider_law(e_v, y[1] - f64p(c[r + nc.R_GREF])[k], y[2] - f64p(c[r + nc.R_PREF])[k], y[4], y[5],
+                   z, history, u_ref, carray(f64p(c[r + nc.R_FLOATS] + 24), 6), integral, rf[1])
+    du[k + n] = u - u_ref
+    return u + f64p(c[r + nc.R_NOISE])[k]
+
+
+@njit
+def _motor_torque(f, gamma, gamma_dot, speed):
+    return _motor(gamma, gamma_dot, speed, f[0], f[1], f[2], f[3], f[4], f[5], f[6], f[7], f[8],
+                  f[9], f[10])
+
+
+@njit
+def planar_step(qpos, qvel, c, f):
+    """One control step of the planar loop (:func:`euc_sim.simulation.native.native_loop`)."""
+    k = c[nc.C_K]
+    if k >= c[nc.C_ROWS]:
+        return
+    n = c[nc.P_RIDER + nc.R_N]
+    Y = carray(f64p(c[nc.P_HIST]), (c[nc.C_ROWS] + n, 6))
+    row = Y[k + n]
+    if k > 0:                                     # row 0 is y0 as given
+        g = qpos[c[nc.P_IG]]
+        gd = qvel[c[nc.P_VG]]
+        row[0] = qpos[c[nc.P_IX]]
+        row[1] = g
+        row[2] = g + qpos[c[nc.P_IR]]
+        row[3] = qvel[c[nc.P_VX]]
+        row[4] = gd
+        row[5] = gd + qvel[c[nc.P_VR]]
+    if c[nc.C_FALL] < 0:                          # the first fall: a bound passed or a non-finite state
+        fine = abs(row[2]) <= f[nc.F_PHI_MAX] and abs(row[1]) <= f[nc.F_GAM_MAX]
+        for j in range(6):
+            fine = fine and row[j] - row[j] == 0.0
+        if not fine:
+            c[nc.C_FALL] = k
+    M_d = _motor_torque(f, row[1], row[4], row[3])
+    M_h = _rider(c, k, Y, nc.P_RIDER)
+    f64p(c[nc.P_MD])[k] = M_d
+    f64p(c[nc.P_MH])[k] = M_h
+    f[nc.F_HELD] = M_d
+    f[nc.F_HELD + 1] = M_h
+    c[nc.C_K] = k + 1
+
+
+@njit
+def _nearest(c, X, Y):
+    """(e_y, path heading, κ) of the nearest path point, searched forward (``spatial._Tracker``)."""
+    Xs, Ys = f64p(c[nc.S_PX]), f64p(c[nc.S_PY])
+    i, last = c[nc.S_PI], c[nc.S_PN] - 1
+    d = (Xs[i] - X) ** 2 + (Ys[i] - Y) ** 2
+    while i < last:
+        d1 = (Xs[i + 1] - X) ** 2 + (Ys[i + 1] - Y) ** 2
+        if d1 > d:
+            break
+        i, d = i + 1, d1
+    c[nc.S_PI] = i
+    h = f64p(c[nc.S_PH])[i]
+    e_y = -math.sin(h) * (X - Xs[i]) + math.cos(h) * (Y - Ys[i])
+    return e_y, h, f64p(c[nc.S_PK])[i]
+
+
+@njit
+def _lateral(c, f, k, z):
+    """(M_lean, M_twist) at step k from the lateral state z (``spatial._ride``'s law)."""
+    lim = f[nc.F_LAT_LIM]
+    nd = c[nc.S_ND]
+    if nd:
+        zh = carray(f64p(c[nc.S_ZHIST]), (c[nc.C_ROWS], 11))
+        for j in range(11):
+            zh[k, j] = z[j]
+        zs = zh[max(k - nd, 0)]
+        KP, KH, uh = f64p(c[nc.S_KP]), f64p(c[nc.S_KH]), f64p(c[nc.S_UHIST])
+        u0 = _lateral_row(KP, zs, KH, uh, 0, k, nd, lim)
+        u1 = _lateral_row(KP, zs, KH, uh, 1, k, nd, lim)
+        ab = f[nc.F_ABAR]
+        f[nc.F_UBAR] += ab * (u0 - f[nc.F_UBAR])
+        f[nc.F_UBAR + 1] += ab * (u1 - f[nc.F_UBAR + 1])
+        uh[2 * (k + nd)] = u0 - f[nc.F_UBAR]
+        uh[2 * (k + nd) + 1] = u1 - f[nc.F_UBAR + 1]
+        return u0, u1
+    K = f64p(c[nc.S_K])
+    acc0, acc1 = 0.0, 0.0
+    for j in range(11):
+        acc0 += K[j] * z[j]
+    for j in range(11):
+        acc1 += K[11 + j] * z[j]
+    return max(-lim, min(lim, -acc0)), max(-lim, min(lim, -acc1))
+
+
+@njit
+def _lateral_row(KP, zs, KH, uh, a, k, nd, lim):
+    """Input a of the predicting lateral rider: −(K Φⁿ z_{k−n} + Σ K Φ^{n−1−i} Γ u_{k−n+i}), limited."""
+    acc = 0.0
+    for j in range(11):
+        acc += KP[11 * a + j] * zs[j]
+    hist = 0.0
+    for j in range(2 * nd):
+        hist += KH[2 * nd * a + j] * uh[2 * k + j]
+    return max(-lim, min(lim, -(acc + hist)))
+
+
+@njit
+def _pose(qp, rq, ip, il, f, out):
+    """Rotation (row-major 9) into ``R`` and the sites C, E, G into the row (``spatial._pose``)."""
+    w, x, y, z = qp[rq + 3], qp[rq + 4], qp[rq + 5], qp[rq + 6]
+    R = (1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
+         2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
+         2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
+    h, l0, e_h = f[nc.F_H], f[nc.F_L0], f[nc.F_EH]
+    sp_, cp_, sl, cl = math.sin(qp[ip]), math.cos(qp[ip]), math.sin(qp[il]), math.cos(qp[il])
+    gb0, gb1, gb2 = h * cl * sp_, -h * sl, h * cl * cp_ - l0
+    for i in range(3):
+        C = qp[rq + i]
+        out[17 + i] = C
+        out[20 + i] = C + R[3 * i + 2] * e_h
+        out[23 + i] = C + R[3 * i] * gb0 + R[3 * i + 1] * gb1 + R[3 * i + 2] * gb2
+    return R
+
+
+@njit
+def _fall_3d(c, f, k, theta, phi, gamma):
+    """Record the first fall at step k: its kind (``spatial._fall``'s order) and value."""
+    if not (math.isfinite(theta) and math.isfinite(phi) and math.isfinite(gamma)):
+        kind, value = 0, math.nan
+    elif abs(theta) > f[nc.F_TILT]:
+        kind, value = 1, theta
+    elif abs(phi) > f[nc.F_PHI_MAX]:
+        kind, value = 2, phi
+    else:
+        kind, value = 3, gamma
+    c[nc.C_FALL], c[nc.S_FALL_KIND], f[nc.F_FALL_VALUE] = k, kind, value
+
+
+@njit
+def spatial_step(qp, qv, c, f):
+    """One control step of the 3-D loop (:func:`euc_sim.simulation.native_spatial.native_ride`)."""
+    k = c[nc.C_K]
+    if k >= c[nc.C_ROWS] or c[nc.C_FALL] >= 0:
+        return
+    rq, rv, dt = c[nc.S_RQ], c[nc.S_RV], f[nc.F_DT]
+    if k > 0:                                     # the travelled distance: trapezoid over the last step
+        psi0 = f[nc.F_PSI]
+        f[nc.F_XS] += dt * 0.5 * (f[nc.F_XDOT] + (math.cos(psi0) * qv[rv] + math.sin(psi0) * qv[rv + 1]))
+    out = carray(f64p(c[nc.S_OUT]), (c[nc.C_ROWS], 26))[k]
+    R = _pose(qp, rq, c[nc.S_IP], c[nc.S_IL], f, out)
+    psi = math.atan2(-R[1], R[4])
+    theta = math.asin(max(-1.0, min(1.0, R[7])))
+    gamma = math.atan2(-R[6], R[8])
+    wl0, wl1, wl2 = qv[rv + 3], qv[rv + 4], qv[rv + 5]
+    wx = R[0] * wl0 + R[1] * wl1 + R[2] * wl2
+    wy = R[3] * wl0 + R[4] * wl1 + R[5] * wl2
+    wz = R[6] * wl0 + R[7] * wl1 + R[8] * wl2
+    cp, sp, ct, st = math.cos(psi), math.sin(psi), math.cos(theta), math.sin(theta)
+    gamma_d = (-sp * wx + cp * wy) / ct
+    theta_d = cp * wx + sp * wy
+    psi_d = wz - gamma_d * st
+    vX, vY = qv[rv], qv[rv + 1]
+    x_dot = cp * vX + sp * vY
+    phi, phi_d = gamma + qp[c[nc.S_IP]], gamma_d + qv[c[nc.S_VP]]
+    if not (abs(theta) <= f[nc.F_TILT] and abs(phi) <= f[nc.F_PHI_MAX] and abs(gamma) <= f[nc.F_GAM_MAX]):
+        _fall_3d(c, f, k, theta, phi, gamma)
+        return
+    n = c[nc.S_RIDER + nc.R_N]
+    Y = carray(f64p(c[nc.S_HIST]), (c[nc.C_ROWS] + n, 6))
+    x_s = f[nc.F_XS]
+    Y[k + n, 0], Y[k + n, 1], Y[k + n, 2] = x_s, gamma, phi
+    Y[k + n, 3], Y[k + n, 4], Y[k + n, 5] = x_dot, gamma_d, phi_d
+    M_d = _motor_torque(f, gamma, gamma_d, x_dot)
+    M_h = _rider(c, k, Y, nc.S_RIDER)
+    e_y, h_p, kap = _nearest(c, qp[rq], qp[rq + 1])
+    a = psi - h_p + math.pi
+    z = (e_y, a % (2.0 * math.pi) - math.pi, theta + math.atan(x_dot * x_dot * kap / f[nc.F_G]),
+         qp[c[nc.S_IL]], qp[c[nc.S_IT]], -math.sin(h_p) * vX + math.cos(h_p) * vY, theta_d,
+         psi_d - x_dot * kap, qv[c[nc.S_VL]], qv[c[nc.S_VT]], f[nc.F_ZINT])
+    u_l, u_t = _lateral(c, f, k, z)
+    row = (k * dt, x_s, gamma, phi, x_dot, gamma_d, phi_d, M_d, M_h, f64p(c[nc.S_PLAN])[k], psi,
+           theta, psi_d, theta_d, u_l, u_t, e_y)
+    for j in range(17):
+        out[j] = row[j]
+    f[nc.F_ZINT] += e_y * dt
+    f[nc.F_XDOT], f[nc.F_PSI] = x_dot, psi
+    f[nc.F_HELD], f[nc.F_HELD + 1], f[nc.F_HELD + 2], f[nc.F_HELD + 3] = M_d, M_h, u_l, u_t
+    c[nc.C_K] = k + 1
+
+
+def build_callback(w_qpos: int, w_qvel: int, w_ctrl: int, registry_address: int, slots: int):
+    """The cfunc ``void(const mjModel*, mjData*)``: find ``d`` in the registry, run its kernel.
+
+    ``w_*``: the word offsets of ``qpos``, ``qvel``, ``ctrl`` in ``mjData``.  The kernel runs
+    at the first of the callback's calls in each step (``c[C_PER]`` calls per step; RK4
+    calls it once per stage); every call writes the held controls (zero-order hold at dt).
+    """
+    @cfunc(types.void(types.voidptr, types.CPointer(types.int64)))
+    def control(m, d):
+        reg = carray(i64p(registry_address), 2 * slots)
+        me = _address(d)
+        for s in range(slots):
+            if reg[2 * s] == me:
+                c = carray(i64p(reg[2 * s + 1]), nc.C_SIZE)
+                calls = c[nc.C_CALLS]
+                c[nc.C_CALLS] = calls + 1
+                kind = c[nc.C_KIND]
+                if kind == nc.KIND_COUNT:
+                    return
+                f = carray(f64p(c[nc.C_FLOATS]), nc.F_SIZE)
+                if calls % c[nc.C_PER] == 0:
+                    qpos, qvel = f64p(d[w_qpos]), f64p(d[w_qvel])
+                    if kind == nc.KIND_PLANAR:
+                        planar_step(qpos, qvel, c, f)
+                    else:
+                        spatial_step(qpos, qvel, c, f)
+                ctrl = f64p(d[w_ctrl])
+                for a in range(c[nc.C_NACT]):
+                    ctrl[c[nc.C_ACT + a]] = f[nc.F_HELD + a]
+                return
+
+    return control

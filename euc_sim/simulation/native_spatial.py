@@ -1,0 +1,135 @@
+"""The 3-D MuJoCo closed loop without Python per step (:func:`euc_sim.simulation.spatial.simulate_3d`).
+
+The loop of ``spatial._ride`` as the native callback's spatial kernel
+(:func:`euc_sim.simulation.native_kernels.spatial_step`): at the first callback call of
+each step it reads the paper's state from qpos/qvel (pose, yaw/tilt/pitch and their
+rates, the travelled distance by the trapezoid rule), runs the motor PD, the delayed
+longitudinal rider (:func:`controllers.rider.delayed_lqr_torque`), the nearest path point
+and the lateral rider (with its predictor and turn-effort estimate when it has a
+delay), records the row and holds the four controls over the step.  The last row is
+recorded by the callback under ``mj_forward`` (no step).
+
+The Python loop stays the reference and the fallback: ``simulate_3d(native=False)``, or
+a machine where numba cannot compile (one line on stderr).  Without a lateral delay the
+two agree bit for bit; with one, the predictor's sums are taken in another order than
+numpy's matrix products, and the runs agree to rounding (``tests/simulation/test_native_spatial.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from controllers.lateral import LateralRider
+from controllers.motor import MotorPD
+from controllers.rider import RiderRun
+from euc_sim.simulation import native_core as nc
+from euc_sim.simulation.errors import FallError
+from euc_sim.simulation.mocap import E_HEIGHT
+
+__all__ = ["native_ride", "ROW_COLUMNS", "LAST_RUN"]
+
+#: Columns of a recorded row (``spatial._ride``'s order).
+ROW_COLUMNS = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref", "psi",
+               "theta", "psi_dot", "theta_dot", "M_lean", "M_twist", "e_y",
+               "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
+#: Steps run in C between two looks for a fall.
+CHUNK_STEPS = 1000
+#: The last native 3-D run of this process: rows recorded by the callback.
+LAST_RUN: dict = {}
+_FALL_KINDS = ("state", "theta", "phi", "gamma")
+
+
+def native_ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, path, v_ref: np.ndarray,
+                N: int, dt: float, y0: tuple, bounds: dict, tilt_bound: float,
+                turn_effort_time: float) -> np.ndarray | None:
+    """``spatial._ride`` natively: the rows (N + 1, 26) in :data:`ROW_COLUMNS`' order.
+
+    Parameters
+    ----------
+    sim : EucSpatial
+        The model, set to its initial state.
+    run : RiderRun
+        The longitudinal rider of the run (its ``du`` and ``z`` advance as in the Python loop).
+    motor : MotorPD
+    lateral : LateralRider
+    path : Path3D
+        The path followed.
+    v_ref : numpy.ndarray, shape (N + 1,)
+        Planned speed, m/s.
+    N : int
+        Steps.
+    dt : float
+        Timestep, s.
+    y0 : tuple
+        The planar state before t = 0 (the rider's delay buffer).
+    bounds : dict
+        ``{"phi": rad, "gamma": rad}`` fall bounds; ``tilt_bound``: |ϑ| bound, rad.
+    turn_effort_time : float
+        Time constant of the delayed lateral rider's turn-effort estimate, s.
+
+    Returns
+    -------
+    numpy.ndarray or None
+        ``None`` (one line on stderr) when the callback cannot be built.
+
+    Raises
+    ------
+    FallError
+        at the first step whose state is out of bounds, as the Python loop.
+    """
+    if nc.callback() is None:
+        return None
+    import mujoco
+
+    m, d = sim.model, sim.data
+    ctx, out = _context(sim, run, motor, lateral, path, v_ref, N, dt, y0, bounds, tilt_bound,
+                        turn_effort_time)
+    ctx.c[nc.C_PER] = nc.calls_per_step(m, d)
+    with nc.registered(d, ctx):
+        for k0 in range(0, N, CHUNK_STEPS):
+            mujoco.mj_step(m, d, nstep=min(CHUNK_STEPS, N - k0))
+            if ctx.c[nc.C_FALL] >= 0:
+                break
+        else:                                   # the last row: the callback once more, no step
+            ctx.c[nc.C_CALLS] = 0
+            mujoco.mj_forward(m, d)
+    run.z = ctx.rider_z(nc.S_RIDER)
+    LAST_RUN.update(rows=int(ctx.c[nc.C_K]), per=int(ctx.c[nc.C_PER]))
+    if ctx.c[nc.C_FALL] >= 0:
+        kind = _FALL_KINDS[int(ctx.c[nc.S_FALL_KIND])]
+        bound = {"state": None, "theta": tilt_bound, "phi": bounds["phi"], "gamma": bounds["gamma"]}[kind]
+        raise FallError(int(ctx.c[nc.C_FALL]) * dt, kind, float(ctx.f[nc.F_FALL_VALUE]), bound)
+    return out
+
+
+def _context(sim, run, motor, lateral, path, v_ref, N, dt, y0, bounds, tilt_bound, turn_effort_time):
+    """The run's context and its output rows (N + 1, 26)."""
+    ctx = nc.Context(nc.KIND_SPATIAL, N + 1)
+    out = ctx.put(nc.S_OUT, np.zeros((N + 1, len(ROW_COLUMNS))))
+    n = run.n
+    hist = ctx.put(nc.S_HIST, np.empty((N + 1 + n, 6)))
+    hist[:n] = y0
+    ctx.put(nc.S_PLAN, np.ascontiguousarray(v_ref, dtype=np.float64))
+    for slot, arr in ((nc.S_PX, path.X), (nc.S_PY, path.Y), (nc.S_PH, path.heading), (nc.S_PK, path.kappa)):
+        ctx.put(slot, np.ascontiguousarray(arr, dtype=np.float64))
+    ctx.c[nc.S_PN], ctx.c[nc.S_PI] = len(path.X), 0
+    qa, va = sim.qadr, sim.vadr
+    ctx.c[nc.S_RQ:nc.S_VT + 1] = (qa["root"], va["root"], qa["rider_pitch"], qa["rider_lean"],
+                                  qa["rider_twist"], va["rider_pitch"], va["rider_lean"], va["rider_twist"])
+    ctx.actuators(*(sim.act[a] for a in ("motor", "ankle", "lean", "twist")))
+    nd = lateral.n_delay
+    ctx.c[nc.S_ND] = nd
+    ctx.put(nc.S_K, np.ascontiguousarray(np.asarray(lateral.K, dtype=np.float64).reshape(2, 11)))
+    if nd:
+        ctx.put(nc.S_KP, np.ascontiguousarray(np.asarray(lateral.K_pred, dtype=np.float64)))
+        ctx.put(nc.S_KH, np.ascontiguousarray(np.asarray(lateral.K_hist, dtype=np.float64)))
+        ctx.put(nc.S_ZHIST, np.zeros((N + 1, 11)))
+        ctx.put(nc.S_UHIST, np.zeros(2 * (N + 1 + nd)))
+    f, p = ctx.f, sim.params
+    f[:11] = motor.law_args()
+    f[nc.F_PHI_MAX], f[nc.F_GAM_MAX], f[nc.F_TILT] = bounds["phi"], bounds["gamma"], tilt_bound
+    f[nc.F_DT], f[nc.F_LAT_LIM], f[nc.F_G] = dt, lateral.torque_limit, p.g
+    f[nc.F_ABAR] = dt / turn_effort_time
+    f[nc.F_H], f[nc.F_L0], f[nc.F_EH] = p.h, p.l0, E_HEIGHT
+    ctx.rider(nc.S_RIDER, run)
+    return ctx, out
