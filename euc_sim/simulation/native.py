@@ -36,8 +36,9 @@ from euc_sim.simulation.errors import FallError
 
 __all__ = ["native_loop", "available", "LAST_RUN", "CHUNK_STEPS"]
 
-#: Steps run in C between two looks for a fall when no progress is asked for.
-CHUNK_STEPS = 2000
+#: Steps run in C between two looks for a fall when no progress is asked for (a fallen run
+#: goes on at most this far: not into the NaN warnings of a diverging MuJoCo state).
+CHUNK_STEPS = 100
 #: The last native run of this process: rows recorded by the callback, its calls, calls per step.
 LAST_RUN: dict = {}
 

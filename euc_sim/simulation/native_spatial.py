@@ -32,8 +32,8 @@ __all__ = ["native_ride", "ROW_COLUMNS", "LAST_RUN"]
 ROW_COLUMNS = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref", "psi",
                "theta", "psi_dot", "theta_dot", "M_lean", "M_twist", "e_y",
                "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
-#: Steps run in C between two looks for a fall.
-CHUNK_STEPS = 1000
+#: Steps run in C between two looks for a fall (a fallen run goes on at most this far).
+CHUNK_STEPS = 100
 #: The last native 3-D run of this process: rows recorded by the callback.
 LAST_RUN: dict = {}
 _FALL_KINDS = ("state", "theta", "phi", "gamma")

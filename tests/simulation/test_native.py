@@ -1,15 +1,17 @@
-"""The native MuJoCo closed loop (motor PD as a numba control callback) against the Python loop."""
+"""The native MuJoCo closed loop (motor PD and the delayed rider as a numba control callback) against the
+Python loop."""
 
 from __future__ import annotations
 
 import ctypes
+import time
 
 import mujoco
 import numpy as np
 import pytest
 
 from controllers.motor import MotorPD
-from euc_sim.simulation import native
+from euc_sim.simulation import native, native_core
 from euc_sim.simulation.engine import default_rider, simulate
 from euc_sim.simulation.errors import FallError
 
@@ -29,7 +31,7 @@ def test_offsets_point_at_the_fields():
     d = mujoco.MjData(mujoco.MjModel.from_xml_string(
         '<mujoco><worldbody><body><joint name="j"/><geom size=".1"/></body></worldbody>'
         '<actuator><motor joint="j"/></actuator></mujoco>'))
-    offs = native.field_offsets()
+    offs = native_core.field_offsets()
     for name in ("qpos", "qvel", "ctrl"):
         assert ctypes.c_int64.from_address(d._address + offs[name]).value == getattr(d, name).ctypes.data
 
@@ -42,9 +44,9 @@ def test_offsets_point_at_the_fields():
 ])
 def test_native_loop_matches_the_python_loop(rider, variant, motor, effects, maneuver):
     kw = dict(rider=rider, seed=3, variant=variant, motor=motor, effects=effects)
-    native._I[native._I_K] = -7                          # marker: the native run overwrites it
+    native.LAST_RUN.clear()
     a = simulate(maneuver, 8.0, **kw)
-    assert int(native._I[native._I_K]) == 8000         # it ran natively: one row per step (the last read after)
+    assert native.LAST_RUN["rows"] == 8001              # it ran natively: every row recorded by the callback
     b = simulate(maneuver, 8.0, native=False, **kw)
     assert list(a.columns) == list(b.columns) and len(a) == len(b)
     assert _gap(a, b) <= TOL
@@ -54,8 +56,8 @@ def test_native_loop_matches_the_python_loop(rider, variant, motor, effects, man
 def test_native_loop_runs_in_c(rider):
     simulate("stop_and_go", 2.0, rider=rider)
     assert native.available()
-    assert int(native._I[native._I_K]) == 2000          # rows recorded by the callback, one per step
-    assert int(native._I[native._I_CALLS]) == 2000 * int(native._I[native._I_PER])
+    assert native.LAST_RUN["rows"] == 2001              # rows recorded by the callback, the last under mj_forward
+    assert native.LAST_RUN["per"] == 4                  # RK4: the callback once per stage, the law once per step
 
 
 def test_a_fall_is_raised_at_the_same_time(rider):
@@ -80,8 +82,8 @@ def test_progress_is_the_simulated_time_in_both_loops(rider):
 def test_fallback_when_numba_cannot_compile(rider, monkeypatch, capsys):
     def broken():
         raise ImportError("no numba here")
-    monkeypatch.setattr(native, "_CALLBACK", None)
-    monkeypatch.setattr(native, "_compile", broken)
+    monkeypatch.setitem(native_core._STATE, "callback", None)
+    monkeypatch.setattr(native_core, "_compile", broken)
     a = simulate("stop_and_go", 2.0, rider=rider, seed=2)
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "Python loop" in err[0] and "no numba here" in err[0]
@@ -91,13 +93,13 @@ def test_fallback_when_numba_cannot_compile(rider, monkeypatch, capsys):
 
 
 def test_per_step_effects_keep_the_python_loop(rider):
-    native._I[native._I_K] = -7                          # marker: untouched by a Python run
+    native.LAST_RUN.clear()
     simulate("stop_and_go", 1.0, rider=rider, effects={"aerodynamic_drag": 0.4})
-    assert int(native._I[native._I_K]) == -7
+    assert native.LAST_RUN == {}
 
 
 def test_threads_share_the_callback_safely(rider):
-    """Runs on threads: one holds the callback, the others take the Python loop; all exact."""
+    """Runs on threads, each natively with its own context at once; all as the Python loop."""
     from concurrent.futures import ThreadPoolExecutor
 
     seeds = [0, 1, 2, 3]
@@ -106,3 +108,55 @@ def test_threads_share_the_callback_safely(rider):
     for s, a in zip(seeds, runs):
         assert _gap(a, simulate("stop_and_go", 3.0, rider=rider, seed=s, native=False)) <= TOL
     assert mujoco.get_mjcb_control() is None
+
+
+def test_the_rider_law_matches_the_python_reference_step_by_step(rider):
+    """The rider's state after a native run (integrator z, command history du) is the one
+    the Python reference leaves: the law and its buffers advance alike."""
+    from controllers.rider import RiderRun
+    from euc_sim.simulation.engine import _MujocoStepper, FALL_BOUNDS, _raise_fall
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.simulation.maneuvers import make_maneuver
+
+    r6 = rider.replace(K=tuple(rider.K[:5]) + (-40.0,)) if len(rider.K) == 5 else rider
+    N, dt = 3000, 1e-3
+    v_ref, a_ref = make_maneuver("stop_and_go").reference(np.arange(N + 1) * dt)
+    runs = [RiderRun(r6, TABLE3, MotorPD(), v_ref, a_ref, dt, seed=5) for _ in range(2)]
+    v0, g0, f0, _ = runs[0].initial_state()
+    y0 = (0.0, g0, f0, v0, 0.0, 0.0)
+    stepper = _MujocoStepper(TABLE3, "ideal", dt, {}, None)
+    stepper.reset(y0)
+    states, U = native.native_loop(stepper, MotorPD(), runs[0], dt, N, y0, FALL_BOUNDS, _raise_fall)
+    n = runs[1].n
+    Y = [y0] * n + [tuple(s) for s in states]
+    M_h = [runs[1].command(k, Y)[1] for k in range(N + 1)]      # the reference law on the same states
+    assert np.max(np.abs(np.array(M_h) - U[:, 1])) <= 1e-9
+    assert runs[0].z == pytest.approx(runs[1].z, abs=1e-12) and runs[1].z != 0.0
+    assert np.max(np.abs(runs[0].du - runs[1].du)) <= 1e-9
+
+
+def test_a_foreign_simulation_is_left_alone_while_native_runs_go(rider):
+    """The callback is process-wide; an MjData it does not know keeps its own controls."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    m = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><body><joint name="j"/><geom size=".1" mass="1"/></body></worldbody>'
+        '<actuator><motor joint="j"/></actuator></mujoco>')
+    d = mujoco.MjData(m)
+
+    def foreign():
+        t0 = time.perf_counter()
+        while mujoco.get_mjcb_control() is None and time.perf_counter() - t0 < 120:
+            time.sleep(1e-4)                            # until the ride's callback is installed
+        seen = [mujoco.get_mjcb_control() is not None]
+        for _ in range(200):
+            d.ctrl[0] = 0.25
+            mujoco.mj_step(m, d, nstep=50)
+            seen.append(float(d.ctrl[0]))
+        return seen
+
+    with ThreadPoolExecutor(2) as pool:
+        ride = pool.submit(simulate, "stop_and_go", 6.0, rider=rider, seed=1)
+        seen = pool.submit(foreign).result()
+        ride.result()
+    assert seen == [True] + [0.25] * 200
