@@ -331,7 +331,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         ride): for a progress bar over a long run.
     native : bool
         Run the MuJoCo loop without Python per step (:mod:`euc_sim.simulation.native`:
-        the motor PD as a numba-compiled MuJoCo control callback, the rider per block).
+        the motor PD and the rider's delayed law as a numba-compiled MuJoCo control callback).
         It applies to the ``mujoco`` engine when no input needs Python at every step:
         ``rolling_resistance`` (as a moment), ``aerodynamic_drag``, ``cog_height_drift``,
         ``lateral_dynamics`` and ``external_force`` keep the Python loop, as does

@@ -32,6 +32,7 @@ import numpy as np
 from controllers.motor import MotorPD
 from controllers.rider import RiderRun
 from euc_sim.simulation import native_core as nc
+from euc_sim.simulation import native_layout as lay
 from euc_sim.simulation.errors import FallError
 
 __all__ = ["native_loop", "available", "LAST_RUN", "CHUNK_STEPS"]
@@ -66,16 +67,16 @@ def _context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bounds):
     """The run's context (state indices, motor settings, rider block) and the arrays the
     callback fills: padded history P (N + 1 + n, 6), M_d and M_h (N + 1)."""
     n = run.n
-    ctx = nc.Context(nc.KIND_PLANAR, N + 1)
-    P = ctx.put(nc.P_HIST, np.empty((N + 1 + n, 6)))      # padded state history: the delay buffer
+    ctx = nc.Context(lay.KIND_PLANAR, N + 1)
+    P = ctx.put(lay.P_HIST, np.empty((N + 1 + n, 6)))      # padded state history: the delay buffer
     P[:n + 1] = y0                                         # row 0 is y0 as given
-    M_d = ctx.put(nc.P_MD, np.zeros(N + 1))
-    M_h = ctx.put(nc.P_MH, np.zeros(N + 1))
-    ctx.c[nc.P_IX:nc.P_VR + 1] = (stepper.ix, stepper.ig, stepper.ir, stepper.vx, stepper.vg, stepper.vr)
+    M_d = ctx.put(lay.P_MD, np.zeros(N + 1))
+    M_h = ctx.put(lay.P_MH, np.zeros(N + 1))
+    ctx.c[lay.P_IX:lay.P_VR + 1] = (stepper.ix, stepper.ig, stepper.ir, stepper.vx, stepper.vg, stepper.vr)
     ctx.actuators(stepper.a_motor, stepper.a_ankle)
     ctx.f[:11] = motor.law_args()
-    ctx.f[nc.F_PHI_MAX], ctx.f[nc.F_GAM_MAX] = bounds["phi"], bounds["gamma"]
-    ctx.rider(nc.P_RIDER, run)
+    ctx.f[lay.F_PHI_MAX], ctx.f[lay.F_GAM_MAX] = bounds["phi"], bounds["gamma"]
+    ctx.rider(lay.P_RIDER, run)
     return ctx, P, M_d, M_h
 
 
@@ -86,7 +87,7 @@ def _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None):
     m, d, n = stepper.m, stepper.d, run.n
     ctx, P, M_d, M_h = _context(stepper, motor, run, N, y0, bounds)
     phi_max, gam_max = bounds["phi"], bounds["gamma"]
-    ctx.c[nc.C_PER] = nc.calls_per_step(m, d)
+    ctx.c[lay.C_PER] = nc.calls_per_step(m, d)
     chunk = n + 1 if progress is not None else CHUNK_STEPS
     with nc.registered(d, ctx):
         for k0 in range(0, N + 1, chunk):
@@ -95,15 +96,15 @@ def _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None):
             steps = min(chunk, N - k0)
             if steps:
                 mujoco.mj_step(m, d, nstep=steps)
-            if ctx.c[nc.C_FALL] >= 0:
+            if ctx.c[lay.C_FALL] >= 0:
                 break
         else:                                 # the last row: the callback once more, no step
-            ctx.c[nc.C_CALLS] = 0
+            ctx.c[lay.C_CALLS] = 0
             mujoco.mj_forward(m, d)
-    run.z = ctx.rider_z(nc.P_RIDER)
-    LAST_RUN.update(rows=int(ctx.c[nc.C_K]), calls=int(ctx.c[nc.C_CALLS]), per=int(ctx.c[nc.C_PER]))
-    if ctx.c[nc.C_FALL] >= 0:
-        k = int(ctx.c[nc.C_FALL])
+    run.z = ctx.rider_z(lay.P_RIDER)
+    LAST_RUN.update(rows=int(ctx.c[lay.C_K]), calls=int(ctx.c[lay.C_CALLS]), per=int(ctx.c[lay.C_PER]))
+    if ctx.c[lay.C_FALL] >= 0:
+        k = int(ctx.c[lay.C_FALL])
         try:
             _check_falls(P[n + k:n + k + 1], k, dt, phi_max, gam_max, raise_fall)
         except FallError as exc:          # the states and torques of steps 0 … k − 1

@@ -9,11 +9,8 @@ its float settings and buffers — holds all of that simulation's controller sta
 Simulations on other threads, or in ``mujoco.batch``, each register their own
 ``MjData`` and context; an ``MjData`` not registered is left alone by the callback.
 
-Interface of a context (for a caller building its own, e.g. a batch of rides): the
-``C_*`` slots are common; ``KIND_PLANAR`` runs use ``P_*`` and a rider block at
-``P_RIDER``, ``KIND_SPATIAL`` runs ``S_*`` and a rider block at ``S_RIDER`` (``R_*``
-offsets); floats at the ``F_*`` slots of the array whose address is ``C_FLOATS``.
-:class:`Context` fills them; :func:`registered` registers a ``MjData`` with one for the
+Interface of a context (for a caller building its own, e.g. a batch of rides): its
+slots are :mod:`euc_sim.simulation.native_layout`'s; :class:`Context` fills them; :func:`registered` registers a ``MjData`` with one for the
 duration of a ``with`` block.
 
 ``mjData`` fields (``qpos``, ``qvel``, ``ctrl``) are read through offsets in the struct
@@ -31,25 +28,12 @@ from contextlib import contextmanager
 
 import numpy as np
 
-__all__ = ["field_offsets", "callback", "available", "Context", "registered", "calls_per_step",
-           "SLOTS", "KIND_PLANAR", "KIND_SPATIAL", "KIND_COUNT"]
+from euc_sim.simulation.native_layout import (C_CALLS, C_FALL, C_FLOATS, C_KIND, C_NACT, C_PER, C_ROWS,
+                                              C_SIZE, F_SIZE, KIND_COUNT, R_DU, R_FLOATS, R_GREF, R_INTEGRAL,
+                                              R_KHIST, R_N, R_NOISE, R_PREF, R_UREF, R_VREF, C_ACT)
 
-KIND_PLANAR, KIND_SPATIAL, KIND_COUNT = 1, 2, 3
-# common int slots: kind, callback calls, calls per step, next row k, rows, first fall (−1), floats, actuators
-C_KIND, C_CALLS, C_PER, C_K, C_ROWS, C_FALL, C_FLOATS, C_NACT, C_ACT = range(9)   # C_ACT .. C_ACT + 3
-# a rider block (controllers.rider.RiderRun): offsets from its first slot
-R_VREF, R_GREF, R_PREF, R_UREF, R_NOISE, R_DU, R_KHIST, R_INTEGRAL, R_N, R_FLOATS = range(10)
-# planar: state indices, padded history, torques, rider block
-P_IX, P_IG, P_IR, P_VX, P_VG, P_VR, P_HIST, P_MD, P_MH, P_RIDER = range(12, 22)
-# spatial: qpos/qvel addresses, output rows, history, plan, path, lateral rider, fall kind, rider block
-(S_RQ, S_RV, S_IP, S_IL, S_IT, S_VP, S_VL, S_VT, S_OUT, S_HIST, S_PLAN, S_PX, S_PY, S_PH, S_PK, S_PN, S_PI,
- S_ND, S_KP, S_KH, S_ZHIST, S_UHIST, S_K, S_FALL_KIND, S_RIDER) = range(12, 37)
-C_SIZE = 48
-# float slots: the motor law's settings (MotorPD.law_args) 0 … 10, then
-F_HELD = 11                                        # the held controls, 11 … 14
-(F_PHI_MAX, F_GAM_MAX, F_TILT, F_DT, F_LAT_LIM, F_G, F_XS, F_ZINT, F_UBAR, _, F_ABAR, F_XDOT, F_PSI,
- F_H, F_L0, F_EH, F_FALL_VALUE) = range(15, 32)
-F_SIZE = 32
+__all__ = ["field_offsets", "callback", "available", "Context", "registered", "calls_per_step", "SLOTS"]
+
 SLOTS = 64                                         # simulations served at once
 
 _REGISTRY = np.zeros(2 * SLOTS, dtype=np.int64)    # (MjData address, context address); 0: free
@@ -204,10 +188,25 @@ def registered(data, context: Context):
                 _STATE["previous"] = None
 
 
+_CALLS_PER_STEP: dict = {}
+
+
 def calls_per_step(m, d) -> int:
-    """Callback calls per ``mj_step`` of this model (4 for RK4), counted on a copy of ``d``.
+    """Callback calls per ``mj_step`` (4 for RK4), counted on a copy of ``d`` the first time a
+    model with this integrator and these disable flags is stepped in the process (the probe
+    allocates an ``MjData``: ~1 ms, about 1 ms a ride otherwise).
 
     Call with the callback built (:func:`callback`)."""
+    import mujoco
+
+    key = (int(m.opt.integrator), int(m.opt.disableflags))
+    if key not in _CALLS_PER_STEP:
+        _CALLS_PER_STEP[key] = _count_calls(m, d)
+    return _CALLS_PER_STEP[key]
+
+
+def _count_calls(m, d) -> int:
+    """Callback calls of one ``mj_step`` of a copy of ``d``."""
     import mujoco
 
     probe = mujoco.MjData(m)

@@ -9,23 +9,60 @@ arrays, so any number of simulations, on any threads, can run at once.  An MjDat
 in the registry is left alone.
 
 Contexts are int64 arrays whose slots are the ``C_*`` / ``P_*`` / ``S_*`` indices of
-:mod:`euc_sim.simulation.native_core`; float settings and buffers are reached through
+:mod:`euc_sim.simulation.native_layout`; float settings and buffers are reached through
 the addresses they hold.  The laws are the project's own pure functions compiled here:
 :func:`controllers.motor.pd_torque` and :func:`controllers.rider.delayed_lqr_torque`.
 """
 
 from __future__ import annotations
 
+import hashlib
 import math
+import os
+import sys
+import tempfile
 
-from numba import carray, cfunc, njit, types
+from numba import carray, cfunc, config, njit, types
 from numba.core.extending import intrinsic
 
+import controllers.motor
+import controllers.rider
 from controllers.motor import pd_torque
 from controllers.rider import delayed_lqr_torque
-from euc_sim.simulation import native_core as nc
+from euc_sim.simulation import native_layout as lay
 
-__all__ = ["build_callback"]
+__all__ = ["build_callback", "CACHE_DIR"]
+
+
+def _cache_dir() -> str:
+    """numba's on-disk cache of these kernels, keyed by the sources compiled into them.
+
+    numba itself watches only this file; the laws (:mod:`controllers.motor`,
+    :mod:`controllers.rider`) and the context layout (:mod:`native_layout`) are compiled in
+    too, so a change to any of them must compile anew: the directory is named by their hash.
+    """
+    h = hashlib.sha256()
+    for module in (controllers.motor, controllers.rider, lay, sys.modules[__name__]):
+        with open(module.__file__, "rb") as fh:
+            h.update(fh.read())
+    base = config.CACHE_DIR or os.path.join(tempfile.gettempdir(), "euc_sim_numba")
+    return os.path.join(base, h.hexdigest()[:16])
+
+
+#: Where the compiled kernels are kept between processes.
+CACHE_DIR = _cache_dir()
+
+
+def _jit(fn):
+    """``njit(cache=True)`` into :data:`CACHE_DIR` (plain ``njit`` where it cannot cache)."""
+    saved = config.CACHE_DIR
+    config.CACHE_DIR = CACHE_DIR
+    try:
+        return njit(cache=True)(fn)
+    except Exception:  # noqa: BLE001 - no cache location: compile in every process
+        return njit(fn)
+    finally:
+        config.CACHE_DIR = saved
 
 
 def _pointer_to(element):
@@ -52,114 +89,127 @@ def _address(typingctx, ptr):
     return sig, codegen
 
 
-_motor = njit(pd_torque)
-_rider_law = njit(delayed_lqr_torque)
+_motor = _jit(pd_torque)
+_rider_law = _jit(delayed_lqr_torque)
 
 
-@njit
+@_jit
 def _rider(c, k, Y, r):
     """The longitudinal rider's applied M_h at step k (:meth:`controllers.rider.RiderRun.command`).
 
     ``Y``: the padded state history (row k: the state n steps ago); ``r``: the context
     slot of the rider's block (:data:`euc_sim.simulation.native_core.RIDER_SLOTS`).
     """
-    n = c[r + nc.R_N]
-    rf = f64p(c[r + nc.R_FLOATS])                 # dt, limit, z, K Φⁿ (6)
+    n = c[r + lay.R_N]
+    rf = f64p(c[r + lay.R_FLOATS])                 # dt, limit, z, K Φⁿ (6)
     y = Y[k]
-    e_v = y[3] - f64p(c[r + nc.R_VREF])[k]
+    e_v = y[3] - f64p(c[r + lay.R_VREF])[k]
     z = rf[2]
-    integral = c[r + nc.R_INTEGRAL] != 0
+    integral = c[r + lay.R_INTEGRAL] != 0
     if integral:
         rf[2] = z + e_v * rf[0]
-    history = 0.0
-    du = f64p(c[r + nc.R_DU])
-    if n:
-        kh = f64p(c[r + nc.R_KHIST])
-        for i in range(n):
-            history += kh[i] * du[k + i]
-    u_ref = f64p(c[r + nc.R_UREF])[k + n]
-    u = _rider_law(e_v, y[1] - f64p(c[r + nc.R_GREF])[k], y[2] - f64p(c[r + nc.R_PREF])[k], y[4], y[5],
-                   z, history, u_ref, carray(f64p(c[r + nc.R_FLOATS] + 24), 6), integral, rf[1])
+    du = f64p(c[r + lay.R_DU])
+    history = _dot(f64p(c[r + lay.R_KHIST]), du, k, n) if n else 0.0
+    u_ref = f64p(c[r + lay.R_UREF])[k + n]
+    u = _rider_law(e_v, y[1] - f64p(c[r + lay.R_GREF])[k], y[2] - f64p(c[r + lay.R_PREF])[k], y[4], y[5],
+                   z, history, u_ref, carray(f64p(c[r + lay.R_FLOATS] + 24), 6), integral, rf[1])
     du[k + n] = u - u_ref
-    return u + f64p(c[r + nc.R_NOISE])[k]
+    return u + f64p(c[r + lay.R_NOISE])[k]
 
 
-@njit
+@_jit
+def _dot(w, x, k, n):
+    """Σ_{i<n} w_i x_{k+i} in four interleaved partial sums (a sequential sum's chain of
+    dependent additions costs ~4 cycles per term: 150 terms per step were 5 % of a step).
+    Rounding differs from numpy's ``dot`` (whose order is BLAS's) only in the last bits."""
+    s0, s1, s2, s3 = 0.0, 0.0, 0.0, 0.0
+    m = n - n % 4
+    for i in range(0, m, 4):
+        s0 += w[i] * x[k + i]
+        s1 += w[i + 1] * x[k + i + 1]
+        s2 += w[i + 2] * x[k + i + 2]
+        s3 += w[i + 3] * x[k + i + 3]
+    for i in range(m, n):
+        s0 += w[i] * x[k + i]
+    return (s0 + s1) + (s2 + s3)
+
+
+@_jit
 def _motor_torque(f, gamma, gamma_dot, speed):
     return _motor(gamma, gamma_dot, speed, f[0], f[1], f[2], f[3], f[4], f[5], f[6], f[7], f[8],
                   f[9], f[10])
 
 
-@njit
+@_jit
 def planar_step(qpos, qvel, c, f):
     """One control step of the planar loop (:func:`euc_sim.simulation.native.native_loop`)."""
-    k = c[nc.C_K]
-    if k >= c[nc.C_ROWS]:
+    k = c[lay.C_K]
+    if k >= c[lay.C_ROWS]:
         return
-    n = c[nc.P_RIDER + nc.R_N]
-    Y = carray(f64p(c[nc.P_HIST]), (c[nc.C_ROWS] + n, 6))
+    n = c[lay.P_RIDER + lay.R_N]
+    Y = carray(f64p(c[lay.P_HIST]), (c[lay.C_ROWS] + n, 6))
     row = Y[k + n]
     if k > 0:                                     # row 0 is y0 as given
-        g = qpos[c[nc.P_IG]]
-        gd = qvel[c[nc.P_VG]]
-        row[0] = qpos[c[nc.P_IX]]
+        g = qpos[c[lay.P_IG]]
+        gd = qvel[c[lay.P_VG]]
+        row[0] = qpos[c[lay.P_IX]]
         row[1] = g
-        row[2] = g + qpos[c[nc.P_IR]]
-        row[3] = qvel[c[nc.P_VX]]
+        row[2] = g + qpos[c[lay.P_IR]]
+        row[3] = qvel[c[lay.P_VX]]
         row[4] = gd
-        row[5] = gd + qvel[c[nc.P_VR]]
-    if c[nc.C_FALL] < 0:                          # the first fall: a bound passed or a non-finite state
-        fine = abs(row[2]) <= f[nc.F_PHI_MAX] and abs(row[1]) <= f[nc.F_GAM_MAX]
+        row[5] = gd + qvel[c[lay.P_VR]]
+    if c[lay.C_FALL] < 0:                          # the first fall: a bound passed or a non-finite state
+        fine = abs(row[2]) <= f[lay.F_PHI_MAX] and abs(row[1]) <= f[lay.F_GAM_MAX]
         for j in range(6):
             fine = fine and row[j] - row[j] == 0.0
         if not fine:
-            c[nc.C_FALL] = k
+            c[lay.C_FALL] = k
     M_d = _motor_torque(f, row[1], row[4], row[3])
-    M_h = _rider(c, k, Y, nc.P_RIDER)
-    f64p(c[nc.P_MD])[k] = M_d
-    f64p(c[nc.P_MH])[k] = M_h
-    f[nc.F_HELD] = M_d
-    f[nc.F_HELD + 1] = M_h
-    c[nc.C_K] = k + 1
+    M_h = _rider(c, k, Y, lay.P_RIDER)
+    f64p(c[lay.P_MD])[k] = M_d
+    f64p(c[lay.P_MH])[k] = M_h
+    f[lay.F_HELD] = M_d
+    f[lay.F_HELD + 1] = M_h
+    c[lay.C_K] = k + 1
 
 
-@njit
+@_jit
 def _nearest(c, X, Y):
     """(e_y, path heading, κ) of the nearest path point, searched forward (``spatial._Tracker``)."""
-    Xs, Ys = f64p(c[nc.S_PX]), f64p(c[nc.S_PY])
-    i, last = c[nc.S_PI], c[nc.S_PN] - 1
+    Xs, Ys = f64p(c[lay.S_PX]), f64p(c[lay.S_PY])
+    i, last = c[lay.S_PI], c[lay.S_PN] - 1
     d = (Xs[i] - X) ** 2 + (Ys[i] - Y) ** 2
     while i < last:
         d1 = (Xs[i + 1] - X) ** 2 + (Ys[i + 1] - Y) ** 2
         if d1 > d:
             break
         i, d = i + 1, d1
-    c[nc.S_PI] = i
-    h = f64p(c[nc.S_PH])[i]
+    c[lay.S_PI] = i
+    h = f64p(c[lay.S_PH])[i]
     e_y = -math.sin(h) * (X - Xs[i]) + math.cos(h) * (Y - Ys[i])
-    return e_y, h, f64p(c[nc.S_PK])[i]
+    return e_y, h, f64p(c[lay.S_PK])[i]
 
 
-@njit
+@_jit
 def _lateral(c, f, k, z):
     """(M_lean, M_twist) at step k from the lateral state z (``spatial._ride``'s law)."""
-    lim = f[nc.F_LAT_LIM]
-    nd = c[nc.S_ND]
+    lim = f[lay.F_LAT_LIM]
+    nd = c[lay.S_ND]
     if nd:
-        zh = carray(f64p(c[nc.S_ZHIST]), (c[nc.C_ROWS], 11))
+        zh = carray(f64p(c[lay.S_ZHIST]), (c[lay.C_ROWS], 11))
         for j in range(11):
             zh[k, j] = z[j]
         zs = zh[max(k - nd, 0)]
-        KP, KH, uh = f64p(c[nc.S_KP]), f64p(c[nc.S_KH]), f64p(c[nc.S_UHIST])
+        KP, KH, uh = f64p(c[lay.S_KP]), f64p(c[lay.S_KH]), f64p(c[lay.S_UHIST])
         u0 = _lateral_row(KP, zs, KH, uh, 0, k, nd, lim)
         u1 = _lateral_row(KP, zs, KH, uh, 1, k, nd, lim)
-        ab = f[nc.F_ABAR]
-        f[nc.F_UBAR] += ab * (u0 - f[nc.F_UBAR])
-        f[nc.F_UBAR + 1] += ab * (u1 - f[nc.F_UBAR + 1])
-        uh[2 * (k + nd)] = u0 - f[nc.F_UBAR]
-        uh[2 * (k + nd) + 1] = u1 - f[nc.F_UBAR + 1]
+        ab = f[lay.F_ABAR]
+        f[lay.F_UBAR] += ab * (u0 - f[lay.F_UBAR])
+        f[lay.F_UBAR + 1] += ab * (u1 - f[lay.F_UBAR + 1])
+        uh[2 * (k + nd)] = u0 - f[lay.F_UBAR]
+        uh[2 * (k + nd) + 1] = u1 - f[lay.F_UBAR + 1]
         return u0, u1
-    K = f64p(c[nc.S_K])
+    K = f64p(c[lay.S_K])
     acc0, acc1 = 0.0, 0.0
     for j in range(11):
         acc0 += K[j] * z[j]
@@ -168,7 +218,7 @@ def _lateral(c, f, k, z):
     return max(-lim, min(lim, -acc0)), max(-lim, min(lim, -acc1))
 
 
-@njit
+@_jit
 def _lateral_row(KP, zs, KH, uh, a, k, nd, lim):
     """Input a of the predicting lateral rider: −(K Φⁿ z_{k−n} + Σ K Φ^{n−1−i} Γ u_{k−n+i}), limited."""
     acc = 0.0
@@ -180,14 +230,14 @@ def _lateral_row(KP, zs, KH, uh, a, k, nd, lim):
     return max(-lim, min(lim, -(acc + hist)))
 
 
-@njit
+@_jit
 def _pose(qp, rq, ip, il, f, out):
     """Rotation (row-major 9) into ``R`` and the sites C, E, G into the row (``spatial._pose``)."""
     w, x, y, z = qp[rq + 3], qp[rq + 4], qp[rq + 5], qp[rq + 6]
     R = (1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
          2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
          2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y))
-    h, l0, e_h = f[nc.F_H], f[nc.F_L0], f[nc.F_EH]
+    h, l0, e_h = f[lay.F_H], f[lay.F_L0], f[lay.F_EH]
     sp_, cp_, sl, cl = math.sin(qp[ip]), math.cos(qp[ip]), math.sin(qp[il]), math.cos(qp[il])
     gb0, gb1, gb2 = h * cl * sp_, -h * sl, h * cl * cp_ - l0
     for i in range(3):
@@ -198,32 +248,32 @@ def _pose(qp, rq, ip, il, f, out):
     return R
 
 
-@njit
+@_jit
 def _fall_3d(c, f, k, theta, phi, gamma):
     """Record the first fall at step k: its kind (``spatial._fall``'s order) and value."""
     if not (math.isfinite(theta) and math.isfinite(phi) and math.isfinite(gamma)):
         kind, value = 0, math.nan
-    elif abs(theta) > f[nc.F_TILT]:
+    elif abs(theta) > f[lay.F_TILT]:
         kind, value = 1, theta
-    elif abs(phi) > f[nc.F_PHI_MAX]:
+    elif abs(phi) > f[lay.F_PHI_MAX]:
         kind, value = 2, phi
     else:
         kind, value = 3, gamma
-    c[nc.C_FALL], c[nc.S_FALL_KIND], f[nc.F_FALL_VALUE] = k, kind, value
+    c[lay.C_FALL], c[lay.S_FALL_KIND], f[lay.F_FALL_VALUE] = k, kind, value
 
 
-@njit
+@_jit
 def spatial_step(qp, qv, c, f):
     """One control step of the 3-D loop (:func:`euc_sim.simulation.native_spatial.native_ride`)."""
-    k = c[nc.C_K]
-    if k >= c[nc.C_ROWS] or c[nc.C_FALL] >= 0:
+    k = c[lay.C_K]
+    if k >= c[lay.C_ROWS] or c[lay.C_FALL] >= 0:
         return
-    rq, rv, dt = c[nc.S_RQ], c[nc.S_RV], f[nc.F_DT]
+    rq, rv, dt = c[lay.S_RQ], c[lay.S_RV], f[lay.F_DT]
     if k > 0:                                     # the travelled distance: trapezoid over the last step
-        psi0 = f[nc.F_PSI]
-        f[nc.F_XS] += dt * 0.5 * (f[nc.F_XDOT] + (math.cos(psi0) * qv[rv] + math.sin(psi0) * qv[rv + 1]))
-    out = carray(f64p(c[nc.S_OUT]), (c[nc.C_ROWS], 26))[k]
-    R = _pose(qp, rq, c[nc.S_IP], c[nc.S_IL], f, out)
+        psi0 = f[lay.F_PSI]
+        f[lay.F_XS] += dt * 0.5 * (f[lay.F_XDOT] + (math.cos(psi0) * qv[rv] + math.sin(psi0) * qv[rv + 1]))
+    out = carray(f64p(c[lay.S_OUT]), (c[lay.C_ROWS], 26))[k]
+    R = _pose(qp, rq, c[lay.S_IP], c[lay.S_IL], f, out)
     psi = math.atan2(-R[1], R[4])
     theta = math.asin(max(-1.0, min(1.0, R[7])))
     gamma = math.atan2(-R[6], R[8])
@@ -237,31 +287,31 @@ def spatial_step(qp, qv, c, f):
     psi_d = wz - gamma_d * st
     vX, vY = qv[rv], qv[rv + 1]
     x_dot = cp * vX + sp * vY
-    phi, phi_d = gamma + qp[c[nc.S_IP]], gamma_d + qv[c[nc.S_VP]]
-    if not (abs(theta) <= f[nc.F_TILT] and abs(phi) <= f[nc.F_PHI_MAX] and abs(gamma) <= f[nc.F_GAM_MAX]):
+    phi, phi_d = gamma + qp[c[lay.S_IP]], gamma_d + qv[c[lay.S_VP]]
+    if not (abs(theta) <= f[lay.F_TILT] and abs(phi) <= f[lay.F_PHI_MAX] and abs(gamma) <= f[lay.F_GAM_MAX]):
         _fall_3d(c, f, k, theta, phi, gamma)
         return
-    n = c[nc.S_RIDER + nc.R_N]
-    Y = carray(f64p(c[nc.S_HIST]), (c[nc.C_ROWS] + n, 6))
-    x_s = f[nc.F_XS]
+    n = c[lay.S_RIDER + lay.R_N]
+    Y = carray(f64p(c[lay.S_HIST]), (c[lay.C_ROWS] + n, 6))
+    x_s = f[lay.F_XS]
     Y[k + n, 0], Y[k + n, 1], Y[k + n, 2] = x_s, gamma, phi
     Y[k + n, 3], Y[k + n, 4], Y[k + n, 5] = x_dot, gamma_d, phi_d
     M_d = _motor_torque(f, gamma, gamma_d, x_dot)
-    M_h = _rider(c, k, Y, nc.S_RIDER)
+    M_h = _rider(c, k, Y, lay.S_RIDER)
     e_y, h_p, kap = _nearest(c, qp[rq], qp[rq + 1])
     a = psi - h_p + math.pi
-    z = (e_y, a % (2.0 * math.pi) - math.pi, theta + math.atan(x_dot * x_dot * kap / f[nc.F_G]),
-         qp[c[nc.S_IL]], qp[c[nc.S_IT]], -math.sin(h_p) * vX + math.cos(h_p) * vY, theta_d,
-         psi_d - x_dot * kap, qv[c[nc.S_VL]], qv[c[nc.S_VT]], f[nc.F_ZINT])
+    z = (e_y, a % (2.0 * math.pi) - math.pi, theta + math.atan(x_dot * x_dot * kap / f[lay.F_G]),
+         qp[c[lay.S_IL]], qp[c[lay.S_IT]], -math.sin(h_p) * vX + math.cos(h_p) * vY, theta_d,
+         psi_d - x_dot * kap, qv[c[lay.S_VL]], qv[c[lay.S_VT]], f[lay.F_ZINT])
     u_l, u_t = _lateral(c, f, k, z)
-    row = (k * dt, x_s, gamma, phi, x_dot, gamma_d, phi_d, M_d, M_h, f64p(c[nc.S_PLAN])[k], psi,
+    row = (k * dt, x_s, gamma, phi, x_dot, gamma_d, phi_d, M_d, M_h, f64p(c[lay.S_PLAN])[k], psi,
            theta, psi_d, theta_d, u_l, u_t, e_y)
     for j in range(17):
         out[j] = row[j]
-    f[nc.F_ZINT] += e_y * dt
-    f[nc.F_XDOT], f[nc.F_PSI] = x_dot, psi
-    f[nc.F_HELD], f[nc.F_HELD + 1], f[nc.F_HELD + 2], f[nc.F_HELD + 3] = M_d, M_h, u_l, u_t
-    c[nc.C_K] = k + 1
+    f[lay.F_ZINT] += e_y * dt
+    f[lay.F_XDOT], f[lay.F_PSI] = x_dot, psi
+    f[lay.F_HELD], f[lay.F_HELD + 1], f[lay.F_HELD + 2], f[lay.F_HELD + 3] = M_d, M_h, u_l, u_t
+    c[lay.C_K] = k + 1
 
 
 def build_callback(w_qpos: int, w_qvel: int, w_ctrl: int, registry_address: int, slots: int):
@@ -277,22 +327,22 @@ def build_callback(w_qpos: int, w_qvel: int, w_ctrl: int, registry_address: int,
         me = _address(d)
         for s in range(slots):
             if reg[2 * s] == me:
-                c = carray(i64p(reg[2 * s + 1]), nc.C_SIZE)
-                calls = c[nc.C_CALLS]
-                c[nc.C_CALLS] = calls + 1
-                kind = c[nc.C_KIND]
-                if kind == nc.KIND_COUNT:
+                c = carray(i64p(reg[2 * s + 1]), lay.C_SIZE)
+                calls = c[lay.C_CALLS]
+                c[lay.C_CALLS] = calls + 1
+                kind = c[lay.C_KIND]
+                if kind == lay.KIND_COUNT:
                     return
-                f = carray(f64p(c[nc.C_FLOATS]), nc.F_SIZE)
-                if calls % c[nc.C_PER] == 0:
+                f = carray(f64p(c[lay.C_FLOATS]), lay.F_SIZE)
+                if calls % c[lay.C_PER] == 0:
                     qpos, qvel = f64p(d[w_qpos]), f64p(d[w_qvel])
-                    if kind == nc.KIND_PLANAR:
+                    if kind == lay.KIND_PLANAR:
                         planar_step(qpos, qvel, c, f)
                     else:
                         spatial_step(qpos, qvel, c, f)
                 ctrl = f64p(d[w_ctrl])
-                for a in range(c[nc.C_NACT]):
-                    ctrl[c[nc.C_ACT + a]] = f[nc.F_HELD + a]
+                for a in range(c[lay.C_NACT]):
+                    ctrl[c[lay.C_ACT + a]] = f[lay.F_HELD + a]
                 return
 
     return control

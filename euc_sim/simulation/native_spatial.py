@@ -23,6 +23,7 @@ from controllers.lateral import LateralRider
 from controllers.motor import MotorPD
 from controllers.rider import RiderRun
 from euc_sim.simulation import native_core as nc
+from euc_sim.simulation import native_layout as lay
 from euc_sim.simulation.errors import FallError
 from euc_sim.simulation.mocap import E_HEIGHT
 
@@ -84,52 +85,52 @@ def native_ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, path,
     m, d = sim.model, sim.data
     ctx, out = _context(sim, run, motor, lateral, path, v_ref, N, dt, y0, bounds, tilt_bound,
                         turn_effort_time)
-    ctx.c[nc.C_PER] = nc.calls_per_step(m, d)
+    ctx.c[lay.C_PER] = nc.calls_per_step(m, d)
     with nc.registered(d, ctx):
         for k0 in range(0, N, CHUNK_STEPS):
             mujoco.mj_step(m, d, nstep=min(CHUNK_STEPS, N - k0))
-            if ctx.c[nc.C_FALL] >= 0:
+            if ctx.c[lay.C_FALL] >= 0:
                 break
         else:                                   # the last row: the callback once more, no step
-            ctx.c[nc.C_CALLS] = 0
+            ctx.c[lay.C_CALLS] = 0
             mujoco.mj_forward(m, d)
-    run.z = ctx.rider_z(nc.S_RIDER)
-    LAST_RUN.update(rows=int(ctx.c[nc.C_K]), per=int(ctx.c[nc.C_PER]))
-    if ctx.c[nc.C_FALL] >= 0:
-        kind = _FALL_KINDS[int(ctx.c[nc.S_FALL_KIND])]
+    run.z = ctx.rider_z(lay.S_RIDER)
+    LAST_RUN.update(rows=int(ctx.c[lay.C_K]), per=int(ctx.c[lay.C_PER]))
+    if ctx.c[lay.C_FALL] >= 0:
+        kind = _FALL_KINDS[int(ctx.c[lay.S_FALL_KIND])]
         bound = {"state": None, "theta": tilt_bound, "phi": bounds["phi"], "gamma": bounds["gamma"]}[kind]
-        raise FallError(int(ctx.c[nc.C_FALL]) * dt, kind, float(ctx.f[nc.F_FALL_VALUE]), bound)
+        raise FallError(int(ctx.c[lay.C_FALL]) * dt, kind, float(ctx.f[lay.F_FALL_VALUE]), bound)
     return out
 
 
 def _context(sim, run, motor, lateral, path, v_ref, N, dt, y0, bounds, tilt_bound, turn_effort_time):
     """The run's context and its output rows (N + 1, 26)."""
-    ctx = nc.Context(nc.KIND_SPATIAL, N + 1)
-    out = ctx.put(nc.S_OUT, np.zeros((N + 1, len(ROW_COLUMNS))))
+    ctx = nc.Context(lay.KIND_SPATIAL, N + 1)
+    out = ctx.put(lay.S_OUT, np.zeros((N + 1, len(ROW_COLUMNS))))
     n = run.n
-    hist = ctx.put(nc.S_HIST, np.empty((N + 1 + n, 6)))
+    hist = ctx.put(lay.S_HIST, np.empty((N + 1 + n, 6)))
     hist[:n] = y0
-    ctx.put(nc.S_PLAN, np.ascontiguousarray(v_ref, dtype=np.float64))
-    for slot, arr in ((nc.S_PX, path.X), (nc.S_PY, path.Y), (nc.S_PH, path.heading), (nc.S_PK, path.kappa)):
+    ctx.put(lay.S_PLAN, np.ascontiguousarray(v_ref, dtype=np.float64))
+    for slot, arr in ((lay.S_PX, path.X), (lay.S_PY, path.Y), (lay.S_PH, path.heading), (lay.S_PK, path.kappa)):
         ctx.put(slot, np.ascontiguousarray(arr, dtype=np.float64))
-    ctx.c[nc.S_PN], ctx.c[nc.S_PI] = len(path.X), 0
+    ctx.c[lay.S_PN], ctx.c[lay.S_PI] = len(path.X), 0
     qa, va = sim.qadr, sim.vadr
-    ctx.c[nc.S_RQ:nc.S_VT + 1] = (qa["root"], va["root"], qa["rider_pitch"], qa["rider_lean"],
+    ctx.c[lay.S_RQ:lay.S_VT + 1] = (qa["root"], va["root"], qa["rider_pitch"], qa["rider_lean"],
                                   qa["rider_twist"], va["rider_pitch"], va["rider_lean"], va["rider_twist"])
     ctx.actuators(*(sim.act[a] for a in ("motor", "ankle", "lean", "twist")))
     nd = lateral.n_delay
-    ctx.c[nc.S_ND] = nd
-    ctx.put(nc.S_K, np.ascontiguousarray(np.asarray(lateral.K, dtype=np.float64).reshape(2, 11)))
+    ctx.c[lay.S_ND] = nd
+    ctx.put(lay.S_K, np.ascontiguousarray(np.asarray(lateral.K, dtype=np.float64).reshape(2, 11)))
     if nd:
-        ctx.put(nc.S_KP, np.ascontiguousarray(np.asarray(lateral.K_pred, dtype=np.float64)))
-        ctx.put(nc.S_KH, np.ascontiguousarray(np.asarray(lateral.K_hist, dtype=np.float64)))
-        ctx.put(nc.S_ZHIST, np.zeros((N + 1, 11)))
-        ctx.put(nc.S_UHIST, np.zeros(2 * (N + 1 + nd)))
+        ctx.put(lay.S_KP, np.ascontiguousarray(np.asarray(lateral.K_pred, dtype=np.float64)))
+        ctx.put(lay.S_KH, np.ascontiguousarray(np.asarray(lateral.K_hist, dtype=np.float64)))
+        ctx.put(lay.S_ZHIST, np.zeros((N + 1, 11)))
+        ctx.put(lay.S_UHIST, np.zeros(2 * (N + 1 + nd)))
     f, p = ctx.f, sim.params
     f[:11] = motor.law_args()
-    f[nc.F_PHI_MAX], f[nc.F_GAM_MAX], f[nc.F_TILT] = bounds["phi"], bounds["gamma"], tilt_bound
-    f[nc.F_DT], f[nc.F_LAT_LIM], f[nc.F_G] = dt, lateral.torque_limit, p.g
-    f[nc.F_ABAR] = dt / turn_effort_time
-    f[nc.F_H], f[nc.F_L0], f[nc.F_EH] = p.h, p.l0, E_HEIGHT
-    ctx.rider(nc.S_RIDER, run)
+    f[lay.F_PHI_MAX], f[lay.F_GAM_MAX], f[lay.F_TILT] = bounds["phi"], bounds["gamma"], tilt_bound
+    f[lay.F_DT], f[lay.F_LAT_LIM], f[lay.F_G] = dt, lateral.torque_limit, p.g
+    f[lay.F_ABAR] = dt / turn_effort_time
+    f[lay.F_H], f[lay.F_L0], f[lay.F_EH] = p.h, p.l0, E_HEIGHT
+    ctx.rider(lay.S_RIDER, run)
     return ctx, out

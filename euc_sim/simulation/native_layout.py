@@ -1,0 +1,31 @@
+"""The layout of a native run's context: the slots of its int64 and float64 arrays.
+
+Shared by :mod:`euc_sim.simulation.native_core` (which fills contexts) and
+:mod:`euc_sim.simulation.native_kernels` (which reads them in the control callback).
+A context is an int64 array of ``C_SIZE`` slots: the common ``C_*`` slots; for
+``KIND_PLANAR`` runs the ``P_*`` slots and a rider block at ``P_RIDER``; for
+``KIND_SPATIAL`` runs the ``S_*`` slots and a rider block at ``S_RIDER``; a rider block's
+slots are at the ``R_*`` offsets from its first slot.  Slots named for an array hold its
+address (C-contiguous float64).  Its floats, ``F_SIZE`` of them at the address in
+``C_FLOATS``: the motor law's settings (:meth:`controllers.motor.MotorPD.law_args`) at
+0 … 10, the held controls from ``F_HELD`` (in the order of the ``C_ACT`` actuators),
+then the ``F_*`` settings and states.  A rider block's own floats (``R_FLOATS``): dt,
+the torque limit, the integrator z, then K Φⁿ (6, zero-padded).
+"""
+
+KIND_PLANAR, KIND_SPATIAL, KIND_COUNT = 1, 2, 3
+# common int slots: kind, callback calls, calls per step, next row k, rows, first fall (−1), floats, actuators
+C_KIND, C_CALLS, C_PER, C_K, C_ROWS, C_FALL, C_FLOATS, C_NACT, C_ACT = range(9)   # C_ACT .. C_ACT + 3
+# a rider block (controllers.rider.RiderRun): offsets from its first slot
+R_VREF, R_GREF, R_PREF, R_UREF, R_NOISE, R_DU, R_KHIST, R_INTEGRAL, R_N, R_FLOATS = range(10)
+# planar: state indices, padded history, torques, rider block
+P_IX, P_IG, P_IR, P_VX, P_VG, P_VR, P_HIST, P_MD, P_MH, P_RIDER = range(12, 22)
+# spatial: qpos/qvel addresses, output rows, history, plan, path, lateral rider, fall kind, rider block
+(S_RQ, S_RV, S_IP, S_IL, S_IT, S_VP, S_VL, S_VT, S_OUT, S_HIST, S_PLAN, S_PX, S_PY, S_PH, S_PK, S_PN, S_PI,
+ S_ND, S_KP, S_KH, S_ZHIST, S_UHIST, S_K, S_FALL_KIND, S_RIDER) = range(12, 37)
+C_SIZE = 48
+# float slots: the motor law's settings (MotorPD.law_args) 0 … 10, then
+F_HELD = 11                                        # the held controls, 11 … 14
+(F_PHI_MAX, F_GAM_MAX, F_TILT, F_DT, F_LAT_LIM, F_G, F_XS, F_ZINT, F_UBAR, F_UBAR1, F_ABAR, F_XDOT, F_PSI,
+ F_H, F_L0, F_EH, F_FALL_VALUE) = range(15, 32)
+F_SIZE = 32
