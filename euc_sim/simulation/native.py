@@ -35,7 +35,7 @@ from euc_sim.simulation import native_core as nc
 from euc_sim.simulation import native_layout as lay
 from euc_sim.simulation.errors import FallError
 
-__all__ = ["native_loop", "available", "LAST_RUN", "CHUNK_STEPS"]
+__all__ = ["native_loop", "planar_context", "available", "LAST_RUN", "CHUNK_STEPS"]
 
 #: Steps run in C between two looks for a fall when no progress is asked for (a fallen run
 #: goes on at most this far: not into the NaN warnings of a diverging MuJoCo state).
@@ -63,9 +63,20 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
     return _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress)
 
 
-def _context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bounds):
-    """The run's context (state indices, motor settings, rider block) and the arrays the
-    callback fills: padded history P (N + 1 + n, 6), M_d and M_h (N + 1)."""
+def planar_context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bounds):
+    """A planar run's context (:mod:`euc_sim.simulation.native_layout`) for ``stepper.d``.
+
+    Parameters as :func:`native_loop`.  To run it elsewhere (a thread, a batch): set
+    ``ctx.c[C_PER]`` to :func:`native_core.calls_per_step`, register the ``MjData`` with
+    :func:`native_core.registered`, ``mj_step`` it N steps, then set ``ctx.c[C_CALLS] = 0``
+    and ``mj_forward`` it once for the last row.
+
+    Returns
+    -------
+    tuple
+        The :class:`native_core.Context` and the arrays the callback fills: padded state
+        history P (N + 1 + n, 6; row n + k is step k), M_d and M_h (N + 1,), N·m.
+    """
     n = run.n
     ctx = nc.Context(lay.KIND_PLANAR, N + 1)
     P = ctx.put(lay.P_HIST, np.empty((N + 1 + n, 6)))      # padded state history: the delay buffer
@@ -85,7 +96,7 @@ def _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None):
     import mujoco
 
     m, d, n = stepper.m, stepper.d, run.n
-    ctx, P, M_d, M_h = _context(stepper, motor, run, N, y0, bounds)
+    ctx, P, M_d, M_h = planar_context(stepper, motor, run, N, y0, bounds)
     phi_max, gam_max = bounds["phi"], bounds["gamma"]
     ctx.c[lay.C_PER] = nc.calls_per_step(m, d)
     chunk = n + 1 if progress is not None else CHUNK_STEPS

@@ -27,7 +27,7 @@ from euc_sim.simulation import native_layout as lay
 from euc_sim.simulation.errors import FallError
 from euc_sim.simulation.mocap import E_HEIGHT
 
-__all__ = ["native_ride", "ROW_COLUMNS", "LAST_RUN"]
+__all__ = ["native_ride", "spatial_context", "ROW_COLUMNS", "LAST_RUN"]
 
 #: Columns of a recorded row (``spatial._ride``'s order).
 ROW_COLUMNS = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref", "psi",
@@ -83,7 +83,7 @@ def native_ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, path,
     import mujoco
 
     m, d = sim.model, sim.data
-    ctx, out = _context(sim, run, motor, lateral, path, v_ref, N, dt, y0, bounds, tilt_bound,
+    ctx, out = spatial_context(sim, run, motor, lateral, path, v_ref, N, dt, y0, bounds, tilt_bound,
                         turn_effort_time)
     ctx.c[lay.C_PER] = nc.calls_per_step(m, d)
     with nc.registered(d, ctx):
@@ -103,8 +103,10 @@ def native_ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, path,
     return out
 
 
-def _context(sim, run, motor, lateral, path, v_ref, N, dt, y0, bounds, tilt_bound, turn_effort_time):
-    """The run's context and its output rows (N + 1, 26)."""
+def spatial_context(sim, run, motor, lateral, path, v_ref, N, dt, y0, bounds, tilt_bound, turn_effort_time):
+    """A 3-D run's context (:mod:`euc_sim.simulation.native_layout`) for ``sim.data`` and the
+    rows (N + 1, 26) the callback fills; parameters as :func:`native_ride`, which shows
+    how to run it (calls per step, registration, the last row under ``mj_forward``)."""
     ctx = nc.Context(lay.KIND_SPATIAL, N + 1)
     out = ctx.put(lay.S_OUT, np.zeros((N + 1, len(ROW_COLUMNS))))
     n = run.n
