@@ -22,6 +22,8 @@ import os
 import sys
 import tempfile
 
+import numpy as np
+
 from numba import carray, cfunc, config, njit, types
 from numba.core.extending import intrinsic
 
@@ -109,29 +111,14 @@ def _rider(c, k, Y, r):
     if integral:
         rf[2] = z + e_v * rf[0]
     du = f64p(c[r + lay.R_DU])
-    history = _dot(f64p(c[r + lay.R_KHIST]), du, k, n) if n else 0.0
+    history = 0.0
+    if n:    # numpy's dot in numba is BLAS's ddot, as numpy's own in RiderRun.command: the same sum
+        history = np.dot(carray(f64p(c[r + lay.R_KHIST]), n), carray(f64p(c[r + lay.R_DU] + 8 * k), n))
     u_ref = f64p(c[r + lay.R_UREF])[k + n]
     u = _rider_law(e_v, y[1] - f64p(c[r + lay.R_GREF])[k], y[2] - f64p(c[r + lay.R_PREF])[k], y[4], y[5],
                    z, history, u_ref, carray(f64p(c[r + lay.R_FLOATS] + 24), 6), integral, rf[1])
     du[k + n] = u - u_ref
     return u + f64p(c[r + lay.R_NOISE])[k]
-
-
-@_jit
-def _dot(w, x, k, n):
-    """Σ_{i<n} w_i x_{k+i} in four interleaved partial sums (a sequential sum's chain of
-    dependent additions costs ~4 cycles per term: 150 terms per step were 5 % of a step).
-    Rounding differs from numpy's ``dot`` (whose order is BLAS's) only in the last bits."""
-    s0, s1, s2, s3 = 0.0, 0.0, 0.0, 0.0
-    m = n - n % 4
-    for i in range(0, m, 4):
-        s0 += w[i] * x[k + i]
-        s1 += w[i + 1] * x[k + i + 1]
-        s2 += w[i + 2] * x[k + i + 2]
-        s3 += w[i + 3] * x[k + i + 3]
-    for i in range(m, n):
-        s0 += w[i] * x[k + i]
-    return (s0 + s1) + (s2 + s3)
 
 
 @_jit
