@@ -160,11 +160,14 @@ def registered(data, context: Context):
     """Serve ``data`` (an ``MjData``) with ``context`` by the callback inside the block.
 
     Installs the callback for the first active run and restores the previous one after
-    the last.  Raises RuntimeError when all :data:`SLOTS` are taken.
+    the last.  Raises RuntimeError when the callback cannot be built (:func:`available`
+    says whether it can) or all :data:`SLOTS` are taken.
     """
     import mujoco
 
-    cb = _STATE["callback"]
+    cb = _STATE["callback"] or callback()
+    if not cb:
+        raise RuntimeError(f"the native control callback is unavailable ({_STATE['reason']})")
     with _LOCK:
         free = np.flatnonzero(_REGISTRY[0::2] == 0)
         if not free.size:
