@@ -247,8 +247,8 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2,
         in_batch = []
     rides = {i: engine.prepare(**requests[i]) for i in in_batch}
     groups: dict = {}
-    for i, ride in rides.items():                # one Batch per (steps, delay, dt): blocks in step
-        groups.setdefault((ride.N, ride.run.n, ride.run.dt), []).append(i)
+    for i, ride in rides.items():   # one Batch per (steps, delay, dt, ground): blocks in step, one layout
+        groups.setdefault((ride.N, ride.run.n, ride.run.dt, ride.stepper.sim.variant), []).append(i)
     done = 0
     for ids in groups.values():
         pushes = [requests[i].get("external_force") for i in ids]
