@@ -45,10 +45,12 @@ from __future__ import annotations
 import ctypes
 import math
 import sys
+from functools import lru_cache
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.linalg.lapack import dtrtrs
+from threadpoolctl import threadpool_limits
 
 from euc_sim.simulation import engine
 from euc_sim.simulation import effects as fx
@@ -250,9 +252,11 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2,
     for i, ride in rides.items():   # one Batch per (steps, delay, dt, ground): blocks in step, one layout
         groups.setdefault((ride.N, ride.run.n, ride.run.dt, ride.stepper.sim.variant), []).append(i)
     done = 0
-    for ids in groups.values():
+    for ids in groups.values():      # BLAS on one thread: its idle threads spin against the batch's
         pushes = [requests[i].get("external_force") for i in ids]
-        for i, res in zip(ids, _run_batch([rides[i] for i in ids], pushes, nthread)):
+        with threadpool_limits(limits=1, user_api="blas"):
+            results = _run_batch([rides[i] for i in ids], pushes, nthread)
+        for i, res in zip(ids, results):
             out[i] = res
         done += len(ids)
         if progress is not None:
@@ -270,23 +274,32 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2,
 
 
 def _batch_model(ride, cache: dict):
-    """The ride's MuJoCo model as :func:`simulate` builds it, with :data:`NU` userdata slots."""
-    from euc_sim.model.mujoco_model import build_spec
-
+    """The ride's MuJoCo model as :func:`simulate` builds it, with :data:`NU` userdata slots
+    (``cache``: this batch's models by setting, so that rides of one setting share one)."""
     st = ride.stepper
     m0 = st.m
-    key = (st.p, st.sim.variant, tuple(m0.opt.gravity), tuple(m0.dof_damping), tuple(m0.tendon_damping),
-           ride.ext.contact, m0.opt.timestep)
+    key = (st.p, st.sim.variant, ride.ext.contact, float(m0.opt.timestep), tuple(m0.opt.gravity.tolist()),
+           tuple(m0.dof_damping.tolist()), tuple(m0.tendon_damping.tolist()))
     if key not in cache:
-        spec = build_spec(st.p, st.sim.variant, contact=ride.ext.contact)
-        spec.nuserdata = NU
-        m = spec.compile()
-        m.opt.timestep = m0.opt.timestep
-        m.opt.gravity[:] = m0.opt.gravity
-        m.dof_damping[:] = m0.dof_damping
-        m.tendon_damping[:] = m0.tendon_damping
-        cache[key] = m
+        cache[key] = _compiled(*key)
     return cache[key]
+
+
+@lru_cache(maxsize=64)
+def _compiled(p, variant: str, contact, timestep: float, gravity: tuple, dof_damping: tuple,
+              tendon_damping: tuple):
+    """Compile the model of (parameters, ground, contact) with userdata, and set what
+    :class:`euc_sim.simulation.engine._MujocoStepper` sets on its copy (shared read-only)."""
+    from euc_sim.model.mujoco_model import build_spec
+
+    spec = build_spec(p, variant, contact=contact)
+    spec.nuserdata = NU
+    m = spec.compile()
+    m.opt.timestep = timestep
+    m.opt.gravity[:] = gravity
+    m.dof_damping[:] = dof_damping
+    m.tendon_damping[:] = tendon_damping
+    return m
 
 
 def _userdata_row(ride, per: int, addrs: tuple, push_addr: int) -> np.ndarray:
