@@ -126,16 +126,10 @@ def available() -> bool:
     return bool(_CALLBACK)
 
 
-def _compile():
-    """numba ``cfunc`` with MuJoCo's control-callback signature, context in ``d->userdata``."""
-    from numba import carray, cfunc, njit, types
+def _intrinsics():
+    """numba intrinsics: int64 address → float64*, int64 address → int64*, pointer → int64."""
+    from numba import types
     from numba.core.extending import intrinsic
-
-    from controllers.motor import pd_torque
-
-    offs = data_offsets(("userdata", "qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"))
-    W_UD, W_QPOS, W_QVEL = offs["userdata"] // 8, offs["qpos"] // 8, offs["qvel"] // 8
-    W_CTRL, W_QFRC, W_XFRC = offs["ctrl"] // 8, offs["qfrc_applied"] // 8, offs["xfrc_applied"] // 8
 
     def pointer_to(element):
         @intrinsic
@@ -145,14 +139,26 @@ def _compile():
             return types.CPointer(element)(types.int64), codegen
         return cast
 
-    f64p, i64p = pointer_to(types.float64), pointer_to(types.int64)
-
     @intrinsic
     def address(typingctx, ptr):
         def codegen(context, builder, signature, args):
             return builder.ptrtoint(args[0], context.get_value_type(types.int64))
         return types.int64(ptr), codegen
 
+    return pointer_to(types.float64), pointer_to(types.int64), address
+
+
+def _compile():
+    """numba ``cfunc`` with MuJoCo's control-callback signature, context in ``d->userdata``."""
+    from numba import carray, cfunc, njit, types
+
+    from controllers.motor import pd_torque
+
+    offs = data_offsets(("userdata", "qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"))
+    W_UD, W_QPOS, W_QVEL = offs["userdata"] // 8, offs["qpos"] // 8, offs["qvel"] // 8
+    W_CTRL, W_QFRC, W_XFRC = offs["ctrl"] // 8, offs["qfrc_applied"] // 8, offs["xfrc_applied"] // 8
+
+    f64p, i64p, address = _intrinsics()
     law = njit(pd_torque)
     MAGIC = _MAGIC
 
