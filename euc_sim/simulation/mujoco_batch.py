@@ -217,7 +217,7 @@ def _compile():
     return control
 
 
-def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2,
+def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int = 128,
                    progress: Callable[[int], None] | None = None) -> list:
     """Run many :func:`simulate` requests in MuJoCo batches on threads.
 
@@ -228,6 +228,8 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2,
         ``duration``, ``seed``, ``params``, ``effects`` …), one mapping per ride.
     nthread : int
         Threads of each ``mujoco.batch.Batch``.
+    batch : int
+        Rides per ``Batch`` at most (a 20 s ride's records take about 1.3 MB).
     progress : callable, optional
         ``progress(n)`` with the number of rides finished, as they finish.
 
@@ -242,6 +244,9 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2,
     SimulationError
         for a request :func:`simulate` refuses (checked before any ride runs).
     """
+    if not (isinstance(batch, int) and batch >= 1 and isinstance(nthread, int) and nthread >= 0):
+        raise engine.SimulationError(f"simulate_rides: batch must be a positive and nthread a non-negative "
+                                     f"integer, got batch={batch!r}, nthread={nthread!r}")
     for r in requests:
         bad = set(r) - set(_SIM_KEYS)
         if bad:
@@ -253,22 +258,27 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2,
         print(f"euc-sim: MuJoCo batch unavailable ({_UNUSABLE_REASON}); simulating ride by ride",
               file=sys.stderr)
         in_batch = []
-    rides = {i: engine.prepare(**requests[i]) for i in in_batch}
+    rides = {i: engine.prepare(**requests[i]) for i in in_batch}      # every request checked first
+    for i in set(range(len(requests))) - set(rides):
+        engine.prepare(**requests[i])
     groups: dict = {}
     for i, ride in rides.items():   # one Batch per (steps, delay, dt, ground): blocks in step, one layout
         groups.setdefault((ride.N, ride.run.n, ride.run.dt, ride.stepper.sim.variant), []).append(i)
     done = 0
-    for ids in groups.values():      # BLAS on one thread: its idle threads spin against the batch's
+    chunks = [ids[j:j + batch] for ids in groups.values() for j in range(0, len(ids), batch)]
+    for ids in chunks:              # BLAS on one thread: its idle threads spin against the batch's
         pushes = [requests[i].get("external_force") for i in ids]
         with threadpool_limits(limits=1, user_api="blas"):
             results = _run_batch([rides[i] for i in ids], pushes, nthread)
         for i, res in zip(ids, results):
             out[i] = res
+            del rides[i]            # its buffers go with it
         done += len(ids)
         if progress is not None:
             progress(done)
+    batched = set(in_batch)
     for i, r in enumerate(requests):
-        if i not in rides:
+        if i not in batched:
             try:
                 out[i] = engine.simulate(**r)
             except FallError as exc:

@@ -56,9 +56,9 @@ def test_batch_rides_match_simulate(rider):
     assert mujoco.get_mjcb_control() is None            # nothing leaks into other simulations
 
 
-def test_threads_give_the_same_rides(rider):
+def test_threads_and_batch_sizes_give_the_same_rides(rider):
     reqs = _requests(rider)[:3]
-    one, two = mb.simulate_rides(reqs, nthread=1), mb.simulate_rides(reqs, nthread=2)
+    one, two = mb.simulate_rides(reqs, nthread=1, batch=2), mb.simulate_rides(reqs, nthread=2)
     for a, b in zip(one, two):
         assert _gap(a, b) == pytest.approx(0.0, abs=1e-15)
 
@@ -106,6 +106,10 @@ def test_bad_requests_are_refused_before_any_ride(rider):
         mb.simulate_rides([dict(maneuver="constant_speed", speed=2.0)])
     with pytest.raises(SimulationError, match="duration"):
         mb.simulate_rides([dict(maneuver="constant_speed", duration=2.0), dict(duration=-1.0)])
+    with pytest.raises(SimulationError, match="rolling_model"):     # a request the batch would not take
+        mb.simulate_rides([dict(duration=2.0), dict(duration=1.0, engine="analytic", rolling_model="contact")])
+    with pytest.raises(SimulationError, match="batch must be a positive"):
+        mb.simulate_rides([dict(duration=2.0)], batch=0)
 
 
 def test_offsets_point_at_the_fields():
