@@ -328,6 +328,87 @@ def bench_batch(rides: int = 1000, duration: float = 20.0) -> dict:
           f"{out['batch_aggregate_real_time_factor']:8.1f}x real time aggregate (aim ≥ 2000x), "
           f"{t_batch:.1f} s wall, {out['fell']} fell")
     print(f"  ratio batch aggregate / per-ride = {out['ratio_batch_vs_per_ride']:.1f}x")
+    out.update(mujoco_batch_figures(rides, duration))                   # issue 23
+    return out
+
+
+# --- issue 23: MuJoCo batches on threads --------------------------------------------------
+def _effect_requests(rides: int, duration: float) -> list[dict]:
+    """``rides`` requests of :func:`simulate` with the catalog's effects the batch applies,
+    varied per ride (drag, rolling resistance, slope, bearing friction, rider mass), seeded."""
+    from euc_sim.simulation.engine import default_rider
+    from euc_sim.simulation.maneuvers import make_maneuver
+
+    rider = default_rider(noise_std=3.0)
+    out = []
+    for s in range(rides):
+        eff = {"aerodynamic_drag": 0.3 + 0.05 * (s % 3), "rolling_resistance": 0.015 + 0.005 * (s % 2),
+               "road_slope": 0.01 * (s % 3), "wheel_bearing_friction": 0.05 * (s % 2)}
+        out.append({"maneuver": make_maneuver("stop_and_go", v=2.0 + 0.5 * (s % 3)), "duration": duration,
+                    "seed": s, "rider": rider, "effects": eff})
+    return out
+
+
+def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int = 100) -> dict:
+    """Aggregate step rate of :func:`euc_sim.simulation.mujoco_batch.simulate_rides` on 1 and 2
+    threads (``rides`` rides with effects, in batches of ``chunk``: a ride's records take
+    1.3 MB) over the bare single-thread ``mj_step`` rate of the same model, same process."""
+    import mujoco
+
+    from euc_sim.simulation.mujoco_batch import _batch_model, simulate_rides
+    from euc_sim.simulation.engine import prepare
+
+    reqs = _effect_requests(rides, duration)
+    steps = int(round(duration / 1e-3))
+    ride = prepare(**reqs[1])
+    m = _batch_model(ride, {})
+    d = mujoco.MjData(m)
+    simulate_rides(reqs[:2], nthread=2)                                # compile, warm caches
+    fell = 0
+
+    def bare(forces=False):
+        mujoco.mj_resetData(m, d)
+        d.qpos[:], d.qvel[:] = ride.stepper.d.qpos, ride.stepper.d.qvel
+        if forces:     # the MuJoCo work of the effects: a drag force at G and a rolling moment, held
+            d.xfrc_applied[ride.stepper.b_rider, 0] = -2.0
+            d.qfrc_applied[ride.stepper.vx] = -1.0
+        mujoco.mj_step(m, d, nstep=steps)
+
+    def batch(nthread, part):
+        def run():
+            nonlocal fell
+            for i in range(0, len(part), chunk):
+                res = simulate_rides(part[i:i + chunk], nthread=nthread)
+                fell += sum(isinstance(r, Exception) for r in res)
+        return run
+
+    small = reqs[:min(rides, 20)]       # best of 3, interleaved with the bare loop: load-robust
+    t = timed_together({"bare": lambda: [bare() for _ in small], "one": batch(1, small)}, repeat=3)
+    t_bare = timed(bare, repeat=3)
+    t_forces = timed(lambda: bare(True), repeat=3)
+    t_two = timed(batch(2, reqs), repeat=1)
+    rate_bare = steps / t_bare
+    rate_one_bare = len(small) * steps / t["bare"]
+    out = {"mujoco_batch_rides": rides, "mujoco_batch_duration_s": duration,
+           "bare_mj_step_per_s": rate_bare,
+           "mujoco_batch_1_thread_steps_per_s": len(small) * steps / t["one"],
+           "mujoco_batch_2_threads_steps_per_s": rides * steps / t_two,
+           "mujoco_batch_2_threads_real_time_factor": rides * duration / t_two,
+           "mujoco_batch_wall_s": t_two, "mujoco_batch_fell": fell}
+    out["mujoco_batch_1_thread_vs_bare"] = out["mujoco_batch_1_thread_steps_per_s"] / rate_one_bare
+    out["mujoco_batch_thread_scaling"] = out["mujoco_batch_2_threads_steps_per_s"] / (2 * rate_bare)
+    out["bare_mj_step_with_applied_forces_per_s"] = steps / t_forces
+    out["mujoco_batch_thread_scaling_vs_bare_with_forces"] = (out["mujoco_batch_2_threads_steps_per_s"]
+                                                              * t_forces / (2 * steps))
+    print(f"  bare mj_step (C loop, 1 thread)  : {rate_bare / 1e3:8.1f} k steps/s")
+    print(f"  MuJoCo batch, {len(small)} rides, 1 thread: {out['mujoco_batch_1_thread_steps_per_s'] / 1e3:8.1f} "
+          f"k steps/s = {out['mujoco_batch_1_thread_vs_bare']:.2f} x bare")
+    print(f"  MuJoCo batch, {rides} rides of {duration:g} s with effects, 2 threads: "
+          f"{out['mujoco_batch_2_threads_steps_per_s'] / 1e3:8.1f} k steps/s, "
+          f"{out['mujoco_batch_2_threads_real_time_factor']:.0f}x real time, {t_two:.1f} s wall")
+    print(f"  ratio 2-thread batch / (2 x bare) = {out['mujoco_batch_thread_scaling']:.2f} (aim >= 0.85); "
+          f"against a bare step with the effects' applied forces: "
+          f"{out['mujoco_batch_thread_scaling_vs_bare_with_forces']:.2f}")
     return out
 
 

@@ -249,7 +249,12 @@ def make_recording(case: dict, out: Path) -> Path:
                              rider_noise=RIDER_NOISE, speed=case["options"]["speed"],
                              radius=case["options"]["radius"], hide_torques=case["hide_torques"])
     from euc_sim.simulation import dataset
-    from euc_sim import io
+    return _write_case(case, out, *dataset.simulated_recording(case_spec(case)))
+
+
+def case_spec(case: dict):
+    """The :class:`euc_sim.simulation.dataset.RecordingSpec` of a planar case."""
+    from euc_sim.simulation import dataset
     from euc_sim.model.parameters import TABLE3
     from euc_sim.simulation.effects import PeriodicPush
     from euc_sim.simulation.engine import default_rider, true_params
@@ -262,17 +267,46 @@ def make_recording(case: dict, out: Path) -> Path:
     # rider knows his weight); the analysis still assumes Table 3
     rider = default_rider(true_params(TABLE3, eff), noise_std=RIDER_NOISE)
     shape = case.get("drift_shape")
-    spec = dataset.RecordingSpec(case["name"], man, case["duration"], case["seed"],
+    return dataset.RecordingSpec(case["name"], man, case["duration"], case["seed"],
                                  effects=tuple(eff.items()), hide_torques=case["hide_torques"],
                                  rider=rider,
                                  external_force=PeriodicPush(**case["push"]) if case["push"] else None,
                                  drift_shape=DriftShape(**shape) if shape else None)
-    rec, meta, truth = dataset.simulated_recording(spec)
+
+
+def _write_case(case: dict, out: Path, rec, meta: dict, truth: dict) -> Path:
+    """Write a case's recording with its options in the sidecar and the case in the truth file."""
+    from euc_sim import io
     meta = {**meta, "maneuver_options": case["options"]}
     truth = {**truth, "case": case}
     path = out / f"{case['name']}.csv"
     io.write_recording(rec, path, meta, truth)
     return path
+
+
+def _make_batch(args) -> int:
+    """Worker: the planar cases' recordings as one MuJoCo batch (``simulated_recordings``);
+    a case whose rider falls is left unwritten (its ``_work`` then says so). Returns how many fell."""
+    cases, out = args
+    from euc_sim.simulation import dataset
+    made = dataset.simulated_recordings([case_spec(c) for c in cases])
+    for case, res in zip(cases, made):
+        if not isinstance(res, Exception):
+            _write_case(case, out, *res)
+    return sum(isinstance(res, Exception) for res in made)
+
+
+def make_recordings(cases: list[dict], out: Path, workers: int = 2, scheduler: str | None = None,
+                    batch: int = 32) -> None:
+    """The planar cases' missing recordings, ``batch`` to a MuJoCo batch, one batch per task of
+    :func:`euc_sim.simulation.runner.run_tasks` (3-D cases are made by :func:`make_recording`)."""
+    from euc_sim.simulation.runner import run_tasks
+
+    todo = [c for c in cases if c.get("model") != "3d" and not (out / f"{c['name']}.csv").exists()]
+    if todo:
+        run_tasks(_make_batch, [(f"batch{i // batch:04d}", (todo[i:i + batch], out))
+                                for i in range(0, len(todo), batch)],
+                  scheduler=scheduler, workers=workers, desc="blind study rides")
 
 
 def _work(args):
@@ -332,6 +366,7 @@ def run(cases: list[dict], out: Path, workers: int = 2, resimulate: bool = False
     from euc_sim.simulation.runner import run_tasks
 
     out.mkdir(parents=True, exist_ok=True)
+    make_recordings(cases, out, workers, scheduler)
     rep = run_tasks(_work, [(c["name"], (c, out, resimulate, term_sigma)) for c in cases],
                     scheduler=scheduler, workers=workers, desc="blind study")
     progress(rep.table())

@@ -154,7 +154,7 @@ def effect_study(args) -> dict:
     dict
         ``estimates`` and ``se`` (one per ride that did not fall), ``fell``.
     """
-    from euc_sim.simulation.dataset import RecordingSpec, simulated_recording
+    from euc_sim.simulation.dataset import RecordingSpec, simulated_recordings
     from euc_sim.simulation.engine import default_rider, true_params
     from euc_sim.simulation.errors import FallError
     from euc_sim.simulation.maneuvers import make_maneuver
@@ -165,16 +165,15 @@ def effect_study(args) -> dict:
              for c in np.random.SeedSequence(seed, spawn_key=(1, i, j)).spawn(rides)]
     rider = default_rider(true_params(p, {effect: value}), noise_std=rider_noise)   # he knows his weight
     sig_pos, sig_ang = NOISE_LEVELS["paper"]
+    specs = [RecordingSpec(f"{name}-{effect}-{s}", make_maneuver(name), duration, s, params=p,
+                           effects=((effect, value),), noise=(scale * sig_pos, scale * sig_ang),
+                           hide_torques=not with_torques, rider=rider) for s in seeds]
     est, ses, fell = [], [], 0
-    for s in seeds:
-        spec = RecordingSpec(f"{name}-{effect}-{s}", make_maneuver(name), duration, s, params=p,
-                             effects=((effect, value),), noise=(scale * sig_pos, scale * sig_ang),
-                             hide_torques=not with_torques, rider=rider)
-        try:
-            rec, meta, _ = simulated_recording(spec)
-        except FallError:
+    for made in simulated_recordings(specs):        # the R rides as one MuJoCo batch
+        if isinstance(made, FallError):
             fell += 1
             continue
+        rec, meta, _ = made
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             e, se = effect_estimate(rec, meta, effect, p, p.h)

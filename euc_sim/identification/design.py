@@ -2,8 +2,8 @@
 
 Before recording, for a rider, the sensor noise and a list of maneuvers:
 
-* Monte Carlo: R rides of each maneuver on the batch engine
-  (:func:`euc_sim.simulation.batch.simulate_batch`, the rider's motor noise seeded
+* Monte Carlo: R rides of each maneuver as one MuJoCo batch
+  (:func:`euc_sim.simulation.mujoco_batch.simulate_rides`, the rider's motor noise seeded
   per ride), sampled like motion capture at each noise level
   (:func:`euc_sim.simulation.mocap.motion_capture`, seeded), and h fitted per ride as
   the paper does (:func:`euc_sim.identification.h_fit.identify_h`, 3-DoF model,
@@ -108,26 +108,28 @@ def maneuver_study(args) -> dict:
         ``identifiable`` (scales × rides); ``h_grid`` and ``rmse_rel`` (scales × grid),
         the mean RMSE(h) curve over the rides divided by its minimum; ``fell``.
     """
-    from euc_sim.simulation.batch import simulate_batch
     from euc_sim.simulation.engine import default_rider
+    from euc_sim.simulation.errors import FallError
     from euc_sim.simulation.maneuvers import make_maneuver
     from euc_sim.simulation.mocap import motion_capture
+    from euc_sim.simulation.mujoco_batch import simulate_rides
 
     name, rides, duration, scales, (seed, index), p, rider_noise = args
     states = [c.generate_state(2) for c in np.random.SeedSequence(seed, spawn_key=(index,)).spawn(rides)]
     seeds, sensor_seeds = [int(s[0]) for s in states], [int(s[1]) for s in states]
     rider = default_rider(p, noise_std=rider_noise)
-    run = simulate_batch([make_maneuver(name)] * rides, duration, seeds=seeds, params=p, rider=rider)
-    ok = [r for r in range(rides) if not run.fell[r]]
+    runs = simulate_rides([{"maneuver": make_maneuver(name), "duration": duration, "seed": s, "params": p,
+                            "rider": rider} for s in seeds], nthread=1)    # one MuJoCo batch
+    ok = [r for r in range(rides) if not isinstance(runs[r], FallError)]
     sig_pos, sig_ang = NOISE_LEVELS["paper"]
-    out = {"h": [], "fisher_var": [], "identifiable": [], "rmse_rel": [], "fell": int(run.fell.sum())}
+    out = {"h": [], "fisher_var": [], "identifiable": [], "rmse_rel": [], "fell": rides - len(ok)}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        clean = {r: _fit(motion_capture(run.ride(r), p, noise="none"), p)[0] for r in ok}
+        clean = {r: _fit(motion_capture(runs[r], p, noise="none"), p)[0] for r in ok}
         for scale in scales:
             hs, idents, curves, errors = [], [], [], []
             for r in ok:
-                rec = motion_capture(run.ride(r), p, noise=(scale * sig_pos, scale * sig_ang), seed=sensor_seeds[r])
+                rec = motion_capture(runs[r], p, noise=(scale * sig_pos, scale * sig_ang), seed=sensor_seeds[r])
                 poly, fit = _fit(rec, p)
                 hs.append(fit.h)
                 idents.append(bool(fit.identifiable))

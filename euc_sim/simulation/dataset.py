@@ -29,7 +29,7 @@ from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation.maneuvers import Maneuver, make_maneuver
 from euc_sim.simulation.engine import default_rider, simulate, true_params
 
-__all__ = ["PAPER_SET", "DEFAULT_RIDER_NOISE", "RecordingSpec", "simulated_recording",
+__all__ = ["PAPER_SET", "DEFAULT_RIDER_NOISE", "RecordingSpec", "simulated_recording", "simulated_recordings",
            "write_simulated", "dataset_plan", "run_dataset"]
 
 #: The paper's longitudinal maneuvers (Table 1) and how many recordings of each, plus
@@ -62,6 +62,15 @@ class RecordingSpec:
     drift_shape: object = None
 
 
+def _request(spec: RecordingSpec) -> dict:
+    """The spec's run as keyword arguments of :func:`simulate`."""
+    return dict(maneuver=spec.maneuver, duration=spec.duration, params=spec.params, motor=spec.motor,
+                rider=spec.rider or default_rider(spec.params, spec.motor), seed=spec.seed,
+                engine=spec.engine, variant=spec.variant, effects=dict(spec.effects),
+                rolling_model=spec.rolling_model, external_force=spec.external_force,
+                drift_shape=spec.drift_shape)
+
+
 def simulated_recording(spec: RecordingSpec):
     """Simulate and sample one recording.
 
@@ -76,12 +85,28 @@ def simulated_recording(spec: RecordingSpec):
     FallError
         when the rider falls (nothing is produced).
     """
+    return _sampled(spec, simulate(**_request(spec)))
+
+
+def simulated_recordings(specs: list[RecordingSpec], nthread: int = 1) -> list:
+    """:func:`simulated_recording` of many specs, their rides in MuJoCo batches on ``nthread``
+    threads (:func:`euc_sim.simulation.mujoco_batch.simulate_rides`: the same runs).
+
+    Returns
+    -------
+    list
+        Per spec, in order: ``(recording, meta, truth)``, or the ``FallError`` of its rider.
+    """
+    from euc_sim.simulation.mujoco_batch import simulate_rides
+
+    runs = simulate_rides([_request(s) for s in specs], nthread=nthread)
+    return [run if isinstance(run, Exception) else _sampled(spec, run) for spec, run in zip(specs, runs)]
+
+
+def _sampled(spec: RecordingSpec, run):
+    """The recording, sidecar and truth of a spec's simulated run (see :func:`simulated_recording`)."""
     eff = dict(spec.effects)
     rider = spec.rider or default_rider(spec.params, spec.motor)
-    run = simulate(spec.maneuver, spec.duration, params=spec.params, motor=spec.motor, rider=rider,
-                   seed=spec.seed, engine=spec.engine, variant=spec.variant, effects=eff,
-                   rolling_model=spec.rolling_model, external_force=spec.external_force,
-                   drift_shape=spec.drift_shape)
     p_true = true_params(spec.params, eff)
     rec = motion_capture(run, p_true, noise=spec.noise, seed=spec.seed, effects=eff,
                          hide_torques=spec.hide_torques)
@@ -178,16 +203,23 @@ def dataset_plan(seed: int = 0, duration: float = 15.0, counts=PAPER_SET, params
     return specs
 
 
-def _make(spec: RecordingSpec):
-    """Worker side: one recording in memory (written by the parent, atomically)."""
-    return simulated_recording(spec)
+def _make_batch(args):
+    """Worker side: one batch of recordings in memory (written by the parent, atomically);
+    a spec whose rider fell gives its one-line reason instead."""
+    from euc_sim.simulation.runner import _reason
+
+    specs, nthread = args
+    return [_reason(v) if isinstance(v, Exception) else v for v in simulated_recordings(specs, nthread)]
 
 
 def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | None = None,
-                progress: bool = True, ext: str = ".csv", scheduler: str | None = None):
+                progress: bool = True, ext: str = ".csv", scheduler: str | None = None,
+                threads: int = 1, batch: int | None = None):
     """Write every spec's recording into ``out_dir``, in parallel (:mod:`runner`).
 
-    Workers simulate and return the recording; this process writes each one as it
+    The specs go in batches (:func:`simulated_recordings`: one ``mujoco.batch.Batch``
+    on ``threads`` threads each); a batch is one task of the process pool or of Dask.
+    Workers simulate and return the recordings; this process writes each one as it
     arrives (``euc_sim.io``: temp file then rename), so an interrupted run leaves
     complete recordings only, and a remote Dask cluster needs no shared folder.
     A recording whose rider falls (or whose worker dies) is named in the report and
@@ -201,39 +233,63 @@ def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | 
         Worker processes (default: all cores; 1 runs in this process), or the local
         Dask cluster's workers.
     progress : bool
-        A progress bar on stderr.
+        A progress bar (over batches) on stderr.
     ext : {".csv", ".parquet"}
     scheduler : {None, "local"} or str
         See :func:`euc_sim.simulation.runner.run_tasks`.
+    threads : int
+        Threads of each batch (a worker machine's cores under Dask).
+    batch : int, optional
+        Recordings per batch (default: the specs shared evenly among the workers,
+        at most 64 per batch).
 
     Returns
     -------
     RunReport
-        ``results`` maps each written recording's name to its path; ``failed`` maps
-        the others to the reason.  A manifest ``dataset.json`` is written beside
-        them (``recordings`` in the order of ``specs``, ``failed``: name -> reason).
+        By recording: ``results`` maps each written recording's name to its path;
+        ``failed`` maps the others to the reason.  A manifest ``dataset.json`` is
+        written beside them (``recordings`` in the order of ``specs``, ``failed``:
+        name -> reason).
     """
-    from euc_sim.simulation.runner import run_tasks
+    import os
+
+    from euc_sim.simulation.runner import RunReport, check_backend, run_tasks
 
     out_dir = Path(out_dir)
     created = [d for d in (out_dir, *out_dir.parents) if not d.exists()]   # deepest first
     io.check_writable(out_dir / "dataset.json")
+    check_backend(scheduler, workers)
+    if batch is None:            # as many batches as workers (a Dask cluster: 2 unless told)
+        shares = workers or (2 if scheduler is not None else os.cpu_count() or 1)
+        batch = min(64, max(1, -(-len(specs) // shares)))
+    if not (isinstance(batch, int) and batch >= 1):
+        raise ValueError(f"batch: expected a positive number of recordings, got {batch!r}")
+    groups = {f"batch{i // batch:04d}": specs[i:i + batch] for i in range(0, len(specs), batch)}
 
     written: dict[str, Path] = {}
+    fell: dict[str, str] = {}
 
-    def write(name: str, value) -> None:
-        rec, meta, truth = value
-        written[name] = io.write_recording(rec, out_dir / f"{name}{ext}", meta, truth)
+    def write(name: str, values) -> None:
+        for spec, value in zip(groups[name], values):
+            if isinstance(value, str):
+                fell[spec.name] = value
+            else:
+                rec, meta, truth = value
+                written[spec.name] = io.write_recording(rec, out_dir / f"{spec.name}{ext}", meta, truth)
 
     try:
-        report = run_tasks(_make, [(s.name, s) for s in specs], scheduler=scheduler, workers=workers,
-                           progress=progress, desc="dataset", on_result=write)
+        by_batch = run_tasks(_make_batch, [(n, (g, threads)) for n, g in groups.items()], scheduler=scheduler,
+                             workers=workers, progress=progress, desc="dataset", on_result=write)
     except BaseException:        # no scheduler, an interruption: no folder left that this run made empty
         for d in created:
             if d.is_dir() and not any(d.iterdir()):
                 d.rmdir()
         raise
-    report.results = {n: written[n] for n in report.names if n in written}
+    for name, reason in by_batch.failed.items():      # a batch that died: each of its recordings named
+        fell.update({spec.name: reason for spec in groups[name]})
+    report = RunReport(names=[s.name for s in specs], backend=by_batch.backend, seconds=by_batch.seconds)
+    report.results = {s.name: written[s.name] for s in specs if s.name in written}
+    report.failed = {s.name: fell[s.name] for s in specs if s.name in fell}
     io.write_json(out_dir / "dataset.json", {
         "recordings": [p.name for p in report.results.values()],
         "maneuvers": {s.name: s.maneuver.name for s in specs},

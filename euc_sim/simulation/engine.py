@@ -354,6 +354,79 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     SimulationError
         for an unknown engine, maneuver, effect or a bad duration.
     """
+    ride = prepare(maneuver, duration, params=params, motor=motor, rider=rider, seed=seed, engine=engine,
+                   variant=variant, effects=effects, dt=dt, fall_bounds=fall_bounds, contact=contact,
+                   rolling_model=rolling_model, external_force=external_force,
+                   lateral_motion=lateral_motion, drift_shape=drift_shape)
+    stepper, run, ext, N, y0, bounds, motor = ride.stepper, ride.run, ride.ext, ride.N, ride.y0, ride.bounds, ride.motor
+    try:
+        result = None
+        if native and engine == "mujoco" and not ext.per_step:
+            from euc_sim.simulation.native import native_loop
+
+            result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress)
+        if result is None:
+            result = _closed_loop(stepper, motor, run, ext, ride.p_true, dt, N, y0, bounds, progress)
+    except FallError as exc:             # the run up to the fall, for a caller that keeps it
+        ride.attach_partial(exc)
+        raise
+    return ride.frame(*result)
+
+
+@dataclass(frozen=True)
+class Ride:
+    """One run of :func:`simulate`, set up and not yet stepped (:func:`prepare`).
+
+    ``stepper`` is the engine with the initial state set, ``run`` the rider's law,
+    ``ext`` the effects' inputs on the grid ``t`` (N + 1 samples, s), ``y0`` the
+    initial state (x, γ, φ, ẋ, γ̇, φ̇), ``bounds`` the fall bounds, rad.
+    """
+
+    stepper: object
+    run: RiderRun
+    ext: "_ExternalInputs"
+    motor: MotorPD
+    rider: Rider
+    p_true: Params
+    N: int
+    t: np.ndarray
+    v_ref: np.ndarray
+    y0: tuple
+    bounds: dict
+    attrs: dict
+
+    def frame(self, states: np.ndarray, U: np.ndarray) -> pd.DataFrame:
+        """The run's DataFrame (module docstring's columns, ``attrs``) from states (N+1, 6) and torques (N+1, 2)."""
+        df = _trajectory(self.t, states, U, self.v_ref, self.ext)
+        df.attrs.update(self.attrs)
+        return df
+
+    def attach_partial(self, exc: FallError) -> None:
+        """Give a fall its ``trajectory``: the run up to it, from its ``partial`` (states, torques)."""
+        if exc.partial is None:
+            return
+        st, u = exc.partial
+        t, v_ref = self.t, self.v_ref
+        exc.trajectory = pd.DataFrame({
+            "t": t[:len(st)], "x": st[:, 0], "gamma": st[:, 1], "phi": st[:, 2], "x_dot": st[:, 3],
+            "gamma_dot": st[:, 4], "phi_dot": st[:, 5], "M_d": u[:, 0], "M_h": u[:, 1],
+            "v_ref": v_ref[:len(st)]})
+
+
+def prepare(maneuver="constant_speed", duration: float = 15.0, *, params: Params = TABLE3,
+            motor: MotorPD | None = None, rider: Rider | None = None, seed: int = 0,
+            engine: str = "mujoco", variant: str = "ideal",
+            effects: Mapping[str, float] | None = None, dt: float = DEFAULT_DT,
+            fall_bounds: Mapping[str, float] | None = None, contact=None,
+            rolling_model: str = "moment", external_force=None,
+            lateral_motion: LateralMotion | None = None, drift_shape=None) -> Ride:
+    """Check a request of :func:`simulate` (same arguments) and set the run up: a :class:`Ride`.
+
+    Raises
+    ------
+    SimulationError
+        as :func:`simulate`.
+    """
     _check_request(engine, duration, dt, variant, rolling_model)
     man = as_maneuver(maneuver)
     eff = _check_effects(effects)
@@ -363,7 +436,6 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     p_true = true_params(params, eff)
     if rider is None:
         rider = default_rider(p_true, motor)
-
     N = int(round(duration / dt))
     t = np.arange(N + 1) * dt
     v_ref, a_ref = man.reference(t)
@@ -379,32 +451,13 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     if ext.h_t is not None:
         stepper.set_effects(0.0, 0.0, float(ext.h_t[0]), None)
     stepper.reset(y0)
-
-    try:
-        result = None
-        if native and engine == "mujoco" and not ext.per_step:
-            from euc_sim.simulation.native import native_loop
-
-            result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress)
-        if result is None:
-            result = _closed_loop(stepper, motor, run, ext, p_true, dt, N, y0, bounds, progress)
-        states, U = result
-    except FallError as exc:             # the run up to the fall, for a caller that keeps it
-        if exc.partial is not None:
-            st, u = exc.partial
-            exc.trajectory = pd.DataFrame({
-                "t": t[:len(st)], "x": st[:, 0], "gamma": st[:, 1], "phi": st[:, 2], "x_dot": st[:, 3],
-                "gamma_dot": st[:, 4], "phi_dot": st[:, 5], "M_d": u[:, 0], "M_h": u[:, 1],
-                "v_ref": v_ref[:len(st)]})
-        raise
-    df = _trajectory(t, states, U, v_ref, ext)
-    df.attrs.update({
+    attrs = {
         "maneuver": man.as_dict(), "duration": float(duration), "dt": dt, "engine": engine,
         "variant": variant, "seed": int(seed), "params": params.as_dict(),
         "true_params": p_true.as_dict(), "effects": eff, "motor": motor.as_dict(),
         "rider": rider.as_dict(), "rolling_model": rolling_model,
-    })
-    return df
+    }
+    return Ride(stepper, run, ext, motor, rider, p_true, N, t, v_ref, y0, bounds, attrs)
 
 
 def _check_request(engine: str, duration, dt: float, variant: str, rolling_model: str) -> None:

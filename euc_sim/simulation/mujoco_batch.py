@@ -1,0 +1,514 @@
+"""MuJoCo rides in batches on threads: ``mujoco.batch.Batch`` with the catalog's effects.
+
+:func:`simulate_rides` runs many requests of :func:`euc_sim.simulation.engine.simulate`
+(each its own maneuver, seed, parameters, rider and effects) as the simulations of one
+``mujoco.batch.Batch`` on ``nthread`` threads, and returns what ``simulate`` returns for
+each: the same DataFrame, or the ``FallError`` it raises.
+
+* **Per step, in C.** A numba ``cfunc`` installed as MuJoCo's control callback runs,
+  at the first callback call of every step (RK4 calls it once per stage; the count is
+  measured on the batch), the motor PD (:func:`controllers.motor.pd_torque`, the one
+  motor law), records the state, checks the fall bounds and sets the step's held
+  external forces from the state at its start: aerodynamic drag −k ẋ|ẋ| at G
+  (``xfrc_applied`` on ``rider``), the rolling-resistance moment −C_rr N R tanh(ẋ/v_s)
+  (``qfrc_applied`` on ``x`` as τ/R, or ``xfrc_applied`` on ``wheel`` in the contact
+  variant) and an ``external_force`` F(t) at G, tabulated on the grid.  This is
+  exactly what :func:`simulate`'s Python loop holds over each step.  Every
+  simulation's settings, counters and buffer addresses live in its own
+  ``MjData.userdata`` (``nuserdata`` = :data:`NU` slots of the model), never in a
+  global: the threads never share a simulation's context.
+* **Per model.** ``road_slope`` (gravity in the road frame), ``wheel_bearing_friction``
+  (damping), ``rider_mass`` (parameters through MjSpec) and the contact settings give
+  each ride the model :func:`simulate` builds (``Batch.set_models``, one model per
+  distinct setting): exact.
+* **Per block, in numpy.** The rider's delayed law (:meth:`controllers.rider.RiderRun.commands`,
+  blocks of n + 1 steps) is vectorised across the batch's simulations between
+  ``batch.step(nstep=block)`` calls: the same operations on stacked rows, the
+  predictor's recursion solved for all rides of one rider law at once (LAPACK
+  ``dtrtrs`` with many right-hand sides); a ride whose torque limit binds in a block is
+  done step by step by its own :class:`RiderRun`.  The batch agrees with ``simulate``
+  to rounding (≤ 1e-9 rad over a ride, ``tests/simulation/test_mujoco_batch.py``).
+* **Not in the batch.** ``cog_height_drift`` and ``lateral_dynamics`` need
+  state-dependent forces computed in Python at every step (and a model field per
+  step); ``engine="analytic"``, ``lateral_motion`` and ``drift_shape`` likewise.
+  Such requests run through :func:`simulate` itself, one after the other, with the
+  same results as before.  ``sensor_time_offset`` acts on the recording only.
+
+Where numba cannot compile, every request runs through :func:`simulate` (one line
+on stderr).  One batch at a time per process holds MuJoCo's (process-global) control
+callback; it takes :mod:`euc_sim.simulation.native`'s lock, so a native ``simulate``
+in another thread meanwhile runs its Python loop.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import math
+import sys
+from functools import lru_cache
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+from scipy.linalg.lapack import dtrtrs
+from threadpoolctl import threadpool_limits
+
+from euc_sim.simulation import engine
+from euc_sim.simulation import effects as fx
+from euc_sim.simulation.errors import FallError
+
+__all__ = ["simulate_rides", "batchable", "available", "NU", "BATCH_EFFECTS"]
+
+#: Effects the batch applies itself (the others of the catalog run through :func:`simulate`).
+BATCH_EFFECTS = ("rolling_resistance", "aerodynamic_drag", "road_slope", "wheel_bearing_friction",
+                 "rider_mass", "sensor_time_offset")
+#: ``MjData.userdata`` slots per simulation.
+NU = 48
+_MAGIC = 23.0625                       # slot S_MAGIC: this simulation is one of ours
+(S_CALLS, S_PER, S_K, S_ROWS, S_STATE, S_MD, S_MH, S_FALL, S_IX, S_IG, S_IR, S_VX, S_VG, S_VR,
+ S_AM, S_AA, S_BR, S_BW, S_SPIN, S_PHI, S_GAM, S_HMD, S_HMH, S_EFF, S_NEGK, S_CROLL, S_R,
+ S_VS, S_PUSH, S_MAGIC) = range(30)
+S_LAW = 32                             # 32 … 42: MotorPD.law_args()
+_SIM_KEYS = ("maneuver", "duration", "params", "motor", "rider", "seed", "engine", "variant",
+             "effects", "dt", "fall_bounds", "contact", "rolling_model", "external_force",
+             "lateral_motion", "drift_shape")
+_CALLBACK = None
+_UNUSABLE_REASON = ""
+
+
+def batchable(request: Mapping) -> bool:
+    """Whether a request of :func:`simulate` (its keyword arguments) runs in the batch."""
+    eff = dict(request.get("effects") or {})
+    return (request.get("engine", "mujoco") == "mujoco" and set(eff) <= set(BATCH_EFFECTS)
+            and request.get("lateral_motion") is None and request.get("drift_shape") is None)
+
+
+def data_offsets(names: Sequence[str]) -> dict[str, int]:
+    """Byte offsets in ``mjData`` of the array pointers ``names``, found on two live MjData.
+
+    Each is the first 8-byte word of the struct equal to the array's address; both
+    models (with ``nuserdata`` > 0) must agree.
+    """
+    import mujoco
+
+    found = []
+    for xml in ('<mujoco><size nuserdata="3"/><worldbody><body><joint name="a"/><geom size=".1"/>'
+                '</body></worldbody><actuator><motor joint="a"/></actuator></mujoco>',
+                '<mujoco><size nuserdata="5"/><worldbody><body><joint name="a" type="slide"/><geom size=".1"/>'
+                '<body><joint/><geom size=".1"/></body></body></worldbody><actuator><motor joint="a"/>'
+                '</actuator></mujoco>'):
+        m = mujoco.MjModel.from_xml_string(xml)
+        d = mujoco.MjData(m)
+        offs, words = {}, 4096
+        while len(offs) < len(names):         # the pointers follow mjData's fixed arrays: look further
+            if words > 1 << 20:
+                raise RuntimeError(f"mjData pointers {sorted(set(names) - set(offs))} not found in its "
+                                   f"first {words * 8} bytes")
+            w = np.frombuffer((ctypes.c_int64 * words).from_address(int(d._address)), dtype=np.int64)
+            for name in names:
+                hit = np.flatnonzero(w == getattr(d, name).ctypes.data)
+                if name not in offs and hit.size:
+                    offs[name] = int(hit[0]) * 8
+            words *= 4
+        found.append(offs)
+    if found[0] != found[1]:
+        raise RuntimeError(f"mjData field offsets disagree between two models: {found}")
+    return found[0]
+
+
+def available() -> bool:
+    """Whether the batch's native callback compiles here (compiles it on first call)."""
+    global _CALLBACK, _UNUSABLE_REASON
+    if _CALLBACK is None:
+        try:
+            _CALLBACK = _compile()
+        except Exception as exc:  # noqa: BLE001 - any failure means: simulate() one by one
+            _CALLBACK, _UNUSABLE_REASON = False, f"{type(exc).__name__}: {exc}".splitlines()[0]
+    return bool(_CALLBACK)
+
+
+def _intrinsics():
+    """numba intrinsics: int64 address → float64*, int64 address → int64*, pointer → int64."""
+    from numba import types
+    from numba.core.extending import intrinsic
+
+    def pointer_to(element):
+        @intrinsic
+        def cast(typingctx, addr):
+            def codegen(context, builder, signature, args):
+                return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+            return types.CPointer(element)(types.int64), codegen
+        return cast
+
+    @intrinsic
+    def address(typingctx, ptr):
+        def codegen(context, builder, signature, args):
+            return builder.ptrtoint(args[0], context.get_value_type(types.int64))
+        return types.int64(ptr), codegen
+
+    return pointer_to(types.float64), pointer_to(types.int64), address
+
+
+def _compile():
+    """numba ``cfunc`` with MuJoCo's control-callback signature, context in ``d->userdata``."""
+    from numba import carray, cfunc, njit, types
+
+    from controllers.motor import pd_torque
+
+    offs = data_offsets(("userdata", "qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"))
+    W_UD, W_QPOS, W_QVEL = offs["userdata"] // 8, offs["qpos"] // 8, offs["qvel"] // 8
+    W_CTRL, W_QFRC, W_XFRC = offs["ctrl"] // 8, offs["qfrc_applied"] // 8, offs["xfrc_applied"] // 8
+
+    f64p, i64p, address = _intrinsics()
+    law = njit(pd_torque)
+    MAGIC = _MAGIC
+
+    @cfunc(types.void(types.voidptr, types.voidptr))
+    def control(m, d):
+        dw = i64p(address(d))
+        if dw[W_UD] == 0:
+            return
+        ud = carray(f64p(dw[W_UD]), NU)
+        if ud[S_MAGIC] != MAGIC:                 # not a simulation of a batch (another loop's data)
+            return
+        calls = int(ud[S_CALLS])
+        ud[S_CALLS] = calls + 1.0
+        if calls % int(ud[S_PER]) == 0:          # the first call of a step: the state at its start
+            k = int(ud[S_K])
+            if k < int(ud[S_ROWS]):
+                qpos, qvel = f64p(dw[W_QPOS]), f64p(dw[W_QVEL])
+                g = qpos[int(ud[S_IG])]
+                gd = qvel[int(ud[S_VG])]
+                xd = qvel[int(ud[S_VX])]
+                row = f64p(int(ud[S_STATE]) + 48 * k)
+                row[0] = qpos[int(ud[S_IX])]
+                row[1] = g
+                row[2] = g + qpos[int(ud[S_IR])]
+                row[3] = xd
+                row[4] = gd
+                row[5] = gd + qvel[int(ud[S_VR])]
+                if ud[S_FALL] < 0.0:              # the first fall: a bound passed or a non-finite state
+                    fine = abs(row[2]) <= ud[S_PHI] and abs(g) <= ud[S_GAM]
+                    for j in range(6):
+                        fine = fine and row[j] - row[j] == 0.0
+                    if not fine:
+                        ud[S_FALL] = k
+                M_d = law(g, gd, xd, ud[S_LAW], ud[S_LAW + 1], ud[S_LAW + 2], ud[S_LAW + 3],
+                          ud[S_LAW + 4], ud[S_LAW + 5], ud[S_LAW + 6], ud[S_LAW + 7], ud[S_LAW + 8],
+                          ud[S_LAW + 9], ud[S_LAW + 10])
+                f64p(int(ud[S_MD]))[k] = M_d
+                ud[S_HMD] = M_d
+                ud[S_HMH] = f64p(int(ud[S_MH]))[k]
+                if ud[S_EFF] != 0.0:              # engine._EffectsRow: held over the step
+                    F = ud[S_NEGK] * xd * abs(xd)
+                    push = int(ud[S_PUSH])
+                    F = F + (f64p(push)[k] if push != 0 else 0.0)
+                    tau = ud[S_CROLL] * math.tanh(xd / ud[S_VS])
+                    xf = f64p(dw[W_XFRC])
+                    xf[6 * int(ud[S_BR])] = F
+                    if ud[S_SPIN] != 0.0:
+                        xf[6 * int(ud[S_BW]) + 4] = tau
+                    else:
+                        f64p(dw[W_QFRC])[int(ud[S_VX])] = 0.0 + tau / ud[S_R]
+                ud[S_K] = k + 1.0
+        ctrl = f64p(dw[W_CTRL])
+        ctrl[int(ud[S_AM])] = ud[S_HMD]
+        ctrl[int(ud[S_AA])] = ud[S_HMH]
+
+    return control
+
+
+def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int = 128,
+                   progress: Callable[[int], None] | None = None) -> list:
+    """Run many :func:`simulate` requests in MuJoCo batches on threads.
+
+    Parameters
+    ----------
+    requests : sequence of mapping
+        Keyword arguments of :func:`euc_sim.simulation.engine.simulate` (``maneuver``,
+        ``duration``, ``seed``, ``params``, ``effects`` …), one mapping per ride.
+    nthread : int
+        Threads of each ``mujoco.batch.Batch``.
+    batch : int
+        Rides per ``Batch`` at most (a 20 s ride's records take about 1.3 MB).
+    progress : callable, optional
+        ``progress(n)`` with the number of rides finished, as they finish.
+
+    Returns
+    -------
+    list
+        Per request, in order: the DataFrame :func:`simulate` returns, or the
+        ``FallError`` it raises (with its ``trajectory``).
+
+    Raises
+    ------
+    SimulationError
+        for a request :func:`simulate` refuses (checked before any ride runs).
+    """
+    if not (isinstance(batch, int) and batch >= 1 and isinstance(nthread, int) and nthread >= 0):
+        raise engine.SimulationError(f"simulate_rides: batch must be a positive and nthread a non-negative "
+                                     f"integer, got batch={batch!r}, nthread={nthread!r}")
+    for r in requests:
+        bad = set(r) - set(_SIM_KEYS)
+        if bad:
+            raise engine.SimulationError(f"simulate_rides: unknown argument {sorted(bad)[0]!r}; "
+                                         f"valid: {', '.join(_SIM_KEYS)}")
+    out: list = [None] * len(requests)
+    in_batch = [i for i, r in enumerate(requests) if batchable(r)]
+    if in_batch and not available():
+        print(f"euc-sim: MuJoCo batch unavailable ({_UNUSABLE_REASON}); simulating ride by ride",
+              file=sys.stderr)
+        in_batch = []
+    rides = {i: engine.prepare(**requests[i]) for i in in_batch}      # every request checked first
+    for i in set(range(len(requests))) - set(rides):
+        engine.prepare(**requests[i])
+    groups: dict = {}
+    for i, ride in rides.items():   # one Batch per (steps, delay, dt, ground): blocks in step, one layout
+        groups.setdefault((ride.N, ride.run.n, ride.run.dt, ride.stepper.sim.variant), []).append(i)
+    done = 0
+    chunks = [ids[j:j + batch] for ids in groups.values() for j in range(0, len(ids), batch)]
+    for ids in chunks:              # BLAS on one thread: its idle threads spin against the batch's
+        pushes = [requests[i].get("external_force") for i in ids]
+        with threadpool_limits(limits=1, user_api="blas"):
+            results = _run_batch([rides[i] for i in ids], pushes, nthread)
+        for i, res in zip(ids, results):
+            out[i] = res
+            del rides[i]            # its buffers go with it
+        done += len(ids)
+        if progress is not None:
+            progress(done)
+    batched = set(in_batch)
+    for i, r in enumerate(requests):
+        if i not in batched:
+            try:
+                out[i] = engine.simulate(**r)
+            except FallError as exc:
+                out[i] = exc
+            done += 1
+            if progress is not None:
+                progress(done)
+    return out
+
+
+def _batch_model(ride, cache: dict):
+    """The ride's MuJoCo model as :func:`simulate` builds it, with :data:`NU` userdata slots
+    (``cache``: this batch's models by setting, so that rides of one setting share one)."""
+    st = ride.stepper
+    m0 = st.m
+    key = (st.p, st.sim.variant, ride.ext.contact, float(m0.opt.timestep), tuple(m0.opt.gravity.tolist()),
+           tuple(m0.dof_damping.tolist()), tuple(m0.tendon_damping.tolist()))
+    if key not in cache:
+        cache[key] = _compiled(*key)
+    return cache[key]
+
+
+@lru_cache(maxsize=64)
+def _compiled(p, variant: str, contact, timestep: float, gravity: tuple, dof_damping: tuple,
+              tendon_damping: tuple):
+    """Compile the model of (parameters, ground, contact) with userdata, and set what
+    :class:`euc_sim.simulation.engine._MujocoStepper` sets on its copy (shared read-only)."""
+    from euc_sim.model.mujoco_model import build_spec
+
+    spec = build_spec(p, variant, contact=contact)
+    spec.nuserdata = NU
+    m = spec.compile()
+    m.opt.timestep = timestep
+    m.opt.gravity[:] = gravity
+    m.dof_damping[:] = dof_damping
+    m.tendon_damping[:] = tendon_damping
+    return m
+
+
+def _userdata_row(ride, per: int, addrs: tuple, push_addr: int) -> np.ndarray:
+    """One simulation's context (see the ``S_*`` slots)."""
+    st, ext, p = ride.stepper, ride.ext, ride.p_true
+    u = np.zeros(NU)
+    u[[S_PER, S_ROWS, S_STATE, S_MD, S_MH, S_FALL]] = (per, ride.N + 1, *addrs, -1.0)
+    u[[S_IX, S_IG, S_IR, S_VX, S_VG, S_VR, S_AM, S_AA, S_BR, S_BW]] = (
+        st.ix, st.ig, st.ir, st.vx, st.vg, st.vr, st.a_motor, st.a_ankle, st.b_rider, st.b_wheel)
+    u[S_SPIN] = 1.0 if st.spin else 0.0
+    u[S_PHI], u[S_GAM] = ride.bounds["phi"], ride.bounds["gamma"]
+    u[S_EFF] = 1.0 if ext.per_step else 0.0
+    u[S_NEGK] = -ext.k_drag
+    u[S_CROLL] = -ext.C_rr * ext.N_load * p.R
+    u[S_R], u[S_VS], u[S_PUSH] = p.R, fx.SIGN_SPEED, push_addr
+    u[S_MAGIC] = _MAGIC
+    u[S_LAW:S_LAW + 11] = ride.motor.law_args()
+    return u
+
+
+def _run_batch(rides: list, forces: list, nthread: int) -> list:
+    """Rides of equal length, delay and step as one ``mujoco.batch.Batch``; results in order.
+
+    ``forces``: each ride's ``external_force`` F(t), N, or None; tabulated on the grid.
+    """
+    import mujoco
+    import mujoco.batch
+
+    from euc_sim.simulation.native import _LOCK
+
+    S, N, n = len(rides), rides[0].N, rides[0].run.n
+    cache: dict = {}
+    models = [_batch_model(r, cache) for r in rides]
+    P = np.zeros((S, N + 1 + n, 6))                 # padded state histories: the delay buffers
+    MD, MH = np.zeros((S, N + 1)), np.zeros((S, N + 1))
+    pushes = [None if F is None else np.array([float(F(k * r.run.dt)) for k in range(N)])
+              for r, F in zip(rides, forces)]
+    batch = mujoco.batch.Batch(models[0], S, nthread, False)
+    batch.set_models(models[0] if len(cache) == 1 else models)
+    qpos, qvel, warm, ud = batch.bind("qpos"), batch.bind("qvel"), batch.bind("qacc_warmstart"), batch.bind("userdata")
+    for s, r in enumerate(rides):
+        qpos[s], qvel[s], warm[s] = r.stepper.d.qpos, r.stepper.d.qvel, r.stepper.d.qacc_warmstart
+        P[s, :n + 1] = r.y0
+    per = _calls_per_step(mujoco, models, rides)
+    for s, r in enumerate(rides):
+        ud[s] = _userdata_row(r, per, (P[s, n:].ctypes.data, MD[s].ctypes.data, MH[s].ctypes.data),
+                              0 if pushes[s] is None else pushes[s].ctypes.data)
+    law = _RiderBlocks([r.run for r in rides])
+    st0 = rides[0].stepper
+    out: list = [None] * S
+    active = np.arange(S)
+    with _LOCK:
+        previous = mujoco.get_mjcb_control()
+        mujoco.set_mjcb_control(_CALLBACK.ctypes)
+        try:
+            for k0 in range(0, N + 1, n + 1):
+                block = min(n + 1, N + 1 - k0)
+                if k0:
+                    P[active, n + k0] = _states(qpos[active], qvel[active], st0)
+                MH[active, k0:k0 + block] = law.applied(active, k0, P[active, k0:k0 + block])
+                steps = block if k0 + block <= N else block - 1
+                if steps:
+                    batch.step(active, nstep=steps)
+                    if not np.all(ud[active, S_K] == k0 + steps):
+                        raise RuntimeError("mujoco_batch: the callback's step count lost step with the batch")
+                fell = active[ud[active, S_FALL] >= 0]
+                for s in fell:
+                    out[s] = _fall(rides[s], P[s, n:], MD[s], MH[s], int(ud[s, S_FALL]))
+                active = active[ud[active, S_FALL] < 0]
+        finally:
+            mujoco.set_mjcb_control(previous)
+    final = _states(qpos[active], qvel[active], st0)
+    for j, s in enumerate(active):
+        r = rides[s]
+        P[s, n + N] = final[j]
+        P[s, n] = r.y0                              # as given, not as read back from qpos
+        y = tuple(final[j].tolist())
+        bad = not (abs(y[2]) <= r.bounds["phi"] and abs(y[1]) <= r.bounds["gamma"] and np.isfinite(final[j]).all())
+        if bad:
+            out[s] = _fall(r, P[s, n:], MD[s], MH[s], N)
+            continue
+        MD[s, N] = r.motor.torque(y[1], y[4], y[3])
+        out[s] = r.frame(P[s, n:].copy(), np.column_stack([MD[s], MH[s]]))
+    return out
+
+
+def _states(qpos: np.ndarray, qvel: np.ndarray, st) -> np.ndarray:
+    """(x, γ, φ, ẋ, γ̇, φ̇) per row of the bound qpos, qvel, as :meth:`_MujocoStepper.state` reads them."""
+    g, gd = qpos[:, st.ig], qvel[:, st.vg]
+    return np.column_stack([qpos[:, st.ix], g, g + qpos[:, st.ir], qvel[:, st.vx], gd, gd + qvel[:, st.vr]])
+
+
+def _fall(ride, states: np.ndarray, M_d: np.ndarray, M_h: np.ndarray, k: int) -> FallError:
+    """The ``FallError`` :func:`simulate` raises at step k, with the run up to it."""
+    try:
+        engine._raise_fall(k * ride.run.dt, tuple(states[k].tolist()), ride.bounds["phi"], ride.bounds["gamma"])
+    except FallError as exc:
+        exc.partial = (states[:k].copy(), np.column_stack([M_d[:k], M_h[:k]]))
+        ride.attach_partial(exc)
+        return exc
+    raise RuntimeError(f"mujoco_batch: step {k} was flagged as a fall but is within the bounds")
+
+
+def _calls_per_step(mujoco, models: list, rides: list) -> int:
+    """Callback calls per ``mj_step`` of the batch's model (4 with RK4), counted on a 1-simulation batch."""
+    import mujoco.batch
+
+    probe = mujoco.batch.Batch(models[0], 1, 1, False)
+    row = np.zeros(NU)
+    row[[S_PER, S_AM, S_AA, S_MAGIC]] = (1.0, rides[0].stepper.a_motor, rides[0].stepper.a_ankle, _MAGIC)
+    probe.bind("userdata")[0] = row
+    previous = mujoco.get_mjcb_control()
+    mujoco.set_mjcb_control(_CALLBACK.ctypes)
+    try:
+        probe.step(nstep=1)
+    finally:
+        mujoco.set_mjcb_control(previous)
+    calls = int(probe.bind("userdata")[0, S_CALLS])
+    if calls < 1:
+        raise RuntimeError("the control callback was not called by the batch's mj_step")
+    return calls
+
+
+class _RiderBlocks:
+    """:meth:`controllers.rider.RiderRun.commands` for many runs at once, vectorised across them.
+
+    The runs' references, noise and command histories are stacked; each run's ``du``
+    becomes a row view of the stack, so that a run done by its own :meth:`commands`
+    (the torque limit binds) shares the history.  Runs of one rider law (the same
+    predictor matrices) are solved together.
+    """
+
+    def __init__(self, runs: list):
+        self.runs = runs
+        self.v_ref = np.stack([r.v_ref for r in runs])
+        self.gamma_ref = np.stack([r.gamma_ref for r in runs])
+        self.phi_ref = np.stack([r.phi_ref for r in runs])
+        self.u_ref = np.stack([r.u_ref for r in runs])
+        self.noise = np.stack([r.noise for r in runs])
+        self.du = np.stack([r.du for r in runs])
+        for i, r in enumerate(runs):
+            r.du = self.du[i]
+        self.z = np.array([r.z for r in runs])
+        law = {}
+        for i, r in enumerate(runs):
+            law.setdefault((id(r._chunk[0]), r.k_pred, r.integral, r.limit), []).append(i)
+        self.law_of = np.empty(len(runs), dtype=int)
+        self.laws = []
+        for j, members in enumerate(law.values()):
+            self.law_of[members] = j
+            self.laws.append(runs[members[0]])
+
+    def applied(self, ids: np.ndarray, k0: int, Y: np.ndarray) -> np.ndarray:
+        """Applied M_h (with noise) of steps k0 … k0 + L − 1 for runs ``ids``, (len(ids), L), N·m;
+        ``Y`` (len(ids), L, 6) are the sensed states (the padded histories' entries k0 …)."""
+        out = np.empty(Y.shape[:2])
+        for j, ref in enumerate(self.laws):
+            sel = np.flatnonzero(self.law_of[ids] == j)
+            if sel.size:
+                out[sel] = self._one_law(ref, ids[sel], k0, Y[sel])
+        return out
+
+    def _one_law(self, ref, ids: np.ndarray, k0: int, y: np.ndarray) -> np.ndarray:
+        """:meth:`RiderRun.commands` (its operations, in order) for runs of one law."""
+        L, n = y.shape[1], ref.n
+        kp, j = ref.k_pred, slice(k0, k0 + L)
+        z0, du0 = self.z[ids], self.du[ids, k0:k0 + n]
+        e_v = y[:, :, 3] - self.v_ref[ids, j]
+        fb = (kp[0] * e_v + kp[1] * (y[:, :, 1] - self.gamma_ref[ids, j])
+              + kp[2] * (y[:, :, 2] - self.phi_ref[ids, j]) + kp[3] * y[:, :, 4] + kp[4] * y[:, :, 5])
+        z_end = z0
+        if ref.integral:
+            z = np.cumsum(np.column_stack([z0, e_v * ref.dt]), axis=1)
+            fb += kp[5] * z[:, :L]
+            z_end = z[:, L]
+        rhs = -fb
+        if n:
+            lower, past = ref._chunk
+            rhs -= du0 @ past[:L].T
+            if L < n + 1:
+                lower = np.asfortranarray(lower[:L, :L])
+            du, info = dtrtrs(lower, np.asfortranarray(rhs.T), lower=1, unitdiag=1)
+            du = du.T
+        else:
+            du = rhs
+        u = self.u_ref[ids, k0 + n:k0 + n + L] + du
+        self.z[ids] = z_end
+        self.du[ids, k0 + n:k0 + n + L] = du
+        applied = u + self.noise[ids, k0:k0 + L]
+        for i in np.flatnonzero(np.any(np.abs(u) > ref.limit, axis=1)):   # the limit binds: that run alone
+            run, s = self.runs[ids[i]], ids[i]
+            self.du[s, k0:k0 + n] = du0[i]
+            run.z = float(z0[i])
+            applied[i] = run.commands(k0, y[i])[1]
+            self.z[s] = run.z
+        return applied
