@@ -42,7 +42,6 @@ in another thread meanwhile runs its Python loop.
 
 from __future__ import annotations
 
-import ctypes
 import math
 import sys
 from functools import lru_cache
@@ -82,39 +81,6 @@ def batchable(request: Mapping) -> bool:
             and request.get("lateral_motion") is None and request.get("drift_shape") is None)
 
 
-def data_offsets(names: Sequence[str]) -> dict[str, int]:
-    """Byte offsets in ``mjData`` of the array pointers ``names``, found on two live MjData.
-
-    Each is the first 8-byte word of the struct equal to the array's address; both
-    models (with ``nuserdata`` > 0) must agree.
-    """
-    import mujoco
-
-    found = []
-    for xml in ('<mujoco><size nuserdata="3"/><worldbody><body><joint name="a"/><geom size=".1"/>'
-                '</body></worldbody><actuator><motor joint="a"/></actuator></mujoco>',
-                '<mujoco><size nuserdata="5"/><worldbody><body><joint name="a" type="slide"/><geom size=".1"/>'
-                '<body><joint/><geom size=".1"/></body></body></worldbody><actuator><motor joint="a"/>'
-                '</actuator></mujoco>'):
-        m = mujoco.MjModel.from_xml_string(xml)
-        d = mujoco.MjData(m)
-        offs, words = {}, 4096
-        while len(offs) < len(names):         # the pointers follow mjData's fixed arrays: look further
-            if words > 1 << 20:
-                raise RuntimeError(f"mjData pointers {sorted(set(names) - set(offs))} not found in its "
-                                   f"first {words * 8} bytes")
-            w = np.frombuffer((ctypes.c_int64 * words).from_address(int(d._address)), dtype=np.int64)
-            for name in names:
-                hit = np.flatnonzero(w == getattr(d, name).ctypes.data)
-                if name not in offs and hit.size:
-                    offs[name] = int(hit[0]) * 8
-            words *= 4
-        found.append(offs)
-    if found[0] != found[1]:
-        raise RuntimeError(f"mjData field offsets disagree between two models: {found}")
-    return found[0]
-
-
 def available() -> bool:
     """Whether the batch's native callback compiles here (compiles it on first call)."""
     global _CALLBACK, _UNUSABLE_REASON
@@ -126,39 +92,19 @@ def available() -> bool:
     return bool(_CALLBACK)
 
 
-def _intrinsics():
-    """numba intrinsics: int64 address → float64*, int64 address → int64*, pointer → int64."""
-    from numba import types
-    from numba.core.extending import intrinsic
-
-    def pointer_to(element):
-        @intrinsic
-        def cast(typingctx, addr):
-            def codegen(context, builder, signature, args):
-                return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
-            return types.CPointer(element)(types.int64), codegen
-        return cast
-
-    @intrinsic
-    def address(typingctx, ptr):
-        def codegen(context, builder, signature, args):
-            return builder.ptrtoint(args[0], context.get_value_type(types.int64))
-        return types.int64(ptr), codegen
-
-    return pointer_to(types.float64), pointer_to(types.int64), address
-
-
 def _compile():
     """numba ``cfunc`` with MuJoCo's control-callback signature, context in ``d->userdata``."""
     from numba import carray, cfunc, njit, types
 
     from controllers.motor import pd_torque
 
-    offs = data_offsets(("userdata", "qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"))
+    from euc_sim.simulation.native_core import field_offsets
+    from euc_sim.simulation.native_kernels import address, f64p, i64p
+
+    offs = field_offsets(("userdata", "qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"))
     W_UD, W_QPOS, W_QVEL = offs["userdata"] // 8, offs["qpos"] // 8, offs["qvel"] // 8
     W_CTRL, W_QFRC, W_XFRC = offs["ctrl"] // 8, offs["qfrc_applied"] // 8, offs["xfrc_applied"] // 8
 
-    f64p, i64p, address = _intrinsics()
     law = njit(pd_torque)
     MAGIC = _MAGIC
 
@@ -344,7 +290,7 @@ def _run_batch(rides: list, forces: list, nthread: int) -> list:
     import mujoco
     import mujoco.batch
 
-    from euc_sim.simulation.native import _LOCK
+    from euc_sim.simulation.native_core import exclusive
 
     S, N, n = len(rides), rides[0].N, rides[0].run.n
     cache: dict = {}
@@ -359,34 +305,29 @@ def _run_batch(rides: list, forces: list, nthread: int) -> list:
     for s, r in enumerate(rides):
         qpos[s], qvel[s], warm[s] = r.stepper.d.qpos, r.stepper.d.qvel, r.stepper.d.qacc_warmstart
         P[s, :n + 1] = r.y0
-    per = _calls_per_step(mujoco, models, rides)
-    for s, r in enumerate(rides):
-        ud[s] = _userdata_row(r, per, (P[s, n:].ctypes.data, MD[s].ctypes.data, MH[s].ctypes.data),
-                              0 if pushes[s] is None else pushes[s].ctypes.data)
-    law = _RiderBlocks([r.run for r in rides])
-    st0 = rides[0].stepper
-    out: list = [None] * S
-    active = np.arange(S)
-    with _LOCK:
-        previous = mujoco.get_mjcb_control()
-        mujoco.set_mjcb_control(_CALLBACK.ctypes)
-        try:
-            for k0 in range(0, N + 1, n + 1):
-                block = min(n + 1, N + 1 - k0)
-                if k0:
-                    P[active, n + k0] = _states(qpos[active], qvel[active], st0)
-                MH[active, k0:k0 + block] = law.applied(active, k0, P[active, k0:k0 + block])
-                steps = block if k0 + block <= N else block - 1
-                if steps:
-                    batch.step(active, nstep=steps)
-                    if not np.all(ud[active, S_K] == k0 + steps):
-                        raise RuntimeError("mujoco_batch: the callback's step count lost step with the batch")
-                fell = active[ud[active, S_FALL] >= 0]
-                for s in fell:
-                    out[s] = _fall(rides[s], P[s, n:], MD[s], MH[s], int(ud[s, S_FALL]))
-                active = active[ud[active, S_FALL] < 0]
-        finally:
-            mujoco.set_mjcb_control(previous)
+    with exclusive(_CALLBACK):
+        per = _calls_per_step(mujoco, models, rides)
+        for s, r in enumerate(rides):
+            ud[s] = _userdata_row(r, per, (P[s, n:].ctypes.data, MD[s].ctypes.data, MH[s].ctypes.data),
+                                  0 if pushes[s] is None else pushes[s].ctypes.data)
+        law = _RiderBlocks([r.run for r in rides])
+        st0 = rides[0].stepper
+        out: list = [None] * S
+        active = np.arange(S)
+        for k0 in range(0, N + 1, n + 1):
+            block = min(n + 1, N + 1 - k0)
+            if k0:
+                P[active, n + k0] = _states(qpos[active], qvel[active], st0)
+            MH[active, k0:k0 + block] = law.applied(active, k0, P[active, k0:k0 + block])
+            steps = block if k0 + block <= N else block - 1
+            if steps:
+                batch.step(active, nstep=steps)
+                if not np.all(ud[active, S_K] == k0 + steps):
+                    raise RuntimeError("mujoco_batch: the callback's step count lost step with the batch")
+            fell = active[ud[active, S_FALL] >= 0]
+            for s in fell:
+                out[s] = _fall(rides[s], P[s, n:], MD[s], MH[s], int(ud[s, S_FALL]))
+            active = active[ud[active, S_FALL] < 0]
     final = _states(qpos[active], qvel[active], st0)
     for j, s in enumerate(active):
         r = rides[s]
@@ -427,12 +368,7 @@ def _calls_per_step(mujoco, models: list, rides: list) -> int:
     row = np.zeros(NU)
     row[[S_PER, S_AM, S_AA, S_MAGIC]] = (1.0, rides[0].stepper.a_motor, rides[0].stepper.a_ankle, _MAGIC)
     probe.bind("userdata")[0] = row
-    previous = mujoco.get_mjcb_control()
-    mujoco.set_mjcb_control(_CALLBACK.ctypes)
-    try:
-        probe.step(nstep=1)
-    finally:
-        mujoco.set_mjcb_control(previous)
+    probe.step(nstep=1)                              # inside the caller's native_core.exclusive
     calls = int(probe.bind("userdata")[0, S_CALLS])
     if calls < 1:
         raise RuntimeError("the control callback was not called by the batch's mj_step")

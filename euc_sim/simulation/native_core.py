@@ -25,6 +25,7 @@ import ctypes
 import sys
 import threading
 from contextlib import contextmanager
+from typing import Sequence
 
 import numpy as np
 
@@ -32,12 +33,14 @@ from euc_sim.simulation.native_layout import (C_CALLS, C_FALL, C_FLOATS, C_KIND,
                                               C_SIZE, F_SIZE, KIND_COUNT, R_DU, R_FLOATS, R_GREF, R_INTEGRAL,
                                               R_KHIST, R_N, R_NOISE, R_PREF, R_UREF, R_VREF, C_ACT)
 
-__all__ = ["field_offsets", "callback", "available", "Context", "registered", "calls_per_step", "SLOTS"]
+__all__ = ["field_offsets", "callback", "available", "Context", "registered", "exclusive", "calls_per_step",
+           "SLOTS"]
 
 SLOTS = 64                                         # simulations served at once
 
 _REGISTRY = np.zeros(2 * SLOTS, dtype=np.int64)    # (MjData address, context address); 0: free
 _LOCK = threading.Lock()
+_IDLE = threading.Condition(_LOCK)      # notified when the last registered run ends
 _STATE = {"callback": None, "reason": "", "active": 0, "previous": None}
 
 
@@ -87,34 +90,30 @@ class Context:
         return int(self.c.ctypes.data)
 
 
-def field_offsets() -> dict[str, int]:
-    """Byte offsets in ``mjData`` of the pointers ``qpos``, ``qvel``, ``ctrl``, found on a live MjData.
+def field_offsets(names: Sequence[str] = ("qpos", "qvel", "ctrl")) -> dict[str, int]:
+    """Byte offsets in ``mjData`` of the array pointers ``names``, found on two live MjData.
 
-    Each is the first 8-byte word of the struct equal to the array's address, and must
-    agree on a second MjData of another model.
+    Each is the first 8-byte word of the struct equal to the array's address; the two
+    models (with ``nuserdata`` > 0, so that ``userdata`` is allocated) must agree.
     """
     import mujoco
 
-    found: list[dict[str, int]] = []
-    models = [
-        '<mujoco><worldbody><body><joint name="a"/><geom size=".1"/></body></worldbody>'
-        '<actuator><motor joint="a"/></actuator></mujoco>',
-        '<mujoco><worldbody><body><joint name="a" type="slide"/><geom size=".1"/><body>'
-        '<joint name="b"/><geom size=".1"/></body></body></worldbody>'
-        '<actuator><motor joint="a"/><motor joint="b"/></actuator></mujoco>',
-    ]
-    for xml in models:
+    found = []
+    for xml in ('<mujoco><size nuserdata="3"/><worldbody><body><joint name="a"/><geom size=".1"/>'
+                '</body></worldbody><actuator><motor joint="a"/></actuator></mujoco>',
+                '<mujoco><size nuserdata="5"/><worldbody><body><joint name="a" type="slide"/><geom size=".1"/>'
+                '<body><joint/><geom size=".1"/></body></body></worldbody><actuator><motor joint="a"/>'
+                '</actuator></mujoco>'):
         m = mujoco.MjModel.from_xml_string(xml)
         d = mujoco.MjData(m)
-        targets = {"qpos": d.qpos.ctypes.data, "qvel": d.qvel.ctypes.data, "ctrl": d.ctrl.ctypes.data}
-        base, offs, words = int(d._address), {}, 64
-        while len(offs) < len(targets):
+        offs, words = {}, 4096
+        while len(offs) < len(names):         # the pointers follow mjData's fixed arrays: look further
             if words > 1 << 20:
-                raise RuntimeError(f"mjData pointers not found in its first {words * 8} bytes")
-            buf = (ctypes.c_int64 * words).from_address(base)
-            w = np.frombuffer(buf, dtype=np.int64)
-            for name, addr in targets.items():
-                hit = np.flatnonzero(w == addr)
+                raise RuntimeError(f"mjData pointers {sorted(set(names) - set(offs))} not found in its "
+                                   f"first {words * 8} bytes")
+            w = np.frombuffer((ctypes.c_int64 * words).from_address(int(d._address)), dtype=np.int64)
+            for name in names:
+                hit = np.flatnonzero(w == getattr(d, name).ctypes.data)
                 if name not in offs and hit.size:
                     offs[name] = int(hit[0]) * 8
             words *= 4
@@ -189,6 +188,27 @@ def registered(data, context: Context):
             if _STATE["active"] == 0:
                 mujoco.set_mjcb_control(_STATE["previous"])
                 _STATE["previous"] = None
+                _IDLE.notify_all()
+
+
+@contextmanager
+def exclusive(cb):
+    """Install ``cb`` as MuJoCo's control callback for the block, alone.
+
+    Waits for the runs that :func:`registered` serves to end, and holds new ones back
+    until the block ends (MuJoCo's callback is one per process); restores the previous
+    callback after.  For a callback of another layout (:mod:`mujoco_batch`).
+    """
+    import mujoco
+
+    with _IDLE:
+        _IDLE.wait_for(lambda: _STATE["active"] == 0)
+        previous = mujoco.get_mjcb_control()
+        mujoco.set_mjcb_control(cb.ctypes)
+        try:
+            yield
+        finally:
+            mujoco.set_mjcb_control(previous)
 
 
 _CALLS_PER_STEP: dict = {}

@@ -33,7 +33,7 @@ from controllers.motor import pd_torque
 from controllers.rider import delayed_lqr_torque
 from euc_sim.simulation import native_layout as lay
 
-__all__ = ["build_callback", "CACHE_DIR"]
+__all__ = ["build_callback", "CACHE_DIR", "f64p", "i64p", "address"]
 
 
 def _cache_dir() -> str:
@@ -83,7 +83,8 @@ f64p, i64p = _pointer_to(types.float64), _pointer_to(types.int64)
 
 
 @intrinsic
-def _address(typingctx, ptr):
+def address(typingctx, ptr):
+    """An intrinsic giving a pointer's address as an int64."""
     sig = types.int64(ptr)
 
     def codegen(context, builder, signature, args):
@@ -311,7 +312,7 @@ def build_callback(w_qpos: int, w_qvel: int, w_ctrl: int, registry_address: int,
     @cfunc(types.void(types.voidptr, types.CPointer(types.int64)))
     def control(m, d):
         reg = carray(i64p(registry_address), 2 * slots)
-        me = _address(d)
+        me = address(d)
         for s in range(slots):
             if reg[2 * s] == me:
                 c = carray(i64p(reg[2 * s + 1]), lay.C_SIZE)

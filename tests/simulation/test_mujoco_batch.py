@@ -10,6 +10,7 @@ import pytest
 
 from controllers.motor import MotorPD
 from euc_sim.simulation import mujoco_batch as mb
+from euc_sim.simulation import native_core
 from euc_sim.simulation.effects import PeriodicPush
 from euc_sim.simulation.engine import default_rider, simulate
 from euc_sim.simulation.errors import FallError, SimulationError
@@ -61,6 +62,22 @@ def test_threads_and_batch_sizes_give_the_same_rides(rider):
     one, two = mb.simulate_rides(reqs, nthread=1, batch=2), mb.simulate_rides(reqs, nthread=2)
     for a, b in zip(one, two):
         assert _gap(a, b) == pytest.approx(0.0, abs=1e-15)
+
+
+def test_a_batch_and_native_rides_on_threads_at_once(rider):
+    """MuJoCo's control callback is one per process: a batch waits for the native rides in
+    flight and holds new ones back (native_core.exclusive), so every ride is as alone."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    reqs = _requests(rider)[:2]
+    alone = [simulate(**r) for r in reqs]
+    with ThreadPoolExecutor(4) as pool:
+        singles = [pool.submit(simulate, **r) for r in reqs]
+        batches = [pool.submit(mb.simulate_rides, reqs, nthread=1) for _ in range(2)]
+        got = [f.result() for f in singles] + [d for f in batches for d in f.result()]
+    for a, b in zip(got, alone + alone + alone):
+        assert _gap(a, b) <= TOL
+    assert mujoco.get_mjcb_control() is None
 
 
 def test_contact_variant_and_the_torque_limit(rider):
@@ -118,7 +135,7 @@ def test_offsets_point_at_the_fields():
                                        '</actuator></mujoco>')
     d = mujoco.MjData(m)
     names = ("userdata", "qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied")
-    offs = mb.data_offsets(names)
+    offs = native_core.field_offsets(names)
     for name in names:
         assert ctypes.c_int64.from_address(d._address + offs[name]).value == getattr(d, name).ctypes.data
 
