@@ -58,7 +58,7 @@ def command(p: dict, out: Path, n_boot: int, seed: int) -> list[str]:
     return [sys.executable, "-m", "euc_sim.cli", "ride", str(p["fit_log"]), "--compare",
             str(p["held_log"]), "--wheel", str(p["spec"]), "--report", str(d / "report"),
             "--json", str(d / "ride.json"), "--n-boot", str(n_boot), "--seed", str(seed),
-            "--jobs", "1", "--quiet"]
+            "--jobs", "1"]
 
 
 def run_pair(p: dict, out: Path, n_boot: int, seed: int, again: bool) -> dict:
@@ -112,9 +112,11 @@ def rows(results: list[dict]) -> list[str]:
                 cells.append(f"{_f(e, ',.0f')} ({mark}{_f(ratio, '.2f')}{mark})")
         ran = [s for s in sim.get("steps", []) if s["ran"] and "P_W" in s["heldout_rmse"]]
         best = min(ran, key=lambda s: s["heldout_rmse"]["P_W"]) if ran else None
+        pitch = _f(best['heldout_rmse'].get('pitch_rad'), '.2f', '', 180 / math.pi) if best else "–"
+        if "pitch_scored_rows" not in sim and pitch != "–":
+            pitch = "(all rows, not riding rows)"       # run before the riding-row scoring
         other = "–" if best is None else (
-            f"{best['step']}: {_f(best['heldout_rmse'].get('I_phase_A'), '.1f')} / "
-            f"{_f(best['heldout_rmse'].get('pitch_rad'), '.2f', '', 180 / math.pi)} / "
+            f"{best['step']}: {_f(best['heldout_rmse'].get('I_phase_A'), '.1f')} / {pitch} / "
             f"{_f(best['heldout_rmse'].get('pwm_pct'), '.1f')}")
         falls = "; ".join(f"{f['run']} at {f['t']:.0f} s ({f['cause'][:60]})"
                           for f in sim.get("falls", [])) or ("none" if sim else "not simulated")
