@@ -160,3 +160,39 @@ def test_a_figure_per_step_with_the_logs_channels(law_log, tmp_path):
         names = [ln.get_label() for ln in ax.get_lines()]
         assert any("measured_law" in n for n in names) and any("nominal" in n for n in names)
     assert plot_ride_simulation(sim, tmp_path / "s.png").stat().st_size > 20_000
+
+
+def _table_script():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "scripts" / "ride_simulation_table.py"
+    spec = importlib.util.spec_from_file_location("ride_simulation_table", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_the_shared_pairs_table(tmp_path):
+    """16 ordered pairs; a row gives each step's error and ratio (bold within 1.2×), skipped
+    steps, the scored span after a fall, and no stray '|' from a fall's cause."""
+    mod = _table_script()
+    todo = mod.pairs(tmp_path, list(mod.WHEELS))
+    assert len(todo) == 16 and {p["name"] for p in todo} >= {"lynx_0_to_2", "lynx_2_to_0",
+                                                             "master_pro_V2_6_to_3"}
+    step = lambda name, p, r, ran=True: {"step": name, "ran": ran, "heldout_rmse": {"P_W": p} if ran else {},  # noqa: E731
+                                         "ratio_to_balance": r, "target_ratio": 1.2}
+    sim = {"steps": [step("nominal", 1200.0, 2.4), step("measured_law", None, None, ran=False),
+                     step("drivetrain", 550.0, 1.1)],
+           "falls": [{"t": 300.0, "cause": "|phi| = 0.701 rad exceeds the bound 0.7 rad", "run": "nominal"}],
+           "notes": ["every step is scored up to t = 300.0 s, where the first fall ended a run "
+                     "(2500 of 10000 scored rows)"], "scored_rows": 2500, "pitch_scored_rows": 0}
+    res = [{"pair": todo[0], "json": {"heldout_error_augmented": 500.0, "simulation": sim}},
+           {"pair": todo[1], "error": "not run (no ride.json yet)"}]
+    md = mod.rows(res)
+    row = md[2]
+    assert "1,200 (2.40)" in row and "skipped" in row and "550 (**1.10**)" in row
+    assert "250 s (25 %)" in row and "phi = 0.701 rad" in row
+    assert all(r.count("|") == md[0].count("|") for r in md[2:])      # one cell per column
+    mod.write_doc(tmp_path / "t.md", res, ["--out", "X"])
+    assert "ride_simulation_table.py --out X" in (tmp_path / "t.md").read_text()
