@@ -191,7 +191,10 @@ def test_the_shared_pairs_table(tmp_path):
            {"pair": todo[1], "error": "not run (no ride.json yet)"}]
     md = mod.rows(res)
     row = md[2]
-    assert "1,200 (2.40)" in row and "skipped" in row and "550 (**1.10**)" in row
+    assert "1,200 (2.40)" in row and "skipped" in row and "550 (1.10)" in row   # fell: not bold
+    sim_whole = dict(sim, falls=[], notes=[])
+    row2 = mod.rows([{"pair": todo[0], "json": {"heldout_error_augmented": 500.0, "simulation": sim_whole}}])[2]
+    assert "550 (**1.10**)" in row2 and "1,200 (2.40)" in row2
     assert "250 s (25 %)" in row and "phi = 0.701 rad" in row
     assert all(r.count("|") == md[0].count("|") for r in md[2:])      # one cell per column
     mod.write_doc(tmp_path / "t.md", res, ["--out", "X"])
