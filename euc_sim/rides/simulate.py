@@ -317,7 +317,8 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
                   track_iterations: int = 1,
                   window_smooth: float = 5.0, window_min: float = 3.0,
                   workers: int = 1,
-                  progress: Callable[[str], None] | None = None) -> RideSimulation:
+                  progress: Callable[[str], None] | None = None, rider=None,
+                  plan_window: float | None = None) -> RideSimulation:
     """Simulate a ride's speed profile, nominal and augmented, and compare with its log.
 
     Parameters
@@ -345,6 +346,14 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
         Called with a short line as each run starts and ends (from the workers
         too when it can be pickled, e.g. a module-level function); when it reaches
         a run, a progress bar over the ride's seconds is shown on stderr too.
+    rider : Rider, optional
+        The simulated rider of both runs (default: the LQR rider of
+        :func:`euc_sim.simulation.engine.default_rider`; a calibrated one:
+        :func:`euc_sim.rides.rider_fit.fit_rider`).
+    plan_window : float, optional
+        s: the rider's plan is the logged speed smoothed over this window
+        (:func:`euc_sim.rides.profile.rider_plan`, as the calibrated rider was fitted);
+        default the profile itself.
     window_smooth, window_min : float
         s: ``smooth`` and ``min_len`` of :func:`euc_sim.diagnosis.localise.localise`
         (longer than its 1 s / 0.5 s defaults: a ride is minutes long and
@@ -358,6 +367,10 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     params = ride_params(A)
     prof = speed_profile(log, sig.rate, sig.window, sig.polyorder)
     t_p, v_p = prof["t"].to_numpy(), prof["v"].to_numpy()
+    if plan_window is not None:
+        from euc_sim.rides.profile import rider_plan
+
+        v_p = rider_plan(t_p, v_p, plan_window)
     eff, notes = effects_to_inject(augmented, accepted)
     notes = list(prof.attrs.get("notes", [])) + notes
     frame = sig.frame
@@ -367,7 +380,7 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     runs = {"nominal": ({}, nominal), "augmented": (eff, augmented)}
     falls = []
     jobs = [(t_p, v_p, params, effects, seed, dt, track_iterations, 10.0,
-             _prefixed(progress, name, workers), name, i)
+             _prefixed(progress, name, workers), name, i, rider)
             for i, (name, (effects, _)) in enumerate(runs.items())]
     done = _run_jobs(jobs, list(runs), params, workers, progress)
     for (name, (effects, est)), run in zip(runs.items(), done):
