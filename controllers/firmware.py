@@ -20,7 +20,7 @@ import math
 
 from controllers.motor import MotorPD
 
-__all__ = ["FirmwareError", "firmware_settings", "firmware_motor", "CARRIED"]
+__all__ = ["FirmwareError", "firmware_settings", "firmware_motor", "voltage_limit_settings", "CARRIED"]
 
 #: Terms of the ``controller`` entry that MotorPD carries -> its setting.
 CARRIED = {"K_p": "Kp", "K_d": "Kd", "torque_limit": "torque_limit",
@@ -104,3 +104,54 @@ def firmware_motor(ctrl, **limits) -> tuple[MotorPD, list[str]]:
         return MotorPD(**settings, **limits), notes
     except MotorError as exc:
         raise FirmwareError(f"controller: {exc}") from None
+
+
+def voltage_limit_settings(ride: dict, R: float, voltage: float | None = None) -> dict:
+    """:class:`MotorPD`'s voltage-limit settings from a ride JSON's identified drivetrain.
+
+    K_v (V per m/s) and the resistive drop r_F (V/N) give r_M = r_F/R (V/(N·m)),
+    with the dead time and flux weakening where the ride kept them.
+
+    Parameters
+    ----------
+    ride : dict
+        The ride JSON (``drivetrain``, ``envelope``).
+    R : float
+        Wheel radius, m.
+    voltage : float, optional
+        Battery voltage, V; default the envelope's full-charge voltage, else the
+        drivetrain's ``ocv_start``.
+
+    Returns
+    -------
+    dict
+        ``voltage`` V, ``back_emf`` V·s/m, ``drop`` V/(N·m), and ``dead_time`` (1),
+        ``flux_weakening`` V/(m/s)², ``fw_speed`` m/s where identified.
+
+    Raises
+    ------
+    FirmwareError
+        naming the missing or invalid field.
+    """
+    dt = ride.get("drivetrain") if isinstance(ride, dict) else None
+    for k in ("back_emf_per_speed", "resistive_drop"):
+        if not isinstance(dt, dict) or not isinstance(dt.get(k), dict) or \
+                not isinstance(dt[k].get("estimate"), (int, float)):
+            raise FirmwareError(f"field 'drivetrain.{k}.estimate' missing "
+                                f"(written by euc-sim ride on a log with PWM)")
+    if voltage is None:
+        env = ride.get("envelope") or {}
+        voltage = (env.get("full") or {}).get("voltage") or \
+            ((dt.get("ocv_start") or {}).get("estimate"))
+    if not (isinstance(voltage, (int, float)) and voltage > 0):
+        raise FirmwareError("no battery voltage; give --battery-voltage V")
+    r_F = dt["resistive_drop"]["estimate"]
+    if not r_F > 0:
+        raise FirmwareError(f"field 'drivetrain.resistive_drop.estimate' must be positive for a "
+                            f"voltage limit, got {r_F!r}")
+    extra = {k: float(dt[j]["estimate"]) for k, j in (("dead_time", "dead_time"),
+                                                      ("flux_weakening", "flux_weakening"),
+                                                      ("fw_speed", "flux_weakening_up_to"))
+             if isinstance(dt.get(j), dict) and isinstance(dt[j].get("estimate"), (int, float))}
+    return {"voltage": float(voltage), "back_emf": float(dt["back_emf_per_speed"]["estimate"]),
+            "drop": float(r_F) / R, **extra}

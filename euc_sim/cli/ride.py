@@ -156,7 +156,7 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
 
         why = simulation_obstacle(an.sig_test if an.sig_test is not None else an.sig_fit)
         if why is None:
-            sim = _simulate(an, log, compare, seed, jobs, progress)
+            sim = _simulate(an, log, compare, seed, jobs, progress, rep)
         else:
             warnings.warn(why, stacklevel=2)
             rep["notes"] = list(rep["notes"]) + [why]
@@ -182,9 +182,19 @@ def _mass_grid_note(fit) -> str:
             f"their {MassSettings.rate:g} Hz grid, longer ones split the ride ({n} piece(s))")
 
 
-def _simulate(an, log, compare, seed: int, jobs: int, progress):
-    """The closed-loop rider along the tested ride (its second half scored without compare)."""
-    from euc_sim.rides.simulate import simulate_ride
+def _step_line(st: dict) -> str:
+    """One step's held-out battery-power error and its ratio to the balance fit's, for the terminal."""
+    p = st["heldout_rmse"].get("P_W")
+    r = st.get("ratio_to_balance")
+    return (f"battery-power RMS {p:.0f} W" if p is not None else "no battery-power error") + \
+        (f", {r:.2f}x the balance fit's held-out error (target {st['target_ratio']:g}x)" if r else "")
+
+
+def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict):
+    """The closed-loop rider along the tested ride, once per modelled step (:mod:`euc_sim.rides.sim_steps`),
+    built from the fit ride's results in ``rep``; the second half scored without compare."""
+    from euc_sim.rides.sim_steps import StepInputs, build_steps, log_channels
+    from euc_sim.rides.simulate import ride_params, simulate_ride
 
     sig = an.sig_test if an.sig_test is not None else an.sig_fit
     ride_path = compare if compare is not None else log
@@ -192,13 +202,17 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress):
     if an.sig_test is None:          # score the held-out second half only
         t = sig.frame["t"].to_numpy()
         scored = t >= an.cross.test_design.t.min()      # the test half's first row
-    if progress is not None:
-        progress(f"simulating the rider along {Path(ride_path).name}: nominal and augmented, "
-                 f"{min(jobs, 2)} process(es)")
     cr = an.cross
-    return simulate_ride(sig, cr.nominal.estimate, cr.augmented.estimate, cr.accepted, ride_path,
-                         scored=scored, label=Path(ride_path).name, seed=seed, workers=jobs,
-                         progress=progress)
+    steps = build_steps(StepInputs(ride_params(sig.assumptions), cr.nominal.estimate,
+                                   cr.augmented.estimate, cr.accepted, rep, log))
+    ran = [s.name for s in steps if s.why is None]
+    # the steps' battery-power errors are compared with the balance fit's held-out error (in W)
+    balance = rep.get("heldout_error_augmented") if rep.get("error_unit") == "W" else None
+    if progress is not None:
+        progress(f"simulating the rider along {Path(ride_path).name}: steps {', '.join(ran)}, "
+                 f"{min(jobs, len(ran))} process(es)")
+    return simulate_ride(sig, steps, ride_path, scored=scored, label=Path(ride_path).name, seed=seed,
+                         workers=jobs, channels=log_channels(rep, balance), progress=progress)
 
 
 def _write_report(rep: dict, an, traces, sim, physics, out: Path) -> None:
@@ -368,6 +382,8 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         if sim["scored_rows"]:
             print(f"  simulation along {sim['ride']}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
                   f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
+            for st in sim.get("steps", []):
+                print(f"    step {st['step']}: " + (_step_line(st) if st["ran"] else f"not run ({st['why']})"))
         fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
         if fell:
             print(f"  simulation along {sim['ride']}: {fell}")
@@ -403,7 +419,7 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--n-boot", type=int, default=200, metavar="N", help=f"bootstrap replicates, at least {MIN_BOOT} (default 200)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
     p.add_argument("--jobs", type=int, default=2, metavar="N",
-                   help="processes for the nominal and augmented simulations (default 2)")
+                   help="processes for the simulation's steps (default 2)")
     p.add_argument("--no-simulate", action="store_true",
                    help="skip the closed-loop simulation along the ride's speed profile")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

@@ -30,41 +30,19 @@ def _check_choice(option: str, value: str, valid) -> None:
 
 
 def _voltage_limit(path, R: float, voltage: float | None) -> dict:
-    """``MotorPD`` voltage-limit settings from a ride JSON's identified drivetrain.
-
-    K_v (V per m/s) and the resistive drop r_F (V/N) give r_M = r_F/R (V/(N·m)),
-    with the dead time and flux weakening where the ride kept them; the voltage
-    is ``voltage`` or the envelope's full-charge voltage.
-    """
+    """``MotorPD`` voltage-limit settings from a ride JSON (:func:`controllers.firmware.voltage_limit_settings`)."""
     import json
+
+    from controllers.firmware import FirmwareError, voltage_limit_settings
 
     try:
         rep = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"--drivetrain {path}: not a readable ride JSON ({exc})") from None
-    dt = rep.get("drivetrain") if isinstance(rep, dict) else None
-    need = ("back_emf_per_speed", "resistive_drop")
-    for k in need:
-        if not isinstance(dt, dict) or not isinstance(dt.get(k), dict) or \
-                not isinstance(dt[k].get("estimate"), (int, float)):
-            raise ValueError(f"--drivetrain {path}: field 'drivetrain.{k}.estimate' missing "
-                             f"(written by euc-sim ride on a log with PWM)")
-    if voltage is None:
-        env = rep.get("envelope") or {}
-        voltage = (env.get("full") or {}).get("voltage") or \
-            ((dt.get("ocv_start") or {}).get("estimate"))
-    if not (isinstance(voltage, (int, float)) and voltage > 0):
-        raise ValueError(f"--drivetrain {path}: no battery voltage; give --battery-voltage V")
-    r_F = dt["resistive_drop"]["estimate"]
-    if not r_F > 0:
-        raise ValueError(f"--drivetrain {path}: field 'drivetrain.resistive_drop.estimate' must be "
-                         f"positive for a voltage limit, got {r_F!r}")
-    extra = {k: float(dt[j]["estimate"]) for k, j in (("dead_time", "dead_time"),
-                                                      ("flux_weakening", "flux_weakening"),
-                                                      ("fw_speed", "flux_weakening_up_to"))
-             if isinstance(dt.get(j), dict) and isinstance(dt[j].get("estimate"), (int, float))}
-    return {"voltage": float(voltage), "back_emf": float(dt["back_emf_per_speed"]["estimate"]),
-            "drop": float(r_F) / R, **extra}
+    try:
+        return voltage_limit_settings(rep, R, voltage)
+    except FirmwareError as exc:
+        raise ValueError(f"--drivetrain {path}: {exc}") from None
 
 
 def _motor(args, R: float = 0.2):

@@ -361,27 +361,54 @@ def falls_sentence(falls: list, scored_rows: int) -> str | None:
     return f"the simulated rider fell {said}; the profile was not ridden again, and {tail}"
 
 
+def _step_row(st: dict, balance) -> str:
+    """One row of the steps' table: what the step adds, its held-out errors and its fall."""
+    if not st["ran"]:
+        return f"| {st['step']} | not run: {st['why']} |" + " – |" * 8
+    h = st["heldout_rmse"]
+
+    def cell(key, fmt, unit, scale=1.0):
+        return f"{h[key] * scale:{fmt}} {unit}" if key in h else "–"
+
+    ratio = st.get("ratio_to_balance")
+    rc = "–" if ratio is None else (f"**{ratio:.2f}**" if ratio <= st["target_ratio"] else f"{ratio:.2f}")
+    fell = "–" if not st.get("fell") else f"t = {st['fell']['t']:.1f} s"
+    return (f"| {st['step']} | {st['what']} | {cell('P_W', '.0f', 'W')} | {rc} | "
+            f"{cell('I_phase_A', '.1f', 'A')} | {cell('pitch_rad', '.2f', '°', float(np.degrees(1.0)))} | "
+            f"{cell('pwm_pct', '.1f', '%')} | {cell('M_Nm', '.1f', 'N·m')} | {cell('v_mps', '.2f', 'm/s')} "
+            f"| {fell} |")
+
+
 def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
-    """The closed-loop simulation along the ride against its log."""
+    """The closed-loop simulation along the ride against its log, one row per modelled step."""
     sim = r.get("simulation")
     md = ["## Simulation against the ride", ""]
     if sim:
         e = sim["errors"]
+        steps = sim.get("steps", [])
+        balance = r.get("heldout_error_augmented") if r.get("error_unit") == "W" else None
+        target = steps[0]["target_ratio"] if steps else 1.2
         md += [f"The simulator's rider rode the logged speed profile of **{sim['ride']}** "
-               f"(MuJoCo, 1 kHz); its motor torque gave the battery power through the fitted "
-               f"drivetrain. Errors on {sim['scored_rows']} rows of the 10 Hz grid, both sides "
-               f"smoothed alike:", "",
-               "| simulation | battery power RMS | torque RMS | speed RMS |", "| --- | --- | --- | --- |"]
-        for k in ("nominal", "augmented"):
-            md.append(f"| {k} | {e[k]['P_W']:.0f} W | {e[k]['M_Nm']:.1f} N·m | "
-                      f"{e[k]['v_mps']:.2f} m/s |")
+               f"(MuJoCo, 1 kHz) once per modelled step, each step adding one piece to the one "
+               f"before; its motor torque gave the battery power through the fitted drivetrain, "
+               f"phase current (torque / K_t), pitch (in the log's convention) and PWM duty (the "
+               f"drivetrain's duty model). Errors on {sim['scored_rows']} rows of the 10 Hz grid, "
+               f"both sides smoothed alike"
+               + (f"; the balance fit's held-out battery-power error is {balance:.0f} W, and a step "
+                  f"meets the target when its error is within {target:g}× that (bold)" if balance else "")
+               + ":", "",
+               "| step | what it adds | battery power RMS | × balance fit | phase current RMS | "
+               "pitch RMS | PWM RMS | torque RMS | speed RMS | fell |",
+               "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+        md += [_step_row(st, balance) for st in steps]
         inj = ", ".join(f"{k} = {_fmt(v)}" for k, v in sim["effects_injected"].items()) or "none"
-        md += ["", f"Augmented / nominal battery-power error: **{e['ratio_P']:.2f}** "
-               f"(effects injected as physics: {inj}). Logged torque inferred by "
+        md += ["", f"Last / first step battery-power error: **{e['ratio_P']:.2f}** "
+               f"(effects injected as physics in the last step: {inj}). Logged torque from "
                f"{e['M_log_method']} (assumed efficiency "
                f"{r['assumptions']['efficiency_for_torque']:g}).", ""]
         if sim.get("windows"):
-            md.append("Windows (s) where the augmented simulation's power error concentrates: "
+            md.append(f"Windows (s) where the last step's ({steps[-1]['step'] if steps else 'augmented'}) "
+                      "power error concentrates: "
                       + ", ".join(f"{a:.1f}–{b:.1f}" for a, b in sim["windows"]) + ".")
         fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
         if fell:
@@ -389,7 +416,7 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         for n in summarise_notes(sim.get("notes", [])):
             md.append(f"- {n}")
         if "simulation" in figures:
-            md += ["", f"![simulation against the log]({figures['simulation']})", ""]
+            md += ["", f"![simulation against the log, step by step]({figures['simulation']})", ""]
     else:
         why = [n for n in r.get("notes", []) if n.startswith("simulation skipped")]
         md += [(why[0][0].upper() + why[0][1:] + ".") if why else "Not run (--no-simulate).", ""]

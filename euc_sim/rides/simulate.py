@@ -11,27 +11,24 @@ torque M_d the ride needed and, through the drivetrain model of
     P̂ = P₀ + P_mech/η_m   (P_mech > 0),   P₀ + η_r·P_mech   (P_mech ≤ 0)
 
 with η_m, η_r, P₀ fitted by :func:`euc_sim.rides.crossride.cross_ride` (on the fit ride: on
-a compare ride the prediction is out of sample).  Two simulations are run:
+a compare ride the prediction is out of sample).  One simulation is run per modelled
+step (:mod:`euc_sim.rides.sim_steps`: ``nominal``, ``measured_law``, ``drivetrain``, ...),
+each adding one piece to the one before it.
 
-``nominal``
-    the paper's model alone (no resistance), efficiencies of the inertia-only fit;
-``augmented``
-    the accepted effects injected as physics (``simulate(effects=...)``:
-    ``rolling_resistance`` C_rr, ``aerodynamic_drag`` k, ``road_slope`` α) and
-    the augmented fit's efficiencies and idle drain P₀.
-
-Both are compared with the log on the log's 10 Hz grid after the *same*
+Every step is compared with the log on the log's 10 Hz grid after the *same*
 Savitzky–Golay smoothing the log gets (:meth:`RideSignals.filt`), so filtering
-does not count as model error.
+does not count as model error: battery power, motor torque and speed always, and
+phase current (M_d/k_t), body pitch (``tilt = s·γ + tilt₀``) and PWM duty
+(:func:`euc_sim.rides.sim_steps.simulated_pwm`) where the log has them.  The
+``nominal`` and ``augmented`` errors of CONTRACT are the first and the last step that ran.
 
 When the rider falls (:class:`~euc_sim.simulation.errors.FallError`), that run stops
 at the fall, which is reported once (``falls``: time and cause); the profile is never
-ridden again after a fall, and both runs are scored on the rows both of them rode.
+ridden again after a fall, and every step is scored on the rows all of them rode.
 """
 
 from __future__ import annotations
 
-import math
 import pickle
 from functools import partial
 from pathlib import Path
@@ -44,14 +41,15 @@ import pandas as pd
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.profile import speed_profile
 from euc_sim.rides.signals import RideAssumptions, RideSignals
+from euc_sim.rides.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep,
+                                     effects_to_inject, simulated_pwm)
 from euc_sim.rides.tracking import ProfileRun, simulate_profile, to_grid
 
 __all__ = ["SIM_EFFECTS", "MAX_BRIDGED_GAP", "simulation_obstacle", "ride_params", "effects_to_inject",
-           "battery_power", "RideSimulation", "simulate_ride", "plot_ride_simulation"]
+           "battery_power", "RideSimulation", "simulate_ride", "plot_ride_simulation", "LOG_COLUMNS"]
 
-#: Fitted balance parameters that the simulator can inject as physics, and how.
-SIM_EFFECTS = ("rolling_resistance", "aerodynamic_drag", "road_slope")
-
+#: Optional log channels a step is scored on: table stem -> the resampled log's column.
+LOG_COLUMNS = {"I": "phase_current", "pitch": "tilt", "pwm": "pwm"}
 
 #: Longest gap in a log, s, that the simulation bridges (linearly, at the logged speeds);
 #: a log with a longer one (the app left running for hours) is not simulated.
@@ -94,41 +92,6 @@ def ride_params(assumptions: RideAssumptions, base: Params = TABLE3) -> Params:
     return base.replace(m=m, R=assumptions.R)
 
 
-def effects_to_inject(estimates: Mapping[str, float], accepted: Sequence[str]) -> tuple[dict, list]:
-    """The accepted balance effects as ``simulate(effects=...)`` values.
-
-    Parameters
-    ----------
-    estimates : mapping
-        Fitted values (units of :data:`euc_sim.rides.design.CANDIDATES`).
-    accepted : sequence of str
-        Accepted effect names.
-
-    Returns
-    -------
-    effects : dict
-        ``rolling_resistance`` C_rr (1), ``aerodynamic_drag`` k (kg/m),
-        ``road_slope`` α (rad, from sin α).
-    notes : list of str
-        Accepted effects that are not physics of the simulator and how they are
-        used instead.
-    """
-    eff, notes = {}, []
-    for name in accepted:
-        val = float(estimates[name])
-        if name == "road_slope":
-            eff[name] = math.asin(max(-1.0, min(1.0, val)))
-        elif name in SIM_EFFECTS:
-            eff[name] = val
-        elif name == "drivetrain_idle_loss":
-            notes.append(f"drivetrain_idle_loss P₀ = {val:.3g} W is electrical: added to the "
-                         f"predicted battery power, not to the mechanics")
-        else:
-            notes.append(f"{name} is not a constant force the simulator can inject: left out "
-                         f"of the augmented simulation")
-    return eff, notes
-
-
 def battery_power(M_d: np.ndarray, x_dot: np.ndarray, gamma_dot: np.ndarray, R: float,
                   eta_motor: float, eta_regen: float, idle: float = 0.0) -> np.ndarray:
     """Battery power, W, from the motor torque through :mod:`euc_sim.rides.design`'s drivetrain model.
@@ -167,23 +130,30 @@ class RideSimulation:
     label : str
         The simulated ride.
     table : pandas.DataFrame
-        ``t`` s, ``v_log``, ``v_nominal``, ``v_augmented`` m/s, ``M_log`` (torque
-        inferred from the log, see ``torque_method``), ``M_nominal``,
-        ``M_augmented`` N·m, ``P_log``, ``P_nominal``, ``P_augmented`` W,
-        ``scored`` (bool: the rows the errors are measured on).
+        ``t`` s, ``scored`` (bool: the rows the errors are measured on), and per
+        source (``log`` and each step that ran, e.g. ``nominal``): ``v_<src>`` m/s,
+        ``M_<src>`` N·m (the log's inferred, see ``errors["M_log_method"]``),
+        ``P_<src>`` W, and where the log has them ``I_<src>`` A (phase current),
+        ``pitch_<src>`` rad (in the log's convention), ``pwm_<src>`` %.
     errors : dict
-        RMS over the scored rows: ``{"nominal"|"augmented": {"P_W", "M_Nm",
-        "v_mps"}}``; ``ratio_P`` = augmented / nominal battery-power error.
+        RMS over the scored rows per step that ran ``{name: {"P_W", "M_Nm", "v_mps",
+        "I_phase_A", "pitch_rad", "pwm_pct"}}`` (channels the log lacks omitted);
+        ``nominal`` and ``augmented`` are the first and last step that ran (CONTRACT);
+        ``ratio_P`` = augmented / nominal battery-power error.
     effects : dict
-        Effects injected into the augmented run.
+        Effects injected into the last step.
     parameters : dict
-        ``{"nominal"|"augmented": {eta_motor, eta_regen, drivetrain_idle_loss}}``.
+        Battery-power model per step ``{name: {eta_motor, eta_regen, drivetrain_idle_loss}}``.
     falls : list of dict
-        ``{"t": s, "cause": str, "run": "nominal"|"augmented"}`` of each run that ended
-        in a fall (CONTRACT's ``simulation.falls``).
+        ``{"t": s, "cause": str, "run": step}`` of each step that ended in a fall
+        (CONTRACT's ``simulation.falls``).
     localisation : dict
-        :func:`euc_sim.diagnosis.localise.localise` on the augmented power error (W):
+        :func:`euc_sim.diagnosis.localise.localise` on the last step's power error (W):
         windows (s), share, correlations.
+    steps : list of dict
+        CONTRACT's ``simulation.steps``: each step's description
+        (:meth:`SimStep.describe`), ``heldout_rmse``, ``ratio_to_balance`` (battery-power
+        error over the balance fit's held-out error) and ``fell``.
     notes : tuple of str
     """
 
@@ -194,21 +164,22 @@ class RideSimulation:
     parameters: dict
     falls: list
     localisation: dict
+    steps: list = field(default_factory=list)
     notes: tuple[str, ...] = field(default=())
+
+    @property
+    def ran(self) -> list[str]:
+        """Names of the steps that ran, in order."""
+        return [s["step"] for s in self.steps if s["ran"]]
 
     def as_json(self) -> dict:
         """JSON-ready summary (the table goes to CSV)."""
         return {"ride": self.label, "errors": self.errors, "effects_injected": self.effects,
-                "drivetrain": self.parameters, "falls": list(self.falls),
+                "drivetrain": self.parameters, "falls": list(self.falls), "steps": list(self.steps),
                 "windows": self.localisation.get("windows", []),
                 "windows_share": self.localisation.get("share"),
                 "correlations": self.localisation.get("correlations", {}),
                 "scored_rows": int(self.table["scored"].sum()), "notes": list(self.notes)}
-
-
-def _drivetrain(est: Mapping[str, float]) -> dict:
-    return {"eta_motor": float(est["eta_motor"]), "eta_regen": float(est["eta_regen"]),
-            "drivetrain_idle_loss": float(est.get("drivetrain_idle_loss", 0.0))}
 
 
 def _rms(x: np.ndarray) -> float:
@@ -258,25 +229,26 @@ def _run_jobs(jobs: list, names: Sequence[str], params: Params, workers: int,
 
 
 def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict:
-    """RMS of log − simulation over the scored rows, per run, and the power-error ratio."""
+    """RMS of log − simulation over the scored rows, per step and channel, and the power-error ratio."""
     errors = {}
     for name in names:
-        errors[name] = {"P_W": _rms((table["P_log"] - table[f"P_{name}"])[ok]),
-                        "M_Nm": _rms((table["M_log"] - table[f"M_{name}"])[ok]),
-                        "v_mps": _rms((table["v_log"] - table[f"v_{name}"])[ok])}
+        errors[name] = {key: _rms((table[f"{col}_log"] - table[f"{col}_{name}"])[ok])
+                        for col, (key, _, _) in CHANNELS.items()
+                        if f"{col}_log" in table and f"{col}_{name}" in table}
+    errors["nominal"], errors["augmented"] = errors[names[0]], errors[names[-1]]
     nom_P = errors["nominal"]["P_W"]
     errors["ratio_P"] = errors["augmented"]["P_W"] / nom_P if nom_P > 0 else float("nan")
     return errors
 
 
 def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: float,
-                    min_len: float) -> dict:
-    """Where the augmented simulation's battery-power error concentrates (windows in s)."""
+                    min_len: float, name: str) -> dict:
+    """Where step ``name``'s battery-power error concentrates (windows in s)."""
     from euc_sim.diagnosis.localise import localise
     from euc_sim.rides.page import split_at_gaps
 
     t = table["t"].to_numpy()
-    r = (table["P_log"] - table["P_augmented"]).to_numpy()
+    r = (table["P_log"] - table[f"P_{name}"]).to_numpy()
     good = ok & np.isfinite(r)
     if good.sum() < 4:
         return {"windows": [], "share": None, "correlations": {}}
@@ -286,50 +258,106 @@ def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: 
     return dict(loc, windows=split_at_gaps(loc["windows"], t[good], min_len))
 
 
-def _on_grid(df: pd.DataFrame | None, sig: RideSignals, est: Mapping[str, float], R: float,
-             name: str, fell: bool = False) -> dict:
-    """A run's speed, torque and battery power on the log's grid, smoothed like the log.
+def _logged(sig: RideSignals) -> dict:
+    """The log's channels on its grid, smoothed as :class:`RideSignals` smooths its own."""
+    from euc_sim.rides.signals import sg
 
+    frame, raw = sig.frame, sig.raw
+    out = {"t": frame["t"].to_numpy(), "v_log": frame["v"].to_numpy(), "M_log": frame["M"].to_numpy(),
+           "P_log": frame["P"].to_numpy()}
+    seg = raw["segment"].to_numpy()
+    for col, name in LOG_COLUMNS.items():
+        if name in raw and np.isfinite(raw[name].to_numpy(float)).mean() > 0.5:
+            out[f"{col}_log"] = sg(raw[name].to_numpy(float), seg, sig.rate, sig.window, sig.polyorder)
+    return out
+
+
+def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
+             channels: LogChannels, logged: Mapping[str, np.ndarray], fell: bool = False) -> dict:
+    """A run's channels on the log's grid, smoothed like the log.
+
+    Speed, torque and battery power always; phase current (M_d/k_t), pitch
+    (s·γ + tilt₀) and duty where the log has them and ``channels`` can map them.
     A run that ended in a fall (``fell``) is kept up to one smoothing window before the
     fall (the falling itself is not riding) and is NaN after it.
     """
     t = sig.frame["t"].to_numpy()
+    name = step.name
+    want = ["v", "M", "P"] + [c for c in LOG_COLUMNS if f"{c}_log" in logged]
     if df is None:
-        return {f"{col}_{name}": np.full(t.size, np.nan) for col in ("v", "M", "P")}
+        return {f"{col}_{name}": np.full(t.size, np.nan) for col in want}
     from euc_sim.rides.signals import sg
 
-    P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], R, est["eta_motor"],
-                      est["eta_regen"], est.get("drivetrain_idle_loss", 0.0))
+    pw = step.power
+    P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], R, pw["eta_motor"],
+                      pw["eta_regen"], pw.get("drivetrain_idle_loss", 0.0))
     ts = df["t"].to_numpy()
     segment = sig.raw["segment"].to_numpy().copy()
     if fell:
         segment[t > ts[-1] - sig.window] = -1    # its own segment, NaN: the filter never crosses
 
     def filt(x):
-        return sg(to_grid(ts, x, t), segment, sig.rate, sig.window, sig.polyorder)
+        return sg(to_grid(ts, np.asarray(x, float), t), segment, sig.rate, sig.window, sig.polyorder)
 
-    return {f"v_{name}": filt(df["x_dot"]), f"M_{name}": filt(df["M_d"]), f"P_{name}": filt(P)}
+    out = {f"v_{name}": filt(df["x_dot"]), f"M_{name}": filt(df["M_d"]), f"P_{name}": filt(P)}
+    if "I_log" in logged and channels.k_t:
+        out[f"I_{name}"] = out[f"M_{name}"] / channels.k_t
+    if "pitch_log" in logged:
+        s, zero = channels.pitch_sign or 1.0, channels.pitch_zero or 0.0
+        out[f"pitch_{name}"] = s * filt(df["gamma"]) + zero
+    if "pwm_log" in logged and channels.pwm and "voltage" in sig.raw:
+        V = sg(sig.raw["voltage"].to_numpy(float), sig.raw["segment"].to_numpy(), sig.rate,
+               sig.window, sig.polyorder)
+        out[f"pwm_{name}"] = simulated_pwm(channels.pwm, out[f"v_{name}"], out[f"M_{name}"] / R, V)
+    return out
 
 
-def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Mapping[str, float],
-                  accepted: Sequence[str], log, scored: np.ndarray | None = None,
+def _align_pitch(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> str | None:
+    """Without the log's pitch convention, each simulated pitch moved to the log's mean (scored rows)."""
+    if "pitch_log" not in table:
+        return None
+    m_log = np.nanmean(table["pitch_log"].to_numpy()[ok]) if ok.any() else 0.0
+    for name in names:
+        col = f"pitch_{name}"
+        if col in table and ok.any():
+            table[col] = table[col] - np.nanmean(table[col].to_numpy()[ok]) + m_log
+    return ("pitch: the fit ride shows no balance law, so the log's pitch sign and zero are not "
+            "known; sign +1 assumed and each simulated pitch moved to the logged mean")
+
+
+def _step_entries(steps: Sequence[SimStep], errors: dict, falls: list,
+                  balance: float | None) -> list[dict]:
+    """CONTRACT's ``simulation.steps``: description, held-out errors, ratio to the balance fit."""
+    out = []
+    for step in steps:
+        entry = step.describe()
+        e = errors.get(step.name) if step.why is None else None
+        entry["heldout_rmse"] = {k: v for k, v in (e or {}).items() if np.isfinite(v)}
+        p = entry["heldout_rmse"].get("P_W")
+        entry["ratio_to_balance"] = (p / balance if p is not None and balance and balance > 0
+                                     else None)
+        entry["target_ratio"] = TARGET_RATIO
+        fell = [f for f in falls if f["run"] == step.name]
+        entry["fell"] = {"t": fell[0]["t"], "cause": fell[0]["cause"]} if fell else None
+        out.append(entry)
+    return out
+
+
+def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.ndarray | None = None,
                   label: str | None = None, seed: int = 0, dt: float = 1e-3,
                   track_iterations: int = 1,
                   window_smooth: float = 5.0, window_min: float = 3.0,
-                  workers: int = 1,
-                  progress: Callable[[str], None] | None = None, rider=None,
-                  plan_window: float | None = None) -> RideSimulation:
-    """Simulate a ride's speed profile, nominal and augmented, and compare with its log.
+                  workers: int = 1, channels: LogChannels = LogChannels(),
+                  progress: Callable[[str], None] | None = None) -> RideSimulation:
+    """Simulate a ride's speed profile once per modelled step and compare each with its log.
 
     Parameters
     ----------
     sig : RideSignals
         The ride (:func:`euc_sim.rides.signals.ride_signals`).
-    nominal, augmented : mapping
-        Fitted parameters of the inertia-only and the augmented balance
-        (``CrossRide.nominal.estimate``, ``CrossRide.augmented.estimate``).
-    accepted : sequence of str
-        Accepted effects (``CrossRide.accepted``).
+    steps : sequence of SimStep
+        The modelled steps in order (:func:`euc_sim.rides.sim_steps.build_steps`); those
+        with a ``why`` are listed, not run.  At least one must run.
     log : RideLog or path
         The same ride, for :func:`euc_sim.rides.profile.speed_profile`.
     scored : array of bool, optional
@@ -339,21 +367,16 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     seed, dt, track_iterations :
         See :func:`simulate_profile`.
     workers : int
-        Processes for the two simulations (2: nominal and augmented side by
-        side; the results do not depend on it).  Workers die with this process
-        and are killed when it is interrupted.
+        Processes for the simulations (the results do not depend on it).  Workers
+        die with this process and are killed when it is interrupted.
+    channels : LogChannels
+        How the simulated state maps onto the log's phase current, pitch and PWM
+        (:func:`euc_sim.rides.sim_steps.log_channels`), and the balance fit's held-out
+        error the steps are compared with.
     progress : callable, optional
         Called with a short line as each run starts and ends (from the workers
         too when it can be pickled, e.g. a module-level function); when it reaches
         a run, a progress bar over the ride's seconds is shown on stderr too.
-    rider : Rider, optional
-        The simulated rider of both runs (default: the LQR rider of
-        :func:`euc_sim.simulation.engine.default_rider`; a calibrated one:
-        :func:`euc_sim.rides.rider_fit.fit_rider`).
-    plan_window : float, optional
-        s: the rider's plan is the logged speed smoothed over this window
-        (:func:`euc_sim.rides.profile.rider_plan`, as the calibrated rider was fitted);
-        default the profile itself.
     window_smooth, window_min : float
         s: ``smooth`` and ``min_len`` of :func:`euc_sim.diagnosis.localise.localise`
         (longer than its 1 s / 0.5 s defaults: a ride is minutes long and
@@ -362,49 +385,56 @@ def simulate_ride(sig: RideSignals, nominal: Mapping[str, float], augmented: Map
     Returns
     -------
     RideSimulation
+
+    Raises
+    ------
+    ValueError
+        when no step runs.
     """
-    A = sig.assumptions
-    params = ride_params(A)
+    run = [s for s in steps if s.why is None]
+    if not run:
+        raise ValueError(f"steps: expected at least one step that runs, got {[s.name for s in steps]}")
+    params = ride_params(sig.assumptions)
     prof = speed_profile(log, sig.rate, sig.window, sig.polyorder)
     t_p, v_p = prof["t"].to_numpy(), prof["v"].to_numpy()
-    if plan_window is not None:
-        from euc_sim.rides.profile import rider_plan
-
-        v_p = rider_plan(t_p, v_p, plan_window)
-    eff, notes = effects_to_inject(augmented, accepted)
-    notes = list(prof.attrs.get("notes", [])) + notes
-    frame = sig.frame
-    t = frame["t"].to_numpy()
-    out = {"t": t, "v_log": frame["v"].to_numpy(), "M_log": frame["M"].to_numpy(),
-           "P_log": frame["P"].to_numpy()}
-    runs = {"nominal": ({}, nominal), "augmented": (eff, augmented)}
+    notes = list(prof.attrs.get("notes", []))
+    notes += [f"{s.name}: {n}" for s in steps for n in s.notes]
+    notes += [f"{s.name} not run: {s.why}" for s in steps if s.why is not None]
+    out = _logged(sig)
     falls = []
-    jobs = [(t_p, v_p, params, effects, seed, dt, track_iterations, 10.0,
-             _prefixed(progress, name, workers), name, i, rider)
-            for i, (name, (effects, _)) in enumerate(runs.items())]
-    done = _run_jobs(jobs, list(runs), params, workers, progress)
-    for (name, (effects, est)), run in zip(runs.items(), done):
-        if not run.falls:            # a fall is said once, from ``falls`` (page.falls_sentence)
-            notes += [f"{name}: {n}" for n in run.notes]
-        falls += [{**f, "run": name} for f in run.falls]
-        out.update(_on_grid(run.frame, sig, est, params.R, name, fell=bool(run.falls)))
+    names = [s.name for s in run]
+    jobs = [(t_p, v_p, params, dict(s.effects), seed, dt, track_iterations, 10.0,
+             _prefixed(progress, s.name, workers), s.name, i, s.motor, s.rider)
+            for i, s in enumerate(run)]
+    done = _run_jobs(jobs, names, params, workers, progress)
+    for step, res in zip(run, done):
+        if not res.falls:            # a fall is said once, from ``falls`` (page.falls_sentence)
+            notes += [f"{step.name}: {n}" for n in res.notes]
+        falls += [{**f, "run": step.name} for f in res.falls]
+        out.update(_on_grid(res.frame, sig, step, params.R, channels, out, fell=bool(res.falls)))
     table = pd.DataFrame(out)
-    ok = frame["interior"].to_numpy() & np.isfinite(table["P_log"].to_numpy())
+    ok = sig.frame["interior"].to_numpy() & np.isfinite(table["P_log"].to_numpy())
     if scored is not None:
         ok &= np.asarray(scored, bool)
-    if falls:                # both runs scored where both rode: up to the first fall
-        rode = np.logical_and.reduce([np.isfinite(table[f"P_{name}"].to_numpy()) for name in runs])
-        notes.append(f"both runs are scored up to t = {min(f['t'] for f in falls):.1f} s, where the "
+    if falls:                # every step scored where all rode: up to the first fall
+        rode = np.logical_and.reduce([np.isfinite(table[f"P_{n}"].to_numpy()) for n in names])
+        notes.append(f"every step is scored up to t = {min(f['t'] for f in falls):.1f} s, where the "
                      f"first fall ended a run ({int((ok & rode).sum())} of {int(ok.sum())} scored rows)")
         ok &= rode
     table["scored"] = ok
-    errors = _errors(table, ok, tuple(runs))
+    if channels.pitch_sign is None:
+        note = _align_pitch(table, ok, names)
+        notes += [note] if note else []
+    errors = _errors(table, ok, names)
     errors["M_log_method"] = sig.torque_method
-    loc = _localise_error(table, frame["a"].to_numpy(), ok, window_smooth, window_min)
-    return RideSimulation(label=label or str(sig.path), table=table, errors=errors, effects=eff,
-                          parameters={"nominal": _drivetrain(nominal),
-                                      "augmented": _drivetrain(augmented)},
-                          falls=falls, localisation=loc, notes=tuple(notes))
+    loc = _localise_error(table, sig.frame["a"].to_numpy(), ok, window_smooth, window_min, names[-1])
+    return RideSimulation(label=label or str(sig.path), table=table, errors=errors,
+                          effects=dict(run[-1].effects),
+                          parameters={s.name: dict(s.power) for s in run}
+                          | {"nominal": dict(run[0].power), "augmented": dict(run[-1].power)},
+                          falls=falls, localisation=loc,
+                          steps=_step_entries(steps, errors, falls, channels.balance_heldout),
+                          notes=tuple(notes))
 
 
 def plot_ride_simulation(sim: RideSimulation, path) -> "Path":

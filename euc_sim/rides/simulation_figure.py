@@ -1,9 +1,9 @@
-"""The figure of a simulated ride (``ride_simulation.png``): where nominal and augmented part.
+"""The figure of a simulated ride (``ride_simulation.png``): where the modelled steps part.
 
-A ride is minutes long and the two simulations overlap nearly everywhere, so the
-figure shows the whole ride once (speed), then a zoomed window where the two
-simulations differ most (speed, motor torque, battery power), and the battery-power
-error over time as a moving RMS.  :func:`ride_simulation_figure` builds it from a
+A ride is minutes long and the steps' simulations overlap nearly everywhere, so the
+figure shows the whole ride once (speed), then a zoomed window where the first and
+last steps differ most (battery power, and phase current, pitch and PWM where the
+log has them), and each step's battery-power error over time as a moving RMS.  :func:`ride_simulation_figure` builds it from a
 :class:`euc_sim.rides.simulate.RideSimulation`; :func:`zoom_window` picks the window.
 """
 
@@ -13,7 +13,7 @@ import numpy as np
 
 from euc_sim.rides.signals import break_at_gaps
 
-__all__ = ["ride_simulation_figure", "zoom_window", "moving_rms", "ZOOM_S", "RMS_S"]
+__all__ = ["ride_simulation_figure", "zoom_window", "moving_rms", "ZOOM_S", "RMS_S", "PANELS"]
 
 #: s: length of the zoomed window.
 ZOOM_S = 60.0
@@ -80,14 +80,29 @@ def zoom_window(t: np.ndarray, a: np.ndarray, b: np.ndarray, scored: np.ndarray 
     return float(start), float(start + span)
 
 
-def ride_simulation_figure(sim):
-    """Figure: the simulated rider on the logged profile against the log.
+#: Line style of each source: the log, then the steps in order.
+LOG_STYLE = dict(color="k", lw=1.0)
+STEP_STYLES = (dict(color="tab:red", lw=0.9), dict(color="tab:orange", lw=0.9, ls="--"),
+               dict(color="tab:green", lw=0.9, ls="-."), dict(color="tab:blue", lw=0.9, ls=":"),
+               dict(color="tab:purple", lw=0.9, ls="--"))
 
-    Panels: (a) speed over the whole ride, m/s, the zoomed window shaded; (b-d) in
-    that window, speed, motor torque (inferred from the log, simulated), N·m, and
-    battery power (logged, predicted), W; (e) the battery-power error log −
-    simulation as a :data:`RMS_S` moving RMS over the whole ride, W, with the
-    windows where the augmented error concentrates shaded.
+#: Zoomed panels: table stem -> (y label, what, error key, unit, scale for display).
+PANELS = {"P": ("battery power [W]", "battery power (log: V·I)", "P_W", "W", 1.0),
+          "I": ("phase current [A]", "phase current", "I_phase_A", "A", 1.0),
+          "pitch": ("body pitch [deg]", "body pitch (log's convention)", "pitch_rad", "deg",
+                    180.0 / np.pi),
+          "pwm": ("PWM duty [%]", "PWM duty", "pwm_pct", "%", 1.0)}
+
+
+def ride_simulation_figure(sim):
+    """Figure: the simulated rider on the logged profile against the log, one line per step.
+
+    Panels: (a) speed over the whole ride, m/s, the zoomed window shaded; then, in
+    that window, battery power W, and phase current A, body pitch deg and PWM
+    duty % where the log has them (logged, and simulated by each step that ran); last,
+    the battery-power error log − simulation of each step as a :data:`RMS_S` moving
+    RMS over the whole ride, W, with the windows where the last step's error
+    concentrates shaded.
 
     Parameters
     ----------
@@ -100,30 +115,34 @@ def ride_simulation_figure(sim):
     from matplotlib.figure import Figure
 
     tb, e = sim.table, sim.errors
+    names = [n for n in sim.ran if f"P_{n}" in tb] or ["nominal", "augmented"]
     t = tb["t"].to_numpy()
-    lo, hi = zoom_window(t, tb["P_nominal"].to_numpy(), tb["P_augmented"].to_numpy(),
+    lo, hi = zoom_window(t, tb[f"P_{names[0]}"].to_numpy(), tb[f"P_{names[-1]}"].to_numpy(),
                          tb["scored"].to_numpy() if "scored" in tb else None)
-    fig = Figure(figsize=(13, 14), layout="constrained")
-    ax = fig.subplots(5, 1, gridspec_kw={"height_ratios": [1.0, 1.0, 1.0, 1.0, 1.2]})
-    styles = (("log", dict(color="k", lw=1.0)), ("nominal", dict(color="tab:red", lw=0.9)),
-              ("augmented", dict(color="tab:blue", lw=0.9, ls="--")))
+    panels = [c for c in PANELS if f"{c}_log" in tb and any(f"{c}_{n}" in tb for n in names)]
+    n = len(panels) + 2
+    fig = Figure(figsize=(13, 2.9 * n), layout="constrained")
+    ax = fig.subplots(n, 1, gridspec_kw={"height_ratios": [1.0] * (n - 1) + [1.2]})
+    styles = [("log", LOG_STYLE)] + [(nm, STEP_STYLES[i % len(STEP_STYLES)]) for i, nm in enumerate(names)]
     _speed_overview(ax[0], t, tb, styles, (lo, hi))
     window = (t >= lo) & (t <= hi)
-    for k, (col, ylab, what, key, unit) in enumerate(
-            [("v", "speed [m/s]", "wheel speed", "v_mps", "m/s"),
-             ("M", "motor torque M_d [N·m]", f"motor torque (log: {e['M_log_method']})", "M_Nm", "N·m"),
-             ("P", "battery power [W]", "battery power (log: V·I)", "P_W", "W")], start=1):
-        cols = break_at_gaps(t[window], *(tb[f"{col}_{n}"].to_numpy()[window] for n, _ in styles))
-        for (name, st), y in zip(styles, cols[1:]):
-            rms = "" if name == "log" else f"\n(RMS diff on the scored rows {e[name][key]:.3g} {unit})"
-            ax[k].plot(cols[0], y, label=("log" if name == "log" else f"{name} simulation") + rms, **st)
+    for k, col in enumerate(panels, start=1):
+        ylab, what, key, unit, scale = PANELS[col]
+        have = [(nm, st) for nm, st in styles if f"{col}_{nm}" in tb]
+        cols = break_at_gaps(t[window], *(scale * tb[f"{col}_{nm}"].to_numpy()[window] for nm, _ in have))
+        for (name, st), y in zip(have, cols[1:]):
+            rms = "" if name == "log" or key not in e.get(name, {}) else \
+                f" (RMS {scale * e[name][key]:.3g} {unit})"
+            ax[k].plot(cols[0], y, label=("log" if name == "log" else f"step {name}") + rms, **st)
         ax[k].set(ylabel=ylab, xlabel="time from start of log [s]", xlim=(lo, hi),
-                  title=f"({'abcde'[k]}) zoom on {lo:.0f}–{hi:.0f} s, where the two simulations "
-                        f"differ most: {what}")
+                  title=f"({'abcdefg'[k]}) zoom on {lo:.0f}–{hi:.0f} s, where the first and last "
+                        f"steps differ most: {what}")
         _legend_right(ax[k])
-    _error_panel(ax[4], t, tb, sim, e)
-    fig.suptitle(f"Simulated rider along {sim.label}: the whole ride, a zoom where nominal and "
-                 f"augmented differ, and the error over time", fontsize=11)
+    _error_panel(ax[-1], t, tb, sim, e, names, styles[1:], "abcdefg"[n - 1])
+    from pathlib import Path
+
+    fig.suptitle(f"Simulated rider along {Path(sim.label).name}, step by step ({' → '.join(names)}):\n"
+                 f"the whole ride, a zoom where the steps differ, and the error over time", fontsize=11)
     return fig
 
 
@@ -134,25 +153,23 @@ def _legend_right(ax) -> None:
 def _speed_overview(ax, t, tb, styles, zoom) -> None:
     cols = break_at_gaps(t, *(tb[f"v_{n}"].to_numpy() for n, _ in styles))
     for (name, st), y in zip(styles, cols[1:]):
-        ax.plot(cols[0], y, label="log" if name == "log" else f"{name} simulation", **st)
+        ax.plot(cols[0], y, label="log" if name == "log" else f"step {name}", **st)
     ax.axvspan(*zoom, color="gold", alpha=0.3, lw=0, label="zoomed below")
     ax.set(ylabel="speed [m/s]", xlabel="time from start of log [s]",
            title="(a) wheel speed over the whole ride: logged, and followed by the simulated rider")
     _legend_right(ax)
 
 
-def _error_panel(ax, t, tb, sim, e) -> None:
-    eff = ", ".join(f"{k}={v:.3g}" for k, v in sim.effects.items()) or "none"
-    for name, color, ls in (("nominal", "tab:red", "-"), ("augmented", "tab:blue", "--")):
+def _error_panel(ax, t, tb, sim, e, names, styles, letter) -> None:
+    for name, st in styles:
         r = moving_rms(t, tb["P_log"].to_numpy() - tb[f"P_{name}"].to_numpy())
-        what = "nominal" if name == "nominal" else f"augmented\n({eff})"
-        ax.plot(*break_at_gaps(t, r), color=color, ls=ls, lw=1.2,
-                label=f"{what}: RMS on\nthe scored rows {e[name]['P_W']:.0f} W")
+        ax.plot(*break_at_gaps(t, r), color=st["color"], ls=st.get("ls", "-"), lw=1.2,
+                label=f"step {name}: RMS on\nthe scored rows {e[name]['P_W']:.0f} W")
     for i, (a, b) in enumerate(sim.localisation.get("windows", [])):
-        ax.axvspan(a, b, color="tab:orange", alpha=0.2, lw=0,
-                   label="windows where the\naugmented error concentrates" if i == 0 else None)
+        ax.axvspan(a, b, color="tab:gray", alpha=0.2, lw=0,
+                   label=f"windows where the\n{names[-1]} error concentrates" if i == 0 else None)
     ax.set_ylim(bottom=0.0)
     ax.set(ylabel=f"{RMS_S:.0f} s moving RMS of\nlog − simulation [W]", xlabel="time from start of log [s]",
-           title=f"(e) battery-power error of the simulation over time; ratio augmented / nominal = "
+           title=f"({letter}) battery-power error of each step over time; last / first step = "
                  f"{e['ratio_P']:.2f}")
     _legend_right(ax)

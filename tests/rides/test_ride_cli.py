@@ -84,8 +84,8 @@ def test_simulation_against_the_log(full_run):
     assert set(sim["effects_injected"]) == {"rolling_resistance", "aerodynamic_drag"}
     assert sim["falls"] == []
     table = np.genfromtxt(d / "ride_simulation.csv", delimiter=",", names=True)
-    for col in ("t", "v_log", "v_nominal", "v_augmented", "M_log", "M_nominal", "M_augmented",
-                "P_log", "P_nominal", "P_augmented", "scored"):
+    for col in ("t", "v_log", "v_nominal", "v_drivetrain", "M_log", "M_nominal", "M_drivetrain",
+                "P_log", "P_nominal", "P_drivetrain", "scored"):
         assert col in table.dtype.names
 
 
@@ -285,8 +285,9 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
     real = simulate_mod.simulate_profile
     t_fall = 40.0
 
-    def nominal_falls(t, v, params, effects, seed, dt, iterations, window, progress, label, position):
-        run = real(t, v, params, effects, seed, dt, 0, window, None, label)
+    def nominal_falls(t, v, params, effects, seed, dt, iterations, window, progress, label, position,
+                      motor, rider):
+        run = real(t, v, params, effects, seed, dt, 0, window, None, label, position, motor, rider)
         if label != "nominal":
             return run
         frame = run.frame[run.frame["t"] < t_fall]
@@ -303,8 +304,10 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
     assert (tmp_path / "rep" / "ride_simulation.png").stat().st_size > 20_000
     assert sim["falls"] == [{"t": t_fall, "cause": "|gamma| = 0.6 rad exceeds the bound", "run": "nominal"}]
     assert any(f"scored up to t = {t_fall:.1f} s" in n for n in sim["notes"])
-    for run in ("nominal", "augmented"):
+    for run in ("nominal", "augmented", "drivetrain"):
         assert all(np.isfinite(list(sim["errors"][run].values())))
+    assert [s["fell"] for s in sim["steps"] if s["ran"]] == [
+        {"t": t_fall, "cause": "|gamma| = 0.6 rad exceeds the bound"}, None]
     assert 0 < sim["scored_rows"]
 
 

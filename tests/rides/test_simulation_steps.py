@@ -1,0 +1,162 @@
+"""The simulated ride as ordered modelled steps (``simulation.steps``, :mod:`euc_sim.rides.sim_steps`).
+
+The steps are data built one from the other; the simulated phase current, pitch and
+PWM land in the log's convention: a ride under a known law, written as EUC World
+writes it (pitch sign −1, −2° mounting offset, phase current M_d/K_t), is reproduced
+far better by the step running that law than by the paper's PD.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from controllers.motor import MotorPD
+from euc_sim.model.parameters import TABLE3
+from euc_sim.rides.sim_steps import (STEP_BUILDERS, LogChannels, StepInputs, build_steps,
+                                     drivetrain_step, log_channels, measured_law_step, nominal_step,
+                                     simulated_pwm)
+
+NOM = {"eta_motor": 0.85, "eta_regen": 0.6}
+AUG = {"eta_motor": 0.8, "eta_regen": 0.5, "drivetrain_idle_loss": 30.0,
+       "rolling_resistance": 0.012, "aerodynamic_drag": 0.3}
+CONTROLLER = {"law": "PD + tilt-back", "sign": -1,
+              "terms": [{"name": "K_p", "estimate": 5687.0, "unit": "N·m/rad"},
+                        {"name": "K_d", "estimate": 120.0, "unit": "N·m·s/rad"},
+                        {"name": "pitch_zero", "estimate": -0.03, "unit": "rad (logged)"},
+                        {"name": "K_i", "estimate": 50.0, "unit": "N·m/(rad·s)"}]}
+DRIVETRAIN = {"back_emf_per_speed": {"estimate": 7.5}, "resistive_drop": {"estimate": 0.004},
+              "dead_time": {"estimate": 0.03}, "back_emf_constant": {"estimate": 1.6}}
+RIDE = {"controller": CONTROLLER, "drivetrain": DRIVETRAIN, "envelope": {"full": {"voltage": 151.2}}}
+
+
+def inputs(ride) -> StepInputs:
+    return StepInputs(TABLE3, NOM, AUG, ("rolling_resistance", "aerodynamic_drag",
+                                         "drivetrain_idle_loss"), ride)
+
+
+def test_steps_without_a_law_skip_the_measured_law_and_build_on_the_nominal():
+    steps = build_steps(inputs({"controller": {"law": None, "why": "no pitch in the log"}}))
+    assert [s.name for s in steps] == ["nominal", "measured_law", "drivetrain"]
+    nom, law, dt = steps
+    assert nom.motor == MotorPD() and nom.rider is None and nom.effects == {} and nom.why is None
+    assert law.why is not None and "no pitch in the log" in law.why
+    assert dt.why is None and dt.motor == MotorPD()                     # built on the nominal
+    assert dt.effects == {"rolling_resistance": 0.012, "aerodynamic_drag": 0.3}
+    assert dt.power == {"eta_motor": 0.8, "eta_regen": 0.5, "drivetrain_idle_loss": 30.0}
+    assert any("no voltage limit" in n for n in dt.notes)
+    assert nom.power == {"eta_motor": 0.85, "eta_regen": 0.6, "drivetrain_idle_loss": 0.0}
+
+
+def test_measured_law_and_voltage_limit_carry_into_the_last_step():
+    nom, law, dt = build_steps(inputs(RIDE))
+    assert (law.motor.Kp, law.motor.Kd) == (5687.0, 120.0) and law.why is None
+    assert any("K_i" in n for n in law.notes)                          # measured, not simulated
+    assert (dt.motor.Kp, dt.motor.Kd) == (5687.0, 120.0)
+    assert dt.motor.voltage == pytest.approx(151.2) and dt.motor.back_emf == pytest.approx(7.5)
+    assert dt.motor.drop == pytest.approx(0.004 / TABLE3.R)
+    assert dt.motor.dead_time == pytest.approx(0.03)
+    d = dt.describe()
+    assert d["step"] == "drivetrain" and d["ran"] and d["motor"]["voltage"] == pytest.approx(151.2)
+
+
+def test_a_new_step_is_one_builder_and_the_next_step_inherits_it():
+    """The extension point a calibrated rider uses: a builder between law and drivetrain."""
+    rider = object()
+
+    def calibrated(prev, inp):
+        return replace(prev, name="calibrated_rider", what="rider fitted on the log", rider=rider,
+                       notes=())
+
+    builders = STEP_BUILDERS[:2] + (calibrated,) + STEP_BUILDERS[2:]
+    steps = build_steps(inputs(RIDE), builders)
+    assert [s.name for s in steps] == ["nominal", "measured_law", "calibrated_rider", "drivetrain"]
+    assert steps[2].rider is rider and steps[2].motor.Kp == 5687.0
+    assert steps[3].rider is rider                                      # carried to the next step
+    assert steps[1].rider is None                                       # earlier steps untouched
+    assert STEP_BUILDERS == (nominal_step, measured_law_step, drivetrain_step)
+
+
+def test_log_channels_from_the_ride_json():
+    ch = log_channels(RIDE, balance_heldout=500.0)
+    assert ch.k_t == pytest.approx(1.6) and ch.pitch_sign == -1.0
+    assert ch.pitch_zero == pytest.approx(-0.03) and ch.balance_heldout == 500.0
+    assert ch.pwm == {"K_v": 7.5, "r_F": 0.004, "dead_time": 0.03}
+    none = log_channels({"controller": {"law": None}, "drivetrain": None})
+    assert none.k_t is None and none.pwm is None and none.pitch_sign is None
+
+
+def test_simulated_pwm_is_the_duty_model():
+    v, F, V = np.array([5.0, 10.0, 10.0]), np.array([100.0, -50.0, 0.0]), np.array([100.0, 90.0, 80.0])
+    duty = simulated_pwm({"K_v": 7.0, "r_F": 0.01, "dead_time": 0.02}, v, F, V)
+    want = (7.0 * v + 0.01 * F + 0.02 * V * np.sign(F)) / V * 100.0
+    np.testing.assert_allclose(duty, want, rtol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def law_log(tmp_path_factory):
+    """80 s under a known law (K_p 2,000, K_d 200, tilt-back; the 45 N·m limit lifted: the
+    replay's speed, smoothed from the log, needs a little more), written as EUC World writes it."""
+    import lawsynth
+
+    law = dict(lawsynth.LAW, torque_limit=250.0)
+    ride = lawsynth.law_ride(seed=1, duration=80.0, law=law)
+    return lawsynth.eucworld_log(ride, tmp_path_factory.mktemp("law") / "law.csv", seed=1), lawsynth, law
+
+
+def test_the_true_law_reproduces_the_logs_current_and_pitch(law_log):
+    from euc_sim.rides.signals import RideAssumptions, ride_signals
+    from euc_sim.rides.simulate import simulate_ride
+    from euc_sim.rides.sim_steps import SimStep
+
+    path, ls, law = law_log
+    sig = ride_signals(path, RideAssumptions(torque_constant=ls.K_T))
+    steps = [SimStep("nominal", "paper PD", MotorPD(), None, {}, NOM),
+             SimStep("measured_law", "the true law", MotorPD(**law), None, dict(ls.ROAD), NOM),
+             SimStep("skipped", "never run", why="for the test")]
+    ch = LogChannels(k_t=ls.K_T, pitch_sign=-1.0, pitch_zero=math.radians(-2.0), balance_heldout=100.0)
+    sim = simulate_ride(sig, steps, path, track_iterations=0, channels=ch)
+    e = sim.errors
+    assert sim.ran == ["nominal", "measured_law"] and not sim.falls
+    for key in ("P_W", "I_phase_A", "pitch_rad", "M_Nm", "v_mps"):
+        assert key in e["measured_law"]
+    assert "pwm_pct" not in e["measured_law"]                   # no duty model given
+    assert e["measured_law"]["pitch_rad"] < 0.5 * e["nominal"]["pitch_rad"]
+    assert e["measured_law"]["pitch_rad"] < math.radians(1.0)
+    assert e["measured_law"]["I_phase_A"] < e["nominal"]["I_phase_A"]
+    assert e["augmented"] == e["measured_law"] and e["nominal"] == e["nominal"]
+    by = {s["step"]: s for s in sim.as_json()["steps"]}
+    assert by["skipped"]["ran"] is False and by["skipped"]["heldout_rmse"] == {}
+    assert by["measured_law"]["ratio_to_balance"] == pytest.approx(e["measured_law"]["P_W"] / 100.0)
+    assert by["measured_law"]["target_ratio"] == 1.2 and by["nominal"]["fell"] is None
+    for col in ("I_log", "pitch_log", "I_measured_law", "pitch_nominal"):
+        assert col in sim.table
+
+
+def test_a_figure_per_step_with_the_logs_channels(law_log, tmp_path):
+    """Pitch and phase current panels, one line per step, titled and labelled."""
+    from figcheck import assert_readable
+
+    from euc_sim.rides.signals import RideAssumptions, ride_signals
+    from euc_sim.rides.simulate import plot_ride_simulation, simulate_ride
+    from euc_sim.rides.simulation_figure import ride_simulation_figure
+    from euc_sim.rides.sim_steps import SimStep
+
+    path, ls, law = law_log
+    sig = ride_signals(path, RideAssumptions(torque_constant=ls.K_T))
+    steps = [SimStep("nominal", "paper PD", MotorPD(), None, {}, NOM),
+             SimStep("measured_law", "the true law", MotorPD(**law), None, {}, NOM)]
+    sim = simulate_ride(sig, steps, path, track_iterations=0,
+                        channels=LogChannels(k_t=ls.K_T, pitch_sign=-1.0, pitch_zero=-0.035))
+    fig = ride_simulation_figure(sim)
+    assert_readable(fig)
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    assert any("phase current" in s for s in labels) and any("pitch" in s for s in labels)
+    assert any("PWM" in s for s in labels) is False                 # no simulated duty, no panel
+    for ax in fig.axes[1:]:
+        names = [ln.get_label() for ln in ax.get_lines()]
+        assert any("measured_law" in n for n in names) and any("nominal" in n for n in names)
+    assert plot_ride_simulation(sim, tmp_path / "s.png").stat().st_size > 20_000
