@@ -50,9 +50,11 @@ from controllers.rider import Rider
 from euc_sim.model.parameters import Params
 from euc_sim.rides.profile import PLAN_WINDOW, rider_plan
 from euc_sim.rides.signals import RideAssumptions, as_log, resample, sg
+from euc_sim.rides.sim_steps import STEP_BUILDERS, effects_to_inject
 
 __all__ = ["RiderParam", "RIDER_PARAMS", "BAND_WINDOWS", "RiderFitError", "RiderFit", "rider_from",
-           "log_channels", "band_features", "fit_windows", "fit_rider"]
+           "log_channels", "band_features", "fit_windows", "fit_rider",
+           "calibrated_rider_step", "RIDER_STEPS"]
 
 
 @dataclass(frozen=True)
@@ -410,12 +412,25 @@ def _values_of(x: np.ndarray) -> dict:
     return {p.name: p.from_unit(float(u)) for p, u in zip(RIDER_PARAMS, x)}
 
 
-def _search(setup: _Setup, rows, F_log, w, rounds, rng, say) -> tuple[np.ndarray, np.ndarray, int]:
-    """Response-surface rounds in shrinking boxes: (optimum in [0, 1]³, last surface, simulations)."""
+def _search(setup: _Setup, rows, F_log, w, rounds, rng, say) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Response-surface rounds in shrinking boxes around the running optimum.
+
+    A box shrinks (half-widths 0.5, 0.2, 0.08 of the scaled range) only when the optimum
+    found in it is inside it or on a search bound; an optimum on the box's own edge moves
+    the next box, the same size, there.
+
+    Returns
+    -------
+    tuple
+        Optimum in [0, 1]³, the last surface's coefficients, the box its design points
+        span (3 × 2), and the number of simulations.
+    """
     X, F = [], []
     center = np.array([p.to_unit(p.nominal) for p in RIDER_PARAMS])
-    coef, n_sims = None, 0
-    for r, (npts, half) in enumerate(zip(rounds, (0.5, 0.2, 0.08))):
+    coef, hull, n_sims, level = None, None, 0, 0
+    halves = (0.5, 0.2, 0.08)
+    for r, npts in enumerate(rounds):
+        half = halves[min(level, len(halves) - 1)]
         box = np.stack([np.clip(center - half, 0, 1), np.clip(center + half, 0, 1)], axis=1)
         pts = np.vstack([center[None, :], _lhs(npts - 1, box, rng)])
         for x in pts:
@@ -430,10 +445,15 @@ def _search(setup: _Setup, rows, F_log, w, rounds, rng, say) -> tuple[np.ndarray
                                 f"{_values_of(center)} rode without falling (10 needed)")
         Xn, Fn = np.asarray(X)[near], np.asarray(F)[near]
         coef = _surface(Xn, Fn)
+        hull = np.stack([Xn.min(axis=0), Xn.max(axis=0)], axis=1)
         best = np.argsort([np.sum(w * (f - F_log) ** 2) for f in Fn])[:3]
         center = _minimise(coef, F_log, w, box, np.vstack([center, Xn[best]]))
-        say(f"rider fit round {r + 1}: {len(X)} simulations, now {_values_of(center)}")
-    return center, coef, n_sims
+        edge = ((np.abs(center - box[:, 0]) < 1e-6) & (box[:, 0] > 1e-9)) | \
+               ((np.abs(center - box[:, 1]) < 1e-6) & (box[:, 1] < 1 - 1e-9))
+        level += 0 if edge.any() else 1
+        say(f"rider fit round {r + 1}: {len(X)} simulations, now {_values_of(center)}"
+            + (" (on the box's edge: the next box moves there)" if edge.any() else ""))
+    return center, coef, hull, n_sims
 
 
 def _param_table(center: np.ndarray, boot: np.ndarray) -> tuple[dict, list]:
@@ -486,7 +506,10 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
         (:func:`rider_plan`).
     rounds : sequence of int
         Design points per response-surface round (boxes of half-width 0.5, 0.2, 0.08
-        of the scaled search range, around the previous round's optimum).
+        of the scaled search range, around the previous round's optimum; see
+        :func:`_search`).  The interval's replicates are minimised on the last surface
+        within the box its design points span: an interval reaching that box's edge
+        says the surface was not explored further.
     n_boot : int
         Block-bootstrap replicates of the interval.
     seed : int
@@ -533,7 +556,7 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     d_log = 0.5 * np.log(ms_log[boot_idx].mean(axis=1)) - F_log   # (n_boot, F)
     var = np.maximum(2.0 * d_log.var(axis=0), 0.05 ** 2)          # log's + simulation's
     w = 1.0 / var
-    center, coef, n_sims = _search(setup, rows, F_log, w, rounds, rng, say)
+    center, coef, hull, n_sims = _search(setup, rows, F_log, w, rounds, rng, say)
     values = _values_of(center)
     rider = rider_from(values, params, motor)
     sim = _simulated_channels(setup, rider)
@@ -543,8 +566,8 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     F_fit = _features(sim, names, rows)
     ms_sim = _features(sim, names, rows, block)
     d_sim = 0.5 * np.log(ms_sim[boot_idx].mean(axis=1)) - F_fit
-    wide = np.stack([np.zeros(3), np.ones(3)], axis=1)
-    boot = np.array([_minimise(coef, F_log + d_log[b] - d_sim[b], w, wide, center[None, :])
+    hull = np.stack([np.minimum(hull[:, 0], center), np.maximum(hull[:, 1], center)], axis=1)
+    boot = np.array([_minimise(coef, F_log + d_log[b] - d_sim[b], w, hull, center[None, :])
                      for b in range(n_boot)])
     out, notes = _param_table(center, boot)
     J = lambda f: float(np.sum(w * (f - F_log) ** 2)) if f is not None else math.inf  # noqa: E731
@@ -556,3 +579,46 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     return RiderFit(rider=rider, params=out, objective=J(F_fit), objective_nominal=J(F_nom),
                     features=feats, windows=wins, simulations=n_sims + 2,
                     notes=tuple(notes))
+
+
+def calibrated_rider_step(prev, inp):
+    """The ``calibrated_rider`` step of :mod:`euc_sim.rides.sim_steps`: the rider fitted on the fit ride.
+
+    The rider is fitted (:func:`fit_rider`, default settings) on ``inp.fit_log`` with the
+    previous step's motor law (the measured one where the fit ride showed it), the
+    accepted effects as physics and the augmented fit's battery-power model, and rides
+    :data:`PLAN_WINDOW`'s plan; a ride it cannot be fitted on skips the step (``why``).
+
+    Parameters
+    ----------
+    prev : SimStep
+        The last step that ran.
+    inp : StepInputs
+
+    Returns
+    -------
+    SimStep
+    """
+    from dataclasses import replace
+
+    from euc_sim.rides.controller_report import torque_constant
+
+    name, what = "calibrated_rider", "the rider calibrated on the fit ride"
+    if inp.fit_log is None:
+        return replace(prev, name=name, what=what, notes=(), why="no fit ride log to calibrate the rider on")
+    eff, _ = effects_to_inject(inp.augmented, inp.accepted)
+    power = {k: float(inp.augmented.get(k, d)) for k, d in
+             (("eta_motor", 0.85), ("eta_regen", 0.7), ("drivetrain_idle_loss", 0.0))}
+    k_t = torque_constant((inp.ride or {}).get("drivetrain"))
+    try:
+        fit = fit_rider(inp.fit_log, params=inp.params, motor=prev.motor, effects=eff, drivetrain=power,
+                        assumptions=RideAssumptions(torque_constant=k_t))
+    except (RiderFitError, ValueError) as exc:
+        return replace(prev, name=name, what=what, notes=(), why=f"the rider cannot be calibrated: {exc}")
+    got = ", ".join(f"{k} {v['value']:.3g} {v['unit']}" for k, v in fit.params.items())
+    return replace(prev, name=name, what=f"{what}: {got}", rider=fit.rider, plan_window=PLAN_WINDOW,
+                   notes=fit.notes, why=None)
+
+
+#: nominal → measured law → calibrated rider → drivetrain (``build_steps(inp, RIDER_STEPS)``).
+RIDER_STEPS = STEP_BUILDERS[:2] + (calibrated_rider_step,) + STEP_BUILDERS[2:]
