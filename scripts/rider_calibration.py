@@ -8,10 +8,10 @@ the tuning seed (the plan window and the feature bands were chosen on it); the s
 seeds are fresh (default 21 22 23).
 
 ``real``: for a fit ride and a held-out ride of one wheel (Lynx 0 -> 2, V9 0 -> 1), the
-held-out battery-power RMS error of the simulated ride (``simulate_ride``, both runs) with
-(a) the default rider along the 1.5 s profile (the current ``euc-sim ride``), (b) the
-default rider along the rider's 6 s plan, (c) the rider calibrated on the fit ride only,
-along the same plan.
+held-out battery-power RMS error of the simulated ride (``simulate_ride``; the paper's PD, the
+accepted effects as physics and the augmented fit's battery-power model: the former
+``augmented`` run) with (a) the default rider along the 1.5 s profile, (b) the default rider
+along the rider's 6 s plan, (c) the rider calibrated on the fit ride only, along the same plan.
 
     PYTHONPATH=. nice -n 10 python scripts/rider_calibration.py concealed --seeds 21 22 23
     PYTHONPATH=. nice -n 10 python scripts/rider_calibration.py real --wheel lynx
@@ -76,7 +76,6 @@ def real(wheel: str, seed: int, windows: int, length: float) -> dict:
     from euc_sim.rides.profile import PLAN_WINDOW
     from euc_sim.rides.rider_fit import fit_rider
     from euc_sim.rides.simulate import effects_to_inject, ride_params, simulate_ride
-    from euc_sim.simulation.engine import default_rider
 
     fit_rel, test_rel, spec_rel = PAIRS[wheel]
     fit_path, test_path = DATA / fit_rel, DATA / test_rel
@@ -93,18 +92,24 @@ def real(wheel: str, seed: int, windows: int, length: float) -> dict:
     out = {"wheel": wheel, "fit": str(fit_rel), "held_out": str(test_rel), "rider_fit": fit.as_json(),
            "fit_seconds": round(time.time() - t0, 1), "balance_fit_P_W": None, "runs": {}}
     print(json.dumps(fit.params, indent=1), flush=True)
-    test_params = ride_params(an.sig_test.assumptions)
-    cases = {"default rider, 1.5 s profile": (default_rider(test_params), None),
-             "default rider, 6 s plan": (default_rider(test_params), PLAN_WINDOW),
-             "calibrated rider, 6 s plan": (fit.rider, PLAN_WINDOW)}
-    for name, (rider, plan) in cases.items():
-        t0 = time.time()
-        sim = simulate_ride(an.sig_test, cr.nominal.estimate, est, cr.accepted, test_path,
-                            label=test_path.name, seed=seed, rider=rider, plan_window=plan)
-        out["runs"][name] = {"errors": sim.errors, "falls": sim.falls,
-                             "seconds": round(time.time() - t0, 1)}
-        print(f"{wheel} {name}: held-out P RMS nominal {sim.errors['nominal']['P_W']:.0f} W, "
-              f"augmented {sim.errors['augmented']['P_W']:.0f} W, falls {sim.falls}", flush=True)
+    from controllers.motor import MotorPD
+    from euc_sim.rides.sim_steps import SimStep
+
+    base = SimStep("default", "paper's PD, default rider along the 1.5 s profile", MotorPD(), None, eff, dtv)
+    steps = [base,
+             dataclasses.replace(base, name="default_plan", what="default rider along the 6 s plan",
+                                 plan_window=PLAN_WINDOW),
+             dataclasses.replace(base, name="calibrated", what="calibrated rider along the 6 s plan",
+                                 rider=fit.rider, plan_window=PLAN_WINDOW)]
+    t0 = time.time()
+    sim = simulate_ride(an.sig_test, steps, test_path, label=test_path.name, seed=seed)
+    out["sim_seconds"] = round(time.time() - t0, 1)
+    out["falls"] = sim.falls
+    for st in steps:
+        out["runs"][st.name] = sim.errors[st.name]
+        print(f"{wheel} {st.what}: held-out battery-power RMS {sim.errors[st.name]['P_W']:.0f} W",
+              flush=True)
+    print(f"falls: {sim.falls}", flush=True)
     return out
 
 
