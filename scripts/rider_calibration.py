@@ -70,7 +70,8 @@ def _analysis(fit_path, test_path, spec_path, seed: int):
     return an, A, k_t
 
 
-def real(wheel: str, seed: int, windows: int, length: float) -> dict:
+def real(wheel: str, seed: int, windows: int, length: float, rider: list | None = None,
+         track_iterations: int = 1, dt: float = 1e-3) -> dict:
     import dataclasses
 
     from euc_sim.rides.profile import PLAN_WINDOW
@@ -86,12 +87,22 @@ def real(wheel: str, seed: int, windows: int, length: float) -> dict:
     est = cr.augmented.estimate
     dtv = {k: float(est.get(k, 0.0)) for k in ("eta_motor", "eta_regen", "drivetrain_idle_loss")}
     t0 = time.time()
-    fit = fit_rider(fit_path, params=params, effects=eff, drivetrain=dtv,
-                    assumptions=dataclasses.replace(A, torque_constant=k_t), windows=windows,
-                    window_length=length, seed=seed, progress=lambda s: print("  ", s, flush=True))
-    out = {"wheel": wheel, "fit": str(fit_rel), "held_out": str(test_rel), "rider_fit": fit.as_json(),
-           "fit_seconds": round(time.time() - t0, 1), "balance_fit_P_W": None, "runs": {}}
-    print(json.dumps(fit.params, indent=1), flush=True)
+    out = {"wheel": wheel, "fit": str(fit_rel), "held_out": str(test_rel), "runs": {},
+           "track_iterations": track_iterations, "dt": dt}
+    if rider is None:
+        fit = fit_rider(fit_path, params=params, effects=eff, drivetrain=dtv,
+                        assumptions=dataclasses.replace(A, torque_constant=k_t), windows=windows,
+                        window_length=length, seed=seed, progress=lambda s: print("  ", s, flush=True))
+        out.update(rider_fit=fit.as_json(), fit_seconds=round(time.time() - t0, 1))
+        print(json.dumps(fit.params, indent=1), flush=True)
+        calibrated = fit.rider
+    else:                   # the values of an earlier fit_rider run on the same fit ride
+        from controllers.motor import MotorPD
+        from euc_sim.rides.rider_fit import rider_from
+
+        values = dict(zip(("delay", "bandwidth", "noise_std"), rider))
+        calibrated = rider_from(values, params, MotorPD())
+        out["rider_given"] = values
     from controllers.motor import MotorPD
     from euc_sim.rides.sim_steps import SimStep
 
@@ -100,9 +111,10 @@ def real(wheel: str, seed: int, windows: int, length: float) -> dict:
              dataclasses.replace(base, name="default_plan", what="default rider along the 6 s plan",
                                  plan_window=PLAN_WINDOW),
              dataclasses.replace(base, name="calibrated", what="calibrated rider along the 6 s plan",
-                                 rider=fit.rider, plan_window=PLAN_WINDOW)]
+                                 rider=calibrated, plan_window=PLAN_WINDOW)]
     t0 = time.time()
-    sim = simulate_ride(an.sig_test, steps, test_path, label=test_path.name, seed=seed)
+    sim = simulate_ride(an.sig_test, steps, test_path, label=test_path.name, seed=seed, dt=dt,
+                        track_iterations=track_iterations)
     out["sim_seconds"] = round(time.time() - t0, 1)
     out["falls"] = sim.falls
     for st in steps:
@@ -122,12 +134,17 @@ def main(argv=None) -> int:
     ap.add_argument("--windows", type=int, default=3)
     ap.add_argument("--length", type=float, default=50.0)
     ap.add_argument("--out", type=Path, default=Path("/tmp/h21-rider"))
+    ap.add_argument("--rider", type=float, nargs=3, metavar=("DELAY", "BANDWIDTH", "NOISE"),
+                    help="real: skip the fit, use these calibrated values (from an earlier run)")
+    ap.add_argument("--track-iterations", type=int, default=1)
+    ap.add_argument("--dt", type=float, default=1e-3)
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.part == "concealed":
         res = concealed(args.seeds, args.duration, args.out, args.windows, args.length)
     else:
-        res = [real(w, 0, args.windows, args.length) for w in args.wheel]
+        res = [real(w, 0, args.windows, args.length, args.rider, args.track_iterations, args.dt)
+               for w in args.wheel]
     path = args.out / f"rider_calibration_{args.part}.json"
     path.write_text(json.dumps(res, indent=1, default=float))
     print(f"wrote {path}")

@@ -92,3 +92,15 @@ def test_calibrated_rider_step_sits_between_the_law_and_the_drivetrain_and_says_
     cal = steps[2]
     assert cal.why is not None and "no fit ride log" in cal.why
     assert steps[3].rider is None and steps[3].plan_window is None   # built on the last step that ran
+
+
+def test_a_parameter_ending_on_its_bound_is_flagged_and_warned_about():
+    center = np.array([0.0, 0.5, 0.5])                 # delay on its lower bound
+    boot = np.array([[0.0, 0.4, 0.45], [0.02, 0.6, 0.55], [0.01, 0.5, 0.5]])
+    params, notes = rf._param_table(center, boot)
+    assert params["delay"]["at_bound"] and not params["bandwidth"]["at_bound"]
+    assert params["delay"]["value"] == pytest.approx(rf.RIDER_PARAMS[0].lo)
+    assert params["delay"]["bound"] == [rf.RIDER_PARAMS[0].lo, rf.RIDER_PARAMS[0].hi]
+    assert len(notes) == 1 and notes[0].startswith("WARNING") and "'delay'" in notes[0]
+    b = params["bandwidth"]
+    assert b["lo"] <= b["value"] <= b["hi"]
