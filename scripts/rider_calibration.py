@@ -71,7 +71,7 @@ def _analysis(fit_path, test_path, spec_path, seed: int):
 
 
 def real(wheel: str, seed: int, windows: int, length: float, rider: list | None = None,
-         track_iterations: int = 1, dt: float = 1e-3) -> dict:
+         track_iterations: int = 1, dt: float = 1e-3, max_gap: float = 1.0) -> dict:
     import dataclasses
 
     from euc_sim.rides.profile import PLAN_WINDOW
@@ -92,7 +92,8 @@ def real(wheel: str, seed: int, windows: int, length: float, rider: list | None 
     if rider is None:
         fit = fit_rider(fit_path, params=params, effects=eff, drivetrain=dtv,
                         assumptions=dataclasses.replace(A, torque_constant=k_t), windows=windows,
-                        window_length=length, seed=seed, progress=lambda s: print("  ", s, flush=True))
+                        window_length=length, seed=seed, max_gap=max_gap,
+                        progress=lambda s: print("  ", s, flush=True))
         out.update(rider_fit=fit.as_json(), fit_seconds=round(time.time() - t0, 1))
         print(json.dumps(fit.params, indent=1), flush=True)
         calibrated = fit.rider
@@ -138,12 +139,14 @@ def main(argv=None) -> int:
                     help="real: skip the fit, use these calibrated values (from an earlier run)")
     ap.add_argument("--track-iterations", type=int, default=1)
     ap.add_argument("--dt", type=float, default=1e-3)
+    ap.add_argument("--max-gap", type=float, default=1.0, help="real: gaps bridged in the rider fit, s")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.part == "concealed":
         res = concealed(args.seeds, args.duration, args.out, args.windows, args.length)
     else:
-        res = [real(w, 0, args.windows, args.length, args.rider, args.track_iterations, args.dt)
+        res = [real(w, 0, args.windows, args.length, args.rider, args.track_iterations, args.dt,
+                    args.max_gap)
                for w in args.wheel]
     path = args.out / f"rider_calibration_{args.part}.json"
     path.write_text(json.dumps(res, indent=1, default=float))

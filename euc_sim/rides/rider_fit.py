@@ -127,8 +127,9 @@ def rider_from(values: Mapping[str, float], params: Params, motor: MotorPD) -> R
 # --------------------------------------------------------------------------------------
 # What the log shows of the rider
 # --------------------------------------------------------------------------------------
-def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = 10.0) -> pd.DataFrame:
-    """The log's rider channels on a uniform grid (split at gaps over 1 s).
+def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = 10.0,
+                 max_gap: float = 1.0) -> pd.DataFrame:
+    """The log's rider channels on a uniform grid (split at gaps over ``max_gap`` s).
 
     Parameters
     ----------
@@ -137,6 +138,8 @@ def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         ``torque_constant`` (N·m/A) turns phase current into torque.
     rate : float
         Grid rate, Hz.
+    max_gap : float
+        Longest interval between readings bridged, s (:func:`euc_sim.rides.signals.resample`).
 
     Returns
     -------
@@ -146,7 +149,7 @@ def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         (``tilt``, any sign and offset).  ``attrs["stamps"]``: the log's time stamps, s.
     """
     log = as_log(log)
-    raw, _ = resample(log, rate, max_gap=1.0)
+    raw, _ = resample(log, rate, max_gap=max_gap)
     out = {"t": raw["t"].to_numpy(), "segment": raw["segment"].to_numpy(), "v": raw["v"].to_numpy()}
     if log.has("voltage") and log.has("current"):
         out["P"] = raw["voltage"].to_numpy() * raw["current"].to_numpy()
@@ -476,7 +479,7 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
               drivetrain: Mapping[str, float] | None = None,
               assumptions: RideAssumptions = RideAssumptions(),
               channels: Sequence[str] | None = None, windows: int = 3, window_length: float = 60.0,
-              plan_window: float = PLAN_WINDOW, rounds: Sequence[int] = (14, 12, 10),
+              plan_window: float = PLAN_WINDOW, max_gap: float = 1.0, rounds: Sequence[int] = (14, 12, 10),
               n_boot: int = 200, seed: int = 0, dt: float = 2e-3,
               progress: Callable[[str], None] | None = None) -> RiderFit:
     """Fit the simulated rider's delay, bandwidth and motor noise to a ride log.
@@ -503,7 +506,10 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
         Stretches of the ride ridden at each evaluation, and their length, s.
     plan_window : float
         s: the rider's plan is the logged speed smoothed over this window
-        (:func:`rider_plan`).
+        (:func:`euc_sim.rides.profile.rider_plan`).
+    max_gap : float
+        s: the log's readings are bridged over gaps up to this long (longer: the
+        ride is split there, and a window never spans a split).
     rounds : sequence of int
         Design points per response-surface round (boxes of half-width 0.5, 0.2, 0.08
         of the scaled search range, around the previous round's optimum; see
@@ -536,7 +542,7 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     dtv = {"eta_motor": 0.85, "eta_regen": 0.7, "drivetrain_idle_loss": 0.0}
     dtv.update(drivetrain or {})
     log = as_log(log)
-    ch = log_channels(log, assumptions)
+    ch = log_channels(log, assumptions, max_gap=max_gap)
     have = [c for c in ("P", "M", "pitch") if c in ch]
     names = tuple(have if channels is None else channels)
     for c in names:
