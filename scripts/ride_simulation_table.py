@@ -20,6 +20,7 @@ import argparse
 import json
 import math
 import os
+import re
 import subprocess
 import sys
 import time
@@ -58,15 +59,17 @@ def command(p: dict, out: Path, n_boot: int, seed: int) -> list[str]:
     return [sys.executable, "-m", "euc_sim.cli", "ride", str(p["fit_log"]), "--compare",
             str(p["held_log"]), "--wheel", str(p["spec"]), "--report", str(d / "report"),
             "--json", str(d / "ride.json"), "--n-boot", str(n_boot), "--seed", str(seed),
-            "--jobs", "1", "--quiet"]
+            "--jobs", "1"]
 
 
-def run_pair(p: dict, out: Path, n_boot: int, seed: int, again: bool) -> dict:
+def run_pair(p: dict, out: Path, n_boot: int, seed: int, again: bool, run: bool = True) -> dict:
     """Run (or read) one pair; returns ``{"pair", "seconds", "json" | "error"}``."""
     d = out / p["name"]
     js = d / "ride.json"
     if js.is_file() and not again:
         return {"pair": p, "seconds": None, "json": json.loads(js.read_text())}
+    if not run:
+        return {"pair": p, "seconds": None, "error": "not run (no ride.json yet)"}
     d.mkdir(parents=True, exist_ok=True)
     env = dict(os.environ, PYTHONPATH=str(ROOT), MPLBACKEND="Agg")
     t0 = time.perf_counter()
@@ -76,7 +79,7 @@ def run_pair(p: dict, out: Path, n_boot: int, seed: int, again: bool) -> dict:
     sec = time.perf_counter() - t0
     if rc != 0 or not js.is_file():
         tail = (d / "stderr.txt").read_text().strip().splitlines()[-1:] or ["no output"]
-        return {"pair": p, "seconds": sec, "error": f"exit {rc}: {tail[0][:200]}"}
+        return {"pair": p, "seconds": sec, "error": f"failed, exit {rc}: {tail[0][:200]}"}
     return {"pair": p, "seconds": sec, "json": json.loads(js.read_text())}
 
 
@@ -87,13 +90,14 @@ def _f(x, fmt: str, unit: str = "", scale: float = 1.0) -> str:
 def rows(results: list[dict]) -> list[str]:
     """The markdown table: one row per pair, the steps' battery-power errors and ratios."""
     head = ("| wheel | fit → held out | balance fit W | " + " | ".join(
-        f"{s} W (×)" for s in STEPS) + " | best step phase current A / pitch ° / PWM pts | falls |")
-    md = [head, "|" + " --- |" * (5 + len(STEPS))]
+        f"{s} W (×)" for s in STEPS) + " | best step: phase current A / pitch ° / PWM pts | "
+        "scored (share of the held-out ride) | falls |")
+    md = [head, "|" + " --- |" * (6 + len(STEPS))]
     for r in results:
         p = r["pair"]
         if "error" in r:
-            md.append(f"| {p['wheel']} | {p['fit']} → {p['held']} | not run: {r['error']} |"
-                      + " |" * (2 + len(STEPS)))
+            md.append(f"| {p['wheel']} | {p['fit']} → {p['held']} | {r['error']} |"
+                      + " |" * (3 + len(STEPS)))
             continue
         rep = r["json"]
         sim = rep.get("simulation") or {}
@@ -112,18 +116,24 @@ def rows(results: list[dict]) -> list[str]:
                 cells.append(f"{_f(e, ',.0f')} ({mark}{_f(ratio, '.2f')}{mark})")
         ran = [s for s in sim.get("steps", []) if s["ran"] and "P_W" in s["heldout_rmse"]]
         best = min(ran, key=lambda s: s["heldout_rmse"]["P_W"]) if ran else None
+        pitch = _f(best['heldout_rmse'].get('pitch_rad'), '.2f', '', 180 / math.pi) if best else "–"
+        if "pitch_scored_rows" not in sim and pitch != "–":
+            pitch = "(all rows, not riding rows)"       # run before the riding-row scoring
         other = "–" if best is None else (
-            f"{best['step']}: {_f(best['heldout_rmse'].get('I_phase_A'), '.1f')} / "
-            f"{_f(best['heldout_rmse'].get('pitch_rad'), '.2f', '', 180 / math.pi)} / "
+            f"{best['step']}: {_f(best['heldout_rmse'].get('I_phase_A'), '.1f')} / {pitch} / "
             f"{_f(best['heldout_rmse'].get('pwm_pct'), '.1f')}")
-        falls = "; ".join(f"{f['run']} at {f['t']:.0f} s ({f['cause'][:60]})"
+        falls = "; ".join(f"{f['run']} at {f['t']:.0f} s ({f['cause'].split(' exceeds')[0].replace('|', '')})"
                           for f in sim.get("falls", [])) or ("none" if sim else "not simulated")
+        share = next((re.search(r"\((\d+) of (\d+) scored rows\)", n) for n in sim.get("notes", [])
+                      if "first fall ended a run" in n), None)
+        scored = (f"{int(share[1]) / 10:.0f} s ({100 * int(share[1]) / max(int(share[2]), 1):.0f} %)"
+                  if share else f"{sim.get('scored_rows', 0) / 10:.0f} s (100 %)")
         md.append(f"| {p['wheel']} | {p['fit']} → {p['held']} | {_f(bal, ',.0f')} | "
-                  + " | ".join(cells) + f" | {other} | {falls} |")
+                  + " | ".join(cells) + f" | {other} | {scored} | {falls} |")
     return md
 
 
-def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float) -> None:
+def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float = 0.0) -> None:
     """``docs/ride_simulation.md``: the table, its command, what the figures are."""
     met = [(r["pair"]["name"], s["step"]) for r in results if "json" in r
            for s in ((r["json"].get("simulation") or {}).get("steps") or [])
@@ -141,10 +151,11 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float) 
         "`calibrated_rider` (not yet in the pipeline: `–`), `drivetrain` (voltage-limited motor, "
         "accepted effects as physics, the augmented efficiencies). Phase current, pitch and PWM "
         "errors are those of the step with the lowest battery-power error, where HELD logs them. "
-        "Every step is scored on the rows all steps rode (up to the first fall).", "",
+        "Every step is scored on the rows all steps rode (up to the first fall: the `scored` "
+        "column gives that span and its share of the held-out ride; a ratio over a short span "
+        "is not the whole ride's). Pitch is scored on the riding rows (speed > 1 m/s).", "",
         "Command:", "", "    nice -n 10 python scripts/ride_simulation_table.py " + " ".join(argv), "",
-        f"{n_ok} of {len(results)} pairs ran ({seconds / 60:.0f} min wall time for the pairs run "
-        f"here). Steps within the target: {', '.join(f'{a} {b}' for a, b in met) or 'none'}.", "",
+        f"{n_ok} of {len(results)} pairs ran. Steps within the target: {', '.join(f'{a} {b}' for a, b in met) or 'none'}.", "",
         "**Which figures are tuning figures.** None of these figures chose a setting: every model "
         "is fitted on FIT and scored on HELD. The law's selection thresholds were set on "
         "synthetic rides (docs/controller.md); nothing in the steps was adjusted after this "
@@ -168,6 +179,8 @@ def main(argv=None) -> int:
     ap.add_argument("--pairs", default=",".join(WHEELS), help=f"wheels, of {', '.join(WHEELS)}")
     ap.add_argument("--doc", help="markdown table to write (default OUT/ride_simulation.md)")
     ap.add_argument("--again", action="store_true", help="rerun pairs whose ride.json exists")
+    ap.add_argument("--no-run", action="store_true",
+                    help="run nothing: write the table of the pairs whose ride.json exists")
     args = ap.parse_args(argv)
     wheels = [w for w in args.pairs.split(",") if w]
     bad = [w for w in wheels if w not in WHEELS]
@@ -188,17 +201,18 @@ def main(argv=None) -> int:
     done = {}
     with ThreadPoolExecutor(args.workers) as pool, \
             tqdm(total=len(todo), desc="pairs", unit="pair", file=sys.stderr) as bar:
-        futs = {pool.submit(run_pair, p, out, args.n_boot, args.seed, args.again): p for p in todo}
+        futs = {pool.submit(run_pair, p, out, args.n_boot, args.seed, args.again, not args.no_run): p
+                for p in todo}
         for fut in as_completed(futs):
             r = fut.result()
             done[r["pair"]["name"]] = r
             sec = "" if r["seconds"] is None else f" in {r['seconds']:.0f} s"
             bar.write(f"{r['pair']['name']}: " + ("error " + r["error"] if "error" in r else "done")
-                      + sec)
+                      + sec, file=sys.stderr)
             bar.update(1)
     results = [done[p["name"]] for p in todo]
     doc = Path(args.doc) if args.doc else out / "ride_simulation.md"
-    write_doc(doc, results, [a for a in argv if not a.startswith("--again")], time.perf_counter() - t0)
+    write_doc(doc, results, [a for a in argv if a not in ("--again", "--no-run")], time.perf_counter() - t0)
     print("\n".join(rows(results)))
     print(f"written {doc}", file=sys.stderr)
     return 0 if all("json" in r for r in results) else 1

@@ -391,7 +391,7 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         md += [f"The simulator's rider rode the logged speed profile of **{sim['ride']}** "
                f"(MuJoCo, 1 kHz) once per modelled step, each step adding one piece to the one "
                f"before; its motor torque gave the battery power through the fitted drivetrain, "
-               f"phase current (torque / K_t), pitch (in the log's convention) and PWM duty (the "
+               f"phase current (torque / K_t), pitch (in the log's convention, scored on the riding rows) and PWM duty (the "
                f"drivetrain's duty model). Errors on {sim['scored_rows']} rows of the 10 Hz grid, "
                f"both sides smoothed alike"
                + (f"; the balance fit's held-out battery-power error is {balance:.0f} W, and a step "

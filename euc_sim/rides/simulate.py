@@ -139,6 +139,7 @@ class RideSimulation:
         RMS over the scored rows per step that ran ``{name: {"P_W", "M_Nm", "v_mps",
         "I_phase_A", "pitch_rad", "pwm_pct"}}`` (channels the log lacks omitted);
         ``nominal`` and ``augmented`` are the first and last step that ran (CONTRACT);
+        the pitch on the riding rows only (``pitch_scored_rows`` in the JSON);
         ``ratio_P`` = augmented / nominal battery-power error.
     effects : dict
         Effects injected into the last step.
@@ -179,7 +180,10 @@ class RideSimulation:
                 "windows": self.localisation.get("windows", []),
                 "windows_share": self.localisation.get("share"),
                 "correlations": self.localisation.get("correlations", {}),
-                "scored_rows": int(self.table["scored"].sum()), "notes": list(self.notes)}
+                "scored_rows": int(self.table["scored"].sum()),
+                "pitch_scored_rows": int(_pitch_rows(self.table, self.table["scored"].to_numpy()).sum())
+                if "pitch_log" in self.table else 0,
+                "notes": list(self.notes)}
 
 
 def _rms(x: np.ndarray) -> float:
@@ -228,11 +232,32 @@ def _run_jobs(jobs: list, names: Sequence[str], params: Params, workers: int,
                     on_done=lambda i, k: say(f"simulation {k}/{len(jobs)} done ({names[i]})"))
 
 
+def _pitch_rows(table: pd.DataFrame, ok: np.ndarray) -> np.ndarray:
+    """Scored rows where the logged pitch is the wheel's riding pitch.
+
+    As :func:`euc_sim.rides.controller_law.law_rows`: speed above ``V_MIN`` and pitch within
+    ``MAX_PITCH`` of its riding median (a wheel standing, lying or carried is not balancing).
+    """
+    from euc_sim.rides.controller_law import MAX_PITCH, V_MIN
+
+    if "pitch_log" not in table:
+        return ok
+    pitch = table["pitch_log"].to_numpy()
+    riding = ok & (np.abs(table["v_log"].to_numpy()) > V_MIN) & np.isfinite(pitch)
+    if not riding.any():
+        return riding
+    return riding & (np.abs(pitch - np.median(pitch[riding])) < MAX_PITCH)
+
+
 def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict:
-    """RMS of log − simulation over the scored rows, per step and channel, and the power-error ratio."""
+    """RMS of log − simulation over the scored rows, per step and channel, and the power-error ratio.
+
+    The pitch is scored on the riding rows only (:func:`_pitch_rows`).
+    """
     errors = {}
+    rows = {col: ok for col in CHANNELS} | {"pitch": _pitch_rows(table, ok)}
     for name in names:
-        errors[name] = {key: _rms((table[f"{col}_log"] - table[f"{col}_{name}"])[ok])
+        errors[name] = {key: _rms((table[f"{col}_log"] - table[f"{col}_{name}"])[rows[col]])
                         for col, (key, _, _) in CHANNELS.items()
                         if f"{col}_log" in table and f"{col}_{name}" in table}
     errors["nominal"], errors["augmented"] = errors[names[0]], errors[names[-1]]
@@ -316,13 +341,14 @@ def _align_pitch(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> s
     """Without the log's pitch convention, each simulated pitch moved to the log's mean (scored rows)."""
     if "pitch_log" not in table:
         return None
+    ok = _pitch_rows(table, ok)
     m_log = np.nanmean(table["pitch_log"].to_numpy()[ok]) if ok.any() else 0.0
     for name in names:
         col = f"pitch_{name}"
         if col in table and ok.any():
             table[col] = table[col] - np.nanmean(table[col].to_numpy()[ok]) + m_log
     return ("pitch: the fit ride shows no balance law, so the log's pitch sign and zero are not "
-            "known; sign +1 assumed and each simulated pitch moved to the logged mean")
+            "known; sign +1 assumed and each simulated pitch moved to the logged riding mean")
 
 
 def _step_entries(steps: Sequence[SimStep], errors: dict, falls: list,
