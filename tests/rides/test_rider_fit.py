@@ -65,8 +65,10 @@ def test_a_log_without_battery_power_is_refused(tmp_path):
 def test_concealed_rider_delay_recovered(tmp_path):
     """A 0.2 s rider (bandwidth 0.4, 5 N·m noise) written as an EUC World log: the fit,
     told only the log, the wheel's law, road and drivetrain, finds the delay within
-    ±0.05 s (issue 21) and the noise within a factor 1.5.  Seed 5 is not a tuning seed
-    (scripts/rider_calibration.py tuned on seed 11)."""
+    ±0.05 s (issue 21) and the noise within a factor 1.5.  Seed 5 was chosen before any
+    run and is not the tuning seed (11); the recovery does not hold on every seed: on
+    scoring seed 21 of scripts/rider_calibration.py a slower, stiffer rider (0.29 s,
+    bandwidth 3) matches the features better than the truth (docs/rider_calibration.md)."""
     from tests.rides.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
 
     log = eucworld_power_log(rider_ride(5, 110.0, dt=2e-3), tmp_path / "ew.csv", 5)
