@@ -85,7 +85,7 @@ def with_found_values(assumptions, spec, total_mass: dict):
 
 def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assumptions=None,
              n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
-             progress=None, spec=None) -> dict:
+             progress=None, spec=None, calibrate_rider: bool = False) -> dict:
     """Everything ``euc-sim ride`` computes; writes the report folder when given.
 
     Parameters
@@ -109,6 +109,9 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     spec : WheelSpec, optional
         The wheel's radius, weight and voltage where known
         (:func:`euc_sim.rides.spec.wheel_spec`).
+    calibrate_rider : bool
+        Add the ``calibrated_rider`` step (:func:`euc_sim.rides.rider_fit.calibrated_rider_step`:
+        the rider fitted on LOG, minutes of simulation) between the measured law and the drivetrain.
 
     Returns
     -------
@@ -156,7 +159,7 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
 
         why = simulation_obstacle(an.sig_test if an.sig_test is not None else an.sig_fit)
         if why is None:
-            sim = _simulate(an, log, compare, seed, jobs, progress, rep)
+            sim = _simulate(an, log, compare, seed, jobs, progress, rep, calibrate_rider)
         else:
             warnings.warn(why, stacklevel=2)
             rep["notes"] = list(rep["notes"]) + [why]
@@ -190,10 +193,16 @@ def _step_line(st: dict) -> str:
         (f", {r:.2f}x the balance fit's held-out error (target {st['target_ratio']:g}x)" if r else "")
 
 
-def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict):
+def _rider_steps():
+    from euc_sim.rides.rider_fit import RIDER_STEPS
+
+    return RIDER_STEPS
+
+
+def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict, calibrate_rider: bool = False):
     """The closed-loop rider along the tested ride, once per modelled step (:mod:`euc_sim.rides.sim_steps`),
     built from the fit ride's results in ``rep``; the second half scored without compare."""
-    from euc_sim.rides.sim_steps import StepInputs, build_steps, log_channels
+    from euc_sim.rides.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
     from euc_sim.rides.simulate import ride_params, simulate_ride
 
     sig = an.sig_test if an.sig_test is not None else an.sig_fit
@@ -204,7 +213,8 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict):
         scored = t >= an.cross.test_design.t.min()      # the test half's first row
     cr = an.cross
     steps = build_steps(StepInputs(ride_params(sig.assumptions), cr.nominal.estimate,
-                                   cr.augmented.estimate, cr.accepted, rep, log))
+                                   cr.augmented.estimate, cr.accepted, rep, log),
+                        _rider_steps() if calibrate_rider else STEP_BUILDERS)
     ran = [s.name for s in steps if s.why is None]
     # the steps' battery-power errors are compared with the balance fit's held-out error (in W)
     balance = rep.get("heldout_error_augmented") if rep.get("error_unit") == "W" else None
@@ -349,7 +359,8 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     rep = run_ride(args.log, args.compare, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
                    simulate=not args.no_simulate, jobs=args.jobs,
-                   progress=None if args.quiet else _progress, spec=spec)
+                   progress=None if args.quiet else _progress, spec=spec,
+                   calibrate_rider=args.calibrate_rider)
     if args.json:
         if args.report:         # where the named files are, from the JSON's folder
             rep["report_dir"] = Path(os.path.relpath(Path(args.report).resolve(),
@@ -420,6 +431,9 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
     p.add_argument("--jobs", type=int, default=2, metavar="N",
                    help="processes for the simulation's steps (default 2)")
+    p.add_argument("--calibrate-rider", action="store_true",
+                   help="add the step 'calibrated_rider': the simulated rider's delay, bandwidth and "
+                        "motor noise fitted on LOG (minutes of simulation)")
     p.add_argument("--no-simulate", action="store_true",
                    help="skip the closed-loop simulation along the ride's speed profile")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

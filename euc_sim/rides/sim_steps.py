@@ -78,6 +78,9 @@ class SimStep:
         What the step could not carry, and why.
     why : str or None
         Not None: the step is skipped (its reason); it is listed, not run.
+    plan_window : float or None
+        s: the rider's plan is the logged speed smoothed over this window
+        (:func:`euc_sim.rides.profile.rider_plan`; the calibrated rider's); None: the profile.
     """
 
     name: str
@@ -88,6 +91,7 @@ class SimStep:
     power: Mapping[str, float] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     why: str | None = None
+    plan_window: float | None = None
 
     def describe(self) -> dict:
         """JSON-ready description of the step (its law, rider, effects, power model)."""
@@ -99,7 +103,8 @@ class SimStep:
             law.update(voltage=m.voltage, back_emf=m.back_emf, drop=m.drop)
         rider = None if self.rider is None else {
             "delay": float(getattr(self.rider, "delay", float("nan"))),
-            "noise_std": float(getattr(self.rider, "noise_std", float("nan")))}
+            "noise_std": float(getattr(self.rider, "noise_std", float("nan"))),
+            "plan_window": self.plan_window}
         return {"step": self.name, "what": self.what, "ran": self.why is None, "why": self.why,
                 "motor": law, "rider": rider or "default LQR rider designed for this motor",
                 "effects_injected": dict(self.effects), "power_model": dict(self.power),

@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.model.parameters import TABLE3, Params
-from euc_sim.rides.profile import speed_profile
+from euc_sim.rides.profile import rider_plan, speed_profile
 from euc_sim.rides.signals import RideAssumptions, RideSignals
 from euc_sim.rides.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep,
                                      effects_to_inject, simulated_pwm)
@@ -429,7 +429,8 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
     out = _logged(sig)
     falls = []
     names = [s.name for s in run]
-    jobs = [(t_p, v_p, params, dict(s.effects), seed, dt, track_iterations, 10.0,
+    jobs = [(t_p, v_p if s.plan_window is None else rider_plan(t_p, v_p, s.plan_window), params,
+             dict(s.effects), seed, dt, track_iterations, 10.0,
              _prefixed(progress, s.name, workers), s.name, i, s.motor, s.rider)
             for i, s in enumerate(run)]
     done = _run_jobs(jobs, names, params, workers, progress)

@@ -1,0 +1,630 @@
+"""The simulated rider calibrated on a ride log: reaction delay, feedback bandwidth, motor noise.
+
+The default rider (:func:`controllers.design.design_rider`, 0.15 s, Bryson's weights, no
+noise) corrects harder than real riders: along real rides its battery power peaks at
+2–2.5 kW where the log shows about 1 kW.  Here the rider's three free settings are fitted
+to what the log shows of the rider (issue 21, item 3):
+
+``delay`` τ, s
+    the reaction delay (the predictor is tuned to it, :mod:`controllers.rider`);
+``bandwidth`` ρ, 1
+    the LQR's state/input weight ratio relative to Bryson's :data:`DEFAULT_SCALES`
+    (R = 1/(ρ^½ M_h,scale)²; ρ > 1 a stiffer, faster rider, ρ < 1 a softer one);
+``noise_std`` σ, N·m
+    the Ornstein–Uhlenbeck motor noise on the ankle torque.  Its correlation time is
+    kept at the rider's 0.05 s: its corner (3.2 Hz) lies above a 5 Hz log's 2.5 Hz
+    Nyquist frequency, where only σ²·τ_c is seen.
+
+**What is matched.**  A log shows the rider through the fast part of its signals: the
+battery power P (always), the motor torque M (a ``torque`` column, or phase current
+times a known torque constant) and the body pitch (``tilt``) where logged.  Each
+channel, on the log's 10 Hz grid, is split by Savitzky–Golay smoothers of
+:data:`BAND_WINDOWS` into four bands (y − S₀.₇ above ~1.3 Hz, S₀.₇ − S₁.₅, S₁.₅ − S₃,
+S₃ − S₆ down to ~0.1 Hz); the features are the bands' log RMS: level and spectrum.
+
+**How.**  The rider rides a few windows of the *fit* ride's speed profile in MuJoCo
+(:func:`euc_sim.simulation.engine.simulate`), the simulation is read as the log is
+written (each reading the mean over the 0.2 s before the log's own time stamps) and
+gets the same features; common random numbers (one noise seed per window) keep the
+objective smooth.  The method of simulated moments: a quadratic response surface of
+each feature in the (scaled) parameters is fitted on design points in three rounds
+of shrinking boxes, and the weighted squared feature distance minimised on it
+(``scipy.optimize.minimize``); the weights are 1/(variance of the log's feature +
+the simulation's), both from a block bootstrap over 10 s blocks.  The intervals
+(95 %) re-minimise the surface for each bootstrap replicate of the log's and the
+simulation's features.  A parameter ending on its search bound is flagged
+(``at_bound``) and warned about in the notes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from controllers.motor import MotorPD
+from controllers.rider import Rider
+from euc_sim.model.parameters import Params
+from euc_sim.rides.profile import PLAN_WINDOW, rider_plan
+from euc_sim.rides.signals import RideAssumptions, as_log, resample, sg
+from euc_sim.rides.sim_steps import STEP_BUILDERS, effects_to_inject
+
+__all__ = ["RiderParam", "RIDER_PARAMS", "BAND_WINDOWS", "RiderFitError", "RiderFit", "rider_from",
+           "log_channels", "band_features", "fit_windows", "fit_rider",
+           "calibrated_rider_step", "RIDER_STEPS"]
+
+
+@dataclass(frozen=True)
+class RiderParam:
+    """A fitted rider setting: name, nominal value, search bounds, unit, log-scaled search."""
+
+    name: str
+    nominal: float
+    lo: float
+    hi: float
+    unit: str
+    log: bool
+
+    def to_unit(self, value: float) -> float:
+        """The value in the search's [0, 1] coordinate."""
+        f = math.log if self.log else (lambda z: z)
+        return (f(value) - f(self.lo)) / (f(self.hi) - f(self.lo))
+
+    def from_unit(self, u: float) -> float:
+        """The value at the search coordinate u ∈ [0, 1]."""
+        if self.log:
+            return math.exp(math.log(self.lo) + u * (math.log(self.hi) - math.log(self.lo)))
+        return self.lo + u * (self.hi - self.lo)
+
+
+#: The rider's fitted settings (default rider: 0.15 s, ρ = 1; generated recordings: 3 N·m).
+RIDER_PARAMS = (RiderParam("delay", 0.15, 0.03, 0.40, "s", False),
+                RiderParam("bandwidth", 1.0, 0.05, 20.0, "1", True),
+                RiderParam("noise_std", 3.0, 0.3, 40.0, "N·m", True))
+#: Savitzky–Golay windows, s, whose differences split a channel into bands.
+BAND_WINDOWS = (0.7, 1.5, 3.0, 6.0)
+#: Each reading of the simulated log is the mean over this many seconds before its stamp.
+READING_MEAN = 0.2
+#: Block length of the bootstrap, s.
+BLOCK = 10.0
+
+
+class RiderFitError(ValueError):
+    """A ride or a setting the rider cannot be fitted on; the message names it."""
+
+
+def rider_from(values: Mapping[str, float], params: Params, motor: MotorPD) -> Rider:
+    """The rider with the given ``delay`` (s), ``bandwidth`` (1) and ``noise_std`` (N·m).
+
+    Parameters
+    ----------
+    values : mapping
+        ``{"delay", "bandwidth", "noise_std"}``.
+    params : Params
+        The rider's model of the system (the simulated ride's parameters).
+    motor : MotorPD
+        The wheel's law the gains are designed against.
+
+    Returns
+    -------
+    Rider
+        LQR gains from :func:`controllers.design.design_rider` with the ankle-torque
+        scale of Bryson's rule multiplied by √bandwidth.
+    """
+    from controllers.design import DEFAULT_SCALES, design_rider
+
+    bw = float(values["bandwidth"])
+    if not (math.isfinite(bw) and bw > 0):
+        raise RiderFitError(f"bandwidth must be a positive number, got {bw!r}")
+    return design_rider(params, motor, delay=float(values["delay"]),
+                        scales={"M_h": DEFAULT_SCALES["M_h"] * math.sqrt(bw)},
+                        noise_std=float(values["noise_std"]))
+
+
+# --------------------------------------------------------------------------------------
+# What the log shows of the rider
+# --------------------------------------------------------------------------------------
+def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = 10.0,
+                 max_gap: float = 1.0) -> pd.DataFrame:
+    """The log's rider channels on a uniform grid (split at gaps over ``max_gap`` s).
+
+    Parameters
+    ----------
+    log : RideLog or path
+    assumptions : RideAssumptions
+        ``torque_constant`` (N·m/A) turns phase current into torque.
+    rate : float
+        Grid rate, Hz.
+    max_gap : float
+        Longest interval between readings bridged, s (:func:`euc_sim.rides.signals.resample`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        ``t`` s, ``segment``, ``v`` m/s, ``P`` W (battery power), and where the log has
+        them ``M`` N·m (``torque`` column, else phase current × k_t) and ``pitch`` rad
+        (``tilt``, any sign and offset).  ``attrs["stamps"]``: the log's time stamps, s.
+    """
+    log = as_log(log)
+    raw, _ = resample(log, rate, max_gap=max_gap)
+    out = {"t": raw["t"].to_numpy(), "segment": raw["segment"].to_numpy(), "v": raw["v"].to_numpy()}
+    if log.has("voltage") and log.has("current"):
+        out["P"] = raw["voltage"].to_numpy() * raw["current"].to_numpy()
+    elif log.has("power"):
+        out["P"] = raw["power"].to_numpy()
+    else:
+        raise RiderFitError(f"{log.path}: no voltage and current and no power column: the rider is "
+                            f"fitted to battery power")
+    if log.has("torque"):
+        out["M"] = raw["torque"].to_numpy()
+    elif log.has("phase_current") and assumptions.torque_constant is not None:
+        out["M"] = raw["phase_current"].to_numpy() * assumptions.torque_constant
+    if log.has("tilt"):
+        out["pitch"] = raw["tilt"].to_numpy()
+    frame = pd.DataFrame(out)
+    frame.attrs["stamps"] = log.data["t"].to_numpy(float)
+    return frame
+
+
+def band_features(y: np.ndarray, segment: np.ndarray, rate: float, rows: np.ndarray,
+                  block: np.ndarray | None = None) -> np.ndarray:
+    """Log RMS of a channel's :data:`BAND_WINDOWS` bands over ``rows`` (or per block).
+
+    Parameters
+    ----------
+    y : numpy.ndarray
+        Channel on the uniform grid (any unit u).
+    segment : numpy.ndarray of int
+        Segment labels (the smoothers never cross one).
+    rate : float
+        Hz.
+    rows : numpy.ndarray of bool
+        Rows the RMS is taken over.
+    block : numpy.ndarray of int, optional
+        Block label of each row: then the mean squares per block are returned.
+
+    Returns
+    -------
+    numpy.ndarray
+        (4,) log RMS (log of u), or (n_blocks, 4) mean squares (u²) with ``block``.
+    """
+    levels = [np.asarray(y, float)] + [sg(y, segment, rate, w, 2) for w in BAND_WINDOWS]
+    bands = np.stack([levels[i] - levels[i + 1] for i in range(len(BAND_WINDOWS))], axis=1)
+    ok = rows & np.isfinite(bands).all(axis=1)
+    if ok.sum() < 2:
+        raise RiderFitError(f"band features need at least 2 finite rows, got {int(ok.sum())}")
+    if block is None:
+        return 0.5 * np.log(np.mean(bands[ok] ** 2, axis=0))
+    labels = np.unique(block[ok])
+    return np.stack([np.mean(bands[ok & (block == b)] ** 2, axis=0) for b in labels])
+
+
+def fit_windows(channels: pd.DataFrame, n: int = 3, length: float = 60.0, v_min: float = 2.0,
+                lead: float = 8.0) -> list[tuple[float, float]]:
+    """``n`` windows of the ride, one per equal share of it, for the rider to ride.
+
+    A window is ``length`` s of one unbroken segment in which the speed stays above
+    ``v_min`` m/s, at least ``lead`` s after the log's start (the simulation's run-in);
+    in each share of the ride the one nearest the share's middle is taken.
+
+    Returns
+    -------
+    list of (t0, t1)
+        s; fewer than ``n`` when the ride has fewer such stretches.
+
+    Raises
+    ------
+    RiderFitError
+        when no window fits.
+    """
+    t, v, seg = (channels[c].to_numpy() for c in ("t", "v", "segment"))
+    rate = 1.0 / float(np.median(np.diff(t)))
+    L = int(round(length * rate))
+    step = max(1, int(round(5.0 * rate)))
+    starts = [i for i in range(0, t.size - L, step) if t[i] >= lead and seg[i] == seg[i + L]
+              and np.all(v[i:i + L + 1] > v_min)]
+    if not starts:
+        raise RiderFitError(f"no {length:g} s stretch of the ride above {v_min:g} m/s without a gap: "
+                            f"the rider cannot be fitted (try a shorter window length)")
+    edges = np.linspace(t[0], t[-1], n + 1)
+    out = []
+    for k in range(n):
+        mid = 0.5 * (edges[k] + edges[k + 1])
+        inside = [i for i in starts if edges[k] <= t[i] and t[i] + length <= edges[k + 1] + length / 2]
+        if inside:
+            i = min(inside, key=lambda j: abs(t[j] + length / 2 - mid))
+            if not out or t[i] >= out[-1][1]:
+                out.append((float(t[i]), float(t[i + L])))
+    return out or [(float(t[starts[0]]), float(t[starts[0] + L]))]
+
+
+# --------------------------------------------------------------------------------------
+# The simulated rider read like the log
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Setup:
+    """Everything a window simulation needs but the rider."""
+
+    channels: pd.DataFrame
+    names: tuple                      # channel names used
+    windows: tuple
+    profile: tuple                    # (t, v) of the whole ride
+    params: Params
+    motor: MotorPD
+    effects: dict
+    drivetrain: dict
+    seed: int
+    dt: float
+    lead: float
+
+
+def _rows_and_blocks(setup: _Setup) -> tuple[np.ndarray, np.ndarray]:
+    t = setup.channels["t"].to_numpy()
+    rows = np.zeros(t.size, bool)
+    block = np.full(t.size, -1)
+    nb = 0
+    for t0, t1 in setup.windows:
+        m = (t >= t0) & (t <= t1)
+        rows |= m
+        k = np.floor((t[m] - t0) / BLOCK).astype(int)
+        block[m] = nb + k
+        nb += int(k.max()) + 1
+    return rows, block
+
+
+def _features(frame: pd.DataFrame, names, rows, block=None) -> np.ndarray:
+    seg = frame["segment"].to_numpy()
+    rate = 1.0 / float(np.median(np.diff(frame["t"].to_numpy())))
+    parts = [band_features(frame[c].to_numpy(), seg, rate, rows, block) for c in names]
+    return np.concatenate(parts, axis=-1)
+
+
+def _simulated_channels(setup: _Setup, rider: Rider) -> pd.DataFrame | None:
+    """The rider along the windows, read like the log: None when he falls."""
+    from euc_sim.rides.simulate import battery_power
+    from euc_sim.simulation.engine import simulate
+    from euc_sim.simulation.errors import FallError
+    from euc_sim.simulation.maneuvers import Maneuver
+
+    ch = setup.channels
+    t = ch["t"].to_numpy()
+    stamps = ch.attrs["stamps"]
+    tp, vp = setup.profile
+    out = {c: np.full(t.size, np.nan) for c in setup.names}
+    seg = np.full(t.size, -1)
+    dtv = setup.drivetrain
+    for w, (t0, t1) in enumerate(setup.windows):
+        start = t0 - setup.lead
+        sel = (tp >= start - 1.0) & (tp <= t1 + 1.0)
+        man = Maneuver(name="profile", table=(tuple((tp[sel] - start).tolist()), tuple(vp[sel].tolist())))
+        try:
+            df = simulate(man, t1 + 0.5 - start, params=setup.params, motor=setup.motor, rider=rider,
+                          seed=setup.seed + w, effects=setup.effects, dt=setup.dt)
+        except FallError:
+            return None
+        ts = df["t"].to_numpy() + start
+        sim = {"P": battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], setup.params.R,
+                                  dtv["eta_motor"], dtv["eta_regen"], dtv.get("drivetrain_idle_loss", 0.0)),
+               "M": df["M_d"].to_numpy(), "pitch": df["gamma"].to_numpy()}
+        n = max(1, int(round(READING_MEAN / setup.dt)))
+        st = stamps[(stamps >= t0 - 1.0) & (stamps <= t1 + 0.5)]
+        m = (t >= t0 - 1.0) & (t <= t1 + 0.5)
+        for c in setup.names:
+            cs = np.cumsum(np.r_[0.0, sim[c]])
+            mean = (cs[n:] - cs[:-n]) / n                      # mean of the n samples ending at ts[k]
+            out[c][m] = np.interp(t[m], st, np.interp(st, ts[n - 1:], mean))
+        seg[m] = w
+    return pd.DataFrame({"t": t, "segment": seg, **out})
+
+
+def _simulated_features(setup: _Setup, values: Mapping[str, float], rows, block=None):
+    rider = rider_from(values, setup.params, setup.motor)
+    sim = _simulated_channels(setup, rider)
+    if sim is None:
+        return None
+    return _features(sim, setup.names, rows, block)
+
+
+# --------------------------------------------------------------------------------------
+# Response surface
+# --------------------------------------------------------------------------------------
+def _quad_terms(X: np.ndarray) -> np.ndarray:
+    X = np.atleast_2d(X)
+    cols = [np.ones(len(X))] + [X[:, i] for i in range(X.shape[1])]
+    cols += [X[:, i] * X[:, j] for i in range(X.shape[1]) for j in range(i, X.shape[1])]
+    return np.stack(cols, axis=1)
+
+
+def _surface(X: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """Least-squares quadratic coefficients of each feature in X (columns: features)."""
+    coef, *_ = np.linalg.lstsq(_quad_terms(X), F, rcond=None)
+    return coef
+
+
+def _minimise(coef: np.ndarray, target: np.ndarray, w: np.ndarray, box: np.ndarray,
+              starts: np.ndarray) -> np.ndarray:
+    from scipy.optimize import minimize
+
+    def J(x):
+        r = _quad_terms(x)[0] @ coef - target
+        return float(np.sum(w * r * r))
+
+    best = None
+    for x0 in starts:
+        res = minimize(J, np.clip(x0, box[:, 0], box[:, 1]), method="L-BFGS-B", bounds=box)
+        if best is None or res.fun < best.fun:
+            best = res
+    return best.x
+
+
+def _lhs(n: int, box: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    from scipy.stats import qmc
+
+    u = qmc.LatinHypercube(d=len(box), seed=rng).random(n)
+    return box[:, 0] + u * (box[:, 1] - box[:, 0])
+
+
+# --------------------------------------------------------------------------------------
+# The fit
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RiderFit:
+    """The rider calibrated on a ride.
+
+    Attributes
+    ----------
+    rider : Rider
+        The calibrated rider (gains designed for the fit's params and motor).
+    params : dict
+        name → ``{"value", "lo", "hi"`` (95 % block-bootstrap interval), ``"bound"``
+        ([lower, upper] searched), ``"at_bound"`` (bool), ``"nominal"``, ``"unit"}``.
+    objective : float
+        Weighted squared feature distance of the calibrated rider (simulated), 1.
+    objective_nominal : float
+        The same for the default rider (τ 0.15 s, ρ 1, σ 3 N·m).
+    features : dict
+        ``names``, ``log``, ``fitted``, ``nominal`` (log RMS, log of the channel's unit).
+    windows : tuple of (t0, t1)
+        s, the fit ride's stretches ridden.
+    simulations : int
+        Closed-loop window sets simulated (falls included).
+    notes : tuple of str
+    """
+
+    rider: Rider
+    params: dict
+    objective: float
+    objective_nominal: float
+    features: dict
+    windows: tuple
+    simulations: int
+    notes: tuple = field(default=())
+
+    def as_json(self) -> dict:
+        """JSON-ready summary."""
+        return {"params": self.params, "rider": self.rider.as_dict(), "objective": self.objective,
+                "objective_nominal": self.objective_nominal, "features": self.features,
+                "windows": [list(w) for w in self.windows], "simulations": self.simulations,
+                "notes": list(self.notes)}
+
+
+def _values_of(x: np.ndarray) -> dict:
+    return {p.name: p.from_unit(float(u)) for p, u in zip(RIDER_PARAMS, x)}
+
+
+def _search(setup: _Setup, rows, F_log, w, rounds, rng, say) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Response-surface rounds in shrinking boxes around the running optimum.
+
+    A box shrinks (half-widths 0.5, 0.2, 0.08 of the scaled range) only when the optimum
+    found in it is inside it or on a search bound; an optimum on the box's own edge moves
+    the next box, the same size, there.
+
+    Returns
+    -------
+    tuple
+        Optimum in [0, 1]³, the last surface's coefficients, the box its design points
+        span (3 × 2), and the number of simulations.
+    """
+    X, F = [], []
+    center = np.array([p.to_unit(p.nominal) for p in RIDER_PARAMS])
+    coef, hull, n_sims, level = None, None, 0, 0
+    halves = (0.5, 0.2, 0.08)
+    for r, npts in enumerate(rounds):
+        half = halves[min(level, len(halves) - 1)]
+        box = np.stack([np.clip(center - half, 0, 1), np.clip(center + half, 0, 1)], axis=1)
+        pts = np.vstack([center[None, :], _lhs(npts - 1, box, rng)])
+        for x in pts:
+            n_sims += 1
+            f = _simulated_features(setup, _values_of(x), rows)
+            if f is not None:
+                X.append(x)
+                F.append(f)
+        near = [i for i, x in enumerate(X) if np.all(np.abs(x - center) <= max(half, 0.2) + 1e-9)]
+        if len(near) < 10:
+            raise RiderFitError(f"rider fit: only {len(near)} of the design points near "
+                                f"{_values_of(center)} rode without falling (10 needed)")
+        Xn, Fn = np.asarray(X)[near], np.asarray(F)[near]
+        coef = _surface(Xn, Fn)
+        hull = np.stack([Xn.min(axis=0), Xn.max(axis=0)], axis=1)
+        best = np.argsort([np.sum(w * (f - F_log) ** 2) for f in Fn])[:3]
+        center = _minimise(coef, F_log, w, box, np.vstack([center, Xn[best]]))
+        edge = ((np.abs(center - box[:, 0]) < 1e-6) & (box[:, 0] > 1e-9)) | \
+               ((np.abs(center - box[:, 1]) < 1e-6) & (box[:, 1] < 1 - 1e-9))
+        level += 0 if edge.any() else 1
+        say(f"rider fit round {r + 1}: {len(X)} simulations, now {_values_of(center)}"
+            + (" (on the box's edge: the next box moves there)" if edge.any() else ""))
+    return center, coef, hull, n_sims
+
+
+def _param_table(center: np.ndarray, boot: np.ndarray) -> tuple[dict, list]:
+    """``RiderFit.params`` from the optimum and the bootstrap optima (both in [0, 1]³), and warnings."""
+    out, notes = {}, []
+    values = _values_of(center)
+    for j, p in enumerate(RIDER_PARAMS):
+        lo_u, hi_u = np.percentile(boot[:, j], [2.5, 97.5])
+        at = bool(center[j] < 0.01 or center[j] > 0.99)
+        out[p.name] = {"value": values[p.name], "lo": p.from_unit(lo_u), "hi": p.from_unit(hi_u),
+                       "bound": [p.lo, p.hi], "at_bound": at, "nominal": p.nominal, "unit": p.unit}
+        if at:
+            notes.append(f"WARNING: rider parameter {p.name!r} = {values[p.name]:.3g} {p.unit} ends on "
+                         f"its search bound [{p.lo:g}, {p.hi:g}]: the log wants a rider outside the range")
+    return out, notes
+
+
+def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
+              effects: Mapping[str, float] | None = None,
+              drivetrain: Mapping[str, float] | None = None,
+              assumptions: RideAssumptions = RideAssumptions(),
+              channels: Sequence[str] | None = None, windows: int = 3, window_length: float = 60.0,
+              plan_window: float = PLAN_WINDOW, max_gap: float = 1.0, rounds: Sequence[int] = (14, 12, 10),
+              n_boot: int = 200, seed: int = 0, dt: float = 2e-3,
+              progress: Callable[[str], None] | None = None) -> RiderFit:
+    """Fit the simulated rider's delay, bandwidth and motor noise to a ride log.
+
+    Parameters
+    ----------
+    log : RideLog or path
+        The fit ride (never the held-out one).
+    params : Params
+        The simulated ride's parameters (:func:`euc_sim.rides.simulate.ride_params`).
+    motor : MotorPD, optional
+        The wheel's law (default the paper's PD; the measured one from
+        :func:`controllers.firmware.firmware_motor` where the ride shows it).
+    effects : mapping, optional
+        Effects injected as physics (drag, rolling resistance, slope; CONTRACT units).
+    drivetrain : mapping, optional
+        ``eta_motor``, ``eta_regen`` (1), ``drivetrain_idle_loss`` (W) of the battery-power
+        model (:func:`euc_sim.rides.simulate.battery_power`); default 0.85, 0.7, 0.
+    assumptions : RideAssumptions
+        For the torque constant (phase current → torque).
+    channels : sequence of str, optional
+        Subset of ``P``, ``M``, ``pitch`` (default: every one the log has).
+    windows, window_length : int, float
+        Stretches of the ride ridden at each evaluation, and their length, s.
+    plan_window : float
+        s: the rider's plan is the logged speed smoothed over this window
+        (:func:`euc_sim.rides.profile.rider_plan`).
+    max_gap : float
+        s: the log's readings are bridged over gaps up to this long (longer: the
+        ride is split there, and a window never spans a split).
+    rounds : sequence of int
+        Design points per response-surface round (boxes of half-width 0.5, 0.2, 0.08
+        of the scaled search range, around the previous round's optimum; see
+        :func:`_search`).  The interval's replicates are minimised on the last surface
+        within the box its design points span: an interval reaching that box's edge
+        says the surface was not explored further.
+    n_boot : int
+        Block-bootstrap replicates of the interval.
+    seed : int
+        Seed of the design and the bootstrap; the simulation's noise seeds are seed + window.
+    dt : float
+        Simulation step, s.
+    progress : callable, optional
+        Called with a short line per round.
+
+    Returns
+    -------
+    RiderFit
+
+    Raises
+    ------
+    RiderFitError
+        for a log without battery power, without a window to ride, or a rider that
+        falls at every design point.
+    """
+    from euc_sim.rides.profile import speed_profile
+
+    say = progress or (lambda s: None)
+    motor = motor or MotorPD()
+    dtv = {"eta_motor": 0.85, "eta_regen": 0.7, "drivetrain_idle_loss": 0.0}
+    dtv.update(drivetrain or {})
+    log = as_log(log)
+    ch = log_channels(log, assumptions, max_gap=max_gap)
+    have = [c for c in ("P", "M", "pitch") if c in ch]
+    names = tuple(have if channels is None else channels)
+    for c in names:
+        if c not in have:
+            raise RiderFitError(f"channels: {c!r} is not in the log {log.path} (it has {have})")
+    wins = tuple(fit_windows(ch, windows, window_length))
+    prof = speed_profile(log)
+    plan = rider_plan(prof["t"].to_numpy(), prof["v"].to_numpy(), plan_window)
+    setup = _Setup(ch, names, wins, (prof["t"].to_numpy(), plan), params, motor,
+                   dict(effects or {}), dtv, seed, dt, 8.0)
+    rows, block = _rows_and_blocks(setup)
+    F_log = _features(ch, names, rows)
+    feat_names = [f"{c}_band{k}" for c in names for k in range(len(BAND_WINDOWS))]
+    rng = np.random.default_rng(seed)
+    ms_log = _features(ch, names, rows, block)                    # (blocks, F) mean squares
+    boot_idx = rng.integers(0, len(ms_log), size=(n_boot, len(ms_log)))
+    d_log = 0.5 * np.log(ms_log[boot_idx].mean(axis=1)) - F_log   # (n_boot, F)
+    var = np.maximum(2.0 * d_log.var(axis=0), 0.05 ** 2)          # log's + simulation's
+    w = 1.0 / var
+    center, coef, hull, n_sims = _search(setup, rows, F_log, w, rounds, rng, say)
+    values = _values_of(center)
+    rider = rider_from(values, params, motor)
+    sim = _simulated_channels(setup, rider)
+    F_nom = _simulated_features(setup, {p.name: p.nominal for p in RIDER_PARAMS}, rows)
+    if sim is None:
+        raise RiderFitError(f"rider fit: the calibrated rider {values} falls along the windows")
+    F_fit = _features(sim, names, rows)
+    ms_sim = _features(sim, names, rows, block)
+    d_sim = 0.5 * np.log(ms_sim[boot_idx].mean(axis=1)) - F_fit
+    hull = np.stack([np.minimum(hull[:, 0], center), np.maximum(hull[:, 1], center)], axis=1)
+    boot = np.array([_minimise(coef, F_log + d_log[b] - d_sim[b], w, hull, center[None, :])
+                     for b in range(n_boot)])
+    out, notes = _param_table(center, boot)
+    J = lambda f: float(np.sum(w * (f - F_log) ** 2)) if f is not None else math.inf  # noqa: E731
+    notes.append(f"fitted on {len(wins)} window(s) of {window_length:g} s of {log.path}, channels "
+                 f"{', '.join(names)}; the motor noise's correlation time is held at "
+                 f"{rider.noise_tau:g} s")
+    feats = {"names": feat_names, "log": F_log.tolist(), "fitted": F_fit.tolist(),
+             "nominal": None if F_nom is None else F_nom.tolist()}
+    return RiderFit(rider=rider, params=out, objective=J(F_fit), objective_nominal=J(F_nom),
+                    features=feats, windows=wins, simulations=n_sims + 2,
+                    notes=tuple(notes))
+
+
+def calibrated_rider_step(prev, inp):
+    """The ``calibrated_rider`` step of :mod:`euc_sim.rides.sim_steps`: the rider fitted on the fit ride.
+
+    The rider is fitted (:func:`fit_rider`, default settings) on ``inp.fit_log`` with the
+    previous step's motor law (the measured one where the fit ride showed it), the
+    accepted effects as physics and the augmented fit's battery-power model, and rides
+    :data:`PLAN_WINDOW`'s plan; a ride it cannot be fitted on skips the step (``why``).
+
+    Parameters
+    ----------
+    prev : SimStep
+        The last step that ran.
+    inp : StepInputs
+
+    Returns
+    -------
+    SimStep
+    """
+    from dataclasses import replace
+
+    from euc_sim.rides.controller_report import torque_constant
+
+    name, what = "calibrated_rider", "the rider calibrated on the fit ride"
+    if inp.fit_log is None:
+        return replace(prev, name=name, what=what, notes=(), why="no fit ride log to calibrate the rider on")
+    eff, _ = effects_to_inject(inp.augmented, inp.accepted)
+    power = {k: float(inp.augmented.get(k, d)) for k, d in
+             (("eta_motor", 0.85), ("eta_regen", 0.7), ("drivetrain_idle_loss", 0.0))}
+    k_t = torque_constant((inp.ride or {}).get("drivetrain"))
+    try:
+        fit = fit_rider(inp.fit_log, params=inp.params, motor=prev.motor, effects=eff, drivetrain=power,
+                        assumptions=RideAssumptions(torque_constant=k_t))
+    except (RiderFitError, ValueError) as exc:
+        return replace(prev, name=name, what=what, notes=(), why=f"the rider cannot be calibrated: {exc}")
+    got = ", ".join(f"{k} {v['value']:.3g} {v['unit']}" for k, v in fit.params.items())
+    return replace(prev, name=name, what=f"{what}: {got}", rider=fit.rider, plan_window=PLAN_WINDOW,
+                   notes=fit.notes, why=None)
+
+
+#: nominal → measured law → calibrated rider → drivetrain (``build_steps(inp, RIDER_STEPS)``).
+RIDER_STEPS = STEP_BUILDERS[:2] + (calibrated_rider_step,) + STEP_BUILDERS[2:]

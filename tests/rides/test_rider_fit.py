@@ -1,0 +1,108 @@
+"""The rider calibrated on a log (euc_sim.rides.rider_fit): pieces, and a concealed rider recovered."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from euc_sim.rides import rider_fit as rf
+
+
+def test_param_unit_coordinates_round_trip():
+    for p in rf.RIDER_PARAMS:
+        assert p.lo < p.nominal < p.hi
+        for u in (0.0, 0.3, 1.0):
+            assert p.to_unit(p.from_unit(u)) == pytest.approx(u, abs=1e-12)
+        assert p.from_unit(0.0) == pytest.approx(p.lo) and p.from_unit(1.0) == pytest.approx(p.hi)
+
+
+def test_band_features_put_a_fast_sway_in_the_fast_band_and_a_slow_one_in_the_slow():
+    rate = 10.0
+    t = np.arange(0, 120, 1 / rate)
+    seg = np.zeros(t.size, int)
+    rows = np.ones(t.size, bool)
+    fast = rf.band_features(np.sin(2 * np.pi * 2.0 * t), seg, rate, rows)
+    slow = rf.band_features(np.sin(2 * np.pi * 0.12 * t), seg, rate, rows)
+    assert np.argmax(fast) == 0 and np.argmax(slow) == 3
+    doubled = rf.band_features(2 * np.sin(2 * np.pi * 2.0 * t), seg, rate, rows)
+    np.testing.assert_allclose(doubled - fast, math.log(2.0), atol=1e-9)   # log RMS: a scale shifts all
+
+
+def test_bandwidth_stiffens_the_rider():
+    from controllers.motor import MotorPD
+    from euc_sim.model.parameters import TABLE3
+
+    soft = rf.rider_from({"delay": 0.2, "bandwidth": 0.25, "noise_std": 4.0}, TABLE3, MotorPD())
+    stiff = rf.rider_from({"delay": 0.2, "bandwidth": 4.0, "noise_std": 4.0}, TABLE3, MotorPD())
+    assert soft.delay == pytest.approx(0.2) and soft.noise_std == pytest.approx(4.0)
+    assert np.linalg.norm(stiff.K) > 1.5 * np.linalg.norm(soft.K)
+    with pytest.raises(rf.RiderFitError, match="bandwidth"):
+        rf.rider_from({"delay": 0.2, "bandwidth": -1.0, "noise_std": 4.0}, TABLE3, MotorPD())
+
+
+def test_windows_need_a_long_enough_ride_above_walking_speed():
+    t = np.arange(0, 100, 0.1)
+    ch = pd.DataFrame({"t": t, "segment": np.zeros(t.size, int), "v": np.full(t.size, 5.0)})
+    wins = rf.fit_windows(ch, n=2, length=30.0)
+    assert 1 <= len(wins) <= 2 and all(b - a == pytest.approx(30.0) for a, b in wins)
+    assert all(a >= 8.0 for a, _ in wins)
+    slow = ch.assign(v=1.0)
+    with pytest.raises(rf.RiderFitError, match="above 2 m/s"):
+        rf.fit_windows(slow, n=2, length=30.0)
+
+
+def test_a_log_without_battery_power_is_refused(tmp_path):
+    p = tmp_path / "ew.csv"
+    p.write_text("datetime,speed,tilt\n" + "\n".join(
+        f"2025-07-01T10:00:{i // 5:02d}.{(i % 5) * 200:03d}+0200,20.0,1.0" for i in range(100)) + "\n")
+    with pytest.raises(rf.RiderFitError, match="battery power"):
+        rf.log_channels(p)
+
+
+def test_concealed_rider_delay_recovered(tmp_path):
+    """A 0.2 s rider (bandwidth 0.4, 5 N·m noise) written as an EUC World log: the fit,
+    told only the log, the wheel's law, road and drivetrain, finds the delay within
+    ±0.05 s (issue 21) and the noise within a factor 1.5.  Seed 5 was chosen before any
+    run and is not the tuning seed (11); the recovery does not hold on every seed: on
+    scoring seed 21 of scripts/rider_calibration.py a slower, stiffer rider (0.29 s,
+    bandwidth 3) matches the features better than the truth (docs/rider_calibration.md)."""
+    from tests.rides.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
+
+    log = eucworld_power_log(rider_ride(5, 110.0, dt=2e-3), tmp_path / "ew.csv", 5)
+    fit = rf.fit_rider(log, windows=1, window_length=80.0, rounds=(12, 10), n_boot=40, seed=5,
+                       **concealed_fit_inputs())
+    d = fit.params["delay"]
+    assert abs(d["value"] - RIDER["delay"]) <= 0.05, fit.params
+    assert d["lo"] <= d["value"] <= d["hi"]
+    assert 1 / 1.5 <= fit.params["noise_std"]["value"] / RIDER["noise_std"] <= 1.5, fit.params
+    assert fit.objective < fit.objective_nominal
+    js = fit.as_json()
+    assert set(js["params"]) == {"delay", "bandwidth", "noise_std"}
+    assert js["rider"]["delay"] == pytest.approx(d["value"])
+
+
+def test_calibrated_rider_step_sits_between_the_law_and_the_drivetrain_and_says_why_it_skips():
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.rides.sim_steps import StepInputs, build_steps
+
+    est = {"eta_motor": 0.8, "eta_regen": 0.6}
+    steps = build_steps(StepInputs(TABLE3, est, est, (), {}, None), rf.RIDER_STEPS)
+    assert [s.name for s in steps] == ["nominal", "measured_law", "calibrated_rider", "drivetrain"]
+    cal = steps[2]
+    assert cal.why is not None and "no fit ride log" in cal.why
+    assert steps[3].rider is None and steps[3].plan_window is None   # built on the last step that ran
+
+
+def test_a_parameter_ending_on_its_bound_is_flagged_and_warned_about():
+    center = np.array([0.0, 0.5, 0.5])                 # delay on its lower bound
+    boot = np.array([[0.0, 0.4, 0.45], [0.02, 0.6, 0.55], [0.01, 0.5, 0.5]])
+    params, notes = rf._param_table(center, boot)
+    assert params["delay"]["at_bound"] and not params["bandwidth"]["at_bound"]
+    assert params["delay"]["value"] == pytest.approx(rf.RIDER_PARAMS[0].lo)
+    assert params["delay"]["bound"] == [rf.RIDER_PARAMS[0].lo, rf.RIDER_PARAMS[0].hi]
+    assert len(notes) == 1 and notes[0].startswith("WARNING") and "'delay'" in notes[0]
+    b = params["bandwidth"]
+    assert b["lo"] <= b["value"] <= b["hi"]
