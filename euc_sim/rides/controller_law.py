@@ -65,7 +65,7 @@ MAX_PITCH = math.radians(15.0)
 MIN_GAIN = 0.01
 #: The acceleration set-point, tried after the other terms, must lower the held-out
 #: RMS error by this fraction (set on the synthetic closed-loop rides of
-#: tests/rides/lawsynth.py, where 1 % let it take half of K_p: a tuning choice).
+#: euc_sim/rides/lawsynth.py, where 1 % let it take half of K_p: a tuning choice).
 ACCEL_GAIN = 0.05
 #: Rows on either side of a row at the torque limit left out of the fit, and passes
 #: of the censoring (:func:`_censored_lstsq`).
@@ -326,7 +326,7 @@ def _censored_lstsq(X: np.ndarray, y: np.ndarray, M: float, at_limit: np.ndarray
     if not np.isfinite(M):
         return _lstsq(X, y)
     bad = at_limit.copy()
-    beta = None
+    beta, last = None, None
     for _ in range(n_iter):
         if beta is not None:
             bad = bad | (np.abs(X @ beta) >= M)
@@ -336,7 +336,9 @@ def _censored_lstsq(X: np.ndarray, y: np.ndarray, M: float, at_limit: np.ndarray
             out[:-k] |= bad[k:]
         if out.sum() > 0.5 * y.size:
             out = at_limit
-        beta = _lstsq(X[~out], y[~out])
+        if last is not None and np.array_equal(out, last):
+            break                                   # the censored rows settled
+        beta, last = _lstsq(X[~out], y[~out]), out
     return beta
 
 
@@ -576,4 +578,4 @@ def fit_law(rows: LawRows, n_boot: int = 100, seed: int = 0) -> Law:
     sign = int(fit["sign"])
     return Law(names=names, fit=fit, terms=terms, sign=sign, heldout_rmse=rmse,
                heldout_r2=r2_kept, nominal_r2=r2_nom, blind_r2=r2_blind, history=history, channel=rows.channel,
-               unit=rows.unit, scale=rows.scale, sign_share=float(np.mean(signs == sign)))
+               unit=rows.unit, scale=rows.scale, sign_share=float(np.mean(signs == sign)) if signs.size else math.nan)
