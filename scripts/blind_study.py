@@ -423,7 +423,8 @@ def main(argv=None) -> int:
                         args.term_sigma)
         print(json.dumps(cal, indent=1))
         return 0
-    cases = plan(args.seed, args.per_effect, args.nulls, args.pushes, args.constant, args.duration)
+    cases = plan(args.seed, args.per_effect, args.nulls, args.pushes, args.constant, args.duration,
+                 with_torque_checks=args.per_effect > 0)
     cases += plan_spatial(args.seed, args.spatial, max(args.duration, 20.0))
     cases += plan_pairs(args.seed, args.pairs, args.duration)
     laws = plan_laws(args.seed, args.laws, args.law_duration)

@@ -445,6 +445,28 @@ def _without_pitch_r2(rows: LawRows, n_blocks: int = 10, accel: bool = True,
     return r2(y, pred)
 
 
+def _select_with_pairs(score, candidates: list) -> tuple[list, list]:
+    """Forward selection from ``BASE`` (:func:`select_by_heldout`); when no single term
+    earns :data:`MIN_GAIN`, the best pair of the terms left is tried as one step, and
+    the selection goes on after it.  Two terms can be needed together: with a torque
+    limit hit often, a tilt-back alone fits the clipped rows worse than no term, and a
+    limit alone does not explain the set-point that drives the torque to it."""
+    names, history = select_by_heldout(score, list(BASE), candidates, MIN_GAIN)
+    while True:
+        left = [c for c in candidates if c not in names]
+        cur = history[-1]["heldout_rmse"]
+        trial = {(a, b): score(names + [a, b]) for i, a in enumerate(left) for b in left[i + 1:]}
+        if not trial:
+            return names, history
+        pair = min(trial, key=trial.get)
+        if trial[pair] >= cur * (1.0 - MIN_GAIN):
+            return names, history
+        names = names + list(pair)
+        history.append({"term": "+".join(pair), "heldout_rmse": trial[pair]})
+        names, more = select_by_heldout(score, names, [c for c in candidates if c not in names], MIN_GAIN)
+        history += more[1:]
+
+
 @dataclass(frozen=True)
 class Law:
     """A wheel's balance law identified on one log.
@@ -546,8 +568,7 @@ def fit_law(rows: LawRows, n_boot: int = 100, seed: int = 0) -> Law:
         raise LawUnavailable(f"median sample interval {rows.dt_median:.2f} s: too coarse for a "
                              f"balance law that acts within a fraction of a second")
     score = lambda n: heldout_score(rows, n)[0]                         # noqa: E731
-    names, history = select_by_heldout(score, list(BASE),
-                                       [n for n in CATALOG if n != "accel_setpoint"], MIN_GAIN)
+    names, history = _select_with_pairs(score, [n for n in CATALOG if n != "accel_setpoint"])
     # acceleration also carries the ride's physics (the torque follows it whatever the
     # firmware does): its set-point term is tried last and must earn ACCEL_GAIN
     names, more = select_by_heldout(score, names, ["accel_setpoint"], ACCEL_GAIN)
