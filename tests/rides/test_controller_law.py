@@ -122,3 +122,18 @@ def test_concealed_law_recovered_from_a_simulated_ride(tmp_path, concealed_ride,
     assert est["K_p"] == pytest.approx(LAW["Kp"], rel=0.15)
     assert est["K_d"] == pytest.approx(LAW["Kd"], rel=0.15)
     assert abs(est["tiltback_speed"] - LAW["tiltback_speed"]) * 3.6 <= 2.0
+
+
+def test_two_terms_needed_together_are_kept_as_a_pair():
+    """Neither term alone lowers the held-out error, the two together do: both are kept."""
+    from euc_sim.rides.controller_law import _select_with_pairs
+
+    def score(names):
+        both = "tiltback" in names and "torque_limit" in names
+        return 1.0 if both else 5.0 + 0.5 * ("tiltback" in names)
+
+    names, history = _select_with_pairs(score, ["tiltback", "integral", "torque_limit"])
+    assert names == list(BASE) + ["tiltback", "torque_limit"]
+    assert history[-1] == {"term": "tiltback+torque_limit", "heldout_rmse": 1.0}
+    names, _ = _select_with_pairs(lambda n: 5.0, ["tiltback", "integral", "torque_limit"])
+    assert names == list(BASE)
