@@ -27,6 +27,9 @@ Usage::
     python scripts/blind_study.py --calibrate      # null recordings only, other seeds
     python scripts/blind_study.py --out pairs/ --per-effect 0 --nulls 0 --pushes 0 --constant 0 --pairs 36
 
+``--laws N`` adds N concealed firmware laws (issue 21), written as EUC World and
+WheelLog logs and identified blind (``scripts/blind_laws.py``).
+
 ``--pairs N`` adds N recordings holding two effects of different families (issue 24),
 each member's size with the other known measured on its twin (the member alone, same
 seed), scored by ``blind_scoring.score_pairs``.
@@ -52,6 +55,7 @@ if str(ROOT) not in sys.path:
 if str(ROOT / "scripts") not in sys.path:         # blind_scoring sits beside this script
     sys.path.insert(0, str(ROOT / "scripts"))
 
+from blind_laws import plan_laws, print_laws, run_laws, score_laws  # noqa: E402
 from blind_scoring import print_pairs, print_report, score, score_pairs  # noqa: E402
 from euc_sim.identification.processing import DEFAULT_SMOOTHING  # noqa: E402
 
@@ -438,6 +442,10 @@ def main(argv=None) -> int:
                     help="also N rides of the 3-D model (circle, slalom, figure-eight, U-turn)")
     ap.add_argument("--pairs", type=int, default=0, metavar="N",
                     help="also N recordings holding two effects of different families (issue 24)")
+    ap.add_argument("--laws", type=int, default=0, metavar="N",
+                    help="also N concealed firmware laws in EUC World / WheelLog logs (issue 21)")
+    ap.add_argument("--law-duration", type=float, default=300.0, help="s, of each concealed-law ride")
+    ap.add_argument("--law-boot", type=int, default=20, help="bootstrap replicates of each law's intervals")
     ap.add_argument("--calibrate", action="store_true", help="null recordings only (seed + 1000)")
     ap.add_argument("--term-sigma", type=float, default=TERM_SIGMA, metavar="S",
                     help=f"the diagnosis's term filter, s (default {TERM_SIGMA:g}; the thresholds "
@@ -450,20 +458,26 @@ def main(argv=None) -> int:
                         args.term_sigma)
         print(json.dumps(cal, indent=1))
         return 0
-    cases = plan(args.seed, args.per_effect, args.nulls, args.pushes, args.constant, args.duration)
+    cases = plan(args.seed, args.per_effect, args.nulls, args.pushes, args.constant, args.duration,
+                 with_torque_checks=args.per_effect > 0)
     cases += plan_spatial(args.seed, args.spatial, max(args.duration, 20.0))
     cases += plan_pairs(args.seed, args.pairs, args.duration)
-    print(f"blind study: {len(cases)} recordings in {out}/ (seed {args.seed})")
+    laws = plan_laws(args.seed, args.laws, args.law_duration)
+    print(f"blind study: {len(cases) + len(laws)} recordings in {out}/ (seed {args.seed})")
     results = run(cases, out, args.workers, args.resimulate, term_sigma=args.term_sigma,
-                  scheduler=args.scheduler)
+                  scheduler=args.scheduler) if cases else []
     singles = [r for r in results if r["case"]["kind"] != "pair"]
     summary = score(singles) if singles else {}
     summary["pairs"] = score_pairs(results)
+    law_results = run_laws(laws, out, args.workers, args.law_boot, args.scheduler) if laws else []
+    summary["laws"] = score_laws(law_results)
+    summary["law_cases"] = law_results
     summary["seconds"] = time.perf_counter() - t0
     summary["command"] = " ".join(sys.argv)
     if singles:
         print_report(summary)
     print_pairs(summary["pairs"])
+    print_laws(summary["laws"])
     print(f"\n{summary['seconds']:.0f} s")
     from euc_sim.io import write_json
     write_json(out / "summary.json", summary)

@@ -65,8 +65,15 @@ MAX_PITCH = math.radians(15.0)
 MIN_GAIN = 0.01
 #: The acceleration set-point, tried after the other terms, must lower the held-out
 #: RMS error by this fraction (set on the synthetic closed-loop rides of
-#: tests/rides/lawsynth.py, where 1 % let it take half of K_p: a tuning choice).
+#: euc_sim/rides/lawsynth.py, where 1 % let it take half of K_p: a tuning choice).
 ACCEL_GAIN = 0.05
+#: Rows on either side of a row at the torque limit left out of the fit, and passes
+#: of the censoring (:func:`_censored_lstsq`).
+CENSOR_GUARD = 1
+CENSOR_ITER = 3
+#: Half-span of the acceleration column, s: a set-point follows the ride's acceleration
+#: over seconds; the acceleration within one telemetry period is the motor torque's own.
+ACCEL_HALF = 1.0
 #: Leak of the integral column, s.
 INTEGRAL_TAU = 5.0
 #: Below this held-out R² the pitch does not explain the torque: no law is reported.
@@ -121,6 +128,12 @@ class LawRows:
         Smallest step of the logged pitch, rad (its quantisation).
     dt_median : float
         Median sample interval, s.
+    w3 : numpy.ndarray
+        (n, 3) weights of the previous, this and the next log row giving each
+        channel's mean over [t₋₁, t₊₁] (Simpson's rule on the uneven stamps): the
+        interval whose mean rate the central differences ``tilt_dot`` and ``a`` are.
+    tilt3, v3, z3, y3 : numpy.ndarray
+        (n, 3) the channels at the previous, this and the next log row.
     """
 
     t: np.ndarray
@@ -135,23 +148,64 @@ class LawRows:
     scale: float
     pitch_step: float
     dt_median: float
+    w3: np.ndarray
+    tilt3: np.ndarray
+    v3: np.ndarray
+    z3: np.ndarray
+    y3: np.ndarray
 
     def take(self, idx: np.ndarray) -> "LawRows":
         """The rows ``idx`` (an index or boolean array)."""
-        cols = {k: getattr(self, k)[idx] for k in ("t", "tilt", "tilt_dot", "v", "a", "z", "y")}
+        cols = {k: getattr(self, k)[idx] for k in ("t", "tilt", "tilt_dot", "v", "a", "z", "y",
+                                                   "w3", "tilt3", "v3", "z3", "y3")}
         return LawRows(**cols, channel=self.channel, unit=self.unit, scale=self.scale,
                        pitch_step=self.pitch_step, dt_median=self.dt_median)
 
 
 def _rate(x: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """dx/dt by central differences on the uneven time stamps; NaN next to a gap."""
+    """dx/dt as (x₊₁ − x₋₁)/(t₊₁ − t₋₁), the exact mean rate over [t₋₁, t₊₁], on the
+    uneven time stamps; NaN at the ends and next to a gap."""
+    d = np.full_like(x, np.nan)
     if x.size < 3:
-        return np.full_like(x, np.nan)
-    d = np.gradient(x, t)
+        return d
+    span = t[2:] - t[:-2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d[1:-1] = np.where(span > 0, (x[2:] - x[:-2]) / np.where(span > 0, span, 1.0), np.nan)
     gap = np.diff(t) > GAP
-    bad = np.r_[gap, False] | np.r_[False, gap]
-    d[bad] = np.nan
+    d[np.r_[gap, False] | np.r_[False, gap]] = np.nan
     return d
+
+
+def _slow_rate(x: np.ndarray, t: np.ndarray, half: float = ACCEL_HALF) -> np.ndarray:
+    """dx/dt as (x(t + half) − x(t − half))/(2·half), x linearly interpolated between
+    rows: the mean rate over 2·half s; NaN where that span leaves the log or crosses a gap."""
+    lo, hi = np.interp(t - half, t, x), np.interp(t + half, t, x)
+    seg = np.r_[0, np.cumsum(np.diff(t) > GAP)]
+    i0 = np.clip(np.searchsorted(t, t - half), 0, t.size - 1)
+    i1 = np.clip(np.searchsorted(t, t + half) - 1, 0, t.size - 1)
+    ok = (t - half >= t[0]) & (t + half <= t[-1]) & (seg[i0] == seg) & (seg[i1] == seg)
+    return np.where(ok, (hi - lo) / (2 * half), np.nan)
+
+
+def _simpson_weights(t: np.ndarray) -> np.ndarray:
+    """(n, 3) weights of rows k−1, k, k+1 whose sum is the mean over [t₋₁, t₊₁] of the
+    parabola through the three (Simpson's rule on uneven steps h₀, h₁); the ends and
+    repeated stamps get (0, 1, 0)."""
+    w = np.zeros((t.size, 3))
+    w[:, 1] = 1.0
+    if t.size < 3:
+        return w
+    h0, h1 = np.diff(t)[:-1], np.diff(t)[1:]
+    ok = (h0 > 0) & (h1 > 0)
+    h0, h1 = np.where(ok, h0, 1.0), np.where(ok, h1, 1.0)
+    inner = np.column_stack([(2 - h1 / h0) / 6, (h0 + h1) ** 2 / (6 * h0 * h1), (2 - h0 / h1) / 6])
+    w[1:-1] = np.where(ok[:, None], inner, w[1:-1])
+    return w
+
+
+def _three(x: np.ndarray) -> np.ndarray:
+    """(n, 3): x at the previous, this and the next row (the ends repeated)."""
+    return np.column_stack([np.r_[x[:1], x[:-1]], x, np.r_[x[1:], x[-1:]]])
 
 
 def _leaky_integral(x: np.ndarray, t: np.ndarray, tau: float = INTEGRAL_TAU) -> np.ndarray:
@@ -211,31 +265,81 @@ def law_rows(log: RideLog, k_t: float | None = None, v_min: float = V_MIN) -> La
     riding &= np.abs(tilt - level) < MAX_PITCH
     finite = np.isfinite(tilt)
     tilt_f = np.interp(t, t[finite], tilt[finite])
-    rate, acc = _rate(tilt_f, t), _rate(v, t)
+    rate, acc = _rate(tilt_f, t), _slow_rate(v, t)
     z = _leaky_integral(np.where(riding, tilt_f - level, 0.0), t)
     ok = riding & np.isfinite(rate) & np.isfinite(acc)
     steps = np.diff(np.unique(np.round(tilt[finite], 9)))
     step = float(steps.min()) if steps.size else 0.0
+    y_f = np.where(np.isfinite(y), y, 0.0)
     return LawRows(t=t[ok], tilt=tilt[ok], tilt_dot=rate[ok], v=np.abs(v[ok]), a=acc[ok] * np.sign(v[ok]),
                    z=z[ok], y=y[ok], channel=channel, unit=unit, scale=scale, pitch_step=step,
-                   dt_median=float(np.median(np.diff(t))))
+                   dt_median=float(np.median(np.diff(t))), w3=_simpson_weights(t)[ok],
+                   tilt3=_three(tilt_f)[ok], v3=np.abs(_three(v))[ok], z3=_three(z)[ok],
+                   y3=_three(y_f)[ok])
 
 
 # --------------------------------------------------------------------------------------
-def _columns(rows: LawRows, names, p: dict) -> np.ndarray:
+def _columns(rows: LawRows, names, p: dict, mean3: bool = False) -> np.ndarray:
     """Columns of the law, torque = X·c, one per name (``torque_limit`` has none);
-    ``p`` gives ``v_tb`` and, for ``brake_gain``, the nominal ``sign`` and ``tilt0``."""
-    make = {"offset": lambda: np.ones_like(rows.y), "P": lambda: rows.tilt,
+    ``p`` gives ``v_tb`` and, for ``brake_gain``, the nominal ``sign`` and ``tilt0``.
+
+    ``mean3``: each column as its mean over [t₋₁, t₊₁] (:func:`_simpson_weights`), the
+    interval whose mean rate the pitch rate and acceleration columns are, so that the
+    law holds between the columns exactly as between the signals (compare
+    :func:`_target`); the rate columns are already such means."""
+    tilt, v, z = (rows.tilt3, rows.v3, rows.z3) if mean3 else (rows.tilt, rows.v, rows.z)
+    make = {"offset": lambda: np.ones_like(tilt), "P": lambda: tilt,
             "D": lambda: rows.tilt_dot,
-            "tiltback": lambda: np.maximum(rows.v - p.get("v_tb", np.inf), 0.0),
-            "accel_setpoint": lambda: rows.a, "integral": lambda: rows.z,
-            "brake_gain": lambda: (rows.tilt - p["tilt0_nom"])
-            * (p["sign_nom"] * (rows.tilt - p["tilt0_nom"]) < 0)}
-    return np.column_stack([make[n]() for n in names if n != "torque_limit"])
+            "tiltback": lambda: np.maximum(v - p.get("v_tb", np.inf), 0.0),
+            "accel_setpoint": lambda: rows.a, "integral": lambda: z,
+            "brake_gain": lambda: (tilt - p["tilt0_nom"])
+            * (p["sign_nom"] * (tilt - p["tilt0_nom"]) < 0)}
+    cols = []
+    for n in names:
+        if n == "torque_limit":
+            continue
+        c = make[n]()
+        cols.append(np.sum(rows.w3 * c, axis=1) if mean3 and c.ndim == 2 else c)
+    return np.column_stack(cols)
+
+
+def _target(rows: LawRows) -> np.ndarray:
+    """The torque's mean over [t₋₁, t₊₁] (the fitted quantity, unit of y)."""
+    return np.sum(rows.w3 * rows.y3, axis=1)
 
 
 def _lstsq(X: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.linalg.lstsq(X, y, rcond=None)[0]
+
+
+def _censored_lstsq(X: np.ndarray, y: np.ndarray, M: float, at_limit: np.ndarray,
+                    n_iter: int = CENSOR_ITER) -> np.ndarray:
+    """Least squares of ``y`` on ``X`` leaving out the rows the limit ``M`` touches.
+
+    A row is out when its torque is at the limit (``at_limit``) or the law would
+    command beyond it (|X·β| ≥ M, β of the previous pass), and so are its
+    :data:`CENSOR_GUARD` neighbours on either side: a logged value is a mean over
+    the telemetry period and the pitch rate a difference across neighbours, so a
+    row next to a clipped one carries the clipped torque or the pitch excursion
+    that the limit let through.  ``M = inf``: plain least squares.
+    """
+    if not np.isfinite(M):
+        return _lstsq(X, y)
+    bad = at_limit.copy()
+    beta, last = None, None
+    for _ in range(n_iter):
+        if beta is not None:
+            bad = bad | (np.abs(X @ beta) >= M)
+        out = bad.copy()
+        for k in range(1, CENSOR_GUARD + 1):
+            out[k:] |= bad[:-k]
+            out[:-k] |= bad[k:]
+        if out.sum() > 0.5 * y.size:
+            out = at_limit
+        if last is not None and np.array_equal(out, last):
+            break                                   # the censored rows settled
+        beta, last = _lstsq(X[~out], y[~out]), out
+    return beta
 
 
 def fit_params(rows: LawRows, names) -> dict:
@@ -255,7 +359,8 @@ def fit_params(rows: LawRows, names) -> dict:
     """
     names = list(names)
     lin = [n for n in names if n != "torque_limit"]
-    b0 = _lstsq(_columns(rows, BASE, {}), rows.y)
+    y = _target(rows)
+    b0 = _lstsq(_columns(rows, BASE, {}, mean3=True), y)
     p = {"sign_nom": 1.0 if b0[1] >= 0 else -1.0,
          "tilt0_nom": float(-b0[0] / b0[1]) if b0[1] else 0.0}
     lims = [np.inf]
@@ -266,11 +371,10 @@ def fit_params(rows: LawRows, names) -> dict:
         v_tbs = [float(np.quantile(rows.v, q)) for q in _TB_GRID]
     best = None
     for M in lims:
-        use = np.abs(rows.y) < 0.99 * M
         for v_tb in v_tbs:
-            X = _columns(rows, lin, dict(p, v_tb=v_tb))
-            beta = _lstsq(X[use], rows.y[use])
-            sse = float(np.sum((rows.y - np.clip(X @ beta, -M, M)) ** 2))
+            X = _columns(rows, lin, dict(p, v_tb=v_tb), mean3=True)
+            beta = _censored_lstsq(X, y, M, np.any(np.abs(rows.y3) >= 0.99 * M, axis=1))
+            sse = float(np.sum((y - np.clip(X @ beta, -M, M)) ** 2))
             if best is None or sse < best[0]:
                 best = (sse, beta, M, v_tb)
     _, beta, M, v_tb = best
@@ -297,11 +401,12 @@ def _physical(fit: dict) -> dict:
     return out
 
 
-def predict(rows: LawRows, fit: dict) -> np.ndarray:
+def predict(rows: LawRows, fit: dict, mean3: bool = False) -> np.ndarray:
     """The law's torque on ``rows`` from their pitch, speed and acceleration (unit of
-    ``rows.y``), clipped at the limit."""
+    ``rows.y``), clipped at the limit; ``mean3``: its mean over [t₋₁, t₊₁], the fitted
+    quantity (:func:`_target`)."""
     lin = [n for n in fit["names"] if n != "torque_limit"]
-    pred = _columns(rows, lin, fit) @ np.array([fit["beta"][n] for n in lin])
+    pred = _columns(rows, lin, fit, mean3) @ np.array([fit["beta"][n] for n in lin])
     return np.clip(pred, -fit["M_max"], fit["M_max"])
 
 
@@ -311,14 +416,16 @@ def r2(y: np.ndarray, pred: np.ndarray) -> float:
 
 
 def heldout_score(rows: LawRows, names, n_blocks: int = 10) -> tuple[float, float]:
-    """Blocked held-out RMS error (unit of y) and R² of the torque: each of ``n_blocks``
-    contiguous time blocks predicted from a fit on the others (grids re-found per fold)."""
+    """Blocked held-out RMS error (unit of y) and R² of the torque (its mean over
+    [t₋₁, t₊₁], :func:`_target`, the fitted quantity): each of ``n_blocks`` contiguous
+    time blocks predicted from a fit on the others (grids re-found per fold)."""
     label = time_blocks(rows.t, n_blocks)
-    pred = np.empty_like(rows.y)
+    y = _target(rows)
+    pred = np.empty_like(y)
     for b in range(n_blocks):
         test = label == b
-        pred[test] = predict(rows.take(test), fit_params(rows.take(~test), names))
-    return float(np.sqrt(np.mean((rows.y - pred) ** 2))), r2(rows.y, pred)
+        pred[test] = predict(rows.take(test), fit_params(rows.take(~test), names), mean3=True)
+    return float(np.sqrt(np.mean((y - pred) ** 2))), r2(y, pred)
 
 
 def _without_pitch_r2(rows: LawRows, n_blocks: int = 10, accel: bool = True,
@@ -330,11 +437,34 @@ def _without_pitch_r2(rows: LawRows, n_blocks: int = 10, accel: bool = True,
         cols.append(np.maximum(rows.v - v_tb, 0.0))
     X = np.column_stack(cols + ([rows.a] if accel else []))
     label = time_blocks(rows.t, n_blocks)
-    pred = np.empty_like(rows.y)
+    y = _target(rows)
+    pred = np.empty_like(y)
     for b in range(n_blocks):
         test = label == b
-        pred[test] = X[test] @ _lstsq(X[~test], rows.y[~test])
-    return r2(rows.y, pred)
+        pred[test] = X[test] @ _lstsq(X[~test], y[~test])
+    return r2(y, pred)
+
+
+def _select_with_pairs(score, candidates: list) -> tuple[list, list]:
+    """Forward selection from ``BASE`` (:func:`select_by_heldout`); when no single term
+    earns :data:`MIN_GAIN`, the best pair of the terms left is tried as one step, and
+    the selection goes on after it.  Two terms can be needed together: with a torque
+    limit hit often, a tilt-back alone fits the clipped rows worse than no term, and a
+    limit alone does not explain the set-point that drives the torque to it."""
+    names, history = select_by_heldout(score, list(BASE), candidates, MIN_GAIN)
+    while True:
+        left = [c for c in candidates if c not in names]
+        cur = history[-1]["heldout_rmse"]
+        trial = {(a, b): score(names + [a, b]) for i, a in enumerate(left) for b in left[i + 1:]}
+        if not trial:
+            return names, history
+        pair = min(trial, key=trial.get)
+        if trial[pair] >= cur * (1.0 - MIN_GAIN):
+            return names, history
+        names = names + list(pair)
+        history.append({"term": "+".join(pair), "heldout_rmse": trial[pair]})
+        names, more = select_by_heldout(score, names, [c for c in candidates if c not in names], MIN_GAIN)
+        history += more[1:]
 
 
 @dataclass(frozen=True)
@@ -438,8 +568,7 @@ def fit_law(rows: LawRows, n_boot: int = 100, seed: int = 0) -> Law:
         raise LawUnavailable(f"median sample interval {rows.dt_median:.2f} s: too coarse for a "
                              f"balance law that acts within a fraction of a second")
     score = lambda n: heldout_score(rows, n)[0]                         # noqa: E731
-    names, history = select_by_heldout(score, list(BASE),
-                                       [n for n in CATALOG if n != "accel_setpoint"], MIN_GAIN)
+    names, history = _select_with_pairs(score, [n for n in CATALOG if n != "accel_setpoint"])
     # acceleration also carries the ride's physics (the torque follows it whatever the
     # firmware does): its set-point term is tried last and must earn ACCEL_GAIN
     names, more = select_by_heldout(score, names, ["accel_setpoint"], ACCEL_GAIN)
@@ -470,4 +599,4 @@ def fit_law(rows: LawRows, n_boot: int = 100, seed: int = 0) -> Law:
     sign = int(fit["sign"])
     return Law(names=names, fit=fit, terms=terms, sign=sign, heldout_rmse=rmse,
                heldout_r2=r2_kept, nominal_r2=r2_nom, blind_r2=r2_blind, history=history, channel=rows.channel,
-               unit=rows.unit, scale=rows.scale, sign_share=float(np.mean(signs == sign)))
+               unit=rows.unit, scale=rows.scale, sign_share=float(np.mean(signs == sign)) if signs.size else math.nan)

@@ -8,7 +8,8 @@ irregular times, pitch in 0.1° steps in the brand's sign convention and with a
 mounting offset, phase current = M_d/K_t in 0.1 A steps with noise);
 :func:`wheellog_log` as WheelLog does (0.2 s rows, a third of the time stamps
 repeated, pitch in 0.01°, the wheel's ``torque`` in 0.01 N·m).  The truth is
-returned, never written beside the log.
+returned, never written beside the log.  :func:`draw_law` draws a concealed law
+for the blind study (``scripts/blind_study.py --laws N``).
 """
 
 from __future__ import annotations
@@ -33,6 +34,16 @@ EW_HEADER = "datetime,speed,voltage,current,current_phase,power,safety_margin,ba
 WL_HEADER = ("date,time,latitude,longitude,gps_speed,gps_alt,gps_heading,gps_distance,speed,"
              "voltage,phase_current,torque,pwm,current,power,battery_level,distance,totaldistance,"
              "system_temp,temp2,tilt,roll,mode,alert")
+
+
+def draw_law(rng: np.random.Generator) -> dict:
+    """A concealed firmware law for the blind study, as :class:`controllers.motor.MotorPD`
+    keywords (SI): K_p 1,500-5,000 N·m/rad, K_d 100-400 N·m·s/rad, tilt-back 2° reached
+    10 km/h above an onset drawn in 24-34 km/h, a torque limit of 45-70 N·m."""
+    onset = float(rng.uniform(24.0, 34.0)) / 3.6
+    return {"Kp": float(rng.uniform(1500.0, 5000.0)), "Kd": float(rng.uniform(100.0, 400.0)),
+            "tiltback_speed": onset, "tiltback_gain": math.radians(2.0) / (10.0 / 3.6),
+            "torque_limit": float(rng.uniform(45.0, 70.0))}
 
 
 def profile(seed: int, duration: float) -> tuple[np.ndarray, np.ndarray]:
