@@ -180,11 +180,11 @@ def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: 
     peaks = [effects.band_peak_tilt(th, dt, LATERAL_WINDOW) for th in tilts if th is not None]
     gains = [1.0]
     for w in (LATERAL_WINDOW / 2, LATERAL_WINDOW * 2):
-        alt = replace(prep, lateral=lateral_inputs(df, prep.kin.q[:, 1], p.l0, dt, w))
+        alt = replace(prep, lateral=lateral_inputs(df, prep.kin.q[:, 1], p.l0, dt, w, q=prep.kin.q, R=p.R))
         kin, wh = _force_columns("lateral_dynamics", alt, p, h0)
         c_w = np.concatenate([kin, wh]) if has_w else kin
         gains.append(float(c_w @ col / (c_w @ c_w)))
-    if prep.lateral.get("lean") is not None:      # the slender rider's upright term added
+    if prep.lateral.get("lean") is not None and "G_dd" not in prep.lateral:   # slender rider's upright term added
         lat, q = prep.lateral, prep.kin.q
         Q = np.zeros_like(q)
         Q[:, 2] = -effects.upright_slender_moment(p.replace(h=h0), q[:, 2], lat["theta"], lat["theta_d"], lat["psi_d"])
