@@ -249,9 +249,9 @@ def part1(terms, dt, trim=1.0):
         if k.startswith(("trans_err_", "rot_err_")):
             rows[f"  {k}"] = rms(S[k])
             rows[f"+ exact {k[:-len(k.split('_')[-1]) - 1].replace('_err', '')} of the {k.split('_')[-1]}"] = rms(rem - S[k])
-    rows["+ the rider's exact translation + upright slender rotation (observable)"] = rms(
+    rows["+ the rider's exact translation + upright slender rotation"] = rms(
         rem - S["trans_err_rider"] - S["slender"])
-    rows["remainder after the new lateral_dynamics (rider_spatial + slender)"] = rms(S["e"] - S["model_new"])
+    rows["remainder with G's marker translation + slender (model.rider_spatial)"] = rms(S["e"] - S["model_new"])
     rows["same, G in the plane from q and the true h"] = rms(S["e"] - S["model_new_q"])
     rows["+ those + the rider's twist"] = rms(rem - S["trans_err_rider"] - S["slender"] - S["twist"])
     rows["+ those + the floor's wrench (torsional, offset)"] = rms(

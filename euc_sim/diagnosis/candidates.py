@@ -168,10 +168,8 @@ def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: 
     (:data:`LATERAL_WINDOW` halved or doubled: s fitted on that window's column, s_w, is
     taken as the projection of the fitted term s·c onto it, s_w = s ⟨c_w, c⟩ / ⟨c_w, c_w⟩);
     where the markers show the rider's lean, also the rider's yaw inertia, which no
-    recording measures: isotropic (the planar simulator's convention) or slender (the 3-D
-    model's; :func:`effects.upright_slender_moment` added to or, where the column is
-    slender (:func:`effects.rider_spatial_correction`), taken from the column, projected
-    the same way).
+    recording measures: isotropic (the column's convention) or slender
+    (:func:`effects.upright_slender_moment` added to the column, projected the same way).
     With M_d recorded, also the kinematic row alone (s_kin / s of single-column fits at
     h0): the wheel row carries the contact's longitudinal force, whose lateral coupling
     (the crowned tyre's rolling radius, the patch's moment on the spin) the term leaves out;
@@ -191,12 +189,10 @@ def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: 
         kin, wh = _force_columns("lateral_dynamics", alt, p, h0)
         c_w = np.concatenate([kin, wh]) if has_w else kin
         gains.append(float(c_w @ col / (c_w @ c_w)))
-    if prep.lateral.get("lean") is not None:      # the rider's other yaw inertia: slender or isotropic
+    if prep.lateral.get("lean") is not None:      # the slender rider's upright term added
         lat, q = prep.lateral, prep.kin.q
         Q = np.zeros_like(q)
-        sign = -1.0 if "G_dd" in lat else 1.0     # the column is slender with G's acceleration
-        Q[:, 2] = -sign * effects.upright_slender_moment(p.replace(h=h0), q[:, 2], lat["theta"], lat["theta_d"],
-                                                         lat["psi_d"])
+        Q[:, 2] = -effects.upright_slender_moment(p.replace(h=h0), q[:, 2], lat["theta"], lat["theta_d"], lat["psi_d"])
         ph = p.replace(h=h0)
         extra = analytic.residual_gain(ph, q[prep.keep]) * prep.filtered(analytic.moment_about_contact(ph, Q))
         c_w = col + (np.concatenate([extra, np.zeros_like(extra)]) if has_w else extra)

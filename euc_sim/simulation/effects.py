@@ -489,18 +489,19 @@ RIDER_MARKER_INPUTS = ("psi", "G_dd", "x_dd", "xi_dd", "zeta_dd")
 
 
 def rider_spatial_correction(p: Params, q, qd, extra: dict) -> np.ndarray:
-    """The rider in full where G's marker is recorded: his true translation and slender body.
+    """The rider's translation in space where G's marker is recorded.
 
     ``scripts/lateral_ablation.py`` (noise-free 3-D rides, the 1 kHz truth) found the whole
     remainder that :func:`lateral_forces` + :func:`rider_lean_forces` leave in the rider:
-    his translation (the first-order lean terms miss 0.4-3 N·m RMS) and his rotation
-    (the upright slender (J_z − J) term, left out for the planar simulator's isotropic
-    rider, and his twist), the two errors anti-correlated (−0.9), so that either fix
-    alone made the remainder larger.  This replaces the modelled translation of the
-    rider (the m-linear part of both terms) by the one the marker G measures
-    (:func:`euc_sim.model.rider_spatial.rider_translation_forces`) and adds the slender
-    rider's upright rotation (−:func:`upright_slender_moment` in the φ row).  The twist,
-    which no marker of C, E, G sees, is left out.
+    his translation (the first-order lean terms miss 0.3-4 N·m RMS) and his rotation
+    (the upright slender (J_z − J) term and his twist), the two errors anti-correlated
+    (−0.9).  This replaces the modelled translation of the rider (the m-linear part of
+    both terms) by the one the marker G measures
+    (:func:`euc_sim.model.rider_spatial.rider_translation_forces`).  The rider's rotation
+    keeps the isotropic convention (the slender term is the interval's alternative,
+    ``diagnosis.candidates``): with it in the column the 3-D estimates fell 5-6 % below
+    the truth through the recording (fresh seeds 101-103) and the planar lateral cases,
+    whose simulator injects the isotropic rider, 4.8 % (``docs/spatial.md``).
 
     ``extra`` holds :data:`LATERAL_INPUTS`, :data:`LEAN_INPUTS` and
     :data:`RIDER_MARKER_INPUTS`; returns (N, 3): (N, N·m, N·m) to add to eq. (5)'s
@@ -514,8 +515,6 @@ def rider_spatial_correction(p: Params, q, qd, extra: dict) -> np.ndarray:
                 + rider_lean_forces(p2, q, qd, **lean) - rider_lean_forces(p, q, qd, **lean))
     Q = rider_translation_forces(p, q, extra["psi"], extra["theta"], extra["x_dd"], extra["xi_dd"],
                                  extra["zeta_dd"], extra["G_dd"]) - modelled
-    Q[..., 2] -= upright_slender_moment(p, np.asarray(q, dtype=float)[..., 2], extra["theta"],
-                                        extra["theta_d"], extra["psi_d"])
     return Q
 
 
