@@ -251,7 +251,8 @@ def make_recording(case: dict, out: Path) -> Path:
         from euc_sim.simulation.spatial import write_spatial
         return write_spatial(out / f"{case['name']}.csv", case["maneuver"], case["duration"], seed=case["seed"],
                              rider_noise=RIDER_NOISE, speed=case["options"]["speed"],
-                             radius=case["options"]["radius"], hide_torques=case["hide_torques"])
+                             radius=case["options"]["radius"], hide_torques=case["hide_torques"],
+                             noise=case.get("noise", "paper"))
     from euc_sim.simulation import dataset
     return _write_case(case, out, *dataset.simulated_recording(case_spec(case)))
 

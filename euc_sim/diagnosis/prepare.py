@@ -185,14 +185,15 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
         raise DiagnosisError(f"recording {name}: duration {t[-1] - t[0]:.2f} s too short; expected at "
                              f"least {(2 * edge) * dt + 2.0:.1f} s for the filters")
     M_d = df["M_d"].to_numpy(float) if "M_d" in df.columns else None
-    lateral = lateral_inputs(df, kin.q[:, 1], p.l0, dt) if {"theta", "psi"} <= set(df.columns) else None
+    lateral = lateral_inputs(df, kin.q[:, 1], p.l0, dt, q=kin.q, R=p.R) if {"theta", "psi"} <= set(df.columns) else None
     step = max(1, int(round(1.0 / (dt * rate))))
     keep = np.arange(edge, t.size - edge, step)
     noise = {c: noise_sd(ch) for c, ch in _raw_channels(df).items()}
     return Prepared(kin, sm.sigma_samples(dt), M_d, lateral, keep, p, meta, name, noise, df)
 
 
-def lateral_inputs(df: pd.DataFrame, gamma, l0: float, dt: float, window: float = LATERAL_WINDOW) -> dict:
+def lateral_inputs(df: pd.DataFrame, gamma, l0: float, dt: float, window: float = LATERAL_WINDOW,
+                   q=None, R: float | None = None) -> dict:
     """The lateral term's inputs from a recording's ``theta`` and ``psi`` (and C, E, G).
 
     Tilt and yaw are inputs of the lateral term, not terms of the balance: a longer
@@ -200,6 +201,10 @@ def lateral_inputs(df: pd.DataFrame, gamma, l0: float, dt: float, window: float 
     in variables).  Keys :data:`euc_sim.simulation.effects.LATERAL_INPUTS`, and
     :data:`~euc_sim.simulation.effects.LEAN_INPUTS` where the markers show the rider's
     lean ((N,) arrays: rad, rad/s, rad/s²); ``gamma`` the EUC's pitch, rad; ``l0`` m.
+    With the paper coordinates ``q`` ((N, 3): x m, γ, φ rad) and the wheel radius ``R``
+    (m) also :data:`~euc_sim.simulation.effects.RIDER_MARKER_INPUTS`: ψ, G's acceleration,
+    ẍ and G's acceleration in the tilted plane through the same fit, for the rider's
+    translation in space (:func:`euc_sim.model.rider_spatial.rider_translation_forces`).
     """
     from euc_sim.identification import processing
     w = int(round(window / dt)) | 1
@@ -210,6 +215,15 @@ def lateral_inputs(df: pd.DataFrame, gamma, l0: float, dt: float, window: float 
     lean = _rider_lean(df, psi, gamma, l0, dt, w, o)
     if lean is not None:
         lateral.update(lean=lean[0], lean_d=lean[1], lean_dd=lean[2], theta_dd=theta_dd)
+        if q is not None and R is not None:   # G's own acceleration, ẍ and G in the plane through the same fit
+            from euc_sim.model.rider_spatial import plane_coordinates
+            G = df[["G_X", "G_Y", "G_Z"]].to_numpy(float)
+            C = df[["C_X", "C_Y", "C_Z"]].to_numpy(float)
+            xi, zeta = plane_coordinates(G, C, psi, marker_tilt(df, psi), R, gamma, lean[0], l0)
+            lateral.update(psi=psi, G_dd=processing.savgol_derivatives(G, dt, w, o)[2],
+                           x_dd=processing.savgol_derivatives(np.asarray(q, dtype=float)[:, 0], dt, w, o)[2],
+                           xi_dd=processing.savgol_derivatives(xi, dt, w, o)[2],
+                           zeta_dd=processing.savgol_derivatives(zeta, dt, w, o)[2])
     return lateral
 
 
