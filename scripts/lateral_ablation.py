@@ -73,7 +73,8 @@ def capture_run(path: str, duration: float, rider_noise: float, seed: int, speed
     rider = default_rider(TABLE3, noise_std=rider_noise)
     mujoco.mj_step = watched
     try:
-        run = simulate_3d(path, duration, rider=rider, seed=seed, speed=speed, radius=radius)
+        run = simulate_3d(path, duration, rider=rider, seed=seed, speed=speed, radius=radius,
+                          native=False)      # the Python loop: its mj_step calls are the capture
     finally:
         mujoco.mj_step = step
     N = len(run) - 1
