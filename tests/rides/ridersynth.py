@@ -1,7 +1,7 @@
 """A ride with a concealed rider (delay, bandwidth, motor noise), written as EUC World writes it.
 
-The wheel runs the concealed firmware law of :mod:`tests.rides.lawsynth` (``WHEEL_LAW``) on its
-road (``ROAD``) along its speed plan (:func:`tests.rides.lawsynth.profile`); the rider is
+The wheel runs the concealed firmware law of :mod:`euc_sim.rides.lawsynth` (``WHEEL_LAW``) on its
+road (``ROAD``) along its speed plan (:func:`euc_sim.rides.lawsynth.profile`); the rider is
 :func:`euc_sim.rides.rider_fit.rider_from` with the settings given.  The log has physical
 battery power (:func:`euc_sim.rides.simulate.battery_power` with :data:`DRIVETRAIN`), phase
 current M_d/K_T and pitch in 0.1° steps.  The truth is returned, never written beside the log.
@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from tests.rides.lawsynth import EW_HEADER, K_T, LAW, ROAD, _sample, profile
+from euc_sim.rides.lawsynth import EW_HEADER, K_T, LAW, ROAD, _sample, profile
 
 #: The wheel's law: lawsynth's concealed PD and tilt-back, with a torque limit (150 N·m) that the
 #: rider's corrections do not reach (lawsynth's 45 N·m is a law-recovery case: along a log's

@@ -100,7 +100,7 @@ def test_simulated_pwm_is_the_duty_model():
 def law_log(tmp_path_factory):
     """80 s under a known law (K_p 2,000, K_d 200, tilt-back; the 45 N·m limit lifted: the
     replay's speed, smoothed from the log, needs a little more), written as EUC World writes it."""
-    import lawsynth
+    from euc_sim.rides import lawsynth
 
     law = dict(lawsynth.LAW, torque_limit=250.0)
     ride = lawsynth.law_ride(seed=1, duration=80.0, law=law)
