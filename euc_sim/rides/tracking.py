@@ -130,14 +130,14 @@ class _RideClock:
         self.bar.close()
 
 
-def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None):
+def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=None):
     """One run along the plan v_plan; its speed on the profile grid, m/s, and RMS error."""
     from euc_sim.simulation.maneuvers import Maneuver
     from euc_sim.simulation.engine import default_rider, simulate
 
     man = Maneuver("profile", float(v_plan[0]), (), (tuple(t.tolist()), tuple(v_plan.tolist())))
-    df = simulate(man, float(t[-1]), params=params, rider=default_rider(params), seed=seed,
-                  effects=dict(effects), dt=dt, progress=clock)
+    df = simulate(man, float(t[-1]), params=params, motor=motor, rider=default_rider(params, motor),
+                  seed=seed, effects=dict(effects), dt=dt, progress=clock)
     if clock is not None:
         clock(float(t[-1]))                # the whole ride ridden
     v_sim = to_grid(df["t"].to_numpy(), df["x_dot"].to_numpy(), t)
@@ -146,7 +146,7 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None):
 
 
 def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, window: float,
-                  notes: list, say, clock_of) -> pd.DataFrame:
+                  notes: list, say, clock_of, motor=None) -> pd.DataFrame:
     """Iterative learning: add the slow speed error to the plan and ride again.
 
     Returns the frame of the run closest to ``target``; appends to ``notes``.
@@ -161,7 +161,7 @@ def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, wi
         say(f"tracking correction {it + 1} of {iterations}: riding the corrected plan")
         clock = clock_of(f"correction {it + 1}")
         try:
-            df2, v2, err2 = _track(t, target, plan, params, effects, seed, dt, clock)
+            df2, v2, err2 = _track(t, target, plan, params, effects, seed, dt, clock, motor)
         except FallError as exc:
             notes.append(f"tracking correction {it + 1}: rider fell ({exc}); kept the "
                          f"previous run")
@@ -179,7 +179,7 @@ def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, wi
 def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapping[str, float],
                      seed: int = 0, dt: float = 1e-3, track_iterations: int = 1,
                      track_window: float = 10.0, progress: Callable[[str], None] | None = None,
-                     label: str = "ride", position: int = 0) -> ProfileRun:
+                     label: str = "ride", position: int = 0, motor=None) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
     The simulated rider has no integral action: a resisting force (drag, rolling
@@ -216,6 +216,9 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         The bar's name (the run: ``nominal``, ``augmented``).
     position : int
         The bar's line (0 first): runs side by side in processes keep their own line.
+    motor : MotorPD, optional
+        The wheel's balance law (default: the paper's PD), e.g. a ride's measured law
+        (:func:`controllers.firmware.firmware_motor`); the rider is designed for it.
 
     Returns
     -------
@@ -234,7 +237,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
     clock = clock_of("ride")
     try:
-        df, v_sim, err = _track(t, v, v, params, effects, seed, dt, clock)
+        df, v_sim, err = _track(t, v, v, params, effects, seed, dt, clock, motor)
     except FallError as exc:
         cause = str(exc).split(": ", 1)[-1]
         notes.append(f"rider fell at t = {exc.t:.1f} s of {t[-1] - t[0]:.0f} s ({cause}): the "
@@ -246,5 +249,5 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         clock.close()
     if t.size >= 5:
         df = _correct_plan(t, v, (df, v_sim, err), params, effects, seed, dt,
-                           track_iterations, track_window, notes, say, clock_of)
+                           track_iterations, track_window, notes, say, clock_of, motor)
     return ProfileRun(df, (), tuple(notes))
