@@ -3,7 +3,8 @@
 Usage (from the repository root, with ``../shared`` beside it)::
 
     python scripts/ride_falls.py [--workers 2] [--only v9/0 ...] [--out /tmp/ride_falls]
-                                 [--n-boot 50] [--no-firmware] [--track-iterations 1]
+                                 [--n-boot 50] [--runs nominal augmented firmware]
+                                 [--track-iterations 1]
 
 For each of the 21 shared real logs (``../shared/data/euc_core/trips/*/*/N/N.csv`` with the
 wheel's spec where there is one, and ``../shared/data/wheellog/*.csv``) it runs what
@@ -34,6 +35,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared" / "data"
+RUNS = ("nominal", "augmented", "firmware")
 WHEELLOG = ("2020_05_16_08_02_06.csv", "2020_05_28_07_52_00.csv", "wheellog_android_log_test1.csv")
 
 
@@ -59,7 +61,8 @@ def _profile_at(t, v, a, when: float) -> tuple[float, float]:
 
 def ride_log(job: tuple) -> list[dict]:
     """Every run of one log (a worker): rows of ``falls.csv``."""
-    name, log, spec_path, n_boot, seed, firmware, iterations = job
+    name, log, spec_path, n_boot, seed, wanted, iterations = job
+    firmware = "firmware" in wanted
     import numpy as np
 
     from euc_sim.cli.ride import _drivetrain, with_found_values
@@ -98,7 +101,7 @@ def ride_log(job: tuple) -> list[dict]:
         except FirmwareError as exc:
             base["firmware"] = str(exc)
     rows = []
-    for run, effects, motor in runs:
+    for run, effects, motor in [r for r in runs if r[0] in wanted]:
         print(f"ride_falls: {name} {run}: {base['ride_s']:.0f} s of ride", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
         res = simulate_profile(t, v, params, effects, seed=seed, track_iterations=iterations,
@@ -126,7 +129,7 @@ def main(argv=None) -> int:
     ap.add_argument("--n-boot", type=int, default=50)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--track-iterations", type=int, default=1)
-    ap.add_argument("--no-firmware", action="store_true")
+    ap.add_argument("--runs", nargs="+", default=list(RUNS), choices=RUNS)
     args = ap.parse_args(argv)
     if not (SHARED / "euc_core").is_dir():
         print(f"ride_falls: {SHARED / 'euc_core'} not found", file=sys.stderr)
@@ -146,7 +149,7 @@ def main(argv=None) -> int:
 
     from euc_sim.rides.pool import run_jobs
 
-    jobs = [(n, log, spec, args.n_boot, args.seed, not args.no_firmware, args.track_iterations)
+    jobs = [(n, log, spec, args.n_boot, args.seed, tuple(args.runs), args.track_iterations)
             for n, log, spec in chosen]
     done = run_jobs(ride_log, jobs, args.workers,
                     on_done=lambda i, k: print(f"ride_falls: log {k}/{len(jobs)} done ({jobs[i][0]})",

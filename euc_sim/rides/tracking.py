@@ -21,7 +21,17 @@ import pandas as pd
 from euc_sim.model.parameters import Params
 from euc_sim.rides.signals import sg
 
-__all__ = ["limit_acceleration", "to_grid", "ProfileRun", "simulate_profile"]
+__all__ = ["limit_acceleration", "rider_acceleration_limit", "to_grid", "ProfileRun",
+           "simulate_profile", "LEAN_SHARE"]
+
+#: Share of the fall bound |φ| ≤ φ_max that the rider's steady lean φ*(a) may use: the
+#: profile's acceleration is limited to the a where |φ*(a)| = LEAN_SHARE·φ_max
+#: (:func:`rider_acceleration_limit`, 1.5 m/s² for Table 3).  Starting or stopping an
+#: acceleration makes the rider's lean overshoot its trim about twice over (the plant is
+#: non-minimum-phase in speed: to lean back, the wheel must first run ahead), so the rest of
+#: the range is the transient's.  A tuning figure: chosen on four fall windows of
+#: ``scripts/ride_falls.py`` (blitz/1, blitz/4, master_pro_V2/3, mten4/0), scored on all 21 logs.
+LEAN_SHARE = 0.3
 
 
 def limit_acceleration(t: np.ndarray, v: np.ndarray, a_max: float) -> np.ndarray:
@@ -60,6 +70,44 @@ def limit_acceleration(t: np.ndarray, v: np.ndarray, a_max: float) -> np.ndarray
     fwd = one_way(v, dv)
     bwd = one_way(v[::-1], dv[::-1])[::-1]
     return 0.5 * (fwd + bwd)
+
+
+def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEAN_SHARE,
+                             phi_max: float | None = None) -> float:
+    """The largest |a|, m/s², whose steady lean |φ*(a)| (:func:`controllers.rider.trim`) stays
+    within ``lean_share``·φ_max, braking and accelerating alike (the smaller of the two).
+
+    Parameters
+    ----------
+    params : Params
+        The simulated rider and wheel.
+    motor : MotorPD, optional
+        The wheel's balance law (default: the paper's PD).
+    lean_share : float
+        In (0, 1).
+    phi_max : float, optional
+        rad (default the simulator's fall bound on φ).
+
+    Returns
+    -------
+    float
+        m/s², positive.
+    """
+    from scipy.optimize import brentq
+
+    from controllers.motor import MotorPD
+    from controllers.rider import trim
+    from euc_sim.simulation.engine import FALL_BOUNDS
+
+    if not (math.isfinite(lean_share) and 0 < lean_share < 1):
+        raise ValueError(f"lean_share must be in (0, 1), got {lean_share!r}")
+    motor = motor or MotorPD()
+    target = lean_share * (FALL_BOUNDS["phi"] if phi_max is None else phi_max)
+
+    def excess(a: float) -> float:
+        return abs(float(trim(params, motor, a)[1])) - target
+
+    return min(brentq(excess, 0.0, sign * params.g * 2, xtol=1e-4) * sign for sign in (1.0, -1.0))
 
 
 def to_grid(t_fine: np.ndarray, y: np.ndarray, t_grid: np.ndarray) -> np.ndarray:
@@ -146,7 +194,7 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
 
 
 def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, window: float,
-                  notes: list, say, clock_of, motor=None) -> pd.DataFrame:
+                  notes: list, say, clock_of, motor=None, a_limit: float | None = None) -> pd.DataFrame:
     """Iterative learning: add the slow speed error to the plan and ride again.
 
     Returns the frame of the run closest to ``target``; appends to ``notes``.
@@ -158,6 +206,8 @@ def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, wi
     plan = target
     for it in range(iterations):
         plan = plan + sg(target - v_sim, np.zeros(t.size, int), rate, window, 2)
+        if a_limit is not None:              # the corrected plan within the rider's envelope too
+            plan = limit_acceleration(t, plan, a_limit)
         say(f"tracking correction {it + 1} of {iterations}: riding the corrected plan")
         clock = clock_of(f"correction {it + 1}")
         try:
@@ -179,7 +229,8 @@ def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, wi
 def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapping[str, float],
                      seed: int = 0, dt: float = 1e-3, track_iterations: int = 1,
                      track_window: float = 10.0, progress: Callable[[str], None] | None = None,
-                     label: str = "ride", position: int = 0, motor=None) -> ProfileRun:
+                     label: str = "ride", position: int = 0, motor=None,
+                     lean_share: float | None = LEAN_SHARE) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
     The simulated rider has no integral action: a resisting force (drag, rolling
@@ -219,6 +270,12 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     motor : MotorPD, optional
         The wheel's balance law (default: the paper's PD), e.g. a ride's measured law
         (:func:`controllers.firmware.firmware_motor`); the rider is designed for it.
+    lean_share : float or None
+        The profile's acceleration is limited to what the simulated rider can ride,
+        :func:`rider_acceleration_limit` (``lean_share`` of the fall bound for his steady
+        lean; :func:`limit_acceleration`), before it is ridden; the notes say where the
+        limit changed the profile.  The plan corrections aim at the limited profile.
+        None: the profile as logged.
 
     Returns
     -------
@@ -234,6 +291,10 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     def clock_of(what: str) -> _RideClock:
         return _RideClock(float(t[-1] - t[0]), f"{label} {what}", progress is not None, position)
 
+    a_limit = None
+    if lean_share is not None and t.size > 1:
+        a_limit = rider_acceleration_limit(params, motor, lean_share)
+        v = _within_envelope(t, v, a_limit, lean_share, notes)
     say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
     clock = clock_of("ride")
     try:
@@ -249,5 +310,22 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         clock.close()
     if t.size >= 5:
         df = _correct_plan(t, v, (df, v_sim, err), params, effects, seed, dt,
-                           track_iterations, track_window, notes, say, clock_of, motor)
+                           track_iterations, track_window, notes, say, clock_of, motor, a_limit)
     return ProfileRun(df, (), tuple(notes))
+
+
+def _within_envelope(t: np.ndarray, v: np.ndarray, a_limit: float, lean_share: float,
+                     notes: list) -> np.ndarray:
+    """The profile limited to ±``a_limit`` m/s² where it exceeds it; a note says how much."""
+    a = np.diff(v) / np.diff(t)
+    over = np.abs(a) > a_limit * (1 + 1e-9)
+    if not over.any():
+        return v
+    out = limit_acceleration(t, v, a_limit)
+    dev = np.abs(out - v)
+    notes.append(f"profile acceleration limited to ±{a_limit:.2f} m/s², what the simulated rider "
+                 f"can ride (his steady lean within {lean_share:g} of the fall bound; the log "
+                 f"reaches {np.abs(a).max():.2f} m/s²): {100 * over.mean():.1f} % of the ride "
+                 f"exceeded it; the limited profile differs from the logged one by "
+                 f"{np.sqrt(np.mean(dev ** 2)):.3f} m/s RMS, {dev.max():.2f} m/s at most")
+    return out
