@@ -333,8 +333,9 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
         Run the MuJoCo loop without Python per step (:mod:`euc_sim.simulation.native`:
         the motor PD as a numba-compiled MuJoCo control callback, the rider per block).
         It applies to the ``mujoco`` engine when no input needs Python at every step:
-        ``rolling_resistance`` (as a moment), ``aerodynamic_drag``, ``cog_height_drift``,
-        ``lateral_dynamics`` and ``external_force`` keep the Python loop, as does
+        ``rolling_resistance`` (as a moment) and ``aerodynamic_drag`` are evaluated by the
+        callback too; ``cog_height_drift``, ``lateral_dynamics`` and ``external_force`` keep
+        the Python loop, as does
         ``native=False`` or a machine where numba cannot compile (one line on stderr).
         Both loops agree to rounding (≤ 1e-9 rad over a ride, ``tests/simulation/test_native.py``).
 
@@ -382,10 +383,11 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
 
     try:
         result = None
-        if native and engine == "mujoco" and not ext.per_step:
+        if native and engine == "mujoco" and not ext.python_per_step:
             from euc_sim.simulation.native import native_loop
 
-            result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress)
+            result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress,
+                                 drag=(ext.k_drag, ext.C_rr * ext.N_load * p_true.R))
         if result is None:
             result = _closed_loop(stepper, motor, run, ext, p_true, dt, N, y0, bounds, progress)
         states, U = result
@@ -433,7 +435,8 @@ class _ExternalInputs:
     ``lat`` and ``lat_scale``: the tilt and yaw of ``lateral_dynamics``; ``contact``:
     the MuJoCo contact settings (with the tyre's rolling friction under
     ``rolling_model="contact"``); ``per_step``: whether any of them must be
-    evaluated at every step.
+    evaluated at every step; ``python_per_step``: whether one of them needs Python at
+    every step (the native loop evaluates drag and the rolling moment itself).
     """
 
     C_rr: float
@@ -445,6 +448,7 @@ class _ExternalInputs:
     lat_scale: float
     contact: object
     per_step: bool
+    python_per_step: bool
 
 
 def _external_inputs(p_true: Params, eff: dict, t: np.ndarray, v_ref: np.ndarray, rolling_model: str,
@@ -477,7 +481,8 @@ def _external_inputs(p_true: Params, eff: dict, t: np.ndarray, v_ref: np.ndarray
     per_step = bool(C_rr or k_drag or h_t is not None or lat is not None or external_force is not None)
     return _ExternalInputs(C_rr=C_rr, N_load=fx.normal_load(p_true) if C_rr else 0.0, k_drag=k_drag,
                            push=external_force or (lambda _t: 0.0), h_t=h_t, lat=lat, lat_scale=lat_scale,
-                           contact=contact, per_step=per_step)
+                           contact=contact, per_step=per_step,
+                           python_per_step=bool(h_t is not None or lat is not None or external_force is not None))
 
 
 def _closed_loop(stepper, motor: MotorPD, run: RiderRun, ext: _ExternalInputs, p_true: Params,

@@ -7,9 +7,12 @@ whole block of the rider's delay (n + 1 steps, :class:`controllers.rider.RiderRu
 at the first callback call of each step (RK4 calls it once per stage; the count per step
 is measured on the model, not assumed) the callback records the state, computes M_d from
 it and holds it with the block's ankle torque M_h over the step (zero-order hold at dt).
-The rider's law stays in Python, once per block.
+The rider's law stays in Python, once per block.  The velocity-dependent effects
+``aerodynamic_drag`` (a force −k ẋ|ẋ| at G) and ``rolling_resistance`` (the moment
+−C_rr N R tanh(ẋ/v₀) on the wheel) are evaluated by the callback from the same state and
+held over the step, as :class:`euc_sim.simulation.engine._EffectsRow` does in the Python loop.
 
-mjData fields (``qpos``, ``qvel``, ``ctrl``) are read through offsets in the struct found
+mjData fields (``qpos``, ``qvel``, ``ctrl``, ``qfrc_applied``, ``xfrc_applied``) are read through offsets in the struct found
 at import from a live ``MjData`` (the word holding ``data.qpos.ctypes.data`` etc. from
 ``data._address``), never hard-coded.  The run's context (counters, indices, motor
 settings, buffer addresses) lives in two module arrays whose addresses are compiled in:
@@ -23,6 +26,7 @@ stderr and returns ``None``; the caller runs the Python loop.
 from __future__ import annotations
 
 import ctypes
+import math
 import sys
 import threading
 from typing import Mapping
@@ -38,9 +42,11 @@ __all__ = ["native_loop", "available", "field_offsets"]
 # context slots: _I (int64) and _F (float64)
 _I_CALLS, _I_PER, _I_K, _I_ROWS, _I_STATE, _I_MD, _I_MH = range(7)
 _I_IX, _I_IG, _I_IR, _I_VX, _I_VG, _I_VR, _I_AM, _I_AA, _I_FALL, _I_DATA = range(7, 17)
+_I_EFF, _I_BR, _I_BW, _I_SPIN = range(17, 21)   # effects on; rider, wheel body; wheel spins
 _I = np.zeros(24, dtype=np.int64)
-_F = np.zeros(16, dtype=np.float64)       # 0..10: MotorPD.law_args(); 11, 12: held M_d, M_h
+_F = np.zeros(24, dtype=np.float64)       # 0..10: MotorPD.law_args(); 11, 12: held M_d, M_h
 _F_MD, _F_MH, _F_PHI_MAX, _F_GAM_MAX = 11, 12, 13, 14
+_F_KDRAG, _F_ROLL, _F_V0, _F_R = 15, 16, 17, 18   # k (kg/m), C_rr·N·R (N·m), v₀ (m/s), R (m)
 
 _LOCK = threading.Lock()
 _CALLBACK = None                          # the compiled cfunc, or False when it cannot be built
@@ -48,7 +54,8 @@ _UNUSABLE_REASON = ""
 
 
 def field_offsets() -> dict[str, int]:
-    """Byte offsets in ``mjData`` of the pointers ``qpos``, ``qvel``, ``ctrl``, found on a live MjData.
+    """Byte offsets in ``mjData`` of the pointers ``qpos``, ``qvel``, ``ctrl``, ``qfrc_applied``,
+    ``xfrc_applied``, found on a live MjData.
 
     Each is the first 8-byte word of the struct equal to the array's address, and must
     agree on a second MjData of another model.
@@ -66,7 +73,8 @@ def field_offsets() -> dict[str, int]:
     for xml in models:
         m = mujoco.MjModel.from_xml_string(xml)
         d = mujoco.MjData(m)
-        targets = {"qpos": d.qpos.ctypes.data, "qvel": d.qvel.ctypes.data, "ctrl": d.ctrl.ctypes.data}
+        targets = {"qpos": d.qpos.ctypes.data, "qvel": d.qvel.ctypes.data, "ctrl": d.ctrl.ctypes.data,
+                   "qfrc_applied": d.qfrc_applied.ctypes.data, "xfrc_applied": d.xfrc_applied.ctypes.data}
         base, offs, words = int(d._address), {}, 64
         while len(offs) < len(targets):
             if words > 1 << 20:
@@ -103,6 +111,7 @@ def _compile():
 
     offs = field_offsets()
     W_QPOS, W_QVEL, W_CTRL = offs["qpos"] // 8, offs["qvel"] // 8, offs["ctrl"] // 8
+    W_QFRC, W_XFRC = offs["qfrc_applied"] // 8, offs["xfrc_applied"] // 8
     I_ADDR, F_ADDR = _I.ctypes.data, _F.ctypes.data
 
     def pointer_to(element):
@@ -131,7 +140,7 @@ def _compile():
     @cfunc(types.void(types.voidptr, types.CPointer(types.int64)))
     def control(m, d):
         iv = carray(i64p(I_ADDR), 24)
-        fv = carray(f64p(F_ADDR), 16)
+        fv = carray(f64p(F_ADDR), 24)
         if address(d) != iv[16]:                 # another simulation (another thread): not ours
             return
         calls = iv[0]
@@ -159,6 +168,14 @@ def _compile():
                 M_d = law(g, gd, xd, fv[0], fv[1], fv[2], fv[3], fv[4], fv[5], fv[6], fv[7],
                           fv[8], fv[9], fv[10])
                 f64p(iv[5])[k] = M_d
+                if iv[17]:                      # drag at G and the rolling moment, held over the step
+                    xfrc = f64p(d[W_XFRC])
+                    xfrc[6 * iv[18]] = -fv[15] * xd * abs(xd)
+                    tau = -fv[16] * math.tanh(xd / fv[17])
+                    if iv[20]:
+                        xfrc[6 * iv[19] + 4] = tau
+                    else:                       # the wheel turns at x/R: τ dθ = (τ/R) dx
+                        f64p(d[W_QFRC])[iv[10]] = tau / fv[18]
                 fv[11] = M_d
                 fv[12] = f64p(iv[6])[k]
                 iv[2] = k + 1
@@ -176,7 +193,7 @@ def available() -> bool:
 
 def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: tuple,
                 bounds: Mapping[str, float], raise_fall,
-                progress=None) -> tuple[np.ndarray, np.ndarray] | None:
+                progress=None, drag: tuple[float, float] = (0.0, 0.0)) -> tuple[np.ndarray, np.ndarray] | None:
     """:func:`euc_sim.simulation.engine._closed_loop` for a MuJoCo stepper without per-step effects.
 
     Same states (N+1, 6) and torques (N+1, 2); ``None`` (and one line on stderr) when the
@@ -185,7 +202,8 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
     phi_max, gam_max)`` raises at the first recorded state outside ``bounds``, as the
     Python loop does; the ``FallError`` carries ``partial``, the states and torques of
     steps 0 … k − 1, as the Python loop's does.  ``progress(t)``: the simulated time, s,
-    at every rider block.
+    at every rider block.  ``drag``: (k, C_rr·N·R), the ``aerodynamic_drag`` coefficient,
+    kg/m, and the ``rolling_resistance`` moment's scale, N·m (0, 0: neither).
     """
     callback = _build()
     if not callback:
@@ -195,12 +213,12 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
     if not _LOCK.acquire(blocking=False):     # another thread's native run holds the callback
         return None
     try:
-        return _run(callback, stepper, motor, run, dt, N, y0, bounds, raise_fall, progress)
+        return _run(callback, stepper, motor, run, dt, N, y0, bounds, raise_fall, progress, drag)
     finally:
         _LOCK.release()
 
 
-def _run(callback, stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None):
+def _run(callback, stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None, drag=(0.0, 0.0)):
     """:func:`native_loop` with the callback built and the lock held."""
     import mujoco
 
@@ -218,10 +236,15 @@ def _run(callback, stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=
     _F[:] = 0.0
     _F[:11] = motor.law_args()
     _F[_F_PHI_MAX], _F[_F_GAM_MAX] = bounds["phi"], bounds["gamma"]
+    from euc_sim.simulation.effects import SIGN_SPEED
+
+    _F[_F_KDRAG], _F[_F_ROLL], _F[_F_V0], _F[_F_R] = drag[0], drag[1], SIGN_SPEED, stepper.p.R
+    _I[[_I_BR, _I_BW, _I_SPIN]] = stepper.b_rider, stepper.b_wheel, int(stepper.spin)
     previous = mujoco.get_mjcb_control()
     mujoco.set_mjcb_control(callback.ctypes)
     try:
         _I[_I_PER] = _calls_per_step(m, d)
+        _I[_I_EFF] = int(bool(drag[0] or drag[1]))
         _I[_I_CALLS] = _I[_I_K] = 0
         _I[_I_FALL] = -1
         _I[_I_ROWS] = N + 1

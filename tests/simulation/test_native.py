@@ -30,7 +30,7 @@ def test_offsets_point_at_the_fields():
         '<mujoco><worldbody><body><joint name="j"/><geom size=".1"/></body></worldbody>'
         '<actuator><motor joint="j"/></actuator></mujoco>'))
     offs = native.field_offsets()
-    for name in ("qpos", "qvel", "ctrl"):
+    for name in ("qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"):
         assert ctypes.c_int64.from_address(d._address + offs[name]).value == getattr(d, name).ctypes.data
 
 
@@ -39,6 +39,9 @@ def test_offsets_point_at_the_fields():
     ("contact", MotorPD(), {}, "constant_speed"),
     ("ideal", MotorPD(tiltback_speed=2.0, voltage=60.0, back_emf=3.0, drop=0.1),
      {"road_slope": 0.05, "rider_mass": 80.0, "wheel_bearing_friction": 0.02}, "stop_and_go"),
+    ("ideal", MotorPD(), {"aerodynamic_drag": 0.4, "rolling_resistance": 0.02}, "stop_and_go"),
+    ("contact", MotorPD(), {"aerodynamic_drag": 0.4, "rolling_resistance": 0.02, "road_slope": -0.03},
+     "stop_and_go"),
 ])
 def test_native_loop_matches_the_python_loop(rider, variant, motor, effects, maneuver):
     kw = dict(rider=rider, seed=3, variant=variant, motor=motor, effects=effects)
@@ -92,8 +95,17 @@ def test_fallback_when_numba_cannot_compile(rider, monkeypatch, capsys):
 
 def test_per_step_effects_keep_the_python_loop(rider):
     native._I[native._I_K] = -7                          # marker: untouched by a Python run
-    simulate("stop_and_go", 1.0, rider=rider, effects={"aerodynamic_drag": 0.4})
+    simulate("stop_and_go", 1.0, rider=rider, effects={"cog_height_drift": 0.05})
     assert int(native._I[native._I_K]) == -7
+
+
+def test_drag_and_rolling_act_in_the_native_loop(rider):
+    """The callback's drag and rolling moment change the ride as the Python loop's do (above)."""
+    bare = simulate("stop_and_go", 4.0, rider=rider, seed=3)
+    dragged = simulate("stop_and_go", 4.0, rider=rider, seed=3,
+                       effects={"aerodynamic_drag": 0.4, "rolling_resistance": 0.02})
+    assert int(native._I[native._I_EFF]) == 1
+    assert _gap(bare, dragged) > 1e-3
 
 
 def test_threads_share_the_callback_safely(rider):
