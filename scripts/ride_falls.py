@@ -19,7 +19,7 @@ profile (:func:`euc_sim.rides.profile.speed_profile`) with
 ``firmware``    the nominal run with the wheel's measured law as the motor controller
                 (:func:`controllers.firmware.firmware_motor`), where the log gives one.
 
-Output under ``--out``: ``falls.csv`` (one row per log and run: ride seconds, fell, time,
+Output under ``--out``: ``logs/NAME.json`` as each log is done, then ``falls.csv`` (one row per log and run: ride seconds, fell, time,
 cause, the profile's speed and acceleration at the fall, the profile's largest |a|, the
 wall time), ``falls.json`` and a one-line summary per log on stdout.  Progress on stderr.
 """
@@ -61,7 +61,16 @@ def _profile_at(t, v, a, when: float) -> tuple[float, float]:
 
 def ride_log(job: tuple) -> list[dict]:
     """Every run of one log (a worker): rows of ``falls.csv``."""
-    name, log, spec_path, n_boot, seed, wanted, iterations = job
+    name, log, spec_path, n_boot, seed, wanted, iterations, out = job
+    rows = _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations)
+    part = Path(out) / "logs" / f"{name.replace('/', '_')}.json"
+    part.parent.mkdir(parents=True, exist_ok=True)
+    part.write_text(json.dumps(rows, indent=1, default=str))    # kept if the study is cut short
+    return rows
+
+
+def _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations) -> list[dict]:
+    """:func:`ride_log` without writing."""
     firmware = "firmware" in wanted
     import numpy as np
 
@@ -149,7 +158,8 @@ def main(argv=None) -> int:
 
     from euc_sim.rides.pool import run_jobs
 
-    jobs = [(n, log, spec, args.n_boot, args.seed, tuple(args.runs), args.track_iterations)
+    chosen.sort(key=lambda c: c[1].stat().st_size)          # the short logs first
+    jobs = [(n, log, spec, args.n_boot, args.seed, tuple(args.runs), args.track_iterations, args.out)
             for n, log, spec in chosen]
     done = run_jobs(ride_log, jobs, args.workers,
                     on_done=lambda i, k: print(f"ride_falls: log {k}/{len(jobs)} done ({jobs[i][0]})",
