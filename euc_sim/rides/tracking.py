@@ -2,7 +2,8 @@
 
 :func:`simulate_profile` drives the closed-loop simulator's rider
 (:func:`euc_sim.simulation.engine.simulate`, maneuver ``profile``) along a ride's speed,
-with a progress bar over the ride's seconds; when he falls, the run stops there and the
+with a progress bar over the ride's seconds, its acceleration first limited to what the
+simulated rider can ride (:func:`rider_acceleration_limit`); when he falls, the run stops there and the
 fall is reported once (the profile is never ridden again after a fall); otherwise his
 plan is corrected so that the simulated speed tracks the logged one.
 :func:`limit_acceleration` smooths a profile to a given acceleration.  :func:`to_grid`
@@ -21,7 +22,7 @@ import pandas as pd
 from euc_sim.model.parameters import Params
 from euc_sim.rides.signals import sg
 
-__all__ = ["limit_acceleration", "rider_acceleration_limit", "to_grid", "ProfileRun",
+__all__ = ["limit_acceleration", "rider_acceleration_limit", "resisting_acceleration", "to_grid", "ProfileRun",
            "simulate_profile", "LEAN_SHARE"]
 
 #: Share of the fall bound |φ| ≤ φ_max that the rider's steady lean φ*(a) may use: the
@@ -108,6 +109,17 @@ def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEA
         return abs(float(trim(params, motor, a)[1])) - target
 
     return min(brentq(excess, 0.0, sign * params.g * 2, xtol=1e-4) * sign for sign in (1.0, -1.0))
+
+
+def resisting_acceleration(params: Params, effects: Mapping[str, float]) -> float:
+    """The speed-independent resistance as an acceleration the rider's lean must add, m/s².
+
+    ``rolling_resistance`` C_rr·g·cos α and ``road_slope`` g·|sin α|: in steady riding the
+    rider leans for a + these (aerodynamic drag, growing with speed, is not counted), so the
+    profile's acceleration limit is :func:`rider_acceleration_limit` minus this.
+    """
+    alpha = float(effects.get("road_slope", 0.0))
+    return params.g * (float(effects.get("rolling_resistance", 0.0)) * math.cos(alpha) + abs(math.sin(alpha)))
 
 
 def to_grid(t_fine: np.ndarray, y: np.ndarray, t_grid: np.ndarray) -> np.ndarray:
@@ -273,7 +285,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     lean_share : float or None
         The profile's acceleration is limited to what the simulated rider can ride,
         :func:`rider_acceleration_limit` (``lean_share`` of the fall bound for his steady
-        lean; :func:`limit_acceleration`), before it is ridden; the notes say where the
+        lean) less :func:`resisting_acceleration` (:func:`limit_acceleration`), before it is ridden; the notes say where the
         limit changed the profile.  The plan corrections aim at the limited profile.
         None: the profile as logged.
 
@@ -293,7 +305,13 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
 
     a_limit = None
     if lean_share is not None and t.size > 1:
-        a_limit = rider_acceleration_limit(params, motor, lean_share)
+        a_res = resisting_acceleration(params, effects)
+        a_limit = rider_acceleration_limit(params, motor, lean_share) - a_res
+        if a_limit <= 0:                     # he cannot even hold a speed against them
+            cause = (f"the injected resistance ({a_res:.2f} m/s²) exceeds what the simulated rider "
+                     f"can lean against ({a_limit + a_res:.2f} m/s²)")
+            notes.append(f"rider cannot ride: {cause}; the profile is not ridden")
+            return ProfileRun(None, ({"t": 0.0, "cause": cause},), tuple(notes))
         v = _within_envelope(t, v, a_limit, lean_share, notes)
     say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
     clock = clock_of("ride")
@@ -324,7 +342,8 @@ def _within_envelope(t: np.ndarray, v: np.ndarray, a_limit: float, lean_share: f
     out = limit_acceleration(t, v, a_limit)
     dev = np.abs(out - v)
     notes.append(f"profile acceleration limited to ±{a_limit:.2f} m/s², what the simulated rider "
-                 f"can ride (his steady lean within {lean_share:g} of the fall bound; the log "
+                 f"can ride (his steady lean within {lean_share:g} of the fall bound, less the "
+                 f"rolling resistance and slope; the log "
                  f"reaches {np.abs(a).max():.2f} m/s²): {100 * over.mean():.1f} % of the ride "
                  f"exceeded it; the limited profile differs from the logged one by "
                  f"{np.sqrt(np.mean(dev ** 2)):.3f} m/s RMS, {dev.max():.2f} m/s at most")

@@ -18,7 +18,8 @@ from euc_sim.model.parameters import TABLE3
 from euc_sim.rides.profile import speed_profile
 from euc_sim.rides.signals import RideAssumptions
 from euc_sim.rides.simulate import ride_params
-from euc_sim.rides.tracking import LEAN_SHARE, rider_acceleration_limit, simulate_profile
+from euc_sim.rides.tracking import (LEAN_SHARE, resisting_acceleration, rider_acceleration_limit,
+                                    simulate_profile)
 from euc_sim.simulation.engine import FALL_BOUNDS
 
 V9_0 = Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core" / "trips" / "inmotion" / "v9" / "0" / "0.csv"
@@ -32,6 +33,21 @@ def test_acceleration_limit_is_where_the_steady_lean_reaches_its_share():
     assert rider_acceleration_limit(TABLE3, lean_share=0.5) > a
     with pytest.raises(ValueError, match="lean_share"):
         rider_acceleration_limit(TABLE3, lean_share=1.2)
+
+
+def test_rolling_resistance_and_slope_narrow_the_envelope():
+    p = ride_params(RideAssumptions())
+    assert resisting_acceleration(p, {}) == pytest.approx(0.0, abs=1e-12)
+    assert resisting_acceleration(p, {"rolling_resistance": 0.02}) == pytest.approx(0.02 * p.g)
+    t = np.arange(0.0, 20.0, 0.1)
+    v = np.clip(t - 2.0, 0.0, 6.0)                                 # 1 m/s², within the bare envelope
+    free = simulate_profile(t, v, p, {}, track_iterations=0)
+    assert not any(n.startswith("profile acceleration limited") for n in free.notes)
+    rolled = simulate_profile(t, v, p, {"rolling_resistance": 0.1}, track_iterations=0)
+    assert rolled.falls == ()
+    assert any(f"±{rider_acceleration_limit(p) - 0.1 * p.g:.2f} m/s²" in n for n in rolled.notes)
+    stuck = simulate_profile(t, v, p, {"rolling_resistance": 0.2}, track_iterations=0)
+    assert stuck.frame is None and "exceeds what the simulated rider" in stuck.falls[0]["cause"]
 
 
 @pytest.fixture(scope="module")
