@@ -2,7 +2,8 @@
 
 :func:`simulate_profile` drives the closed-loop simulator's rider
 (:func:`euc_sim.simulation.engine.simulate`, maneuver ``profile``) along a ride's speed,
-with a progress bar over the ride's seconds; when he falls, the run stops there and the
+with a progress bar over the ride's seconds, its acceleration first limited to what the
+simulated rider can ride (:func:`rider_acceleration_limit`); when he falls, the run stops there and the
 fall is reported once (the profile is never ridden again after a fall); otherwise his
 plan is corrected so that the simulated speed tracks the logged one.
 :func:`limit_acceleration` smooths a profile to a given acceleration.  :func:`to_grid`
@@ -21,7 +22,17 @@ import pandas as pd
 from euc_sim.model.parameters import Params
 from euc_sim.rides.signals import sg
 
-__all__ = ["limit_acceleration", "to_grid", "ProfileRun", "simulate_profile"]
+__all__ = ["limit_acceleration", "rider_acceleration_limit", "resisting_acceleration", "to_grid", "ProfileRun",
+           "simulate_profile", "LEAN_SHARE"]
+
+#: Share of the fall bound |φ| ≤ φ_max that the rider's steady lean φ*(a) may use: the
+#: profile's acceleration is limited to the a where |φ*(a)| = LEAN_SHARE·φ_max
+#: (:func:`rider_acceleration_limit`, 1.5 m/s² for Table 3).  Starting or stopping an
+#: acceleration makes the rider's lean overshoot its trim about twice over (the plant is
+#: non-minimum-phase in speed: to lean back, the wheel must first run ahead), so the rest of
+#: the range is the transient's.  A tuning figure: chosen on four fall windows of
+#: ``scripts/ride_falls.py`` (blitz/1, blitz/4, master_pro_V2/3, mten4/0), scored on all 21 logs.
+LEAN_SHARE = 0.3
 
 
 def limit_acceleration(t: np.ndarray, v: np.ndarray, a_max: float) -> np.ndarray:
@@ -60,6 +71,55 @@ def limit_acceleration(t: np.ndarray, v: np.ndarray, a_max: float) -> np.ndarray
     fwd = one_way(v, dv)
     bwd = one_way(v[::-1], dv[::-1])[::-1]
     return 0.5 * (fwd + bwd)
+
+
+def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEAN_SHARE,
+                             phi_max: float | None = None) -> float:
+    """The largest |a|, m/s², whose steady lean |φ*(a)| (:func:`controllers.rider.trim`) stays
+    within ``lean_share``·φ_max, braking and accelerating alike (the smaller of the two).
+
+    Parameters
+    ----------
+    params : Params
+        The simulated rider and wheel.
+    motor : MotorPD, optional
+        The wheel's balance law (default: the paper's PD).
+    lean_share : float
+        In (0, 1).
+    phi_max : float, optional
+        rad (default the simulator's fall bound on φ).
+
+    Returns
+    -------
+    float
+        m/s², positive.
+    """
+    from scipy.optimize import brentq
+
+    from controllers.motor import MotorPD
+    from controllers.rider import trim
+    from euc_sim.simulation.engine import FALL_BOUNDS
+
+    if not (math.isfinite(lean_share) and 0 < lean_share < 1):
+        raise ValueError(f"lean_share must be in (0, 1), got {lean_share!r}")
+    motor = motor or MotorPD()
+    target = lean_share * (FALL_BOUNDS["phi"] if phi_max is None else phi_max)
+
+    def excess(a: float) -> float:
+        return abs(float(trim(params, motor, a)[1])) - target
+
+    return min(brentq(excess, 0.0, sign * params.g * 2, xtol=1e-4) * sign for sign in (1.0, -1.0))
+
+
+def resisting_acceleration(params: Params, effects: Mapping[str, float]) -> float:
+    """The speed-independent resistance as an acceleration the rider's lean must add, m/s².
+
+    ``rolling_resistance`` C_rr·g·cos α and ``road_slope`` g·|sin α|: in steady riding the
+    rider leans for a + these (aerodynamic drag, growing with speed, is not counted), so the
+    profile's acceleration limit is :func:`rider_acceleration_limit` minus this.
+    """
+    alpha = float(effects.get("road_slope", 0.0))
+    return params.g * (float(effects.get("rolling_resistance", 0.0)) * math.cos(alpha) + abs(math.sin(alpha)))
 
 
 def to_grid(t_fine: np.ndarray, y: np.ndarray, t_grid: np.ndarray) -> np.ndarray:
@@ -150,7 +210,8 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
 
 
 def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, window: float,
-                  notes: list, say, clock_of, motor=None, rider=None) -> pd.DataFrame:
+                  notes: list, say, clock_of, motor=None, rider=None,
+                  a_limit: float | None = None) -> pd.DataFrame:
     """Iterative learning: add the slow speed error to the plan and ride again.
 
     Returns the frame of the run closest to ``target``; appends to ``notes``.
@@ -162,6 +223,8 @@ def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, wi
     plan = target
     for it in range(iterations):
         plan = plan + sg(target - v_sim, np.zeros(t.size, int), rate, window, 2)
+        if a_limit is not None:              # the corrected plan within the rider's envelope too
+            plan = limit_acceleration(t, plan, a_limit)
         say(f"tracking correction {it + 1} of {iterations}: riding the corrected plan")
         clock = clock_of(f"correction {it + 1}")
         try:
@@ -183,7 +246,8 @@ def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, wi
 def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapping[str, float],
                      seed: int = 0, dt: float = 1e-3, track_iterations: int = 1,
                      track_window: float = 10.0, progress: Callable[[str], None] | None = None,
-                     label: str = "ride", position: int = 0, motor=None, rider=None) -> ProfileRun:
+                     label: str = "ride", position: int = 0, motor=None, rider=None,
+                     lean_share: float | None = LEAN_SHARE) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
     The simulated rider has no integral action: a resisting force (drag, rolling
@@ -221,9 +285,16 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     position : int
         The bar's line (0 first): runs side by side in processes keep their own line.
     motor : controllers.motor.MotorPD, optional
-        The wheel's balance law (default the paper's PD).
+        The wheel's balance law (default the paper's PD), e.g. a ride's measured law
+        (:func:`controllers.firmware.firmware_motor`).
     rider : controllers.rider.Rider, optional
         The rider (default the LQR rider designed for ``motor``).
+    lean_share : float or None
+        The profile's acceleration is limited to what the simulated rider can ride,
+        :func:`rider_acceleration_limit` (``lean_share`` of the fall bound for his steady
+        lean) less :func:`resisting_acceleration` (:func:`limit_acceleration`), before it is
+        ridden; the notes say where the limit changed the profile.  The plan corrections aim
+        at the limited profile.  None: the profile as logged.
 
     Returns
     -------
@@ -239,6 +310,16 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     def clock_of(what: str) -> _RideClock:
         return _RideClock(float(t[-1] - t[0]), f"{label} {what}", progress is not None, position)
 
+    a_limit = None
+    if lean_share is not None and t.size > 1:
+        a_res = resisting_acceleration(params, effects)
+        a_limit = rider_acceleration_limit(params, motor, lean_share) - a_res
+        if a_limit <= 0:                     # he cannot even hold a speed against them
+            cause = (f"the injected resistance ({a_res:.2f} m/s²) exceeds what the simulated rider "
+                     f"can lean against ({a_limit + a_res:.2f} m/s²)")
+            notes.append(f"rider cannot ride: {cause}; the profile is not ridden")
+            return ProfileRun(None, ({"t": 0.0, "cause": cause},), tuple(notes))
+        v = _within_envelope(t, v, a_limit, lean_share, notes)
     say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
     clock = clock_of("ride")
     try:
@@ -254,5 +335,23 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         clock.close()
     if t.size >= 5:
         df = _correct_plan(t, v, (df, v_sim, err), params, effects, seed, dt,
-                           track_iterations, track_window, notes, say, clock_of, motor, rider)
+                           track_iterations, track_window, notes, say, clock_of, motor, rider, a_limit)
     return ProfileRun(df, (), tuple(notes))
+
+
+def _within_envelope(t: np.ndarray, v: np.ndarray, a_limit: float, lean_share: float,
+                     notes: list) -> np.ndarray:
+    """The profile limited to ±``a_limit`` m/s² where it exceeds it; a note says how much."""
+    a = np.diff(v) / np.diff(t)
+    over = np.abs(a) > a_limit * (1 + 1e-9)
+    if not over.any():
+        return v
+    out = limit_acceleration(t, v, a_limit)
+    dev = np.abs(out - v)
+    notes.append(f"profile acceleration limited to ±{a_limit:.2f} m/s², what the simulated rider "
+                 f"can ride (his steady lean within {lean_share:g} of the fall bound, less the "
+                 f"rolling resistance and slope; the log "
+                 f"reaches {np.abs(a).max():.2f} m/s²): {100 * over.mean():.1f} % of the ride "
+                 f"exceeded it; the limited profile differs from the logged one by "
+                 f"{np.sqrt(np.mean(dev ** 2)):.3f} m/s RMS, {dev.max():.2f} m/s at most")
+    return out

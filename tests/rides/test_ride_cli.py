@@ -208,7 +208,7 @@ def test_a_fall_ends_the_run_once_and_is_reported(capsys):
     v = np.clip((t - 1.0) / 0.2, 0.0, 1.0) * 6.0          # 0 -> 6 m/s in 0.2 s: 30 m/s²
     said = []
     run = simulate_profile(t, v, ride_params(RideAssumptions()), {}, track_iterations=1,
-                           progress=said.append, label="nominal")
+                           progress=said.append, label="nominal", lean_share=None)
     (fall,) = run.falls
     assert 0.0 < fall["t"] < t[-1] and "exceeds the bound" in fall["cause"]
     assert run.frame is not None and run.frame["t"].iloc[-1] < fall["t"] <= run.frame["t"].iloc[-1] + 0.002
