@@ -139,10 +139,12 @@ def voltage_limit_settings(ride: dict, R: float, voltage: float | None = None) -
                 not isinstance(dt[k].get("estimate"), (int, float)):
             raise FirmwareError(f"field 'drivetrain.{k}.estimate' missing "
                                 f"(written by euc-sim ride on a log with PWM)")
-    if voltage is None:
-        env = ride.get("envelope") or {}
-        voltage = (env.get("full") or {}).get("voltage") or \
-            ((dt.get("ocv_start") or {}).get("estimate"))
+    if voltage is None:                 # a malformed envelope or ocv_start counts as absent
+        env = ride.get("envelope")
+        full = env.get("full") if isinstance(env, dict) else None
+        ocv = dt.get("ocv_start")
+        voltage = (full.get("voltage") if isinstance(full, dict) else None) or \
+            (ocv.get("estimate") if isinstance(ocv, dict) else None)
     if not (isinstance(voltage, (int, float)) and voltage > 0):
         raise FirmwareError("no battery voltage; give --battery-voltage V")
     r_F = dt["resistive_drop"]["estimate"]

@@ -42,6 +42,19 @@ def test_voltage_limit_rejects_bad_settings():
         MotorPD(voltage=84.0, back_emf=4.0, drop=0.0)
 
 
+@pytest.mark.parametrize("ride", [{"envelope": [1, 2]}, {"envelope": {"full": 84.0}},
+                                  {"ocv_start": 84.0}])   # a number where {"estimate": V} belongs
+def test_malformed_voltage_fields_named_not_a_traceback(ride):
+    from controllers.firmware import FirmwareError, voltage_limit_settings
+
+    dtr = {"back_emf_per_speed": {"estimate": 4.46}, "resistive_drop": {"estimate": 0.047}}
+    rep = {"drivetrain": {**dtr, **{k: v for k, v in ride.items() if k == "ocv_start"}},
+           **{k: v for k, v in ride.items() if k != "ocv_start"}}
+    with pytest.raises(FirmwareError, match="no battery voltage"):
+        voltage_limit_settings(rep, 0.2)
+    assert voltage_limit_settings(rep, 0.2, voltage=84.0)["voltage"] == 84.0
+
+
 def _profile(tmp_path, name, slope, top):
     t = np.linspace(0.0, 8.0, 81)
     p = tmp_path / name
