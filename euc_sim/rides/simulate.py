@@ -337,18 +337,19 @@ def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
     return out
 
 
-def _align_pitch(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> str | None:
-    """Without the log's pitch convention, each simulated pitch moved to the log's mean (scored rows)."""
+def _align_pitch(table: pd.DataFrame, ok: np.ndarray,
+                 names: Sequence[str]) -> tuple[pd.DataFrame, str | None]:
+    """Without the log's pitch convention, each simulated pitch moved to the log's mean (scored rows):
+    a new table (``table`` itself unchanged) and the note saying so (None without a logged pitch)."""
     if "pitch_log" not in table:
-        return None
+        return table, None
     ok = _pitch_rows(table, ok)
     m_log = np.nanmean(table["pitch_log"].to_numpy()[ok]) if ok.any() else 0.0
-    for name in names:
-        col = f"pitch_{name}"
-        if col in table and ok.any():
-            table[col] = table[col] - np.nanmean(table[col].to_numpy()[ok]) + m_log
-    return ("pitch: the fit ride shows no balance law, so the log's pitch sign and zero are not "
-            "known; sign +1 assumed and each simulated pitch moved to the logged riding mean")
+    moved = {col: table[col] - np.nanmean(table[col].to_numpy()[ok]) + m_log
+             for col in (f"pitch_{name}" for name in names) if col in table and ok.any()}
+    return table.assign(**moved), ("pitch: the fit ride shows no balance law, so the log's pitch sign and "
+                                   "zero are not known; sign +1 assumed and each simulated pitch moved "
+                                   "to the logged riding mean")
 
 
 def _step_entries(steps: Sequence[SimStep], errors: dict, falls: list,
@@ -450,7 +451,7 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
         ok &= rode
     table["scored"] = ok
     if channels.pitch_sign is None:
-        note = _align_pitch(table, ok, names)
+        table, note = _align_pitch(table, ok, names)
         notes += [note] if note else []
     errors = _errors(table, ok, names)
     errors["M_log_method"] = sig.torque_method

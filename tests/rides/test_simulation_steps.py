@@ -12,6 +12,7 @@ import math
 from dataclasses import replace
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from controllers.motor import MotorPD
@@ -199,3 +200,19 @@ def test_the_shared_pairs_table(tmp_path):
     assert all(r.count("|") == md[0].count("|") for r in md[2:])      # one cell per column
     mod.write_doc(tmp_path / "t.md", res, ["--out", "X"])
     assert "ride_simulation_table.py --out X" in (tmp_path / "t.md").read_text()
+
+
+def test_pitch_without_a_convention_is_moved_to_the_logs_mean_in_a_new_table():
+    from euc_sim.rides.simulate import _align_pitch
+
+    n = 50
+    table = pd.DataFrame({"v_log": np.full(n, 5.0), "pitch_log": np.full(n, 0.02),
+                          "pitch_nominal": np.full(n, -0.1), "pitch_drivetrain": np.linspace(0.0, 0.2, n)})
+    before = table.copy()
+    moved, note = _align_pitch(table, np.ones(n, bool), ["nominal", "drivetrain"])
+    pd.testing.assert_frame_equal(table, before)                       # the input is left alone
+    assert moved["pitch_nominal"].to_numpy() == pytest.approx(np.full(n, 0.02), abs=1e-12)
+    assert moved["pitch_drivetrain"].mean() == pytest.approx(0.02, abs=1e-12)
+    assert np.ptp(moved["pitch_drivetrain"]) == pytest.approx(0.2)    # moved, not rescaled
+    assert "sign +1 assumed" in note
+    assert _align_pitch(table.drop(columns="pitch_log"), np.ones(n, bool), ["nominal"])[1] is None
