@@ -387,7 +387,9 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         e = sim["errors"]
         steps = sim.get("steps", [])
         balance = r.get("heldout_error_augmented") if r.get("error_unit") == "W" else None
-        target = steps[0]["target_ratio"] if steps else 1.2
+        from euc_sim.rides.sim_steps import TARGET_RATIO
+
+        target = steps[0]["target_ratio"] if steps else TARGET_RATIO
         md += [f"The simulator's rider rode the logged speed profile of **{sim['ride']}** "
                f"(MuJoCo, 1 kHz) once per modelled step, each step adding one piece to the one "
                f"before; its motor torque gave the battery power through the fitted drivetrain, "
