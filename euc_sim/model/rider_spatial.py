@@ -28,9 +28,19 @@ __all__ = ["tilted_axes", "plane_coordinates", "rider_translation_forces"]
 
 
 def tilted_axes(psi, theta) -> tuple[np.ndarray, np.ndarray]:
-    """(e_f, e_u), shape (..., 3): the heading and the tilted up-axis Rz(ψ) Rx(ϑ) e_z, ground frame.
+    """The heading and the tilted up-axis Rz(ψ) Rx(ϑ) e_z, ground frame.
 
-    ``psi``, ``theta`` rad (CONTRACT's ϑ, eq. 2: positive tilting the top to −y).
+    Parameters
+    ----------
+    psi : array_like
+        Yaw ψ, rad.
+    theta : array_like
+        Tilt ϑ, rad (CONTRACT's ϑ, eq. 2: positive tilting the top to −y).
+
+    Returns
+    -------
+    (e_f, e_u) : tuple of numpy.ndarray, shape (..., 3)
+        Unit vectors (1).
     """
     psi, theta = np.asarray(psi, dtype=float), np.asarray(theta, dtype=float)
     e_f = np.stack([np.cos(psi), np.sin(psi), np.zeros_like(psi)], axis=-1)

@@ -47,7 +47,20 @@ def draw_law(rng: np.random.Generator) -> dict:
 
 
 def profile(seed: int, duration: float) -> tuple[np.ndarray, np.ndarray]:
-    """A speed plan 0 → up to about 45 km/h and back, m/s on a 0.5 s grid."""
+    """A speed plan 0 → up to about 45 km/h and back, m/s on a 0.5 s grid.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the sines' phases.
+    duration : float
+        Length of the plan, s.
+
+    Returns
+    -------
+    (t, v) : tuple of numpy.ndarray
+        Times, s, and planned speeds, m/s (0 at both ends, ramped over 20 s).
+    """
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, duration, 0.5)
     v = np.zeros_like(t)
@@ -58,7 +71,27 @@ def profile(seed: int, duration: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def law_ride(seed: int = 1, duration: float = 300.0, law=LAW) -> pd.DataFrame:
-    """The closed-loop ride at 1 kHz: columns t, x_dot, gamma, gamma_dot, M_d (SI)."""
+    """The closed-loop ride at 1 kHz under a concealed law.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the speed plan (:func:`profile`) and of the rider's motor noise.
+    duration : float
+        Length of the ride, s.
+    law : mapping
+        :class:`controllers.motor.MotorPD` keywords, SI (default :data:`LAW`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``t`` s, ``x_dot`` m/s, ``gamma`` rad, ``gamma_dot`` rad/s, ``M_d`` N·m.
+
+    Raises
+    ------
+    FallError
+        when the rider falls under this law and plan.
+    """
     from controllers.motor import MotorPD
     from euc_sim.model.parameters import TABLE3
     from euc_sim.simulation.engine import default_rider, simulate
@@ -87,7 +120,28 @@ def _sample(ride: pd.DataFrame, ts: np.ndarray, mean_over: float = 0.2) -> dict:
 
 def eucworld_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = -1,
                  offset_deg: float = -2.0, k_t: float = K_T) -> Path:
-    """EUC World CSV: irregular 5 Hz rows, 0.1° pitch steps, 0.1 A phase current with noise."""
+    """EUC World CSV: irregular 5 Hz rows, 0.1° pitch steps, 0.1 A phase current with noise.
+
+    Parameters
+    ----------
+    ride : pandas.DataFrame
+        :func:`law_ride`'s columns (SI).
+    path : Path
+        The CSV to write.
+    seed : int
+        Seed of the row times and the current noise (0.5 A).
+    sign : int
+        The brand's pitch sign, ±1.
+    offset_deg : float
+        Mounting offset added to the written pitch, degrees.
+    k_t : float
+        Torque constant of the written phase current, N·m/A.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     rng = np.random.default_rng(seed)
     T = float(ride["t"].iloc[-1])
     ts = np.cumsum(rng.uniform(0.18, 0.22, int(T / 0.18)))
@@ -107,7 +161,26 @@ def eucworld_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = -1,
 def wheellog_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = 1,
                  offset_deg: float = 0.5) -> Path:
     """WheelLog CSV (newer layout): 0.2 s rows, a third of them sharing the previous stamp
-    (written a few ms later by the app), pitch in 0.01°, torque in 0.01 N·m with noise."""
+    (written a few ms later by the app), pitch in 0.01°, torque in 0.01 N·m with noise.
+
+    Parameters
+    ----------
+    ride : pandas.DataFrame
+        :func:`law_ride`'s columns (SI).
+    path : Path
+        The CSV to write.
+    seed : int
+        Seed of the repeated stamps and the torque noise (0.8 N·m).
+    sign : int
+        The brand's pitch sign, ±1.
+    offset_deg : float
+        Mounting offset added to the written pitch, degrees.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     rng = np.random.default_rng(seed)
     T = float(ride["t"].iloc[-1])
     ts = np.arange(0.2, T - 0.5, 0.2)

@@ -68,8 +68,23 @@ def write_speed_profile(log, path, rate: float = 10.0, window: float = 1.5) -> P
 
 
 def rider_plan(t: np.ndarray, v: np.ndarray, window: float = PLAN_WINDOW) -> np.ndarray:
-    """The speed the rider means to ride: the logged speed ``v`` (m/s, on the uniform grid
-    ``t``, s) smoothed by a quadratic Savitzky–Golay fit over ``window`` s (:data:`PLAN_WINDOW`)."""
+    """The speed the rider means to ride: the logged speed smoothed by a quadratic
+    Savitzky–Golay fit over ``window`` s.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Uniform time grid, s.
+    v : numpy.ndarray
+        Logged speed on ``t``, m/s.
+    window : float
+        Smoothing window, s (default :data:`PLAN_WINDOW`).
+
+    Returns
+    -------
+    numpy.ndarray
+        The planned speed on ``t``, m/s.
+    """
     t = np.asarray(t, float)
     rate = 1.0 / float(np.median(np.diff(t)))
     return sg(np.asarray(v, float), np.zeros(t.size, int), rate, window, 2)

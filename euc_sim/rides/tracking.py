@@ -117,6 +117,18 @@ def resisting_acceleration(params: Params, effects: Mapping[str, float]) -> floa
     ``rolling_resistance`` C_rr·g·cos α and ``road_slope`` g·|sin α|: in steady riding the
     rider leans for a + these (aerodynamic drag, growing with speed, is not counted), so the
     profile's acceleration limit is :func:`rider_acceleration_limit` minus this.
+
+    Parameters
+    ----------
+    params : Params
+        The simulated rider and wheel (g, m/s²).
+    effects : mapping
+        ``rolling_resistance`` C_rr (1) and ``road_slope`` α (rad), as CONTRACT's catalog; others ignored.
+
+    Returns
+    -------
+    float
+        m/s², non-negative.
     """
     alpha = float(effects.get("road_slope", 0.0))
     return params.g * (float(effects.get("rolling_resistance", 0.0)) * math.cos(alpha) + abs(math.sin(alpha)))

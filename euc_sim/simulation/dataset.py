@@ -92,6 +92,13 @@ def simulated_recordings(specs: list[RecordingSpec], nthread: int = 1) -> list:
     """:func:`simulated_recording` of many specs, their rides in MuJoCo batches on ``nthread``
     threads (:func:`euc_sim.simulation.mujoco_batch.simulate_rides`: the same runs).
 
+    Parameters
+    ----------
+    specs : list of RecordingSpec
+        The recordings to simulate.
+    nthread : int
+        Threads of the MuJoCo batch.
+
     Returns
     -------
     list

@@ -503,9 +503,20 @@ def rider_spatial_correction(p: Params, q, qd, extra: dict) -> np.ndarray:
     the truth through the recording (fresh seeds 101-103) and the planar lateral cases,
     whose simulator injects the isotropic rider, 4.8 % (``docs/spatial.md``).
 
-    ``extra`` holds :data:`LATERAL_INPUTS`, :data:`LEAN_INPUTS` and
-    :data:`RIDER_MARKER_INPUTS`; returns (N, 3): (N, N·m, N·m) to add to eq. (5)'s
-    right-hand side.
+    Parameters
+    ----------
+    p : Params
+    q, qd : array_like, shape (N, 3)
+        Paper coordinates (m, rad) and rates (m/s, rad/s).
+    extra : dict
+        :data:`LATERAL_INPUTS`, :data:`LEAN_INPUTS` and :data:`RIDER_MARKER_INPUTS`
+        (rad, rad/s, rad/s², m/s² as in :func:`lateral_forces`, :func:`rider_lean_forces`
+        and :func:`euc_sim.model.rider_spatial.rider_translation_forces`).
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, 3)
+        (N, N·m, N·m) to add to eq. (5)'s right-hand side.
     """
     from euc_sim.model.rider_spatial import rider_translation_forces
     lat = {k: extra[k] for k in LATERAL_INPUTS}
