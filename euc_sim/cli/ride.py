@@ -337,6 +337,8 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     if args.n_boot < MIN_BOOT:
         raise ValueError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
                          f"bootstrap interval), got {args.n_boot}")
+    if args.calibrate_rider and args.no_simulate:
+        raise ValueError("--calibrate-rider adds a step to the simulation: it cannot go with --no-simulate")
     assumptions = _assumptions(args)
     from euc_sim.rides.analysis import check_data
     from euc_sim.rides.spec import wheel_spec

@@ -181,7 +181,7 @@ def test_report_is_a_file(logs, tmp_path, capsys):
 
 @pytest.mark.parametrize("opt", [["--mass", "10"], ["--mass", "-80"], ["--radius", "0"],
                                  ["--efficiency", "1.5"], ["--domain", "speed"],
-                                 ["--n-boot", "0"]])
+                                 ["--n-boot", "0"], ["--calibrate-rider", "--no-simulate"]])
 def test_bad_options(logs, tmp_path, capsys, opt):
     _bad(["ride", logs[0], "--json", tmp_path / "o.json", *opt], capsys, tmp_path)
 
