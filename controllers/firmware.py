@@ -145,10 +145,12 @@ def voltage_limit_settings(ride: dict, R: float, voltage: float | None = None) -
         ocv = dt.get("ocv_start")
         voltage = (full.get("voltage") if isinstance(full, dict) else None) or \
             (ocv.get("estimate") if isinstance(ocv, dict) else None)
-    if not (isinstance(voltage, (int, float)) and voltage > 0):
+    if voltage is None:
         raise FirmwareError("no battery voltage; give --battery-voltage V")
+    if not (isinstance(voltage, (int, float)) and math.isfinite(voltage) and voltage > 0):
+        raise FirmwareError(f"battery voltage must be a finite positive number of volts, got {voltage!r}")
     r_F = dt["resistive_drop"]["estimate"]
-    if not r_F > 0:
+    if not (math.isfinite(r_F) and r_F > 0):
         raise FirmwareError(f"field 'drivetrain.resistive_drop.estimate' must be positive for a "
                             f"voltage limit, got {r_F!r}")
     extra = {k: float(dt[j]["estimate"]) for k, j in (("dead_time", "dead_time"),

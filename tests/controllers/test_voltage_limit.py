@@ -55,6 +55,16 @@ def test_malformed_voltage_fields_named_not_a_traceback(ride):
     assert voltage_limit_settings(rep, 0.2, voltage=84.0)["voltage"] == 84.0
 
 
+def test_non_finite_voltage_or_drop_refused():
+    from controllers.firmware import FirmwareError, voltage_limit_settings
+
+    dtr = {"back_emf_per_speed": {"estimate": 4.46}, "resistive_drop": {"estimate": 0.047}}
+    with pytest.raises(FirmwareError, match="finite positive number of volts"):
+        voltage_limit_settings({"drivetrain": dtr, "envelope": {"full": {"voltage": math.inf}}}, 0.2)
+    with pytest.raises(FirmwareError, match="resistive_drop"):
+        voltage_limit_settings({"drivetrain": {**dtr, "resistive_drop": {"estimate": math.inf}}}, 0.2, 84.0)
+
+
 def _profile(tmp_path, name, slope, top):
     t = np.linspace(0.0, 8.0, 81)
     p = tmp_path / name
