@@ -412,11 +412,22 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     Raises
     ------
     RiderFitError
-        for a log without battery power, without a window to ride, or a rider that
-        falls at every design point.
+        for a log without battery power, without a window to ride, a rider that
+        falls at every design point, or a bad ``windows``, ``window_length``, ``rounds``
+        or ``n_boot`` (named before any simulation).
     """
+    from numbers import Integral
+
     from euc_sim.rides.profile import speed_profile
 
+    for name, value, least in (("windows", windows, 1), ("n_boot", n_boot, 2)):
+        if not (isinstance(value, Integral) and value >= least):
+            raise RiderFitError(f"{name} must be an integer of at least {least}, got {value!r}")
+    if not (math.isfinite(window_length) and window_length > 0):
+        raise RiderFitError(f"window_length must be a positive number of seconds, got {window_length!r}")
+    if not (len(rounds) > 0 and all(isinstance(n, Integral) and n >= 2 for n in rounds) and rounds[0] >= 10):
+        raise RiderFitError(f"rounds must be design-point counts, the first at least 10 and the others "
+                            f"at least 2, got {tuple(rounds)!r}")
     say = progress or (lambda s: None)
     motor = motor or MotorPD()
     dtv = {"eta_motor": 0.85, "eta_regen": 0.7, "drivetrain_idle_loss": 0.0}

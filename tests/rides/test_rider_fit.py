@@ -62,6 +62,16 @@ def test_a_log_without_battery_power_is_refused(tmp_path):
         rf.log_channels(p)
 
 
+@pytest.mark.parametrize("kw, word", [({"n_boot": 0}, "n_boot"), ({"windows": 0}, "windows"),
+                                      ({"window_length": -1.0}, "window_length"),
+                                      ({"rounds": (5, 10)}, "rounds"), ({"rounds": ()}, "rounds")])
+def test_bad_settings_named_before_any_simulation(kw, word):
+    from euc_sim.model.parameters import TABLE3
+
+    with pytest.raises(rf.RiderFitError, match=word):
+        rf.fit_rider("no-such-log.csv", params=TABLE3, **kw)
+
+
 def test_concealed_rider_delay_recovered(tmp_path):
     """A 0.2 s rider (bandwidth 0.4, 5 N·m noise) written as an EUC World log: the fit,
     told only the log, the wheel's law, road and drivetrain, finds the delay within
