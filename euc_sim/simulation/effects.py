@@ -29,7 +29,7 @@ import numpy as np
 from euc_sim.model.parameters import Params
 
 __all__ = ["PeriodicPush", "Effect", "CATALOG", "names", "get", "parse_assignment", "SIGN_SPEED",
-           "smooth_sign", "normal_load", "generalized_force", "lateral_forces", "lateral_force_rows", "LATERAL_INPUTS", "LEAN_INPUTS", "RIDER_MARKER_INPUTS", "rider_spatial_correction",
+           "smooth_sign", "normal_load", "held_forces", "generalized_force", "lateral_forces", "lateral_force_rows", "LATERAL_INPUTS", "LEAN_INPUTS", "RIDER_MARKER_INPUTS", "rider_spatial_correction",
            "LATERAL_WINDOW", "band_peak_tilt",
            "RIDER_YAW_INERTIA_RATIO", "rider_lean_forces", "upright_slender_moment", "apply_to_params",
            "delay_signal"]
@@ -157,6 +157,21 @@ def normal_load(p: Params, alpha: float = 0.0) -> float:
     in riding; the catalog uses the static value in simulation and diagnosis alike.
     """
     return p.total_mass * p.g * np.cos(alpha)
+
+
+def held_forces(x_dot: float, k_drag: float, C_rr: float, N_load: float, R: float,
+                F_push: float) -> tuple[float, float]:
+    """(F_x at G, N; rolling moment on the wheel, N·m) held over a step, from ẋ (m/s) at its start.
+
+    F_x = −k ẋ|ẋ| + F(t) (``aerodynamic_drag`` k in kg/m, an ``external_force`` F(t), N, or 0)
+    and τ = −C_rr N R tanh(ẋ / :data:`SIGN_SPEED`) (``rolling_resistance``; N_load from
+    :func:`normal_load`, R the wheel radius, m).  The one law of every loop that applies
+    them: ``simulate``'s Python loop, and compiled by numba (scalars only) the native
+    callback (:mod:`~euc_sim.simulation.native_kernels`) and the batch's
+    (:mod:`~euc_sim.simulation.mujoco_batch`).
+    """
+    return (-k_drag * x_dot * abs(x_dot) + F_push,
+            -C_rr * N_load * R * math.tanh(x_dot / SIGN_SPEED))
 
 
 def _gravity_along_road(p: Params, q: np.ndarray) -> np.ndarray:

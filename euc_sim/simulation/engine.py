@@ -194,10 +194,10 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     native : bool
         Run the MuJoCo loop without Python per step (:mod:`euc_sim.simulation.native`:
         the motor PD and the rider's delayed law as a numba-compiled MuJoCo control callback).
-        It applies to the ``mujoco`` engine when no input needs Python at every step:
-        ``rolling_resistance`` (as a moment), ``aerodynamic_drag``, ``cog_height_drift``,
-        ``lateral_dynamics`` and ``external_force`` keep the Python loop, as does
-        ``native=False`` or a machine where numba cannot compile (one line on stderr).
+        It applies to the ``mujoco`` engine with every input but two (the callback holds
+        drag, the rolling-resistance moment and ``external_force``, tabulated on the grid,
+        over each step): ``cog_height_drift`` and ``lateral_dynamics`` keep the Python loop,
+        as does ``native=False`` or a machine where numba cannot compile (one line on stderr).
         Both loops agree to rounding (≤ 1e-9 rad over a ride, ``tests/simulation/test_native.py``).
 
     Returns
@@ -223,10 +223,11 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     stepper, run, ext, N, y0, bounds, motor = ride.stepper, ride.run, ride.ext, ride.N, ride.y0, ride.bounds, ride.motor
     try:
         result = None
-        if native and engine == "mujoco" and not ext.per_step:
+        if native and engine == "mujoco" and ext.h_t is None and ext.lat is None:
             from euc_sim.simulation.native import native_loop
 
-            result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress)
+            forces = (ext.k_drag, ext.C_rr, ext.N_load, ride.p_true.R, external_force) if ext.per_step else None
+            result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress, forces)
         if result is None:
             result = _closed_loop(stepper, motor, run, ext, ride.p_true, dt, N, y0, bounds, progress)
     except FallError as exc:             # the run up to the fall, for a caller that keeps it
@@ -474,8 +475,8 @@ class _EffectsRow:
             h = self.h_list[k]
             Q_h = drift.drift_force_row(p.m, p.l0, h, self.h_d[k], self.h_dd[k], g_, f_, fd_)
             Q_lat = list(Q_h) if Q_lat is None else [a + b for a, b in zip(Q_lat, Q_h)]
-        return (-ext.k_drag * xd_ * abs(xd_) + float(ext.push(k * self.dt)),
-                -ext.C_rr * ext.N_load * p.R * math.tanh(xd_ / fx.SIGN_SPEED), h, Q_lat)
+        return (*fx.held_forces(xd_, ext.k_drag, ext.C_rr, ext.N_load, p.R, float(ext.push(k * self.dt))),
+                h, Q_lat)
 
 
 def _trajectory(t: np.ndarray, states: np.ndarray, U: np.ndarray, v_ref: np.ndarray,

@@ -9,11 +9,12 @@ each: the same DataFrame, or the ``FallError`` it raises.
   at the first callback call of every step (RK4 calls it once per stage; the count is
   measured on the batch), the motor PD (:func:`controllers.motor.pd_torque`, the one
   motor law), records the state, checks the fall bounds and sets the step's held
-  external forces from the state at its start: aerodynamic drag −k ẋ|ẋ| at G
+  external forces from the state at its start (:func:`euc_sim.simulation.effects.held_forces`,
+  the one law of every loop, compiled): aerodynamic drag −k ẋ|ẋ| at G
   (``xfrc_applied`` on ``rider``), the rolling-resistance moment −C_rr N R tanh(ẋ/v_s)
   (``qfrc_applied`` on ``x`` as τ/R, or ``xfrc_applied`` on ``wheel`` in the contact
   variant) and an ``external_force`` F(t) at G, tabulated on the grid.  This is
-  exactly what :func:`simulate`'s Python loop holds over each step.  Every
+  exactly what :func:`simulate` holds over each step.  Every
   simulation's settings, counters and buffer addresses live in its own
   ``MjData.userdata`` (``nuserdata`` = :data:`NU` slots of the model), never in a
   global: the threads never share a simulation's context.
@@ -42,7 +43,6 @@ in another thread meanwhile runs its Python loop.
 
 from __future__ import annotations
 
-import math
 import sys
 from functools import lru_cache
 from typing import Callable, Mapping, Sequence
@@ -52,7 +52,6 @@ from scipy.linalg.lapack import dtrtrs
 from threadpoolctl import threadpool_limits
 
 from euc_sim.simulation import engine
-from euc_sim.simulation import effects as fx
 from euc_sim.simulation.errors import FallError
 
 __all__ = ["simulate_rides", "batchable", "available", "NU", "BATCH_EFFECTS"]
@@ -64,8 +63,8 @@ BATCH_EFFECTS = ("rolling_resistance", "aerodynamic_drag", "road_slope", "wheel_
 NU = 48
 _MAGIC = 23.0625                       # slot S_MAGIC: this simulation is one of ours
 (S_CALLS, S_PER, S_K, S_ROWS, S_STATE, S_MD, S_MH, S_FALL, S_IX, S_IG, S_IR, S_VX, S_VG, S_VR,
- S_AM, S_AA, S_BR, S_BW, S_SPIN, S_PHI, S_GAM, S_HMD, S_HMH, S_EFF, S_NEGK, S_CROLL, S_R,
- S_VS, S_PUSH, S_MAGIC) = range(30)
+ S_AM, S_AA, S_BR, S_BW, S_SPIN, S_PHI, S_GAM, S_HMD, S_HMH, S_EFF, S_KDRAG, S_CRR, S_R,
+ S_NLOAD, S_PUSH, S_MAGIC) = range(30)
 S_LAW = 32                             # 32 … 42: MotorPD.law_args()
 _SIM_KEYS = ("maneuver", "duration", "params", "motor", "rider", "seed", "engine", "variant",
              "effects", "dt", "fall_bounds", "contact", "rolling_model", "external_force",
@@ -99,7 +98,7 @@ def _compile():
     from controllers.motor import pd_torque
 
     from euc_sim.simulation.native_core import field_offsets
-    from euc_sim.simulation.native_kernels import address, f64p, i64p
+    from euc_sim.simulation.native_kernels import address, f64p, held_forces, i64p
 
     offs = field_offsets(("userdata", "qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"))
     W_UD, W_QPOS, W_QVEL = offs["userdata"] // 8, offs["qpos"] // 8, offs["qvel"] // 8
@@ -144,11 +143,10 @@ def _compile():
                 f64p(int(ud[S_MD]))[k] = M_d
                 ud[S_HMD] = M_d
                 ud[S_HMH] = f64p(int(ud[S_MH]))[k]
-                if ud[S_EFF] != 0.0:              # engine._EffectsRow: held over the step
-                    F = ud[S_NEGK] * xd * abs(xd)
+                if ud[S_EFF] != 0.0:              # effects.held_forces: held over the step
                     push = int(ud[S_PUSH])
-                    F = F + (f64p(push)[k] if push != 0 else 0.0)
-                    tau = ud[S_CROLL] * math.tanh(xd / ud[S_VS])
+                    F, tau = held_forces(xd, ud[S_KDRAG], ud[S_CRR], ud[S_NLOAD], ud[S_R],
+                                         f64p(push)[k] if push != 0 else 0.0)
                     xf = f64p(dw[W_XFRC])
                     xf[6 * int(ud[S_BR])] = F
                     if ud[S_SPIN] != 0.0:
@@ -274,9 +272,8 @@ def _userdata_row(ride, per: int, addrs: tuple, push_addr: int) -> np.ndarray:
     u[S_SPIN] = 1.0 if st.spin else 0.0
     u[S_PHI], u[S_GAM] = ride.bounds["phi"], ride.bounds["gamma"]
     u[S_EFF] = 1.0 if ext.per_step else 0.0
-    u[S_NEGK] = -ext.k_drag
-    u[S_CROLL] = -ext.C_rr * ext.N_load * p.R
-    u[S_R], u[S_VS], u[S_PUSH] = p.R, fx.SIGN_SPEED, push_addr
+    u[S_KDRAG], u[S_CRR], u[S_NLOAD] = ext.k_drag, ext.C_rr, ext.N_load
+    u[S_R], u[S_PUSH] = p.R, push_addr
     u[S_MAGIC] = _MAGIC
     u[S_LAW:S_LAW + 11] = ride.motor.law_args()
     return u

@@ -7,7 +7,9 @@ control callback (:mod:`euc_sim.simulation.native_kernels`).  At the first callb
 of each step (RK4 calls it once per stage; the count per step is measured on the model,
 not assumed) the callback records the state, computes M_d from it and M_h from the
 state n steps old and the last n commands, and holds both over the step (zero-order
-hold at dt).  ``mj_step(model, data, nstep)`` then runs the whole ride in C, in chunks
+hold at dt), with the step's held drag, rolling-resistance moment and external force
+(:func:`euc_sim.simulation.effects.held_forces` from ẋ at its start, as the Python loop
+holds them).  ``mj_step(model, data, nstep)`` then runs the whole ride in C, in chunks
 between which Python only looks for a fall (and reports progress).
 
 The run's state lives in its own context (:mod:`euc_sim.simulation.native_core`),
@@ -48,25 +50,28 @@ available = nc.available
 
 def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: tuple,
                 bounds: Mapping[str, float], raise_fall,
-                progress=None) -> tuple[np.ndarray, np.ndarray] | None:
-    """:func:`euc_sim.simulation.engine._closed_loop` for a MuJoCo stepper without per-step effects.
+                progress=None, forces=None) -> tuple[np.ndarray, np.ndarray] | None:
+    """:func:`euc_sim.simulation.engine._closed_loop` for a MuJoCo stepper.
 
     Same states (N+1, 6) and torques (N+1, 2); ``None`` (and one line on stderr) when the
     callback cannot be built: the caller then runs the Python loop.  ``raise_fall(t, y,
     phi_max, gam_max)`` raises at the first recorded state outside ``bounds``, as the
     Python loop does; the ``FallError`` carries ``partial``, the states and torques of
     steps 0 … k − 1, as the Python loop's does.  ``progress(t)``: the simulated time, s,
-    at every rider block (n + 1 steps), as in the Python loop.
+    at every rider block (n + 1 steps), as in the Python loop.  ``forces``: ``(k_drag,
+    C_rr, N_load, R, F)`` of :func:`euc_sim.simulation.effects.held_forces`, ``F`` the
+    ``external_force`` callable F(t) or None, applied at every step; None: none.
     """
     if nc.callback() is None:
         return None
-    return _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress)
+    return _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress, forces)
 
 
-def planar_context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bounds):
+def planar_context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bounds, forces=None,
+                   dt: float = 0.0):
     """A planar run's context (:mod:`euc_sim.simulation.native_layout`) for ``stepper.d``.
 
-    Parameters as :func:`native_loop`.  To run it elsewhere (a thread, a batch): set
+    Parameters as :func:`native_loop`; an external force F(t) is tabulated at k·dt, k < N.  To run it elsewhere (a thread, a batch): set
     ``ctx.c[C_PER]`` to :func:`native_core.calls_per_step`, register the ``MjData`` with
     :func:`native_core.registered`, ``mj_step`` it N steps, then set ``ctx.c[C_CALLS] = 0``
     and ``mj_forward`` it once for the last row.
@@ -88,15 +93,21 @@ def planar_context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bo
     ctx.f[:11] = motor.law_args()
     ctx.f[lay.F_PHI_MAX], ctx.f[lay.F_GAM_MAX] = bounds["phi"], bounds["gamma"]
     ctx.rider(lay.P_RIDER, run)
+    if forces is not None:
+        k_drag, C_rr, N_load, R, F = forces
+        ctx.c[lay.P_EFF:lay.P_SPIN + 1] = (1, 0, stepper.b_rider, stepper.b_wheel, int(stepper.spin))
+        ctx.f[lay.F_KDRAG:lay.F_R + 1] = (k_drag, C_rr, N_load, R)
+        if F is not None:          # F(t) on the grid, as the Python loop evaluates it at each step
+            ctx.put(lay.P_PUSH, np.array([float(F(k * dt)) for k in range(N)]))
     return ctx, P, M_d, M_h
 
 
-def _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None):
+def _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None, forces=None):
     """:func:`native_loop` with the callback built."""
     import mujoco
 
     m, d, n = stepper.m, stepper.d, run.n
-    ctx, P, M_d, M_h = planar_context(stepper, motor, run, N, y0, bounds)
+    ctx, P, M_d, M_h = planar_context(stepper, motor, run, N, y0, bounds, forces, dt)
     phi_max, gam_max = bounds["phi"], bounds["gamma"]
     ctx.c[lay.C_PER] = nc.calls_per_step(m, d)
     chunk = n + 1 if progress is not None else CHUNK_STEPS

@@ -13,8 +13,8 @@ Interface of a context (for a caller building its own, e.g. a batch of rides): i
 slots are :mod:`euc_sim.simulation.native_layout`'s; :class:`Context` fills them; :func:`registered` registers a ``MjData`` with one for the
 duration of a ``with`` block.
 
-``mjData`` fields (``qpos``, ``qvel``, ``ctrl``) are read through offsets in the struct
-found at run time on a live ``MjData`` (:func:`field_offsets`), never hard-coded.
+``mjData`` fields (``qpos``, ``qvel``, ``ctrl``, ``qfrc_applied``, ``xfrc_applied``) are read
+through offsets in the struct found at run time on a live ``MjData`` (:func:`field_offsets`), never hard-coded.
 Where numba is missing or cannot compile, :func:`callback` returns ``None`` after one
 line on stderr and the callers run their Python loops.
 """
@@ -149,9 +149,9 @@ def _compile():
     """numba ``cfunc`` of the kernels with MuJoCo's control-callback signature."""
     from euc_sim.simulation.native_kernels import build_callback
 
-    offs = field_offsets()
-    return build_callback(offs["qpos"] // 8, offs["qvel"] // 8, offs["ctrl"] // 8,
-                          int(_REGISTRY.ctypes.data), SLOTS)
+    offs = field_offsets(("qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"))
+    return build_callback(offs["qpos"] // 8, offs["qvel"] // 8, offs["ctrl"] // 8, offs["qfrc_applied"] // 8,
+                          offs["xfrc_applied"] // 8, int(_REGISTRY.ctypes.data), SLOTS)
 
 
 @contextmanager

@@ -11,7 +11,8 @@ in the registry is left alone.
 Contexts are int64 arrays whose slots are the ``C_*`` / ``P_*`` / ``S_*`` indices of
 :mod:`euc_sim.simulation.native_layout`; float settings and buffers are reached through
 the addresses they hold.  The laws are the project's own pure functions compiled here:
-:func:`controllers.motor.pd_torque` and :func:`controllers.rider.delayed_lqr_torque`.
+:func:`controllers.motor.pd_torque`, :func:`controllers.rider.delayed_lqr_torque` and the
+held drag, rolling resistance and external force of :func:`euc_sim.simulation.effects.held_forces`.
 """
 
 from __future__ import annotations
@@ -31,20 +32,21 @@ import controllers.motor
 import controllers.rider
 from controllers.motor import pd_torque
 from controllers.rider import delayed_lqr_torque
+from euc_sim.simulation import effects
 from euc_sim.simulation import native_layout as lay
 
-__all__ = ["build_callback", "CACHE_DIR", "f64p", "i64p", "address"]
+__all__ = ["build_callback", "CACHE_DIR", "f64p", "i64p", "address", "held_forces"]
 
 
 def _cache_dir() -> str:
     """numba's on-disk cache of these kernels, keyed by the sources compiled into them.
 
     numba itself watches only this file; the laws (:mod:`controllers.motor`,
-    :mod:`controllers.rider`) and the context layout (:mod:`native_layout`) are compiled in
+    :mod:`controllers.rider`, :mod:`effects`) and the context layout (:mod:`native_layout`) are compiled in
     too, so a change to any of them must compile anew: the directory is named by their hash.
     """
     h = hashlib.sha256()
-    for module in (controllers.motor, controllers.rider, lay, sys.modules[__name__]):
+    for module in (controllers.motor, controllers.rider, effects, lay, sys.modules[__name__]):
         with open(module.__file__, "rb") as fh:
             h.update(fh.read())
     base = config.CACHE_DIR or os.path.join(tempfile.gettempdir(), "euc_sim_numba")
@@ -94,6 +96,8 @@ def address(typingctx, ptr):
 
 _motor = _jit(pd_torque)
 _rider_law = _jit(delayed_lqr_torque)
+#: :func:`euc_sim.simulation.effects.held_forces` compiled (also the batch's, :mod:`mujoco_batch`).
+held_forces = _jit(effects.held_forces)
 
 
 @_jit
@@ -129,7 +133,21 @@ def _motor_torque(f, gamma, gamma_dot, speed):
 
 
 @_jit
-def planar_step(qpos, qvel, c, f):
+def _hold_forces(qfrc, xfrc, c, f, k, x_dot):
+    """Set the held forces of step k from ẋ at its start, as ``engine._MujocoStepper.set_effects``:
+    F_x at G on ``rider``, the rolling moment on ``wheel`` (about +y) or τ/R on x."""
+    push = c[lay.P_PUSH]
+    F, tau = held_forces(x_dot, f[lay.F_KDRAG], f[lay.F_CRR], f[lay.F_NLOAD], f[lay.F_R],
+                         f64p(push)[k] if push != 0 else 0.0)
+    xfrc[6 * c[lay.P_BR]] = F
+    if c[lay.P_SPIN] != 0:
+        xfrc[6 * c[lay.P_BW] + 4] = tau
+    else:
+        qfrc[c[lay.P_VX]] = 0.0 + tau / f[lay.F_R]
+
+
+@_jit
+def planar_step(qpos, qvel, qfrc, xfrc, c, f):
     """One control step of the planar loop (:func:`euc_sim.simulation.native.native_loop`)."""
     k = c[lay.C_K]
     if k >= c[lay.C_ROWS]:
@@ -154,6 +172,8 @@ def planar_step(qpos, qvel, c, f):
             c[lay.C_FALL] = k
     M_d = _motor_torque(f, row[1], row[4], row[3])
     M_h = _rider(c, k, Y, lay.P_RIDER)
+    if c[lay.P_EFF] != 0 and k + 1 < c[lay.C_ROWS]:    # not at the last row: no step follows it
+        _hold_forces(qfrc, xfrc, c, f, k, row[3])
     f64p(c[lay.P_MD])[k] = M_d
     f64p(c[lay.P_MH])[k] = M_h
     f[lay.F_HELD] = M_d
@@ -302,10 +322,12 @@ def spatial_step(qp, qv, c, f):
     c[lay.C_K] = k + 1
 
 
-def build_callback(w_qpos: int, w_qvel: int, w_ctrl: int, registry_address: int, slots: int):
+def build_callback(w_qpos: int, w_qvel: int, w_ctrl: int, w_qfrc: int, w_xfrc: int,
+                   registry_address: int, slots: int):
     """The cfunc ``void(const mjModel*, mjData*)``: find ``d`` in the registry, run its kernel.
 
-    ``w_*``: the word offsets of ``qpos``, ``qvel``, ``ctrl`` in ``mjData``.  The kernel runs
+    ``w_*``: the word offsets of ``qpos``, ``qvel``, ``ctrl``, ``qfrc_applied`` and
+    ``xfrc_applied`` in ``mjData``.  The kernel runs
     at the first of the callback's calls in each step (``c[C_PER]`` calls per step; RK4
     calls it once per stage); every call writes the held controls (zero-order hold at dt).
     """
@@ -325,7 +347,7 @@ def build_callback(w_qpos: int, w_qvel: int, w_ctrl: int, registry_address: int,
                 if calls % c[lay.C_PER] == 0:
                     qpos, qvel = f64p(d[w_qpos]), f64p(d[w_qvel])
                     if kind == lay.KIND_PLANAR:
-                        planar_step(qpos, qvel, c, f)
+                        planar_step(qpos, qvel, f64p(d[w_qfrc]), f64p(d[w_xfrc]), c, f)
                     else:
                         spatial_step(qpos, qvel, c, f)
                 ctrl = f64p(d[w_ctrl])

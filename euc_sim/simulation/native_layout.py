@@ -18,8 +18,11 @@ KIND_PLANAR, KIND_SPATIAL, KIND_COUNT = 1, 2, 3
 C_KIND, C_CALLS, C_PER, C_K, C_ROWS, C_FALL, C_FLOATS, C_NACT, C_ACT = range(9)   # C_ACT .. C_ACT + 3
 # a rider block (controllers.rider.RiderRun): offsets from its first slot
 R_VREF, R_GREF, R_PREF, R_UREF, R_NOISE, R_DU, R_KHIST, R_INTEGRAL, R_N, R_FLOATS = range(10)
-# planar: state indices, padded history, torques, rider block
+# planar: state indices, padded history, torques, rider block (its R_* slots: 21 … 30)
 P_IX, P_IG, P_IR, P_VX, P_VG, P_VR, P_HIST, P_MD, P_MH, P_RIDER = range(12, 22)
+# planar held forces (effects.held_forces): on (0/1), F(t) on the grid (0: none), rider and
+# wheel bodies, whether the wheel spins (the moment on it, else τ/R on x)
+P_EFF, P_PUSH, P_BR, P_BW, P_SPIN = range(31, 36)
 # spatial: qpos/qvel addresses, output rows, history, plan, path, lateral rider, fall kind, rider block
 (S_RQ, S_RV, S_IP, S_IL, S_IT, S_VP, S_VL, S_VT, S_OUT, S_HIST, S_PLAN, S_PX, S_PY, S_PH, S_PK, S_PN, S_PI,
  S_ND, S_KP, S_KH, S_ZHIST, S_UHIST, S_K, S_FALL_KIND, S_RIDER) = range(12, 37)
@@ -27,5 +30,5 @@ C_SIZE = 48
 # float slots: the motor law's settings (MotorPD.law_args) 0 … 10, then
 F_HELD = 11                                        # the held controls, 11 … 14
 (F_PHI_MAX, F_GAM_MAX, F_TILT, F_DT, F_LAT_LIM, F_G, F_XS, F_ZINT, F_UBAR, F_UBAR1, F_ABAR, F_XDOT, F_PSI,
- F_H, F_L0, F_EH, F_FALL_VALUE) = range(15, 32)
-F_SIZE = 32
+ F_H, F_L0, F_EH, F_FALL_VALUE, F_KDRAG, F_CRR, F_NLOAD, F_R) = range(15, 36)
+F_SIZE = 36

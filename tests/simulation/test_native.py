@@ -12,6 +12,7 @@ import pytest
 
 from controllers.motor import MotorPD
 from euc_sim.simulation import native, native_core
+from euc_sim.simulation.effects import PeriodicPush
 from euc_sim.simulation.engine import default_rider, simulate
 from euc_sim.simulation.errors import FallError
 
@@ -92,10 +93,52 @@ def test_fallback_when_numba_cannot_compile(rider, monkeypatch, capsys):
     assert _gap(a, b) == pytest.approx(0.0, abs=TOL)
 
 
-def test_per_step_effects_keep_the_python_loop(rider):
+DRAG_ROLL = {"aerodynamic_drag": 0.3, "rolling_resistance": 0.015, "road_slope": 0.02}
+
+
+@pytest.mark.parametrize("variant, effects, push", [
+    ("ideal", DRAG_ROLL, None),
+    ("contact", DRAG_ROLL, None),                        # the rolling moment on the spinning wheel
+    ("ideal", {"aerodynamic_drag": 0.3}, PeriodicPush(40.0, 0.5)),
+])
+def test_held_forces_run_natively_as_in_the_python_loop(rider, variant, effects, push):
+    """Drag, the rolling-resistance moment and an external force, held over each step by
+    the callback: the ride as the Python loop's, and they act (the ride differs without them)."""
+    kw = dict(rider=rider, seed=3, variant=variant)
     native.LAST_RUN.clear()
-    simulate("stop_and_go", 1.0, rider=rider, effects={"aerodynamic_drag": 0.4})
-    assert native.LAST_RUN == {}
+    a = simulate("stop_and_go", 8.0, effects=effects, external_force=push, **kw)
+    assert native.LAST_RUN["rows"] == 8001              # it ran natively
+    b = simulate("stop_and_go", 8.0, effects=effects, external_force=push, native=False, **kw)
+    assert _gap(a, b) <= TOL
+    bare = simulate("stop_and_go", 8.0, effects={"road_slope": 0.02} if "road_slope" in effects else {}, **kw)
+    assert float(np.max(np.abs(a["x"] - bare["x"]))) > 0.05       # m: the forces moved the ride
+
+
+def test_a_fall_with_drag_and_rolling_is_raised_at_the_same_time(rider):
+    kw = dict(rider=rider.replace(delay=0.6), seed=0, effects=DRAG_ROLL)
+    with pytest.raises(FallError) as e_native:
+        simulate("stop_and_go", 10.0, **kw)
+    with pytest.raises(FallError) as e_python:
+        simulate("stop_and_go", 10.0, native=False, **kw)
+    assert str(e_native.value) == str(e_python.value)
+    a, b = e_native.value.trajectory, e_python.value.trajectory
+    assert len(a) == len(b) > 0 and _gap(a, b) <= TOL
+
+
+def test_held_forces_compiled_are_the_python_law():
+    from euc_sim.simulation.effects import held_forces
+    from euc_sim.simulation.native_kernels import held_forces as compiled
+
+    for v in (-7.0, -0.004, 0.0, 0.003, 2.5, 11.0):
+        args = (v, 0.3, 0.015, 1000.0, 0.2, -12.5)
+        assert compiled(*args) == pytest.approx(held_forces(*args), rel=1e-15, abs=1e-15)
+
+
+def test_height_drift_and_lateral_dynamics_keep_the_python_loop(rider):
+    for effects in ({"cog_height_drift": 0.02}, {"lateral_dynamics": 0.1}):
+        native.LAST_RUN.clear()
+        simulate("stop_and_go", 1.0, rider=rider, effects=effects)
+        assert native.LAST_RUN == {}
 
 
 def test_threads_share_the_callback_safely(rider):
