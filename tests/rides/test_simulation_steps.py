@@ -38,6 +38,21 @@ def inputs(ride) -> StepInputs:
                                          "drivetrain_idle_loss"), ride)
 
 
+def test_an_unresolved_kd_is_damped_and_said_in_the_step_and_its_json():
+    """Lynx 0's K_d came out −37 (interval [−51, −29]); the step damps the pitch mode instead of 0."""
+    from controllers.damping import damping_floor
+
+    terms = [dict(t, estimate=-37.0, ci95=[-51.1, -29.2]) if t["name"] == "K_d" else t
+             for t in CONTROLLER["terms"]]
+    nom, law, dt = build_steps(inputs(dict(RIDE, controller=dict(CONTROLLER, terms=terms))))
+    kd = damping_floor(TABLE3, 5687.0)
+    assert law.motor.Kd == pytest.approx(kd, rel=1e-6) and dt.motor.Kd == law.motor.Kd
+    assert "not resolved" in law.what and "ζ ≥ 0.7" in law.what
+    described = law.describe()
+    assert described["motor"]["K_d"] == pytest.approx(kd, rel=1e-6)
+    assert any("-37" in n and "not resolved" in n for n in described["notes"])
+
+
 def test_steps_without_a_law_skip_the_measured_law_and_build_on_the_nominal():
     steps = build_steps(inputs({"controller": {"law": None, "why": "no pitch in the log"}}))
     assert [s.name for s in steps] == ["nominal", "measured_law", "drivetrain"]
