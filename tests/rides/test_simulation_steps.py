@@ -214,3 +214,25 @@ def test_the_shared_pairs_table(tmp_path):
     assert all(r.count("|") == md[0].count("|") for r in md[2:])      # one cell per column
     mod.write_doc(tmp_path / "t.md", res, ["--out", "X"])
     assert "ride_simulation_table.py --out X" in (tmp_path / "t.md").read_text()
+
+
+def test_the_table_adds_calibrated_rows_and_keeps_the_hand_written_section(tmp_path, capsys):
+    mod = _table_script()
+    todo = mod.pairs(tmp_path, ["lynx", "v9"])
+    extra = mod.calibrated(todo, ["lynx_0_to_2"])
+    assert [p["name"] for p in extra] == ["lynx_0_to_2_calibrated"] and extra[0]["calibrated"]
+    assert "--calibrate-rider" in mod.command(extra[0], tmp_path, 20, 0)
+    assert "--calibrate-rider" not in mod.command(todo[0], tmp_path, 20, 0)
+    with pytest.raises(ValueError, match="blitz_1_to_2"):
+        mod.calibrated(todo, ["blitz_1_to_2"])                    # not a pair of the wheels run
+    res = [{"pair": extra[0], "error": "not run (no ride.json yet)"}]
+    assert "0 → 2 (calibrated rider)" in mod.rows(res)[2]
+    doc = tmp_path / "t.md"
+    doc.write_text("# old\n\n| old table |\n\n## Reading the table (by hand)\n\n- kept words\n")
+    mod.write_doc(doc, res, ["--out", "X"])
+    text = doc.read_text()
+    assert "old table" not in text and text.count("## Reading the table") == 1
+    assert text.endswith("- kept words\n") and "(calibrated rider)" in text
+    assert mod.main(["--out", str(tmp_path / "o"), "--data", str(tmp_path), "--pairs", "lynx",
+                     "--calibrate-rider", "v9_0_to_1"]) == 2
+    assert "--calibrate-rider v9_0_to_1: not a pair" in capsys.readouterr().err
