@@ -12,15 +12,23 @@ Not carried (listed by :func:`firmware_motor` in its notes): a set-point moving
 with acceleration, integral action and a braking gain unlike the driving one;
 MotorPD has no state for them.  The law must be in N·m (the ride had a torque
 constant: ``--wheel`` with the wheel's diameter, or a logged torque).
+
+A K_d the log cannot resolve (its 95 % interval, or the estimate where no interval is
+given, at or below zero) is replaced by the smallest K_d that gives the body pitch mode
+the damping ratio :data:`controllers.damping.ZETA_UNRESOLVED` at the measured K_p
+(:func:`controllers.damping.damping_floor`), or the estimate where that is larger; the
+notes say so with both figures.
 """
 
 from __future__ import annotations
 
 import math
 
+from controllers.damping import ZETA_UNRESOLVED, damping_floor
 from controllers.motor import MotorPD
+from euc_sim.model.parameters import Params, TABLE3
 
-__all__ = ["FirmwareError", "firmware_settings", "firmware_motor", "voltage_limit_settings", "CARRIED"]
+__all__ = ["FirmwareError", "firmware_settings", "kd_resolved", "firmware_motor", "voltage_limit_settings", "CARRIED"]
 
 #: Terms of the ``controller`` entry that MotorPD carries -> its setting.
 CARRIED = {"K_p": "Kp", "K_d": "Kd", "torque_limit": "torque_limit",
@@ -31,18 +39,24 @@ class FirmwareError(ValueError):
     """A ride JSON ``controller`` entry that cannot drive the simulator; the message says why."""
 
 
-def firmware_settings(ctrl) -> tuple[dict, list[str]]:
+def firmware_settings(ctrl, p: Params | None = None,
+                      zeta: float = ZETA_UNRESOLVED) -> tuple[dict, list[str]]:
     """MotorPD settings from a ride JSON's ``controller`` entry, and notes.
 
     Parameters
     ----------
     ctrl : dict
-        CONTRACT's ``controller`` object (``law``, ``terms`` [{name, estimate, unit}], ``sign``).
+        CONTRACT's ``controller`` object (``law``, ``terms`` [{name, estimate, ci95, unit}], ``sign``).
+    p : Params, optional
+        The ride's parameters, for the damping of an unresolved K_d (default the paper's
+        Table 3, said in the notes).
+    zeta : float
+        Damping ratio given to the pitch mode when K_d is unresolved.
 
     Returns
     -------
     settings : dict
-        ``Kp`` (N·m/rad), ``Kd`` (N·m·s/rad, a negative estimate taken as 0) and,
+        ``Kp`` (N·m/rad), ``Kd`` (N·m·s/rad; unresolved: see the module) and,
         where identified, ``torque_limit`` (N·m), ``tiltback_speed`` (m/s),
         ``tiltback_gain`` (rad per m/s).
     notes : list of str
@@ -72,9 +86,18 @@ def firmware_settings(ctrl) -> tuple[dict, list[str]]:
         if not (isinstance(val, (int, float)) and math.isfinite(val)):
             raise FirmwareError(f"controller: term {name!r} estimate must be a finite number, got {val!r}")
         settings[key] = float(val)
-    if settings.get("Kd", 0.0) < 0:
-        notes.append(f"K_d = {settings['Kd']:.3g} N·m·s/rad measured; taken as 0 (MotorPD needs K_d ≥ 0)")
-        settings["Kd"] = 0.0
+    if not kd_resolved(terms.get("K_d")):
+        floor = damping_floor(p or TABLE3, settings["Kp"], zeta)
+        est = settings.get("Kd")
+        kd = max(floor, est if est is not None else 0.0)
+        said = "not measured" if est is None else \
+            f"measured {est:.3g} N·m·s/rad, 95 % interval {_ci(terms['K_d'])}"
+        notes.append(f"K_d {said}: not resolved by the log (the interval reaches 0 or below); the simulator uses "
+                     f"K_d = {kd:.3g} N·m·s/rad, " + (f"the smallest giving the pitch mode damping ratio "
+                     f"{zeta:g} at K_p = {settings['Kp']:.0f} N·m/rad" if kd == floor else
+                     f"the estimate (above {floor:.3g}, which gives damping ratio {zeta:g})")
+                     + ("" if p is not None else " on the paper's Table 3 parameters"))
+        settings["Kd"] = kd
     if settings.get("tiltback_gain", 0.0) < 0:
         notes.append("a tilt-back gain below zero (set-point tilting forward) is not carried")
         settings.pop("tiltback_gain"), settings.pop("tiltback_speed", None)
@@ -89,8 +112,26 @@ def firmware_settings(ctrl) -> tuple[dict, list[str]]:
     return settings, notes
 
 
-def firmware_motor(ctrl, **limits) -> tuple[MotorPD, list[str]]:
+def kd_resolved(term) -> bool:
+    """Whether a ``controller`` K_d term (dict or None) is resolved: its 95 % interval
+    (else its estimate) lies above zero."""
+    if term is None:
+        return False
+    ci = term.get("ci95")
+    if isinstance(ci, (list, tuple)) and len(ci) == 2 and all(isinstance(c, (int, float)) for c in ci):
+        return min(ci) > 0
+    return term.get("estimate", 0.0) > 0
+
+
+def _ci(term) -> str:
+    ci = term.get("ci95")
+    return f"[{ci[0]:.3g}, {ci[1]:.3g}]" if isinstance(ci, (list, tuple)) and len(ci) == 2 else "not given"
+
+
+def firmware_motor(ctrl, p: Params | None = None, **limits) -> tuple[MotorPD, list[str]]:
     """The measured law as a :class:`MotorPD` (``limits``: its voltage-limit settings), and notes.
+
+    ``p``: the ride's parameters (:func:`firmware_settings`).
 
     Raises
     ------
@@ -99,7 +140,7 @@ def firmware_motor(ctrl, **limits) -> tuple[MotorPD, list[str]]:
     """
     from controllers.motor import MotorError
 
-    settings, notes = firmware_settings(ctrl)
+    settings, notes = firmware_settings(ctrl, p)
     try:
         return MotorPD(**settings, **limits), notes
     except MotorError as exc:

@@ -105,7 +105,7 @@ def _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations) -> list[di
 
         ctrl = controller_json(log, None, torque_constant(physics[0].get("drivetrain")), n_boot, seed)
         try:
-            motor, _ = firmware_motor(ctrl)
+            motor, _ = firmware_motor(ctrl, params)
             runs.append(("firmware", {}, motor))
         except FirmwareError as exc:
             base["firmware"] = str(exc)

@@ -2,6 +2,7 @@
 
     nice -n 10 python scripts/ride_simulation_table.py --out /tmp/ridesim [--workers 2]
         [--n-boot 50] [--pairs lynx,v9] [--doc docs/ride_simulation.md]
+        [--calibrate-rider lynx_0_to_2,v9_0_to_1]
 
 For each ordered pair of rides of one wheel (Lynx 0↔2, V9 0↔1↔2, Blitz 1↔2↔4,
 Master Pro 3↔6; both directions) it runs ``euc-sim ride FIT --compare HELD --wheel
@@ -11,6 +12,9 @@ and writes the table of ``simulation.steps`` (held-out battery-power error of ea
 step, its ratio to the balance fit's held-out error against the 1.2× target, phase
 current, pitch and PWM errors, falls) to ``--doc`` (default ``OUT/ride_simulation.md``).
 A pair whose ``ride.json`` already exists is read, not run again (``--again`` reruns).
+``--calibrate-rider PAIRS`` also runs the named pairs with ``euc-sim ride --calibrate-rider``
+(into ``OUT/PAIR_calibrated/``, an extra row each: minutes per ride).  A hand-written
+section of ``--doc`` from its ``## Reading the table`` heading on is kept as it is.
 Reads ``../shared/data/euc_core`` (``--data``).
 """
 
@@ -53,13 +57,29 @@ def pairs(data: Path, wheels) -> list[dict]:
     return out
 
 
+def calibrated(todo: list[dict], names) -> list[dict]:
+    """Copies of the named pairs run with ``--calibrate-rider`` (name ``PAIR_calibrated``).
+
+    Raises
+    ------
+    ValueError
+        naming a pair not among ``todo``.
+    """
+    by = {p["name"]: p for p in todo}
+    bad = [n for n in names if n not in by]
+    if bad:
+        raise ValueError(f"--calibrate-rider {bad[0]}: not a pair of the wheels run "
+                         f"(valid: {', '.join(by)})")
+    return [dict(by[n], name=f"{n}_calibrated", calibrated=True) for n in names]
+
+
 def command(p: dict, out: Path, n_boot: int, seed: int) -> list[str]:
     """The ``euc-sim ride`` command of one pair."""
     d = out / p["name"]
     return [sys.executable, "-m", "euc_sim.cli", "ride", str(p["fit_log"]), "--compare",
             str(p["held_log"]), "--wheel", str(p["spec"]), "--report", str(d / "report"),
             "--json", str(d / "ride.json"), "--n-boot", str(n_boot), "--seed", str(seed),
-            "--jobs", "1"]
+            "--jobs", "1"] + (["--calibrate-rider"] if p.get("calibrated") else [])
 
 
 def run_pair(p: dict, out: Path, n_boot: int, seed: int, again: bool, run: bool = True) -> dict:
@@ -95,8 +115,9 @@ def rows(results: list[dict]) -> list[str]:
     md = [head, "|" + " --- |" * (6 + len(STEPS))]
     for r in results:
         p = r["pair"]
+        label = f"{p['fit']} → {p['held']}" + (" (calibrated rider)" if p.get("calibrated") else "")
         if "error" in r:
-            md.append(f"| {p['wheel']} | {p['fit']} → {p['held']} | {r['error']} |"
+            md.append(f"| {p['wheel']} | {label} | {r['error']} |"
                       + " |" * (3 + len(STEPS)))
             continue
         rep = r["json"]
@@ -128,9 +149,19 @@ def rows(results: list[dict]) -> list[str]:
                           for f in sim.get("falls", [])) or ("none" if sim else "not simulated")
         scored = (f"{int(share[1]) / 10:.0f} s ({100 * int(share[1]) / max(int(share[2]), 1):.0f} %)"
                   if share else f"{sim.get('scored_rows', 0) / 10:.0f} s (100 %)")
-        md.append(f"| {p['wheel']} | {p['fit']} → {p['held']} | {_f(bal, ',.0f')} | "
+        md.append(f"| {p['wheel']} | {label} | {_f(bal, ',.0f')} | "
                   + " | ".join(cells) + f" | {other} | {scored} | {falls} |")
     return md
+
+
+HAND = "## Reading the table"
+
+
+def _hand_written(path: Path) -> str:
+    """The existing doc's hand-written section (from :data:`HAND` on), or ''."""
+    old = path.read_text(encoding="utf-8") if path.is_file() else ""
+    i = old.find(HAND)
+    return "" if i < 0 else "\n" + old[i:]
 
 
 def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float = 0.0) -> None:
@@ -150,7 +181,9 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
         f"{TARGET}× target over the whole held-out ride; a pair where a step fell is scored only "
         f"up to the fall and never bold). Steps: `nominal` (paper PD 600 / 40, default rider, no effects), "
         "`measured_law` (the firmware law measured on FIT; skipped where FIT shows no law), "
-        "`calibrated_rider` (not yet in the pipeline: `–`), `drivetrain` (voltage-limited motor, "
+        "`calibrated_rider` (the rider's delay, bandwidth and motor noise fitted on FIT, its plan the "
+        "logged speed smoothed; only on the rows marked 'calibrated rider', run with `--calibrate-rider`: "
+        "`–` elsewhere), `drivetrain` (voltage-limited motor, "
         "accepted effects as physics, the augmented efficiencies). Phase current, pitch and PWM "
         "errors are those of the step with the lowest battery-power error, where HELD logs them. "
         "Every step is scored on the rows all steps rode (up to the first fall: the `scored` "
@@ -163,7 +196,7 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
         "synthetic rides (docs/controller.md); nothing in the steps was adjusted after this "
         "table. Any later change made by looking at this table turns its rows into tuning "
         "figures; issue 21's 'The check' (held-back rides compared the same way) is the test.", "",
-    ] + rows(results) + [""])
+    ] + rows(results) + [""]) + _hand_written(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".tmp")
     tmp.write_text(text, encoding="utf-8")
@@ -181,6 +214,8 @@ def main(argv=None) -> int:
     ap.add_argument("--pairs", default=",".join(WHEELS), help=f"wheels, of {', '.join(WHEELS)}")
     ap.add_argument("--doc", help="markdown table to write (default OUT/ride_simulation.md)")
     ap.add_argument("--again", action="store_true", help="rerun pairs whose ride.json exists")
+    ap.add_argument("--calibrate-rider", default="",
+                    help="pairs (e.g. lynx_0_to_2,v9_0_to_1) also run with --calibrate-rider")
     ap.add_argument("--no-run", action="store_true",
                     help="run nothing: write the table of the pairs whose ride.json exists")
     args = ap.parse_args(argv)
@@ -193,6 +228,11 @@ def main(argv=None) -> int:
         return 2
     data, out = Path(args.data), Path(args.out)
     todo = pairs(data, wheels)
+    try:
+        todo += calibrated(todo, [n for n in args.calibrate_rider.split(",") if n])
+    except ValueError as exc:
+        print(f"ride_simulation_table: {exc}", file=sys.stderr)
+        return 2
     missing = [str(p[k]) for p in todo for k in ("fit_log", "held_log", "spec") if not p[k].is_file()]
     if missing:
         print(f"ride_simulation_table: {missing[0]}: no such file", file=sys.stderr)

@@ -45,12 +45,12 @@ def _voltage_limit(path, R: float, voltage: float | None) -> dict:
         raise ValueError(f"--drivetrain {path}: {exc}") from None
 
 
-def _motor(args, R: float = 0.2):
+def _motor(args, R: float = 0.2, p=None):
     from controllers.motor import MotorPD
     lim = {}
     if getattr(args, "drivetrain", None):
         lim = _voltage_limit(args.drivetrain, R, args.battery_voltage)
-        measured = _firmware(args.drivetrain, lim)
+        measured = _firmware(args.drivetrain, lim, p)
         if measured is not None:
             return measured
     elif getattr(args, "battery_voltage", None) is not None:
@@ -60,7 +60,7 @@ def _motor(args, R: float = 0.2):
                    **lim)
 
 
-def _firmware(path, lim: dict):
+def _firmware(path, lim: dict, p=None):
     """The wheel's measured balance law (the ride JSON's ``controller``, :mod:`controllers.firmware`)
     with the voltage limit, or None when the ride shows no law (the paper's PD is then used)."""
     import json
@@ -72,7 +72,7 @@ def _firmware(path, lim: dict):
     if not isinstance(ctrl, dict) or ctrl.get("law") is None:
         return None
     try:
-        motor, notes = firmware_motor(ctrl, **lim)
+        motor, notes = firmware_motor(ctrl, p, **lim)
     except FirmwareError as exc:
         raise ValueError(f"--drivetrain {path}: {exc}") from None
     say(f"simulate: the wheel's measured law replaces the PD gains: K_p = {motor.Kp:.0f} N·m/rad, "
@@ -118,7 +118,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         man = make_maneuver(name)
     eff = _effects(args.effect)
     params = parse_params(args.param)
-    motor = _motor(args, params.R)
+    motor = _motor(args, params.R, params)
     rider = default_rider(params, motor, noise_std=args.rider_noise, delay=args.rider_delay)
     spec = RecordingSpec(out.with_suffix("").name, man, float(args.duration), int(args.seed), params,
                          tuple(sorted(eff.items())), args.noise, args.engine, args.variant,

@@ -150,7 +150,8 @@ def nominal_step(prev: SimStep | None, inp: StepInputs) -> SimStep:
 
 def measured_law_step(prev: SimStep, inp: StepInputs) -> SimStep:
     """The firmware law measured on the fit ride replaces the paper's PD (the rider redesigned for it)."""
-    from controllers.firmware import FirmwareError, firmware_motor
+    from controllers.damping import ZETA_UNRESOLVED
+    from controllers.firmware import FirmwareError, firmware_motor, kd_resolved
 
     ctrl = inp.ride.get("controller")
     name, what = "measured_law", "the wheel's balance law measured on the fit ride"
@@ -159,12 +160,18 @@ def measured_law_step(prev: SimStep, inp: StepInputs) -> SimStep:
         return replace(prev, name=name, what=what, notes=(),
                        why=f"the fit ride shows no balance law ({why or 'no controller entry'})")
     try:
-        motor, notes = firmware_motor(ctrl)
+        motor, notes = firmware_motor(ctrl, inp.params)
     except FirmwareError as exc:
         return replace(prev, name=name, what=what, notes=(), why=str(exc))
     return replace(prev, name=name, what=f"{what}: K_p = {motor.Kp:.0f} N·m/rad, K_d = "
-                                         f"{motor.Kd:.0f} N·m·s/rad", motor=motor, rider=None,
+                                         f"{motor.Kd:.0f} N·m·s/rad" + ("" if kd_resolved(_term(ctrl, "K_d")) else
+                                         " (K_d not resolved by the log: pitch mode damped to ζ ≥ "
+                                         f"{ZETA_UNRESOLVED:g})"), motor=motor, rider=None,
                    notes=tuple(notes), why=None)
+
+
+def _term(ctrl: Mapping, name: str):
+    return next((t for t in ctrl.get("terms", []) if isinstance(t, dict) and t.get("name") == name), None)
 
 
 def drivetrain_step(prev: SimStep, inp: StepInputs) -> SimStep:

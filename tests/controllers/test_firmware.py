@@ -63,3 +63,48 @@ def test_simulate_uses_the_measured_law(tmp_path, capsys):
     assert rc == 0
     meta = json.loads((tmp_path / "sim.truth.json").read_text())     # the test reads the truth
     assert meta["motor"]["Kp"] == pytest.approx(5365.2) and meta["motor"]["voltage"] == 150.0
+
+
+def test_damping_floor_is_the_smallest_kd_reaching_the_stated_ratio():
+    from controllers.damping import ZETA_UNRESOLVED, damping_floor, pitch_mode_damping
+
+    kd = damping_floor(TABLE3, 5687.0)
+    zeta, omega = pitch_mode_damping(TABLE3, 5687.0, kd)
+    assert zeta == pytest.approx(ZETA_UNRESOLVED, abs=1e-4) and 50.0 < omega < 150.0   # the ~15 Hz pitch mode
+    assert pitch_mode_damping(TABLE3, 5687.0, 0.95 * kd)[0] < ZETA_UNRESOLVED           # smallest such K_d
+    assert pitch_mode_damping(TABLE3, 5687.0, 0.0)[0] < 0.05                            # undamped without it
+    assert damping_floor(TABLE3, 5687.0, 0.3) < kd
+    with pytest.raises(ValueError, match="zeta"):
+        damping_floor(TABLE3, 5687.0, 1.5)
+
+
+@pytest.mark.parametrize("ci95", [[-51.1, -29.2], [-12.3, 64.9], None])
+def test_unresolved_kd_is_damped_and_said(ci95):
+    from controllers.damping import damping_floor
+
+    est = -37.0 if ci95 is None or ci95[1] < 0 else 24.2
+    terms = [dict(t, estimate=est, ci95=ci95) if t["name"] == "K_d" else t for t in LYNX["terms"]]
+    motor, notes = firmware_motor(dict(LYNX, terms=terms), TABLE3)
+    assert motor.Kd == pytest.approx(damping_floor(TABLE3, 5365.2), rel=1e-6)
+    assert any("not resolved" in n and f"{est:.3g}" in n and "damping ratio 0.7" in n for n in notes)
+
+
+def test_resolved_kd_is_kept():
+    motor, notes = firmware_motor(LYNX, TABLE3)             # K_d 29.4, interval [5.1, 49.8] above 0
+    assert motor.Kd == pytest.approx(29.37) and not any("not resolved" in n for n in notes)
+
+
+def test_damped_law_does_not_chatter_where_kd_zero_does():
+    """The Lynx 0 defect: K_p 5,687 with K_d taken as 0 left the pitch mode undamped."""
+    import numpy as np
+
+    from controllers.damping import damping_floor
+    from controllers.motor import MotorPD
+
+    rms = {}
+    for kd in (0.0, damping_floor(TABLE3, 5687.0)):
+        m = MotorPD(Kp=5687.0, Kd=kd)
+        df = simulate(make_maneuver("stop_and_go"), 10.0, motor=m, rider=default_rider(TABLE3, m))
+        rms[kd] = float(np.sqrt(np.mean(df["gamma_dot"] ** 2)))
+    undamped, damped = rms.values()
+    assert undamped > 1.0 and damped < 0.1

@@ -39,6 +39,21 @@ def inputs(ride) -> StepInputs:
                                          "drivetrain_idle_loss"), ride)
 
 
+def test_an_unresolved_kd_is_damped_and_said_in_the_step_and_its_json():
+    """Lynx 0's K_d came out −37 (interval [−51, −29]); the step damps the pitch mode instead of 0."""
+    from controllers.damping import damping_floor
+
+    terms = [dict(t, estimate=-37.0, ci95=[-51.1, -29.2]) if t["name"] == "K_d" else t
+             for t in CONTROLLER["terms"]]
+    nom, law, dt = build_steps(inputs(dict(RIDE, controller=dict(CONTROLLER, terms=terms))))
+    kd = damping_floor(TABLE3, 5687.0)
+    assert law.motor.Kd == pytest.approx(kd, rel=1e-6) and dt.motor.Kd == law.motor.Kd
+    assert "not resolved" in law.what and "ζ ≥ 0.7" in law.what
+    described = law.describe()
+    assert described["motor"]["K_d"] == pytest.approx(kd, rel=1e-6)
+    assert any("-37" in n and "not resolved" in n for n in described["notes"])
+
+
 def test_steps_without_a_law_skip_the_measured_law_and_build_on_the_nominal():
     steps = build_steps(inputs({"controller": {"law": None, "why": "no pitch in the log"}}))
     assert [s.name for s in steps] == ["nominal", "measured_law", "drivetrain"]
@@ -216,3 +231,25 @@ def test_pitch_without_a_convention_is_moved_to_the_logs_mean_in_a_new_table():
     assert np.ptp(moved["pitch_drivetrain"]) == pytest.approx(0.2)    # moved, not rescaled
     assert "sign +1 assumed" in note
     assert _align_pitch(table.drop(columns="pitch_log"), np.ones(n, bool), ["nominal"])[1] is None
+
+
+def test_the_table_adds_calibrated_rows_and_keeps_the_hand_written_section(tmp_path, capsys):
+    mod = _table_script()
+    todo = mod.pairs(tmp_path, ["lynx", "v9"])
+    extra = mod.calibrated(todo, ["lynx_0_to_2"])
+    assert [p["name"] for p in extra] == ["lynx_0_to_2_calibrated"] and extra[0]["calibrated"]
+    assert "--calibrate-rider" in mod.command(extra[0], tmp_path, 20, 0)
+    assert "--calibrate-rider" not in mod.command(todo[0], tmp_path, 20, 0)
+    with pytest.raises(ValueError, match="blitz_1_to_2"):
+        mod.calibrated(todo, ["blitz_1_to_2"])                    # not a pair of the wheels run
+    res = [{"pair": extra[0], "error": "not run (no ride.json yet)"}]
+    assert "0 → 2 (calibrated rider)" in mod.rows(res)[2]
+    doc = tmp_path / "t.md"
+    doc.write_text("# old\n\n| old table |\n\n## Reading the table (by hand)\n\n- kept words\n")
+    mod.write_doc(doc, res, ["--out", "X"])
+    text = doc.read_text()
+    assert "old table" not in text and text.count("## Reading the table") == 1
+    assert text.endswith("- kept words\n") and "(calibrated rider)" in text
+    assert mod.main(["--out", str(tmp_path / "o"), "--data", str(tmp_path), "--pairs", "lynx",
+                     "--calibrate-rider", "v9_0_to_1"]) == 2
+    assert "--calibrate-rider v9_0_to_1: not a pair" in capsys.readouterr().err
