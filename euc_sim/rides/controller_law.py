@@ -597,7 +597,13 @@ def fit_law(rows: LawRows, n_boot: int = 100, seed: int = 0) -> Law:
     terms = {}
     for k, (val, unit) in _terms(fit, rows.unit).items():
         xs = np.array([d[k] for d in draws if k in d and np.isfinite(d[k])])
-        ci = tuple(float(x) for x in np.percentile(xs, [2.5, 97.5])) if xs.size >= 10 else None
+        ci = None
+        if xs.size >= 10:
+            # the draws' 2.5-97.5 % percentiles, reaching out to the estimate where the draws
+            # lie to one side of it (a grid-searched onset or limit, or few draws): widened,
+            # never narrowed, so the interval always holds its own estimate
+            lo, hi = np.percentile(xs, [2.5, 97.5])
+            ci = (float(min(lo, val)), float(max(hi, val)))
         terms[k] = (float(val), ci, unit)
     sign = int(fit["sign"])
     return Law(names=names, fit=fit, terms=terms, sign=sign, heldout_rmse=rmse,
