@@ -14,8 +14,13 @@ estimate error (median, mean, range), and how many were flagged ``unexplained``.
         [--duration 20] [--out /tmp/h22-3d/cov3d]
 
 Seeds: the rides of ``--seed S`` are those of ``blind_study.py --spatial N --seed S``.
-Seeds 3 and 4 were the tuning seeds of the lateral term (docs/spatial.md); report figures
+Seeds 3 and 4 were the tuning seeds of the lateral term (docs/spatial.md), 101–103 and
+111–113 of the rider's translation, 3 (again) of the calibration on a simulated twin
+(:mod:`euc_sim.diagnosis.lateral_calibration`); 121–123 scored it once.  Report figures
 from seeds never used for a choice.
+
+The ``lateral_dynamics`` item of a calibrated ride carries ``calibration`` (its
+uncalibrated estimate and interval): the study prints both coverages.
 """
 
 from __future__ import annotations
@@ -49,11 +54,17 @@ def score(results: list[dict]) -> dict:
                "unexplained": bool(res["unexplained"]),
                "ratio": res["augmented_rmse"] / res["noise_floor"]["rms_stacked"]
                if isinstance(res.get("noise_floor"), dict) else None}
+        row["extras"] = [e["name"] for e in res["effects"] if e["name"] != "lateral_dynamics"]
         if lat:
             e = lat[0]
             row.update(estimate=e["estimate"], ci95=e["ci95"],
                        covered=bool(e["ci95"][0] <= c["value"] <= e["ci95"][1]),
-                       error=(e["estimate"] - c["value"]) / c["value"])
+                       error=(e["estimate"] - c["value"]) / c["value"], calibrated="calibration" in e,
+                       halfwidths=[e["ci95"][0] / e["estimate"] - 1, e["ci95"][1] / e["estimate"] - 1])
+            if "calibration" in e:      # the uncalibrated interval, for comparison
+                u = e["calibration"]
+                row.update(uncalibrated_error=(u["uncalibrated_estimate"] - c["value"]) / c["value"],
+                           uncalibrated_covered=bool(u["uncalibrated_ci95"][0] <= c["value"] <= u["uncalibrated_ci95"][1]))
         rows.append(row)
     ok = [r for r in rows if "estimate" in r]
     err = np.array([r["error"] for r in ok]) if ok else np.zeros(0)
@@ -64,7 +75,14 @@ def score(results: list[dict]) -> dict:
             "error_median": float(np.median(err)) if ok else None,
             "error_mean": float(np.mean(err)) if ok else None,
             "error_range": [float(err.min()), float(err.max())] if ok else None,
-            "unexplained": sum(r.get("unexplained", False) for r in rows), "per_ride": rows}
+            "unexplained": sum(r.get("unexplained", False) for r in rows),
+            "calibrated": sum(r.get("calibrated", False) for r in ok),
+            "uncalibrated_covered": sum(r.get("uncalibrated_covered", False) for r in ok),
+            "halfwidth_median": [float(np.median([r["halfwidths"][i] for r in ok])) for i in (0, 1)] if ok else None,
+            "other_effects_named": sum(bool(r.get("extras")) for r in rows),
+            "per_path": {p: f"{sum(r['covered'] for r in ok if r['path'] == p)}/{sum(r['path'] == p for r in ok)}"
+                         for p in dict.fromkeys(r["path"] for r in ok)},
+            "per_ride": rows}
 
 
 def main(argv=None) -> int:
@@ -92,7 +110,13 @@ def main(argv=None) -> int:
     if s["scored"]:
         print(f"  estimate error: median {100 * s['error_median']:+.1f} %, mean {100 * s['error_mean']:+.1f} %, "
               f"range {100 * s['error_range'][0]:+.1f} … {100 * s['error_range'][1]:+.1f} %")
-    print(f"  unexplained flagged: {s['unexplained']}/{s['rides']}")
+        print(f"  interval half-widths (median): {100 * s['halfwidth_median'][0]:+.1f} / "
+              f"{100 * s['halfwidth_median'][1]:+.1f} %; per path covered: "
+              + ", ".join(f"{p} {v}" for p, v in s["per_path"].items()))
+        print(f"  calibrated on a simulated twin: {s['calibrated']}/{s['scored']} "
+              f"(the uncalibrated interval would cover {s['uncalibrated_covered']})")
+    print(f"  unexplained flagged: {s['unexplained']}/{s['rides']}; rides naming another effect beside "
+          f"lateral_dynamics: {s['other_effects_named']}")
     print(f"  {s['seconds']:.0f} s wall, {args.workers} workers")
     return 0
 
