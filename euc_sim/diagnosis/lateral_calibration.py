@@ -18,8 +18,8 @@ pipeline, and a simulation measures it on the ride itself:
    :func:`euc_sim.simulation.effects.band_peak_tilt`) is the pipeline's gain b_k for each
    choice k the recording cannot make (the ``alternatives`` of
    :func:`euc_sim.diagnosis.estimates.coupling_of`); the recording's estimate of each choice
-   is divided by its own gain (:func:`calibrate_item`).  The interval is the envelope of the
-   calibrated choices times √ of the coupling's 95 % interval, as before the calibration.
+   is divided by its own gain (:func:`calibrate_item`).  The interval adds the calibrated
+   choices' reach and the coupling's 95 % interval in quadrature.
 
 The twin also says how much structure the catalogued term leaves on a ride of the spatial
 model itself (its held-out RMSE): the model's floor, which :func:`model_floor` adds to the
@@ -137,10 +137,14 @@ def calibrate_item(item: dict, twin: dict, truth: float) -> dict | None:
     -----
     Choice k estimates a_k √s (a_k rad per √s); the twin's gain is
     b_k = a_k,twin √s_twin / truth_twin and the calibrated choice c_k = a_k / b_k.  The
-    estimate is c_first √s, the interval [min_k c_k √s_lo, max_k c_k √s_hi].
+    estimate is ĉ = c_first √s.  The interval adds, each way, the choices' relative reach
+    (1 − min_k c_k / c_first, max_k c_k / c_first − 1) and the coupling interval's
+    (1 − √(s_lo / s), √(s_hi / s) − 1) in quadrature: the two are independent errors.
+    Their product, the uncalibrated interval's rule, held the truth on 56 of 56 tuning rides
+    (seeds 3 and 101, issue 22), more than 95 %; in quadrature 62 of 64 (docs/coverage.md).
     """
     cp, ct = item["coupling"], twin["coupling"]
-    if ct["s"] <= 0 or truth <= 0:
+    if ct["s"] <= 0 or cp["s"] <= 0 or truth <= 0:
         return None
     keys = [k for k in cp["alternatives"] if k in ct["alternatives"] and ct["alternatives"][k] > 0]
     if not keys:
@@ -148,10 +152,14 @@ def calibrate_item(item: dict, twin: dict, truth: float) -> dict | None:
     gain = {k: ct["alternatives"][k] * math.sqrt(ct["s"]) / truth for k in keys}
     cal = {k: cp["alternatives"][k] / gain[k] for k in keys}
     first = keys[0]
-    lo, hi = cp["s_ci95"]
+    s, (lo, hi) = cp["s"], cp["s_ci95"]
+    est = cal[first] * math.sqrt(s)
+    # relative reach of the choices (calibrated) and of the coupling's interval, each way
+    env = (1.0 - min(cal.values()) / cal[first], max(cal.values()) / cal[first] - 1.0)
+    samp = (1.0 - math.sqrt(lo / s), math.sqrt(hi / s) - 1.0)
     out = dict(item)
-    out["estimate"] = cal[first] * math.sqrt(max(cp["s"], 0.0))
-    out["ci95"] = [min(cal.values()) * math.sqrt(lo), max(cal.values()) * math.sqrt(hi)]
+    out["estimate"] = est
+    out["ci95"] = [est * (1.0 - math.hypot(env[0], samp[0])), est * (1.0 + math.hypot(env[1], samp[1]))]
     out["calibration"] = {
         "uncalibrated_estimate": item["estimate"], "uncalibrated_ci95": list(item["ci95"]),
         "twin_estimate": twin["estimate"], "twin_truth": truth, "gain": gain,

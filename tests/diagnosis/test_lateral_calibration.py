@@ -24,8 +24,11 @@ def test_a_twin_reading_every_choice_10_percent_low_lifts_the_estimate_and_inter
     truth = 0.08
     twin = _item(0.64, 0.6, 0.7, {k: 0.9 * truth / math.sqrt(0.64) for k in alts})   # each reads 0.9 × truth
     out = calibrate_item(rec, twin, truth)
-    assert out["estimate"] == pytest.approx(rec["estimate"] / 0.9)
-    assert out["ci95"] == pytest.approx([c / 0.9 for c in rec["ci95"]])
+    est = rec["estimate"] / 0.9
+    assert out["estimate"] == pytest.approx(est)
+    # the choices' reach (−5 %, +5 %) and the coupling's (√(0.72/0.81), √(0.90/0.81)) in quadrature
+    assert out["ci95"] == pytest.approx([est * (1 - math.hypot(0.05, 1 - math.sqrt(0.72 / 0.81))),
+                                         est * (1 + math.hypot(0.05, math.sqrt(0.90 / 0.81) - 1))])
     cal = out["calibration"]
     assert cal["uncalibrated_estimate"] == rec["estimate"] and cal["uncalibrated_ci95"] == rec["ci95"]
     assert all(g == pytest.approx(0.9) for g in cal["gain"].values())
@@ -41,12 +44,12 @@ def test_choices_whose_spread_the_twin_shows_too_collapse_onto_the_column():
     assert out["ci95"] == pytest.approx([0.10 * math.sqrt(0.72), 0.10 * math.sqrt(0.90)])
 
 
-def test_choices_the_twin_reads_alike_keep_their_spread_and_a_dead_twin_calibrates_nothing():
+def test_choices_the_twin_reads_alike_keep_their_reach_and_a_dead_twin_calibrates_nothing():
     rec = _item(1.0, 0.9, 1.1, {"a": 0.10, "b": 0.12})
     twin = _item(1.0, 0.9, 1.1, {"a": 0.05, "b": 0.05})        # both choices read its truth
     out = calibrate_item(rec, twin, 0.05)
     assert out["estimate"] == pytest.approx(0.10)
-    assert out["ci95"] == pytest.approx([0.10 * math.sqrt(0.9), 0.12 * math.sqrt(1.1)])
+    assert out["ci95"] == pytest.approx([0.10 * math.sqrt(0.9), 0.10 * (1 + math.hypot(0.2, math.sqrt(1.1) - 1))])
     assert calibrate_item(rec, _item(0.0, 0.0, 0.1, {"a": 0.05}), 0.05) is None
     assert calibrate_item(rec, _item(1.0, 0.9, 1.1, {"c": 0.05}), 0.05) is None     # no common choice
 
