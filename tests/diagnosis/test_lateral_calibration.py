@@ -81,3 +81,27 @@ def test_what_the_twin_names_beside_the_lateral_term_is_not_named_on_the_recordi
     assert decision["effects"] == [lat, drag] and decision["tentative"] == [mass]
     assert "rider_mass (twin 68.3)" in decision["notes"][0]
     assert twin_artifacts(decision, {"names": {"lateral_dynamics": 0.1}}) == []
+
+
+def test_a_noise_free_circle_is_calibrated_onto_its_truth_by_its_twin(tmp_path):
+    """An 8 s circle without motor or sensor noise: its twin rides the same plan, so the
+    calibration must take the recording's loss (measured −2.2 % uncalibrated) off the estimate."""
+    import json
+    import warnings
+
+    from euc_sim.diagnosis.pipeline import diagnose
+    from euc_sim.simulation.spatial import write_spatial
+
+    path = write_spatial(tmp_path / "c.csv", "circle", 8.0, seed=1, noise="none", rider_noise=0.0,
+                         speed=2.0, radius=4.0)
+    truth = json.loads((tmp_path / "c.truth.json").read_text())["peak_tilt_rad"]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = diagnose(path, resimulate=False)
+    lc = res["lateral_calibration"]
+    assert lc["done"] and lc["plan"] == {"path": "circle", "speed": 2.0, "radius": 4.0, "from": "sidecar"}
+    item = next(e for e in res["effects"] if e["name"] == "lateral_dynamics")
+    assert item["calibration"]["uncalibrated_estimate"] < 0.99 * truth           # the recording's loss
+    assert item["estimate"] == pytest.approx(truth, rel=0.005)
+    assert item["ci95"][0] <= truth <= item["ci95"][1]
+    assert not res["unexplained"] and lc["unexplained_floor"] > res["noise_floor"]
