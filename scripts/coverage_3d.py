@@ -12,6 +12,7 @@ estimate error (median, mean, range), and how many were flagged ``unexplained``.
 
     python scripts/coverage_3d.py --rides 40 --seed 101 [--noise paper|none] [--workers 2]
         [--duration 20] [--out /tmp/h22-3d/cov3d]
+    python scripts/coverage_3d.py --planar --rides 10 --seed 7     # the planar lateral cases
 
 Seeds: the rides of ``--seed S`` are those of ``blind_study.py --spatial N --seed S``.
 Seeds 3 and 4 were the tuning seeds of the lateral term (docs/spatial.md), 101–103 and
@@ -85,6 +86,24 @@ def score(results: list[dict]) -> dict:
             "per_ride": rows}
 
 
+def planar_check(args, bs) -> int:
+    """The planar ``lateral_dynamics`` cases (and 4 nulls) of ``blind_study.plan(seed, rides, 4, 0, 0, duration)``."""
+    t0 = time.perf_counter()
+    cases = bs.plan(args.seed, args.rides, 4, 0, 0, args.duration)
+    cases = [c for c in cases if c["effect"] == "lateral_dynamics" and c["kind"] == "effect"] + \
+            [c for c in cases if c["kind"] == "null"]
+    results = bs.run(cases, args.out / f"planar{args.seed}", args.workers, progress=lambda s: None)
+    s = score([r for r in results if r["case"]["kind"] == "effect"])
+    nulls = [r for r in results if r["case"]["kind"] == "null"]
+    named = sum(bool(r.get("result", {}).get("effects")) for r in nulls)
+    err = [abs(r["error"]) for r in s["per_ride"] if "estimate" in r]
+    print(f"planar lateral_dynamics cases, seed {args.seed}: {s['rides']}, named first {s['named_first']}, "
+          f"interval covers the truth {s['covered']}/{s['scored']}, median |error| "
+          f"{100 * float(np.median(err)) if err else float('nan'):.1f} %, calibrated {s['calibrated']}; "
+          f"nulls naming anything {named}/{len(nulls)}; {time.perf_counter() - t0:.0f} s wall")
+    return 0
+
+
 def main(argv=None) -> int:
     import blind_study as bs
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -94,7 +113,12 @@ def main(argv=None) -> int:
     ap.add_argument("--noise", choices=("paper", "none"), default="paper", help="measurement noise")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("/tmp/h22-3d/cov3d"))
+    ap.add_argument("--planar", action="store_true",
+                    help="instead: the planar blind study's lateral_dynamics cases of plan(SEED, RIDES, 4 nulls), "
+                         "which no twin calibrates (a check that they do not move)")
     args = ap.parse_args(argv)
+    if args.planar:
+        return planar_check(args, bs)
     t0 = time.perf_counter()
     out = args.out / f"seed{args.seed}-{args.noise}"
     cases = bs.plan_spatial(args.seed, args.rides, max(args.duration, 20.0))
