@@ -24,7 +24,7 @@ pipeline, and a simulation measures it on the ride itself:
 The twin also says how much structure the catalogued term leaves on a ride of the spatial
 model itself (its held-out RMSE): the model's floor, which :func:`model_floor` adds to the
 noise floor of the ``unexplained`` test (on a noise-free recording the noise floor is the
-interpolation's own ~1e-4 N·m, and every ride was flagged for the term's approximation),
+interpolation's own 5–7·10⁻⁵ N·m, and every ride was flagged for the term's approximation),
 and what the twin's diagnosis names beside the lateral term is not named on the recording
 (:func:`twin_artifacts`).
 """
