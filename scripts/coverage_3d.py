@@ -12,10 +12,16 @@ estimate error (median, mean, range), and how many were flagged ``unexplained``.
 
     python scripts/coverage_3d.py --rides 40 --seed 101 [--noise paper|none] [--workers 2]
         [--duration 20] [--out /tmp/h22-3d/cov3d]
+    python scripts/coverage_3d.py --planar --rides 10 --seed 7     # the planar lateral cases
 
 Seeds: the rides of ``--seed S`` are those of ``blind_study.py --spatial N --seed S``.
-Seeds 3 and 4 were the tuning seeds of the lateral term (docs/spatial.md); report figures
+Seeds 3 and 4 were the tuning seeds of the lateral term (docs/spatial.md), 101–103 and
+111–113 of the rider's translation, 3 (again) of the calibration on a simulated twin
+(:mod:`euc_sim.diagnosis.lateral_calibration`); 121–123 scored it once.  Report figures
 from seeds never used for a choice.
+
+The ``lateral_dynamics`` item of a calibrated ride carries ``calibration`` (its
+uncalibrated estimate and interval): the study prints both coverages.
 """
 
 from __future__ import annotations
@@ -49,11 +55,17 @@ def score(results: list[dict]) -> dict:
                "unexplained": bool(res["unexplained"]),
                "ratio": res["augmented_rmse"] / res["noise_floor"]["rms_stacked"]
                if isinstance(res.get("noise_floor"), dict) else None}
+        row["extras"] = [e["name"] for e in res["effects"] if e["name"] != "lateral_dynamics"]
         if lat:
             e = lat[0]
             row.update(estimate=e["estimate"], ci95=e["ci95"],
                        covered=bool(e["ci95"][0] <= c["value"] <= e["ci95"][1]),
-                       error=(e["estimate"] - c["value"]) / c["value"])
+                       error=(e["estimate"] - c["value"]) / c["value"], calibrated="calibration" in e,
+                       halfwidths=[e["ci95"][0] / e["estimate"] - 1, e["ci95"][1] / e["estimate"] - 1])
+            if "calibration" in e:      # the uncalibrated interval, for comparison
+                u = e["calibration"]
+                row.update(uncalibrated_error=(u["uncalibrated_estimate"] - c["value"]) / c["value"],
+                           uncalibrated_covered=bool(u["uncalibrated_ci95"][0] <= c["value"] <= u["uncalibrated_ci95"][1]))
         rows.append(row)
     ok = [r for r in rows if "estimate" in r]
     err = np.array([r["error"] for r in ok]) if ok else np.zeros(0)
@@ -64,7 +76,32 @@ def score(results: list[dict]) -> dict:
             "error_median": float(np.median(err)) if ok else None,
             "error_mean": float(np.mean(err)) if ok else None,
             "error_range": [float(err.min()), float(err.max())] if ok else None,
-            "unexplained": sum(r.get("unexplained", False) for r in rows), "per_ride": rows}
+            "unexplained": sum(r.get("unexplained", False) for r in rows),
+            "calibrated": sum(r.get("calibrated", False) for r in ok),
+            "uncalibrated_covered": sum(r.get("uncalibrated_covered", False) for r in ok),
+            "halfwidth_median": [float(np.median([r["halfwidths"][i] for r in ok])) for i in (0, 1)] if ok else None,
+            "other_effects_named": sum(bool(r.get("extras")) for r in rows),
+            "per_path": {p: f"{sum(r['covered'] for r in ok if r['path'] == p)}/{sum(r['path'] == p for r in ok)}"
+                         for p in dict.fromkeys(r["path"] for r in ok)},
+            "per_ride": rows}
+
+
+def planar_check(args, bs) -> int:
+    """The planar ``lateral_dynamics`` cases (and 4 nulls) of ``blind_study.plan(seed, rides, 4, 0, 0, duration)``."""
+    t0 = time.perf_counter()
+    cases = bs.plan(args.seed, args.rides, 4, 0, 0, args.duration)
+    cases = [c for c in cases if c["effect"] == "lateral_dynamics" and c["kind"] == "effect"] + \
+            [c for c in cases if c["kind"] == "null"]
+    results = bs.run(cases, args.out / f"planar{args.seed}", args.workers, progress=lambda s: None)
+    s = score([r for r in results if r["case"]["kind"] == "effect"])
+    nulls = [r for r in results if r["case"]["kind"] == "null"]
+    named = sum(bool(r.get("result", {}).get("effects")) for r in nulls)
+    err = [abs(r["error"]) for r in s["per_ride"] if "estimate" in r]
+    print(f"planar lateral_dynamics cases, seed {args.seed}: {s['rides']}, named first {s['named_first']}, "
+          f"interval covers the truth {s['covered']}/{s['scored']}, median |error| "
+          f"{100 * float(np.median(err)) if err else float('nan'):.1f} %, calibrated {s['calibrated']}; "
+          f"nulls naming anything {named}/{len(nulls)}; {time.perf_counter() - t0:.0f} s wall")
+    return 0
 
 
 def main(argv=None) -> int:
@@ -76,7 +113,12 @@ def main(argv=None) -> int:
     ap.add_argument("--noise", choices=("paper", "none"), default="paper", help="measurement noise")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("/tmp/h22-3d/cov3d"))
+    ap.add_argument("--planar", action="store_true",
+                    help="instead: the planar blind study's lateral_dynamics cases of plan(SEED, RIDES, 4 nulls), "
+                         "which no twin calibrates (a check that they do not move)")
     args = ap.parse_args(argv)
+    if args.planar:
+        return planar_check(args, bs)
     t0 = time.perf_counter()
     out = args.out / f"seed{args.seed}-{args.noise}"
     cases = bs.plan_spatial(args.seed, args.rides, max(args.duration, 20.0))
@@ -92,7 +134,13 @@ def main(argv=None) -> int:
     if s["scored"]:
         print(f"  estimate error: median {100 * s['error_median']:+.1f} %, mean {100 * s['error_mean']:+.1f} %, "
               f"range {100 * s['error_range'][0]:+.1f} … {100 * s['error_range'][1]:+.1f} %")
-    print(f"  unexplained flagged: {s['unexplained']}/{s['rides']}")
+        print(f"  interval half-widths (median): {100 * s['halfwidth_median'][0]:+.1f} / "
+              f"{100 * s['halfwidth_median'][1]:+.1f} %; per path covered: "
+              + ", ".join(f"{p} {v}" for p, v in s["per_path"].items()))
+        print(f"  calibrated on a simulated twin: {s['calibrated']}/{s['scored']} "
+              f"(the uncalibrated interval would cover {s['uncalibrated_covered']})")
+    print(f"  unexplained flagged: {s['unexplained']}/{s['rides']}; rides naming another effect beside "
+          f"lateral_dynamics: {s['other_effects_named']}")
     print(f"  {s['seconds']:.0f} s wall, {args.workers} workers")
     return 0
 

@@ -28,7 +28,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")          # repaired gaps are reported by the reader
         result = diagnosis.diagnose(args.recording, params=params,
-                                    resimulate=not args.no_resimulate,
+                                    resimulate=not args.no_resimulate, calibrate=not args.no_calibrate,
                                     progress=None if args.quiet else (lambda s: say(f"diagnose: {s} ...")))
     if args.report:      # the report first: a failing report leaves no JSON behind
         page = write_report(result, args.report)
@@ -58,6 +58,8 @@ def add_commands(sub) -> None:
                    help="nominal parameter (default: the sidecar's, else Table 3; h is identified)")
     p.add_argument("--no-resimulate", action="store_true",
                    help="skip re-simulating the maneuver with the accepted effects")
+    p.add_argument("--no-calibrate", action="store_true",
+                   help="on a 3-D ride, skip calibrating lateral_dynamics on a simulated twin of the ride")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr (shown by default)")
     p.add_argument("--verbose", action="store_true", help=argparse.SUPPRESS)   # progress is the default now
     p.set_defaults(func=_cmd_diagnose)

@@ -183,8 +183,9 @@ def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: 
     psi = np.unwrap(df["psi"].to_numpy(float))
     tilts = [df["theta"].to_numpy(float), marker_tilt(df, psi)]
     peaks = [effects.band_peak_tilt(th, dt, LATERAL_WINDOW) for th in tilts if th is not None]
-    gains = [1.0]
+    gains, labels = [1.0], ["column"]
     for w in (LATERAL_WINDOW / 2, LATERAL_WINDOW * 2):
+        labels.append(f"window {w:g} s")
         alt = replace(prep, lateral=lateral_inputs(df, prep.kin.q[:, 1], p.l0, dt, w, q=prep.kin.q, R=p.R))
         kin, wh = _force_columns("lateral_dynamics", alt, p, h0)
         c_w = np.concatenate([kin, wh]) if has_w else kin
@@ -197,14 +198,20 @@ def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: 
         extra = analytic.residual_gain(ph, q[prep.keep]) * prep.filtered(analytic.moment_about_contact(ph, Q))
         c_w = col + (np.concatenate([extra, np.zeros_like(extra)]) if has_w else extra)
         gains.append(float(c_w @ col / (c_w @ c_w)))
+        labels.append("slender rider")
     if has_w:      # the kinematic row alone: the wheel row's lateral coupling is not modelled
         y = residual_model(prep, p)(h0)
         k = y.size // 2
         s_all, s_kin = float(col @ y / (col @ col)), float(col[:k] @ y[:k] / (col[:k] @ col[:k]))
         if s_all > 0:
             gains.append(s_kin / s_all)
-    scales = [np.sqrt(max(g, 0.0)) * pk for g in gains for pk in peaks]
-    return {"scale": peaks[0], "offset": 0.0, "sqrt": True, "scale_range": [float(min(scales)), float(max(scales))]}
+            labels.append("kinematic row alone")
+    # every choice as a scale of √s: ``alternatives`` for the calibration by a simulated twin
+    alternatives = {f"{g_name}, {p_name}": float(np.sqrt(max(g, 0.0)) * pk) for g_name, g in zip(labels, gains)
+                    for p_name, pk in zip(("angle channel", "C, E markers"), peaks)}
+    scales = list(alternatives.values())
+    return {"scale": peaks[0], "offset": 0.0, "sqrt": True, "scale_range": [float(min(scales)), float(max(scales))],
+            "alternatives": alternatives}
 
 
 def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bool):

@@ -13,7 +13,7 @@ from euc_sim.identification import selection as sel
 from euc_sim.model.parameters import Params
 from euc_sim.simulation import effects
 
-__all__ = ["estimate_of", "sub_cov", "is_plausible", "alias_estimates", "plausible_alias", "evidence", "effect_items",
+__all__ = ["estimate_of", "coupling_of", "sub_cov", "is_plausible", "alias_estimates", "plausible_alias", "evidence", "effect_items",
            "detection_limits", "drift_of_time"]
 
 
@@ -35,6 +35,23 @@ def estimate_of(info: dict, theta: np.ndarray, cov: np.ndarray, dof: float) -> t
     est = info["offset"] + info["scale"] * float(theta[0])
     se = abs(info["scale"]) * float(np.sqrt(max(cov[0, 0], 0.0)))
     return est, [est - q * se, est + q * se], se
+
+
+def coupling_of(info: dict, theta: np.ndarray, cov: np.ndarray, dof: float) -> dict:
+    """The lateral term's fitted coupling and what maps it to a peak tilt (an extra JSON field).
+
+    Returns
+    -------
+    dict
+        ``s`` (the coupling, 1), ``s_ci95`` (its Student-t 95 % interval, clipped at 0) and
+        ``alternatives``: rad per √s of each choice the recording cannot make
+        (``candidates._lateral_info``; the estimate is ``alternatives[first] · √s``).
+    """
+    from scipy.stats import t as student
+    q = float(student.ppf(0.975, max(dof, 1.0)))
+    s, se_s = float(theta[0]), float(np.sqrt(max(cov[0, 0], 0.0)))
+    return {"s": s, "s_ci95": [max(s - q * se_s, 0.0), max(s + q * se_s, 0.0)],
+            "alternatives": dict(info.get("alternatives", {"column": info["scale"]}))}
 
 
 def sub_cov(problem: reg.Problem, names, cov: np.ndarray, name: str) -> np.ndarray:
@@ -155,6 +172,8 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
                 "evidence": evidence(c, est, effects.get(c).unit, before, after, t_stat, aliases)}
         if fin.info[c].get("drift"):
             item.update(drift_of_time(fin.info[c], fin.fit.theta[c], C, fin.fit.h, fin.dof))
+        if fin.info[c].get("sqrt"):
+            item["coupling"] = coupling_of(fin.info[c], fin.fit.theta[c], C, fin.dof)
         swapped = alias_estimates(problem, selected, c, aliases, info, fin.dof)
         if aliases and not is_plausible(c, est, prep.params):
             swap = plausible_alias(swapped, prep.params)

@@ -31,6 +31,7 @@ from euc_sim.diagnosis.candidates import build_problem, freeze, visibility
 from euc_sim.diagnosis.common import DiagnosisError, COLUMN_H_TOL, COLUMN_ITERATIONS, H_BOUNDS, NONLINEAR, THRESHOLDS, Thresholds
 from euc_sim.diagnosis.common import h_at_bound, heldout_over_floor
 from euc_sim.diagnosis.estimates import detection_limits, effect_items
+from euc_sim.diagnosis.lateral_calibration import calibrate_item, calibrate_lateral, model_floor, twin_artifacts
 from euc_sim.diagnosis.localise import localise, signals_of
 from euc_sim.diagnosis.prepare import Prepared, prepare
 from euc_sim.diagnosis.refine import Final, final_model, refine, relinearised
@@ -51,7 +52,7 @@ RELINEARISE_TOL = {"sensor_time_offset": 0.002, "rider_mass": 0.5}
 
 def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | None = None,
              thresholds: Thresholds = THRESHOLDS, resimulate: bool = True, seed: int = 0,
-             smoothing=None, progress: Callable[[str], None] | None = None) -> dict:
+             smoothing=None, progress: Callable[[str], None] | None = None, calibrate: bool = True) -> dict:
     """Diagnose a recording: where the nominal model fails, which catalogued physics is
     missing, with estimates, intervals, aliases and the improvement.
 
@@ -75,6 +76,11 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
         The consistent recipe (default ``processing.DEFAULT_SMOOTHING``).
     progress : callable, optional
         Receives a short message at the start of each step ("1/6 prepare: ...").
+    calibrate : bool
+        Where ``lateral_dynamics`` is selected on a 3-D ride (a 3-D path in the sidecar,
+        tilt, yaw and the C, E markers recorded): calibrate its estimate and interval on a
+        simulated twin of the ride, and add the term's own remainder on the twin to the
+        floor of the ``unexplained`` test (:mod:`.lateral_calibration`).
 
     Returns
     -------
@@ -99,7 +105,12 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     problem, info, s = _select(prep, h0, n_eff, th, say)                            # 3-4 candidates, select
     say("4/6 refine: estimates and intervals")
     fin = final_model(prep, problem, info, s, say)                                  # 5 refine
-    left = leftover(fin, tuple(s.selected), floor["rms_stacked"], th)               # 6 verdict
+    twin = None
+    if calibrate and "lateral_dynamics" in s.selected:
+        say("4/6 refine: the lateral term calibrated on a simulated twin of the ride")
+        twin = calibrate_lateral(prep, fin.fit.h, diagnose)
+    floor_test = model_floor(floor["rms_stacked"], twin["heldout"]) if twin and twin["done"] else floor["rms_stacked"]
+    left = leftover(fin, tuple(s.selected), floor_test, th)                         # 6 verdict
     cv_nominal, periodic = s.cv_nominal, None
     if left["gain"] >= th.generic_gain:
         # a periodic structure no candidate explains: select again with it fitted beside
@@ -109,13 +120,20 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
         problem, info, s = _select(prep, h0, n_eff, th, say, periodic)
         fin = final_model(prep, problem, info, s, say, periodic)
     eff_out = effect_items(prep, problem, info, s, fin, n_eff, th)
+    if twin and twin["done"]:
+        eff_out = [(calibrate_item(e, twin["item"], twin["truth"]) or e) if e["name"] == "lateral_dynamics" else e
+                   for e in eff_out]
     limits = detection_limits(problem, info, s, vis, th)
     _add_blind_windows(limits, model, time, s.fit.h, floor, th)
     say("5/6 verdict: detection limits, testing what is left")
     decision = judge(eff_out, cv_nominal, fin, limits, vis, left, model.W is not None, th,
                      beside_structure=periodic is not None)
+    if twin and twin["done"]:
+        twin_artifacts(decision, twin)
     reported = _reported_model(problem, s, fin, decision)
     result = _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limits, vis, left, th)
+    if twin is not None:
+        result["lateral_calibration"] = _twin_summary(twin, floor["rms_stacked"], floor_test)
     if periodic is not None:       # held-out RMSEs of the recording itself, the structure not removed
         result["nominal_rmse"] = cv_nominal
         names = tuple(e["name"] for e in decision["effects"])
@@ -130,6 +148,16 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     # the one "× the noise floor" of the summary and the JSON, of the model reported
     result["heldout_over_floor"] = heldout_over_floor(result["augmented_rmse"], result["noise_floor"])
     return result
+
+
+def _twin_summary(twin: dict, noise_floor: float, floor_test: float) -> dict:
+    """``lateral_calibration`` of the JSON: the twin's plan, truth, estimate and remainder,
+    and the floor the ``unexplained`` test used (N·m); or why there is no twin."""
+    if not twin["done"]:
+        return {"done": False, "reason": twin["reason"], "plan": twin.get("plan")}
+    return {"done": True, "plan": twin["plan"], "twin_truth": twin["truth"], "twin_estimate": twin["item"]["estimate"],
+            "twin_h": twin["h"], "twin_heldout_rmse": twin["heldout"], "noise_floor": noise_floor,
+            "unexplained_floor": floor_test}
 
 
 def _stacked_time(prep: Prepared, model: ResidualModel) -> np.ndarray:

@@ -74,6 +74,7 @@ def summary(result: dict) -> str:
         lines.append(f"  UNEXPLAINED: structure is left that no catalogued effect explains ({_unexplained_why(r)})")
     if found or r["unexplained"]:
         lines += _where(r)
+    lines += _calibration_lines(r)
     for n, why in r.get("cannot_see", {}).items():
         lines.append(f"  cannot see: {n}: {why}")
     for n in r["notes"]:
@@ -87,12 +88,35 @@ def summary(result: dict) -> str:
     return "\n".join(lines)
 
 
+def _calibration_lines(r: dict) -> list[str]:
+    """The lateral term's calibration on a simulated twin (``lateral_calibration``), in a line or two."""
+    lc = r.get("lateral_calibration")
+    if not lc:
+        return []
+    if not lc["done"]:
+        return [f"  note: lateral_dynamics not calibrated on a simulated twin: {lc['reason']}"]
+    item = next((e for e in r["effects"] + r["tentative"] if e["name"] == "lateral_dynamics"), None)
+    plan = lc["plan"]
+    where = f"{plan['path']} at {plan['speed']:.2f} m/s" + (f", radius {plan['radius']:.2f} m" if plan["radius"] else "")
+    out = [f"  calibrated: lateral_dynamics on a simulated twin of the ride ({where}, from the {plan['from']}): "
+           f"the twin reads {lc['twin_estimate']:.4g} rad of its {lc['twin_truth']:.4g} rad"]
+    if item and "calibration" in item:
+        c = item["calibration"]
+        out[0] += (f"; uncalibrated {c['uncalibrated_estimate']:.4g} rad (95% CI {c['uncalibrated_ci95'][0]:.4g}…"
+                   f"{c['uncalibrated_ci95'][1]:.4g})")
+    return out
+
+
 def _floor_ratio_text(r: dict) -> str:
     """The ``unexplained`` test's held-out RMSE over the noise floor, named: it counts the
-    tentative effects too, so it differs from ``heldout_over_floor`` when there are any."""
+    tentative effects too, so it differs from ``heldout_over_floor`` when there are any.
+    On a calibrated 3-D ride the floor also holds the lateral term's remainder on its twin."""
     whose = ("with every selected effect, the tentative ones too" if r.get("tentative")
              else "with the accepted effects")
-    return f"held-out RMSE over the noise floor {r['generic']['floor_ratio']:.1f}× {whose}"
+    lc = r.get("lateral_calibration") or {}
+    floor = ("the noise floor and the lateral term's remainder on its simulated twin" if lc.get("done")
+             else "the noise floor")
+    return f"held-out RMSE over {floor} {r['generic']['floor_ratio']:.1f}× {whose}"
 
 
 def _unexplained_why(r: dict) -> str:

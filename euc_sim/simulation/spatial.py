@@ -451,6 +451,10 @@ def write_spatial(out, path: str, duration: float, *, params: Params = TABLE3, s
     meta = {
         "params": {k: v for k, v in params.as_dict().items() if k != "h"},
         "maneuver": path,
+        # the plan the rider was given (as the planar sidecars' maneuver_options): what the
+        # diagnosis re-simulates to calibrate the lateral term (diagnosis.lateral_calibration)
+        "maneuver_options": {"speed": float(run.attrs["speed"]),
+                             "radius": None if path in ("straight", "slalom") else float(RADIUS if radius is None else radius)},
         "source": (f"euc-sim simulate --model 3d: mjcf/euc_3d.xml, {path} at {run.attrs['speed']:g} m/s, "
                    f"{duration:g} s at 1 kHz sampled at 120 Hz, noise {noise}, seed {seed}"),
         "duration": duration, "noise": noise,
