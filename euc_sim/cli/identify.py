@@ -336,7 +336,8 @@ def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dic
 
             base = Path(args.plot)
             tag = "" if len(recs) == 1 else f"-{Path(rec.name).stem}"
-            fig = plot_rollout(rec.name, r, base.with_name(f"{base.stem}-{key}{tag}{base.suffix or '.png'}"))
+            fig = plot_rollout(rec.name, r, base.with_name(f"{base.stem}-{key}{tag}{base.suffix or '.png'}"),
+                               tool="MuJoCo" if key == "rollout" else "mujoco.sysid")
             out["figures"].append(str(fig))
     w = [1.0 / max(((r.h_ci95[1] - r.h_ci95[0]) / 3.92) ** 2, 1e-18) for r in fits]
     h = sum(wi * r.h for wi, r in zip(w, fits)) / sum(w)
