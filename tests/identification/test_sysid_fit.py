@@ -84,3 +84,39 @@ def test_cli_without_the_extra_says_so_in_one_line(monkeypatch, capsys, tmp_path
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "mujoco[sysid]" in err and "euc-sim[sysid]" in err, err
     assert set(tmp_path.rglob("*")) == before
+
+
+@needs_extra
+def test_cli_sysid_writes_its_entry_and_figure(tmp_path, capsys):
+    import json
+
+    from euc_sim.cli import main
+    from euc_sim.io import write_recording
+
+    df, _ = _rec("paper")
+    good = write_recording(df, tmp_path / "twin.csv", {"params": {"m": TABLE3.m}})
+    code = main(["identify", str(good), "--method", "sysid", "--bootstrap", "20",
+                 "--noise-replicates", "5", "--json", str(tmp_path / "o.json"),
+                 "--plot", str(tmp_path / "f.png")])
+    assert code == 0
+    out = json.loads((tmp_path / "o.json").read_text())
+    m = out["models"]["3dof"]
+    assert "rollout" not in m and m["sysid"]["windows"] == 4
+    assert m["sysid"]["h_ci95"][0] <= H_TRUE <= m["sysid"]["h_ci95"][1] and m["at_bound"] == []
+    assert (tmp_path / "f-sysid.png").is_file() and str(tmp_path / "f-sysid.png") in out["figures"]
+    assert "mujoco.sysid h = " in capsys.readouterr().out
+
+
+def test_a_really_missing_extra_is_detected(tmp_path):
+    """mujoco.sysid swallows its missing dependencies; hide absl-py and plotly for real."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    code = ("import sys; sys.modules['absl'] = None; sys.modules['plotly'] = None\n"
+            "from euc_sim.identification.sysid_fit import sysid_available\n"
+            "print(sysid_available())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path,
+                         env={"PYTHONPATH": str(root), "PATH": ""}, check=True)
+    assert out.stdout.strip() == "False", out.stderr
