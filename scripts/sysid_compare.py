@@ -11,13 +11,14 @@ ride; truth h = 0.6 m).  Each file is then identified
 - by :func:`euc_sim.identification.sysid_fit.fit_sysid` (MuJoCo's ``mujoco.sysid``,
   the same 1 s windows with free initial states; interval from its
   ``calculate_intervals``), with the model memoised by h (``--sysid-build spec``:
-  recompiled for every finite-difference column, the toolbox's default).
+  recompiled for every finite-difference column, the toolbox's default; ``plain``: the
+  toolbox's documented path with only the hook free initial states need, :func:`plain_sysid`).
 
 Prints one line per recording and method as it goes, then per method: mean and sd of
 the error, coverage of 0.6 m, mean width, mean and largest time, and how often each
 rollout h lies inside the equation-error interval.
 
-    python scripts/sysid_compare.py [--seeds 1 2 3 4 5 6] [--json F] [--sysid-build memo|spec]
+    python scripts/sysid_compare.py [--seeds 1 2 3 4 5 6] [--json F] [--sysid-build memo|spec|plain]
 
 Needs the ``mujoco[sysid]`` extra (``pip install -e '.[sysid]'``).  Times are wall
 clock of one process; report the load average beside them.
@@ -66,9 +67,67 @@ def compare(path: Path, build: str = "memo") -> dict:
     out = {"equation": {"h": eq.h, "ci": list(eq.h_ci95), "seconds": time.perf_counter() - t0}}
     ro = fit_rollout(rec.df, rec.kin, rec.params, h0=eq.h)
     out["rollout"] = {"h": ro.h, "ci": list(ro.h_ci95), "seconds": ro.seconds, "at_bound": ro.at_bound}
+    if build == "plain":
+        out["sysid"] = plain_sysid(rec, eq.h)
+        return out
     sy = fit_sysid(rec.df, rec.kin, rec.params, h0=eq.h, fast=(build == "memo"))
     out["sysid"] = {"h": sy.h, "ci": list(sy.h_ci95), "seconds": sy.seconds, "at_bound": sy.at_bound}
     return out
+
+
+def plain_sysid(rec, h0: float) -> dict:
+    """The toolbox's documented path with only the hook free initial states require.
+
+    ``build_residual_fn`` (its ``residual`` loops over the windows), one ``Parameter`` per
+    window state, the spec recompiled per column, every window rolled out for every
+    column (no memo), the default BLAS threads.  The residual is still (q_sim − q_rec)/σ
+    (``modify_residual``), so the estimator is the one of ``fit_sysid``: only the
+    engineering differs.
+    """
+    import io
+
+    import mujoco.sysid as ms
+    import numpy as np
+    from mujoco import rollout as mj_rollout
+
+    from euc_sim.identification import sysid_fit as sf
+    from euc_sim.model.mujoco_model import from_mujoco
+
+    from absl import logging as absl_logging
+    absl_logging.set_verbosity(absl_logging.ERROR)      # one warning per window otherwise
+
+    t0 = time.perf_counter()
+    prob = sf._Problem(ms, rec.df, rec.kin, rec.params, h0, 0.1, 1.5, sf.WINDOW, fast=False)
+    s0 = prob.params["window_states"].value
+    params = ms.ParameterDict()
+    params.add(prob.params["h"])
+    for w in range(prob.n_win):
+        params.add(ms.Parameter(f"s{w:02d}", s0[w], s0[w] - sf.STATE_SPAN, s0[w] + sf.STATE_SPAN))
+
+    def rollout_hook(models, datas, control_signal, initial_states, param_dicts, **kw):
+        n_chunk = len(models) // len(param_dicts)
+        ws = [prob.window_of[id(u)] for u in control_signal]
+        x0 = np.stack([prob.full_state(param_dicts[i // n_chunk][f"s{w:02d}"].value, prob.t[prob.idx[w, 0]])
+                       for i, w in enumerate(ws)])
+        state, _ = mj_rollout.rollout(list(models), datas, x0, np.stack([u.data[:-1] for u in control_signal]))
+        out = []
+        for m, u, w, st, x in zip(models, control_signal, ws, state, x0):
+            full = np.concatenate([x[None, :], st], axis=0)
+            q, _, _ = from_mujoco(prob.index, full[:, 1:1 + prob.model0.nq])
+            times = prob.t[prob.idx[w]]
+            out.append(ms.SystemTrajectory(model=m, control=u, sensordata=ms.TimeSeries(times, q),
+                                           initial_state=x, state=ms.TimeSeries(times, full)))
+        return out
+
+    fn = ms.build_residual_fn(models_sequences=[prob.seqs], custom_rollout=rollout_hook,
+                              modify_residual=prob.modify_residual, resample_true=False)
+    x_scale = np.concatenate([[sf._SCALE_H], np.tile(sf._SCALE_S, prob.n_win)])
+    opt, res = ms.optimize(params, fn, optimizer="mujoco", verbose=False, max_iters=sf.MAX_ITER,
+                           x_scale=x_scale, output=io.StringIO())
+    r_star, _, _ = fn(opt.as_vector(), opt.copy())
+    _, half = ms.calculate_intervals(r_star, np.asarray(res.jac))
+    h = float(opt["h"].value[0])
+    return {"h": h, "ci": [h - float(half[0]), h + float(half[0])], "seconds": time.perf_counter() - t0}
 
 
 def summarize(rows: list[dict]) -> dict:
@@ -97,9 +156,11 @@ def summarize(rows: list[dict]) -> dict:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3, 4, 5, 6])
-    ap.add_argument("--sysid-build", choices=("memo", "spec"), default="memo",
-                    help="memo: compiled model memoised by h (default); spec: the toolbox's "
-                         "default, the spec recompiled for every finite-difference column")
+    ap.add_argument("--sysid-build", choices=("memo", "spec", "plain"), default="memo",
+                    help="memo: fit_sysid, compiled model memoised by h (default); spec: "
+                         "fit_sysid with the toolbox's default build, the spec recompiled for "
+                         "every finite-difference column; plain: the toolbox's documented "
+                         "path with only the free-initial-state hook (plain_sysid)")
     ap.add_argument("--json", default=None, metavar="F")
     args = ap.parse_args(argv)
     from euc_sim.identification.sysid_fit import MISSING_EXTRA, sysid_available

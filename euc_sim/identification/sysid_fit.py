@@ -205,9 +205,9 @@ class _Problem:
             controls.append(ms.TimeSeries(self.t[ix], u))
             sensors.append(ms.TimeSeries(self.t[ix], self.q_rec[w]))
         self.window_of = {id(c): w for w, c in enumerate(controls)}
-        seqs = ms.ModelSequences("euc_planar", self.spec, names, init, controls, sensors,
-                                 allow_missing_sensors=True)
-        return seqs.measured_rollout
+        self.seqs = ms.ModelSequences("euc_planar", self.spec, names, init, controls, sensors,
+                                      allow_missing_sensors=True)
+        return self.seqs.measured_rollout
 
     def _build_memo(self, prm, spec) -> mujoco.MjModel:
         """``build_model`` hook: the toolbox's compile, memoised by h."""
