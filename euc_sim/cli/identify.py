@@ -142,10 +142,11 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--noise-replicates", type=int, default=None, metavar="N",
                    help="replicates with fresh measurement noise that widen the 95%% interval "
                         "(default 40; 0: the block bootstrap alone)")
-    p.add_argument("--method", choices=("equation", "rollout"), default="equation",
+    p.add_argument("--method", choices=("equation", "rollout", "sysid"), default="equation",
                    help="equation: h by the equation error of eqs. 9-10 (default); rollout: "
                         "also h by the simulation error of 1 s MuJoCo rollouts with free initial "
-                        "states, where the recordings carry M_d and M_h (3-DoF model)")
+                        "states, where the recordings carry M_d and M_h (3-DoF model); sysid: the "
+                        "same fit done by MuJoCo's mujoco.sysid (needs the euc-sim[sysid] extra)")
     add_smoothing_arguments(p)
     p.set_defaults(func=cmd_identify)
     return p
@@ -190,6 +191,11 @@ def cmd_identify(args: argparse.Namespace) -> int:
         raise UsageError(f"need 0 < --h-min < --h-max, got {args.h_min} and {args.h_max}")
     _check_option("--h-min", "h", args.h_min)
     _check_option("--h-max", "h", args.h_max)
+    if args.method == "sysid":
+        from euc_sim.identification.sysid_fit import MISSING_EXTRA, sysid_available
+
+        if not sysid_available():
+            raise UsageError(MISSING_EXTRA)
     names = [str(r) for r in args.recordings]
     if len(set(names)) != len(names):
         raise UsageError("a recording is given twice")
@@ -219,11 +225,11 @@ def cmd_identify(args: argparse.Namespace) -> int:
         "figures": figures,
         "at_bound": [key for key, _ in bound_hits],
     }
-    if args.method == "rollout":
+    if args.method in ("rollout", "sysid"):
         _rollout(args, recs, per, pooled, per_json, out)
         for prefix, entry in [(f"per_recording[{i}].", e) for i, e in enumerate(per_json)] + [("", out)]:
             out["at_bound"] += [f"{prefix}models.3dof.{q}" for q in entry["models"]["3dof"]["at_bound"]
-                                if q.startswith("rollout.")]
+                                if q.startswith(f"{args.method}.")]
     _print_results(names, recs, per, pooled, per_json, controller, riders)
     for sentence in dict.fromkeys(s for _, s in bound_hits):
         print(f"WARNING: {sentence}")
@@ -296,35 +302,42 @@ def _at_bound(names: list[str], per: list[dict], pooled: dict, riders: list) -> 
 
 
 def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dict], out: dict) -> None:
-    """``--method rollout``: h by simulation error per recording, pooled by inverse variance;
-    added to the 3-DoF entries of the JSON, printed, and (with ``--plot``) drawn."""
+    """``--method rollout`` / ``sysid``: h by simulation error per recording (our rollout or
+    ``mujoco.sysid``), pooled by inverse variance; added to the 3-DoF entries of the JSON
+    under the method's name, printed, and (with ``--plot``) drawn."""
     import math
 
     from euc_sim.cli.common import UsageError
     from euc_sim.identification.rollout_fit import fit_rollout
+    from euc_sim.identification.sysid_fit import fit_sysid
+
+    key = args.method
+    fit = fit_rollout if key == "rollout" else fit_sysid
+    label = "rollout" if key == "rollout" else "mujoco.sysid"
 
     for rec in recs:
         missing = [c for c in ("M_d", "M_h", "x", "gamma", "phi") if c not in rec.df.columns]
         if missing:
-            raise UsageError(f"{rec.name}: --method rollout needs column {missing[0]!r} "
+            raise UsageError(f"{rec.name}: --method {key} needs column {missing[0]!r} "
                              f"(both recorded torques M_d, M_h and the states x, gamma, phi)")
     fits = []
     for rec, f, entry in zip(recs, per, per_json):
-        r = fit_rollout(rec.df, rec.kin, rec.params, h0=f["3dof"].h, bounds=(args.h_min, args.h_max))
+        r = fit(rec.df, rec.kin, rec.params, h0=f["3dof"].h, bounds=(args.h_min, args.h_max))
         fits.append(r)
         m = entry["models"]["3dof"]
-        m["rollout"] = r.as_json()
-        m.setdefault("at_bound", []).extend(f"rollout.{q}" for q in r.at_bound)
+        m[key] = r.as_json()
+        m.setdefault("at_bound", []).extend(f"{key}.{q}" for q in r.at_bound)
         warn = f"  WARNING: h ends on its search bound [{args.h_min}, {args.h_max}] m" if r.at_bound else ""
-        print(f"{Path(rec.name).name}: rollout h = {r.h:.4f} m [{r.h_ci95[0]:.4f}, {r.h_ci95[1]:.4f}] "
+        print(f"{Path(rec.name).name}: {label} h = {r.h:.4f} m [{r.h_ci95[0]:.4f}, {r.h_ci95[1]:.4f}] "
               f"({r.windows} windows of 1 s, {r.seconds:.1f} s; largest |correlation| of h with a "
-              f"window state {m['rollout']['max_abs_correlation_h']:.2f}){warn}")
+              f"window state {m[key]['max_abs_correlation_h']:.2f}){warn}")
         if args.plot:
             from euc_sim.identification.plots import plot_rollout
 
             base = Path(args.plot)
             tag = "" if len(recs) == 1 else f"-{Path(rec.name).stem}"
-            fig = plot_rollout(rec.name, r, base.with_name(f"{base.stem}-rollout{tag}{base.suffix or '.png'}"))
+            fig = plot_rollout(rec.name, r, base.with_name(f"{base.stem}-{key}{tag}{base.suffix or '.png'}"),
+                               tool="MuJoCo" if key == "rollout" else "mujoco.sysid")
             out["figures"].append(str(fig))
     w = [1.0 / max(((r.h_ci95[1] - r.h_ci95[0]) / 3.92) ** 2, 1e-18) for r in fits]
     h = sum(wi * r.h for wi, r in zip(w, fits)) / sum(w)
@@ -333,8 +346,8 @@ def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dic
                    "seconds": sum(r.seconds for r in fits), "windows": sum(r.windows for r in fits),
                    "at_bound": sorted({q for r in fits for q in r.at_bound})}
     m = out["models"]["3dof"]
-    m["rollout"] = pooled_json
-    m.setdefault("at_bound", []).extend(f"rollout.{q}" for q in pooled_json["at_bound"])
+    m[key] = pooled_json
+    m.setdefault("at_bound", []).extend(f"{key}.{q}" for q in pooled_json["at_bound"])
 
 
 def _print_results(names: list[str], recs: list, per: list[dict], pooled: dict, per_json: list[dict],

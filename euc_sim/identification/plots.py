@@ -203,13 +203,14 @@ def plain_log_ticks(axis, ticks=None) -> None:
         axis.set_minor_locator(NullLocator())
 
 
-def plot_rollout(name: str, fit, path) -> Path:
+def plot_rollout(name: str, fit, path, tool: str = "MuJoCo") -> Path:
     """Write :func:`rollout_figure` to ``path`` (atomically)."""
-    return save_figure(rollout_figure(name, fit), path)
+    return save_figure(rollout_figure(name, fit, tool), path)
 
 
-def rollout_figure(name: str, fit):
-    """The rollout fit of h (:mod:`euc_sim.identification.rollout_fit`): each window's
+def rollout_figure(name: str, fit, tool: str = "MuJoCo"):
+    """The rollout fit of h (:mod:`euc_sim.identification.rollout_fit`, or
+    :mod:`~euc_sim.identification.sysid_fit` with ``tool="mujoco.sysid"``): each window's
     rollout over the recorded γ and φ, and the parameter correlation matrix.
 
     Returns
@@ -242,5 +243,5 @@ def rollout_figure(name: str, fit):
     ax.set_ylabel("parameter index")
     fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04, label="correlation")
     fig.legend(loc="outside lower center", ncol=2, fontsize=8)
-    fig.suptitle("Rollout fit of h: MuJoCo over 1 s windows with free initial states")
+    fig.suptitle(f"Rollout fit of h: {tool} over 1 s windows with free initial states")
     return fig

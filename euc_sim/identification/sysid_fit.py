@@ -1,0 +1,272 @@
+"""h by simulation error with MuJoCo's own toolbox, ``mujoco.sysid`` (issue 22, item 3).
+
+The same problem as :mod:`euc_sim.identification.rollout_fit` (1 s windows, each with
+a free initial state (x, γ, φ, ẋ, γ̇, φ̇), residual Σ((q_sim − q_rec)/σ)² over x, γ, φ),
+posed in the toolbox's terms so that the two can be compared on the same recordings:
+
+- ``h`` is a :class:`mujoco.sysid.Parameter` whose modifier writes the rider's centre
+  of mass (``body("rider").ipos``) into the :class:`mujoco.MjSpec`; each window's state
+  is a 6-vector ``Parameter`` without a modifier.
+- each window is one measured sequence of a :class:`mujoco.sysid.ModelSequences`
+  (controls M_d, M_h; "sensor" data the recorded x, γ, φ);
+- :func:`mujoco.sysid.optimize` (its ``mujoco`` backend, :func:`mujoco.minimize.least_squares`)
+  minimises the residual of :func:`mujoco.sysid.build_residual_fn`;
+- the interval is :func:`mujoco.sysid.calculate_intervals` on the returned Jacobian.
+
+Three hooks were needed (the toolbox's own extension points):
+
+- ``custom_rollout``: the toolbox starts every sequence from its recorded initial
+  state; free initial states (multiple shooting) must come from the parameters.
+  The hook also memoises each window's rollout by (h, window state), so a
+  finite-difference column that moves one window's state re-runs that window only.
+- ``modify_residual``: the default residual divides each window's error by the norm of
+  that window's data (``normalize_residual``), not by the measurement noise, so x
+  (metres travelled) weighs almost nothing beside γ; the hook returns (q_sim − q_rec)/σ.
+- ``build_model``: the default recompiles the spec for every finite-difference column
+  of every window; the hook memoises the compiled model by h (``fast=True``).
+
+The torques enter as the mean of consecutive samples held over each step (the toolbox
+holds a control constant over a step), as the linear interpolation of
+:mod:`~euc_sim.identification.rollout_fit` does with one substep.
+"""
+
+from __future__ import annotations
+
+import io
+import time
+
+import mujoco
+import numpy as np
+from mujoco import rollout as mj_rollout
+from threadpoolctl import threadpool_limits
+
+from euc_sim.identification.noise_bootstrap import split_noise
+from euc_sim.identification.processing import Kinematics, sample_period
+from euc_sim.identification.rollout_fit import BOUND_TOL, WINDOW, RolloutError, RolloutFit
+from euc_sim.model.mujoco_model import JointIndex, build_spec, from_mujoco, to_mujoco
+from euc_sim.model.parameters import Params
+
+#: Optimizer iterations at most.
+MAX_ITER = 40
+#: Half-width of each window state's search box around its starting guess
+#: (m, rad, rad, m/s, rad/s, rad/s).
+STATE_SPAN = np.array([1.0, 0.5, 0.5, 2.0, 2.0, 2.0])
+#: Per-parameter scale handed to the optimizer (``x_scale``): h, then the state.
+_SCALE_H = 1e-2
+_SCALE_S = np.array([1e-3, 1e-3, 1e-3, 1e-2, 1e-2, 1e-2])
+
+MISSING_EXTRA = ("--method sysid needs MuJoCo's system-identification toolbox: "
+                 "pip install 'euc-sim[sysid]' (the mujoco[sysid] extra)")
+
+
+def sysid_available() -> bool:
+    """Whether ``mujoco.sysid`` imports with its optional dependencies.
+
+    ``mujoco.sysid`` swallows a missing dependency (absl-py, plotly, tabulate) and then
+    exports nothing, so presence is checked by its ``optimize``.
+    """
+    try:
+        import mujoco.sysid as ms
+    except ImportError:
+        return False
+    return hasattr(ms, "optimize") and hasattr(ms, "calculate_intervals")
+
+
+def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
+              window: float = WINDOW, fast: bool = True, max_iter: int = MAX_ITER) -> RolloutFit:
+    """Identify h with ``mujoco.sysid`` over windows with free initial states.
+
+    Parameters
+    ----------
+    df : DataFrame
+        A recording with ``t, x, gamma, phi, M_d, M_h`` (state level).
+    kin : Kinematics
+        Its kinematics (the windows' starting guesses).
+    p : Params
+        Every parameter but h.
+    h0 : float
+        Starting h, m.
+    bounds : (float, float)
+        Search bounds of h, m.
+    window : float
+        Window length, s.
+    fast : bool
+        Memoise the compiled model by h (``build_model`` hook); ``False`` lets the
+        toolbox recompile the spec for every column of every window.
+    max_iter : int
+        Optimizer iterations at most.
+
+    Returns
+    -------
+    RolloutFit
+        As :func:`~euc_sim.identification.rollout_fit.fit_rollout`; ``h_ci95`` from
+        :func:`mujoco.sysid.calculate_intervals` (Student t, α = 0.05); ``nfev`` counts
+        parameter vectors evaluated.
+
+    Raises
+    ------
+    RolloutError
+        without ``M_d``, ``M_h`` or the states, shorter than one window, or without
+        the ``mujoco[sysid]`` extra.
+    """
+    if not sysid_available():
+        raise RolloutError(MISSING_EXTRA)
+    import mujoco.sysid as ms
+    from absl import logging as absl_logging
+    absl_logging.set_verbosity(absl_logging.ERROR)      # one warning per window otherwise
+
+    t0 = time.perf_counter()
+    lo, hi = map(float, bounds)
+    prob = _Problem(ms, df, kin, p, min(max(h0, lo + 1e-6), hi - 1e-6), lo, hi, window, fast)
+    x_scale = np.concatenate([[_SCALE_H], np.tile(_SCALE_S, prob.n_win)])
+    # the backend's full verbosity is what puts the end point's Jacobian in the result;
+    # one BLAS thread: on a shared machine the backend's dense JᵀJ (W·3L × (1 + 6W)) took
+    # 0.36 s per iteration with the default thread pool, 2.5 ms with one thread
+    with threadpool_limits(limits=1, user_api="blas"):
+        opt, res = ms.optimize(prob.params, prob.residual_fn, optimizer="mujoco", verbose=False,
+                               max_iters=max_iter, x_scale=x_scale, output=io.StringIO())
+        r_star, preds, _ = prob.residual_fn(opt.as_vector(), opt.copy(), return_pred_all=True)
+        cov, half = ms.calculate_intervals(r_star, np.asarray(res.jac))
+    h = float(opt["h"].value[0])
+    sd = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    corr = cov / np.outer(np.where(sd > 0, sd, 1.0), np.where(sd > 0, sd, 1.0))
+    q_fit = np.stack([pr.data for pr in preds])
+    tol = BOUND_TOL * (hi - lo)
+    at_bound = ["h"] if (h - lo < tol or hi - h < tol) else []
+    hw = float(half[0])
+    rms = np.sqrt(np.mean((q_fit - prob.q_rec) ** 2, axis=(0, 1)))
+    return RolloutFit(h=h, h_ci95=(max(lo, h - hw), min(hi, h + hw)), seconds=time.perf_counter() - t0,
+                      windows=prob.n_win, at_bound=at_bound, correlation=corr, t=prob.t[prob.idx],
+                      q_rec=prob.q_rec, q_fit=q_fit, rms=rms, nfev=prob.n_eval)
+
+
+class _Problem:
+    """The windowed fit in the toolbox's terms: its data, parameters and three hooks."""
+
+    def __init__(self, ms, df, kin: Kinematics, p: Params, h_start: float, lo: float, hi: float,
+                 window: float, fast: bool):
+        need = [c for c in ("M_d", "M_h", "x", "gamma", "phi") if c not in df.columns]
+        if need:
+            raise RolloutError(f"the sysid fit needs the recorded column {need[0]!r} "
+                               f"(both torques M_d, M_h and the states x, gamma, phi)")
+        self.ms, self.R = ms, p.R
+        t = self.t = df["t"].to_numpy(dtype=float)
+        dt = sample_period(t)
+        L = int(round(window / dt)) + 1
+        self.n_win = n_win = (len(t) - 1) // (L - 1)
+        if n_win < 1:
+            raise RolloutError(f"the recording ({t[-1] - t[0]:.2f} s) is shorter than one rollout "
+                               f"window ({window:g} s)")
+        Q = df[["x", "gamma", "phi"]].to_numpy(dtype=float)
+        self.sig = np.array([max(split_noise(Q[:, i], dt)[1], floor)
+                             for i, floor in enumerate((1e-5, 1e-4, 1e-4))])
+        starts = np.arange(n_win) * (L - 1)
+        self.idx = starts[:, None] + np.arange(L)[None, :]
+        self.q_rec = Q[self.idx]
+        self.spec = build_spec(p.replace(h=h_start), "ideal")
+        self.spec.option.timestep = dt
+        self.model0 = self.spec.compile()
+        self.index = JointIndex.of(self.model0)
+        self.nstate = mujoco.mj_stateSize(self.model0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        self.data0 = mujoco.MjData(self.model0)
+        s0 = np.concatenate([kin.q[starts], kin.qd[starts]], axis=1)
+        self.windows = self._sequences(df[["M_d", "M_h"]].to_numpy(dtype=float), s0)
+        self.params = ms.ParameterDict()
+        self.params.add(ms.Parameter("h", h_start, lo, hi, modifier=_set_h))
+        # all window states in one Parameter: the toolbox deep-copies the ParameterDict for
+        # every column of every window, and a Parameter per window made that the main cost
+        self.params.add(ms.Parameter("window_states", s0, s0 - STATE_SPAN, s0 + STATE_SPAN))
+        self.build = self._build_memo if fast else ms.apply_param_modifiers
+        self._built, self._memo, self.n_eval = {}, {}, 0
+        self._pool = [mujoco.MjData(self.model0)]
+
+    def full_state(self, s, t_start: float) -> np.ndarray:
+        """The full-physics state of paper state s (6,) at time t_start."""
+        qpos, qvel, _ = to_mujoco(self.index, self.R, s[:3], s[3:])
+        self.data0.qpos[:], self.data0.qvel[:], self.data0.time = qpos, qvel, t_start
+        out = np.empty(self.nstate)
+        mujoco.mj_getState(self.model0, self.data0, out, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+        return out
+
+    def _sequences(self, M: np.ndarray, s0: np.ndarray) -> list:
+        """One measured sequence per window (a ``ModelSequences``); the window of a
+        control series is found again by its identity."""
+        ms, L = self.ms, self.idx.shape[1]
+        act = [mujoco.mj_name2id(self.model0, mujoco.mjtObj.mjOBJ_ACTUATOR, n) for n in ("motor", "ankle")]
+        names, init, controls, sensors = [], [], [], []
+        for w, ix in enumerate(self.idx):
+            seg = M[ix]
+            u = np.zeros((L, self.model0.nu))
+            for j, a in enumerate(act):
+                u[:-1, a] = 0.5 * (seg[:-1, j] + seg[1:, j])     # the step's mean torque
+                u[-1, a] = seg[-1, j]                            # dropped by the toolbox
+            names.append(f"window{w:02d}")
+            init.append(self.full_state(s0[w], self.t[ix[0]]))
+            controls.append(ms.TimeSeries(self.t[ix], u))
+            sensors.append(ms.TimeSeries(self.t[ix], self.q_rec[w]))
+        self.window_of = {id(c): w for w, c in enumerate(controls)}
+        self.seqs = ms.ModelSequences("euc_planar", self.spec, names, init, controls, sensors,
+                                      allow_missing_sensors=True)
+        return self.seqs.measured_rollout
+
+    def _build_memo(self, prm, spec) -> mujoco.MjModel:
+        """``build_model`` hook: the toolbox's compile, memoised by h."""
+        key = round(float(prm["h"].value[0]), 12)
+        if key not in self._built:
+            if len(self._built) > 64:
+                self._built.clear()
+            self._built[key] = self.ms.apply_param_modifiers(prm, spec)
+        return self._built[key]
+
+    def custom_rollout(self, models, datas, control_signal, initial_states, param_dicts,
+                       rollout_signal_mapping, rollout_state_mapping, ctrl_mapping):
+        """``custom_rollout`` hook: each (column, window) from the window state held in the
+        parameters, memoised by (h, window state)."""
+        n_chunk = len(models) // len(param_dicts)
+        out, todo = [None] * len(models), []
+        for i, (m, u) in enumerate(zip(models, control_signal)):
+            w = self.window_of[id(u)]
+            prm = param_dicts[i // n_chunk]
+            s = prm["window_states"].value[w]
+            key = (w, float(prm["h"].value[0]), s.tobytes())
+            if key in self._memo:
+                out[i] = self._memo[key]
+            else:
+                todo.append((i, m, w, s, key, u))
+        if not todo:
+            return out
+        x0 = np.stack([self.full_state(s, self.t[self.idx[w, 0]]) for _, _, w, s, _, _ in todo])
+        state, _ = mj_rollout.rollout([m for _, m, *_ in todo], self._pool, x0,
+                                      np.stack([u.data[:-1] for *_, u in todo]))
+        if len(self._memo) > 20000:
+            self._memo.clear()
+        for (i, m, w, s, key, u), st, x in zip(todo, state, x0):
+            full = np.concatenate([x[None, :], st], axis=0)               # initial row + L−1 steps
+            q, _, _ = from_mujoco(self.index, full[:, 1:1 + self.model0.nq])
+            times = self.t[self.idx[w]]
+            out[i] = self._memo[key] = self.ms.SystemTrajectory(
+                model=m, control=u, sensordata=self.ms.TimeSeries(times, q), initial_state=x,
+                state=self.ms.TimeSeries(times, full))
+        return out
+
+    def modify_residual(self, prm, pred, meas, model, return_pred_all, state=None, **kw):
+        """``modify_residual`` hook: the error over the measurement noise, (q_sim − q_rec)/σ."""
+        return (pred.data - meas.data) / self.sig, pred, meas
+
+    def residual_fn(self, x, prm, return_pred_all=False):
+        """All windows in one call of the toolbox's ``model_residual`` (its ``residual``
+        calls it once per window: one batched rollout, one MjData, one deep copy of the
+        parameters per window and column).  It stacks a finite-difference batch
+        column-major, so the columns are put back here."""
+        self.n_eval += x.shape[1] if np.ndim(x) > 1 else 1
+        r, pred, meas = self.ms.model_residual(
+            x, prm, lambda q: self.build(q, self.spec), self.windows, self.modify_residual,
+            self.custom_rollout, 1, return_pred_all, False)
+        if np.ndim(x) > 1:                                   # (3L, n_col·W) → (W·3L, n_col)
+            r = r.T.reshape(x.shape[1], -1).T
+        return [r], pred, meas
+
+
+def _set_h(spec: mujoco.MjSpec, prm) -> None:
+    """Modifier of the ``h`` Parameter: the rider's centre of mass above the ankle, m."""
+    spec.body("rider").ipos = [0.0, 0.0, float(prm.value[0])]
