@@ -166,8 +166,8 @@ COMMAND = "    nice -n 10 python scripts/ride_simulation_table.py "
 def _row_key(line: str) -> tuple[str, str] | None:
     """(wheel, 'fit → held[ (calibrated rider)]') of a table row, None for other lines."""
     cells = [c.strip() for c in line.strip().strip("|").split("|")]
-    if not line.startswith("| ") or len(cells) < 3 or "→" not in cells[1]:
-        return None
+    if not line.startswith("| ") or len(cells) < 3 or not re.match(r"\d+ → \d+", cells[1]):
+        return None                         # not a row of a pair (the header: "fit → held out")
     return cells[0], cells[1]
 
 
