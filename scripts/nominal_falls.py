@@ -5,10 +5,11 @@
 
 The ``nominal`` step of ``euc-sim ride FIT --compare HELD`` (paper's PD 600 / 40 N·m/rad with
 MotorPD's 250 N·m limit, the default LQR rider, no effects) fell on lynx 2 -> 0 at 1,819.6 s and
-master_pro_V2 3 -> 6 at 306.1 s (docs/ride_simulation.md).  For each, this study finds the
+master_pro_V2 3 -> 6 at 306.1 s, and (in the Blitz run of 2026-11-26) blitz 2 -> 4 at 2,112.5 s
+(docs/ride_simulation.md).  For each, this study finds the
 total mass on FIT as the ride command does, takes HELD's speed profile (with the wheel-speed
 spikes the battery cannot pay for bridged, :func:`euc_sim.rides.profile.unpaid_spikes`, unless
-``--no-spikes``), and rides a window of it from a steady start 40 s before the fall
+``--no-spikes``), and rides a window of it from the trim at its first speed, 40 s before the fall
 (:func:`euc_sim.rides.tracking.simulate_profile`, no plan correction): with the paper's PD, and
 with the same PD at a 500 N·m limit (a diagnosis, not a model: nothing is chosen by it).  It
 prints, per run, whether the rider fell and the largest ankle torque M_h, motor torque M_d,
@@ -23,12 +24,14 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 DATA = ROOT.parent / "shared" / "data" / "euc_core"
-#: name -> (fit log, held-out log, spec, window start, window end), s; the window starts steady
-#: (standing still) and ends 10 s past the fall.
+#: name -> (fit log, held-out log, spec, window start, window end), s; the window starts 40 s
+#: before the fall and ends 10 s past it.
 CASES = {"lynx 2 -> 0": ("trips/leaperkim/lynx/2/2.csv", "trips/leaperkim/lynx/0/0.csv", "specs/lynx.csv",
                          1780.0, 1830.0),
          "master_pro_V2 3 -> 6": ("trips/begode/master_pro_V2/3/3.csv", "trips/begode/master_pro_V2/6/6.csv",
-                                  "specs/master_pro_V2.csv", 266.0, 316.0)}
+                                  "specs/master_pro_V2.csv", 266.0, 316.0),
+         "blitz 2 -> 4": ("trips/begode/blitz/2/2.csv", "trips/begode/blitz/4/4.csv", "specs/blitz.csv",
+                          2072.0, 2122.0)}
 
 
 def ride_window(case: tuple, data: Path, n_boot: int, spikes: bool) -> dict:
@@ -73,7 +76,7 @@ def plot(results: dict, path: Path) -> Path:
     import matplotlib.pyplot as plt
     import numpy as np
 
-    fig, axes = plt.subplots(3, len(results), figsize=(7 * len(results), 9), sharex="col")
+    fig, axes = plt.subplots(3, len(results), figsize=(6.5 * len(results), 9), sharex="col")
     axes = np.atleast_2d(axes).reshape(3, len(results))
     for c, (name, r) in enumerate(results.items()):
         t0, lg = r["t0"], r["log"]
