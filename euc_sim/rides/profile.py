@@ -30,10 +30,12 @@ PLAN_WINDOW = 6.0
 #: margin allow for power samples that miss part of the span, SPIN_GRADE for the steepest
 #: descent allowed (15 %: 1.47 m/s² with no power at all).  Set on physical grounds, not
 #: fitted, but after looking at lynx/0 (spikes at 1,813.7 s and 1,819.3 s, the held-out ride
-#: of lynx 2 -> 0) and master_pro_V2/6 (a paid acceleration at 305.4 s); a first form that
-#: compared m·a·v with twice the largest power sample of the span missed lynx/0's 1,819.3 s
-#: spike (the motor drew 2.1 kW while the wheel spun up), and the energy form replaced it.
-#: The figures of those two rides are therefore tuning figures; the other logs are the check
+#: of lynx 2 -> 0) and master_pro_V2/6 (a paid acceleration at 305.4 s).  Three forms came
+#: before this one: m·a·v against 2·P + 500 W between adjacent rows flagged 29 rises of
+#: 0.07-1.19 m/s on master_pro_V2/6, which led to the descent allowance and the 0.3 s span;
+#: that form, with the span's largest power sample, missed lynx/0's 1,819.3 s spike (the motor
+#: drew 2.1 kW while the wheel spun up), and the energy form replaced it.  The figures of
+#: those two rides are therefore tuning figures; the other logs are the check
 #: (docs/ride_falls.md).
 SPIN_POWER_FACTOR = 2.0
 SPIN_POWER_MARGIN = 500.0
