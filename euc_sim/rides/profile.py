@@ -13,7 +13,7 @@ from euc_sim.rides.signals import as_log, resample, sg
 
 __all__ = ["speed_profile", "write_speed_profile", "rider_plan", "PLAN_WINDOW", "unpaid_spikes",
            "SPIN_POWER_FACTOR", "SPIN_POWER_MARGIN", "SPIN_GRADE", "SPIN_MIN_DT",
-           "SPIN_MAX_SPAN"]
+           "SPIN_MAX_SPAN", "SPIN_BACK"]
 
 #: The rider's plan: the logged speed smoothed over this many seconds.  The logged speed
 #: holds the rider's own sway; a simulated rider told to follow it corrects every wobble
@@ -45,8 +45,13 @@ SPIN_GRADE = 0.15
 SPIN_MIN_DT = 0.3
 G = 9.81                  # m/s²
 UNKNOWN_POWER = 1e6       # W: a row without battery power pays for any rise
-#: The longest a wheel spinning free is followed down after the unpaid rise, s.
-SPIN_MAX_SPAN = 3.0
+#: The longest a wheel spinning free is followed after the top of the unpaid rise, s; it ends
+#: where its speed is back within SPIN_BACK (m/s) of where it rose from.  (The first form
+#: followed the fall only to where it stopped falling: on apex/0 at 815.8 s, a wheel spinning
+#: up 3.6 -> 33.8 m/s and holding 1.4 s, it ended on the plateau and the bridge rose to
+#: 33 m/s; found by the ``firmware`` run of ``scripts/ride_falls.py``.)
+SPIN_MAX_SPAN = 5.0
+SPIN_BACK = 0.5
 
 
 def speed_profile(log, rate: float = 10.0, window: float = 1.5, polyorder: int = 2,
@@ -127,8 +132,9 @@ def unpaid_spikes(log, total_mass: float, factor: float = SPIN_POWER_FACTOR,
     v_k and v_j): the rider and the wheel speeding up together need at least that much
     electrical energy or height, so a faster rise is the wheel spinning up unloaded (off
     the ground, or slipping).  A spike runs from the first unpaid row through the top of
-    the rise and the fall after it, to the row where the speed stops falling (at most
-    ``max_span`` s after the top).  Only rises are tested: braking has no such bound (a
+    the rise and the fall after it, to the first row where the speed is back within
+    :data:`SPIN_BACK` of where it rose from, at most
+    ``max_span`` s after the top (else the slowest row in that time).  Only rises are tested: braking has no such bound (a
     motor can brake at no battery power), so a wheel locking is not found.
 
     Parameters
@@ -172,10 +178,14 @@ def unpaid_spikes(log, total_mass: float, factor: float = SPIN_POWER_FACTOR,
             k += 1
             if unpaid[k]:
                 last = max(last, int(j[k]))
-        end = start + int(np.argmax(v[start:last + 1]))              # the top of the rise
-        t_top = t[end]
-        while end < n - 1 and v[end + 1] < v[end] and t[end + 1] - t_top <= max_span:
-            end += 1
+        top = start + int(np.argmax(v[start:last + 1]))              # the top of the rise
+        back = v[start] + SPIN_BACK
+        after = np.arange(top + 1, n)
+        after = after[t[after] - t[top] <= max_span]
+        home = after[v[after] <= back]
+        # the spike ends where the speed is back near where it rose from; a wheel that does
+        # not come back within max_span ends at its slowest row in that time
+        end = int(home[0]) if home.size else (int(after[np.argmin(v[after])]) if after.size else top)
         end = max(end, last)
         out.append((start, end))
         k = end

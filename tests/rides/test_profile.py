@@ -46,6 +46,18 @@ def test_an_unpaid_spike_is_found_and_bridged():
     assert raw.loc[near, "v"].max() > 7.0 and not any("spike" in n for n in raw.attrs["notes"])
 
 
+def test_a_wheel_spinning_free_on_a_plateau_is_bridged_to_where_it_comes_back():
+    t, v, P = _cruise(4)
+    k = np.searchsorted(t, 60.0)
+    spin = np.interp(t[k + 1:k + 30] - t[k], [0.0, 0.8, 2.2, 4.0], [3.0, 28.0, 28.0, 0.0])
+    v[k + 1:k + 30] += spin                                   # up 28 m/s, held 1.4 s, back by 4 s
+    P[k + 1:k + 30] = 1000.0
+    (a, b), = unpaid_spikes(_log(t, v, P), M)
+    assert t[a] <= 60.0 and v[b] <= v[a] + 0.5                # ends back near the rise's start
+    prof = speed_profile(_log(t, v, P), total_mass=M)
+    assert prof.loc[(prof["t"] > 58) & (prof["t"] < 66), "v"].max() < 6.5
+
+
 @pytest.mark.parametrize("case", ["paid", "descent"])
 def test_a_paid_acceleration_or_a_descent_is_kept(case):
     t, v, P = _cruise(2)
