@@ -77,7 +77,8 @@ def law_work(args) -> dict:
     """Make one case and identify its law blind: the estimates, the kept terms, the falls."""
     import warnings
 
-    from euc_sim.rides.controller_law import LawUnavailable, fit_law, law_rows
+    from euc_sim.rides.controller_law import fit_law
+    from euc_sim.rides.law_signals import LawUnavailable, law_rows
     from euc_sim.rides.logs import read_log
     case, out, n_boot = args
     warnings.simplefilter("ignore")

@@ -92,7 +92,7 @@ def _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations) -> list[di
     base = {"log": name, "ride_s": float("nan")}
     if why is not None:
         return [dict(base, run="-", fell=None, cause=why)]
-    prof = speed_profile(log, sig.rate, sig.window, sig.polyorder)
+    prof = speed_profile(log, sig.rate, sig.window, sig.polyorder, total_mass=sig.assumptions.total_mass)
     t, v = prof["t"].to_numpy(), prof["v"].to_numpy()
     a = np.gradient(v, t)
     base = {"log": name, "ride_s": float(t[-1] - t[0]), "v_max": float(v.max()),

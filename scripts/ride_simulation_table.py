@@ -12,6 +12,9 @@ and writes the table of ``simulation.steps`` (held-out battery-power error of ea
 step, its ratio to the balance fit's held-out error against the 1.2× target, phase
 current, pitch and PWM errors, falls) to ``--doc`` (default ``OUT/ride_simulation.md``).
 A pair whose ``ride.json`` already exists is read, not run again (``--again`` reruns).
+Rows of an existing ``--doc`` whose pairs this run does not produce (other wheels, or pairs
+not run) are kept as they are, in their place, and so are the commands that made them: a
+run of one wheel (``--pairs blitz``) adds its rows to the table of the others.
 ``--calibrate-rider PAIRS`` also runs the named pairs with ``euc-sim ride --calibrate-rider``
 (into ``OUT/PAIR_calibrated/``, an extra row each: minutes per ride).  A hand-written
 section of ``--doc`` from its ``## Reading the table`` heading on is kept as it is.
@@ -157,20 +160,61 @@ def rows(results: list[dict]) -> list[str]:
 HAND = "## Reading the table"
 
 
-def _hand_written(path: Path) -> str:
-    """The existing doc's hand-written section (from :data:`HAND` on), or ''."""
-    old = path.read_text(encoding="utf-8") if path.is_file() else ""
-    i = old.find(HAND)
-    return "" if i < 0 else "\n" + old[i:]
+COMMAND = "    nice -n 10 python scripts/ride_simulation_table.py "
+
+
+def _row_key(line: str) -> tuple[str, str] | None:
+    """(wheel, 'fit → held[ (calibrated rider)]') of a table row, None for other lines."""
+    cells = [c.strip() for c in line.strip().strip("|").split("|")]
+    if not line.startswith("| ") or len(cells) < 3 or not re.match(r"\d+ → \d+", cells[1]):
+        return None                         # not a row of a pair (the header: "fit → held out")
+    return cells[0], cells[1]
+
+
+def merge_rows(old_text: str, new_rows: list[str]) -> list[str]:
+    """The table rows: ``old_text``'s rows in their order, each replaced by the new row of the
+    same pair unless that one says 'not run' (then the old row is kept); new pairs appended."""
+    new = {_row_key(r): r for r in new_rows if _row_key(r)}
+    order, old = [], {}
+    for line in old_text.splitlines():
+        k = _row_key(line)
+        if k and k not in old:
+            order.append(k)
+            old[k] = line
+    order += [k for k in new if k not in old]
+
+    def pick(k):
+        if k in new and not (k in old and "| not run" in new[k]):
+            return new[k]
+        return old[k]
+    return [pick(k) for k in order]
+
+
+def _met(rows_: list[str]) -> list[str]:
+    """'PAIR step' of every bold (within-target, whole-ride) cell of the rows."""
+    out = []
+    for line in rows_:
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        fit, _, held = cells[1].split(" (")[0].partition(" → ")
+        name = f"{cells[0]}_{fit}_to_{held}" + ("_calibrated" if "calibrated" in cells[1] else "")
+        out += [f"{name} {s}" for s, c in zip(STEPS, cells[3:3 + len(STEPS)]) if "**" in c]
+    return out
 
 
 def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float = 0.0) -> None:
-    """``docs/ride_simulation.md``: the table, its command, what the figures are."""
-    met = [(r["pair"]["name"], s["step"]) for r in results if "json" in r
-           for s in ((r["json"].get("simulation") or {}).get("steps") or [])
-           if s.get("ratio_to_balance") is not None and s["ratio_to_balance"] <= TARGET
-           and not (r["json"].get("simulation") or {}).get("falls")]
-    n_ok = sum("json" in r for r in results)
+    """``docs/ride_simulation.md``: the table, its commands, what the figures are.
+
+    Rows of the existing doc that this run does not produce are kept (:func:`merge_rows`),
+    with the commands that made them."""
+    old_text = path.read_text(encoding="utf-8") if path.is_file() else ""
+    cut = old_text.find(HAND)
+    table_text = old_text if cut < 0 else old_text[:cut]
+    table = rows(results)
+    merged = merge_rows(table_text, table[2:])
+    cmd = COMMAND + " ".join(argv)
+    commands = [ln for ln in table_text.splitlines() if ln.startswith(COMMAND) and ln != cmd] + [cmd]
+    met = _met(merged)
+    n_ok = sum(not any(w in r for w in ("| not run", "| failed")) for r in merged)
     text = "\n".join([
         "# The simulated ride against the log, step by step (issue 21 item 4)", "",
         "Each row: `euc-sim ride FIT --compare HELD --wheel W.csv` — the balance fit, the wheel's "
@@ -189,14 +233,16 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
         "Every step is scored on the rows all steps rode (up to the first fall: the `scored` "
         "column gives that span and its share of the held-out ride; a ratio over a short span "
         "is not the whole ride's). Pitch is scored on the riding rows (speed > 1 m/s).", "",
-        "Command:", "", "    nice -n 10 python scripts/ride_simulation_table.py " + " ".join(argv), "",
-        f"{n_ok} of {len(results)} pairs ran. Steps within the target: {', '.join(f'{a} {b}' for a, b in met) or 'none'}.", "",
+        "Command" + ("s (a later run adds its rows to the earlier ones; the rows it "
+                     "does not run are kept):" if len(commands) > 1 else ":"), "",
+        *commands, "",
+        f"{n_ok} of {len(merged)} rows ran. Steps within the target: {', '.join(met) or 'none'}.", "",
         "**Which figures are tuning figures.** None of these figures chose a setting: every model "
         "is fitted on FIT and scored on HELD. The law's selection thresholds were set on "
         "synthetic rides (docs/controller.md); nothing in the steps was adjusted after this "
         "table. Any later change made by looking at this table turns its rows into tuning "
         "figures; issue 21's 'The check' (held-back rides compared the same way) is the test.", "",
-    ] + rows(results) + [""]) + _hand_written(path)
+    ] + table[:2] + merged + [""]) + ("" if cut < 0 else "\n" + old_text[cut:])
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".tmp")
     tmp.write_text(text, encoding="utf-8")

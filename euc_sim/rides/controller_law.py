@@ -4,11 +4,10 @@ The paper's motor law (Section 3) is a PD on the body pitch,
 
     M_d = K_p (γ − γ_ref) + K_d γ̇                                   (the paper's PD, nominal)
 
-A log of EUC World (InMotion, Leaperkim, Nosfet) has the wheel's pitch (``tilt``)
-and, on many wheels, the phase current; WheelLog's InMotion logs carry the
-wheel's ``torque``.  The motor torque is the phase current times the torque
-constant K_t = K_e (the back-EMF constant the drivetrain fit identifies,
-:mod:`euc_sim.rides.drivetrain`), or the logged torque.
+The riding rows it is fitted on (pitch, its rate, speed, acceleration and the
+motor torque: the phase current times the torque constant K_t = K_e, or a logged
+torque) come from :func:`euc_sim.rides.law_signals.law_rows`; this module holds
+the term catalogue, the fit, the held-out selection and the bootstrap intervals.
 
 The logged pitch is ``tilt = s·γ + tilt₀``: the sign convention ``s`` (±1) and the
 zero ``tilt₀`` differ between brands and are found from the data (``K_p > 0``
@@ -52,16 +51,15 @@ import numpy as np
 import scipy.linalg
 
 from euc_sim.rides.heldout import select_by_heldout, time_blocks
-from euc_sim.rides.logs import RideLog
+from euc_sim.rides.law_signals import (INTEGRAL_TAU, MAX_PITCH, V_MIN, LawRows, LawUnavailable,
+                                       law_rows)
 
-__all__ = ["LawUnavailable", "LawRows", "Law", "CATALOG", "BASE", "V_MIN", "MIN_GAIN",
+# LawUnavailable, LawRows, law_rows, V_MIN, MAX_PITCH and INTEGRAL_TAU are defined in
+# euc_sim.rides.law_signals and exported here too: this module is the law's public face.
+__all__ = ["LawUnavailable", "LawRows", "Law", "CATALOG", "BASE", "V_MIN", "MAX_PITCH", "MIN_GAIN",
            "INTEGRAL_TAU", "R2_MIN", "law_rows", "fit_params", "predict", "fit_law",
            "heldout_score", "r2"]
 
-#: Speed above which a row counts as riding, m/s.
-V_MIN = 1.0
-#: Pitch farther than this from the riding median is the wheel lying or carried, rad.
-MAX_PITCH = math.radians(15.0)
 #: A kept term must lower the held-out RMS error by this fraction.
 MIN_GAIN = 0.01
 #: The acceleration set-point, tried after the other terms, must lower the held-out
@@ -72,19 +70,10 @@ ACCEL_GAIN = 0.05
 #: of the censoring (:func:`_censored_lstsq`).
 CENSOR_GUARD = 1
 CENSOR_ITER = 3
-#: Half-span of the acceleration column, s: a set-point follows the ride's acceleration
-#: over seconds; the acceleration within one telemetry period is the motor torque's own.
-ACCEL_HALF = 1.0
-#: Leak of the integral column, s.
-INTEGRAL_TAU = 5.0
 #: Below this held-out R² the pitch does not explain the torque: no law is reported.
 R2_MIN = 0.5
 #: The pitch's law must explain this much more held-out R² than speed alone.
 PITCH_GAIN = 0.1
-#: Fewer riding rows than this: too short.
-MIN_ROWS = 300
-#: Intervals longer than this, s, break a derivative (a gap in the log).
-GAP = 1.0
 #: Always in the model.
 BASE = ("offset", "P", "D")
 #: Catalogued terms: name -> what it is.
@@ -99,195 +88,16 @@ _TB_GRID = np.linspace(0.30, 0.95, 14)       # tilt-back onset: quantiles of the
 _LIM_GRID = (0.9, 0.95, 0.98, 0.99, 0.995, 0.999)   # torque limit: quantiles of |y|
 
 
-class LawUnavailable(ValueError):
-    """The log cannot show the wheel's balance law; the message says why, with numbers."""
-
-
-@dataclass(frozen=True)
-class LawRows:
-    """The riding rows a law is fitted on (or scored on).
-
-    Attributes
-    ----------
-    t : numpy.ndarray
-        Time, s.
-    tilt, tilt_dot : numpy.ndarray
-        Logged pitch, rad, in the log's own convention, and its rate, rad/s.
-    v, a : numpy.ndarray
-        Wheel speed, m/s, and acceleration, m/s².
-    z : numpy.ndarray
-        Leaky integral of (tilt − median riding tilt), rad·s.
-    y : numpy.ndarray
-        Motor torque, N·m (``unit``), or phase current, A, where no torque constant is known.
-    channel : str
-        The logged channel ``y`` comes from (``"phase_current"`` or ``"torque"``).
-    unit : str
-        Unit of ``y``.
-    scale : float
-        ``y`` = scale × the logged channel (the torque constant K_t, N·m/A, or 1).
-    pitch_step : float
-        Smallest step of the logged pitch, rad (its quantisation).
-    dt_median : float
-        Median sample interval, s.
-    w3 : numpy.ndarray
-        (n, 3) weights of the previous, this and the next log row giving each
-        channel's mean over [t₋₁, t₊₁] (Simpson's rule on the uneven stamps): the
-        interval whose mean rate the central differences ``tilt_dot`` and ``a`` are.
-    tilt3, v3, z3, y3 : numpy.ndarray
-        (n, 3) the channels at the previous, this and the next log row.
-    """
-
-    t: np.ndarray
-    tilt: np.ndarray
-    tilt_dot: np.ndarray
-    v: np.ndarray
-    a: np.ndarray
-    z: np.ndarray
-    y: np.ndarray
-    channel: str
-    unit: str
-    scale: float
-    pitch_step: float
-    dt_median: float
-    w3: np.ndarray
-    tilt3: np.ndarray
-    v3: np.ndarray
-    z3: np.ndarray
-    y3: np.ndarray
-
-    def take(self, idx: np.ndarray) -> "LawRows":
-        """The rows ``idx`` (an index or boolean array)."""
-        cols = {k: getattr(self, k)[idx] for k in ("t", "tilt", "tilt_dot", "v", "a", "z", "y",
-                                                   "w3", "tilt3", "v3", "z3", "y3")}
-        return LawRows(**cols, channel=self.channel, unit=self.unit, scale=self.scale,
-                       pitch_step=self.pitch_step, dt_median=self.dt_median)
-
-
-def _rate(x: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """dx/dt as (x₊₁ − x₋₁)/(t₊₁ − t₋₁), the exact mean rate over [t₋₁, t₊₁], on the
-    uneven time stamps; NaN at the ends and next to a gap."""
-    d = np.full_like(x, np.nan)
-    if x.size < 3:
-        return d
-    span = t[2:] - t[:-2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        d[1:-1] = np.where(span > 0, (x[2:] - x[:-2]) / np.where(span > 0, span, 1.0), np.nan)
-    gap = np.diff(t) > GAP
-    d[np.r_[gap, False] | np.r_[False, gap]] = np.nan
-    return d
-
-
-def _slow_rate(x: np.ndarray, t: np.ndarray, half: float = ACCEL_HALF) -> np.ndarray:
-    """dx/dt as (x(t + half) − x(t − half))/(2·half), x linearly interpolated between
-    rows: the mean rate over 2·half s; NaN where that span leaves the log or crosses a gap."""
-    lo, hi = np.interp(t - half, t, x), np.interp(t + half, t, x)
-    seg = np.r_[0, np.cumsum(np.diff(t) > GAP)]
-    i0 = np.clip(np.searchsorted(t, t - half), 0, t.size - 1)
-    i1 = np.clip(np.searchsorted(t, t + half) - 1, 0, t.size - 1)
-    ok = (t - half >= t[0]) & (t + half <= t[-1]) & (seg[i0] == seg) & (seg[i1] == seg)
-    return np.where(ok, (hi - lo) / (2 * half), np.nan)
-
-
-def _simpson_weights(t: np.ndarray) -> np.ndarray:
-    """(n, 3) weights of rows k−1, k, k+1 whose sum is the mean over [t₋₁, t₊₁] of the
-    parabola through the three (Simpson's rule on uneven steps h₀, h₁); the ends and
-    repeated stamps get (0, 1, 0)."""
-    w = np.zeros((t.size, 3))
-    w[:, 1] = 1.0
-    if t.size < 3:
-        return w
-    h0, h1 = np.diff(t)[:-1], np.diff(t)[1:]
-    ok = (h0 > 0) & (h1 > 0)
-    h0, h1 = np.where(ok, h0, 1.0), np.where(ok, h1, 1.0)
-    inner = np.column_stack([(2 - h1 / h0) / 6, (h0 + h1) ** 2 / (6 * h0 * h1), (2 - h0 / h1) / 6])
-    w[1:-1] = np.where(ok[:, None], inner, w[1:-1])
-    return w
-
-
-def _three(x: np.ndarray) -> np.ndarray:
-    """(n, 3): x at the previous, this and the next row (the ends repeated)."""
-    return np.column_stack([np.r_[x[:1], x[:-1]], x, np.r_[x[1:], x[-1:]]])
-
-
-def _leaky_integral(x: np.ndarray, t: np.ndarray, tau: float = INTEGRAL_TAU) -> np.ndarray:
-    """z' = x − z/τ along the log (reset across a gap), rad·s."""
-    from scipy.signal import lfilter
-
-    out = np.empty_like(x)
-    dt = np.r_[0.0, np.diff(t)]
-    starts = np.r_[0, np.flatnonzero(dt > GAP)]
-    ends = np.r_[starts[1:], x.size]
-    for s0, e0 in zip(starts, ends):
-        h = float(np.median(dt[s0 + 1:e0])) if e0 - s0 > 1 else 0.2
-        lam = math.exp(-h / tau)
-        xs = np.nan_to_num(x[s0:e0])
-        out[s0:e0] = lfilter([h], [1.0, -lam], xs)
-    return out
-
-
-def law_rows(log: RideLog, k_t: float | None = None, v_min: float = V_MIN) -> LawRows:
-    """The riding rows of ``log`` with pitch, its rate, speed, acceleration and torque.
-
-    Parameters
-    ----------
-    log : RideLog
-    k_t : float, optional
-        Torque constant, N·m/A (phase current → torque).  Without it the phase
-        current is used in A; a logged ``torque`` is used as it is.
-    v_min : float
-        Riding speed threshold, m/s.
-
-    Raises
-    ------
-    LawUnavailable
-        no pitch or no torque channel, or too few riding rows.
-    """
-    d = log.data
-    if not log.has("tilt"):
-        raise LawUnavailable("no pitch in this log (no tilt column, or all zero): the wheel's "
-                             "balance law cannot be read")
-    if log.has("torque"):
-        channel, scale, unit = "torque", 1.0, "N·m"
-    elif log.has("phase_current"):
-        channel = "phase_current"
-        scale, unit = (float(k_t), "N·m") if k_t else (1.0, "A")
-    else:
-        raise LawUnavailable("pitch is logged but neither phase current nor motor torque: "
-                             "the torque the law commands is not in the log")
-    t = d["t"].to_numpy(float)
-    tilt = d["tilt"].to_numpy(float)
-    v = d["v"].to_numpy(float)
-    y = d[channel].to_numpy(float) * scale
-    riding = (np.abs(v) > v_min) & np.isfinite(tilt) & np.isfinite(y)
-    if riding.sum() < MIN_ROWS:
-        raise LawUnavailable(f"{int(riding.sum())} riding rows with pitch and {channel} "
-                             f"(speed above {v_min:g} m/s); at least {MIN_ROWS} are needed")
-    level = float(np.median(tilt[riding]))
-    riding &= np.abs(tilt - level) < MAX_PITCH
-    finite = np.isfinite(tilt)
-    tilt_f = np.interp(t, t[finite], tilt[finite])
-    rate, acc = _rate(tilt_f, t), _slow_rate(v, t)
-    z = _leaky_integral(np.where(riding, tilt_f - level, 0.0), t)
-    ok = riding & np.isfinite(rate) & np.isfinite(acc)
-    steps = np.diff(np.unique(np.round(tilt[finite], 9)))
-    step = float(steps.min()) if steps.size else 0.0
-    y_f = np.where(np.isfinite(y), y, 0.0)
-    return LawRows(t=t[ok], tilt=tilt[ok], tilt_dot=rate[ok], v=np.abs(v[ok]), a=acc[ok] * np.sign(v[ok]),
-                   z=z[ok], y=y[ok], channel=channel, unit=unit, scale=scale, pitch_step=step,
-                   dt_median=float(np.median(np.diff(t))), w3=_simpson_weights(t)[ok],
-                   tilt3=_three(tilt_f)[ok], v3=np.abs(_three(v))[ok], z3=_three(z)[ok],
-                   y3=_three(y_f)[ok])
-
-
 # --------------------------------------------------------------------------------------
 def _columns(rows: LawRows, names, p: dict, mean3: bool = False) -> np.ndarray:
     """Columns of the law, torque = X·c, one per name (``torque_limit`` has none);
     ``p`` gives ``v_tb`` and, for ``brake_gain``, the nominal ``sign`` and ``tilt0``.
 
-    ``mean3``: each column as its mean over [t₋₁, t₊₁] (:func:`_simpson_weights`), the
-    interval whose mean rate the pitch rate and acceleration columns are, so that the
-    law holds between the columns exactly as between the signals (compare
-    :func:`_target`); the rate columns are already such means."""
+    ``mean3``: each column as its mean over [t₋₁, t₊₁] (the weights ``rows.w3``,
+    :func:`euc_sim.rides.law_signals._simpson_weights`), the interval whose mean rate
+    the pitch rate and acceleration columns are, so that the law holds between the
+    columns exactly as between the signals (compare :func:`_target`); the rate columns
+    are already such means."""
     tilt, v, z = (rows.tilt3, rows.v3, rows.z3) if mean3 else (rows.tilt, rows.v, rows.z)
     make = {"offset": lambda: np.ones_like(tilt), "P": lambda: tilt,
             "D": lambda: rows.tilt_dot,

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from euc_sim.rides.controller_law import Law, LawUnavailable, fit_law, law_rows, predict, r2
+from euc_sim.rides.controller_law import Law, fit_law, predict, r2
+from euc_sim.rides.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.logs import read_log
 
 __all__ = ["torque_constant", "controller_json", "page_lines", "PAPER_PD"]

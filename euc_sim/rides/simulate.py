@@ -235,10 +235,10 @@ def _run_jobs(jobs: list, names: Sequence[str], params: Params, workers: int,
 def _pitch_rows(table: pd.DataFrame, ok: np.ndarray) -> np.ndarray:
     """Scored rows where the logged pitch is the wheel's riding pitch.
 
-    As :func:`euc_sim.rides.controller_law.law_rows`: speed above ``V_MIN`` and pitch within
+    As :func:`euc_sim.rides.law_signals.law_rows`: speed above ``V_MIN`` and pitch within
     ``MAX_PITCH`` of its riding median (a wheel standing, lying or carried is not balancing).
     """
-    from euc_sim.rides.controller_law import MAX_PITCH, V_MIN
+    from euc_sim.rides.law_signals import MAX_PITCH, V_MIN
 
     if "pitch_log" not in table:
         return ok
@@ -422,7 +422,7 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
     if not run:
         raise ValueError(f"steps: expected at least one step that runs, got {[s.name for s in steps]}")
     params = ride_params(sig.assumptions)
-    prof = speed_profile(log, sig.rate, sig.window, sig.polyorder)
+    prof = speed_profile(log, sig.rate, sig.window, sig.polyorder, total_mass=sig.assumptions.total_mass)
     t_p, v_p = prof["t"].to_numpy(), prof["v"].to_numpy()
     notes = list(prof.attrs.get("notes", []))
     notes += [f"{s.name}: {n}" for s in steps for n in s.notes]

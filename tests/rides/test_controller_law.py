@@ -17,8 +17,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from euc_sim.rides.controller_law import (BASE, LawUnavailable, fit_law, fit_params, law_rows,
-                                          predict, r2)
+from euc_sim.rides.controller_law import BASE, fit_law, fit_params, predict, r2
+from euc_sim.rides.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.controller_report import controller_json, page_lines
 from euc_sim.rides.logs import read_log
 

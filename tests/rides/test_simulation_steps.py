@@ -253,3 +253,29 @@ def test_the_table_adds_calibrated_rows_and_keeps_the_hand_written_section(tmp_p
     assert mod.main(["--out", str(tmp_path / "o"), "--data", str(tmp_path), "--pairs", "lynx",
                      "--calibrate-rider", "v9_0_to_1"]) == 2
     assert "--calibrate-rider v9_0_to_1: not a pair" in capsys.readouterr().err
+
+
+def test_a_run_of_one_wheel_keeps_the_other_wheels_rows_and_commands(tmp_path):
+    """``--pairs blitz --doc D`` replaces Blitz's rows of D, keeps every other row where it was
+    (a pair this run did not reach keeps its earlier row), and lists both commands."""
+    mod = _table_script()
+    lynx, blitz = mod.pairs(tmp_path, ["lynx"]), mod.pairs(tmp_path, ["blitz"])
+    sim = {"steps": [{"step": "drivetrain", "ran": True, "heldout_rmse": {"P_W": 400.0},
+                      "ratio_to_balance": 0.8, "target_ratio": 1.2}], "falls": [], "notes": [],
+           "scored_rows": 100, "pitch_scored_rows": 0}
+    old = [{"pair": lynx[0], "json": {"heldout_error_augmented": 500.0, "simulation": sim}}] + \
+          [{"pair": p, "error": "not run (no ride.json yet)"} for p in blitz[:2]]
+    doc = tmp_path / "t.md"
+    mod.write_doc(doc, old, ["--out", "A", "--pairs", "lynx,blitz"])
+    doc.write_text(doc.read_text() + "\n## Reading the table (by hand)\n\n- kept words\n")
+    new = [{"pair": blitz[0], "json": {"heldout_error_augmented": 1000.0, "simulation": sim}},
+           {"pair": blitz[1], "error": "not run (no ride.json yet)"}]
+    mod.write_doc(doc, new, ["--out", "B", "--pairs", "blitz"])
+    text = doc.read_text()
+    rows_ = [ln for ln in text.splitlines() if ln.startswith("| lynx") or ln.startswith("| blitz")]
+    assert [r.split("|")[2].strip() for r in rows_] == ["0 → 2", "1 → 2", "1 → 4"]   # old order
+    assert "400 (**0.80**)" in rows_[0]                                           # lynx kept
+    assert "1 → 2 | 1,000 |" in rows_[1] and "not run" in rows_[2]
+    assert "--out A --pairs lynx,blitz" in text and "--out B --pairs blitz" in text
+    assert "2 of 3 rows ran" in text and "lynx_0_to_2 drivetrain, blitz_1_to_2 drivetrain" in text
+    assert text.endswith("- kept words\n") and text.count("## Reading the table") == 1

@@ -1,0 +1,149 @@
+"""Why the paper's PD drops the simulated rider on two shared pairs: the fall windows, measured.
+
+    nice -n 10 python scripts/nominal_falls.py [--out docs/figures/nominal_falls.png]
+        [--n-boot 20] [--no-spikes]
+
+The ``nominal`` step of ``euc-sim ride FIT --compare HELD`` (paper's PD 600 / 40 N·m/rad with
+MotorPD's 250 N·m limit, the default LQR rider, no effects) fell on lynx 2 -> 0 at 1,819.6 s and
+master_pro_V2 3 -> 6 at 306.1 s, and (in the Blitz run of 2026-11-26) blitz 2 -> 4 at 2,112.5 s
+(docs/ride_simulation.md).  For each, this study finds the
+total mass on FIT as the ride command does, takes HELD's speed profile (with the wheel-speed
+spikes the battery cannot pay for bridged, :func:`euc_sim.rides.profile.unpaid_spikes`, unless
+``--no-spikes``), and rides a window of it from the trim at its first speed, 40 s before the fall
+(:func:`euc_sim.rides.tracking.simulate_profile`, no plan correction): with the paper's PD, and
+with the same PD at a 500 N·m limit (a diagnosis, not a model: nothing is chosen by it).  It
+prints, per run, whether the rider fell and the largest ankle torque M_h, motor torque M_d,
+body pitch γ and lean φ, and plots the logged and simulated speed, the torques and γ.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = ROOT.parent / "shared" / "data" / "euc_core"
+#: name -> (fit log, held-out log, spec, window start, window end), s; the window starts 40 s
+#: before the fall and ends 10 s past it.
+CASES = {"lynx 2 -> 0": ("trips/leaperkim/lynx/2/2.csv", "trips/leaperkim/lynx/0/0.csv", "specs/lynx.csv",
+                         1780.0, 1830.0),
+         "master_pro_V2 3 -> 6": ("trips/begode/master_pro_V2/3/3.csv", "trips/begode/master_pro_V2/6/6.csv",
+                                  "specs/master_pro_V2.csv", 266.0, 316.0),
+         "blitz 2 -> 4": ("trips/begode/blitz/2/2.csv", "trips/begode/blitz/4/4.csv", "specs/blitz.csv",
+                          2072.0, 2122.0)}
+
+
+def ride_window(case: tuple, data: Path, n_boot: int, spikes: bool) -> dict:
+    """Mass on FIT, HELD's profile, and the window ridden with the paper's PD at two limits."""
+    import numpy as np
+
+    from controllers.motor import MotorPD
+    from euc_sim.cli.ride import _drivetrain, with_found_values
+    from euc_sim.rides.logs import read_log
+    from euc_sim.rides.profile import speed_profile
+    from euc_sim.rides.signals import RideAssumptions
+    from euc_sim.rides.simulate import ride_params
+    from euc_sim.rides.spec import wheel_spec
+    from euc_sim.rides.tracking import simulate_profile
+
+    fit, held, spec_path, t0, t1 = case
+    spec = wheel_spec(data / spec_path)
+    physics = _drivetrain(data / fit, None, spec, n_boot, 0)
+    A = with_found_values(RideAssumptions(), spec, physics[0]["total_mass"])
+    params = ride_params(A)
+    prof = speed_profile(data / held, total_mass=A.total_mass if spikes else None)
+    t, v = prof["t"].to_numpy(), prof["v"].to_numpy()
+    w = (t >= t0) & (t <= t1)
+    out = {"mass": A.total_mass, "R": params.R, "t0": t0, "t_prof": t[w], "v_prof": v[w],
+           "log": read_log(data / held, emit_warnings=False).data, "runs": {},
+           "notes": [n for n in prof.attrs["notes"] if "spike" in n], "spikes": spikes}
+    for label, motor in (("paper PD, 250 N·m limit", MotorPD()),
+                         ("paper PD, 500 N·m limit (diagnosis)", MotorPD(torque_limit=500.0))):
+        res = simulate_profile(t[w] - t0, v[w], params, {}, seed=0, track_iterations=0, motor=motor)
+        fr = res.frame
+        out["runs"][label] = {"frame": fr, "fall": (t0 + res.falls[0]["t"], res.falls[0]["cause"])
+                              if res.falls else None,
+                              "max": {k: float(np.abs(fr[k]).max()) for k in ("M_h", "M_d", "gamma", "phi")}}
+    return out
+
+
+def plot(results: dict, path: Path) -> Path:
+    """Speed (log, plan, simulated), torques and body pitch of each fall window."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    fig, axes = plt.subplots(3, len(results), figsize=(6.5 * len(results), 9), sharex="col")
+    axes = np.atleast_2d(axes).reshape(3, len(results))
+    for c, (name, r) in enumerate(results.items()):
+        t0, lg = r["t0"], r["log"]
+        lw = lg[(lg["t"] >= r["t_prof"][0]) & (lg["t"] <= r["t_prof"][-1])]
+        ax = axes[0, c]
+        ax.plot(lw["t"], np.abs(lw["v"]), ".", color="0.5", label="logged wheel speed")
+        if "gps_speed" in lw:
+            ax.plot(lw["t"], lw["gps_speed"], "x", color="tab:green", ms=4, label="logged GPS speed")
+        ax.plot(r["t_prof"], r["v_prof"], color="k", lw=1,
+                label="profile, spikes bridged" if r["spikes"] else "profile, as logged")
+        for (label, run), col, z in zip(r["runs"].items(), ("tab:red", "tab:blue"), (3, 2)):
+            short = label.split(", ")[1].replace(" limit", "")
+            fr = run["frame"].iloc[::20]
+            tt = fr["t"] + t0
+            ax.plot(tt, fr["x_dot"], color=col, lw=0.8, zorder=z, label=f"simulated, {label}")
+            axes[1, c].plot(tt, fr["M_h"], color=col, lw=0.8, ls="--", zorder=z, label=f"ankle M_h, {short}")
+            axes[1, c].plot(tt, fr["M_d"], color=col, lw=0.8, zorder=z, label=f"motor M_d, {short}")
+            axes[2, c].plot(tt, fr["gamma"], color=col, lw=0.8, zorder=z, label=f"γ, {short}")
+            if run["fall"]:
+                for a in axes[:, c]:
+                    a.axvline(run["fall"][0], color=col, ls=":", lw=1)
+        axes[1, c].axhline(250, color="0.3", lw=0.6, ls=":", label="250 N·m")
+        axes[2, c].set_xlim(r["t_prof"][-1] - 24.0, r["t_prof"][-1])
+        axes[2, c].axhline(0.5, color="0.3", lw=0.6, ls=":", label="bound 0.5 rad")
+        ax.set_title(f"{name}: held-out ride's window, total mass {r['mass']:.0f} kg")
+        ax.set_ylabel("speed, m/s")
+        axes[1, c].set_ylabel("torque, N·m")
+        axes[2, c].set_ylabel("γ, rad")
+        axes[2, c].set_xlabel("time in the held-out ride, s")
+        for a in axes[:, c]:
+            lo, hi = a.get_ylim()
+            a.set_ylim(lo, hi + 0.6 * (hi - lo))          # headroom: the legend above the data
+            a.legend(fontsize=7, loc="upper center", ncol=2, framealpha=0.9)
+            a.grid(alpha=0.3)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", default=str(ROOT / "docs" / "figures" / "nominal_falls.png"))
+    ap.add_argument("--data", default=str(DATA))
+    ap.add_argument("--n-boot", type=int, default=20)
+    ap.add_argument("--no-spikes", action="store_true", help="the speed profile as logged")
+    args = ap.parse_args(argv)
+    data = Path(args.data)
+    missing = [p for c in CASES.values() for p in c[:3] if not (data / p).is_file()]
+    if missing:
+        print(f"nominal_falls: {data / missing[0]}: no such file", file=sys.stderr)
+        return 2
+    results = {}
+    for name, case in CASES.items():
+        r = ride_window(case, data, args.n_boot, not args.no_spikes)
+        results[name] = r
+        for n in r["notes"]:
+            print(f"{name}: {n}")
+        for label, run in r["runs"].items():
+            m = run["max"]
+            fell = f"fell at {run['fall'][0]:.2f} s ({run['fall'][1]})" if run["fall"] else "rode"
+            print(f"{name} [{case[3]:g}, {case[4]:g}] s, {label}: {fell}; max |M_h| {m['M_h']:.0f} N·m, "
+                  f"|M_d| {m['M_d']:.0f} N·m, |γ| {m['gamma']:.3f} rad, |φ| {m['phi']:.3f} rad", flush=True)
+    print(f"written {plot(results, Path(args.out))}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
