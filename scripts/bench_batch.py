@@ -94,10 +94,14 @@ def _effect_requests(rides: int, duration: float) -> list[dict]:
     return out
 
 
-def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int = 100) -> dict:
+def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int = 25) -> dict:
     """Aggregate step rate of :func:`euc_sim.simulation.mujoco_batch.simulate_rides` on 1 and 2
-    threads (``rides`` rides with effects, in batches of ``chunk``: a ride's records take
-    1.3 MB) over the bare single-thread ``mj_step`` rate of the same model, same process."""
+    threads (``rides`` rides with effects, one call, in batches of ``chunk``: a ride's records
+    take 1.3 MB) over the bare single-thread ``mj_step`` rate of the same model, same process;
+    beside it the machine's ceiling: two bare ``mj_step`` loops on two threads at once
+    (``mj_step`` releases the GIL) over two bare loops' rate."""
+    import threading
+
     import mujoco
 
     from euc_sim.simulation.mujoco_batch import _batch_model, simulate_rides
@@ -111,7 +115,7 @@ def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int =
     simulate_rides(reqs[:2], nthread=2)                                # compile, warm caches
     fell = 0
 
-    def bare(forces=False):
+    def bare(forces=False, d=d):
         mujoco.mj_resetData(m, d)
         d.qpos[:], d.qvel[:] = ride.stepper.d.qpos, ride.stepper.d.qvel
         if forces:     # the MuJoCo work of the effects: a drag force at G and a rolling moment, held
@@ -119,18 +123,27 @@ def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int =
             d.qfrc_applied[ride.stepper.vx] = -1.0
         mujoco.mj_step(m, d, nstep=steps)
 
+    pair = [mujoco.MjData(m) for _ in range(2)]
+
+    def bare_two_threads():
+        lanes = [threading.Thread(target=bare, kwargs={"d": d2}) for d2 in pair]
+        for t in lanes:
+            t.start()
+        for t in lanes:
+            t.join()
+
     def batch(nthread, part):
         def run():
             nonlocal fell
-            for i in range(0, len(part), chunk):
-                res = simulate_rides(part[i:i + chunk], nthread=nthread)
-                fell += sum(isinstance(r, Exception) for r in res)
+            res = simulate_rides(part, nthread=nthread, batch=chunk)
+            fell += sum(isinstance(r, Exception) for r in res)
         return run
 
     small = reqs[:min(rides, 20)]       # best of 3, interleaved with the bare loop: load-robust
     t = timed_together({"bare": lambda: [bare() for _ in small], "one": batch(1, small)}, repeat=3)
     t_bare = timed(bare, repeat=3)
     t_forces = timed(lambda: bare(True), repeat=3)
+    ceiling = timed_together({"one": bare, "two": bare_two_threads}, repeat=5)
     t_two = timed(batch(2, reqs), repeat=1)
     rate_bare = steps / t_bare
     rate_one_bare = len(small) * steps / t["bare"]
@@ -143,6 +156,8 @@ def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int =
     out["mujoco_batch_1_thread_vs_bare"] = out["mujoco_batch_1_thread_steps_per_s"] / rate_one_bare
     out["mujoco_batch_thread_scaling"] = out["mujoco_batch_2_threads_steps_per_s"] / (2 * rate_bare)
     out["bare_mj_step_with_applied_forces_per_s"] = steps / t_forces
+    out["bare_two_threads_scaling"] = ceiling["one"] / ceiling["two"]     # (2 steps / t_two) / (2 steps / t_one)
+    out["mujoco_batch_thread_scaling_of_ceiling"] = out["mujoco_batch_thread_scaling"] / out["bare_two_threads_scaling"]
     out["mujoco_batch_thread_scaling_vs_bare_with_forces"] = (out["mujoco_batch_2_threads_steps_per_s"]
                                                               * t_forces / (2 * steps))
     print(f"  bare mj_step (C loop, 1 thread)  : {rate_bare / 1e3:8.1f} k steps/s")
@@ -154,4 +169,7 @@ def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int =
     print(f"  ratio 2-thread batch / (2 x bare) = {out['mujoco_batch_thread_scaling']:.2f} (aim >= 0.85); "
           f"against a bare step with the effects' applied forces: "
           f"{out['mujoco_batch_thread_scaling_vs_bare_with_forces']:.2f}")
+    print(f"  ceiling: 2 bare mj_step loops on 2 threads at once / (2 x bare) = "
+          f"{out['bare_two_threads_scaling']:.2f}; the batch's ratio is "
+          f"{out['mujoco_batch_thread_scaling_of_ceiling']:.2f} of it")
     return out
