@@ -4,6 +4,7 @@ datasets on processes, the analytic batch engine, MuJoCo batches on threads."""
 from __future__ import annotations
 
 import os
+import time
 
 from bench_timing import timed, timed_together
 
@@ -144,7 +145,10 @@ def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int =
     t_bare = timed(bare, repeat=3)
     t_forces = timed(lambda: bare(True), repeat=3)
     ceiling = timed_together({"one": bare, "two": bare_two_threads}, repeat=5)
+    cpu_bare = min(_cpu_seconds(bare, time.thread_time) for _ in range(3))
+    cpu0 = time.process_time()                 # CPU seconds of every thread of the process
     t_two = timed(batch(2, reqs), repeat=1)
+    cpu_two = time.process_time() - cpu0
     rate_bare = steps / t_bare
     rate_one_bare = len(small) * steps / t["bare"]
     out = {"mujoco_batch_rides": rides, "mujoco_batch_duration_s": duration,
@@ -158,6 +162,9 @@ def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int =
     out["bare_mj_step_with_applied_forces_per_s"] = steps / t_forces
     out["bare_two_threads_scaling"] = ceiling["one"] / ceiling["two"]     # (2 steps / t_two) / (2 steps / t_one)
     out["mujoco_batch_thread_scaling_of_ceiling"] = out["mujoco_batch_thread_scaling"] / out["bare_two_threads_scaling"]
+    # the work: a bare ride's CPU time over a batch ride's (every thread, set-up and DataFrames in);
+    # with no core idle the scaling reaches this times the ceiling, no more
+    out["mujoco_batch_2_threads_cpu_efficiency"] = cpu_bare * rides / cpu_two
     out["mujoco_batch_thread_scaling_vs_bare_with_forces"] = (out["mujoco_batch_2_threads_steps_per_s"]
                                                               * t_forces / (2 * steps))
     print(f"  bare mj_step (C loop, 1 thread)  : {rate_bare / 1e3:8.1f} k steps/s")
@@ -172,4 +179,13 @@ def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int =
     print(f"  ceiling: 2 bare mj_step loops on 2 threads at once / (2 x bare) = "
           f"{out['bare_two_threads_scaling']:.2f}; the batch's ratio is "
           f"{out['mujoco_batch_thread_scaling_of_ceiling']:.2f} of it")
+    print(f"  CPU time of a bare ride / of a batch ride (2 threads, set-up and DataFrames in) = "
+          f"{out['mujoco_batch_2_threads_cpu_efficiency']:.2f}: the ratio's bound with no core idle")
     return out
+
+
+def _cpu_seconds(fn, clock) -> float:
+    """CPU seconds of ``fn()`` by ``clock`` (``time.thread_time``: this thread's)."""
+    c0 = clock()
+    fn()
+    return clock() - c0
