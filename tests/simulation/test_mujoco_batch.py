@@ -65,15 +65,15 @@ def test_threads_and_batch_sizes_give_the_same_rides(rider):
     one, two = mb.simulate_rides(reqs, nthread=1, batch=2), mb.simulate_rides(reqs, nthread=2)
     for a, b in zip(one, two):
         assert _gap(a, b) == pytest.approx(0.0, abs=1e-15)
-    reqs = [dict(r, duration=1.0) for r in reqs] * 2          # 6 batches of one: the pipeline
-    assert len(reqs) >= mb.PIPELINE_BATCHES * 2
+    reqs = [dict(r, duration=d) for d in (1.0, 0.8) for r in reqs] + [dict(reqs[0], effects={"cog_height_drift": 0.01})]
+    assert sum(map(mb.batchable, reqs)) == 6 >= mb.PIPELINE_BATCHES * 2   # 6 batches of one, 2 groups: the pipeline
     counts = []
     single = mb.simulate_rides(reqs, nthread=1, batch=1)
     piped = mb.simulate_rides(reqs, nthread=2, batch=1, progress=counts.append)
     for r, c, d in zip(reqs, single, piped):
         assert _gap(c, d) == pytest.approx(0.0, abs=1e-15)
         assert _gap(d, simulate(**r)) <= TOL
-    assert counts == [1, 2, 3, 4, 5, 6]
+    assert counts == [1, 2, 3, 4, 5, 6, 7]                    # the unbatched ride last
 
 
 def test_a_failure_in_the_pipeline_is_raised_and_the_threads_stop(rider, monkeypatch):
