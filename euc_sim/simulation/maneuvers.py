@@ -28,6 +28,17 @@ def _ramp(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return 0.5 * (1.0 - np.cos(np.pi * uc)), np.where(inside, 0.5 * np.pi * np.sin(np.pi * uc), 0.0)
 
 
+def _add_ramp(v: np.ndarray, a: np.ndarray, u: np.ndarray, dv: float, dur: float) -> None:
+    """``v += dv·s(u)`` and ``a += dv·s'(u)/dur`` in place, :func:`_ramp` evaluated inside (0, 1)
+    only: outside, s is exactly 0 or 1 and s' is 0, so the sums are those over whole arrays."""
+    inside = (u > 0.0) & (u < 1.0)
+    v += dv * (u >= 1.0)
+    if inside.any():
+        s, ds = _ramp(u[inside])
+        v[inside] += dv * s
+        a[inside] += dv * ds / dur
+
+
 @dataclass(frozen=True)
 class Maneuver:
     """A planned speed profile v_ref(t).
@@ -71,9 +82,7 @@ class Maneuver:
         a = np.zeros_like(t)
         prev = self.v0
         for start, dur, target in self.ramps:
-            s, ds = _ramp((t - start) / dur)
-            v = v + (target - prev) * s
-            a = a + (target - prev) * ds / dur
+            _add_ramp(v, a, (t - start) / dur, target - prev, dur)
             prev = target
         return v, a
 

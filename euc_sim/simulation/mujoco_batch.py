@@ -35,10 +35,18 @@ each: the same DataFrame, or the ``FallError`` it raises.
   Such requests run through :func:`simulate` itself, one after the other, with the
   same results as before.  ``sensor_time_offset`` acts on the recording only.
 
+* **On threads.** Many batches are pipelined (:func:`_pipeline`): each of ``nthread``
+  threads steps batches of its own, one ``Batch`` on one thread (``Batch.step``
+  releases the GIL), while the calling thread sets up the next batch
+  (:func:`engine.prepare`, about 7 % of a ride's CPU time) and the threads' Python work
+  (the rider's blocks, the DataFrames) overlaps the others' stepping: nothing
+  serial keeps a core idle.  Fewer batches run one after the other, each ``Batch``
+  on ``nthread`` threads.
+
 Where numba cannot compile, every request runs through :func:`simulate` (one line
-on stderr).  One batch at a time per process holds MuJoCo's (process-global) control
-callback; it takes :mod:`euc_sim.simulation.native`'s lock, so a native ``simulate``
-in another thread meanwhile runs its Python loop.
+on stderr).  One call at a time per process holds MuJoCo's (process-global) control
+callback for its batches; it takes :mod:`euc_sim.simulation.native`'s lock, so a
+native ``simulate`` in another thread meanwhile waits for it.
 """
 
 from __future__ import annotations
@@ -53,12 +61,16 @@ from threadpoolctl import threadpool_limits
 
 from euc_sim.simulation import engine
 from euc_sim.simulation.errors import FallError
+from euc_sim.simulation.native_core import exclusive
 
-__all__ = ["simulate_rides", "batchable", "available", "NU", "BATCH_EFFECTS"]
+__all__ = ["simulate_rides", "batchable", "available", "NU", "BATCH_EFFECTS", "PIPELINE_BATCHES"]
 
 #: Effects the batch applies itself (the others of the catalog run through :func:`simulate`).
 BATCH_EFFECTS = ("rolling_resistance", "aerodynamic_drag", "road_slope", "wheel_bearing_friction",
                  "rider_mass", "sensor_time_offset")
+#: Batches per thread from which :func:`simulate_rides` pipelines (below, a lone thread's last
+#: batch would cost more than the serial Python work the pipeline hides: about 1/10 of a ride).
+PIPELINE_BATCHES = 3
 #: ``MjData.userdata`` slots per simulation.
 NU = 48
 _MAGIC = 23.0625                       # slot S_MAGIC: this simulation is one of ours
@@ -171,11 +183,20 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int 
         Keyword arguments of :func:`euc_sim.simulation.engine.simulate` (``maneuver``,
         ``duration``, ``seed``, ``params``, ``effects`` …), one mapping per ride.
     nthread : int
-        Threads of each ``mujoco.batch.Batch``.
+        Threads stepping the batches (0: MuJoCo's default pool).  Where the batched
+        requests fill at least :data:`PIPELINE_BATCHES` × ``nthread`` batches (and
+        ``nthread`` ≥ 2), each thread steps batches of its own (a ``mujoco.batch.Batch``
+        on one thread) while the calling thread prepares the next (:func:`_pipeline`):
+        no core waits for the Python work (set-up, the rider's block law, DataFrames).
+        Otherwise the batches run one after the other, each on ``nthread`` threads, the
+        Python work between them.  Threads never change a ride.
     batch : int
-        Rides per ``Batch`` at most (a 20 s ride's records take about 1.3 MB).
+        Rides per ``Batch`` at most (a 20 s ride's records take about 1.3 MB; the
+        pipeline holds at most ``2 nthread + 2`` batches at once).  The batches' make-up
+        (hence the rounding of the rider's batched sums) depends on ``batch`` only.
     progress : callable, optional
-        ``progress(n)`` with the number of rides finished, as they finish.
+        ``progress(n)`` with the number of rides finished, as they finish (called in
+        the calling thread).
 
     Returns
     -------
@@ -186,7 +207,10 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int 
     Raises
     ------
     SimulationError
-        for a request :func:`simulate` refuses (checked before any ride runs).
+        for a request :func:`simulate` refuses: its arguments, engine, duration, step,
+        ground, maneuver and effects are checked before any ride runs; what only
+        setting the ride up finds (e.g. contact settings) is raised as its batch is
+        prepared, before any result is returned.
     """
     if not (isinstance(batch, int) and batch >= 1 and isinstance(nthread, int) and nthread >= 0):
         raise engine.SimulationError(f"simulate_rides: batch must be a positive and nthread a non-negative "
@@ -202,35 +226,122 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int 
         print(f"euc-sim: MuJoCo batch unavailable ({_UNUSABLE_REASON}); simulating ride by ride",
               file=sys.stderr)
         in_batch = []
-    rides = {i: engine.prepare(**requests[i]) for i in in_batch}      # every request checked first
-    for i in set(range(len(requests))) - set(rides):
-        engine.prepare(**requests[i])
-    groups: dict = {}
-    for i, ride in rides.items():   # one Batch per (steps, delay, dt, ground): blocks in step, one layout
-        groups.setdefault((ride.N, ride.run.n, ride.run.dt, ride.stepper.sim.variant), []).append(i)
+    batched = set(in_batch)
+    for i, r in enumerate(requests):     # every request checked first (the batch's: all but set-up)
+        if i in batched:
+            _check(r)
+        else:
+            engine.prepare(**r)
     done = 0
-    chunks = [ids[j:j + batch] for ids in groups.values() for j in range(0, len(ids), batch)]
-    for ids in chunks:              # BLAS on one thread: its idle threads spin against the batch's
-        pushes = [requests[i].get("external_force") for i in ids]
-        with threadpool_limits(limits=1, user_api="blas"):
-            results = _run_batch([rides[i] for i in ids], pushes, nthread)
+
+    def finished(ids: list, results: list) -> None:
+        nonlocal done
         for i, res in zip(ids, results):
             out[i] = res
-            del rides[i]            # its buffers go with it
         done += len(ids)
         if progress is not None:
             progress(done)
-    batched = set(in_batch)
+
+    if in_batch:                        # BLAS on one thread: its idle threads spin against the batch's
+        with threadpool_limits(limits=1, user_api="blas"), exclusive(_CALLBACK):
+            batches = _prepared_batches(requests, in_batch, batch)
+            if nthread >= 2 and len(in_batch) >= PIPELINE_BATCHES * nthread * batch:
+                _pipeline(batches, nthread, finished)
+            else:
+                for ids, rides, pushes in batches:
+                    finished(ids, _run_batch(rides, pushes, nthread))
     for i, r in enumerate(requests):
         if i not in batched:
             try:
-                out[i] = engine.simulate(**r)
+                res = engine.simulate(**r)
             except FallError as exc:
-                out[i] = exc
-            done += 1
-            if progress is not None:
-                progress(done)
+                res = exc
+            finished([i], [res])
     return out
+
+
+def _check(request: Mapping) -> None:
+    """The checks of :func:`engine.prepare` that set nothing up (raise ``SimulationError``)."""
+    engine._check_request(request.get("engine", "mujoco"), request.get("duration", 15.0),
+                          request.get("dt", engine.DEFAULT_DT), request.get("variant", "ideal"),
+                          request.get("rolling_model", "moment"))
+    engine.as_maneuver(request.get("maneuver", "constant_speed"))
+    engine._check_effects(request.get("effects"))
+    force = request.get("external_force")
+    if force is not None and not callable(force):
+        raise engine.SimulationError(f"external_force must be a callable F(t) in N, got {force!r}")
+
+
+def _prepared_batches(requests: Sequence[Mapping], ids: list, size: int):
+    """Yield (request indices, rides, external forces) of ``size`` rides at most, each ride
+    set up (:func:`engine.prepare`) as its batch is yielded: one ``Batch`` per (steps,
+    delay, dt, ground), so that blocks run in step and the layout is one."""
+    groups: dict = {}
+    for i in ids:
+        ride = engine.prepare(**requests[i])
+        key = (ride.N, ride.run.n, ride.run.dt, ride.stepper.sim.variant)
+        group = groups.setdefault(key, [])
+        group.append((i, ride, requests[i].get("external_force")))
+        if len(group) == size:
+            yield tuple(map(list, zip(*groups.pop(key))))
+    for group in groups.values():
+        yield tuple(map(list, zip(*group)))
+
+
+def _pipeline(batches, nthread: int, finished) -> None:
+    """Run ``batches`` on ``nthread`` threads, each stepping one ``Batch`` at a time in C, while
+    the calling thread prepares the next (``batches`` is a generator) and reports
+    (``finished(ids, results)``).  ``Batch.step`` releases the GIL: one thread's rider law,
+    records and DataFrames (numpy, Python) overlap the others' steps.  A failure in any
+    thread is raised here after the threads stop."""
+    import queue
+    import threading
+
+    todo: queue.Queue = queue.Queue(maxsize=nthread)
+    results: queue.Queue = queue.Queue()
+    failed = threading.Event()
+    count = {"sent": 0, "reported": 0}
+
+    def lane() -> None:
+        while (item := todo.get()) is not None:
+            if failed.is_set():
+                continue
+            try:
+                results.put((item[0], _run_batch(item[1], item[2], 1)))
+            except BaseException as exc:   # noqa: BLE001 - re-raised by the calling thread
+                failed.set()
+                results.put((None, exc))
+
+    def report(block: bool) -> None:
+        while count["reported"] < count["sent"]:
+            try:
+                ids, res = results.get(block=block)
+            except queue.Empty:
+                return
+            count["reported"] += 1
+            if ids is None:
+                raise res
+            finished(ids, res)
+            block = False
+
+    lanes = [threading.Thread(target=lane, name=f"mujoco_batch-{j}", daemon=True) for j in range(nthread)]
+    for t in lanes:
+        t.start()
+    try:
+        for item in batches:
+            report(block=False)
+            todo.put(item)
+            count["sent"] += 1
+        while count["reported"] < count["sent"]:
+            report(block=True)
+    except BaseException:
+        failed.set()
+        raise
+    finally:
+        for _ in lanes:
+            todo.put(None)
+        for t in lanes:
+            t.join()
 
 
 def _batch_model(ride, cache: dict):
@@ -280,14 +391,13 @@ def _userdata_row(ride, per: int, addrs: tuple, push_addr: int) -> np.ndarray:
 
 
 def _run_batch(rides: list, forces: list, nthread: int) -> list:
-    """Rides of equal length, delay and step as one ``mujoco.batch.Batch``; results in order.
+    """Rides of equal length, delay and step as one ``mujoco.batch.Batch`` on ``nthread`` threads
+    (1: the calling thread; 0: MuJoCo's default pool); results in order.
 
     ``forces``: each ride's ``external_force`` F(t), N, or None; tabulated on the grid.
     """
     import mujoco
     import mujoco.batch
-
-    from euc_sim.simulation.native_core import exclusive
 
     S, N, n = len(rides), rides[0].N, rides[0].run.n
     cache: dict = {}
@@ -302,29 +412,28 @@ def _run_batch(rides: list, forces: list, nthread: int) -> list:
     for s, r in enumerate(rides):
         qpos[s], qvel[s], warm[s] = r.stepper.d.qpos, r.stepper.d.qvel, r.stepper.d.qacc_warmstart
         P[s, :n + 1] = r.y0
-    with exclusive(_CALLBACK):
-        per = _calls_per_step(mujoco, models, rides)
-        for s, r in enumerate(rides):
-            ud[s] = _userdata_row(r, per, (P[s, n:].ctypes.data, MD[s].ctypes.data, MH[s].ctypes.data),
-                                  0 if pushes[s] is None else pushes[s].ctypes.data)
-        law = _RiderBlocks([r.run for r in rides])
-        st0 = rides[0].stepper
-        out: list = [None] * S
-        active = np.arange(S)
-        for k0 in range(0, N + 1, n + 1):
-            block = min(n + 1, N + 1 - k0)
-            if k0:
-                P[active, n + k0] = _states(qpos[active], qvel[active], st0)
-            MH[active, k0:k0 + block] = law.applied(active, k0, P[active, k0:k0 + block])
-            steps = block if k0 + block <= N else block - 1
-            if steps:
-                batch.step(active, nstep=steps)
-                if not np.all(ud[active, S_K] == k0 + steps):
-                    raise RuntimeError("mujoco_batch: the callback's step count lost step with the batch")
-            fell = active[ud[active, S_FALL] >= 0]
-            for s in fell:
-                out[s] = _fall(rides[s], P[s, n:], MD[s], MH[s], int(ud[s, S_FALL]))
-            active = active[ud[active, S_FALL] < 0]
+    per = _calls_per_step(mujoco, models, rides)
+    for s, r in enumerate(rides):
+        ud[s] = _userdata_row(r, per, (P[s, n:].ctypes.data, MD[s].ctypes.data, MH[s].ctypes.data),
+                              0 if pushes[s] is None else pushes[s].ctypes.data)
+    law = _RiderBlocks([r.run for r in rides])
+    st0 = rides[0].stepper
+    out: list = [None] * S
+    active = np.arange(S)
+    for k0 in range(0, N + 1, n + 1):
+        block = min(n + 1, N + 1 - k0)
+        if k0:
+            P[active, n + k0] = _states(qpos[active], qvel[active], st0)
+        MH[active, k0:k0 + block] = law.applied(active, k0, P[active, k0:k0 + block])
+        steps = block if k0 + block <= N else block - 1
+        if steps:
+            batch.step(active, nstep=steps)
+            if not np.all(ud[active, S_K] == k0 + steps):
+                raise RuntimeError("mujoco_batch: the callback's step count lost step with the batch")
+        fell = active[ud[active, S_FALL] >= 0]
+        for s in fell:
+            out[s] = _fall(rides[s], P[s, n:], MD[s], MH[s], int(ud[s, S_FALL]))
+        active = active[ud[active, S_FALL] < 0]
     final = _states(qpos[active], qvel[active], st0)
     for j, s in enumerate(active):
         r = rides[s]

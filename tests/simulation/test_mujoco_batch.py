@@ -58,10 +58,50 @@ def test_batch_rides_match_simulate(rider):
 
 
 def test_threads_and_batch_sizes_give_the_same_rides(rider):
+    """Threads do not change a ride: one thread or two on one batch, and one thread or two on
+    batches of one (the pipeline: each thread its own Batch, the calling thread preparing the
+    next) are bit-identical; batch sizes change the batched sums' rounding only."""
     reqs = _requests(rider)[:3]
     one, two = mb.simulate_rides(reqs, nthread=1, batch=2), mb.simulate_rides(reqs, nthread=2)
     for a, b in zip(one, two):
         assert _gap(a, b) == pytest.approx(0.0, abs=1e-15)
+    reqs = [dict(r, duration=d) for d in (1.0, 0.8) for r in reqs] + [dict(reqs[0], effects={"cog_height_drift": 0.01})]
+    assert sum(map(mb.batchable, reqs)) == 6 >= mb.PIPELINE_BATCHES * 2   # 6 batches of one, 2 groups: the pipeline
+    counts = []
+    single = mb.simulate_rides(reqs, nthread=1, batch=1)
+    piped = mb.simulate_rides(reqs, nthread=2, batch=1, progress=counts.append)
+    for r, c, d in zip(reqs, single, piped):
+        assert _gap(c, d) == pytest.approx(0.0, abs=1e-15)
+        assert _gap(d, simulate(**r)) <= TOL
+    assert counts == [1, 2, 3, 4, 5, 6, 7]                    # the unbatched ride last
+
+
+def test_a_failure_in_the_pipeline_is_raised_and_the_threads_stop(rider, monkeypatch):
+    """A batch that fails on a thread, and a request refused only as its batch is prepared,
+    are raised in the caller; no thread and no callback stay behind."""
+    import threading
+
+    reqs = [dict(maneuver="constant_speed", duration=0.5, seed=s, rider=rider) for s in range(6)]
+    run_batch = mb._run_batch
+    calls = []
+
+    def fail_second(rides, forces, nthread):
+        calls.append(threading.current_thread().name)
+        if len(calls) == 2:
+            raise ValueError("batch two fails")
+        return run_batch(rides, forces, nthread)
+
+    monkeypatch.setattr(mb, "_run_batch", fail_second)
+    with pytest.raises(ValueError, match="batch two fails"):
+        mb.simulate_rides(reqs, nthread=2, batch=1)
+    monkeypatch.setattr(mb, "_run_batch", run_batch)
+    assert all(name.startswith("mujoco_batch") for name in calls)      # on the pipeline's threads
+    bad = reqs[:5] + [dict(reqs[5], external_force=3.0)]
+    monkeypatch.setattr(mb, "_check", lambda r: None)              # as if only set-up found it
+    with pytest.raises(SimulationError, match="external_force must be a callable"):
+        mb.simulate_rides(bad, nthread=2, batch=1)
+    assert not [t for t in threading.enumerate() if t.name.startswith("mujoco_batch")]
+    assert mujoco.get_mjcb_control() is None
 
 
 def test_a_batch_and_native_rides_on_threads_at_once(rider):

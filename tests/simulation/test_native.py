@@ -4,7 +4,7 @@ Python loop."""
 from __future__ import annotations
 
 import ctypes
-import time
+import threading
 
 import mujoco
 import numpy as np
@@ -179,27 +179,38 @@ def test_the_rider_law_matches_the_python_reference_step_by_step(rider):
 
 
 def test_a_foreign_simulation_is_left_alone_while_native_runs_go(rider):
-    """The callback is process-wide; an MjData it does not know keeps its own controls."""
+    """The callback is process-wide; an MjData it does not know keeps its own controls.
+
+    A handshake, no clock: the ride's first progress call (inside its native run, the
+    callback installed) lets the foreign simulation go and waits until it has stepped."""
     from concurrent.futures import ThreadPoolExecutor
 
     m = mujoco.MjModel.from_xml_string(
         '<mujoco><worldbody><body><joint name="j"/><geom size=".1" mass="1"/></body></worldbody>'
         '<actuator><motor joint="j"/></actuator></mujoco>')
     d = mujoco.MjData(m)
+    installed, stepped = threading.Event(), threading.Event()
+
+    def hold(_t):
+        if not installed.is_set():
+            installed.set()
+            stepped.wait(120)                       # the ride stays native while the foreign one steps
 
     def foreign():
-        t0 = time.perf_counter()
-        while mujoco.get_mjcb_control() is None and time.perf_counter() - t0 < 120:
-            time.sleep(1e-4)                            # until the ride's callback is installed
-        seen = [mujoco.get_mjcb_control() is not None]
-        for _ in range(200):
-            d.ctrl[0] = 0.25
-            mujoco.mj_step(m, d, nstep=50)
-            seen.append(float(d.ctrl[0]))
-        return seen
+        try:
+            installed.wait(120)
+            seen = [mujoco.get_mjcb_control() is not None]
+            for _ in range(200):
+                d.ctrl[0] = 0.25
+                mujoco.mj_step(m, d, nstep=50)
+                seen.append(float(d.ctrl[0]))
+            return seen
+        finally:
+            stepped.set()
 
     with ThreadPoolExecutor(2) as pool:
-        ride = pool.submit(simulate, "stop_and_go", 6.0, rider=rider, seed=1)
+        ride = pool.submit(simulate, "stop_and_go", 6.0, rider=rider, seed=1, progress=hold)
         seen = pool.submit(foreign).result()
         ride.result()
+    assert installed.is_set()
     assert seen == [True] + [0.25] * 200
