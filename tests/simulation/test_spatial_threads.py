@@ -56,3 +56,29 @@ def test_bad_input_is_said():
         ride_3d_many([], nthread=0)
     with pytest.raises(SimulationError, match="unknown path 'loop'"):
         ride_3d_many([{"path": "slalom", "duration": 1.0}, {"path": "loop", "duration": 1.0}], nthread=2)
+
+
+def test_blind_study_makes_its_3d_cases_on_threads_as_one_by_one(tmp_path):
+    """``scripts/blind_study.py``'s 3-D cases, made by ``make_recordings`` (one in-process task,
+    two threads): the files ``make_recording`` writes case by case; a fall left unwritten."""
+    import sys
+    from pathlib import Path
+    scripts = str(Path(__file__).resolve().parents[2] / "scripts")
+    if scripts not in sys.path:
+        sys.path.insert(0, scripts)
+    import blind_study
+
+    cases = blind_study.plan_spatial(7, 3, 2.0)
+    cases.append({**cases[0], "name": "spatial_falls", "maneuver": "circle", "duration": 8.0,
+                  "options": {"speed": 2.5, "radius": 2.0}})
+    blind_study.make_recordings(cases, tmp_path / "threads", workers=1)
+    (tmp_path / "one").mkdir()
+    for c in cases[:-1]:
+        p = blind_study.make_recording(c, tmp_path / "one")
+        for suffix in (".csv", ".json", ".truth.json"):
+            q = tmp_path / "threads" / p.with_suffix(suffix).name
+            assert q.read_bytes() == p.with_suffix(suffix).read_bytes()
+    with pytest.raises(FallError):
+        blind_study.make_recording(cases[-1], tmp_path / "one")
+    assert sorted(p.name for p in (tmp_path / "threads").iterdir()) == sorted(
+        p.name for p in (tmp_path / "one").iterdir())
