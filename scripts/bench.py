@@ -12,7 +12,7 @@ Each section is a function ``bench_NAME() -> dict`` registered in ``SECTIONS``; 
 prints its own lines and returns its figures (written as JSON with ``--json``).  The
 sections live beside this script by idea: ``bench_loops`` (the step and the closed
 loops), ``bench_batch`` (many rides at once), ``bench_analysis`` (identification,
-diagnosis), ``bench_rides`` (real and long rides); ``bench_timing`` the timers.
+diagnosis), ``bench_rides`` (real and long rides), ``bench_spatial_threads`` (3-D rides on threads); ``bench_timing`` the timers.
 """
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from bench_batch import (_batch_chunk, _effect_requests, bench_batch, bench_data
                          mujoco_batch_figures)
 from bench_loops import _replay, bench_closed_loop, bench_inverse, bench_spatial  # noqa: E402,F401
 from bench_rides import bench_ride, bench_ride_mass  # noqa: E402
+from bench_spatial_threads import bench_spatial_threads  # noqa: E402
 from bench_timing import timed, timed_together  # noqa: E402,F401
 
 
@@ -42,6 +43,7 @@ SECTIONS: dict[str, Callable[[], dict]] = {
     "diagnose": bench_diagnose,
     "ride_mass": bench_ride_mass,
     "spatial": bench_spatial,
+    "spatial_threads": bench_spatial_threads,
     "uncertainty": bench_uncertainty,
     "ride": bench_ride,
 }

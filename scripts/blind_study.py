@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 import warnings
@@ -249,12 +250,17 @@ def make_recording(case: dict, out: Path) -> Path:
     """Simulate one case and write NAME.csv, NAME.json (no truth in it), NAME.truth.json."""
     if case.get("model") == "3d":
         from euc_sim.simulation.spatial import write_spatial
-        return write_spatial(out / f"{case['name']}.csv", case["maneuver"], case["duration"], seed=case["seed"],
-                             rider_noise=RIDER_NOISE, speed=case["options"]["speed"],
-                             radius=case["options"]["radius"], hide_torques=case["hide_torques"],
-                             noise=case.get("noise", "paper"))
+        return write_spatial(**spatial_request(case, out))
     from euc_sim.simulation import dataset
     return _write_case(case, out, *dataset.simulated_recording(case_spec(case)))
+
+
+def spatial_request(case: dict, out: Path) -> dict:
+    """The keyword arguments of :func:`euc_sim.simulation.spatial.write_spatial` for a 3-D case."""
+    return {"out": out / f"{case['name']}.csv", "path": case["maneuver"], "duration": case["duration"],
+            "seed": case["seed"], "rider_noise": RIDER_NOISE, "speed": case["options"]["speed"],
+            "radius": case["options"]["radius"], "hide_torques": case["hide_torques"],
+            "noise": case.get("noise", "paper")}
 
 
 def case_spec(case: dict):
@@ -301,17 +307,43 @@ def _make_batch(args) -> int:
     return sum(isinstance(res, Exception) for res in made)
 
 
+def _make_spatial(args) -> int:
+    """Worker: 3-D cases' recordings on ``nthread`` threads (``spatial_threads.ride_3d_many``);
+    a case whose rider falls is left unwritten (its ``_work`` then says so). Returns how many fell."""
+    cases, out, nthread = args
+    from euc_sim.simulation.spatial import write_spatial
+    from euc_sim.simulation.spatial_threads import ride_3d_many
+    made = ride_3d_many([spatial_request(c, out) for c in cases], nthread=nthread, ride=write_spatial)
+    return sum(isinstance(res, Exception) for res in made)
+
+
 def make_recordings(cases: list[dict], out: Path, workers: int = 2, scheduler: str | None = None,
                     batch: int = 32) -> None:
-    """The planar cases' missing recordings, ``batch`` to a MuJoCo batch, one batch per task of
-    :func:`euc_sim.simulation.runner.run_tasks` (3-D cases are made by :func:`make_recording`)."""
+    """The cases' missing recordings as tasks of :func:`euc_sim.simulation.runner.run_tasks`: the
+    planar ones ``batch`` to a MuJoCo batch, the 3-D ones in groups of at most ``batch`` (as many
+    groups as ``workers`` at least), each group on the cores a worker has to itself
+    (``spatial_threads.ride_3d_many``; one thread under Dask). Same files as :func:`make_recording`."""
     from euc_sim.simulation.runner import run_tasks
 
-    todo = [c for c in cases if c.get("model") != "3d" and not (out / f"{c['name']}.csv").exists()]
-    if todo:
-        run_tasks(_make_batch, [(f"batch{i // batch:04d}", (todo[i:i + batch], out))
-                                for i in range(0, len(todo), batch)],
+    todo = [c for c in cases if not (out / f"{c['name']}.csv").exists()]
+    flat = [c for c in todo if c.get("model") != "3d"]
+    tasks = [(f"batch{i // batch:04d}", _make_batch, (flat[i:i + batch], out)) for i in range(0, len(flat), batch)]
+    spatial = [c for c in todo if c.get("model") == "3d"]
+    if spatial:
+        w = max(1, workers or os.cpu_count() or 1)
+        nthread = 1 if scheduler else max(1, (os.cpu_count() or 1) // w)
+        size = min(batch, -(-len(spatial) // w))
+        tasks += [(f"spatial{i // size:04d}", _make_spatial, (spatial[i:i + size], out, nthread))
+                  for i in range(0, len(spatial), size)]
+    if tasks:
+        run_tasks(_make_task, [(name, (fn, arg)) for name, fn, arg in tasks],
                   scheduler=scheduler, workers=workers, desc="blind study rides")
+
+
+def _make_task(args) -> int:
+    """Worker: one task of :func:`make_recordings` (a planar MuJoCo batch or a 3-D group)."""
+    fn, arg = args
+    return fn(arg)
 
 
 def _work(args):
