@@ -2,59 +2,40 @@
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 import pytest
 
-from euc_sim.identification.processing import Smoothing, kinematics
 from euc_sim.identification.rollout_fit import RolloutError, fit_rollout
 from euc_sim.model.parameters import TABLE3
-from euc_sim.simulation.engine import default_rider, simulate
-from euc_sim.simulation.maneuvers import make_maneuver
-from euc_sim.simulation.mocap import motion_capture
-
-H_TRUE = 0.55          # not Table 3's 0.6: the fit must find it, not inherit it
-
-
-@lru_cache(maxsize=None)
-def _run():
-    p = TABLE3.replace(h=H_TRUE)
-    man = make_maneuver("deceleration", v0=3.0, v1=1.0, start=0.5, ramp=2.5)
-    return simulate(man, 4.0, params=p, rider=default_rider(p, noise_std=0.0), seed=3)
-
-
-def _rec(noise):
-    df = motion_capture(_run(), TABLE3.replace(h=H_TRUE), noise=noise, seed=5)
-    return df, kinematics(df, TABLE3, Smoothing())
+from idsim import H_TWIN, twin_recording
 
 
 def test_twin_noise_free_recovers_h_from_a_wrong_start():
-    df, kin = _rec("none")
+    df, kin = twin_recording("none")
     fit = fit_rollout(df, kin, TABLE3, h0=0.45)
     assert fit.windows == 4
-    assert fit.h == pytest.approx(H_TRUE, abs=1e-3)
+    assert fit.h == pytest.approx(H_TWIN, abs=1e-3)
     assert fit.h_ci95[0] <= fit.h <= fit.h_ci95[1] and not fit.at_bound
     assert fit.correlation.shape == (1 + 6 * 4, 1 + 6 * 4)
     assert np.allclose(np.diag(fit.correlation), 1.0)
 
 
 def test_twin_with_paper_noise_interval_holds_h():
-    df, kin = _rec("paper")
+    df, kin = twin_recording("paper")
     fit = fit_rollout(df, kin, TABLE3, h0=0.6)
-    assert fit.h_ci95[0] <= H_TRUE <= fit.h_ci95[1]
+    assert fit.h_ci95[0] <= H_TWIN <= fit.h_ci95[1]
     assert fit.h_ci95[1] - fit.h_ci95[0] < 0.05
     assert fit.rms[2] == pytest.approx(np.radians(0.5), rel=0.25)     # the residual is the noise
 
 
 def test_bound_is_reported():
-    df, kin = _rec("none")
+    df, kin = twin_recording("none")
     fit = fit_rollout(df, kin, TABLE3, h0=0.45, bounds=(0.3, 0.5))
     assert fit.at_bound == ["h"] and fit.h == pytest.approx(0.5)
 
 
 def test_needs_both_torques():
-    df, kin = _rec("none")
+    df, kin = twin_recording("none")
     with pytest.raises(RolloutError, match="M_h"):
         fit_rollout(df.drop(columns=["M_h"]), kin, TABLE3, h0=0.6)
 
@@ -65,7 +46,7 @@ def test_cli_rollout(tmp_path, capsys):
     from euc_sim.cli import main
     from euc_sim.io import write_recording
 
-    df, _ = _rec("paper")
+    df, _ = twin_recording("paper")
     good = write_recording(df, tmp_path / "twin.csv", {"params": {"m": TABLE3.m}})
     code = main(["identify", str(good), "--method", "rollout", "--bootstrap", "60",
                  "--noise-replicates", "10", "--json", str(tmp_path / "o.json")])
@@ -73,7 +54,7 @@ def test_cli_rollout(tmp_path, capsys):
     m = json.loads((tmp_path / "o.json").read_text())["models"]["3dof"]
     r = m["rollout"]
     assert set(r) >= {"h", "h_ci95", "seconds", "windows", "at_bound"} and r["windows"] == 4
-    assert r["h_ci95"][0] <= H_TRUE <= r["h_ci95"][1] and m["at_bound"] == []
+    assert r["h_ci95"][0] <= H_TWIN <= r["h_ci95"][1] and m["at_bound"] == []
     bad = write_recording(df.drop(columns=["M_h"]), tmp_path / "no_mh.csv", {})
     capsys.readouterr()
     assert main(["identify", str(bad), "--method", "rollout"]) == 2

@@ -2,43 +2,25 @@
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
 import pytest
 
-from euc_sim.identification.processing import Smoothing, kinematics
 from euc_sim.identification import sysid_fit
 from euc_sim.identification.rollout_fit import RolloutError
 from euc_sim.model.parameters import TABLE3
-from euc_sim.simulation.engine import default_rider, simulate
-from euc_sim.simulation.maneuvers import make_maneuver
-from euc_sim.simulation.mocap import motion_capture
+from idsim import H_TWIN, twin_recording
 
-H_TRUE = 0.55          # not Table 3's 0.6: the fit must find it, not inherit it
 
 needs_extra = pytest.mark.skipif(not sysid_fit.sysid_available(),
                                  reason="the mujoco[sysid] extra is not installed")
 
 
-@lru_cache(maxsize=None)
-def _run():
-    p = TABLE3.replace(h=H_TRUE)
-    man = make_maneuver("deceleration", v0=3.0, v1=1.0, start=0.5, ramp=2.5)
-    return simulate(man, 4.0, params=p, rider=default_rider(p, noise_std=0.0), seed=3)
-
-
-def _rec(noise):
-    df = motion_capture(_run(), TABLE3.replace(h=H_TRUE), noise=noise, seed=5)
-    return df, kinematics(df, TABLE3, Smoothing())
-
-
 @needs_extra
 def test_twin_noise_free_recovers_h_from_a_wrong_start():
-    df, kin = _rec("none")
+    df, kin = twin_recording("none")
     fit = sysid_fit.fit_sysid(df, kin, TABLE3, h0=0.45)
     assert fit.windows == 4
-    assert fit.h == pytest.approx(H_TRUE, abs=1e-3)
+    assert fit.h == pytest.approx(H_TWIN, abs=1e-3)
     assert fit.h_ci95[0] <= fit.h <= fit.h_ci95[1] and not fit.at_bound
     assert fit.correlation.shape == (1 + 6 * 4, 1 + 6 * 4)
     assert np.allclose(np.diag(fit.correlation), 1.0)
@@ -48,10 +30,10 @@ def test_twin_noise_free_recovers_h_from_a_wrong_start():
 def test_twin_with_paper_noise_agrees_with_our_rollout():
     from euc_sim.identification.rollout_fit import fit_rollout
 
-    df, kin = _rec("paper")
+    df, kin = twin_recording("paper")
     fit = sysid_fit.fit_sysid(df, kin, TABLE3, h0=0.6)
     ours = fit_rollout(df, kin, TABLE3, h0=0.6)
-    assert fit.h_ci95[0] <= H_TRUE <= fit.h_ci95[1]
+    assert fit.h_ci95[0] <= H_TWIN <= fit.h_ci95[1]
     assert fit.h == pytest.approx(ours.h, abs=1e-4)            # the same problem, the same optimum
     w, w_ours = fit.h_ci95[1] - fit.h_ci95[0], ours.h_ci95[1] - ours.h_ci95[0]
     assert w == pytest.approx(w_ours, rel=0.05)                # t against normal quantile, same JᵀJ
@@ -60,13 +42,13 @@ def test_twin_with_paper_noise_agrees_with_our_rollout():
 
 @needs_extra
 def test_bound_is_reported():
-    df, kin = _rec("none")
+    df, kin = twin_recording("none")
     fit = sysid_fit.fit_sysid(df, kin, TABLE3, h0=0.45, bounds=(0.3, 0.5))
     assert fit.at_bound == ["h"] and fit.h == pytest.approx(0.5)
 
 
 def test_needs_both_torques_or_the_extra():
-    df, kin = _rec("none")
+    df, kin = twin_recording("none")
     msg = "M_h" if sysid_fit.sysid_available() else r"mujoco\[sysid\]"
     with pytest.raises(RolloutError, match=msg):
         sysid_fit.fit_sysid(df.drop(columns=["M_h"]), kin, TABLE3, h0=0.6)
@@ -75,7 +57,7 @@ def test_needs_both_torques_or_the_extra():
 def test_cli_without_the_extra_says_so_in_one_line(monkeypatch, capsys, tmp_path):
     from euc_sim.cli import main
 
-    df, _ = _rec("none")
+    df, _ = twin_recording("none")
     path = tmp_path / "rec.csv"
     df.to_csv(path, index=False)
     monkeypatch.setattr(sysid_fit, "sysid_available", lambda: False)
@@ -93,7 +75,7 @@ def test_cli_sysid_writes_its_entry_and_figure(tmp_path, capsys):
     from euc_sim.cli import main
     from euc_sim.io import write_recording
 
-    df, _ = _rec("paper")
+    df, _ = twin_recording("paper")
     good = write_recording(df, tmp_path / "twin.csv", {"params": {"m": TABLE3.m}})
     code = main(["identify", str(good), "--method", "sysid", "--bootstrap", "20",
                  "--noise-replicates", "5", "--json", str(tmp_path / "o.json"),
@@ -102,7 +84,7 @@ def test_cli_sysid_writes_its_entry_and_figure(tmp_path, capsys):
     out = json.loads((tmp_path / "o.json").read_text())
     m = out["models"]["3dof"]
     assert "rollout" not in m and m["sysid"]["windows"] == 4
-    assert m["sysid"]["h_ci95"][0] <= H_TRUE <= m["sysid"]["h_ci95"][1] and m["at_bound"] == []
+    assert m["sysid"]["h_ci95"][0] <= H_TWIN <= m["sysid"]["h_ci95"][1] and m["at_bound"] == []
     assert (tmp_path / "f-sysid.png").is_file() and str(tmp_path / "f-sysid.png") in out["figures"]
     assert "mujoco.sysid h = " in capsys.readouterr().out
 
