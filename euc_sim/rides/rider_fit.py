@@ -55,6 +55,7 @@ from controllers.motor import MotorPD
 from controllers.rider import Rider
 from euc_sim.model.parameters import Params
 from euc_sim.rides.profile import PLAN_WINDOW, rider_plan
+from euc_sim.rides.response_surface import lhs as _lhs, minimise as _minimise, surface as _surface
 from euc_sim.rides.rider_features import (BAND_WINDOWS, RiderFitError, band_features,  # noqa: F401
                                          fit_windows, log_channels)
 from euc_sim.rides.signals import RideAssumptions, as_log
@@ -258,45 +259,6 @@ def _log_rms(ms: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------
-# Response surface
-# --------------------------------------------------------------------------------------
-def _quad_terms(X: np.ndarray) -> np.ndarray:
-    X = np.atleast_2d(X)
-    cols = [np.ones(len(X))] + [X[:, i] for i in range(X.shape[1])]
-    cols += [X[:, i] * X[:, j] for i in range(X.shape[1]) for j in range(i, X.shape[1])]
-    return np.stack(cols, axis=1)
-
-
-def _surface(X: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Least-squares quadratic coefficients of each feature in X (columns: features)."""
-    coef, *_ = np.linalg.lstsq(_quad_terms(X), F, rcond=None)
-    return coef
-
-
-def _minimise(coef: np.ndarray, target: np.ndarray, w: np.ndarray, box: np.ndarray,
-              starts: np.ndarray) -> np.ndarray:
-    from scipy.optimize import minimize
-
-    def J(x):
-        r = _quad_terms(x)[0] @ coef - target
-        return float(np.sum(w * r * r))
-
-    best = None
-    for x0 in starts:
-        res = minimize(J, np.clip(x0, box[:, 0], box[:, 1]), method="L-BFGS-B", bounds=box)
-        if best is None or res.fun < best.fun:
-            best = res
-    return best.x
-
-
-def _lhs(n: int, box: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    from scipy.stats import qmc
-
-    u = qmc.LatinHypercube(d=len(box), seed=rng).random(n)
-    return box[:, 0] + u * (box[:, 1] - box[:, 0])
-
-
-# --------------------------------------------------------------------------------------
 # The fit
 # --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
@@ -344,47 +306,90 @@ def _values_of(x: np.ndarray) -> dict:
     return {p.name: p.from_unit(float(u)) for p, u in zip(RIDER_PARAMS, x)}
 
 
-def _search(setup: _Setup, rows, block, F_log, w, rounds, rng, say) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Response-surface rounds in shrinking boxes around the running optimum.
+def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng):
+    """One response-surface round around ``center`` with box level ``level``.
 
-    A box shrinks (half-widths 0.5, 0.2, 0.08 of the scaled range) only when the optimum
-    found in it is inside it or on a search bound; an optimum on the box's own edge moves
-    the next box, the same size, there.
+    Simulates ``npts`` design points (``center`` and a Latin hypercube of the box, half-width
+    0.5, 0.2, 0.08 of the scaled range by level) into ``pool`` (lists X, F), fits the
+    quadratic surface on the pool's points near ``center`` and minimises it in the box.
 
     Returns
     -------
     tuple
-        Optimum in [0, 1]³, the last surface's coefficients, the box its design points
-        span (3 × 2), and the number of simulations.
+        New center, surface coefficients, hull of the points used (3 × 2), next level,
+        whether the optimum ended on the box's own edge.
+    """
+    X, F = pool
+    half = _HALVES[min(level, len(_HALVES) - 1)]
+    box = np.stack([np.clip(center - half, 0, 1), np.clip(center + half, 0, 1)], axis=1)
+    for x in np.vstack([center[None, :], _lhs(npts - 1, box, rng)]):
+        f = _simulated_features(setup, _values_of(x), rows, block)
+        if f is not None:
+            X.append(x)
+            F.append(f)
+    near = [i for i, x in enumerate(X) if np.all(np.abs(x - center) <= max(half, 0.2) + 1e-9)]
+    if len(near) < 10:
+        raise RiderFitError(f"rider fit: only {len(near)} of the design points near "
+                            f"{_values_of(center)} rode without falling (10 needed)")
+    Xn, Fn = np.asarray(X)[near], np.asarray(F)[near]
+    coef = _surface(Xn, Fn)
+    hull = np.stack([Xn.min(axis=0), Xn.max(axis=0)], axis=1)
+    best = np.argsort([np.sum(w * (f - F_log) ** 2) for f in Fn])[:3]
+    new = _minimise(coef, F_log, w, box, np.vstack([center, Xn[best]]))
+    edge = ((np.abs(new - box[:, 0]) < 1e-6) & (box[:, 0] > 1e-9)) | \
+           ((np.abs(new - box[:, 1]) < 1e-6) & (box[:, 1] < 1 - 1e-9))
+    return new, coef, hull, level + (0 if edge.any() else 1), bool(edge.any())
+
+
+#: Half-widths of the search boxes by level, in the scaled [0, 1] coordinates.
+_HALVES = (0.5, 0.2, 0.08)
+
+
+def _search(setup: _Setup, rows, block, F_log, w, rounds, rng, say) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Response-surface rounds in shrinking boxes, from two starts along the delay.
+
+    The first round spans half the scaled range around the nominal rider.  The delay and the
+    bandwidth trade off along a curved valley that one quadratic over that box does not
+    follow, so the later rounds run twice: from the first round's optimum, and from the
+    first round's best simulated design point among those whose delay lies more than the
+    next box's half-width from it.  Each path's optimum is simulated and the one nearer
+    the log's features (weighted distance) is kept.  Along a path a box shrinks
+    (half-widths 0.5, 0.2, 0.08) only when the optimum found in it is inside it or on a
+    search bound; an optimum on the box's own edge moves the next box, the same size, there.
+
+    Returns
+    -------
+    tuple
+        Optimum in [0, 1]³, its path's last surface's coefficients, the box its design
+        points span (3 × 2), and the number of simulations.
     """
     X, F = [], []
-    center = np.array([p.to_unit(p.nominal) for p in RIDER_PARAMS])
-    coef, hull, n_sims, level = None, None, 0, 0
-    halves = (0.5, 0.2, 0.08)
-    for r, npts in enumerate(rounds):
-        half = halves[min(level, len(halves) - 1)]
-        box = np.stack([np.clip(center - half, 0, 1), np.clip(center + half, 0, 1)], axis=1)
-        pts = np.vstack([center[None, :], _lhs(npts - 1, box, rng)])
-        for x in pts:
-            n_sims += 1
-            f = _simulated_features(setup, _values_of(x), rows, block)
-            if f is not None:
-                X.append(x)
-                F.append(f)
-        near = [i for i, x in enumerate(X) if np.all(np.abs(x - center) <= max(half, 0.2) + 1e-9)]
-        if len(near) < 10:
-            raise RiderFitError(f"rider fit: only {len(near)} of the design points near "
-                                f"{_values_of(center)} rode without falling (10 needed)")
-        Xn, Fn = np.asarray(X)[near], np.asarray(F)[near]
-        coef = _surface(Xn, Fn)
-        hull = np.stack([Xn.min(axis=0), Xn.max(axis=0)], axis=1)
-        best = np.argsort([np.sum(w * (f - F_log) ** 2) for f in Fn])[:3]
-        center = _minimise(coef, F_log, w, box, np.vstack([center, Xn[best]]))
-        edge = ((np.abs(center - box[:, 0]) < 1e-6) & (box[:, 0] > 1e-9)) | \
-               ((np.abs(center - box[:, 1]) < 1e-6) & (box[:, 1] < 1 - 1e-9))
-        level += 0 if edge.any() else 1
-        say(f"rider fit round {r + 1}: {len(X)} simulations, now {_values_of(center)}"
-            + (" (on the box's edge: the next box moves there)" if edge.any() else ""))
+    J = lambda f: float(np.sum(w * (f - F_log) ** 2))                 # noqa: E731
+    nominal = np.array([p.to_unit(p.nominal) for p in RIDER_PARAMS])
+    center, coef, hull, level, edge = _round(setup, rows, block, F_log, w, rounds[0], nominal, 0, (X, F), rng)
+    n_sims = rounds[0]
+    say(f"rider fit round 1: {n_sims} simulations, now {_values_of(center)}")
+    starts = [center]
+    if len(rounds) > 1:
+        half = _HALVES[min(level, len(_HALVES) - 1)]
+        far = [i for i, x in enumerate(X) if abs(x[0] - center[0]) > half]
+        if far:
+            starts.append(X[min(far, key=lambda i: J(F[i]))])
+    finals = []
+    for k, c in enumerate(starts):
+        lv, cf, hl = level, coef, hull
+        for r, npts in enumerate(rounds[1:]):
+            c, cf, hl, lv, edge = _round(setup, rows, block, F_log, w, npts, c, lv, (X, F), rng)
+            n_sims += npts
+            say(f"rider fit start {k + 1} round {r + 2}: {n_sims} simulations, now {_values_of(c)}"
+                + (" (on the box's edge: the next box moves there)" if edge else ""))
+        f = _simulated_features(setup, _values_of(c), rows, block) if len(starts) > 1 else None
+        n_sims += len(starts) > 1
+        finals.append((J(f) if f is not None else (0.0 if len(starts) == 1 else math.inf), k, c, cf, hl))
+    j_best, k, center, coef, hull = min(finals, key=lambda z: z[0])
+    if len(finals) > 1:
+        say("rider fit: the paths end at " + "; ".join(f"{_values_of(z[2])} (distance {z[0]:.1f})"
+                                                         for z in finals) + f": start {k + 1} kept")
     return center, coef, hull, n_sims
 
 
