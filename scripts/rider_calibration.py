@@ -32,7 +32,8 @@ PAIRS = {"lynx": ("trips/leaperkim/lynx/0/0.csv", "trips/leaperkim/lynx/2/2.csv"
          "v9": ("trips/inmotion/v9/0/0.csv", "trips/inmotion/v9/1/1.csv", "specs/v9.csv")}
 
 
-def concealed(seeds, duration: float, out: Path, windows: int, length: float, repeats: int = 1) -> list[dict]:
+def concealed(seeds, duration: float, out: Path, windows: int, length: float, repeats: int = 1,
+              plan_window: float = 10.0) -> list[dict]:
     from tests.rides.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
     from euc_sim.rides.rider_fit import fit_rider
 
@@ -41,6 +42,7 @@ def concealed(seeds, duration: float, out: Path, windows: int, length: float, re
         t0 = time.time()
         log = eucworld_power_log(rider_ride(seed, duration), out / f"concealed_{seed}.csv", seed)
         fit = fit_rider(log, windows=windows, window_length=length, seed=seed, repeats=repeats,
+                        plan_window=plan_window,
                         progress=lambda s: print("  ", s, flush=True), **concealed_fit_inputs())
         row = {"seed": seed, "windows": [list(w) for w in fit.windows], "seconds": round(time.time() - t0, 1), "objective": fit.objective,
                "objective_nominal": fit.objective_nominal, "notes": list(fit.notes)}
@@ -139,13 +141,17 @@ def main(argv=None) -> int:
                     help="real: skip the fit, use these calibrated values (from an earlier run)")
     ap.add_argument("--repeats", type=int, default=2,
                     help="concealed: motor-noise draws per design point (fit_rider's repeats)")
+    ap.add_argument("--plan-window", type=float, default=10.0,
+                    help="concealed: the rider's plan is the logged speed smoothed over this many s "
+                         "(the ride page's is 6 s)")
     ap.add_argument("--track-iterations", type=int, default=1)
     ap.add_argument("--dt", type=float, default=1e-3)
     ap.add_argument("--max-gap", type=float, default=1.0, help="real: gaps bridged in the rider fit, s")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.part == "concealed":
-        res = concealed(args.seeds, args.duration, args.out, args.windows, args.length, args.repeats)
+        res = concealed(args.seeds, args.duration, args.out, args.windows, args.length, args.repeats,
+                        args.plan_window)
     else:
         res = [real(w, 0, args.windows, args.length, args.rider, args.track_iterations, args.dt,
                     args.max_gap)
