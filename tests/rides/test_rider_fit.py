@@ -88,20 +88,21 @@ def test_bad_settings_named_before_any_simulation(kw, word):
 def test_concealed_rider_delay_recovered(tmp_path):
     """A 0.2 s rider (bandwidth 0.4, 5 N·m noise) written as an EUC World log: the fit,
     told only the log, the wheel's law, road and drivetrain, finds the delay within
-    ±0.05 s (issue 21) and the noise within a factor 1.5.  Seed 5 was chosen before any
-    run and is not a tuning seed (11, 21).  This is a cheap setting (one 80 s window,
-    one noise draw, 30 simulations); the study's setting (six 35 s windows, two draws) is
-    scored on fresh seeds by scripts/rider_calibration.py (docs/rider_calibration.md)."""
+    ±0.05 s (issue 21) and the noise within a factor 1.5.  A cheap setting (one 80 s
+    window, one noise draw, 34 simulations) with the study's 10 s plan; seed 5 has been run
+    while the fit was changed (with common draws and the 6 s plan it ended at 0.282 s), so
+    this is a regression check, not a score: the study's setting (six 35 s windows, two
+    draws) is scored on fresh seeds by scripts/rider_calibration.py (docs/rider_calibration.md)."""
     from tests.rides.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
 
     log = eucworld_power_log(rider_ride(5, 110.0, dt=2e-3), tmp_path / "ew.csv", 5)
-    fit = rf.fit_rider(log, windows=1, window_length=80.0, rounds=(12, 10, 8), n_boot=40, seed=5,
-                       **concealed_fit_inputs())
+    fit = rf.fit_rider(log, windows=1, window_length=80.0, rounds=(12, 10), n_boot=40, seed=5,
+                       plan_window=10.0, **concealed_fit_inputs())
     d = fit.params["delay"]
     assert abs(d["value"] - RIDER["delay"]) <= 0.05, fit.params
     # the interval says the log fixes the delay to the issue's ±0.05 s and reaches the band
     # around the truth; with this cheap setting it does not cover the truth itself on this
-    # seed ([0.215, 0.254] s measured; the study's setting: docs/rider_calibration.md)
+    # seed (0.218 [0.211, 0.235] s measured; the study's setting: docs/rider_calibration.md)
     assert d["hi"] - d["lo"] <= 0.1 and d["lo"] <= RIDER["delay"] + 0.05, fit.params
     assert 1 / 1.5 <= fit.params["noise_std"]["value"] / RIDER["noise_std"] <= 1.5, fit.params
     assert fit.objective < fit.objective_nominal
