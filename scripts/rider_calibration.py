@@ -32,7 +32,8 @@ PAIRS = {"lynx": ("trips/leaperkim/lynx/0/0.csv", "trips/leaperkim/lynx/2/2.csv"
          "v9": ("trips/inmotion/v9/0/0.csv", "trips/inmotion/v9/1/1.csv", "specs/v9.csv")}
 
 
-def concealed(seeds, duration: float, out: Path, windows: int, length: float) -> list[dict]:
+def concealed(seeds, duration: float, out: Path, windows: int, length: float, repeats: int = 1,
+              plan_window: float = 10.0) -> list[dict]:
     from tests.rides.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
     from euc_sim.rides.rider_fit import fit_rider
 
@@ -40,9 +41,10 @@ def concealed(seeds, duration: float, out: Path, windows: int, length: float) ->
     for seed in seeds:
         t0 = time.time()
         log = eucworld_power_log(rider_ride(seed, duration), out / f"concealed_{seed}.csv", seed)
-        fit = fit_rider(log, windows=windows, window_length=length, seed=seed,
+        fit = fit_rider(log, windows=windows, window_length=length, seed=seed, repeats=repeats,
+                        plan_window=plan_window,
                         progress=lambda s: print("  ", s, flush=True), **concealed_fit_inputs())
-        row = {"seed": seed, "seconds": round(time.time() - t0, 1), "objective": fit.objective,
+        row = {"seed": seed, "windows": [list(w) for w in fit.windows], "seconds": round(time.time() - t0, 1), "objective": fit.objective,
                "objective_nominal": fit.objective_nominal, "notes": list(fit.notes)}
         for name, truth in RIDER.items():
             p = fit.params[name]
@@ -129,26 +131,33 @@ def real(wheel: str, seed: int, windows: int, length: float, rider: list | None 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("part", choices=("concealed", "real"))
-    ap.add_argument("--seeds", type=int, nargs="+", default=[21, 22, 23])
+    ap.add_argument("--seeds", type=int, nargs="+", default=[31, 32, 33, 34, 35, 36])
     ap.add_argument("--duration", type=float, default=240.0)
     ap.add_argument("--wheel", choices=sorted(PAIRS), nargs="+", default=sorted(PAIRS))
-    ap.add_argument("--windows", type=int, default=3)
-    ap.add_argument("--length", type=float, default=50.0)
+    ap.add_argument("--windows", type=int, default=6, help="windows tiled along the fit ride")
+    ap.add_argument("--length", type=float, default=35.0, help="window length, s")
     ap.add_argument("--out", type=Path, default=Path("/tmp/h21-rider"))
     ap.add_argument("--rider", type=float, nargs=3, metavar=("DELAY", "BANDWIDTH", "NOISE"),
                     help="real: skip the fit, use these calibrated values (from an earlier run)")
+    ap.add_argument("--repeats", type=int, default=2,
+                    help="concealed: motor-noise draws per design point (fit_rider's repeats)")
+    ap.add_argument("--plan-window", type=float, default=10.0,
+                    help="concealed: the rider's plan is the logged speed smoothed over this many s "
+                         "(the ride page's is 6 s)")
     ap.add_argument("--track-iterations", type=int, default=1)
     ap.add_argument("--dt", type=float, default=1e-3)
     ap.add_argument("--max-gap", type=float, default=1.0, help="real: gaps bridged in the rider fit, s")
     args = ap.parse_args(argv)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.part == "concealed":
-        res = concealed(args.seeds, args.duration, args.out, args.windows, args.length)
+        res = concealed(args.seeds, args.duration, args.out, args.windows, args.length, args.repeats,
+                        args.plan_window)
     else:
         res = [real(w, 0, args.windows, args.length, args.rider, args.track_iterations, args.dt,
                     args.max_gap)
                for w in args.wheel]
-    path = args.out / f"rider_calibration_{args.part}.json"
+    tag = "_".join(str(s) for s in args.seeds) if args.part == "concealed" else "_".join(args.wheel)
+    path = args.out / f"rider_calibration_{args.part}_{tag}.json"
     path.write_text(json.dumps(res, indent=1, default=float))
     print(f"wrote {path}")
     return 0

@@ -2,22 +2,27 @@
 
 :func:`log_channels` puts the log's battery power, motor torque and pitch on a uniform
 grid; :func:`band_features` splits a channel by Savitzky–Golay smoothers of
-:data:`BAND_WINDOWS` into four bands and gives their log RMS (level and spectrum);
+:data:`BAND_WINDOWS` into eight bands and gives their log RMS (level and spectrum);
 :func:`fit_windows` picks the stretches of the ride the simulated rider rides.  The fit
 itself (simulated moments on a response surface) is :mod:`euc_sim.rides.rider_fit`.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pandas as pd
 
 from euc_sim.rides.signals import RideAssumptions, as_log, resample, sg
 
-__all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "band_features", "fit_windows"]
+__all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "fit_windows"]
 
-#: Savitzky–Golay windows, s, whose differences split a channel into bands.
-BAND_WINDOWS = (0.7, 1.5, 3.0, 6.0)
+#: Savitzky–Golay windows, s, whose differences split a channel into bands (steps of about √2:
+#: eight leaky bands from ~2 Hz down to ~0.1 Hz; a 2 Hz sway peaks in the third, a 0.12 Hz one
+#: in the last.  Four bands of 0.7-6 s left the delay and the bandwidth on a ridge,
+#: docs/rider_calibration.md).
+BAND_WINDOWS = (0.5, 0.7, 1.0, 1.5, 2.1, 3.0, 4.2, 6.0)
 
 
 class RiderFitError(ValueError):
@@ -43,7 +48,9 @@ def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
     pandas.DataFrame
         ``t`` s, ``segment``, ``v`` m/s, ``P`` W (battery power), and where the log has
         them ``M`` N·m (``torque`` column, else phase current × k_t) and ``pitch`` rad
-        (``tilt``, any sign and offset).  ``attrs["stamps"]``: the log's time stamps, s.
+        (``tilt``, any sign and offset).  ``attrs["stamps"]``: the log's time stamps, s;
+        ``attrs["quantum"]``: the step each of ``M`` and ``pitch`` is written in (channel
+        units, :func:`reading_step`), where the log writes it in steps.
     """
     log = as_log(log)
     raw, _ = resample(log, rate, max_gap=max_gap)
@@ -63,12 +70,40 @@ def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         out["pitch"] = raw["tilt"].to_numpy()
     frame = pd.DataFrame(out)
     frame.attrs["stamps"] = log.data["t"].to_numpy(float)
+    d = log.data
+    steps = {"pitch": (d["tilt"], 1.0) if log.has("tilt") else None,
+             "M": (d["torque"], 1.0) if log.has("torque") else
+             ((d["phase_current"], assumptions.torque_constant) if "M" in out else None)}
+    frame.attrs["quantum"] = {c: q * f for c, v in steps.items() if v is not None
+                              for col, f in [v] for q in [reading_step(col.to_numpy(float))] if q}
     return frame
 
 
+def reading_step(x: np.ndarray, share: float = 0.99) -> float | None:
+    """The step a logged column is written in (0.1° pitch, 0.1 A current), or None.
+
+    The smallest difference between the column's distinct values, accepted when at least
+    ``share`` of the finite readings are whole multiples of it (to 10⁻⁶ of a step): a
+    column written in steps.  Units of the column.
+    """
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    u = np.unique(x)
+    if u.size < 3:
+        return None
+    q = float(np.min(np.diff(u)))
+    if not q > 0:
+        return None
+    r = x / q
+    return q if np.mean(np.abs(r - np.round(r)) < 1e-6 * np.maximum(1.0, np.abs(r)) + 1e-6) >= share else None
+
+
 def band_features(y: np.ndarray, segment: np.ndarray, rate: float, rows: np.ndarray,
-                  block: np.ndarray | None = None) -> np.ndarray:
+                  block: np.ndarray | None = None, windows: tuple | None = None) -> np.ndarray:
     """Log RMS of a channel's :data:`BAND_WINDOWS` bands over ``rows`` (or per block).
+
+    Band k is S_{k-1} − S_k, the difference of successive smoothers (S_{-1} the channel
+    itself).
 
     Parameters
     ----------
@@ -82,14 +117,17 @@ def band_features(y: np.ndarray, segment: np.ndarray, rate: float, rows: np.ndar
         Rows the RMS is taken over.
     block : numpy.ndarray of int, optional
         Block label of each row: then the mean squares per block are returned.
+    windows : tuple of float, optional
+        Smoother windows, s (default :data:`BAND_WINDOWS`).
 
     Returns
     -------
     numpy.ndarray
-        (4,) log RMS (log of u), or (n_blocks, 4) mean squares (u²) with ``block``.
+        (bands,) log RMS (log of u), or (n_blocks, bands) mean squares (u²) with ``block``.
     """
-    levels = [np.asarray(y, float)] + [sg(y, segment, rate, w, 2) for w in BAND_WINDOWS]
-    bands = np.stack([levels[i] - levels[i + 1] for i in range(len(BAND_WINDOWS))], axis=1)
+    windows = BAND_WINDOWS if windows is None else tuple(windows)
+    levels = [np.asarray(y, float)] + [sg(y, segment, rate, w, 2) for w in windows]
+    bands = np.stack([levels[i] - levels[i + 1] for i in range(len(windows))], axis=1)
     ok = rows & np.isfinite(bands).all(axis=1)
     if ok.sum() < 2:
         raise RiderFitError(f"band features need at least 2 finite rows, got {int(ok.sum())}")
@@ -100,17 +138,20 @@ def band_features(y: np.ndarray, segment: np.ndarray, rate: float, rows: np.ndar
 
 
 def fit_windows(channels: pd.DataFrame, n: int = 3, length: float = 60.0, v_min: float = 2.0,
-                lead: float = 8.0) -> list[tuple[float, float]]:
-    """``n`` windows of the ride, one per equal share of it, for the rider to ride.
+                lead: float = 8.0, spacing: float = 1.5) -> list[tuple[float, float]]:
+    """Up to ``n`` windows of the ride, tiled one after the other, for the rider to ride.
 
     A window is ``length`` s of one unbroken segment in which the speed stays above
-    ``v_min`` m/s, at least ``lead`` s after the log's start (the simulation's run-in);
-    in each share of the ride the one nearest the share's middle is taken.
+    ``v_min`` m/s, at least ``lead`` s after the log's start (the simulation's run-in).
+    The ride is tiled from its start: each window begins at the first sample at least
+    ``spacing`` s after the previous window's end (a window's simulation is read from 1 s
+    before it to 0.5 s after) from which such a stretch follows.  When more than ``n``
+    tiles fit, ``n`` of them spread evenly over the ride are kept.
 
     Returns
     -------
     list of (t0, t1)
-        s; fewer than ``n`` when the ride has fewer such stretches.
+        s, in time order; fewer than ``n`` when the ride has fewer such stretches.
 
     Raises
     ------
@@ -120,19 +161,19 @@ def fit_windows(channels: pd.DataFrame, n: int = 3, length: float = 60.0, v_min:
     t, v, seg = (channels[c].to_numpy() for c in ("t", "v", "segment"))
     rate = 1.0 / float(np.median(np.diff(t)))
     L = int(round(length * rate))
-    step = max(1, int(round(5.0 * rate)))
-    starts = [i for i in range(0, t.size - L, step) if t[i] >= lead and seg[i] == seg[i + L]
-              and np.all(v[i:i + L + 1] > v_min)]
-    if not starts:
+    good = (t >= lead) & (np.nan_to_num(v, nan=-np.inf) > v_min)
+    gap = int(math.ceil(spacing * rate - 1e-9))
+    bad = np.concatenate([[0], np.cumsum(~good)])              # bad samples before index i
+    tiles, i = [], 0
+    while i + L < t.size:
+        if bad[i + L + 1] - bad[i] == 0 and seg[i] == seg[i + L]:
+            tiles.append((float(t[i]), float(t[i + L])))
+            i += L + gap
+        else:
+            i += 1
+    if not tiles:
         raise RiderFitError(f"no {length:g} s stretch of the ride above {v_min:g} m/s without a gap: "
                             f"the rider cannot be fitted (try a shorter window length)")
-    edges = np.linspace(t[0], t[-1], n + 1)
-    out = []
-    for k in range(n):
-        mid = 0.5 * (edges[k] + edges[k + 1])
-        inside = [i for i in starts if edges[k] <= t[i] and t[i] + length <= edges[k + 1] + length / 2]
-        if inside:
-            i = min(inside, key=lambda j: abs(t[j] + length / 2 - mid))
-            if not out or t[i] >= out[-1][1]:
-                out.append((float(t[i]), float(t[i + L])))
-    return out or [(float(t[starts[0]]), float(t[starts[0] + L]))]
+    if len(tiles) > n:
+        tiles = [tiles[k] for k in np.unique(np.round(np.linspace(0, len(tiles) - 1, n)).astype(int))]
+    return tiles

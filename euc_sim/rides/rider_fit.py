@@ -19,17 +19,22 @@ to what the log shows of the rider (issue 21, item 3):
 battery power P (always), the motor torque M (a ``torque`` column, or phase current
 times a known torque constant) and the body pitch (``tilt``) where logged.  Each
 channel, on the log's 10 Hz grid, is split by Savitzky–Golay smoothers of
-:data:`BAND_WINDOWS` into four bands (y − S₀.₇ above ~1.3 Hz, S₀.₇ − S₁.₅, S₁.₅ − S₃,
-S₃ − S₆ down to ~0.1 Hz); the features are the bands' log RMS: level and spectrum
-(:mod:`euc_sim.rides.rider_features`).
+:data:`BAND_WINDOWS` (0.5 … 6 s) into eight leaky bands from ~2 Hz down to ~0.1 Hz; the
+features are the bands' log RMS: level and spectrum
+(:mod:`euc_sim.rides.rider_features`).  Every input of the rider reaches the wheel through
+his ankle torque, so the ratio of two logged channels is the plant's, not the rider's:
+what the log shows of the rider is the spectrum of that torque, and the bands resolve it
+(four bands left the delay and the bandwidth on a ridge, docs/rider_calibration.md).
 
-**How.**  The rider rides a few windows of the *fit* ride's speed profile in MuJoCo
-(:func:`euc_sim.simulation.engine.simulate`), the simulation is read as the log is
-written (each reading the mean over the 0.2 s before the log's own time stamps) and
-gets the same features; common random numbers (one noise seed per window) keep the
-objective smooth.  The method of simulated moments: a quadratic response surface of
-each feature in the (scaled) parameters is fitted on design points in three rounds
-of shrinking boxes, and the weighted squared feature distance minimised on it
+**How.**  The rider rides windows tiled along the *fit* ride's speed profile in MuJoCo
+(:func:`euc_sim.simulation.engine.simulate`, :func:`~euc_sim.rides.rider_features.fit_windows`),
+the simulation is read as the log is written (each reading the mean over the 0.2 s before
+the log's own time stamps, in the log's own steps: 0.1° pitch, 0.1 A current) and gets
+the same features, the log's cut at the same window edges; each design point rides noise
+draws of its own (``repeats`` draws averaged), the surface's least squares averaging them.
+The method of simulated moments: a quadratic response surface of each feature in the
+(scaled) parameters is fitted on design points in three rounds of shrinking boxes, and
+the weighted squared feature distance minimised on it
 (``scipy.optimize.minimize``); the weights are 1/(variance of the log's feature +
 the simulation's), both from a block bootstrap over 10 s blocks.  The intervals
 (95 %) re-minimise the surface for each bootstrap replicate of the log's and the
@@ -40,7 +45,7 @@ simulation's features.  A parameter ending on its search bound is flagged
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
@@ -50,6 +55,7 @@ from controllers.motor import MotorPD
 from controllers.rider import Rider
 from euc_sim.model.parameters import Params
 from euc_sim.rides.profile import PLAN_WINDOW, rider_plan
+from euc_sim.rides.response_surface import lhs as _lhs, minimise as _minimise, surface as _surface
 from euc_sim.rides.rider_features import (BAND_WINDOWS, RiderFitError, band_features,  # noqa: F401
                                          fit_windows, log_channels)
 from euc_sim.rides.signals import RideAssumptions, as_log
@@ -139,6 +145,7 @@ class _Setup:
     seed: int
     dt: float
     lead: float
+    repeats: int = 1                  # noise draws per window, their mean squares averaged
 
 
 def _rows_and_blocks(setup: _Setup) -> tuple[np.ndarray, np.ndarray]:
@@ -162,8 +169,30 @@ def _features(frame: pd.DataFrame, names, rows, block=None) -> np.ndarray:
     return np.concatenate(parts, axis=-1)
 
 
-def _simulated_channels(setup: _Setup, rider: Rider) -> pd.DataFrame | None:
-    """The rider along the windows, read like the log: None when he falls."""
+def _window_span(t: np.ndarray, windows) -> tuple[np.ndarray, np.ndarray]:
+    """Rows a window's simulation covers (1 s before it to 0.5 s after) and their window label."""
+    seg = np.full(t.size, -1)
+    for w, (t0, t1) in enumerate(windows):
+        seg[(t >= t0 - 1.0) & (t <= t1 + 0.5)] = w
+    return seg >= 0, seg
+
+
+def _windowed_log(setup: _Setup) -> pd.DataFrame:
+    """The log's channels cut as the simulation is: NaN outside the windows, one segment per
+    window, so that the smoothers of the bands meet the same window edges on both sides."""
+    ch = setup.channels
+    inside, seg = _window_span(ch["t"].to_numpy(), setup.windows)
+    out = {c: np.where(inside, ch[c].to_numpy(), np.nan) for c in setup.names}
+    return pd.DataFrame({"t": ch["t"].to_numpy(), "segment": seg, **out})
+
+
+def _simulated_channels(setup: _Setup, rider: Rider, draw: int = 0) -> pd.DataFrame | None:
+    """The rider along the windows, read like the log: None when he falls.
+
+    Each reading is the mean over :data:`READING_MEAN` s before the log's own stamp, written
+    in the log's steps where it has them (``channels.attrs["quantum"]``: 0.1° pitch, 0.1 A
+    current), then put on the log's grid as the log is.  ``draw`` picks the motor noise
+    and the steps' zero (seed ``setup.seed + 1000 draw + window``)."""
     from euc_sim.rides.simulate import battery_power
     from euc_sim.simulation.engine import simulate
     from euc_sim.simulation.errors import FallError
@@ -172,6 +201,7 @@ def _simulated_channels(setup: _Setup, rider: Rider) -> pd.DataFrame | None:
     ch = setup.channels
     t = ch["t"].to_numpy()
     stamps = ch.attrs["stamps"]
+    quantum = ch.attrs.get("quantum", {})
     tp, vp = setup.profile
     out = {c: np.full(t.size, np.nan) for c in setup.names}
     seg = np.full(t.size, -1)
@@ -182,10 +212,11 @@ def _simulated_channels(setup: _Setup, rider: Rider) -> pd.DataFrame | None:
         man = Maneuver(name="profile", table=(tuple((tp[sel] - start).tolist()), tuple(vp[sel].tolist())))
         try:
             df = simulate(man, t1 + 0.5 - start, params=setup.params, motor=setup.motor, rider=rider,
-                          seed=setup.seed + w, effects=setup.effects, dt=setup.dt)
+                          seed=setup.seed + 1000 * draw + w, effects=setup.effects, dt=setup.dt)
         except FallError:
             return None
         ts = df["t"].to_numpy() + start
+        rng = np.random.default_rng(setup.seed + 1000 * draw + w)
         sim = {"P": battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], setup.params.R,
                                   dtv["eta_motor"], dtv["eta_regen"], dtv.get("drivetrain_idle_loss", 0.0)),
                "M": df["M_d"].to_numpy(), "pitch": df["gamma"].to_numpy()}
@@ -195,56 +226,36 @@ def _simulated_channels(setup: _Setup, rider: Rider) -> pd.DataFrame | None:
         for c in setup.names:
             cs = np.cumsum(np.r_[0.0, sim[c]])
             mean = (cs[n:] - cs[:-n]) / n                      # mean of the n samples ending at ts[k]
-            out[c][m] = np.interp(t[m], st, np.interp(st, ts[n - 1:], mean))
+            reading = np.interp(st, ts[n - 1:], mean)
+            q = quantum.get(c)
+            if q:                                              # written in the log's steps,
+                off = rng.uniform()                            # from an unknown zero
+                reading = q * (np.round(reading / q + off) - off)
+            out[c][m] = np.interp(t[m], st, reading)
         seg[m] = w
     return pd.DataFrame({"t": t, "segment": seg, **out})
 
 
-def _simulated_features(setup: _Setup, values: Mapping[str, float], rows, block=None):
-    rider = rider_from(values, setup.params, setup.motor)
-    sim = _simulated_channels(setup, rider)
-    if sim is None:
-        return None
-    return _features(sim, setup.names, rows, block)
+def _simulated_mean_squares(setup: _Setup, rider: Rider, rows, block) -> np.ndarray | None:
+    """(blocks, F) mean squares of the bands, averaged over ``setup.repeats`` noise draws."""
+    ms = []
+    for r in range(setup.repeats):
+        sim = _simulated_channels(setup, rider, r)
+        if sim is None:
+            return None
+        ms.append(_features(sim, setup.names, rows, block))
+    return np.mean(ms, axis=0)
 
 
-# --------------------------------------------------------------------------------------
-# Response surface
-# --------------------------------------------------------------------------------------
-def _quad_terms(X: np.ndarray) -> np.ndarray:
-    X = np.atleast_2d(X)
-    cols = [np.ones(len(X))] + [X[:, i] for i in range(X.shape[1])]
-    cols += [X[:, i] * X[:, j] for i in range(X.shape[1]) for j in range(i, X.shape[1])]
-    return np.stack(cols, axis=1)
+def _simulated_features(setup: _Setup, values: Mapping[str, float], rows, block):
+    """Log RMS of the bands (F,) of the rider ``values``, or None when he falls."""
+    ms = _simulated_mean_squares(setup, rider_from(values, setup.params, setup.motor), rows, block)
+    return None if ms is None else _log_rms(ms)
 
 
-def _surface(X: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Least-squares quadratic coefficients of each feature in X (columns: features)."""
-    coef, *_ = np.linalg.lstsq(_quad_terms(X), F, rcond=None)
-    return coef
-
-
-def _minimise(coef: np.ndarray, target: np.ndarray, w: np.ndarray, box: np.ndarray,
-              starts: np.ndarray) -> np.ndarray:
-    from scipy.optimize import minimize
-
-    def J(x):
-        r = _quad_terms(x)[0] @ coef - target
-        return float(np.sum(w * r * r))
-
-    best = None
-    for x0 in starts:
-        res = minimize(J, np.clip(x0, box[:, 0], box[:, 1]), method="L-BFGS-B", bounds=box)
-        if best is None or res.fun < best.fun:
-            best = res
-    return best.x
-
-
-def _lhs(n: int, box: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    from scipy.stats import qmc
-
-    u = qmc.LatinHypercube(d=len(box), seed=rng).random(n)
-    return box[:, 0] + u * (box[:, 1] - box[:, 0])
+def _log_rms(ms: np.ndarray) -> np.ndarray:
+    """Log RMS over the blocks of (blocks, F) mean squares (blocks of equal length but the last)."""
+    return 0.5 * np.log(ms.mean(axis=0))
 
 
 # --------------------------------------------------------------------------------------
@@ -295,47 +306,104 @@ def _values_of(x: np.ndarray) -> dict:
     return {p.name: p.from_unit(float(u)) for p, u in zip(RIDER_PARAMS, x)}
 
 
-def _search(setup: _Setup, rows, F_log, w, rounds, rng, say) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Response-surface rounds in shrinking boxes around the running optimum.
+def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng):
+    """One response-surface round around ``center`` with box level ``level``.
 
-    A box shrinks (half-widths 0.5, 0.2, 0.08 of the scaled range) only when the optimum
-    found in it is inside it or on a search bound; an optimum on the box's own edge moves
-    the next box, the same size, there.
+    Simulates ``npts`` design points (``center`` and a Latin hypercube of the box, half-width
+    0.5, 0.2, 0.08 of the scaled range by level), each on noise draws of its own (seed +
+    :data:`POINT_SEED` × its rank), into ``pool`` (lists X, F and all points drawn), fits the
+    quadratic surface on the pool's points near ``center`` and minimises it in the box.
 
     Returns
     -------
     tuple
-        Optimum in [0, 1]³, the last surface's coefficients, the box its design points
-        span (3 × 2), and the number of simulations.
+        New center, surface coefficients, hull of the points used (3 × 2), next level,
+        whether the optimum ended on the box's own edge.
     """
-    X, F = [], []
-    center = np.array([p.to_unit(p.nominal) for p in RIDER_PARAMS])
-    coef, hull, n_sims, level = None, None, 0, 0
-    halves = (0.5, 0.2, 0.08)
-    for r, npts in enumerate(rounds):
-        half = halves[min(level, len(halves) - 1)]
-        box = np.stack([np.clip(center - half, 0, 1), np.clip(center + half, 0, 1)], axis=1)
-        pts = np.vstack([center[None, :], _lhs(npts - 1, box, rng)])
-        for x in pts:
-            n_sims += 1
-            f = _simulated_features(setup, _values_of(x), rows)
-            if f is not None:
-                X.append(x)
-                F.append(f)
-        near = [i for i, x in enumerate(X) if np.all(np.abs(x - center) <= max(half, 0.2) + 1e-9)]
-        if len(near) < 10:
-            raise RiderFitError(f"rider fit: only {len(near)} of the design points near "
-                                f"{_values_of(center)} rode without falling (10 needed)")
-        Xn, Fn = np.asarray(X)[near], np.asarray(F)[near]
-        coef = _surface(Xn, Fn)
-        hull = np.stack([Xn.min(axis=0), Xn.max(axis=0)], axis=1)
-        best = np.argsort([np.sum(w * (f - F_log) ** 2) for f in Fn])[:3]
-        center = _minimise(coef, F_log, w, box, np.vstack([center, Xn[best]]))
-        edge = ((np.abs(center - box[:, 0]) < 1e-6) & (box[:, 0] > 1e-9)) | \
-               ((np.abs(center - box[:, 1]) < 1e-6) & (box[:, 1] < 1 - 1e-9))
-        level += 0 if edge.any() else 1
-        say(f"rider fit round {r + 1}: {len(X)} simulations, now {_values_of(center)}"
-            + (" (on the box's edge: the next box moves there)" if edge.any() else ""))
+    X, F, drawn = pool
+    half = _HALVES[min(level, len(_HALVES) - 1)]
+    box = np.stack([np.clip(center - half, 0, 1), np.clip(center + half, 0, 1)], axis=1)
+    for x in np.vstack([center[None, :], _lhs(npts - 1, box, rng)]):
+        drawn.append(x)                       # each design point rides noise draws of its own
+        f = _simulated_features(replace(setup, seed=setup.seed + POINT_SEED * len(drawn)), _values_of(x),
+                                rows, block)
+        if f is not None:
+            X.append(x)
+            F.append(f)
+    near = [i for i, x in enumerate(X) if np.all(np.abs(x - center) <= max(half, 0.2) + 1e-9)]
+    if len(near) < 10:
+        raise RiderFitError(f"rider fit: only {len(near)} of the design points near "
+                            f"{_values_of(center)} rode without falling (10 needed)")
+    Xn, Fn = np.asarray(X)[near], np.asarray(F)[near]
+    coef = _surface(Xn, Fn)
+    hull = np.stack([Xn.min(axis=0), Xn.max(axis=0)], axis=1)
+    best = np.argsort([np.sum(w * (f - F_log) ** 2) for f in Fn])[:3]
+    new = _minimise(coef, F_log, w, box, np.vstack([center, Xn[best]]))
+    edge = ((np.abs(new - box[:, 0]) < 1e-6) & (box[:, 0] > 1e-9)) | \
+           ((np.abs(new - box[:, 1]) < 1e-6) & (box[:, 1] < 1 - 1e-9))
+    return new, coef, hull, level + (0 if edge.any() else 1), bool(edge.any())
+
+
+#: Offset of the noise seeds on which the search's paths are compared.
+CHECK_SEED = 100_000
+#: Step of the design points' noise seeds.  Common draws at every point let the search end
+#: where one realisation happens to match the log (scoring seed 32: 0.309 s, weighted distance
+#: 2.9 on the design's draws, 25 on others against 12 for the truth); independent draws leave
+#: that noise to the surface's least squares.
+POINT_SEED = 10_007
+#: Half-widths of the search boxes by level, in the scaled [0, 1] coordinates.
+_HALVES = (0.5, 0.2, 0.08)
+
+
+def _search(setup: _Setup, rows, block, F_log, w, rounds, rng, say) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Response-surface rounds in shrinking boxes, from two starts along the delay.
+
+    The first round spans half the scaled range around the nominal rider.  The delay and the
+    bandwidth trade off along a curved valley that one quadratic over that box does not
+    follow, so the later rounds run twice: from the first round's optimum, and from the
+    first round's best simulated design point among those whose delay lies more than the
+    next box's half-width from it.  Each path's optimum is simulated on noise draws of its
+    own (seed + :data:`CHECK_SEED`) and the one nearer the log's features (weighted
+    distance) is kept.  Along a path a box shrinks
+    (half-widths 0.5, 0.2, 0.08) only when the optimum found in it is inside it or on a
+    search bound; an optimum on the box's own edge moves the next box, the same size, there.
+
+    Returns
+    -------
+    tuple
+        Optimum in [0, 1]³, its path's last surface's coefficients, the box its design
+        points span (3 × 2), and the number of simulations.
+    """
+    X, F, drawn = [], [], []
+    J = lambda f: float(np.sum(w * (f - F_log) ** 2))                 # noqa: E731
+    nominal = np.array([p.to_unit(p.nominal) for p in RIDER_PARAMS])
+    center, coef, hull, level, edge = _round(setup, rows, block, F_log, w, rounds[0], nominal, 0, (X, F, drawn), rng)
+    n_sims = rounds[0]
+    say(f"rider fit round 1: {n_sims} simulations, now {_values_of(center)}")
+    starts = [center]
+    if len(rounds) > 1:
+        half = _HALVES[min(level, len(_HALVES) - 1)]
+        far = [i for i, x in enumerate(X) if abs(x[0] - center[0]) > half]
+        if far:
+            starts.append(X[min(far, key=lambda i: J(F[i]))])
+    # the paths are compared on noise draws of their own: on the design's draws a path can
+    # end where that one realisation happens to match the log
+    check = replace(setup, seed=setup.seed + CHECK_SEED)
+    finals = []
+    for k, c in enumerate(starts):
+        lv, cf, hl = level, coef, hull
+        for r, npts in enumerate(rounds[1:]):
+            c, cf, hl, lv, edge = _round(setup, rows, block, F_log, w, npts, c, lv, (X, F, drawn), rng)
+            n_sims += npts
+            say(f"rider fit start {k + 1} round {r + 2}: {n_sims} simulations, now {_values_of(c)}"
+                + (" (on the box's edge: the next box moves there)" if edge else ""))
+        f = _simulated_features(check, _values_of(c), rows, block) if len(starts) > 1 else None
+        n_sims += len(starts) > 1
+        finals.append((J(f) if f is not None else (0.0 if len(starts) == 1 else math.inf), k, c, cf, hl))
+    j_best, k, center, coef, hull = min(finals, key=lambda z: z[0])
+    if len(finals) > 1:
+        say("rider fit: the paths end at " + "; ".join(f"{_values_of(z[2])} (distance {z[0]:.1f})"
+                                                         for z in finals) + f": start {k + 1} kept")
     return center, coef, hull, n_sims
 
 
@@ -360,7 +428,7 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
               assumptions: RideAssumptions = RideAssumptions(),
               channels: Sequence[str] | None = None, windows: int = 3, window_length: float = 60.0,
               plan_window: float = PLAN_WINDOW, max_gap: float = 1.0, rounds: Sequence[int] = (14, 12, 10),
-              n_boot: int = 200, seed: int = 0, dt: float = 2e-3,
+              n_boot: int = 200, repeats: int = 1, seed: int = 0, dt: float = 2e-3,
               progress: Callable[[str], None] | None = None) -> RiderFit:
     """Fit the simulated rider's delay, bandwidth and motor noise to a ride log.
 
@@ -398,8 +466,13 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
         says the surface was not explored further.
     n_boot : int
         Block-bootstrap replicates of the interval.
+    repeats : int
+        Motor-noise draws each design point is simulated with; the bands' mean squares
+        are averaged over them (the simulation's share of the features' noise falls as
+        1/repeats, the cost grows as repeats).
     seed : int
-        Seed of the design and the bootstrap; the simulation's noise seeds are seed + window.
+        Seed of the design and the bootstrap; the simulation's noise seeds are
+        seed + 1000 draw + window.
     dt : float
         Simulation step, s.
     progress : callable, optional
@@ -420,7 +493,7 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
 
     from euc_sim.rides.profile import speed_profile
 
-    for name, value, least in (("windows", windows, 1), ("n_boot", n_boot, 2)):
+    for name, value, least in (("windows", windows, 1), ("n_boot", n_boot, 2), ("repeats", repeats, 1)):
         if not (isinstance(value, Integral) and value >= least):
             raise RiderFitError(f"{name} must be an integer of at least {least}, got {value!r}")
     if not (math.isfinite(window_length) and window_length > 0):
@@ -443,25 +516,25 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     prof = speed_profile(log)
     plan = rider_plan(prof["t"].to_numpy(), prof["v"].to_numpy(), plan_window)
     setup = _Setup(ch, names, wins, (prof["t"].to_numpy(), plan), params, motor,
-                   dict(effects or {}), dtv, seed, dt, 8.0)
+                   dict(effects or {}), dtv, seed, dt, 8.0, repeats)
     rows, block = _rows_and_blocks(setup)
-    F_log = _features(ch, names, rows)
+    ms_log = _features(_windowed_log(setup), names, rows, block)   # (blocks, F) mean squares
+    F_log = _log_rms(ms_log)
     feat_names = [f"{c}_band{k}" for c in names for k in range(len(BAND_WINDOWS))]
     rng = np.random.default_rng(seed)
-    ms_log = _features(ch, names, rows, block)                    # (blocks, F) mean squares
     boot_idx = rng.integers(0, len(ms_log), size=(n_boot, len(ms_log)))
     d_log = 0.5 * np.log(ms_log[boot_idx].mean(axis=1)) - F_log   # (n_boot, F)
-    var = np.maximum(2.0 * d_log.var(axis=0), 0.05 ** 2)          # log's + simulation's
+    # the log's variance + the simulation's (the same per draw, averaged over `repeats` draws)
+    var = np.maximum((1.0 + 1.0 / repeats) * d_log.var(axis=0), 0.05 ** 2)
     w = 1.0 / var
-    center, coef, hull, n_sims = _search(setup, rows, F_log, w, rounds, rng, say)
+    center, coef, hull, n_sims = _search(setup, rows, block, F_log, w, rounds, rng, say)
     values = _values_of(center)
     rider = rider_from(values, params, motor)
-    sim = _simulated_channels(setup, rider)
-    F_nom = _simulated_features(setup, {p.name: p.nominal for p in RIDER_PARAMS}, rows)
-    if sim is None:
+    ms_sim = _simulated_mean_squares(setup, rider, rows, block)
+    F_nom = _simulated_features(setup, {p.name: p.nominal for p in RIDER_PARAMS}, rows, block)
+    if ms_sim is None:
         raise RiderFitError(f"rider fit: the calibrated rider {values} falls along the windows")
-    F_fit = _features(sim, names, rows)
-    ms_sim = _features(sim, names, rows, block)
+    F_fit = _log_rms(ms_sim)
     d_sim = 0.5 * np.log(ms_sim[boot_idx].mean(axis=1)) - F_fit
     hull = np.stack([np.minimum(hull[:, 0], center), np.maximum(hull[:, 1], center)], axis=1)
     boot = np.array([_minimise(coef, F_log + d_log[b] - d_sim[b], w, hull, center[None, :])
@@ -474,7 +547,7 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     feats = {"names": feat_names, "log": F_log.tolist(), "fitted": F_fit.tolist(),
              "nominal": None if F_nom is None else F_nom.tolist()}
     return RiderFit(rider=rider, params=out, objective=J(F_fit), objective_nominal=J(F_nom),
-                    features=feats, windows=wins, simulations=n_sims + 2,
+                    features=feats, windows=wins, simulations=(n_sims + 2) * repeats,
                     notes=tuple(notes))
 
 
@@ -496,8 +569,6 @@ def calibrated_rider_step(prev, inp):
     -------
     SimStep
     """
-    from dataclasses import replace
-
     from euc_sim.rides.controller_report import torque_constant
 
     name, what = "calibrated_rider", "the rider calibrated on the fit ride"

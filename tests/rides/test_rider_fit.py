@@ -26,7 +26,10 @@ def test_band_features_put_a_fast_sway_in_the_fast_band_and_a_slow_one_in_the_sl
     rows = np.ones(t.size, bool)
     fast = rf.band_features(np.sin(2 * np.pi * 2.0 * t), seg, rate, rows)
     slow = rf.band_features(np.sin(2 * np.pi * 0.12 * t), seg, rate, rows)
-    assert np.argmax(fast) == 0 and np.argmax(slow) == 3
+    assert fast.shape == (len(rf.BAND_WINDOWS),)
+    # smoother differences are leaky bands: the 5-sample (0.5 s) smoother passes most of a
+    # 2 Hz sway, which peaks in band 2 (S_0.7 - S_1.0); a 0.12 Hz one in the last (S_4.2 - S_6)
+    assert np.argmax(fast) == 2 and np.argmax(slow) == len(rf.BAND_WINDOWS) - 1
     doubled = rf.band_features(2 * np.sin(2 * np.pi * 2.0 * t), seg, rate, rows)
     np.testing.assert_allclose(doubled - fast, math.log(2.0), atol=1e-9)   # log RMS: a scale shifts all
 
@@ -43,12 +46,22 @@ def test_bandwidth_stiffens_the_rider():
         rf.rider_from({"delay": 0.2, "bandwidth": -1.0, "noise_std": 4.0}, TABLE3, MotorPD())
 
 
-def test_windows_need_a_long_enough_ride_above_walking_speed():
-    t = np.arange(0, 100, 0.1)
+def _same(windows, expected):
+    assert len(windows) == len(expected), windows
+    np.testing.assert_allclose(np.asarray(windows), np.asarray(expected), atol=1e-9)
+
+
+def test_windows_tile_the_ride_above_walking_speed_after_the_run_in():
+    t = np.round(np.arange(0, 100, 0.1), 1)
     ch = pd.DataFrame({"t": t, "segment": np.zeros(t.size, int), "v": np.full(t.size, 5.0)})
-    wins = rf.fit_windows(ch, n=2, length=30.0)
-    assert 1 <= len(wins) <= 2 and all(b - a == pytest.approx(30.0) for a, b in wins)
-    assert all(a >= 8.0 for a, _ in wins)
+    # from the 8 s run-in, 30 s windows 1.5 s apart: two fit in 100 s
+    _same(rf.fit_windows(ch, n=2, length=30.0), [(8.0, 38.0), (39.5, 69.5)])
+    _same(rf.fit_windows(ch, n=5, length=30.0), [(8.0, 38.0), (39.5, 69.5)])
+    _same(rf.fit_windows(ch, n=1, length=20.0), [(8.0, 28.0)])
+    # four 20 s tiles (at 8, 29.5, 51, 72.5 s), three kept: tiles 0, 2 (1.5 rounds to 2) and 3
+    _same(rf.fit_windows(ch, n=3, length=20.0), [(8.0, 28.0), (51.0, 71.0), (72.5, 92.5)])
+    dip = ch.assign(v=np.where((t >= 45.0) & (t < 50.0), 1.0, 5.0))     # a stop: the next window waits
+    _same(rf.fit_windows(dip, n=3, length=30.0), [(8.0, 38.0), (50.0, 80.0)])
     slow = ch.assign(v=1.0)
     with pytest.raises(rf.RiderFitError, match="above 2 m/s"):
         rf.fit_windows(slow, n=2, length=30.0)
@@ -75,18 +88,22 @@ def test_bad_settings_named_before_any_simulation(kw, word):
 def test_concealed_rider_delay_recovered(tmp_path):
     """A 0.2 s rider (bandwidth 0.4, 5 N·m noise) written as an EUC World log: the fit,
     told only the log, the wheel's law, road and drivetrain, finds the delay within
-    ±0.05 s (issue 21) and the noise within a factor 1.5.  Seed 5 was chosen before any
-    run and is not the tuning seed (11); the recovery does not hold on every seed: on
-    scoring seed 21 of scripts/rider_calibration.py a slower, stiffer rider (0.29 s,
-    bandwidth 3) matches the features better than the truth (docs/rider_calibration.md)."""
+    ±0.05 s (issue 21) and the noise within a factor 1.5.  A cheap setting (one 80 s
+    window, one noise draw, 34 simulations) with the study's 10 s plan; seed 5 has been run
+    while the fit was changed (with common draws and the 6 s plan it ended at 0.282 s), so
+    this is a regression check, not a score: the study's setting (six 35 s windows, two
+    draws) is scored on fresh seeds by scripts/rider_calibration.py (docs/rider_calibration.md)."""
     from tests.rides.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
 
     log = eucworld_power_log(rider_ride(5, 110.0, dt=2e-3), tmp_path / "ew.csv", 5)
     fit = rf.fit_rider(log, windows=1, window_length=80.0, rounds=(12, 10), n_boot=40, seed=5,
-                       **concealed_fit_inputs())
+                       plan_window=10.0, **concealed_fit_inputs())
     d = fit.params["delay"]
     assert abs(d["value"] - RIDER["delay"]) <= 0.05, fit.params
-    assert d["lo"] <= d["value"] <= d["hi"]
+    # the interval says the log fixes the delay to the issue's ±0.05 s and reaches the band
+    # around the truth; with this cheap setting it does not cover the truth itself on this
+    # seed (0.218 [0.211, 0.235] s measured; the study's setting: docs/rider_calibration.md)
+    assert d["hi"] - d["lo"] <= 0.1 and d["lo"] <= RIDER["delay"] + 0.05, fit.params
     assert 1 / 1.5 <= fit.params["noise_std"]["value"] / RIDER["noise_std"] <= 1.5, fit.params
     assert fit.objective < fit.objective_nominal
     js = fit.as_json()
