@@ -104,7 +104,8 @@ def test_concealed_rider_delay_recovered(tmp_path):
     # around the truth; with this cheap setting it does not cover the truth itself on this
     # seed (0.218 [0.211, 0.235] s measured; the study's setting: docs/rider_calibration.md)
     assert d["hi"] - d["lo"] <= 0.1 and d["lo"] <= RIDER["delay"] + 0.05, fit.params
-    assert 1 / 1.5 <= fit.params["noise_std"]["value"] / RIDER["noise_std"] <= 1.5, fit.params
+    noise_ratio = fit.params["noise_std"]["value"] / RIDER["noise_std"]
+    assert abs(np.log(noise_ratio)) <= np.log(1.5), fit.params          # within a factor 1.5
     assert fit.objective < fit.objective_nominal
     js = fit.as_json()
     assert set(js["params"]) == {"delay", "bandwidth", "noise_std"}
