@@ -366,32 +366,48 @@ def lateral_force_rows(p: Params, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, 
 
     Plain arithmetic on its arguments, so Python floats (the simulator's call, once a
     step) and numpy arrays (:func:`lateral_forces`) give the same force; units and
-    symbols as there.
+    symbols as there.  The law itself is :func:`lateral_force_row`.
+    """
+    return lateral_force_row(p.mw, p.m0, p.m, p.h0, p.l0, p.h, p.R, p.g, p.Jw, p.J0, p.J,
+                             s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, phi_d,
+                             s_theta, c_theta, theta_d, psi_d, psi_dd)
+
+
+def lateral_force_row(mw, m0, m, h0, l0, h, R, g, Jw, J0, J, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d,
+                      phi_d, s_theta, c_theta, theta_d, psi_d, psi_dd) -> tuple:
+    """:func:`lateral_force_rows` with Table 3's parameters as numbers (kg, m, kg·m², m/s²).
+
+    The one law of every loop that applies ``lateral_dynamics``: the Python loop (through
+    :func:`lateral_force_rows`), and compiled by numba (scalars only) the native callback
+    (:mod:`~euc_sim.simulation.native_kernels`).  Arithmetic only, no loop over the bodies.
     """
     sg, cg, sp_, cp = s_gamma, c_gamma, s_phi, c_phi
     # CONTRACT's ϑ (eq. 2) is positive tilting to the right; the derivation below leans
     # the plane by ϑ_l = −ϑ towards the left, the side a turn with ψ̇ > 0 goes to
     s_th, c_th, th_d, ps_d, ps_dd = -s_theta, c_theta, -theta_d, psi_d, psi_dd
-    # (m, ξ, ζ, ξ̇, ζ̇, ∂ξ/∂(γ, φ), ∂ζ/∂(γ, φ)) of wheel centre C, body G0, rider G
-    bodies = (
-        (p.mw, 0.0, p.R, 0.0, 0.0, (0.0, 0.0), (0.0, 0.0)),
-        (p.m0, p.h0 * sg, p.R + p.h0 * cg, p.h0 * cg * gamma_d, -p.h0 * sg * gamma_d,
-         (p.h0 * cg, 0.0), (-p.h0 * sg, 0.0)),
-        (p.m, -p.l0 * sg + p.h * sp_, p.R - p.l0 * cg + p.h * cp,
-         -p.l0 * cg * gamma_d + p.h * cp * phi_d, p.l0 * sg * gamma_d - p.h * sp_ * phi_d,
-         (-p.l0 * cg, p.h * cp), (p.l0 * sg, -p.h * sp_)),
-    )
-    Q_x = Q_gamma = Q_phi = 0.0
-    for m_b, xi, zeta, xi_d, zeta_d, dxi, dzeta in bodies:
-        da_f = -xi * ps_d**2 - 2.0 * zeta_d * ps_d * s_th - zeta * (2.0 * th_d * ps_d * c_th + ps_dd * s_th)
-        da_u = ((x_d + 2.0 * xi_d) * ps_d * s_th + xi * ps_dd * s_th
-                - zeta * (th_d**2 + ps_d**2 * s_th**2) + p.g * (c_th - 1.0))
-        Q_x = Q_x - m_b * da_f                        # ∂ξ/∂x = 1: P moves with x
-        Q_gamma = Q_gamma - m_b * (da_f * dxi[0] + da_u * dzeta[0])
-        Q_phi = Q_phi - m_b * (da_f * dxi[1] + da_u * dzeta[1])
+    # δa_f = −ξ ψ̇² − 2 ζ̇ ψ̇ sin ϑ_l − ζ k_f;  δa_u = (ẋ + 2 ξ̇) ψ̇ sin ϑ_l + ξ ψ̈ sin ϑ_l − ζ k_u + g_u
+    k_f = 2.0 * th_d * ps_d * c_th + ps_dd * s_th
+    k_u = th_d**2 + ps_d**2 * s_th**2
+    g_u = g * (c_th - 1.0)
+    # wheel centre C at (ξ, ζ) = (0, R), fixed in the plane: only δa_f moves x
+    fa_w = -R * k_f
+    # EUC body G0: (ξ, ζ) = (h0 sin γ, R + h0 cos γ)
+    xi, zeta, xi_d, zeta_d = h0 * sg, R + h0 * cg, h0 * cg * gamma_d, -h0 * sg * gamma_d
+    fa_0 = -xi * ps_d**2 - 2.0 * zeta_d * ps_d * s_th - zeta * k_f
+    ua_0 = (x_d + 2.0 * xi_d) * ps_d * s_th + xi * ps_dd * s_th - zeta * k_u + g_u
+    # rider G: (ξ, ζ) = (−l0 sin γ + h sin φ, R − l0 cos γ + h cos φ)
+    xi, zeta = -l0 * sg + h * sp_, R - l0 * cg + h * cp
+    xi_d, zeta_d = -l0 * cg * gamma_d + h * cp * phi_d, l0 * sg * gamma_d - h * sp_ * phi_d
+    fa_1 = -xi * ps_d**2 - 2.0 * zeta_d * ps_d * s_th - zeta * k_f
+    ua_1 = (x_d + 2.0 * xi_d) * ps_d * s_th + xi * ps_dd * s_th - zeta * k_u + g_u
     spin = ps_dd * s_th + ps_d * th_d * c_th          # −d/dt of the pitch rate's −ψ̇ sin ϑ
-    # the wheel turns at ẋ/R
-    return Q_x + p.Jw / p.R * spin, Q_gamma + p.J0 * spin, Q_phi + p.J * spin
+    # Q_i = −Σ m_b (δa_f ∂ξ_b/∂q_i + δa_u ∂ζ_b/∂q_i) + J_b spin ∂ω_b/∂q̇_i; ∂ξ/∂x = 1 (P moves
+    # with x), the wheel turns at ẋ/R
+    Q_x = -(mw * fa_w + m0 * fa_0 + m * fa_1) + Jw / R * spin
+    Q_gamma = (-m0 * (fa_0 * (h0 * cg) + ua_0 * (-h0 * sg)) - m * (fa_1 * (-l0 * cg) + ua_1 * (l0 * sg))
+               + J0 * spin)
+    Q_phi = -m * (fa_1 * (h * cp) + ua_1 * (-h * sp_)) + J * spin
+    return Q_x, Q_gamma, Q_phi
 
 
 #: The rider's lateral lean relative to the EUC body, its rates and the tilt

@@ -194,11 +194,13 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     native : bool
         Run the MuJoCo loop without Python per step (:mod:`euc_sim.simulation.native`:
         the motor PD and the rider's delayed law as a numba-compiled MuJoCo control callback).
-        It applies to the ``mujoco`` engine with every input but two (the callback holds
-        drag, the rolling-resistance moment and ``external_force``, tabulated on the grid,
-        over each step): ``cog_height_drift`` and ``lateral_dynamics`` keep the Python loop,
-        as does ``native=False`` or a machine where numba cannot compile (one line on stderr).
-        Both loops agree to rounding (≤ 1e-9 rad over a ride, ``tests/simulation/test_native.py``).
+        It applies to the ``mujoco`` engine with every input: the callback holds drag, the
+        rolling-resistance moment, ``external_force`` (tabulated on the grid) and the
+        generalised forces of ``lateral_dynamics`` and ``cog_height_drift`` over each step,
+        and moves the rider's centre of gravity in the model to h(t) for each step, as the
+        Python loop does.  ``native=False``, or a machine where numba cannot compile (one line
+        on stderr), runs the Python loop.  Both loops agree to rounding (≤ 1e-9 rad over a
+        ride, both ground variants, ``tests/simulation/test_native.py``).
 
     Returns
     -------
@@ -223,11 +225,12 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     stepper, run, ext, N, y0, bounds, motor = ride.stepper, ride.run, ride.ext, ride.N, ride.y0, ride.bounds, ride.motor
     try:
         result = None
-        if native and engine == "mujoco" and ext.h_t is None and ext.lat is None:
+        if native and engine == "mujoco":
             from euc_sim.simulation.native import native_loop
 
             forces = (ext.k_drag, ext.C_rr, ext.N_load, ride.p_true.R, external_force) if ext.per_step else None
-            result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress, forces)
+            result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress, forces,
+                                 _moving(ext, ride.p_true, dt))
         if result is None:
             result = _closed_loop(stepper, motor, run, ext, ride.p_true, dt, N, y0, bounds, progress)
     except FallError as exc:             # the run up to the fall, for a caller that keeps it
@@ -477,6 +480,18 @@ class _EffectsRow:
             Q_lat = list(Q_h) if Q_lat is None else [a + b for a, b in zip(Q_lat, Q_h)]
         return (*fx.held_forces(xd_, ext.k_drag, ext.C_rr, ext.N_load, p.R, float(ext.push(k * self.dt))),
                 h, Q_lat)
+
+
+def _moving(ext: _ExternalInputs, p: Params, dt: float):
+    """``lateral_dynamics`` and ``cog_height_drift`` on the grid for the native loop
+    (:func:`euc_sim.simulation.native.native_loop`'s ``moving``), the tables ``_EffectsRow`` reads; None without them."""
+    if ext.lat is None and ext.h_t is None:
+        return None
+    lat = ext.lat
+    lat_rows = None if lat is None else np.column_stack(
+        [np.sin(lat.theta), np.cos(lat.theta), lat.theta_d, lat.psi_d, lat.psi_dd])
+    h_rows = None if ext.h_t is None else np.column_stack([ext.h_t, *drift.drift_rates(ext.h_t, dt)])
+    return ((p.mw, p.m0, p.m, p.h0, p.l0, p.h, p.R, p.g, p.Jw, p.J0, p.J), lat_rows, ext.lat_scale, h_rows)
 
 
 def _trajectory(t: np.ndarray, states: np.ndarray, U: np.ndarray, v_ref: np.ndarray,

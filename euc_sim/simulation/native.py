@@ -9,7 +9,10 @@ not assumed) the callback records the state, computes M_d from it and M_h from t
 state n steps old and the last n commands, and holds both over the step (zero-order
 hold at dt), with the step's held drag, rolling-resistance moment and external force
 (:func:`euc_sim.simulation.effects.held_forces` from ẋ at its start, as the Python loop
-holds them).  ``mj_step(model, data, nstep)`` then runs the whole ride in C, in chunks
+holds them) and generalised forces of yaw and tilt (``lateral_dynamics``,
+:func:`~euc_sim.simulation.effects.lateral_force_row`) and of a moving centre of gravity
+(``cog_height_drift``, :func:`~euc_sim.simulation.drift.drift_force_row`, with h(t) in the
+model's ``body_ipos``).  ``mj_step(model, data, nstep)`` then runs the whole ride in C, in chunks
 between which Python only looks for a fall (and reports progress).
 
 The run's state lives in its own context (:mod:`euc_sim.simulation.native_core`),
@@ -50,7 +53,7 @@ available = nc.available
 
 def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: tuple,
                 bounds: Mapping[str, float], raise_fall,
-                progress=None, forces=None) -> tuple[np.ndarray, np.ndarray] | None:
+                progress=None, forces=None, moving=None) -> tuple[np.ndarray, np.ndarray] | None:
     """:func:`euc_sim.simulation.engine._closed_loop` for a MuJoCo stepper.
 
     Same states (N+1, 6) and torques (N+1, 2); ``None`` (and one line on stderr) when the
@@ -61,14 +64,19 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
     at every rider block (n + 1 steps), as in the Python loop.  ``forces``: ``(k_drag,
     C_rr, N_load, R, F)`` of :func:`euc_sim.simulation.effects.held_forces`, ``F`` the
     ``external_force`` callable F(t) or None, applied at every step; None: none.
+    ``moving``: with ``forces``, the held generalised forces of ``lateral_dynamics`` and
+    ``cog_height_drift``, ``(table3, lat, lat_scale, h)``: ``table3`` the 11 numbers of
+    :func:`euc_sim.simulation.effects.lateral_force_row` (mw … J), ``lat`` (N, 5) rows
+    (sin ϑ, cos ϑ, ϑ̇, ψ̇, ψ̈) or None, ``h`` (N + 1, 3) rows (h, ḣ, ḧ) or None (then
+    h_k is also the model's ``body_ipos`` of ``rider`` over step k; h_0 must be in the model).
     """
     if nc.callback() is None:
         return None
-    return _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress, forces)
+    return _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress, forces, moving)
 
 
 def planar_context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bounds, forces=None,
-                   dt: float = 0.0):
+                   dt: float = 0.0, moving=None):
     """A planar run's context (:mod:`euc_sim.simulation.native_layout`) for ``stepper.d``.
 
     Parameters as :func:`native_loop`; an external force F(t) is tabulated at k·dt, k < N.  To run it elsewhere (a thread, a batch): set
@@ -99,15 +107,24 @@ def planar_context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bo
         ctx.f[lay.F_KDRAG:lay.F_R + 1] = (k_drag, C_rr, N_load, R)
         if F is not None:          # F(t) on the grid, as the Python loop evaluates it at each step
             ctx.put(lay.P_PUSH, np.array([float(F(k * dt)) for k in range(N)]))
+    if moving is not None:
+        table3, lat, lat_scale, h = moving
+        ctx.f[lay.F_TABLE3:lay.F_TABLE3 + 11] = table3
+        ctx.f[lay.F_LSCALE] = lat_scale
+        if lat is not None:
+            ctx.put(lay.P_LAT, np.ascontiguousarray(lat, dtype=np.float64).reshape(-1, 5))
+        if h is not None:
+            ctx.put(lay.P_DRIFT, np.ascontiguousarray(h, dtype=np.float64).reshape(-1, 3))
+            ctx.c[lay.P_SITE_G] = stepper.site_G
     return ctx, P, M_d, M_h
 
 
-def _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None, forces=None):
+def _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None, forces=None, moving=None):
     """:func:`native_loop` with the callback built."""
     import mujoco
 
     m, d, n = stepper.m, stepper.d, run.n
-    ctx, P, M_d, M_h = planar_context(stepper, motor, run, N, y0, bounds, forces, dt)
+    ctx, P, M_d, M_h = planar_context(stepper, motor, run, N, y0, bounds, forces, dt, moving)
     phi_max, gam_max = bounds["phi"], bounds["gamma"]
     ctx.c[lay.C_PER] = nc.calls_per_step(m, d)
     chunk = n + 1 if progress is not None else CHUNK_STEPS

@@ -13,8 +13,9 @@ Interface of a context (for a caller building its own, e.g. a batch of rides): i
 slots are :mod:`euc_sim.simulation.native_layout`'s; :class:`Context` fills them; :func:`registered` registers a ``MjData`` with one for the
 duration of a ``with`` block.
 
-``mjData`` fields (``qpos``, ``qvel``, ``ctrl``, ``qfrc_applied``, ``xfrc_applied``) are read
-through offsets in the struct found at run time on a live ``MjData`` (:func:`field_offsets`), never hard-coded.
+``mjData`` fields (``qpos``, ``qvel``, ``ctrl``, ``qfrc_applied``, ``xfrc_applied``) and ``mjModel``'s
+(``body_ipos``, ``site_pos``: a moving centre of gravity) are reached through offsets in the
+structs found at run time on live ones (:func:`field_offsets`, :func:`model_offsets`), never hard-coded.
 Where numba is missing or cannot compile, :func:`callback` returns ``None`` after one
 line on stderr and the callers run their Python loops.
 """
@@ -33,7 +34,7 @@ from euc_sim.simulation.native_layout import (C_CALLS, C_FALL, C_FLOATS, C_KIND,
                                               C_SIZE, F_SIZE, KIND_COUNT, R_DU, R_FLOATS, R_GREF, R_INTEGRAL,
                                               R_KHIST, R_N, R_NOISE, R_PREF, R_UREF, R_VREF, C_ACT)
 
-__all__ = ["field_offsets", "callback", "available", "Context", "registered", "exclusive", "calls_per_step",
+__all__ = ["field_offsets", "model_offsets", "callback", "available", "Context", "registered", "exclusive", "calls_per_step",
            "SLOTS"]
 
 SLOTS = 64                                         # simulations served at once
@@ -96,30 +97,41 @@ def field_offsets(names: Sequence[str] = ("qpos", "qvel", "ctrl")) -> dict[str, 
     Each is the first 8-byte word of the struct equal to the array's address; the two
     models (with ``nuserdata`` > 0, so that ``userdata`` is allocated) must agree.
     """
+    return _offsets(names, data=True)
+
+
+def model_offsets(names: Sequence[str] = ("body_ipos", "site_pos")) -> dict[str, int]:
+    """Byte offsets in ``mjModel`` of the array pointers ``names``, found on two live MjModel
+    as :func:`field_offsets` finds mjData's."""
+    return _offsets(names, data=False)
+
+
+def _offsets(names: Sequence[str], data: bool) -> dict[str, int]:
+    """:func:`field_offsets` (``data``) or :func:`model_offsets`."""
     import mujoco
 
     found = []
     for xml in ('<mujoco><size nuserdata="3"/><worldbody><body><joint name="a"/><geom size=".1"/>'
-                '</body></worldbody><actuator><motor joint="a"/></actuator></mujoco>',
+                '<site pos="0 0 .1"/></body></worldbody><actuator><motor joint="a"/></actuator></mujoco>',
                 '<mujoco><size nuserdata="5"/><worldbody><body><joint name="a" type="slide"/><geom size=".1"/>'
-                '<body><joint/><geom size=".1"/></body></body></worldbody><actuator><motor joint="a"/>'
-                '</actuator></mujoco>'):
+                '<body><joint/><geom size=".1"/><site/><site pos=".1 0 0"/></body></body></worldbody>'
+                '<actuator><motor joint="a"/></actuator></mujoco>'):
         m = mujoco.MjModel.from_xml_string(xml)
-        d = mujoco.MjData(m)
+        obj = mujoco.MjData(m) if data else m
         offs, words = {}, 4096
-        while len(offs) < len(names):         # the pointers follow mjData's fixed arrays: look further
+        while len(offs) < len(names):         # the pointers follow the struct's fixed arrays: look further
             if words > 1 << 20:
-                raise RuntimeError(f"mjData pointers {sorted(set(names) - set(offs))} not found in its "
-                                   f"first {words * 8} bytes")
-            w = np.frombuffer((ctypes.c_int64 * words).from_address(int(d._address)), dtype=np.int64)
+                raise RuntimeError(f"{'mjData' if data else 'mjModel'} pointers {sorted(set(names) - set(offs))} "
+                                   f"not found in its first {words * 8} bytes")
+            w = np.frombuffer((ctypes.c_int64 * words).from_address(int(obj._address)), dtype=np.int64)
             for name in names:
-                hit = np.flatnonzero(w == getattr(d, name).ctypes.data)
+                hit = np.flatnonzero(w == getattr(obj, name).ctypes.data)
                 if name not in offs and hit.size:
                     offs[name] = int(hit[0]) * 8
             words *= 4
         found.append(offs)
     if found[0] != found[1]:
-        raise RuntimeError(f"mjData field offsets disagree between two models: {found}")
+        raise RuntimeError(f"{'mjData' if data else 'mjModel'} field offsets disagree between two models: {found}")
     return found[0]
 
 
@@ -150,8 +162,10 @@ def _compile():
     from euc_sim.simulation.native_kernels import build_callback
 
     offs = field_offsets(("qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"))
+    offs.update(model_offsets(("body_ipos", "site_pos")))
     return build_callback(offs["qpos"] // 8, offs["qvel"] // 8, offs["ctrl"] // 8, offs["qfrc_applied"] // 8,
-                          offs["xfrc_applied"] // 8, int(_REGISTRY.ctypes.data), SLOTS)
+                          offs["xfrc_applied"] // 8, offs["body_ipos"] // 8, offs["site_pos"] // 8,
+                          int(_REGISTRY.ctypes.data), SLOTS)
 
 
 @contextmanager

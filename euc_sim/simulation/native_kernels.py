@@ -12,7 +12,15 @@ Contexts are int64 arrays whose slots are the ``C_*`` / ``P_*`` / ``S_*`` indice
 :mod:`euc_sim.simulation.native_layout`; float settings and buffers are reached through
 the addresses they hold.  The laws are the project's own pure functions compiled here:
 :func:`controllers.motor.pd_torque`, :func:`controllers.rider.delayed_lqr_torque` and the
-held drag, rolling resistance and external force of :func:`euc_sim.simulation.effects.held_forces`.
+held drag, rolling resistance and external force of :func:`euc_sim.simulation.effects.held_forces`,
+the yaw and tilt of :func:`euc_sim.simulation.effects.lateral_force_row` and the moving centre of
+gravity's forces of :func:`euc_sim.simulation.drift.drift_force_row`.
+
+A moving centre of gravity (``cog_height_drift``) also moves the model: h_k is ``body_ipos``'s
+z of ``rider`` (and ``site_pos``'s of G) over the whole of step k, as the Python loop sets
+it before ``mj_step``.  The callback runs inside ``mj_forward`` after the position stage, so
+h_{k+1} is written at the last callback call of step k (``c[C_PER]`` calls a step), before
+step k + 1 computes its positions; h_0 is in the model before the first step.
 """
 
 from __future__ import annotations
@@ -32,21 +40,22 @@ import controllers.motor
 import controllers.rider
 from controllers.motor import pd_torque
 from controllers.rider import delayed_lqr_torque
-from euc_sim.simulation import effects
+from euc_sim.simulation import drift, effects
 from euc_sim.simulation import native_layout as lay
 
-__all__ = ["build_callback", "CACHE_DIR", "f64p", "i64p", "address", "held_forces"]
+__all__ = ["build_callback", "CACHE_DIR", "f64p", "i64p", "address", "held_forces", "lateral_force_row",
+           "drift_force_row"]
 
 
 def _cache_dir() -> str:
     """numba's on-disk cache of these kernels, keyed by the sources compiled into them.
 
     numba itself watches only this file; the laws (:mod:`controllers.motor`,
-    :mod:`controllers.rider`, :mod:`effects`) and the context layout (:mod:`native_layout`) are compiled in
+    :mod:`controllers.rider`, :mod:`effects`, :mod:`drift`) and the context layout (:mod:`native_layout`) are compiled in
     too, so a change to any of them must compile anew: the directory is named by their hash.
     """
     h = hashlib.sha256()
-    for module in (controllers.motor, controllers.rider, effects, lay, sys.modules[__name__]):
+    for module in (controllers.motor, controllers.rider, effects, drift, lay, sys.modules[__name__]):
         with open(module.__file__, "rb") as fh:
             h.update(fh.read())
     base = config.CACHE_DIR or os.path.join(tempfile.gettempdir(), "euc_sim_numba")
@@ -98,6 +107,9 @@ _motor = _jit(pd_torque)
 _rider_law = _jit(delayed_lqr_torque)
 #: :func:`euc_sim.simulation.effects.held_forces` compiled (also the batch's, :mod:`mujoco_batch`).
 held_forces = _jit(effects.held_forces)
+#: :func:`euc_sim.simulation.effects.lateral_force_row` and :func:`euc_sim.simulation.drift.drift_force_row` compiled.
+lateral_force_row = _jit(effects.lateral_force_row)
+drift_force_row = _jit(drift.drift_force_row)
 
 
 @_jit
@@ -147,6 +159,49 @@ def _hold_forces(qfrc, xfrc, c, f, k, x_dot):
 
 
 @_jit
+def _hold_generalized(qfrc, c, f, k, row):
+    """Set the held generalised forces of ``lateral_dynamics`` and ``cog_height_drift`` for step
+    k from the state ``row`` at its start, as ``engine._EffectsRow`` and ``_MujocoStepper.set_effects``:
+    Q = lat_scale Q_lat + Q_h in the paper's coordinates, on top of τ/R on x (if the wheel
+    does not spin), into ``qfrc_applied``'s x, euc_pitch and rider_pitch rows."""
+    Q0, Q1, Q2 = 0.0, 0.0, 0.0
+    lat, dr = c[lay.P_LAT], c[lay.P_DRIFT]
+    p = lay.F_TABLE3
+    if lat != 0:
+        T = f64p(lat + 40 * k)                  # sin ϑ, cos ϑ, ϑ̇, ψ̇, ψ̈ of step k
+        r0, r1, r2 = lateral_force_row(
+            f[p], f[p + 1], f[p + 2], f[p + 3], f[p + 4], f[p + 5], f[p + 6], f[p + 7], f[p + 8], f[p + 9],
+            f[p + 10], math.sin(row[1]), math.cos(row[1]), math.sin(row[2]), math.cos(row[2]), row[3], row[4],
+            row[5], T[0], T[1], T[2], T[3], T[4])
+        s = f[lay.F_LSCALE]
+        Q0, Q1, Q2 = s * r0, s * r1, s * r2
+    if dr != 0:
+        H = f64p(dr + 24 * k)                   # h, ḣ, ḧ of step k
+        d0, d1, d2 = drift_force_row(f[p + 2], f[p + 4], H[0], H[1], H[2], row[1], row[2], row[5])
+        if lat != 0:
+            Q0, Q1, Q2 = Q0 + d0, Q1 + d1, Q2 + d2
+        else:
+            Q0, Q1, Q2 = d0, d1, d2
+    Q_x = qfrc[c[lay.P_VX]] if c[lay.P_SPIN] == 0 else 0.0      # τ/R from _hold_forces
+    qfrc[c[lay.P_VX]] = Q0 + Q_x
+    qfrc[c[lay.P_VG]] = Q1 + Q2
+    qfrc[c[lay.P_VR]] = Q2
+
+
+@_jit
+def _move_g(model, c, w_bipos, w_spos):
+    """Write h of the next step (row ``c[C_K]`` of the height table) into ``body_ipos`` of
+    ``rider`` and ``site_pos`` of G (``_MujocoStepper.set_effects``)."""
+    k = c[lay.C_K]
+    if k >= c[lay.C_ROWS]:
+        return
+    h = f64p(c[lay.P_DRIFT] + 24 * k)[0]
+    f64p(model[w_bipos])[3 * c[lay.P_BR] + 2] = h
+    if c[lay.P_SITE_G] >= 0:
+        f64p(model[w_spos])[3 * c[lay.P_SITE_G] + 2] = h
+
+
+@_jit
 def planar_step(qpos, qvel, qfrc, xfrc, c, f):
     """One control step of the planar loop (:func:`euc_sim.simulation.native.native_loop`)."""
     k = c[lay.C_K]
@@ -174,6 +229,8 @@ def planar_step(qpos, qvel, qfrc, xfrc, c, f):
     M_h = _rider(c, k, Y, lay.P_RIDER)
     if c[lay.P_EFF] != 0 and k + 1 < c[lay.C_ROWS]:    # not at the last row: no step follows it
         _hold_forces(qfrc, xfrc, c, f, k, row[3])
+        if c[lay.P_LAT] != 0 or c[lay.P_DRIFT] != 0:
+            _hold_generalized(qfrc, c, f, k, row)
     f64p(c[lay.P_MD])[k] = M_d
     f64p(c[lay.P_MH])[k] = M_h
     f[lay.F_HELD] = M_d
@@ -322,16 +379,18 @@ def spatial_step(qp, qv, c, f):
     c[lay.C_K] = k + 1
 
 
-def build_callback(w_qpos: int, w_qvel: int, w_ctrl: int, w_qfrc: int, w_xfrc: int,
-                   registry_address: int, slots: int):
+def build_callback(w_qpos: int, w_qvel: int, w_ctrl: int, w_qfrc: int, w_xfrc: int, w_bipos: int,
+                   w_spos: int, registry_address: int, slots: int):
     """The cfunc ``void(const mjModel*, mjData*)``: find ``d`` in the registry, run its kernel.
 
     ``w_*``: the word offsets of ``qpos``, ``qvel``, ``ctrl``, ``qfrc_applied`` and
-    ``xfrc_applied`` in ``mjData``.  The kernel runs
+    ``xfrc_applied`` in ``mjData``, ``w_bipos`` and ``w_spos`` those of ``body_ipos`` and
+    ``site_pos`` in ``mjModel``.  The kernel runs
     at the first of the callback's calls in each step (``c[C_PER]`` calls per step; RK4
-    calls it once per stage); every call writes the held controls (zero-order hold at dt).
+    calls it once per stage); every call writes the held controls (zero-order hold at dt);
+    the last call of a planar step with a moving centre of gravity moves it to the next step's h.
     """
-    @cfunc(types.void(types.voidptr, types.CPointer(types.int64)))
+    @cfunc(types.void(types.CPointer(types.int64), types.CPointer(types.int64)))
     def control(m, d):
         reg = carray(i64p(registry_address), 2 * slots)
         me = address(d)
@@ -350,6 +409,8 @@ def build_callback(w_qpos: int, w_qvel: int, w_ctrl: int, w_qfrc: int, w_xfrc: i
                         planar_step(qpos, qvel, f64p(d[w_qfrc]), f64p(d[w_xfrc]), c, f)
                     else:
                         spatial_step(qpos, qvel, c, f)
+                if kind == lay.KIND_PLANAR and c[lay.P_DRIFT] != 0 and calls % c[lay.C_PER] == c[lay.C_PER] - 1:
+                    _move_g(m, c, w_bipos, w_spos)
                 ctrl = f64p(d[w_ctrl])
                 for a in range(c[lay.C_NACT]):
                     ctrl[c[lay.C_ACT + a]] = f[lay.F_HELD + a]

@@ -134,11 +134,72 @@ def test_held_forces_compiled_are_the_python_law():
         assert compiled(*args) == pytest.approx(held_forces(*args), rel=1e-15, abs=1e-15)
 
 
-def test_height_drift_and_lateral_dynamics_keep_the_python_loop(rider):
-    for effects in ({"cog_height_drift": 0.02}, {"lateral_dynamics": 0.1}):
-        native.LAST_RUN.clear()
-        simulate("stop_and_go", 1.0, rider=rider, effects=effects)
-        assert native.LAST_RUN == {}
+MOVING = ({"cog_height_drift": 0.05}, {"lateral_dynamics": 0.15},
+          {"cog_height_drift": 0.05, "lateral_dynamics": 0.15, **DRAG_ROLL})
+
+
+@pytest.mark.parametrize("variant", ["ideal", "contact"])
+@pytest.mark.parametrize("effects", MOVING)
+def test_height_drift_and_lateral_dynamics_run_natively_as_in_the_python_loop(rider, variant, effects):
+    """The tilt and yaw's and the moving G's generalised forces, held over each step, and h(t) in
+    the model's body_ipos over the whole step (written at the last callback call of the step
+    before): the ride as the Python loop's, and the effects act."""
+    kw = dict(rider=rider, seed=3, variant=variant)
+    native.LAST_RUN.clear()
+    a = simulate("stop_and_go", 6.0, effects=effects, **kw)
+    assert native.LAST_RUN["rows"] == 6001              # it ran natively
+    b = simulate("stop_and_go", 6.0, effects=effects, native=False, **kw)
+    assert list(a.columns) == list(b.columns)           # h, psi, theta as well
+    assert _gap(a, b) <= TOL
+    rest = {k: v for k, v in effects.items() if k not in ("cog_height_drift", "lateral_dynamics")}
+    bare = simulate("stop_and_go", 6.0, effects=rest, **kw)
+    assert float(np.max(np.abs(a["phi"] - bare["phi"]))) > 1e-3   # rad: they moved the rider
+
+
+@pytest.mark.parametrize("integrator", ["mjINT_EULER", "mjINT_IMPLICITFAST"])
+def test_a_moving_centre_of_gravity_runs_natively_with_a_one_call_integrator(rider, integrator):
+    """With one callback call per step the first call is the last: h_{k+1} goes into the model
+    after step k's positions, as with RK4's four."""
+    from euc_sim.simulation.engine import _closed_loop, _moving, _raise_fall, prepare
+
+    states = []
+    for nat in (True, False):
+        r = prepare("stop_and_go", 4.0, rider=rider, seed=3, variant="contact",
+                    effects={"cog_height_drift": 0.05, "lateral_dynamics": 0.15})
+        r.stepper.m.opt.integrator = getattr(mujoco.mjtIntegrator, integrator)
+        if nat:
+            forces = (r.ext.k_drag, r.ext.C_rr, r.ext.N_load, r.p_true.R, None)
+            out = native.native_loop(r.stepper, r.motor, r.run, 1e-3, r.N, r.y0, r.bounds, _raise_fall,
+                                     None, forces, _moving(r.ext, r.p_true, 1e-3))
+            assert native.LAST_RUN["per"] == 1
+        else:
+            out = _closed_loop(r.stepper, r.motor, r.run, r.ext, r.p_true, 1e-3, r.N, r.y0, r.bounds)
+        states.append(out[0])
+    assert float(np.max(np.abs(states[0] - states[1]))) <= TOL
+
+
+def test_lateral_and_drift_rows_compiled_are_the_python_laws():
+    from euc_sim.model.parameters import TABLE3 as p
+    from euc_sim.simulation import drift, effects
+    from euc_sim.simulation.native_kernels import drift_force_row, lateral_force_row
+
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        g, f, xd, gd, fd, th, thd, psd, psdd = rng.normal(size=9)
+        state = (np.sin(g), np.cos(g), np.sin(f), np.cos(f), xd, gd, fd, np.sin(th), np.cos(th), thd, psd, psdd)
+        table3 = (p.mw, p.m0, p.m, p.h0, p.l0, p.h, p.R, p.g, p.Jw, p.J0, p.J)
+        assert lateral_force_row(*table3, *state) == pytest.approx(effects.lateral_force_rows(p, *state),
+                                                                   rel=1e-14, abs=1e-12)
+        args = (p.m, p.l0, 0.9 + 0.1 * g, 0.1 * xd, 0.5 * th, g, f, fd)
+        assert drift_force_row(*args) == pytest.approx(drift.drift_force_row(*args), rel=1e-14, abs=1e-12)
+
+
+def test_model_offsets_point_at_the_fields():
+    m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><body pos="0 0 1"><joint/><geom size=".1"/>'
+                                       '<site name="s" pos="0 0 .2"/></body></worldbody></mujoco>')
+    offs = native_core.model_offsets()
+    for name in ("body_ipos", "site_pos"):
+        assert ctypes.c_int64.from_address(m._address + offs[name]).value == getattr(m, name).ctypes.data
 
 
 def test_threads_share_the_callback_safely(rider):
