@@ -13,7 +13,7 @@ Contexts are int64 arrays whose slots are the ``C_*`` / ``P_*`` / ``S_*`` indice
 the addresses they hold.  The laws are the project's own pure functions compiled here:
 :func:`controllers.motor.pd_torque`, :func:`controllers.rider.delayed_lqr_torque` and the
 held drag, rolling resistance and external force of :func:`euc_sim.simulation.effects.held_forces`,
-the yaw and tilt of :func:`euc_sim.simulation.effects.lateral_force_row` and the moving centre of
+the yaw and tilt of :func:`euc_sim.simulation.lateral.lateral_force_row` and the moving centre of
 gravity's forces of :func:`euc_sim.simulation.drift.drift_force_row`.
 
 A moving centre of gravity (``cog_height_drift``) also moves the model: h_k is ``body_ipos``'s
@@ -40,7 +40,7 @@ import controllers.motor
 import controllers.rider
 from controllers.motor import pd_torque
 from controllers.rider import delayed_lqr_torque
-from euc_sim.simulation import drift, effects
+from euc_sim.simulation import drift, effects, lateral
 from euc_sim.simulation import native_layout as lay
 
 __all__ = ["build_callback", "CACHE_DIR", "f64p", "i64p", "address", "held_forces", "lateral_force_row",
@@ -51,11 +51,11 @@ def _cache_dir() -> str:
     """numba's on-disk cache of these kernels, keyed by the sources compiled into them.
 
     numba itself watches only this file; the laws (:mod:`controllers.motor`,
-    :mod:`controllers.rider`, :mod:`effects`, :mod:`drift`) and the context layout (:mod:`native_layout`) are compiled in
+    :mod:`controllers.rider`, :mod:`effects`, :mod:`lateral`, :mod:`drift`) and the context layout (:mod:`native_layout`) are compiled in
     too, so a change to any of them must compile anew: the directory is named by their hash.
     """
     h = hashlib.sha256()
-    for module in (controllers.motor, controllers.rider, effects, drift, lay, sys.modules[__name__]):
+    for module in (controllers.motor, controllers.rider, effects, lateral, drift, lay, sys.modules[__name__]):
         with open(module.__file__, "rb") as fh:
             h.update(fh.read())
     base = config.CACHE_DIR or os.path.join(tempfile.gettempdir(), "euc_sim_numba")
@@ -107,8 +107,8 @@ _motor = _jit(pd_torque)
 _rider_law = _jit(delayed_lqr_torque)
 #: :func:`euc_sim.simulation.effects.held_forces` compiled (also the batch's, :mod:`mujoco_batch`).
 held_forces = _jit(effects.held_forces)
-#: :func:`euc_sim.simulation.effects.lateral_force_row` and :func:`euc_sim.simulation.drift.drift_force_row` compiled.
-lateral_force_row = _jit(effects.lateral_force_row)
+#: :func:`euc_sim.simulation.lateral.lateral_force_row` and :func:`euc_sim.simulation.drift.drift_force_row` compiled.
+lateral_force_row = _jit(lateral.lateral_force_row)
 drift_force_row = _jit(drift.drift_force_row)
 
 

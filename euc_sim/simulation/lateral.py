@@ -1,0 +1,333 @@
+"""The yaw and tilt of a turning EUC acting on its pitch plane (the ``lateral_dynamics`` effect).
+
+The couplings :mod:`euc_sim.simulation.effects` catalogues as ``lateral_dynamics``: the tilted,
+turning plane's generalised force on the paper's coordinates (:func:`lateral_forces`, with its
+per-step float form :func:`lateral_force_row`, the one law of the Python loop and the native
+callback), the rider's lateral lean (:func:`rider_lean_forces`), his spatial correction from the
+G marker (:func:`rider_spatial_correction`) and the upright slender rider's term
+(:func:`upright_slender_moment`), and the tilt the effect is scored against
+(:func:`band_peak_tilt`).  :mod:`effects` re-exports every name.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from euc_sim.model.parameters import Params
+
+#: The tilt and yaw signals the ``lateral_dynamics`` term needs (rad, rad/s, rad/s²).
+LATERAL_INPUTS = ("theta", "theta_d", "psi_d", "psi_dd")
+
+#: The couplings' bandwidth: the window, s, of the cubic Savitzky–Golay fit through which
+#: the tilt and yaw enter the lateral term.  0.5 s follows the figure-eight's yaw
+#: reversals (1.25 s curvature ramps) with the paper's angle noise: held-out 0.245 ->
+#: 0.175 N·m on the 3-D figure-eight, 0.082 -> 0.075 on the circle, and equal or lower on
+#: the planar lateral cases of blind-study seeds 7 and 21.
+LATERAL_WINDOW = 0.5
+
+
+def band_peak_tilt(theta, dt: float, window: float = LATERAL_WINDOW) -> float:
+    """``lateral_dynamics``' peak tilt (CONTRACT), rad: max |ϑ| over the couplings' bandwidth.
+
+    The tilt ϑ of a ride is the turn's lean plus the rider's balance wobble; the lateral
+    couplings act through the tilt seen over :data:`LATERAL_WINDOW` (the diagnosis's
+    columns), so the peak tilt is that of the tilt smoothed by the same cubic
+    Savitzky–Golay fit (``scipy.signal.savgol_filter``, window ``round(window/dt) | 1``
+    samples), over the samples a whole window from either end (where the fit is centred).
+    The same function gives a simulation's truth (its true tilt at 1 kHz) and the
+    diagnosis's estimate (the recorded tilt).
+
+    Parameters
+    ----------
+    theta : array_like, shape (N,)
+        Tilt, rad, sampled uniformly.
+    dt : float
+        Sample period, s.
+    window : float
+        Smoothing window, s.
+
+    Returns
+    -------
+    float
+        rad.
+
+    Raises
+    ------
+    ValueError
+        for a record shorter than two windows.
+    """
+    from scipy.signal import savgol_filter
+    theta = np.asarray(theta, dtype=float)
+    w = int(round(window / dt)) | 1
+    if theta.ndim != 1 or theta.size < 2 * w:
+        raise ValueError(f"theta: expected a 1-D tilt of at least {2 * w} samples (two {window:g} s "
+                         f"windows at dt = {dt:g} s), got shape {theta.shape}")
+    e = w // 2
+    return float(np.max(np.abs(savgol_filter(theta, w, 3, mode="interp")[e:theta.size - e])))
+
+
+def lateral_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd) -> np.ndarray:
+    """Generalised force of yaw and tilt on the pitch plane (``lateral_dynamics``).
+
+    The paper's plane (Fig. 2) is carried by the EUC: its origin, the contact point P,
+    runs along the ground with speed ẋ and heading ψ, and it is tilted about the
+    heading by ϑ_l = −ϑ towards the left (CONTRACT's ϑ, eq. 2, is positive to the right).  A point of a body at (ξ, ζ) in the plane (ξ ahead of P, ζ along the
+    tilted up-axis e_u) is at r = P + ξ e_f + ζ e_u.  Its acceleration, less the
+    planar one (ẍ + ξ̈, ζ̈), and gravity, less the planar g, are, along e_f and e_u,
+
+        δa_f = −ξ ψ̇² − 2 ζ̇ ψ̇ sin ϑ_l − ζ (2 ϑ̇_l ψ̇ cos ϑ_l + ψ̈ sin ϑ_l),
+        δa_u = (ẋ + 2 ξ̇) ψ̇ sin ϑ_l + ξ ψ̈ sin ϑ_l − ζ (ϑ̇_l² + ψ̇² sin² ϑ_l) + g (cos ϑ_l − 1),
+
+    and each body's pitch rate gains −ψ̇ sin ϑ_l (the yaw rate seen about the tilted
+    pitch axis).  By Kane's method (x is a path length, so the x-row is not a plain
+    Lagrange equation), with the partial velocities ∂(ξ, ζ)/∂q of eq. (A.1)'s geometry,
+
+        Q_i = −Σ_b m_b (δa_f ∂ξ_b/∂q_i + δa_u ∂ζ_b/∂q_i)
+              + Σ_b J_b (ψ̈ sin ϑ_l + ψ̇ ϑ̇_l cos ϑ_l) ∂ω_b/∂q̇_i.
+
+    In a steady coordinated turn (ψ̇ = g tan ϑ_l / ẋ, ϑ̇ = ψ̈ = 0) the gravity part is the
+    familiar g/cos ϑ felt in the plane; in a slalom the yaw acceleration acting on the
+    rider's inward-leaning centre of gravity dominates.  Only the bodies' pitch-axis
+    inertias (Table 3) are known, so gyroscopic terms of the other axes are left out.
+    ``euc_sim.model.symbolic.derive_lateral`` derives the same from the 3-D positions.
+
+    Parameters
+    ----------
+    p : Params
+    q, qd : array_like, shape (..., 3)
+        Paper coordinates and rates (x is the distance run along the path).
+    theta, theta_d : array_like
+        Tilt ϑ, rad, positive to the right (CONTRACT, eq. 2: a turn with ψ̇ > 0, to the
+        left, leans the rider to ϑ < 0), and its rate, rad/s.
+    psi_d, psi_dd : array_like
+        Yaw rate ψ̇, rad/s, and yaw acceleration ψ̈, rad/s².
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+        (N, N·m, N·m) to add to the right-hand side of eq. (5).
+    """
+    q = np.asarray(q, dtype=float)
+    qd = np.asarray(qd, dtype=float)
+    gamma, phi, th = q[..., 1], q[..., 2], np.asarray(theta, dtype=float)
+    rows = lateral_force_rows(p, np.sin(gamma), np.cos(gamma), np.sin(phi), np.cos(phi),
+                              qd[..., 0], qd[..., 1], qd[..., 2], np.sin(th), np.cos(th),
+                              np.asarray(theta_d, dtype=float), np.asarray(psi_d, dtype=float),
+                              np.asarray(psi_dd, dtype=float))
+    Q = np.zeros(np.broadcast_shapes(*(np.shape(r) for r in rows)) + (3,))
+    Q[..., 0], Q[..., 1], Q[..., 2] = rows
+    return Q
+
+
+def lateral_force_rows(p: Params, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, phi_d,
+                       s_theta, c_theta, theta_d, psi_d, psi_dd) -> tuple:
+    """(Q_x, Q_γ, Q_φ) of :func:`lateral_forces` from the angles' sines and cosines.
+
+    Plain arithmetic on its arguments, so Python floats (the simulator's call, once a
+    step) and numpy arrays (:func:`lateral_forces`) give the same force; units and
+    symbols as there.  The law itself is :func:`lateral_force_row`.
+    """
+    return lateral_force_row(p.mw, p.m0, p.m, p.h0, p.l0, p.h, p.R, p.g, p.Jw, p.J0, p.J,
+                             s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, phi_d,
+                             s_theta, c_theta, theta_d, psi_d, psi_dd)
+
+
+def lateral_force_row(mw, m0, m, h0, l0, h, R, g, Jw, J0, J, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d,
+                      phi_d, s_theta, c_theta, theta_d, psi_d, psi_dd) -> tuple:
+    """:func:`lateral_force_rows` with Table 3's parameters as numbers (kg, m, kg·m², m/s²).
+
+    The one law of every loop that applies ``lateral_dynamics``: the Python loop (through
+    :func:`lateral_force_rows`), and compiled by numba (scalars only) the native callback
+    (:mod:`~euc_sim.simulation.native_kernels`).  Arithmetic only, no loop over the bodies.
+    """
+    sg, cg, sp_, cp = s_gamma, c_gamma, s_phi, c_phi
+    # CONTRACT's ϑ (eq. 2) is positive tilting to the right; the derivation below leans
+    # the plane by ϑ_l = −ϑ towards the left, the side a turn with ψ̇ > 0 goes to
+    s_th, c_th, th_d, ps_d, ps_dd = -s_theta, c_theta, -theta_d, psi_d, psi_dd
+    # δa_f = −ξ ψ̇² − 2 ζ̇ ψ̇ sin ϑ_l − ζ k_f;  δa_u = (ẋ + 2 ξ̇) ψ̇ sin ϑ_l + ξ ψ̈ sin ϑ_l − ζ k_u + g_u
+    k_f = 2.0 * th_d * ps_d * c_th + ps_dd * s_th
+    k_u = th_d**2 + ps_d**2 * s_th**2
+    g_u = g * (c_th - 1.0)
+    # wheel centre C at (ξ, ζ) = (0, R), fixed in the plane: only δa_f moves x
+    fa_w = -R * k_f
+    # EUC body G0: (ξ, ζ) = (h0 sin γ, R + h0 cos γ)
+    xi, zeta, xi_d, zeta_d = h0 * sg, R + h0 * cg, h0 * cg * gamma_d, -h0 * sg * gamma_d
+    fa_0 = -xi * ps_d**2 - 2.0 * zeta_d * ps_d * s_th - zeta * k_f
+    ua_0 = (x_d + 2.0 * xi_d) * ps_d * s_th + xi * ps_dd * s_th - zeta * k_u + g_u
+    # rider G: (ξ, ζ) = (−l0 sin γ + h sin φ, R − l0 cos γ + h cos φ)
+    xi, zeta = -l0 * sg + h * sp_, R - l0 * cg + h * cp
+    xi_d, zeta_d = -l0 * cg * gamma_d + h * cp * phi_d, l0 * sg * gamma_d - h * sp_ * phi_d
+    fa_1 = -xi * ps_d**2 - 2.0 * zeta_d * ps_d * s_th - zeta * k_f
+    ua_1 = (x_d + 2.0 * xi_d) * ps_d * s_th + xi * ps_dd * s_th - zeta * k_u + g_u
+    spin = ps_dd * s_th + ps_d * th_d * c_th          # −d/dt of the pitch rate's −ψ̇ sin ϑ
+    # Q_i = −Σ m_b (δa_f ∂ξ_b/∂q_i + δa_u ∂ζ_b/∂q_i) + J_b spin ∂ω_b/∂q̇_i; ∂ξ/∂x = 1 (P moves
+    # with x), the wheel turns at ẋ/R
+    Q_x = -(mw * fa_w + m0 * fa_0 + m * fa_1) + Jw / R * spin
+    Q_gamma = (-m0 * (fa_0 * (h0 * cg) + ua_0 * (-h0 * sg)) - m * (fa_1 * (-l0 * cg) + ua_1 * (l0 * sg))
+               + J0 * spin)
+    Q_phi = -m * (fa_1 * (h * cp) + ua_1 * (-h * sp_)) + J * spin
+    return Q_x, Q_gamma, Q_phi
+
+
+#: The rider's lateral lean relative to the EUC body, its rates and the tilt
+#: acceleration (rad, rad/s, rad/s², rad/s²) that :func:`rider_lean_forces` needs.
+LEAN_INPUTS = ("lean", "lean_d", "lean_dd", "theta_dd")
+#: The rider's inertia about his long axis over J (his pitch and lateral inertia about
+#: G): a standing body is slender, its yaw inertia a fraction of the pitch one.  The
+#: spatial model (``model.spatial.build_spatial_spec``) uses the same ratio.
+RIDER_YAW_INERTIA_RATIO = 0.2
+
+
+def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lean_d, lean_dd, theta_dd) -> np.ndarray:
+    """Generalised force of the rider's lateral lean λ relative to the EUC body.
+
+    :func:`lateral_forces` carries every body in the EUC's plane, tilted by ϑ.  A
+    rider who leans by λ about his ankle's fore-aft axis (after his pitch φ, the
+    lateral hinge of ``mjcf/euc_3d.xml``; λ > 0 to the right like ϑ) has his
+    centre of gravity G out of that plane by y = −h sin λ along the pitch axis e_a
+    and his long axis n = (cos λ sin φ, −sin λ, cos λ cos φ) in the tilted frame
+    (e_f, e_a, e_u).  Two terms follow, by Kane's method with ∂ω/∂φ̇ = e_a:
+
+    * the offset y, carried by the frame's rotation Ω = ψ̇ e_z + ϑ̇ e_f, accelerates G by
+      a_f = y (−ψ̈ cos ϑ + 2 ϑ̇ ψ̇ sin ϑ) − 2 ẏ ψ̇ cos ϑ and
+      a_u = y (ϑ̈ + ψ̇² sin ϑ cos ϑ) + 2 ẏ ϑ̇, and the in-plane arm shortened to
+      h cos λ adds d²/dt² [h (cos λ − 1)(sin φ, cos φ)] (without its φ̈ part) and the
+      frame's terms of :func:`lateral_force_rows` on that change;
+      Q_i = −m (a_f ∂ξ_G/∂q_i + a_u ∂ζ_G/∂q_i);
+    * the rider's rotation with inertia I = J 1 + (J_z − J) n nᵀ about G
+      (J_z = :data:`RIDER_YAW_INERTIA_RATIO` · J): beyond J φ̈ and the frame's own
+      pitch rate (in :func:`lateral_forces`), e_a · d(I ω)/dt has
+      J λ̇ Ω·e_z' + (J_z − J) (−sin λ · d(n·ω)/dt + (n·ω) e_a·ṅ),
+      e_z' = (sin φ, 0, cos φ) the rider's axis before the lean.
+
+    Less the upright slender rider's own term (λ = λ̇ = λ̈ = 0, the (J_z − J) term),
+    which :func:`lateral_forces` leaves out with its isotropic rider: a recording
+    without lean (the planar simulator's lateral cases) then sees exactly the physics
+    that was injected.  Terms of second order in λ times q̈ (inertia, not force) and in
+    the partial velocities are left out: the force is exact at λ = 0 and to first order
+    in λ (``euc_sim.model.symbolic.derive_rider_lean``, a test).  On the
+    3-D model's circle (30 s, seed 1, no sensor noise) the two terms take the
+    remainder left by :func:`lateral_forces` from 0.45 to 0.11 N·m RMS
+    (before the upright slender term was taken out; ``docs/spatial.md``).
+
+    Parameters
+    ----------
+    p : Params
+    q, qd : array_like, shape (..., 3)
+    theta, theta_d, theta_dd : array_like
+        EUC tilt ϑ (CONTRACT, positive to the right), rad, and its rates.
+    psi_d, psi_dd : array_like
+        Yaw rate, rad/s, and acceleration, rad/s².
+    lean, lean_d, lean_dd : array_like
+        The rider's lean λ relative to the EUC body, rad (positive to the right), and
+        its rates, rad/s, rad/s².
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+        (N, N·m, N·m) to add to the right-hand side of eq. (5).
+    """
+    q = np.asarray(q, dtype=float)
+    qd = np.asarray(qd, dtype=float)
+    gamma, phi, phi_d = q[..., 1], q[..., 2], qd[..., 2]
+    th, th_d, th_dd = (np.asarray(a, dtype=float) for a in (theta, theta_d, theta_dd))
+    ps_d, ps_dd = np.asarray(psi_d, dtype=float), np.asarray(psi_dd, dtype=float)
+    lam, lam_d = np.asarray(lean, dtype=float), np.asarray(lean_d, dtype=float)
+    s_th, c_th, s_l, c_l, s_p, c_p = np.sin(th), np.cos(th), np.sin(lam), np.cos(lam), np.sin(phi), np.cos(phi)
+    # translation of the out-of-plane offset y = −h sin λ
+    y, y_d = -p.h * s_l, -p.h * c_l * lam_d
+    a_f = y * (-ps_dd * c_th + 2.0 * th_d * ps_d * s_th) - 2.0 * y_d * ps_d * c_th
+    a_u = y * (th_dd + ps_d**2 * s_th * c_th) + 2.0 * y_d * th_d
+    # in-plane arm h cos λ instead of h: c = cos λ − 1 and its rates
+    c, c_d = c_l - 1.0, -s_l * lam_d
+    c_dd = -c_l * lam_d**2 - s_l * np.asarray(lean_dd, dtype=float)
+    a_f = a_f + p.h * (c_dd * s_p + 2.0 * c_d * phi_d * c_p - c * phi_d**2 * s_p)
+    a_u = a_u + p.h * (c_dd * c_p - 2.0 * c_d * phi_d * s_p - c * phi_d**2 * c_p)
+    # ... and the frame's rotation acting on that change of arm, as in lateral_force_rows
+    d_xi, d_zeta = p.h * c * s_p, p.h * c * c_p
+    d_xi_d, d_zeta_d = p.h * (c_d * s_p + c * c_p * phi_d), p.h * (c_d * c_p - c * s_p * phi_d)
+    s_tl, t_ld = -s_th, -th_d                       # the left tilt ϑ_l = −ϑ of lateral_force_rows
+    a_f = a_f - d_xi * ps_d**2 - 2.0 * d_zeta_d * ps_d * s_tl - d_zeta * (2.0 * t_ld * ps_d * c_th + ps_dd * s_tl)
+    a_u = a_u + 2.0 * d_xi_d * ps_d * s_tl + d_xi * ps_dd * s_tl - d_zeta * (t_ld**2 + ps_d**2 * s_tl**2)
+    Q = np.zeros(np.broadcast_shapes(q.shape, np.shape(lam) + (3,), np.shape(th) + (3,)))
+    Q[..., 0] = -p.m * a_f
+    Q[..., 1] = -p.m * (a_f * (-p.l0 * np.cos(gamma)) + a_u * p.l0 * np.sin(gamma))
+    Q[..., 2] = -p.m * (a_f * p.h * c_p - a_u * p.h * s_p)
+    # rotation: s = n·ω, ω = Ω + φ̇ e_a + λ̇ e_x', in (e_f, e_a, e_u): Ω = (ϑ̇, ψ̇ sin ϑ, ψ̇ cos ϑ)
+    A = c_th * c_l * c_p - s_th * s_l
+    s = ps_d * A + th_d * c_l * s_p - phi_d * s_l
+    A_d = (-s_th * th_d * c_l * c_p - c_th * s_l * lam_d * c_p - c_th * c_l * s_p * phi_d
+           - c_th * th_d * s_l - s_th * c_l * lam_d)
+    s_d = (ps_dd * A + ps_d * A_d + th_dd * c_l * s_p
+           + th_d * (-s_l * lam_d * s_p + c_l * c_p * phi_d) - phi_d * c_l * lam_d)
+    w_f, w_u = th_d + lam_d * c_p, ps_d * c_th - lam_d * s_p
+    ea_ndot = -w_f * c_l * c_p + w_u * c_l * s_p
+    J, J_z = p.J, RIDER_YAW_INERTIA_RATIO * p.J
+    M_rot = J * lam_d * (ps_d * c_th * c_p + th_d * s_p) + (J_z - J) * (-s_l * s_d + s * ea_ndot)
+    # less the upright slender rider's own term (λ = λ̇ = λ̈ = 0), which lateral_forces
+    # (and so the planar simulator) leaves out with its isotropic rider
+    M_rot0 = upright_slender_moment(p, phi, th, th_d, ps_d)
+    Q[..., 2] = Q[..., 2] - (M_rot - M_rot0)
+    return Q
+
+
+#: What :func:`rider_spatial_correction` needs beyond :data:`LEAN_INPUTS`: yaw ψ (rad), the
+#: rider's centre-of-gravity acceleration G̈ (ground frame, m/s², (N, 3)), ẍ of the distance
+#: run and ξ̈, ζ̈ of G in the tilted plane (m/s², ``model.rider_spatial.plane_coordinates``),
+#: all through the same smoothing.
+RIDER_MARKER_INPUTS = ("psi", "G_dd", "x_dd", "xi_dd", "zeta_dd")
+
+
+def rider_spatial_correction(p: Params, q, qd, extra: dict) -> np.ndarray:
+    """The rider's translation in space where G's marker is recorded.
+
+    ``scripts/lateral_ablation.py`` (noise-free 3-D rides, the 1 kHz truth) found the whole
+    remainder that :func:`lateral_forces` + :func:`rider_lean_forces` leave in the rider:
+    his translation (the first-order lean terms miss 0.3-4 N·m RMS) and his rotation
+    (the upright slender (J_z − J) term and his twist), the two errors anti-correlated
+    (−0.9).  This replaces the modelled translation of the rider (the m-linear part of
+    both terms) by the one the marker G measures
+    (:func:`euc_sim.model.rider_spatial.rider_translation_forces`).  The rider's rotation
+    keeps the isotropic convention (the slender term is the interval's alternative,
+    ``diagnosis.candidates``): with it in the column the 3-D estimates fell 5-6 % below
+    the truth through the recording (fresh seeds 101-103) and the planar lateral cases,
+    whose simulator injects the isotropic rider, 4.8 % (``docs/spatial.md``).
+
+    Parameters
+    ----------
+    p : Params
+    q, qd : array_like, shape (N, 3)
+        Paper coordinates (m, rad) and rates (m/s, rad/s).
+    extra : dict
+        :data:`LATERAL_INPUTS`, :data:`LEAN_INPUTS` and :data:`RIDER_MARKER_INPUTS`
+        (rad, rad/s, rad/s², m/s² as in :func:`lateral_forces`, :func:`rider_lean_forces`
+        and :func:`euc_sim.model.rider_spatial.rider_translation_forces`).
+
+    Returns
+    -------
+    numpy.ndarray, shape (N, 3)
+        (N, N·m, N·m) to add to eq. (5)'s right-hand side.
+    """
+    from euc_sim.model.rider_spatial import rider_translation_forces
+    lat = {k: extra[k] for k in LATERAL_INPUTS}
+    lean = {k: extra[k] for k in LATERAL_INPUTS + LEAN_INPUTS}
+    p2 = p.replace(m=2.0 * p.m)          # both modelled terms are linear in the rider's mass
+    modelled = (lateral_forces(p2, q, qd, **lat) - lateral_forces(p, q, qd, **lat)
+                + rider_lean_forces(p2, q, qd, **lean) - rider_lean_forces(p, q, qd, **lean))
+    Q = rider_translation_forces(p, q, extra["psi"], extra["theta"], extra["x_dd"], extra["xi_dd"],
+                                 extra["zeta_dd"], extra["G_dd"]) - modelled
+    return Q
+
+
+def upright_slender_moment(p: Params, phi, theta, theta_d, psi_d) -> np.ndarray:
+    """The upright slender rider's pitch moment about the ankle, N·m (the (J_z − J) term).
+
+    (J_z − J)(ψ̇ cos ϑ cos φ + ϑ̇ sin φ)(−ϑ̇ cos φ + ψ̇ cos ϑ sin φ), J_z =
+    :data:`RIDER_YAW_INERTIA_RATIO` · J: the term by which a rider slender about his long
+    axis differs from :func:`lateral_forces`' isotropic rider at λ = 0; the rider's pitch
+    row of eq. (5) gets −this for the slender rider.  ``phi``, ``theta`` rad; ``theta_d``,
+    ``psi_d`` rad/s.
+    """
+    phi, th, th_d, ps_d = (np.asarray(a, dtype=float) for a in (phi, theta, theta_d, psi_d))
+    s_p, c_p, c_th = np.sin(phi), np.cos(phi), np.cos(th)
+    return (RIDER_YAW_INERTIA_RATIO - 1.0) * p.J * (ps_d * c_th * c_p + th_d * s_p) * (-th_d * c_p + ps_d * c_th * s_p)
