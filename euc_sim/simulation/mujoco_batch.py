@@ -29,11 +29,12 @@ each: the same DataFrame, or the ``FallError`` it raises.
   ``dtrtrs`` with many right-hand sides); a ride whose torque limit binds in a block is
   done step by step by its own :class:`RiderRun`.  The batch agrees with ``simulate``
   to rounding (≤ 1e-9 rad over a ride, ``tests/simulation/test_mujoco_batch.py``).
-* **Not in the batch.** ``cog_height_drift`` and ``lateral_dynamics`` need
-  state-dependent forces computed in Python at every step (and a model field per
-  step); ``engine="analytic"``, ``lateral_motion`` and ``drift_shape`` likewise.
-  Such requests run through :func:`simulate` itself, one after the other, with the
-  same results as before.  ``sensor_time_offset`` acts on the recording only.
+* **Not in the batch.** ``cog_height_drift`` and ``lateral_dynamics`` need tabulated
+  inputs and (the drift) a model field per step, which the batch's callback does not
+  carry; ``engine="analytic"``, ``lateral_motion`` and ``drift_shape`` likewise.  Such
+  requests run through :func:`simulate` itself (natively, the two effects included),
+  one after the other: MuJoCo's control callback is process-global, so they cannot
+  share the batch's threads.  ``sensor_time_offset`` acts on the recording only.
 
 * **On threads.** Many batches are pipelined (:func:`_pipeline`): each of ``nthread``
   threads steps batches of its own, one ``Batch`` on one thread (``Batch.step``
