@@ -18,6 +18,11 @@ given, at or below zero) is replaced by the smallest K_d that gives the body pit
 the damping ratio :data:`controllers.damping.ZETA_UNRESOLVED` at the measured K_p
 (:func:`controllers.damping.damping_floor`), or the estimate where that is larger; the
 notes say so with both figures.
+
+A fitted torque limit below the largest |torque| the same log measured (the term's
+``largest_measured``) is raised to it: the fit's limit is the level that clips the law's
+prediction best in least squares, not a bound (on synthetic logs it came out at 27–34 N·m
+for a true 45, docs/controller.md), and the firmware did give the larger torque.
 """
 
 from __future__ import annotations
@@ -109,6 +114,13 @@ def firmware_settings(ctrl, p: Params | None = None,
                          f"measured but not simulated (MotorPD has no such term)")
     if "torque_limit" not in settings:
         notes.append(f"no torque limit identified: MotorPD's default {MotorPD.torque_limit:g} N·m kept")
+    else:
+        top = terms["torque_limit"].get("largest_measured")
+        if isinstance(top, (int, float)) and math.isfinite(top) and top > settings["torque_limit"]:
+            notes.append(f"torque limit: the fitted {settings['torque_limit']:.4g} N·m is below the largest "
+                         f"|torque| the same log measured, {top:.4g} N·m (the firmware gave that much); "
+                         f"the simulator uses {top:.4g} N·m")
+            settings["torque_limit"] = float(top)
     return settings, notes
 
 

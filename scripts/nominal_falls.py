@@ -2,6 +2,7 @@
 
     nice -n 10 python scripts/nominal_falls.py [--out docs/figures/nominal_falls.png]
         [--n-boot 20] [--no-spikes]
+    nice -n 10 python scripts/nominal_falls.py --own [--out docs/figures/nominal_falls_own.png]
 
 The ``nominal`` step of ``euc-sim ride FIT --compare HELD`` (paper's PD 600 / 40 N·m/rad with
 MotorPD's 250 N·m limit, the default LQR rider, no effects) fell on lynx 2 -> 0 at 1,819.6 s and
@@ -14,6 +15,15 @@ spikes the battery cannot pay for bridged, :func:`euc_sim.rides.profile.unpaid_s
 with the same PD at a 500 N·m limit (a diagnosis, not a model: nothing is chosen by it).  It
 prints, per run, whether the rider fell and the largest ankle torque M_h, motor torque M_d,
 body pitch γ and lean φ, and plots the logged and simulated speed, the torques and γ.
+
+``--own``: the two falls of ``scripts/ride_falls.py`` (each log fitted and ridden on itself, as
+``euc-sim ride LOG --wheel SPEC``): master_pro_V2/3 ``nominal`` at 1,164.2 s and apex/0
+``firmware`` (the measured law as the motor) at 1,462.5 s.  The set-up is ride_falls's (mass,
+balance fit, the filtered profile with spikes bridged, the measured law at ``--n-boot``
+replicates, seed 0).  master_pro_V2/3's second run is the paper's PD at 500 N·m (a diagnosis);
+apex/0's two runs are the measured law with its fitted torque limit (as the count found the
+fall) and with the limit :func:`controllers.firmware.firmware_settings` now uses (the largest
+|torque| the same log measured, where the fit's is lower).
 """
 
 from __future__ import annotations
@@ -32,6 +42,68 @@ CASES = {"lynx 2 -> 0": ("trips/leaperkim/lynx/2/2.csv", "trips/leaperkim/lynx/0
                                   "specs/master_pro_V2.csv", 266.0, 316.0),
          "blitz 2 -> 4": ("trips/begode/blitz/2/2.csv", "trips/begode/blitz/4/4.csv", "specs/blitz.csv",
                           2072.0, 2122.0)}
+
+#: name -> (log, spec, window start, window end, run): the falls of scripts/ride_falls.py.
+OWN_CASES = {"master_pro_V2/3 nominal": ("trips/begode/master_pro_V2/3/3.csv", "specs/master_pro_V2.csv",
+                                         1124.2, 1174.2, "nominal"),
+             "apex/0 firmware": ("trips/nosfet/apex/0/0.csv", "specs/apex.csv", 1422.5, 1472.5, "firmware")}
+
+
+def own_window(case: tuple, data: Path, n_boot: int) -> dict:
+    """ride_falls's set-up on one log, its window ridden with the run's motor and a diagnosis."""
+    import dataclasses
+
+    import numpy as np
+
+    from controllers.firmware import firmware_motor
+    from controllers.motor import MotorPD
+    from euc_sim.cli.ride import _drivetrain, with_found_values
+    from euc_sim.rides.analysis import ride_analysis
+    from euc_sim.rides.controller_report import controller_json, torque_constant
+    from euc_sim.rides.logs import read_log
+    from euc_sim.rides.profile import speed_profile
+    from euc_sim.rides.signals import RideAssumptions
+    from euc_sim.rides.simulate import ride_params
+    from euc_sim.rides.spec import wheel_spec
+    from euc_sim.rides.tracking import simulate_profile
+
+    log_path, spec_path, t0, t1, run = case
+    log, spec = data / log_path, wheel_spec(data / spec_path)
+    physics = _drivetrain(log, None, spec, n_boot, 0)
+    A = with_found_values(RideAssumptions(), spec, physics[0]["total_mass"])
+    sig = ride_analysis(log, None, assumptions=A, n_boot=n_boot, seed=0).sig_fit
+    params = ride_params(sig.assumptions)
+    prof = speed_profile(log, sig.rate, sig.window, sig.polyorder, total_mass=sig.assumptions.total_mass)
+    t, v = prof["t"].to_numpy(), prof["v"].to_numpy()
+    w = (t >= t0) & (t <= t1)
+    lg = read_log(log, emit_warnings=False).data
+    out = {"mass": sig.assumptions.total_mass, "R": params.R, "t0": t0, "t_prof": t[w], "v_prof": v[w],
+           "log": lg, "runs": {}, "notes": [n for n in prof.attrs["notes"] if "spike" in n], "spikes": True,
+           "ride": "ride (fitted on itself)"}
+    if run == "firmware":
+        ctrl = controller_json(log, None, torque_constant(physics[0].get("drivetrain")), n_boot, 0)
+        motor, notes = firmware_motor(ctrl, params)
+        out["notes"] += notes
+        lim = next(t for t in ctrl["terms"] if t["name"] == "torque_limit")
+        fitted = lim["estimate"]
+        above = int((np.abs(lg["phase_current"]) * ctrl["torque_constant"] > fitted).sum())
+        out["notes"].append(f"measured law: K_p {motor.Kp:.0f} N·m/rad, K_d {motor.Kd:.1f} N·m·s/rad, fitted torque "
+                            f"limit {fitted:.1f} N·m (95 % {lim['ci95'][0]:.1f}-{lim['ci95'][1]:.1f}); the log's "
+                            f"largest |phase current| × K_t ({ctrl['torque_constant']:.3f} N·m/A) is "
+                            f"{lim['largest_measured']:.1f} N·m, {above} of {len(lg)} rows above the fitted limit")
+        motors = ((f"measured law, fitted {fitted:.0f} N·m limit (before)",
+                   dataclasses.replace(motor, torque_limit=fitted)),
+                  (f"measured law, {motor.torque_limit:.0f} N·m limit (as simulated now)", motor))
+    else:
+        motors = (("paper PD, 250 N·m limit", MotorPD()),
+                  ("paper PD, 500 N·m limit (diagnosis)", MotorPD(torque_limit=500.0)))
+    for label, m in motors:
+        res = simulate_profile(t[w] - t0, v[w], params, {}, seed=0, track_iterations=0, motor=m)
+        fr = res.frame
+        out["runs"][label] = {"frame": fr, "limit": m.torque_limit,
+                              "fall": (t0 + res.falls[0]["t"], res.falls[0]["cause"]) if res.falls else None,
+                              "max": {k: float(np.abs(fr[k]).max()) for k in ("M_h", "M_d", "gamma", "phi")}}
+    return out
 
 
 def ride_window(case: tuple, data: Path, n_boot: int, spikes: bool) -> dict:
@@ -64,6 +136,7 @@ def ride_window(case: tuple, data: Path, n_boot: int, spikes: bool) -> dict:
         fr = res.frame
         out["runs"][label] = {"frame": fr, "fall": (t0 + res.falls[0]["t"], res.falls[0]["cause"])
                               if res.falls else None,
+                              "limit": motor.torque_limit,
                               "max": {k: float(np.abs(fr[k]).max()) for k in ("M_h", "M_d", "gamma", "phi")}}
     return out
 
@@ -98,14 +171,15 @@ def plot(results: dict, path: Path) -> Path:
             if run["fall"]:
                 for a in axes[:, c]:
                     a.axvline(run["fall"][0], color=col, ls=":", lw=1)
-        axes[1, c].axhline(250, color="0.3", lw=0.6, ls=":", label="250 N·m")
+        lim = next(iter(r["runs"].values()))["limit"]
+        axes[1, c].axhline(lim, color="0.3", lw=0.6, ls=":", label=f"{lim:.0f} N·m")
         axes[2, c].set_xlim(r["t_prof"][-1] - 24.0, r["t_prof"][-1])
         axes[2, c].axhline(0.5, color="0.3", lw=0.6, ls=":", label="bound 0.5 rad")
-        ax.set_title(f"{name}: held-out ride's window, total mass {r['mass']:.0f} kg")
+        ax.set_title(f"{name}: {r.get('ride', 'held-out ride')}'s window, total mass {r['mass']:.0f} kg")
         ax.set_ylabel("speed, m/s")
         axes[1, c].set_ylabel("torque, N·m")
         axes[2, c].set_ylabel("γ, rad")
-        axes[2, c].set_xlabel("time in the held-out ride, s")
+        axes[2, c].set_xlabel(f"time in the {r.get('ride', 'held-out ride')}, s")
         for a in axes[:, c]:
             lo, hi = a.get_ylim()
             a.set_ylim(lo, hi + 0.6 * (hi - lo))          # headroom: the legend above the data
@@ -124,22 +198,27 @@ def main(argv=None) -> int:
     ap.add_argument("--data", default=str(DATA))
     ap.add_argument("--n-boot", type=int, default=20)
     ap.add_argument("--no-spikes", action="store_true", help="the speed profile as logged")
+    ap.add_argument("--own", action="store_true", help="the two falls of scripts/ride_falls.py instead")
     args = ap.parse_args(argv)
     data = Path(args.data)
-    missing = [p for c in CASES.values() for p in c[:3] if not (data / p).is_file()]
+    cases = OWN_CASES if args.own else CASES
+    if args.own and args.out == ap.get_default("out"):
+        args.out = str(ROOT / "docs" / "figures" / "nominal_falls_own.png")
+    missing = [p for c in cases.values() for p in c[:(2 if args.own else 3)] if not (data / p).is_file()]
     if missing:
         print(f"nominal_falls: {data / missing[0]}: no such file", file=sys.stderr)
         return 2
     results = {}
-    for name, case in CASES.items():
-        r = ride_window(case, data, args.n_boot, not args.no_spikes)
+    for name, case in cases.items():
+        r = own_window(case, data, args.n_boot) if args.own else ride_window(case, data, args.n_boot,
+                                                                             not args.no_spikes)
         results[name] = r
         for n in r["notes"]:
             print(f"{name}: {n}")
         for label, run in r["runs"].items():
             m = run["max"]
             fell = f"fell at {run['fall'][0]:.2f} s ({run['fall'][1]})" if run["fall"] else "rode"
-            print(f"{name} [{case[3]:g}, {case[4]:g}] s, {label}: {fell}; max |M_h| {m['M_h']:.0f} N·m, "
+            print(f"{name} [{case[-3 if args.own else 3]:g}, {case[-2 if args.own else 4]:g}] s, {label}: {fell}; max |M_h| {m['M_h']:.0f} N·m, "
                   f"|M_d| {m['M_d']:.0f} N·m, |γ| {m['gamma']:.3f} rad, |φ| {m['phi']:.3f} rad", flush=True)
     print(f"written {plot(results, Path(args.out))}", file=sys.stderr)
     return 0

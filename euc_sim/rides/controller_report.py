@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 from euc_sim.rides.controller_law import Law, fit_law, predict, r2
 from euc_sim.rides.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.logs import read_log
@@ -58,7 +60,8 @@ def controller_json(log_path, compare_path=None, k_t: float | None = None,
     Returns
     -------
     dict
-        ``law`` (str), ``terms`` [{name, estimate, ci95, unit}], ``sign``,
+        ``law`` (str), ``terms`` [{name, estimate, ci95, unit}] (``torque_limit`` also
+        ``largest_measured``: the largest |torque| of the fitted rows), ``sign``,
         ``heldout`` {r2, channel, ride}, ``within_ride``, ``selection``; or
         ``{"law": None, "why": str}``.
     """
@@ -78,6 +81,9 @@ def controller_json(log_path, compare_path=None, k_t: float | None = None,
            "selection": law.history,
            "heldout": {"r2": law.heldout_r2, "channel": law.channel,
                        "ride": Path(log_path).name + " (blocked, within the ride)"}}
+    for term in out["terms"]:
+        if term["name"] == "torque_limit":      # the fit's clip is a least-squares level, not a bound:
+            term["largest_measured"] = float(np.max(np.abs(rows.y)))   # the wheel gave this much
     if compare_path is not None:
         try:
             other = law_rows(read_log(compare_path, emit_warnings=False), k_t)

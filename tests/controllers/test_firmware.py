@@ -40,6 +40,17 @@ def test_tiltback_and_limit_carried():
     assert motor.gamma_ref(10.0) == pytest.approx(-0.0126 * 1.7)
 
 
+@pytest.mark.parametrize("largest, used", [(137.0, 137.0), (100.0, 110.0), (None, 110.0)])
+def test_limit_below_the_logs_largest_torque_is_raised(largest, used):
+    """A fitted limit under the largest |torque| the log measured is raised to it, and said."""
+    limit = {"name": "torque_limit", "estimate": 110.0, "ci95": [97.0, 121.0], "unit": "N·m"}
+    if largest is not None:
+        limit["largest_measured"] = largest
+    motor, notes = firmware_motor(dict(LYNX, terms=LYNX["terms"] + [limit]))
+    assert motor.torque_limit == used
+    assert any("largest |torque|" in n and "137" in n for n in notes) == (used == 137.0)
+
+
 @pytest.mark.parametrize("ctrl, words", [
     ({"law": None, "why": "no pitch"}, "no pitch"),
     (dict(LYNX, terms=[{"name": "K_p", "estimate": 2800.0, "unit": "A/rad"}]), "N·m/rad"),

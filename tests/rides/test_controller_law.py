@@ -124,6 +124,24 @@ def test_concealed_law_recovered_from_a_simulated_ride(tmp_path, concealed_ride,
     assert abs(est["tiltback_speed"] - LAW["tiltback_speed"]) * 3.6 <= 2.0
 
 
+@pytest.mark.parametrize("fmt, sign", [("wheellog", 1), ("eucworld", -1)])
+def test_simulated_limit_is_the_largest_measured_torque_where_the_fit_is_lower(tmp_path, concealed_ride,
+                                                                             fmt, sign):
+    """The fit's limit comes out low on the concealed law (45 N·m, docs/controller.md); the
+    largest |torque| of the log is nearer the truth and not above it, and the simulator uses it."""
+    from controllers.firmware import firmware_motor
+    from euc_sim.rides.lawsynth import K_T, LAW, eucworld_log, wheellog_log
+
+    write = wheellog_log if fmt == "wheellog" else eucworld_log
+    out = controller_json(write(concealed_ride, tmp_path / f"{fmt}.csv", seed=1, sign=sign), k_t=K_T,
+                          n_boot=10, seed=0)
+    lim = next(t for t in out["terms"] if t["name"] == "torque_limit")
+    true = LAW["torque_limit"]
+    assert lim["estimate"] < lim["largest_measured"] <= true * 1.02
+    assert abs(lim["largest_measured"] - true) < abs(lim["estimate"] - true)
+    assert firmware_motor(out)[0].torque_limit == lim["largest_measured"]
+
+
 def test_two_terms_needed_together_are_kept_as_a_pair():
     """Neither term alone lowers the held-out error, the two together do: both are kept."""
     from euc_sim.rides.controller_law import _select_with_pairs
