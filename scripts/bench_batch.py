@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import time
 
-from bench_timing import timed, timed_together
+from bench_timing import at_once, timed, timed_together
 
 
 def bench_dataset() -> dict:
@@ -101,8 +101,6 @@ def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int =
     take 1.3 MB) over the bare single-thread ``mj_step`` rate of the same model, same process;
     beside it the machine's ceiling: two bare ``mj_step`` loops on two threads at once
     (``mj_step`` releases the GIL) over two bare loops' rate."""
-    import threading
-
     import mujoco
 
     from euc_sim.simulation.mujoco_batch import _batch_model, simulate_rides
@@ -127,11 +125,7 @@ def mujoco_batch_figures(rides: int = 1000, duration: float = 20.0, chunk: int =
     pair = [mujoco.MjData(m) for _ in range(2)]
 
     def bare_two_threads():
-        lanes = [threading.Thread(target=bare, kwargs={"d": d2}) for d2 in pair]
-        for t in lanes:
-            t.start()
-        for t in lanes:
-            t.join()
+        at_once(bare, [{"d": d2} for d2 in pair])
 
     def batch(nthread, part):
         def run():

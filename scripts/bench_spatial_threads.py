@@ -17,13 +17,12 @@ import argparse
 import os
 import sys
 import tempfile
-import threading
 from pathlib import Path
 
 if str(Path(__file__).resolve().parent) not in sys.path:
     sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_timing import timed_together  # noqa: E402
+from bench_timing import at_once, timed_together  # noqa: E402
 
 PATHS = ("circle", "slalom", "figure_eight", "u_turn")
 
@@ -49,11 +48,7 @@ def bench_spatial_threads(rides: int = 8, duration: float = 20.0) -> dict:
         mujoco.mj_step(sim.model, sim.data, nstep=steps)
 
     def bare_two():
-        lanes = [threading.Thread(target=bare, kwargs={"sim": s}) for s in sims]
-        for t in lanes:
-            t.start()
-        for t in lanes:
-            t.join()
+        at_once(bare, [{"sim": s} for s in sims])
 
     fell = []
     tmp = tempfile.TemporaryDirectory()

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import os
+import threading
 import time
-from typing import Callable
+from typing import Callable, Sequence
 
 os.environ.setdefault("MPLBACKEND", "Agg")
 
@@ -29,3 +30,13 @@ def timed_together(fns: dict[str, Callable[[], object]], repeat: int = 5) -> dic
             fn()
             best[k] = min(best[k], time.perf_counter() - t0)
     return best
+
+
+def at_once(fn: Callable[..., object], kwargs: Sequence[dict]) -> None:
+    """Run ``fn(**kw)`` for every ``kw`` on threads of its own at the same time, and wait for
+    all: the two-thread ceiling of a C loop that releases the GIL."""
+    lanes = [threading.Thread(target=fn, kwargs=kw) for kw in kwargs]
+    for t in lanes:
+        t.start()
+    for t in lanes:
+        t.join()
