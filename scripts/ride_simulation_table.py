@@ -240,8 +240,7 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
                      "does not run are kept):" if len(commands) > 1 else ":"), "",
         *commands, "",
         f"{n_ok} of {len(merged)} rows ran. Steps within the target: {', '.join(met) or 'none'}.", "",
-        "**Which figures are tuning figures.** None of these figures chose a setting: every model "
-        "is fitted on FIT and scored on HELD. The law's selection thresholds were set on "
+        "**Which figures are tuning figures.** Every model is fitted on FIT and scored on HELD. The law's selection thresholds were set on "
         "synthetic rides (docs/controller.md). The rider's plan learning was traced and built on "
         "Lynx 0 → 2 (its band compared there): the Lynx rows are tuning figures; the V9, Blitz "
         "and Master Pro rows chose no setting of it (its constants were fixed before their runs) and are scored where nothing "
