@@ -153,7 +153,8 @@ class HFit:
         One sentence on the verdict.
     h_ci95_block : tuple of float
         The moving-block bootstrap's interval alone, m (``h_ci95`` is it until
-        :func:`with_noise` widens it).
+        :func:`with_noise` widens it); the reduced model's is drawn from the full
+        model's replicates (:func:`with_full_block`).
     noise_sd, noise_bias : float
         Spread and bias of ĥ due to the measurement noise, m (NaN until :func:`with_noise`).
     """
@@ -225,7 +226,7 @@ def _parabolic_min(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
 #: too narrow.  Over measurement noise on one trajectory 1 s blocks covered the true h
 #: in 91 % (deceleration) and 93 % (acceleration), 2 s blocks in 88 % and 91 %; over
 #: independent rides (scripts/coverage_study.py, issue 22) 1 s blocks alone cover
-#: 85-96.5 %, which is why :func:`with_noise` widens the interval.
+#: 84-93 % (first seed 800000), which is why :func:`with_noise` widens the interval.
 BOOTSTRAP_BLOCK = 1.0
 
 
