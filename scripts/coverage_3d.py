@@ -56,6 +56,13 @@ def score(results: list[dict]) -> dict:
                "ratio": res["augmented_rmse"] / res["noise_floor"]["rms_stacked"]
                if isinstance(res.get("noise_floor"), dict) else None}
         row["extras"] = [e["name"] for e in res["effects"] if e["name"] != "lateral_dynamics"]
+        lc = res.get("lateral_calibration") or {}
+        if lc.get("done"):              # the floor of the unexplained test and what made it
+            noisy = lc.get("rider_noise") or {}
+            row.update(augmented_rmse=res["augmented_rmse"], noise_floor=lc["noise_floor"],
+                       twin_heldout=lc["twin_heldout_rmse"], unexplained_floor=lc["unexplained_floor"],
+                       rider_noise_level=noisy.get("level"), noisy_twin_heldout=noisy.get("heldout"),
+                       noisy_twin_failed=noisy.get("failed"), floor_ratio=res["generic"]["floor_ratio"])
         if lat:
             e = lat[0]
             row.update(estimate=e["estimate"], ci95=e["ci95"],
@@ -81,6 +88,10 @@ def score(results: list[dict]) -> dict:
             "uncalibrated_covered": sum(r.get("uncalibrated_covered", False) for r in ok),
             "halfwidth_median": [float(np.median([r["halfwidths"][i] for r in ok])) for i in (0, 1)] if ok else None,
             "other_effects_named": sum(bool(r.get("extras")) for r in rows),
+            "floor_ratio_max": max((r["floor_ratio"] for r in rows if r.get("floor_ratio") is not None), default=None),
+            "rider_noise_level_range": [min(lv), max(lv)] if (lv := [r["rider_noise_level"] for r in rows
+                                                                     if r.get("rider_noise_level") is not None]) else None,
+            "noisy_twin_draws_failed": sum(r.get("noisy_twin_failed") or 0 for r in rows),
             "per_path": {p: f"{sum(r['covered'] for r in ok if r['path'] == p)}/{sum(r['path'] == p for r in ok)}"
                          for p in dict.fromkeys(r["path"] for r in ok)},
             "per_ride": rows}
@@ -141,6 +152,10 @@ def main(argv=None) -> int:
               f"(the uncalibrated interval would cover {s['uncalibrated_covered']})")
     print(f"  unexplained flagged: {s['unexplained']}/{s['rides']}; rides naming another effect beside "
           f"lateral_dynamics: {s['other_effects_named']}")
+    if s["rider_noise_level_range"]:
+        print(f"  rider motor noise read from M_h: {s['rider_noise_level_range'][0]:.2f}–"
+              f"{s['rider_noise_level_range'][1]:.2f} N·m; noisy twin draws that fell or named no lateral term: "
+              f"{s['noisy_twin_draws_failed']}; largest held-out / floor: {s['floor_ratio_max']:.2f} (flag at 2)")
     print(f"  {s['seconds']:.0f} s wall, {args.workers} workers")
     return 0
 
