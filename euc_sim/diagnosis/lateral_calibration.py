@@ -26,7 +26,11 @@ model itself (its held-out RMSE): the model's floor, which :func:`model_floor` a
 noise floor of the ``unexplained`` test (on a noise-free recording the noise floor is the
 interpolation's own 5–7·10⁻⁵ N·m, and every ride was flagged for the term's approximation),
 and what the twin's diagnosis names beside the lateral term is not named on the recording
-(:func:`twin_artifacts`).
+(:func:`twin_artifacts`).  The rider's own motor noise excites lateral motion (his twist)
+that the term does not model, so that floor is measured on twins whose rider carries the
+noise the recording shows (:func:`noisy_twins`: the level read from the recorded M_h by
+:mod:`euc_sim.diagnosis.rider_noise`, :data:`NOISE_DRAWS` draws seeded from the recording);
+the calibration of the estimate keeps the noise-free twin, so the interval is unchanged.
 """
 
 from __future__ import annotations
@@ -208,7 +212,10 @@ def calibrate_lateral(prep: Prepared, h: float, diagnose, draws: int | None = No
     dict
         ``done`` (bool); with ``done``: ``plan``, ``truth`` (rad), ``item`` (the twin's
         ``lateral_dynamics`` item, named or tentative), ``heldout`` (the twin's held-out
-        RMSE, N·m); otherwise ``reason``.
+        RMSE, N·m), ``noisy`` (:func:`noisy_twins`); otherwise ``reason``.
+    draws : int, optional
+        Noisy twins (:data:`NOISE_DRAWS` by default; 0: none, the floor is the noise-free
+        twin's).
     """
     plan = plan_of(prep)
     if plan is None:
