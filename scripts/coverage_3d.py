@@ -11,7 +11,7 @@ simulated 1 kHz tilt (``peak_tilt_rad``).  Prints: rides, named first, interval 
 estimate error (median, mean, range), and how many were flagged ``unexplained``.
 
     python scripts/coverage_3d.py --rides 40 --seed 101 [--noise paper|none] [--workers 2]
-        [--duration 20] [--out /tmp/h22-3d/cov3d]
+        [--duration 20] [--rider-noise 3] [--out /tmp/h22-3d/cov3d]
     python scripts/coverage_3d.py --planar --rides 10 --seed 7     # the planar lateral cases
 
 Seeds: the rides of ``--seed S`` are those of ``blind_study.py --spatial N --seed S``.
@@ -123,6 +123,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=101)
     ap.add_argument("--duration", type=float, default=20.0, help="s (at least 20)")
     ap.add_argument("--noise", choices=("paper", "none"), default="paper", help="measurement noise")
+    ap.add_argument("--rider-noise", type=float, default=None,
+                    help="the rider's motor noise, N·m (default: the blind study's 3 N·m)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("/tmp/h22-3d/cov3d"))
     ap.add_argument("--planar", action="store_true",
@@ -132,15 +134,22 @@ def main(argv=None) -> int:
     if args.planar:
         return planar_check(args, bs)
     t0 = time.perf_counter()
-    out = args.out / f"seed{args.seed}-{args.noise}"
+    if args.rider_noise is not None and not (0.0 <= args.rider_noise <= 20.0):
+        print(f"--rider-noise must be in [0, 20] N·m, got {args.rider_noise}", file=sys.stderr)
+        return 2
+    out = args.out / (f"seed{args.seed}-{args.noise}" + (f"-rider{args.rider_noise:g}" if args.rider_noise is not None else ""))
     cases = bs.plan_spatial(args.seed, args.rides, max(args.duration, 20.0))
     for c in cases:
         c["noise"] = args.noise
+        if args.rider_noise is not None:
+            c["rider_noise"] = args.rider_noise
     results = bs.run(cases, out, args.workers, progress=lambda s: None)
     s = score(results)
-    s.update(seed=args.seed, noise=args.noise, seconds=time.perf_counter() - t0, command=" ".join(sys.argv))
+    s.update(seed=args.seed, noise=args.noise, rider_noise=args.rider_noise, seconds=time.perf_counter() - t0, command=" ".join(sys.argv))
     (out / "coverage_3d.json").write_text(json.dumps(s, indent=1, default=float))
-    print(f"3-D rides seed {args.seed}, noise {args.noise}: {s['rides']} rides, {s['fell']} fell, "
+    print(f"3-D rides seed {args.seed}, noise {args.noise}"
+          + (f", rider noise {args.rider_noise:g} N·m" if args.rider_noise is not None else "")
+          + f": {s['rides']} rides, {s['fell']} fell, "
           f"lateral_dynamics first {s['named_first']}")
     print(f"  interval covers the band peak tilt: {s['covered']}/{s['scored']} ({100 * s['coverage']:.0f} %)")
     if s["scored"]:
