@@ -258,7 +258,8 @@ def make_recording(case: dict, out: Path) -> Path:
 def spatial_request(case: dict, out: Path) -> dict:
     """The keyword arguments of :func:`euc_sim.simulation.spatial.write_spatial` for a 3-D case."""
     return {"out": out / f"{case['name']}.csv", "path": case["maneuver"], "duration": case["duration"],
-            "seed": case["seed"], "rider_noise": case.get("rider_noise", RIDER_NOISE), "speed": case["options"]["speed"],
+            "seed": case["seed"], "rider_noise": case.get("rider_noise", RIDER_NOISE),
+            "speed": case["options"]["speed"],
             "radius": case["options"]["radius"], "hide_torques": case["hide_torques"],
             "noise": case.get("noise", "paper")}
 

@@ -90,12 +90,17 @@ def score(results: list[dict]) -> dict:
             "halfwidth_median": [float(np.median([r["halfwidths"][i] for r in ok])) for i in (0, 1)] if ok else None,
             "other_effects_named": sum(bool(r.get("extras")) for r in rows),
             "floor_ratio_max": max((r["floor_ratio"] for r in rows if r.get("floor_ratio") is not None), default=None),
-            "rider_noise_level_range": [min(lv), max(lv)] if (lv := [r["rider_noise_level"] for r in rows
-                                                                     if r.get("rider_noise_level") is not None]) else None,
+            "rider_noise_level_range": _range([r.get("rider_noise_level") for r in rows]),
             "noisy_twin_draws_failed": sum(r.get("noisy_twin_failed") or 0 for r in rows),
             "per_path": {p: f"{sum(r['covered'] for r in ok if r['path'] == p)}/{sum(r['path'] == p for r in ok)}"
                          for p in dict.fromkeys(r["path"] for r in ok)},
             "per_ride": rows}
+
+
+def _range(values: list) -> list | None:
+    """[min, max] of the values that are not None, or None."""
+    v = [x for x in values if x is not None]
+    return [min(v), max(v)] if v else None
 
 
 def planar_check(args, bs) -> int:
@@ -137,7 +142,8 @@ def main(argv=None) -> int:
     if args.rider_noise is not None and not (0.0 <= args.rider_noise <= 20.0):
         print(f"--rider-noise must be in [0, 20] N·m, got {args.rider_noise}", file=sys.stderr)
         return 2
-    out = args.out / (f"seed{args.seed}-{args.noise}" + (f"-rider{args.rider_noise:g}" if args.rider_noise is not None else ""))
+    rider = f"-rider{args.rider_noise:g}" if args.rider_noise is not None else ""
+    out = args.out / f"seed{args.seed}-{args.noise}{rider}"
     cases = bs.plan_spatial(args.seed, args.rides, max(args.duration, 20.0))
     for c in cases:
         c["noise"] = args.noise
@@ -145,7 +151,8 @@ def main(argv=None) -> int:
             c["rider_noise"] = args.rider_noise
     results = bs.run(cases, out, args.workers, progress=lambda s: None)
     s = score(results)
-    s.update(seed=args.seed, noise=args.noise, rider_noise=args.rider_noise, seconds=time.perf_counter() - t0, command=" ".join(sys.argv))
+    s.update(seed=args.seed, noise=args.noise, rider_noise=args.rider_noise, seconds=time.perf_counter() - t0,
+             command=" ".join(sys.argv))
     (out / "coverage_3d.json").write_text(json.dumps(s, indent=1, default=float))
     print(f"3-D rides seed {args.seed}, noise {args.noise}"
           + (f", rider noise {args.rider_noise:g} N·m" if args.rider_noise is not None else "")

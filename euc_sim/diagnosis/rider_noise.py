@@ -13,7 +13,8 @@ sensor noise (which the torques do not carry) does not enter.
 
 Measured with ``scripts/rider_noise_check.py`` (the 3-D study's draw, σ = 0, 1.5, 3, 6 N·m,
 docs/coverage.md): on the tuning rides (seed 900, 8 rides) σ̂/σ = 0.985–1.032 and
-σ̂ ≤ 0.016 N·m at σ = 0; on 16 fresh rides (seed 901) 0.973–1.039 and ≤ 0.013 N·m.  The level assumes the correlation time of the twin's rider
+σ̂ ≤ 0.016 N·m at σ = 0; on 16 fresh rides (seed 901) 0.973–1.039 and ≤ 0.013 N·m.  The
+level assumes the correlation time of the twin's rider
 (``Rider.noise_tau``, 0.05 s): the twin carries the noise whose second differences the
 recording shows.
 
