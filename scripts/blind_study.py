@@ -258,7 +258,8 @@ def make_recording(case: dict, out: Path) -> Path:
 def spatial_request(case: dict, out: Path) -> dict:
     """The keyword arguments of :func:`euc_sim.simulation.spatial.write_spatial` for a 3-D case."""
     return {"out": out / f"{case['name']}.csv", "path": case["maneuver"], "duration": case["duration"],
-            "seed": case["seed"], "rider_noise": RIDER_NOISE, "speed": case["options"]["speed"],
+            "seed": case["seed"], "rider_noise": case.get("rider_noise", RIDER_NOISE),
+            "speed": case["options"]["speed"],
             "radius": case["options"]["radius"], "hide_torques": case["hide_torques"],
             "noise": case.get("noise", "paper")}
 
@@ -368,12 +369,11 @@ def _work(args):
     (out / f"{case['name']}.diagnosis.json").write_text(json.dumps(_jsonable(view), indent=1))
     if case["kind"] == "pair":       # each member's size with the other known: its twin alone
         case = {**case, "twin_ratio": _twin_ratios(case, out)}
-    return {"case": case, "result": {k: view[k] for k in ("effects", "unexplained", "nominal_rmse",
-                                                         "augmented_rmse", "verdict", "decidable",
-                                                         "noise_floor", "generic", "h_nominal",
-                                                         "h_augmented", "limits", "history",
-                                                         "windows", "tentative", "cannot_see")},
-            "t_sim": t1 - t0, "t_diag": t2 - t1}
+    kept = {k: view[k] for k in ("effects", "unexplained", "nominal_rmse", "augmented_rmse", "verdict", "decidable",
+                                 "noise_floor", "generic", "h_nominal", "h_augmented", "limits", "history",
+                                 "windows", "tentative", "cannot_see")}
+    kept["lateral_calibration"] = view.get("lateral_calibration")     # a 3-D ride's twin (coverage_3d)
+    return {"case": case, "result": kept, "t_sim": t1 - t0, "t_diag": t2 - t1}
 
 
 def _twin_ratios(case: dict, out: Path) -> dict:

@@ -11,14 +11,15 @@ simulated 1 kHz tilt (``peak_tilt_rad``).  Prints: rides, named first, interval 
 estimate error (median, mean, range), and how many were flagged ``unexplained``.
 
     python scripts/coverage_3d.py --rides 40 --seed 101 [--noise paper|none] [--workers 2]
-        [--duration 20] [--out /tmp/h22-3d/cov3d]
+        [--duration 20] [--rider-noise 3] [--out /tmp/h22-3d/cov3d]
     python scripts/coverage_3d.py --planar --rides 10 --seed 7     # the planar lateral cases
 
 Seeds: the rides of ``--seed S`` are those of ``blind_study.py --spatial N --seed S``.
 Seeds 3 and 4 were the tuning seeds of the lateral term (docs/spatial.md), 101–103 and
 111–113 of the rider's translation, 3 (again) of the calibration on a simulated twin
-(:mod:`euc_sim.diagnosis.lateral_calibration`); 121–123 scored it once.  Report figures
-from seeds never used for a choice.
+(:mod:`euc_sim.diagnosis.lateral_calibration`); 121–123 scored it once, and 123's
+flagged slalom then motivated the noisy twin of the ``unexplained`` floor (123 is tuning for
+it); 141–143 scored that once.  Report figures from seeds never used for a choice.
 
 The ``lateral_dynamics`` item of a calibrated ride carries ``calibration`` (its
 uncalibrated estimate and interval): the study prints both coverages.
@@ -56,6 +57,13 @@ def score(results: list[dict]) -> dict:
                "ratio": res["augmented_rmse"] / res["noise_floor"]["rms_stacked"]
                if isinstance(res.get("noise_floor"), dict) else None}
         row["extras"] = [e["name"] for e in res["effects"] if e["name"] != "lateral_dynamics"]
+        lc = res.get("lateral_calibration") or {}
+        if lc.get("done"):              # the floor of the unexplained test and what made it
+            noisy = lc.get("rider_noise") or {}
+            row.update(augmented_rmse=res["augmented_rmse"], noise_floor=lc["noise_floor"],
+                       twin_heldout=lc["twin_heldout_rmse"], unexplained_floor=lc["unexplained_floor"],
+                       rider_noise_level=noisy.get("level"), noisy_twin_heldout=noisy.get("heldout"),
+                       noisy_twin_failed=noisy.get("failed"), floor_ratio=res["generic"]["floor_ratio"])
         if lat:
             e = lat[0]
             row.update(estimate=e["estimate"], ci95=e["ci95"],
@@ -81,9 +89,18 @@ def score(results: list[dict]) -> dict:
             "uncalibrated_covered": sum(r.get("uncalibrated_covered", False) for r in ok),
             "halfwidth_median": [float(np.median([r["halfwidths"][i] for r in ok])) for i in (0, 1)] if ok else None,
             "other_effects_named": sum(bool(r.get("extras")) for r in rows),
+            "floor_ratio_max": max((r["floor_ratio"] for r in rows if r.get("floor_ratio") is not None), default=None),
+            "rider_noise_level_range": _range([r.get("rider_noise_level") for r in rows]),
+            "noisy_twin_draws_failed": sum(r.get("noisy_twin_failed") or 0 for r in rows),
             "per_path": {p: f"{sum(r['covered'] for r in ok if r['path'] == p)}/{sum(r['path'] == p for r in ok)}"
                          for p in dict.fromkeys(r["path"] for r in ok)},
             "per_ride": rows}
+
+
+def _range(values: list) -> list | None:
+    """[min, max] of the values that are not None, or None."""
+    v = [x for x in values if x is not None]
+    return [min(v), max(v)] if v else None
 
 
 def planar_check(args, bs) -> int:
@@ -111,6 +128,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=101)
     ap.add_argument("--duration", type=float, default=20.0, help="s (at least 20)")
     ap.add_argument("--noise", choices=("paper", "none"), default="paper", help="measurement noise")
+    ap.add_argument("--rider-noise", type=float, default=None,
+                    help="the rider's motor noise, N·m (default: the blind study's 3 N·m)")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", type=Path, default=Path("/tmp/h22-3d/cov3d"))
     ap.add_argument("--planar", action="store_true",
@@ -120,15 +139,24 @@ def main(argv=None) -> int:
     if args.planar:
         return planar_check(args, bs)
     t0 = time.perf_counter()
-    out = args.out / f"seed{args.seed}-{args.noise}"
+    if args.rider_noise is not None and not (0.0 <= args.rider_noise <= 20.0):
+        print(f"--rider-noise must be in [0, 20] N·m, got {args.rider_noise}", file=sys.stderr)
+        return 2
+    rider = f"-rider{args.rider_noise:g}" if args.rider_noise is not None else ""
+    out = args.out / f"seed{args.seed}-{args.noise}{rider}"
     cases = bs.plan_spatial(args.seed, args.rides, max(args.duration, 20.0))
     for c in cases:
         c["noise"] = args.noise
+        if args.rider_noise is not None:
+            c["rider_noise"] = args.rider_noise
     results = bs.run(cases, out, args.workers, progress=lambda s: None)
     s = score(results)
-    s.update(seed=args.seed, noise=args.noise, seconds=time.perf_counter() - t0, command=" ".join(sys.argv))
+    s.update(seed=args.seed, noise=args.noise, rider_noise=args.rider_noise, seconds=time.perf_counter() - t0,
+             command=" ".join(sys.argv))
     (out / "coverage_3d.json").write_text(json.dumps(s, indent=1, default=float))
-    print(f"3-D rides seed {args.seed}, noise {args.noise}: {s['rides']} rides, {s['fell']} fell, "
+    print(f"3-D rides seed {args.seed}, noise {args.noise}"
+          + (f", rider noise {args.rider_noise:g} N·m" if args.rider_noise is not None else "")
+          + f": {s['rides']} rides, {s['fell']} fell, "
           f"lateral_dynamics first {s['named_first']}")
     print(f"  interval covers the band peak tilt: {s['covered']}/{s['scored']} ({100 * s['coverage']:.0f} %)")
     if s["scored"]:
@@ -141,6 +169,10 @@ def main(argv=None) -> int:
               f"(the uncalibrated interval would cover {s['uncalibrated_covered']})")
     print(f"  unexplained flagged: {s['unexplained']}/{s['rides']}; rides naming another effect beside "
           f"lateral_dynamics: {s['other_effects_named']}")
+    if s["rider_noise_level_range"]:
+        print(f"  rider motor noise read from M_h: {s['rider_noise_level_range'][0]:.2f}–"
+              f"{s['rider_noise_level_range'][1]:.2f} N·m; noisy twin draws that fell or named no lateral term: "
+              f"{s['noisy_twin_draws_failed']}; largest held-out / floor: {s['floor_ratio_max']:.2f} (flag at 2)")
     print(f"  {s['seconds']:.0f} s wall, {args.workers} workers")
     return 0
 

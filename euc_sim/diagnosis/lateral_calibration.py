@@ -26,7 +26,11 @@ model itself (its held-out RMSE): the model's floor, which :func:`model_floor` a
 noise floor of the ``unexplained`` test (on a noise-free recording the noise floor is the
 interpolation's own 5–7·10⁻⁵ N·m, and every ride was flagged for the term's approximation),
 and what the twin's diagnosis names beside the lateral term is not named on the recording
-(:func:`twin_artifacts`).
+(:func:`twin_artifacts`).  The rider's own motor noise excites lateral motion (his twist)
+that the term does not model, so that floor is measured on twins whose rider carries the
+noise the recording shows (:func:`noisy_twins`: the level read from the recorded M_h by
+:mod:`euc_sim.diagnosis.rider_noise`, :data:`NOISE_DRAWS` draws seeded from the recording);
+the calibration of the estimate keeps the noise-free twin, so the interval is unchanged.
 """
 
 from __future__ import annotations
@@ -38,10 +42,14 @@ import pandas as pd
 
 from euc_sim.diagnosis.prepare import Prepared
 
-__all__ = ["plan_of", "twin_recording", "calibrate_item", "model_floor", "calibrate_lateral", "twin_artifacts"]
+__all__ = ["plan_of", "twin_recording", "calibrate_item", "model_floor", "twin_floor", "calibrate_lateral",
+           "noisy_twins", "twin_artifacts", "NOISE_DRAWS"]
 
 #: Markers a recording must carry for the twin to be diagnosed the same way.
 MARKERS = ("psi", "theta", "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z")
+
+#: Draws of the noisy twin (:func:`noisy_twins`) whose held-out RMSEs make the model's floor.
+NOISE_DRAWS = 2
 
 
 def plan_of(prep: Prepared) -> dict | None:
@@ -71,7 +79,8 @@ def plan_of(prep: Prepared) -> dict | None:
             "from": "sidecar" if opts.get("speed") else "recording"}
 
 
-def twin_recording(prep: Prepared, plan: dict, h: float) -> tuple[pd.DataFrame, dict, float]:
+def twin_recording(prep: Prepared, plan: dict, h: float, noise_std: float = 0.0,
+                   seed: int = 0) -> tuple[pd.DataFrame, dict, float]:
     """Ride the plan again in the spatial model and record it as the recording was.
 
     Parameters
@@ -81,6 +90,10 @@ def twin_recording(prep: Prepared, plan: dict, h: float) -> tuple[pd.DataFrame, 
         :func:`plan_of`.
     h : float
         The fitted h, m.
+    noise_std : float
+        The twin rider's motor noise, N·m (0: none, the calibration's twin).
+    seed : int
+        Seed of that noise (:func:`euc_sim.diagnosis.rider_noise.recording_seed`).
 
     Returns
     -------
@@ -106,7 +119,8 @@ def twin_recording(prep: Prepared, plan: dict, h: float) -> tuple[pd.DataFrame, 
     t = prep.raw["t"].to_numpy(float)
     duration = float(t[-1] - t[0])
     run = simulate_3d(plan["path"], duration, params=p, speed=plan["speed"], motor=motor,
-                      rider=default_rider(p, motor), seed=0, radius=plan["radius"])
+                      rider=default_rider(p, motor, noise_std=float(noise_std)), seed=int(seed),
+                      radius=plan["radius"])
     rate = 1.0 / float(np.median(np.diff(t)))
     rec = spatial_recording(run, noise="none", rate=rate, hide_torques="M_d" not in prep.raw.columns)
     rec = rec[[c for c in rec.columns if c in prep.raw.columns]]
@@ -168,13 +182,20 @@ def calibrate_item(item: dict, twin: dict, truth: float) -> dict | None:
     return out
 
 
+def twin_floor(twin: dict) -> float:
+    """The lateral term's own remainder on the ride's twin, N·m: the noisy twins' floor
+    (:func:`noisy_twins`) where there is one, else the noise-free twin's held-out RMSE."""
+    noisy = twin.get("noisy") or {}
+    return float(noisy["floor"]) if noisy.get("floor") is not None else float(twin["heldout"])
+
+
 def model_floor(noise_floor: float, twin_heldout: float) -> float:
     """The floor of the ``unexplained`` test with the lateral term's own remainder, N·m:
     √(noise floor² + the twin's held-out RMSE²)."""
     return float(math.hypot(noise_floor, twin_heldout))
 
 
-def calibrate_lateral(prep: Prepared, h: float, diagnose) -> dict:
+def calibrate_lateral(prep: Prepared, h: float, diagnose, draws: int | None = None) -> dict:
     """Ride, record and diagnose the twin of a 3-D ride.
 
     Parameters
@@ -191,7 +212,10 @@ def calibrate_lateral(prep: Prepared, h: float, diagnose) -> dict:
     dict
         ``done`` (bool); with ``done``: ``plan``, ``truth`` (rad), ``item`` (the twin's
         ``lateral_dynamics`` item, named or tentative), ``heldout`` (the twin's held-out
-        RMSE, N·m); otherwise ``reason``.
+        RMSE, N·m), ``noisy`` (:func:`noisy_twins`); otherwise ``reason``.
+    draws : int, optional
+        Noisy twins (:data:`NOISE_DRAWS` by default; 0: none, the floor is the noise-free
+        twin's).
     """
     plan = plan_of(prep)
     if plan is None:
@@ -200,14 +224,66 @@ def calibrate_lateral(prep: Prepared, h: float, diagnose) -> dict:
         rec, meta, truth = twin_recording(prep, plan, h)
     except ValueError as exc:            # a fall of the twin
         return {"done": False, "plan": plan, "reason": f"the twin fell: {str(exc).splitlines()[0]}"}
-    res = diagnose(rec, params=prep.params, meta=meta, resimulate=False, calibrate=False,
-                   smoothing=prep.kin.smoothing)
+    res = _diagnose_twin(rec, meta, prep, diagnose)
     items = [e for e in res["effects"] + res["tentative"] if e["name"] == "lateral_dynamics" and "coupling" in e]
     if not items:
         return {"done": False, "plan": plan, "reason": "the twin's diagnosis named no lateral_dynamics"}
     others = {e["name"]: e["estimate"] for e in res["effects"] + res["tentative"] if e["name"] != "lateral_dynamics"}
-    return {"done": True, "plan": plan, "truth": truth, "item": items[0], "heldout": float(res["augmented_rmse"]),
-            "h": float(res["h_augmented"]), "names": others}
+    out = {"done": True, "plan": plan, "truth": truth, "item": items[0], "heldout": float(res["augmented_rmse"]),
+           "h": float(res["h_augmented"]), "names": others}
+    out["noisy"] = noisy_twins(prep, plan, h, diagnose, NOISE_DRAWS if draws is None else draws)
+    return out
+
+
+def _diagnose_twin(rec: pd.DataFrame, meta: dict, prep: Prepared, diagnose) -> dict:
+    return diagnose(rec, params=prep.params, meta=meta, resimulate=False, calibrate=False,
+                    smoothing=prep.kin.smoothing)
+
+
+def noisy_twins(prep: Prepared, plan: dict, h: float, diagnose, draws: int = NOISE_DRAWS) -> dict:
+    """The twin with the rider's motor noise read from the recording: what the lateral term
+    leaves on a ride of the spatial model whose rider is as noisy as this one.
+
+    The level is :func:`euc_sim.diagnosis.rider_noise.motor_noise_level` of the recorded
+    M_h at the twin rider's correlation time; each of ``draws`` twins takes the seed
+    :func:`~euc_sim.diagnosis.rider_noise.recording_seed` (the recording's content and the
+    draw's index), is recorded as the recording was (no sensor noise) and diagnosed.
+
+    Returns
+    -------
+    dict
+        ``level`` (N·m, or None without a recorded M_h), ``seeds``, ``heldout`` (each draw's
+        held-out RMSE, N·m; a draw whose twin fell or named no ``lateral_dynamics`` is left
+        out and counted in ``failed``) and ``floor``: the RMS of ``heldout`` (None when
+        none), N·m.
+    """
+    from euc_sim.diagnosis.rider_noise import motor_noise_level, recording_seed
+    from euc_sim.simulation.engine import default_rider
+
+    out = {"level": None, "seeds": [], "heldout": [], "failed": 0, "floor": None}
+    if "M_h" not in prep.raw.columns or draws <= 0:
+        return out
+    tau = default_rider(prep.params).noise_tau
+    level = motor_noise_level(prep.raw["t"].to_numpy(float), prep.raw["M_h"].to_numpy(float), tau)
+    if not math.isfinite(level):
+        return out
+    out["level"] = level
+    for k in range(draws):
+        seed = recording_seed(prep.raw, k)
+        out["seeds"].append(seed)
+        try:
+            rec, meta, _ = twin_recording(prep, plan, h, noise_std=level, seed=seed)
+        except ValueError:               # the noisy twin fell
+            out["failed"] += 1
+            continue
+        res = _diagnose_twin(rec, meta, prep, diagnose)
+        if not any(e["name"] == "lateral_dynamics" for e in res["effects"] + res["tentative"]):
+            out["failed"] += 1
+            continue
+        out["heldout"].append(float(res["augmented_rmse"]))
+    if out["heldout"]:
+        out["floor"] = float(np.sqrt(np.mean(np.square(out["heldout"]))))
+    return out
 
 
 def twin_artifacts(decision: dict, twin: dict) -> list[str]:

@@ -31,7 +31,8 @@ from euc_sim.diagnosis.candidates import build_problem, freeze, visibility
 from euc_sim.diagnosis.common import DiagnosisError, COLUMN_H_TOL, COLUMN_ITERATIONS, H_BOUNDS, NONLINEAR, THRESHOLDS, Thresholds
 from euc_sim.diagnosis.common import h_at_bound, heldout_over_floor
 from euc_sim.diagnosis.estimates import detection_limits, effect_items
-from euc_sim.diagnosis.lateral_calibration import calibrate_item, calibrate_lateral, model_floor, twin_artifacts
+from euc_sim.diagnosis.lateral_calibration import (calibrate_item, calibrate_lateral, model_floor, twin_artifacts,
+                                                   twin_floor)
 from euc_sim.diagnosis.localise import localise, signals_of
 from euc_sim.diagnosis.prepare import Prepared, prepare
 from euc_sim.diagnosis.refine import Final, final_model, refine, relinearised
@@ -109,7 +110,7 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     if calibrate and "lateral_dynamics" in s.selected:
         say("4/6 refine: the lateral term calibrated on a simulated twin of the ride")
         twin = calibrate_lateral(prep, fin.fit.h, diagnose)
-    floor_test = model_floor(floor["rms_stacked"], twin["heldout"]) if twin and twin["done"] else floor["rms_stacked"]
+    floor_test = model_floor(floor["rms_stacked"], twin_floor(twin)) if twin and twin["done"] else floor["rms_stacked"]
     left = leftover(fin, tuple(s.selected), floor_test, th)                         # 6 verdict
     cv_nominal, periodic = s.cv_nominal, None
     if left["gain"] >= th.generic_gain:
@@ -157,7 +158,7 @@ def _twin_summary(twin: dict, noise_floor: float, floor_test: float) -> dict:
         return {"done": False, "reason": twin["reason"], "plan": twin.get("plan")}
     return {"done": True, "plan": twin["plan"], "twin_truth": twin["truth"], "twin_estimate": twin["item"]["estimate"],
             "twin_h": twin["h"], "twin_heldout_rmse": twin["heldout"], "noise_floor": noise_floor,
-            "unexplained_floor": floor_test}
+            "unexplained_floor": floor_test, "rider_noise": twin.get("noisy")}
 
 
 def _stacked_time(prep: Prepared, model: ResidualModel) -> np.ndarray:

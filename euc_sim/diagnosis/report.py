@@ -104,6 +104,11 @@ def _calibration_lines(r: dict) -> list[str]:
         c = item["calibration"]
         out[0] += (f"; uncalibrated {c['uncalibrated_estimate']:.4g} rad (95% CI {c['uncalibrated_ci95'][0]:.4g}…"
                    f"{c['uncalibrated_ci95'][1]:.4g})")
+    noisy = lc.get("rider_noise") or {}
+    if noisy.get("floor") is not None:
+        out.append(f"  the unexplained test's floor {lc['unexplained_floor']:.3g} N·m holds what the term leaves on "
+                   f"{len(noisy['heldout'])} twins whose rider carries the motor noise read from M_h "
+                   f"({noisy['level']:.2f} N·m)")
     return out
 
 
@@ -114,8 +119,10 @@ def _floor_ratio_text(r: dict) -> str:
     whose = ("with every selected effect, the tentative ones too" if r.get("tentative")
              else "with the accepted effects")
     lc = r.get("lateral_calibration") or {}
-    floor = ("the noise floor and the lateral term's remainder on its simulated twin" if lc.get("done")
-             else "the noise floor")
+    noisy = lc.get("rider_noise") or {}
+    floor = ("the noise floor" if not lc.get("done") else
+             "the noise floor and the lateral term's remainder on its simulated twin"
+             + (f" (its rider's motor noise {noisy['level']:.2f} N·m, read from M_h)" if noisy.get("floor") else ""))
     return f"held-out RMSE over {floor} {r['generic']['floor_ratio']:.1f}× {whose}"
 
 

@@ -10,7 +10,8 @@ noise also biases ĥ, as errors in variables do: −1.3 mm at the paper's noise 
 with φ's noise alone), −0.5 and −3.7 mm at ½ and 2 times it, −2.9 and −0.9 mm with a
 term filter of 0.2 and 0.5 s.  The moving-block bootstrap over time resamples the
 filtered residual and misses part of the scatter: its intervals held the truth on 3
-of 6 independent decelerations, and on 85-96.5 % of 200 (``scripts/coverage_study.py``).
+of 6 independent decelerations, and on 84-93 % of 200 per maneuver kind
+(``scripts/coverage_study.py --first-seed 800000``).
 
 Here the noise itself is resampled: each measured column is split into a smooth part
 (a Savitzky–Golay fit of :data:`BASE_WINDOW`) and white noise whose σ is estimated from

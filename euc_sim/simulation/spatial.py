@@ -184,7 +184,7 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
                 speed: float | None = None, motor: MotorPD | None = None, rider=None,
                 lateral: LateralRider | None = None, seed: int = 0, dt: float = 1e-3,
                 tyre=None, maneuver=None, integrator: str | None = None, lateral_delay: float = 0.0,
-                radius: float | None = None, native: bool = True) -> pd.DataFrame:
+                radius: float | None = None, native: bool = True, external_force=None) -> pd.DataFrame:
     """Ride a path in the spatial model, closed loop, and return the true run at 1/dt.
 
     Parameters
@@ -223,6 +223,10 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
         riders and path tracking as a numba-compiled MuJoCo control callback).  ``False``,
         or a machine where numba cannot compile (one line on stderr), runs the Python loop,
         the reference; the two agree to rounding (``tests/simulation/test_native_spatial.py``).
+    external_force : callable, optional
+        F(t), N: a horizontal force at the rider's centre of mass along the EUC's heading
+        (``xfrc_applied``), e.g. :class:`euc_sim.simulation.effects.PeriodicPush`, the
+        out-of-catalog disturbance of the blind study; ridden by the Python loop.
 
     Returns
     -------
@@ -261,14 +265,14 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     sim = EucSpatial(params, tyre, timestep=dt, integrator=integrator)
     sim.set_straight(v0, g0, f0)
     y0, rows = (0.0, g0, f0, v0, 0.0, 0.0), None
-    if native:
+    if native and external_force is None:
         from euc_sim.simulation.engine import FALL_BOUNDS
         from euc_sim.simulation.native_spatial import native_ride
 
         rows = native_ride(sim, run, motor, lateral, route, v_ref, N, dt, y0, FALL_BOUNDS, TILT_BOUND,
                            TURN_EFFORT_TIME)
     if rows is None:
-        rows = _ride(sim, run, motor, lateral, _Tracker(route), v_ref.tolist(), N, dt, y0)
+        rows = _ride(sim, run, motor, lateral, _Tracker(route), v_ref.tolist(), N, dt, y0, external_force)
     cols = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref", "psi",
             "theta", "psi_dot", "theta_dot", "M_lean", "M_twist", "e_y",
             "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
@@ -278,6 +282,8 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
                      "seed": int(seed), "params": params.as_dict(), "motor": motor.as_dict(),
                      "rider": rider.as_dict(), "lateral": lateral.as_dict(),
                      "model": "mjcf/euc_3d.xml", "tyre": vars(sim.tyre).copy()})
+    if external_force is not None:
+        df.attrs["external_force"] = external_force.as_dict() if hasattr(external_force, "as_dict") else repr(external_force)
     return df
 
 
@@ -301,7 +307,7 @@ def _pose(qp, rq: int, ip: int, il: int, p: Params):
 
 
 def _ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, track: "_Tracker",
-          v_ref: list, N: int, dt: float, y0: tuple) -> list:
+          v_ref: list, N: int, dt: float, y0: tuple, push=None) -> list:
     """The 1 kHz loop of :func:`simulate_3d`: one row per step (its column order)."""
     import mujoco
 
@@ -312,6 +318,7 @@ def _ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, track: "_Tr
     ip, il, it = sim.qadr["rider_pitch"], sim.qadr["rider_lean"], sim.qadr["rider_twist"]
     vp, vl, vt = sim.vadr["rider_pitch"], sim.vadr["rider_lean"], sim.vadr["rider_twist"]
     a_m, a_h, a_l, a_t = (sim.act[n] for n in ("motor", "ankle", "lean", "twist"))
+    xfrc, rb = d.xfrc_applied, sim.body["rider"]
     nd = lateral.n_delay
     if nd:        # the rider senses z nd steps late and predicts the present (LateralRider)
         KP = np.asarray(lateral.K_pred, dtype=float)
@@ -368,6 +375,9 @@ def _ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, track: "_Tr
             break
         z_int += e_y * dt
         ctrl[a_m], ctrl[a_h], ctrl[a_l], ctrl[a_t] = M_d, M_h, u_l, u_t
+        if push is not None:        # F(t) at the rider's centre of mass, along the heading
+            f = float(push(k * dt))
+            xfrc[rb, 0], xfrc[rb, 1] = f * cp, f * sp
         mujoco.mj_step(m, d)
         x_s += dt * 0.5 * (x_dot + _forward_speed(qvel, rv, psi))
     return rows
@@ -421,8 +431,11 @@ def spatial_recording(run: pd.DataFrame, *, noise: str = "paper", seed: int = 0,
 def write_spatial(out, path: str, duration: float, *, params: Params = TABLE3, seed: int = 0,
                   noise: str = "paper", rider_noise: float = 0.0, speed: float | None = None,
                   motor: MotorPD | None = None, rider_delay: float = 0.15, hide_torques: bool = False,
-                  radius: float | None = None):
+                  radius: float | None = None, external_force=None):
     """Simulate ``path`` in the spatial model and write a recording with sidecars.
+
+    ``external_force``: an out-of-catalog F(t) at the rider (:func:`simulate_3d`), named in
+    the truth file only.
 
     ``NAME.csv`` (or ``.parquet``) holds :func:`spatial_recording`'s motion-capture
     columns; ``NAME.json`` the known parameters (not h) and the maneuver;
@@ -444,7 +457,7 @@ def write_spatial(out, path: str, duration: float, *, params: Params = TABLE3, s
     motor = motor or MotorPD()
     rider = default_rider(params, motor, noise_std=rider_noise, delay=rider_delay)
     run = simulate_3d(path, duration, params=params, speed=speed, motor=motor, rider=rider, seed=seed,
-                      radius=radius)
+                      radius=radius, external_force=external_force)
     rec = spatial_recording(run, noise=noise, seed=seed, hide_torques=hide_torques)
     e_y = run["e_y"].to_numpy()
     ts = run["t"].to_numpy()
@@ -471,4 +484,6 @@ def write_spatial(out, path: str, duration: float, *, params: Params = TABLE3, s
         "peak_tilt_rad": effects.band_peak_tilt(run["theta"].to_numpy(), float(np.mean(np.diff(ts)))),
         "peak_tilt_raw_rad": float(np.max(np.abs(run["theta"].to_numpy()))),
     }
+    if external_force is not None:
+        truth["out_of_catalog"] = run.attrs["external_force"]
     return io.write_recording(rec, out, meta, truth)

@@ -9,7 +9,8 @@ import pytest
 
 import idsim
 from euc_sim.identification import noise_bootstrap as nb
-from euc_sim.identification.h_fit import Recording, identify_h, identify_recordings, residual_poly, with_noise
+from euc_sim.identification.h_fit import (Recording, identify_h, identify_recordings, residual_poly, with_full_block,
+                                         with_noise)
 from euc_sim.identification.processing import Smoothing, kinematics
 from euc_sim.model.parameters import TABLE3
 
@@ -83,3 +84,36 @@ def test_pooled_replicates_are_seeded_and_pooled():
     # two recordings' worth of noise: the pooled spread is below the single ones'
     single = [f["3dof"].noise_sd for f in a["per_recording"]]
     assert a["pooled"]["3dof"].noise_sd < max(single)
+
+
+def test_reduced_block_borrows_the_full_models_replicates():
+    import dataclasses
+
+    full = _fit()
+    offsets = np.linspace(-0.01, 0.02, 101)                     # skewed: the basic interval reflects it
+    full = dataclasses.replace(full, boot=0.6 + offsets)
+    reduced = dataclasses.replace(full, model="2dof", h=0.65, boot=np.array([0.5, 0.8]))
+    r = with_full_block(reduced, full, n_boot=100, block=1.0, blocks=15)
+    assert r.boot == pytest.approx(0.65 + offsets)
+    q_lo, q_hi = np.percentile(offsets, [2.5, 97.5])
+    assert r.h_ci95 == pytest.approx((0.65 - q_hi, 0.65 - q_lo)) and r.h_ci95_block == r.h_ci95
+    assert with_full_block(reduced, dataclasses.replace(full, boot=np.array([])), 100, 1.0, 15) is reduced
+
+
+def test_reduced_block_does_not_resample_the_reductions_misfit():
+    # Noise-free: the full model fits exactly, the reduced model leaves the reduction's
+    # misfit, which is fixed by the trajectory.  Its own block bootstrap resamples that
+    # misfit into an interval ~8 mm wide around its (noise-free, hence exact) h; borrowing
+    # the full model's replicates leaves it as narrow as the full model's.
+    rec = _rec("none")
+    own = identify_h([residual_poly(rec.kin, TABLE3, "2dof")], n_boot=100, seed=0)
+    fits = identify_recordings([rec], n_boot=100, n_noise=0, seed=0)["pooled"]
+    assert own.h_ci95[1] - own.h_ci95[0] > 0.003
+    new = fits["2dof"]
+    assert new.h == pytest.approx(own.h) and new.h_ci95[0] <= new.h <= new.h_ci95[1]
+    assert new.h_ci95[1] - new.h_ci95[0] < 1e-4
+    assert fits["3dof"].h_ci95[1] - fits["3dof"].h_ci95[0] < 1e-4
+    # with noise the reduced interval is the full model's, moved to the reduced h
+    noisy = identify_recordings([_rec("paper")], n_boot=100, n_noise=0, seed=0)["pooled"]
+    w3, w2 = (noisy[m].h_ci95[1] - noisy[m].h_ci95[0] for m in ("3dof", "2dof"))
+    assert w2 == pytest.approx(w3, rel=1e-9)
