@@ -29,10 +29,10 @@ def main(argv=None) -> int:
     ap.add_argument("--learn", action="store_true")
     args = ap.parse_args(argv)
     for name in ("speed", "amplitude", "delay", "anticipation"):
-        val = getattr(args, name)
-        if not (val >= 0 if name in ("delay", "anticipation") else val > 0):
-            print(f"rider_loop_gain: --{name} {val}: must be {'non-negative' if name in ('delay', 'anticipation') else 'positive'}",
-                  file=sys.stderr)
+        val, zero_ok = getattr(args, name), name in ("delay", "anticipation")
+        if not (val >= 0 if zero_ok else val > 0):
+            need = "non-negative" if zero_ok else "positive"
+            print(f"rider_loop_gain: --{name} {val}: must be {need}", file=sys.stderr)
             return 2
     import numpy as np
 

@@ -20,7 +20,6 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.model.parameters import Params
-from euc_sim.rides.signals import sg
 
 __all__ = ["limit_acceleration", "rider_acceleration_limit", "resisting_acceleration", "to_grid", "ProfileRun",
            "simulate_profile", "LEAN_SHARE"]
