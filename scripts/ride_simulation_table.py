@@ -228,7 +228,10 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
         "`calibrated_rider` (the rider's delay, bandwidth and motor noise fitted on FIT, its plan the "
         "logged speed smoothed; only on the rows marked 'calibrated rider', run with `--calibrate-rider`: "
         "`–` elsewhere), `drivetrain` (voltage-limited motor, "
-        "accepted effects as physics, the augmented efficiencies). Phase current, pitch and PWM "
+        "accepted effects as physics, the augmented efficiencies). In every step the rider first rides "
+        "the profile within his acceleration envelope, then once more on the plan learned from that "
+        "run through his inverted closed loop (`euc_sim/rides/plan_learning.py`, aiming at the "
+        "profile as logged; rows run before 2026-11-26 16:00 UTC used the older slow correction). Phase current, pitch and PWM "
         "errors are those of the step with the lowest battery-power error, where HELD logs them. "
         "Every step is scored on the rows all steps rode (up to the first fall: the `scored` "
         "column gives that span and its share of the held-out ride; a ratio over a short span "
@@ -237,11 +240,13 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
                      "does not run are kept):" if len(commands) > 1 else ":"), "",
         *commands, "",
         f"{n_ok} of {len(merged)} rows ran. Steps within the target: {', '.join(met) or 'none'}.", "",
-        "**Which figures are tuning figures.** None of these figures chose a setting: every model "
-        "is fitted on FIT and scored on HELD. The law's selection thresholds were set on "
-        "synthetic rides (docs/controller.md); nothing in the steps was adjusted after this "
-        "table. Any later change made by looking at this table turns its rows into tuning "
-        "figures; issue 21's 'The check' (held-back rides compared the same way) is the test.", "",
+        "**Which figures are tuning figures.** Every model is fitted on FIT and scored on HELD. The law's selection thresholds were set on "
+        "synthetic rides (docs/controller.md). The rider's plan learning was traced and built on "
+        "Lynx 0 → 2 (its band compared there): the Lynx rows are tuning figures; the V9, Blitz "
+        "and Master Pro rows chose no setting of it (its constants were fixed before their runs) and are scored where nothing "
+        "was chosen (leave one wheel out). Any later change made by looking at this table turns "
+        "its rows into tuning figures; issue 21's 'The check' (held-back rides compared the same "
+        "way) is the test.", "",
     ] + table[:2] + merged + [""]) + ("" if cut < 0 else "\n" + old_text[cut:])
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".tmp")

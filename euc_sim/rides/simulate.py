@@ -40,6 +40,7 @@ import pandas as pd
 
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.profile import rider_plan, speed_profile
+from euc_sim.rides.plan_learning import filter_band
 from euc_sim.rides.signals import RideAssumptions, RideSignals
 from euc_sim.rides.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep,
                                      effects_to_inject, simulated_pwm)
@@ -430,8 +431,9 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
     out = _logged(sig)
     falls = []
     names = [s.name for s in run]
+    band = filter_band(sig.rate, sig.window, sig.polyorder)       # the plan learns what the log passes
     jobs = [(t_p, v_p if s.plan_window is None else rider_plan(t_p, v_p, s.plan_window), params,
-             dict(s.effects), seed, dt, track_iterations, 10.0,
+             dict(s.effects), seed, dt, track_iterations, band,
              _prefixed(progress, s.name, workers), s.name, i, s.motor, s.rider)
             for i, s in enumerate(run)]
     done = _run_jobs(jobs, names, params, workers, progress)

@@ -20,7 +20,6 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.model.parameters import Params
-from euc_sim.rides.signals import sg
 
 __all__ = ["limit_acceleration", "rider_acceleration_limit", "resisting_acceleration", "to_grid", "ProfileRun",
            "simulate_profile", "LEAN_SHARE"]
@@ -221,33 +220,43 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
     return df, v_sim, float(np.sqrt(np.mean((v_target - v_sim) ** 2)))
 
 
-def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, window: float,
-                  notes: list, say, clock_of, motor=None, rider=None,
-                  a_limit: float | None = None) -> pd.DataFrame:
-    """Iterative learning: add the slow speed error to the plan and ride again.
+def _correct_plan(t, target, plan, run, params, effects, seed, dt, iterations: int, band: float,
+                  notes: list, say, clock_of, motor=None, rider=None) -> pd.DataFrame:
+    """Iterative learning: the plan corrected through the inverted closed loop, ridden again.
 
-    Returns the frame of the run closest to ``target``; appends to ``notes``.
+    Each correction is :func:`euc_sim.rides.plan_learning.inverse_correction` of the speed
+    error on the riding rows (|target| > ``V_MIN``) up to ``band`` Hz.  A corrected run is kept
+    when it rides closer to ``target`` on those rows; one that falls is discarded (the notes
+    say so) and the last kept run stands.  Returns the frame of the run kept; appends to
+    ``notes``.
     """
+    from euc_sim.rides.law_signals import V_MIN
+    from euc_sim.rides.plan_learning import inverse_correction
     from euc_sim.simulation.errors import FallError
 
-    df, v_sim, err = run
-    rate = 1.0 / float(np.median(np.diff(t)))
-    plan = target
+    df, v_sim, _ = run
+    riding = np.abs(target) > V_MIN
+    if not riding.any():
+        return df
+
+    def off(v):
+        return float(np.sqrt(np.mean((target - v)[riding] ** 2)))
+
+    err = off(v_sim)
     for it in range(iterations):
-        plan = plan + sg(target - v_sim, np.zeros(t.size, int), rate, window, 2)
-        if a_limit is not None:              # the corrected plan within the rider's envelope too
-            plan = limit_acceleration(t, plan, a_limit)
+        plan = plan + inverse_correction(t, plan, v_sim, np.where(riding, target - v_sim, 0.0), band)
         say(f"tracking correction {it + 1} of {iterations}: riding the corrected plan")
         clock = clock_of(f"correction {it + 1}")
         try:
-            df2, v2, err2 = _track(t, target, plan, params, effects, seed, dt, clock, motor, rider)
+            df2, v2, _ = _track(t, target, plan, params, effects, seed, dt, clock, motor, rider)
         except FallError as exc:
             notes.append(f"tracking correction {it + 1}: rider fell ({exc}); kept the "
                          f"previous run")
             break
         finally:
             clock.close()
-        notes.append(f"tracking correction {it + 1}: RMS speed error {err:.3f} -> "
+        err2 = off(v2)
+        notes.append(f"tracking correction {it + 1}: RMS speed error while riding {err:.3f} -> "
                      f"{err2:.3f} m/s")
         if err2 >= err:
             break
@@ -257,18 +266,22 @@ def _correct_plan(t, target, run, params, effects, seed, dt, iterations: int, wi
 
 def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapping[str, float],
                      seed: int = 0, dt: float = 1e-3, track_iterations: int = 1,
-                     track_window: float = 10.0, progress: Callable[[str], None] | None = None,
+                     learn_band: float | None = None, progress: Callable[[str], None] | None = None,
                      label: str = "ride", position: int = 0, motor=None, rider=None,
                      lean_share: float | None = LEAN_SHARE) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
-    The simulated rider has no integral action: a resisting force (drag, rolling
-    resistance, a climb) can make it ride slower than planned.  A real rider
-    corrects such a lag, so after a run the slow part of the speed error
-    (Savitzky–Golay smoothed over ``track_window`` s, so that only the lag, not
-    the rider's own sway, is corrected) is added to the plan and the ride is run
-    again, ``track_iterations`` times (iterative learning); the run closest to
-    the profile is kept, and the notes say what each correction did.
+    The simulated rider does not ride his plan as planned: a resisting force (drag,
+    rolling resistance, a climb) makes him lag it, and his closed loop amplifies the
+    plan's quicker changes (2–3× at 0.2–0.7 Hz, :mod:`euc_sim.rides.plan_learning`).  The
+    logged speed is what a real rider rode, not what he planned, so after the first run
+    the plan is learned (iterative learning): the speed error on the riding rows is passed
+    through the inverted closed loop measured on that run, up to ``learn_band`` Hz
+    (:func:`euc_sim.rides.plan_learning.inverse_correction`), added to the plan, and the
+    ride is run again, ``track_iterations`` times.  The first run rides the profile within
+    the rider's envelope (``lean_share``); the learned plans aim at the profile as logged,
+    and a learned run that falls is discarded.  The run closest to the profile while
+    riding is kept, and the notes say what each correction did.
 
     When the rider falls, the run ends there: its frame stops at the fall, the fall's
     time and cause are reported once (``falls``), and the profile is not ridden again
@@ -287,8 +300,9 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         Control period and MuJoCo step, s.
     track_iterations : int
         Plan corrections after the first run (0: the plan is the profile).
-    track_window : float
-        s.
+    learn_band : float, optional
+        Hz: the highest frequency the plan learns (default :func:`plan_learning.filter_band`
+        of the ride defaults, the band the log's smoothing passes, 0.72 Hz).
     progress : callable, optional
         Called with a short line before each closed-loop run; when given, a progress
         bar over the ride's seconds is shown on stderr too.
@@ -305,8 +319,8 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         The profile's acceleration is limited to what the simulated rider can ride,
         :func:`rider_acceleration_limit` (``lean_share`` of the fall bound for his steady
         lean) less :func:`resisting_acceleration` (:func:`limit_acceleration`), before it is
-        ridden; the notes say where the limit changed the profile.  The plan corrections aim
-        at the limited profile.  None: the profile as logged.
+        first ridden; the notes say where the limit changed the profile.  The plan
+        corrections aim at the profile as logged.  None: the profile as logged.
 
     Returns
     -------
@@ -316,7 +330,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
 
     say = progress or (lambda msg: None)
     t = np.asarray(t, float)
-    v = np.asarray(v, float)
+    v = logged = np.asarray(v, float)
     notes: list[str] = []
 
     def clock_of(what: str) -> _RideClock:
@@ -346,8 +360,11 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     finally:
         clock.close()
     if t.size >= 5:
-        df = _correct_plan(t, v, (df, v_sim, err), params, effects, seed, dt,
-                           track_iterations, track_window, notes, say, clock_of, motor, rider, a_limit)
+        from euc_sim.rides.plan_learning import filter_band
+
+        band = filter_band() if learn_band is None else learn_band
+        df = _correct_plan(t, logged, v, (df, v_sim, err), params, effects, seed, dt,
+                           track_iterations, band, notes, say, clock_of, motor, rider)
     return ProfileRun(df, (), tuple(notes))
 
 

@@ -279,3 +279,33 @@ def test_a_run_of_one_wheel_keeps_the_other_wheels_rows_and_commands(tmp_path):
     assert "--out A --pairs lynx,blitz" in text and "--out B --pairs blitz" in text
     assert "2 of 3 rows ran" in text and "lynx_0_to_2 drivetrain, blitz_1_to_2 drivetrain" in text
     assert text.endswith("- kept words\n") and text.count("## Reading the table") == 1
+
+
+def test_power_error_terms_names_a_missing_pair_and_exits_2(tmp_path, capsys):
+    """scripts/power_error_terms.py: bad input is one line naming the file, exit code 2."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "scripts" / "power_error_terms.py"
+    spec = importlib.util.spec_from_file_location("power_error_terms", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.main([str(tmp_path / "nope"), str(tmp_path / "held.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "nope" in err and "ride.json" in err and "Traceback" not in err
+
+
+def test_ride_step_ablation_refuses_an_unknown_variant_and_a_missing_pair(tmp_path, capsys):
+    """scripts/ride_step_ablation.py: one line naming the bad input, exit code 2."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[2] / "scripts" / "ride_step_ablation.py"
+    spec = importlib.util.spec_from_file_location("ride_step_ablation", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    assert mod.main([str(tmp_path), "held.csv", "--variants", "faster"]) == 2
+    assert "--variants faster" in capsys.readouterr().err
+    assert mod.main([str(tmp_path / "nope"), "held.csv"]) == 2
+    err = capsys.readouterr().err
+    assert "ride.json" in err and "Traceback" not in err
