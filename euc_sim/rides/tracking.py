@@ -331,7 +331,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
                      seed: int = 0, dt: float = 1e-3, track_iterations: int = 1,
                      track_window: float = 10.0, progress: Callable[[str], None] | None = None,
                      label: str = "ride", position: int = 0, motor=None, rider=None,
-                     lean_share: float | None = LEAN_SHARE, band_limit: bool = True) -> ProfileRun:
+                     lean_share: float | None = LEAN_SHARE, band_limit: bool | None = None) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
     The simulated rider has no integral action: a resisting force (drag, rolling
@@ -379,12 +379,13 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         lean) less :func:`resisting_acceleration` (:func:`limit_acceleration`), before it is
         ridden; the notes say where the limit changed the profile.  The plan corrections aim
         at the limited profile.  None: the profile as logged.
-    band_limit : bool
+    band_limit : bool or None
         The rider's plan (after the envelope) is band-limited to what he can track, ω_B = z/2
         with z the right-half-plane zero of his speed response (:func:`plan_band_limit`, a
         centred moving average: no time shift, and the envelope's |a| is kept); the plan
         corrections too.  A note gives the width and how far the plan moved.  False: no band
-        limit.
+        limit.  None (default): band-limited when the envelope is on (``lean_share`` not None),
+        so that ``lean_share=None`` still rides the profile as logged.
 
     Returns
     -------
@@ -411,6 +412,8 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
             return ProfileRun(None, ({"t": 0.0, "cause": cause},), tuple(notes))
         v = _within_envelope(t, v, a_limit, lean_share, notes)
     band_width = 0.0
+    if band_limit is None:
+        band_limit = lean_share is not None
     if band_limit and t.size > 1:
         band_width, z = plan_band_limit(params, motor)
         if band_width:
