@@ -11,8 +11,8 @@ master_pro_V2 3 -> 6 at 306.1 s, and (in the Blitz run of 2026-11-26) blitz 2 ->
 total mass on FIT as the ride command does, takes HELD's speed profile (with the wheel-speed
 spikes the battery cannot pay for bridged, :func:`euc_sim.rides.profile.unpaid_spikes`, unless
 ``--no-spikes``), and rides a window of it from the trim at its first speed, 40 s before the fall
-(:func:`euc_sim.rides.tracking.simulate_profile`, no plan correction): with the paper's PD, and
-with the same PD at a 500 N·m limit (a diagnosis, not a model: nothing is chosen by it).  It
+(:func:`euc_sim.rides.tracking.simulate_profile`, no plan correction) with the paper's PD (the
+three runs below).  It
 prints, per run, whether the rider fell and the largest ankle torque M_h, motor torque M_d,
 body pitch γ and lean φ, and plots the logged and simulated speed, the torques and γ.
 
@@ -20,10 +20,14 @@ body pitch γ and lean φ, and plots the logged and simulated speed, the torques
 ``euc-sim ride LOG --wheel SPEC``): master_pro_V2/3 ``nominal`` at 1,164.2 s and apex/0
 ``firmware`` (the measured law as the motor) at 1,462.5 s.  The set-up is ride_falls's (mass,
 balance fit, the filtered profile with spikes bridged, the measured law at ``--n-boot``
-replicates, seed 0).  master_pro_V2/3's second run is the paper's PD at 500 N·m (a diagnosis);
-apex/0's two runs are the measured law with its fitted torque limit (as the count found the
-fall) and with the limit :func:`controllers.firmware.firmware_settings` now uses (the largest
-|torque| the same log measured, where the fit's is lower).
+replicates, seed 0).  master_pro_V2/3 gets the same three paper-PD runs as the pairs; apex/0's
+two runs are the measured law with its fitted torque limit (as the count found the fall) and
+with the limit :func:`controllers.firmware.firmware_settings` now uses (the largest |torque| the
+same log measured, where the fit's is lower), both with the plan band-limited.
+
+Each paper-PD window is ridden three times: the plan not band-limited (as the falls were found),
+band-limited to z/2 (:func:`euc_sim.rides.tracking.plan_band_limit`, as simulated now), and not
+band-limited at a 500 N·m limit (a diagnosis, not a model: nothing is chosen by it).
 """
 
 from __future__ import annotations
@@ -100,9 +104,9 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
                             f"limit {fitted:.1f} N·m (95 % {lim['ci95'][0]:.1f}-{lim['ci95'][1]:.1f}); the log's "
                             f"largest |phase current| × K_t ({ctrl['torque_constant']:.3f} N·m/A) is "
                             f"{lim['largest_measured']:.1f} N·m, {above} of {len(lg)} rows above the fitted limit")
-        motors = ((f"measured law, fitted {fitted:.0f} N·m limit (before)",
+        motors = ((f"measured law, fitted {fitted:.0f} N·m limit (the fit's), plan band-limited",
                    dataclasses.replace(motor, torque_limit=fitted)),
-                  (f"measured law, {motor.torque_limit:.0f} N·m limit (as simulated now)", motor))
+                  (f"measured law, {motor.torque_limit:.0f} N·m limit (as simulated now), plan band-limited", motor))
     else:
         motors = _pd_runs()
     for label, m, *band in motors:
