@@ -18,7 +18,7 @@ from controllers.motor import MotorPD
 from euc_sim.model.linearize import REDUCED_STATE, discretize, jacobians, motor_feedback_row
 from euc_sim.model.parameters import Params, TABLE3
 
-__all__ = ["linear_plant", "rider_plant", "has_integral", "predictor_rows"]
+__all__ = ["linear_plant", "rider_plant", "has_integral", "predictor_rows", "speed_zero"]
 
 
 def linear_plant(p: Params = TABLE3, motor: MotorPD | None = None,
@@ -97,3 +97,43 @@ def predictor_rows(p: Params, motor: MotorPD, K, dt: float, n: int) -> tuple[np.
         KG[n - 1 - j] = (row @ Gam)[0, 0]
         row = row @ Phi
     return row.ravel(), KG
+
+
+def speed_zero(p: Params = TABLE3, motor: MotorPD | None = None, speed: float = 0.0) -> float:
+    """The right-half-plane zero z of the wheel speed's response to the ankle torque, rad/s.
+
+    To speed up, the rider must lean forward, and to lean forward the wheel must first
+    run back under him: the transfer function M_h → ẋ of :func:`linear_plant` has a real
+    zero z > 0 (non-minimum phase; about 3.1 rad/s for a 149 kg ride with the paper's
+    PD).  It is the invariant zero of (A_s, B_s, C = e_ẋ), the finite generalised
+    eigenvalues of the Rosenbrock pencil [[A_s, B_s], [C, 0]] − s [[I, 0], [0, 0]].
+    A zero at z bounds the bandwidth of any speed tracking to ω_B < z/2 (Skogestad and
+    Postlethwaite, *Multivariable Feedback Control*, 2nd ed., 2005, §5.6):
+    :func:`euc_sim.rides.tracking.plan_band_limit` uses it.
+
+    Parameters
+    ----------
+    p : Params
+    motor : MotorPD, optional
+    speed : float
+        Operating speed, m/s.
+
+    Returns
+    -------
+    float
+        z, rad/s; ``nan`` when the speed response has no real right-half-plane zero.
+    """
+    from scipy.linalg import eigvals
+
+    A, B = linear_plant(p, motor, speed)
+    n = A.shape[0]
+    C = np.zeros((1, n))
+    C[0, 0] = 1.0                                            # ẋ
+    pencil = np.block([[A, B], [C, np.zeros((1, 1))]])
+    E = np.zeros((n + 1, n + 1))
+    E[:n, :n] = np.eye(n)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = eigvals(pencil, E)
+    z = z[np.isfinite(z)]
+    z = z[(np.abs(z.imag) < 1e-9 * np.maximum(1.0, np.abs(z))) & (z.real > 1e-9)].real
+    return float(z.min()) if z.size else float("nan")

@@ -11,8 +11,8 @@ master_pro_V2 3 -> 6 at 306.1 s, and (in the Blitz run of 2026-11-26) blitz 2 ->
 total mass on FIT as the ride command does, takes HELD's speed profile (with the wheel-speed
 spikes the battery cannot pay for bridged, :func:`euc_sim.rides.profile.unpaid_spikes`, unless
 ``--no-spikes``), and rides a window of it from the trim at its first speed, 40 s before the fall
-(:func:`euc_sim.rides.tracking.simulate_profile`, no plan correction): with the paper's PD, and
-with the same PD at a 500 N·m limit (a diagnosis, not a model: nothing is chosen by it).  It
+(:func:`euc_sim.rides.tracking.simulate_profile`, no plan correction) with the paper's PD (the
+three runs below).  It
 prints, per run, whether the rider fell and the largest ankle torque M_h, motor torque M_d,
 body pitch γ and lean φ, and plots the logged and simulated speed, the torques and γ.
 
@@ -20,10 +20,14 @@ body pitch γ and lean φ, and plots the logged and simulated speed, the torques
 ``euc-sim ride LOG --wheel SPEC``): master_pro_V2/3 ``nominal`` at 1,164.2 s and apex/0
 ``firmware`` (the measured law as the motor) at 1,462.5 s.  The set-up is ride_falls's (mass,
 balance fit, the filtered profile with spikes bridged, the measured law at ``--n-boot``
-replicates, seed 0).  master_pro_V2/3's second run is the paper's PD at 500 N·m (a diagnosis);
-apex/0's two runs are the measured law with its fitted torque limit (as the count found the
-fall) and with the limit :func:`controllers.firmware.firmware_settings` now uses (the largest
-|torque| the same log measured, where the fit's is lower).
+replicates, seed 0).  master_pro_V2/3 gets the same three paper-PD runs as the pairs; apex/0's
+two runs are the measured law with its fitted torque limit (as the count found the fall) and
+with the limit :func:`controllers.firmware.firmware_settings` now uses (the largest |torque| the
+same log measured, where the fit's is lower), both with the plan band-limited.
+
+Each paper-PD window is ridden three times: the plan not band-limited (as the falls were found),
+band-limited to z/2 (:func:`euc_sim.rides.tracking.plan_band_limit`, as simulated now), and not
+band-limited at a 500 N·m limit (a diagnosis, not a model: nothing is chosen by it).
 """
 
 from __future__ import annotations
@@ -47,6 +51,15 @@ CASES = {"lynx 2 -> 0": ("trips/leaperkim/lynx/2/2.csv", "trips/leaperkim/lynx/0
 OWN_CASES = {"master_pro_V2/3 nominal": ("trips/begode/master_pro_V2/3/3.csv", "specs/master_pro_V2.csv",
                                          1124.2, 1174.2, "nominal"),
              "apex/0 firmware": ("trips/nosfet/apex/0/0.csv", "specs/apex.csv", 1422.5, 1472.5, "firmware")}
+
+
+def _pd_runs():
+    """(label, motor, band_limit) of the paper-PD runs: the plan before and after the band limit."""
+    from controllers.motor import MotorPD
+
+    return (("paper PD, 250 N·m limit, plan not band-limited (before)", MotorPD(), False),
+            ("paper PD, 250 N·m limit, plan band-limited to z/2 (as simulated now)", MotorPD(), True),
+            ("paper PD, 500 N·m limit, plan not band-limited (diagnosis)", MotorPD(torque_limit=500.0), False))
 
 
 def own_window(case: tuple, data: Path, n_boot: int) -> dict:
@@ -91,14 +104,14 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
                             f"limit {fitted:.1f} N·m (95 % {lim['ci95'][0]:.1f}-{lim['ci95'][1]:.1f}); the log's "
                             f"largest |phase current| × K_t ({ctrl['torque_constant']:.3f} N·m/A) is "
                             f"{lim['largest_measured']:.1f} N·m, {above} of {len(lg)} rows above the fitted limit")
-        motors = ((f"measured law, fitted {fitted:.0f} N·m limit (before)",
+        motors = ((f"measured law, fitted {fitted:.0f} N·m limit (the fit's), plan band-limited",
                    dataclasses.replace(motor, torque_limit=fitted)),
-                  (f"measured law, {motor.torque_limit:.0f} N·m limit (as simulated now)", motor))
+                  (f"measured law, {motor.torque_limit:.0f} N·m limit (as simulated now), plan band-limited", motor))
     else:
-        motors = (("paper PD, 250 N·m limit", MotorPD()),
-                  ("paper PD, 500 N·m limit (diagnosis)", MotorPD(torque_limit=500.0)))
-    for label, m in motors:
-        res = simulate_profile(t[w] - t0, v[w], params, {}, seed=0, track_iterations=0, motor=m)
+        motors = _pd_runs()
+    for label, m, *band in motors:
+        res = simulate_profile(t[w] - t0, v[w], params, {}, seed=0, track_iterations=0, motor=m,
+                               band_limit=band[0] if band else True)
         fr = res.frame
         out["runs"][label] = {"frame": fr, "limit": m.torque_limit,
                               "fall": (t0 + res.falls[0]["t"], res.falls[0]["cause"]) if res.falls else None,
@@ -130,14 +143,25 @@ def ride_window(case: tuple, data: Path, n_boot: int, spikes: bool) -> dict:
     out = {"mass": A.total_mass, "R": params.R, "t0": t0, "t_prof": t[w], "v_prof": v[w],
            "log": read_log(data / held, emit_warnings=False).data, "runs": {},
            "notes": [n for n in prof.attrs["notes"] if "spike" in n], "spikes": spikes}
-    for label, motor in (("paper PD, 250 N·m limit", MotorPD()),
-                         ("paper PD, 500 N·m limit (diagnosis)", MotorPD(torque_limit=500.0))):
-        res = simulate_profile(t[w] - t0, v[w], params, {}, seed=0, track_iterations=0, motor=motor)
+    for label, motor, band in _pd_runs():
+        res = simulate_profile(t[w] - t0, v[w], params, {}, seed=0, track_iterations=0, motor=motor,
+                               band_limit=band)
         fr = res.frame
         out["runs"][label] = {"frame": fr, "fall": (t0 + res.falls[0]["t"], res.falls[0]["cause"])
                               if res.falls else None,
                               "limit": motor.torque_limit,
                               "max": {k: float(np.abs(fr[k]).max()) for k in ("M_h", "M_d", "gamma", "phi")}}
+    return out
+
+
+def _short(label: str) -> str:
+    """A run's label for a legend: the limit and, where said, whether the plan is band-limited."""
+    parts = label.split(", ")
+    out = parts[1].replace(" limit", "") if len(parts) > 1 else label
+    if "not band-limited" in label:
+        out += ", raw plan"
+    elif "band-limited" in label:
+        out += ", band-limited plan"
     return out
 
 
@@ -160,11 +184,11 @@ def plot(results: dict, path: Path) -> Path:
             ax.plot(lw["t"], lw["gps_speed"], "x", color="tab:green", ms=4, label="logged GPS speed")
         ax.plot(r["t_prof"], r["v_prof"], color="k", lw=1,
                 label="profile, spikes bridged" if r["spikes"] else "profile, as logged")
-        for (label, run), col, z in zip(r["runs"].items(), ("tab:red", "tab:blue"), (3, 2)):
-            short = label.split(", ")[1].replace(" limit", "")
+        for (label, run), col, z in zip(r["runs"].items(), ("tab:red", "tab:blue", "0.6"), (3, 4, 2)):
+            short = _short(label)
             fr = run["frame"].iloc[::20]
             tt = fr["t"] + t0
-            ax.plot(tt, fr["x_dot"], color=col, lw=0.8, zorder=z, label=f"simulated, {label}")
+            ax.plot(tt, fr["x_dot"], color=col, lw=0.8, zorder=z, label=f"simulated, {_short(label)}")
             axes[1, c].plot(tt, fr["M_h"], color=col, lw=0.8, ls="--", zorder=z, label=f"ankle M_h, {short}")
             axes[1, c].plot(tt, fr["M_d"], color=col, lw=0.8, zorder=z, label=f"motor M_d, {short}")
             axes[2, c].plot(tt, fr["gamma"], color=col, lw=0.8, zorder=z, label=f"γ, {short}")

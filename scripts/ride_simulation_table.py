@@ -229,7 +229,8 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
         "logged speed smoothed; only on the rows marked 'calibrated rider', run with `--calibrate-rider`: "
         "`–` elsewhere), `drivetrain` (voltage-limited motor, "
         "accepted effects as physics, the augmented efficiencies). In every step the rider first rides "
-        "the profile within his acceleration envelope, then once more on the plan learned from that "
+        "the profile within his acceleration envelope, band-limited to half the right-half-plane zero "
+        "of his speed response (`tracking.plan_band_limit`), then once more on the plan learned from that "
         "run through his inverted closed loop (`euc_sim/rides/plan_learning.py`, aiming at the "
         "profile as logged; rows run before 2026-11-26 16:00 UTC used the older slow correction). Phase current, pitch and PWM "
         "errors are those of the step with the lowest battery-power error, where HELD logs them. "
@@ -244,7 +245,9 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
         "synthetic rides (docs/controller.md). The rider's plan learning was traced and built on "
         "Lynx 0 → 2 (its band compared there): the Lynx rows are tuning figures; the V9, Blitz "
         "and Master Pro rows chose no setting of it (its constants were fixed before their runs) and are scored where nothing "
-        "was chosen (leave one wheel out). Any later change made by looking at this table turns "
+        "was chosen (leave one wheel out). The plan's band limit comes from the model (no constant fitted), but "
+        "it was written after looking at three fall windows whose held-out rides are Master Pro 3 → 6 and 6 → 3, "
+        "Blitz 1 → 4 and 2 → 4 and Lynx 2 → 0 (docs/ride_falls.md). Any later change made by looking at this table turns "
         "its rows into tuning figures; issue 21's 'The check' (held-back rides compared the same "
         "way) is the test.", "",
     ] + table[:2] + merged + [""]) + ("" if cut < 0 else "\n" + old_text[cut:])

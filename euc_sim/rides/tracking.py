@@ -22,7 +22,7 @@ import pandas as pd
 from euc_sim.model.parameters import Params
 
 __all__ = ["limit_acceleration", "rider_acceleration_limit", "resisting_acceleration", "to_grid", "ProfileRun",
-           "simulate_profile", "LEAN_SHARE"]
+           "simulate_profile", "LEAN_SHARE", "moving_average", "plan_band_limit"]
 
 #: Share of the fall bound |φ| ≤ φ_max that the rider's steady lean φ*(a) may use: the
 #: profile's acceleration is limited to the a where |φ*(a)| = LEAN_SHARE·φ_max
@@ -70,6 +70,76 @@ def limit_acceleration(t: np.ndarray, v: np.ndarray, a_max: float) -> np.ndarray
     fwd = one_way(v, dv)
     bwd = one_way(v[::-1], dv[::-1])[::-1]
     return 0.5 * (fwd + bwd)
+
+
+def moving_average(t: np.ndarray, v: np.ndarray, width: float) -> np.ndarray:
+    """Centred moving average of a uniformly sampled profile over ``width`` s (no time shift).
+
+    The window is the odd number of samples nearest ``width`` (at least 1: then ``v``);
+    the ends are padded with the first and last values.  Each output is a mean of
+    consecutive samples, so a profile whose slope stays within ±a keeps it, and the
+    mean's slope changes by at most 2a over the window: an acceleration step becomes a
+    ramp as long as the window.  Its gain falls to 1/√2 at ω = 2.783/width rad/s
+    (|sin(ωT/2)/(ωT/2)| = 1/√2).
+
+    Parameters
+    ----------
+    t : array_like
+        s, uniform.
+    v : array_like
+        m/s (any unit).
+    width : float
+        s, non-negative.
+
+    Returns
+    -------
+    numpy.ndarray
+        Same shape as ``v``.
+    """
+    t = np.asarray(t, float)
+    v = np.asarray(v, float)
+    if not (math.isfinite(width) and width >= 0):
+        raise ValueError(f"moving-average width must be a non-negative number of s, got {width!r}")
+    if v.size < 2:
+        return v.copy()
+    n = int(round(width / float(np.median(np.diff(t)))))
+    n = n + 1 if n % 2 == 0 else n
+    if n <= 1:
+        return v.copy()
+    pad = n // 2
+    vp = np.concatenate([np.full(pad, v[0]), v, np.full(pad, v[-1])])
+    c = np.concatenate([[0.0], np.cumsum(vp)])
+    return (c[n:] - c[:-n]) / n
+
+
+#: Gain 1/√2 of a centred moving average at ω·width = 2·1.3916 (sin x / x = 1/√2 at x = 1.3916).
+_BOX_HALF_POWER = 2.0 * 1.3916
+
+
+def plan_band_limit(params: Params, motor=None) -> tuple[float, float]:
+    """The width, s, of the moving average that band-limits the rider's plan to ω_B = z/2.
+
+    The wheel speed's response to the rider's ankle torque has a right-half-plane zero z
+    (:func:`controllers.plant.speed_zero`: to speed up the wheel must first run back under
+    the leaning rider), which bounds the bandwidth of any speed tracking to ω_B < z/2
+    (Skogestad and Postlethwaite, *Multivariable Feedback Control*, 2nd ed., 2005, §5.6).  A
+    plan with faster content (the acceleration envelope's corners: an acceleration step of
+    the plan steps the rider's trim lean φ*(a), and his stiff lean gain turns it into an
+    ankle-torque step) is asked of a rider who cannot follow it.  The width is the one
+    whose centred moving average (:func:`moving_average`) has its half-power gain at z/2.
+    From the model, not fitted to any ride.
+
+    Returns
+    -------
+    (width, z) : tuple of float
+        s, and the zero z, rad/s.  Width 0 when the response has no such zero.
+    """
+    from controllers.plant import speed_zero
+
+    z = speed_zero(params, motor)
+    if not (math.isfinite(z) and z > 0):
+        return 0.0, z
+    return _BOX_HALF_POWER / (0.5 * z), z
 
 
 def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEAN_SHARE,
@@ -268,7 +338,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
                      seed: int = 0, dt: float = 1e-3, track_iterations: int = 1,
                      learn_band: float | None = None, progress: Callable[[str], None] | None = None,
                      label: str = "ride", position: int = 0, motor=None, rider=None,
-                     lean_share: float | None = LEAN_SHARE) -> ProfileRun:
+                     lean_share: float | None = LEAN_SHARE, band_limit: bool | None = None) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
     The simulated rider does not ride his plan as planned: a resisting force (drag,
@@ -321,6 +391,14 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         lean) less :func:`resisting_acceleration` (:func:`limit_acceleration`), before it is
         first ridden; the notes say where the limit changed the profile.  The plan
         corrections aim at the profile as logged.  None: the profile as logged.
+    band_limit : bool or None
+        The rider's first plan (after the envelope) is band-limited to what he can track,
+        ω_B = z/2 with z the right-half-plane zero of his speed response
+        (:func:`plan_band_limit`, a centred moving average: no time shift, and the envelope's
+        |a| is kept).  A note gives the width and how far the plan moved.  The learned plans
+        are not band-limited (a learned run that falls is discarded).  False: no band limit.
+        None (default): band-limited when the envelope is on (``lean_share`` not None), so
+        that ``lean_share=None`` still rides the profile as logged.
 
     Returns
     -------
@@ -346,6 +424,19 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
             notes.append(f"rider cannot ride: {cause}; the profile is not ridden")
             return ProfileRun(None, ({"t": 0.0, "cause": cause},), tuple(notes))
         v = _within_envelope(t, v, a_limit, lean_share, notes)
+    band_width = 0.0
+    if band_limit is None:
+        band_limit = lean_share is not None
+    if band_limit and t.size > 1:
+        band_width, z = plan_band_limit(params, motor)
+        if band_width:
+            v_band = moving_average(t, v, band_width)
+            dev = np.abs(v_band - v)
+            notes.append(f"rider's plan band-limited to z/2 = {0.5 * z:.2f} rad/s, half his speed "
+                         f"response's right-half-plane zero z (a {band_width:.2f} s centred moving "
+                         f"average): {np.sqrt(np.mean(dev ** 2)):.3f} m/s RMS, {dev.max():.2f} m/s at "
+                         f"most from the {'limited' if a_limit is not None else 'logged'} profile")
+            v = v_band
     say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
     clock = clock_of("ride")
     try:
