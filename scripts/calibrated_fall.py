@@ -1,0 +1,176 @@
+"""Why the calibrated rider falls in Lynx 0 -> 2's ``drivetrain`` step: its window, measured.
+
+    nice -n 10 python scripts/calibrated_fall.py PAIR_DIR HELD_LOG SPEC [--start 541] [--end 600]
+        [--variants as_stepped,seed1,...]
+
+``PAIR_DIR`` is a pair's folder of ``scripts/ride_simulation_table.py`` run with
+``--calibrate-rider`` (its ``ride.json``), ``HELD_LOG`` the held-out log and ``SPEC`` the wheel's
+spec.  The ``drivetrain`` step is rebuilt from the JSON (its motor law with the voltage limit,
+its injected effects, the calibrated rider's delay, bandwidth and motor noise, his 6 s plan
+:func:`euc_sim.rides.profile.rider_plan`; the total mass the page found), and a window of the
+held-out profile is ridden from the trim at its first speed, as ``scripts/nominal_falls.py``
+does (:func:`euc_sim.rides.tracking.simulate_profile`, envelope and band limit on, no plan
+correction: the fall was the first run's).  Each variant changes one thing (``VARIANTS``).
+Per variant it prints whether the rider fell, the largest |φ|, |M_h|, |M_d| and the voltage
+limit's share of the window, and the rider's distance ahead of his plan ∫(ẋ − v_ref) dt (the
+state his speed-error integral holds) at its largest and smallest, with the lowest speed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import sys
+from pathlib import Path
+
+#: name -> what the variant changes (one thing each).
+VARIANTS = {
+    "as_stepped": "the drivetrain step as the table ran it (noise seed 0)",
+    "seed1": "motor-noise seed 1", "seed2": "motor-noise seed 2", "seed3": "motor-noise seed 3",
+    "no_noise": "no motor noise",
+    "no_rolling": "rolling resistance not injected",
+    "no_drag": "aerodynamic drag not injected",
+    "no_voltage_limit": "the measured law without the voltage limit (the measured_law step's motor)",
+    "plan_10s": "the plan smoothed over 10 s (the rider study's) instead of 6 s",
+    "no_integral": "the same rider designed without the speed-error integral",
+    "default_rider": "the default rider (0.15 s, no noise) in the same step",
+}
+
+
+def distance_ahead(t, x_dot, v_ref):
+    """∫(ẋ − v_ref) dt from the window's start, m (trapezoid), on the frame's rows.
+
+    Parameters
+    ----------
+    t, x_dot, v_ref : array_like
+        Time (s), simulated speed and the rider's planned speed (m/s).
+
+    Returns
+    -------
+    numpy.ndarray
+    """
+    import numpy as np
+
+    t, e = np.asarray(t, float), np.asarray(x_dot, float) - np.asarray(v_ref, float)
+    if t.size < 2:
+        return np.zeros(t.size)
+    return np.concatenate([[0.0], np.cumsum(0.5 * (e[1:] + e[:-1]) * np.diff(t))])
+
+
+def _bandwidth(what: str) -> float:
+    """The calibrated rider's bandwidth from the step's ``what`` ("... bandwidth 0.101 1, ...")."""
+    m = re.search(r"bandwidth ([0-9.eE+-]+)", what)
+    if not m:
+        raise ValueError(f"step 'what': no bandwidth in {what!r}")
+    return float(m.group(1))
+
+
+def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, names) -> dict:
+    """Each variant's window: fall, largest |φ|, |M_h|, |M_d|, distance ahead of the plan."""
+    import numpy as np
+
+    from controllers.design import DEFAULT_SCALES, design_rider
+    from controllers.motor import MotorPD
+    from euc_sim.cli.ride import with_found_values
+    from euc_sim.rides.profile import rider_plan, speed_profile
+    from euc_sim.rides.rider_fit import rider_from
+    from euc_sim.rides.signals import RideAssumptions
+    from euc_sim.rides.simulate import ride_params
+    from euc_sim.rides.spec import wheel_spec
+    from euc_sim.rides.tracking import simulate_profile
+
+    ride = json.loads((pair / "ride.json").read_text())
+    steps = {s["step"]: s for s in ride["simulation"]["steps"]}
+    if "calibrated_rider" not in steps or not isinstance(steps["drivetrain"]["rider"], dict):
+        raise ValueError(f"{pair / 'ride.json'}: no calibrated rider in its drivetrain step")
+    A = with_found_values(RideAssumptions(), wheel_spec(spec_path), ride["total_mass"])
+    params = ride_params(A)
+
+    def motor(m):
+        keys = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop")
+        return MotorPD(Kp=m["K_p"], Kd=m["K_d"], torque_limit=m["torque_limit"], **{k: m[k] for k in keys if k in m})
+
+    step = steps["drivetrain"]
+    law, drive = motor(steps["calibrated_rider"]["motor"]), motor(step["motor"])
+    fitted = {"delay": step["rider"]["delay"], "noise_std": step["rider"]["noise_std"],
+              "bandwidth": _bandwidth(steps["calibrated_rider"]["what"])}
+    prof = speed_profile(held, total_mass=A.total_mass)
+    t, v = prof["t"].to_numpy(), prof["v"].to_numpy()
+    w = (t >= t0) & (t <= t1)
+    out = {"rider": fitted, "effects": dict(step["effects_injected"]), "runs": {}}
+    for name in names:
+        rider = rider_from(fitted, params, law)          # designed against the law, as rider_fit does
+        m, eff, seed, window = drive, dict(step["effects_injected"]), 0, step["rider"]["plan_window"] or 6.0
+        if name.startswith("seed"):
+            seed = int(name[4:])
+        elif name == "no_noise":
+            rider = rider_from({**fitted, "noise_std": 0.0}, params, law)
+        elif name == "no_rolling":
+            eff.pop("rolling_resistance", None)
+        elif name == "no_drag":
+            eff.pop("aerodynamic_drag", None)
+        elif name == "no_voltage_limit":
+            m = law
+        elif name == "plan_10s":
+            window = 10.0
+        elif name == "no_integral":
+            rider = design_rider(params, law, delay=fitted["delay"], noise_std=fitted["noise_std"],
+                                 scales={"M_h": DEFAULT_SCALES["M_h"] * fitted["bandwidth"] ** 0.5, "x_int": None})
+        elif name == "default_rider":
+            rider = None
+        elif name != "as_stepped":
+            raise ValueError(f"--variants: unknown variant {name!r} (one of {', '.join(VARIANTS)})")
+        plan = rider_plan(t, v, window)
+        res = simulate_profile(t[w] - t0, plan[w], params, eff, seed=seed, track_iterations=0, motor=m,
+                               rider=rider)
+        fr = res.frame
+        d = distance_ahead(fr["t"], fr["x_dot"], fr["v_ref"])
+        at_limit = float("nan")
+        if np.isfinite(m.voltage):        # the motor's torque the voltage leaves, against what it gives
+            room = np.array([m.voltage_torque(x) for x in fr["x_dot"].to_numpy()])
+            at_limit = float(np.mean((fr["M_d"] * fr["x_dot"] > 0) & (np.abs(fr["M_d"]) >= 0.95 * room)))
+        out["runs"][name] = {
+            "fall": (t0 + res.falls[0]["t"], res.falls[0]["cause"]) if res.falls else None,
+            "max": {k: float(np.abs(fr[k]).max()) for k in ("phi", "M_h", "M_d")},
+            "ahead": (float(d.max()), float(d.min())), "v_min": float(fr["x_dot"].min()),
+            "voltage_share": at_limit, "t_phi": t0 + float(fr["t"].iloc[int(np.abs(fr["phi"]).argmax())])}
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("pair", type=Path)
+    ap.add_argument("held", type=Path)
+    ap.add_argument("spec", type=Path)
+    ap.add_argument("--start", type=float, default=541.0, help="window start, s of the held-out ride")
+    ap.add_argument("--end", type=float, default=600.0, help="window end, s")
+    ap.add_argument("--variants", default=",".join(VARIANTS))
+    a = ap.parse_args(argv)
+    for f in (a.pair / "ride.json", a.held, a.spec):
+        if not f.is_file():
+            print(f"calibrated_fall: {f}: no such file", file=sys.stderr)
+            return 2
+    try:
+        r = window_runs(a.pair, a.held, a.spec, a.start, a.end, [s for s in a.variants.split(",") if s])
+    except KeyError as exc:
+        print(f"calibrated_fall: {a.pair / 'ride.json'}: no field {exc} (not a ride JSON with simulation steps)",
+              file=sys.stderr)
+        return 2
+    except ValueError as exc:
+        print(f"calibrated_fall: {exc}", file=sys.stderr)
+        return 2
+    print(f"rider {r['rider']}, effects {r['effects']}, window {a.start:g}-{a.end:g} s")
+    print("| variant | fell | max abs phi rad (at s) | max abs M_h / M_d N·m | at the voltage limit | "
+          "distance ahead of the plan, max / min m | lowest speed m/s |")
+    print("| --- | --- | --- | --- | --- | --- | --- |")
+    for name, run in r["runs"].items():
+        fell = f"{run['fall'][0]:.2f} s ({run['fall'][1]})" if run["fall"] else "no"
+        print(f"| `{name}`: {VARIANTS[name]} | {fell} | {run['max']['phi']:.3f} ({run['t_phi']:.1f}) | "
+              f"{run['max']['M_h']:.0f} / {run['max']['M_d']:.0f} | {100 * run['voltage_share']:.1f} % | "
+              f"{run['ahead'][0]:+.1f} / {run['ahead'][1]:+.1f} | {run['v_min']:.2f} |")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
