@@ -19,7 +19,8 @@ def _speed_gain(p, motor, s: float) -> float:
 @pytest.mark.parametrize("motor", [MotorPD(), MotorPD(Kp=2803.0, Kd=57.9)])
 def test_speed_zero_is_a_right_half_plane_zero_of_the_speed_response(motor):
     z = speed_zero(TABLE3, motor)
-    assert 1.0 < z < 10.0                                   # rad/s: real and positive
+    assert z > 1.0, f"z = {z} rad/s: must be a real, positive zero"
+    assert z < 10.0, f"z = {z} rad/s: about 3 rad/s expected for Table 3"
     # the transfer function vanishes there, and not a little way off it
     assert _speed_gain(TABLE3, motor, z) < 1e-6 * _speed_gain(TABLE3, motor, 1.3 * z)
     assert _speed_gain(TABLE3, motor, 0.7 * z) > 1e-3 * _speed_gain(TABLE3, motor, 1.3 * z)
