@@ -106,10 +106,9 @@ def moving_average(t: np.ndarray, v: np.ndarray, width: float) -> np.ndarray:
     n = n + 1 if n % 2 == 0 else n
     if n <= 1:
         return v.copy()
-    pad = n // 2
-    vp = np.concatenate([np.full(pad, v[0]), v, np.full(pad, v[-1])])
-    c = np.concatenate([[0.0], np.cumsum(vp)])
-    return (c[n:] - c[:-n]) / n
+    from scipy.ndimage import uniform_filter1d
+
+    return uniform_filter1d(v, n, mode="nearest")      # centred (n odd); ends padded with their values
 
 
 #: Gain 1/√2 of a centred moving average at ω·width = 2·1.3916 (sin x / x = 1/√2 at x = 1.3916).
