@@ -71,11 +71,11 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     import numpy as np
 
     from controllers.design import DEFAULT_SCALES, design_rider
-    from controllers.motor import MotorPD
     from euc_sim.cli.ride import with_found_values
     from euc_sim.rides.profile import rider_plan, speed_profile
     from euc_sim.rides.rider_fit import rider_from
     from euc_sim.rides.signals import RideAssumptions
+    from euc_sim.rides.sim_steps import motor_from_law
     from euc_sim.rides.simulate import ride_params
     from euc_sim.rides.spec import wheel_spec
     from euc_sim.rides.tracking import simulate_profile
@@ -87,12 +87,8 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     A = with_found_values(RideAssumptions(), wheel_spec(spec_path), ride["total_mass"])
     params = ride_params(A)
 
-    def motor(m):
-        keys = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop")
-        return MotorPD(Kp=m["K_p"], Kd=m["K_d"], torque_limit=m["torque_limit"], **{k: m[k] for k in keys if k in m})
-
     step = steps["drivetrain"]
-    law, drive = motor(steps["calibrated_rider"]["motor"]), motor(step["motor"])
+    law, drive = motor_from_law(steps["calibrated_rider"]["motor"]), motor_from_law(step["motor"])
     fitted = {"delay": step["rider"]["delay"], "noise_std": step["rider"]["noise_std"],
               "bandwidth": _bandwidth(steps["calibrated_rider"]["what"])}
     prof = speed_profile(held, total_mass=A.total_mass)

@@ -41,7 +41,7 @@ import numpy as np
 from controllers.motor import MotorPD
 from euc_sim.model.parameters import Params
 
-__all__ = ["SimStep", "StepInputs", "LogChannels", "nominal_step", "measured_law_step",
+__all__ = ["SimStep", "motor_from_law", "StepInputs", "LogChannels", "nominal_step", "measured_law_step",
            "drivetrain_step", "STEP_BUILDERS", "SIM_EFFECTS", "effects_to_inject", "build_steps", "TARGET_RATIO", "CHANNELS",
            "log_channels", "simulated_pwm"]
 
@@ -53,6 +53,24 @@ TARGET_RATIO = 1.2
 CHANNELS = {"P": ("P_W", "W", "battery power"), "I": ("I_phase_A", "A", "phase current"),
             "pitch": ("pitch_rad", "rad", "body pitch"), "pwm": ("pwm_pct", "%", "PWM duty"),
             "M": ("M_Nm", "N·m", "motor torque"), "v": ("v_mps", "m/s", "wheel speed")}
+
+
+def motor_from_law(law: Mapping[str, float]) -> MotorPD:
+    """The motor a step's JSON ``motor`` describes (the inverse of :meth:`SimStep.describe`'s law).
+
+    Parameters
+    ----------
+    law : mapping
+        ``K_p`` (N·m/rad), ``K_d`` (N·m·s/rad), ``torque_limit`` (N·m), and where the step
+        had them ``tiltback_speed``, ``tiltback_gain``, ``voltage``, ``back_emf``, ``drop``.
+
+    Returns
+    -------
+    MotorPD
+    """
+    extra = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop")
+    return MotorPD(Kp=law["K_p"], Kd=law["K_d"], torque_limit=law["torque_limit"],
+                   **{k: law[k] for k in extra if k in law})
 
 
 @dataclass(frozen=True)

@@ -309,3 +309,13 @@ def test_ride_step_ablation_refuses_an_unknown_variant_and_a_missing_pair(tmp_pa
     assert mod.main([str(tmp_path / "nope"), "held.csv"]) == 2
     err = capsys.readouterr().err
     assert "ride.json" in err and "Traceback" not in err
+
+
+def test_motor_from_law_inverts_the_steps_description():
+    from euc_sim.rides.sim_steps import SimStep, motor_from_law
+
+    plain = MotorPD(Kp=5776.0, Kd=88.2, torque_limit=136.9)
+    full = MotorPD(Kp=5776.0, Kd=88.2, torque_limit=250.0, tiltback_speed=14.1, tiltback_gain=8.5e-5,
+                   voltage=151.2, back_emf=7.43, drop=0.123)
+    for m in (plain, full):
+        assert motor_from_law(SimStep("drivetrain", "", motor=m).describe()["motor"]) == m
