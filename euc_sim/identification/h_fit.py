@@ -392,8 +392,7 @@ def with_full_block(reduced: HFit, full: HFit, n_boot: int, block: float, blocks
         return reduced
     boot = reduced.h + (np.asarray(full.boot, dtype=float) - full.h)
     lo, hi = float(reduced.h_grid[0]), float(reduced.h_grid[-1])
-    q_lo, q_hi = np.percentile(boot, [2.5, 97.5])
-    ci = (float(max(lo, 2 * reduced.h - q_hi)), float(min(hi, 2 * reduced.h - q_lo)))
+    ci = _basic_interval(boot, reduced.h, lo, hi)
     step = float(reduced.h_grid[1] - reduced.h_grid[0])
     ok, why = _verdict(reduced.h, ci, reduced.flatness, (lo, hi), 2 * step, n_boot, block, blocks,
                        max_ci_width, min_rise)
@@ -450,13 +449,20 @@ def _bootstrap_interval(polys: list[ResidualPoly], grid: np.ndarray, boot_tot: n
             fine_tot += _block_sums(rp.residual(fine) ** 2, L, starts)
         boot = _parabolic_min(fine, fine_tot)
         step = 2 * (fine[1] - fine[0])
-    # basic (reverse-percentile) interval: the replicates' spread reflected about
-    # h_opt.  Resampling blocks of a ride whose information sits in one maneuver
-    # skews the replicates; the plain percentile interval then covered the true h
-    # in only 74-80 % of 50 noise seeds, the basic one in 90-94 % (the measurement-noise
-    # study that preceded issue 22's scripts/coverage_study.py).
+    return boot, _basic_interval(boot, h_opt, lo, hi)
+
+
+def _basic_interval(boot: np.ndarray, h: float, lo: float, hi: float) -> tuple[float, float]:
+    """The basic (reverse-percentile) 95 % interval of the replicates ``boot`` about ``h``,
+    within the search bounds [lo, hi], m.
+
+    The replicates' spread reflected about h.  Resampling blocks of a ride whose
+    information sits in one maneuver skews the replicates; the plain percentile interval
+    then covered the true h in only 74-80 % of 50 noise seeds, the basic one in 90-94 %
+    (the measurement-noise study that preceded issue 22's scripts/coverage_study.py).
+    """
     q_lo, q_hi = np.percentile(boot, [2.5, 97.5])
-    return boot, (float(max(lo, 2 * h_opt - q_hi)), float(min(hi, 2 * h_opt - q_lo)))
+    return float(max(lo, 2 * h - q_hi)), float(min(hi, 2 * h - q_lo))
 
 
 def _verdict(h_opt: float, ci: tuple[float, float], flatness: float, bounds: tuple[float, float],
