@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 from pathlib import Path
 
@@ -35,6 +34,7 @@ VARIANTS = {
     "plan_10s": "the plan smoothed over 10 s (the rider study's) instead of 6 s",
     "no_integral": "the same rider designed without the speed-error integral",
     "default_rider": "the default rider (0.15 s, no noise) in the same step",
+    "no_stop_model": "no stop model: the rider balances through the log's stops (as before 2026-11-26 18:30)",
 }
 
 
@@ -58,14 +58,6 @@ def distance_ahead(t, x_dot, v_ref):
     return np.concatenate([[0.0], np.cumsum(0.5 * (e[1:] + e[:-1]) * np.diff(t))])
 
 
-def _bandwidth(what: str) -> float:
-    """The calibrated rider's bandwidth from the step's ``what`` ("... bandwidth 0.101 1, ...")."""
-    m = re.search(r"bandwidth ([0-9.eE+-]+)", what)
-    if not m:
-        raise ValueError(f"step 'what': no bandwidth in {what!r}")
-    return float(m.group(1))
-
-
 def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, names) -> dict:
     """Each variant's window: fall, largest |φ|, |M_h|, |M_d|, distance ahead of the plan."""
     import numpy as np
@@ -76,6 +68,7 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     from euc_sim.rides.rider_fit import rider_from
     from euc_sim.rides.signals import RideAssumptions
     from euc_sim.rides.sim_steps import motor_from_law
+    from euc_sim.rides.stops import find_stops
     from euc_sim.rides.simulate import ride_params
     from euc_sim.rides.spec import wheel_spec
     from euc_sim.rides.tracking import simulate_profile
@@ -90,7 +83,7 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     step = steps["drivetrain"]
     law, drive = motor_from_law(steps["calibrated_rider"]["motor"]), motor_from_law(step["motor"])
     fitted = {"delay": step["rider"]["delay"], "noise_std": step["rider"]["noise_std"],
-              "bandwidth": _bandwidth(steps["calibrated_rider"]["what"])}
+              "bandwidth": step["rider"]["bandwidth"]}
     prof = speed_profile(held, total_mass=A.total_mass)
     t, v = prof["t"].to_numpy(), prof["v"].to_numpy()
     w = (t >= t0) & (t <= t1)
@@ -98,6 +91,7 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     for name in names:
         rider = rider_from(fitted, params, law)          # designed against the law, as rider_fit does
         m, eff, seed, window = drive, dict(step["effects_injected"]), 0, step["rider"]["plan_window"] or 6.0
+        stops = find_stops(t[w] - t0, v[w])               # on the log's speed, as simulate_ride finds them
         if name.startswith("seed"):
             seed = int(name[4:])
         elif name == "no_noise":
@@ -115,11 +109,13 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
                                  scales={"M_h": DEFAULT_SCALES["M_h"] * fitted["bandwidth"] ** 0.5, "x_int": None})
         elif name == "default_rider":
             rider = None
+        elif name == "no_stop_model":
+            stops = ()
         elif name != "as_stepped":
             raise ValueError(f"--variants: unknown variant {name!r} (one of {', '.join(VARIANTS)})")
         plan = rider_plan(t, v, window)
         res = simulate_profile(t[w] - t0, plan[w], params, eff, seed=seed, track_iterations=0, motor=m,
-                               rider=rider)
+                               rider=rider, stops=stops)
         fr = res.frame
         d = distance_ahead(fr["t"], fr["x_dot"], fr["v_ref"])
         at_limit = float("nan")

@@ -585,7 +585,7 @@ def calibrated_rider_step(prev, inp):
         return replace(prev, name=name, what=what, notes=(), why=f"the rider cannot be calibrated: {exc}")
     got = ", ".join(f"{k} {v['value']:.3g} {v['unit']}" for k, v in fit.params.items())
     return replace(prev, name=name, what=f"{what}: {got}", rider=fit.rider, plan_window=PLAN_WINDOW,
-                   notes=fit.notes, why=None)
+                   rider_fit={k: float(v["value"]) for k, v in fit.params.items()}, notes=fit.notes, why=None)
 
 
 #: nominal → measured law → calibrated rider → drivetrain (``build_steps(inp, RIDER_STEPS)``).

@@ -99,6 +99,9 @@ class SimStep:
     plan_window : float or None
         s: the rider's plan is the logged speed smoothed over this window
         (:func:`euc_sim.rides.profile.rider_plan`; the calibrated rider's); None: the profile.
+    rider_fit : mapping
+        The values the rider was fitted with, where he was (``delay`` s, ``bandwidth`` 1,
+        ``noise_std`` N·m: :func:`euc_sim.rides.rider_fit.rider_from` rebuilds him); empty otherwise.
     """
 
     name: str
@@ -110,6 +113,7 @@ class SimStep:
     notes: tuple[str, ...] = ()
     why: str | None = None
     plan_window: float | None = None
+    rider_fit: Mapping[str, float] = field(default_factory=dict)
 
     def describe(self) -> dict:
         """JSON-ready description of the step (its law, rider, effects, power model)."""
@@ -122,7 +126,8 @@ class SimStep:
         rider = None if self.rider is None else {
             "delay": float(getattr(self.rider, "delay", float("nan"))),
             "noise_std": float(getattr(self.rider, "noise_std", float("nan"))),
-            "plan_window": self.plan_window}
+            "plan_window": self.plan_window,
+            **({"bandwidth": float(self.rider_fit["bandwidth"])} if "bandwidth" in self.rider_fit else {})}
         return {"step": self.name, "what": self.what, "ran": self.why is None, "why": self.why,
                 "motor": law, "rider": rider or "default LQR rider designed for this motor",
                 "effects_injected": dict(self.effects), "power_model": dict(self.power),

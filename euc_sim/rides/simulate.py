@@ -44,7 +44,8 @@ from euc_sim.rides.plan_learning import filter_band
 from euc_sim.rides.signals import RideAssumptions, RideSignals
 from euc_sim.rides.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep,
                                      effects_to_inject, simulated_pwm)
-from euc_sim.rides.tracking import ProfileRun, simulate_profile, to_grid
+from euc_sim.rides.stops import find_stops
+from euc_sim.rides.tracking import LEAN_SHARE, ProfileRun, simulate_profile, to_grid
 
 __all__ = ["SIM_EFFECTS", "MAX_BRIDGED_GAP", "simulation_obstacle", "ride_params", "effects_to_inject",
            "battery_power", "RideSimulation", "simulate_ride", "plot_ride_simulation", "LOG_COLUMNS"]
@@ -432,9 +433,10 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
     falls = []
     names = [s.name for s in run]
     band = filter_band(sig.rate, sig.window, sig.polyorder)       # the plan learns what the log passes
+    stops = find_stops(t_p, v_p)          # on the log's speed: a smoothed plan stands still for less
     jobs = [(t_p, v_p if s.plan_window is None else rider_plan(t_p, v_p, s.plan_window), params,
              dict(s.effects), seed, dt, track_iterations, band,
-             _prefixed(progress, s.name, workers), s.name, i, s.motor, s.rider)
+             _prefixed(progress, s.name, workers), s.name, i, s.motor, s.rider, LEAN_SHARE, None, stops)
             for i, s in enumerate(run)]
     done = _run_jobs(jobs, names, params, workers, progress)
     for step, res in zip(run, done):

@@ -270,18 +270,54 @@ class _RideClock:
         self.bar.close()
 
 
-def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=None, rider=None):
+def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=None, rider=None, stops=()):
     """One run along the plan v_plan; its speed on the profile grid, m/s, and RMS error.
 
     ``motor`` (default the paper's PD) and ``rider`` (default the LQR rider designed for
-    that motor, :func:`euc_sim.simulation.engine.default_rider`)."""
-    from euc_sim.simulation.maneuvers import Maneuver
-    from euc_sim.simulation.engine import default_rider, simulate
+    that motor, :func:`euc_sim.simulation.engine.default_rider`).  With ``stops``
+    (:func:`euc_sim.rides.stops.find_stops`), each stretch between them is ridden from rest
+    on its own (a fresh rider: his memory cleared; stretch i > 0 draws its motor noise
+    from seed (``seed``, i)) and the wheel stands, foot down, through each stop
+    (:func:`euc_sim.rides.stops.rest_rows`); the frame's ``attrs["step_off"]`` is the
+    largest |ẋ| at which a stretch ended at a stop, m/s.  A fall in a stretch raises
+    :class:`FallError` at the ride's time with the ride up to it as ``trajectory``."""
+    from euc_sim.rides.stops import moving_segments, rest_rows
+    from euc_sim.simulation.errors import FallError
 
-    man = Maneuver("profile", float(v_plan[0]), (), (tuple(t.tolist()), tuple(v_plan.tolist())))
-    df = simulate(man, float(t[-1]), params=params, motor=motor,
-                  rider=rider if rider is not None else default_rider(params, motor), seed=seed,
-                  effects=dict(effects), dt=dt, progress=clock)
+    segments = moving_segments(t.size, list(stops)) if stops else [(0, t.size - 1)]
+    pieces, x_end, t_end, step_off, attrs = [], 0.0, None, 0.0, {}
+    rest_pose = _rest_pose(params, motor) if stops else (0.0, 0.0)
+
+    def stand(t0: float, t1: float, closed: bool) -> None:
+        """Rest rows after t0 up to t1 (t1 itself only when ``closed``)."""
+        ts = np.arange(t0 + dt, t1 + (0.5 if closed else -0.5) * dt, dt)
+        if ts.size:
+            pieces.append(rest_rows(ts, x_end, *rest_pose, np.interp(ts, t, v_plan)))
+
+    for i, (a, b) in enumerate(segments):
+        if t_end is None and a > 0:
+            stand(float(t[0]) - dt, float(t[a]), False)
+        elif t_end is not None:
+            stand(t_end, float(t[a]), False)
+        t0 = float(t[a])
+        seg_clock = None if clock is None else (lambda s, t0=t0: clock(t0 + s))
+        try:
+            df = _ride(t[a:b + 1] - t0, v_plan[a:b + 1], params, effects,
+                       seed if i == 0 else _stretch_seed(seed, i), dt, seg_clock, motor, rider)
+        except FallError as exc:
+            fell = FallError(t0 + exc.t, exc.quantity, exc.value, exc.bound)
+            part = [] if exc.trajectory is None else [_shifted(exc.trajectory, t0, x_end)]
+            fell.trajectory = pd.concat(pieces + part, ignore_index=True) if pieces or part else None
+            raise fell from None
+        pieces.append(_shifted(df, t0, x_end))
+        attrs = attrs or dict(df.attrs)
+        x_end, t_end = float(pieces[-1]["x"].iloc[-1]), float(pieces[-1]["t"].iloc[-1])
+        if stops and b < t.size - 1:
+            step_off = max(step_off, abs(float(df["x_dot"].iloc[-1])))
+    if t_end is not None and t_end < t[-1] - dt / 2:
+        stand(t_end, float(t[-1]), True)
+    df = pd.concat(pieces, ignore_index=True) if len(pieces) > 1 else pieces[0]
+    df.attrs.update(attrs, step_off=step_off)
     if clock is not None:
         clock(float(t[-1]))                # the whole ride ridden
     v_sim = to_grid(df["t"].to_numpy(), df["x_dot"].to_numpy(), t)
@@ -289,8 +325,38 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
     return df, v_sim, float(np.sqrt(np.mean((v_target - v_sim) ** 2)))
 
 
+def _ride(t, v_plan, params, effects, seed, dt, clock, motor, rider) -> pd.DataFrame:
+    """:func:`euc_sim.simulation.engine.simulate` along the plan (t from 0, s; m/s) from its trim."""
+    from euc_sim.simulation.engine import default_rider, simulate
+    from euc_sim.simulation.maneuvers import Maneuver
+
+    man = Maneuver("profile", float(v_plan[0]), (), (tuple(t.tolist()), tuple(v_plan.tolist())))
+    return simulate(man, float(t[-1]), params=params, motor=motor,
+                    rider=rider if rider is not None else default_rider(params, motor), seed=seed,
+                    effects=dict(effects), dt=dt, progress=clock)
+
+
+def _shifted(df: pd.DataFrame, t0: float, x0: float) -> pd.DataFrame:
+    """A stretch's frame on the ride's clock and road: t + t0, x + x0 (a new frame)."""
+    return df.assign(t=df["t"] + t0, x=df["x"] + x0)
+
+
+def _stretch_seed(seed: int, i: int) -> int:
+    """The motor-noise seed of stretch i > 0 of a ride run with ``seed``: one draw of SeedSequence((seed, i))."""
+    return int(np.random.SeedSequence((int(seed), int(i))).generate_state(1)[0])
+
+
+def _rest_pose(params: Params, motor) -> tuple[float, float]:
+    """(γ, φ) of the trim at rest, rad (:func:`controllers.rider.trim` at a = v = 0)."""
+    from controllers.motor import MotorPD
+    from controllers.rider import trim
+
+    gamma, phi, _, _ = trim(params, motor or MotorPD(), 0.0, 0.0)
+    return float(gamma), float(phi)
+
+
 def _correct_plan(t, target, plan, run, params, effects, seed, dt, iterations: int, band: float,
-                  notes: list, say, clock_of, motor=None, rider=None) -> pd.DataFrame:
+                  notes: list, say, clock_of, motor=None, rider=None, stops=()) -> pd.DataFrame:
     """Iterative learning: the plan corrected through the inverted closed loop, ridden again.
 
     Each correction is :func:`euc_sim.rides.plan_learning.inverse_correction` of the speed
@@ -317,7 +383,7 @@ def _correct_plan(t, target, plan, run, params, effects, seed, dt, iterations: i
         say(f"tracking correction {it + 1} of {iterations}: riding the corrected plan")
         clock = clock_of(f"correction {it + 1}")
         try:
-            df2, v2, _ = _track(t, target, plan, params, effects, seed, dt, clock, motor, rider)
+            df2, v2, _ = _track(t, target, plan, params, effects, seed, dt, clock, motor, rider, stops)
         except FallError as exc:
             notes.append(f"tracking correction {it + 1}: rider fell ({exc}); kept the "
                          f"previous run")
@@ -337,7 +403,8 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
                      seed: int = 0, dt: float = 1e-3, track_iterations: int = 1,
                      learn_band: float | None = None, progress: Callable[[str], None] | None = None,
                      label: str = "ride", position: int = 0, motor=None, rider=None,
-                     lean_share: float | None = LEAN_SHARE, band_limit: bool | None = None) -> ProfileRun:
+                     lean_share: float | None = LEAN_SHARE, band_limit: bool | None = None,
+                     stops: Sequence[tuple[int, int]] | None = None) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
     The simulated rider does not ride his plan as planned: a resisting force (drag,
@@ -398,6 +465,12 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         are not band-limited (a learned run that falls is discarded).  False: no band limit.
         None (default): band-limited when the envelope is on (``lean_share`` not None), so
         that ``lean_share=None`` still rides the profile as logged.
+    stops : sequence of (int, int), optional
+        The log's stops, (first, last) rows of ``t`` (:func:`euc_sim.rides.stops.find_stops`);
+        default: found on ``v`` (standing still for :data:`euc_sim.rides.stops.T_STOP` s or more).
+        Through each stop the rider stands, foot down, and he rides each stretch between
+        stops from rest with his memory cleared (:mod:`euc_sim.rides.stops`: the logs draw no
+        power at such stops).  A note counts them.  ``()``: one run through, no stop.
 
     Returns
     -------
@@ -436,10 +509,23 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
                          f"average): {np.sqrt(np.mean(dev ** 2)):.3f} m/s RMS, {dev.max():.2f} m/s at "
                          f"most from the {'limited' if a_limit is not None else 'logged'} profile")
             v = v_band
+    if stops is None:
+        from euc_sim.rides.stops import find_stops
+
+        stops = find_stops(t, logged) if t.size > 1 else ()
+    stops = tuple((int(a), int(b)) for a, b in stops)
+    ends = [i for stop in stops for i in stop]
+    if ends and (ends != sorted(ends) or ends[0] < 0 or ends[-1] >= t.size):
+        raise ValueError(f"stops: expected ordered (first, last) rows within 0…{t.size - 1}, got {list(stops)}")
+    if stops:
+        still = sum(float(t[b] - t[a]) for a, b in stops)
+        notes.append(f"the log stands still at {len(stops)} stops, {still:.0f} s of {t[-1] - t[0]:.0f} s: the "
+                     f"simulated rider stands there, foot down (no motor or ankle torque), and sets off "
+                     f"from rest with his memory cleared")
     say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
     clock = clock_of("ride")
     try:
-        df, v_sim, err = _track(t, v, v, params, effects, seed, dt, clock, motor, rider)
+        df, v_sim, err = _track(t, v, v, params, effects, seed, dt, clock, motor, rider, stops)
     except FallError as exc:
         cause = str(exc).split(": ", 1)[-1]
         notes.append(f"rider fell at t = {exc.t:.1f} s of {t[-1] - t[0]:.0f} s ({cause}): the "
@@ -454,7 +540,10 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
 
         band = filter_band() if learn_band is None else learn_band
         df = _correct_plan(t, logged, v, (df, v_sim, err), params, effects, seed, dt,
-                           track_iterations, band, notes, say, clock_of, motor, rider)
+                           track_iterations, band, notes, say, clock_of, motor, rider, stops)
+    if stops:
+        notes.append(f"at the stops the simulated rider (the run kept) put his foot down from up to "
+                     f"{df.attrs['step_off']:.2f} m/s")
     return ProfileRun(df, (), tuple(notes))
 
 

@@ -4,7 +4,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 if str(ROOT / "scripts") not in sys.path:
@@ -18,13 +17,6 @@ def test_distance_ahead_integrates_the_speed_error():
     d = calibrated_fall.distance_ahead(t, 2.0 + 0.5 * t, np.full(t.size, 2.0))   # ẋ − v_ref = 0.5 t
     np.testing.assert_allclose(d, 0.25 * t ** 2, atol=1e-9)
     assert calibrated_fall.distance_ahead([0.0], [1.0], [0.0]).tolist() == [0.0]
-
-
-def test_bandwidth_read_from_the_step():
-    what = "the rider calibrated on the fit ride: delay 0.281 s, bandwidth 0.101 1, noise_std 1.84 N·m"
-    assert calibrated_fall._bandwidth(what) == pytest.approx(0.101)
-    with pytest.raises(ValueError, match="bandwidth"):
-        calibrated_fall._bandwidth("default LQR rider")
 
 
 def test_missing_input_exits_2(tmp_path, capsys):

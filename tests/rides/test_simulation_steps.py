@@ -319,3 +319,18 @@ def test_motor_from_law_inverts_the_steps_description():
                    voltage=151.2, back_emf=7.43, drop=0.123)
     for m in (plain, full):
         assert motor_from_law(SimStep("drivetrain", "", motor=m).describe()["motor"]) == m
+
+
+def test_calibrated_riders_description_carries_his_fitted_values():
+    """The step's JSON ``rider`` gives the bandwidth he was designed with (not only in ``what``)."""
+    from euc_sim.rides.rider_fit import rider_from
+    from euc_sim.rides.signals import RideAssumptions
+    from euc_sim.rides.sim_steps import SimStep
+    from euc_sim.rides.simulate import ride_params
+
+    fitted = {"delay": 0.281, "bandwidth": 0.101, "noise_std": 1.84}
+    rider = rider_from(fitted, ride_params(RideAssumptions()), MotorPD())
+    got = SimStep("calibrated_rider", "", rider=rider, plan_window=6.0, rider_fit=fitted).describe()["rider"]
+    assert got == {"delay": pytest.approx(0.281), "noise_std": pytest.approx(1.84), "plan_window": 6.0,
+                   "bandwidth": pytest.approx(0.101)}
+    assert "bandwidth" not in SimStep("nominal", "", rider=rider).describe()["rider"]
