@@ -77,7 +77,7 @@ def bench_ride() -> dict:
     RiderRun.commands = timed_commands
     try:
         t0 = time.perf_counter()
-        run = simulate_profile(t, v, TABLE3, effects, track_iterations=0)
+        run = simulate_profile(t, v, TABLE3, effects, track_iterations=0, stops=())   # all 60 min ridden
         t_ride = time.perf_counter() - t0
     finally:
         RiderRun.commands = commands

@@ -1,11 +1,13 @@
 """Stops: where a logged wheel stands still long enough that nobody is balancing on it.
 
 A real rider who stops for more than a moment puts a foot down (or has not stepped on
-yet: most logs begin with the wheel switched on and standing).  The logs say so: over the
-17 shared euc_core logs that have stops of at least :data:`T_STOP` s, the battery power
-while the wheel stands is 0–10 W at the median and at most 32 W at the 90th percentile,
-against 300–3,200 W at the median while riding (``python scripts/stop_power.py``).  A
-rider balancing a standing wheel would make the motor work.
+yet: most logs begin with the wheel switched on and standing).  The logs say so
+(``python scripts/stop_power.py``, docs/ride_simulation.md): at the stops of
+:data:`T_STOP` s or more of the 20 shared logs that have them, the battery power's median
+is 0–1 W (8–10 W on the four V9 logs, whose wheel draws that idling), its 90th percentile
+at most 32 W, while at the shorter stands of the Begode and V9 logs the median is 9–31 W
+(the motor works: somebody balances) and riding 190–3,200 W.  The Leaperkim and Nosfet
+logs read 0 W at any stand, so they neither confirm nor refute it.
 
 The simulated rider therefore does not balance through a stop: the ride is split at the
 stops (:func:`find_stops`, :func:`moving_segments`); he rides each moving stretch from

@@ -519,7 +519,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         raise ValueError(f"stops: expected ordered (first, last) rows within 0…{t.size - 1}, got {list(stops)}")
     if stops:
         still = sum(float(t[b] - t[a]) for a, b in stops)
-        notes.append(f"the log stands still at {len(stops)} stops, {still:.0f} s of {t[-1] - t[0]:.0f} s: the "
+        notes.append(f"the log stands still at {len(stops)} stop{'s' * (len(stops) != 1)}, {still:.0f} s of {t[-1] - t[0]:.0f} s: the "
                      f"simulated rider stands there, foot down (no motor or ankle torque), and sets off "
                      f"from rest with his memory cleared")
     say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
