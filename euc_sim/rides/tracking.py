@@ -5,8 +5,9 @@
 with a progress bar over the ride's seconds, its acceleration first limited to what the
 simulated rider can ride (:func:`rider_acceleration_limit`); when he falls, the run stops there and the
 fall is reported once (the profile is never ridden again after a fall); otherwise his
-plan is corrected so that the simulated speed tracks the logged one.
-:func:`limit_acceleration` smooths a profile to a given acceleration.  :func:`to_grid`
+plan is corrected so that the simulated speed tracks the logged one.  Where the log
+stands still (:mod:`euc_sim.rides.stops`) the rider stands, foot down, and rides each
+stretch between stops from rest.  :func:`limit_acceleration` smooths a profile to a given acceleration.  :func:`to_grid`
 brings the 1 kHz simulation onto the log's grid.
 """
 
@@ -238,7 +239,8 @@ class ProfileRun:
     ----------
     frame : pandas.DataFrame or None
         :func:`euc_sim.simulation.engine.simulate`'s output (1/dt Hz), up to the fall
-        when the rider fell; None when he fell before the first step.
+        when the rider fell; None when he fell before the first step.  At the log's
+        stops, rows of the wheel at rest (:func:`euc_sim.rides.stops.rest_rows`).
     falls : tuple of dict
         ``{"t": s, "cause": str}`` of the fall that ended the run (at most one: the
         profile is never ridden again after a fall).
@@ -314,7 +316,9 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
         x_end, t_end = float(pieces[-1]["x"].iloc[-1]), float(pieces[-1]["t"].iloc[-1])
         if stops and b < t.size - 1:
             step_off = max(step_off, abs(float(df["x_dot"].iloc[-1])))
-    if t_end is not None and t_end < t[-1] - dt / 2:
+    if t_end is None:                      # the whole profile is one stop
+        stand(float(t[0]) - dt, float(t[-1]), True)
+    elif t_end < t[-1] - dt / 2:
         stand(t_end, float(t[-1]), True)
     df = pd.concat(pieces, ignore_index=True) if len(pieces) > 1 else pieces[0]
     df.attrs.update(attrs, step_off=step_off)

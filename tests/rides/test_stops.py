@@ -100,3 +100,11 @@ def test_a_fall_in_a_later_stretch_is_reported_at_the_rides_time(monkeypatch):
     assert isinstance(f, pd.DataFrame) and f["t"].is_monotonic_increasing
     assert f["t"].iloc[-1] == pytest.approx(run.falls[0]["t"], abs=1e-9)
     assert f["x"].iloc[-1] == pytest.approx(2.0 * (calls[0] + 1.5), abs=1e-6)   # the road goes on
+
+
+def test_a_profile_that_only_stands_is_stood_through():
+    t = np.arange(0.0, 10.0, 0.1)
+    run = tracking.simulate_profile(t, np.zeros(t.size), ride_params(RideAssumptions()), {}, track_iterations=0)
+    assert run.falls == ()
+    assert run.frame["t"].iloc[0] == pytest.approx(0.0) and run.frame["t"].iloc[-1] == pytest.approx(t[-1])
+    assert (run.frame[["x", "x_dot", "M_d", "M_h"]].to_numpy() == 0.0).all()
