@@ -34,7 +34,7 @@ VARIANTS = {
     "plan_10s": "the plan smoothed over 10 s (the rider study's) instead of 6 s",
     "no_integral": "the same rider designed without the speed-error integral",
     "default_rider": "the default rider (0.15 s, no noise) in the same step",
-    "no_stop_model": "no stop model: the rider balances through the log's stops (as before 2026-11-26 18:30)",
+    "no_stop_model": "the rider balances through the log's stops (no stop model)",
 }
 
 

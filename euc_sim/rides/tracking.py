@@ -545,7 +545,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         band = filter_band() if learn_band is None else learn_band
         df = _correct_plan(t, logged, v, (df, v_sim, err), params, effects, seed, dt,
                            track_iterations, band, notes, say, clock_of, motor, rider, stops)
-    if stops:
+    if any(a > 0 for a, _ in stops):          # a stretch ended at a stop
         notes.append(f"at the stops the simulated rider (the run kept) put his foot down from up to "
                      f"{df.attrs['step_off']:.2f} m/s")
     return ProfileRun(df, (), tuple(notes))
