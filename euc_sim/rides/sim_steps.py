@@ -55,6 +55,11 @@ CHANNELS = {"P": ("P_W", "W", "battery power"), "I": ("I_phase_A", "A", "phase c
             "M": ("M_Nm", "N·m", "motor torque"), "v": ("v_mps", "m/s", "wheel speed")}
 
 
+#: The voltage limit's settings a drivetrain fit may add (:meth:`MotorPD.voltage_torque`); a step's
+#: JSON law carries each that differs from its default.
+_VOLTAGE_EXTRAS = ("dead_time", "flux_weakening", "fw_speed")
+
+
 def motor_from_law(law: Mapping[str, float]) -> MotorPD:
     """The motor a step's JSON ``motor`` describes (the inverse of :meth:`SimStep.describe`'s law).
 
@@ -62,13 +67,14 @@ def motor_from_law(law: Mapping[str, float]) -> MotorPD:
     ----------
     law : mapping
         ``K_p`` (N·m/rad), ``K_d`` (N·m·s/rad), ``torque_limit`` (N·m), and where the step
-        had them ``tiltback_speed``, ``tiltback_gain``, ``voltage``, ``back_emf``, ``drop``.
+        had them ``tiltback_speed``, ``tiltback_gain``, ``voltage``, ``back_emf``, ``drop``,
+        ``dead_time``, ``flux_weakening``, ``fw_speed`` (:class:`controllers.motor.MotorPD`).
 
     Returns
     -------
     MotorPD
     """
-    extra = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop")
+    extra = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop") + _VOLTAGE_EXTRAS
     return MotorPD(Kp=law["K_p"], Kd=law["K_d"], torque_limit=law["torque_limit"],
                    **{k: law[k] for k in extra if k in law})
 
@@ -123,6 +129,8 @@ class SimStep:
             law.update(tiltback_speed=m.tiltback_speed, tiltback_gain=m.tiltback_gain)
         if math.isfinite(m.voltage):
             law.update(voltage=m.voltage, back_emf=m.back_emf, drop=m.drop)
+            law.update({k: getattr(m, k) for k in _VOLTAGE_EXTRAS
+                        if getattr(m, k) != MotorPD.__dataclass_fields__[k].default})
         rider = None if self.rider is None else {
             "delay": float(getattr(self.rider, "delay", float("nan"))),
             "noise_std": float(getattr(self.rider, "noise_std", float("nan"))),

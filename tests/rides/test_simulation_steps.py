@@ -317,7 +317,8 @@ def test_motor_from_law_inverts_the_steps_description():
     plain = MotorPD(Kp=5776.0, Kd=88.2, torque_limit=136.9)
     full = MotorPD(Kp=5776.0, Kd=88.2, torque_limit=250.0, tiltback_speed=14.1, tiltback_gain=8.5e-5,
                    voltage=151.2, back_emf=7.43, drop=0.123)
-    for m in (plain, full):
+    weakened = replace(full, dead_time=0.03, flux_weakening=0.011, fw_speed=12.0)   # a drivetrain fit's extras
+    for m in (plain, full, weakened):
         assert motor_from_law(SimStep("drivetrain", "", motor=m).describe()["motor"]) == m
 
 
