@@ -33,19 +33,23 @@ PAIRS = {"lynx": ("trips/leaperkim/lynx/0/0.csv", "trips/leaperkim/lynx/2/2.csv"
 
 
 def concealed(seeds, duration: float, out: Path, windows: int, length: float, repeats: int = 1,
-              plan_window: float = 10.0) -> list[dict]:
-    from tests.rides.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
+              plan_window: float = 10.0, wheel_law: str = "concealed") -> list[dict]:
+    from tests.rides.ridersynth import (PAPER_LAW, RIDER, WHEEL_LAW, concealed_fit_inputs,
+                                        eucworld_power_log, rider_ride)
     from euc_sim.rides.rider_fit import fit_rider
 
+    law = {"concealed": WHEEL_LAW, "paper": PAPER_LAW}[wheel_law]
     rows = []
     for seed in seeds:
         t0 = time.time()
-        log = eucworld_power_log(rider_ride(seed, duration), out / f"concealed_{seed}.csv", seed)
+        log = eucworld_power_log(rider_ride(seed, duration, law=law), out / f"concealed_{wheel_law}_{seed}.csv", seed)
         fit = fit_rider(log, windows=windows, window_length=length, seed=seed, repeats=repeats,
                         plan_window=plan_window,
-                        progress=lambda s: print("  ", s, flush=True), **concealed_fit_inputs())
-        row = {"seed": seed, "windows": [list(w) for w in fit.windows], "seconds": round(time.time() - t0, 1), "objective": fit.objective,
-               "objective_nominal": fit.objective_nominal, "notes": list(fit.notes)}
+                        progress=lambda s: print("  ", s, flush=True), **concealed_fit_inputs(law))
+        row = {"seed": seed, "wheel_law": wheel_law, "windows": [list(w) for w in fit.windows],
+               "seconds": round(time.time() - t0, 1), "objective": fit.objective,
+               "objective_nominal": fit.objective_nominal, "simulations": fit.simulations,
+               "falls": [dict(f) for f in fit.falls], "notes": list(fit.notes)}
         for name, truth in RIDER.items():
             p = fit.params[name]
             row[name] = {**p, "truth": truth, "covers": p["lo"] <= truth <= p["hi"],
@@ -144,6 +148,9 @@ def main(argv=None) -> int:
     ap.add_argument("--plan-window", type=float, default=10.0,
                     help="concealed: the rider's plan is the logged speed smoothed over this many s "
                          "(the ride page's is 6 s)")
+    ap.add_argument("--wheel-law", choices=("concealed", "paper"), default="concealed",
+                    help="concealed: the wheel's law of the synthetic ride: lawsynth's concealed law (K_p "
+                         "2,000) or the paper's PD (600 / 40, under which much of the design falls)")
     ap.add_argument("--track-iterations", type=int, default=1)
     ap.add_argument("--dt", type=float, default=1e-3)
     ap.add_argument("--max-gap", type=float, default=1.0, help="real: gaps bridged in the rider fit, s")
@@ -151,12 +158,13 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     if args.part == "concealed":
         res = concealed(args.seeds, args.duration, args.out, args.windows, args.length, args.repeats,
-                        args.plan_window)
+                        args.plan_window, args.wheel_law)
     else:
         res = [real(w, 0, args.windows, args.length, args.rider, args.track_iterations, args.dt,
                     args.max_gap)
                for w in args.wheel]
-    tag = "_".join(str(s) for s in args.seeds) if args.part == "concealed" else "_".join(args.wheel)
+    tag = ("_".join(str(s) for s in args.seeds) + ("" if args.wheel_law == "concealed" else f"_{args.wheel_law}")
+           if args.part == "concealed" else "_".join(args.wheel))
     path = args.out / f"rider_calibration_{args.part}_{tag}.json"
     path.write_text(json.dumps(res, indent=1, default=float))
     print(f"wrote {path}")
