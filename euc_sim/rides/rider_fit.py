@@ -320,10 +320,11 @@ def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng)
     the box.
 
     A design point at which the rider falls bounds the region the plant can be ridden in
-    along its ray from the round's anchor (``center``, or where ``center`` falls the nearest
-    point that rode): it is replaced by the point halfway back to the anchor, up to
-    :data:`HALVINGS` times (:func:`_ride_or_halve`).  Falls are thus not lost design points,
-    and the surface is fitted where the rider rides.
+    along its ray from the round's center: it is replaced by the point halfway back to it, up
+    to :data:`HALVINGS` times (:func:`_ride_or_halve`).  Falls are thus not lost design points,
+    and the surface is fitted where the rider rides.  A center at which he falls (a surface's
+    optimum beyond the points that rode) moves so halfway back to the nearest point that rode,
+    or onto it, and the round's box is put there.
 
     Returns
     -------
@@ -339,14 +340,14 @@ def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng)
     """
     X, F, drawn, fell = pool
     half = _HALVES[min(level, len(_HALVES) - 1)]
+    nearest = lambda c: X[int(np.argmin([np.sum((xi - c) ** 2) for xi in X]))] if X else None  # noqa: E731
+    if _ride_or_halve(setup, rows, block, center, nearest(center), pool):
+        center = X[-1]                           # where he rode: the center, or halfway back from it
+    elif X:
+        center = nearest(center)
     box = np.stack([np.clip(center - half, 0, 1), np.clip(center + half, 0, 1)], axis=1)
-    anchor = None
-    for k, x in enumerate(np.vstack([center[None, :], _lhs(npts - 1, box, rng)])):
-        if k > 0 and anchor is None and X:                   # the center fell: nearest point that rode
-            anchor = X[int(np.argmin([np.sum((xi - center) ** 2) for xi in X]))]
-        ok = _ride_or_halve(setup, rows, block, x, anchor, pool)
-        if k == 0 and ok:
-            anchor = center
+    for x in _lhs(npts - 1, box, rng):
+        _ride_or_halve(setup, rows, block, x, nearest(center) if X else None, pool)
     near = [i for i, x in enumerate(X) if np.all(np.abs(x - center) <= max(half, 0.2) + 1e-9)]
     if len(near) < MIN_POINTS:
         short = lambda x: ", ".join(f"{k} {v:.3g}" for k, v in _values_of(x).items())  # noqa: E731
@@ -460,8 +461,7 @@ def _fall_note(fell: np.ndarray, n_sims: int) -> str:
         return f"no design point fell ({n_sims} simulations)"
     v = np.array([[_values_of(x)[p.name] for p in RIDER_PARAMS] for x in fell])
     return (f"{len(fell)} of {n_sims} design simulations fell (each moved halfway back to a point that rode): "
-            + ", ".join(f"{p.name} {v[:, j].min():.3g}–{v[:, j].max():.3g} {p.unit}" for j, p in enumerate(RIDER_PARAMS))
-            + f"; the least delay that fell {v[:, 0].min():.3g} s")
+            + ", ".join(f"{p.name} {v[:, j].min():.3g}–{v[:, j].max():.3g} {p.unit}" for j, p in enumerate(RIDER_PARAMS)))
 
 
 def _param_table(center: np.ndarray, boot: np.ndarray) -> tuple[dict, list]:
