@@ -319,12 +319,12 @@ def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng)
     fell), fits the quadratic surface on the pool's points near ``center`` and minimises it in
     the box.
 
-    A design point at which the rider falls bounds the region the plant can be ridden in
-    along its ray from the round's center: it is replaced by the point halfway back to it, up
-    to :data:`HALVINGS` times (:func:`_ride_or_halve`).  Falls are thus not lost design points,
-    and the surface is fitted where the rider rides.  A center at which he falls (a surface's
-    optimum beyond the points that rode) moves so halfway back to the nearest point that rode,
-    or onto it, and the round's box is put there.
+    A point at which the rider falls bounds the region the plant can be ridden in: it moves
+    halfway back to the round's center, up to :data:`HALVINGS` times (:func:`_ride_or_halve`);
+    a center at which he falls (an optimum beyond the points that rode) moves so towards the
+    nearest point that rode, or onto it, and the box goes there; fresh points of the box top
+    the round up to ``npts`` that rode (at most :data:`ROUND_BUDGET` × ``npts`` more
+    simulations).  The surface is fitted where he rides.
 
     Returns
     -------
@@ -346,15 +346,16 @@ def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng)
     elif X:
         center = nearest(center)
     box = np.stack([np.clip(center - half, 0, 1), np.clip(center + half, 0, 1)], axis=1)
-    for x in _lhs(npts - 1, box, rng):
-        _ride_or_halve(setup, rows, block, x, nearest(center) if X else None, pool)
+    rode, start = sum(_ride_or_halve(setup, rows, block, x, nearest(center), pool)
+                      for x in _lhs(npts - 1, box, rng)), len(drawn)
+    while rode < npts - 1 and len(drawn) - start < ROUND_BUDGET * npts:   # top up where he rides
+        rode += _ride_or_halve(setup, rows, block, _lhs(1, box, rng)[0], nearest(center), pool)
     near = [i for i, x in enumerate(X) if np.all(np.abs(x - center) <= max(half, 0.2) + 1e-9)]
     if len(near) < MIN_POINTS:
         short = lambda x: ", ".join(f"{k} {v:.3g}" for k, v in _values_of(x).items())  # noqa: E731
-        raise RiderFitError(f"rider fit: only {len(near)} of the design points near {short(center)} "
-                            f"rode without falling ({MIN_POINTS} needed: a quadratic in the three settings "
-                            f"has {MIN_POINTS} coefficients); {len(fell)} of {len(drawn)} simulated fell"
-                            + (f", the last at {'; '.join(map(short, fell[-6:]))}" if fell else ""))
+        raise RiderFitError(f"rider fit: only {len(near)} of the design points near {short(center)} rode without "
+                            f"falling ({MIN_POINTS} needed: a quadratic in the three settings has {MIN_POINTS} coefficients); "
+                            f"{len(fell)} of {len(drawn)} simulated fell, the last at {'; '.join(map(short, fell[-6:]))}")
     Xn, Fn = np.asarray(X)[near], np.asarray(F)[near]
     coef = _surface(Xn, Fn)
     hull = np.stack([Xn.min(axis=0), Xn.max(axis=0)], axis=1)
@@ -366,10 +367,8 @@ def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng)
 
 
 def _ride_or_halve(setup: _Setup, rows, block, x: np.ndarray, anchor, pool) -> bool:
-    """Simulate the design point ``x`` into ``pool``; where the rider falls, the point halfway
-    to ``anchor`` (scaled coordinates) instead, up to :data:`HALVINGS` times.  True when a
-    point rode.  Each simulation rides noise draws of its own (seed + :data:`POINT_SEED` ×
-    its rank among the points drawn)."""
+    """Simulate the design point ``x`` into ``pool`` (noise seed + :data:`POINT_SEED` × its rank); where
+    the rider falls, the point halfway to ``anchor`` instead, up to :data:`HALVINGS` times.  True when one rode."""
     X, F, drawn, fell = pool
     for _ in range(HALVINGS + 1):
         drawn.append(x)
@@ -395,11 +394,12 @@ CHECK_SEED = 100_000
 POINT_SEED = 10_007
 #: Half-widths of the search boxes by level, in the scaled [0, 1] coordinates.
 _HALVES = (0.5, 0.2, 0.08)
-#: A design point at which the rider falls moves halfway back to the round's anchor at most this
-#: many times (its ray then ends within 1/2^HALVINGS of the anchor's distance from it).
+#: A design point at which the rider falls moves halfway back to the round's center at most this often.
 HALVINGS = 2
 #: Design points a round's surface needs: a quadratic in the three settings has 10 coefficients.
 MIN_POINTS = 10
+#: Fresh points top a round up to the points it asked for that rode, in at most this many times as many.
+ROUND_BUDGET = 2
 
 
 def _search(setup: _Setup, rows, block, F_log, w, rounds, rng, say) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
@@ -457,11 +457,10 @@ def _search(setup: _Setup, rows, block, F_log, w, rounds, rng, say) -> tuple[np.
 
 def _fall_note(fell: np.ndarray, n_sims: int) -> str:
     """Where the design points fell, for the notes (the region the plant cannot be ridden in)."""
-    if not len(fell):
-        return f"no design point fell ({n_sims} simulations)"
-    v = np.array([[_values_of(x)[p.name] for p in RIDER_PARAMS] for x in fell])
-    return (f"{len(fell)} of {n_sims} design simulations fell (each moved halfway back to a point that rode): "
-            + ", ".join(f"{p.name} {v[:, j].min():.3g}–{v[:, j].max():.3g} {p.unit}" for j, p in enumerate(RIDER_PARAMS)))
+    v = np.array([[_values_of(x)[p.name] for p in RIDER_PARAMS] for x in fell]).reshape(-1, len(RIDER_PARAMS))
+    where = [f"{p.name} {v[:, j].min():.3g}–{v[:, j].max():.3g} {p.unit}" for j, p in enumerate(RIDER_PARAMS) if len(v)]
+    return f"{len(v)} of {n_sims} design simulations fell" + (" (each moved back towards a point that rode): "
+                                                              + ", ".join(where) if len(v) else "")
 
 
 def _param_table(center: np.ndarray, boot: np.ndarray) -> tuple[dict, list]:

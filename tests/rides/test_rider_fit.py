@@ -181,9 +181,14 @@ def test_design_points_that_fall_bound_the_region_and_are_replaced(monkeypatch):
     rf._round(setup, None, None, features(u_true), w, 14, u_true, 0, pool, np.random.default_rng(0))
     beyond = u_true.copy()
     beyond[0] = rf.RIDER_PARAMS[0].to_unit(0.30)
+    n0 = len(pool[0])
     new, *_ = rf._round(setup, None, None, features(u_true), w, 12, beyond, 1, pool, np.random.default_rng(1))
     assert rf._values_of(new)["delay"] <= 0.2 + 1e-9 and all(rf._values_of(x)["delay"] <= 0.2 for x in pool[0])
+    # its box straddles the edge of the region: fresh points top it up to the 11 that rode it asked
+    # for besides its center (the point it moved onto, already in the pool); 9 without them
+    assert len(pool[0]) - n0 >= 11
     # without the replacement (the former design) the first round stops
     monkeypatch.setattr(rf, "HALVINGS", 0)
+    monkeypatch.setattr(rf, "ROUND_BUDGET", 0)
     with pytest.raises(rf.RiderFitError, match="only 8 of the design points.*10 coefficients"):
         rf._search(setup, None, None, features(u_true), w, (14, 12, 10), np.random.default_rng(0), lambda s: None)
