@@ -340,11 +340,9 @@ def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng)
     """
     X, F, drawn, fell = pool
     half = _HALVES[min(level, len(_HALVES) - 1)]
-    nearest = lambda c: X[int(np.argmin([np.sum((xi - c) ** 2) for xi in X]))] if X else None  # noqa: E731
-    if _ride_or_halve(setup, rows, block, center, nearest(center), pool):
-        center = X[-1]                           # where he rode: the center, or halfway back from it
-    elif X:
-        center = nearest(center)
+    nearest = lambda c: X[int(np.argmin([np.sum((xi - c) ** 2) for xi in X]))] if X else c  # noqa: E731
+    # where he rode: the center, or halfway back from it to the nearest point that rode, or that point
+    center = X[-1] if _ride_or_halve(setup, rows, block, center, nearest(center), pool) else nearest(center)
     box = np.stack([np.clip(center - half, 0, 1), np.clip(center + half, 0, 1)], axis=1)
     rode, start = sum(_ride_or_halve(setup, rows, block, x, nearest(center), pool)
                       for x in _lhs(npts - 1, box, rng)), len(drawn)
@@ -366,7 +364,7 @@ def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng)
     return new, coef, hull, level + (0 if edge.any() else 1), bool(edge.any())
 
 
-def _ride_or_halve(setup: _Setup, rows, block, x: np.ndarray, anchor, pool) -> bool:
+def _ride_or_halve(setup: _Setup, rows, block, x: np.ndarray, anchor: np.ndarray, pool) -> bool:
     """Simulate the design point ``x`` into ``pool`` (noise seed + :data:`POINT_SEED` × its rank); where
     the rider falls, the point halfway to ``anchor`` instead, up to :data:`HALVINGS` times.  True when one rode."""
     X, F, drawn, fell = pool
@@ -379,7 +377,7 @@ def _ride_or_halve(setup: _Setup, rows, block, x: np.ndarray, anchor, pool) -> b
             F.append(f)
             return True
         fell.append(x)
-        if anchor is None:
+        if np.allclose(x, anchor):
             return False
         x = anchor + 0.5 * (x - anchor)
     return False
@@ -446,7 +444,9 @@ def _search(setup: _Setup, rows, block, F_log, w, rounds, rng, say) -> tuple[np.
             say(f"rider fit start {k + 1} round {r + 2}: {n_sims} simulations, now {_values_of(c)}"
                 + (" (on the box's edge: the next box moves there)" if edge else ""))
         f = _simulated_features(check, _values_of(c), rows, block) if len(starts) > 1 else None
-        n_sims += len(starts) > 1
+        if f is not None and _simulated_features(setup, _values_of(c), rows, block) is None:
+            f = None                    # rides the check's draws but falls on the fit's own: not kept
+        n_sims += 2 * (len(starts) > 1)
         finals.append((J(f) if f is not None else (0.0 if len(starts) == 1 else math.inf), k, c, cf, hl))
     j_best, k, center, coef, hull = min(finals, key=lambda z: z[0])
     if len(finals) > 1:
@@ -589,7 +589,8 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     ms_sim = _simulated_mean_squares(setup, rider, rows, block)
     F_nom = _simulated_features(setup, {p.name: p.nominal for p in RIDER_PARAMS}, rows, block)
     if ms_sim is None:
-        raise RiderFitError(f"rider fit: the calibrated rider {values} falls along the windows")
+        raise RiderFitError(f"rider fit: the rider nearest the log's features ({', '.join(f'{k} {v:.3g}' for k, v in values.items())}) falls "
+                            f"along the windows: this plant cannot carry the rider the log shows")
     F_fit = _log_rms(ms_sim)
     d_sim = 0.5 * np.log(ms_sim[boot_idx].mean(axis=1)) - F_fit
     hull = np.stack([np.minimum(hull[:, 0], center), np.maximum(hull[:, 1], center)], axis=1)
