@@ -31,9 +31,9 @@ RIDER = {"delay": 0.2, "bandwidth": 0.4, "noise_std": 5.0}
 
 
 def rider_ride(seed: int, duration: float = 240.0, rider=RIDER, dt: float = 1e-3,
-               law=WHEEL_LAW) -> pd.DataFrame:
-    """The closed-loop ride under the wheel's ``law`` (MotorPD keywords): columns t, x_dot, gamma,
-    gamma_dot, M_d (SI)."""
+               law=WHEEL_LAW, params=None) -> pd.DataFrame:
+    """The closed-loop ride under the wheel's ``law`` (MotorPD keywords), ``params`` (default Table 3):
+    columns t, x_dot, gamma, gamma_dot, M_d (SI)."""
     from controllers.motor import MotorPD
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.rider_fit import rider_from
@@ -43,18 +43,19 @@ def rider_ride(seed: int, duration: float = 240.0, rider=RIDER, dt: float = 1e-3
     motor = MotorPD(**law)
     t, v = profile(seed, duration)
     man = Maneuver(name="profile", table=(tuple(t.tolist()), tuple(v.tolist())))
-    df = simulate(man, duration, motor=motor, rider=rider_from(rider, TABLE3, motor), seed=seed,
+    params = TABLE3 if params is None else params
+    df = simulate(man, duration, params=params, motor=motor, rider=rider_from(rider, params, motor), seed=seed,
                   effects=ROAD, dt=dt)
     return df[["t", "x_dot", "gamma", "gamma_dot", "M_d"]]
 
 
-def eucworld_power_log(ride: pd.DataFrame, path: Path, seed: int) -> Path:
+def eucworld_power_log(ride: pd.DataFrame, path: Path, seed: int, R: float | None = None) -> Path:
     """EUC World CSV: irregular 5 Hz rows, battery power, phase current, 0.1° pitch."""
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.simulate import battery_power
 
     rng = np.random.default_rng(seed)
-    ride = ride.assign(P=battery_power(ride["M_d"], ride["x_dot"], ride["gamma_dot"], TABLE3.R,
+    ride = ride.assign(P=battery_power(ride["M_d"], ride["x_dot"], ride["gamma_dot"], R or TABLE3.R,
                                        DRIVETRAIN["eta_motor"], DRIVETRAIN["eta_regen"],
                                        DRIVETRAIN["drivetrain_idle_loss"]))
     T = float(ride["t"].iloc[-1])
@@ -78,11 +79,11 @@ def eucworld_power_log(ride: pd.DataFrame, path: Path, seed: int) -> Path:
     return path
 
 
-def concealed_fit_inputs(law=WHEEL_LAW):
+def concealed_fit_inputs(law=WHEEL_LAW, params=None):
     """What the fit is told: the ride's params, the wheel's ``law``, road and drivetrain, k_t."""
     from controllers.motor import MotorPD
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.signals import RideAssumptions
 
-    return {"params": TABLE3, "motor": MotorPD(**law), "effects": dict(ROAD),
+    return {"params": TABLE3 if params is None else params, "motor": MotorPD(**law), "effects": dict(ROAD),
             "drivetrain": dict(DRIVETRAIN), "assumptions": RideAssumptions(torque_constant=K_T)}
