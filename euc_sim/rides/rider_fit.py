@@ -589,8 +589,8 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     ms_sim = _simulated_mean_squares(setup, rider, rows, block)
     F_nom = _simulated_features(setup, {p.name: p.nominal for p in RIDER_PARAMS}, rows, block)
     if ms_sim is None:
-        raise RiderFitError(f"rider fit: the rider nearest the log's features ({', '.join(f'{k} {v:.3g}' for k, v in values.items())}) falls "
-                            f"along the windows: this plant cannot carry the rider the log shows")
+        raise RiderFitError(f"rider fit: the rider nearest the log's features ({', '.join(f'{k} {v:.3g}' for k, v in values.items())}) "
+                            f"falls along the windows ({_fall_note(fell, n_sims)}): this plant cannot carry the rider the log shows")
     F_fit = _log_rms(ms_sim)
     d_sim = 0.5 * np.log(ms_sim[boot_idx].mean(axis=1)) - F_fit
     hull = np.stack([np.minimum(hull[:, 0], center), np.maximum(hull[:, 1], center)], axis=1)
