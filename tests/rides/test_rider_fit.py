@@ -192,3 +192,26 @@ def test_design_points_that_fall_bound_the_region_and_are_replaced(monkeypatch):
     monkeypatch.setattr(rf, "ROUND_BUDGET", 0)
     with pytest.raises(rf.RiderFitError, match="only 8 of the design points.*10 coefficients"):
         rf._search(setup, None, None, features(u_true), w, (14, 12, 10), np.random.default_rng(0), lambda s: None)
+
+
+def test_a_path_whose_end_falls_on_the_fits_own_draws_is_not_kept(monkeypatch):
+    """A rider near the edge of what the plant carries rides some noise draws and falls on
+    others (Blitz 1: 0.310 s rode the check's draws, fell on the fit's own).  A path's end is
+    kept only if it rides both: here every rider slower than 0.18 s falls on the fit's own
+    draws (seed 0) and the log's features point at 0.19 s, so no path's end is kept."""
+    truth = {"delay": 0.19, "bandwidth": 0.4, "noise_std": 5.0}
+    u_true = np.array([p.to_unit(truth[p.name]) for p in rf.RIDER_PARAMS])
+    A = np.random.default_rng(1).normal(size=(6, 3))
+    features = lambda x: A @ (x - u_true) + 0.5 * (A ** 2) @ ((x - u_true) ** 2)   # noqa: E731
+
+    def fake(setup, values, rows, block):
+        x = np.array([p.to_unit(values[p.name]) for p in rf.RIDER_PARAMS])
+        falls = values["delay"] > 0.25 or (values["delay"] > 0.18 and setup.seed == 0)
+        return None if falls else features(x)
+
+    monkeypatch.setattr(rf, "_simulated_features", fake)
+    said = []
+    setup = rf._Setup(None, (), (), None, None, None, {}, {}, 0, 2e-3, 8.0)
+    rf._search(setup, None, None, features(u_true), np.ones(6), (14, 12, 10), np.random.default_rng(0), said.append)
+    ends = [s for s in said if s.startswith("rider fit: the paths end at")]
+    assert len(ends) == 1 and ends[0].count("(distance inf)") == 2, said[-1]
