@@ -32,28 +32,43 @@ PAIRS = {"lynx": ("trips/leaperkim/lynx/0/0.csv", "trips/leaperkim/lynx/2/2.csv"
          "v9": ("trips/inmotion/v9/0/0.csv", "trips/inmotion/v9/1/1.csv", "specs/v9.csv")}
 
 
+#: Plants of the concealed ride: Table 3, or Master Pro 6's (R 0.2794 m, 130.4 kg rider + wheel, from
+#: its ride page), on which the paper's PD throws 32 of the fit's 93 design riders off.
+PLANTS = {"table3": {}, "master_pro": {"R": 0.2794, "total_mass": 130.44}}
+
+
 def concealed(seeds, duration: float, out: Path, windows: int, length: float, repeats: int = 1,
-              plan_window: float = 10.0) -> list[dict]:
-    from tests.rides.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
+              plan_window: float = 10.0, wheel_law: str = "concealed", plant: str = "table3",
+              truth: dict | None = None) -> list[dict]:
+    from tests.rides.ridersynth import (PAPER_LAW, RIDER, WHEEL_LAW, concealed_fit_inputs,
+                                        eucworld_power_log, rider_ride)
+    from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.rider_fit import fit_rider
 
+    law = {"concealed": WHEEL_LAW, "paper": PAPER_LAW}[wheel_law]
+    pl = PLANTS[plant]
+    params = TABLE3.replace(R=pl["R"], m=pl["total_mass"] - TABLE3.m0 - TABLE3.mw) if pl else TABLE3
+    truth = dict(RIDER if truth is None else truth)
     rows = []
     for seed in seeds:
         t0 = time.time()
-        log = eucworld_power_log(rider_ride(seed, duration), out / f"concealed_{seed}.csv", seed)
+        log = eucworld_power_log(rider_ride(seed, duration, rider=truth, law=law, params=params),
+                                 out / f"concealed_{wheel_law}_{plant}_{seed}.csv", seed, R=params.R)
         fit = fit_rider(log, windows=windows, window_length=length, seed=seed, repeats=repeats,
                         plan_window=plan_window,
-                        progress=lambda s: print("  ", s, flush=True), **concealed_fit_inputs())
-        row = {"seed": seed, "windows": [list(w) for w in fit.windows], "seconds": round(time.time() - t0, 1), "objective": fit.objective,
-               "objective_nominal": fit.objective_nominal, "notes": list(fit.notes)}
-        for name, truth in RIDER.items():
+                        progress=lambda s: print("  ", s, flush=True), **concealed_fit_inputs(law, params))
+        row = {"seed": seed, "wheel_law": wheel_law, "plant": plant, "windows": [list(w) for w in fit.windows],
+               "seconds": round(time.time() - t0, 1), "objective": fit.objective,
+               "objective_nominal": fit.objective_nominal, "simulations": fit.simulations,
+               "falls": [dict(f) for f in fit.falls], "notes": list(fit.notes)}
+        for name, value in truth.items():
             p = fit.params[name]
-            row[name] = {**p, "truth": truth, "covers": p["lo"] <= truth <= p["hi"],
-                         "error": p["value"] - truth}
+            row[name] = {**p, "truth": value, "covers": p["lo"] <= value <= p["hi"],
+                         "error": p["value"] - value}
         rows.append(row)
         print(f"seed {seed}: " + ", ".join(f"{n} {row[n]['value']:.3g} [{row[n]['lo']:.3g}, "
                                            f"{row[n]['hi']:.3g}] (truth {row[n]['truth']:g})"
-                                           for n in RIDER) + f"  {row['seconds']} s", flush=True)
+                                           for n in truth) + f"  {row['seconds']} s", flush=True)
     return rows
 
 
@@ -144,6 +159,13 @@ def main(argv=None) -> int:
     ap.add_argument("--plan-window", type=float, default=10.0,
                     help="concealed: the rider's plan is the logged speed smoothed over this many s "
                          "(the ride page's is 6 s)")
+    ap.add_argument("--wheel-law", choices=("concealed", "paper"), default="concealed",
+                    help="concealed: the wheel's law of the synthetic ride: lawsynth's concealed law (K_p "
+                         "2,000) or the paper's PD (600 / 40, under which much of the design falls)")
+    ap.add_argument("--plant", choices=sorted(PLANTS), default="table3",
+                    help="concealed: the synthetic ride's radius and mass (master_pro: Master Pro 6's)")
+    ap.add_argument("--truth", type=float, nargs=3, metavar=("DELAY", "BANDWIDTH", "NOISE"),
+                    help="concealed: the concealed rider (default 0.2 s, 0.4, 5 N·m)")
     ap.add_argument("--track-iterations", type=int, default=1)
     ap.add_argument("--dt", type=float, default=1e-3)
     ap.add_argument("--max-gap", type=float, default=1.0, help="real: gaps bridged in the rider fit, s")
@@ -151,12 +173,15 @@ def main(argv=None) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     if args.part == "concealed":
         res = concealed(args.seeds, args.duration, args.out, args.windows, args.length, args.repeats,
-                        args.plan_window)
+                        args.plan_window, args.wheel_law, args.plant,
+                        None if args.truth is None else dict(zip(("delay", "bandwidth", "noise_std"), args.truth)))
     else:
         res = [real(w, 0, args.windows, args.length, args.rider, args.track_iterations, args.dt,
                     args.max_gap)
                for w in args.wheel]
-    tag = "_".join(str(s) for s in args.seeds) if args.part == "concealed" else "_".join(args.wheel)
+    tag = ("_".join(str(s) for s in args.seeds) + ("" if args.wheel_law == "concealed" else f"_{args.wheel_law}")
+           + ("" if args.plant == "table3" else f"_{args.plant}")
+           if args.part == "concealed" else "_".join(args.wheel))
     path = args.out / f"rider_calibration_{args.part}_{tag}.json"
     path.write_text(json.dumps(res, indent=1, default=float))
     print(f"wrote {path}")

@@ -50,7 +50,9 @@ def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         them ``M`` N·m (``torque`` column, else phase current × k_t) and ``pitch`` rad
         (``tilt``, any sign and offset).  ``attrs["stamps"]``: the log's time stamps, s;
         ``attrs["quantum"]``: the step each of ``M`` and ``pitch`` is written in (channel
-        units, :func:`reading_step`), where the log writes it in steps.
+        units, :func:`reading_step`), where the log writes it in steps; ``attrs["gaps"]``:
+        ``max_gap`` s, the ``count`` of intervals between readings longer (the ride is split
+        there) and their ``median`` length, s.
     """
     log = as_log(log)
     raw, _ = resample(log, rate, max_gap=max_gap)
@@ -70,6 +72,9 @@ def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         out["pitch"] = raw["tilt"].to_numpy()
     frame = pd.DataFrame(out)
     frame.attrs["stamps"] = log.data["t"].to_numpy(float)
+    gaps = np.diff(frame.attrs["stamps"])
+    frame.attrs["gaps"] = {"max_gap": float(max_gap), "count": int(np.sum(gaps > max_gap)),
+                           "median": float(np.median(gaps[gaps > max_gap])) if np.any(gaps > max_gap) else 0.0}
     d = log.data
     steps = {"pitch": (d["tilt"], 1.0) if log.has("tilt") else None,
              "M": (d["torque"], 1.0) if log.has("torque") else
@@ -172,8 +177,21 @@ def fit_windows(channels: pd.DataFrame, n: int = 3, length: float = 60.0, v_min:
         else:
             i += 1
     if not tiles:
-        raise RiderFitError(f"no {length:g} s stretch of the ride above {v_min:g} m/s without a gap: "
-                            f"the rider cannot be fitted (try a shorter window length)")
+        raise RiderFitError(_no_window(t, good, seg, length, v_min, channels.attrs.get("gaps")))
     if len(tiles) > n:
         tiles = [tiles[k] for k in np.unique(np.round(np.linspace(0, len(tiles) - 1, n)).astype(int))]
     return tiles
+
+
+def _no_window(t, good, seg, length: float, v_min: float, gaps: dict | None) -> str:
+    """Why no window fits: the longest stretch, and the gaps between readings that split the ride."""
+    run = longest = 0.0
+    for k in range(1, t.size):
+        run = run + (t[k] - t[k - 1]) if good[k] and good[k - 1] and seg[k] == seg[k - 1] else 0.0
+        longest = max(longest, run)
+    text = (f"no {length:g} s stretch of the ride above {v_min:g} m/s without a gap: the longest is "
+            f"{longest:.1f} s")
+    if gaps and gaps["count"]:
+        text += (f"; the log's readings stop for more than {gaps['max_gap']:g} s {gaps['count']} times "
+                 f"(median {gaps['median']:.2g} s), which splits the ride into {len(np.unique(seg))} pieces")
+    return text + ": the rider cannot be fitted"

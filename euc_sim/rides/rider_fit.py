@@ -283,6 +283,9 @@ class RiderFit:
     simulations : int
         Closed-loop window sets simulated (falls included).
     notes : tuple of str
+    falls : tuple of dict
+        The design points at which the rider fell (``delay``, ``bandwidth``, ``noise_std``):
+        where this plant cannot be ridden.
     """
 
     rider: Rider
@@ -293,13 +296,14 @@ class RiderFit:
     windows: tuple
     simulations: int
     notes: tuple = field(default=())
+    falls: tuple = field(default=())
 
     def as_json(self) -> dict:
         """JSON-ready summary."""
         return {"params": self.params, "rider": self.rider.as_dict(), "objective": self.objective,
                 "objective_nominal": self.objective_nominal, "features": self.features,
                 "windows": [list(w) for w in self.windows], "simulations": self.simulations,
-                "notes": list(self.notes)}
+                "falls": [dict(f) for f in self.falls], "notes": list(self.notes)}
 
 
 def _values_of(x: np.ndarray) -> dict:
@@ -311,29 +315,45 @@ def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng)
 
     Simulates ``npts`` design points (``center`` and a Latin hypercube of the box, half-width
     0.5, 0.2, 0.08 of the scaled range by level), each on noise draws of its own (seed +
-    :data:`POINT_SEED` × its rank), into ``pool`` (lists X, F and all points drawn), fits the
-    quadratic surface on the pool's points near ``center`` and minimises it in the box.
+    :data:`POINT_SEED` × its rank), into ``pool`` (lists X, F, all points drawn and those that
+    fell), fits the quadratic surface on the pool's points near ``center`` and minimises it in
+    the box.
+
+    A point at which the rider falls bounds the region the plant can be ridden in: it moves
+    halfway back to the round's center, up to :data:`HALVINGS` times (:func:`_ride_or_halve`);
+    a center at which he falls (an optimum beyond the points that rode) moves so towards the
+    nearest point that rode, or onto it, and the box goes there; fresh points of the box top
+    the round up to ``npts`` that rode (at most :data:`ROUND_BUDGET` × ``npts`` more
+    simulations).  The surface is fitted where he rides.
 
     Returns
     -------
     tuple
         New center, surface coefficients, hull of the points used (3 × 2), next level,
         whether the optimum ended on the box's own edge.
+
+    Raises
+    ------
+    RiderFitError
+        when fewer than :data:`MIN_POINTS` points near ``center`` rode (a quadratic in the
+        three settings has that many coefficients).
     """
-    X, F, drawn = pool
+    X, F, drawn, fell = pool
     half = _HALVES[min(level, len(_HALVES) - 1)]
+    nearest = lambda c: X[int(np.argmin([np.sum((xi - c) ** 2) for xi in X]))] if X else c  # noqa: E731
+    # where he rode: the center, or halfway back from it to the nearest point that rode, or that point
+    center = X[-1] if _ride_or_halve(setup, rows, block, center, nearest(center), pool) else nearest(center)
     box = np.stack([np.clip(center - half, 0, 1), np.clip(center + half, 0, 1)], axis=1)
-    for x in np.vstack([center[None, :], _lhs(npts - 1, box, rng)]):
-        drawn.append(x)                       # each design point rides noise draws of its own
-        f = _simulated_features(replace(setup, seed=setup.seed + POINT_SEED * len(drawn)), _values_of(x),
-                                rows, block)
-        if f is not None:
-            X.append(x)
-            F.append(f)
+    rode, start = sum(_ride_or_halve(setup, rows, block, x, nearest(center), pool)
+                      for x in _lhs(npts - 1, box, rng)), len(drawn)
+    while rode < npts - 1 and len(drawn) - start < ROUND_BUDGET * npts:   # top up where he rides
+        rode += _ride_or_halve(setup, rows, block, _lhs(1, box, rng)[0], nearest(center), pool)
     near = [i for i, x in enumerate(X) if np.all(np.abs(x - center) <= max(half, 0.2) + 1e-9)]
-    if len(near) < 10:
-        raise RiderFitError(f"rider fit: only {len(near)} of the design points near "
-                            f"{_values_of(center)} rode without falling (10 needed)")
+    if len(near) < MIN_POINTS:
+        short = lambda x: ", ".join(f"{k} {v:.3g}" for k, v in _values_of(x).items())  # noqa: E731
+        raise RiderFitError(f"rider fit: only {len(near)} of the design points near {short(center)} rode without "
+                            f"falling ({MIN_POINTS} needed: a quadratic in the three settings has {MIN_POINTS} coefficients); "
+                            f"{len(fell)} of {len(drawn)} simulated fell, the last at {'; '.join(map(short, fell[-6:]))}")
     Xn, Fn = np.asarray(X)[near], np.asarray(F)[near]
     coef = _surface(Xn, Fn)
     hull = np.stack([Xn.min(axis=0), Xn.max(axis=0)], axis=1)
@@ -342,6 +362,25 @@ def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng)
     edge = ((np.abs(new - box[:, 0]) < 1e-6) & (box[:, 0] > 1e-9)) | \
            ((np.abs(new - box[:, 1]) < 1e-6) & (box[:, 1] < 1 - 1e-9))
     return new, coef, hull, level + (0 if edge.any() else 1), bool(edge.any())
+
+
+def _ride_or_halve(setup: _Setup, rows, block, x: np.ndarray, anchor: np.ndarray, pool) -> bool:
+    """Simulate the design point ``x`` into ``pool`` (noise seed + :data:`POINT_SEED` × its rank); where
+    the rider falls, the point halfway to ``anchor`` instead, up to :data:`HALVINGS` times.  True when one rode."""
+    X, F, drawn, fell = pool
+    for _ in range(HALVINGS + 1):
+        drawn.append(x)
+        f = _simulated_features(replace(setup, seed=setup.seed + POINT_SEED * len(drawn)), _values_of(x),
+                                rows, block)
+        if f is not None:
+            X.append(x)
+            F.append(f)
+            return True
+        fell.append(x)
+        if np.allclose(x, anchor):
+            return False
+        x = anchor + 0.5 * (x - anchor)
+    return False
 
 
 #: Offset of the noise seeds on which the search's paths are compared.
@@ -353,6 +392,12 @@ CHECK_SEED = 100_000
 POINT_SEED = 10_007
 #: Half-widths of the search boxes by level, in the scaled [0, 1] coordinates.
 _HALVES = (0.5, 0.2, 0.08)
+#: A design point at which the rider falls moves halfway back to the round's center at most this often.
+HALVINGS = 2
+#: Design points a round's surface needs: a quadratic in the three settings has 10 coefficients.
+MIN_POINTS = 10
+#: Fresh points top a round up to the points it asked for that rode, in at most this many times as many.
+ROUND_BUDGET = 2
 
 
 def _search(setup: _Setup, rows, block, F_log, w, rounds, rng, say) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
@@ -372,13 +417,14 @@ def _search(setup: _Setup, rows, block, F_log, w, rounds, rng, say) -> tuple[np.
     -------
     tuple
         Optimum in [0, 1]³, its path's last surface's coefficients, the box its design
-        points span (3 × 2), and the number of simulations.
+        points span (3 × 2), the number of simulations, and the design points at which the
+        rider fell (k × 3, scaled).
     """
-    X, F, drawn = [], [], []
+    X, F, drawn, fell = [], [], [], []
     J = lambda f: float(np.sum(w * (f - F_log) ** 2))                 # noqa: E731
     nominal = np.array([p.to_unit(p.nominal) for p in RIDER_PARAMS])
-    center, coef, hull, level, edge = _round(setup, rows, block, F_log, w, rounds[0], nominal, 0, (X, F, drawn), rng)
-    n_sims = rounds[0]
+    center, coef, hull, level, edge = _round(setup, rows, block, F_log, w, rounds[0], nominal, 0, (X, F, drawn, fell), rng)
+    n_sims = len(drawn)
     say(f"rider fit round 1: {n_sims} simulations, now {_values_of(center)}")
     starts = [center]
     if len(rounds) > 1:
@@ -393,18 +439,28 @@ def _search(setup: _Setup, rows, block, F_log, w, rounds, rng, say) -> tuple[np.
     for k, c in enumerate(starts):
         lv, cf, hl = level, coef, hull
         for r, npts in enumerate(rounds[1:]):
-            c, cf, hl, lv, edge = _round(setup, rows, block, F_log, w, npts, c, lv, (X, F, drawn), rng)
-            n_sims += npts
+            c, cf, hl, lv, edge = _round(setup, rows, block, F_log, w, npts, c, lv, (X, F, drawn, fell), rng)
+            n_sims = len(drawn) + k
             say(f"rider fit start {k + 1} round {r + 2}: {n_sims} simulations, now {_values_of(c)}"
                 + (" (on the box's edge: the next box moves there)" if edge else ""))
         f = _simulated_features(check, _values_of(c), rows, block) if len(starts) > 1 else None
-        n_sims += len(starts) > 1
+        if f is not None and _simulated_features(setup, _values_of(c), rows, block) is None:
+            f = None                    # rides the check's draws but falls on the fit's own: not kept
+        n_sims += 2 * (len(starts) > 1)
         finals.append((J(f) if f is not None else (0.0 if len(starts) == 1 else math.inf), k, c, cf, hl))
     j_best, k, center, coef, hull = min(finals, key=lambda z: z[0])
     if len(finals) > 1:
         say("rider fit: the paths end at " + "; ".join(f"{_values_of(z[2])} (distance {z[0]:.1f})"
                                                          for z in finals) + f": start {k + 1} kept")
-    return center, coef, hull, n_sims
+    return center, coef, hull, n_sims, np.asarray(fell).reshape(-1, len(RIDER_PARAMS))
+
+
+def _fall_note(fell: np.ndarray, n_sims: int) -> str:
+    """Where the design points fell, for the notes (the region the plant cannot be ridden in)."""
+    v = np.array([[_values_of(x)[p.name] for p in RIDER_PARAMS] for x in fell]).reshape(-1, len(RIDER_PARAMS))
+    where = [f"{p.name} {v[:, j].min():.3g}–{v[:, j].max():.3g} {p.unit}" for j, p in enumerate(RIDER_PARAMS) if len(v)]
+    return f"{len(v)} of {n_sims} design simulations fell" + (" (each moved back towards a point that rode): "
+                                                              + ", ".join(where) if len(v) else "")
 
 
 def _param_table(center: np.ndarray, boot: np.ndarray) -> tuple[dict, list]:
@@ -527,13 +583,14 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     # the log's variance + the simulation's (the same per draw, averaged over `repeats` draws)
     var = np.maximum((1.0 + 1.0 / repeats) * d_log.var(axis=0), 0.05 ** 2)
     w = 1.0 / var
-    center, coef, hull, n_sims = _search(setup, rows, block, F_log, w, rounds, rng, say)
+    center, coef, hull, n_sims, fell = _search(setup, rows, block, F_log, w, rounds, rng, say)
     values = _values_of(center)
     rider = rider_from(values, params, motor)
     ms_sim = _simulated_mean_squares(setup, rider, rows, block)
     F_nom = _simulated_features(setup, {p.name: p.nominal for p in RIDER_PARAMS}, rows, block)
     if ms_sim is None:
-        raise RiderFitError(f"rider fit: the calibrated rider {values} falls along the windows")
+        raise RiderFitError(f"rider fit: the rider nearest the log's features ({', '.join(f'{k} {v:.3g}' for k, v in values.items())}) "
+                            f"falls along the windows ({_fall_note(fell, n_sims)}): this plant cannot carry the rider the log shows")
     F_fit = _log_rms(ms_sim)
     d_sim = 0.5 * np.log(ms_sim[boot_idx].mean(axis=1)) - F_fit
     hull = np.stack([np.minimum(hull[:, 0], center), np.maximum(hull[:, 1], center)], axis=1)
@@ -544,11 +601,12 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     notes.append(f"fitted on {len(wins)} window(s) of {window_length:g} s of {log.path}, channels "
                  f"{', '.join(names)}; the motor noise's correlation time is held at "
                  f"{rider.noise_tau:g} s")
+    notes.append(_fall_note(fell, n_sims))
     feats = {"names": feat_names, "log": F_log.tolist(), "fitted": F_fit.tolist(),
              "nominal": None if F_nom is None else F_nom.tolist()}
     return RiderFit(rider=rider, params=out, objective=J(F_fit), objective_nominal=J(F_nom),
                     features=feats, windows=wins, simulations=(n_sims + 2) * repeats,
-                    notes=tuple(notes))
+                    notes=tuple(notes), falls=tuple(_values_of(x) for x in fell))
 
 
 def calibrated_rider_step(prev, inp):

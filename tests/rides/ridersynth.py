@@ -20,35 +20,42 @@ from euc_sim.rides.lawsynth import EW_HEADER, K_T, LAW, ROAD, _sample, profile
 #: rider's corrections do not reach (lawsynth's 45 N·m is a law-recovery case: along a log's
 #: speed profile it throws every rider off).
 WHEEL_LAW = {**LAW, "torque_limit": 150.0}
+#: The paper's PD (600 / 40 N·m/rad, 250 N·m) as the wheel's law: a softer wheel under which a slow
+#: or noisy rider falls (a twin of the ride table's Blitz and Master Pro fits, whose law is not
+#: in their logs).
+PAPER_LAW = {"Kp": 600.0, "Kd": 40.0, "torque_limit": 250.0}
 #: The battery-power model of the written log: efficiencies and idle drain, W.
 DRIVETRAIN = {"eta_motor": 0.85, "eta_regen": 0.7, "drivetrain_idle_loss": 40.0}
 #: The concealed rider: issue 21's 0.2 s, a softer than default rider, 5 N·m of noise.
 RIDER = {"delay": 0.2, "bandwidth": 0.4, "noise_std": 5.0}
 
 
-def rider_ride(seed: int, duration: float = 240.0, rider=RIDER, dt: float = 1e-3) -> pd.DataFrame:
-    """The closed-loop ride: columns t, x_dot, gamma, gamma_dot, M_d (SI)."""
+def rider_ride(seed: int, duration: float = 240.0, rider=RIDER, dt: float = 1e-3,
+               law=WHEEL_LAW, params=None) -> pd.DataFrame:
+    """The closed-loop ride under the wheel's ``law`` (MotorPD keywords), ``params`` (default Table 3):
+    columns t, x_dot, gamma, gamma_dot, M_d (SI)."""
     from controllers.motor import MotorPD
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.rider_fit import rider_from
     from euc_sim.simulation.engine import simulate
     from euc_sim.simulation.maneuvers import Maneuver
 
-    motor = MotorPD(**WHEEL_LAW)
+    motor = MotorPD(**law)
     t, v = profile(seed, duration)
     man = Maneuver(name="profile", table=(tuple(t.tolist()), tuple(v.tolist())))
-    df = simulate(man, duration, motor=motor, rider=rider_from(rider, TABLE3, motor), seed=seed,
+    params = TABLE3 if params is None else params
+    df = simulate(man, duration, params=params, motor=motor, rider=rider_from(rider, params, motor), seed=seed,
                   effects=ROAD, dt=dt)
     return df[["t", "x_dot", "gamma", "gamma_dot", "M_d"]]
 
 
-def eucworld_power_log(ride: pd.DataFrame, path: Path, seed: int) -> Path:
+def eucworld_power_log(ride: pd.DataFrame, path: Path, seed: int, R: float | None = None) -> Path:
     """EUC World CSV: irregular 5 Hz rows, battery power, phase current, 0.1° pitch."""
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.simulate import battery_power
 
     rng = np.random.default_rng(seed)
-    ride = ride.assign(P=battery_power(ride["M_d"], ride["x_dot"], ride["gamma_dot"], TABLE3.R,
+    ride = ride.assign(P=battery_power(ride["M_d"], ride["x_dot"], ride["gamma_dot"], R or TABLE3.R,
                                        DRIVETRAIN["eta_motor"], DRIVETRAIN["eta_regen"],
                                        DRIVETRAIN["drivetrain_idle_loss"]))
     T = float(ride["t"].iloc[-1])
@@ -72,11 +79,11 @@ def eucworld_power_log(ride: pd.DataFrame, path: Path, seed: int) -> Path:
     return path
 
 
-def concealed_fit_inputs():
-    """What the fit is told: the ride's params, the wheel's law, road and drivetrain, k_t."""
+def concealed_fit_inputs(law=WHEEL_LAW, params=None):
+    """What the fit is told: the ride's params, the wheel's ``law``, road and drivetrain, k_t."""
     from controllers.motor import MotorPD
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.signals import RideAssumptions
 
-    return {"params": TABLE3, "motor": MotorPD(**WHEEL_LAW), "effects": dict(ROAD),
+    return {"params": TABLE3 if params is None else params, "motor": MotorPD(**law), "effects": dict(ROAD),
             "drivetrain": dict(DRIVETRAIN), "assumptions": RideAssumptions(torque_constant=K_T)}
