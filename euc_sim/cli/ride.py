@@ -110,7 +110,7 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
         The wheel's radius, weight and voltage where known
         (:func:`euc_sim.rides.spec.wheel_spec`).
     calibrate_rider : bool
-        Add the ``calibrated_rider`` step (:func:`euc_sim.rides.rider_fit.calibrated_rider_step`:
+        Add the ``calibrated_rider`` step (:func:`euc_sim.rides.rider_step.calibrated_rider_step`:
         the rider fitted on LOG, minutes of simulation) between the measured law and the drivetrain.
 
     Returns
@@ -194,7 +194,7 @@ def _step_line(st: dict) -> str:
 
 
 def _rider_steps():
-    from euc_sim.rides.rider_fit import RIDER_STEPS
+    from euc_sim.rides.rider_step import RIDER_STEPS
 
     return RIDER_STEPS
 

@@ -59,11 +59,9 @@ from euc_sim.rides.response_surface import lhs as _lhs, minimise as _minimise, s
 from euc_sim.rides.rider_features import (BAND_WINDOWS, RiderFitError, band_features,  # noqa: F401
                                          fit_windows, log_channels)
 from euc_sim.rides.signals import RideAssumptions, as_log
-from euc_sim.rides.sim_steps import STEP_BUILDERS, effects_to_inject
 
 __all__ = ["RiderParam", "RIDER_PARAMS", "BAND_WINDOWS", "RiderFitError", "RiderFit", "rider_from",
-           "log_channels", "band_features", "fit_windows", "fit_rider",
-           "calibrated_rider_step", "RIDER_STEPS"]
+           "log_channels", "band_features", "fit_windows", "fit_rider"]
 
 
 @dataclass(frozen=True)
@@ -607,44 +605,3 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     return RiderFit(rider=rider, params=out, objective=J(F_fit), objective_nominal=J(F_nom),
                     features=feats, windows=wins, simulations=(n_sims + 2) * repeats,
                     notes=tuple(notes), falls=tuple(_values_of(x) for x in fell))
-
-
-def calibrated_rider_step(prev, inp):
-    """The ``calibrated_rider`` step of :mod:`euc_sim.rides.sim_steps`: the rider fitted on the fit ride.
-
-    The rider is fitted (:func:`fit_rider`, default settings) on ``inp.fit_log`` with the
-    previous step's motor law (the measured one where the fit ride showed it), the
-    accepted effects as physics and the augmented fit's battery-power model, and rides
-    :data:`PLAN_WINDOW`'s plan; a ride it cannot be fitted on skips the step (``why``).
-
-    Parameters
-    ----------
-    prev : SimStep
-        The last step that ran.
-    inp : StepInputs
-
-    Returns
-    -------
-    SimStep
-    """
-    from euc_sim.rides.controller_report import torque_constant
-
-    name, what = "calibrated_rider", "the rider calibrated on the fit ride"
-    if inp.fit_log is None:
-        return replace(prev, name=name, what=what, notes=(), why="no fit ride log to calibrate the rider on")
-    eff, _ = effects_to_inject(inp.augmented, inp.accepted)
-    power = {k: float(inp.augmented.get(k, d)) for k, d in
-             (("eta_motor", 0.85), ("eta_regen", 0.7), ("drivetrain_idle_loss", 0.0))}
-    k_t = torque_constant((inp.ride or {}).get("drivetrain"))
-    try:
-        fit = fit_rider(inp.fit_log, params=inp.params, motor=prev.motor, effects=eff, drivetrain=power,
-                        assumptions=RideAssumptions(torque_constant=k_t))
-    except (RiderFitError, ValueError) as exc:
-        return replace(prev, name=name, what=what, notes=(), why=f"the rider cannot be calibrated: {exc}")
-    got = ", ".join(f"{k} {v['value']:.3g} {v['unit']}" for k, v in fit.params.items())
-    return replace(prev, name=name, what=f"{what}: {got}", rider=fit.rider, plan_window=PLAN_WINDOW,
-                   rider_fit={k: float(v["value"]) for k, v in fit.params.items()}, notes=fit.notes, why=None)
-
-
-#: nominal → measured law → calibrated rider → drivetrain (``build_steps(inp, RIDER_STEPS)``).
-RIDER_STEPS = STEP_BUILDERS[:2] + (calibrated_rider_step,) + STEP_BUILDERS[2:]

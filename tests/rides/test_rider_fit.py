@@ -118,18 +118,6 @@ def test_concealed_rider_delay_recovered(tmp_path):
     assert js["rider"]["delay"] == pytest.approx(d["value"])
 
 
-def test_calibrated_rider_step_sits_between_the_law_and_the_drivetrain_and_says_why_it_skips():
-    from euc_sim.model.parameters import TABLE3
-    from euc_sim.rides.sim_steps import StepInputs, build_steps
-
-    est = {"eta_motor": 0.8, "eta_regen": 0.6}
-    steps = build_steps(StepInputs(TABLE3, est, est, (), {}, None), rf.RIDER_STEPS)
-    assert [s.name for s in steps] == ["nominal", "measured_law", "calibrated_rider", "drivetrain"]
-    cal = steps[2]
-    assert cal.why is not None and "no fit ride log" in cal.why
-    assert steps[3].rider is None and steps[3].plan_window is None   # built on the last step that ran
-
-
 def test_a_parameter_ending_on_its_bound_is_flagged_and_warned_about():
     center = np.array([0.0, 0.5, 0.5])                 # delay on its lower bound
     boot = np.array([[0.0, 0.4, 0.45], [0.02, 0.6, 0.55], [0.01, 0.5, 0.5]])
