@@ -70,7 +70,11 @@ def run_jobs(fn: Callable[[Any], Any], jobs: Sequence, workers: int,
     except BaseException:
         for proc in list((getattr(pool, "_processes", None) or {}).values()):
             proc.kill()
-        pool.shutdown(wait=False, cancel_futures=True)
+        # Wait for the pool's manager thread, which ends at once with its workers dead: left
+        # running, it can close its wake-up pipe while the interpreter's exit hook writes to it
+        # (concurrent.futures.process._python_exit), which prints "Exception ignored in ..."
+        # and a traceback after the interruption message.
+        pool.shutdown(wait=True, cancel_futures=True)
         raise
     pool.shutdown(wait=True)
     return [done[i] for i in range(len(jobs))]
