@@ -58,71 +58,17 @@ from euc_sim.rides.profile import PLAN_WINDOW, rider_plan
 from euc_sim.rides.response_surface import lhs as _lhs, minimise as _minimise, surface as _surface
 from euc_sim.rides.rider_features import (BAND_WINDOWS, RiderFitError, band_features,  # noqa: F401
                                          fit_windows, log_channels)
+from euc_sim.rides.rider_params import RIDER_PARAMS, RiderParam, rider_from  # noqa: F401
 from euc_sim.rides.signals import RideAssumptions, as_log
 
 __all__ = ["RiderParam", "RIDER_PARAMS", "BAND_WINDOWS", "RiderFitError", "RiderFit", "rider_from",
            "log_channels", "band_features", "fit_windows", "fit_rider"]
 
 
-@dataclass(frozen=True)
-class RiderParam:
-    """A fitted rider setting: name, nominal value, search bounds, unit, log-scaled search."""
-
-    name: str
-    nominal: float
-    lo: float
-    hi: float
-    unit: str
-    log: bool
-
-    def to_unit(self, value: float) -> float:
-        """The value in the search's [0, 1] coordinate."""
-        f = math.log if self.log else (lambda z: z)
-        return (f(value) - f(self.lo)) / (f(self.hi) - f(self.lo))
-
-    def from_unit(self, u: float) -> float:
-        """The value at the search coordinate u ∈ [0, 1]."""
-        if self.log:
-            return math.exp(math.log(self.lo) + u * (math.log(self.hi) - math.log(self.lo)))
-        return self.lo + u * (self.hi - self.lo)
-
-
-#: The rider's fitted settings (default rider: 0.15 s, ρ = 1; generated recordings: 3 N·m).
-RIDER_PARAMS = (RiderParam("delay", 0.15, 0.03, 0.40, "s", False),
-                RiderParam("bandwidth", 1.0, 0.05, 20.0, "1", True),
-                RiderParam("noise_std", 3.0, 0.3, 40.0, "N·m", True))
 #: Each reading of the simulated log is the mean over this many seconds before its stamp.
 READING_MEAN = 0.2
 #: Block length of the bootstrap, s.
 BLOCK = 10.0
-
-
-def rider_from(values: Mapping[str, float], params: Params, motor: MotorPD) -> Rider:
-    """The rider with the given ``delay`` (s), ``bandwidth`` (1) and ``noise_std`` (N·m).
-
-    Parameters
-    ----------
-    values : mapping
-        ``{"delay", "bandwidth", "noise_std"}``.
-    params : Params
-        The rider's model of the system (the simulated ride's parameters).
-    motor : MotorPD
-        The wheel's law the gains are designed against.
-
-    Returns
-    -------
-    Rider
-        LQR gains from :func:`controllers.design.design_rider` with the ankle-torque
-        scale of Bryson's rule multiplied by √bandwidth.
-    """
-    from controllers.design import DEFAULT_SCALES, design_rider
-
-    bw = float(values["bandwidth"])
-    if not (math.isfinite(bw) and bw > 0):
-        raise RiderFitError(f"bandwidth must be a positive number, got {bw!r}")
-    return design_rider(params, motor, delay=float(values["delay"]),
-                        scales={"M_h": DEFAULT_SCALES["M_h"] * math.sqrt(bw)},
-                        noise_std=float(values["noise_std"]))
 
 
 # --------------------------------------------------------------------------------------
