@@ -153,7 +153,7 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     from controllers.design import DEFAULT_SCALES, design_rider
     from euc_sim.cli.ride import with_found_values
     from euc_sim.rides.profile import rider_plan, speed_profile
-    from euc_sim.rides.rider_fit import rider_from
+    from euc_sim.rides.rider_params import rider_from
     from euc_sim.rides.signals import RideAssumptions
     from euc_sim.rides.sim_steps import motor_from_law
     from euc_sim.rides.stops import find_stops

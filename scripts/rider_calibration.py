@@ -116,7 +116,7 @@ def real(wheel: str, seed: int, windows: int, length: float, rider: list | None 
         calibrated = fit.rider
     else:                   # the values of an earlier fit_rider run on the same fit ride
         from controllers.motor import MotorPD
-        from euc_sim.rides.rider_fit import rider_from
+        from euc_sim.rides.rider_params import rider_from
 
         values = dict(zip(("delay", "bandwidth", "noise_std"), rider))
         calibrated = rider_from(values, params, MotorPD())

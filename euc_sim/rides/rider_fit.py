@@ -58,10 +58,10 @@ from euc_sim.rides.profile import PLAN_WINDOW, rider_plan
 from euc_sim.rides.response_surface import lhs as _lhs, minimise as _minimise, surface as _surface
 from euc_sim.rides.rider_features import (BAND_WINDOWS, RiderFitError, band_features,  # noqa: F401
                                          fit_windows, log_channels)
-from euc_sim.rides.rider_params import RIDER_PARAMS, RiderParam, rider_from  # noqa: F401
+from euc_sim.rides.rider_params import RIDER_PARAMS, rider_from
 from euc_sim.rides.signals import RideAssumptions, as_log
 
-__all__ = ["RiderParam", "RIDER_PARAMS", "BAND_WINDOWS", "RiderFitError", "RiderFit", "rider_from",
+__all__ = ["BAND_WINDOWS", "RiderFitError", "RiderFit",
            "log_channels", "band_features", "fit_windows", "fit_rider"]
 
 

@@ -107,7 +107,7 @@ class SimStep:
         (:func:`euc_sim.rides.profile.rider_plan`; the calibrated rider's); None: the profile.
     rider_fit : mapping
         The values the rider was fitted with, where he was (``delay`` s, ``bandwidth`` 1,
-        ``noise_std`` N·m: :func:`euc_sim.rides.rider_fit.rider_from` rebuilds him); empty otherwise.
+        ``noise_std`` N·m: :func:`euc_sim.rides.rider_params.rider_from` rebuilds him); empty otherwise.
     """
 
     name: str

@@ -2,7 +2,7 @@
 
 The wheel runs the concealed firmware law of :mod:`euc_sim.rides.lawsynth` (``WHEEL_LAW``) on its
 road (``ROAD``) along its speed plan (:func:`euc_sim.rides.lawsynth.profile`); the rider is
-:func:`euc_sim.rides.rider_fit.rider_from` with the settings given.  The log has physical
+:func:`euc_sim.rides.rider_params.rider_from` with the settings given.  The log has physical
 battery power (:func:`euc_sim.rides.simulate.battery_power` with :data:`DRIVETRAIN`), phase
 current M_d/K_T and pitch in 0.1° steps.  The truth is returned, never written beside the log.
 """
@@ -36,7 +36,7 @@ def rider_ride(seed: int, duration: float = 240.0, rider=RIDER, dt: float = 1e-3
     columns t, x_dot, gamma, gamma_dot, M_d (SI)."""
     from controllers.motor import MotorPD
     from euc_sim.model.parameters import TABLE3
-    from euc_sim.rides.rider_fit import rider_from
+    from euc_sim.rides.rider_params import rider_from
     from euc_sim.simulation.engine import simulate
     from euc_sim.simulation.maneuvers import Maneuver
 

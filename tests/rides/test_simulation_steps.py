@@ -324,7 +324,7 @@ def test_motor_from_law_inverts_the_steps_description():
 
 def test_calibrated_riders_description_carries_his_fitted_values():
     """The step's JSON ``rider`` gives the bandwidth he was designed with (not only in ``what``)."""
-    from euc_sim.rides.rider_fit import rider_from
+    from euc_sim.rides.rider_params import rider_from
     from euc_sim.rides.signals import RideAssumptions
     from euc_sim.rides.sim_steps import SimStep
     from euc_sim.rides.simulate import ride_params

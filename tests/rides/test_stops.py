@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from controllers.motor import MotorPD
-from euc_sim.rides.rider_fit import rider_from
+from euc_sim.rides.rider_params import rider_from
 from euc_sim.rides.signals import RideAssumptions
 from euc_sim.rides.simulate import ride_params
 from euc_sim.rides.stops import T_STOP, find_stops, moving_segments, rest_rows
