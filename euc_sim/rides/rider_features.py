@@ -16,7 +16,8 @@ import pandas as pd
 
 from euc_sim.rides.signals import RideAssumptions, as_log, resample, sg
 
-__all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "fit_windows"]
+__all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "band_ratio_db",
+           "fit_windows"]
 
 #: Savitzky–Golay windows, s, whose differences split a channel into bands (steps of about √2:
 #: eight leaky bands from ~2 Hz down to ~0.1 Hz; a 2 Hz sway peaks in the third, a 0.12 Hz one
@@ -140,6 +141,55 @@ def band_features(y: np.ndarray, segment: np.ndarray, rate: float, rows: np.ndar
         return 0.5 * np.log(np.mean(bands[ok] ** 2, axis=0))
     labels = np.unique(block[ok])
     return np.stack([np.mean(bands[ok & (block == b)] ** 2, axis=0) for b in labels])
+
+
+def band_ratio_db(y: np.ndarray, y_ref: np.ndarray, segment: np.ndarray, rate: float,
+                  rows: np.ndarray) -> dict:
+    """How a channel's level and spectrum differ from a reference's: the ratio of their bands' RMS, dB.
+
+    Both channels get :func:`band_features` over the same ``rows`` (those where both are
+    finite); band k's ratio is 20·log10(RMS_k(y) / RMS_k(y_ref)).  A simulated signal with
+    the right level and spectrum but an independent realisation of its noise scores 0 dB
+    in every band, where its RMS error would be √2 times either signal's RMS.
+
+    Parameters
+    ----------
+    y, y_ref : numpy.ndarray
+        The channel and its reference (a simulated and a logged battery power), on one
+        uniform grid, same unit.
+    segment : numpy.ndarray of int
+        Segment labels (the smoothers never cross one).
+    rate : float
+        Hz.
+    rows : numpy.ndarray of bool
+        Rows compared.
+
+    Returns
+    -------
+    dict
+        ``windows_s``: the :data:`BAND_WINDOWS` (s) splitting the bands, fastest first;
+        ``ratio_dB``: (bands,) list; ``rms_dB``: their root mean square, dB (0: the same
+        level and spectrum).
+
+    Raises
+    ------
+    RiderFitError
+        when fewer than 2 rows have both channels finite in every band.
+    """
+    y, y_ref = np.asarray(y, float), np.asarray(y_ref, float)
+    both = np.asarray(rows, bool) & np.isfinite(y) & np.isfinite(y_ref)
+    # a row counts when both channels' bands are finite there (the smoothers spread a NaN)
+    fin = _finite_bands(y, segment, rate) & _finite_bands(y_ref, segment, rate)
+    ratio = 20.0 / math.log(10.0) * (band_features(y, segment, rate, both & fin)
+                                     - band_features(y_ref, segment, rate, both & fin))
+    return {"windows_s": list(BAND_WINDOWS), "ratio_dB": [float(r) for r in ratio],
+            "rms_dB": float(np.sqrt(np.mean(ratio ** 2)))}
+
+
+def _finite_bands(y: np.ndarray, segment: np.ndarray, rate: float) -> np.ndarray:
+    """Rows where every band of ``y`` is finite."""
+    levels = [np.asarray(y, float)] + [sg(y, segment, rate, w, 2) for w in BAND_WINDOWS]
+    return np.logical_and.reduce([np.isfinite(x) for x in levels])
 
 
 def fit_windows(channels: pd.DataFrame, n: int = 3, length: float = 60.0, v_min: float = 2.0,

@@ -55,6 +55,7 @@ from controllers.motor import MotorPD
 from controllers.rider import Rider
 from euc_sim.model.parameters import Params
 from euc_sim.rides.profile import PLAN_WINDOW, rider_plan
+from euc_sim.rides.reading import stamp_readings
 from euc_sim.rides.response_surface import lhs as _lhs, minimise as _minimise, surface as _surface
 from euc_sim.rides.rider_features import (BAND_WINDOWS, RiderFitError, band_features,  # noqa: F401
                                          fit_windows, log_channels)
@@ -65,8 +66,6 @@ __all__ = ["BAND_WINDOWS", "RiderFitError", "RiderFit",
            "log_channels", "band_features", "fit_windows", "fit_rider"]
 
 
-#: Each reading of the simulated log is the mean over this many seconds before its stamp.
-READING_MEAN = 0.2
 #: Block length of the bootstrap, s.
 BLOCK = 10.0
 
@@ -133,9 +132,9 @@ def _windowed_log(setup: _Setup) -> pd.DataFrame:
 def _simulated_channels(setup: _Setup, rider: Rider, draw: int = 0) -> pd.DataFrame | None:
     """The rider along the windows, read like the log: None when he falls.
 
-    Each reading is the mean over :data:`READING_MEAN` s before the log's own stamp, written
-    in the log's steps where it has them (``channels.attrs["quantum"]``: 0.1° pitch, 0.1 A
-    current), then put on the log's grid as the log is.  ``draw`` picks the motor noise
+    Each reading is the mean over :data:`euc_sim.rides.reading.READING_MEAN` s before the
+    log's own stamp (:func:`~euc_sim.rides.reading.stamp_readings`), written in the log's
+    steps where it has them (``channels.attrs["quantum"]``: 0.1° pitch, 0.1 A current), then put on the log's grid as the log is.  ``draw`` picks the motor noise
     and the steps' zero (seed ``setup.seed + 1000 draw + window``)."""
     from euc_sim.rides.simulate import battery_power
     from euc_sim.simulation.engine import simulate
@@ -164,13 +163,10 @@ def _simulated_channels(setup: _Setup, rider: Rider, draw: int = 0) -> pd.DataFr
         sim = {"P": battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], setup.params.R,
                                   dtv["eta_motor"], dtv["eta_regen"], dtv.get("drivetrain_idle_loss", 0.0)),
                "M": df["M_d"].to_numpy(), "pitch": df["gamma"].to_numpy()}
-        n = max(1, int(round(READING_MEAN / setup.dt)))
         st = stamps[(stamps >= t0 - 1.0) & (stamps <= t1 + 0.5)]
         m = (t >= t0 - 1.0) & (t <= t1 + 0.5)
         for c in setup.names:
-            cs = np.cumsum(np.r_[0.0, sim[c]])
-            mean = (cs[n:] - cs[:-n]) / n                      # mean of the n samples ending at ts[k]
-            reading = np.interp(st, ts[n - 1:], mean)
+            reading = stamp_readings(ts, sim[c], st)
             q = quantum.get(c)
             if q:                                              # written in the log's steps,
                 off = rng.uniform()                            # from an unknown zero

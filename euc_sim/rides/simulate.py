@@ -41,11 +41,11 @@ import pandas as pd
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.profile import rider_plan, speed_profile
 from euc_sim.rides.plan_learning import filter_band
-from euc_sim.rides.signals import RideAssumptions, RideSignals
+from euc_sim.rides.signals import RideAssumptions, RideSignals, as_log
 from euc_sim.rides.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep,
                                      effects_to_inject, simulated_pwm)
 from euc_sim.rides.stops import find_stops
-from euc_sim.rides.tracking import LEAN_SHARE, ProfileRun, simulate_profile, to_grid
+from euc_sim.rides.tracking import LEAN_SHARE, ProfileRun, simulate_profile
 
 __all__ = ["SIM_EFFECTS", "MAX_BRIDGED_GAP", "simulation_obstacle", "ride_params", "effects_to_inject",
            "battery_power", "RideSimulation", "simulate_ride", "plot_ride_simulation", "LOG_COLUMNS"]
@@ -300,19 +300,24 @@ def _logged(sig: RideSignals) -> dict:
 
 
 def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
-             channels: LogChannels, logged: Mapping[str, np.ndarray], fell: bool = False) -> dict:
-    """A run's channels on the log's grid, smoothed like the log.
+             channels: LogChannels, logged: Mapping[str, np.ndarray], stamps: np.ndarray,
+             fell: bool = False) -> tuple[dict, np.ndarray]:
+    """A run's channels read as the log is written and put on its grid, smoothed like the log.
 
-    Speed, torque and battery power always; phase current (M_d/k_t), pitch
-    (s·γ + tilt₀) and duty where the log has them and ``channels`` can map them.
-    A run that ended in a fall (``fell``) is kept up to one smoothing window before the
-    fall (the falling itself is not riding) and is NaN after it.
+    Each channel is read at the log's own ``stamps`` (s) and interpolated onto the grid
+    as the log is (:func:`euc_sim.rides.reading.read_as_logged`).  Speed, torque and
+    battery power always; phase current (M_d/k_t), pitch (s·γ + tilt₀) and duty where the
+    log has them and ``channels`` can map them.  A run that ended in a fall (``fell``) is
+    kept up to one smoothing window before the fall (the falling itself is not riding)
+    and is NaN after it.  Also returns the battery power read but not smoothed, W (for
+    its bands, :func:`euc_sim.rides.rider_features.band_ratio_db`).
     """
     t = sig.frame["t"].to_numpy()
     name = step.name
     want = ["v", "M", "P"] + [c for c in LOG_COLUMNS if f"{c}_log" in logged]
     if df is None:
-        return {f"{col}_{name}": np.full(t.size, np.nan) for col in want}
+        return {f"{col}_{name}": np.full(t.size, np.nan) for col in want}, np.full(t.size, np.nan)
+    from euc_sim.rides.reading import read_as_logged
     from euc_sim.rides.signals import sg
 
     pw = step.power
@@ -323,10 +328,15 @@ def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
     if fell:
         segment[t > ts[-1] - sig.window] = -1    # its own segment, NaN: the filter never crosses
 
-    def filt(x):
-        return sg(to_grid(ts, np.asarray(x, float), t), segment, sig.rate, sig.window, sig.polyorder)
+    def read(x):
+        return read_as_logged(ts, np.asarray(x, float), stamps, t)
 
-    out = {f"v_{name}": filt(df["x_dot"]), f"M_{name}": filt(df["M_d"]), f"P_{name}": filt(P)}
+    def filt(x):
+        return sg(read(x), segment, sig.rate, sig.window, sig.polyorder)
+
+    P_read = read(P)
+    out = {f"v_{name}": filt(df["x_dot"]), f"M_{name}": filt(df["M_d"]),
+           f"P_{name}": sg(P_read, segment, sig.rate, sig.window, sig.polyorder)}
     if "I_log" in logged and channels.k_t:
         out[f"I_{name}"] = out[f"M_{name}"] / channels.k_t
     if "pitch_log" in logged:
@@ -336,7 +346,7 @@ def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
         V = sg(sig.raw["voltage"].to_numpy(float), sig.raw["segment"].to_numpy(), sig.rate,
                sig.window, sig.polyorder)
         out[f"pwm_{name}"] = simulated_pwm(channels.pwm, out[f"v_{name}"], out[f"M_{name}"] / R, V)
-    return out
+    return out, P_read
 
 
 def _align_pitch(table: pd.DataFrame, ok: np.ndarray,
@@ -354,14 +364,36 @@ def _align_pitch(table: pd.DataFrame, ok: np.ndarray,
                                    "to the logged riding mean")
 
 
+def _band_errors(sig: RideSignals, P_read: Mapping[str, np.ndarray], ok: np.ndarray) -> dict:
+    """Each step's battery power against the log's, band by band (level and spectrum), on the scored rows.
+
+    The simulation as read at the log's stamps and the log as resampled, neither smoothed
+    (:func:`euc_sim.rides.rider_features.band_ratio_db`); a step without two rows to
+    compare has none.
+    """
+    from euc_sim.rides.rider_features import RiderFitError, band_ratio_db
+
+    seg = sig.raw["segment"].to_numpy()
+    P_log = sig.raw["P"].to_numpy(float)
+    out = {}
+    for name, P in P_read.items():
+        try:
+            out[name] = {"P_W": band_ratio_db(P, P_log, seg, sig.rate, ok)}
+        except RiderFitError:
+            continue
+    return out
+
+
 def _step_entries(steps: Sequence[SimStep], errors: dict, falls: list,
-                  balance: float | None) -> list[dict]:
-    """CONTRACT's ``simulation.steps``: description, held-out errors, ratio to the balance fit."""
+                  balance: float | None, bands: Mapping[str, dict] | None = None) -> list[dict]:
+    """CONTRACT's ``simulation.steps``: description, held-out errors, ratio to the balance fit,
+    and the held-out bands of battery power (``heldout_bands``, :func:`_band_errors`)."""
     out = []
     for step in steps:
         entry = step.describe()
         e = errors.get(step.name) if step.why is None else None
         entry["heldout_rmse"] = {k: v for k, v in (e or {}).items() if np.isfinite(v)}
+        entry["heldout_bands"] = (bands or {}).get(step.name) if step.why is None else None
         p = entry["heldout_rmse"].get("P_W")
         entry["ratio_to_balance"] = (p / balance if p is not None and balance and balance > 0
                                      else None)
@@ -439,11 +471,15 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
              _prefixed(progress, s.name, workers), s.name, i, s.motor, s.rider, LEAN_SHARE, None, stops)
             for i, s in enumerate(run)]
     done = _run_jobs(jobs, names, params, workers, progress)
+    stamps = as_log(log).data["t"].to_numpy(float)
+    P_read = {}
     for step, res in zip(run, done):
         if not res.falls:            # a fall is said once, from ``falls`` (page.falls_sentence)
             notes += [f"{step.name}: {n}" for n in res.notes]
         falls += [{**f, "run": step.name} for f in res.falls]
-        out.update(_on_grid(res.frame, sig, step, params.R, channels, out, fell=bool(res.falls)))
+        cols, P_read[step.name] = _on_grid(res.frame, sig, step, params.R, channels, out, stamps,
+                                           fell=bool(res.falls))
+        out.update(cols)
     table = pd.DataFrame(out)
     ok = sig.frame["interior"].to_numpy() & np.isfinite(table["P_log"].to_numpy())
     if scored is not None:
@@ -459,13 +495,14 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
         notes += [note] if note else []
     errors = _errors(table, ok, names)
     errors["M_log_method"] = sig.torque_method
+    bands = _band_errors(sig, P_read, ok)
     loc = _localise_error(table, sig.frame["a"].to_numpy(), ok, window_smooth, window_min, names[-1])
     return RideSimulation(label=label or str(sig.path), table=table, errors=errors,
                           effects=dict(run[-1].effects),
                           parameters={s.name: dict(s.power) for s in run}
                           | {"nominal": dict(run[0].power), "augmented": dict(run[-1].power)},
                           falls=falls, localisation=loc,
-                          steps=_step_entries(steps, errors, falls, channels.balance_heldout),
+                          steps=_step_entries(steps, errors, falls, channels.balance_heldout, bands),
                           notes=tuple(notes))
 
 
