@@ -157,6 +157,35 @@ def rows(results: list[dict]) -> list[str]:
     return md
 
 
+def band_rows(results: list[dict]) -> list[str]:
+    """The level-and-spectrum table: per pair and step, the battery power's band ratios to the log's."""
+    md = ["| wheel | fit → held out | " + " | ".join(f"{s} dB" for s in STEPS) + " |",
+          "|" + " --- |" * (2 + len(STEPS))]
+    for r in results:
+        p = r["pair"]
+        label = f"{p['fit']} → {p['held']}" + (" (calibrated rider)" if p.get("calibrated") else "")
+        by = {s["step"]: s for s in ((r.get("json") or {}).get("simulation") or {}).get("steps", [])}
+        cells = []
+        for name in STEPS:
+            b = ((by.get(name) or {}).get("heldout_bands") or {}).get("P_W")
+            cells.append("–" if b is None else
+                         f"{b['rms_dB']:.1f} ({b['ratio_dB'][0]:+.0f} … {b['ratio_dB'][-1]:+.0f})")
+        md.append(f"| {p['wheel']} | {label} | " + " | ".join(cells) + " |")
+    return md
+
+
+BAND_MARK = "**Level and spectrum**"
+BAND_TEXT = (
+    BAND_MARK + " (`simulation.steps[].heldout_bands`): the same runs, each step's battery "
+    "power against the log's band by band, on the scored rows: the simulation read at the log's own "
+    "time stamps (`euc_sim/rides/reading.py`), neither smoothed, split into the rider fit's eight bands "
+    "(Savitzky–Golay windows 0.5 … 6 s, ~2 Hz down to ~0.1 Hz; `rider_features.band_ratio_db`). "
+    "A cell is the RMS over the bands of 20·log10(simulated band RMS / logged band RMS), dB, and in "
+    "brackets the fastest and the slowest band's ratio: 0 dB is the log's level and spectrum, +6 dB "
+    "twice its swing, −6 dB half. Unlike the RMS error it does not penalise a rider whose noise is "
+    "right but drawn independently of the log's.")
+
+
 HAND = "## Reading the table"
 
 
@@ -209,8 +238,11 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
     old_text = path.read_text(encoding="utf-8") if path.is_file() else ""
     cut = old_text.find(HAND)
     table_text = old_text if cut < 0 else old_text[:cut]
+    table_text, _, band_text = table_text.partition(BAND_MARK)
     table = rows(results)
     merged = merge_rows(table_text, table[2:])
+    bands = band_rows(results)
+    merged_bands = merge_rows(band_text, bands[2:])
     cmd = COMMAND + " ".join(argv)
     commands = [ln for ln in table_text.splitlines() if ln.startswith(COMMAND) and ln != cmd] + [cmd]
     met = _met(merged)
@@ -250,7 +282,8 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
         "Blitz 1 → 4 and 2 → 4 and Lynx 2 → 0 (docs/ride_falls.md). Any later change made by looking at this table turns "
         "its rows into tuning figures; issue 21's 'The check' (held-back rides compared the same "
         "way) is the test.", "",
-    ] + table[:2] + merged + [""]) + ("" if cut < 0 else "\n" + old_text[cut:])
+    ] + table[:2] + merged + ["", BAND_TEXT, "", *bands[:2], *merged_bands, ""]) + (
+        "" if cut < 0 else "\n" + old_text[cut:])
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_suffix(path.suffix + ".tmp")
     tmp.write_text(text, encoding="utf-8")

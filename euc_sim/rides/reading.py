@@ -39,9 +39,10 @@ def stamp_readings(t_sim: np.ndarray, y: np.ndarray, stamps: np.ndarray,
     Returns
     -------
     numpy.ndarray
-        (len(stamps),) readings, the channel's unit; a stamp within the mean's length of
-        the simulation's start reads the first full mean; NaN at a stamp outside the
-        simulation's span.
+        (len(stamps),) readings, the channel's unit.  A stamp within ``mean`` of the
+        simulation's start reads the first full mean, one within ``mean`` after its end the
+        last (a simulation run to the grid's end stops short of the log's last stamp); NaN
+        at a stamp further outside.
     """
     t_sim = np.asarray(t_sim, float)
     y = np.asarray(y, float)
@@ -54,7 +55,7 @@ def stamp_readings(t_sim: np.ndarray, y: np.ndarray, stamps: np.ndarray,
     means = (cs[n:] - cs[:-n]) / n                    # mean of the n samples ending at t_sim[k]
     t_end = t_sim[n - 1:]
     out = np.interp(stamps, t_end, means)
-    out[(stamps < t_sim[0] - 0.5 * dt) | (stamps > t_sim[-1] + 0.5 * dt)] = np.nan
+    out[(stamps < t_sim[0] - mean) | (stamps > t_sim[-1] + mean)] = np.nan
     return out
 
 

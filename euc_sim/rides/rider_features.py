@@ -148,7 +148,7 @@ def band_ratio_db(y: np.ndarray, y_ref: np.ndarray, segment: np.ndarray, rate: f
     """How a channel's level and spectrum differ from a reference's: the ratio of their bands' RMS, dB.
 
     Both channels get :func:`band_features` over the same ``rows`` (those where both are
-    finite); band k's ratio is 20·log10(RMS_k(y) / RMS_k(y_ref)).  A simulated signal with
+    finite; a stretch where either is NaN splits its segment); band k's ratio is 20·log10(RMS_k(y) / RMS_k(y_ref)).  A simulated signal with
     the right level and spectrum but an independent realisation of its noise scores 0 dB
     in every band, where its RMS error would be √2 times either signal's RMS.
 
@@ -177,11 +177,13 @@ def band_ratio_db(y: np.ndarray, y_ref: np.ndarray, segment: np.ndarray, rate: f
         when fewer than 2 rows have both channels finite in every band.
     """
     y, y_ref = np.asarray(y, float), np.asarray(y_ref, float)
-    both = np.asarray(rows, bool) & np.isfinite(y) & np.isfinite(y_ref)
-    # a row counts when both channels' bands are finite there (the smoothers spread a NaN)
-    fin = _finite_bands(y, segment, rate) & _finite_bands(y_ref, segment, rate)
-    ratio = 20.0 / math.log(10.0) * (band_features(y, segment, rate, both & fin)
-                                     - band_features(y_ref, segment, rate, both & fin))
+    both = np.isfinite(y) & np.isfinite(y_ref)
+    # a run of rows where either is NaN (a simulation after its fall) is a segment of its own,
+    # so that the smoothers neither cross it nor spread its NaN
+    seg = np.cumsum(np.r_[0, (np.diff(np.asarray(segment)) != 0) | (np.diff(both.astype(int)) != 0)])
+    y, y_ref = np.where(both, y, 0.0), np.where(both, y_ref, 0.0)
+    use = np.asarray(rows, bool) & both & _finite_bands(y, seg, rate) & _finite_bands(y_ref, seg, rate)
+    ratio = 20.0 / math.log(10.0) * (band_features(y, seg, rate, use) - band_features(y_ref, seg, rate, use))
     return {"windows_s": list(BAND_WINDOWS), "ratio_dB": [float(r) for r in ratio],
             "rms_dB": float(np.sqrt(np.mean(ratio ** 2)))}
 

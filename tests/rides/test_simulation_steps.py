@@ -260,9 +260,10 @@ def test_a_run_of_one_wheel_keeps_the_other_wheels_rows_and_commands(tmp_path):
     (a pair this run did not reach keeps its earlier row), and lists both commands."""
     mod = _table_script()
     lynx, blitz = mod.pairs(tmp_path, ["lynx"]), mod.pairs(tmp_path, ["blitz"])
+    bands = {"P_W": {"windows_s": [0.5, 6.0], "ratio_dB": [3.2, -1.4], "rms_dB": 2.47}}
     sim = {"steps": [{"step": "drivetrain", "ran": True, "heldout_rmse": {"P_W": 400.0},
-                      "ratio_to_balance": 0.8, "target_ratio": 1.2}], "falls": [], "notes": [],
-           "scored_rows": 100, "pitch_scored_rows": 0}
+                      "ratio_to_balance": 0.8, "target_ratio": 1.2, "heldout_bands": bands}],
+           "falls": [], "notes": [], "scored_rows": 100, "pitch_scored_rows": 0}
     old = [{"pair": lynx[0], "json": {"heldout_error_augmented": 500.0, "simulation": sim}}] + \
           [{"pair": p, "error": "not run (no ride.json yet)"} for p in blitz[:2]]
     doc = tmp_path / "t.md"
@@ -272,8 +273,13 @@ def test_a_run_of_one_wheel_keeps_the_other_wheels_rows_and_commands(tmp_path):
            {"pair": blitz[1], "error": "not run (no ride.json yet)"}]
     mod.write_doc(doc, new, ["--out", "B", "--pairs", "blitz"])
     text = doc.read_text()
-    rows_ = [ln for ln in text.splitlines() if ln.startswith("| lynx") or ln.startswith("| blitz")]
+    main_text, _, band_text = text.partition(mod.BAND_MARK)
+    rows_ = [ln for ln in main_text.splitlines() if ln.startswith("| lynx") or ln.startswith("| blitz")]
     assert [r.split("|")[2].strip() for r in rows_] == ["0 → 2", "1 → 2", "1 → 4"]   # old order
+    band_rows = [ln for ln in band_text.splitlines() if ln.startswith("| lynx") or ln.startswith("| blitz")]
+    assert [r.split("|")[2].strip() for r in band_rows] == ["0 → 2", "1 → 2", "1 → 4"]
+    assert "| – | – | – | 2.5 (+3 … -1) |" in band_rows[0] and "2.5 (+3 … -1)" in band_rows[1]
+    assert band_rows[2].count("–") == 4          # a pair not run has no bands
     assert "400 (**0.80**)" in rows_[0]                                           # lynx kept
     assert "1 → 2 | 1,000 |" in rows_[1] and "not run" in rows_[2]
     assert "--out A --pairs lynx,blitz" in text and "--out B --pairs blitz" in text
