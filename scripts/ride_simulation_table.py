@@ -158,7 +158,9 @@ def rows(results: list[dict]) -> list[str]:
 
 
 def band_rows(results: list[dict]) -> list[str]:
-    """The level-and-spectrum table: per pair and step, the battery power's band ratios to the log's."""
+    """The level-and-spectrum table: per pair and step, the band ratios to the log's."""
+    from euc_sim.rides.page import bands_cell
+
     md = ["| wheel | fit → held out | " + " | ".join(f"{s} dB" for s in STEPS) + " |",
           "|" + " --- |" * (2 + len(STEPS))]
     for r in results:
@@ -167,9 +169,7 @@ def band_rows(results: list[dict]) -> list[str]:
         by = {s["step"]: s for s in ((r.get("json") or {}).get("simulation") or {}).get("steps", [])}
         cells = []
         for name in STEPS:
-            b = ((by.get(name) or {}).get("heldout_bands") or {}).get("P_W")
-            cells.append("–" if b is None else
-                         f"{b['rms_dB']:.1f} ({b['ratio_dB'][0]:+.0f} … {b['ratio_dB'][-1]:+.0f})")
+            cells.append(bands_cell((by.get(name) or {}).get("heldout_bands")))
         md.append(f"| {p['wheel']} | {label} | " + " | ".join(cells) + " |")
     return md
 
@@ -180,9 +180,10 @@ BAND_TEXT = (
     "power against the log's band by band, on the scored rows: the simulation read at the log's own "
     "time stamps (`euc_sim/rides/reading.py`), neither smoothed, split into the rider fit's eight bands "
     "(Savitzky–Golay windows 0.5 … 6 s, ~2 Hz down to ~0.1 Hz; `rider_features.band_ratio_db`). "
-    "A cell is the RMS over the bands of 20·log10(simulated band RMS / logged band RMS), dB, and in "
-    "brackets the fastest and the slowest band's ratio: 0 dB is the log's level and spectrum, +6 dB "
-    "twice its swing, −6 dB half. Unlike the RMS error it does not penalise a rider whose noise is "
+    "A cell is the RMS over the bands of 20·log10(simulated band RMS / logged band RMS), dB, of "
+    "battery power (P, in brackets the fastest and the slowest band's ratio), and of phase current "
+    "(I) and pitch (on the riding rows) where HELD logs them: 0 dB is the log's level and spectrum, "
+    "+6 dB twice its swing, −6 dB half. Unlike the RMS error it does not penalise a rider whose noise is "
     "right but drawn independently of the log's.")
 
 

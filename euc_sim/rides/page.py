@@ -361,10 +361,24 @@ def falls_sentence(falls: list, scored_rows: int) -> str | None:
     return f"the simulated rider fell {said}; the profile was not ridden again, and {tail}"
 
 
+def bands_cell(bands: Mapping | None) -> str:
+    """A step's ``heldout_bands`` in a cell: battery power's band RMS ratio in dB with its fastest
+    and slowest band, then phase current's and pitch's where scored; '–' without any."""
+    if not bands:
+        return "–"
+    out = []
+    for key, label in (("P_W", "P"), ("I_phase_A", "I"), ("pitch_rad", "pitch")):
+        b = bands.get(key)
+        if b is not None:
+            out.append(f"{label} {b['rms_dB']:.1f} dB" + (f" ({b['ratio_dB'][0]:+.0f} … {b['ratio_dB'][-1]:+.0f})"
+                                                         if key == "P_W" else ""))
+    return "; ".join(out) or "–"
+
+
 def _step_row(st: dict, balance) -> str:
     """One row of the steps' table: what the step adds, its held-out errors and its fall."""
     if not st["ran"]:
-        return f"| {st['step']} | not run: {st['why']} |" + " – |" * 8
+        return f"| {st['step']} | not run: {st['why']} |" + " – |" * 9
     h = st["heldout_rmse"]
 
     def cell(key, fmt, unit, scale=1.0):
@@ -373,7 +387,8 @@ def _step_row(st: dict, balance) -> str:
     ratio = st.get("ratio_to_balance")
     rc = "–" if ratio is None else (f"**{ratio:.2f}**" if ratio <= st["target_ratio"] else f"{ratio:.2f}")
     fell = "–" if not st.get("fell") else f"t = {st['fell']['t']:.1f} s"
-    return (f"| {st['step']} | {st['what']} | {cell('P_W', '.0f', 'W')} | {rc} | "
+    bands = bands_cell(st.get("heldout_bands"))
+    return (f"| {st['step']} | {st['what']} | {cell('P_W', '.0f', 'W')} | {rc} | {bands} | "
             f"{cell('I_phase_A', '.1f', 'A')} | {cell('pitch_rad', '.2f', '°', float(np.degrees(1.0)))} | "
             f"{cell('pwm_pct', '.1f', '%')} | {cell('M_Nm', '.1f', 'N·m')} | {cell('v_mps', '.2f', 'm/s')} "
             f"| {fell} |")
@@ -394,14 +409,21 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
                f"(MuJoCo, 1 kHz) once per modelled step, each step adding one piece to the one "
                f"before; its motor torque gave the battery power through the fitted drivetrain, "
                f"phase current (torque / K_t), pitch (in the log's convention, scored on the riding rows) and PWM duty (the "
-               f"drivetrain's duty model). Errors on {sim['scored_rows']} rows of the 10 Hz grid, "
-               f"both sides smoothed alike"
+               f"drivetrain's duty model). Each simulated channel is read at the log's own time "
+               f"stamps (the mean over the 0.2 s before each) and put on the grid as the log is. "
+               f"Errors on {sim['scored_rows']} rows of the 10 Hz grid, both sides smoothed alike. "
+               f"The bands compare battery power's level and spectrum with the log's, unsmoothed "
+               f"(and phase current's and pitch's, where logged): "
+               f"the RMS over eight bands (~2 Hz to ~0.1 Hz) of 20·log10(simulated / logged band RMS), "
+               f"and the fastest and slowest band's ratio (0 dB: the log's level and spectrum, "
+               f"+6 dB twice its swing); unlike the RMS error it does not count a noise drawn "
+               f"independently of the log's as an error"
                + (f"; the balance fit's held-out battery-power error is {balance:.0f} W, and a step "
                   f"meets the target when its error is within {target:g}× that (bold)" if balance else "")
                + ":", "",
-               "| step | what it adds | battery power RMS | × balance fit | phase current RMS | "
-               "pitch RMS | PWM RMS | torque RMS | speed RMS | fell |",
-               "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
+               "| step | what it adds | battery power RMS | × balance fit | bands, dB (P: fast … slow) "
+               "| phase current RMS | pitch RMS | PWM RMS | torque RMS | speed RMS | fell |",
+               "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
         md += [_step_row(st, balance) for st in steps]
         inj = ", ".join(f"{k} = {_fmt(v)}" for k, v in sim["effects_injected"].items()) or "none"
         md += ["", f"Last / first step battery-power error: **{e['ratio_P']:.2f}** "

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["READING_MEAN", "stamp_readings", "read_as_logged"]
+__all__ = ["READING_MEAN", "stamp_readings", "quantise", "read_as_logged"]
 
 #: s: each reading of the simulated log is the mean of the simulation over this long before
 #: its stamp (an app's reading is not an instant's value; 0.2 s is one 5 Hz interval).
@@ -59,20 +59,45 @@ def stamp_readings(t_sim: np.ndarray, y: np.ndarray, stamps: np.ndarray,
     return out
 
 
+def quantise(x: np.ndarray, quantum: float, rng: np.random.Generator) -> np.ndarray:
+    """Readings written in a log's steps (0.1° pitch, 0.1 A current), from an unknown zero.
+
+    Parameters
+    ----------
+    x : array_like
+        Readings (any unit).
+    quantum : float
+        The log's step, the readings' unit (:func:`euc_sim.rides.rider_features.reading_step`).
+    rng : numpy.random.Generator
+        Draws the steps' zero, uniform over one step.
+
+    Returns
+    -------
+    numpy.ndarray
+        A new array: each reading rounded to the nearest step.
+    """
+    off = rng.uniform()
+    return quantum * (np.round(np.asarray(x, float) / quantum + off) - off)
+
+
 def read_as_logged(t_sim: np.ndarray, y: np.ndarray, stamps: np.ndarray, t_grid: np.ndarray,
-                   mean: float = READING_MEAN) -> np.ndarray:
+                   mean: float = READING_MEAN, quantum: float | None = None,
+                   rng: np.random.Generator | None = None) -> np.ndarray:
     """A simulated channel read at the log's stamps and put on the ride's grid as the log is.
 
     Parameters
     ----------
-    t_sim, y : array_like
-        The simulation's time, s (uniform step), and channel (any unit).
+    t_sim, y, mean :
+        As :func:`stamp_readings`.
     stamps : array_like
         The log's time stamps, s (repeated stamps are read once).
     t_grid : array_like
         The ride's grid, s.
-    mean : float
-        s: see :func:`stamp_readings`.
+    quantum : float, optional
+        The step the log writes this channel in (:func:`quantise`): the readings are
+        written in it too.
+    rng : numpy.random.Generator, optional
+        For the steps' zero (default seed 0).
 
     Returns
     -------
@@ -87,6 +112,8 @@ def read_as_logged(t_sim: np.ndarray, y: np.ndarray, stamps: np.ndarray, t_grid:
     if ok.sum() < 2:
         return np.full(t_grid.size, np.nan)
     st, r = st[ok], r[ok]
+    if quantum:
+        r = quantise(r, quantum, rng if rng is not None else np.random.default_rng(0))
     out = np.interp(t_grid, st, r)
     out[(t_grid < st[0]) | (t_grid > st[-1])] = np.nan
     return out

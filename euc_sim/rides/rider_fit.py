@@ -55,7 +55,7 @@ from controllers.motor import MotorPD
 from controllers.rider import Rider
 from euc_sim.model.parameters import Params
 from euc_sim.rides.profile import PLAN_WINDOW, rider_plan
-from euc_sim.rides.reading import stamp_readings
+from euc_sim.rides.reading import quantise, stamp_readings
 from euc_sim.rides.response_surface import lhs as _lhs, minimise as _minimise, surface as _surface
 from euc_sim.rides.rider_features import (BAND_WINDOWS, RiderFitError, band_features,  # noqa: F401
                                          fit_windows, log_channels)
@@ -168,9 +168,8 @@ def _simulated_channels(setup: _Setup, rider: Rider, draw: int = 0) -> pd.DataFr
         for c in setup.names:
             reading = stamp_readings(ts, sim[c], st)
             q = quantum.get(c)
-            if q:                                              # written in the log's steps,
-                off = rng.uniform()                            # from an unknown zero
-                reading = q * (np.round(reading / q + off) - off)
+            if q:                                              # written in the log's steps
+                reading = quantise(reading, q, rng)
             out[c][m] = np.interp(t[m], st, reading)
         seg[m] = w
     return pd.DataFrame({"t": t, "segment": seg, **out})

@@ -40,6 +40,7 @@ import pandas as pd
 
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.profile import rider_plan, speed_profile
+from euc_sim.rides.rider_features import reading_step
 from euc_sim.rides.plan_learning import filter_band
 from euc_sim.rides.signals import RideAssumptions, RideSignals, as_log
 from euc_sim.rides.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep,
@@ -301,22 +302,25 @@ def _logged(sig: RideSignals) -> dict:
 
 def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
              channels: LogChannels, logged: Mapping[str, np.ndarray], stamps: np.ndarray,
-             fell: bool = False) -> tuple[dict, np.ndarray]:
+             quanta: Mapping[str, float] | None = None, rng: np.random.Generator | None = None,
+             fell: bool = False) -> tuple[dict, dict]:
     """A run's channels read as the log is written and put on its grid, smoothed like the log.
 
-    Each channel is read at the log's own ``stamps`` (s) and interpolated onto the grid
-    as the log is (:func:`euc_sim.rides.reading.read_as_logged`).  Speed, torque and
+    Each channel is read at the log's own ``stamps`` (s), written in the log's steps where
+    ``quanta`` gives them (``I`` A, ``pitch`` rad; the steps' zero drawn from ``rng``) and
+    interpolated onto the grid as the log is (:func:`euc_sim.rides.reading.read_as_logged`).  Speed, torque and
     battery power always; phase current (M_d/k_t), pitch (s·γ + tilt₀) and duty where the
     log has them and ``channels`` can map them.  A run that ended in a fall (``fell``) is
     kept up to one smoothing window before the fall (the falling itself is not riding)
     and is NaN after it.  Also returns the battery power read but not smoothed, W (for
-    its bands, :func:`euc_sim.rides.rider_features.band_ratio_db`).
+    its bands, :func:`euc_sim.rides.rider_features.band_ratio_db`), and so phase current and
+    pitch where they are simulated: ``{column: grid array}``.
     """
     t = sig.frame["t"].to_numpy()
     name = step.name
     want = ["v", "M", "P"] + [c for c in LOG_COLUMNS if f"{c}_log" in logged]
     if df is None:
-        return {f"{col}_{name}": np.full(t.size, np.nan) for col in want}, np.full(t.size, np.nan)
+        return {f"{col}_{name}": np.full(t.size, np.nan) for col in want}, {}
     from euc_sim.rides.reading import read_as_logged
     from euc_sim.rides.signals import sg
 
@@ -328,25 +332,30 @@ def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
     if fell:
         segment[t > ts[-1] - sig.window] = -1    # its own segment, NaN: the filter never crosses
 
-    def read(x):
-        return read_as_logged(ts, np.asarray(x, float), stamps, t)
+    quanta = quanta or {}
+    rng = rng if rng is not None else np.random.default_rng(0)
+
+    def read(x, col=None):
+        return read_as_logged(ts, np.asarray(x, float), stamps, t, quantum=quanta.get(col), rng=rng)
 
     def filt(x):
         return sg(read(x), segment, sig.rate, sig.window, sig.polyorder)
 
-    P_read = read(P)
+    raw = {"P": read(P)}
     out = {f"v_{name}": filt(df["x_dot"]), f"M_{name}": filt(df["M_d"]),
-           f"P_{name}": sg(P_read, segment, sig.rate, sig.window, sig.polyorder)}
+           f"P_{name}": sg(raw["P"], segment, sig.rate, sig.window, sig.polyorder)}
     if "I_log" in logged and channels.k_t:
-        out[f"I_{name}"] = out[f"M_{name}"] / channels.k_t
+        raw["I"] = read(df["M_d"].to_numpy() / channels.k_t, "I")
+        out[f"I_{name}"] = sg(raw["I"], segment, sig.rate, sig.window, sig.polyorder)
     if "pitch_log" in logged:
         s, zero = channels.pitch_sign or 1.0, channels.pitch_zero or 0.0
-        out[f"pitch_{name}"] = s * filt(df["gamma"]) + zero
+        raw["pitch"] = read(s * df["gamma"].to_numpy() + zero, "pitch")
+        out[f"pitch_{name}"] = sg(raw["pitch"], segment, sig.rate, sig.window, sig.polyorder)
     if "pwm_log" in logged and channels.pwm and "voltage" in sig.raw:
         V = sg(sig.raw["voltage"].to_numpy(float), sig.raw["segment"].to_numpy(), sig.rate,
                sig.window, sig.polyorder)
         out[f"pwm_{name}"] = simulated_pwm(channels.pwm, out[f"v_{name}"], out[f"M_{name}"] / R, V)
-    return out, P_read
+    return out, raw
 
 
 def _align_pitch(table: pd.DataFrame, ok: np.ndarray,
@@ -364,23 +373,30 @@ def _align_pitch(table: pd.DataFrame, ok: np.ndarray,
                                    "to the logged riding mean")
 
 
-def _band_errors(sig: RideSignals, P_read: Mapping[str, np.ndarray], ok: np.ndarray) -> dict:
-    """Each step's battery power against the log's, band by band (level and spectrum), on the scored rows.
+def _band_errors(sig: RideSignals, reads: Mapping[str, Mapping[str, np.ndarray]],
+                 rows: Mapping[str, np.ndarray]) -> dict:
+    """Each step's channels against the log's, band by band (level and spectrum), on the scored rows.
 
-    The simulation as read at the log's stamps and the log as resampled, neither smoothed
-    (:func:`euc_sim.rides.rider_features.band_ratio_db`); a step without two rows to
-    compare has none.
+    Battery power, and phase current and pitch where both sides have them (pitch on the
+    riding rows): the simulation as read at the log's stamps and the log as resampled,
+    neither smoothed (:func:`euc_sim.rides.rider_features.band_ratio_db`), keyed as
+    ``heldout_rmse``; a channel without two rows to compare is left out.
     """
     from euc_sim.rides.rider_features import RiderFitError, band_ratio_db
 
     seg = sig.raw["segment"].to_numpy()
-    P_log = sig.raw["P"].to_numpy(float)
+    logged = {"P": "P"} | LOG_COLUMNS
     out = {}
-    for name, P in P_read.items():
-        try:
-            out[name] = {"P_W": band_ratio_db(P, P_log, seg, sig.rate, ok)}
-        except RiderFitError:
-            continue
+    for name, read in reads.items():
+        out[name] = {}
+        for col, y in read.items():
+            if logged[col] not in sig.raw:
+                continue
+            try:
+                out[name][CHANNELS[col][0]] = band_ratio_db(y, sig.raw[logged[col]].to_numpy(float), seg,
+                                                            sig.rate, rows[col])
+            except RiderFitError:
+                continue
     return out
 
 
@@ -471,14 +487,17 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
              _prefixed(progress, s.name, workers), s.name, i, s.motor, s.rider, LEAN_SHARE, None, stops)
             for i, s in enumerate(run)]
     done = _run_jobs(jobs, names, params, workers, progress)
-    stamps = as_log(log).data["t"].to_numpy(float)
-    P_read = {}
+    data = as_log(log).data
+    stamps = data["t"].to_numpy(float)
+    quanta = {c: q for c, name in LOG_COLUMNS.items() if c != "pwm" and name in data
+              for q in [reading_step(data[name].to_numpy(float))] if q}
+    reads = {}
     for step, res in zip(run, done):
         if not res.falls:            # a fall is said once, from ``falls`` (page.falls_sentence)
             notes += [f"{step.name}: {n}" for n in res.notes]
         falls += [{**f, "run": step.name} for f in res.falls]
-        cols, P_read[step.name] = _on_grid(res.frame, sig, step, params.R, channels, out, stamps,
-                                           fell=bool(res.falls))
+        cols, reads[step.name] = _on_grid(res.frame, sig, step, params.R, channels, out, stamps, quanta,
+                                          np.random.default_rng([seed, len(reads)]), fell=bool(res.falls))
         out.update(cols)
     table = pd.DataFrame(out)
     ok = sig.frame["interior"].to_numpy() & np.isfinite(table["P_log"].to_numpy())
@@ -495,7 +514,7 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
         notes += [note] if note else []
     errors = _errors(table, ok, names)
     errors["M_log_method"] = sig.torque_method
-    bands = _band_errors(sig, P_read, ok)
+    bands = _band_errors(sig, reads, {"P": ok, "I": ok, "pitch": _pitch_rows(table, ok)})
     loc = _localise_error(table, sig.frame["a"].to_numpy(), ok, window_smooth, window_min, names[-1])
     return RideSimulation(label=label or str(sig.path), table=table, errors=errors,
                           effects=dict(run[-1].effects),

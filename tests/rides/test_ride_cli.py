@@ -310,6 +310,11 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
     assert [s["fell"] for s in sim["steps"] if s["ran"]] == [
         {"t": t_fall, "cause": "|gamma| = 0.6 rad exceeds the bound"}, None]
     assert 0 < sim["scored_rows"]
+    for st in (s for s in sim["steps"] if s["ran"]):      # the fallen step's bands: up to its fall
+        bands = st["heldout_bands"]["P_W"]
+        assert len(bands["ratio_dB"]) == 8 and np.isfinite(bands["ratio_dB"]).all()
+        assert bands["rms_dB"] == pytest.approx(np.sqrt(np.mean(np.square(bands["ratio_dB"]))))
+    assert "bands, dB (P: fast … slow)" in page and page.count("| P ") >= 2
 
 
 def test_the_falls_are_said_once_with_the_runs_they_ended():

@@ -148,6 +148,14 @@ def test_the_true_law_reproduces_the_logs_current_and_pitch(law_log):
     assert by["skipped"]["ran"] is False and by["skipped"]["heldout_rmse"] == {}
     assert by["measured_law"]["ratio_to_balance"] == pytest.approx(e["measured_law"]["P_W"] / 100.0)
     assert by["measured_law"]["target_ratio"] == 1.2 and by["nominal"]["fell"] is None
+    # level and spectrum, channel by channel: the law sets the slow pitch (the paper's soft PD leans
+    # 3x as far); the logged rider's 5 N·m motor noise is in the fast bands, the simulated rider has none
+    bands = {k: by[k]["heldout_bands"] for k in ("nominal", "measured_law")}
+    assert all(set(b) == {"P_W", "I_phase_A", "pitch_rad"} for b in bands.values())
+    assert abs(bands["measured_law"]["pitch_rad"]["ratio_dB"][-1]) < 3.0
+    assert bands["nominal"]["pitch_rad"]["ratio_dB"][-1] > 6.0
+    assert all(b["P_W"]["ratio_dB"][0] < -6.0 and b["I_phase_A"]["ratio_dB"][0] < -6.0 for b in bands.values())
+    assert by["skipped"]["heldout_bands"] is None
     for col in ("I_log", "pitch_log", "I_measured_law", "pitch_nominal"):
         assert col in sim.table
 
@@ -278,7 +286,7 @@ def test_a_run_of_one_wheel_keeps_the_other_wheels_rows_and_commands(tmp_path):
     assert [r.split("|")[2].strip() for r in rows_] == ["0 → 2", "1 → 2", "1 → 4"]   # old order
     band_rows = [ln for ln in band_text.splitlines() if ln.startswith("| lynx") or ln.startswith("| blitz")]
     assert [r.split("|")[2].strip() for r in band_rows] == ["0 → 2", "1 → 2", "1 → 4"]
-    assert "| – | – | – | 2.5 (+3 … -1) |" in band_rows[0] and "2.5 (+3 … -1)" in band_rows[1]
+    assert "| – | – | – | P 2.5 dB (+3 … -1) |" in band_rows[0] and "P 2.5 dB (+3 … -1)" in band_rows[1]
     assert band_rows[2].count("–") == 4          # a pair not run has no bands
     assert "400 (**0.80**)" in rows_[0]                                           # lynx kept
     assert "1 → 2 | 1,000 |" in rows_[1] and "not run" in rows_[2]
