@@ -375,6 +375,33 @@ def bands_cell(bands: Mapping | None) -> str:
     return "; ".join(out) or "–"
 
 
+#: dB: a fastest band this far from the log's is said on the page (twice or half the swing).
+SWAY_DB = 6.0
+
+
+def sway_sentence(ran: list) -> str | None:
+    """What the last step's fastest battery-power band says of the rider's sway, or None.
+
+    ``ran``: the steps that ran (``simulation.steps``).  Said when that band (~2 Hz) is more
+    than :data:`SWAY_DB` from the log's: the simulated rider sways less (or more) than the
+    logged one, which an RMS error does not show.
+    """
+    last = ran[-1] if ran else None
+    b = ((last or {}).get("heldout_bands") or {}).get("P_W")
+    if b is None or abs(b["ratio_dB"][0]) <= SWAY_DB:
+        return None
+    r = b["ratio_dB"][0]
+    times = 10 ** (abs(r) / 20)
+    if r < 0:
+        return (f"In the last step ({last['step']}) the battery power's fastest band (~2 Hz) swings "
+                f"{times:.1f}× less than the log's ({r:+.0f} dB): the logged rider's own sway is "
+                f"missing from the simulated one (`--calibrate-rider` fits his delay, bandwidth and "
+                f"motor noise); the RMS error does not count what is missing there.")
+    return (f"In the last step ({last['step']}) the battery power's fastest band (~2 Hz) swings "
+            f"{times:.1f}× more than the log's ({r:+.0f} dB): the simulated rider sways more than "
+            f"the logged one.")
+
+
 def _step_row(st: dict, balance) -> str:
     """One row of the steps' table: what the step adds, its held-out errors and its fall."""
     if not st["ran"]:
@@ -430,6 +457,9 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
                f"(effects injected as physics in the last step: {inj}). Logged torque from "
                f"{e['M_log_method']} (assumed efficiency "
                f"{r['assumptions']['efficiency_for_torque']:g}).", ""]
+        sway = sway_sentence([st for st in steps if st["ran"]])
+        if sway:
+            md += [sway, ""]
         if sim.get("windows"):
             md.append(f"Windows (s) where the last step's ({steps[-1]['step'] if steps else 'augmented'}) "
                       "power error concentrates: "

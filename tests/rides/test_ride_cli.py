@@ -328,3 +328,19 @@ def test_the_falls_are_said_once_with_the_runs_they_ended():
     one = falls_sentence(both[:1], 120)
     assert "(nominal: " in one and "over the 120 scored rows ridden before it" in one
     assert falls_sentence([], 10) is None
+
+
+def test_the_page_says_when_the_last_step_sways_less_or_more_than_the_log():
+    from euc_sim.rides.page import SWAY_DB, sway_sentence
+
+    def step(name, fast):
+        return {"step": name, "ran": True,
+                "heldout_bands": {"P_W": {"ratio_dB": [fast, 0.0], "rms_dB": abs(fast) / 2 ** 0.5}}}
+
+    quiet = sway_sentence([step("nominal", 0.0), step("drivetrain", -12.0)])
+    assert "(drivetrain)" in quiet and "4.0× less" in quiet and "-12 dB" in quiet
+    assert "sway is missing" in quiet
+    assert "2.5× more" in sway_sentence([step("drivetrain", 8.0)])
+    assert sway_sentence([step("drivetrain", -SWAY_DB + 0.5)]) is None
+    assert sway_sentence([{"step": "drivetrain", "ran": True, "heldout_bands": None}]) is None
+    assert sway_sentence([]) is None
