@@ -69,7 +69,6 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
     import numpy as np
 
     from controllers.firmware import firmware_motor
-    from controllers.motor import MotorPD
     from euc_sim.cli.ride import _drivetrain, with_found_values
     from euc_sim.rides.analysis import ride_analysis
     from euc_sim.rides.controller_report import controller_json, torque_constant
@@ -123,7 +122,6 @@ def ride_window(case: tuple, data: Path, n_boot: int, spikes: bool) -> dict:
     """Mass on FIT, HELD's profile, and the window ridden with the paper's PD at two limits."""
     import numpy as np
 
-    from controllers.motor import MotorPD
     from euc_sim.cli.ride import _drivetrain, with_found_values
     from euc_sim.rides.logs import read_log
     from euc_sim.rides.profile import speed_profile

@@ -135,7 +135,6 @@ def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[r
 
 def _force_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bool):
     """Columns and estimate maps of the force effects the recording can see."""
-    k = prep.keep
     cands: dict[str, np.ndarray] = {}
     info: dict[str, dict] = {}
     for name in ("rolling_resistance", "aerodynamic_drag", "road_slope",

@@ -275,7 +275,7 @@ def _mass_md(rep: dict) -> list[str]:
     else:
         ci = tm["ci95"]
         eq = tm.get("equivalent_mass")
-        md.append(f"- Total mass (rider + wheel"
+        md.append("- Total mass (rider + wheel"
                   + ("" if eq else ", with the wheel's rotating inertia: no net weight given")
                   + f"): **{tm['estimate']:.0f} kg**, 95 % interval "
                   + (f"{ci[0]:.0f}–{ci[1]:.0f} kg" if ci else "–")

@@ -234,8 +234,6 @@ def calls_per_step(m, d) -> int:
     allocates an ``MjData``: ~1 ms, about 1 ms a ride otherwise).
 
     Call with the callback built (:func:`callback`)."""
-    import mujoco
-
     key = (int(m.opt.integrator), int(m.opt.disableflags))
     if key not in _CALLS_PER_STEP:
         _CALLS_PER_STEP[key] = _count_calls(m, d)
