@@ -40,8 +40,8 @@ import pandas as pd
 
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.profile import rider_plan, speed_profile
-from euc_sim.rides.rider_features import reading_step
 from euc_sim.rides.plan_learning import filter_band
+from euc_sim.rides.rider_features import reading_step
 from euc_sim.rides.signals import RideAssumptions, RideSignals, as_log
 from euc_sim.rides.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep,
                                      effects_to_inject, simulated_pwm)
@@ -308,9 +308,9 @@ def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
 
     Each channel is read at the log's own ``stamps`` (s), written in the log's steps where
     ``quanta`` gives them (``I`` A, ``pitch`` rad; the steps' zero drawn from ``rng``) and
-    interpolated onto the grid as the log is (:func:`euc_sim.rides.reading.read_as_logged`).  Speed, torque and
-    battery power always; phase current (M_d/k_t), pitch (s·γ + tilt₀) and duty where the
-    log has them and ``channels`` can map them.  A run that ended in a fall (``fell``) is
+    interpolated onto the grid as the log is (:func:`euc_sim.rides.reading.read_as_logged`).
+    Speed, torque and battery power always; phase current (M_d/k_t), pitch (s·γ + tilt₀)
+    and duty where the log has them and ``channels`` can map them.  A run that ended in a fall (``fell``) is
     kept up to one smoothing window before the fall (the falling itself is not riding)
     and is NaN after it.  Also returns the battery power read but not smoothed, W (for
     its bands, :func:`euc_sim.rides.rider_features.band_ratio_db`), and so phase current and
@@ -338,19 +338,17 @@ def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
     def read(x, col=None):
         return read_as_logged(ts, np.asarray(x, float), stamps, t, quantum=quanta.get(col), rng=rng)
 
-    def filt(x):
-        return sg(read(x), segment, sig.rate, sig.window, sig.polyorder)
+    def smooth(y):
+        return sg(y, segment, sig.rate, sig.window, sig.polyorder)
 
     raw = {"P": read(P)}
-    out = {f"v_{name}": filt(df["x_dot"]), f"M_{name}": filt(df["M_d"]),
-           f"P_{name}": sg(raw["P"], segment, sig.rate, sig.window, sig.polyorder)}
     if "I_log" in logged and channels.k_t:
         raw["I"] = read(df["M_d"].to_numpy() / channels.k_t, "I")
-        out[f"I_{name}"] = sg(raw["I"], segment, sig.rate, sig.window, sig.polyorder)
     if "pitch_log" in logged:
         s, zero = channels.pitch_sign or 1.0, channels.pitch_zero or 0.0
         raw["pitch"] = read(s * df["gamma"].to_numpy() + zero, "pitch")
-        out[f"pitch_{name}"] = sg(raw["pitch"], segment, sig.rate, sig.window, sig.polyorder)
+    out = {f"v_{name}": smooth(read(df["x_dot"])), f"M_{name}": smooth(read(df["M_d"]))}
+    out |= {f"{col}_{name}": smooth(y) for col, y in raw.items()}
     if "pwm_log" in logged and channels.pwm and "voltage" in sig.raw:
         V = sg(sig.raw["voltage"].to_numpy(float), sig.raw["segment"].to_numpy(), sig.rate,
                sig.window, sig.polyorder)
@@ -403,7 +401,8 @@ def _band_errors(sig: RideSignals, reads: Mapping[str, Mapping[str, np.ndarray]]
 def _step_entries(steps: Sequence[SimStep], errors: dict, falls: list,
                   balance: float | None, bands: Mapping[str, dict] | None = None) -> list[dict]:
     """CONTRACT's ``simulation.steps``: description, held-out errors, ratio to the balance fit,
-    and the held-out bands of battery power (``heldout_bands``, :func:`_band_errors`)."""
+    and the held-out bands of battery power, phase current and pitch (``heldout_bands``,
+    :func:`_band_errors`)."""
     out = []
     for step in steps:
         entry = step.describe()
