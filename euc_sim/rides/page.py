@@ -396,7 +396,8 @@ def sway_sentence(ran: list) -> str | None:
         return (f"In the last step ({last['step']}) the battery power's fastest band (~2 Hz) swings "
                 f"{times:.1f}× less than the log's ({r:+.0f} dB): the logged rider's own sway is "
                 f"missing from the simulated one (`--calibrate-rider` fits his delay, bandwidth and "
-                f"motor noise); the RMS error does not count what is missing there.")
+                f"motor noise); the RMS error favours leaving it out, since a sway drawn "
+                f"independently of the logged one adds to it.")
     return (f"In the last step ({last['step']}) the battery power's fastest band (~2 Hz) swings "
             f"{times:.1f}× more than the log's ({r:+.0f} dB): the simulated rider sways more than "
             f"the logged one.")
