@@ -138,7 +138,11 @@ def test_interrupt_stops_workers_and_leaves_nothing(log, tmp_path, sig, code):
     argv = [sys.executable, "-c", "import sys; from euc_sim.cli import main; sys.exit(main())",
             "ride", str(log), "--n-boot", "10", "--jobs", "2", "--report", str(tmp_path / "rep"),
             "--json", str(tmp_path / "o.json")]
-    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    # A shell starts a background job with SIGINT ignored, and Python keeps an ignored SIGINT:
+    # run from such a job (nohup ... &, some CI runners) the command would never see the Ctrl-C
+    # this test sends.  A user's terminal delivers it, so the child starts with the default.
+    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     lines = []
     try:
         for line in proc.stderr:                  # the workers print "riding ..." when they start
