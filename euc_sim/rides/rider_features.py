@@ -131,9 +131,7 @@ def band_features(y: np.ndarray, segment: np.ndarray, rate: float, rows: np.ndar
     numpy.ndarray
         (bands,) log RMS (log of u), or (n_blocks, bands) mean squares (u²) with ``block``.
     """
-    windows = BAND_WINDOWS if windows is None else tuple(windows)
-    levels = [np.asarray(y, float)] + [sg(y, segment, rate, w, 2) for w in windows]
-    bands = np.stack([levels[i] - levels[i + 1] for i in range(len(windows))], axis=1)
+    bands = _bands(y, segment, rate, windows)
     ok = rows & np.isfinite(bands).all(axis=1)
     if ok.sum() < 2:
         raise RiderFitError(f"band features need at least 2 finite rows, got {int(ok.sum())}")
@@ -181,17 +179,20 @@ def band_ratio_db(y: np.ndarray, y_ref: np.ndarray, segment: np.ndarray, rate: f
     # a run of rows where either is NaN (a simulation after its fall) is a segment of its own,
     # so that the smoothers neither cross it nor spread its NaN
     seg = np.cumsum(np.r_[0, (np.diff(np.asarray(segment)) != 0) | (np.diff(both.astype(int)) != 0)])
-    y, y_ref = np.where(both, y, 0.0), np.where(both, y_ref, 0.0)
-    use = np.asarray(rows, bool) & both & _finite_bands(y, seg, rate) & _finite_bands(y_ref, seg, rate)
-    ratio = 20.0 / math.log(10.0) * (band_features(y, seg, rate, use) - band_features(y_ref, seg, rate, use))
+    b, b_ref = (_bands(np.where(both, x, 0.0), seg, rate) for x in (y, y_ref))
+    use = np.asarray(rows, bool) & both & np.isfinite(b).all(axis=1) & np.isfinite(b_ref).all(axis=1)
+    if use.sum() < 2:
+        raise RiderFitError(f"band features need at least 2 finite rows, got {int(use.sum())}")
+    ratio = 10.0 / math.log(10.0) * np.log(np.mean(b[use] ** 2, axis=0) / np.mean(b_ref[use] ** 2, axis=0))
     return {"windows_s": list(BAND_WINDOWS), "ratio_dB": [float(r) for r in ratio],
             "rms_dB": float(np.sqrt(np.mean(ratio ** 2)))}
 
 
-def _finite_bands(y: np.ndarray, segment: np.ndarray, rate: float) -> np.ndarray:
-    """Rows where every band of ``y`` is finite."""
-    levels = [np.asarray(y, float)] + [sg(y, segment, rate, w, 2) for w in BAND_WINDOWS]
-    return np.logical_and.reduce([np.isfinite(x) for x in levels])
+def _bands(y: np.ndarray, segment: np.ndarray, rate: float, windows: tuple | None = None) -> np.ndarray:
+    """(rows, bands) the channel's bands: band k is S_{k-1} − S_k of the smoothers of ``windows``."""
+    windows = BAND_WINDOWS if windows is None else tuple(windows)
+    levels = [np.asarray(y, float)] + [sg(y, segment, rate, w, 2) for w in windows]
+    return np.stack([levels[i] - levels[i + 1] for i in range(len(windows))], axis=1)
 
 
 def fit_windows(channels: pd.DataFrame, n: int = 3, length: float = 60.0, v_min: float = 2.0,

@@ -471,6 +471,7 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
     if not run:
         raise ValueError(f"steps: expected at least one step that runs, got {[s.name for s in steps]}")
     params = ride_params(sig.assumptions)
+    log = as_log(log)                    # read once: for the profile and for the stamps
     prof = speed_profile(log, sig.rate, sig.window, sig.polyorder, total_mass=sig.assumptions.total_mass)
     t_p, v_p = prof["t"].to_numpy(), prof["v"].to_numpy()
     notes = list(prof.attrs.get("notes", []))
@@ -486,7 +487,7 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
              _prefixed(progress, s.name, workers), s.name, i, s.motor, s.rider, LEAN_SHARE, None, stops)
             for i, s in enumerate(run)]
     done = _run_jobs(jobs, names, params, workers, progress)
-    data = as_log(log).data
+    data = log.data
     stamps = data["t"].to_numpy(float)
     quanta = {c: q for c, name in LOG_COLUMNS.items() if c != "pwm" and name in data
               for q in [reading_step(data[name].to_numpy(float))] if q}
