@@ -53,7 +53,7 @@ def bench_ride() -> dict:
     """A 60-minute speed profile ridden by simulate_profile (augmented effects, native) vs a bare mj_step loop."""
     import mujoco
 
-    from controllers.rider import RiderRun
+    from euc_sim.controllers.rider import RiderRun
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.tracking import simulate_profile
     from euc_sim.simulation.engine import _MujocoStepper

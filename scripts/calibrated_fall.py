@@ -74,7 +74,7 @@ def describe(name: str) -> str:
 
 
 def trim_with_rolling(C_rr: float, sign_speed: float):
-    """:func:`controllers.rider.trim` with the rolling moment C_rr·N·R·tanh(v/v_s) in eq. (5) row 1.
+    """:func:`euc_sim.controllers.rider.trim` with the rolling moment C_rr·N·R·tanh(v/v_s) in eq. (5) row 1.
 
     Row 1 becomes R·m11·a + C_rr·N·R·tanh(v/v_s) = M_d (N = :func:`normal_load`); rows 2-3 as in
     ``trim`` with the actual acceleration a: the rider holds the motor's extra reaction with
@@ -95,7 +95,7 @@ def trim_with_rolling(C_rr: float, sign_speed: float):
     """
     import numpy as np
 
-    from controllers.rider import trim
+    from euc_sim.controllers.rider import trim
 
     def trimmed(p, motor, a, v=0.0):
         a = np.asarray(a, dtype=float)
@@ -150,7 +150,7 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     """
     import numpy as np
 
-    from controllers.design import DEFAULT_SCALES, design_rider
+    from euc_sim.controllers.design import DEFAULT_SCALES, design_rider
     from euc_sim.cli.ride import with_found_values
     from euc_sim.rides.profile import rider_plan, speed_profile
     from euc_sim.rides.rider_params import rider_from
@@ -162,7 +162,7 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     from euc_sim.rides.tracking import simulate_profile
     import functools
 
-    import controllers.rider as rider_module
+    import euc_sim.controllers.rider as rider_module
     from euc_sim.simulation import effects, engine
     from euc_sim.simulation.effects import CATALOG
 

@@ -22,7 +22,7 @@ body pitch γ and lean φ, and plots the logged and simulated speed, the torques
 balance fit, the filtered profile with spikes bridged, the measured law at ``--n-boot``
 replicates, seed 0).  master_pro_V2/3 gets the same three paper-PD runs as the pairs; apex/0's
 two runs are the measured law with its fitted torque limit (as the count found the fall) and
-with the limit :func:`controllers.firmware.firmware_settings` now uses (the largest |torque| the
+with the limit :func:`euc_sim.controllers.firmware.firmware_settings` now uses (the largest |torque| the
 same log measured, where the fit's is lower), both with the plan band-limited.
 
 Each paper-PD window is ridden three times: the plan not band-limited (as the falls were found),
@@ -55,7 +55,7 @@ OWN_CASES = {"master_pro_V2/3 nominal": ("trips/begode/master_pro_V2/3/3.csv", "
 
 def _pd_runs():
     """(label, motor, band_limit) of the paper-PD runs: the plan before and after the band limit."""
-    from controllers.motor import MotorPD
+    from euc_sim.controllers.motor import MotorPD
 
     return (("paper PD, 250 N·m limit, plan not band-limited (before)", MotorPD(), False),
             ("paper PD, 250 N·m limit, plan band-limited to z/2 (as simulated now)", MotorPD(), True),
@@ -68,7 +68,7 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
 
     import numpy as np
 
-    from controllers.firmware import firmware_motor
+    from euc_sim.controllers.firmware import firmware_motor
     from euc_sim.cli.ride import _drivetrain, with_found_values
     from euc_sim.rides.analysis import ride_analysis
     from euc_sim.rides.controller_report import controller_json, torque_constant

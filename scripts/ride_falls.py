@@ -17,7 +17,7 @@ profile (:func:`euc_sim.rides.profile.speed_profile`) with
 ``nominal``     the paper's model, no injected effect;
 ``augmented``   the accepted balance effects injected as physics (:func:`effects_to_inject`);
 ``firmware``    the nominal run with the wheel's measured law as the motor controller
-                (:func:`controllers.firmware.firmware_motor`), where the log gives one.
+                (:func:`euc_sim.controllers.firmware.firmware_motor`), where the log gives one.
 
 Output under ``--out``: ``logs/NAME.json`` as each log is done, then ``falls.csv`` (one row per log and run: ride seconds, fell, time,
 cause, the profile's speed and acceleration at the fall, the profile's largest |a|, the
@@ -100,7 +100,7 @@ def _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations) -> list[di
     eff, _ = effects_to_inject(an.cross.augmented.estimate, an.cross.accepted)
     runs = [("nominal", {}, None), ("augmented", eff, None)]
     if firmware:
-        from controllers.firmware import FirmwareError, firmware_motor
+        from euc_sim.controllers.firmware import FirmwareError, firmware_motor
 
         ctrl = controller_json(log, None, torque_constant(physics[0].get("drivetrain")), n_boot, seed)
         try:

@@ -115,13 +115,13 @@ def real(wheel: str, seed: int, windows: int, length: float, rider: list | None 
         print(json.dumps(fit.params, indent=1), flush=True)
         calibrated = fit.rider
     else:                   # the values of an earlier fit_rider run on the same fit ride
-        from controllers.motor import MotorPD
+        from euc_sim.controllers.motor import MotorPD
         from euc_sim.rides.rider_params import rider_from
 
         values = dict(zip(("delay", "bandwidth", "noise_std"), rider))
         calibrated = rider_from(values, params, MotorPD())
         out["rider_given"] = values
-    from controllers.motor import MotorPD
+    from euc_sim.controllers.motor import MotorPD
     from euc_sim.rides.sim_steps import SimStep
 
     base = SimStep("default", "paper's PD, default rider along the 1.5 s profile", MotorPD(), None, eff, dtv)

@@ -33,7 +33,7 @@ def check(seed: int, rides: int, duration: float = 20.0) -> dict:
     """Levels read over ``rides`` rides: ``zero`` (N·m at σ = 0), ``ratio`` (σ → level / σ list), ``fell``."""
     import pandas as pd
 
-    from controllers.rider import Rider
+    from euc_sim.controllers.rider import Rider
     from euc_sim.diagnosis.rider_noise import motor_noise_level
     from euc_sim.simulation.spatial import draw_spatial_ride, write_spatial
 

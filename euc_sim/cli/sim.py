@@ -30,10 +30,10 @@ def _check_choice(option: str, value: str, valid) -> None:
 
 
 def _voltage_limit(path, R: float, voltage: float | None) -> dict:
-    """``MotorPD`` voltage-limit settings from a ride JSON (:func:`controllers.firmware.voltage_limit_settings`)."""
+    """``MotorPD`` voltage-limit settings from a ride JSON (:func:`euc_sim.controllers.firmware.voltage_limit_settings`)."""
     import json
 
-    from controllers.firmware import FirmwareError, voltage_limit_settings
+    from euc_sim.controllers.firmware import FirmwareError, voltage_limit_settings
 
     try:
         rep = json.loads(Path(path).read_text(encoding="utf-8"))
@@ -46,7 +46,7 @@ def _voltage_limit(path, R: float, voltage: float | None) -> dict:
 
 
 def _motor(args, R: float = 0.2, p=None):
-    from controllers.motor import MotorPD
+    from euc_sim.controllers.motor import MotorPD
     lim = {}
     if getattr(args, "drivetrain", None):
         lim = _voltage_limit(args.drivetrain, R, args.battery_voltage)
@@ -61,11 +61,11 @@ def _motor(args, R: float = 0.2, p=None):
 
 
 def _firmware(path, lim: dict, p=None):
-    """The wheel's measured balance law (the ride JSON's ``controller``, :mod:`controllers.firmware`)
+    """The wheel's measured balance law (the ride JSON's ``controller``, :mod:`euc_sim.controllers.firmware`)
     with the voltage limit, or None when the ride shows no law (the paper's PD is then used)."""
     import json
 
-    from controllers.firmware import FirmwareError, firmware_motor
+    from euc_sim.controllers.firmware import FirmwareError, firmware_motor
     from euc_sim.cli.common import say
 
     ctrl = json.loads(Path(path).read_text(encoding="utf-8")).get("controller")
@@ -174,7 +174,7 @@ def _cmd_stability(args: argparse.Namespace) -> int:
     from euc_sim.io import check_writable, write_json
     from euc_sim.simulation.stability import stability_report
     from euc_sim.simulation.engine import default_rider
-    from controllers.design import delay_tolerance
+    from euc_sim.controllers.design import delay_tolerance
 
     if args.json:
         check_writable(args.json)
@@ -224,7 +224,7 @@ def _controller_options(p: argparse.ArgumentParser) -> None:
 
 def add_commands(sub) -> None:
     """Register ``simulate``, ``dataset`` and ``stability`` on the subparsers ``sub``."""
-    from controllers.rider import DEFAULT_RIDER_NOISE
+    from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
     from euc_sim.cli.common import seed
 
     p = sub.add_parser("simulate", help="closed-loop simulation of a maneuver, written as a recording")

@@ -109,7 +109,7 @@ def twin_recording(prep: Prepared, plan: dict, h: float, noise_std: float = 0.0,
     ValueError
         when the twin falls (:class:`~euc_sim.simulation.errors.FallError`).
     """
-    from controllers.motor import MotorPD
+    from euc_sim.controllers.motor import MotorPD
     from euc_sim.simulation import effects
     from euc_sim.simulation.engine import default_rider
     from euc_sim.simulation.spatial import simulate_3d, spatial_recording

@@ -1,7 +1,7 @@
 """The rider's motor-noise level read from the recorded ankle torque (issue 22, item 2).
 
 The simulator's rider adds an Ornstein–Uhlenbeck torque n(t) of standard deviation σ and
-correlation time τ to his delayed law (:func:`controllers.rider.motor_noise`): the recorded
+correlation time τ to his delayed law (:func:`euc_sim.controllers.rider.motor_noise`): the recorded
 M_h is u(t) + n(t), u the command.  The command reacts to states at least the reaction
 delay old and passes through the rider's body, so it is smooth at the recording's sampling
 interval, while n, sampled every Δt, is an AR(1) sequence with ρ = exp(−Δt/τ) whose second

@@ -37,7 +37,7 @@ WL_HEADER = ("date,time,latitude,longitude,gps_speed,gps_alt,gps_heading,gps_dis
 
 
 def draw_law(rng: np.random.Generator) -> dict:
-    """A concealed firmware law for the blind study, as :class:`controllers.motor.MotorPD`
+    """A concealed firmware law for the blind study, as :class:`euc_sim.controllers.motor.MotorPD`
     keywords (SI): K_p 1,500-5,000 N·m/rad, K_d 100-400 N·m·s/rad, tilt-back 2° reached
     10 km/h above an onset drawn in 24-34 km/h, a torque limit of 45-70 N·m."""
     onset = float(rng.uniform(24.0, 34.0)) / 3.6
@@ -80,7 +80,7 @@ def law_ride(seed: int = 1, duration: float = 300.0, law=LAW) -> pd.DataFrame:
     duration : float
         Length of the ride, s.
     law : mapping
-        :class:`controllers.motor.MotorPD` keywords, SI (default :data:`LAW`).
+        :class:`euc_sim.controllers.motor.MotorPD` keywords, SI (default :data:`LAW`).
 
     Returns
     -------
@@ -92,7 +92,7 @@ def law_ride(seed: int = 1, duration: float = 300.0, law=LAW) -> pd.DataFrame:
     FallError
         when the rider falls under this law and plan.
     """
-    from controllers.motor import MotorPD
+    from euc_sim.controllers.motor import MotorPD
     from euc_sim.model.parameters import TABLE3
     from euc_sim.simulation.engine import default_rider, simulate
     from euc_sim.simulation.maneuvers import Maneuver

@@ -1,6 +1,6 @@
 """The simulated rider's plan learned from his own run: the closed loop inverted up to the log's band.
 
-The LQR rider of :mod:`controllers.rider` does not ride his plan v_ref(t) as planned: his
+The LQR rider of :mod:`euc_sim.controllers.rider` does not ride his plan v_ref(t) as planned: his
 speed answers the plan's slow changes one to one but amplifies its quicker ones (the
 closed loop's gain from plan to speed, measured on real profiles, is 1.7–2.3 at 0.2–0.3 Hz
 and 3.3–3.4 at 0.5–0.7 Hz; with a sine of 0.3 m/s at 1 Hz he rides 1.9 m/s).  A real rider

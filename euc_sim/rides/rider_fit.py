@@ -1,12 +1,12 @@
 """The simulated rider calibrated on a ride log: reaction delay, feedback bandwidth, motor noise.
 
-The default rider (:func:`controllers.design.design_rider`, 0.15 s, Bryson's weights, no
+The default rider (:func:`euc_sim.controllers.design.design_rider`, 0.15 s, Bryson's weights, no
 noise) corrects harder than real riders: along real rides its battery power peaks at
 2–2.5 kW where the log shows about 1 kW.  Here the rider's three free settings are fitted
 to what the log shows of the rider (issue 21, item 3):
 
 ``delay`` τ, s
-    the reaction delay (the predictor is tuned to it, :mod:`controllers.rider`);
+    the reaction delay (the predictor is tuned to it, :mod:`euc_sim.controllers.rider`);
 ``bandwidth`` ρ, 1
     the LQR's state/input weight ratio relative to Bryson's :data:`DEFAULT_SCALES`
     (R = 1/(ρ^½ M_h,scale)²; ρ > 1 a stiffer, faster rider, ρ < 1 a softer one);
@@ -51,8 +51,8 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from controllers.motor import MotorPD
-from controllers.rider import Rider
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import Rider
 from euc_sim.model.parameters import Params
 from euc_sim.rides.profile import PLAN_WINDOW, rider_plan
 from euc_sim.rides.reading import quantise, stamp_readings
@@ -435,7 +435,7 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
         The simulated ride's parameters (:func:`euc_sim.rides.simulate.ride_params`).
     motor : MotorPD, optional
         The wheel's law (default the paper's PD; the measured one from
-        :func:`controllers.firmware.firmware_motor` where the ride shows it).
+        :func:`euc_sim.controllers.firmware.firmware_motor` where the ride shows it).
     effects : mapping, optional
         Effects injected as physics (drag, rolling resistance, slope; CONTRACT units).
     drivetrain : mapping, optional

@@ -11,8 +11,8 @@ import math
 from dataclasses import dataclass
 from typing import Mapping
 
-from controllers.motor import MotorPD
-from controllers.rider import Rider
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import Rider
 from euc_sim.model.parameters import Params
 from euc_sim.rides.rider_features import RiderFitError
 
@@ -63,10 +63,10 @@ def rider_from(values: Mapping[str, float], params: Params, motor: MotorPD) -> R
     Returns
     -------
     Rider
-        LQR gains from :func:`controllers.design.design_rider` with the ankle-torque
+        LQR gains from :func:`euc_sim.controllers.design.design_rider` with the ankle-torque
         scale of Bryson's rule multiplied by √bandwidth.
     """
-    from controllers.design import DEFAULT_SCALES, design_rider
+    from euc_sim.controllers.design import DEFAULT_SCALES, design_rider
 
     bw = float(values["bandwidth"])
     if not (math.isfinite(bw) and bw > 0):

@@ -9,11 +9,11 @@ after each step shows what that piece bought (locate, name, model, show the fit 
     the inertia-only balance fit's efficiencies;
 ``measured_law``
     the wheel's own balance law measured on the fit ride (the ride JSON's
-    ``controller``, :func:`controllers.firmware.firmware_motor`), the rider redesigned
+    ``controller``, :func:`euc_sim.controllers.firmware.firmware_motor`), the rider redesigned
     for it; skipped with a ``why`` when the fit ride shows no law;
 ``drivetrain``
     the voltage-limited motor of the fit ride's drivetrain fit (back-EMF, resistive
-    drop, dead time, flux weakening: :func:`controllers.firmware.voltage_limit_settings`),
+    drop, dead time, flux weakening: :func:`euc_sim.controllers.firmware.voltage_limit_settings`),
     the accepted balance effects injected as physics and the augmented fit's
     efficiencies and idle drain (what the ``augmented`` run did before).
 
@@ -38,7 +38,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from controllers.motor import MotorPD
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import Params
 
 __all__ = ["SimStep", "motor_from_law", "StepInputs", "LogChannels", "nominal_step", "measured_law_step",
@@ -68,7 +68,7 @@ def motor_from_law(law: Mapping[str, float]) -> MotorPD:
     law : mapping
         ``K_p`` (N·m/rad), ``K_d`` (N·m·s/rad), ``torque_limit`` (N·m), and where the step
         had them ``tiltback_speed``, ``tiltback_gain``, ``voltage``, ``back_emf``, ``drop``,
-        ``dead_time``, ``flux_weakening``, ``fw_speed`` (:class:`controllers.motor.MotorPD`).
+        ``dead_time``, ``flux_weakening``, ``fw_speed`` (:class:`euc_sim.controllers.motor.MotorPD`).
 
     Returns
     -------
@@ -181,8 +181,8 @@ def nominal_step(prev: SimStep | None, inp: StepInputs) -> SimStep:
 
 def measured_law_step(prev: SimStep, inp: StepInputs) -> SimStep:
     """The firmware law measured on the fit ride replaces the paper's PD (the rider redesigned for it)."""
-    from controllers.damping import ZETA_UNRESOLVED
-    from controllers.firmware import FirmwareError, firmware_motor, kd_resolved
+    from euc_sim.controllers.damping import ZETA_UNRESOLVED
+    from euc_sim.controllers.firmware import FirmwareError, firmware_motor, kd_resolved
 
     ctrl = inp.ride.get("controller")
     name, what = "measured_law", "the wheel's balance law measured on the fit ride"
@@ -207,7 +207,7 @@ def _term(ctrl: Mapping, name: str):
 
 def drivetrain_step(prev: SimStep, inp: StepInputs) -> SimStep:
     """The voltage-limited motor, the accepted effects as physics, the augmented fit's power model."""
-    from controllers.firmware import FirmwareError, voltage_limit_settings
+    from euc_sim.controllers.firmware import FirmwareError, voltage_limit_settings
 
     eff, notes = effects_to_inject(inp.augmented, inp.accepted)
     motor = prev.motor

@@ -120,7 +120,7 @@ def plan_band_limit(params: Params, motor=None) -> tuple[float, float]:
     """The width, s, of the moving average that band-limits the rider's plan to ω_B = z/2.
 
     The wheel speed's response to the rider's ankle torque has a right-half-plane zero z
-    (:func:`controllers.plant.speed_zero`: to speed up the wheel must first run back under
+    (:func:`euc_sim.controllers.plant.speed_zero`: to speed up the wheel must first run back under
     the leaning rider), which bounds the bandwidth of any speed tracking to ω_B < z/2
     (Skogestad and Postlethwaite, *Multivariable Feedback Control*, 2nd ed., 2005, §5.6).  A
     plan with faster content (the acceleration envelope's corners: an acceleration step of
@@ -134,7 +134,7 @@ def plan_band_limit(params: Params, motor=None) -> tuple[float, float]:
     (width, z) : tuple of float
         s, and the zero z, rad/s.  Width 0 when the response has no such zero.
     """
-    from controllers.plant import speed_zero
+    from euc_sim.controllers.plant import speed_zero
 
     z = speed_zero(params, motor)
     if not (math.isfinite(z) and z > 0):
@@ -144,7 +144,7 @@ def plan_band_limit(params: Params, motor=None) -> tuple[float, float]:
 
 def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEAN_SHARE,
                              phi_max: float | None = None) -> float:
-    """The largest |a|, m/s², whose steady lean |φ*(a)| (:func:`controllers.rider.trim`) stays
+    """The largest |a|, m/s², whose steady lean |φ*(a)| (:func:`euc_sim.controllers.rider.trim`) stays
     within ``lean_share``·φ_max, braking and accelerating alike (the smaller of the two).
 
     Parameters
@@ -165,8 +165,8 @@ def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEA
     """
     from scipy.optimize import brentq
 
-    from controllers.motor import MotorPD
-    from controllers.rider import trim
+    from euc_sim.controllers.motor import MotorPD
+    from euc_sim.controllers.rider import trim
     from euc_sim.simulation.engine import FALL_BOUNDS
 
     if not (math.isfinite(lean_share) and 0 < lean_share < 1):
@@ -351,9 +351,9 @@ def _stretch_seed(seed: int, i: int) -> int:
 
 
 def _rest_pose(params: Params, motor) -> tuple[float, float]:
-    """(γ, φ) of the trim at rest, rad (:func:`controllers.rider.trim` at a = v = 0)."""
-    from controllers.motor import MotorPD
-    from controllers.rider import trim
+    """(γ, φ) of the trim at rest, rad (:func:`euc_sim.controllers.rider.trim` at a = v = 0)."""
+    from euc_sim.controllers.motor import MotorPD
+    from euc_sim.controllers.rider import trim
 
     gamma, phi, _, _ = trim(params, motor or MotorPD(), 0.0, 0.0)
     return float(gamma), float(phi)
@@ -452,7 +452,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         The bar's line (0 first): runs side by side in processes keep their own line.
     motor : controllers.motor.MotorPD, optional
         The wheel's balance law (default the paper's PD), e.g. a ride's measured law
-        (:func:`controllers.firmware.firmware_motor`).
+        (:func:`euc_sim.controllers.firmware.firmware_motor`).
     rider : controllers.rider.Rider, optional
         The rider (default the LQR rider designed for ``motor``).
     lean_share : float or None

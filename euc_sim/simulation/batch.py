@@ -1,7 +1,7 @@
 """The batch engine: N closed-loop rides at once, vectorised over rides.
 
 One fixed-step RK4 step of eqs. (5)-(8) advances every ride; the motor PD
-(:class:`controllers.motor.MotorPD`) and the rider's law (:class:`controllers.rider.RiderRun`:
+(:class:`euc_sim.controllers.motor.MotorPD`) and the rider's law (:class:`euc_sim.controllers.rider.RiderRun`:
 trim, feedback, delay buffer, delay-compensating predictor, torque limit, motor
 noise) are the same linear laws written as array operations over the rides.
 Each ride has its own maneuver and noise seed; the parameters, motor and rider
@@ -32,8 +32,8 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from controllers.motor import MotorPD
-from controllers.rider import Rider, RiderRun, motor_noise
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import Rider, RiderRun, motor_noise
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation.engine import DEFAULT_DT, FALL_BOUNDS, default_rider
 from euc_sim.simulation.errors import SimulationError

@@ -21,8 +21,8 @@ from typing import Mapping
 
 import numpy as np
 
-from controllers.motor import MotorPD
-from controllers.rider import DEFAULT_RIDER_NOISE, Rider
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE, Rider
 from euc_sim import io
 from euc_sim.simulation.mocap import motion_capture
 from euc_sim.model.parameters import Params, TABLE3

@@ -22,7 +22,7 @@ column         unit   meaning
 =============  =====  ==========================================================
 
 Both controllers run at 1/dt with a zero-order hold; the rider's reaction delay is a
-look-back buffer over the state history (:class:`controllers.rider.RiderRun`).
+look-back buffer over the state history (:class:`euc_sim.controllers.rider.RiderRun`).
 
 Engines
 -------
@@ -59,8 +59,8 @@ from typing import Callable, Mapping
 import numpy as np
 import pandas as pd
 
-from controllers.motor import MotorPD
-from controllers.rider import Rider, RiderRun
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import Rider, RiderRun
 from euc_sim.simulation import drift
 from euc_sim.simulation import effects as fx
 from euc_sim.model.parameters import Params, TABLE3
@@ -117,9 +117,9 @@ _RIDERS: dict = {}
 
 def default_rider(params: Params = TABLE3, motor: MotorPD | None = None,
                   noise_std: float = 0.0, delay: float = 0.15) -> Rider:
-    """The LQR-designed rider of :func:`controllers.design.design_rider`, cached per
+    """The LQR-designed rider of :func:`euc_sim.controllers.design.design_rider`, cached per
     (params, motor), with the given motor noise (N·m) and reaction delay (s)."""
-    from controllers.design import design_rider
+    from euc_sim.controllers.design import design_rider
 
     motor = motor or MotorPD()
     key = (params, motor)
@@ -405,7 +405,7 @@ def _closed_loop(stepper, motor: MotorPD, run: RiderRun, ext: _ExternalInputs, p
     """Step the plant N times under the held motor and ankle torques; states (N+1, 6) and torques (N+1, 2).
 
     The rider senses states n = delay/dt steps old, so his ankle torques are computed
-    a block of n + 1 steps at a time (:meth:`controllers.rider.RiderRun.commands`);
+    a block of n + 1 steps at a time (:meth:`euc_sim.controllers.rider.RiderRun.commands`);
     the motor PD sees the current state and runs at every step.  Velocity-dependent
     external forces are evaluated at the start of each step and held over it.
     Per-step quantities are Python floats: the loop stays off numpy.

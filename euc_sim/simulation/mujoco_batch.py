@@ -7,7 +7,7 @@ each: the same DataFrame, or the ``FallError`` it raises.
 
 * **Per step, in C.** A numba ``cfunc`` installed as MuJoCo's control callback runs,
   at the first callback call of every step (RK4 calls it once per stage; the count is
-  measured on the batch), the motor PD (:func:`controllers.motor.pd_torque`, the one
+  measured on the batch), the motor PD (:func:`euc_sim.controllers.motor.pd_torque`, the one
   motor law), records the state, checks the fall bounds and sets the step's held
   external forces from the state at its start (:func:`euc_sim.simulation.effects.held_forces`,
   the one law of every loop, compiled): aerodynamic drag −k ẋ|ẋ| at G
@@ -22,7 +22,7 @@ each: the same DataFrame, or the ``FallError`` it raises.
   (damping), ``rider_mass`` (parameters through MjSpec) and the contact settings give
   each ride the model :func:`simulate` builds (``Batch.set_models``, one model per
   distinct setting): exact.
-* **Per block, in numpy.** The rider's delayed law (:meth:`controllers.rider.RiderRun.commands`,
+* **Per block, in numpy.** The rider's delayed law (:meth:`euc_sim.controllers.rider.RiderRun.commands`,
   blocks of n + 1 steps) is vectorised across the batch's simulations between
   ``batch.step(nstep=block)`` calls: the same operations on stacked rows, the
   predictor's recursion solved for all rides of one rider law at once (LAPACK
@@ -108,7 +108,7 @@ def _compile():
     """numba ``cfunc`` with MuJoCo's control-callback signature, context in ``d->userdata``."""
     from numba import carray, cfunc, njit, types
 
-    from controllers.motor import pd_torque
+    from euc_sim.controllers.motor import pd_torque
 
     from euc_sim.simulation.native_core import field_offsets
     from euc_sim.simulation.native_kernels import address, f64p, held_forces, i64p
@@ -483,7 +483,7 @@ def _calls_per_step(mujoco, models: list, rides: list) -> int:
 
 
 class _RiderBlocks:
-    """:meth:`controllers.rider.RiderRun.commands` for many runs at once, vectorised across them.
+    """:meth:`euc_sim.controllers.rider.RiderRun.commands` for many runs at once, vectorised across them.
 
     The runs' references, noise and command histories are stacked; each run's ``du``
     becomes a row view of the stack, so that a run done by its own :meth:`commands`

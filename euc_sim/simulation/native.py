@@ -1,8 +1,8 @@
 """The planar MuJoCo closed loop without Python per step: motor and rider as a native callback.
 
-The motor PD (:func:`controllers.motor.pd_torque`) and the rider's delayed LQR with its
-predictor, integral speed tracking and motor noise (:func:`controllers.rider.delayed_lqr_torque`
-on the buffers of :class:`controllers.rider.RiderRun`) are compiled by numba into MuJoCo's
+The motor PD (:func:`euc_sim.controllers.motor.pd_torque`) and the rider's delayed LQR with its
+predictor, integral speed tracking and motor noise (:func:`euc_sim.controllers.rider.delayed_lqr_torque`
+on the buffers of :class:`euc_sim.controllers.rider.RiderRun`) are compiled by numba into MuJoCo's
 control callback (:mod:`euc_sim.simulation.native_kernels`).  At the first callback call
 of each step (RK4 calls it once per stage; the count per step is measured on the model,
 not assumed) the callback records the state, computes M_d from it and M_h from the
@@ -34,8 +34,8 @@ from typing import Mapping
 
 import numpy as np
 
-from controllers.motor import MotorPD
-from controllers.rider import RiderRun
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import RiderRun
 from euc_sim.simulation import native_core as nc
 from euc_sim.simulation import native_layout as lay
 from euc_sim.simulation.errors import FallError

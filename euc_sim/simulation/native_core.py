@@ -70,7 +70,7 @@ class Context:
         self.c[C_ACT:C_ACT + len(ids)] = ids
 
     def rider(self, first: int, run) -> None:
-        """The rider block at slot ``first`` from a :class:`controllers.rider.RiderRun` (its own
+        """The rider block at slot ``first`` from a :class:`euc_sim.controllers.rider.RiderRun` (its own
         ``du`` buffer: the run's state stays in it; z in the block's floats, read back by
         :meth:`rider_z`)."""
         for off, arr in ((R_VREF, run.v_ref), (R_GREF, run.gamma_ref), (R_PREF, run.phi_ref),

@@ -11,7 +11,7 @@ in the registry is left alone.
 Contexts are int64 arrays whose slots are the ``C_*`` / ``P_*`` / ``S_*`` indices of
 :mod:`euc_sim.simulation.native_layout`; float settings and buffers are reached through
 the addresses they hold.  The laws are the project's own pure functions compiled here:
-:func:`controllers.motor.pd_torque`, :func:`controllers.rider.delayed_lqr_torque` and the
+:func:`euc_sim.controllers.motor.pd_torque`, :func:`euc_sim.controllers.rider.delayed_lqr_torque` and the
 held drag, rolling resistance and external force of :func:`euc_sim.simulation.effects.held_forces`,
 the yaw and tilt of :func:`euc_sim.simulation.lateral.lateral_force_row` and the moving centre of
 gravity's forces of :func:`euc_sim.simulation.drift.drift_force_row`.
@@ -36,10 +36,10 @@ import numpy as np
 from numba import carray, cfunc, config, njit, types
 from numba.core.extending import intrinsic
 
-import controllers.motor
-import controllers.rider
-from controllers.motor import pd_torque
-from controllers.rider import delayed_lqr_torque
+import euc_sim.controllers.motor
+import euc_sim.controllers.rider
+from euc_sim.controllers.motor import pd_torque
+from euc_sim.controllers.rider import delayed_lqr_torque
 from euc_sim.simulation import drift, effects, lateral
 from euc_sim.simulation import native_layout as lay
 
@@ -50,8 +50,8 @@ __all__ = ["build_callback", "CACHE_DIR", "f64p", "i64p", "address", "held_force
 def _cache_dir() -> str:
     """numba's on-disk cache of these kernels, keyed by the sources compiled into them.
 
-    numba itself watches only this file; the laws (:mod:`controllers.motor`,
-    :mod:`controllers.rider`, :mod:`effects`, :mod:`lateral`, :mod:`drift`) and the context layout (:mod:`native_layout`) are compiled in
+    numba itself watches only this file; the laws (:mod:`euc_sim.controllers.motor`,
+    :mod:`euc_sim.controllers.rider`, :mod:`effects`, :mod:`lateral`, :mod:`drift`) and the context layout (:mod:`native_layout`) are compiled in
     too, so a change to any of them must compile anew: the directory is named by their hash.
     """
     h = hashlib.sha256()
@@ -114,7 +114,7 @@ drift_force_row = _jit(drift.drift_force_row)
 
 @_jit
 def _rider(c, k, Y, r):
-    """The longitudinal rider's applied M_h at step k (:meth:`controllers.rider.RiderRun.command`).
+    """The longitudinal rider's applied M_h at step k (:meth:`euc_sim.controllers.rider.RiderRun.command`).
 
     ``Y``: the padded state history (row k: the state n steps ago); ``r``: the context
     slot of the rider's block (:data:`euc_sim.simulation.native_core.RIDER_SLOTS`).

@@ -7,7 +7,7 @@ A context is an int64 array of ``C_SIZE`` slots: the common ``C_*`` slots; for
 ``KIND_SPATIAL`` runs the ``S_*`` slots and a rider block at ``S_RIDER``; a rider block's
 slots are at the ``R_*`` offsets from its first slot.  Slots named for an array hold its
 address (C-contiguous float64).  Its floats, ``F_SIZE`` of them at the address in
-``C_FLOATS``: the motor law's settings (:meth:`controllers.motor.MotorPD.law_args`) at
+``C_FLOATS``: the motor law's settings (:meth:`euc_sim.controllers.motor.MotorPD.law_args`) at
 0 … 10, the held controls from ``F_HELD`` (in the order of the ``C_ACT`` actuators),
 then the ``F_*`` settings and states.  A rider block's own floats (``R_FLOATS``): dt,
 the torque limit, the integrator z, then K Φⁿ (6, zero-padded).

@@ -4,7 +4,7 @@ The loop of ``spatial._ride`` as the native callback's spatial kernel
 (:func:`euc_sim.simulation.native_kernels.spatial_step`): at the first callback call of
 each step it reads the paper's state from qpos/qvel (pose, yaw/tilt/pitch and their
 rates, the travelled distance by the trapezoid rule), runs the motor PD, the delayed
-longitudinal rider (:func:`controllers.rider.delayed_lqr_torque`), the nearest path point
+longitudinal rider (:func:`euc_sim.controllers.rider.delayed_lqr_torque`), the nearest path point
 and the lateral rider (with its predictor and turn-effort estimate when it has a
 delay), records the row and holds the four controls over the step.  The last row is
 recorded by the callback under ``mj_forward`` (no step).
@@ -21,9 +21,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from controllers.lateral import LateralRider
-from controllers.motor import MotorPD
-from controllers.rider import RiderRun
+from euc_sim.controllers.lateral import LateralRider
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import RiderRun
 from euc_sim.simulation import native_core as nc
 from euc_sim.simulation import native_layout as lay
 from euc_sim.simulation.errors import FallError

@@ -2,9 +2,9 @@
 
 :func:`simulate_3d` runs one path in :class:`euc_sim.model.spatial.EucSpatial` at
 1 kHz.  Longitudinal loop as in the planar work (motor PD on γ, the delayed rider
-with predictor of :mod:`controllers.rider`, fed the paper's state read from the 3-D
+with predictor of :mod:`euc_sim.controllers.rider`, fed the paper's state read from the 3-D
 model: x the travelled distance, γ the pitch of Fig. 2, φ = γ + rider_pitch);
-lateral loop by :mod:`controllers.lateral` (lean and twist) on the path errors.
+lateral loop by :mod:`euc_sim.controllers.lateral` (lean and twist) on the path errors.
 
 Paths (:data:`PATHS`) are curvature profiles κ(s) of arc length, integrated from the
 origin heading +X, at a constant planned speed:
@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from controllers.lateral import LateralRider, design_lateral
-from controllers.motor import MotorPD
-from controllers.rider import RiderRun
+from euc_sim.controllers.lateral import LateralRider, design_lateral
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import RiderRun
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation import effects
 from euc_sim.simulation.errors import FallError, SimulationError
@@ -173,7 +173,7 @@ _LATERAL: dict = {}
 
 
 def default_lateral(params: Params, speed: float, dt: float, tyre=None, delay: float = 0.0) -> LateralRider:
-    """:func:`controllers.lateral.design_lateral`, cached per (params, speed, dt, tyre, delay)."""
+    """:func:`euc_sim.controllers.lateral.design_lateral`, cached per (params, speed, dt, tyre, delay)."""
     key = (params, round(speed, 6), dt, tyre, round(delay, 6))
     if key not in _LATERAL:
         _LATERAL[key] = design_lateral(params, speed, dt, tyre, delay=delay)

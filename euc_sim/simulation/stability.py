@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from controllers.design import delayed_closed_loop_radius, design_rider
-from controllers.plant import rider_plant
-from controllers.motor import MotorPD
+from euc_sim.controllers.design import delayed_closed_loop_radius, design_rider
+from euc_sim.controllers.plant import rider_plant
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.linearize import check_against_mujoco, delay_margin, jacobians, numeric_jacobians
 from euc_sim.model.parameters import Params, TABLE3
 
@@ -30,7 +30,7 @@ def stability_report(p: Params = TABLE3, motor=None, rider=None, speed: float = 
     motor : controllers.motor.MotorPD, optional
         Default gains when omitted.
     rider : controllers.rider.Rider, optional
-        Designed by :func:`controllers.design.design_rider` when omitted.
+        Designed by :func:`euc_sim.controllers.design.design_rider` when omitted.
     speed : float
         Forward speed of the operating point, m/s (x is cyclic; speed enters only
         through the tilt-back set-point).

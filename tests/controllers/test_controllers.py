@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
-from controllers.design import delayed_closed_loop_radius, design_rider
-from controllers.plant import linear_plant, predictor_rows, rider_plant
-from controllers.motor import MotorError, MotorPD
-from controllers.rider import Rider, RiderError, motor_noise, trim
+from euc_sim.controllers.design import delayed_closed_loop_radius, design_rider
+from euc_sim.controllers.plant import linear_plant, predictor_rows, rider_plant
+from euc_sim.controllers.motor import MotorError, MotorPD
+from euc_sim.controllers.rider import Rider, RiderError, motor_noise, trim
 from euc_sim.model import analytic
 from euc_sim.model.linearize import check_against_mujoco, delay_margin, discretize, jacobians, numeric_jacobians
 from euc_sim.simulation.stability import stability_report
@@ -163,7 +163,7 @@ def test_stability_cli_bad_output(tmp_path, capsys):
 def _rider_runs(limit=400.0, integral=False):
     import numpy as np
 
-    from controllers.rider import RiderRun
+    from euc_sim.controllers.rider import RiderRun
     from euc_sim.simulation.engine import default_rider
     from euc_sim.simulation.maneuvers import as_maneuver
 

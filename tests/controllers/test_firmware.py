@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from controllers.firmware import FirmwareError, firmware_motor
+from euc_sim.controllers.firmware import FirmwareError, firmware_motor
 from euc_sim.model.parameters import TABLE3
 from euc_sim.simulation.engine import default_rider, simulate
 from euc_sim.simulation.maneuvers import make_maneuver
@@ -77,7 +77,7 @@ def test_simulate_uses_the_measured_law(tmp_path, capsys):
 
 
 def test_damping_floor_is_the_smallest_kd_reaching_the_stated_ratio():
-    from controllers.damping import ZETA_UNRESOLVED, damping_floor, pitch_mode_damping
+    from euc_sim.controllers.damping import ZETA_UNRESOLVED, damping_floor, pitch_mode_damping
 
     kd = damping_floor(TABLE3, 5687.0)
     zeta, omega = pitch_mode_damping(TABLE3, 5687.0, kd)
@@ -91,7 +91,7 @@ def test_damping_floor_is_the_smallest_kd_reaching_the_stated_ratio():
 
 @pytest.mark.parametrize("ci95", [[-51.1, -29.2], [-12.3, 64.9], None])
 def test_unresolved_kd_is_damped_and_said(ci95):
-    from controllers.damping import damping_floor
+    from euc_sim.controllers.damping import damping_floor
 
     est = -37.0 if ci95 is None or ci95[1] < 0 else 24.2
     terms = [dict(t, estimate=est, ci95=ci95) if t["name"] == "K_d" else t for t in LYNX["terms"]]
@@ -109,8 +109,8 @@ def test_damped_law_does_not_chatter_where_kd_zero_does():
     """The Lynx 0 defect: K_p 5,687 with K_d taken as 0 left the pitch mode undamped."""
     import numpy as np
 
-    from controllers.damping import damping_floor
-    from controllers.motor import MotorPD
+    from euc_sim.controllers.damping import damping_floor
+    from euc_sim.controllers.motor import MotorPD
 
     rms = {}
     for kd in (0.0, damping_floor(TABLE3, 5687.0)):

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers.motor import MotorPD
-from controllers.plant import linear_plant, speed_zero
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.plant import linear_plant, speed_zero
 from euc_sim.model.parameters import TABLE3
 
 

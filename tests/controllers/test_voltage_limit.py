@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from controllers.motor import MotorError, MotorPD
+from euc_sim.controllers.motor import MotorError, MotorPD
 from euc_sim.simulation.engine import simulate
 from euc_sim.simulation.errors import FallError
 from euc_sim.simulation.maneuvers import load_speed_profile
@@ -45,7 +45,7 @@ def test_voltage_limit_rejects_bad_settings():
 @pytest.mark.parametrize("ride", [{"envelope": [1, 2]}, {"envelope": {"full": 84.0}},
                                   {"ocv_start": 84.0}])   # a number where {"estimate": V} belongs
 def test_malformed_voltage_fields_named_not_a_traceback(ride):
-    from controllers.firmware import FirmwareError, voltage_limit_settings
+    from euc_sim.controllers.firmware import FirmwareError, voltage_limit_settings
 
     dtr = {"back_emf_per_speed": {"estimate": 4.46}, "resistive_drop": {"estimate": 0.047}}
     rep = {"drivetrain": {**dtr, **{k: v for k, v in ride.items() if k == "ocv_start"}},
@@ -56,7 +56,7 @@ def test_malformed_voltage_fields_named_not_a_traceback(ride):
 
 
 def test_non_finite_voltage_or_drop_refused():
-    from controllers.firmware import FirmwareError, voltage_limit_settings
+    from euc_sim.controllers.firmware import FirmwareError, voltage_limit_settings
 
     dtr = {"back_emf_per_speed": {"estimate": 4.46}, "resistive_drop": {"estimate": 0.047}}
     with pytest.raises(FirmwareError, match="finite positive number of volts"):

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from controllers.rider import motor_noise
+from euc_sim.controllers.rider import motor_noise
 from euc_sim.diagnosis.rider_noise import motor_noise_level, recording_seed
 
 

@@ -64,7 +64,7 @@ def test_bad_tyre_setting_is_named():
 
 def test_lateral_linearisation_predicts_mujoco():
     """Φ, Γ from mjd_transitionFD against a 0.2 s lean-torque pulse in MuJoCo."""
-    from controllers.lateral import lateral_plant
+    from euc_sim.controllers.lateral import lateral_plant
 
     Phi, Gam = lateral_plant(speed=2.5)
     sim = EucSpatial()

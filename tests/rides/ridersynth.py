@@ -34,7 +34,7 @@ def rider_ride(seed: int, duration: float = 240.0, rider=RIDER, dt: float = 1e-3
                law=WHEEL_LAW, params=None) -> pd.DataFrame:
     """The closed-loop ride under the wheel's ``law`` (MotorPD keywords), ``params`` (default Table 3):
     columns t, x_dot, gamma, gamma_dot, M_d (SI)."""
-    from controllers.motor import MotorPD
+    from euc_sim.controllers.motor import MotorPD
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.rider_params import rider_from
     from euc_sim.simulation.engine import simulate
@@ -81,7 +81,7 @@ def eucworld_power_log(ride: pd.DataFrame, path: Path, seed: int, R: float | Non
 
 def concealed_fit_inputs(law=WHEEL_LAW, params=None):
     """What the fit is told: the ride's params, the wheel's ``law``, road and drivetrain, k_t."""
-    from controllers.motor import MotorPD
+    from euc_sim.controllers.motor import MotorPD
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.signals import RideAssumptions
 

@@ -43,8 +43,8 @@ def test_parametric_variants_are_described_and_bad_ones_refused():
 
 
 def test_trim_with_rolling_holds_the_rolling_moment():
-    from controllers.motor import MotorPD
-    from controllers.rider import trim
+    from euc_sim.controllers.motor import MotorPD
+    from euc_sim.controllers.rider import trim
     from euc_sim.model.parameters import TABLE3 as p
 
     motor, C_rr, a, v = MotorPD(), 0.03, 0.4, 3.0

@@ -129,7 +129,7 @@ def test_simulated_limit_is_the_largest_measured_torque_where_the_fit_is_lower(t
                                                                              fmt, sign):
     """The fit's limit comes out low on the concealed law (45 N·m, docs/controller.md); the
     largest |torque| of the log is nearer the truth and not above it, and the simulator uses it."""
-    from controllers.firmware import firmware_motor
+    from euc_sim.controllers.firmware import firmware_motor
     from euc_sim.rides.lawsynth import K_T, LAW, eucworld_log, wheellog_log
 
     write = wheellog_log if fmt == "wheellog" else eucworld_log

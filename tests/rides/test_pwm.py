@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers.motor import MotorError, MotorPD
+from euc_sim.controllers.motor import MotorError, MotorPD
 from euc_sim.rides.pwm import (BASE, back_emf, full_duty_force, no_force_speed, pwm_columns,
                                select_pwm_terms)
 

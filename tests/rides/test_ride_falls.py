@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.rider import trim
-from controllers.motor import MotorPD
+from euc_sim.controllers.rider import trim
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import TABLE3
 from euc_sim.rides.profile import speed_profile
 from euc_sim.rides.signals import RideAssumptions

@@ -18,7 +18,7 @@ def test_param_unit_coordinates_round_trip():
 
 
 def test_bandwidth_stiffens_the_rider():
-    from controllers.motor import MotorPD
+    from euc_sim.controllers.motor import MotorPD
     from euc_sim.model.parameters import TABLE3
 
     soft = rp.rider_from({"delay": 0.2, "bandwidth": 0.25, "noise_std": 4.0}, TABLE3, MotorPD())

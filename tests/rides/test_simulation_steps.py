@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from controllers.motor import MotorPD
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import TABLE3
 from euc_sim.rides.sim_steps import (STEP_BUILDERS, LogChannels, StepInputs, build_steps,
                                      drivetrain_step, log_channels, measured_law_step, nominal_step,
@@ -41,7 +41,7 @@ def inputs(ride) -> StepInputs:
 
 def test_an_unresolved_kd_is_damped_and_said_in_the_step_and_its_json():
     """Lynx 0's K_d came out −37 (interval [−51, −29]); the step damps the pitch mode instead of 0."""
-    from controllers.damping import damping_floor
+    from euc_sim.controllers.damping import damping_floor
 
     terms = [dict(t, estimate=-37.0, ci95=[-51.1, -29.2]) if t["name"] == "K_d" else t
              for t in CONTROLLER["terms"]]

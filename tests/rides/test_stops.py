@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from controllers.motor import MotorPD
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.rides.rider_params import rider_from
 from euc_sim.rides.signals import RideAssumptions
 from euc_sim.rides.simulate import ride_params

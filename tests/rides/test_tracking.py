@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from controllers.plant import speed_zero
+from euc_sim.controllers.plant import speed_zero
 from euc_sim.model.parameters import TABLE3
 from euc_sim.rides.signals import RideAssumptions
 from euc_sim.rides.simulate import ride_params

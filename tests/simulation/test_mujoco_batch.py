@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from controllers.motor import MotorPD
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.simulation import mujoco_batch as mb
 from euc_sim.simulation import native_core
 from euc_sim.simulation.effects import PeriodicPush

@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from controllers.motor import MotorPD
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.simulation import native, native_core
 from euc_sim.simulation.effects import PeriodicPush
 from euc_sim.simulation.engine import default_rider, simulate
@@ -217,7 +217,7 @@ def test_threads_share_the_callback_safely(rider):
 def test_the_rider_law_matches_the_python_reference_step_by_step(rider):
     """The rider's state after a native run (integrator z, command history du) is the one
     the Python reference leaves: the law and its buffers advance alike."""
-    from controllers.rider import RiderRun
+    from euc_sim.controllers.rider import RiderRun
     from euc_sim.simulation.engine import _MujocoStepper, FALL_BOUNDS, _raise_fall
     from euc_sim.model.parameters import TABLE3
     from euc_sim.simulation.maneuvers import make_maneuver

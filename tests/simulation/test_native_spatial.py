@@ -7,7 +7,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from controllers.motor import MotorPD
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.simulation import native_core, native_spatial
 from euc_sim.simulation.engine import default_rider
 from euc_sim.simulation.errors import FallError

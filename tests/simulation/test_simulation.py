@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from controllers.rider import Rider
+from euc_sim.controllers.rider import Rider
 from euc_sim.cli import main
 from euc_sim.io import write_recording
 from euc_sim.simulation.mocap import E_HEIGHT, RECORDING_COLUMNS, motion_capture

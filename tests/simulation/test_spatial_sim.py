@@ -44,7 +44,7 @@ def test_straight_deceleration_reproduces_the_planar_model(planar):
 
 
 def test_lateral_design_is_stabilising_with_a_delay_margin():
-    from controllers.lateral import design_lateral, lateral_plant
+    from euc_sim.controllers.lateral import design_lateral, lateral_plant
 
     lat = design_lateral(speed=2.5)
     Phi, Gam = lateral_plant(speed=2.5)
@@ -106,7 +106,7 @@ def test_the_lateral_predictor_restores_the_undelayed_loop():
     """With the reaction delay predicted on the design plant, the sampled loop has the
     undelayed closed loop's poles (and zeros for the delay line); an extra
     unpredicted delay beyond the margin destabilises it."""
-    from controllers.lateral import _delayed_loop, design_lateral, lateral_plant, lateral_predictor_rows
+    from euc_sim.controllers.lateral import _delayed_loop, design_lateral, lateral_plant, lateral_predictor_rows
 
     Phi, Gam = lateral_plant(speed=2.0)
     lat = design_lateral(speed=2.0)

@@ -1,15 +1,15 @@
 """Design of the rider's gains with python-control.
 
 The plant is the analytic linearisation of eq. (5) (:func:`euc_sim.model.linearize.jacobians`)
-at upright riding, with the motor PD (:class:`controllers.motor.MotorPD`) closed
+at upright riding, with the motor PD (:class:`euc_sim.controllers.motor.MotorPD`) closed
 inside it, reduced to s = (ẋ, γ, φ, γ̇, φ̇) (x is cyclic) and driven by M_h:
 
     ṡ = A_s s + B_s M_h,   A_s = (A + B_d K_motor)|_s,   B_s = B_h|_s.
 
 The rider's gains K minimise ∫ sᵀQs + R M_h² (``control.lqr``), with Q and R from
 the largest tolerable deviations (Bryson's rule, :data:`DEFAULT_SCALES`).  The
-reaction delay is handled by the predictor of :mod:`controllers.rider` (its rows:
-:func:`controllers.plant.predictor_rows`), and :func:`delayed_closed_loop_radius` checks
+reaction delay is handled by the predictor of :mod:`euc_sim.controllers.rider` (its rows:
+:func:`euc_sim.controllers.plant.predictor_rows`), and :func:`delayed_closed_loop_radius` checks
 the sampled loop with the delay buffer exactly as the simulation runs it.
 """
 
@@ -19,9 +19,9 @@ import math
 
 import numpy as np
 
-from controllers.motor import MotorPD
-from controllers.rider import Rider
-from controllers.plant import has_integral, predictor_rows, rider_plant
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import Rider
+from euc_sim.controllers.plant import has_integral, predictor_rows, rider_plant
 from euc_sim.model.linearize import discretize
 from euc_sim.model.parameters import Params, TABLE3
 

@@ -1,20 +1,20 @@
 """The linear plant the rider balances, and the rows of his delay-compensating predictor.
 
 The plant is the analytic linearisation of eq. (5) (:func:`euc_sim.model.linearize.jacobians`)
-at upright riding, with the motor PD (:class:`controllers.motor.MotorPD`) closed
+at upright riding, with the motor PD (:class:`euc_sim.controllers.motor.MotorPD`) closed
 inside it, reduced to s = (ẋ, γ, φ, γ̇, φ̇) (x is cyclic) and driven by M_h:
 
     ṡ = A_s s + B_s M_h,   A_s = (A + B_d K_motor)|_s,   B_s = B_h|_s.
 
-Both the rider's law (:mod:`controllers.rider`, the predictor) and the design of
-its gains (:mod:`controllers.design`) build on it.
+Both the rider's law (:mod:`euc_sim.controllers.rider`, the predictor) and the design of
+its gains (:mod:`euc_sim.controllers.design`) build on it.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from controllers.motor import MotorPD
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.linearize import REDUCED_STATE, discretize, jacobians, motor_feedback_row
 from euc_sim.model.parameters import Params, TABLE3
 

@@ -8,7 +8,7 @@ the planned acceleration plus state feedback on the deviation from it:
     M_h(t) = M_h*(a_ref) − K · ŝ(t),    s = (ẋ − v_ref, γ − γ*, φ − φ*, γ̇, φ̇, ∫(ẋ − v_ref)dt),
 
 with the trim (γ*, φ*, M_d*, M_h*) of steady acceleration a from eqs. (5)-(8)
-(:func:`trim`) and K from ``control.lqr`` (:mod:`controllers.design`).
+(:func:`trim`) and K from ``control.lqr`` (:mod:`euc_sim.controllers.design`).
 
 The rider senses the state with a reaction delay τ (default 0.15 s), implemented as a
 buffer: at step k the rider sees s_{k−n}, n = τ/dt.  A delay that long is close to
@@ -32,7 +32,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.linalg.lapack import dtrtrs
 
-from controllers.motor import MotorPD
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import Params
 
 __all__ = ["Rider", "RiderError", "trim", "motor_noise", "RiderRun", "DEFAULT_RIDER_NOISE", "delayed_lqr_torque"]
@@ -366,7 +366,7 @@ class _Lookup:
 @lru_cache(maxsize=32)
 def _delay_law(p: Params, motor: MotorPD, K: tuple, dt: float, n: int, predictor: bool):
     """The rider's delayed law for (p, motor, K, dt, n), cached: the predictor's rows
-    (:func:`controllers.plant.predictor_rows`, a matrix exponential) and the block
+    (:func:`euc_sim.controllers.plant.predictor_rows`, a matrix exponential) and the block
     matrices of :func:`_chunk_matrices`.  Arrays are read-only (shared between runs).
 
     Returns
@@ -374,7 +374,7 @@ def _delay_law(p: Params, motor: MotorPD, K: tuple, dt: float, n: int, predictor
     tuple
         K Φⁿ as a tuple of floats, KG (n,), lower (n+1, n+1), past (n+1, n).
     """
-    from controllers.plant import predictor_rows
+    from euc_sim.controllers.plant import predictor_rows
 
     K = np.asarray(K, dtype=float)
     if predictor and n > 0:

@@ -8,7 +8,7 @@ zero or below, the simulator uses the smallest K_d that gives the body pitch mod
 stated damping ratio ζ at the measured K_p (:func:`damping_floor`).
 
 The pitch mode is the fastest oscillatory eigenvalue λ of the linearised plant with the
-law closed (:func:`controllers.plant.linear_plant`; the rider's ankle torque held at
+law closed (:func:`euc_sim.controllers.plant.linear_plant`; the rider's ankle torque held at
 zero: the rider's own loop is two decades slower and barely moves it), and its damping
 ratio is ζ = −Re λ / |λ|.  Where the mode is overdamped (no oscillatory eigenvalue at all)
 ζ is taken as 1.
@@ -19,8 +19,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize
 
-from controllers.motor import MotorPD
-from controllers.plant import linear_plant
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.plant import linear_plant
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["ZETA_UNRESOLVED", "pitch_mode_damping", "damping_floor"]

@@ -4,7 +4,7 @@
 ``controller`` entry (:mod:`euc_sim.rides.controller_law`): a PD on the pitch,
 M_d = K_p (γ − γ_ref) + K_d γ̇, with the catalogued terms that held-out
 validation kept.  :func:`firmware_motor` turns that entry into a
-:class:`controllers.motor.MotorPD`, the interface the simulator's engines and the
+:class:`euc_sim.controllers.motor.MotorPD`, the interface the simulator's engines and the
 rider's design use, carrying K_p, K_d, the torque limit and the tilt-back
 (onset and slope) where the ride identified them.
 
@@ -15,8 +15,8 @@ constant: ``--wheel`` with the wheel's diameter, or a logged torque).
 
 A K_d the log cannot resolve (its 95 % interval, or the estimate where no interval is
 given, at or below zero) is replaced by the smallest K_d that gives the body pitch mode
-the damping ratio :data:`controllers.damping.ZETA_UNRESOLVED` at the measured K_p
-(:func:`controllers.damping.damping_floor`), or the estimate where that is larger; the
+the damping ratio :data:`euc_sim.controllers.damping.ZETA_UNRESOLVED` at the measured K_p
+(:func:`euc_sim.controllers.damping.damping_floor`), or the estimate where that is larger; the
 notes say so with both figures.
 
 A fitted torque limit below the largest |torque| the same log measured (the term's
@@ -29,8 +29,8 @@ from __future__ import annotations
 
 import math
 
-from controllers.damping import ZETA_UNRESOLVED, damping_floor
-from controllers.motor import MotorPD
+from euc_sim.controllers.damping import ZETA_UNRESOLVED, damping_floor
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["FirmwareError", "firmware_settings", "kd_resolved", "firmware_motor", "voltage_limit_settings", "CARRIED"]
@@ -150,7 +150,7 @@ def firmware_motor(ctrl, p: Params | None = None, **limits) -> tuple[MotorPD, li
     FirmwareError
         see :func:`firmware_settings`; also when the settings are out of MotorPD's range.
     """
-    from controllers.motor import MotorError
+    from euc_sim.controllers.motor import MotorError
 
     settings, notes = firmware_settings(ctrl, p)
     try:

@@ -66,7 +66,7 @@ class LateralRider:
         (K Φ^{n−1} Γ, …, K Γ) side by side: the gains on the last n commands (oldest
         first), so that u = −K ẑ(t) with the predicted present state
         ẑ = Φⁿ z(t − delay) + Σ Φ^{n−1−i} Γ u_{k−n+i} (as the longitudinal rider,
-        :func:`controllers.plant.predictor_rows`).
+        :func:`euc_sim.controllers.plant.predictor_rows`).
     """
 
     K: np.ndarray
