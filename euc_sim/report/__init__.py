@@ -1,0 +1,1 @@
+"""Renderers at the edge: the one HTML page template every report uses."""

@@ -1,0 +1,146 @@
+"""One HTML page template for every report: ride, rides, diagnosis and the demo.
+
+A page is a title, a first screen of key figures, then sections (open or folded),
+each holding paragraphs, tables and interactive Plotly figures.  It is one file that
+opens offline: Plotly's script, the styles and every figure's data are inline; map
+tiles are the only thing a browser fetches (and a track is drawn without them).
+
+The builders are pure: each returns an HTML fragment (``str``); :func:`page` joins
+them; :func:`write_page` writes ``DIR/index.html`` atomically.
+"""
+
+from __future__ import annotations
+
+import html
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, Sequence
+
+__all__ = ["KeyFigure", "key_figures", "paragraph", "table", "figure", "section", "page",
+           "write_page", "PLOTLY_CONFIG"]
+
+#: Plotly's options on every figure: no logo, no link to Plotly's cloud, PNG export kept.
+PLOTLY_CONFIG = {"displaylogo": False, "responsive": True, "showLink": False}
+
+_STYLE = """
+body{font-family:system-ui,-apple-system,Segoe UI,Roboto,sans-serif;margin:0 auto;max-width:1240px;
+padding:12px 20px;color:#1d2330;line-height:1.45}
+h1{font-size:1.5em;margin:.2em 0 .1em}h2{font-size:1.2em;margin:.8em 0 .3em}
+.sub{color:#5a6270;margin:0 0 .6em}
+.kf{display:grid;grid-template-columns:repeat(auto-fill,minmax(180px,1fr));gap:8px;margin:.5em 0}
+.kf div{background:#f3f5f8;border-radius:6px;padding:6px 10px}
+.kf .v{font-size:1.35em;font-weight:600}.kf .l{font-size:.85em;color:#5a6270}
+.kf .n{font-size:.78em;color:#5a6270}
+.kf .warn{background:#fff3e0}.kf .bad{background:#fde7e9}.kf .good{background:#e8f5e9}
+details{border-top:1px solid #dde1e7;padding:.3em 0}summary{cursor:pointer;font-weight:600;font-size:1.1em}
+table{border-collapse:collapse;margin:.4em 0;font-size:.92em}
+td,th{border-bottom:1px solid #e3e6eb;padding:3px 8px;text-align:left}th{background:#f3f5f8}
+td.num{text-align:right;font-variant-numeric:tabular-nums}
+.fig{width:100%;min-height:320px}
+"""
+
+
+@dataclass(frozen=True)
+class KeyFigure:
+    """One number on the first screen.
+
+    Attributes
+    ----------
+    label : str
+        What it is, in a rider's words ("Distance").
+    value : str
+        The number with its unit, formatted for people ("12.4 km").
+    note : str
+        One short line under it (an interval, when, a verdict); may be empty.
+    tone : str
+        ``""``, ``"good"``, ``"warn"`` or ``"bad"``: the tile's colour.
+    """
+
+    label: str
+    value: str
+    note: str = ""
+    tone: str = ""
+
+
+def _esc(text: object) -> str:
+    return html.escape(str(text), quote=True)
+
+
+def key_figures(items: Iterable[KeyFigure]) -> str:
+    """The first screen's tiles, as an HTML fragment."""
+    tiles = []
+    for k in items:
+        cls = f' class="{_esc(k.tone)}"' if k.tone else ""
+        note = f'<div class="n">{_esc(k.note)}</div>' if k.note else ""
+        tiles.append(f'<div{cls}><div class="l">{_esc(k.label)}</div>'
+                     f'<div class="v">{_esc(k.value)}</div>{note}</div>')
+    return f'<div class="kf">{"".join(tiles)}</div>'
+
+
+def paragraph(text: str) -> str:
+    """A paragraph of plain text (escaped)."""
+    return f"<p>{_esc(text)}</p>"
+
+
+def table(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
+    """A table; cells that are numbers (int/float) are right-aligned as written."""
+    head = "".join(f"<th>{_esc(h)}</th>" for h in header)
+    body = []
+    for row in rows:
+        cells = "".join(
+            f'<td class="num">{_esc(c)}</td>' if isinstance(c, (int, float)) else f"<td>{_esc(c)}</td>"
+            for c in row)
+        body.append(f"<tr>{cells}</tr>")
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{''.join(body)}</tbody></table>"
+
+
+def figure(fig, div_id: str, height: int = 380) -> str:
+    """An interactive Plotly figure, its data inline.
+
+    Parameters
+    ----------
+    fig : plotly.graph_objects.Figure or dict
+        The figure; its layout should carry a title and axis titles with units.
+    div_id : str
+        A unique element id on the page (letters, digits, ``_``, ``-``).
+    height : int
+        Pixels.
+    """
+    import plotly.io as pio
+
+    spec = pio.to_json(fig, validate=False) if not isinstance(fig, dict) else json.dumps(fig)
+    # "</" inside a script element would end it: JSON allows "<\/" for the same string
+    spec = spec.replace("</", "<\\/")
+    return (f'<div id="{_esc(div_id)}" class="fig" style="height:{int(height)}px"></div>'
+            f'<script>(function(){{var f={spec};'
+            f'Plotly.newPlot("{_esc(div_id)}",f.data,f.layout||{{}},{json.dumps(PLOTLY_CONFIG)});}})();</script>')
+
+
+def section(title: str, body: str, folded: bool = False) -> str:
+    """A section; ``folded`` ones are closed ``<details>`` a reader opens."""
+    if folded:
+        return f"<details><summary>{_esc(title)}</summary>{body}</details>"
+    return f"<section><h2>{_esc(title)}</h2>{body}</section>"
+
+
+def page(title: str, subtitle: str, body: Sequence[str]) -> str:
+    """The whole page: styles and Plotly's script inline, then the fragments in order."""
+    from plotly.offline import get_plotlyjs
+
+    js = get_plotlyjs().replace("</script", "<\\/script")
+    return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
+            f"<title>{_esc(title)}</title><style>{_STYLE}</style>"
+            f"<script>{js}</script></head><body>"
+            f"<h1>{_esc(title)}</h1><p class=\"sub\">{_esc(subtitle)}</p>"
+            f"{''.join(body)}</body></html>")
+
+
+def write_page(folder: str | Path, text: str) -> Path:
+    """Write ``folder/index.html`` atomically (the folder is created); returns its path."""
+    from euc_sim.io import write_text
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    return write_text(folder / "index.html", text)
