@@ -24,7 +24,7 @@ import re
 from dataclasses import asdict, dataclass
 
 __all__ = ["PackSpec", "BatteryHealth", "pack_spec", "to_25C", "battery_health",
-           "battery_health_from_report", "EA_J_PER_MOL", "WORN_RATIO", "AGED_RATIO"]
+           "battery_health_from_report", "measure_resistance", "EA_J_PER_MOL", "WORN_RATIO", "AGED_RATIO"]
 
 #: Activation energy of the cell's DC resistance, J/mol (Arrhenius normalisation; docs/summary.md).
 EA_J_PER_MOL = 20_000.0
@@ -136,7 +136,7 @@ class BatteryHealth:
 def _verdict(r: float, ci, expected: float | None, source: str | None) -> tuple[str, str]:
     if expected is None:
         return "no specification", (f"Internal resistance {1e3 * r:.0f} mΩ; the specification gives "
-                                    f"no pack resistance to judge it against.")
+                                    f"no pack resistance to judge it against")
     lo = ci[0] if ci else r
     ratio = r / expected
     if lo > WORN_RATIO * expected:
@@ -146,7 +146,7 @@ def _verdict(r: float, ci, expected: float | None, source: str | None) -> tuple[
     else:
         v = "as specified"
     return v, (f"Internal resistance {1e3 * r:.0f} mΩ, {ratio:.1f}× the {1e3 * expected:.0f} mΩ of "
-               f"{source}: {v}.")
+               f"{source}: {v}")
 
 
 def battery_health(r_ohm: float | None, ci95, temp_C: float | None = None,
@@ -179,11 +179,25 @@ def battery_health(r_ohm: float | None, ci95, temp_C: float | None = None,
     ref, ref_ci = (r25, ci25) if r25 is not None else (r_ohm, ci95)
     v, s = _verdict(ref, ref_ci, expected, source)
     if r25 is not None:
-        s += f" (at 25 °C; {1e3 * r_ohm:.0f} mΩ at the logged {temp_C:.0f} °C)"
-    elif v != "no specification":
-        s += " (battery temperature not logged: not normalised to 25 °C)"
+        s += f" (at 25 °C; {1e3 * r_ohm:.0f} mΩ at the logged {temp_C:.0f} °C)."
+    else:
+        s += " (battery temperature not logged: not normalised to 25 °C)."
     return BatteryHealth(r_ohm, tuple(ci95) if ci95 else None, temp_C, r25, ci25, per_cell,
                          expected, source, v, s)
+
+
+def measure_resistance(log, n_boot: int = 100, seed: int = 0) -> tuple[float, tuple | None]:
+    """The drivetrain's ``internal_resistance`` of one log, Ω, with its 95 % interval.
+
+    The same computation ``euc-sim ride`` reports (:func:`euc_sim.rides.drivetrain.fit_battery`
+    on :func:`euc_sim.rides.power.power_signals`), for commands that read many logs.
+    """
+    from euc_sim.rides.drivetrain import fit_battery
+    from euc_sim.rides.power import MassSettings, power_signals
+
+    sig = power_signals(log, MassSettings(n_boot=n_boot, seed=seed))
+    coef, ci = fit_battery(sig, n_boot, seed)
+    return coef["R_int"], ci["R_int"]
 
 
 def battery_health_from_report(drivetrain: dict | None, log=None, counters=None,

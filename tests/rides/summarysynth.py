@@ -20,20 +20,23 @@ def synth_summary_log(path: Path, *, rate: float = 5.0, ride_s: float = 600.0, r
                       regen_amps: float = 0.0, gps: bool = True, gap: tuple | None = None,
                       pwm_peak: tuple = (300.0, 72.5), alarm_rows: tuple = (),
                       battery: tuple = (90.0, 60.0), sag_pct_per_amp: float = 0.5,
-                      R_int: float = 0.0, temp_C: float = 30.0, seed: int = 0) -> Path:
+                      R_int: float = 0.0, temp_C: float = 30.0, amps_wave: float = 0.0,
+                      ocv_per_Ah: float = 0.0, seed: int = 0) -> Path:
     """Write a log: ``rest_s`` standing, ``ride_s`` at constant speed due north, ``rest_s`` standing.
 
     Current is ``amps`` while riding (``regen_amps`` negative over the last 60 s of the ride),
     0.2 A at rest; the battery reading falls linearly from ``battery[0]`` to ``battery[1]``
     over the ride and sags by ``sag_pct_per_amp`` per ampere; voltage ``volt - R_int·I``.
     ``gap`` = (t, length) removes the rows of that stretch (the wheel keeps riding).
+    ``amps_wave`` modulates the riding current by that share (a 20 s sine); the open-circuit
+    voltage falls by ``ocv_per_Ah`` V per ampere-hour drawn.
     """
     rng = np.random.default_rng(seed)
     T = 2 * rest_s + ride_s
     t = np.arange(0.0, T + 1e-9, 1.0 / rate)
     riding = (t >= rest_s) & (t < rest_s + ride_s)
     v = np.where(riding, speed_kmh, 0.0)
-    cur = np.where(riding, amps, 0.2)
+    cur = np.where(riding, amps * (1 + amps_wave * np.sin(2 * np.pi * t / 20.0)), 0.2)
     if regen_amps:
         cur = np.where(riding & (t >= rest_s + ride_s - 60.0), -regen_amps, cur)
     frac = np.clip((t - rest_s) / ride_s, 0, 1)
@@ -44,7 +47,8 @@ def synth_summary_log(path: Path, *, rate: float = 5.0, ride_s: float = 600.0, r
     alert = np.array([""] * t.size, dtype=object)
     for i in alarm_rows:
         alert[i] = "speed"
-    V = volt - R_int * cur + rng.normal(0, 1e-4, t.size)
+    Q = np.cumsum(cur * np.r_[0.0, np.diff(t)]) / 3600.0
+    V = volt - ocv_per_Ah * Q - R_int * cur + rng.normal(0, 1e-3, t.size)
     df = pd.DataFrame({
         "date": "2024-06-01",
         "time": (pd.Timestamp("2024-06-01 10:00:00") + pd.to_timedelta(t, unit="s")).strftime("%H:%M:%S.%f").str[:-3],
