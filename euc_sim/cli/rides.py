@@ -107,7 +107,8 @@ def _cmd_rides(args: argparse.Namespace) -> int:
         from euc_sim.report.html import write_page
         from euc_sim.rides.history_page import history_page
 
-        write_page(args.report, history_page(hist))
+        title = f"Rides of {Path(args.wheel).stem}" if args.wheel else "Rides of one wheel"
+        write_page(args.report, history_page(hist, title))
     if args.json:
         write_json(args.json, hist)
     for e in hist["rides"]:

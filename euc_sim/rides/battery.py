@@ -11,10 +11,11 @@ function) and adds
   (:func:`to_25C`, an Arrhenius law; docs/summary.md gives the source and the
   sensitivity), and
 - a verdict against the pack's specification: the cell's resistance from the spec
-  file's ``Cell resistance`` field scaled by its ``Battery architecture`` (NsMp),
-  or the resistance the wheel itself reports (EUC World's
-  ``euc.batteryCircuitResistance``); without either, the per-cell figure a rider
-  can compare with the cell's data sheet.
+  file's ``Cell resistance`` field scaled by its ``Battery architecture`` (NsMp);
+  without it, the per-cell figure a rider can compare with the cell's data sheet.
+  The resistance EUC World is set to use for its sag compensation
+  (``euc.batteryCircuitResistance``, a setting, not a measurement) is shown beside
+  it for comparison, never used as the specification.
 """
 
 from __future__ import annotations
@@ -109,6 +110,8 @@ class BatteryHealth:
     expected_ohm : float or None
         The pack's resistance from its specification.
     expected_source : str or None
+    app_setting_ohm : float or None
+        The resistance EUC World's sag compensation is set to (for comparison only).
     verdict : str
         ``"as specified"``, ``"aged"``, ``"worn"``, ``"no specification"`` or ``"not measured"``.
     sentence : str
@@ -122,6 +125,7 @@ class BatteryHealth:
     per_cell_ohm: float | None
     expected_ohm: float | None
     expected_source: str | None
+    app_setting_ohm: float | None
     verdict: str
     sentence: str
 
@@ -162,28 +166,28 @@ def battery_health(r_ohm: float | None, ci95, temp_C: float | None = None,
         The battery's temperature during the ride, °C (normalises to 25 °C).
     pack : PackSpec, optional
     wheel_reported_ohm : float, optional
-        The resistance the wheel itself reports, Ω (used where the spec gives none).
+        The resistance EUC World's sag compensation is set to, Ω (shown for comparison).
     why : str, optional
         Why the resistance is not measured (when ``r_ohm`` is None).
     """
     if r_ohm is None or not math.isfinite(r_ohm) or r_ohm <= 0:
-        return BatteryHealth(None, None, temp_C, None, None, None, None, None, "not measured",
-                             why or "The ride does not give the battery's internal resistance.")
+        return BatteryHealth(None, None, temp_C, None, None, None, None, None, wheel_reported_ohm,
+                             "not measured", why or "The ride does not give the battery's internal resistance.")
     r25 = to_25C(r_ohm, temp_C) if temp_C is not None else None
     ci25 = tuple(to_25C(x, temp_C) for x in ci95) if (temp_C is not None and ci95) else None
     per_cell = r_ohm * pack.parallel / pack.series if pack and pack.series and pack.parallel else None
     expected, source = (pack.expected_ohm, f"{pack.series}s{pack.parallel}p of {pack.cell or 'cells'} "
                                            f"(spec)") if pack and pack.expected_ohm else (None, None)
-    if expected is None and wheel_reported_ohm:
-        expected, source = wheel_reported_ohm, "the wheel's own figure (euc.batteryCircuitResistance)"
     ref, ref_ci = (r25, ci25) if r25 is not None else (r_ohm, ci95)
     v, s = _verdict(ref, ref_ci, expected, source)
     if r25 is not None:
         s += f" (at 25 °C; {1e3 * r_ohm:.0f} mΩ at the logged {temp_C:.0f} °C)."
     else:
         s += " (battery temperature not logged: not normalised to 25 °C)."
+    if wheel_reported_ohm:
+        s += f" EUC World's sag compensation is set to {1e3 * wheel_reported_ohm:.0f} mΩ."
     return BatteryHealth(r_ohm, tuple(ci95) if ci95 else None, temp_C, r25, ci25, per_cell,
-                         expected, source, v, s)
+                         expected, source, wheel_reported_ohm, v, s)
 
 
 def measure_resistance(log, n_boot: int = 100, seed: int = 0) -> tuple[float, tuple | None]:

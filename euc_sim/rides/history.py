@@ -6,10 +6,9 @@ battery resistance, the same numbers ``euc-sim ride`` reports);
 with
 
 - a change test (:func:`change_test`): is the latest ride's resistance different
-  from the earlier ones?  The earlier rides are pooled by inverse variance with a
-  between-ride variance (DerSimonian–Laird), since the ride-to-ride spread (charge,
-  temperature, load) is larger than one ride's bootstrap interval; the latest ride
-  is compared with the prediction for a new ride, a two-sided normal test;
+  from the earlier ones?  The ride-to-ride spread (charge, temperature, load) is
+  larger than one ride's bootstrap interval, so the latest ride is compared with
+  the earlier rides' prediction interval for a new ride (Student's t);
 - the slope of Wh/km against the mean moving speed (least squares, t interval).
 
 Resistances are compared at 25 °C where every ride logs the battery temperature,
@@ -88,6 +87,7 @@ class ChangeTest:
     difference, difference_ci95 : float, tuple
         Latest minus the prediction for a new ride, with a 95 % interval.
     z, p_value : float
+        The test statistic (t, or z with one earlier ride) and its two-sided p-value.
     verdict : str
         ``"changed"`` (p < 0.05) or ``"no change shown"``.
     n_earlier : int
@@ -235,35 +235,36 @@ def change_test(values, cis) -> ChangeTest:
     Returns
     -------
     ChangeTest
-        The earlier rides pooled with a DerSimonian–Laird between-ride variance τ²;
-        the latest compared with the prediction for a new ride,
-        z = (R_last − μ̂) / √(se_last² + se_μ² + τ²), two-sided normal p.
+        A prediction test: with k ≥ 2 earlier rides of mean x̄ and sample variance s²
+        (which holds the ride-to-ride spread and each ride's own error),
+        t = (R_last − x̄) / √(s²·(1 + 1/k) + max(0, se_last² − mean se²)), Student's t with
+        k − 1 degrees of freedom, two-sided.  With one earlier ride the spread is
+        unknown: a z test on the two rides' own errors (liberal, said in ``note``).
     """
     from scipy.stats import norm
+    from scipy.stats import t as student
 
     x = np.asarray(values, float)
     se = np.array([_se(c) for c in cis])
     xe, se_e = x[:-1], se[:-1]
-    w = 1.0 / se_e ** 2
-    mu_fixed = float(np.sum(w * xe) / np.sum(w))
     k = xe.size
-    tau2, note = 0.0, ""
+    mu = float(xe.mean())
+    own = float(np.mean(se_e ** 2))
     if k >= 2:
-        q = float(np.sum(w * (xe - mu_fixed) ** 2))
-        tau2 = max(0.0, (q - (k - 1)) / (np.sum(w) - np.sum(w ** 2) / np.sum(w)))
+        s2 = max(float(np.var(xe, ddof=1)), own)
+        sd = math.sqrt(s2 * (1 + 1 / k) + max(0.0, se[-1] ** 2 - own))
+        dist, note, se_mu, tau = student(k - 1), "", math.sqrt(s2 / k), math.sqrt(max(0.0, s2 - own))
     else:
-        note = "one earlier ride: the ride-to-ride spread is unknown and taken as zero (the test is liberal)"
-    ws = 1.0 / (se_e ** 2 + tau2)
-    mu = float(np.sum(ws * xe) / np.sum(ws))
-    se_mu = float(math.sqrt(1.0 / np.sum(ws)))
-    sd = math.sqrt(se[-1] ** 2 + se_mu ** 2 + tau2)
+        sd = math.sqrt(se[-1] ** 2 + own)
+        dist, se_mu, tau = norm(), math.sqrt(own), 0.0
+        note = "one earlier ride: the ride-to-ride spread is unknown and left out (the test is liberal)"
     diff = float(x[-1] - mu)
-    z = diff / sd
-    p = float(2 * norm.sf(abs(z)))
+    stat = diff / sd
+    p = float(2 * dist.sf(abs(stat)))
+    h = float(dist.ppf(0.975)) * sd
     return ChangeTest(latest=float(x[-1]), latest_se=float(se[-1]), earlier_mean=mu, earlier_se=se_mu,
-                      between_ride_sd=math.sqrt(tau2), difference=diff,
-                      difference_ci95=(diff - 1.959964 * sd, diff + 1.959964 * sd), z=float(z),
-                      p_value=p, verdict="changed" if p < 0.05 else "no change shown",
+                      between_ride_sd=tau, difference=diff, difference_ci95=(diff - h, diff + h),
+                      z=float(stat), p_value=p, verdict="changed" if p < 0.05 else "no change shown",
                       n_earlier=int(k), note=note)
 
 

@@ -488,7 +488,7 @@ def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
     return RideSummary(
         duration_s=duration, moving_s=moving_s, distance_m=dist,
         distance_source=source, speed_max_mps=float(v.max()),
-        speed_mean_moving_mps=dist / moving_s if moving_s > 0 else None,
+        speed_mean_moving_mps=covered_dist / moving_s if moving_s > 0 else None,
         energy_drawn_Wh=drawn, energy_regen_Wh=regen, Wh_per_km=whkm, battery_used_pct=used,
         range_m_at_this_rate=rng, pwm_max_pct=pmax, pwm_max_at_s=pat,
         alarms=c.alarm_episodes, gaps=gaps, logged_s=float(t[-1] - t[0]),

@@ -21,7 +21,7 @@ def synth_summary_log(path: Path, *, rate: float = 5.0, ride_s: float = 600.0, r
                       pwm_peak: tuple = (300.0, 72.5), alarm_rows: tuple = (),
                       battery: tuple = (90.0, 60.0), sag_pct_per_amp: float = 0.5,
                       R_int: float = 0.0, temp_C: float = 30.0, amps_wave: float = 0.0,
-                      ocv_per_Ah: float = 0.0, seed: int = 0) -> Path:
+                      ocv_per_Ah: float = 0.0, start: str = "2024-06-01 10:00:00", seed: int = 0) -> Path:
     """Write a log: ``rest_s`` standing, ``ride_s`` at constant speed due north, ``rest_s`` standing.
 
     Current is ``amps`` while riding (``regen_amps`` negative over the last 60 s of the ride),
@@ -50,8 +50,8 @@ def synth_summary_log(path: Path, *, rate: float = 5.0, ride_s: float = 600.0, r
     Q = np.cumsum(cur * np.r_[0.0, np.diff(t)]) / 3600.0
     V = volt - ocv_per_Ah * Q - R_int * cur + rng.normal(0, 1e-3, t.size)
     df = pd.DataFrame({
-        "date": "2024-06-01",
-        "time": (pd.Timestamp("2024-06-01 10:00:00") + pd.to_timedelta(t, unit="s")).strftime("%H:%M:%S.%f").str[:-3],
+        "date": pd.Timestamp(start).strftime("%Y-%m-%d"),
+        "time": (pd.Timestamp(start) + pd.to_timedelta(t, unit="s")).strftime("%H:%M:%S.%f").str[:-3],
         "latitude": LAT0 + dist / M_PER_DEG_LAT if gps else "", "longitude": LON0 if gps else "",
         "gps_speed": v if gps else "", "gps_alt": "", "gps_heading": "", "gps_distance": "",
         "speed": v, "voltage": V, "phase_current": cur * 2, "current": cur, "power": V * cur,

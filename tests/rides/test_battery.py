@@ -55,7 +55,9 @@ def test_verdicts():
     assert h.resistance_25C_ohm == pytest.approx(to_25C(0.16, 35.0))
     assert h.per_cell_ohm == pytest.approx(0.016)
     assert battery_health(0.16, (0.15, 0.17)).verdict == "no specification"
-    assert battery_health(0.16, None, wheel_reported_ohm=0.13).expected_ohm == 0.13
+    app = battery_health(0.16, None, wheel_reported_ohm=0.13)
+    assert app.expected_ohm is None and app.app_setting_ohm == 0.13      # a setting, not a spec
+    assert app.verdict == "no specification" and "130 mΩ" in app.sentence
     assert battery_health(None, None, why="no current").verdict == "not measured"
 
 

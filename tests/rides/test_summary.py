@@ -69,6 +69,7 @@ def test_gap_is_not_integrated_across_and_lowers_quality(tmp_path):
     # ... but the energy leaves the gap out, and so does the distance Wh/km divides it by
     assert s.energy_drawn_Wh == pytest.approx(80 * 10 * (600 - 150) / 3600 + 80 * 0.2 * 40 / 3600, rel=0.01)
     assert s.Wh_per_km == pytest.approx(80 * 10 / (25 / 3.6) / 3.6, rel=0.03)
+    assert s.speed_mean_moving_mps == pytest.approx(25 / 3.6, rel=0.01)   # over the same stretch
     assert 150.0 > BRIDGE_S
 
 
