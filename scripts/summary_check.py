@@ -33,7 +33,8 @@ def _row(path: Path, root: Path) -> str:
     log = read_log(path, emit_warnings=False)
     c = read_counters(path, log)
     s = ride_summary(log, c)
-    name = str(path.relative_to(root).parent if path.parent != root else path.name)
+    rel = path.relative_to(root)
+    name = str(rel.parent if rel.stem.isdigit() else rel).replace("euc_core/trips/", "")
     # like with like: a GPS distance against the app's GPS counter, a wheel one against its trip counter
     same = c.gps_distance_m if s.distance_source == "gps" else c.distance_m
     bat_raw = (c.battery_start_pct - c.battery_end_pct

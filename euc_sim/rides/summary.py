@@ -40,6 +40,8 @@ BRIDGE_S = 2.5
 PAUSE_S = 300.0
 #: Wheel speed above which the wheel counts as moving, m/s (1.8 km/h).
 MOVING_MPS = 0.5
+#: Wheel speed above which the trip has started (the wheel's first turn), m/s (0.18 km/h).
+START_MPS = 0.05
 #: The span at each end of the ride over which the battery reading is taken, s.
 BATTERY_WINDOW_S = 60.0
 #: A GPS track is used for the distance when it covers this share of the moving time ...
@@ -427,9 +429,9 @@ def _distance(d: pd.DataFrame) -> tuple[float, float, float | None, str | None]:
     return wheel, covered * wheel / max(integral, 1e-9), gps, why
 
 
-def _duration(t: np.ndarray, moving: np.ndarray) -> tuple[float, float]:
+def _duration(t: np.ndarray, rolling: np.ndarray) -> tuple[float, float]:
     """From the first turn of the wheel to the last sample without pauses, s; and the log's span."""
-    t_start = float(t[np.flatnonzero(moving)[0]]) if moving.any() else float(t[0])
+    t_start = float(t[np.flatnonzero(rolling)[0]]) if rolling.any() else float(t[0])
     dt = np.diff(t)
     paused = float(dt[(dt > PAUSE_S) & (t[1:] > t_start)].sum())
     return float(t[-1] - t_start - paused), t_start
@@ -453,7 +455,7 @@ def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
     t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
     why: dict[str, str] = {}
     moving = v > MOVING_MPS
-    duration, t_start = _duration(t, moving)
+    duration, t_start = _duration(t, v > START_MPS)
     dt, ok = _steps(t)
     moving_s = float(np.sum(dt[ok & (moving[1:] | moving[:-1])]))
     wheel, covered, gps, gps_why = _distance(d)
