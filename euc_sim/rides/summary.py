@@ -482,7 +482,8 @@ def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
     elif used is not None:
         why["range_m_at_this_rate"] = f"only {used:.1f} % of the battery used"
     pmax, pat, place = _pwm(d)
-    hz = float(1.0 / np.median(dt)) if dt.size and np.median(dt) > 0 else None
+    # samples per second over the whole log (a median interval hides bursts between gaps)
+    hz = float(dt.size / (t[-1] - t[0])) if dt.size and t[-1] > t[0] else None
     gaps = _gaps(t)
     q, sentence = _quality(gaps, float(t[-1] - t[0]), hz)
     temp = float(np.nanmax(d["temperature"])) if "temperature" in d else None
