@@ -54,7 +54,7 @@ def test_no_change_when_the_battery_is_the_same(tmp_path):
     for day in (1, 5, 9):
         _ride(logs, f"{day}.csv", 0.15, day)
     out_json = tmp_path / "h.json"
-    assert main(["rides", *map(str, sorted(logs.glob("*.csv"))), "--json", str(out_json), "--n-boot", "20",
+    assert main(["rides", *map(str, sorted(logs.glob("*.csv"))), "--json", str(out_json), "--n-boot", "20", "--workers", "2",
                  "--quiet"]) == 0
     ch = json.loads(out_json.read_text())["change"]
     assert ch["verdict"] == "no change shown" and ch["p_value"] >= 0.05
@@ -85,3 +85,24 @@ def test_bad_workers_and_rider_weight(tmp_path, capsys):
     a = _ride(tmp_path, "a.csv", 0.15, 1)
     _fails(["rides", a, "--workers", "0"], r"--workers", capsys, tmp_path)
     _fails(["ride", a, "--rider-weight", "-3", "--no-simulate"], r"--rider-weight", capsys, tmp_path)
+
+
+def test_page_draws_every_figure_in_chromium(tmp_path):
+    """The page's scripts run in a real browser: each Plotly figure becomes an SVG."""
+    import shutil
+    import subprocess
+
+    browser = shutil.which("chromium") or shutil.which("chromium-browser")
+    if browser is None:
+        pytest.skip("no headless Chromium (Debian's chromium) on this machine: the page is not rendered")
+    for day in (1, 5, 9):
+        _ride(tmp_path / "logs", f"{day}.csv", 0.15, day)
+    assert main(["rides", str(tmp_path / "logs"), "--report", str(tmp_path / "page"), "--n-boot", "10",
+                 "--quiet"]) == 0
+    dom = subprocess.run([browser, "--headless", "--no-sandbox", "--disable-gpu", "--virtual-time-budget=5000",
+                          "--dump-dom", (tmp_path / "page" / "index.html").as_uri()],
+                         capture_output=True, text=True, timeout=120).stdout
+    figures = dom.count('class="fig')          # "fig", "fig js-plotly-plot" once drawn
+    assert figures == 3
+    assert dom.count('class="fig js-plotly-plot') == figures      # every one drawn: no script stopped early
+    assert dom.count('class="main-svg"') >= 2 * figures
