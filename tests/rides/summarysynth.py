@@ -62,3 +62,28 @@ def synth_summary_log(path: Path, *, rate: float = 5.0, ride_s: float = 600.0, r
         df = df[(t < gap[0]) | (t >= gap[0] + gap[1])]
     df[HEADER].to_csv(path, index=False)
     return path
+
+
+def as_layout(src: Path, dst: Path, layout: str) -> Path:
+    """Rewrite a :func:`synth_summary_log` file in the EUC World or DarknessBot layout."""
+    df = pd.read_csv(src, dtype=str, keep_default_na=False)
+    stamp = pd.to_datetime(df["date"] + " " + df["time"])
+    num = lambda c: pd.to_numeric(df[c], errors="coerce")     # noqa: E731
+    if layout == "eucworld":
+        out = pd.DataFrame({
+            "datetime": stamp.dt.strftime("%Y-%m-%dT%H:%M:%S.%f").str[:-3] + "+0200",
+            "distance": num("distance") / 1000, "distance_total": num("totaldistance") / 1000,
+            "speed": df["speed"], "voltage": df["voltage"], "current": df["current"],
+            "current_phase": "", "power": df["power"], "battery": df["battery_level"],
+            "temp": df["system_temp"], "safety_margin": 100 - num("pwm"), "tilt": "", "roll": "",
+            "alarm": np.where(df["alert"] != "", 1, 0), "gps_lat": df["latitude"],
+            "gps_lon": df["longitude"], "gps_speed": df["gps_speed"], "gps_alt": "", "extra": ""})
+    else:
+        out = pd.DataFrame({
+            "Date": stamp.dt.strftime("%d.%m.%Y %H:%M:%S.%f").str[:-3], "Speed": df["speed"],
+            "Voltage": df["voltage"], "PWM": df["pwm"], "Current": df["current"], "Power": df["power"],
+            "Battery level": df["battery_level"], "Total mileage": num("totaldistance") / 1000,
+            "Temperature": df["system_temp"], "Pitch": 0, "Roll": 0, "Latitude": df["latitude"],
+            "Longitude": df["longitude"], "Altitude": ""})
+    out.to_csv(dst, index=False)
+    return dst

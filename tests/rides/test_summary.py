@@ -127,3 +127,17 @@ def test_real_ride_agrees_with_its_own_counters(path):
     if "pwm" in log.data:
         assert s.pwm_max_pct == pytest.approx(float(log.data["pwm"].max()), abs=1.5)
     assert s.battery_used_pct == pytest.approx(c.battery_start_pct - c.battery_end_pct, abs=2.0)
+
+
+@pytest.mark.parametrize("layout", ["eucworld", "darknessbot"])
+def test_other_layouts_give_the_same_summary(tmp_path, layout):
+    from tests.rides.summarysynth import as_layout
+
+    src = synth_summary_log(tmp_path / "a.csv", alarm_rows=(500, 501, 900), regen_amps=5.0)
+    ref = _summary(src)
+    s = _summary(as_layout(src, tmp_path / f"{layout}.csv", layout))
+    for name in ("duration_s", "moving_s", "distance_m", "speed_max_mps", "energy_drawn_Wh",
+                 "energy_regen_Wh", "battery_used_pct", "pwm_max_pct"):
+        assert getattr(s, name) == pytest.approx(getattr(ref, name), rel=0.01, abs=0.05), name
+    assert s.distance_source == "gps"
+    assert s.alarms == (2 if layout == "eucworld" else None)    # DarknessBot writes no alarm column
