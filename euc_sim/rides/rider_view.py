@@ -22,13 +22,13 @@ def check_rider_weight(kg: float | None) -> float | None:
     return float(kg)
 
 
-def rider_numbers(log_path, rep: dict, spec=None, rider_weight: float | None = None) -> dict:
+def rider_numbers(log, rep: dict, spec=None, rider_weight: float | None = None) -> dict:
     """``summary``, ``mass_check`` and ``battery`` of the ride JSON.
 
     Parameters
     ----------
-    log_path : path
-        The ride log.
+    log : path or RideLog
+        The ride log, or its parsed form (then it is not read again).
     rep : dict
         The ride JSON built so far: its ``total_mass`` and ``drivetrain`` are read,
         never recomputed.
@@ -46,10 +46,11 @@ def rider_numbers(log_path, rep: dict, spec=None, rider_weight: float | None = N
     from euc_sim.rides.logs import read_log
     from euc_sim.rides.summary import mass_check, read_counters, ride_summary
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        log = read_log(log_path, emit_warnings=False)
-    counters = read_counters(log_path, log)
+    if not hasattr(log, "data"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            log = read_log(log, emit_warnings=False)
+    counters = read_counters(log.path, log)
     summary = ride_summary(log, counters)
     wheel_kg = getattr(spec, "wheel_mass", None) if spec is not None else None
     mc = mass_check(rep.get("total_mass"), rider_weight, wheel_kg)

@@ -141,3 +141,20 @@ def test_other_layouts_give_the_same_summary(tmp_path, layout):
         assert getattr(s, name) == pytest.approx(getattr(ref, name), rel=0.01, abs=0.05), name
     assert s.distance_source == "gps"
     assert s.alarms == (2 if layout == "eucworld" else None)    # DarknessBot writes no alarm column
+
+
+def test_rider_numbers_reads_the_reports_terms(tmp_path):
+    from euc_sim.rides.rider_view import check_rider_weight, rider_numbers
+    from euc_sim.rides.spec import WheelSpec
+
+    path = synth_summary_log(tmp_path / "a.csv")
+    rep = {"total_mass": {"estimate": 100.0, "ci95": [90.0, 110.0]},
+           "drivetrain": {"internal_resistance": {"estimate": 0.2, "ci95": [0.19, 0.21], "unit": "ohm"}}}
+    out = rider_numbers(path, rep, WheelSpec(wheel_mass=25.0), 90.0)
+    assert out["summary"]["distance_m"] == pytest.approx(25 / 3.6 * 600, rel=0.005)
+    assert out["mass_check"]["verdict"] == "lighter" and out["mass_check"]["difference_kg"] == pytest.approx(-15.0)
+    assert "15 kg less than declared" in out["mass_check"]["sentence"]
+    assert out["battery"]["resistance_ohm"] == 0.2
+    assert rider_numbers(read_log(path, emit_warnings=False), rep)["summary"] == out["summary"]
+    with pytest.raises(ValueError, match="--rider-weight"):
+        check_rider_weight(500.0)
