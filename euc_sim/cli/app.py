@@ -134,6 +134,9 @@ def build_parser() -> argparse.ArgumentParser:
     from euc_sim.cli.ride import add_ride_parser
     add_ride_parser(sub)         # euc-sim ride LOG --compare OTHER --report --json (issue 6)
 
+    from euc_sim.cli.rides import add_rides_parser
+    add_rides_parser(sub)        # euc-sim rides DIR_OR_FILES... --report DIR --json F
+
     from euc_sim.cli.spatial import add_render_parser
     add_render_parser(sub)       # euc-sim render REC --out ride.mp4 (issue 14)
 

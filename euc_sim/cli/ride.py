@@ -85,7 +85,8 @@ def with_found_values(assumptions, spec, total_mass: dict):
 
 def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assumptions=None,
              n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
-             progress=None, spec=None, calibrate_rider: bool = False) -> dict:
+             progress=None, spec=None, calibrate_rider: bool = False,
+             rider_weight: float | None = None) -> dict:
     """Everything ``euc-sim ride`` computes; writes the report folder when given.
 
     Parameters
@@ -112,6 +113,8 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     calibrate_rider : bool
         Add the ``calibrated_rider`` step (:func:`euc_sim.rides.rider_step.calibrated_rider_step`:
         the rider fitted on LOG, minutes of simulation) between the measured law and the drivetrain.
+    rider_weight : float, optional
+        The rider's declared weight, kg: checked against the log's total mass (``mass_check``).
 
     Returns
     -------
@@ -167,6 +170,9 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     from euc_sim.rides.verdict import ride_verdict
 
     rep["verdict"] = ride_verdict(rep)
+    # the rider's numbers (summary, mass check, battery health): euc_sim.rides.rider_view
+    from euc_sim.rides.rider_view import rider_numbers
+    rep.update(rider_numbers(log, rep, spec, rider_weight))
     rep["report"] = None
     if report_dir is not None:          # every file at the end: an interrupted run writes none
         say(f"writing the report to {report_dir}")
@@ -340,6 +346,8 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     if args.calibrate_rider and args.no_simulate:
         raise ValueError("--calibrate-rider adds a step to the simulation: it cannot go with --no-simulate")
     assumptions = _assumptions(args)
+    from euc_sim.rides.rider_view import check_rider_weight
+    rider_weight = check_rider_weight(args.rider_weight)
     from euc_sim.rides.analysis import check_data
     from euc_sim.rides.spec import wheel_spec
 
@@ -362,7 +370,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
                    simulate=not args.no_simulate, jobs=args.jobs,
                    progress=None if args.quiet else _progress, spec=spec,
-                   calibrate_rider=args.calibrate_rider)
+                   calibrate_rider=args.calibrate_rider, rider_weight=rider_weight)
     if args.json:
         if args.report:         # where the named files are, from the JSON's folder
             rep["report_dir"] = Path(os.path.relpath(Path(args.report).resolve(),
@@ -384,6 +392,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
               f"95% [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]{flag}{al}")
     for line in _mass_lines(rep):
         print(line)
+    print(f"  {rep['mass_check']['sentence']}")
     if rep["windows"]:
         print("  windows (s): " + ", ".join(f"{a:.1f}-{b:.1f}" for a, b in rep["windows"][:8])
               + (" ..." if len(rep["windows"]) > 8 else ""))
@@ -422,6 +431,9 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--wheel", metavar="SPEC.csv",
                    help="the wheel's specification (Field|Data rows: wheel diameter, net weight, "
                         "battery voltage 'Tension')")
+    p.add_argument("--rider-weight", type=float, metavar="KG",
+                   help="the rider's declared weight with gear, kg: a prior the log's total mass checks "
+                        "(never taken as the answer)")
     p.add_argument("--wheel-mass", type=float, metavar="KG",
                    help="the wheel's net weight, kg (overrides the spec)")
     p.add_argument("--battery-voltage", type=float, metavar="V",

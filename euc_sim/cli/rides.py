@@ -1,0 +1,139 @@
+"""``euc-sim rides DIR_OR_FILES... --report DIR --json F``: many rides of one wheel.
+
+Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_rides_parser`.
+Bad input (no readable log, logs of different wheels, an unwritable output)
+raises ``ValueError`` or ``OSError``: one line naming the file, exit 2; nothing is
+written then.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from euc_sim.cli.common import seed
+
+__all__ = ["add_rides_parser", "find_logs", "run_rides"]
+
+
+def _is_log(path: Path) -> bool:
+    """A CSV whose header a ride-log layout recognises."""
+    from euc_sim.rides.logs import LogFormatError, detect_layout
+
+    try:
+        with open(path, encoding="utf-8") as fh:
+            header = [c.strip() for c in fh.readline().strip().split(",")]
+        detect_layout(header, path)
+        return True
+    except (LogFormatError, OSError, UnicodeDecodeError):
+        return False
+
+
+def find_logs(items) -> list[Path]:
+    """The log files named, and the recognised ride logs under each folder named.
+
+    Raises
+    ------
+    FileNotFoundError
+        for a path that does not exist; ``ValueError`` for a folder holding no ride log.
+    """
+    out: list[Path] = []
+    for item in items:
+        p = Path(item)
+        if p.is_dir():
+            found = [f for f in sorted(p.rglob("*.csv")) if _is_log(f)]
+            if not found:
+                raise ValueError(f"{p}: no ride log (WheelLog, EUC World, DarknessBot CSV) in this folder")
+            out.extend(found)
+        elif p.is_file():
+            out.append(p)
+        else:
+            raise FileNotFoundError(f"{p}: no such file or folder")
+    return list(dict.fromkeys(out))
+
+
+def _entry(args):
+    from euc_sim.rides.history import ride_entry
+
+    path, pack, n_boot, sd = args
+    return ride_entry(path, pack, n_boot, sd)
+
+
+def run_rides(paths, pack=None, n_boot: int = 100, seed: int = 0, workers: int = 1, say=None):
+    """The :class:`euc_sim.rides.history.RideHistory` of the logs ``paths``."""
+    from euc_sim.rides.history import ride_history
+
+    jobs = [(p, pack, n_boot, seed) for p in paths]
+    if workers > 1 and len(jobs) > 1:
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as ex:
+            entries = list(ex.map(_entry, jobs))
+    else:
+        entries = []
+        for j in jobs:
+            if say:
+                say(f"rides: reading {j[0]}")
+            entries.append(_entry(j))
+    return ride_history(entries)
+
+
+def _cmd_rides(args: argparse.Namespace) -> int:
+    from euc_sim.io import check_writable, write_json
+
+    if args.workers < 1:
+        raise ValueError(f"--workers must be at least 1, got {args.workers}")
+    if args.n_boot < 10:
+        raise ValueError(f"--n-boot must be at least 10 (the intervals are bootstrap percentiles), got {args.n_boot}")
+    pack = None
+    if args.wheel:
+        from euc_sim.rides.battery import pack_spec
+
+        if not Path(args.wheel).is_file():
+            raise FileNotFoundError(f"--wheel {args.wheel}: no such file")
+        pack = pack_spec(args.wheel)
+    paths = find_logs(args.logs)
+    if args.json:
+        check_writable(args.json)
+    if args.report:
+        out = Path(args.report)
+        if out.exists() and not out.is_dir():
+            raise NotADirectoryError(f"--report {out}: exists and is not a folder")
+        check_writable(out / "index.html")
+    say = None if args.quiet else (lambda m: (sys.stderr.write(m + "\n"), sys.stderr.flush()))
+    hist = run_rides(paths, pack, args.n_boot, args.seed, args.workers, say).to_json()
+    if args.report:
+        from euc_sim.report.html import write_page
+        from euc_sim.rides.history_page import history_page
+
+        title = f"Rides of {Path(args.wheel).stem}" if args.wheel else "Rides of one wheel"
+        write_page(args.report, history_page(hist, title))
+    if args.json:
+        write_json(args.json, hist)
+    for e in hist["rides"]:
+        s, b = e["summary"], e["battery"]
+        r = b["resistance_25C_ohm"] if hist["basis"] == "25C" else b["resistance_ohm"]
+        print(f"{e['start'][:16]}  {Path(e['path']).name}: {(s['distance_m'] or 0) / 1000:.1f} km, "
+              f"{s['Wh_per_km'] or float('nan'):.1f} Wh/km, battery {s['battery_used_pct'] or 0:.0f} %, "
+              f"resistance {'–' if r is None else f'{1e3 * r:.0f} mΩ'}")
+    ch = hist["change"]
+    if ch:
+        print(f"latest ride's resistance against the earlier {ch['n_earlier']}: {ch['verdict']} "
+              f"(difference {1e3 * ch['difference']:+.0f} mΩ, 95% [{1e3 * ch['difference_ci95'][0]:+.0f}, "
+              f"{1e3 * ch['difference_ci95'][1]:+.0f}], p = {ch['p_value']:.2g})")
+    return 0
+
+
+def add_rides_parser(sub) -> None:
+    """Register ``rides`` on the subparsers ``sub``."""
+    p = sub.add_parser("rides", help="many ride logs of one wheel: battery resistance over time, Wh/km by speed")
+    p.add_argument("logs", nargs="+", metavar="DIR_OR_FILE", help="ride logs, or folders searched for them")
+    p.add_argument("--report", metavar="DIR", help="write DIR/index.html")
+    p.add_argument("--json", metavar="F", help="write the rides' history as one JSON object")
+    p.add_argument("--wheel", metavar="SPEC.csv", help="the wheel's specification (battery architecture, cell resistance)")
+    p.add_argument("--n-boot", type=int, default=100, metavar="N", help="bootstrap replicates of each resistance (default 100)")
+    p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
+    p.add_argument("--workers", type=int, default=1, metavar="N", help="processes reading the logs (default 1)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.set_defaults(func=_cmd_rides)
