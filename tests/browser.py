@@ -72,6 +72,16 @@ class Rendered:
     values: dict = field(default_factory=dict)
     screenshot: Path | None = None
 
+    def script_errors(self) -> list[str]:
+        """The errors that are not a map tile failing to load (offline, a tile server down).
+
+        MapLibre reports each tile it cannot fetch (naming its URL) and Plotly repeats
+        it as "Map error."; those are accepted only when a tile failure was reported.
+        """
+        tiles = [e for e in self.errors if any(h in e for h in TILE_HOSTS)]
+        return [e for e in self.errors if e not in tiles
+                and not (tiles and e.startswith("Error: Map error."))]
+
     def foreign_requests(self, page: Path) -> list[str]:
         """Requested URLs other than the page itself, inline data and map tiles."""
         own = Path(page).resolve().as_uri()

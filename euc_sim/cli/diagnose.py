@@ -53,7 +53,7 @@ def add_commands(sub) -> None:
     p = sub.add_parser("diagnose", help="find the physics the nominal model leaves out of a recording")
     p.add_argument("recording", metavar="REC.csv", help="a CONTRACT recording (.csv or .parquet)")
     p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's diagnosis object")
-    p.add_argument("--report", metavar="DIR", help="write DIR/index.md with figures")
+    p.add_argument("--report", metavar="DIR", help="write DIR/index.html (and DIR/index.md, its plain text) with figures")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="nominal parameter (default: the sidecar's, else Table 3; h is identified)")
     p.add_argument("--no-resimulate", action="store_true",

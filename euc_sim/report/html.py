@@ -30,10 +30,10 @@ padding:12px 20px;color:#1d2330;line-height:1.45}
 h1{font-size:1.5em;margin:.2em 0 .1em}h2{font-size:1.2em;margin:.8em 0 .3em}
 .sub{color:#5a6270;margin:0 0 .6em}
 .kf{display:grid;grid-template-columns:repeat(auto-fill,minmax(180px,1fr));gap:8px;margin:.5em 0}
-.kf div{background:#f3f5f8;border-radius:6px;padding:6px 10px}
-.kf .v{font-size:1.35em;font-weight:600}.kf .l{font-size:.85em;color:#5a6270}
-.kf .n{font-size:.78em;color:#5a6270}
-.kf .warn{background:#fff3e0}.kf .bad{background:#fde7e9}.kf .good{background:#e8f5e9}
+.kf>div{background:#f3f5f8;border-radius:6px;padding:5px 10px}
+.kf .v{font-size:1.3em;font-weight:600;line-height:1.25}.kf .l{font-size:.82em;color:#5a6270}
+.kf .n{font-size:.76em;color:#5a6270;line-height:1.3}
+.kf>.warn{background:#fff3e0}.kf>.bad{background:#fde7e9}.kf>.good{background:#e8f5e9}
 details{border-top:1px solid #dde1e7;padding:.3em 0}summary{cursor:pointer;font-weight:600;font-size:1.1em}
 table{border-collapse:collapse;margin:.4em 0;font-size:.92em}
 td,th{border-bottom:1px solid #e3e6eb;padding:3px 8px;text-align:left}th{background:#f3f5f8}
