@@ -30,7 +30,7 @@ OSM_TILES = {"sourcetype": "raster", "below": "traces", "sourceattribution": "©
 
 #: Legends under the axes, never on the data nor on the title.
 _LEGEND = {"orientation": "h", "yanchor": "top", "y": -0.2, "xanchor": "left", "x": 0.0}
-_MARGIN = {"l": 60, "r": 20, "t": 70, "b": 110}
+_MARGIN = {"l": 60, "r": 20, "t": 80, "b": 110}
 
 
 @dataclass(frozen=True)

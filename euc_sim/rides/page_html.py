@@ -163,6 +163,8 @@ def _battery_tile(rep: Mapping) -> object:
         est = _num(r, "estimate")
     if est is None:
         return H.KeyFigure("Battery resistance", NA, "")
+    if est <= 0:
+        return H.KeyFigure("Battery resistance", NA, "the log shows no voltage sag under load", "warn")
     verdict = b.get("verdict") or b.get("health")
     ci = r.get("ci95")
     note = verdict if verdict else (f"95 % {1000 * ci[0]:.0f}–{1000 * ci[1]:.0f} mΩ; no health verdict"
@@ -187,7 +189,7 @@ def key_figures(rep: Mapping) -> list:
                _mass_tile(rep.get("total_mass")), _battery_tile(rep)])
 
 
-def _lead(rep: Mapping) -> list[str]:
+def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
     """The verdict in sentences: the data's quality first when it weakens everything else."""
     out = []
     line, tone = data_quality(rep.get("summary"))
@@ -198,9 +200,19 @@ def _lead(rep: Mapping) -> list[str]:
     p = _num(rep.get("summary"), "pwm_max_pct")
     if p is not None and p >= PWM_BAD:
         out.append(f"At its peak the motor used {p:.0f} % of the battery's voltage: close to a cut-out.")
+    left = speed_left(rep, series, fit) if series is not None else None
+    if left is not None and left[1] is not None:
+        out.append(f"At your highest PWM, riding {left[0]:.0f} km/h, the battery's charge then allowed "
+                   f"about {left[1]:.0f} km/h on the level: {max(left[1] - left[0], 0):.0f} km/h left.")
     v = rep.get("verdict") or {}
-    if v.get("text"):
-        out.append(f"What the balance of forces says: {v['text']}.")
+    if v.get("battery_power") is False:
+        out.append("The log's voltage times current is not the battery's power: the physics below is weak.")
+    elif v.get("named"):
+        out.append("The ride's energy balance shows what the standard model lacks: "
+                   + ", ".join(n.replace("_", " ") for n in v["named"]) + " (details below).")
+    elif v:
+        out.append("The ride's energy balance names nothing the standard model lacks with confidence "
+                   "(details below).")
     return out
 
 
@@ -256,9 +268,9 @@ def sag_figure(rep: Mapping, fit):
     Ix, Vy = I[ok][keep], y[ok][keep]
     R = _num((rep.get("battery") or {}).get("internal_resistance") or rep.get("battery"), "estimate") or bc["R_int"]
     grid = np.linspace(float(np.min(Ix)), float(np.max(Ix)), 50)
-    return xy_figure([Line("log samples", Ix, Vy),
-                      Line(f"fitted: {bc['E0']:.1f} V − {1000 * R:.0f} mΩ × current", grid,
-                           bc["E0"] - R * grid, "lines")],
+    fitted = (f"fitted: {bc['E0']:.1f} V − {1000 * R:.0f} mΩ × current" if R > 0 else
+              "fitted: no sag (the resistance found is not positive)")
+    return xy_figure([Line("log samples", Ix, Vy), Line(fitted, grid, bc["E0"] - R * grid, "lines")],
                      "Battery sag: voltage against current", "battery current, A",
                      "voltage at the start's charge, V",
                      "each sample's voltage with the fall from the charge drawn so far added back")
@@ -313,13 +325,17 @@ def envelope_figure(rep: Mapping, series: RideSeries, fit):
     lines.append(Line("100 %: no voltage left", np.array([0.0, v[-1] * 3.6]), np.array([100.0, 100.0]),
                       "lines", "dot"))
     left = speed_left(rep, series, fit)
-    note = "above the ride's top speed the curves are extrapolated"
+    note = "above this ride's top speed the curves are extrapolated"
     if left is not None:
         sp, top, p = left
-        note = (f"at your max PWM ({p:.0f} %, {sp:.0f} km/h) the charge then allowed "
-                + (f"{top:.0f} km/h: {top - sp:.0f} km/h left" if top is not None else
-                   "more than the figure's end") + "; " + note)
+        lines.append(Line(f"your max PWM: {p:.0f} % at {sp:.0f} km/h", np.array([sp]), np.array([p])))
+        note = (f"at your max PWM the charge then allowed "
+                + (f"{top:.0f} km/h: {max(top - sp, 0):.0f} km/h left" if top is not None else
+                   "more than the figure's end") + "<br>" + note)
     fig = xy_figure(lines, "How close to the limit: PWM against speed", "speed, km/h", "PWM, %", note)
+    if left is not None:
+        fig.update_traces(selector={"name": lines[-1].name}, marker={"size": 14, "color": "#c62828",
+                                                                    "symbol": "star", "opacity": 1})
     fig.update_yaxes(range=[0, 110])
     return fig
 
@@ -373,7 +389,7 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
 
     name = Path(rep["recording"]).name
     figs = figure_specs(rep, series, fit)
-    body = [H.key_figures(key_figures(rep)), H.lead(_lead(rep))]
+    body = [H.key_figures(key_figures(rep)), H.lead(_lead(rep, series, fit))]
     body += _figure_sections(rep, figs)
     body.append(H.section("The physics behind it", H.paragraph(
         "For those who want the model: each part opens on a click."), folded=False))
