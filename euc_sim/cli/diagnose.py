@@ -32,7 +32,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
                                     progress=None if args.quiet else (lambda s: say(f"diagnose: {s} ...")))
     if args.report:      # the report first: a failing report leaves no JSON behind
         page = write_report(result, args.report)
-        say(f"diagnose: report written to {page}")
+        say(f"diagnose: report written to {page.with_name('index.html')} (plain text: {page.name})")
     if args.json:
         write_json(args.json, diagnosis.json_view(result))
     print(summary(result))

@@ -344,7 +344,7 @@ FIGURES = {"residual.png": (residual_figure, 110), "terms.png": (terms_figure, 1
 def write_report(result: dict, outdir: str | Path) -> Path:
     """Write ``outdir/index.html`` (the page) and ``outdir/index.md`` (its plain text) with the figures.
 
-    Everything is made in memory first and each file written atomically, ``index.html``
+    Everything is made in memory first and each file written atomically, the pages
     last: a failure leaves no half-written file and no page.
 
     Parameters
@@ -357,7 +357,7 @@ def write_report(result: dict, outdir: str | Path) -> Path:
     Returns
     -------
     pathlib.Path
-        The HTML page.
+        The Markdown page (the HTML page ``index.html`` is beside it).
 
     Raises
     ------
@@ -384,8 +384,9 @@ def write_report(result: dict, outdir: str | Path) -> Path:
     for name, png in figures.items():
         if png is not None:
             atomic_write(out / name, lambda path, data=png: path.write_bytes(data))
-    write_text(out / "index.md", page)
-    return write_page(out, html)
+    md = write_text(out / "index.md", page)
+    write_page(out, html)
+    return md
 
 
 def report_paths(outdir: str | Path) -> list[Path]:
