@@ -20,14 +20,12 @@ import numpy as np
 from euc_sim.report import html as H
 from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
 
-__all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "figure_specs",
-           "PWM_WARN", "PWM_BAD", "GAP_WARN", "GAP_BAD"]
+__all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "figure_specs", "data_quality",
+           "PWM_WARN", "PWM_BAD", "BATTERY_TONE"]
 
 #: Max PWM, %, from which the tile warns (amber) and alarms (red): near 100 % the motor has
 #: no voltage left to push the rider back up.
 PWM_WARN, PWM_BAD = 80.0, 90.0
-#: Share of the ride in gaps from which the data-quality line warns and says the verdicts weaken.
-GAP_WARN, GAP_BAD = 0.05, 0.20
 #: Most points per trace on the page (the page stays a few MB on an hour's ride).
 MOST_POINTS = 6000
 NA = "not available"
@@ -125,52 +123,61 @@ def _pwm_tile(s: Mapping | None, where: str) -> object:
 
 
 def data_quality(s: Mapping | None) -> tuple[str, str]:
-    """One line on the log's gaps and sampling, and its tone (``""``, ``"warn"``, ``"bad"``)."""
-    g = (s or {}).get("gaps")
-    dur = _num(s, "duration_s")
-    if not g or not dur:
+    """The summary's one line on the log's gaps and sampling, and its tile tone.
+
+    The verdict (``quality``: good, fair, poor) and its sentence are the summary's own;
+    without them the gaps are stated with no verdict.
+    """
+    if not s:
         return NA, ""
-    share = (g.get("total_s") or 0.0) / dur
+    tone = {"good": "good", "fair": "warn", "poor": "bad"}.get(str(s.get("quality", "")), "")
+    if s.get("quality_sentence"):
+        return str(s["quality_sentence"]), tone
+    g, dur = s.get("gaps"), _num(s, "duration_s")
+    if not g or not dur:
+        return NA, tone
     rate = _num(s, "sampling_hz")
-    line = (f"{g.get('count', 0)} gaps, {g.get('total_s', 0):.0f} s ({100 * share:.0f} % of the ride)"
+    return (f"{g.get('count', 0)} gaps, {g.get('total_s', 0):.0f} s "
+            f"({100 * (g.get('total_s') or 0.0) / dur:.0f} % of the ride)"
             + (f", longest {g['longest_s']:.0f} s" if g.get("longest_s") else "")
-            + (f"; logged at {rate:.1f} Hz" if rate else ""))
-    tone = "bad" if share >= GAP_BAD else "warn" if share >= GAP_WARN else "good"
-    return line, tone
+            + (f"; {rate:.1f} samples/s" if rate else "")), tone
 
 
-def _mass_tile(tm: Mapping | None) -> object:
+def _mass_tile(tm: Mapping | None, check: Mapping | None) -> object:
+    """The total mass found from the log, and the ride JSON's ``mass_check`` of the declared weight."""
     est = _num(tm, "estimate")
     if est is None:
         return H.KeyFigure("Total mass", NA, ((tm or {}).get("why") or "")[:60])
     ci = (tm or {}).get("ci95")
     note = f"95 % {ci[0]:.0f}–{ci[1]:.0f} kg" if ci else ""
-    chk = (tm or {}).get("rider_weight_check") or {}
-    decl = _num(chk, "declared_kg")
+    decl = _num(check, "declared_rider_kg")
+    verdict = str((check or {}).get("verdict", ""))
     if decl is not None:
-        note = f"declared rider {decl:.0f} kg: {chk.get('verdict', '')}".strip()
+        note = f"declared rider {decl:.0f} kg: {verdict}"
     return H.KeyFigure("Total mass", f"{est:.0f} kg", note,
-                       "warn" if chk.get("consistent") is False else "")
+                       "warn" if decl is not None and verdict in ("heavier", "lighter") else "")
+
+
+#: The battery entry's verdict -> tile tone.
+BATTERY_TONE = {"as specified": "good", "aged": "warn", "worn": "bad"}
 
 
 def _battery_tile(rep: Mapping) -> object:
-    """Internal resistance, mΩ, with the health verdict when the ride result carries one."""
-    b = rep.get("battery") or {}
-    r = b.get("internal_resistance") if isinstance(b.get("internal_resistance"), dict) else b
-    est, src = _num(r, "estimate"), "battery"
-    if est is None:
-        r, src = (rep.get("drivetrain") or {}).get("internal_resistance") or {}, "drivetrain"
-        est = _num(r, "estimate")
-    if est is None:
-        return H.KeyFigure("Battery resistance", NA, "")
-    if est <= 0:
-        return H.KeyFigure("Battery resistance", NA, "the log shows no voltage sag under load", "warn")
-    verdict = b.get("verdict") or b.get("health")
-    ci = r.get("ci95")
-    note = verdict if verdict else (f"95 % {1000 * ci[0]:.0f}–{1000 * ci[1]:.0f} mΩ; no health verdict"
-                                    if ci else "no health verdict")
-    tone = {"healthy": "good", "worn": "warn", "poor": "bad"}.get(str(b.get("tone", "")), "")
-    return H.KeyFigure("Battery resistance", f"{1000 * est:.0f} mΩ", str(note)[:70], tone)
+    """Internal resistance, mΩ, with the ``battery`` entry's health verdict (the drivetrain's
+    resistance, without a verdict, where the ride result has no ``battery``)."""
+    b = rep.get("battery")
+    if b:
+        est, ci, verdict = _num(b, "resistance_ohm"), b.get("resistance_ci95"), str(b.get("verdict", ""))
+        r25 = _num(b, "resistance_25C_ohm")
+    else:
+        r = (rep.get("drivetrain") or {}).get("internal_resistance") or {}
+        est, ci, verdict, r25 = _num(r, "estimate"), r.get("ci95"), "no health verdict", None
+    if est is None or est <= 0:
+        return H.KeyFigure("Battery resistance", NA, (b or {}).get("sentence", "")[:70] or
+                           "the log shows no voltage sag under load", "warn" if est is not None else "")
+    note = verdict + (f"; {1000 * r25:.0f} mΩ at 25 °C" if r25 is not None else
+                      f"; 95 % {1000 * ci[0]:.0f}–{1000 * ci[1]:.0f} mΩ" if ci else "")
+    return H.KeyFigure("Battery resistance", f"{1000 * est:.0f} mΩ", note, BATTERY_TONE.get(verdict, ""))
 
 
 def key_figures(rep: Mapping) -> list:
@@ -184,19 +191,16 @@ def key_figures(rep: Mapping) -> list:
                H.KeyFigure("Alarms", NA if alarms is None else str(alarms),
                            "" if alarms is None else "alarm rows in the log",
                            "warn" if alarms else ""),
-               H.KeyFigure("Data quality", {"good": "good", "warn": "gaps", "bad": "poor"}.get(tone, NA),
-                           quality, tone),
-               _mass_tile(rep.get("total_mass")), _battery_tile(rep)])
+               H.KeyFigure("Data quality", str((s or {}).get("quality") or NA), quality, tone),
+               _mass_tile(rep.get("total_mass"), rep.get("mass_check")), _battery_tile(rep)])
 
 
 def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
     """The verdict in sentences: the data's quality first when it weakens everything else."""
     out = []
     line, tone = data_quality(rep.get("summary"))
-    if tone == "bad":
-        out.append(f"The log has long gaps ({line}): every verdict below rests on part of the ride only.")
-    elif tone == "warn":
-        out.append(f"The log has gaps ({line}); the verdicts below are weaker for it.")
+    if tone in ("bad", "warn"):
+        out.append(line)                    # the summary's sentence: poor data weakens every verdict
     p = _num(rep.get("summary"), "pwm_max_pct")
     if p is not None and p >= PWM_BAD:
         out.append(f"At its peak the motor used {p:.0f} % of the battery's voltage: close to a cut-out.")
@@ -221,6 +225,9 @@ def _max_pwm_mark(rep: Mapping, series: RideSeries):
     at = _num(rep.get("summary"), "pwm_max_at_s")
     if at is None:
         return None
+    place = (rep.get("summary") or {}).get("pwm_max_place") or {}
+    if _num(place, "lat") is not None and _num(place, "lon") is not None:
+        return at, place["lat"], place["lon"]
     return at, series.at("lat", at), series.at("lon", at)
 
 

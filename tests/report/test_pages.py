@@ -73,7 +73,12 @@ SUMMARY = {"duration_s": 1500.0, "moving_s": 1260.0, "distance_m": 12345.0, "dis
            "speed_max_mps": 12.5, "speed_mean_moving_mps": 9.8, "energy_drawn_Wh": 320.0,
            "energy_regen_Wh": 21.0, "Wh_per_km": 24.2, "battery_used_pct": 38.0,
            "range_m_at_this_rate": 32500.0, "pwm_max_pct": 91.0, "pwm_max_at_s": 150.0, "alarms": 3,
-           "gaps": {"count": 4, "total_s": 400.0, "longest_s": 250.0}}
+           "gaps": {"count": 4, "total_s": 400.0, "longest_s": 250.0}, "sampling_hz": 4.9,
+           "quality": "poor", "quality_sentence": "Data quality poor: 4.9 samples/s, 4 gap(s) (27 % of the log)"}
+#: The ride JSON's ``mass_check`` and ``battery`` in their form.
+MASS_CHECK = {"declared_rider_kg": 80.0, "verdict": "heavier", "sentence": "heavier"}
+BATTERY = {"resistance_ohm": 0.152, "resistance_ci95": [0.14, 0.16], "resistance_25C_ohm": 0.147,
+           "verdict": "aged", "sentence": "aged"}
 
 
 @pytest.fixture(scope="module")
@@ -87,7 +92,7 @@ def with_summary(drive, tmp_path_factory):
     sig = ride_signals(log)
     series = RideSeries.from_frame(sig.raw, sig.rate)
     fit = analyse(log)
-    rep = dict(rep, summary=SUMMARY)
+    rep = dict(rep, summary=SUMMARY, mass_check=MASS_CHECK, battery=BATTERY)
     out = tmp_path_factory.mktemp("summary")
     page = write_ride_html(rep, out, series, fit)
     return page, figure_specs(rep, series, fit)
@@ -134,8 +139,23 @@ def test_tiles_show_the_summary_in_peoples_units(with_summary):
     text = re.sub(r"<[^>]+>", " ", with_summary[0].read_text().split("<body>")[1].split("<script>")[0])
     for shown in ("12.3 km", "21 min", "45 km/h", "35 km/h while moving", "320 Wh", "21 Wh regenerated",
                   "24.2 Wh/km", "38 %", "range at this rate: 32 km", "91 %", "least margin 9 % at 2:30",
-                  "27 % of the ride", "longest 250 s"):
+                  SUMMARY["quality_sentence"], "declared rider 80 kg: heavier", "152 mΩ",
+                  "aged; 147 mΩ at 25 °C"):
         assert shown in text, shown
+    raw = with_summary[0].read_text()
+    for tone, label in (("warn", "Battery resistance"), ("warn", "Total mass"), ("bad", "Max PWM"),
+                        ("bad", "Data quality")):
+        assert f'<div class="{tone}"><div class="l">{label}</div>' in raw, label
+
+
+def test_data_quality_without_the_summarys_verdict_states_the_gaps():
+    from euc_sim.rides.page_html import data_quality
+
+    line, tone = data_quality({"duration_s": 1000.0, "gaps": {"count": 2, "total_s": 300.0, "longest_s": 200.0},
+                               "sampling_hz": 2.5})
+    assert line == "2 gaps, 300 s (30 % of the ride), longest 200 s; 2.5 samples/s" and tone == ""
+    assert data_quality({"quality": "fair", "quality_sentence": "Data quality fair: x."}) == \
+        ("Data quality fair: x.", "warn")
 
 
 def test_without_summary_the_tiles_say_not_available(drive):
