@@ -11,6 +11,7 @@ People's units on the page (km/h, %, Wh, mΩ, °C); the JSON keeps SI.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
@@ -189,9 +190,10 @@ def key_figures(rep: Mapping) -> list:
     return (_ride_tiles(s)
             + [_pwm_tile(s, " (marked on the map)"),
                H.KeyFigure("Alarms", NA if alarms is None else str(alarms),
-                           "" if alarms is None else "alarm rows in the log",
-                           "warn" if alarms else ""),
-               H.KeyFigure("Data quality", str((s or {}).get("quality") or NA), quality, tone),
+                           "" if alarms is None or s.get("alarm_rows") is None else
+                           f"{s['alarm_rows']} rows of the log flagged", "warn" if alarms else ""),
+               H.KeyFigure("Data quality", str((s or {}).get("quality") or NA),
+                           re.sub(r"^Data quality \w+: ", "", quality), tone),
                _mass_tile(rep.get("total_mass"), rep.get("mass_check")), _battery_tile(rep)])
 
 
@@ -273,7 +275,7 @@ def sag_figure(rep: Mapping, fit):
     y = V + bc["k_Q"] * charge_drawn(sig.t, I)          # the voltage at the start's charge
     keep = thin(int(ok.sum()), 4000)
     Ix, Vy = I[ok][keep], y[ok][keep]
-    R = _num((rep.get("battery") or {}).get("internal_resistance") or rep.get("battery"), "estimate") or bc["R_int"]
+    R = _num(rep.get("battery"), "resistance_ohm") or bc["R_int"]       # the same fit's value, as reported
     grid = np.linspace(float(np.min(Ix)), float(np.max(Ix)), 50)
     fitted = (f"fitted: {bc['E0']:.1f} V − {1000 * R:.0f} mΩ × current" if R > 0 else
               "fitted: no sag (the resistance found is not positive)")
