@@ -32,7 +32,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
                                     progress=None if args.quiet else (lambda s: say(f"diagnose: {s} ...")))
     if args.report:      # the report first: a failing report leaves no JSON behind
         page = write_report(result, args.report)
-        say(f"diagnose: report written to {page}")
+        say(f"diagnose: report written to {page.with_name('index.html')} (plain text: {page.name})")
     if args.json:
         write_json(args.json, diagnosis.json_view(result))
     print(summary(result))
@@ -53,7 +53,7 @@ def add_commands(sub) -> None:
     p = sub.add_parser("diagnose", help="find the physics the nominal model leaves out of a recording")
     p.add_argument("recording", metavar="REC.csv", help="a CONTRACT recording (.csv or .parquet)")
     p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's diagnosis object")
-    p.add_argument("--report", metavar="DIR", help="write DIR/index.md with figures")
+    p.add_argument("--report", metavar="DIR", help="write DIR/index.html (and DIR/index.md, its plain text) with figures")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="nominal parameter (default: the sidecar's, else Table 3; h is identified)")
     p.add_argument("--no-resimulate", action="store_true",

@@ -94,7 +94,7 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     log, compare : path
         The ride to fit, and optionally the ride to test on.
     report_dir : path, optional
-        Folder for ``index.md`` and the figures (``ride_balance.png``,
+        Folder for ``index.html`` (the page), ``index.md`` (its plain text) and the figures (``ride_balance.png``,
         ``ride_residuals.png``, ``ride_simulation.png``) and tables.
     domain : {"power", "torque"}
     assumptions : RideAssumptions, optional
@@ -245,7 +245,7 @@ def _write_report(rep: dict, an, traces, sim, physics, out: Path) -> None:
     stage = Path(tempfile.mkdtemp(prefix=".ride-report-", dir=out))
     try:
         _write_report_files(rep, an, traces, sim, physics, stage)
-        names = sorted((p.name for p in stage.iterdir()), key=lambda n: n == "index.md")
+        names = sorted((p.name for p in stage.iterdir()), key=lambda n: n in ("index.md", "index.html"))
         for name in names:
             os.replace(stage / name, out / name)
     finally:
@@ -270,7 +270,12 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
         rep["simulation"]["figure"] = figures["simulation"]
     figures.update(_drivetrain_figures(physics, out))
     rep["figures"] = dict(figures)
-    rep["report"] = write_page(rep, out, figures).name
+    rep["report_markdown"] = write_page(rep, out, figures).name
+    from euc_sim.rides.page_html import RideSeries, write_ride_html
+
+    # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
+    series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)
+    rep["report"] = write_ride_html(rep, out, series, physics[1], figures).name
 
 
 def _drivetrain(log, compare, spec, n_boot: int, seed: int):
@@ -366,6 +371,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         if out.exists() and not out.is_dir():
             raise NotADirectoryError(f"--report {out}: exists and is not a folder")
         check_writable(out / "index.md")
+        check_writable(out / "index.html")
     rep = run_ride(args.log, args.compare, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
                    simulate=not args.no_simulate, jobs=args.jobs,
@@ -420,7 +426,7 @@ def add_ride_parser(sub) -> None:
     p.add_argument("log", metavar="LOG.csv", help="ride log to fit")
     p.add_argument("--compare", metavar="OTHER.csv",
                    help="ride to test on (default: fit the first half, test the second)")
-    p.add_argument("--report", metavar="DIR", help="write DIR/index.md with figures and tables")
+    p.add_argument("--report", metavar="DIR", help="write DIR/index.html (the page; DIR/index.md its plain-text version) with figures and tables")
     p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's ride object")
     p.add_argument("--domain", default="power", metavar="power|torque",
                    help="residual in battery power, W (default), or divided by ω, N·m")

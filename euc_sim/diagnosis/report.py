@@ -1,7 +1,7 @@
-"""The diagnosis as a person reads it: a terminal summary and a Markdown page with figures.
+"""The diagnosis as a person reads it: a terminal summary and a page with figures.
 
 :func:`summary` gives a few lines for the terminal; :func:`write_report` writes
-``DIR/index.md`` and its PNG figures:
+``DIR/index.html`` (:mod:`euc_sim.diagnosis.report_html`), ``DIR/index.md`` and its PNG figures:
 
 - ``residual.png``: the residual M_d,1 − M_d,2 over time, nominal and with the
   accepted effects, the windows where the mismatch concentrates shaded;
@@ -342,9 +342,9 @@ FIGURES = {"residual.png": (residual_figure, 110), "terms.png": (terms_figure, 1
 
 
 def write_report(result: dict, outdir: str | Path) -> Path:
-    """Write ``outdir/index.md`` with the figures of a diagnosis.
+    """Write ``outdir/index.html`` (the page) and ``outdir/index.md`` (its plain text) with the figures.
 
-    Everything is made in memory first and each file written atomically, ``index.md``
+    Everything is made in memory first and each file written atomically, the pages
     last: a failure leaves no half-written file and no page.
 
     Parameters
@@ -357,7 +357,7 @@ def write_report(result: dict, outdir: str | Path) -> Path:
     Returns
     -------
     pathlib.Path
-        The Markdown page.
+        The Markdown page (the HTML page ``index.html`` is beside it).
 
     Raises
     ------
@@ -377,16 +377,22 @@ def write_report(result: dict, outdir: str | Path) -> Path:
         fig = build(result)
         figures[name] = None if fig is None else figure_png(fig, dpi)
     page = _markdown(result, has_resim=figures["resimulation.png"] is not None)
+    from euc_sim.diagnosis.report_html import diagnosis_html
+    from euc_sim.report.html import write_page
+
+    html = diagnosis_html(result, page)
     for name, png in figures.items():
         if png is not None:
             atomic_write(out / name, lambda path, data=png: path.write_bytes(data))
-    return write_text(out / "index.md", page)
+    md = write_text(out / "index.md", page)
+    write_page(out, html)
+    return md
 
 
 def report_paths(outdir: str | Path) -> list[Path]:
     """The files :func:`write_report` writes into ``outdir`` (to check them before any work)."""
     out = Path(outdir)
-    return [out / n for n in ("index.md", "residual.png", "terms.png", "before_after.png", "resimulation.png",
+    return [out / n for n in ("index.html", "index.md", "residual.png", "terms.png", "before_after.png", "resimulation.png",
                               "drift.png")]
 
 

@@ -13,12 +13,13 @@ from __future__ import annotations
 
 import html
 import json
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
 
 __all__ = ["KeyFigure", "key_figures", "paragraph", "table", "figure", "section", "page",
-           "write_page", "PLOTLY_CONFIG"]
+           "write_page", "columns", "lead", "markdown", "PLOTLY_CONFIG"]
 
 #: Plotly's options on every figure: no logo, no link to Plotly's cloud, PNG export kept.
 PLOTLY_CONFIG = {"displaylogo": False, "responsive": True, "showLink": False}
@@ -29,15 +30,19 @@ padding:12px 20px;color:#1d2330;line-height:1.45}
 h1{font-size:1.5em;margin:.2em 0 .1em}h2{font-size:1.2em;margin:.8em 0 .3em}
 .sub{color:#5a6270;margin:0 0 .6em}
 .kf{display:grid;grid-template-columns:repeat(auto-fill,minmax(180px,1fr));gap:8px;margin:.5em 0}
-.kf div{background:#f3f5f8;border-radius:6px;padding:6px 10px}
-.kf .v{font-size:1.35em;font-weight:600}.kf .l{font-size:.85em;color:#5a6270}
-.kf .n{font-size:.78em;color:#5a6270}
-.kf .warn{background:#fff3e0}.kf .bad{background:#fde7e9}.kf .good{background:#e8f5e9}
+.kf>div{background:#f3f5f8;border-radius:6px;padding:5px 10px}
+.kf .v{font-size:1.3em;font-weight:600;line-height:1.25}.kf .l{font-size:.82em;color:#5a6270}
+.kf .n{font-size:.76em;color:#5a6270;line-height:1.3}
+.kf>.warn{background:#fff3e0}.kf>.bad{background:#fde7e9}.kf>.good{background:#e8f5e9}
 details{border-top:1px solid #dde1e7;padding:.3em 0}summary{cursor:pointer;font-weight:600;font-size:1.1em}
 table{border-collapse:collapse;margin:.4em 0;font-size:.92em}
 td,th{border-bottom:1px solid #e3e6eb;padding:3px 8px;text-align:left}th{background:#f3f5f8}
 td.num{text-align:right;font-variant-numeric:tabular-nums}
 .fig{width:100%;min-height:320px}
+.cols{display:grid;grid-template-columns:1fr 1fr;gap:12px}
+.lead{font-size:1.02em;margin:.3em 0 .5em}.lead b{font-weight:600}
+code{background:#f3f5f8;padding:0 3px;border-radius:3px;font-size:.92em}
+details>div{padding:0 0 0 12px}details h3{font-size:1.02em;margin:.8em 0 .2em}
 """
 
 
@@ -144,3 +149,68 @@ def write_page(folder: str | Path, text: str) -> Path:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     return write_text(folder / "index.html", text)
+
+
+def columns(*fragments: str) -> str:
+    """Fragments side by side (two columns)."""
+    return f'<div class="cols">{"".join(f"<div>{f}</div>" for f in fragments)}</div>'
+
+
+def lead(sentences: Sequence[str]) -> str:
+    """The verdict under the title: a few sentences, plain text (escaped)."""
+    return f'<p class="lead">{" ".join(_esc(s) for s in sentences)}</p>'
+
+
+_INLINE = [(re.compile(r"\*\*(.+?)\*\*"), r"<b>\1</b>"), (re.compile(r"`([^`]+)`"), r"<code>\1</code>")]
+_IMAGE = re.compile(r"!\[([^\]]*)\]\(([^)]+)\)")
+
+
+def _inline(text: str) -> str:
+    out = _esc(text)
+    # an image would be a fetch: a link to the PNG next to the page instead
+    out = _IMAGE.sub(lambda m: f'<a href="{m[2]}">figure: {m[1]}</a>', out)
+    for rx, rep in _INLINE:
+        out = rx.sub(rep, out)
+    return out
+
+
+def _md_table(rows: list[str]) -> str:
+    cells = [[c.strip().replace("\\|", "|") for c in re.split(r"(?<!\\)\|", r.strip())[1:-1]] for r in rows]
+    body = [c for c in cells[1:] if not all(set(x) <= set("-: ") for x in c)]
+    head = "".join(f"<th>{_inline(h)}</th>" for h in cells[0])
+    trs = "".join("<tr>" + "".join(f"<td>{_inline(c)}</td>" for c in r) + "</tr>" for r in body)
+    return f"<table><thead><tr>{head}</tr></thead><tbody>{trs}</tbody></table>"
+
+
+def markdown(lines: Sequence[str]) -> str:
+    """The Markdown the plain-text page carries, as HTML: headings, paragraphs, lists, tables.
+
+    Images become links to their PNG (nothing is fetched); ``**bold**`` and
+    ```code``` are kept; everything else is escaped.
+    """
+    out, block, kind = [], [], None
+
+    def flush():
+        if not block:
+            return
+        if kind == "ul":
+            out.append("<ul>" + "".join(f"<li>{_inline(x[2:])}</li>" for x in block) + "</ul>")
+        elif kind == "table":
+            out.append(_md_table(block))
+        else:
+            out.append(f"<p>{_inline(' '.join(block))}</p>")
+        block.clear()
+
+    for raw in "\n".join(lines).split("\n"):
+        line = raw.rstrip()
+        k = ("h" if line.startswith("#") else "ul" if line.startswith("- ") else
+             "table" if line.startswith("|") else None if not line else "p")
+        if k != kind or k in ("h", None):
+            flush()
+        kind = k
+        if k == "h":
+            out.append(f"<h3>{_inline(line.lstrip('#').strip())}</h3>")
+        elif k is not None:
+            block.append(line)
+    flush()
+    return "".join(out)

@@ -40,7 +40,7 @@ from euc_sim.rides.mass import MassFit
 from euc_sim.rides.power import G, RHO_AIR, PowerSignals
 from euc_sim.rides.pwm import BASE, EXTRA, full_duty_force, pwm_columns, select_pwm_terms
 
-__all__ = ["Term", "Drivetrain", "fit_battery", "fit_pwm", "predict_pwm", "fit_drivetrain",
+__all__ = ["Term", "Drivetrain", "fit_battery", "charge_drawn", "fit_pwm", "predict_pwm", "fit_drivetrain",
            "envelope", "max_force", "CELL_FULL", "CELL_LOW"]
 
 CELL_FULL = 4.2     # V per Li-ion cell, full
@@ -120,6 +120,21 @@ def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: 
     return beta, ci
 
 
+def charge_drawn(t: np.ndarray, current: np.ndarray) -> np.ndarray:
+    """Charge drawn from the battery since the first sample, Ah (a gap over 1 s adds nothing).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        s.
+    current : numpy.ndarray
+        Battery current, A (NaN counts as 0).
+    """
+    dt = np.r_[0.0, np.diff(t)]
+    dt[dt > 1.0] = 0.0                                   # across a split gap: unknown
+    return np.cumsum(np.nan_to_num(current) * dt) / 3600.0
+
+
 def fit_battery(sig: PowerSignals, n_boot: int = 100, seed: int = 0):
     """Open-circuit voltage falling with charge, and internal resistance.
 
@@ -131,9 +146,7 @@ def fit_battery(sig: PowerSignals, n_boot: int = 100, seed: int = 0):
         Their 95 % intervals.
     """
     V, I = sig.extra["voltage"], sig.extra["current"]
-    dt = np.r_[0.0, np.diff(sig.t)]
-    dt[dt > 1.0] = 0.0                                   # across a split gap: unknown
-    Q = np.cumsum(np.nan_to_num(I) * dt) / 3600.0         # Ah drawn
+    Q = charge_drawn(sig.t, I)
     ok = np.isfinite(V) & np.isfinite(I)
     X = np.column_stack([np.ones(ok.sum()), -Q[ok], -I[ok]])
     beta, ci = _lstsq_boot(X, V[ok], sig.t[ok], n_boot, seed)

@@ -22,7 +22,7 @@ from euc_sim.rides.signals import RideSignals, break_at_gaps
 from euc_sim.rides.verdict import unit_label
 
 __all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "plot_residuals", "residuals_figure", "write_page",
-           "summarise_notes", "falls_sentence",
+           "summarise_notes", "falls_sentence", "markdown_sections",
            "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
 #: localise() settings for rides, s: minutes-long logs at ~5 Hz need a longer
@@ -239,13 +239,27 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
 
 def _verdict_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     """Title, what was fitted on what, the verdict and the cross-ride figure."""
+    md = [f"# Ride diagnosis: {Path(r['recording']).name}", ""] + _verdict_lines(r)
+    if "total_mass" in r:
+        from euc_sim.rides.drivetrain_report import page_section
+        md += page_section(r, figures)
+    if "controller" in r:
+        from euc_sim.rides.controller_report import page_lines
+        md += page_lines(r["controller"])
+    if "cross_ride" in figures:
+        md += ["## Cross-ride prediction", "",
+               f"![cross-ride prediction]({figures['cross_ride']})", ""]
+    return md
+
+
+def _verdict_lines(r: dict) -> list[str]:
+    """What was fitted on what, and the balance fit's verdict with its held-out errors."""
     unit = r["error_unit"]
-    md = [f"# Ride diagnosis: {Path(r['recording']).name}", ""]
     test = Path(r["compare"]).name if r.get("compare") else "the second half of the same ride"
-    md += [f"Fitted on **{Path(r['recording']).name}**"
-           f"{' (first half)' if not r.get('compare') else ''}, tested on **{test}**. "
-           f"Model: the wheel's longitudinal balance in the {r['domain']} domain "
-           f"({r['error_measure']}).", ""]
+    md = [f"Fitted on **{Path(r['recording']).name}**"
+          f"{' (first half)' if not r.get('compare') else ''}, tested on **{test}**. "
+          f"Model: the wheel's longitudinal balance in the {r['domain']} domain "
+          f"({r['error_measure']}).", ""]
     from euc_sim.rides.verdict import ride_verdict
 
     v = r.get("verdict") or ride_verdict(r)
@@ -260,17 +274,26 @@ def _verdict_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     else:
         md.append(f"- Why: {v['why']}. The held-out figures below compare V·I with the model "
                   f"and say nothing about battery power.")
-    md.append("")
-    if "total_mass" in r:
-        from euc_sim.rides.drivetrain_report import page_section
-        md += page_section(r, figures)
-    if "controller" in r:
-        from euc_sim.rides.controller_report import page_lines
-        md += page_lines(r["controller"])
-    if "cross_ride" in figures:
-        md += ["## Cross-ride prediction", "",
-               f"![cross-ride prediction]({figures['cross_ride']})", ""]
-    return md
+    return md + [""]
+
+
+def markdown_sections(r: dict, figures: Mapping[str, str]) -> list[tuple[str, list[str]]]:
+    """The plain-text page's content in the HTML page's folded parts: (title, Markdown lines).
+
+    The same builders as :func:`write_page`'s, grouped as a reader looks for them: the
+    balance model and its diagnosis, the mass and drivetrain, the firmware's law, the
+    simulation's steps, the assumptions.
+    """
+    from euc_sim.rides.controller_report import page_lines
+    from euc_sim.rides.drivetrain_report import page_section
+
+    return [("The balance model and the diagnosis", _verdict_lines(r) + _estimates_md(r)
+             + _aliases_md(r) + _localisation_md(r, figures)),
+            ("Mass, drivetrain and battery, term by term",
+             page_section(r, figures) if "total_mass" in r else ["Not computed."]),
+            ("The firmware's balance law", page_lines(r.get("controller"))),
+            ("The simulation, step by step", _simulation_md(r, figures)),
+            ("Assumptions and notes", _assumptions_md(r))]
 
 
 def _estimates_md(r: dict) -> list[str]:

@@ -92,7 +92,7 @@ def test_simulation_against_the_log(full_run):
 def test_report_folder(full_run):
     rep, d = full_run
     page = (d / "index.md").read_text()
-    assert rep["report"] == "index.md" and rep["report_dir"] == "rep"      # relative, no machine path
+    assert rep["report"] == "index.html" and rep["report_markdown"] == "index.md" and rep["report_dir"] == "rep"      # relative, no machine path
     linked = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", page)
     assert set(linked) == {"ride_balance.png", "ride_residuals.png", "ride_simulation.png"}
     for name in linked:

@@ -1,0 +1,217 @@
+"""Interactive figures every page uses: curves on one time axis, a track on a map, x–y plots.
+
+Pure builders: each takes arrays already in people's units and returns a
+``plotly.graph_objects.Figure`` with a title, axis titles carrying units and the
+legend off the data.  The map draws OpenStreetMap raster tiles (the only thing a
+page fetches) under the track; the track is a trace of its own, drawn when the
+tiles cannot load.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+__all__ = ["Panel", "Line", "with_breaks", "thin", "time_panels", "track_map", "track_plain", "xy_figure",
+           "OSM_STYLE", "OSM_TILES", "map_zoom"]
+
+#: A MapLibre style with OpenStreetMap's raster tiles only (no glyphs, no sprites: nothing
+#: else is fetched).
+OSM_STYLE = {"version": 8, "sources": {},
+             "layers": [{"id": "background", "type": "background",
+                         "paint": {"background-color": "#eef0f3"}}]}
+#: OpenStreetMap's raster tiles, a layer under the traces added once the map has loaded: a
+#: tile that cannot load leaves the background, never the track, undrawn.
+OSM_TILES = {"sourcetype": "raster", "below": "traces", "sourceattribution": "© OpenStreetMap contributors",
+             "source": ["https://tile.openstreetmap.org/{z}/{x}/{y}.png"]}
+
+#: Legends under the axes, never on the data nor on the title.
+_LEGEND = {"orientation": "h", "yanchor": "top", "y": -0.2, "xanchor": "left", "x": 0.0}
+_MARGIN = {"l": 60, "r": 20, "t": 80, "b": 110}
+
+
+@dataclass(frozen=True)
+class Panel:
+    """One row of :func:`time_panels`: a quantity over time.
+
+    Attributes
+    ----------
+    name : str
+        In a rider's words ("Speed").
+    unit : str
+        People's unit ("km/h").
+    y : numpy.ndarray
+        Values in ``unit``, one per time.
+    """
+
+    name: str
+    unit: str
+    y: np.ndarray
+
+
+@dataclass(frozen=True)
+class Line:
+    """One trace of :func:`xy_figure`: ``mode`` "markers" or "lines"."""
+
+    name: str
+    x: np.ndarray
+    y: np.ndarray
+    mode: str = "markers"
+    dash: str = "solid"
+
+
+def with_breaks(t: np.ndarray, gap: float, *ys: np.ndarray):
+    """Insert a NaN row wherever ``t`` jumps by more than ``gap``: no line bridges a gap.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``t`` then each of ``ys``, with the breaks inserted.
+    """
+    t = np.asarray(t, float)
+    cut = np.flatnonzero(np.diff(t) > gap) + 1
+    out = [np.insert(t, cut, np.nan)]
+    out += [np.insert(np.asarray(y, float), cut, np.nan) for y in ys]
+    return tuple(out)
+
+
+def thin(n: int, most: int) -> np.ndarray:
+    """Indices of at most ``most`` of ``n`` rows, evenly spaced, first and last kept."""
+    if n <= most:
+        return np.arange(n)
+    return np.unique(np.linspace(0, n - 1, most).round().astype(int))
+
+
+def time_panels(t_min: np.ndarray, panels: Sequence[Panel], title: str, gap_min: float,
+                mark: tuple[float, str] | None = None):
+    """Quantities stacked on one shared time axis (zoom one, all follow).
+
+    Parameters
+    ----------
+    t_min : numpy.ndarray
+        Time from the log's start, min.
+    panels : sequence of Panel
+    title : str
+    gap_min : float
+        A jump in time larger than this, min, breaks the lines.
+    mark : (float, str), optional
+        A moment to mark on every panel (min) and its label.
+    """
+    from plotly.subplots import make_subplots
+    import plotly.graph_objects as go
+
+    n = len(panels)
+    fig = make_subplots(rows=n, cols=1, shared_xaxes=True, vertical_spacing=0.025)
+    for i, p in enumerate(panels, start=1):
+        tt, yy = with_breaks(t_min, gap_min, p.y)
+        fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", name=f"{p.name}, {p.unit}",
+                                 line={"width": 1.2}, showlegend=False,
+                                 hovertemplate=f"%{{y:.1f}} {p.unit}<extra>{p.name}</extra>"), row=i, col=1)
+        fig.update_yaxes(title_text=f"{p.name}, {p.unit}", row=i, col=1, title_font={"size": 11})
+    fig.update_xaxes(title_text="time from the start of the log, min", row=n, col=1)
+    if mark is not None:
+        fig.add_vline(x=mark[0], line={"color": "#c62828", "width": 1, "dash": "dot"})
+        fig.add_annotation(x=mark[0], y=1.0, yref="paper", text=mark[1], showarrow=False,
+                           yanchor="bottom", font={"color": "#c62828", "size": 11})
+    fig.update_layout(title={"text": title}, margin=_MARGIN, hovermode="x unified",
+                      height=140 * n + 110)
+    return fig
+
+
+def map_zoom(lat: np.ndarray, lon: np.ndarray, width_px: float = 600, height_px: float = 440) -> float:
+    """The web-map zoom level that fits the track into a map of the given size."""
+    lat0 = math.radians(float(np.nanmean(lat)))
+    span_x = max(float(np.nanmax(lon) - np.nanmin(lon)), 1e-4)
+    span_y = max(float(np.nanmax(lat) - np.nanmin(lat)), 1e-4) / max(math.cos(lat0), 0.1)
+    zx = math.log2(360.0 * width_px / 256.0 / span_x)
+    zy = math.log2(360.0 * height_px / 256.0 / span_y)
+    return float(np.clip(min(zx, zy) - 0.4, 1.0, 18.0))
+
+
+def track_map(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label: str, title: str,
+              mark: tuple[float, float, str] | None = None):
+    """The track on OpenStreetMap tiles, each point coloured by ``value``.
+
+    Parameters
+    ----------
+    lat, lon : numpy.ndarray
+        deg; NaN rows are left out.
+    value : numpy.ndarray
+        The colour, in people's units; ``value_label`` names it with its unit.
+    mark : (lat, lon, text), optional
+        A point to mark (a star) with its hover text.
+    """
+    import plotly.graph_objects as go
+
+    ok = np.isfinite(lat) & np.isfinite(lon)
+    lat, lon, value = lat[ok], lon[ok], np.asarray(value, float)[ok]
+    fig = go.Figure()
+    fig.add_trace(go.Scattermap(lat=lat, lon=lon, mode="lines", line={"width": 2, "color": "#37474f"},
+                                name="track", hoverinfo="skip", showlegend=False))
+    fig.add_trace(go.Scattermap(
+        lat=lat, lon=lon, mode="markers", name=value_label, showlegend=False,
+        marker={"size": 6, "color": value, "colorscale": "Turbo", "showscale": True,
+                "colorbar": {"title": {"text": value_label, "side": "right"}, "thickness": 14}},
+        hovertemplate=f"%{{marker.color:.0f}} {value_label}<extra></extra>"))
+    if mark is not None:
+        fig.add_trace(go.Scattermap(lat=[mark[0]], lon=[mark[1]], mode="markers", name=mark[2],
+                                    marker={"size": 16, "color": "#c62828"}, hovertext=[mark[2]],
+                                    hoverinfo="text", showlegend=True))
+    fig.update_layout(
+        title={"text": title}, margin={"l": 10, "r": 10, "t": 60, "b": 40},
+        legend={"orientation": "h", "yanchor": "top", "y": -0.02, "x": 0.0},
+        map={"style": OSM_STYLE, "layers": [OSM_TILES], "center": {"lat": float(np.mean(lat)), "lon": float(np.mean(lon))},
+             "zoom": map_zoom(lat, lon)})
+    return fig
+
+
+def xy_figure(lines: Sequence[Line], title: str, x_title: str, y_title: str, note: str = ""):
+    """Points and lines against a common x axis; ``note`` is a line under the title."""
+    import plotly.graph_objects as go
+
+    fig = go.Figure()
+    for ln in lines:
+        kw = ({"marker": {"size": 4, "opacity": 0.45}} if ln.mode == "markers"
+              else {"line": {"width": 2, "dash": ln.dash}})
+        fig.add_trace(go.Scatter(x=ln.x, y=ln.y, mode=ln.mode, name=ln.name, **kw))
+    text = title + (f"<br><sup>{note}</sup>" if note else "")
+    fig.update_layout(title={"text": text}, xaxis_title=x_title, yaxis_title=y_title,
+                      margin=_MARGIN, legend=_LEGEND)
+    return fig
+
+
+def track_plain(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label: str, title: str,
+                mark: tuple[float, float, str] | None = None):
+    """The track on plain axes, km east and north of its first point, equal aspect: drawn
+    wherever the page opens (no tiles, no WebGL)."""
+    import plotly.graph_objects as go
+
+    ok = np.isfinite(lat) & np.isfinite(lon)
+    lat, lon, value = lat[ok], lon[ok], np.asarray(value, float)[ok]
+    R = 6371.0088                       # km, the Earth's mean radius
+    k = math.cos(math.radians(float(np.mean(lat))))
+
+    def xy(la, lo):
+        return (np.radians(np.asarray(lo) - lon[0]) * R * k, np.radians(np.asarray(la) - lat[0]) * R)
+
+    x, y = xy(lat, lon)
+    fig = go.Figure()
+    fig.add_trace(go.Scatter(x=x, y=y, mode="lines", line={"width": 1.5, "color": "#90a4ae"},
+                             hoverinfo="skip", showlegend=False))
+    fig.add_trace(go.Scatter(
+        x=x, y=y, mode="markers", showlegend=False, name=value_label,
+        marker={"size": 5, "color": value, "colorscale": "Turbo", "showscale": True,
+                "colorbar": {"title": {"text": value_label, "side": "right"}, "thickness": 14}},
+        hovertemplate=f"%{{marker.color:.0f}} {value_label}<extra></extra>"))
+    if mark is not None:
+        mx, my = xy(mark[0], mark[1])
+        fig.add_trace(go.Scatter(x=[mx], y=[my], mode="markers", name=mark[2],
+                                 marker={"size": 16, "color": "#c62828", "symbol": "star"}))
+    fig.update_layout(title={"text": title}, margin=_MARGIN, legend=_LEGEND,
+                      xaxis={"title": {"text": "east of the start, km"}},
+                      yaxis={"title": {"text": "north of the start, km"}, "scaleanchor": "x",
+                             "scaleratio": 1})
+    return fig
