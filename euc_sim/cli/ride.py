@@ -332,8 +332,8 @@ def _cmd_ride(args: argparse.Namespace) -> int:
 
     if args.domain not in ("power", "torque"):
         raise ValueError(f"--domain must be power or torque, got {args.domain!r}")
-    if args.jobs < 1:
-        raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
+    if args.workers < 1:
+        raise ValueError(f"--workers must be at least 1, got {args.workers}")
     if args.n_boot < MIN_BOOT:
         raise ValueError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
                          f"bootstrap interval), got {args.n_boot}")
@@ -360,7 +360,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         check_writable(out / "index.md")
     rep = run_ride(args.log, args.compare, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
-                   simulate=not args.no_simulate, jobs=args.jobs,
+                   simulate=not args.no_simulate, jobs=args.workers,
                    progress=None if args.quiet else _progress, spec=spec,
                    calibrate_rider=args.calibrate_rider)
     if args.json:
@@ -407,13 +407,15 @@ def _cmd_ride(args: argparse.Namespace) -> int:
 
 def add_ride_parser(sub) -> None:
     """Register ``ride`` on the subparsers ``sub``."""
+    from euc_sim.cli.options import deprecated, one_of
+
     p = sub.add_parser("ride", help="diagnose a real EUC ride log (WheelLog, EUC World, DarknessBot)")
     p.add_argument("log", metavar="LOG.csv", help="ride log to fit")
     p.add_argument("--compare", metavar="OTHER.csv",
                    help="ride to test on (default: fit the first half, test the second)")
     p.add_argument("--report", metavar="DIR", help="write DIR/index.md with figures and tables")
     p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's ride object")
-    p.add_argument("--domain", default="power", metavar="power|torque",
+    p.add_argument("--domain", default="power", metavar=one_of(("power", "torque")),
                    help="residual in battery power, W (default), or divided by ω, N·m")
     p.add_argument("--mass", type=float, metavar="KG",
                    help="rider + EUC mass, kg (default Table 3: 81)")
@@ -431,13 +433,15 @@ def add_ride_parser(sub) -> None:
                         "(default 0.8; the balance fit estimates its own)")
     p.add_argument("--n-boot", type=int, default=200, metavar="N", help=f"bootstrap replicates, at least {MIN_BOOT} (default 200)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
-    p.add_argument("--jobs", type=int, default=2, metavar="N",
+    p.add_argument("--workers", type=int, default=2, metavar="N",
                    help="processes for the simulation's steps (default 2)")
+    deprecated(p, "--jobs", "--workers")
     p.add_argument("--calibrate-rider", action="store_true",
                    help="add the step 'calibrated_rider': the simulated rider's delay, bandwidth and "
                         "motor noise fitted on LOG (minutes of simulation)")
     p.add_argument("--no-simulate", action="store_true",
                    help="skip the closed-loop simulation along the ride's speed profile")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    p.add_argument("--verbose", action="store_true", help=argparse.SUPPRESS)   # progress is the default
+    deprecated(p, "--verbose", "--quiet", nargs=0, dest="verbose", default=False,
+               note="progress is shown unless --quiet")
     p.set_defaults(func=_cmd_ride)

@@ -249,7 +249,7 @@ def _block_sums(x: np.ndarray, L: int, starts: np.ndarray) -> np.ndarray:
 MIN_RISE = 0.75
 #: Widest 95 % interval still called identifiable, m (braking rides: 0.007-0.054 m).
 MAX_CI_WIDTH = 0.15
-#: Fewest bootstrap replicates that give a 95 % interval; with fewer (``--bootstrap 0``)
+#: Fewest bootstrap replicates that give a 95 % interval; with fewer (``--n-boot 0``)
 #: no verdict of "identifiable" is given.
 MIN_BOOT = 50
 #: Fewest bootstrap blocks (over all recordings) for the interval to mean anything: a
