@@ -17,7 +17,7 @@ import os
 import warnings
 from pathlib import Path
 
-__all__ = ["add_ride_parser", "run_ride", "with_found_values", "MIN_BOOT"]
+__all__ = ["add_ride_parser", "run_ride", "MIN_BOOT"]
 
 #: Fewest bootstrap replicates the command accepts: effects are accepted on their
 #: 95 % interval, and without replicates there is none (nothing would be accepted).
@@ -46,41 +46,6 @@ def _assumptions(args: argparse.Namespace):
         p = p.replace(m=m)
         sources.append(("total_mass", "--mass"))
     return RideAssumptions.from_params(p, efficiency=args.efficiency, sources=tuple(sources))
-
-
-def with_found_values(assumptions, spec, total_mass: dict):
-    """The balance fit's assumptions with the spec's radius and the mass this log gives.
-
-    A value given on the command line stays; otherwise the radius comes from the
-    spec and the total mass (with m_eq, eq. 6) from ``total_mass`` (the ride
-    JSON's object, found from the log), and only what neither gives keeps Table
-    3's default.  ``sources`` says which is which.
-
-    Parameters
-    ----------
-    assumptions : RideAssumptions
-    spec : WheelSpec or None
-    total_mass : dict
-        The ride JSON's ``total_mass`` (``estimate`` None when not identified).
-
-    Returns
-    -------
-    RideAssumptions
-        A new object.
-    """
-    import dataclasses
-
-    src = dict(assumptions.sources)
-    new = {}
-    if "R" not in src and spec is not None and spec.radius is not None:
-        new["R"] = spec.radius
-        src["R"] = f"spec ({spec.name or 'wheel'}: wheel diameter)"
-    m = (total_mass or {}).get("estimate")
-    if "total_mass" not in src and m is not None and m > 0:
-        eq = (total_mass.get("equivalent_mass") or {}).get("estimate")
-        new["total_mass"], new["m_eq"] = m, (eq if eq is not None else m)
-        src["total_mass"] = "found from this log's energy balance (total_mass)"
-    return dataclasses.replace(assumptions, sources=tuple(src.items()), **new)
 
 
 def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assumptions=None,
@@ -131,6 +96,8 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     physics = _drivetrain(log, compare, spec, n_boot, seed)   # bad logs fail before any output
     # the spec's radius and the mass this log gives reach the balance fit (Table 3 only where
     # neither the command line, the spec nor the log gives a value)
+    from euc_sim.rides.signals import with_found_values
+
     assumptions = with_found_values(assumptions, spec, physics[0]["total_mass"])
     an = ride_analysis(log, compare, assumptions=assumptions, domain=domain, n_boot=n_boot,
                        seed=seed, progress=say)
@@ -268,13 +235,10 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
 
 
 def _drivetrain(log, compare, spec, n_boot: int, seed: int):
-    """Mass, drivetrain, PWM and envelope (:mod:`euc_sim.rides.drivetrain_report`)."""
-    from euc_sim.rides.drivetrain_report import drivetrain_report
-    from euc_sim.rides.power import MassSettings
-    from euc_sim.rides.spec import WheelSpec
+    """Mass, drivetrain, PWM and envelope (:func:`euc_sim.rides.drivetrain_report.ride_drivetrain`)."""
+    from euc_sim.rides.drivetrain_report import ride_drivetrain
 
-    return drivetrain_report(log, spec or WheelSpec(), compare,
-                             MassSettings(n_boot=n_boot, seed=seed))
+    return ride_drivetrain(log, compare, spec, n_boot, seed)
 
 
 def _drivetrain_figures(physics, out: Path) -> dict:

@@ -172,7 +172,7 @@ def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: 
     With M_d recorded, also the kinematic row alone (s_kin / s of single-column fits at
     h0): the wheel row carries the contact's longitudinal force, whose lateral coupling
     (the crowned tyre's rolling radius, the patch's moment on the spin) the term leaves out;
-    ``scripts/lateral_ablation.py`` measured s 0.913 with it and 0.939 without it on a
+    ``studies/lateral_ablation.py`` measured s 0.913 with it and 0.939 without it on a
     noise-free 3-D circle.
     """
     from dataclasses import replace
