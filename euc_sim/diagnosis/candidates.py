@@ -64,7 +64,7 @@ def _force_columns(name: str, prep: Prepared, p: Params, h: float) -> tuple[np.n
     """(kinematic, wheel-row) columns of a force effect per unit of its estimate.
 
     κ(q) · F[R Q_e,x + Q_e,γ + Q_e,φ] and F[R Q_e,x], F the term filter: the same
-    filter as every term of the residual (NOTES fact 4).
+    filter as every term of the residual (docs/identification.md).
     """
     ph = p.replace(h=h)
     kin = prep.kin

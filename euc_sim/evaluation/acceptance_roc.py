@@ -1,4 +1,3 @@
-#!/usr/bin/env python
 """ROC of the diagnosis's acceptance rule: null recordings against weak true effects.
 
 Reads the folders written by ``scripts/tables/blind_study.py`` (a study: ``caseNNN.truth.json``
@@ -9,7 +8,7 @@ BIC drop below the nominal model, its |θ|/se and its held-out RMSE gain.
 
 The positives are the concealed effects whose nominal held-out RMSE is below twice
 the noise floor ("weak"), counted when that candidate is the concealed effect or its
-constant-force alias (rolling resistance and road slope, NOTES fact 5); the negatives
+constant-force alias (rolling resistance and road slope, docs/diagnosis.md); the negatives
 are the null recordings (and the effects concealed where they cannot be revealed,
 ``invisible``).  For each rule (a threshold on one statistic, the other two at their
 values), prints how many nulls and how many weak effects it would accept at step 1.

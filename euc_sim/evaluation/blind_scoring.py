@@ -101,7 +101,7 @@ def score(results: list[dict]) -> dict:
         "right effect first >= 90%, among cases above the tool's own detection limit":
             {"value": n_first_det / n_det if n_det else float("nan"),
              "met": n_det > 0 and n_first_det / n_det >= 0.9, "n": n_det},
-        "right effect first or among its reported aliases >= 90% (NOTES fact 5)":
+        "right effect first or among its reported aliases >= 90% (docs/diagnosis.md)":
             {"value": n_alias_ok / n_eff if n_eff else float("nan"),
              "met": n_eff > 0 and n_alias_ok / n_eff >= 0.9},
         "no effect on >= 5 null recordings": {"value": f"{null_clean}/{len(nulls)}",
@@ -306,8 +306,8 @@ def print_report(summary: dict, out=print) -> None:
 
 
 # --- pairs ----------------------------------------------------------------------------------
-#: Pairs that are one constant force along the road while the speed keeps one sign (NOTES
-#: fact 5): the recording cannot split them, so they are scored apart from the target.
+#: Pairs that are one constant force along the road while the speed keeps one sign
+#: (docs/diagnosis.md): the recording cannot split them, so they are scored apart from the target.
 ALIAS_FAMILIES = {frozenset({"rolling_resistance", "road_slope"})}
 
 

@@ -20,7 +20,7 @@ analytic torques, so RMSE(h) on a whole grid of h is a few array operations.
 
 Consistent filtering: the numerator P is a linear combination, with constant
 coefficients, of the terms of the angular-momentum balance about the contact point
-(NOTES.md, item 1).  The same Gaussian low-pass is applied to P's three coefficient
+(docs/identification.md).  The same Gaussian low-pass is applied to P's three coefficient
 series (and hence to every term) while D, which varies by < 1 % along a ride, scales
 the filtered balance back to N·m.
 """

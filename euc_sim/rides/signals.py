@@ -8,7 +8,7 @@ current at ~5 Hz, irregularly, and no rider lean.  This module
    longer gaps (never bridging them);
 2. smooths and differentiates with one Savitzky–Golay fit (:func:`sg`), the same
    linear filter applied to every term of the balance equation (the
-   state-variable-filter idea of NOTES.md item 4);
+   state-variable-filter idea of docs/identification.md);
 3. computes battery power P = V·I and infers the motor torque
    (:func:`wheel_torque`), stating which method was used.
 
@@ -26,7 +26,7 @@ Schafer's rule its −3 dB frequency is ≈ (p+1)/(3.2·N − 4.6)·f_s ≈ 0.7 
 the ~0.1–0.5 Hz of a rider's speed changes and well below the 2.5 Hz Nyquist
 frequency of the raw data, so interpolation artefacts and the 0.01 km/h speed
 quantisation are suppressed while accelerations are kept.  A longer window
-lowers noise but biases accelerations (NOTES.md item 4); filtering every term
+lowers noise but biases accelerations (docs/identification.md); filtering every term
 alike cancels most of that bias in the regression.
 """
 
