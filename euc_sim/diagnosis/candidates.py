@@ -171,9 +171,8 @@ def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: 
     (:func:`effects.upright_slender_moment` added to the column, projected the same way).
     With M_d recorded, also the kinematic row alone (s_kin / s of single-column fits at
     h0): the wheel row carries the contact's longitudinal force, whose lateral coupling
-    (the crowned tyre's rolling radius, the patch's moment on the spin) the term leaves out;
-    ``studies/lateral_ablation.py`` measured s 0.913 with it and 0.939 without it on a
-    noise-free 3-D circle.
+    (the crowned tyre's rolling radius, the patch's moment on the spin) the term leaves out
+    (docs/spatial.md).
     """
     from dataclasses import replace
 
