@@ -8,7 +8,7 @@ import numpy as np
 from bench_timing import timed
 
 
-# --- issue 4: identifying h -------------------------------------------------------------------
+# --- identifying h -------------------------------------------------------------------
 def bench_identify() -> dict:
     """Identify h on 34 recordings of 30 s at 120 Hz, both models, with curves: s, and vs a direct search."""
     from scipy.optimize import minimize_scalar
@@ -68,7 +68,7 @@ def bench_identify() -> dict:
     return out
 
 
-# --- issue 5: diagnosing a recording --------------------------------------------------------
+# --- diagnosing a recording --------------------------------------------------------
 def bench_diagnose() -> dict:
     """Diagnose a 60 s recording at 120 Hz (one core): s, against identifying h on it alone."""
     import warnings
@@ -112,7 +112,7 @@ def bench_diagnose() -> dict:
     return out
 
 
-# --- issue 22: h's interval over fresh noise, and the rollout second opinion -----------------
+# --- h's interval over fresh noise, and the rollout second opinion -----------------
 def bench_uncertainty() -> dict:
     """One 15 s deceleration: identify with 40 noise replicates and by rollout, vs identify alone."""
     from euc_sim.identification.h_fit import Recording, identify_recordings

@@ -30,7 +30,7 @@ def bench_dataset() -> dict:
     return out
 
 
-# --- issue 15: the batch engine ------------------------------------------------------------
+# --- the batch engine ------------------------------------------------------------
 def _batch_chunk(args) -> int:
     """Worker: one chunk of rides on the batch engine; returns how many fell."""
     from euc_sim.simulation.batch import simulate_batch
@@ -74,11 +74,11 @@ def bench_batch(rides: int = 1000, duration: float = 20.0) -> dict:
           f"{out['batch_aggregate_real_time_factor']:8.1f}x real time aggregate (aim ≥ 2000x), "
           f"{t_batch:.1f} s wall, {out['fell']} fell")
     print(f"  ratio batch aggregate / per-ride = {out['ratio_batch_vs_per_ride']:.1f}x")
-    out.update(mujoco_batch_figures(rides, duration))                   # issue 23
+    out.update(mujoco_batch_figures(rides, duration))
     return out
 
 
-# --- issue 23: MuJoCo batches on threads --------------------------------------------------
+# --- MuJoCo batches on threads --------------------------------------------------
 def _effect_requests(rides: int, duration: float) -> list[dict]:
     """``rides`` requests of :func:`simulate` with the catalog's effects the batch applies,
     varied per ride (drag, rolling resistance, slope, bearing friction, rider mass), seeded."""

@@ -8,7 +8,7 @@ import numpy as np
 from bench_timing import timed, timed_together
 
 
-# --- issue 2: vectorised analytic inverse dynamics ---------------------------------------
+# --- vectorised analytic inverse dynamics ---------------------------------------
 def bench_inverse() -> dict:
     """Samples/s of the vectorised analytic inverse dynamics vs mj_inverse and mj_step loops."""
     import mujoco
@@ -69,12 +69,12 @@ def bench_inverse() -> dict:
     return rate
 
 
-# --- issue 3: closed-loop simulation -------------------------------------------------------
+# --- closed-loop simulation -------------------------------------------------------
 def bench_closed_loop() -> dict:
     """Closed-loop real-time factor at 1 kHz on one core vs bare mj_step loops.
 
     The closed loop is :func:`simulate`'s default, the native loop (the motor PD a numba
-    MuJoCo control callback, issue 23); the Python loop (``native=False``) beside it.
+    MuJoCo control callback); the Python loop (``native=False``) beside it.
 
     Beside the model the closed loop runs (ideal variant, reduced coordinates, RK4),
     the bare step of the XML as written (wheel hinge + rolling equality, the model
@@ -129,7 +129,7 @@ def bench_closed_loop() -> dict:
         "bare_step_us": t_bare / n * 1e6,
         "closed_loop_step_us": t_loop / n * 1e6,
     }
-    out["closed_loop_cost_vs_bare_step"] = t_loop / t_bare          # native loop (issue 23)
+    out["closed_loop_cost_vs_bare_step"] = t_loop / t_bare          # native loop
     # the ratio's excess over 1, split: the ride's trajectory (its steps replayed in C cost more
     # than the bare loop's, which steps the model at rest), per-ride setup, and the rest: the callback
     out["closed_loop_trajectory_share_of_bare"] = (t_replay - t_bare) / t_bare
@@ -182,7 +182,7 @@ def _replay(df):
     return lambda: rollout.rollout(m, d, x0, ctrl)
 
 
-# --- issue 14: the spatial closed loop ----------------------------------------------------
+# --- the spatial closed loop ----------------------------------------------------
 def bench_spatial() -> dict:
     """3-D closed loop (figure-eight, 1 kHz) real-time factor vs a bare mj_step loop of
     mjcf/euc_3d.xml, both timed here; the lateral design is cached before timing."""
@@ -202,7 +202,7 @@ def bench_spatial() -> dict:
             mujoco.mj_step(m, d)
 
     simulate_3d("figure_eight", 0.1)                                   # design and warm caches
-    # the native loop (issue 23), the bare step and a 10-step ride (per-ride setup) interleaved
+    # the native loop, the bare step and a 10-step ride (per-ride setup) interleaved
     together = timed_together({"bare": bare, "loop": lambda: simulate_3d("figure_eight", duration, seed=1),
                                "setup": lambda: simulate_3d("figure_eight", 0.01, seed=1)})
     t_bare, t_loop, t_setup = together["bare"], together["loop"], together["setup"]
@@ -210,7 +210,7 @@ def bench_spatial() -> dict:
     out = {"bare_mj_step_3d_real_time_factor": duration / t_bare,
            "closed_loop_3d_real_time_factor": duration / t_loop,
            "closed_loop_3d_python_real_time_factor": duration / t_py}
-    out["closed_loop_3d_cost_vs_bare_step"] = t_loop / t_bare          # native loop (issue 23)
+    out["closed_loop_3d_cost_vs_bare_step"] = t_loop / t_bare          # native loop
     out["closed_loop_3d_python_cost_vs_bare_step"] = t_py / t_bare     # native=False
     out["closed_loop_3d_setup_share_of_bare"] = t_setup / t_bare
     out["closed_loop_3d_callback_share_of_bare"] = (t_loop - t_setup - t_bare) / t_bare

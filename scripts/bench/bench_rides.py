@@ -9,7 +9,7 @@ import numpy as np
 from bench_timing import timed
 
 
-# --- issue 12: a 60-minute real ride, mass and drivetrain ---------------------------------
+# --- a 60-minute real ride, mass and drivetrain ---------------------------------
 def bench_ride_mass() -> dict:
     """A 64-minute real ride (Blitz 4): mass + drivetrain, and the whole ride command without simulation."""
     import warnings
@@ -48,7 +48,7 @@ def bench_ride_mass() -> dict:
     return out
 
 
-# --- issue 21: a 60-minute ride along a logged-like profile ------------------------------
+# --- a 60-minute ride along a logged-like profile ------------------------------
 def bench_ride() -> dict:
     """A 60-minute speed profile ridden by simulate_profile (augmented effects, native) vs a bare mj_step loop."""
     import mujoco

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Benchmark of 3-D rides on threads (``scripts/bench.py`` section ``spatial_threads``, issue 23).
+"""Benchmark of 3-D rides on threads (``scripts/bench.py`` section ``spatial_threads``).
 
 ``rides`` native 3-D rides of ``duration`` s (paths in turn, the study's rider with 3 N·m
 motor noise, seeds 0 … rides-1) ridden by :func:`euc_sim.simulation.spatial_threads.ride_3d_many`

@@ -1,4 +1,4 @@
-"""The wheel's balance law on every shared ride (issue 21): law, gains, held-out R².
+"""The wheel's balance law on every shared ride: law, gains, held-out R².
 
     python scripts/tables/controller_laws.py [--n-boot 50] [--json OUT.json]
 

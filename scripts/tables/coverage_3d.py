@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Coverage of the ``lateral_dynamics`` interval over independent 3-D rides (issue 22, item 2).
+"""Coverage of the ``lateral_dynamics`` interval over independent 3-D rides.
 
 Each ride is drawn by :func:`scripts.blind_study.plan_spatial` (so by
 :func:`euc_sim.simulation.spatial.draw_spatial_ride`): its own path (circle, slalom,

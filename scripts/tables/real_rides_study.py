@@ -10,7 +10,7 @@ Reads ``../shared/data/euc_core/`` (rides, ``meta.csv`` and ``specs/``).  The to
 sees only the log and the spec; the rider's stated weight in ``meta.csv`` is used
 here, and only here, to score it: truth = rider weight + wheel net weight.
 
-Leave one wheel out (issue 20): every ride's mass is fitted under each
+Leave one wheel out: every ride's mass is fitted under each
 configuration of :data:`CONFIGS` (speed scale from GPS Doppler, track or their
 mean; copper loss as κF² or its proxy κa²).  For each wheel, the configuration
 and the priors of :mod:`euc_sim.rides.systematic` (current-scale sd, grade share,
