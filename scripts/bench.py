@@ -22,8 +22,8 @@ import sys
 from pathlib import Path
 from typing import Callable
 
-if str(Path(__file__).resolve().parent) not in sys.path:     # the section modules sit beside this script
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
+if str(Path(__file__).resolve().parent / "bench") not in sys.path:     # the section modules, in scripts/bench/
+    sys.path.insert(0, str(Path(__file__).resolve().parent / "bench"))
 
 from bench_analysis import bench_diagnose, bench_identify, bench_uncertainty  # noqa: E402
 from bench_batch import (_batch_chunk, _effect_requests, bench_batch, bench_dataset,  # noqa: E402,F401

@@ -9,8 +9,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Layers, lowest first: a module may import from its own layer or any layer below it.
-LAYERS = ["euc_sim.io", "euc_sim.report", "euc_sim.model", "euc_sim.controllers", "euc_sim.simulation", "euc_sim.identification",
-          "euc_sim.diagnosis", "euc_sim.rides", "euc_sim.cli"]
+LAYERS = ["euc_sim.io", "euc_sim.report", "euc_sim.model", "euc_sim.controllers", "euc_sim.simulation",
+          "euc_sim.identification", "euc_sim.diagnosis", "euc_sim.rides", "euc_sim.evaluation", "euc_sim.cli"]
 MAX_LINES = 650
 #: Longest function, in lines of code (its docstring not counted).
 MAX_FUNCTION_LINES = 80
@@ -101,3 +101,64 @@ def test_no_function_over_the_limit(name):
     long = [(fn.name, _code_lines(fn)) for fn in ast.walk(tree)
             if isinstance(fn, (ast.FunctionDef, ast.AsyncFunctionDef)) and _code_lines(fn) > MAX_FUNCTION_LINES]
     assert long == []
+
+
+# --- scripts/, studies/ and tests/ stay apart; the CLI's privates stay inside it ----------------
+def _python_files(*folders: str) -> list[Path]:
+    return sorted(p for f in folders for p in (ROOT / f).rglob("*.py"))
+
+
+def _imported_names(path: Path) -> set[str]:
+    """Every module an ``import`` or ``from ... import`` of the file names (all levels)."""
+    names = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            names.add(node.module)
+        elif isinstance(node, ast.Import):
+            names.update(a.name for a in node.names)
+    return names
+
+
+def test_tests_do_not_import_scripts_or_studies():
+    stems = {p.stem for p in _python_files("scripts", "studies")}
+    stems -= {m.rsplit(".", 1)[-1] for m in _modules()}           # a package module of that name is fine
+    bad = []
+    for path in _python_files("tests"):
+        if path == Path(__file__).resolve():
+            continue
+        text = path.read_text()
+        names = _imported_names(path)
+        bad += [f"{path.relative_to(ROOT)}: imports {n}" for n in names
+                if n.split(".")[0] in stems | {"scripts", "studies"}]
+        if "spec_from_file_location" in text:
+            bad.append(f"{path.relative_to(ROOT)}: loads a file as a module")
+        if "sys.path" in text and ('"scripts"' in text or '"studies"' in text):
+            bad.append(f"{path.relative_to(ROOT)}: puts scripts/ or studies/ on sys.path")
+    assert bad == [], "tests run scripts and studies as programs, never import them: " + "; ".join(bad)
+
+
+def test_scripts_and_studies_do_not_import_tests():
+    bad = [f"{p.relative_to(ROOT)}: imports {n}" for p in _python_files("scripts", "studies")
+           for n in _imported_names(p) if n == "tests" or n.startswith("tests.")]
+    bad += [f"{p.relative_to(ROOT)}: puts tests/ on sys.path" for p in _python_files("scripts", "studies")
+            if "sys.path" in p.read_text() and '"tests"' in p.read_text()]
+    assert bad == []
+
+
+def test_no_cli_private_is_imported_outside_the_cli():
+    bad = []
+    for path in _python_files("euc_sim", "scripts", "studies", "tests"):
+        if (ROOT / "euc_sim" / "cli") in path.parents:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("euc_sim.cli"):
+                bad += [f"{path.relative_to(ROOT)}: {node.module}.{a.name}" for a in node.names
+                        if a.name.startswith("_")]
+    assert bad == [], "CLI privates imported outside euc_sim/cli: " + ", ".join(bad)
+
+
+def test_the_checks_above_see_a_violation(tmp_path):
+    """The import reader finds a tests.* import and a CLI private, function-level ones included."""
+    f = tmp_path / "x.py"
+    f.write_text("def g():\n    from tests.rides.drivesynth import x\n    from euc_sim.cli.ride import _y\n")
+    assert {"tests.rides.drivesynth", "euc_sim.cli.ride"} <= _imported_names(f)

@@ -94,7 +94,7 @@ def demo(tmp_path_factory):
         plan = dataset.dataset_plan
         mp.setattr(dataset, "dataset_plan", lambda seed, duration: plan(seed=seed, duration=8.0))
         out = tmp_path_factory.mktemp("demo")
-        assert main(["demo", "--out", str(out)]) == 0
+        assert main(["demo", "--out-dir", str(out)]) == 0
     finally:
         mp.undo()
     return out, saved
@@ -176,24 +176,24 @@ def test_terms_says_each_panels_h(demo):
 
 
 def test_identify_plot_figures_are_readable(demo, tmp_path, monkeypatch):
-    """``identify --plot``: Fig. 8 and the recording's Figs. 6-7 (``F-torques.png``)."""
+    """``identify --report DIR``: Fig. 8 and the recording's Figs. 6-7 (``identify-torques.png``)."""
     saved = _watch_savefig(monkeypatch)
     rec = sorted((demo[0] / "recordings").glob("deceleration*.csv"))[0]
-    assert main(["identify", str(rec), "--bootstrap", "50", "--plot", str(tmp_path / "f.png")]) == 0
+    assert main(["identify", str(rec), "--n-boot", "50", "--report", str(tmp_path)]) == 0
     assert len(saved) == len(list(tmp_path.glob("*.png"))) == 2
     for fig in saved:
         assert_readable(fig)
 
 
-# --- euc-sim design --plot --------------------------------------------------------------
+# --- euc-sim design --report ------------------------------------------------------------
 def test_design_figures_are_readable(tmp_path, monkeypatch):
     """Item 10: one figure legend (none over the Monte Carlo points), plain tick labels;
     and the effects figure beside it."""
     saved = _watch_savefig(monkeypatch)
     assert main(["design", "--maneuvers", "constant_speed,deceleration", "--rides", "3",
-                 "--duration", "8", "--plot", str(tmp_path / "design.png"),
-                 "--effects", "aerodynamic_drag,wheel_bearing_friction", "--effect-rides", "3",
-                 "--effects-plot", str(tmp_path / "effects.png"), "--no-progress"]) == 0
+                 "--duration", "8", "--report", str(tmp_path),
+                 "--effect", "aerodynamic_drag", "--effect", "wheel_bearing_friction", "--effect-rides", "3",
+                 "--quiet"]) == 0
     assert len(saved) == len(list(tmp_path.glob("*.png"))) == 2
     for fig in saved:
         assert_readable(fig)

@@ -1,4 +1,5 @@
-"""Every ``euc-sim`` command the README shows runs, shortened, and writes what it claims.
+"""The README is a guide: under 150 lines, every ``euc-sim`` command it shows runs, shortened,
+and writes what it claims, and its Python snippet parses and uses only the public API.
 
 Extraction rule (one rule, kept here):
 
@@ -18,8 +19,8 @@ drift away from what is run; a mapping entry the README no longer shows fails to
 The shortened commands run in the order of ``SHORTENED`` (a command that reads another's output
 comes after it), as ``python -m euc_sim.cli ...`` in a subprocess with a temporary folder as
 working directory. Each must exit 0, and every file it names with ``--out``, ``--json``,
-``--plot`` (and ``--report DIR``: ``DIR/index.md``; ``simulate --out NAME.csv``: ``NAME.json``
-and ``NAME.truth.json``; ``identify --plot F.png``: ``F-torques.png``) must exist afterwards. ``../shared`` is
+``--out-dir`` (and ``--report DIR``: the files of :data:`REPORT_FILES`; ``simulate --out
+NAME.csv``: ``NAME.json`` and ``NAME.truth.json``) must exist afterwards. ``../shared`` is
 resolved relative to the repository root; commands reading it are skipped when it is absent
 (their dependants too).
 """
@@ -39,8 +40,6 @@ README = ROOT / "README.md"
 SHARED = ROOT.parent / "shared"
 
 _WL = "../shared/data/wheellog/"
-_V9 = "../shared/data/euc_core/trips/inmotion/v9/0/0.csv"
-_V9_SPEC = "../shared/data/euc_core/specs/v9.csv"
 
 #: README command -> the command the test runs, in the order they run.
 SHORTENED: dict[str, str] = {
@@ -54,29 +53,22 @@ SHORTENED: dict[str, str] = {
     "--out runs/figure_eight.csv":
         "euc-sim simulate --model 3d --maneuver figure_eight --duration 3 --seed 1 "
         "--out runs/figure_eight.csv",
-    "euc-sim dataset --out runs/dataset --seed 0 --workers 2":
-        "euc-sim dataset --out runs/dataset --seed 0 --workers 1 --duration 3 --no-progress",
+    "euc-sim dataset --out-dir runs/dataset --seed 0 --workers 2":
+        "euc-sim dataset --out-dir runs/dataset --seed 0 --workers 1 --duration 3 --quiet",
     "euc-sim design --maneuvers constant_speed,acceleration,deceleration,stop_and_go --rides 40 "
-    "--duration 15 --json runs/design.json --plot runs/design.png":
+    "--duration 15 --json runs/design.json --report runs/design":
         "euc-sim design --maneuvers acceleration,stop_and_go --rides 4 --duration 6 "
-        "--json runs/design.json --plot runs/design.png --no-progress",
+        "--json runs/design.json --report runs/design --quiet",
     "euc-sim render runs/figure_eight.csv --out runs/ride.mp4":
         "euc-sim render runs/figure_eight.csv --out runs/ride.mp4 --fps 10 --width 160 "
-        "--height 120 --no-progress",
+        "--height 120 --quiet",
     "euc-sim stability --json runs/stability.json":
         "euc-sim stability --json runs/stability.json",
     "euc-sim torques runs/decel.csv --h 0.6 --out runs/torques.csv":
         "euc-sim torques runs/decel.csv --h 0.6 --out runs/torques.csv",
-    "euc-sim identify runs/decel.csv --json runs/identify.json --plot runs/identify.png":
-        "euc-sim identify runs/decel.csv --json runs/identify.json --plot runs/identify.png "
-        "--bootstrap 20 --noise-replicates 5",
-    "euc-sim simulate --maneuver deceleration --duration 15 --seed 2 --noise none "
-    "--out runs/decel_torques.csv":
-        "euc-sim simulate --maneuver deceleration --duration 6 --seed 2 --noise none "
-        "--out runs/decel_torques.csv",
-    "euc-sim identify runs/decel_torques.csv --method rollout --json runs/rollout.json":
-        "euc-sim identify runs/decel_torques.csv --method rollout --json runs/rollout.json "
-        "--bootstrap 20 --noise-replicates 5",
+    "euc-sim identify runs/decel.csv --json runs/identify.json --report runs/identify":
+        "euc-sim identify runs/decel.csv --json runs/identify.json --report runs/identify "
+        "--n-boot 20 --noise-replicates 5",
     "euc-sim simulate --maneuver stop_and_go --duration 20 --seed 3 "
     "--effect aerodynamic_drag=0.3 --out runs/hidden.csv":
         "euc-sim simulate --maneuver stop_and_go --duration 10 --seed 3 "
@@ -84,19 +76,12 @@ SHORTENED: dict[str, str] = {
     "euc-sim diagnose runs/hidden.csv --json runs/diagnose.json --report runs/diagnose":
         "euc-sim diagnose runs/hidden.csv --json runs/diagnose.json --report runs/diagnose "
         "--no-resimulate --quiet",
-    "euc-sim demo --out runs/demo":
-        "euc-sim demo --out runs/demo",
+    "euc-sim demo --out-dir runs/demo":
+        "euc-sim demo --out-dir runs/demo",
     f"euc-sim ride {_WL}2020_05_16_08_02_06.csv --compare {_WL}2020_05_28_07_52_00.csv "
     "--report runs/ride --json runs/ride/ride.json":
         f"euc-sim ride {_WL}2020_05_16_08_02_06.csv --compare {_WL}2020_05_28_07_52_00.csv "
         "--report runs/ride --json runs/ride/ride.json --n-boot 10 --no-simulate --quiet",
-    f"euc-sim ride {_V9} --wheel {_V9_SPEC} --no-simulate --json runs/ride.json":
-        f"euc-sim ride {_V9} --wheel {_V9_SPEC} --no-simulate --json runs/ride.json "
-        "--n-boot 10 --quiet",
-    "euc-sim simulate --maneuver acceleration --duration 15 --drivetrain runs/ride.json "
-    "--out runs/accel_dt.csv":
-        "euc-sim simulate --maneuver acceleration --duration 4 --drivetrain runs/ride.json "
-        "--out runs/accel_dt.csv",
 }
 
 _FENCE = re.compile(r"^```")
@@ -126,19 +111,23 @@ def readme_commands(text: str) -> list[str]:
     return commands
 
 
+#: What ``--report DIR`` writes into DIR, per command (the README says so).
+REPORT_FILES = {"identify": ("identify.png", "identify-torques.png"),
+                "design": ("design.png",), "diagnose": ("index.md",), "ride": ("index.md",)}
+
+
 def _written(argv: list[str]) -> list[str]:
-    """The files a command claims to write: --out, --json, --plot and DIR/index.md of --report."""
+    """The files a command claims to write: --out, --json, the folder of --out-dir and what
+    --report DIR holds (:data:`REPORT_FILES`)."""
     out = []
     for flag, value in zip(argv, argv[1:]):
-        if flag in ("--out", "--json", "--plot"):
+        if flag in ("--out", "--json", "--out-dir"):
             out.append(value)
         elif flag == "--report":
-            out.append(str(Path(value) / "index.md"))
+            out += [str(Path(value) / f) for f in REPORT_FILES[argv[0]]]
         if argv[0] == "simulate" and flag == "--out":      # the README: NAME.json, NAME.truth.json
             out += [str(Path(value).with_suffix(".json")),
                     str(Path(value).with_suffix(".truth.json"))]
-        if argv[0] == "identify" and flag == "--plot":     # the README: F-torques.png
-            out.append(str(Path(value).with_name(Path(value).stem + "-torques.png")))
     return out
 
 
@@ -146,6 +135,42 @@ def test_extraction_rule():
     text = ("x `euc-sim prose --no`\n| a | `euc-sim table --x 1` |\n```bash\n"
             "euc-sim a \\\n  --b 1\n# euc-sim comment\necho euc-sim\n```\n")
     assert readme_commands(text) == ["euc-sim table --x 1", "euc-sim a --b 1"]
+
+
+#: The public API the README's Python snippet may use (``euc_sim/__init__.py`` exports them).
+API = {"simulate", "write_recording", "read_recording", "identify", "diagnose", "read_ride",
+       "analyse_ride", "render"}
+
+
+def test_readme_is_short_and_links_only_existing_docs():
+    text = README.read_text(encoding="utf-8")
+    assert len(text.splitlines()) < 150
+    links = re.findall(r"\]\((docs/[^)#]+)", text)
+    assert len(links) >= 10
+    missing = [link for link in links if not (ROOT / link).exists()]
+    assert not missing, f"README links to missing files: {missing}"
+
+
+def _python_blocks(text: str) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", text, flags=re.S)
+
+
+def test_readme_python_uses_the_public_api():
+    import ast
+
+    blocks = _python_blocks(README.read_text(encoding="utf-8"))
+    assert blocks, "the README shows the Python API"
+    used = set()
+    for block in blocks:
+        for node in ast.walk(ast.parse(block)):        # it parses
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name) \
+                    and node.value.id == "euc_sim":
+                used.add(node.attr)
+    assert used and used <= API, sorted(used - API)
+    import euc_sim
+
+    if hasattr(euc_sim, "simulate"):                   # the API is there: every name the README uses
+        assert all(callable(getattr(euc_sim, name)) for name in used)
 
 
 def test_every_readme_command_is_mapped():

@@ -122,26 +122,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_dynamics)
 
     from euc_sim.cli.sim import add_commands as add_sim_commands
-    add_sim_commands(sub)        # euc-sim simulate / dataset / stability (issue 3)
+    add_sim_commands(sub)
 
     from euc_sim.cli.identify import add_identify_parser, add_torques_parser
-    add_torques_parser(sub)      # euc-sim torques REC --out T.csv (issue 4)
-    add_identify_parser(sub)     # euc-sim identify REC... --json --plot (issue 4)
+    add_torques_parser(sub)
+    add_identify_parser(sub)
 
     from euc_sim.cli.diagnose import add_commands as add_diagnose_commands
-    add_diagnose_commands(sub)   # euc-sim diagnose REC --json --report / demo (issue 5)
+    add_diagnose_commands(sub)
 
     from euc_sim.cli.ride import add_ride_parser
-    add_ride_parser(sub)         # euc-sim ride LOG --compare OTHER --report --json (issue 6)
+    add_ride_parser(sub)
 
     from euc_sim.cli.rides import add_rides_parser
     add_rides_parser(sub)        # euc-sim rides DIR_OR_FILES... --report DIR --json F
 
     from euc_sim.cli.spatial import add_render_parser
-    add_render_parser(sub)       # euc-sim render REC --out ride.mp4 (issue 14)
+    add_render_parser(sub)
 
     from euc_sim.cli.design import add_commands as add_design_commands
-    add_design_commands(sub)     # euc-sim design --maneuvers A,B --json --plot (issue 15)
+    add_design_commands(sub)
     return parser
 
 

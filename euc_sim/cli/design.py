@@ -7,6 +7,7 @@ computation is :func:`euc_sim.identification.design.design`.
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 __all__ = ["add_commands"]
 
@@ -24,20 +25,23 @@ def _cmd_design(args: argparse.Namespace) -> int:
     from euc_sim.io import check_writable, write_json
     from euc_sim.simulation.runner import check_backend
 
+    if args.report:             # the figures as DIR/design.png and DIR/design_effects.png
+        args.plot = str(Path(args.report) / "design.png")
+        args.effects_plot = str(Path(args.report) / "design_effects.png") if args.effect else None
     for path in (args.json, args.plot, args.effects_plot):
         if path:
             check_writable(path)
     check_backend(args.scheduler, args.workers)
-    if args.effects:                            # refuse bad effect settings before the long h study
+    if args.effect:                             # refuse bad effect settings before the long h study
         from euc_sim.diagnosis.design import parse_effects
-        parse_effects(args.effects)
+        parse_effects(",".join(args.effect))
         if args.effect_rides < 3:
             raise ValueError(f"--effect-rides must be an integer of at least 3, got {args.effect_rides!r}")
     res = design([m.strip() for m in args.maneuvers.split(",") if m.strip()], rides=args.rides,
                  duration=args.duration, noise_scales=_floats(args.noise_scales, "--noise-scales"),
                  targets=_floats(args.targets, "--targets"), seed=args.seed, params=parse_params(args.param),
                  rider_noise=args.rider_noise, scheduler=args.scheduler, workers=args.workers,
-                 progress=not args.no_progress)
+                 progress=not args.quiet)
     targets = [f"{t:g}" for t in res["targets"]]
     head = f"{'maneuver':<16}{'h sd MC (mm)':>13}{'Fisher (mm)':>12}{'bias (mm)':>10}" + "".join(
         f"{'n for ' + t + ' m':>14}" for t in targets)
@@ -50,7 +54,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
               + ("   flat" if r["maneuver"] in res["flat"] else ""))
     print(res["recommendation"])
     out = {k: v for k, v in res.items() if k != "curves"}
-    if args.effects:
+    if args.effect:
         eff = _effects(args, res)
         for row in out["maneuvers"]:
             row["effects"] = eff["by_maneuver"][row["maneuver"]]
@@ -68,11 +72,11 @@ def _effects(args: argparse.Namespace, res: dict) -> dict:
     from euc_sim.cli.common import parse_params, say
     from euc_sim.diagnosis.design import effects_design, parse_effects, plot_effects_design
 
-    eff = effects_design([r["maneuver"] for r in res["maneuvers"]], parse_effects(args.effects),
+    eff = effects_design([r["maneuver"] for r in res["maneuvers"]], parse_effects(",".join(args.effect)),
                          rides=args.effect_rides,
                          duration=args.duration, seed=args.seed, params=parse_params(args.param),
                          rider_noise=args.rider_noise, with_torques=args.with_torques,
-                         scheduler=args.scheduler, workers=args.workers, progress=not args.no_progress)
+                         scheduler=args.scheduler, workers=args.workers, progress=not args.quiet)
     print(f"\neffects at their nominal magnitude, {eff['rides']} rides per maneuver, torques "
           f"{'recorded' if eff['with_torques'] else 'not recorded'}: sd of one recording (Monte Carlo / "
           f"covariance), recordings for sd = 10 % of the magnitude, and to name it ({eff['min_t']:g} sd)")
@@ -97,33 +101,42 @@ def _effects(args: argparse.Namespace, res: dict) -> dict:
 
 def add_commands(sub) -> None:
     """Register ``design`` on the subparsers ``sub``."""
+    from euc_sim.cli.options import deprecated
     from euc_sim.identification.design import DESIGN_MANEUVERS
+    from euc_sim.simulation.effects import names as effect_names
 
     p = sub.add_parser("design", help="experiment design: how precisely each maneuver identifies h")
     p.add_argument("--maneuvers", default="constant_speed,deceleration,stop_and_go", metavar="A,B,...",
                    help=f"comma-separated, of {', '.join(DESIGN_MANEUVERS)} "
                         "(default constant_speed,deceleration,stop_and_go)")
-    p.add_argument("--rides", type=int, default=40, help="Monte Carlo rides per maneuver (default 40)")
-    p.add_argument("--duration", type=float, default=15.0, help="s per recording (default 15)")
+    p.add_argument("--rides", type=int, default=40, metavar="N", help="Monte Carlo rides per maneuver (default 40)")
+    p.add_argument("--duration", type=float, default=15.0, metavar="S", help="s per recording (default 15)")
     p.add_argument("--noise-scales", default="0.5,1,2", metavar="S,...",
                    help="sensor noise as multiples of the paper's 0.2 mm, 0.5° (must include 1; default 0.5,1,2)")
     p.add_argument("--targets", default="0.05,0.02,0.01", metavar="SD,...",
                    help="target standard deviations of h, m (default 0.05,0.02,0.01)")
     p.add_argument("--rider-noise", type=float, default=3.0, help="rider motor noise, N·m (default 3)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="override a Table 3 value (h: the truth)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the rider and sensor noise (default 0)")
+    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the rider and sensor noise (default 0)")
     p.add_argument("--json", metavar="FILE", help="write the results as JSON (CONTRACT)")
-    p.add_argument("--plot", metavar="FILE.png", help="figure: RMSE(h) curves and h's sd across noise levels")
-    p.add_argument("--workers", type=int, default=None, help="processes (default: all cores; 1: in this process)")
+    p.add_argument("--report", metavar="DIR",
+                   help="write the figures into DIR: design.png (RMSE(h) curves and h's sd across noise "
+                        "levels) and, with --effect, design_effects.png (each effect's sd per maneuver)")
+    deprecated(p, "--plot", "--report DIR", dest="plot", metavar="FILE.png", default=None)
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="processes (default: all cores; 1: in this process)")
     p.add_argument("--scheduler", default=None, metavar="local|ADDRESS",
                    help="run on Dask: 'local' starts a local cluster, tcp://HOST:PORT uses a running one")
-    p.add_argument("--effects", default="", metavar="all|A,B,...",
-                   help="also the catalog effects (CONTRACT names, or 'all'): how precisely each maneuver "
-                        "measures each, by Monte Carlo with the effect present and by the diagnosis's covariance")
-    p.add_argument("--effect-rides", type=int, default=10,
+    p.add_argument("--effect", action="append", default=[], metavar="NAME",
+                   help="also this catalog effect (repeatable; 'all' for every one): how precisely each "
+                        "maneuver measures it, by Monte Carlo with the effect present and by the "
+                        f"diagnosis's covariance; NAME one of all, {', '.join(effect_names())}")
+    deprecated(p, "--effects", "--effect", convert=lambda text: [e for e in text.split(",") if e.strip()] or [""])
+    p.add_argument("--effect-rides", type=int, default=10, metavar="N",
                    help="Monte Carlo rides per maneuver and effect (default 10)")
     p.add_argument("--with-torques", action="store_true",
                    help="effects: the recordings carry M_d and M_h (default: motion capture only, as the paper)")
-    p.add_argument("--effects-plot", metavar="FILE.png", help="figure: each effect's sd per maneuver")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    deprecated(p, "--effects-plot", "--report DIR", dest="effects_plot", metavar="FILE.png", default=None)
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    deprecated(p, "--no-progress", "--quiet")
     p.set_defaults(func=_cmd_design)

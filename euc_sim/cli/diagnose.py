@@ -43,13 +43,15 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     from euc_sim.cli.common import say
     from euc_sim.cli.demo import run_demo
 
-    page = run_demo(args.out, seed=args.seed, progress=lambda s: say(f"demo: {s}"))
+    page = run_demo(args.out_dir, seed=args.seed, progress=lambda s: say(f"demo: {s}"))
     print(f"demo written: {page}")
     return 0
 
 
 def add_commands(sub) -> None:
     """Register ``diagnose`` and ``demo`` on the subparsers ``sub``."""
+    from euc_sim.cli.options import deprecated
+
     p = sub.add_parser("diagnose", help="find the physics the nominal model leaves out of a recording")
     p.add_argument("recording", metavar="REC.csv", help="a CONTRACT recording (.csv or .parquet)")
     p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's diagnosis object")
@@ -61,10 +63,12 @@ def add_commands(sub) -> None:
     p.add_argument("--no-calibrate", action="store_true",
                    help="on a 3-D ride, skip calibrating lateral_dynamics on a simulated twin of the ride")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr (shown by default)")
-    p.add_argument("--verbose", action="store_true", help=argparse.SUPPRESS)   # progress is the default now
+    deprecated(p, "--verbose", "--quiet", nargs=0, dest="verbose", default=False,
+               note="progress is shown unless --quiet")
     p.set_defaults(func=_cmd_diagnose)
 
     p = sub.add_parser("demo", help="the main job on embedded defaults: simulate, identify, diagnose")
-    p.add_argument("--out", default="euc-sim-demo", metavar="DIR", help="output folder (default ./euc-sim-demo)")
-    p.add_argument("--seed", type=seed, default=1, help="seed of every random draw (default 1)")
+    p.add_argument("--out-dir", default="euc-sim-demo", metavar="DIR", help="output folder (default ./euc-sim-demo)")
+    deprecated(p, "--out", "--out-dir")
+    p.add_argument("--seed", type=seed, default=1, metavar="N", help="seed of every random draw (default 1)")
     p.set_defaults(func=_cmd_demo)

@@ -122,18 +122,23 @@ def cmd_torques(args: argparse.Namespace) -> int:
 # --- identify ------------------------------------------------------------------------------
 def add_identify_parser(sub) -> argparse.ArgumentParser:
     from euc_sim.cli.common import seed
+    from euc_sim.cli.options import deprecated
 
     p = sub.add_parser("identify", help="identify the rider's CoG height h (and more) from recordings")
     p.add_argument("recordings", nargs="+", help="CONTRACT recordings (CSV or Parquet)")
     p.add_argument("--json", metavar="FILE", help="write the results (CONTRACT's identify form)")
-    p.add_argument("--plot", metavar="FILE",
-                   help="Fig. 8 (RMSE against h) to FILE; ALSO writes Figs. 6/7 beside it, "
-                        "STEM-torques.png (one recording) or STEM-torques-REC.png (one per "
-                        "recording); every file written is printed")
+    fig = p.add_mutually_exclusive_group()
+    fig.add_argument("--report", metavar="DIR",
+                     help="write the figures into DIR: Fig. 8 (RMSE against h) as identify.png; "
+                          "ALSO writes Figs. 6/7 beside it, identify-torques.png (one recording) "
+                          "or identify-torques-REC.png (one per recording); every file written "
+                          "is printed")
+    deprecated(fig, "--plot", "--report DIR", dest="plot", metavar="FILE", default=None)
     p.add_argument("--h-min", type=float, default=0.1, metavar="M", help="search bound, m")
     p.add_argument("--h-max", type=float, default=1.5, metavar="M", help="search bound, m")
-    p.add_argument("--bootstrap", type=int, default=400, metavar="N",
+    p.add_argument("--n-boot", type=int, default=400, metavar="N",
                    help="block-bootstrap replicates for the 95%% interval (default 400)")
+    deprecated(p, "--bootstrap", "--n-boot")
     p.add_argument("--block", type=float, default=None, metavar="S",
                    help="bootstrap block, s (default 1 s, about the correlation time of the "
                         "filtered residual)")
@@ -153,7 +158,7 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
 
 
 def _figure_paths(plot: str, names: list[str]) -> list[Path]:
-    """Figs. 6/7 beside the ``--plot`` figure: ``STEM-torques.png`` for one recording,
+    """Figs. 6/7 beside the Fig. 8 file (``--report DIR``'s identify.png): ``STEM-torques.png`` for one recording,
     ``STEM-torques-REC.png`` (numbered where two recordings share a name) for several."""
     base = Path(plot)
     suffix = base.suffix or ".png"
@@ -173,13 +178,15 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
     if args.json:
         check_writable(args.json)
+    if args.report:             # Fig. 8 as DIR/identify.png, Figs. 6/7 beside it
+        args.plot = str(Path(args.report) / "identify.png")
     if args.plot:
         from euc_sim.identification.plots import check_figure_path
 
         check_figure_path(args.plot)
         check_writable(args.plot)
-    if args.bootstrap < 0:
-        raise UsageError(f"--bootstrap must be non-negative, got {args.bootstrap}")
+    if args.n_boot < 0:
+        raise UsageError(f"--n-boot must be non-negative, got {args.n_boot}")
     from euc_sim.identification.noise_bootstrap import N_REPLICATES
     n_noise = N_REPLICATES if args.noise_replicates is None else args.noise_replicates
     if n_noise < 0:
@@ -200,7 +207,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if len(set(names)) != len(names):
         raise UsageError("a recording is given twice")
     recs = [_load(n, args) for n in names]
-    res = identify_recordings(recs, bounds=(args.h_min, args.h_max), n_boot=args.bootstrap,
+    res = identify_recordings(recs, bounds=(args.h_min, args.h_max), n_boot=args.n_boot,
                               block=block, seed=args.seed, n_noise=n_noise)
     pooled, per = res["pooled"], res["per_recording"]
 
@@ -220,7 +227,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         "per_recording": per_json,
         "smoothing": recs[0].kin.smoothing.describe(),
         "bounds": [args.h_min, args.h_max],
-        "bootstrap": {"replicates": args.bootstrap, "block_s": block, "seed": args.seed,
+        "bootstrap": {"replicates": args.n_boot, "block_s": block, "seed": args.seed,
                       "noise_replicates": n_noise},
         "figures": figures,
         "at_bound": [key for key, _ in bound_hits],
@@ -242,7 +249,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
 def _per_recording(args: argparse.Namespace, names: list[str], recs: list, per: list[dict]):
     """Each recording's JSON entry (models, controller, rider, base parameters), its rider
-    fit, and the Figs. 6/7 written beside ``--plot``: (entries, rider fits, figure paths)."""
+    fit, and the Figs. 6/7 written beside Fig. 8 (``--report``): (entries, rider fits, figure paths)."""
     from euc_sim.identification.base_params import identify_base_parameters
     from euc_sim.identification.controller_fit import identify_controller, identify_rider_delay
     from euc_sim.identification.torques import torques
@@ -304,7 +311,7 @@ def _at_bound(names: list[str], per: list[dict], pooled: dict, riders: list) -> 
 def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dict], out: dict) -> None:
     """``--method rollout`` / ``sysid``: h by simulation error per recording (our rollout or
     ``mujoco.sysid``), pooled by inverse variance; added to the 3-DoF entries of the JSON
-    under the method's name, printed, and (with ``--plot``) drawn."""
+    under the method's name, printed, and (with ``--report``) drawn."""
     import math
 
     from euc_sim.cli.common import UsageError

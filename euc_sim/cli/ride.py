@@ -17,7 +17,7 @@ import os
 import warnings
 from pathlib import Path
 
-__all__ = ["add_ride_parser", "run_ride", "with_found_values", "MIN_BOOT"]
+__all__ = ["add_ride_parser", "run_ride", "MIN_BOOT"]
 
 #: Fewest bootstrap replicates the command accepts: effects are accepted on their
 #: 95 % interval, and without replicates there is none (nothing would be accepted).
@@ -46,41 +46,6 @@ def _assumptions(args: argparse.Namespace):
         p = p.replace(m=m)
         sources.append(("total_mass", "--mass"))
     return RideAssumptions.from_params(p, efficiency=args.efficiency, sources=tuple(sources))
-
-
-def with_found_values(assumptions, spec, total_mass: dict):
-    """The balance fit's assumptions with the spec's radius and the mass this log gives.
-
-    A value given on the command line stays; otherwise the radius comes from the
-    spec and the total mass (with m_eq, eq. 6) from ``total_mass`` (the ride
-    JSON's object, found from the log), and only what neither gives keeps Table
-    3's default.  ``sources`` says which is which.
-
-    Parameters
-    ----------
-    assumptions : RideAssumptions
-    spec : WheelSpec or None
-    total_mass : dict
-        The ride JSON's ``total_mass`` (``estimate`` None when not identified).
-
-    Returns
-    -------
-    RideAssumptions
-        A new object.
-    """
-    import dataclasses
-
-    src = dict(assumptions.sources)
-    new = {}
-    if "R" not in src and spec is not None and spec.radius is not None:
-        new["R"] = spec.radius
-        src["R"] = f"spec ({spec.name or 'wheel'}: wheel diameter)"
-    m = (total_mass or {}).get("estimate")
-    if "total_mass" not in src and m is not None and m > 0:
-        eq = (total_mass.get("equivalent_mass") or {}).get("estimate")
-        new["total_mass"], new["m_eq"] = m, (eq if eq is not None else m)
-        src["total_mass"] = "found from this log's energy balance (total_mass)"
-    return dataclasses.replace(assumptions, sources=tuple(src.items()), **new)
 
 
 def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assumptions=None,
@@ -134,6 +99,8 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     physics = _drivetrain(log, compare, spec, n_boot, seed)   # bad logs fail before any output
     # the spec's radius and the mass this log gives reach the balance fit (Table 3 only where
     # neither the command line, the spec nor the log gives a value)
+    from euc_sim.rides.signals import with_found_values
+
     assumptions = with_found_values(assumptions, spec, physics[0]["total_mass"])
     an = ride_analysis(log, compare, assumptions=assumptions, domain=domain, n_boot=n_boot,
                        seed=seed, progress=say)
@@ -279,13 +246,10 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
 
 
 def _drivetrain(log, compare, spec, n_boot: int, seed: int):
-    """Mass, drivetrain, PWM and envelope (:mod:`euc_sim.rides.drivetrain_report`)."""
-    from euc_sim.rides.drivetrain_report import drivetrain_report
-    from euc_sim.rides.power import MassSettings
-    from euc_sim.rides.spec import WheelSpec
+    """Mass, drivetrain, PWM and envelope (:func:`euc_sim.rides.drivetrain_report.ride_drivetrain`)."""
+    from euc_sim.rides.drivetrain_report import ride_drivetrain
 
-    return drivetrain_report(log, spec or WheelSpec(), compare,
-                             MassSettings(n_boot=n_boot, seed=seed))
+    return ride_drivetrain(log, compare, spec, n_boot, seed)
 
 
 def _drivetrain_figures(physics, out: Path) -> dict:
@@ -343,8 +307,8 @@ def _cmd_ride(args: argparse.Namespace) -> int:
 
     if args.domain not in ("power", "torque"):
         raise ValueError(f"--domain must be power or torque, got {args.domain!r}")
-    if args.jobs < 1:
-        raise ValueError(f"--jobs must be at least 1, got {args.jobs}")
+    if args.workers < 1:
+        raise ValueError(f"--workers must be at least 1, got {args.workers}")
     if args.n_boot < MIN_BOOT:
         raise ValueError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
                          f"bootstrap interval), got {args.n_boot}")
@@ -374,7 +338,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         check_writable(out / "index.html")
     rep = run_ride(args.log, args.compare, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
-                   simulate=not args.no_simulate, jobs=args.jobs,
+                   simulate=not args.no_simulate, jobs=args.workers,
                    progress=None if args.quiet else _progress, spec=spec,
                    calibrate_rider=args.calibrate_rider, rider_weight=rider_weight)
     if args.json:
@@ -422,13 +386,15 @@ def _cmd_ride(args: argparse.Namespace) -> int:
 
 def add_ride_parser(sub) -> None:
     """Register ``ride`` on the subparsers ``sub``."""
+    from euc_sim.cli.options import deprecated, one_of
+
     p = sub.add_parser("ride", help="diagnose a real EUC ride log (WheelLog, EUC World, DarknessBot)")
     p.add_argument("log", metavar="LOG.csv", help="ride log to fit")
     p.add_argument("--compare", metavar="OTHER.csv",
                    help="ride to test on (default: fit the first half, test the second)")
     p.add_argument("--report", metavar="DIR", help="write DIR/index.html (the page; DIR/index.md its plain-text version) with figures and tables")
     p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's ride object")
-    p.add_argument("--domain", default="power", metavar="power|torque",
+    p.add_argument("--domain", default="power", metavar=one_of(("power", "torque")),
                    help="residual in battery power, W (default), or divided by ω, N·m")
     p.add_argument("--mass", type=float, metavar="KG",
                    help="rider + EUC mass, kg (default Table 3: 81)")
@@ -449,13 +415,15 @@ def add_ride_parser(sub) -> None:
                         "(default 0.8; the balance fit estimates its own)")
     p.add_argument("--n-boot", type=int, default=200, metavar="N", help=f"bootstrap replicates, at least {MIN_BOOT} (default 200)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
-    p.add_argument("--jobs", type=int, default=2, metavar="N",
+    p.add_argument("--workers", type=int, default=2, metavar="N",
                    help="processes for the simulation's steps (default 2)")
+    deprecated(p, "--jobs", "--workers")
     p.add_argument("--calibrate-rider", action="store_true",
                    help="add the step 'calibrated_rider': the simulated rider's delay, bandwidth and "
                         "motor noise fitted on LOG (minutes of simulation)")
     p.add_argument("--no-simulate", action="store_true",
                    help="skip the closed-loop simulation along the ride's speed profile")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    p.add_argument("--verbose", action="store_true", help=argparse.SUPPRESS)   # progress is the default
+    deprecated(p, "--verbose", "--quiet", nargs=0, dest="verbose", default=False,
+               note="progress is shown unless --quiet")
     p.set_defaults(func=_cmd_ride)

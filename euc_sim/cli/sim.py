@@ -94,7 +94,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         raise ValueError(f"--out must end in .csv or .parquet, got {str(out)!r}")
     check_writable(out)
     _check_choice("--model", args.model, ("planar", "3d"))
-    if args.model == "3d":          # the spatial model (issue 14)
+    if args.model == "3d":          # the spatial model
         from euc_sim.cli.spatial import simulate_3d_command
         _check_choice("--noise", args.noise, tuple(NOISE_LEVELS))
         return simulate_3d_command(args, _motor(args))
@@ -157,14 +157,14 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
     specs = dataset_plan(args.seed, args.duration, params=parse_params(args.param), noise=args.noise,
                          rider_noise=args.rider_noise, engine=args.engine, effects=_effects(args.effect))
     t0 = time.perf_counter()
-    report = run_dataset(args.out, specs, workers=args.workers, progress=not args.no_progress,
+    report = run_dataset(args.out_dir, specs, workers=args.workers, progress=not args.quiet,
                          ext="." + args.format, scheduler=args.scheduler)
     say(report.table())
-    say(f"dataset: wrote {len(report.results)} of {len(specs)} recordings to {args.out} "
+    say(f"dataset: wrote {len(report.results)} of {len(specs)} recordings to {args.out_dir} "
         f"in {time.perf_counter() - t0:.1f} s")
     if report.failed:       # the rest are written; the request was not met in full
         say(f"dataset: {len(report.failed)} recording(s) failed, named above and in "
-            f"{Path(args.out) / 'dataset.json'} ('failed'): {', '.join(report.failed)}")
+            f"{Path(args.out_dir) / 'dataset.json'} ('failed'): {', '.join(report.failed)}")
         return 2
     return 0
 
@@ -226,61 +226,76 @@ def add_commands(sub) -> None:
     """Register ``simulate``, ``dataset`` and ``stability`` on the subparsers ``sub``."""
     from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
     from euc_sim.cli.common import seed
+    from euc_sim.cli.options import deprecated, one_of
+    from euc_sim.model.mujoco_model import VARIANTS
+    from euc_sim.simulation.effects import names as effect_names
+    from euc_sim.simulation.engine import ENGINES
+    from euc_sim.simulation.maneuvers import MANEUVERS
+    from euc_sim.simulation.mocap import NOISE_LEVELS
+    from euc_sim.simulation.spatial import PATHS
 
+    effect_help = f"NAME one of {', '.join(effect_names())}"
     p = sub.add_parser("simulate", help="closed-loop simulation of a maneuver, written as a recording")
-    p.add_argument("--maneuver", default=None,
-                   help="constant_speed (default), acceleration, deceleration, stop_and_go; "
-                        "with --model 3d: straight, circle, u_turn, slalom, figure_eight (default)")
-    p.add_argument("--model", default="planar", help="planar (default) or 3d (mjcf/euc_3d.xml)")
+    p.add_argument("--maneuver", default=None, metavar="NAME",
+                   help=f"{', '.join(m for m in MANEUVERS if m != 'profile')} (default constant_speed; "
+                        f"profile with --profile); with --model 3d: {', '.join(PATHS)} (default figure_eight)")
+    p.add_argument("--model", default="planar", metavar=one_of(("planar", "3d")),
+                   help="planar (default) or 3d (mjcf/euc_3d.xml)")
     p.add_argument("--profile", metavar="CSV", help="speed profile with columns t (s), v (m/s)")
-    p.add_argument("--duration", type=float, default=15.0, help="s (default 15)")
-    p.add_argument("--seed", type=seed, default=0,
+    p.add_argument("--duration", type=float, default=15.0, metavar="S", help="s (default 15)")
+    p.add_argument("--seed", type=seed, default=0, metavar="N",
                    help="seed of the rider and sensor noise, a non-negative integer (default 0)")
     p.add_argument("--out", required=True, metavar="NAME.csv", help="recording (.csv or .parquet)")
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
-                   help="inject an effect of CONTRACT's catalog (repeatable)")
+                   help=f"inject an effect of CONTRACT's catalog (repeatable); {effect_help}")
     p.add_argument("--drift-shape", metavar="KIND[,start=S,length=S,sign=±1,seed=N]",
                    help="shape of h(t) for cog_height_drift: sine (default, period 12 s), ramp, dip "
                         "or wander, e.g. ramp,start=5,length=4,sign=-1 (crouch by VALUE m over 5-9 s)")
-    p.add_argument("--noise", default="paper", help="measurement noise: paper (default) or none")
-    p.add_argument("--engine", default="mujoco", help="mujoco (default) or analytic")
-    p.add_argument("--variant", default="ideal", help="MuJoCo ground: ideal (default) or contact")
+    p.add_argument("--noise", default="paper", metavar=one_of(NOISE_LEVELS),
+                   help="measurement noise: paper (default) or none")
+    p.add_argument("--engine", default="mujoco", metavar=one_of(ENGINES), help="mujoco (default) or analytic")
+    p.add_argument("--variant", default="ideal", metavar=one_of(VARIANTS),
+                   help="MuJoCo ground: ideal (default) or contact")
     p.add_argument("--hide-torques", action="store_true", help="leave M_d, M_h out of the recording")
     p.add_argument("--drivetrain", metavar="RIDE.json",
                    help="voltage-limited motor from a ride's identified drivetrain "
                         "(euc-sim ride --json): its torque falls with speed and battery voltage")
     p.add_argument("--battery-voltage", type=float, metavar="V",
                    help="battery voltage for --drivetrain, V (default: the ride's full charge)")
-    p.add_argument("--rolling-model", default="moment",
+    p.add_argument("--rolling-model", default="moment", metavar=one_of(("moment", "contact")),
                    help="rolling_resistance as an applied moment (default) or as MuJoCo's own rolling "
                         "friction of the tyre (contact; needs --variant contact)")
-    p.add_argument("--rider-noise", type=float, default=DEFAULT_RIDER_NOISE,
+    p.add_argument("--rider-noise", type=float, default=DEFAULT_RIDER_NOISE, metavar="N·m",
                    help=f"rider motor noise, N·m (default {DEFAULT_RIDER_NOISE:g})")
     _controller_options(p)
     p.set_defaults(func=_cmd_simulate)
 
     p = sub.add_parser("dataset", help="a paper-like set of synthetic recordings, in parallel")
-    p.add_argument("--out", required=True, metavar="DIR",
-                   help="folder for the recordings (NAME.csv + NAME.json + NAME.truth.json) and dataset.json")
-    p.add_argument("--seed", type=seed, default=0,
+    out = p.add_mutually_exclusive_group(required=True)
+    out.add_argument("--out-dir", metavar="DIR",
+                     help="folder for the recordings (NAME.csv + NAME.json + NAME.truth.json) and dataset.json")
+    deprecated(out, "--out", "--out-dir")
+    p.add_argument("--seed", type=seed, default=0, metavar="N",
                    help="dataset seed: speeds, rider and sensor noise of every recording, a non-negative integer (default 0)")
-    p.add_argument("--duration", type=float, default=15.0, help="s per recording (default 15)")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--duration", type=float, default=15.0, metavar="S", help="s per recording (default 15)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="processes on this machine (default: all cores; 1: in this process), "
                         "or the workers of --scheduler local (default 2)")
     p.add_argument("--scheduler", default=None, metavar="local|ADDRESS",
                    help="run on Dask: 'local' starts a local cluster, tcp://HOST:PORT uses a running one")
-    p.add_argument("--noise", default="paper", help="paper (default) or none")
-    p.add_argument("--engine", default="mujoco", help="mujoco (default) or analytic")
-    p.add_argument("--format", default="csv", help="csv (default) or parquet")
-    p.add_argument("--effect", action="append", metavar="NAME=VALUE", help="inject in every recording")
-    p.add_argument("--rider-noise", type=float, default=DEFAULT_RIDER_NOISE, help="N·m")
+    p.add_argument("--noise", default="paper", metavar=one_of(NOISE_LEVELS), help="paper (default) or none")
+    p.add_argument("--engine", default="mujoco", metavar=one_of(ENGINES), help="mujoco (default) or analytic")
+    p.add_argument("--format", default="csv", metavar=one_of(("csv", "parquet")), help="csv (default) or parquet")
+    p.add_argument("--effect", action="append", metavar="NAME=VALUE",
+                   help=f"inject in every recording (repeatable); {effect_help}")
+    p.add_argument("--rider-noise", type=float, default=DEFAULT_RIDER_NOISE, metavar="N·m", help="N·m")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="override a Table 3 value")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    deprecated(p, "--no-progress", "--quiet")
     p.set_defaults(func=_cmd_dataset)
 
     p = sub.add_parser("stability", help="linearisation, eigenvalues and the rider's delay margin")
     p.add_argument("--json", metavar="FILE", help="write the report as JSON")
-    p.add_argument("--speed", type=float, default=0.0, help="operating speed, m/s")
+    p.add_argument("--speed", type=float, default=0.0, metavar="M/S", help="operating speed, m/s")
     _controller_options(p)
     p.set_defaults(func=_cmd_stability)

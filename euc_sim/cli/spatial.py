@@ -43,13 +43,15 @@ def _cmd_render(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.fps) and 1 <= args.fps <= 120):
         raise ValueError(f"--fps must be in [1, 120], got {args.fps!r}")
     n = render_recording(args.recording, out, fps=args.fps, width=args.width, height=args.height,
-                         frame_time=args.time, progress=not args.no_progress)
+                         frame_time=args.time, progress=not args.quiet)
     say(f"render: wrote {out} ({n} frame{'s' if n != 1 else ''})")
     return 0
 
 
 def add_render_parser(sub) -> None:
     """Register ``euc-sim render REC --out ride.mp4|ride.gif|frame.png``."""
+    from euc_sim.cli.options import deprecated
+
     p = sub.add_parser("render", help="replay a recording in the 3-D model (offscreen MuJoCo renderer)")
     p.add_argument("recording", metavar="REC.csv", help="a recording with psi, theta, gamma and C (or E) columns")
     p.add_argument("--out", required=True, metavar="ride.mp4", help=".mp4, .gif or .png (one frame)")
@@ -57,5 +59,6 @@ def add_render_parser(sub) -> None:
     p.add_argument("--width", type=int, default=640, help="pixels (default 640)")
     p.add_argument("--height", type=int, default=480, help="pixels (default 480)")
     p.add_argument("--time", type=float, default=None, help="with .png: the time of the frame, s (default: middle)")
-    p.add_argument("--no-progress", action="store_true", help="no progress bar (shown on stderr by default)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar (shown on stderr by default)")
+    deprecated(p, "--no-progress", "--quiet")
     p.set_defaults(func=_cmd_render)

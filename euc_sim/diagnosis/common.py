@@ -25,19 +25,9 @@ class DiagnosisError(ValueError):
 class Thresholds:
     """Decision thresholds of the diagnosis (dimensionless unless stated).
 
-    The acceptance thresholds were set a priori; ``generic_gain`` and ``floor_ratio``
-    from null recordings only (``scripts/blind_study.py --calibrate``, seed 1000, a
-    different stream from the study's): over 12 nulls with the paper's noise and a
-    swaying rider the largest generic gain was 0.17 and the largest floor ratio 1.06;
-    the thresholds sit well above both.  Never tuned on the blind-study cases.
-    Rechecked on 24 nulls (``--calibrate --nulls 24``): largest generic gain 0.17,
-    floor ratio 1.29, BIC drop of the best candidate 2.3 (threshold 10).  On nulls the
-    best candidate's held-out gain reached 0.17 and its |θ|/se 6.3 (a two-column h
-    drift; 14 before selection.covariance was raised to the autocorrelation-scaled
-    variance): those two tests do not separate nulls on their own; the BIC does.
-    All at the default term filter (0.3 s); a heavier filter widens the null
-    distribution (at 0.5 s: floor ratio 1.76, generic gain 0.26, BIC drop 4.8), so
-    these values belong to it (docs/diagnosis.md, "The term filter").
+    The acceptance thresholds were set a priori; ``generic_gain`` and ``floor_ratio`` on
+    null recordings only, never on the blind-study cases; they belong to the default term
+    filter (0.3 s).  Values: see docs/diagnosis.md, section 4 and "The term filter".
 
     Attributes
     ----------

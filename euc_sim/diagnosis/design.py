@@ -85,15 +85,15 @@ def parse_effects(text: str) -> list[str]:
     Raises
     ------
     ValueError
-        naming ``--effects`` and the unknown or repeated names.
+        naming ``--effect`` and the unknown or repeated names.
     """
     names = list(fx.CATALOG) if text.strip() == "all" else [e.strip() for e in text.split(",") if e.strip()]
     bad = [e for e in names if e not in fx.CATALOG]
     if not names or bad:
-        raise ValueError(f"--effects: unknown {', '.join(bad) or '(none given)'}; "
+        raise ValueError(f"--effect: unknown {', '.join(bad) or '(none given)'}; "
                          f"valid: all, {', '.join(fx.CATALOG)}")
     if len(set(names)) != len(names):
-        raise ValueError(f"--effects: an effect is listed twice in {text}")
+        raise ValueError(f"--effect: an effect is listed twice in {text}")
     return names
 
 

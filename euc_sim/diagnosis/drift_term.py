@@ -253,7 +253,7 @@ def blind_windows(t: np.ndarray, drdh: np.ndarray, floor_rms: float, tau_int: fl
                   dh_max: float) -> list[list[float]]:
     """Where even the largest plausible drift would stay hidden: [[t0, t1], ...], s.
 
-    h enters the residual through ∂r/∂h (NOTES fact 3), which follows the rider's
+    h enters the residual through ∂r/∂h (docs/diagnosis.md), which follows the rider's
     torque: large in speed changes, only the sway's in a hold at constant speed.  A
     drift placed at [a, b] (a dip of ``length`` in :data:`SHAPE_LENGTHS`: h leaves
     and comes back; or a ramp starting at a: h leaves and stays until the end) has

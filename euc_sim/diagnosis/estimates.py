@@ -79,7 +79,7 @@ def alias_estimates(problem: reg.Problem, selected, name: str, aliases, info: di
 
     Two aliases explain the residual with the same term (rolling resistance and a
     slope: both a constant force along the road while the speed keeps one sign,
-    NOTES fact 5).  The identified quantity is that combined term; swapping the
+    docs/diagnosis.md).  The identified quantity is that combined term; swapping the
     alias's column for ``name`` in the accepted set (h re-identified) maps it to the
     alias's CONTRACT unit: a C_rr for rolling resistance, α (rad) for a slope.
 

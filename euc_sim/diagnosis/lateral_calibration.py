@@ -1,4 +1,4 @@
-"""The lateral term calibrated on a simulated twin of the ride (issue 22, item 2).
+"""The lateral term calibrated on a simulated twin of the ride.
 
 Through the recording the ``lateral_dynamics`` estimate of a 3-D ride runs low: at 1 kHz the
 catalogued term fits the spatial model's coupling at s = 0.99–1.02, through a 120 Hz motion
@@ -154,8 +154,8 @@ def calibrate_item(item: dict, twin: dict, truth: float) -> dict | None:
     estimate is ĉ = c_first √s.  The interval adds, each way, the choices' relative reach
     (1 − min_k c_k / c_first, max_k c_k / c_first − 1) and the coupling interval's
     (1 − √(s_lo / s), √(s_hi / s) − 1) in quadrature: the two are independent errors.
-    Their product, the uncalibrated interval's rule, held the truth on 56 of 56 tuning rides
-    (seeds 3 and 101, issue 22), more than 95 %; in quadrature 62 of 64 (docs/coverage.md).
+    Quadrature rather than product: see
+    docs/coverage.md#calibrated-on-a-simulated-twin-of-the-ride-the-interval-measured-cause.
     """
     cp, ct = item["coupling"], twin["coupling"]
     if ct["s"] <= 0 or cp["s"] <= 0 or truth <= 0:

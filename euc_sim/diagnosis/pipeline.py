@@ -115,7 +115,7 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     cv_nominal, periodic = s.cv_nominal, None
     if left["gain"] >= th.generic_gain:
         # a periodic structure no candidate explains: select again with it fitted beside
-        # every set, so that it masks no catalogued effect (issue 24)
+        # every set, so that it masks no catalogued effect
         periodic = _periodic_columns(fin, problem.time)
         say("3/6 selection again, beside the periodic structure left")
         problem, info, s = _select(prep, h0, n_eff, th, say, periodic)

@@ -158,7 +158,7 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
     meta : mapping, optional
         Metadata for a DataFrame source (the sidecar's content).
     smoothing : processing.Smoothing, optional
-        Default: ``processing.DEFAULT_SMOOTHING`` (consistent filtering, NOTES fact 4).
+        Default: ``processing.DEFAULT_SMOOTHING`` (consistent filtering, docs/identification.md).
     rate : float
         Residual samples kept per second, Hz.
 

@@ -1,4 +1,4 @@
-"""The rider's motor-noise level read from the recorded ankle torque (issue 22, item 2).
+"""The rider's motor-noise level read from the recorded ankle torque.
 
 The simulator's rider adds an Ornstein–Uhlenbeck torque n(t) of standard deviation σ and
 correlation time τ to his delayed law (:func:`euc_sim.controllers.rider.motor_noise`): the recorded
@@ -11,10 +11,8 @@ the recorded M_h's second difference over that factor is σ̂²: the command con
 own (small) second difference, the noise the rest.  It needs no state, so the recording's
 sensor noise (which the torques do not carry) does not enter.
 
-Measured with ``scripts/rider_noise_check.py`` (the 3-D study's draw, σ = 0, 1.5, 3, 6 N·m,
-docs/coverage.md): on the tuning rides (seed 900, 8 rides) σ̂/σ = 0.985–1.032 and
-σ̂ ≤ 0.016 N·m at σ = 0; on 16 fresh rides (seed 901) 0.973–1.039 and ≤ 0.013 N·m.  The
-level assumes the correlation time of the twin's rider
+Accuracy: see docs/coverage.md#the-twin-carries-the-riders-own-motor-noise-the-unexplained-floor.
+The level assumes the correlation time of the twin's rider
 (``Rider.noise_tau``, 0.05 s): the twin carries the noise whose second differences the
 recording shows.
 

@@ -1,4 +1,4 @@
-"""Coverage of h's 95 % interval over independent simulated rides (issue 22).
+"""Coverage of h's 95 % interval over independent simulated rides.
 
 Each ride is its own draw of everything that varies between real rides: the
 maneuver's speeds and timing (:func:`draw_maneuver`), the rider's motor noise (and

@@ -20,7 +20,7 @@ analytic torques, so RMSE(h) on a whole grid of h is a few array operations.
 
 Consistent filtering: the numerator P is a linear combination, with constant
 coefficients, of the terms of the angular-momentum balance about the contact point
-(NOTES.md, item 1).  The same Gaussian low-pass is applied to P's three coefficient
+(docs/identification.md).  The same Gaussian low-pass is applied to P's three coefficient
 series (and hence to every term) while D, which varies by < 1 % along a ride, scales
 the filtered balance back to N·m.
 """
@@ -220,13 +220,8 @@ def _parabolic_min(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
     return grid[k] + np.clip(off, -1.0, 1.0) * step
 
 
-#: Moving-block bootstrap block, s.  The residual of the consistently filtered torques is
-#: correlated over about three term-filter σ (0.3 s), i.e. ~1 s; longer blocks are fewer
-#: per ride and, when a ride's information sits in one braking event, make the interval
-#: too narrow.  Over measurement noise on one trajectory 1 s blocks covered the true h
-#: in 91 % (deceleration) and 93 % (acceleration), 2 s blocks in 88 % and 91 %; over
-#: independent rides (scripts/coverage_study.py, issue 22) 1 s blocks alone cover
-#: 84-93 % (first seed 800000), which is why :func:`with_noise` widens the interval.
+#: Moving-block bootstrap block, s: about the correlation time of the filtered residual
+#: (three term-filter σ).  Value: see docs/coverage.md#what-the-interval-is-now.
 BOOTSTRAP_BLOCK = 1.0
 
 
@@ -241,15 +236,12 @@ def _block_sums(x: np.ndarray, L: int, starts: np.ndarray) -> np.ndarray:
 
 
 #: The identifiability threshold on the rise of RMSE(h) within ±0.1 m of its minimum
-#: (:attr:`HFit.flatness`).  Calibrated on the demo's dataset (15 s rides, the paper's
-#: noise) over seeds 1-4 (``scripts/identifiability_study.py --seeds 1 2 3 4``): the 28
-#: constant-speed rides rise 15-59 % (3-DoF) and 19-59 % (2-DoF), the 28 accelerating,
-#: braking and stop-and-go rides 93-605 % (3-DoF) and 68-377 % (2-DoF).  75 % sits in
-#: the 3-DoF gap with a factor 1.3 to either side.
+#: (:attr:`HFit.flatness`): it separates constant-speed rides from accelerating, braking
+#: and stop-and-go ones.  Value: see docs/identification.md.
 MIN_RISE = 0.75
 #: Widest 95 % interval still called identifiable, m (braking rides: 0.007-0.054 m).
 MAX_CI_WIDTH = 0.15
-#: Fewest bootstrap replicates that give a 95 % interval; with fewer (``--bootstrap 0``)
+#: Fewest bootstrap replicates that give a 95 % interval; with fewer (``--n-boot 0``)
 #: no verdict of "identifiable" is given.
 MIN_BOOT = 50
 #: Fewest bootstrap blocks (over all recordings) for the interval to mean anything: a
@@ -326,7 +318,7 @@ def with_noise(fit: HFit, spread, n_boot: int, block: float, blocks: int,
     (:func:`euc_sim.identification.noise_bootstrap.noise_spread`); the verdict is
     re-drawn on it.  Why both: on simulated rides the whole error of ĥ is measurement
     noise, which the block bootstrap under-covers; on real rides the model's own
-    misfit, which only the block bootstrap sees, adds to it (issue 22).
+    misfit, which only the block bootstrap sees, adds to it (docs/coverage.md).
 
     Parameters
     ----------
@@ -371,8 +363,7 @@ def with_full_block(reduced: HFit, full: HFit, n_boot: int, block: float, blocks
     its interval is 24 mm wide (the full model's 0.0 mm), and with the paper's noise it
     adds in quadrature (34.5 mm against the full model's 23.8 mm).  What the noise does to
     the two models' h is the same: over 100 decelerations their errors correlate at
-    0.997, their difference has an sd of 0.5 mm against 5.5 mm each (issue 22, tuning
-    seeds 1,700,000-1,700,099; ``docs/coverage.md``).
+    0.997 (docs/coverage.md#why-the-reduced-model-over-covered-tuning-seeds-700000-and-0).
 
     Parameters
     ----------
@@ -456,10 +447,9 @@ def _basic_interval(boot: np.ndarray, h: float, lo: float, hi: float) -> tuple[f
     """The basic (reverse-percentile) 95 % interval of the replicates ``boot`` about ``h``,
     within the search bounds [lo, hi], m.
 
-    The replicates' spread reflected about h.  Resampling blocks of a ride whose
-    information sits in one maneuver skews the replicates; the plain percentile interval
-    then covered the true h in only 74-80 % of 50 noise seeds, the basic one in 90-94 %
-    (the measurement-noise study that preceded issue 22's scripts/coverage_study.py).
+    The replicates' spread reflected about h: resampling blocks of a ride whose information
+    sits in one maneuver skews the replicates, which the basic interval follows and the plain
+    percentile one does not (docs/coverage.md#what-the-interval-is-now).
     """
     q_lo, q_hi = np.percentile(boot, [2.5, 97.5])
     return float(max(lo, 2 * h - q_hi)), float(min(hi, 2 * h - q_lo))

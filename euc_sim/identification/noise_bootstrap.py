@@ -1,17 +1,9 @@
 """What the measurement noise does to h: a parametric bootstrap over the recording's own noise.
 
-Why it is needed (issue 22): on noise-free recordings the consistent filter returns
-h = 0.6 m to 1e-5 m whatever the rider's sway, the filter's σ or the trajectory, so the
-whole error of ĥ comes from the measurement noise (``scripts/noise_ablation.py``, 80
-decelerations per variant).  Its scatter comes from the 0.5° noise on the rider's
-pitch φ: sd 4.4 mm with φ's noise alone, against 5.0 mm with all of it (γ alone
-0.24 mm, x alone 0.03 mm).  The angles enter the regressors that multiply h, so their
-noise also biases ĥ, as errors in variables do: −1.3 mm at the paper's noise (−0.1 mm
-with φ's noise alone), −0.5 and −3.7 mm at ½ and 2 times it, −2.9 and −0.9 mm with a
-term filter of 0.2 and 0.5 s.  The moving-block bootstrap over time resamples the
-filtered residual and misses part of the scatter: its intervals held the truth on 3
-of 6 independent decelerations, and on 84-93 % of 200 per maneuver kind
-(``scripts/coverage_study.py --first-seed 800000``).
+Why it is needed: the error of ĥ comes from the measurement noise, mostly the noise on
+the rider's pitch φ; the angles enter the regressors that multiply h, so their noise
+also biases ĥ (errors in variables), and the moving-block bootstrap over time misses
+part of the scatter.  See docs/coverage.md#where-the-error-of-h-comes-from.
 
 Here the noise itself is resampled: each measured column is split into a smooth part
 (a Savitzky–Golay fit of :data:`BASE_WINDOW`) and white noise whose σ is estimated from

@@ -14,13 +14,9 @@ Two recipes, one :class:`Smoothing` setting:
     q, q̇, q̈ straight from one long Savitzky–Golay fit (1 s, order 3), each
     derivative from the fitted polynomial (``savgol_filter(deriv=k)``).  Each
     derivative then has its own frequency response; on ~1 Hz motion the mismatch
-    biases h low by 5-10 % (NOTES.md, item 4) and sets the residual floor.
+    biases h low by 5-10 % and sets the residual floor.
 
-Measured by ``scripts/filter_study.py`` (simulated 15 s deceleration, true h = 0.6 m,
-the paper's noise, 10 seeds): the null residual RMSE(M_d,1 − M_d,2) at the true h is
-0.17 N·m consistent (σ = 0.3 s) against 0.50 N·m with the paper's recipe (1 s
-window), noise-free 3e-5 against 0.26 N·m; h comes out 0.596 ± 0.005 m against
-0.565 ± 0.005 m (noise-free 0.60000 against 0.570 m).
+The two compared (null residual and h): see docs/identification.md.
 
 Section 2 for motion-capture files (:func:`mocap_state`): C from the EUC pivot E
 with the Euler angles (yaw-tilt-pitch) and the C–E distance, r_CG in the moving

@@ -1,4 +1,4 @@
-"""h by simulation error in MuJoCo: a second opinion where both torques are recorded (issue 22).
+"""h by simulation error in MuJoCo: a second opinion where both torques are recorded.
 
 The recording is cut into windows of :data:`WINDOW` seconds.  Each window is rolled
 out open loop in the planar MuJoCo model (``ideal`` ground) with the recorded M_d and

@@ -1,4 +1,4 @@
-"""h by simulation error with MuJoCo's own toolbox, ``mujoco.sysid`` (issue 22, item 3).
+"""h by simulation error with MuJoCo's own toolbox, ``mujoco.sysid``.
 
 The same problem as :mod:`euc_sim.identification.rollout_fit` (1 s windows, each with
 a free initial state (x, γ, φ, ẋ, γ̇, φ̇), residual Σ((q_sim − q_rec)/σ)² over x, γ, φ),

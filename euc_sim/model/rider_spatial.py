@@ -13,9 +13,8 @@ the nuisance h does not enter the accelerations):
     ΔF = m (a_plane + g e_u) − m (a_G + g e_Z),       a_plane = (ẍ + ξ̈) e_f + ζ̈ e_u,
     Q_x = ΔF·e_f,   Q_γ = ΔF·(−l0 cos γ e_f + l0 sin γ e_u),   Q_φ = ΔF·(h cos φ e_f − h sin φ e_u).
 
-``scripts/lateral_ablation.py`` measured (noise-free 3-D rides, the 1 kHz truth) that the
-rider's translation and rotation are the whole remainder ``lateral_dynamics`` leaves
-(``docs/spatial.md``); this is the observable half of the fix.
+The rider's translation and rotation are the whole remainder ``lateral_dynamics`` leaves
+(docs/spatial.md, the ablation); this is the observable half.
 """
 
 from __future__ import annotations

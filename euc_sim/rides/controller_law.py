@@ -63,8 +63,7 @@ __all__ = ["LawUnavailable", "LawRows", "Law", "CATALOG", "BASE", "V_MIN", "MAX_
 #: A kept term must lower the held-out RMS error by this fraction.
 MIN_GAIN = 0.01
 #: The acceleration set-point, tried after the other terms, must lower the held-out
-#: RMS error by this fraction (set on the synthetic closed-loop rides of
-#: euc_sim/rides/lawsynth.py, where 1 % let it take half of K_p: a tuning choice).
+#: RMS error by this fraction.  Value: see docs/controller.md.
 ACCEL_GAIN = 0.05
 #: Rows on either side of a row at the torque limit left out of the fit, and passes
 #: of the censoring (:func:`_censored_lstsq`).

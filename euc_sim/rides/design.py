@@ -370,7 +370,7 @@ def balance_design(sig: RideSignals, domain: str = "power",
     ``road_slope`` (a constant grade) is offered only when the speed changes sign
     on at least ``sign_change_fraction`` of the moving samples: otherwise its
     column m·g·v equals the rolling-resistance column m·g·|v| and the two alias
-    exactly (NOTES.md item 5); the design then says so in ``aliases`` and the
+    exactly (docs/diagnosis.md); the design then says so in ``aliases`` and the
     rolling-resistance estimate stands for C_rr + sin α.  ``road_slope_gps`` needs
     GPS altitude.
 

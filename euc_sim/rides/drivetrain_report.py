@@ -29,7 +29,7 @@ from euc_sim.rides.sanity import input_warnings, mass_suspicion
 from euc_sim.rides.systematic import mass_difference
 from euc_sim.rides.verdict import unit_label
 
-__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "plot_envelope", "envelope_figure", "plot_pwm",
+__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "ride_drivetrain", "plot_envelope", "envelope_figure", "plot_pwm",
            "pwm_figure", "page_section", "TYRE_MU",
            "COMPUTED_PWM_RMS", "computed_pwm_note"]
 
@@ -367,3 +367,28 @@ def page_section(rep: dict, figures: dict) -> list[str]:
     for name, why in rep.get("unidentified", {}).items():
         md.append(f"- Not identified, {name}: {why}.")
     return md + [""]
+
+
+def ride_drivetrain(log, compare=None, spec=None, n_boot: int = 200, seed: int = 0):
+    """Mass, drivetrain, PWM and envelope of a ride log, as ``euc-sim ride`` reports them.
+
+    Parameters
+    ----------
+    log, compare : path
+        The fit ride and, optionally, the held-out ride.
+    spec : WheelSpec, optional
+        The wheel's specification (default: none known).
+    n_boot : int
+        Bootstrap replicates of the mass fit.
+    seed : int
+        Seed of the bootstrap draws.
+
+    Returns
+    -------
+    tuple
+        :func:`drivetrain_report`'s (report, fit, test).
+    """
+    from euc_sim.rides.power import MassSettings
+    from euc_sim.rides.spec import WheelSpec
+
+    return drivetrain_report(log, spec or WheelSpec(), compare, MassSettings(n_boot=n_boot, seed=seed))

@@ -9,7 +9,7 @@ k_cu·I_ph² + P₀`` over a window of length T centred on t gives, exactly::
 with ``Δ_T x = x(t + T/2) − x(t − T/2)``.  The moving mean is one linear filter
 applied to every term, and the moving mean of a derivative *is* the window's
 difference over T: no derivative of a noisy speed is taken and the filter
-cannot bias the coefficients (the state-variable-filter idea, NOTES fact 4).
+cannot bias the coefficients (the state-variable-filter idea, docs/identification.md).
 If the model were complete every window would return the same mass; what
 differs between windows is dynamics the model leaves out (logging latency, the
 apps' own smoothing of current and speed), and :func:`euc_sim.rides.mass.fit_mass`

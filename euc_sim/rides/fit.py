@@ -156,8 +156,8 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
     autocorrelation within a block is kept, and so is the residual's
     dependence on the regime (an inertia-only fit leaves large residuals on
     the regenerating rows, which a moving-block bootstrap would carry onto the
-    motoring rows, biasing η_m so far that its estimate fell outside its own
-    interval: issue 20).  The replicates then centre on the estimate, and a
+    motoring rows, biasing η_m so far that its estimate could fall outside its
+    own interval).  The replicates then centre on the estimate, and a
     parameter on its bound stays on or inside it, so the percentiles respect
     the bound.
 

@@ -9,7 +9,7 @@ mounting offset, phase current = M_d/K_t in 0.1 A steps with noise);
 :func:`wheellog_log` as WheelLog does (0.2 s rows, a third of the time stamps
 repeated, pitch in 0.01°, the wheel's ``torque`` in 0.01 N·m).  The truth is
 returned, never written beside the log.  :func:`draw_law` draws a concealed law
-for the blind study (``scripts/blind_study.py --laws N``).
+for the blind study (``scripts/tables/blind_study.py --laws N``).
 """
 
 from __future__ import annotations

@@ -165,8 +165,8 @@ def speed_scale(log, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
     Two measurements: the Doppler speed (least squares through the origin of
     GPS speed on wheel speed) and the track (the distance between successive
     GPS fixes over the wheel's ∫v dt between them, both moving).  On the
-    shared rides the track reads 0.2–4.5 % above the Doppler ratio (issue 20:
-    integrated Doppler speed reads low at city speeds); neither is known to be
+    shared rides the track reads 0.2–4.5 % above the Doppler ratio (integrated
+    Doppler speed reads low at city speeds; docs/drivetrain.md); neither is known to be
     right, so the standard deviation covers both: √(0.01² + (difference/2)²).
     ``method`` picks the estimate (:class:`MassSettings`'s ``scale_method``).
 

@@ -17,9 +17,7 @@ __all__ = ["speed_profile", "write_speed_profile", "rider_plan", "PLAN_WINDOW", 
 
 #: The rider's plan: the logged speed smoothed over this many seconds.  The logged speed
 #: holds the rider's own sway; a simulated rider told to follow it corrects every wobble
-#: as if intended (on the concealed-rider ride of ``scripts/rider_calibration.py``, tuning
-#: seed 11, the 0.15-0.6 Hz bands of power, torque and pitch come out 3-4 times the log's
-#: with the 1.5 s-smoothed speed as the plan, within 10 % with the 6 s-smoothed one).
+#: as if intended.  Value: see docs/rider_calibration.md#proof-on-a-concealed-rider.
 PLAN_WINDOW = 6.0
 
 #: A wheel-speed rise counts as paid for while its kinetic energy ½m(v₁² − v₀²) is at most
@@ -28,15 +26,8 @@ PLAN_WINDOW = 6.0
 #: more kinetic energy than the battery gives plus what a descent gives (efficiency ≤ 1, the
 #: wheel's own inertia and the resistances only add to what is needed); the factor and the
 #: margin allow for power samples that miss part of the span, SPIN_GRADE for the steepest
-#: descent allowed (15 %: 1.47 m/s² with no power at all).  Set on physical grounds, not
-#: fitted, but after looking at lynx/0 (spikes at 1,813.7 s and 1,819.3 s, the held-out ride
-#: of lynx 2 -> 0) and master_pro_V2/6 (a paid acceleration at 305.4 s).  Three forms came
-#: before this one: m·a·v against 2·P + 500 W between adjacent rows flagged 29 rises of
-#: 0.07-1.19 m/s on master_pro_V2/6, which led to the descent allowance and the 0.3 s span;
-#: that form, with the span's largest power sample, missed lynx/0's 1,819.3 s spike (the motor
-#: drew 2.1 kW while the wheel spun up), and the energy form replaced it.  The figures of
-#: those two rides are therefore tuning figures; the other logs are the check
-#: (docs/ride_falls.md).
+#: descent allowed (15 %: 1.47 m/s² with no power at all).  Values: see
+#: docs/ride_falls.md#the-measured-cause.
 SPIN_POWER_FACTOR = 2.0
 SPIN_POWER_MARGIN = 500.0
 SPIN_GRADE = 0.15
@@ -46,10 +37,8 @@ SPIN_MIN_DT = 0.3
 G = 9.81                  # m/s²
 UNKNOWN_POWER = 1e6       # W: a row without battery power pays for any rise
 #: The longest a wheel spinning free is followed after the top of the unpaid rise, s; it ends
-#: where its speed is back within SPIN_BACK (m/s) of where it rose from.  (The first form
-#: followed the fall only to where it stopped falling: on apex/0 at 815.8 s, a wheel spinning
-#: up 3.6 -> 33.8 m/s and holding 1.4 s, it ended on the plateau and the bridge rose to
-#: 33 m/s; found by the ``firmware`` run of ``scripts/ride_falls.py``.)
+#: where its speed is back within SPIN_BACK (m/s) of where it rose from (a wheel that spins up
+#: and holds is followed past its plateau).  Values: see docs/ride_falls.md.
 SPIN_MAX_SPAN = 5.0
 SPIN_BACK = 0.5
 

@@ -3,7 +3,7 @@
 The default rider (:func:`euc_sim.controllers.design.design_rider`, 0.15 s, Bryson's weights, no
 noise) corrects harder than real riders: along real rides its battery power peaks at
 2–2.5 kW where the log shows about 1 kW.  Here the rider's three free settings are fitted
-to what the log shows of the rider (issue 21, item 3):
+to what the log shows of the rider:
 
 ``delay`` τ, s
     the reaction delay (the predictor is tuned to it, :mod:`euc_sim.controllers.rider`);

@@ -1,4 +1,4 @@
-"""The calibrated rider's three settings and the rider they make (issue 21, item 3).
+"""The calibrated rider's three settings and the rider they make.
 
 :data:`RIDER_PARAMS` names each fitted setting with its nominal value, search bounds and unit;
 :func:`rider_from` designs the rider for given values.  The fit is

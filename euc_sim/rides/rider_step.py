@@ -1,4 +1,4 @@
-"""The ``calibrated_rider`` step of the simulated ride: the rider fitted on the fit ride (issue 21, item 3).
+"""The ``calibrated_rider`` step of the simulated ride: the rider fitted on the fit ride.
 
 :func:`calibrated_rider_step` is one more builder of :mod:`euc_sim.rides.sim_steps`, between the
 measured law and the drivetrain (:data:`RIDER_STEPS`); the fit itself is

@@ -1,6 +1,6 @@
 """Suspicions about a ride's input, said plainly instead of a confident absurd mass.
 
-Issue 20: a spec whose weight or voltage is absurd, or a log in the wrong units
+A spec whose weight or voltage is absurd, or a log in the wrong units
 (mph read as km/h, mA read as A), must give one line and exit 2, or a warning
 naming the suspicion; never a confident, absurd mass.  The spec's own values are
 refused by :func:`euc_sim.rides.spec.read_spec` (:data:`SPEC_RANGE`); what only

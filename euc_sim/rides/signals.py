@@ -8,7 +8,7 @@ current at ~5 Hz, irregularly, and no rider lean.  This module
    longer gaps (never bridging them);
 2. smooths and differentiates with one Savitzky–Golay fit (:func:`sg`), the same
    linear filter applied to every term of the balance equation (the
-   state-variable-filter idea of NOTES.md item 4);
+   state-variable-filter idea of docs/identification.md);
 3. computes battery power P = V·I and infers the motor torque
    (:func:`wheel_torque`), stating which method was used.
 
@@ -26,7 +26,7 @@ Schafer's rule its −3 dB frequency is ≈ (p+1)/(3.2·N − 4.6)·f_s ≈ 0.7 
 the ~0.1–0.5 Hz of a rider's speed changes and well below the 2.5 Hz Nyquist
 frequency of the raw data, so interpolation artefacts and the 0.01 km/h speed
 quantisation are suppressed while accelerations are kept.  A longer window
-lowers noise but biases accelerations (NOTES.md item 4); filtering every term
+lowers noise but biases accelerations (docs/identification.md); filtering every term
 alike cancels most of that bias in the regression.
 """
 
@@ -42,7 +42,7 @@ from scipy.signal import savgol_filter
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.logs import RideLog, read_log
 
-__all__ = ["RideAssumptions", "RideSignals", "as_log", "resample", "sg", "window_samples",
+__all__ = ["RideAssumptions", "RideSignals", "with_found_values", "as_log", "resample", "sg", "window_samples",
            "wheel_torque", "ride_signals", "break_at_gaps", "check_readings", "PLAUSIBLE_READING"]
 
 
@@ -423,3 +423,38 @@ def break_at_gaps(t: np.ndarray, *ys: np.ndarray):
     out = [np.insert(t, cut, np.nan)]
     out += [np.insert(np.asarray(y, float), cut, np.nan) for y in ys]
     return tuple(out)
+
+
+def with_found_values(assumptions, spec, total_mass: dict):
+    """The balance fit's assumptions with the spec's radius and the mass this log gives.
+
+    A value given on the command line stays; otherwise the radius comes from the
+    spec and the total mass (with m_eq, eq. 6) from ``total_mass`` (the ride
+    JSON's object, found from the log), and only what neither gives keeps Table
+    3's default.  ``sources`` says which is which.
+
+    Parameters
+    ----------
+    assumptions : RideAssumptions
+    spec : WheelSpec or None
+    total_mass : dict
+        The ride JSON's ``total_mass`` (``estimate`` None when not identified).
+
+    Returns
+    -------
+    RideAssumptions
+        A new object.
+    """
+    import dataclasses
+
+    src = dict(assumptions.sources)
+    new = {}
+    if "R" not in src and spec is not None and spec.radius is not None:
+        new["R"] = spec.radius
+        src["R"] = f"spec ({spec.name or 'wheel'}: wheel diameter)"
+    m = (total_mass or {}).get("estimate")
+    if "total_mass" not in src and m is not None and m > 0:
+        eq = (total_mass.get("equivalent_mass") or {}).get("estimate")
+        new["total_mass"], new["m_eq"] = m, (eq if eq is not None else m)
+        src["total_mass"] = "found from this log's energy balance (total_mass)"
+    return dataclasses.replace(assumptions, sources=tuple(src.items()), **new)

@@ -1,6 +1,6 @@
 """The simulation of a ride as an ordered list of modelled steps (the ride JSON's ``simulation.steps``).
 
-Issue 21 item 4: the simulator rides the held-out log's speed profile once per step,
+The simulator rides the held-out log's speed profile once per step,
 each step adding one modelled piece to the one before it, so the held-out error
 after each step shows what that piece bought (locate, name, model, show the fit improve):
 
@@ -45,8 +45,8 @@ __all__ = ["SimStep", "motor_from_law", "StepInputs", "LogChannels", "nominal_st
            "drivetrain_step", "STEP_BUILDERS", "SIM_EFFECTS", "effects_to_inject", "build_steps", "TARGET_RATIO", "CHANNELS",
            "log_channels", "simulated_pwm"]
 
-#: Issue 21's target: a step's held-out battery-power error within this many times the
-#: balance fit's held-out error.
+#: Target: a step's held-out battery-power error within this many times the balance fit's
+#: held-out error (docs/ride_simulation.md).
 TARGET_RATIO = 1.2
 
 #: Channels a step is scored on: column stem -> (JSON key, unit, what).

@@ -2,7 +2,7 @@
 
 A real rider who stops for more than a moment puts a foot down (or has not stepped on
 yet: most logs begin with the wheel switched on and standing).  The logs say so
-(``python scripts/stop_power.py``, docs/ride_simulation.md): at the stops of
+(``python studies/stop_power.py``, docs/ride_simulation.md): at the stops of
 :data:`T_STOP` s or more of the 20 shared logs that have them, the battery power's median
 is 0–1 W (8–10 W on the four V9 logs, whose wheel draws that idling), its 90th percentile
 at most 32 W, while at the shorter stands of the Begode and V9 logs the median is 9–31 W

@@ -2,7 +2,7 @@
 
 The block bootstrap of :mod:`euc_sim.rides.mass` measures how much the mass
 moves with the ride's own noise.  It cannot see the parts of the answer that
-are the same on every replicate (issue 20):
+are the same on every replicate:
 
 - ``speed_scale``: m ∝ 1/k², k the true over the logged speed; from GPS with
   its own standard deviation (:func:`euc_sim.rides.power.speed_scale`), else
@@ -20,7 +20,7 @@ Each is a 95 % half-width in kg; they are added in quadrature to each side of
 the bootstrap interval (:func:`combined_interval`).
 
 The two priors are fixed constants, not fitted per ride.  They were set from
-the shared rides (``scripts/real_rides_study.py`` re-chooses both from the
+the shared rides (``scripts/tables/real_rides_study.py`` re-chooses both from the
 other wheels when it scores a wheel, leaving that wheel out, as it does the
 speed-scale method and the copper-loss model).
 """
@@ -35,9 +35,8 @@ __all__ = ["CURRENT_SCALE_SD", "GRADE_SHARE", "combined_interval", "speed_scale_
 #: Systematic parts one wheel shares between its rides: they cancel from a difference.
 SHARED_BY_A_WHEEL = ("current_scale", "rotating_share")
 
-#: Relative standard deviation of a wheel's battery-current scale (prior): the RMS of
-#: the nine shared wheels' mean relative mass errors (0.098; a tuning figure, re-chosen
-#: from the other wheels by the leave-one-wheel-out study).
+#: Relative standard deviation of a wheel's battery-current scale (prior).  Value: see
+#: docs/drivetrain.md#figures-that-hold-on-wheels-nobody-tuned-on.
 CURRENT_SCALE_SD = 0.10
 #: Without GPS altitude: the grade's 95 % half-width as a share of the mass (prior): the
 #: median over the shared rides with altitude (0.019; re-chosen per fold likewise).

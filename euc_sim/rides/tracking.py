@@ -30,8 +30,7 @@ __all__ = ["limit_acceleration", "rider_acceleration_limit", "resisting_accelera
 #: (:func:`rider_acceleration_limit`, 1.5 m/s² for Table 3).  Starting or stopping an
 #: acceleration makes the rider's lean overshoot its trim about twice over (the plant is
 #: non-minimum-phase in speed: to lean back, the wheel must first run ahead), so the rest of
-#: the range is the transient's.  A tuning figure: chosen on four fall windows of
-#: ``scripts/ride_falls.py`` (blitz/1, blitz/4, master_pro_V2/3, mten4/0), scored on all 21 logs.
+#: the range is the transient's.  Value: see docs/ride_falls.md#the-fix.
 LEAN_SHARE = 0.3
 
 

@@ -1,6 +1,6 @@
 """The one-line verdict of a ride: what it names, and what it refuses to name.
 
-A ride page must never contradict itself (issue 20): an effect the balance fit
+A ride page must never contradict itself: an effect the balance fit
 accepts but whose estimate lies outside its plausible range is a *candidate*,
 not the verdict, and a log whose V·I is not battery power gets no
 battery-power verdict at all.  :func:`ride_verdict` turns the ``euc-sim ride``

@@ -12,7 +12,7 @@ engine) to 1e-9 rad (``tests/simulation/test_batch.py``).
 Not here: the catalog's effects and the contact ground (use the per-ride engine);
 a ride that falls is frozen at its fall and flagged (``BatchRun.fell``).
 
-Role since issue 23: a cross-check only.  Studies (``dataset``, the blind study,
+Role: a cross-check only.  Studies (``dataset``, the blind study,
 both ``design`` modules) run their rides through MuJoCo batches on threads
 (:mod:`euc_sim.simulation.mujoco_batch`, every batchable effect, both grounds);
 this engine, a second and independent integration of eqs. (5)-(8), is held to

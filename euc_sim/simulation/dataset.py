@@ -33,7 +33,7 @@ __all__ = ["PAPER_SET", "DEFAULT_RIDER_NOISE", "RecordingSpec", "simulated_recor
            "write_simulated", "dataset_plan", "run_dataset"]
 
 #: The paper's longitudinal maneuvers (Table 1) and how many recordings of each, plus
-#: stop-and-go, which the paper's NOTES single out for h.
+#: stop-and-go, which identifies h best (docs/scale.md).
 PAPER_SET = (("constant_speed", 7), ("acceleration", 3), ("deceleration", 2), ("stop_and_go", 2))
 
 

@@ -11,7 +11,7 @@ a candidate term of the residual.  Effects that change a parameter (rider mass,
 centre-of-gravity height) or a measurement (time offset of the rider channel) have no
 generalised force: they act through :func:`apply_to_params` or on the recording.
 
-What a recording without torques can reveal (NOTES.md, fact 1): the driving-torque
+What a recording without torques can reveal (docs/diagnosis.md): the driving-torque
 residual M_d,1 − M_d,2 equals κ(q)·(R Q_e,x + Q_e,γ + Q_e,φ) (see
 :func:`euc_sim.model.analytic.kinematic_residual`): the moment of the extra forces about
 the wheel–ground contact point P.  Torques between bodies (motor, ankle, bearing

@@ -19,10 +19,8 @@ from euc_sim.model.parameters import Params
 LATERAL_INPUTS = ("theta", "theta_d", "psi_d", "psi_dd")
 
 #: The couplings' bandwidth: the window, s, of the cubic Savitzky–Golay fit through which
-#: the tilt and yaw enter the lateral term.  0.5 s follows the figure-eight's yaw
-#: reversals (1.25 s curvature ramps) with the paper's angle noise: held-out 0.245 ->
-#: 0.175 N·m on the 3-D figure-eight, 0.082 -> 0.075 on the circle, and equal or lower on
-#: the planar lateral cases of blind-study seeds 7 and 21.
+#: the tilt and yaw enter the lateral term: it follows the figure-eight's yaw reversals
+#: (1.25 s curvature ramps) with the paper's angle noise.  Value: see docs/spatial.md.
 LATERAL_WINDOW = 0.5
 
 
@@ -281,17 +279,12 @@ RIDER_MARKER_INPUTS = ("psi", "G_dd", "x_dd", "xi_dd", "zeta_dd")
 def rider_spatial_correction(p: Params, q, qd, extra: dict) -> np.ndarray:
     """The rider's translation in space where G's marker is recorded.
 
-    ``scripts/lateral_ablation.py`` (noise-free 3-D rides, the 1 kHz truth) found the whole
-    remainder that :func:`lateral_forces` + :func:`rider_lean_forces` leave in the rider:
-    his translation (the first-order lean terms miss 0.3-4 N·m RMS) and his rotation
-    (the upright slender (J_z − J) term and his twist), the two errors anti-correlated
-    (−0.9).  This replaces the modelled translation of the rider (the m-linear part of
-    both terms) by the one the marker G measures
-    (:func:`euc_sim.model.rider_spatial.rider_translation_forces`).  The rider's rotation
-    keeps the isotropic convention (the slender term is the interval's alternative,
-    ``diagnosis.candidates``): with it in the column the 3-D estimates fell 5-6 % below
-    the truth through the recording (fresh seeds 101-103) and the planar lateral cases,
-    whose simulator injects the isotropic rider, 4.8 % (``docs/spatial.md``).
+    Replaces the modelled translation of the rider (the m-linear part of
+    :func:`lateral_forces` + :func:`rider_lean_forces`) by the one the marker G measures
+    (:func:`euc_sim.model.rider_spatial.rider_translation_forces`): the rider's translation
+    and rotation are what those terms leave (docs/spatial.md, the ablation).  The rider's
+    rotation keeps the isotropic convention (the slender term is the interval's
+    alternative, ``diagnosis.candidates``).
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """Run many named tasks (rides, recordings, diagnoses) serially, in a process pool or on Dask.
 
-One engine for ``euc-sim dataset``, ``scripts/blind_study.py`` and the sweeps of
+One engine for ``euc-sim dataset``, ``scripts/tables/blind_study.py`` and the sweeps of
 ``euc-sim design``: :func:`run_tasks` calls ``fn(arg)`` for every named task and
 returns a :class:`RunReport` (results by name, failures by name, a summary table).
 

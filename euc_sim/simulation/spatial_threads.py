@@ -1,4 +1,4 @@
-"""Many 3-D rides at once: :func:`~euc_sim.simulation.spatial.simulate_3d` on threads (issue 23).
+"""Many 3-D rides at once: :func:`~euc_sim.simulation.spatial.simulate_3d` on threads.
 
 The planar rides of a study go to ``mujoco.batch.Batch``
 (:mod:`euc_sim.simulation.mujoco_batch`); the 3-D rides run natively, one ``MjData`` each,

@@ -42,7 +42,7 @@ def _fails(argv, match, capsys, tmp_path):
 
 @pytest.mark.parametrize("command", ["torques", "identify"])
 def test_sidecar_params_list_or_not_utf8(tmp_path, capsys, command):
-    extra = ["--out", tmp_path / "T.csv"] if command == "torques" else ["--bootstrap", "50"]
+    extra = ["--out", tmp_path / "T.csv"] if command == "torques" else ["--n-boot", "50"]
     rec = _write(tmp_path, meta={"params": [1, 2]})
     _fails([command, rec, *extra], r"rec\.json: \"params\" must be an object .* got list", capsys,
            tmp_path)
@@ -81,7 +81,9 @@ def test_implausible_values_and_units(tmp_path, capsys):
 
 def test_culprits_are_named_before_the_work(tmp_path, capsys):
     rec = _write(tmp_path)
-    _fails(["identify", rec, "--plot", tmp_path / "f.xyz"], r"figure .*f\.xyz: unknown format 'xyz'",
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    _fails(["identify", rec, "--report", blocker], r"cannot write .*file/identify\.png",
            capsys, tmp_path)
     with pytest.raises(SystemExit) as exc:
         main(["identify", str(rec), "--seed", "-5"])
@@ -95,7 +97,7 @@ def test_little_data_is_not_called_identifiable(tmp_path, capsys):
                  "--out", str(rec)]) == 0
     assert main(["identify", str(rec), "--json", str(tmp_path / "o.json")]) == 0
     assert json.loads((tmp_path / "o.json").read_text())["models"]["3dof"]["identifiable"]
-    for opt, why in ((["--block", "1000"], "block"), (["--bootstrap", "0"], "too few")):
+    for opt, why in ((["--block", "1000"], "block"), (["--n-boot", "0"], "too few")):
         assert main(["identify", str(rec), *opt, "--json", str(tmp_path / "o.json")]) == 0
         out = json.loads((tmp_path / "o.json").read_text())
         assert not out["models"]["3dof"]["identifiable"]
@@ -115,13 +117,14 @@ def test_torques_mark_the_filter_edges(tmp_path, capsys):
 
 def test_single_recording_figures_are_named_for_what_they_show(tmp_path, capsys):
     rec = _write(tmp_path, _frame(1800), name="decel.csv")
-    assert main(["identify", str(rec), "--bootstrap", "50", "--plot", str(tmp_path / "decel.png")]) == 0
-    assert (tmp_path / "decel.png").exists() and (tmp_path / "decel-torques.png").exists()
-    assert not (tmp_path / "decel-decel.png").exists()
+    assert main(["identify", str(rec), "--n-boot", "50", "--report", str(tmp_path)]) == 0
+    fig8, figs67 = tmp_path / "identify.png", tmp_path / "identify-torques.png"
+    assert fig8.exists() and figs67.exists()
+    assert not (tmp_path / "identify-decel.png").exists()
     # issue 19, item 14: every file written is announced, and the help says there are two
     printed = [ln.removeprefix("wrote ") for ln in capsys.readouterr().out.splitlines() if ln.startswith("wrote ")]
-    on_disk = sorted(str(p) for p in tmp_path.glob("decel*.png"))
-    assert sorted(printed) == on_disk == [str(tmp_path / "decel-torques.png"), str(tmp_path / "decel.png")]
+    on_disk = sorted(str(p) for p in tmp_path.glob("*.png"))
+    assert sorted(printed) == on_disk == [str(figs67), str(fig8)]
     from euc_sim.cli.app import build_parser
     with pytest.raises(SystemExit):
         build_parser().parse_args(["identify", "--help"])

@@ -5,7 +5,7 @@ import json
 from euc_sim.cli import main
 def test_demo_writes_its_pages_and_finds_the_concealed_effect(tmp_path, capsys):
     out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out)]) == 0
+    assert main(["demo", "--out-dir", str(out)]) == 0
     index = (out / "index.md").read_text()
     assert "h identified with both models" in index and "the paper, measured" in index
     assert (out / "identification.png").stat().st_size > 10_000

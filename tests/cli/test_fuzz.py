@@ -120,7 +120,7 @@ def test_fuzz_torques(df, raw, side):
 @SETTINGS
 @given(df=recordings(), raw=st.none() | raw_files, side=sidecars)
 def test_fuzz_identify(df, raw, side):
-    _case(lambda d: _run(["identify", _write(d, df, raw, side), "--bootstrap", "0",
+    _case(lambda d: _run(["identify", _write(d, df, raw, side), "--n-boot", "0",
                           "--json", d / "o.json"], d, ["o.json"]))
 
 

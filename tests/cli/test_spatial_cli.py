@@ -28,7 +28,7 @@ def test_simulate_3d_writes_a_mocap_recording(eight):
 
 def test_section_2_runs_on_a_3d_recording(eight, tmp_path, capsys):
     out = tmp_path / "id.json"
-    assert main(["identify", str(eight), "--json", str(out), "--bootstrap", "20"]) == 0
+    assert main(["identify", str(eight), "--json", str(out), "--n-boot", "20"]) == 0
     res = json.loads(out.read_text())
     rider = res["per_recording"][0]["rider"]
     on_bound = min(abs(rider["delay"] - b) for b in rider["search"]) < 1e-9
@@ -87,7 +87,7 @@ def test_render_progress_can_be_switched_off(eight, tmp_path, capsys):
     if not _gl_available():
         pytest.skip("no OpenGL backend (MUJOCO_GL=egl needs libegl1 + libegl-mesa0)")
     assert main(["render", str(eight), "--out", str(tmp_path / "r.gif"), "--fps", "2", "--width", "32",
-                 "--height", "32", "--no-progress"]) == 0
+                 "--height", "32", "--quiet"]) == 0
     assert capsys.readouterr().err.splitlines() == [f"render: wrote {tmp_path / 'r.gif'} (6 frames)"]
 
 
@@ -105,7 +105,7 @@ def test_an_encoder_failure_is_one_line_and_leaves_nothing(eight, tmp_path, caps
     monkeypatch.setattr(iio, "imwrite", broken)
     out = tmp_path / "ride.mp4"
     assert main(["render", str(eight), "--out", str(out), "--fps", "2", "--width", "32",
-                 "--height", "32", "--no-progress"]) == 2
+                 "--height", "32", "--quiet"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and str(out) in err[0] and "encoder failed" in err[0]
     assert list(tmp_path.iterdir()) == []

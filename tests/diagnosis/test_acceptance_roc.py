@@ -1,15 +1,10 @@
-"""scripts/acceptance_roc.py: which first-step candidate a different acceptance rule would judge."""
+"""scripts/tables/acceptance_roc.py: which first-step candidate a different acceptance rule would judge."""
 
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT / "scripts") not in sys.path:
-    sys.path.insert(0, str(ROOT / "scripts"))
-
-import acceptance_roc as roc  # noqa: E402
+from euc_sim.evaluation import acceptance_roc as roc
 
 
 def _history(reason: str, accepted: bool, chosen: str) -> list[dict]:

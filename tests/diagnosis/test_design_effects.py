@@ -59,9 +59,9 @@ def test_nominal_magnitudes_sit_in_the_plausible_range():
 
 
 @pytest.mark.parametrize("text, message", [
-    ("drag", "--effects: unknown drag; valid: all, rolling_resistance"),
-    ("road_slope,road_slope", "--effects: an effect is listed twice"),
-    ("", "--effects: unknown (none given)"),
+    ("drag", "--effect: unknown drag; valid: all, rolling_resistance"),
+    ("road_slope,road_slope", "--effect: an effect is listed twice"),
+    ("", "--effect: unknown (none given)"),
 ])
 def test_parse_effects_names_the_option(text, message):
     with pytest.raises(ValueError, match=message.replace("(", r"\(").replace(")", r"\)")):

@@ -1,6 +1,6 @@
 """euc-sim diagnose: the residual, the candidate physics, and a small blind study.
 
-The blind study here is a small version of ``scripts/blind_study.py``: recordings
+The blind study here is a small version of ``scripts/tables/blind_study.py``: recordings
 made by the closed-loop simulator with one effect concealed (truth only in
 NAME.truth.json), diagnosed from the CSV and its sidecar alone.  Its seed (2024) was
 fixed before the first run and is not tuned.
@@ -27,17 +27,9 @@ from euc_sim.model.parameters import TABLE3
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _blind_module():
-    """scripts/blind_study.py, importable by name (its worker processes unpickle it)."""
-    scripts = str(ROOT / "scripts")
-    if scripts not in sys.path:
-        sys.path.insert(0, scripts)
-    import blind_study
-    return blind_study
+from euc_sim.evaluation import blind_scoring as SCORING  # noqa: E402
+from euc_sim.evaluation import blind_study as BLIND  # noqa: E402
 
-
-BLIND = _blind_module()
-import blind_scoring as SCORING  # noqa: E402  (beside blind_study, on the path it set)
 SEED = 2024
 DURATION = 15.0
 

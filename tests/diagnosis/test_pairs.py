@@ -1,7 +1,7 @@
 """Two missing effects at once (issue 24): found jointly, neither masking the other.
 
-Recordings with two concealed effects (``scripts/blind_study.py``'s ``make_recording``),
-diagnosed blind; and the pair scoring of ``scripts/blind_scoring.py``.
+Recordings with two concealed effects (:func:`euc_sim.evaluation.blind_study.make_recording`),
+diagnosed blind; and the pair scoring of :mod:`euc_sim.evaluation.blind_scoring`.
 """
 
 from __future__ import annotations
@@ -12,11 +12,8 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT / "scripts") not in sys.path:
-    sys.path.insert(0, str(ROOT / "scripts"))
-
-import blind_scoring as SCORING  # noqa: E402
-import blind_study as BLIND  # noqa: E402
+from euc_sim.evaluation import blind_scoring as SCORING  # noqa: E402
+from euc_sim.evaluation import blind_study as BLIND  # noqa: E402
 
 #: name: (effects, maneuver, its options, hide torques, push, drift shape)
 PAIRS = {

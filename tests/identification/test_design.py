@@ -39,7 +39,7 @@ def test_recordings_for_pools_as_one_over_root_n():
 def test_cli_design_writes_the_contract_json(tmp_path, capsys):
     out = tmp_path / "d.json"
     code = main(["design", "--maneuvers", "constant_speed,deceleration", "--rides", "3", "--duration", "5",
-                 "--noise-scales", "1", "--json", str(out), "--workers", "1", "--no-progress"])
+                 "--noise-scales", "1", "--json", str(out), "--workers", "1", "--quiet"])
     assert code == 0
     data = json.loads(out.read_text())
     assert [m["maneuver"] for m in data["maneuvers"]] == ["constant_speed", "deceleration"]
@@ -63,11 +63,11 @@ def test_cli_design_bad_input_is_one_line_exit_2(argv, message, capsys, tmp_path
 
 
 def test_cli_design_with_effects_extends_the_contract_json(tmp_path, capsys):
-    out, png = tmp_path / "d.json", tmp_path / "e.png"
+    out, png = tmp_path / "d.json", tmp_path / "figs" / "design_effects.png"
     code = main(["design", "--maneuvers", "stop_and_go", "--rides", "3", "--duration", "6",
-                 "--noise-scales", "1", "--effects", "aerodynamic_drag,wheel_bearing_friction",
-                 "--effect-rides", "3", "--json", str(out), "--effects-plot", str(png),
-                 "--workers", "1", "--no-progress"])
+                 "--noise-scales", "1", "--effect", "aerodynamic_drag", "--effect", "wheel_bearing_friction",
+                 "--effect-rides", "3", "--json", str(out), "--report", str(tmp_path / "figs"),
+                 "--workers", "1", "--quiet"])
     assert code == 0
     data = json.loads(out.read_text())
     row = data["maneuvers"][0]
@@ -82,7 +82,7 @@ def test_cli_design_with_effects_extends_the_contract_json(tmp_path, capsys):
 
 
 def test_cli_design_refuses_unknown_effects_before_running(tmp_path, capsys):
-    assert main(["design", "--effects", "aerodynamic_drag,gremlins", "--json", str(tmp_path / "d.json")]) == 2
+    assert main(["design", "--effect", "aerodynamic_drag", "--effect", "gremlins", "--json", str(tmp_path / "d.json")]) == 2
     err = capsys.readouterr().err
-    assert "--effects: unknown gremlins; valid: all, rolling_resistance" in err and "Traceback" not in err
+    assert "--effect: unknown gremlins; valid: all, rolling_resistance" in err and "Traceback" not in err
     assert not (tmp_path / "d.json").exists()

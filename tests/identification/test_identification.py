@@ -250,7 +250,7 @@ def written(tmp_path_factory):
 def test_cli_identify_writes_the_contract_json(written, capsys):
     d, paths = written
     code = main(["identify", *map(str, paths), "--json", str(d / "id.json"),
-                 "--plot", str(d / "fig8.png"), "--bootstrap", "100"])
+                 "--report", str(d / "figs"), "--n-boot", "100"])
     assert code == 0, capsys.readouterr().err
     out = json.loads((d / "id.json").read_text())
     assert out["recordings"] == [str(p) for p in paths]
@@ -270,11 +270,11 @@ def test_cli_identify_writes_the_contract_json(written, capsys):
 def test_cli_identify_says_which_fits_end_on_a_bound(written, capsys):
     """Issue 19, item 3: h searched up to 0.45 m (truth 0.6 m) is a bound, said in print and JSON."""
     d, paths = written
-    assert main(["identify", str(paths[0]), "--json", str(d / "free.json"), "--bootstrap", "60"]) == 0
+    assert main(["identify", str(paths[0]), "--json", str(d / "free.json"), "--n-boot", "60"]) == 0
     free = json.loads((d / "free.json").read_text())
     out = capsys.readouterr().out
     assert [k for k in free["at_bound"] if not k.endswith("rider.delay")] == [] and "h lies" not in out
-    assert main(["identify", *map(str, paths), "--json", str(d / "capped.json"), "--bootstrap", "60",
+    assert main(["identify", *map(str, paths), "--json", str(d / "capped.json"), "--n-boot", "60",
                  "--h-max", "0.45"]) == 0
     capped = json.loads((d / "capped.json").read_text())
     out = capsys.readouterr().out

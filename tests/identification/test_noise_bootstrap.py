@@ -67,7 +67,7 @@ def _rec(noise, seed=1):
 
 def test_replicates_see_the_noise_and_no_more():
     noisy = identify_recordings([_rec("paper")], n_boot=100, n_noise=20, seed=0)["pooled"]["3dof"]
-    # 15 s deceleration, paper noise: ĥ scatters by ~5 mm over noise draws (scripts/noise_ablation.py)
+    # 15 s deceleration, paper noise: ĥ scatters by ~5 mm over noise draws (studies/noise_ablation.py)
     assert 0.002 < noisy.noise_sd < 0.012
     assert noisy.h_ci95[0] <= noisy.h_ci95_block[0] and noisy.h_ci95[1] >= noisy.h_ci95_block[1]
     clean = identify_recordings([_rec("none")], n_boot=100, n_noise=20, seed=0)["pooled"]["3dof"]

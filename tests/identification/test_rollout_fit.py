@@ -48,7 +48,7 @@ def test_cli_rollout(tmp_path, capsys):
 
     df, _ = twin_recording("paper")
     good = write_recording(df, tmp_path / "twin.csv", {"params": {"m": TABLE3.m}})
-    code = main(["identify", str(good), "--method", "rollout", "--bootstrap", "60",
+    code = main(["identify", str(good), "--method", "rollout", "--n-boot", "60",
                  "--noise-replicates", "10", "--json", str(tmp_path / "o.json")])
     assert code == 0
     m = json.loads((tmp_path / "o.json").read_text())["models"]["3dof"]

@@ -77,15 +77,16 @@ def test_cli_sysid_writes_its_entry_and_figure(tmp_path, capsys):
 
     df, _ = twin_recording("paper")
     good = write_recording(df, tmp_path / "twin.csv", {"params": {"m": TABLE3.m}})
-    code = main(["identify", str(good), "--method", "sysid", "--bootstrap", "20",
+    code = main(["identify", str(good), "--method", "sysid", "--n-boot", "20",
                  "--noise-replicates", "5", "--json", str(tmp_path / "o.json"),
-                 "--plot", str(tmp_path / "f.png")])
+                 "--report", str(tmp_path)])
     assert code == 0
     out = json.loads((tmp_path / "o.json").read_text())
     m = out["models"]["3dof"]
     assert "rollout" not in m and m["sysid"]["windows"] == 4
     assert m["sysid"]["h_ci95"][0] <= H_TWIN <= m["sysid"]["h_ci95"][1] and m["at_bound"] == []
-    assert (tmp_path / "f-sysid.png").is_file() and str(tmp_path / "f-sysid.png") in out["figures"]
+    fig = tmp_path / "identify-sysid.png"
+    assert fig.is_file() and str(fig) in out["figures"]
     assert "mujoco.sysid h = " in capsys.readouterr().out
 
 

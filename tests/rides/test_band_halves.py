@@ -1,16 +1,11 @@
-"""scripts/band_halves.py: a ride's two halves band by band, and its bad-input exit (the survey is a study)."""
+"""studies/band_halves.py: a ride's two halves band by band, and its bad-input exit (the survey is a study)."""
 
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT / "scripts") not in sys.path:
-    sys.path.insert(0, str(ROOT / "scripts"))
-
-import band_halves  # noqa: E402
+from euc_sim.evaluation import band_halves
 
 
 def test_a_ride_whose_second_half_swings_twice_as_hard_is_six_db_up_in_every_band():

@@ -1,16 +1,11 @@
-"""scripts/calibrated_fall.py: its pure helpers and its bad-input exits (the window itself is a study)."""
+"""studies/calibrated_fall.py: its pure helpers and its bad-input exits (the window itself is a study)."""
 
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT / "scripts") not in sys.path:
-    sys.path.insert(0, str(ROOT / "scripts"))
-
-import calibrated_fall  # noqa: E402
+from euc_sim.evaluation import calibrated_fall
 
 
 def test_distance_ahead_integrates_the_speed_error():

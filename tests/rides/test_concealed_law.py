@@ -1,8 +1,8 @@
-"""Concealed firmware laws of the blind study (issue 21, item 5), smoke size.
+"""Concealed firmware laws of the blind study, smoke size.
 
-``scripts/blind_laws.py`` draws a law, rides it in closed loop, writes it as a real log
+:mod:`euc_sim.evaluation.blind_laws` draws a law, rides it in closed loop, writes it as a real log
 and identifies it blind from the CSV and its sidecar; the full study is
-``scripts/blind_study.py --laws N`` (docs/controller.md).  Here one short EUC World case:
+``scripts/tables/blind_study.py --laws N`` (docs/controller.md).  Here one short EUC World case:
 the files are written without the truth beside the log, the law is read back in its
 targets, and the scoring counts it.
 """
@@ -15,9 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
-
-from blind_laws import law_outcome, law_work, plan_laws, score_laws  # noqa: E402
+from euc_sim.evaluation.blind_laws import law_outcome, law_work, plan_laws, score_laws
 
 
 def test_plan_draws_laws_in_both_formats_reproducibly():

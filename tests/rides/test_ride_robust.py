@@ -136,7 +136,7 @@ def _alive(pid: int) -> bool:
 def test_interrupt_stops_workers_and_leaves_nothing(log, tmp_path, sig, code):
     """A real ``euc-sim ride`` is signalled once its two simulation workers run."""
     argv = [sys.executable, "-c", "import sys; from euc_sim.cli import main; sys.exit(main())",
-            "ride", str(log), "--n-boot", "10", "--jobs", "2", "--report", str(tmp_path / "rep"),
+            "ride", str(log), "--n-boot", "10", "--workers", "2", "--report", str(tmp_path / "rep"),
             "--json", str(tmp_path / "o.json")]
     # A shell starts a background job with SIGINT ignored, and Python keeps an ignored SIGINT:
     # run from such a job (nohup ... &, some CI runners) the command would never see the Ctrl-C

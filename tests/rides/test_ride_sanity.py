@@ -116,7 +116,7 @@ def test_compare_reports_the_mass_difference(tmp_path, capsys):
 
 
 def test_the_spec_radius_and_the_found_mass_reach_the_balance_fit():
-    from euc_sim.cli.ride import with_found_values
+    from euc_sim.rides.signals import with_found_values
     from euc_sim.rides.signals import RideAssumptions
 
     tm = {"estimate": 115.0, "equivalent_mass": {"estimate": 122.0}}

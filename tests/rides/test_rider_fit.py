@@ -78,8 +78,8 @@ def test_concealed_rider_delay_recovered(tmp_path):
     window, one noise draw, 34 simulations) with the study's 10 s plan; seed 5 has been run
     while the fit was changed (with common draws and the 6 s plan it ended at 0.282 s), so
     this is a regression check, not a score: the study's setting (six 35 s windows, two
-    draws) is scored on fresh seeds by scripts/rider_calibration.py (docs/rider_calibration.md)."""
-    from tests.rides.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
+    draws) is scored on fresh seeds by studies/rider_calibration.py (docs/rider_calibration.md)."""
+    from euc_sim.rides.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
 
     log = eucworld_power_log(rider_ride(5, 110.0, dt=2e-3), tmp_path / "ew.csv", 5)
     fit = rf.fit_rider(log, windows=1, window_length=80.0, rounds=(12, 10), n_boot=40, seed=5,

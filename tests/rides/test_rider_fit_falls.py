@@ -1,16 +1,11 @@
-"""scripts/rider_fit_falls.py: the fit's inputs read back from a ride page's JSON, and its bad-input exit."""
+"""studies/rider_fit_falls.py: the fit's inputs read back from a ride page's JSON, and its bad-input exit."""
 
 import json
 import sys
-from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT / "scripts") not in sys.path:
-    sys.path.insert(0, str(ROOT / "scripts"))
-
-import rider_fit_falls  # noqa: E402
+from euc_sim.evaluation import rider_fit_falls
 
 
 def _ride(measured_ran: bool) -> dict:

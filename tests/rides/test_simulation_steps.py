@@ -187,14 +187,9 @@ def test_a_figure_per_step_with_the_logs_channels(law_log, tmp_path):
 
 
 def _table_script():
-    import importlib.util
-    from pathlib import Path
+    from euc_sim.evaluation import ride_simulation_table
 
-    path = Path(__file__).resolve().parents[2] / "scripts" / "ride_simulation_table.py"
-    spec = importlib.util.spec_from_file_location("ride_simulation_table", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return ride_simulation_table
 
 
 def test_the_shared_pairs_table(tmp_path):
@@ -295,34 +290,29 @@ def test_a_run_of_one_wheel_keeps_the_other_wheels_rows_and_commands(tmp_path):
     assert text.endswith("- kept words\n") and text.count("## Reading the table") == 1
 
 
-def test_power_error_terms_names_a_missing_pair_and_exits_2(tmp_path, capsys):
-    """scripts/power_error_terms.py: bad input is one line naming the file, exit code 2."""
-    import importlib.util
+def test_power_error_terms_names_a_missing_pair_and_exits_2(tmp_path):
+    """studies/power_error_terms.py, run as a program: bad input is one line naming the file, exit 2."""
+    code, err = _run_study("power_error_terms.py", str(tmp_path / "nope"), str(tmp_path / "held.csv"))
+    assert code == 2 and "nope" in err and "ride.json" in err and "Traceback" not in err
+
+
+def test_ride_step_ablation_refuses_an_unknown_variant_and_a_missing_pair(tmp_path):
+    """studies/ride_step_ablation.py, run as a program: one line naming the bad input, exit 2."""
+    code, err = _run_study("ride_step_ablation.py", str(tmp_path), "held.csv", "--variants", "faster")
+    assert code == 2 and "--variants faster" in err
+    code, err = _run_study("ride_step_ablation.py", str(tmp_path / "nope"), "held.csv")
+    assert code == 2 and "ride.json" in err and "Traceback" not in err
+
+
+def _run_study(name: str, *argv: str) -> tuple[int, str]:
+    """A study of studies/ run as a program (tests never import studies/ or scripts/): (exit, stderr)."""
+    import subprocess
+    import sys
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[2] / "scripts" / "power_error_terms.py"
-    spec = importlib.util.spec_from_file_location("power_error_terms", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    assert mod.main([str(tmp_path / "nope"), str(tmp_path / "held.csv")]) == 2
-    err = capsys.readouterr().err
-    assert "nope" in err and "ride.json" in err and "Traceback" not in err
-
-
-def test_ride_step_ablation_refuses_an_unknown_variant_and_a_missing_pair(tmp_path, capsys):
-    """scripts/ride_step_ablation.py: one line naming the bad input, exit code 2."""
-    import importlib.util
-    from pathlib import Path
-
-    path = Path(__file__).resolve().parents[2] / "scripts" / "ride_step_ablation.py"
-    spec = importlib.util.spec_from_file_location("ride_step_ablation", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    assert mod.main([str(tmp_path), "held.csv", "--variants", "faster"]) == 2
-    assert "--variants faster" in capsys.readouterr().err
-    assert mod.main([str(tmp_path / "nope"), "held.csv"]) == 2
-    err = capsys.readouterr().err
-    assert "ride.json" in err and "Traceback" not in err
+    path = Path(__file__).resolve().parents[2] / "studies" / name
+    p = subprocess.run([sys.executable, str(path), *argv], capture_output=True, text=True, timeout=120)
+    return p.returncode, p.stderr
 
 
 def test_motor_from_law_inverts_the_steps_description():

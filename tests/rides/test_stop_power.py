@@ -1,16 +1,11 @@
-"""scripts/stop_power.py: the power at stands, and its bad-input exit (the survey itself is a study)."""
+"""studies/stop_power.py: the power at stands, and its bad-input exit (the survey itself is a study)."""
 
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
-if str(ROOT / "scripts") not in sys.path:
-    sys.path.insert(0, str(ROOT / "scripts"))
-
-import stop_power  # noqa: E402
+from euc_sim.evaluation import stop_power
 
 
 def test_stand_power_splits_stops_short_stands_and_riding():

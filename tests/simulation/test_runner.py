@@ -98,8 +98,8 @@ def test_dataset_fall_is_named_exit_2(tmp_path, capsys, workers):
     from euc_sim.cli.app import main
 
     out = tmp_path / "d"
-    code = main(["dataset", "--out", str(out), "--effect", "road_slope=0.6", "--duration", "2",
-                 "--workers", workers, "--no-progress"])
+    code = main(["dataset", "--out-dir", str(out), "--effect", "road_slope=0.6", "--duration", "2",
+                 "--workers", workers, "--quiet"])
     err = capsys.readouterr().err
     assert code == 2
     assert "Traceback" not in err
@@ -167,8 +167,8 @@ def test_pool_workers_die_with_a_killed_parent(tmp_path):
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="process table is Linux")
 def test_sigterm_stops_a_dataset_at_once_and_leaves_no_temp_files(tmp_path):
     out = tmp_path / "d"
-    proc = subprocess.Popen([sys.executable, "-c", "import sys; from euc_sim.cli import main; sys.exit(main())", "dataset", "--out", str(out),
-                             "--duration", "30", "--workers", "2", "--no-progress"],
+    proc = subprocess.Popen([sys.executable, "-c", "import sys; from euc_sim.cli import main; sys.exit(main())", "dataset", "--out-dir", str(out),
+                             "--duration", "30", "--workers", "2", "--quiet"],
                             cwd=ROOT, stderr=subprocess.PIPE, text=True)
     children = Path(f"/proc/{proc.pid}/task/{proc.pid}/children")
     try:
@@ -210,7 +210,7 @@ def test_a_dataset_that_cannot_start_leaves_no_folder_it_made(tmp_path, capsys, 
         raise OSError("Timed out trying to connect to tcp://127.0.0.1:1 after 30 s")
 
     monkeypatch.setattr(runner, "run_tasks", unreachable)
-    argv = ["dataset", "--scheduler", "tcp://127.0.0.1:1", "--duration", "1", "--no-progress", "--out"]
+    argv = ["dataset", "--scheduler", "tcp://127.0.0.1:1", "--duration", "1", "--quiet", "--out-dir"]
     assert main(argv + [str(tmp_path / "new" / "set")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "127.0.0.1:1" in err[0]

@@ -59,14 +59,9 @@ def test_bad_input_is_said():
 
 
 def test_blind_study_makes_its_3d_cases_on_threads_as_one_by_one(tmp_path):
-    """``scripts/blind_study.py``'s 3-D cases, made by ``make_recordings`` (one in-process task,
+    """The blind study's 3-D cases, made by ``make_recordings`` (one in-process task,
     two threads): the files ``make_recording`` writes case by case; a fall left unwritten."""
-    import sys
-    from pathlib import Path
-    scripts = str(Path(__file__).resolve().parents[2] / "scripts")
-    if scripts not in sys.path:
-        sys.path.insert(0, scripts)
-    import blind_study
+    from euc_sim.evaluation import blind_study
 
     cases = blind_study.plan_spatial(7, 3, 2.0)
     cases.append({**cases[0], "name": "spatial_falls", "maneuver": "circle", "duration": 8.0,

@@ -1,0 +1,99 @@
+"""Benchmarks of real and long rides (``scripts/bench.py`` sections ``ride_mass``, ``ride``)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from bench_timing import timed
+
+
+# --- a 60-minute real ride, mass and drivetrain ---------------------------------
+def bench_ride_mass() -> dict:
+    """A 64-minute real ride (Blitz 4): mass + drivetrain, and the whole ride command without simulation."""
+    import warnings
+    from pathlib import Path
+
+    from euc_sim.rides.drivetrain_report import analyse
+    from euc_sim.rides.logs import read_log
+    from euc_sim.rides.spec import read_spec
+
+    root = Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core"
+    log = root / "trips/begode/blitz/4/4.csv"
+    if not log.is_file():
+        print(f"  {log} absent: skipped")
+        return {"skipped": str(log)}
+    warnings.simplefilter("ignore")
+    spec = read_spec(root / "specs/blitz.csv")
+    t_read = timed(lambda: read_log(log, emit_warnings=False), repeat=1)
+    t_mass = timed(lambda: analyse(log, spec), repeat=1)
+
+    def whole():
+        from euc_sim.cli.ride import run_ride
+        return run_ride(log, simulate=False, spec=spec)
+
+    cpu0 = time.process_time()
+    t_all = timed(whole, repeat=1)
+    cpu_all = time.process_time() - cpu0        # CPU seconds, every thread: the one-core time
+    minutes = read_log(log, emit_warnings=False).duration / 60.0
+    out = {"ride_minutes": minutes, "read_s": t_read, "mass_drivetrain_s": t_mass,
+           "ride_no_simulate_s": t_all, "ratio_mass_vs_read": t_mass / t_read,
+           "ride_no_simulate_cpu_s": cpu_all, "ratio_ride_vs_read": t_all / t_read}
+    print(f"  {minutes:.0f}-minute ride: read {t_read:.2f} s (the reference); mass + drivetrain "
+          f"(200 bootstrap) {t_mass:.2f} s ({t_mass / t_read:.1f}x reading)")
+    print(f"  euc-sim ride --no-simulate, everything (3 balance fits x 200 bootstrap too): "
+          f"{t_all:.1f} s wall, {cpu_all:.1f} s CPU ({t_all / t_read:.1f}x reading; aim < 20 s, "
+          f"one core)")
+    return out
+
+
+# --- a 60-minute ride along a logged-like profile ------------------------------
+def bench_ride() -> dict:
+    """A 60-minute speed profile ridden by simulate_profile (augmented effects, native) vs a bare mj_step loop."""
+    import mujoco
+
+    from euc_sim.controllers.rider import RiderRun
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.rides.tracking import simulate_profile
+    from euc_sim.simulation.engine import _MujocoStepper
+
+    minutes = 60.0
+    t = np.arange(0.0, minutes * 60.0 + 1e-9, 0.1)          # a log's 10 Hz grid
+    v = np.clip(6.0 + 4.0 * np.sin(2 * np.pi * t / 300.0) + 2.0 * np.sin(2 * np.pi * t / 47.0 + 1.0)
+                + 1.5 * np.sin(2 * np.pi * t / 13.0), 0.0, None)        # stops, 0.9 m/s² at most
+    effects = {"aerodynamic_drag": 0.25, "rolling_resistance": 0.012, "road_slope": 0.01}
+    simulate_profile(t[:50], v[:50], TABLE3, effects, track_iterations=0)      # compile, warm caches
+    spent = {"rider": 0.0}
+    commands = RiderRun.commands
+
+    def timed_commands(self, k0, Y):                    # the rider's Python block law, timed
+        t0 = time.perf_counter()
+        try:
+            return commands(self, k0, Y)
+        finally:
+            spent["rider"] += time.perf_counter() - t0
+
+    RiderRun.commands = timed_commands
+    try:
+        t0 = time.perf_counter()
+        run = simulate_profile(t, v, TABLE3, effects, track_iterations=0, stops=())   # all 60 min ridden
+        t_ride = time.perf_counter() - t0
+    finally:
+        RiderRun.commands = commands
+    if run.falls:
+        raise RuntimeError(f"bench ride: the rider fell ({run.falls[0]}); the timing would be of a shorter ride")
+    stepper = _MujocoStepper(TABLE3, "ideal", 1e-3, {}, None)
+    bare_s = 120.0                                        # seconds of ride stepped bare, scaled
+    t0 = time.perf_counter()
+    mujoco.mj_step(stepper.m, stepper.d, nstep=int(bare_s / 1e-3))
+    t_bare = (time.perf_counter() - t0) * (minutes * 60.0 / bare_s)
+    out = {"sixty_minute_seconds": t_ride, "bare_mj_step_sixty_minute_seconds": t_bare,
+           "ratio_ride_vs_bare_mj_step": t_ride / t_bare, "rider_law_seconds": spent["rider"],
+           "real_time_factor": minutes * 60.0 / t_ride}
+    print(f"  60-minute ride, 1 kHz, drag + rolling + slope (native): {t_ride:6.1f} s "
+          f"({out['real_time_factor']:.0f}x real time; aim < 60 s, one core)")
+    print(f"  bare mj_step loop, same model, 60 min (from {bare_s:.0f} s): {t_bare:6.1f} s "
+          f"(ride / bare = {out['ratio_ride_vs_bare_mj_step']:.2f}x)")
+    print(f"  of which the rider's block law (Python): {spent['rider']:.1f} s")
+    return out

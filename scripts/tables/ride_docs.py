@@ -1,0 +1,37 @@
+"""Regenerate ``docs/ride/`` (the real rides' page linked from the README).
+
+Usage (from the repository root, with ``../shared`` beside it)::
+
+    python scripts/tables/ride_docs.py
+
+Runs ``euc-sim ride`` on the two shared WheelLog rides (fit on the first, test on
+the second) into ``docs/ride/``: ``index.md``, the figures and ``ride.json`` (which
+names files relative to itself, no machine path).  The CSV tables it also writes
+are not tracked (``.gitignore``).  This is the only command that should write into
+``docs/ride/``; try ``euc-sim ride`` yourself with ``--report runs/ride``.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from euc_sim.cli import main as euc_sim
+
+ROOT = Path(__file__).resolve().parents[2]
+SHARED = ROOT.parent / "shared" / "data" / "wheellog"
+RIDES = ("2020_05_16_08_02_06.csv", "2020_05_28_07_52_00.csv")
+
+
+def main() -> int:
+    if not SHARED.is_dir():
+        print(f"ride_docs: {SHARED} not found (the shared ride logs sit beside the repository)",
+              file=sys.stderr)
+        return 2
+    out = ROOT / "docs" / "ride"
+    return euc_sim(["ride", str(SHARED / RIDES[0]), "--compare", str(SHARED / RIDES[1]),
+                    "--report", str(out), "--json", str(out / "ride.json")])
+
+
+if __name__ == "__main__":
+    sys.exit(main())
