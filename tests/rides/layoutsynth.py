@@ -28,7 +28,8 @@ DB_HEADER = ("Date,Speed,Voltage,PWM,Current,Power,Battery level,Total mileage,T
 
 
 def ride_rows(seed: int, duration: float) -> pd.DataFrame:
-    """The ride at irregular 0.15-0.25 s rows: ``t`` s, ``v`` m/s, ``V`` V, ``I`` A, ``P`` W,
+    """The ride at irregular 0.08-0.12 s rows (enough riding rows in a minute for the balance
+    law's fit): ``t`` s, ``v`` m/s, ``V`` V, ``I`` A, ``P`` W,
     ``I_ph`` A, ``pwm`` %, ``pitch`` degrees, ``dist`` m, ``gps`` (bool: a fix on this row)."""
     rng = np.random.default_rng(seed)
     tf = np.arange(0.0, duration, 0.01)
@@ -38,7 +39,7 @@ def ride_rows(seed: int, duration: float) -> pd.DataFrame:
          + TRUTH["aerodynamic_drag"] * np.abs(v) ** 3)
     P = TRUTH["drivetrain_idle_loss"] + np.where(D > 0, D / TRUTH["eta_motor"], D * TRUTH["eta_regen"])
     P = P + ar1_noise(rng, tf.size, 30.0, math.exp(-0.01 / 0.3))
-    ts = np.cumsum(rng.uniform(0.15, 0.25, int(duration / 0.15)))
+    ts = np.cumsum(rng.uniform(0.08, 0.12, int(duration / 0.08)))
     ts = ts[ts < duration - 0.5]
     pick = lambda x: np.interp(ts, tf, x)   # noqa: E731
     vs, Ps, acc = pick(v), pick(P), pick(a)
