@@ -159,3 +159,29 @@ def test_dynamics_defaults(tmp_path, capsys):
     assert np.allclose(data["generalized_force_mujoco_inverse"], data["generalized_force_eq8"],
                        atol=1e-8)
     assert "q̈" in printed
+
+
+def test_crosscheck_defaults(tmp_path, capsys):
+    """The built-in four parameter sets at 2,500 random states each."""
+    out = tmp_path / "cc.json"
+    code, printed, err = run(["crosscheck", "--json", out], capsys)
+    assert code == 0, err
+    data = json.loads(out.read_text())
+    assert data["ok"] is True and len(data["checks"]) >= 4
+    for c in data["checks"]:
+        assert {"name", "value", "bound", "ok"} <= set(c) and c["value"] <= c["bound"]
+    assert "all bounds hold" in printed
+
+
+def test_design_defaults_on_the_process_pool(tmp_path, capsys):
+    """Default maneuvers, noise scales, targets and workers (a process per core); the fewest
+    rides and the shortest recordings the command accepts."""
+    out = tmp_path / "d.json"
+    code, _, err = run(["design", "--rides", "3", "--duration", "5", "--json", out], capsys)
+    assert code == 0, err
+    data = json.loads(out.read_text())
+    assert [m["maneuver"] for m in data["maneuvers"]] == ["constant_speed", "deceleration", "stop_and_go"]
+    for m in data["maneuvers"]:
+        assert m["h_sd"] > 0 and m["h_sd_fisher"] > 0 and m["fell"] == 0
+        assert [b["noise_scale"] for b in m["by_noise"]] == [0.5, 1.0, 2.0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["d.json"]
