@@ -37,11 +37,14 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
+    import time
+
     from euc_sim.cli.common import say
     from euc_sim.cli.demo import run_demo
 
+    t0 = time.perf_counter()
     page = run_demo(args.out, seed=args.seed, progress=lambda s: say(f"demo: {s}"))
-    print(f"demo written: {page}")
+    print(f"demo: done in {time.perf_counter() - t0:.0f} s; open {page}")
     return 0
 
 
