@@ -34,6 +34,28 @@ from bench_spatial_threads import bench_spatial_threads  # noqa: E402
 from bench_timing import timed, timed_together  # noqa: E402,F401
 
 
+def bench_demo() -> dict:
+    """euc-sim demo end to end (target: under 25 s on an idle 2-core machine) against one bare 15 s simulation."""
+    import os
+    import tempfile
+    import time
+
+    import euc_sim
+    from euc_sim.cli.demo import run_demo
+
+    euc_sim.simulate("deceleration", 15.0, seed=1)                     # warm: imports, numba cache
+    bare = timed(lambda: euc_sim.simulate("deceleration", 15.0, seed=1), repeat=3)
+    load = os.getloadavg()[0]
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        run_demo(Path(tmp) / "demo", seed=1)
+        demo = time.perf_counter() - t0
+    print(f"  one bare 15 s simulation {bare:.2f} s; the demo {demo:.1f} s = {demo / bare:.0f}x it "
+          f"(load average {load:.1f} on {os.cpu_count()} cores at the start)")
+    return {"demo_seconds": demo, "bare_simulation_seconds": bare, "demo_vs_bare_simulation": demo / bare,
+            "load_average": load, "cpu_count": os.cpu_count()}
+
+
 SECTIONS: dict[str, Callable[[], dict]] = {
     "inverse": bench_inverse,
     "closed_loop": bench_closed_loop,
@@ -46,6 +68,7 @@ SECTIONS: dict[str, Callable[[], dict]] = {
     "spatial_threads": bench_spatial_threads,
     "uncertainty": bench_uncertainty,
     "ride": bench_ride,
+    "demo": bench_demo,
 }
 
 

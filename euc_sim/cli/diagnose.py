@@ -10,41 +10,41 @@ from __future__ import annotations
 from euc_sim.cli.common import seed
 
 import argparse
-import warnings
 
 __all__ = ["add_commands"]
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from euc_sim.diagnosis import pipeline as diagnosis
+    from euc_sim import api
     from euc_sim.cli.common import parse_params, say
-    from euc_sim.diagnosis.report import report_paths, summary, write_report
+    from euc_sim.diagnosis.report import report_paths
     from euc_sim.io import check_writable, write_json
 
     # every output is checked before any work, so a bad path costs no minute of work
     for path in ([args.json] if args.json else []) + (report_paths(args.report) if args.report else []):
         check_writable(path)
     params = parse_params(args.param) if args.param else None
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")          # repaired gaps are reported by the reader
-        result = diagnosis.diagnose(args.recording, params=params,
-                                    resimulate=not args.no_resimulate, calibrate=not args.no_calibrate,
-                                    progress=None if args.quiet else (lambda s: say(f"diagnose: {s} ...")))
+    result = api.diagnose(args.recording, params=params, resimulate=not args.no_resimulate,
+                          calibrate=not args.no_calibrate,
+                          progress=None if args.quiet else (lambda s: say(f"diagnose: {s} ...")))
     if args.report:      # the report first: a failing report leaves no JSON behind
-        page = write_report(result, args.report)
+        page = result.write_report(args.report)
         say(f"diagnose: report written to {page.with_name('index.html')} (plain text: {page.name})")
     if args.json:
-        write_json(args.json, diagnosis.json_view(result))
-    print(summary(result))
+        write_json(args.json, result.to_json())
+    print(result.summary())
     return 0
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
+    import time
+
     from euc_sim.cli.common import say
     from euc_sim.cli.demo import run_demo
 
+    t0 = time.perf_counter()
     page = run_demo(args.out_dir, seed=args.seed, progress=lambda s: say(f"demo: {s}"))
-    print(f"demo written: {page}")
+    print(f"demo: done in {time.perf_counter() - t0:.0f} s; open {page}")
     return 0
 
 

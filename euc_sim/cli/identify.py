@@ -171,8 +171,9 @@ def _figure_paths(plot: str, names: list[str]) -> list[Path]:
 
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify h (both models, per recording and pooled), the controller and the rider."""
+    from euc_sim import api
     from euc_sim.cli.common import UsageError
-    from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, identify_recordings
+    from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK
     from euc_sim.identification.controller_fit import identify_controller
     from euc_sim.io import check_writable, write_json
 
@@ -207,9 +208,9 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if len(set(names)) != len(names):
         raise UsageError("a recording is given twice")
     recs = [_load(n, args) for n in names]
-    res = identify_recordings(recs, bounds=(args.h_min, args.h_max), n_boot=args.n_boot,
-                              block=block, seed=args.seed, n_noise=n_noise)
-    pooled, per = res["pooled"], res["per_recording"]
+    res = api.identify(recs, bounds=(args.h_min, args.h_max), n_boot=args.n_boot,
+                       block=block, seed=args.seed, n_noise=n_noise)
+    pooled, per = res.models, list(res.per_recording)
 
     per_json, riders, figures = _per_recording(args, names, recs, per)
     if args.plot:

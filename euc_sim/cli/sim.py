@@ -81,11 +81,11 @@ def _firmware(path, lim: dict, p=None):
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
+    from euc_sim import api
     from euc_sim.cli.common import parse_params, say
-    from euc_sim.simulation.dataset import RecordingSpec, write_simulated
     from euc_sim.io import check_writable
     from euc_sim.simulation.mocap import NOISE_LEVELS
-    from euc_sim.simulation.engine import ENGINES, default_rider
+    from euc_sim.simulation.engine import ENGINES
     from euc_sim.simulation.maneuvers import MANEUVERS, load_speed_profile, make_maneuver
     from euc_sim.model.mujoco_model import VARIANTS
 
@@ -119,12 +119,12 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     eff = _effects(args.effect)
     params = parse_params(args.param)
     motor = _motor(args, params.R, params)
-    rider = default_rider(params, motor, noise_std=args.rider_noise, delay=args.rider_delay)
-    spec = RecordingSpec(out.with_suffix("").name, man, float(args.duration), int(args.seed), params,
-                         tuple(sorted(eff.items())), args.noise, args.engine, args.variant,
-                         bool(args.hide_torques), motor, rider, args.rolling_model,
-                         drift_shape=_drift_shape(args.drift_shape, eff))
-    path = write_simulated(out, spec)
+    rec = api.simulate(man, float(args.duration), seed=int(args.seed), params=params, effects=eff,
+                       noise=args.noise, engine=args.engine, variant=args.variant,
+                       hide_torques=bool(args.hide_torques), motor=motor, rider_noise=args.rider_noise,
+                       rider_delay=args.rider_delay, rolling_model=args.rolling_model,
+                       drift_shape=_drift_shape(args.drift_shape, eff), name=out.with_suffix("").name)
+    path = api.write_recording(rec, out)
     say(f"simulate: wrote {path} ({man.name}, {args.duration:g} s, {args.engine}, seed {args.seed})")
     return 0
 

@@ -34,16 +34,16 @@ def simulate_3d_command(args: argparse.Namespace, motor) -> int:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
+    from euc_sim import api
     from euc_sim.cli.common import say
-    from euc_sim.simulation.render import render_recording
 
     out = Path(args.out)
     if out.suffix.lower() not in (".mp4", ".gif", ".png"):
         raise ValueError(f"--out must end in .mp4, .gif or .png, got {str(out)!r}")
     if not (math.isfinite(args.fps) and 1 <= args.fps <= 120):
         raise ValueError(f"--fps must be in [1, 120], got {args.fps!r}")
-    n = render_recording(args.recording, out, fps=args.fps, width=args.width, height=args.height,
-                         frame_time=args.time, progress=not args.quiet)
+    n = api.render(args.recording, out, fps=args.fps, width=args.width, height=args.height,
+                   time=args.time, progress=not args.quiet).frames
     say(f"render: wrote {out} ({n} frame{'s' if n != 1 else ''})")
     return 0
 

@@ -16,7 +16,7 @@ from euc_sim.identification.h_fit import MIN_RISE
 from euc_sim.io import save_figure
 
 __all__ = ["plot_recording", "recording_figure", "plot_rmse_curves", "rmse_curves_figure",
-           "plot_rollout", "rollout_figure", "check_figure_path", "plain_log_ticks"]
+           "plot_maneuver_curves", "maneuver_curves_figure", "verdict_label", "plot_rollout", "rollout_figure", "check_figure_path", "plain_log_ticks"]
 
 
 def check_figure_path(path) -> Path:
@@ -150,8 +150,7 @@ def rmse_curves_figure(names, per_recording, pooled):
                     mec="k", ms=5)
             if np.all(np.isfinite(fit.h_ci95)):
                 ax.axvspan(*fit.h_ci95, color=color, alpha=0.15, lw=0)
-            lines.append(f"{label}: h {fit.h:.3f} m, {fit.rmse:.3g} N·m, rise {100 * fit.flatness:.0f}%"
-                         + ("" if fit.identifiable else " (not ident.)"))
+            lines.append(f"{label}: h {fit.h:.3f} m, {fit.rmse:.3g} N·m, " + verdict_label(fit))
         ax.axhline(1.0 + MIN_RISE, color="k", ls=":", lw=1.0)
         ax.set_title("\n".join(lines), fontsize=8, loc="left")
         ax.set_xlabel("h [m]")
@@ -170,6 +169,90 @@ def rmse_curves_figure(names, per_recording, pooled):
     fig.suptitle("RMSE between $M_{d,1}$ and $M_{d,2}$ against h (cf. the paper's Fig. 8), each curve "
                  "divided by its minimum,\non one scale: the rise within ±0.1 m of the minimum decides "
                  "whether h is identifiable", fontsize=10)
+    return fig
+
+
+def verdict_label(fit) -> str:
+    """The identifiability verdict in a few words, naming the rule that decided it.
+
+    ``"rise 300%: identifiable"``; a curve with an interior minimum whose RMSE grows
+    less than :data:`MIN_RISE` within ±0.1 m is ``"rise 25% < 75%: shallow"`` (its
+    minimum exists, but an error of the model the size of the residual would move it).
+    """
+    rise = f"rise {100 * fit.flatness:.0f}%"
+    if fit.identifiable:
+        return f"{rise}: identifiable"
+    if "at_bound" in fit.at_bound() or "search bound" in fit.reason:
+        return "on the search bound"
+    if fit.flatness < MIN_RISE:
+        return f"{rise} < {100 * MIN_RISE:.0f}%: shallow"
+    return "interval too wide" if "wide" in fit.reason else "no interval"
+
+
+def plot_maneuver_curves(groups, path, true_h: float | None = None) -> list[Path]:
+    """Write :func:`maneuver_curves_figure` to ``path`` and, as vector graphics, beside it
+    as ``.svg`` (atomically); returns both paths."""
+    fig = maneuver_curves_figure(groups, true_h)
+    path = Path(path)
+    return [save_figure(fig, path), save_figure(fig, path.with_suffix(".svg"))]
+
+
+def maneuver_curves_figure(groups, true_h: float | None = None):
+    """The paper's Fig. 8: RMSE(M_d,1 − M_d,2) against h, one panel per maneuver, the
+    3-DoF and the reduced 2-DoF model in each.
+
+    Each curve is the maneuver's recordings pooled (:func:`euc_sim.identification.h_fit.identify_h`),
+    in N·m on a linear scale from 0; minima and 95 % intervals are marked, and the
+    true h where it is known (a simulation).
+
+    Parameters
+    ----------
+    groups : sequence of (str, int, dict of model → HFit)
+        Per maneuver: its name, its number of recordings and the pooled fits; at most 4.
+    true_h : float, optional
+        The simulated truth, m.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    if not 1 <= len(groups) <= 4:
+        raise ValueError(f"maneuver_curves_figure draws 1 to 4 maneuvers, got {len(groups)}")
+    cols = 1 if len(groups) == 1 else 2
+    rows = int(math.ceil(len(groups) / cols))
+    fig = Figure(figsize=(6.2 * cols, 4.3 * rows + 1.2), layout="constrained")
+    axes = fig.subplots(rows, cols, squeeze=False)
+    for ax, (name, count, fits), letter in zip(axes.flat, groups, "abcd"):
+        lines = [f"({letter}) {name.replace('_', ' ')}, {count} recording{'s' if count != 1 else ''}"]
+        for model, fit in fits.items():
+            color, label = _STYLE[model]
+            ax.plot(fit.h_grid, fit.rmse_grid, color=color, lw=2)
+            ax.plot([fit.h], [fit.rmse], "o", color=color, ms=7, mec="k")
+            if np.all(np.isfinite(fit.h_ci95)):
+                ax.axvspan(*fit.h_ci95, color=color, alpha=0.25, lw=0)
+            lines.append(f"{label}: h = {fit.h:.3f} m, {fit.rmse:.3g} N·m, {verdict_label(fit)}")
+        if true_h is not None:
+            ax.axvline(true_h, color="k", ls="--", lw=1.2)
+        low = min(f.rmse for f in fits.values())
+        high = max(float(np.nanmax(f.rmse_grid)) for f in fits.values())
+        ax.set_ylim(0.0, min(high, 8.0 * low) * 1.05)
+        ax.set_title("\n".join(lines), fontsize=10, loc="left")
+        ax.set_xlabel("h [m]", fontsize=11)
+        ax.set_ylabel("RMSE($M_{d,1} - M_{d,2}$) [N·m]", fontsize=11)
+        ax.tick_params(labelsize=10)
+        ax.grid(alpha=0.3)
+    for ax in list(axes.flat)[len(groups):]:
+        ax.set_visible(False)
+    handles = [Line2D([], [], color=c, lw=2, label=lab) for c, lab in _STYLE.values()]
+    handles += [Line2D([], [], ls="", marker="o", color="0.5", mec="k", label="minimum: the identified h"),
+                Patch(color="0.5", alpha=0.4, label="95% interval of h")]
+    if true_h is not None:
+        handles.append(Line2D([], [], color="k", ls="--", label=f"true h = {true_h:g} m"))
+    fig.legend(handles=handles, loc="outside lower center", ncol=3, fontsize=10)
+    fig.suptitle("RMSE between $M_{d,1}$ and $M_{d,2}$ against h, recordings pooled per maneuver "
+                 "(cf. the paper's Fig. 8)", fontsize=12)
     return fig
 
 

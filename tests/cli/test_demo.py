@@ -1,14 +1,22 @@
 """`euc-sim demo`, the README's main job, end to end on its embedded defaults."""
 
 import json
+import re
 
 from euc_sim.cli import main
-def test_demo_writes_its_pages_and_finds_the_concealed_effect(tmp_path, capsys):
+
+
+def test_demo_writes_its_story_and_finds_the_concealed_effect(tmp_path, capsys):
     out = tmp_path / "demo"
     assert main(["demo", "--out-dir", str(out)]) == 0
+    captured = capsys.readouterr()
     index = (out / "index.md").read_text()
-    assert "h identified with both models" in index and "the paper, measured" in index
+    # the outcome in sentences: each model's h against the truth, which one is right and why
+    assert re.search(r"the 3-DoF model identified h = 0\.\d{3} m .*the 2-DoF model 0\.\d{3} m", index)
+    assert "Which model is right, and why" in index and "m0 h0 − m l0" in index
+    assert "see the table" not in index
     assert (out / "identification.png").stat().st_size > 10_000
+    assert (out / "identification.svg").read_text().lstrip().startswith("<?xml")
     assert len(list((out / "recordings").glob("*.csv"))) == 14
     truth = json.loads((out / "concealed" / "concealed.truth.json").read_text())
     found = json.loads((out / "concealed" / "diagnosis.json").read_text())
@@ -16,8 +24,13 @@ def test_demo_writes_its_pages_and_finds_the_concealed_effect(tmp_path, capsys):
     assert found["effects"] and found["effects"][0]["name"] == name
     estimate = found["effects"][0]["estimate"]
     assert abs(estimate - t["value"]) < 0.25 * abs(t["value"])
+    assert f"`{name}`" in index
     assert (out / "concealed" / "report" / "index.md").exists()
-    assert "demo" in capsys.readouterr().err          # progress was shown
+    # progress as plain lines (stderr is not a terminal here): no cursor escapes, no blank lines
+    assert "demo: 1/4" in captured.err
+    assert "\r" not in captured.err and "\x1b" not in captured.err
+    assert all(line.strip() for line in captured.err.splitlines())
+    assert (captured.out + captured.err).count("done") == 1
 
 
 def test_the_seed_draws_the_concealed_effect_too():
@@ -28,3 +41,13 @@ def test_the_seed_draws_the_concealed_effect_too():
     assert drawn == set(CONCEALABLE)
     assert draw_concealed_effect(np.random.default_rng([3, 5])) == \
         draw_concealed_effect(np.random.default_rng([3, 5]))
+
+
+def test_the_story_renders_sections_tables_and_figures():
+    from euc_sim.cli.demo import Section, Story
+
+    story = Story("t", ("Opening one.", "Opening two."),
+                  (Section("A", ("It went.",), (("x", "y"), ("1", "2")), (("f.png", "a figure"),)),))
+    md = story.to_markdown()
+    assert md.startswith("# t\n\nOpening one. Opening two.")
+    assert "| x | y |\n| --- | --- |\n| 1 | 2 |" in md and "![a figure](f.png)" in md

@@ -1,0 +1,444 @@
+"""The public API's functions: simulate, read and write recordings, identify h, diagnose,
+read and analyse a ride log, render, cross-check.  Each returns a typed result of
+:mod:`euc_sim.api.results`; the command line parses its arguments and calls these.
+
+Imports of the heavy packages (MuJoCo, scipy, pandas) happen inside the functions, so
+``import euc_sim`` stays fast.  Bad input raises ``ValueError`` (or ``OSError``) with
+one line naming the file, column or parameter.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable, Mapping, Sequence
+
+from euc_sim.api.results import (Crosscheck, CrosscheckRow, Diagnosis, Identification, Recording,
+                                 Rendering, Ride, RideAnalysis)
+
+__all__ = ["simulate", "write_recording", "read_recording", "identify", "diagnose", "read_ride",
+           "analyse_ride", "render", "crosscheck"]
+
+
+def _params(params):
+    """``Params``, a mapping of Table 3 names to values (checked as plausible), or None."""
+    if params is None or not isinstance(params, Mapping):
+        return params
+    from euc_sim.model.parameters import Params, check_plausible
+
+    return check_plausible(Params.from_mapping(dict(params)), params)
+
+
+def simulate(maneuver="constant_speed", duration: float = 15.0, *, seed: int = 0, params=None,
+             effects: Mapping[str, float] | None = None, noise: str = "paper", engine: str = "mujoco",
+             variant: str = "ideal", hide_torques: bool = False, motor=None,
+             rider_noise: float | None = None, rider_delay: float = 0.15, rolling_model: str = "moment",
+             drift_shape=None, name: str = "recording") -> Recording:
+    """Closed-loop simulation of a rider on the EUC, sampled as a motion-capture recording.
+
+    The planar 3-DoF model (the paper's eqs. 5-8) in MuJoCo at 1 kHz with the motor's PD
+    balance law and an LQR rider with reaction delay and motor noise, sampled at 120 Hz
+    with the paper's measurement noise.
+
+    Parameters
+    ----------
+    maneuver : str or Maneuver
+        ``"constant_speed"``, ``"acceleration"``, ``"deceleration"``, ``"stop_and_go"``,
+        or a :class:`euc_sim.simulation.maneuvers.Maneuver` (a speed profile).
+    duration : float
+        Length, s.
+    seed : int
+        Seed of the rider's motor noise and the measurement noise.
+    params : Params or mapping, optional
+        Table 3 values (default Table 3, h = 0.6 m); a mapping overrides some of them.
+    effects : mapping, optional
+        Effects of CONTRACT's catalog to inject, name → value in the catalog's unit.
+    noise : {"paper", "none"}
+        Measurement noise (0.2 mm, 0.5°) or none.
+    engine : {"mujoco", "analytic"}
+    variant : {"ideal", "contact"}
+        MuJoCo ground model.
+    hide_torques : bool
+        Leave ``M_d``, ``M_h`` out of the recording.
+    motor : MotorPD, optional
+        The EUC's balance law (default K_p = 600 N·m/rad, K_d = 40 N·m·s/rad).
+    rider_noise : float, optional
+        Rider's motor noise, N·m (default :data:`euc_sim.controllers.rider.DEFAULT_RIDER_NOISE`).
+    rider_delay : float
+        Rider's reaction delay, s.
+    rolling_model : {"moment", "contact"}
+    drift_shape : DriftShape, optional
+        Shape of h(t) for the ``cog_height_drift`` effect.
+    name : str
+        The recording's name (its file stem when written).
+
+    Returns
+    -------
+    Recording
+        The table (CONTRACT columns, SI), its sidecar and its truth.
+
+    Examples
+    --------
+    >>> import euc_sim
+    >>> rec = euc_sim.simulate("deceleration", duration=3.0, seed=1)
+    >>> list(rec.data.columns[:4]), round(rec.duration, 2)
+    (['t', 'x', 'gamma', 'phi'], 3.0)
+    >>> rec.to_json()["maneuver"]
+    'deceleration'
+    """
+    from euc_sim.controllers.motor import MotorPD
+    from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.simulation.dataset import RecordingSpec, simulated_recording
+    from euc_sim.simulation.engine import default_rider
+    from euc_sim.simulation.maneuvers import MANEUVERS, make_maneuver
+
+    if isinstance(maneuver, str):
+        if maneuver not in MANEUVERS or maneuver == "profile":
+            raise ValueError(f"maneuver: unknown value {maneuver!r}; valid: "
+                             f"{', '.join(m for m in MANEUVERS if m != 'profile')} (or a Maneuver)")
+        maneuver = make_maneuver(maneuver)
+    p = _params(params) or TABLE3
+    motor = motor or MotorPD()
+    rider = default_rider(p, motor, noise_std=DEFAULT_RIDER_NOISE if rider_noise is None else rider_noise,
+                          delay=rider_delay)
+    spec = RecordingSpec(name, maneuver, float(duration), int(seed), p, tuple(sorted((effects or {}).items())),
+                         noise, engine, variant, bool(hide_torques), motor, rider, rolling_model,
+                         drift_shape=drift_shape)
+    data, meta, truth = simulated_recording(spec)
+    return Recording(name=name, data=data, meta=meta, truth=truth)
+
+
+def write_recording(recording: Recording, path) -> Path:
+    """Write a recording as ``NAME.csv`` (or ``.parquet``) with ``NAME.json`` and, for a
+    simulation, ``NAME.truth.json``; atomically (a failure leaves none of them).
+
+    Parameters
+    ----------
+    recording : Recording
+    path : path
+        ``NAME.csv`` or ``NAME.parquet``.
+
+    Returns
+    -------
+    pathlib.Path
+        The recording's path.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, euc_sim
+    >>> rec = euc_sim.simulate("constant_speed", duration=2.0)
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> euc_sim.write_recording(rec, folder / "ride.csv").name
+    'ride.csv'
+    >>> sorted(p.name for p in folder.iterdir())
+    ['ride.csv', 'ride.json', 'ride.truth.json']
+    """
+    from euc_sim import io
+
+    truth = None if recording.truth is None else dict(recording.truth)
+    return io.write_recording(recording.data, path, dict(recording.meta), truth)
+
+
+def read_recording(path) -> Recording:
+    """Read and validate a recording (CSV or Parquet) and its sidecar ``NAME.json``.
+
+    ``NAME.truth.json`` is never read.  Gaps of a few samples are repaired (with a
+    warning); a missing column, a non-increasing time or an implausible value is a
+    ``ValueError`` naming the file and the column.
+
+    Parameters
+    ----------
+    path : path
+
+    Returns
+    -------
+    Recording
+        With ``truth`` None.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, euc_sim
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "ride.csv"
+    >>> _ = euc_sim.write_recording(euc_sim.simulate("constant_speed", duration=2.0), path)
+    >>> rec = euc_sim.read_recording(path)
+    >>> rec.name, len(rec.data), rec.truth is None
+    ('ride.csv', 241, True)
+    """
+    from euc_sim.identification.recordings import read_recording as read
+
+    data, meta = read(path)
+    return Recording(name=Path(path).name, data=data, meta=meta, truth=None)
+
+
+def identify(recordings: Sequence, *, bounds: tuple[float, float] = (0.1, 1.5), n_boot: int = 400,
+             block: float | None = None, seed: int = 0, n_noise: int | None = None,
+             params=None) -> Identification:
+    """Identify the rider's centre-of-gravity height h with the 3-DoF and the reduced
+    2-DoF model: h minimises RMSE(M_d,1 − M_d,2) (eqs. 9-10 and 13), per recording and
+    pooled, with a 95 % interval and an identifiability verdict.
+
+    Parameters
+    ----------
+    recordings : sequence of path or loaded recordings
+        CONTRACT recordings (paths), or recordings already loaded with
+        :func:`euc_sim.identification.h_fit.load`.
+    bounds : (float, float)
+        Search interval of h, m.
+    n_boot : int
+        Block-bootstrap replicates of the interval.
+    block : float, optional
+        Bootstrap block, s (default 1 s).
+    seed : int
+        Seed of the bootstrap and noise replicates.
+    n_noise : int, optional
+        Replicates with fresh measurement noise that widen the interval (default 40).
+    params : Params or mapping, optional
+        Parameters of paths given (default: each sidecar's, else Table 3).
+
+    Returns
+    -------
+    Identification
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, euc_sim
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "brake.csv"
+    >>> _ = euc_sim.write_recording(euc_sim.simulate("deceleration", duration=8.0, seed=2), path)
+    >>> fit = euc_sim.identify([path], n_boot=60, n_noise=0)
+    >>> abs(fit.h - 0.6) < 0.05, sorted(fit.to_json()["models"])
+    (True, ['2dof', '3dof'])
+    """
+    from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, identify_recordings, load
+
+    if not recordings:
+        raise ValueError("identify: no recordings given")
+    p = _params(params)
+    recs = [r if hasattr(r, "kin") else load(r, params=p) for r in recordings]
+    res = identify_recordings(recs, bounds=bounds, n_boot=n_boot,
+                              block=BOOTSTRAP_BLOCK if block is None else block, seed=seed, n_noise=n_noise)
+    return Identification(recordings=tuple(r.name for r in recs), models=res["pooled"],
+                          per_recording=tuple(res["per_recording"]), loaded=tuple(recs))
+
+
+def diagnose(recording, *, params=None, resimulate: bool = True, calibrate: bool = True, seed: int = 0,
+             progress: Callable[[str], None] | None = None) -> Diagnosis:
+    """Find the physics the nominal model leaves out of a recording: where the residual
+    M_d,1 − M_d,2 concentrates, which effects of CONTRACT's catalog explain it (with
+    estimates, 95 % intervals and aliases), and whether anything remains unexplained.
+
+    Parameters
+    ----------
+    recording : path or pandas.DataFrame
+        A CONTRACT recording with its sidecar.
+    params : Params or mapping, optional
+        Nominal parameters (default: the sidecar's, else Table 3); h is identified.
+    resimulate : bool
+        Re-simulate the maneuver with the accepted effects (seconds to minutes).
+    calibrate : bool
+        On a 3-D ride, calibrate ``lateral_dynamics`` on a simulated twin.
+    seed : int
+        Seed of the noise-floor draw.
+    progress : callable, optional
+        Receives a short line at each step.
+
+    Returns
+    -------
+    Diagnosis
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, euc_sim
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "slope.csv"
+    >>> rec = euc_sim.simulate("stop_and_go", duration=12.0, seed=3, effects={"road_slope": 0.05},
+    ...                        hide_torques=True)
+    >>> _ = euc_sim.write_recording(rec, path)
+    >>> d = euc_sim.diagnose(path, resimulate=False)
+    >>> [e["name"] for e in d.effects], abs(d.effects[0]["estimate"] - 0.05) < 0.01
+    (['road_slope'], True)
+    >>> sorted(k for k in d.to_json() if k in ("recording", "nominal_rmse", "effects", "unexplained", "windows"))
+    ['effects', 'nominal_rmse', 'recording', 'unexplained', 'windows']
+    """
+    import warnings
+
+    from euc_sim.diagnosis.pipeline import diagnose as run
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # repaired gaps are reported by the reader
+        result = run(recording, params=_params(params), resimulate=resimulate, calibrate=calibrate,
+                     seed=seed, progress=progress)
+    return Diagnosis.from_dict(result, series=result.get("_series", {}))
+
+
+def read_ride(path, *, layout: str | None = None) -> Ride:
+    """Read an EUC telemetry log (WheelLog, EUC World or DarknessBot CSV) into SI units.
+
+    Parameters
+    ----------
+    path : path
+    layout : str, optional
+        Force ``"wheellog"``, ``"eucworld"`` or ``"darknessbot"`` (default: from the header).
+
+    Returns
+    -------
+    Ride
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, euc_sim
+    >>> from euc_sim.rides.lawsynth import law_ride, wheellog_log
+    >>> path = wheellog_log(law_ride(seed=1, duration=60.0), pathlib.Path(tempfile.mkdtemp()) / "log.csv", seed=1)
+    >>> ride = euc_sim.read_ride(path)
+    >>> ride.layout, ride.duration > 50, "v" in ride.data.columns
+    ('wheellog', True, True)
+    """
+    import warnings
+
+    from euc_sim.rides.logs import read_log
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")          # the reader's notes are kept in .warnings
+        log = read_log(path, layout=layout)
+    return Ride(path=str(path), layout=log.layout, data=log.data, absent=tuple(log.absent),
+                warnings=tuple(log.warnings), log=log)
+
+
+def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str = "power",
+                 n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
+                 progress: Callable[[str], None] | None = None) -> RideAnalysis:
+    """Everything ``euc-sim ride`` finds in a ride log: total mass, drivetrain, rolling
+    resistance, drag, grade, the wheel's balance law, the ride's summary and, with
+    ``compare``, the held-out error on another ride and what differs between the two.
+
+    Parameters
+    ----------
+    log : path
+        The ride to fit.
+    compare : path, optional
+        A ride of the same wheel to test on.
+    wheel : path, optional
+        The wheel's spec CSV (radius, weight, voltage).
+    report_dir : path, optional
+        Folder for the report page and figures.
+    domain : {"power", "torque"}
+    n_boot : int
+        Bootstrap replicates (at least 10).
+    seed : int
+        Seed of every random draw.
+    simulate : bool
+        Also run the closed-loop simulation along the tested ride (minutes).
+    jobs : int
+        Processes for that simulation.
+    progress : callable, optional
+
+    Returns
+    -------
+    RideAnalysis
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, euc_sim
+    >>> from euc_sim.rides.lawsynth import law_ride, wheellog_log
+    >>> path = wheellog_log(law_ride(seed=1, duration=200.0), pathlib.Path(tempfile.mkdtemp()) / "log.csv", seed=1)
+    >>> ride = euc_sim.analyse_ride(path, n_boot=20, simulate=False)
+    >>> ride.error_unit, ride.heldout_error_augmented <= ride.heldout_error_nominal
+    ('W', True)
+    >>> sorted(k for k in ride.to_json() if k.startswith("heldout_error_"))[:2]
+    ['heldout_error_all_candidates', 'heldout_error_augmented']
+    """
+    from euc_sim.cli.ride import MIN_BOOT, run_ride   # the ride pipeline's entry point
+    from euc_sim.rides.analysis import check_data
+    from euc_sim.rides.signals import RideAssumptions
+    from euc_sim.rides.spec import wheel_spec
+
+    if n_boot < MIN_BOOT:
+        raise ValueError(f"n_boot must be at least {MIN_BOOT} (an effect is accepted on its "
+                         f"bootstrap interval), got {n_boot}")
+    for p in [log] + ([compare] if compare else []):
+        if not Path(p).is_file():
+            raise FileNotFoundError(f"{p}: no such log file")
+    spec = wheel_spec(wheel)
+    check_data(log, compare, assumptions=RideAssumptions(), domain=domain)
+    rep = run_ride(log, compare, report_dir=report_dir, domain=domain, n_boot=n_boot, seed=seed,
+                   simulate=simulate, jobs=jobs, progress=progress, spec=spec)
+    return RideAnalysis.from_dict(rep)
+
+
+def render(recording, out, *, fps: float = 30.0, width: int = 640, height: int = 480,
+           time: float | None = None, progress: bool = False) -> Rendering:
+    """Replay a recording in the 3-D model with MuJoCo's offscreen renderer.
+
+    Parameters
+    ----------
+    recording : path
+        A recording with ``psi``, ``theta``, ``gamma`` and the C (or E) marker columns.
+    out : path
+        ``.mp4`` or ``.gif`` (a video) or ``.png`` (one frame at ``time``).
+    fps : float
+        Frames per second, 1/s, in [1, 120].
+    width, height : int
+        Pixels.
+    time : float, optional
+        With ``.png``: the time of the frame, s (default: the middle).
+    progress : bool
+        A progress bar on stderr.
+
+    Returns
+    -------
+    Rendering
+
+    Examples
+    --------
+    >>> import tempfile, pathlib, euc_sim
+    >>> from euc_sim.simulation.spatial import write_spatial
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> rec = write_spatial(folder / "turn.csv", "circle", 2.0)
+    >>> euc_sim.render(rec, folder / "frame.png", width=160, height=120).frames   # doctest: +SKIP
+    1
+    """
+    import math
+
+    from euc_sim.simulation.render import render_recording
+
+    out = Path(out)
+    if out.suffix.lower() not in (".mp4", ".gif", ".png"):
+        raise ValueError(f"out must end in .mp4, .gif or .png, got {str(out)!r}")
+    if not (math.isfinite(fps) and 1 <= fps <= 120):
+        raise ValueError(f"fps must be in [1, 120], got {fps!r}")
+    n = render_recording(recording, out, fps=fps, width=width, height=height, frame_time=time,
+                         progress=progress)
+    return Rendering(path=str(out), frames=int(n), fps=float(fps), width=int(width), height=int(height))
+
+
+def crosscheck(samples: int = 2500, *, params=None, mjcf=None,
+               progress: Callable[[str], None] | None = None) -> Crosscheck:
+    """Prove the MuJoCo model against the analytic equations (5)-(8): accelerations,
+    inverse dynamics and energy on random states and trajectories, each against a bound.
+
+    Parameters
+    ----------
+    samples : int
+        Random states per parameter set (at least 1).
+    params : Params or mapping, optional
+        One parameter set to check instead of the built-in four.
+    mjcf : path, optional
+        An MJCF file (default ``mjcf/euc_planar.xml``).
+    progress : callable, optional
+
+    Returns
+    -------
+    Crosscheck
+
+    Examples
+    --------
+    >>> import euc_sim
+    >>> euc_sim.crosscheck(samples=20).ok
+    True
+    """
+    from euc_sim.model import crosscheck as cc
+
+    if samples < 1:
+        raise ValueError(f"samples must be at least 1, got {samples}")
+    sets = dict(cc.PARAMETER_SETS) if params is None else {"user": _params(params)}
+    checks = cc.run_all(samples, progress=progress, sets=sets, mjcf=mjcf)
+    rows = tuple(CrosscheckRow(c.name, float(c.value), float(c.bound), bool(c.ok), c.detail) for c in checks)
+    return Crosscheck(ok=all(r.ok for r in rows), checks=rows)

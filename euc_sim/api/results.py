@@ -1,0 +1,328 @@
+"""The typed results of the public API (:mod:`euc_sim.api`): frozen dataclasses, each
+with ``to_json()`` giving the JSON object of CONTRACT.md that the matching command writes.
+
+Where a pipeline returns a large dictionary (the diagnosis, the ride analysis), the
+result keeps CONTRACT's keys as fields, every other key of the dictionary as a typed
+field or under ``details``, and the order of the keys, so that ``to_json()`` gives
+back the command's JSON object byte for byte.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Mapping
+
+__all__ = ["Recording", "Identification", "Diagnosis", "Ride", "RideAnalysis", "Rendering",
+           "Crosscheck", "CrosscheckRow"]
+
+
+def _jsonable(obj: Any) -> Any:
+    from euc_sim.io import to_jsonable
+
+    return to_jsonable(obj)
+
+
+class _KeyedResult:
+    """Mixin of a result built from a pipeline's dictionary: fields plus ``details``.
+
+    A subclass is a dataclass with a ``details`` mapping (keys without a field of their
+    own) and ``key_order`` (the dictionary's keys in their order).
+    """
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], **extra):
+        """The result of the pipeline's dictionary ``d`` (keys starting with ``_`` are
+        private to the pipeline and go to ``extra``'s fields, never to the JSON)."""
+        names = {f.name for f in dataclasses.fields(cls)} - {"details", "key_order"}
+        public = [k for k in d if not k.startswith("_")]
+        kw = {k: d[k] for k in public if k in names}
+        details = {k: d[k] for k in public if k not in names}
+        return cls(**kw, details=details, key_order=tuple(public), **extra)
+
+    def to_json(self) -> dict:
+        """The command's JSON object, its keys in the pipeline's order (plain Python types)."""
+        out = {}
+        for k in self.key_order:
+            out[k] = self.details[k] if k in self.details else getattr(self, k)
+        return _jsonable(out)
+
+    def get(self, key: str, default=None):
+        """The value of a JSON key, whether a field or one of :attr:`details`."""
+        if key in self.details:
+            return self.details[key]
+        return getattr(self, key) if key in self.key_order else default
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """A recording (CONTRACT's "A recording"): the table, its sidecar and, for a
+    simulation, its truth.
+
+    Attributes
+    ----------
+    name : str
+        The file stem (``NAME`` of ``NAME.csv``), or the path read.
+    data : pandas.DataFrame
+        One row a sample: ``t`` s, ``x`` m, ``gamma`` and ``phi`` rad, and where present
+        ``psi``, ``theta`` rad, ``M_d``, ``M_h`` N·m and the motion-capture columns, m.
+    meta : mapping
+        The ``NAME.json`` sidecar (``params``, ``maneuver``, ``source``, ...).
+    truth : mapping or None
+        The ``NAME.truth.json`` content of a simulation (injected effects, true
+        parameters); None for a recording read from a file (the truth is never read).
+    """
+
+    name: str
+    data: Any = field(repr=False)
+    meta: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    truth: Mapping[str, Any] | None = field(default=None, repr=False)
+
+    @property
+    def duration(self) -> float:
+        """Time from the first to the last sample, s."""
+        t = self.data["t"]
+        return float(t.iloc[-1] - t.iloc[0]) if len(t) else 0.0
+
+    def to_json(self) -> dict:
+        """The sidecar object (``NAME.json``)."""
+        return _jsonable(dict(self.meta))
+
+
+@dataclass(frozen=True, eq=False)
+class Identification:
+    """h identified by the 3-DoF and the reduced 2-DoF model (the paper's Section 4).
+
+    Attributes
+    ----------
+    recordings : tuple of str
+        The recordings, as given.
+    models : mapping of str to HFit
+        Pooled over the recordings: ``"3dof"`` and ``"2dof"`` → :class:`euc_sim.identification.h_fit.HFit`
+        (``h`` m, ``h_ci95`` m, ``rmse`` N·m, ``identifiable``, the RMSE(h) curve).
+    per_recording : tuple of mapping
+        The same per recording, in order.
+    loaded : tuple
+        The loaded recordings (:class:`euc_sim.identification.h_fit.Recording`: data,
+        parameters, kinematics), for figures and further fits.
+    """
+
+    recordings: tuple[str, ...]
+    models: Mapping[str, Any]
+    per_recording: tuple[Mapping[str, Any], ...]
+    loaded: tuple = field(default=(), repr=False)
+
+    @property
+    def h(self) -> float:
+        """The pooled 3-DoF h, m."""
+        return float(self.models["3dof"].h)
+
+    def to_json(self) -> dict:
+        """CONTRACT's ``euc-sim identify`` object (``recordings``, ``models``, ``per_recording``)."""
+        return _jsonable({
+            "recordings": list(self.recordings),
+            "models": {m: f.as_json() for m, f in self.models.items()},
+            "per_recording": [{"recording": name, "models": {m: f.as_json() for m, f in fits.items()}}
+                              for name, fits in zip(self.recordings, self.per_recording)],
+        })
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnosis(_KeyedResult):
+    """What the nominal model leaves out of a recording (CONTRACT's "Diagnosis output").
+
+    Attributes
+    ----------
+    recording : str
+    nominal_rmse : float
+        Held-out residual RMSE of the nominal model, N·m.
+    effects : list of dict
+        Accepted effects, strongest first: ``name``, ``estimate`` (the catalog's unit),
+        ``unit``, ``ci95``, ``rmse_after`` N·m, ``aliases``, ``evidence``.
+    unexplained : bool
+        Structure remains that no catalogued effect explains.
+    windows : list of [float, float]
+        Where the mismatch concentrates, s.
+    augmented_rmse : float
+        Held-out residual RMSE with the accepted effects, N·m.
+    h_nominal, h_augmented : float
+        h identified without and with the effects, m.
+    noise_floor : float
+        RMS of the residual that the measurement noise alone gives, N·m.
+    verdict : str
+        One sentence.
+    notes : list of str
+    tentative : list of dict
+        Effects seen but not accepted.
+    details : mapping
+        Every other key of the diagnosis object (limits, visibility, history, ...).
+    key_order : tuple of str
+        The JSON object's keys in order.
+    series : mapping
+        The time series behind the report's figures (not part of the JSON).
+    """
+
+    recording: str
+    nominal_rmse: float
+    effects: list
+    unexplained: bool
+    windows: list
+    augmented_rmse: float = float("nan")
+    h_nominal: float = float("nan")
+    h_augmented: float = float("nan")
+    noise_floor: float = float("nan")
+    verdict: str = ""
+    notes: list = field(default_factory=list)
+    tentative: list = field(default_factory=list)
+    details: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    key_order: tuple[str, ...] = field(default=(), repr=False)
+    series: Mapping[str, Any] = field(default_factory=dict, repr=False)
+
+    def as_result(self) -> dict:
+        """The pipeline's dictionary (its series under ``_series``), for :mod:`euc_sim.diagnosis.report`."""
+        out = {k: (self.details[k] if k in self.details else getattr(self, k)) for k in self.key_order}
+        out["_series"] = dict(self.series)
+        return out
+
+    def summary(self) -> str:
+        """The diagnosis in a few lines, as ``euc-sim diagnose`` prints it."""
+        from euc_sim.diagnosis.report import summary
+
+        return summary(self.as_result())
+
+    def write_report(self, folder) -> Path:
+        """Write the report (``index.html``, its plain text ``index.md`` and the figures) to ``folder``; returns ``index.md``."""
+        from euc_sim.diagnosis.report import write_report
+
+        return write_report(self.as_result(), folder)
+
+
+@dataclass(frozen=True, eq=False)
+class Ride:
+    """A ride log read into SI units (WheelLog, EUC World or DarknessBot).
+
+    Attributes
+    ----------
+    path : str
+    layout : str
+        ``"wheellog"``, ``"eucworld"`` or ``"darknessbot"``.
+    data : pandas.DataFrame
+        ``t`` s from the first sample, ``v`` wheel speed m/s, and the channels present
+        (``voltage`` V, ``current`` A, ``power`` W, ``pitch`` rad, ...).
+    absent : tuple of str
+        Channels the file lacks (or has only as zeros).
+    warnings : tuple of str
+        One line per problem the reader handled.
+    log : RideLog
+        The reader's own result (:class:`euc_sim.rides.logs.RideLog`).
+    """
+
+    path: str
+    layout: str
+    data: Any = field(repr=False)
+    absent: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = field(default=(), repr=False)
+    log: Any = field(default=None, repr=False)
+
+    @property
+    def duration(self) -> float:
+        """Time from the first to the last sample, s."""
+        return float(self.data["t"].iloc[-1]) if len(self.data) else 0.0
+
+    def to_json(self) -> dict:
+        """``path``, ``layout``, ``rows``, ``duration_s``, ``channels``, ``absent``, ``warnings``."""
+        return _jsonable({"path": self.path, "layout": self.layout, "rows": int(len(self.data)),
+                          "duration_s": self.duration, "channels": [c for c in self.data.columns],
+                          "absent": list(self.absent), "warnings": list(self.warnings)})
+
+
+@dataclass(frozen=True, eq=False)
+class RideAnalysis(_KeyedResult):
+    """What ``euc-sim ride`` finds in a log (CONTRACT's ``euc-sim ride`` object).
+
+    Attributes
+    ----------
+    effects : list of dict
+        The accepted physics the nominal (inertia-only) model lacks.
+    heldout_error_nominal, heldout_error_augmented : float
+        Held-out error without and with the effects, in :attr:`error_unit`.
+    error_unit : str
+    parameters : list of dict
+        Every fitted physical quantity once: ``name``, ``estimate``, ``ci95``, ``unit``,
+        ``plausible``, ``accepted``, ``why``.
+    total_mass : dict
+        Rider plus wheel, kg: ``estimate``, ``ci95``.
+    summary : dict or None
+        The ride as a rider reads it (distance m, energy Wh, ...).
+    details : mapping
+        Every other key (``drivetrain``, ``controller``, ``simulation``, ``differences``, ...).
+    key_order : tuple of str
+    """
+
+    effects: list
+    heldout_error_nominal: float
+    heldout_error_augmented: float
+    error_unit: str
+    parameters: list = field(default_factory=list)
+    total_mass: Mapping[str, Any] | None = None
+    summary: Mapping[str, Any] | None = None
+    details: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    key_order: tuple[str, ...] = field(default=(), repr=False)
+
+
+@dataclass(frozen=True)
+class Rendering:
+    """A recording replayed in the 3-D model.
+
+    Attributes
+    ----------
+    path : str
+        The file written (.mp4, .gif or .png).
+    frames : int
+    fps : float
+        Frames per second, 1/s.
+    width, height : int
+        Pixels.
+    """
+
+    path: str
+    frames: int
+    fps: float
+    width: int
+    height: int
+
+    def to_json(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class CrosscheckRow:
+    """One cross-check: the worst error found and its bound (same unit)."""
+
+    name: str
+    value: float
+    bound: float
+    ok: bool
+    detail: str = ""
+
+
+@dataclass(frozen=True)
+class Crosscheck:
+    """The MuJoCo model proved against the analytic equations (5)-(8).
+
+    Attributes
+    ----------
+    ok : bool
+        Every bound holds.
+    checks : tuple of CrosscheckRow
+    """
+
+    ok: bool
+    checks: tuple[CrosscheckRow, ...]
+
+    def to_json(self) -> dict:
+        """CONTRACT's ``euc-sim crosscheck`` object: ``ok`` and ``checks``."""
+        return _jsonable({"ok": self.ok, "checks": [
+            {"name": c.name, "value": c.value, "bound": c.bound, "detail": c.detail, "ok": c.ok}
+            for c in self.checks]})
