@@ -154,11 +154,15 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
     check_backend(args.scheduler, args.workers)
     if not (math.isfinite(args.duration) and args.duration > 0):
         raise ValueError(f"--duration must be a positive number of seconds, got {args.duration!r}")
+    effects = _effects(args.effect)
     specs = dataset_plan(args.seed, args.duration, params=parse_params(args.param), noise=args.noise,
-                         rider_noise=args.rider_noise, engine=args.engine, effects=_effects(args.effect))
+                         rider_noise=args.rider_noise, engine=args.engine, effects=effects)
+    settings = {"seed": args.seed, "duration": args.duration, "noise": args.noise, "engine": args.engine,
+                "rider_noise": args.rider_noise, "effects": effects, "param": list(args.param or ()),
+                "format": args.format}
     t0 = time.perf_counter()
     report = run_dataset(args.out_dir, specs, workers=args.workers, progress=not args.quiet,
-                         ext="." + args.format, scheduler=args.scheduler)
+                         ext="." + args.format, scheduler=args.scheduler, settings=settings)
     say(report.table())
     say(f"dataset: wrote {len(report.results)} of {len(specs)} recordings to {args.out_dir} "
         f"in {time.perf_counter() - t0:.1f} s")
@@ -282,7 +286,11 @@ def add_commands(sub) -> None:
                    help="processes on this machine (default: all cores; 1: in this process), "
                         "or the workers of --scheduler local (default 2)")
     p.add_argument("--scheduler", default=None, metavar="local|ADDRESS",
-                   help="run on Dask: 'local' starts a local cluster, tcp://HOST:PORT uses a running one")
+                   help="run on Dask: 'local' starts a cluster on this machine that only this command can "
+                        "use (TLS with throwaway keys, no dashboard or HTTP port); tcp://HOST:PORT (or "
+                        "tls://) uses a running one, which is trusted with code: it receives this "
+                        "command's tasks as pickled Python and runs them, and its pickled results are "
+                        "unpickled here; use only a cluster that you and users you trust control")
     p.add_argument("--noise", default="paper", metavar=one_of(NOISE_LEVELS), help="paper (default) or none")
     p.add_argument("--engine", default="mujoco", metavar=one_of(ENGINES), help="mujoco (default) or analytic")
     p.add_argument("--format", default="csv", metavar=one_of(("csv", "parquet")), help="csv (default) or parquet")

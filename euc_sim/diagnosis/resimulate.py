@@ -111,13 +111,19 @@ def _injected(prep: Prepared, named: list[dict]) -> tuple[dict, float]:
 
 
 def _lateral_motion(prep: Prepared, duration: float, sim_dt: float):
-    """The recording's own tilt and yaw on the run's grid (a ``maneuvers.LateralMotion``)."""
+    """The recording's own tilt and yaw on the run's grid (a ``maneuvers.LateralMotion``).
+
+    Only the prescribed motion's inputs (:data:`euc_sim.simulation.lateral.LATERAL_INPUTS`,
+    (N,) series) are carried over; ``prep.lateral``'s other inputs of the fit (the rider's
+    lean, G's (N, 3) acceleration) are the simulated rider's own outputs, not its plan.
+    """
     from scipy.integrate import cumulative_trapezoid
 
     from euc_sim.simulation import maneuvers
+    from euc_sim.simulation.lateral import LATERAL_INPUTS
     t = prep.t
     grid = np.arange(int(round(duration / sim_dt)) + 1) * sim_dt + t[0]
-    on = {key: np.interp(grid, t, v) for key, v in prep.lateral.items()}
+    on = {key: np.interp(grid, t, prep.lateral[key]) for key in LATERAL_INPUTS}
     return maneuvers.LateralMotion(on["theta"], on["theta_d"],
                                    cumulative_trapezoid(on["psi_d"], grid, initial=0.0),
                                    on["psi_d"], on["psi_dd"])

@@ -10,6 +10,11 @@ Seeds: a recording with seed s draws the rider's motor noise from s and the
 measurement noise from (s, 120); a dataset with seed S gives recording i the seed
 ``SeedSequence(S).spawn(n)[i]``, and its speeds from the same stream, so every file
 is reproducible on its own.
+
+A dataset's folder appears whole or not at all: :func:`run_dataset` writes into a
+hidden folder beside it and renames that into place once the manifest is written;
+its manifest names the plan (:func:`plan_digest`), so a rerun replaces a dataset of
+the same plan only, never a folder holding anything else.
 """
 
 from __future__ import annotations
@@ -30,7 +35,7 @@ from euc_sim.simulation.maneuvers import Maneuver, make_maneuver
 from euc_sim.simulation.engine import default_rider, simulate, true_params
 
 __all__ = ["PAPER_SET", "DEFAULT_RIDER_NOISE", "RecordingSpec", "simulated_recording", "simulated_recordings",
-           "write_simulated", "dataset_plan", "run_dataset"]
+           "write_simulated", "dataset_plan", "run_dataset", "plan_digest", "DATASET_BATCH"]
 
 #: The paper's longitudinal maneuvers (Table 1) and how many recordings of each, plus
 #: stop-and-go, which identifies h best (docs/scale.md).
@@ -210,6 +215,15 @@ def dataset_plan(seed: int = 0, duration: float = 15.0, counts=PAPER_SET, params
     return specs
 
 
+#: Recordings per task of :func:`run_dataset` unless told.  The rider's law is batched
+#: across a batch's rides (:mod:`euc_sim.simulation.mujoco_batch`), and the rounding of
+#: its sums depends on the batch's make-up; batches fixed by the plan alone (never by
+#: the backend or the number of workers) give serial, pool and Dask runs the same bytes.
+DATASET_BATCH = 8
+#: The manifest beside the recordings.
+MANIFEST = "dataset.json"
+
+
 def _make_batch(args):
     """Worker side: one batch of recordings in memory (written by the parent, atomically);
     a spec whose rider fell gives its one-line reason instead."""
@@ -219,22 +233,151 @@ def _make_batch(args):
     return [_reason(v) if isinstance(v, Exception) else v for v in simulated_recordings(specs, nthread)]
 
 
+def plan_digest(specs: list[RecordingSpec], ext: str = ".csv") -> str:
+    """SHA-256 (hex) of everything that makes a dataset's files: each spec's name, maneuver,
+    duration, seed, parameters, effects, noise, engine, ground, motor, rider and
+    disturbances, and the format ``ext``."""
+    import hashlib
+    import json
+
+    def one(s: RecordingSpec) -> dict:
+        force = s.external_force
+        return {"name": s.name, "maneuver": s.maneuver.as_dict(), "duration": s.duration, "seed": s.seed,
+                "params": s.params.as_dict(), "effects": s.effects, "noise": s.noise, "engine": s.engine,
+                "variant": s.variant, "hide_torques": s.hide_torques, "motor": s.motor.as_dict(),
+                "rider": (s.rider or default_rider(s.params, s.motor)).as_dict(),
+                "rolling_model": s.rolling_model,
+                "external_force": None if force is None else getattr(force, "as_dict", lambda: repr(force))(),
+                "drift_shape": None if s.drift_shape is None else s.drift_shape.as_dict()}
+    text = json.dumps(io.to_jsonable({"format": ext, "recordings": [one(s) for s in specs]}), sort_keys=True)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def _check_folder(out_dir: Path, digest: str) -> None:
+    """Raise ``ValueError`` (one line) unless ``out_dir`` is missing, empty, or a previous
+    dataset of the same plan (its manifest's ``plan`` is ``digest``) holding nothing else."""
+    import json
+
+    if not out_dir.exists():
+        return
+    if not out_dir.is_dir():
+        raise ValueError(f"dataset folder {out_dir}: exists and is not a folder")
+    present = {p.name for p in out_dir.iterdir()}
+    if not present:
+        return
+    try:
+        old = json.loads((out_dir / MANIFEST).read_text(encoding="utf-8"))
+        ours = {MANIFEST} | {n for r in old["recordings"] for n in (r, *(p.name for p in io.sidecar_paths(r)))}
+        same = old.get("plan") == digest and present <= ours
+    except (OSError, ValueError, KeyError, TypeError):
+        same = False
+    if not same:
+        raise ValueError(f"dataset folder {out_dir}: not empty and not a previous dataset of these settings "
+                         f"(its {MANIFEST} is missing or names another plan, or other files are there); "
+                         f"choose a new or empty folder")
+
+
+class _Staging:
+    """A hidden folder beside ``out_dir`` (``.NAME.partial-PID-XXXX``) that becomes ``out_dir``
+    when :meth:`commit` is called, and is removed, with the parent folders this run made,
+    otherwise (an error, Ctrl-C).  Partial folders of processes no longer running are
+    removed first."""
+
+    def __init__(self, out_dir: Path):
+        self.out_dir = out_dir
+        self.created = [d for d in (out_dir.parent, *out_dir.parent.parents) if not d.exists()]
+        self.path: Path | None = None
+
+    def __enter__(self) -> Path:
+        import os
+        import tempfile
+
+        parent, name = self.out_dir.parent, self.out_dir.name
+        try:
+            parent.mkdir(parents=True, exist_ok=True)
+            _remove_stale(parent, f".{name}.partial-")
+            self.path = Path(tempfile.mkdtemp(prefix=f".{name}.partial-{os.getpid()}-", dir=parent))
+        except OSError as exc:
+            self._clean()
+            raise type(exc)(f"cannot write {self.out_dir}: {exc.strerror or type(exc).__name__} ({parent})") from None
+        return self.path
+
+    def commit(self) -> None:
+        """Rename the staged folder into place (an existing dataset of the same plan is
+        moved aside first and removed after)."""
+        import os
+        import shutil
+        import tempfile
+
+        os.chmod(self.path, 0o777 & ~_umask())          # mkdtemp makes 0700
+        if self.out_dir.is_dir() and any(self.out_dir.iterdir()):
+            aside = Path(tempfile.mkdtemp(prefix=f".{self.out_dir.name}.old-", dir=self.out_dir.parent))
+            os.replace(self.out_dir, aside / self.out_dir.name)
+            os.replace(self.path, self.out_dir)
+            shutil.rmtree(aside)
+        else:                        # missing or an empty folder: one rename (replaces an empty folder)
+            os.replace(self.path, self.out_dir)
+        self.path = None
+
+    def __exit__(self, *exc) -> None:
+        self._clean()
+
+    def _clean(self) -> None:
+        import shutil
+
+        if self.path is not None:
+            shutil.rmtree(self.path, ignore_errors=True)
+            self.path = None
+        if not self.out_dir.exists():
+            for d in [self.out_dir.parent, *self.out_dir.parent.parents]:     # deepest first
+                if d in self.created and d.is_dir() and not any(d.iterdir()):
+                    d.rmdir()
+
+
+def _remove_stale(parent: Path, prefix: str) -> None:
+    """Remove ``PREFIX<pid>-XXXX`` folders in ``parent`` whose process no longer runs."""
+    import os
+    import shutil
+
+    for d in parent.glob(prefix + "*"):
+        pid = d.name[len(prefix):].split("-")[0]
+        if not (d.is_dir() and pid.isdigit()):
+            continue
+        try:
+            os.kill(int(pid), 0)
+        except ProcessLookupError:
+            shutil.rmtree(d, ignore_errors=True)
+        except OSError:               # alive (another user's process): left alone
+            pass
+
+
+def _umask() -> int:
+    import os
+
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
 def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | None = None,
                 progress: bool = True, ext: str = ".csv", scheduler: str | None = None,
-                threads: int = 1, batch: int | None = None):
+                threads: int = 1, batch: int | None = None, settings: Mapping | None = None):
     """Write every spec's recording into ``out_dir``, in parallel (:mod:`runner`).
 
     The specs go in batches (:func:`simulated_recordings`: one ``mujoco.batch.Batch``
     on ``threads`` threads each); a batch is one task of the process pool or of Dask.
-    Workers simulate and return the recordings; this process writes each one as it
-    arrives (``euc_sim.io``: temp file then rename), so an interrupted run leaves
-    complete recordings only, and a remote Dask cluster needs no shared folder.
-    A recording whose rider falls (or whose worker dies) is named in the report and
-    the manifest; the others are written.
+    Workers simulate and return the recordings; this process writes them into a hidden
+    folder beside ``out_dir`` as they arrive, then the manifest, then renames the
+    folder into place: an interrupted or failed run leaves nothing (and an existing
+    dataset as it was), and a remote Dask cluster needs no shared folder.  A recording
+    whose rider falls (or whose worker dies) is named in the report and the manifest;
+    the others are written.
 
     Parameters
     ----------
     out_dir : path
+        Missing, empty, or a previous dataset of the same plan (:func:`plan_digest`),
+        which is replaced; anything else is refused.
     specs : list of RecordingSpec
     workers : int, optional
         Worker processes (default: all cores; 1 runs in this process), or the local
@@ -247,60 +390,63 @@ def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | 
     threads : int
         Threads of each batch (a worker machine's cores under Dask).
     batch : int, optional
-        Recordings per batch (default: the specs shared evenly among the workers,
-        at most 64 per batch).
+        Recordings per batch (default :data:`DATASET_BATCH`; the bytes depend on it).
+    settings : mapping, optional
+        The settings that made ``specs`` (the command's seed, duration, noise …), kept in
+        the manifest (``settings``; its ``seed`` also as ``seed``).
 
     Returns
     -------
     RunReport
         By recording: ``results`` maps each written recording's name to its path;
-        ``failed`` maps the others to the reason.  A manifest ``dataset.json`` is
-        written beside them (``recordings`` in the order of ``specs``, ``failed``:
-        name -> reason).
-    """
-    import os
+        ``failed`` maps the others to the reason.  The manifest ``dataset.json`` beside
+        them holds ``recordings`` (in the order of ``specs``), ``failed`` (name ->
+        reason), ``maneuvers``, ``duration``, ``seed``, ``settings`` and ``plan``.
 
+    Raises
+    ------
+    ValueError
+        for a folder that is neither missing, empty nor a dataset of this plan, or a bad
+        ``batch``/backend, before anything runs.
+    """
     from euc_sim.simulation.runner import RunReport, check_backend, run_tasks
 
     out_dir = Path(out_dir)
-    created = [d for d in (out_dir, *out_dir.parents) if not d.exists()]   # deepest first
-    io.check_writable(out_dir / "dataset.json")
     check_backend(scheduler, workers)
-    if batch is None:            # as many batches as workers (a Dask cluster: 2 unless told)
-        shares = workers or (2 if scheduler is not None else os.cpu_count() or 1)
-        batch = min(64, max(1, -(-len(specs) // shares)))
-    if not (isinstance(batch, int) and batch >= 1):
+    batch = DATASET_BATCH if batch is None else batch
+    if not (isinstance(batch, int) and not isinstance(batch, bool) and batch >= 1):
         raise ValueError(f"batch: expected a positive number of recordings, got {batch!r}")
+    digest = plan_digest(specs, ext)
+    _check_folder(out_dir, digest)
     groups = {f"batch{i // batch:04d}": specs[i:i + batch] for i in range(0, len(specs), batch)}
-
-    written: dict[str, Path] = {}
+    written: dict[str, str] = {}
     fell: dict[str, str] = {}
+    staging = _Staging(out_dir)
+    with staging as stage:
+        def write(name: str, values) -> None:
+            for spec, value in zip(groups[name], values):
+                if isinstance(value, str):
+                    fell[spec.name] = value
+                else:
+                    rec, meta, truth = value
+                    written[spec.name] = io.write_recording(rec, stage / f"{spec.name}{ext}", meta, truth).name
 
-    def write(name: str, values) -> None:
-        for spec, value in zip(groups[name], values):
-            if isinstance(value, str):
-                fell[spec.name] = value
-            else:
-                rec, meta, truth = value
-                written[spec.name] = io.write_recording(rec, out_dir / f"{spec.name}{ext}", meta, truth)
-
-    try:
         by_batch = run_tasks(_make_batch, [(n, (g, threads)) for n, g in groups.items()], scheduler=scheduler,
                              workers=workers, progress=progress, desc="dataset", on_result=write)
-    except BaseException:        # no scheduler, an interruption: no folder left that this run made empty
-        for d in created:
-            if d.is_dir() and not any(d.iterdir()):
-                d.rmdir()
-        raise
-    for name, reason in by_batch.failed.items():      # a batch that died: each of its recordings named
-        fell.update({spec.name: reason for spec in groups[name]})
-    report = RunReport(names=[s.name for s in specs], backend=by_batch.backend, seconds=by_batch.seconds)
-    report.results = {s.name: written[s.name] for s in specs if s.name in written}
-    report.failed = {s.name: fell[s.name] for s in specs if s.name in fell}
-    io.write_json(out_dir / "dataset.json", {
-        "recordings": [p.name for p in report.results.values()],
-        "maneuvers": {s.name: s.maneuver.name for s in specs},
-        "duration": specs[0].duration if specs else math.nan,
-        "failed": report.failed,
-    })
+        for name, reason in by_batch.failed.items():      # a batch that died: each of its recordings named
+            fell.update({spec.name: reason for spec in groups[name]})
+        report = RunReport(names=[s.name for s in specs], backend=by_batch.backend, seconds=by_batch.seconds)
+        report.results = {s.name: out_dir / written[s.name] for s in specs if s.name in written}
+        report.failed = {s.name: fell[s.name] for s in specs if s.name in fell}
+        settings = dict(settings or {})
+        io.write_json(stage / MANIFEST, {
+            "recordings": [p.name for p in report.results.values()],
+            "maneuvers": {s.name: s.maneuver.name for s in specs},
+            "duration": specs[0].duration if specs else math.nan,
+            "failed": report.failed,
+            "seed": settings.get("seed"),
+            "settings": settings,
+            "plan": digest,
+        })
+        staging.commit()
     return report

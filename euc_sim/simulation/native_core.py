@@ -118,21 +118,58 @@ def _offsets(names: Sequence[str], data: bool) -> dict[str, int]:
                 '<actuator><motor joint="a"/></actuator></mujoco>'):
         m = mujoco.MjModel.from_xml_string(xml)
         obj = mujoco.MjData(m) if data else m
-        offs, words = {}, 4096
-        while len(offs) < len(names):         # the pointers follow the struct's fixed arrays: look further
-            if words > 1 << 20:
-                raise RuntimeError(f"{'mjData' if data else 'mjModel'} pointers {sorted(set(names) - set(offs))} "
-                                   f"not found in its first {words * 8} bytes")
-            w = np.frombuffer((ctypes.c_int64 * words).from_address(int(obj._address)), dtype=np.int64)
-            for name in names:
-                hit = np.flatnonzero(w == getattr(obj, name).ctypes.data)
-                if name not in offs and hit.size:
-                    offs[name] = int(hit[0]) * 8
-            words *= 4
-        found.append(offs)
+        targets = {name: getattr(obj, name).ctypes.data for name in names}
+        found.append(_find_pointers(int(obj._address), targets, "mjData" if data else "mjModel"))
     if found[0] != found[1]:
         raise RuntimeError(f"{'mjData' if data else 'mjModel'} field offsets disagree between two models: {found}")
     return found[0]
+
+
+#: The largest struct prefix searched for the pointers, bytes (mjData's pointers follow
+#: about 160 kB of fixed arrays in MuJoCo 3-4).
+_SCAN_LIMIT = 8 << 20
+
+
+def _find_pointers(base: int, targets: dict[str, int], what: str) -> dict[str, int]:
+    """Byte offset from ``base`` of the first 8-byte word equal to each target address.
+
+    The struct's memory is read through ``/proc/self/mem`` a page at a time, never by
+    dereferencing: the search may run past the struct's end (its size is not known
+    here), and a plain read past it faults where the next page is not mapped (mjData in
+    a mapping of its own, as in a Dask worker's task thread: see docs/robustness.md).
+    The kernel's read stops at the first page not mapped instead.  Raises RuntimeError
+    where ``/proc/self/mem`` cannot be read (then the Python loops run) or a pointer is
+    not found.
+    """
+    import os
+
+    try:
+        fd = os.open("/proc/self/mem", os.O_RDONLY)
+    except OSError as exc:
+        raise RuntimeError(f"cannot read {what} safely to find its field offsets ({exc})") from None
+    offs: dict[str, int] = {}
+    try:
+        pos, page = base, 4096
+        while len(offs) < len(targets) and pos - base < _SCAN_LIMIT:
+            want = page - pos % page
+            try:
+                chunk = os.pread(fd, want, pos)
+            except OSError:               # the next page is not mapped: the struct ended before it
+                break
+            if len(chunk) < 8 or (pos - base) % 8:
+                break
+            w = np.frombuffer(chunk[:len(chunk) // 8 * 8], dtype=np.int64)
+            for name, addr in targets.items():
+                hit = np.flatnonzero(w == addr)
+                if name not in offs and hit.size:
+                    offs[name] = pos - base + int(hit[0]) * 8
+            pos += len(chunk)
+    finally:
+        os.close(fd)
+    if len(offs) < len(targets):
+        raise RuntimeError(f"{what} pointers {sorted(set(targets) - set(offs))} not found in its first "
+                           f"{pos - base} readable bytes")
+    return offs
 
 
 def callback():

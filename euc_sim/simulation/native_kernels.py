@@ -36,8 +36,7 @@ import numpy as np
 from numba import carray, cfunc, config, njit, types
 from numba.core.extending import intrinsic
 
-import euc_sim.controllers.motor
-import euc_sim.controllers.rider
+from euc_sim.controllers import motor as motor_law, rider as rider_law
 from euc_sim.controllers.motor import pd_torque
 from euc_sim.controllers.rider import delayed_lqr_torque
 from euc_sim.simulation import drift, effects, lateral
@@ -55,7 +54,7 @@ def _cache_dir() -> str:
     too, so a change to any of them must compile anew: the directory is named by their hash.
     """
     h = hashlib.sha256()
-    for module in (euc_sim.controllers.motor, euc_sim.controllers.rider, effects, lateral, drift, lay, sys.modules[__name__]):
+    for module in (motor_law, rider_law, effects, lateral, drift, lay, sys.modules[__name__]):
         with open(module.__file__, "rb") as fh:
             h.update(fh.read())
     base = config.CACHE_DIR or os.path.join(tempfile.gettempdir(), "euc_sim_numba")

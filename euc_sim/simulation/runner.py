@@ -15,10 +15,12 @@ Backends
     SIGKILL leaves no worker running.
 ``scheduler="local"``
     a :class:`dask.distributed.LocalCluster` of ``workers`` single-threaded worker
-    processes (default 2), started and closed by the run.
+    processes (default 2), started and closed by the run, reachable by this process
+    only (TLS with throwaway credentials, no HTTP server: :func:`_local_cluster`).
 ``scheduler="tcp://HOST:PORT"``
     an existing Dask cluster (``dask scheduler`` / ``dask worker``); its workers need
-    this package installed.
+    this package installed.  It is trusted with code: the tasks travel pickled and run
+    there, and the results come back pickled and are unpickled here.
 
 Failures
 --------
@@ -96,13 +98,26 @@ class RunReport:
 
 def check_backend(scheduler: str | None, workers: int | None) -> None:
     """Raise ``ValueError`` naming the option for an unusable ``--scheduler``/``--workers``."""
-    if workers is not None and (not isinstance(workers, int) or workers < 1):
+    if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool) or workers < 1):
         raise ValueError(f"--workers must be a positive integer, got {workers!r}")
     if scheduler is None or scheduler == "local":
         return
-    if not isinstance(scheduler, str) or "://" not in scheduler and ":" not in scheduler:
-        raise ValueError(f"--scheduler must be 'local' or a Dask scheduler address such as "
-                         f"tcp://HOST:8786, got {scheduler!r}")
+    if not _is_address(scheduler):
+        raise ValueError(f"--scheduler must be 'local' or a Dask scheduler address tcp://HOST:PORT "
+                         f"(or tls://HOST:PORT), got {scheduler!r}")
+
+
+def _is_address(text) -> bool:
+    """Whether ``text`` is ``[tcp://|tls://]HOST:PORT`` with a port in 1-65535."""
+    if not isinstance(text, str):
+        return False
+    scheme, sep, rest = text.partition("://")
+    if not sep:
+        scheme, rest = "tcp", text
+    host, colon, port = rest.rpartition(":")
+    host = host[1:-1] if host.startswith("[") and host.endswith("]") else host      # [IPv6]
+    return (scheme in ("tcp", "tls") and bool(colon) and bool(host) and "/" not in host
+            and port.isdigit() and 1 <= int(port) <= 65535)
 
 
 def _reason(exc: BaseException) -> str:
@@ -271,26 +286,19 @@ def _run_pool(fn, tasks, workers: int, done) -> None:
 
 
 def _run_dask(fn, tasks, scheduler: str, workers: int | None, done) -> str:
-    from distributed import Client, LocalCluster, as_completed as dask_completed
+    from distributed import Client, as_completed as dask_completed
     from distributed.scheduler import KilledWorker
 
     import contextlib
-    import tempfile
-
-    import dask
 
     cluster = None
     scratch = contextlib.ExitStack()           # a local cluster's dask-scratch-space, removed after
     if scheduler == "local":
-        tmp = scratch.enter_context(tempfile.TemporaryDirectory(prefix="euc-sim-dask-"))
-        scratch.enter_context(dask.config.set({"temporary-directory": tmp}))
         try:
-            cluster = LocalCluster(n_workers=workers or 2, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, local_directory=tmp)
+            cluster, client = _local_cluster(workers or 2, scratch)
         except BaseException:
             scratch.close()
             raise
-        client = Client(cluster)
         backend = f"dask local, {workers or 2} workers"
     else:
         client = Client(scheduler, timeout=30)
@@ -318,3 +326,40 @@ def _run_dask(fn, tasks, scheduler: str, workers: int | None, done) -> str:
             cluster.close()
         scratch.close()
     return backend
+
+
+def _local_cluster(workers: int, scratch):
+    """A :class:`distributed.LocalCluster` of ``workers`` single-threaded processes that only
+    this process can use, and its client.
+
+    Every comm (scheduler, nannies, workers) is TLS on 127.0.0.1 with throwaway
+    credentials held in memory (``security=True``: ``Security.temporary()``) and client
+    certificates required, so another local user cannot connect, let alone submit
+    pickled code.  Dask starts an HTTP server on the scheduler and on each worker even
+    without a dashboard; here they serve no routes, on ports chosen by the system, and
+    are stopped as soon as the cluster is up.  ``scratch`` (an ``ExitStack``) gets the
+    cluster's temporary folder and configuration.
+    """
+    import tempfile
+
+    import dask
+    from distributed import Client, LocalCluster
+
+    tmp = scratch.enter_context(tempfile.TemporaryDirectory(prefix="euc-sim-dask-"))
+    scratch.enter_context(dask.config.set({"temporary-directory": tmp, "distributed.scheduler.http.routes": [],
+                                           "distributed.worker.http.routes": []}))
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           security=True, dashboard_address="127.0.0.1:0", local_directory=tmp)
+    try:
+        client = Client(cluster)
+        client.run_on_scheduler(_stop_http)
+        client.run(_stop_http)
+    except BaseException:
+        cluster.close()
+        raise
+    return cluster, client
+
+
+def _stop_http(dask_scheduler=None, dask_worker=None) -> None:
+    """Stop a Dask node's HTTP server (run on the scheduler and the workers, in their event loop)."""
+    (dask_scheduler or dask_worker).http_server.stop()
