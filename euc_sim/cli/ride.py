@@ -143,6 +143,10 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     rep["controller"] = controller_json(log, compare, torque_constant(rep.get("drivetrain")),
                                         n_boot, seed)
     cr = an.cross
+    from euc_sim.rides.parameters import drivetrain_view, parameter_list
+
+    rep["parameters"] = parameter_list(cr, rep["total_mass"], rep["drivetrain"], rep["controller"])
+    rep["drivetrain"] = drivetrain_view(rep["drivetrain"], rep["parameters"])
     nom, aug = cr.nominal.estimate, cr.augmented.estimate
     traces = [residual_windows(an.sig_fit, nom, aug, domain, Path(log).name, True)]
     if an.sig_test is not None:

@@ -314,13 +314,17 @@ def page_section(rep: dict, figures: dict) -> list[str]:
     """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope."""
     tm = rep["total_mass"]
     md = _mass_md(rep)
-    md += ["", "Battery-power balance, held-out RMS error after each accepted term "
-               "(the physics the nominal model was missing):", "",
-           "| step | held-out RMS, W |", "|---|---|"]
-    md += [f"| + {h['term']} | {h['heldout_rmse']:.0f} |" for h in tm["balance"]]
+    sel = rep.get("selection") or []
+    if sel:
+        md += ["", "Battery-power balance of the fit ride, blocked held-out RMS error after "
+                   "each kept term (the one selection rule of the page):", "",
+               "| step | held-out RMS, " + rep.get("error_unit", "W") + " |", "|---|---|"]
+        md += [f"| + {h['term']} | {h['heldout_rmse']:.0f} |" for h in sel]
     dt = rep["drivetrain"]
     md += ["", "| drivetrain term | estimate | 95 % interval | unit |", "|---|---|---|---|"]
     for name, t in dt.items():
+        if "parameter" in t:            # a balance-fit parameter: in the Estimates table
+            continue
         if t.get("estimate") is None:
             md.append(f"| {name} | not identified | {t.get('why', '')} | |")
         else:

@@ -13,7 +13,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from euc_sim.rides.design import CANDIDATES, NOMINAL, PLAUSIBLE, RHO_AIR, Design
+from euc_sim.rides.design import BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
+from euc_sim.rides.power import RHO_AIR
 
 __all__ = ["BalanceFit", "fit_balance", "block_rows", "plausibility", "MIN_BLOCKS", "FEW_BLOCKS"]
 
@@ -23,11 +24,10 @@ MIN_BLOCKS = 2
 #: Below this many blocks the intervals are rough (reported as a note).
 FEW_BLOCKS = 5
 
-#: Start values and bounds of the least-squares fit.
+#: Start values of the least-squares fit (its bounds are :data:`BOUNDS`).
 _START = {"eta_motor": 0.8, "eta_regen": 0.8, "rolling_resistance": 0.0,
           "aerodynamic_drag": 0.0, "road_slope": 0.0, "road_slope_gps": 1.0,
           "drivetrain_idle_loss": 0.0}
-_BOUNDS = {"eta_motor": (0.05, 5.0), "eta_regen": (0.0, 5.0)}
 
 
 @dataclass(frozen=True)
@@ -89,8 +89,8 @@ def _scale(names: Sequence[str]) -> np.ndarray:
 
 
 def _bounds(names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
-    lo = np.array([_BOUNDS.get(n, (-np.inf, np.inf))[0] for n in names])
-    hi = np.array([_BOUNDS.get(n, (-np.inf, np.inf))[1] for n in names])
+    lo = np.array([BOUNDS.get(n, (-np.inf, np.inf))[0] for n in names])
+    hi = np.array([BOUNDS.get(n, (-np.inf, np.inf))[1] for n in names])
     return lo, hi
 
 
@@ -381,17 +381,19 @@ def plausibility(fit: BalanceFit) -> dict[str, dict]:
     -------
     dict
         name -> {"estimate", "unit", "ci95", "plausible_range", "plausible": bool,
-        "symbol", "meaning"}; ``plausible`` is False when the estimate lies outside
-        :data:`PLAUSIBLE`.
+        "symbol", "meaning", "on_bound"}; ``plausible`` is False when the estimate
+        lies outside :data:`PLAUSIBLE` or on a bound of the fit that is not
+        "absent" (:func:`~euc_sim.rides.design.on_bound`: the data asks for more).
     """
     out: dict[str, dict] = {}
     for k in fit.names:
         est, ci = fit.estimate[k], list(fit.ci95[k])
         sym, unit, meaning, _, _ = CANDIDATES[k]
         rng = PLAUSIBLE.get(k)
+        edge = on_bound(k, est)
         entry = {"estimate": est, "unit": unit, "ci95": ci, "symbol": sym, "meaning": meaning,
-                 "plausible_range": list(rng[:2]) if rng else None,
-                 "plausible": bool(rng is None or rng[0] <= est <= rng[1])}
+                 "plausible_range": list(rng[:2]) if rng else None, "on_bound": edge,
+                 "plausible": bool((rng is None or rng[0] <= est <= rng[1]) and not edge)}
         if k == "aerodynamic_drag":
             entry["drag_area_m2"] = 2 * est / RHO_AIR
             entry["drag_area_m2_ci95"] = [2 * c / RHO_AIR for c in ci]
