@@ -125,8 +125,14 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     from euc_sim.rides.page import residual_windows
     from euc_sim.rides.signals import RideAssumptions
 
+    from euc_sim.rides.ride import as_ride
+
     say = progress or (lambda s: None)
     assumptions = assumptions or RideAssumptions()
+    # each log is parsed once here; every analysis below takes the parsed log
+    log = as_ride(log).log
+    compare = None if compare is None else as_ride(compare).log
+    name = Path(log.path).name
     say("finding the total mass and the drivetrain")
     physics = _drivetrain(log, compare, spec, n_boot, seed)   # bad logs fail before any output
     # the spec's radius and the mass this log gives reach the balance fit (Table 3 only where
@@ -148,12 +154,12 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     rep["parameters"] = parameter_list(cr, rep["total_mass"], rep["drivetrain"], rep["controller"])
     rep["drivetrain"] = drivetrain_view(rep["drivetrain"], rep["parameters"])
     nom, aug = cr.nominal.estimate, cr.augmented.estimate
-    traces = [residual_windows(an.sig_fit, nom, aug, domain, Path(log).name, True)]
+    traces = [residual_windows(an.sig_fit, nom, aug, domain, name, True)]
     if an.sig_test is not None:
-        traces.append(residual_windows(an.sig_test, nom, aug, domain, Path(compare).name, False))
+        traces.append(residual_windows(an.sig_test, nom, aug, domain, Path(compare.path).name, False))
     loc = traces[0].localisation
     rep["windows"] = loc["windows"]
-    rep["localisation"] = {"residual": f"inertia-only balance residual of {Path(log).name}, "
+    rep["localisation"] = {"residual": f"inertia-only balance residual of {name}, "
                                        f"{rep['error_unit']}",
                            "share": loc["share"], "correlations": loc["correlations"]}
     rep["residual_traces"] = [tr.as_json() for tr in traces]
@@ -223,9 +229,9 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict, calib
     # the steps' battery-power errors are compared with the balance fit's held-out error (in W)
     balance = rep.get("heldout_error_augmented") if rep.get("error_unit") == "W" else None
     if progress is not None:
-        progress(f"simulating the rider along {Path(ride_path).name}: steps {', '.join(ran)}, "
+        progress(f"simulating the rider along {Path(ride_path.path).name}: steps {', '.join(ran)}, "
                  f"{min(jobs, len(ran))} process(es)")
-    return simulate_ride(sig, steps, ride_path, scored=scored, label=Path(ride_path).name, seed=seed,
+    return simulate_ride(sig, steps, ride_path, scored=scored, label=Path(ride_path.path).name, seed=seed,
                          workers=jobs, channels=log_channels(rep, balance), progress=progress)
 
 
@@ -353,8 +359,13 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     for p in [args.log] + ([args.compare] if args.compare else []):
         if not Path(p).is_file():
             raise FileNotFoundError(f"{p}: no such log file")
-    # a malformed or too short log fails here, before any output exists
-    check_data(args.log, args.compare, assumptions=assumptions, domain=args.domain)
+    from euc_sim.rides.ride import read_ride
+
+    # each log is parsed once, here; a malformed or too short log fails before any output exists
+    ride = read_ride(args.log)
+    other = read_ride(args.compare) if args.compare else None
+    check_data(ride.log, None if other is None else other.log, assumptions=assumptions,
+               domain=args.domain)
     if args.json:
         check_writable(args.json)
     if args.report:
@@ -362,7 +373,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         if out.exists() and not out.is_dir():
             raise NotADirectoryError(f"--report {out}: exists and is not a folder")
         check_writable(out / "index.md")
-    rep = run_ride(args.log, args.compare, report_dir=args.report, domain=args.domain,
+    rep = run_ride(ride, other, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
                    simulate=not args.no_simulate, jobs=args.jobs,
                    progress=None if args.quiet else _progress, spec=spec,

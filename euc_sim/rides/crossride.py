@@ -21,7 +21,7 @@ from euc_sim.rides.signals import RideSignals, break_at_gaps
 from euc_sim.stats import forward_select, time_blocks
 
 __all__ = ["CrossRide", "cross_ride", "effect_entries", "plot_cross_ride", "cross_ride_figure",
-           "select_effects", "heldout_score", "HELDOUT_FOLDS", "MIN_GAIN"]
+           "select_effects", "heldout_score", "admissible", "HELDOUT_FOLDS", "MIN_GAIN"]
 
 #: Contiguous time folds of the fit ride that score a model held out.
 HELDOUT_FOLDS = 5
@@ -36,17 +36,13 @@ def _start(names) -> np.ndarray:
 
 
 def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS) -> float:
-    """Blocked held-out RMS error of the balance with ``names`` on ``design``, W or N·m.
+    """Blocked held-out RMS error of the bounded balance with ``names`` on ``design``, W or N·m.
 
-    Each of ``n_folds`` contiguous time blocks is predicted from a fit on the
-    others.  ``inf`` when the fit on the whole design leaves a parameter outside
-    the nominal pair on a bound that is not "absent" (the data asks for an
-    implausible value: that model is not admissible).
+    Each of ``n_folds`` contiguous time blocks is predicted from a bounded fit
+    (:data:`~euc_sim.rides.design.BOUNDS`) on the others.
     """
     names = list(names)
     whole = _solve(design, names, _start(names)).x
-    if any(on_bound(k, x) for k, x in zip(names, whole) if k not in NOMINAL):
-        return float("inf")
     label = time_blocks(design.t, n_folds)
     err = []
     for b in range(n_folds):
@@ -60,16 +56,26 @@ def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS) -> float:
 
 
 def select_effects(design: Design, candidates) -> tuple[list[str], list[dict]]:
-    """The effects blocked held-out validation keeps, in the order kept, and the history.
+    """The terms blocked held-out validation keeps, in the order kept, and the history.
 
     Forward selection (:func:`euc_sim.stats.forward_select`) from the nominal
     pair: each step adds the candidate that lowers :func:`heldout_score` most,
-    if by more than :data:`MIN_GAIN`; a model with a term on a bound is never
-    admitted.
+    if by more than :data:`MIN_GAIN`.
     """
     names, history = forward_select(lambda n: heldout_score(design, n), list(NOMINAL),
                                     [c for c in candidates if c not in NOMINAL], MIN_GAIN)
     return names[len(NOMINAL):], history
+
+
+def admissible(fit: BalanceFit, names) -> list[str]:
+    """Those of ``names`` whose estimate in ``fit`` is plausible and off its bounds.
+
+    A kept term that ends on the bound of its plausible range (or outside it, as
+    a GPS gain below its range) stays in the balance as the bound, but nothing
+    is named or simulated from it.
+    """
+    phys = plausibility(fit)
+    return [c for c in names if phys[c]["plausible"] and not on_bound(c, fit.estimate[c])]
 
 
 @dataclass(frozen=True)
@@ -83,7 +89,10 @@ class CrossRide:
         supports; nominal plus the accepted effects.
     accepted : tuple of str
         Effects kept by blocked held-out validation on the fit ride
-        (:func:`select_effects`), in the order kept.
+        (:func:`select_effects`) whose estimates are plausible and off their
+        bounds (:func:`admissible`), in the order kept.
+    selected : tuple of str
+        Every term the selection kept (the augmented fit's), accepted or not.
     selection : list of dict
         ``{"term", "heldout_rmse"}`` after each kept step, the nominal pair first.
     heldout_nominal, heldout_augmented, heldout_full : float
@@ -102,6 +111,7 @@ class CrossRide:
     fit_label: str
     test_label: str
     selection: tuple = ()
+    selected: tuple = ()
 
     @property
     def ratio(self) -> float:
@@ -115,8 +125,8 @@ def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block
     """Fit the nominal and augmented balances on one design, measure both on another.
 
     An effect is *accepted* when blocked held-out validation on the fit ride keeps
-    it (:func:`select_effects`); every fit is bounded (:data:`~euc_sim.rides.design.BOUNDS`),
-    so an accepted estimate is plausible.
+    it (:func:`select_effects`) and its bounded estimate is plausible and off its
+    bounds (:func:`admissible`).
     ``progress``, when given, is called with a short line before each bootstrapped fit.
     """
     say = progress or (lambda msg: None)
@@ -127,10 +137,11 @@ def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block
     say(f"fitting every candidate on {fit_label} (2/3, {boot})")
     full = fit_balance(fit_design, common, n_boot, block_s, seed)
     alone, history = select_effects(fit_design, common)
-    say(f"fitting the augmented balance ({', '.join(alone) or 'nothing accepted'}) (3/3, {boot})")
+    say(f"fitting the augmented balance ({', '.join(alone) or 'nothing kept'}) (3/3, {boot})")
     augmented = fit_balance(fit_design, list(NOMINAL) + alone, n_boot, block_s, seed)
     return CrossRide(fit_design=fit_design, test_design=test_design, nominal=nominal, full=full,
-                     augmented=augmented, accepted=tuple(alone),
+                     augmented=augmented, accepted=tuple(admissible(augmented, alone)),
+                     selected=tuple(alone),
                      heldout_nominal=nominal.rmse_on(test_design),
                      heldout_augmented=augmented.rmse_on(test_design),
                      heldout_full=full.rmse_on(test_design),

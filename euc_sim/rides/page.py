@@ -277,17 +277,16 @@ def _estimates_md(r: dict) -> list[str]:
     """The balance fit's parameters (``parameters``, one row each), each effect's evidence,
     and how the fit with every candidate scores held out."""
     md = ["## Estimates", "",
-          "| parameter | estimate | unit | 95 % interval | accepted | note |",
-          "| --- | --- | --- | --- | --- | --- |"]
+          "| parameter | estimate | unit | 95 % interval | plausible range | accepted | note |",
+          "| --- | --- | --- | --- | --- | --- | --- |"]
     rows = [p for p in r.get("parameters", []) if p.get("source") == "balance"]
     if not rows:               # a report without the one parameter set (the balance fit alone)
-        rows = [{"name": k, "estimate": e["estimate"], "unit": e["unit"], "ci95": e["ci95"],
-                 "accepted": e["plausible"], "why": None} for k, e in r["nominal_parameters"].items()]
-        rows += [{"name": e["name"], "estimate": e["estimate"], "unit": e["unit"], "ci95": e["ci95"],
-                  "accepted": True, "why": None} for e in r["effects"]]
+        rows = [{"name": k, "accepted": e["plausible"], **e} for k, e in r["nominal_parameters"].items()]
+        rows += [{"accepted": True, **e} for e in r["effects"]]
     for p in rows:
         md.append(f"| {p['name']} | {_fmt(p['estimate'])} | {unit_label(p['unit'])} | "
-                  f"{_interval(p['ci95'])} | {'yes' if p['accepted'] else 'no'} | {p.get('why') or '–'} |")
+                  f"{_interval(p['ci95'])} | {_interval(p.get('plausible_range'))} | "
+                  f"{'yes' if p['accepted'] else 'no'} | {p.get('why') or '–'} |")
     md.append("")
     for e in r["effects"]:
         md += [f"- **{e['name']}**: {e['evidence']}."]

@@ -50,7 +50,7 @@ def _balance_entries(cr: CrossRide) -> list[dict]:
     out = []
     for name in list(cr.augmented.names) + [n for n in cr.full.names if n not in cr.augmented.names]:
         e = aug.get(name) or full[name]
-        kept = name in NOMINAL or name in cr.accepted
+        kept = name in cr.accepted
         if name in NOMINAL:
             accepted = 0.0 < e["estimate"] <= 1.0
             why = None if not e["on_bound"] else (
@@ -59,17 +59,20 @@ def _balance_entries(cr: CrossRide) -> list[dict]:
                 f"on its bound {e['estimate']:g}: the ride shows almost no regeneration")
         elif kept:
             accepted, why = e["plausible"], None
+        elif name in cr.selected:
+            accepted = False
+            why = (f"kept by the held-out selection but "
+                   + (f"on its bound {e['estimate']:.3g}" if on_bound(name, e["estimate"]) else
+                      "outside its plausible range")
+                   + ": the balance fit holds it there, nothing is named or simulated from it")
         else:
             accepted = False
-            why = (f"on its bound {e['estimate']:.3g} in the fit with every candidate: the data "
-                   f"asks for an implausible value" if on_bound(name, e["estimate"]) else
-                   f"not kept: it lowers the blocked held-out error of {cr.fit_label} by less "
+            why = (f"not kept: it lowers the blocked held-out error of {cr.fit_label} by less "
                    f"than the selection's threshold")
         entry = {"name": name, "estimate": e["estimate"], "ci95": e["ci95"], "unit": e["unit"],
                  "plausible": bool(e["plausible"] or (name in NOMINAL and accepted)),
-                 "accepted": bool(accepted), "why": why, "source": "balance"}
-        if name in NOMINAL and accepted and not e["plausible"]:
-            entry["plausible_range"] = e["plausible_range"]
+                 "accepted": bool(accepted), "why": why, "source": "balance",
+                 "plausible_range": e["plausible_range"]}
         out.append(entry)
     return out
 

@@ -70,9 +70,12 @@ def _why_nothing(report: dict) -> str:
     if not sel:
         return ""
     u = report.get("error_unit", "W")
+    held = report.get("selected_not_accepted") or []
+    if held:
+        return (f": the held-out selection keeps {', '.join(held)}, but only on the bound of "
+                f"its plausible range (or outside it), so nothing is named")
     return (f": no candidate lowers the blocked held-out error of the inertia-only balance "
-            f"({sel[0]['heldout_rmse']:.0f} {u}) enough to be kept, and none on its bound is "
-            f"admitted")
+            f"({sel[0]['heldout_rmse']:.0f} {u}) enough to be kept")
 
 
 def _with_numbers(e: dict) -> str:

@@ -153,3 +153,26 @@ def test_the_real_logs_raise_no_false_suspicion_and_carry_the_systematic_parts(p
             assert ("rotating_share" in tm["systematic"]) == (spec is not None), log
             lo, hi = tm["statistical_ci95"]
             assert tm["ci95"][0] <= min(lo, tm["estimate"]) and tm["ci95"][1] >= max(hi, tm["estimate"])
+
+
+def test_one_parameter_set_and_no_efficiency_above_one(pages):
+    for log, _, rep, _ in pages:
+        params = rep["parameters"]
+        names = [p["name"] for p in params]
+        assert len(names) == len(set(names)), log
+        by = {p["name"]: p for p in params}
+        assert all(p["plausible"] for p in params if p["accepted"]), log
+        for fit in ("nominal_parameters", "inertia_only_parameters", "all_estimates"):
+            for k in ("eta_motor", "eta_regen"):
+                assert 0.0 < rep[fit][k]["estimate"] <= 1.0, (log, fit, k)
+        assert {e["name"] for e in rep["effects"]} <= {n for n, p in by.items() if p["accepted"]}, log
+        for key, name in (("C_rr", "rolling_resistance"), ("no_load_power", "drivetrain_idle_loss")):
+            if key in rep["drivetrain"]:
+                assert rep["drivetrain"][key]["estimate"] == by[name]["estimate"], (log, key)
+
+
+def test_the_selected_balance_is_not_beaten_by_every_candidate(pages):
+    """Blocked held-out selection on the fit half against the fit with every candidate,
+    both scored on the held-out half: within 5 %."""
+    for log, _, rep, _ in pages:
+        assert rep["heldout_error_augmented"] <= 1.05 * rep["heldout_error_all_candidates"], log
