@@ -30,7 +30,7 @@ def bench_ride_mass() -> dict:
     t_mass = timed(lambda: analyse(log, spec), repeat=1)
 
     def whole():
-        from euc_sim.cli.ride import run_ride
+        from euc_sim.rides.pipeline import run_ride
         return run_ride(log, simulate=False, spec=spec)
 
     cpu0 = time.process_time()

@@ -151,7 +151,7 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     import numpy as np
 
     from euc_sim.controllers.design import DEFAULT_SCALES, design_rider
-    from euc_sim.cli.ride import with_found_values
+    from euc_sim.rides.pipeline import with_found_values
     from euc_sim.rides.profile import rider_plan, speed_profile
     from euc_sim.rides.rider_params import rider_from
     from euc_sim.rides.signals import RideAssumptions

@@ -69,7 +69,7 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
     import numpy as np
 
     from euc_sim.controllers.firmware import firmware_motor
-    from euc_sim.cli.ride import _drivetrain, with_found_values
+    from euc_sim.rides.pipeline import drivetrain_physics as _drivetrain, with_found_values
     from euc_sim.rides.analysis import ride_analysis
     from euc_sim.rides.controller_report import controller_json, torque_constant
     from euc_sim.rides.logs import read_log
@@ -122,7 +122,7 @@ def ride_window(case: tuple, data: Path, n_boot: int, spikes: bool) -> dict:
     """Mass on FIT, HELD's profile, and the window ridden with the paper's PD at two limits."""
     import numpy as np
 
-    from euc_sim.cli.ride import _drivetrain, with_found_values
+    from euc_sim.rides.pipeline import drivetrain_physics as _drivetrain, with_found_values
     from euc_sim.rides.logs import read_log
     from euc_sim.rides.profile import speed_profile
     from euc_sim.rides.signals import RideAssumptions

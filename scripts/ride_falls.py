@@ -73,7 +73,7 @@ def _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations) -> list[di
     firmware = "firmware" in wanted
     import numpy as np
 
-    from euc_sim.cli.ride import _drivetrain, with_found_values
+    from euc_sim.rides.pipeline import drivetrain_physics as _drivetrain, with_found_values
     from euc_sim.rides.analysis import ride_analysis
     from euc_sim.rides.controller_report import controller_json, torque_constant
     from euc_sim.rides.profile import speed_profile

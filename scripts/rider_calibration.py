@@ -73,7 +73,7 @@ def concealed(seeds, duration: float, out: Path, windows: int, length: float, re
 
 
 def _analysis(fit_path, test_path, spec_path, seed: int):
-    from euc_sim.cli.ride import _drivetrain, with_found_values
+    from euc_sim.rides.pipeline import drivetrain_physics as _drivetrain, with_found_values
     from euc_sim.rides.analysis import ride_analysis
     from euc_sim.rides.controller_report import torque_constant
     from euc_sim.rides.signals import RideAssumptions

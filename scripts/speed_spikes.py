@@ -28,7 +28,7 @@ def main(argv=None) -> int:
     import numpy as np
 
     from ride_falls import logs
-    from euc_sim.cli.ride import _drivetrain, with_found_values
+    from euc_sim.rides.pipeline import drivetrain_physics as _drivetrain, with_found_values
     from euc_sim.rides.logs import read_log
     from euc_sim.rides.profile import unpaid_spikes
     from euc_sim.rides.signals import RideAssumptions

@@ -10,7 +10,6 @@ predicts that ride's phase current (or torque) from its pitch: the CONTRACT's
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
