@@ -14,7 +14,8 @@ from typing import Callable, Sequence
 import numpy as np
 
 __all__ = ["time_blocks", "forward_select", "percentile_interval", "block_bootstrap_indices",
-           "wild_block_signs", "blocks_by_length"]
+           "wild_block_signs", "blocks_by_length", "block_labels", "draw_blocks",
+           "moving_block_starts"]
 
 
 def time_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
@@ -34,11 +35,27 @@ def time_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
     return np.clip(np.searchsorted(edges, t, side="right") - 1, 0, n_blocks - 1)
 
 
+def block_labels(t: np.ndarray, block: float, t0: float | None = None) -> np.ndarray:
+    """Block number of each sample: consecutive ``block``-second stretches from ``t0`` (s)."""
+    t = np.asarray(t, float)
+    return np.floor((t - (t[0] if t0 is None else t0)) / block).astype(int)
+
+
 def blocks_by_length(t: np.ndarray, block: float) -> list[np.ndarray]:
     """Row indices of consecutive ``block``-second stretches of ``t`` (s), in order."""
-    t = np.asarray(t, float)
-    label = np.floor((t - t[0]) / block).astype(int)
+    label = block_labels(t, block)
     return [np.flatnonzero(label == b) for b in np.unique(label)]
+
+
+def draw_blocks(n_blocks: int, rng: np.random.Generator) -> np.ndarray:
+    """One replicate's block numbers: ``n_blocks`` drawn from 0 … n_blocks − 1 with replacement."""
+    return rng.integers(0, n_blocks, n_blocks)
+
+
+def moving_block_starts(n: int, L: int, n_boot: int, rng: np.random.Generator) -> np.ndarray:
+    """Start samples of a moving-block bootstrap: ``n_boot`` × ceil(n/L) blocks of ``L`` samples
+    starting anywhere in 0 … n − L."""
+    return rng.integers(0, n - L + 1, size=(n_boot, int(np.ceil(n / L))))
 
 
 def block_bootstrap_indices(blocks: Sequence[np.ndarray], rng: np.random.Generator) -> np.ndarray:
@@ -55,8 +72,7 @@ def block_bootstrap_indices(blocks: Sequence[np.ndarray], rng: np.random.Generat
     ndarray of int
         The replicate's rows (blocks concatenated).
     """
-    pick = rng.integers(0, len(blocks), len(blocks))
-    return np.concatenate([blocks[i] for i in pick])
+    return np.concatenate([blocks[i] for i in draw_blocks(len(blocks), rng)])
 
 
 def wild_block_signs(n: int, L: int, n_boot: int, rng: np.random.Generator) -> np.ndarray:

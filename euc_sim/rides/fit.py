@@ -15,6 +15,7 @@ import numpy as np
 
 from euc_sim.rides.design import BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
 from euc_sim.rides.power import RHO_AIR
+from euc_sim.stats import percentile_interval, wild_block_signs
 
 __all__ = ["BalanceFit", "fit_balance", "block_rows", "plausibility", "MIN_BLOCKS", "FEW_BLOCKS"]
 
@@ -167,9 +168,7 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
     """
     n = len(e_P)
     rng = np.random.default_rng(seed)
-    n_blocks = int(math.ceil(n / L))
-    signs = rng.choice(np.array([-1.0, 1.0]), size=(n_blocks, n_boot))
-    targets = fitted_P[:, None] + e_P[:, None] * np.repeat(signs, L, axis=0)[:n]
+    targets = fitted_P[:, None] + e_P[:, None] * wild_block_signs(n, L, n_boot, rng)
     boots = np.empty((n_boot, len(names)))
     for c in range(0, n_boot, _CHUNK):
         sl = slice(c, min(c + _CHUNK, n_boot))
@@ -180,7 +179,7 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
     if not n_boot:
         nan = np.full(len(names), np.nan)
         return nan, nan, corr
-    lo, hi = np.percentile(boots, [2.5, 97.5], axis=0)
+    lo, hi = percentile_interval(boots)
     if n_boot > 2:
         with np.errstate(invalid="ignore", divide="ignore"):
             C = np.corrcoef(boots, rowvar=False)
@@ -364,6 +363,9 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
     except np.linalg.LinAlgError:
         se = np.full(len(names), np.nan)
     lo, hi, corr = _bootstrap(design, names, theta, fitted_P, e_P, L, n_boot, seed)
+    # a bounded estimate's replicates can pile up on one side of it (on or near its bound):
+    # the interval reaches out to the estimate, widened, never narrowed
+    lo, hi = np.fmin(lo, theta), np.fmax(hi, theta)
     return BalanceFit(names=tuple(names), estimate=est,
                       ci95={k: (float(a), float(b)) for k, a, b in zip(names, lo, hi)},
                       se_naive=dict(zip(names, map(float, se))),
