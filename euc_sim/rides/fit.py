@@ -109,7 +109,7 @@ def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray |
 
 
 #: A parameter within this fraction of its typical size from a bound sits on it.
-_BOUND_SNAP = 1e-9
+_BOUND_SNAP = 1e-6
 
 
 def _snap_to_bounds(x: np.ndarray, lo: np.ndarray, hi: np.ndarray,
