@@ -83,6 +83,11 @@ def test_simulation_against_the_log(full_run):
     assert e["augmented"]["P_W"] < e["nominal"]["P_W"]
     assert set(sim["effects_injected"]) == {"rolling_resistance", "aerodynamic_drag"}
     assert sim["falls"] == []
+    accepted = {p["name"] for p in rep["parameters"] if p["accepted"]}
+    for st in sim["steps"]:                  # each step names what it simulates, all accepted
+        assert set(st["physics"]) <= accepted, st["step"]
+    last = [st for st in sim["steps"] if st["ran"]][-1]
+    assert {"rolling_resistance", "aerodynamic_drag"} <= set(last["physics"])
     table = np.genfromtxt(d / "ride_simulation.csv", delimiter=",", names=True)
     for col in ("t", "v_log", "v_nominal", "v_drivetrain", "M_log", "M_nominal", "M_drivetrain",
                 "P_log", "P_nominal", "P_drivetrain", "scored"):
