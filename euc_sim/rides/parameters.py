@@ -18,7 +18,7 @@ import math
 from typing import Mapping
 
 from euc_sim.rides.crossride import CrossRide
-from euc_sim.rides.design import NOMINAL, on_bound
+from euc_sim.rides.design import NOMINAL
 from euc_sim.rides.fit import plausibility
 from euc_sim.rides.power import RHO_AIR
 
@@ -61,10 +61,8 @@ def _balance_entries(cr: CrossRide) -> list[dict]:
             accepted, why = e["plausible"], None
         elif name in cr.selected:
             accepted = False
-            why = (f"kept by the held-out selection but "
-                   + (f"on its bound {e['estimate']:.3g}" if on_bound(name, e["estimate"]) else
-                      "outside its plausible range")
-                   + ": the balance fit holds it there, nothing is named or simulated from it")
+            why = ("kept by the held-out selection, but fitted on a bound of its plausible "
+                   "range (or outside it): left out of the balance, not named, not simulated")
         else:
             accepted = False
             why = (f"not kept: it lowers the blocked held-out error of {cr.fit_label} by less "

@@ -73,7 +73,7 @@ def _why_nothing(report: dict) -> str:
     held = report.get("selected_not_accepted") or []
     if held:
         return (f": the held-out selection keeps {', '.join(held)}, but only on the bound of "
-                f"its plausible range (or outside it), so nothing is named")
+                f"its plausible range (or outside it), so it is left out and nothing is named")
     return (f": no candidate lowers the blocked held-out error of the inertia-only balance "
             f"({sel[0]['heldout_rmse']:.0f} {u}) enough to be kept")
 
