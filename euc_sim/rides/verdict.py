@@ -58,6 +58,8 @@ def ride_verdict(report: dict) -> dict:
                      f"{'; '.join(shown[c] for c in cand)}")
     elif cand:
         text = f"{NOT_EXPLAINED} (candidates, each implausible: {'; '.join(shown[c] for c in cand)})"
+    elif report.get("selected_not_accepted"):
+        text = NOT_EXPLAINED + _why_nothing(report)
     else:
         text = "nothing is missing that this ride can reveal" + _why_nothing(report)
     out["text"] = text
