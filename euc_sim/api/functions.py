@@ -345,7 +345,7 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
     >>> sorted(k for k in ride.to_json() if k.startswith("heldout_error_"))[:2]
     ['heldout_error_all_candidates', 'heldout_error_augmented']
     """
-    from euc_sim.cli.ride import MIN_BOOT, run_ride   # the ride pipeline's entry point
+    from euc_sim.rides.pipeline import MIN_BOOT, run_ride
     from euc_sim.rides.analysis import check_data
     from euc_sim.rides.signals import RideAssumptions
     from euc_sim.rides.spec import wheel_spec

@@ -14,14 +14,12 @@ from euc_sim.cli.common import seed
 import argparse
 import math
 import os
-import warnings
 from pathlib import Path
+
+from euc_sim.rides.pipeline import MIN_BOOT, run_ride  # noqa: F401  (the public API)
 
 __all__ = ["add_ride_parser", "run_ride", "MIN_BOOT"]
 
-#: Fewest bootstrap replicates the command accepts: effects are accepted on their
-#: 95 % interval, and without replicates there is none (nothing would be accepted).
-MIN_BOOT = 10
 
 
 def _assumptions(args: argparse.Namespace):
@@ -48,229 +46,12 @@ def _assumptions(args: argparse.Namespace):
     return RideAssumptions.from_params(p, efficiency=args.efficiency, sources=tuple(sources))
 
 
-def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assumptions=None,
-             n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
-             progress=None, spec=None, calibrate_rider: bool = False,
-             rider_weight: float | None = None) -> dict:
-    """Everything ``euc-sim ride`` computes; writes the report folder when given.
-
-    Parameters
-    ----------
-    log, compare : path
-        The ride to fit, and optionally the ride to test on.
-    report_dir : path, optional
-        Folder for ``index.html`` (the page), ``index.md`` (its plain text) and the figures (``ride_balance.png``,
-        ``ride_residuals.png``, ``ride_simulation.png``) and tables.
-    domain : {"power", "torque"}
-    assumptions : RideAssumptions, optional
-    n_boot, seed : int
-        Bootstrap replicates and the seed of every random draw.
-    simulate : bool
-        Run the closed-loop simulator along the tested ride's speed profile.
-    jobs : int
-        Processes for the nominal and augmented simulations (1 or 2).
-    progress : callable, optional
-        Called with a short status string at each step (from the simulation's
-        worker processes too when it can be pickled).
-    spec : WheelSpec, optional
-        The wheel's radius, weight and voltage where known
-        (:func:`euc_sim.rides.spec.wheel_spec`).
-    calibrate_rider : bool
-        Add the ``calibrated_rider`` step (:func:`euc_sim.rides.rider_step.calibrated_rider_step`:
-        the rider fitted on LOG, minutes of simulation) between the measured law and the drivetrain.
-    rider_weight : float, optional
-        The rider's declared weight, kg: checked against the log's total mass (``mass_check``).
-
-    Returns
-    -------
-    dict
-        CONTRACT's ``euc-sim ride`` object plus ``windows`` (s, where the
-        inertia-only residual of LOG concentrates), ``localisation``,
-        ``residual_traces``, ``simulation`` and ``report``.  Files are named
-        relative to ``report_dir`` (file names), never by absolute path.
-    """
-    from euc_sim.rides.analysis import ride_analysis
-    from euc_sim.rides.page import residual_windows
-    from euc_sim.rides.signals import RideAssumptions
-
-    say = progress or (lambda s: None)
-    assumptions = assumptions or RideAssumptions()
-    say("finding the total mass and the drivetrain")
-    physics = _drivetrain(log, compare, spec, n_boot, seed)   # bad logs fail before any output
-    # the spec's radius and the mass this log gives reach the balance fit (Table 3 only where
-    # neither the command line, the spec nor the log gives a value)
-    from euc_sim.rides.signals import with_found_values
-
-    assumptions = with_found_values(assumptions, spec, physics[0]["total_mass"])
-    an = ride_analysis(log, compare, assumptions=assumptions, domain=domain, n_boot=n_boot,
-                       seed=seed, progress=say)
-    say("locating the residual")
-    rep = dict(an.report)
-    rep.update(physics[0])
-    rep["notes"] = list(rep["notes"]) + [_mass_grid_note(physics[1])]
-    say("reading the wheel's balance law")
-    from euc_sim.rides.controller_report import controller_json, torque_constant
-    rep["controller"] = controller_json(log, compare, torque_constant(rep.get("drivetrain")),
-                                        n_boot, seed)
-    cr = an.cross
-    nom, aug = cr.nominal.estimate, cr.augmented.estimate
-    traces = [residual_windows(an.sig_fit, nom, aug, domain, Path(log).name, True)]
-    if an.sig_test is not None:
-        traces.append(residual_windows(an.sig_test, nom, aug, domain, Path(compare).name, False))
-    loc = traces[0].localisation
-    rep["windows"] = loc["windows"]
-    rep["localisation"] = {"residual": f"inertia-only balance residual of {Path(log).name}, "
-                                       f"{rep['error_unit']}",
-                           "share": loc["share"], "correlations": loc["correlations"]}
-    rep["residual_traces"] = [tr.as_json() for tr in traces]
-    sim = None
-    if simulate:
-        from euc_sim.rides.simulate import simulation_obstacle
-
-        why = simulation_obstacle(an.sig_test if an.sig_test is not None else an.sig_fit)
-        if why is None:
-            sim = _simulate(an, log, compare, seed, jobs, progress, rep, calibrate_rider)
-        else:
-            warnings.warn(why, stacklevel=2)
-            rep["notes"] = list(rep["notes"]) + [why]
-    rep["simulation"] = None if sim is None else sim.as_json()
-    from euc_sim.rides.verdict import ride_verdict
-
-    rep["verdict"] = ride_verdict(rep)
-    # the rider's numbers (summary, mass check, battery health): euc_sim.rides.rider_view
-    from euc_sim.rides.rider_view import rider_numbers
-    rep.update(rider_numbers(log, rep, spec, rider_weight))
-    rep["report"] = None
-    if report_dir is not None:          # every file at the end: an interrupted run writes none
-        say(f"writing the report to {report_dir}")
-        _write_report(rep, an, traces, sim, physics, Path(report_dir))
-    return rep
-
-
-def _mass_grid_note(fit) -> str:
-    """How the mass and drivetrain fits treated the log's gaps (their grid is not the balance fit's)."""
-    import numpy as np
-
-    from euc_sim.rides.power import MassSettings
-
-    n = len(np.unique(fit.sig.segment))
-    return (f"mass and drivetrain fits: gaps up to {MassSettings.max_gap:g} s bridged linearly on "
-            f"their {MassSettings.rate:g} Hz grid, longer ones split the ride ({n} piece(s))")
-
-
 def _step_line(st: dict) -> str:
     """One step's held-out battery-power error and its ratio to the balance fit's, for the terminal."""
     p = st["heldout_rmse"].get("P_W")
     r = st.get("ratio_to_balance")
     return (f"battery-power RMS {p:.0f} W" if p is not None else "no battery-power error") + \
         (f", {r:.2f}x the balance fit's held-out error (target {st['target_ratio']:g}x)" if r else "")
-
-
-def _rider_steps():
-    from euc_sim.rides.rider_step import RIDER_STEPS
-
-    return RIDER_STEPS
-
-
-def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict, calibrate_rider: bool = False):
-    """The closed-loop rider along the tested ride, once per modelled step (:mod:`euc_sim.rides.sim_steps`),
-    built from the fit ride's results in ``rep``; the second half scored without compare."""
-    from euc_sim.rides.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
-    from euc_sim.rides.simulate import ride_params, simulate_ride
-
-    sig = an.sig_test if an.sig_test is not None else an.sig_fit
-    ride_path = compare if compare is not None else log
-    scored = None
-    if an.sig_test is None:          # score the held-out second half only
-        t = sig.frame["t"].to_numpy()
-        scored = t >= an.cross.test_design.t.min()      # the test half's first row
-    cr = an.cross
-    steps = build_steps(StepInputs(ride_params(sig.assumptions), cr.nominal.estimate,
-                                   cr.augmented.estimate, cr.accepted, rep, log),
-                        _rider_steps() if calibrate_rider else STEP_BUILDERS)
-    ran = [s.name for s in steps if s.why is None]
-    # the steps' battery-power errors are compared with the balance fit's held-out error (in W)
-    balance = rep.get("heldout_error_augmented") if rep.get("error_unit") == "W" else None
-    if progress is not None:
-        progress(f"simulating the rider along {Path(ride_path).name}: steps {', '.join(ran)}, "
-                 f"{min(jobs, len(ran))} process(es)")
-    return simulate_ride(sig, steps, ride_path, scored=scored, label=Path(ride_path).name, seed=seed,
-                         workers=jobs, channels=log_channels(rep, balance), progress=progress)
-
-
-def _write_report(rep: dict, an, traces, sim, physics, out: Path) -> None:
-    """Figures, tables and ``index.md`` into ``out``; ``rep`` gets their file names.
-
-    Everything is first written into a hidden folder inside ``out`` and moved into
-    place (``index.md`` last) only once all of it exists: a failure or an
-    interruption half-way leaves ``out`` as it was.
-    """
-    import shutil
-    import tempfile
-
-    out.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=".ride-report-", dir=out))
-    try:
-        _write_report_files(rep, an, traces, sim, physics, stage)
-        names = sorted((p.name for p in stage.iterdir()), key=lambda n: n in ("index.md", "index.html"))
-        for name in names:
-            os.replace(stage / name, out / name)
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
-
-
-def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
-    from euc_sim.io import atomic_write
-    from euc_sim.rides.analysis import write_balance
-    from euc_sim.rides.page import plot_residuals, write_page
-
-    figures = {"cross_ride": write_balance(an, out).name,
-               "residuals": plot_residuals(traces, out / "ride_residuals.png").name}
-    rep["figure"] = figures["cross_ride"]
-    if sim is not None:
-        from euc_sim.rides.simulate import plot_ride_simulation
-
-        figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
-        atomic_write(out / "ride_simulation.csv",
-                     lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
-        rep["simulation"]["table"] = "ride_simulation.csv"
-        rep["simulation"]["figure"] = figures["simulation"]
-    figures.update(_drivetrain_figures(physics, out))
-    rep["figures"] = dict(figures)
-    rep["report_markdown"] = write_page(rep, out, figures).name
-    from euc_sim.rides.page_html import RideSeries, write_ride_html
-
-    # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
-    series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)
-    rep["report"] = write_ride_html(rep, out, series, physics[1], figures).name
-
-
-def _drivetrain(log, compare, spec, n_boot: int, seed: int):
-    """Mass, drivetrain, PWM and envelope (:func:`euc_sim.rides.drivetrain_report.ride_drivetrain`)."""
-    from euc_sim.rides.drivetrain_report import ride_drivetrain
-
-    return ride_drivetrain(log, compare, spec, n_boot, seed)
-
-
-def _drivetrain_figures(physics, out: Path) -> dict:
-    """The envelope, PWM and grade figures of the ride page, by key -> file name."""
-    from euc_sim.rides.drivetrain_report import plot_envelope, plot_pwm
-    from euc_sim.rides.grade import plot_grade
-
-    rep, fit, test = physics
-    figs = {}
-    if fit.grade is not None:
-        figs["grade"] = plot_grade(fit.grade, out / "ride_grade.png",
-                                   title=f"{Path(fit.path).name}: the altitude the battery-power "
-                                         f"balance implies, against GPS altitude").name
-    if "speed" in rep["envelope"]:
-        figs["envelope"] = plot_envelope(rep["envelope"], out / "ride_envelope.png").name
-    if fit.drivetrain.pwm_coef is not None:
-        target = test if test is not None and "pwm" in test.sig.extra else fit
-        figs["pwm"] = plot_pwm(target, out / "ride_pwm.png", fit.drivetrain.pwm_coef,
-                               title=f"PWM of {Path(target.path).name}, model fitted on "
-                                     f"{Path(fit.path).name}").name
-    return figs
 
 
 def _mass_lines(rep: dict) -> list[str]:
@@ -301,51 +82,8 @@ def _progress(msg: str) -> None:
     sys.stderr.flush()
 
 
-def _cmd_ride(args: argparse.Namespace) -> int:
-    from euc_sim.cli.common import say
-    from euc_sim.io import check_writable, write_json
-
-    if args.domain not in ("power", "torque"):
-        raise ValueError(f"--domain must be power or torque, got {args.domain!r}")
-    if args.workers < 1:
-        raise ValueError(f"--workers must be at least 1, got {args.workers}")
-    if args.n_boot < MIN_BOOT:
-        raise ValueError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
-                         f"bootstrap interval), got {args.n_boot}")
-    if args.calibrate_rider and args.no_simulate:
-        raise ValueError("--calibrate-rider adds a step to the simulation: it cannot go with --no-simulate")
-    assumptions = _assumptions(args)
-    from euc_sim.rides.rider_view import check_rider_weight
-    rider_weight = check_rider_weight(args.rider_weight)
-    from euc_sim.rides.analysis import check_data
-    from euc_sim.rides.spec import wheel_spec
-
-    spec = wheel_spec(args.wheel, radius=args.radius, wheel_mass=args.wheel_mass,
-                      battery_voltage=args.battery_voltage)
-
-    for p in [args.log] + ([args.compare] if args.compare else []):
-        if not Path(p).is_file():
-            raise FileNotFoundError(f"{p}: no such log file")
-    # a malformed or too short log fails here, before any output exists
-    check_data(args.log, args.compare, assumptions=assumptions, domain=args.domain)
-    if args.json:
-        check_writable(args.json)
-    if args.report:
-        out = Path(args.report)
-        if out.exists() and not out.is_dir():
-            raise NotADirectoryError(f"--report {out}: exists and is not a folder")
-        check_writable(out / "index.md")
-        check_writable(out / "index.html")
-    rep = run_ride(args.log, args.compare, report_dir=args.report, domain=args.domain,
-                   assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
-                   simulate=not args.no_simulate, jobs=args.workers,
-                   progress=None if args.quiet else _progress, spec=spec,
-                   calibrate_rider=args.calibrate_rider, rider_weight=rider_weight)
-    if args.json:
-        if args.report:         # where the named files are, from the JSON's folder
-            rep["report_dir"] = Path(os.path.relpath(Path(args.report).resolve(),
-                                                     Path(args.json).resolve().parent)).as_posix()
-        write_json(args.json, rep)
+def _print_summary(rep: dict) -> None:
+    """The console summary of a ride's result: errors, verdict, effects, mass, windows, simulation."""
     u = rep["error_unit"]
     print(("" if rep["verdict"]["battery_power"] else "V·I, NOT battery power: ")
           + f"held-out error ({rep['error_measure']}): inertia-only "
@@ -379,6 +117,59 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
         if fell:
             print(f"  simulation along {sim['ride']}: {fell}")
+
+
+def _cmd_ride(args: argparse.Namespace) -> int:
+    from euc_sim.cli.common import say
+    from euc_sim.io import check_writable, write_json
+
+    if args.domain not in ("power", "torque"):
+        raise ValueError(f"--domain must be power or torque, got {args.domain!r}")
+    if args.workers < 1:
+        raise ValueError(f"--workers must be at least 1, got {args.workers}")
+    if args.n_boot < MIN_BOOT:
+        raise ValueError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
+                         f"bootstrap interval), got {args.n_boot}")
+    if args.calibrate_rider and args.no_simulate:
+        raise ValueError("--calibrate-rider adds a step to the simulation: it cannot go with --no-simulate")
+    assumptions = _assumptions(args)
+    from euc_sim.rides.rider_view import check_rider_weight
+    rider_weight = check_rider_weight(args.rider_weight)
+    from euc_sim.rides.analysis import check_data
+    from euc_sim.rides.spec import wheel_spec
+
+    spec = wheel_spec(args.wheel, radius=args.radius, wheel_mass=args.wheel_mass,
+                      battery_voltage=args.battery_voltage)
+
+    for p in [args.log] + ([args.compare] if args.compare else []):
+        if not Path(p).is_file():
+            raise FileNotFoundError(f"{p}: no such log file")
+    from euc_sim.rides.ride import read_ride
+
+    # each log is parsed once, here; a malformed or too short log fails before any output exists
+    ride = read_ride(args.log)
+    other = read_ride(args.compare) if args.compare else None
+    check_data(ride.log, None if other is None else other.log, assumptions=assumptions,
+               domain=args.domain)
+    if args.json:
+        check_writable(args.json)
+    if args.report:
+        out = Path(args.report)
+        if out.exists() and not out.is_dir():
+            raise NotADirectoryError(f"--report {out}: exists and is not a folder")
+        check_writable(out / "index.md")
+        check_writable(out / "index.html")
+    rep = run_ride(ride, other, report_dir=args.report, domain=args.domain,
+                   assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
+                   simulate=not args.no_simulate, jobs=args.workers,
+                   progress=None if args.quiet else _progress, spec=spec,
+                   calibrate_rider=args.calibrate_rider, rider_weight=rider_weight)
+    if args.json:
+        if args.report:         # where the named files are, from the JSON's folder
+            rep["report_dir"] = Path(os.path.relpath(Path(args.report).resolve(),
+                                                     Path(args.json).resolve().parent)).as_posix()
+        write_json(args.json, rep)
+    _print_summary(rep)
     if rep["report"]:
         say(f"ride: report written to {Path(args.report) / rep['report']}")
     return 0

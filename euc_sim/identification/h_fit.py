@@ -38,6 +38,7 @@ from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 from euc_sim.identification.processing import DEFAULT_SMOOTHING, Kinematics, Smoothing, kinematics, term_filter
 from euc_sim.identification.torques import MODELS, model_functions
+from euc_sim.stats import moving_block_starts
 
 
 #: Values of h at which the analytic torques are evaluated to recover their
@@ -408,7 +409,7 @@ def _curve_and_draws(polys: list[ResidualPoly], grid: np.ndarray, n_boot: int, b
         if n_boot > 0:
             dt = float(rp.t[1] - rp.t[0]) if rp.n > 1 else 1.0
             L = int(min(max(1, round(block / dt)), rp.n))
-            starts = rng.integers(0, rp.n - L + 1, size=(n_boot, int(math.ceil(rp.n / L))))
+            starts = moving_block_starts(rp.n, L, n_boot, rng)
             draws.append((L, starts))
             boot_tot += _block_sums(x, L, starts)
     return ss / n_tot, boot_tot, draws

@@ -18,6 +18,7 @@ import pandas as pd
 from euc_sim.rides.crossride import CrossRide, cross_ride, effect_entries, plot_cross_ride
 from euc_sim.rides.design import NOMINAL, Design, balance_design
 from euc_sim.rides.fit import FEW_BLOCKS, block_rows, plausibility
+from euc_sim.rides.ride import ride_name
 from euc_sim.rides.signals import RideAssumptions, RideSignals, ride_signals
 
 __all__ = ["RideAnalysis", "ride_report", "ride_analysis", "write_balance", "check_data",
@@ -93,8 +94,8 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
         ``compare`` are file names (no folder: no machine path in outputs).
     """
     say = progress or (lambda msg: None)
-    say(f"reading {Path(log_path).name}" + ("" if compare_path is None else
-                                            f" and {Path(compare_path).name}"))
+    say(f"reading {ride_name(log_path)}" + ("" if compare_path is None else
+                                            f" and {ride_name(compare_path)}"))
     sig_fit = ride_signals(log_path, assumptions, rate, max_gap, window, polyorder)
     sig_test = (None if compare_path is None else
                 ride_signals(compare_path, assumptions, rate, max_gap, window, polyorder))
@@ -127,8 +128,8 @@ def _report(cr: CrossRide, sig_fit: RideSignals, d_fit: Design, d_test: Design,
     block_s, seed = settings["block_s"], settings["seed"]
     aug_phys = plausibility(cr.augmented)
     return {
-        "recording": Path(log_path).name,
-        "compare": None if compare_path is None else Path(compare_path).name,
+        "recording": ride_name(log_path),
+        "compare": None if compare_path is None else ride_name(compare_path),
         "effects": effect_entries(cr),
         "heldout_error_nominal": cr.heldout_nominal,
         "heldout_error_augmented": cr.heldout_augmented,
@@ -138,6 +139,8 @@ def _report(cr: CrossRide, sig_fit: RideSignals, d_fit: Design, d_test: Design,
                           f"parameters fitted on {fit_label}"),
         "ratio": cr.ratio,
         "heldout_error_all_candidates": cr.heldout_full,
+        "selection": [dict(h) for h in cr.selection],
+        "selected_not_accepted": [c for c in cr.selected if c not in cr.accepted],
         "insample_error_nominal": cr.nominal.rmse,
         "insample_error_augmented": cr.augmented.rmse,
         "nominal_parameters": {k: aug_phys[k] for k in NOMINAL},
@@ -202,10 +205,10 @@ def _fit_and_test(sig_fit: RideSignals, sig_test: RideSignals | None, log_path, 
     """The fit and test designs and their labels: two rides, or one ride's halves."""
     d_all = balance_design(sig_fit, domain)
     if sig_test is not None:
-        return d_all, balance_design(sig_test, domain), Path(log_path).name, Path(compare_path).name
+        return d_all, balance_design(sig_test, domain), ride_name(log_path), ride_name(compare_path)
     t_mid = split_time(d_all.t)
     return (d_all.rows(d_all.t < t_mid), d_all.rows(d_all.t >= t_mid),
-            f"{Path(log_path).name} (first half)", f"{Path(log_path).name} (second half)")
+            f"{ride_name(log_path)} (first half)", f"{ride_name(log_path)} (second half)")
 
 
 def _notes(sig_fit: RideSignals, sig_test: RideSignals | None, d_fit: Design,

@@ -18,7 +18,7 @@ fixes ``s``).  The nominal regression on the riding rows (speed above
 Catalogued terms the nominal leaves out (:data:`CATALOG`), each kept only when it
 lowers the blocked held-out RMS error (10 contiguous time blocks, each predicted
 from the other nine, non-linear settings re-found in each fold) by
-:data:`MIN_GAIN` (:func:`euc_sim.rides.heldout.select_by_heldout`):
+:data:`MIN_GAIN` (:func:`euc_sim.stats.forward_select`):
 
 ``tiltback``
     γ_ref = −k_tb (|ẋ| − v_tb)⁺: the set-point tilts back above v_tb (column
@@ -50,7 +50,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg
 
-from euc_sim.rides.heldout import select_by_heldout, time_blocks
+from euc_sim.stats import block_bootstrap_indices, blocks_by_length, percentile_interval
+from euc_sim.stats import forward_select as select_by_heldout
+from euc_sim.stats import time_blocks
 from euc_sim.rides.law_signals import (INTEGRAL_TAU, MAX_PITCH, V_MIN, LawRows, LawUnavailable,
                                        law_rows)
 
@@ -347,11 +349,10 @@ def _terms(fit: dict, unit: str) -> dict:
 
 def _bootstrap(rows: LawRows, names, n_boot: int, seed: int, block: float = 30.0):
     rng = np.random.default_rng(seed)
-    label = np.floor((rows.t - rows.t[0]) / block).astype(int)
-    blocks = [np.flatnonzero(label == b) for b in np.unique(label)]
+    blocks = blocks_by_length(rows.t, block)
     draws, signs = [], []
     for _ in range(n_boot):
-        idx = np.concatenate([blocks[i] for i in rng.integers(0, len(blocks), len(blocks))])
+        idx = block_bootstrap_indices(blocks, rng)
         f = fit_params(rows.take(idx), names)
         signs.append(f["sign"])
         draws.append({k: v for k, (v, _) in _terms(f, rows.unit).items()})
@@ -407,12 +408,12 @@ def fit_law(rows: LawRows, n_boot: int = 100, seed: int = 0) -> Law:
     for k, (val, unit) in _terms(fit, rows.unit).items():
         xs = np.array([d[k] for d in draws if k in d and np.isfinite(d[k])])
         ci = None
-        if xs.size >= 10:
+        q = percentile_interval(xs, min_draws=10)
+        if q is not None:
             # the draws' 2.5-97.5 % percentiles, reaching out to the estimate where the draws
             # lie to one side of it (a grid-searched onset or limit, or few draws): widened,
             # never narrowed, so the interval always holds its own estimate
-            lo, hi = np.percentile(xs, [2.5, 97.5])
-            ci = (float(min(lo, val)), float(max(hi, val)))
+            ci = (float(min(q[0], val)), float(max(q[1], val)))
         terms[k] = (float(val), ci, unit)
     sign = int(fit["sign"])
     return Law(names=names, fit=fit, terms=terms, sign=sign, heldout_rmse=rmse,

@@ -1,6 +1,7 @@
 """Inertia-only against augmented balance: fitted on one ride, tested on another.
 
-:func:`cross_ride` accepts the effects whose 95 % interval excludes zero,
+:func:`cross_ride` accepts the effects that blocked held-out validation on the
+fit ride keeps (:func:`select_effects`, the selection rule of every ride fit),
 :func:`effect_entries` writes them as CONTRACT's effect entries and
 :func:`plot_cross_ride` draws the held-out prediction.
 """
@@ -11,12 +12,86 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
-from euc_sim.rides.verdict import unit_label
-from euc_sim.rides.design import CANDIDATES, NOMINAL, Design
-from euc_sim.rides.fit import BalanceFit, fit_balance, plausibility
-from euc_sim.rides.signals import RideSignals, break_at_gaps
+import numpy as np
 
-__all__ = ["CrossRide", "cross_ride", "effect_entries", "plot_cross_ride", "cross_ride_figure"]
+from euc_sim.rides.verdict import unit_label
+from euc_sim.rides.design import CANDIDATES, NOMINAL, Design, on_bound
+from euc_sim.rides.fit import BalanceFit, _solve, fit_balance, plausibility
+from euc_sim.rides.signals import RideSignals, break_at_gaps
+from euc_sim.stats import forward_select, time_blocks
+
+__all__ = ["CrossRide", "cross_ride", "effect_entries", "plot_cross_ride", "cross_ride_figure",
+           "select_effects", "heldout_score", "admissible", "HELDOUT_FOLDS", "MIN_GAIN"]
+
+#: Contiguous time folds of the fit ride that score a model held out.
+HELDOUT_FOLDS = 5
+#: A term is kept only if it lowers the held-out error by more than this fraction.
+MIN_GAIN = 0.01
+
+
+def _start(names) -> np.ndarray:
+    from euc_sim.rides.fit import _START
+
+    return np.array([_START[k] for k in names])
+
+
+def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS) -> float:
+    """Blocked held-out RMS error of the bounded balance with ``names`` on ``design``, W or N·m.
+
+    Each of ``n_folds`` contiguous time blocks is predicted from a bounded fit
+    (:data:`~euc_sim.rides.design.BOUNDS`) on the others.
+    """
+    names = list(names)
+    whole = _solve(design, names, _start(names)).x
+    label = time_blocks(design.t, n_folds)
+    err = []
+    for b in range(n_folds):
+        train, test = design.rows(label != b), design.rows(label == b)
+        if len(test.P) == 0:
+            continue
+        th = _solve(train, names, whole).x
+        err.append(test.residual(dict(zip(names, th))))
+    r = np.concatenate(err)
+    return float(np.sqrt(np.mean(r ** 2)))
+
+
+def select_effects(design: Design, candidates) -> tuple[list[str], list[dict]]:
+    """The terms blocked held-out validation keeps, in the order kept, and the history.
+
+    Forward selection (:func:`euc_sim.stats.forward_select`) from the nominal
+    pair: each step adds the candidate that lowers :func:`heldout_score` most,
+    if by more than :data:`MIN_GAIN`.
+    """
+    names, history = forward_select(lambda n: heldout_score(design, n), list(NOMINAL),
+                                    [c for c in candidates if c not in NOMINAL], MIN_GAIN)
+    return names[len(NOMINAL):], history
+
+
+def _accepted_model(design: Design, selected) -> list[str]:
+    """The kept terms that stay plausible and off their bounds when fitted without the others.
+
+    Terms that end on a bound are dropped and the rest refitted, until every term left is
+    admissible: the augmented fit (its efficiencies, its held-out error, what is simulated)
+    is then the model of the accepted physics alone.
+    """
+    kept = list(selected)
+    while kept:
+        ok = admissible(fit_balance(design, list(NOMINAL) + kept, n_boot=0), kept)
+        if ok == kept:
+            break
+        kept = ok
+    return kept
+
+
+def admissible(fit: BalanceFit, names) -> list[str]:
+    """Those of ``names`` whose estimate in ``fit`` is plausible and off its bounds.
+
+    A kept term that ends on the bound of its plausible range (or outside it, as
+    a GPS gain below its range) stays in the balance as the bound, but nothing
+    is named or simulated from it.
+    """
+    phys = plausibility(fit)
+    return [c for c in names if phys[c]["plausible"] and not on_bound(c, fit.estimate[c])]
 
 
 @dataclass(frozen=True)
@@ -27,10 +102,15 @@ class CrossRide:
     ----------
     nominal, full, augmented : BalanceFit
         Fits on the fit ride: inertia only (η_m, η_r); every candidate the ride
-        supports; nominal plus the accepted effects.
+        supports; nominal plus the accepted effects alone (:func:`_accepted_model`).
     accepted : tuple of str
-        Effects whose full-fit 95 % interval excludes zero on the physical side,
-        strongest (largest in-sample improvement alone) first.
+        Effects kept by blocked held-out validation on the fit ride
+        (:func:`select_effects`) whose estimates are plausible and off their
+        bounds (:func:`admissible`), in the order kept.
+    selected : tuple of str
+        Every term the selection kept, accepted or not.
+    selection : list of dict
+        ``{"term", "heldout_rmse"}`` after each kept step, the nominal pair first.
     heldout_nominal, heldout_augmented, heldout_full : float
         RMS residual on the test ride, W or N·m.
     """
@@ -46,6 +126,8 @@ class CrossRide:
     heldout_full: float
     fit_label: str
     test_label: str
+    selection: tuple = ()
+    selected: tuple = ()
 
     @property
     def ratio(self) -> float:
@@ -58,8 +140,9 @@ def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block
                progress: Callable[[str], None] | None = None) -> CrossRide:
     """Fit the nominal and augmented balances on one design, measure both on another.
 
-    An effect is *accepted* when its 95 % interval in the full fit excludes zero on
-    the physical side (C_rr, k, P₀ > 0; a slope or GPS gain of either sign).
+    An effect is *accepted* when blocked held-out validation on the fit ride keeps
+    it (:func:`select_effects`) and its bounded estimate is plausible and off its
+    bounds (:func:`admissible`).
     ``progress``, when given, is called with a short line before each bootstrapped fit.
     """
     say = progress or (lambda msg: None)
@@ -69,22 +152,17 @@ def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block
     nominal = fit_balance(fit_design, list(NOMINAL), n_boot, block_s, seed)
     say(f"fitting every candidate on {fit_label} (2/3, {boot})")
     full = fit_balance(fit_design, common, n_boot, block_s, seed)
-    accepted = []
-    for c in full.names:
-        if c in NOMINAL:
-            continue
-        lo, hi = full.ci95[c]
-        if (lo > 0) or (c.startswith("road_slope") and hi < 0):
-            accepted.append(c)
-    alone = sorted(accepted, key=lambda c: fit_balance(fit_design, list(NOMINAL) + [c], 0).rmse)
-    say(f"fitting the augmented balance ({', '.join(alone) or 'nothing accepted'}) (3/3, {boot})")
-    augmented = fit_balance(fit_design, list(NOMINAL) + alone, n_boot, block_s, seed)
+    alone, history = select_effects(fit_design, common)
+    kept = _accepted_model(fit_design, alone)
+    say(f"fitting the augmented balance ({', '.join(kept) or 'nothing accepted'}) (3/3, {boot})")
+    augmented = fit_balance(fit_design, list(NOMINAL) + kept, n_boot, block_s, seed)
     return CrossRide(fit_design=fit_design, test_design=test_design, nominal=nominal, full=full,
-                     augmented=augmented, accepted=tuple(alone),
+                     augmented=augmented, accepted=tuple(kept),
+                     selected=tuple(alone),
                      heldout_nominal=nominal.rmse_on(test_design),
                      heldout_augmented=augmented.rmse_on(test_design),
                      heldout_full=full.rmse_on(test_design),
-                     fit_label=fit_label, test_label=test_label)
+                     fit_label=fit_label, test_label=test_label, selection=tuple(history))
 
 
 def effect_entries(cr: CrossRide) -> list[dict]:
@@ -99,9 +177,12 @@ def effect_entries(cr: CrossRide) -> list[dict]:
         exact = list(cr.fit_design.aliases.get(c, ()))
         confounded = [x for x in cr.full.confounded(c) if x not in exact]
         aliases = exact + confounded
-        ev = (f"adding {ph['symbol']} ({ph['meaning']}) lowers the RMS battery-power residual "
-              f"on {cr.fit_label} from {cr.nominal.rmse:.0f} to {rmse_after:.0f} {cr.nominal.unit}, "
-              f"95% interval {ph['ci95'][0]:.3g} to {ph['ci95'][1]:.3g} {unit_label(ph['unit'])}")
+        step = next((h for h in cr.selection if h["term"] == c), None)
+        before = cr.selection[max(0, list(cr.selection).index(step) - 1)] if step else None
+        ev = (f"adding {ph['symbol']} ({ph['meaning']}) lowers the blocked held-out RMS error "
+              f"on {cr.fit_label} from {before['heldout_rmse']:.0f} to {step['heldout_rmse']:.0f} "
+              f"{cr.nominal.unit}" if step else f"{ph['symbol']} ({ph['meaning']})")
+        ev += f", 95% interval {ph['ci95'][0]:.3g} to {ph['ci95'][1]:.3g} {unit_label(ph['unit'])}"
         if exact:
             ev += (f"; the speed never changes sign, so it is the sum of this and "
                    f"{' and '.join(exact)} (a constant road grade looks the same)")

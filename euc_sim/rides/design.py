@@ -41,12 +41,11 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from euc_sim.rides.power import RHO_AIR
 from euc_sim.rides.signals import RideSignals, sg, window_samples
 
-__all__ = ["RHO_AIR", "CANDIDATES", "NOMINAL", "PLAUSIBLE", "PRE_WINDOW", "Design",
-           "Operator", "balance_design", "filter_matrix"]
-
-RHO_AIR = 1.2  # kg/m³, air density used to turn k into a drag area
+__all__ = ["RHO_AIR", "CANDIDATES", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDOW", "Design",
+           "Operator", "balance_design", "filter_matrix", "on_bound"]
 
 
 #: Candidate parameters: name -> (symbol, unit, meaning, regressor column or None, column unit).
@@ -78,6 +77,31 @@ PLAUSIBLE: dict[str, tuple[float, float, str]] = {
     "road_slope_gps": (0.5, 1.5, "1"),
     "drivetrain_idle_loss": (0.0, 100.0, "W"),
 }
+
+#: Bounds of the fit: a resistance or loss runs from 0 (absent) to the top of its
+#: plausible range, an efficiency within (0, 1], a grade or GPS gain over its
+#: plausible range.  An estimate that ends on a bound other than "absent" is where
+#: the data asks for an implausible value: it is never accepted (:func:`on_bound`).
+BOUNDS: dict[str, tuple[float, float]] = {
+    "eta_motor": (0.05, 1.0),
+    "eta_regen": (0.01, 1.0),
+    "rolling_resistance": (0.0, PLAUSIBLE["rolling_resistance"][1]),
+    "aerodynamic_drag": (0.0, PLAUSIBLE["aerodynamic_drag"][1]),
+    "road_slope": PLAUSIBLE["road_slope"][:2],
+    "road_slope_gps": (0.0, PLAUSIBLE["road_slope_gps"][1]),
+    "drivetrain_idle_loss": (0.0, PLAUSIBLE["drivetrain_idle_loss"][1]),
+}
+
+
+def on_bound(name: str, value: float, rel: float = 1e-6) -> bool:
+    """True when ``value`` sits on a bound of :data:`BOUNDS` that is not "absent" (0).
+
+    Such an estimate is the bound, not what the data gives: the unbounded fit
+    would leave the plausible range.
+    """
+    lo, hi = BOUNDS.get(name, (-np.inf, np.inf))
+    tol = rel * max(abs(hi - lo), 1.0) if np.isfinite(hi - lo) else 0.0
+    return bool((value >= hi - tol) or (lo != 0.0 and value <= lo + tol))
 
 
 @dataclass(frozen=True)

@@ -39,6 +39,7 @@ import numpy as np
 from euc_sim.rides.mass import MassFit
 from euc_sim.rides.power import G, RHO_AIR, PowerSignals
 from euc_sim.rides.pwm import BASE, EXTRA, full_duty_force, pwm_columns, select_pwm_terms
+from euc_sim.stats import block_bootstrap_indices, blocks_by_length, percentile_interval
 
 __all__ = ["Term", "Drivetrain", "fit_battery", "charge_drawn", "fit_pwm", "predict_pwm", "fit_drivetrain",
            "envelope", "max_force", "CELL_FULL", "CELL_LOW"]
@@ -108,15 +109,13 @@ def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: 
     """Least squares and moving-block bootstrap percentiles of each coefficient."""
     beta, *_ = np.linalg.lstsq(X, y, rcond=None)
     rng = np.random.default_rng(seed)
-    label = np.floor((t - t[0]) / block).astype(int)
-    blocks = [np.flatnonzero(label == b) for b in np.unique(label)]
+    blocks = blocks_by_length(t, block)
     draws = []
     for _ in range(n_boot):
-        idx = np.concatenate([blocks[i] for i in rng.integers(0, len(blocks), len(blocks))])
+        idx = block_bootstrap_indices(blocks, rng)
         draws.append(np.linalg.lstsq(X[idx], y[idx], rcond=None)[0])
-    draws = np.asarray(draws)
-    ci = [tuple(float(x) for x in np.percentile(draws[:, j], [2.5, 97.5])) if n_boot >= 10
-          else None for j in range(X.shape[1])]
+    q = percentile_interval(np.asarray(draws).reshape(n_boot, X.shape[1]), min_draws=10)
+    ci = [None if q is None else (float(q[0, j]), float(q[1, j])) for j in range(X.shape[1])]
     return beta, ci
 
 

@@ -19,9 +19,9 @@ import numpy as np
 from euc_sim.io import save_figure
 from euc_sim.rides.drivetrain import Drivetrain, envelope, fit_drivetrain, predict_pwm
 from euc_sim.rides.grade import GradeProfile, grade_profile
-from euc_sim.rides.logs import read_log
+from euc_sim.rides.ride import ride_name
 from euc_sim.rides.mass import MassFit, fit_mass, predict_power
-from euc_sim.rides.power import G, MassSettings, PowerSignals, power_signals
+from euc_sim.rides.power import G, MassSettings, PowerSignals, as_ride_log, power_signals
 from euc_sim.rides.pwm import no_force_speed
 from euc_sim.rides.rotating import without_rotating_inertia
 from euc_sim.rides.spec import WheelSpec
@@ -53,7 +53,7 @@ class RideDrivetrain:
 def analyse(path, spec: WheelSpec = WheelSpec(), settings: MassSettings = MassSettings()
             ) -> RideDrivetrain:
     """Read, filter and fit one ride (mass, then drivetrain, then the grade it implies)."""
-    log = read_log(path, emit_warnings=False)
+    log = as_ride_log(path)                  # a RideLog as it is: the ride is read once
     sig = power_signals(log, settings)
     m_eq = fit_mass(log, settings, sig=sig)
     # the drivetrain balances power with m_eq (eq. 6): the rotating inertia is accelerated too
@@ -61,7 +61,7 @@ def analyse(path, spec: WheelSpec = WheelSpec(), settings: MassSettings = MassSe
                         seed=settings.seed)
     alt = log.data["gps_alt"].to_numpy(float) if "gps_alt" in log.data else None
     grade = None if alt is None else grade_profile(sig, m_eq, log.data["t"].to_numpy(float), alt)
-    return RideDrivetrain(str(path), sig, without_rotating_inertia(m_eq, spec.wheel_mass), dt, spec, grade)
+    return RideDrivetrain(log.path, sig, without_rotating_inertia(m_eq, spec.wheel_mass), dt, spec, grade)
 
 
 def _rms(x: np.ndarray) -> float:
@@ -149,6 +149,7 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
     fit, test : RideDrivetrain
         The analyses (``test`` None without ``compare``).
     """
+    path = as_ride_log(path)
     r = fitted or analyse(path, spec, settings)
     dtj = r.drivetrain.as_json()
     note = computed_pwm_note(r)
@@ -156,7 +157,7 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
         dtj["resistive_drop"] = {"estimate": None, "ci95": None, "unit": "V/N", "why": note}
         dtj.pop("winding_resistance", None)
     rep = {"total_mass": _total_mass(r), "drivetrain": dtj, "envelope": _envelope(r, note),
-           "input_warnings": input_warnings(read_log(path, emit_warnings=False), r.spec, r.mass.scale),
+           "input_warnings": input_warnings(path, r.spec, r.mass.scale),
            "wheel": r.spec.as_json(), "unidentified": dict(r.drivetrain.unidentified),
            "grade": (r.grade.as_json() if r.grade is not None else
                      {"why": "no GPS altitude, or no mass identified: no implied grade"})}
@@ -174,7 +175,7 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
         else:
             rep["pwm"] = {"heldout_rmse": None, "unit": "%",
                           "why": "no PWM or safety-margin column in "
-                                 + (Path(compare).name if r.drivetrain.pwm_coef else Path(path).name)}
+                                 + (ride_name(compare) if r.drivetrain.pwm_coef else ride_name(path))}
     return rep, r, test
 
 
@@ -314,13 +315,17 @@ def page_section(rep: dict, figures: dict) -> list[str]:
     """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope."""
     tm = rep["total_mass"]
     md = _mass_md(rep)
-    md += ["", "Battery-power balance, held-out RMS error after each accepted term "
-               "(the physics the nominal model was missing):", "",
-           "| step | held-out RMS, W |", "|---|---|"]
-    md += [f"| + {h['term']} | {h['heldout_rmse']:.0f} |" for h in tm["balance"]]
+    sel = rep.get("selection") or []
+    if sel:
+        md += ["", "Battery-power balance of the fit ride, blocked held-out RMS error after "
+                   "each kept term (the one selection rule of the page):", "",
+               "| step | held-out RMS, " + rep.get("error_unit", "W") + " |", "|---|---|"]
+        md += [f"| + {h['term']} | {h['heldout_rmse']:.0f} |" for h in sel]
     dt = rep["drivetrain"]
     md += ["", "| drivetrain term | estimate | 95 % interval | unit |", "|---|---|---|---|"]
     for name, t in dt.items():
+        if "parameter" in t:            # a balance-fit parameter: in the Estimates table
+            continue
         if t.get("estimate") is None:
             md.append(f"| {name} | not identified | {t.get('why', '')} | |")
         else:

@@ -13,7 +13,9 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from euc_sim.rides.design import CANDIDATES, NOMINAL, PLAUSIBLE, RHO_AIR, Design
+from euc_sim.rides.design import BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
+from euc_sim.rides.power import RHO_AIR
+from euc_sim.stats import percentile_interval, wild_block_signs
 
 __all__ = ["BalanceFit", "fit_balance", "block_rows", "plausibility", "MIN_BLOCKS", "FEW_BLOCKS"]
 
@@ -23,11 +25,10 @@ MIN_BLOCKS = 2
 #: Below this many blocks the intervals are rough (reported as a note).
 FEW_BLOCKS = 5
 
-#: Start values and bounds of the least-squares fit.
+#: Start values of the least-squares fit (its bounds are :data:`BOUNDS`).
 _START = {"eta_motor": 0.8, "eta_regen": 0.8, "rolling_resistance": 0.0,
           "aerodynamic_drag": 0.0, "road_slope": 0.0, "road_slope_gps": 1.0,
           "drivetrain_idle_loss": 0.0}
-_BOUNDS = {"eta_motor": (0.05, 5.0), "eta_regen": (0.0, 5.0)}
 
 
 @dataclass(frozen=True)
@@ -89,8 +90,8 @@ def _scale(names: Sequence[str]) -> np.ndarray:
 
 
 def _bounds(names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
-    lo = np.array([_BOUNDS.get(n, (-np.inf, np.inf))[0] for n in names])
-    hi = np.array([_BOUNDS.get(n, (-np.inf, np.inf))[1] for n in names])
+    lo = np.array([BOUNDS.get(n, (-np.inf, np.inf))[0] for n in names])
+    hi = np.array([BOUNDS.get(n, (-np.inf, np.inf))[1] for n in names])
     return lo, hi
 
 
@@ -108,7 +109,7 @@ def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray |
 
 
 #: A parameter within this fraction of its typical size from a bound sits on it.
-_BOUND_SNAP = 1e-9
+_BOUND_SNAP = 1e-6
 
 
 def _snap_to_bounds(x: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -167,9 +168,7 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
     """
     n = len(e_P)
     rng = np.random.default_rng(seed)
-    n_blocks = int(math.ceil(n / L))
-    signs = rng.choice(np.array([-1.0, 1.0]), size=(n_blocks, n_boot))
-    targets = fitted_P[:, None] + e_P[:, None] * np.repeat(signs, L, axis=0)[:n]
+    targets = fitted_P[:, None] + e_P[:, None] * wild_block_signs(n, L, n_boot, rng)
     boots = np.empty((n_boot, len(names)))
     for c in range(0, n_boot, _CHUNK):
         sl = slice(c, min(c + _CHUNK, n_boot))
@@ -180,7 +179,7 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
     if not n_boot:
         nan = np.full(len(names), np.nan)
         return nan, nan, corr
-    lo, hi = np.percentile(boots, [2.5, 97.5], axis=0)
+    lo, hi = percentile_interval(boots)
     if n_boot > 2:
         with np.errstate(invalid="ignore", divide="ignore"):
             C = np.corrcoef(boots, rowvar=False)
@@ -364,6 +363,9 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
     except np.linalg.LinAlgError:
         se = np.full(len(names), np.nan)
     lo, hi, corr = _bootstrap(design, names, theta, fitted_P, e_P, L, n_boot, seed)
+    # a bounded estimate's replicates can pile up on one side of it (on or near its bound):
+    # the interval reaches out to the estimate, widened, never narrowed
+    lo, hi = np.fmin(lo, theta), np.fmax(hi, theta)
     return BalanceFit(names=tuple(names), estimate=est,
                       ci95={k: (float(a), float(b)) for k, a, b in zip(names, lo, hi)},
                       se_naive=dict(zip(names, map(float, se))),
@@ -381,17 +383,19 @@ def plausibility(fit: BalanceFit) -> dict[str, dict]:
     -------
     dict
         name -> {"estimate", "unit", "ci95", "plausible_range", "plausible": bool,
-        "symbol", "meaning"}; ``plausible`` is False when the estimate lies outside
-        :data:`PLAUSIBLE`.
+        "symbol", "meaning", "on_bound"}; ``plausible`` is False when the estimate
+        lies outside :data:`PLAUSIBLE` or on a bound of the fit that is not
+        "absent" (:func:`~euc_sim.rides.design.on_bound`: the data asks for more).
     """
     out: dict[str, dict] = {}
     for k in fit.names:
         est, ci = fit.estimate[k], list(fit.ci95[k])
         sym, unit, meaning, _, _ = CANDIDATES[k]
         rng = PLAUSIBLE.get(k)
+        edge = on_bound(k, est)
         entry = {"estimate": est, "unit": unit, "ci95": ci, "symbol": sym, "meaning": meaning,
-                 "plausible_range": list(rng[:2]) if rng else None,
-                 "plausible": bool(rng is None or rng[0] <= est <= rng[1])}
+                 "plausible_range": list(rng[:2]) if rng else None, "on_bound": edge,
+                 "plausible": bool((rng is None or rng[0] <= est <= rng[1]) and not edge)}
         if k == "aerodynamic_drag":
             entry["drag_area_m2"] = 2 * est / RHO_AIR
             entry["drag_area_m2_ci95"] = [2 * c / RHO_AIR for c in ci]

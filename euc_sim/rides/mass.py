@@ -63,7 +63,9 @@ import numpy as np
 
 from euc_sim.rides.channels import current_from_phase, power_not_measured
 from euc_sim.rides.energy import window_difference, window_mean, window_samples_odd
-from euc_sim.rides.heldout import select_by_heldout, time_blocks
+from euc_sim.stats import block_labels, draw_blocks, percentile_interval
+from euc_sim.stats import forward_select as select_by_heldout
+from euc_sim.stats import time_blocks
 from euc_sim.rides.logs import RideLog
 from euc_sim.rides.power import (G, NO_GPS_SCALE_SD, MassSettings, PowerSignals, RideDataError,
                                  SpeedScale, as_ride_log, power_signals)
@@ -84,8 +86,10 @@ def _shift(x: np.ndarray, lag: int) -> np.ndarray:
     return out
 
 
-#: Candidate loss and road terms beyond the inertia, by name: (physics, unit of the coefficient).
-CANDIDATES = {
+#: The energy balance's loss and road terms beyond the inertia, by name: (physics, unit of the
+#: coefficient).  Nuisance terms of the mass: the ride's rolling, drag and idle-loss parameters
+#: are the balance fit's (:data:`euc_sim.rides.design.CANDIDATES`, :mod:`euc_sim.rides.parameters`).
+ENERGY_TERMS = {
     "rolling": ("c₁·v: rolling resistance and losses linear in speed", "N"),
     "drag": ("c₃·v³: aerodynamic drag ½ρC_dA and losses growing with v³", "kg/m"),
     "no_load": ("P₀: constant drain (controller, lights)", "W"),
@@ -147,7 +151,7 @@ class MassFit:
     ci95 : tuple of float or None
         2.5 and 97.5 % bootstrap percentiles, kg.
     coef : dict
-        Coefficient of every accepted term, SI (see :data:`CANDIDATES`).
+        Coefficient of every accepted term, SI (see :data:`ENERGY_TERMS`).
     coef_ci95 : dict
         Their 95 % intervals.
     terms : list of str
@@ -244,7 +248,7 @@ def _select(cols: dict, y: np.ndarray, t: np.ndarray, signed: bool,
     """Forward selection of speed-only terms by blocked held-out RMSE."""
     X = lambda names: np.column_stack([cols[c] for c in names])   # noqa: E731
     return select_by_heldout(lambda names: heldout_rmse(X(names), y, t, signed), ["inertia"],
-                          [c for c in CANDIDATES if c in cols], min_gain)
+                          [c for c in ENERGY_TERMS if c in cols], min_gain)
 
 
 def _mass(beta: dict) -> float:
@@ -329,13 +333,13 @@ def _bootstrap(designs: list, names, signed, settings: MassSettings, mid: int):
     """
     rng = np.random.default_rng(settings.seed)
     t0 = min(d.t[0] for d in designs)
-    labels = [np.floor((d.t - t0) / settings.block).astype(int) for d in designs]
+    labels = [block_labels(d.t, settings.block, t0) for d in designs]
     blocks = [{b: np.flatnonzero(lab == b) for b in np.unique(lab)} for lab in labels]
     keys = np.unique(np.concatenate(labels))
     n_boot = settings.n_boot if signed else max(10, settings.n_boot // 10)  # |P̂|: slow fits
     masses, coefs = [], []
     for _ in range(n_boot):
-        pick = rng.choice(keys, keys.size)
+        pick = keys[draw_blocks(keys.size, rng)]
         for k, d in enumerate(designs):
             idx = np.concatenate([blocks[k].get(b, np.empty(0, int)) for b in pick])
             beta = dict(zip(names, _solve(d.X(names)[idx], d.y[idx], signed)))
@@ -346,11 +350,8 @@ def _bootstrap(designs: list, names, signed, settings: MassSettings, mid: int):
 
 
 def _ci(x: np.ndarray) -> tuple[float, float] | None:
-    x = x[np.isfinite(x)]
-    if x.size < 10:
-        return None
-    lo, hi = np.percentile(x, [2.5, 97.5])
-    return (float(lo), float(hi))
+    q = percentile_interval(x[np.isfinite(x)], min_draws=10)
+    return None if q is None else (float(q[0]), float(q[1]))
 
 
 def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | None = None) -> MassFit:

@@ -297,29 +297,30 @@ def markdown_sections(r: dict, figures: Mapping[str, str]) -> list[tuple[str, li
 
 
 def _estimates_md(r: dict) -> list[str]:
-    """The estimates table, each effect's evidence, and the full fit's table."""
+    """The balance fit's parameters (``parameters``, one row each), each effect's evidence,
+    and how the fit with every candidate scores held out."""
     md = ["## Estimates", "",
-          "| parameter | estimate | unit | 95 % interval | plausible range | plausible | aliases |",
+          "| parameter | estimate | unit | 95 % interval | plausible range | accepted | note |",
           "| --- | --- | --- | --- | --- | --- | --- |"]
-    for name, e in r["nominal_parameters"].items():
-        md.append(f"| {name} ({e['symbol']}) | {_fmt(e['estimate'])} | {unit_label(e['unit'])} | "
-                  f"{_interval(e['ci95'])} | {_interval(e['plausible_range'])} | "
-                  f"{'yes' if e['plausible'] else '**no**'} | – |")
-    for e in r["effects"]:
-        md.append(f"| {e['name']} | {_fmt(e['estimate'])} | {unit_label(e['unit'])} | {_interval(e['ci95'])} | "
-                  f"{_interval(e['plausible_range'])} | {'yes' if e['plausible'] else '**no**'} | "
-                  f"{', '.join(e['aliases']) or '–'} |")
+    rows = [p for p in r.get("parameters", []) if p.get("source") == "balance"]
+    if not rows:               # a report without the one parameter set (the balance fit alone)
+        rows = [{"name": k, "accepted": e["plausible"], **e} for k, e in r["nominal_parameters"].items()]
+        rows += [{"accepted": True, **e} for e in r["effects"]]
+    for p in rows:
+        md.append(f"| {p['name']} | {_fmt(p['estimate'])} | {unit_label(p['unit'])} | "
+                  f"{_interval(p['ci95'])} | {_interval(p.get('plausible_range'))} | "
+                  f"{'yes' if p['accepted'] else 'no'} | {p.get('why') or '–'} |")
     md.append("")
     for e in r["effects"]:
         md += [f"- **{e['name']}**: {e['evidence']}."]
         if "drag_area_m2" in e:
             md[-1] += (f" As a drag area C_dA = {_fmt(e['drag_area_m2'])} m² "
                        f"(95 % {_interval(e['drag_area_m2_ci95'])}); a standing rider is 0.3–1 m².")
-    md += ["", "Every candidate fitted together (the ride cannot separate them all):", "",
-           "| parameter | estimate | unit | 95 % interval | plausible |", "| --- | --- | --- | --- | --- |"]
-    for name, e in r["all_estimates"].items():
-        md.append(f"| {name} | {_fmt(e['estimate'])} | {unit_label(e['unit'])} | {_interval(e['ci95'])} | "
-                  f"{'yes' if e['plausible'] else '**no**'} |")
+    full = r.get("heldout_error_all_candidates")
+    if full is not None:
+        md += ["", f"The fit with every candidate (bounded alike) predicts {r.get('compare') or 'the held-out half'} "
+                   f"to {_fmt(full, 4)} {r['error_unit']} RMS (its estimates are in the JSON's "
+                   f"`all_estimates`, not repeated here)."]
     return md
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from euc_sim.rides.power import G
 from euc_sim.rides.signals import as_log, resample, sg
 
 __all__ = ["speed_profile", "write_speed_profile", "rider_plan", "PLAN_WINDOW", "unpaid_spikes",
@@ -34,7 +35,6 @@ SPIN_GRADE = 0.15
 #: The rise is measured over at least this span, s: a log's near-repeated time stamps (0.02 s
 #: apart on master_pro_V2/6) would turn a 0.1 m/s step into 5 m/s².
 SPIN_MIN_DT = 0.3
-G = 9.81                  # m/s²
 UNKNOWN_POWER = 1e6       # W: a row without battery power pays for any rise
 #: The longest a wheel spinning free is followed after the top of the unpaid rise, s; it ends
 #: where its speed is back within SPIN_BACK (m/s) of where it rose from (a wheel that spins up

@@ -32,7 +32,7 @@ from typing import Mapping
 
 import numpy as np
 
-from euc_sim.rides.heldout import select_by_heldout
+from euc_sim.stats import forward_select as select_by_heldout
 from euc_sim.rides.mass import heldout_rmse
 
 __all__ = ["BASE", "EXTRA", "MIN_GAIN", "pwm_columns", "select_pwm_terms", "full_duty_force",

@@ -108,6 +108,8 @@ class SimStep:
     rider_fit : mapping
         The values the rider was fitted with, where he was (``delay`` s, ``bandwidth`` 1,
         ``noise_std`` N·m: :func:`euc_sim.rides.rider_params.rider_from` rebuilds him); empty otherwise.
+    physics : tuple of str
+        Names of the ride's accepted parameters (the JSON's ``parameters``) this step simulates.
     """
 
     name: str
@@ -120,6 +122,7 @@ class SimStep:
     why: str | None = None
     plan_window: float | None = None
     rider_fit: Mapping[str, float] = field(default_factory=dict)
+    physics: tuple[str, ...] = ()
 
     def describe(self) -> dict:
         """JSON-ready description of the step (its law, rider, effects, power model)."""
@@ -137,6 +140,7 @@ class SimStep:
             "plan_window": self.plan_window,
             **({"bandwidth": float(self.rider_fit["bandwidth"])} if "bandwidth" in self.rider_fit else {})}
         return {"step": self.name, "what": self.what, "ran": self.why is None, "why": self.why,
+                "physics": list(self.physics),
                 "motor": law, "rider": rider or "default LQR rider designed for this motor",
                 "effects_injected": dict(self.effects), "power_model": dict(self.power),
                 "notes": list(self.notes)}
@@ -167,16 +171,29 @@ class StepInputs:
     ride: Mapping = field(default_factory=dict)
     fit_log: object = None
 
+    @property
+    def accepted_parameters(self) -> tuple[str, ...]:
+        """Names of the accepted entries of the ride's ``parameters`` (empty without them)."""
+        return tuple(p["name"] for p in self.ride.get("parameters", ()) if p.get("accepted"))
+
+    def physics(self, *names: str) -> tuple[str, ...]:
+        """Those of ``names`` that are accepted parameters, in order."""
+        ok = self.accepted_parameters
+        return tuple(n for n in names if n in ok)
+
+
+#: The balance fit's battery-power terms a step's power model carries.
+POWER_TERMS = ("eta_motor", "eta_regen", "drivetrain_idle_loss")
+
 
 def _power(est: Mapping[str, float]) -> dict:
-    return {"eta_motor": float(est["eta_motor"]), "eta_regen": float(est["eta_regen"]),
-            "drivetrain_idle_loss": float(est.get("drivetrain_idle_loss", 0.0))}
+    return {k: float(est.get(k, 0.0)) for k in POWER_TERMS if k in est or k == "drivetrain_idle_loss"}
 
 
 def nominal_step(prev: SimStep | None, inp: StepInputs) -> SimStep:
     """The paper's PD, the default rider, no effects, the inertia-only fit's efficiencies."""
     return SimStep("nominal", "paper's PD motor law (600 / 40 N·m/rad), default rider, no effects",
-                   MotorPD(), None, {}, _power(inp.nominal))
+                   MotorPD(), None, {}, _power(inp.nominal), physics=inp.physics("total_mass"))
 
 
 def measured_law_step(prev: SimStep, inp: StepInputs) -> SimStep:
@@ -194,7 +211,9 @@ def measured_law_step(prev: SimStep, inp: StepInputs) -> SimStep:
         motor, notes = firmware_motor(ctrl, inp.params)
     except FirmwareError as exc:
         return replace(prev, name=name, what=what, notes=(), why=str(exc))
-    return replace(prev, name=name, what=f"{what}: K_p = {motor.Kp:.0f} N·m/rad, K_d = "
+    law_terms = [f"controller.{t['name']}" for t in ctrl.get("terms", []) if isinstance(t, dict)]
+    return replace(prev, physics=prev.physics + inp.physics(*law_terms),
+                   name=name, what=f"{what}: K_p = {motor.Kp:.0f} N·m/rad, K_d = "
                                          f"{motor.Kd:.0f} N·m·s/rad" + ("" if kd_resolved(_term(ctrl, "K_d")) else
                                          " (K_d not resolved by the log: pitch mode damped to ζ ≥ "
                                          f"{ZETA_UNRESOLVED:g})"), motor=motor, rider=None,
@@ -218,9 +237,13 @@ def drivetrain_step(prev: SimStep, inp: StepInputs) -> SimStep:
         limit = "no voltage limit"
         notes.append(f"no voltage limit: {exc}")
     named = ", ".join(eff) or "no effect"
-    return replace(prev, name="drivetrain", what=f"{limit}, accepted effects as physics ({named}), "
+    power = _power(inp.augmented)
+    extra = inp.physics(*eff, *power, "back_emf_per_speed", "resistive_drop", "dead_time",
+                        "flux_weakening", "internal_resistance")
+    return replace(prev, name="drivetrain", physics=prev.physics + tuple(
+                       n for n in extra if n not in prev.physics), what=f"{limit}, accepted effects as physics ({named}), "
                                                  f"the augmented fit's efficiencies",
-                   motor=motor, effects=eff, power=_power(inp.augmented),
+                   motor=motor, effects=eff, power=power,
                    notes=tuple(notes), why=None)
 
 
@@ -281,9 +304,9 @@ def effects_to_inject(estimates: Mapping[str, float], accepted: Sequence[str]) -
             eff[name] = math.asin(max(-1.0, min(1.0, val)))
         elif name in SIM_EFFECTS:
             eff[name] = val
-        elif name == "drivetrain_idle_loss":
-            notes.append(f"drivetrain_idle_loss P₀ = {val:.3g} W is electrical: added to the "
-                         f"predicted battery power, not to the mechanics")
+        elif name in POWER_TERMS:
+            notes.append(f"{name} = {val:.3g} is electrical: added to the predicted battery "
+                         f"power, not to the mechanics")
         else:
             notes.append(f"{name} is not a constant force the simulator can inject: left out "
                          f"of the augmented simulation")

@@ -58,6 +58,8 @@ def ride_verdict(report: dict) -> dict:
                      f"{'; '.join(shown[c] for c in cand)}")
     elif cand:
         text = f"{NOT_EXPLAINED} (candidates, each implausible: {'; '.join(shown[c] for c in cand)})"
+    elif report.get("selected_not_accepted"):
+        text = NOT_EXPLAINED + _why_nothing(report)
     else:
         text = "nothing is missing that this ride can reveal" + _why_nothing(report)
     out["text"] = text
@@ -65,15 +67,17 @@ def ride_verdict(report: dict) -> dict:
 
 
 def _why_nothing(report: dict) -> str:
-    """Why no effect was accepted, with the numbers: each candidate's full-fit interval holds zero."""
-    full = report.get("all_estimates") or {}
-    held = [f"{k} {e['ci95'][0]:.3g} to {e['ci95'][1]:.3g} {unit_label(e['unit'])}"
-            for k, e in full.items() if k not in ("eta_motor", "eta_regen") and e.get("ci95")
-            and e["ci95"][0] <= 0.0 <= e["ci95"][1]]
-    if not held:
+    """Why no effect was accepted, with the numbers: the held-out selection kept none."""
+    sel = report.get("selection") or []
+    if not sel:
         return ""
-    return (": in the fit with every candidate each 95 % interval holds zero ("
-            + "; ".join(held) + "), so none is accepted")
+    u = report.get("error_unit", "W")
+    held = report.get("selected_not_accepted") or []
+    if held:
+        return (f": the held-out selection keeps {', '.join(held)}, but only on the bound of "
+                f"its plausible range (or outside it), so it is left out and nothing is named")
+    return (f": no candidate lowers the blocked held-out error of the inertia-only balance "
+            f"({sel[0]['heldout_rmse']:.0f} {u}) enough to be kept")
 
 
 def _with_numbers(e: dict) -> str:

@@ -30,7 +30,7 @@ def bench_ride_mass() -> dict:
     t_mass = timed(lambda: analyse(log, spec), repeat=1)
 
     def whole():
-        from euc_sim.cli.ride import run_ride
+        from euc_sim.rides.pipeline import run_ride
         return run_ride(log, simulate=False, spec=spec)
 
     cpu0 = time.process_time()
@@ -96,4 +96,43 @@ def bench_ride() -> dict:
     print(f"  bare mj_step loop, same model, 60 min (from {bare_s:.0f} s): {t_bare:6.1f} s "
           f"(ride / bare = {out['ratio_ride_vs_bare_mj_step']:.2f}x)")
     print(f"  of which the rider's block law (Python): {spent['rider']:.1f} s")
+    return out
+
+
+# --- the ride page of a 60-minute ride against one bare simulation of its profile ----------
+def bench_ride_page(fit=None, held=None, spec_path=None) -> dict:
+    """The full ride page (run_ride LOG --compare OTHER, every step) against one bare simulation of OTHER's profile."""
+    import tempfile
+    import warnings
+    from pathlib import Path
+
+    from euc_sim.rides.logs import read_log
+    from euc_sim.rides.pipeline import run_ride
+    from euc_sim.rides.ride import read_ride
+    from euc_sim.rides.signals import ride_signals
+    from euc_sim.rides.sim_steps import StepInputs, build_steps, nominal_step
+    from euc_sim.rides.simulate import ride_params, simulate_ride
+    from euc_sim.rides.spec import read_spec
+
+    root = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"
+    fit = Path(fit or root / "trips/begode/blitz/2/2.csv")
+    held = Path(held or root / "trips/begode/blitz/4/4.csv")
+    spec_path = spec_path or (root / "specs/blitz.csv" if fit.is_relative_to(root) else None)
+    if not (fit.is_file() and held.is_file()):
+        print(f"  {fit} or {held} absent: skipped")
+        return {"skipped": str(held)}
+    warnings.simplefilter("ignore")
+    spec = read_spec(spec_path) if spec_path else None
+    with tempfile.TemporaryDirectory() as out:
+        t_page = timed(lambda: run_ride(fit, held, report_dir=out, spec=spec, jobs=2), repeat=1)
+    ride = read_ride(held)
+    sig = ride_signals(ride.log)
+    steps = build_steps(StepInputs(ride_params(sig.assumptions), {"eta_motor": 0.8, "eta_regen": 0.6},
+                                   {"eta_motor": 0.8, "eta_regen": 0.6}, ()), (nominal_step,))
+    t_sim = timed(lambda: simulate_ride(sig, steps, ride.log, label=ride.name, workers=1), repeat=1)
+    minutes = read_log(held, emit_warnings=False).duration / 60.0
+    out = {"ride_minutes": minutes, "page_seconds": t_page, "one_simulation_seconds": t_sim,
+           "page_cost_vs_one_simulation": t_page / t_sim}
+    print(f"  {minutes:.0f}-minute held-out ride: the page {t_page:.1f} s, one bare simulation of its "
+          f"profile {t_sim:.1f} s: {t_page / t_sim:.2f}x (aim <= 2.5 on an idle 2-core machine)")
     return out

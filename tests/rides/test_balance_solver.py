@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from ridesynth import TRUTH, synth_log
 
-from euc_sim.rides.design import _conv, balance_design, filter_matrix
+from euc_sim.rides.design import BOUNDS, _conv, balance_design, filter_matrix
 from euc_sim.rides.fit import _batch_solve, _solve, fit_balance
 from euc_sim.rides.signals import ride_signals
 
@@ -75,15 +75,17 @@ def test_batch_solve_agrees_with_least_squares(design):
 
 
 def test_batch_solve_holds_a_bound(design):
-    """A wheel that returns nothing when braking: η_r sits on its bound 0, as with scipy."""
+    """A wheel that returns nothing when braking: η_r sits on its lower bound (an efficiency
+    stays in (0, 1]), as with scipy."""
     names = ["eta_motor", "eta_regen"]
+    lo = BOUNDS["eta_regen"][0]
     theta, targets = _replicates(design, names, B=4, seed=2)
     no_regen = np.maximum(targets, np.quantile(design.P, 0.6))
     fit = _solve(design, names, theta, P=no_regen[:, 0])
-    assert fit.x[1] < 1e-6
+    assert fit.x[1] < lo + 1e-6
     batch = _check_against_scipy(design, names, fit.x, no_regen)
-    assert fit.x[1] == 0.0                          # snapped onto the bound, not 1e-30 inside
-    np.testing.assert_allclose(batch[:, 1], 0.0, rtol=0, atol=1e-12)
+    assert fit.x[1] == lo                           # snapped onto the bound, not 1e-30 inside
+    np.testing.assert_allclose(batch[:, 1], lo, rtol=0, atol=1e-12)
 
 
 def test_bootstrap_interval_covers_truth_and_is_reproducible(design):

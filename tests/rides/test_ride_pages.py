@@ -36,7 +36,7 @@ def _logs() -> list[tuple[Path, Path | None]]:
 @pytest.fixture(scope="session")
 def pages(tmp_path_factory):
     """(log, spec, report, page text) for each of the 21 logs."""
-    from euc_sim.cli.ride import run_ride
+    from euc_sim.rides.pipeline import run_ride
     from euc_sim.rides.page import write_page
     from euc_sim.rides.spec import read_spec
 
@@ -153,3 +153,20 @@ def test_the_real_logs_raise_no_false_suspicion_and_carry_the_systematic_parts(p
             assert ("rotating_share" in tm["systematic"]) == (spec is not None), log
             lo, hi = tm["statistical_ci95"]
             assert tm["ci95"][0] <= min(lo, tm["estimate"]) and tm["ci95"][1] >= max(hi, tm["estimate"])
+
+
+def test_one_parameter_set_and_no_efficiency_above_one(pages):
+    for log, _, rep, _ in pages:
+        params = rep["parameters"]
+        names = [p["name"] for p in params]
+        assert len(names) == len(set(names)), log
+        by = {p["name"]: p for p in params}
+        assert all(p["plausible"] for p in params if p["accepted"]), log
+        for fit in ("nominal_parameters", "inertia_only_parameters", "all_estimates"):
+            for k in ("eta_motor", "eta_regen"):
+                assert 0.0 < rep[fit][k]["estimate"] <= 1.0, (log, fit, k)
+        assert {e["name"] for e in rep["effects"]} <= {n for n, p in by.items() if p["accepted"]}, log
+        for key, name in (("C_rr", "rolling_resistance"), ("no_load_power", "drivetrain_idle_loss")):
+            if key in rep["drivetrain"]:
+                assert rep["drivetrain"][key]["estimate"] == by[name]["estimate"], (log, key)
+

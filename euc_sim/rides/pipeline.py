@@ -1,0 +1,290 @@
+"""The ride pipeline: one log (and optionally another) in, one typed result out.
+
+:func:`ride_pipeline` parses each log once (:mod:`euc_sim.rides.ride`), then runs
+the analyses in order on the parsed logs: mass and drivetrain
+(:mod:`euc_sim.rides.drivetrain_report`), the bounded balance fit with its
+held-out selection (:mod:`euc_sim.rides.analysis`), the balance law
+(:mod:`euc_sim.rides.controller_report`), the one parameter set
+(:mod:`euc_sim.rides.parameters`), the residual's localisation, the simulated
+rider (:mod:`euc_sim.rides.sim_steps`) and the verdict.  It returns a
+:class:`RideResult`; the JSON (:attr:`RideResult.report`) and the page
+(:func:`write_report`) are renderers at the edge.  ``euc-sim ride``
+(:mod:`euc_sim.cli.ride`) parses its arguments and calls it; scripts call it too.
+"""
+
+from __future__ import annotations
+
+import os
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+
+__all__ = ["RideResult", "ride_pipeline", "run_ride", "write_report", "MIN_BOOT"]
+
+#: Fewest bootstrap replicates the command accepts: effects are accepted on their
+#: 95 % interval, and without replicates there is none (nothing would be accepted).
+MIN_BOOT = 10
+
+
+@dataclass
+class RideResult:
+    """What :func:`ride_pipeline` computed.
+
+    Attributes
+    ----------
+    report : dict
+        CONTRACT's ``euc-sim ride`` object (``parameters``, ``effects``, ``total_mass``,
+        ``drivetrain``, ``controller``, ``simulation``, ``verdict``, ...).
+    analysis : RideAnalysis
+        The balance fit (:mod:`euc_sim.rides.analysis`).
+    traces : list
+        Residual traces of the fit and test rides (:func:`euc_sim.rides.page.residual_windows`).
+    simulation : object or None
+        :func:`euc_sim.rides.simulate.simulate_ride`'s result.
+    physics : tuple
+        ``(report, fit, test)`` of :func:`euc_sim.rides.drivetrain_report.drivetrain_report`.
+    """
+
+    report: dict
+    analysis: object
+    traces: list
+    simulation: object
+    physics: tuple
+
+
+def run_ride(log, compare=None, *, report_dir=None, **kwargs) -> dict:
+    """:func:`ride_pipeline`, the report folder written when given; returns the JSON object."""
+    res = ride_pipeline(log, compare, **kwargs)
+    if report_dir is not None:          # every file at the end: an interrupted run writes none
+        if kwargs.get("progress"):
+            kwargs["progress"](f"writing the report to {report_dir}")
+        write_report(res, Path(report_dir))
+    return res.report
+
+
+def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
+                  n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
+                  progress=None, spec=None, calibrate_rider: bool = False,
+                  rider_weight: float | None = None) -> RideResult:
+    """Everything ``euc-sim ride`` computes, in order, on logs parsed once.
+
+    Parameters
+    ----------
+    log, compare : path, Ride or RideLog
+        The ride to fit, and optionally the ride to test on (each parsed once here).
+    domain : {"power", "torque"}
+    assumptions : RideAssumptions, optional
+    n_boot, seed : int
+        Bootstrap replicates and the seed of every random draw.
+    simulate : bool
+        Run the closed-loop simulator along the tested ride's speed profile.
+    jobs : int
+        Processes for the simulation's steps.
+    progress : callable, optional
+        Called with a short status string at each step.
+    spec : WheelSpec, optional
+    calibrate_rider : bool
+        Add the ``calibrated_rider`` step.
+    rider_weight : float, optional
+        The rider's declared weight, kg: checked against the log's total mass (``mass_check``).
+
+    Returns
+    -------
+    RideResult
+        ``report`` is CONTRACT's ``euc-sim ride`` object plus ``windows``,
+        ``localisation``, ``residual_traces``, ``simulation``, ``report`` (None
+        until :func:`write_report`).
+    """
+    from euc_sim.rides.analysis import ride_analysis
+    from euc_sim.rides.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.ride import as_ride
+    from euc_sim.rides.rider_view import rider_numbers
+    from euc_sim.rides.signals import RideAssumptions, with_found_values
+
+    say = progress or (lambda s: None)
+    log = as_ride(log).log
+    compare = None if compare is None else as_ride(compare).log
+    say("finding the total mass and the drivetrain")
+    physics = ride_drivetrain(log, compare, spec, n_boot, seed)   # bad logs fail before any output
+    # the spec's radius and the mass this log gives reach the balance fit (Table 3 only where
+    # neither the command line, the spec nor the log gives a value)
+    assumptions = with_found_values(assumptions or RideAssumptions(), spec, physics[0]["total_mass"])
+    an = ride_analysis(log, compare, assumptions=assumptions, domain=domain, n_boot=n_boot,
+                       seed=seed, progress=say)
+    rep = _one_parameter_set(an, physics, log, compare, n_boot, seed, say)
+    say("locating the residual")
+    traces = _localise(rep, an, domain, log, compare)
+    sim = _simulation(rep, an, log, compare, seed, jobs, progress, simulate, calibrate_rider)
+    rep["simulation"] = None if sim is None else sim.as_json()
+    from euc_sim.rides.verdict import ride_verdict
+
+    rep["verdict"] = ride_verdict(rep)
+    # the rider's numbers (summary, mass check, battery health), from the log as parsed here
+    rep.update(rider_numbers(log, rep, spec, rider_weight))
+    rep["report"] = None
+    return RideResult(report=rep, analysis=an, traces=traces, simulation=sim, physics=physics)
+
+
+def _one_parameter_set(an, physics, log, compare, n_boot: int, seed: int, say) -> dict:
+    """The balance report joined with the mass, drivetrain and law, and the one ``parameters`` list."""
+    from euc_sim.rides.controller_report import controller_json, torque_constant
+    from euc_sim.rides.parameters import drivetrain_view, parameter_list
+
+    rep = dict(an.report)
+    rep.update(physics[0])
+    rep["notes"] = list(rep["notes"]) + [_mass_grid_note(physics[1])]
+    say("reading the wheel's balance law")
+    rep["controller"] = controller_json(log, compare, torque_constant(rep.get("drivetrain")),
+                                        n_boot, seed)
+    rep["parameters"] = parameter_list(an.cross, rep["total_mass"], rep["drivetrain"],
+                                       rep["controller"])
+    rep["drivetrain"] = drivetrain_view(rep["drivetrain"], rep["parameters"])
+    return rep
+
+
+def _localise(rep: dict, an, domain: str, log, compare) -> list:
+    """Where the inertia-only residual concentrates: ``windows``, ``localisation``, traces."""
+    from euc_sim.rides.page import residual_windows
+
+    name = Path(log.path).name
+    nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
+    traces = [residual_windows(an.sig_fit, nom, aug, domain, name, True)]
+    if an.sig_test is not None:
+        traces.append(residual_windows(an.sig_test, nom, aug, domain, Path(compare.path).name, False))
+    loc = traces[0].localisation
+    rep["windows"] = loc["windows"]
+    rep["localisation"] = {"residual": f"inertia-only balance residual of {name}, "
+                                       f"{rep['error_unit']}",
+                           "share": loc["share"], "correlations": loc["correlations"]}
+    rep["residual_traces"] = [tr.as_json() for tr in traces]
+    return traces
+
+
+def _simulation(rep: dict, an, log, compare, seed: int, jobs: int, progress, simulate: bool,
+                calibrate_rider: bool):
+    """The simulated rider, or None (not asked, or the ride cannot be simulated: a note says why)."""
+    if not simulate:
+        return None
+    from euc_sim.rides.simulate import simulation_obstacle
+
+    why = simulation_obstacle(an.sig_test if an.sig_test is not None else an.sig_fit)
+    if why is not None:
+        warnings.warn(why, stacklevel=3)
+        rep["notes"] = list(rep["notes"]) + [why]
+        return None
+    return _simulate(an, log, compare, seed, jobs, progress, rep, calibrate_rider)
+
+
+def _mass_grid_note(fit) -> str:
+    """How the mass and drivetrain fits treated the log's gaps (their grid is not the balance fit's)."""
+    import numpy as np
+
+    from euc_sim.rides.power import MassSettings
+
+    n = len(np.unique(fit.sig.segment))
+    return (f"mass and drivetrain fits: gaps up to {MassSettings.max_gap:g} s bridged linearly on "
+            f"their {MassSettings.rate:g} Hz grid, longer ones split the ride ({n} piece(s))")
+
+
+def _rider_steps():
+    from euc_sim.rides.rider_step import RIDER_STEPS
+
+    return RIDER_STEPS
+
+
+def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict, calibrate_rider: bool = False):
+    """The closed-loop rider along the tested ride, once per modelled step (:mod:`euc_sim.rides.sim_steps`),
+    built from the fit ride's results in ``rep``; the second half scored without compare."""
+    from euc_sim.rides.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
+    from euc_sim.rides.simulate import ride_params, simulate_ride
+
+    sig = an.sig_test if an.sig_test is not None else an.sig_fit
+    ride_path = compare if compare is not None else log
+    scored = None
+    if an.sig_test is None:          # score the held-out second half only
+        t = sig.frame["t"].to_numpy()
+        scored = t >= an.cross.test_design.t.min()      # the test half's first row
+    cr = an.cross
+    steps = build_steps(StepInputs(ride_params(sig.assumptions), cr.nominal.estimate,
+                                   cr.augmented.estimate, cr.accepted, rep, log),
+                        _rider_steps() if calibrate_rider else STEP_BUILDERS)
+    ran = [s.name for s in steps if s.why is None]
+    # the steps' battery-power errors are compared with the balance fit's held-out error (in W)
+    balance = rep.get("heldout_error_augmented") if rep.get("error_unit") == "W" else None
+    if progress is not None:
+        progress(f"simulating the rider along {Path(ride_path.path).name}: steps {', '.join(ran)}, "
+                 f"{min(jobs, len(ran))} process(es)")
+    return simulate_ride(sig, steps, ride_path, scored=scored, label=Path(ride_path.path).name, seed=seed,
+                         workers=jobs, channels=log_channels(rep, balance), progress=progress)
+
+
+def write_report(res: RideResult, out: Path) -> None:
+    """Figures, tables, ``index.html`` and ``index.md`` into ``out``; ``res.report`` gets their file names.
+
+    Everything is first written into a hidden folder inside ``out`` and moved into
+    place (``index.md`` last) only once all of it exists: a failure or an
+    interruption half-way leaves ``out`` as it was.
+    """
+    import shutil
+    import tempfile
+
+    out.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".ride-report-", dir=out))
+    try:
+        _write_report_files(res.report, res.analysis, res.traces, res.simulation, res.physics, stage)
+        names = sorted((p.name for p in stage.iterdir()), key=lambda n: n in ("index.md", "index.html"))
+        for name in names:
+            os.replace(stage / name, out / name)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+
+
+def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
+    from euc_sim.io import atomic_write
+    from euc_sim.rides.analysis import write_balance
+    from euc_sim.rides.page import plot_residuals, write_page
+
+    figures = {"cross_ride": write_balance(an, out).name,
+               "residuals": plot_residuals(traces, out / "ride_residuals.png").name}
+    rep["figure"] = figures["cross_ride"]
+    if sim is not None:
+        from euc_sim.rides.simulate import plot_ride_simulation
+
+        figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
+        atomic_write(out / "ride_simulation.csv",
+                     lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
+        rep["simulation"]["table"] = "ride_simulation.csv"
+        rep["simulation"]["figure"] = figures["simulation"]
+    figures.update(_drivetrain_figures(physics, out))
+    rep["figures"] = dict(figures)
+    rep["report_markdown"] = write_page(rep, out, figures).name
+    from euc_sim.rides.page_html import RideSeries, write_ride_html
+
+    # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
+    series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)
+    rep["report"] = write_ride_html(rep, out, series, physics[1], figures).name
+
+
+
+
+def _drivetrain_figures(physics, out: Path) -> dict:
+    """The envelope, PWM and grade figures of the ride page, by key -> file name."""
+    from euc_sim.rides.drivetrain_report import plot_envelope, plot_pwm
+    from euc_sim.rides.grade import plot_grade
+
+    rep, fit, test = physics
+    figs = {}
+    if fit.grade is not None:
+        figs["grade"] = plot_grade(fit.grade, out / "ride_grade.png",
+                                   title=f"{Path(fit.path).name}: the altitude the battery-power "
+                                         f"balance implies, against GPS altitude").name
+    if "speed" in rep["envelope"]:
+        figs["envelope"] = plot_envelope(rep["envelope"], out / "ride_envelope.png").name
+    if fit.drivetrain.pwm_coef is not None:
+        target = test if test is not None and "pwm" in test.sig.extra else fit
+        figs["pwm"] = plot_pwm(target, out / "ride_pwm.png", fit.drivetrain.pwm_coef,
+                               title=f"PWM of {Path(target.path).name}, model fitted on "
+                                     f"{Path(fit.path).name}").name
+    return figs
+
+

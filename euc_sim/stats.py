@@ -1,0 +1,142 @@
+"""Resampling statistics shared by identification and the ride analyses.
+
+One block bootstrap (:func:`block_bootstrap_indices`, moving blocks;
+:func:`wild_block_signs`, sign flips of whole blocks), one percentile interval
+(:func:`percentile_interval`), contiguous time folds (:func:`time_blocks`) and
+one forward selection scored on held-out error (:func:`forward_select`).  Pure
+numpy; every draw comes from the ``numpy.random.Generator`` passed in.
+"""
+
+from __future__ import annotations
+
+from typing import Callable, Sequence
+
+import numpy as np
+
+__all__ = ["time_blocks", "forward_select", "percentile_interval", "block_bootstrap_indices",
+           "wild_block_signs", "blocks_by_length", "block_labels", "draw_blocks",
+           "moving_block_starts"]
+
+
+def time_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
+    """Fold label 0 … n_blocks − 1 of each sample: contiguous time blocks of equal counts.
+
+    Parameters
+    ----------
+    t : ndarray
+        Sample times, s, increasing.
+    n_blocks : int
+
+    Returns
+    -------
+    ndarray of int
+    """
+    edges = np.quantile(t, np.linspace(0, 1, n_blocks + 1))
+    return np.clip(np.searchsorted(edges, t, side="right") - 1, 0, n_blocks - 1)
+
+
+def block_labels(t: np.ndarray, block: float, t0: float | None = None) -> np.ndarray:
+    """Block number of each sample: consecutive ``block``-second stretches from ``t0`` (s)."""
+    t = np.asarray(t, float)
+    return np.floor((t - (t[0] if t0 is None else t0)) / block).astype(int)
+
+
+def blocks_by_length(t: np.ndarray, block: float) -> list[np.ndarray]:
+    """Row indices of consecutive ``block``-second stretches of ``t`` (s), in order."""
+    label = block_labels(t, block)
+    return [np.flatnonzero(label == b) for b in np.unique(label)]
+
+
+def draw_blocks(n_blocks: int, rng: np.random.Generator) -> np.ndarray:
+    """One replicate's block numbers: ``n_blocks`` drawn from 0 … n_blocks − 1 with replacement."""
+    return rng.integers(0, n_blocks, n_blocks)
+
+
+def moving_block_starts(n: int, L: int, n_boot: int, rng: np.random.Generator) -> np.ndarray:
+    """Start samples of a moving-block bootstrap: ``n_boot`` × ceil(n/L) blocks of ``L`` samples
+    starting anywhere in 0 … n − L."""
+    return rng.integers(0, n - L + 1, size=(n_boot, int(np.ceil(n / L))))
+
+
+def block_bootstrap_indices(blocks: Sequence[np.ndarray], rng: np.random.Generator) -> np.ndarray:
+    """One moving-block bootstrap replicate: as many blocks as given, drawn with replacement.
+
+    Parameters
+    ----------
+    blocks : sequence of ndarray of int
+        Row indices of each block (:func:`blocks_by_length`).
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    ndarray of int
+        The replicate's rows (blocks concatenated).
+    """
+    return np.concatenate([blocks[i] for i in draw_blocks(len(blocks), rng)])
+
+
+def wild_block_signs(n: int, L: int, n_boot: int, rng: np.random.Generator) -> np.ndarray:
+    """Rademacher signs constant over blocks of ``L`` rows: ``n`` × ``n_boot``.
+
+    A wild block bootstrap multiplies each residual by its block's sign, keeping
+    every residual at its own row (and so its dependence on the regime).
+    """
+    n_blocks = int(np.ceil(n / L))
+    signs = rng.choice(np.array([-1.0, 1.0]), size=(n_blocks, n_boot))
+    return np.repeat(signs, L, axis=0)[:n]
+
+
+def percentile_interval(draws: np.ndarray, level: float = 0.95, axis: int = 0,
+                        min_draws: int = 1) -> np.ndarray | None:
+    """Equal-tailed percentile interval of bootstrap ``draws`` (None below ``min_draws``).
+
+    Returns
+    -------
+    ndarray or None
+        ``[lo, hi]`` along the first axis of the result (shape 2 × the other axes).
+    """
+    draws = np.asarray(draws, float)
+    if draws.shape[axis] < max(min_draws, 1):
+        return None
+    a = 100 * (1 - level) / 2
+    return np.percentile(draws, [a, 100 - a], axis=axis)
+
+
+def forward_select(score: Callable[[list], float], base: list, candidates: list,
+                   min_gain: float) -> tuple[list, list]:
+    """Forward selection by a held-out score: add the candidate that lowers it most.
+
+    Parameters
+    ----------
+    score : callable
+        ``score(names) -> float``, the held-out error of the model with those
+        terms (``inf``: the model is not admissible, e.g. a term on its bound).
+    base : list of str
+        Terms always in the model.
+    candidates : list of str
+        Terms tried, one more per step.
+    min_gain : float
+        A step is kept only if it lowers the score by more than this fraction.
+
+    Returns
+    -------
+    names : list of str
+        ``base`` plus the kept terms, in the order kept.
+    history : list of dict
+        ``{"term", "heldout_rmse"}`` after each step, the base model (terms
+        joined by "+") first.
+    """
+    names = list(base)
+    cur = score(names)
+    history = [{"term": "+".join(base), "heldout_rmse": cur}]
+    left = list(candidates)
+    while left:
+        trial = {c: score(names + [c]) for c in left}
+        best = min(trial, key=trial.get)
+        if not np.isfinite(trial[best]) or trial[best] > cur * (1.0 - min_gain):
+            break
+        names.append(best)
+        left.remove(best)
+        cur = trial[best]
+        history.append({"term": best, "heldout_rmse": cur})
+    return names, history
