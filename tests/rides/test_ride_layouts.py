@@ -84,7 +84,8 @@ def test_the_simulation_ran_along_the_log(ride):
 
 def test_the_report_folder(ride):
     layout, *_, rep, folder = ride
-    assert rep["report"] == "index.md" and (folder / "index.md").read_text().strip()
+    assert rep["report"] == "index.html" and rep["report_markdown"] == "index.md"
+    assert (folder / "index.md").read_text().strip() and (folder / "index.html").stat().st_size > 0
     for name in rep["figures"].values():
         assert (folder / name).stat().st_size > 10_000
     with open(folder / "ride_simulation.csv", newline="") as fh:
