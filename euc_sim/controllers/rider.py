@@ -33,6 +33,7 @@ import numpy as np
 from scipy.linalg.lapack import dtrtrs
 
 from euc_sim.controllers.motor import MotorPD
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 
 __all__ = ["Rider", "RiderError", "trim", "motor_noise", "RiderRun", "DEFAULT_RIDER_NOISE", "delayed_lqr_torque"]
@@ -42,7 +43,7 @@ __all__ = ["Rider", "RiderError", "trim", "motor_noise", "RiderRun", "DEFAULT_RI
 DEFAULT_RIDER_NOISE = 3.0
 
 
-class RiderError(ValueError):
+class RiderError(InputError):
     """An invalid rider setting; the message names it."""
 
 

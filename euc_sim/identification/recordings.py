@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import BadInputFile
 from euc_sim.model.parameters import Params
 
 __all__ = [
@@ -49,7 +50,7 @@ MOCAP_LIMIT = 1e5
 MAX_GAP = 5
 
 
-class RecordingError(ValueError):
+class RecordingError(BadInputFile):
     """A recording that cannot be used; the one-line message names file, column, row."""
 
 

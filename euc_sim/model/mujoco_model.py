@@ -48,6 +48,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from euc_sim.errors import BadInputFile
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = [
@@ -68,7 +69,7 @@ ACTUATORS = ("motor", "ankle")
 SHAFT_TENDON = "motor_shaft"
 
 
-class ModelError(ValueError):
+class ModelError(BadInputFile):
     """The MJCF file is missing, unreadable, lacks a named element, or does not compile."""
 
 

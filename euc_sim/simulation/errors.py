@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+from euc_sim.errors import InputError
 
-class SimulationError(ValueError):
+
+class SimulationError(InputError):
     """An invalid simulation request (maneuver, engine, effect, profile); names the argument."""
 
 

@@ -55,7 +55,7 @@ def _cache_dir() -> str:
     too, so a change to any of them must compile anew: the directory is named by their hash.
     """
     h = hashlib.sha256()
-    for module in (controllers.motor, controllers.rider, effects, lateral, drift, lay, sys.modules[__name__]):
+    for module in (euc_sim.controllers.motor, euc_sim.controllers.rider, effects, lateral, drift, lay, sys.modules[__name__]):
         with open(module.__file__, "rb") as fh:
             h.update(fh.read())
     base = config.CACHE_DIR or os.path.join(tempfile.gettempdir(), "euc_sim_numba")

@@ -19,12 +19,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["RenderError", "poses", "render_recording"]
 
 
-class RenderError(ValueError):
+class RenderError(InputError):
     """The recording cannot be replayed or no OpenGL backend is available."""
 
 
