@@ -22,6 +22,8 @@ from typing import Callable
 
 import numpy as np
 
+from euc_sim.errors import InputError
+
 __all__ = ["run_demo", "PAPER_RESULTS", "CONCEALABLE", "draw_concealed_effect"]
 
 #: The paper's identified h and RMSE (Section 4, Figs. 6-8), 3-DoF model.
@@ -99,7 +101,7 @@ def _simulate_maneuvers(folder: Path, seed: int, workers: int | None) -> tuple[l
     specs = dataset.dataset_plan(seed=seed, duration=15.0)
     report = dataset.run_dataset(folder, specs, workers=workers, progress=True)
     if report.failed:
-        raise ValueError(f"demo: recordings failed: {report.failed}")
+        raise InputError(f"demo: recordings failed: {report.failed}")
     return specs, report.ordered()
 
 

@@ -96,7 +96,21 @@ def read_sidecar(path: str | Path) -> dict[str, Any]:
     if meta.get("d_CE") is not None and (isinstance(meta["d_CE"], bool)
                                          or not isinstance(meta["d_CE"], (int, float))):
         raise RecordingError(f"{side}: \"d_CE\" must be a number (m), got {meta['d_CE']!r}")
+    _check_maneuver_options(side, meta.get("maneuver_options"))
     return meta
+
+
+def _check_maneuver_options(side: Path, opts) -> None:
+    """``maneuver_options``: an object of finite numbers (the maneuver checks their ranges)."""
+    if opts is None:
+        return
+    if not isinstance(opts, dict):
+        raise RecordingError(f"{side}: \"maneuver_options\" must be an object {{NAME: value}}, "
+                             f"got {type(opts).__name__}")
+    for name, value in opts.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise RecordingError(f"{side}: \"maneuver_options\".{name} must be a finite number, "
+                                 f"got {value!r}")
 
 
 def params_from_meta(meta: dict[str, Any], source: str | Path = "sidecar") -> Params:

@@ -48,7 +48,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from euc_sim.errors import BadInputFile
+from euc_sim.errors import BadInputFile, InputError
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = [
@@ -420,7 +420,7 @@ class EucMujoco:
         if q.shape != (3,) or qd.shape != (3,):
             raise ValueError(f"state must be q, qd of shape (3,), got {q.shape} and {qd.shape}")
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
-            raise ValueError(f"state must be finite, got q={q.tolist()}, qd={qd.tolist()}")
+            raise InputError(f"state must be finite, got q={q.tolist()}, qd={qd.tolist()}")
         z = self.data.qpos[self.index.qpos["z"]] if self.index.has_z else 0.0
         qpos, qvel, _ = to_mujoco(self.index, self.params.R, q, qd)
         if self.index.has_z:

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import InputError
 from euc_sim.rides.signals import as_log, resample, sg
 
 __all__ = ["speed_profile", "write_speed_profile", "rider_plan", "PLAN_WINDOW", "unpaid_spikes",
@@ -154,7 +155,7 @@ def unpaid_spikes(log, total_mass: float, factor: float = SPIN_POWER_FACTOR,
         strictly between are the spike.  Empty without battery power.
     """
     if not (math.isfinite(total_mass) and total_mass > 0):
-        raise ValueError(f"total_mass must be a positive number of kg, got {total_mass!r}")
+        raise InputError(f"total_mass must be a positive number of kg, got {total_mass!r}")
     d = as_log(log).data
     P = _battery_power(d)
     if P is None or len(d) < 3:

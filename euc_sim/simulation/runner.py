@@ -49,6 +49,8 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
+from euc_sim.errors import InputError
+
 __all__ = ["RunReport", "run_tasks", "check_backend"]
 
 
@@ -97,11 +99,11 @@ class RunReport:
 def check_backend(scheduler: str | None, workers: int | None) -> None:
     """Raise ``ValueError`` naming the option for an unusable ``--scheduler``/``--workers``."""
     if workers is not None and (not isinstance(workers, int) or workers < 1):
-        raise ValueError(f"--workers must be a positive integer, got {workers!r}")
+        raise InputError(f"--workers must be a positive integer, got {workers!r}")
     if scheduler is None or scheduler == "local":
         return
     if not isinstance(scheduler, str) or "://" not in scheduler and ":" not in scheduler:
-        raise ValueError(f"--scheduler must be 'local' or a Dask scheduler address such as "
+        raise InputError(f"--scheduler must be 'local' or a Dask scheduler address such as "
                          f"tcp://HOST:8786, got {scheduler!r}")
 
 

@@ -29,6 +29,7 @@ import pandas as pd
 from euc_sim.controllers.lateral import LateralRider, design_lateral
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.controllers.rider import RiderRun
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation import effects
 from euc_sim.simulation.errors import FallError, SimulationError
@@ -411,7 +412,7 @@ def spatial_recording(run: pd.DataFrame, *, noise: str = "paper", seed: int = 0,
     from euc_sim.simulation.mocap import NOISE_LEVELS, sample_times
 
     if noise not in NOISE_LEVELS:
-        raise ValueError(f"unknown noise level {noise!r}; valid: {', '.join(NOISE_LEVELS)}")
+        raise InputError(f"unknown noise level {noise!r}; valid: {', '.join(NOISE_LEVELS)}")
     sig_pos, sig_ang = NOISE_LEVELS[noise]
     ts = run["t"].to_numpy()
     t = sample_times(float(ts[-1]), rate)
