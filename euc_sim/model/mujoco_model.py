@@ -69,6 +69,38 @@ ACTUATORS = ("motor", "ankle")
 SHAFT_TENDON = "motor_shaft"
 
 
+#: MuJoCo's warnings that mean the state was not finite and MuJoCo reset it.
+_UNSTABLE = ("BADQACC", "BADQVEL", "BADQPOS")
+
+
+def _quiet_warning(message: str) -> None:
+    """MuJoCo's warnings are read from ``data.warning`` (:func:`instability`), not printed:
+    the default handler writes them to stdout and to ``MUJOCO_LOG.TXT`` in the working folder."""
+
+
+mujoco.set_mju_user_warning(_quiet_warning)
+
+
+def instability(data) -> str | None:
+    """What MuJoCo's warning counters say of an unstable run, or None when they say nothing.
+
+    MuJoCo resets the state when an acceleration, velocity or position becomes NaN,
+    infinite or huge (``mj_checkAcc``/``mj_checkVel``/``mj_checkPos``) and counts it in
+    ``data.warning``; the run goes on from rest, so the recording alone would not show it.
+
+    Returns
+    -------
+    str or None
+        e.g. ``"QACC 412 times"``.
+    """
+    parts = []
+    for name in _UNSTABLE:
+        n = int(data.warning[getattr(mujoco.mjtWarning, f"mjWARN_{name}")].number)
+        if n:
+            parts.append(f"{name[3:]} {n} time{'s' if n > 1 else ''}")
+    return ", ".join(parts) or None
+
+
 class ModelError(BadInputFile):
     """The MJCF file is missing, unreadable, lacks a named element, or does not compile."""
 

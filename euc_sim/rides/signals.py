@@ -326,10 +326,11 @@ PLAUSIBLE_READING: dict[str, tuple[float, str]] = {
 
 
 def check_readings(log: RideLog) -> None:
-    """Raise ``ValueError`` naming the file, channel and time of an impossible reading.
+    """Raise ``InputError`` naming the file, channel and time of an impossible reading.
 
     Infinite values and magnitudes beyond :data:`PLAUSIBLE_READING` are refused
-    (empty cells, NaN, stay: they are interpolated over or left out).
+    (empty cells, NaN, stay: they are interpolated over or left out), and so is a
+    speed that disagrees with the log's own odometer (:func:`odometer_scale`).
     """
     t = log.data["t"].to_numpy(float)
     for ch, (limit, unit) in PLAUSIBLE_READING.items():
@@ -344,6 +345,43 @@ def check_readings(log: RideLog) -> None:
             raise InputError(f"{log.path}: {name} = {x[i]:.3g} {unit} at t = {t[i]:.1f} s from the "
                              f"start ({bad.size} such row(s)): beyond ±{limit:g} {unit}, not a "
                              f"plausible reading")
+    _check_speed_units(log)
+
+
+#: Least odometer distance over which the speed's units are checked, m (odometers count whole m).
+MIN_ODOMETER = 200.0
+
+
+def odometer_scale(log: RideLog) -> float | None:
+    """∫|v| dt over the distance the wheel's odometer counted, on the same rows; None without one.
+
+    A log whose speed is in the units the reader assumed gives about 1 (0.97–1.0 on
+    the logs in ``/work/shared/data``); one in mph read as km/h gives 0.62.  Rows
+    across a gap over 2 s, or where the odometer jumps or resets, are left out.
+    """
+    d = log.data
+    col = next((c for c in ("total_distance", "distance") if c in d), None)
+    if col is None or "v" not in d:
+        return None
+    t, v, x = (d[c].to_numpy(float) for c in ("t", "v", col))
+    dt, dx = np.diff(t), np.diff(x)
+    with np.errstate(invalid="ignore"):
+        ok = (dt > 0) & (dt < 2.0) & np.isfinite(v[1:] + v[:-1] + dx) & (dx >= 0) & (dx < 100.0 * dt + 1.0)
+    travelled = float(np.sum(dx[ok]))
+    if travelled < MIN_ODOMETER:
+        return None
+    return float(np.sum(0.5 * (np.abs(v[1:]) + np.abs(v[:-1]))[ok] * dt[ok])) / travelled
+
+
+def _check_speed_units(log: RideLog) -> None:
+    """Refuse a log whose speed disagrees with its own odometer (mph read as km/h: 0.62)."""
+    from euc_sim.rides.sanity import SPEED_SCALE_RANGE
+
+    scale = odometer_scale(log)
+    if scale is not None and not SPEED_SCALE_RANGE[0] <= scale <= SPEED_SCALE_RANGE[1]:
+        raise InputError(f"{log.path}: column 'speed': the speed integrates to {scale:.2f} × the "
+                         f"distance the wheel's odometer counted (mph read as km/h gives 0.62): the "
+                         f"speed is in other units or the distance is; convert the log to the app's units")
 
 
 def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = 10.0,
