@@ -138,7 +138,7 @@ def make_maneuver(name: str, **options) -> Maneuver:
             raise SimulationError(f"maneuver option {key!r} must be a finite number, got {val!r}")
         lo, hi = OPTION_RANGES[key]
         if not lo <= val <= hi:
-            raise SimulationError(f"maneuver option {key!r} must lie in [{lo:g}, {hi:g}], got {val!r}")
+            raise SimulationError(f"maneuver option {key!r} must lie in [{lo:g}, {hi:g}], got {val:g}")
     opts = tuple(sorted(options.items()))
     if name == "constant_speed":
         return Maneuver(name, float(o["v"]), options=opts)
