@@ -76,20 +76,22 @@ def check_writable(path: str | Path) -> Path:
     path = Path(path)
     parent = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
-        raise IsADirectoryError(errno.EISDIR, "is a directory, expected a file path", str(path))
+        raise IsADirectoryError(errno.EISDIR, f"output {path} is a directory, expected a file path", str(path))
     existing = next((d for d in (parent, *parent.parents) if d.exists() or d.is_symlink()), Path("."))
     if not existing.is_dir():
-        raise NotADirectoryError(errno.ENOTDIR, f"cannot write: {existing} is not a folder", str(path))
+        raise NotADirectoryError(errno.ENOTDIR, f"cannot write {path}: {existing} is not a folder", str(path))
     if existing != parent:
         if not os.access(existing, os.W_OK | os.X_OK):
-            raise PermissionError(errno.EACCES, f"cannot create its folder in {existing}", str(path))
+            raise PermissionError(errno.EACCES, f"cannot write {path}: no permission to create its "
+                                                f"folder in {existing}", str(path))
         return path
     try:
         fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=parent)
         os.close(fd)
         os.unlink(probe)
     except OSError as exc:
-        raise _naming(exc, path) from None
+        reason = exc.strerror or type(exc).__name__
+        raise type(exc)(exc.errno, f"cannot write {path}: {reason} ({parent})", str(path)) from None
     return path
 
 

@@ -187,7 +187,7 @@ def test_no_folder_is_made_for_a_refused_command(capsys, tmp_path):
 
 def test_a_file_in_the_way_of_a_folder_is_named(rec, capsys, tmp_path):
     _refused(["torques", rec, "--out", tmp_path / "REC.json" / "T.csv"],
-             r"REC\.json/T\.csv: cannot write: .*REC\.json is not a folder", capsys, tmp_path)
+             r"error: cannot write .*REC\.json/T\.csv: .*REC\.json is not a folder$", capsys, tmp_path)
 
 
 def test_design_checks_every_output_before_writing_one(capsys, tmp_path):
