@@ -2,7 +2,7 @@
 
 Both read recordings with :func:`euc_sim.identification.recordings.read_recording`, differentiate
 them with :mod:`euc_sim.identification.processing` and write through :mod:`euc_sim.io`'s atomic
-writes; bad input raises ``ValueError``/``OSError`` which the CLI turns into one
+writes; bad input raises :class:`euc_sim.errors.InputError` (or ``OSError`` for a path), which the CLI turns into one
 line and exit code 2.
 """
 
