@@ -241,3 +241,15 @@ def test_a_bug_is_an_internal_error_with_its_traceback_in_a_file(capsys, tmp_pat
     err = capsys.readouterr().err.strip()
     assert re.search(rf"the traceback is in {re.escape(str(tmp_path / 'tmp'))}/euc-sim-crosscheck-"
                      r"internal-error-\w+\.txt$", err), err
+
+
+def test_an_unstable_effect_in_a_dataset_is_named(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    code = main(["dataset", "--out", "D", "--duration", "1", "--workers", "1", "--no-progress",
+                 "--effect", "aerodynamic_drag=1e300"])
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert "Traceback" not in err and "RuntimeError" not in err, err
+    assert err.count("UnstableError: the simulation went unstable") == 14, err
+    assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
+    assert sorted(p.name for p in (tmp_path / "D").iterdir()) == ["dataset.json"]
