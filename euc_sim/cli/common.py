@@ -190,15 +190,11 @@ def check_outputs(args) -> None:
             if _same(path, path2):
                 raise BadOutputPath(f"{opt} {path}: {opt2} writes the same file")
         if opt in ("--plot", "--effects-plot"):
-            _check_figure_format(opt, path)
+            from euc_sim.identification.plots import check_figure_path
+
+            check_figure_path(path)
     if args.command in WRITES_RECORDING and getattr(args, "out", None):
         _check_foreign_sidecars(Path(args.out))
-
-
-def _check_figure_format(opt: str, path: Path) -> None:
-    from euc_sim.identification.plots import check_figure_path
-
-    check_figure_path(path)
 
 
 def _check_foreign_sidecars(out: Path) -> None:
