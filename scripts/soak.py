@@ -41,7 +41,7 @@ from pathlib import Path
 POOL = {
     "decel.csv": ["--maneuver", "deceleration", "--duration", "5", "--seed", "1"],
     "stopgo.csv": ["--maneuver", "stop_and_go", "--duration", "5", "--seed", "2"],
-    "circle.csv": ["--model", "3d", "--maneuver", "circle", "--duration", "4", "--seed", "3"],
+    "circle.csv": ["--model", "3d", "--maneuver", "circle", "--duration", "5", "--seed", "3"],
 }
 PLANAR_MANEUVERS = ("constant_speed", "acceleration", "deceleration", "stop_and_go")
 PATHS_3D = ("straight", "circle", "u_turn", "slalom", "figure_eight")
@@ -121,7 +121,7 @@ def _simulate(rng):
 
 def _simulate3d(rng):
     argv = ["simulate", "--model", "3d", "--maneuver", rng.choice(PATHS_3D), "--duration",
-            f"{rng.uniform(1.0, 4.0):.2f}", "--seed", str(rng.randrange(10**6)), "--out", "r.csv"]
+            f"{rng.uniform(1.5, 4.0):.2f}", "--seed", str(rng.randrange(10**6)), "--out", "r.csv"]
     return Run("valid", argv, ["r.csv", "r.json", "r.truth.json"])
 
 

@@ -179,7 +179,8 @@ def check_outputs(args) -> None:
     inputs = _named(args, INPUT_OPTIONS)
     guarded = list(inputs)
     for opt, path in _named(args, ("recording", "recordings")):
-        guarded += [(f"the sidecar of {path}", side) for side in sidecar_paths(path)]
+        if path.name and not path.is_dir():        # a folder given as a recording is its reader's to refuse
+            guarded += [(f"the sidecar of {path}", side) for side in sidecar_paths(path)]
     outputs = output_files(args)
     for i, (opt, path) in enumerate(outputs):
         for what, other in guarded:

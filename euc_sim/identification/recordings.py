@@ -71,9 +71,11 @@ def read_sidecar(path: str | Path) -> dict[str, Any]:
     Raises
     ------
     RecordingError
-        when the sidecar exists but is not a JSON object.
+        when the sidecar exists but is not a JSON object, or ``path`` is a folder.
     """
     path = Path(path)
+    if not path.name or path.is_dir():
+        raise RecordingError(f"{path}: is a folder, expected a recording file (.csv or .parquet)")
     side = path.with_suffix(".json")
     if side.name.endswith(".truth.json") or not side.is_file():
         return {}

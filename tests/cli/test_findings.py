@@ -253,3 +253,10 @@ def test_an_unstable_effect_in_a_dataset_is_named(capsys, tmp_path, monkeypatch)
     assert err.count("UnstableError: the simulation went unstable") == 14, err
     assert not (tmp_path / "MUJOCO_LOG.TXT").exists()
     assert sorted(p.name for p in (tmp_path / "D").iterdir()) == ["dataset.json"]
+
+
+@pytest.mark.parametrize("command", ["identify", "torques", "diagnose"])
+def test_a_folder_given_as_a_recording(capsys, tmp_path, monkeypatch, command):
+    monkeypatch.chdir(tmp_path)
+    extra = ["--out", "T.csv"] if command == "torques" else ["--json", "o.json"]
+    _refused([command, ".", *extra], r"error: \.: (is a folder|no such recording)", capsys, tmp_path)
