@@ -6,12 +6,15 @@ into place, so an interrupted or failed command never leaves a half-written file
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
 import tempfile
 from pathlib import Path
 from typing import Any, Callable
+
+from euc_sim.errors import InputError
 
 __all__ = ["atomic_write", "write_text", "write_json", "to_jsonable", "check_writable",
            "write_recording", "sidecar_paths", "temporary_beside", "is_temporary", "FLOAT_FORMAT",
@@ -52,6 +55,10 @@ def is_temporary(path: str | Path) -> bool:
 def check_writable(path: str | Path) -> Path:
     """Fail early, with the path named, when ``path``'s folder cannot take a new file.
 
+    Nothing is created: a missing folder is checked through its nearest existing
+    ancestor (which must be a writable folder), and made only when a file is written
+    (:func:`atomic_write`, :func:`write_recording`), so a refusal leaves no empty folder.
+
     Parameters
     ----------
     path : path
@@ -63,22 +70,39 @@ def check_writable(path: str | Path) -> Path:
 
     Raises
     ------
-    PermissionError, NotADirectoryError, FileNotFoundError
+    PermissionError, NotADirectoryError, IsADirectoryError
         (``OSError``) naming the path.
     """
     path = Path(path)
     parent = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
-        raise IsADirectoryError(f"output {path} is a directory, expected a file path")
+        raise IsADirectoryError(errno.EISDIR, f"output {path} is a directory, expected a file path", str(path))
+    existing = next((d for d in (parent, *parent.parents) if d.exists() or d.is_symlink()), Path("."))
+    if not existing.is_dir():
+        raise NotADirectoryError(errno.ENOTDIR, f"cannot write {path}: {existing} is not a folder", str(path))
+    if existing != parent:
+        if not os.access(existing, os.W_OK | os.X_OK):
+            raise PermissionError(errno.EACCES, f"cannot write {path}: no permission to create its "
+                                                f"folder in {existing}", str(path))
+        return path
     try:
-        parent.mkdir(parents=True, exist_ok=True)
         fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=parent)
         os.close(fd)
         os.unlink(probe)
     except OSError as exc:
         reason = exc.strerror or type(exc).__name__
-        raise type(exc)(f"cannot write {path}: {reason} ({parent})") from None
+        raise type(exc)(exc.errno, f"cannot write {path}: {reason} ({parent})", str(path)) from None
     return path
+
+
+def _naming(exc: OSError, path: Path) -> OSError:
+    """The same kind of OSError, naming ``path`` ("[Errno 27] File too large" says nothing of which)."""
+    if exc.filename is not None:
+        return exc
+    try:
+        return type(exc)(exc.errno, exc.strerror or str(exc) or type(exc).__name__, str(path))
+    except TypeError:
+        return OSError(exc.errno, exc.strerror or str(exc), str(path))
 
 
 def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
@@ -101,12 +125,18 @@ def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
         The destination.
     """
     path = check_writable(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp_path = temporary_beside(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp_path = temporary_beside(path)
+    except OSError as exc:
+        raise _naming(exc, path) from None
     try:
         write(tmp_path)
         _usual_mode(tmp_path)
         os.replace(tmp_path, path)
+    except OSError as exc:
+        tmp_path.unlink(missing_ok=True)
+        raise _naming(exc, path) from exc
     except BaseException:
         tmp_path.unlink(missing_ok=True)
         raise
@@ -215,7 +245,7 @@ def write_recording(df, path: str | Path, meta: dict, truth: dict | None = None)
 
     Raises
     ------
-    ValueError
+    euc_sim.errors.InputError
         for another extension or non-finite values in the table.
     OSError
         for an unwritable destination (nothing is written then).
@@ -231,10 +261,10 @@ def write_recording(df, path: str | Path, meta: dict, truth: dict | None = None)
     path = Path(path)
     ext = path.suffix.lower()
     if ext not in (".csv", ".parquet"):
-        raise ValueError(f"recording path must end in .csv or .parquet, got {path.name!r}")
+        raise InputError(f"recording path must end in .csv or .parquet, got {path.name!r}")
     values = df.select_dtypes(include="number").to_numpy(dtype=float)
     if not np.all(np.isfinite(values)):
-        raise ValueError(f"recording for {path} holds non-finite values; refusing to write it")
+        raise InputError(f"recording for {path} holds non-finite values; refusing to write it")
     meta_path, truth_path = sidecar_paths(path)
     check_writable(path)
 
@@ -252,7 +282,9 @@ def write_recording(df, path: str | Path, meta: dict, truth: dict | None = None)
                                                         encoding="utf-8")))
     jobs.append((path, write_table))
     temps: list[tuple[Path, Path]] = []
+    dest = path
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
         for dest, write in jobs:
             tmp = temporary_beside(dest)
             temps.append((tmp, dest))
@@ -260,9 +292,11 @@ def write_recording(df, path: str | Path, meta: dict, truth: dict | None = None)
             _usual_mode(tmp)
         for tmp, dest in temps:
             os.replace(tmp, dest)
-    except BaseException:
+    except BaseException as exc:
         for tmp, _ in temps:
             tmp.unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise _naming(exc, dest) from exc
         raise
     if truth is None:
         truth_path.unlink(missing_ok=True)    # no stale truth from an earlier run

@@ -1,9 +1,13 @@
 """The ``euc-sim`` command line.
 
 Each subcommand is a ``_cmd_NAME(args) -> int`` function registered in
-:func:`build_parser`.  Bad input (a ``ValueError`` or ``OSError`` raised anywhere
-below) becomes one line on stderr and exit code 2; nothing half-written is left,
-since every output goes through :mod:`euc_sim.io`'s atomic writes.
+:func:`build_parser`.  Bad input (an :class:`euc_sim.errors.InputError` raised
+anywhere below, an argparse error, or an ``OSError`` about a path) becomes one line
+on stderr naming the culprit and exit code 2.  Any other exception is a bug: one
+line saying so and where its traceback was written, exit code 1.  Nothing
+half-written is left in either case, since every output goes through
+:mod:`euc_sim.io`'s atomic writes, and an output that is an input is refused before
+anything runs (:func:`euc_sim.cli.common.check_outputs`).
 """
 
 from __future__ import annotations
@@ -12,9 +16,17 @@ import argparse
 import sys
 from typing import Sequence
 
+from euc_sim.cli.common import (EXIT_FAIL, EXIT_OK, EXIT_USAGE, UsageError, check_outputs, parse_params,
+                                 say)
+from euc_sim.errors import InputError
 
 
-from euc_sim.cli.common import EXIT_FAIL, EXIT_OK, EXIT_USAGE, UsageError, parse_params, say
+class OneLineParser(argparse.ArgumentParser):
+    """argparse with its errors on one line and a pointer to ``--help`` (not the whole usage)."""
+
+    def error(self, message: str):
+        first = message.splitlines()[0] if message else "invalid arguments"
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {first} (see {self.prog} --help)\n")
 
 
 # --- crosscheck ---------------------------------------------------------------------
@@ -96,7 +108,7 @@ def _cmd_dynamics(args: argparse.Namespace) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="euc-sim",
         description="Electric-unicycle-with-rider simulation, identification and diagnosis.")
     from euc_sim import __version__
@@ -159,6 +171,31 @@ def _terminated(signum, frame):
     raise KeyboardInterrupt("SIGTERM")
 
 
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def _os_message(exc: OSError) -> str:
+    """One line naming the path: ``cannot write out.csv: File too large`` rather than ``[Errno 27] ...``."""
+    text = _first_line(exc)
+    if exc.filename is None:
+        return text
+    reason = exc.strerror or text
+    names = f"{exc.filename}" + (f" -> {exc.filename2}" if exc.filename2 else "")
+    return reason if str(exc.filename) in reason else f"{names}: {reason}"
+
+
+def _internal_error(args, exc: BaseException) -> int:
+    from euc_sim.cli.common import internal_error_report
+
+    where = internal_error_report(args, exc)
+    tail = f"; the traceback is in {where}" if where else "; no file could take the traceback"
+    print(f"euc-sim {args.command}: internal error: {type(exc).__name__}: {_first_line(exc)}{tail}",
+          file=sys.stderr)
+    return EXIT_FAIL
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``euc-sim``; returns the exit code (130 on Ctrl-C, 143 on SIGTERM)."""
     import signal
@@ -173,20 +210,25 @@ def main(argv: Sequence[str] | None = None) -> int:
     if threading.current_thread() is threading.main_thread():
         on_term = signal.signal(signal.SIGTERM, _terminated)
     try:
+        check_outputs(args)
         return int(args.func(args))
     except BrokenPipeError:             # the reader left (| head): stop quietly, as cat does
         import os
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())    # no second error when Python flushes stdout
         return EXIT_BROKEN_PIPE
-    except (ValueError, OSError) as exc:
-        msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        print(f"euc-sim {args.command}: error: {msg}", file=sys.stderr)
+    except InputError as exc:
+        print(f"euc-sim {args.command}: error: {_first_line(exc)}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as exc:             # the user's file system: a path that cannot be read or written
+        print(f"euc-sim {args.command}: error: {_os_message(exc)}", file=sys.stderr)
         return EXIT_USAGE
     except KeyboardInterrupt as exc:
         term = str(exc) in ("SIGTERM", f"signal {int(signal.SIGTERM)}")   # ours, simulation.runner's
         print(f"euc-sim {args.command}: interrupted{' (SIGTERM)' if term else ''}", file=sys.stderr)
         return 143 if term else 130
+    except Exception as exc:           # anything else is euc-sim's own fault
+        return _internal_error(args, exc)
     finally:
         warnings.formatwarning = previous
         if on_term is not None:

@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 from typing import Sequence
+
+from euc_sim.errors import InputError
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 
 
-class UsageError(ValueError):
+class UsageError(InputError):
     """A command-line argument that cannot be used; the message names it."""
 
 
@@ -23,6 +26,30 @@ def seed(text: str) -> int:
     if value < 0:
         raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
     return value
+
+
+def bounded(lo: float, hi: float, integer: bool = False, unit: str = ""):
+    """An argparse type: a finite number (an integer with ``integer``) in ``[lo, hi]``.
+
+    The error (one line, exit 2) names the option, the range and the value.
+    """
+    import argparse
+    import math
+
+    what = "an integer" if integer else "a number"
+    span = f"[{lo:g}, {hi:g}]{' ' + unit if unit else ''}"
+
+    def parse(text: str):
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what} in {span}, got {text!r}") from None
+        if not (math.isfinite(value) and lo <= value <= hi):
+            raise argparse.ArgumentTypeError(f"expected {what} in {span}, got {text}")
+        return value
+
+    parse.__name__ = "integer" if integer else "number"
+    return parse
 
 
 def format_eigenvalues(ev, digits: int = 3) -> str:
@@ -93,3 +120,136 @@ def param_values(items: Sequence[str] | None) -> dict[str, float]:
         except ValueError:
             raise UsageError(f"--param {name.strip()}: expected a number, got {value!r}") from None
     return values
+
+
+#: Options that name a file the command reads.
+INPUT_OPTIONS = ("recording", "recordings", "log", "compare", "profile", "drivetrain", "wheel", "mjcf")
+#: Options that name a file the command writes (``--out`` of ``dataset`` and ``demo`` is a folder).
+OUTPUT_OPTIONS = ("out", "json", "plot", "effects_plot")
+#: Commands whose ``--out`` is a folder.
+FOLDER_OUT = ("dataset", "demo")
+#: Commands that write a recording and its sidecars (``NAME.json``, ``NAME.truth.json``).
+WRITES_RECORDING = ("simulate",)
+
+
+def _option(name: str) -> str:
+    return name if name in ("recording", "recordings", "log") else "--" + name.replace("_", "-")
+
+
+def _named(args, names) -> list[tuple[str, Path]]:
+    out = []
+    for name in names:
+        value = getattr(args, name, None)
+        for v in value if isinstance(value, (list, tuple)) else [value]:
+            if v is not None and str(v) != "":
+                out.append((_option(name), Path(v)))
+    return out
+
+
+def _same(a: Path, b: Path) -> bool:
+    import os
+
+    if a.exists() and b.exists():
+        return os.path.samefile(a, b)
+    return os.path.abspath(a) == os.path.abspath(b)
+
+
+def output_files(args) -> list[tuple[str, Path]]:
+    """The files a command will write, as ``(option, path)``."""
+    names = [n for n in OUTPUT_OPTIONS if not (n == "out" and args.command in FOLDER_OUT)]
+    return _named(args, names)
+
+
+def check_outputs(args) -> None:
+    """Refuse, before anything runs, an output that would destroy an input or another's file.
+
+    An output may not be an input, nor the sidecar of an input recording (a sidecar is
+    touched only by the command that writes its recording), nor another output of
+    the same command; ``simulate`` does not replace a ``NAME.json`` that is not an
+    euc-sim sidecar.  Figures must have a format matplotlib writes.
+
+    Raises
+    ------
+    euc_sim.errors.BadOutputPath
+        naming the option and the path.
+    """
+    from euc_sim.errors import BadOutputPath
+    from euc_sim.io import sidecar_paths
+
+    inputs = _named(args, INPUT_OPTIONS)
+    guarded = list(inputs)
+    for opt, path in _named(args, ("recording", "recordings")):
+        if path.name and not path.is_dir():        # a folder given as a recording is its reader's to refuse
+            guarded += [(f"the sidecar of {path}", side) for side in sidecar_paths(path)]
+    outputs = output_files(args)
+    for i, (opt, path) in enumerate(outputs):
+        for what, other in guarded:
+            if _same(path, other):
+                culprit = what if what.startswith("the sidecar") else f"the input {what} {other}"
+                raise BadOutputPath(f"{opt} {path}: is {culprit}; refusing to overwrite it")
+        for opt2, path2 in outputs[:i]:
+            if _same(path, path2):
+                raise BadOutputPath(f"{opt} {path}: {opt2} writes the same file")
+        if opt in ("--plot", "--effects-plot"):
+            from euc_sim.identification.plots import check_figure_path
+
+            check_figure_path(path)
+    if args.command in WRITES_RECORDING and getattr(args, "out", None):
+        _check_foreign_sidecars(Path(args.out))
+
+
+def _check_foreign_sidecars(out: Path) -> None:
+    """``simulate --out NAME.csv`` replaces NAME.json only when it is a sidecar euc-sim wrote."""
+    import json
+
+    from euc_sim.errors import BadOutputPath
+    from euc_sim.io import sidecar_paths
+
+    meta, truth = sidecar_paths(out)
+    ours = False
+    if meta.is_file():
+        try:
+            doc = json.loads(meta.read_text(encoding="utf-8"))
+            ours = isinstance(doc, dict) and str(doc.get("source", "")).startswith("euc-sim")
+        except (OSError, ValueError):
+            ours = False
+        if not ours:
+            raise BadOutputPath(f"--out {out}: its sidecar {meta} exists and is not one euc-sim wrote; "
+                                "refusing to overwrite it (move it or choose another name)")
+    if truth.is_file() and not ours:
+        raise BadOutputPath(f"--out {out}: {truth} exists without an euc-sim sidecar beside it; "
+                            "refusing to overwrite it")
+
+
+def internal_error_report(args, exc: BaseException) -> Path | None:
+    """Write ``exc``'s traceback to a file; return its path (None when no file could be written).
+
+    The file goes to the folder of the command's first output when that folder exists,
+    else to :func:`tempfile.gettempdir`.
+    """
+    import os
+    import platform
+    import tempfile
+    import traceback
+
+    from euc_sim import __version__
+
+    folders = []
+    for _, path in output_files(args) if hasattr(args, "command") else []:
+        folders.append(path.parent if str(path.parent) else Path("."))
+    if getattr(args, "command", None) in FOLDER_OUT and getattr(args, "out", None):
+        folders.append(Path(args.out))
+    folders = [f for f in folders if f.is_dir()] + [Path(tempfile.gettempdir())]
+    text = (f"euc-sim {__version__} {getattr(args, 'command', '')}: internal error\n"
+            f"command line: {' '.join(sys.argv)}\npython {platform.python_version()} on "
+            f"{platform.platform()}\n\n" + "".join(traceback.format_exception(exc)))
+    for folder in folders:
+        try:
+            fd, name = tempfile.mkstemp(prefix=f"euc-sim-{getattr(args, 'command', 'x')}-internal-error-",
+                                        suffix=".txt", dir=folder)
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                f.write(text)
+            return Path(name)
+        except OSError:
+            continue
+    return None

@@ -23,6 +23,8 @@ from typing import Callable
 
 import numpy as np
 
+from euc_sim.errors import InputError
+
 __all__ = ["run_demo", "PAPER_RESULTS", "CONCEALABLE", "draw_concealed_effect", "Story", "Section"]
 
 #: The paper's identified h (m) and RMSE (N·m) (Section 4, Figs. 6-8), 3-DoF model.
@@ -147,7 +149,7 @@ def _simulate_maneuvers(folder: Path, seed: int, workers: int | None) -> tuple[l
     specs = dataset.dataset_plan(seed=seed, duration=15.0)
     report = dataset.run_dataset(folder, specs, workers=workers, progress=sys.stderr.isatty())
     if report.failed:
-        raise ValueError(f"demo: recordings failed: {report.failed}")
+        raise InputError(f"demo: recordings failed: {report.failed}")
     return specs, report.ordered()
 
 

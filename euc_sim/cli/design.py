@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from euc_sim.errors import InputError
+
 __all__ = ["add_commands"]
 
 
@@ -16,7 +18,7 @@ def _floats(text: str, option: str) -> list[float]:
     try:
         return [float(s) for s in text.split(",") if s.strip()]
     except ValueError:
-        raise ValueError(f"{option} expects comma-separated numbers, got {text!r}") from None
+        raise InputError(f"{option} expects comma-separated numbers, got {text!r}") from None
 
 
 def _cmd_design(args: argparse.Namespace) -> int:
@@ -36,7 +38,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
         from euc_sim.diagnosis.design import parse_effects
         parse_effects(",".join(args.effect))
         if args.effect_rides < 3:
-            raise ValueError(f"--effect-rides must be an integer of at least 3, got {args.effect_rides!r}")
+            raise InputError(f"--effect-rides must be an integer of at least 3, got {args.effect_rides!r}")
     res = design([m.strip() for m in args.maneuvers.split(",") if m.strip()], rides=args.rides,
                  duration=args.duration, noise_scales=_floats(args.noise_scales, "--noise-scales"),
                  targets=_floats(args.targets, "--targets"), seed=args.seed, params=parse_params(args.param),

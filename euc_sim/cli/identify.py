@@ -2,7 +2,7 @@
 
 Both read recordings with :func:`euc_sim.identification.recordings.read_recording`, differentiate
 them with :mod:`euc_sim.identification.processing` and write through :mod:`euc_sim.io`'s atomic
-writes; bad input raises ``ValueError``/``OSError`` which the CLI turns into one
+writes; bad input raises :class:`euc_sim.errors.InputError` (or ``OSError`` for a path), which the CLI turns into one
 line and exit code 2.
 """
 
@@ -10,6 +10,8 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+
+from euc_sim.cli.common import bounded
 
 __all__ = ["add_smoothing_arguments", "add_torques_parser", "add_identify_parser",
            "cmd_torques", "cmd_identify", "smoothing_from_args"]
@@ -136,17 +138,17 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
     deprecated(fig, "--plot", "--report DIR", dest="plot", metavar="FILE", default=None)
     p.add_argument("--h-min", type=float, default=0.1, metavar="M", help="search bound, m")
     p.add_argument("--h-max", type=float, default=1.5, metavar="M", help="search bound, m")
-    p.add_argument("--n-boot", type=int, default=400, metavar="N",
-                   help="block-bootstrap replicates for the 95%% interval (default 400)")
+    p.add_argument("--n-boot", type=bounded(0, 100_000, integer=True), default=400, metavar="N",
+                   help="block-bootstrap replicates for the 95%% interval (default 400, at most 100000)")
     deprecated(p, "--bootstrap", "--n-boot")
     p.add_argument("--block", type=float, default=None, metavar="S",
                    help="bootstrap block, s (default 1 s, about the correlation time of the "
                         "filtered residual)")
     p.add_argument("--seed", type=seed, default=0,
                    help="seed of the bootstrap draws, a non-negative integer (default 0)")
-    p.add_argument("--noise-replicates", type=int, default=None, metavar="N",
+    p.add_argument("--noise-replicates", type=bounded(0, 1000, integer=True), default=None, metavar="N",
                    help="replicates with fresh measurement noise that widen the 95%% interval "
-                        "(default 40; 0: the block bootstrap alone)")
+                        "(default 40, at most 1000; 0: the block bootstrap alone)")
     p.add_argument("--method", choices=("equation", "rollout", "sysid"), default="equation",
                    help="equation: h by the equation error of eqs. 9-10 (default); rollout: "
                         "also h by the simulation error of 1 s MuJoCo rollouts with free initial "

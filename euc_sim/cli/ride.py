@@ -9,7 +9,8 @@ the JSON last.
 
 from __future__ import annotations
 
-from euc_sim.cli.common import seed
+from euc_sim.cli.common import bounded, seed
+from euc_sim.errors import InputError
 
 import argparse
 import math
@@ -26,11 +27,15 @@ def _assumptions(args: argparse.Namespace):
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.signals import RideAssumptions
 
-    for opt, val in (("--mass", args.mass), ("--radius", args.radius)):
-        if val is not None and not (math.isfinite(val) and val > 0):
-            raise ValueError(f"{opt} must be a positive number, got {val!r}")
+    from euc_sim.model.parameters import PLAUSIBLE
+    from euc_sim.rides.sanity import TOTAL_MASS_RANGE
+
+    for opt, val, (lo, hi), unit in (("--mass", args.mass, TOTAL_MASS_RANGE, "kg"),
+                                     ("--radius", args.radius, PLAUSIBLE["R"], "m")):
+        if val is not None and not (math.isfinite(val) and lo <= val <= hi):
+            raise InputError(f"{opt} must lie in [{lo:g}, {hi:g}] {unit}, got {val!r}")
     if not (math.isfinite(args.efficiency) and 0 < args.efficiency <= 1):
-        raise ValueError(f"--efficiency must be in (0, 1], got {args.efficiency!r}")
+        raise InputError(f"--efficiency must be in (0, 1], got {args.efficiency!r}")
     p = TABLE3
     sources = []
     if args.radius is not None:
@@ -39,7 +44,7 @@ def _assumptions(args: argparse.Namespace):
     if args.mass is not None:
         m = args.mass - p.m0 - p.mw
         if m <= 0:
-            raise ValueError(f"--mass is the total of rider and EUC, kg; {args.mass:g} does not "
+            raise InputError(f"--mass is the total of rider and EUC, kg; {args.mass:g} does not "
                              f"exceed the EUC's own {p.m0 + p.mw:g} kg")
         p = p.replace(m=m)
         sources.append(("total_mass", "--mass"))
@@ -124,14 +129,14 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     from euc_sim.io import check_writable, write_json
 
     if args.domain not in ("power", "torque"):
-        raise ValueError(f"--domain must be power or torque, got {args.domain!r}")
+        raise InputError(f"--domain must be power or torque, got {args.domain!r}")
     if args.workers < 1:
-        raise ValueError(f"--workers must be at least 1, got {args.workers}")
+        raise InputError(f"--workers must be at least 1, got {args.workers}")
     if args.n_boot < MIN_BOOT:
-        raise ValueError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
+        raise InputError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
                          f"bootstrap interval), got {args.n_boot}")
     if args.calibrate_rider and args.no_simulate:
-        raise ValueError("--calibrate-rider adds a step to the simulation: it cannot go with --no-simulate")
+        raise InputError("--calibrate-rider adds a step to the simulation: it cannot go with --no-simulate")
     assumptions = _assumptions(args)
     from euc_sim.rides.rider_view import check_rider_weight
     rider_weight = check_rider_weight(args.rider_weight)
@@ -204,7 +209,8 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--efficiency", type=float, default=0.8, metavar="ETA",
                    help="drivetrain efficiency used only to infer the logged torque from power "
                         "(default 0.8; the balance fit estimates its own)")
-    p.add_argument("--n-boot", type=int, default=200, metavar="N", help=f"bootstrap replicates, at least {MIN_BOOT} (default 200)")
+    p.add_argument("--n-boot", type=bounded(MIN_BOOT, 100_000, integer=True), default=200, metavar="N",
+                   help=f"bootstrap replicates, at least {MIN_BOOT} (default 200, at most 100000)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
     p.add_argument("--workers", type=int, default=2, metavar="N",
                    help="processes for the simulation's steps (default 2)")

@@ -10,6 +10,9 @@ import argparse
 import math
 from pathlib import Path
 
+from euc_sim.cli.common import bounded
+from euc_sim.errors import InputError
+
 __all__ = ["add_commands"]
 
 
@@ -19,14 +22,14 @@ def _effects(items) -> dict[str, float]:
     for item in items or ():
         name, value = fx.parse_assignment(item)
         if name in out:
-            raise ValueError(f"--effect {name} given twice")
+            raise InputError(f"--effect {name} given twice")
         out[name] = value
     return out
 
 
 def _check_choice(option: str, value: str, valid) -> None:
     if value not in valid:
-        raise ValueError(f"{option}: unknown value {value!r}; valid: {', '.join(valid)}")
+        raise InputError(f"{option}: unknown value {value!r}; valid: {', '.join(valid)}")
 
 
 def _voltage_limit(path, R: float, voltage: float | None) -> dict:
@@ -38,11 +41,11 @@ def _voltage_limit(path, R: float, voltage: float | None) -> dict:
     try:
         rep = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValueError(f"--drivetrain {path}: not a readable ride JSON ({exc})") from None
+        raise InputError(f"--drivetrain {path}: not a readable ride JSON ({exc})") from None
     try:
         return voltage_limit_settings(rep, R, voltage)
     except FirmwareError as exc:
-        raise ValueError(f"--drivetrain {path}: {exc}") from None
+        raise InputError(f"--drivetrain {path}: {exc}") from None
 
 
 def _motor(args, R: float = 0.2, p=None):
@@ -54,7 +57,7 @@ def _motor(args, R: float = 0.2, p=None):
         if measured is not None:
             return measured
     elif getattr(args, "battery_voltage", None) is not None:
-        raise ValueError("--battery-voltage needs --drivetrain RIDE.json")
+        raise InputError("--battery-voltage needs --drivetrain RIDE.json")
     return MotorPD(Kp=args.kp, Kd=args.kd, torque_limit=args.motor_limit,
                    tiltback_speed=math.inf if args.tiltback_speed is None else args.tiltback_speed,
                    **lim)
@@ -74,7 +77,7 @@ def _firmware(path, lim: dict, p=None):
     try:
         motor, notes = firmware_motor(ctrl, p, **lim)
     except FirmwareError as exc:
-        raise ValueError(f"--drivetrain {path}: {exc}") from None
+        raise InputError(f"--drivetrain {path}: {exc}") from None
     say(f"simulate: the wheel's measured law replaces the PD gains: K_p = {motor.Kp:.0f} N·m/rad, "
         f"K_d = {motor.Kd:.0f} N·m·s/rad" + "".join(f"; {n}" for n in notes))
     return motor
@@ -91,7 +94,7 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     if out.suffix.lower() not in (".csv", ".parquet"):
-        raise ValueError(f"--out must end in .csv or .parquet, got {str(out)!r}")
+        raise InputError(f"--out must end in .csv or .parquet, got {str(out)!r}")
     check_writable(out)
     _check_choice("--model", args.model, ("planar", "3d"))
     if args.model == "3d":          # the spatial model
@@ -103,17 +106,17 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     _check_choice("--variant", args.variant, VARIANTS)
     _check_choice("--rolling-model", args.rolling_model, ("moment", "contact"))
     if args.rolling_model == "contact" and (args.variant != "contact" or args.engine != "mujoco"):
-        raise ValueError("--rolling-model contact needs --variant contact and --engine mujoco")
+        raise InputError("--rolling-model contact needs --variant contact and --engine mujoco")
     if not (math.isfinite(args.duration) and args.duration > 0):
-        raise ValueError(f"--duration must be a positive number of seconds, got {args.duration!r}")
+        raise InputError(f"--duration must be a positive number of seconds, got {args.duration!r}")
     if args.profile:
         if args.maneuver not in (None, "profile"):
-            raise ValueError(f"--profile replaces --maneuver, got --maneuver {args.maneuver!r} too")
+            raise InputError(f"--profile replaces --maneuver, got --maneuver {args.maneuver!r} too")
         man = load_speed_profile(args.profile)
     else:
         name = args.maneuver or "constant_speed"
         if name == "profile":
-            raise ValueError("--maneuver profile needs --profile FILE (a CSV with columns t, v)")
+            raise InputError("--maneuver profile needs --profile FILE (a CSV with columns t, v)")
         _check_choice("--maneuver", name, MANEUVERS)
         man = make_maneuver(name)
     eff = _effects(args.effect)
@@ -134,7 +137,7 @@ def _drift_shape(text, eff):
     if text is None:
         return None
     if "cog_height_drift" not in eff:
-        raise ValueError("--drift-shape shapes the cog_height_drift effect; add --effect cog_height_drift=VALUE")
+        raise InputError("--drift-shape shapes the cog_height_drift effect; add --effect cog_height_drift=VALUE")
     from euc_sim.simulation.drift import parse_drift_shape
     return parse_drift_shape(text)
 
@@ -153,7 +156,7 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
     from euc_sim.simulation.runner import check_backend
     check_backend(args.scheduler, args.workers)
     if not (math.isfinite(args.duration) and args.duration > 0):
-        raise ValueError(f"--duration must be a positive number of seconds, got {args.duration!r}")
+        raise InputError(f"--duration must be a positive number of seconds, got {args.duration!r}")
     effects = _effects(args.effect)
     specs = dataset_plan(args.seed, args.duration, params=parse_params(args.param), noise=args.noise,
                          rider_noise=args.rider_noise, engine=args.engine, effects=effects)
@@ -222,7 +225,8 @@ def _controller_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--motor-limit", type=float, default=250.0, help="motor torque limit, N·m")
     p.add_argument("--tiltback-speed", type=float, default=None,
                    help="speed above which the EUC tilts back, m/s (default none)")
-    p.add_argument("--rider-delay", type=float, default=0.15, help="rider reaction delay, s (default 0.15)")
+    p.add_argument("--rider-delay", type=bounded(0.0, 1.0, unit="s"), default=0.15,   # the rider's MAX_DELAY
+                   help="rider reaction delay, s (default 0.15; at most 1)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="override a Table 3 value")
 
 
@@ -304,6 +308,7 @@ def add_commands(sub) -> None:
 
     p = sub.add_parser("stability", help="linearisation, eigenvalues and the rider's delay margin")
     p.add_argument("--json", metavar="FILE", help="write the report as JSON")
-    p.add_argument("--speed", type=float, default=0.0, metavar="M/S", help="operating speed, m/s")
+    p.add_argument("--speed", type=bounded(-30.0, 30.0, unit="m/s"), default=0.0, metavar="M/S",
+                   help="operating speed, m/s (within ±30)")
     _controller_options(p)
     p.set_defaults(func=_cmd_stability)

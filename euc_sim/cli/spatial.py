@@ -8,6 +8,8 @@ import argparse
 import math
 from pathlib import Path
 
+from euc_sim.errors import InputError
+
 __all__ = ["simulate_3d_command", "add_render_parser"]
 
 
@@ -18,14 +20,14 @@ def simulate_3d_command(args: argparse.Namespace, motor) -> int:
 
     name = args.maneuver or "figure_eight"
     if args.profile or name not in PATHS:
-        raise ValueError(f"--model 3d: --maneuver must be one of {', '.join(PATHS)}, got "
+        raise InputError(f"--model 3d: --maneuver must be one of {', '.join(PATHS)}, got "
                          f"{args.profile and '--profile' or repr(name)}")
     for option, value, default in (("--engine", args.engine, "mujoco"), ("--variant", args.variant, "ideal"),
                                    ("--rolling-model", args.rolling_model, "moment")):
         if value != default:
-            raise ValueError(f"--model 3d has its own contact model: {option} {value!r} does not apply")
+            raise InputError(f"--model 3d has its own contact model: {option} {value!r} does not apply")
     if args.effect:
-        raise ValueError("--model 3d: --effect is not supported (the 3-D physics has no catalog effects)")
+        raise InputError("--model 3d: --effect is not supported (the 3-D physics has no catalog effects)")
     path = write_spatial(Path(args.out), name, float(args.duration), params=parse_params(args.param),
                          seed=int(args.seed), noise=args.noise, rider_noise=args.rider_noise,
                          motor=motor, rider_delay=args.rider_delay, hide_torques=bool(args.hide_torques))
@@ -39,9 +41,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     if out.suffix.lower() not in (".mp4", ".gif", ".png"):
-        raise ValueError(f"--out must end in .mp4, .gif or .png, got {str(out)!r}")
+        raise InputError(f"--out must end in .mp4, .gif or .png, got {str(out)!r}")
     if not (math.isfinite(args.fps) and 1 <= args.fps <= 120):
-        raise ValueError(f"--fps must be in [1, 120], got {args.fps!r}")
+        raise InputError(f"--fps must be in [1, 120], got {args.fps!r}")
     n = api.render(args.recording, out, fps=args.fps, width=args.width, height=args.height,
                    time=args.time, progress=not args.quiet).frames
     say(f"render: wrote {out} ({n} frame{'s' if n != 1 else ''})")

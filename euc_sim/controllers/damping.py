@@ -21,6 +21,7 @@ import scipy.optimize
 
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.controllers.plant import linear_plant
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["ZETA_UNRESOLVED", "pitch_mode_damping", "damping_floor"]
@@ -81,9 +82,9 @@ def damping_floor(p: Params, Kp: float, zeta: float = ZETA_UNRESOLVED) -> float:
         for ``Kp`` ≤ 0, ``zeta`` outside (0, 1), or no K_d below 1e6 N·m·s/rad reaching it.
     """
     if not Kp > 0:
-        raise ValueError(f"Kp must be positive, got {Kp!r}")
+        raise InputError(f"Kp must be positive, got {Kp!r}")
     if not 0.0 < zeta < 1.0:
-        raise ValueError(f"zeta must be in (0, 1), got {zeta!r}")
+        raise InputError(f"zeta must be in (0, 1), got {zeta!r}")
 
     def gap(Kd: float) -> float:
         return pitch_mode_damping(p, Kp, Kd)[0] - zeta
@@ -94,5 +95,5 @@ def damping_floor(p: Params, Kp: float, zeta: float = ZETA_UNRESOLVED) -> float:
     while gap(hi) < 0:
         hi *= 2.0
         if hi > 1e6:
-            raise ValueError(f"no K_d below 1e6 N·m·s/rad gives damping ratio {zeta} at K_p = {Kp}")
+            raise InputError(f"no K_d below 1e6 N·m·s/rad gives damping ratio {zeta} at K_p = {Kp}")
     return float(scipy.optimize.brentq(gap, 0.0, hi, xtol=1e-6 * hi))

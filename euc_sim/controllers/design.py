@@ -22,6 +22,7 @@ import numpy as np
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.controllers.rider import Rider
 from euc_sim.controllers.plant import has_integral, predictor_rows, rider_plant
+from euc_sim.errors import InputError
 from euc_sim.model.linearize import discretize
 from euc_sim.model.parameters import Params, TABLE3
 
@@ -70,7 +71,7 @@ def design_rider(p: Params = TABLE3, motor: MotorPD | None = None, delay: float 
     R = np.array([[1.0 / sc["M_h"] ** 2]])
     K, _, E = control.lqr(A, B, Q, R)
     if np.max(np.real(E)) >= 0:  # pragma: no cover - lqr returns a stabilising gain
-        raise ValueError(f"LQR design is not stabilising: eigenvalues {E}")
+        raise InputError(f"LQR design is not stabilising: eigenvalues {E}")
     return Rider(K=tuple(float(k) for k in np.asarray(K).ravel()), delay=delay, **rider_settings)
 
 

@@ -31,6 +31,7 @@ import math
 
 from euc_sim.controllers.damping import ZETA_UNRESOLVED, damping_floor
 from euc_sim.controllers.motor import MotorPD
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["FirmwareError", "firmware_settings", "kd_resolved", "firmware_motor", "voltage_limit_settings", "CARRIED"]
@@ -40,7 +41,7 @@ CARRIED = {"K_p": "Kp", "K_d": "Kd", "torque_limit": "torque_limit",
            "tiltback_speed": "tiltback_speed", "tiltback_gain": "tiltback_gain"}
 
 
-class FirmwareError(ValueError):
+class FirmwareError(InputError):
     """A ride JSON ``controller`` entry that cannot drive the simulator; the message says why."""
 
 

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["LATERAL_SCALES", "LATERAL_STATE", "LateralRider", "lateral_plant", "design_lateral",
@@ -153,7 +154,7 @@ def design_lateral(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3
     import control
 
     if not (math.isfinite(speed) and speed > 0):
-        raise ValueError(f"design speed must be positive, got {speed!r} m/s")
+        raise InputError(f"design speed must be positive, got {speed!r} m/s")
     sc = dict(LATERAL_SCALES)
     sc.update(scales or {})
     Phi, Gam = lateral_plant(params, speed, dt, tyre)
@@ -162,9 +163,9 @@ def design_lateral(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3
     K, _, E = control.dlqr(Phi, Gam, Q, Rm)
     K = np.asarray(K)
     if np.max(np.abs(E)) >= 1.0:  # pragma: no cover - dlqr returns a stabilising gain
-        raise ValueError(f"lateral LQR does not stabilise: eigenvalue modulus {np.max(np.abs(E)):.4f}")
+        raise InputError(f"lateral LQR does not stabilise: eigenvalue modulus {np.max(np.abs(E)):.4f}")
     if not (math.isfinite(delay) and delay >= 0):
-        raise ValueError(f"lateral reaction delay must be a non-negative number of seconds, got {delay!r}")
+        raise InputError(f"lateral reaction delay must be a non-negative number of seconds, got {delay!r}")
     n = int(round(delay / dt))
     K_pred, K_hist = lateral_predictor_rows(Phi, Gam, K, n)
     margin = lateral_delay_margin(Phi, Gam, K, dt, delay=n * dt)

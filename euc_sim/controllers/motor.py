@@ -21,10 +21,12 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
+from euc_sim.errors import InputError
+
 __all__ = ["MotorPD", "MotorError", "pd_torque"]
 
 
-class MotorError(ValueError):
+class MotorError(InputError):
     """An invalid motor-controller setting; the message names it."""
 
 

@@ -33,6 +33,7 @@ import numpy as np
 from scipy.linalg.lapack import dtrtrs
 
 from euc_sim.controllers.motor import MotorPD
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 
 __all__ = ["Rider", "RiderError", "trim", "motor_noise", "RiderRun", "DEFAULT_RIDER_NOISE", "delayed_lqr_torque"]
@@ -42,8 +43,13 @@ __all__ = ["Rider", "RiderError", "trim", "motor_noise", "RiderRun", "DEFAULT_RI
 DEFAULT_RIDER_NOISE = 3.0
 
 
-class RiderError(ValueError):
+class RiderError(InputError):
     """An invalid rider setting; the message names it."""
+
+
+#: Longest reaction delay a rider is given, s: a human's is 0.1–0.4 s, and the delay
+#: buffer and the predictor grow with it.
+MAX_DELAY = 1.0
 
 
 @dataclass(frozen=True)
@@ -89,6 +95,9 @@ class Rider:
             v = getattr(self, name)
             if not (math.isfinite(v) and v >= 0):
                 raise RiderError(f"rider {name!r} must be finite and non-negative, got {v!r}")
+        if self.delay > MAX_DELAY:
+            raise RiderError(f"rider 'delay' must be at most {MAX_DELAY:g} s (a human reaction), "
+                             f"got {self.delay!r}")
         for name in ("noise_tau", "torque_limit"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):

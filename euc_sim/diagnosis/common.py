@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import PLAUSIBLE
 from euc_sim.simulation import effects
 
@@ -17,7 +18,7 @@ __all__ = ["DiagnosisError", "Thresholds", "THRESHOLDS", "SELECT_RATE", "LATERAL
            "plausible_range", "H_BOUND_MARGIN", "h_at_bound", "heldout_over_floor"]
 
 
-class DiagnosisError(ValueError):
+class DiagnosisError(InputError):
     """Invalid input to the diagnosis; the message names the argument."""
 
 

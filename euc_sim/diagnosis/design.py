@@ -48,6 +48,7 @@ from euc_sim.diagnosis.candidates import build_problem, visibility
 from euc_sim.diagnosis.common import THRESHOLDS, plausible_range
 from euc_sim.diagnosis.estimates import estimate_of, sub_cov
 from euc_sim.diagnosis.prepare import prepare
+from euc_sim.errors import InputError
 from euc_sim.identification import regression as reg
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation import effects as fx
@@ -90,10 +91,10 @@ def parse_effects(text: str) -> list[str]:
     names = list(fx.CATALOG) if text.strip() == "all" else [e.strip() for e in text.split(",") if e.strip()]
     bad = [e for e in names if e not in fx.CATALOG]
     if not names or bad:
-        raise ValueError(f"--effect: unknown {', '.join(bad) or '(none given)'}; "
+        raise InputError(f"--effect: unknown {', '.join(bad) or '(none given)'}; "
                          f"valid: all, {', '.join(fx.CATALOG)}")
     if len(set(names)) != len(names):
-        raise ValueError(f"--effect: an effect is listed twice in {text}")
+        raise InputError(f"--effect: an effect is listed twice in {text}")
     return names
 
 
@@ -131,7 +132,7 @@ def effect_estimate(recording, meta: dict, name: str, params: Params, h0: float)
     prep = prepare(recording, params=params, meta=meta)
     problem, info = build_problem(prep, h0)
     if name not in problem.candidates:
-        raise ValueError(f"effect {name!r}: not a candidate of this recording "
+        raise InputError(f"effect {name!r}: not a candidate of this recording "
                          f"(candidates: {', '.join(problem.candidates)})")
     fit = reg.fit_set(problem, (name,))
     cov, dof = reg.covariance(problem, fit, cluster=CLUSTER)
@@ -283,15 +284,15 @@ def _summary(res: dict, entry: dict, effect: str, rides: int) -> dict:
 def _check(maneuvers, effect_names, rides, duration, noise_scale, valid_maneuvers) -> None:
     bad = [m for m in maneuvers if m not in valid_maneuvers]
     if not maneuvers or bad:
-        raise ValueError(f"--maneuvers: unknown {', '.join(bad) or '(none given)'}; "
+        raise InputError(f"--maneuvers: unknown {', '.join(bad) or '(none given)'}; "
                          f"valid: {', '.join(valid_maneuvers)}")
     parse_effects(",".join(effect_names))
     if not (isinstance(rides, int) and rides >= 3):
-        raise ValueError(f"--effect-rides must be an integer of at least 3, got {rides!r}")
+        raise InputError(f"--effect-rides must be an integer of at least 3, got {rides!r}")
     if not (math.isfinite(duration) and duration >= 5.0):
-        raise ValueError(f"--duration must be at least 5 s (the fit's filters need it), got {duration!r}")
+        raise InputError(f"--duration must be at least 5 s (the fit's filters need it), got {duration!r}")
     if not (math.isfinite(noise_scale) and noise_scale > 0):
-        raise ValueError(f"noise_scale must be positive, got {noise_scale!r}")
+        raise InputError(f"noise_scale must be positive, got {noise_scale!r}")
 
 
 def plot_effects_design(result: dict, path) -> Path:

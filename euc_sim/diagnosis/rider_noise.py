@@ -27,6 +27,8 @@ import zlib
 
 import numpy as np
 
+from euc_sim.errors import InputError
+
 __all__ = ["motor_noise_level", "recording_seed"]
 
 
@@ -55,7 +57,7 @@ def motor_noise_level(t: np.ndarray, M_h: np.ndarray, tau: float) -> float:
     """
     t, y = np.asarray(t, float), np.asarray(M_h, float)
     if not (math.isfinite(tau) and tau > 0):
-        raise ValueError(f"tau must be a positive number of seconds, got {tau!r}")
+        raise InputError(f"tau must be a positive number of seconds, got {tau!r}")
     if t.shape != y.shape:
         raise ValueError(f"t and M_h differ in length: {t.size} and {y.size}")
     ok = np.isfinite(t) & np.isfinite(y)

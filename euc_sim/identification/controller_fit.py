@@ -7,10 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from euc_sim.errors import InputError
 from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 from euc_sim.identification.processing import Kinematics, term_filter
-
 
 
 # --- beyond the paper: the EUC's controller and the rider's law ------------------------------
@@ -65,7 +65,7 @@ def _lstsq_fit(y: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, float, float]:
 def _check_terms(terms, what: str) -> None:
     unknown = [t for t in terms if t not in _TERMS]
     if unknown:
-        raise ValueError(f"unknown {what} term {unknown[0]!r}; expected {', '.join(_TERMS)}")
+        raise InputError(f"unknown {what} term {unknown[0]!r}; expected {', '.join(_TERMS)}")
 
 
 def _filtered_rows(kin: Kinematics, y: np.ndarray, terms) -> tuple[np.ndarray, np.ndarray]:

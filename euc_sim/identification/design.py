@@ -39,6 +39,7 @@ from typing import Sequence
 
 import numpy as np
 
+from euc_sim.errors import InputError
 from euc_sim.identification.h_fit import identify_h, residual_poly
 from euc_sim.identification.processing import DEFAULT_SMOOTHING, kinematics
 from euc_sim.model.parameters import Params, TABLE3
@@ -198,13 +199,13 @@ def design(maneuvers: Sequence[str], *, rides: int = 40, duration: float = 15.0,
     rep = run_tasks(maneuver_study, tasks, scheduler=scheduler, workers=workers, progress=progress,
                     desc="design")
     if rep.failed:
-        raise ValueError("design: maneuvers failed: " + "; ".join(f"{n}: {r}" for n, r in rep.failed.items()))
+        raise InputError("design: maneuvers failed: " + "; ".join(f"{n}: {r}" for n, r in rep.failed.items()))
     i_ref = list(noise_scales).index(1.0)
     rows, curves = [], {}
     for m in maneuvers:
         res = rep.results[m]
         if len(res["h"][0]) < 3:
-            raise ValueError(f"design: maneuver {m}: {res['fell']} of {rides} rides fell, too few left")
+            raise InputError(f"design: maneuver {m}: {res['fell']} of {rides} rides fell, too few left")
         by_noise = [{"noise_scale": float(s), "h_sd": float(np.std(res["h"][j], ddof=1)),
                      "h_sd_fisher": float(math.sqrt(res["fisher_var"][j])),
                      "h_bias": float(np.mean(res["h"][j]) - params.h),
@@ -231,18 +232,18 @@ def design(maneuvers: Sequence[str], *, rides: int = 40, duration: float = 15.0,
 def _check(maneuvers, rides, duration, noise_scales, targets) -> None:
     bad = [m for m in maneuvers if m not in DESIGN_MANEUVERS]
     if not maneuvers or bad:
-        raise ValueError(f"--maneuvers: unknown {', '.join(bad) or '(none given)'}; "
+        raise InputError(f"--maneuvers: unknown {', '.join(bad) or '(none given)'}; "
                          f"valid: {', '.join(DESIGN_MANEUVERS)}")
     if len(set(maneuvers)) != len(maneuvers):
-        raise ValueError(f"--maneuvers: a maneuver is listed twice in {','.join(maneuvers)}")
+        raise InputError(f"--maneuvers: a maneuver is listed twice in {','.join(maneuvers)}")
     if not (isinstance(rides, int) and rides >= 3):
-        raise ValueError(f"--rides must be an integer of at least 3, got {rides!r}")
+        raise InputError(f"--rides must be an integer of at least 3, got {rides!r}")
     if not (math.isfinite(duration) and duration >= 5.0):
-        raise ValueError(f"--duration must be at least 5 s (the fit's filters need it), got {duration!r}")
+        raise InputError(f"--duration must be at least 5 s (the fit's filters need it), got {duration!r}")
     if not all(math.isfinite(s) and s > 0 for s in noise_scales) or 1.0 not in noise_scales:
-        raise ValueError(f"--noise-scales must be positive and include 1 (the paper's noise), got {list(noise_scales)}")
+        raise InputError(f"--noise-scales must be positive and include 1 (the paper's noise), got {list(noise_scales)}")
     if not targets or not all(math.isfinite(t) and t > 0 for t in targets):
-        raise ValueError(f"--targets must be positive standard deviations in m, got {list(targets)}")
+        raise InputError(f"--targets must be positive standard deviations in m, got {list(targets)}")
 
 
 def recommendation(result: dict) -> str:

@@ -34,6 +34,7 @@ import numpy as np
 import pandas as pd
 from scipy.optimize import minimize_scalar
 
+from euc_sim.errors import InputError
 from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 from euc_sim.identification.processing import DEFAULT_SMOOTHING, Kinematics, Smoothing, kinematics, term_filter
@@ -290,7 +291,7 @@ def identify_h(polys: list[ResidualPoly], bounds=(0.1, 1.5), grid_step: float = 
     """
     lo, hi = map(float, bounds)
     if not (0 < lo < hi):
-        raise ValueError(f"h bounds must satisfy 0 < lo < hi, got {bounds!r}")
+        raise InputError(f"h bounds must satisfy 0 < lo < hi, got {bounds!r}")
     if not polys:
         raise ValueError("no recordings to identify h from")
     grid = np.linspace(lo, hi, int(round((hi - lo) / grid_step)) + 1)

@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 from scipy.signal import savgol_coeffs, savgol_filter
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 from euc_sim.identification.processing import (Kinematics, Smoothing, kinematics, sample_period,
                                                savgol_derivatives)
@@ -185,7 +186,7 @@ def noise_curves(df: pd.DataFrame, p: Params, smoothing: Smoothing, grid: np.nda
     NoiseCurves
     """
     if int(n_rep) != n_rep or n_rep < 0:
-        raise ValueError(f"n_rep must be a non-negative integer, got {n_rep!r}")
+        raise InputError(f"n_rep must be a non-negative integer, got {n_rep!r}")
     models = tuple(h_ref)
     t = df["t"].to_numpy(dtype=float)
     dt = sample_period(t)

@@ -12,6 +12,7 @@ import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from euc_sim.errors import InputError
 from euc_sim.identification.h_fit import MIN_RISE
 from euc_sim.io import save_figure
 
@@ -33,7 +34,7 @@ def check_figure_path(path) -> Path:
     kinds = FigureCanvasBase.get_supported_filetypes()
     suffix = path.suffix.lstrip(".").lower()
     if suffix and suffix not in kinds:
-        raise ValueError(f"figure {path}: unknown format {suffix!r}; expected one of "
+        raise InputError(f"figure {path}: unknown format {suffix!r}; expected one of "
                          f"{', '.join(sorted(kinds))} (e.g. .png)")
     return path
 

@@ -36,6 +36,7 @@ from scipy.integrate import cumulative_trapezoid
 from scipy.ndimage import gaussian_filter1d
 from scipy.signal import savgol_filter
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 
 __all__ = [
@@ -46,6 +47,10 @@ __all__ = [
 
 #: Gaussian truncation of :func:`term_filter`, standard deviations.
 _TRUNCATE = 4.0
+
+
+#: Highest Savitzky–Golay order: beyond it the least-squares fit loses all its digits.
+MAX_ORDER = 12
 
 
 @dataclass(frozen=True)
@@ -70,7 +75,7 @@ class Smoothing:
     Raises
     ------
     ValueError
-        for an unknown method, a non-positive window or an order below 2.
+        for an unknown method, a non-positive window or an order outside [2, MAX_ORDER].
     """
 
     method: str = "consistent"
@@ -80,17 +85,18 @@ class Smoothing:
 
     def __post_init__(self) -> None:
         if self.method not in ("consistent", "savgol"):
-            raise ValueError(f"smoothing method must be 'consistent' or 'savgol', got {self.method!r}")
+            raise InputError(f"smoothing method must be 'consistent' or 'savgol', got {self.method!r}")
         if self.window is None:
             object.__setattr__(self, "window", 0.25 if self.method == "consistent" else 1.0)
         if self.order is None:
             object.__setattr__(self, "order", 5 if self.method == "consistent" else 3)
         if not (math.isfinite(self.window) and self.window > 0):
-            raise ValueError(f"smoothing window must be positive, got {self.window!r} s")
-        if int(self.order) != self.order or self.order < 2:
-            raise ValueError(f"smoothing order must be an integer ≥ 2 (for q̈), got {self.order!r}")
+            raise InputError(f"smoothing window must be positive, got {self.window!r} s")
+        if int(self.order) != self.order or not 2 <= self.order <= MAX_ORDER:
+            raise InputError(f"smoothing order must be an integer from 2 (for q̈) to {MAX_ORDER} "
+                             f"(higher fits are ill-conditioned), got {self.order!r}")
         if not (math.isfinite(self.term_sigma) and self.term_sigma >= 0):
-            raise ValueError(f"term filter sigma must be non-negative, got {self.term_sigma!r} s")
+            raise InputError(f"term filter sigma must be non-negative, got {self.term_sigma!r} s")
         if self.method == "savgol":
             object.__setattr__(self, "term_sigma", 0.0)
 
@@ -305,7 +311,7 @@ def mocap_state(df: pd.DataFrame, p: Params, smoothing: Smoothing, d_CE: float |
         when C is not recorded and ``d_CE`` is not given, or ``phi_from`` is unknown.
     """
     if phi_from not in ("C", "A"):
-        raise ValueError(f"phi_from must be 'C' (eq. 3) or 'A' (exact), got {phi_from!r}")
+        raise InputError(f"phi_from must be 'C' (eq. 3) or 'A' (exact), got {phi_from!r}")
     t = df["t"].to_numpy(dtype=float)
     dt = sample_period(t)
     w, o = smoothing.samples(dt), smoothing.order
@@ -315,10 +321,10 @@ def mocap_state(df: pd.DataFrame, p: Params, smoothing: Smoothing, d_CE: float |
         C = df[["C_X", "C_Y", "C_Z"]].to_numpy(dtype=float)
     else:
         if d_CE is None:
-            raise ValueError("column 'C_X' missing: the C–E distance (d_CE, m) is needed to "
+            raise InputError("column 'C_X' missing: the C–E distance (d_CE, m) is needed to "
                              "place the wheel centre from the pivot E")
         if not (math.isfinite(d_CE) and d_CE > 0):
-            raise ValueError(f"the C–E distance d_CE must be a positive length, got {d_CE!r} m")
+            raise InputError(f"the C–E distance d_CE must be a positive length, got {d_CE!r} m")
         E = df[["E_X", "E_Y", "E_Z"]].to_numpy(dtype=float)
         C = wheel_centre(E, ang["psi"], ang["theta"], ang["gamma"], d_CE)
     C0, C1, C2 = savgol_derivatives(C, dt, w, o, axis=0)
@@ -376,7 +382,7 @@ def kinematics(df: pd.DataFrame, p: Params, smoothing: Smoothing = DEFAULT_SMOOT
                  f"the smoothing window ({smoothing.samples(dt)} samples and "
                  f"{smoothing.edge(dt)} edge samples each side)")
     if source not in ("auto", "state", "mocap"):
-        raise ValueError(f"source must be 'auto', 'state' or 'mocap', got {source!r}")
+        raise InputError(f"source must be 'auto', 'state' or 'mocap', got {source!r}")
     has_mocap = {"G_X", "G_Y", "G_Z", "psi", "theta", "gamma"} <= set(df.columns) and (
         {"C_X", "C_Y", "C_Z"} <= set(df.columns) or {"E_X", "E_Y", "E_Z"} <= set(df.columns))
     if source == "mocap" and not has_mocap:
@@ -386,6 +392,11 @@ def kinematics(df: pd.DataFrame, p: Params, smoothing: Smoothing = DEFAULT_SMOOT
     if source == "mocap" or (source == "auto" and is_mocap(df)):
         return mocap_state(df, p, smoothing, d_CE=d_CE, phi_from=phi_from)
     w, o = smoothing.samples(dt), smoothing.order
+    missing = [c for c in ("x", "gamma", "phi") if c not in df.columns]
+    if missing:
+        from euc_sim.identification.recordings import RecordingError
+        raise RecordingError(f"{name}: column {missing[0]!r} missing: the state source needs x, gamma "
+                             f"and phi{' (or the motion-capture columns with --source mocap)' if has_mocap else ''}")
     Q = df[["x", "gamma", "phi"]].to_numpy(dtype=float)
     q, qd, qdd = savgol_derivatives(Q, dt, w, o, axis=0)
     extra = {k: df[k].to_numpy(dtype=float) for k in ("psi", "theta") if k in df.columns}

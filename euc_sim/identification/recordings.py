@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import BadInputFile
 from euc_sim.model.parameters import Params
 
 __all__ = [
@@ -49,7 +50,7 @@ MOCAP_LIMIT = 1e5
 MAX_GAP = 5
 
 
-class RecordingError(ValueError):
+class RecordingError(BadInputFile):
     """A recording that cannot be used; the one-line message names file, column, row."""
 
 
@@ -70,9 +71,11 @@ def read_sidecar(path: str | Path) -> dict[str, Any]:
     Raises
     ------
     RecordingError
-        when the sidecar exists but is not a JSON object.
+        when the sidecar exists but is not a JSON object, or ``path`` is a folder.
     """
     path = Path(path)
+    if not path.name or path.is_dir():
+        raise RecordingError(f"{path}: is a folder, expected a recording file (.csv or .parquet)")
     side = path.with_suffix(".json")
     if side.name.endswith(".truth.json") or not side.is_file():
         return {}
@@ -95,7 +98,21 @@ def read_sidecar(path: str | Path) -> dict[str, Any]:
     if meta.get("d_CE") is not None and (isinstance(meta["d_CE"], bool)
                                          or not isinstance(meta["d_CE"], (int, float))):
         raise RecordingError(f"{side}: \"d_CE\" must be a number (m), got {meta['d_CE']!r}")
+    _check_maneuver_options(side, meta.get("maneuver_options"))
     return meta
+
+
+def _check_maneuver_options(side: Path, opts) -> None:
+    """``maneuver_options``: an object of finite numbers (the maneuver checks their ranges)."""
+    if opts is None:
+        return
+    if not isinstance(opts, dict):
+        raise RecordingError(f"{side}: \"maneuver_options\" must be an object {{NAME: value}}, "
+                             f"got {type(opts).__name__}")
+    for name, value in opts.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise RecordingError(f"{side}: \"maneuver_options\".{name} must be a finite number, "
+                                 f"got {value!r}")
 
 
 def params_from_meta(meta: dict[str, Any], source: str | Path = "sidecar") -> Params:

@@ -31,11 +31,13 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 from scipy.optimize import minimize_scalar
 
+from euc_sim.errors import InputError
+
 __all__ = ["SelectionError", "Problem", "Adapted", "Fit", "time_blocks", "correlation_time", "fit_set",
            "heldout_rmse", "covariance", "BLOCK_LENGTH"]
 
 
-class SelectionError(ValueError):
+class SelectionError(InputError):
     """Invalid input to the selection; the message names the argument."""
 
 

@@ -33,6 +33,7 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
+from euc_sim.errors import InputError
 from euc_sim.model.mujoco_model import JointIndex, load_model, to_mujoco, from_mujoco
 from euc_sim.model.parameters import Params
 from euc_sim.identification.noise_bootstrap import split_noise
@@ -51,7 +52,7 @@ MAX_ITER = 40
 BOUND_TOL = 1e-3
 
 
-class RolloutError(ValueError):
+class RolloutError(InputError):
     """The recording cannot be fitted by rollout (no torques, too short)."""
 
 

@@ -48,6 +48,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from euc_sim.errors import BadInputFile, InputError
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = [
@@ -68,7 +69,39 @@ ACTUATORS = ("motor", "ankle")
 SHAFT_TENDON = "motor_shaft"
 
 
-class ModelError(ValueError):
+#: MuJoCo's warnings that mean the state was not finite and MuJoCo reset it.
+_UNSTABLE = ("BADQACC", "BADQVEL", "BADQPOS")
+
+
+def _quiet_warning(message: str) -> None:
+    """MuJoCo's warnings are read from ``data.warning`` (:func:`instability`), not printed:
+    the default handler writes them to stdout and to ``MUJOCO_LOG.TXT`` in the working folder."""
+
+
+mujoco.set_mju_user_warning(_quiet_warning)
+
+
+def instability(data) -> str | None:
+    """What MuJoCo's warning counters say of an unstable run, or None when they say nothing.
+
+    MuJoCo resets the state when an acceleration, velocity or position becomes NaN,
+    infinite or huge (``mj_checkAcc``/``mj_checkVel``/``mj_checkPos``) and counts it in
+    ``data.warning``; the run goes on from rest, so the recording alone would not show it.
+
+    Returns
+    -------
+    str or None
+        e.g. ``"QACC 412 times"``.
+    """
+    parts = []
+    for name in _UNSTABLE:
+        n = int(data.warning[getattr(mujoco.mjtWarning, f"mjWARN_{name}")].number)
+        if n:
+            parts.append(f"{name[3:]} {n} time{'s' if n > 1 else ''}")
+    return ", ".join(parts) or None
+
+
+class ModelError(BadInputFile):
     """The MJCF file is missing, unreadable, lacks a named element, or does not compile."""
 
 
@@ -419,7 +452,7 @@ class EucMujoco:
         if q.shape != (3,) or qd.shape != (3,):
             raise ValueError(f"state must be q, qd of shape (3,), got {q.shape} and {qd.shape}")
         if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd))):
-            raise ValueError(f"state must be finite, got q={q.tolist()}, qd={qd.tolist()}")
+            raise InputError(f"state must be finite, got q={q.tolist()}, qd={qd.tolist()}")
         z = self.data.qpos[self.index.qpos["z"]] if self.index.has_z else 0.0
         qpos, qvel, _ = to_mujoco(self.index, self.params.R, q, qd)
         if self.index.has_z:

@@ -11,6 +11,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from euc_sim.errors import InputError
+
 #: Parameters that describe an offset or an inertia which the reduced 2-DoF model
 #: (Section 3.2) sets to zero; they may be zero but not negative.
 MAY_BE_ZERO = frozenset({"J0", "h0", "l0"})
@@ -45,7 +47,7 @@ PLAUSIBLE = {
 }
 
 
-class ParameterError(ValueError):
+class ParameterError(InputError):
     """An invalid model parameter; the message names it and its value."""
 
 

@@ -22,6 +22,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from euc_sim.errors import InputError
 from euc_sim.model.mujoco_model import ModelError, _find, load_spec
 from euc_sim.model.parameters import Params, TABLE3
 
@@ -203,7 +204,7 @@ class EucSpatial:
         rider pitch φ (rad), the wheel resting at the contact's static sinkage."""
         for name, v in (("speed", speed), ("gamma", gamma), ("phi", phi), ("heading", heading)):
             if not math.isfinite(v):
-                raise ValueError(f"initial {name} must be finite, got {v!r}")
+                raise InputError(f"initial {name} must be finite, got {v!r}")
         a, v = self.qadr, self.vadr
         d = self.data
         d.qpos[:] = 0.0

@@ -15,6 +15,7 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import InputError
 from euc_sim.rides.crossride import CrossRide, cross_ride, effect_entries, plot_cross_ride
 from euc_sim.rides.design import NOMINAL, Design, balance_design
 from euc_sim.rides.fit import FEW_BLOCKS, block_rows, plausibility
@@ -181,7 +182,7 @@ def check_data(log_path, compare_path=None, *, assumptions: RideAssumptions = Ri
     d_fit, d_test, _, _ = _fit_and_test(sig_fit, sig_test, log_path, compare_path, domain)
     block_rows(d_fit, block_s)
     if len(d_test.P) == 0:
-        raise ValueError(f"{d_test.path}: no usable rows to test on")
+        raise InputError(f"{d_test.path}: no usable rows to test on")
 
 
 def _few_blocks(fit_label: str, blocks: float, block_s: float) -> str:

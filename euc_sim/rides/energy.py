@@ -20,13 +20,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from euc_sim.errors import InputError
+
 __all__ = ["window_mean", "window_difference", "window_samples_odd"]
 
 
 def window_samples_odd(window: float, rate: float) -> int:
     """Samples in a window of ``window`` s at ``rate`` Hz, rounded to an odd number ≥ 3."""
     if not (window > 0 and rate > 0):
-        raise ValueError(f"window and rate must be positive, got window={window!r} s, rate={rate!r} Hz")
+        raise InputError(f"window and rate must be positive, got window={window!r} s, rate={rate!r} Hz")
     n = max(3, int(round(window * rate)))
     return n + 1 if n % 2 == 0 else n
 

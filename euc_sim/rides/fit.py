@@ -13,6 +13,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from euc_sim.errors import InputError
 from euc_sim.rides.design import BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
 from euc_sim.rides.power import RHO_AIR
 from euc_sim.stats import percentile_interval, wild_block_signs
@@ -136,12 +137,12 @@ def block_rows(design: Design, block_s: float = 10.0, check: bool = True) -> int
         :data:`MIN_BLOCKS` blocks: too little data for an interval.
     """
     if not (math.isfinite(block_s) and block_s > 0):
-        raise ValueError(f"block_s must be a positive number of seconds, got {block_s!r}")
+        raise InputError(f"block_s must be a positive number of seconds, got {block_s!r}")
     n = len(design.P)
     dt = float(np.median(np.diff(design.t))) if n > 1 else 0.1
     L = max(1, int(round(block_s / dt))) if dt > 0 else 1
     if check and n < MIN_BLOCKS * L:
-        raise ValueError(f"{design.path}: {n} usable rows ({n * dt:.1f} s of ride) to fit on, too "
+        raise InputError(f"{design.path}: {n} usable rows ({n * dt:.1f} s of ride) to fit on, too "
                          f"few for a 95 % interval: the block bootstrap needs at least "
                          f"{MIN_BLOCKS} blocks of {block_s:g} s ({MIN_BLOCKS * L} rows, "
                          f"{MIN_BLOCKS * block_s:g} s after gaps and filter ends)")
@@ -341,11 +342,11 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
             names.insert(NOMINAL.index(n), n)
     bad = [n for n in names if n not in design.candidates]
     if bad:
-        raise ValueError(f"parameter {bad[0]!r} is not available on {design.path or 'this ride'} "
+        raise InputError(f"parameter {bad[0]!r} is not available on {design.path or 'this ride'} "
                          f"(available: {', '.join(design.candidates)})")
     n = len(design.P)
     if n <= len(names) + 2:
-        raise ValueError(f"{design.path}: {n} usable rows, too few for {len(names)} parameters")
+        raise InputError(f"{design.path}: {n} usable rows, too few for {len(names)} parameters")
     L = block_rows(design, block_s, check=n_boot > 0)
     x0 = np.array([_START[k] for k in names])
     res = _solve(design, names, x0)

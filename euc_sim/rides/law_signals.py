@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from euc_sim.errors import InputError
 from euc_sim.rides.logs import RideLog
 
 __all__ = ["LawUnavailable", "LawRows", "law_rows", "V_MIN", "MAX_PITCH", "MIN_ROWS", "GAP",
@@ -41,7 +42,7 @@ MIN_ROWS = 300
 GAP = 1.0
 
 
-class LawUnavailable(ValueError):
+class LawUnavailable(InputError):
     """The log cannot show the wheel's balance law; the message says why, with numbers."""
 
 

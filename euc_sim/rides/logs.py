@@ -59,6 +59,8 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import BadInputFile
+
 __all__ = [
     "LogFormatError", "RideLogWarning", "RideLog", "Channel", "LAYOUTS", "CHANNEL_UNITS",
     "read_log", "read_wheellog", "detect_layout",
@@ -71,7 +73,7 @@ KM = 1000.0                 # km -> m
 NEAR_REPEAT = 0.02
 
 
-class LogFormatError(ValueError):
+class LogFormatError(BadInputFile):
     """A log file that cannot be read; the message names file, column and line.
 
     Attributes

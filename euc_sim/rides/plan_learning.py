@@ -23,6 +23,8 @@ import math
 
 import numpy as np
 
+from euc_sim.errors import InputError
+
 __all__ = ["filter_band", "closed_loop_response", "inverse_correction", "COHERENCE_MIN", "TREND_WINDOW",
            "SEGMENT_S"]
 
@@ -132,7 +134,7 @@ def inverse_correction(t: np.ndarray, plan: np.ndarray, v_sim: np.ndarray, error
         m/s, the shape of ``t``.
     """
     if not (math.isfinite(band) and band > 0):
-        raise ValueError(f"band must be a positive number of Hz, got {band!r}")
+        raise InputError(f"band must be a positive number of Hz, got {band!r}")
     t = np.asarray(t, float)
     err = np.asarray(error, float)
     n = t.size

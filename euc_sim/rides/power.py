@@ -17,6 +17,7 @@ from typing import Mapping
 
 import numpy as np
 
+from euc_sim.errors import BadInputFile
 from euc_sim.rides.channels import current_from_phase
 from euc_sim.rides.logs import RideLog, read_log
 from euc_sim.rides.signals import resample, sg
@@ -31,7 +32,7 @@ RHO_AIR = 1.2          # kg/m³ at about 20 °C
 NO_GPS_SCALE_SD = 0.05
 
 
-class RideDataError(ValueError):
+class RideDataError(BadInputFile):
     """A log without what the mass estimate needs; names the file and the column."""
 
 

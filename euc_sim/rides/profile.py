@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import InputError
 from euc_sim.rides.power import G
 from euc_sim.rides.signals import as_log, resample, sg
 
@@ -143,7 +144,7 @@ def unpaid_spikes(log, total_mass: float, factor: float = SPIN_POWER_FACTOR,
         strictly between are the spike.  Empty without battery power.
     """
     if not (math.isfinite(total_mass) and total_mass > 0):
-        raise ValueError(f"total_mass must be a positive number of kg, got {total_mass!r}")
+        raise InputError(f"total_mass must be a positive number of kg, got {total_mass!r}")
     d = as_log(log).data
     P = _battery_power(d)
     if P is None or len(d) < 3:

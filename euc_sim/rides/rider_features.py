@@ -14,6 +14,7 @@ import math
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import InputError
 from euc_sim.rides.signals import RideAssumptions, as_log, resample, sg
 
 __all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "band_ratio_db",
@@ -26,7 +27,7 @@ __all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "ban
 BAND_WINDOWS = (0.5, 0.7, 1.0, 1.5, 2.1, 3.0, 4.2, 6.0)
 
 
-class RiderFitError(ValueError):
+class RiderFitError(InputError):
     """A ride or a setting the rider cannot be fitted on; the message names it."""
 
 

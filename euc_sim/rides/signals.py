@@ -39,6 +39,7 @@ import numpy as np
 import pandas as pd
 from scipy.signal import savgol_filter
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.logs import RideLog, read_log
 
@@ -91,11 +92,11 @@ class RideAssumptions:
         for name in ("R", "total_mass", "m_eq", "g", "v_min"):
             val = getattr(self, name)
             if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
-                raise ValueError(f"RideAssumptions.{name} must be a positive number, got {val!r}")
+                raise InputError(f"RideAssumptions.{name} must be a positive number, got {val!r}")
         if not (0 < self.efficiency <= 1):
-            raise ValueError(f"RideAssumptions.efficiency must be in (0, 1], got {self.efficiency!r}")
+            raise InputError(f"RideAssumptions.efficiency must be in (0, 1], got {self.efficiency!r}")
         if self.torque_constant is not None and not self.torque_constant > 0:
-            raise ValueError(f"RideAssumptions.torque_constant must be positive, "
+            raise InputError(f"RideAssumptions.torque_constant must be positive, "
                              f"got {self.torque_constant!r}")
 
     @classmethod
@@ -147,12 +148,12 @@ def resample(log, rate: float = 10.0, max_gap: float = 1.0) -> tuple[pd.DataFram
         One line per gap split.
     """
     if rate <= 0 or max_gap <= 0:
-        raise ValueError(f"rate and max_gap must be positive, got rate={rate}, max_gap={max_gap}")
+        raise InputError(f"rate and max_gap must be positive, got rate={rate}, max_gap={max_gap}")
     log = as_log(log)
     d = log.data
     t = d["t"].to_numpy(float)
     if len(t) < 2:
-        raise ValueError(f"{log.path}: need at least two samples to resample, got {len(t)}")
+        raise InputError(f"{log.path}: need at least two samples to resample, got {len(t)}")
     cuts = np.flatnonzero(np.diff(t) > max_gap)
     bounds = np.split(np.arange(len(t)), cuts + 1)
     notes = [f"gap of {t[i + 1] - t[i]:.2f} s at t = {t[i]:.2f} s (> max_gap {max_gap:g} s): "
@@ -325,10 +326,11 @@ PLAUSIBLE_READING: dict[str, tuple[float, str]] = {
 
 
 def check_readings(log: RideLog) -> None:
-    """Raise ``ValueError`` naming the file, channel and time of an impossible reading.
+    """Raise ``InputError`` naming the file, channel and time of an impossible reading.
 
     Infinite values and magnitudes beyond :data:`PLAUSIBLE_READING` are refused
-    (empty cells, NaN, stay: they are interpolated over or left out).
+    (empty cells, NaN, stay: they are interpolated over or left out), and so is a
+    speed that disagrees with the log's own odometer (:func:`odometer_scale`).
     """
     t = log.data["t"].to_numpy(float)
     for ch, (limit, unit) in PLAUSIBLE_READING.items():
@@ -340,9 +342,46 @@ def check_readings(log: RideLog) -> None:
         if bad.size:
             i = bad[0]
             name = "speed" if ch == "v" else ch
-            raise ValueError(f"{log.path}: {name} = {x[i]:.3g} {unit} at t = {t[i]:.1f} s from the "
+            raise InputError(f"{log.path}: {name} = {x[i]:.3g} {unit} at t = {t[i]:.1f} s from the "
                              f"start ({bad.size} such row(s)): beyond ±{limit:g} {unit}, not a "
                              f"plausible reading")
+    _check_speed_units(log)
+
+
+#: Least odometer distance over which the speed's units are checked, m (odometers count whole m).
+MIN_ODOMETER = 200.0
+
+
+def odometer_scale(log: RideLog) -> float | None:
+    """∫|v| dt over the distance the wheel's odometer counted, on the same rows; None without one.
+
+    A log whose speed is in the units the reader assumed gives about 1 (0.97–1.0 on
+    the logs in ``/work/shared/data``); one in mph read as km/h gives 0.62.  Rows
+    across a gap over 2 s, or where the odometer jumps or resets, are left out.
+    """
+    d = log.data
+    col = next((c for c in ("total_distance", "distance") if c in d), None)
+    if col is None or "v" not in d:
+        return None
+    t, v, x = (d[c].to_numpy(float) for c in ("t", "v", col))
+    dt, dx = np.diff(t), np.diff(x)
+    with np.errstate(invalid="ignore"):
+        ok = (dt > 0) & (dt < 2.0) & np.isfinite(v[1:] + v[:-1] + dx) & (dx >= 0) & (dx < 100.0 * dt + 1.0)
+    travelled = float(np.sum(dx[ok]))
+    if travelled < MIN_ODOMETER:
+        return None
+    return float(np.sum(0.5 * (np.abs(v[1:]) + np.abs(v[:-1]))[ok] * dt[ok])) / travelled
+
+
+def _check_speed_units(log: RideLog) -> None:
+    """Refuse a log whose speed disagrees with its own odometer (mph read as km/h: 0.62)."""
+    from euc_sim.rides.sanity import SPEED_SCALE_RANGE
+
+    scale = odometer_scale(log)
+    if scale is not None and not SPEED_SCALE_RANGE[0] <= scale <= SPEED_SCALE_RANGE[1]:
+        raise InputError(f"{log.path}: column 'speed': the speed integrates to {scale:.2f} × the "
+                         f"distance the wheel's odometer counted (mph read as km/h gives 0.62): the "
+                         f"speed is in other units or the distance is; convert the log to the app's units")
 
 
 def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = 10.0,
@@ -382,7 +421,7 @@ def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         source = "power column"
     else:
         lacking = [c for c in ("voltage", "current") if not log.has(c)]
-        raise ValueError(f"{log.path}: column {' and '.join(map(repr, lacking))}: absent, empty "
+        raise InputError(f"{log.path}: column {' and '.join(map(repr, lacking))}: absent, empty "
                          f"or all zero, and no 'power' column: battery power is needed")
     raw = raw.assign(P=P)
     n = window_samples(window, rate, polyorder)
@@ -393,7 +432,7 @@ def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         notes.append(f"segment {s} has {size} samples, fewer than the {n}-sample filter "
                      f"window: left out")
     if len(short) == len(sizes):
-        raise ValueError(f"{log.path}: no stretch of the ride is as long as the {window:g} s "
+        raise InputError(f"{log.path}: no stretch of the ride is as long as the {window:g} s "
                          f"filter window")
     f = lambda x, d=0: sg(x, seg, rate, window, polyorder, d)  # noqa: E731
     v = f(raw["v"].to_numpy())

@@ -38,6 +38,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.profile import rider_plan, speed_profile
 from euc_sim.rides.plan_learning import filter_band
@@ -90,7 +91,7 @@ def ride_params(assumptions: RideAssumptions, base: Params = TABLE3) -> Params:
     """
     m = assumptions.total_mass - base.m0 - base.mw
     if m <= 0:
-        raise ValueError(f"total mass {assumptions.total_mass:g} kg must exceed the EUC's own "
+        raise InputError(f"total mass {assumptions.total_mass:g} kg must exceed the EUC's own "
                          f"mass m0 + mw = {base.m0 + base.mw:g} kg")
     return base.replace(m=m, R=assumptions.R)
 

@@ -23,6 +23,8 @@ import re
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from euc_sim.errors import BadInputFile
+
 __all__ = ["SpecError", "WheelSpec", "read_spec", "wheel_spec", "INCH"]
 
 INCH = 0.0254     # inch -> m
@@ -35,7 +37,7 @@ _FIELDS = {
 }
 
 
-class SpecError(ValueError):
+class SpecError(BadInputFile):
     """A specification that cannot be used; the message names the file and the field."""
 
 

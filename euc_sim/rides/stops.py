@@ -25,6 +25,8 @@ import math
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import InputError
+
 __all__ = ["V_STOP", "T_STOP", "find_stops", "moving_segments", "rest_rows"]
 
 #: |v| below this is standing still, m/s (0.36 km/h; the logs read 0.00–0.02 m/s at a stop).
@@ -56,9 +58,9 @@ def find_stops(t: np.ndarray, v: np.ndarray, v_max: float = V_STOP,
     """
     t, v = np.asarray(t, float), np.asarray(v, float)
     if not (math.isfinite(v_max) and v_max > 0):
-        raise ValueError(f"v_max must be a positive number of m/s, got {v_max!r}")
+        raise InputError(f"v_max must be a positive number of m/s, got {v_max!r}")
     if not (math.isfinite(min_duration) and min_duration >= 0):
-        raise ValueError(f"min_duration must be a non-negative number of s, got {min_duration!r}")
+        raise InputError(f"min_duration must be a non-negative number of s, got {min_duration!r}")
     still = np.abs(v) < v_max
     edges = np.diff(np.concatenate([[0], still.astype(np.int8), [0]]))
     first, after = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)

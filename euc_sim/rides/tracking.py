@@ -20,6 +20,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 
 __all__ = ["limit_acceleration", "rider_acceleration_limit", "resisting_acceleration", "to_grid", "ProfileRun",
@@ -56,7 +57,7 @@ def limit_acceleration(t: np.ndarray, v: np.ndarray, a_max: float) -> np.ndarray
         m/s, same shape as ``v``.
     """
     if not (math.isfinite(a_max) and a_max > 0):
-        raise ValueError(f"a_max must be a positive number of m/s², got {a_max!r}")
+        raise InputError(f"a_max must be a positive number of m/s², got {a_max!r}")
     t = np.asarray(t, float)
     v = np.asarray(v, float)
     dv = a_max * np.diff(t)
@@ -99,7 +100,7 @@ def moving_average(t: np.ndarray, v: np.ndarray, width: float) -> np.ndarray:
     t = np.asarray(t, float)
     v = np.asarray(v, float)
     if not (math.isfinite(width) and width >= 0):
-        raise ValueError(f"moving-average width must be a non-negative number of s, got {width!r}")
+        raise InputError(f"moving-average width must be a non-negative number of s, got {width!r}")
     if v.size < 2:
         return v.copy()
     n = int(round(width / float(np.median(np.diff(t)))))
@@ -169,7 +170,7 @@ def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEA
     from euc_sim.simulation.engine import FALL_BOUNDS
 
     if not (math.isfinite(lean_share) and 0 < lean_share < 1):
-        raise ValueError(f"lean_share must be in (0, 1), got {lean_share!r}")
+        raise InputError(f"lean_share must be in (0, 1), got {lean_share!r}")
     motor = motor or MotorPD()
     target = lean_share * (FALL_BOUNDS["phi"] if phi_max is None else phi_max)
 

@@ -29,6 +29,7 @@ import numpy as np
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE, Rider
 from euc_sim import io
+from euc_sim.errors import InputError
 from euc_sim.simulation.mocap import motion_capture
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation.maneuvers import Maneuver, make_maneuver
@@ -415,7 +416,7 @@ def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | 
     check_backend(scheduler, workers)
     batch = DATASET_BATCH if batch is None else batch
     if not (isinstance(batch, int) and not isinstance(batch, bool) and batch >= 1):
-        raise ValueError(f"batch: expected a positive number of recordings, got {batch!r}")
+        raise InputError(f"batch: expected a positive number of recordings, got {batch!r}")
     digest = plan_digest(specs, ext)
     _check_folder(out_dir, digest)
     groups = {f"batch{i // batch:04d}": specs[i:i + batch] for i in range(0, len(specs), batch)}

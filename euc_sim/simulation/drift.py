@@ -31,6 +31,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 
 __all__ = ["DRIFT_SHAPES", "DriftShape", "parse_drift_shape", "cog_height", "drift_rates", "drift_forces",
@@ -71,16 +72,16 @@ class DriftShape:
 
     def __post_init__(self):
         if self.kind not in DRIFT_SHAPES:
-            raise ValueError(f"drift shape: kind must be one of {', '.join(DRIFT_SHAPES)}, got {self.kind!r}")
+            raise InputError(f"drift shape: kind must be one of {', '.join(DRIFT_SHAPES)}, got {self.kind!r}")
         if not (np.isfinite(self.start) and np.isfinite(self.length)):
-            raise ValueError(f"drift shape: start and length must be finite, got {self.start!r}, {self.length!r}")
+            raise InputError(f"drift shape: start and length must be finite, got {self.start!r}, {self.length!r}")
         if self.kind in ("ramp", "dip", "sine") and self.length < MIN_LENGTH:
-            raise ValueError(f"drift shape: length must be at least {MIN_LENGTH:g} s (a physical crouch), "
+            raise InputError(f"drift shape: length must be at least {MIN_LENGTH:g} s (a physical crouch), "
                              f"got {self.length!r}")
         if self.sign not in (1.0, -1.0):
-            raise ValueError(f"drift shape: sign must be +1 or -1, got {self.sign!r}")
+            raise InputError(f"drift shape: sign must be +1 or -1, got {self.sign!r}")
         if self.kind == "profile" and (len(self.knots_t) < 4 or len(self.knots_t) != len(self.knots_dh)):
-            raise ValueError("drift shape: a profile needs at least 4 knots_t and as many knots_dh, "
+            raise InputError("drift shape: a profile needs at least 4 knots_t and as many knots_dh, "
                              f"got {len(self.knots_t)} and {len(self.knots_dh)}")
 
     def as_dict(self) -> dict:
@@ -93,16 +94,16 @@ def parse_drift_shape(text: str) -> DriftShape:
     """``KIND[,key=value...]``, e.g. ``ramp,start=5,length=4,sign=-1`` (the CLI's ``--drift-shape``)."""
     parts = [s.strip() for s in str(text).split(",") if s.strip()]
     if not parts:
-        raise ValueError(f"--drift-shape: expected KIND[,start=S,length=S,sign=±1,seed=N], got {text!r}")
+        raise InputError(f"--drift-shape: expected KIND[,start=S,length=S,sign=±1,seed=N], got {text!r}")
     kw = {}
     for item in parts[1:]:
         key, sep, val = item.partition("=")
         if not sep or key not in ("start", "length", "sign", "seed"):
-            raise ValueError(f"--drift-shape: expected start=, length=, sign= or seed=, got {item!r}")
+            raise InputError(f"--drift-shape: expected start=, length=, sign= or seed=, got {item!r}")
         try:
             kw[key] = int(val) if key == "seed" else float(val)
         except ValueError:
-            raise ValueError(f"--drift-shape: {key} expects a number, got {val!r}") from None
+            raise InputError(f"--drift-shape: {key} expects a number, got {val!r}") from None
     return DriftShape(parts[0], **kw)
 
 

@@ -26,6 +26,7 @@ from typing import Literal
 
 import numpy as np
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 from euc_sim.simulation.lateral import (LATERAL_INPUTS, LATERAL_WINDOW, LEAN_INPUTS,  # re-exported
                                         RIDER_MARKER_INPUTS, RIDER_YAW_INERTIA_RATIO, band_peak_tilt,
@@ -125,7 +126,7 @@ def get(name: str) -> Effect:
     try:
         return CATALOG[name]
     except KeyError:
-        raise ValueError(f"unknown effect {name!r}; valid effects: {', '.join(CATALOG)}") from None
+        raise InputError(f"unknown effect {name!r}; valid effects: {', '.join(CATALOG)}") from None
 
 
 def parse_assignment(text: str) -> tuple[str, float]:
@@ -133,14 +134,14 @@ def parse_assignment(text: str) -> tuple[str, float]:
     name, sep, value = text.partition("=")
     name = name.strip()
     if not sep:
-        raise ValueError(f"effect must be given as NAME=VALUE, got {text!r}")
+        raise InputError(f"effect must be given as NAME=VALUE, got {text!r}")
     get(name)
     try:
         v = float(value)
     except ValueError:
-        raise ValueError(f"effect {name}: expected a number in {CATALOG[name].unit}, got {value!r}") from None
+        raise InputError(f"effect {name}: expected a number in {CATALOG[name].unit}, got {value!r}") from None
     if not np.isfinite(v):
-        raise ValueError(f"effect {name}: value must be finite, got {value!r}")
+        raise InputError(f"effect {name}: value must be finite, got {value!r}")
     return name, v
 
 

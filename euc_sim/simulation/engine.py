@@ -64,7 +64,7 @@ from euc_sim.controllers.rider import Rider, RiderRun
 from euc_sim.simulation import drift
 from euc_sim.simulation import effects as fx
 from euc_sim.model.parameters import Params, TABLE3
-from euc_sim.simulation.errors import FallError, SimulationError
+from euc_sim.simulation.errors import FallError, SimulationError, check_stable
 from euc_sim.simulation.maneuvers import LateralMotion, as_maneuver, lateral_profile
 from euc_sim.simulation.steppers import _AnalyticStepper, _MujocoStepper  # noqa: F401  (re-exported)
 
@@ -233,6 +233,8 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
                                  _moving(ext, ride.p_true, dt))
         if result is None:
             result = _closed_loop(stepper, motor, run, ext, ride.p_true, dt, N, y0, bounds, progress)
+        if engine == "mujoco":
+            check_stable(stepper.d, N * dt)
     except FallError as exc:             # the run up to the fall, for a caller that keeps it
         ride.attach_partial(exc)
         raise

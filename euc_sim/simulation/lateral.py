@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 
 #: The tilt and yaw signals the ``lateral_dynamics`` term needs (rad, rad/s, rad/s²).
@@ -58,7 +59,7 @@ def band_peak_tilt(theta, dt: float, window: float = LATERAL_WINDOW) -> float:
     theta = np.asarray(theta, dtype=float)
     w = int(round(window / dt)) | 1
     if theta.ndim != 1 or theta.size < 2 * w:
-        raise ValueError(f"theta: expected a 1-D tilt of at least {2 * w} samples (two {window:g} s "
+        raise InputError(f"theta: expected a 1-D tilt of at least {2 * w} samples (two {window:g} s "
                          f"windows at dt = {dt:g} s), got shape {theta.shape}")
     e = w // 2
     return float(np.max(np.abs(savgol_filter(theta, w, 3, mode="interp")[e:theta.size - e])))

@@ -95,6 +95,12 @@ class Maneuver:
         return d
 
 
+#: What a maneuver option may be: speeds in m/s (an EUC tops out near 30), times in s
+#: (an hour), up to 100 stop-and-go cycles.
+OPTION_RANGES = {"v": (-30.0, 30.0), "v0": (-30.0, 30.0), "v1": (-30.0, 30.0), "start": (0.0, 3600.0),
+                 "ramp": (0.0, 3600.0), "hold": (0.0, 3600.0), "cycles": (1, 100)}
+
+
 def make_maneuver(name: str, **options) -> Maneuver:
     """A built-in maneuver, shaped like the paper's recordings (speeds in m/s, times in s).
 
@@ -128,8 +134,11 @@ def make_maneuver(name: str, **options) -> Maneuver:
                               f"options: {', '.join(defaults[name])}")
     o = {**defaults[name], **options}
     for key, val in o.items():
-        if not (isinstance(val, (int, float)) and math.isfinite(val)):
+        if isinstance(val, bool) or not (isinstance(val, (int, float)) and math.isfinite(val)):
             raise SimulationError(f"maneuver option {key!r} must be a finite number, got {val!r}")
+        lo, hi = OPTION_RANGES[key]
+        if not lo <= val <= hi:
+            raise SimulationError(f"maneuver option {key!r} must lie in [{lo:g}, {hi:g}], got {val:g}")
     opts = tuple(sorted(options.items()))
     if name == "constant_speed":
         return Maneuver(name, float(o["v"]), options=opts)

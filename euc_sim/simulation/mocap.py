@@ -33,6 +33,7 @@ import numpy as np
 import pandas as pd
 from scipy.interpolate import CubicHermiteSpline
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 
 __all__ = ["RATE", "E_HEIGHT", "NOISE_LEVELS", "RECORDING_COLUMNS", "sample_times",
@@ -101,7 +102,7 @@ def motion_capture(run: pd.DataFrame, params: Params, *, noise: str = "paper", s
         for an unknown noise level or a run without the needed columns.
     """
     if isinstance(noise, str) and noise not in NOISE_LEVELS:
-        raise ValueError(f"unknown noise level {noise!r}; valid: {', '.join(NOISE_LEVELS)}")
+        raise InputError(f"unknown noise level {noise!r}; valid: {', '.join(NOISE_LEVELS)}")
     need = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h")
     missing = [c for c in need if c not in run.columns]
     if missing:

@@ -61,7 +61,7 @@ from scipy.linalg.lapack import dtrtrs
 from threadpoolctl import threadpool_limits
 
 from euc_sim.simulation import engine
-from euc_sim.simulation.errors import FallError
+from euc_sim.simulation.errors import FallError, UnstableError
 from euc_sim.simulation.native_core import exclusive
 
 __all__ = ["simulate_rides", "batchable", "available", "NU", "BATCH_EFFECTS", "PIPELINE_BATCHES"]
@@ -429,8 +429,7 @@ def _run_batch(rides: list, forces: list, nthread: int) -> list:
         steps = block if k0 + block <= N else block - 1
         if steps:
             batch.step(active, nstep=steps)
-            if not np.all(ud[active, S_K] == k0 + steps):
-                raise RuntimeError("mujoco_batch: the callback's step count lost step with the batch")
+            active = _drop_reset(active, ud, k0, steps, (rides, P, MD, MH, n), out)
         fell = active[ud[active, S_FALL] >= 0]
         for s in fell:
             out[s] = _fall(rides[s], P[s, n:], MD[s], MH[s], int(ud[s, S_FALL]))
@@ -448,6 +447,26 @@ def _run_batch(rides: list, forces: list, nthread: int) -> list:
         MD[s, N] = r.motor.torque(y[1], y[4], y[3])
         out[s] = r.frame(P[s, n:].copy(), np.column_stack([MD[s], MH[s]]))
     return out
+
+
+def _drop_reset(active: np.ndarray, ud: np.ndarray, k0: int, steps: int, run, out: list) -> np.ndarray:
+    """The simulations of ``active`` still running after a block; those MuJoCo reset get an
+    :class:`UnstableError` in ``out``.
+
+    MuJoCo resets a simulation whose state became NaN, infinite or huge, and
+    ``mj_resetData`` zeroes its userdata: the step count reads 0.  Any other count
+    than the block's end is a bug.
+    """
+    rides, P, MD, MH, n = run
+    lost = ud[active, S_K] != k0 + steps
+    for s in active[lost]:
+        if ud[s, S_K] != 0:
+            raise RuntimeError("mujoco_batch: the callback's step count lost step with the batch")
+        exc = UnstableError(k0 * rides[s].run.dt, "seen as its step count reset to 0")
+        exc.partial = (P[s, n:n + k0].copy(), np.column_stack([MD[s, :k0], MH[s, :k0]]))
+        rides[s].attach_partial(exc)
+        out[s] = exc
+    return active[~lost]
 
 
 def _states(qpos: np.ndarray, qvel: np.ndarray, st) -> np.ndarray:

@@ -19,12 +19,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["RenderError", "poses", "render_recording"]
 
 
-class RenderError(ValueError):
+class RenderError(InputError):
     """The recording cannot be replayed or no OpenGL backend is available."""
 
 
@@ -32,9 +33,41 @@ def _read(path: Path) -> pd.DataFrame:
     if not path.is_file():
         raise RenderError(f"{path}: no such file")
     try:
-        return pd.read_parquet(path) if path.suffix.lower() == ".parquet" else pd.read_csv(path)
+        df = pd.read_parquet(path) if path.suffix.lower() == ".parquet" else pd.read_csv(path)
     except Exception as exc:  # pandas raises several types for a bad file
         raise RenderError(f"{path}: cannot read ({type(exc).__name__})") from None
+    return _checked(df, path)
+
+
+#: The columns a replay reads, where present.
+_POSE_COLUMNS = ("t", "x", "psi", "theta", "gamma", "phi", "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z",
+                 "G_X", "G_Y", "G_Z")
+
+
+def _checked(df: pd.DataFrame, path: Path) -> pd.DataFrame:
+    """The recording with its pose columns as finite floats, at least one row, and t increasing.
+
+    Raises
+    ------
+    RenderError
+        naming the file, the column and the first bad row (1-based, header excluded).
+    """
+    if len(df) == 0:
+        raise RenderError(f"{path}: no data rows (header only)")
+    df = df.copy()
+    for col in (c for c in _POSE_COLUMNS if c in df.columns):
+        values = pd.to_numeric(df[col], errors="coerce").to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            cell = df[col].iloc[bad[0]]
+            cell = repr(cell) if isinstance(cell, str) else str(cell)
+            raise RenderError(f"{path}: column {col!r} row {bad[0] + 1}: {cell} "
+                              f"is not a finite number ({bad.size} such rows)")
+        df[col] = values
+    if "t" in df.columns and len(df) > 1 and not np.all(np.diff(df["t"].to_numpy()) > 0):
+        row = int(np.flatnonzero(np.diff(df["t"].to_numpy()) <= 0)[0]) + 2
+        raise RenderError(f"{path}: column 't' row {row}: time must increase")
+    return df
 
 
 def _rot(psi, theta, gamma) -> np.ndarray:

@@ -51,6 +51,8 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
+from euc_sim.errors import InputError
+
 __all__ = ["RunReport", "run_tasks", "check_backend"]
 
 
@@ -99,11 +101,11 @@ class RunReport:
 def check_backend(scheduler: str | None, workers: int | None) -> None:
     """Raise ``ValueError`` naming the option for an unusable ``--scheduler``/``--workers``."""
     if workers is not None and (not isinstance(workers, int) or isinstance(workers, bool) or workers < 1):
-        raise ValueError(f"--workers must be a positive integer, got {workers!r}")
+        raise InputError(f"--workers must be a positive integer, got {workers!r}")
     if scheduler is None or scheduler == "local":
         return
     if not _is_address(scheduler):
-        raise ValueError(f"--scheduler must be 'local' or a Dask scheduler address tcp://HOST:PORT "
+        raise InputError(f"--scheduler must be 'local' or a Dask scheduler address tcp://HOST:PORT "
                          f"(or tls://HOST:PORT), got {scheduler!r}")
 
 

@@ -29,9 +29,10 @@ import pandas as pd
 from euc_sim.controllers.lateral import LateralRider, design_lateral
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.controllers.rider import RiderRun
+from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation import effects
-from euc_sim.simulation.errors import FallError, SimulationError
+from euc_sim.simulation.errors import FallError, SimulationError, check_stable
 from euc_sim.simulation.maneuvers import make_maneuver
 from euc_sim.simulation.mocap import E_HEIGHT
 
@@ -273,6 +274,7 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
                            TURN_EFFORT_TIME)
     if rows is None:
         rows = _ride(sim, run, motor, lateral, _Tracker(route), v_ref.tolist(), N, dt, y0, external_force)
+    check_stable(sim.data, N * dt)
     cols = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref", "psi",
             "theta", "psi_dot", "theta_dot", "M_lean", "M_twist", "e_y",
             "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
@@ -411,7 +413,7 @@ def spatial_recording(run: pd.DataFrame, *, noise: str = "paper", seed: int = 0,
     from euc_sim.simulation.mocap import NOISE_LEVELS, sample_times
 
     if noise not in NOISE_LEVELS:
-        raise ValueError(f"unknown noise level {noise!r}; valid: {', '.join(NOISE_LEVELS)}")
+        raise InputError(f"unknown noise level {noise!r}; valid: {', '.join(NOISE_LEVELS)}")
     sig_pos, sig_ang = NOISE_LEVELS[noise]
     ts = run["t"].to_numpy()
     t = sample_times(float(ts[-1]), rate)

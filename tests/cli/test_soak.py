@@ -1,0 +1,65 @@
+"""scripts/soak.py keeps working: a tiny soak, and its sorting of outcomes."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "soak.py"
+
+
+@pytest.fixture(scope="module")
+def soak():
+    spec = importlib.util.spec_from_file_location("soak_script", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules["soak_script"] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_sorting_of_outcomes(soak):
+    run = soak.Run("malformed", ["torques", "a.csv", "--out", "T.csv"])
+    run.code = 2
+    assert soak.classify(run, "euc-sim torques: error: a.csv: column 'x' missing\n")[0] == "refused"
+    assert soak.classify(run, "torques: 1/2 reading ...\neuc-sim torques: error: bad\n")[0] == "refused"
+    assert soak.classify(run, "euc-sim torques: error: bad\nmore\n")[0] == "crash"
+    assert soak.classify(run, "Traceback (most recent call last):\n  ...\nKeyError: 'x'\n")[0] == "crash"
+    run.code = 1
+    assert soak.classify(run, "euc-sim torques: internal error: KeyError: 'x'; the traceback is in "
+                              "/tmp/e.txt\n")[0] == "internal"
+    assert soak.classify(run, "NOT OK\n")[0] == "crash"
+    run.code = -11
+    assert soak.classify(run, "")[0] == "crash"
+    run.code = None
+    assert soak.classify(run, "")[0] == "crash"
+    run.code = 0
+    assert soak.classify(run, "torques: wrote T.csv\n")[0] == "finished"
+
+
+def test_leftovers_are_found(soak, tmp_path):
+    work, tmp = tmp_path / "work", tmp_path / "tmp"
+    work.mkdir()
+    tmp.mkdir()
+    (work / "in.csv").write_text("t\n")
+    before = {p.relative_to(work): p.stat().st_mtime_ns for p in work.rglob("*")}
+    run = soak.Run("valid", ["torques"], outputs=["T.csv"])
+    run.outcome = "finished"
+    (work / "T.csv").write_text("x\n")
+    assert soak.leftovers(run, work, tmp, before) == []
+    (work / ".T.tmp-1234.csv").write_text("")
+    (work / "MUJOCO_LOG.TXT").write_text("")
+    (tmp / "stray").write_text("")
+    assert soak.leftovers(run, work, tmp, before) == [".T.tmp-1234.csv", "MUJOCO_LOG.TXT", "TMPDIR/stray"]
+    run.outcome = "refused"                      # after a refusal, not even the named outputs
+    assert "T.csv" in soak.leftovers(run, work, tmp, before)
+
+
+def test_a_tiny_soak_is_clean(soak):
+    res = soak.soak(3, 3, seed=0, workers=2, progress=False)
+    counts = res["counts"]["all"]
+    assert sum(counts[k] for k in ("finished", "refused", "internal", "crash")) == 6
+    assert counts["internal"] == counts["crash"] == counts["leftovers"] == 0, res["not_clean"]
+    assert res["counts"]["valid"]["finished"] == 3, res["not_clean"]
