@@ -234,7 +234,7 @@ def add_commands(sub) -> None:
     """Register ``simulate``, ``dataset`` and ``stability`` on the subparsers ``sub``."""
     from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
     from euc_sim.cli.common import seed
-    from euc_sim.cli.options import deprecated, one_of
+    from euc_sim.cli.options import one_of
     from euc_sim.model.mujoco_model import VARIANTS
     from euc_sim.simulation.effects import names as effect_names
     from euc_sim.simulation.engine import ENGINES
@@ -278,6 +278,26 @@ def add_commands(sub) -> None:
     _controller_options(p)
     p.set_defaults(func=_cmd_simulate)
 
+    _add_dataset_parser(sub)
+
+    p = sub.add_parser("stability", help="linearisation, eigenvalues and the rider's delay margin")
+    p.add_argument("--json", metavar="FILE", help="write the report as JSON")
+    p.add_argument("--speed", type=bounded(-30.0, 30.0, unit="m/s"), default=0.0, metavar="M/S",
+                   help="operating speed, m/s (within ±30)")
+    _controller_options(p)
+    p.set_defaults(func=_cmd_stability)
+
+
+def _add_dataset_parser(sub) -> None:
+    """Register ``dataset`` on the subparsers ``sub``."""
+    from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
+    from euc_sim.cli.common import seed
+    from euc_sim.cli.options import deprecated, one_of
+    from euc_sim.simulation.effects import names as effect_names
+    from euc_sim.simulation.engine import ENGINES
+    from euc_sim.simulation.mocap import NOISE_LEVELS
+
+    effect_help = f"NAME one of {', '.join(effect_names())}"
     p = sub.add_parser("dataset", help="a paper-like set of synthetic recordings, in parallel")
     out = p.add_mutually_exclusive_group(required=True)
     out.add_argument("--out-dir", metavar="DIR",
@@ -305,10 +325,3 @@ def add_commands(sub) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     deprecated(p, "--no-progress", "--quiet")
     p.set_defaults(func=_cmd_dataset)
-
-    p = sub.add_parser("stability", help="linearisation, eigenvalues and the rider's delay margin")
-    p.add_argument("--json", metavar="FILE", help="write the report as JSON")
-    p.add_argument("--speed", type=bounded(-30.0, 30.0, unit="m/s"), default=0.0, metavar="M/S",
-                   help="operating speed, m/s (within ±30)")
-    _controller_options(p)
-    p.set_defaults(func=_cmd_stability)

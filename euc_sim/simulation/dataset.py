@@ -255,14 +255,14 @@ def plan_digest(specs: list[RecordingSpec], ext: str = ".csv") -> str:
 
 
 def _check_folder(out_dir: Path, digest: str) -> None:
-    """Raise ``ValueError`` (one line) unless ``out_dir`` is missing, empty, or a previous
+    """Raise ``InputError`` (one line) unless ``out_dir`` is missing, empty, or a previous
     dataset of the same plan (its manifest's ``plan`` is ``digest``) holding nothing else."""
     import json
 
     if not out_dir.exists():
         return
     if not out_dir.is_dir():
-        raise ValueError(f"dataset folder {out_dir}: exists and is not a folder")
+        raise InputError(f"dataset folder {out_dir}: exists and is not a folder")
     present = {p.name for p in out_dir.iterdir()}
     if not present:
         return
@@ -273,7 +273,7 @@ def _check_folder(out_dir: Path, digest: str) -> None:
     except (OSError, ValueError, KeyError, TypeError):
         same = False
     if not same:
-        raise ValueError(f"dataset folder {out_dir}: not empty and not a previous dataset of these settings "
+        raise InputError(f"dataset folder {out_dir}: not empty and not a previous dataset of these settings "
                          f"(its {MANIFEST} is missing or names another plan, or other files are there); "
                          f"choose a new or empty folder")
 

@@ -1,22 +1,14 @@
-"""scripts/soak.py keeps working: a tiny soak, and its sorting of outcomes."""
+"""The soak (euc_sim.evaluation.soak, run as scripts/soak.py) keeps working: a tiny soak, and its sorting of outcomes."""
 
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import pytest
-
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "soak.py"
 
 
 @pytest.fixture(scope="module")
 def soak():
-    spec = importlib.util.spec_from_file_location("soak_script", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules["soak_script"] = module
-    spec.loader.exec_module(module)
+    from euc_sim.evaluation import soak as module
+
     return module
 
 
