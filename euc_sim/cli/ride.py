@@ -141,6 +141,9 @@ def run_ride(log, compare=None, *, report_dir=None, domain: str = "power", assum
     rep = dict(an.report)
     rep.update(physics[0])
     rep["notes"] = list(rep["notes"]) + [_mass_grid_note(physics[1])]
+    if compare is not None:     # what differs between the two rides: euc_sim.rides.differences
+        from euc_sim.rides.differences_report import differences_json
+        rep.update(differences_json(rep, physics[1], physics[2], log, compare))
     say("reading the wheel's balance law")
     from euc_sim.rides.controller_report import controller_json, torque_constant
     rep["controller"] = controller_json(log, compare, torque_constant(rep.get("drivetrain")),
@@ -321,6 +324,8 @@ def _mass_lines(rep: dict) -> list[str]:
         lines.append(f"  not identified: {name}: {why}")
     if rep.get("pwm") and rep["pwm"].get("heldout_rmse") is not None:
         lines.append(f"  PWM held out: {rep['pwm']['heldout_rmse']:.1f} percentage points RMS")
+    if rep.get("differences_sentence"):
+        lines.append(f"  compared: {rep['differences_sentence']}")
     return lines
 
 

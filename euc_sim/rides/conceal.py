@@ -13,9 +13,9 @@ The physics (the paper's longitudinal balance, eq. 5–6, and the drivetrain of
 - extra wheel power ``ΔP_w = ΔF·v`` with ``ΔF = Δm·(a + g·sinθ)`` (mass, the
   grade from GPS altitude), ``½ρ·ΔC_dA·v²`` (drag) or ``ΔC_rr·m·g`` (rolling);
 - battery power ``P = P_w/η`` when motoring, ``P_w·η`` when braking;
-- the pack's own sag: ``V = W − R·I`` with ``W = V + R·I`` the logged EMF and
-  ``R`` the pack resistance fitted on the log (``V = E₀ − k_Q·Q − R·I``), and
-  ``V·I = P`` solved for the new current;
+- the pack's own sag: ``V = W − k_Q·ΔQ − R·I`` with ``W = V + R·I`` the logged
+  EMF, ``ΔQ`` the extra charge drawn and ``R``, ``k_Q`` fitted on the log
+  (``V = E₀ − k_Q·Q − R·I``), and ``V·I = P`` solved for the new current;
 - phase current ``I_ph = k_ph·F + c`` and duty ``d·V = K_v·v + r_F·F``, their
   constants fitted on the log itself (``F = P/v`` above 2 m/s).
 
@@ -36,7 +36,7 @@ from euc_sim.rides.power import G, RHO_AIR
 __all__ = ["LogConstants", "Kinematics", "EFFECTS", "read_raw", "write_raw", "kinematics",
            "log_constants", "add_wheel_power", "conceal_mass", "conceal_drag",
            "conceal_rolling", "conceal_resistance", "conceal_tyre_size",
-           "conceal_current_delay", "conceal", "electrical_power", "battery_current"]
+           "conceal_current_delay", "conceal", "electrical_power", "battery_current", "charge_drawn"]
 
 KMH = 1.0 / 3.6
 #: Speed above which force is taken as power over speed, m/s.
@@ -79,6 +79,8 @@ class LogConstants:
     ----------
     R_pack : float
         Pack resistance, Ω.
+    k_Q : float
+        Open-circuit voltage fall per ampere-hour drawn, V/Ah.
     k_phase : float or None
         Phase amperes per newton at the wheel (None without a phase-current column).
     K_v : float or None
@@ -88,6 +90,7 @@ class LogConstants:
     """
 
     R_pack: float
+    k_Q: float
     k_phase: float | None
     K_v: float | None
     r_F: float | None
@@ -169,11 +172,10 @@ def _fit(X: np.ndarray, y: np.ndarray) -> np.ndarray | None:
 def log_constants(raw: pd.DataFrame, kin: Kinematics) -> LogConstants:
     """Fit the pack resistance, the phase-current gain and the duty model on the log itself."""
     V, I = raw["voltage"].to_numpy(float), raw["current"].to_numpy(float)
-    dt = np.r_[0.0, np.diff(kin.t)]
-    dt[dt > 1.0] = 0.0
-    Q = np.cumsum(np.nan_to_num(I) * dt) / 3600.0
+    Q = charge_drawn(kin.t, I)
     bat = _fit(np.column_stack([np.ones_like(V), -Q, -I]), V)
     R = float(max(bat[2], 0.0)) if bat is not None else 0.0
+    k_Q = float(max(bat[1], 0.0)) if bat is not None else 0.0
     moving = kin.v > V_MIN
     F = np.where(moving, V * I / np.where(moving, kin.v, 1.0), np.nan)
     k_ph = None
@@ -186,7 +188,7 @@ def log_constants(raw: pd.DataFrame, kin: Kinematics) -> LogConstants:
         c = _fit(np.column_stack([np.where(moving, kin.v, np.nan), F]), d * V)
         if c is not None:
             K_v, r_F = float(c[0]), float(c[1])
-    return LogConstants(R_pack=R, k_phase=k_ph, K_v=K_v, r_F=r_F)
+    return LogConstants(R_pack=R, k_Q=k_Q, k_phase=k_ph, K_v=K_v, r_F=r_F)
 
 
 def electrical_power(P_wheel: np.ndarray, eta: float) -> np.ndarray:
@@ -217,13 +219,29 @@ def battery_current(W: np.ndarray, R: float, P: np.ndarray) -> np.ndarray:
     return 2.0 * P / (W + np.sqrt(disc))
 
 
-def _set_battery(raw: pd.DataFrame, out: pd.DataFrame, R_total: float, R_pack: float,
-                 P_new: np.ndarray) -> np.ndarray:
-    """Write voltage, current and power for a new terminal power; returns the new voltage."""
+def charge_drawn(t: np.ndarray, I: np.ndarray) -> np.ndarray:
+    """Charge drawn since the first row, Ah (gaps over 1 s not counted)."""
+    dt = np.r_[0.0, np.diff(t)]
+    dt[dt > 1.0] = 0.0
+    return np.cumsum(np.nan_to_num(I) * dt) / 3600.0
+
+
+def _set_battery(raw: pd.DataFrame, out: pd.DataFrame, consts: LogConstants, R_total: float,
+                 P_new: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Write voltage, current and power for a new terminal power; returns the new voltage.
+
+    The EMF behind the pack's resistance is the logged one, ``V + R·I``, less
+    ``k_Q`` times the extra charge drawn (repeated: the extra charge depends
+    on the new current; five passes converge).
+    """
     V, I = raw["voltage"].to_numpy(float), raw["current"].to_numpy(float)
-    W = V + R_pack * I
-    I_new = np.where(np.isfinite(P_new), battery_current(W, R_total, np.nan_to_num(P_new)), I)
-    V_new = np.where(np.isfinite(P_new), W - R_total * I_new, V)
+    W = V + consts.R_pack * I
+    ok = np.isfinite(P_new)
+    I_new = I
+    for _ in range(5):
+        Wq = W - consts.k_Q * charge_drawn(t, np.where(ok, I_new - I, 0.0))
+        I_new = np.where(ok, battery_current(Wq, R_total, np.nan_to_num(P_new)), I)
+    V_new = np.where(ok, Wq - R_total * I_new, V)
     out["voltage"], out["current"] = V_new, I_new
     if "power" in raw:
         out["power"] = raw["power"].to_numpy(float) + np.nan_to_num(V_new * I_new - V * I)
@@ -255,7 +273,7 @@ def add_wheel_power(raw: pd.DataFrame, dP_wheel: np.ndarray, eta: float,
     out = raw.copy()
     P_el = raw["voltage"].to_numpy(float) * raw["current"].to_numpy(float)
     P_new = electrical_power(_wheel_power(P_el, eta) + dP_wheel, eta)
-    V_new = _set_battery(raw, out, consts.R_pack, consts.R_pack, P_new)
+    V_new = _set_battery(raw, out, consts, consts.R_pack, P_new, kin.t)
     moving = kin.v > V_MIN
     dF = np.where(moving, dP_wheel / np.where(moving, kin.v, 1.0), 0.0)
     if consts.k_phase is not None and "current_phase" in raw:
@@ -293,7 +311,7 @@ def conceal_resistance(raw: pd.DataFrame, dR: float) -> pd.DataFrame:
     consts = log_constants(raw, kin)
     out = raw.copy()
     P = raw["voltage"].to_numpy(float) * raw["current"].to_numpy(float)
-    V_new = _set_battery(raw, out, consts.R_pack + dR, consts.R_pack, P)
+    V_new = _set_battery(raw, out, consts, consts.R_pack + dR, P, kin.t)
     _set_duty(raw, out, V_new, np.zeros_like(P), consts.r_F)
     return out
 
