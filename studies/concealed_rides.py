@@ -101,6 +101,25 @@ def score(rep: dict, case: str) -> dict:
     return row
 
 
+def _cell(row: dict, rule: str) -> str:
+    named = ", ".join(row[f"{rule}_named"]) or "nothing"
+    est = row.get(f"{rule}_estimate")
+    size = "" if est is None else f" {est:.3g}"
+    ci = row.get(f"{rule}_ci95")
+    size += "" if not ci else f" [{ci[0]:.3g}, {ci[1]:.3g}]"
+    return f"{'yes' if row[f'{rule}_ok'] else 'no'}: {named};{size}"
+
+
+def table(rows: list) -> str:
+    """Markdown table of :func:`score` rows."""
+    out = ["| ride | case | truth | independent rule | given LOG's model |", "|---|---|---|---|---|"]
+    for r in rows:
+        truth = CASES[r["case"]][2]
+        out.append(f"| {r['ride']} | {r['case']} | {'—' if truth is None else f'{truth:.3g}'} | "
+                   f"{_cell(r, 'independent')} | {_cell(r, 'given_log_model')} |")
+    return "\n".join(out)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--data", default=str(DATA), help="the shared euc_core folder")
@@ -117,6 +136,7 @@ def main(argv=None) -> int:
             rows.append(row)
             print(json.dumps(row), flush=True)
     (work / "scores.json").write_text(json.dumps(rows, indent=1))
+    print(table(rows))
     return 0
 
 
