@@ -40,8 +40,10 @@ def log_model_residual(sig, fit, v_min: float = V_MIN):
     residual : ndarray
         Logged minus predicted power on those rows, W.
     """
+    c = fit.coef or {}
+    if "inertia" not in c or fit.lag is None:          # no balance fitted on LOG
+        return np.zeros(len(sig.t), bool), np.empty(0)
     lag = int(round(fit.lag / np.median(np.diff(sig.t))))
-    c = fit.coef
     force = ((c["inertia"], c.get("rolling", 0.0), c.get("drag", 0.0))
              if fit.copper_column == "force" else None)
     cols = mass_regressors(sig, lag, force)

@@ -144,3 +144,16 @@ def test_mass_entry_is_the_mass_difference_view():
     res = df.ride_differences(a, b, _gains(total_mass=0.1), {}, {}, "x", mass_view=view)
     m = next(d for d in res.items if d.name == "total_mass")
     assert m.estimate == pytest.approx(29.0) and m.ci95 == pytest.approx((10.0, 48.0)) and m.named
+
+
+def test_no_balance_on_log_gives_no_test():
+    from types import SimpleNamespace
+
+    from euc_sim.rides.differences_report import log_model_residual
+
+    t, v, av, P = _ride(0, n=300)
+    sig = SimpleNamespace(t=t, v=v, P=P)
+    ok, res = log_model_residual(sig, SimpleNamespace(coef={}, lag=0.0))
+    assert not ok.any() and res.size == 0
+    assert df.heldout_gain(t[ok], res, v[ok] ** 3) is None
+    assert df.residual_coefficient(t[ok], res, v[ok] ** 3) is None
