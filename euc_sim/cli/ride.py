@@ -76,6 +76,8 @@ def _mass_lines(rep: dict) -> list[str]:
         lines.append(f"  not identified: {name}: {why}")
     if rep.get("pwm") and rep["pwm"].get("heldout_rmse") is not None:
         lines.append(f"  PWM held out: {rep['pwm']['heldout_rmse']:.1f} percentage points RMS")
+    if rep.get("differences_sentence"):
+        lines.append(f"  compared: {rep['differences_sentence']}")
     return lines
 
 

@@ -112,6 +112,11 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     an = ride_analysis(log, compare, assumptions=assumptions, domain=domain, n_boot=n_boot,
                        seed=seed, progress=say)
     rep = _one_parameter_set(an, physics, log, compare, n_boot, seed, say)
+    if compare is not None:     # what differs between the two rides (rides.differences), each
+        # ride's terms from its own energy-balance fit, so both sides are read alike
+        from euc_sim.rides.differences_report import differences_json
+
+        rep.update(differences_json(physics[0], physics[1], physics[2], log.path, compare.path))
     say("locating the residual")
     traces = _localise(rep, an, domain, log, compare)
     sim = _simulation(rep, an, log, compare, seed, jobs, progress, simulate, calibrate_rider)
