@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from euc_sim.rides.heldout import time_blocks
+from euc_sim.stats import time_blocks
 from euc_sim.rides.power import G, RHO_AIR
 
 __all__ = ["Difference", "Differences", "MIN_GAIN", "ALIAS_CORRELATION", "PHYSICS",

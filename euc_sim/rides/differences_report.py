@@ -9,14 +9,13 @@ signals give the signatures whose correlations say what the pair cannot tell apa
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 
 from euc_sim.rides.differences import (alias_table, difference_interval, heldout_gain,
                                        parameters_from_ride,
                                        residual_coefficient, ride_differences, signature_columns)
-from euc_sim.rides.logs import read_log
+from euc_sim.rides.ride import as_ride, ride_name
 from euc_sim.rides.mass import mass_regressors
 
 __all__ = ["log_model_residual", "pair_tests", "pair_aliases", "differences_json"]
@@ -87,7 +86,7 @@ def _voltage_tests(sig, battery_coef: dict | None) -> tuple:
 
 def _speed_tests(path, scale: float) -> tuple:
     """A free speed scale on OTHER's GPS speed, LOG's scale removed (ratio − 1)."""
-    d = read_log(path, emit_warnings=False).data
+    d = as_ride(path).log.data          # a parsed log as it is, a path read
     if "gps_speed" not in d:
         return None, None
     v, g = d["v"].to_numpy(float), d["gps_speed"].to_numpy(float)
@@ -168,16 +167,18 @@ def differences_json(rep: dict, fit, test, log_path, compare_path) -> dict:
         The ride JSON so far (LOG's ``total_mass``, ``drivetrain``, ``mass_difference``).
     fit, test : RideDrivetrain
         LOG's and OTHER's analyses (:func:`euc_sim.rides.drivetrain_report.drivetrain_report`).
-    log_path, compare_path : path
+    log_path, compare_path : path or RideLog
+        Each log, parsed (as the ride pipeline holds it) or a path (then read once).
     """
     from euc_sim.rides.drivetrain_report import drivetrain_report
 
+    log_path, compare_path = as_ride(log_path).log, as_ride(compare_path).log
     other_view = drivetrain_report(compare_path, test.spec, fitted=test)[0]
     log_params, other_params = parameters_from_ride(rep), parameters_from_ride(other_view)
     coef = _coef(log_params)
     aliases, cannot = pair_aliases(fit, test, coef)
-    start = read_log(log_path, emit_warnings=False).start
-    name = f"the {start.day} {start:%B} ride ({Path(log_path).name})"
+    start = log_path.start
+    name = f"the {start.day} {start:%B} ride ({ride_name(log_path)})"
     gains, given = pair_tests(fit, test, log_path, compare_path, coef)
     res = ride_differences(log_params, other_params, gains, aliases, cannot, name,
                            rep.get("mass_difference"), given)

@@ -116,7 +116,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
         # ride's terms from its own energy-balance fit, so both sides are read alike
         from euc_sim.rides.differences_report import differences_json
 
-        rep.update(differences_json(physics[0], physics[1], physics[2], log.path, compare.path))
+        rep.update(differences_json(physics[0], physics[1], physics[2], log, compare))
     say("locating the residual")
     traces = _localise(rep, an, domain, log, compare)
     sim = _simulation(rep, an, log, compare, seed, jobs, progress, simulate, calibrate_rider)
