@@ -58,14 +58,22 @@ class Section:
     table: tuple[tuple[str, ...], ...] = ()
     figures: tuple[tuple[str, str], ...] = ()
 
-    def to_markdown(self) -> list[str]:
+    def to_markdown(self, figures: bool = True) -> list[str]:
         md = [f"## {self.title}", "", " ".join(self.sentences), ""]
         if self.table:
             md += ["| " + " | ".join(self.table[0]) + " |", "|" + " --- |" * len(self.table[0])]
             md += ["| " + " | ".join(row) + " |" for row in self.table[1:]] + [""]
-        for path, caption in self.figures:
+        for path, caption in self.figures if figures else ():
             md += [f"![{caption}]({path})", ""]
         return md
+
+    def to_html(self, folder: Path) -> str:
+        """The section through the one page template, its figures inline (read from ``folder``)."""
+        from euc_sim.report import html
+
+        body = html.markdown(self.to_markdown(figures=False)[2:])
+        body += "".join(html.image(folder / path, caption) for path, caption in self.figures)
+        return html.section(self.title, body)
 
 
 @dataclass(frozen=True)
@@ -81,6 +89,13 @@ class Story:
         for s in self.sections:
             md += s.to_markdown()
         return "\n".join(md)
+
+    def to_html(self, folder: Path) -> str:
+        """The page (``index.html``) through the one template; figures read from ``folder``."""
+        from euc_sim.report import html
+
+        return html.page(self.title, "", [html.lead(self.opening)]
+                         + [s.to_html(folder) for s in self.sections])
 
 
 def draw_concealed_effect(rng: np.random.Generator) -> tuple[str, float]:
@@ -105,7 +120,7 @@ def draw_concealed_effect(rng: np.random.Generator) -> tuple[str, float]:
 
 def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
              progress: Callable[[str], None] | None = None, workers: int | None = 2) -> Path:
-    """Run the demo and write ``out/index.md``.
+    """Run the demo and write ``out/index.html`` (the page) and ``out/index.md`` (its plain text).
 
     Parameters
     ----------
@@ -128,6 +143,7 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
     say = progress or (lambda s: None)
     out = Path(out)
     io.check_writable(out / "index.md")
+    io.check_writable(out / "index.html")
     say("1/4 simulating the paper's longitudinal maneuvers (14 recordings, 15 s each)")
     specs, paths = _simulate_maneuvers(out / "recordings", seed, workers)
     say("2/4 identifying h with the 3-DoF and the reduced 2-DoF model, per maneuver")
@@ -139,6 +155,9 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
     story = Story("euc-sim demo", _opening(seed, len(paths)),
                   (_identification_section(groups, p), _models_section(groups, p), _paper_section(groups),
                    _concealed_section(concealed)))
+    from euc_sim.report.html import write_page
+
+    write_page(out, story.to_html(out))
     return io.write_text(out / "index.md", story.to_markdown())
 
 
@@ -340,7 +359,7 @@ def _concealed_section(c: dict) -> Section:
         says.append(f"The diagnosis named no effect; the truth was `{effect}` = {k_true:.4g} {c['unit']}.")
     says.append(f"Adding what it named took the held-out residual from {d.nominal_rmse:.3f} to "
                 f"{d.augmented_rmse:.3f} N·m (noise floor {d.noise_floor:.3f} N·m).")
-    says.append("The full report is [concealed/report/index.md](concealed/report/index.md), the JSON "
+    says.append("The full report is [concealed/report/index.html](concealed/report/index.html), the JSON "
                 "[concealed/diagnosis.json](concealed/diagnosis.json).")
     return Section("4. A concealed effect, found blind", tuple(says),
                    figures=(("concealed/report/before_after.png", "held-out residual before and after"),

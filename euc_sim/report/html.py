@@ -163,12 +163,14 @@ def lead(sentences: Sequence[str]) -> str:
 
 _INLINE = [(re.compile(r"\*\*(.+?)\*\*"), r"<b>\1</b>"), (re.compile(r"`([^`]+)`"), r"<code>\1</code>")]
 _IMAGE = re.compile(r"!\[([^\]]*)\]\(([^)]+)\)")
+_LINK = re.compile(r"\[([^\]]+)\]\(([^)\s]+)\)")
 
 
 def _inline(text: str) -> str:
     out = _esc(text)
     # an image would be a fetch: a link to the PNG next to the page instead
     out = _IMAGE.sub(lambda m: f'<a href="{m[2]}">figure: {m[1]}</a>', out)
+    out = _LINK.sub(lambda m: f'<a href="{m[2]}">{m[1]}</a>', out)
     for rx, rep in _INLINE:
         out = rx.sub(rep, out)
     return out
@@ -214,3 +216,16 @@ def markdown(lines: Sequence[str]) -> str:
             block.append(line)
     flush()
     return "".join(out)
+
+
+def image(path: str | Path, caption: str) -> str:
+    """A PNG or SVG figure inline (a data URI: the page fetches nothing), with its caption."""
+    import base64
+
+    path = Path(path)
+    kind = {".png": "image/png", ".svg": "image/svg+xml"}.get(path.suffix.lower())
+    if kind is None:
+        raise ValueError(f"image {path}: expected a .png or .svg file")
+    data = base64.b64encode(path.read_bytes()).decode("ascii")
+    return (f'<figure><img src="data:{kind};base64,{data}" alt="{_esc(caption)}" style="max-width:100%">'
+            f"<figcaption>{_esc(caption)}</figcaption></figure>")

@@ -2,8 +2,21 @@
 
 import json
 import re
+import sys
+from pathlib import Path
 
 from euc_sim.cli import main
+
+sys.path.append(str(Path(__file__).resolve().parents[1]))
+import browser  # noqa: E402
+
+
+def _opens_in_a_browser(page: Path, tmp_path: Path) -> None:
+    """No script error and nothing fetched (without Chromium the test skips here, saying why,
+    after every other check has passed)."""
+    browser.chromium_or_skip()
+    seen = browser.render(page, tmp_path / "demo.png")
+    assert seen.script_errors() == [] and seen.foreign_requests(page) == []
 
 
 def test_demo_writes_its_story_and_finds_the_concealed_effect(tmp_path, capsys):
@@ -26,6 +39,11 @@ def test_demo_writes_its_story_and_finds_the_concealed_effect(tmp_path, capsys):
     assert abs(estimate - t["value"]) < 0.25 * abs(t["value"])
     assert f"`{name}`" in index
     assert (out / "concealed" / "report" / "index.md").exists()
+    # the page through the one template: the story, the figures inline, opened in a browser
+    page = (out / "index.html").read_text()
+    assert "Which model is right, and why" in page and page.count("data:image/png;base64,") >= 1
+    assert 'href="concealed/report/index.html"' in page
+    _opens_in_a_browser(out / "index.html", tmp_path)
     # progress as plain lines (stderr is not a terminal here): no cursor escapes, no blank lines
     assert "demo: 1/4" in captured.err
     assert "\r" not in captured.err and "\x1b" not in captured.err
@@ -51,3 +69,22 @@ def test_the_story_renders_sections_tables_and_figures():
     md = story.to_markdown()
     assert md.startswith("# t\n\nOpening one. Opening two.")
     assert "| x | y |\n| --- | --- |\n| 1 | 2 |" in md and "![a figure](f.png)" in md
+
+
+def test_the_story_as_a_page_inlines_its_figures(tmp_path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from euc_sim.cli.demo import Section, Story
+
+    fig, ax = plt.subplots()
+    ax.plot([0, 1], [0, 1])
+    fig.savefig(tmp_path / "f.png")
+    plt.close(fig)
+    story = Story("t", ("Opening one.",),
+                  (Section("A", ("See [the report](r/index.html).",), (("x", "y"), ("1", "2")),
+                           (("f.png", "a figure"),)),))
+    page = story.to_html(tmp_path)
+    assert '<a href="r/index.html">the report</a>' in page and "<td>1</td>" in page
+    assert "data:image/png;base64," in page and 'src="f.png"' not in page
