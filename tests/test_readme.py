@@ -113,7 +113,7 @@ def readme_commands(text: str) -> list[str]:
 
 #: What ``--report DIR`` writes into DIR, per command (the README says so).
 REPORT_FILES = {"identify": ("identify.png", "identify-torques.png"),
-                "design": ("design.png",), "diagnose": ("index.md",), "ride": ("index.md",)}
+                "design": ("design.png",), "diagnose": ("index.html", "index.md"), "ride": ("index.html", "index.md")}
 
 
 def _written(argv: list[str]) -> list[str]:
