@@ -8,6 +8,8 @@ written then.
 
 from __future__ import annotations
 
+from euc_sim.errors import InputError
+
 import argparse
 import sys
 from pathlib import Path
@@ -44,7 +46,7 @@ def find_logs(items) -> list[Path]:
         if p.is_dir():
             found = [f for f in sorted(p.rglob("*.csv")) if _is_log(f)]
             if not found:
-                raise ValueError(f"{p}: no ride log (WheelLog, EUC World, DarknessBot CSV) in this folder")
+                raise InputError(f"{p}: no ride log (WheelLog, EUC World, DarknessBot CSV) in this folder")
             out.extend(found)
         elif p.is_file():
             out.append(p)
@@ -83,9 +85,9 @@ def _cmd_rides(args: argparse.Namespace) -> int:
     from euc_sim.io import check_writable, write_json
 
     if args.workers < 1:
-        raise ValueError(f"--workers must be at least 1, got {args.workers}")
+        raise InputError(f"--workers must be at least 1, got {args.workers}")
     if args.n_boot < 10:
-        raise ValueError(f"--n-boot must be at least 10 (the intervals are bootstrap percentiles), got {args.n_boot}")
+        raise InputError(f"--n-boot must be at least 10 (the intervals are bootstrap percentiles), got {args.n_boot}")
     pack = None
     if args.wheel:
         from euc_sim.rides.battery import pack_spec

@@ -103,15 +103,18 @@ def read_sidecar(path: str | Path) -> dict[str, Any]:
 
 
 def _check_maneuver_options(side: Path, opts) -> None:
-    """``maneuver_options``: an object of finite numbers (the maneuver checks their ranges)."""
+    """``maneuver_options``: an object of finite numbers or null (the maneuver's default; the
+    maneuver checks their ranges)."""
     if opts is None:
         return
     if not isinstance(opts, dict):
         raise RecordingError(f"{side}: \"maneuver_options\" must be an object {{NAME: value}}, "
                              f"got {type(opts).__name__}")
     for name, value in opts.items():
+        if value is None:
+            continue
         if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            raise RecordingError(f"{side}: \"maneuver_options\".{name} must be a finite number, "
+            raise RecordingError(f"{side}: \"maneuver_options\".{name} must be a finite number or null, "
                                  f"got {value!r}")
 
 

@@ -17,6 +17,8 @@ else as measured (said in ``basis``).
 
 from __future__ import annotations
 
+from euc_sim.errors import InputError
+
 import math
 import warnings
 from dataclasses import asdict, dataclass, field
@@ -30,7 +32,7 @@ __all__ = ["RideEntry", "ChangeTest", "RideHistory", "WheelMismatch", "ride_entr
 SERIES_COUNTS = (16, 20, 24, 30, 32, 36, 40, 42)
 
 
-class WheelMismatch(ValueError):
+class WheelMismatch(InputError):
     """Logs that are not of one wheel; the message names the file."""
 
 

@@ -7,6 +7,8 @@ is a typed result of its own module (:mod:`euc_sim.rides.summary`,
 
 from __future__ import annotations
 
+from euc_sim.errors import InputError
+
 import math
 import warnings
 
@@ -18,7 +20,7 @@ def check_rider_weight(kg: float | None) -> float | None:
     if kg is None:
         return None
     if not (math.isfinite(kg) and 20.0 <= kg <= 250.0):
-        raise ValueError(f"--rider-weight is the rider's weight with gear, kg, between 20 and 250; got {kg!r}")
+        raise InputError(f"--rider-weight is the rider's weight with gear, kg, between 20 and 250; got {kg!r}")
     return float(kg)
 
 

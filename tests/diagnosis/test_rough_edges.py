@@ -104,8 +104,8 @@ def test_a_failing_report_leaves_no_json(recording_file, tmp_path, capsys, monke
     monkeypatch.setitem(report.FIGURES, "terms.png", (broken, 100))
     code = main(["diagnose", str(recording_file), "--no-resimulate", "--quiet",
                  "--json", str(tmp_path / "o.json"), "--report", str(tmp_path / "rep")])
-    assert code == 2
-    assert "simulated failure" in capsys.readouterr().err
+    assert code == 1                    # a figure that cannot be drawn is the program's error
+    assert "internal error" in capsys.readouterr().err
     assert not (tmp_path / "o.json").exists()
     assert not (tmp_path / "rep" / "index.md").exists()
     assert not list((tmp_path / "rep").glob("*.png")) if (tmp_path / "rep").exists() else True

@@ -27,8 +27,11 @@ DURATION = 60.0       # s: long enough for the fit, short enough for four 1 kHz 
 
 
 def run(argv, capsys):
-    """Run the CLI; (exit code, stdout, stderr lines)."""
-    code = main([str(a) for a in argv])
+    """Run the CLI; (exit code, stdout, stderr lines); argparse's refusals exit through SystemExit."""
+    try:
+        code = main([str(a) for a in argv])
+    except SystemExit as exc:
+        code = exc.code
     out = capsys.readouterr()
     return code, out.out, [ln for ln in out.err.splitlines() if ln.strip()]
 
