@@ -9,6 +9,8 @@ one line naming the file, column or parameter.
 
 from __future__ import annotations
 
+from euc_sim.errors import InputError
+
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
 
@@ -94,7 +96,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, seed: int = 0
 
     if isinstance(maneuver, str):
         if maneuver not in MANEUVERS or maneuver == "profile":
-            raise ValueError(f"maneuver: unknown value {maneuver!r}; valid: "
+            raise InputError(f"maneuver: unknown value {maneuver!r}; valid: "
                              f"{', '.join(m for m in MANEUVERS if m != 'profile')} (or a Maneuver)")
         maneuver = make_maneuver(maneuver)
     p = _params(params) or TABLE3
@@ -211,7 +213,7 @@ def identify(recordings: Sequence, *, bounds: tuple[float, float] = (0.1, 1.5), 
     from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, identify_recordings, load
 
     if not recordings:
-        raise ValueError("identify: no recordings given")
+        raise InputError("identify: no recordings given")
     p = _params(params)
     recs = [r if hasattr(r, "kin") else load(r, params=p) for r in recordings]
     res = identify_recordings(recs, bounds=bounds, n_boot=n_boot,
@@ -351,7 +353,7 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
     from euc_sim.rides.spec import wheel_spec
 
     if n_boot < MIN_BOOT:
-        raise ValueError(f"n_boot must be at least {MIN_BOOT} (an effect is accepted on its "
+        raise InputError(f"n_boot must be at least {MIN_BOOT} (an effect is accepted on its "
                          f"bootstrap interval), got {n_boot}")
     for p in [log] + ([compare] if compare else []):
         if not Path(p).is_file():
@@ -401,9 +403,9 @@ def render(recording, out, *, fps: float = 30.0, width: int = 640, height: int =
 
     out = Path(out)
     if out.suffix.lower() not in (".mp4", ".gif", ".png"):
-        raise ValueError(f"out must end in .mp4, .gif or .png, got {str(out)!r}")
+        raise InputError(f"out must end in .mp4, .gif or .png, got {str(out)!r}")
     if not (math.isfinite(fps) and 1 <= fps <= 120):
-        raise ValueError(f"fps must be in [1, 120], got {fps!r}")
+        raise InputError(f"fps must be in [1, 120], got {fps!r}")
     n = render_recording(recording, out, fps=fps, width=width, height=height, frame_time=time,
                          progress=progress)
     return Rendering(path=str(out), frames=int(n), fps=float(fps), width=int(width), height=int(height))
@@ -437,7 +439,7 @@ def crosscheck(samples: int = 2500, *, params=None, mjcf=None,
     from euc_sim.model import crosscheck as cc
 
     if samples < 1:
-        raise ValueError(f"samples must be at least 1, got {samples}")
+        raise InputError(f"samples must be at least 1, got {samples}")
     sets = dict(cc.PARAMETER_SETS) if params is None else {"user": _params(params)}
     checks = cc.run_all(samples, progress=progress, sets=sets, mjcf=mjcf)
     rows = tuple(CrosscheckRow(c.name, float(c.value), float(c.bound), bool(c.ok), c.detail) for c in checks)

@@ -24,6 +24,8 @@ Study: docs/concealed.md.
 
 from __future__ import annotations
 
+from euc_sim.errors import InputError
+
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -101,7 +103,7 @@ def read_raw(path) -> pd.DataFrame:
     raw = pd.read_csv(path, dtype={"extra": str, "datetime": str})
     missing = [c for c in REQUIRED if c not in raw.columns]
     if missing:
-        raise ValueError(f"{path}: column {missing[0]!r} missing (not an EUC World log)")
+        raise InputError(f"{path}: column {missing[0]!r} missing (not an EUC World log)")
     return raw
 
 
@@ -362,5 +364,5 @@ def conceal(raw: pd.DataFrame, effect: str, size: float, **kw) -> pd.DataFrame:
     if effect == "null":
         return raw.copy()
     if effect not in EFFECTS:
-        raise ValueError(f"effect {effect!r}: not one of null, {', '.join(EFFECTS)}")
+        raise InputError(f"effect {effect!r}: not one of null, {', '.join(EFFECTS)}")
     return EFFECTS[effect][0](raw, size, **kw)
