@@ -117,7 +117,7 @@ def test_identification_is_the_papers_fig8_readable_at_full_size(demo):
     fig = demo[1][0]
     assert "Fig. 8" in _titles(fig)
     panels = [ax for ax in fig.axes if ax.get_visible()]
-    assert 1 <= len(panels) <= 4
+    assert len(panels) in range(1, 5)
     assert all(ax.get_legend() is None for ax in panels) and len(fig.legends) == 1
     for ax in panels:
         curves = [ln for ln in ax.get_lines() if len(ln.get_ydata()) > 5]

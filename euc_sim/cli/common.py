@@ -253,3 +253,28 @@ def internal_error_report(args, exc: BaseException) -> Path | None:
         except OSError:
             continue
     return None
+
+
+def check_report_folder(folder, names: Sequence[str]):
+    """``--report DIR`` before any work: a folder (or nothing yet) that can take ``names``.
+
+    Returns
+    -------
+    pathlib.Path
+        The folder.
+
+    Raises
+    ------
+    NotADirectoryError, OSError
+        naming the path.
+    """
+    from pathlib import Path
+
+    from euc_sim.io import check_writable
+
+    out = Path(folder)
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"--report {out}: exists and is not a folder")
+    for name in names:
+        check_writable(out / name)
+    return out

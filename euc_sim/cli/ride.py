@@ -161,11 +161,9 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     if args.json:
         check_writable(args.json)
     if args.report:
-        out = Path(args.report)
-        if out.exists() and not out.is_dir():
-            raise NotADirectoryError(f"--report {out}: exists and is not a folder")
-        check_writable(out / "index.md")
-        check_writable(out / "index.html")
+        from euc_sim.cli.common import check_report_folder
+
+        check_report_folder(args.report, ("index.md", "index.html"))
     rep = run_ride(ride, other, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
                    simulate=not args.no_simulate, jobs=args.workers,

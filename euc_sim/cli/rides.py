@@ -99,10 +99,9 @@ def _cmd_rides(args: argparse.Namespace) -> int:
     if args.json:
         check_writable(args.json)
     if args.report:
-        out = Path(args.report)
-        if out.exists() and not out.is_dir():
-            raise NotADirectoryError(f"--report {out}: exists and is not a folder")
-        check_writable(out / "index.html")
+        from euc_sim.cli.common import check_report_folder
+
+        check_report_folder(args.report, ("index.html",))
     say = None if args.quiet else (lambda m: (sys.stderr.write(m + "\n"), sys.stderr.flush()))
     hist = run_rides(paths, pack, args.n_boot, args.seed, args.workers, say).to_json()
     if args.report:
