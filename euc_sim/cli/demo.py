@@ -94,7 +94,7 @@ class Story:
         """The page (``index.html``) through the one template; figures read from ``folder``."""
         from euc_sim.report import html
 
-        return html.page(self.title, "", [html.lead(self.opening)]
+        return html.page(self.title, "", [html.markdown([" ".join(self.opening)])]
                          + [s.to_html(folder) for s in self.sections])
 
 
