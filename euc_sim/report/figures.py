@@ -153,9 +153,7 @@ def track_map(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label: 
                                 name="track", hoverinfo="skip", showlegend=False))
     fig.add_trace(go.Scattermap(
         lat=lat, lon=lon, mode="markers", name=value_label, showlegend=False,
-        marker={"size": 6, "color": value, "colorscale": "Turbo", "showscale": True,
-                "colorbar": {"title": {"text": value_label, "side": "right"}, "thickness": 14}},
-        hovertemplate=f"%{{marker.color:.0f}} {value_label}<extra></extra>"))
+        **_coloured_points(value, value_label, 6)))
     if mark is not None:
         fig.add_trace(go.Scattermap(lat=[mark[0]], lon=[mark[1]], mode="markers", name=mark[2],
                                     marker={"size": 16, "color": "#c62828"}, hovertext=[mark[2]],
@@ -167,6 +165,13 @@ def track_map(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label: 
              "zoom": map_zoom(lat, lon)})
     return fig
 
+
+
+def _coloured_points(value: np.ndarray, value_label: str, size: int) -> dict:
+    """A track's points coloured by ``value``, with its colour bar and hover text (both maps)."""
+    return {"marker": {"size": size, "color": value, "colorscale": "Turbo", "showscale": True,
+                       "colorbar": {"title": {"text": value_label, "side": "right"}, "thickness": 14}},
+            "hovertemplate": f"%{{marker.color:.0f}} {value_label}<extra></extra>"}
 
 def xy_figure(lines: Sequence[Line], title: str, x_title: str, y_title: str, note: str = ""):
     """Points and lines against a common x axis; ``note`` is a line under the title."""
@@ -203,9 +208,7 @@ def track_plain(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label
                              hoverinfo="skip", showlegend=False))
     fig.add_trace(go.Scatter(
         x=x, y=y, mode="markers", showlegend=False, name=value_label,
-        marker={"size": 5, "color": value, "colorscale": "Turbo", "showscale": True,
-                "colorbar": {"title": {"text": value_label, "side": "right"}, "thickness": 14}},
-        hovertemplate=f"%{{marker.color:.0f}} {value_label}<extra></extra>"))
+        **_coloured_points(value, value_label, 5)))
     if mark is not None:
         mx, my = xy(mark[0], mark[1])
         fig.add_trace(go.Scatter(x=[mx], y=[my], mode="markers", name=mark[2],
