@@ -16,6 +16,7 @@ __all__ = ["simulate_3d_command", "add_render_parser"]
 def simulate_3d_command(args: argparse.Namespace, motor) -> int:
     """The ``--model 3d`` branch of ``euc-sim simulate``: ``--maneuver`` names a path."""
     from euc_sim.cli.common import parse_params, say
+    from euc_sim.simulation.lateral import LATERAL_WINDOW, min_duration
     from euc_sim.simulation.spatial import PATHS, write_spatial
 
     name = args.maneuver or "figure_eight"
@@ -28,6 +29,10 @@ def simulate_3d_command(args: argparse.Namespace, motor) -> int:
             raise InputError(f"--model 3d has its own contact model: {option} {value!r} does not apply")
     if args.effect:
         raise InputError("--model 3d: --effect is not supported (the 3-D physics has no catalog effects)")
+    shortest = min_duration()
+    if float(args.duration) < shortest - 1e-9:
+        raise InputError(f"--duration: the 3-D model needs at least {shortest:g} s (its tilt is read over "
+                         f"two {LATERAL_WINDOW:g} s windows), got {args.duration:g}")
     path = write_spatial(Path(args.out), name, float(args.duration), params=parse_params(args.param),
                          seed=int(args.seed), noise=args.noise, rider_noise=args.rider_noise,
                          motor=motor, rider_delay=args.rider_delay, hide_torques=bool(args.hide_torques))

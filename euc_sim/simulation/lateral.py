@@ -65,6 +65,19 @@ def band_peak_tilt(theta, dt: float, window: float = LATERAL_WINDOW) -> float:
     return float(np.max(np.abs(savgol_filter(theta, w, 3, mode="interp")[e:theta.size - e])))
 
 
+def min_duration(dt: float = 1e-3, window: float = LATERAL_WINDOW) -> float:
+    """Shortest record, s, whose tilt :func:`band_peak_tilt` can read: two smoothing windows.
+
+    Parameters
+    ----------
+    dt : float
+        Sample period, s.
+    window : float
+        Smoothing window, s.
+    """
+    return (2 * (int(round(window / dt)) | 1) - 1) * dt
+
+
 def lateral_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd) -> np.ndarray:
     """Generalised force of yaw and tilt on the pitch plane (``lateral_dynamics``).
 

@@ -111,6 +111,8 @@ def test_a_recording_without_phi(rec, capsys, tmp_path):
     (["identify", "{rec}", "--order", "200"], r"smoothing order must be an integer from 2 .* to 12 .* got 200"),
     (["torques", "{rec}", "--order", "200", "--out", "{dir}/T.csv"], r"smoothing order .* got 200"),
     (["simulate", "--no-such-option", "--out", "{dir}/s.csv"], r"^euc-sim: error: unrecognized arguments: --no-such-option \(see euc-sim --help\)$"),
+    (["simulate", "--model", "3d", "--maneuver", "circle", "--duration", "1", "--out", "{dir}/s.csv"],
+     r"--duration: the 3-D model needs at least 1\.001 s .* got 1$"),
     (["simulate", "--duration", "x", "--out", "{dir}/s.csv"], r"^euc-sim simulate: error: argument --duration: .* \(see euc-sim simulate --help\)$"),
 ])
 def test_options_out_of_bounds(rec, capsys, tmp_path, argv, match):
