@@ -433,19 +433,30 @@ def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
     key = ("balance", rate, max_gap, window, polyorder)
     build = lambda: _balance_grid(log, rate, max_gap, window, polyorder)   # noqa: E731
     g = log.derived(key, build) if isinstance(log, Ride) else build()
-    raw, frame = g["raw"], g["frame"]
-    phase = g["phase"]
-    M, method = wheel_torque(frame["v"].to_numpy(), frame["P"].to_numpy(), assumptions, phase)
-    notes = list(g["notes"])
-    if "phase_current" in raw and assumptions.torque_constant is None:
+    M, method = wheel_torque(g.frame["v"].to_numpy(), g.frame["P"].to_numpy(), assumptions, g.phase)
+    notes = list(g.notes)
+    if "phase_current" in g.raw and assumptions.torque_constant is None:
         notes.append("phase current present but no torque constant given: torque inferred "
                      "from power with the assumed efficiency")
-    return RideSignals(path=g["path"], raw=raw, frame=frame.assign(M=M), rate=rate, window=window,
-                       polyorder=polyorder, power_source=g["source"], torque_method=method,
-                       assumptions=assumptions, notes=tuple(notes), has_gps_alt=g["has_gps_alt"])
+    return RideSignals(path=g.path, raw=g.raw, frame=g.frame.assign(M=M), rate=rate, window=window,
+                       polyorder=polyorder, power_source=g.source, torque_method=method,
+                       assumptions=assumptions, notes=tuple(notes), has_gps_alt=g.has_gps_alt)
 
 
-def _balance_grid(log, rate: float, max_gap: float, window: float, polyorder: int) -> dict:
+@dataclass(frozen=True)
+class _BalanceGrid:
+    """The balance fit's grid and filtered signals: :class:`RideSignals` less the torque."""
+
+    path: str
+    raw: pd.DataFrame
+    frame: pd.DataFrame
+    source: str
+    phase: np.ndarray | None
+    notes: tuple
+    has_gps_alt: bool
+
+
+def _balance_grid(log, rate: float, max_gap: float, window: float, polyorder: int) -> _BalanceGrid:
     """The balance fit's filtered grid, everything of :func:`ride_signals` but the torque."""
     grid_of = log if isinstance(log, Ride) else as_log(log)
     log = as_log(log)
@@ -477,10 +488,10 @@ def _balance_grid(log, rate: float, max_gap: float, window: float, polyorder: in
     frame = pd.DataFrame({"t": raw["t"], "segment": seg,
                           "interior": _interior(seg, n // 2) & np.isfinite(v),
                           "v": v, "a": f(raw["v"].to_numpy(), 1), "P": f(P)})
-    return {"path": log.path, "raw": raw, "frame": frame, "source": source,
-            "phase": f(raw["phase_current"].to_numpy()) if "phase_current" in raw else None,
-            "notes": tuple(log.warnings) + tuple(notes),
-            "has_gps_alt": "gps_alt" in raw and np.isfinite(raw["gps_alt"]).mean() > 0.5}
+    return _BalanceGrid(path=log.path, raw=raw, frame=frame, source=source,
+                        phase=f(raw["phase_current"].to_numpy()) if "phase_current" in raw else None,
+                        notes=tuple(log.warnings) + tuple(notes),
+                        has_gps_alt="gps_alt" in raw and np.isfinite(raw["gps_alt"]).mean() > 0.5)
 
 
 def break_at_gaps(t: np.ndarray, *ys: np.ndarray):
