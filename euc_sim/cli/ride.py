@@ -156,7 +156,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     # each log is parsed once, here; a malformed or too short log fails before any output exists
     ride = read_ride(args.log)
     other = read_ride(args.compare) if args.compare else None
-    check_data(ride.log, None if other is None else other.log, assumptions=assumptions,
+    check_data(ride, other, assumptions=assumptions,
                domain=args.domain)
     if args.json:
         check_writable(args.json)

@@ -19,7 +19,7 @@ from euc_sim.errors import InputError
 from euc_sim.rides.crossride import CrossRide, cross_ride, effect_entries, plot_cross_ride
 from euc_sim.rides.design import NOMINAL, Design, balance_design
 from euc_sim.rides.fit import FEW_BLOCKS, block_rows, plausibility
-from euc_sim.rides.ride import ride_name
+from euc_sim.rides.ride import GAP_POLICY, ride_name
 from euc_sim.rides.signals import RideAssumptions, RideSignals, ride_signals
 
 __all__ = ["RideAnalysis", "ride_report", "ride_analysis", "write_balance", "check_data",
@@ -54,8 +54,8 @@ def ride_report(log_path, compare_path=None, **kwargs) -> dict:
 
 
 def ride_analysis(log_path, compare_path=None, *, report_dir=None,
-                  assumptions: RideAssumptions = RideAssumptions(), rate: float = 10.0,
-                  max_gap: float = 1.0, window: float = 1.5, polyorder: int = 2,
+                  assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
+                  max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2,
                   domain: str = "power", n_boot: int = 200, block_s: float = 10.0,
                   seed: int = 0, progress: Callable[[str], None] | None = None) -> RideAnalysis:
     """Diagnose a ride's longitudinal balance; CONTRACT's ``euc-sim ride`` JSON form.
@@ -66,9 +66,9 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
 
     Parameters
     ----------
-    log_path : path
-        Ride to fit.
-    compare_path : path, optional
+    log_path : Ride, RideLog or path
+        Ride to fit (a :class:`~euc_sim.rides.ride.Ride` keeps its grid: built once).
+    compare_path : Ride, RideLog or path, optional
         Ride to test on.
     report_dir : path, optional
         Where to write ``ride_balance.png`` and ``ride_balance.csv`` (test ride:

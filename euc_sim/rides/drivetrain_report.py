@@ -54,7 +54,7 @@ def analyse(path, spec: WheelSpec = WheelSpec(), settings: MassSettings = MassSe
             ) -> RideDrivetrain:
     """Read, filter and fit one ride (mass, then drivetrain, then the grade it implies)."""
     log = as_ride_log(path)                  # a RideLog as it is: the ride is read once
-    sig = power_signals(log, settings)
+    sig = power_signals(path, settings)      # a Ride keeps its grid: built once
     m_eq = fit_mass(log, settings, sig=sig)
     # the drivetrain balances power with m_eq (eq. 6): the rotating inertia is accelerated too
     dt = fit_drivetrain(sig, m_eq, radius=spec.radius, n_boot=max(10, settings.n_boot // 2),
@@ -149,8 +149,8 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
     fit, test : RideDrivetrain
         The analyses (``test`` None without ``compare``).
     """
-    path = as_ride_log(path)
     r = fitted or analyse(path, spec, settings)
+    path = as_ride_log(path)
     dtj = r.drivetrain.as_json()
     note = computed_pwm_note(r)
     if note:

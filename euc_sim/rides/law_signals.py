@@ -10,7 +10,11 @@ the riding rows (speed above :data:`V_MIN`, pitch within :data:`MAX_PITCH` of it
 riding median) with the pitch rate and acceleration as exact mean rates over the
 stamps' intervals, a leaky integral of the pitch, and each channel at the
 neighbouring rows (Simpson's weights) so that the law can be fitted between
-interval means (:mod:`euc_sim.rides.controller_law` fits it).  It raises
+interval means (:mod:`euc_sim.rides.controller_law` fits it).  The rows stay on
+the log's own stamps (the differences and weights are exact there, a grid's
+interpolation would smear them); an interval longer than the ride's one gap
+threshold (:data:`GAP`, the ``bridge`` of :data:`euc_sim.rides.ride.GAP_POLICY`)
+breaks every derivative, mean and integral, as it splits the grids.  It raises
 :class:`LawUnavailable` when the log has no pitch, no torque or too few riding rows.
 """
 
@@ -23,6 +27,7 @@ import numpy as np
 
 from euc_sim.errors import InputError
 from euc_sim.rides.logs import RideLog
+from euc_sim.rides.ride import GAP_POLICY, Ride
 
 __all__ = ["LawUnavailable", "LawRows", "law_rows", "V_MIN", "MAX_PITCH", "MIN_ROWS", "GAP",
            "ACCEL_HALF", "INTEGRAL_TAU"]
@@ -38,8 +43,8 @@ ACCEL_HALF = 1.0
 INTEGRAL_TAU = 5.0
 #: Fewer riding rows than this: too short.
 MIN_ROWS = 300
-#: Intervals longer than this, s, break a derivative (a gap in the log).
-GAP = 1.0
+#: Intervals longer than this, s, break a derivative (a gap in the log): the gap policy's bridge.
+GAP = GAP_POLICY.bridge
 
 
 class LawUnavailable(InputError):
@@ -115,7 +120,7 @@ def _rate(x: np.ndarray, t: np.ndarray) -> np.ndarray:
     span = t[2:] - t[:-2]
     with np.errstate(divide="ignore", invalid="ignore"):
         d[1:-1] = np.where(span > 0, (x[2:] - x[:-2]) / np.where(span > 0, span, 1.0), np.nan)
-    gap = np.diff(t) > GAP
+    gap = GAP_POLICY.splits(np.diff(t))
     d[np.r_[gap, False] | np.r_[False, gap]] = np.nan
     return d
 
@@ -124,7 +129,7 @@ def _slow_rate(x: np.ndarray, t: np.ndarray, half: float = ACCEL_HALF) -> np.nda
     """dx/dt as (x(t + half) − x(t − half))/(2·half), x linearly interpolated between
     rows: the mean rate over 2·half s; NaN where that span leaves the log or crosses a gap."""
     lo, hi = np.interp(t - half, t, x), np.interp(t + half, t, x)
-    seg = np.r_[0, np.cumsum(np.diff(t) > GAP)]
+    seg = GAP_POLICY.pieces(t)
     i0 = np.clip(np.searchsorted(t, t - half), 0, t.size - 1)
     i1 = np.clip(np.searchsorted(t, t + half) - 1, 0, t.size - 1)
     ok = (t - half >= t[0]) & (t + half <= t[-1]) & (seg[i0] == seg) & (seg[i1] == seg)
@@ -158,7 +163,7 @@ def _leaky_integral(x: np.ndarray, t: np.ndarray, tau: float = INTEGRAL_TAU) -> 
 
     out = np.empty_like(x)
     dt = np.r_[0.0, np.diff(t)]
-    starts = np.r_[0, np.flatnonzero(dt > GAP)]
+    starts = np.r_[0, np.flatnonzero(GAP_POLICY.splits(dt))]
     ends = np.r_[starts[1:], x.size]
     for s0, e0 in zip(starts, ends):
         h = float(np.median(dt[s0 + 1:e0])) if e0 - s0 > 1 else 0.2
@@ -173,7 +178,7 @@ def law_rows(log: RideLog, k_t: float | None = None, v_min: float = V_MIN) -> La
 
     Parameters
     ----------
-    log : RideLog
+    log : RideLog or Ride
     k_t : float, optional
         Torque constant, N·m/A (phase current → torque).  Without it the phase
         current is used in A; a logged ``torque`` is used as it is.
@@ -185,6 +190,7 @@ def law_rows(log: RideLog, k_t: float | None = None, v_min: float = V_MIN) -> La
     LawUnavailable
         no pitch or no torque channel, or too few riding rows.
     """
+    log = log.log if isinstance(log, Ride) else log
     d = log.data
     if not log.has("tilt"):
         raise LawUnavailable("no pitch in this log (no tilt column, or all zero): the wheel's "

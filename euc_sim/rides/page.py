@@ -578,8 +578,9 @@ def summarise_notes(notes, shown: int = 5) -> list[str]:
         kind, who, arg = item
         g = groups[item]
         if kind == "split":
-            lines.append(f"{who}{_gap_summary(g, shown)} longer than {arg} s split the balance "
-                         f"fit's ride there: not bridged (every one is listed in the JSON's notes)")
+            lines.append(f"{who}{_gap_summary(g, shown)} longer than {arg} s split the ride there "
+                         f"for every fit (balance, mass, law): not bridged (every one is listed in "
+                         f"the JSON's notes)")
         elif kind == "bridged":
             lines.append(f"{who}{_gap_summary(g, shown)} longer than 1 s bridged linearly in the "
                          f"simulated speed profile (every one is listed in the JSON's notes)")

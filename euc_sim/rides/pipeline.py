@@ -102,16 +102,17 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     from euc_sim.rides.signals import RideAssumptions, with_found_values
 
     say = progress or (lambda s: None)
-    log = as_ride(log).log
-    compare = None if compare is None else as_ride(compare).log
+    ride, other = as_ride(log), (None if compare is None else as_ride(compare))
+    log, compare = ride.log, (None if other is None else other.log)
     say("finding the total mass and the drivetrain")
-    physics = ride_drivetrain(log, compare, spec, n_boot, seed)   # bad logs fail before any output
+    # the Rides go to every analysis that builds a grid: each grid is built once and kept
+    physics = ride_drivetrain(ride, other, spec, n_boot, seed)   # bad logs fail before any output
     # the spec's radius and the mass this log gives reach the balance fit (Table 3 only where
     # neither the command line, the spec nor the log gives a value)
     assumptions = with_found_values(assumptions or RideAssumptions(), spec, physics[0]["total_mass"])
-    an = ride_analysis(log, compare, assumptions=assumptions, domain=domain, n_boot=n_boot,
+    an = ride_analysis(ride, other, assumptions=assumptions, domain=domain, n_boot=n_boot,
                        seed=seed, progress=say)
-    rep = _one_parameter_set(an, physics, log, compare, n_boot, seed, say)
+    rep = _one_parameter_set(an, physics, ride, other, n_boot, seed, say)
     if compare is not None:     # what differs between the two rides (rides.differences), each
         # ride's terms from its own energy-balance fit, so both sides are read alike
         from euc_sim.rides.differences_report import differences_json
@@ -181,14 +182,15 @@ def _simulation(rep: dict, an, log, compare, seed: int, jobs: int, progress, sim
 
 
 def _mass_grid_note(fit) -> str:
-    """How the mass and drivetrain fits treated the log's gaps (their grid is not the balance fit's)."""
+    """How the mass and drivetrain fits treated the log's gaps (the ride's one grid, their own filter)."""
     import numpy as np
 
     from euc_sim.rides.power import MassSettings
 
     n = len(np.unique(fit.sig.segment))
     return (f"mass and drivetrain fits: gaps up to {MassSettings.max_gap:g} s bridged linearly on "
-            f"their {MassSettings.rate:g} Hz grid, longer ones split the ride ({n} piece(s))")
+            f"the ride's {MassSettings.rate:g} Hz grid (the balance fit's), longer ones split the "
+            f"ride ({n} piece(s))")
 
 
 def _rider_steps():

@@ -1,7 +1,8 @@
 """Battery power and speed of a ride log on one grid: the signals every energy fit reads.
 
-The log is resampled to a regular grid (routine logging gaps bridged, long ones
-splitting the ride into segments), the wheel's speed corrected by its scale
+The log is resampled to the ride's one grid (:func:`euc_sim.rides.signals.ride_grid`
+under :data:`euc_sim.rides.ride.GAP_POLICY`: gaps up to 1.0 s bridged, longer
+ones splitting the ride into segments), the wheel's speed corrected by its scale
 against GPS speed (:func:`speed_scale`: a 6 % optimistic speedometer makes the
 mass 12 % low, since ``a·v`` scales with the square), and every channel filtered
 alike (Savitzky–Golay, one window).  Battery power is V·I; the climb rate comes
@@ -20,7 +21,8 @@ import numpy as np
 from euc_sim.errors import BadInputFile
 from euc_sim.rides.channels import current_from_phase
 from euc_sim.rides.logs import RideLog, read_log
-from euc_sim.rides.signals import resample, sg
+from euc_sim.rides.ride import GAP_POLICY, GapPolicy, Ride
+from euc_sim.rides.signals import ride_grid, sg
 from euc_sim.rides.systematic import CURRENT_SCALE_SD, GRADE_SHARE
 
 __all__ = ["G", "RHO_AIR", "NO_GPS_SCALE_SD", "RideDataError", "MassSettings", "SpeedScale",
@@ -49,8 +51,8 @@ class MassSettings:
         drivetrain's fits, the delay search and the a² proxy use; the mass
         itself comes from the energy balance over ``windows``.
     max_gap : float
-        Longest interval bridged by interpolation, s (routine 1–1.5 s logging
-        gaps are bridged; longer ones split the ride).
+        Longest interval bridged by interpolation, s; longer ones split the ride
+        (the gap policy's ``bridge``, :data:`euc_sim.rides.ride.GAP_POLICY`).
     v_min : float
         Samples slower than this, m/s, are not fitted (standing, walking).
     max_lag : float
@@ -79,9 +81,9 @@ class MassSettings:
         Seed of every random draw.
     """
 
-    rate: float = 10.0
+    rate: float = GAP_POLICY.rate
     window: float = 1.0
-    max_gap: float = 2.5
+    max_gap: float = GAP_POLICY.bridge
     v_min: float = 1.0
     max_lag: float = 1.0
     windows: tuple = (2.0, 4.0, 8.0)
@@ -156,7 +158,9 @@ class PowerSignals:
 
 
 def as_ride_log(log) -> RideLog:
-    """A :class:`RideLog` as it is, or read from a path."""
+    """A :class:`RideLog` as it is, a :class:`~euc_sim.rides.ride.Ride`'s log, or read from a path."""
+    if isinstance(log, Ride):
+        return log.log
     return log if isinstance(log, RideLog) else read_log(log, emit_warnings=False)
 
 
@@ -241,13 +245,20 @@ def track_scale(log, v_min: float = 4.0, max_dt: float = 3.0) -> float | None:
 def power_signals(log, settings: MassSettings = MassSettings()) -> PowerSignals:
     """Resample, correct the speed scale and filter every channel alike.
 
+    Parameters
+    ----------
+    log : Ride, RideLog or path
+        A :class:`~euc_sim.rides.ride.Ride` keeps the signals (built once per
+        grid, filter and speed-scale setting) and shares its grid with the balance fit.
+    settings : MassSettings
+
     Raises
     ------
     RideDataError
         naming the file and the column: no voltage or current column, or a
         speed that never exceeds ``settings.v_min``.
     """
-    log = as_ride_log(log)
+    ride, log = log, as_ride_log(log)
     for col in ("voltage", "current"):
         if col not in log.data:
             raise RideDataError(f"{log.path}: column {col!r}: absent or all zero; battery "
@@ -255,7 +266,17 @@ def power_signals(log, settings: MassSettings = MassSettings()) -> PowerSignals:
     if not (log.data["v"] > settings.v_min).any():
         raise RideDataError(f"{log.path}: column 'speed': never above "
                             f"{settings.v_min * 3.6:.1f} km/h; nothing was ridden")
-    frame, _ = resample(log, rate=settings.rate, max_gap=settings.max_gap)
+    if isinstance(ride, Ride):
+        return ride.derived(("power", settings.rate, settings.max_gap, settings.window,
+                             settings.scale_method), lambda: _filtered(ride, settings))
+    return _filtered(log, settings)
+
+
+def _filtered(ride, settings: MassSettings) -> PowerSignals:
+    """:func:`power_signals` of a ride or log whose columns were checked."""
+    log = as_ride_log(ride)
+    frame, _ = ride_grid(ride if isinstance(ride, Ride) else log,
+                         GapPolicy(bridge=settings.max_gap, rate=settings.rate))
     seg = frame["segment"].to_numpy()
     k = speed_scale(log, method=settings.scale_method)
     f = lambda x, deriv=0: sg(x, seg, settings.rate, settings.window, 2, deriv)   # noqa: E731

@@ -15,7 +15,8 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.errors import InputError
-from euc_sim.rides.signals import RideAssumptions, as_log, resample, sg
+from euc_sim.rides.ride import GAP_POLICY, GapPolicy, Ride
+from euc_sim.rides.signals import RideAssumptions, as_log, ride_grid, sg
 
 __all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "band_ratio_db",
            "fit_windows"]
@@ -31,19 +32,20 @@ class RiderFitError(InputError):
     """A ride or a setting the rider cannot be fitted on; the message names it."""
 
 
-def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = 10.0,
-                 max_gap: float = 1.0) -> pd.DataFrame:
+def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
+                 max_gap: float = GAP_POLICY.bridge) -> pd.DataFrame:
     """The log's rider channels on a uniform grid (split at gaps over ``max_gap`` s).
 
     Parameters
     ----------
-    log : RideLog or path
+    log : Ride, RideLog or path
+        A :class:`~euc_sim.rides.ride.Ride` lends its grid (:func:`euc_sim.rides.signals.ride_grid`).
     assumptions : RideAssumptions
         ``torque_constant`` (N·m/A) turns phase current into torque.
     rate : float
-        Grid rate, Hz.
+        Grid rate, Hz (the ride's gap policy's).
     max_gap : float
-        Longest interval between readings bridged, s (:func:`euc_sim.rides.signals.resample`).
+        Longest interval between readings bridged, s (the gap policy's ``bridge``).
 
     Returns
     -------
@@ -56,8 +58,8 @@ def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         ``max_gap`` s, the ``count`` of intervals between readings longer (the ride is split
         there) and their ``median`` length, s.
     """
+    raw, _ = ride_grid(log if isinstance(log, Ride) else as_log(log), GapPolicy(bridge=max_gap, rate=rate))
     log = as_log(log)
-    raw, _ = resample(log, rate, max_gap=max_gap)
     out = {"t": raw["t"].to_numpy(), "segment": raw["segment"].to_numpy(), "v": raw["v"].to_numpy()}
     if log.has("voltage") and log.has("current"):
         out["P"] = raw["voltage"].to_numpy() * raw["current"].to_numpy()

@@ -3,9 +3,10 @@
 A ride log (:mod:`euc_sim.rides.logs`) has wheel speed and battery voltage and
 current at ~5 Hz, irregularly, and no rider lean.  This module
 
-1. resamples it onto a uniform grid (:func:`resample`), interpolating linearly
-   across gaps up to ``max_gap`` s and **splitting** the ride into segments at
-   longer gaps (never bridging them);
+1. resamples it onto a uniform grid (:func:`resample`, :func:`ride_grid`) under
+   the ride's one gap policy (:data:`euc_sim.rides.ride.GAP_POLICY`):
+   interpolating linearly across gaps up to ``bridge`` s and **splitting** the
+   ride into segments at longer gaps (never bridging them);
 2. smooths and differentiates with one Savitzky–Golay fit (:func:`sg`), the same
    linear filter applied to every term of the balance equation (the
    state-variable-filter idea of docs/identification.md);
@@ -42,8 +43,9 @@ from scipy.signal import savgol_filter
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.logs import RideLog, read_log
+from euc_sim.rides.ride import GAP_POLICY, GapPolicy, Ride
 
-__all__ = ["RideAssumptions", "RideSignals", "with_found_values", "as_log", "resample", "sg", "window_samples",
+__all__ = ["RideAssumptions", "RideSignals", "with_found_values", "as_log", "resample", "ride_grid", "sg", "window_samples",
            "wheel_torque", "ride_signals", "break_at_gaps", "check_readings", "PLAUSIBLE_READING"]
 
 
@@ -120,12 +122,28 @@ class RideAssumptions:
 # Resampling and filtering
 # --------------------------------------------------------------------------------------
 def as_log(log) -> RideLog:
+    """A :class:`RideLog` as it is, a :class:`~euc_sim.rides.ride.Ride`'s log, or read from a path."""
     if isinstance(log, RideLog):
         return log
+    if isinstance(log, Ride):
+        return log.log
     return read_log(log, emit_warnings=False)
 
 
-def resample(log, rate: float = 10.0, max_gap: float = 1.0) -> tuple[pd.DataFrame, list[str]]:
+def ride_grid(log, policy: GapPolicy = GAP_POLICY) -> tuple[pd.DataFrame, list[str]]:
+    """:func:`resample` under ``policy``; kept on a :class:`~euc_sim.rides.ride.Ride` (built once).
+
+    Every grid of a ride (the balance fit's, the mass and drivetrain's) is this one;
+    the frame returned must not be modified (a copy is the caller's to make).
+    """
+    if isinstance(log, Ride):
+        frame, notes = log.derived(("grid", policy), lambda: resample(log.log, policy.rate, policy.bridge))
+        return frame, list(notes)
+    return resample(log, policy.rate, policy.bridge)
+
+
+def resample(log, rate: float = GAP_POLICY.rate,
+             max_gap: float = GAP_POLICY.bridge) -> tuple[pd.DataFrame, list[str]]:
     """Resample a log onto a uniform grid, split at gaps longer than ``max_gap``.
 
     Parameters
@@ -384,18 +402,20 @@ def _check_speed_units(log: RideLog) -> None:
                          f"speed is in other units or the distance is; convert the log to the app's units")
 
 
-def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = 10.0,
-                 max_gap: float = 1.0, window: float = 1.5, polyorder: int = 2) -> RideSignals:
+def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
+                 max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2) -> RideSignals:
     """Resample, smooth and differentiate a ride; battery power and inferred torque.
 
     Parameters
     ----------
-    log : RideLog or path
+    log : Ride, RideLog or path
+        A :class:`~euc_sim.rides.ride.Ride` keeps the grid and the filtered signals
+        (built once; only the torque, which depends on ``assumptions``, is redone).
     assumptions : RideAssumptions
     rate : float
-        Grid rate, Hz.
+        Grid rate, Hz (the gap policy's).
     max_gap : float
-        Longest gap bridged, s (see :func:`resample`).
+        Longest gap bridged, s (the gap policy's ``bridge``; see :func:`resample`).
     window : float
         Savitzky–Golay window, s (module docstring: why 1.5 s for ~5 Hz logs).
     polyorder : int
@@ -410,9 +430,38 @@ def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         when the log has neither voltage and current nor a power column, or no
         segment is as long as the filter window.
     """
+    key = ("balance", rate, max_gap, window, polyorder)
+    build = lambda: _balance_grid(log, rate, max_gap, window, polyorder)   # noqa: E731
+    g = log.derived(key, build) if isinstance(log, Ride) else build()
+    M, method = wheel_torque(g.frame["v"].to_numpy(), g.frame["P"].to_numpy(), assumptions, g.phase)
+    notes = list(g.notes)
+    if "phase_current" in g.raw and assumptions.torque_constant is None:
+        notes.append("phase current present but no torque constant given: torque inferred "
+                     "from power with the assumed efficiency")
+    return RideSignals(path=g.path, raw=g.raw, frame=g.frame.assign(M=M), rate=rate, window=window,
+                       polyorder=polyorder, power_source=g.source, torque_method=method,
+                       assumptions=assumptions, notes=tuple(notes), has_gps_alt=g.has_gps_alt)
+
+
+@dataclass(frozen=True)
+class _BalanceGrid:
+    """The balance fit's grid and filtered signals: :class:`RideSignals` less the torque."""
+
+    path: str
+    raw: pd.DataFrame
+    frame: pd.DataFrame
+    source: str
+    phase: np.ndarray | None
+    notes: tuple
+    has_gps_alt: bool
+
+
+def _balance_grid(log, rate: float, max_gap: float, window: float, polyorder: int) -> _BalanceGrid:
+    """The balance fit's filtered grid, everything of :func:`ride_signals` but the torque."""
+    grid_of = log if isinstance(log, Ride) else as_log(log)
     log = as_log(log)
     check_readings(log)
-    raw, notes = resample(log, rate, max_gap)
+    raw, notes = ride_grid(grid_of, GapPolicy(bridge=max_gap, rate=rate))
     if log.has("voltage") and log.has("current"):
         P = raw["voltage"].to_numpy() * raw["current"].to_numpy()
         source = "voltage*current"
@@ -436,20 +485,13 @@ def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
                          f"filter window")
     f = lambda x, d=0: sg(x, seg, rate, window, polyorder, d)  # noqa: E731
     v = f(raw["v"].to_numpy())
-    a = f(raw["v"].to_numpy(), 1)
-    Ps = f(P)
-    phase = f(raw["phase_current"].to_numpy()) if "phase_current" in raw else None
-    M, method = wheel_torque(v, Ps, assumptions, phase)
-    if "phase_current" in raw and assumptions.torque_constant is None:
-        notes.append("phase current present but no torque constant given: torque inferred "
-                     "from power with the assumed efficiency")
     frame = pd.DataFrame({"t": raw["t"], "segment": seg,
                           "interior": _interior(seg, n // 2) & np.isfinite(v),
-                          "v": v, "a": a, "P": Ps, "M": M})
-    return RideSignals(path=log.path, raw=raw, frame=frame, rate=rate, window=window,
-                       polyorder=polyorder, power_source=source, torque_method=method,
-                       assumptions=assumptions, notes=tuple(log.warnings) + tuple(notes),
-                       has_gps_alt="gps_alt" in raw and np.isfinite(raw["gps_alt"]).mean() > 0.5)
+                          "v": v, "a": f(raw["v"].to_numpy(), 1), "P": f(P)})
+    return _BalanceGrid(path=log.path, raw=raw, frame=frame, source=source,
+                        phase=f(raw["phase_current"].to_numpy()) if "phase_current" in raw else None,
+                        notes=tuple(log.warnings) + tuple(notes),
+                        has_gps_alt="gps_alt" in raw and np.isfinite(raw["gps_alt"]).mean() > 0.5)
 
 
 def break_at_gaps(t: np.ndarray, *ys: np.ndarray):

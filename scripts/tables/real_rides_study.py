@@ -281,7 +281,9 @@ def lowo_table(res: dict) -> str:
                   f"{100 * c['median_abs_error']:.1f} %" for c in res["per_config_all_rides"]),
               "fixed priors, not re-chosen per fold (set before this study or from the paper): energy "
               "windows 2/4/8 s, rotating share 0.19 (0.10-0.28) of the net weight (Table 3), the 0.5 % "
-              "held-out gain that admits a term, 30 s bootstrap blocks, 10 Hz grid, 2.5 s bridged gaps"]
+              "held-out gain that admits a term, 30 s bootstrap blocks, the ride's one grid "
+              f"({MassSettings().rate:g} Hz, gaps up to {MassSettings().max_gap:g} s bridged: "
+              "rides.ride.GAP_POLICY)"]
     return "\n".join(lines)
 
 

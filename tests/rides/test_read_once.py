@@ -45,3 +45,35 @@ def test_a_ride_carries_its_quality_facts(tmp_path, counted):
     assert as_ride(ride) is ride and as_ride(ride.log).log is ride.log
     assert ride_name(ride.log) == ride_name(str(ride.path)) == "fit.csv"
     assert counted == ["fit.csv"]
+
+
+def test_one_ride_run_builds_each_grid_once_per_log(tmp_path, monkeypatch):
+    """The grid (resampling), the balance fit's filtered signals and the mass fit's, once per log."""
+    import euc_sim.rides.controller_report as controller_report
+    import euc_sim.rides.power as power
+    import euc_sim.rides.signals as signals
+
+    built: list[tuple[str, str]] = []
+
+    def counting(mod, name, log_of):
+        real = getattr(mod, name)
+
+        def wrapper(*args, **kwargs):
+            built.append((name, Path(ride_name(log_of(args))).name))
+            return real(*args, **kwargs)
+        monkeypatch.setattr(mod, name, wrapper)
+
+    counting(signals, "resample", lambda a: a[0])
+    counting(signals, "_balance_grid", lambda a: a[0])
+    counting(power, "_filtered", lambda a: a[0])
+    counting(controller_report, "law_rows", lambda a: a[0])
+    fit = synth_log(tmp_path / "fit.csv", seed=34)
+    test = synth_log(tmp_path / "test.csv", seed=35)
+    code = main(["ride", str(fit), "--compare", str(test), "--no-simulate", "--n-boot", "10",
+                 "--quiet", "--json", str(tmp_path / "ride.json")])
+    assert code == 0
+    for kind in ("resample", "_balance_grid", "_filtered"):
+        assert sorted(n for k, n in built if k == kind) == ["fit.csv", "test.csv"], (kind, built)
+    # the law's rows (on the log's own stamps) at most once per log: here the fit log's, which
+    # has no pitch, so the law is not read and the compared log is not asked
+    assert [n for k, n in built if k == "law_rows"] == ["fit.csv"]
