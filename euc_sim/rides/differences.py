@@ -259,12 +259,13 @@ def _tested_why(name, tested: dict, cannot: dict) -> tuple[bool, str]:
         return False, cannot[name]
     if ci is None:
         return False, "no interval from the pair fit: cannot be named"
-    excl = bool(ci[0] > 0 or ci[1] < 0)
+    res = float(tested.get("resolution") or 0.0)
+    excl = bool(ci[0] > res or ci[1] < -res)
     kept = bool(tested.get("selected"))
     why = (("kept" if kept else "not kept") + " by the pair's held-out selection ("
            + ("n/a" if gain is None else f"{100 * gain:+.1f} %") + " of the compared ride's held-out RMS"
            + f", threshold {100 * MIN_GAIN:.0f} %); its interval " + ("excludes" if excl else "includes")
-           + " zero")
+           + (" zero" if not res else f" ±{res:.2g} s (the finest delay these logs resolve: their row interval or the fit's grid step)"))
     return kept and excl, why
 
 
@@ -272,11 +273,14 @@ def _one(name, a, b, tested, aliases, cannot) -> Difference:
     unit = b.get("unit") or a.get("unit") or _UNIT.get(name, "")
     unit = "1" if name == "speed_scale" else unit
     ind = _independent(name, a, b)
-    if tested is not None and tested.get("estimate") is not None and name in PHYSICS:
+    if tested is not None and tested.get("estimate") is not None:
         named, why = _tested_why(name, tested, cannot)
+        if name not in PHYSICS:
+            named, why = False, why + "; a nuisance of the pair fit, never named"
         ci = tested.get("ci95")
         if named and aliases:
-            why += f"; its signature correlates with {', '.join(aliases)} on these rides"
+            why += (f"; its estimate correlates beyond {ALIAS_CORRELATION:g} with {', '.join(aliases)}'s "
+                    "in this pair (held out, it explains more than they do)")
         return Difference(name, tested["estimate"], None if ci is None else tuple(ci), unit, named,
                           why, tuple(aliases), tested.get("heldout_gain"), ind)
     if ind is None:

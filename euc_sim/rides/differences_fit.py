@@ -81,12 +81,17 @@ class PairFit:
     gains : dict of str -> float
         Each candidate's fractional drop of OTHER's held-out RMS against the
         selected model without it.
+    correlations : dict of str -> dict of str -> float
+        Correlation of each pair of differences' estimates when all are fitted
+        together (from the pair's own normal equations): near ±1, the pair
+        cannot tell them apart.
     """
 
     selected: list
     history: list
     estimates: dict
     gains: dict
+    correlations: dict
 
 
 def _block_ids(t: np.ndarray, n_folds: int, block: float) -> tuple[np.ndarray, np.ndarray]:
@@ -247,4 +252,15 @@ def pair_fit(design: PairDesign, *, min_gain: float, transform: dict | None = No
             without = g.score([x for x in terms if x != c]) if c in selected else base
             with_ = base if c in selected else g.score(terms)
             gains[c] = 1.0 - with_ / without if without > 0 else 0.0
-    return PairFit(selected, history, estimates, gains)
+    return PairFit(selected, history, estimates, gains, _correlations(g))
+
+
+def _correlations(g: _Grams) -> dict:
+    """Correlations of the differences' estimates with every difference in the model (no shift)."""
+    cols = g.cols(g._deltas)
+    G = g.GL.sum(axis=0) + g.GO[g.mid].sum(axis=0)
+    C = np.linalg.pinv(G[np.ix_(cols, cols)])
+    idx = {g.names[c]: i for i, c in enumerate(cols) if g.names[c] in g._deltas}
+    sd = np.sqrt(np.clip(np.diag(C), 1e-300, None))
+    return {a: {b: float(C[i, j] / (sd[i] * sd[j])) for b, j in idx.items() if b != a}
+            for a, i in idx.items()}

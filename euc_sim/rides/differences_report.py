@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from euc_sim.rides.differences import (MIN_GAIN, alias_table, parameters_from_ride,
+from euc_sim.rides.differences import (ALIAS_CORRELATION, MIN_GAIN, alias_table, parameters_from_ride,
                                        ride_differences, signature_columns)
 from euc_sim.rides.differences_fit import DELAY, PairDesign, pair_fit
 from euc_sim.rides.mass import mass_regressors
@@ -28,7 +28,8 @@ V_MIN = 1.0
 V_GPS = 2.0
 
 
-#: The shared power terms (:func:`euc_sim.rides.mass.mass_regressors`; a constant per ride instead of ``no_load``).
+#: The shared power terms (:func:`euc_sim.rides.mass.mass_regressors`, and ``no_load`` whose difference,
+#: ``drivetrain_idle_loss``, is a candidate of the selection but never named).
 SHARED_POWER = ("inertia", "rolling", "drag", "copper", "grade")
 #: Energy-balance window of the mass, rolling and drag differences, s (the mass fit's middle window).
 ROAD_WINDOW = 4.0
@@ -41,8 +42,10 @@ def _power_columns(sig, lag: int, force, m: float) -> tuple[dict, dict]:
     cols = mass_regressors(sig, lag, force)
     zero = np.zeros(len(sig.t))
     shared = {n: cols.get(n, zero) for n in SHARED_POWER}
+    shared["no_load"] = zero + 1.0
     delta = {"total_mass": shared["inertia"] + shared["grade"],
-             "rolling_resistance": m * G * shared["rolling"], "aerodynamic_drag": shared["drag"]}
+             "rolling_resistance": m * G * shared["rolling"], "aerodynamic_drag": shared["drag"],
+             "drivetrain_idle_loss": zero + 1.0}
     return shared, delta
 
 
@@ -63,10 +66,9 @@ def _rows(sig, arrays) -> np.ndarray:
 
 
 def _stack(first: bool, shared: dict, delta: dict, y, ok, scale: dict) -> np.ndarray:
-    """``[const_log, const_other, shared…, differences…, y]`` rows of one ride, columns scaled."""
-    one, nil = np.ones(ok.sum()), np.zeros(ok.sum())
-    cols = [one if first else nil, nil if first else one]
-    cols += [shared[n][ok] / scale[n] for n in shared]
+    """``[shared…, differences…, y]`` rows of one ride, columns scaled (differences zero on LOG)."""
+    nil = np.zeros(ok.sum())
+    cols = [shared[n][ok] / scale[n] for n in shared]
     cols += [(nil if first else delta[n][ok] / scale[n]) for n in delta]
     return np.column_stack(cols + [y[ok]])
 
@@ -97,7 +99,8 @@ def power_design(fit, test, mass: float, shifts=None, window: float | None = Non
         LOG's total mass, kg (the rolling signature's weight).
     shifts : sequence of int, optional
         OTHER's extra delays tried, samples beyond LOG's lag; default: the
-        grid ±:data:`MAX_SHIFT` and no difference terms (the delay's design).
+        grid ±:data:`MAX_SHIFT`, the mass, rolling and drag differences in every
+        model (the delay's design).
         One shift: the mass, rolling and drag differences at that shift.
     window : float, optional
         Rows averaged over windows of this many seconds (:func:`window_means`).
@@ -116,7 +119,6 @@ def power_design(fit, test, mass: float, shifts=None, window: float | None = Non
     c = mf.coef
     force = (c["inertia"], c.get("rolling", 0.0), c.get("drag", 0.0)) if mf.copper_column == "force" else None
     sL, dL = _power_columns(fit.sig, lag, force, mass)
-    dL = dL if len(shifts) == 1 else {}
     yL = _signed_power(fit.sig, mf, lag, force)
     okL = _rows(fit.sig, [yL, *sL.values()])
     shifted = [_power_columns(test.sig, lag + j, force, mass) for j in shifts]
@@ -131,8 +133,10 @@ def power_design(fit, test, mass: float, shifts=None, window: float | None = Non
     if window:
         tL, ZL = window_means(tL, ZL, window, rate)
         tO, ZO = window_means(tO, ZO[0], window, rate)[0], [window_means(tO, z, window, rate)[1] for z in ZO]
-    names = ("const_log", "const_other", *sL, *dL)
-    design = PairDesign(names, tuple(dL), tL, ZL, tO, tuple(ZO), 1.0 / rate)
+    names = (*sL, *dL)
+    # the delay's design keeps the mass, rolling and drag differences in every model: the shift
+    # is tested beyond them
+    design = PairDesign(names, tuple(dL) if len(shifts) == 1 else (), tL, ZL, tO, tuple(ZO), 1.0 / rate)
     return design, {n: (lambda co, n=n: co[n] / scale[n]) for n in dL}
 
 
@@ -178,9 +182,22 @@ def gps_design(log_path, compare_path):
 
 
 def _entries(res) -> dict:
-    """Each candidate of one :class:`PairFit` as ``{estimate, ci95, heldout_gain, selected}``."""
+    """Each candidate of one :class:`PairFit` as ``{estimate, ci95, heldout_gain, selected, aliases}``."""
+    corr = res.correlations
     return {n: {"estimate": e[0], "ci95": e[1], "heldout_gain": res.gains.get(n),
-                "selected": n in res.selected} for n, e in res.estimates.items()}
+                "selected": n in res.selected,
+                "aliases": sorted(o for o, r in corr.get(n, {}).items() if abs(r) > ALIAS_CORRELATION)}
+            for n, e in res.estimates.items()}
+
+
+def _delay_resolution(fit, log_path, compare_path) -> float:
+    """The finest delay the logs resolve, s: one step of the analysis grid or the longer median row interval.
+
+    The delay is searched on the mass fit's grid (its own lag in whole steps);
+    a shift below one step is the grid's and the stamping's, not a delay.
+    """
+    dts = [np.median(np.diff(as_ride(p).log.data["t"].to_numpy(float))) for p in (log_path, compare_path)]
+    return float(max(np.median(np.diff(fit.sig.t)), *dts))
 
 
 def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200,
@@ -195,7 +212,8 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     Returns
     -------
     dict of str -> dict
-        ``{estimate, ci95, heldout_gain, selected}`` per physics tested.
+        ``{estimate, ci95, heldout_gain, selected, aliases}`` per physics tested;
+        the delay's also ``resolution`` (:func:`_delay_resolution`, s).
     """
     fitted = lambda made: None if made is None else pair_fit(   # noqa: E731
         made[0], min_gain=MIN_GAIN, transform=made[1], n_boot=n_boot, seed=seed)
@@ -204,6 +222,7 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     shift = 0
     if delay is not None:
         out.update(_entries(delay))
+        out[DELAY]["resolution"] = _delay_resolution(fit, log_path, compare_path)
         if DELAY in delay.selected:
             shift = int(round(delay.estimates[DELAY][0] * (1.0 / np.median(np.diff(fit.sig.t)))))
     for res in (fitted(power_design(fit, test, mass, [shift], ROAD_WINDOW)),
@@ -261,6 +280,9 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
     start = log_path.start
     name = f"the {start.day} {start:%B} ride ({ride_name(log_path)})"
     tested = pair_tests(fit, test, log_path, compare_path, coef.get("total_mass", 80.0), n_boot, seed)
+    for n, entry in tested.items():     # within a pair fit, its own estimates' correlations
+        if "aliases" in entry and n != DELAY:
+            aliases[n] = entry["aliases"]
     res = ride_differences(log_params, other_params, tested, aliases, cannot, name,
                            rep.get("mass_difference"))
     return res.to_json()

@@ -153,3 +153,12 @@ def test_the_threshold_is_the_balance_selections():
     from euc_sim.rides.crossride import MIN_GAIN
 
     assert df.MIN_GAIN == pytest.approx(MIN_GAIN)
+
+
+def test_a_delay_within_the_logs_resolution_is_not_named():
+    a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
+    tested = _tested(current_delay=(0.07, 0.06, 0.08, True))
+    tested["current_delay"]["resolution"] = 0.1
+    res = df.ride_differences(a, b, tested, {}, {}, "x")
+    d = next(d for d in res.items if d.name == "current_delay")
+    assert not d.named and "resolve" in d.why
