@@ -265,7 +265,8 @@ def _tested_why(name, tested: dict, cannot: dict) -> tuple[bool, str]:
     why = (("kept" if kept else "not kept") + " by the pair's held-out selection ("
            + ("n/a" if gain is None else f"{100 * gain:+.1f} %") + " of the compared ride's held-out RMS"
            + f", threshold {100 * MIN_GAIN:.0f} %); its interval " + ("excludes" if excl else "includes")
-           + (" zero" if not res else f" ±{res:.2g} s (the finest delay these logs resolve: their row interval or the fit's grid step)"))
+           + (" zero" if not res else f" ±{res:.2g} s (the finest delay these logs resolve: their row "
+                                      "interval or the fit's grid step)"))
     return kept and excl, why
 
 

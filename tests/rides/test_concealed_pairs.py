@@ -19,7 +19,8 @@ from euc_sim.rides.drivetrain_report import ride_drivetrain
 from euc_sim.rides.power import RHO_AIR
 from euc_sim.rides.ride import as_ride
 
-SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core" / "trips" / "nosfet" / "aero" / "0" / "0.csv"
+SHARED = (Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core" / "trips" / "nosfet"
+          / "aero" / "0" / "0.csv")
 DRAG_K = 0.5 * RHO_AIR * 0.25
 PAIRS = {
     "drag+mass": ((("aerodynamic_drag", 0.25), ("total_mass", 30.0)),

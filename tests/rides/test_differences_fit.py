@@ -1,4 +1,5 @@
-"""One fit of two rides: a hidden term found and sized, a null naming nothing, a delay's interval, both rides' noise counted."""
+"""One fit of two rides: a hidden term found and sized, a null naming nothing, a delay's interval,
+both rides' noise counted."""
 
 import numpy as np
 import pytest
