@@ -20,7 +20,7 @@ from euc_sim.rides.mass import mass_regressors
 from euc_sim.rides.power import G
 from euc_sim.rides.ride import as_ride, ride_name
 
-__all__ = ["power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "differences_json"]
+__all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "differences_json"]
 
 #: Speed above which rows enter the held-out tests, m/s.
 V_MIN = 1.0
@@ -63,6 +63,37 @@ def _rows(sig, arrays) -> np.ndarray:
     for a in arrays:
         ok &= np.isfinite(a)
     return ok
+
+
+def own_lag(sig, y, K: int, force, mass: float) -> int:
+    """LOG's delay, samples (−K … K): the least-squares fit of its power on the shared terms, best RMS.
+
+    The pair's base delay by the pair fit's own criterion (the mass fit's lag is
+    chosen on energy windows), so that a ride against itself shifts by nothing.
+    """
+    best = (np.inf, 0)
+    for lag in range(-K, K + 1):
+        sh, _ = _power_columns(sig, lag, force, mass)
+        ok = _rows(sig, [y, *sh.values()])
+        if ok.sum() < 200:
+            continue
+        X = np.column_stack([sh[n][ok] for n in sh])
+        r = y[ok] - X @ np.linalg.lstsq(X, y[ok], rcond=None)[0]
+        best = min(best, (float(np.sqrt(np.mean(r ** 2))), lag))
+    return best[1]
+
+
+def _valid(sig, y, lag: int, K: int, force, mass: float) -> np.ndarray:
+    """Rows with every column finite at every shift ``lag − K … lag + K``: one rule for both rides.
+
+    Both rides keep the rows the whole delay grid can score, so a ride against
+    itself is fitted on the same rows on both sides (its differences exactly zero).
+    """
+    arrays = [y]
+    for j in range(-K, K + 1):
+        sh, de = _power_columns(sig, lag + j, force, mass)
+        arrays += [*sh.values(), *de.values()]
+    return _rows(sig, arrays)
 
 
 def _stack(first: bool, shared: dict, delta: dict, y, ok, scale: dict) -> np.ndarray:
@@ -114,16 +145,17 @@ def power_design(fit, test, mass: float, shifts=None, window: float | None = Non
     if "inertia" not in (mf.coef or {}) or mf.lag is None:
         return None
     rate = 1.0 / np.median(np.diff(fit.sig.t))
-    lag, K = int(round(mf.lag * rate)), int(round(MAX_SHIFT * rate))
+    K = int(round(MAX_SHIFT * rate))
     shifts = list(range(-K, K + 1)) if shifts is None else list(shifts)
     c = mf.coef
     force = (c["inertia"], c.get("rolling", 0.0), c.get("drag", 0.0)) if mf.copper_column == "force" else None
+    yL = _signed_power(fit.sig, mf, int(round(mf.lag * rate)), force)
+    lag = own_lag(fit.sig, yL, K, force, mass)
     sL, dL = _power_columns(fit.sig, lag, force, mass)
-    yL = _signed_power(fit.sig, mf, lag, force)
-    okL = _rows(fit.sig, [yL, *sL.values()])
+    okL = _valid(fit.sig, yL, lag, K, force, mass)
     shifted = [_power_columns(test.sig, lag + j, force, mass) for j in shifts]
     yO = _signed_power(test.sig, mf, lag, force)
-    okO = _rows(test.sig, [yO] + [a for s, d in shifted for a in (*s.values(), *d.values())])
+    okO = _valid(test.sig, yO, lag, K, force, mass)
     if okL.sum() < 200 or okO.sum() < 200:
         return None
     scale = {n: float(np.sqrt(np.mean(sL[n][okL] ** 2))) or 1.0 for n in sL}

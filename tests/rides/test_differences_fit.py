@@ -96,3 +96,15 @@ def test_the_interval_counts_the_fitted_rides_noise_too():
         lo, hi = pf.pair_fit(d, min_gain=0.01, n_boot=80, seed=0).estimates["aerodynamic_drag"][1]
         widths.append(hi - lo)
     assert widths[1] > 1.3 * widths[0]
+
+
+def test_the_fitted_rides_own_delay_by_the_pair_fits_criterion():
+    from types import SimpleNamespace
+
+    from euc_sim.rides.differences_report import own_lag
+
+    t, v, av = _ride(9, n=4000)
+    a = np.gradient(v, t)
+    P = np.roll(_power(v, av, seed=9), 3)               # the current 0.3 s late
+    sig = SimpleNamespace(t=t, v=v, a=a, av=av, P=P, climb=None, extra={}, signed=True)
+    assert own_lag(sig, P, 10, None, 90.0) == 3
