@@ -18,11 +18,13 @@ The difference of the two rides' own estimates (their intervals combined in
 quadrature) is kept beside it as ``independent``; pack-state and controller
 parameters have only that, and are never named.
 
-Which differences a pair of rides can tell apart follows from the correlation
-of their power signatures over both rides (:func:`signature_columns`,
+Which differences a pair of rides cannot tell apart: for a tested difference,
+those whose estimates correlate beyond :data:`ALIAS_CORRELATION` in the pair
+fit's own normal equations; for the delay and the rest, the correlation of
+their power signatures over both rides (:func:`signature_columns`,
 :func:`alias_table`): drag ∝ v³, rolling ∝ v, mass ∝ a·v plus the climb,
-battery resistance ∝ I² (and the sag), the speed scale every speed term at
-once, the current delay the phase of power against acceleration (dP/dt).
+battery resistance ∝ I², the speed scale every speed term at once, the
+current delay the phase of power against acceleration (dP/dt).
 
 Study: docs/concealed.md.
 """
