@@ -24,8 +24,9 @@ __all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_des
 
 #: Speed above which rows enter the held-out tests, m/s.
 V_MIN = 1.0
-#: Speed above which GPS and wheel speed are compared, m/s.
-V_GPS = 2.0
+#: Speed above which GPS and wheel speed are compared (both), m/s: the speed scale's own rule
+#: (:func:`euc_sim.rides.power.speed_scale`'s ``v_min``).
+V_GPS = 4.0
 
 
 #: The shared power terms (:func:`euc_sim.rides.mass.mass_regressors`, and ``no_load`` whose difference,
@@ -202,7 +203,7 @@ def gps_design(log_path, compare_path):
         if "gps_speed" not in d:
             return None
         v, g = d["v"].to_numpy(float), d["gps_speed"].to_numpy(float)
-        ok = np.isfinite(g) & np.isfinite(v) & (v > V_GPS)
+        ok = np.isfinite(g) & np.isfinite(v) & (v > V_GPS) & (g > V_GPS)
         if ok.sum() < 200:
             return None
         rides.append((d["t"].to_numpy(float)[ok], v[ok], g[ok]))
