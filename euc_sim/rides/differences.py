@@ -31,7 +31,6 @@ Study: docs/concealed.md.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 

@@ -108,3 +108,17 @@ def test_the_fitted_rides_own_delay_by_the_pair_fits_criterion():
     P = np.roll(_power(v, av, seed=9), 3)               # the current 0.3 s late
     sig = SimpleNamespace(t=t, v=v, a=a, av=av, P=P, climb=None, extra={}, signed=True)
     assert own_lag(sig, P, 10, None, 90.0) == 3
+
+
+def test_rolling_and_drag_alias_on_a_steady_pair_not_mass():
+    rng = np.random.default_rng(11)
+    rides = []
+    for seed in (12, 13):
+        t = np.arange(8000) / RATE
+        v = 20.0 + 0.8 * np.sin(2 * np.pi * t / (40.0 + seed)) + 0.2 * rng.standard_normal(len(t)).cumsum() / 50
+        rides.append((t, v, v * np.gradient(v, t)))
+    (tL, vL, aL), (tO, vO, aO) = rides
+    d = _design(rides[0], rides[1], _power(vL, aL, seed=12), _power(vO, aO, seed=13))
+    corr = pf.pair_fit(d, min_gain=0.01, n_boot=20, seed=0).correlations
+    assert abs(corr["aerodynamic_drag"]["rolling_resistance"]) > 0.9
+    assert abs(corr["total_mass"]["aerodynamic_drag"]) < 0.9
