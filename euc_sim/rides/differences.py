@@ -1,52 +1,57 @@
 """What differs between two rides of one wheel: OTHER minus LOG for every parameter.
 
-A difference is *named* when both hold:
+Each physics is sized by one least-squares fit of both rides
+(:mod:`euc_sim.rides.differences_fit`): the terms both rides share are fitted
+on both, the difference Δθ on OTHER's rows only (battery power for the mass,
+rolling, drag and the current's delay, a shift of OTHER's signals; terminal
+voltage for the pack resistance; GPS speed for the speed scale).  A difference
+is *named* when both hold:
 
-1. its 95 % interval excludes zero.  The two rides are independent, so the
-   interval of the difference combines the two rides' 95 % half-widths in
-   quadrature, each side separately (a normal approximation: the rides' JSON
-   carries intervals, not bootstrap draws); ``speed_scale`` is a ratio, its
-   difference ``s_OTHER/s_LOG − 1`` combined the same way in logarithms;
-2. modelling it improves OTHER's blocked held-out fit beyond LOG's model: the
-   residual of LOG's model on OTHER (battery power for the road and mass terms
-   and the current delay, terminal voltage for the battery resistance, GPS
-   speed for the speed scale) is refitted with that one term on four of five
-   time blocks and scored on the fifth (:func:`heldout_gain`); the gain must
-   exceed :data:`MIN_GAIN`.
+1. forward selection by the blocked held-out error (fold k of both rides left
+   out, OTHER's fold k scored; :func:`euc_sim.stats.forward_select`, the
+   balance's threshold :data:`MIN_GAIN`) keeps it;
+2. its 95 % interval excludes zero: a block bootstrap with each ride's 30 s
+   blocks drawn independently (two compared rides are different rides), the
+   whole selected model refitted (and the delay re-searched) in every replicate.
 
-Which differences a pair of rides can tell apart follows from the correlation
-of their power signatures over both rides (:func:`signature_columns`,
+The difference of the two rides' own estimates (their intervals combined in
+quadrature) is kept beside it as ``independent``; pack-state and controller
+parameters have only that, and are never named.
+
+Which differences a pair of rides cannot tell apart: for a tested difference,
+those whose estimates correlate beyond :data:`ALIAS_CORRELATION` in the pair
+fit's own normal equations; for the delay and the rest, the correlation of
+their power signatures over both rides (:func:`signature_columns`,
 :func:`alias_table`): drag ∝ v³, rolling ∝ v, mass ∝ a·v plus the climb,
-battery resistance ∝ I² (and the sag), the speed scale every speed term at
-once, the current delay the phase of power against acceleration (dP/dt).
+battery resistance ∝ I², the speed scale every speed term at once, the
+current delay the phase of power against acceleration (dP/dt).
 
 Study: docs/concealed.md.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from euc_sim.stats import time_blocks
 from euc_sim.rides.power import G, RHO_AIR
 
 __all__ = ["Difference", "Differences", "MIN_GAIN", "ALIAS_CORRELATION", "PHYSICS",
-           "parameters_from_ride", "difference_interval", "heldout_gain", "residual_coefficient", "signature_columns",
+           "parameters_from_ride", "difference_interval", "signature_columns",
            "alias_table", "ride_differences", "rider_sentence"]
 
-#: Fractional drop of OTHER's held-out RMS that names a difference.
-MIN_GAIN = 0.02
+#: Fractional drop of OTHER's held-out RMS that keeps a difference (the balance selection's threshold).
+MIN_GAIN = 0.01
 #: |correlation| of two signatures over both rides beyond which the pair cannot tell them apart.
 ALIAS_CORRELATION = 0.9
-#: Blocks of the held-out test.
-N_BLOCKS = 5
 #: The physics a difference is tested for (the effect catalog's names).
 PHYSICS = ("total_mass", "rolling_resistance", "aerodynamic_drag", "internal_resistance",
            "speed_scale", "current_delay")
+#: Each physics' unit, where a ride's list lacks it.
+_UNIT = {"total_mass": "kg", "rolling_resistance": "1", "aerodynamic_drag": "kg/m",
+         "internal_resistance": "ohm", "speed_scale": "1", "current_delay": "s"}
 #: Why a rider would see it, by parameter, for the page's sentence.
 _HINT = {
     "aerodynamic_drag": ("kg/m more drag", "kg/m less drag", "{:.2f}", "(a jacket? a headwind?)"),
@@ -64,7 +69,11 @@ _HINT = {
 
 @dataclass(frozen=True)
 class Difference:
-    """OTHER minus LOG for one parameter (CONTRACT's ``differences`` entry)."""
+    """OTHER minus LOG for one parameter (CONTRACT's ``differences`` entry).
+
+    ``estimate`` and ``ci95`` are the pair fit's where the physics is tested,
+    else the two rides' own estimates differenced (``independent``, kept for both).
+    """
 
     name: str
     estimate: float | None
@@ -74,18 +83,17 @@ class Difference:
     why: str
     aliases: tuple[str, ...] = ()
     heldout_gain: float | None = None
-    given_log_model: tuple[float, tuple[float, float]] | None = None
-    named_given_log_model: bool = False
+    independent: tuple[float, tuple[float, float] | None] | None = None
 
     def to_json(self) -> dict:
-        """``{name, estimate, ci95, unit, named, why, aliases, heldout_gain, given_log_model}``."""
-        g = self.given_log_model
+        """``{name, estimate, ci95, unit, named, why, aliases, heldout_gain, independent}``."""
+        g = self.independent
         return {"name": self.name, "estimate": self.estimate,
                 "ci95": list(self.ci95) if self.ci95 else None, "unit": self.unit,
                 "named": self.named, "why": self.why, "aliases": list(self.aliases),
                 "heldout_gain": self.heldout_gain,
-                "given_log_model": None if g is None else {"estimate": g[0], "ci95": list(g[1])},
-                "named_given_log_model": self.named_given_log_model}
+                "independent": None if g is None else {"estimate": g[0],
+                                                       "ci95": list(g[1]) if g[1] else None}}
 
 
 @dataclass(frozen=True)
@@ -95,8 +103,9 @@ class Differences:
     items: tuple[Difference, ...]
     cannot_see: dict = field(default_factory=dict)
     sentence: str = ""
-    interval_method: str = ("normal approximation: the two rides' 95 % half-widths combined in "
-                            "quadrature, each side separately (independent rides)")
+    interval_method: str = ("one least-squares fit of both rides (shared terms, the difference on the "
+                            "compared ride); 95 % block bootstrap, each ride's 30 s blocks drawn "
+                            "independently")
 
     def to_json(self) -> dict:
         """The ride JSON's ``differences`` list and its companions."""
@@ -172,83 +181,6 @@ def difference_interval(a: float, a_ci, b: float, b_ci, ratio: bool = False):
     return d, (lo, hi)
 
 
-# ---------------------------------------------------------------- held-out gain
-def _base_columns(residual, base, intercept: bool) -> list:
-    cols = [np.ones_like(residual)] if intercept else []
-    return cols + ([] if base is None else list(np.atleast_2d(base.T)))
-
-
-def _ols_pred(Xf, yf, Xt):
-    if Xf.shape[1] == 0:
-        return np.zeros(len(Xt))
-    beta, *_ = np.linalg.lstsq(Xf, yf, rcond=None)
-    return Xt @ beta
-
-
-def heldout_gain(t: np.ndarray, residual: np.ndarray, candidate: np.ndarray,
-                 base: np.ndarray | None = None, n_blocks: int = N_BLOCKS,
-                 intercept: bool = True) -> float | None:
-    """Fractional drop of the blocked held-out RMS of ``residual`` when ``candidate`` is fitted.
-
-    The base model (a constant plus ``base`` columns) and the base plus the
-    candidate are fitted on ``n_blocks − 1`` contiguous time blocks and scored on
-    the left-out one, every block in turn.  ``intercept`` False: no constant
-    (a ratio through the origin, as a speed scale).
-
-    Returns
-    -------
-    float or None
-        ``1 − RMS(with)/RMS(base)``; None with too few finite rows.
-    """
-    cols = _base_columns(residual, base, intercept)
-    B = np.column_stack(cols) if cols else np.empty((len(residual), 0))
-    ok = np.isfinite(residual) & np.isfinite(candidate) & np.all(np.isfinite(B), axis=1)
-    if ok.sum() < 20 * n_blocks or np.nanstd(candidate[ok]) == 0:
-        return None
-    t, y, B, x = t[ok], residual[ok], B[ok], candidate[ok]
-    X = np.column_stack([B, x])
-    fold = time_blocks(t, n_blocks)
-    e0, e1 = np.empty_like(y), np.empty_like(y)
-    for k in range(n_blocks):
-        te = fold == k
-        e0[te] = y[te] - _ols_pred(B[~te], y[~te], B[te])
-        e1[te] = y[te] - _ols_pred(X[~te], y[~te], X[te])
-    r0, r1 = math.sqrt(np.mean(e0 ** 2)), math.sqrt(np.mean(e1 ** 2))
-    return None if r0 == 0 else 1.0 - r1 / r0
-
-
-def residual_coefficient(t: np.ndarray, residual: np.ndarray, candidate: np.ndarray,
-                         base: np.ndarray | None = None, n_boot: int = 200, seed: int = 0,
-                         block: float = 30.0, intercept: bool = True
-                         ) -> tuple[float, tuple[float, float]] | None:
-    """The candidate's coefficient on the residual of LOG's model, with a block-bootstrap 95 % interval.
-
-    The difference OTHER needs *given LOG's fitted model* (LOG's own estimation
-    error not included): least squares of the residual on a constant, ``base``
-    and the candidate; ``n_boot`` moving-block resamples of ``block`` s.
-
-    Returns
-    -------
-    (estimate, (lo, hi)) or None with too few finite rows.
-    """
-    cols = _base_columns(residual, base, intercept)
-    X = np.column_stack(cols + [candidate])
-    ok = np.isfinite(residual) & np.all(np.isfinite(X), axis=1)
-    if ok.sum() < 100 or np.nanstd(candidate[ok]) == 0:
-        return None
-    t, y, X = t[ok], residual[ok], X[ok]
-    est = float(np.linalg.lstsq(X, y, rcond=None)[0][-1])
-    label = np.floor((t - t[0]) / block).astype(int)
-    blocks = [np.flatnonzero(label == b) for b in np.unique(label)]
-    rng = np.random.default_rng(seed)
-    draws = []
-    for _ in range(n_boot):
-        idx = np.concatenate([blocks[i] for i in rng.integers(0, len(blocks), len(blocks))])
-        draws.append(np.linalg.lstsq(X[idx], y[idx], rcond=None)[0][-1])
-    lo, hi = np.percentile(draws, [2.5, 97.5])
-    return est, (float(lo), float(hi))
-
-
 # ---------------------------------------------------------------- signatures and aliases
 def signature_columns(v, av, P, t, current=None, climb=None, coef=None) -> dict:
     """Each physics' battery-power signature, W per unit of the parameter.
@@ -312,88 +244,90 @@ def alias_table(columns: dict, threshold: float = ALIAS_CORRELATION) -> tuple[di
 
 
 # ---------------------------------------------------------------- the differences
-def _one(name, a, b, gain, aliases, cannot) -> Difference:
-    unit = b.get("unit") or a.get("unit") or ""
+def _independent(name, a, b):
+    """(estimate, ci95) of the two rides' own estimates differenced, or None."""
     if a.get("estimate") is None or b.get("estimate") is None:
+        return None
+    if not a.get("ci95") or not b.get("ci95"):
+        return b["estimate"] - a["estimate"], None
+    d, ci = difference_interval(a["estimate"], a["ci95"], b["estimate"], b["ci95"], name == "speed_scale")
+    return d, tuple(ci)
+
+
+def _tested_why(name, tested: dict, cannot: dict) -> tuple[bool, str]:
+    ci, gain = tested.get("ci95"), tested.get("heldout_gain")
+    if name in cannot:
+        return False, cannot[name]
+    if ci is None:
+        return False, "no interval from the pair fit: cannot be named"
+    res = float(tested.get("resolution") or 0.0)
+    excl = bool(ci[0] > res or ci[1] < -res)
+    kept = bool(tested.get("selected"))
+    why = (("kept" if kept else "not kept") + " by the pair's held-out selection ("
+           + ("n/a" if gain is None else f"{100 * gain:+.1f} %") + " of the compared ride's held-out RMS"
+           + f", threshold {100 * MIN_GAIN:.0f} %); its interval " + ("excludes" if excl else "includes")
+           + (" zero" if not res else f" ±{res:.2g} s (the finest delay these logs resolve: their row "
+                                      "interval or the fit's grid step)"))
+    return kept and excl, why
+
+
+def _one(name, a, b, tested, aliases, cannot) -> Difference:
+    unit = b.get("unit") or a.get("unit") or _UNIT.get(name, "")
+    unit = "1" if name == "speed_scale" else unit
+    ind = _independent(name, a, b)
+    if tested is not None and tested.get("estimate") is not None:
+        named, why = _tested_why(name, tested, cannot)
+        if name not in PHYSICS:
+            named, why = False, why + "; a nuisance of the pair fit, never named"
+        ci = tested.get("ci95")
+        if named and aliases:
+            why += (f"; its estimate correlates beyond {ALIAS_CORRELATION:g} with {', '.join(aliases)}'s "
+                    "in this pair (held out, it explains more than they do)")
+        return Difference(name, tested["estimate"], None if ci is None else tuple(ci), unit, named,
+                          why, tuple(aliases), tested.get("heldout_gain"), ind)
+    if ind is None:
         return Difference(name, None, None, unit, False, "not identified on "
                           + ("this ride" if a.get("estimate") is None else "the compared ride"))
-    if not a.get("ci95") or not b.get("ci95"):
-        d = b["estimate"] - a["estimate"]
-        return Difference(name, d, None, unit, False, "no interval on one ride: cannot be named",
-                          tuple(aliases), gain)
-    ratio = name == "speed_scale"
-    d, ci = difference_interval(a["estimate"], a["ci95"], b["estimate"], b["ci95"], ratio)
-    excl = ci[0] > 0 or ci[1] < 0
-    if name in cannot:
-        why, named = cannot[name], False
-    elif name not in PHYSICS:
-        why, named = "not a physics the held-out test covers (state of the pack or controller)", False
-    elif gain is None:
-        why, named = "no held-out test possible on the compared ride", False
-    else:
-        better = gain > MIN_GAIN
-        named = excl and better
-        why = (("interval excludes zero" if excl else "interval includes zero") + "; modelling it "
-               + ("lowers" if better else "does not lower") + f" the compared ride's held-out RMS "
-               f"beyond the fitted ride's model ({100 * gain:+.1f} %)")
-    if named and aliases:
-        why += f"; this pair cannot tell it from {', '.join(aliases)}"
-    return Difference(name, d, tuple(ci), "1" if ratio else unit, named, why, tuple(aliases), gain)
+    why = ("not a physics the pair fit tests (state of the pack or controller)"
+           if name not in PHYSICS else "no pair fit possible on these rides: cannot be named")
+    if ind[1] is None:
+        why = "no interval on one ride: cannot be named"
+    return Difference(name, ind[0], ind[1], unit, False, why, tuple(aliases), None, ind)
 
 
-def ride_differences(log_params: list, other_params: list, gains: dict, aliases: dict,
+def ride_differences(log_params: list, other_params: list, tested: dict, aliases: dict,
                      cannot_see: dict, log_name: str = "the other ride",
-                     mass_view: dict | None = None, given: dict | None = None) -> Differences:
+                     mass_view: dict | None = None) -> Differences:
     """OTHER minus LOG for every parameter of both lists.
 
     Parameters
     ----------
     log_params, other_params : list of dict
         ``parameters`` of the two rides (:func:`parameters_from_ride`).
-    gains : dict of str -> float or None
-        :func:`heldout_gain` of each physics on the compared ride.
+    tested : dict of str -> dict
+        The pair fit of each physics: ``{estimate, ci95, heldout_gain, selected}``
+        (:func:`euc_sim.rides.differences_report.pair_tests`).
     aliases, cannot_see : dict
         :func:`alias_table`.
     log_name : str
         How the sentence names LOG ("the 16 May ride").
     mass_view : dict, optional
-        The existing ``mass_difference`` (its interval carries the systematic
-        parts): the ``total_mass`` entry takes its estimate and interval.
-    given : dict of str -> (estimate, (lo, hi)), optional
-        :func:`residual_coefficient` of each physics on the compared ride
-        (reported beside the difference; not used to name it).
+        The existing ``mass_difference``: the ``total_mass`` entry's
+        ``independent`` view takes its estimate and interval.
     """
     a = {p["name"]: p for p in log_params}
     b = {p["name"]: p for p in other_params}
+    for name in tested:                 # a physics tested though one ride's list lacks it
+        a.setdefault(name, {"name": name})
+        b.setdefault(name, {"name": name})
     items = []
     for name in [n for n in a if n in b]:
         pa, pb = a[name], b[name]
         if name == "total_mass" and mass_view and mass_view.get("estimate") is not None:
             pa = {**pa, "estimate": 0.0, "ci95": [0.0, 0.0]}
             pb = {**pb, "estimate": mass_view["estimate"], "ci95": mass_view["ci95"]}
-        d = _one(name, pa, pb, gains.get(name), aliases.get(name, []), cannot_see)
-        g = (given or {}).get(name)
-        cond = (g is not None and name in PHYSICS and name not in cannot_see
-                and d.heldout_gain is not None and d.heldout_gain > MIN_GAIN
-                and (g[1][0] > 0 or g[1][1] < 0))
-        items.append(dataclasses.replace(d, given_log_model=g, named_given_log_model=cond))
-    items = _one_of_aliases(items)
+        items.append(_one(name, pa, pb, tested.get(name), aliases.get(name, []), cannot_see))
     return Differences(tuple(items), dict(cannot_see), rider_sentence(items, log_name))
-
-
-def _one_of_aliases(items: list) -> list:
-    """Of named differences whose signatures alias, keep the one whose held-out gain is largest."""
-    by = {d.name: d for d in items}
-    out = []
-    for d in items:
-        rivals = [by[n] for n in d.aliases if n in by and (by[n].heldout_gain or 0) > (d.heldout_gain or 0)]
-        named = d.named and not any(r.named for r in rivals)
-        cond = d.named_given_log_model and not any(r.named_given_log_model for r in rivals)
-        why = d.why
-        if (d.named or d.named_given_log_model) and not (named or cond):
-            why += f"; {rivals[0].name} explains more of the compared ride (their signatures alias)"
-        out.append(dataclasses.replace(d, named=named, named_given_log_model=cond, why=why))
-    return out
 
 
 def rider_sentence(items, log_name: str) -> str:

@@ -31,22 +31,6 @@ def test_ratio_interval_in_logarithms():
     assert lo < r < hi < 0
 
 
-def test_heldout_gain_sees_a_signature_and_not_noise():
-    t, v, av, P = _ride(0)
-    rng = np.random.default_rng(1)
-    noise = 5.0 * rng.standard_normal(len(t))
-    assert df.heldout_gain(t, noise + 0.15 * v ** 3, v ** 3) > 0.3
-    assert df.heldout_gain(t, noise, v ** 3) < df.MIN_GAIN
-
-
-def test_residual_coefficient_recovers_the_hidden_drag():
-    t, v, av, P = _ride(0)
-    rng = np.random.default_rng(2)
-    est, (lo, hi) = df.residual_coefficient(t, 0.15 * v ** 3 + 5.0 * rng.standard_normal(len(t)), v ** 3)
-    assert lo < 0.15 < hi
-    assert est == pytest.approx(0.15, rel=0.05)
-
-
 def test_aliases_drag_and_rolling_on_a_steady_ride_not_mass():
     t = np.arange(3000) * 0.1
     v = 10.0 + 0.5 * np.sin(2 * np.pi * t / 40.0)
@@ -88,72 +72,93 @@ def test_adapter_maps_names_and_drag_area_to_k():
     assert df.parameters_from_ride({"parameters": own}) == own
 
 
-def _gains(**kw):
-    g = {n: 0.0 for n in df.PHYSICS}
-    g.update(kw)
-    return g
+def _tested(**kw):
+    """Pair-fit entries: name=(estimate, lo, hi, kept)."""
+    return {n: {"estimate": e, "ci95": (lo, hi), "heldout_gain": 0.05 if kept else 0.001,
+                "selected": kept} for n, (e, lo, hi, kept) in kw.items()}
 
 
 def test_drag_named_alone_and_said_in_a_riders_words():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.8, 0.01, 0.2, 1.0)
-    res = df.ride_differences(a, b, _gains(aerodynamic_drag=0.2), {}, {}, "the 16 May ride")
+    res = df.ride_differences(a, b, _tested(aerodynamic_drag=(0.18, 0.1, 0.26, True),
+                                            rolling_resistance=(0.001, -0.01, 0.012, False)),
+                              {}, {}, "the 16 May ride")
     named = [d.name for d in res.items if d.named]
     assert named == ["aerodynamic_drag"]
     drag = next(d for d in res.items if d.name == "aerodynamic_drag")
-    assert drag.estimate == pytest.approx(0.5 * RHO_AIR * 0.3)
+    assert drag.estimate == pytest.approx(0.18)                     # the pair fit's
+    assert drag.independent[0] == pytest.approx(0.5 * RHO_AIR * 0.3)   # the rides' own, beside it
     assert "0.18 kg/m more drag" in res.sentence and "16 May" in res.sentence
     js = res.to_json()
-    assert {"name", "estimate", "ci95", "unit", "named", "why"} <= set(js["differences"][0])
+    assert {"name", "estimate", "ci95", "unit", "named", "why", "aliases", "independent"} \
+        <= set(js["differences"][0])
+    assert "named_given_log_model" not in js["differences"][0]
 
 
-def test_interval_alone_does_not_name_without_heldout_gain():
+def test_interval_alone_does_not_name_when_not_kept():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.8, 0.01, 0.2, 1.0)
-    res = df.ride_differences(a, b, _gains(), {}, {}, "x")
+    res = df.ride_differences(a, b, _tested(aerodynamic_drag=(0.18, 0.1, 0.26, False)), {}, {}, "x")
     assert not any(d.named for d in res.items)
     assert "nothing" in res.sentence
+
+
+def test_kept_but_interval_through_zero_is_not_named():
+    a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
+    res = df.ride_differences(a, b, _tested(total_mass=(10.0, -2.0, 22.0, True)), {}, {}, "x")
+    m = next(d for d in res.items if d.name == "total_mass")
+    assert not m.named and "includes zero" in m.why
 
 
 def test_state_of_charge_never_named():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
     b = [dict(p, estimate=80.0, ci95=[79.9, 80.1]) if p["name"] == "ocv_start" else p for p in b]
-    res = df.ride_differences(a, b, _gains(), {}, {}, "x")
+    res = df.ride_differences(a, b, _tested(), {}, {}, "x")
     ocv = next(d for d in res.items if d.name == "ocv_start")
     assert ocv.estimate == pytest.approx(-4.0) and not ocv.named
 
 
-def test_of_two_aliased_named_the_larger_gain_wins():
-    a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.8, 0.02, 0.2, 1.0)
-    al = {"aerodynamic_drag": ["rolling_resistance"], "rolling_resistance": ["aerodynamic_drag"]}
-    res = df.ride_differences(a, b, _gains(aerodynamic_drag=0.2, rolling_resistance=0.1), al, {}, "x")
-    named = [d.name for d in res.items if d.named]
-    assert named == ["aerodynamic_drag"]
-    roll = next(d for d in res.items if d.name == "rolling_resistance")
-    assert "aerodynamic_drag explains more" in roll.why
+def test_unseen_physics_is_never_named():
+    a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(130.0, 0.5, 0.01, 0.2, 1.0)
+    cannot = {"total_mass": "its signature does not vary on these rides"}
+    res = df.ride_differences(a, b, _tested(total_mass=(30.0, 20.0, 40.0, True)), {}, cannot, "x")
+    m = next(d for d in res.items if d.name == "total_mass")
+    assert not m.named and m.why == cannot["total_mass"]
 
 
 def test_speed_scale_is_a_ratio_minus_one():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0, 0.005), _params(100.0, 0.5, 0.01, 0.2, 1 / 1.05, 0.005)
-    res = df.ride_differences(a, b, _gains(speed_scale=0.3), {}, {}, "x")
+    res = df.ride_differences(a, b, {}, {}, {}, "x")
     s = next(d for d in res.items if d.name == "speed_scale")
-    assert s.estimate == pytest.approx(1 / 1.05 - 1) and s.named and s.unit == "1"
+    assert s.estimate == pytest.approx(1 / 1.05 - 1) and not s.named and s.unit == "1"
 
 
-def test_mass_entry_is_the_mass_difference_view():
+def test_mass_difference_view_is_the_independent_detail():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(130.0, 0.5, 0.01, 0.2, 1.0)
     view = {"estimate": 29.0, "ci95": [10.0, 48.0], "unit": "kg"}
-    res = df.ride_differences(a, b, _gains(total_mass=0.1), {}, {}, "x", mass_view=view)
+    res = df.ride_differences(a, b, _tested(total_mass=(31.0, 22.0, 40.0, True)), {}, {}, "x",
+                              mass_view=view)
     m = next(d for d in res.items if d.name == "total_mass")
-    assert m.estimate == pytest.approx(29.0) and m.ci95 == pytest.approx((10.0, 48.0)) and m.named
+    assert m.estimate == pytest.approx(31.0) and m.named
+    assert m.independent[0] == pytest.approx(29.0) and m.independent[1] == pytest.approx((10.0, 48.0))
 
 
-def test_no_balance_on_log_gives_no_test():
-    from types import SimpleNamespace
+def test_a_tested_delay_reaches_the_list_with_its_unit():
+    a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
+    res = df.ride_differences(a, b, _tested(current_delay=(0.39, 0.34, 0.44, True)), {}, {}, "x")
+    d = next(d for d in res.items if d.name == "current_delay")
+    assert d.named and d.unit == "s" and "0.4 s more delay" in res.sentence
 
-    from euc_sim.rides.differences_report import log_model_residual
 
-    t, v, av, P = _ride(0, n=300)
-    sig = SimpleNamespace(t=t, v=v, P=P)
-    ok, res = log_model_residual(sig, SimpleNamespace(coef={}, lag=0.0))
-    assert not ok.any() and res.size == 0
-    assert df.heldout_gain(t[ok], res, v[ok] ** 3) is None
-    assert df.residual_coefficient(t[ok], res, v[ok] ** 3) is None
+def test_the_threshold_is_the_balance_selections():
+    from euc_sim.rides.crossride import MIN_GAIN
+
+    assert df.MIN_GAIN == pytest.approx(MIN_GAIN)
+
+
+def test_a_delay_within_the_logs_resolution_is_not_named():
+    a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
+    tested = _tested(current_delay=(0.07, 0.06, 0.08, True))
+    tested["current_delay"]["resolution"] = 0.1
+    res = df.ride_differences(a, b, tested, {}, {}, "x")
+    d = next(d for d in res.items if d.name == "current_delay")
+    assert not d.named and "resolve" in d.why

@@ -27,24 +27,25 @@ def test_a_ride_against_itself_names_nothing(clean, tmp_path):
     rep = _compare(clean, clean, tmp_path / "o.json")
     diffs = rep["differences"]
     for d in diffs:
-        assert {"name", "estimate", "ci95", "unit", "named", "why"} <= set(d)
-    assert not [d["name"] for d in diffs if d["named"] or d["named_given_log_model"]]
+        assert {"name", "estimate", "ci95", "unit", "named", "why", "aliases"} <= set(d)
+        assert "named_given_log_model" not in d
+    assert not [d["name"] for d in diffs if d["named"]]
     m = next(d for d in diffs if d["name"] == "total_mass")
-    assert m["estimate"] == pytest.approx(rep["mass_difference"]["estimate"], abs=1e-9)
+    assert m["independent"]["estimate"] == pytest.approx(rep["mass_difference"]["estimate"], abs=1e-9)
+    assert m["estimate"] == pytest.approx(0.0, abs=1e-6)
     assert "nothing" in rep["differences_sentence"]
+    assert "independently" in rep["differences_interval"]
 
 
-def test_hidden_drag_is_found_given_the_fitted_model(clean, tmp_path):
+def test_hidden_drag_is_named_alone_and_sized(clean, tmp_path):
     # η = 1: the balance adds its losses, so a drag hidden behind η < 1 reads k/η when motoring
     other = cc.write_raw(cc.conceal_drag(cc.read_raw(clean), 0.5, eta=1.0), tmp_path / "b.csv")
     rep = _compare(clean, other, tmp_path / "o.json")
     by = {d["name"]: d for d in rep["differences"]}
     drag = by["aerodynamic_drag"]
     truth = 0.5 * RHO_AIR * 0.5
-    assert drag["named_given_log_model"]
-    lo, hi = drag["given_log_model"]["ci95"]
-    assert abs(drag["given_log_model"]["estimate"] - truth) <= 0.3 * truth or lo <= truth <= hi
-    assert drag["heldout_gain"] > 0.02
-    assert by["total_mass"]["named_given_log_model"] is False
-    assert [n for n, d in by.items() if d["named"]] in ([], ["aerodynamic_drag"])
-    assert "more drag" in rep["differences_sentence"] or not drag["named"]
+    lo, hi = drag["ci95"]
+    assert abs(drag["estimate"] - truth) <= 0.3 * truth or lo <= truth <= hi
+    assert [n for n, d in by.items() if d["named"]] == ["aerodynamic_drag"]
+    assert drag["heldout_gain"] > 0.01
+    assert "more drag" in rep["differences_sentence"]

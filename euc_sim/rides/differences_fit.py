@@ -1,0 +1,266 @@
+"""One least-squares fit of two rides: shared nuisance terms, OTHER-only difference terms Δθ.
+
+LOG's rows carry the shared columns; OTHER's rows carry the same columns plus
+one column per difference (zero on LOG's rows), so each Δθ is what OTHER needs
+beyond the model both rides share.  Per-ride terms (a constant each, say) are
+columns that are zero on the other ride.  A difference in the current's delay
+is a shift of OTHER's columns against its power: OTHER's design is given at
+every shift of a grid and the shift that fits best is chosen.
+
+Everything is computed from per-block Gram matrices ``[X y]ᵀ[X y]``: blocks of
+``block`` seconds inside :func:`euc_sim.stats.time_blocks` folds, so that
+
+* the blocked held-out score (fold k of *both* rides left out, OTHER's fold k
+  scored, every fold in turn) and forward selection
+  (:func:`euc_sim.stats.forward_select`) use the folds every other fit uses;
+* the 95 % intervals are block bootstraps with each ride's blocks drawn
+  *independently* (two compared rides are different rides: no paired indices),
+  the shift re-chosen in every replicate.
+
+Study: docs/concealed.md.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from euc_sim.stats import forward_select, percentile_interval, time_blocks
+
+__all__ = ["PairDesign", "PairFit", "DELAY", "block_grams", "pair_fit"]
+
+#: The name of the shift candidate (OTHER's current delay beyond LOG's).
+DELAY = "current_delay"
+
+
+@dataclass(frozen=True)
+class PairDesign:
+    """Both rides' rows of one domain.
+
+    Attributes
+    ----------
+    names : tuple of str
+        Column names of ``X`` (shared and per-ride terms, then the differences).
+    deltas : tuple of str
+        The difference columns (candidates), a subset of ``names``.
+    t_log, Z_log : ndarray
+        LOG's times (s) and ``[X y]`` rows (difference columns zero).
+    t_other : ndarray
+        OTHER's times, s.
+    Z_other : tuple of ndarray
+        OTHER's ``[X y]`` rows at each shift of the grid (one entry: no shift).
+    shift_step : float
+        Seconds per grid step; the middle entry of ``Z_other`` is no shift.
+    """
+
+    names: tuple
+    deltas: tuple
+    t_log: np.ndarray
+    Z_log: np.ndarray
+    t_other: np.ndarray
+    Z_other: tuple
+    shift_step: float = 0.0
+
+
+@dataclass(frozen=True)
+class PairFit:
+    """Outcome of :func:`pair_fit`.
+
+    Attributes
+    ----------
+    selected : list of str
+        The differences forward selection kept (held-out RMS of OTHER lowered
+        by more than ``min_gain`` each).
+    history : list of dict
+        :func:`euc_sim.stats.forward_select`'s steps.
+    estimates : dict of str -> (estimate, (lo, hi)) or None
+        Each candidate in the selected model (the selected terms plus itself
+        when it was not kept), with its block-bootstrap 95 % interval; the shift
+        in seconds.
+    gains : dict of str -> float
+        Each candidate's fractional drop of OTHER's held-out RMS against the
+        selected model without it.
+    correlations : dict of str -> dict of str -> float
+        Correlation of each pair of differences' estimates when all are fitted
+        together (from the pair's own normal equations): near ±1, the pair
+        cannot tell them apart.
+    """
+
+    selected: list
+    history: list
+    estimates: dict
+    gains: dict
+    correlations: dict
+
+
+def _block_ids(t: np.ndarray, n_folds: int, block: float) -> tuple[np.ndarray, np.ndarray]:
+    """Block number of each row and the fold of each block (blocks of ``block`` s inside folds)."""
+    fold = time_blocks(t, n_folds)
+    ids = np.empty(len(t), int)
+    folds, n = [], 0
+    for f in range(n_folds):
+        rows = np.flatnonzero(fold == f)
+        if len(rows) == 0:
+            continue
+        sub = np.floor((t[rows] - t[rows[0]]) / block).astype(int)
+        _, sub = np.unique(sub, return_inverse=True)
+        ids[rows] = n + sub
+        folds += [f] * (sub.max() + 1)
+        n += sub.max() + 1
+    return ids, np.array(folds)
+
+
+def block_grams(t: np.ndarray, Z: np.ndarray, n_folds: int = 5, block: float = 30.0
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-block Gram matrices of ``Z`` (rows × columns), each block's fold and row count.
+
+    Returns
+    -------
+    G : ndarray (n_blocks, p, p)
+    fold, count : ndarray (n_blocks,)
+    """
+    ids, fold = _block_ids(t, n_folds, block)
+    G = np.zeros((len(fold), Z.shape[1], Z.shape[1]))
+    for b in range(len(fold)):
+        zb = Z[ids == b]
+        G[b] = zb.T @ zb
+    return G, fold, np.bincount(ids, minlength=len(fold))
+
+
+def _solve(G: np.ndarray, cols: list) -> tuple[np.ndarray, float]:
+    """Least squares from a Gram matrix (last row/column y): β over ``cols`` and the SSE."""
+    A, b = G[np.ix_(cols, cols)], G[cols, -1]
+    beta = np.linalg.lstsq(A, b, rcond=None)[0]
+    return beta, float(G[-1, -1] - beta @ b)
+
+
+def _test_sse(G: np.ndarray, cols: list, beta: np.ndarray) -> float:
+    A, b = G[np.ix_(cols, cols)], G[cols, -1]
+    return float(G[-1, -1] - 2.0 * beta @ b + beta @ A @ beta)
+
+
+def _parabola(sse: np.ndarray, k: int) -> float:
+    """Sub-step position of the minimum of ``sse`` near index ``k`` (a parabola through three points)."""
+    if k == 0 or k == len(sse) - 1:
+        return float(k)
+    a, b, c = sse[k - 1], sse[k], sse[k + 1]
+    den = a - 2.0 * b + c
+    return float(k) if den <= 0 else k + 0.5 * (a - c) / den
+
+
+class _Grams:
+    """The design's block Gram matrices and the fits drawn from them."""
+
+    def __init__(self, d: PairDesign, n_folds: int, block: float):
+        self.names, self._deltas = list(d.names), tuple(d.deltas)
+        self.GL, self.fL, _ = block_grams(d.t_log, d.Z_log, n_folds, block)
+        grams = [block_grams(d.t_other, Z, n_folds, block) for Z in d.Z_other]
+        self.GO = np.stack([g[0] for g in grams])
+        self.fO, self.nO = grams[0][1], grams[0][2]
+        self.mid = len(d.Z_other) // 2
+        self.step = d.shift_step
+        self.n_folds = n_folds
+
+    def cols(self, terms) -> list:
+        keep = [n for n in self.names if n not in self._deltas or n in terms]
+        return [self.names.index(n) for n in keep]
+
+    def fit(self, wL, wO, terms):
+        """(β, shift index, SSE by shift) with block weights ``wL``, ``wO``."""
+        cols = self.cols(terms)
+        GL = np.tensordot(wL, self.GL, axes=1)
+        ks = range(len(self.GO)) if DELAY in terms else [self.mid]
+        fits = {k: _solve(GL + np.tensordot(wO, self.GO[k], axes=1), cols) for k in ks}
+        sse = np.array([fits[k][1] for k in ks])
+        k = list(ks)[int(np.argmin(sse))]
+        return fits[k][0], k, sse
+
+    def score(self, terms) -> float:
+        """Blocked held-out RMS of OTHER: fold f of both rides left out, OTHER's fold f scored."""
+        cols, sse, n = self.cols(terms), 0.0, 0
+        for f in range(self.n_folds):
+            test = self.fO == f
+            if not test.any():
+                continue
+            beta, k, _ = self.fit((self.fL != f).astype(float), (~test).astype(float), terms)
+            G = self.GO[k][test].sum(axis=0)
+            sse += _test_sse(G, cols, beta)
+            n += int(self.nO[test].sum())
+        return float(np.sqrt(max(sse, 0.0) / n)) if n else np.inf
+
+
+def _draws(g: _Grams, terms, cands, transform, n_boot: int, rng) -> dict:
+    """Bootstrap draws of each candidate's value, each ride's blocks drawn independently."""
+    cols = g.cols(terms)
+    out = {c: [] for c in cands}
+    for _ in range(n_boot):
+        wL = np.bincount(rng.integers(0, len(g.fL), len(g.fL)), minlength=len(g.fL)).astype(float)
+        wO = np.bincount(rng.integers(0, len(g.fO), len(g.fO)), minlength=len(g.fO)).astype(float)
+        beta, k, sse = g.fit(wL, wO, terms)
+        vals = _values(g, cols, beta, k, sse, terms, transform)
+        for c in cands:
+            out[c].append(vals[c])
+    return out
+
+
+def _values(g: _Grams, cols, beta, k, sse, terms, transform) -> dict:
+    coef = {g.names[i]: float(b) for i, b in zip(cols, beta)}
+    vals = {n: transform.get(n, lambda c, n=n: c[n])(coef) for n in terms if n != DELAY}
+    if DELAY in terms:
+        vals[DELAY] = (_parabola(sse, k) - g.mid) * g.step
+    return vals
+
+
+def pair_fit(design: PairDesign, *, min_gain: float, transform: dict | None = None,
+             n_folds: int = 5, block: float = 30.0,
+             n_boot: int = 200, seed: int = 0) -> PairFit:
+    """Forward-select the differences, then size each with an independent-ride block bootstrap.
+
+    Parameters
+    ----------
+    design : PairDesign
+    min_gain : float
+        Fraction of OTHER's held-out RMS a difference must remove to be kept.
+    transform : dict of str -> callable, optional
+        ``f(coefficients) -> value`` of a difference in its parameter's units
+        (default: its own coefficient).
+    n_folds, block : int, float
+        Held-out folds per ride and bootstrap blocks, s.
+    n_boot, seed : int
+
+    Returns
+    -------
+    PairFit
+    """
+    g = _Grams(design, n_folds, block)
+    cands = list(design.deltas) + ([DELAY] if len(design.Z_other) > 1 else [])
+    selected, history = forward_select(g.score, [], cands, min_gain)
+    transform = transform or {}
+    base = g.score(selected)
+    rng = np.random.default_rng(seed)
+    estimates, gains = {}, {}
+    models = [selected] + [selected + [c] for c in cands if c not in selected]
+    for terms in models:
+        shown = [c for c in terms if c not in estimates]
+        beta, k, sse = g.fit(np.ones(len(g.fL)), np.ones(len(g.fO)), terms)
+        whole = _values(g, g.cols(terms), beta, k, sse, terms, transform)
+        draws = _draws(g, terms, shown, transform, n_boot, rng)
+        for c in shown:
+            ci = percentile_interval(np.asarray(draws[c]))
+            estimates[c] = (whole[c], None if ci is None else (float(ci[0]), float(ci[1])))
+            without = g.score([x for x in terms if x != c]) if c in selected else base
+            with_ = base if c in selected else g.score(terms)
+            gains[c] = 1.0 - with_ / without if without > 0 else 0.0
+    return PairFit(selected, history, estimates, gains, _correlations(g))
+
+
+def _correlations(g: _Grams) -> dict:
+    """Correlations of the differences' estimates with every difference in the model (no shift)."""
+    cols = g.cols(g._deltas)
+    G = g.GL.sum(axis=0) + g.GO[g.mid].sum(axis=0)
+    C = np.linalg.pinv(G[np.ix_(cols, cols)])
+    idx = {g.names[c]: i for i, c in enumerate(cols) if g.names[c] in g._deltas}
+    sd = np.sqrt(np.clip(np.diag(C), 1e-300, None))
+    return {a: {b: float(C[i, j] / (sd[i] * sd[j])) for b, j in idx.items() if b != a}
+            for a, i in idx.items()}
