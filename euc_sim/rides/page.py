@@ -239,7 +239,9 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
 
 def _verdict_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     """Title, what was fitted on what, the verdict and the cross-ride figure."""
-    md = [f"# Ride diagnosis: {Path(r['recording']).name}", ""] + _verdict_lines(r)
+    from euc_sim.rides.differences_page import difference_section
+
+    md = [f"# Ride diagnosis: {Path(r['recording']).name}", ""] + difference_section(r) + _verdict_lines(r)
     if "total_mass" in r:
         from euc_sim.rides.drivetrain_report import page_section
         md += page_section(r, figures)

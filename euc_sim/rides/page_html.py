@@ -3,7 +3,8 @@
 First screen: the ride's numbers (distance, time, speeds, energy, Wh/km, battery,
 PWM, alarms, data quality, mass, battery health) read from the ride JSON's
 ``summary``, ``battery`` and ``total_mass`` (never computed here); a tile whose
-entry is absent says "not available".  Then the ride over time on one shared
+entry is absent says "not available"; with ``--compare``, right under them, what
+differs in the compared ride (:mod:`euc_sim.rides.differences_page`).  Then the ride over time on one shared
 axis, the track, the battery's sag and the PWM envelope with the ride's own
 points.  Then, folded, the physics the plain-text page (``index.md``) carries.
 People's units on the page (km/h, %, Wh, mΩ, °C); the JSON keeps SI.
@@ -398,7 +399,13 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
 
     name = Path(rep["recording"]).name
     figs = figure_specs(rep, series, fit)
-    body = [H.key_figures(key_figures(rep)), H.lead(_lead(rep, series, fit))]
+    from euc_sim.rides.differences_page import TITLE, difference_lines
+
+    body = [H.key_figures(key_figures(rep))]
+    diff = difference_lines(rep)
+    if diff:                    # --compare: what differs leads, right under the ride's numbers
+        body.append(H.box(TITLE, H.markdown(diff)))
+    body.append(H.lead(_lead(rep, series, fit)))
     body += _figure_sections(rep, figs)
     body.append(H.section("The physics behind it", H.paragraph(
         "For those who want the model: each part opens on a click."), folded=False))
