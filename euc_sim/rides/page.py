@@ -279,12 +279,14 @@ def _verdict_lines(r: dict) -> list[str]:
     return md + [""]
 
 
-def markdown_sections(r: dict, figures: Mapping[str, str]) -> list[tuple[str, list[str]]]:
+def markdown_sections(r: dict, figures: Mapping[str, str],
+                      shown=frozenset()) -> list[tuple[str, list[str]]]:
     """The plain-text page's content in the HTML page's folded parts: (title, Markdown lines).
 
     The same builders as :func:`write_page`'s, grouped as a reader looks for them: the
     balance model and its diagnosis, the mass and drivetrain, the firmware's law, the
-    simulation's steps, the assumptions.
+    simulation's steps, the assumptions.  ``shown``: quantities the first screen already
+    gives (:func:`euc_sim.rides.drivetrain_report.page_section`), not repeated.
     """
     from euc_sim.rides.controller_report import page_lines
     from euc_sim.rides.drivetrain_report import page_section
@@ -292,7 +294,7 @@ def markdown_sections(r: dict, figures: Mapping[str, str]) -> list[tuple[str, li
     return [("The balance model and the diagnosis", _verdict_lines(r) + _estimates_md(r)
              + _aliases_md(r) + _localisation_md(r, figures)),
             ("Mass, drivetrain and battery, term by term",
-             page_section(r, figures) if "total_mass" in r else ["Not computed."]),
+             page_section(r, figures, shown) if "total_mass" in r else ["Not computed."]),
             ("The firmware's balance law", page_lines(r.get("controller"))),
             ("The simulation, step by step", _simulation_md(r, figures)),
             ("Assumptions and notes", _assumptions_md(r))]
@@ -343,10 +345,21 @@ def _aliases_md(r: dict) -> list[str]:
         if pairs:
             md.append(f"- `{name}` trades off against {', '.join(f'`{a}`' for a in pairs)} "
                       f"(bootstrap correlation beyond ±0.8 in the fit with every candidate).")
-    for n in r.get("notes", []):
-        if n.startswith("masses of the balance fit") or "GPS" in n:
-            md.append(f"- {n}.")
+    md += [f"- {_mass_note(n)}." for n in r.get("notes", []) if _limit_note(n)]
     return md
+
+
+def _limit_note(note: str) -> bool:
+    """A note on what the ride cannot tell apart (said there, not again under the assumptions)."""
+    return note.startswith("masses of the balance fit") or "GPS" in note
+
+
+_FOUND = re.compile(r"m_eq = [\d.]+ kg, total [\d.]+ kg \((found from this log[^()]*(?:\([^()]*\))?)\)")
+
+
+def _mass_note(note: str) -> str:
+    """The balance fit's masses, when found from the log, named, not repeated (the mass section gives them)."""
+    return _FOUND.sub(r"the masses are those \1 ('What the wheel weighs')", note)
 
 
 def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
@@ -509,9 +522,11 @@ def _assumptions_md(r: dict) -> list[str]:
     md = ["## Assumptions and notes", ""]
     a = r["assumptions"]
     src = a.get("sources", {})
+    msrc = src.get('total_mass', a.get('source', ''))
+    masses = (f"masses {msrc} ('What the wheel weighs')" if str(msrc).startswith("found from this log")
+              else f"masses given: {a['total_mass']:.4g} kg total, {a['m_eq']:.4g} kg equivalent ({msrc})")
     md.append(f"- Balance fit ('Cross-ride prediction', 'Estimates'): wheel radius R = {a['R']:g} m "
-              f"({src.get('R', a.get('source', ''))}); total mass {a['total_mass']:.4g} kg, "
-              f"m_eq = {a['m_eq']:.4g} kg ({src.get('total_mass', a.get('source', ''))}); torque "
+              f"({src.get('R', a.get('source', ''))}); {masses}; torque "
               f"from {r['torque_method']}, power from {r['power_source']}.")
     w = r.get("wheel")
     if w is not None:
@@ -525,7 +540,7 @@ def _assumptions_md(r: dict) -> list[str]:
                   f"{', '.join(have) or 'nothing'}"
                   + (f"; not given: {', '.join(miss)} (" + _missing_effect(miss) + ")" if miss else "")
                   + ".")
-    md += [f"- {n}" for n in summarise_notes(r.get("notes", []))]
+    md += [f"- {n}" for n in summarise_notes([n for n in r.get("notes", []) if not _limit_note(n)])]
     md.append("")
     return md
 

@@ -22,7 +22,8 @@ import numpy as np
 from euc_sim.report import html as H
 from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
 
-__all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "figure_specs", "data_quality",
+__all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "first_screen", "figure_specs",
+           "data_quality",
            "PWM_WARN", "PWM_BAD", "BATTERY_TONE"]
 
 #: Max PWM, %, from which the tile warns (amber) and alarms (red): near 100 % the motor has
@@ -196,6 +197,15 @@ def key_figures(rep: Mapping) -> list:
                H.KeyFigure("Data quality", str((s or {}).get("quality") or NA),
                            re.sub(r"^Data quality \w+: ", "", quality), tone),
                _mass_tile(rep.get("total_mass"), rep.get("mass_check")), _battery_tile(rep)])
+
+
+def first_screen(rep: Mapping) -> frozenset:
+    """The fitted quantities the tiles give (the folded parts then say them without numbers)."""
+    tiles = {k.label: k.value for k in key_figures(rep)}
+    return frozenset(name for label, name in (("Total mass", "total_mass"), ("Battery resistance",
+                                                                             "internal_resistance"),
+                                              ("Top speed", "top_speed"))
+                     if tiles.get(label, NA) != NA)
 
 
 def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
@@ -409,7 +419,7 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
     body += _figure_sections(rep, figs)
     body.append(H.section("The physics behind it", H.paragraph(
         "For those who want the model: each part opens on a click."), folded=False))
-    for title, md in markdown_sections(dict(rep), figures or {}):
+    for title, md in markdown_sections(dict(rep), figures or {}, first_screen(rep)):
         body.append(H.section(title, f"<div>{H.markdown(md)}</div>", folded=True))
     body.append(H.paragraph("A plain-text version of this page is index.md in the same folder; "
                             "every number in SI is in the ride's JSON."))
