@@ -9,8 +9,10 @@ difference comes with its 95 % interval and what the pair cannot tell it from; w
 nothing named, one sentence says so and what the pair could have seen (each
 interval's half-width: a difference smaller than that leaves zero inside it).
 
-Where both logs sit beside an euc_core ``meta.csv`` (rider weight, tyre pressure,
-temperature, wind), the recorded values are said beside the difference they bear on.
+Given LOG's path, where both logs sit beside an euc_core ``meta.csv`` (rider weight,
+tyre pressure, temperature, wind), the recorded values are said beside the
+difference they bear on (the JSON keeps file names only: the HTML page, which has
+LOG's analysis, says them; index.md, written from the JSON, does not).
 """
 
 from __future__ import annotations
@@ -100,7 +102,7 @@ def _interval(s: Shown, ci) -> str:
 
 def _log_day(rep: Mapping) -> str:
     """LOG's day as the differences' sentence names it ("16 May"), or ''."""
-    m = re.search(r" than the (\d{1,2} \w+) ride", str(rep.get("differences_sentence") or ""))
+    m = re.search(r"\bthe (\d{1,2} [A-Z]\w+) ride\b", str(rep.get("differences_sentence") or ""))
     return m[1] if m else ""
 
 
@@ -113,10 +115,24 @@ def _meta_row(log_path) -> dict | None:
         return None
 
 
-def recorded_metadata(rep: Mapping) -> dict[str, str]:
+def _sibling(log_path, other_name: str) -> Path:
+    """OTHER beside LOG in euc_core's layout (``trips/BRAND/MODEL/N/N.csv``), else in LOG's folder."""
+    log_path = Path(str(log_path))
+    stem = Path(other_name).stem
+    cand = log_path.parents[1] / stem / other_name if len(log_path.parents) > 1 else None
+    return cand if cand is not None and cand.is_file() else log_path.parent / other_name
+
+
+def recorded_metadata(rep: Mapping, log_path=None) -> dict[str, str]:
     """``{parameter: "the logs record rider weight 85 → 92 kg"}`` from both logs' ``meta.csv``
-    (euc_core's layout); empty where either log has none or a value is blank."""
-    a, b = _meta_row(rep.get("recording", "")), _meta_row(rep.get("compare") or "")
+    (euc_core's layout: LOG at ``log_path``, OTHER its sibling ride of the same name as the
+    JSON's ``compare``); empty without ``log_path``, where either log has none or a value is blank."""
+    if log_path is None or not rep.get("compare"):
+        return {}
+    other = _sibling(log_path, Path(str(rep["compare"])).name)
+    if other.resolve() == Path(str(log_path)).resolve():
+        return {}
+    a, b = _meta_row(log_path), _meta_row(other)
     if not a or not b:
         return {}
     out = {}
@@ -133,20 +149,21 @@ def _aliases(d: Mapping) -> str:
             else "told apart from the other physics on these two rides")
 
 
-def difference_lines(rep: Mapping) -> list[str]:
+def difference_lines(rep: Mapping, log_path=None) -> list[str]:
     """The block's Markdown lines (no heading); empty without ``differences``.
 
     The first line is the rider's sentence (each named difference's size and hint),
     then one line per named difference (its 95 % interval, what it cannot be told
-    from, the metadata recorded), then what the pair could have seen of the rest.
+    from, the metadata recorded, :func:`recorded_metadata` of LOG at ``log_path``),
+    then what the pair could have seen of the rest.
     """
     diffs = [d for d in rep.get("differences") or [] if d.get("name") in SHOWN]
     if not diffs:
         return []
-    other = Path(str(rep.get("compare") or "the compared ride")).name
+    other = f"the compared ride ({Path(str(rep.get('compare') or '')).name})"
     day = _log_day(rep)
     this = f"this ride ({day})" if day else "this ride"
-    meta = recorded_metadata(rep)
+    meta = recorded_metadata(rep, log_path)
     named = sorted((d for d in diffs if d.get("named") and d.get("estimate") is not None and d.get("ci95")),
                    key=lambda d: list(SHOWN).index(d["name"]))
     rest = [d for d in diffs if d not in named and d.get("estimate") is not None and d.get("ci95")]
@@ -154,25 +171,28 @@ def difference_lines(rep: Mapping) -> list[str]:
         parts = [f"{_size(SHOWN[d['name']], d['estimate'])} "
                  f"{SHOWN[d['name']].more if d['estimate'] > 0 else SHOWN[d['name']].less} "
                  f"({SHOWN[d['name']].hint})" for d in named]
-        out = [f"**{other} needed {'; '.join(parts)} than {this}.**", ""]
+        out = [f"**{other[0].upper() + other[1:]} needed {'; '.join(parts)} than {this}.**", ""]
         for d in named:
             s = SHOWN[d["name"]]
             out.append(f"- {s.label[0].upper() + s.label[1:]}: 95 % interval {_interval(s, d['ci95'])}; "
                        f"{_aliases(d)}" + (f"; {meta[d['name']]}" if d["name"] in meta else "") + ".")
     else:
-        out = [f"**Nothing differs between {this} and {other} that this pair of rides can show.**", ""]
+        out = [f"**Nothing differs between {this} and {other} that this pair of rides can show.**"]
     if rest:
         seen = ", ".join(f"{SHOWN[d['name']].label} ±{_size(SHOWN[d['name']], 0.5 * (d['ci95'][1] - d['ci95'][0]))}"
                          for d in sorted(rest, key=lambda d: list(SHOWN).index(d["name"])))
-        out.append(("- Nothing else named; " if named else "") +
-                   f"the smallest differences this pair could have seen: {seen}.")
+        if named:
+            out.append(f"- Nothing else named; the smallest differences this pair could have seen: {seen}.")
+        else:
+            out[0] += f" The smallest differences it could have seen: {seen}."
     said = list(dict.fromkeys(meta[d["name"]] for d in diffs if d["name"] in meta))
     if said and not named:
-        out.append(f"- For comparison, {'; '.join(said)}.")
+        out += ["", "For comparison, the logs' metadata record "
+                + ", ".join(x.removeprefix("the logs record ") for x in said) + "."]
     return out
 
 
-def difference_section(rep: Mapping) -> list[str]:
+def difference_section(rep: Mapping, log_path=None) -> list[str]:
     """index.md's section: :data:`TITLE` and :func:`difference_lines` (empty without ``differences``)."""
-    lines = difference_lines(rep)
+    lines = difference_lines(rep, log_path)
     return [f"## {TITLE}", ""] + lines + [""] if lines else []

@@ -412,7 +412,7 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
     from euc_sim.rides.differences_page import TITLE, difference_lines
 
     body = [H.key_figures(key_figures(rep))]
-    diff = difference_lines(rep)
+    diff = difference_lines(rep, getattr(fit, "path", None))
     if diff:                    # --compare: what differs leads, right under the ride's numbers
         body.append(H.box(TITLE, H.markdown(diff)))
     body.append(H.lead(_lead(rep, series, fit)))
