@@ -17,15 +17,18 @@ set against what the metadata record (B minus A):
 - ``rolling_resistance``: the tyre pressures through C_rr ∝ p^(−1/2) (a rough
   law for pneumatic tyres, from A's fitted C_rr; a softer tyre rolls harder);
 - ``aerodynamic_drag``: the recorded wind (low / mid; no direction), direction only;
+- ``speed_scale``: the tyre pressures, direction only (a softer tyre rolls on a
+  smaller radius: less ground per logged metre);
 - ``current_delay``: the logging app.
 
-Verdict per parameter: **agree** when the recorded change (or its direction) is
-what the tool found: inside its 95 % interval when that interval excludes zero,
-or no difference named and no recorded change beyond what the pair can resolve;
-**disagree** when the recorded change lies outside the interval, or the tool
-names a difference opposite to the recorded direction; **cannot tell** when the
-recorded change is smaller than the interval's half-width (the pair could not
-have seen it) or the metadata record no cause either way.
+Verdict per parameter, on what the tool says (named or not): **agree** when a
+named difference's interval holds the recorded change (or it goes the recorded
+direction: "direction only"), or nothing is named and nothing changed;
+**disagree** when a named difference's interval misses the recorded change or
+goes against it, or a recorded change larger than the interval's half-width was
+not named and lies outside the interval; **cannot tell** otherwise: the recorded
+change smaller than what the pair resolves (the half-width), nothing recorded
+that sizes it, or a difference named that nothing recorded would cause.
 
 Usage::
 
@@ -165,7 +168,8 @@ def expected(name: str, a: Ride, b: Ride, rep: dict) -> tuple[float | None, int 
         return b.rider_kg - a.rider_kg, None, f"rider {a.rider_kg:g} → {b.rider_kg:g} kg"
     if name == "internal_resistance" and a.temperature_C is not None and b.temperature_C is not None:
         r = _log_estimate(rep, name)
-        said = f"{a.temperature_C:g} → {b.temperature_C:g} °C"
+        said = (("logged controller " if a.wheel == "wheellog" else "ambient ")
+                + f"{a.temperature_C:g} → {b.temperature_C:g} °C")
         if r is None or r <= 0:
             return None, None, said
         # R(T) from A's fitted R at A's temperature (both through 25 °C, Arrhenius)
@@ -177,6 +181,9 @@ def expected(name: str, a: Ride, b: Ride, rep: dict) -> tuple[float | None, int 
         if c is None:
             return None, None, said
         return c * (math.sqrt(a.pressure_bar / b.pressure_bar) - 1.0), None, said
+    if name == "speed_scale" and a.pressure_bar and b.pressure_bar:
+        s = b.pressure_bar - a.pressure_bar      # a softer tyre rolls on a smaller radius: less ground
+        return None, (s > 0) - (s < 0), f"tyre {a.pressure_bar:g} → {b.pressure_bar:g} bar"
     if name == "aerodynamic_drag" and a.wind and b.wind:
         s = WIND.get(b.wind, 0) - WIND.get(a.wind, 0)
         return None, (s > 0) - (s < 0), f"wind {a.wind} → {b.wind}"
@@ -186,29 +193,28 @@ def expected(name: str, a: Ride, b: Ride, rep: dict) -> tuple[float | None, int 
 
 
 def verdict(d: dict, exp: float | None, sign: int | None, said: str) -> str:
-    """agree / disagree / cannot tell, with the reason (see the module's docstring)."""
+    """agree / disagree / cannot tell for what the tool says (named or not), with the reason."""
     est, ci, named = d.get("estimate"), d.get("ci95"), bool(d.get("named"))
     if est is None or not ci:
         return "cannot tell: " + ("not estimated on both rides" if est is None else "no interval")
-    half = 0.5 * (ci[1] - ci[0])
-    if exp is not None:
-        inside = ci[0] <= exp <= ci[1]
-        if not inside:
-            return "disagree: the recorded change lies outside the interval"
-        if abs(exp) < half and not named:
-            return "cannot tell: the recorded change is below what the pair resolves"
-        return "agree" + ("" if named else ": nothing named, the recorded change inside the interval")
-    if sign is not None:
-        if not named:
-            return ("agree: no change recorded, none named" if sign == 0 else
-                    "cannot tell: a change of wind recorded (no direction), none named")
-        if sign == 0:
-            return "cannot tell: named, but the metadata record no change of wind (clothing not recorded)"
-        return ("agree: named in the windier ride's direction" if sign * est > 0 else
-                "disagree: named opposite to the recorded wind")
+    half, inside = 0.5 * (ci[1] - ci[0]), exp is not None and ci[0] <= exp <= ci[1]
+    if exp == 0.0 or (exp is None and sign == 0):
+        return ("cannot tell: named, while the metadata record no change (a cause they do not record?)"
+                if named else "agree: no change recorded, none named")
+    if named and exp is not None:
+        return "agree: the recorded change lies inside the interval" if inside else \
+            "disagree: the recorded change lies outside the interval"
+    if named and sign:
+        return ("agree (direction only): named the way the recorded change goes" if sign * est > 0 else
+                "disagree: named opposite to the recorded change")
     if named:
-        return f"cannot tell: named, but the metadata ({said}) give no size"
-    return "cannot tell: nothing recorded that would size it"
+        return f"cannot tell: named, but nothing recorded ({said}) would cause it"
+    if exp is not None and abs(exp) > half:
+        return ("cannot tell: not named, the recorded change inside the interval" if inside else
+                "disagree: not named, the recorded change should have been seen")
+    if exp is not None:
+        return f"cannot tell: the recorded change is below what the pair resolves (±{half:.3g})"
+    return "cannot tell: " + ("a change recorded without a size, none named" if sign else "nothing recorded sizes it")
 
 
 def pair_rows(a: Ride, b: Ride, rep: dict) -> list[dict]:
@@ -220,9 +226,11 @@ def pair_rows(a: Ride, b: Ride, rep: dict) -> list[dict]:
         if d is None:
             continue
         exp, sign, said = expected(name, a, b, rep)
+        ci = d.get("ci95")
         rows.append({"pair": f"{a.label} → {b.label}", "dates": f"{a.date} → {b.date}", "name": name,
-                     "estimate": d.get("estimate"), "ci95": d.get("ci95"), "unit": d.get("unit"),
+                     "estimate": d.get("estimate"), "ci95": ci, "unit": d.get("unit"),
                      "named": bool(d.get("named")), "aliases": d.get("aliases") or [],
+                     "excludes_zero": bool(ci) and (ci[0] > 0 or ci[1] < 0),
                      "recorded": said, "expected": exp, "verdict": verdict(d, exp, sign, said)})
     return rows
 
@@ -236,10 +244,11 @@ def table(rows: list[dict]) -> list[str]:
     """The Markdown table of :func:`pair_rows` rows."""
     out = ["| pair (A → B) | dates | parameter | B − A | 95 % interval | named | aliases | metadata | "
            "expected from metadata | verdict |", "|" + " --- |" * 10]
+    rows = [r for r in rows if r["estimate"] is not None]
     for r in rows:
         ci = r["ci95"]
         out.append(f"| {r['pair']} | {r['dates']} | {r['name']} | {_g(r['estimate'])} {r['unit']} | "
-                   + (f"{ci[0]:+.3g} to {ci[1]:+.3g}" if ci else "–")
+                   + (f"{ci[0]:+.3g} to {ci[1]:+.3g}" + (" (excl. 0)" if r["excludes_zero"] else "") if ci else "–")
                    + f" | {'**yes**' if r['named'] else 'no'} | {', '.join(r['aliases']) or '–'} | "
                    f"{r['recorded']} | {_g(r['expected'])} | {r['verdict']} |")
     return out
