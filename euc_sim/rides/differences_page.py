@@ -47,8 +47,8 @@ class Shown:
         Format of a magnitude in the page's unit.
     more, less : str
         The sentence's words after the number, OTHER above or below LOG.
-    hint : str
-        Why a rider would see it.
+    hint, hint_less : str
+        Why a rider would see it, OTHER above or below LOG.
     meta : str or None
         The ``meta.csv`` column bearing on it.
     """
@@ -60,27 +60,31 @@ class Shown:
     more: str
     less: str
     hint: str
+    hint_less: str
     meta: str | None = None
 
 
 #: Each physics a difference is said for, in the order the page says them.
 SHOWN = {
     "total_mass": Shown("mass", lambda x: x, " kg", "{:.0f}", "more mass", "less mass",
-                        "a backpack? a passenger?", "rider_weight"),
+                        "a backpack? a passenger?", "a lighter load?", "rider_weight"),
     "aerodynamic_drag": Shown("drag area", lambda k: k / (0.5 * RHO_AIR), " m²", "{:.2f}",
-                              "more drag area", "less drag area", "a jacket? a headwind?", "wind"),
+                              "more drag area", "less drag area", "a jacket? a headwind?",
+                              "tighter clothes? a tailwind?", "wind"),
     "rolling_resistance": Shown("rolling resistance", lambda c: 100.0 * c, " % of the weight", "{:.1f}",
                                 "more rolling resistance", "less rolling resistance",
-                                "a softer tyre? a rougher road?", "tire_pressure"),
+                                "a softer tyre? a rougher road?", "a harder tyre? a smoother road?",
+                                "tire_pressure"),
     "internal_resistance": Shown("battery resistance", lambda r: 1000.0 * r, " mΩ", "{:.0f}",
                                  "more battery resistance", "less battery resistance",
-                                 "a colder or older pack?", "temperature"),
+                                 "a colder or older pack?", "a warmer pack?", "temperature"),
     "speed_scale": Shown("tyre size (speed scale)", lambda s: 100.0 * s, " %", "{:.1f}",
                          "more ground per logged metre", "less ground per logged metre",
-                         "a tyre size set differently in the app? a worn tyre?", "tire_pressure"),
+                         "a tyre size set differently in the app? a worn tyre?",
+                         "a tyre size set differently in the app? a softer tyre?", "tire_pressure"),
     "current_delay": Shown("current delay", lambda s: s, " s", "{:.1f}",
                            "more delay on the current channel", "less delay on the current channel",
-                           "a different app or logging rate?"),
+                           "a different app or logging rate?", "a different app or logging rate?"),
 }
 #: meta.csv columns said beside a difference: (words, unit).
 META_WORDS = {"rider_weight": ("rider weight", " kg"), "tire_pressure": ("tyre pressure", " bar"),
@@ -168,9 +172,9 @@ def difference_lines(rep: Mapping, log_path=None) -> list[str]:
                    key=lambda d: list(SHOWN).index(d["name"]))
     rest = [d for d in diffs if d not in named and d.get("estimate") is not None and d.get("ci95")]
     if named:
-        parts = [f"{_size(SHOWN[d['name']], d['estimate'])} "
-                 f"{SHOWN[d['name']].more if d['estimate'] > 0 else SHOWN[d['name']].less} "
-                 f"({SHOWN[d['name']].hint})" for d in named]
+        parts = [f"{_size(s, d['estimate'])} "
+                 + (f"{s.more} ({s.hint})" if d["estimate"] > 0 else f"{s.less} ({s.hint_less})")
+                 for d, s in ((d, SHOWN[d["name"]]) for d in named)]
         out = [f"**{other[0].upper() + other[1:]} needed {'; '.join(parts)} than {this}.**", ""]
         for d in named:
             s = SHOWN[d["name"]]
