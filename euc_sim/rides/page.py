@@ -376,11 +376,11 @@ def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     if loc.get("correlations"):
         md.append("Correlation of that residual with: " + ", ".join(
             f"{k} {v:+.2f}" for k, v in loc["correlations"].items()) + ".")
-    for tr in r.get("residual_traces", []):
-        md.append(f"- {tr['ride']} ({'in sample' if tr['in_sample'] else 'held out'}): RMS "
-                  f"inertia-only {tr['rms_nominal']:.0f} {tr['unit']}, augmented "
-                  f"{tr['rms_augmented']:.0f}, of which the {SLOW_S:.0f} s moving mean "
-                  f"(slow: hills, wind) {tr['slow_rms_augmented']:.0f} {tr['unit']}.")
+    for tr in r.get("residual_traces", []):        # the held-out ride's RMS: the verdict's errors
+        rms = ("RMS as in the verdict's held-out errors, augmented" if not tr["in_sample"] else
+               f"RMS inertia-only {tr['rms_nominal']:.0f} {tr['unit']}, augmented {tr['rms_augmented']:.0f}")
+        md.append(f"- {tr['ride']} ({'in sample' if tr['in_sample'] else 'held out'}): {rms}, of which the "
+                  f"{SLOW_S:.0f} s moving mean (slow: hills, wind) {tr['slow_rms_augmented']:.0f} {tr['unit']}.")
     if "residuals" in figures:
         md += ["", f"![residual over time]({figures['residuals']})", ""]
     return md
@@ -485,8 +485,8 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
                f"and the fastest and slowest band's ratio (0 dB: the log's level and spectrum, "
                f"+6 dB twice its swing); unlike the RMS error it does not count a noise drawn "
                f"independently of the log's as an error"
-               + (f"; the balance fit's held-out battery-power error is {balance:.0f} W, and a step "
-                  f"meets the target when its error is within {target:g}× that (bold)" if balance else "")
+               + (f"; a step meets the target when its error is within {target:g}× the balance fit's "
+                  f"held-out battery-power error (the verdict's augmented one; bold)" if balance else "")
                + ":", "",
                "| step | what it adds | battery power RMS | × balance fit | bands, dB (P: fast … slow) "
                "| phase current RMS | pitch RMS | PWM RMS | torque RMS | speed RMS | fell |",

@@ -37,7 +37,9 @@ VOCABULARY = {
     "distance": (r"distance", ("km", "m")),
     "energy_drawn": (r"energy drawn", ("Wh",)),
     "consumption": (r"consumption", ("Wh/km",)),
-    "heldout_inertia_only": (r"held-out error: inertia-only", ("W", "N·m")),
+    "heldout_inertia_only": (r"held-out error: inertia-only|\(held out\): RMS inertia-only", ("W", "N·m")),
+    "heldout_augmented": (r"(?:held-out error: inertia-only|\(held out\): RMS inertia-only) [\d.]+ (?:W|N·m), "
+                          r"augmented|balance fit's held-out battery-power error is", ("W", "N·m", "")),
     "heldout_ratio": (r"ratio", ("",)),
 }
 #: Most characters between a label and its value.
