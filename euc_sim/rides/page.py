@@ -523,7 +523,7 @@ def _assumptions_md(r: dict) -> list[str]:
     a = r["assumptions"]
     src = a.get("sources", {})
     msrc = src.get('total_mass', a.get('source', ''))
-    masses = (f"masses {msrc} ('What the wheel weighs')" if str(msrc).startswith("found from this log")
+    masses = (f"masses as 'What the wheel weighs' gives them ({msrc})" if str(msrc).startswith("found from this log")
               else f"masses given: {a['total_mass']:.4g} kg total, {a['m_eq']:.4g} kg equivalent ({msrc})")
     md.append(f"- Balance fit ('Cross-ride prediction', 'Estimates'): wheel radius R = {a['R']:g} m "
               f"({src.get('R', a.get('source', ''))}); {masses}; torque "
