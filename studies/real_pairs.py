@@ -11,7 +11,9 @@ set against what the metadata record (B minus A):
 
 - ``total_mass``: the recorded rider weights' difference (kg);
 - ``internal_resistance``: the ambient temperatures' difference (the WheelLog
-  pair: its logged ``system_temp``, the controller's, a proxy) through the
+  pair: its logged ``system_temp``, the controller's, a proxy), and, where both
+  logs have it (``internal_resistance@pack``), the logged pack temperature's
+  (EUC World ``temp_batt``, median over the ride) through the
   pack's Arrhenius law (:func:`euc_sim.rides.battery.to_25C`), from A's fitted
   resistance (a colder ride needs more);
 - ``rolling_resistance``: the tyre pressures through C_rr ∝ p^(−1/2) (a rough
@@ -26,7 +28,10 @@ named difference's interval holds the recorded change (or it goes the recorded
 direction: "direction only"), or nothing is named and nothing changed;
 **disagree** when a named difference's interval misses the recorded change or
 goes against it, or a recorded change larger than the interval's half-width was
-not named and lies outside the interval; **cannot tell** otherwise: the recorded
+not named and lies outside the interval; "interval only" where nothing is named
+but an interval excluding zero holds (agree) or excludes (disagree) the recorded
+change; **cannot tell**
+otherwise: the recorded
 change smaller than what the pair resolves (the half-width), nothing recorded
 that sizes it, or a difference named that nothing recorded would cause.
 
@@ -55,8 +60,8 @@ from euc_sim.rides.battery import to_25C
 #: The shared data beside the repository (``--data`` elsewhere).
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
 #: Parameters tabulated, in order.
-SHOWN = ("total_mass", "internal_resistance", "rolling_resistance", "aerodynamic_drag",
-         "speed_scale", "current_delay")
+SHOWN = ("total_mass", "internal_resistance", "internal_resistance@pack", "rolling_resistance",
+         "aerodynamic_drag", "speed_scale", "current_delay")
 #: Wind words of meta.csv, ordered.
 WIND = {"none": 0, "low": 1, "mid": 2, "high": 3}
 
@@ -75,6 +80,7 @@ class Ride:
     temperature_C: float | None = None
     wind: str | None = None
     app: str | None = None
+    pack_C: float | None = None
 
 
 def _first_date(path: Path) -> str:
@@ -83,12 +89,12 @@ def _first_date(path: Path) -> str:
     return (row.get("datetime") or row.get("date") or "")[:10]
 
 
-def _logged_temperature(path: Path) -> float | None:
-    """The median of the log's ``system_temp`` (°C; the WheelLog pair records no ambient temperature)."""
+def _logged_temperature(path: Path, column: str = "system_temp") -> float | None:
+    """The median of a logged temperature (°C; zeros and blanks left out), None where not logged."""
     import numpy as np
 
     with open(path, newline="") as f:
-        t = [float(r["system_temp"]) for r in csv.DictReader(f) if r.get("system_temp") not in (None, "")]
+        t = [float(r[column]) for r in csv.DictReader(f) if r.get(column) not in (None, "", "0", "0.0")]
     return float(np.median(t)) if t else None
 
 
@@ -109,7 +115,7 @@ def shared_rides(data: Path) -> list[Ride]:
         wheel = log.parents[1].name
         spec = data / "euc_core" / "specs" / f"{wheel}.csv"
         out.append(Ride(f"{wheel}_{log.parent.name}", wheel, log, spec if spec.exists() else None,
-                        _first_date(log), **_meta(log.parent)))
+                        _first_date(log), **_meta(log.parent), pack_C=_logged_temperature(log, "temp_batt")))
     wl = data / "wheellog"
     for name in ("2020_05_16_08_02_06.csv", "2020_05_28_07_52_00.csv"):
         if (wl / name).exists():
@@ -175,6 +181,12 @@ def expected(name: str, a: Ride, b: Ride, rep: dict) -> tuple[float | None, int 
         # R(T) from A's fitted R at A's temperature (both through 25 °C, Arrhenius)
         r_b = r * to_25C(1.0, a.temperature_C) / to_25C(1.0, b.temperature_C)
         return r_b - r, None, said
+    if name == "internal_resistance@pack" and a.pack_C is not None and b.pack_C is not None:
+        r = _log_estimate(rep, "internal_resistance")
+        said = f"logged pack {a.pack_C:.0f} → {b.pack_C:.0f} °C (median)"
+        if r is None or r <= 0:
+            return None, None, said
+        return r * to_25C(1.0, a.pack_C) / to_25C(1.0, b.pack_C) - r, None, said
     if name == "rolling_resistance" and a.pressure_bar and b.pressure_bar:
         c = _log_estimate(rep, name)
         said = f"tyre {a.pressure_bar:g} → {b.pressure_bar:g} bar"
@@ -209,9 +221,13 @@ def verdict(d: dict, exp: float | None, sign: int | None, said: str) -> str:
                 "disagree: named opposite to the recorded change")
     if named:
         return f"cannot tell: named, but nothing recorded ({said}) would cause it"
+    if exp is not None and inside and (ci[0] > 0 or ci[1] < 0):
+        return "agree (interval only): not named, but its interval excludes zero and holds the recorded change"
     if exp is not None and abs(exp) > half:
         return ("cannot tell: not named, the recorded change inside the interval" if inside else
                 "disagree: not named, the recorded change should have been seen")
+    if exp is not None and not inside and (ci[0] > 0 or ci[1] < 0):
+        return "disagree (interval only): not named, but its interval excludes both zero and the recorded change"
     if exp is not None:
         return f"cannot tell: the recorded change is below what the pair resolves (±{half:.3g})"
     return "cannot tell: " + ("a change recorded without a size, none named" if sign else "nothing recorded sizes it")
@@ -222,8 +238,8 @@ def pair_rows(a: Ride, b: Ride, rep: dict) -> list[dict]:
     diffs = {d["name"]: d for d in rep.get("differences") or []}
     rows = []
     for name in SHOWN:
-        d = diffs.get(name)
-        if d is None:
+        d = diffs.get(name.split("@")[0])
+        if d is None or (name.endswith("@pack") and (a.pack_C is None or b.pack_C is None)):
             continue
         exp, sign, said = expected(name, a, b, rep)
         ci = d.get("ci95")
