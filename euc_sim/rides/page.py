@@ -297,7 +297,7 @@ def markdown_sections(r: dict, figures: Mapping[str, str],
              page_section(r, figures, shown) if "total_mass" in r else ["Not computed."]),
             ("The firmware's balance law", page_lines(r.get("controller"))),
             ("The simulation, step by step", _simulation_md(r, figures)),
-            ("Assumptions and notes", _assumptions_md(r))]
+            ("Assumptions and notes", _assumptions_md(r, shown))]
 
 
 def _estimates_md(r: dict) -> list[str]:
@@ -517,7 +517,10 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     return md
 
 
-def _assumptions_md(r: dict) -> list[str]:
+_OWN_GAPS = re.compile(r"\d+ gap\(s\) longer than ([\d.]+) s")
+
+
+def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:
     """Which values came from the spec, the log or the command line, which are defaults; every note."""
     md = ["## Assumptions and notes", ""]
     a = r["assumptions"]
@@ -540,7 +543,11 @@ def _assumptions_md(r: dict) -> list[str]:
                   f"{', '.join(have) or 'nothing'}"
                   + (f"; not given: {', '.join(miss)} (" + _missing_effect(miss) + ")" if miss else "")
                   + ".")
-    md += [f"- {n}" for n in summarise_notes([n for n in r.get("notes", []) if not _limit_note(n)])]
+    notes = [n for n in r.get("notes", []) if not _limit_note(n)]
+    if "gaps" in shown:         # the ride's own gap count is the Data quality tile's
+        notes = [n if re.match(r"\S+\.csv: ", n) else _OWN_GAPS.sub(r"gaps longer than \1 s as the tile counts", n)
+                 for n in notes]
+    md += [f"- {n}" for n in summarise_notes(notes)]
     md.append("")
     return md
 

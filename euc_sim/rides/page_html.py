@@ -202,21 +202,24 @@ def key_figures(rep: Mapping) -> list:
 def first_screen(rep: Mapping) -> frozenset:
     """The fitted quantities the tiles give (the folded parts then say them without numbers)."""
     tiles = {k.label: k.value for k in key_figures(rep)}
-    return frozenset(name for label, name in (("Total mass", "total_mass"), ("Battery resistance",
-                                                                             "internal_resistance"),
-                                              ("Top speed", "top_speed"))
-                     if tiles.get(label, NA) != NA)
+    gaps = "gap" in data_quality(rep.get("summary"))[0]
+    return frozenset([name for label, name in (("Total mass", "total_mass"), ("Battery resistance",
+                                                                              "internal_resistance"),
+                                               ("Top speed", "top_speed"))
+                      if tiles.get(label, NA) != NA] + (["gaps"] if gaps else []))
 
 
 def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
     """The verdict in sentences: the data's quality first when it weakens everything else."""
     out = []
-    line, tone = data_quality(rep.get("summary"))
-    if tone in ("bad", "warn"):
-        out.append(line)                    # the summary's sentence: poor data weakens every verdict
+    _, tone = data_quality(rep.get("summary"))
+    if tone in ("bad", "warn"):             # poor data weakens every verdict (its numbers: the tile's)
+        out.append(f"The log's data quality is {rep['summary'].get('quality')} (tile above): "
+                   + ("treat every verdict below as weak." if tone == "bad" else
+                      "the figures below are a little less certain."))
     p = _num(rep.get("summary"), "pwm_max_pct")
     if p is not None and p >= PWM_BAD:
-        out.append(f"At its peak the motor used {p:.0f} % of the battery's voltage: close to a cut-out.")
+        out.append("At its peak (Max PWM above) the motor had almost no voltage left: close to a cut-out.")
     left = speed_left(rep, series, fit) if series is not None else None
     if left is not None and left[1] is not None:
         out.append(f"At your highest PWM, riding {left[0]:.0f} km/h, the battery's charge then allowed "

@@ -41,7 +41,10 @@ VOCABULARY = {
     "heldout_augmented": (r"(?:held-out error: inertia-only|\(held out\): RMS inertia-only) [\d.]+ (?:W|N·m), "
                           r"augmented|balance fit's held-out battery-power error is", ("W", "N·m", "")),
     "heldout_ratio": (r"ratio", ("",)),
+    "max_pwm": (r"Max PWM|motor used", ("%",)),
 }
+#: canonical name -> the words after a number that label it ("2.9 samples/s", "409 gap(s)").
+AFTER = {"sampling_rate": r"samples/s", "gaps": r"gap\(s\)|gaps\b"}
 #: Most characters between a label and its value.
 SEP = 90
 #: unit -> factor to SI (the unit as the page prints it).
@@ -124,6 +127,12 @@ def prose_quantities(section: str, text: str, prefix: str = "") -> list[Quantity
         rx = re.compile(rf"{_NUM}{_UNIT}\s+(?:more|less)\s+(?:{label})", re.I)
         for m in rx.finditer(text):
             out.append(_q("Δ" + name, m[1], m[2] or "", section, text[max(0, m.start() - 20):m.end() + 20]))
+    for name, label in AFTER.items():
+        for m in re.finditer(rf"(?<![\w.]){_NUM}\s+(?:{label})", text):
+            line = text[text.rfind("\n", 0, m.start()) + 1:m.start()]
+            ride = re.match(r"\W*(\S+\.csv): ", line)          # a note on the compared ride
+            out.append(_q((f"{ride[1]}: " if ride else "") + prefix + name, m[1], "", section,
+                          text[max(0, m.start() - 20):m.end() + 20]))
     return out
 
 

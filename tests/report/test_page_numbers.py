@@ -78,6 +78,23 @@ def test_every_number_appears_once(which, request):
     assert _problems(rep_dir) == {"html": [], "md": []}
 
 
+def test_a_poor_log_and_a_high_pwm_are_said_once(synthetic, tmp_path):
+    """The tiles' data quality and max PWM are not repeated by the lead or the notes."""
+    from euc_sim.rides.page_html import write_ride_html
+
+    rep = dict(synthetic[1], summary={
+        "duration_s": 400.0, "moving_s": 380.0, "pwm_max_pct": 93.0, "pwm_max_at_s": 120.0,
+        "gaps": {"count": 12, "total_s": 130.0, "longest_s": 40.0}, "sampling_hz": 2.9, "quality": "poor",
+        "quality_sentence": "Data quality poor: 2.9 samples/s, 12 gap(s) (33 % of the log); treat every "
+                            "verdict below as weak"},
+        notes=list(synthetic[1]["notes"]) + ["irregular sampling: intervals 0.1-40 s; 12 gap(s) longer than 1 s"])
+    page = write_ride_html(rep, tmp_path, None).read_text()
+    qs = P.page_quantities(P.html_sections(page), TITLE)
+    assert {"max_pwm", "sampling_rate", "gaps"} <= {q.name for q in qs}
+    assert P.problems(qs) == []
+    assert "treat every verdict below as weak" in page and "close to a cut-out" in page
+
+
 def test_the_check_sees_a_repeat_two_values_and_an_efficiency_above_one():
     html = ("<body><div class=\"kf\"><div><div class=\"l\">Total mass</div><div class=\"v\">114 kg</div>"
             "</div></div><p class=\"lead\">x</p><details><summary>Mass</summary><div><p>Total mass "
