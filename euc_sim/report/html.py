@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Iterable, Sequence
 
 __all__ = ["KeyFigure", "key_figures", "paragraph", "table", "figure", "section", "page",
-           "write_page", "columns", "lead", "markdown", "PLOTLY_CONFIG"]
+           "write_page", "columns", "lead", "box", "markdown", "PLOTLY_CONFIG"]
 
 #: Plotly's options on every figure: no logo, no link to Plotly's cloud, PNG export kept.
 PLOTLY_CONFIG = {"displaylogo": False, "responsive": True, "showLink": False}
@@ -42,6 +42,8 @@ td.num{text-align:right;font-variant-numeric:tabular-nums}
 .cols{display:grid;grid-template-columns:1fr 1fr;gap:12px}
 .lead{font-size:1.02em;margin:.3em 0 .5em}.lead b{font-weight:600}
 code{background:#f3f5f8;padding:0 3px;border-radius:3px;font-size:.92em}
+.box{background:#eef3fb;border-radius:6px;padding:2px 12px;margin:.5em 0}.box h2{margin:.3em 0 .1em}
+.box p,.box ul{margin:.2em 0}
 details>div{padding:0 0 0 12px}details h3{font-size:1.02em;margin:.8em 0 .2em}
 """
 
@@ -154,6 +156,11 @@ def write_page(folder: str | Path, text: str) -> Path:
 def columns(*fragments: str) -> str:
     """Fragments side by side (two columns)."""
     return f'<div class="cols">{"".join(f"<div>{f}</div>" for f in fragments)}</div>'
+
+
+def box(title: str, body: str) -> str:
+    """A highlighted block of the first screen: a heading and an HTML fragment."""
+    return f'<section class="box"><h2>{_esc(title)}</h2>{body}</section>'
 
 
 def lead(sentences: Sequence[str]) -> str:

@@ -267,8 +267,9 @@ def pwm_figure(r: RideDrivetrain, coef: dict | None = None, title: str = ""):
     return fig
 
 
-def _mass_md(rep: dict) -> list[str]:
-    """The page's lines on the total mass, its interval's parts, warnings and the difference."""
+def _mass_md(rep: dict, shown=frozenset()) -> list[str]:
+    """The page's lines on the total mass, its interval's parts, warnings and the difference;
+    the total mass itself not repeated where ``shown`` (the first screen) has it."""
     tm = rep["total_mass"]
     md = ["## What the wheel weighs with its rider, and how close to a cut-out", ""]
     if tm["estimate"] is None:
@@ -276,11 +277,11 @@ def _mass_md(rep: dict) -> list[str]:
     else:
         ci = tm["ci95"]
         eq = tm.get("equivalent_mass")
+        value = ("in the key figures above" if "total_mass" in shown else
+                 f"**{tm['estimate']:.0f} kg**, 95 % interval " + (f"{ci[0]:.0f}–{ci[1]:.0f} kg" if ci else "–"))
         md.append("- Total mass (rider + wheel"
                   + ("" if eq else ", with the wheel's rotating inertia: no net weight given")
-                  + f"): **{tm['estimate']:.0f} kg**, 95 % interval "
-                  + (f"{ci[0]:.0f}–{ci[1]:.0f} kg" if ci else "–")
-                  + f" (from battery power alone; speed scale {tm['speed_scale']:.3f}, "
+                  + f"): {value} (from battery power alone; speed scale {tm['speed_scale']:.3f}, "
                     f"{tm['speed_scale_source']}; current–speed delay {tm['lag_s']:+.1f} s).")
         if eq:
             md.append(f"- The energy balance finds m_eq = {eq['estimate']:.0f} kg (eq. 6: it also "
@@ -311,10 +312,14 @@ def _mass_md(rep: dict) -> list[str]:
     return md
 
 
-def page_section(rep: dict, figures: dict) -> list[str]:
-    """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope."""
+def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
+    """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope.
+
+    ``shown``: the quantities the page's first screen already gives (``total_mass``,
+    ``internal_resistance``, ``top_speed``), said here without their numbers.
+    """
     tm = rep["total_mass"]
-    md = _mass_md(rep)
+    md = _mass_md(rep, shown)
     sel = rep.get("selection") or []
     if sel:
         md += ["", "Battery-power balance of the fit ride, blocked held-out RMS error after "
@@ -328,6 +333,8 @@ def page_section(rep: dict, figures: dict) -> list[str]:
             continue
         if t.get("estimate") is None:
             md.append(f"| {name} | not identified | {t.get('why', '')} | |")
+        elif name in shown:
+            md.append(f"| {name} | in the key figures above | | {unit_label(t['unit'])} |")
         else:
             ci = t.get("ci95")
             md.append(f"| {name} | {t['estimate']:.4g} | "
@@ -363,14 +370,17 @@ def page_section(rep: dict, figures: dict) -> list[str]:
                     f"some is still left at {end:.0f} km/h, the figure's end")
         md += ["", f"Envelope (voltage limit): at full charge ({env['full']['voltage']:.0f} V) "
                    f"{left('full')}; at low charge ({env['low']['voltage']:.0f} V) {left('low')}. "
-                   f"This ride's top speed was {env.get('ride_top_speed', float('nan')) * 3.6:.0f} "
-                   f"km/h: faster than that the envelope is extrapolated (shaded)."]
+                   + ("Faster than this ride's top speed (in the key figures above)" if "top_speed" in shown
+                      else f"This ride's top speed was {env.get('ride_top_speed', float('nan')) * 3.6:.0f} "
+                           f"km/h: faster than that")
+                   + " the envelope is extrapolated (shaded)."]
     else:
         md += ["", f"Envelope: {env.get('why', 'not available')}."]
     if "envelope" in figures:
         md += ["", f"![cut-out envelope]({figures['envelope']})"]
     for name, why in rep.get("unidentified", {}).items():
-        md.append(f"- Not identified, {name}: {why}.")
+        if (dt.get(name) or {}).get("estimate") is not None or name not in dt:   # else said in the table
+            md.append(f"- Not identified, {name}: {why}.")
     return md + [""]
 
 

@@ -239,7 +239,9 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
 
 def _verdict_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     """Title, what was fitted on what, the verdict and the cross-ride figure."""
-    md = [f"# Ride diagnosis: {Path(r['recording']).name}", ""] + _verdict_lines(r)
+    from euc_sim.rides.differences_page import difference_section
+
+    md = [f"# Ride diagnosis: {Path(r['recording']).name}", ""] + difference_section(r) + _verdict_lines(r)
     if "total_mass" in r:
         from euc_sim.rides.drivetrain_report import page_section
         md += page_section(r, figures)
@@ -277,12 +279,14 @@ def _verdict_lines(r: dict) -> list[str]:
     return md + [""]
 
 
-def markdown_sections(r: dict, figures: Mapping[str, str]) -> list[tuple[str, list[str]]]:
+def markdown_sections(r: dict, figures: Mapping[str, str],
+                      shown=frozenset()) -> list[tuple[str, list[str]]]:
     """The plain-text page's content in the HTML page's folded parts: (title, Markdown lines).
 
     The same builders as :func:`write_page`'s, grouped as a reader looks for them: the
     balance model and its diagnosis, the mass and drivetrain, the firmware's law, the
-    simulation's steps, the assumptions.
+    simulation's steps, the assumptions.  ``shown``: quantities the first screen already
+    gives (:func:`euc_sim.rides.drivetrain_report.page_section`), not repeated.
     """
     from euc_sim.rides.controller_report import page_lines
     from euc_sim.rides.drivetrain_report import page_section
@@ -290,10 +294,10 @@ def markdown_sections(r: dict, figures: Mapping[str, str]) -> list[tuple[str, li
     return [("The balance model and the diagnosis", _verdict_lines(r) + _estimates_md(r)
              + _aliases_md(r) + _localisation_md(r, figures)),
             ("Mass, drivetrain and battery, term by term",
-             page_section(r, figures) if "total_mass" in r else ["Not computed."]),
+             page_section(r, figures, shown) if "total_mass" in r else ["Not computed."]),
             ("The firmware's balance law", page_lines(r.get("controller"))),
             ("The simulation, step by step", _simulation_md(r, figures)),
-            ("Assumptions and notes", _assumptions_md(r))]
+            ("Assumptions and notes", _assumptions_md(r, shown))]
 
 
 def _estimates_md(r: dict) -> list[str]:
@@ -341,10 +345,21 @@ def _aliases_md(r: dict) -> list[str]:
         if pairs:
             md.append(f"- `{name}` trades off against {', '.join(f'`{a}`' for a in pairs)} "
                       f"(bootstrap correlation beyond ±0.8 in the fit with every candidate).")
-    for n in r.get("notes", []):
-        if n.startswith("masses of the balance fit") or "GPS" in n:
-            md.append(f"- {n}.")
+    md += [f"- {_mass_note(n)}." for n in r.get("notes", []) if _limit_note(n)]
     return md
+
+
+def _limit_note(note: str) -> bool:
+    """A note on what the ride cannot tell apart (said there, not again under the assumptions)."""
+    return note.startswith("masses of the balance fit") or "GPS" in note
+
+
+_FOUND = re.compile(r"m_eq = [\d.]+ kg, total [\d.]+ kg \((found from this log[^()]*(?:\([^()]*\))?)\)")
+
+
+def _mass_note(note: str) -> str:
+    """The balance fit's masses, when found from the log, named, not repeated (the mass section gives them)."""
+    return _FOUND.sub(r"the masses are those \1 ('What the wheel weighs')", note)
 
 
 def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
@@ -361,11 +376,11 @@ def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     if loc.get("correlations"):
         md.append("Correlation of that residual with: " + ", ".join(
             f"{k} {v:+.2f}" for k, v in loc["correlations"].items()) + ".")
-    for tr in r.get("residual_traces", []):
-        md.append(f"- {tr['ride']} ({'in sample' if tr['in_sample'] else 'held out'}): RMS "
-                  f"inertia-only {tr['rms_nominal']:.0f} {tr['unit']}, augmented "
-                  f"{tr['rms_augmented']:.0f}, of which the {SLOW_S:.0f} s moving mean "
-                  f"(slow: hills, wind) {tr['slow_rms_augmented']:.0f} {tr['unit']}.")
+    for tr in r.get("residual_traces", []):        # the held-out ride's RMS: the verdict's errors
+        rms = ("RMS as in the verdict's held-out errors, augmented" if not tr["in_sample"] else
+               f"RMS inertia-only {tr['rms_nominal']:.0f} {tr['unit']}, augmented {tr['rms_augmented']:.0f}")
+        md.append(f"- {tr['ride']} ({'in sample' if tr['in_sample'] else 'held out'}): {rms}, of which the "
+                  f"{SLOW_S:.0f} s moving mean (slow: hills, wind) {tr['slow_rms_augmented']:.0f} {tr['unit']}.")
     if "residuals" in figures:
         md += ["", f"![residual over time]({figures['residuals']})", ""]
     return md
@@ -470,8 +485,8 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
                f"and the fastest and slowest band's ratio (0 dB: the log's level and spectrum, "
                f"+6 dB twice its swing); unlike the RMS error it does not count a noise drawn "
                f"independently of the log's as an error"
-               + (f"; the balance fit's held-out battery-power error is {balance:.0f} W, and a step "
-                  f"meets the target when its error is within {target:g}× that (bold)" if balance else "")
+               + (f"; a step meets the target when its error is within {target:g}× the balance fit's "
+                  f"held-out battery-power error (the verdict's augmented one; bold)" if balance else "")
                + ":", "",
                "| step | what it adds | battery power RMS | × balance fit | bands, dB (P: fast … slow) "
                "| phase current RMS | pitch RMS | PWM RMS | torque RMS | speed RMS | fell |",
@@ -502,14 +517,19 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     return md
 
 
-def _assumptions_md(r: dict) -> list[str]:
+_OWN_GAPS = re.compile(r"\d+ gap\(s\) longer than ([\d.]+) s")
+
+
+def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:
     """Which values came from the spec, the log or the command line, which are defaults; every note."""
     md = ["## Assumptions and notes", ""]
     a = r["assumptions"]
     src = a.get("sources", {})
+    msrc = src.get('total_mass', a.get('source', ''))
+    masses = (f"masses as 'What the wheel weighs' gives them ({msrc})" if str(msrc).startswith("found from this log")
+              else f"masses given: {a['total_mass']:.4g} kg total, {a['m_eq']:.4g} kg equivalent ({msrc})")
     md.append(f"- Balance fit ('Cross-ride prediction', 'Estimates'): wheel radius R = {a['R']:g} m "
-              f"({src.get('R', a.get('source', ''))}); total mass {a['total_mass']:.4g} kg, "
-              f"m_eq = {a['m_eq']:.4g} kg ({src.get('total_mass', a.get('source', ''))}); torque "
+              f"({src.get('R', a.get('source', ''))}); {masses}; torque "
               f"from {r['torque_method']}, power from {r['power_source']}.")
     w = r.get("wheel")
     if w is not None:
@@ -523,7 +543,11 @@ def _assumptions_md(r: dict) -> list[str]:
                   f"{', '.join(have) or 'nothing'}"
                   + (f"; not given: {', '.join(miss)} (" + _missing_effect(miss) + ")" if miss else "")
                   + ".")
-    md += [f"- {n}" for n in summarise_notes(r.get("notes", []))]
+    notes = [n for n in r.get("notes", []) if not _limit_note(n)]
+    if "gaps" in shown:         # the ride's own gap count is the Data quality tile's
+        notes = [n if re.match(r"\S+\.csv: ", n) else _OWN_GAPS.sub(r"gaps longer than \1 s as the tile counts", n)
+                 for n in notes]
+    md += [f"- {n}" for n in summarise_notes(notes)]
     md.append("")
     return md
 

@@ -3,7 +3,8 @@
 First screen: the ride's numbers (distance, time, speeds, energy, Wh/km, battery,
 PWM, alarms, data quality, mass, battery health) read from the ride JSON's
 ``summary``, ``battery`` and ``total_mass`` (never computed here); a tile whose
-entry is absent says "not available".  Then the ride over time on one shared
+entry is absent says "not available"; with ``--compare``, right under them, what
+differs in the compared ride (:mod:`euc_sim.rides.differences_page`).  Then the ride over time on one shared
 axis, the track, the battery's sag and the PWM envelope with the ride's own
 points.  Then, folded, the physics the plain-text page (``index.md``) carries.
 People's units on the page (km/h, %, Wh, mΩ, °C); the JSON keeps SI.
@@ -21,7 +22,8 @@ import numpy as np
 from euc_sim.report import html as H
 from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
 
-__all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "figure_specs", "data_quality",
+__all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "first_screen", "figure_specs",
+           "data_quality",
            "PWM_WARN", "PWM_BAD", "BATTERY_TONE"]
 
 #: Max PWM, %, from which the tile warns (amber) and alarms (red): near 100 % the motor has
@@ -197,15 +199,27 @@ def key_figures(rep: Mapping) -> list:
                _mass_tile(rep.get("total_mass"), rep.get("mass_check")), _battery_tile(rep)])
 
 
+def first_screen(rep: Mapping) -> frozenset:
+    """The fitted quantities the tiles give (the folded parts then say them without numbers)."""
+    tiles = {k.label: k.value for k in key_figures(rep)}
+    gaps = "gap" in data_quality(rep.get("summary"))[0]
+    return frozenset([name for label, name in (("Total mass", "total_mass"), ("Battery resistance",
+                                                                              "internal_resistance"),
+                                               ("Top speed", "top_speed"))
+                      if tiles.get(label, NA) != NA] + (["gaps"] if gaps else []))
+
+
 def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
     """The verdict in sentences: the data's quality first when it weakens everything else."""
     out = []
-    line, tone = data_quality(rep.get("summary"))
-    if tone in ("bad", "warn"):
-        out.append(line)                    # the summary's sentence: poor data weakens every verdict
+    _, tone = data_quality(rep.get("summary"))
+    if tone in ("bad", "warn"):             # poor data weakens every verdict (its numbers: the tile's)
+        out.append(f"The log's data quality is {rep['summary'].get('quality')} (tile above): "
+                   + ("treat every verdict below as weak." if tone == "bad" else
+                      "the figures below are a little less certain."))
     p = _num(rep.get("summary"), "pwm_max_pct")
     if p is not None and p >= PWM_BAD:
-        out.append(f"At its peak the motor used {p:.0f} % of the battery's voltage: close to a cut-out.")
+        out.append("At its peak (Max PWM above) the motor had almost no voltage left: close to a cut-out.")
     left = speed_left(rep, series, fit) if series is not None else None
     if left is not None and left[1] is not None:
         out.append(f"At your highest PWM, riding {left[0]:.0f} km/h, the battery's charge then allowed "
@@ -398,11 +412,17 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
 
     name = Path(rep["recording"]).name
     figs = figure_specs(rep, series, fit)
-    body = [H.key_figures(key_figures(rep)), H.lead(_lead(rep, series, fit))]
+    from euc_sim.rides.differences_page import TITLE, difference_lines
+
+    body = [H.key_figures(key_figures(rep))]
+    diff = difference_lines(rep, getattr(fit, "path", None))
+    if diff:                    # --compare: what differs leads, right under the ride's numbers
+        body.append(H.box(TITLE, H.markdown(diff)))
+    body.append(H.lead(_lead(rep, series, fit)))
     body += _figure_sections(rep, figs)
     body.append(H.section("The physics behind it", H.paragraph(
         "For those who want the model: each part opens on a click."), folded=False))
-    for title, md in markdown_sections(dict(rep), figures or {}):
+    for title, md in markdown_sections(dict(rep), figures or {}, first_screen(rep)):
         body.append(H.section(title, f"<div>{H.markdown(md)}</div>", folded=True))
     body.append(H.paragraph("A plain-text version of this page is index.md in the same folder; "
                             "every number in SI is in the ride's JSON."))
