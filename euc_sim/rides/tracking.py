@@ -24,7 +24,7 @@ from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 
 __all__ = ["limit_acceleration", "rider_acceleration_limit", "resisting_acceleration", "to_grid", "ProfileRun",
-           "simulate_profile", "LEAN_SHARE", "moving_average", "plan_band_limit"]
+           "simulate_profile", "LEAN_SHARE", "moving_average", "plan_band_limit", "RideCancelled"]
 
 #: Share of the fall bound |φ| ≤ φ_max that the rider's steady lean φ*(a) may use: the
 #: profile's acceleration is limited to the a where |φ*(a)| = LEAN_SHARE·φ_max
@@ -253,19 +253,27 @@ class ProfileRun:
     notes: tuple[str, ...]
 
 
-class _RideClock:
-    """A tqdm bar over the ride's seconds (stderr), fed by the engine's ``progress(t)``."""
+class RideCancelled(Exception):
+    """A run ended because its caller cancelled it (``simulate_profile(cancel=...)``)."""
 
-    def __init__(self, total: float, desc: str, enabled: bool, position: int = 0):
+
+class _RideClock:
+    """A tqdm bar over the ride's seconds (stderr), fed by the engine's ``progress(t)``; raises
+    :class:`RideCancelled` at its next tick once ``cancel`` (a :class:`threading.Event`) is set."""
+
+    def __init__(self, total: float, desc: str, enabled: bool, position: int = 0, cancel=None):
         import sys
 
         from tqdm import tqdm
 
+        self.cancel = cancel
         self.bar = tqdm(total=round(total, 1), desc=desc, unit="s", unit_scale=False, file=sys.stderr,
                         disable=not enabled, position=position, mininterval=1.0, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
                         "{n:.0f}/{total:.0f} s of ride [{elapsed}<{remaining}]")
 
     def __call__(self, t: float) -> None:
+        if self.cancel is not None and self.cancel.is_set():
+            raise RideCancelled(f"{self.bar.desc}: cancelled at t = {t:.1f} s")
         self.bar.update(max(0.0, round(t, 1) - self.bar.n))
 
     def close(self) -> None:
@@ -335,9 +343,13 @@ def _ride(t, v_plan, params, effects, seed, dt, clock, motor, rider) -> pd.DataF
     from euc_sim.simulation.maneuvers import Maneuver
 
     man = Maneuver("profile", float(v_plan[0]), (), (tuple(t.tolist()), tuple(v_plan.tolist())))
-    return simulate(man, float(t[-1]), params=params, motor=motor,
-                    rider=rider if rider is not None else default_rider(params, motor), seed=seed,
-                    effects=dict(effects), dt=dt, progress=clock)
+    df = simulate(man, float(t[-1]), params=params, motor=motor,
+                  rider=rider if rider is not None else default_rider(params, motor), seed=seed,
+                  effects=dict(effects), dt=dt, progress=clock)
+    # the description without the profile's table (the plan, given here): pandas deep-copies
+    # ``attrs`` at every operation on the frame, and an hour's table is 2 x 36,000 floats
+    df.attrs["maneuver"] = {k: v for k, v in df.attrs["maneuver"].items() if k != "table"}
+    return df
 
 
 def _shifted(df: pd.DataFrame, t0: float, x0: float) -> pd.DataFrame:
@@ -408,7 +420,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
                      learn_band: float | None = None, progress: Callable[[str], None] | None = None,
                      label: str = "ride", position: int = 0, motor=None, rider=None,
                      lean_share: float | None = LEAN_SHARE, band_limit: bool | None = None,
-                     stops: Sequence[tuple[int, int]] | None = None) -> ProfileRun:
+                     stops: Sequence[tuple[int, int]] | None = None, cancel=None) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
     The simulated rider does not ride his plan as planned: a resisting force (drag,
@@ -475,10 +487,18 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         Through each stop the rider stands, foot down, and he rides each stretch between
         stops from rest with his memory cleared (:mod:`euc_sim.rides.stops`: the logs draw no
         power at such stops).  A note counts them.  ``()``: one run through, no stop.
+    cancel : threading.Event, optional
+        Once set, the run raises :class:`RideCancelled` within one rider block (its caller
+        was interrupted: :func:`euc_sim.rides.pool.run_threads`).
 
     Returns
     -------
     ProfileRun
+
+    Raises
+    ------
+    RideCancelled
+        when ``cancel`` is set during the run.
     """
     from euc_sim.simulation.errors import FallError
 
@@ -488,7 +508,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     notes: list[str] = []
 
     def clock_of(what: str) -> _RideClock:
-        return _RideClock(float(t[-1] - t[0]), f"{label} {what}", progress is not None, position)
+        return _RideClock(float(t[-1] - t[0]), f"{label} {what}", progress is not None, position, cancel)
 
     a_limit = None
     if lean_share is not None and t.size > 1:
