@@ -461,7 +461,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     label : str
         The bar's name (the run: ``nominal``, ``augmented``).
     position : int
-        The bar's line (0 first): runs side by side in processes keep their own line.
+        The bar's line (0 first): runs side by side (threads) keep their own line.
     motor : controllers.motor.MotorPD, optional
         The wheel's balance law (default the paper's PD), e.g. a ride's measured law
         (:func:`euc_sim.controllers.firmware.firmware_motor`).
