@@ -23,6 +23,8 @@ from typing import Any, Callable, Sequence
 
 from euc_sim.simulation.runner import worker_init
 
+__all__ = ["run_jobs", "run_threads"]
+
 
 def run_threads(fn: Callable[[Any, Any], Any], jobs: Sequence, workers: int,
                 on_done: Callable[[int, int], None] | None = None) -> list:
@@ -73,8 +75,6 @@ def run_threads(fn: Callable[[Any, Any], Any], jobs: Sequence, workers: int,
         raise
     pool.shutdown(wait=True)
     return [done[i] for i in range(len(jobs))]
-
-__all__ = ["run_jobs", "run_threads"]
 
 
 def run_jobs(fn: Callable[[Any], Any], jobs: Sequence, workers: int,
