@@ -222,14 +222,15 @@ class _StepJob:
     seed: int
 
 
-def _ride_step(job: _StepJob, cancel=None) -> _StepRun:
-    """:func:`simulate_profile` along the step's plan, then :func:`_on_grid`.
+def _ride_step(job: _StepJob, cancel=None, pool=None) -> _StepRun:
+    """:func:`simulate_profile` along the step's plan (its stretches on ``pool`` when given),
+    then :func:`_on_grid`.
 
     Depends on nothing but ``job``: its reading draws come from its own generator
     (``default_rng([seed, index])``), so steps run in any order, or side by side, give the
     results they give in order.
     """
-    res = simulate_profile(*job.profile, cancel=cancel)
+    res = simulate_profile(*job.profile, cancel=cancel, pool=pool)
     cols, raw = _on_grid(res.frame, job.sig, job.step, job.R, job.channels, job.logged, job.stamps,
                          job.quanta, np.random.default_rng([job.seed, job.index]), fell=bool(res.falls))
     return _StepRun(res.falls, res.notes, cols, raw)
@@ -246,15 +247,21 @@ def _prefixed(progress, name: str):
 
 def _run_steps(jobs: Sequence[_StepJob], params: Params, workers: int,
                progress: Callable[[str], None] | None = None) -> list[_StepRun]:
-    """:func:`_ride_step` on each job, on ``workers`` threads when more than 1.
+    """:func:`_ride_step` on each job, ridden on ``workers`` threads when more than 1.
 
     The native closed loop (:mod:`euc_sim.simulation.native`) steps in C without the GIL,
-    so the steps ride side by side; its callback is compiled and the default rider designed
-    here first, once, not by racing threads.  BLAS is held to one thread either way (the
-    steps' linear algebra is small; a BLAS pool would only spin against the rides), so one
-    thread and several give the same numbers.  An interruption ends the running steps
-    within a rider block (:func:`euc_sim.rides.pool.run_threads`).
+    so rides run side by side on threads.  With ``workers`` > 1 every step has a thread of
+    its own that only orders its work, and the rides themselves (each stretch between the
+    log's stops, :func:`simulate_profile`'s ``pool``) queue for ``workers`` riding threads:
+    three steps on two threads keep both busy to the end, not the third alone.  The
+    callback is compiled and the default rider designed here first, once, not by racing
+    threads.  BLAS is held to one thread either way (the steps' linear algebra is small; a
+    BLAS pool would only spin against the rides), so one thread and several give the same
+    numbers.  An interruption ends the running rides within a rider block
+    (:func:`euc_sim.rides.pool.run_threads`).
     """
+    from concurrent.futures import ThreadPoolExecutor
+
     from threadpoolctl import threadpool_limits
 
     from euc_sim.rides.pool import run_threads
@@ -262,13 +269,19 @@ def _run_steps(jobs: Sequence[_StepJob], params: Params, workers: int,
     from euc_sim.simulation.native_core import available
 
     say = progress or (lambda msg: None)
-    if workers > 1:
+    riders = None
+    if workers > 1 and len(jobs) > 0:
         available()                        # the callback compiled once, in this thread
         default_rider(params)              # designed once, not by each thread
-    with threadpool_limits(limits=1, user_api="blas"):
-        return run_threads(_ride_step, jobs, workers,
-                           on_done=lambda i, k: say(f"simulation {k}/{len(jobs)} done "
-                                                    f"({jobs[i].step.name})"))
+        riders = ThreadPoolExecutor(workers, thread_name_prefix="euc-sim-ride")
+    try:
+        with threadpool_limits(limits=1, user_api="blas"):
+            return run_threads(partial(_ride_step, pool=riders), jobs, len(jobs) if riders else 1,
+                               on_done=lambda i, k: say(f"simulation {k}/{len(jobs)} done "
+                                                        f"({jobs[i].step.name})"))
+    finally:
+        if riders is not None:
+            riders.shutdown(wait=True, cancel_futures=True)
 
 
 def _pitch_rows(table: pd.DataFrame, ok: np.ndarray) -> np.ndarray:

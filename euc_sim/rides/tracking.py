@@ -280,7 +280,49 @@ class _RideClock:
         self.bar.close()
 
 
-def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=None, rider=None, stops=()):
+class _Stretches:
+    """The rides of a run's stretches between stops: each ridden when asked for (``pool`` None),
+    or all submitted at once to ``pool`` (threads) and collected in order.
+
+    Stretch i is ridden from rest with its own seed, so it is the same ride either way.
+    :meth:`abandon` (after a fall, the later stretches are not ridden) cancels those not
+    started and ends those riding at their next rider block."""
+
+    def __init__(self, t, v_plan, segments, params, effects, seed, dt, clock, motor, rider, pool):
+        import threading
+
+        self.quit = threading.Event()
+        self.segments = segments
+
+        def one(i: int) -> pd.DataFrame:
+            a, b = segments[i]
+            t0 = float(t[a])
+
+            def seg_clock(s: float) -> None:
+                if self.quit.is_set():
+                    raise RideCancelled("a stretch after a fall: not ridden")
+                if clock is not None:
+                    clock(t0 + s)
+
+            return _ride(t[a:b + 1] - t0, v_plan[a:b + 1], params, effects,
+                         seed if i == 0 else _stretch_seed(seed, i), dt,
+                         None if clock is None and pool is None else seg_clock, motor, rider)
+
+        self.one = one
+        self.futures = None if pool is None else [pool.submit(one, i) for i in range(len(segments))]
+
+    def ride(self, i: int) -> pd.DataFrame:
+        """Stretch i's frame (its own clock, from 0), or its :class:`FallError`."""
+        return self.one(i) if self.futures is None else self.futures[i].result()
+
+    def abandon(self) -> None:
+        self.quit.set()
+        for fut in self.futures or ():
+            fut.cancel()
+
+
+def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=None, rider=None, stops=(),
+           pool=None):
     """One run along the plan v_plan; its speed on the profile grid, m/s, and RMS error.
 
     ``motor`` (default the paper's PD) and ``rider`` (default the LQR rider designed for
@@ -290,7 +332,8 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
     from seed (``seed``, i)) and the wheel stands, foot down, through each stop
     (:func:`euc_sim.rides.stops.rest_rows`); the frame's ``attrs["step_off"]`` is the
     largest |ẋ| at which a stretch ended at a stop, m/s.  A fall in a stretch raises
-    :class:`FallError` at the ride's time with the ride up to it as ``trajectory``."""
+    :class:`FallError` at the ride's time with the ride up to it as ``trajectory``.  With
+    ``pool`` (a thread pool), the stretches ride side by side (:class:`_Stretches`)."""
     from euc_sim.rides.stops import moving_segments, rest_rows
     from euc_sim.simulation.errors import FallError
 
@@ -304,21 +347,24 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
         if ts.size:
             pieces.append(rest_rows(ts, x_end, *rest_pose, np.interp(ts, t, v_plan)))
 
+    rides = _Stretches(t, v_plan, segments, params, effects, seed, dt, clock, motor, rider, pool)
     for i, (a, b) in enumerate(segments):
         if t_end is None and a > 0:
             stand(float(t[0]) - dt, float(t[a]), False)
         elif t_end is not None:
             stand(t_end, float(t[a]), False)
         t0 = float(t[a])
-        seg_clock = None if clock is None else (lambda s, t0=t0: clock(t0 + s))
         try:
-            df = _ride(t[a:b + 1] - t0, v_plan[a:b + 1], params, effects,
-                       seed if i == 0 else _stretch_seed(seed, i), dt, seg_clock, motor, rider)
+            df = rides.ride(i)
         except FallError as exc:
+            rides.abandon()
             fell = FallError(t0 + exc.t, exc.quantity, exc.value, exc.bound)
             part = [] if exc.trajectory is None else [_shifted(exc.trajectory, t0, x_end)]
             fell.trajectory = pd.concat(pieces + part, ignore_index=True) if pieces or part else None
             raise fell from None
+        except BaseException:
+            rides.abandon()
+            raise
         pieces.append(_shifted(df, t0, x_end))
         attrs = attrs or dict(df.attrs)
         x_end, t_end = float(pieces[-1]["x"].iloc[-1]), float(pieces[-1]["t"].iloc[-1])
@@ -372,7 +418,7 @@ def _rest_pose(params: Params, motor) -> tuple[float, float]:
 
 
 def _correct_plan(t, target, plan, run, params, effects, seed, dt, iterations: int, band: float,
-                  notes: list, say, clock_of, motor=None, rider=None, stops=()) -> pd.DataFrame:
+                  notes: list, say, clock_of, motor=None, rider=None, stops=(), pool=None) -> pd.DataFrame:
     """Iterative learning: the plan corrected through the inverted closed loop, ridden again.
 
     Each correction is :func:`euc_sim.rides.plan_learning.inverse_correction` of the speed
@@ -399,7 +445,7 @@ def _correct_plan(t, target, plan, run, params, effects, seed, dt, iterations: i
         say(f"tracking correction {it + 1} of {iterations}: riding the corrected plan")
         clock = clock_of(f"correction {it + 1}")
         try:
-            df2, v2, _ = _track(t, target, plan, params, effects, seed, dt, clock, motor, rider, stops)
+            df2, v2, _ = _track(t, target, plan, params, effects, seed, dt, clock, motor, rider, stops, pool)
         except FallError as exc:
             notes.append(f"tracking correction {it + 1}: rider fell ({exc}); kept the "
                          f"previous run")
@@ -420,7 +466,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
                      learn_band: float | None = None, progress: Callable[[str], None] | None = None,
                      label: str = "ride", position: int = 0, motor=None, rider=None,
                      lean_share: float | None = LEAN_SHARE, band_limit: bool | None = None,
-                     stops: Sequence[tuple[int, int]] | None = None, cancel=None) -> ProfileRun:
+                     stops: Sequence[tuple[int, int]] | None = None, cancel=None, pool=None) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
     The simulated rider does not ride his plan as planned: a resisting force (drag,
@@ -490,6 +536,9 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     cancel : threading.Event, optional
         Once set, the run raises :class:`RideCancelled` within one rider block (its caller
         was interrupted: :func:`euc_sim.rides.pool.run_threads`).
+    pool : concurrent.futures.ThreadPoolExecutor, optional
+        The stretches between stops ride on it side by side (the same rides as one by one:
+        each from rest with its own seed); None: one by one in this thread.
 
     Returns
     -------
@@ -549,7 +598,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
     clock = clock_of("ride")
     try:
-        df, v_sim, err = _track(t, v, v, params, effects, seed, dt, clock, motor, rider, stops)
+        df, v_sim, err = _track(t, v, v, params, effects, seed, dt, clock, motor, rider, stops, pool)
     except FallError as exc:
         cause = str(exc).split(": ", 1)[-1]
         notes.append(f"rider fell at t = {exc.t:.1f} s of {t[-1] - t[0]:.0f} s ({cause}): the "
@@ -564,7 +613,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
 
         band = filter_band() if learn_band is None else learn_band
         df = _correct_plan(t, logged, v, (df, v_sim, err), params, effects, seed, dt,
-                           track_iterations, band, notes, say, clock_of, motor, rider, stops)
+                           track_iterations, band, notes, say, clock_of, motor, rider, stops, pool)
     if any(a > 0 for a, _ in stops):          # a stretch ended at a stop
         notes.append(f"at the stops the simulated rider (the run kept) put his foot down from up to "
                      f"{df.attrs['step_off']:.2f} m/s")

@@ -109,3 +109,37 @@ def test_one_worker_runs_in_order_in_this_thread():
     assert out == [2, 4, 6] and set(where) == {threading.current_thread()}
     assert done == [(0, 1), (1, 2), (2, 3)]
     assert run_threads(lambda job, cancel: job + 1, [1, 2, 3], workers=2) == [2, 3, 4]
+
+
+def _stop_and_go(fall_in_second: bool = False):
+    """90 s: three stretches of riding between standing stops (10 s each); with
+    ``fall_in_second``, the second stretch asks for 8 m/s within 0.2 s."""
+    t = np.arange(0.0, 90.0, 0.1)
+    v = np.zeros_like(t)
+    for lo, hi in ((2.0, 22.0), (32.0, 52.0), (62.0, 82.0)):
+        ride = (t > lo) & (t < hi)
+        v[ride] = 3.0 * np.sin(np.pi * (t[ride] - lo) / (hi - lo)) ** 2
+    if fall_in_second:
+        v[(t > 40.0) & (t < 45.0)] = 8.0
+    return t, v
+
+
+@pytest.mark.parametrize("fall", [False, True])
+def test_stretches_on_a_pool_are_the_stretches_one_by_one(fall):
+    """The stretches between stops ridden side by side give the frame they give one by one;
+    after a fall in the second, the third is not part of the run either way."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.rides.tracking import simulate_profile
+
+    t, v = _stop_and_go(fall)
+    kw = dict(track_iterations=0 if fall else 1, seed=4, lean_share=None if fall else 0.3)
+    one = simulate_profile(t, v, TABLE3, {"rolling_resistance": 0.01}, **kw)
+    with ThreadPoolExecutor(2) as pool:
+        side = simulate_profile(t, v, TABLE3, {"rolling_resistance": 0.01}, pool=pool, **kw)
+    assert any("stands still at 4 stops" in n for n in one.notes), one.notes
+    assert bool(one.falls) == fall and side.falls == one.falls and side.notes == one.notes
+    if fall:
+        assert 32.0 < one.falls[0]["t"] < 52.0 and one.frame["t"].iloc[-1] < 52.0    # in the second
+    pd.testing.assert_frame_equal(side.frame, one.frame, check_exact=True)
