@@ -213,7 +213,7 @@ def add_ride_parser(sub) -> None:
                    help=f"bootstrap replicates, at least {MIN_BOOT} (default 200, at most 100000)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
     p.add_argument("--workers", type=int, default=2, metavar="N",
-                   help="processes for the simulation's steps (default 2)")
+                   help="threads for the simulation's steps (default 2)")
     deprecated(p, "--jobs", "--workers")
     p.add_argument("--calibrate-rider", action="store_true",
                    help="add the step 'calibrated_rider': the simulated rider's delay, bandwidth and "

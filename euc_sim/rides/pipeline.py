@@ -79,7 +79,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     simulate : bool
         Run the closed-loop simulator along the tested ride's speed profile.
     jobs : int
-        Processes for the simulation's steps.
+        Threads for the simulation's steps (the results do not depend on it).
     progress : callable, optional
         Called with a short status string at each step.
     spec : WheelSpec, optional
@@ -220,7 +220,7 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict, calib
     balance = rep.get("heldout_error_augmented") if rep.get("error_unit") == "W" else None
     if progress is not None:
         progress(f"simulating the rider along {Path(ride_path.path).name}: steps {', '.join(ran)}, "
-                 f"{min(jobs, len(ran))} process(es)")
+                 f"{min(jobs, len(ran))} thread(s)")
     return simulate_ride(sig, steps, ride_path, scored=scored, label=Path(ride_path.path).name, seed=seed,
                          workers=jobs, channels=log_channels(rep, balance), progress=progress)
 

@@ -1,8 +1,16 @@
-"""A process pool for a few long jobs that dies with its parent and stops at once.
+"""Pools for a few long jobs (the simulated steps of a ride) that stop at once when interrupted.
 
-``ProcessPoolExecutor`` alone leaves workers running when the parent is killed
-(SIGKILL) and, when the parent is interrupted, waits for the running jobs to end
-(minutes of a ride simulation).  :func:`run_jobs` makes each worker ignore Ctrl-C
+:func:`run_threads` runs them on threads: the native closed loop
+(:mod:`euc_sim.simulation.native`) steps in C without the GIL, so the steps of a ride
+ride side by side in one process, with nothing pickled and no memory copied.  Each job
+gets a ``cancel`` event; an interruption in the calling thread sets it, and a job that
+looks at it (:func:`euc_sim.rides.tracking.simulate_profile`'s clock, at every rider
+block) ends at once instead of riding its minutes out.
+
+:func:`run_jobs` runs them in processes (jobs that hold the GIL).
+``ProcessPoolExecutor`` alone leaves workers running when the parent is killed (SIGKILL)
+and, when the parent is interrupted, waits for the running jobs to end (minutes of a
+ride simulation).  :func:`run_jobs` makes each worker ignore Ctrl-C
 (the parent handles it), die with the parent (Linux ``prctl(PR_SET_PDEATHSIG,
 SIGKILL)``), and kills the workers when the parent is interrupted
 (``KeyboardInterrupt``: Ctrl-C, or SIGTERM as ``euc-sim`` handles it).
@@ -15,7 +23,58 @@ from typing import Any, Callable, Sequence
 
 from euc_sim.simulation.runner import worker_init
 
-__all__ = ["run_jobs"]
+__all__ = ["run_jobs", "run_threads"]
+
+
+def run_threads(fn: Callable[[Any, Any], Any], jobs: Sequence, workers: int,
+                on_done: Callable[[int, int], None] | None = None) -> list:
+    """``[fn(job, cancel) for job in jobs]``, on ``workers`` threads when more than 1.
+
+    Parameters
+    ----------
+    fn : callable
+        ``fn(job, cancel)``; ``cancel`` is a :class:`threading.Event` set when the caller is
+        interrupted (or another job failed): a long job should end when it is set.
+    jobs : sequence
+        Its first arguments.
+    workers : int
+        Threads; 1 runs each job in this thread, in order.
+    on_done : callable, optional
+        ``on_done(index, n_done)`` in this thread as each job ends.
+
+    Returns
+    -------
+    list
+        Results in the order of ``jobs``; the first job's exception (in the order jobs
+        end) is re-raised here, the other jobs stopped first.
+    """
+    import threading
+    from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
+
+    note = on_done or (lambda i, k: None)
+    cancel = threading.Event()
+    if workers <= 1 or len(jobs) <= 1:
+        out = []
+        for i, job in enumerate(jobs):
+            out.append(fn(job, cancel))
+            note(i, len(out))
+        return out
+    pool = ThreadPoolExecutor(min(workers, len(jobs)), thread_name_prefix="euc-sim-step")
+    done: dict[int, Any] = {}
+    try:
+        futures = {pool.submit(fn, job, cancel): i for i, job in enumerate(jobs)}
+        pending = set(futures)
+        while pending:
+            finished, pending = wait(pending, return_when=FIRST_EXCEPTION)
+            for fut in finished:
+                done[futures[fut]] = fut.result()         # a job's exception: raised here
+                note(futures[fut], len(done))
+    except BaseException:
+        cancel.set()                # the running jobs end at their next look; none starts
+        pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    pool.shutdown(wait=True)
+    return [done[i] for i in range(len(jobs))]
 
 
 def run_jobs(fn: Callable[[Any], Any], jobs: Sequence, workers: int,

@@ -29,7 +29,6 @@ ridden again after a fall, and every step is scored on the rows all of them rode
 
 from __future__ import annotations
 
-import pickle
 from functools import partial
 from pathlib import Path
 from dataclasses import dataclass, field
@@ -47,7 +46,7 @@ from euc_sim.rides.signals import RideAssumptions, RideSignals, as_log
 from euc_sim.rides.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep,
                                      effects_to_inject, simulated_pwm)
 from euc_sim.rides.stops import find_stops
-from euc_sim.rides.tracking import LEAN_SHARE, ProfileRun, simulate_profile
+from euc_sim.rides.tracking import LEAN_SHARE, simulate_profile
 
 __all__ = ["SIM_EFFECTS", "MAX_BRIDGED_GAP", "simulation_obstacle", "ride_params", "effects_to_inject",
            "battery_power", "RideSimulation", "simulate_ride", "plot_ride_simulation", "LOG_COLUMNS"]
@@ -196,44 +195,93 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(x ** 2))) if x.size else float("nan")
 
 
-def _simulate_job(job: tuple) -> ProfileRun:
-    """:func:`simulate_profile` on a tuple of its arguments (picklable, for a process pool)."""
-    return simulate_profile(*job)
+@dataclass(frozen=True)
+class _StepRun:
+    """One step ridden and read onto the log's grid (:func:`_ride_step`): what
+    :func:`simulate_ride` keeps of it (the 1 kHz frame is dropped once read)."""
+
+    falls: tuple
+    notes: tuple
+    cols: dict
+    raw: dict
+
+
+@dataclass(frozen=True)
+class _StepJob:
+    """Everything one step's run needs; shared inputs are read, never written."""
+
+    index: int
+    step: SimStep
+    profile: tuple                 # the arguments of simulate_profile, in order
+    sig: RideSignals
+    R: float
+    channels: LogChannels
+    logged: Mapping[str, np.ndarray]
+    stamps: np.ndarray
+    quanta: Mapping[str, float]
+    seed: int
+
+
+def _ride_step(job: _StepJob, cancel=None, pool=None) -> _StepRun:
+    """:func:`simulate_profile` along the step's plan (its stretches on ``pool`` when given),
+    then :func:`_on_grid`.
+
+    Depends on nothing but ``job``: its reading draws come from its own generator
+    (``default_rng([seed, index])``), so steps run in any order, or side by side, give the
+    results they give in order.
+    """
+    res = simulate_profile(*job.profile, cancel=cancel, pool=pool)
+    cols, raw = _on_grid(res.frame, job.sig, job.step, job.R, job.channels, job.logged, job.stamps,
+                         job.quanta, np.random.default_rng([job.seed, job.index]), fell=bool(res.falls))
+    return _StepRun(res.falls, res.notes, cols, raw)
 
 
 def _say_prefixed(progress: Callable[[str], None], prefix: str, msg: str) -> None:
     progress(f"{prefix}: {msg}")
 
 
-def _prefixed(progress, name: str, workers: int):
-    """``progress`` with the run's name in front, or None when it cannot reach a worker."""
-    if progress is None:
-        return None
-    out = partial(_say_prefixed, progress, name)
-    if workers > 1:
-        try:
-            pickle.dumps(out)
-        except (pickle.PicklingError, AttributeError, TypeError):
-            return None                 # a lambda: progress from the parent only
-    return out
+def _prefixed(progress, name: str):
+    """``progress`` with the run's name in front, or None."""
+    return None if progress is None else partial(_say_prefixed, progress, name)
 
 
-def _run_jobs(jobs: list, names: Sequence[str], params: Params, workers: int,
-              progress: Callable[[str], None] | None = None) -> list[ProfileRun]:
-    """:func:`simulate_profile` on each job, in ``workers`` processes when more than 1.
+def _run_steps(jobs: Sequence[_StepJob], params: Params, workers: int,
+               progress: Callable[[str], None] | None = None) -> list[_StepRun]:
+    """:func:`_ride_step` on each job, ridden on ``workers`` threads when more than 1.
 
-    The workers die with this process, and an interruption kills them at once
-    (:func:`euc_sim.rides.pool.run_jobs`).
+    The native closed loop (:mod:`euc_sim.simulation.native`) steps in C without the GIL,
+    so rides run side by side on threads.  With ``workers`` > 1 every step has a thread of
+    its own that only orders its work, and the rides themselves (each stretch between the
+    log's stops, :func:`simulate_profile`'s ``pool``) queue for ``workers`` riding threads:
+    three steps on two threads keep both busy to the end, not the third alone.  The
+    callback is compiled and the default rider designed here first, once, not by racing
+    threads.  BLAS is held to one thread either way (the steps' linear algebra is small; a
+    BLAS pool would only spin against the rides), so one thread and several give the same
+    numbers.  An interruption ends the running rides within a rider block
+    (:func:`euc_sim.rides.pool.run_threads`).
     """
-    from euc_sim.rides.pool import run_jobs
+    from concurrent.futures import ThreadPoolExecutor
+
+    from threadpoolctl import threadpool_limits
+
+    from euc_sim.rides.pool import run_threads
+    from euc_sim.simulation.engine import default_rider
+    from euc_sim.simulation.native_core import available
 
     say = progress or (lambda msg: None)
-    if workers > 1:
-        from euc_sim.simulation.engine import default_rider
-
-        default_rider(params)              # designed once here, inherited by forked workers
-    return run_jobs(_simulate_job, jobs, workers,
-                    on_done=lambda i, k: say(f"simulation {k}/{len(jobs)} done ({names[i]})"))
+    riders = None
+    if workers > 1 and len(jobs) > 0:
+        available()                        # the callback compiled once, in this thread
+        default_rider(params)              # designed once, not by each thread
+        riders = ThreadPoolExecutor(workers, thread_name_prefix="euc-sim-ride")
+    try:
+        with threadpool_limits(limits=1, user_api="blas"):
+            return run_threads(partial(_ride_step, pool=riders), jobs, len(jobs) if riders else 1,
+                               on_done=lambda i, k: say(f"simulation {k}/{len(jobs)} done "
+                                                        f"({jobs[i].step.name})"))
+    finally:
+        if riders is not None:
+            riders.shutdown(wait=True, cancel_futures=True)
 
 
 def _pitch_rows(table: pd.DataFrame, ok: np.ndarray) -> np.ndarray:
@@ -444,16 +492,15 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
     seed, dt, track_iterations :
         See :func:`simulate_profile`.
     workers : int
-        Processes for the simulations (the results do not depend on it).  Workers
-        die with this process and are killed when it is interrupted.
+        Threads for the steps (the results do not depend on it: ``tests/rides/
+        test_step_threads.py``); an interruption ends them within a rider block.
     channels : LogChannels
         How the simulated state maps onto the log's phase current, pitch and PWM
         (:func:`euc_sim.rides.sim_steps.log_channels`), and the balance fit's held-out
         error the steps are compared with.
     progress : callable, optional
-        Called with a short line as each run starts and ends (from the workers
-        too when it can be pickled, e.g. a module-level function); when it reaches
-        a run, a progress bar over the ride's seconds is shown on stderr too.
+        Called with a short line as each run starts and ends (from the steps'
+        threads too); a progress bar over the ride's seconds is then shown on stderr too.
     window_smooth, window_min : float
         s: ``smooth`` and ``min_len`` of :func:`euc_sim.diagnosis.localise.localise`
         (longer than its 1 s / 0.5 s defaults: a ride is minutes long and
@@ -479,27 +526,26 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
     notes += [f"{s.name}: {n}" for s in steps for n in s.notes]
     notes += [f"{s.name} not run: {s.why}" for s in steps if s.why is not None]
     out = _logged(sig)
-    falls = []
+    falls, reads = [], {}
     names = [s.name for s in run]
     band = filter_band(sig.rate, sig.window, sig.polyorder)       # the plan learns what the log passes
     stops = find_stops(t_p, v_p)          # on the log's speed: a smoothed plan stands still for less
-    jobs = [(t_p, v_p if s.plan_window is None else rider_plan(t_p, v_p, s.plan_window), params,
-             dict(s.effects), seed, dt, track_iterations, band,
-             _prefixed(progress, s.name, workers), s.name, i, s.motor, s.rider, LEAN_SHARE, None, stops)
-            for i, s in enumerate(run)]
-    done = _run_jobs(jobs, names, params, workers, progress)
     data = log.data
     stamps = data["t"].to_numpy(float)
     quanta = {c: q for c, name in LOG_COLUMNS.items() if c != "pwm" and name in data
               for q in [reading_step(data[name].to_numpy(float))] if q}
-    reads = {}
-    for step, res in zip(run, done):
+    jobs = [_StepJob(i, s, (t_p, v_p if s.plan_window is None else rider_plan(t_p, v_p, s.plan_window),
+                            params, dict(s.effects), seed, dt, track_iterations, band,
+                            _prefixed(progress, s.name), s.name, i, s.motor, s.rider, LEAN_SHARE, None,
+                            stops),
+                     sig, params.R, channels, dict(out), stamps, quanta, seed)
+            for i, s in enumerate(run)]
+    for step, res in zip(run, _run_steps(jobs, params, workers, progress)):
         if not res.falls:            # a fall is said once, from ``falls`` (page.falls_sentence)
             notes += [f"{step.name}: {n}" for n in res.notes]
         falls += [{**f, "run": step.name} for f in res.falls]
-        cols, reads[step.name] = _on_grid(res.frame, sig, step, params.R, channels, out, stamps, quanta,
-                                          np.random.default_rng([seed, len(reads)]), fell=bool(res.falls))
-        out.update(cols)
+        out.update(res.cols)
+        reads[step.name] = res.raw
     table = pd.DataFrame(out)
     ok = sig.frame["interior"].to_numpy() & np.isfinite(table["P_log"].to_numpy())
     if scored is not None:

@@ -24,7 +24,7 @@ from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 
 __all__ = ["limit_acceleration", "rider_acceleration_limit", "resisting_acceleration", "to_grid", "ProfileRun",
-           "simulate_profile", "LEAN_SHARE", "moving_average", "plan_band_limit"]
+           "simulate_profile", "LEAN_SHARE", "moving_average", "plan_band_limit", "RideCancelled"]
 
 #: Share of the fall bound |φ| ≤ φ_max that the rider's steady lean φ*(a) may use: the
 #: profile's acceleration is limited to the a where |φ*(a)| = LEAN_SHARE·φ_max
@@ -253,26 +253,76 @@ class ProfileRun:
     notes: tuple[str, ...]
 
 
-class _RideClock:
-    """A tqdm bar over the ride's seconds (stderr), fed by the engine's ``progress(t)``."""
+class RideCancelled(Exception):
+    """A run ended because its caller cancelled it (``simulate_profile(cancel=...)``)."""
 
-    def __init__(self, total: float, desc: str, enabled: bool, position: int = 0):
+
+class _RideClock:
+    """A tqdm bar over the ride's seconds (stderr), fed by the engine's ``progress(t)``; raises
+    :class:`RideCancelled` at its next tick once ``cancel`` (a :class:`threading.Event`) is set."""
+
+    def __init__(self, total: float, desc: str, enabled: bool, position: int = 0, cancel=None):
         import sys
 
         from tqdm import tqdm
 
+        self.cancel = cancel
         self.bar = tqdm(total=round(total, 1), desc=desc, unit="s", unit_scale=False, file=sys.stderr,
                         disable=not enabled, position=position, mininterval=1.0, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
                         "{n:.0f}/{total:.0f} s of ride [{elapsed}<{remaining}]")
 
     def __call__(self, t: float) -> None:
+        if self.cancel is not None and self.cancel.is_set():
+            raise RideCancelled(f"{self.bar.desc}: cancelled at t = {t:.1f} s")
         self.bar.update(max(0.0, round(t, 1) - self.bar.n))
 
     def close(self) -> None:
         self.bar.close()
 
 
-def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=None, rider=None, stops=()):
+class _Stretches:
+    """The rides of a run's stretches between stops: each ridden when asked for (``pool`` None),
+    or all submitted at once to ``pool`` (threads) and collected in order.
+
+    Stretch i is ridden from rest with its own seed, so it is the same ride either way.
+    :meth:`abandon` (after a fall, the later stretches are not ridden) cancels those not
+    started and ends those riding at their next rider block."""
+
+    def __init__(self, t, v_plan, segments, params, effects, seed, dt, clock, motor, rider, pool):
+        import threading
+
+        self.quit = threading.Event()
+        self.segments = segments
+
+        def one(i: int) -> pd.DataFrame:
+            a, b = segments[i]
+            t0 = float(t[a])
+
+            def seg_clock(s: float) -> None:
+                if self.quit.is_set():
+                    raise RideCancelled("a stretch after a fall: not ridden")
+                if clock is not None:
+                    clock(t0 + s)
+
+            return _ride(t[a:b + 1] - t0, v_plan[a:b + 1], params, effects,
+                         seed if i == 0 else _stretch_seed(seed, i), dt,
+                         None if clock is None and pool is None else seg_clock, motor, rider)
+
+        self.one = one
+        self.futures = None if pool is None else [pool.submit(one, i) for i in range(len(segments))]
+
+    def ride(self, i: int) -> pd.DataFrame:
+        """Stretch i's frame (its own clock, from 0), or its :class:`FallError`."""
+        return self.one(i) if self.futures is None else self.futures[i].result()
+
+    def abandon(self) -> None:
+        self.quit.set()
+        for fut in self.futures or ():
+            fut.cancel()
+
+
+def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=None, rider=None, stops=(),
+           pool=None):
     """One run along the plan v_plan; its speed on the profile grid, m/s, and RMS error.
 
     ``motor`` (default the paper's PD) and ``rider`` (default the LQR rider designed for
@@ -282,7 +332,8 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
     from seed (``seed``, i)) and the wheel stands, foot down, through each stop
     (:func:`euc_sim.rides.stops.rest_rows`); the frame's ``attrs["step_off"]`` is the
     largest |ẋ| at which a stretch ended at a stop, m/s.  A fall in a stretch raises
-    :class:`FallError` at the ride's time with the ride up to it as ``trajectory``."""
+    :class:`FallError` at the ride's time with the ride up to it as ``trajectory``.  With
+    ``pool`` (a thread pool), the stretches ride side by side (:class:`_Stretches`)."""
     from euc_sim.rides.stops import moving_segments, rest_rows
     from euc_sim.simulation.errors import FallError
 
@@ -296,21 +347,24 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
         if ts.size:
             pieces.append(rest_rows(ts, x_end, *rest_pose, np.interp(ts, t, v_plan)))
 
+    rides = _Stretches(t, v_plan, segments, params, effects, seed, dt, clock, motor, rider, pool)
     for i, (a, b) in enumerate(segments):
         if t_end is None and a > 0:
             stand(float(t[0]) - dt, float(t[a]), False)
         elif t_end is not None:
             stand(t_end, float(t[a]), False)
         t0 = float(t[a])
-        seg_clock = None if clock is None else (lambda s, t0=t0: clock(t0 + s))
         try:
-            df = _ride(t[a:b + 1] - t0, v_plan[a:b + 1], params, effects,
-                       seed if i == 0 else _stretch_seed(seed, i), dt, seg_clock, motor, rider)
+            df = rides.ride(i)
         except FallError as exc:
+            rides.abandon()
             fell = FallError(t0 + exc.t, exc.quantity, exc.value, exc.bound)
             part = [] if exc.trajectory is None else [_shifted(exc.trajectory, t0, x_end)]
             fell.trajectory = pd.concat(pieces + part, ignore_index=True) if pieces or part else None
             raise fell from None
+        except BaseException:
+            rides.abandon()
+            raise
         pieces.append(_shifted(df, t0, x_end))
         attrs = attrs or dict(df.attrs)
         x_end, t_end = float(pieces[-1]["x"].iloc[-1]), float(pieces[-1]["t"].iloc[-1])
@@ -335,9 +389,13 @@ def _ride(t, v_plan, params, effects, seed, dt, clock, motor, rider) -> pd.DataF
     from euc_sim.simulation.maneuvers import Maneuver
 
     man = Maneuver("profile", float(v_plan[0]), (), (tuple(t.tolist()), tuple(v_plan.tolist())))
-    return simulate(man, float(t[-1]), params=params, motor=motor,
-                    rider=rider if rider is not None else default_rider(params, motor), seed=seed,
-                    effects=dict(effects), dt=dt, progress=clock)
+    df = simulate(man, float(t[-1]), params=params, motor=motor,
+                  rider=rider if rider is not None else default_rider(params, motor), seed=seed,
+                  effects=dict(effects), dt=dt, progress=clock)
+    # the description without the profile's table (the plan, given here): pandas deep-copies
+    # ``attrs`` at every operation on the frame, and an hour's table is 2 x 36,000 floats
+    df.attrs["maneuver"] = {k: v for k, v in df.attrs["maneuver"].items() if k != "table"}
+    return df
 
 
 def _shifted(df: pd.DataFrame, t0: float, x0: float) -> pd.DataFrame:
@@ -360,7 +418,7 @@ def _rest_pose(params: Params, motor) -> tuple[float, float]:
 
 
 def _correct_plan(t, target, plan, run, params, effects, seed, dt, iterations: int, band: float,
-                  notes: list, say, clock_of, motor=None, rider=None, stops=()) -> pd.DataFrame:
+                  notes: list, say, clock_of, motor=None, rider=None, stops=(), pool=None) -> pd.DataFrame:
     """Iterative learning: the plan corrected through the inverted closed loop, ridden again.
 
     Each correction is :func:`euc_sim.rides.plan_learning.inverse_correction` of the speed
@@ -387,7 +445,7 @@ def _correct_plan(t, target, plan, run, params, effects, seed, dt, iterations: i
         say(f"tracking correction {it + 1} of {iterations}: riding the corrected plan")
         clock = clock_of(f"correction {it + 1}")
         try:
-            df2, v2, _ = _track(t, target, plan, params, effects, seed, dt, clock, motor, rider, stops)
+            df2, v2, _ = _track(t, target, plan, params, effects, seed, dt, clock, motor, rider, stops, pool)
         except FallError as exc:
             notes.append(f"tracking correction {it + 1}: rider fell ({exc}); kept the "
                          f"previous run")
@@ -408,7 +466,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
                      learn_band: float | None = None, progress: Callable[[str], None] | None = None,
                      label: str = "ride", position: int = 0, motor=None, rider=None,
                      lean_share: float | None = LEAN_SHARE, band_limit: bool | None = None,
-                     stops: Sequence[tuple[int, int]] | None = None) -> ProfileRun:
+                     stops: Sequence[tuple[int, int]] | None = None, cancel=None, pool=None) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
     The simulated rider does not ride his plan as planned: a resisting force (drag,
@@ -449,7 +507,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     label : str
         The bar's name (the run: ``nominal``, ``augmented``).
     position : int
-        The bar's line (0 first): runs side by side in processes keep their own line.
+        The bar's line (0 first): runs side by side (threads) keep their own line.
     motor : controllers.motor.MotorPD, optional
         The wheel's balance law (default the paper's PD), e.g. a ride's measured law
         (:func:`euc_sim.controllers.firmware.firmware_motor`).
@@ -475,10 +533,21 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
         Through each stop the rider stands, foot down, and he rides each stretch between
         stops from rest with his memory cleared (:mod:`euc_sim.rides.stops`: the logs draw no
         power at such stops).  A note counts them.  ``()``: one run through, no stop.
+    cancel : threading.Event, optional
+        Once set, the run raises :class:`RideCancelled` within one rider block (its caller
+        was interrupted: :func:`euc_sim.rides.pool.run_threads`).
+    pool : concurrent.futures.ThreadPoolExecutor, optional
+        The stretches between stops ride on it side by side (the same rides as one by one:
+        each from rest with its own seed); None: one by one in this thread.
 
     Returns
     -------
     ProfileRun
+
+    Raises
+    ------
+    RideCancelled
+        when ``cancel`` is set during the run.
     """
     from euc_sim.simulation.errors import FallError
 
@@ -488,7 +557,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     notes: list[str] = []
 
     def clock_of(what: str) -> _RideClock:
-        return _RideClock(float(t[-1] - t[0]), f"{label} {what}", progress is not None, position)
+        return _RideClock(float(t[-1] - t[0]), f"{label} {what}", progress is not None, position, cancel)
 
     a_limit = None
     if lean_share is not None and t.size > 1:
@@ -529,7 +598,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
     clock = clock_of("ride")
     try:
-        df, v_sim, err = _track(t, v, v, params, effects, seed, dt, clock, motor, rider, stops)
+        df, v_sim, err = _track(t, v, v, params, effects, seed, dt, clock, motor, rider, stops, pool)
     except FallError as exc:
         cause = str(exc).split(": ", 1)[-1]
         notes.append(f"rider fell at t = {exc.t:.1f} s of {t[-1] - t[0]:.0f} s ({cause}): the "
@@ -544,7 +613,7 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
 
         band = filter_band() if learn_band is None else learn_band
         df = _correct_plan(t, logged, v, (df, v_sim, err), params, effects, seed, dt,
-                           track_iterations, band, notes, say, clock_of, motor, rider, stops)
+                           track_iterations, band, notes, say, clock_of, motor, rider, stops, pool)
     if any(a > 0 for a, _ in stops):          # a stretch ended at a stop
         notes.append(f"at the stops the simulated rider (the run kept) put his foot down from up to "
                      f"{df.attrs['step_off']:.2f} m/s")

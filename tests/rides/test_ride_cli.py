@@ -298,9 +298,9 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
     t_fall = 40.0
 
     def nominal_falls(t, v, params, effects, seed, dt, iterations, window, progress, label, position,
-                      motor, rider, *envelope_band_stops):
+                      motor, rider, *envelope_band_stops, cancel=None, pool=None):
         run = real(t, v, params, effects, seed, dt, 0, window, None, label, position, motor, rider,
-                   *envelope_band_stops)
+                   *envelope_band_stops, cancel=cancel, pool=pool)
         if label != "nominal":
             return run
         frame = run.frame[run.frame["t"] < t_fall]
