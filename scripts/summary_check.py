@@ -1,4 +1,4 @@
-"""Agreement of the ride summary (euc_sim.rides.summary) with what each log itself says.
+"""Agreement of the ride summary (euc_sim.rides.report.summary) with what each log itself says.
 
 For every shared real ride (``../shared/data/euc_core`` and ``../shared/data/wheellog``)
 it prints one Markdown row: our figure against the app's own counter where the log
@@ -19,8 +19,8 @@ import sys
 import warnings
 from pathlib import Path
 
-from euc_sim.rides.logs import read_log
-from euc_sim.rides.summary import read_counters, ride_summary
+from euc_sim.rides.report.summary import read_counters, ride_summary
+from euc_sim.rides.source.logs import read_log
 
 
 def _pct(ours, theirs):

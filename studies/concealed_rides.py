@@ -1,6 +1,6 @@
 """Known effects hidden in the shared EUC World rides: does ``ride CLEAN --compare CONCEALED`` name them? Written up in docs/concealed.md.
 
-For each ride, each effect of :mod:`euc_sim.rides.conceal` in turn, two pairs
+For each ride, each effect of :mod:`euc_sim.rides.synth.conceal` in turn, two pairs
 of effects together, and a null are hidden in a copy of the log; the
 differences of ``euc-sim ride CLEAN --compare COPY`` are computed with the
 functions that command calls (``ride_drivetrain`` then ``differences_json``;
@@ -24,8 +24,8 @@ import pickle
 import sys
 from pathlib import Path
 
-from euc_sim.rides import conceal as cc
-from euc_sim.rides.power import RHO_AIR
+from euc_sim.rides.grids.power import RHO_AIR
+from euc_sim.rides.synth import conceal as cc
 
 #: The shared rides beside the repository (``--data`` elsewhere).
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"
@@ -54,7 +54,7 @@ def _rider_total(data: Path, ride: str, spec: str) -> float:
     """Rider weight from meta.csv plus the spec's net weight (25 kg where none), kg: the rolling injection's m."""
     import pandas as pd
 
-    from euc_sim.rides.spec import wheel_spec
+    from euc_sim.rides.source.spec import wheel_spec
 
     meta = pd.read_csv((data / ride).parent / "meta.csv").iloc[0]
     net = wheel_spec(data / "specs" / f"{spec}.csv").wheel_mass
@@ -75,9 +75,9 @@ def _concealed(data: Path, label: str, case: str, work: Path) -> Path:
 
 def _run(data: Path, label: str, case: str, work: Path) -> dict:
     """The ``differences`` of CLEAN against the copy (the two rides' drivetrain fits cached)."""
-    from euc_sim.rides.differences_report import differences_json
-    from euc_sim.rides.drivetrain_report import ride_drivetrain
-    from euc_sim.rides.ride import as_ride
+    from euc_sim.rides.compare.differences_report import differences_json
+    from euc_sim.rides.grids.ride import as_ride
+    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
 
     cache = work / f"{label}_{case}.pkl"
     if cache.exists():

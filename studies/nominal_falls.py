@@ -11,9 +11,9 @@ MotorPD's 250 N·m limit, the default LQR rider, no effects) fell on lynx 2 -> 0
 master_pro_V2 3 -> 6 at 306.1 s, and (in the Blitz run of 2026-11-26) blitz 2 -> 4 at 2,112.5 s
 (docs/ride_simulation.md).  For each, this study finds the
 total mass on FIT as the ride command does, takes HELD's speed profile (with the wheel-speed
-spikes the battery cannot pay for bridged, :func:`euc_sim.rides.profile.unpaid_spikes`, unless
+spikes the battery cannot pay for bridged, :func:`euc_sim.rides.grids.profile.unpaid_spikes`, unless
 ``--no-spikes``), and rides a window of it from the trim at its first speed, 40 s before the fall
-(:func:`euc_sim.rides.tracking.simulate_profile`, no plan correction) with the paper's PD (the
+(:func:`euc_sim.rides.sim.tracking.simulate_profile`, no plan correction) with the paper's PD (the
 three runs below).  It
 prints, per run, whether the rider fell and the largest ankle torque M_h, motor torque M_d,
 body pitch γ and lean φ, and plots the logged and simulated speed, the torques and γ.
@@ -28,7 +28,7 @@ with the limit :func:`euc_sim.controllers.firmware.firmware_settings` now uses (
 same log measured, where the fit's is lower), both with the plan band-limited.
 
 Each paper-PD window is ridden three times: the plan not band-limited (as the falls were found),
-band-limited to z/2 (:func:`euc_sim.rides.tracking.plan_band_limit`, as simulated now), and not
+band-limited to z/2 (:func:`euc_sim.rides.sim.tracking.plan_band_limit`, as simulated now), and not
 band-limited at a 500 N·m limit (a diagnosis, not a model: nothing is chosen by it).
 """
 
@@ -71,16 +71,16 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
     import numpy as np
 
     from euc_sim.controllers.firmware import firmware_motor
-    from euc_sim.rides.drivetrain_report import ride_drivetrain
-    from euc_sim.rides.signals import with_found_values
-    from euc_sim.rides.analysis import ride_analysis
-    from euc_sim.rides.controller_report import controller_json, torque_constant
-    from euc_sim.rides.logs import read_log
-    from euc_sim.rides.profile import speed_profile
-    from euc_sim.rides.signals import RideAssumptions
-    from euc_sim.rides.simulate import ride_params
-    from euc_sim.rides.spec import wheel_spec
-    from euc_sim.rides.tracking import simulate_profile
+    from euc_sim.rides.balance.analysis import ride_analysis
+    from euc_sim.rides.grids.profile import speed_profile
+    from euc_sim.rides.grids.signals import RideAssumptions
+    from euc_sim.rides.grids.signals import with_found_values
+    from euc_sim.rides.law.controller_report import controller_json, torque_constant
+    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.sim.simulate import ride_params
+    from euc_sim.rides.sim.tracking import simulate_profile
+    from euc_sim.rides.source.logs import read_log
+    from euc_sim.rides.source.spec import wheel_spec
 
     log_path, spec_path, t0, t1, run = case
     log, spec = data / log_path, wheel_spec(data / spec_path)
@@ -125,14 +125,14 @@ def ride_window(case: tuple, data: Path, n_boot: int, spikes: bool) -> dict:
     """Mass on FIT, HELD's profile, and the window ridden with the paper's PD at two limits."""
     import numpy as np
 
-    from euc_sim.rides.drivetrain_report import ride_drivetrain
-    from euc_sim.rides.signals import with_found_values
-    from euc_sim.rides.logs import read_log
-    from euc_sim.rides.profile import speed_profile
-    from euc_sim.rides.signals import RideAssumptions
-    from euc_sim.rides.simulate import ride_params
-    from euc_sim.rides.spec import wheel_spec
-    from euc_sim.rides.tracking import simulate_profile
+    from euc_sim.rides.grids.profile import speed_profile
+    from euc_sim.rides.grids.signals import RideAssumptions
+    from euc_sim.rides.grids.signals import with_found_values
+    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.sim.simulate import ride_params
+    from euc_sim.rides.sim.tracking import simulate_profile
+    from euc_sim.rides.source.logs import read_log
+    from euc_sim.rides.source.spec import wheel_spec
 
     fit, held, spec_path, t0, t1 = case
     spec = wheel_spec(data / spec_path)

@@ -45,7 +45,7 @@ def main(argv=None) -> int:
     import numpy as np
     import pandas as pd
 
-    from euc_sim.rides.signals import RideAssumptions, ride_signals, sg
+    from euc_sim.rides.grids.signals import RideAssumptions, ride_signals, sg
 
     pair = Path(args.pair)
     try:

@@ -14,7 +14,7 @@ set against what the metadata record (B minus A):
   pair: its logged ``system_temp``, the controller's, a proxy), and, where both
   logs have it (``internal_resistance@pack``), the logged pack temperature's
   (EUC World ``temp_batt``, median over the ride) through the
-  pack's Arrhenius law (:func:`euc_sim.rides.battery.to_25C`), from A's fitted
+  pack's Arrhenius law (:func:`euc_sim.rides.drive.battery.to_25C`), from A's fitted
   resistance (a colder ride needs more);
 - ``rolling_resistance``: the tyre pressures through C_rr ∝ p^(−1/2) (a rough
   law for pneumatic tyres, from A's fitted C_rr; a softer tyre rolls harder);
@@ -55,7 +55,7 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from euc_sim.rides.battery import to_25C
+from euc_sim.rides.drive.battery import to_25C
 
 #: The shared data beside the repository (``--data`` elsewhere).
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"

@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from euc_sim.io import write_json
-from euc_sim.rides.analysis import ride_report
+from euc_sim.rides.balance.analysis import ride_report
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "wheellog"
 RIDES = ["2020_05_16_08_02_06.csv", "2020_05_28_07_52_00.csv"]

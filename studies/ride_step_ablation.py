@@ -7,16 +7,16 @@ One pair's simulated step ridden again with one thing changed: what makes its po
 
 PAIR_DIR is one pair of ``scripts/tables/ride_simulation_table.py`` (its ``ride.json`` and
 ``report/ride_balance.csv``); HELD_LOG the held-out log it simulated.  The pair's steps are
-rebuilt from its ``ride.json`` (:func:`euc_sim.rides.sim_steps.build_steps`, as ``euc-sim
+rebuilt from its ``ride.json`` (:func:`euc_sim.rides.sim.sim_steps.build_steps`, as ``euc-sim
 ride`` builds them) and the named step is ridden along HELD_LOG with
-:func:`euc_sim.rides.simulate.simulate_ride`, seed 0, once per variant:
+:func:`euc_sim.rides.sim.simulate.simulate_ride`, seed 0, once per variant:
 
 ``base``        the step with its default rider, the plan not learned (``track_iterations`` 0);
 ``noise3``      base with 3 N·m of motor noise (OU, 0.05 s) on the rider;
 ``no_preview``  base with the rider's anticipation 0;
 ``no_delay``    base with the rider's reaction delay 0;
 ``lean0.4``, ``lean0.5``, ``no_limit``  base with the envelope's ``lean_share`` 0.4, 0.5, none;
-``learned``     the step as the page rides it (one plan learned, :mod:`euc_sim.rides.plan_learning`).
+``learned``     the step as the page rides it (one plan learned, :mod:`euc_sim.rides.sim.plan_learning`).
 
 Per variant, on the rows the balance fit covers: the battery-power RMS error, its 2–20 s and
 < 2 s parts and the fast-band RMS over the log's (:func:`power_error_parts.parts`), and the
@@ -52,10 +52,10 @@ def main(argv=None) -> int:
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from power_error_parts import parts
 
-    import euc_sim.rides.simulate as simulate_module
-    from euc_sim.rides.signals import RideAssumptions, ride_signals
-    from euc_sim.rides.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
-    from euc_sim.rides.tracking import simulate_profile
+    import euc_sim.rides.sim.simulate as simulate_module
+    from euc_sim.rides.grids.signals import RideAssumptions, ride_signals
+    from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
+    from euc_sim.rides.sim.tracking import simulate_profile
     from euc_sim.simulation.engine import default_rider
 
     pair = Path(args.pair)

@@ -2,9 +2,9 @@
 
 The simulated rider calibrated on a ride log: proof on a concealed rider, and real rides.
 
-``concealed``: rides with a known rider (:data:`euc_sim.rides.ridersynth.RIDER`: 0.2 s,
+``concealed``: rides with a known rider (:data:`euc_sim.rides.synth.ridersynth.RIDER`: 0.2 s,
 bandwidth 0.4, 5 N·m of noise) under lawsynth's concealed wheel law, written as EUC World
-logs; :func:`euc_sim.rides.rider_fit.fit_rider` fits the rider on each; the table gives
+logs; :func:`euc_sim.rides.rider.rider_fit.fit_rider` fits the rider on each; the table gives
 the recovered values, their 95 % intervals and whether they cover the truth.  Seed 11 is
 the tuning seed (the plan window and the feature bands were chosen on it); the scoring
 seeds are fresh (default 21 22 23).
@@ -42,10 +42,10 @@ PLANTS = {"table3": {}, "master_pro": {"R": 0.2794, "total_mass": 130.44}}
 def concealed(seeds, duration: float, out: Path, windows: int, length: float, repeats: int = 1,
               plan_window: float = 10.0, wheel_law: str = "concealed", plant: str = "table3",
               truth: dict | None = None) -> list[dict]:
-    from euc_sim.rides.ridersynth import (PAPER_LAW, RIDER, WHEEL_LAW, concealed_fit_inputs,
+    from euc_sim.rides.synth.ridersynth import (PAPER_LAW, RIDER, WHEEL_LAW, concealed_fit_inputs,
                                         eucworld_power_log, rider_ride)
     from euc_sim.model.parameters import TABLE3
-    from euc_sim.rides.rider_fit import fit_rider
+    from euc_sim.rides.rider.rider_fit import fit_rider
 
     law = {"concealed": WHEEL_LAW, "paper": PAPER_LAW}[wheel_law]
     pl = PLANTS[plant]
@@ -75,12 +75,12 @@ def concealed(seeds, duration: float, out: Path, windows: int, length: float, re
 
 
 def _analysis(fit_path, test_path, spec_path, seed: int):
-    from euc_sim.rides.drivetrain_report import ride_drivetrain
-    from euc_sim.rides.signals import with_found_values
-    from euc_sim.rides.analysis import ride_analysis
-    from euc_sim.rides.controller_report import torque_constant
-    from euc_sim.rides.signals import RideAssumptions
-    from euc_sim.rides.spec import wheel_spec
+    from euc_sim.rides.balance.analysis import ride_analysis
+    from euc_sim.rides.grids.signals import RideAssumptions
+    from euc_sim.rides.grids.signals import with_found_values
+    from euc_sim.rides.law.controller_report import torque_constant
+    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.source.spec import wheel_spec
 
     spec = wheel_spec(spec_path)
     physics = ride_drivetrain(fit_path, test_path, spec, 50, seed)
@@ -94,9 +94,9 @@ def real(wheel: str, seed: int, windows: int, length: float, rider: list | None 
          track_iterations: int = 1, dt: float = 1e-3, max_gap: float = 1.0) -> dict:
     import dataclasses
 
-    from euc_sim.rides.profile import PLAN_WINDOW
-    from euc_sim.rides.rider_fit import fit_rider
-    from euc_sim.rides.simulate import effects_to_inject, ride_params, simulate_ride
+    from euc_sim.rides.grids.profile import PLAN_WINDOW
+    from euc_sim.rides.rider.rider_fit import fit_rider
+    from euc_sim.rides.sim.simulate import effects_to_inject, ride_params, simulate_ride
 
     fit_rel, test_rel, spec_rel = PAIRS[wheel]
     fit_path, test_path = DATA / fit_rel, DATA / test_rel
@@ -119,13 +119,13 @@ def real(wheel: str, seed: int, windows: int, length: float, rider: list | None 
         calibrated = fit.rider
     else:                   # the values of an earlier fit_rider run on the same fit ride
         from euc_sim.controllers.motor import MotorPD
-        from euc_sim.rides.rider_params import rider_from
+        from euc_sim.rides.rider.rider_params import rider_from
 
         values = dict(zip(("delay", "bandwidth", "noise_std"), rider))
         calibrated = rider_from(values, params, MotorPD())
         out["rider_given"] = values
     from euc_sim.controllers.motor import MotorPD
-    from euc_sim.rides.sim_steps import SimStep
+    from euc_sim.rides.sim.sim_steps import SimStep
 
     base = SimStep("default", "paper's PD, default rider along the 1.5 s profile", MotorPD(), None, eff, dtv)
     steps = [base,

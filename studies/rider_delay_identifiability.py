@@ -2,7 +2,7 @@
 
 Can a 5 Hz log tell the rider's reaction delay from his bandwidth?  A local identifiability study.
 
-Rides of :mod:`euc_sim.rides.ridersynth` (lawsynth's concealed wheel law, its speed plan) are
+Rides of :mod:`euc_sim.rides.synth.ridersynth` (lawsynth's concealed wheel law, its speed plan) are
 written as EUC World logs for the concealed rider (τ 0.2 s, ρ 0.4, σ 5 N·m) and for riders
 moved one step in each of τ, log ρ, log σ, on the same seeds (common random numbers).  Each
 log gives sets of features; per set:
@@ -11,7 +11,7 @@ log gives sets of features; per set:
 * the features' covariance Σ over seeds at the truth;
 * the standard deviation of τ a weighted least-squares fit on those features would have
   from one log (sandwich (JᵀWJ)⁻¹JᵀWΣWJ(JᵀWJ)⁻¹ with W = diag(Σ)⁻¹, the weighting of
-  :func:`euc_sim.rides.rider_fit.fit_rider`), with ρ and σ free;
+  :func:`euc_sim.rides.rider.rider_fit.fit_rider`), with ρ and σ free;
 * the same with ρ known (the delay alone).
 
 Also the distance (Σz², z in one log's sd) from the truth's mean features to those of the
@@ -84,9 +84,9 @@ def log_features(path) -> dict:
     ``bands`` (the fit's :data:`BAND_WINDOWS`), × P, M, pitch over the whole ride above
     2 m/s; ``psd`` (8 Welch bins × P, M, pitch, speed minus the 6 s plan),
     ``xphase`` (pitch against speed, rad)."""
-    from euc_sim.rides.profile import rider_plan
-    from euc_sim.rides.rider_features import band_features, log_channels
-    from euc_sim.rides.ridersynth import concealed_fit_inputs
+    from euc_sim.rides.grids.profile import rider_plan
+    from euc_sim.rides.grids.rider_features import band_features, log_channels
+    from euc_sim.rides.synth.ridersynth import concealed_fit_inputs
 
     ch = log_channels(path, concealed_fit_inputs()["assumptions"])
     t, seg, v = ch["t"].to_numpy(), ch["segment"].to_numpy(), ch["v"].to_numpy()
@@ -103,7 +103,7 @@ def log_features(path) -> dict:
 
 
 def ride_features(seed: int, rider: dict, duration: float, out: Path, dt: float) -> dict:
-    from euc_sim.rides.ridersynth import eucworld_power_log, rider_ride
+    from euc_sim.rides.synth.ridersynth import eucworld_power_log, rider_ride
 
     path = out / f"id_{seed}_{rider['delay']:.3f}_{rider['bandwidth']:.3f}_{rider['noise_std']:.3f}.csv"
     eucworld_power_log(rider_ride(seed, duration, rider=rider, dt=dt), path, seed)
@@ -120,7 +120,7 @@ def sandwich_sd(J: np.ndarray, S: np.ndarray, free: list[int]) -> np.ndarray:
 
 
 def main(argv=None) -> int:
-    from euc_sim.rides.ridersynth import RIDER
+    from euc_sim.rides.synth.ridersynth import RIDER
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[101, 102, 103, 104, 105, 106, 107, 108])

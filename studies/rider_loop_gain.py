@@ -7,9 +7,9 @@ How the simulated rider rides a wiggling plan: the closed loop's gain from plan 
 
 The default LQR rider (:func:`euc_sim.simulation.engine.default_rider`, paper's PD, Table 3
 with ``--extra-mass`` kg added to the rider) rides a plan v(t) = speed + amplitude·sin(2πft)
-for 40 s at each f (:func:`euc_sim.rides.tracking.simulate_profile`, no acceleration limit), no
+for 40 s at each f (:func:`euc_sim.rides.sim.tracking.simulate_profile`, no acceleration limit), no
 plan correction unless ``--learn`` (one correction: the plan learned through the inverted loop,
-:mod:`euc_sim.rides.plan_learning`).  Printed per f: the simulated speed's amplitude over the
+:mod:`euc_sim.rides.sim.plan_learning`).  Printed per f: the simulated speed's amplitude over the
 plan's and its phase (a sine fitted after the first 10 s).  Deterministic (no motor noise).
 """
 
@@ -39,7 +39,7 @@ def main(argv=None) -> int:
     import numpy as np
 
     from euc_sim.model.parameters import TABLE3
-    from euc_sim.rides.tracking import simulate_profile
+    from euc_sim.rides.sim.tracking import simulate_profile
     from euc_sim.simulation.engine import default_rider
 
     p = TABLE3.replace(m=TABLE3.m + args.extra_mass)

@@ -6,7 +6,7 @@ Wheel-speed spikes the battery cannot pay for, on every shared log.
 
 For each of the 21 shared logs (``scripts/tables/ride_falls.py``'s list) it finds the total mass as
 ``euc-sim ride LOG --wheel SPEC`` does (the energy-balance fit, Table 3 where it gives none)
-and lists :func:`euc_sim.rides.profile.unpaid_spikes`: rises of the logged wheel speed whose
+and lists :func:`euc_sim.rides.grids.profile.unpaid_spikes`: rises of the logged wheel speed whose
 kinetic energy the battery and a 15 % descent cannot give (the wheel off the ground or
 slipping), which the simulated ride's profile bridges.  One markdown row per log on stdout:
 the mass, the spikes' count, their total span, the largest rise and the first times.
@@ -30,12 +30,12 @@ def main(argv=None) -> int:
     import numpy as np
 
     from ride_falls import logs
-    from euc_sim.rides.drivetrain_report import ride_drivetrain
-    from euc_sim.rides.signals import with_found_values
-    from euc_sim.rides.logs import read_log
-    from euc_sim.rides.profile import unpaid_spikes
-    from euc_sim.rides.signals import RideAssumptions
-    from euc_sim.rides.spec import wheel_spec
+    from euc_sim.rides.grids.profile import unpaid_spikes
+    from euc_sim.rides.grids.signals import RideAssumptions
+    from euc_sim.rides.grids.signals import with_found_values
+    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.source.logs import read_log
+    from euc_sim.rides.source.spec import wheel_spec
 
     todo = [x for x in logs() if not args.only or x[0] in args.only]
     if args.only and len(todo) != len(args.only):

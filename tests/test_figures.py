@@ -225,7 +225,7 @@ def _cut(src: Path, rows: slice, out: Path) -> Path:
 def test_ride_figures_on_two_real_rides_with_the_simulation(tmp_path, monkeypatch):
     """The README's ``ride LOG --compare OTHER`` on 2-minute cuts of two real WheelLog rides:
     balance, residuals, simulation (item 12: a zoom and the error over time)."""
-    from euc_sim.rides.simulation_figure import ZOOM_S
+    from euc_sim.rides.sim.simulation_figure import ZOOM_S
 
     wl = SHARED / "wheellog"
     fit = _cut(wl / "2020_05_16_08_02_06.csv", slice(1, 600), tmp_path / "a.csv")
@@ -247,8 +247,8 @@ def test_ride_figures_on_two_real_rides_with_the_simulation(tmp_path, monkeypatc
 def test_ride_figures_with_the_drivetrain(tmp_path, monkeypatch):
     """A real ride with PWM and GPS altitude, split in halves: envelope (item 11), PWM, grade,
     balance (item 13: the whole ride is labelled as such), residuals."""
-    from euc_sim.rides.drivetrain_report import TYRE_MU
-    from euc_sim.rides.power import G
+    from euc_sim.rides.grids.power import G
+    from euc_sim.rides.report.drivetrain_report import TYRE_MU
 
     core = SHARED / "euc_core"
     saved, written = _ride(["ride", core / "trips/inmotion/v9/2/2.csv", "--wheel", core / "specs/v9.csv",

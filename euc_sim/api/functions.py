@@ -287,7 +287,7 @@ def read_ride(path, *, layout: str | None = None) -> Ride:
     Examples
     --------
     >>> import tempfile, pathlib, euc_sim
-    >>> from euc_sim.rides.lawsynth import law_ride, wheellog_log
+    >>> from euc_sim.rides.synth.lawsynth import law_ride, wheellog_log
     >>> path = wheellog_log(law_ride(seed=1, duration=60.0), pathlib.Path(tempfile.mkdtemp()) / "log.csv", seed=1)
     >>> ride = euc_sim.read_ride(path)
     >>> ride.layout, ride.duration > 50, "v" in ride.data.columns
@@ -295,7 +295,7 @@ def read_ride(path, *, layout: str | None = None) -> Ride:
     """
     import warnings
 
-    from euc_sim.rides.logs import read_log
+    from euc_sim.rides.source.logs import read_log
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")          # the reader's notes are kept in .warnings
@@ -339,7 +339,7 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
     Examples
     --------
     >>> import tempfile, pathlib, euc_sim
-    >>> from euc_sim.rides.lawsynth import law_ride, wheellog_log
+    >>> from euc_sim.rides.synth.lawsynth import law_ride, wheellog_log
     >>> path = wheellog_log(law_ride(seed=1, duration=200.0), pathlib.Path(tempfile.mkdtemp()) / "log.csv", seed=1)
     >>> ride = euc_sim.analyse_ride(path, n_boot=20, simulate=False)
     >>> ride.error_unit, ride.heldout_error_augmented <= ride.heldout_error_nominal
@@ -347,10 +347,10 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
     >>> sorted(k for k in ride.to_json() if k.startswith("heldout_error_"))[:2]
     ['heldout_error_all_candidates', 'heldout_error_augmented']
     """
+    from euc_sim.rides.balance.analysis import check_data
+    from euc_sim.rides.grids.signals import RideAssumptions
     from euc_sim.rides.pipeline import MIN_BOOT, run_ride
-    from euc_sim.rides.analysis import check_data
-    from euc_sim.rides.signals import RideAssumptions
-    from euc_sim.rides.spec import wheel_spec
+    from euc_sim.rides.source.spec import wheel_spec
 
     if n_boot < MIN_BOOT:
         raise InputError(f"n_boot must be at least {MIN_BOOT} (an effect is accepted on its "

@@ -215,7 +215,7 @@ class Ride:
     warnings : tuple of str
         One line per problem the reader handled.
     log : RideLog
-        The reader's own result (:class:`euc_sim.rides.logs.RideLog`).
+        The reader's own result (:class:`euc_sim.rides.source.logs.RideLog`).
     """
 
     path: str

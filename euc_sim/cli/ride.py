@@ -25,10 +25,10 @@ __all__ = ["add_ride_parser", "run_ride", "MIN_BOOT"]
 
 def _assumptions(args: argparse.Namespace):
     from euc_sim.model.parameters import TABLE3
-    from euc_sim.rides.signals import RideAssumptions
+    from euc_sim.rides.grids.signals import RideAssumptions
 
     from euc_sim.model.parameters import PLAUSIBLE
-    from euc_sim.rides.sanity import TOTAL_MASS_RANGE
+    from euc_sim.rides.source.sanity import TOTAL_MASS_RANGE
 
     for opt, val, (lo, hi), unit in (("--mass", args.mass, TOTAL_MASS_RANGE, "kg"),
                                      ("--radius", args.radius, PLAUSIBLE["R"], "m")):
@@ -96,7 +96,7 @@ def _print_summary(rep: dict) -> None:
           + f"held-out error ({rep['error_measure']}): inertia-only "
           f"{rep['heldout_error_nominal']:.1f} {u}, augmented {rep['heldout_error_augmented']:.1f} "
           f"{u}, ratio {rep['ratio']:.2f}")
-    from euc_sim.rides.verdict import unit_label
+    from euc_sim.rides.balance.verdict import unit_label
 
     print(f"  verdict: {rep['verdict']['text']}")
     for e in rep["effects"]:
@@ -114,7 +114,7 @@ def _print_summary(rep: dict) -> None:
     sim = rep["simulation"]
     if sim:
         e = sim["errors"]
-        from euc_sim.rides.page import falls_sentence
+        from euc_sim.rides.report.page import falls_sentence
 
         if sim["scored_rows"]:
             print(f"  simulation along {sim['ride']}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
@@ -140,10 +140,10 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     if args.calibrate_rider and args.no_simulate:
         raise InputError("--calibrate-rider adds a step to the simulation: it cannot go with --no-simulate")
     assumptions = _assumptions(args)
-    from euc_sim.rides.rider_view import check_rider_weight
+    from euc_sim.rides.report.rider_view import check_rider_weight
     rider_weight = check_rider_weight(args.rider_weight)
-    from euc_sim.rides.analysis import check_data
-    from euc_sim.rides.spec import wheel_spec
+    from euc_sim.rides.balance.analysis import check_data
+    from euc_sim.rides.source.spec import wheel_spec
 
     spec = wheel_spec(args.wheel, radius=args.radius, wheel_mass=args.wheel_mass,
                       battery_voltage=args.battery_voltage)
@@ -151,7 +151,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     for p in [args.log] + ([args.compare] if args.compare else []):
         if not Path(p).is_file():
             raise FileNotFoundError(f"{p}: no such log file")
-    from euc_sim.rides.ride import read_ride
+    from euc_sim.rides.grids.ride import read_ride
 
     # each log is parsed once, here; a malformed or too short log fails before any output exists
     ride = read_ride(args.log)

@@ -21,7 +21,7 @@ __all__ = ["add_rides_parser", "find_logs", "run_rides"]
 
 def _is_log(path: Path) -> bool:
     """A CSV whose header a ride-log layout recognises."""
-    from euc_sim.rides.logs import LogFormatError, detect_layout
+    from euc_sim.rides.source.logs import LogFormatError, detect_layout
 
     try:
         with open(path, encoding="utf-8") as fh:
@@ -56,15 +56,15 @@ def find_logs(items) -> list[Path]:
 
 
 def _entry(args):
-    from euc_sim.rides.history import ride_entry
+    from euc_sim.rides.logbook.history import ride_entry
 
     path, pack, n_boot, sd = args
     return ride_entry(path, pack, n_boot, sd)
 
 
 def run_rides(paths, pack=None, n_boot: int = 100, seed: int = 0, workers: int = 1, say=None):
-    """The :class:`euc_sim.rides.history.RideHistory` of the logs ``paths``."""
-    from euc_sim.rides.history import ride_history
+    """The :class:`euc_sim.rides.logbook.history.RideHistory` of the logs ``paths``."""
+    from euc_sim.rides.logbook.history import ride_history
 
     jobs = [(p, pack, n_boot, seed) for p in paths]
     if workers > 1 and len(jobs) > 1:
@@ -90,7 +90,7 @@ def _cmd_rides(args: argparse.Namespace) -> int:
         raise InputError(f"--n-boot must be at least 10 (the intervals are bootstrap percentiles), got {args.n_boot}")
     pack = None
     if args.wheel:
-        from euc_sim.rides.battery import pack_spec
+        from euc_sim.rides.drive.battery import pack_spec
 
         if not Path(args.wheel).is_file():
             raise FileNotFoundError(f"--wheel {args.wheel}: no such file")
@@ -106,7 +106,7 @@ def _cmd_rides(args: argparse.Namespace) -> int:
     hist = run_rides(paths, pack, args.n_boot, args.seed, args.workers, say).to_json()
     if args.report:
         from euc_sim.report.html import write_page
-        from euc_sim.rides.history_page import history_page
+        from euc_sim.rides.logbook.history_page import history_page
 
         title = f"Rides of {Path(args.wheel).stem}" if args.wheel else "Rides of one wheel"
         write_page(args.report, history_page(hist, title))

@@ -1,7 +1,7 @@
 """The wheel's measured balance law as the simulator's motor controller.
 
 ``euc-sim ride`` writes the law a real wheel's firmware runs into the ride JSON's
-``controller`` entry (:mod:`euc_sim.rides.controller_law`): a PD on the pitch,
+``controller`` entry (:mod:`euc_sim.rides.law.controller_law`): a PD on the pitch,
 M_d = K_p (γ − γ_ref) + K_d γ̇, with the catalogued terms that held-out
 validation kept.  :func:`firmware_motor` turns that entry into a
 :class:`euc_sim.controllers.motor.MotorPD`, the interface the simulator's engines and the

@@ -57,7 +57,7 @@ class MotorPD:
         c_dt, duty lost to the bridge's dead time (1): the motor sees (1 − c_dt)·V.
     flux_weakening : float
         c_fw, fall of the back-EMF per speed with speed, V/(m/s)²: back-EMF
-        K_v·|ẋ| − c_fw·|ẋ|·min(|ẋ|, fw_speed) (:mod:`euc_sim.rides.pwm`).
+        K_v·|ẋ| − c_fw·|ẋ|·min(|ẋ|, fw_speed) (:mod:`euc_sim.rides.drive.pwm`).
     fw_speed : float
         Speed, m/s, beyond which the flux weakening stops growing (the fastest
         of the ride it was fitted on); ``inf`` for none.

@@ -3,13 +3,13 @@
     python studies/band_halves.py [--data ../shared/data]
 
 The yardstick of the held-out level-and-spectrum score (``simulation.steps[].heldout_bands``,
-:func:`euc_sim.rides.rider_features.band_ratio_db`): a simulated ride whose battery power is
+:func:`euc_sim.rides.grids.rider_features.band_ratio_db`): a simulated ride whose battery power is
 as far from the log's, band by band, as one half of the real ride is from the other has the
 ride's level and spectrum as well as the ride itself keeps them.  For every shared euc_core
 log with battery power it prints a markdown row: the RMS over the eight bands (~2 Hz to
 ~0.1 Hz) of 20·log10(second half's band RMS / first half's), dB, and the fastest and
 slowest band's ratio.  The halves are split at the median time stamp; the log is on the
-rider fit's 10 Hz grid (:func:`euc_sim.rides.rider_features.log_channels`), not smoothed.
+rider fit's 10 Hz grid (:func:`euc_sim.rides.grids.rider_features.log_channels`), not smoothed.
 Exit 2 on a missing data folder.
 """
 
@@ -39,11 +39,11 @@ def half_ratio_db(t, P, segment, rate: float) -> list[float]:
     Returns
     -------
     list of float
-        One ratio per band of :data:`euc_sim.rides.rider_features.BAND_WINDOWS`, fastest first.
+        One ratio per band of :data:`euc_sim.rides.grids.rider_features.BAND_WINDOWS`, fastest first.
     """
     import numpy as np
 
-    from euc_sim.rides.rider_features import band_features
+    from euc_sim.rides.grids.rider_features import band_features
 
     t, P = np.asarray(t, float), np.asarray(P, float)
     second = t >= np.median(t)
@@ -65,7 +65,7 @@ def main(argv=None) -> int:
 
     import numpy as np
 
-    from euc_sim.rides.rider_features import RiderFitError, log_channels
+    from euc_sim.rides.grids.rider_features import RiderFitError, log_channels
 
     print("| log | second half against first: RMS over the bands dB | fastest band dB | slowest band dB |")
     print("| --- | --- | --- | --- |")

@@ -1,13 +1,13 @@
 """Concealed-law cases of the blind study: a firmware law drawn at random,
 ridden in closed loop, written as a real log, identified blind, scored on its gains and onset.
 
-Each case draws a law (:func:`euc_sim.rides.lawsynth.draw_law`: K_p 1,500-5,000 N·m/rad,
+Each case draws a law (:func:`euc_sim.rides.synth.lawsynth.draw_law`: K_p 1,500-5,000 N·m/rad,
 K_d 100-400, tilt-back 2° reached 10 km/h above an onset in 24-34 km/h, a torque limit of
 45-70 N·m) and a log format in turn (EUC World: 5 Hz at irregular times, 0.1° pitch steps,
 phase current; WheelLog: repeated stamps, 0.01° pitch, torque), rides it with the LQR rider
 (0.2 s delay, 5 N·m motor noise) and writes NAME.csv, NAME.json (the wheel's torque constant,
 N·m/A: what the drivetrain fit gives on a real ride) and NAME.truth.json.  The identification
-(:func:`euc_sim.rides.controller_law.fit_law`) reads the CSV and the sidecar only.  A ride that
+(:func:`euc_sim.rides.law.controller_law.fit_law`) reads the CSV and the sidecar only.  A ride that
 falls is ridden again on the next seed of its stream (at most :data:`TRIES` times; the falls
 are counted).  Scored: K_p and K_d within ±15 %, the tilt-back onset within ±2 km/h (a law
 without a kept tilt-back misses the onset), the sign convention.
@@ -33,7 +33,7 @@ GAIN_TOL, ONSET_TOL = 0.15, 2.0
 
 def plan_laws(seed: int, n: int, duration: float) -> list[dict]:
     """n concealed-law cases (``--laws N``), from a stream of their own (``[seed, 21]``)."""
-    from euc_sim.rides.lawsynth import draw_law
+    from euc_sim.rides.synth.lawsynth import draw_law
     rng = np.random.default_rng([seed, 21])
     cases = []
     for j in range(n):
@@ -52,7 +52,7 @@ def make_law_log(case: dict, out: Path) -> tuple[Path, dict]:
     ValueError
         the rider fell on every one of :data:`TRIES` seeds.
     """
-    from euc_sim.rides.lawsynth import K_T, eucworld_log, law_ride, wheellog_log
+    from euc_sim.rides.synth.lawsynth import K_T, eucworld_log, law_ride, wheellog_log
     from euc_sim.simulation.errors import FallError
     falls = []
     for k in range(TRIES):
@@ -77,9 +77,9 @@ def law_work(args) -> dict:
     """Make one case and identify its law blind: the estimates, the kept terms, the falls."""
     import warnings
 
-    from euc_sim.rides.controller_law import fit_law
-    from euc_sim.rides.law_signals import LawUnavailable, law_rows
-    from euc_sim.rides.logs import read_log
+    from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
+    from euc_sim.rides.law.controller_law import fit_law
+    from euc_sim.rides.source.logs import read_log
     case, out, n_boot = args
     warnings.simplefilter("ignore")
     out.mkdir(parents=True, exist_ok=True)

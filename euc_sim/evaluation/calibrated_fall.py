@@ -7,9 +7,9 @@
 ``--calibrate-rider`` (its ``ride.json``), ``HELD_LOG`` the held-out log and ``SPEC`` the wheel's
 spec.  The ``drivetrain`` step is rebuilt from the JSON (its motor law with the voltage limit,
 its injected effects, the calibrated rider's delay, bandwidth and motor noise, his 6 s plan
-:func:`euc_sim.rides.profile.rider_plan`; the total mass the page found), and a window of the
+:func:`euc_sim.rides.grids.profile.rider_plan`; the total mass the page found), and a window of the
 held-out profile is ridden from the trim at its first speed, as ``studies/nominal_falls.py``
-does (:func:`euc_sim.rides.tracking.simulate_profile`, envelope and band limit on, no plan
+does (:func:`euc_sim.rides.sim.tracking.simulate_profile`, envelope and band limit on, no plan
 correction: the fall was the first run's).  Each variant changes one thing (``VARIANTS``).
 Per variant it prints whether the rider fell, the largest |φ|, |M_h|, |M_d| and the voltage
 limit's share of the window, and the rider's distance ahead of his plan ∫(ẋ − v_ref) dt (the
@@ -171,15 +171,15 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     import numpy as np
 
     from euc_sim.controllers.design import DEFAULT_SCALES, design_rider
-    from euc_sim.rides.signals import with_found_values
-    from euc_sim.rides.profile import rider_plan, speed_profile
-    from euc_sim.rides.rider_params import rider_from
-    from euc_sim.rides.signals import RideAssumptions
-    from euc_sim.rides.sim_steps import motor_from_law
-    from euc_sim.rides.stops import find_stops
-    from euc_sim.rides.simulate import ride_params
-    from euc_sim.rides.spec import wheel_spec
-    from euc_sim.rides.tracking import simulate_profile
+    from euc_sim.rides.grids.profile import rider_plan, speed_profile
+    from euc_sim.rides.grids.signals import RideAssumptions
+    from euc_sim.rides.grids.signals import with_found_values
+    from euc_sim.rides.grids.stops import find_stops
+    from euc_sim.rides.rider.rider_params import rider_from
+    from euc_sim.rides.sim.sim_steps import motor_from_law
+    from euc_sim.rides.sim.simulate import ride_params
+    from euc_sim.rides.sim.tracking import simulate_profile
+    from euc_sim.rides.source.spec import wheel_spec
     import functools
 
     import euc_sim.controllers.rider as rider_module

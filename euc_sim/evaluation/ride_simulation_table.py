@@ -159,7 +159,7 @@ def rows(results: list[dict]) -> list[str]:
 
 def band_rows(results: list[dict]) -> list[str]:
     """The level-and-spectrum table: per pair and step, the band ratios to the log's."""
-    from euc_sim.rides.page import bands_cell
+    from euc_sim.rides.report.page import bands_cell
 
     md = ["| wheel | fit → held out | " + " | ".join(f"{s} dB" for s in STEPS) + " |",
           "|" + " --- |" * (2 + len(STEPS))]
@@ -178,7 +178,7 @@ BAND_MARK = "**Level and spectrum**"
 BAND_TEXT = (
     BAND_MARK + " (`simulation.steps[].heldout_bands`): the same runs, each step's battery "
     "power against the log's band by band, on the scored rows: the simulation read at the log's own "
-    "time stamps (`euc_sim/rides/reading.py`), neither smoothed, split into the rider fit's eight bands "
+    "time stamps (`euc_sim/rides/sim/reading.py`), neither smoothed, split into the rider fit's eight bands "
     "(Savitzky–Golay windows 0.5 … 6 s, ~2 Hz down to ~0.1 Hz; `rider_features.band_ratio_db`). "
     "A cell is the RMS over the bands of 20·log10(simulated band RMS / logged band RMS), dB, of "
     "battery power (P, in brackets the fastest and the slowest band's ratio), and of phase current "
@@ -253,7 +253,7 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
         "Each row: `euc-sim ride FIT --compare HELD --wheel W.csv` — the balance fit, the wheel's "
         "balance law and the drivetrain fitted on FIT, then the MuJoCo rider riding HELD's logged "
         "speed profile once per modelled step (`simulation.steps` of the ride JSON, "
-        "`euc_sim/rides/sim_steps.py`). A cell is the step's held-out battery-power RMS error (W) "
+        "`euc_sim/rides/sim/sim_steps.py`). A cell is the step's held-out battery-power RMS error (W) "
         f"and, in brackets, its ratio to the balance fit's held-out error on HELD (bold: within the "
         f"{TARGET}× target over the whole held-out ride; a pair where a step fell is scored only "
         f"up to the fall and never bold). Steps: `nominal` (paper PD 600 / 40, default rider, no effects), "
@@ -264,10 +264,10 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
         "accepted effects as physics, the augmented efficiencies). In every step the rider first rides "
         "the profile within his acceleration envelope, band-limited to half the right-half-plane zero "
         "of his speed response (`tracking.plan_band_limit`), then once more on the plan learned from that "
-        "run through his inverted closed loop (`euc_sim/rides/plan_learning.py`, aiming at the "
+        "run through his inverted closed loop (`euc_sim/rides/sim/plan_learning.py`, aiming at the "
         "profile as logged; rows run before 2026-11-26 16:00 UTC used the older slow correction). Each "
         "simulated channel is read as the log is written: the 0.2 s mean before each of the log's "
-        "own time stamps, interpolated onto the grid (`euc_sim/rides/reading.py`; rows run before "
+        "own time stamps, interpolated onto the grid (`euc_sim/rides/sim/reading.py`; rows run before "
         "2026-11-26 20:10 UTC were averaged straight onto the grid). Phase current, pitch and PWM "
         "errors are those of the step with the lowest battery-power error, where HELD logs them. "
         "Every step is scored on the rows all steps rode (up to the first fall: the `scored` "

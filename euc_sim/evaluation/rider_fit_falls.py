@@ -1,10 +1,10 @@
 """Where the rider fit of a ride page falls: every design point it simulates, whether the rider fell, where.
 
-Re-runs :func:`euc_sim.rides.rider_fit.fit_rider` on a fit ride with what the ride page's
+Re-runs :func:`euc_sim.rides.rider.rider_fit.fit_rider` on a fit ride with what the ride page's
 ``calibrated_rider`` step gave it, read back from that page's JSON (``euc-sim ride FIT
 --compare HELD --calibrate-rider --json RIDE.json``): the simulator's parameters from the
 ``assumptions`` (radius, total mass), the last step's motor before ``calibrated_rider``
-(:func:`euc_sim.rides.sim_steps.motor_from_law`), the ``drivetrain`` step's injected effects and
+(:func:`euc_sim.rides.sim.sim_steps.motor_from_law`), the ``drivetrain`` step's injected effects and
 battery-power model, and K_t from the drivetrain fit.  Prints each design point (delay s,
 bandwidth, noise N·m, fell: the seed and the time into the window's simulation, s) and the fit
 or the reason it stops; writes the lot as JSON.
@@ -26,10 +26,10 @@ from pathlib import Path
 
 def fit_inputs(ride: dict) -> dict:
     """``fit_rider``'s keyword arguments as the ride page's ``calibrated_rider`` step gave them."""
-    from euc_sim.rides.controller_report import torque_constant
-    from euc_sim.rides.signals import RideAssumptions
-    from euc_sim.rides.sim_steps import motor_from_law
-    from euc_sim.rides.simulate import ride_params
+    from euc_sim.rides.grids.signals import RideAssumptions
+    from euc_sim.rides.law.controller_report import torque_constant
+    from euc_sim.rides.sim.sim_steps import motor_from_law
+    from euc_sim.rides.sim.simulate import ride_params
 
     a = ride["assumptions"]
     steps = ride["simulation"]["steps"]
@@ -49,7 +49,7 @@ def fit_inputs(ride: dict) -> dict:
 def run(ride_json: Path, fit_log: Path, **kw) -> dict:
     """The fit with every design point recorded: ``points`` (values, ``fell``, ``fall``), ``fit`` or ``error``."""
     import euc_sim.simulation.engine as engine
-    from euc_sim.rides import rider_fit as rf
+    from euc_sim.rides.rider import rider_fit as rf
     from euc_sim.simulation.errors import FallError
 
     inputs = fit_inputs(json.loads(Path(ride_json).read_text()))

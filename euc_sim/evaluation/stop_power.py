@@ -3,13 +3,13 @@
     python studies/stop_power.py [--data ../shared/data] [--v-max 0.1] [--min-duration 3]
 
 For every shared real log (``euc_core/trips/*/*/N/N.csv`` and ``wheellog/*.csv``) it finds the
-stands of :func:`euc_sim.rides.stops.find_stops` on the log's smoothed speed
-(:func:`euc_sim.rides.signals.ride_signals`): stops lasting ``--min-duration`` s or more, and the
+stands of :func:`euc_sim.rides.grids.stops.find_stops` on the log's smoothed speed
+(:func:`euc_sim.rides.grids.signals.ride_signals`): stops lasting ``--min-duration`` s or more, and the
 shorter stands below ``--v-max``.  It prints a markdown row per log: the stops' count and
 seconds, the battery power's |P| median and 90th percentile on the stop rows, on the shorter
 stands and while riding.  A rider balancing a standing wheel makes its motor work; a wheel
 that draws nothing while standing has nobody balancing on it (a foot down, or nobody on it
-yet): the evidence for the stop model of :mod:`euc_sim.rides.stops`.  Exit 2 on a missing
+yet): the evidence for the stop model of :mod:`euc_sim.rides.grids.stops`.  Exit 2 on a missing
 data folder.
 """
 
@@ -38,7 +38,7 @@ def stand_power(t, v, P, v_max: float, min_duration: float) -> dict:
     t, v, P : array_like
         s, m/s and W on one grid.
     v_max, min_duration : float
-        m/s and s, as :func:`euc_sim.rides.stops.find_stops`.
+        m/s and s, as :func:`euc_sim.rides.grids.stops.find_stops`.
 
     Returns
     -------
@@ -48,7 +48,7 @@ def stand_power(t, v, P, v_max: float, min_duration: float) -> dict:
     """
     import numpy as np
 
-    from euc_sim.rides.stops import find_stops
+    from euc_sim.rides.grids.stops import find_stops
 
     t, v, P = (np.asarray(a, float) for a in (t, v, P))
     stops = find_stops(t, v, v_max, min_duration)
@@ -69,7 +69,7 @@ def main(argv=None) -> int:
     ap.add_argument("--v-max", type=float, default=None, help="m/s (default stops.V_STOP)")
     ap.add_argument("--min-duration", type=float, default=None, help="s (default stops.T_STOP)")
     args = ap.parse_args(argv)
-    from euc_sim.rides.stops import T_STOP, V_STOP
+    from euc_sim.rides.grids.stops import T_STOP, V_STOP
 
     data = Path(args.data)
     paths = log_paths(data) if data.is_dir() else []
@@ -78,7 +78,7 @@ def main(argv=None) -> int:
         return 2
     v_max = V_STOP if args.v_max is None else args.v_max
     min_duration = T_STOP if args.min_duration is None else args.min_duration
-    from euc_sim.rides.signals import ride_signals
+    from euc_sim.rides.grids.signals import ride_signals
 
     fmt = lambda q: "–" if q is None else f"{q[0]:.0f} / {q[1]:.0f}"     # noqa: E731
     print(f"| log | stops ≥ {min_duration:g} s (s) | |P| at stops W, median / p90 | shorter stands | riding |")

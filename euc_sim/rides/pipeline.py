@@ -1,12 +1,12 @@
 """The ride pipeline: one log (and optionally another) in, one typed result out.
 
-:func:`ride_pipeline` parses each log once (:mod:`euc_sim.rides.ride`), then runs
+:func:`ride_pipeline` parses each log once (:mod:`euc_sim.rides.grids.ride`), then runs
 the analyses in order on the parsed logs: mass and drivetrain
-(:mod:`euc_sim.rides.drivetrain_report`), the bounded balance fit with its
-held-out selection (:mod:`euc_sim.rides.analysis`), the balance law
-(:mod:`euc_sim.rides.controller_report`), the one parameter set
-(:mod:`euc_sim.rides.parameters`), the residual's localisation, the simulated
-rider (:mod:`euc_sim.rides.sim_steps`) and the verdict.  It returns a
+(:mod:`euc_sim.rides.report.drivetrain_report`), the bounded balance fit with its
+held-out selection (:mod:`euc_sim.rides.balance.analysis`), the balance law
+(:mod:`euc_sim.rides.law.controller_report`), the one parameter set
+(:mod:`euc_sim.rides.balance.parameters`), the residual's localisation, the simulated
+rider (:mod:`euc_sim.rides.sim.sim_steps`) and the verdict.  It returns a
 :class:`RideResult`; the JSON (:attr:`RideResult.report`) and the page
 (:func:`write_report`) are renderers at the edge.  ``euc-sim ride``
 (:mod:`euc_sim.cli.ride`) parses its arguments and calls it; scripts call it too.
@@ -36,13 +36,13 @@ class RideResult:
         CONTRACT's ``euc-sim ride`` object (``parameters``, ``effects``, ``total_mass``,
         ``drivetrain``, ``controller``, ``simulation``, ``verdict``, ...).
     analysis : RideAnalysis
-        The balance fit (:mod:`euc_sim.rides.analysis`).
+        The balance fit (:mod:`euc_sim.rides.balance.analysis`).
     traces : list
-        Residual traces of the fit and test rides (:func:`euc_sim.rides.page.residual_windows`).
+        Residual traces of the fit and test rides (:func:`euc_sim.rides.report.page.residual_windows`).
     simulation : object or None
-        :func:`euc_sim.rides.simulate.simulate_ride`'s result.
+        :func:`euc_sim.rides.sim.simulate.simulate_ride`'s result.
     physics : tuple
-        ``(report, fit, test)`` of :func:`euc_sim.rides.drivetrain_report.drivetrain_report`.
+        ``(report, fit, test)`` of :func:`euc_sim.rides.report.drivetrain_report.drivetrain_report`.
     """
 
     report: dict
@@ -95,11 +95,11 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
         ``localisation``, ``residual_traces``, ``simulation``, ``report`` (None
         until :func:`write_report`).
     """
-    from euc_sim.rides.analysis import ride_analysis
-    from euc_sim.rides.drivetrain_report import ride_drivetrain
-    from euc_sim.rides.ride import as_ride
-    from euc_sim.rides.rider_view import rider_numbers
-    from euc_sim.rides.signals import RideAssumptions, with_found_values
+    from euc_sim.rides.balance.analysis import ride_analysis
+    from euc_sim.rides.grids.ride import as_ride
+    from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
+    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.report.rider_view import rider_numbers
 
     say = progress or (lambda s: None)
     ride, other = as_ride(log), (None if compare is None else as_ride(compare))
@@ -113,16 +113,16 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     an = ride_analysis(ride, other, assumptions=assumptions, domain=domain, n_boot=n_boot,
                        seed=seed, progress=say)
     rep = _one_parameter_set(an, physics, ride, other, n_boot, seed, say)
-    if compare is not None:     # what differs between the two rides (rides.differences), each
+    if compare is not None:     # what differs between the two rides (rides.compare.differences), each
         # ride's terms from its own energy-balance fit, so both sides are read alike
-        from euc_sim.rides.differences_report import differences_json
+        from euc_sim.rides.compare.differences_report import differences_json
 
         rep.update(differences_json(physics[0], physics[1], physics[2], log, compare))
     say("locating the residual")
     traces = _localise(rep, an, domain, log, compare)
     sim = _simulation(rep, an, log, compare, seed, jobs, progress, simulate, calibrate_rider)
     rep["simulation"] = None if sim is None else sim.as_json()
-    from euc_sim.rides.verdict import ride_verdict
+    from euc_sim.rides.balance.verdict import ride_verdict
 
     rep["verdict"] = ride_verdict(rep)
     # the rider's numbers (summary, mass check, battery health), from the log as parsed here
@@ -133,8 +133,8 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
 
 def _one_parameter_set(an, physics, log, compare, n_boot: int, seed: int, say) -> dict:
     """The balance report joined with the mass, drivetrain and law, and the one ``parameters`` list."""
-    from euc_sim.rides.controller_report import controller_json, torque_constant
-    from euc_sim.rides.parameters import drivetrain_view, parameter_list
+    from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
+    from euc_sim.rides.law.controller_report import controller_json, torque_constant
 
     rep = dict(an.report)
     rep.update(physics[0])
@@ -150,7 +150,7 @@ def _one_parameter_set(an, physics, log, compare, n_boot: int, seed: int, say) -
 
 def _localise(rep: dict, an, domain: str, log, compare) -> list:
     """Where the inertia-only residual concentrates: ``windows``, ``localisation``, traces."""
-    from euc_sim.rides.page import residual_windows
+    from euc_sim.rides.report.page import residual_windows
 
     name = Path(log.path).name
     nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
@@ -171,7 +171,7 @@ def _simulation(rep: dict, an, log, compare, seed: int, jobs: int, progress, sim
     """The simulated rider, or None (not asked, or the ride cannot be simulated: a note says why)."""
     if not simulate:
         return None
-    from euc_sim.rides.simulate import simulation_obstacle
+    from euc_sim.rides.sim.simulate import simulation_obstacle
 
     why = simulation_obstacle(an.sig_test if an.sig_test is not None else an.sig_fit)
     if why is not None:
@@ -185,7 +185,7 @@ def _mass_grid_note(fit) -> str:
     """How the mass and drivetrain fits treated the log's gaps (the ride's one grid, their own filter)."""
     import numpy as np
 
-    from euc_sim.rides.power import MassSettings
+    from euc_sim.rides.grids.power import MassSettings
 
     n = len(np.unique(fit.sig.segment))
     return (f"mass and drivetrain fits: gaps up to {MassSettings.max_gap:g} s bridged linearly on "
@@ -194,16 +194,16 @@ def _mass_grid_note(fit) -> str:
 
 
 def _rider_steps():
-    from euc_sim.rides.rider_step import RIDER_STEPS
+    from euc_sim.rides.rider.rider_step import RIDER_STEPS
 
     return RIDER_STEPS
 
 
 def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict, calibrate_rider: bool = False):
-    """The closed-loop rider along the tested ride, once per modelled step (:mod:`euc_sim.rides.sim_steps`),
+    """The closed-loop rider along the tested ride, once per modelled step (:mod:`euc_sim.rides.sim.sim_steps`),
     built from the fit ride's results in ``rep``; the second half scored without compare."""
-    from euc_sim.rides.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
-    from euc_sim.rides.simulate import ride_params, simulate_ride
+    from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
+    from euc_sim.rides.sim.simulate import ride_params, simulate_ride
 
     sig = an.sig_test if an.sig_test is not None else an.sig_fit
     ride_path = compare if compare is not None else log
@@ -248,14 +248,14 @@ def write_report(res: RideResult, out: Path) -> None:
 
 def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
     from euc_sim.io import atomic_write
-    from euc_sim.rides.analysis import write_balance
-    from euc_sim.rides.page import plot_residuals, write_page
+    from euc_sim.rides.balance.analysis import write_balance
+    from euc_sim.rides.report.page import plot_residuals, write_page
 
     figures = {"cross_ride": write_balance(an, out).name,
                "residuals": plot_residuals(traces, out / "ride_residuals.png").name}
     rep["figure"] = figures["cross_ride"]
     if sim is not None:
-        from euc_sim.rides.simulate import plot_ride_simulation
+        from euc_sim.rides.sim.simulate import plot_ride_simulation
 
         figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
         atomic_write(out / "ride_simulation.csv",
@@ -265,7 +265,7 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
     figures.update(_drivetrain_figures(physics, out))
     rep["figures"] = dict(figures)
     rep["report_markdown"] = write_page(rep, out, figures).name
-    from euc_sim.rides.page_html import RideSeries, write_ride_html
+    from euc_sim.rides.report.page_html import RideSeries, write_ride_html
 
     # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
     series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)
@@ -276,8 +276,8 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
 
 def _drivetrain_figures(physics, out: Path) -> dict:
     """The envelope, PWM and grade figures of the ride page, by key -> file name."""
-    from euc_sim.rides.drivetrain_report import plot_envelope, plot_pwm
-    from euc_sim.rides.grade import plot_grade
+    from euc_sim.rides.drive.grade import plot_grade
+    from euc_sim.rides.report.drivetrain_report import plot_envelope, plot_pwm
 
     rep, fit, test = physics
     figs = {}

@@ -15,9 +15,9 @@ def bench_ride_mass() -> dict:
     import warnings
     from pathlib import Path
 
-    from euc_sim.rides.drivetrain_report import analyse
-    from euc_sim.rides.logs import read_log
-    from euc_sim.rides.spec import read_spec
+    from euc_sim.rides.report.drivetrain_report import analyse
+    from euc_sim.rides.source.logs import read_log
+    from euc_sim.rides.source.spec import read_spec
 
     root = Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core"
     log = root / "trips/begode/blitz/4/4.csv"
@@ -55,7 +55,7 @@ def bench_ride() -> dict:
 
     from euc_sim.controllers.rider import RiderRun
     from euc_sim.model.parameters import TABLE3
-    from euc_sim.rides.tracking import simulate_profile
+    from euc_sim.rides.sim.tracking import simulate_profile
     from euc_sim.simulation.engine import _MujocoStepper
 
     minutes = 60.0
@@ -108,11 +108,11 @@ def _warm_up() -> float:
     import numpy as np
 
     t0 = time.perf_counter()
-    import euc_sim.rides.analysis  # noqa: F401  (the page's heavy imports: scipy.signal, pandas)
-    import euc_sim.rides.page_html  # noqa: F401
+    import euc_sim.rides.balance.analysis  # noqa: F401  (the page's heavy imports: scipy.signal, pandas)
+    import euc_sim.rides.report.page_html  # noqa: F401
     import euc_sim.rides.pipeline  # noqa: F401
     from euc_sim.model.parameters import TABLE3
-    from euc_sim.rides.tracking import simulate_profile
+    from euc_sim.rides.sim.tracking import simulate_profile
     from euc_sim.simulation.native_core import available
 
     available()
@@ -128,13 +128,13 @@ def bench_ride_page(fit=None, held=None, spec_path=None, workers: int = 2) -> di
     import warnings
     from pathlib import Path
 
-    from euc_sim.rides.logs import read_log
+    from euc_sim.rides.grids.ride import read_ride
+    from euc_sim.rides.grids.signals import ride_signals
     from euc_sim.rides.pipeline import run_ride
-    from euc_sim.rides.ride import read_ride
-    from euc_sim.rides.signals import ride_signals
-    from euc_sim.rides.sim_steps import StepInputs, build_steps, nominal_step
-    from euc_sim.rides.simulate import ride_params, simulate_ride
-    from euc_sim.rides.spec import read_spec
+    from euc_sim.rides.sim.sim_steps import StepInputs, build_steps, nominal_step
+    from euc_sim.rides.sim.simulate import ride_params, simulate_ride
+    from euc_sim.rides.source.logs import read_log
+    from euc_sim.rides.source.spec import read_spec
 
     root = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"
     if not root.is_dir():                       # a worktree beside the shared folder

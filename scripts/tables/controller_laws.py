@@ -18,10 +18,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from euc_sim.rides.controller_report import controller_json, torque_constant  # noqa: E402
-from euc_sim.rides.drivetrain_report import drivetrain_report                  # noqa: E402
-from euc_sim.rides.power import MassSettings                                  # noqa: E402
-from euc_sim.rides.spec import wheel_spec                                      # noqa: E402
+from euc_sim.rides.law.controller_report import controller_json, torque_constant  # noqa: E402
+from euc_sim.rides.report.drivetrain_report import drivetrain_report                  # noqa: E402
+from euc_sim.rides.grids.power import MassSettings                                  # noqa: E402
+from euc_sim.rides.source.spec import wheel_spec                                      # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data" / "euc_core"
 

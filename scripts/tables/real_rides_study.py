@@ -6,14 +6,14 @@ Usage (from the repository root)::
     python scripts/tables/real_rides_study.py [--n-boot 50] [--lowo-only] [--json OUT.json]
 
 Reads ``../shared/data/euc_core/`` (rides, ``meta.csv`` and ``specs/``).  The tool
-(:func:`euc_sim.rides.mass.fit_mass`, :func:`euc_sim.rides.drivetrain_report.analyse`)
+(:func:`euc_sim.rides.drive.mass.fit_mass`, :func:`euc_sim.rides.report.drivetrain_report.analyse`)
 sees only the log and the spec; the rider's stated weight in ``meta.csv`` is used
 here, and only here, to score it: truth = rider weight + wheel net weight.
 
 Leave one wheel out: every ride's mass is fitted under each
 configuration of :data:`CONFIGS` (speed scale from GPS Doppler, track or their
 mean; copper loss as κF² or its proxy κa²).  For each wheel, the configuration
-and the priors of :mod:`euc_sim.rides.systematic` (current-scale sd, grade share,
+and the priors of :mod:`euc_sim.rides.source.systematic` (current-scale sd, grade share,
 no-GPS speed-scale sd) are chosen on the *other* wheels' rides (:func:`choose`)
 and the wheel's rides are scored with them; the all-rides figures (every choice
 made on all rides) are printed beside them as tuning figures.  The energy
@@ -37,11 +37,11 @@ from pathlib import Path
 import numpy as np
 
 from euc_sim.io import write_json
-from euc_sim.rides.drivetrain import predict_pwm
-from euc_sim.rides.drivetrain_report import analyse, computed_pwm_note
-from euc_sim.rides.mass import predict_power
-from euc_sim.rides.power import MassSettings
-from euc_sim.rides.spec import read_spec
+from euc_sim.rides.drive.drivetrain import predict_pwm
+from euc_sim.rides.drive.mass import predict_power
+from euc_sim.rides.grids.power import MassSettings
+from euc_sim.rides.report.drivetrain_report import analyse, computed_pwm_note
+from euc_sim.rides.source.spec import read_spec
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core"
 
@@ -143,9 +143,9 @@ def mass_fits(n_boot: int, seed: int, progress=print) -> list[dict]:
     (config index -> {"estimate", "stat", "sys"} or None where not identified),
     ``gps`` (whether the speed scale came from GPS), ``altitude``, ``scale``.
     """
-    from euc_sim.rides.mass import fit_mass
-    from euc_sim.rides.power import power_signals
-    from euc_sim.rides.rotating import without_rotating_inertia
+    from euc_sim.rides.drive.mass import fit_mass
+    from euc_sim.rides.drive.rotating import without_rotating_inertia
+    from euc_sim.rides.grids.power import power_signals
 
     items = rides()
     out = []
@@ -169,7 +169,7 @@ def mass_fits(n_boot: int, seed: int, progress=print) -> list[dict]:
 
 def _interval(f: dict, current_sd: float, grade_share: float, no_gps_sd: float):
     """The ride's 95 % interval, kg, with the priors given (the systematic parts recomputed)."""
-    from euc_sim.rides.systematic import combined_interval, current_scale_kg, speed_scale_kg
+    from euc_sim.rides.source.systematic import combined_interval, current_scale_kg, speed_scale_kg
 
     m, sys_ = f["estimate"], dict(f["sys"])
     sys_["current_scale"] = current_scale_kg(m, current_sd)
@@ -283,7 +283,7 @@ def lowo_table(res: dict) -> str:
               "windows 2/4/8 s, rotating share 0.19 (0.10-0.28) of the net weight (Table 3), the 0.5 % "
               "held-out gain that admits a term, 30 s bootstrap blocks, the ride's one grid "
               f"({MassSettings().rate:g} Hz, gaps up to {MassSettings().max_gap:g} s bridged: "
-              "rides.ride.GAP_POLICY)"]
+              "rides.grids.ride.GAP_POLICY)"]
     return "\n".join(lines)
 
 

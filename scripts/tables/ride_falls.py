@@ -9,10 +9,10 @@ Usage (from the repository root, with ``../shared`` beside it)::
 For each of the 21 shared real logs (``../shared/data/euc_core/trips/*/*/N/N.csv`` with the
 wheel's spec where there is one, and ``../shared/data/wheellog/*.csv``) it runs what
 ``euc-sim ride LOG --wheel SPEC`` runs before simulating (the drivetrain and mass fit, the
-balance fit of :func:`euc_sim.rides.analysis.ride_analysis`, the measured balance law of
-:func:`euc_sim.rides.controller_report.controller_json`) and then rides the log's speed
-profile (:func:`euc_sim.rides.profile.speed_profile`) with
-:func:`euc_sim.rides.tracking.simulate_profile`:
+balance fit of :func:`euc_sim.rides.balance.analysis.ride_analysis`, the measured balance law of
+:func:`euc_sim.rides.law.controller_report.controller_json`) and then rides the log's speed
+profile (:func:`euc_sim.rides.grids.profile.speed_profile`) with
+:func:`euc_sim.rides.sim.tracking.simulate_profile`:
 
 ``nominal``     the paper's model, no injected effect;
 ``augmented``   the accepted balance effects injected as physics (:func:`effects_to_inject`);
@@ -73,15 +73,15 @@ def _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations) -> list[di
     firmware = "firmware" in wanted
     import numpy as np
 
-    from euc_sim.rides.drivetrain_report import ride_drivetrain
-    from euc_sim.rides.signals import with_found_values
-    from euc_sim.rides.analysis import ride_analysis
-    from euc_sim.rides.controller_report import controller_json, torque_constant
-    from euc_sim.rides.profile import speed_profile
-    from euc_sim.rides.signals import RideAssumptions
-    from euc_sim.rides.simulate import effects_to_inject, ride_params, simulation_obstacle
-    from euc_sim.rides.spec import wheel_spec
-    from euc_sim.rides.tracking import simulate_profile
+    from euc_sim.rides.balance.analysis import ride_analysis
+    from euc_sim.rides.grids.profile import speed_profile
+    from euc_sim.rides.grids.signals import RideAssumptions
+    from euc_sim.rides.grids.signals import with_found_values
+    from euc_sim.rides.law.controller_report import controller_json, torque_constant
+    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.sim.simulate import effects_to_inject, ride_params, simulation_obstacle
+    from euc_sim.rides.sim.tracking import simulate_profile
+    from euc_sim.rides.source.spec import wheel_spec
 
     spec = wheel_spec(spec_path)
     physics = ride_drivetrain(log, None, spec, n_boot, seed)
@@ -156,7 +156,7 @@ def main(argv=None) -> int:
         chosen = [c for c in chosen if c[0] in args.only]
     import pandas as pd
 
-    from euc_sim.rides.pool import run_jobs
+    from euc_sim.rides.sim.pool import run_jobs
 
     chosen.sort(key=lambda c: c[1].stat().st_size)          # the short logs first
     jobs = [(n, log, spec, args.n_boot, args.seed, tuple(args.runs), args.track_iterations, args.out)

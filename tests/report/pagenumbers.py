@@ -20,7 +20,7 @@ import html
 import re
 from dataclasses import dataclass
 
-from euc_sim.rides.power import RHO_AIR
+from euc_sim.rides.grids.power import RHO_AIR
 
 #: canonical name -> (label pattern, case-insensitive, whole words; the units its value may carry).
 VOCABULARY = {

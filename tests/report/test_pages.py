@@ -84,9 +84,9 @@ BATTERY = {"resistance_ohm": 0.152, "resistance_ci95": [0.14, 0.16], "resistance
 @pytest.fixture(scope="module")
 def with_summary(drive, tmp_path_factory):
     """The drive page rebuilt with a ``summary`` (as the ride JSON carries it once computed)."""
-    from euc_sim.rides.drivetrain_report import analyse
-    from euc_sim.rides.page_html import RideSeries, figure_specs, write_ride_html
-    from euc_sim.rides.signals import ride_signals
+    from euc_sim.rides.grids.signals import ride_signals
+    from euc_sim.rides.report.drivetrain_report import analyse
+    from euc_sim.rides.report.page_html import RideSeries, figure_specs, write_ride_html
 
     log, _, rep = drive
     sig = ride_signals(log)
@@ -149,7 +149,7 @@ def test_tiles_show_the_summary_in_peoples_units(with_summary):
 
 
 def test_data_quality_without_the_summarys_verdict_states_the_gaps():
-    from euc_sim.rides.page_html import data_quality
+    from euc_sim.rides.report.page_html import data_quality
 
     line, tone = data_quality({"duration_s": 1000.0, "gaps": {"count": 2, "total_s": 300.0, "longest_s": 200.0},
                                "sampling_hz": 2.5})

@@ -1,7 +1,7 @@
 """Synthetic EUC World ride logs with a known total mass and drivetrain (the twin).
 
 :func:`drive_log` writes an EUC World CSV whose battery current, voltage and
-safety margin follow :mod:`euc_sim.rides.mass` and :mod:`euc_sim.rides.drivetrain`'s
+safety margin follow :mod:`euc_sim.rides.drive.mass` and :mod:`euc_sim.rides.drive.drivetrain`'s
 models with the constants in ``DRIVE``: rolling and drag, copper loss in the
 phase current squared (the phase current proportional to the wheel's force),
 a constant drain, a Thevenin battery and a PWM from back-EMF plus resistive

@@ -3,7 +3,7 @@
 :func:`layout_log` writes the same ride (:mod:`ridesynth`'s battery-power physics, a pitch
 that follows the acceleration, a duty from back-EMF, GPS every fifth row) as EUC World,
 WheelLog (old and new layout) or DarknessBot write it: their columns, units and time stamps
-as :mod:`euc_sim.rides.logs` documents them.
+as :mod:`euc_sim.rides.source.logs` documents them.
 """
 
 from __future__ import annotations

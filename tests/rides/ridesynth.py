@@ -1,7 +1,7 @@
 """Synthetic WheelLog ride logs with known physics, shared by the ride tests.
 
 :func:`synth_log` writes an old-layout WheelLog CSV whose battery power follows
-:mod:`euc_sim.rides.design`'s drivetrain model with known C_rr, k, η and P₀ (``TRUTH``),
+:mod:`euc_sim.rides.balance.design`'s drivetrain model with known C_rr, k, η and P₀ (``TRUTH``),
 plus correlated noise, irregular rows, repeated time stamps and one gap.
 """
 
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from euc_sim.rides.signals import RideAssumptions
+from euc_sim.rides.grids.signals import RideAssumptions
 
 OLD_HEADER = ("date,time,speed,voltage,current,power,battery_level,distance,totaldistance,"
               "system_temp,cpu_temp,tilt,roll,mode,alert")

@@ -1,4 +1,4 @@
-"""One ``euc-sim ride`` run parses each log once (:mod:`euc_sim.rides.ride`)."""
+"""One ``euc-sim ride`` run parses each log once (:mod:`euc_sim.rides.grids.ride`)."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 from ridesynth import synth_log
 
-import euc_sim.rides.logs as logs
+import euc_sim.rides.source.logs as logs
 from euc_sim.cli.app import main
-from euc_sim.rides.ride import as_ride, read_ride, ride_name
+from euc_sim.rides.grids.ride import as_ride, read_ride, ride_name
 
 
 @pytest.fixture()
@@ -49,9 +49,9 @@ def test_a_ride_carries_its_quality_facts(tmp_path, counted):
 
 def test_one_ride_run_builds_each_grid_once_per_log(tmp_path, monkeypatch):
     """The grid (resampling), the balance fit's filtered signals and the mass fit's, once per log."""
-    import euc_sim.rides.controller_report as controller_report
-    import euc_sim.rides.power as power
-    import euc_sim.rides.signals as signals
+    import euc_sim.rides.law.controller_report as controller_report
+    import euc_sim.rides.grids.power as power
+    import euc_sim.rides.grids.signals as signals
 
     built: list[tuple[str, str]] = []
 

@@ -1,4 +1,4 @@
-"""Bad ride input at the command line beyond tests/rides/test_drivetrain.py's four cases: a
+"""Bad ride input at the command line beyond tests/rides/drive/test_drivetrain.py's four cases: a
 current column that is empty or all zero, and a binary compare log: one line naming the
 file and the column, exit 2, no output written."""
 

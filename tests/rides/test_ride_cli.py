@@ -1,6 +1,6 @@
 """``euc-sim ride``: the command on synthetic logs the tests write (known physics,
 see :mod:`ridesynth`), its bad-input behaviour, the simulation helpers of
-:mod:`euc_sim.rides.simulate`, and the issue's done-criterion on the two real rides
+:mod:`euc_sim.rides.sim.simulate`, and the issue's done-criterion on the two real rides
 (skipped when ../shared is absent)."""
 
 from __future__ import annotations
@@ -14,10 +14,10 @@ import pytest
 
 from euc_sim.cli import main
 from euc_sim.io import is_temporary
-from euc_sim.rides.signals import RideAssumptions
-from euc_sim.rides.page import split_at_gaps
-from euc_sim.rides.simulate import battery_power, effects_to_inject, ride_params
-from euc_sim.rides.tracking import limit_acceleration, simulate_profile, to_grid
+from euc_sim.rides.grids.signals import RideAssumptions
+from euc_sim.rides.grids.signals import split_at_gaps
+from euc_sim.rides.sim.simulate import battery_power, effects_to_inject, ride_params
+from euc_sim.rides.sim.tracking import limit_acceleration, simulate_profile, to_grid
 from ridesynth import OLD_HEADER, synth_log
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "wheellog"
@@ -290,9 +290,9 @@ def test_real_rides_done_criterion(tmp_path, capsys):
 
 def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, monkeypatch, tmp_path):
     """The ride JSON's simulation.falls (CONTRACT) and a common scored span after a fall."""
-    import euc_sim.rides.simulate as simulate_mod
+    import euc_sim.rides.sim.simulate as simulate_mod
     from euc_sim.rides.pipeline import run_ride
-    from euc_sim.rides.tracking import ProfileRun
+    from euc_sim.rides.sim.tracking import ProfileRun
 
     real = simulate_mod.simulate_profile
     t_fall = 40.0
@@ -330,7 +330,7 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
 
 
 def test_the_falls_are_said_once_with_the_runs_they_ended():
-    from euc_sim.rides.page import falls_sentence
+    from euc_sim.rides.report.page import falls_sentence
 
     cause = "|phi| = 0.700 rad exceeds the bound 0.7 rad"
     both = [{"t": 842.921, "cause": cause, "run": "nominal"}, {"t": 842.921, "cause": cause, "run": "augmented"}]
@@ -343,7 +343,7 @@ def test_the_falls_are_said_once_with_the_runs_they_ended():
 
 
 def test_the_page_says_when_the_last_step_sways_less_or_more_than_the_log():
-    from euc_sim.rides.page import SWAY_DB, sway_sentence
+    from euc_sim.rides.report.page import SWAY_DB, sway_sentence
 
     def step(name, fast):
         return {"step": name, "ran": True,

@@ -25,7 +25,7 @@ from ridesynth import synth_log
 
 from euc_sim.cli import main
 from euc_sim.io import is_temporary
-from euc_sim.rides.logs import RideLog, read_log
+from euc_sim.rides.source.logs import RideLog, read_log
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
 

@@ -11,10 +11,10 @@ import math
 import pytest
 
 from euc_sim.cli import main
-from euc_sim.rides.logs import read_log
+from euc_sim.rides.source.logs import read_log
 from layoutsynth import LAYOUTS, layout_log
 
-#: Layout and variant :func:`euc_sim.rides.logs.read_log` must report for each written log.
+#: Layout and variant :func:`euc_sim.rides.source.logs.read_log` must report for each written log.
 READ_AS = {"eucworld": ("eucworld", ""), "wheellog_old": ("wheellog", "old"),
            "wheellog_new": ("wheellog", "new"), "darknessbot": ("darknessbot", "")}
 #: Layouts that log pitch with a phase current or motor torque: the balance law is read.

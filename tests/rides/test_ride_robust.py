@@ -18,9 +18,9 @@ from ridesynth import synth_log
 
 from euc_sim.cli import main
 from euc_sim.io import is_temporary
-from euc_sim.rides.design import balance_design
-from euc_sim.rides.fit import MIN_BLOCKS, fit_balance
-from euc_sim.rides.signals import ride_signals
+from euc_sim.rides.balance.design import balance_design
+from euc_sim.rides.balance.fit import MIN_BLOCKS, fit_balance
+from euc_sim.rides.grids.signals import ride_signals
 
 #: 60 s logs give ~2.9 bootstrap blocks per half: the warning is tested once, below.
 pytestmark = pytest.mark.filterwarnings("ignore:.*bootstrap blocks:UserWarning")
@@ -208,7 +208,7 @@ def test_slow_part_of_a_trace_shorter_than_its_span():
     """Found by the fuzz test: a 25 s trace and a 30 s moving mean broke the residual figure."""
     import numpy as np
 
-    from euc_sim.rides.page import ResidualTrace
+    from euc_sim.rides.report.page import ResidualTrace
 
     t = np.arange(250) * 0.1
     r = np.sin(t)

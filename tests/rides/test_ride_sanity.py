@@ -12,10 +12,10 @@ import pytest
 from drivesynth import drive_log
 
 from euc_sim.cli.app import main
-from euc_sim.rides.power import SpeedScale
-from euc_sim.rides.sanity import TOTAL_MASS_RANGE, input_warnings, mass_suspicion
-from euc_sim.rides.spec import SpecError, WheelSpec, read_spec, wheel_spec
-from euc_sim.rides.systematic import combined_interval, mass_difference
+from euc_sim.rides.grids.power import SpeedScale
+from euc_sim.rides.source.sanity import TOTAL_MASS_RANGE, input_warnings, mass_suspicion
+from euc_sim.rides.source.spec import SpecError, WheelSpec, read_spec, wheel_spec
+from euc_sim.rides.source.systematic import combined_interval, mass_difference
 
 
 def _spec(tmp_path, weight="23.5 kg", tension="84 V", diameter="16 inches"):
@@ -59,13 +59,13 @@ def test_an_absurd_mass_is_withheld_with_the_suspicion():
 
 
 def test_a_log_in_mph_or_against_another_wheels_voltage_is_named(tmp_path):
-    from euc_sim.rides.logs import read_log
+    from euc_sim.rides.source.logs import read_log
 
     path = drive_log(tmp_path / "mph.csv", seed=2, duration=400.0)
     df = pd.read_csv(path)
     df["speed"] = (df["speed"] / 1.609344).round(2)          # mph written where km/h is read
     df.to_csv(path, index=False)
-    from euc_sim.rides.power import speed_scale
+    from euc_sim.rides.grids.power import speed_scale
 
     log = read_log(path, emit_warnings=False)
     k = speed_scale(log)
@@ -116,8 +116,8 @@ def test_compare_reports_the_mass_difference(tmp_path, capsys):
 
 
 def test_the_spec_radius_and_the_found_mass_reach_the_balance_fit():
-    from euc_sim.rides.signals import with_found_values
-    from euc_sim.rides.signals import RideAssumptions
+    from euc_sim.rides.grids.signals import RideAssumptions
+    from euc_sim.rides.grids.signals import with_found_values
 
     tm = {"estimate": 115.0, "equivalent_mass": {"estimate": 122.0}}
     a = with_found_values(RideAssumptions(), WheelSpec(radius=0.254, name="Blitz"), tm)

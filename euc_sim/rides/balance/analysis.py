@@ -1,0 +1,244 @@
+"""A ride's balance diagnosis end to end: CONTRACT's ``euc-sim ride`` JSON form.
+
+:func:`ride_analysis` reads the ride(s), builds the balance designs, runs the
+cross-ride comparison (:mod:`euc_sim.rides.balance.crossride`) and assembles the report;
+:func:`ride_report` returns only the report.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from euc_sim.errors import InputError
+from euc_sim.rides.balance.crossride import CrossRide, cross_ride, effect_entries, plot_cross_ride
+from euc_sim.rides.balance.design import NOMINAL, Design, balance_design
+from euc_sim.rides.balance.fit import FEW_BLOCKS, block_rows, plausibility
+from euc_sim.rides.grids.ride import GAP_POLICY, ride_name
+from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, ride_signals
+
+__all__ = ["RideAnalysis", "ride_report", "ride_analysis", "write_balance", "check_data",
+           "split_time"]
+
+
+@dataclass(frozen=True)
+class RideAnalysis:
+    """What :func:`ride_analysis` computed: the JSON report and the objects behind it.
+
+    Attributes
+    ----------
+    report : dict
+        CONTRACT's ``euc-sim ride`` form (see :func:`ride_report`).
+    cross : CrossRide
+    sig_fit, sig_test : RideSignals
+        The fit ride and the compare ride (None without ``compare_path``).
+    """
+
+    report: dict
+    cross: CrossRide
+    sig_fit: RideSignals
+    sig_test: RideSignals | None
+
+
+def ride_report(log_path, compare_path=None, **kwargs) -> dict:
+    """Diagnose a ride's longitudinal balance; CONTRACT's ``euc-sim ride`` JSON form.
+
+    ``ride_analysis(log_path, compare_path, **kwargs).report``: see :func:`ride_analysis`.
+    """
+    return ride_analysis(log_path, compare_path, **kwargs).report
+
+
+def ride_analysis(log_path, compare_path=None, *, report_dir=None,
+                  assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
+                  max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2,
+                  domain: str = "power", n_boot: int = 200, block_s: float = 10.0,
+                  seed: int = 0, progress: Callable[[str], None] | None = None) -> RideAnalysis:
+    """Diagnose a ride's longitudinal balance; CONTRACT's ``euc-sim ride`` JSON form.
+
+    Fits the inertia-only balance (η_m, η_r) and the augmented one on
+    ``log_path`` and measures both on ``compare_path``; without ``compare_path``
+    the first half of the ride is the fit and the second half the test.
+
+    Parameters
+    ----------
+    log_path : Ride, RideLog or path
+        Ride to fit (a :class:`~euc_sim.rides.grids.ride.Ride` keeps its grid: built once).
+    compare_path : Ride, RideLog or path, optional
+        Ride to test on.
+    report_dir : path, optional
+        Where to write ``ride_balance.png`` and ``ride_balance.csv`` (test ride:
+        t, measured and predicted battery power), atomically.
+    assumptions : RideAssumptions
+    rate, max_gap, window, polyorder :
+        See :func:`ride_signals`.
+    domain : {"power", "torque"}
+    n_boot, block_s, seed :
+        See :func:`fit_balance`.
+    progress : callable, optional
+        Called with a short line at each step.
+
+    Returns
+    -------
+    RideAnalysis
+        ``.report`` is the dict
+        ``{"effects": [...], "heldout_error_nominal", "heldout_error_augmented",
+        "error_unit"}`` plus ``ratio``, ``nominal_parameters`` (the efficiencies
+        of the augmented fit, with plausibility flags), ``all_estimates`` (every
+        candidate of the full fit, flagged), ``aliases``, ``torque_method``,
+        ``power_source``, ``assumptions``, ``filter``, ``bootstrap``, ``notes``,
+        ``figure`` (file name inside ``report_dir``); ``recording`` and
+        ``compare`` are file names (no folder: no machine path in outputs).
+    """
+    say = progress or (lambda msg: None)
+    say(f"reading {ride_name(log_path)}" + ("" if compare_path is None else
+                                            f" and {ride_name(compare_path)}"))
+    sig_fit = ride_signals(log_path, assumptions, rate, max_gap, window, polyorder)
+    sig_test = (None if compare_path is None else
+                ride_signals(compare_path, assumptions, rate, max_gap, window, polyorder))
+    d_fit, d_test, fit_label, test_label = _fit_and_test(sig_fit, sig_test, log_path, compare_path,
+                                                         domain)
+    cr = cross_ride(d_fit, d_test, n_boot, block_s, seed, fit_label, test_label, progress=say)
+    notes = _notes(sig_fit, sig_test, d_fit, assumptions, test_label)
+    blocks = len(d_fit.P) / (block_s * rate)
+    if n_boot and blocks < FEW_BLOCKS:
+        notes.append(_few_blocks(fit_label, blocks, block_s))
+        warnings.warn(notes[-1], stacklevel=2)
+    report = _report(cr, sig_fit, d_fit, d_test, (fit_label, test_label), notes, domain,
+                     assumptions, dict(log_path=log_path, compare_path=compare_path, rate=rate,
+                                       window=window, polyorder=polyorder, max_gap=max_gap,
+                                       n_boot=n_boot, block_s=block_s, seed=seed))
+    an = RideAnalysis(report=report, cross=cr, sig_fit=sig_fit, sig_test=sig_test)
+    if report_dir is not None:
+        report["figure"] = write_balance(an, report_dir).name
+    return an
+
+
+def _report(cr: CrossRide, sig_fit: RideSignals, d_fit: Design, d_test: Design,
+            labels: tuple[str, str], notes: list[str], domain: str,
+            assumptions: RideAssumptions, settings: dict) -> dict:
+    """CONTRACT's ``euc-sim ride`` dict from the cross-ride fits (``figure`` still None)."""
+    fit_label, test_label = labels
+    log_path, compare_path = settings["log_path"], settings["compare_path"]
+    rate, window, polyorder = settings["rate"], settings["window"], settings["polyorder"]
+    max_gap, n_boot = settings["max_gap"], settings["n_boot"]
+    block_s, seed = settings["block_s"], settings["seed"]
+    aug_phys = plausibility(cr.augmented)
+    return {
+        "recording": ride_name(log_path),
+        "compare": None if compare_path is None else ride_name(compare_path),
+        "effects": effect_entries(cr),
+        "heldout_error_nominal": cr.heldout_nominal,
+        "heldout_error_augmented": cr.heldout_augmented,
+        "error_unit": "W" if domain == "power" else "N·m",
+        "error_measure": (f"RMS of measured minus predicted battery power"
+                          f"{'' if domain == 'power' else ' divided by ω = v/R'} on {test_label}, "
+                          f"parameters fitted on {fit_label}"),
+        "ratio": cr.ratio,
+        "heldout_error_all_candidates": cr.heldout_full,
+        "selection": [dict(h) for h in cr.selection],
+        "selected_not_accepted": [c for c in cr.selected if c not in cr.accepted],
+        "insample_error_nominal": cr.nominal.rmse,
+        "insample_error_augmented": cr.augmented.rmse,
+        "nominal_parameters": {k: aug_phys[k] for k in NOMINAL},
+        "inertia_only_parameters": plausibility(cr.nominal),
+        "all_estimates": plausibility(cr.full),
+        "aliases": {k: list(v) for k, v in d_fit.aliases.items()},
+        "confounded": {k: list(cr.full.confounded(k)) for k in cr.full.names
+                       if cr.full.confounded(k)},
+        "bootstrap_correlation_full_fit": {f"{a}~{b}": r for (a, b), r in cr.full.boot_corr.items()
+                                           if a < b},
+        "domain": domain,
+        "torque_method": sig_fit.torque_method,
+        "power_source": sig_fit.power_source,
+        "assumptions": assumptions.as_dict(),
+        "filter": {"rate_hz": rate, "window_s": window, "polyorder": polyorder,
+                   "max_gap_s": max_gap},
+        "bootstrap": {"n_boot": n_boot, "block_s": block_s, "seed": seed},
+        "rows": {"fit": len(d_fit.P), "test": len(d_test.P)},
+        "notes": notes,
+        "figure": None,
+    }
+
+
+def check_data(log_path, compare_path=None, *, assumptions: RideAssumptions = RideAssumptions(),
+               domain: str = "power", block_s: float = 10.0) -> None:
+    """Fail early, naming the file, on a log :func:`ride_analysis` cannot use.
+
+    Reads the log(s) and checks the fit part (LOG, or its first half without
+    ``compare_path``) holds enough rows for the bootstrap (:func:`block_rows`).
+
+    Raises
+    ------
+    ValueError, OSError
+        naming the file and what is missing.
+    """
+    sig_fit = ride_signals(log_path, assumptions)
+    sig_test = None if compare_path is None else ride_signals(compare_path, assumptions)
+    d_fit, d_test, _, _ = _fit_and_test(sig_fit, sig_test, log_path, compare_path, domain)
+    block_rows(d_fit, block_s)
+    if len(d_test.P) == 0:
+        raise InputError(f"{d_test.path}: no usable rows to test on")
+
+
+def _few_blocks(fit_label: str, blocks: float, block_s: float) -> str:
+    return (f"{fit_label} gives only {blocks:.1f} bootstrap blocks of {block_s:g} s: the 95 % "
+            f"intervals are rough (fewer than {FEW_BLOCKS} blocks); a longer ride gives "
+            f"firmer ones")
+
+
+def split_time(t) -> float:
+    """Where a ride is cut into fit and test halves, s: half its usable rows on each side.
+
+    Not the midpoint of the clock: a log left recording through a long pause
+    would put all the riding on one side.
+    """
+    t = np.sort(np.asarray(t, float))
+    return float(t[len(t) // 2])
+
+
+def _fit_and_test(sig_fit: RideSignals, sig_test: RideSignals | None, log_path, compare_path,
+                  domain: str) -> tuple[Design, Design, str, str]:
+    """The fit and test designs and their labels: two rides, or one ride's halves."""
+    d_all = balance_design(sig_fit, domain)
+    if sig_test is not None:
+        return d_all, balance_design(sig_test, domain), ride_name(log_path), ride_name(compare_path)
+    t_mid = split_time(d_all.t)
+    return (d_all.rows(d_all.t < t_mid), d_all.rows(d_all.t >= t_mid),
+            f"{ride_name(log_path)} (first half)", f"{ride_name(log_path)} (second half)")
+
+
+def _notes(sig_fit: RideSignals, sig_test: RideSignals | None, d_fit: Design,
+           assumptions: RideAssumptions, test_label: str) -> list[str]:
+    """The report's notes: reader, resampling and design notes, and the mass caveat."""
+    notes = list(sig_fit.notes) + list(d_fit.notes)
+    notes.append(f"masses of the balance fit: m_eq = {assumptions.m_eq:.4g} kg, total "
+                 f"{assumptions.total_mass:.4g} kg ({assumptions.source_of('total_mass')}): the "
+                 f"efficiency balance fixes only m_eq/η_m, so η_m, η_r, k and P₀ scale with this "
+                 f"mass; C_rr (a force per weight) does not")
+    if sig_test is not None:
+        notes += [f"{test_label}: {n}" for n in sig_test.notes]
+    return notes
+
+
+def write_balance(an: RideAnalysis, report_dir) -> Path:
+    """Write ``ride_balance.png`` and ``ride_balance.csv`` (the test ride) atomically.
+
+    Returns
+    -------
+    pathlib.Path
+        The figure.
+    """
+    from euc_sim.io import atomic_write
+
+    cr, d_test, report_dir = an.cross, an.cross.test_design, Path(report_dir)
+    fig = plot_cross_ride(cr, report_dir / "ride_balance.png", an.sig_fit, an.sig_test)
+    table = pd.DataFrame({"t": d_test.t, "v": d_test.v, "P_measured": d_test.P,
+                          "P_nominal": d_test.predict(cr.nominal.estimate),
+                          "P_augmented": d_test.predict(cr.augmented.estimate)})
+    atomic_write(report_dir / "ride_balance.csv", lambda p: table.to_csv(p, index=False))
+    return fig

@@ -1,0 +1,280 @@
+"""Inertia-only against augmented balance: fitted on one ride, tested on another.
+
+:func:`cross_ride` accepts the effects that blocked held-out validation on the
+fit ride keeps (:func:`select_effects`, the selection rule of every ride fit),
+:func:`effect_entries` writes them as CONTRACT's effect entries and
+:func:`plot_cross_ride` draws the held-out prediction.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from euc_sim.rides.balance.design import CANDIDATES, NOMINAL, Design, on_bound
+from euc_sim.rides.balance.fit import BalanceFit, _solve, fit_balance, plausibility
+from euc_sim.rides.balance.verdict import unit_label
+from euc_sim.rides.grids.signals import RideSignals, break_at_gaps
+from euc_sim.stats import forward_select, time_blocks
+
+__all__ = ["CrossRide", "cross_ride", "effect_entries", "plot_cross_ride", "cross_ride_figure",
+           "select_effects", "heldout_score", "admissible", "HELDOUT_FOLDS", "MIN_GAIN"]
+
+#: Contiguous time folds of the fit ride that score a model held out.
+HELDOUT_FOLDS = 5
+#: A term is kept only if it lowers the held-out error by more than this fraction.
+MIN_GAIN = 0.01
+
+
+def _start(names) -> np.ndarray:
+    from euc_sim.rides.balance.fit import _START
+
+    return np.array([_START[k] for k in names])
+
+
+def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS) -> float:
+    """Blocked held-out RMS error of the bounded balance with ``names`` on ``design``, W or N·m.
+
+    Each of ``n_folds`` contiguous time blocks is predicted from a bounded fit
+    (:data:`~euc_sim.rides.balance.design.BOUNDS`) on the others.
+    """
+    names = list(names)
+    whole = _solve(design, names, _start(names)).x
+    label = time_blocks(design.t, n_folds)
+    err = []
+    for b in range(n_folds):
+        train, test = design.rows(label != b), design.rows(label == b)
+        if len(test.P) == 0:
+            continue
+        th = _solve(train, names, whole).x
+        err.append(test.residual(dict(zip(names, th))))
+    r = np.concatenate(err)
+    return float(np.sqrt(np.mean(r ** 2)))
+
+
+def select_effects(design: Design, candidates) -> tuple[list[str], list[dict]]:
+    """The terms blocked held-out validation keeps, in the order kept, and the history.
+
+    Forward selection (:func:`euc_sim.stats.forward_select`) from the nominal
+    pair: each step adds the candidate that lowers :func:`heldout_score` most,
+    if by more than :data:`MIN_GAIN`.
+    """
+    names, history = forward_select(lambda n: heldout_score(design, n), list(NOMINAL),
+                                    [c for c in candidates if c not in NOMINAL], MIN_GAIN)
+    return names[len(NOMINAL):], history
+
+
+def _accepted_model(design: Design, selected) -> list[str]:
+    """The kept terms that stay plausible and off their bounds when fitted without the others.
+
+    Terms that end on a bound are dropped and the rest refitted, until every term left is
+    admissible: the augmented fit (its efficiencies, its held-out error, what is simulated)
+    is then the model of the accepted physics alone.
+    """
+    kept = list(selected)
+    while kept:
+        ok = admissible(fit_balance(design, list(NOMINAL) + kept, n_boot=0), kept)
+        if ok == kept:
+            break
+        kept = ok
+    return kept
+
+
+def admissible(fit: BalanceFit, names) -> list[str]:
+    """Those of ``names`` whose estimate in ``fit`` is plausible and off its bounds.
+
+    A kept term that ends on the bound of its plausible range (or outside it, as
+    a GPS gain below its range) stays in the balance as the bound, but nothing
+    is named or simulated from it.
+    """
+    phys = plausibility(fit)
+    return [c for c in names if phys[c]["plausible"] and not on_bound(c, fit.estimate[c])]
+
+
+@dataclass(frozen=True)
+class CrossRide:
+    """Inertia-only against augmented balance, fitted on one ride, tested on another.
+
+    Attributes
+    ----------
+    nominal, full, augmented : BalanceFit
+        Fits on the fit ride: inertia only (η_m, η_r); every candidate the ride
+        supports; nominal plus the accepted effects alone (:func:`_accepted_model`).
+    accepted : tuple of str
+        Effects kept by blocked held-out validation on the fit ride
+        (:func:`select_effects`) whose estimates are plausible and off their
+        bounds (:func:`admissible`), in the order kept.
+    selected : tuple of str
+        Every term the selection kept, accepted or not.
+    selection : list of dict
+        ``{"term", "heldout_rmse"}`` after each kept step, the nominal pair first.
+    heldout_nominal, heldout_augmented, heldout_full : float
+        RMS residual on the test ride, W or N·m.
+    """
+
+    fit_design: Design
+    test_design: Design
+    nominal: BalanceFit
+    full: BalanceFit
+    augmented: BalanceFit
+    accepted: tuple[str, ...]
+    heldout_nominal: float
+    heldout_augmented: float
+    heldout_full: float
+    fit_label: str
+    test_label: str
+    selection: tuple = ()
+    selected: tuple = ()
+
+    @property
+    def ratio(self) -> float:
+        """heldout_augmented / heldout_nominal (< 1: the augmented model predicts better)."""
+        return self.heldout_augmented / self.heldout_nominal
+
+
+def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block_s: float = 10.0,
+               seed: int = 0, fit_label: str = "fit", test_label: str = "test",
+               progress: Callable[[str], None] | None = None) -> CrossRide:
+    """Fit the nominal and augmented balances on one design, measure both on another.
+
+    An effect is *accepted* when blocked held-out validation on the fit ride keeps
+    it (:func:`select_effects`) and its bounded estimate is plausible and off its
+    bounds (:func:`admissible`).
+    ``progress``, when given, is called with a short line before each bootstrapped fit.
+    """
+    say = progress or (lambda msg: None)
+    common = [c for c in fit_design.candidates if c in test_design.candidates]
+    boot = f"{n_boot} bootstrap replicates"
+    say(f"fitting the inertia-only balance on {fit_label} (1/3, {boot})")
+    nominal = fit_balance(fit_design, list(NOMINAL), n_boot, block_s, seed)
+    say(f"fitting every candidate on {fit_label} (2/3, {boot})")
+    full = fit_balance(fit_design, common, n_boot, block_s, seed)
+    alone, history = select_effects(fit_design, common)
+    kept = _accepted_model(fit_design, alone)
+    say(f"fitting the augmented balance ({', '.join(kept) or 'nothing accepted'}) (3/3, {boot})")
+    augmented = fit_balance(fit_design, list(NOMINAL) + kept, n_boot, block_s, seed)
+    return CrossRide(fit_design=fit_design, test_design=test_design, nominal=nominal, full=full,
+                     augmented=augmented, accepted=tuple(kept),
+                     selected=tuple(alone),
+                     heldout_nominal=nominal.rmse_on(test_design),
+                     heldout_augmented=augmented.rmse_on(test_design),
+                     heldout_full=full.rmse_on(test_design),
+                     fit_label=fit_label, test_label=test_label, selection=tuple(history))
+
+
+def effect_entries(cr: CrossRide) -> list[dict]:
+    """CONTRACT's effect entries for the accepted effects, strongest first."""
+    out = []
+    cum = list(NOMINAL)
+    phys = plausibility(cr.augmented)
+    for c in cr.accepted:
+        cum.append(c)
+        rmse_after = fit_balance(cr.fit_design, cum, n_boot=0).rmse
+        ph = phys[c]
+        exact = list(cr.fit_design.aliases.get(c, ()))
+        confounded = [x for x in cr.full.confounded(c) if x not in exact]
+        aliases = exact + confounded
+        step = next((h for h in cr.selection if h["term"] == c), None)
+        before = cr.selection[max(0, list(cr.selection).index(step) - 1)] if step else None
+        ev = (f"adding {ph['symbol']} ({ph['meaning']}) lowers the blocked held-out RMS error "
+              f"on {cr.fit_label} from {before['heldout_rmse']:.0f} to {step['heldout_rmse']:.0f} "
+              f"{cr.nominal.unit}" if step else f"{ph['symbol']} ({ph['meaning']})")
+        ev += f", 95% interval {ph['ci95'][0]:.3g} to {ph['ci95'][1]:.3g} {unit_label(ph['unit'])}"
+        if exact:
+            ev += (f"; the speed never changes sign, so it is the sum of this and "
+                   f"{' and '.join(exact)} (a constant road grade looks the same)")
+        if confounded:
+            ev += (f"; in the fit with every candidate its estimate trades off against "
+                   f"{' and '.join(confounded)} (bootstrap correlation beyond ±0.8): this ride "
+                   f"cannot tell them apart")
+        if not ph["plausible"]:
+            ev += (f"; OUTSIDE the plausible range {ph['plausible_range'][0]:g} to "
+                   f"{ph['plausible_range'][1]:g} {unit_label(ph['unit'])}: it also absorbs something else")
+        entry = {"name": c, "estimate": ph["estimate"], "unit": ph["unit"], "ci95": ph["ci95"],
+                 "rmse_after": rmse_after, "aliases": aliases, "evidence": ev,
+                 "plausible": ph["plausible"], "plausible_range": ph["plausible_range"]}
+        for extra in ("drag_area_m2", "drag_area_m2_ci95", "angle_rad"):
+            if extra in ph:
+                entry[extra] = ph[extra]
+        out.append(entry)
+    return out
+
+
+def plot_cross_ride(cr: CrossRide, path, sig_fit: RideSignals | None = None,
+                    sig_test: RideSignals | None = None) -> Path:
+    """Write :func:`cross_ride_figure` to ``path`` (PNG, atomically)."""
+    from euc_sim.io import save_figure
+
+    return save_figure(cross_ride_figure(cr, sig_fit, sig_test), path)
+
+
+def cross_ride_figure(cr: CrossRide, sig_fit: RideSignals | None = None,
+                      sig_test: RideSignals | None = None):
+    """Figure: the test ride's battery power, inertia-only against augmented prediction.
+
+    Panels: (1) wheel speed of both rides, m/s (one ride split in halves: the
+    whole ride, its held-out second half shaded); (2) on the test ride, the
+    measured battery power against both models' predictions (parameters from the
+    fit ride), W; (3) their residuals with RMS values and the ratio.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    td = cr.test_design
+    pn = td.predict(cr.nominal.estimate)
+    pa = td.predict(cr.augmented.estimate)
+    fig = Figure(figsize=(13, 10), layout="constrained")
+    ax = fig.subplots(3, 1)
+    _speed_panel(ax[0], cr, sig_fit, sig_test)
+    nom = cr.nominal.estimate
+    aug = cr.augmented.estimate
+    tt, P_b, pn_b, pa_b = break_at_gaps(td.t, td.P, pn, pa)
+    ax[1].plot(tt, P_b, color="k", lw=0.9, label="measured battery power V·I")
+    ax[1].plot(tt, pn_b, lw=0.8, label=f"inertia only\n(η_m={nom['eta_motor']:.2f}, "
+                                       f"η_r={nom['eta_regen']:.2f})")
+    sym = lambda c: CANDIDATES[c][0] + ("+sin α" if c == "rolling_resistance"  # noqa: E731
+                                        and cr.fit_design.aliases.get(c) else "")
+    lab = ", ".join(f"{sym(c)}={aug[c]:.3g}" for c in cr.accepted) or "nothing accepted"
+    ax[1].plot(tt, pa_b, lw=0.8, label=f"augmented\n({lab})")
+    ax[1].set(ylabel="battery power [W]", xlabel="time from start of log [s]",
+              title=f"{cr.test_label}: predicted from its speed with parameters fitted on "
+                    f"{cr.fit_label}")
+    rn = td.weight * (td.P - pn)           # W, or N·m in the torque domain
+    ra = td.weight * (td.P - pa)
+    tt, rn, ra = break_at_gaps(td.t, rn, ra)
+    ax[2].plot(tt, rn, lw=0.7, label=f"inertia only:\nRMS {cr.heldout_nominal:.0f} {td.unit}")
+    ax[2].plot(tt, ra, lw=0.7, label=f"augmented:\nRMS {cr.heldout_augmented:.0f} {td.unit}")
+    ax[2].axhline(0, color="grey", lw=0.5)
+    what = "measured − predicted" if td.domain == "power" else "(measured − predicted)·R/v"
+    ax[2].set(ylabel=f"{what} [{td.unit}]", xlabel="time from start of log [s]",
+              title=f"Held-out residual; error ratio augmented / inertia-only = {cr.ratio:.2f}")
+    for a in ax:
+        a.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0.0)
+    fig.suptitle(f"Battery-power balance fitted on {cr.fit_label}, tested on {cr.test_label}",
+                 fontsize=11)
+    return fig
+
+
+def _speed_panel(ax, cr: CrossRide, sig_fit: RideSignals | None, sig_test: RideSignals | None) -> None:
+    """Logged speed: both rides, or one ride with its held-out second half shaded."""
+    if sig_fit is not None and sig_test is None:          # one ride, split in halves
+        t = sig_fit.frame["t"].to_numpy()
+        ax.plot(*break_at_gaps(t, sig_fit.frame["v"]), lw=0.8,
+                label=f"{Path(str(sig_fit.path)).name}, the whole ride")
+        ax.axvspan(float(cr.test_design.t.min()), float(t.max()), color="tab:orange", alpha=0.15,
+                   lw=0, label="second half: held out (test);\nthe first half is the fit")
+    else:
+        if sig_fit is not None:
+            ax.plot(*break_at_gaps(sig_fit.frame["t"], sig_fit.frame["v"]), lw=0.8,
+                    label=f"{cr.fit_label} (fit)")
+        if sig_test is not None:
+            ax.plot(*break_at_gaps(sig_test.frame["t"], sig_test.frame["v"]), lw=0.8,
+                    label=f"{cr.test_label} (test)")
+    ax.set(ylabel="wheel speed v [m/s]", xlabel="time from start of log [s]",
+           title="Logged wheel speed (10 Hz grid, Savitzky–Golay 1.5 s)")

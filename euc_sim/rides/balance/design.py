@@ -1,0 +1,444 @@
+"""The wheel's longitudinal balance of a ride, every term filtered alike, ready to fit.
+
+Balance of the whole EUC + rider along the road (no rider lean needed: the
+rider's and motor's internal torques cancel)::
+
+    m_eq·a·R = M_wheel − R·(C_rr·N·sign v + k·v|v| + m·g·sin α)
+
+Torque is only known through battery power with an unknown efficiency, so the
+balance is used in the power domain (multiply by ω = v/R).  The mechanical power
+the ride demands is::
+
+    D = m_eq·a·v + C_rr·m·g·|v| + k·|v|³ + m·g·sin α·v
+
+and the battery supplies P = P₀ + D/η_m while motoring (D > 0) and returns
+P = P₀ + η_r·D while regenerating (D ≤ 0); P₀ is a constant drain (controller,
+lights), W.  A loss proportional to |P| is the same thing as lower efficiencies
+and is absorbed by η_m, η_r.  The inertial power is computed as
+m_eq·d/dt(v²/2) from the same Savitzky–Golay fit that smooths P and every other
+regressor, so filtering commutes with the (linear) part of the equation.
+
+Why battery power is the target (output error) and not a regressor: the motor
+torque also drives the rider's lean changes (m·h·φ̈ in eq. 5, unmeasured here),
+which look like noise in P; with P as a regressor (equation error m_eq·a·v =
+η·P − …) that noise attenuates every coefficient (on the real rides the
+efficiency came out ≈ 0.2–0.45).  Putting P on the left keeps the noise in the
+target, where least squares tolerates it.  The model is linear in the
+resistances but not in (η_m, η_r), so it is fitted with scipy's
+``least_squares``.
+
+The candidate parameters (:data:`CANDIDATES`), their plausible ranges
+(:data:`PLAUSIBLE`) and the regressors of a ride (:func:`balance_design`) live
+here; the fit and its intervals in :mod:`euc_sim.rides.balance.fit`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from functools import cached_property
+from typing import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from euc_sim.rides.grids.power import RHO_AIR
+from euc_sim.rides.grids.signals import RideSignals, sg, window_samples
+
+__all__ = ["RHO_AIR", "CANDIDATES", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDOW", "Design",
+           "Operator", "balance_design", "filter_matrix", "on_bound"]
+
+
+#: Candidate parameters: name -> (symbol, unit, meaning, regressor column or None, column unit).
+CANDIDATES: dict[str, tuple[str, str, str, str | None, str | None]] = {
+    "eta_motor": ("η_m", "1", "drivetrain efficiency while motoring (battery to wheel)",
+                  None, None),
+    "eta_regen": ("η_r", "1", "drivetrain efficiency while regenerating (wheel to battery)",
+                  None, None),
+    "rolling_resistance": ("C_rr", "1", "rolling-resistance coefficient, force C_rr·N·sign v",
+                           "rolling", "W"),
+    "aerodynamic_drag": ("k", "kg/m", "drag factor ½ρC_dA, force k·v|v|", "drag", "m³/s³"),
+    "road_slope": ("sin α", "1", "constant road grade, force m·g·sin α", "slope", "W"),
+    "road_slope_gps": ("gain", "1", "gain on m·g·dh/dt from GPS altitude (1 if GPS is right)",
+                       "gps_climb", "W"),
+    "drivetrain_idle_loss": ("P₀", "W", "constant electrical drain (controller, lights)",
+                             None, None),
+}
+#: The inertia-only model: the paper's balance with no resistance, plus the two
+#: efficiencies without which battery power cannot be compared at all.
+NOMINAL = ("eta_motor", "eta_regen")
+
+#: Plausible ranges of the physical estimates, with units.
+PLAUSIBLE: dict[str, tuple[float, float, str]] = {
+    "rolling_resistance": (0.005, 0.05, "1"),
+    "aerodynamic_drag": (0.5 * RHO_AIR * 0.3, 0.5 * RHO_AIR * 1.0, "kg/m"),   # C_dA 0.3-1.0 m²
+    "eta_motor": (0.5, 0.95, "1"),
+    "eta_regen": (0.5, 0.95, "1"),
+    "road_slope": (-0.15, 0.15, "1"),
+    "road_slope_gps": (0.5, 1.5, "1"),
+    "drivetrain_idle_loss": (0.0, 100.0, "W"),
+}
+
+#: Bounds of the fit: a resistance or loss runs from 0 (absent) to the top of its
+#: plausible range, an efficiency within (0, 1], a grade or GPS gain over its
+#: plausible range.  An estimate that ends on a bound other than "absent" is where
+#: the data asks for an implausible value: it is never accepted (:func:`on_bound`).
+BOUNDS: dict[str, tuple[float, float]] = {
+    "eta_motor": (0.05, 1.0),
+    "eta_regen": (0.01, 1.0),
+    "rolling_resistance": (0.0, PLAUSIBLE["rolling_resistance"][1]),
+    "aerodynamic_drag": (0.0, PLAUSIBLE["aerodynamic_drag"][1]),
+    "road_slope": PLAUSIBLE["road_slope"][:2],
+    "road_slope_gps": (0.0, PLAUSIBLE["road_slope_gps"][1]),
+    "drivetrain_idle_loss": (0.0, PLAUSIBLE["drivetrain_idle_loss"][1]),
+}
+
+
+def on_bound(name: str, value: float, rel: float = 1e-6) -> bool:
+    """True when ``value`` sits on a bound of :data:`BOUNDS` that is not "absent" (0).
+
+    Such an estimate is the bound, not what the data gives: the unbounded fit
+    would leave the plausible range.
+    """
+    lo, hi = BOUNDS.get(name, (-np.inf, np.inf))
+    tol = rel * max(abs(hi - lo), 1.0) if np.isfinite(hi - lo) else 0.0
+    return bool((value >= hi - tol) or (lo != 0.0 and value <= lo + tol))
+
+
+@dataclass(frozen=True)
+class Design:
+    """A ride's longitudinal balance, ready to fit: target and named regressors.
+
+    Model (power domain, W)::
+
+        D = inertia + C_rr·rolling + k·drag + sin α·slope + gain·gps_climb
+        g(D) = D/η_m   where D > 0 (motoring),   D·η_r   where D ≤ 0 (regenerating)
+        P̂ = P₀ + L₂[g(D)]
+
+    Filtering.  Every regressor is first passed through a short Savitzky–Golay
+    fit L₁ (``inertia`` through its derivative); the regime switch g acts on
+    those; then one longer Savitzky–Golay fit L₂ smooths the prediction.  The
+    measured battery power gets exactly L₂∘L₁.  Within a regime the model is
+    linear, so both sides then carry the same linear filter L₂∘L₁; only where D
+    changes sign does the (short) L₁ smear the switch.  (Applying the long
+    filter before the switch biases η_m low and η_r high by a few per cent,
+    since smoothing a convex kink raises it: Jensen.)
+
+    Attributes
+    ----------
+    columns_full : pandas.DataFrame
+        On the whole grid, L₁-filtered: ``inertia`` = m_eq·d/dt(v²/2), W;
+        ``rolling`` = m·g·|v|, W; ``drag`` = |v|³, m³/s³; ``slope`` = m·g·v, W
+        (only when v changes sign); ``gps_climb`` = m·g·dh/dt, W (only with GPS
+        altitude).
+    P_full : numpy.ndarray
+        Battery power V·I filtered by L₂∘L₁, W (NaN near segment ends).
+    segment : numpy.ndarray of int
+    use : numpy.ndarray of bool
+        Rows that enter the residual.
+    kernel : numpy.ndarray
+        L₂'s convolution coefficients.
+    weight_full : numpy.ndarray
+        Residual weight: 1 (``domain="power"``), or R/v, s (``"torque"``:
+        residuals become battery-side torque errors, N·m).
+    t_full, v_full : numpy.ndarray
+        s; L₂∘L₁-smoothed speed, m/s.
+    domain, unit : str
+        ``"power"``/``"W"`` or ``"torque"``/``"N·m"``.
+    candidates : tuple of str
+        Parameters this ride supports (keys of :data:`CANDIDATES`).
+    aliases : dict
+        Candidate -> candidates this ride cannot tell apart from it.
+    notes : tuple of str
+    path : str
+    """
+
+    columns_full: pd.DataFrame
+    P_full: np.ndarray
+    segment: np.ndarray
+    use: np.ndarray
+    kernel: np.ndarray
+    weight_full: np.ndarray
+    t_full: np.ndarray
+    v_full: np.ndarray
+    domain: str
+    unit: str
+    candidates: tuple[str, ...]
+    aliases: Mapping[str, tuple[str, ...]]
+    notes: tuple[str, ...]
+    path: str = ""
+
+    # rows in use --------------------------------------------------------------
+    @property
+    def P(self) -> np.ndarray:
+        """Measured (filtered) battery power on the rows in use, W."""
+        return self.P_full[self.use]
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.t_full[self.use]
+
+    @property
+    def v(self) -> np.ndarray:
+        return self.v_full[self.use]
+
+    @property
+    def weight(self) -> np.ndarray:
+        return self.weight_full[self.use]
+
+    def rows(self, mask: np.ndarray) -> "Design":
+        """The same design with fewer rows in use (``mask`` over the rows in use)."""
+        use = self.use.copy()
+        use[np.flatnonzero(self.use)[~np.asarray(mask, bool)]] = False
+        return replace(self, use=use)
+
+    @cached_property
+    def operator(self) -> "Operator":
+        """The model's linear pieces on the rows it touches (built once per design)."""
+        K, support = filter_matrix(self.segment, self.kernel, np.flatnonzero(self.use))
+        X = self.columns_full.iloc[support]
+        return Operator(K=K, columns={c: X[c].to_numpy() for c in X.columns})
+
+    def demand(self, names: Sequence[str], Theta: np.ndarray) -> np.ndarray:
+        """Demanded mechanical power D of B parameter sets on the operator's support, W.
+
+        ``Theta`` holds one row per name (shape len(names) × B); resistances not
+        named are 0.  Returns support × B.
+        """
+        op = self.operator
+        Theta = np.asarray(Theta, float)
+        D = np.repeat(op.columns["inertia"][:, None], Theta.shape[1], axis=1)
+        for j, name in enumerate(names):
+            col = CANDIDATES[name][3] if name in CANDIDATES else None
+            if col is not None:
+                D += op.columns[col][:, None] * Theta[j]
+        return D
+
+    def predict_many(self, names: Sequence[str], Theta: np.ndarray,
+                     D: np.ndarray | None = None) -> np.ndarray:
+        """Battery power P̂ of B parameter sets on the rows in use, W (rows × B).
+
+        ``D`` is :meth:`demand` when already computed.
+        """
+        Theta = np.asarray(Theta, float)
+        D = self.demand(names, Theta) if D is None else D
+        eta_m, eta_r = Theta[names.index("eta_motor")], Theta[names.index("eta_regen")]
+        g = np.where(D > 0, D / eta_m, D * eta_r)
+        P_hat = np.asarray(self.operator.K @ g)
+        if "drivetrain_idle_loss" in names:
+            P_hat += Theta[names.index("drivetrain_idle_loss")]
+        return P_hat
+
+    def predict(self, params: Mapping[str, float]) -> np.ndarray:
+        """Battery power P̂, W, on the rows in use (missing resistances are 0)."""
+        names = list(params)
+        return self.predict_many(names, np.array([[params[k]] for k in names], float))[:, 0]
+
+    def residual(self, params: Mapping[str, float], target: np.ndarray | None = None) -> np.ndarray:
+        """Weighted residual (measured − predicted) on the rows in use, W or N·m."""
+        P = self.P if target is None else target
+        return self.weight * (P - self.predict(params))
+
+    def jacobian_many(self, names: Sequence[str], Theta: np.ndarray,
+                      D: np.ndarray | None = None) -> np.ndarray:
+        """∂ residual / ∂ parameter of B parameter sets, rows × len(names) × B (analytic).
+
+        With D the demanded power and s = 1/η_m where D > 0, η_r elsewhere:
+        ∂P̂/∂θ_j = L₂[s·column_j], ∂P̂/∂η_m = L₂[−D⁺/η_m²], ∂P̂/∂η_r = L₂[D⁻],
+        ∂P̂/∂P₀ = 1; the residual's derivative is −weight times these.
+        """
+        op = self.operator
+        Theta = np.asarray(Theta, float)
+        D = self.demand(names, Theta) if D is None else D
+        eta_m, eta_r = Theta[names.index("eta_motor")], Theta[names.index("eta_regen")]
+        s = np.where(D > 0, 1.0 / eta_m, eta_r)
+        G = np.zeros((D.shape[0], len(names), D.shape[1]))
+        for j, name in enumerate(names):
+            col = CANDIDATES[name][3]
+            if name == "eta_motor":
+                G[:, j] = -np.maximum(D, 0.0) / eta_m ** 2
+            elif name == "eta_regen":
+                G[:, j] = np.minimum(D, 0.0)
+            elif col is not None:
+                G[:, j] = s * op.columns[col][:, None]
+        J = np.asarray(op.K @ G.reshape(D.shape[0], -1)).reshape(-1, len(names), D.shape[1])
+        if "drivetrain_idle_loss" in names:
+            J[:, names.index("drivetrain_idle_loss")] = 1.0
+        return -self.weight[:, None, None] * J
+
+
+@dataclass(frozen=True)
+class Operator:
+    """A design's model as matrices: P̂ = P₀ + K·g(D) on the rows in use.
+
+    Attributes
+    ----------
+    K : scipy.sparse.csr_matrix
+        The long filter L₂ from the rows it touches (the support) to the rows in
+        use: ``K @ x[support] == _conv(x, segment, kernel)[use]``.
+    columns : dict
+        ``columns_full`` on the support: name -> array (``inertia`` in W, ...).
+    """
+
+    K: object
+    columns: Mapping[str, np.ndarray]
+
+
+def filter_matrix(segment: np.ndarray, kernel: np.ndarray, rows: np.ndarray):
+    """A segment-wise convolution as a sparse matrix on the rows it touches.
+
+    Parameters
+    ----------
+    segment : numpy.ndarray of int
+        Segment label of each sample; the filter never crosses a boundary.
+    kernel : numpy.ndarray
+        Convolution coefficients (odd length M), as for ``numpy.convolve``.
+    rows : numpy.ndarray of int
+        Output rows, each at least M//2 samples inside its segment.
+
+    Returns
+    -------
+    K : scipy.sparse.csr_matrix, shape (len(rows), len(support))
+    support : numpy.ndarray of int
+        The samples the rows read, sorted: ``K @ x[support]`` equals the
+        segment-wise ``numpy.convolve(x, kernel, mode="same")`` at ``rows``.
+
+    Raises
+    ------
+    ValueError
+        if a row lies within M//2 samples of its segment's end.
+    """
+    from scipy import sparse
+
+    segment, rows = np.asarray(segment), np.asarray(rows, int)
+    kernel = np.asarray(kernel, float)
+    half = len(kernel) // 2
+    order = np.argsort(segment, kind="stable")       # samples grouped by segment, in time order
+    where = np.empty(len(segment), int)
+    where[order] = np.arange(len(segment))
+    seg_sorted = segment[order]
+    q = where[rows]
+    lo = np.searchsorted(seg_sorted, seg_sorted[q], "left")
+    hi = np.searchsorted(seg_sorted, seg_sorted[q], "right")
+    if np.any(q - half < lo) or np.any(q + half >= hi):
+        raise ValueError(f"rows must lie at least {half} samples inside their segment")
+    # numpy.convolve 'same': y[i] = sum_j kernel[j] * x[i + half - j]
+    cols = order[q[:, None] + half - np.arange(len(kernel))[None, :]]
+    support, idx = np.unique(cols, return_inverse=True)
+    data = np.broadcast_to(kernel, cols.shape).ravel()
+    K = sparse.csr_matrix((data, idx.ravel(), np.arange(0, cols.size + 1, len(kernel))),
+                          shape=(len(rows), len(support)))
+    return K, support
+
+
+def _conv(x: np.ndarray, segment: np.ndarray, kernel: np.ndarray) -> np.ndarray:
+    """Convolve each segment with ``kernel``; NaN where the kernel overhangs an end."""
+    out = np.full(x.shape, np.nan)
+    half = len(kernel) // 2
+    for s in np.unique(segment):
+        idx = np.flatnonzero(segment == s)
+        if idx.size < len(kernel):
+            continue
+        y = np.convolve(x[idx], kernel, mode="same")
+        y[:half] = np.nan
+        y[idx.size - half:] = np.nan
+        out[idx] = y
+    return out
+
+
+#: Short pre-filter L₁ applied to every regressor before the regime switch, s.
+PRE_WINDOW = 0.5
+
+
+def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
+    """The L₁-filtered regressor columns of a ride and the candidates they support.
+
+    Returns ``(columns, candidates, aliases, notes)``; see :func:`balance_design`.
+    """
+    A = sig.assumptions
+    mg = A.total_mass * A.g
+    raw = sig.raw
+    v_raw = raw["v"].to_numpy()
+    notes: list[str] = []
+    cols = {
+        "inertia": A.m_eq * L1(0.5 * v_raw ** 2, 1),       # m_eq·a·v = m_eq·d/dt(v²/2)
+        "rolling": mg * L1(np.abs(v_raw)),
+        "drag": L1(np.abs(v_raw) ** 3),
+    }
+    cands = ["eta_motor", "eta_regen", "rolling_resistance", "aerodynamic_drag",
+             "drivetrain_idle_loss"]
+    aliases: dict[str, tuple[str, ...]] = {}
+    moving = np.abs(v_raw) > 0.3
+    back = float((v_raw[moving] < -0.3).mean()) if moving.any() else 0.0
+    fwd = float((v_raw[moving] > 0.3).mean()) if moving.any() else 0.0
+    if min(back, fwd) >= sign_change_fraction:
+        cols["slope"] = mg * L1(v_raw)
+        cands.append("road_slope")
+    else:
+        aliases["rolling_resistance"] = ("road_slope",)
+        aliases["road_slope"] = ("rolling_resistance",)
+        notes.append(f"the speed keeps one sign ({100 * min(back, fwd):.1f} % of moving samples "
+                     f"the other way): rolling resistance and a constant road slope give the "
+                     f"same column, so only C_rr + sin α is estimated (as rolling_resistance)")
+    if sig.has_gps_alt:
+        cols["gps_climb"] = mg * L1(raw["gps_alt"].to_numpy(), 1)
+        cands.append("road_slope_gps")
+    else:
+        notes.append("no GPS altitude: road grade unknown; a varying grade stays in the residual")
+    return cols, cands, aliases, notes
+
+
+def balance_design(sig: RideSignals, domain: str = "power",
+                   sign_change_fraction: float = 0.02, pre_window: float = PRE_WINDOW) -> Design:
+    """The longitudinal balance of a ride, every term filtered alike.
+
+    ``road_slope`` (a constant grade) is offered only when the speed changes sign
+    on at least ``sign_change_fraction`` of the moving samples: otherwise its
+    column m·g·v equals the rolling-resistance column m·g·|v| and the two alias
+    exactly (docs/diagnosis.md); the design then says so in ``aliases`` and the
+    rolling-resistance estimate stands for C_rr + sin α.  ``road_slope_gps`` needs
+    GPS altitude.
+
+    Parameters
+    ----------
+    sig : RideSignals
+        Its ``window`` and ``polyorder`` give the main filter L₂.
+    domain : {"power", "torque"}
+        Residuals in W, or divided by ω = v/R (rows with |v| ≥ v_min) in N·m.
+    sign_change_fraction : float
+    pre_window : float
+        Window of the short pre-filter L₁, s (see :class:`Design`).
+
+    Returns
+    -------
+    Design
+    """
+    from scipy.signal import savgol_coeffs
+
+    if domain not in ("power", "torque"):
+        raise ValueError(f"domain must be 'power' or 'torque', got {domain!r}")
+    A = sig.assumptions
+    raw = sig.raw
+    seg = raw["segment"].to_numpy()
+    v_raw = raw["v"].to_numpy()
+    p1 = min(2, sig.polyorder)
+    L1 = lambda x, d=0: sg(x, seg, sig.rate, pre_window, p1, d)  # noqa: E731
+    n2 = window_samples(sig.window, sig.rate, sig.polyorder)
+    kernel = savgol_coeffs(n2, sig.polyorder)
+    L2 = lambda x: _conv(x, seg, kernel)  # noqa: E731
+    cols, cands, aliases, notes = _regressors(sig, L1, sign_change_fraction)
+    X = pd.DataFrame(cols)
+    P = L2(L1(raw["P"].to_numpy()))
+    v = L2(L1(v_raw))
+    weight = np.ones_like(P)
+    unit = "W"
+    use = np.isfinite(P) & np.isfinite(X.to_numpy()).all(axis=1) & np.isfinite(v)
+    if domain == "torque":
+        with np.errstate(divide="ignore", invalid="ignore"):
+            weight = A.R / v
+        use &= np.abs(v) >= A.v_min
+        unit = "N·m"
+    X = X.fillna(0.0)             # rows out of use; keeps the convolution finite inside
+    return Design(columns_full=X, P_full=P, segment=seg, use=use, kernel=kernel,
+                  weight_full=weight, t_full=raw["t"].to_numpy(), v_full=v, domain=domain,
+                  unit=unit, candidates=tuple(cands), aliases=aliases, notes=tuple(notes),
+                  path=sig.path)

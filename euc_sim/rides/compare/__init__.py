@@ -1,0 +1,1 @@
+"""What differs between two rides of one wheel, and its report."""

@@ -1,0 +1,343 @@
+"""What differs between two rides of one wheel: OTHER minus LOG for every parameter.
+
+Each physics is sized by one least-squares fit of both rides
+(:mod:`euc_sim.rides.compare.differences_fit`): the terms both rides share are fitted
+on both, the difference Δθ on OTHER's rows only (battery power for the mass,
+rolling, drag and the current's delay, a shift of OTHER's signals; terminal
+voltage for the pack resistance; GPS speed for the speed scale).  A difference
+is *named* when both hold:
+
+1. forward selection by the blocked held-out error (fold k of both rides left
+   out, OTHER's fold k scored; :func:`euc_sim.stats.forward_select`, the
+   balance's threshold :data:`MIN_GAIN`) keeps it;
+2. its 95 % interval excludes zero: a block bootstrap with each ride's 30 s
+   blocks drawn independently (two compared rides are different rides), the
+   whole selected model refitted (and the delay re-searched) in every replicate.
+
+The difference of the two rides' own estimates (their intervals combined in
+quadrature) is kept beside it as ``independent``; pack-state and controller
+parameters have only that, and are never named.
+
+Which differences a pair of rides cannot tell apart: for a tested difference,
+those whose estimates correlate beyond :data:`ALIAS_CORRELATION` in the pair
+fit's own normal equations; for the delay and the rest, the correlation of
+their power signatures over both rides (:func:`signature_columns`,
+:func:`alias_table`): drag ∝ v³, rolling ∝ v, mass ∝ a·v plus the climb,
+battery resistance ∝ I², the speed scale every speed term at once, the
+current delay the phase of power against acceleration (dP/dt).
+
+Study: docs/concealed.md.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from euc_sim.rides.grids.power import G, RHO_AIR
+
+__all__ = ["Difference", "Differences", "MIN_GAIN", "ALIAS_CORRELATION", "PHYSICS",
+           "parameters_from_ride", "difference_interval", "signature_columns",
+           "alias_table", "ride_differences", "rider_sentence"]
+
+#: Fractional drop of OTHER's held-out RMS that keeps a difference (the balance selection's threshold).
+MIN_GAIN = 0.01
+#: |correlation| of two signatures over both rides beyond which the pair cannot tell them apart.
+ALIAS_CORRELATION = 0.9
+#: The physics a difference is tested for (the effect catalog's names).
+PHYSICS = ("total_mass", "rolling_resistance", "aerodynamic_drag", "internal_resistance",
+           "speed_scale", "current_delay")
+#: Each physics' unit, where a ride's list lacks it.
+_UNIT = {"total_mass": "kg", "rolling_resistance": "1", "aerodynamic_drag": "kg/m",
+         "internal_resistance": "ohm", "speed_scale": "1", "current_delay": "s"}
+#: Why a rider would see it, by parameter, for the page's sentence.
+_HINT = {
+    "aerodynamic_drag": ("kg/m more drag", "kg/m less drag", "{:.2f}", "(a jacket? a headwind?)"),
+    "rolling_resistance": ("more rolling resistance", "less rolling resistance", "{:.3f}",
+                           "(a softer tyre? a rougher road?)"),
+    "total_mass": ("kg more mass", "kg less mass", "{:.0f}", "(a backpack? a passenger?)"),
+    "internal_resistance": ("Ω more battery resistance", "Ω less battery resistance", "{:.3f}",
+                            "(a colder or older pack?)"),
+    "speed_scale": ("more ground per logged metre", "less ground per logged metre", "{:.1%}",
+                    "(a tyre size set differently in the app? a worn tyre?)"),
+    "current_delay": ("s more delay on the current channel", "s less delay on the current channel",
+                      "{:.1f}", "(a different app or logging rate?)"),
+}
+
+
+@dataclass(frozen=True)
+class Difference:
+    """OTHER minus LOG for one parameter (CONTRACT's ``differences`` entry).
+
+    ``estimate`` and ``ci95`` are the pair fit's where the physics is tested,
+    else the two rides' own estimates differenced (``independent``, kept for both).
+    """
+
+    name: str
+    estimate: float | None
+    ci95: tuple[float, float] | None
+    unit: str
+    named: bool
+    why: str
+    aliases: tuple[str, ...] = ()
+    heldout_gain: float | None = None
+    independent: tuple[float, tuple[float, float] | None] | None = None
+
+    def to_json(self) -> dict:
+        """``{name, estimate, ci95, unit, named, why, aliases, heldout_gain, independent}``."""
+        g = self.independent
+        return {"name": self.name, "estimate": self.estimate,
+                "ci95": list(self.ci95) if self.ci95 else None, "unit": self.unit,
+                "named": self.named, "why": self.why, "aliases": list(self.aliases),
+                "heldout_gain": self.heldout_gain,
+                "independent": None if g is None else {"estimate": g[0],
+                                                       "ci95": list(g[1]) if g[1] else None}}
+
+
+@dataclass(frozen=True)
+class Differences:
+    """Every difference of a pair of rides, what the pair cannot see, and the page's sentence."""
+
+    items: tuple[Difference, ...]
+    cannot_see: dict = field(default_factory=dict)
+    sentence: str = ""
+    interval_method: str = ("one least-squares fit of both rides (shared terms, the difference on the "
+                            "compared ride); 95 % block bootstrap, each ride's 30 s blocks drawn "
+                            "independently")
+
+    def to_json(self) -> dict:
+        """The ride JSON's ``differences`` list and its companions."""
+        return {"differences": [d.to_json() for d in self.items],
+                "differences_cannot_see": dict(self.cannot_see),
+                "differences_sentence": self.sentence,
+                "differences_interval": self.interval_method}
+
+
+# ---------------------------------------------------------------- adapter (until the merge)
+def _entry(name, est, ci, unit) -> dict:
+    return {"name": name, "estimate": est, "ci95": list(ci) if ci else None, "unit": unit}
+
+
+def parameters_from_ride(rep: dict) -> list[dict]:
+    """The ride's ``parameters`` list; ADAPTER from today's views where the list is absent.
+
+    Until the balance model emits ``parameters``, the list is built from the
+    ride JSON's ``drivetrain`` ``{NAME: {estimate, ci95, unit}}`` and
+    ``total_mass`` views: ``C_rr`` → ``rolling_resistance``, ``C_dA`` →
+    ``aerodynamic_drag`` (k = ½ρC_dA, kg/m), ``total_mass.lag_s`` →
+    ``current_delay`` (no interval), the total mass with its statistical
+    interval (the systematic parts a wheel shares cancel between two rides).
+    """
+    if rep.get("parameters"):
+        return list(rep["parameters"])
+    out = []
+    tm = rep.get("total_mass") or {}
+    out.append(_entry("total_mass", tm.get("estimate"),
+                      tm.get("statistical_ci95") or tm.get("ci95"), "kg"))
+    for name, t in (rep.get("drivetrain") or {}).items():
+        est, ci = t.get("estimate"), t.get("ci95")
+        if name == "C_rr":
+            out.append(_entry("rolling_resistance", est, ci, "1"))
+        elif name == "C_dA":
+            k = 0.5 * RHO_AIR
+            out.append(_entry("aerodynamic_drag", None if est is None else k * est,
+                              [k * x for x in ci] if ci else None, "kg/m"))
+        else:
+            out.append(_entry(name, est, ci, t.get("unit") or ""))
+    if tm.get("lag_s") is not None:
+        out.append(_entry("current_delay", tm["lag_s"], None, "s"))
+    return out
+
+
+# ---------------------------------------------------------------- intervals
+def difference_interval(a: float, a_ci, b: float, b_ci, ratio: bool = False):
+    """``b − a`` (or ``b/a − 1``) and its 95 % interval from two independent intervals.
+
+    Parameters
+    ----------
+    a, b : float
+        LOG's and OTHER's estimates.
+    a_ci, b_ci : (lo, hi)
+        Their 95 % intervals.
+    ratio : bool
+        Combine in logarithms and return ``b/a − 1`` (positive estimates only).
+
+    Returns
+    -------
+    estimate : float
+    ci95 : (float, float)
+    """
+    f = math.log if ratio else (lambda x: x)
+    fa, fb = f(a), f(b)
+    lo_a, hi_a = fa - f(a_ci[0]), f(a_ci[1]) - fa
+    lo_b, hi_b = fb - f(b_ci[0]), f(b_ci[1]) - fb
+    d = fb - fa
+    lo = d - math.hypot(max(lo_b, 0.0), max(hi_a, 0.0))
+    hi = d + math.hypot(max(hi_b, 0.0), max(lo_a, 0.0))
+    if ratio:
+        return math.expm1(d), (math.expm1(lo), math.expm1(hi))
+    return d, (lo, hi)
+
+
+# ---------------------------------------------------------------- signatures and aliases
+def signature_columns(v, av, P, t, current=None, climb=None, coef=None) -> dict:
+    """Each physics' battery-power signature, W per unit of the parameter.
+
+    Parameters
+    ----------
+    v, av, P, t : ndarray
+        Speed (m/s), d/dt(v²/2) (W/kg), battery power (W), time (s).
+    current : ndarray, optional
+        Battery current, A.
+    climb : ndarray, optional
+        g·ḣ, W/kg (GPS altitude).
+    coef : dict, optional
+        LOG's ``total_mass`` (kg), ``rolling_resistance`` and ``aerodynamic_drag``
+        (kg/m): the speed scale moves every speed term at once.
+
+    Returns
+    -------
+    dict of str -> ndarray
+    """
+    c = {"total_mass": 80.0, "rolling_resistance": 0.0, "aerodynamic_drag": 0.0, **(coef or {})}
+    s = np.abs(v)
+    cols = {"aerodynamic_drag": s ** 3, "rolling_resistance": c["total_mass"] * G * s,
+            "total_mass": av + (0.0 if climb is None else np.nan_to_num(climb)),
+            "speed_scale": 2.0 * c["total_mass"] * av + c["rolling_resistance"] * c["total_mass"] * G * s
+            + 3.0 * c["aerodynamic_drag"] * s ** 3,
+            "current_delay": -np.gradient(P, t)}
+    if current is not None:
+        cols["internal_resistance"] = current ** 2
+    return cols
+
+
+def alias_table(columns: dict, threshold: float = ALIAS_CORRELATION) -> tuple[dict, dict]:
+    """Which signatures a pair of rides cannot tell apart, from their correlations.
+
+    Parameters
+    ----------
+    columns : dict of str -> ndarray
+        :func:`signature_columns` over both rides (concatenated), same length.
+
+    Returns
+    -------
+    aliases : dict of str -> list of str
+        Each name's partners with |correlation| above ``threshold``.
+    cannot_see : dict of str -> str
+        Names whose signature is constant or absent on these rides, with why.
+    """
+    names = list(columns)
+    M = np.column_stack([columns[n] for n in names])
+    ok = np.all(np.isfinite(M), axis=1)
+    sd = M[ok].std(axis=0) if ok.any() else np.zeros(len(names))
+    cannot = {n: "its signature does not vary on these rides" for n, s in zip(names, sd) if s == 0}
+    live = [i for i, s in enumerate(sd) if s > 0]
+    R = np.corrcoef(M[ok][:, live].T) if len(live) > 1 else np.ones((1, 1))
+    aliases = {n: [] for n in names}
+    for a, i in enumerate(live):
+        for b, j in enumerate(live):
+            if a != b and abs(R[a, b]) > threshold:
+                aliases[names[i]].append(names[j])
+    return aliases, cannot
+
+
+# ---------------------------------------------------------------- the differences
+def _independent(name, a, b):
+    """(estimate, ci95) of the two rides' own estimates differenced, or None."""
+    if a.get("estimate") is None or b.get("estimate") is None:
+        return None
+    if not a.get("ci95") or not b.get("ci95"):
+        return b["estimate"] - a["estimate"], None
+    d, ci = difference_interval(a["estimate"], a["ci95"], b["estimate"], b["ci95"], name == "speed_scale")
+    return d, tuple(ci)
+
+
+def _tested_why(name, tested: dict, cannot: dict) -> tuple[bool, str]:
+    ci, gain = tested.get("ci95"), tested.get("heldout_gain")
+    if name in cannot:
+        return False, cannot[name]
+    if ci is None:
+        return False, "no interval from the pair fit: cannot be named"
+    res = float(tested.get("resolution") or 0.0)
+    excl = bool(ci[0] > res or ci[1] < -res)
+    kept = bool(tested.get("selected"))
+    why = (("kept" if kept else "not kept") + " by the pair's held-out selection ("
+           + ("n/a" if gain is None else f"{100 * gain:+.1f} %") + " of the compared ride's held-out RMS"
+           + f", threshold {100 * MIN_GAIN:.0f} %); its interval " + ("excludes" if excl else "includes")
+           + (" zero" if not res else f" ±{res:.2g} s (the finest delay these logs resolve: their row "
+                                      "interval or the fit's grid step)"))
+    return kept and excl, why
+
+
+def _one(name, a, b, tested, aliases, cannot) -> Difference:
+    unit = b.get("unit") or a.get("unit") or _UNIT.get(name, "")
+    unit = "1" if name == "speed_scale" else unit
+    ind = _independent(name, a, b)
+    if tested is not None and tested.get("estimate") is not None:
+        named, why = _tested_why(name, tested, cannot)
+        if name not in PHYSICS:
+            named, why = False, why + "; a nuisance of the pair fit, never named"
+        ci = tested.get("ci95")
+        if named and aliases:
+            why += (f"; its estimate correlates beyond {ALIAS_CORRELATION:g} with {', '.join(aliases)}'s "
+                    "in this pair (held out, it explains more than they do)")
+        return Difference(name, tested["estimate"], None if ci is None else tuple(ci), unit, named,
+                          why, tuple(aliases), tested.get("heldout_gain"), ind)
+    if ind is None:
+        return Difference(name, None, None, unit, False, "not identified on "
+                          + ("this ride" if a.get("estimate") is None else "the compared ride"))
+    why = ("not a physics the pair fit tests (state of the pack or controller)"
+           if name not in PHYSICS else "no pair fit possible on these rides: cannot be named")
+    if ind[1] is None:
+        why = "no interval on one ride: cannot be named"
+    return Difference(name, ind[0], ind[1], unit, False, why, tuple(aliases), None, ind)
+
+
+def ride_differences(log_params: list, other_params: list, tested: dict, aliases: dict,
+                     cannot_see: dict, log_name: str = "the other ride",
+                     mass_view: dict | None = None) -> Differences:
+    """OTHER minus LOG for every parameter of both lists.
+
+    Parameters
+    ----------
+    log_params, other_params : list of dict
+        ``parameters`` of the two rides (:func:`parameters_from_ride`).
+    tested : dict of str -> dict
+        The pair fit of each physics: ``{estimate, ci95, heldout_gain, selected}``
+        (:func:`euc_sim.rides.compare.differences_report.pair_tests`).
+    aliases, cannot_see : dict
+        :func:`alias_table`.
+    log_name : str
+        How the sentence names LOG ("the 16 May ride").
+    mass_view : dict, optional
+        The existing ``mass_difference``: the ``total_mass`` entry's
+        ``independent`` view takes its estimate and interval.
+    """
+    a = {p["name"]: p for p in log_params}
+    b = {p["name"]: p for p in other_params}
+    for name in tested:                 # a physics tested though one ride's list lacks it
+        a.setdefault(name, {"name": name})
+        b.setdefault(name, {"name": name})
+    items = []
+    for name in [n for n in a if n in b]:
+        pa, pb = a[name], b[name]
+        if name == "total_mass" and mass_view and mass_view.get("estimate") is not None:
+            pa = {**pa, "estimate": 0.0, "ci95": [0.0, 0.0]}
+            pb = {**pb, "estimate": mass_view["estimate"], "ci95": mass_view["ci95"]}
+        items.append(_one(name, pa, pb, tested.get(name), aliases.get(name, []), cannot_see))
+    return Differences(tuple(items), dict(cannot_see), rider_sentence(items, log_name))
+
+
+def rider_sentence(items, log_name: str) -> str:
+    """One sentence for the page: the named differences in a rider's words."""
+    parts = []
+    for d in items:
+        if not d.named or d.name not in _HINT:
+            continue
+        more, less, fmt, hint = _HINT[d.name]
+        parts.append(f"{fmt.format(abs(d.estimate))} {more if d.estimate > 0 else less} {hint}")
+    if not parts:
+        return f"this ride needed nothing its log can show that {log_name} did not."
+    return f"this ride needed {'; '.join(parts)} than {log_name}."

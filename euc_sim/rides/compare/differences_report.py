@@ -1,0 +1,321 @@
+"""The ride JSON's ``differences`` for ``euc-sim ride LOG --compare OTHER``.
+
+Glue between the two rides' drivetrain analyses (:mod:`euc_sim.rides.report.drivetrain_report`)
+and the pure functions of :mod:`euc_sim.rides.compare.differences` and
+:mod:`euc_sim.rides.compare.differences_fit`: each domain's rows of both rides (battery
+power with LOG's terms and delay, terminal voltage, GPS speed against wheel
+speed) become one :class:`~euc_sim.rides.compare.differences_fit.PairDesign`; both
+rides' signals give the signatures whose correlations say what the pair cannot
+tell apart.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, MIN_GAIN, alias_table, parameters_from_ride,
+                                       ride_differences, signature_columns)
+from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
+from euc_sim.rides.drive.mass import mass_regressors
+from euc_sim.rides.grids.power import G
+from euc_sim.rides.grids.ride import as_ride, ride_name
+
+__all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "differences_json"]
+
+#: Speed above which rows enter the held-out tests, m/s.
+V_MIN = 1.0
+#: Speed above which GPS and wheel speed are compared (both), m/s: the speed scale's own rule
+#: (:func:`euc_sim.rides.grids.power.speed_scale`'s ``v_min``).
+V_GPS = 4.0
+
+
+#: The shared power terms (:func:`euc_sim.rides.drive.mass.mass_regressors`, and ``no_load`` whose difference,
+#: ``drivetrain_idle_loss``, is a candidate of the selection but never named).
+SHARED_POWER = ("inertia", "rolling", "drag", "copper", "grade")
+#: Energy-balance window of the mass, rolling and drag differences, s (the mass fit's middle window).
+ROAD_WINDOW = 4.0
+#: Largest extra delay of OTHER's current searched, s (the mass fit's own ``max_lag``).
+MAX_SHIFT = 1.0
+
+
+def _power_columns(sig, lag: int, force, m: float) -> tuple[dict, dict]:
+    """Shared columns and the difference signatures of one ride at ``lag`` samples (W per unit)."""
+    cols = mass_regressors(sig, lag, force)
+    zero = np.zeros(len(sig.t))
+    shared = {n: cols.get(n, zero) for n in SHARED_POWER}
+    shared["no_load"] = zero + 1.0
+    delta = {"total_mass": shared["inertia"] + shared["grade"],
+             "rolling_resistance": m * G * shared["rolling"], "aerodynamic_drag": shared["drag"],
+             "drivetrain_idle_loss": zero + 1.0}
+    return shared, delta
+
+
+def _signed_power(sig, mfit, lag: int, force) -> np.ndarray:
+    """Battery power, its sign taken from LOG's model where the log records only its size."""
+    if sig.signed:
+        return sig.P
+    cols = mass_regressors(sig, lag, force)
+    pred = sum(c * cols[n] for n, c in mfit.coef.items() if n in cols)
+    return np.abs(sig.P) * np.sign(pred)
+
+
+def _rows(sig, arrays) -> np.ndarray:
+    ok = np.isfinite(sig.P) & (np.nan_to_num(sig.v) > V_MIN)
+    for a in arrays:
+        ok &= np.isfinite(a)
+    return ok
+
+
+def own_lag(sig, y, K: int, force, mass: float) -> int:
+    """LOG's delay, samples (−K … K): the least-squares fit of its power on the shared terms, best RMS.
+
+    The pair's base delay by the pair fit's own criterion (the mass fit's lag is
+    chosen on energy windows), so that a ride against itself shifts by nothing.
+    """
+    best = (np.inf, 0)
+    for lag in range(-K, K + 1):
+        sh, _ = _power_columns(sig, lag, force, mass)
+        ok = _rows(sig, [y, *sh.values()])
+        if ok.sum() < 200:
+            continue
+        X = np.column_stack([sh[n][ok] for n in sh])
+        r = y[ok] - X @ np.linalg.lstsq(X, y[ok], rcond=None)[0]
+        best = min(best, (float(np.sqrt(np.mean(r ** 2))), lag))
+    return best[1]
+
+
+def _valid(sig, y, lag: int, K: int, force, mass: float) -> np.ndarray:
+    """Rows with every column finite at every shift ``lag − K … lag + K``: one rule for both rides.
+
+    Both rides keep the rows the whole delay grid can score, so a ride against
+    itself is fitted on the same rows on both sides (its differences exactly zero).
+    """
+    arrays = [y]
+    for j in range(-K, K + 1):
+        sh, de = _power_columns(sig, lag + j, force, mass)
+        arrays += [*sh.values(), *de.values()]
+    return _rows(sig, arrays)
+
+
+def _stack(first: bool, shared: dict, delta: dict, y, ok, scale: dict) -> np.ndarray:
+    """``[shared…, differences…, y]`` rows of one ride, columns scaled (differences zero on LOG)."""
+    nil = np.zeros(ok.sum())
+    cols = [shared[n][ok] / scale[n] for n in shared]
+    cols += [(nil if first else delta[n][ok] / scale[n]) for n in delta]
+    return np.column_stack(cols + [y[ok]])
+
+
+def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
+    """Means of ``Z``'s rows over consecutive ``width``-second windows with at least 90 % of their rows.
+
+    The energy balance over a window (Δ(v²/2), ∫v, ∫v³, ∫P, all over T) is
+    these means; the power noise no term models averages down (eq. 12's windows).
+    """
+    label = np.floor((t - t[0]) / width).astype(int)
+    _, inv, n = np.unique(label, return_inverse=True, return_counts=True)
+    sums = np.zeros((len(n), Z.shape[1]))
+    np.add.at(sums, inv, Z)
+    keep = n >= 0.9 * width * rate
+    tm = np.bincount(inv, weights=t) / n
+    return tm[keep], sums[keep] / n[keep, None]
+
+
+def power_design(fit, test, mass: float, shifts=None, window: float | None = None):
+    """Both rides' battery power: LOG's terms shared, a constant each; OTHER's differences and shift.
+
+    Parameters
+    ----------
+    fit, test : RideDrivetrain
+        LOG's and OTHER's analyses.
+    mass : float
+        LOG's total mass, kg (the rolling signature's weight).
+    shifts : sequence of int, optional
+        OTHER's extra delays tried, samples beyond LOG's lag; default: the
+        grid ±:data:`MAX_SHIFT`, the mass, rolling and drag differences in every
+        model (the delay's design).
+        One shift: the mass, rolling and drag differences at that shift.
+    window : float, optional
+        Rows averaged over windows of this many seconds (:func:`window_means`).
+
+    Returns
+    -------
+    (PairDesign, transform) or None
+        None without a balance fitted on LOG.
+    """
+    mf = fit.mass
+    if "inertia" not in (mf.coef or {}) or mf.lag is None:
+        return None
+    rate = 1.0 / np.median(np.diff(fit.sig.t))
+    K = int(round(MAX_SHIFT * rate))
+    shifts = list(range(-K, K + 1)) if shifts is None else list(shifts)
+    c = mf.coef
+    force = (c["inertia"], c.get("rolling", 0.0), c.get("drag", 0.0)) if mf.copper_column == "force" else None
+    yL = _signed_power(fit.sig, mf, int(round(mf.lag * rate)), force)
+    lag = own_lag(fit.sig, yL, K, force, mass)
+    sL, dL = _power_columns(fit.sig, lag, force, mass)
+    okL = _valid(fit.sig, yL, lag, K, force, mass)
+    shifted = [_power_columns(test.sig, lag + j, force, mass) for j in shifts]
+    yO = _signed_power(test.sig, mf, lag, force)
+    okO = _valid(test.sig, yO, lag, K, force, mass)
+    if okL.sum() < 200 or okO.sum() < 200:
+        return None
+    scale = {n: float(np.sqrt(np.mean(sL[n][okL] ** 2))) or 1.0 for n in sL}
+    scale.update({n: float(np.sqrt(np.mean(shifted[0][1][n][okO] ** 2))) or 1.0 for n in dL})
+    tL, ZL = fit.sig.t[okL], _stack(True, sL, dL, yL, okL, scale)
+    tO, ZO = test.sig.t[okO], [_stack(False, s, {n: d[n] for n in dL}, yO, okO, scale) for s, d in shifted]
+    if window:
+        tL, ZL = window_means(tL, ZL, window, rate)
+        tO, ZO = window_means(tO, ZO[0], window, rate)[0], [window_means(tO, z, window, rate)[1] for z in ZO]
+    names = (*sL, *dL)
+    # the delay's design keeps the mass, rolling and drag differences in every model: the shift
+    # is tested beyond them
+    design = PairDesign(names, tuple(dL) if len(shifts) == 1 else (), tL, ZL, tO, tuple(ZO), 1.0 / rate)
+    return design, {n: (lambda co, n=n: co[n] / scale[n]) for n in dL}
+
+
+def voltage_design(fit, test):
+    """Both rides' terminal voltage: own open-circuit voltage and charge slope, a shared R, ΔR on OTHER."""
+    rides = []
+    for sig in (fit.sig, test.sig):
+        V, I = sig.extra.get("voltage"), sig.extra.get("current")
+        if V is None or I is None:
+            return None
+        dt = np.r_[0.0, np.diff(sig.t)]
+        dt[dt > 1.0] = 0.0
+        Q = np.cumsum(np.nan_to_num(I) * dt) / 3600.0
+        ok = np.isfinite(V) & np.isfinite(I)
+        if ok.sum() < 200:
+            return None
+        rides.append((sig.t[ok], V[ok], I[ok], Q[ok]))
+    (tL, VL, IL, QL), (tO, VO, IO, QO) = rides
+    zL, zO = np.zeros(len(tL)), np.zeros(len(tO))
+    ZL = np.column_stack([zL + 1, zL, QL, zL, -IL, zL, VL])
+    ZO = np.column_stack([zO, zO + 1, zO, QO, -IO, -IO, VO])
+    names = ("const_log", "const_other", "charge_log", "charge_other", "R", "internal_resistance")
+    return PairDesign(names, ("internal_resistance",), tL, ZL, tO, (ZO,)), {}
+
+
+def gps_design(log_path, compare_path):
+    """GPS speed over wheel speed on both rides: a shared scale, OTHER's ratio − 1."""
+    rides = []
+    for path in (log_path, compare_path):
+        d = as_ride(path).log.data          # a parsed log as it is, a path read
+        if "gps_speed" not in d:
+            return None
+        v, g = d["v"].to_numpy(float), d["gps_speed"].to_numpy(float)
+        ok = np.isfinite(g) & np.isfinite(v) & (v > V_GPS) & (g > V_GPS)
+        if ok.sum() < 200:
+            return None
+        rides.append((d["t"].to_numpy(float)[ok], v[ok], g[ok]))
+    (tL, vL, gL), (tO, vO, gO) = rides
+    ZL = np.column_stack([vL, np.zeros_like(vL), gL])
+    ZO = np.column_stack([vO, vO, gO])
+    design = PairDesign(("scale", "speed_scale"), ("speed_scale",), tL, ZL, tO, (ZO,))
+    return design, {"speed_scale": lambda co: co["speed_scale"] / co["scale"]}
+
+
+def _entries(res) -> dict:
+    """Each candidate of one :class:`PairFit` as ``{estimate, ci95, heldout_gain, selected, aliases}``."""
+    corr = res.correlations
+    return {n: {"estimate": e[0], "ci95": e[1], "heldout_gain": res.gains.get(n),
+                "selected": n in res.selected,
+                "aliases": sorted(o for o, r in corr.get(n, {}).items() if abs(r) > ALIAS_CORRELATION)}
+            for n, e in res.estimates.items()}
+
+
+def _delay_resolution(fit, log_path, compare_path) -> float:
+    """The finest delay the logs resolve, s: one step of the analysis grid or the longer median row interval.
+
+    The delay is searched on the mass fit's grid (its own lag in whole steps);
+    a shift below one step is the grid's and the stamping's, not a delay.
+    """
+    dts = [np.median(np.diff(as_ride(p).log.data["t"].to_numpy(float))) for p in (log_path, compare_path)]
+    return float(max(np.median(np.diff(fit.sig.t)), *dts))
+
+
+def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200,
+               seed: int = 0) -> dict:
+    """Each physics OTHER needs beyond the model both rides share (:func:`pair_fit` per domain).
+
+    The current's delay first, on battery power sample by sample (a shift grid);
+    then the mass, rolling and drag on battery power averaged over
+    :data:`ROAD_WINDOW` s windows, OTHER at the delay found (when kept);
+    terminal voltage for the pack resistance; GPS speed for the speed scale.
+
+    Returns
+    -------
+    dict of str -> dict
+        ``{estimate, ci95, heldout_gain, selected, aliases}`` per physics tested;
+        the delay's also ``resolution`` (:func:`_delay_resolution`, s).
+    """
+    fitted = lambda made: None if made is None else pair_fit(   # noqa: E731
+        made[0], min_gain=MIN_GAIN, transform=made[1], n_boot=n_boot, seed=seed)
+    out = {}
+    delay = fitted(power_design(fit, test, mass))
+    shift = 0
+    if delay is not None:
+        out.update(_entries(delay))
+        out[DELAY]["resolution"] = _delay_resolution(fit, log_path, compare_path)
+        if DELAY in delay.selected:
+            shift = int(round(delay.estimates[DELAY][0] * (1.0 / np.median(np.diff(fit.sig.t)))))
+    for res in (fitted(power_design(fit, test, mass, [shift], ROAD_WINDOW)),
+                fitted(voltage_design(fit, test)), fitted(gps_design(log_path, compare_path))):
+        if res is not None:
+            out.update(_entries(res))
+    return out
+
+
+def _coef(params: list) -> dict:
+    return {p["name"]: p["estimate"] for p in params
+            if p["name"] in ("total_mass", "rolling_resistance", "aerodynamic_drag")
+            and p.get("estimate") is not None}
+
+
+def _signatures(sig, coef: dict) -> dict:
+    cur = sig.extra.get("current")
+    return signature_columns(sig.v, sig.av, sig.P, sig.t, cur, sig.climb, coef)
+
+
+def pair_aliases(fit, test, coef: dict) -> tuple[dict, dict]:
+    """:func:`alias_table` over both rides' moving rows; the climb unseen without GPS altitude."""
+    a, b = _signatures(fit.sig, coef), _signatures(test.sig, coef)
+    keep = [n for n in a if n in b]
+    ma, mb = fit.sig.v > V_MIN, test.sig.v > V_MIN
+    both = {n: np.r_[a[n][ma], b[n][mb]] for n in keep}
+    aliases, cannot = alias_table(both)
+    if fit.sig.climb is None or test.sig.climb is None:
+        aliases.setdefault("total_mass", [])
+    return aliases, cannot
+
+
+def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int = 200,
+                     seed: int = 0) -> dict:
+    """The ``differences`` list and its companions for the ride JSON.
+
+    Parameters
+    ----------
+    rep : dict
+        The ride JSON so far (LOG's ``total_mass``, ``drivetrain``, ``mass_difference``).
+    fit, test : RideDrivetrain
+        LOG's and OTHER's analyses (:func:`euc_sim.rides.report.drivetrain_report.drivetrain_report`).
+    log_path, compare_path : path or RideLog
+        Each log, parsed (as the ride pipeline holds it) or a path (then read once).
+    n_boot, seed : int
+        Bootstrap replicates of the pair fits and their seed.
+    """
+    from euc_sim.rides.report.drivetrain_report import drivetrain_report
+
+    log_path, compare_path = as_ride(log_path).log, as_ride(compare_path).log
+    other_view = drivetrain_report(compare_path, test.spec, fitted=test)[0]
+    log_params, other_params = parameters_from_ride(rep), parameters_from_ride(other_view)
+    coef = _coef(log_params)
+    aliases, cannot = pair_aliases(fit, test, coef)
+    start = log_path.start
+    name = f"the {start.day} {start:%B} ride ({ride_name(log_path)})"
+    tested = pair_tests(fit, test, log_path, compare_path, coef.get("total_mass", 80.0), n_boot, seed)
+    for n, entry in tested.items():     # within a pair fit, its own estimates' correlations
+        if "aliases" in entry and n != DELAY:
+            aliases[n] = entry["aliases"]
+    res = ride_differences(log_params, other_params, tested, aliases, cannot, name,
+                           rep.get("mass_difference"))
+    return res.to_json()

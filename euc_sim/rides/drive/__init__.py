@@ -1,0 +1,1 @@
+"""Road to battery: the energy balance, the blind total mass, rotating inertia, PWM, grade, battery."""

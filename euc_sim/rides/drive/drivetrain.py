@@ -1,0 +1,333 @@
+"""The drivetrain between the road and the battery: battery, motor, controller, PWM.
+
+The paper's model ends at the wheel's torque.  A real wheel's limit is
+electrical: the controller can apply at most the battery's voltage to the motor.
+
+Battery (Thevenin model, one RC-free branch)::
+
+    V = E₀ − k_Q·Q − R_int·I                       (V)
+
+with ``Q = ∫I dt`` the charge drawn since the start, Ah (coulomb counting from
+the log), ``E₀`` the open-circuit voltage at the start, ``k_Q`` its fall per
+ampere-hour and ``R_int`` the internal resistance (voltage sag under current).
+
+Motor and controller (permanent-magnet motor under PWM)::
+
+    d·V = K_v·v + r_F·F          (volts the controller applies)
+
+``d`` the duty (PWM, 0–1), ``K_v·v`` the back-EMF (``K_v = K_e/R``, V per m/s,
+``K_e`` the back-EMF constant, R the wheel radius) and ``r_F·F`` the resistive
+drop ``R_w·I_ph`` with the phase current proportional to the wheel's force
+``F = K_t·I_ph/R``, here taken from battery power, ``F = P/v`` (N).  Where the log
+has the phase current the winding resistance is fitted directly,
+``d·V = K_v·v + R_w·I_ph``.  At ``d = 1`` nothing is left for more torque: the
+largest force the motor can give at speed v and battery voltage V is
+``F_max = (V − K_v·v)/r_F`` (:func:`envelope`), which falls with speed and
+with charge.  A rider who asks for more falls (a cut-out).
+
+Each fit is linear least squares on the 1 s Savitzky–Golay-filtered signals of
+:func:`euc_sim.rides.grids.power.power_signals`, with a moving-block bootstrap 95 %
+interval (30 s blocks).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from euc_sim.rides.drive.mass import MassFit
+from euc_sim.rides.drive.pwm import BASE, EXTRA, full_duty_force, pwm_columns, select_pwm_terms
+from euc_sim.rides.grids.power import G, RHO_AIR, PowerSignals
+from euc_sim.stats import block_bootstrap_indices, blocks_by_length, percentile_interval
+
+__all__ = ["Term", "Drivetrain", "fit_battery", "charge_drawn", "fit_pwm", "predict_pwm", "fit_drivetrain",
+           "envelope", "max_force", "CELL_FULL", "CELL_LOW"]
+
+CELL_FULL = 4.2     # V per Li-ion cell, full
+CELL_LOW = 3.3      # V per Li-ion cell, nearly empty (under light load)
+
+
+@dataclass(frozen=True)
+class Term:
+    """One identified drivetrain constant.
+
+    Attributes
+    ----------
+    estimate : float
+    ci95 : tuple of float or None
+    unit : str
+    """
+
+    estimate: float
+    ci95: tuple[float, float] | None
+    unit: str
+
+    def as_json(self) -> dict:
+        """``{"estimate", "ci95", "unit"}``."""
+        return {"estimate": self.estimate, "ci95": list(self.ci95) if self.ci95 else None,
+                "unit": self.unit}
+
+
+@dataclass(frozen=True)
+class Drivetrain:
+    """Identified battery, motor and road terms of one ride.
+
+    Attributes
+    ----------
+    terms : dict of str -> Term
+        By name (see :meth:`as_json`).
+    unidentified : dict of str -> str
+        Term -> why this log cannot identify it.
+    pwm_coef : dict or None
+        ``{"K_v": V per m/s, "r_F": V/N}`` of the PWM model (None without PWM).
+    battery_coef : dict or None
+        ``{"E0": V, "k_Q": V/Ah, "R_int": Ω}``.
+    mass : float or None
+        Total mass, kg.
+    road : dict
+        ``{"c1": N, "c3": kg/m}`` (0 where not accepted).
+    """
+
+    terms: dict
+    unidentified: dict
+    pwm_coef: dict | None
+    battery_coef: dict | None
+    mass: float | None
+    road: dict
+
+    def as_json(self) -> dict:
+        """The CONTRACT's ``drivetrain`` object: ``{NAME: {estimate, ci95, unit}}``."""
+        out = {k: t.as_json() for k, t in self.terms.items()}
+        for k, why in self.unidentified.items():
+            out.setdefault(k, {"estimate": None, "ci95": None, "unit": None, "why": why})
+        return out
+
+
+def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: int,
+                block: float = 30.0):
+    """Least squares and moving-block bootstrap percentiles of each coefficient."""
+    beta, *_ = np.linalg.lstsq(X, y, rcond=None)
+    rng = np.random.default_rng(seed)
+    blocks = blocks_by_length(t, block)
+    draws = []
+    for _ in range(n_boot):
+        idx = block_bootstrap_indices(blocks, rng)
+        draws.append(np.linalg.lstsq(X[idx], y[idx], rcond=None)[0])
+    q = percentile_interval(np.asarray(draws).reshape(n_boot, X.shape[1]), min_draws=10)
+    ci = [None if q is None else (float(q[0, j]), float(q[1, j])) for j in range(X.shape[1])]
+    return beta, ci
+
+
+def charge_drawn(t: np.ndarray, current: np.ndarray) -> np.ndarray:
+    """Charge drawn from the battery since the first sample, Ah (a gap over 1 s adds nothing).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        s.
+    current : numpy.ndarray
+        Battery current, A (NaN counts as 0).
+    """
+    dt = np.r_[0.0, np.diff(t)]
+    dt[dt > 1.0] = 0.0                                   # across a split gap: unknown
+    return np.cumsum(np.nan_to_num(current) * dt) / 3600.0
+
+
+def fit_battery(sig: PowerSignals, n_boot: int = 100, seed: int = 0):
+    """Open-circuit voltage falling with charge, and internal resistance.
+
+    Returns
+    -------
+    coef : dict
+        ``E0`` (V), ``k_Q`` (V/Ah), ``R_int`` (Ω).
+    ci : dict
+        Their 95 % intervals.
+    """
+    V, I = sig.extra["voltage"], sig.extra["current"]
+    Q = charge_drawn(sig.t, I)
+    ok = np.isfinite(V) & np.isfinite(I)
+    X = np.column_stack([np.ones(ok.sum()), -Q[ok], -I[ok]])
+    beta, ci = _lstsq_boot(X, V[ok], sig.t[ok], n_boot, seed)
+    names = ("E0", "k_Q", "R_int")
+    return dict(zip(names, map(float, beta))), dict(zip(names, ci))
+
+
+def _pwm_rows(sig: PowerSignals, v_min: float = 2.0) -> np.ndarray:
+    d = sig.extra.get("pwm")
+    ok = np.isfinite(d) & (np.nan_to_num(sig.v) > v_min) & np.isfinite(sig.P)
+    return ok & np.isfinite(sig.extra["voltage"])
+
+
+def _raw_speed(sig: PowerSignals) -> np.ndarray:
+    """The wheel's own speed reading (the controller's ω·R), m/s."""
+    return sig.v / sig.scale.estimate
+
+
+def fit_pwm(sig: PowerSignals, n_boot: int = 100, seed: int = 0):
+    """Back-EMF and resistive drop from the logged duty: d·V = K_v·v + r_F·F (+ the
+    dead-time and flux-weakening terms that held-out validation keeps, :mod:`euc_sim.rides.drive.pwm`).
+
+    Returns
+    -------
+    coef : dict
+        ``K_v`` (V per m/s of the wheel's speed reading), ``r_F`` (V/N), and any
+        kept ``dead_time`` (1), ``flux_weakening`` (V/(m/s)²) with ``v_fw`` (m/s,
+        the fastest speed fitted: the weakening is not extrapolated beyond it).
+    ci : dict
+    """
+    ok = _pwm_rows(sig)
+    v = _raw_speed(sig)[ok]
+    F = sig.P[ok] / v
+    V, duty = sig.extra["voltage"][ok], sig.extra["pwm"][ok] / 100.0
+    names, _ = select_pwm_terms(v, F, V, duty, sig.t[ok])
+    beta, ci = _lstsq_boot(pwm_columns(v, F, V, names), duty * V, sig.t[ok], n_boot, seed)
+    coef = dict(zip(names, map(float, beta)))
+    if "flux_weakening" in coef:
+        coef["v_fw"] = float(np.max(v))
+    return coef, dict(zip(names, ci))
+
+
+def predict_pwm(sig: PowerSignals, coef: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Duty predicted from speed, power and voltage, and the logged one, %, where both exist."""
+    ok = _pwm_rows(sig)
+    v = _raw_speed(sig)[ok]
+    V = sig.extra["voltage"][ok]
+    names = [n for n in BASE + tuple(EXTRA) if n in coef]
+    X = pwm_columns(v, sig.P[ok] / v, V, names, coef.get("v_fw", np.inf))
+    pred = X @ np.array([coef[n] for n in names]) / V * 100.0
+    return pred, sig.extra["pwm"][ok]
+
+
+def _phase_resistance(sig: PowerSignals, n_boot: int, seed: int):
+    ok = _pwm_rows(sig) & np.isfinite(sig.extra.get("phase_current", np.full(sig.t.shape, np.nan)))
+    v = _raw_speed(sig)[ok]
+    y = sig.extra["pwm"][ok] / 100.0 * sig.extra["voltage"][ok]
+    beta, ci = _lstsq_boot(np.column_stack([v, np.abs(sig.extra["phase_current"][ok])]), y,
+                           sig.t[ok], n_boot, seed)
+    return float(beta[1]), ci[1]
+
+
+def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None,
+                   n_boot: int = 100, seed: int = 0) -> Drivetrain:
+    """All drivetrain and road terms of one ride.
+
+    Parameters
+    ----------
+    sig : PowerSignals
+    mass : MassFit
+        Gives the mass, the loss and the road terms.
+    radius : float, optional
+        Wheel radius, m (from the spec): converts K_v to the back-EMF constant
+        K_e = K_v·R, V·s/rad.
+    """
+    terms, why = {}, dict(mass.unidentified)
+    m = mass.estimate
+    c = mass.coef
+    # c₁ and c₃ hold the road's resistances and the losses with the same speed law
+    road = {"c1": c.get("rolling", 0.0), "c3": c.get("drag", 0.0)}
+    if "rolling" in c and m:
+        ci = mass.coef_ci95.get("rolling")
+        terms["C_rr"] = Term(road["c1"] / (m * G),
+                             tuple(x / (m * G) for x in ci) if ci else None, "dimensionless")
+    if "drag" in c:
+        ci = mass.coef_ci95.get("drag")
+        terms["C_dA"] = Term(2 * road["c3"] / RHO_AIR,
+                             tuple(2 * x / RHO_AIR for x in ci) if ci else None, "m^2")
+    if "no_load" in c:
+        terms["no_load_power"] = Term(c["no_load"], mass.coef_ci95.get("no_load"), "W")
+    if "copper" in c:
+        name, unit = {"phase_current": ("winding_resistance", "ohm"),
+                      "force": ("copper_loss_per_force2", "W/N^2")}.get(
+                          mass.copper_column, ("copper_loss_per_accel2", "W/(m/s^2)^2"))
+        terms[name] = Term(c["copper"], mass.coef_ci95.get("copper"), unit)
+    if "grade" in c:
+        terms["grade_mass"] = Term(c["grade"], mass.coef_ci95.get("grade"), "kg")
+    terms["speed_scale"] = Term(mass.scale.estimate,
+                                (mass.scale.estimate - 1.96 * mass.scale.sd,
+                                 mass.scale.estimate + 1.96 * mass.scale.sd), "dimensionless")
+    bcoef, bci = fit_battery(sig, n_boot, seed)
+    for k, unit in (("E0", "V"), ("k_Q", "V/Ah"), ("R_int", "ohm")):
+        terms[{"E0": "ocv_start", "k_Q": "ocv_per_Ah", "R_int": "internal_resistance"}[k]] = \
+            Term(bcoef[k], bci[k], unit)
+    pcoef = None
+    if "pwm" in sig.extra and _pwm_rows(sig).sum() > 200:
+        pcoef, pci = fit_pwm(sig, n_boot, seed)
+        terms["back_emf_per_speed"] = Term(pcoef["K_v"], pci["K_v"], "V/(m/s)")
+        if radius:
+            terms["back_emf_constant"] = Term(pcoef["K_v"] * radius,
+                                              tuple(x * radius for x in pci["K_v"]) if pci["K_v"]
+                                              else None, "V*s/rad")
+        terms["resistive_drop"] = Term(pcoef["r_F"], pci["r_F"], "V/N")
+        for name, (_, unit) in EXTRA.items():
+            if name in pcoef:
+                terms[name] = Term(pcoef[name], pci[name], unit)
+        if "v_fw" in pcoef:
+            terms["flux_weakening_up_to"] = Term(pcoef["v_fw"], None, "m/s")
+        if "phase_current" in sig.extra:
+            r, rci = _phase_resistance(sig, n_boot, seed)
+            terms["phase_resistance_pwm"] = Term(r, rci, "ohm")
+    else:
+        why["pwm"] = "no PWM or safety-margin column: back-EMF and the duty limit cannot be identified"
+    return Drivetrain(terms=terms, unidentified=why, pwm_coef=pcoef, battery_coef=bcoef,
+                      mass=m, road=road)
+
+
+def envelope(dt: Drivetrain, voltage_full: float, n_cells: int | None = None,
+             v_max: float = 30.0, n: int = 61) -> dict:
+    """The highest sustained acceleration, and the lean it takes, against speed.
+
+    At full duty ``V_t = K_v·v + r_F·F`` (plus the kept dead-time and
+    flux-weakening terms) with the terminal voltage sagging under the battery
+    current, ``V_t = V_ocv − R_int·F·v/V_ocv`` (the drivetrain's losses are left
+    out of the sag), so (:func:`euc_sim.rides.drive.pwm.full_duty_force`)::
+
+        F_max = (V_ocv − K_v·v) / (r_F + R_int·v/V_ocv)
+        a_max = (F_max − c₁ − c₃·v²)/m,   lean φ = atan(a_max/g)
+
+    Parameters
+    ----------
+    dt : Drivetrain
+    voltage_full : float
+        Full-charge open-circuit voltage, V.
+    n_cells : int, optional
+        Cells in series; by default ``round(voltage_full/4.2)``.  Low charge is
+        :data:`CELL_LOW` V per cell.
+    v_max : float
+        Largest speed, m/s.
+
+    Returns
+    -------
+    dict
+        ``speed`` (m/s), and for ``full`` and ``low``: ``voltage`` (V),
+        ``accel`` (m/s², NaN past the speed where nothing is left), ``lean``
+        (rad), ``v_limit`` (m/s, the highest speed with any acceleration left:
+        above it the motor cannot even hold the speed; None when the grid ends first).
+
+    Raises
+    ------
+    ValueError
+        when the drivetrain has no PWM model or no mass.
+    """
+    if dt.pwm_coef is None or not dt.mass:
+        raise ValueError("envelope: needs the PWM model and the total mass; this ride has "
+                         f"pwm={dt.pwm_coef is not None}, mass={dt.mass}")
+    cells = n_cells or max(1, round(voltage_full / CELL_FULL))
+    speed = np.linspace(0.0, v_max, n)
+    R_int = max(dt.battery_coef["R_int"], 0.0) if dt.battery_coef else 0.0
+    out = {"speed": speed.tolist()}
+    for name, V in (("full", voltage_full), ("low", cells * CELL_LOW)):
+        F = full_duty_force(dt.pwm_coef, speed, V, R_int)
+        a = (F - dt.road["c1"] - dt.road["c3"] * speed ** 2) / dt.mass
+        a = np.where(a > 0, a, np.nan)
+        ok = np.isfinite(a)
+        out[name] = {"voltage": float(V), "accel": a.tolist(),
+                     "lean": np.arctan(a / G).tolist(),
+                     "v_limit": (float(speed[ok][-1]) if ok.any() else 0.0) if not ok[-1] else None}
+    return out
+
+
+def max_force(dt: Drivetrain, speed: float, voltage: float) -> float:
+    """Largest wheel force, N, the motor can give at ``speed`` (m/s) and open-circuit ``voltage`` (V)."""
+    R_int = max(dt.battery_coef["R_int"], 0.0) if dt.battery_coef else 0.0
+    return max(float(full_duty_force(dt.pwm_coef, speed, voltage, R_int)), 0.0)

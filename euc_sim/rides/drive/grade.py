@@ -1,0 +1,175 @@
+"""The road's grade as the battery-power balance sees it, against GPS altitude.
+
+Whatever battery power the fitted balance does not explain without its grade
+term is, to first order, the power of climbing::
+
+    g·ḣ_implied = (P − P̂_without grade) / m            (W/kg; m the fitted mass)
+
+Integrated over the ride it gives the altitude the battery says the rider
+climbed: the grade the fit sees, which the ride page draws against GPS
+altitude over distance (:func:`plot_grade`).  Where the two part, the balance
+is missing something that varies along the road (wind, a loss it leaves out)
+or the altitude is wrong.  The fitted grade term itself is ``β_h·g·ḣ_GPS``
+with ``β_h`` below m where altitude noise attenuates it; its altitude
+``(β_h/m)·h_GPS`` is drawn too.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from euc_sim.rides.drive.mass import MassFit, mass_regressors
+from euc_sim.rides.grids.power import G, PowerSignals
+
+__all__ = ["GradeProfile", "grade_profile", "plot_grade", "grade_figure", "V_STILL"]
+
+#: Below this speed, m/s, nothing is climbed: the implied climb rate is taken as 0.
+V_STILL = 1.0
+
+
+@dataclass(frozen=True)
+class GradeProfile:
+    """GPS altitude and the altitudes the balance implies, on the ride's grid.
+
+    Attributes
+    ----------
+    distance : numpy.ndarray
+        km from the start (∫v dt over the grid; nothing across gaps).
+    segment : numpy.ndarray
+        Segment of each sample (the implied altitude restarts at each).
+    gps : numpy.ndarray
+        GPS altitude, m (NaN where the log has none).
+    implied : numpy.ndarray
+        Altitude the battery-power balance implies, m, each segment started at
+        its GPS altitude.
+    fitted : numpy.ndarray or None
+        Altitude of the fitted grade term, (β_h/m)·(h_GPS − its segment's start)
+        plus that start, m; None when the fit kept no grade term.
+    rms_m : float
+        RMS of implied − GPS altitude, m.
+    climb_gps_m, climb_implied_m : float
+        Total ascent, m, of the GPS altitude and of the implied one (both after
+        a 30 s moving mean, so noise does not count as climbing).
+    """
+
+    distance: np.ndarray
+    segment: np.ndarray
+    gps: np.ndarray
+    implied: np.ndarray
+    fitted: np.ndarray | None
+    rms_m: float
+    climb_gps_m: float
+    climb_implied_m: float
+
+    def as_json(self) -> dict:
+        """The summary numbers (no arrays), m."""
+        return {"rms_implied_vs_gps_m": self.rms_m, "ascent_gps_m": self.climb_gps_m,
+                "ascent_implied_m": self.climb_implied_m, "unit": "m",
+                "distance_km": float(self.distance[-1]) if self.distance.size else 0.0}
+
+
+def _ascent(h: np.ndarray, t: np.ndarray, segment: np.ndarray, span: float = 30.0) -> float:
+    """Total ascent, m, of h after a ``span`` s moving mean, segment by segment."""
+    total = 0.0
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    w = max(1, int(round(span / dt)))
+    for s in np.unique(segment):
+        x = h[segment == s]
+        x = x[np.isfinite(x)]
+        if x.size < 2:
+            continue
+        k = min(w, x.size)
+        sm = np.convolve(x, np.ones(k) / k, mode="valid")
+        total += float(np.clip(np.diff(sm), 0.0, None).sum())
+    return total
+
+
+def grade_profile(sig: PowerSignals, fit: MassFit, gps_t: np.ndarray,
+                  gps_alt: np.ndarray) -> GradeProfile | None:
+    """The altitude the fitted balance implies, beside the GPS altitude.
+
+    Parameters
+    ----------
+    sig : PowerSignals
+        The fitted ride's signals.
+    fit : MassFit
+        Its mass fit (the mass and every accepted term).
+    gps_t, gps_alt : numpy.ndarray
+        The log's time stamps, s, and GPS altitude, m (NaN where missing).
+
+    Returns
+    -------
+    GradeProfile or None
+        None when the mass is not identified or the log has no GPS altitude.
+    """
+    ok_alt = np.isfinite(gps_alt)
+    if fit.estimate is None or not fit.signed or ok_alt.sum() < 2:
+        return None
+    m = fit.coef["inertia"]
+    lag = int(round(fit.lag * (1.0 / np.median(np.diff(sig.t)))))
+    cols = mass_regressors(sig, lag)
+    P_hat = sum(fit.coef[n] * cols[n] for n in fit.coef if n != "grade" and n in cols)
+    rate = np.where(np.nan_to_num(sig.v) > V_STILL, (sig.P - P_hat) / (m * G), 0.0)
+    rate = np.nan_to_num(rate)                        # filter ends and missing rows: no climb
+    h_gps = np.interp(sig.t, gps_t[ok_alt], gps_alt[ok_alt])
+    dt = np.r_[0.0, np.diff(sig.t)]
+    new_seg = np.r_[True, sig.segment[1:] != sig.segment[:-1]]
+    dt[new_seg] = 0.0
+    implied, fitted = np.empty_like(h_gps), np.empty_like(h_gps)
+    beta = fit.coef.get("grade")
+    for s in np.unique(sig.segment):
+        idx = np.flatnonzero(sig.segment == s)
+        start = h_gps[idx[0]]
+        implied[idx] = start + np.cumsum(rate[idx] * dt[idx])
+        if beta is not None:
+            fitted[idx] = start + beta / m * (h_gps[idx] - start)
+    distance = np.cumsum(np.nan_to_num(np.abs(sig.v)) * dt) / 1000.0
+    return GradeProfile(distance=distance, segment=sig.segment, gps=h_gps, implied=implied,
+                        fitted=fitted if beta is not None else None,
+                        rms_m=float(np.sqrt(np.mean((implied - h_gps) ** 2))),
+                        climb_gps_m=_ascent(h_gps, sig.t, sig.segment),
+                        climb_implied_m=_ascent(implied, sig.t, sig.segment))
+
+
+def plot_grade(g: GradeProfile, path, title: str = "") -> Path:
+    """Write :func:`grade_figure` to ``path`` (PNG, atomically)."""
+    from euc_sim.io import save_figure
+
+    return save_figure(grade_figure(g, title), path)
+
+
+def grade_figure(g: GradeProfile, title: str = ""):
+    """Altitude against distance: GPS, implied by the balance, and the fitted grade term.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    def broken(y):          # NaN between segments: the implied altitude restarts at each
+        cut = np.flatnonzero(g.segment[1:] != g.segment[:-1]) + 1
+        return np.insert(g.distance, cut, np.nan), np.insert(y, cut, np.nan)
+
+    fig = Figure(figsize=(9, 5.6), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(*broken(g.gps), color="k", lw=1.2,
+            label=f"GPS altitude (ascent {g.climb_gps_m:.0f} m)")
+    ax.plot(*broken(g.implied), color="tab:blue", lw=1.0,
+            label=f"implied by battery power, ∫(P − P̂ without grade)/(m·g) dt, restarted at "
+                  f"GPS after each gap (ascent {g.climb_implied_m:.0f} m; {g.rms_m:.0f} m RMS "
+                  f"from GPS)")
+    if g.fitted is not None:
+        ax.plot(*broken(g.fitted), color="tab:orange", lw=1.0, ls="--",
+                label="the fit's grade term, (β_h/m)·GPS altitude (β_h < m: altitude noise "
+                      "attenuates it)")
+    ax.set_xlabel("distance ridden, km")
+    ax.set_ylabel("altitude, m")
+    fig.suptitle(title or "Road grade: the altitude the battery-power balance implies, "
+                          "against GPS altitude", fontsize=10)
+    ax.grid(alpha=0.3)
+    fig.legend(loc="outside lower center", fontsize=8)
+    return fig

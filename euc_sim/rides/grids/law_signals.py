@@ -1,0 +1,228 @@
+"""The riding rows a wheel's balance law is read from: pitch, its rate, speed,
+acceleration and motor torque along a log's uneven time stamps.
+
+A log of EUC World (InMotion, Leaperkim, Nosfet) has the wheel's pitch (``tilt``)
+and, on many wheels, the phase current; WheelLog's InMotion logs carry the
+wheel's ``torque``.  The motor torque is the phase current times the torque
+constant K_t = K_e (the back-EMF constant the drivetrain fit identifies,
+:mod:`euc_sim.rides.drive.drivetrain`), or the logged torque.  :func:`law_rows` keeps
+the riding rows (speed above :data:`V_MIN`, pitch within :data:`MAX_PITCH` of its
+riding median) with the pitch rate and acceleration as exact mean rates over the
+stamps' intervals, a leaky integral of the pitch, and each channel at the
+neighbouring rows (Simpson's weights) so that the law can be fitted between
+interval means (:mod:`euc_sim.rides.law.controller_law` fits it).  The rows stay on
+the log's own stamps (the differences and weights are exact there, a grid's
+interpolation would smear them); an interval longer than the ride's one gap
+threshold (:data:`GAP`, the ``bridge`` of :data:`euc_sim.rides.grids.ride.GAP_POLICY`)
+breaks every derivative, mean and integral, as it splits the grids.  It raises
+:class:`LawUnavailable` when the log has no pitch, no torque or too few riding rows.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from euc_sim.errors import InputError
+from euc_sim.rides.grids.ride import GAP_POLICY, Ride
+from euc_sim.rides.source.logs import RideLog
+
+__all__ = ["LawUnavailable", "LawRows", "law_rows", "V_MIN", "MAX_PITCH", "MIN_ROWS", "GAP",
+           "ACCEL_HALF", "INTEGRAL_TAU"]
+
+#: Speed above which a row counts as riding, m/s.
+V_MIN = 1.0
+#: Pitch farther than this from the riding median is the wheel lying or carried, rad.
+MAX_PITCH = math.radians(15.0)
+#: Half-span of the acceleration column, s: a set-point follows the ride's acceleration
+#: over seconds; the acceleration within one telemetry period is the motor torque's own.
+ACCEL_HALF = 1.0
+#: Leak of the integral column, s.
+INTEGRAL_TAU = 5.0
+#: Fewer riding rows than this: too short.
+MIN_ROWS = 300
+#: Intervals longer than this, s, break a derivative (a gap in the log): the gap policy's bridge.
+GAP = GAP_POLICY.bridge
+
+
+class LawUnavailable(InputError):
+    """The log cannot show the wheel's balance law; the message says why, with numbers."""
+
+
+@dataclass(frozen=True)
+class LawRows:
+    """The riding rows a law is fitted on (or scored on).
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Time, s.
+    tilt, tilt_dot : numpy.ndarray
+        Logged pitch, rad, in the log's own convention, and its rate, rad/s.
+    v, a : numpy.ndarray
+        Wheel speed, m/s, and acceleration, m/s².
+    z : numpy.ndarray
+        Leaky integral of (tilt − median riding tilt), rad·s.
+    y : numpy.ndarray
+        Motor torque, N·m (``unit``), or phase current, A, where no torque constant is known.
+    channel : str
+        The logged channel ``y`` comes from (``"phase_current"`` or ``"torque"``).
+    unit : str
+        Unit of ``y``.
+    scale : float
+        ``y`` = scale × the logged channel (the torque constant K_t, N·m/A, or 1).
+    pitch_step : float
+        Smallest step of the logged pitch, rad (its quantisation).
+    dt_median : float
+        Median sample interval, s.
+    w3 : numpy.ndarray
+        (n, 3) weights of the previous, this and the next log row giving each
+        channel's mean over [t₋₁, t₊₁] (Simpson's rule on the uneven stamps): the
+        interval whose mean rate the central differences ``tilt_dot`` and ``a`` are.
+    tilt3, v3, z3, y3 : numpy.ndarray
+        (n, 3) the channels at the previous, this and the next log row.
+    """
+
+    t: np.ndarray
+    tilt: np.ndarray
+    tilt_dot: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    z: np.ndarray
+    y: np.ndarray
+    channel: str
+    unit: str
+    scale: float
+    pitch_step: float
+    dt_median: float
+    w3: np.ndarray
+    tilt3: np.ndarray
+    v3: np.ndarray
+    z3: np.ndarray
+    y3: np.ndarray
+
+    def take(self, idx: np.ndarray) -> "LawRows":
+        """The rows ``idx`` (an index or boolean array)."""
+        cols = {k: getattr(self, k)[idx] for k in ("t", "tilt", "tilt_dot", "v", "a", "z", "y",
+                                                   "w3", "tilt3", "v3", "z3", "y3")}
+        return LawRows(**cols, channel=self.channel, unit=self.unit, scale=self.scale,
+                       pitch_step=self.pitch_step, dt_median=self.dt_median)
+
+
+def _rate(x: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """dx/dt as (x₊₁ − x₋₁)/(t₊₁ − t₋₁), the exact mean rate over [t₋₁, t₊₁], on the
+    uneven time stamps; NaN at the ends and next to a gap."""
+    d = np.full_like(x, np.nan)
+    if x.size < 3:
+        return d
+    span = t[2:] - t[:-2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d[1:-1] = np.where(span > 0, (x[2:] - x[:-2]) / np.where(span > 0, span, 1.0), np.nan)
+    gap = GAP_POLICY.splits(np.diff(t))
+    d[np.r_[gap, False] | np.r_[False, gap]] = np.nan
+    return d
+
+
+def _slow_rate(x: np.ndarray, t: np.ndarray, half: float = ACCEL_HALF) -> np.ndarray:
+    """dx/dt as (x(t + half) − x(t − half))/(2·half), x linearly interpolated between
+    rows: the mean rate over 2·half s; NaN where that span leaves the log or crosses a gap."""
+    lo, hi = np.interp(t - half, t, x), np.interp(t + half, t, x)
+    seg = GAP_POLICY.pieces(t)
+    i0 = np.clip(np.searchsorted(t, t - half), 0, t.size - 1)
+    i1 = np.clip(np.searchsorted(t, t + half) - 1, 0, t.size - 1)
+    ok = (t - half >= t[0]) & (t + half <= t[-1]) & (seg[i0] == seg) & (seg[i1] == seg)
+    return np.where(ok, (hi - lo) / (2 * half), np.nan)
+
+
+def _simpson_weights(t: np.ndarray) -> np.ndarray:
+    """(n, 3) weights of rows k−1, k, k+1 whose sum is the mean over [t₋₁, t₊₁] of the
+    parabola through the three (Simpson's rule on uneven steps h₀, h₁); the ends and
+    repeated stamps get (0, 1, 0)."""
+    w = np.zeros((t.size, 3))
+    w[:, 1] = 1.0
+    if t.size < 3:
+        return w
+    h0, h1 = np.diff(t)[:-1], np.diff(t)[1:]
+    ok = (h0 > 0) & (h1 > 0)
+    h0, h1 = np.where(ok, h0, 1.0), np.where(ok, h1, 1.0)
+    inner = np.column_stack([(2 - h1 / h0) / 6, (h0 + h1) ** 2 / (6 * h0 * h1), (2 - h0 / h1) / 6])
+    w[1:-1] = np.where(ok[:, None], inner, w[1:-1])
+    return w
+
+
+def _three(x: np.ndarray) -> np.ndarray:
+    """(n, 3): x at the previous, this and the next row (the ends repeated)."""
+    return np.column_stack([np.r_[x[:1], x[:-1]], x, np.r_[x[1:], x[-1:]]])
+
+
+def _leaky_integral(x: np.ndarray, t: np.ndarray, tau: float = INTEGRAL_TAU) -> np.ndarray:
+    """z' = x − z/τ along the log (reset across a gap), rad·s."""
+    from scipy.signal import lfilter
+
+    out = np.empty_like(x)
+    dt = np.r_[0.0, np.diff(t)]
+    starts = np.r_[0, np.flatnonzero(GAP_POLICY.splits(dt))]
+    ends = np.r_[starts[1:], x.size]
+    for s0, e0 in zip(starts, ends):
+        h = float(np.median(dt[s0 + 1:e0])) if e0 - s0 > 1 else 0.2
+        lam = math.exp(-h / tau)
+        xs = np.nan_to_num(x[s0:e0])
+        out[s0:e0] = lfilter([h], [1.0, -lam], xs)
+    return out
+
+
+def law_rows(log: RideLog, k_t: float | None = None, v_min: float = V_MIN) -> LawRows:
+    """The riding rows of ``log`` with pitch, its rate, speed, acceleration and torque.
+
+    Parameters
+    ----------
+    log : RideLog or Ride
+    k_t : float, optional
+        Torque constant, N·m/A (phase current → torque).  Without it the phase
+        current is used in A; a logged ``torque`` is used as it is.
+    v_min : float
+        Riding speed threshold, m/s.
+
+    Raises
+    ------
+    LawUnavailable
+        no pitch or no torque channel, or too few riding rows.
+    """
+    log = log.log if isinstance(log, Ride) else log
+    d = log.data
+    if not log.has("tilt"):
+        raise LawUnavailable("no pitch in this log (no tilt column, or all zero): the wheel's "
+                             "balance law cannot be read")
+    if log.has("torque"):
+        channel, scale, unit = "torque", 1.0, "N·m"
+    elif log.has("phase_current"):
+        channel = "phase_current"
+        scale, unit = (float(k_t), "N·m") if k_t else (1.0, "A")
+    else:
+        raise LawUnavailable("pitch is logged but neither phase current nor motor torque: "
+                             "the torque the law commands is not in the log")
+    t = d["t"].to_numpy(float)
+    tilt = d["tilt"].to_numpy(float)
+    v = d["v"].to_numpy(float)
+    y = d[channel].to_numpy(float) * scale
+    riding = (np.abs(v) > v_min) & np.isfinite(tilt) & np.isfinite(y)
+    if riding.sum() < MIN_ROWS:
+        raise LawUnavailable(f"{int(riding.sum())} riding rows with pitch and {channel} "
+                             f"(speed above {v_min:g} m/s); at least {MIN_ROWS} are needed")
+    level = float(np.median(tilt[riding]))
+    riding &= np.abs(tilt - level) < MAX_PITCH
+    finite = np.isfinite(tilt)
+    tilt_f = np.interp(t, t[finite], tilt[finite])
+    rate, acc = _rate(tilt_f, t), _slow_rate(v, t)
+    z = _leaky_integral(np.where(riding, tilt_f - level, 0.0), t)
+    ok = riding & np.isfinite(rate) & np.isfinite(acc)
+    steps = np.diff(np.unique(np.round(tilt[finite], 9)))
+    step = float(steps.min()) if steps.size else 0.0
+    y_f = np.where(np.isfinite(y), y, 0.0)
+    return LawRows(t=t[ok], tilt=tilt[ok], tilt_dot=rate[ok], v=np.abs(v[ok]), a=acc[ok] * np.sign(v[ok]),
+                   z=z[ok], y=y[ok], channel=channel, unit=unit, scale=scale, pitch_step=step,
+                   dt_median=float(np.median(np.diff(t))), w3=_simpson_weights(t)[ok],
+                   tilt3=_three(tilt_f)[ok], v3=np.abs(_three(v))[ok], z3=_three(z)[ok],
+                   y3=_three(y_f)[ok])

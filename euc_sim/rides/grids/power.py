@@ -1,0 +1,302 @@
+"""Battery power and speed of a ride log on one grid: the signals every energy fit reads.
+
+The log is resampled to the ride's one grid (:func:`euc_sim.rides.grids.signals.ride_grid`
+under :data:`euc_sim.rides.grids.ride.GAP_POLICY`: gaps up to 1.0 s bridged, longer
+ones splitting the ride into segments), the wheel's speed corrected by its scale
+against GPS speed (:func:`speed_scale`: a 6 % optimistic speedometer makes the
+mass 12 % low, since ``a·v`` scales with the square), and every channel filtered
+alike (Savitzky–Golay, one window).  Battery power is V·I; the climb rate comes
+from GPS altitude over 10 s where it is logged.  :mod:`euc_sim.rides.drive.mass`,
+:mod:`euc_sim.rides.drive.drivetrain`, :mod:`euc_sim.rides.drive.pwm` and
+:mod:`euc_sim.rides.drive.grade` all start from :func:`power_signals`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+from euc_sim.errors import BadInputFile
+from euc_sim.rides.grids.ride import GAP_POLICY, GapPolicy, Ride
+from euc_sim.rides.grids.signals import ride_grid, sg
+from euc_sim.rides.source.channels import current_from_phase
+from euc_sim.rides.source.logs import RideLog, read_log
+from euc_sim.rides.source.systematic import CURRENT_SCALE_SD, GRADE_SHARE
+
+__all__ = ["G", "RHO_AIR", "NO_GPS_SCALE_SD", "RideDataError", "MassSettings", "SpeedScale",
+           "PowerSignals", "as_ride_log", "speed_scale", "track_scale", "power_signals"]
+
+G = 9.81               # m/s²
+RHO_AIR = 1.2          # kg/m³ at about 20 °C
+#: Speedometer-scale standard deviation, when no GPS speed measures it (relative).
+NO_GPS_SCALE_SD = 0.05
+
+
+class RideDataError(BadInputFile):
+    """A log without what the mass estimate needs; names the file and the column."""
+
+
+@dataclass(frozen=True)
+class MassSettings:
+    """How the mass is estimated.
+
+    Attributes
+    ----------
+    rate : float
+        Grid rate, Hz.
+    window : float
+        Savitzky–Golay window, s (quadratic), of the filtered signals the
+        drivetrain's fits, the delay search and the a² proxy use; the mass
+        itself comes from the energy balance over ``windows``.
+    max_gap : float
+        Longest interval bridged by interpolation, s; longer ones split the ride
+        (the gap policy's ``bridge``, :data:`euc_sim.rides.grids.ride.GAP_POLICY`).
+    v_min : float
+        Samples slower than this, m/s, are not fitted (standing, walking).
+    max_lag : float
+        Largest delay between current and speed searched, s.
+    windows : tuple of float
+        Energy-balance windows, s (:mod:`euc_sim.rides.drive.energy`): the mass is
+        fitted on each and the interval pools them.  From 5× the longest
+        routine logging interval (0.4 s) to about a manoeuvre's length.
+    block : float
+        Bootstrap block, s.
+    scale_method : {"doppler", "mean", "track"}
+        The speed scale from GPS Doppler speed, from GPS track distance, or
+        their mean (:func:`speed_scale`); Doppler gives the lowest median error
+        on the shared rides (a choice the leave-one-wheel-out study re-makes).
+    copper_model : {"force", "accel"}
+        Without phase current, the copper loss's column: the squared drive
+        force (m·a + c₁ + c₃v²)² from the fit itself (iterated), or its proxy a²
+        (which cannot absorb the cross term 2κ·m·a·F_res, counted as mass).
+    current_scale_sd, grade_share : float
+        Priors of :mod:`euc_sim.rides.source.systematic` (relative sd of the current
+        sensor's scale; without GPS altitude, the grade's 95 % half-width as a
+        share of the mass).
+    n_boot : int
+        Bootstrap replicates.
+    seed : int
+        Seed of every random draw.
+    """
+
+    rate: float = GAP_POLICY.rate
+    window: float = 1.0
+    max_gap: float = GAP_POLICY.bridge
+    v_min: float = 1.0
+    max_lag: float = 1.0
+    windows: tuple = (2.0, 4.0, 8.0)
+    block: float = 30.0
+    n_boot: int = 200
+    seed: int = 0
+    scale_method: str = "doppler"
+    copper_model: str = "force"
+    current_scale_sd: float = CURRENT_SCALE_SD
+    grade_share: float = GRADE_SHARE
+
+
+@dataclass(frozen=True)
+class SpeedScale:
+    """True speed over logged wheel speed.
+
+    Attributes
+    ----------
+    estimate, sd : float
+        The ratio and its standard deviation (relative to 1).
+    source : str
+        ``"gps"`` or ``"assumed"``.
+    """
+
+    estimate: float
+    sd: float
+    source: str
+
+
+@dataclass(frozen=True)
+class PowerSignals:
+    """Filtered signals on the grid, one entry per sample.
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        s.
+    segment : numpy.ndarray
+        Segment label (ride split at gaps longer than ``max_gap``).
+    v : numpy.ndarray
+        Corrected speed, m/s.
+    a : numpy.ndarray
+        Acceleration, m/s².
+    av : numpy.ndarray
+        d/dt(v²/2), W/kg.
+    P : numpy.ndarray
+        Battery power V·I, W.
+    climb : numpy.ndarray or None
+        g·ḣ from GPS altitude, W/kg.
+    signed : bool
+        Whether the log's current is signed (regeneration visible).
+    scale : SpeedScale
+    extra : dict
+        Other filtered channels (``voltage``, ``current``, ``pwm``, ``phase_current``).
+    raw : dict
+        Unfiltered grid channels for the energy balance: ``v`` (corrected, m/s),
+        ``P`` (W), ``h`` (GPS altitude smoothed over 10 s, m, where logged) and
+        ``phase_current`` (A, where used).
+    """
+
+    t: np.ndarray
+    segment: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    av: np.ndarray
+    P: np.ndarray
+    climb: np.ndarray | None
+    signed: bool
+    scale: SpeedScale
+    extra: Mapping[str, np.ndarray] = field(default_factory=dict)
+    raw: Mapping[str, np.ndarray] = field(default_factory=dict)
+
+
+def as_ride_log(log) -> RideLog:
+    """A :class:`RideLog` as it is, a :class:`~euc_sim.rides.grids.ride.Ride`'s log, or read from a path."""
+    if isinstance(log, Ride):
+        return log.log
+    return log if isinstance(log, RideLog) else read_log(log, emit_warnings=False)
+
+
+def speed_scale(log, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
+    """True speed over logged wheel speed, from GPS.
+
+    Two measurements: the Doppler speed (least squares through the origin of
+    GPS speed on wheel speed) and the track (the distance between successive
+    GPS fixes over the wheel's ∫v dt between them, both moving).  On the
+    shared rides the track reads 0.2–4.5 % above the Doppler ratio (integrated
+    Doppler speed reads low at city speeds; docs/drivetrain.md); neither is known to be
+    right, so the standard deviation covers both: √(0.01² + (difference/2)²).
+    ``method`` picks the estimate (:class:`MassSettings`'s ``scale_method``).
+
+    Parameters
+    ----------
+    log : RideLog or path
+    v_min : float
+        Both speeds above this, m/s (GPS speed is poor when slow).
+    method : {"mean", "doppler", "track"}
+
+    Returns
+    -------
+    SpeedScale
+        ``source="assumed"`` (1 ± :data:`NO_GPS_SCALE_SD`) without GPS speed;
+        ``"gps"`` (Doppler), ``"gps track"`` or ``"gps doppler+track"``; the sd
+        is 1 % with Doppler alone, √(0.01² + (difference/2)²) with both.
+    """
+    if method not in ("mean", "doppler", "track"):
+        raise ValueError(f"method must be 'mean', 'doppler' or 'track', got {method!r}")
+    log = as_ride_log(log)
+    d = log.data
+    if "gps_speed" not in d:
+        return SpeedScale(1.0, NO_GPS_SCALE_SD, "assumed")
+    v, g = d["v"].to_numpy(float), d["gps_speed"].to_numpy(float)
+    ok = np.isfinite(g) & (v > v_min) & (g > v_min)
+    if ok.sum() < 50:
+        return SpeedScale(1.0, NO_GPS_SCALE_SD, "assumed")
+    k = float(np.sum(g[ok] * v[ok]) / np.sum(v[ok] ** 2))
+    k_track = track_scale(log, v_min)
+    if k_track is None:
+        # GPS speed is good to about 1 % in the mean (Doppler); the scatter of
+        # single samples is averaged over thousands of them.
+        return SpeedScale(k, 0.01, "gps")
+    # the two GPS measurements disagree by more than either's noise: the sd covers both
+    sd = float(np.hypot(0.01, 0.5 * (k_track - k)))
+    if method == "doppler":
+        return SpeedScale(k, sd, "gps")
+    if method == "track":
+        return SpeedScale(k_track, sd, "gps track")
+    return SpeedScale(0.5 * (k + k_track), sd, "gps doppler+track")
+
+
+def track_scale(log, v_min: float = 4.0, max_dt: float = 3.0) -> float | None:
+    """GPS track distance over the wheel's distance, between successive fixes while moving.
+
+    Distances by the haversine formula (Earth radius 6371 km) between distinct
+    successive fixes at most ``max_dt`` s apart with the wheel faster than
+    ``v_min`` (m/s) at both; None without 50 such pairs.
+    """
+    d = as_ride_log(log).data
+    if "latitude" not in d or "longitude" not in d:
+        return None
+    t, v = d["t"].to_numpy(float), d["v"].to_numpy(float)
+    lat, lon = np.radians(d["latitude"].to_numpy(float)), np.radians(d["longitude"].to_numpy(float))
+    idx = np.flatnonzero(np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) + np.abs(lon) > 1e-6))
+    if idx.size < 50:
+        return None
+    idx = idx[np.r_[True, (np.diff(lat[idx]) != 0) | (np.diff(lon[idx]) != 0)]]
+    run = np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))]
+    a, b = idx[:-1], idx[1:]
+    use = (v[a] > v_min) & (v[b] > v_min) & (t[b] - t[a] < max_dt)
+    if use.sum() < 50:
+        return None
+    h = (np.sin((lat[b] - lat[a]) / 2) ** 2
+         + np.cos(lat[a]) * np.cos(lat[b]) * np.sin((lon[b] - lon[a]) / 2) ** 2)
+    dist = 2 * 6_371_000.0 * np.arcsin(np.sqrt(np.clip(h, 0.0, 1.0)))
+    wheel = run[b] - run[a]
+    return float(dist[use].sum() / wheel[use].sum())
+
+
+def power_signals(log, settings: MassSettings = MassSettings()) -> PowerSignals:
+    """Resample, correct the speed scale and filter every channel alike.
+
+    Parameters
+    ----------
+    log : Ride, RideLog or path
+        A :class:`~euc_sim.rides.grids.ride.Ride` keeps the signals (built once per
+        grid, filter and speed-scale setting) and shares its grid with the balance fit.
+    settings : MassSettings
+
+    Raises
+    ------
+    RideDataError
+        naming the file and the column: no voltage or current column, or a
+        speed that never exceeds ``settings.v_min``.
+    """
+    ride, log = log, as_ride_log(log)
+    for col in ("voltage", "current"):
+        if col not in log.data:
+            raise RideDataError(f"{log.path}: column {col!r}: absent or all zero; battery "
+                                f"power V·I is needed for the mass and the drivetrain")
+    if not (log.data["v"] > settings.v_min).any():
+        raise RideDataError(f"{log.path}: column 'speed': never above "
+                            f"{settings.v_min * 3.6:.1f} km/h; nothing was ridden")
+    if isinstance(ride, Ride):
+        return ride.derived(("power", settings.rate, settings.max_gap, settings.window,
+                             settings.scale_method), lambda: _filtered(ride, settings))
+    return _filtered(log, settings)
+
+
+def _filtered(ride, settings: MassSettings) -> PowerSignals:
+    """:func:`power_signals` of a ride or log whose columns were checked."""
+    log = as_ride_log(ride)
+    frame, _ = ride_grid(ride if isinstance(ride, Ride) else log,
+                         GapPolicy(bridge=settings.max_gap, rate=settings.rate))
+    seg = frame["segment"].to_numpy()
+    k = speed_scale(log, method=settings.scale_method)
+    f = lambda x, deriv=0: sg(x, seg, settings.rate, settings.window, 2, deriv)   # noqa: E731
+    v_raw = frame["v"].to_numpy(float) * k.estimate
+    P = frame["voltage"].to_numpy(float) * frame["current"].to_numpy(float)
+    climb = None
+    raw = {"v": v_raw, "P": P}
+    if "gps_alt" in frame and np.isfinite(frame["gps_alt"]).mean() > 0.5:
+        # GPS altitude is noisy (metres): its climb rate from a 10 s fit.
+        alt = frame["gps_alt"].to_numpy(float)
+        climb = G * sg(np.nan_to_num(alt), seg, settings.rate, 10.0, 2, 1)
+        climb[~np.isfinite(alt)] = np.nan
+        raw["h"] = np.where(np.isfinite(alt), sg(np.nan_to_num(alt), seg, settings.rate, 10.0, 2), np.nan)
+    extra = {c: f(frame[c].to_numpy(float)) for c in
+             ("voltage", "current", "pwm", "phase_current") if c in frame}
+    if current_from_phase(log):
+        extra.pop("phase_current")
+    elif "phase_current" in frame:
+        raw["phase_current"] = frame["phase_current"].to_numpy(float)
+    signed = bool((log.data["current"] < -0.5).mean() > 0.005)
+    return PowerSignals(t=frame["t"].to_numpy(float), segment=seg, v=f(v_raw),
+                        a=f(v_raw, 1), av=f(0.5 * v_raw ** 2, 1), P=f(P), climb=climb,
+                        signed=signed, scale=k, extra=extra, raw=raw)

@@ -1,0 +1,218 @@
+"""The logged wheel speed as a simulator input (every gap bridged)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from euc_sim.errors import InputError
+from euc_sim.rides.grids.power import G
+from euc_sim.rides.grids.signals import as_log, resample, sg
+
+__all__ = ["speed_profile", "write_speed_profile", "rider_plan", "PLAN_WINDOW", "unpaid_spikes",
+           "SPIN_POWER_FACTOR", "SPIN_POWER_MARGIN", "SPIN_GRADE", "SPIN_MIN_DT",
+           "SPIN_MAX_SPAN", "SPIN_BACK"]
+
+#: The rider's plan: the logged speed smoothed over this many seconds.  The logged speed
+#: holds the rider's own sway; a simulated rider told to follow it corrects every wobble
+#: as if intended.  Value: see docs/rider_calibration.md#proof-on-a-concealed-rider.
+PLAN_WINDOW = 6.0
+
+#: A wheel-speed rise counts as paid for while its kinetic energy ½m(v₁² − v₀²) is at most
+#: SPIN_POWER_FACTOR × the battery energy over the span + (SPIN_POWER_MARGIN + m g SPIN_GRADE v̄)
+#: × the span (:func:`unpaid_spikes`).  The rider and wheel speeding up together cannot gain
+#: more kinetic energy than the battery gives plus what a descent gives (efficiency ≤ 1, the
+#: wheel's own inertia and the resistances only add to what is needed); the factor and the
+#: margin allow for power samples that miss part of the span, SPIN_GRADE for the steepest
+#: descent allowed (15 %: 1.47 m/s² with no power at all).  Values: see
+#: docs/ride_falls.md#the-measured-cause.
+SPIN_POWER_FACTOR = 2.0
+SPIN_POWER_MARGIN = 500.0
+SPIN_GRADE = 0.15
+#: The rise is measured over at least this span, s: a log's near-repeated time stamps (0.02 s
+#: apart on master_pro_V2/6) would turn a 0.1 m/s step into 5 m/s².
+SPIN_MIN_DT = 0.3
+UNKNOWN_POWER = 1e6       # W: a row without battery power pays for any rise
+#: The longest a wheel spinning free is followed after the top of the unpaid rise, s; it ends
+#: where its speed is back within SPIN_BACK (m/s) of where it rose from (a wheel that spins up
+#: and holds is followed past its plateau).  Values: see docs/ride_falls.md.
+SPIN_MAX_SPAN = 5.0
+SPIN_BACK = 0.5
+
+
+def speed_profile(log, rate: float = 10.0, window: float = 1.5, polyorder: int = 2,
+                  total_mass: float | None = None) -> pd.DataFrame:
+    """The logged wheel speed as a simulator input: ``DataFrame(t, v)``.
+
+    Uniform grid at ``rate`` Hz from t = 0, speed in m/s smoothed by the same
+    Savitzky–Golay fit as :func:`ride_signals`.  **Every gap is bridged** by linear
+    interpolation here (a simulation needs a continuous profile); the gaps
+    bridged are listed in ``result.attrs["notes"]``.  With ``total_mass``, the
+    wheel-speed spikes the battery power cannot pay for (:func:`unpaid_spikes`: the
+    wheel off the ground or slipping) are bridged the same way, and a note says so.
+
+    Parameters
+    ----------
+    log : RideLog or path
+    rate : float
+        Hz.
+    window : float
+        s.
+    polyorder : int
+    total_mass : float, optional
+        Rider and wheel, kg (:func:`unpaid_spikes`); None: the speed as logged.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``t`` (s, strictly increasing) and ``v`` (m/s).
+    """
+    log = as_log(log)
+    t = log.data["t"].to_numpy()
+    gaps = np.flatnonzero(np.diff(t) > 1.0)
+    notes = [f"gap of {t[i + 1] - t[i]:.2f} s at t = {t[i]:.2f} s bridged linearly" for i in gaps]
+    if total_mass is not None:
+        spikes = unpaid_spikes(log, total_mass)
+        if spikes:
+            drop = np.zeros(len(t), bool)
+            for a, b in spikes:
+                drop[a + 1:b] = True
+            v_log = log.data["v"].to_numpy()
+            rise = max(float(np.max(np.abs(v_log[a:b + 1])) - abs(v_log[a])) for a, b in spikes)
+            notes.append(f"{len(spikes)} wheel-speed spike(s) the battery power cannot pay for "
+                         f"(kinetic energy above {SPIN_POWER_FACTOR:g}× the battery energy + "
+                         f"{SPIN_POWER_MARGIN:g} W + a {100 * SPIN_GRADE:g} % descent, m = "
+                         f"{total_mass:.0f} kg: the wheel off the ground or slipping, not the rider "
+                         f"speeding up) bridged linearly, {sum(t[b] - t[a] for a, b in spikes):.1f} s "
+                         f"in all, rising up to {rise:.2f} m/s; at t = "
+                         + ", ".join(f"{t[a]:.1f}" for a, _ in spikes[:10])
+                         + (" s, ..." if len(spikes) > 10 else " s"))
+            log = replace(log, data=log.data.loc[~drop].reset_index(drop=True))
+    raw, _ = resample(log, rate, max_gap=math.inf)
+    v = sg(raw["v"].to_numpy(), np.zeros(len(raw), int), rate, window, polyorder)
+    out = pd.DataFrame({"t": raw["t"].to_numpy(), "v": v})
+    out.attrs["notes"] = notes
+    out.attrs["source"] = log.path
+    return out
+
+
+def _battery_power(data: pd.DataFrame) -> np.ndarray | None:
+    """Battery power per row, W (voltage × current, else the logged power), or None."""
+    if "voltage" in data and "current" in data:
+        return (data["voltage"] * data["current"]).to_numpy(float)
+    return data["power"].to_numpy(float) if "power" in data else None
+
+
+def unpaid_spikes(log, total_mass: float, factor: float = SPIN_POWER_FACTOR,
+                  margin: float = SPIN_POWER_MARGIN, grade: float = SPIN_GRADE,
+                  max_span: float = SPIN_MAX_SPAN) -> list[tuple[int, int]]:
+    """Wheel-speed spikes the battery cannot pay for: the wheel, not the rider, sped up.
+
+    A rise of the logged speed |v| from a row k to the first row j at least
+    :data:`SPIN_MIN_DT` s later is *unpaid* when its kinetic energy exceeds what the
+    battery and a descent can give over that span:
+
+        ½ m (v_j² − v_k²) > ``factor``·∫ max(P, 0) dt + (``margin`` + m g ``grade`` v̄)(t_j − t_k)
+
+    (m = ``total_mass``, P the battery power, trapezoids over the rows k..j, v̄ the mean of
+    v_k and v_j): the rider and the wheel speeding up together need at least that much
+    electrical energy or height, so a faster rise is the wheel spinning up unloaded (off
+    the ground, or slipping).  A spike runs from the first unpaid row through the top of
+    the rise and the fall after it, to the first row where the speed is back within
+    :data:`SPIN_BACK` of where it rose from, at most
+    ``max_span`` s after the top (else the slowest row in that time).  Only rises are tested: braking has no such bound (a
+    motor can brake at no battery power), so a wheel locking is not found.
+
+    Parameters
+    ----------
+    log : RideLog or path
+    total_mass : float
+        kg, positive.
+    factor, margin, grade : float
+        1, W and 1 (:data:`SPIN_POWER_FACTOR`, :data:`SPIN_POWER_MARGIN`, :data:`SPIN_GRADE`).
+    max_span : float
+        s.
+
+    Returns
+    -------
+    list of (int, int)
+        (a, b): row indices of ``log.data`` before the spike and where it ends; the rows
+        strictly between are the spike.  Empty without battery power.
+    """
+    if not (math.isfinite(total_mass) and total_mass > 0):
+        raise InputError(f"total_mass must be a positive number of kg, got {total_mass!r}")
+    d = as_log(log).data
+    P = _battery_power(d)
+    if P is None or len(d) < 3:
+        return []
+    t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
+    P = np.maximum(np.nan_to_num(P, nan=UNKNOWN_POWER), 0.0)   # an unknown power pays for anything
+    n = len(t)
+    E = np.r_[0.0, np.cumsum(0.5 * (P[1:] + P[:-1]) * np.diff(t))]     # J from the first row
+    j = np.minimum(np.searchsorted(t, t + SPIN_MIN_DT), n - 1)          # first row ≥ SPIN_MIN_DT later
+    span = t[j] - t
+    gain = 0.5 * total_mass * (v[j] ** 2 - v ** 2)
+    paid = factor * (E[j] - E) + (margin + total_mass * G * grade * 0.5 * (v + v[j])) * span
+    unpaid = (span > 0) & (gain > paid)
+    out, k = [], 0
+    while k < n - 1:
+        if not unpaid[k]:
+            k += 1
+            continue
+        start, last = k, int(j[k])             # the rise runs at least to j of every unpaid row
+        while k + 1 <= last and k + 1 < n - 1:
+            k += 1
+            if unpaid[k]:
+                last = max(last, int(j[k]))
+        top = start + int(np.argmax(v[start:last + 1]))              # the top of the rise
+        back = v[start] + SPIN_BACK
+        after = np.arange(top + 1, n)
+        after = after[t[after] - t[top] <= max_span]
+        home = after[v[after] <= back]
+        # the spike ends where the speed is back near where it rose from; a wheel that does
+        # not come back within max_span ends at its slowest row in that time
+        end = int(home[0]) if home.size else (int(after[np.argmin(v[after])]) if after.size else top)
+        end = max(end, last)
+        out.append((start, end))
+        k = end
+    return out
+
+
+def write_speed_profile(log, path, rate: float = 10.0, window: float = 1.5) -> Path:
+    """Write :func:`speed_profile` as a CSV (``t,v``) atomically, for the simulator.
+
+    Returns
+    -------
+    pathlib.Path
+    """
+    from euc_sim.io import atomic_write
+
+    prof = speed_profile(log, rate, window)
+    return atomic_write(path, lambda p: prof.to_csv(p, index=False, float_format="%.6f"))
+
+
+def rider_plan(t: np.ndarray, v: np.ndarray, window: float = PLAN_WINDOW) -> np.ndarray:
+    """The speed the rider means to ride: the logged speed smoothed by a quadratic
+    Savitzky–Golay fit over ``window`` s.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Uniform time grid, s.
+    v : numpy.ndarray
+        Logged speed on ``t``, m/s.
+    window : float
+        Smoothing window, s (default :data:`PLAN_WINDOW`).
+
+    Returns
+    -------
+    numpy.ndarray
+        The planned speed on ``t``, m/s.
+    """
+    t = np.asarray(t, float)
+    rate = 1.0 / float(np.median(np.diff(t)))
+    return sg(np.asarray(v, float), np.zeros(t.size, int), rate, window, 2)

@@ -1,0 +1,574 @@
+"""A ride log on a uniform grid: resampled, smoothed alike, battery power and torque.
+
+A ride log (:mod:`euc_sim.rides.source.logs`) has wheel speed and battery voltage and
+current at ~5 Hz, irregularly, and no rider lean.  This module
+
+1. resamples it onto a uniform grid (:func:`resample`, :func:`ride_grid`) under
+   the ride's one gap policy (:data:`euc_sim.rides.grids.ride.GAP_POLICY`):
+   interpolating linearly across gaps up to ``bridge`` s and **splitting** the
+   ride into segments at longer gaps (never bridging them);
+2. smooths and differentiates with one Savitzky–Golay fit (:func:`sg`), the same
+   linear filter applied to every term of the balance equation (the
+   state-variable-filter idea of docs/identification.md);
+3. computes battery power P = V·I and infers the motor torque
+   (:func:`wheel_torque`), stating which method was used.
+
+The balance itself is fitted by :mod:`euc_sim.rides.balance.design` and
+:mod:`euc_sim.rides.balance.fit`.  Wheel radius and masses are unknown for real rides:
+:class:`RideAssumptions` takes Table 3's (R = 0.2 m, m + m0 + mw = 81 kg,
+m_eq = 84 kg), overridable.
+
+Window choice
+-------------
+WheelLog rows arrive at ~5 Hz (median interval 0.2 s, up to ~0.3 s, occasional
+1 s gaps).  The grid is 10 Hz so no sample is lost, and the default
+Savitzky–Golay fit is quadratic over 1.5 s (15 grid points, ~7 raw samples): by
+Schafer's rule its −3 dB frequency is ≈ (p+1)/(3.2·N − 4.6)·f_s ≈ 0.7 Hz, above
+the ~0.1–0.5 Hz of a rider's speed changes and well below the 2.5 Hz Nyquist
+frequency of the raw data, so interpolation artefacts and the 0.01 km/h speed
+quantisation are suppressed while accelerations are kept.  A longer window
+lowers noise but biases accelerations (docs/identification.md); filtering every term
+alike cancels most of that bias in the regression.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy.signal import savgol_filter
+
+from euc_sim.errors import InputError
+from euc_sim.model.parameters import TABLE3, Params
+from euc_sim.rides.grids.ride import GAP_POLICY, GapPolicy, Ride
+from euc_sim.rides.source.logs import RideLog, read_log
+
+__all__ = ["RideAssumptions", "RideSignals", "with_found_values", "as_log", "resample", "ride_grid", "sg", "window_samples",
+           "wheel_torque", "ride_signals", "break_at_gaps", "check_readings", "PLAUSIBLE_READING", "split_at_gaps"]
+
+
+# --------------------------------------------------------------------------------------
+# Assumptions
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RideAssumptions:
+    """What a ride log does not say, with Table 3 / CONTRACT defaults.
+
+    Attributes
+    ----------
+    R : float
+        Wheel radius, m (Table 3: 0.2).
+    total_mass : float
+        m + m0 + mw, kg: rider, EUC body and wheel (Table 3: 81); the normal load
+        is N = total_mass·g.
+    m_eq : float
+        Equivalent translating mass m + m0 + mw + Jw/R², kg (eq. 13; Table 3: 84).
+    g : float
+        m/s².
+    efficiency : float
+        Drivetrain efficiency η used only to *infer* torque from power
+        (:func:`wheel_torque`); the regression estimates its own.
+    torque_constant : float or None
+        Motor torque constant k_t, N·m/A; with a phase-current channel it gives
+        M = k_t·I_phase.  None: not known, torque comes from power.
+    v_min : float
+        Speeds below this, m/s, leave the torque undefined (P/ω blows up).
+    sources : tuple of (str, str)
+        Where ``R`` and ``total_mass`` (with ``m_eq``) came from, as
+        ``(("R", "spec ..."), ("total_mass", "found from this log"))``; a value
+        not listed is Table 3's default.
+    """
+
+    R: float = TABLE3.R
+    total_mass: float = TABLE3.total_mass
+    m_eq: float = TABLE3.m_eq
+    g: float = TABLE3.g
+    efficiency: float = 0.8
+    torque_constant: float | None = None
+    v_min: float = 0.5
+    sources: tuple = ()
+
+    def __post_init__(self) -> None:
+        for name in ("R", "total_mass", "m_eq", "g", "v_min"):
+            val = getattr(self, name)
+            if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+                raise InputError(f"RideAssumptions.{name} must be a positive number, got {val!r}")
+        if not (0 < self.efficiency <= 1):
+            raise InputError(f"RideAssumptions.efficiency must be in (0, 1], got {self.efficiency!r}")
+        if self.torque_constant is not None and not self.torque_constant > 0:
+            raise InputError(f"RideAssumptions.torque_constant must be positive, "
+                             f"got {self.torque_constant!r}")
+
+    @classmethod
+    def from_params(cls, p: Params, **kw) -> "RideAssumptions":
+        """R, total mass and m_eq from a :class:`~euc_sim.model.parameters.Params`."""
+        return cls(R=p.R, total_mass=p.total_mass, m_eq=p.m_eq, g=p.g, **kw)
+
+    def source_of(self, name: str) -> str:
+        """Where the value ``name`` ("R" or "total_mass") came from."""
+        return dict(self.sources).get(name, "default (Table 3)")
+
+    def as_dict(self) -> dict:
+        return {"R": self.R, "total_mass": self.total_mass, "m_eq": self.m_eq, "g": self.g,
+                "efficiency_for_torque": self.efficiency,
+                "torque_constant": self.torque_constant, "v_min": self.v_min,
+                "sources": {k: self.source_of(k) for k in ("R", "total_mass")},
+                "source": ("; ".join(f"{k}: {self.source_of(k)}" for k in ("R", "total_mass")))}
+
+
+# --------------------------------------------------------------------------------------
+# Resampling and filtering
+# --------------------------------------------------------------------------------------
+def as_log(log) -> RideLog:
+    """A :class:`RideLog` as it is, a :class:`~euc_sim.rides.grids.ride.Ride`'s log, or read from a path."""
+    if isinstance(log, RideLog):
+        return log
+    if isinstance(log, Ride):
+        return log.log
+    return read_log(log, emit_warnings=False)
+
+
+def ride_grid(log, policy: GapPolicy = GAP_POLICY) -> tuple[pd.DataFrame, list[str]]:
+    """:func:`resample` under ``policy``; kept on a :class:`~euc_sim.rides.grids.ride.Ride` (built once).
+
+    Every grid of a ride (the balance fit's, the mass and drivetrain's) is this one;
+    the frame returned must not be modified (a copy is the caller's to make).
+    """
+    if isinstance(log, Ride):
+        frame, notes = log.derived(("grid", policy), lambda: resample(log.log, policy.rate, policy.bridge))
+        return frame, list(notes)
+    return resample(log, policy.rate, policy.bridge)
+
+
+def resample(log, rate: float = GAP_POLICY.rate,
+             max_gap: float = GAP_POLICY.bridge) -> tuple[pd.DataFrame, list[str]]:
+    """Resample a log onto a uniform grid, split at gaps longer than ``max_gap``.
+
+    Parameters
+    ----------
+    log : RideLog or path
+    rate : float
+        Grid rate, Hz; grid points are multiples of 1/rate from the log's start.
+    max_gap : float
+        Longest interval between samples, s, bridged by linear interpolation.
+        Longer gaps end a segment; the next one starts after the gap.
+
+    Returns
+    -------
+    frame : pandas.DataFrame
+        Columns ``t`` (s), ``segment`` (int, 0-based) and every numeric channel
+        of the log linearly interpolated (channels with empty cells, e.g. GPS,
+        are interpolated between their finite samples; NaN where a segment has
+        fewer than two).
+    notes : list of str
+        One line per gap split.
+    """
+    if rate <= 0 or max_gap <= 0:
+        raise InputError(f"rate and max_gap must be positive, got rate={rate}, max_gap={max_gap}")
+    log = as_log(log)
+    d = log.data
+    t = d["t"].to_numpy(float)
+    if len(t) < 2:
+        raise InputError(f"{log.path}: need at least two samples to resample, got {len(t)}")
+    cuts = np.flatnonzero(np.diff(t) > max_gap)
+    bounds = np.split(np.arange(len(t)), cuts + 1)
+    notes = [f"gap of {t[i + 1] - t[i]:.2f} s at t = {t[i]:.2f} s (> max_gap {max_gap:g} s): "
+             f"ride split there, not bridged" for i in cuts]
+    chans = [c for c in d.columns if c != "t"]
+    parts = []
+    for k, idx in enumerate(bounds):
+        ts = t[idx]
+        grid = np.arange(math.ceil(ts[0] * rate - 1e-9), math.floor(ts[-1] * rate + 1e-9) + 1) / rate
+        if grid.size == 0:
+            continue
+        part = {"t": grid, "segment": np.full(grid.size, k)}
+        for c in chans:
+            y = d[c].to_numpy(float)[idx]
+            ok = np.isfinite(y)
+            part[c] = np.interp(grid, ts[ok], y[ok]) if ok.sum() >= 2 else np.full(grid.size, np.nan)
+        parts.append(pd.DataFrame(part))
+    frame = pd.concat(parts, ignore_index=True)
+    return frame, notes
+
+
+def sg(x: np.ndarray, segment: np.ndarray, rate: float, window: float = 1.5,
+       polyorder: int = 2, deriv: int = 0) -> np.ndarray:
+    """Savitzky–Golay smoothing or derivative, applied segment by segment.
+
+    Parameters
+    ----------
+    x : array_like
+        Signal on the uniform grid.
+    segment : array_like of int
+        Segment label of each sample; the filter never crosses a boundary.
+    rate : float
+        Grid rate, Hz.
+    window : float
+        Window length, s (rounded to an odd number of samples ≥ polyorder + 2).
+    polyorder : int
+        Degree of the local polynomial.
+    deriv : int
+        0 smooths, 1 gives d/dt (unit of x per s), from the same polynomial fit.
+
+    Returns
+    -------
+    numpy.ndarray
+        NaN in segments shorter than the window or holding a non-finite value.
+    """
+    x = np.asarray(x, float)
+    segment = np.asarray(segment)
+    n = window_samples(window, rate, polyorder)
+    out = np.full(x.shape, np.nan)
+    for s in np.unique(segment):
+        m = segment == s
+        if m.sum() < n or not np.isfinite(x[m]).all():    # e.g. a segment without GPS fix
+            continue
+        out[m] = savgol_filter(x[m], n, polyorder, deriv=deriv, delta=1.0 / rate, mode="interp")
+    return out
+
+
+def window_samples(window: float, rate: float, polyorder: int) -> int:
+    n = int(round(window * rate))
+    n = max(n, polyorder + 2)
+    return n + 1 if n % 2 == 0 else n
+
+
+def _interior(segment: np.ndarray, half: int) -> np.ndarray:
+    """True for samples at least ``half`` samples from their segment's ends."""
+    segment = np.asarray(segment)
+    keep = np.zeros(segment.shape, bool)
+    for s in np.unique(segment):
+        idx = np.flatnonzero(segment == s)
+        if idx.size > 2 * half:
+            keep[idx[half: idx.size - half]] = True
+    return keep
+
+
+# --------------------------------------------------------------------------------------
+# Torque
+# --------------------------------------------------------------------------------------
+def wheel_torque(v: np.ndarray, power: np.ndarray, assumptions: RideAssumptions = RideAssumptions(),
+                 phase_current: np.ndarray | None = None) -> tuple[np.ndarray, str]:
+    """Motor torque on the wheel, N·m, and how it was obtained.
+
+    With a phase-current channel *and* a known torque constant:
+    ``M = k_t·I_phase`` (method ``"phase_current"``).  Otherwise from battery power
+    over wheel angular speed ω = v/R with the assumed efficiency η:
+    ``M = η·P/ω`` when motoring (P·v > 0 … P > 0) and ``M = P/(η·ω)`` when
+    regenerating (P < 0); undefined (NaN) where |v| < ``v_min``
+    (method ``"power_efficiency"``).
+
+    Parameters
+    ----------
+    v : array_like
+        Wheel speed, m/s.
+    power : array_like
+        Battery power, W (positive drawn from the battery).
+    assumptions : RideAssumptions
+    phase_current : array_like, optional
+        Motor phase current, A.
+
+    Returns
+    -------
+    M : numpy.ndarray
+        N·m.
+    method : str
+        ``"phase_current"`` or ``"power_efficiency"``.
+    """
+    v = np.asarray(v, float)
+    if phase_current is not None and assumptions.torque_constant is not None:
+        return assumptions.torque_constant * np.asarray(phase_current, float), "phase_current"
+    P = np.asarray(power, float)
+    eta = assumptions.efficiency
+    with np.errstate(divide="ignore", invalid="ignore"):
+        omega = v / assumptions.R
+        mech = np.where(P >= 0, eta * P, P / eta)
+        M = np.where(np.abs(v) >= assumptions.v_min, mech / omega, np.nan)
+    return M, "power_efficiency"
+
+
+# --------------------------------------------------------------------------------------
+# Signals
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class RideSignals:
+    """A ride on a uniform grid, raw and consistently smoothed.
+
+    Attributes
+    ----------
+    path : str
+    raw : pandas.DataFrame
+        Resampled, unfiltered: ``t, segment, v, P`` (battery power, W) and the
+        log's other channels.
+    frame : pandas.DataFrame
+        ``t`` s, ``segment``, ``interior`` (bool: far enough from a segment end
+        for the filter to be centred), ``v`` m/s, ``a`` m/s², ``P`` W (all
+        smoothed by the same Savitzky–Golay fit), ``M`` N·m (inferred torque).
+    rate, window : float
+        Hz, s.
+    polyorder : int
+    power_source : str
+        ``"voltage*current"`` or ``"power column"``.
+    torque_method : str
+        See :func:`wheel_torque`.
+    assumptions : RideAssumptions
+    notes : tuple of str
+        Reader warnings and resampling notes.
+    """
+
+    path: str
+    raw: pd.DataFrame
+    frame: pd.DataFrame
+    rate: float
+    window: float
+    polyorder: int
+    power_source: str
+    torque_method: str
+    assumptions: RideAssumptions
+    notes: tuple[str, ...]
+    has_gps_alt: bool = False
+
+    def filt(self, x, deriv: int = 0) -> np.ndarray:
+        """The signals' Savitzky–Golay filter applied to another grid signal."""
+        return sg(x, self.raw["segment"].to_numpy(), self.rate, self.window, self.polyorder, deriv)
+
+
+#: Largest magnitude of a plausible reading, by channel of :class:`RideLog` (SI unit):
+#: beyond it a value is a logging fault (or an overflow), not a measurement.
+PLAUSIBLE_READING: dict[str, tuple[float, str]] = {
+    "v": (100.0, "m/s"), "voltage": (1000.0, "V"), "current": (1000.0, "A"),
+    "power": (1e6, "W"), "phase_current": (1e4, "A"), "gps_alt": (1e5, "m"),
+}
+
+
+def check_readings(log: RideLog) -> None:
+    """Raise ``InputError`` naming the file, channel and time of an impossible reading.
+
+    Infinite values and magnitudes beyond :data:`PLAUSIBLE_READING` are refused
+    (empty cells, NaN, stay: they are interpolated over or left out), and so is a
+    speed that disagrees with the log's own odometer (:func:`odometer_scale`).
+    """
+    t = log.data["t"].to_numpy(float)
+    for ch, (limit, unit) in PLAUSIBLE_READING.items():
+        if ch not in log.data:
+            continue
+        x = log.data[ch].to_numpy(float)
+        with np.errstate(invalid="ignore"):
+            bad = np.flatnonzero(np.isinf(x) | (np.abs(x) > limit))
+        if bad.size:
+            i = bad[0]
+            name = "speed" if ch == "v" else ch
+            raise InputError(f"{log.path}: {name} = {x[i]:.3g} {unit} at t = {t[i]:.1f} s from the "
+                             f"start ({bad.size} such row(s)): beyond ±{limit:g} {unit}, not a "
+                             f"plausible reading")
+    _check_speed_units(log)
+
+
+#: Least odometer distance over which the speed's units are checked, m (odometers count whole m).
+MIN_ODOMETER = 200.0
+
+
+def odometer_scale(log: RideLog) -> float | None:
+    """∫|v| dt over the distance the wheel's odometer counted, on the same rows; None without one.
+
+    A log whose speed is in the units the reader assumed gives about 1 (0.97–1.0 on
+    the logs in ``/work/shared/data``); one in mph read as km/h gives 0.62.  Rows
+    across a gap over 2 s, or where the odometer jumps or resets, are left out.
+    """
+    d = log.data
+    col = next((c for c in ("total_distance", "distance") if c in d), None)
+    if col is None or "v" not in d:
+        return None
+    t, v, x = (d[c].to_numpy(float) for c in ("t", "v", col))
+    dt, dx = np.diff(t), np.diff(x)
+    with np.errstate(invalid="ignore"):
+        ok = (dt > 0) & (dt < 2.0) & np.isfinite(v[1:] + v[:-1] + dx) & (dx >= 0) & (dx < 100.0 * dt + 1.0)
+    travelled = float(np.sum(dx[ok]))
+    if travelled < MIN_ODOMETER:
+        return None
+    return float(np.sum(0.5 * (np.abs(v[1:]) + np.abs(v[:-1]))[ok] * dt[ok])) / travelled
+
+
+def _check_speed_units(log: RideLog) -> None:
+    """Refuse a log whose speed disagrees with its own odometer (mph read as km/h: 0.62)."""
+    from euc_sim.rides.source.sanity import SPEED_SCALE_RANGE
+
+    scale = odometer_scale(log)
+    if scale is not None and not SPEED_SCALE_RANGE[0] <= scale <= SPEED_SCALE_RANGE[1]:
+        raise InputError(f"{log.path}: column 'speed': the speed integrates to {scale:.2f} × the "
+                         f"distance the wheel's odometer counted (mph read as km/h gives 0.62): the "
+                         f"speed is in other units or the distance is; convert the log to the app's units")
+
+
+def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
+                 max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2) -> RideSignals:
+    """Resample, smooth and differentiate a ride; battery power and inferred torque.
+
+    Parameters
+    ----------
+    log : Ride, RideLog or path
+        A :class:`~euc_sim.rides.grids.ride.Ride` keeps the grid and the filtered signals
+        (built once; only the torque, which depends on ``assumptions``, is redone).
+    assumptions : RideAssumptions
+    rate : float
+        Grid rate, Hz (the gap policy's).
+    max_gap : float
+        Longest gap bridged, s (the gap policy's ``bridge``; see :func:`resample`).
+    window : float
+        Savitzky–Golay window, s (module docstring: why 1.5 s for ~5 Hz logs).
+    polyorder : int
+
+    Returns
+    -------
+    RideSignals
+
+    Raises
+    ------
+    ValueError
+        when the log has neither voltage and current nor a power column, or no
+        segment is as long as the filter window.
+    """
+    key = ("balance", rate, max_gap, window, polyorder)
+    build = lambda: _balance_grid(log, rate, max_gap, window, polyorder)   # noqa: E731
+    g = log.derived(key, build) if isinstance(log, Ride) else build()
+    M, method = wheel_torque(g.frame["v"].to_numpy(), g.frame["P"].to_numpy(), assumptions, g.phase)
+    notes = list(g.notes)
+    if "phase_current" in g.raw and assumptions.torque_constant is None:
+        notes.append("phase current present but no torque constant given: torque inferred "
+                     "from power with the assumed efficiency")
+    return RideSignals(path=g.path, raw=g.raw, frame=g.frame.assign(M=M), rate=rate, window=window,
+                       polyorder=polyorder, power_source=g.source, torque_method=method,
+                       assumptions=assumptions, notes=tuple(notes), has_gps_alt=g.has_gps_alt)
+
+
+@dataclass(frozen=True)
+class _BalanceGrid:
+    """The balance fit's grid and filtered signals: :class:`RideSignals` less the torque."""
+
+    path: str
+    raw: pd.DataFrame
+    frame: pd.DataFrame
+    source: str
+    phase: np.ndarray | None
+    notes: tuple
+    has_gps_alt: bool
+
+
+def _balance_grid(log, rate: float, max_gap: float, window: float, polyorder: int) -> _BalanceGrid:
+    """The balance fit's filtered grid, everything of :func:`ride_signals` but the torque."""
+    grid_of = log if isinstance(log, Ride) else as_log(log)
+    log = as_log(log)
+    check_readings(log)
+    raw, notes = ride_grid(grid_of, GapPolicy(bridge=max_gap, rate=rate))
+    if log.has("voltage") and log.has("current"):
+        P = raw["voltage"].to_numpy() * raw["current"].to_numpy()
+        source = "voltage*current"
+    elif log.has("power"):
+        P = raw["power"].to_numpy()
+        source = "power column"
+    else:
+        lacking = [c for c in ("voltage", "current") if not log.has(c)]
+        raise InputError(f"{log.path}: column {' and '.join(map(repr, lacking))}: absent, empty "
+                         f"or all zero, and no 'power' column: battery power is needed")
+    raw = raw.assign(P=P)
+    n = window_samples(window, rate, polyorder)
+    seg = raw["segment"].to_numpy()
+    sizes = pd.Series(seg).value_counts()
+    short = sizes[sizes < n]
+    for s, size in short.items():
+        notes.append(f"segment {s} has {size} samples, fewer than the {n}-sample filter "
+                     f"window: left out")
+    if len(short) == len(sizes):
+        raise InputError(f"{log.path}: no stretch of the ride is as long as the {window:g} s "
+                         f"filter window")
+    f = lambda x, d=0: sg(x, seg, rate, window, polyorder, d)  # noqa: E731
+    v = f(raw["v"].to_numpy())
+    frame = pd.DataFrame({"t": raw["t"], "segment": seg,
+                          "interior": _interior(seg, n // 2) & np.isfinite(v),
+                          "v": v, "a": f(raw["v"].to_numpy(), 1), "P": f(P)})
+    return _BalanceGrid(path=log.path, raw=raw, frame=frame, source=source,
+                        phase=f(raw["phase_current"].to_numpy()) if "phase_current" in raw else None,
+                        notes=tuple(log.warnings) + tuple(notes),
+                        has_gps_alt="gps_alt" in raw and np.isfinite(raw["gps_alt"]).mean() > 0.5)
+
+
+def break_at_gaps(t: np.ndarray, *ys: np.ndarray):
+    """Insert NaN where rows are missing so a line plot does not bridge them."""
+    t = np.asarray(t, float)
+    if t.size < 2:
+        return (t,) + tuple(np.asarray(y, float) for y in ys)
+    step = np.median(np.diff(t))
+    cut = np.flatnonzero(np.diff(t) > 1.5 * step) + 1
+    out = [np.insert(t, cut, np.nan)]
+    out += [np.insert(np.asarray(y, float), cut, np.nan) for y in ys]
+    return tuple(out)
+
+
+def with_found_values(assumptions, spec, total_mass: dict):
+    """The balance fit's assumptions with the spec's radius and the mass this log gives.
+
+    A value given on the command line stays; otherwise the radius comes from the
+    spec and the total mass (with m_eq, eq. 6) from ``total_mass`` (the ride
+    JSON's object, found from the log), and only what neither gives keeps Table
+    3's default.  ``sources`` says which is which.
+
+    Parameters
+    ----------
+    assumptions : RideAssumptions
+    spec : WheelSpec or None
+    total_mass : dict
+        The ride JSON's ``total_mass`` (``estimate`` None when not identified).
+
+    Returns
+    -------
+    RideAssumptions
+        A new object.
+    """
+    import dataclasses
+
+    src = dict(assumptions.sources)
+    new = {}
+    if "R" not in src and spec is not None and spec.radius is not None:
+        new["R"] = spec.radius
+        src["R"] = f"spec ({spec.name or 'wheel'}: wheel diameter)"
+    m = (total_mass or {}).get("estimate")
+    if "total_mass" not in src and m is not None and m > 0:
+        eq = (total_mass.get("equivalent_mass") or {}).get("estimate")
+        new["total_mass"], new["m_eq"] = m, (eq if eq is not None else m)
+        src["total_mass"] = "found from this log's energy balance (total_mass)"
+    return dataclasses.replace(assumptions, sources=tuple(src.items()), **new)
+
+
+def split_at_gaps(windows, t: np.ndarray, min_len: float = 0.0) -> list[list[float]]:
+    """Cut windows where the rows they span have a gap, so none claims time without data.
+
+    Parameters
+    ----------
+    windows : sequence of [t0, t1]
+        s.
+    t : array_like
+        Times of the rows, s, increasing; a gap is a step over 1.5 × the median step.
+    min_len : float
+        Pieces shorter than this, s, are dropped.
+
+    Returns
+    -------
+    list of [t0, t1]
+        s, each inside one gap-free run of rows.
+    """
+    t = np.asarray(t, float)
+    if t.size < 2:
+        return [list(map(float, w)) for w in windows]
+    step = float(np.median(np.diff(t)))
+    cut = np.flatnonzero(np.diff(t) > 1.5 * step)
+    starts = np.concatenate([[t[0]], t[cut + 1]])
+    ends = np.concatenate([t[cut], [t[-1]]])
+    out = []
+    for a, b in windows:
+        for s0, s1 in zip(starts, ends):
+            lo, hi = max(a, s0), min(b, s1)
+            if hi > lo and hi - lo >= min_len:
+                out.append([float(lo), float(hi)])
+    return out

@@ -1,0 +1,116 @@
+"""The ride JSON's ``controller`` object and its section of the ride page.
+
+:func:`controller_json` reads the wheel's balance law from LOG
+(:mod:`euc_sim.rides.law.controller_law`), with the torque constant the drivetrain fit
+identified (K_t = K_e, the back-EMF constant, N·m/A), and with a compare ride
+predicts that ride's phase current (or torque) from its pitch: the CONTRACT's
+``heldout``.  Where the log cannot show the law the object is
+``{"law": null, "why": ...}``.
+"""
+
+from __future__ import annotations
+
+
+import numpy as np
+
+from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
+from euc_sim.rides.grids.ride import ride_name
+from euc_sim.rides.grids.signals import as_log
+from euc_sim.rides.law.controller_law import Law, fit_law, predict, r2
+
+__all__ = ["torque_constant", "controller_json", "page_lines", "PAPER_PD"]
+
+#: The paper's nominal motor law, N·m/rad and N·m·s/rad (controllers.motor.MotorPD's defaults).
+PAPER_PD = {"K_p": 600.0, "K_d": 40.0}
+
+
+def torque_constant(drivetrain_json: dict | None) -> float | None:
+    """K_t, N·m/A: the back-EMF constant (V·s/rad) the drivetrain fit identified, or None."""
+    term = (drivetrain_json or {}).get("back_emf_constant") or {}
+    k = term.get("estimate")
+    return float(k) if isinstance(k, (int, float)) and k > 0 else None
+
+
+def _describe(law: Law) -> str:
+    kp, kd = law.terms["K_p"][0], law.terms["K_d"][0]
+    u = law.unit
+    extra = [n.replace("_", " ") for n in law.names[3:]]
+    text = (f"PD on the pitch, K_p = {kp:,.0f} {u}/rad, K_d = {kd:,.0f} {u}·s/rad"
+            + (f", with {', '.join(extra)}" if extra else ", nothing catalogued added"))
+    if u == "N·m":
+        text += (f" (the paper's PD: {PAPER_PD['K_p']:g} and {PAPER_PD['K_d']:g}; "
+                 f"K_p {kp / PAPER_PD['K_p']:.1f} times the paper's)")
+    return text
+
+
+def controller_json(log_path, compare_path=None, k_t: float | None = None,
+                    n_boot: int = 100, seed: int = 0) -> dict:
+    """CONTRACT's ``controller`` object for LOG (and its prediction of COMPARE).
+
+    Parameters
+    ----------
+    log_path, compare_path : path
+        Ride logs of one wheel; the law is fitted on ``log_path``.
+    k_t : float, optional
+        Torque constant, N·m/A (:func:`torque_constant`); without it the law is
+        in A of phase current.
+    n_boot, seed : int
+        Block-bootstrap replicates and seed.
+
+    Returns
+    -------
+    dict
+        ``law`` (str), ``terms`` [{name, estimate, ci95, unit}] (``torque_limit`` also
+        ``largest_measured``: the largest |torque| of the fitted rows), ``sign``,
+        ``heldout`` {r2, channel, ride}, ``within_ride``, ``selection``; or
+        ``{"law": None, "why": str}``.
+    """
+    try:
+        rows = law_rows(as_log(log_path), k_t)
+        law = fit_law(rows, n_boot=n_boot, seed=seed)
+    except LawUnavailable as exc:
+        return {"law": None, "why": f"{ride_name(log_path)}: {exc}"}
+    out = {"law": _describe(law),
+           "terms": [{"name": k, "estimate": v, "ci95": list(ci) if ci else None, "unit": u}
+                     for k, (v, ci, u) in law.terms.items()],
+           "sign": law.sign, "sign_share": law.sign_share,
+           "torque_constant": k_t, "channel": law.channel,
+           "within_ride": {"r2": law.heldout_r2, "nominal_r2": law.nominal_r2,
+                           "without_pitch_r2": law.blind_r2, "rmse": law.heldout_rmse,
+                           "unit": law.unit},
+           "selection": law.history,
+           "heldout": {"r2": law.heldout_r2, "channel": law.channel,
+                       "ride": ride_name(log_path) + " (blocked, within the ride)"}}
+    for term in out["terms"]:
+        if term["name"] == "torque_limit":      # the fit's clip is a least-squares level, not a bound:
+            term["largest_measured"] = float(np.max(np.abs(rows.y)))   # the wheel gave this much
+    if compare_path is not None:
+        try:
+            other = law_rows(as_log(compare_path), k_t)
+        except LawUnavailable as exc:
+            out["heldout"]["compare_why"] = f"{ride_name(compare_path)}: {exc}"
+        else:
+            if other.channel == law.channel:
+                out["heldout"] = {"r2": r2(other.y, predict(other, law.fit)), "channel": law.channel,
+                                  "ride": ride_name(compare_path)}
+    return out
+
+
+def page_lines(ctrl: dict | None) -> list[str]:
+    """The ride page's section on the wheel's balance law (markdown lines)."""
+    md = ["## The wheel's balance law", ""]
+    if not ctrl or ctrl.get("law") is None:
+        md += [f"Not read from this log: {(ctrl or {}).get('why', 'not computed')}.", ""]
+        return md
+    md += [f"{ctrl['law']}. Logged pitch sign {ctrl['sign']:+d} (forward lean "
+           f"{'raises' if ctrl['sign'] > 0 else 'lowers'} the logged tilt).", "",
+           "| term | estimate | 95 % | unit |", "|---|---|---|---|"]
+    for t in ctrl["terms"]:
+        ci = t["ci95"]
+        md.append(f"| {t['name']} | {t['estimate']:.4g} | "
+                  + (f"{ci[0]:.4g} – {ci[1]:.4g}" if ci else "–") + f" | {t['unit']} |")
+    h, w = ctrl["heldout"], ctrl["within_ride"]
+    md += ["", f"Held-out R² of the {h['channel']} predicted from the pitch: **{h['r2']:.3f}** "
+               f"({h['ride']}); within the fitted ride {w['r2']:.3f} (PD alone {w['nominal_r2']:.3f}, "
+               f"speed and acceleration without the pitch {w['without_pitch_r2']:.3f}).", ""]
+    return md

@@ -1,0 +1,319 @@
+"""Many rides of one wheel: the battery's resistance over time, consumption against speed.
+
+:func:`ride_entry` reads one log into a :class:`RideEntry` (its summary and its
+battery resistance, the same numbers ``euc-sim ride`` reports);
+:func:`ride_history` joins the entries of one wheel into a :class:`RideHistory`
+with
+
+- a change test (:func:`change_test`): is the latest ride's resistance different
+  from the earlier ones?  The ride-to-ride spread (charge, temperature, load) is
+  larger than one ride's bootstrap interval, so the latest ride is compared with
+  the earlier rides' prediction interval for a new ride (Student's t);
+- the slope of Wh/km against the mean moving speed (least squares, t interval).
+
+Resistances are compared at 25 °C where every ride logs the battery temperature,
+else as measured (said in ``basis``).
+"""
+
+from __future__ import annotations
+
+from euc_sim.errors import InputError
+
+import math
+import warnings
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+__all__ = ["RideEntry", "ChangeTest", "RideHistory", "WheelMismatch", "ride_entry",
+           "change_test", "ride_history", "series_cells", "SERIES_COUNTS"]
+
+#: Cells in series of common EUC packs (67.2 V to 176.4 V full).
+SERIES_COUNTS = (16, 20, 24, 30, 32, 36, 40, 42)
+
+
+class WheelMismatch(InputError):
+    """Logs that are not of one wheel; the message names the file."""
+
+
+@dataclass(frozen=True)
+class RideEntry:
+    """One ride of the history.
+
+    Attributes
+    ----------
+    path : str
+    start : str
+        ISO wall-clock time of the log's first sample.
+    layout : str
+    summary : dict
+        :meth:`euc_sim.rides.report.summary.RideSummary.to_json`.
+    battery : dict
+        :meth:`euc_sim.rides.drive.battery.BatteryHealth.to_json`.
+    model : str or None
+        The wheel's model and serial where the app wrote them (EUC World ``extra``).
+    series : tuple of int
+        Cell counts in series the ride's voltages allow (:func:`series_cells`).
+    temperature_C : float or None
+        Battery temperature where logged, else the median controller temperature.
+    temperature_source : str or None
+    """
+
+    path: str
+    start: str
+    layout: str
+    summary: dict
+    battery: dict
+    model: str | None
+    series: tuple
+    temperature_C: float | None
+    temperature_source: str | None
+
+    def to_json(self) -> dict:
+        """A JSON-ready dict."""
+        out = asdict(self)
+        out["series"] = list(self.series)
+        return out
+
+
+@dataclass(frozen=True)
+class ChangeTest:
+    """Latest ride against the earlier ones (Ω).
+
+    Attributes
+    ----------
+    latest, latest_se : float
+        The latest ride's resistance and its standard error.
+    earlier_mean, earlier_se, between_ride_sd : float
+        The earlier rides' pooled resistance, its standard error and the ride-to-ride spread.
+    difference, difference_ci95 : float, tuple
+        Latest minus the prediction for a new ride, with a 95 % interval.
+    z, p_value : float
+        The test statistic (t, or z with one earlier ride) and its two-sided p-value.
+    verdict : str
+        ``"changed"`` (p < 0.05) or ``"no change shown"``.
+    n_earlier : int
+    note : str
+    """
+
+    latest: float
+    latest_se: float
+    earlier_mean: float
+    earlier_se: float
+    between_ride_sd: float
+    difference: float
+    difference_ci95: tuple
+    z: float
+    p_value: float
+    verdict: str
+    n_earlier: int
+    note: str = ""
+
+    def to_json(self) -> dict:
+        """A JSON-ready dict."""
+        out = asdict(self)
+        out["difference_ci95"] = list(self.difference_ci95)
+        return out
+
+
+@dataclass(frozen=True)
+class RideHistory:
+    """The ``euc-sim rides`` result (SI units).
+
+    Attributes
+    ----------
+    rides : tuple of RideEntry
+        In time order.
+    basis : str
+        ``"25C"`` or ``"as measured"``: which resistance the change test compares.
+    change : ChangeTest or None
+        None with fewer than two rides with a resistance (``why`` says so).
+    whkm_slope, whkm_slope_ci95 : float or None
+        Wh/km per (m/s) of mean moving speed, least squares over the rides.
+    why : dict
+    """
+
+    rides: tuple
+    basis: str
+    change: ChangeTest | None
+    whkm_slope: float | None
+    whkm_slope_ci95: tuple | None
+    why: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        """A JSON-ready dict."""
+        return {"rides": [r.to_json() for r in self.rides], "basis": self.basis,
+                "change": self.change.to_json() if self.change else None,
+                "Wh_per_km_vs_speed": {"slope": self.whkm_slope,
+                                       "ci95": list(self.whkm_slope_ci95) if self.whkm_slope_ci95 else None,
+                                       "unit": "Wh/km per m/s"},
+                "why": dict(self.why)}
+
+
+# --------------------------------------------------------------------------------------
+def series_cells(v_max: float, v_min: float) -> tuple[int, ...]:
+    """Cell counts in series consistent with the ride's voltages (3.0-4.25 V a cell)."""
+    return tuple(n for n in SERIES_COUNTS if 3.0 * n <= v_min and v_max <= 4.25 * n)
+
+
+def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
+    """Read one log: its summary and its battery resistance (the drivetrain's ``fit_battery``).
+
+    Raises
+    ------
+    LogFormatError, RideDataError, FileNotFoundError
+        (``ValueError`` / ``OSError``) for a log that cannot be read; the message names the file.
+    """
+    from euc_sim.rides.drive.battery import battery_health, measure_resistance
+    from euc_sim.rides.report.summary import read_counters, ride_summary
+    from euc_sim.rides.source.logs import read_log
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        log = read_log(path, emit_warnings=False)
+        counters = read_counters(path, log)
+        summary = ride_summary(log, counters)
+        try:
+            r, ci = measure_resistance(log, n_boot, seed)
+            why = None
+        except ValueError as exc:
+            r, ci, why = None, None, str(exc)
+    temp, tsrc = counters.battery_temp_C, "battery"
+    if temp is None and "temperature" in log.data:
+        temp, tsrc = float(np.nanmedian(log.data["temperature"])), "controller"
+    elif temp is None:
+        tsrc = None
+    bh = battery_health(r, ci, counters.battery_temp_C, pack, counters.battery_circuit_ohm, why)
+    volt = log.data["voltage"].to_numpy(float) if "voltage" in log.data else np.array([np.nan])
+    vf = volt[np.isfinite(volt) & (volt > 0)]
+    series = series_cells(float(vf.max()), float(np.quantile(vf, 0.01))) if vf.size else ()
+    return RideEntry(path=str(path), start=log.start.isoformat(), layout=log.layout,
+                     summary=summary.to_json(), battery=bh.to_json(), model=_model(path),
+                     series=series, temperature_C=temp, temperature_source=tsrc)
+
+
+def _model(path) -> str | None:
+    """``euc.model`` and ``euc.serial`` from EUC World's ``extra`` notes, where present."""
+    import pandas as pd
+
+    try:
+        raw = pd.read_csv(path, dtype=str, keep_default_na=False, usecols=["extra"])
+    except (ValueError, OSError):
+        return None
+    notes = dict(x.split("=", 1) for x in raw["extra"] if isinstance(x, str) and "=" in x)
+    model = notes.get("euc.model")
+    return f"{model} {notes.get('euc.serial', '')}".strip() if model else None
+
+
+def check_one_wheel(entries) -> None:
+    """Raise :class:`WheelMismatch` naming the first log whose wheel differs from the first's."""
+    first = entries[0]
+    allowed = set(first.series)
+    for e in entries[1:]:
+        if first.model and e.model and e.model != first.model:
+            raise WheelMismatch(f"{e.path}: a different wheel ({e.model}) from {first.path} "
+                                f"({first.model}); give the logs of one wheel")
+        allowed &= set(e.series)
+        if first.series and e.series and not allowed:
+            raise WheelMismatch(f"{e.path}: its battery voltage ({'/'.join(map(str, e.series))} cells "
+                                f"in series) does not fit {first.path}'s; give the logs of one wheel")
+
+
+def _se(ci) -> float:
+    """Standard error from a 95 % interval (half-width / 1.96)."""
+    return max((ci[1] - ci[0]) / (2 * 1.959964), 1e-12)
+
+
+def change_test(values, cis) -> ChangeTest:
+    """Is the last value different from the earlier ones?
+
+    Parameters
+    ----------
+    values : sequence of float
+        Per-ride resistances, Ω, in time order (at least two).
+    cis : sequence of (lo, hi)
+        Their 95 % intervals.
+
+    Returns
+    -------
+    ChangeTest
+        A prediction test: with k ≥ 2 earlier rides of mean x̄ and sample variance s²
+        (which holds the ride-to-ride spread and each ride's own error),
+        t = (R_last − x̄) / √(s²·(1 + 1/k) + max(0, se_last² − mean se²)), Student's t with
+        k − 1 degrees of freedom, two-sided.  With one earlier ride the spread is
+        unknown: a z test on the two rides' own errors (liberal, said in ``note``).
+    """
+    from scipy.stats import norm
+    from scipy.stats import t as student
+
+    x = np.asarray(values, float)
+    se = np.array([_se(c) for c in cis])
+    xe, se_e = x[:-1], se[:-1]
+    k = xe.size
+    mu = float(xe.mean())
+    own = float(np.mean(se_e ** 2))
+    if k >= 2:
+        s2 = max(float(np.var(xe, ddof=1)), own)
+        sd = math.sqrt(s2 * (1 + 1 / k) + max(0.0, se[-1] ** 2 - own))
+        dist, note, se_mu, tau = student(k - 1), "", math.sqrt(s2 / k), math.sqrt(max(0.0, s2 - own))
+    else:
+        sd = math.sqrt(se[-1] ** 2 + own)
+        dist, se_mu, tau = norm(), math.sqrt(own), 0.0
+        note = "one earlier ride: the ride-to-ride spread is unknown and left out (the test is liberal)"
+    diff = float(x[-1] - mu)
+    stat = diff / sd
+    p = float(2 * dist.sf(abs(stat)))
+    h = float(dist.ppf(0.975)) * sd
+    return ChangeTest(latest=float(x[-1]), latest_se=float(se[-1]), earlier_mean=mu, earlier_se=se_mu,
+                      between_ride_sd=tau, difference=diff, difference_ci95=(diff - h, diff + h),
+                      z=float(stat), p_value=p, verdict="changed" if p < 0.05 else "no change shown",
+                      n_earlier=int(k), note=note)
+
+
+def _slope(x, y) -> tuple[float | None, tuple | None]:
+    """Least-squares slope of y on x with its 95 % t interval (None under three points)."""
+    from scipy.stats import t as student
+
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    ok = np.isfinite(x) & np.isfinite(y)
+    x, y = x[ok], y[ok]
+    if x.size < 3 or np.ptp(x) <= 0:
+        return None, None
+    X = np.column_stack([np.ones_like(x), x])
+    beta, res, *_ = np.linalg.lstsq(X, y, rcond=None)
+    dof = x.size - 2
+    s2 = float(np.sum((y - X @ beta) ** 2) / dof) if dof > 0 else float("nan")
+    se = math.sqrt(s2 / np.sum((x - x.mean()) ** 2)) if dof > 0 else float("nan")
+    if not math.isfinite(se):
+        return float(beta[1]), None
+    h = float(student.ppf(0.975, dof)) * se
+    return float(beta[1]), (float(beta[1] - h), float(beta[1] + h))
+
+
+def ride_history(entries) -> RideHistory:
+    """The history of one wheel's rides (entries from :func:`ride_entry`, any order).
+
+    Raises
+    ------
+    WheelMismatch
+        when the logs are not of one wheel.
+    """
+    rides = tuple(sorted(entries, key=lambda e: e.start))
+    check_one_wheel(rides)
+    why = {}
+    with_r = [e for e in rides if e.battery["resistance_ohm"] is not None and e.battery["resistance_ci95"]]
+    all25 = bool(with_r) and all(e.battery["resistance_25C_ohm"] is not None for e in with_r)
+    key, ci_key = (("resistance_25C_ohm", "resistance_25C_ci95") if all25
+                   else ("resistance_ohm", "resistance_ci95"))
+    change = None
+    if len(with_r) >= 2:
+        change = change_test([e.battery[key] for e in with_r], [e.battery[ci_key] for e in with_r])
+    else:
+        why["change"] = f"{len(with_r)} ride(s) with a measured resistance: a change test needs two"
+    sp = [e.summary["speed_mean_moving_mps"] for e in rides]
+    wk = [e.summary["Wh_per_km"] for e in rides]
+    slope, sci = _slope([np.nan if s is None else s for s in sp], [np.nan if w is None else w for w in wk])
+    if slope is None:
+        why["Wh_per_km_vs_speed"] = "fewer than three rides with a consumption and a speed"
+    return RideHistory(rides=rides, basis="25C" if all25 else "as measured", change=change,
+                       whkm_slope=slope, whkm_slope_ci95=sci, why=why)

@@ -1,0 +1,1 @@
+"""One ride as its reader sees it: summary, rider view, drivetrain report, residual and HTML page."""

@@ -1,0 +1,202 @@
+"""What differs between two rides, in a rider's words: the ``--compare`` page's first block.
+
+Read from the ride JSON's ``differences`` (OTHER minus LOG per parameter: ``name``,
+``estimate``, ``ci95``, ``unit``, ``named``, ``aliases``) and ``differences_sentence``
+(which names LOG's day); nothing is computed here but people's units: drag as a drag
+area (m², k = ½ρC_dA), rolling resistance as a share of the weight (%), battery
+resistance in mΩ, the speed scale in %, mass in kg, a delay in s.  Each named
+difference comes with its 95 % interval and what the pair cannot tell it from; with
+nothing named, one sentence says so and what the pair could have seen (each
+interval's half-width: a difference smaller than that leaves zero inside it).
+
+Given LOG's path, where both logs sit beside an euc_core ``meta.csv`` (rider weight,
+tyre pressure, temperature, wind), the recorded values are said beside the
+difference they bear on (the JSON keeps file names only: the HTML page, which has
+LOG's analysis, says them; index.md, written from the JSON, does not).
+"""
+
+from __future__ import annotations
+
+import csv
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Mapping
+
+from euc_sim.rides.grids.power import RHO_AIR
+
+__all__ = ["Shown", "SHOWN", "TITLE", "difference_lines", "difference_section", "recorded_metadata"]
+
+#: The block's heading, on the page and in index.md.
+TITLE = "What differs in the compared ride"
+
+
+@dataclass(frozen=True)
+class Shown:
+    """How one parameter's difference is said.
+
+    Attributes
+    ----------
+    label : str
+        The physics in a rider's words ("drag area").
+    scale : callable
+        The JSON's unit to the page's.
+    unit : str
+        The page's unit (with its leading space, or ``""``).
+    fmt : str
+        Format of a magnitude in the page's unit.
+    more, less : str
+        The sentence's words after the number, OTHER above or below LOG.
+    hint, hint_less : str
+        Why a rider would see it, OTHER above or below LOG.
+    meta : str or None
+        The ``meta.csv`` column bearing on it.
+    """
+
+    label: str
+    scale: Callable[[float], float]
+    unit: str
+    fmt: str
+    more: str
+    less: str
+    hint: str
+    hint_less: str
+    meta: str | None = None
+
+
+#: Each physics a difference is said for, in the order the page says them.
+SHOWN = {
+    "total_mass": Shown("mass", lambda x: x, " kg", "{:.0f}", "more mass", "less mass",
+                        "a backpack? a passenger?", "a lighter load?", "rider_weight"),
+    "aerodynamic_drag": Shown("drag area", lambda k: k / (0.5 * RHO_AIR), " m²", "{:.2f}",
+                              "more drag area", "less drag area", "a jacket? a headwind?",
+                              "tighter clothes? a tailwind?", "wind"),
+    "rolling_resistance": Shown("rolling resistance", lambda c: 100.0 * c, " % of the weight", "{:.1f}",
+                                "more rolling resistance", "less rolling resistance",
+                                "a softer tyre? a rougher road?", "a harder tyre? a smoother road?",
+                                "tire_pressure"),
+    "internal_resistance": Shown("battery resistance", lambda r: 1000.0 * r, " mΩ", "{:.0f}",
+                                 "more battery resistance", "less battery resistance",
+                                 "a colder or older pack?", "a warmer pack?", "temperature"),
+    "speed_scale": Shown("tyre size (speed scale)", lambda s: 100.0 * s, " %", "{:.1f}",
+                         "more ground per logged metre", "less ground per logged metre",
+                         "a tyre size set differently in the app? a worn tyre?",
+                         "a tyre size set differently in the app? a softer tyre?", "tire_pressure"),
+    "current_delay": Shown("current delay", lambda s: s, " s", "{:.1f}",
+                           "more delay on the current channel", "less delay on the current channel",
+                           "a different app or logging rate?", "a different app or logging rate?"),
+}
+#: meta.csv columns said beside a difference: (words, unit).
+META_WORDS = {"rider_weight": ("rider weight", " kg"), "tire_pressure": ("tyre pressure", " bar"),
+              "temperature": ("temperature", " °C"), "wind": ("wind", "")}
+
+
+def _size(s: Shown, x: float) -> str:
+    return s.fmt.format(abs(s.scale(x))) + s.unit
+
+
+def _signed(s: Shown, x: float) -> str:
+    v = s.scale(x)
+    return ("+" if v > 0 else "−" if v < 0 else "") + s.fmt.format(abs(v))
+
+
+def _interval(s: Shown, ci) -> str:
+    return f"{_signed(s, ci[0])} to {_signed(s, ci[1])}{s.unit}"
+
+
+def _log_day(rep: Mapping) -> str:
+    """LOG's day as the differences' sentence names it ("16 May"), or ''."""
+    m = re.search(r"\bthe (\d{1,2} [A-Z]\w+) ride\b", str(rep.get("differences_sentence") or ""))
+    return m[1] if m else ""
+
+
+def _meta_row(log_path) -> dict | None:
+    f = Path(str(log_path)).parent / "meta.csv"
+    try:
+        with open(f, newline="") as fh:
+            return next(csv.DictReader(fh), None)
+    except (OSError, csv.Error, UnicodeDecodeError):
+        return None
+
+
+def _sibling(log_path, other_name: str) -> Path:
+    """OTHER beside LOG in euc_core's layout (``trips/BRAND/MODEL/N/N.csv``), else in LOG's folder."""
+    log_path = Path(str(log_path))
+    stem = Path(other_name).stem
+    cand = log_path.parents[1] / stem / other_name if len(log_path.parents) > 1 else None
+    return cand if cand is not None and cand.is_file() else log_path.parent / other_name
+
+
+def recorded_metadata(rep: Mapping, log_path=None) -> dict[str, str]:
+    """``{parameter: "the logs record rider weight 85 → 92 kg"}`` from both logs' ``meta.csv``
+    (euc_core's layout: LOG at ``log_path``, OTHER its sibling ride of the same name as the
+    JSON's ``compare``); empty without ``log_path``, where either log has none or a value is blank."""
+    if log_path is None or not rep.get("compare"):
+        return {}
+    other = _sibling(log_path, Path(str(rep["compare"])).name)
+    if other.resolve() == Path(str(log_path)).resolve():
+        return {}
+    a, b = _meta_row(log_path), _meta_row(other)
+    if not a or not b:
+        return {}
+    out = {}
+    for name, s in SHOWN.items():
+        if s.meta and (a.get(s.meta) or "").strip() and (b.get(s.meta) or "").strip():
+            words, unit = META_WORDS[s.meta]
+            out[name] = f"the logs record {words} {a[s.meta].strip()} → {b[s.meta].strip()}{unit}"
+    return out
+
+
+def _aliases(d: Mapping) -> str:
+    names = [SHOWN[a].label if a in SHOWN else a.replace("_", " ") for a in d.get("aliases") or []]
+    return ("cannot be told apart from " + " or ".join(names) + " on these two rides" if names
+            else "told apart from the other physics on these two rides")
+
+
+def difference_lines(rep: Mapping, log_path=None) -> list[str]:
+    """The block's Markdown lines (no heading); empty without ``differences``.
+
+    The first line is the rider's sentence (each named difference's size and hint),
+    then one line per named difference (its 95 % interval, what it cannot be told
+    from, the metadata recorded, :func:`recorded_metadata` of LOG at ``log_path``),
+    then what the pair could have seen of the rest.
+    """
+    diffs = [d for d in rep.get("differences") or [] if d.get("name") in SHOWN]
+    if not diffs:
+        return []
+    other = f"the compared ride ({Path(str(rep.get('compare') or '')).name})"
+    day = _log_day(rep)
+    this = f"this ride ({day})" if day else "this ride"
+    meta = recorded_metadata(rep, log_path)
+    named = sorted((d for d in diffs if d.get("named") and d.get("estimate") is not None and d.get("ci95")),
+                   key=lambda d: list(SHOWN).index(d["name"]))
+    rest = [d for d in diffs if d not in named and d.get("estimate") is not None and d.get("ci95")]
+    if named:
+        parts = [f"{_size(s, d['estimate'])} "
+                 + (f"{s.more} ({s.hint})" if d["estimate"] > 0 else f"{s.less} ({s.hint_less})")
+                 for d, s in ((d, SHOWN[d["name"]]) for d in named)]
+        out = [f"**{other[0].upper() + other[1:]} needed {'; '.join(parts)} than {this}.**", ""]
+        for d in named:
+            s = SHOWN[d["name"]]
+            out.append(f"- {s.label[0].upper() + s.label[1:]}: 95 % interval {_interval(s, d['ci95'])}; "
+                       f"{_aliases(d)}" + (f"; {meta[d['name']]}" if d["name"] in meta else "") + ".")
+    else:
+        out = [f"**Nothing differs between {this} and {other} that this pair of rides can show.**"]
+    if rest:
+        seen = ", ".join(f"{SHOWN[d['name']].label} ±{_size(SHOWN[d['name']], 0.5 * (d['ci95'][1] - d['ci95'][0]))}"
+                         for d in sorted(rest, key=lambda d: list(SHOWN).index(d["name"])))
+        if named:
+            out.append(f"- Nothing else named; the smallest differences this pair could have seen: {seen}.")
+        else:
+            out[0] += f" The smallest differences it could have seen: {seen}."
+    said = list(dict.fromkeys(meta[d["name"]] for d in diffs if d["name"] in meta))
+    if said and not named:
+        out += ["", "For comparison, the logs' metadata record "
+                + ", ".join(x.removeprefix("the logs record ") for x in said) + "."]
+    return out
+
+
+def difference_section(rep: Mapping, log_path=None) -> list[str]:
+    """index.md's section: :data:`TITLE` and :func:`difference_lines` (empty without ``differences``)."""
+    lines = difference_lines(rep, log_path)
+    return [f"## {TITLE}", ""] + lines + [""] if lines else []

@@ -1,0 +1,442 @@
+"""The ride's page as a rider opens it: ``DIR/index.html`` (:mod:`euc_sim.report.html`).
+
+First screen: the ride's numbers (distance, time, speeds, energy, Wh/km, battery,
+PWM, alarms, data quality, mass, battery health) read from the ride JSON's
+``summary``, ``battery`` and ``total_mass`` (never computed here); a tile whose
+entry is absent says "not available"; with ``--compare``, right under them, what
+differs in the compared ride (:mod:`euc_sim.rides.report.differences_page`).  Then the ride over time on one shared
+axis, the track, the battery's sag and the PWM envelope with the ride's own
+points.  Then, folded, the physics the plain-text page (``index.md``) carries.
+People's units on the page (km/h, %, Wh, mΩ, °C); the JSON keeps SI.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Mapping
+
+import numpy as np
+
+from euc_sim.report import html as H
+from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
+
+__all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "first_screen", "figure_specs",
+           "data_quality",
+           "PWM_WARN", "PWM_BAD", "BATTERY_TONE"]
+
+#: Max PWM, %, from which the tile warns (amber) and alarms (red): near 100 % the motor has
+#: no voltage left to push the rider back up.
+PWM_WARN, PWM_BAD = 80.0, 90.0
+#: Most points per trace on the page (the page stays a few MB on an hour's ride).
+MOST_POINTS = 6000
+NA = "not available"
+
+
+@dataclass(frozen=True)
+class RideSeries:
+    """What the page draws over time: the ride command's parsed log on its grid.
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        s from the log's start.
+    gap_s : float
+        A jump in ``t`` longer than this, s, is a gap (lines break there).
+    channels : dict
+        ``speed_kmh``, ``power_W``, ``pwm_pct``, ``voltage_V``, ``current_A``,
+        ``temperature_C``, ``lat``, ``lon`` (deg), each present when logged.
+    """
+
+    t: np.ndarray
+    gap_s: float
+    channels: Mapping[str, np.ndarray]
+
+    @classmethod
+    def from_frame(cls, raw, rate: float) -> "RideSeries":
+        """From :class:`euc_sim.rides.grids.signals.RideSignals`'s ``raw`` grid (``rate`` Hz)."""
+        names = {"v": ("speed_kmh", 3.6), "P": ("power_W", 1.0), "pwm": ("pwm_pct", 1.0),
+                 "voltage": ("voltage_V", 1.0), "current": ("current_A", 1.0),
+                 "temperature": ("temperature_C", 1.0), "latitude": ("lat", 1.0),
+                 "longitude": ("lon", 1.0)}
+        ch = {}
+        for col, (name, k) in names.items():
+            if col in raw and np.isfinite(raw[col].to_numpy(float)).any():
+                ch[name] = raw[col].to_numpy(float) * k
+        return cls(t=raw["t"].to_numpy(float), gap_s=1.5 / rate, channels=ch)
+
+    def at(self, name: str, t: float) -> float | None:
+        """The channel at time ``t`` (s), nearest grid row; None when not logged."""
+        y = self.channels.get(name)
+        if y is None or self.t.size == 0:
+            return None
+        v = float(y[int(np.argmin(np.abs(self.t - t)))])
+        return v if np.isfinite(v) else None
+
+
+def _hm(seconds: float) -> str:
+    m = int(round(seconds / 60.0))
+    return f"{m // 60} h {m % 60:02d} min" if m >= 60 else f"{m} min"
+
+
+def _mmss(seconds: float) -> str:
+    s = int(round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
+def _num(d: Mapping | None, key: str) -> float | None:
+    v = (d or {}).get(key)
+    return float(v) if isinstance(v, (int, float)) and np.isfinite(v) else None
+
+
+def _ride_tiles(s: Mapping | None) -> list:
+    """Distance, time, speeds, energy, consumption and battery: from ``summary``."""
+    K = H.KeyFigure
+    if not s:
+        return [K(lbl, NA, "needs the ride's summary") for lbl in
+                ("Distance", "Riding time", "Top speed", "Energy drawn", "Consumption", "Battery used")]
+    dist, mov, dur = _num(s, "distance_m"), _num(s, "moving_s"), _num(s, "duration_s")
+    top, mean = _num(s, "speed_max_mps"), _num(s, "speed_mean_moving_mps")
+    drawn, regen, whkm = _num(s, "energy_drawn_Wh"), _num(s, "energy_regen_Wh"), _num(s, "Wh_per_km")
+    used, rng = _num(s, "battery_used_pct"), _num(s, "range_m_at_this_rate")
+    return [
+        K("Distance", f"{dist / 1000:.1f} km" if dist is not None else NA,
+          f"from {s.get('distance_source')}" if dist is not None else ""),
+        K("Riding time", _hm(mov) if mov is not None else NA,
+          f"of {_hm(dur)} logged" if dur is not None else ""),
+        K("Top speed", f"{top * 3.6:.0f} km/h" if top is not None else NA,
+          f"average {mean * 3.6:.0f} km/h while moving" if mean is not None else ""),
+        K("Energy drawn", f"{drawn:.0f} Wh" if drawn is not None else NA,
+          f"{regen:.0f} Wh regenerated" if regen is not None else "regeneration not logged"),
+        K("Consumption", f"{whkm:.1f} Wh/km" if whkm is not None else NA, "drawn minus regenerated"),
+        K("Battery used", f"{used:.0f} %" if used is not None else NA,
+          f"range at this rate: {rng / 1000:.0f} km" if rng is not None else ""),
+    ]
+
+
+def _pwm_tile(s: Mapping | None, where: str) -> object:
+    p = _num(s, "pwm_max_pct")
+    if p is None:
+        return H.KeyFigure("Max PWM", NA, "no PWM or safety margin logged" if s else "needs the summary")
+    at = _num(s, "pwm_max_at_s")
+    tone = "bad" if p >= PWM_BAD else "warn" if p >= PWM_WARN else "good"
+    note = f"least margin {100 - p:.0f} %" + (f" at {_mmss(at)}{where}" if at is not None else "")
+    return H.KeyFigure("Max PWM", f"{p:.0f} %", note, tone)
+
+
+def data_quality(s: Mapping | None) -> tuple[str, str]:
+    """The summary's one line on the log's gaps and sampling, and its tile tone.
+
+    The verdict (``quality``: good, fair, poor) and its sentence are the summary's own;
+    without them the gaps are stated with no verdict.
+    """
+    if not s:
+        return NA, ""
+    tone = {"good": "good", "fair": "warn", "poor": "bad"}.get(str(s.get("quality", "")), "")
+    if s.get("quality_sentence"):
+        return str(s["quality_sentence"]), tone
+    g, dur = s.get("gaps"), _num(s, "duration_s")
+    if not g or not dur:
+        return NA, tone
+    rate = _num(s, "sampling_hz")
+    return (f"{g.get('count', 0)} gaps, {g.get('total_s', 0):.0f} s "
+            f"({100 * (g.get('total_s') or 0.0) / dur:.0f} % of the ride)"
+            + (f", longest {g['longest_s']:.0f} s" if g.get("longest_s") else "")
+            + (f"; {rate:.1f} samples/s" if rate else "")), tone
+
+
+def _mass_tile(tm: Mapping | None, check: Mapping | None) -> object:
+    """The total mass found from the log, and the ride JSON's ``mass_check`` of the declared weight."""
+    est = _num(tm, "estimate")
+    if est is None:
+        return H.KeyFigure("Total mass", NA, ((tm or {}).get("why") or "")[:60])
+    ci = (tm or {}).get("ci95")
+    note = f"95 % {ci[0]:.0f}–{ci[1]:.0f} kg" if ci else ""
+    decl = _num(check, "declared_rider_kg")
+    verdict = str((check or {}).get("verdict", ""))
+    if decl is not None:
+        note = f"declared rider {decl:.0f} kg: {verdict}"
+    return H.KeyFigure("Total mass", f"{est:.0f} kg", note,
+                       "warn" if decl is not None and verdict in ("heavier", "lighter") else "")
+
+
+#: The battery entry's verdict -> tile tone.
+BATTERY_TONE = {"as specified": "good", "aged": "warn", "worn": "bad"}
+
+
+def _battery_tile(rep: Mapping) -> object:
+    """Internal resistance, mΩ, with the ``battery`` entry's health verdict (the drivetrain's
+    resistance, without a verdict, where the ride result has no ``battery``)."""
+    b = rep.get("battery")
+    if b:
+        est, ci, verdict = _num(b, "resistance_ohm"), b.get("resistance_ci95"), str(b.get("verdict", ""))
+        r25 = _num(b, "resistance_25C_ohm")
+    else:
+        r = (rep.get("drivetrain") or {}).get("internal_resistance") or {}
+        est, ci, verdict, r25 = _num(r, "estimate"), r.get("ci95"), "no health verdict", None
+    if est is None or est <= 0:
+        return H.KeyFigure("Battery resistance", NA, (b or {}).get("sentence", "")[:70] or
+                           "the log shows no voltage sag under load", "warn" if est is not None else "")
+    note = verdict + (f"; {1000 * r25:.0f} mΩ at 25 °C" if r25 is not None else
+                      f"; 95 % {1000 * ci[0]:.0f}–{1000 * ci[1]:.0f} mΩ" if ci else "")
+    return H.KeyFigure("Battery resistance", f"{1000 * est:.0f} mΩ", note, BATTERY_TONE.get(verdict, ""))
+
+
+def key_figures(rep: Mapping) -> list:
+    """The first screen's tiles, every number from the ride result (``summary``, ``battery``,
+    ``total_mass``; the drivetrain's resistance where no ``battery`` entry exists)."""
+    s = rep.get("summary")
+    alarms = s.get("alarms") if s else None
+    quality, tone = data_quality(s)
+    return (_ride_tiles(s)
+            + [_pwm_tile(s, " (marked on the map)"),
+               H.KeyFigure("Alarms", NA if alarms is None else str(alarms),
+                           "" if alarms is None or s.get("alarm_rows") is None else
+                           f"{s['alarm_rows']} rows of the log flagged", "warn" if alarms else ""),
+               H.KeyFigure("Data quality", str((s or {}).get("quality") or NA),
+                           re.sub(r"^Data quality \w+: ", "", quality), tone),
+               _mass_tile(rep.get("total_mass"), rep.get("mass_check")), _battery_tile(rep)])
+
+
+def first_screen(rep: Mapping) -> frozenset:
+    """The fitted quantities the tiles give (the folded parts then say them without numbers)."""
+    tiles = {k.label: k.value for k in key_figures(rep)}
+    gaps = "gap" in data_quality(rep.get("summary"))[0]
+    return frozenset([name for label, name in (("Total mass", "total_mass"), ("Battery resistance",
+                                                                              "internal_resistance"),
+                                               ("Top speed", "top_speed"))
+                      if tiles.get(label, NA) != NA] + (["gaps"] if gaps else []))
+
+
+def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
+    """The verdict in sentences: the data's quality first when it weakens everything else."""
+    out = []
+    _, tone = data_quality(rep.get("summary"))
+    if tone in ("bad", "warn"):             # poor data weakens every verdict (its numbers: the tile's)
+        out.append(f"The log's data quality is {rep['summary'].get('quality')} (tile above): "
+                   + ("treat every verdict below as weak." if tone == "bad" else
+                      "the figures below are a little less certain."))
+    p = _num(rep.get("summary"), "pwm_max_pct")
+    if p is not None and p >= PWM_BAD:
+        out.append("At its peak (Max PWM above) the motor had almost no voltage left: close to a cut-out.")
+    left = speed_left(rep, series, fit) if series is not None else None
+    if left is not None and left[1] is not None:
+        out.append(f"At your highest PWM, riding {left[0]:.0f} km/h, the battery's charge then allowed "
+                   f"about {left[1]:.0f} km/h on the level: {max(left[1] - left[0], 0):.0f} km/h left.")
+    v = rep.get("verdict") or {}
+    if v.get("battery_power") is False:
+        out.append("The log's voltage times current is not the battery's power: the physics below is weak.")
+    elif v.get("named"):
+        out.append("The ride's energy balance shows what the standard model lacks: "
+                   + ", ".join(n.replace("_", " ") for n in v["named"]) + " (details below).")
+    elif v:
+        out.append("The ride's energy balance names nothing the standard model lacks with confidence "
+                   "(details below).")
+    return out
+
+
+def _max_pwm_mark(rep: Mapping, series: RideSeries):
+    """(t s, lat, lon) of the summary's max PWM, lat/lon None without GPS; None without it."""
+    at = _num(rep.get("summary"), "pwm_max_at_s")
+    if at is None:
+        return None
+    place = (rep.get("summary") or {}).get("pwm_max_place") or {}
+    if _num(place, "lat") is not None and _num(place, "lon") is not None:
+        return at, place["lat"], place["lon"]
+    return at, series.at("lat", at), series.at("lon", at)
+
+
+def over_time(rep: Mapping, series: RideSeries):
+    """Speed, power, PWM, voltage and temperature on one shared time axis."""
+    c = series.channels
+    spec = (("speed_kmh", "Speed", "km/h"), ("power_W", "Battery power", "W"), ("pwm_pct", "PWM", "%"),
+            ("voltage_V", "Voltage", "V"), ("temperature_C", "Temperature", "°C"))
+    keep = thin(series.t.size, MOST_POINTS)
+    panels = [Panel(name, unit, c[k][keep]) for k, name, unit in spec if k in c]
+    m = _max_pwm_mark(rep, series)
+    mark = None if m is None else (m[0] / 60.0, f"max PWM {_num(rep['summary'], 'pwm_max_pct'):.0f} %")
+    gap = max(series.gap_s, 1.5 * float(np.median(np.diff(series.t[keep])))) if keep.size > 1 else series.gap_s
+    return time_panels(series.t[keep] / 60.0, panels, "The ride over time (zoom one panel: all follow)",
+                       gap / 60.0, mark)
+
+
+def on_the_map(rep: Mapping, series: RideSeries):
+    """The track coloured by PWM (or battery power): on tiles, and plain (drawn without network)."""
+    c = series.channels
+    if "lat" not in c or "lon" not in c:
+        return None
+    key, label = ("pwm_pct", "PWM, %") if "pwm_pct" in c else ("power_W", "battery power, W")
+    keep = thin(series.t.size, MOST_POINTS)
+    lat, lon, val = c["lat"][keep], c["lon"][keep], c[key][keep]
+    m = _max_pwm_mark(rep, series)
+    mark = None if m is None or m[1] is None else (m[1], m[2], f"max PWM at {_mmss(m[0])}")
+    title = f"Where you rode, coloured by {label.split(',')[0]}"
+    return (track_map(lat, lon, val, label, title + " (OpenStreetMap)", mark),
+            track_plain(lat, lon, val, label, title + " (drawn without the map)", mark))
+
+
+def sag_figure(rep: Mapping, fit):
+    """Voltage against current, the charge's fall taken out, with the fitted line V = E₀ − R·I."""
+    from euc_sim.rides.drive.drivetrain import charge_drawn
+
+    bc = getattr(getattr(fit, "drivetrain", None), "battery_coef", None)
+    sig = getattr(fit, "sig", None)
+    if not bc or sig is None or "current" not in sig.extra:
+        return None
+    V, I = sig.extra["voltage"], sig.extra["current"]
+    ok = np.isfinite(V) & np.isfinite(I)
+    y = V + bc["k_Q"] * charge_drawn(sig.t, I)          # the voltage at the start's charge
+    keep = thin(int(ok.sum()), 4000)
+    Ix, Vy = I[ok][keep], y[ok][keep]
+    R = _num(rep.get("battery"), "resistance_ohm") or bc["R_int"]       # the same fit's value, as reported
+    grid = np.linspace(float(np.min(Ix)), float(np.max(Ix)), 50)
+    fitted = (f"fitted: {bc['E0']:.1f} V − {1000 * R:.0f} mΩ × current" if R > 0 else
+              "fitted: no sag (the resistance found is not positive)")
+    return xy_figure([Line("log samples", Ix, Vy), Line(fitted, grid, bc["E0"] - R * grid, "lines")],
+                     "Battery sag: voltage against current", "battery current, A",
+                     "voltage at the start's charge, V",
+                     "each sample's voltage with the fall from the charge drawn so far added back")
+
+
+def _steady_pwm(dt, speed: np.ndarray, voltage: float) -> np.ndarray:
+    """PWM, %, that holds ``speed`` (m/s) on the level at ``voltage`` (V): the fitted duty model
+    (:func:`euc_sim.rides.drive.pwm.pwm_columns`) at the road force c₁ + c₃·v²."""
+    from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
+
+    coef = dt.pwm_coef
+    names = [n for n in BASE + tuple(EXTRA) if n in coef]
+    F = dt.road["c1"] + dt.road["c3"] * speed ** 2
+    V = np.full(speed.shape, float(voltage))
+    X = pwm_columns(speed, F, V, names, coef.get("v_fw", np.inf))
+    return X @ np.array([coef[n] for n in names]) / V * 100.0
+
+
+def speed_left(rep: Mapping, series: RideSeries, fit) -> tuple[float, float, float | None] | None:
+    """At the summary's max-PWM moment: (speed then, km/h; top speed at that charge, km/h or
+    None past the envelope's grid; PWM then, %), from :func:`euc_sim.rides.drive.drivetrain.envelope`
+    at the open-circuit voltage then (terminal voltage plus the sag R·I)."""
+    from euc_sim.rides.drive.drivetrain import envelope
+
+    m = _max_pwm_mark(rep, series)
+    dt = getattr(fit, "drivetrain", None)
+    if m is None or dt is None or dt.pwm_coef is None or not dt.mass or not dt.battery_coef:
+        return None
+    V, I, v = series.at("voltage_V", m[0]), series.at("current_A", m[0]), series.at("speed_kmh", m[0])
+    if V is None or v is None:
+        return None
+    ocv = V + max(dt.battery_coef["R_int"], 0.0) * (I or 0.0)
+    env = envelope(dt, ocv, v_max=max(2.5 * v / 3.6, 15.0), n=251)
+    top = env["full"]["v_limit"]
+    return v, (None if top is None else top * 3.6), _num(rep.get("summary"), "pwm_max_pct")
+
+
+def envelope_figure(rep: Mapping, series: RideSeries, fit):
+    """The PWM a steady speed takes at full and low charge, with the ride's own points."""
+    env = rep.get("envelope") or {}
+    dt = getattr(fit, "drivetrain", None)
+    c = series.channels
+    if "speed" not in env or dt is None or dt.pwm_coef is None or "pwm_pct" not in c:
+        return None
+    v = np.asarray(env["speed"], float)
+    keep = thin(series.t.size, MOST_POINTS)
+    lines = [Line("this ride", c["speed_kmh"][keep], c["pwm_pct"][keep])]
+    for name, dash in (("full", "solid"), ("low", "dash")):
+        V = env[name]["voltage"]
+        lines.append(Line(f"steady speed at {name} charge ({V:.0f} V)", v * 3.6, _steady_pwm(dt, v, V),
+                          "lines", dash))
+    lines.append(Line("100 %: no voltage left", np.array([0.0, v[-1] * 3.6]), np.array([100.0, 100.0]),
+                      "lines", "dot"))
+    left = speed_left(rep, series, fit)
+    note = "above this ride's top speed the curves are extrapolated"
+    if left is not None:
+        sp, top, p = left
+        lines.append(Line(f"your max PWM: {p:.0f} % at {sp:.0f} km/h", np.array([sp]), np.array([p])))
+        note = (f"at your max PWM the charge then allowed "
+                + (f"{top:.0f} km/h: {max(top - sp, 0):.0f} km/h left" if top is not None else
+                   "more than the figure's end") + "<br>" + note)
+    fig = xy_figure(lines, "How close to the limit: PWM against speed", "speed, km/h", "PWM, %", note)
+    if left is not None:
+        fig.update_traces(selector={"name": lines[-1].name}, marker={"size": 14, "color": "#c62828",
+                                                                    "symbol": "star", "opacity": 1})
+    fig.update_yaxes(range=[0, 110])
+    return fig
+
+
+def figure_specs(rep: Mapping, series: RideSeries | None, fit=None) -> dict:
+    """The page's Plotly figures by element id (None where the log cannot give one)."""
+    if series is None:
+        return {}
+    maps = on_the_map(rep, series)
+    figs = {"over_time": over_time(rep, series),
+            "map": maps[0] if maps else None, "track": maps[1] if maps else None,
+            "sag": sag_figure(rep, fit), "envelope": envelope_figure(rep, series, fit)}
+    return {k: f for k, f in figs.items() if f is not None}
+
+
+def _figure_sections(rep: Mapping, figs: dict) -> list[str]:
+    out = []
+    if "over_time" in figs:
+        n = len(figs["over_time"].data)
+        out.append(H.section("The ride over time", H.figure(figs["over_time"], "over_time", 140 * n + 110)))
+    if "map" in figs:
+        out.append(H.section("On the map", H.columns(H.figure(figs["map"], "map", 460),
+                                                     H.figure(figs["track"], "track", 460))))
+    else:
+        out.append(H.section("On the map", H.paragraph("No GPS position in this log: no map.")))
+    why_env = (rep.get("envelope") or {}).get("why", "needs the logged PWM and its fitted model")
+    out.append(H.section("The battery and the limit", H.columns(
+        H.figure(figs["sag"], "sag", 420) if "sag" in figs else
+        H.paragraph("Battery sag: not available (no battery current logged)."),
+        H.figure(figs["envelope"], "envelope", 420) if "envelope" in figs else
+        H.paragraph(f"PWM envelope: not available ({why_env})."))))
+    return out
+
+
+def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
+              figures: Mapping[str, str] | None = None) -> str:
+    """The whole page (a string).
+
+    Parameters
+    ----------
+    rep : mapping
+        The ``euc-sim ride`` JSON object.
+    series : RideSeries, optional
+        The fit ride's channels over time (None: no figures over time, map or envelope).
+    fit : RideDrivetrain, optional
+        The fit ride's mass and drivetrain analysis (sag line, PWM model).
+    figures : mapping, optional
+        The plain-text page's PNG file names (linked from the folded parts).
+    """
+    from euc_sim.rides.report.page import markdown_sections
+
+    name = Path(rep["recording"]).name
+    figs = figure_specs(rep, series, fit)
+    from euc_sim.rides.report.differences_page import TITLE, difference_lines
+
+    body = [H.key_figures(key_figures(rep))]
+    diff = difference_lines(rep, getattr(fit, "path", None))
+    if diff:                    # --compare: what differs leads, right under the ride's numbers
+        body.append(H.box(TITLE, H.markdown(diff)))
+    body.append(H.lead(_lead(rep, series, fit)))
+    body += _figure_sections(rep, figs)
+    body.append(H.section("The physics behind it", H.paragraph(
+        "For those who want the model: each part opens on a click."), folded=False))
+    for title, md in markdown_sections(dict(rep), figures or {}, first_screen(rep)):
+        body.append(H.section(title, f"<div>{H.markdown(md)}</div>", folded=True))
+    body.append(H.paragraph("A plain-text version of this page is index.md in the same folder; "
+                            "every number in SI is in the ride's JSON."))
+    return H.page(f"Your ride: {name}", _subtitle(rep), body)
+
+
+def _subtitle(rep: Mapping) -> str:
+    w = rep.get("wheel") or {}
+    src = str(w.get("source") or "").strip()
+    return ("Wheel: " + Path(src.split("+")[0].strip()).stem if src.endswith(".csv") else
+            "Wheel: not specified") + " · euc-sim ride report"
+
+
+def write_ride_html(rep: Mapping, out_dir, series: RideSeries | None, fit=None,
+                    figures: Mapping[str, str] | None = None) -> Path:
+    """Write ``out_dir/index.html`` (atomically); returns its path."""
+    return H.write_page(out_dir, ride_html(rep, series, fit, figures))

@@ -1,0 +1,62 @@
+"""The rider's numbers of one ride, for the ride JSON and page: summary, mass check, battery.
+
+One entry point, :func:`rider_numbers`, called once by ``euc-sim ride``; each part
+is a typed result of its own module (:mod:`euc_sim.rides.report.summary`,
+:mod:`euc_sim.rides.drive.battery`).
+"""
+
+from __future__ import annotations
+
+from euc_sim.errors import InputError
+
+import math
+import warnings
+
+__all__ = ["rider_numbers", "check_rider_weight"]
+
+
+def check_rider_weight(kg: float | None) -> float | None:
+    """The declared rider weight, kg, or a one-line ``ValueError`` naming ``--rider-weight``."""
+    if kg is None:
+        return None
+    if not (math.isfinite(kg) and 20.0 <= kg <= 250.0):
+        raise InputError(f"--rider-weight is the rider's weight with gear, kg, between 20 and 250; got {kg!r}")
+    return float(kg)
+
+
+def rider_numbers(log, rep: dict, spec=None, rider_weight: float | None = None) -> dict:
+    """``summary``, ``mass_check`` and ``battery`` of the ride JSON.
+
+    Parameters
+    ----------
+    log : path or RideLog
+        The ride log, or its parsed form (then it is not read again).
+    rep : dict
+        The ride JSON built so far: its ``total_mass`` and ``drivetrain`` are read,
+        never recomputed.
+    spec : WheelSpec, optional
+        The wheel's weight (for the mass check) and source file (for the pack).
+    rider_weight : float, optional
+        The rider's declared weight, kg.
+
+    Returns
+    -------
+    dict
+        ``{"summary": ..., "mass_check": ..., "battery": ...}`` (JSON-ready).
+    """
+    from euc_sim.rides.drive.battery import battery_health_from_report, pack_spec
+    from euc_sim.rides.report.summary import mass_check, read_counters, ride_summary
+    from euc_sim.rides.source.logs import read_log
+
+    if not hasattr(log, "data"):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            log = read_log(log, emit_warnings=False)
+    counters = read_counters(log.path, log)
+    summary = ride_summary(log, counters)
+    wheel_kg = getattr(spec, "wheel_mass", None) if spec is not None else None
+    mc = mass_check(rep.get("total_mass"), rider_weight, wheel_kg)
+    src = getattr(spec, "source", None) if spec is not None else None
+    pack = pack_spec(src) if src and src not in ("none",) else None
+    bh = battery_health_from_report(rep.get("drivetrain"), log, counters, pack)
+    return {"summary": summary.to_json(), "mass_check": mc.to_json(), "battery": bh.to_json()}

@@ -1,0 +1,583 @@
+"""The ride as a rider reads it: distance, time, speed, energy, battery, PWM, alarms, gaps.
+
+:func:`ride_summary` is a pure function of a parsed log (:func:`euc_sim.rides.source.logs.read_log`)
+and the few columns the reader does not keep (:class:`LogCounters`, from
+:func:`read_counters`: alarm flags and the app's own trip counters).  Its
+:class:`RideSummary` is the ride JSON's ``summary`` object (docs/summary.md).
+
+- Duration: from the first turn of the wheel to the last sample (the way EUC
+  World's trip clock runs); the whole log's span is ``logged_s``.
+- Energy: battery voltage × current integrated over time (trapezoid); intervals
+  longer than :data:`BRIDGE_S` are not integrated across (the wheel's state in
+  between is unknown).  Drawn is the positive part, regenerated the negative one.
+- Distance: the GPS track where it covers the moving time and agrees in scale with
+  the wheel (a sane track), else the wheel's speed integrated.
+- Battery used: the log's battery percentage near the start minus near the end,
+  each the median of the readings at the lowest currents of the first and last
+  :data:`BATTERY_WINDOW_S` (a voltage-based percentage sags under current).
+
+A quantity the log cannot give is ``None``.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["RideSummary", "LogCounters", "MassCheck", "read_counters", "ride_summary",
+           "mass_check", "GAP_S", "BRIDGE_S", "MOVING_MPS"]
+
+#: An interval between samples longer than this is a gap, s (as the log reader counts them).
+GAP_S = 1.0
+#: Intervals up to this are integrated across (energy, distance); longer ones are not, s.
+BRIDGE_S = 2.5
+#: A gap longer than this, s, is a pause of the log (left out of the duration).
+PAUSE_S = 300.0
+#: Wheel speed above which the wheel counts as moving, m/s (1.8 km/h).
+MOVING_MPS = 0.5
+#: Wheel speed above which the trip has started (the wheel's first turn), m/s (0.18 km/h).
+START_MPS = 0.05
+#: The span at each end of the ride over which the battery reading is taken, s.
+BATTERY_WINDOW_S = 60.0
+#: A GPS track is used for the distance when it covers this share of the moving time ...
+GPS_COVERAGE = 0.8
+#: ... and its distance over the covered intervals is within this ratio band of the wheel's.
+GPS_RATIO = (0.8, 1.2)
+#: Less battery used than this, points, gives no range (the ratio would be noise).
+MIN_BATTERY_FOR_RANGE = 3.0
+EARTH_RADIUS_M = 6_371_000.0
+
+
+@dataclass(frozen=True)
+class LogCounters:
+    """What the app wrote beside the channels: alarm rows and its own trip counters.
+
+    Attributes
+    ----------
+    alarm_rows : int or None
+        Rows with an alarm or alert flag set; None where the log has no such column.
+    alarm_episodes : int or None
+        Runs of consecutive flagged rows.
+    duration_s, moving_s : float or None
+        The app's trip clock and riding clock at the end (EUC World), s.
+    distance_m : float or None
+        The app's trip distance (wheel odometer) over the log, m.
+    gps_distance_m : float or None
+        The app's GPS trip distance, m.
+    speed_max_mps : float or None
+        The app's top speed, m/s.
+    energy_Wh : float or None
+        The app's energy counter at the end (EUC World ``energy_consumed``), Wh.
+    battery_start_pct, battery_end_pct : float or None
+        The battery reading in the first and last row, %.
+    battery_temp_C : float or None
+        Median battery temperature (EUC World ``temp_batt``), °C.
+    power_Wh_drawn : float or None
+        The app's ``power`` column integrated like :func:`ride_summary` integrates V·I, Wh.
+    battery_circuit_ohm : float or None
+        The battery resistance the wheel reports (EUC World ``euc.batteryCircuitResistance``), Ω.
+    """
+
+    alarm_rows: int | None = None
+    alarm_episodes: int | None = None
+    duration_s: float | None = None
+    moving_s: float | None = None
+    distance_m: float | None = None
+    gps_distance_m: float | None = None
+    speed_max_mps: float | None = None
+    energy_Wh: float | None = None
+    battery_start_pct: float | None = None
+    battery_end_pct: float | None = None
+    battery_temp_C: float | None = None
+    power_Wh_drawn: float | None = None
+    battery_circuit_ohm: float | None = None
+
+
+@dataclass(frozen=True)
+class RideSummary:
+    """The CONTRACT's ``summary`` object (SI units; ``None`` where the log cannot give it).
+
+    Attributes are the JSON fields; see docs/summary.md for each one's definition.
+    """
+
+    duration_s: float
+    moving_s: float
+    distance_m: float | None
+    distance_source: str | None
+    speed_max_mps: float
+    speed_mean_moving_mps: float | None
+    energy_drawn_Wh: float | None
+    energy_regen_Wh: float | None
+    Wh_per_km: float | None
+    battery_used_pct: float | None
+    range_m_at_this_rate: float | None
+    pwm_max_pct: float | None
+    pwm_max_at_s: float | None
+    alarms: int | None
+    gaps: dict
+    logged_s: float = 0.0
+    distance_wheel_m: float | None = None
+    distance_gps_m: float | None = None
+    distance_speed_integral_m: float | None = None
+    battery_start_pct: float | None = None
+    battery_end_pct: float | None = None
+    range_left_m: float | None = None
+    safety_margin_min_pct: float | None = None
+    pwm_max_place: dict | None = None
+    alarm_rows: int | None = None
+    sampling_hz: float | None = None
+    temperature_max_C: float | None = None
+    quality: str = "good"
+    quality_sentence: str = ""
+    why: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        """A JSON-ready dict (plain floats, ``None`` for what is unknown)."""
+        out = asdict(self)
+        return {k: _plain(v) for k, v in out.items()}
+
+
+def _plain(v):
+    if isinstance(v, dict):
+        return {k: _plain(x) for k, x in v.items()}
+    if isinstance(v, (np.floating, float)):
+        return None if not math.isfinite(float(v)) else float(v)
+    if isinstance(v, np.integer):
+        return int(v)
+    return v
+
+
+# --------------------------------------------------------------------------------------
+def _episodes(flag: np.ndarray) -> int:
+    """Runs of consecutive True values."""
+    f = np.asarray(flag, bool)
+    return int(f[0]) + int(np.sum(f[1:] & ~f[:-1])) if f.size else 0
+
+
+def _num(raw: pd.DataFrame, col: str) -> np.ndarray | None:
+    if col not in raw.columns:
+        return None
+    vals = pd.to_numeric(raw[col].astype(str).str.strip(), errors="coerce").to_numpy(float)
+    return vals if np.isfinite(vals).any() else None
+
+
+def _last(x: np.ndarray | None, scale: float = 1.0) -> float | None:
+    if x is None:
+        return None
+    f = x[np.isfinite(x)]
+    return float(f[-1]) * scale if f.size else None
+
+
+def _span(x: np.ndarray | None, scale: float = 1.0) -> float | None:
+    if x is None:
+        return None
+    f = x[np.isfinite(x)]
+    return float(f.max() - f.min()) * scale if f.size else None
+
+
+def read_counters(path, log=None) -> LogCounters:
+    """The alarm flags and the app's own counters of the log at ``path`` (read-only).
+
+    Parameters
+    ----------
+    path : path
+        The CSV file (already readable by :func:`euc_sim.rides.source.logs.read_log`).
+    log : RideLog, optional
+        Its parsed form, for the ``power`` column's integral.
+
+    Returns
+    -------
+    LogCounters
+        Fields ``None`` where the layout has no such column.
+    """
+    raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True,
+                      index_col=False)
+    raw.columns = [str(c).strip() for c in raw.columns]
+    flag = None
+    for col in ("alarm", "alert", "Alarm", "Alert"):
+        if col in raw.columns:
+            s = raw[col].astype(str).str.strip()
+            f = ~s.isin(["", "0", "0.0", "nan", "None", "null"])
+            flag = f.to_numpy() if flag is None else flag | f.to_numpy()
+    eucworld = "datetime" in raw.columns
+    km = 1000.0 if eucworld else 1.0
+    bat = _num(raw, "battery") if eucworld else _num(raw, "battery_level")
+    bf = bat[np.isfinite(bat)] if bat is not None else np.array([])
+    tb = _num(raw, "temp_batt")
+    return LogCounters(
+        alarm_rows=None if flag is None else int(flag.sum()),
+        alarm_episodes=None if flag is None else _episodes(flag),
+        duration_s=_last(_num(raw, "duration")), moving_s=_last(_num(raw, "duration_riding")),
+        distance_m=_counter_total(log) if log is not None else _span(_num(raw, "distance"), km),
+        gps_distance_m=_span(_num(raw, "gps_distance"), km) if eucworld else None,
+        speed_max_mps=_last(_num(raw, "speed_max"), 1 / 3.6),
+        energy_Wh=_last(_num(raw, "energy_consumed")),
+        battery_start_pct=float(bf[0]) if bf.size else None,
+        battery_end_pct=float(bf[-1]) if bf.size else None,
+        battery_temp_C=float(np.nanmedian(tb)) if tb is not None else None,
+        power_Wh_drawn=_power_column_Wh(log) if log is not None else None,
+        battery_circuit_ohm=_extra_value(raw, "euc.batteryCircuitResistance"))
+
+
+def _extra_value(raw: pd.DataFrame, key: str) -> float | None:
+    """A ``key=value`` note of EUC World's ``extra`` column, as a number."""
+    if "extra" not in raw.columns:
+        return None
+    hit = raw["extra"].astype(str).str.extract(rf"{re.escape(key)}=([-+0-9.eE]+)")[0].dropna()
+    return float(hit.iloc[-1]) if len(hit) else None
+
+
+def _counter_total(log) -> float | None:
+    """The log's trip counter's increase over the whole log, m (resets and bogus rows left out)."""
+    inc = _counter_steps(log.data)
+    return None if inc is None else float(np.nansum(inc))
+
+
+def _power_column_Wh(log) -> float | None:
+    d = log.data
+    if "power" not in d:
+        return None
+    drawn, _ = _integrate_split(d["t"].to_numpy(float), d["power"].to_numpy(float))
+    return drawn
+
+
+# --------------------------------------------------------------------------------------
+def _steps(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Interval lengths, s, and which of them are bridged (not longer than BRIDGE_S)."""
+    dt = np.diff(t)
+    return dt, dt <= BRIDGE_S
+
+
+def _integrate_split(t: np.ndarray, p: np.ndarray) -> tuple[float | None, float | None]:
+    """Trapezoid integrals of the positive and negative parts of ``p`` (W), Wh, gaps left out."""
+    dt, ok = _steps(t)
+    good = ok & np.isfinite(p[1:]) & np.isfinite(p[:-1])
+    if not good.any():
+        return None, None
+    pos = 0.5 * (np.clip(p[1:], 0, None) + np.clip(p[:-1], 0, None)) * dt
+    neg = 0.5 * (np.clip(-p[1:], 0, None) + np.clip(-p[:-1], 0, None)) * dt
+    return float(pos[good].sum() / 3600.0), float(neg[good].sum() / 3600.0)
+
+
+def _gaps(t: np.ndarray) -> dict:
+    """``{"count", "total_s", "longest_s"}`` of the intervals longer than GAP_S."""
+    dt = np.diff(t)
+    g = dt[dt > GAP_S]
+    return {"count": int(g.size), "total_s": float(g.sum()),
+            "longest_s": float(g.max()) if g.size else 0.0}
+
+
+def _haversine(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+    """Great-circle distance between consecutive points, m."""
+    p1, p2 = np.radians(lat[:-1]), np.radians(lat[1:])
+    dl = np.radians(lon[1:] - lon[:-1])
+    a = np.sin((p2 - p1) / 2) ** 2 + np.cos(p1) * np.cos(p2) * np.sin(dl / 2) ** 2
+    return 2 * EARTH_RADIUS_M * np.arcsin(np.sqrt(np.clip(a, 0, 1)))
+
+
+def _wheel_distance(t: np.ndarray, v: np.ndarray) -> float:
+    """The wheel speed integrated over the bridged intervals, m."""
+    dt, ok = _steps(t)
+    seg = 0.5 * (np.abs(v[1:]) + np.abs(v[:-1])) * dt
+    return float(seg[ok].sum())
+
+
+def _counter_steps(d: pd.DataFrame) -> np.ndarray | None:
+    """Per-interval increase of the log's own trip counter, m (NaN where it is unusable).
+
+    Resets, bogus zeros and jumps faster than twice the top speed are NaN.
+    """
+    for col in ("distance", "total_distance"):
+        if col in d:
+            x = d[col].to_numpy(float)
+            inc = np.diff(x)
+            top = 2.0 * max(float(np.nanmax(np.abs(d["v"]))), 1.0)
+            bad = ~np.isfinite(inc) | (inc < 0) | (inc > top * np.diff(d["t"].to_numpy(float)) + 50.0)
+            if (~bad).any() and np.nansum(np.where(bad, 0, inc)) > 0:
+                return np.where(bad, np.nan, inc)
+    return None
+
+
+def _gap_distance(d: pd.DataFrame) -> tuple[float, float]:
+    """Distance the log's counter adds over the intervals not bridged, m, and their total time, s."""
+    dt, ok = _steps(d["t"].to_numpy(float))
+    inc = _counter_steps(d)
+    if inc is None or ok.all():
+        return 0.0, float(dt[~ok].sum())
+    return float(np.nansum(inc[~ok])), float(dt[~ok].sum())
+
+
+def _gps_distance(d: pd.DataFrame) -> tuple[float | None, str | None]:
+    """The GPS track's length while moving, m, or None with the reason it is not used.
+
+    Fixes are taken where latitude/longitude change; a hop between fixes more than
+    5 s apart is filled with the wheel's distance scaled by the track/wheel ratio of
+    the rest.
+    """
+    if "latitude" not in d or "longitude" not in d:
+        return None, "no GPS position in the log"
+    t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
+    lat, lon = d["latitude"].to_numpy(float), d["longitude"].to_numpy(float)
+    fix = np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) + np.abs(lon) > 0)
+    if fix.sum() < 10:
+        return None, "fewer than 10 GPS fixes"
+    idx = np.flatnonzero(fix)
+    new = np.r_[True, (np.diff(lat[idx]) != 0) | (np.diff(lon[idx]) != 0)]
+    idx = idx[new]
+    if idx.size < 10:
+        return None, "the GPS position hardly changes"
+    hop = _haversine(lat[idx], lon[idx])
+    ti = t[idx]
+    cum = np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1]) * np.minimum(np.diff(t), BRIDGE_S))]
+    wheel_hop = np.diff(cum[idx])
+    short = np.diff(ti) <= 5.0
+    moving_cover = wheel_hop[short].sum() / max(cum[-1], 1e-9)
+    if moving_cover < GPS_COVERAGE:
+        return None, f"the GPS track covers {100 * moving_cover:.0f} % of the wheel's distance"
+    # hops faster than 1.5x the wheel plus 5 m/s are fix jumps: counted at the wheel's length
+    dt_h = np.maximum(np.diff(ti), 1e-3)
+    jump = hop / dt_h > 1.5 * (wheel_hop / dt_h) + 5.0
+    use = short & ~jump
+    ratio = hop[use].sum() / max(wheel_hop[use].sum(), 1e-9)
+    if not GPS_RATIO[0] <= ratio <= GPS_RATIO[1]:
+        return None, f"the GPS track is {ratio:.2f}x the wheel's distance (not sane)"
+    return float(hop[use].sum() + ratio * wheel_hop[~use].sum()), None
+
+
+def _battery(d: pd.DataFrame, t0: float, t_move: float, t1: float) -> tuple[float | None, float | None]:
+    """Battery %, from the log's start ``t0`` to :data:`BATTERY_WINDOW_S` after the first turn
+    of the wheel ``t_move``, and over the last window before ``t1``; each the median at the
+    lowest currents of its window (zero readings of a disconnecting wheel left out)."""
+    if "battery" not in d:
+        return None, None
+    t, b = d["t"].to_numpy(float), d["battery"].to_numpy(float)
+    cur = np.abs(d["current"].to_numpy(float)) if "current" in d else np.zeros_like(b)
+    out = []
+    for lo, hi in ((t0, t_move + BATTERY_WINDOW_S), (t1 - BATTERY_WINDOW_S, t1)):
+        m = (t >= lo) & (t <= hi) & np.isfinite(b) & np.isfinite(cur) & (b > 0)
+        if not m.any():
+            out.append(None)
+            continue
+        calm = cur[m] <= np.quantile(cur[m], 0.10) + 1.0       # A: the calmest readings
+        out.append(float(np.median(b[m][calm])))
+    return out[0], out[1]
+
+
+def _pwm(d: pd.DataFrame) -> tuple[float | None, float | None, dict | None]:
+    """The largest logged duty, %, when, s, and where (nearest GPS fix within 10 s)."""
+    if "pwm" not in d:
+        return None, None, None
+    p = d["pwm"].to_numpy(float)
+    if not np.isfinite(p).any():
+        return None, None, None
+    i = int(np.nanargmax(p))
+    t = d["t"].to_numpy(float)
+    place = None
+    if "latitude" in d and "longitude" in d:
+        lat, lon = d["latitude"].to_numpy(float), d["longitude"].to_numpy(float)
+        ok = np.flatnonzero(np.isfinite(lat) & np.isfinite(lon) & (np.abs(t - t[i]) <= 10.0))
+        if ok.size:
+            j = ok[np.argmin(np.abs(t[ok] - t[i]))]
+            place = {"lat": float(lat[j]), "lon": float(lon[j])}
+    return float(p[i]), float(t[i]), place
+
+
+def _quality(gaps: dict, span: float, hz: float | None) -> tuple[str, str]:
+    """``"good"``, ``"fair"`` or ``"poor"`` and one sentence on the sampling and the gaps.
+
+    Poor: more than 20 % of the ride in gaps or under 1 sample/s; fair: over 5 %
+    or under 2 samples/s.  A poor log weakens every verdict drawn from it.
+    """
+    share = gaps["total_s"] / span if span > 0 else 0.0
+    rate = f"{hz:.1f} samples/s" if hz else "unknown sampling rate"
+    if gaps["count"]:
+        g = (f"{gaps['count']} gap(s) longer than {GAP_S:g} s, {gaps['total_s']:.0f} s in all "
+             f"({100 * share:.0f} % of the log, longest {gaps['longest_s']:.1f} s)")
+    else:
+        g = f"no gap longer than {GAP_S:g} s"
+    if share > 0.20 or (hz is not None and hz < 1.0):
+        q = "poor"
+    elif share > 0.05 or (hz is not None and hz < 2.0):
+        q = "fair"
+    else:
+        q = "good"
+    tail = {"good": "", "fair": "; the figures below are a little less certain",
+            "poor": "; treat every verdict below as weak"}[q]
+    return q, f"Data quality {q}: {rate}, {g}{tail}."
+
+
+def _distance(d: pd.DataFrame) -> tuple[float, float, float | None, str | None]:
+    """The wheel's distance, the speed integral over the bridged intervals (the stretch the
+    energy covers), the GPS distance (or None) and why GPS is not used (or None), m.
+
+    The wheel's distance is the log's own trip counter (it counts every turn of the
+    wheel, sampled or not) where it agrees with the speed integral within 10 %; else
+    the speed integral with the gaps filled from the counter where it has them.
+    """
+    covered = _wheel_distance(d["t"].to_numpy(float), d["v"].to_numpy(float))
+    extra, _ = _gap_distance(d)
+    integral = covered + extra
+    inc = _counter_steps(d)
+    counter = float(np.nansum(inc)) if inc is not None else None
+    wheel = counter if counter and abs(counter / max(integral, 1e-9) - 1) <= 0.10 else integral
+    gps, why = _gps_distance(d)
+    return wheel, covered * wheel / max(integral, 1e-9), gps, why
+
+
+def _duration(t: np.ndarray, rolling: np.ndarray) -> tuple[float, float]:
+    """From the first turn of the wheel to the last sample without pauses, s; and the log's span."""
+    t_start = float(t[np.flatnonzero(rolling)[0]]) if rolling.any() else float(t[0])
+    dt = np.diff(t)
+    paused = float(dt[(dt > PAUSE_S) & (t[1:] > t_start)].sum())
+    return float(t[-1] - t_start - paused), t_start
+
+
+def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
+    """The ride's summary from its parsed log.
+
+    Parameters
+    ----------
+    log : RideLog
+        From :func:`euc_sim.rides.source.logs.read_log` (SI units).
+    counters : LogCounters, optional
+        From :func:`read_counters`; gives the alarm count (else ``alarms`` is None).
+
+    Returns
+    -------
+    RideSummary
+    """
+    d = log.data
+    t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
+    why: dict[str, str] = {}
+    moving = v > MOVING_MPS
+    duration, t_start = _duration(t, v > START_MPS)
+    dt, ok = _steps(t)
+    moving_s = float(np.sum(dt[ok & (moving[1:] | moving[:-1])]))
+    wheel, covered, gps, gps_why = _distance(d)
+    dist, source = (gps, "gps") if gps is not None else (wheel, "wheel")
+    # energy is integrated over the bridged intervals only: so is the distance it is divided by
+    covered_dist = covered * (dist / wheel if wheel > 0 else 1.0)
+    integral_m = _wheel_distance(t, v) + _gap_distance(d)[0]
+    if gps_why:
+        why["distance_gps_m"] = gps_why
+    drawn = regen = None
+    if "voltage" in d and "current" in d:
+        drawn, regen = _integrate_split(t, d["voltage"].to_numpy(float) * d["current"].to_numpy(float))
+        if regen is not None and not (d["current"] < -0.5).mean() > 0.005:
+            regen, why["energy_regen_Wh"] = None, "the logged current is never negative (not signed)"
+    else:
+        why["energy_drawn_Wh"] = "no battery voltage and current in the log"
+    net = None if drawn is None else drawn - (regen or 0.0)
+    whkm = net / (covered_dist / 1000.0) if net is not None and covered_dist > 100.0 else None
+    b0, b1 = _battery(d, float(t[0]), max(t_start, float(t[0])), float(t[-1]))
+    used = b0 - b1 if b0 is not None and b1 is not None else None
+    rng = left = None
+    if used is not None and used >= MIN_BATTERY_FOR_RANGE:
+        rng, left = dist * 100.0 / used, dist * b1 / used
+    elif used is not None:
+        why["range_m_at_this_rate"] = f"only {used:.1f} % of the battery used"
+    pmax, pat, place = _pwm(d)
+    # samples per second over the whole log (a median interval hides bursts between gaps)
+    hz = float(dt.size / (t[-1] - t[0])) if dt.size and t[-1] > t[0] else None
+    gaps = _gaps(t)
+    q, sentence = _quality(gaps, float(t[-1] - t[0]), hz)
+    temp = float(np.nanmax(d["temperature"])) if "temperature" in d else None
+    c = counters or LogCounters()
+    return RideSummary(
+        duration_s=duration, moving_s=moving_s, distance_m=dist,
+        distance_source=source, speed_max_mps=float(v.max()),
+        speed_mean_moving_mps=covered_dist / moving_s if moving_s > 0 else None,
+        energy_drawn_Wh=drawn, energy_regen_Wh=regen, Wh_per_km=whkm, battery_used_pct=used,
+        range_m_at_this_rate=rng, pwm_max_pct=pmax, pwm_max_at_s=pat,
+        alarms=c.alarm_episodes, gaps=gaps, logged_s=float(t[-1] - t[0]),
+        distance_wheel_m=wheel, distance_gps_m=gps, distance_speed_integral_m=integral_m, battery_start_pct=b0, battery_end_pct=b1,
+        range_left_m=left, safety_margin_min_pct=None if pmax is None else 100.0 - pmax,
+        pwm_max_place=place, alarm_rows=c.alarm_rows, sampling_hz=hz, temperature_max_C=temp,
+        quality=q, quality_sentence=sentence, why=why)
+
+
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class MassCheck:
+    """The log's total mass against the rider's declared weight plus the wheel's.
+
+    Attributes
+    ----------
+    declared_rider_kg, wheel_kg, declared_total_kg : float or None
+    log_total_kg : float or None
+        The total mass found from the log (the ride JSON's ``total_mass``).
+    log_ci95 : tuple or None
+    difference_kg : float or None
+        Log minus declared, kg; ``difference_ci95`` its interval.
+    verdict : str
+        ``"consistent"``, ``"heavier"``, ``"lighter"`` or ``"cannot tell"``.
+    sentence : str
+        One line a rider reads.
+    """
+
+    declared_rider_kg: float | None
+    wheel_kg: float | None
+    declared_total_kg: float | None
+    log_total_kg: float | None
+    log_ci95: tuple | None
+    difference_kg: float | None
+    difference_ci95: tuple | None
+    verdict: str
+    sentence: str
+
+    def to_json(self) -> dict:
+        """A JSON-ready dict (kg)."""
+        out = asdict(self)
+        for k in ("log_ci95", "difference_ci95"):
+            out[k] = list(out[k]) if out[k] is not None else None
+        return {k: _plain(v) for k, v in out.items()}
+
+
+def mass_check(total_mass: dict | None, rider_kg: float | None, wheel_kg: float | None) -> MassCheck:
+    """Test the declared weight against the log's total mass; the declaration is never the answer.
+
+    Parameters
+    ----------
+    total_mass : dict or None
+        The ride JSON's ``total_mass`` (``estimate``, ``ci95``, kg).
+    rider_kg : float or None
+        The rider's declared weight, kg (with the gear worn).
+    wheel_kg : float or None
+        The wheel's net weight from its spec, kg.
+
+    Returns
+    -------
+    MassCheck
+        ``consistent`` when the declared total lies inside the log's 95 % interval.
+    """
+    tm = total_mass or {}
+    est, ci = tm.get("estimate"), tm.get("ci95")
+    declared = rider_kg + wheel_kg if rider_kg is not None and wheel_kg is not None else None
+    base = dict(declared_rider_kg=rider_kg, wheel_kg=wheel_kg, declared_total_kg=declared,
+                log_total_kg=est, log_ci95=tuple(ci) if ci else None)
+    if rider_kg is None:
+        return MassCheck(**base, difference_kg=None, difference_ci95=None, verdict="cannot tell",
+                         sentence="No rider weight declared (--rider-weight KG).")
+    if wheel_kg is None:
+        return MassCheck(**base, difference_kg=None, difference_ci95=None, verdict="cannot tell",
+                         sentence="The wheel's weight is unknown (--wheel SPEC.csv or --wheel-mass): "
+                                  "the declared weight cannot be checked.")
+    if est is None or not ci:
+        return MassCheck(**base, difference_kg=None, difference_ci95=None, verdict="cannot tell",
+                         sentence=f"The log does not give the total mass ({tm.get('why', 'not identified')}); "
+                                  f"the declared {rider_kg:.0f} kg is not checked.")
+    diff, dci = est - declared, (ci[0] - declared, ci[1] - declared)
+    if dci[0] <= 0 <= dci[1]:
+        verdict = "consistent"
+        s = (f"Consistent: the log's {est:.0f} kg [{ci[0]:.0f}, {ci[1]:.0f}] includes the declared "
+             f"{rider_kg:.0f} kg rider + {wheel_kg:.1f} kg wheel.")
+    else:
+        verdict = "heavier" if diff > 0 else "lighter"
+        s = (f"The log says {abs(diff):.0f} kg {'more' if diff > 0 else 'less'} than declared "
+             f"({rider_kg:.0f} kg rider + {wheel_kg:.1f} kg wheel), 95 % [{dci[0]:+.0f}, {dci[1]:+.0f}] kg.")
+    return MassCheck(**base, difference_kg=diff, difference_ci95=dci, verdict=verdict, sentence=s)

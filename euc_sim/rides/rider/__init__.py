@@ -1,0 +1,1 @@
+"""The simulated rider calibrated on a ride log: settings, response surface, fit and its step."""

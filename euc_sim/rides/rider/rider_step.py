@@ -1,0 +1,58 @@
+"""The ``calibrated_rider`` step of the simulated ride: the rider fitted on the fit ride.
+
+:func:`calibrated_rider_step` is one more builder of :mod:`euc_sim.rides.sim.sim_steps`, between the
+measured law and the drivetrain (:data:`RIDER_STEPS`); the fit itself is
+:func:`euc_sim.rides.rider.rider_fit.fit_rider`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+from euc_sim.rides.grids.profile import PLAN_WINDOW
+from euc_sim.rides.grids.signals import RideAssumptions
+from euc_sim.rides.rider.rider_fit import RiderFitError, fit_rider
+from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, effects_to_inject
+
+__all__ = ["calibrated_rider_step", "RIDER_STEPS"]
+
+
+def calibrated_rider_step(prev, inp):
+    """The ``calibrated_rider`` step of :mod:`euc_sim.rides.sim.sim_steps`: the rider fitted on the fit ride.
+
+    The rider is fitted (:func:`fit_rider`, default settings) on ``inp.fit_log`` with the
+    previous step's motor law (the measured one where the fit ride showed it), the
+    accepted effects as physics and the augmented fit's battery-power model, and rides
+    :data:`PLAN_WINDOW`'s plan; a ride it cannot be fitted on skips the step (``why``).
+
+    Parameters
+    ----------
+    prev : SimStep
+        The last step that ran.
+    inp : StepInputs
+
+    Returns
+    -------
+    SimStep
+    """
+    from euc_sim.rides.law.controller_report import torque_constant
+
+    name, what = "calibrated_rider", "the rider calibrated on the fit ride"
+    if inp.fit_log is None:
+        return replace(prev, name=name, what=what, notes=(), why="no fit ride log to calibrate the rider on")
+    eff, _ = effects_to_inject(inp.augmented, inp.accepted)
+    power = {k: float(inp.augmented.get(k, d)) for k, d in
+             (("eta_motor", 0.85), ("eta_regen", 0.7), ("drivetrain_idle_loss", 0.0))}
+    k_t = torque_constant((inp.ride or {}).get("drivetrain"))
+    try:
+        fit = fit_rider(inp.fit_log, params=inp.params, motor=prev.motor, effects=eff, drivetrain=power,
+                        assumptions=RideAssumptions(torque_constant=k_t))
+    except (RiderFitError, ValueError) as exc:
+        return replace(prev, name=name, what=what, notes=(), why=f"the rider cannot be calibrated: {exc}")
+    got = ", ".join(f"{k} {v['value']:.3g} {v['unit']}" for k, v in fit.params.items())
+    return replace(prev, name=name, what=f"{what}: {got}", rider=fit.rider, plan_window=PLAN_WINDOW,
+                   rider_fit={k: float(v["value"]) for k, v in fit.params.items()}, notes=fit.notes, why=None)
+
+
+#: nominal → measured law → calibrated rider → drivetrain (``build_steps(inp, RIDER_STEPS)``).
+RIDER_STEPS = STEP_BUILDERS[:2] + (calibrated_rider_step,) + STEP_BUILDERS[2:]

@@ -1,0 +1,1 @@
+"""The closed loop along a real ride's speed: tracking, the learned plan, steps, reading, figure."""

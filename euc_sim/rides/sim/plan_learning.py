@@ -1,0 +1,151 @@
+"""The simulated rider's plan learned from his own run: the closed loop inverted up to the log's band.
+
+The LQR rider of :mod:`euc_sim.controllers.rider` does not ride his plan v_ref(t) as planned: his
+speed answers the plan's slow changes one to one but amplifies its quicker ones (the
+closed loop's gain from plan to speed, measured on real profiles, is 1.7–2.3 at 0.2–0.3 Hz
+and 3.3–3.4 at 0.5–0.7 Hz; with a sine of 0.3 m/s at 1 Hz he rides 1.9 m/s).  A real rider
+is not given his speed as a plan: the logged speed is the *output* of his riding.  So to
+ride the logged speed, the simulated rider needs the plan whose output is the log: the
+closed loop inverted (model-inverting iterative learning control).
+
+:func:`closed_loop_response` measures the loop's response H(f) from one run (Welch cross
+spectrum of plan and simulated speed, their 30 s trend removed), and
+:func:`inverse_correction` turns the run's speed error e(t) into the plan correction
+F⁻¹[E(f)/H(f)], up to the band :func:`filter_band` the log's own smoothing passes (above
+it the logged speed carries nothing of the rider's to follow) and only where plan and
+speed are coherent; the slow error (below the spectrum's resolution) is added as it is.
+:func:`euc_sim.rides.sim.tracking.simulate_profile` rides the corrected plan again.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from euc_sim.errors import InputError
+
+__all__ = ["filter_band", "closed_loop_response", "inverse_correction", "COHERENCE_MIN", "TREND_WINDOW",
+           "SEGMENT_S"]
+
+#: Frequencies where plan and simulated speed are less coherent than this (squared
+#: coherence) are not corrected: the response measured there is not the plan's.
+COHERENCE_MIN = 0.5
+#: s: the trend removed from plan and speed before their spectra (the slow error is
+#: corrected as it is, below the spectrum's resolution).
+TREND_WINDOW = 30.0
+#: s: Welch segment length (resolution 1/SEGMENT_S Hz).
+SEGMENT_S = 51.2
+
+
+def filter_band(rate: float = 10.0, window: float = 1.5, polyorder: int = 2) -> float:
+    """Half-power frequency, Hz, of the Savitzky–Golay smoothing the log gets (:func:`euc_sim.rides.grids.signals.sg`).
+
+    Parameters
+    ----------
+    rate : float
+        Grid rate, Hz.
+    window : float
+        Filter window, s.
+    polyorder : int
+
+    Returns
+    -------
+    float
+        The lowest frequency where the filter's gain falls below 1/√2, Hz (0.72 Hz for
+        the ride defaults 10 Hz, 1.5 s, order 2).
+    """
+    from scipy.signal import freqz, savgol_coeffs
+
+    from euc_sim.rides.grids.signals import window_samples
+
+    n = window_samples(window, rate, polyorder)
+    w, h = freqz(savgol_coeffs(n, polyorder), worN=8192, fs=rate)
+    below = np.flatnonzero(np.abs(h) < 2 ** -0.5)
+    return float(w[below[0]]) if below.size else rate / 2
+
+
+def _detrend(x: np.ndarray, rate: float) -> np.ndarray:
+    from euc_sim.rides.grids.signals import sg
+
+    return x - sg(x, np.zeros(x.size, int), rate, TREND_WINDOW, 1)
+
+
+def closed_loop_response(t: np.ndarray, plan: np.ndarray, v_sim: np.ndarray):
+    """The rider's closed-loop response from plan to speed, measured on one run.
+
+    Parameters
+    ----------
+    t : array_like
+        s, uniform.
+    plan, v_sim : array_like
+        The plan ridden and the simulated speed on ``t``, m/s.
+
+    Returns
+    -------
+    f : numpy.ndarray
+        Hz.
+    H : numpy.ndarray of complex
+        Speed over plan (1).
+    coherence : numpy.ndarray
+        Squared coherence (0–1).
+    """
+    from scipy.signal import csd, welch
+
+    t = np.asarray(t, float)
+    rate = 1.0 / float(np.median(np.diff(t)))
+    x = _detrend(np.asarray(plan, float), rate)
+    y = _detrend(np.asarray(v_sim, float), rate)
+    nper = min(x.size, int(round(SEGMENT_S * rate)))
+    f, Pxy = csd(x, y, fs=rate, nperseg=nper)
+    _, Pxx = welch(x, fs=rate, nperseg=nper)
+    _, Pyy = welch(y, fs=rate, nperseg=nper)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        H = np.where(Pxx > 0, Pxy / Pxx, 1.0)
+        coh = np.where(Pxx * Pyy > 0, np.abs(Pxy) ** 2 / (Pxx * Pyy), 0.0)
+    return f, H, coh
+
+
+def inverse_correction(t: np.ndarray, plan: np.ndarray, v_sim: np.ndarray, error: np.ndarray,
+                       band: float) -> np.ndarray:
+    """The plan correction that removes ``error`` through the inverted closed loop, m/s.
+
+    Below the spectrum's resolution the error is added as it is (the loop follows slow
+    plans one to one); from there up to ``band`` Hz it is divided by the measured
+    response H(f) (:func:`closed_loop_response`) where plan and speed are coherent
+    (:data:`COHERENCE_MIN`), tapered to zero between ``band`` and 1.5·``band``.  The
+    error is mirrored before the FFT so that its ends do not wrap around.
+
+    Parameters
+    ----------
+    t : array_like
+        s, uniform.
+    plan, v_sim : array_like
+        The plan ridden and the simulated speed, m/s.
+    error : array_like
+        The speed error to remove (target − simulated), m/s; zero where it should not be
+        learned (the wheel standing).
+    band : float
+        Hz, positive.
+
+    Returns
+    -------
+    numpy.ndarray
+        m/s, the shape of ``t``.
+    """
+    if not (math.isfinite(band) and band > 0):
+        raise InputError(f"band must be a positive number of Hz, got {band!r}")
+    t = np.asarray(t, float)
+    err = np.asarray(error, float)
+    n = t.size
+    rate = 1.0 / float(np.median(np.diff(t)))
+    f, H, coh = closed_loop_response(t, plan, v_sim)
+    nfft = 1 << int(math.ceil(math.log2(2 * n)))
+    F = np.fft.rfftfreq(nfft, 1.0 / rate)
+    Hf = np.interp(F, f, H.real) + 1j * np.interp(F, f, H.imag)
+    ok = np.interp(F, f, coh) >= COHERENCE_MIN
+    slow = F < f[1] if f.size > 1 else np.ones(F.size, bool)
+    taper = np.clip((1.5 * band - F) / (0.5 * band), 0.0, 1.0)
+    gain = np.where(slow, 1.0, np.where(ok & (np.abs(Hf) > 0), taper / np.where(Hf == 0, 1.0, Hf), 0.0))
+    E = np.fft.rfft(np.concatenate([err, err[::-1]]), nfft)
+    return np.fft.irfft(E * gain, nfft)[:n]

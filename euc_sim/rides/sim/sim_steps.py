@@ -1,0 +1,394 @@
+"""The simulation of a ride as an ordered list of modelled steps (the ride JSON's ``simulation.steps``).
+
+The simulator rides the held-out log's speed profile once per step,
+each step adding one modelled piece to the one before it, so the held-out error
+after each step shows what that piece bought (locate, name, model, show the fit improve):
+
+``nominal``
+    the paper's PD motor law (600 / 40 N·m/rad), the default LQR rider, no effects,
+    the inertia-only balance fit's efficiencies;
+``measured_law``
+    the wheel's own balance law measured on the fit ride (the ride JSON's
+    ``controller``, :func:`euc_sim.controllers.firmware.firmware_motor`), the rider redesigned
+    for it; skipped with a ``why`` when the fit ride shows no law;
+``drivetrain``
+    the voltage-limited motor of the fit ride's drivetrain fit (back-EMF, resistive
+    drop, dead time, flux weakening: :func:`euc_sim.controllers.firmware.voltage_limit_settings`),
+    the accepted balance effects injected as physics and the augmented fit's
+    efficiencies and idle drain (what the ``augmented`` run did before).
+
+A step is data (:class:`SimStep`: motor law, rider, effects, battery-power model);
+:data:`STEP_BUILDERS` makes each from the one before it and the fit ride's results
+(:class:`StepInputs`).  A new modelled piece is one more builder in that tuple, e.g. a
+rider calibrated on the log between ``measured_law`` and ``drivetrain``::
+
+    def calibrated_rider_step(prev, inp):
+        fit = fit_rider(inp.fit_log, ...)
+        return replace(prev, name="calibrated_rider", what="...", rider=fit.rider, notes=())
+
+:class:`LogChannels` maps the simulated state onto a log's channels (phase current,
+pitch, PWM) so each step is scored on every channel the held-out log carries.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.model.parameters import Params
+
+__all__ = ["SimStep", "motor_from_law", "StepInputs", "LogChannels", "nominal_step", "measured_law_step",
+           "drivetrain_step", "STEP_BUILDERS", "SIM_EFFECTS", "effects_to_inject", "build_steps", "TARGET_RATIO", "CHANNELS",
+           "log_channels", "simulated_pwm"]
+
+#: Target: a step's held-out battery-power error within this many times the balance fit's
+#: held-out error (docs/ride_simulation.md).
+TARGET_RATIO = 1.2
+
+#: Channels a step is scored on: column stem -> (JSON key, unit, what).
+CHANNELS = {"P": ("P_W", "W", "battery power"), "I": ("I_phase_A", "A", "phase current"),
+            "pitch": ("pitch_rad", "rad", "body pitch"), "pwm": ("pwm_pct", "%", "PWM duty"),
+            "M": ("M_Nm", "N·m", "motor torque"), "v": ("v_mps", "m/s", "wheel speed")}
+
+
+#: The voltage limit's settings a drivetrain fit may add (:meth:`MotorPD.voltage_torque`); a step's
+#: JSON law carries each that differs from its default.
+_VOLTAGE_EXTRAS = ("dead_time", "flux_weakening", "fw_speed")
+
+
+def motor_from_law(law: Mapping[str, float]) -> MotorPD:
+    """The motor a step's JSON ``motor`` describes (the inverse of :meth:`SimStep.describe`'s law).
+
+    Parameters
+    ----------
+    law : mapping
+        ``K_p`` (N·m/rad), ``K_d`` (N·m·s/rad), ``torque_limit`` (N·m), and where the step
+        had them ``tiltback_speed``, ``tiltback_gain``, ``voltage``, ``back_emf``, ``drop``,
+        ``dead_time``, ``flux_weakening``, ``fw_speed`` (:class:`euc_sim.controllers.motor.MotorPD`).
+
+    Returns
+    -------
+    MotorPD
+    """
+    extra = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop") + _VOLTAGE_EXTRAS
+    return MotorPD(Kp=law["K_p"], Kd=law["K_d"], torque_limit=law["torque_limit"],
+                   **{k: law[k] for k in extra if k in law})
+
+
+@dataclass(frozen=True)
+class SimStep:
+    """One modelled step of the simulated ride.
+
+    Attributes
+    ----------
+    name : str
+        ``nominal``, ``measured_law``, ``drivetrain``, ...
+    what : str
+        What this step adds, for people (one line).
+    motor : MotorPD
+        The wheel's balance law (``MotorPD()``: the paper's PD).
+    rider : controllers.rider.Rider or None
+        The rider; None: the LQR rider designed for ``motor``
+        (:func:`euc_sim.simulation.engine.default_rider`).
+    effects : mapping
+        CONTRACT effect values injected as physics.
+    power : mapping
+        Battery-power model: ``eta_motor``, ``eta_regen`` (1), ``drivetrain_idle_loss`` (W).
+    notes : tuple of str
+        What the step could not carry, and why.
+    why : str or None
+        Not None: the step is skipped (its reason); it is listed, not run.
+    plan_window : float or None
+        s: the rider's plan is the logged speed smoothed over this window
+        (:func:`euc_sim.rides.grids.profile.rider_plan`; the calibrated rider's); None: the profile.
+    rider_fit : mapping
+        The values the rider was fitted with, where he was (``delay`` s, ``bandwidth`` 1,
+        ``noise_std`` N·m: :func:`euc_sim.rides.rider.rider_params.rider_from` rebuilds him); empty otherwise.
+    physics : tuple of str
+        Names of the ride's accepted parameters (the JSON's ``parameters``) this step simulates.
+    """
+
+    name: str
+    what: str
+    motor: MotorPD = field(default_factory=MotorPD)
+    rider: object = None
+    effects: Mapping[str, float] = field(default_factory=dict)
+    power: Mapping[str, float] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    why: str | None = None
+    plan_window: float | None = None
+    rider_fit: Mapping[str, float] = field(default_factory=dict)
+    physics: tuple[str, ...] = ()
+
+    def describe(self) -> dict:
+        """JSON-ready description of the step (its law, rider, effects, power model)."""
+        m = self.motor
+        law = {"K_p": m.Kp, "K_d": m.Kd, "torque_limit": m.torque_limit}
+        if math.isfinite(m.tiltback_speed):
+            law.update(tiltback_speed=m.tiltback_speed, tiltback_gain=m.tiltback_gain)
+        if math.isfinite(m.voltage):
+            law.update(voltage=m.voltage, back_emf=m.back_emf, drop=m.drop)
+            law.update({k: getattr(m, k) for k in _VOLTAGE_EXTRAS
+                        if getattr(m, k) != MotorPD.__dataclass_fields__[k].default})
+        rider = None if self.rider is None else {
+            "delay": float(getattr(self.rider, "delay", float("nan"))),
+            "noise_std": float(getattr(self.rider, "noise_std", float("nan"))),
+            "plan_window": self.plan_window,
+            **({"bandwidth": float(self.rider_fit["bandwidth"])} if "bandwidth" in self.rider_fit else {})}
+        return {"step": self.name, "what": self.what, "ran": self.why is None, "why": self.why,
+                "physics": list(self.physics),
+                "motor": law, "rider": rider or "default LQR rider designed for this motor",
+                "effects_injected": dict(self.effects), "power_model": dict(self.power),
+                "notes": list(self.notes)}
+
+
+@dataclass(frozen=True)
+class StepInputs:
+    """What the steps are built from: the fit ride's results.
+
+    Attributes
+    ----------
+    params : Params
+        The simulator's parameters for the ride (:func:`euc_sim.rides.sim.simulate.ride_params`).
+    nominal, augmented : mapping
+        The inertia-only and augmented balance fits' estimates (``CrossRide``).
+    accepted : sequence of str
+        Accepted balance effects.
+    ride : dict
+        The fit ride's JSON so far (``controller``, ``drivetrain``, ``envelope``).
+    fit_log : path or None
+        The fit ride's log (for steps fitted on it, e.g. a calibrated rider).
+    """
+
+    params: Params
+    nominal: Mapping[str, float]
+    augmented: Mapping[str, float]
+    accepted: Sequence[str]
+    ride: Mapping = field(default_factory=dict)
+    fit_log: object = None
+
+    @property
+    def accepted_parameters(self) -> tuple[str, ...]:
+        """Names of the accepted entries of the ride's ``parameters`` (empty without them)."""
+        return tuple(p["name"] for p in self.ride.get("parameters", ()) if p.get("accepted"))
+
+    def physics(self, *names: str) -> tuple[str, ...]:
+        """Those of ``names`` that are accepted parameters, in order."""
+        ok = self.accepted_parameters
+        return tuple(n for n in names if n in ok)
+
+
+#: The balance fit's battery-power terms a step's power model carries.
+POWER_TERMS = ("eta_motor", "eta_regen", "drivetrain_idle_loss")
+
+
+def _power(est: Mapping[str, float]) -> dict:
+    return {k: float(est.get(k, 0.0)) for k in POWER_TERMS if k in est or k == "drivetrain_idle_loss"}
+
+
+def nominal_step(prev: SimStep | None, inp: StepInputs) -> SimStep:
+    """The paper's PD, the default rider, no effects, the inertia-only fit's efficiencies."""
+    return SimStep("nominal", "paper's PD motor law (600 / 40 N·m/rad), default rider, no effects",
+                   MotorPD(), None, {}, _power(inp.nominal), physics=inp.physics("total_mass"))
+
+
+def measured_law_step(prev: SimStep, inp: StepInputs) -> SimStep:
+    """The firmware law measured on the fit ride replaces the paper's PD (the rider redesigned for it)."""
+    from euc_sim.controllers.damping import ZETA_UNRESOLVED
+    from euc_sim.controllers.firmware import FirmwareError, firmware_motor, kd_resolved
+
+    ctrl = inp.ride.get("controller")
+    name, what = "measured_law", "the wheel's balance law measured on the fit ride"
+    if not isinstance(ctrl, dict) or ctrl.get("law") is None:
+        why = (ctrl or {}).get("why") if isinstance(ctrl, dict) else None
+        return replace(prev, name=name, what=what, notes=(),
+                       why=f"the fit ride shows no balance law ({why or 'no controller entry'})")
+    try:
+        motor, notes = firmware_motor(ctrl, inp.params)
+    except FirmwareError as exc:
+        return replace(prev, name=name, what=what, notes=(), why=str(exc))
+    law_terms = [f"controller.{t['name']}" for t in ctrl.get("terms", []) if isinstance(t, dict)]
+    return replace(prev, physics=prev.physics + inp.physics(*law_terms),
+                   name=name, what=f"{what}: K_p = {motor.Kp:.0f} N·m/rad, K_d = "
+                                         f"{motor.Kd:.0f} N·m·s/rad" + ("" if kd_resolved(_term(ctrl, "K_d")) else
+                                         " (K_d not resolved by the log: pitch mode damped to ζ ≥ "
+                                         f"{ZETA_UNRESOLVED:g})"), motor=motor, rider=None,
+                   notes=tuple(notes), why=None)
+
+
+def _term(ctrl: Mapping, name: str):
+    return next((t for t in ctrl.get("terms", []) if isinstance(t, dict) and t.get("name") == name), None)
+
+
+def drivetrain_step(prev: SimStep, inp: StepInputs) -> SimStep:
+    """The voltage-limited motor, the accepted effects as physics, the augmented fit's power model."""
+    from euc_sim.controllers.firmware import FirmwareError, voltage_limit_settings
+
+    eff, notes = effects_to_inject(inp.augmented, inp.accepted)
+    motor = prev.motor
+    try:
+        motor = replace(prev.motor, **voltage_limit_settings(dict(inp.ride), inp.params.R))
+        limit = f"voltage-limited motor ({motor.voltage:.0f} V)"
+    except (FirmwareError, ValueError) as exc:
+        limit = "no voltage limit"
+        notes.append(f"no voltage limit: {exc}")
+    named = ", ".join(eff) or "no effect"
+    power = _power(inp.augmented)
+    extra = inp.physics(*eff, *power, "back_emf_per_speed", "resistive_drop", "dead_time",
+                        "flux_weakening", "internal_resistance")
+    return replace(prev, name="drivetrain", physics=prev.physics + tuple(
+                       n for n in extra if n not in prev.physics), what=f"{limit}, accepted effects as physics ({named}), "
+                                                 f"the augmented fit's efficiencies",
+                   motor=motor, effects=eff, power=power,
+                   notes=tuple(notes), why=None)
+
+
+#: The steps in order; each builder gets the last step that ran and the inputs.
+STEP_BUILDERS: tuple[Callable[[SimStep | None, StepInputs], SimStep], ...] = (
+    nominal_step, measured_law_step, drivetrain_step)
+
+
+def build_steps(inp: StepInputs, builders: Sequence[Callable] = STEP_BUILDERS) -> list[SimStep]:
+    """The ordered steps; a skipped step (``why``) is listed and the next builds on the last run one.
+
+    Parameters
+    ----------
+    inp : StepInputs
+    builders : sequence of callable
+        ``builder(previous_step_that_ran, inp) -> SimStep``; the first gets None.
+
+    Returns
+    -------
+    list of SimStep
+    """
+    steps, last = [], None
+    for make in builders:
+        step = make(last, inp)
+        steps.append(step)
+        if step.why is None:
+            last = step
+    return steps
+
+
+#: Fitted balance parameters that the simulator can inject as physics, and how.
+SIM_EFFECTS = ("rolling_resistance", "aerodynamic_drag", "road_slope")
+
+
+def effects_to_inject(estimates: Mapping[str, float], accepted: Sequence[str]) -> tuple[dict, list]:
+    """The accepted balance effects as ``simulate(effects=...)`` values.
+
+    Parameters
+    ----------
+    estimates : mapping
+        Fitted values (units of :data:`euc_sim.rides.balance.design.CANDIDATES`).
+    accepted : sequence of str
+        Accepted effect names.
+
+    Returns
+    -------
+    effects : dict
+        ``rolling_resistance`` C_rr (1), ``aerodynamic_drag`` k (kg/m),
+        ``road_slope`` α (rad, from sin α).
+    notes : list of str
+        Accepted effects that are not physics of the simulator and how they are
+        used instead.
+    """
+    eff, notes = {}, []
+    for name in accepted:
+        val = float(estimates[name])
+        if name == "road_slope":
+            eff[name] = math.asin(max(-1.0, min(1.0, val)))
+        elif name in SIM_EFFECTS:
+            eff[name] = val
+        elif name in POWER_TERMS:
+            notes.append(f"{name} = {val:.3g} is electrical: added to the predicted battery "
+                         f"power, not to the mechanics")
+        else:
+            notes.append(f"{name} is not a constant force the simulator can inject: left out "
+                         f"of the augmented simulation")
+    return eff, notes
+
+
+# --- the log's channels -------------------------------------------------------------------
+@dataclass(frozen=True)
+class LogChannels:
+    """How the simulated state maps onto a log's channels.
+
+    Attributes
+    ----------
+    k_t : float or None
+        Torque constant, N·m/A: simulated phase current M_d/k_t.
+    pwm : dict or None
+        Duty model coefficients (:func:`euc_sim.rides.drive.pwm.pwm_columns`: ``K_v``, ``r_F``,
+        ``dead_time``, ``flux_weakening``, ``v_fw``) from the fit ride's drivetrain.
+    pitch_sign, pitch_zero : float or None
+        The log's pitch is ``tilt = s·γ + tilt₀`` (rad; the fit ride's measured law);
+        None: not known (the pitch is then compared about each series' mean, sign +1).
+    balance_heldout : float or None
+        The balance fit's held-out battery-power error, W: a step's ratio is its error over it.
+    """
+
+    k_t: float | None = None
+    pwm: dict | None = None
+    pitch_sign: float | None = None
+    pitch_zero: float | None = None
+    balance_heldout: float | None = None
+
+
+def log_channels(ride: Mapping, balance_heldout: float | None = None) -> LogChannels:
+    """:class:`LogChannels` from the fit ride's JSON (``drivetrain``, ``controller``)."""
+    from euc_sim.rides.law.controller_report import torque_constant
+
+    dt = ride.get("drivetrain") if isinstance(ride.get("drivetrain"), dict) else {}
+
+    def est(name):
+        v = (dt.get(name) or {}).get("estimate") if isinstance(dt.get(name), dict) else None
+        return float(v) if isinstance(v, (int, float)) and math.isfinite(v) else None
+
+    pwm = None
+    if est("back_emf_per_speed") is not None and est("resistive_drop") is not None:
+        pwm = {"K_v": est("back_emf_per_speed"), "r_F": est("resistive_drop")}
+        for key, name in (("dead_time", "dead_time"), ("flux_weakening", "flux_weakening"),
+                          ("v_fw", "flux_weakening_up_to")):
+            if est(name) is not None:
+                pwm[key] = est(name)
+    ctrl = ride.get("controller")
+    sign = zero = None
+    if isinstance(ctrl, dict) and ctrl.get("law") is not None and ctrl.get("sign") in (1, -1):
+        sign = float(ctrl["sign"])
+        zero = next((float(t["estimate"]) for t in ctrl.get("terms", [])
+                     if t.get("name") == "pitch_zero"), 0.0)
+    return LogChannels(k_t=torque_constant(dt), pwm=pwm, pitch_sign=sign, pitch_zero=zero,
+                       balance_heldout=balance_heldout)
+
+
+def simulated_pwm(coef: Mapping[str, float], v: np.ndarray, F: np.ndarray,
+                  V: np.ndarray) -> np.ndarray:
+    """Duty, %, the drivetrain's model gives for a speed and wheel force at a battery voltage.
+
+    Parameters
+    ----------
+    coef : mapping
+        :func:`euc_sim.rides.drive.pwm.pwm_columns` coefficients (``K_v``, ``r_F``, optional extras).
+    v : array, m/s
+    F : array, N
+        Wheel force M_d/R.
+    V : array, V
+        Battery voltage (the held-out log's).
+
+    Returns
+    -------
+    numpy.ndarray
+        100·(K_v·v + r_F·F + c_dt·V·sign F − c_fw·v·min(v, v_fw))/V.
+    """
+    from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
+
+    names = [n for n in BASE + tuple(EXTRA) if n in coef]
+    V = np.asarray(V, float)
+    X = pwm_columns(np.asarray(v, float), np.asarray(F, float), V, names, coef.get("v_fw", np.inf))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return X @ np.array([coef[n] for n in names]) / V * 100.0

@@ -1,0 +1,580 @@
+"""The closed-loop simulator driven along a real ride's speed profile.
+
+A ride log gives the wheel speed v(t) and the battery power P(t), nothing about
+the rider.  Here the simulator's rider (:func:`euc_sim.simulation.engine.simulate`,
+maneuver ``profile``) rides the logged speed profile
+(:func:`euc_sim.rides.grids.profile.speed_profile`); the simulation then *predicts* the motor
+torque M_d the ride needed and, through the drivetrain model of
+:mod:`euc_sim.rides.balance.design`, the battery power:
+
+    P_mech = M_d·(ẋ/R − γ̇)                    (motor torque × wheel speed relative to the body)
+    P̂ = P₀ + P_mech/η_m   (P_mech > 0),   P₀ + η_r·P_mech   (P_mech ≤ 0)
+
+with η_m, η_r, P₀ fitted by :func:`euc_sim.rides.balance.crossride.cross_ride` (on the fit ride: on
+a compare ride the prediction is out of sample).  One simulation is run per modelled
+step (:mod:`euc_sim.rides.sim.sim_steps`: ``nominal``, ``measured_law``, ``drivetrain``, ...),
+each adding one piece to the one before it.
+
+Every step is compared with the log on the log's 10 Hz grid after the *same*
+Savitzky–Golay smoothing the log gets (:meth:`RideSignals.filt`), so filtering
+does not count as model error: battery power, motor torque and speed always, and
+phase current (M_d/k_t), body pitch (``tilt = s·γ + tilt₀``) and PWM duty
+(:func:`euc_sim.rides.sim.sim_steps.simulated_pwm`) where the log has them.  The
+``nominal`` and ``augmented`` errors of CONTRACT are the first and the last step that ran.
+
+When the rider falls (:class:`~euc_sim.simulation.errors.FallError`), that run stops
+at the fall, which is reported once (``falls``: time and cause); the profile is never
+ridden again after a fall, and every step is scored on the rows all of them rode.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from pathlib import Path
+from dataclasses import dataclass, field
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from euc_sim.errors import InputError
+from euc_sim.model.parameters import TABLE3, Params
+from euc_sim.rides.grids.profile import rider_plan, speed_profile
+from euc_sim.rides.grids.rider_features import reading_step
+from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, as_log
+from euc_sim.rides.sim.plan_learning import filter_band
+from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep,
+                                     effects_to_inject, simulated_pwm)
+from euc_sim.rides.grids.stops import find_stops
+from euc_sim.rides.sim.tracking import LEAN_SHARE, simulate_profile
+
+__all__ = ["SIM_EFFECTS", "MAX_BRIDGED_GAP", "simulation_obstacle", "ride_params", "effects_to_inject",
+           "battery_power", "RideSimulation", "simulate_ride", "plot_ride_simulation", "LOG_COLUMNS"]
+
+#: Optional log channels a step is scored on: table stem -> the resampled log's column.
+LOG_COLUMNS = {"I": "phase_current", "pitch": "tilt", "pwm": "pwm"}
+
+#: Longest gap in a log, s, that the simulation bridges (linearly, at the logged speeds);
+#: a log with a longer one (the app left running for hours) is not simulated.
+MAX_BRIDGED_GAP = 120.0
+
+
+def simulation_obstacle(sig: RideSignals, max_gap: float = MAX_BRIDGED_GAP) -> str | None:
+    """Why a ride cannot be simulated as one profile, or None.
+
+    The simulation rides the whole log as one continuous profile, every gap
+    bridged; a gap of hours would be hours of 1 kHz simulation (and memory).
+    """
+    t = sig.raw["t"].to_numpy(float)
+    gaps = np.diff(t)
+    long = np.flatnonzero(gaps > max_gap)
+    if not long.size:
+        return None
+    listed = ", ".join(f"{gaps[i]:.0f} s at t = {t[i]:.0f} s" for i in long[:3])
+    return (f"simulation skipped: {Path(sig.path).name} has {long.size} gap(s) longer than "
+            f"{max_gap:g} s ({listed}); bridging them would simulate {t[-1] - t[0]:.0f} s of "
+            f"ride: split the log into its rides to simulate one")
+
+
+def ride_params(assumptions: RideAssumptions, base: Params = TABLE3) -> Params:
+    """Simulator parameters matching a ride's assumed radius and total mass.
+
+    The wheel radius is ``assumptions.R``; the rider's mass m is set so that
+    m + m0 + mw equals ``assumptions.total_mass`` (the EUC's own m0, mw from
+    ``base``).  Everything else is ``base`` (Table 3).
+
+    Raises
+    ------
+    ValueError
+        when the total mass does not exceed the EUC's own mass m0 + mw.
+    """
+    m = assumptions.total_mass - base.m0 - base.mw
+    if m <= 0:
+        raise InputError(f"total mass {assumptions.total_mass:g} kg must exceed the EUC's own "
+                         f"mass m0 + mw = {base.m0 + base.mw:g} kg")
+    return base.replace(m=m, R=assumptions.R)
+
+
+def battery_power(M_d: np.ndarray, x_dot: np.ndarray, gamma_dot: np.ndarray, R: float,
+                  eta_motor: float, eta_regen: float, idle: float = 0.0) -> np.ndarray:
+    """Battery power, W, from the motor torque through :mod:`euc_sim.rides.balance.design`'s drivetrain model.
+
+    Parameters
+    ----------
+    M_d : array_like
+        Motor torque, wheel on body, N·m (CONTRACT sign).
+    x_dot : array_like
+        Wheel-centre speed, m/s.
+    gamma_dot : array_like
+        Body pitch rate, rad/s.
+    R : float
+        Wheel radius, m.
+    eta_motor, eta_regen : float
+        Efficiencies, 1.
+    idle : float
+        Constant electrical drain P₀, W.
+
+    Returns
+    -------
+    numpy.ndarray
+        P₀ + P_mech/η_m where the motor drives (P_mech > 0), P₀ + η_r·P_mech
+        where it brakes; P_mech = M_d·(ẋ/R − γ̇), W.
+    """
+    P_mech = np.asarray(M_d, float) * (np.asarray(x_dot, float) / R - np.asarray(gamma_dot, float))
+    return idle + np.where(P_mech > 0, P_mech / eta_motor, eta_regen * P_mech)
+
+
+@dataclass(frozen=True)
+class RideSimulation:
+    """Simulated against logged ride, on the log's grid, consistently smoothed.
+
+    Attributes
+    ----------
+    label : str
+        The simulated ride.
+    table : pandas.DataFrame
+        ``t`` s, ``scored`` (bool: the rows the errors are measured on), and per
+        source (``log`` and each step that ran, e.g. ``nominal``): ``v_<src>`` m/s,
+        ``M_<src>`` N·m (the log's inferred, see ``errors["M_log_method"]``),
+        ``P_<src>`` W, and where the log has them ``I_<src>`` A (phase current),
+        ``pitch_<src>`` rad (in the log's convention), ``pwm_<src>`` %.
+    errors : dict
+        RMS over the scored rows per step that ran ``{name: {"P_W", "M_Nm", "v_mps",
+        "I_phase_A", "pitch_rad", "pwm_pct"}}`` (channels the log lacks omitted);
+        ``nominal`` and ``augmented`` are the first and last step that ran (CONTRACT);
+        the pitch on the riding rows only (``pitch_scored_rows`` in the JSON);
+        ``ratio_P`` = augmented / nominal battery-power error.
+    effects : dict
+        Effects injected into the last step.
+    parameters : dict
+        Battery-power model per step ``{name: {eta_motor, eta_regen, drivetrain_idle_loss}}``.
+    falls : list of dict
+        ``{"t": s, "cause": str, "run": step}`` of each step that ended in a fall
+        (CONTRACT's ``simulation.falls``).
+    localisation : dict
+        :func:`euc_sim.diagnosis.localise.localise` on the last step's power error (W):
+        windows (s), share, correlations.
+    steps : list of dict
+        CONTRACT's ``simulation.steps``: each step's description
+        (:meth:`SimStep.describe`), ``heldout_rmse``, ``ratio_to_balance`` (battery-power
+        error over the balance fit's held-out error) and ``fell``.
+    notes : tuple of str
+    """
+
+    label: str
+    table: pd.DataFrame
+    errors: dict
+    effects: dict
+    parameters: dict
+    falls: list
+    localisation: dict
+    steps: list = field(default_factory=list)
+    notes: tuple[str, ...] = field(default=())
+
+    @property
+    def ran(self) -> list[str]:
+        """Names of the steps that ran, in order."""
+        return [s["step"] for s in self.steps if s["ran"]]
+
+    def as_json(self) -> dict:
+        """JSON-ready summary (the table goes to CSV)."""
+        return {"ride": self.label, "errors": self.errors, "effects_injected": self.effects,
+                "drivetrain": self.parameters, "falls": list(self.falls), "steps": list(self.steps),
+                "windows": self.localisation.get("windows", []),
+                "windows_share": self.localisation.get("share"),
+                "correlations": self.localisation.get("correlations", {}),
+                "scored_rows": int(self.table["scored"].sum()),
+                "pitch_scored_rows": int(_pitch_rows(self.table, self.table["scored"].to_numpy()).sum())
+                if "pitch_log" in self.table else 0,
+                "notes": list(self.notes)}
+
+
+def _rms(x: np.ndarray) -> float:
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x ** 2))) if x.size else float("nan")
+
+
+@dataclass(frozen=True)
+class _StepRun:
+    """One step ridden and read onto the log's grid (:func:`_ride_step`): what
+    :func:`simulate_ride` keeps of it (the 1 kHz frame is dropped once read)."""
+
+    falls: tuple
+    notes: tuple
+    cols: dict
+    raw: dict
+
+
+@dataclass(frozen=True)
+class _StepJob:
+    """Everything one step's run needs; shared inputs are read, never written."""
+
+    index: int
+    step: SimStep
+    profile: tuple                 # the arguments of simulate_profile, in order
+    sig: RideSignals
+    R: float
+    channels: LogChannels
+    logged: Mapping[str, np.ndarray]
+    stamps: np.ndarray
+    quanta: Mapping[str, float]
+    seed: int
+
+
+def _ride_step(job: _StepJob, cancel=None, pool=None) -> _StepRun:
+    """:func:`simulate_profile` along the step's plan (its stretches on ``pool`` when given),
+    then :func:`_on_grid`.
+
+    Depends on nothing but ``job``: its reading draws come from its own generator
+    (``default_rng([seed, index])``), so steps run in any order, or side by side, give the
+    results they give in order.
+    """
+    res = simulate_profile(*job.profile, cancel=cancel, pool=pool)
+    cols, raw = _on_grid(res.frame, job.sig, job.step, job.R, job.channels, job.logged, job.stamps,
+                         job.quanta, np.random.default_rng([job.seed, job.index]), fell=bool(res.falls))
+    return _StepRun(res.falls, res.notes, cols, raw)
+
+
+def _say_prefixed(progress: Callable[[str], None], prefix: str, msg: str) -> None:
+    progress(f"{prefix}: {msg}")
+
+
+def _prefixed(progress, name: str):
+    """``progress`` with the run's name in front, or None."""
+    return None if progress is None else partial(_say_prefixed, progress, name)
+
+
+def _run_steps(jobs: Sequence[_StepJob], params: Params, workers: int,
+               progress: Callable[[str], None] | None = None) -> list[_StepRun]:
+    """:func:`_ride_step` on each job, ridden on ``workers`` threads when more than 1.
+
+    The native closed loop (:mod:`euc_sim.simulation.native`) steps in C without the GIL,
+    so rides run side by side on threads.  With ``workers`` > 1 every step has a thread of
+    its own that only orders its work, and the rides themselves (each stretch between the
+    log's stops, :func:`simulate_profile`'s ``pool``) queue for ``workers`` riding threads:
+    three steps on two threads keep both busy to the end, not the third alone.  The
+    callback is compiled and the default rider designed here first, once, not by racing
+    threads.  BLAS is held to one thread either way (the steps' linear algebra is small; a
+    BLAS pool would only spin against the rides), so one thread and several give the same
+    numbers.  An interruption ends the running rides within a rider block
+    (:func:`euc_sim.rides.sim.pool.run_threads`).
+    """
+    from concurrent.futures import ThreadPoolExecutor
+
+    from threadpoolctl import threadpool_limits
+
+    from euc_sim.rides.sim.pool import run_threads
+    from euc_sim.simulation.engine import default_rider
+    from euc_sim.simulation.native_core import available
+
+    say = progress or (lambda msg: None)
+    riders = None
+    if workers > 1 and len(jobs) > 0:
+        available()                        # the callback compiled once, in this thread
+        default_rider(params)              # designed once, not by each thread
+        riders = ThreadPoolExecutor(workers, thread_name_prefix="euc-sim-ride")
+    try:
+        with threadpool_limits(limits=1, user_api="blas"):
+            return run_threads(partial(_ride_step, pool=riders), jobs, len(jobs) if riders else 1,
+                               on_done=lambda i, k: say(f"simulation {k}/{len(jobs)} done "
+                                                        f"({jobs[i].step.name})"))
+    finally:
+        if riders is not None:
+            riders.shutdown(wait=True, cancel_futures=True)
+
+
+def _pitch_rows(table: pd.DataFrame, ok: np.ndarray) -> np.ndarray:
+    """Scored rows where the logged pitch is the wheel's riding pitch.
+
+    As :func:`euc_sim.rides.grids.law_signals.law_rows`: speed above ``V_MIN`` and pitch within
+    ``MAX_PITCH`` of its riding median (a wheel standing, lying or carried is not balancing).
+    """
+    from euc_sim.rides.grids.law_signals import MAX_PITCH, V_MIN
+
+    if "pitch_log" not in table:
+        return ok
+    pitch = table["pitch_log"].to_numpy()
+    riding = ok & (np.abs(table["v_log"].to_numpy()) > V_MIN) & np.isfinite(pitch)
+    if not riding.any():
+        return riding
+    return riding & (np.abs(pitch - np.median(pitch[riding])) < MAX_PITCH)
+
+
+def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict:
+    """RMS of log − simulation over the scored rows, per step and channel, and the power-error ratio.
+
+    The pitch is scored on the riding rows only (:func:`_pitch_rows`).
+    """
+    errors = {}
+    rows = {col: ok for col in CHANNELS} | {"pitch": _pitch_rows(table, ok)}
+    for name in names:
+        errors[name] = {key: _rms((table[f"{col}_log"] - table[f"{col}_{name}"])[rows[col]])
+                        for col, (key, _, _) in CHANNELS.items()
+                        if f"{col}_log" in table and f"{col}_{name}" in table}
+    errors["nominal"], errors["augmented"] = errors[names[0]], errors[names[-1]]
+    nom_P = errors["nominal"]["P_W"]
+    errors["ratio_P"] = errors["augmented"]["P_W"] / nom_P if nom_P > 0 else float("nan")
+    return errors
+
+
+def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: float,
+                    min_len: float, name: str) -> dict:
+    """Where step ``name``'s battery-power error concentrates (windows in s)."""
+    from euc_sim.diagnosis.localise import localise
+    from euc_sim.rides.grids.signals import split_at_gaps
+
+    t = table["t"].to_numpy()
+    r = (table["P_log"] - table[f"P_{name}"]).to_numpy()
+    good = ok & np.isfinite(r)
+    if good.sum() < 4:
+        return {"windows": [], "share": None, "correlations": {}}
+    loc = localise(t[good], r[good], {"speed": table["v_log"].to_numpy()[good],
+                                      "acceleration": a[good]},
+                   smooth=smooth, min_len=min_len)
+    return dict(loc, windows=split_at_gaps(loc["windows"], t[good], min_len))
+
+
+def _logged(sig: RideSignals) -> dict:
+    """The log's channels on its grid, smoothed as :class:`RideSignals` smooths its own."""
+    from euc_sim.rides.grids.signals import sg
+
+    frame, raw = sig.frame, sig.raw
+    out = {"t": frame["t"].to_numpy(), "v_log": frame["v"].to_numpy(), "M_log": frame["M"].to_numpy(),
+           "P_log": frame["P"].to_numpy()}
+    seg = raw["segment"].to_numpy()
+    for col, name in LOG_COLUMNS.items():
+        if name in raw and np.isfinite(raw[name].to_numpy(float)).mean() > 0.5:
+            out[f"{col}_log"] = sg(raw[name].to_numpy(float), seg, sig.rate, sig.window, sig.polyorder)
+    return out
+
+
+def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
+             channels: LogChannels, logged: Mapping[str, np.ndarray], stamps: np.ndarray,
+             quanta: Mapping[str, float] | None = None, rng: np.random.Generator | None = None,
+             fell: bool = False) -> tuple[dict, dict]:
+    """A run's channels read as the log is written and put on its grid, smoothed like the log.
+
+    Each channel is read at the log's own ``stamps`` (s), written in the log's steps where
+    ``quanta`` gives them (``I`` A, ``pitch`` rad; the steps' zero drawn from ``rng``) and
+    interpolated onto the grid as the log is (:func:`euc_sim.rides.sim.reading.read_as_logged`).
+    Speed, torque and battery power always; phase current (M_d/k_t), pitch (s·γ + tilt₀)
+    and duty where the log has them and ``channels`` can map them.  A run that ended in a fall (``fell``) is
+    kept up to one smoothing window before the fall (the falling itself is not riding)
+    and is NaN after it.  Also returns the battery power read but not smoothed, W (for
+    its bands, :func:`euc_sim.rides.grids.rider_features.band_ratio_db`), and so phase current and
+    pitch where they are simulated: ``{column: grid array}``.
+    """
+    t = sig.frame["t"].to_numpy()
+    name = step.name
+    want = ["v", "M", "P"] + [c for c in LOG_COLUMNS if f"{c}_log" in logged]
+    if df is None:
+        return {f"{col}_{name}": np.full(t.size, np.nan) for col in want}, {}
+    from euc_sim.rides.grids.signals import sg
+    from euc_sim.rides.sim.reading import read_as_logged
+
+    pw = step.power
+    P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], R, pw["eta_motor"],
+                      pw["eta_regen"], pw.get("drivetrain_idle_loss", 0.0))
+    ts = df["t"].to_numpy()
+    segment = sig.raw["segment"].to_numpy().copy()
+    if fell:
+        segment[t > ts[-1] - sig.window] = -1    # its own segment, NaN: the filter never crosses
+
+    quanta = quanta or {}
+    rng = rng if rng is not None else np.random.default_rng(0)
+
+    def read(x, col=None):
+        return read_as_logged(ts, np.asarray(x, float), stamps, t, quantum=quanta.get(col), rng=rng)
+
+    def smooth(y):
+        return sg(y, segment, sig.rate, sig.window, sig.polyorder)
+
+    raw = {"P": read(P)}
+    if "I_log" in logged and channels.k_t:
+        raw["I"] = read(df["M_d"].to_numpy() / channels.k_t, "I")
+    if "pitch_log" in logged:
+        s, zero = channels.pitch_sign or 1.0, channels.pitch_zero or 0.0
+        raw["pitch"] = read(s * df["gamma"].to_numpy() + zero, "pitch")
+    out = {f"v_{name}": smooth(read(df["x_dot"])), f"M_{name}": smooth(read(df["M_d"]))}
+    out |= {f"{col}_{name}": smooth(y) for col, y in raw.items()}
+    if "pwm_log" in logged and channels.pwm and "voltage" in sig.raw:
+        V = sg(sig.raw["voltage"].to_numpy(float), sig.raw["segment"].to_numpy(), sig.rate,
+               sig.window, sig.polyorder)
+        out[f"pwm_{name}"] = simulated_pwm(channels.pwm, out[f"v_{name}"], out[f"M_{name}"] / R, V)
+    return out, raw
+
+
+def _align_pitch(table: pd.DataFrame, ok: np.ndarray,
+                 names: Sequence[str]) -> tuple[pd.DataFrame, str | None]:
+    """Without the log's pitch convention, each simulated pitch moved to the log's mean (scored rows):
+    a new table (``table`` itself unchanged) and the note saying so (None without a logged pitch)."""
+    if "pitch_log" not in table:
+        return table, None
+    ok = _pitch_rows(table, ok)
+    m_log = np.nanmean(table["pitch_log"].to_numpy()[ok]) if ok.any() else 0.0
+    moved = {col: table[col] - np.nanmean(table[col].to_numpy()[ok]) + m_log
+             for col in (f"pitch_{name}" for name in names) if col in table and ok.any()}
+    return table.assign(**moved), ("pitch: the fit ride shows no balance law, so the log's pitch sign and "
+                                   "zero are not known; sign +1 assumed and each simulated pitch moved "
+                                   "to the logged riding mean")
+
+
+def _band_errors(sig: RideSignals, reads: Mapping[str, Mapping[str, np.ndarray]],
+                 rows: Mapping[str, np.ndarray]) -> dict:
+    """Each step's channels against the log's, band by band (level and spectrum), on the scored rows.
+
+    Battery power, and phase current and pitch where both sides have them (pitch on the
+    riding rows): the simulation as read at the log's stamps and the log as resampled,
+    neither smoothed (:func:`euc_sim.rides.grids.rider_features.band_ratio_db`), keyed as
+    ``heldout_rmse``; a channel without two rows to compare is left out.
+    """
+    from euc_sim.rides.grids.rider_features import RiderFitError, band_ratio_db
+
+    seg = sig.raw["segment"].to_numpy()
+    logged = {"P": "P"} | LOG_COLUMNS
+    out = {}
+    for name, read in reads.items():
+        out[name] = {}
+        for col, y in read.items():
+            if logged[col] not in sig.raw:
+                continue
+            try:
+                out[name][CHANNELS[col][0]] = band_ratio_db(y, sig.raw[logged[col]].to_numpy(float), seg,
+                                                            sig.rate, rows[col])
+            except RiderFitError:
+                continue
+    return out
+
+
+def _step_entries(steps: Sequence[SimStep], errors: dict, falls: list,
+                  balance: float | None, bands: Mapping[str, dict] | None = None) -> list[dict]:
+    """CONTRACT's ``simulation.steps``: description, held-out errors, ratio to the balance fit,
+    and the held-out bands of battery power, phase current and pitch (``heldout_bands``,
+    :func:`_band_errors`)."""
+    out = []
+    for step in steps:
+        entry = step.describe()
+        e = errors.get(step.name) if step.why is None else None
+        entry["heldout_rmse"] = {k: v for k, v in (e or {}).items() if np.isfinite(v)}
+        entry["heldout_bands"] = (bands or {}).get(step.name) if step.why is None else None
+        p = entry["heldout_rmse"].get("P_W")
+        entry["ratio_to_balance"] = (p / balance if p is not None and balance and balance > 0
+                                     else None)
+        entry["target_ratio"] = TARGET_RATIO
+        fell = [f for f in falls if f["run"] == step.name]
+        entry["fell"] = {"t": fell[0]["t"], "cause": fell[0]["cause"]} if fell else None
+        out.append(entry)
+    return out
+
+
+def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.ndarray | None = None,
+                  label: str | None = None, seed: int = 0, dt: float = 1e-3,
+                  track_iterations: int = 1,
+                  window_smooth: float = 5.0, window_min: float = 3.0,
+                  workers: int = 1, channels: LogChannels = LogChannels(),
+                  progress: Callable[[str], None] | None = None) -> RideSimulation:
+    """Simulate a ride's speed profile once per modelled step and compare each with its log.
+
+    Parameters
+    ----------
+    sig : RideSignals
+        The ride (:func:`euc_sim.rides.grids.signals.ride_signals`).
+    steps : sequence of SimStep
+        The modelled steps in order (:func:`euc_sim.rides.sim.sim_steps.build_steps`); those
+        with a ``why`` are listed, not run.  At least one must run.
+    log : RideLog or path
+        The same ride, for :func:`euc_sim.rides.grids.profile.speed_profile`.
+    scored : array of bool, optional
+        Grid rows the errors are measured on (default: every row where the
+        log's smoothed signals are defined).
+    label : str, optional
+    seed, dt, track_iterations :
+        See :func:`simulate_profile`.
+    workers : int
+        Threads for the steps (the results do not depend on it: ``tests/rides/
+        test_step_threads.py``); an interruption ends them within a rider block.
+    channels : LogChannels
+        How the simulated state maps onto the log's phase current, pitch and PWM
+        (:func:`euc_sim.rides.sim.sim_steps.log_channels`), and the balance fit's held-out
+        error the steps are compared with.
+    progress : callable, optional
+        Called with a short line as each run starts and ends (from the steps'
+        threads too); a progress bar over the ride's seconds is then shown on stderr too.
+    window_smooth, window_min : float
+        s: ``smooth`` and ``min_len`` of :func:`euc_sim.diagnosis.localise.localise`
+        (longer than its 1 s / 0.5 s defaults: a ride is minutes long and
+        sampled at 5 Hz).
+
+    Returns
+    -------
+    RideSimulation
+
+    Raises
+    ------
+    ValueError
+        when no step runs.
+    """
+    run = [s for s in steps if s.why is None]
+    if not run:
+        raise ValueError(f"steps: expected at least one step that runs, got {[s.name for s in steps]}")
+    params = ride_params(sig.assumptions)
+    log = as_log(log)                    # read once: for the profile and for the stamps
+    prof = speed_profile(log, sig.rate, sig.window, sig.polyorder, total_mass=sig.assumptions.total_mass)
+    t_p, v_p = prof["t"].to_numpy(), prof["v"].to_numpy()
+    notes = list(prof.attrs.get("notes", []))
+    notes += [f"{s.name}: {n}" for s in steps for n in s.notes]
+    notes += [f"{s.name} not run: {s.why}" for s in steps if s.why is not None]
+    out = _logged(sig)
+    falls, reads = [], {}
+    names = [s.name for s in run]
+    band = filter_band(sig.rate, sig.window, sig.polyorder)       # the plan learns what the log passes
+    stops = find_stops(t_p, v_p)          # on the log's speed: a smoothed plan stands still for less
+    data = log.data
+    stamps = data["t"].to_numpy(float)
+    quanta = {c: q for c, name in LOG_COLUMNS.items() if c != "pwm" and name in data
+              for q in [reading_step(data[name].to_numpy(float))] if q}
+    jobs = [_StepJob(i, s, (t_p, v_p if s.plan_window is None else rider_plan(t_p, v_p, s.plan_window),
+                            params, dict(s.effects), seed, dt, track_iterations, band,
+                            _prefixed(progress, s.name), s.name, i, s.motor, s.rider, LEAN_SHARE, None,
+                            stops),
+                     sig, params.R, channels, dict(out), stamps, quanta, seed)
+            for i, s in enumerate(run)]
+    for step, res in zip(run, _run_steps(jobs, params, workers, progress)):
+        if not res.falls:            # a fall is said once, from ``falls`` (page.falls_sentence)
+            notes += [f"{step.name}: {n}" for n in res.notes]
+        falls += [{**f, "run": step.name} for f in res.falls]
+        out.update(res.cols)
+        reads[step.name] = res.raw
+    table = pd.DataFrame(out)
+    ok = sig.frame["interior"].to_numpy() & np.isfinite(table["P_log"].to_numpy())
+    if scored is not None:
+        ok &= np.asarray(scored, bool)
+    if falls:                # every step scored where all rode: up to the first fall
+        rode = np.logical_and.reduce([np.isfinite(table[f"P_{n}"].to_numpy()) for n in names])
+        notes.append(f"every step is scored up to t = {min(f['t'] for f in falls):.1f} s, where the "
+                     f"first fall ended a run ({int((ok & rode).sum())} of {int(ok.sum())} scored rows)")
+        ok &= rode
+    table["scored"] = ok
+    if channels.pitch_sign is None:
+        table, note = _align_pitch(table, ok, names)
+        notes += [note] if note else []
+    errors = _errors(table, ok, names)
+    errors["M_log_method"] = sig.torque_method
+    bands = _band_errors(sig, reads, {"P": ok, "I": ok, "pitch": _pitch_rows(table, ok)})
+    loc = _localise_error(table, sig.frame["a"].to_numpy(), ok, window_smooth, window_min, names[-1])
+    return RideSimulation(label=label or str(sig.path), table=table, errors=errors,
+                          effects=dict(run[-1].effects),
+                          parameters={s.name: dict(s.power) for s in run}
+                          | {"nominal": dict(run[0].power), "augmented": dict(run[-1].power)},
+                          falls=falls, localisation=loc,
+                          steps=_step_entries(steps, errors, falls, channels.balance_heldout, bands),
+                          notes=tuple(notes))
+
+
+def plot_ride_simulation(sim: RideSimulation, path) -> "Path":
+    """Write :func:`euc_sim.rides.sim.simulation_figure.ride_simulation_figure` to ``path`` (PNG, atomically)."""
+    from euc_sim.io import save_figure
+    from euc_sim.rides.sim.simulation_figure import ride_simulation_figure
+
+    return save_figure(ride_simulation_figure(sim), path, dpi=100)

@@ -1,0 +1,638 @@
+"""The simulated rider riding a logged speed profile: acceleration limits, plan corrections, the log's grid.
+
+:func:`simulate_profile` drives the closed-loop simulator's rider
+(:func:`euc_sim.simulation.engine.simulate`, maneuver ``profile``) along a ride's speed,
+with a progress bar over the ride's seconds, its acceleration first limited to what the
+simulated rider can ride (:func:`rider_acceleration_limit`); when he falls, the run stops there and the
+fall is reported once (the profile is never ridden again after a fall); otherwise his
+plan is corrected so that the simulated speed tracks the logged one.  Where the log
+stands still (:mod:`euc_sim.rides.grids.stops`) the rider stands, foot down, and rides each
+stretch between stops from rest.  :func:`limit_acceleration` smooths a profile to a given acceleration.  :func:`to_grid`
+brings the 1 kHz simulation onto the log's grid.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from euc_sim.errors import InputError
+from euc_sim.model.parameters import Params
+
+__all__ = ["limit_acceleration", "rider_acceleration_limit", "resisting_acceleration", "to_grid", "ProfileRun",
+           "simulate_profile", "LEAN_SHARE", "moving_average", "plan_band_limit", "RideCancelled"]
+
+#: Share of the fall bound |φ| ≤ φ_max that the rider's steady lean φ*(a) may use: the
+#: profile's acceleration is limited to the a where |φ*(a)| = LEAN_SHARE·φ_max
+#: (:func:`rider_acceleration_limit`, 1.5 m/s² for Table 3).  Starting or stopping an
+#: acceleration makes the rider's lean overshoot its trim about twice over (the plant is
+#: non-minimum-phase in speed: to lean back, the wheel must first run ahead), so the rest of
+#: the range is the transient's.  Value: see docs/ride_falls.md#the-fix.
+LEAN_SHARE = 0.3
+
+
+def limit_acceleration(t: np.ndarray, v: np.ndarray, a_max: float) -> np.ndarray:
+    """A speed profile whose slope never exceeds ±``a_max``, close to ``v``.
+
+    A rate limiter run forwards and one run backwards over time, averaged: each
+    has |dv/dt| ≤ a_max, so their mean does too, and the lag of one cancels the
+    lead of the other (no net time shift).  ``v`` is not modified.
+
+    Parameters
+    ----------
+    t : array_like
+        s, strictly increasing.
+    v : array_like
+        m/s.
+    a_max : float
+        m/s², positive.
+
+    Returns
+    -------
+    numpy.ndarray
+        m/s, same shape as ``v``.
+    """
+    if not (math.isfinite(a_max) and a_max > 0):
+        raise InputError(f"a_max must be a positive number of m/s², got {a_max!r}")
+    t = np.asarray(t, float)
+    v = np.asarray(v, float)
+    dv = a_max * np.diff(t)
+
+    def one_way(x: np.ndarray, steps: np.ndarray) -> np.ndarray:
+        out = x.copy()
+        for i in range(1, out.size):
+            out[i] = min(max(out[i], out[i - 1] - steps[i - 1]), out[i - 1] + steps[i - 1])
+        return out
+
+    fwd = one_way(v, dv)
+    bwd = one_way(v[::-1], dv[::-1])[::-1]
+    return 0.5 * (fwd + bwd)
+
+
+def moving_average(t: np.ndarray, v: np.ndarray, width: float) -> np.ndarray:
+    """Centred moving average of a uniformly sampled profile over ``width`` s (no time shift).
+
+    The window is the odd number of samples nearest ``width`` (at least 1: then ``v``);
+    the ends are padded with the first and last values.  Each output is a mean of
+    consecutive samples, so a profile whose slope stays within ±a keeps it, and the
+    mean's slope changes by at most 2a over the window: an acceleration step becomes a
+    ramp as long as the window.  Its gain falls to 1/√2 at ω = 2.783/width rad/s
+    (|sin(ωT/2)/(ωT/2)| = 1/√2).
+
+    Parameters
+    ----------
+    t : array_like
+        s, uniform.
+    v : array_like
+        m/s (any unit).
+    width : float
+        s, non-negative.
+
+    Returns
+    -------
+    numpy.ndarray
+        Same shape as ``v``.
+    """
+    t = np.asarray(t, float)
+    v = np.asarray(v, float)
+    if not (math.isfinite(width) and width >= 0):
+        raise InputError(f"moving-average width must be a non-negative number of s, got {width!r}")
+    if v.size < 2:
+        return v.copy()
+    n = int(round(width / float(np.median(np.diff(t)))))
+    n = n + 1 if n % 2 == 0 else n
+    if n <= 1:
+        return v.copy()
+    from scipy.ndimage import uniform_filter1d
+
+    return uniform_filter1d(v, n, mode="nearest")      # centred (n odd); ends padded with their values
+
+
+#: Gain 1/√2 of a centred moving average at ω·width = 2·1.3916 (sin x / x = 1/√2 at x = 1.3916).
+_BOX_HALF_POWER = 2.0 * 1.3916
+
+
+def plan_band_limit(params: Params, motor=None) -> tuple[float, float]:
+    """The width, s, of the moving average that band-limits the rider's plan to ω_B = z/2.
+
+    The wheel speed's response to the rider's ankle torque has a right-half-plane zero z
+    (:func:`euc_sim.controllers.plant.speed_zero`: to speed up the wheel must first run back under
+    the leaning rider), which bounds the bandwidth of any speed tracking to ω_B < z/2
+    (Skogestad and Postlethwaite, *Multivariable Feedback Control*, 2nd ed., 2005, §5.6).  A
+    plan with faster content (the acceleration envelope's corners: an acceleration step of
+    the plan steps the rider's trim lean φ*(a), and his stiff lean gain turns it into an
+    ankle-torque step) is asked of a rider who cannot follow it.  The width is the one
+    whose centred moving average (:func:`moving_average`) has its half-power gain at z/2.
+    From the model, not fitted to any ride.
+
+    Returns
+    -------
+    (width, z) : tuple of float
+        s, and the zero z, rad/s.  Width 0 when the response has no such zero.
+    """
+    from euc_sim.controllers.plant import speed_zero
+
+    z = speed_zero(params, motor)
+    if not (math.isfinite(z) and z > 0):
+        return 0.0, z
+    return _BOX_HALF_POWER / (0.5 * z), z
+
+
+def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEAN_SHARE,
+                             phi_max: float | None = None) -> float:
+    """The largest |a|, m/s², whose steady lean |φ*(a)| (:func:`euc_sim.controllers.rider.trim`) stays
+    within ``lean_share``·φ_max, braking and accelerating alike (the smaller of the two).
+
+    Parameters
+    ----------
+    params : Params
+        The simulated rider and wheel.
+    motor : MotorPD, optional
+        The wheel's balance law (default: the paper's PD).
+    lean_share : float
+        In (0, 1).
+    phi_max : float, optional
+        rad (default the simulator's fall bound on φ).
+
+    Returns
+    -------
+    float
+        m/s², positive.
+    """
+    from scipy.optimize import brentq
+
+    from euc_sim.controllers.motor import MotorPD
+    from euc_sim.controllers.rider import trim
+    from euc_sim.simulation.engine import FALL_BOUNDS
+
+    if not (math.isfinite(lean_share) and 0 < lean_share < 1):
+        raise InputError(f"lean_share must be in (0, 1), got {lean_share!r}")
+    motor = motor or MotorPD()
+    target = lean_share * (FALL_BOUNDS["phi"] if phi_max is None else phi_max)
+
+    def excess(a: float) -> float:
+        return abs(float(trim(params, motor, a)[1])) - target
+
+    return min(brentq(excess, 0.0, sign * params.g * 2, xtol=1e-4) * sign for sign in (1.0, -1.0))
+
+
+def resisting_acceleration(params: Params, effects: Mapping[str, float]) -> float:
+    """The speed-independent resistance as an acceleration the rider's lean must add, m/s².
+
+    ``rolling_resistance`` C_rr·g·cos α and ``road_slope`` g·|sin α|: in steady riding the
+    rider leans for a + these (aerodynamic drag, growing with speed, is not counted), so the
+    profile's acceleration limit is :func:`rider_acceleration_limit` minus this.
+
+    Parameters
+    ----------
+    params : Params
+        The simulated rider and wheel (g, m/s²).
+    effects : mapping
+        ``rolling_resistance`` C_rr (1) and ``road_slope`` α (rad), as CONTRACT's catalog; others ignored.
+
+    Returns
+    -------
+    float
+        m/s², non-negative.
+    """
+    alpha = float(effects.get("road_slope", 0.0))
+    return params.g * (float(effects.get("rolling_resistance", 0.0)) * math.cos(alpha) + abs(math.sin(alpha)))
+
+
+def to_grid(t_fine: np.ndarray, y: np.ndarray, t_grid: np.ndarray) -> np.ndarray:
+    """Mean of a fine signal over each grid interval centred on ``t_grid``.
+
+    Parameters
+    ----------
+    t_fine, y : array_like
+        Uniformly sampled fine signal (s, any unit).
+    t_grid : array_like
+        Uniform grid, s, coarser than ``t_fine``.
+
+    Returns
+    -------
+    numpy.ndarray
+        Same unit as ``y``; NaN where the interval holds no fine sample.
+    """
+    t_fine = np.asarray(t_fine, float)
+    y = np.asarray(y, float)
+    t_grid = np.asarray(t_grid, float)
+    step = float(np.median(np.diff(t_grid))) if t_grid.size > 1 else 1.0
+    edges = np.concatenate([t_grid - step / 2, [t_grid[-1] + step / 2]])
+    idx = np.searchsorted(edges, t_fine, side="right") - 1
+    ok = (idx >= 0) & (idx < t_grid.size)
+    s = np.bincount(idx[ok], weights=y[ok], minlength=t_grid.size)
+    n = np.bincount(idx[ok], minlength=t_grid.size)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(n > 0, s / np.maximum(n, 1), np.nan)
+
+
+@dataclass(frozen=True)
+class ProfileRun:
+    """One closed-loop run along a speed profile.
+
+    Attributes
+    ----------
+    frame : pandas.DataFrame or None
+        :func:`euc_sim.simulation.engine.simulate`'s output (1/dt Hz), up to the fall
+        when the rider fell; None when he fell before the first step.  At the log's
+        stops, rows of the wheel at rest (:func:`euc_sim.rides.grids.stops.rest_rows`).
+    falls : tuple of dict
+        ``{"t": s, "cause": str}`` of the fall that ended the run (at most one: the
+        profile is never ridden again after a fall).
+    notes : tuple of str
+        The fall and the plan corrections, in order.
+    """
+
+    frame: pd.DataFrame | None
+    falls: tuple[dict, ...]
+    notes: tuple[str, ...]
+
+
+class RideCancelled(Exception):
+    """A run ended because its caller cancelled it (``simulate_profile(cancel=...)``)."""
+
+
+class _RideClock:
+    """A tqdm bar over the ride's seconds (stderr), fed by the engine's ``progress(t)``; raises
+    :class:`RideCancelled` at its next tick once ``cancel`` (a :class:`threading.Event`) is set."""
+
+    def __init__(self, total: float, desc: str, enabled: bool, position: int = 0, cancel=None):
+        import sys
+
+        from tqdm import tqdm
+
+        self.cancel = cancel
+        self.bar = tqdm(total=round(total, 1), desc=desc, unit="s", unit_scale=False, file=sys.stderr,
+                        disable=not enabled, position=position, mininterval=1.0, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
+                        "{n:.0f}/{total:.0f} s of ride [{elapsed}<{remaining}]")
+
+    def __call__(self, t: float) -> None:
+        if self.cancel is not None and self.cancel.is_set():
+            raise RideCancelled(f"{self.bar.desc}: cancelled at t = {t:.1f} s")
+        self.bar.update(max(0.0, round(t, 1) - self.bar.n))
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+class _Stretches:
+    """The rides of a run's stretches between stops: each ridden when asked for (``pool`` None),
+    or all submitted at once to ``pool`` (threads) and collected in order.
+
+    Stretch i is ridden from rest with its own seed, so it is the same ride either way.
+    :meth:`abandon` (after a fall, the later stretches are not ridden) cancels those not
+    started and ends those riding at their next rider block."""
+
+    def __init__(self, t, v_plan, segments, params, effects, seed, dt, clock, motor, rider, pool):
+        import threading
+
+        self.quit = threading.Event()
+        self.segments = segments
+
+        def one(i: int) -> pd.DataFrame:
+            a, b = segments[i]
+            t0 = float(t[a])
+
+            def seg_clock(s: float) -> None:
+                if self.quit.is_set():
+                    raise RideCancelled("a stretch after a fall: not ridden")
+                if clock is not None:
+                    clock(t0 + s)
+
+            return _ride(t[a:b + 1] - t0, v_plan[a:b + 1], params, effects,
+                         seed if i == 0 else _stretch_seed(seed, i), dt,
+                         None if clock is None and pool is None else seg_clock, motor, rider)
+
+        self.one = one
+        self.futures = None if pool is None else [pool.submit(one, i) for i in range(len(segments))]
+
+    def ride(self, i: int) -> pd.DataFrame:
+        """Stretch i's frame (its own clock, from 0), or its :class:`FallError`."""
+        return self.one(i) if self.futures is None else self.futures[i].result()
+
+    def abandon(self) -> None:
+        self.quit.set()
+        for fut in self.futures or ():
+            fut.cancel()
+
+
+def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=None, rider=None, stops=(),
+           pool=None):
+    """One run along the plan v_plan; its speed on the profile grid, m/s, and RMS error.
+
+    ``motor`` (default the paper's PD) and ``rider`` (default the LQR rider designed for
+    that motor, :func:`euc_sim.simulation.engine.default_rider`).  With ``stops``
+    (:func:`euc_sim.rides.grids.stops.find_stops`), each stretch between them is ridden from rest
+    on its own (a fresh rider: his memory cleared; stretch i > 0 draws its motor noise
+    from seed (``seed``, i)) and the wheel stands, foot down, through each stop
+    (:func:`euc_sim.rides.grids.stops.rest_rows`); the frame's ``attrs["step_off"]`` is the
+    largest |ẋ| at which a stretch ended at a stop, m/s.  A fall in a stretch raises
+    :class:`FallError` at the ride's time with the ride up to it as ``trajectory``.  With
+    ``pool`` (a thread pool), the stretches ride side by side (:class:`_Stretches`)."""
+    from euc_sim.rides.grids.stops import moving_segments, rest_rows
+    from euc_sim.simulation.errors import FallError
+
+    segments = moving_segments(t.size, list(stops)) if stops else [(0, t.size - 1)]
+    pieces, x_end, t_end, step_off, attrs = [], 0.0, None, 0.0, {}
+    rest_pose = _rest_pose(params, motor) if stops else (0.0, 0.0)
+
+    def stand(t0: float, t1: float, closed: bool) -> None:
+        """Rest rows after t0 up to t1 (t1 itself only when ``closed``)."""
+        ts = np.arange(t0 + dt, t1 + (0.5 if closed else -0.5) * dt, dt)
+        if ts.size:
+            pieces.append(rest_rows(ts, x_end, *rest_pose, np.interp(ts, t, v_plan)))
+
+    rides = _Stretches(t, v_plan, segments, params, effects, seed, dt, clock, motor, rider, pool)
+    for i, (a, b) in enumerate(segments):
+        if t_end is None and a > 0:
+            stand(float(t[0]) - dt, float(t[a]), False)
+        elif t_end is not None:
+            stand(t_end, float(t[a]), False)
+        t0 = float(t[a])
+        try:
+            df = rides.grids.ride(i)
+        except FallError as exc:
+            rides.abandon()
+            fell = FallError(t0 + exc.t, exc.quantity, exc.value, exc.bound)
+            part = [] if exc.trajectory is None else [_shifted(exc.trajectory, t0, x_end)]
+            fell.trajectory = pd.concat(pieces + part, ignore_index=True) if pieces or part else None
+            raise fell from None
+        except BaseException:
+            rides.abandon()
+            raise
+        pieces.append(_shifted(df, t0, x_end))
+        attrs = attrs or dict(df.attrs)
+        x_end, t_end = float(pieces[-1]["x"].iloc[-1]), float(pieces[-1]["t"].iloc[-1])
+        if stops and b < t.size - 1:
+            step_off = max(step_off, abs(float(df["x_dot"].iloc[-1])))
+    if t_end is None:                      # the whole profile is one stop
+        stand(float(t[0]) - dt, float(t[-1]), True)
+    elif t_end < t[-1] - dt / 2:
+        stand(t_end, float(t[-1]), True)
+    df = pd.concat(pieces, ignore_index=True) if len(pieces) > 1 else pieces[0]
+    df.attrs.update(attrs, step_off=step_off)
+    if clock is not None:
+        clock(float(t[-1]))                # the whole ride ridden
+    v_sim = to_grid(df["t"].to_numpy(), df["x_dot"].to_numpy(), t)
+    v_sim = np.where(np.isfinite(v_sim), v_sim, v_plan)
+    return df, v_sim, float(np.sqrt(np.mean((v_target - v_sim) ** 2)))
+
+
+def _ride(t, v_plan, params, effects, seed, dt, clock, motor, rider) -> pd.DataFrame:
+    """:func:`euc_sim.simulation.engine.simulate` along the plan (t from 0, s; m/s) from its trim."""
+    from euc_sim.simulation.engine import default_rider, simulate
+    from euc_sim.simulation.maneuvers import Maneuver
+
+    man = Maneuver("profile", float(v_plan[0]), (), (tuple(t.tolist()), tuple(v_plan.tolist())))
+    df = simulate(man, float(t[-1]), params=params, motor=motor,
+                  rider=rider if rider is not None else default_rider(params, motor), seed=seed,
+                  effects=dict(effects), dt=dt, progress=clock)
+    # the description without the profile's table (the plan, given here): pandas deep-copies
+    # ``attrs`` at every operation on the frame, and an hour's table is 2 x 36,000 floats
+    df.attrs["maneuver"] = {k: v for k, v in df.attrs["maneuver"].items() if k != "table"}
+    return df
+
+
+def _shifted(df: pd.DataFrame, t0: float, x0: float) -> pd.DataFrame:
+    """A stretch's frame on the ride's clock and road: t + t0, x + x0 (a new frame)."""
+    return df.assign(t=df["t"] + t0, x=df["x"] + x0)
+
+
+def _stretch_seed(seed: int, i: int) -> int:
+    """The motor-noise seed of stretch i > 0 of a ride run with ``seed``: one draw of SeedSequence((seed, i))."""
+    return int(np.random.SeedSequence((int(seed), int(i))).generate_state(1)[0])
+
+
+def _rest_pose(params: Params, motor) -> tuple[float, float]:
+    """(γ, φ) of the trim at rest, rad (:func:`euc_sim.controllers.rider.trim` at a = v = 0)."""
+    from euc_sim.controllers.motor import MotorPD
+    from euc_sim.controllers.rider import trim
+
+    gamma, phi, _, _ = trim(params, motor or MotorPD(), 0.0, 0.0)
+    return float(gamma), float(phi)
+
+
+def _correct_plan(t, target, plan, run, params, effects, seed, dt, iterations: int, band: float,
+                  notes: list, say, clock_of, motor=None, rider=None, stops=(), pool=None) -> pd.DataFrame:
+    """Iterative learning: the plan corrected through the inverted closed loop, ridden again.
+
+    Each correction is :func:`euc_sim.rides.sim.plan_learning.inverse_correction` of the speed
+    error on the riding rows (|target| > ``V_MIN``) up to ``band`` Hz.  A corrected run is kept
+    when it rides closer to ``target`` on those rows; one that falls is discarded (the notes
+    say so) and the last kept run stands.  Returns the frame of the run kept; appends to
+    ``notes``.
+    """
+    from euc_sim.rides.grids.law_signals import V_MIN
+    from euc_sim.rides.sim.plan_learning import inverse_correction
+    from euc_sim.simulation.errors import FallError
+
+    df, v_sim, _ = run
+    riding = np.abs(target) > V_MIN
+    if not riding.any():
+        return df
+
+    def off(v):
+        return float(np.sqrt(np.mean((target - v)[riding] ** 2)))
+
+    err = off(v_sim)
+    for it in range(iterations):
+        plan = plan + inverse_correction(t, plan, v_sim, np.where(riding, target - v_sim, 0.0), band)
+        say(f"tracking correction {it + 1} of {iterations}: riding the corrected plan")
+        clock = clock_of(f"correction {it + 1}")
+        try:
+            df2, v2, _ = _track(t, target, plan, params, effects, seed, dt, clock, motor, rider, stops, pool)
+        except FallError as exc:
+            notes.append(f"tracking correction {it + 1}: rider fell ({exc}); kept the "
+                         f"previous run")
+            break
+        finally:
+            clock.close()
+        err2 = off(v2)
+        notes.append(f"tracking correction {it + 1}: RMS speed error while riding {err:.3f} -> "
+                     f"{err2:.3f} m/s")
+        if err2 >= err:
+            break
+        df, v_sim, err = df2, v2, err2
+    return df
+
+
+def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapping[str, float],
+                     seed: int = 0, dt: float = 1e-3, track_iterations: int = 1,
+                     learn_band: float | None = None, progress: Callable[[str], None] | None = None,
+                     label: str = "ride", position: int = 0, motor=None, rider=None,
+                     lean_share: float | None = LEAN_SHARE, band_limit: bool | None = None,
+                     stops: Sequence[tuple[int, int]] | None = None, cancel=None, pool=None) -> ProfileRun:
+    """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
+
+    The simulated rider does not ride his plan as planned: a resisting force (drag,
+    rolling resistance, a climb) makes him lag it, and his closed loop amplifies the
+    plan's quicker changes (2–3× at 0.2–0.7 Hz, :mod:`euc_sim.rides.sim.plan_learning`).  The
+    logged speed is what a real rider rode, not what he planned, so after the first run
+    the plan is learned (iterative learning): the speed error on the riding rows is passed
+    through the inverted closed loop measured on that run, up to ``learn_band`` Hz
+    (:func:`euc_sim.rides.sim.plan_learning.inverse_correction`), added to the plan, and the
+    ride is run again, ``track_iterations`` times.  The first run rides the profile within
+    the rider's envelope (``lean_share``); the learned plans aim at the profile as logged,
+    and a learned run that falls is discarded.  The run closest to the profile while
+    riding is kept, and the notes say what each correction did.
+
+    When the rider falls, the run ends there: its frame stops at the fall, the fall's
+    time and cause are reported once (``falls``), and the profile is not ridden again
+    (no correction either).
+
+    Parameters
+    ----------
+    t, v : array_like
+        Profile, s and m/s, uniform, t starting at 0.
+    params : Params
+    effects : mapping
+        CONTRACT effect values injected as physics.
+    seed : int
+        Seed of the simulation (the default rider has no motor noise).
+    dt : float
+        Control period and MuJoCo step, s.
+    track_iterations : int
+        Plan corrections after the first run (0: the plan is the profile).
+    learn_band : float, optional
+        Hz: the highest frequency the plan learns (default :func:`plan_learning.filter_band`
+        of the ride defaults, the band the log's smoothing passes, 0.72 Hz).
+    progress : callable, optional
+        Called with a short line before each closed-loop run; when given, a progress
+        bar over the ride's seconds is shown on stderr too.
+    label : str
+        The bar's name (the run: ``nominal``, ``augmented``).
+    position : int
+        The bar's line (0 first): runs side by side (threads) keep their own line.
+    motor : controllers.motor.MotorPD, optional
+        The wheel's balance law (default the paper's PD), e.g. a ride's measured law
+        (:func:`euc_sim.controllers.firmware.firmware_motor`).
+    rider : controllers.rider.Rider, optional
+        The rider (default the LQR rider designed for ``motor``).
+    lean_share : float or None
+        The profile's acceleration is limited to what the simulated rider can ride,
+        :func:`rider_acceleration_limit` (``lean_share`` of the fall bound for his steady
+        lean) less :func:`resisting_acceleration` (:func:`limit_acceleration`), before it is
+        first ridden; the notes say where the limit changed the profile.  The plan
+        corrections aim at the profile as logged.  None: the profile as logged.
+    band_limit : bool or None
+        The rider's first plan (after the envelope) is band-limited to what he can track,
+        ω_B = z/2 with z the right-half-plane zero of his speed response
+        (:func:`plan_band_limit`, a centred moving average: no time shift, and the envelope's
+        |a| is kept).  A note gives the width and how far the plan moved.  The learned plans
+        are not band-limited (a learned run that falls is discarded).  False: no band limit.
+        None (default): band-limited when the envelope is on (``lean_share`` not None), so
+        that ``lean_share=None`` still rides the profile as logged.
+    stops : sequence of (int, int), optional
+        The log's stops, (first, last) rows of ``t`` (:func:`euc_sim.rides.grids.stops.find_stops`);
+        default: found on ``v`` (standing still for :data:`euc_sim.rides.grids.stops.T_STOP` s or more).
+        Through each stop the rider stands, foot down, and he rides each stretch between
+        stops from rest with his memory cleared (:mod:`euc_sim.rides.grids.stops`: the logs draw no
+        power at such stops).  A note counts them.  ``()``: one run through, no stop.
+    cancel : threading.Event, optional
+        Once set, the run raises :class:`RideCancelled` within one rider block (its caller
+        was interrupted: :func:`euc_sim.rides.sim.pool.run_threads`).
+    pool : concurrent.futures.ThreadPoolExecutor, optional
+        The stretches between stops ride on it side by side (the same rides as one by one:
+        each from rest with its own seed); None: one by one in this thread.
+
+    Returns
+    -------
+    ProfileRun
+
+    Raises
+    ------
+    RideCancelled
+        when ``cancel`` is set during the run.
+    """
+    from euc_sim.simulation.errors import FallError
+
+    say = progress or (lambda msg: None)
+    t = np.asarray(t, float)
+    v = logged = np.asarray(v, float)
+    notes: list[str] = []
+
+    def clock_of(what: str) -> _RideClock:
+        return _RideClock(float(t[-1] - t[0]), f"{label} {what}", progress is not None, position, cancel)
+
+    a_limit = None
+    if lean_share is not None and t.size > 1:
+        a_res = resisting_acceleration(params, effects)
+        a_limit = rider_acceleration_limit(params, motor, lean_share) - a_res
+        if a_limit <= 0:                     # he cannot even hold a speed against them
+            cause = (f"the injected resistance ({a_res:.2f} m/s²) exceeds what the simulated rider "
+                     f"can lean against ({a_limit + a_res:.2f} m/s²)")
+            notes.append(f"rider cannot ride: {cause}; the profile is not ridden")
+            return ProfileRun(None, ({"t": 0.0, "cause": cause},), tuple(notes))
+        v = _within_envelope(t, v, a_limit, lean_share, notes)
+    band_width = 0.0
+    if band_limit is None:
+        band_limit = lean_share is not None
+    if band_limit and t.size > 1:
+        band_width, z = plan_band_limit(params, motor)
+        if band_width:
+            v_band = moving_average(t, v, band_width)
+            dev = np.abs(v_band - v)
+            notes.append(f"rider's plan band-limited to z/2 = {0.5 * z:.2f} rad/s, half his speed "
+                         f"response's right-half-plane zero z (a {band_width:.2f} s centred moving "
+                         f"average): {np.sqrt(np.mean(dev ** 2)):.3f} m/s RMS, {dev.max():.2f} m/s at "
+                         f"most from the {'limited' if a_limit is not None else 'logged'} profile")
+            v = v_band
+    if stops is None:
+        from euc_sim.rides.grids.stops import find_stops
+
+        stops = find_stops(t, logged) if t.size > 1 else ()
+    stops = tuple((int(a), int(b)) for a, b in stops)
+    ends = [i for stop in stops for i in stop]
+    if ends and (ends != sorted(ends) or ends[0] < 0 or ends[-1] >= t.size):
+        raise ValueError(f"stops: expected ordered (first, last) rows within 0…{t.size - 1}, got {list(stops)}")
+    if stops:
+        still = sum(float(t[b] - t[a]) for a, b in stops)
+        notes.append(f"the log stands still at {len(stops)} stop{'s' * (len(stops) != 1)}, {still:.0f} s of {t[-1] - t[0]:.0f} s: the "
+                     f"simulated rider stands there, foot down (no motor or ankle torque), and sets off "
+                     f"from rest with his memory cleared")
+    say(f"riding {t[-1] - t[0]:.0f} s of the logged profile")
+    clock = clock_of("ride")
+    try:
+        df, v_sim, err = _track(t, v, v, params, effects, seed, dt, clock, motor, rider, stops, pool)
+    except FallError as exc:
+        cause = str(exc).split(": ", 1)[-1]
+        notes.append(f"rider fell at t = {exc.t:.1f} s of {t[-1] - t[0]:.0f} s ({cause}): the "
+                     f"simulation stops there and the profile is not ridden again")
+        say(notes[-1])
+        frame = exc.trajectory if exc.trajectory is not None and len(exc.trajectory) else None
+        return ProfileRun(frame, ({"t": float(exc.t), "cause": cause},), tuple(notes))
+    finally:
+        clock.close()
+    if t.size >= 5:
+        from euc_sim.rides.sim.plan_learning import filter_band
+
+        band = filter_band() if learn_band is None else learn_band
+        df = _correct_plan(t, logged, v, (df, v_sim, err), params, effects, seed, dt,
+                           track_iterations, band, notes, say, clock_of, motor, rider, stops, pool)
+    if any(a > 0 for a, _ in stops):          # a stretch ended at a stop
+        notes.append(f"at the stops the simulated rider (the run kept) put his foot down from up to "
+                     f"{df.attrs['step_off']:.2f} m/s")
+    return ProfileRun(df, (), tuple(notes))
+
+
+def _within_envelope(t: np.ndarray, v: np.ndarray, a_limit: float, lean_share: float,
+                     notes: list) -> np.ndarray:
+    """The profile limited to ±``a_limit`` m/s² where it exceeds it; a note says how much."""
+    a = np.diff(v) / np.diff(t)
+    over = np.abs(a) > a_limit * (1 + 1e-9)
+    if not over.any():
+        return v
+    out = limit_acceleration(t, v, a_limit)
+    dev = np.abs(out - v)
+    notes.append(f"profile acceleration limited to ±{a_limit:.2f} m/s², what the simulated rider "
+                 f"can ride (his steady lean within {lean_share:g} of the fall bound, less the "
+                 f"rolling resistance and slope; the log "
+                 f"reaches {np.abs(a).max():.2f} m/s²): {100 * over.mean():.1f} % of the ride "
+                 f"exceeded it; the limited profile differs from the logged one by "
+                 f"{np.sqrt(np.mean(dev ** 2)):.3f} m/s RMS, {dev.max():.2f} m/s at most")
+    return out

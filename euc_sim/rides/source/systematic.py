@@ -1,0 +1,121 @@
+"""What a ride log cannot calibrate, carried into the total mass's interval.
+
+The block bootstrap of :mod:`euc_sim.rides.drive.mass` measures how much the mass
+moves with the ride's own noise.  It cannot see the parts of the answer that
+are the same on every replicate:
+
+- ``speed_scale``: m ∝ 1/k², k the true over the logged speed; from GPS with
+  its own standard deviation (:func:`euc_sim.rides.grids.power.speed_scale`), else
+  1 ± :data:`~euc_sim.rides.grids.power.NO_GPS_SCALE_SD`;
+- ``current_scale``: m ∝ the current sensor's scale, which no log calibrates
+  (a prior, :data:`CURRENT_SCALE_SD`);
+- ``rotating_share``: J_w/R² taken as 0.10–0.28 of the net weight
+  (:mod:`euc_sim.rides.drive.rotating`);
+- ``efficiency_model``: the mass's change between the copper-loss models
+  (κF² and the proxy κa², logs without phase current);
+- ``grade``: the mass's change when the GPS-altitude grade term is dropped, or,
+  without altitude, a prior share of the mass (:data:`GRADE_SHARE`).
+
+Each is a 95 % half-width in kg; they are added in quadrature to each side of
+the bootstrap interval (:func:`combined_interval`).
+
+The two priors are fixed constants, not fitted per ride.  They were set from
+the shared rides (``scripts/tables/real_rides_study.py`` re-chooses both from the
+other wheels when it scores a wheel, leaving that wheel out, as it does the
+speed-scale method and the copper-loss model).
+"""
+
+from __future__ import annotations
+
+import math
+
+__all__ = ["CURRENT_SCALE_SD", "GRADE_SHARE", "combined_interval", "speed_scale_kg",
+           "current_scale_kg", "mass_difference", "SHARED_BY_A_WHEEL"]
+
+#: Systematic parts one wheel shares between its rides: they cancel from a difference.
+SHARED_BY_A_WHEEL = ("current_scale", "rotating_share")
+
+#: Relative standard deviation of a wheel's battery-current scale (prior).  Value: see
+#: docs/drivetrain.md#figures-that-hold-on-wheels-nobody-tuned-on.
+CURRENT_SCALE_SD = 0.10
+#: Without GPS altitude: the grade's 95 % half-width as a share of the mass (prior): the
+#: median over the shared rides with altitude (0.019; re-chosen per fold likewise).
+GRADE_SHARE = 0.02
+
+
+def speed_scale_kg(mass: float, scale_sd: float) -> float:
+    """95 % half-width, kg, of the mass from the speed scale's relative sd (m ∝ 1/k²)."""
+    return 1.96 * 2.0 * scale_sd * mass
+
+
+def current_scale_kg(mass: float, current_sd: float = CURRENT_SCALE_SD) -> float:
+    """95 % half-width, kg, of the mass from the current sensor's relative sd (m ∝ I)."""
+    return 1.96 * current_sd * mass
+
+
+def combined_interval(estimate: float, stat_ci95, systematic: dict) -> tuple[float, float] | None:
+    """The bootstrap interval with every systematic half-width added in quadrature.
+
+    Parameters
+    ----------
+    estimate : float
+        kg.
+    stat_ci95 : (lo, hi) or None
+        The bootstrap's 95 % interval, kg.
+    systematic : dict
+        Source -> 95 % half-width, kg.
+
+    Returns
+    -------
+    (lo, hi) or None
+        ``estimate ∓ √((estimate − lo)² + Σ s²)``; always contains ``estimate``.
+    """
+    if stat_ci95 is None:
+        return None
+    s2 = sum(x * x for x in systematic.values() if x is not None and math.isfinite(x))
+    lo, hi = stat_ci95
+    below, above = max(estimate - lo, 0.0), max(hi - estimate, 0.0)
+    return (estimate - math.sqrt(below ** 2 + s2), estimate + math.sqrt(above ** 2 + s2))
+
+
+def mass_difference(a, b) -> dict:
+    """Total mass of ride ``b`` minus ride ``a`` of the same wheel, with its 95 % interval.
+
+    The bootstrap intervals of the two rides are independent, and so are the
+    parts each ride measures on its own (grade, the copper-loss model, a GPS
+    speed scale); the wheel's current-sensor scale and rotating inertia are the
+    same on both rides and cancel (:data:`SHARED_BY_A_WHEEL`), as does an
+    assumed speed scale when neither ride has GPS (one speedometer).  All are
+    added in quadrature.
+
+    Parameters
+    ----------
+    a, b : MassFit
+        The two rides' fits (:mod:`euc_sim.rides.drive.mass`), the rotating inertia
+        taken out or not, alike.
+
+    Returns
+    -------
+    dict
+        ``{"estimate", "ci95", "unit": "kg", "verdict"}`` with verdict
+        "heavier" (the interval above zero: ``b`` carried more), "lighter" or
+        "cannot tell"; ``estimate`` None with a ``why`` when either mass is not
+        identified.
+    """
+    if a.estimate is None or b.estimate is None or not a.stat_ci95 or not b.stat_ci95:
+        which = "this ride" if a.estimate is None else "the compared ride"
+        return {"estimate": None, "ci95": None, "unit": "kg", "verdict": "cannot tell",
+                "why": f"the mass of {which} is not identified"}
+    both_assumed = a.scale.source == "assumed" and b.scale.source == "assumed"
+    shared = set(SHARED_BY_A_WHEEL) | ({"speed_scale"} if both_assumed else set())
+    s2 = sum(x * x for f in (a, b) for k, x in f.systematic.items()
+             if k not in shared and x is not None and math.isfinite(x))
+    d = b.estimate - a.estimate
+    lo_b, hi_b = b.estimate - b.stat_ci95[0], b.stat_ci95[1] - b.estimate
+    lo_a, hi_a = a.estimate - a.stat_ci95[0], a.stat_ci95[1] - a.estimate
+    ci = (d - math.sqrt(max(lo_b, 0) ** 2 + max(hi_a, 0) ** 2 + s2),
+          d + math.sqrt(max(hi_b, 0) ** 2 + max(lo_a, 0) ** 2 + s2))
+    verdict = "heavier" if ci[0] > 0 else "lighter" if ci[1] < 0 else "cannot tell"
+    return {"estimate": d, "ci95": list(ci), "unit": "kg", "verdict": verdict,
+            "cancelled": sorted(shared),
+            "note": "the compared ride minus this one; 'heavier': the compared ride carried more"}

@@ -1,0 +1,1 @@
+"""Logs written with a concealed, known truth, for blind tests and studies."""

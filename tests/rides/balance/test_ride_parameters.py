@@ -1,0 +1,114 @@
+"""The ride's one parameter set: bounded fits, the held-out selection, ``parameters`` and its views.
+
+Twin experiments (synthetic WheelLog logs with known physics, :mod:`ridesynth`) and
+:mod:`euc_sim.stats`'s pieces; the real logs' checks are in ``test_ride_pages.py``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from ridesynth import TRUTH, synth_log
+
+from euc_sim.rides.balance.crossride import admissible, cross_ride, heldout_score, select_effects
+from euc_sim.rides.balance.design import BOUNDS, NOMINAL, balance_design, on_bound
+from euc_sim.rides.balance.fit import fit_balance
+from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
+from euc_sim.rides.grids.signals import ride_signals
+from euc_sim.stats import forward_select, percentile_interval, time_blocks, wild_block_signs
+
+
+@pytest.fixture(scope="module")
+def designs(tmp_path_factory):
+    d = tmp_path_factory.mktemp("params")
+    fit = balance_design(ride_signals(synth_log(d / "fit.csv", seed=21)))
+    test = balance_design(ride_signals(synth_log(d / "test.csv", seed=22)))
+    return fit, test
+
+
+# --- euc_sim.stats ---------------------------------------------------------------------
+def test_time_blocks_are_contiguous_and_equal():
+    label = time_blocks(np.linspace(0.0, 99.0, 100), 5)
+    assert np.all(np.diff(label) >= 0) and np.bincount(label).tolist() == [20] * 5
+
+
+def test_forward_select_keeps_only_what_lowers_the_score():
+    errors = {(): 10.0, ("a",): 6.0, ("b",): 9.95, ("a", "b"): 5.99, ("c",): np.inf, ("a", "c"): 1.0}
+    score = lambda names: errors.get(tuple(n for n in names if n != "base"), 10.0)  # noqa: E731
+    names, history = forward_select(score, ["base"], ["a", "b", "c"], min_gain=0.01)
+    # "c" alone is not admissible (inf); after "a" it lowers the score most; "b" gains < 1 %
+    assert names == ["base", "a", "c"]
+    assert [h["term"] for h in history] == ["base", "a", "c"]
+
+
+def test_percentile_interval_and_wild_signs_are_seeded():
+    draws = np.arange(1001, dtype=float)
+    lo, hi = percentile_interval(draws)
+    assert lo == pytest.approx(25.0) and hi == pytest.approx(975.0)
+    assert percentile_interval(draws[:0]) is None
+    s1 = wild_block_signs(25, 10, 3, np.random.default_rng(1))
+    s2 = wild_block_signs(25, 10, 3, np.random.default_rng(1))
+    assert s1.shape == (25, 3) and np.array_equal(s1, s2)
+    assert np.all(s1[:10] == s1[0]) and set(np.unique(s1)) <= {-1.0, 1.0}
+
+
+# --- bounded fits ----------------------------------------------------------------------
+def test_an_efficiency_never_exceeds_one(designs):
+    """Battery power scaled down by 1.4: the unbounded η_m would be 0.8·1.4 = 1.12."""
+    d, _ = designs
+    from dataclasses import replace
+
+    low = replace(d, P_full=d.P_full / 1.4)
+    fit = fit_balance(low, list(NOMINAL) + ["rolling_resistance"], n_boot=20, seed=1)
+    assert fit.estimate["eta_motor"] == BOUNDS["eta_motor"][1]
+    assert all(0.0 < fit.ci95[k][0] <= fit.ci95[k][1] <= 1.0 for k in NOMINAL)
+    assert on_bound("eta_motor", fit.estimate["eta_motor"])
+
+
+def test_a_drag_beyond_its_plausible_range_sits_on_its_bound_and_is_never_accepted(designs):
+    d, _ = designs
+    from dataclasses import replace
+
+    extra = 3.0 * d.operator.K @ d.operator.columns["drag"] / TRUTH["eta_motor"]
+    P_full = d.P_full.copy()
+    P_full[d.use] += extra                       # k = 0.35 + 3: C_dA 6 m², no rider
+    heavy = replace(d, P_full=P_full)
+    fit = fit_balance(heavy, list(NOMINAL) + ["aerodynamic_drag"], n_boot=0)
+    assert fit.estimate["aerodynamic_drag"] == BOUNDS["aerodynamic_drag"][1]
+    kept, _ = select_effects(heavy, heavy.candidates)
+    assert "aerodynamic_drag" in kept                         # the bounded drag still helps ...
+    full = fit_balance(heavy, list(NOMINAL) + kept, n_boot=0)
+    assert "aerodynamic_drag" not in admissible(full, kept)   # ... but is never accepted
+    assert np.isfinite(heldout_score(heavy, list(NOMINAL) + kept))
+
+
+# --- the selection and the parameter set -----------------------------------------------
+@pytest.fixture(scope="module")
+def cross(designs):
+    return cross_ride(*designs, n_boot=20, seed=2)
+
+
+def test_held_out_selection_names_the_true_effects(cross):
+    assert {"aerodynamic_drag", "rolling_resistance"} <= set(cross.accepted)
+    h = [s["heldout_rmse"] for s in cross.selection]
+    assert all(b < a for a, b in zip(h, h[1:]))              # each kept step lowered it
+    assert cross.heldout_augmented <= 1.05 * cross.heldout_full
+
+
+def test_parameters_list_each_quantity_once_and_accepts_only_plausible(cross):
+    total = {"estimate": 84.0, "ci95": [80.0, 88.0]}
+    dt = {"C_rr": {"estimate": 0.5, "ci95": [0.4, 0.6], "unit": "dimensionless"},
+          "internal_resistance": {"estimate": 0.2, "ci95": [0.19, 0.21], "unit": "ohm"},
+          "ocv_per_Ah": {"estimate": -3.0, "ci95": [-4.0, -2.0], "unit": "V/Ah"}}
+    params = parameter_list(cross, total, dt)
+    names = [p["name"] for p in params]
+    assert len(names) == len(set(names))
+    assert "C_rr" not in names                                 # the mass fit's nuisance term
+    by = {p["name"]: p for p in params}
+    assert all(p["plausible"] for p in params if p["accepted"])
+    assert all(0.0 < by[k]["estimate"] <= 1.0 for k in NOMINAL)
+    assert not by["ocv_per_Ah"]["accepted"] and by["internal_resistance"]["accepted"]
+    assert set(cross.accepted) <= {n for n, p in by.items() if p["accepted"]}
+    view = drivetrain_view(dt, params)
+    assert view["C_rr"]["estimate"] == by["rolling_resistance"]["estimate"]
+    assert view["C_rr"]["parameter"] == "rolling_resistance"

@@ -1,0 +1,69 @@
+"""Battery internal resistance: the drivetrain's number, normalised to 25 °C, judged against a spec."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import pytest
+
+from euc_sim.rides.drive.battery import (AGED_RATIO, PackSpec, battery_health, battery_health_from_report,
+                                   measure_resistance, pack_spec, to_25C)
+from euc_sim.rides.source.logs import read_log
+from tests.rides.summarysynth import synth_summary_log
+
+
+def _log(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return read_log(path, emit_warnings=False)
+
+
+def test_measured_resistance_recovers_the_synthetic_sag(tmp_path):
+    log = _log(synth_summary_log(tmp_path / "a.csv", R_int=0.15, amps_wave=0.8, ocv_per_Ah=1.5,
+                                 amps=20.0))
+    r, ci = measure_resistance(log, n_boot=30, seed=1)
+    assert r == pytest.approx(0.15, rel=0.02)
+    assert ci[0] < ci[1] and ci[0] == pytest.approx(0.15, rel=0.02) and ci[1] == pytest.approx(0.15, rel=0.02)
+
+
+def test_to_25C_is_arrhenius_and_identity_at_25():
+    assert to_25C(0.2, 25.0) == pytest.approx(0.2)
+    warm, cold = to_25C(0.2, 35.0), to_25C(0.2, 15.0)
+    assert warm > 0.2 > cold          # a warm pack reads low: its 25 °C value is higher
+    assert math.log(warm / 0.2) == pytest.approx(20000 / 8.314462618 * (1 / 298.15 - 1 / 308.15), rel=1e-9)
+
+
+def test_pack_spec_reads_architecture_and_cell_resistance(tmp_path):
+    f = tmp_path / "w.csv"
+    f.write_text("Field|Data\nBattery| 750 Wh\nBattery architecture| 20s2p\nCells| X (21700)\n"
+                 "Cell resistance| 15 mOhm\n")
+    p = pack_spec(f)
+    assert (p.series, p.parallel, p.energy_Wh) == (20, 2, 750.0)
+    assert p.expected_ohm == pytest.approx(0.015 * 20 / 2)
+    assert pack_spec(tmp_path / "missing.csv") is None
+
+
+def test_verdicts():
+    pack = PackSpec(series=20, parallel=2, cell="c", cell_resistance_ohm=0.015)    # 150 mΩ
+    assert battery_health(0.16, (0.15, 0.17), None, pack).verdict == "as specified"
+    assert battery_health(0.25, (0.24, 0.26), None, pack).verdict == "aged"
+    assert battery_health(0.40, (0.35, 0.45), None, pack).verdict == "worn"
+    # an interval reaching below the aged mark is not called aged
+    assert battery_health(0.25, (0.15 * AGED_RATIO - 0.01, 0.3), None, pack).verdict == "as specified"
+    h = battery_health(0.16, (0.15, 0.17), 35.0, pack)
+    assert h.resistance_25C_ohm == pytest.approx(to_25C(0.16, 35.0))
+    assert h.per_cell_ohm == pytest.approx(0.016)
+    assert battery_health(0.16, (0.15, 0.17)).verdict == "no specification"
+    app = battery_health(0.16, None, wheel_reported_ohm=0.13)
+    assert app.expected_ohm is None and app.app_setting_ohm == 0.13      # a setting, not a spec
+    assert app.verdict == "no specification" and "130 mΩ" in app.sentence
+    assert battery_health(None, None, why="no current").verdict == "not measured"
+
+
+def test_from_report_reads_the_drivetrain_term_not_a_second_fit():
+    dt = {"internal_resistance": {"estimate": 0.2, "ci95": [0.19, 0.21], "unit": "ohm"}}
+    h = battery_health_from_report(dt)
+    assert h.resistance_ohm == 0.2 and h.resistance_ci95 == (0.19, 0.21)
+    assert h.to_json()["resistance_ci95"] == [0.19, 0.21]
+    assert battery_health_from_report({}).verdict == "not measured"

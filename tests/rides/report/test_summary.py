@@ -1,0 +1,160 @@
+"""The ride summary on synthetic logs with known answers, and against the real logs' own counters."""
+
+from __future__ import annotations
+
+import warnings
+from pathlib import Path
+
+import pytest
+
+from euc_sim.rides.report.summary import BRIDGE_S, mass_check, read_counters, ride_summary
+from euc_sim.rides.source.logs import read_log
+from tests.rides.summarysynth import synth_summary_log
+
+#: ../shared/data beside the clone (or beside the folder of worktrees)
+DATA = next((p / "shared" / "data" for p in Path(__file__).resolve().parents[4:6]
+             if (p / "shared" / "data").is_dir()), Path("/nonexistent"))
+
+
+def _summary(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        log = read_log(path, emit_warnings=False)
+    return ride_summary(log, read_counters(path, log))
+
+
+def test_known_ride(tmp_path):
+    s = _summary(synth_summary_log(tmp_path / "a.csv"))
+    assert s.duration_s == pytest.approx(620.0, abs=0.3)        # first turn of the wheel to the end
+    assert s.logged_s == pytest.approx(640.0, abs=0.01)
+    assert s.moving_s == pytest.approx(600.0, abs=0.5)
+    assert s.distance_source == "gps"
+    assert s.distance_m == pytest.approx(25 / 3.6 * 600, rel=0.005)
+    assert s.speed_max_mps == pytest.approx(25 / 3.6, rel=1e-6)
+    # 80 V × 10 A for 600 s = 133.3 Wh, plus 80 V × 0.2 A at rest for 40 s
+    assert s.energy_drawn_Wh == pytest.approx(80 * 10 * 600 / 3600 + 80 * 0.2 * 40 / 3600, rel=0.005)
+    assert s.energy_regen_Wh is None          # the current is never negative: not signed
+    assert s.Wh_per_km == pytest.approx(s.energy_drawn_Wh / (s.distance_m / 1000), rel=0.01)
+    assert s.pwm_max_pct == pytest.approx(72.5) and s.pwm_max_at_s == pytest.approx(300.0, abs=0.2)
+    assert s.safety_margin_min_pct == pytest.approx(27.5)
+    assert s.pwm_max_place["lat"] > 48.0
+    assert s.gaps == {"count": 0, "total_s": 0.0, "longest_s": 0.0}
+    assert s.quality == "good"
+
+
+def test_battery_used_is_read_at_rest_not_under_sag(tmp_path):
+    # sag 0.5 %/A at 10 A would read 5 points more used if taken under load
+    s = _summary(synth_summary_log(tmp_path / "a.csv", battery=(90.0, 60.0), sag_pct_per_amp=0.5))
+    assert s.battery_start_pct == pytest.approx(90.0, abs=0.2)
+    assert s.battery_end_pct == pytest.approx(60.0, abs=0.2)
+    assert s.battery_used_pct == pytest.approx(30.0, abs=0.4)
+    assert s.range_m_at_this_rate == pytest.approx(s.distance_m * 100 / s.battery_used_pct)
+
+
+def test_regen_is_counted_apart(tmp_path):
+    s = _summary(synth_summary_log(tmp_path / "a.csv", regen_amps=5.0))
+    assert s.energy_regen_Wh == pytest.approx(80 * 5 * 60 / 3600, rel=0.02)
+    assert s.energy_drawn_Wh == pytest.approx(80 * 10 * 540 / 3600 + 80 * 0.2 * 40 / 3600, rel=0.01)
+    net = s.energy_drawn_Wh - s.energy_regen_Wh
+    assert s.Wh_per_km == pytest.approx(net / (s.distance_m / 1000), rel=0.01)
+
+
+def test_gap_is_not_integrated_across_and_lowers_quality(tmp_path):
+    s = _summary(synth_summary_log(tmp_path / "a.csv", gps=False, gap=(200.0, 150.0)))
+    assert s.gaps["count"] == 1 and s.gaps["longest_s"] == pytest.approx(150.2, abs=0.3)
+    assert s.quality == "poor"                   # 150 s of 640 s missing
+    assert s.distance_source == "wheel"
+    # the distance still comes from the wheel's trip counter across the gap ...
+    assert s.distance_m == pytest.approx(25 / 3.6 * 600, rel=0.005)
+    # ... but the energy leaves the gap out, and so does the distance Wh/km divides it by
+    assert s.energy_drawn_Wh == pytest.approx(80 * 10 * (600 - 150) / 3600 + 80 * 0.2 * 40 / 3600, rel=0.01)
+    assert s.Wh_per_km == pytest.approx(80 * 10 / (25 / 3.6) / 3.6, rel=0.03)
+    assert s.speed_mean_moving_mps == pytest.approx(25 / 3.6, rel=0.01)   # over the same stretch
+    assert 150.0 > BRIDGE_S
+
+
+def test_alarms_are_episodes(tmp_path):
+    s = _summary(synth_summary_log(tmp_path / "a.csv", alarm_rows=(500, 501, 502, 900)))
+    assert s.alarms == 2 and s.alarm_rows == 4
+
+
+def test_absent_channels_give_null(tmp_path):
+    path = tmp_path / "old.csv"
+    path.write_text("date,time,speed,voltage,current,power,battery_level,distance,totaldistance,"
+                    "system_temp,cpu_temp,tilt,roll,mode,alert\n"
+                    + "".join(f"2024-06-01,10:00:{i // 5:02d}.{(i % 5) * 200:03d},{10 if 5 < i < 250 else 0},"
+                              f"80,5,400,80,0,0,30,30,0,0,0,\n" for i in range(290)))
+    s = _summary(path)
+    assert s.pwm_max_pct is None and s.pwm_max_at_s is None and s.distance_source == "wheel"
+    assert s.battery_used_pct == 0.0 and s.range_m_at_this_rate is None
+    js = s.to_json()
+    assert set(js) >= {"duration_s", "moving_s", "distance_m", "distance_source", "speed_max_mps",
+                       "speed_mean_moving_mps", "energy_drawn_Wh", "energy_regen_Wh", "Wh_per_km",
+                       "battery_used_pct", "range_m_at_this_rate", "pwm_max_pct", "pwm_max_at_s",
+                       "alarms", "gaps"}
+
+
+def test_mass_check_verdicts():
+    tm = {"estimate": 110.0, "ci95": [100.0, 120.0]}
+    assert mass_check(tm, 85.0, 25.0).verdict == "consistent"
+    heavier = mass_check(tm, 60.0, 25.0)
+    assert heavier.verdict == "heavier" and heavier.difference_kg == pytest.approx(25.0)
+    assert heavier.difference_ci95 == pytest.approx((15.0, 35.0))
+    assert "25 kg more" in heavier.sentence
+    assert mass_check(tm, 100.0, 25.0).verdict == "lighter"
+    assert mass_check({"estimate": None, "why": "x"}, 80.0, 25.0).verdict == "cannot tell"
+    assert mass_check(tm, 80.0, None).verdict == "cannot tell"
+
+
+RIDES = sorted(DATA.glob("euc_core/trips/*/*/*/[0-9]*.csv"))
+
+
+@pytest.mark.skipif(not RIDES, reason="the shared real rides (../shared/data/euc_core) are absent")
+@pytest.mark.parametrize("path", RIDES, ids=lambda p: "/".join(p.parts[-3:-1]))
+def test_real_ride_agrees_with_its_own_counters(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        log = read_log(path, emit_warnings=False)
+    c = read_counters(path, log)
+    s = ride_summary(log, c)
+    same = c.gps_distance_m if s.distance_source == "gps" else c.distance_m
+    assert s.distance_m == pytest.approx(same, rel=0.03)
+    if c.duration_s is not None:
+        assert s.duration_s == pytest.approx(c.duration_s, rel=0.01)
+    if c.speed_max_mps is not None:
+        assert s.speed_max_mps == pytest.approx(c.speed_max_mps, rel=0.05)
+    assert s.energy_drawn_Wh == pytest.approx(c.power_Wh_drawn, rel=0.05)
+    if "pwm" in log.data:
+        assert s.pwm_max_pct == pytest.approx(float(log.data["pwm"].max()), abs=1.5)
+    assert s.battery_used_pct == pytest.approx(c.battery_start_pct - c.battery_end_pct, abs=2.0)
+
+
+@pytest.mark.parametrize("layout", ["eucworld", "darknessbot"])
+def test_other_layouts_give_the_same_summary(tmp_path, layout):
+    from tests.rides.summarysynth import as_layout
+
+    src = synth_summary_log(tmp_path / "a.csv", alarm_rows=(500, 501, 900), regen_amps=5.0)
+    ref = _summary(src)
+    s = _summary(as_layout(src, tmp_path / f"{layout}.csv", layout))
+    for name in ("duration_s", "moving_s", "distance_m", "speed_max_mps", "energy_drawn_Wh",
+                 "energy_regen_Wh", "battery_used_pct", "pwm_max_pct"):
+        assert getattr(s, name) == pytest.approx(getattr(ref, name), rel=0.01, abs=0.05), name
+    assert s.distance_source == "gps"
+    assert s.alarms == (2 if layout == "eucworld" else None)    # DarknessBot writes no alarm column
+
+
+def test_rider_numbers_reads_the_reports_terms(tmp_path):
+    from euc_sim.rides.report.rider_view import check_rider_weight, rider_numbers
+    from euc_sim.rides.source.spec import WheelSpec
+
+    path = synth_summary_log(tmp_path / "a.csv")
+    rep = {"total_mass": {"estimate": 100.0, "ci95": [90.0, 110.0]},
+           "drivetrain": {"internal_resistance": {"estimate": 0.2, "ci95": [0.19, 0.21], "unit": "ohm"}}}
+    out = rider_numbers(path, rep, WheelSpec(wheel_mass=25.0), 90.0)
+    assert out["summary"]["distance_m"] == pytest.approx(25 / 3.6 * 600, rel=0.005)
+    assert out["mass_check"]["verdict"] == "lighter" and out["mass_check"]["difference_kg"] == pytest.approx(-15.0)
+    assert "15 kg less than declared" in out["mass_check"]["sentence"]
+    assert out["battery"]["resistance_ohm"] == 0.2
+    assert rider_numbers(read_log(path, emit_warnings=False), rep)["summary"] == out["summary"]
+    with pytest.raises(ValueError, match="--rider-weight"):
+        check_rider_weight(500.0)

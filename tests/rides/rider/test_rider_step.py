@@ -1,0 +1,15 @@
+"""The calibrated_rider step's place among the simulated ride's steps (rides/rider/rider_step.py)."""
+
+from euc_sim.rides.rider.rider_step import RIDER_STEPS
+
+
+def test_calibrated_rider_step_sits_between_the_law_and_the_drivetrain_and_says_why_it_skips():
+    from euc_sim.model.parameters import TABLE3
+    from euc_sim.rides.sim.sim_steps import StepInputs, build_steps
+
+    est = {"eta_motor": 0.8, "eta_regen": 0.6}
+    steps = build_steps(StepInputs(TABLE3, est, est, (), {}, None), RIDER_STEPS)
+    assert [s.name for s in steps] == ["nominal", "measured_law", "calibrated_rider", "drivetrain"]
+    cal = steps[2]
+    assert cal.why is not None and "no fit ride log" in cal.why
+    assert steps[3].rider is None and steps[3].plan_window is None   # built on the last step that ran
