@@ -13,6 +13,11 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = [("euc_sim.errors", "euc_sim.io"), "euc_sim.stats", "euc_sim.report", "euc_sim.model",
           "euc_sim.controllers", "euc_sim.simulation", "euc_sim.identification", "euc_sim.diagnosis",
           "euc_sim.rides", "euc_sim.evaluation", "euc_sim.api", "euc_sim.cli"]
+#: Inside ``euc_sim.rides``: its subpackages, lowest first (docs/architecture.md#rides-by-idea);
+#: ``euc_sim.rides.pipeline`` sits above them all and is the only module left flat.
+RIDES_LAYERS = ["source", "grids", "drive", "balance", "law", "sim", "rider", "report", "compare",
+                "logbook", "synth"]
+RIDES_FLAT = {"__init__", "pipeline"}
 #: Upward imports allowed (none).
 UPWARD_ALLOWED: set = set()
 MAX_LINES = 650
@@ -85,6 +90,71 @@ def test_no_import_cycles():
         if m not in colour:
             visit(m, [m])
     assert cycles == []
+
+
+def _rides_layer(module: str) -> int | None:
+    """Index of a ``euc_sim.rides`` module's subpackage in RIDES_LAYERS; len(RIDES_LAYERS) for the
+    flat top (the pipeline); None outside euc_sim.rides; -1 for a subpackage not listed."""
+    parts = module.split(".")
+    if parts[:2] != ["euc_sim", "rides"] or len(parts) == 2:
+        return None
+    if len(parts) == 3 and parts[2] in RIDES_FLAT:
+        return len(RIDES_LAYERS)
+    return RIDES_LAYERS.index(parts[2]) if parts[2] in RIDES_LAYERS else -1
+
+
+def _rides_upward(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
+    """(importer, imported) pairs inside euc_sim.rides where a lower subpackage imports a higher one."""
+    return sorted((m, d) for m, deps in graph.items() for d in deps
+                  if _rides_layer(m) is not None and _rides_layer(d) is not None
+                  and _rides_layer(d) > _rides_layer(m))
+
+
+def _rides_subpackage_cycles(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
+    """Pairs of rides subpackages that import each other, directly or through others."""
+    sub = {}
+    for m, deps in graph.items():
+        for d in deps:
+            a, b = m.split(".")[2:3], d.split(".")[2:3]
+            if _rides_layer(m) is not None and _rides_layer(d) is not None and a != b:
+                sub.setdefault(a[0], set()).add(b[0])
+    reach = {a: set(bs) for a, bs in sub.items()}
+    for _ in range(len(reach)):                       # transitive closure (a dozen nodes)
+        for a in reach:
+            reach[a] |= set().union(*(reach.get(b, set()) for b in reach[a]))
+    return sorted((a, b) for a in reach for b in reach[a] if a < b and a in reach.get(b, set()))
+
+
+def test_rides_has_no_flat_module_but_the_pipeline():
+    rides = ROOT / "euc_sim" / "rides"
+    flat = sorted(p.stem for p in rides.glob("*.py") if p.stem not in RIDES_FLAT)
+    subs = sorted(p.parent.name for p in rides.glob("*/__init__.py"))
+    stray = sorted(p.parent.name for p in rides.glob("*/*.py") if not (p.parent / "__init__.py").exists())
+    assert flat == [], "modules flat in euc_sim/rides/ (give each a subpackage): " + ", ".join(flat)
+    assert subs == sorted(RIDES_LAYERS) and stray == []
+
+
+def test_rides_subpackages_import_only_downwards():
+    assert [m for m in GRAPH if _rides_layer(m) == -1] == []
+    assert _rides_upward(GRAPH) == []
+    assert _rides_subpackage_cycles(GRAPH) == []
+
+
+def test_no_relative_imports():
+    """The graph above reads absolute imports only; a relative one would slip past it."""
+    rel = [f"{p.relative_to(ROOT)}:{n.lineno}" for p in _modules().values()
+           for n in ast.walk(ast.parse(p.read_text())) if isinstance(n, ast.ImportFrom) and n.level]
+    assert rel == []
+
+
+def test_the_rides_layering_check_sees_a_violation():
+    graph = {"euc_sim.rides.grids.signals": {"euc_sim.rides.report.page"},
+             "euc_sim.rides.report.page": {"euc_sim.rides.grids.signals"},
+             "euc_sim.rides.pipeline": {"euc_sim.rides.sim.simulate"},
+             "euc_sim.rides.sim.simulate": {"euc_sim.rides.pipeline", "euc_sim.stats"}}
+    assert _rides_upward(graph) == [("euc_sim.rides.grids.signals", "euc_sim.rides.report.page"),
+                                    ("euc_sim.rides.sim.simulate", "euc_sim.rides.pipeline")]
+    assert _rides_subpackage_cycles(graph) == [("grids", "report"), ("pipeline", "sim")]
 
 
 @pytest.mark.parametrize("name", sorted(_modules()))
