@@ -2,9 +2,17 @@
 
 One block bootstrap (:func:`block_bootstrap_indices`, moving blocks;
 :func:`wild_block_signs`, sign flips of whole blocks), one percentile interval
-(:func:`percentile_interval`), contiguous time folds (:func:`time_blocks`) and
-one forward selection scored on held-out error (:func:`forward_select`).  Pure
-numpy; every draw comes from the ``numpy.random.Generator`` passed in.
+(:func:`percentile_interval`, and :func:`basic_interval`, its reflection about the
+estimate), the time folds of held-out validation (:func:`time_blocks`, equal counts;
+:func:`span_blocks`, equal durations; :func:`interleaved_folds`, short blocks dealt to
+the folds in turn with a guard) and one forward selection scored on held-out error
+(:func:`forward_select`).  Pure numpy; every draw comes from the
+``numpy.random.Generator`` passed in.
+
+Identification's selection (:mod:`euc_sim.identification.selection`) ranks its
+candidates by an information criterion and gates each step on held-out gain,
+|θ|/se and physics, with pair, swap and backward steps: a different rule, which takes
+its folds from here (docs/architecture.md#statistics-in-one-place).
 """
 
 from __future__ import annotations
@@ -13,9 +21,9 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["time_blocks", "forward_select", "percentile_interval", "block_bootstrap_indices",
-           "wild_block_signs", "blocks_by_length", "block_labels", "draw_blocks",
-           "moving_block_starts"]
+__all__ = ["time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
+           "basic_interval", "block_bootstrap_indices", "wild_block_signs", "blocks_by_length", "block_labels",
+           "draw_blocks", "moving_block_starts"]
 
 
 def time_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
@@ -33,6 +41,68 @@ def time_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
     """
     edges = np.quantile(t, np.linspace(0, 1, n_blocks + 1))
     return np.clip(np.searchsorted(edges, t, side="right") - 1, 0, n_blocks - 1)
+
+
+def span_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
+    """Fold label 0 … n_blocks − 1 of each sample: contiguous time blocks of equal durations.
+
+    Parameters
+    ----------
+    t : ndarray
+        Sample times, s (any order).
+    n_blocks : int
+
+    Returns
+    -------
+    ndarray of int
+    """
+    t = np.asarray(t, dtype=float)
+    t0, t1 = t.min(), t.max()
+    b = np.floor((t - t0) / (t1 - t0 + 1e-12) * n_blocks).astype(int)
+    return np.clip(b, 0, n_blocks - 1)
+
+
+def interleaved_folds(t: np.ndarray, n_folds: int, block: float,
+                      guard: float) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Folds of blocked cross-validation: ``block``-second blocks dealt to the folds in turn.
+
+    The record is cut into contiguous blocks of about ``block`` s (at least
+    ``n_folds``); block i belongs to fold i mod ``n_folds``, so every fold holds out
+    blocks spread over the whole record (a record that is not stationary is then not
+    tested on extrapolation).  Training samples within ``guard`` s of any held-out
+    sample are dropped, so a smoothing filter does not leak.
+
+    Parameters
+    ----------
+    t : ndarray
+        Sample times, s (any order).
+    n_folds : int
+    block, guard : float
+        s.
+
+    Returns
+    -------
+    list of (train, test)
+        Row indices of each fold.
+    """
+    t = np.asarray(t, dtype=float)
+    span = t.max() - t.min()
+    blk = span_blocks(t, max(n_folds, int(np.floor(span / block))))
+    order = np.argsort(t, kind="stable")
+    ts = t[order]
+    folds = []
+    for f in range(n_folds):
+        test_mask = (blk % n_folds) == f
+        test = np.flatnonzero(test_mask)
+        # distance of every sample to the nearest held-out sample, via the sorted times
+        tt = np.unique(t[test])
+        pos = np.searchsorted(tt, ts)
+        left = np.abs(ts - tt[np.clip(pos - 1, 0, tt.size - 1)])
+        right = np.abs(tt[np.clip(pos, 0, tt.size - 1)] - ts)
+        near = np.empty(t.size, bool)
+        near[order] = np.minimum(left, right) <= guard
+        folds.append((np.flatnonzero(~test_mask & ~near), test))
+    return folds
 
 
 def block_labels(t: np.ndarray, block: float, t0: float | None = None) -> np.ndarray:
@@ -98,8 +168,31 @@ def percentile_interval(draws: np.ndarray, level: float = 0.95, axis: int = 0,
     draws = np.asarray(draws, float)
     if draws.shape[axis] < max(min_draws, 1):
         return None
-    a = 100 * (1 - level) / 2
-    return np.percentile(draws, [a, 100 - a], axis=axis)
+    a = (100.0 - 100.0 * level) / 2          # 2.5 exactly for 0.95 (100·(1 − 0.95)/2 is 2.500000000000002)
+    return np.percentile(draws, [a, 100.0 - a], axis=axis)
+
+
+def basic_interval(draws: np.ndarray, estimate: float, level: float = 0.95) -> tuple[float, float]:
+    """Basic (reverse-percentile) interval: the replicates' spread reflected about the estimate.
+
+    ``[2·estimate − q_hi, 2·estimate − q_lo]`` with ``[q_lo, q_hi]`` the
+    :func:`percentile_interval` of ``draws``; it follows a skewed bootstrap
+    distribution the way the plain percentile interval does not.
+
+    Parameters
+    ----------
+    draws : ndarray
+        Bootstrap replicates of the estimate (one axis).
+    estimate : float
+        The estimate on the whole sample, in the draws' unit.
+    level : float
+
+    Returns
+    -------
+    (lo, hi) : tuple of float
+    """
+    q_lo, q_hi = percentile_interval(np.ravel(draws), level)
+    return float(2 * estimate - q_hi), float(2 * estimate - q_lo)
 
 
 def forward_select(score: Callable[[list], float], base: list, candidates: list,

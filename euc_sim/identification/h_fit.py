@@ -39,7 +39,7 @@ from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 from euc_sim.identification.processing import DEFAULT_SMOOTHING, Kinematics, Smoothing, kinematics, term_filter
 from euc_sim.identification.torques import MODELS, model_functions
-from euc_sim.stats import moving_block_starts
+from euc_sim.stats import basic_interval, moving_block_starts
 
 
 #: Values of h at which the analytic torques are evaluated to recover their
@@ -453,8 +453,8 @@ def _basic_interval(boot: np.ndarray, h: float, lo: float, hi: float) -> tuple[f
     sits in one maneuver skews the replicates, which the basic interval follows and the plain
     percentile one does not (docs/coverage.md#what-the-interval-is-now).
     """
-    q_lo, q_hi = np.percentile(boot, [2.5, 97.5])
-    return float(max(lo, 2 * h - q_hi)), float(min(hi, 2 * h - q_lo))
+    b_lo, b_hi = basic_interval(boot, h)
+    return float(max(lo, b_lo)), float(min(hi, b_hi))
 
 
 def _verdict(h_opt: float, ci: tuple[float, float], flatness: float, bounds: tuple[float, float],

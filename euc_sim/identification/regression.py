@@ -32,6 +32,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from euc_sim.errors import InputError
+from euc_sim.stats import interleaved_folds, span_blocks
 
 __all__ = ["SelectionError", "Problem", "Adapted", "Fit", "time_blocks", "correlation_time", "fit_set",
            "heldout_rmse", "covariance", "BLOCK_LENGTH"]
@@ -204,10 +205,7 @@ def time_blocks(time: np.ndarray, n_blocks: int) -> np.ndarray:
     """
     if n_blocks < 2:
         raise SelectionError(f"n_blocks must be at least 2, got {n_blocks}")
-    t = np.asarray(time, dtype=float)
-    t0, t1 = t.min(), t.max()
-    b = np.floor((t - t0) / (t1 - t0 + 1e-12) * n_blocks).astype(int)
-    return np.clip(b, 0, n_blocks - 1)
+    return span_blocks(time, n_blocks)
 
 
 def correlation_time(e: np.ndarray, max_lag: int | None = None) -> float:
@@ -306,7 +304,7 @@ BLOCK_LENGTH = 2.0
 
 
 def _train_test(problem: Problem, n_blocks: int, guard: float, block: float = BLOCK_LENGTH):
-    """Folds of blocked cross-validation.
+    """Folds of blocked cross-validation (:func:`euc_sim.stats.interleaved_folds`).
 
     The record is cut into contiguous blocks of ``block`` s; block i belongs to fold
     i mod ``n_blocks``, so every fold holds out blocks spread over the whole maneuver
@@ -314,26 +312,7 @@ def _train_test(problem: Problem, n_blocks: int, guard: float, block: float = BL
     extrapolation to speeds the training never saw).  Training samples closer than
     ``guard`` s to any held-out sample are dropped, so the filter does not leak.
     """
-    t = problem.time
-    span = t.max() - t.min()
-    G = max(n_blocks, int(np.floor(span / block)))
-    blk = time_blocks(t, G)
-    folds = []
-    order = np.argsort(t, kind="stable")
-    ts = t[order]
-    for f in range(n_blocks):
-        test_mask = (blk % n_blocks) == f
-        test = np.flatnonzero(test_mask)
-        # distance of every sample to the nearest held-out sample, via the sorted times
-        tt = np.unique(t[test])
-        pos = np.searchsorted(tt, ts)
-        left = np.abs(ts - tt[np.clip(pos - 1, 0, tt.size - 1)])
-        right = np.abs(tt[np.clip(pos, 0, tt.size - 1)] - ts)
-        near = np.empty(t.size, bool)
-        near[order] = np.minimum(left, right) <= guard
-        train = np.flatnonzero(~test_mask & ~near)
-        folds.append((train, test))
-    return folds
+    return interleaved_folds(problem.time, n_blocks, block, guard)
 
 
 def heldout_rmse(problem: Problem, names: Sequence[str], n_blocks: int = 10,

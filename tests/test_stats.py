@@ -1,0 +1,40 @@
+"""The shared resampling statistics (euc_sim.stats): the folds and intervals identification uses."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from euc_sim.stats import basic_interval, interleaved_folds, percentile_interval, span_blocks
+
+
+def test_span_blocks_are_contiguous_and_of_equal_duration():
+    t = np.concatenate([np.linspace(0.0, 9.9, 100), np.linspace(10.0, 19.99, 1000)])  # 10 Hz, then 100 Hz
+    label = span_blocks(t, 4)
+    assert np.all(np.diff(label) >= 0) and set(label) == {0, 1, 2, 3}
+    assert np.all(label[t < 4.99] == 0) and np.all(label[t > 15.01] == 3)
+
+
+def test_interleaved_folds_hold_out_every_sample_once_and_keep_the_guard():
+    t = np.arange(0.0, 60.0, 0.1)
+    folds = interleaved_folds(t, 5, block=2.0, guard=0.5)
+    held = np.concatenate([test for _, test in folds])
+    assert np.array_equal(np.sort(held), np.arange(t.size))
+    for train, test in folds:
+        assert np.intersect1d(train, test).size == 0
+        gap = np.min(np.abs(t[train][:, None] - t[test][None, :]))
+        assert gap > 0.5 - 1e-9
+        # blocks dealt in turn: a fold's held-out rows span the whole record
+        assert t[test].min() < 12.0 and t[test].max() > 48.0
+
+
+def test_the_95_percent_interval_is_the_2_5_and_97_5_percentiles():
+    x = np.random.default_rng(3).gamma(2.0, size=401)
+    assert np.array_equal(percentile_interval(x), np.percentile(x, [2.5, 97.5]))
+
+
+def test_the_basic_interval_reflects_a_skewed_spread_about_the_estimate():
+    boot = np.random.default_rng(4).gamma(1.5, size=2000)      # long right tail
+    lo, hi = basic_interval(boot, 1.0)
+    q_lo, q_hi = np.percentile(boot, [2.5, 97.5])
+    assert np.isclose(lo, 2.0 - q_hi) and np.isclose(hi, 2.0 - q_lo)
+    assert (1.0 - lo) > (hi - 1.0)                              # the long tail now lies below
