@@ -1,1 +1,1 @@
-"""Real rides: log readers, the longitudinal balance, the ride simulation and the ride page."""
+"""Real rides, one subpackage per idea, layered (docs/architecture.md#rides-by-idea); the pipeline on top."""
