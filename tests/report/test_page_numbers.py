@@ -26,7 +26,7 @@ import pagenumbers as P  # noqa: E402
 from drivesynth import drive_log  # noqa: E402
 
 from euc_sim.cli import main  # noqa: E402
-from euc_sim.rides import conceal as cc  # noqa: E402
+from euc_sim.rides.synth import conceal as cc  # noqa: E402
 from euc_sim.rides.report.differences_page import TITLE, difference_lines, recorded_metadata  # noqa: E402
 from euc_sim.rides.grids.power import RHO_AIR  # noqa: E402
 
