@@ -15,7 +15,7 @@ from typing import Callable
 import numpy as np
 
 from euc_sim.rides.verdict import unit_label
-from euc_sim.rides.design import CANDIDATES, NOMINAL, Design, on_bound
+from euc_sim.rides.design import CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
 from euc_sim.rides.fit import BalanceFit, _solve, fit_balance, plausibility
 from euc_sim.rides.signals import RideSignals, break_at_gaps
 from euc_sim.stats import forward_select, time_blocks
@@ -35,14 +35,19 @@ def _start(names) -> np.ndarray:
     return np.array([_START[k] for k in names])
 
 
-def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS) -> float:
+def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS,
+                  admissible_only: bool = False) -> float:
     """Blocked held-out RMS error of the bounded balance with ``names`` on ``design``, W or N·m.
 
     Each of ``n_folds`` contiguous time blocks is predicted from a bounded fit
-    (:data:`~euc_sim.rides.design.BOUNDS`) on the others.
+    (:data:`~euc_sim.rides.design.BOUNDS`) on the others.  With
+    ``admissible_only``, a model whose fit on the whole design puts a
+    non-nominal term on a bound or outside its plausible range scores ``inf``.
     """
     names = list(names)
     whole = _solve(design, names, _start(names)).x
+    if admissible_only and not _all_admissible(dict(zip(names, whole))):
+        return float("inf")
     label = time_blocks(design.t, n_folds)
     err = []
     for b in range(n_folds):
@@ -55,14 +60,29 @@ def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS) -> float:
     return float(np.sqrt(np.mean(r ** 2)))
 
 
+def _all_admissible(estimate: dict) -> bool:
+    """True when every non-nominal term of ``estimate`` is plausible and off its bounds."""
+    for name, value in estimate.items():
+        if name in NOMINAL:
+            continue
+        rng = PLAUSIBLE.get(name)
+        if on_bound(name, value) or (rng is not None and not rng[0] <= value <= rng[1]):
+            return False
+    return True
+
+
 def select_effects(design: Design, candidates) -> tuple[list[str], list[dict]]:
     """The terms blocked held-out validation keeps, in the order kept, and the history.
 
     Forward selection (:func:`euc_sim.stats.forward_select`) from the nominal
     pair: each step adds the candidate that lowers :func:`heldout_score` most,
-    if by more than :data:`MIN_GAIN`.
+    if by more than :data:`MIN_GAIN`, among the models whose terms are all
+    admissible (plausible and off their bounds when fitted on the whole design):
+    a term the data pushes onto its bound is not kept, and the selection goes
+    on with the others (docs/ride_model.md).
     """
-    names, history = forward_select(lambda n: heldout_score(design, n), list(NOMINAL),
+    names, history = forward_select(lambda n: heldout_score(design, n, admissible_only=True),
+                                    list(NOMINAL),
                                     [c for c in candidates if c not in NOMINAL], MIN_GAIN)
     return names[len(NOMINAL):], history
 
