@@ -71,20 +71,35 @@ def _all_admissible(estimate: dict) -> bool:
     return True
 
 
-def select_effects(design: Design, candidates) -> tuple[list[str], list[dict]]:
-    """The terms blocked held-out validation keeps, in the order kept, and the history.
+def select_effects(design: Design, candidates) -> tuple[list[str], list[dict], list[str]]:
+    """The terms blocked held-out validation keeps, the history, and the terms held out of it.
 
     Forward selection (:func:`euc_sim.stats.forward_select`) from the nominal
     pair: each step adds the candidate that lowers :func:`heldout_score` most,
     if by more than :data:`MIN_GAIN`, among the models whose terms are all
     admissible (plausible and off their bounds when fitted on the whole design):
     a term the data pushes onto its bound is not kept, and the selection goes
-    on with the others (docs/ride_model.md).
+    on with the others.  A step may add two terms at once (drag and rolling can
+    each end on a bound alone and both be plausible together; docs/ride_model.md).
+
+    Returns
+    -------
+    kept : list of str
+        In the order kept.
+    history : list of dict
+        ``{"term", "heldout_rmse"}`` after each step, the nominal pair first.
+    blocked : list of str
+        Candidates left that would lower the held-out error of the kept model by
+        more than :data:`MIN_GAIN`, but only on a bound or outside their
+        plausible range (the data asks for more than plausible physics gives).
     """
+    others = [c for c in candidates if c not in NOMINAL]
     names, history = forward_select(lambda n: heldout_score(design, n, admissible_only=True),
-                                    list(NOMINAL),
-                                    [c for c in candidates if c not in NOMINAL], MIN_GAIN)
-    return names[len(NOMINAL):], history
+                                    list(NOMINAL), others, MIN_GAIN, max_step=2)
+    cur = history[-1]["heldout_rmse"]
+    blocked = [c for c in others if c not in names
+               and heldout_score(design, names + [c]) < cur * (1.0 - MIN_GAIN)]
+    return names[len(NOMINAL):], history, blocked
 
 
 def _accepted_model(design: Design, selected) -> list[str]:
@@ -128,7 +143,9 @@ class CrossRide:
         (:func:`select_effects`) whose estimates are plausible and off their
         bounds (:func:`admissible`), in the order kept.
     selected : tuple of str
-        Every term the selection kept, accepted or not.
+        The terms the selection kept, then those it held out because they lower
+        the held-out error only on a bound or outside their plausible range
+        (:func:`select_effects`'s ``blocked``).
     selection : list of dict
         ``{"term", "heldout_rmse"}`` after each kept step, the nominal pair first.
     heldout_nominal, heldout_augmented, heldout_full : float
@@ -172,13 +189,13 @@ def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block
     nominal = fit_balance(fit_design, list(NOMINAL), n_boot, block_s, seed)
     say(f"fitting every candidate on {fit_label} (2/3, {boot})")
     full = fit_balance(fit_design, common, n_boot, block_s, seed)
-    alone, history = select_effects(fit_design, common)
+    alone, history, blocked = select_effects(fit_design, common)
     kept = _accepted_model(fit_design, alone)
     say(f"fitting the augmented balance ({', '.join(kept) or 'nothing accepted'}) (3/3, {boot})")
     augmented = fit_balance(fit_design, list(NOMINAL) + kept, n_boot, block_s, seed)
     return CrossRide(fit_design=fit_design, test_design=test_design, nominal=nominal, full=full,
                      augmented=augmented, accepted=tuple(kept),
-                     selected=tuple(alone),
+                     selected=tuple(alone) + tuple(blocked),
                      heldout_nominal=nominal.rmse_on(test_design),
                      heldout_augmented=augmented.rmse_on(test_design),
                      heldout_full=full.rmse_on(test_design),
@@ -197,7 +214,7 @@ def effect_entries(cr: CrossRide) -> list[dict]:
         exact = list(cr.fit_design.aliases.get(c, ()))
         confounded = [x for x in cr.full.confounded(c) if x not in exact]
         aliases = exact + confounded
-        step = next((h for h in cr.selection if h["term"] == c), None)
+        step = next((h for h in cr.selection[1:] if c in h["term"].split("+")), None)
         before = cr.selection[max(0, list(cr.selection).index(step) - 1)] if step else None
         ev = (f"adding {ph['symbol']} ({ph['meaning']}) lowers the blocked held-out RMS error "
               f"on {cr.fit_label} from {before['heldout_rmse']:.0f} to {step['heldout_rmse']:.0f} "
