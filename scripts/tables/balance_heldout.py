@@ -12,7 +12,7 @@ selected one out of sample (the rule: by no more than 5 %).
 
 Usage::
 
-    nice python scripts/tables/balance_heldout.py [--only SUBSTR] [--json OUT.json]
+    nice python scripts/tables/balance_heldout.py [--only SUBSTR] [--pairs v9] [--json OUT.json]
 
 The balance fits use no bootstrap (the selection and the acceptance read point
 estimates only); the mass fit uses ``--n-boot`` replicates (default 10).
@@ -31,9 +31,13 @@ SHARED = Path(__file__).resolve().parents[3] / "shared" / "data"
 RULE = 0.05
 
 
-def cases(root: Path = SHARED) -> list[dict]:
-    """Every comparison: (label, log, compare or None, spec path or None)."""
-    out = []
+def cases(root: Path = SHARED, pair_wheels: tuple = ()) -> list[dict]:
+    """Every comparison: (label, log, compare or None, spec path or None).
+
+    ``pair_wheels``: wheels (``meta.csv``'s ``wheel``, e.g. ``v9``) whose rides are
+    also compared pairwise, every ordered pair (fit on one, test on the other).
+    """
+    out, by_wheel = [], {}
     for meta in sorted((root / "euc_core").glob("trips/*/*/*/meta.csv")):
         with open(meta, newline="") as fh:
             row = next(csv.DictReader(fh))
@@ -42,6 +46,13 @@ def cases(root: Path = SHARED) -> list[dict]:
         out.append({"label": f"{row['wheel']}/{folder.name} halves",
                     "log": folder / f"{folder.name}.csv", "compare": None,
                     "spec": spec if spec.exists() else None})
+        by_wheel.setdefault(row["wheel"], []).append(out[-1])
+    for wheel in pair_wheels:
+        for a in by_wheel.get(wheel, []):
+            for b in by_wheel[wheel]:
+                if a is not b:
+                    out.append({"label": f"{wheel}/{a['log'].stem} -> {b['log'].stem}",
+                                "log": a["log"], "compare": b["log"], "spec": a["spec"]})
     wl = root / "wheellog"
     logs = sorted(wl.glob("*.csv"))
     for p in logs:
@@ -98,6 +109,8 @@ def table(rows: list[dict]) -> str:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default=None, help="run only comparisons whose label holds this")
+    ap.add_argument("--pairs", default="", help="comma-separated wheels (e.g. v9) whose rides "
+                    "are also compared pairwise")
     ap.add_argument("--n-boot", type=int, default=10, help="mass-fit bootstrap replicates")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", default=None, help="write the rows as JSON here")
@@ -106,7 +119,7 @@ def main(argv=None) -> int:
         print(f"{SHARED}: shared ride data not found", file=sys.stderr)
         return 2
     rows = []
-    for case in cases():
+    for case in cases(pair_wheels=tuple(w for w in a.pairs.split(",") if w)):
         if a.only and a.only not in case["label"]:
             continue
         print(f"... {case['label']}", file=sys.stderr, flush=True)
