@@ -46,7 +46,7 @@ def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS,
     """
     names = list(names)
     whole = _solve(design, names, _start(names)).x
-    if admissible_only and not _all_admissible(dict(zip(names, whole))):
+    if admissible_only and not _all_admissible(dict(zip(names, whole)), design.idle_cap):
         return float("inf")
     label = time_blocks(design.t, n_folds)
     err = []
@@ -60,13 +60,19 @@ def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS,
     return float(np.sqrt(np.mean(r ** 2)))
 
 
-def _all_admissible(estimate: dict) -> bool:
-    """True when every non-nominal term of ``estimate`` is plausible and off its bounds."""
+def _all_admissible(estimate: dict, idle_cap: float | None = None) -> bool:
+    """True when every non-nominal term of ``estimate`` is plausible and off its bounds.
+
+    ``idle_cap`` (W, :attr:`Design.idle_cap`): the ride's own standstill power, above
+    which a constant drain P₀ is not plausible.
+    """
     for name, value in estimate.items():
         if name in NOMINAL:
             continue
         rng = PLAUSIBLE.get(name)
         if on_bound(name, value) or (rng is not None and not rng[0] <= value <= rng[1]):
+            return False
+        if name == "drivetrain_idle_loss" and idle_cap is not None and value > idle_cap:
             return False
     return True
 
@@ -111,22 +117,24 @@ def _accepted_model(design: Design, selected) -> list[str]:
     """
     kept = list(selected)
     while kept:
-        ok = admissible(fit_balance(design, list(NOMINAL) + kept, n_boot=0), kept)
+        ok = admissible(fit_balance(design, list(NOMINAL) + kept, n_boot=0), kept,
+                        design.idle_cap)
         if ok == kept:
             break
         kept = ok
     return kept
 
 
-def admissible(fit: BalanceFit, names) -> list[str]:
+def admissible(fit: BalanceFit, names, idle_cap: float | None = None) -> list[str]:
     """Those of ``names`` whose estimate in ``fit`` is plausible and off its bounds.
 
     A kept term that ends on the bound of its plausible range (or outside it, as
     a GPS gain below its range) stays in the balance as the bound, but nothing
-    is named or simulated from it.
+    is named or simulated from it.  ``idle_cap``: see :func:`_all_admissible`.
     """
     phys = plausibility(fit)
-    return [c for c in names if phys[c]["plausible"] and not on_bound(c, fit.estimate[c])]
+    return [c for c in names if phys[c]["plausible"] and not on_bound(c, fit.estimate[c])
+            and _all_admissible({c: fit.estimate[c]}, idle_cap)]
 
 
 @dataclass(frozen=True)

@@ -45,7 +45,8 @@ from euc_sim.rides.power import RHO_AIR
 from euc_sim.rides.signals import RideSignals, sg, window_samples
 
 __all__ = ["RHO_AIR", "CANDIDATES", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDOW", "Design",
-           "Operator", "balance_design", "filter_matrix", "on_bound"]
+           "Operator", "balance_design", "filter_matrix", "on_bound", "standstill_power",
+           "MIN_STANDSTILL"]
 
 
 #: Candidate parameters: name -> (symbol, unit, meaning, regressor column or None, column unit).
@@ -164,6 +165,11 @@ class Design:
         Candidate -> candidates this ride cannot tell apart from it.
     notes : tuple of str
     path : str
+    idle_cap : float or None
+        Upper quartile of the battery power the log reports at standstill, W
+        (:func:`standstill_power`): P₀ above it is not plausible on this ride.
+        None when the log does not tell (too little standstill, or a current
+        report that reads 0 at standstill).
     """
 
     columns_full: pd.DataFrame
@@ -182,6 +188,7 @@ class Design:
     aliases: Mapping[str, tuple[str, ...]]
     notes: tuple[str, ...]
     path: str = ""
+    idle_cap: float | None = None
 
     # rows in use --------------------------------------------------------------
     @property
@@ -424,6 +431,25 @@ def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
     return cols, cands, aliases, notes
 
 
+#: Least standstill, s, from which the log's own idle power is read.
+MIN_STANDSTILL = 10.0
+
+
+def standstill_power(v: np.ndarray, P: np.ndarray, rate: float) -> float | None:
+    """Upper quartile of the battery power at standstill (|v| < 0.05 m/s), W, or None.
+
+    At standstill the battery gives the constant drain P₀ plus what balancing
+    the rider takes (≥ 0), so P₀ is at most this; the upper quartile leaves a
+    quarter of the readings to noise.  None with less than
+    :data:`MIN_STANDSTILL` s of standstill, or when most standstill readings are
+    exactly 0 (a current report that zeroes small currents says nothing of P₀).
+    """
+    still = (np.abs(v) < 0.05) & np.isfinite(P)
+    if still.sum() < MIN_STANDSTILL * rate or np.mean(P[still] == 0.0) > 0.5:
+        return None
+    return float(np.percentile(P[still], 75))
+
+
 def balance_design(sig: RideSignals, domain: str = "power",
                    sign_change_fraction: float = 0.02, pre_window: float = PRE_WINDOW) -> Design:
     """The longitudinal balance of a ride, every term filtered alike.
@@ -481,4 +507,5 @@ def balance_design(sig: RideSignals, domain: str = "power",
                   d2kernel=d2kernel,
                   weight_full=weight, t_full=raw["t"].to_numpy(), v_full=v, domain=domain,
                   unit=unit, candidates=tuple(cands), aliases=aliases, notes=tuple(notes),
-                  path=sig.path)
+                  path=sig.path,
+                  idle_cap=standstill_power(v_raw, raw["P"].to_numpy(), sig.rate))

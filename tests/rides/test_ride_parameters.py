@@ -172,3 +172,20 @@ def test_the_lag_jacobian_matches_finite_differences(designs):
         e[j] = h
         num = (d.residual(dict(zip(names, th + e))) - d.residual(dict(zip(names, th - e)))) / (2 * h)
         assert np.allclose(J[:, j], num, rtol=1e-4, atol=1e-6 * np.abs(num).max())
+
+
+def test_the_standstill_power_caps_the_idle_drain():
+    from euc_sim.rides.crossride import _all_admissible
+    from euc_sim.rides.design import standstill_power
+
+    rng = np.random.default_rng(5)
+    v = np.r_[np.zeros(200), np.full(200, 5.0)]               # 20 s still, 20 s riding, 10 Hz
+    P = np.r_[3.0 + rng.normal(0, 1, 200), np.full(200, 400.0)]
+    cap = standstill_power(v, P, 10.0)
+    assert cap == pytest.approx(np.percentile(P[:200], 75))
+    assert standstill_power(v[110:], P[110:], 10.0) is None    # 9 s still: too little
+    zeroed = np.where(v == 0, 0.0, P)                          # a report that zeroes small currents
+    assert standstill_power(v, zeroed, 10.0) is None
+    assert _all_admissible({"drivetrain_idle_loss": 2.0}, cap)
+    assert not _all_admissible({"drivetrain_idle_loss": 50.0}, cap)
+    assert _all_admissible({"drivetrain_idle_loss": 50.0}, None)
