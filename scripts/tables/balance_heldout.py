@@ -68,6 +68,8 @@ def cases(root: Path = SHARED, pair_wheels: tuple = ()) -> list[dict]:
 def one(case: dict, n_boot: int, seed: int) -> dict:
     """Run one comparison as ``euc-sim ride`` fits it; the row of the table."""
     from euc_sim.rides.analysis import ride_analysis
+    from euc_sim.rides.crossride import admissible
+    from euc_sim.rides.design import NOMINAL
     from euc_sim.rides.drivetrain_report import ride_drivetrain
     from euc_sim.rides.ride import as_ride
     from euc_sim.rides.signals import RideAssumptions, with_found_values
@@ -84,6 +86,8 @@ def one(case: dict, n_boot: int, seed: int) -> dict:
             "inertia_only": cr.heldout_nominal, "selected": cr.heldout_augmented,
             "every_candidate": cr.heldout_full, "ratio": cr.ratio, "beaten_by": beaten,
             "rule_met": bool(beaten <= RULE), "accepted": list(cr.accepted),
+            "every_candidate_inadmissible": sorted(set(cr.full.names) - set(NOMINAL) - set(
+                admissible(cr.full, cr.full.names, cr.fit_design.idle_cap))),
             "selected_terms": list(cr.selected),
             "all_estimates": {k: round(v, 4) for k, v in cr.full.estimate.items()},
             "augmented_estimates": {k: round(v, 4) for k, v in cr.augmented.estimate.items()},
@@ -93,16 +97,18 @@ def one(case: dict, n_boot: int, seed: int) -> dict:
 def table(rows: list[dict]) -> str:
     """Markdown table of the rows."""
     out = ["| comparison | mass kg | inertia-only W | selected W | every candidate W | ratio | "
-           "beaten by | accepted | kept, not accepted |", "|---|---|---|---|---|---|---|---|---|"]
+           "beaten by | accepted | kept, not accepted | every candidate holds, implausible |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         if "error" in r:
-            out.append(f"| {r['label']} | error: {r['error']} |||||||")
+            out.append(f"| {r['label']} | error: {r['error']} ||||||||")
             continue
         off = [c for c in r["selected_terms"] if c not in r["accepted"]]
         out.append(f"| {r['label']} | {r['total_mass']:.0f} | {r['inertia_only']:.1f} | "
                    f"{r['selected']:.1f} | {r['every_candidate']:.1f} | {r['ratio']:.2f} | "
                    f"{100 * r['beaten_by']:+.1f} %{'' if r['rule_met'] else ' **fails**'} | "
-                   f"{', '.join(r['accepted']) or '—'} | {', '.join(off) or '—'} |")
+                   f"{', '.join(r['accepted']) or '—'} | {', '.join(off) or '—'} | "
+                   f"{', '.join(r['every_candidate_inadmissible']) or '—'} |")
     return "\n".join(out)
 
 
