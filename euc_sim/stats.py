@@ -196,7 +196,7 @@ def basic_interval(draws: np.ndarray, estimate: float, level: float = 0.95) -> t
 
 
 def forward_select(score: Callable[[list], float], base: list, candidates: list,
-                   min_gain: float) -> tuple[list, list]:
+                   min_gain: float, max_step: int = 1) -> tuple[list, list]:
     """Forward selection by a held-out score: add the candidate that lowers it most.
 
     Parameters
@@ -210,6 +210,12 @@ def forward_select(score: Callable[[list], float], base: list, candidates: list,
         Terms tried, one more per step.
     min_gain : float
         A step is kept only if it lowers the score by more than this fraction.
+    max_step : int
+        1: one term per step.  2: a step may also add two terms together that
+        are each not admissible alone (score ``inf``; e.g. drag and rolling
+        each pushed onto a bound when fitted without the other), when the pair
+        lowers the score by more than ``min_gain`` below the current and the
+        best single term.
 
     Returns
     -------
@@ -217,19 +223,25 @@ def forward_select(score: Callable[[list], float], base: list, candidates: list,
         ``base`` plus the kept terms, in the order kept.
     history : list of dict
         ``{"term", "heldout_rmse"}`` after each step, the base model (terms
-        joined by "+") first.
+        joined by "+") first; a pair step's term is the two joined by "+".
     """
     names = list(base)
     cur = score(names)
     history = [{"term": "+".join(base), "heldout_rmse": cur}]
     left = list(candidates)
     while left:
-        trial = {c: score(names + [c]) for c in left}
+        trial = {(c,): score(names + [c]) for c in left}
         best = min(trial, key=trial.get)
+        alone = [c for c in left if not np.isfinite(trial[(c,)])]
+        if max_step >= 2 and len(alone) >= 2:
+            pairs = {(a, b): score(names + [a, b]) for i, a in enumerate(alone) for b in alone[i + 1:]}
+            pair = min(pairs, key=pairs.get)
+            if pairs[pair] < min(trial[best], cur) * (1.0 - min_gain):
+                best, trial[pair] = pair, pairs[pair]
         if not np.isfinite(trial[best]) or trial[best] > cur * (1.0 - min_gain):
             break
-        names.append(best)
-        left.remove(best)
+        names += list(best)
+        left = [c for c in left if c not in best]
         cur = trial[best]
-        history.append({"term": best, "heldout_rmse": cur})
+        history.append({"term": "+".join(best), "heldout_rmse": cur})
     return names, history

@@ -266,15 +266,15 @@ def test_effects_to_inject():
 @pytest.mark.skipif(not SHARED.is_dir(), reason=f"{SHARED} absent (user's clone)")
 def test_real_rides_done_criterion(tmp_path, capsys):
     """On the two five-minute real rides the blocked held-out selection names a plausible
-    rolling resistance, the verdict names it, and the page's drivetrain and Estimates agree
+    rolling resistance and the current's lag, the verdict names them, and the page's drivetrain and Estimates agree
     (one parameter set: docs/ride_model.md); the figures and windows are written."""
     code, out, err = run(["ride", RIDE_A, "--compare", RIDE_B, "--json", tmp_path / "o.json",
                           "--report", tmp_path / "rep", "--n-boot", "50", "--no-simulate"],
                          capsys)
     assert code == 0, err
     rep = json.loads((tmp_path / "o.json").read_text())
-    assert [e["name"] for e in rep["effects"]] == ["rolling_resistance"]
-    assert rep["verdict"]["named"] == ["rolling_resistance"]
+    assert [e["name"] for e in rep["effects"]] == ["rolling_resistance", "current_lag"]
+    assert rep["verdict"]["named"] == ["rolling_resistance", "current_lag"]
     assert rep["heldout_error_augmented"] < rep["heldout_error_nominal"]
     by = {p["name"]: p for p in rep["parameters"]}
     assert by["rolling_resistance"]["accepted"] and not by["aerodynamic_drag"]["accepted"]

@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from euc_sim.rides.balance.design import CANDIDATES, NOMINAL, Design, on_bound
+from euc_sim.rides.balance.design import CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
 from euc_sim.rides.balance.fit import BalanceFit, _solve, fit_balance, plausibility
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.grids.signals import RideSignals, break_at_gaps
@@ -35,14 +35,19 @@ def _start(names) -> np.ndarray:
     return np.array([_START[k] for k in names])
 
 
-def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS) -> float:
+def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS,
+                  admissible_only: bool = False) -> float:
     """Blocked held-out RMS error of the bounded balance with ``names`` on ``design``, W or N·m.
 
     Each of ``n_folds`` contiguous time blocks is predicted from a bounded fit
-    (:data:`~euc_sim.rides.balance.design.BOUNDS`) on the others.
+    (:data:`~euc_sim.rides.balance.design.BOUNDS`) on the others.  With
+    ``admissible_only``, a model whose fit on the whole design puts a
+    non-nominal term on a bound or outside its plausible range scores ``inf``.
     """
     names = list(names)
     whole = _solve(design, names, _start(names)).x
+    if admissible_only and not _all_admissible(dict(zip(names, whole)), design.idle_cap):
+        return float("inf")
     label = time_blocks(design.t, n_folds)
     err = []
     for b in range(n_folds):
@@ -55,16 +60,52 @@ def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS) -> float:
     return float(np.sqrt(np.mean(r ** 2)))
 
 
-def select_effects(design: Design, candidates) -> tuple[list[str], list[dict]]:
-    """The terms blocked held-out validation keeps, in the order kept, and the history.
+def _all_admissible(estimate: dict, idle_cap: float | None = None) -> bool:
+    """True when every non-nominal term of ``estimate`` is plausible and off its bounds.
+
+    ``idle_cap`` (W, :attr:`Design.idle_cap`): the ride's own standstill power, above
+    which a constant drain P₀ is not plausible.
+    """
+    for name, value in estimate.items():
+        if name in NOMINAL:
+            continue
+        rng = PLAUSIBLE.get(name)
+        if on_bound(name, value) or (rng is not None and not rng[0] <= value <= rng[1]):
+            return False
+        if name == "drivetrain_idle_loss" and idle_cap is not None and value > idle_cap:
+            return False
+    return True
+
+
+def select_effects(design: Design, candidates) -> tuple[list[str], list[dict], list[str]]:
+    """The terms blocked held-out validation keeps, the history, and the terms held out of it.
 
     Forward selection (:func:`euc_sim.stats.forward_select`) from the nominal
     pair: each step adds the candidate that lowers :func:`heldout_score` most,
-    if by more than :data:`MIN_GAIN`.
+    if by more than :data:`MIN_GAIN`, among the models whose terms are all
+    admissible (plausible and off their bounds when fitted on the whole design):
+    a term the data pushes onto its bound is not kept, and the selection goes
+    on with the others.  A step may add two terms at once (drag and rolling can
+    each end on a bound alone and both be plausible together; docs/ride_model.md).
+
+    Returns
+    -------
+    kept : list of str
+        In the order kept.
+    history : list of dict
+        ``{"term", "heldout_rmse"}`` after each step, the nominal pair first.
+    blocked : list of str
+        Candidates left that would lower the held-out error of the kept model by
+        more than :data:`MIN_GAIN`, but only on a bound or outside their
+        plausible range (the data asks for more than plausible physics gives).
     """
-    names, history = forward_select(lambda n: heldout_score(design, n), list(NOMINAL),
-                                    [c for c in candidates if c not in NOMINAL], MIN_GAIN)
-    return names[len(NOMINAL):], history
+    others = [c for c in candidates if c not in NOMINAL]
+    names, history = forward_select(lambda n: heldout_score(design, n, admissible_only=True),
+                                    list(NOMINAL), others, MIN_GAIN, max_step=2)
+    cur = history[-1]["heldout_rmse"]
+    blocked = [c for c in others if c not in names
+               and heldout_score(design, names + [c]) < cur * (1.0 - MIN_GAIN)]
+    return names[len(NOMINAL):], history, blocked
 
 
 def _accepted_model(design: Design, selected) -> list[str]:
@@ -76,22 +117,24 @@ def _accepted_model(design: Design, selected) -> list[str]:
     """
     kept = list(selected)
     while kept:
-        ok = admissible(fit_balance(design, list(NOMINAL) + kept, n_boot=0), kept)
+        ok = admissible(fit_balance(design, list(NOMINAL) + kept, n_boot=0), kept,
+                        design.idle_cap)
         if ok == kept:
             break
         kept = ok
     return kept
 
 
-def admissible(fit: BalanceFit, names) -> list[str]:
+def admissible(fit: BalanceFit, names, idle_cap: float | None = None) -> list[str]:
     """Those of ``names`` whose estimate in ``fit`` is plausible and off its bounds.
 
     A kept term that ends on the bound of its plausible range (or outside it, as
     a GPS gain below its range) stays in the balance as the bound, but nothing
-    is named or simulated from it.
+    is named or simulated from it.  ``idle_cap``: see :func:`_all_admissible`.
     """
     phys = plausibility(fit)
-    return [c for c in names if phys[c]["plausible"] and not on_bound(c, fit.estimate[c])]
+    return [c for c in names if phys[c]["plausible"] and not on_bound(c, fit.estimate[c])
+            and _all_admissible({c: fit.estimate[c]}, idle_cap)]
 
 
 @dataclass(frozen=True)
@@ -108,7 +151,9 @@ class CrossRide:
         (:func:`select_effects`) whose estimates are plausible and off their
         bounds (:func:`admissible`), in the order kept.
     selected : tuple of str
-        Every term the selection kept, accepted or not.
+        The terms the selection kept, then those it held out because they lower
+        the held-out error only on a bound or outside their plausible range
+        (:func:`select_effects`'s ``blocked``).
     selection : list of dict
         ``{"term", "heldout_rmse"}`` after each kept step, the nominal pair first.
     heldout_nominal, heldout_augmented, heldout_full : float
@@ -152,13 +197,13 @@ def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block
     nominal = fit_balance(fit_design, list(NOMINAL), n_boot, block_s, seed)
     say(f"fitting every candidate on {fit_label} (2/3, {boot})")
     full = fit_balance(fit_design, common, n_boot, block_s, seed)
-    alone, history = select_effects(fit_design, common)
+    alone, history, blocked = select_effects(fit_design, common)
     kept = _accepted_model(fit_design, alone)
     say(f"fitting the augmented balance ({', '.join(kept) or 'nothing accepted'}) (3/3, {boot})")
     augmented = fit_balance(fit_design, list(NOMINAL) + kept, n_boot, block_s, seed)
     return CrossRide(fit_design=fit_design, test_design=test_design, nominal=nominal, full=full,
                      augmented=augmented, accepted=tuple(kept),
-                     selected=tuple(alone),
+                     selected=tuple(alone) + tuple(blocked),
                      heldout_nominal=nominal.rmse_on(test_design),
                      heldout_augmented=augmented.rmse_on(test_design),
                      heldout_full=full.rmse_on(test_design),
@@ -177,7 +222,7 @@ def effect_entries(cr: CrossRide) -> list[dict]:
         exact = list(cr.fit_design.aliases.get(c, ()))
         confounded = [x for x in cr.full.confounded(c) if x not in exact]
         aliases = exact + confounded
-        step = next((h for h in cr.selection if h["term"] == c), None)
+        step = next((h for h in cr.selection[1:] if c in h["term"].split("+")), None)
         before = cr.selection[max(0, list(cr.selection).index(step) - 1)] if step else None
         ev = (f"adding {ph['symbol']} ({ph['meaning']}) lowers the blocked held-out RMS error "
               f"on {cr.fit_label} from {before['heldout_rmse']:.0f} to {step['heldout_rmse']:.0f} "

@@ -45,7 +45,8 @@ from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.rides.grids.signals import RideSignals, sg, window_samples
 
 __all__ = ["RHO_AIR", "CANDIDATES", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDOW", "Design",
-           "Operator", "balance_design", "filter_matrix", "on_bound"]
+           "Operator", "balance_design", "filter_matrix", "on_bound", "standstill_power",
+           "MIN_STANDSTILL"]
 
 
 #: Candidate parameters: name -> (symbol, unit, meaning, regressor column or None, column unit).
@@ -62,6 +63,8 @@ CANDIDATES: dict[str, tuple[str, str, str, str | None, str | None]] = {
                        "gps_climb", "W"),
     "drivetrain_idle_loss": ("P₀", "W", "constant electrical drain (controller, lights)",
                              None, None),
+    "current_lag": ("τ_I", "s", "lag of the logged battery current behind the power drawn "
+                    "(first-order lag, to second order: logged P ≈ P − τ_I·Ṗ + τ_I²·P̈)", None, None),
 }
 #: The inertia-only model: the paper's balance with no resistance, plus the two
 #: efficiencies without which battery power cannot be compared at all.
@@ -76,6 +79,7 @@ PLAUSIBLE: dict[str, tuple[float, float, str]] = {
     "road_slope": (-0.15, 0.15, "1"),
     "road_slope_gps": (0.5, 1.5, "1"),
     "drivetrain_idle_loss": (0.0, 100.0, "W"),
+    "current_lag": (0.0, 0.3, "s"),
 }
 
 #: Bounds of the fit: a resistance or loss runs from 0 (absent) to the top of its
@@ -90,6 +94,7 @@ BOUNDS: dict[str, tuple[float, float]] = {
     "road_slope": PLAUSIBLE["road_slope"][:2],
     "road_slope_gps": (0.0, PLAUSIBLE["road_slope_gps"][1]),
     "drivetrain_idle_loss": (0.0, PLAUSIBLE["drivetrain_idle_loss"][1]),
+    "current_lag": (0.0, PLAUSIBLE["current_lag"][1]),
 }
 
 
@@ -112,7 +117,15 @@ class Design:
 
         D = inertia + C_rr·rolling + k·drag + sin α·slope + gain·gps_climb
         g(D) = D/η_m   where D > 0 (motoring),   D·η_r   where D ≤ 0 (regenerating)
-        P̂ = P₀ + L₂[g(D)]
+        P̂ = P₀ + (L₂ − τ_I·L₂' + τ_I²·L₂'')[g(D)]
+
+    τ_I (``current_lag``) is a first-order lag of the logged battery current
+    behind the power drawn (the wheel's current report averages or lags):
+    1/(1 + τ_I·s) = 1 − τ_I·s + τ_I²·s² − …, so to second order the lag turns P
+    into P − τ_I·Ṗ + τ_I²·P̈.  L₂' and L₂'' are the first and second derivatives
+    from the same Savitzky–Golay fit as L₂, so the rows in use do not change
+    with τ_I; the expansion holds over L₂'s passband (about 0.6 Hz for 1.5 s)
+    for τ_I up to its bound, 0.3 s (docs/ride_model.md).
 
     Filtering.  Every regressor is first passed through a short Savitzky–Golay
     fit L₁ (``inertia`` through its derivative); the regime switch g acts on
@@ -137,6 +150,8 @@ class Design:
         Rows that enter the residual.
     kernel : numpy.ndarray
         L₂'s convolution coefficients.
+    dkernel, d2kernel : numpy.ndarray
+        L₂' and L₂'': the same fit's first (1/s) and second (1/s²) derivatives.
     weight_full : numpy.ndarray
         Residual weight: 1 (``domain="power"``), or R/v, s (``"torque"``:
         residuals become battery-side torque errors, N·m).
@@ -150,6 +165,11 @@ class Design:
         Candidate -> candidates this ride cannot tell apart from it.
     notes : tuple of str
     path : str
+    idle_cap : float or None
+        Upper quartile of the battery power the log reports at standstill, W
+        (:func:`standstill_power`): P₀ above it is not plausible on this ride.
+        None when the log does not tell (too little standstill, or a current
+        report that reads 0 at standstill).
     """
 
     columns_full: pd.DataFrame
@@ -157,6 +177,8 @@ class Design:
     segment: np.ndarray
     use: np.ndarray
     kernel: np.ndarray
+    dkernel: np.ndarray
+    d2kernel: np.ndarray
     weight_full: np.ndarray
     t_full: np.ndarray
     v_full: np.ndarray
@@ -166,6 +188,7 @@ class Design:
     aliases: Mapping[str, tuple[str, ...]]
     notes: tuple[str, ...]
     path: str = ""
+    idle_cap: float | None = None
 
     # rows in use --------------------------------------------------------------
     @property
@@ -194,9 +217,12 @@ class Design:
     @cached_property
     def operator(self) -> "Operator":
         """The model's linear pieces on the rows it touches (built once per design)."""
-        K, support = filter_matrix(self.segment, self.kernel, np.flatnonzero(self.use))
+        rows = np.flatnonzero(self.use)
+        K, support = filter_matrix(self.segment, self.kernel, rows)
+        Kd, _ = filter_matrix(self.segment, self.dkernel, rows)   # same length: same support
+        Kdd, _ = filter_matrix(self.segment, self.d2kernel, rows)
         X = self.columns_full.iloc[support]
-        return Operator(K=K, columns={c: X[c].to_numpy() for c in X.columns})
+        return Operator(K=K, Kd=Kd, Kdd=Kdd, columns={c: X[c].to_numpy() for c in X.columns})
 
     def demand(self, names: Sequence[str], Theta: np.ndarray) -> np.ndarray:
         """Demanded mechanical power D of B parameter sets on the operator's support, W.
@@ -224,6 +250,10 @@ class Design:
         eta_m, eta_r = Theta[names.index("eta_motor")], Theta[names.index("eta_regen")]
         g = np.where(D > 0, D / eta_m, D * eta_r)
         P_hat = np.asarray(self.operator.K @ g)
+        if "current_lag" in names:
+            tau = Theta[names.index("current_lag")]
+            op = self.operator
+            P_hat += -tau * np.asarray(op.Kd @ g) + tau ** 2 * np.asarray(op.Kdd @ g)
         if "drivetrain_idle_loss" in names:
             P_hat += Theta[names.index("drivetrain_idle_loss")]
         return P_hat
@@ -244,7 +274,9 @@ class Design:
 
         With D the demanded power and s = 1/η_m where D > 0, η_r elsewhere:
         ∂P̂/∂θ_j = L₂[s·column_j], ∂P̂/∂η_m = L₂[−D⁺/η_m²], ∂P̂/∂η_r = L₂[D⁻],
-        ∂P̂/∂P₀ = 1; the residual's derivative is −weight times these.
+        ∂P̂/∂P₀ = 1; with τ_I, L₂ becomes L₂ − τ_I·L₂' + τ_I²·L₂'' and
+        ∂P̂/∂τ_I = (−L₂' + 2τ_I·L₂'')[g(D)];
+        the residual's derivative is −weight times these.
         """
         op = self.operator
         Theta = np.asarray(Theta, float)
@@ -260,7 +292,15 @@ class Design:
                 G[:, j] = np.minimum(D, 0.0)
             elif col is not None:
                 G[:, j] = s * op.columns[col][:, None]
-        J = np.asarray(op.K @ G.reshape(D.shape[0], -1)).reshape(-1, len(names), D.shape[1])
+        flat = G.reshape(D.shape[0], -1)
+        J = np.asarray(op.K @ flat).reshape(-1, len(names), D.shape[1])
+        if "current_lag" in names:
+            j = names.index("current_lag")
+            tau = Theta[j]
+            J += (-tau * np.asarray(op.Kd @ flat).reshape(J.shape)
+                  + tau ** 2 * np.asarray(op.Kdd @ flat).reshape(J.shape))
+            g = np.where(D > 0, D / eta_m, D * eta_r)
+            J[:, j] = -np.asarray(op.Kd @ g) + 2 * tau * np.asarray(op.Kdd @ g)
         if "drivetrain_idle_loss" in names:
             J[:, names.index("drivetrain_idle_loss")] = 1.0
         return -self.weight[:, None, None] * J
@@ -275,11 +315,15 @@ class Operator:
     K : scipy.sparse.csr_matrix
         The long filter L₂ from the rows it touches (the support) to the rows in
         use: ``K @ x[support] == _conv(x, segment, kernel)[use]``.
+    Kd, Kdd : scipy.sparse.csr_matrix
+        Its first and second derivatives L₂', L₂'' on the same support.
     columns : dict
         ``columns_full`` on the support: name -> array (``inertia`` in W, ...).
     """
 
     K: object
+    Kd: object
+    Kdd: object
     columns: Mapping[str, np.ndarray]
 
 
@@ -365,7 +409,7 @@ def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
         "drag": L1(np.abs(v_raw) ** 3),
     }
     cands = ["eta_motor", "eta_regen", "rolling_resistance", "aerodynamic_drag",
-             "drivetrain_idle_loss"]
+             "drivetrain_idle_loss", "current_lag"]
     aliases: dict[str, tuple[str, ...]] = {}
     moving = np.abs(v_raw) > 0.3
     back = float((v_raw[moving] < -0.3).mean()) if moving.any() else 0.0
@@ -385,6 +429,25 @@ def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
     else:
         notes.append("no GPS altitude: road grade unknown; a varying grade stays in the residual")
     return cols, cands, aliases, notes
+
+
+#: Least standstill, s, from which the log's own idle power is read.
+MIN_STANDSTILL = 10.0
+
+
+def standstill_power(v: np.ndarray, P: np.ndarray, rate: float) -> float | None:
+    """Upper quartile of the battery power at standstill (|v| < 0.05 m/s), W, or None.
+
+    At standstill the battery gives the constant drain P₀ plus what balancing
+    the rider takes (≥ 0), so P₀ is at most this; the upper quartile leaves a
+    quarter of the readings to noise.  None with less than
+    :data:`MIN_STANDSTILL` s of standstill, or when most standstill readings are
+    exactly 0 (a current report that zeroes small currents says nothing of P₀).
+    """
+    still = (np.abs(v) < 0.05) & np.isfinite(P)
+    if still.sum() < MIN_STANDSTILL * rate or np.mean(P[still] == 0.0) > 0.5:
+        return None
+    return float(np.percentile(P[still], 75))
 
 
 def balance_design(sig: RideSignals, domain: str = "power",
@@ -424,6 +487,8 @@ def balance_design(sig: RideSignals, domain: str = "power",
     L1 = lambda x, d=0: sg(x, seg, sig.rate, pre_window, p1, d)  # noqa: E731
     n2 = window_samples(sig.window, sig.rate, sig.polyorder)
     kernel = savgol_coeffs(n2, sig.polyorder)
+    dkernel = savgol_coeffs(n2, sig.polyorder, deriv=1, delta=1.0 / sig.rate)
+    d2kernel = savgol_coeffs(n2, sig.polyorder, deriv=2, delta=1.0 / sig.rate)
     L2 = lambda x: _conv(x, seg, kernel)  # noqa: E731
     cols, cands, aliases, notes = _regressors(sig, L1, sign_change_fraction)
     X = pd.DataFrame(cols)
@@ -438,7 +503,9 @@ def balance_design(sig: RideSignals, domain: str = "power",
         use &= np.abs(v) >= A.v_min
         unit = "N·m"
     X = X.fillna(0.0)             # rows out of use; keeps the convolution finite inside
-    return Design(columns_full=X, P_full=P, segment=seg, use=use, kernel=kernel,
+    return Design(columns_full=X, P_full=P, segment=seg, use=use, kernel=kernel, dkernel=dkernel,
+                  d2kernel=d2kernel,
                   weight_full=weight, t_full=raw["t"].to_numpy(), v_full=v, domain=domain,
                   unit=unit, candidates=tuple(cands), aliases=aliases, notes=tuple(notes),
-                  path=sig.path)
+                  path=sig.path,
+                  idle_cap=standstill_power(v_raw, raw["P"].to_numpy(), sig.rate))

@@ -29,7 +29,7 @@ FEW_BLOCKS = 5
 #: Start values of the least-squares fit (its bounds are :data:`BOUNDS`).
 _START = {"eta_motor": 0.8, "eta_regen": 0.8, "rolling_resistance": 0.0,
           "aerodynamic_drag": 0.0, "road_slope": 0.0, "road_slope_gps": 1.0,
-          "drivetrain_idle_loss": 0.0}
+          "drivetrain_idle_loss": 0.0, "current_lag": 0.0}
 
 
 @dataclass(frozen=True)

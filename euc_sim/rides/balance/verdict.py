@@ -56,6 +56,11 @@ def ride_verdict(report: dict) -> dict:
         if cand:
             text += (f"; also accepted but implausible (candidates, not named): "
                      f"{'; '.join(shown[c] for c in cand)}")
+        held = [c for c in report.get("selected_not_accepted") or [] if c not in named]
+        if held:
+            text += (f"; {', '.join(held)} would lower the held-out error further only on the "
+                     f"bound of its plausible range (or outside it): more than plausible "
+                     f"physics gives, not named")
     elif cand:
         text = f"{NOT_EXPLAINED} (candidates, each implausible: {'; '.join(shown[c] for c in cand)})"
     elif report.get("selected_not_accepted"):

@@ -222,11 +222,12 @@ def test_real_rides_cross_prediction(tmp_path, fit, test):
     for name in ("rolling_resistance", "aerodynamic_drag"):
         lo, hi = rep["all_estimates"][name]["ci95"]
         assert lo <= rep["all_estimates"][name]["estimate"] <= hi
-    # blocked held-out selection on one ride names a plausible rolling resistance, which
-    # predicts the other better; the fit with every candidate does not beat it by 5 %
-    assert [e["name"] for e in rep["effects"]] == ["rolling_resistance"]
+    # blocked held-out selection on one ride names a plausible rolling resistance and a lag
+    # of the logged current, which predict the other better; the fit with every candidate
+    # does not beat them by 5 % (docs/ride_model.md)
+    assert [e["name"] for e in rep["effects"]] == ["rolling_resistance", "current_lag"]
     assert all(e["plausible"] for e in rep["effects"])
-    assert rep["ratio"] < 0.9
+    assert rep["ratio"] < 0.82
     assert rep["heldout_error_augmented"] <= 1.05 * rep["heldout_error_all_candidates"]
 
 

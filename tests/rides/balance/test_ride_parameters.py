@@ -41,6 +41,18 @@ def test_forward_select_keeps_only_what_lowers_the_score():
     assert [h["term"] for h in history] == ["base", "a", "c"]
 
 
+def test_forward_select_takes_two_terms_that_are_admissible_only_together():
+    # "a" and "b" alone are not admissible (inf), together they halve the error; "c" gains 5 %
+    errors = {(): 10.0, ("a",): np.inf, ("b",): np.inf, ("c",): 9.5, ("a", "b"): 5.0,
+              ("a", "c"): np.inf, ("b", "c"): np.inf, ("a", "b", "c"): 4.99}
+    score = lambda names: errors[tuple(sorted(n for n in names if n != "base"))]  # noqa: E731
+    one, _ = forward_select(score, ["base"], ["a", "b", "c"], min_gain=0.01)
+    assert one == ["base", "c"]                      # one term per step never reaches {a, b}
+    two, history = forward_select(score, ["base"], ["a", "b", "c"], min_gain=0.01, max_step=2)
+    assert two == ["base", "a", "b"]                 # c then gains < 1 %
+    assert [h["term"] for h in history] == ["base", "a+b"]
+
+
 def test_percentile_interval_and_wild_signs_are_seeded():
     draws = np.arange(1001, dtype=float)
     lo, hi = percentile_interval(draws)
@@ -75,11 +87,13 @@ def test_a_drag_beyond_its_plausible_range_sits_on_its_bound_and_is_never_accept
     heavy = replace(d, P_full=P_full)
     fit = fit_balance(heavy, list(NOMINAL) + ["aerodynamic_drag"], n_boot=0)
     assert fit.estimate["aerodynamic_drag"] == BOUNDS["aerodynamic_drag"][1]
-    kept, _ = select_effects(heavy, heavy.candidates)
-    assert "aerodynamic_drag" in kept                         # the bounded drag still helps ...
+    kept, _, blocked = select_effects(heavy, heavy.candidates)
+    assert "aerodynamic_drag" not in kept                     # never kept on its bound ...
+    assert "aerodynamic_drag" in blocked                      # ... though the bounded drag helps
     full = fit_balance(heavy, list(NOMINAL) + kept, n_boot=0)
-    assert "aerodynamic_drag" not in admissible(full, kept)   # ... but is never accepted
-    assert np.isfinite(heldout_score(heavy, list(NOMINAL) + kept))
+    assert admissible(full, kept) == kept                     # what is kept is all admissible
+    assert heldout_score(heavy, list(NOMINAL) + kept + ["aerodynamic_drag"],
+                         admissible_only=True) == np.inf
 
 
 # --- the selection and the parameter set -----------------------------------------------
@@ -112,3 +126,66 @@ def test_parameters_list_each_quantity_once_and_accepts_only_plausible(cross):
     view = drivetrain_view(dt, params)
     assert view["C_rr"]["estimate"] == by["rolling_resistance"]["estimate"]
     assert view["C_rr"]["parameter"] == "rolling_resistance"
+
+
+# --- the lag of the logged current ------------------------------------------------------
+def _lagged_design(tmp_path, a: float):
+    """The twin ride's design, its logged battery power through y[n] = (1 − a)·x[n] + a·y[n − 1].
+
+    On the 10 Hz grid that filter's mean delay (its time constant to first order) is
+    a/(1 − a)·0.1 s.
+    """
+    from dataclasses import replace
+
+    from scipy.signal import lfilter
+
+    sig = ride_signals(synth_log(tmp_path / "lag.csv", seed=23, noise_w=10.0))
+    raw = sig.raw.copy()
+    if a > 0:
+        P = raw["P"].to_numpy().copy()
+        for s in np.unique(raw["segment"]):
+            i = raw["segment"].to_numpy() == s
+            P[i] = lfilter([1 - a], [1, -a], P[i], zi=[a * P[i][0]])[0]
+        raw["P"] = P
+    return balance_design(replace(sig, raw=raw))
+
+
+def test_a_lagged_current_is_found_and_an_unlagged_one_is_not(tmp_path):
+    names = list(NOMINAL) + ["rolling_resistance", "aerodynamic_drag", "drivetrain_idle_loss",
+                             "current_lag"]
+    a = 0.6
+    lagged = fit_balance(_lagged_design(tmp_path, a), names, n_boot=0)
+    plain = fit_balance(_lagged_design(tmp_path, 0.0), names, n_boot=0)
+    assert abs(lagged.estimate["current_lag"] - a / (1 - a) * 0.1) < 0.02    # 0.15 s
+    assert plain.estimate["current_lag"] < 0.02
+    for fit in (lagged, plain):           # the physics is recovered with or without the lag
+        assert abs(fit.estimate["eta_motor"] - TRUTH["eta_motor"]) < 0.05
+
+
+def test_the_lag_jacobian_matches_finite_differences(designs):
+    d, _ = designs
+    names = list(NOMINAL) + ["rolling_resistance", "current_lag"]
+    th = np.array([0.8, 0.6, 0.02, 0.2])
+    J = d.jacobian_many(names, th[:, None])[:, :, 0]
+    for j, h in enumerate([1e-6, 1e-6, 1e-8, 1e-6]):
+        e = np.zeros_like(th)
+        e[j] = h
+        num = (d.residual(dict(zip(names, th + e))) - d.residual(dict(zip(names, th - e)))) / (2 * h)
+        assert np.allclose(J[:, j], num, rtol=1e-4, atol=1e-6 * np.abs(num).max())
+
+
+def test_the_standstill_power_caps_the_idle_drain():
+    from euc_sim.rides.balance.crossride import _all_admissible
+    from euc_sim.rides.balance.design import standstill_power
+
+    rng = np.random.default_rng(5)
+    v = np.r_[np.zeros(200), np.full(200, 5.0)]               # 20 s still, 20 s riding, 10 Hz
+    P = np.r_[3.0 + rng.normal(0, 1, 200), np.full(200, 400.0)]
+    cap = standstill_power(v, P, 10.0)
+    assert cap == pytest.approx(np.percentile(P[:200], 75))
+    assert standstill_power(v[110:], P[110:], 10.0) is None    # 9 s still: too little
+    zeroed = np.where(v == 0, 0.0, P)                          # a report that zeroes small currents
+    assert standstill_power(v, zeroed, 10.0) is None
+    assert _all_admissible({"drivetrain_idle_loss": 2.0}, cap)
+    assert not _all_admissible({"drivetrain_idle_loss": 50.0}, cap)
+    assert _all_admissible({"drivetrain_idle_loss": 50.0}, None)
