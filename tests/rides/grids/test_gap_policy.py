@@ -46,17 +46,17 @@ def test_the_policy_bridges_up_to_its_threshold_and_splits_beyond():
 
 
 def test_a_short_gap_is_bridged_and_a_long_one_splits_every_grid():
-    # 0.75 s without rows after 20 s (bridged), 2.0 s after 60 s (split)
-    ride = as_ride(_log(_stamps({20.0: 0.75, 60.0: 2.0})))
+    # 0.75 s without rows after 20 s (bridged), 3.0 s after 60 s (split)
+    ride = as_ride(_log(_stamps({20.0: 0.75, 60.0: 3.0})))
     frame, notes = ride_grid(ride)
     assert frame["segment"].nunique() == 2 and len(notes) == 1 and "60.00" in notes[0]
     inside = frame[(frame["t"] > 20.0) & (frame["t"] < 20.75)]
     assert len(inside) == 7                                 # 20.1 ... 20.7, interpolated
     assert np.allclose(inside["v"], np.interp(inside["t"], [20.0, 20.75],
                                               5.0 + np.sin(0.3 * np.array([20.0, 20.75]))))
-    assert not ((frame["t"] > 60.0) & (frame["t"] < 62.0)).any()
+    assert not ((frame["t"] > 60.0) & (frame["t"] < 63.0)).any()
     # the quality facts list the split gap only
-    assert [round(length, 2) for _, length in ride.quality.gaps] == [2.0]
+    assert [round(length, 2) for _, length in ride.quality.gaps] == [3.0]
     # the balance grid and the mass grid are this grid, cut at the same place
     sig, psig = ride_signals(ride), power_signals(ride)
     assert np.array_equal(sig.frame["segment"], frame["segment"])
@@ -64,21 +64,21 @@ def test_a_short_gap_is_bridged_and_a_long_one_splits_every_grid():
 
 
 def test_the_law_rows_break_their_derivatives_at_the_same_threshold():
-    t = _stamps({20.0: 0.75, 60.0: 2.0})
+    t = _stamps({20.0: 0.75, 60.0: 3.0})
     d = _rate(0.5 * t ** 2, t)
     after = lambda s: int(np.searchsorted(t, s, side="right")) - 1   # noqa: E731
     bridged, split = after(20.0), after(60.0)
     assert np.isfinite(d[[bridged, bridged + 1]]).all()    # the 0.75 s interval: an exact mean rate
     assert np.allclose(d[bridged], 0.5 * (t[bridged + 1] + t[bridged - 1]))
-    assert np.isnan(d[[split, split + 1]]).all()           # the 2 s interval: no rate across it
+    assert np.isnan(d[[split, split + 1]]).all()           # the 3 s interval: no rate across it
 
 
 def test_a_piece_shorter_than_the_filter_window_is_left_out():
-    # 0.5 s of rows (3 rows) between two 2 s gaps: shorter than the 1.5 s balance window
-    t = _stamps({40.0: 2.0, 42.5: 2.0})
+    # 0.5 s of rows (3 rows) between two 3 s gaps: shorter than the 1.5 s balance window
+    t = _stamps({40.0: 3.0, 43.5: 3.0})
     sig = ride_signals(as_ride(_log(t)))
     assert sig.frame["segment"].nunique() == 3
-    short = sig.frame[(sig.frame["t"] >= 42.0) & (sig.frame["t"] <= 42.5)]
+    short = sig.frame[(sig.frame["t"] >= 43.0) & (sig.frame["t"] <= 43.5)]
     assert len(short) == 6 and not short["interior"].any() and short["v"].isna().all()
     assert any("fewer than the 15-sample filter window: left out" in n for n in sig.notes)
 
@@ -88,7 +88,7 @@ def test_the_grid_and_its_filtered_signals_are_kept_on_the_ride(monkeypatch):
     for mod, name in ((signals, "resample"), (signals, "_balance_grid"), (power, "_filtered")):
         real = getattr(mod, name)
         monkeypatch.setattr(mod, name, lambda *a, _r=real, _n=name, **k: built.append(_n) or _r(*a, **k))
-    ride = as_ride(_log(_stamps({60.0: 2.0})))
+    ride = as_ride(_log(_stamps({60.0: 3.0})))
     a = ride_signals(ride)
     b = ride_signals(ride, RideAssumptions(R=0.25))        # another radius: another torque only
     assert power_signals(ride) is power_signals(ride)
@@ -102,9 +102,9 @@ def test_the_grid_and_its_filtered_signals_are_kept_on_the_ride(monkeypatch):
     assert built.count("resample") == 3
 
 
-@pytest.mark.parametrize("bridge, pieces", [(0.5, 3), (1.0, 2), (3.0, 1)])
+@pytest.mark.parametrize("bridge, pieces", [(0.5, 3), (1.0, 2), (4.0, 1)])
 def test_a_grid_under_another_policy_is_another_grid(bridge, pieces):
-    ride = as_ride(_log(_stamps({20.0: 0.75, 60.0: 2.0})))
+    ride = as_ride(_log(_stamps({20.0: 0.75, 60.0: 3.0})))
     frame, _ = ride_grid(ride, GapPolicy(bridge=bridge))
     assert frame["segment"].nunique() == pieces
     assert ride_grid(ride)[0]["segment"].nunique() == 2
