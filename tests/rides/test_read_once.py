@@ -9,7 +9,7 @@ from ridesynth import synth_log
 
 import euc_sim.rides.source.logs as logs
 from euc_sim.cli.app import main
-from euc_sim.rides.grids.ride import as_ride, read_ride, ride_name
+from euc_sim.rides.grids.ride import GAP_POLICY, as_ride, read_ride, ride_name
 
 
 @pytest.fixture()
@@ -40,7 +40,8 @@ def test_a_ride_carries_its_quality_facts(tmp_path, counted):
     assert ride.name == "fit.csv" and counted == ["fit.csv"]
     q = ride.quality
     assert 4.0 < q.rate_hz < 10.0                        # rows every 0.1-0.3 s
-    assert any(length > 1.5 for _, length in q.gaps)     # the synthetic log's 2 s gap
+    # the synthetic log's 2 s gap is bridged (the policy splits only beyond 2.5 s)
+    assert GAP_POLICY.bridge == 2.5 and all(length > GAP_POLICY.bridge for _, length in q.gaps)
     assert "tilt" in q.zero_channels
     assert as_ride(ride) is ride and as_ride(ride.log).log is ride.log
     assert ride_name(ride.log) == ride_name(str(ride.path)) == "fit.csv"

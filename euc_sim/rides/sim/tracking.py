@@ -355,7 +355,7 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
             stand(t_end, float(t[a]), False)
         t0 = float(t[a])
         try:
-            df = rides.grids.ride(i)
+            df = rides.ride(i)
         except FallError as exc:
             rides.abandon()
             fell = FallError(t0 + exc.t, exc.quantity, exc.value, exc.bound)
