@@ -28,7 +28,7 @@ with the limit :func:`euc_sim.controllers.firmware.firmware_settings` now uses (
 same log measured, where the fit's is lower), both with the plan band-limited.
 
 Each paper-PD window is ridden three times: the plan not band-limited (as the falls were found),
-band-limited to z/2 (:func:`euc_sim.rides.sim.tracking.plan_band_limit`, as simulated now), and not
+band-limited to z/2 (:func:`euc_sim.rides.sim.envelope.plan_band_limit`, as simulated now), and not
 band-limited at a 500 N·m limit (a diagnosis, not a model: nothing is chosen by it).
 """
 

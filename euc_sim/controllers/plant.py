@@ -109,7 +109,7 @@ def speed_zero(p: Params = TABLE3, motor: MotorPD | None = None, speed: float = 
     eigenvalues of the Rosenbrock pencil [[A_s, B_s], [C, 0]] − s [[I, 0], [0, 0]].
     A zero at z bounds the bandwidth of any speed tracking to ω_B < z/2 (Skogestad and
     Postlethwaite, *Multivariable Feedback Control*, 2nd ed., 2005, §5.6):
-    :func:`euc_sim.rides.sim.tracking.plan_band_limit` uses it.
+    :func:`euc_sim.rides.sim.envelope.plan_band_limit` uses it.
 
     Parameters
     ----------

@@ -263,7 +263,7 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
         "`–` elsewhere), `drivetrain` (voltage-limited motor, "
         "accepted effects as physics, the augmented efficiencies). In every step the rider first rides "
         "the profile within his acceleration envelope, band-limited to half the right-half-plane zero "
-        "of his speed response (`tracking.plan_band_limit`), then once more on the plan learned from that "
+        "of his speed response (`envelope.plan_band_limit`), then once more on the plan learned from that "
         "run through his inverted closed loop (`euc_sim/rides/sim/plan_learning.py`, aiming at the "
         "profile as logged; rows run before 2026-11-26 16:00 UTC used the older slow correction). Each "
         "simulated channel is read as the log is written: the 0.2 s mean before each of the log's "

@@ -17,7 +17,8 @@ from euc_sim.io import is_temporary
 from euc_sim.rides.grids.signals import RideAssumptions
 from euc_sim.rides.grids.signals import split_at_gaps
 from euc_sim.rides.sim.simulate import battery_power, effects_to_inject, ride_params
-from euc_sim.rides.sim.tracking import limit_acceleration, simulate_profile, to_grid
+from euc_sim.rides.sim.envelope import limit_acceleration
+from euc_sim.rides.sim.tracking import simulate_profile, to_grid
 from ridesynth import OLD_HEADER, synth_log
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "wheellog"

@@ -46,7 +46,8 @@ from euc_sim.rides.sim.plan_learning import filter_band
 from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep,
                                      effects_to_inject, simulated_pwm)
 from euc_sim.rides.grids.stops import find_stops
-from euc_sim.rides.sim.tracking import LEAN_SHARE, simulate_profile
+from euc_sim.rides.sim.envelope import LEAN_SHARE
+from euc_sim.rides.sim.tracking import simulate_profile
 
 __all__ = ["SIM_EFFECTS", "MAX_BRIDGED_GAP", "simulation_obstacle", "ride_params", "effects_to_inject",
            "battery_power", "RideSimulation", "simulate_ride", "plot_ride_simulation", "LOG_COLUMNS"]

@@ -18,8 +18,8 @@ from euc_sim.model.parameters import TABLE3
 from euc_sim.rides.grids.profile import speed_profile
 from euc_sim.rides.grids.signals import RideAssumptions
 from euc_sim.rides.sim.simulate import ride_params
-from euc_sim.rides.sim.tracking import (LEAN_SHARE, resisting_acceleration, rider_acceleration_limit,
-                                    simulate_profile)
+from euc_sim.rides.sim.envelope import LEAN_SHARE, resisting_acceleration, rider_acceleration_limit
+from euc_sim.rides.sim.tracking import simulate_profile
 from euc_sim.simulation.engine import FALL_BOUNDS
 
 V9_0 = Path(__file__).resolve().parents[4] / "shared" / "data" / "euc_core" / "trips" / "inmotion" / "v9" / "0" / "0.csv"

@@ -9,8 +9,8 @@ from euc_sim.controllers.plant import speed_zero
 from euc_sim.model.parameters import TABLE3
 from euc_sim.rides.grids.signals import RideAssumptions
 from euc_sim.rides.sim.simulate import ride_params
-from euc_sim.rides.sim.tracking import (limit_acceleration, moving_average, plan_band_limit,
-                                    rider_acceleration_limit, simulate_profile)
+from euc_sim.rides.sim.envelope import limit_acceleration, moving_average, plan_band_limit, rider_acceleration_limit
+from euc_sim.rides.sim.tracking import simulate_profile
 
 
 def test_moving_average_keeps_the_envelope_and_has_no_time_shift():
