@@ -1,0 +1,146 @@
+#!/usr/bin/env python
+"""The road's grade along a shared route, read on one ride and carried to another (docs/route_grade.md).
+
+    nice python studies/route_grade.py [--only SUBSTR] [--out docs/route_grade.md]
+
+Reads ``../shared/data`` (read-only).  For the WheelLog pair both ways (a tuning
+figure: its residual correlation per 25 m of route motivated the idea) and every
+ordered pair of euc_core rides of one wheel (the untuned check), each run as
+``euc-sim ride LOG --compare OTHER`` fits it (energy-balance mass, bootstrap-free
+balance fit): the route match (:func:`euc_sim.rides.grids.route.match_routes`),
+the decision to carry (:func:`euc_sim.rides.balance.route_grade.carry_decision`),
+and the test ride's held-out error of the selected model without and with the fit
+ride's grade profile carried.  Progress on the terminal (stderr); the table to
+``--out`` (atomically) and stdout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+WHEELS = ("v9", "blitz", "master_pro_V2", "mten4", "lynx")
+
+
+def pairs(root: Path = SHARED) -> list[tuple[str, Path, Path, Path | None]]:
+    """(label, fit log, test log, spec) for the WheelLog pair and every same-wheel euc_core pair."""
+    wl = root / "wheellog"
+    a, b = wl / "2020_05_16_08_02_06.csv", wl / "2020_05_28_07_52_00.csv"
+    out = [(f"wheellog {x.stem[5:10]} -> {y.stem[5:10]}", x, y, None) for x, y in ((a, b), (b, a))]
+    by_wheel: dict[str, list[Path]] = {}
+    for meta in sorted((root / "euc_core").glob("trips/*/*/*/meta.csv")):
+        with open(meta, newline="") as fh:
+            wheel = next(csv.DictReader(fh))["wheel"]
+        by_wheel.setdefault(wheel, []).append(meta.parent / f"{meta.parent.name}.csv")
+    for wheel in WHEELS:
+        spec = root / "euc_core" / "specs" / f"{wheel}.csv"
+        for x in by_wheel.get(wheel, []):
+            for y in by_wheel[wheel]:
+                if x != y:
+                    out.append((f"{wheel}/{x.stem} -> {y.stem}", x, y,
+                                spec if spec.exists() else None))
+    return out
+
+
+def one(label: str, fit: Path, test: Path, spec_path: Path | None) -> dict:
+    """Match, decide and carry for one ordered pair; the row of the table."""
+    from euc_sim.rides.balance.analysis import ride_analysis
+    from euc_sim.rides.balance.route_grade import (carried_grade, carry_decision, carry_grade,
+                                                  grade_profile)
+    from euc_sim.rides.grids.ride import as_ride
+    from euc_sim.rides.grids.route import match_by_speed, match_routes, route_position
+    from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
+    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.source.spec import read_spec
+
+    spec = read_spec(spec_path) if spec_path else None
+    lf, lt = as_ride(fit), as_ride(test)
+    physics = ride_drivetrain(lf, lt, spec, 10, 0)
+    assumptions = with_found_values(RideAssumptions(), spec, physics[0]["total_mass"])
+    an = ride_analysis(lf, lt, assumptions=assumptions, n_boot=0, seed=0)
+    cr = an.cross
+    pf = route_position(an.sig_fit.raw)
+    pt = route_position(an.sig_test.raw, pf.origin)
+    match = match_routes(pf, pt)
+    by_speed = match_by_speed(pf, pt)
+    row = {"label": label, "inertia_only": cr.heldout_nominal, "selected": cr.heldout_augmented,
+           "ratio": cr.ratio, "accepted": list(cr.accepted),
+           "gps": pf.xy is not None and pt.xy is not None,
+           "match": None if match is None else match.method,
+           "shared_m": 0.0 if match is None else match.shared_m,
+           "share": 0.0 if match is None else match.share,
+           "quality": None if match is None else match.quality,
+           "offset_m": None if match is None else match.offset_m,
+           "speed_match": None if by_speed is None else (by_speed.quality, by_speed.offset_m),
+           "carried": False, "why": "the rides do not share a route",
+           "with_grade": None, "ratio_with": None, "grade_range": None}
+    if match is None:
+        return row
+    prof = grade_profile(an.sig_fit, cr.fit_design, cr.augmented.estimate, pf)
+    dec = carry_decision(prof, match)
+    carried = carry_grade(an.sig_test, cr.test_design, carried_grade(prof, match))
+    with_grade = cr.augmented.rmse_on(carried)
+    row.update(carried=dec.carry, why=dec.why, with_grade=with_grade,
+               ratio_with=with_grade / cr.heldout_nominal,
+               grade_range=(float(np.nanmin(prof.sin_alpha)), float(np.nanmax(prof.sin_alpha))),
+               fit_insample=(prof.rmse_before, prof.rmse_after), on_bound=prof.on_bound)
+    return row
+
+
+def _f(x, fmt: str) -> str:
+    return "—" if x is None else format(x, fmt)
+
+
+def table(rows: list[dict]) -> str:
+    """Markdown table of the rows."""
+    out = ["| pair | GPS on both | match | shared km (share of test ride) | match quality | "
+           "offset m | carried | inertia-only W | selected W | ratio | with the carried grade W "
+           "| ratio with | sin α range |", "|" + "---|" * 13]
+    for r in rows:
+        q = ("—" if r["quality"] is None else
+             f"r = {r['quality']:.2f}" if r["match"] == "speed" else f"{r['quality']:.1f} m")
+        g = "—" if r["grade_range"] is None else f"{r['grade_range'][0]:+.3f} to {r['grade_range'][1]:+.3f}"
+        out.append(f"| {r['label']} | {'yes' if r['gps'] else 'no'} | {r['match'] or 'none'} | "
+                   f"{r['shared_m'] / 1000:.2f} ({100 * r['share']:.0f} %) | {q} | "
+                   f"{_f(r['offset_m'], '.0f')} | {'yes' if r['carried'] else 'no: ' + r['why']} | "
+                   f"{r['inertia_only']:.1f} | {r['selected']:.1f} | {r['ratio']:.3f} | "
+                   f"{_f(r['with_grade'], '.1f')} | {_f(r['ratio_with'], '.3f')} | {g} |")
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--only", default="", help="only the pairs whose label contains this")
+    ap.add_argument("--out", type=Path, default=None, help="write the Markdown table here")
+    args = ap.parse_args(argv)
+    if not SHARED.is_dir():
+        print(f"{SHARED}: the shared rides are not there", file=sys.stderr)
+        return 2
+    rows = []
+    todo = [p for p in pairs() if args.only in p[0]]
+    for k, p in enumerate(todo, 1):
+        print(f"[{k}/{len(todo)}] {p[0]}", file=sys.stderr, flush=True)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            rows.append(one(*p))
+        r = rows[-1]
+        print(f"    match {r['match']}, shared {r['shared_m']:.0f} m, speed match "
+              f"{r['speed_match']}, ratio {r['ratio']:.3f} -> {_f(r['ratio_with'], '.3f')} "
+              f"({'carried' if r['carried'] else r['why']})", file=sys.stderr, flush=True)
+    text = table(rows)
+    print(text)
+    if args.out is not None:
+        from euc_sim.io import atomic_write
+
+        atomic_write(args.out, lambda path: Path(path).write_text(text + "\n"))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
