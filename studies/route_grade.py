@@ -79,13 +79,18 @@ def one(label: str, fit: Path, test: Path, spec_path: Path | None) -> dict:
            "offset_m": None if match is None else match.offset_m,
            "speed_match": None if by_speed is None else (by_speed.quality, by_speed.offset_m),
            "carried": False, "why": "the rides do not share a route",
-           "with_grade": None, "ratio_with": None, "grade_range": None}
+           "with_grade": None, "ratio_with": None, "grade_range": None, "shared_rows": None}
     if match is None:
         return row
     prof = grade_profile(an.sig_fit, cr.fit_design, cr.augmented.estimate, pf)
     dec = carry_decision(prof, match)
     carried = carry_grade(an.sig_test, cr.test_design, carried_grade(prof, match))
     with_grade = cr.augmented.rmse_on(carried)
+    on = np.isfinite(match.s_fit)[cr.test_design.use]
+    rms = lambda r: float(np.sqrt(np.mean(r[on] ** 2)))  # noqa: E731
+    row["shared_rows"] = (rms(cr.test_design.residual(cr.nominal.estimate)),
+                          rms(cr.test_design.residual(cr.augmented.estimate)),
+                          rms(carried.residual(cr.augmented.estimate)))
     row.update(carried=dec.carry, why=dec.why, with_grade=with_grade,
                ratio_with=with_grade / cr.heldout_nominal,
                grade_range=(float(np.nanmin(prof.sin_alpha)), float(np.nanmax(prof.sin_alpha))),
@@ -101,16 +106,19 @@ def table(rows: list[dict]) -> str:
     """Markdown table of the rows."""
     out = ["| pair | GPS on both | match | shared km (share of test ride) | match quality | "
            "offset m | carried | inertia-only W | selected W | ratio | with the carried grade W "
-           "| ratio with | sin α range |", "|" + "---|" * 13]
+           "| ratio with | on the shared route: inertia-only → selected → with grade W | sin α range |",
+           "|" + "---|" * 14]
     for r in rows:
         q = ("—" if r["quality"] is None else
              f"r = {r['quality']:.2f}" if r["match"] == "speed" else f"{r['quality']:.1f} m")
         g = "—" if r["grade_range"] is None else f"{r['grade_range'][0]:+.3f} to {r['grade_range'][1]:+.3f}"
+        sh = ("—" if r["shared_rows"] is None else
+              " → ".join(f"{x:.1f}" for x in r["shared_rows"]))
         out.append(f"| {r['label']} | {'yes' if r['gps'] else 'no'} | {r['match'] or 'none'} | "
                    f"{r['shared_m'] / 1000:.2f} ({100 * r['share']:.0f} %) | {q} | "
                    f"{_f(r['offset_m'], '.0f')} | {'yes' if r['carried'] else 'no: ' + r['why']} | "
                    f"{r['inertia_only']:.1f} | {r['selected']:.1f} | {r['ratio']:.3f} | "
-                   f"{_f(r['with_grade'], '.1f')} | {_f(r['ratio_with'], '.3f')} | {g} |")
+                   f"{_f(r['with_grade'], '.1f')} | {_f(r['ratio_with'], '.3f')} | {sh} | {g} |")
     return "\n".join(out)
 
 
@@ -132,7 +140,7 @@ def main(argv=None) -> int:
         r = rows[-1]
         print(f"    match {r['match']}, shared {r['shared_m']:.0f} m, speed match "
               f"{r['speed_match']}, ratio {r['ratio']:.3f} -> {_f(r['ratio_with'], '.3f')} "
-              f"({'carried' if r['carried'] else r['why']})", file=sys.stderr, flush=True)
+              f"({'carried' if r['carried'] else r['why']}); shared rows {r['shared_rows']}", file=sys.stderr, flush=True)
     text = table(rows)
     print(text)
     if args.out is not None:
