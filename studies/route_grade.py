@@ -11,7 +11,9 @@ balance fit): the route match (:func:`euc_sim.rides.grids.route.match_routes`),
 the decision to carry (:func:`euc_sim.rides.balance.route_grade.carry_decision`),
 and the test ride's held-out error of the selected model without and with the fit
 ride's grade profile carried.  Progress on the terminal (stderr); the table to
-``--out`` (atomically) and stdout.
+stdout and into ``--out`` (atomically): between its ``<!-- table -->`` and
+``<!-- /table -->`` lines when the page has them (the prose around it is kept),
+else as a new page.
 """
 
 from __future__ import annotations
@@ -25,6 +27,8 @@ from pathlib import Path
 import numpy as np
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data"
+COMMAND = "nice python studies/route_grade.py --out docs/route_grade.md"
+BEGIN, END = "<!-- table -->", "<!-- /table -->"
 WHEELS = ("v9", "blitz", "master_pro_V2", "mten4", "lynx")
 
 
@@ -146,8 +150,18 @@ def main(argv=None) -> int:
     if args.out is not None:
         from euc_sim.io import atomic_write
 
-        atomic_write(args.out, lambda path: Path(path).write_text(text + "\n"))
+        page = _page(args.out.read_text() if args.out.exists() else "", text)
+        atomic_write(args.out, lambda path: Path(path).write_text(page))
     return 0
+
+
+def _page(old: str, text: str) -> str:
+    """``old`` with the block between :data:`BEGIN` and :data:`END` replaced by the table."""
+    block = f"{BEGIN}\n`{COMMAND}`\n\n{text}\n{END}"
+    if BEGIN in old and END in old:
+        head, rest = old.split(BEGIN, 1)
+        return head + block + rest.split(END, 1)[1]
+    return f"# The road's grade along a shared route\n\n{block}\n"
 
 
 if __name__ == "__main__":
