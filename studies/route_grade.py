@@ -56,7 +56,7 @@ def one(label: str, fit: Path, test: Path, spec_path: Path | None) -> dict:
     """Match, decide and carry for one ordered pair; the row of the table."""
     from euc_sim.rides.balance.analysis import ride_analysis
     from euc_sim.rides.balance.route_grade import (carried_grade, carry_decision, carry_grade,
-                                                  grade_profile)
+                                                  grade_profile, revisit_check)
     from euc_sim.rides.grids.ride import as_ride
     from euc_sim.rides.grids.route import match_by_speed, match_routes, route_position
     from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
@@ -83,10 +83,13 @@ def one(label: str, fit: Path, test: Path, spec_path: Path | None) -> dict:
            "offset_m": None if match is None else match.offset_m,
            "speed_match": None if by_speed is None else (by_speed.quality, by_speed.offset_m),
            "carried": False, "why": "the rides do not share a route",
-           "with_grade": None, "ratio_with": None, "grade_range": None, "shared_rows": None}
+           "with_grade": None, "ratio_with": None, "grade_range": None, "shared_rows": None,
+           "revisit": None}
     if match is None:
         return row
     prof = grade_profile(an.sig_fit, cr.fit_design, cr.augmented.estimate, pf)
+    rv = revisit_check(an.sig_fit, cr.fit_design, cr.augmented.estimate, pf)
+    row["revisit"] = None if rv is None else (rv.shared_m, rv.before, rv.after)
     dec = carry_decision(prof, match)
     carried = carry_grade(an.sig_test, cr.test_design, carried_grade(prof, match))
     with_grade = cr.augmented.rmse_on(carried)
@@ -110,19 +113,22 @@ def table(rows: list[dict]) -> str:
     """Markdown table of the rows."""
     out = ["| pair | GPS on both | match | shared km (share of test ride) | match quality | "
            "offset m | carried | inertia-only W | selected W | ratio | with the carried grade W "
-           "| ratio with | on the shared route: inertia-only → selected → with grade W | sin α range |",
-           "|" + "---|" * 14]
+           "| ratio with | on the shared route: inertia-only → selected → with grade W | sin α range "
+           "| fit ride passed twice: km, second pass without → with the first's grade W |",
+           "|" + "---|" * 15]
     for r in rows:
         q = ("—" if r["quality"] is None else
              f"r = {r['quality']:.2f}" if r["match"] == "speed" else f"{r['quality']:.1f} m")
         g = "—" if r["grade_range"] is None else f"{r['grade_range'][0]:+.3f} to {r['grade_range'][1]:+.3f}"
         sh = ("—" if r["shared_rows"] is None else
               " → ".join(f"{x:.1f}" for x in r["shared_rows"]))
+        rv = ("—" if r["revisit"] is None else
+              f"{r['revisit'][0] / 1000:.2f}: {r['revisit'][1]:.1f} → {r['revisit'][2]:.1f}")
         out.append(f"| {r['label']} | {'yes' if r['gps'] else 'no'} | {r['match'] or 'none'} | "
                    f"{r['shared_m'] / 1000:.2f} ({100 * r['share']:.0f} %) | {q} | "
                    f"{_f(r['offset_m'], '.0f')} | {'yes' if r['carried'] else 'no: ' + r['why']} | "
                    f"{r['inertia_only']:.1f} | {r['selected']:.1f} | {r['ratio']:.3f} | "
-                   f"{_f(r['with_grade'], '.1f')} | {_f(r['ratio_with'], '.3f')} | {sh} | {g} |")
+                   f"{_f(r['with_grade'], '.1f')} | {_f(r['ratio_with'], '.3f')} | {sh} | {g} | {rv} |")
     return "\n".join(out)
 
 
@@ -144,7 +150,7 @@ def main(argv=None) -> int:
         r = rows[-1]
         print(f"    match {r['match']}, shared {r['shared_m']:.0f} m, speed match "
               f"{r['speed_match']}, ratio {r['ratio']:.3f} -> {_f(r['ratio_with'], '.3f')} "
-              f"({'carried' if r['carried'] else r['why']}); shared rows {r['shared_rows']}", file=sys.stderr, flush=True)
+              f"({'carried' if r['carried'] else r['why']}); shared rows {r['shared_rows']}, revisit {r['revisit']}", file=sys.stderr, flush=True)
     text = table(rows)
     print(text)
     if args.out is not None:

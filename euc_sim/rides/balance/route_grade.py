@@ -23,7 +23,8 @@ from euc_sim.rides.balance.design import PLAUSIBLE, PRE_WINDOW, Design, filter_m
 from euc_sim.rides.grids.route import BIN_M, MIN_SHARED_M, RouteMatch, RoutePosition
 from euc_sim.rides.grids.signals import RideSignals, sg
 
-__all__ = ["GradeProfile", "CarryDecision", "grade_profile", "carried_grade", "carry_grade",
+__all__ = ["GradeProfile", "CarryDecision", "RevisitCheck", "grade_profile", "carried_grade",
+           "carry_grade", "revisit_check",
            "carry_decision", "SMOOTH_M", "GRADE_LIMIT", "MAX_ON_BOUND"]
 
 #: Length over which a road's grade changes (a vertical curve), m: the smoothing of the profile.
@@ -196,3 +197,50 @@ def carry_decision(profile: GradeProfile, match: RouteMatch | None) -> CarryDeci
                                     f"ride sits on ±{GRADE_LIMIT:g}: not a road's grade")
     return CarryDecision(True, f"the rides share {match.shared_m / 1000:.1f} km of route "
                                f"(matched by {match.method})")
+
+
+@dataclass(frozen=True)
+class RevisitCheck:
+    """The fit ride's own test of its grade: read on its first half, carried to its second.
+
+    Attributes
+    ----------
+    shared_m : float
+        Distance of the second half on the first half's route, m.
+    before, after : float
+        RMS residual of the second half's rows on that route without and with the
+        grade read on the first half, W.
+    """
+
+    shared_m: float
+    before: float
+    after: float
+
+
+def revisit_check(sig: RideSignals, design: Design, estimate: Mapping[str, float],
+                  pos: RoutePosition) -> RevisitCheck | None:
+    """Where a ride passes a stretch twice (by GPS), read the grade on the first pass and test it
+    on the second; None without GPS or with less than :data:`MIN_SHARED_M` ridden twice.
+
+    The ride is cut at the median time of its rows in use; the second half is matched to the
+    first (:func:`~euc_sim.rides.grids.route.match_by_gps`), the grade read on the first
+    half's rows alone (:func:`grade_profile`) and carried to the second.  Each position of the
+    second half is held out from the grade it is tested on.
+    """
+    from euc_sim.rides.grids.route import match_by_gps
+
+    if pos.xy is None:
+        return None
+    t_mid = float(np.median(design.t))
+    late = design.t_full >= t_mid
+    first = replace(pos, xy=np.where(late[:, None], np.nan, pos.xy))
+    second = replace(pos, xy=np.where(late[:, None], pos.xy, np.nan))
+    match = match_by_gps(first, second)
+    if match is None or match.shared_m < MIN_SHARED_M:
+        return None
+    prof = grade_profile(sig, design.rows(design.t < t_mid), estimate, pos)
+    test = design.rows(design.t >= t_mid)
+    on = np.isfinite(match.s_fit)[test.use]
+    carried = carry_grade(sig, test, carried_grade(prof, match))
+    rms = lambda d: float(np.sqrt(np.mean(d.residual(estimate)[on] ** 2)))  # noqa: E731
+    return RevisitCheck(shared_m=match.shared_m, before=rms(test), after=rms(carried))

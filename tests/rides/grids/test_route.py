@@ -12,7 +12,7 @@ import pytest
 from euc_sim.rides.balance.design import NOMINAL, balance_design
 from euc_sim.rides.balance.fit import fit_balance
 from euc_sim.rides.balance.route_grade import (GRADE_LIMIT, carried_grade, carry_decision,
-                                               carry_grade, grade_profile)
+                                               carry_grade, grade_profile, revisit_check)
 from euc_sim.rides.grids.route import (BIN_M, match_by_gps, match_by_speed, match_routes,
                                        route_position)
 from euc_sim.rides.grids.signals import RideAssumptions, ride_signals
@@ -38,8 +38,10 @@ def _speed(s, phase: float, level: float, seed: int, road=(330.0, 140.0), route=
 
 
 def _ride(start_m: float, length_m: float, phase: float, level: float, seed: int,
-          gps: bool = False, shift_m: float = 0.0, route=grade, road=(330.0, 140.0)) -> RideLog:
-    """A 5 Hz log of a ride from ``start_m`` along the route, its power from the balance."""
+          gps: bool = False, shift_m: float = 0.0, route=grade, road=(330.0, 140.0),
+          turn_m: float = np.inf) -> RideLog:
+    """A 5 Hz log of a ride from ``start_m`` along the route, its power from the balance;
+    back the way it came from ``turn_m``."""
     rng = np.random.default_rng(seed)
     dt = 0.2
     s, ss = start_m, [start_m]
@@ -49,8 +51,9 @@ def _ride(start_m: float, length_m: float, phase: float, level: float, seed: int
     s = np.array(ss)
     t = dt * np.arange(len(s))
     v = _speed(s, phase, level, seed, road, route)
+    s, way = np.where(s <= turn_m, s, 2 * turn_m - s), np.where(s <= turn_m, 1.0, -1.0)
     a = np.gradient(v, t)
-    D = M * a * v + C_RR * M * G * v + M * G * v * route(s)
+    D = M * a * v + C_RR * M * G * v + M * G * v * route(s) * way
     P = np.where(D > 0, D / ETA_M, ETA_R * D) + 30.0 + rng.normal(0.0, 40.0, len(t))
     data = {"t": t, "v": v, "voltage": np.full_like(t, 84.0), "current": P / 84.0}
     if gps:
@@ -127,3 +130,17 @@ def test_gps_tracks_match_where_they_share_the_road_and_not_elsewhere():
     assert m.offset_m == pytest.approx(300.0, abs=BIN_M)
     assert m.share > 0.95 and np.all(m.direction[np.isfinite(m.s_fit)] == 1.0)
     assert match_routes(pa, route_position(_signals(far).raw, pa.origin)) is None
+
+
+def test_a_ride_out_and_back_tests_its_own_grade_on_the_way_back():
+    names = list(NOMINAL) + ["rolling_resistance"]
+    there_and_back = _signals(_ride(0.0, 2 * 1200.0, 0.0, 6.5, 7, gps=True, turn_m=1200.0))
+    d = balance_design(there_and_back)
+    pos = route_position(there_and_back.raw)
+    check = revisit_check(there_and_back, d, fit_balance(d, names, n_boot=0).estimate, pos)
+    assert check is not None and check.shared_m > 800.0
+    assert check.after < 0.7 * check.before          # the grade, sign turned, holds on the way back
+    one_way = _signals(_ride(0.0, 2400.0, 0.0, 6.5, 8, gps=True))
+    d1 = balance_design(one_way)
+    assert revisit_check(one_way, d1, fit_balance(d1, names, n_boot=0).estimate,
+                         route_position(one_way.raw)) is None
