@@ -90,7 +90,7 @@ def one(label: str, fit: Path, test: Path, spec_path: Path | None) -> dict:
     prof = grade_profile(an.sig_fit, cr.fit_design, cr.augmented.estimate, pf)
     rv = revisit_check(an.sig_fit, cr.fit_design, cr.augmented.estimate, pf)
     row["revisit"] = None if rv is None else (rv.shared_m, rv.before, rv.after)
-    dec = carry_decision(prof, match)
+    dec = carry_decision(prof, match, rv)
     carried = carry_grade(an.sig_test, cr.test_design, carried_grade(prof, match))
     with_grade = cr.augmented.rmse_on(carried)
     on = np.isfinite(match.s_fit)[cr.test_design.use]

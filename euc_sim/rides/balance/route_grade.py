@@ -185,16 +185,22 @@ class CarryDecision:
     why: str
 
 
-def carry_decision(profile: GradeProfile, match: RouteMatch | None) -> CarryDecision:
-    """Carry the grade when the rides share :data:`MIN_SHARED_M` of route and at most
-    :data:`MAX_ON_BOUND` of the profile sits on ±:data:`GRADE_LIMIT` (a residual
-    asking for steeper grades than roads have is not a grade).  Reads the fit ride
-    and the match only."""
+def carry_decision(profile: GradeProfile, match: RouteMatch | None,
+                   revisit: "RevisitCheck | None" = None) -> CarryDecision:
+    """Carry the grade when the rides share :data:`MIN_SHARED_M` of route, at most
+    :data:`MAX_ON_BOUND` of the profile sits on ±:data:`GRADE_LIMIT` (a residual asking
+    for steeper grades than roads have is not a grade) and, where the fit ride passes a
+    stretch twice (:func:`revisit_check`), the grade read on its first pass lowers the
+    error of its second.  Reads the fit ride and the match only."""
     if match is None:
         return CarryDecision(False, "the rides do not share a route")
     if profile.on_bound > MAX_ON_BOUND:
         return CarryDecision(False, f"{100 * profile.on_bound:.0f} % of the grade read on the fit "
                                     f"ride sits on ±{GRADE_LIMIT:g}: not a road's grade")
+    if revisit is not None and revisit.after >= revisit.before:
+        return CarryDecision(False, f"on the {revisit.shared_m / 1000:.1f} km the fit ride passes "
+                                    f"twice, its grade does not hold ({revisit.before:.0f} → "
+                                    f"{revisit.after:.0f} W)")
     return CarryDecision(True, f"the rides share {match.shared_m / 1000:.1f} km of route "
                                f"(matched by {match.method})")
 

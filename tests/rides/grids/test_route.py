@@ -140,6 +140,10 @@ def test_a_ride_out_and_back_tests_its_own_grade_on_the_way_back():
     check = revisit_check(there_and_back, d, fit_balance(d, names, n_boot=0).estimate, pos)
     assert check is not None and check.shared_m > 800.0
     assert check.after < 0.7 * check.before          # the grade, sign turned, holds on the way back
+    failed = dataclasses.replace(check, after=check.before)
+    prof = grade_profile(there_and_back, d, fit_balance(d, names, n_boot=0).estimate, pos)
+    m = match_routes(pos, pos)
+    assert carry_decision(prof, m, check).carry and not carry_decision(prof, m, failed).carry
     one_way = _signals(_ride(0.0, 2400.0, 0.0, 6.5, 8, gps=True))
     d1 = balance_design(one_way)
     assert revisit_check(one_way, d1, fit_balance(d1, names, n_boot=0).estimate,
