@@ -127,7 +127,7 @@ def grade_profile(sig: RideSignals, design: Design, estimate: Mapping[str, float
     w = design.weight
     A = sparse.diags(w) @ (_filter(design, estimate) @ onehot)
     r = design.residual(estimate)
-    rows_per_bin = np.bincount(np.floor(design_s(design, pos) / BIN_M).astype(int), None, n)
+    rows_per_bin = np.bincount(np.floor(_design_s(design, pos) / BIN_M).astype(int), None, n)
     seen = rows_per_bin >= 2.0 * _rate(design)
     A = sparse.csr_matrix(A)[:, seen]
     diag = np.asarray(A.multiply(A).sum(axis=0)).ravel()
@@ -147,7 +147,7 @@ def grade_profile(sig: RideSignals, design: Design, estimate: Mapping[str, float
                         rmse_after=float(np.sqrt(np.mean(after ** 2))))
 
 
-def design_s(design: Design, pos: RoutePosition) -> np.ndarray:
+def _design_s(design: Design, pos: RoutePosition) -> np.ndarray:
     """Distance along the ride of the design's rows in use, m."""
     return pos.s[design.use]
 
@@ -186,7 +186,7 @@ class CarryDecision:
 
 
 def carry_decision(profile: GradeProfile, match: RouteMatch | None,
-                   revisit: "RevisitCheck | None" = None) -> CarryDecision:
+                   revisit: RevisitCheck | None = None) -> CarryDecision:
     """Carry the grade when the rides share :data:`MIN_SHARED_M` of route, at most
     :data:`MAX_ON_BOUND` of the profile sits on ±:data:`GRADE_LIMIT` (a residual asking
     for steeper grades than roads have is not a grade) and, where the fit ride passes a
