@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""The road's grade along a shared route, read on one ride and carried to another (docs/route_grade.md).
+"""The road's grade along a shared route, read on one ride, carried to another (docs/route_grade.md).
 
     nice python studies/route_grade.py [--only SUBSTR] [--out docs/route_grade.md]
 
@@ -119,16 +119,19 @@ def table(rows: list[dict]) -> str:
     for r in rows:
         q = ("—" if r["quality"] is None else
              f"r = {r['quality']:.2f}" if r["match"] == "speed" else f"{r['quality']:.1f} m")
-        g = "—" if r["grade_range"] is None else f"{r['grade_range'][0]:+.3f} to {r['grade_range'][1]:+.3f}"
+        g = ("—" if r["grade_range"] is None else
+             f"{r['grade_range'][0]:+.3f} to {r['grade_range'][1]:+.3f}")
         sh = ("—" if r["shared_rows"] is None else
               " → ".join(f"{x:.1f}" for x in r["shared_rows"]))
         rv = ("—" if r["revisit"] is None else
               f"{r['revisit'][0] / 1000:.2f}: {r['revisit'][1]:.1f} → {r['revisit'][2]:.1f}")
         out.append(f"| {r['label']} | {'yes' if r['gps'] else 'no'} | {r['match'] or 'none'} | "
                    f"{r['shared_m'] / 1000:.2f} ({100 * r['share']:.0f} %) | {q} | "
-                   f"{_f(r['offset_m'], '.0f')} | {'yes' if r['carried'] else 'no: ' + r['why']} | "
+                   f"{_f(r['offset_m'], '.0f')} | "
+                   f"{'yes' if r['carried'] else 'no: ' + r['why']} | "
                    f"{r['inertia_only']:.1f} | {r['selected']:.1f} | {r['ratio']:.3f} | "
-                   f"{_f(r['with_grade'], '.1f')} | {_f(r['ratio_with'], '.3f')} | {sh} | {g} | {rv} |")
+                   f"{_f(r['with_grade'], '.1f')} | {_f(r['ratio_with'], '.3f')} | {sh} | {g} "
+                   f"| {rv} |")
     return "\n".join(out)
 
 
@@ -150,7 +153,8 @@ def main(argv=None) -> int:
         r = rows[-1]
         print(f"    match {r['match']}, shared {r['shared_m']:.0f} m, speed match "
               f"{r['speed_match']}, ratio {r['ratio']:.3f} -> {_f(r['ratio_with'], '.3f')} "
-              f"({'carried' if r['carried'] else r['why']}); shared rows {r['shared_rows']}, revisit {r['revisit']}", file=sys.stderr, flush=True)
+              f"({'carried' if r['carried'] else r['why']}); shared rows {r['shared_rows']}, "
+              f"revisit {r['revisit']}", file=sys.stderr, flush=True)
     text = table(rows)
     print(text)
     if args.out is not None:
