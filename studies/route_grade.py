@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""The road's grade along a shared route, read on one ride, carried to another (docs/route_grade.md).
+"""The grade along a shared route: read on one ride, carried to another (docs/route_grade.md).
 
     nice python studies/route_grade.py [--only SUBSTR] [--out docs/route_grade.md]
 
@@ -113,7 +113,8 @@ def table(rows: list[dict]) -> str:
     """Markdown table of the rows."""
     out = ["| pair | GPS on both | match | shared km (share of test ride) | match quality | "
            "offset m | carried | inertia-only W | selected W | ratio | with the carried grade W "
-           "| ratio with | on the shared route: inertia-only → selected → with grade W | sin α range "
+           "| ratio with | on the shared route: inertia-only → selected → with grade W | "
+           "sin α range "
            "| fit ride passed twice: km, second pass without → with the first's grade W |",
            "|" + "---|" * 15]
     for r in rows:
