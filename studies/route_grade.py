@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import sys
 import warnings
 from pathlib import Path
@@ -52,7 +53,8 @@ def pairs(root: Path = SHARED) -> list[tuple[str, Path, Path, Path | None]]:
     return out
 
 
-def one(label: str, fit: Path, test: Path, spec_path: Path | None) -> dict:
+def one(label: str, fit: Path, test: Path, spec_path: Path | None,
+        shifts: tuple = ()) -> dict:
     """Match, decide and carry for one ordered pair; the row of the table."""
     from euc_sim.rides.balance.analysis import ride_analysis
     from euc_sim.rides.balance.route_grade import (carried_grade, carry_decision, carry_grade,
@@ -98,6 +100,12 @@ def one(label: str, fit: Path, test: Path, spec_path: Path | None) -> dict:
     row["shared_rows"] = (rms(cr.test_design.residual(cr.nominal.estimate)),
                           rms(cr.test_design.residual(cr.augmented.estimate)),
                           rms(carried.residual(cr.augmented.estimate)))
+    row["shifted"] = {}
+    for sh in shifts:       # the profile misplaced by sh m along the route (alignment check)
+        moved = dataclasses.replace(match, s_fit=match.s_fit + sh * match.direction)
+        r = carry_grade(an.sig_test, cr.test_design,
+                        carried_grade(prof, moved)).residual(cr.augmented.estimate)
+        row["shifted"][sh] = float(np.sqrt(np.mean(r[on] ** 2)))
     row.update(carried=dec.carry, why=dec.why, with_grade=with_grade,
                ratio_with=with_grade / cr.heldout_nominal,
                grade_range=(float(np.nanmin(prof.sin_alpha)), float(np.nanmax(prof.sin_alpha))),
@@ -140,6 +148,9 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--only", default="", help="only the pairs whose label contains this")
     ap.add_argument("--out", type=Path, default=None, help="write the Markdown table here")
+    ap.add_argument("--shifts", action="store_true",
+                    help="also print each matched pair's shared-route error with the carried "
+                         "profile moved -75 ... +75 m along the route")
     args = ap.parse_args(argv)
     if not SHARED.is_dir():
         print(f"{SHARED}: the shared rides are not there", file=sys.stderr)
@@ -150,12 +161,14 @@ def main(argv=None) -> int:
         print(f"[{k}/{len(todo)}] {p[0]}", file=sys.stderr, flush=True)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            rows.append(one(*p))
+            rows.append(one(*p, shifts=(-75, -50, -25, 0, 25, 50, 75) if args.shifts else ()))
         r = rows[-1]
         print(f"    match {r['match']}, shared {r['shared_m']:.0f} m, speed match "
               f"{r['speed_match']}, ratio {r['ratio']:.3f} -> {_f(r['ratio_with'], '.3f')} "
               f"({'carried' if r['carried'] else r['why']}); shared rows {r['shared_rows']}, "
               f"revisit {r['revisit']}", file=sys.stderr, flush=True)
+        for sh, e in r.get("shifted", {}).items():
+            print(f"    profile moved {sh:+d} m: shared-route error {e:.1f} W", file=sys.stderr)
     text = table(rows)
     print(text)
     if args.out is not None:
