@@ -264,7 +264,7 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
         rep["simulation"]["figure"] = figures["simulation"]
     figures.update(_drivetrain_figures(physics, out))
     rep["figures"] = dict(figures)
-    rep["report_markdown"] = write_page(rep, out, figures).name
+    rep["report_markdown"] = write_page(rep, out, figures, getattr(physics[1], "path", None)).name
     from euc_sim.rides.report.page_html import RideSeries, write_ride_html
 
     # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)

@@ -178,3 +178,23 @@ def test_the_metadata_of_both_rides_beside_the_difference(tmp_path):
     assert meta["rolling_resistance"] == "the logs record tyre pressure 2.5 → 2.2 bar"
     assert difference_lines(rep, log)[2].endswith("; the logs record rider weight 85 → 92 kg.")
     assert recorded_metadata(rep) == {} and recorded_metadata(dict(rep, compare="0.csv"), log) == {}
+
+
+def test_index_md_says_both_logs_metadata_once(tmp_path):
+    """euc_core's layout (``trips/BRAND/MODEL/N/N.csv`` beside ``meta.csv``): index.md, like the
+    HTML page, says the recorded rider weights beside the mass difference, once."""
+    rides = {}
+    for n, (kg, bar) in {"0": (85, 2.5), "1": (97, 2.2)}.items():
+        d = tmp_path / "trips" / "x" / "w" / n
+        d.mkdir(parents=True)
+        rides[n] = d / f"{n}.csv"
+        (d / "meta.csv").write_text(
+            "wheel,brand,year,app,trip_type,rider_weight,tire_pressure,temperature,wind,rain\n"
+            f"w,x,2025,euc_world,0,{kg},{bar},20,low,False\n")
+    clean = drive_log(rides["0"], seed=3, duration=400.0)
+    cc.write_raw(cc.conceal_mass(cc.read_raw(clean), 30.0, eta=1.0), rides["1"])
+    rep_dir, rep = _compare(clean, rides["1"], tmp_path / "out")
+    assert [d["name"] for d in rep["differences"] if d["named"]] == ["total_mass"]
+    md = (rep_dir / "index.md").read_text()
+    assert md.count("rider weight 85 → 97 kg") == 1
+    assert _problems(rep_dir)["md"] == []

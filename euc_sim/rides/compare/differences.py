@@ -10,9 +10,11 @@ is *named* when both hold:
 1. forward selection by the blocked held-out error (fold k of both rides left
    out, OTHER's fold k scored; :func:`euc_sim.stats.forward_select`, the
    balance's threshold :data:`MIN_GAIN`) keeps it;
-2. its 95 % interval excludes zero: a block bootstrap with each ride's 30 s
-   blocks drawn independently (two compared rides are different rides), the
-   whole selected model refitted (and the delay re-searched) in every replicate.
+2. its 95 % interval excludes zero: the hull of a block bootstrap with each
+   ride's 30 s blocks drawn independently (each ride's noise; the whole
+   selected model refitted and the delay re-searched in every replicate) and a
+   jackknife-t interval over paired fractions of the two rides (the mismatch
+   between two real rides that changes along them: route, grade, wind).
 
 The difference of the two rides' own estimates (their intervals combined in
 quadrature) is kept beside it as ``independent``; pack-state and controller
@@ -104,8 +106,9 @@ class Differences:
     cannot_see: dict = field(default_factory=dict)
     sentence: str = ""
     interval_method: str = ("one least-squares fit of both rides (shared terms, the difference on the "
-                            "compared ride); 95 % block bootstrap, each ride's 30 s blocks drawn "
-                            "independently")
+                            "compared ride); 95 % interval: hull of a block bootstrap (each ride's 30 s "
+                            "blocks drawn independently) and a jackknife-t over paired fifths of the "
+                            "two rides")
 
     def to_json(self) -> dict:
         """The ride JSON's ``differences`` list and its companions."""

@@ -13,9 +13,15 @@ Everything is computed from per-block Gram matrices ``[X y]ᵀ[X y]``: blocks of
 * the blocked held-out score (fold k of *both* rides left out, OTHER's fold k
   scored, every fold in turn) and forward selection
   (:func:`euc_sim.stats.forward_select`) use the folds every other fit uses;
-* the 95 % intervals are block bootstraps with each ride's blocks drawn
-  *independently* (two compared rides are different rides: no paired indices),
-  the shift re-chosen in every replicate.
+* the 95 % intervals are the hull of two intervals: a block bootstrap with
+  each ride's blocks drawn *independently* (each ride's own noise; the shift
+  re-chosen in every replicate), and a jackknife-t interval over *paired
+  fractions* (the k-th of the ``n_folds`` time folds of LOG paired with the
+  k-th of OTHER, pair-unit k left out in turn, t with ``n_folds − 1`` degrees
+  of freedom).  The jackknife measures how much the difference changes from
+  one part of the rides to another: on two real rides the route, grade, wind
+  and conditions differ part by part and the difference absorbs them; an
+  effect carried by every part of a ride leaves it near the bootstrap's width.
 
 Study: docs/concealed.md.
 """
@@ -25,6 +31,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from scipy import stats as sps
 
 from euc_sim.stats import forward_select, percentile_interval, time_blocks
 
@@ -77,7 +85,8 @@ class PairFit:
     estimates : dict of str -> (estimate, (lo, hi)) or None
         Each candidate in the selected model (the selected terms plus itself
         when it was not kept), with its block-bootstrap 95 % interval; the shift
-        in seconds.
+        in seconds.  The interval is the hull of the block bootstrap's and the
+        paired-fraction jackknife's (see the module's docstring).
     gains : dict of str -> float
         Each candidate's fractional drop of OTHER's held-out RMS against the
         selected model without it.
@@ -204,6 +213,38 @@ def _draws(g: _Grams, terms, cands, transform, n_boot: int, rng) -> dict:
     return out
 
 
+def _jackknife(g: _Grams, terms, cands, transform, whole: dict) -> dict:
+    """Jackknife-t 95 % interval of each candidate over paired fractions.
+
+    Pair-unit ``k`` is fold ``k`` of LOG together with fold ``k`` of OTHER;
+    each is left out in turn, ``se² = (K−1)/K Σ (θ₋ₖ − θ̄)²`` and the interval
+    is ``θ ± t₀.₉₇₅,K−1 · se`` around the whole-pair estimate ``θ``.
+    """
+    cols, parts = g.cols(terms), []
+    for f in range(g.n_folds):
+        if not ((g.fL == f).any() and (g.fO == f).any()):
+            continue
+        beta, k, sse = g.fit((g.fL != f).astype(float), (g.fO != f).astype(float), terms)
+        parts.append(_values(g, cols, beta, k, sse, terms, transform))
+    K = len(parts)
+    if K < 3:
+        return {c: None for c in cands}
+    t = float(sps.t.ppf(0.975, K - 1))
+    out = {}
+    for c in cands:
+        v = np.array([p[c] for p in parts], float)
+        se = float(np.sqrt((K - 1) / K * np.sum((v - v.mean()) ** 2)))
+        out[c] = (whole[c] - t * se, whole[c] + t * se) if np.isfinite(se) else None
+    return out
+
+
+def _hull(a, b):
+    """The smallest interval holding both ``a`` and ``b`` (either may be None)."""
+    if a is None or b is None:
+        return a if b is None else b
+    return (float(min(a[0], b[0])), float(max(a[1], b[1])))
+
+
 def _values(g: _Grams, cols, beta, k, sse, terms, transform) -> dict:
     coef = {g.names[i]: float(b) for i, b in zip(cols, beta)}
     vals = {n: transform.get(n, lambda c, n=n: c[n])(coef) for n in terms if n != DELAY}
@@ -215,7 +256,7 @@ def _values(g: _Grams, cols, beta, k, sse, terms, transform) -> dict:
 def pair_fit(design: PairDesign, *, min_gain: float, transform: dict | None = None,
              n_folds: int = 5, block: float = 30.0,
              n_boot: int = 200, seed: int = 0) -> PairFit:
-    """Forward-select the differences, then size each with an independent-ride block bootstrap.
+    """Forward-select the differences, then size each: bootstrap and paired-fraction jackknife.
 
     Parameters
     ----------
@@ -246,9 +287,11 @@ def pair_fit(design: PairDesign, *, min_gain: float, transform: dict | None = No
         beta, k, sse = g.fit(np.ones(len(g.fL)), np.ones(len(g.fO)), terms)
         whole = _values(g, g.cols(terms), beta, k, sse, terms, transform)
         draws = _draws(g, terms, shown, transform, n_boot, rng)
+        jack = _jackknife(g, terms, shown, transform, whole)
         for c in shown:
             ci = percentile_interval(np.asarray(draws[c]))
-            estimates[c] = (whole[c], None if ci is None else (float(ci[0]), float(ci[1])))
+            boot = None if ci is None else (float(ci[0]), float(ci[1]))
+            estimates[c] = (whole[c], _hull(boot, jack[c]) if boot is not None else None)
             without = g.score([x for x in terms if x != c]) if c in selected else base
             with_ = base if c in selected else g.score(terms)
             gains[c] = 1.0 - with_ / without if without > 0 else 0.0

@@ -11,8 +11,8 @@ interval's half-width: a difference smaller than that leaves zero inside it).
 
 Given LOG's path, where both logs sit beside an euc_core ``meta.csv`` (rider weight,
 tyre pressure, temperature, wind), the recorded values are said beside the
-difference they bear on (the JSON keeps file names only: the HTML page, which has
-LOG's analysis, says them; index.md, written from the JSON, does not).
+difference they bear on, once, in the block both pages share (the JSON keeps file
+names only: the pages are given LOG's path by the command that writes them).
 """
 
 from __future__ import annotations

@@ -180,7 +180,7 @@ def _interval(ci) -> str:
     return f"[{_fmt(ci[0])}, {_fmt(ci[1])}]" if ci else "–"
 
 
-def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
+def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None) -> Path:
     """Write ``out_dir/index.md``: the ride's findings with its figures.
 
     Parameters
@@ -191,6 +191,9 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
     out_dir : path
     figures : mapping
         ``{"cross_ride"|"residuals"|"simulation": file name inside out_dir}``.
+    log_path : path, optional
+        LOG's file: where both logs sit beside an euc_core ``meta.csv``, the
+        recorded values are said beside the difference they bear on.
 
     Returns
     -------
@@ -198,17 +201,17 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str]) -> Path:
     """
     from euc_sim.io import write_text
 
-    md = (_verdict_md(report, figures) + _estimates_md(report) + _aliases_md(report)
+    md = (_verdict_md(report, figures, log_path) + _estimates_md(report) + _aliases_md(report)
           + _localisation_md(report, figures) + _simulation_md(report, figures)
           + _assumptions_md(report))
     return write_text(Path(out_dir) / "index.md", "\n".join(md))
 
 
-def _verdict_md(r: dict, figures: Mapping[str, str]) -> list[str]:
-    """Title, what was fitted on what, the verdict and the cross-ride figure."""
+def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None) -> list[str]:
+    """Title, what differs (with both logs' metadata, given LOG's path), the verdict, the cross-ride figure."""
     from euc_sim.rides.report.differences_page import difference_section
 
-    md = [f"# Ride diagnosis: {Path(r['recording']).name}", ""] + difference_section(r) + _verdict_lines(r)
+    md = [f"# Ride diagnosis: {Path(r['recording']).name}", ""] + difference_section(r, log_path) + _verdict_lines(r)
     if "total_mass" in r:
         from euc_sim.rides.report.drivetrain_report import page_section
         md += page_section(r, figures)

@@ -122,3 +122,40 @@ def test_rolling_and_drag_alias_on_a_steady_pair_not_mass():
     corr = pf.pair_fit(d, min_gain=0.01, n_boot=20, seed=0).correlations
     assert abs(corr["aerodynamic_drag"]["rolling_resistance"]) > 0.9
     assert abs(corr["total_mass"]["aerodynamic_drag"]) < 0.9
+
+
+def test_a_condition_moving_along_the_compared_ride_names_no_mass():
+    """OTHER's road couples grade to the rider's acceleration in every other fifth (hills where
+    the rider slows), flat elsewhere: a mass-like term that changes along the ride.  The
+    bootstrap alone (each ride's noise) names a mass difference; the paired-fraction jackknife
+    sees it change from one part of the ride to the next and the interval takes in zero."""
+    log, other = _ride(21), _ride(31)
+    t, v, av = other
+    coupling = np.where((t // 240.0) % 2 == 0, 1.4, 0.0)        # kg per kg of the 90 kg model
+    P_other = _power(v, av, noise=8.0, seed=22) + 90.0 * coupling * av
+    d = _design(log, other, _power(log[1], log[2], seed=21), P_other)
+    new = pf.pair_fit(d, min_gain=0.01, n_boot=100, seed=0)
+    lo, hi = new.estimates["total_mass"][1]
+    assert "total_mass" in new.selected and lo < 0.0 < hi
+
+    def bootstrap_only(g, terms, cands, transform, whole):
+        return {c: None for c in cands}
+
+    mp = pytest.MonkeyPatch()
+    mp.setattr(pf, "_jackknife", bootstrap_only)
+    try:
+        lo_b, hi_b = pf.pair_fit(d, min_gain=0.01, n_boot=100, seed=0).estimates["total_mass"][1]
+    finally:
+        mp.undo()
+    assert lo_b > 0.0 and lo < lo_b and hi > hi_b
+
+
+def test_the_jackknife_interval_holds_a_constant_hidden_mass():
+    """+30 kg carried by every part of OTHER: the paired-fraction jackknife keeps it named."""
+    log, other = _ride(23), _ride(24)
+    d = _design(log, other, _power(log[1], log[2], seed=23),
+                _power(other[1], other[2], dm=30.0, noise=15.0, seed=24))
+    res = pf.pair_fit(d, min_gain=0.01, n_boot=100, seed=0)
+    est, (lo, hi) = res.estimates["total_mass"]
+    assert "total_mass" in res.selected and lo > 0.0 and lo < 30.0 < hi
+    assert est == pytest.approx(30.0, rel=0.3)
