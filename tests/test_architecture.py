@@ -10,7 +10,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 #: Layers, lowest first: a module may import from its own layer or any layer below it
 #: (a tuple is one layer of several modules: the exceptions beside the file helpers).
-LAYERS = [("euc_sim.errors", "euc_sim.io"), "euc_sim.stats", "euc_sim.report", "euc_sim.model",
+LAYERS = [("euc_sim.errors", "euc_sim.io", "euc_sim.geo"), "euc_sim.stats", "euc_sim.report", "euc_sim.model",
           "euc_sim.controllers", "euc_sim.simulation", "euc_sim.identification", "euc_sim.diagnosis",
           "euc_sim.rides", "euc_sim.evaluation", "euc_sim.api", "euc_sim.cli"]
 #: Inside ``euc_sim.rides``: its subpackages, lowest first (docs/architecture.md#rides-by-idea);

@@ -15,6 +15,8 @@ from typing import Sequence
 
 import numpy as np
 
+from euc_sim.geo import local_metres
+
 __all__ = ["Panel", "Line", "with_breaks", "thin", "time_panels", "track_map", "track_plain", "xy_figure",
            "OSM_STYLE", "OSM_TILES", "map_zoom"]
 
@@ -196,11 +198,9 @@ def track_plain(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label
 
     ok = np.isfinite(lat) & np.isfinite(lon)
     lat, lon, value = lat[ok], lon[ok], np.asarray(value, float)[ok]
-    R = 6371.0088                       # km, the Earth's mean radius
-    k = math.cos(math.radians(float(np.mean(lat))))
-
     def xy(la, lo):
-        return (np.radians(np.asarray(lo) - lon[0]) * R * k, np.radians(np.asarray(la) - lat[0]) * R)
+        east_north = local_metres(la, lo, (float(lat[0]), float(lon[0]))) / 1000.0
+        return east_north[:, 0], east_north[:, 1]
 
     x, y = xy(lat, lon)
     fig = go.Figure()

@@ -19,6 +19,7 @@ from typing import Mapping
 import numpy as np
 
 from euc_sim.errors import BadInputFile
+from euc_sim.geo import haversine
 from euc_sim.rides.grids.ride import GAP_POLICY, GapPolicy, Ride
 from euc_sim.rides.grids.signals import ride_grid, sg
 from euc_sim.rides.source.channels import current_from_phase
@@ -217,7 +218,7 @@ def speed_scale(log, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
 def track_scale(log, v_min: float = 4.0, max_dt: float = 3.0) -> float | None:
     """GPS track distance over the wheel's distance, between successive fixes while moving.
 
-    Distances by the haversine formula (Earth radius 6371 km) between distinct
+    Distances by the haversine formula (:func:`euc_sim.geo.haversine`) between distinct
     successive fixes at most ``max_dt`` s apart with the wheel faster than
     ``v_min`` (m/s) at both; None without 50 such pairs.
     """
@@ -225,7 +226,7 @@ def track_scale(log, v_min: float = 4.0, max_dt: float = 3.0) -> float | None:
     if "latitude" not in d or "longitude" not in d:
         return None
     t, v = d["t"].to_numpy(float), d["v"].to_numpy(float)
-    lat, lon = np.radians(d["latitude"].to_numpy(float)), np.radians(d["longitude"].to_numpy(float))
+    lat, lon = d["latitude"].to_numpy(float), d["longitude"].to_numpy(float)
     idx = np.flatnonzero(np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) + np.abs(lon) > 1e-6))
     if idx.size < 50:
         return None
@@ -235,9 +236,7 @@ def track_scale(log, v_min: float = 4.0, max_dt: float = 3.0) -> float | None:
     use = (v[a] > v_min) & (v[b] > v_min) & (t[b] - t[a] < max_dt)
     if use.sum() < 50:
         return None
-    h = (np.sin((lat[b] - lat[a]) / 2) ** 2
-         + np.cos(lat[a]) * np.cos(lat[b]) * np.sin((lon[b] - lon[a]) / 2) ** 2)
-    dist = 2 * 6_371_000.0 * np.arcsin(np.sqrt(np.clip(h, 0.0, 1.0)))
+    dist = haversine(lat[a], lon[a], lat[b], lon[b])
     wheel = run[b] - run[a]
     return float(dist[use].sum() / wheel[use].sum())
 

@@ -19,6 +19,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from euc_sim.geo import local_metres
+
 __all__ = ["RoutePosition", "RouteMatch", "route_position", "match_routes", "match_by_gps",
            "match_by_speed", "BIN_M", "MIN_SHARED_M", "MIN_SPEED_CORR", "GPS_RADIUS_M",
            "MIN_HEADING_COS", "MAX_OFFSET_M"]
@@ -37,7 +39,6 @@ MAX_OFFSET_M = 500.0
 GPS_RADIUS_M = 20.0
 #: With GPS: headings within this angle (cos 45°) count as the same road, not a crossing.
 MIN_HEADING_COS = 0.7
-_EARTH_R = 6_371_000.0
 
 
 @dataclass(frozen=True)
@@ -128,16 +129,8 @@ def route_position(raw: pd.DataFrame, origin: tuple[float, float] | None = None)
             if origin is None:
                 origin = (float(lat[fix][0]), float(lon[fix][0]))
             xy = np.full((len(t), 2), np.nan)
-            xy[fix] = _local_metres(lat[fix], lon[fix], origin)
+            xy[fix] = local_metres(lat[fix], lon[fix], origin)
     return RoutePosition(s=s, xy=xy, v=v, origin=origin if xy is not None else None)
-
-
-def _local_metres(lat: np.ndarray, lon: np.ndarray, origin: tuple[float, float]) -> np.ndarray:
-    """Equirectangular projection about ``origin``: m east, m north (good to 0.1 % over 10 km)."""
-    lat0, lon0 = np.radians(origin[0]), np.radians(origin[1])
-    x = _EARTH_R * np.cos(lat0) * (np.radians(lon) - lon0)
-    y = _EARTH_R * (np.radians(lat) - lat0)
-    return np.column_stack([x, y])
 
 
 def match_routes(fit: RoutePosition, test: RoutePosition) -> RouteMatch | None:

@@ -29,6 +29,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from euc_sim.geo import haversine
+
 __all__ = ["RideSummary", "LogCounters", "MassCheck", "read_counters", "ride_summary",
            "mass_check", "GAP_S", "BRIDGE_S", "MOVING_MPS"]
 
@@ -50,7 +52,6 @@ GPS_COVERAGE = 0.8
 GPS_RATIO = (0.8, 1.2)
 #: Less battery used than this, points, gives no range (the ratio would be noise).
 MIN_BATTERY_FOR_RANGE = 3.0
-EARTH_RADIUS_M = 6_371_000.0
 
 
 @dataclass(frozen=True)
@@ -272,14 +273,6 @@ def _gaps(t: np.ndarray) -> dict:
             "longest_s": float(g.max()) if g.size else 0.0}
 
 
-def _haversine(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
-    """Great-circle distance between consecutive points, m."""
-    p1, p2 = np.radians(lat[:-1]), np.radians(lat[1:])
-    dl = np.radians(lon[1:] - lon[:-1])
-    a = np.sin((p2 - p1) / 2) ** 2 + np.cos(p1) * np.cos(p2) * np.sin(dl / 2) ** 2
-    return 2 * EARTH_RADIUS_M * np.arcsin(np.sqrt(np.clip(a, 0, 1)))
-
-
 def _wheel_distance(t: np.ndarray, v: np.ndarray) -> float:
     """The wheel speed integrated over the bridged intervals, m."""
     dt, ok = _steps(t)
@@ -331,7 +324,7 @@ def _gps_distance(d: pd.DataFrame) -> tuple[float | None, str | None]:
     idx = idx[new]
     if idx.size < 10:
         return None, "the GPS position hardly changes"
-    hop = _haversine(lat[idx], lon[idx])
+    hop = haversine(lat[idx][:-1], lon[idx][:-1], lat[idx][1:], lon[idx][1:])
     ti = t[idx]
     cum = np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1]) * np.minimum(np.diff(t), BRIDGE_S))]
     wheel_hop = np.diff(cum[idx])
