@@ -56,20 +56,15 @@ def pairs(root: Path = SHARED) -> list[tuple[str, Path, Path, Path | None]]:
 def one(label: str, fit: Path, test: Path, spec_path: Path | None,
         shifts: tuple = ()) -> dict:
     """Match, decide and carry for one ordered pair; the row of the table."""
-    from euc_sim.rides.balance.analysis import ride_analysis
     from euc_sim.rides.balance.route_grade import (carried_grade, carry_decision, carry_grade,
                                                   grade_profile, revisit_check)
     from euc_sim.rides.grids.ride import as_ride
     from euc_sim.rides.grids.route import match_by_speed, match_routes, route_position
-    from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.pipeline import balance_on_mass
     from euc_sim.rides.source.spec import read_spec
 
     spec = read_spec(spec_path) if spec_path else None
-    lf, lt = as_ride(fit), as_ride(test)
-    physics = ride_drivetrain(lf, lt, spec, 10, 0)
-    assumptions = with_found_values(RideAssumptions(), spec, physics[0]["total_mass"])
-    an = ride_analysis(lf, lt, assumptions=assumptions, n_boot=0, seed=0)
+    an = balance_on_mass(as_ride(fit), as_ride(test), spec, n_boot=0, n_boot_mass=10, seed=0).analysis
     cr = an.cross
     pf = route_position(an.sig_fit.raw)
     pt = route_position(an.sig_test.raw, pf.origin)

@@ -19,7 +19,8 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["RideResult", "ride_pipeline", "run_ride", "write_report", "MIN_BOOT"]
+__all__ = ["RideResult", "BalanceOnMass", "balance_on_mass", "ride_pipeline", "run_ride", "write_report",
+           "MIN_BOOT"]
 
 #: Fewest bootstrap replicates the command accepts: effects are accepted on their
 #: 95 % interval, and without replicates there is none (nothing would be accepted).
@@ -62,6 +63,64 @@ def run_ride(log, compare=None, *, report_dir=None, **kwargs) -> dict:
     return res.report
 
 
+@dataclass(frozen=True)
+class BalanceOnMass:
+    """The first two steps of a ride: the energy balance's mass, then the balance fit given it.
+
+    Attributes
+    ----------
+    physics : tuple
+        ``(report, fit, test)`` of :func:`euc_sim.rides.report.drivetrain_report.ride_drivetrain`.
+    assumptions : RideAssumptions
+        The assumptions handed to the balance fit (the log's total mass, the spec's radius).
+    analysis : RideAnalysis
+        :func:`euc_sim.rides.balance.analysis.ride_analysis`'s result.
+    """
+
+    physics: tuple
+    assumptions: object
+    analysis: object
+
+
+def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: str = "power",
+                    n_boot: int = 200, seed: int = 0, n_boot_mass: int | None = None,
+                    progress=None) -> BalanceOnMass:
+    """The total mass from the log's energy balance, then the balance fit given it.
+
+    What :func:`ride_pipeline` runs first, for scripts that need only these two fits.
+
+    Parameters
+    ----------
+    log, compare : path, Ride or RideLog
+    spec : WheelSpec, optional
+    assumptions : RideAssumptions, optional
+        Values given on the command line; the spec's radius and the log's mass fill the rest.
+    domain : {"power", "torque"}
+    n_boot, seed : int
+        Bootstrap replicates of the balance fit and the seed of every draw.
+    n_boot_mass : int, optional
+        Replicates of the mass fit (default ``n_boot``).
+    progress : callable, optional
+
+    Returns
+    -------
+    BalanceOnMass
+    """
+    from euc_sim.rides.balance.analysis import ride_analysis
+    from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
+    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+
+    say = progress or (lambda s: None)
+    say("finding the total mass and the drivetrain")
+    physics = ride_drivetrain(log, compare, spec, n_boot if n_boot_mass is None else n_boot_mass, seed)
+    # the spec's radius and the mass this log gives reach the balance fit (Table 3 only where
+    # neither the command line, the spec nor the log gives a value)
+    assumptions = with_found_values(assumptions or RideAssumptions(), spec, physics[0]["total_mass"])
+    an = ride_analysis(log, compare, assumptions=assumptions, domain=domain, n_boot=n_boot,
+                       seed=seed, progress=progress)
+    return BalanceOnMass(physics, assumptions, an)
+
+
 def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
                   n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
                   progress=None, spec=None, calibrate_rider: bool = False,
@@ -95,23 +154,17 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
         ``localisation``, ``residual_traces``, ``simulation``, ``report`` (None
         until :func:`write_report`).
     """
-    from euc_sim.rides.balance.analysis import ride_analysis
     from euc_sim.rides.grids.ride import as_ride
-    from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
     from euc_sim.rides.report.rider_view import rider_numbers
 
     say = progress or (lambda s: None)
     ride, other = as_ride(log), (None if compare is None else as_ride(compare))
     log, compare = ride.log, (None if other is None else other.log)
-    say("finding the total mass and the drivetrain")
-    # the Rides go to every analysis that builds a grid: each grid is built once and kept
-    physics = ride_drivetrain(ride, other, spec, n_boot, seed)   # bad logs fail before any output
-    # the spec's radius and the mass this log gives reach the balance fit (Table 3 only where
-    # neither the command line, the spec nor the log gives a value)
-    assumptions = with_found_values(assumptions or RideAssumptions(), spec, physics[0]["total_mass"])
-    an = ride_analysis(ride, other, assumptions=assumptions, domain=domain, n_boot=n_boot,
-                       seed=seed, progress=say)
+    # the Rides go to every analysis that builds a grid: each grid is built once and kept;
+    # bad logs fail in the mass fit, before any output
+    fitted = balance_on_mass(ride, other, spec, assumptions=assumptions, domain=domain,
+                             n_boot=n_boot, seed=seed, progress=say)
+    physics, an = fitted.physics, fitted.analysis
     rep = _one_parameter_set(an, physics, ride, other, n_boot, seed, say)
     if compare is not None:     # what differs between the two rides (rides.compare.differences), each
         # ride's terms from its own energy-balance fit, so both sides are read alike

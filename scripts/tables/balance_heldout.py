@@ -67,20 +67,17 @@ def cases(root: Path = SHARED, pair_wheels: tuple = ()) -> list[dict]:
 
 def one(case: dict, n_boot: int, seed: int) -> dict:
     """Run one comparison as ``euc-sim ride`` fits it; the row of the table."""
-    from euc_sim.rides.balance.analysis import ride_analysis
     from euc_sim.rides.balance.crossride import admissible
     from euc_sim.rides.balance.design import NOMINAL
     from euc_sim.rides.grids.ride import as_ride
-    from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.pipeline import balance_on_mass
     from euc_sim.rides.source.spec import read_spec
 
     spec = read_spec(case["spec"]) if case["spec"] else None
     log = as_ride(case["log"]).log
     compare = None if case["compare"] is None else as_ride(case["compare"]).log
-    physics = ride_drivetrain(log, compare, spec, n_boot, seed)
-    assumptions = with_found_values(RideAssumptions(), spec, physics[0]["total_mass"])
-    cr = ride_analysis(log, compare, assumptions=assumptions, n_boot=0, seed=seed).cross
+    fitted = balance_on_mass(log, compare, spec, n_boot=0, n_boot_mass=n_boot, seed=seed)
+    assumptions, cr = fitted.assumptions, fitted.analysis.cross
     beaten = cr.heldout_augmented / cr.heldout_full - 1.0
     return {"label": case["label"], "total_mass": assumptions.total_mass,
             "inertia_only": cr.heldout_nominal, "selected": cr.heldout_augmented,

@@ -73,20 +73,16 @@ def _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations) -> list[di
     firmware = "firmware" in wanted
     import numpy as np
 
-    from euc_sim.rides.balance.analysis import ride_analysis
     from euc_sim.rides.grids.profile import speed_profile
-    from euc_sim.rides.grids.signals import RideAssumptions
-    from euc_sim.rides.grids.signals import with_found_values
     from euc_sim.rides.law.controller_report import controller_json, torque_constant
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.pipeline import balance_on_mass
     from euc_sim.rides.sim.simulate import effects_to_inject, ride_params, simulation_obstacle
     from euc_sim.rides.sim.tracking import simulate_profile
     from euc_sim.rides.source.spec import wheel_spec
 
     spec = wheel_spec(spec_path)
-    physics = ride_drivetrain(log, None, spec, n_boot, seed)
-    assumptions = with_found_values(RideAssumptions(), spec, physics[0]["total_mass"])
-    an = ride_analysis(log, None, assumptions=assumptions, n_boot=n_boot, seed=seed)
+    fitted = balance_on_mass(log, None, spec, n_boot=n_boot, seed=seed)
+    physics, an = fitted.physics, fitted.analysis
     sig = an.sig_fit
     why = simulation_obstacle(sig)
     base = {"log": name, "ride_s": float("nan")}
