@@ -3,10 +3,12 @@
 One block bootstrap (:func:`block_bootstrap_indices`, moving blocks;
 :func:`wild_block_signs`, sign flips of whole blocks), one percentile interval
 (:func:`percentile_interval`, and :func:`basic_interval`, its reflection about the
-estimate), the time folds of held-out validation (:func:`time_blocks`, equal counts;
+estimate), one jackknife-t interval over units left out in turn
+(:func:`jackknife_interval`), the time folds of held-out validation (:func:`time_blocks`,
+equal counts;
 :func:`span_blocks`, equal durations; :func:`interleaved_folds`, short blocks dealt to
 the folds in turn with a guard) and one forward selection scored on held-out error
-(:func:`forward_select`).  Pure numpy; every draw comes from the
+(:func:`forward_select`).  numpy, with scipy's t quantile; every draw comes from the
 ``numpy.random.Generator`` passed in.
 
 Identification's selection (:mod:`euc_sim.identification.selection`) ranks its
@@ -23,7 +25,7 @@ import numpy as np
 
 __all__ = ["time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
            "basic_interval", "block_bootstrap_indices", "wild_block_signs", "blocks_by_length", "block_labels",
-           "draw_blocks", "moving_block_starts"]
+           "draw_blocks", "moving_block_starts", "jackknife_interval"]
 
 
 def time_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
@@ -193,6 +195,42 @@ def basic_interval(draws: np.ndarray, estimate: float, level: float = 0.95) -> t
     """
     q_lo, q_hi = percentile_interval(np.ravel(draws), level)
     return float(2 * estimate - q_hi), float(2 * estimate - q_lo)
+
+
+def jackknife_interval(estimate: float, leave_one_out, level: float = 0.95,
+                       min_units: int = 3) -> tuple[float, float] | None:
+    """Jackknife-t interval ``estimate ± t(K−1)·se`` from K leave-one-unit-out estimates.
+
+    ``se² = (K−1)/K · Σ (θ₋ₖ − θ̄)²`` (Efron & Tibshirani 1993, §11.2); the units
+    are whatever was left out in turn (parts of a record), so the interval
+    counts how the estimate moves from one unit to another.
+
+    Parameters
+    ----------
+    estimate : float
+        The estimate on every unit.
+    leave_one_out : array_like
+        The K estimates, each with one unit left out.
+    level : float
+    min_units : int
+        Fewest units that give an interval.
+
+    Returns
+    -------
+    (lo, hi) or None
+        None below ``min_units`` estimates or when their spread is not finite.
+    """
+    from scipy.stats import t as student_t
+
+    v = np.asarray(leave_one_out, float)
+    k = len(v)
+    if k < min_units:
+        return None
+    se = float(np.sqrt((k - 1) / k * np.sum((v - v.mean()) ** 2)))
+    if not np.isfinite(se):
+        return None
+    half = float(student_t.ppf(0.5 + level / 2, k - 1)) * se
+    return estimate - half, estimate + half
 
 
 def forward_select(score: Callable[[list], float], base: list, candidates: list,

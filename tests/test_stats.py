@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from euc_sim.stats import basic_interval, interleaved_folds, percentile_interval, span_blocks
 
@@ -38,3 +39,17 @@ def test_the_basic_interval_reflects_a_skewed_spread_about_the_estimate():
     q_lo, q_hi = np.percentile(boot, [2.5, 97.5])
     assert np.isclose(lo, 2.0 - q_hi) and np.isclose(hi, 2.0 - q_lo)
     assert (1.0 - lo) > (hi - 1.0)                              # the long tail now lies below
+
+
+def test_jackknife_interval_is_the_t_interval_of_the_leave_one_out_spread():
+    from scipy.stats import t as student_t
+
+    from euc_sim.stats import jackknife_interval
+
+    loo = np.array([1.0, 1.2, 0.8, 1.1, 0.9])
+    se = np.sqrt(4 / 5 * np.sum((loo - loo.mean()) ** 2))
+    lo, hi = jackknife_interval(1.0, loo)
+    assert hi - 1.0 == pytest.approx(student_t.ppf(0.975, 4) * se, rel=1e-12)
+    assert 1.0 - lo == pytest.approx(hi - 1.0, rel=1e-12)
+    assert jackknife_interval(1.0, loo[:2]) is None
+    assert jackknife_interval(1.0, np.full(4, 2.0)) == (1.0, 1.0)

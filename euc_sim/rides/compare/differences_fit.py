@@ -32,9 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from scipy import stats as sps
-
-from euc_sim.stats import forward_select, percentile_interval, time_blocks
+from euc_sim.stats import forward_select, jackknife_interval, percentile_interval, time_blocks
 
 __all__ = ["PairDesign", "PairFit", "DELAY", "block_grams", "pair_fit"]
 
@@ -216,9 +214,9 @@ def _draws(g: _Grams, terms, cands, transform, n_boot: int, rng) -> dict:
 def _jackknife(g: _Grams, terms, cands, transform, whole: dict) -> dict:
     """Jackknife-t 95 % interval of each candidate over paired fractions.
 
-    Pair-unit ``k`` is fold ``k`` of LOG together with fold ``k`` of OTHER;
-    each is left out in turn, ``se² = (K−1)/K Σ (θ₋ₖ − θ̄)²`` and the interval
-    is ``θ ± t₀.₉₇₅,K−1 · se`` around the whole-pair estimate ``θ``.
+    Pair-unit ``k`` is fold ``k`` of LOG together with fold ``k`` of OTHER,
+    each left out in turn (:func:`euc_sim.stats.jackknife_interval` around the
+    whole-pair estimate; None below three units).
     """
     cols, parts = g.cols(terms), []
     for f in range(g.n_folds):
@@ -226,16 +224,7 @@ def _jackknife(g: _Grams, terms, cands, transform, whole: dict) -> dict:
             continue
         beta, k, sse = g.fit((g.fL != f).astype(float), (g.fO != f).astype(float), terms)
         parts.append(_values(g, cols, beta, k, sse, terms, transform))
-    K = len(parts)
-    if K < 3:
-        return {c: None for c in cands}
-    t = float(sps.t.ppf(0.975, K - 1))
-    out = {}
-    for c in cands:
-        v = np.array([p[c] for p in parts], float)
-        se = float(np.sqrt((K - 1) / K * np.sum((v - v.mean()) ** 2)))
-        out[c] = (whole[c] - t * se, whole[c] + t * se) if np.isfinite(se) else None
-    return out
+    return {c: jackknife_interval(whole[c], [p[c] for p in parts]) for c in cands}
 
 
 def _hull(a, b):
