@@ -128,7 +128,7 @@ def grade_profile(sig: RideSignals, design: Design, estimate: Mapping[str, float
     A = sparse.diags(w) @ (_filter(design, estimate) @ onehot)
     r = design.residual(estimate)
     rows_per_bin = np.bincount(np.floor(_design_s(design, pos) / BIN_M).astype(int), None, n)
-    seen = rows_per_bin >= 2.0 * _rate(design)
+    seen = rows_per_bin >= 2.0 * sig.rate
     A = sparse.csr_matrix(A)[:, seen]
     diag = np.asarray(A.multiply(A).sum(axis=0)).ravel()
     lam = (SMOOTH_M / BIN_M) ** 2 * float(np.mean(diag))
@@ -150,12 +150,6 @@ def grade_profile(sig: RideSignals, design: Design, estimate: Mapping[str, float
 def _design_s(design: Design, pos: RoutePosition) -> np.ndarray:
     """Distance along the ride of the design's rows in use, m."""
     return pos.s[design.use]
-
-
-def _rate(design: Design) -> float:
-    """The grid's rate, Hz."""
-    dt = np.diff(design.t_full)
-    return float(1.0 / np.median(dt[dt > 0]))
 
 
 def carried_grade(profile: GradeProfile, match: RouteMatch) -> np.ndarray:
