@@ -71,12 +71,9 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
     import numpy as np
 
     from euc_sim.controllers.firmware import firmware_motor
-    from euc_sim.rides.balance.analysis import ride_analysis
     from euc_sim.rides.grids.profile import speed_profile
-    from euc_sim.rides.grids.signals import RideAssumptions
-    from euc_sim.rides.grids.signals import with_found_values
     from euc_sim.rides.law.controller_report import controller_json, torque_constant
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.pipeline import balance_on_mass
     from euc_sim.rides.sim.simulate import ride_params
     from euc_sim.rides.sim.tracking import simulate_profile
     from euc_sim.rides.source.logs import read_log
@@ -84,9 +81,8 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
 
     log_path, spec_path, t0, t1, run = case
     log, spec = data / log_path, wheel_spec(data / spec_path)
-    physics = ride_drivetrain(log, None, spec, n_boot, 0)
-    A = with_found_values(RideAssumptions(), spec, physics[0]["total_mass"])
-    sig = ride_analysis(log, None, assumptions=A, n_boot=n_boot, seed=0).sig_fit
+    fitted = balance_on_mass(log, None, spec, n_boot=n_boot, seed=0)
+    physics, sig = fitted.physics, fitted.analysis.sig_fit
     params = ride_params(sig.assumptions)
     prof = speed_profile(log, sig.rate, sig.window, sig.polyorder, total_mass=sig.assumptions.total_mass)
     t, v = prof["t"].to_numpy(), prof["v"].to_numpy()

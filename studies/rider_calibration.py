@@ -75,19 +75,13 @@ def concealed(seeds, duration: float, out: Path, windows: int, length: float, re
 
 
 def _analysis(fit_path, test_path, spec_path, seed: int):
-    from euc_sim.rides.balance.analysis import ride_analysis
-    from euc_sim.rides.grids.signals import RideAssumptions
-    from euc_sim.rides.grids.signals import with_found_values
     from euc_sim.rides.law.controller_report import torque_constant
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.pipeline import balance_on_mass
     from euc_sim.rides.source.spec import wheel_spec
 
-    spec = wheel_spec(spec_path)
-    physics = ride_drivetrain(fit_path, test_path, spec, 50, seed)
-    A = with_found_values(RideAssumptions(), spec, physics[0]["total_mass"])
-    k_t = torque_constant(physics[0].get("drivetrain"))
-    an = ride_analysis(fit_path, test_path, assumptions=A, n_boot=50, seed=seed)
-    return an, A, k_t
+    fitted = balance_on_mass(fit_path, test_path, wheel_spec(spec_path), n_boot=50, seed=seed)
+    k_t = torque_constant(fitted.physics[0].get("drivetrain"))
+    return fitted.analysis, fitted.assumptions, k_t
 
 
 def real(wheel: str, seed: int, windows: int, length: float, rider: list | None = None,
