@@ -24,6 +24,7 @@ import pickle
 import sys
 from pathlib import Path
 
+from euc_sim.rides.compare.resolution import Z95, predicted_gain
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.rides.synth import conceal as cc
 
@@ -147,11 +148,15 @@ def resolution_rows(rows: list) -> list:
             v = r["sizes"][effect]
             res, pre = v.get("resolvable"), null.get(r["ride"], {}).get(effect)
             predicted = None if res is None else bool(abs(truth) > res)
+            det = v.get("resolution") or {}
+            gain = (None if det.get("gate") is None else
+                    predicted_gain(truth, det["residual_rms"], det["signature_rms"],
+                                   det["interval_halfwidth"] / Z95, 5))
             out.append({"ride": r["ride"], "case": r["case"], "effect": effect, "truth": truth,
                         "resolvable_null": pre, "resolvable": res, "predicted": predicted,
                         "predicted_null": None if pre is None else bool(abs(truth) > pre),
-                        "named": v["named"], "gate": (v.get("resolution") or {}).get("gate"),
-                        "halfwidth": (v.get("resolution") or {}).get("interval_halfwidth")})
+                        "named": v["named"], "gate": det.get("gate"), "halfwidth": det.get("interval_halfwidth"),
+                        "estimate": v["estimate"], "gain_predicted": gain, "gain": v.get("heldout_gain")})
     return out
 
 
@@ -159,13 +164,16 @@ def resolution_table(rows: list) -> str:
     """Markdown table of :func:`resolution_rows` and the agreements counted."""
     yn = {True: "yes", False: "no", None: "–"}
     g = (lambda x: "–" if x is None else f"{x:.3g}")
-    out = ["| ride | case | effect | truth | resolvable (null pair) | resolvable (this pair) "
-           "[half-width; gate] | predicted | named | agree |", "|---|---|---|---|---|---|---|---|---|"]
+    pct = (lambda x: "–" if x is None else f"{100 * x:+.1f} %")
+    out = ["| ride | case | effect | truth | estimate | resolvable (null pair) | resolvable (this pair) "
+           "[half-width; gate] | held-out gain at the truth, predicted / measured | predicted | named | agree |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
     rs = resolution_rows(rows)
     for x in rs:
         agree = None if x["predicted"] is None else x["predicted"] == x["named"]
-        out.append(f"| {x['ride']} | {x['case']} | {x['effect']} | {x['truth']:.3g} | {g(x['resolvable_null'])} | "
-                   f"{g(x['resolvable'])} [{g(x['halfwidth'])}; {g(x['gate'])}] | {yn[x['predicted']]} | "
+        out.append(f"| {x['ride']} | {x['case']} | {x['effect']} | {x['truth']:.3g} | {g(x['estimate'])} | "
+                   f"{g(x['resolvable_null'])} | {g(x['resolvable'])} [{g(x['halfwidth'])}; {g(x['gate'])}] | "
+                   f"{pct(x['gain_predicted'])} / {pct(x['gain'])} | {yn[x['predicted']]} | "
                    f"{yn[x['named']]} | {yn[agree]} |")
     for key, what in (("predicted", "this pair"), ("predicted_null", "the null pair")):
         ok = [x for x in rs if x[key] is not None]

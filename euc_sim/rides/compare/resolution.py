@@ -34,8 +34,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["Resolution", "gate_factor", "gate_size", "heldout_signature_rms", "detectable_difference",
-           "with_floor"]
+__all__ = ["Z95", "Resolution", "gate_factor", "gate_size", "predicted_gain", "heldout_signature_rms",
+           "detectable_difference", "with_floor"]
 
 #: Normal quantile of a two-sided 95 % interval.
 Z95 = 1.959963984540054
@@ -115,6 +115,17 @@ def gate_size(residual_rms: float, signature_rms: float, se: float, min_gain: fl
         return None
     ratio = residual_rms / signature_rms
     return math.sqrt(ratio ** 2 * gate_factor(min_gain) ** 2 + n_folds / (n_folds - 1.0) * se ** 2)
+
+
+def predicted_gain(size: float, residual_rms: float, signature_rms: float, se: float,
+                   n_folds: int) -> float:
+    """The held-out gain of modelling a difference of ``size``: ``1 − σ/√(σ² − e² + Δ²s²)``.
+
+    Parameters as :func:`gate_size` (``size``: Δ, the parameter's unit); the
+    inverse of :func:`gate_size` at the threshold.
+    """
+    e2 = n_folds / (n_folds - 1.0) * (signature_rms * se) ** 2
+    return 1.0 - residual_rms / math.sqrt(max(residual_rms ** 2 - e2 + (size * signature_rms) ** 2, 1e-300))
 
 
 def heldout_signature_rms(GL: np.ndarray, fold_log: np.ndarray, GO: np.ndarray, fold_other: np.ndarray,
