@@ -155,8 +155,11 @@ def resolution_rows(rows: list) -> list:
             out.append({"ride": r["ride"], "case": r["case"], "effect": effect, "truth": truth,
                         "resolvable_null": pre, "resolvable": res, "predicted": predicted,
                         "predicted_null": None if pre is None else bool(abs(truth) > pre),
+                        "predicted_estimate": (None if res is None or v["estimate"] is None
+                                               else bool(abs(v["estimate"]) > res)),
                         "named": v["named"], "gate": det.get("gate"), "halfwidth": det.get("interval_halfwidth"),
-                        "estimate": v["estimate"], "gain_predicted": gain, "gain": v.get("heldout_gain")})
+                        "estimate": v["estimate"], "gain_predicted": gain, "gain": v.get("heldout_gain"),
+                        "gain_se": det.get("gain_se")})
     return out
 
 
@@ -166,16 +169,19 @@ def resolution_table(rows: list) -> str:
     g = (lambda x: "–" if x is None else f"{x:.3g}")
     pct = (lambda x: "–" if x is None else f"{100 * x:+.1f} %")
     out = ["| ride | case | effect | truth | estimate | resolvable (null pair) | resolvable (this pair) "
-           "[half-width; gate] | held-out gain at the truth, predicted / measured | predicted | named | agree |",
+           "[half-width; gate] | held-out gain at the truth, predicted / measured ± fold se | predicted | named | "
+           "agree |",
            "|---|---|---|---|---|---|---|---|---|---|---|"]
     rs = resolution_rows(rows)
     for x in rs:
         agree = None if x["predicted"] is None else x["predicted"] == x["named"]
         out.append(f"| {x['ride']} | {x['case']} | {x['effect']} | {x['truth']:.3g} | {g(x['estimate'])} | "
                    f"{g(x['resolvable_null'])} | {g(x['resolvable'])} [{g(x['halfwidth'])}; {g(x['gate'])}] | "
-                   f"{pct(x['gain_predicted'])} / {pct(x['gain'])} | {yn[x['predicted']]} | "
+                   f"{pct(x['gain_predicted'])} / {pct(x['gain'])}"
+                   + ("" if x["gain_se"] is None else f" ± {100 * x['gain_se']:.1f}") + f" | {yn[x['predicted']]} | "
                    f"{yn[x['named']]} | {yn[agree]} |")
-    for key, what in (("predicted", "this pair"), ("predicted_null", "the null pair")):
+    for key, what in (("predicted", "this pair"), ("predicted_null", "the null pair"),
+                      ("predicted_estimate", "this pair, its estimate (not the truth) against it")):
         ok = [x for x in rs if x[key] is not None]
         n_ok = sum(x[key] == x["named"] for x in ok)
         miss = [f"{x['ride']} {x['case']} {x['effect']}" for x in ok if x[key] != x["named"]]

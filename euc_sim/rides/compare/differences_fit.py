@@ -28,7 +28,7 @@ Study: docs/concealed.md.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -189,18 +189,37 @@ class _Grams:
         k = list(ks)[int(np.argmin(sse))]
         return fits[k][0], k, sse
 
-    def score(self, terms) -> float:
-        """Blocked held-out RMS of OTHER: fold f of both rides left out, OTHER's fold f scored."""
-        cols, sse, n = self.cols(terms), 0.0, 0
+    def fold_sse(self, terms) -> tuple[np.ndarray, np.ndarray]:
+        """OTHER's held-out SSE and rows per fold (fold f of both rides left out, OTHER's fold f scored)."""
+        cols, sse, n = self.cols(terms), [], []
         for f in range(self.n_folds):
             test = self.fO == f
             if not test.any():
                 continue
             beta, k, _ = self.fit((self.fL != f).astype(float), (~test).astype(float), terms)
             G = self.GO[k][test].sum(axis=0)
-            sse += _test_sse(G, cols, beta)
-            n += int(self.nO[test].sum())
-        return float(np.sqrt(max(sse, 0.0) / n)) if n else np.inf
+            sse.append(_test_sse(G, cols, beta))
+            n.append(int(self.nO[test].sum()))
+        return np.array(sse, float), np.array(n, int)
+
+    def score(self, terms) -> float:
+        """Blocked held-out RMS of OTHER: fold f of both rides left out, OTHER's fold f scored."""
+        sse, n = self.fold_sse(terms)
+        return float(np.sqrt(max(float(sse.sum()), 0.0) / n.sum())) if n.sum() else np.inf
+
+    def gain_se(self, terms, c: str) -> float | None:
+        """Standard error of ``c``'s held-out gain from its spread over the folds (None below 2 folds).
+
+        The fold-by-fold gains ``1 − RMS_with/RMS_without`` on OTHER's held-out
+        rows: their standard deviation over √K says how far the whole gain can
+        fall from what the difference's size predicts.
+        """
+        (w, n), (wo, _) = self.fold_sse(terms), self.fold_sse([x for x in terms if x != c])
+        ok = (wo > 0) & (n > 0)
+        if ok.sum() < 2:
+            return None
+        g = 1.0 - np.sqrt(np.clip(w[ok], 0.0, None) / wo[ok])
+        return float(np.std(g, ddof=1) / np.sqrt(ok.sum()))
 
 
 def _draws(g: _Grams, terms, cands, transform, n_boot: int, rng) -> dict:
@@ -290,7 +309,8 @@ def pair_fit(design: PairDesign, *, min_gain: float, transform: dict | None = No
             without = g.score([x for x in terms if x != c]) if c in selected else base
             with_ = base if c in selected else g.score(terms)
             gains[c] = 1.0 - with_ / without if without > 0 else 0.0
-            resolutions[c] = _resolution(g, terms, c, k, beta, transform, estimates[c][1], with_, min_gain)
+            resolutions[c] = replace(_resolution(g, terms, c, k, beta, transform, estimates[c][1], with_, min_gain),
+                                     gain_se=g.gain_se(terms, c))
     return PairFit(selected, history, estimates, gains, _correlations(g), resolutions)
 
 

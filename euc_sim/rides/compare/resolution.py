@@ -66,6 +66,11 @@ class Resolution:
     floor : float
         The finest value the logs resolve (the delay's row interval), added to
         the half-width; 0 elsewhere.
+    gain_se : float or None
+        Standard error of the difference's measured held-out gain, from its
+        spread over the folds (fraction): where it is comparable with the
+        threshold, whether a difference near ``resolvable`` is named is a
+        matter of chance.
     """
 
     name: str
@@ -75,12 +80,13 @@ class Resolution:
     residual_rms: float | None = None
     signature_rms: float | None = None
     floor: float = 0.0
+    gain_se: float | None = None
 
     def to_json(self) -> dict:
         """The ``differences`` entry's ``resolution`` detail."""
         return {"interval_halfwidth": self.interval_halfwidth, "gate": self.gate,
                 "residual_rms": self.residual_rms, "signature_rms": self.signature_rms,
-                "floor": self.floor}
+                "floor": self.floor, "gain_se": self.gain_se}
 
 
 def gate_factor(min_gain: float) -> float:

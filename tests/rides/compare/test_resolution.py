@@ -68,6 +68,7 @@ def test_a_difference_well_above_its_predicted_resolution_is_named_and_well_belo
         gain = rs.predicted_gain(factor * r, res.residual_rms, res.signature_rms,
                                  res.interval_halfwidth / rs.Z95, 5)
         assert gain == pytest.approx(fit.gains["aerodynamic_drag"], abs=0.002)
+        assert 0.0 < res.gain_se < 0.5 * max(gain, 0.01)     # the fold spread: well inside the gate here
 
 
 def test_the_json_and_the_page_carry_the_pairs_resolution():
