@@ -282,6 +282,10 @@ def tally(rows: list[dict]) -> dict:
     return out
 
 
+def _u(x) -> str:
+    return "–" if x is None else f"{x:.3g}"
+
+
 def resolution_table(rows: list[dict], name: str = "total_mass") -> list[str]:
     """Per pair: the smallest ``name`` difference the pair can name (``resolvable``: the larger of the
     interval's half-width and the held-out gate's size), beside the estimate and the recorded change."""
@@ -293,7 +297,7 @@ def resolution_table(rows: list[dict], name: str = "total_mass") -> list[str]:
         det = r.get("resolution") or {}
         out.append(f"| {r['pair']} | {_g(r['estimate'])} {r['unit']} | {r['ci95'][0]:+.3g} to {r['ci95'][1]:+.3g} | "
                    + (f"±{r['resolvable']:.3g} {r['unit']}" if r.get("resolvable") is not None else "–")
-                   + f" | {_g(det.get('interval_halfwidth'))}; {_g(det.get('gate'))} | "
+                   + f" | {_u(det.get('interval_halfwidth'))}; {_u(det.get('gate'))} | "
                    f"{'**yes**' if r['named'] else 'no'} | {_g(r['expected'])} |")
     return out
 
