@@ -207,8 +207,9 @@ def difference_lines(rep: Mapping, log_path=None) -> list[str]:
             out[0] += f" The smallest differences it could have seen: {seen}."
     if below:
         said_below = (f"This pair cannot resolve differences smaller than {_listed(below)}: "
-                      + ("its estimate lies" if len(below) == 1 else "their estimates lie")
-                      + " below that, so whether the rides differ by it cannot be said.")
+                      + ("its estimate lies below that, so whether the rides differ by it" if len(below) == 1
+                         else "their estimates lie below that, so whether the rides differ by them")
+                      + " cannot be said.")
         if named:
             out.append(f"- {said_below}")
         else:
