@@ -24,6 +24,7 @@ import pickle
 import sys
 from pathlib import Path
 
+from euc_sim.rides.compare.resolution import Z95, predicted_gain
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.rides.synth import conceal as cc
 
@@ -93,7 +94,8 @@ def score(rep: dict, case: str) -> dict:
     """Every hidden effect named and nothing else? each sized? for one run."""
     diffs = {d["name"]: d for d in rep["differences"]}
     named = sorted(n for n, d in diffs.items() if d.get("named"))
-    row = {"case": case, "named": named, "sizes": {}}
+    row = {"case": case, "named": named, "sizes": {},
+           "resolvable": {n: d.get("resolvable") for n, d in diffs.items() if d.get("resolvable") is not None}}
     sized = []
     for effect, _, truth in CASES[case]:
         d = diffs.get(effect, {})
@@ -101,7 +103,8 @@ def score(rep: dict, case: str) -> dict:
         ok = est is not None and bool(abs(est - truth) <= 0.3 * abs(truth)
                                   or (ci is not None and ci[0] <= truth <= ci[1]))
         row["sizes"][effect] = {"estimate": est, "ci95": ci, "sized": ok,
-                                "named": effect in named, "heldout_gain": d.get("heldout_gain")}
+                                "named": effect in named, "heldout_gain": d.get("heldout_gain"),
+                                "resolvable": d.get("resolvable"), "resolution": d.get("resolution")}
         sized.append(ok)
     row["ok"] = named == sorted(e for e, _, _ in CASES[case]) and all(sized)
     return row
@@ -135,6 +138,58 @@ def counts(rows: list) -> dict:
     return out
 
 
+def resolution_rows(rows: list) -> list:
+    """Per ride × hidden effect: the truth, the smallest nameable difference (on the ride's null pair,
+    before anything is hidden, and on the concealed pair itself), predicted named, named."""
+    null = {r["ride"]: r.get("resolvable", {}) for r in rows if r["case"] == "null"}
+    out = []
+    for r in rows:
+        for effect, _, truth in CASES[r["case"]]:
+            v = r["sizes"][effect]
+            res, pre = v.get("resolvable"), null.get(r["ride"], {}).get(effect)
+            predicted = None if res is None else bool(abs(truth) > res)
+            det = v.get("resolution") or {}
+            gain = (None if det.get("gate") is None else
+                    predicted_gain(truth, det["residual_rms"], det["signature_rms"],
+                                   det["interval_halfwidth"] / Z95, 5))
+            out.append({"ride": r["ride"], "case": r["case"], "effect": effect, "truth": truth,
+                        "resolvable_null": pre, "resolvable": res, "predicted": predicted,
+                        "predicted_null": None if pre is None else bool(abs(truth) > pre),
+                        "predicted_estimate": (None if res is None or v["estimate"] is None
+                                               else bool(abs(v["estimate"]) > res)),
+                        "named": v["named"], "gate": det.get("gate"), "halfwidth": det.get("interval_halfwidth"),
+                        "estimate": v["estimate"], "gain_predicted": gain, "gain": v.get("heldout_gain"),
+                        "gain_se": det.get("gain_se")})
+    return out
+
+
+def resolution_table(rows: list) -> str:
+    """Markdown table of :func:`resolution_rows` and the agreements counted."""
+    yn = {True: "yes", False: "no", None: "–"}
+    g = (lambda x: "–" if x is None else f"{x:.3g}")
+    pct = (lambda x: "–" if x is None else f"{100 * x:+.1f} %")
+    out = ["| ride | case | effect | truth | estimate | resolvable (null pair) | resolvable (this pair) "
+           "[half-width; gate] | held-out gain at the truth, predicted / measured ± fold se | predicted | named | "
+           "agree |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
+    rs = resolution_rows(rows)
+    for x in rs:
+        agree = None if x["predicted"] is None else x["predicted"] == x["named"]
+        out.append(f"| {x['ride']} | {x['case']} | {x['effect']} | {x['truth']:.3g} | {g(x['estimate'])} | "
+                   f"{g(x['resolvable_null'])} | {g(x['resolvable'])} [{g(x['halfwidth'])}; {g(x['gate'])}] | "
+                   f"{pct(x['gain_predicted'])} / {pct(x['gain'])}"
+                   + ("" if x["gain_se"] is None else f" ± {100 * x['gain_se']:.1f}") + f" | {yn[x['predicted']]} | "
+                   f"{yn[x['named']]} | {yn[agree]} |")
+    for key, what in (("predicted", "this pair"), ("predicted_null", "the null pair"),
+                      ("predicted_estimate", "this pair, its estimate (not the truth) against it")):
+        ok = [x for x in rs if x[key] is not None]
+        n_ok = sum(x[key] == x["named"] for x in ok)
+        miss = [f"{x['ride']} {x['case']} {x['effect']}" for x in ok if x[key] != x["named"]]
+        out.append(f"\nResolution from {what}: predicted = named in {n_ok} of {len(ok)}"
+                   + (f" (not: {'; '.join(miss)})" if miss else ""))
+    return "\n".join(out)
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--data", default=str(DATA), help="the shared euc_core folder")
@@ -153,6 +208,7 @@ def main(argv=None) -> int:
     (work / "scores.json").write_text(json.dumps(rows, indent=1))
     print(table(rows))
     print(json.dumps(counts(rows)))
+    print(resolution_table(rows))
     return 0
 
 

@@ -246,6 +246,7 @@ def pair_rows(a: Ride, b: Ride, rep: dict) -> list[dict]:
         rows.append({"pair": f"{a.label} → {b.label}", "dates": f"{a.date} → {b.date}", "name": name,
                      "estimate": d.get("estimate"), "ci95": ci, "unit": d.get("unit"),
                      "named": bool(d.get("named")), "aliases": d.get("aliases") or [],
+                     "resolvable": d.get("resolvable"), "resolution": d.get("resolution"),
                      "excludes_zero": bool(ci) and (ci[0] > 0 or ci[1] < 0),
                      "recorded": said, "expected": exp, "verdict": verdict(d, exp, sign, said)})
     return rows
@@ -278,6 +279,26 @@ def tally(rows: list[dict]) -> dict:
         out["all"][v] = out["all"].get(v, 0) + 1
         if r["named"]:
             out["named"][v] = out["named"].get(v, 0) + 1
+    return out
+
+
+def _u(x) -> str:
+    return "–" if x is None else f"{x:.3g}"
+
+
+def resolution_table(rows: list[dict], name: str = "total_mass") -> list[str]:
+    """Per pair: the smallest ``name`` difference the pair can name (``resolvable``: the larger of the
+    interval's half-width and the held-out gate's size), beside the estimate and the recorded change."""
+    out = ["| pair (A → B) | B − A | 95 % interval | resolvable | of which: half-width; gate | named | "
+           "recorded change |", "|" + " --- |" * 7]
+    for r in rows:
+        if r["name"] != name or r["estimate"] is None or not r["ci95"]:
+            continue
+        det = r.get("resolution") or {}
+        out.append(f"| {r['pair']} | {_g(r['estimate'])} {r['unit']} | {r['ci95'][0]:+.3g} to {r['ci95'][1]:+.3g} | "
+                   + (f"±{r['resolvable']:.3g} {r['unit']}" if r.get("resolvable") is not None else "–")
+                   + f" | {_u(det.get('interval_halfwidth'))}; {_u(det.get('gate'))} | "
+                   f"{'**yes**' if r['named'] else 'no'} | {_g(r['expected'])} |")
     return out
 
 
@@ -319,6 +340,7 @@ def main(argv=None) -> int:
     if args.out:
         write_doc(rows, cmds, Path(args.out))
     print("\n".join(table(rows)))
+    print("\n".join(["", "Mass: what each pair resolves", ""] + resolution_table(rows)))
     return 0
 
 

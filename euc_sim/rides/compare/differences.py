@@ -75,6 +75,9 @@ class Difference:
 
     ``estimate`` and ``ci95`` are the pair fit's where the physics is tested,
     else the two rides' own estimates differenced (``independent``, kept for both).
+    ``resolvable`` is the smallest difference the pair can name (the parameter's
+    unit; :func:`euc_sim.rides.compare.resolution.detectable_difference`), with
+    its parts in ``resolution``; None where the physics is not tested.
     """
 
     name: str
@@ -86,16 +89,20 @@ class Difference:
     aliases: tuple[str, ...] = ()
     heldout_gain: float | None = None
     independent: tuple[float, tuple[float, float] | None] | None = None
+    resolvable: float | None = None
+    resolution: dict | None = None
 
     def to_json(self) -> dict:
-        """``{name, estimate, ci95, unit, named, why, aliases, heldout_gain, independent}``."""
+        """``{name, estimate, ci95, unit, named, why, aliases, heldout_gain, independent, resolvable,
+        resolution}``."""
         g = self.independent
         return {"name": self.name, "estimate": self.estimate,
                 "ci95": list(self.ci95) if self.ci95 else None, "unit": self.unit,
                 "named": self.named, "why": self.why, "aliases": list(self.aliases),
                 "heldout_gain": self.heldout_gain,
                 "independent": None if g is None else {"estimate": g[0],
-                                                       "ci95": list(g[1]) if g[1] else None}}
+                                                       "ci95": list(g[1]) if g[1] else None},
+                "resolvable": self.resolvable, "resolution": self.resolution}
 
 
 @dataclass(frozen=True)
@@ -286,8 +293,10 @@ def _one(name, a, b, tested, aliases, cannot) -> Difference:
         if named and aliases:
             why += (f"; its estimate correlates beyond {ALIAS_CORRELATION:g} with {', '.join(aliases)}'s "
                     "in this pair (held out, it explains more than they do)")
+        det = tested.get("detectable")
         return Difference(name, tested["estimate"], None if ci is None else tuple(ci), unit, named,
-                          why, tuple(aliases), tested.get("heldout_gain"), ind)
+                          why, tuple(aliases), tested.get("heldout_gain"), ind,
+                          None if det is None else det.resolvable, None if det is None else det.to_json())
     if ind is None:
         return Difference(name, None, None, unit, False, "not identified on "
                           + ("this ride" if a.get("estimate") is None else "the compared ride"))

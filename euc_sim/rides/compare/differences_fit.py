@@ -28,10 +28,11 @@ Study: docs/concealed.md.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from euc_sim.rides.compare.resolution import detectable_difference, heldout_signature_rms
 from euc_sim.stats import forward_select, jackknife_interval, percentile_interval, time_blocks
 
 __all__ = ["PairDesign", "PairFit", "DELAY", "block_grams", "pair_fit"]
@@ -92,6 +93,10 @@ class PairFit:
         Correlation of each pair of differences' estimates when all are fitted
         together (from the pair's own normal equations): near ±1, the pair
         cannot tell them apart.
+    resolutions : dict of str -> Resolution
+        Each candidate's smallest nameable size on this pair
+        (:func:`euc_sim.rides.compare.resolution.detectable_difference`), in
+        the model its estimate comes from.
     """
 
     selected: list
@@ -99,6 +104,7 @@ class PairFit:
     estimates: dict
     gains: dict
     correlations: dict
+    resolutions: dict = field(default_factory=dict)
 
 
 def _block_ids(t: np.ndarray, n_folds: int, block: float) -> tuple[np.ndarray, np.ndarray]:
@@ -183,18 +189,37 @@ class _Grams:
         k = list(ks)[int(np.argmin(sse))]
         return fits[k][0], k, sse
 
-    def score(self, terms) -> float:
-        """Blocked held-out RMS of OTHER: fold f of both rides left out, OTHER's fold f scored."""
-        cols, sse, n = self.cols(terms), 0.0, 0
+    def fold_sse(self, terms) -> tuple[np.ndarray, np.ndarray]:
+        """OTHER's held-out SSE and rows per fold (fold f of both rides left out, OTHER's fold f scored)."""
+        cols, sse, n = self.cols(terms), [], []
         for f in range(self.n_folds):
             test = self.fO == f
             if not test.any():
                 continue
             beta, k, _ = self.fit((self.fL != f).astype(float), (~test).astype(float), terms)
             G = self.GO[k][test].sum(axis=0)
-            sse += _test_sse(G, cols, beta)
-            n += int(self.nO[test].sum())
-        return float(np.sqrt(max(sse, 0.0) / n)) if n else np.inf
+            sse.append(_test_sse(G, cols, beta))
+            n.append(int(self.nO[test].sum()))
+        return np.array(sse, float), np.array(n, int)
+
+    def score(self, terms) -> float:
+        """Blocked held-out RMS of OTHER: fold f of both rides left out, OTHER's fold f scored."""
+        sse, n = self.fold_sse(terms)
+        return float(np.sqrt(max(float(sse.sum()), 0.0) / n.sum())) if n.sum() else np.inf
+
+    def gain_se(self, terms, c: str) -> float | None:
+        """Standard error of ``c``'s held-out gain from its spread over the folds (None below 2 folds).
+
+        The fold-by-fold gains ``1 − RMS_with/RMS_without`` on OTHER's held-out
+        rows: their standard deviation over √K says how far the whole gain can
+        fall from what the difference's size predicts.
+        """
+        (w, n), (wo, _) = self.fold_sse(terms), self.fold_sse([x for x in terms if x != c])
+        ok = (wo > 0) & (n > 0)
+        if ok.sum() < 2:
+            return None
+        g = 1.0 - np.sqrt(np.clip(w[ok], 0.0, None) / wo[ok])
+        return float(np.std(g, ddof=1) / np.sqrt(ok.sum()))
 
 
 def _draws(g: _Grams, terms, cands, transform, n_boot: int, rng) -> dict:
@@ -269,7 +294,7 @@ def pair_fit(design: PairDesign, *, min_gain: float, transform: dict | None = No
     transform = transform or {}
     base = g.score(selected)
     rng = np.random.default_rng(seed)
-    estimates, gains = {}, {}
+    estimates, gains, resolutions = {}, {}, {}
     models = [selected] + [selected + [c] for c in cands if c not in selected]
     for terms in models:
         shown = [c for c in terms if c not in estimates]
@@ -284,7 +309,30 @@ def pair_fit(design: PairDesign, *, min_gain: float, transform: dict | None = No
             without = g.score([x for x in terms if x != c]) if c in selected else base
             with_ = base if c in selected else g.score(terms)
             gains[c] = 1.0 - with_ / without if without > 0 else 0.0
-    return PairFit(selected, history, estimates, gains, _correlations(g))
+            resolutions[c] = replace(_resolution(g, terms, c, k, beta, transform, estimates[c][1], with_, min_gain),
+                                     gain_se=g.gain_se(terms, c))
+    return PairFit(selected, history, estimates, gains, _correlations(g), resolutions)
+
+
+def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, ci, residual: float,
+                min_gain: float):
+    """``c``'s :class:`~euc_sim.rides.compare.resolution.Resolution` in the model ``terms``.
+
+    The column's held-out RMS after the model's other columns (OTHER at the
+    model's shift ``k``), per unit of the parameter (the transform's slope in
+    the coefficient: every transform is linear in it).
+    """
+    if c == DELAY:
+        return detectable_difference(c, ci, min_gain=min_gain, n_folds=g.n_folds)
+    cols = g.cols(terms)
+    col = g.names.index(c)
+    others = [i for i in cols if i != col]
+    s = heldout_signature_rms(g.GL, g.fL, g.GO[k], g.fO, g.nO, others, col)
+    coef = {g.names[i]: float(b) for i, b in zip(cols, beta)}
+    value = transform.get(c, lambda co: co[c])
+    slope = abs(value({**coef, c: coef[c] + 1.0}) - value(coef))
+    s = s / slope if slope > 0 else 0.0
+    return detectable_difference(c, ci, residual, s, min_gain=min_gain, n_folds=g.n_folds)
 
 
 def _correlations(g: _Grams) -> dict:

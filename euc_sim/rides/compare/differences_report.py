@@ -16,6 +16,7 @@ import numpy as np
 from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, MIN_GAIN, alias_table, parameters_from_ride,
                                        ride_differences, signature_columns)
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
+from euc_sim.rides.compare.resolution import with_floor
 from euc_sim.rides.drive.mass import mass_regressors
 from euc_sim.rides.grids.power import G
 from euc_sim.rides.grids.ride import as_ride, ride_name
@@ -215,10 +216,11 @@ def gps_design(log_path, compare_path):
 
 
 def _entries(res) -> dict:
-    """Each candidate of one :class:`PairFit` as ``{estimate, ci95, heldout_gain, selected, aliases}``."""
+    """Each candidate of one :class:`PairFit` as ``{estimate, ci95, heldout_gain, selected, aliases,
+    detectable}`` (``detectable``: its :class:`~euc_sim.rides.compare.resolution.Resolution`)."""
     corr = res.correlations
     return {n: {"estimate": e[0], "ci95": e[1], "heldout_gain": res.gains.get(n),
-                "selected": n in res.selected,
+                "selected": n in res.selected, "detectable": res.resolutions.get(n),
                 "aliases": sorted(o for o, r in corr.get(n, {}).items() if abs(r) > ALIAS_CORRELATION)}
             for n, e in res.estimates.items()}
 
@@ -245,8 +247,9 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     Returns
     -------
     dict of str -> dict
-        ``{estimate, ci95, heldout_gain, selected, aliases}`` per physics tested;
-        the delay's also ``resolution`` (:func:`_delay_resolution`, s).
+        ``{estimate, ci95, heldout_gain, selected, aliases, detectable}`` per
+        physics tested; the delay's also ``resolution`` (:func:`_delay_resolution`,
+        s), added to its ``detectable``'s interval half-width.
     """
     fitted = lambda made: None if made is None else pair_fit(   # noqa: E731
         made[0], min_gain=MIN_GAIN, transform=made[1], n_boot=n_boot, seed=seed)
@@ -256,6 +259,8 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     if delay is not None:
         out.update(_entries(delay))
         out[DELAY]["resolution"] = _delay_resolution(fit, log_path, compare_path)
+        if out[DELAY]["detectable"] is not None:
+            out[DELAY]["detectable"] = with_floor(out[DELAY]["detectable"], out[DELAY]["resolution"])
         if DELAY in delay.selected:
             shift = int(round(delay.estimates[DELAY][0] * (1.0 / np.median(np.diff(fit.sig.t)))))
     for res in (fitted(power_design(fit, test, mass, [shift], ROAD_WINDOW)),

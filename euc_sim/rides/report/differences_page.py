@@ -7,7 +7,9 @@ area (m², k = ½ρC_dA), rolling resistance as a share of the weight (%), batte
 resistance in mΩ, the speed scale in %, mass in kg, a delay in s.  Each named
 difference comes with its 95 % interval and what the pair cannot tell it from; with
 nothing named, one sentence says so and what the pair could have seen (each
-interval's half-width: a difference smaller than that leaves zero inside it).
+entry's ``resolvable``, the smallest difference the pair can name, computed with the
+differences; the interval's half-width where the JSON has none), and, where an
+estimate lies below it, that the pair cannot resolve less.
 
 Given LOG's path, where both logs sit beside an euc_core ``meta.csv`` (rider weight,
 tyre pressure, temperature, wind), the recorded values are said beside the
@@ -153,13 +155,27 @@ def _aliases(d: Mapping) -> str:
             else "told apart from the other physics on these two rides")
 
 
+def _resolvable(d: Mapping) -> float:
+    """The smallest difference the pair can name: the JSON's ``resolvable``, else the interval's half-width."""
+    r = d.get("resolvable")
+    return float(r) if r is not None else 0.5 * (d["ci95"][1] - d["ci95"][0])
+
+
+def _listed(ds: list) -> str:
+    """"mass ±23 kg, rolling resistance ±1.1 % of the weight" (:func:`_resolvable`, the page's order)."""
+    return ", ".join(f"{SHOWN[d['name']].label} ±{_size(SHOWN[d['name']], _resolvable(d))}"
+                     for d in sorted(ds, key=lambda d: list(SHOWN).index(d["name"])))
+
+
 def difference_lines(rep: Mapping, log_path=None) -> list[str]:
     """The block's Markdown lines (no heading); empty without ``differences``.
 
     The first line is the rider's sentence (each named difference's size and hint),
     then one line per named difference (its 95 % interval, what it cannot be told
     from, the metadata recorded, :func:`recorded_metadata` of LOG at ``log_path``),
-    then what the pair could have seen of the rest.
+    then what the pair could have seen of the rest (each entry's ``resolvable``,
+    the smallest difference the pair can name, else its interval's half-width),
+    and which of the rest the pair cannot resolve (an estimate below ``resolvable``).
     """
     diffs = [d for d in rep.get("differences") or [] if d.get("name") in SHOWN]
     if not diffs:
@@ -182,13 +198,22 @@ def difference_lines(rep: Mapping, log_path=None) -> list[str]:
                        f"{_aliases(d)}" + (f"; {meta[d['name']]}" if d["name"] in meta else "") + ".")
     else:
         out = [f"**Nothing differs between {this} and {other} that this pair of rides can show.**"]
-    if rest:
-        seen = ", ".join(f"{SHOWN[d['name']].label} ±{_size(SHOWN[d['name']], 0.5 * (d['ci95'][1] - d['ci95'][0]))}"
-                         for d in sorted(rest, key=lambda d: list(SHOWN).index(d["name"])))
+    below = [d for d in rest if d.get("resolvable") is not None and abs(d["estimate"]) < d["resolvable"]]
+    seen = _listed([d for d in rest if d not in below])
+    if seen:
         if named:
             out.append(f"- Nothing else named; the smallest differences this pair could have seen: {seen}.")
         else:
             out[0] += f" The smallest differences it could have seen: {seen}."
+    if below:
+        said_below = (f"This pair cannot resolve differences smaller than {_listed(below)}: "
+                      + ("its estimate lies below that, so whether the rides differ by it" if len(below) == 1
+                         else "their estimates lie below that, so whether the rides differ by them")
+                      + " cannot be said.")
+        if named:
+            out.append(f"- {said_below}")
+        else:
+            out[0] += f" {said_below}"
     said = list(dict.fromkeys(meta[d["name"]] for d in diffs if d["name"] in meta))
     if said and not named:
         out += ["", "For comparison, the logs' metadata record "
