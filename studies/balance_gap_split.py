@@ -113,15 +113,19 @@ def main(argv=None) -> int:
             print(f"{what}: {p} is not a file", file=sys.stderr)
             return 2
     warnings.simplefilter("ignore")
-    spec = read_spec(a.spec) if a.spec else None
-    log = as_ride(a.log).log
+    try:
+        spec = read_spec(a.spec) if a.spec else None
+        log = as_ride(a.log).log
+        others = [None] if not a.compare else [as_ride(c).log for c in a.compare]
+    except (ValueError, OSError) as exc:          # a file that is no ride log or spec
+        print(str(exc).splitlines()[0], file=sys.stderr)
+        return 2
     mass = ride_drivetrain(log, None, spec, 10, a.seed)[0]["total_mass"]
     assumptions = with_found_values(RideAssumptions(), spec, mass)
     print(f"{Path(a.log).name}: total mass {assumptions.total_mass:.1f} kg (energy balance)")
     print("1. the comparison as `euc-sim ride` fits it")
-    for other in a.compare or [None]:
-        cmp_ = None if other is None else as_ride(other).log
-        print(f"  {'halves' if other is None else '-> ' + other}")
+    for name, cmp_ in zip(a.compare or ["halves"], others):
+        print(f"  {name if cmp_ is None else '-> ' + name}")
         for b in BRIDGES:
             print("    " + halves_line(log, cmp_, assumptions, b), flush=True)
     d = designs(log, assumptions)
