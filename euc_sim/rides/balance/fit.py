@@ -107,8 +107,10 @@ def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray |
         r = design.residual({}, P)
         return SimpleNamespace(x=np.empty(0), fun=r, jac=np.empty((r.size, 0)))
     lo, hi = _bounds(names)
+    # start inside the box: from a bound, trf's scaling can take steps too small to leave it
+    inset = np.where(np.isfinite(hi - lo), 1e-3 * (hi - lo), 1e-9)
     res = least_squares(lambda th: design.residual(dict(zip(names, th)), P),
-                        np.clip(x0, lo + 1e-9, hi - 1e-9),
+                        np.clip(x0, lo + inset, hi - inset),
                         jac=lambda th: design.jacobian_many(names, th[:, None])[:, :, 0],
                         bounds=(lo, hi), x_scale=_scale(names), method="trf")
     res.x = _snap_to_bounds(res.x, lo, hi, _scale(names))
