@@ -228,12 +228,11 @@ def test_real_rides_cross_prediction(tmp_path, fit, test):
     for name in ("rolling_resistance", "aerodynamic_drag"):
         lo, hi = rep["all_estimates"][name]["ci95"]
         assert lo <= rep["all_estimates"][name]["estimate"] <= hi
-    # blocked held-out selection on one ride names a copper loss, a plausible rolling
-    # resistance (with any loss proportional to speed) and a lag of the logged current, which
-    # predict the other better; the fit with every candidate does not beat them by 5 %
-    # (docs/ride_model.md)
-    assert {e["name"] for e in rep["effects"]} == {"copper_loss", "rolling_resistance",
-                                                   "current_lag"}
+    # blocked held-out selection on one ride names a plausible rolling resistance (with any
+    # loss proportional to speed) and a lag of the logged current (16 May adds drag, 28 May a
+    # copper loss), which predict the other better; the fit with every candidate does not
+    # beat them by 5 % (docs/ride_model.md)
+    assert {"rolling_resistance", "current_lag"} <= {e["name"] for e in rep["effects"]}
     assert all(e["plausible"] for e in rep["effects"])
     assert rep["ratio"] < 0.82
     assert rep["heldout_error_augmented"] <= 1.05 * rep["heldout_error_all_candidates"]
