@@ -113,7 +113,7 @@ def _accepted_model(design: Design, selected) -> list[str]:
     """The kept terms that stay plausible and off their bounds when fitted without the others.
 
     Terms that end on a bound are dropped and the rest refitted, until every term left is
-    admissible: the augmented fit (its efficiencies, its held-out error, what is simulated)
+    admissible: the augmented fit (its losses, its held-out error, what is simulated)
     is then the model of the accepted physics alone.
     """
     kept = list(selected)
