@@ -105,7 +105,7 @@ def masses() -> None:
             nom = heldout(f, t, NOMINAL)
             print(f"  mass {m:5.1f} kg {a[5:10]}: inertia-only {nom:6.1f} W, every candidate "
                   f"{full.rmse_on(t):6.1f} W (ratio {full.rmse_on(t) / nom:.3f}), "
-                  f"η_m {full.estimate['eta_motor']:.2f}")
+                  f"C_rr {full.estimate['rolling_resistance']:.3f}")
 
 
 def _route(name: str, mass: float):

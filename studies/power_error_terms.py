@@ -82,8 +82,8 @@ def main(argv=None) -> int:
     acc = {e["name"] for e in rep["effects"]}
     g, m_eq, mt = 9.81, A["m_eq"], A["total_mass"]
 
-    def conv(Pm):
-        return pw.get("drivetrain_idle_loss", 0.0) + np.where(Pm > 0, Pm / pw["eta_motor"], pw["eta_regen"] * Pm)
+    def conv(Pm):   # the energy balance: P₀ + P_mech (the copper loss needs the force: left out)
+        return pw.get("drivetrain_idle_loss", 0.0) + Pm
 
     def res(v):
         return ((est.get("rolling_resistance", 0.0) if "rolling_resistance" in acc else 0.0) * mt * g * np.sign(v)

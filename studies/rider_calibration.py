@@ -99,7 +99,7 @@ def real(wheel: str, seed: int, windows: int, length: float, rider: list | None 
     eff, _ = effects_to_inject(cr.augmented.estimate, cr.accepted)
     params = ride_params(an.sig_fit.assumptions)
     est = cr.augmented.estimate
-    dtv = {k: float(est.get(k, 0.0)) for k in ("eta_motor", "eta_regen", "drivetrain_idle_loss")}
+    dtv = {k: float(est.get(k, 0.0)) for k in ("copper_loss", "drivetrain_idle_loss")}
     t0 = time.time()
     out = {"wheel": wheel, "fit": str(fit_rel), "held_out": str(test_rel), "runs": {},
            "track_iterations": track_iterations, "dt": dt}

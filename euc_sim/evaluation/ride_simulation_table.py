@@ -261,7 +261,7 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
         "`calibrated_rider` (the rider's delay, bandwidth and motor noise fitted on FIT, its plan the "
         "logged speed smoothed; only on the rows marked 'calibrated rider', run with `--calibrate-rider`: "
         "`–` elsewhere), `drivetrain` (voltage-limited motor, "
-        "accepted effects as physics, the augmented efficiencies). In every step the rider first rides "
+        "accepted effects as physics, the augmented fit's accepted losses added to the battery power). In every step the rider first rides "
         "the profile within his acceleration envelope, band-limited to half the right-half-plane zero "
         "of his speed response (`envelope.plan_band_limit`), then once more on the plan learned from that "
         "run through his inverted closed loop (`euc_sim/rides/sim/plan_learning.py`, aiming at the "

@@ -157,8 +157,7 @@ def bench_ride_page(fit=None, held=None, spec_path=None, workers: int = 2) -> di
         cpu_page = time.process_time() - cpu0
     ride = read_ride(held)
     sig = ride_signals(ride.log)
-    steps = build_steps(StepInputs(ride_params(sig.assumptions), {"eta_motor": 0.8, "eta_regen": 0.6},
-                                   {"eta_motor": 0.8, "eta_regen": 0.6}, ()), (nominal_step,))
+    steps = build_steps(StepInputs(ride_params(sig.assumptions), {}, {}, ()), (nominal_step,))
     cpu0 = time.process_time()
     t_sim = timed(lambda: simulate_ride(sig, steps, ride.log, label=ride.name, workers=1), repeat=1)
     cpu_sim = time.process_time() - cpu0

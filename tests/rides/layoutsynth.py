@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ridesynth import MG, OLD_HEADER, TRUTH, A, _speed, ar1_noise
+from ridesynth import OLD_HEADER, _speed, ar1_noise, battery_power
 
 LAYOUTS = ("eucworld", "wheellog_old", "wheellog_new", "darknessbot")
 
@@ -35,9 +35,7 @@ def ride_rows(seed: int, duration: float) -> pd.DataFrame:
     tf = np.arange(0.0, duration, 0.01)
     v = _speed(tf, rng, backwards=False)
     a = np.gradient(v, tf)
-    D = (A.m_eq * a * v + TRUTH["rolling_resistance"] * MG * np.abs(v)
-         + TRUTH["aerodynamic_drag"] * np.abs(v) ** 3)
-    P = TRUTH["drivetrain_idle_loss"] + np.where(D > 0, D / TRUTH["eta_motor"], D * TRUTH["eta_regen"])
+    P = battery_power(v, a)
     P = P + ar1_noise(rng, tf.size, 30.0, math.exp(-0.01 / 0.3))
     ts = np.cumsum(rng.uniform(0.08, 0.12, int(duration / 0.08)))
     ts = ts[ts < duration - 0.5]

@@ -1,7 +1,7 @@
 """Synthetic WheelLog ride logs with known physics, shared by the ride tests.
 
 :func:`synth_log` writes an old-layout WheelLog CSV whose battery power follows
-:mod:`euc_sim.rides.balance.design`'s drivetrain model with known C_rr, k, η and P₀ (``TRUTH``),
+:mod:`euc_sim.rides.balance.design`'s energy balance with known C_rr, k, k_cu and P₀ (``TRUTH``),
 plus correlated noise, irregular rows, repeated time stamps and one gap.
 """
 
@@ -21,8 +21,16 @@ OLD_HEADER = ("date,time,speed,voltage,current,power,battery_level,distance,tota
 A = RideAssumptions()
 MG = A.total_mass * A.g
 
-TRUTH = {"eta_motor": 0.80, "eta_regen": 0.70, "rolling_resistance": 0.015,
+TRUTH = {"copper_loss": 0.01, "rolling_resistance": 0.015,
          "aerodynamic_drag": 0.35, "drivetrain_idle_loss": 20.0}
+
+
+def battery_power(v: np.ndarray, a: np.ndarray, truth=TRUTH, slope: float = 0.0) -> np.ndarray:
+    """The energy balance's battery power, W: P₀ + D + k_cu·(m_eq·a)² in both regimes,
+    D = m_eq·a·v + C_rr·m·g·|v| + k·|v|³ + m·g·slope·v."""
+    D = (A.m_eq * a * v + truth["rolling_resistance"] * MG * np.abs(v)
+         + truth["aerodynamic_drag"] * np.abs(v) ** 3 + MG * slope * v)
+    return truth["drivetrain_idle_loss"] + D + truth.get("copper_loss", 0.0) * (A.m_eq * a) ** 2
 
 
 
@@ -53,8 +61,7 @@ def synth_log(path: Path, seed: int, duration: float = 300.0, truth=TRUTH, slope
               repeats: int = 5) -> Path:
     """Write a WheelLog (old layout) CSV of a ride with known physics.
 
-    Battery power P = P₀ + D/η_m (D > 0) or P₀ + η_r·D, D = m_eq·a·v + C_rr·m·g·|v|
-    + k·|v|³ + m·g·slope·v, plus AR(1) noise of std ``noise_w`` W and 0.3 s
+    Battery power :func:`battery_power` (P₀ + D + k_cu·(m_eq·a)²), plus AR(1) noise of std ``noise_w`` W and 0.3 s
     correlation; rows at irregular 0.1-0.3 s intervals, ``repeats`` repeated
     time stamps, one 2 s gap; speed rounded to 0.01 km/h like the app.
     """
@@ -62,10 +69,7 @@ def synth_log(path: Path, seed: int, duration: float = 300.0, truth=TRUTH, slope
     tf = np.arange(0.0, duration, 0.01)
     v = _speed(tf, rng, backwards)
     a = np.gradient(v, tf)
-    D = (A.m_eq * a * v + truth["rolling_resistance"] * MG * np.abs(v)
-         + truth["aerodynamic_drag"] * np.abs(v) ** 3 + MG * slope * v)
-    P = truth["drivetrain_idle_loss"] + np.where(D > 0, D / truth["eta_motor"],
-                                                 D * truth["eta_regen"])
+    P = battery_power(v, a, truth, slope)
     rho = math.exp(-0.01 / 0.3)
     P = P + ar1_noise(rng, tf.size, noise_w, rho)
     ts = np.cumsum(rng.uniform(0.1, 0.3, int(duration / 0.1)))

@@ -245,8 +245,9 @@ def test_windows_are_cut_at_gaps():
 
 
 def test_battery_power_regimes():
-    P = battery_power([10.0, -10.0], [2.0, 2.0], [0.0, 0.0], 0.2, 0.8, 0.5, idle=5.0)
-    assert P == pytest.approx([5.0 + 100.0 / 0.8, 5.0 - 50.0])
+    """Losses added in both regimes (the energy balance), no efficiency."""
+    P = battery_power([10.0, -10.0], [2.0, 2.0], [0.0, 0.0], 0.2, copper=0.01, idle=5.0)
+    assert P == pytest.approx([5.0 + 100.0 + 0.01 * 50.0 ** 2, 5.0 - 100.0 + 0.01 * 50.0 ** 2])
 
 
 def test_to_grid_is_the_interval_mean():
@@ -267,18 +268,19 @@ def test_effects_to_inject():
 @pytest.mark.skipif(not SHARED.is_dir(), reason=f"{SHARED} absent (user's clone)")
 def test_real_rides_done_criterion(tmp_path, capsys):
     """On the two five-minute real rides the blocked held-out selection names a plausible
-    rolling resistance and the current's lag, the verdict names them, and the page's drivetrain and Estimates agree
+    rolling resistance, drag and the current's lag, the verdict names them, and the page's drivetrain and Estimates agree
     (one parameter set: docs/ride_model.md); the figures and windows are written."""
     code, out, err = run(["ride", RIDE_A, "--compare", RIDE_B, "--json", tmp_path / "o.json",
                           "--report", tmp_path / "rep", "--n-boot", "50", "--no-simulate"],
                          capsys)
     assert code == 0, err
     rep = json.loads((tmp_path / "o.json").read_text())
-    assert [e["name"] for e in rep["effects"]] == ["rolling_resistance", "current_lag"]
-    assert rep["verdict"]["named"] == ["rolling_resistance", "current_lag"]
+    named = {"rolling_resistance", "aerodynamic_drag", "current_lag"}
+    assert {e["name"] for e in rep["effects"]} == named
+    assert set(rep["verdict"]["named"]) == named
     assert rep["heldout_error_augmented"] < rep["heldout_error_nominal"]
     by = {p["name"]: p for p in rep["parameters"]}
-    assert by["rolling_resistance"]["accepted"] and not by["aerodynamic_drag"]["accepted"]
+    assert by["rolling_resistance"]["accepted"] and not by["copper_loss"]["accepted"]
     assert rep["drivetrain"]["C_rr"]["estimate"] == by["rolling_resistance"]["estimate"]
     page = (tmp_path / "rep" / "index.md").read_text()
     assert "| C_rr |" not in page                  # said once, in the Estimates table

@@ -18,7 +18,7 @@ def _ride(measured_ran: bool) -> dict:
                 step("nominal", True, law), step("measured_law", measured_ran, measured),
                 step("calibrated_rider", False, measured if measured_ran else law),
                 step("drivetrain", True, {**law, "voltage": 150.0},
-                     effects_injected={"rolling_resistance": 0.02}, power_model={"eta_motor": 0.9, "eta_regen": 0.7,
+                     effects_injected={"rolling_resistance": 0.02}, power_model={"copper_loss": 0.004,
                                                                                   "drivetrain_idle_loss": 30.0})]}}
 
 

@@ -87,8 +87,8 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
     RideAnalysis
         ``.report`` is the dict
         ``{"effects": [...], "heldout_error_nominal", "heldout_error_augmented",
-        "error_unit"}`` plus ``ratio``, ``nominal_parameters`` (the efficiencies
-        of the augmented fit, with plausibility flags), ``all_estimates`` (every
+        "error_unit"}`` plus ``ratio``, ``nominal_parameters`` (the inertia-only
+        model's terms in the augmented fit: none since the balance fits no efficiency), ``all_estimates`` (every
         candidate of the full fit, flagged), ``aliases``, ``torque_method``,
         ``power_source``, ``assumptions``, ``filter``, ``bootstrap``, ``notes``,
         ``figure`` (file name inside ``report_dir``); ``recording`` and
@@ -218,8 +218,9 @@ def _notes(sig_fit: RideSignals, sig_test: RideSignals | None, d_fit: Design,
     notes = list(sig_fit.notes) + list(d_fit.notes)
     notes.append(f"masses of the balance fit: m_eq = {assumptions.m_eq:.4g} kg, total "
                  f"{assumptions.total_mass:.4g} kg ({assumptions.source_of('total_mass')}): the "
-                 f"efficiency balance fixes only m_eq/η_m, so η_m, η_r, k and P₀ scale with this "
-                 f"mass; C_rr (a force per weight) does not")
+                 f"balance takes the inertial power m_eq·a·v as given (no efficiency to scale it), "
+                 f"so every estimate depends on this mass through the inertia it leaves in the "
+                 f"residual")
     if sig_test is not None:
         notes += [f"{test_label}: {n}" for n in sig_test.notes]
     return notes

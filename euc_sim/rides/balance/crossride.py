@@ -80,8 +80,8 @@ def _all_admissible(estimate: dict, idle_cap: float | None = None) -> bool:
 def select_effects(design: Design, candidates) -> tuple[list[str], list[dict], list[str]]:
     """The terms blocked held-out validation keeps, the history, and the terms held out of it.
 
-    Forward selection (:func:`euc_sim.stats.forward_select`) from the nominal
-    pair: each step adds the candidate that lowers :func:`heldout_score` most,
+    Forward selection (:func:`euc_sim.stats.forward_select`) from the
+    inertia-only model: each step adds the candidate that lowers :func:`heldout_score` most,
     if by more than :data:`MIN_GAIN`, among the models whose terms are all
     admissible (plausible and off their bounds when fitted on the whole design):
     a term the data pushes onto its bound is not kept, and the selection goes
@@ -93,7 +93,7 @@ def select_effects(design: Design, candidates) -> tuple[list[str], list[dict], l
     kept : list of str
         In the order kept.
     history : list of dict
-        ``{"term", "heldout_rmse"}`` after each step, the nominal pair first.
+        ``{"term", "heldout_rmse"}`` after each step, the inertia-only model first.
     blocked : list of str
         Candidates left that would lower the held-out error of the kept model by
         more than :data:`MIN_GAIN`, but only on a bound or outside their
@@ -102,6 +102,7 @@ def select_effects(design: Design, candidates) -> tuple[list[str], list[dict], l
     others = [c for c in candidates if c not in NOMINAL]
     names, history = forward_select(lambda n: heldout_score(design, n, admissible_only=True),
                                     list(NOMINAL), others, MIN_GAIN, max_step=2)
+    history[0] = {**history[0], "term": history[0]["term"] or "inertia only"}
     cur = history[-1]["heldout_rmse"]
     blocked = [c for c in others if c not in names
                and heldout_score(design, names + [c]) < cur * (1.0 - MIN_GAIN)]
@@ -112,7 +113,7 @@ def _accepted_model(design: Design, selected) -> list[str]:
     """The kept terms that stay plausible and off their bounds when fitted without the others.
 
     Terms that end on a bound are dropped and the rest refitted, until every term left is
-    admissible: the augmented fit (its efficiencies, its held-out error, what is simulated)
+    admissible: the augmented fit (its losses, its held-out error, what is simulated)
     is then the model of the accepted physics alone.
     """
     kept = list(selected)
@@ -144,7 +145,7 @@ class CrossRide:
     Attributes
     ----------
     nominal, full, augmented : BalanceFit
-        Fits on the fit ride: inertia only (η_m, η_r); every candidate the ride
+        Fits on the fit ride: inertia only (nothing fitted); every candidate the ride
         supports; nominal plus the accepted effects alone (:func:`_accepted_model`).
     accepted : tuple of str
         Effects kept by blocked held-out validation on the fit ride
@@ -155,7 +156,7 @@ class CrossRide:
         the held-out error only on a bound or outside their plausible range
         (:func:`select_effects`'s ``blocked``).
     selection : list of dict
-        ``{"term", "heldout_rmse"}`` after each kept step, the nominal pair first.
+        ``{"term", "heldout_rmse"}`` after each kept step, the inertia-only model first.
     heldout_nominal, heldout_augmented, heldout_full : float
         RMS residual on the test ride, W or N·m.
     """
@@ -277,12 +278,10 @@ def cross_ride_figure(cr: CrossRide, sig_fit: RideSignals | None = None,
     fig = Figure(figsize=(13, 10), layout="constrained")
     ax = fig.subplots(3, 1)
     _speed_panel(ax[0], cr, sig_fit, sig_test)
-    nom = cr.nominal.estimate
     aug = cr.augmented.estimate
     tt, P_b, pn_b, pa_b = break_at_gaps(td.t, td.P, pn, pa)
     ax[1].plot(tt, P_b, color="k", lw=0.9, label="measured battery power V·I")
-    ax[1].plot(tt, pn_b, lw=0.8, label=f"inertia only\n(η_m={nom['eta_motor']:.2f}, "
-                                       f"η_r={nom['eta_regen']:.2f})")
+    ax[1].plot(tt, pn_b, lw=0.8, label="inertia only\n(no resistance, no loss)")
     sym = lambda c: CANDIDATES[c][0] + ("+sin α" if c == "rolling_resistance"  # noqa: E731
                                         and cr.fit_design.aliases.get(c) else "")
     lab = ", ".join(f"{sym(c)}={aug[c]:.3g}" for c in cr.accepted) or "nothing accepted"

@@ -5,27 +5,28 @@ rider's and motor's internal torques cancel)::
 
     m_eq·a·R = M_wheel − R·(C_rr·N·sign v + k·v|v| + m·g·sin α)
 
-Torque is only known through battery power with an unknown efficiency, so the
-balance is used in the power domain (multiply by ω = v/R).  The mechanical power
-the ride demands is::
+The balance is used in the power domain (multiply by ω = v/R) in its
+energy-balance form: the battery supplies the mechanical power the ride
+demands plus the electrical losses, in both regimes (no efficiency)::
 
     D = m_eq·a·v + C_rr·m·g·|v| + k·|v|³ + m·g·sin α·v
+    P = P₀ + D + k_cu·F²,   F = m_eq·a
 
-and the battery supplies P = P₀ + D/η_m while motoring (D > 0) and returns
-P = P₀ + η_r·D while regenerating (D ≤ 0); P₀ is a constant drain (controller,
-lights), W.  A loss proportional to |P| is the same thing as lower efficiencies
-and is absorbed by η_m, η_r.  The inertial power is computed as
-m_eq·d/dt(v²/2) from the same Savitzky–Golay fit that smooths P and every other
-regressor, so filtering commutes with the (linear) part of the equation.
+P₀ is a constant drain (controller, lights), W; k_cu·F² the copper loss of the
+force the motor adds to accelerate or brake (winding resistance × (R/k_t)²,
+W/N²).  A loss proportional to speed (iron, bearings) gives the column |v|
+of rolling resistance, and one growing with |v|³ that of drag: in battery
+power they cannot be told apart, so ``rolling_resistance`` and
+``aerodynamic_drag`` hold them too (docs/ride_model.md).  The inertial power
+is computed as m_eq·d/dt(v²/2) from the same Savitzky–Golay fit that smooths
+P and every other regressor, so filtering commutes with the equation.
 
 Why battery power is the target (output error) and not a regressor: the motor
 torque also drives the rider's lean changes (m·h·φ̈ in eq. 5, unmeasured here),
-which look like noise in P; with P as a regressor (equation error m_eq·a·v =
-η·P − …) that noise attenuates every coefficient (on the real rides the
-efficiency came out ≈ 0.2–0.45).  Putting P on the left keeps the noise in the
-target, where least squares tolerates it.  The model is linear in the
-resistances but not in (η_m, η_r), so it is fitted with scipy's
-``least_squares``.
+which look like noise in P; with P as a regressor that noise attenuates every
+coefficient.  Putting P on the left keeps the noise in the target, where least
+squares tolerates it.  The model is linear in every parameter but the current
+lag, so it is fitted with scipy's bounded ``least_squares``.
 
 The candidate parameters (:data:`CANDIDATES`), their plausible ranges
 (:data:`PLAUSIBLE`) and the regressors of a ride (:func:`balance_design`) live
@@ -51,13 +52,13 @@ __all__ = ["RHO_AIR", "CANDIDATES", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDO
 
 #: Candidate parameters: name -> (symbol, unit, meaning, regressor column or None, column unit).
 CANDIDATES: dict[str, tuple[str, str, str, str | None, str | None]] = {
-    "eta_motor": ("η_m", "1", "drivetrain efficiency while motoring (battery to wheel)",
-                  None, None),
-    "eta_regen": ("η_r", "1", "drivetrain efficiency while regenerating (wheel to battery)",
-                  None, None),
-    "rolling_resistance": ("C_rr", "1", "rolling-resistance coefficient, force C_rr·N·sign v",
+    "rolling_resistance": ("C_rr", "1", "rolling-resistance coefficient, force C_rr·N·sign v "
+                           "(in battery power also any loss proportional to speed)",
                            "rolling", "W"),
-    "aerodynamic_drag": ("k", "kg/m", "drag factor ½ρC_dA, force k·v|v|", "drag", "m³/s³"),
+    "aerodynamic_drag": ("k", "kg/m", "drag factor ½ρC_dA, force k·v|v| "
+                         "(in battery power also any loss growing with |v|³)", "drag", "m³/s³"),
+    "copper_loss": ("k_cu", "W/N²", "copper loss k_cu·F² of the motor's accelerating or braking "
+                    "force F = m_eq·a (winding resistance × (R/k_t)²)", "copper", "N²"),
     "road_slope": ("sin α", "1", "constant road grade, force m·g·sin α", "slope", "W"),
     "road_slope_gps": ("gain", "1", "gain on m·g·dh/dt from GPS altitude (1 if GPS is right)",
                        "gps_climb", "W"),
@@ -66,16 +67,15 @@ CANDIDATES: dict[str, tuple[str, str, str, str | None, str | None]] = {
     "current_lag": ("τ_I", "s", "lag of the logged battery current behind the power drawn "
                     "(first-order lag, to second order: logged P ≈ P − τ_I·Ṗ + τ_I²·P̈)", None, None),
 }
-#: The inertia-only model: the paper's balance with no resistance, plus the two
-#: efficiencies without which battery power cannot be compared at all.
-NOMINAL = ("eta_motor", "eta_regen")
+#: The inertia-only model: the paper's balance with no resistance and no loss,
+#: P̂ = L₂[m_eq·a·v], nothing fitted (every term is a candidate).
+NOMINAL: tuple[str, ...] = ()
 
 #: Plausible ranges of the physical estimates, with units.
 PLAUSIBLE: dict[str, tuple[float, float, str]] = {
     "rolling_resistance": (0.005, 0.05, "1"),
     "aerodynamic_drag": (0.5 * RHO_AIR * 0.3, 0.5 * RHO_AIR * 1.0, "kg/m"),   # C_dA 0.3-1.0 m²
-    "eta_motor": (0.5, 0.95, "1"),
-    "eta_regen": (0.5, 0.95, "1"),
+    "copper_loss": (0.0, 0.035, "W/N²"),       # 1.5·R_ph·(R/k_t)², docs/ride_model.md
     "road_slope": (-0.15, 0.15, "1"),
     "road_slope_gps": (0.5, 1.5, "1"),
     "drivetrain_idle_loss": (0.0, 100.0, "W"),
@@ -83,12 +83,11 @@ PLAUSIBLE: dict[str, tuple[float, float, str]] = {
 }
 
 #: Bounds of the fit: a resistance or loss runs from 0 (absent) to the top of its
-#: plausible range, an efficiency within (0, 1], a grade or GPS gain over its
+#: plausible range, a grade or GPS gain over its
 #: plausible range.  An estimate that ends on a bound other than "absent" is where
 #: the data asks for an implausible value: it is never accepted (:func:`on_bound`).
 BOUNDS: dict[str, tuple[float, float]] = {
-    "eta_motor": (0.05, 1.0),
-    "eta_regen": (0.01, 1.0),
+    "copper_loss": (0.0, PLAUSIBLE["copper_loss"][1]),
     "rolling_resistance": (0.0, PLAUSIBLE["rolling_resistance"][1]),
     "aerodynamic_drag": (0.0, PLAUSIBLE["aerodynamic_drag"][1]),
     "road_slope": PLAUSIBLE["road_slope"][:2],
@@ -115,9 +114,8 @@ class Design:
 
     Model (power domain, W)::
 
-        D = inertia + C_rr·rolling + k·drag + sin α·slope + gain·gps_climb
-        g(D) = D/η_m   where D > 0 (motoring),   D·η_r   where D ≤ 0 (regenerating)
-        P̂ = P₀ + (L₂ − τ_I·L₂' + τ_I²·L₂'')[g(D)]
+        D = inertia + C_rr·rolling + k·drag + sin α·slope + gain·gps_climb + k_cu·copper
+        P̂ = P₀ + (L₂ − τ_I·L₂' + τ_I²·L₂'')[D]
 
     τ_I (``current_lag``) is a first-order lag of the logged battery current
     behind the power drawn (the wheel's current report averages or lags):
@@ -128,13 +126,10 @@ class Design:
     for τ_I up to its bound, 0.3 s (docs/ride_model.md).
 
     Filtering.  Every regressor is first passed through a short Savitzky–Golay
-    fit L₁ (``inertia`` through its derivative); the regime switch g acts on
-    those; then one longer Savitzky–Golay fit L₂ smooths the prediction.  The
-    measured battery power gets exactly L₂∘L₁.  Within a regime the model is
-    linear, so both sides then carry the same linear filter L₂∘L₁; only where D
-    changes sign does the (short) L₁ smear the switch.  (Applying the long
-    filter before the switch biases η_m low and η_r high by a few per cent,
-    since smoothing a convex kink raises it: Jensen.)
+    fit L₁ (``inertia`` through its derivative; ``copper`` is the square of
+    the L₁ acceleration); then one longer Savitzky–Golay fit L₂ smooths the
+    prediction.  The measured battery power gets exactly L₂∘L₁, so both sides
+    carry the same linear filter (the square in ``copper`` is taken after L₁).
 
     Attributes
     ----------
@@ -225,13 +220,13 @@ class Design:
         return Operator(K=K, Kd=Kd, Kdd=Kdd, columns={c: X[c].to_numpy() for c in X.columns})
 
     def demand(self, names: Sequence[str], Theta: np.ndarray) -> np.ndarray:
-        """Demanded mechanical power D of B parameter sets on the operator's support, W.
+        """Demanded mechanical power plus the losses in it, D + k_cu·F², of B parameter sets, W.
 
-        ``Theta`` holds one row per name (shape len(names) × B); resistances not
-        named are 0.  Returns support × B.
+        ``Theta`` holds one row per name (shape len(names) × B); resistances and
+        losses not named are 0.  Returns support × B.
         """
         op = self.operator
-        Theta = np.asarray(Theta, float)
+        Theta = _as_sets(Theta)
         D = np.repeat(op.columns["inertia"][:, None], Theta.shape[1], axis=1)
         for j, name in enumerate(names):
             col = CANDIDATES[name][3] if name in CANDIDATES else None
@@ -245,15 +240,14 @@ class Design:
 
         ``D`` is :meth:`demand` when already computed.
         """
-        Theta = np.asarray(Theta, float)
+        names = list(names)
+        Theta = _as_sets(Theta)
         D = self.demand(names, Theta) if D is None else D
-        eta_m, eta_r = Theta[names.index("eta_motor")], Theta[names.index("eta_regen")]
-        g = np.where(D > 0, D / eta_m, D * eta_r)
-        P_hat = np.asarray(self.operator.K @ g)
+        op = self.operator
+        P_hat = np.asarray(op.K @ D)
         if "current_lag" in names:
             tau = Theta[names.index("current_lag")]
-            op = self.operator
-            P_hat += -tau * np.asarray(op.Kd @ g) + tau ** 2 * np.asarray(op.Kdd @ g)
+            P_hat += -tau * np.asarray(op.Kd @ D) + tau ** 2 * np.asarray(op.Kdd @ D)
         if "drivetrain_idle_loss" in names:
             P_hat += Theta[names.index("drivetrain_idle_loss")]
         return P_hat
@@ -272,26 +266,19 @@ class Design:
                       D: np.ndarray | None = None) -> np.ndarray:
         """∂ residual / ∂ parameter of B parameter sets, rows × len(names) × B (analytic).
 
-        With D the demanded power and s = 1/η_m where D > 0, η_r elsewhere:
-        ∂P̂/∂θ_j = L₂[s·column_j], ∂P̂/∂η_m = L₂[−D⁺/η_m²], ∂P̂/∂η_r = L₂[D⁻],
-        ∂P̂/∂P₀ = 1; with τ_I, L₂ becomes L₂ − τ_I·L₂' + τ_I²·L₂'' and
-        ∂P̂/∂τ_I = (−L₂' + 2τ_I·L₂'')[g(D)];
+        ∂P̂/∂θ_j = L₂[column_j], ∂P̂/∂P₀ = 1; with τ_I, L₂ becomes
+        L₂ − τ_I·L₂' + τ_I²·L₂'' and ∂P̂/∂τ_I = (−L₂' + 2τ_I·L₂'')[D];
         the residual's derivative is −weight times these.
         """
         op = self.operator
-        Theta = np.asarray(Theta, float)
+        names = list(names)
+        Theta = _as_sets(Theta)
         D = self.demand(names, Theta) if D is None else D
-        eta_m, eta_r = Theta[names.index("eta_motor")], Theta[names.index("eta_regen")]
-        s = np.where(D > 0, 1.0 / eta_m, eta_r)
         G = np.zeros((D.shape[0], len(names), D.shape[1]))
         for j, name in enumerate(names):
             col = CANDIDATES[name][3]
-            if name == "eta_motor":
-                G[:, j] = -np.maximum(D, 0.0) / eta_m ** 2
-            elif name == "eta_regen":
-                G[:, j] = np.minimum(D, 0.0)
-            elif col is not None:
-                G[:, j] = s * op.columns[col][:, None]
+            if col is not None:
+                G[:, j] = op.columns[col][:, None]
         flat = G.reshape(D.shape[0], -1)
         J = np.asarray(op.K @ flat).reshape(-1, len(names), D.shape[1])
         if "current_lag" in names:
@@ -299,11 +286,16 @@ class Design:
             tau = Theta[j]
             J += (-tau * np.asarray(op.Kd @ flat).reshape(J.shape)
                   + tau ** 2 * np.asarray(op.Kdd @ flat).reshape(J.shape))
-            g = np.where(D > 0, D / eta_m, D * eta_r)
-            J[:, j] = -np.asarray(op.Kd @ g) + 2 * tau * np.asarray(op.Kdd @ g)
+            J[:, j] = -np.asarray(op.Kd @ D) + 2 * tau * np.asarray(op.Kdd @ D)
         if "drivetrain_idle_loss" in names:
             J[:, names.index("drivetrain_idle_loss")] = 1.0
         return -self.weight[:, None, None] * J
+
+
+def _as_sets(Theta) -> np.ndarray:
+    """Parameter sets as parameters × B (a 1-D array is one set; no parameter, one empty set)."""
+    Theta = np.asarray(Theta, float)
+    return Theta[:, None] if Theta.ndim == 1 else Theta
 
 
 @dataclass(frozen=True)
@@ -407,9 +399,10 @@ def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
         "inertia": A.m_eq * L1(0.5 * v_raw ** 2, 1),       # m_eq·a·v = m_eq·d/dt(v²/2)
         "rolling": mg * L1(np.abs(v_raw)),
         "drag": L1(np.abs(v_raw) ** 3),
+        "copper": (A.m_eq * L1(v_raw, 1)) ** 2,             # F² = (m_eq·a)², N²
     }
-    cands = ["eta_motor", "eta_regen", "rolling_resistance", "aerodynamic_drag",
-             "drivetrain_idle_loss", "current_lag"]
+    cands = ["rolling_resistance", "aerodynamic_drag", "copper_loss", "drivetrain_idle_loss",
+             "current_lag"]
     aliases: dict[str, tuple[str, ...]] = {}
     moving = np.abs(v_raw) > 0.3
     back = float((v_raw[moving] < -0.3).mean()) if moving.any() else 0.0

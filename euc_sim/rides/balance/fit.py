@@ -1,7 +1,7 @@
 """Least-squares fit of a ride's balance with wild block bootstrap intervals.
 
 :func:`fit_balance` fits a :class:`~euc_sim.rides.balance.design.Design` (scipy's
-``least_squares``: the model is linear in the resistances but not in η_m, η_r);
+bounded ``least_squares``: the model is linear in every term but the current lag);
 :func:`plausibility` turns a fit into physical estimates with units and flags.
 """
 
@@ -27,7 +27,7 @@ MIN_BLOCKS = 2
 FEW_BLOCKS = 5
 
 #: Start values of the least-squares fit (its bounds are :data:`BOUNDS`).
-_START = {"eta_motor": 0.8, "eta_regen": 0.8, "rolling_resistance": 0.0,
+_START = {"copper_loss": 0.0, "rolling_resistance": 0.0,
           "aerodynamic_drag": 0.0, "road_slope": 0.0, "road_slope_gps": 1.0,
           "drivetrain_idle_loss": 0.0, "current_lag": 0.0}
 
@@ -87,7 +87,8 @@ class BalanceFit:
 def _scale(names: Sequence[str]) -> np.ndarray:
     """Typical size of each parameter: ``least_squares``'s ``x_scale`` and the step test."""
     return np.array([{"drivetrain_idle_loss": 10.0, "aerodynamic_drag": 0.1,
-                      "rolling_resistance": 0.01, "road_slope": 0.01}.get(n, 0.1) for n in names])
+                      "rolling_resistance": 0.01, "road_slope": 0.01,
+                      "copper_loss": 0.005}.get(n, 0.1) for n in names])
 
 
 def _bounds(names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
@@ -98,11 +99,18 @@ def _bounds(names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
 
 def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray | None = None):
     """scipy's bounded ``least_squares`` (trf) with the design's analytic Jacobian."""
+    from types import SimpleNamespace
+
     from scipy.optimize import least_squares
 
+    if not len(names):                      # the inertia-only model: nothing to fit
+        r = design.residual({}, P)
+        return SimpleNamespace(x=np.empty(0), fun=r, jac=np.empty((r.size, 0)))
     lo, hi = _bounds(names)
+    # start inside the box: from a bound, trf's scaling can take steps too small to leave it
+    inset = np.where(np.isfinite(hi - lo), 1e-3 * (hi - lo), 1e-9)
     res = least_squares(lambda th: design.residual(dict(zip(names, th)), P),
-                        np.clip(x0, lo + 1e-9, hi - 1e-9),
+                        np.clip(x0, lo + inset, hi - inset),
                         jac=lambda th: design.jacobian_many(names, th[:, None])[:, :, 0],
                         bounds=(lo, hi), x_scale=_scale(names), method="trf")
     res.x = _snap_to_bounds(res.x, lo, hi, _scale(names))
@@ -168,6 +176,8 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
     refitted alone by :func:`_solve`, as every replicate once was.
     """
     n = len(e_P)
+    if not len(names):
+        return np.empty(0), np.empty(0), {}
     rng = np.random.default_rng(seed)
     targets = fitted_P[:, None] + e_P[:, None] * wild_block_signs(n, L, n_boot, rng)
     boots = np.empty((n_boot, len(names)))
@@ -317,8 +327,8 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
     ----------
     design : Design
     names : sequence of str, optional
-        Parameters to fit (default: all of ``design.candidates``); the two
-        efficiencies are always included.
+        Parameters to fit (default: all of ``design.candidates``); none: the
+        inertia-only model, nothing fitted.
     n_boot : int
         Bootstrap replicates (0: no intervals, NaN).
     block_s : float

@@ -1,7 +1,7 @@
 """The ride's one parameter set: every fitted physical quantity once, with its verdict.
 
 The ride JSON's ``parameters`` (CONTRACT, "Added in session 4") lists each
-quantity once: the balance fit's efficiencies and effects
+quantity once: the balance fit's resistances and losses
 (:mod:`euc_sim.rides.balance.crossride`, bounded fits, effects kept by blocked held-out
 validation), the total mass (:mod:`euc_sim.rides.drive.mass`), the battery and motor
 terms (:mod:`euc_sim.rides.drive.drivetrain`) and the balance law's terms
@@ -18,7 +18,6 @@ import math
 from typing import Mapping
 
 from euc_sim.rides.balance.crossride import CrossRide
-from euc_sim.rides.balance.design import NOMINAL
 from euc_sim.rides.balance.fit import plausibility
 from euc_sim.rides.grids.power import RHO_AIR
 
@@ -51,13 +50,7 @@ def _balance_entries(cr: CrossRide) -> list[dict]:
     for name in list(cr.augmented.names) + [n for n in cr.full.names if n not in cr.augmented.names]:
         e = aug.get(name) or full[name]
         kept = name in cr.accepted
-        if name in NOMINAL:
-            accepted = 0.0 < e["estimate"] <= 1.0
-            why = None if not e["on_bound"] else (
-                f"on its bound {e['estimate']:g}: this ride's balance would take more than "
-                f"100 % (the mass it is given may be high)" if e["estimate"] >= 0.5 else
-                f"on its bound {e['estimate']:g}: the ride shows almost no regeneration")
-        elif kept:
+        if kept:
             accepted, why = e["plausible"], None
         elif name in cr.selected:
             accepted = False
@@ -68,7 +61,7 @@ def _balance_entries(cr: CrossRide) -> list[dict]:
             why = (f"not kept: it lowers the blocked held-out error of {cr.fit_label} by less "
                    f"than the selection's threshold")
         entry = {"name": name, "estimate": e["estimate"], "ci95": e["ci95"], "unit": e["unit"],
-                 "plausible": bool(e["plausible"] or (name in NOMINAL and accepted)),
+                 "plausible": bool(e["plausible"]),
                  "accepted": bool(accepted), "why": why, "source": "balance",
                  "plausible_range": e["plausible_range"]}
         out.append(entry)
@@ -113,7 +106,7 @@ def parameter_list(cr: CrossRide, total_mass: Mapping, drivetrain: Mapping,
     Parameters
     ----------
     cr : CrossRide
-        The balance fit (efficiencies and effects).
+        The balance fit (its resistances and losses).
     total_mass, drivetrain, controller : mapping
         The ride JSON's objects (``drivetrain`` before :func:`drivetrain_view`).
 
@@ -121,7 +114,7 @@ def parameter_list(cr: CrossRide, total_mass: Mapping, drivetrain: Mapping,
     -------
     list of dict
         ``{"name", "estimate", "ci95", "unit", "plausible", "accepted", "why",
-        "source"}``; an accepted entry is plausible and an efficiency lies in (0, 1].
+        "source"}``; an accepted entry is plausible (the balance fits no efficiency).
     """
     return (_balance_entries(cr) + [_mass_entry(total_mass)] + _drivetrain_entries(drivetrain)
             + _controller_entries(controller))
@@ -133,7 +126,7 @@ def accepted_names(parameters) -> list[str]:
 
 
 def drivetrain_view(drivetrain: Mapping, parameters) -> dict:
-    """The ``drivetrain`` object with C_rr, C_dA and the no-load power from ``parameters``.
+    """The ``drivetrain`` object with C_rr, C_dA, the no-load power and copper loss from ``parameters``.
 
     The energy balance's coefficients (fitted for the mass, where they also hold
     losses with the same speed law) are dropped; each road and loss term is the
@@ -143,7 +136,8 @@ def drivetrain_view(drivetrain: Mapping, parameters) -> dict:
     out = {k: dict(v) for k, v in drivetrain.items() if k not in MASS_NUISANCE}
     for key, name, f, unit in (("C_rr", "rolling_resistance", 1.0, "dimensionless"),
                                ("C_dA", "aerodynamic_drag", 2.0 / RHO_AIR, "m^2"),
-                               ("no_load_power", "drivetrain_idle_loss", 1.0, "W")):
+                               ("no_load_power", "drivetrain_idle_loss", 1.0, "W"),
+                               ("copper_loss_per_force2", "copper_loss", 1.0, "W/N^2")):
         p = by.get(name)
         if p is None:
             continue

@@ -95,9 +95,8 @@ def grade_profile(sig: RideSignals, design: Design, estimate: Mapping[str, float
 
     The residual r = P − P̂ of the selected model is fitted, by bounded linear least
     squares (scipy's ``lsq_linear``, |sin α| ≤ :data:`GRADE_LIMIT`), by the battery
-    power a grade per bin would draw: the grade's power m·g·v·sin α through the
-    regime's efficiency (1/η_m motoring, η_r regenerating, at the model's own
-    demand) and the balance's filters.  A first-difference penalty of weight
+    power a grade per bin would draw: the grade's power m·g·v·sin α (added to
+    the demand as every other term, no efficiency) through the balance's filters.  A first-difference penalty of weight
     (:data:`SMOOTH_M`/:data:`BIN_M`)² × the mean diagonal of the normal matrix
     smooths it over about :data:`SMOOTH_M` (a road's grade changes over a
     vertical curve, not per bin).  Bins with less than 2 s of riding are NaN.
@@ -115,13 +114,9 @@ def grade_profile(sig: RideSignals, design: Design, estimate: Mapping[str, float
     from scipy import sparse
     from scipy.optimize import lsq_linear
 
-    names = list(estimate)
-    theta = np.array([[estimate[k]] for k in names], float)
-    D = design.demand(names, theta)[:, 0]
-    eff = np.where(D > 0, 1.0 / estimate["eta_motor"], estimate["eta_regen"])
     s_sup = _on_support(design, pos.s)
     n = int(pos.length // BIN_M) + 1
-    col = _on_support(design, _grade_power(sig, np.ones(len(pos.s)))) * eff
+    col = _on_support(design, _grade_power(sig, np.ones(len(pos.s))))
     onehot = sparse.csr_matrix((col, (np.arange(len(col)), np.floor(s_sup / BIN_M).astype(int))),
                                shape=(len(col), n))
     w = design.weight

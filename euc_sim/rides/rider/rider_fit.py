@@ -161,7 +161,7 @@ def _simulated_channels(setup: _Setup, rider: Rider, draw: int = 0) -> pd.DataFr
         ts = df["t"].to_numpy() + start
         rng = np.random.default_rng(setup.seed + 1000 * draw + w)
         sim = {"P": battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], setup.params.R,
-                                  dtv["eta_motor"], dtv["eta_regen"], dtv.get("drivetrain_idle_loss", 0.0)),
+                                  dtv.get("copper_loss", 0.0), dtv.get("drivetrain_idle_loss", 0.0)),
                "M": df["M_d"].to_numpy(), "pitch": df["gamma"].to_numpy()}
         st = stamps[(stamps >= t0 - 1.0) & (stamps <= t1 + 0.5)]
         m = (t >= t0 - 1.0) & (t <= t1 + 0.5)
@@ -439,8 +439,8 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     effects : mapping, optional
         Effects injected as physics (drag, rolling resistance, slope; CONTRACT units).
     drivetrain : mapping, optional
-        ``eta_motor``, ``eta_regen`` (1), ``drivetrain_idle_loss`` (W) of the battery-power
-        model (:func:`euc_sim.rides.sim.simulate.battery_power`); default 0.85, 0.7, 0.
+        ``copper_loss`` (W/N²), ``drivetrain_idle_loss`` (W) of the battery-power
+        model (:func:`euc_sim.rides.sim.simulate.battery_power`); default 0, 0.
     assumptions : RideAssumptions
         For the torque constant (phase current → torque).
     channels : sequence of str, optional
@@ -498,7 +498,7 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
                             f"at least 2, got {tuple(rounds)!r}")
     say = progress or (lambda s: None)
     motor = motor or MotorPD()
-    dtv = {"eta_motor": 0.85, "eta_regen": 0.7, "drivetrain_idle_loss": 0.0}
+    dtv = {"copper_loss": 0.0, "drivetrain_idle_loss": 0.0}
     dtv.update(drivetrain or {})
     log = as_log(log)
     ch = log_channels(log, assumptions, max_gap=max_gap)

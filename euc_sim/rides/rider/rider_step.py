@@ -42,7 +42,7 @@ def calibrated_rider_step(prev, inp):
         return replace(prev, name=name, what=what, notes=(), why="no fit ride log to calibrate the rider on")
     eff, _ = effects_to_inject(inp.augmented, inp.accepted)
     power = {k: float(inp.augmented.get(k, d)) for k, d in
-             (("eta_motor", 0.85), ("eta_regen", 0.7), ("drivetrain_idle_loss", 0.0))}
+             (("copper_loss", 0.0), ("drivetrain_idle_loss", 0.0))}
     k_t = torque_constant((inp.ride or {}).get("drivetrain"))
     try:
         fit = fit_rider(inp.fit_log, params=inp.params, motor=prev.motor, effects=eff, drivetrain=power,

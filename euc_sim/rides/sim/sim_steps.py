@@ -6,7 +6,7 @@ after each step shows what that piece bought (locate, name, model, show the fit 
 
 ``nominal``
     the paper's PD motor law (600 / 40 N·m/rad), the default LQR rider, no effects,
-    the inertia-only balance fit's efficiencies;
+    the inertia-only balance (battery power = mechanical power, no loss);
 ``measured_law``
     the wheel's own balance law measured on the fit ride (the ride JSON's
     ``controller``, :func:`euc_sim.controllers.firmware.firmware_motor`), the rider redesigned
@@ -15,7 +15,7 @@ after each step shows what that piece bought (locate, name, model, show the fit 
     the voltage-limited motor of the fit ride's drivetrain fit (back-EMF, resistive
     drop, dead time, flux weakening: :func:`euc_sim.controllers.firmware.voltage_limit_settings`),
     the accepted balance effects injected as physics and the augmented fit's
-    efficiencies and idle drain (what the ``augmented`` run did before).
+    accepted losses (copper loss, idle drain) added to the battery power.
 
 A step is data (:class:`SimStep`: motor law, rider, effects, battery-power model);
 :data:`STEP_BUILDERS` makes each from the one before it and the fit ride's results
@@ -97,7 +97,7 @@ class SimStep:
     effects : mapping
         CONTRACT effect values injected as physics.
     power : mapping
-        Battery-power model: ``eta_motor``, ``eta_regen`` (1), ``drivetrain_idle_loss`` (W).
+        Battery-power model: ``copper_loss`` (W/N²), ``drivetrain_idle_loss`` (W).
     notes : tuple of str
         What the step could not carry, and why.
     why : str or None
@@ -183,7 +183,7 @@ class StepInputs:
 
 
 #: The balance fit's battery-power terms a step's power model carries.
-POWER_TERMS = ("eta_motor", "eta_regen", "drivetrain_idle_loss")
+POWER_TERMS = ("copper_loss", "drivetrain_idle_loss")
 
 
 def _power(est: Mapping[str, float]) -> dict:
@@ -191,7 +191,7 @@ def _power(est: Mapping[str, float]) -> dict:
 
 
 def nominal_step(prev: SimStep | None, inp: StepInputs) -> SimStep:
-    """The paper's PD, the default rider, no effects, the inertia-only fit's efficiencies."""
+    """The paper's PD, the default rider, no effects, no loss (the inertia-only balance)."""
     return SimStep("nominal", "paper's PD motor law (600 / 40 N·m/rad), default rider, no effects",
                    MotorPD(), None, {}, _power(inp.nominal), physics=inp.physics("total_mass"))
 
@@ -242,7 +242,7 @@ def drivetrain_step(prev: SimStep, inp: StepInputs) -> SimStep:
                         "flux_weakening", "internal_resistance")
     return replace(prev, name="drivetrain", physics=prev.physics + tuple(
                        n for n in extra if n not in prev.physics), what=f"{limit}, accepted effects as physics ({named}), "
-                                                 f"the augmented fit's efficiencies",
+                                                 f"the augmented fit's losses",
                    motor=motor, effects=eff, power=power,
                    notes=tuple(notes), why=None)
 

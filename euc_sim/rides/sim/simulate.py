@@ -8,9 +8,9 @@ torque M_d the ride needed and, through the drivetrain model of
 :mod:`euc_sim.rides.balance.design`, the battery power:
 
     P_mech = M_d·(ẋ/R − γ̇)                    (motor torque × wheel speed relative to the body)
-    P̂ = P₀ + P_mech/η_m   (P_mech > 0),   P₀ + η_r·P_mech   (P_mech ≤ 0)
+    P̂ = P₀ + P_mech + k_cu·(M_d/R)²          (both regimes: losses added, no efficiency)
 
-with η_m, η_r, P₀ fitted by :func:`euc_sim.rides.balance.crossride.cross_ride` (on the fit ride: on
+with the accepted k_cu, P₀ fitted by :func:`euc_sim.rides.balance.crossride.cross_ride` (on the fit ride: on
 a compare ride the prediction is out of sample).  One simulation is run per modelled
 step (:mod:`euc_sim.rides.sim.sim_steps`: ``nominal``, ``measured_law``, ``drivetrain``, ...),
 each adding one piece to the one before it.
@@ -97,8 +97,8 @@ def ride_params(assumptions: RideAssumptions, base: Params = TABLE3) -> Params:
 
 
 def battery_power(M_d: np.ndarray, x_dot: np.ndarray, gamma_dot: np.ndarray, R: float,
-                  eta_motor: float, eta_regen: float, idle: float = 0.0) -> np.ndarray:
-    """Battery power, W, from the motor torque through :mod:`euc_sim.rides.balance.design`'s drivetrain model.
+                  copper: float = 0.0, idle: float = 0.0) -> np.ndarray:
+    """Battery power, W, from the motor torque through :mod:`euc_sim.rides.balance.design`'s energy balance.
 
     Parameters
     ----------
@@ -110,19 +110,21 @@ def battery_power(M_d: np.ndarray, x_dot: np.ndarray, gamma_dot: np.ndarray, R: 
         Body pitch rate, rad/s.
     R : float
         Wheel radius, m.
-    eta_motor, eta_regen : float
-        Efficiencies, 1.
+    copper : float
+        Copper-loss coefficient k_cu, W/N² (the balance's ``copper_loss``).
     idle : float
         Constant electrical drain P₀, W.
 
     Returns
     -------
     numpy.ndarray
-        P₀ + P_mech/η_m where the motor drives (P_mech > 0), P₀ + η_r·P_mech
-        where it brakes; P_mech = M_d·(ẋ/R − γ̇), W.
+        P₀ + P_mech + k_cu·(M_d/R)² in both regimes, P_mech = M_d·(ẋ/R − γ̇), W
+        (the copper loss of the motor's whole force M_d/R; the balance fit reads
+        it from the accelerating force m_eq·a, the part it can separate).
     """
-    P_mech = np.asarray(M_d, float) * (np.asarray(x_dot, float) / R - np.asarray(gamma_dot, float))
-    return idle + np.where(P_mech > 0, P_mech / eta_motor, eta_regen * P_mech)
+    M = np.asarray(M_d, float)
+    P_mech = M * (np.asarray(x_dot, float) / R - np.asarray(gamma_dot, float))
+    return idle + P_mech + copper * (M / R) ** 2
 
 
 @dataclass(frozen=True)
@@ -148,7 +150,7 @@ class RideSimulation:
     effects : dict
         Effects injected into the last step.
     parameters : dict
-        Battery-power model per step ``{name: {eta_motor, eta_regen, drivetrain_idle_loss}}``.
+        Battery-power model per step ``{name: {copper_loss, drivetrain_idle_loss}}``.
     falls : list of dict
         ``{"t": s, "cause": str, "run": step}`` of each step that ended in a fall
         (CONTRACT's ``simulation.falls``).
@@ -375,8 +377,8 @@ def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
     from euc_sim.rides.sim.reading import read_as_logged
 
     pw = step.power
-    P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], R, pw["eta_motor"],
-                      pw["eta_regen"], pw.get("drivetrain_idle_loss", 0.0))
+    P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], R, pw.get("copper_loss", 0.0),
+                      pw.get("drivetrain_idle_loss", 0.0))
     ts = df["t"].to_numpy()
     segment = sig.raw["segment"].to_numpy().copy()
     if fell:

@@ -24,8 +24,9 @@ WHEEL_LAW = {**LAW, "torque_limit": 150.0}
 #: or noisy rider falls (a twin of the ride table's Blitz and Master Pro fits, whose law is not
 #: in their logs).
 PAPER_LAW = {"Kp": 600.0, "Kd": 40.0, "torque_limit": 250.0}
-#: The battery-power model of the written log: efficiencies and idle drain, W.
-DRIVETRAIN = {"eta_motor": 0.85, "eta_regen": 0.7, "drivetrain_idle_loss": 40.0}
+#: The battery-power model of the written log (the balance's energy form): copper loss
+#: k_cu, W/N², and idle drain, W.
+DRIVETRAIN = {"copper_loss": 0.003, "drivetrain_idle_loss": 40.0}
 #: The concealed rider: a 0.2 s delay, a softer than default rider, 5 N·m of noise.
 RIDER = {"delay": 0.2, "bandwidth": 0.4, "noise_std": 5.0}
 
@@ -56,8 +57,7 @@ def eucworld_power_log(ride: pd.DataFrame, path: Path, seed: int, R: float | Non
 
     rng = np.random.default_rng(seed)
     ride = ride.assign(P=battery_power(ride["M_d"], ride["x_dot"], ride["gamma_dot"], R or TABLE3.R,
-                                       DRIVETRAIN["eta_motor"], DRIVETRAIN["eta_regen"],
-                                       DRIVETRAIN["drivetrain_idle_loss"]))
+                                       DRIVETRAIN["copper_loss"], DRIVETRAIN["drivetrain_idle_loss"]))
     T = float(ride["t"].iloc[-1])
     ts = np.cumsum(rng.uniform(0.18, 0.22, int(T / 0.18)))
     ts = ts[ts < T - 0.5]

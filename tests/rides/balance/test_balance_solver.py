@@ -33,9 +33,9 @@ def test_filter_matrix_is_the_segmentwise_convolution():
 
 
 def test_jacobian_matches_finite_differences(design):
-    names = ["eta_motor", "eta_regen", "rolling_resistance", "aerodynamic_drag",
-             "drivetrain_idle_loss"]
-    theta = np.array([0.75, 0.65, 0.02, 0.3, 15.0])
+    names = ["copper_loss", "rolling_resistance", "aerodynamic_drag", "drivetrain_idle_loss",
+             "current_lag"]
+    theta = np.array([0.008, 0.02, 0.3, 15.0, 0.15])
     J = design.jacobian_many(names, theta[:, None])[:, :, 0]
     for j in range(len(names)):
         h = 1e-6 * max(1.0, abs(theta[j]))
@@ -68,24 +68,32 @@ def _check_against_scipy(design, names, theta, targets):
 
 
 def test_batch_solve_agrees_with_least_squares(design):
-    names = ["eta_motor", "eta_regen", "rolling_resistance", "aerodynamic_drag",
-             "drivetrain_idle_loss"]
+    names = ["copper_loss", "rolling_resistance", "aerodynamic_drag", "drivetrain_idle_loss",
+             "current_lag"]
     theta, targets = _replicates(design, names, B=6, seed=1)
     _check_against_scipy(design, names, theta, targets)
 
 
 def test_batch_solve_holds_a_bound(design):
-    """A wheel that returns nothing when braking: η_r sits on its lower bound (an efficiency
-    stays in (0, 1]), as with scipy."""
-    names = ["eta_motor", "eta_regen"]
-    lo = BOUNDS["eta_regen"][0]
+    """A ride that asks for more rolling loss than a tyre gives: C_rr sits on its upper bound
+    (as with scipy), snapped onto it, and the replicates hold it there."""
+    names = ["rolling_resistance", "drivetrain_idle_loss"]
+    hi = BOUNDS["rolling_resistance"][1]
     theta, targets = _replicates(design, names, B=4, seed=2)
-    no_regen = np.maximum(targets, np.quantile(design.P, 0.6))
-    fit = _solve(design, names, theta, P=no_regen[:, 0])
-    assert fit.x[1] < lo + 1e-6
-    batch = _check_against_scipy(design, names, fit.x, no_regen)
-    assert fit.x[1] == lo                           # snapped onto the bound, not 1e-30 inside
-    np.testing.assert_allclose(batch[:, 1], lo, rtol=0, atol=1e-12)
+    heavy = targets + 0.1 * design.operator.K @ design.operator.columns["rolling"][:, None]
+    fit = _solve(design, names, theta, P=heavy[:, 0])
+    assert fit.x[0] > hi - 1e-6
+    batch = _check_against_scipy(design, names, fit.x, heavy)
+    assert fit.x[0] == hi                           # snapped onto the bound, not 1e-30 inside
+    np.testing.assert_allclose(batch[:, 0], hi, rtol=0, atol=1e-12)
+
+
+def test_inertia_only_fits_nothing(design):
+    """The nominal model has no parameter: its fit is the inertia's power through the filter."""
+    fit = fit_balance(design, [], n_boot=20)
+    assert fit.names == () and fit.estimate == {}
+    want = design.P - design.operator.K @ design.operator.columns["inertia"]
+    assert fit.rmse == pytest.approx(float(np.sqrt(np.mean(want ** 2))), rel=1e-12)
 
 
 def test_bootstrap_interval_covers_truth_and_is_reproducible(design):

@@ -11,7 +11,8 @@ import pytest
 from ridesynth import TRUTH, synth_log
 
 from euc_sim.rides.balance.crossride import admissible, cross_ride, heldout_score, select_effects
-from euc_sim.rides.balance.design import BOUNDS, NOMINAL, balance_design, on_bound
+from euc_sim.rides.balance.design import (BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, balance_design,
+                                          on_bound)
 from euc_sim.rides.balance.fit import fit_balance
 from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
 from euc_sim.rides.grids.signals import ride_signals
@@ -65,23 +66,36 @@ def test_percentile_interval_and_wild_signs_are_seeded():
 
 
 # --- bounded fits ----------------------------------------------------------------------
-def test_an_efficiency_never_exceeds_one(designs):
-    """Battery power scaled down by 1.4: the unbounded η_m would be 0.8·1.4 = 1.12."""
+def test_the_balance_fits_no_efficiency_and_every_term_is_bounded_physically():
+    assert NOMINAL == ()                                     # inertia only: nothing fitted
+    assert not [n for n in CANDIDATES if n.startswith("eta")]
+    for name in CANDIDATES:                                  # bounds within the plausible range
+        lo, hi = BOUNDS[name]
+        assert PLAUSIBLE[name][1] == hi
+        assert lo == 0.0 or lo == PLAUSIBLE[name][0]
+
+
+def test_a_copper_loss_beyond_its_plausible_range_sits_on_its_bound(designs):
+    """Battery power with k_cu = 0.01 + 0.1 W/N² (a winding that burns more than the wheel
+    moves): the bounded fit stops at the top of the plausible range and never accepts it."""
     d, _ = designs
     from dataclasses import replace
 
-    low = replace(d, P_full=d.P_full / 1.4)
-    fit = fit_balance(low, list(NOMINAL) + ["rolling_resistance"], n_boot=20, seed=1)
-    assert fit.estimate["eta_motor"] == BOUNDS["eta_motor"][1]
-    assert all(0.0 < fit.ci95[k][0] <= fit.ci95[k][1] <= 1.0 for k in NOMINAL)
-    assert on_bound("eta_motor", fit.estimate["eta_motor"])
+    P_full = d.P_full.copy()
+    P_full[d.use] += 0.1 * d.operator.K @ d.operator.columns["copper"]
+    heavy = replace(d, P_full=P_full)
+    fit = fit_balance(heavy, sorted(TRUTH), n_boot=20, seed=1)
+    assert fit.estimate["copper_loss"] == BOUNDS["copper_loss"][1]
+    assert on_bound("copper_loss", fit.estimate["copper_loss"])
+    assert all(BOUNDS[k][0] <= fit.ci95[k][0] <= fit.ci95[k][1] <= BOUNDS[k][1] for k in fit.names)
+    assert "copper_loss" not in admissible(fit, fit.names)
 
 
 def test_a_drag_beyond_its_plausible_range_sits_on_its_bound_and_is_never_accepted(designs):
     d, _ = designs
     from dataclasses import replace
 
-    extra = 3.0 * d.operator.K @ d.operator.columns["drag"] / TRUTH["eta_motor"]
+    extra = 3.0 * d.operator.K @ d.operator.columns["drag"]
     P_full = d.P_full.copy()
     P_full[d.use] += extra                       # k = 0.35 + 3: C_dA 6 m², no rider
     heavy = replace(d, P_full=P_full)
@@ -103,7 +117,11 @@ def cross(designs):
 
 
 def test_held_out_selection_names_the_true_effects(cross):
-    assert {"aerodynamic_drag", "rolling_resistance"} <= set(cross.accepted)
+    """The twin's losses, added to the demand in both regimes, are selected and recovered."""
+    assert {"aerodynamic_drag", "rolling_resistance", "copper_loss"} <= set(cross.accepted)
+    for name in ("aerodynamic_drag", "rolling_resistance", "copper_loss"):
+        lo, hi = cross.augmented.ci95[name]
+        assert lo <= TRUTH[name] <= hi, (name, cross.augmented.estimate[name], (lo, hi))
     h = [s["heldout_rmse"] for s in cross.selection]
     assert all(b < a for a, b in zip(h, h[1:]))              # each kept step lowered it
     assert cross.heldout_augmented <= 1.05 * cross.heldout_full
@@ -120,12 +138,13 @@ def test_parameters_list_each_quantity_once_and_accepts_only_plausible(cross):
     assert "C_rr" not in names                                 # the mass fit's nuisance term
     by = {p["name"]: p for p in params}
     assert all(p["plausible"] for p in params if p["accepted"])
-    assert all(0.0 < by[k]["estimate"] <= 1.0 for k in NOMINAL)
+    assert not [n for n in by if n.startswith("eta")]         # no efficiency anywhere
     assert not by["ocv_per_Ah"]["accepted"] and by["internal_resistance"]["accepted"]
     assert set(cross.accepted) <= {n for n, p in by.items() if p["accepted"]}
     view = drivetrain_view(dt, params)
     assert view["C_rr"]["estimate"] == by["rolling_resistance"]["estimate"]
     assert view["C_rr"]["parameter"] == "rolling_resistance"
+    assert view["copper_loss_per_force2"]["estimate"] == by["copper_loss"]["estimate"]
 
 
 # --- the lag of the logged current ------------------------------------------------------
@@ -151,23 +170,23 @@ def _lagged_design(tmp_path, a: float):
 
 
 def test_a_lagged_current_is_found_and_an_unlagged_one_is_not(tmp_path):
-    names = list(NOMINAL) + ["rolling_resistance", "aerodynamic_drag", "drivetrain_idle_loss",
-                             "current_lag"]
+    names = ["copper_loss", "rolling_resistance", "aerodynamic_drag", "drivetrain_idle_loss",
+             "current_lag"]
     a = 0.6
     lagged = fit_balance(_lagged_design(tmp_path, a), names, n_boot=0)
     plain = fit_balance(_lagged_design(tmp_path, 0.0), names, n_boot=0)
     assert abs(lagged.estimate["current_lag"] - a / (1 - a) * 0.1) < 0.02    # 0.15 s
     assert plain.estimate["current_lag"] < 0.02
     for fit in (lagged, plain):           # the physics is recovered with or without the lag
-        assert abs(fit.estimate["eta_motor"] - TRUTH["eta_motor"]) < 0.05
+        assert abs(fit.estimate["rolling_resistance"] - TRUTH["rolling_resistance"]) < 0.005
 
 
 def test_the_lag_jacobian_matches_finite_differences(designs):
     d, _ = designs
-    names = list(NOMINAL) + ["rolling_resistance", "current_lag"]
-    th = np.array([0.8, 0.6, 0.02, 0.2])
+    names = ["copper_loss", "rolling_resistance", "current_lag"]
+    th = np.array([0.01, 0.02, 0.2])
     J = d.jacobian_many(names, th[:, None])[:, :, 0]
-    for j, h in enumerate([1e-6, 1e-6, 1e-8, 1e-6]):
+    for j, h in enumerate([1e-8, 1e-8, 1e-6]):
         e = np.zeros_like(th)
         e[j] = h
         num = (d.residual(dict(zip(names, th + e))) - d.residual(dict(zip(names, th - e)))) / (2 * h)

@@ -7,7 +7,7 @@ def test_calibrated_rider_step_sits_between_the_law_and_the_drivetrain_and_says_
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.sim.sim_steps import StepInputs, build_steps
 
-    est = {"eta_motor": 0.8, "eta_regen": 0.6}
+    est = {"copper_loss": 0.004}
     steps = build_steps(StepInputs(TABLE3, est, est, (), {}, None), RIDER_STEPS)
     assert [s.name for s in steps] == ["nominal", "measured_law", "calibrated_rider", "drivetrain"]
     cal = steps[2]

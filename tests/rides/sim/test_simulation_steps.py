@@ -21,8 +21,8 @@ from euc_sim.rides.sim.sim_steps import (STEP_BUILDERS, LogChannels, StepInputs,
                                      drivetrain_step, log_channels, measured_law_step, nominal_step,
                                      simulated_pwm)
 
-NOM = {"eta_motor": 0.85, "eta_regen": 0.6}
-AUG = {"eta_motor": 0.8, "eta_regen": 0.5, "drivetrain_idle_loss": 30.0,
+NOM: dict = {}                        # the inertia-only balance fits nothing
+AUG = {"copper_loss": 0.004, "drivetrain_idle_loss": 30.0,
        "rolling_resistance": 0.012, "aerodynamic_drag": 0.3}
 CONTROLLER = {"law": "PD + tilt-back", "sign": -1,
               "terms": [{"name": "K_p", "estimate": 5687.0, "unit": "N·m/rad"},
@@ -35,7 +35,7 @@ RIDE = {"controller": CONTROLLER, "drivetrain": DRIVETRAIN, "envelope": {"full":
 
 
 def inputs(ride) -> StepInputs:
-    return StepInputs(TABLE3, NOM, AUG, ("rolling_resistance", "aerodynamic_drag",
+    return StepInputs(TABLE3, NOM, AUG, ("rolling_resistance", "aerodynamic_drag", "copper_loss",
                                          "drivetrain_idle_loss"), ride)
 
 
@@ -62,9 +62,9 @@ def test_steps_without_a_law_skip_the_measured_law_and_build_on_the_nominal():
     assert law.why is not None and "no pitch in the log" in law.why
     assert dt.why is None and dt.motor == MotorPD()                     # built on the nominal
     assert dt.effects == {"rolling_resistance": 0.012, "aerodynamic_drag": 0.3}
-    assert dt.power == {"eta_motor": 0.8, "eta_regen": 0.5, "drivetrain_idle_loss": 30.0}
+    assert dt.power == {"copper_loss": 0.004, "drivetrain_idle_loss": 30.0}
     assert any("no voltage limit" in n for n in dt.notes)
-    assert nom.power == {"eta_motor": 0.85, "eta_regen": 0.6, "drivetrain_idle_loss": 0.0}
+    assert nom.power == {"drivetrain_idle_loss": 0.0}               # no loss: P = P_mech
 
 
 def test_measured_law_and_voltage_limit_carry_into_the_last_step():
@@ -339,3 +339,15 @@ def test_calibrated_riders_description_carries_his_fitted_values():
     assert got == {"delay": pytest.approx(0.281), "noise_std": pytest.approx(1.84), "plan_window": 6.0,
                    "bandwidth": pytest.approx(0.101)}
     assert "bandwidth" not in SimStep("nominal", "", rider=rider).describe()["rider"]
+
+
+def test_battery_power_adds_the_losses_in_both_regimes():
+    """The energy balance: P = P₀ + M·(ẋ/R − γ̇) + k_cu·(M/R)², driving and braking alike."""
+    from euc_sim.rides.sim.simulate import battery_power
+
+    M, xd, gd, R = np.array([40.0, -40.0, 0.0]), np.array([5.0, 5.0, 5.0]), np.zeros(3), 0.25
+    P = battery_power(M, xd, gd, R, copper=0.004, idle=20.0)
+    mech = M * xd / R
+    np.testing.assert_allclose(P, 20.0 + mech + 0.004 * (M / R) ** 2, rtol=1e-12)
+    assert P[1] > mech[1] + 20.0            # braking returns less than the mechanical power
+    np.testing.assert_allclose(battery_power(M, xd, gd, R), mech, rtol=1e-12)   # no loss: P_mech

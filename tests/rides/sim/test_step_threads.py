@@ -17,7 +17,7 @@ from ridesynth import synth_log  # noqa: E402
 
 from euc_sim.controllers.motor import MotorPD  # noqa: E402
 
-NOM = {"eta_motor": 0.8, "eta_regen": 0.6}
+NOM = {"copper_loss": 0.004, "drivetrain_idle_loss": 10.0}
 
 
 @pytest.fixture(scope="module")
