@@ -21,7 +21,7 @@ from euc_sim.rides.grids.signals import RideSignals, break_at_gaps
 from euc_sim.stats import forward_select, time_blocks
 
 __all__ = ["CrossRide", "cross_ride", "effect_entries", "plot_cross_ride", "cross_ride_figure",
-           "select_effects", "heldout_score", "admissible", "HELDOUT_FOLDS", "MIN_GAIN"]
+           "select_effects", "heldout_score", "admissible", "ADMIT", "HELDOUT_FOLDS", "MIN_GAIN"]
 
 #: Contiguous time folds of the fit ride that score a model held out.
 HELDOUT_FOLDS = 5
@@ -35,18 +35,28 @@ def _start(names) -> np.ndarray:
     return np.array([_START[k] for k in names])
 
 
-def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS,
-                  admissible_only: bool = False) -> float:
+#: What :func:`heldout_score` admits: every model, the models whose terms all lie in
+#: their plausible ranges (on an edge allowed), or only those off every bound.
+ADMIT = ("any", "plausible", "interior")
+
+
+def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS, admit: str = "any") -> float:
     """Blocked held-out RMS error of the bounded balance with ``names`` on ``design``, W or N·m.
 
     Each of ``n_folds`` contiguous time blocks is predicted from a bounded fit
-    (:data:`~euc_sim.rides.balance.design.BOUNDS`) on the others.  With
-    ``admissible_only``, a model whose fit on the whole design puts a
-    non-nominal term on a bound or outside its plausible range scores ``inf``.
+    (:data:`~euc_sim.rides.balance.design.BOUNDS`) on the others.  A model whose
+    fit on the whole design is not admitted scores ``inf``: with ``admit`` =
+    ``"plausible"``, one with a non-nominal term outside its plausible range;
+    with ``"interior"``, also one with a term on a bound (:data:`ADMIT`).
     """
+    if admit not in ADMIT:
+        raise ValueError(f"admit must be one of {ADMIT}, got {admit!r}")
     names = list(names)
     whole = _solve(design, names, _start(names)).x
-    if admissible_only and not _all_admissible(dict(zip(names, whole)), design.idle_cap):
+    estimate = dict(zip(names, whole))
+    if admit != "any" and not _all_admissible(estimate, design.idle_cap):
+        return float("inf")
+    if admit == "interior" and any(on_bound(k, v) for k, v in estimate.items() if k not in NOMINAL):
         return float("inf")
     label = time_blocks(design.t, n_folds)
     err = []
@@ -61,16 +71,19 @@ def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS,
 
 
 def _all_admissible(estimate: dict, idle_cap: float | None = None) -> bool:
-    """True when every non-nominal term of ``estimate`` is plausible and off its bounds.
+    """True when every non-nominal term of ``estimate`` lies in its plausible range.
 
-    ``idle_cap`` (W, :attr:`Design.idle_cap`): the ride's own standstill power, above
-    which a constant drain P₀ is not plausible.
+    A term on an edge of its plausible range (the fit's bound) is admissible: it is
+    the most that plausible physics gives, and is accepted at that edge
+    (:func:`~euc_sim.rides.balance.design.on_bound` marks it).  ``idle_cap`` (W,
+    :attr:`Design.idle_cap`): the ride's own standstill power, above which a
+    constant drain P₀ is not plausible.
     """
     for name, value in estimate.items():
         if name in NOMINAL:
             continue
         rng = PLAUSIBLE.get(name)
-        if on_bound(name, value) or (rng is not None and not rng[0] <= value <= rng[1]):
+        if rng is not None and not rng[0] <= value <= rng[1]:
             return False
         if name == "drivetrain_idle_loss" and idle_cap is not None and value > idle_cap:
             return False
@@ -81,12 +94,16 @@ def select_effects(design: Design, candidates) -> tuple[list[str], list[dict], l
     """The terms blocked held-out validation keeps, the history, and the terms held out of it.
 
     Forward selection (:func:`euc_sim.stats.forward_select`) from the
-    inertia-only model: each step adds the candidate that lowers :func:`heldout_score` most,
-    if by more than :data:`MIN_GAIN`, among the models whose terms are all
-    admissible (plausible and off their bounds when fitted on the whole design):
-    a term the data pushes onto its bound is not kept, and the selection goes
-    on with the others.  A step may add two terms at once (drag and rolling can
-    each end on a bound alone and both be plausible together; docs/ride_model.md).
+    inertia-only model, in two passes of one rule: each step adds the candidate
+    that lowers :func:`heldout_score` most, if by more than :data:`MIN_GAIN`,
+    first among the models whose terms all lie inside their plausible ranges and
+    off their bounds, then, from the model that pass ends with, among those whose
+    terms may also sit on an edge of their range.  The interior pass explains
+    what plausible physics can without an edge (a single term pushed onto its
+    bound would otherwise take the share of two: drag and rolling, or drag and
+    P₀); the edge pass adds the loss a ride asks for beyond that, at the most
+    plausible physics gives.  A step may add two terms at once (terms each
+    inadmissible alone and admissible together; docs/ride_model.md).
 
     Returns
     -------
@@ -96,12 +113,15 @@ def select_effects(design: Design, candidates) -> tuple[list[str], list[dict], l
         ``{"term", "heldout_rmse"}`` after each step, the inertia-only model first.
     blocked : list of str
         Candidates left that would lower the held-out error of the kept model by
-        more than :data:`MIN_GAIN`, but only on a bound or outside their
-        plausible range (the data asks for more than plausible physics gives).
+        more than :data:`MIN_GAIN`, but only outside their plausible range.
     """
     others = [c for c in candidates if c not in NOMINAL]
-    names, history = forward_select(lambda n: heldout_score(design, n, admissible_only=True),
+    names, history = forward_select(lambda n: heldout_score(design, n, admit="interior"),
                                     list(NOMINAL), others, MIN_GAIN, max_step=2)
+    left = [c for c in others if c not in names]
+    names, edge = forward_select(lambda n: heldout_score(design, n, admit="plausible"),
+                                 names, left, MIN_GAIN, max_step=2)
+    history = history + edge[1:]
     history[0] = {**history[0], "term": history[0]["term"] or "inertia only"}
     cur = history[-1]["heldout_rmse"]
     blocked = [c for c in others if c not in names
@@ -110,10 +130,10 @@ def select_effects(design: Design, candidates) -> tuple[list[str], list[dict], l
 
 
 def _accepted_model(design: Design, selected) -> list[str]:
-    """The kept terms that stay plausible and off their bounds when fitted without the others.
+    """The kept terms that stay plausible when fitted without the others.
 
-    Terms that end on a bound are dropped and the rest refitted, until every term left is
-    admissible: the augmented fit (its losses, its held-out error, what is simulated)
+    Terms that leave their plausible range are dropped and the rest refitted, until every
+    term left is admissible: the augmented fit (its losses, its held-out error, what is simulated)
     is then the model of the accepted physics alone.
     """
     kept = list(selected)
@@ -127,14 +147,15 @@ def _accepted_model(design: Design, selected) -> list[str]:
 
 
 def admissible(fit: BalanceFit, names, idle_cap: float | None = None) -> list[str]:
-    """Those of ``names`` whose estimate in ``fit`` is plausible and off its bounds.
+    """Those of ``names`` whose estimate in ``fit`` lies in its plausible range.
 
-    A kept term that ends on the bound of its plausible range (or outside it, as
-    a GPS gain below its range) stays in the balance as the bound, but nothing
-    is named or simulated from it.  ``idle_cap``: see :func:`_all_admissible`.
+    A term on an edge of its range is admissible at that edge (``on_bound`` in
+    :func:`~euc_sim.rides.balance.fit.plausibility`); one outside it (a GPS gain
+    below its range, P₀ above the ride's standstill power) stays in the balance, but
+    nothing is named or simulated from it.  ``idle_cap``: see :func:`_all_admissible`.
     """
     phys = plausibility(fit)
-    return [c for c in names if phys[c]["plausible"] and not on_bound(c, fit.estimate[c])
+    return [c for c in names if phys[c]["plausible"]
             and _all_admissible({c: fit.estimate[c]}, idle_cap)]
 
 
@@ -149,11 +170,11 @@ class CrossRide:
         supports; nominal plus the accepted effects alone (:func:`_accepted_model`).
     accepted : tuple of str
         Effects kept by blocked held-out validation on the fit ride
-        (:func:`select_effects`) whose estimates are plausible and off their
-        bounds (:func:`admissible`), in the order kept.
+        (:func:`select_effects`) whose estimates are plausible (:func:`admissible`;
+        a term may sit on an edge of its plausible range), in the order kept.
     selected : tuple of str
         The terms the selection kept, then those it held out because they lower
-        the held-out error only on a bound or outside their plausible range
+        the held-out error only outside their plausible range
         (:func:`select_effects`'s ``blocked``).
     selection : list of dict
         ``{"term", "heldout_rmse"}`` after each kept step, the inertia-only model first.
@@ -187,8 +208,8 @@ def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block
     """Fit the nominal and augmented balances on one design, measure both on another.
 
     An effect is *accepted* when blocked held-out validation on the fit ride keeps
-    it (:func:`select_effects`) and its bounded estimate is plausible and off its
-    bounds (:func:`admissible`).
+    it (:func:`select_effects`) and its bounded estimate is plausible
+    (:func:`admissible`).
     ``progress``, when given, is called with a short line before each bootstrapped fit.
     """
     say = progress or (lambda msg: None)
@@ -236,12 +257,18 @@ def effect_entries(cr: CrossRide) -> list[dict]:
             ev += (f"; in the fit with every candidate its estimate trades off against "
                    f"{' and '.join(confounded)} (bootstrap correlation beyond ±0.8): this ride "
                    f"cannot tell them apart")
+        if ph["on_bound"]:
+            lo, hi = ph["plausible_range"]
+            ev += (f"; ON THE EDGE of its plausible range {lo:g} to {hi:g} "
+                   f"{unit_label(ph['unit'])}: the ride asks for more than plausible "
+                   f"{ph['symbol']} gives, and something the model lacks supplies the rest")
         if not ph["plausible"]:
             ev += (f"; OUTSIDE the plausible range {ph['plausible_range'][0]:g} to "
                    f"{ph['plausible_range'][1]:g} {unit_label(ph['unit'])}: it also absorbs something else")
         entry = {"name": c, "estimate": ph["estimate"], "unit": ph["unit"], "ci95": ph["ci95"],
                  "rmse_after": rmse_after, "aliases": aliases, "evidence": ev,
-                 "plausible": ph["plausible"], "plausible_range": ph["plausible_range"]}
+                 "plausible": ph["plausible"], "plausible_range": ph["plausible_range"],
+                 "on_bound": ph["on_bound"]}
         for extra in ("drag_area_m2", "drag_area_m2_ci95", "angle_rad"):
             if extra in ph:
                 entry[extra] = ph[extra]

@@ -83,9 +83,9 @@ PLAUSIBLE: dict[str, tuple[float, float, str]] = {
 }
 
 #: Bounds of the fit: a resistance or loss runs from 0 (absent) to the top of its
-#: plausible range, a grade or GPS gain over its
-#: plausible range.  An estimate that ends on a bound other than "absent" is where
-#: the data asks for an implausible value: it is never accepted (:func:`on_bound`).
+#: plausible range, a grade or GPS gain over its plausible range.  An estimate that
+#: ends on a bound other than "absent" (:func:`on_bound`) is the most that plausible
+#: physics gives while the data asks for more: accepted at that edge, and said so.
 BOUNDS: dict[str, tuple[float, float]] = {
     "copper_loss": (0.0, PLAUSIBLE["copper_loss"][1]),
     "rolling_resistance": (0.0, PLAUSIBLE["rolling_resistance"][1]),
@@ -100,8 +100,8 @@ BOUNDS: dict[str, tuple[float, float]] = {
 def on_bound(name: str, value: float, rel: float = 1e-6) -> bool:
     """True when ``value`` sits on a bound of :data:`BOUNDS` that is not "absent" (0).
 
-    Such an estimate is the bound, not what the data gives: the unbounded fit
-    would leave the plausible range.
+    Such an estimate is the bound, not all the data asks for: the unbounded fit
+    would leave the plausible range (docs/ride_model.md, "accepted on the edge").
     """
     lo, hi = BOUNDS.get(name, (-np.inf, np.inf))
     tol = rel * max(abs(hi - lo), 1.0) if np.isfinite(hi - lo) else 0.0

@@ -395,8 +395,10 @@ def plausibility(fit: BalanceFit) -> dict[str, dict]:
     dict
         name -> {"estimate", "unit", "ci95", "plausible_range", "plausible": bool,
         "symbol", "meaning", "on_bound"}; ``plausible`` is False when the estimate
-        lies outside :data:`PLAUSIBLE` or on a bound of the fit that is not
-        "absent" (:func:`~euc_sim.rides.balance.design.on_bound`: the data asks for more).
+        lies outside :data:`PLAUSIBLE`; ``on_bound`` when it sits on an edge of the
+        plausible range where the fit is bounded
+        (:func:`~euc_sim.rides.balance.design.on_bound`): the most that plausible
+        physics gives, while the data asks for more.
     """
     out: dict[str, dict] = {}
     for k in fit.names:
@@ -406,7 +408,7 @@ def plausibility(fit: BalanceFit) -> dict[str, dict]:
         edge = on_bound(k, est)
         entry = {"estimate": est, "unit": unit, "ci95": ci, "symbol": sym, "meaning": meaning,
                  "plausible_range": list(rng[:2]) if rng else None, "on_bound": edge,
-                 "plausible": bool((rng is None or rng[0] <= est <= rng[1]) and not edge)}
+                 "plausible": bool(rng is None or rng[0] <= est <= rng[1])}
         if k == "aerodynamic_drag":
             entry["drag_area_m2"] = 2 * est / RHO_AIR
             entry["drag_area_m2_ci95"] = [2 * c / RHO_AIR for c in ci]

@@ -51,11 +51,13 @@ def _balance_entries(cr: CrossRide) -> list[dict]:
         e = aug.get(name) or full[name]
         kept = name in cr.accepted
         if kept:
-            accepted, why = e["plausible"], None
+            accepted = e["plausible"]
+            why = (f"accepted on the edge of its plausible range: the ride asks for more than "
+                   f"plausible {e['symbol']} gives" if e["on_bound"] else None)
         elif name in cr.selected:
             accepted = False
-            why = ("kept by the held-out selection, but fitted on a bound of its plausible "
-                   "range (or outside it): left out of the balance, not named, not simulated")
+            why = ("kept by the held-out selection, but fitted outside its plausible range: "
+                   "left out of the balance, not named, not simulated")
         else:
             accepted = False
             why = (f"not kept: it lowers the blocked held-out error of {cr.fit_label} by less "
@@ -63,7 +65,7 @@ def _balance_entries(cr: CrossRide) -> list[dict]:
         entry = {"name": name, "estimate": e["estimate"], "ci95": e["ci95"], "unit": e["unit"],
                  "plausible": bool(e["plausible"]),
                  "accepted": bool(accepted), "why": why, "source": "balance",
-                 "plausible_range": e["plausible_range"]}
+                 "plausible_range": e["plausible_range"], "on_bound": bool(e["on_bound"])}
         out.append(entry)
     return out
 
@@ -114,7 +116,8 @@ def parameter_list(cr: CrossRide, total_mass: Mapping, drivetrain: Mapping,
     -------
     list of dict
         ``{"name", "estimate", "ci95", "unit", "plausible", "accepted", "why",
-        "source"}``; an accepted entry is plausible (the balance fits no efficiency).
+        "source"}`` (the balance's also ``"on_bound"``: accepted on the edge of its
+        plausible range, where the ride asks for more); an accepted entry is plausible.
     """
     return (_balance_entries(cr) + [_mass_entry(total_mass)] + _drivetrain_entries(drivetrain)
             + _controller_entries(controller))

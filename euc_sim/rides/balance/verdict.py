@@ -53,14 +53,17 @@ def ride_verdict(report: dict) -> dict:
         return out
     if named:
         text = "the inertia-only model leaves out " + ", ".join(named)
+        edge = [shown[e["name"]] for e in effects if e.get("plausible", True) and e.get("on_bound")]
+        if edge:
+            text += (f"; {'; '.join(edge)} on the edge of its plausible range: the ride asks for "
+                     f"more loss than plausible physics gives, and the rest is not explained")
         if cand:
             text += (f"; also accepted but implausible (candidates, not named): "
                      f"{'; '.join(shown[c] for c in cand)}")
         held = [c for c in report.get("selected_not_accepted") or [] if c not in named]
         if held:
-            text += (f"; {', '.join(held)} would lower the held-out error further only on the "
-                     f"bound of its plausible range (or outside it): more than plausible "
-                     f"physics gives, not named")
+            text += (f"; {', '.join(held)} would lower the held-out error further only "
+                     f"outside its plausible range: not named")
     elif cand:
         text = f"{NOT_EXPLAINED} (candidates, each implausible: {'; '.join(shown[c] for c in cand)})"
     elif report.get("selected_not_accepted"):
@@ -79,8 +82,8 @@ def _why_nothing(report: dict) -> str:
     u = report.get("error_unit", "W")
     held = report.get("selected_not_accepted") or []
     if held:
-        return (f": the held-out selection keeps {', '.join(held)}, but only on the bound of "
-                f"its plausible range (or outside it), so it is left out and nothing is named")
+        return (f": the held-out selection keeps {', '.join(held)}, but only outside its "
+                f"plausible range, so it is left out and nothing is named")
     return (f": no candidate lowers the blocked held-out error of the inertia-only balance "
             f"({sel[0]['heldout_rmse']:.0f} {u}) enough to be kept")
 

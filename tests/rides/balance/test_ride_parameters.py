@@ -10,11 +10,13 @@ import numpy as np
 import pytest
 from ridesynth import TRUTH, synth_log
 
-from euc_sim.rides.balance.crossride import admissible, cross_ride, heldout_score, select_effects
+from euc_sim.rides.balance.crossride import (admissible, cross_ride, effect_entries, heldout_score,
+                                             select_effects)
 from euc_sim.rides.balance.design import (BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, balance_design,
                                           on_bound)
-from euc_sim.rides.balance.fit import fit_balance
+from euc_sim.rides.balance.fit import fit_balance, plausibility
 from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
+from euc_sim.rides.balance.verdict import ride_verdict
 from euc_sim.rides.grids.signals import ride_signals
 from euc_sim.stats import forward_select, percentile_interval, time_blocks, wild_block_signs
 
@@ -77,7 +79,8 @@ def test_the_balance_fits_no_efficiency_and_every_term_is_bounded_physically():
 
 def test_a_copper_loss_beyond_its_plausible_range_sits_on_its_bound(designs):
     """Battery power with k_cu = 0.01 + 0.1 W/N² (a winding that burns more than the wheel
-    moves): the bounded fit stops at the top of the plausible range and never accepts it."""
+    moves): the bounded fit stops at the top of the plausible range; admissible there, and
+    marked as on the edge (the data asks for more)."""
     d, _ = designs
     from dataclasses import replace
 
@@ -88,10 +91,15 @@ def test_a_copper_loss_beyond_its_plausible_range_sits_on_its_bound(designs):
     assert fit.estimate["copper_loss"] == BOUNDS["copper_loss"][1]
     assert on_bound("copper_loss", fit.estimate["copper_loss"])
     assert all(BOUNDS[k][0] <= fit.ci95[k][0] <= fit.ci95[k][1] <= BOUNDS[k][1] for k in fit.names)
-    assert "copper_loss" not in admissible(fit, fit.names)
+    assert "copper_loss" in admissible(fit, fit.names)
+    phys = plausibility(fit)
+    assert phys["copper_loss"]["on_bound"] and phys["copper_loss"]["plausible"]
+    assert not phys["rolling_resistance"]["on_bound"]
 
 
-def test_a_drag_beyond_its_plausible_range_sits_on_its_bound_and_is_never_accepted(designs):
+def test_a_drag_beyond_its_plausible_range_is_accepted_on_its_edge_and_said(designs):
+    """Drag six times a rider's: kept at the top of its plausible range (the most plausible
+    drag gives), its entry and the verdict say the ride asks for more."""
     d, _ = designs
     from dataclasses import replace
 
@@ -102,12 +110,18 @@ def test_a_drag_beyond_its_plausible_range_sits_on_its_bound_and_is_never_accept
     fit = fit_balance(heavy, list(NOMINAL) + ["aerodynamic_drag"], n_boot=0)
     assert fit.estimate["aerodynamic_drag"] == BOUNDS["aerodynamic_drag"][1]
     kept, _, blocked = select_effects(heavy, heavy.candidates)
-    assert "aerodynamic_drag" not in kept                     # never kept on its bound ...
-    assert "aerodynamic_drag" in blocked                      # ... though the bounded drag helps
+    assert "aerodynamic_drag" in kept and "aerodynamic_drag" not in blocked
     full = fit_balance(heavy, list(NOMINAL) + kept, n_boot=0)
     assert admissible(full, kept) == kept                     # what is kept is all admissible
-    assert heldout_score(heavy, list(NOMINAL) + kept + ["aerodynamic_drag"],
-                         admissible_only=True) == np.inf
+    assert plausibility(full)["aerodynamic_drag"]["on_bound"]
+    assert np.isfinite(heldout_score(heavy, list(NOMINAL) + kept, admit="plausible"))
+    cr = cross_ride(heavy, heavy, n_boot=0)
+    entry = next(e for e in effect_entries(cr) if e["name"] == "aerodynamic_drag")
+    assert entry["on_bound"] and "ON THE EDGE" in entry["evidence"]
+    params = {p["name"]: p for p in parameter_list(cr, {"estimate": None, "why": "x"}, {})}
+    assert params["aerodynamic_drag"]["accepted"] and "edge" in params["aerodynamic_drag"]["why"]
+    verdict = ride_verdict({"effects": effect_entries(cr), "selection": list(cr.selection)})
+    assert "aerodynamic_drag" in verdict["named"] and "edge of its plausible range" in verdict["text"]
 
 
 # --- the selection and the parameter set -----------------------------------------------
