@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from euc_sim.rides.balance.design import CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
+from euc_sim.rides.balance.design import BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
 from euc_sim.rides.balance.fit import BalanceFit, _solve, fit_balance, plausibility
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.grids.signals import RideSignals, break_at_gaps
@@ -152,11 +152,19 @@ def admissible(fit: BalanceFit, names, idle_cap: float | None = None) -> list[st
     A term on an edge of its range is admissible at that edge (``on_bound`` in
     :func:`~euc_sim.rides.balance.fit.plausibility`); one outside it (a GPS gain
     below its range, P₀ above the ride's standstill power) stays in the balance, but
-    nothing is named or simulated from it.  ``idle_cap``: see :func:`_all_admissible`.
+    nothing is named or simulated from it.  A term fitted to 0 where 0 means "absent"
+    (the lower bound of a loss or a lag) is not admissible either: there is nothing to
+    name.  ``idle_cap``: see :func:`_all_admissible`.
     """
     phys = plausibility(fit)
-    return [c for c in names if phys[c]["plausible"]
+    return [c for c in names if phys[c]["plausible"] and not _absent(c, fit.estimate[c])
             and _all_admissible({c: fit.estimate[c]}, idle_cap)]
+
+
+def _absent(name: str, value: float) -> bool:
+    """True when ``value`` sits on a lower bound of 0, which means the term is absent."""
+    lo, hi = BOUNDS.get(name, (-np.inf, np.inf))
+    return lo == 0.0 and value <= 1e-6 * (hi - lo)
 
 
 @dataclass(frozen=True)

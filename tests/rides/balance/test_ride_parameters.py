@@ -222,3 +222,15 @@ def test_the_standstill_power_caps_the_idle_drain():
     assert _all_admissible({"drivetrain_idle_loss": 2.0}, cap)
     assert not _all_admissible({"drivetrain_idle_loss": 50.0}, cap)
     assert _all_admissible({"drivetrain_idle_loss": 50.0}, None)
+
+
+def test_a_term_fitted_to_absent_is_not_named(tmp_path):
+    """A lag on its lower bound 0 (inside its plausible range 0-0.3 s) is 'absent': nothing
+    to name, while the same fit's rolling resistance is admissible."""
+    from dataclasses import replace
+
+    names = ["rolling_resistance", "current_lag"]
+    plain = fit_balance(_lagged_design(tmp_path, 0.0), names, n_boot=0)
+    assert admissible(plain, names)[0] == "rolling_resistance"
+    at_zero = replace(plain, estimate={**plain.estimate, "current_lag": 0.0})
+    assert admissible(at_zero, names) == ["rolling_resistance"]
