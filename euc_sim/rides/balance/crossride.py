@@ -113,7 +113,8 @@ def select_effects(design: Design, candidates) -> tuple[list[str], list[dict], l
         ``{"term", "heldout_rmse"}`` after each step, the inertia-only model first.
     blocked : list of str
         Candidates left that would lower the held-out error of the kept model by
-        more than :data:`MIN_GAIN`, but only outside their plausible range.
+        more than :data:`MIN_GAIN`, but only in a model with a term (theirs or
+        another's) outside its plausible range.
     """
     others = [c for c in candidates if c not in NOMINAL]
     names, history = forward_select(lambda n: heldout_score(design, n, admit="interior"),

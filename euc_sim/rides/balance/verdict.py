@@ -62,8 +62,8 @@ def ride_verdict(report: dict) -> dict:
                      f"{'; '.join(shown[c] for c in cand)}")
         held = [c for c in report.get("selected_not_accepted") or [] if c not in named]
         if held:
-            text += (f"; {', '.join(held)} would lower the held-out error further only "
-                     f"outside its plausible range: not named")
+            text += (f"; {', '.join(held)} would lower the held-out error further only in a "
+                     f"model with a term outside its plausible range: not named")
     elif cand:
         text = f"{NOT_EXPLAINED} (candidates, each implausible: {'; '.join(shown[c] for c in cand)})"
     elif report.get("selected_not_accepted"):
@@ -82,8 +82,8 @@ def _why_nothing(report: dict) -> str:
     u = report.get("error_unit", "W")
     held = report.get("selected_not_accepted") or []
     if held:
-        return (f": the held-out selection keeps {', '.join(held)}, but only outside its "
-                f"plausible range, so it is left out and nothing is named")
+        return (f": {', '.join(held)} would lower the held-out error only in a model with a "
+                f"term outside its plausible range, so nothing is named")
     return (f": no candidate lowers the blocked held-out error of the inertia-only balance "
             f"({sel[0]['heldout_rmse']:.0f} {u}) enough to be kept")
 

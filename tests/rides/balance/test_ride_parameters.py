@@ -234,3 +234,21 @@ def test_a_term_fitted_to_absent_is_not_named(tmp_path):
     assert admissible(plain, names)[0] == "rolling_resistance"
     at_zero = replace(plain, estimate={**plain.estimate, "current_lag": 0.0})
     assert admissible(at_zero, names) == ["rolling_resistance"]
+
+
+def test_the_verdict_says_what_is_held_out_and_why():
+    """A named effect on its edge, and a candidate that helps only beside an implausible term."""
+    edge = {"name": "rolling_resistance", "estimate": 0.05, "unit": "1", "plausible": True,
+            "on_bound": True, "plausible_range": [0.005, 0.05]}
+    inside = {"name": "aerodynamic_drag", "estimate": 0.3, "unit": "kg/m", "plausible": True,
+              "on_bound": False, "plausible_range": [0.18, 0.6]}
+    rep = {"effects": [edge, inside], "selected_not_accepted": ["current_lag"],
+           "selection": [{"term": "inertia only", "heldout_rmse": 500.0}]}
+    v = ride_verdict(rep)
+    assert v["named"] == ["rolling_resistance", "aerodynamic_drag"]
+    assert "rolling_resistance 0.05" in v["text"] and "edge of its plausible range" in v["text"]
+    assert "aerodynamic_drag 0.3 kg/m (plausible" not in v["text"]          # only the edge one
+    assert "current_lag would lower the held-out error further only in a model" in v["text"]
+    nothing = ride_verdict({"effects": [], "selected_not_accepted": ["current_lag"],
+                            "selection": rep["selection"]})
+    assert nothing["named"] == [] and "outside its plausible range, so nothing is named" in nothing["text"]
