@@ -56,7 +56,8 @@ def _balance_entries(cr: CrossRide) -> list[dict]:
                    f"plausible {e['symbol']} gives" if e["on_bound"] else None)
         elif name in cr.selected:
             accepted = False
-            why = ("kept by the held-out selection, but fitted outside its plausible range: "
+            why = ("it would lower the held-out error only in a model with a term outside its "
+                   "plausible range (its own or another's, or a P₀ above the log's standstill power): "
                    "left out of the balance, not named, not simulated")
         else:
             accepted = False
