@@ -27,13 +27,15 @@ Verdict per parameter, on what the tool says (named or not): **agree** when a
 named difference's interval holds the recorded change (or it goes the recorded
 direction: "direction only"), or nothing is named and nothing changed;
 **disagree** when a named difference's interval misses the recorded change or
-goes against it, or a recorded change larger than the interval's half-width was
+goes against it, or a recorded change larger than what the pair resolves was
 not named and lies outside the interval; "interval only" where nothing is named
 but an interval excluding zero holds (agree) or excludes (disagree) the recorded
-change; **cannot tell**
-otherwise: the recorded
-change smaller than what the pair resolves (the half-width), nothing recorded
-that sizes it, or a difference named that nothing recorded would cause.
+change; **cannot tell** otherwise: the recorded change smaller than what the
+pair resolves, nothing recorded that sizes it, or a difference named that
+nothing recorded would cause.  What the pair resolves is the JSON's
+``resolvable`` for the difference (the larger of the interval's half-width and
+the held-out gate's size, :mod:`euc_sim.rides.compare.resolution`), read, never
+recomputed here.
 
 Usage::
 
@@ -56,6 +58,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from euc_sim.rides.drive.battery import to_25C
+from euc_sim.rides.grids.power import RHO_AIR
 
 #: The shared data beside the repository (``--data`` elsewhere).
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data"
@@ -206,10 +209,10 @@ def expected(name: str, a: Ride, b: Ride, rep: dict) -> tuple[float | None, int 
 
 def verdict(d: dict, exp: float | None, sign: int | None, said: str) -> str:
     """agree / disagree / cannot tell for what the tool says (named or not), with the reason."""
-    est, ci, named = d.get("estimate"), d.get("ci95"), bool(d.get("named"))
+    est, ci, named, res = d.get("estimate"), d.get("ci95"), bool(d.get("named")), d.get("resolvable")
     if est is None or not ci:
         return "cannot tell: " + ("not estimated on both rides" if est is None else "no interval")
-    half, inside = 0.5 * (ci[1] - ci[0]), exp is not None and ci[0] <= exp <= ci[1]
+    inside = exp is not None and ci[0] <= exp <= ci[1]
     if exp == 0.0 or (exp is None and sign == 0):
         return ("cannot tell: named, while the metadata record no change (a cause they do not record?)"
                 if named else "agree: no change recorded, none named")
@@ -223,13 +226,15 @@ def verdict(d: dict, exp: float | None, sign: int | None, said: str) -> str:
         return f"cannot tell: named, but nothing recorded ({said}) would cause it"
     if exp is not None and inside and (ci[0] > 0 or ci[1] < 0):
         return "agree (interval only): not named, but its interval excludes zero and holds the recorded change"
-    if exp is not None and abs(exp) > half:
+    if exp is not None and res is None:
+        return "cannot tell: the JSON gives no resolution for this difference"
+    if exp is not None and abs(exp) > res:
         return ("cannot tell: not named, the recorded change inside the interval" if inside else
                 "disagree: not named, the recorded change should have been seen")
     if exp is not None and not inside and (ci[0] > 0 or ci[1] < 0):
         return "disagree (interval only): not named, but its interval excludes both zero and the recorded change"
     if exp is not None:
-        return f"cannot tell: the recorded change is below what the pair resolves (±{half:.3g})"
+        return f"cannot tell: the recorded change is below what the pair resolves (±{res:.3g})"
     return "cannot tell: " + ("a change recorded without a size, none named" if sign else "nothing recorded sizes it")
 
 
@@ -259,13 +264,14 @@ def _g(x, nd: int = 3) -> str:
 
 def table(rows: list[dict]) -> list[str]:
     """The Markdown table of :func:`pair_rows` rows."""
-    out = ["| pair (A → B) | dates | parameter | B − A | 95 % interval | named | aliases | metadata | "
-           "expected from metadata | verdict |", "|" + " --- |" * 10]
+    out = ["| pair (A → B) | dates | parameter | B − A | 95 % interval | resolves | named | aliases | metadata | "
+           "expected from metadata | verdict |", "|" + " --- |" * 11]
     rows = [r for r in rows if r["estimate"] is not None]
     for r in rows:
         ci = r["ci95"]
         out.append(f"| {r['pair']} | {r['dates']} | {r['name']} | {_g(r['estimate'])} {r['unit']} | "
                    + (f"{ci[0]:+.3g} to {ci[1]:+.3g}" + (" (excl. 0)" if r["excludes_zero"] else "") if ci else "–")
+                   + f" | {'±' + _u(r['resolvable']) if r.get('resolvable') is not None else '–'}"
                    + f" | {'**yes**' if r['named'] else 'no'} | {', '.join(r['aliases']) or '–'} | "
                    f"{r['recorded']} | {_g(r['expected'])} | {r['verdict']} |")
     return out
@@ -302,6 +308,25 @@ def resolution_table(rows: list[dict], name: str = "total_mass") -> list[str]:
     return out
 
 
+#: Per-pair resolution columns: (parameter, header, factor from the JSON's unit to the shown one).
+RESOLVES = (("total_mass", "mass (kg)", 1.0), ("aerodynamic_drag", "C_dA (m²)", 2.0 / RHO_AIR),
+            ("rolling_resistance", "C_rr", 1.0), ("internal_resistance", "battery R (mΩ)", 1e3),
+            ("speed_scale", "speed scale (%)", 100.0), ("current_delay", "current delay (s)", 1.0))
+
+
+def resolves_table(rows: list[dict]) -> list[str]:
+    """Per pair, what it can resolve (the JSON's ``resolvable``, ±) of each parameter, in the shown units
+    (C_dA = 2k/ρ from the drag coefficient k = ½ρC_dA, kg/m)."""
+    by: dict[str, dict] = {}
+    for r in rows:
+        by.setdefault(r["pair"], {})[r["name"]] = r.get("resolvable")
+    out = ["| pair (A → B) | " + " | ".join(h for _, h, _ in RESOLVES) + " |", "|" + " --- |" * (len(RESOLVES) + 1)]
+    for pair, res in by.items():
+        out.append(f"| {pair} | " + " | ".join("–" if res.get(n) is None else f"±{f * res[n]:.3g}"
+                                               for n, _, f in RESOLVES) + " |")
+    return out
+
+
 BEGIN, END = "<!-- generated by studies/real_pairs.py -->", "<!-- end of the generated part -->"
 
 
@@ -314,6 +339,9 @@ def write_doc(rows: list[dict], cmds: list[str], path: Path) -> None:
           + ", ".join(f"{k} {v}" for k, v in sorted(t['all'].items()))
           + "; over the named differences: "
           + (", ".join(f"{k} {v}" for k, v in sorted(t['named'].items())) or "none named") + ".", ""]
+    md += ["What each pair can resolve: the smallest difference it can name (the JSON's `resolvable`, the "
+           "larger of the 95 % interval's half-width and the held-out gate's size):", ""]
+    md += resolves_table(rows) + [""]
     md += table(rows) + ["", "Commands (run from the repository, the shared data beside it):", "", "```"]
     md += cmds + ["```", "", END]
     old = path.read_text() if path.exists() else f"{BEGIN}\n{END}\n"
@@ -341,6 +369,7 @@ def main(argv=None) -> int:
         write_doc(rows, cmds, Path(args.out))
     print("\n".join(table(rows)))
     print("\n".join(["", "Mass: what each pair resolves", ""] + resolution_table(rows)))
+    print("\n".join(["", "What each pair resolves", ""] + resolves_table(rows)))
     return 0
 
 
