@@ -49,25 +49,50 @@ def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS, admit: st
     ``"plausible"``, one with a non-nominal term outside its plausible range;
     with ``"interior"``, also one with a term on a bound (:data:`ADMIT`).
     """
-    if admit not in ADMIT:
-        raise ValueError(f"admit must be one of {ADMIT}, got {admit!r}")
-    names = list(names)
-    whole = _solve(design, names, _start(names)).x
-    estimate = dict(zip(names, whole))
-    if admit != "any" and not _all_admissible(estimate, design.idle_cap):
-        return float("inf")
-    if admit == "interior" and any(on_bound(k, v) for k, v in estimate.items() if k not in NOMINAL):
-        return float("inf")
-    label = time_blocks(design.t, n_folds)
-    err = []
-    for b in range(n_folds):
-        train, test = design.rows(label != b), design.rows(label == b)
-        if len(test.P) == 0:
-            continue
-        th = _solve(train, names, whole).x
-        err.append(test.residual(dict(zip(names, th))))
-    r = np.concatenate(err)
-    return float(np.sqrt(np.mean(r ** 2)))
+    return _HeldoutScores(design, n_folds).score(names, admit)
+
+
+class _HeldoutScores:
+    """:func:`heldout_score` of one design, each model's fits done once.
+
+    The selection's two passes and its ``blocked`` check score the same models
+    under different ``admit``: the whole-design fit and the fold error of a model
+    (keyed by its names, in order) are kept and reused.
+    """
+
+    def __init__(self, design: Design, n_folds: int = HELDOUT_FOLDS):
+        self.design, self.n_folds = design, n_folds
+        self._whole: dict[tuple, dict] = {}
+        self._rmse: dict[tuple, float] = {}
+
+    def score(self, names, admit: str = "any") -> float:
+        if admit not in ADMIT:
+            raise ValueError(f"admit must be one of {ADMIT}, got {admit!r}")
+        key = tuple(names)
+        if key not in self._whole:
+            self._whole[key] = dict(zip(key, _solve(self.design, list(key), _start(key)).x))
+        estimate = self._whole[key]
+        if admit != "any" and not _all_admissible(estimate, self.design.idle_cap):
+            return float("inf")
+        if admit == "interior" and any(on_bound(k, v) for k, v in estimate.items()
+                                       if k not in NOMINAL):
+            return float("inf")
+        if key not in self._rmse:
+            self._rmse[key] = self._folds(list(key), np.array(list(estimate.values())))
+        return self._rmse[key]
+
+    def _folds(self, names: list, whole: np.ndarray) -> float:
+        d = self.design
+        label = time_blocks(d.t, self.n_folds)
+        err = []
+        for b in range(self.n_folds):
+            train, test = d.rows(label != b), d.rows(label == b)
+            if len(test.P) == 0:
+                continue
+            th = _solve(train, names, whole).x
+            err.append(test.residual(dict(zip(names, th))))
+        r = np.concatenate(err)
+        return float(np.sqrt(np.mean(r ** 2)))
 
 
 def _all_admissible(estimate: dict, idle_cap: float | None = None) -> bool:
@@ -117,16 +142,17 @@ def select_effects(design: Design, candidates) -> tuple[list[str], list[dict], l
         another's) outside its plausible range.
     """
     others = [c for c in candidates if c not in NOMINAL]
-    names, history = forward_select(lambda n: heldout_score(design, n, admit="interior"),
+    scores = _HeldoutScores(design)
+    names, history = forward_select(lambda n: scores.score(n, "interior"),
                                     list(NOMINAL), others, MIN_GAIN, max_step=2)
     left = [c for c in others if c not in names]
-    names, edge = forward_select(lambda n: heldout_score(design, n, admit="plausible"),
+    names, edge = forward_select(lambda n: scores.score(n, "plausible"),
                                  names, left, MIN_GAIN, max_step=2)
     history = history + edge[1:]
     history[0] = {**history[0], "term": history[0]["term"] or "inertia only"}
     cur = history[-1]["heldout_rmse"]
     blocked = [c for c in others if c not in names
-               and heldout_score(design, names + [c]) < cur * (1.0 - MIN_GAIN)]
+               and scores.score(names + [c]) < cur * (1.0 - MIN_GAIN)]
     return names[len(NOMINAL):], history, blocked
 
 
