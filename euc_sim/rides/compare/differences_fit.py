@@ -174,6 +174,8 @@ class _Grams:
         self.mid = len(d.Z_other) // 2
         self.step = d.shift_step
         self.n_folds = n_folds
+        self._fold_fits: dict[tuple, tuple] = {}
+        self._fold_sse: dict[tuple, tuple] = {}
 
     def cols(self, terms) -> list:
         keep = [n for n in self.names if n not in self._deltas or n in terms]
@@ -189,18 +191,33 @@ class _Grams:
         k = list(ks)[int(np.argmin(sse))]
         return fits[k][0], k, sse
 
+    def fold_fit(self, f: int, terms):
+        """:meth:`fit` with fold ``f`` of both rides left out, once per model and fold.
+
+        The held-out score and the paired-fraction jackknife leave out the same folds.
+        """
+        key = (f, tuple(terms))
+        if key not in self._fold_fits:
+            self._fold_fits[key] = self.fit((self.fL != f).astype(float),
+                                            (self.fO != f).astype(float), terms)
+        return self._fold_fits[key]
+
     def fold_sse(self, terms) -> tuple[np.ndarray, np.ndarray]:
         """OTHER's held-out SSE and rows per fold (fold f of both rides left out, OTHER's fold f scored)."""
+        key = tuple(terms)
+        if key in self._fold_sse:
+            return self._fold_sse[key]
         cols, sse, n = self.cols(terms), [], []
         for f in range(self.n_folds):
             test = self.fO == f
             if not test.any():
                 continue
-            beta, k, _ = self.fit((self.fL != f).astype(float), (~test).astype(float), terms)
+            beta, k, _ = self.fold_fit(f, terms)
             G = self.GO[k][test].sum(axis=0)
             sse.append(_test_sse(G, cols, beta))
             n.append(int(self.nO[test].sum()))
-        return np.array(sse, float), np.array(n, int)
+        self._fold_sse[key] = (np.array(sse, float), np.array(n, int))
+        return self._fold_sse[key]
 
     def score(self, terms) -> float:
         """Blocked held-out RMS of OTHER: fold f of both rides left out, OTHER's fold f scored."""
@@ -247,7 +264,7 @@ def _jackknife(g: _Grams, terms, cands, transform, whole: dict) -> dict:
     for f in range(g.n_folds):
         if not ((g.fL == f).any() and (g.fO == f).any()):
             continue
-        beta, k, sse = g.fit((g.fL != f).astype(float), (g.fO != f).astype(float), terms)
+        beta, k, sse = g.fold_fit(f, terms)
         parts.append(_values(g, cols, beta, k, sse, terms, transform))
     return {c: jackknife_interval(whole[c], [p[c] for p in parts]) for c in cands}
 
