@@ -43,6 +43,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.rides.grids.power import RHO_AIR
+from euc_sim.rides.grids.route import gps_grade
 from euc_sim.rides.grids.signals import RideSignals, sg, window_samples
 
 __all__ = ["RHO_AIR", "CANDIDATES", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDOW", "Design",
@@ -60,7 +61,8 @@ CANDIDATES: dict[str, tuple[str, str, str, str | None, str | None]] = {
     "copper_loss": ("k_cu", "W/N²", "copper loss k_cu·F² of the motor's accelerating or braking "
                     "force F = m_eq·a (winding resistance × (R/k_t)²)", "copper", "N²"),
     "road_slope": ("sin α", "1", "constant road grade, force m·g·sin α", "slope", "W"),
-    "road_slope_gps": ("gain", "1", "gain on m·g·dh/dt from GPS altitude (1 if GPS is right)",
+    "road_slope_gps": ("gain", "1", "gain on the climb m·g·v·sin α, the road's grade read from "
+                       "GPS altitude over 100 m of road (1 if GPS is right)",
                        "gps_climb", "W"),
     "drivetrain_idle_loss": ("P₀", "W", "constant electrical drain (controller, lights)",
                              None, None),
@@ -136,8 +138,9 @@ class Design:
     columns_full : pandas.DataFrame
         On the whole grid, L₁-filtered: ``inertia`` = m_eq·d/dt(v²/2), W;
         ``rolling`` = m·g·|v|, W; ``drag`` = |v|³, m³/s³; ``slope`` = m·g·v, W
-        (only when v changes sign); ``gps_climb`` = m·g·dh/dt, W (only with GPS
-        altitude).
+        (only when v changes sign); ``gps_climb`` = m·g·v·sin α, W, sin α from
+        GPS altitude over distance (:func:`~euc_sim.rides.grids.route.gps_grade`;
+        only with GPS altitude).
     P_full : numpy.ndarray
         Battery power V·I filtered by L₂∘L₁, W (NaN near segment ends).
     segment : numpy.ndarray of int
@@ -417,7 +420,7 @@ def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
                      f"the other way): rolling resistance and a constant road slope give the "
                      f"same column, so only C_rr + sin α is estimated (as rolling_resistance)")
     if sig.has_gps_alt:
-        cols["gps_climb"] = mg * L1(raw["gps_alt"].to_numpy(), 1)
+        cols["gps_climb"] = mg * L1(v_raw * gps_grade(raw))      # m·g·v·sin α
         cands.append("road_slope_gps")
     else:
         notes.append("no GPS altitude: road grade unknown; a varying grade stays in the residual")

@@ -6,7 +6,9 @@ position; a second ride of the same route can carry it
 
 1. :func:`route_position`: each grid row's distance along the ride, m, and its
    GPS position in local metres when the log has one;
-2. :func:`match_routes`: where the test ride lies on the fit ride's route, by GPS
+2. :func:`gps_grade`: the road's grade sin α at each row, from GPS altitude read
+   over distance (not time), where the log has altitude;
+3. :func:`match_routes`: where the test ride lies on the fit ride's route, by GPS
    track (nearest point, same road heading) or, without GPS on either, by distance
    along the ride with the offset found from the *speed* per 25 m (never from
    power: the test ride's power stays held out); a :class:`RouteMatch` or None.
@@ -23,7 +25,7 @@ from euc_sim.geo import local_metres
 
 __all__ = ["RoutePosition", "RouteMatch", "route_position", "match_routes", "match_by_gps",
            "match_by_speed", "BIN_M", "MIN_SHARED_M", "MIN_SPEED_CORR", "GPS_RADIUS_M",
-           "MIN_HEADING_COS", "MAX_OFFSET_M"]
+           "MIN_HEADING_COS", "MAX_OFFSET_M", "distance_along", "gps_grade", "GRADE_LENGTH_M", "MAX_GRADE"]
 
 #: Length of route over which one grade is read, m.
 BIN_M = 25.0
@@ -39,6 +41,14 @@ MAX_OFFSET_M = 500.0
 GPS_RADIUS_M = 20.0
 #: With GPS: headings within this angle (cos 45°) count as the same road, not a crossing.
 MIN_HEADING_COS = 0.7
+#: Length of road over which GPS altitude gives one grade, m: a consumer fix errs by metres,
+#: so a slope read over 100 m errs by about ±0.02 (docs/ride_model.md, "The road's grade").
+GRADE_LENGTH_M = 100.0
+#: Spacing of the distance grid the altitude is read on, m.
+GRADE_STEP_M = 5.0
+#: Steepest grade a road has (the steepest public streets, about 35 %): a slope beyond it
+#: over :data:`GRADE_LENGTH_M` is the GPS fix settling or jumping, not the road.
+MAX_GRADE = 0.35
 
 
 @dataclass(frozen=True)
@@ -119,8 +129,7 @@ def route_position(raw: pd.DataFrame, origin: tuple[float, float] | None = None)
     RoutePosition
     """
     t, v = raw["t"].to_numpy(float), np.nan_to_num(raw["v"].to_numpy(float))
-    step = 0.5 * (np.abs(v[1:]) + np.abs(v[:-1])) * np.diff(t)
-    s = np.concatenate([[0.0], np.cumsum(step)])
+    s = distance_along(t, v)
     xy = None
     if {"latitude", "longitude"} <= set(raw.columns):
         lat, lon = raw["latitude"].to_numpy(float), raw["longitude"].to_numpy(float)
@@ -131,6 +140,78 @@ def route_position(raw: pd.DataFrame, origin: tuple[float, float] | None = None)
             xy = np.full((len(t), 2), np.nan)
             xy[fix] = local_metres(lat[fix], lon[fix], origin)
     return RoutePosition(s=s, xy=xy, v=v, origin=origin if xy is not None else None)
+
+
+def distance_along(t: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Distance ridden from the first row, m: ∫|v| dt by the trapezoid rule.
+
+    ``t`` in s, ``v`` in m/s (NaN read as 0); a gap between rows is bridged at the
+    mean of the speeds either side.
+    """
+    v = np.abs(np.nan_to_num(np.asarray(v, float)))
+    step = 0.5 * (v[1:] + v[:-1]) * np.diff(np.asarray(t, float))
+    return np.concatenate([[0.0], np.cumsum(step)])
+
+
+def gps_grade(raw: pd.DataFrame, length: float = GRADE_LENGTH_M) -> np.ndarray:
+    """The road's grade sin α at each grid row, from GPS altitude over distance.
+
+    The altitude is placed on a grid of :data:`GRADE_STEP_M` along the distance
+    ridden (:func:`distance_along`; rows at one place are averaged, rows without a
+    fix interpolated) and its slope dh/ds read by a local straight-line fit over
+    ``length`` of road (scipy's Savitzky–Golay derivative).  Where that slope
+exceeds :data:`MAX_GRADE` (a fix settling at the start of a ride, a jump), the
+altitude is not the road's: the grade there, and over ``length`` either side,
+is unknown and read as 0.  Read over time
+    instead, the metres of GPS error become climb rates of the order of the true
+    ones and a fitted gain on them falls to 0.2–0.3 (docs/ride_model.md).
+
+    Parameters
+    ----------
+    raw : pandas.DataFrame
+        A ride's grid (:attr:`RideSignals.raw`): ``t`` (s), ``v`` (m/s), ``gps_alt`` (m).
+    length : float
+        Road over which one slope is read, m.
+
+    Returns
+    -------
+    numpy.ndarray
+        sin α (dh/ds, 1), one per row; 0 where it is unknown (above) or the ride
+        covers less than two grid steps, a single straight-line slope where it
+        covers less than ``length``.
+
+    Raises
+    ------
+    ValueError
+        if ``raw`` has no ``gps_alt`` column, or fewer than two finite altitudes, or
+        ``length`` is not positive.
+    """
+    from scipy.signal import savgol_filter
+
+    if not length > 0:
+        raise ValueError(f"length must be positive (m), got {length!r}")
+    if "gps_alt" not in raw:
+        raise ValueError("gps_grade needs a gps_alt column")
+    s = distance_along(raw["t"].to_numpy(float), raw["v"].to_numpy(float))
+    h = raw["gps_alt"].to_numpy(float)
+    fix = np.isfinite(h)
+    if fix.sum() < 2:
+        raise ValueError(f"gps_grade needs two finite altitudes, got {int(fix.sum())}")
+    if s[-1] < 2 * GRADE_STEP_M:
+        return np.zeros(len(s))
+    at, where = np.unique(s[fix], return_inverse=True)
+    h_at = np.bincount(where, h[fix]) / np.bincount(where)
+    grid = np.linspace(0.0, s[-1], int(np.ceil(s[-1] / GRADE_STEP_M)) + 1)
+    step = grid[1]
+    h_grid = np.interp(grid, at, h_at)
+    n = int(round(length / step)) // 2 * 2 + 1
+    if len(grid) < n:
+        slope = np.full(len(grid), np.polyfit(grid, h_grid, 1)[0])
+    else:
+        slope = savgol_filter(h_grid, n, 1, deriv=1, delta=step, mode="interp")
+    bad = (np.abs(slope) > MAX_GRADE).astype(float)           # and ``length`` either side:
+    wrong = np.convolve(bad, np.ones(2 * n - 1))[n - 1:n - 1 + len(bad)] > 0
+    return np.interp(s, grid, np.where(wrong, 0.0, slope))
 
 
 def match_routes(fit: RoutePosition, test: RoutePosition) -> RouteMatch | None:
