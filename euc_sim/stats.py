@@ -250,8 +250,9 @@ def forward_select(score: Callable[[list], float], base: list, candidates: list,
         A step is kept only if it lowers the score by more than this fraction.
     max_step : int
         1: one term per step.  2: a step may also add two terms together that
-        are each not admissible alone (score ``inf``; e.g. drag and rolling
-        each pushed onto a bound when fitted without the other), when the pair
+        each do not earn a step alone (not admissible alone, score ``inf``, e.g.
+        drag and rolling each pushed onto a bound when fitted without the other;
+        or lowering the score by less than ``min_gain`` alone), when the pair
         lowers the score by more than ``min_gain`` below the current and the
         best single term.
 
@@ -270,7 +271,7 @@ def forward_select(score: Callable[[list], float], base: list, candidates: list,
     while left:
         trial = {(c,): score(names + [c]) for c in left}
         best = min(trial, key=trial.get)
-        alone = [c for c in left if not np.isfinite(trial[(c,)])]
+        alone = [c for c in left if not trial[(c,)] < cur * (1.0 - min_gain)]
         if max_step >= 2 and len(alone) >= 2:
             pairs = {(a, b): score(names + [a, b]) for i, a in enumerate(alone) for b in alone[i + 1:]}
             pair = min(pairs, key=pairs.get)

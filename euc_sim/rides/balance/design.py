@@ -62,7 +62,8 @@ CANDIDATES: dict[str, tuple[str, str, str, str | None, str | None]] = {
                     "force F = m_eq·a (winding resistance × (R/k_t)²)", "copper", "N²"),
     "road_slope": ("sin α", "1", "constant road grade, force m·g·sin α", "slope", "W"),
     "road_slope_gps": ("gain", "1", "gain on the climb m·g·v·sin α, the road's grade read from "
-                       "GPS altitude over 100 m of road (1 if GPS is right)",
+                       "GPS altitude over 100 m of road (1 if the altitude were exact, less by "
+                       "the share of that grade which is altitude error)",
                        "gps_climb", "W"),
     "drivetrain_idle_loss": ("P₀", "W", "constant electrical drain (controller, lights)",
                              None, None),
@@ -79,7 +80,8 @@ PLAUSIBLE: dict[str, tuple[float, float, str]] = {
     "aerodynamic_drag": (0.5 * RHO_AIR * 0.3, 0.5 * RHO_AIR * 1.0, "kg/m"),   # C_dA 0.3-1.0 m²
     "copper_loss": (0.0, 0.035, "W/N²"),       # 1.5·R_ph·(R/k_t)², docs/ride_model.md
     "road_slope": (-0.15, 0.15, "1"),
-    "road_slope_gps": (0.5, 1.5, "1"),
+    # 1 for exact altitude, less by the share of the GPS grade that is error; docs/ride_model.md
+    "road_slope_gps": (0.0, 1.5, "1"),
     "drivetrain_idle_loss": (0.0, 100.0, "W"),
     "current_lag": (0.0, 0.3, "s"),
 }

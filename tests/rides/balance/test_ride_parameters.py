@@ -56,6 +56,17 @@ def test_forward_select_takes_two_terms_that_are_admissible_only_together():
     assert [h["term"] for h in history] == ["base", "a+b"]
 
 
+def test_forward_select_takes_two_terms_that_each_gain_too_little_alone():
+    # "a" and "b" each lower the error by 0.5 % (below the 1 % gate), together by 3 %
+    errors = {(): 10.0, ("a",): 9.95, ("b",): 9.95, ("c",): 9.97, ("a", "b"): 9.7,
+              ("a", "c"): 9.93, ("b", "c"): 9.93, ("a", "b", "c"): 9.69}
+    score = lambda names: errors[tuple(sorted(n for n in names if n != "base"))]  # noqa: E731
+    one, _ = forward_select(score, ["base"], ["a", "b", "c"], min_gain=0.01)
+    assert one == ["base"]
+    two, history = forward_select(score, ["base"], ["a", "b", "c"], min_gain=0.01, max_step=2)
+    assert two == ["base", "a", "b"] and history[-1]["term"] == "a+b"
+
+
 def test_percentile_interval_and_wild_signs_are_seeded():
     draws = np.arange(1001, dtype=float)
     lo, hi = percentile_interval(draws)

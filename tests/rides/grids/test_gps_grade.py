@@ -80,7 +80,7 @@ def test_the_grade_is_read_from_altitude_over_distance(hill):
 
 def test_gps_error_attenuates_what_the_grade_explains():
     """Slower, larger altitude errors lower the gain a regression on the grade finds:
-    why road_slope_gps's plausible range reaches down to 0.5."""
+    why road_slope_gps's plausible range reaches down to 0 (errors-in-variables attenuation)."""
     gains = []
     for sd in (0.5, 2.0):
         raw = _ride(5, alt_sd=sd).raw
