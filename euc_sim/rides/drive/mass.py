@@ -8,9 +8,8 @@ inertia J/R², kg)::
 
     P = V·I = m·a·v + m·g·ḣ + c₁·v + c₃·v³ + k_cu·I_ph² + P₀
 
-``a·v = d/dt(v²/2)`` (kinetic energy), ``g·ḣ`` the climb (potential energy,
-ḣ = v·sin α with the road's grade read from GPS altitude over distance where logged:
-:func:`euc_sim.rides.grids.power.climb_rate`), ``c₁·v`` rolling resistance plus every loss linear
+``a·v = d/dt(v²/2)`` (kinetic energy), ``g·ḣ`` the climb (potential energy, from
+GPS altitude where logged), ``c₁·v`` rolling resistance plus every loss linear
 in speed (bearings, the motor's no-load loss), ``c₃ = ½·ρ·C_dA`` plus losses
 growing with v³, ``k_cu·I_ph²`` the copper loss in the winding resistance (with
 the logged phase current; without it, its proxy ``a²``, since
@@ -94,8 +93,7 @@ ENERGY_TERMS = {
     "rolling": ("c₁·v: rolling resistance and losses linear in speed", "N"),
     "drag": ("c₃·v³: aerodynamic drag ½ρC_dA and losses growing with v³", "kg/m"),
     "no_load": ("P₀: constant drain (controller, lights)", "W"),
-    "grade": ("β_h·g·ḣ: climb, ḣ = v·sin α with the grade read from GPS altitude over 100 m "
-              "of road (β_h ≈ m)", "kg"),
+    "grade": ("β_h·g·ḣ: climb from GPS altitude (β_h ≈ m, attenuated by altitude noise)", "kg"),
     "copper": ("k_cu·I_ph²: winding loss (R_w, ohm, with phase current; else a² proxy)", "ohm"),
 }
 

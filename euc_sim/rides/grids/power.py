@@ -5,9 +5,8 @@ under :data:`euc_sim.rides.grids.ride.GAP_POLICY`: gaps up to 1.0 s bridged, lon
 ones splitting the ride into segments), the wheel's speed corrected by its scale
 against GPS speed (:func:`speed_scale`: a 6 % optimistic speedometer makes the
 mass 12 % low, since ``a·v`` scales with the square), and every channel filtered
-alike (Savitzky–Golay, one window).  Battery power is V·I; the climb rate is
-v·sin α, the road's grade read from GPS altitude over distance where it is logged
-(:func:`climb_rate`).  :mod:`euc_sim.rides.drive.mass`,
+alike (Savitzky–Golay, one window).  Battery power is V·I; the climb rate comes
+from GPS altitude over 10 s where it is logged.  :mod:`euc_sim.rides.drive.mass`,
 :mod:`euc_sim.rides.drive.drivetrain`, :mod:`euc_sim.rides.drive.pwm` and
 :mod:`euc_sim.rides.drive.grade` all start from :func:`power_signals`.
 """
@@ -18,27 +17,22 @@ from dataclasses import dataclass, field
 from typing import Mapping
 
 import numpy as np
-import pandas as pd
 
 from euc_sim.errors import BadInputFile
 from euc_sim.geo import haversine
 from euc_sim.rides.grids.ride import GAP_POLICY, GapPolicy, Ride
-from euc_sim.rides.grids.route import gps_grade
 from euc_sim.rides.grids.signals import ride_grid, sg
 from euc_sim.rides.source.channels import current_from_phase
 from euc_sim.rides.source.logs import RideLog, read_log
 from euc_sim.rides.source.systematic import CURRENT_SCALE_SD, GRADE_SHARE
 
 __all__ = ["G", "RHO_AIR", "NO_GPS_SCALE_SD", "RideDataError", "MassSettings", "SpeedScale",
-           "PowerSignals", "as_ride_log", "speed_scale", "track_scale", "power_signals",
-           "climb_rate", "lifted_segments", "GPS_V_MIN"]
+           "PowerSignals", "as_ride_log", "speed_scale", "track_scale", "power_signals"]
 
 G = 9.81               # m/s²
 RHO_AIR = 1.2          # kg/m³ at about 20 °C
 #: Speedometer-scale standard deviation, when no GPS speed measures it (relative).
 NO_GPS_SCALE_SD = 0.05
-#: Wheel speed, m/s, above which GPS speed is compared with it (GPS speed is poor when slow).
-GPS_V_MIN = 4.0
 
 
 class RideDataError(BadInputFile):
@@ -139,8 +133,7 @@ class PowerSignals:
     P : numpy.ndarray
         Battery power V·I, W.
     climb : numpy.ndarray or None
-        g·ḣ, ḣ = v·sin α (:func:`climb_rate`), filtered like every channel, W/kg;
-        None without GPS altitude.
+        g·ḣ from GPS altitude, W/kg.
     signed : bool
         Whether the log's current is signed (regeneration visible).
     scale : SpeedScale
@@ -148,8 +141,7 @@ class PowerSignals:
         Other filtered channels (``voltage``, ``current``, ``pwm``, ``phase_current``).
     raw : dict
         Unfiltered grid channels for the energy balance: ``v`` (corrected, m/s),
-        ``P`` (W), ``h`` (the altitude climbed, ∫v·sin α dt from each segment's start, m,
-        where GPS altitude is logged: the energy windows' Δh) and
+        ``P`` (W), ``h`` (GPS altitude smoothed over 10 s, m, where logged) and
         ``phase_current`` (A, where used).
     """
 
@@ -173,7 +165,7 @@ def as_ride_log(log) -> RideLog:
     return log if isinstance(log, RideLog) else read_log(log, emit_warnings=False)
 
 
-def speed_scale(log, v_min: float = GPS_V_MIN, method: str = "doppler") -> SpeedScale:
+def speed_scale(log, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
     """True speed over logged wheel speed, from GPS.
 
     Two measurements: the Doppler speed (least squares through the origin of
@@ -279,65 +271,6 @@ def power_signals(log, settings: MassSettings = MassSettings()) -> PowerSignals:
     return _filtered(log, settings)
 
 
-def climb_rate(t: np.ndarray, v: np.ndarray, gps_alt: np.ndarray) -> np.ndarray:
-    """The climb rate ḣ = v·sin α, m/s, the grade read from GPS altitude over distance.
-
-    sin α is :func:`euc_sim.rides.grids.route.gps_grade` on the distance ridden at
-    ``v``, the road's one reading of GPS altitude (the balance's climb too): a time
-    derivative of metre-noisy altitude would turn its errors into climb rates of the
-    size of the true ones and attenuate the fitted coefficient.
-
-    Parameters
-    ----------
-    t : numpy.ndarray
-        Grid time, s.
-    v : numpy.ndarray
-        Speed, m/s (corrected by the speed scale: the distance is read at it).
-    gps_alt : numpy.ndarray
-        GPS altitude, m (NaN without a fix).
-    """
-    frame = pd.DataFrame({"t": t, "v": v, "gps_alt": gps_alt})
-    return v * gps_grade(frame)
-
-
-def lifted_segments(frame: pd.DataFrame, v_still: float) -> np.ndarray:
-    """Rows of segments where the wheel spins and the ground does not move: a lifted wheel.
-
-    A segment whose GPS speed is logged on every row and never reaches ``v_still``
-    (m/s, standstill) while the wheel reads above :data:`GPS_V_MIN` is the wheel
-    spinning free in the air (between two logging gaps, a wheel reading 120 km/h
-    with GPS at 0), not ridden: its speed is not the rider's and its rows are not fitted.
-
-    Returns
-    -------
-    numpy.ndarray of bool
-        True on the rows of such segments; all False without GPS speed.
-    """
-    out = np.zeros(len(frame), bool)
-    if "gps_speed" not in frame:
-        return out
-    seg = frame["segment"].to_numpy()
-    v, g = frame["v"].to_numpy(float), frame["gps_speed"].to_numpy(float)
-    for s in np.unique(seg):
-        i = seg == s
-        if np.isfinite(g[i]).all() and np.max(g[i]) < v_still and np.nanmax(v[i]) > GPS_V_MIN:
-            out[i] = True
-    return out
-
-
-def _integral(x: np.ndarray, t: np.ndarray, segment: np.ndarray) -> np.ndarray:
-    """∫x dt from each segment's start (trapezoid rule), so that a window's difference
-    over T is exactly the window mean of x (:mod:`euc_sim.rides.drive.energy`)."""
-    dt = np.diff(t, prepend=t[0])
-    step = 0.5 * (x + np.roll(x, 1)) * dt
-    step[np.r_[True, segment[1:] != segment[:-1]]] = 0.0
-    out = np.empty_like(x)
-    for s in np.unique(segment):
-        idx = segment == s
-        out[idx] = np.cumsum(step[idx])
-    return out
-
-
 def _filtered(ride, settings: MassSettings) -> PowerSignals:
     """:func:`power_signals` of a ride or log whose columns were checked."""
     log = as_ride_log(ride)
@@ -346,15 +279,16 @@ def _filtered(ride, settings: MassSettings) -> PowerSignals:
     seg = frame["segment"].to_numpy()
     k = speed_scale(log, method=settings.scale_method)
     f = lambda x, deriv=0: sg(x, seg, settings.rate, settings.window, 2, deriv)   # noqa: E731
-    v_raw = np.where(lifted_segments(frame, settings.v_min), np.nan,
-                     frame["v"].to_numpy(float) * k.estimate)
+    v_raw = frame["v"].to_numpy(float) * k.estimate
     P = frame["voltage"].to_numpy(float) * frame["current"].to_numpy(float)
     climb = None
     raw = {"v": v_raw, "P": P}
     if "gps_alt" in frame and np.isfinite(frame["gps_alt"]).mean() > 0.5:
-        hdot = climb_rate(frame["t"].to_numpy(float), v_raw, frame["gps_alt"].to_numpy(float))
-        climb = G * f(hdot)
-        raw["h"] = _integral(hdot, frame["t"].to_numpy(float), seg)
+        # GPS altitude is noisy (metres): its climb rate from a 10 s fit.
+        alt = frame["gps_alt"].to_numpy(float)
+        climb = G * sg(np.nan_to_num(alt), seg, settings.rate, 10.0, 2, 1)
+        climb[~np.isfinite(alt)] = np.nan
+        raw["h"] = np.where(np.isfinite(alt), sg(np.nan_to_num(alt), seg, settings.rate, 10.0, 2), np.nan)
     extra = {c: f(frame[c].to_numpy(float)) for c in
              ("voltage", "current", "pwm", "phase_current") if c in frame}
     if current_from_phase(log):
