@@ -7,6 +7,8 @@ phase current squared (the phase current proportional to the wheel's force),
 a constant drain, a Thevenin battery and a PWM from back-EMF plus resistive
 drop.  Rows at irregular 0.15-0.25 s intervals with repeated stamps,
 speed in km/h at 0.01 resolution, GPS speed reading ``1/scale`` of the wheel's.
+With ``road`` the ride climbs a known hill: the climb m·g·v·sin α enters the force
+and GPS altitude is the road's, with metre errors (:func:`_gps_altitude`).
 """
 
 from __future__ import annotations
@@ -36,15 +38,30 @@ def _speed(t: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     return env * (5.5 + v)
 
 
+def _gps_altitude(seed: int, t: np.ndarray, altitude: np.ndarray, alt_sd: float) -> np.ndarray:
+    """GPS altitude, m: the road's plus slow errors (AR(1), 10 s) of ``alt_sd`` m, 0.1 m steps.
+
+    Its own generator (seeded by ``seed``), so the ride's other draws do not move.
+    """
+    rng = np.random.default_rng([seed, 1])
+    rho = math.exp(-float(np.median(np.diff(t))) / 10.0)
+    return np.round(altitude + ar1_noise(rng, t.size, alt_sd, rho), 1)
+
+
 def drive_log(path: Path, seed: int, duration: float = 600.0, truth=DRIVE, signed: bool = True,
-              noise_w: float = 30.0, gps: bool = True, phase: bool = True) -> Path:
+              noise_w: float = 30.0, gps: bool = True, phase: bool = True, road=None,
+              alt_sd: float = 1.0) -> Path:
     """Write the twin ride; returns ``path``.
 
-    True speed v; the wheel logs v/scale.  Force F = m·a + c1 + c3·v², mechanical
-    power D = F·v; phase current I_ph = amp_per_N·|F|; battery
+    True speed v; the wheel logs v/scale.  Force F = m·a + c1 + c3·v² (+ m·g·sin α
+    on a ``road``), mechanical power D = F·v; phase current I_ph = amp_per_N·|F|; battery
     P = D + R_w·I_ph² + P0 (regeneration where negative);
     V = E0 − k_Q·Q − R_int·I; duty d = (K_v·v_wheel + r_F·F)/V with
     F = P/v_wheel; EUC World's safety margin = 100 − 100·d.
+
+    ``road``: a function of the distance ridden s (m) giving (sin α, altitude m); the
+    GPS altitude is then the altitude with ``alt_sd`` m of slow error (else a flat
+    50.0 m, and the output is as without these options).
     """
     rng = np.random.default_rng(seed)
     dt = 0.01
@@ -52,6 +69,11 @@ def drive_log(path: Path, seed: int, duration: float = 600.0, truth=DRIVE, signe
     v = _speed(tf, rng)
     a = np.gradient(v, tf)
     F = truth["mass"] * a + truth["c1"] + truth["c3"] * v ** 2
+    alt = np.full_like(tf, 50.0)
+    if road is not None:
+        sin_a, h = road(np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * dt)]))
+        F = F + truth["mass"] * 9.81 * sin_a
+        alt = _gps_altitude(seed, tf, h, alt_sd)
     Iph = truth["amp_per_N"] * np.abs(F)
     P = F * v + truth["R_w"] * Iph ** 2 + truth["P0"]
     rho = math.exp(-dt / 0.3)
@@ -72,12 +94,13 @@ def drive_log(path: Path, seed: int, duration: float = 600.0, truth=DRIVE, signe
     ts = ts[ts < duration - 0.5]
     pick = lambda x: np.interp(ts, tf, x)   # noqa: E731
     vs, Vs, Is, ds, vt, ph = pick(v_wheel), pick(V), pick(I), pick(duty), pick(v), pick(Iph)
+    hs = pick(alt)
     if not signed:
         Is = np.abs(Is)
     stamps = pd.Timestamp("2025-07-01 10:00:00") + pd.to_timedelta(np.round(ts, 3), unit="s")
     rows = []
-    for k, (s, vv, vo, cu, d, g, i_ph) in enumerate(zip(stamps, vs, Vs, Is, ds, vt, ph)):
-        gps_cells = (f"48.1,-1.7,{g * 3.6:.2f},50.0" if gps and k % 5 == 0 else ",,,")
+    for k, (s, vv, vo, cu, d, g, i_ph, h) in enumerate(zip(stamps, vs, Vs, Is, ds, vt, ph, hs)):
+        gps_cells = (f"48.1,-1.7,{g * 3.6:.2f},{h:.1f}" if gps and k % 5 == 0 else ",,,")
         rows.append(f"{s:%Y-%m-%dT%H:%M:%S}.{s.microsecond // 1000:03d}+0200,{vv * 3.6:.2f},"
                     f"{vo:.2f},{cu:.2f},{f'{i_ph:.2f}' if phase else ''},{vo * cu:.0f},{100 - 100 * d:.1f},90,,,"
                     f"{gps_cells},euc.distance=0")
