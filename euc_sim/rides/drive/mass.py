@@ -346,7 +346,7 @@ def _bootstrap(designs: list, names, signed, settings: MassSettings, mid: int):
             masses.append(_mass(beta))
             if k == mid:
                 coefs.append([beta[n] for n in names])
-    return np.asarray(masses), np.asarray(coefs)
+    return np.asarray(masses), np.asarray(coefs, float).reshape(-1, len(names))   # no draws: 0 rows
 
 
 def _ci(x: np.ndarray) -> tuple[float, float] | None:

@@ -292,3 +292,10 @@ def test_rotating_inertia_is_taken_out_of_m_eq_with_a_net_weight(twin):
 
 def test_rotating_share_is_table3s():
     assert ROTATING_SHARE == pytest.approx(0.12 / 0.2 ** 2 / 16.0)
+
+
+def test_no_bootstrap_gives_the_estimate_without_intervals(tmp_path):
+    fit = fit_mass(drive_log(tmp_path / "a.csv", seed=3), MassSettings(n_boot=0))
+    assert fit.estimate == pytest.approx(DRIVE["mass"], rel=0.15)
+    assert fit.stat_ci95 is None and fit.ci95 is None
+    assert all(ci is None for ci in fit.coef_ci95.values())
