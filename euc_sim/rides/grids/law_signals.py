@@ -27,6 +27,7 @@ import numpy as np
 
 from euc_sim.errors import InputError
 from euc_sim.rides.grids.ride import GAP_POLICY, Ride
+from euc_sim.rides.grids.spin import spin_rows
 from euc_sim.rides.source.logs import RideLog
 
 __all__ = ["LawUnavailable", "LawRows", "law_rows", "V_MIN", "MAX_PITCH", "MIN_ROWS", "GAP",
@@ -192,6 +193,7 @@ def law_rows(log: RideLog, k_t: float | None = None, v_min: float = V_MIN) -> La
     """
     log = log.log if isinstance(log, Ride) else log
     d = log.data
+    d = d.loc[~spin_rows(d)].reset_index(drop=True)       # the wheel off the ground: no law
     if not log.has("tilt"):
         raise LawUnavailable("no pitch in this log (no tilt column, or all zero): the wheel's "
                              "balance law cannot be read")

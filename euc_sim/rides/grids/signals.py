@@ -43,6 +43,7 @@ from scipy.signal import savgol_filter
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.grids.ride import GAP_POLICY, GapPolicy, Ride
+from euc_sim.rides.grids.spin import spin_rows
 from euc_sim.rides.source.logs import RideLog, read_log
 
 __all__ = ["RideAssumptions", "RideSignals", "with_found_values", "as_log", "resample", "ride_grid", "sg", "window_samples",
@@ -172,10 +173,19 @@ def resample(log, rate: float = GAP_POLICY.rate,
     t = d["t"].to_numpy(float)
     if len(t) < 2:
         raise InputError(f"{log.path}: need at least two samples to resample, got {len(t)}")
-    cuts = np.flatnonzero(np.diff(t) > max_gap)
-    bounds = np.split(np.arange(len(t)), cuts + 1)
-    notes = [f"gap of {t[i + 1] - t[i]:.2f} s at t = {t[i]:.2f} s (> max_gap {max_gap:g} s): "
-             f"ride split there, not bridged" for i in cuts]
+    spin = spin_rows(d) if "v" in d else np.zeros(len(t), bool)
+    notes = _spin_notes(t, spin, max_gap)
+    rows = np.flatnonzero(~spin)
+    t = t[rows]
+    if len(t) < 2:
+        raise InputError(f"{log.path}: column 'speed': the wheel spins off the ground on every "
+                         f"row but {len(t)}: no ride to resample")
+    after_spin = np.diff(rows) > 1 if np.isfinite(max_gap) else np.zeros(len(rows) - 1, bool)
+    cuts = np.flatnonzero((np.diff(t) > max_gap) | after_spin)
+    bounds = np.split(rows, cuts + 1)
+    notes += [f"gap of {t[i + 1] - t[i]:.2f} s at t = {t[i]:.2f} s (> max_gap {max_gap:g} s): "
+              f"ride split there, not bridged" for i in cuts if not after_spin[i]]
+    t = d["t"].to_numpy(float)
     chans = [c for c in d.columns if c != "t"]
     parts = []
     for k, idx in enumerate(bounds):
@@ -191,6 +201,14 @@ def resample(log, rate: float = GAP_POLICY.rate,
         parts.append(pd.DataFrame(part))
     frame = pd.concat(parts, ignore_index=True)
     return frame, notes
+
+
+def _spin_notes(t: np.ndarray, spin: np.ndarray, max_gap: float) -> list[str]:
+    """One line per free spin (:func:`~euc_sim.rides.grids.spin.free_spin`) left out of a grid."""
+    edges = np.flatnonzero(np.diff(np.r_[0, spin.astype(int), 0]))
+    how = "the ride split there" if np.isfinite(max_gap) else "bridged linearly"
+    return [f"the wheel spins off the ground from t = {t[a]:.1f} to {t[b - 1]:.1f} s "
+            f"({b - a} rows): left out, {how}" for a, b in zip(edges[::2], edges[1::2])]
 
 
 def sg(x: np.ndarray, segment: np.ndarray, rate: float, window: float = 1.5,
