@@ -106,13 +106,25 @@ def _ride_tiles(s: Mapping | None) -> list:
         K("Riding time", _hm(mov) if mov is not None else NA,
           f"of {_hm(dur)} logged" if dur is not None else ""),
         K("Top speed", f"{top * 3.6:.0f} km/h" if top is not None else NA,
-          f"average {mean * 3.6:.0f} km/h while moving" if mean is not None else ""),
+          "; ".join(x for x in (f"average {mean * 3.6:.0f} km/h while moving" if mean is not None else "",
+                                _spin_note(s.get("free_spin"))) if x)),
         K("Energy drawn", f"{drawn:.0f} Wh" if drawn is not None else NA,
           f"{regen:.0f} Wh regenerated" if regen is not None else "regeneration not logged"),
         K("Consumption", f"{whkm:.1f} Wh/km" if whkm is not None else NA, "drawn minus regenerated"),
         K("Battery used", f"{used:.0f} %" if used is not None else NA,
           f"range at this rate: {rng / 1000:.0f} km" if rng is not None else ""),
     ]
+
+
+def _spin_note(spin: Mapping | None) -> str:
+    """The summary's ``free_spin`` (the wheel spinning off the ground) in a few words, or ''."""
+    v, n = _num(spin, "speed_max_mps"), (spin or {}).get("count")
+    if v is None or not n:
+        return ""
+    at = _num(spin, "at_s")
+    return (f"the wheel spun free (off the ground) at {v * 3.6:.0f} km/h"
+            + (f" at {_mmss(at)}" if n == 1 and at is not None else f" and {n - 1} more time(s)" if n > 1 else "")
+            + ": left out")
 
 
 def _pwm_tile(s: Mapping | None, where: str) -> object:

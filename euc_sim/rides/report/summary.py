@@ -30,6 +30,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.geo import haversine
+from euc_sim.rides.report.spin import free_spin, spin_json
 
 __all__ = ["RideSummary", "LogCounters", "MassCheck", "read_counters", "ride_summary",
            "mass_check", "GAP_S", "BRIDGE_S", "MOVING_MPS"]
@@ -130,6 +131,7 @@ class RideSummary:
     range_left_m: float | None = None
     safety_margin_min_pct: float | None = None
     pwm_max_place: dict | None = None
+    free_spin: dict | None = None
     alarm_rows: int | None = None
     sampling_hz: float | None = None
     temperature_max_C: float | None = None
@@ -361,11 +363,14 @@ def _battery(d: pd.DataFrame, t0: float, t_move: float, t1: float) -> tuple[floa
     return out[0], out[1]
 
 
-def _pwm(d: pd.DataFrame) -> tuple[float | None, float | None, dict | None]:
-    """The largest logged duty, %, when, s, and where (nearest GPS fix within 10 s)."""
+def _pwm(d: pd.DataFrame, skip: np.ndarray | None = None) -> tuple[float | None, float | None, dict | None]:
+    """The largest logged duty, %, when, s, and where (nearest GPS fix within 10 s); rows
+    ``skip`` (a free spin) left out."""
     if "pwm" not in d:
         return None, None, None
     p = d["pwm"].to_numpy(float)
+    if skip is not None:
+        p = np.where(skip, np.nan, p)
     if not np.isfinite(p).any():
         return None, None, None
     i = int(np.nanargmax(p))
@@ -474,7 +479,10 @@ def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
         rng, left = dist * 100.0 / used, dist * b1 / used
     elif used is not None:
         why["range_m_at_this_rate"] = f"only {used:.1f} % of the battery used"
-    pmax, pat, place = _pwm(d)
+    spin = free_spin(t, v, BRIDGE_S)              # the wheel off the ground: not the ride's top speed or PWM
+    if spin.any():
+        why["speed_max_mps"] = "rows where the wheel spins off the ground (free_spin) left out"
+    pmax, pat, place = _pwm(d, spin)
     # samples per second over the whole log (a median interval hides bursts between gaps)
     hz = float(dt.size / (t[-1] - t[0])) if dt.size and t[-1] > t[0] else None
     gaps = _gaps(t)
@@ -483,14 +491,14 @@ def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
     c = counters or LogCounters()
     return RideSummary(
         duration_s=duration, moving_s=moving_s, distance_m=dist,
-        distance_source=source, speed_max_mps=float(v.max()),
+        distance_source=source, speed_max_mps=float(np.nanmax(np.where(spin, np.nan, v))),
         speed_mean_moving_mps=covered_dist / moving_s if moving_s > 0 else None,
         energy_drawn_Wh=drawn, energy_regen_Wh=regen, Wh_per_km=whkm, battery_used_pct=used,
         range_m_at_this_rate=rng, pwm_max_pct=pmax, pwm_max_at_s=pat,
         alarms=c.alarm_episodes, gaps=gaps, logged_s=float(t[-1] - t[0]),
         distance_wheel_m=wheel, distance_gps_m=gps, distance_speed_integral_m=integral_m, battery_start_pct=b0, battery_end_pct=b1,
         range_left_m=left, safety_margin_min_pct=None if pmax is None else 100.0 - pmax,
-        pwm_max_place=place, alarm_rows=c.alarm_rows, sampling_hz=hz, temperature_max_C=temp,
+        pwm_max_place=place, free_spin=spin_json(t, v, spin), alarm_rows=c.alarm_rows, sampling_hz=hz, temperature_max_C=temp,
         quality=q, quality_sentence=sentence, why=why)
 
 

@@ -1,0 +1,34 @@
+"""The ride page's first screen as a rider reads it (euc_sim.rides.report.page_html): what each
+tile says beside its number, built from a synthetic log's summary."""
+
+from __future__ import annotations
+
+import warnings
+
+from euc_sim.rides.report.page_html import key_figures
+from euc_sim.rides.report.summary import read_counters, ride_summary
+from euc_sim.rides.source.logs import read_log
+from tests.rides.report.test_summary import _with_spin
+from tests.rides.summarysynth import synth_summary_log
+
+
+def _tiles(rep: dict) -> dict:
+    return {k.label: k for k in key_figures(rep)}
+
+
+def _summary_json(path) -> dict:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        log = read_log(path, emit_warnings=False)
+    return ride_summary(log, read_counters(path, log)).to_json()
+
+
+def test_the_top_speed_tile_says_a_free_spin_was_left_out(tmp_path):
+    """apex/0's tile read 122 km/h: the wheel spun at a stop. The tile gives the ride's top
+    speed and says the spin apart, with its speed and time."""
+    s = _summary_json(_with_spin(synth_summary_log(tmp_path / "a.csv")))
+    top = _tiles({"summary": s})["Top speed"]
+    assert top.value == "25 km/h"
+    assert "spun free (off the ground) at 120 km/h at 10:26: left out" in top.note
+    plain = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv"))})["Top speed"]
+    assert "spun" not in plain.note and plain.note.startswith("average 25 km/h")
