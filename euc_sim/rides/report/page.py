@@ -22,7 +22,7 @@ from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.grids.signals import RideSignals, break_at_gaps, split_at_gaps
 
 __all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "plot_residuals", "residuals_figure", "write_page",
-           "summarise_notes", "falls_sentence", "markdown_sections",
+           "summarise_notes", "said_once", "falls_sentence", "markdown_sections",
            "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
 #: localise() settings for rides, s: minutes-long logs at ~5 Hz need a longer
@@ -462,7 +462,7 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
                "| phase current RMS | pitch RMS | PWM RMS | torque RMS | speed RMS | fell |",
                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
         md += [_step_row(st, balance) for st in steps]
-        inj = ", ".join(f"{k} = {_fmt(v)}" for k, v in sim["effects_injected"].items()) or "none"
+        inj = (", ".join(sim["effects_injected"]) + " at their estimates above") if sim["effects_injected"] else "none"
         md += ["", f"Last / first step battery-power error: **{e['ratio_P']:.2f}** "
                f"(effects injected as physics in the last step: {inj}). Logged torque from "
                f"{e['M_log_method']} (assumed efficiency "
@@ -477,7 +477,7 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
         if fell:
             md += [fell[0].upper() + fell[1:] + ".", ""]
-        for n in summarise_notes(sim.get("notes", [])):
+        for n in summarise_notes([said_once(n) for n in sim.get("notes", [])]):
             md.append(f"- {n}")
         if "simulation" in figures:
             md += ["", f"![simulation against the log, step by step]({figures['simulation']})", ""]
@@ -485,6 +485,21 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         why = [n for n in r.get("notes", []) if n.startswith("simulation skipped")]
         md += [(why[0][0].upper() + why[0][1:] + ".") if why else "Not run (--no-simulate).", ""]
     return md
+
+
+#: A simulation note's repeat of a fitted value the page gives in its own table: (pattern, words kept).
+_REPEATS = ((re.compile(r"\b(\w+) = [-+\d.e]+ (is electrical)"), r"\1 \2"),
+            (re.compile(r"\b(\w+) = [-+\d.e]+ [^ ]* ?(measured but not simulated)"), r"\1 \2"),
+            (re.compile(r"\bK_d measured [-+\d.e]+ N·m·s/rad, 95 % interval \[[^\]]*\]: "),
+             "K_d as measured (the law's table): "))
+
+
+def said_once(note: str) -> str:
+    """A simulation note without the fitted values the page's tables already give
+    (an electrical loss, a law term not simulated, the measured K_d)."""
+    for rx, keep in _REPEATS:
+        note = rx.sub(keep, note)
+    return note
 
 
 _OWN_GAPS = re.compile(r"\d+ gap\(s\) longer than ([\d.]+) s")

@@ -1,0 +1,45 @@
+"""The ride page's folded parts (euc_sim.rides.report.page): every fitted value said once.
+
+The Lynx ride 2 page gave C_rr 0.0251 and k 0.553 kg/m in 'Estimates' and again in the
+simulation's section ("effects injected ...: rolling_resistance = 0.0251, ..."), k_cu in a
+simulation note, and the firmware law's K_i, K_d in its table and in the notes.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from euc_sim.rides.report.page import _simulation_md, said_once
+
+sys.path.append(str(Path(__file__).resolve().parents[2] / "report"))
+import pagenumbers as P  # noqa: E402
+
+
+def _report(notes) -> dict:
+    return {"error_unit": "W", "heldout_error_augmented": 500.0,
+            "assumptions": {"efficiency_for_torque": 0.8},
+            "simulation": {"ride": "b.csv", "errors": {"ratio_P": 0.33, "M_log_method": "power_efficiency"},
+                           "steps": [], "scored_rows": 4828, "notes": notes,
+                           "effects_injected": {"rolling_resistance": 0.0251, "aerodynamic_drag": 0.553}}}
+
+
+def test_the_simulation_names_its_physics_without_repeating_their_values():
+    notes = ["drivetrain: copper_loss = 0.00609 is electrical: added to the predicted battery power, "
+             "not to the mechanics",
+             "measured_law: K_i = -144 N·m/(rad·s) measured but not simulated (MotorPD has no such term)"]
+    md = "\n".join(_simulation_md(_report(notes), {}))
+    assert "rolling_resistance, aerodynamic_drag at their estimates above" in md
+    for value in ("0.0251", "0.553", "0.00609", "-144"):
+        assert value not in md
+    assert "copper_loss is electrical" in md and "K_i measured but not simulated" in md
+    assert not [q for q in P.quantities("sim", md) if q.name in ("rolling_resistance", "aerodynamic_drag")]
+
+
+def test_said_once_keeps_what_the_tables_do_not_give():
+    kd = ("measured_law: K_d measured 4.2 N·m·s/rad, 95 % interval [-54.3, 63.1]: not resolved by the "
+          "log (the interval reaches 0 or below); the simulator uses K_d = 87.2 N·m·s/rad")
+    assert said_once(kd) == ("measured_law: K_d as measured (the law's table): not resolved by the log "
+                             "(the interval reaches 0 or below); the simulator uses K_d = 87.2 N·m·s/rad")
+    other = "nominal: tracking correction 1: RMS speed error while riding 0.455 -> 0.034 m/s"
+    assert said_once(other) == other
