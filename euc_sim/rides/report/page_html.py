@@ -242,6 +242,12 @@ def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
     elif v.get("named"):
         out.append("The ride's energy balance shows what the standard model lacks: "
                    + ", ".join(n.replace("_", " ") for n in v["named"]) + " (details below).")
+        edge = [e["name"].replace("_", " ") for e in rep.get("effects") or []
+                if e.get("on_bound") and e["name"] in v["named"]]
+        if edge:
+            out.append(f"Even at the most that is plausible ({', '.join(edge)} on the edge of "
+                       f"{'its' if len(edge) == 1 else 'their'} plausible range), it asks for more loss "
+                       f"than that: something the model lacks supplies the rest.")
     elif v:
         out.append("The ride's energy balance names nothing the standard model lacks with confidence "
                    "(details below).")

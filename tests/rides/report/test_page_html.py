@@ -32,3 +32,20 @@ def test_the_top_speed_tile_says_a_free_spin_was_left_out(tmp_path):
     assert "spun free (off the ground) at 120 km/h at 10:26: left out" in top.note
     plain = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv"))})["Top speed"]
     assert "spun" not in plain.note and plain.note.startswith("average 25 km/h")
+
+
+def test_the_lead_says_when_named_physics_sits_on_its_edge():
+    """Blitz 1: C_rr, k and P₀ all on their plausible edges; the verdict said 'the rest is not
+    explained' while the first screen said only 'shows what the standard model lacks'."""
+    from euc_sim.rides.report.page_html import _lead
+
+    named = ["aerodynamic_drag", "rolling_resistance", "copper_loss"]
+    rep = {"verdict": {"battery_power": True, "named": named},
+           "effects": [{"name": "aerodynamic_drag", "on_bound": True},
+                       {"name": "rolling_resistance", "on_bound": True},
+                       {"name": "copper_loss", "on_bound": False}]}
+    lead = " ".join(_lead(rep))
+    assert ("(aerodynamic drag, rolling resistance on the edge of their plausible range), it asks for "
+            "more loss than that: something the model lacks supplies the rest.") in lead
+    inside = dict(rep, effects=[dict(e, on_bound=False) for e in rep["effects"]])
+    assert "edge" not in " ".join(_lead(inside))
