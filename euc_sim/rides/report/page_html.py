@@ -202,7 +202,7 @@ def key_figures(rep: Mapping) -> list:
     alarms = s.get("alarms") if s else None
     quality, tone = data_quality(s)
     return (_ride_tiles(s)
-            + [_pwm_tile(s, " (marked on the map)"),
+            + [_pwm_tile(s, " (marked on the map)" if (s or {}).get("pwm_max_place") else " (marked over time)"),
                H.KeyFigure("Alarms", NA if alarms is None else str(alarms),
                            "" if alarms is None or s.get("alarm_rows") is None else
                            f"{s['alarm_rows']} rows of the log flagged", "warn" if alarms else ""),

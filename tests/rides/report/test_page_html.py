@@ -49,3 +49,12 @@ def test_the_lead_says_when_named_physics_sits_on_its_edge():
             "more loss than that: something the model lacks supplies the rest.") in lead
     inside = dict(rep, effects=[dict(e, on_bound=False) for e in rep["effects"]])
     assert "edge" not in " ".join(_lead(inside))
+
+
+def test_the_pwm_peak_is_marked_on_the_map_only_with_gps(tmp_path):
+    """S22 Pro 0 and Mten4 0 (WheelLog, no GPS): the tile read 'marked on the map' above
+    'No GPS position in this log: no map'."""
+    with_gps = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "a.csv"))})["Max PWM"]
+    assert with_gps.note == "least margin 28 % at 5:00 (marked on the map)"
+    no_gps = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv", gps=False))})["Max PWM"]
+    assert no_gps.note == "least margin 28 % at 5:00 (marked over time)"
