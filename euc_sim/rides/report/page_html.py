@@ -158,11 +158,20 @@ def data_quality(s: Mapping | None) -> tuple[str, str]:
             + (f"; {rate:.1f} samples/s" if rate else "")), tone
 
 
+def short(text: str, most: int = 70) -> str:
+    """A reason in a tile: its first clause (to the first colon or semicolon), cut at a word
+    with "…" if still longer than ``most`` characters."""
+    first = re.split(r"[:;]\s", text.strip(), maxsplit=1)[0].rstrip(". ")
+    if len(first) <= most:
+        return first
+    return first[:most].rsplit(" ", 1)[0].rstrip(",") + " …"
+
+
 def _mass_tile(tm: Mapping | None, check: Mapping | None) -> object:
     """The total mass found from the log, and the ride JSON's ``mass_check`` of the declared weight."""
     est = _num(tm, "estimate")
     if est is None:
-        return H.KeyFigure("Total mass", NA, ((tm or {}).get("why") or "")[:60])
+        return H.KeyFigure("Total mass", NA, short((tm or {}).get("why") or ""))
     ci = (tm or {}).get("ci95")
     note = f"95 % {ci[0]:.0f}–{ci[1]:.0f} kg" if ci else ""
     decl = _num(check, "declared_rider_kg")
@@ -188,7 +197,7 @@ def _battery_tile(rep: Mapping) -> object:
         r = (rep.get("drivetrain") or {}).get("internal_resistance") or {}
         est, ci, verdict, r25 = _num(r, "estimate"), r.get("ci95"), "no health verdict", None
     if est is None or est <= 0:
-        return H.KeyFigure("Battery resistance", NA, (b or {}).get("sentence", "")[:70] or
+        return H.KeyFigure("Battery resistance", NA, short((b or {}).get("sentence", "")) or
                            "the log shows no voltage sag under load", "warn" if est is not None else "")
     note = verdict + (f"; {1000 * r25:.0f} mΩ at 25 °C" if r25 is not None else
                       f"; 95 % {1000 * ci[0]:.0f}–{1000 * ci[1]:.0f} mΩ" if ci else "")

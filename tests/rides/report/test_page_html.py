@@ -58,3 +58,15 @@ def test_the_pwm_peak_is_marked_on_the_map_only_with_gps(tmp_path):
     assert with_gps.note == "least margin 28 % at 5:00 (marked on the map)"
     no_gps = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv", gps=False))})["Max PWM"]
     assert no_gps.note == "least margin 28 % at 5:00 (marked over time)"
+
+
+def test_a_tile_gives_a_reason_whole_not_cut_mid_word():
+    """Mten4 0's mass tile read 'the battery current is never negative: braking cannot be tol'."""
+    from euc_sim.rides.report.page_html import short
+
+    why = ("the battery current is never negative: braking cannot be told from driving, so the "
+           "acceleration power's sign is lost and the mass is not identified")
+    tile = _tiles({"total_mass": {"estimate": None, "why": why}})["Total mass"]
+    assert tile.value == "not available" and tile.note == "the battery current is never negative"
+    long = "word " * 30
+    assert short(long) == ("word " * 14).strip() + " …" and len(short(long)) <= 72
