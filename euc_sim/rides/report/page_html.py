@@ -110,7 +110,8 @@ def _ride_tiles(s: Mapping | None) -> list:
                                 _spin_note(s.get("free_spin"))) if x)),
         K("Energy drawn", f"{drawn:.0f} Wh" if drawn is not None else NA,
           f"{regen:.0f} Wh regenerated" if regen is not None else "regeneration not logged"),
-        K("Consumption", f"{whkm:.1f} Wh/km" if whkm is not None else NA, "drawn minus regenerated"),
+        K("Consumption", f"{whkm:.1f} Wh/km" if whkm is not None else NA,
+          "drawn minus regenerated" if regen is not None else "drawn (no regeneration logged)"),
         K("Battery used", f"{used:.0f} %" if used is not None else NA,
           f"range at this rate: {rng / 1000:.0f} km" if rng is not None else ""),
     ]

@@ -70,3 +70,13 @@ def test_a_tile_gives_a_reason_whole_not_cut_mid_word():
     assert tile.value == "not available" and tile.note == "the battery current is never negative"
     long = "word " * 30
     assert short(long) == ("word " * 14).strip() + " …" and len(short(long)) <= 72
+
+
+def test_consumption_says_drawn_only_when_no_regeneration_is_logged(tmp_path):
+    """Mten4 0 (unsigned current): 'Energy drawn ... regeneration not logged' beside
+    'Consumption ... drawn minus regenerated'."""
+    signed = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "a.csv", regen_amps=5.0))})
+    assert signed["Consumption"].note == "drawn minus regenerated"
+    unsigned = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv"))})
+    assert unsigned["Energy drawn"].note == "regeneration not logged"
+    assert unsigned["Consumption"].note == "drawn (no regeneration logged)"
