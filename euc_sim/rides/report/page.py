@@ -554,6 +554,17 @@ _GAP = re.compile(r"^(?P<who>.*?)gap of (?P<len>[\d.]+) s at t = (?P<t>[\d.]+) s
 _BRIDGED = re.compile(r"^(?P<who>.*?)gap of (?P<len>[\d.]+) s at t = (?P<t>[\d.]+) s bridged linearly$")
 _SHORT = re.compile(r"^(?P<who>.*?)segment \d+ has (?P<n>\d+) samples, fewer than the "
                     r"(?P<win>\d+)-sample filter window: left out$")
+_EMPTY = re.compile(r"^(?P<who>(?:\S+\.csv: )?)(?P<col>\w+): (?P<n>\d+) of (?P<rows>\d+) cells empty "
+                    r"\(kept as NaN\)$")
+
+
+def _empty_cells(g: list, rows: str) -> str:
+    """"empty cells ... : a, b 540 each, c 5" of ``[(column, count), ...]``, equal counts together."""
+    by: dict[int, list[str]] = {}
+    for col, n in g:
+        by.setdefault(n, []).append(col)
+    parts = [", ".join(cols) + (f" {n} each" if len(cols) > 1 else f" {n}") for n, cols in by.items()]
+    return f"empty cells (of {rows} rows; kept as NaN): " + "; ".join(parts)
 
 
 def _gap_summary(g: list, shown: int) -> str:
@@ -564,21 +575,23 @@ def _gap_summary(g: list, shown: int) -> str:
 
 
 def summarise_notes(notes, shown: int = 5) -> list[str]:
-    """The notes for people: a ride's gaps (count, total, longest) and its too-short
-    segments in one line each (the JSON keeps every one); the other notes as they are, in order."""
+    """The notes for people: a ride's gaps (count, total, longest), its too-short segments
+    and its columns' empty cells in one line each (the JSON keeps every one); the other
+    notes as they are, in order."""
     groups: dict[tuple, list] = {}
     out: list = []
     for n in notes:
-        m, b, k = _GAP.match(n), _BRIDGED.match(n), _SHORT.match(n)
+        m, b, k, e = _GAP.match(n), _BRIDGED.match(n), _SHORT.match(n), _EMPTY.match(n)
         key = (("split", m["who"], m["max"]) if m else ("bridged", b["who"], "") if b
-               else ("short", k["who"], k["win"]) if k else None)
+               else ("short", k["who"], k["win"]) if k else ("empty", e["who"], e["rows"]) if e else None)
         if key is None:
             out.append(n)
             continue
         if key not in groups:
             out.append(key)
         x = m or b
-        groups.setdefault(key, []).append((float(x["len"]), float(x["t"])) if x else int(k["n"]))
+        groups.setdefault(key, []).append((float(x["len"]), float(x["t"])) if x else
+                                          (e["col"], int(e["n"])) if e else int(k["n"]))
     lines = []
     for item in out:
         if isinstance(item, str):
@@ -590,6 +603,8 @@ def summarise_notes(notes, shown: int = 5) -> list[str]:
             lines.append(f"{who}{_gap_summary(g, shown)} longer than {arg} s split the ride there "
                          f"for every fit (balance, mass, law): not bridged (every one is listed in "
                          f"the JSON's notes)")
+        elif kind == "empty":
+            lines.append(who + _empty_cells(g, arg))
         elif kind == "bridged":
             lines.append(f"{who}{_gap_summary(g, shown)} longer than 1 s bridged linearly in the "
                          f"simulated speed profile (every one is listed in the JSON's notes)")
