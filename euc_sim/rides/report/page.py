@@ -503,6 +503,17 @@ def said_once(note: str) -> str:
 
 
 _OWN_GAPS = re.compile(r"\d+ gap\(s\) longer than ([\d.]+) s")
+_MEDIAN_HZ = re.compile(r"\(median ([\d.]+) s, about ([\d.]+) Hz\)")
+
+
+def _rate_as_the_tile(note: str, hz: float | None) -> str:
+    """The reader's sampling note beside the tile's samples/s: a median rate well above the
+    whole log's (rows in bursts between gaps) is said as such, not as the log's rate."""
+    m = _MEDIAN_HZ.search(note)
+    if m is None or not hz or float(m[2]) <= 2.0 * hz:
+        return note
+    return note.replace(m[0], f"(median {m[1]} s: {m[2]} Hz within bursts, {hz:.1f} samples/s over the "
+                              f"whole log as the tile counts)")
 
 
 def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:
@@ -530,7 +541,9 @@ def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:
                   + ".")
     notes = [n for n in r.get("notes", []) if not _limit_note(n)]
     if "gaps" in shown:         # the ride's own gap count is the Data quality tile's
-        notes = [n if re.match(r"\S+\.csv: ", n) else _OWN_GAPS.sub(r"gaps longer than \1 s as the tile counts", n)
+        hz = (r.get("summary") or {}).get("sampling_hz")
+        notes = [n if re.match(r"\S+\.csv: ", n) else
+                 _rate_as_the_tile(_OWN_GAPS.sub(r"gaps longer than \1 s as the tile counts", n), hz)
                  for n in notes]
     md += [f"- {n}" for n in summarise_notes(notes)]
     md.append("")

@@ -43,3 +43,22 @@ def test_said_once_keeps_what_the_tables_do_not_give():
                              "(the interval reaches 0 or below); the simulator uses K_d = 87.2 N·m·s/rad")
     other = "nominal: tracking correction 1: RMS speed error while riding 0.455 -> 0.034 m/s"
     assert said_once(other) == other
+
+
+def test_the_sampling_note_agrees_with_the_tiles_rate():
+    """V9 0: the Data quality tile gave '2.9 samples/s', the notes 'about 37.0 Hz' (the median
+    interval of rows that come in bursts between 409 gaps)."""
+    from euc_sim.rides.report.page import _assumptions_md
+
+    note = ("irregular sampling: intervals 0.008-5.072 s (median 0.027 s, about 37.0 Hz); 409 gap(s) "
+            "longer than 1 s; 883 interval(s) shorter than 20 ms (near-repeats, kept)")
+    rep = {"assumptions": {"R": 0.2, "total_mass": 100.0, "m_eq": 104.0, "sources": {}},
+           "torque_method": "power_efficiency", "power_source": "voltage*current", "notes": [note],
+           "summary": {"sampling_hz": 2.877}}
+    md = "\n".join(_assumptions_md(rep, frozenset({"gaps"})))
+    assert ("(median 0.027 s: 37.0 Hz within bursts, 2.9 samples/s over the whole log as the tile counts); "
+            "gaps longer than 1 s as the tile counts;") in md
+    assert "37.0 Hz" in "\n".join(_assumptions_md(rep))         # index.md has no tile: as written
+    even = dict(rep, notes=[note.replace("0.027 s, about 37.0 Hz", "0.200 s, about 5.0 Hz")],
+                summary={"sampling_hz": 4.9})
+    assert "about 5.0 Hz" in "\n".join(_assumptions_md(even, frozenset({"gaps"})))
