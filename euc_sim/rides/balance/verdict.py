@@ -79,7 +79,7 @@ def on_the_edge(names: list[str]) -> str:
     one = len(names) == 1
     listed = names[0] if one else ", ".join(names[:-1]) + " and " + names[-1]
     return (f"{listed} {'sits' if one else 'sit'} on the edge of {'its' if one else 'their'} plausible "
-            f"range{'' if one else 's'}: the ride asks for more loss than plausible physics gives, and the "
+            f"range{'' if one else 's'}: the ride asks for more than plausible physics gives, and the "
             f"rest is not explained")
 
 

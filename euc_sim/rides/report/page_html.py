@@ -256,7 +256,7 @@ def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
                 if e.get("on_bound") and e["name"] in v["named"]]
         if edge:
             out.append(f"Even at the most that is plausible ({', '.join(edge)} on the edge of "
-                       f"{'its' if len(edge) == 1 else 'their'} plausible range), it asks for more loss "
+                       f"{'its' if len(edge) == 1 else 'their'} plausible range), the ride asks for more "
                        f"than that: something the model lacks supplies the rest.")
     elif v:
         out.append("The ride's energy balance names nothing the standard model lacks with confidence "

@@ -251,7 +251,7 @@ def test_the_verdict_says_what_is_held_out_and_why():
     three = ride_verdict(dict(rep, effects=[edge, dict(inside, on_bound=True),
                                             dict(edge, name="drivetrain_idle_loss")]))
     assert ("rolling_resistance, aerodynamic_drag and drivetrain_idle_loss sit on the edge of their "
-            "plausible ranges: the ride asks") in three["text"]
+            "plausible ranges: the ride asks for more than plausible physics") in three["text"]
     assert "current_lag would lower the held-out error further only in a model" in v["text"]
     nothing = ride_verdict({"effects": [], "selected_not_accepted": ["current_lag"],
                             "selection": rep["selection"]})

@@ -45,8 +45,11 @@ def test_the_lead_says_when_named_physics_sits_on_its_edge():
                        {"name": "rolling_resistance", "on_bound": True},
                        {"name": "copper_loss", "on_bound": False}]}
     lead = " ".join(_lead(rep))
-    assert ("(aerodynamic drag, rolling resistance on the edge of their plausible range), it asks for "
-            "more loss than that: something the model lacks supplies the rest.") in lead
+    assert ("(aerodynamic drag, rolling resistance on the edge of their plausible range), the ride asks "
+            "for more than that: something the model lacks supplies the rest.") in lead
+    lag = dict(rep, effects=[{"name": "current_lag", "on_bound": True}], verdict={"battery_power": True,
+                                                                                    "named": ["current_lag"]})
+    assert "(current lag on the edge of its plausible range), the ride asks for more than" in " ".join(_lead(lag))
     inside = dict(rep, effects=[dict(e, on_bound=False) for e in rep["effects"]])
     assert "edge" not in " ".join(_lead(inside))
 
