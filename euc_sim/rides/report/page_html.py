@@ -214,7 +214,7 @@ def key_figures(rep: Mapping) -> list:
     return (_ride_tiles(s)
             + [_pwm_tile(s, " (marked on the map)" if (s or {}).get("pwm_max_place") else " (marked over time)"),
                H.KeyFigure("Alarms", NA if alarms is None else str(alarms),
-                           "" if alarms is None or s.get("alarm_rows") is None else
+                           "" if not alarms or s.get("alarm_rows") is None else
                            f"{s['alarm_rows']} rows of the log flagged", "warn" if alarms else ""),
                H.KeyFigure("Data quality", str((s or {}).get("quality") or NA),
                            re.sub(r"^Data quality \w+: ", "", quality), tone),

@@ -83,3 +83,11 @@ def test_consumption_says_drawn_only_when_no_regeneration_is_logged(tmp_path):
     unsigned = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv"))})
     assert unsigned["Energy drawn"].note == "regeneration not logged"
     assert unsigned["Consumption"].note == "drawn (no regeneration logged)"
+
+
+def test_no_alarm_is_said_once(tmp_path):
+    """Every ride without an alarm read 'Alarms 0 / 0 rows of the log flagged'."""
+    none = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "a.csv"))})["Alarms"]
+    assert (none.value, none.note) == ("0", "")
+    two = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv", alarm_rows=(500, 501, 900)))})
+    assert (two["Alarms"].value, two["Alarms"].note) == ("2", "3 rows of the log flagged")
