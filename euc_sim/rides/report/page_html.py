@@ -185,6 +185,9 @@ def _mass_tile(tm: Mapping | None, check: Mapping | None) -> object:
 
 #: The battery entry's verdict -> tile tone.
 BATTERY_TONE = {"as specified": "good", "aged": "warn", "worn": "bad"}
+#: The battery entry's verdict in a rider's words where the bare verdict misleads
+#: ("no specification" beside a spec the rider gave: the spec has no pack resistance).
+VERDICT_WORDS = {"no specification": "no health verdict (the spec gives no pack resistance)"}
 
 
 def _battery_tile(rep: Mapping) -> object:
@@ -200,7 +203,7 @@ def _battery_tile(rep: Mapping) -> object:
     if est is None or est <= 0:
         return H.KeyFigure("Battery resistance", NA, short((b or {}).get("sentence", "")) or
                            "the log shows no voltage sag under load", "warn" if est is not None else "")
-    note = verdict + (f"; {1000 * r25:.0f} mΩ at 25 °C" if r25 is not None else
+    note = VERDICT_WORDS.get(verdict, verdict) + (f"; {1000 * r25:.0f} mΩ at 25 °C" if r25 is not None else
                       f"; 95 % {1000 * ci[0]:.0f}–{1000 * ci[1]:.0f} mΩ" if ci else "")
     return H.KeyFigure("Battery resistance", f"{1000 * est:.0f} mΩ", note, BATTERY_TONE.get(verdict, ""))
 

@@ -91,3 +91,14 @@ def test_no_alarm_is_said_once(tmp_path):
     assert (none.value, none.note) == ("0", "")
     two = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv", alarm_rows=(500, 501, 900)))})
     assert (two["Alarms"].value, two["Alarms"].note) == ("2", "3 rows of the log flagged")
+
+
+def test_the_battery_tile_says_why_there_is_no_health_verdict():
+    """V9 0 was run with --wheel v9.csv; its battery tile read 'no specification; 212 mΩ at 25 °C'."""
+    b = {"resistance_ohm": 0.186, "resistance_ci95": [0.178, 0.192], "resistance_25C_ohm": 0.212,
+         "verdict": "no specification"}
+    tile = _tiles({"battery": b})["Battery resistance"]
+    assert tile.value == "186 mΩ"
+    assert tile.note == "no health verdict (the spec gives no pack resistance); 212 mΩ at 25 °C"
+    aged = _tiles({"battery": dict(b, verdict="aged")})["Battery resistance"]
+    assert aged.note.startswith("aged;") and aged.tone == "warn"
