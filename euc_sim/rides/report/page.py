@@ -332,6 +332,17 @@ def _mass_note(note: str) -> str:
     return _FOUND.sub(r"the masses are those \1 ('What the wheel weighs')", note)
 
 
+def torque_words(method: str, assumptions: Mapping) -> str:
+    """How the log's torque was inferred (``torque_method``), in words: from battery power it
+    takes the ``--efficiency`` assumption, which the energy balance itself does not use."""
+    if method == "power_efficiency":
+        return (f"battery power at an assumed drivetrain efficiency of {assumptions['efficiency_for_torque']:g} "
+                f"(--efficiency; only for this torque, the energy balance has no efficiency)")
+    if method == "phase_current":
+        return "phase current × the torque constant"
+    return str(method)
+
+
 def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     """Where the inertia-only residual concentrates, with its figure."""
     loc = r.get("localisation", {})
@@ -464,9 +475,8 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         md += [_step_row(st, balance) for st in steps]
         inj = (", ".join(sim["effects_injected"]) + " at their estimates above") if sim["effects_injected"] else "none"
         md += ["", f"Last / first step battery-power error: **{e['ratio_P']:.2f}** "
-               f"(effects injected as physics in the last step: {inj}). Logged torque from "
-               f"{e['M_log_method']} (assumed efficiency "
-               f"{r['assumptions']['efficiency_for_torque']:g}).", ""]
+               f"(effects injected as physics in the last step: {inj}). The torque column scores "
+               f"against a logged torque from {torque_words(e['M_log_method'], r['assumptions'])}.", ""]
         sway = sway_sentence([st for st in steps if st["ran"]])
         if sway:
             md += [sway, ""]
@@ -525,8 +535,9 @@ def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:
     masses = (f"masses as 'What the wheel weighs' gives them ({msrc})" if str(msrc).startswith("found from this log")
               else f"masses given: {a['total_mass']:.4g} kg total, {a['m_eq']:.4g} kg equivalent ({msrc})")
     md.append(f"- Balance fit ('Cross-ride prediction', 'Estimates'): wheel radius R = {a['R']:g} m "
-              f"({src.get('R', a.get('source', ''))}); {masses}; torque "
-              f"from {r['torque_method']}, power from {r['power_source']}.")
+              f"({src.get('R', a.get('source', ''))}); {masses}; power from {r['power_source']}"
+              + (f"; torque from {torque_words(r['torque_method'], a)}" if r.get("domain") == "torque" else "")
+              + ".")
     w = r.get("wheel")
     if w is not None:
         given = {"radius_m": ("wheel radius", "m"), "wheel_mass_kg": ("net weight", "kg"),

@@ -62,3 +62,19 @@ def test_the_sampling_note_agrees_with_the_tiles_rate():
     even = dict(rep, notes=[note.replace("0.027 s, about 37.0 Hz", "0.200 s, about 5.0 Hz")],
                 summary={"sampling_hz": 4.9})
     assert "about 5.0 Hz" in "\n".join(_assumptions_md(even, frozenset({"gaps"})))
+
+
+def test_the_torque_inferred_from_power_is_said_as_an_assumption_for_the_torque_only():
+    """The pages read 'Logged torque from power_efficiency (assumed efficiency 0.8)' and, among
+    the balance fit's assumptions, 'torque from power_efficiency', beside a balance with no efficiency."""
+    from euc_sim.rides.report.page import _assumptions_md
+
+    md = "\n".join(_simulation_md(_report([]), {}))
+    assert "power_efficiency" not in md
+    assert ("The torque column scores against a logged torque from battery power at an assumed drivetrain "
+            "efficiency of 0.8 (--efficiency; only for this torque, the energy balance has no efficiency).") in md
+    rep = {"assumptions": {"R": 0.2, "total_mass": 100.0, "m_eq": 104.0, "sources": {}, "efficiency_for_torque": 0.8},
+           "torque_method": "power_efficiency", "power_source": "voltage*current", "domain": "power"}
+    line = _assumptions_md(rep)[2]
+    assert "torque" not in line and line.endswith("power from voltage*current.")
+    assert "torque from battery power at an assumed" in _assumptions_md(dict(rep, domain="torque"))[2]
