@@ -385,12 +385,19 @@ def _pwm(d: pd.DataFrame, skip: np.ndarray | None = None) -> tuple[float | None,
     return float(p[i]), float(t[i]), place
 
 
-def _quality(gaps: dict, span: float, hz: float | None) -> tuple[str, str]:
-    """``"good"``, ``"fair"`` or ``"poor"`` and one sentence on the sampling and the gaps.
+def _quality(t: np.ndarray) -> tuple[str, str, float | None]:
+    """``"good"``, ``"fair"`` or ``"poor"``, one sentence on the sampling and the gaps, and the
+    samples per second, all over the log without its pauses (intervals over :data:`PAUSE_S`,
+    left out of the duration too: the log was stopped, not losing rows).
 
     Poor: more than 20 % of the ride in gaps or under 1 sample/s; fair: over 5 %
     or under 2 samples/s.  A poor log weakens every verdict drawn from it.
     """
+    dt = np.diff(t)
+    pause = dt[dt > PAUSE_S]
+    span = float(t[-1] - t[0] - pause.sum()) if t.size > 1 else 0.0
+    hz = float(dt.size - pause.size) / span if span > 0 else None      # a median hides bursts between gaps
+    gaps = _gaps(np.cumsum(np.r_[0.0, np.where(dt > PAUSE_S, 0.0, dt)]))
     share = gaps["total_s"] / span if span > 0 else 0.0
     rate = f"{hz:.1f} samples/s" if hz else "unknown sampling rate"
     if gaps["count"]:
@@ -398,6 +405,9 @@ def _quality(gaps: dict, span: float, hz: float | None) -> tuple[str, str]:
              f"({100 * share:.0f} % of the log, longest {gaps['longest_s']:.1f} s)")
     else:
         g = f"no gap longer than {GAP_S:g} s"
+    if pause.size:
+        g += (f"; {pause.size} pause(s) of the log over {PAUSE_S / 60:.0f} min ({pause.sum() / 60:.0f} min) "
+              f"left out")
     if share > 0.20 or (hz is not None and hz < 1.0):
         q = "poor"
     elif share > 0.05 or (hz is not None and hz < 2.0):
@@ -406,7 +416,7 @@ def _quality(gaps: dict, span: float, hz: float | None) -> tuple[str, str]:
         q = "good"
     tail = {"good": "", "fair": "; the figures below are a little less certain",
             "poor": "; treat every verdict below as weak"}[q]
-    return q, f"Data quality {q}: {rate}, {g}{tail}."
+    return q, f"Data quality {q}: {rate}, {g}{tail}.", hz
 
 
 def _distance(d: pd.DataFrame) -> tuple[float, float, float | None, str | None]:
@@ -483,10 +493,8 @@ def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
     if spin.any():
         why["speed_max_mps"] = "rows where the wheel spins off the ground (free_spin) left out"
     pmax, pat, place = _pwm(d, spin)
-    # samples per second over the whole log (a median interval hides bursts between gaps)
-    hz = float(dt.size / (t[-1] - t[0])) if dt.size and t[-1] > t[0] else None
     gaps = _gaps(t)
-    q, sentence = _quality(gaps, float(t[-1] - t[0]), hz)
+    q, sentence, hz = _quality(t)
     temp = float(np.nanmax(d["temperature"])) if "temperature" in d else None
     c = counters or LogCounters()
     return RideSummary(

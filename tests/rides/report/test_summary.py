@@ -192,3 +192,15 @@ def test_rider_numbers_reads_the_reports_terms(tmp_path):
     assert rider_numbers(read_log(path, emit_warnings=False), rep)["summary"] == out["summary"]
     with pytest.raises(ValueError, match="--rider-weight"):
         check_rider_weight(500.0)
+
+
+def test_a_pause_of_the_log_does_not_make_its_data_poor(tmp_path):
+    """S22 Pro 0 was 'poor: 1.7 samples/s, 49 gap(s) ... (20 % of the log, longest 1517.3 s)',
+    a 25-minute pause (left out of the duration) counted as lost rows."""
+    s = _summary(synth_summary_log(tmp_path / "a.csv", ride_s=1800.0, gap=(900.0, 600.0)))
+    assert s.gaps["longest_s"] == pytest.approx(600.2, abs=0.01)          # the JSON's gaps keep it
+    assert s.quality == "good" and s.sampling_hz == pytest.approx(5.0, rel=0.01)
+    assert s.quality_sentence == ("Data quality good: 5.0 samples/s, no gap longer than 1 s; 1 pause(s) of "
+                                  "the log over 5 min (10 min) left out.")
+    lost = _summary(synth_summary_log(tmp_path / "b.csv", ride_s=1800.0, gap=(900.0, 290.0)))
+    assert lost.quality == "fair" and "1 gap(s) longer than 1 s, 290 s in all" in lost.quality_sentence
