@@ -288,8 +288,18 @@ def over_time(rep: Mapping, series: RideSeries):
     m = _max_pwm_mark(rep, series)
     mark = None if m is None else (m[0] / 60.0, f"max PWM {_num(rep['summary'], 'pwm_max_pct'):.0f} %")
     gap = max(series.gap_s, 1.5 * float(np.median(np.diff(series.t[keep])))) if keep.size > 1 else series.gap_s
-    return time_panels(series.t[keep] / 60.0, panels, "The ride over time (zoom one panel: all follow)",
-                       gap / 60.0, mark)
+    fig = time_panels(series.t[keep] / 60.0, panels, "The ride over time (zoom one panel: all follow)",
+                      gap / 60.0, mark)
+    if mark is not None and "pwm_pct" in c:        # the peak is one logged row: the grid's mean may not reach it
+        import plotly.graph_objects as go
+
+        row = [k for k, _, _ in spec if k in c].index("pwm_pct") + 1
+        fig.add_trace(go.Scatter(x=[mark[0]], y=[_num(rep["summary"], "pwm_max_pct")], mode="markers",
+                                 name="max PWM, logged row", showlegend=False,
+                                 marker={"symbol": "star", "size": 11, "color": "#c62828"},
+                                 hovertemplate="%{y:.0f} % (the logged row; the line is the 10 Hz grid's mean)"
+                                               "<extra>max PWM</extra>"), row=row, col=1)
+    return fig
 
 
 def on_the_map(rep: Mapping, series: RideSeries):

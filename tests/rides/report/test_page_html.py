@@ -102,3 +102,21 @@ def test_the_battery_tile_says_why_there_is_no_health_verdict():
     assert tile.note == "no health verdict (the spec gives no pack resistance); 212 mΩ at 25 °C"
     aged = _tiles({"battery": dict(b, verdict="aged")})["Battery resistance"]
     assert aged.note.startswith("aged;") and aged.tone == "warn"
+
+
+def test_the_pwm_panel_shows_the_logged_peak_the_tile_gives():
+    """V9 0: 'Max PWM 75 %' (one logged row) marked over a PWM line that never passes 68 %:
+    the line is the 10 Hz grid's mean. The panel now carries the logged peak as a point."""
+    import numpy as np
+
+    from euc_sim.rides.report.page_html import RideSeries, over_time
+
+    t = np.arange(0.0, 600.0, 0.1)
+    series = RideSeries(t=t, gap_s=0.15, channels={"speed_kmh": np.full(t.size, 30.0),
+                                                   "pwm_pct": np.full(t.size, 60.0)})
+    rep = {"summary": {"pwm_max_pct": 75.0, "pwm_max_at_s": 300.0}}
+    fig = over_time(rep, series)
+    peak = [tr for tr in fig.data if tr.name == "max PWM, logged row"]
+    assert len(peak) == 1 and list(peak[0].y) == [75.0] and list(peak[0].x) == [5.0]
+    assert peak[0].yaxis == fig.data[1].yaxis              # on the PWM panel, not the speed one
+    assert max(max(tr.y) for tr in fig.data if tr.name.startswith("PWM")) < 75.0
