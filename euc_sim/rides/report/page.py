@@ -522,8 +522,8 @@ def _rate_as_the_tile(note: str, hz: float | None) -> str:
     m = _MEDIAN_HZ.search(note)
     if m is None or not hz or float(m[2]) <= 2.0 * hz:
         return note
-    return note.replace(m[0], f"(median {m[1]} s: {m[2]} Hz within bursts, {hz:.1f} samples/s over the "
-                              f"whole log as the tile counts)")
+    return note.replace(m[0], f"(median {m[1]} s: {m[2]} Hz within bursts between gaps; the tile's rate "
+                              f"counts the whole log)")
 
 
 def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:

@@ -56,8 +56,9 @@ def test_the_sampling_note_agrees_with_the_tiles_rate():
            "torque_method": "power_efficiency", "power_source": "voltage*current", "notes": [note],
            "summary": {"sampling_hz": 2.877}}
     md = "\n".join(_assumptions_md(rep, frozenset({"gaps"})))
-    assert ("(median 0.027 s: 37.0 Hz within bursts, 2.9 samples/s over the whole log as the tile counts); "
+    assert ("(median 0.027 s: 37.0 Hz within bursts between gaps; the tile's rate counts the whole log); "
             "gaps longer than 1 s as the tile counts;") in md
+    assert not [q for q in P.quantities("notes", md) if q.name == "sampling_rate"]   # the tile's, said once
     assert "37.0 Hz" in "\n".join(_assumptions_md(rep))         # index.md has no tile: as written
     even = dict(rep, notes=[note.replace("0.027 s, about 37.0 Hz", "0.200 s, about 5.0 Hz")],
                 summary={"sampling_hz": 4.9})
