@@ -10,7 +10,7 @@ and the console print it as it is.
 
 from __future__ import annotations
 
-__all__ = ["ride_verdict", "unit_label", "NOT_EXPLAINED"]
+__all__ = ["ride_verdict", "unit_label", "on_the_edge", "NOT_EXPLAINED"]
 
 #: The verdict when every accepted effect is implausible.
 NOT_EXPLAINED = "the mismatch is not explained by a plausible effect"
@@ -53,10 +53,9 @@ def ride_verdict(report: dict) -> dict:
         return out
     if named:
         text = "the inertia-only model leaves out " + ", ".join(named)
-        edge = [shown[e["name"]] for e in effects if e.get("plausible", True) and e.get("on_bound")]
+        edge = [e["name"] for e in effects if e.get("plausible", True) and e.get("on_bound")]
         if edge:
-            text += (f"; {'; '.join(edge)} on the edge of its plausible range: the ride asks for "
-                     f"more loss than plausible physics gives, and the rest is not explained")
+            text += "; " + on_the_edge(edge)
         if cand:
             text += (f"; also accepted but implausible (candidates, not named): "
                      f"{'; '.join(shown[c] for c in cand)}")
@@ -72,6 +71,16 @@ def ride_verdict(report: dict) -> dict:
         text = "nothing is missing that this ride can reveal" + _why_nothing(report)
     out["text"] = text
     return out
+
+
+def on_the_edge(names: list[str]) -> str:
+    """The named terms that sit on an edge of their plausible ranges, in words (their values
+    are the estimates' table's)."""
+    one = len(names) == 1
+    listed = names[0] if one else ", ".join(names[:-1]) + " and " + names[-1]
+    return (f"{listed} {'sits' if one else 'sit'} on the edge of {'its' if one else 'their'} plausible "
+            f"range{'' if one else 's'}: the ride asks for more than plausible physics gives, and the "
+            f"rest is not explained")
 
 
 def _why_nothing(report: dict) -> str:

@@ -90,11 +90,25 @@ def _key_figures(h: dict) -> list:
         out.append(KeyFigure("Change test", ch["verdict"],
                              f"p = {ch['p_value']:.2g}; latest − earlier {1e3 * ch['difference']:+.0f} mΩ "
                              f"[{1e3 * ch['difference_ci95'][0]:+.0f}, {1e3 * ch['difference_ci95'][1]:+.0f}]", tone))
+    trend = _trend_tile(h)
+    return out + ([trend] if trend else [])
+
+
+def _trend_tile(h: dict):
+    """Wh/km per 10 km/h of average speed: the slope where its interval excludes 0, else
+    "no trend shown" with the span of speeds the rides cover (the slope is then noise)."""
     sl = h["Wh_per_km_vs_speed"]
-    if sl["slope"] is not None and sl["ci95"]:
-        out.append(KeyFigure("Consumption per 10 km/h faster", f"{sl['slope'] / 0.36:+.1f} Wh/km",
-                             f"95 % [{sl['ci95'][0] / 0.36:+.1f}, {sl['ci95'][1] / 0.36:+.1f}]"))
-    return out
+    if sl["slope"] is None or not sl["ci95"]:
+        return None
+    lo, hi = sl["ci95"][0] / 0.36, sl["ci95"][1] / 0.36
+    label = "Consumption per 10 km/h faster"
+    if lo <= 0 <= hi:
+        sp = [e["summary"]["speed_mean_moving_mps"] for e in h["rides"]
+              if e["summary"]["speed_mean_moving_mps"] is not None]
+        return KeyFigure(label, "no trend shown",
+                         f"the rides' average speeds span {3.6 * (max(sp) - min(sp)):.1f} km/h; "
+                         f"95 % [{lo:+.0f}, {hi:+.0f}] Wh/km")
+    return KeyFigure(label, f"{sl['slope'] / 0.36:+.1f} Wh/km", f"95 % [{lo:+.1f}, {hi:+.1f}]")
 
 
 def history_page(h: dict, title: str = "Rides of one wheel") -> str:

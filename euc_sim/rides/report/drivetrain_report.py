@@ -267,6 +267,12 @@ def pwm_figure(r: RideDrivetrain, coef: dict | None = None, title: str = ""):
     return fig
 
 
+#: A systematic part of the mass's interval (``total_mass.systematic``) in people's words:
+#: ``efficiency_model`` is the choice of copper-loss column (κ·F² or its proxy κ·a²).
+SYSTEMATIC_WORDS = {"efficiency_model": "copper-loss model (κ·F² or κ·a²)",
+                    "rotating_share": "rotating inertia's share"}
+
+
 def _mass_md(rep: dict, shown=frozenset()) -> list[str]:
     """The page's lines on the total mass, its interval's parts, warnings and the difference;
     the total mass itself not repeated where ``shown`` (the first screen) has it."""
@@ -292,8 +298,8 @@ def _mass_md(rep: dict, shown=frozenset()) -> list[str]:
             st = tm["statistical_ci95"]
             md.append(f"- The interval is the bootstrap's ({st[0]:.0f}–{st[1]:.0f} kg) with what the "
                       f"log cannot calibrate added in quadrature (95 % half-widths: " + ", ".join(
-                          f"{k.replace('_', ' ')} {v:.1f} kg" for k, v in tm["systematic"].items())
-                      + ").")
+                          f"{SYSTEMATIC_WORDS.get(k, k.replace('_', ' '))} {v:.1f} kg"
+                          for k, v in tm["systematic"].items()) + ").")
         if tm.get("by_window"):
             md.append("- Energy balance over windows of " + ", ".join(
                 f"{w['window_s']:g} s: {w['estimate']:.0f} kg" for w in tm["by_window"])

@@ -22,7 +22,7 @@ from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.grids.signals import RideSignals, break_at_gaps, split_at_gaps
 
 __all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "plot_residuals", "residuals_figure", "write_page",
-           "summarise_notes", "falls_sentence", "markdown_sections",
+           "summarise_notes", "said_once", "falls_sentence", "markdown_sections",
            "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
 #: localise() settings for rides, s: minutes-long logs at ~5 Hz need a longer
@@ -332,6 +332,17 @@ def _mass_note(note: str) -> str:
     return _FOUND.sub(r"the masses are those \1 ('What the wheel weighs')", note)
 
 
+def torque_words(method: str, assumptions: Mapping) -> str:
+    """How the log's torque was inferred (``torque_method``), in words: from battery power it
+    takes the ``--efficiency`` assumption, which the energy balance itself does not use."""
+    if method == "power_efficiency":
+        return (f"battery power at an assumed drivetrain efficiency of {assumptions['efficiency_for_torque']:g} "
+                f"(--efficiency; only for this torque, the energy balance has no efficiency)")
+    if method == "phase_current":
+        return "phase current × the torque constant"
+    return str(method)
+
+
 def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     """Where the inertia-only residual concentrates, with its figure."""
     loc = r.get("localisation", {})
@@ -462,11 +473,10 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
                "| phase current RMS | pitch RMS | PWM RMS | torque RMS | speed RMS | fell |",
                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
         md += [_step_row(st, balance) for st in steps]
-        inj = ", ".join(f"{k} = {_fmt(v)}" for k, v in sim["effects_injected"].items()) or "none"
+        inj = (", ".join(sim["effects_injected"]) + " at their estimates above") if sim["effects_injected"] else "none"
         md += ["", f"Last / first step battery-power error: **{e['ratio_P']:.2f}** "
-               f"(effects injected as physics in the last step: {inj}). Logged torque from "
-               f"{e['M_log_method']} (assumed efficiency "
-               f"{r['assumptions']['efficiency_for_torque']:g}).", ""]
+               f"(effects injected as physics in the last step: {inj}). The torque column scores "
+               f"against a logged torque from {torque_words(e['M_log_method'], r['assumptions'])}.", ""]
         sway = sway_sentence([st for st in steps if st["ran"]])
         if sway:
             md += [sway, ""]
@@ -477,7 +487,7 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
         if fell:
             md += [fell[0].upper() + fell[1:] + ".", ""]
-        for n in summarise_notes(sim.get("notes", [])):
+        for n in summarise_notes([said_once(n) for n in sim.get("notes", [])]):
             md.append(f"- {n}")
         if "simulation" in figures:
             md += ["", f"![simulation against the log, step by step]({figures['simulation']})", ""]
@@ -487,7 +497,33 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     return md
 
 
+#: A simulation note's repeat of a fitted value the page gives in its own table: (pattern, words kept).
+_REPEATS = ((re.compile(r"\b(\w+) = [-+\d.e]+ (is electrical)"), r"\1 \2"),
+            (re.compile(r"\b(\w+) = [-+\d.e]+ [^ ]* ?(measured but not simulated)"), r"\1 \2"),
+            (re.compile(r"\bK_d measured [-+\d.e]+ N·m·s/rad, 95 % interval \[[^\]]*\]: "),
+             "K_d as measured (the law's table): "))
+
+
+def said_once(note: str) -> str:
+    """A simulation note without the fitted values the page's tables already give
+    (an electrical loss, a law term not simulated, the measured K_d)."""
+    for rx, keep in _REPEATS:
+        note = rx.sub(keep, note)
+    return note
+
+
 _OWN_GAPS = re.compile(r"\d+ gap\(s\) longer than ([\d.]+) s")
+_MEDIAN_HZ = re.compile(r"\(median ([\d.]+) s, about ([\d.]+) Hz\)")
+
+
+def _rate_as_the_tile(note: str, hz: float | None) -> str:
+    """The reader's sampling note beside the tile's samples/s: a median rate well above the
+    whole log's (rows in bursts between gaps) is said as such, not as the log's rate."""
+    m = _MEDIAN_HZ.search(note)
+    if m is None or not hz or float(m[2]) <= 2.0 * hz:
+        return note
+    return note.replace(m[0], f"(median {m[1]} s: {m[2]} Hz within bursts between gaps; the tile's rate "
+                              f"counts the whole log)")
 
 
 def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:
@@ -499,8 +535,9 @@ def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:
     masses = (f"masses as 'What the wheel weighs' gives them ({msrc})" if str(msrc).startswith("found from this log")
               else f"masses given: {a['total_mass']:.4g} kg total, {a['m_eq']:.4g} kg equivalent ({msrc})")
     md.append(f"- Balance fit ('Cross-ride prediction', 'Estimates'): wheel radius R = {a['R']:g} m "
-              f"({src.get('R', a.get('source', ''))}); {masses}; torque "
-              f"from {r['torque_method']}, power from {r['power_source']}.")
+              f"({src.get('R', a.get('source', ''))}); {masses}; power from {r['power_source']}"
+              + (f"; torque from {torque_words(r['torque_method'], a)}" if r.get("domain") == "torque" else "")
+              + ".")
     w = r.get("wheel")
     if w is not None:
         given = {"radius_m": ("wheel radius", "m"), "wheel_mass_kg": ("net weight", "kg"),
@@ -515,7 +552,9 @@ def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:
                   + ".")
     notes = [n for n in r.get("notes", []) if not _limit_note(n)]
     if "gaps" in shown:         # the ride's own gap count is the Data quality tile's
-        notes = [n if re.match(r"\S+\.csv: ", n) else _OWN_GAPS.sub(r"gaps longer than \1 s as the tile counts", n)
+        hz = (r.get("summary") or {}).get("sampling_hz")
+        notes = [n if re.match(r"\S+\.csv: ", n) else
+                 _rate_as_the_tile(_OWN_GAPS.sub(r"gaps longer than \1 s as the tile counts", n), hz)
                  for n in notes]
     md += [f"- {n}" for n in summarise_notes(notes)]
     md.append("")
@@ -539,6 +578,17 @@ _GAP = re.compile(r"^(?P<who>.*?)gap of (?P<len>[\d.]+) s at t = (?P<t>[\d.]+) s
 _BRIDGED = re.compile(r"^(?P<who>.*?)gap of (?P<len>[\d.]+) s at t = (?P<t>[\d.]+) s bridged linearly$")
 _SHORT = re.compile(r"^(?P<who>.*?)segment \d+ has (?P<n>\d+) samples, fewer than the "
                     r"(?P<win>\d+)-sample filter window: left out$")
+_EMPTY = re.compile(r"^(?P<who>(?:\S+\.csv: )?)(?P<col>\w+): (?P<n>\d+) of (?P<rows>\d+) cells empty "
+                    r"\(kept as NaN\)$")
+
+
+def _empty_cells(g: list, rows: str) -> str:
+    """"empty cells ... : a, b 540 each, c 5" of ``[(column, count), ...]``, equal counts together."""
+    by: dict[int, list[str]] = {}
+    for col, n in g:
+        by.setdefault(n, []).append(col)
+    parts = [", ".join(cols) + (f" {n} each" if len(cols) > 1 else f" {n}") for n, cols in by.items()]
+    return f"empty cells (of {rows} rows; kept as NaN): " + "; ".join(parts)
 
 
 def _gap_summary(g: list, shown: int) -> str:
@@ -549,21 +599,23 @@ def _gap_summary(g: list, shown: int) -> str:
 
 
 def summarise_notes(notes, shown: int = 5) -> list[str]:
-    """The notes for people: a ride's gaps (count, total, longest) and its too-short
-    segments in one line each (the JSON keeps every one); the other notes as they are, in order."""
+    """The notes for people: a ride's gaps (count, total, longest), its too-short segments
+    and its columns' empty cells in one line each (the JSON keeps every one); the other
+    notes as they are, in order."""
     groups: dict[tuple, list] = {}
     out: list = []
     for n in notes:
-        m, b, k = _GAP.match(n), _BRIDGED.match(n), _SHORT.match(n)
+        m, b, k, e = _GAP.match(n), _BRIDGED.match(n), _SHORT.match(n), _EMPTY.match(n)
         key = (("split", m["who"], m["max"]) if m else ("bridged", b["who"], "") if b
-               else ("short", k["who"], k["win"]) if k else None)
+               else ("short", k["who"], k["win"]) if k else ("empty", e["who"], e["rows"]) if e else None)
         if key is None:
             out.append(n)
             continue
         if key not in groups:
             out.append(key)
         x = m or b
-        groups.setdefault(key, []).append((float(x["len"]), float(x["t"])) if x else int(k["n"]))
+        groups.setdefault(key, []).append((float(x["len"]), float(x["t"])) if x else
+                                          (e["col"], int(e["n"])) if e else int(k["n"]))
     lines = []
     for item in out:
         if isinstance(item, str):
@@ -575,6 +627,8 @@ def summarise_notes(notes, shown: int = 5) -> list[str]:
             lines.append(f"{who}{_gap_summary(g, shown)} longer than {arg} s split the ride there "
                          f"for every fit (balance, mass, law): not bridged (every one is listed in "
                          f"the JSON's notes)")
+        elif kind == "empty":
+            lines.append(who + _empty_cells(g, arg))
         elif kind == "bridged":
             lines.append(f"{who}{_gap_summary(g, shown)} longer than 1 s bridged linearly in the "
                          f"simulated speed profile (every one is listed in the JSON's notes)")

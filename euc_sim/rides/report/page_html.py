@@ -106,13 +106,26 @@ def _ride_tiles(s: Mapping | None) -> list:
         K("Riding time", _hm(mov) if mov is not None else NA,
           f"of {_hm(dur)} logged" if dur is not None else ""),
         K("Top speed", f"{top * 3.6:.0f} km/h" if top is not None else NA,
-          f"average {mean * 3.6:.0f} km/h while moving" if mean is not None else ""),
+          "; ".join(x for x in (f"average {mean * 3.6:.0f} km/h while moving" if mean is not None else "",
+                                _spin_note(s.get("free_spin"))) if x)),
         K("Energy drawn", f"{drawn:.0f} Wh" if drawn is not None else NA,
           f"{regen:.0f} Wh regenerated" if regen is not None else "regeneration not logged"),
-        K("Consumption", f"{whkm:.1f} Wh/km" if whkm is not None else NA, "drawn minus regenerated"),
+        K("Consumption", f"{whkm:.1f} Wh/km" if whkm is not None else NA,
+          "drawn minus regenerated" if regen is not None else "drawn (no regeneration logged)"),
         K("Battery used", f"{used:.0f} %" if used is not None else NA,
           f"range at this rate: {rng / 1000:.0f} km" if rng is not None else ""),
     ]
+
+
+def _spin_note(spin: Mapping | None) -> str:
+    """The summary's ``free_spin`` (the wheel spinning off the ground) in a few words, or ''."""
+    v, n = _num(spin, "speed_max_mps"), (spin or {}).get("count")
+    if v is None or not n:
+        return ""
+    at = _num(spin, "at_s")
+    return (f"the wheel spun free (off the ground) at {v * 3.6:.0f} km/h"
+            + (f" at {_mmss(at)}" if n == 1 and at is not None else f" and {n - 1} more time(s)" if n > 1 else "")
+            + ": left out")
 
 
 def _pwm_tile(s: Mapping | None, where: str) -> object:
@@ -146,11 +159,20 @@ def data_quality(s: Mapping | None) -> tuple[str, str]:
             + (f"; {rate:.1f} samples/s" if rate else "")), tone
 
 
+def short(text: str, most: int = 70) -> str:
+    """A reason in a tile: its first clause (to the first colon or semicolon), cut at a word
+    with "…" if still longer than ``most`` characters."""
+    first = re.split(r"[:;]\s", text.strip(), maxsplit=1)[0].rstrip(". ")
+    if len(first) <= most:
+        return first
+    return first[:most].rsplit(" ", 1)[0].rstrip(",") + " …"
+
+
 def _mass_tile(tm: Mapping | None, check: Mapping | None) -> object:
     """The total mass found from the log, and the ride JSON's ``mass_check`` of the declared weight."""
     est = _num(tm, "estimate")
     if est is None:
-        return H.KeyFigure("Total mass", NA, ((tm or {}).get("why") or "")[:60])
+        return H.KeyFigure("Total mass", NA, short((tm or {}).get("why") or ""))
     ci = (tm or {}).get("ci95")
     note = f"95 % {ci[0]:.0f}–{ci[1]:.0f} kg" if ci else ""
     decl = _num(check, "declared_rider_kg")
@@ -163,6 +185,9 @@ def _mass_tile(tm: Mapping | None, check: Mapping | None) -> object:
 
 #: The battery entry's verdict -> tile tone.
 BATTERY_TONE = {"as specified": "good", "aged": "warn", "worn": "bad"}
+#: The battery entry's verdict in a rider's words where the bare verdict misleads
+#: ("no specification" beside a spec the rider gave: the spec has no pack resistance).
+VERDICT_WORDS = {"no specification": "no health verdict (the spec gives no pack resistance)"}
 
 
 def _battery_tile(rep: Mapping) -> object:
@@ -176,9 +201,9 @@ def _battery_tile(rep: Mapping) -> object:
         r = (rep.get("drivetrain") or {}).get("internal_resistance") or {}
         est, ci, verdict, r25 = _num(r, "estimate"), r.get("ci95"), "no health verdict", None
     if est is None or est <= 0:
-        return H.KeyFigure("Battery resistance", NA, (b or {}).get("sentence", "")[:70] or
+        return H.KeyFigure("Battery resistance", NA, short((b or {}).get("sentence", "")) or
                            "the log shows no voltage sag under load", "warn" if est is not None else "")
-    note = verdict + (f"; {1000 * r25:.0f} mΩ at 25 °C" if r25 is not None else
+    note = VERDICT_WORDS.get(verdict, verdict) + (f"; {1000 * r25:.0f} mΩ at 25 °C" if r25 is not None else
                       f"; 95 % {1000 * ci[0]:.0f}–{1000 * ci[1]:.0f} mΩ" if ci else "")
     return H.KeyFigure("Battery resistance", f"{1000 * est:.0f} mΩ", note, BATTERY_TONE.get(verdict, ""))
 
@@ -190,9 +215,9 @@ def key_figures(rep: Mapping) -> list:
     alarms = s.get("alarms") if s else None
     quality, tone = data_quality(s)
     return (_ride_tiles(s)
-            + [_pwm_tile(s, " (marked on the map)"),
+            + [_pwm_tile(s, " (marked on the map)" if (s or {}).get("pwm_max_place") else " (marked over time)"),
                H.KeyFigure("Alarms", NA if alarms is None else str(alarms),
-                           "" if alarms is None or s.get("alarm_rows") is None else
+                           "" if not alarms or s.get("alarm_rows") is None else
                            f"{s['alarm_rows']} rows of the log flagged", "warn" if alarms else ""),
                H.KeyFigure("Data quality", str((s or {}).get("quality") or NA),
                            re.sub(r"^Data quality \w+: ", "", quality), tone),
@@ -230,6 +255,12 @@ def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
     elif v.get("named"):
         out.append("The ride's energy balance shows what the standard model lacks: "
                    + ", ".join(n.replace("_", " ") for n in v["named"]) + " (details below).")
+        edge = [e["name"].replace("_", " ") for e in rep.get("effects") or []
+                if e.get("on_bound") and e["name"] in v["named"]]
+        if edge:
+            out.append(f"Even at the most that is plausible ({', '.join(edge)} on the edge of "
+                       f"{'its' if len(edge) == 1 else 'their'} plausible range), the ride asks for more "
+                       f"than that: something the model lacks supplies the rest.")
     elif v:
         out.append("The ride's energy balance names nothing the standard model lacks with confidence "
                    "(details below).")
@@ -257,8 +288,18 @@ def over_time(rep: Mapping, series: RideSeries):
     m = _max_pwm_mark(rep, series)
     mark = None if m is None else (m[0] / 60.0, f"max PWM {_num(rep['summary'], 'pwm_max_pct'):.0f} %")
     gap = max(series.gap_s, 1.5 * float(np.median(np.diff(series.t[keep])))) if keep.size > 1 else series.gap_s
-    return time_panels(series.t[keep] / 60.0, panels, "The ride over time (zoom one panel: all follow)",
-                       gap / 60.0, mark)
+    fig = time_panels(series.t[keep] / 60.0, panels, "The ride over time (zoom one panel: all follow)",
+                      gap / 60.0, mark)
+    if mark is not None and "pwm_pct" in c:        # the peak is one logged row: the grid's mean may not reach it
+        import plotly.graph_objects as go
+
+        row = [k for k, _, _ in spec if k in c].index("pwm_pct") + 1
+        fig.add_trace(go.Scatter(x=[mark[0]], y=[_num(rep["summary"], "pwm_max_pct")], mode="markers",
+                                 name="max PWM, logged row", showlegend=False,
+                                 marker={"symbol": "star", "size": 11, "color": "#c62828"},
+                                 hovertemplate="%{y:.0f} % (the logged row; the line is the 10 Hz grid's mean)"
+                                               "<extra>max PWM</extra>"), row=row, col=1)
+    return fig
 
 
 def on_the_map(rep: Mapping, series: RideSeries):

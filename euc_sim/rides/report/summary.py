@@ -30,6 +30,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.geo import haversine
+from euc_sim.rides.report.spin import free_spin, spin_json
 
 __all__ = ["RideSummary", "LogCounters", "MassCheck", "read_counters", "ride_summary",
            "mass_check", "GAP_S", "BRIDGE_S", "MOVING_MPS"]
@@ -130,6 +131,7 @@ class RideSummary:
     range_left_m: float | None = None
     safety_margin_min_pct: float | None = None
     pwm_max_place: dict | None = None
+    free_spin: dict | None = None
     alarm_rows: int | None = None
     sampling_hz: float | None = None
     temperature_max_C: float | None = None
@@ -361,11 +363,14 @@ def _battery(d: pd.DataFrame, t0: float, t_move: float, t1: float) -> tuple[floa
     return out[0], out[1]
 
 
-def _pwm(d: pd.DataFrame) -> tuple[float | None, float | None, dict | None]:
-    """The largest logged duty, %, when, s, and where (nearest GPS fix within 10 s)."""
+def _pwm(d: pd.DataFrame, skip: np.ndarray | None = None) -> tuple[float | None, float | None, dict | None]:
+    """The largest logged duty, %, when, s, and where (nearest GPS fix within 10 s); rows
+    ``skip`` (a free spin) left out."""
     if "pwm" not in d:
         return None, None, None
     p = d["pwm"].to_numpy(float)
+    if skip is not None:
+        p = np.where(skip, np.nan, p)
     if not np.isfinite(p).any():
         return None, None, None
     i = int(np.nanargmax(p))
@@ -380,12 +385,19 @@ def _pwm(d: pd.DataFrame) -> tuple[float | None, float | None, dict | None]:
     return float(p[i]), float(t[i]), place
 
 
-def _quality(gaps: dict, span: float, hz: float | None) -> tuple[str, str]:
-    """``"good"``, ``"fair"`` or ``"poor"`` and one sentence on the sampling and the gaps.
+def _quality(t: np.ndarray) -> tuple[str, str, float | None]:
+    """``"good"``, ``"fair"`` or ``"poor"``, one sentence on the sampling and the gaps, and the
+    samples per second, all over the log without its pauses (intervals over :data:`PAUSE_S`,
+    left out of the duration too: the log was stopped, not losing rows).
 
     Poor: more than 20 % of the ride in gaps or under 1 sample/s; fair: over 5 %
     or under 2 samples/s.  A poor log weakens every verdict drawn from it.
     """
+    dt = np.diff(t)
+    pause = dt[dt > PAUSE_S]
+    span = float(t[-1] - t[0] - pause.sum()) if t.size > 1 else 0.0
+    hz = float(dt.size - pause.size) / span if span > 0 else None      # a median hides bursts between gaps
+    gaps = _gaps(np.cumsum(np.r_[0.0, np.where(dt > PAUSE_S, 0.0, dt)]))
     share = gaps["total_s"] / span if span > 0 else 0.0
     rate = f"{hz:.1f} samples/s" if hz else "unknown sampling rate"
     if gaps["count"]:
@@ -393,6 +405,9 @@ def _quality(gaps: dict, span: float, hz: float | None) -> tuple[str, str]:
              f"({100 * share:.0f} % of the log, longest {gaps['longest_s']:.1f} s)")
     else:
         g = f"no gap longer than {GAP_S:g} s"
+    if pause.size:
+        g += (f"; {pause.size} pause(s) of the log over {PAUSE_S / 60:.0f} min ({pause.sum() / 60:.0f} min) "
+              f"left out")
     if share > 0.20 or (hz is not None and hz < 1.0):
         q = "poor"
     elif share > 0.05 or (hz is not None and hz < 2.0):
@@ -401,7 +416,7 @@ def _quality(gaps: dict, span: float, hz: float | None) -> tuple[str, str]:
         q = "good"
     tail = {"good": "", "fair": "; the figures below are a little less certain",
             "poor": "; treat every verdict below as weak"}[q]
-    return q, f"Data quality {q}: {rate}, {g}{tail}."
+    return q, f"Data quality {q}: {rate}, {g}{tail}.", hz
 
 
 def _distance(d: pd.DataFrame) -> tuple[float, float, float | None, str | None]:
@@ -474,23 +489,24 @@ def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
         rng, left = dist * 100.0 / used, dist * b1 / used
     elif used is not None:
         why["range_m_at_this_rate"] = f"only {used:.1f} % of the battery used"
-    pmax, pat, place = _pwm(d)
-    # samples per second over the whole log (a median interval hides bursts between gaps)
-    hz = float(dt.size / (t[-1] - t[0])) if dt.size and t[-1] > t[0] else None
+    spin = free_spin(t, v, BRIDGE_S)              # the wheel off the ground: not the ride's top speed or PWM
+    if spin.any():
+        why["speed_max_mps"] = "rows where the wheel spins off the ground (free_spin) left out"
+    pmax, pat, place = _pwm(d, spin)
     gaps = _gaps(t)
-    q, sentence = _quality(gaps, float(t[-1] - t[0]), hz)
+    q, sentence, hz = _quality(t)
     temp = float(np.nanmax(d["temperature"])) if "temperature" in d else None
     c = counters or LogCounters()
     return RideSummary(
         duration_s=duration, moving_s=moving_s, distance_m=dist,
-        distance_source=source, speed_max_mps=float(v.max()),
+        distance_source=source, speed_max_mps=float(np.nanmax(np.where(spin, np.nan, v))),
         speed_mean_moving_mps=covered_dist / moving_s if moving_s > 0 else None,
         energy_drawn_Wh=drawn, energy_regen_Wh=regen, Wh_per_km=whkm, battery_used_pct=used,
         range_m_at_this_rate=rng, pwm_max_pct=pmax, pwm_max_at_s=pat,
         alarms=c.alarm_episodes, gaps=gaps, logged_s=float(t[-1] - t[0]),
         distance_wheel_m=wheel, distance_gps_m=gps, distance_speed_integral_m=integral_m, battery_start_pct=b0, battery_end_pct=b1,
         range_left_m=left, safety_margin_min_pct=None if pmax is None else 100.0 - pmax,
-        pwm_max_place=place, alarm_rows=c.alarm_rows, sampling_hz=hz, temperature_max_C=temp,
+        pwm_max_place=place, free_spin=spin_json(t, v, spin), alarm_rows=c.alarm_rows, sampling_hz=hz, temperature_max_C=temp,
         quality=q, quality_sentence=sentence, why=why)
 
 

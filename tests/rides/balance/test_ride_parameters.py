@@ -6,6 +6,8 @@ Twin experiments (synthetic WheelLog logs with known physics, :mod:`ridesynth`) 
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from ridesynth import TRUTH, synth_log
@@ -132,7 +134,7 @@ def test_a_drag_beyond_its_plausible_range_is_accepted_on_its_edge_and_said(desi
     params = {p["name"]: p for p in parameter_list(cr, {"estimate": None, "why": "x"}, {})}
     assert params["aerodynamic_drag"]["accepted"] and "edge" in params["aerodynamic_drag"]["why"]
     verdict = ride_verdict({"effects": effect_entries(cr), "selection": list(cr.selection)})
-    assert "aerodynamic_drag" in verdict["named"] and "edge of its plausible range" in verdict["text"]
+    assert "aerodynamic_drag" in verdict["named"] and re.search(r"\baerodynamic_drag\b[^;]* on the edge of (its|their) plausible", verdict["text"])
 
 
 # --- the selection and the parameter set -----------------------------------------------
@@ -257,8 +259,12 @@ def test_the_verdict_says_what_is_held_out_and_why():
            "selection": [{"term": "inertia only", "heldout_rmse": 500.0}]}
     v = ride_verdict(rep)
     assert v["named"] == ["rolling_resistance", "aerodynamic_drag"]
-    assert "rolling_resistance 0.05" in v["text"] and "edge of its plausible range" in v["text"]
-    assert "aerodynamic_drag 0.3 kg/m (plausible" not in v["text"]          # only the edge one
+    assert "; rolling_resistance sits on the edge of its plausible range: the ride asks" in v["text"]
+    assert "0.05" not in v["text"] and "0.3" not in v["text"]      # the values are the table's, said once
+    three = ride_verdict(dict(rep, effects=[edge, dict(inside, on_bound=True),
+                                            dict(edge, name="drivetrain_idle_loss")]))
+    assert ("rolling_resistance, aerodynamic_drag and drivetrain_idle_loss sit on the edge of their "
+            "plausible ranges: the ride asks for more than plausible physics") in three["text"]
     assert "current_lag would lower the held-out error further only in a model" in v["text"]
     nothing = ride_verdict({"effects": [], "selected_not_accepted": ["current_lag"],
                             "selection": rep["selection"]})

@@ -36,3 +36,15 @@ def test_bridged_gaps_of_the_simulated_profile_become_one_line():
 def test_other_notes_pass_unchanged():
     notes = ["a", "gap of nothing", "b"]
     assert summarise_notes(notes) == notes
+
+
+def test_empty_cells_of_many_columns_become_one_line_per_ride():
+    """V9 0's notes gave six lines 'gps_lat: 540 of 5990 cells empty (kept as NaN)', one per GPS column."""
+    notes = ([f"{c}: 540 of 5990 cells empty (kept as NaN)" for c in ("gps_lat", "gps_lon", "gps_speed")]
+             + ["temp: 5 of 5990 cells empty (kept as NaN)", "pwm: taken as 100 - safety_margin",
+                "b.csv: roll: 4 of 4819 cells empty (kept as NaN)",
+                "b.csv: temp: 4 of 4819 cells empty (kept as NaN)"])
+    assert summarise_notes(notes) == [
+        "empty cells (of 5990 rows; kept as NaN): gps_lat, gps_lon, gps_speed 540 each; temp 5",
+        "pwm: taken as 100 - safety_margin",
+        "b.csv: empty cells (of 4819 rows; kept as NaN): roll, temp 4 each"]

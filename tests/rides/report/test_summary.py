@@ -94,6 +94,37 @@ def test_absent_channels_give_null(tmp_path):
                        "alarms", "gaps"}
 
 
+def _with_spin(path):
+    """The log at ``path`` with the wheel lifted and spun up in the last stop (0 → 120 km/h in
+    0.6 s at 100 % PWM, held 1 s, then coasting down at 0.8 g)."""
+    import numpy as np
+    import pandas as pd
+
+    df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    t = (pd.to_datetime(df["date"] + " " + df["time"]) - pd.Timestamp("2024-06-01 10:00:00")).dt.total_seconds()
+    up = np.clip((t - 625.0) / 0.6, 0, 1) * 120.0
+    down = np.clip(120.0 - 0.8 * 9.81 * 3.6 * (t - 626.6), 0, None)
+    v = np.where((t >= 625.0) & (t < 626.6), up, np.where(t >= 626.6, down, 0.0))
+    spin = (t >= 625.0) & (v > 0)
+    df["speed"], df["pwm"] = df["speed"].astype(float), df["pwm"].astype(float)
+    df.loc[spin, "speed"] = np.round(v[spin], 2)
+    df.loc[spin & (t < 626.6), "pwm"] = 100.0
+    df.to_csv(path, index=False)
+    return path
+
+
+def test_a_free_spin_is_not_the_rides_top_speed_or_pwm(tmp_path):
+    """A wheel lifted and spun (apex/0: 0 → 122 km/h in 0.8 s at a stop, 100 % PWM) is said
+    apart, not taken as the ride's top speed or its PWM peak."""
+    s = _summary(_with_spin(synth_summary_log(tmp_path / "a.csv")))
+    assert s.speed_max_mps == pytest.approx(25 / 3.6, rel=1e-6)
+    assert s.pwm_max_pct == pytest.approx(72.5) and s.pwm_max_at_s == pytest.approx(300.0, abs=0.2)
+    assert s.free_spin["count"] == 1 and s.free_spin["speed_max_mps"] == pytest.approx(120 / 3.6, rel=0.01)
+    assert 625.4 <= s.free_spin["at_s"] <= 626.6 and s.free_spin["total_s"] == pytest.approx(5.6, abs=0.3)  # until 9 km/h
+    assert "speed_max_mps" in s.why
+    assert _summary(synth_summary_log(tmp_path / "b.csv")).free_spin is None
+
+
 def test_mass_check_verdicts():
     tm = {"estimate": 110.0, "ci95": [100.0, 120.0]}
     assert mass_check(tm, 85.0, 25.0).verdict == "consistent"
@@ -121,11 +152,14 @@ def test_real_ride_agrees_with_its_own_counters(path):
     assert s.distance_m == pytest.approx(same, rel=0.03)
     if c.duration_s is not None:
         assert s.duration_s == pytest.approx(c.duration_s, rel=0.01)
+    spin = s.free_spin            # the app's top speed and the logged PWM count the wheel off the ground
     if c.speed_max_mps is not None:
-        assert s.speed_max_mps == pytest.approx(c.speed_max_mps, rel=0.05)
+        top = max(s.speed_max_mps, spin["speed_max_mps"]) if spin else s.speed_max_mps
+        assert top == pytest.approx(c.speed_max_mps, rel=0.05)
     assert s.energy_drawn_Wh == pytest.approx(c.power_Wh_drawn, rel=0.05)
     if "pwm" in log.data:
-        assert s.pwm_max_pct == pytest.approx(float(log.data["pwm"].max()), abs=1.5)
+        logged = float(log.data["pwm"].max())
+        assert s.pwm_max_pct <= logged and (spin is not None or s.pwm_max_pct == pytest.approx(logged, abs=1.5))
     assert s.battery_used_pct == pytest.approx(c.battery_start_pct - c.battery_end_pct, abs=2.0)
 
 
@@ -158,3 +192,15 @@ def test_rider_numbers_reads_the_reports_terms(tmp_path):
     assert rider_numbers(read_log(path, emit_warnings=False), rep)["summary"] == out["summary"]
     with pytest.raises(ValueError, match="--rider-weight"):
         check_rider_weight(500.0)
+
+
+def test_a_pause_of_the_log_does_not_make_its_data_poor(tmp_path):
+    """S22 Pro 0 was 'poor: 1.7 samples/s, 49 gap(s) ... (20 % of the log, longest 1517.3 s)',
+    a 25-minute pause (left out of the duration) counted as lost rows."""
+    s = _summary(synth_summary_log(tmp_path / "a.csv", ride_s=1800.0, gap=(900.0, 600.0)))
+    assert s.gaps["longest_s"] == pytest.approx(600.2, abs=0.01)          # the JSON's gaps keep it
+    assert s.quality == "good" and s.sampling_hz == pytest.approx(5.0, rel=0.01)
+    assert s.quality_sentence == ("Data quality good: 5.0 samples/s, no gap longer than 1 s; 1 pause(s) of "
+                                  "the log over 5 min (10 min) left out.")
+    lost = _summary(synth_summary_log(tmp_path / "b.csv", ride_s=1800.0, gap=(900.0, 290.0)))
+    assert lost.quality == "fair" and "1 gap(s) longer than 1 s, 290 s in all" in lost.quality_sentence

@@ -1,0 +1,91 @@
+"""The wheel spinning off the ground in a ride log: lifted at a stop, or fallen with the motor on.
+
+Such rows are no part of the ride: :func:`free_spin` finds them so that the ride's
+summary (:mod:`euc_sim.rides.report.summary`) leaves them out of its top speed and PWM
+peak, and says them apart (:func:`spin_json`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["free_spin", "spin_json", "SPIN_ACCEL", "SPIN_TOL_MPS"]
+
+#: Acceleration or braking no tyre on the road carries, m/s² (grip μ ≈ 1: 1 g): a wheel
+#: speed reached from (or left to) its neighbours faster than this, by more than
+#: :data:`SPIN_TOL_MPS`, is the wheel spinning off the ground (lifted, or fallen with the
+#: motor on), not the ride.
+SPIN_ACCEL = 9.81
+#: Speed beyond the tyre's reach, m/s, that makes a row a free spin (timestamp jitter stays below).
+SPIN_TOL_MPS = 2.5
+def _reach(t: np.ndarray, v: np.ndarray, bridge_s: float) -> np.ndarray:
+    """The highest speed a tyre reaches at each row from the rows before it, m/s (starting
+    again after an interval longer than ``bridge_s``, s)."""
+    out = np.empty_like(v)
+    prev = np.nan
+    for i in range(v.size):
+        step = SPIN_ACCEL * (t[i] - t[i - 1]) if i and t[i] - t[i - 1] <= bridge_s else np.inf
+        reach = prev + step if np.isfinite(prev) else np.inf
+        out[i] = min(v[i], reach) if np.isfinite(v[i]) else reach
+        prev = out[i]
+    return out
+
+
+def free_spin(t: np.ndarray, v: np.ndarray, bridge_s: float = 2.5) -> np.ndarray:
+    """Rows where the wheel spins off the ground.
+
+    A spin shows as a speed no tyre reaches from the rows before or after it (more than
+    :data:`SPIN_TOL_MPS` beyond :data:`SPIN_ACCEL` of acceleration or braking); around
+    those rows, the spin-up before them and the coast-down after them (the speed rising
+    into it, then falling, above the speed it started from or ended at) belong to it.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        s, increasing.
+    v : numpy.ndarray
+        |wheel speed|, m/s.
+    bridge_s : float
+        s; across a longer interval the wheel's state is unknown (no reach carried over).
+
+    Returns
+    -------
+    numpy.ndarray of bool
+    """
+    t, v = np.asarray(t, float), np.asarray(v, float)
+    if v.size == 0:
+        return np.zeros(0, bool)
+    fwd = _reach(t, v, bridge_s)
+    bwd = _reach(-t[::-1], v[::-1], bridge_s)[::-1]
+    spin = np.isfinite(v) & ((v > fwd + SPIN_TOL_MPS) | (v > bwd + SPIN_TOL_MPS))
+    return _whole_spins(spin, np.nan_to_num(v))
+
+
+def _whole_spins(seed: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``seed`` grown by each spin's coast-down after it and spin-up before it (the speed
+    falling, or rising, row after row above the speed it started from or ends at); a run
+    whose top is not above both its neighbours' speeds by :data:`SPIN_TOL_MPS` (a step in
+    the log, a sudden stop) is no spin."""
+    out = np.zeros_like(seed)
+    edges = np.flatnonzero(np.diff(np.r_[0, seed.astype(int), 0]))
+    for a, b in zip(edges[::2], edges[1::2]):
+        base = v[a - 1] if a > 0 else 0.0
+        while b < v.size and not seed[b] and v[b] < v[b - 1] and v[b] > base + SPIN_TOL_MPS:
+            b += 1
+        after = v[b] if b < v.size else 0.0
+        while a > 0 and not seed[a - 1] and v[a - 1] < v[a] and v[a - 1] > after + SPIN_TOL_MPS:
+            a -= 1
+        top, before = float(v[a:b].max()), (v[a - 1] if a > 0 else 0.0)
+        if top > before + SPIN_TOL_MPS and top > after + SPIN_TOL_MPS:
+            out[a:b] = True
+    return out
+
+
+def spin_json(t: np.ndarray, v: np.ndarray, spin: np.ndarray) -> dict | None:
+    """``{"count", "total_s", "speed_max_mps", "at_s"}`` of the free spins, or None without one."""
+    if not spin.any():
+        return None
+    i = int(np.flatnonzero(spin)[np.argmax(v[spin])])
+    runs = np.flatnonzero(np.diff(np.r_[0, spin.astype(int), 0]))
+    total = sum(float(t[min(b, t.size - 1)] - t[max(a - 1, 0)]) for a, b in zip(runs[::2], runs[1::2]))
+    return {"count": int(runs.size // 2), "total_s": total, "speed_max_mps": float(v[i]), "at_s": float(t[i])}

@@ -1,0 +1,122 @@
+"""The ride page's first screen as a rider reads it (euc_sim.rides.report.page_html): what each
+tile says beside its number, built from a synthetic log's summary."""
+
+from __future__ import annotations
+
+import warnings
+
+from euc_sim.rides.report.page_html import key_figures
+from euc_sim.rides.report.summary import read_counters, ride_summary
+from euc_sim.rides.source.logs import read_log
+from tests.rides.report.test_summary import _with_spin
+from tests.rides.summarysynth import synth_summary_log
+
+
+def _tiles(rep: dict) -> dict:
+    return {k.label: k for k in key_figures(rep)}
+
+
+def _summary_json(path) -> dict:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        log = read_log(path, emit_warnings=False)
+    return ride_summary(log, read_counters(path, log)).to_json()
+
+
+def test_the_top_speed_tile_says_a_free_spin_was_left_out(tmp_path):
+    """apex/0's tile read 122 km/h: the wheel spun at a stop. The tile gives the ride's top
+    speed and says the spin apart, with its speed and time."""
+    s = _summary_json(_with_spin(synth_summary_log(tmp_path / "a.csv")))
+    top = _tiles({"summary": s})["Top speed"]
+    assert top.value == "25 km/h"
+    assert "spun free (off the ground) at 120 km/h at 10:26: left out" in top.note
+    plain = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv"))})["Top speed"]
+    assert "spun" not in plain.note and plain.note.startswith("average 25 km/h")
+
+
+def test_the_lead_says_when_named_physics_sits_on_its_edge():
+    """Blitz 1: C_rr, k and P₀ all on their plausible edges; the verdict said 'the rest is not
+    explained' while the first screen said only 'shows what the standard model lacks'."""
+    from euc_sim.rides.report.page_html import _lead
+
+    named = ["aerodynamic_drag", "rolling_resistance", "copper_loss"]
+    rep = {"verdict": {"battery_power": True, "named": named},
+           "effects": [{"name": "aerodynamic_drag", "on_bound": True},
+                       {"name": "rolling_resistance", "on_bound": True},
+                       {"name": "copper_loss", "on_bound": False}]}
+    lead = " ".join(_lead(rep))
+    assert ("(aerodynamic drag, rolling resistance on the edge of their plausible range), the ride asks "
+            "for more than that: something the model lacks supplies the rest.") in lead
+    lag = dict(rep, effects=[{"name": "current_lag", "on_bound": True}], verdict={"battery_power": True,
+                                                                                    "named": ["current_lag"]})
+    assert "(current lag on the edge of its plausible range), the ride asks for more than" in " ".join(_lead(lag))
+    inside = dict(rep, effects=[dict(e, on_bound=False) for e in rep["effects"]])
+    assert "edge" not in " ".join(_lead(inside))
+
+
+def test_the_pwm_peak_is_marked_on_the_map_only_with_gps(tmp_path):
+    """S22 Pro 0 and Mten4 0 (WheelLog, no GPS): the tile read 'marked on the map' above
+    'No GPS position in this log: no map'."""
+    with_gps = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "a.csv"))})["Max PWM"]
+    assert with_gps.note == "least margin 28 % at 5:00 (marked on the map)"
+    no_gps = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv", gps=False))})["Max PWM"]
+    assert no_gps.note == "least margin 28 % at 5:00 (marked over time)"
+
+
+def test_a_tile_gives_a_reason_whole_not_cut_mid_word():
+    """Mten4 0's mass tile read 'the battery current is never negative: braking cannot be tol'."""
+    from euc_sim.rides.report.page_html import short
+
+    why = ("the battery current is never negative: braking cannot be told from driving, so the "
+           "acceleration power's sign is lost and the mass is not identified")
+    tile = _tiles({"total_mass": {"estimate": None, "why": why}})["Total mass"]
+    assert tile.value == "not available" and tile.note == "the battery current is never negative"
+    long = "word " * 30
+    assert short(long) == ("word " * 14).strip() + " …" and len(short(long)) <= 72
+
+
+def test_consumption_says_drawn_only_when_no_regeneration_is_logged(tmp_path):
+    """Mten4 0 (unsigned current): 'Energy drawn ... regeneration not logged' beside
+    'Consumption ... drawn minus regenerated'."""
+    signed = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "a.csv", regen_amps=5.0))})
+    assert signed["Consumption"].note == "drawn minus regenerated"
+    unsigned = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv"))})
+    assert unsigned["Energy drawn"].note == "regeneration not logged"
+    assert unsigned["Consumption"].note == "drawn (no regeneration logged)"
+
+
+def test_no_alarm_is_said_once(tmp_path):
+    """Every ride without an alarm read 'Alarms 0 / 0 rows of the log flagged'."""
+    none = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "a.csv"))})["Alarms"]
+    assert (none.value, none.note) == ("0", "")
+    two = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv", alarm_rows=(500, 501, 900)))})
+    assert (two["Alarms"].value, two["Alarms"].note) == ("2", "3 rows of the log flagged")
+
+
+def test_the_battery_tile_says_why_there_is_no_health_verdict():
+    """V9 0 was run with --wheel v9.csv; its battery tile read 'no specification; 212 mΩ at 25 °C'."""
+    b = {"resistance_ohm": 0.186, "resistance_ci95": [0.178, 0.192], "resistance_25C_ohm": 0.212,
+         "verdict": "no specification"}
+    tile = _tiles({"battery": b})["Battery resistance"]
+    assert tile.value == "186 mΩ"
+    assert tile.note == "no health verdict (the spec gives no pack resistance); 212 mΩ at 25 °C"
+    aged = _tiles({"battery": dict(b, verdict="aged")})["Battery resistance"]
+    assert aged.note.startswith("aged;") and aged.tone == "warn"
+
+
+def test_the_pwm_panel_shows_the_logged_peak_the_tile_gives():
+    """V9 0: 'Max PWM 75 %' (one logged row) marked over a PWM line that never passes 68 %:
+    the line is the 10 Hz grid's mean. The panel now carries the logged peak as a point."""
+    import numpy as np
+
+    from euc_sim.rides.report.page_html import RideSeries, over_time
+
+    t = np.arange(0.0, 600.0, 0.1)
+    series = RideSeries(t=t, gap_s=0.15, channels={"speed_kmh": np.full(t.size, 30.0),
+                                                   "pwm_pct": np.full(t.size, 60.0)})
+    rep = {"summary": {"pwm_max_pct": 75.0, "pwm_max_at_s": 300.0}}
+    fig = over_time(rep, series)
+    peak = [tr for tr in fig.data if tr.name == "max PWM, logged row"]
+    assert len(peak) == 1 and list(peak[0].y) == [75.0] and list(peak[0].x) == [5.0]
+    assert peak[0].yaxis == fig.data[1].yaxis              # on the PWM panel, not the speed one
+    assert max(max(tr.y) for tr in fig.data if tr.name.startswith("PWM")) < 75.0
