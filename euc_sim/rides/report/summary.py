@@ -30,7 +30,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.geo import haversine
-from euc_sim.rides.report.spin import free_spin, spin_json
+from euc_sim.rides.grids.spin import free_spin, spin_json
 
 __all__ = ["RideSummary", "LogCounters", "MassCheck", "read_counters", "ride_summary",
            "mass_check", "GAP_S", "BRIDGE_S", "MOVING_MPS"]
