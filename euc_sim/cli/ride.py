@@ -207,8 +207,9 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--battery-voltage", type=float, metavar="V",
                    help="full-charge battery voltage, V (overrides the spec)")
     p.add_argument("--efficiency", type=float, default=0.8, metavar="ETA",
-                   help="drivetrain efficiency used only to infer the logged torque from power "
-                        "(default 0.8; the balance fit estimates its own)")
+                   help="drivetrain efficiency used only to infer a logged torque from battery "
+                        "power (--domain torque, the simulation's torque column; default 0.8); "
+                        "the balance fit has no efficiency")
     p.add_argument("--n-boot", type=bounded(MIN_BOOT, 100_000, integer=True), default=200, metavar="N",
                    help=f"bootstrap replicates, at least {MIN_BOOT} (default 200, at most 100000)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")

@@ -70,7 +70,7 @@ class RideAssumptions:
         m/s².
     efficiency : float
         Drivetrain efficiency η used only to *infer* torque from power
-        (:func:`wheel_torque`); the regression estimates its own.
+        (:func:`wheel_torque`); the balance fit has none.
     torque_constant : float or None
         Motor torque constant k_t, N·m/A; with a phase-current channel it gives
         M = k_t·I_phase.  None: not known, torque comes from power.
