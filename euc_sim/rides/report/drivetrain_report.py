@@ -328,9 +328,11 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
     md = _mass_md(rep, shown)
     sel = rep.get("selection") or []
     if sel:
-        md += ["", "Battery-power balance of the fit ride, blocked held-out RMS error after "
-                   "each kept term (the one selection rule of the page):", "",
-               "| step | held-out RMS, " + rep.get("error_unit", "W") + " |", "|---|---|"]
+        md += ["", "How the balance was chosen (the one selection rule of the page): the fit "
+                   "ride's error on each of its own five time blocks, fitted on the other four, "
+                   "after each kept term. These are not the held-out errors of the verdict, "
+                   "which are scored on the ride held out:", "",
+               "| step | fit ride, blocked RMS, " + rep.get("error_unit", "W") + " |", "|---|---|"]
         md += [f"| + {h['term']} | {h['heldout_rmse']:.0f} |" for h in sel]
     dt = rep["drivetrain"]
     md += ["", "| drivetrain term | estimate | 95 % interval | unit |", "|---|---|---|---|"]
