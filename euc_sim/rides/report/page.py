@@ -359,7 +359,7 @@ def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
             f"{k} {v:+.2f}" for k, v in loc["correlations"].items()) + ".")
     for tr in r.get("residual_traces", []):        # the held-out ride's RMS: the verdict's errors
         rms = ("RMS as in the verdict's held-out errors, augmented" if not tr["in_sample"] else
-               f"RMS of the fit itself (in sample, not held out) inertia-only "
+               f"RMS of the fit itself, not held out: inertia-only "
                f"{tr['rms_nominal']:.0f} {tr['unit']}, augmented {tr['rms_augmented']:.0f}")
         md.append(f"- {tr['ride']} ({'in sample' if tr['in_sample'] else 'held out'}): {rms}, of which the "
                   f"{SLOW_S:.0f} s moving mean (slow: hills, wind) {tr['slow_rms_augmented']:.0f} {tr['unit']}.")
