@@ -347,11 +347,7 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
             ci = t.get("ci95")
             md.append(f"| {name} | {t['estimate']:.4g} | "
                       + (f"{ci[0]:.4g} – {ci[1]:.4g}" if ci else "–") + f" | {unit_label(t['unit'])} |")
-    if "grade_mass" in dt and dt["grade_mass"].get("estimate") is not None and tm["estimate"]:
-        md += ["", f"Grade from GPS altitude: its power coefficient is "
-                   f"{dt['grade_mass']['estimate']:.0f} kg against the mass's {tm['estimate']:.0f} kg "
-                   f"(ratio {dt['grade_mass']['estimate'] / tm['estimate']:.2f}; below 1 where the "
-                   f"altitude's noise attenuates it)."]
+    md += _nuisance_note(dt)
     g = rep.get("grade", {})
     if "rms_implied_vs_gps_m" in g:
         md += ["", f"Road grade as the battery sees it: integrating the power the balance "
@@ -415,3 +411,22 @@ def ride_drivetrain(log, compare=None, spec=None, n_boot: int = 200, seed: int =
     from euc_sim.rides.source.spec import WheelSpec
 
     return drivetrain_report(log, spec or WheelSpec(), compare, MassSettings(n_boot=n_boot, seed=seed))
+
+
+def _nuisance_note(dt: dict) -> list[str]:
+    """What the drivetrain table's terms that read the balance's physics again are: the mass
+    fit's own copper and grade terms, and the PWM's phase resistance beside the copper loss's."""
+    has = lambda k: dt.get(k, {}).get("estimate") is not None  # noqa: E731
+    own = [k for k in ("winding_resistance", "copper_loss_per_force2", "copper_loss_per_accel2",
+                       "grade_mass") if has(k)]
+    out = []
+    if own:
+        out.append(f"{', '.join(own)}: the mass fit's own terms (how its energy balance holds the "
+                   f"copper loss and the climb while it finds the mass); the ride's one balance "
+                   f"model gives the copper loss and the GPS grade in Estimates.")
+    if has("winding_resistance") and has("phase_resistance_pwm"):
+        out.append("phase_resistance_pwm is the PWM's reading of the phase resistance (the duty's "
+                   "drop per phase amp); winding_resistance also holds every battery loss growing "
+                   "with the phase current squared (the controller's switches), so the two need "
+                   "not agree.")
+    return ["", " ".join(out)] if out else []

@@ -16,3 +16,18 @@ def test_the_mass_interval_names_its_parts_without_an_efficiency():
     assert "efficiency" not in md
     assert ("(95 % half-widths: speed scale 5.3 kg, current scale 23.2 kg, copper-loss model (κ·F² or κ·a²) "
             "0.0 kg, grade 1.9 kg, rotating inertia's share 2.1 kg)") in md
+
+
+def test_the_mass_fits_own_terms_are_said_apart_from_the_balance_model():
+    """Lynx pages showed winding_resistance 0.44 ohm and phase_resistance_pwm 0.074 ohm, and V9
+    pages a grade ratio of 0.44 beside the balance's GPS gain 0.56, without saying which is which."""
+    from euc_sim.rides.report.drivetrain_report import _nuisance_note
+
+    both = " ".join(_nuisance_note({"winding_resistance": {"estimate": 0.44},
+                                    "phase_resistance_pwm": {"estimate": 0.074},
+                                    "grade_mass": {"estimate": 50.0}}))
+    assert "winding_resistance, grade_mass: the mass fit's own terms" in both
+    assert "need not agree" in both
+    assert _nuisance_note({"speed_scale": {"estimate": 1.0}}) == []
+    alone = " ".join(_nuisance_note({"phase_resistance_pwm": {"estimate": 0.074}}))
+    assert alone == ""
