@@ -421,9 +421,11 @@ def _nuisance_note(dt: dict) -> list[str]:
                        "grade_mass") if has(k)]
     out = []
     if own:
-        out.append(f"{', '.join(own)}: the mass fit's own terms (how its energy balance holds the "
-                   f"copper loss and the climb while it finds the mass); the ride's one balance "
-                   f"model gives the copper loss and the GPS grade in Estimates.")
+        what = " and ".join(x for x, k in (("the copper loss", own[0] != "grade_mass"),
+                                            ("the climb", "grade_mass" in own)) if k)
+        verb = "is the mass fit's own term" if len(own) == 1 else "are the mass fit's own terms"
+        out.append(f"{' and '.join(own)} {verb} (how its energy balance holds {what} while it "
+                   f"finds the mass); the ride's one balance model gives {what} in Estimates.")
     if has("winding_resistance") and has("phase_resistance_pwm"):
         out.append("phase_resistance_pwm is the PWM's reading of the phase resistance (the duty's "
                    "drop per phase amp); winding_resistance also holds every battery loss growing "

@@ -26,7 +26,10 @@ def test_the_mass_fits_own_terms_are_said_apart_from_the_balance_model():
     both = " ".join(_nuisance_note({"winding_resistance": {"estimate": 0.44},
                                     "phase_resistance_pwm": {"estimate": 0.074},
                                     "grade_mass": {"estimate": 50.0}}))
-    assert "winding_resistance, grade_mass: the mass fit's own terms" in both
+    assert ("winding_resistance and grade_mass are the mass fit's own terms (how its energy balance "
+            "holds the copper loss and the climb") in both
+    one = " ".join(_nuisance_note({"copper_loss_per_force2": {"estimate": 0.01}}))
+    assert "copper_loss_per_force2 is the mass fit's own term" in one and "climb" not in one
     assert "need not agree" in both
     assert _nuisance_note({"speed_scale": {"estimate": 1.0}}) == []
     alone = " ".join(_nuisance_note({"phase_resistance_pwm": {"estimate": 0.074}}))
