@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from euc_sim.rides.grids.ride import GAP_POLICY
+
 __all__ = ["free_spin", "spin_rows", "spin_json", "SPIN_ACCEL", "SPIN_TOL_MPS"]
 
 #: Acceleration or braking no tyre on the road carries, m/s² (grip μ ≈ 1: 1 g): a wheel
@@ -26,18 +28,21 @@ SPIN_TOL_MPS = 2.5
 
 def _reach(t: np.ndarray, v: np.ndarray, bridge_s: float) -> np.ndarray:
     """The highest speed a tyre reaches at each row from the rows before it, m/s (starting
-    again after an interval longer than ``bridge_s``, s)."""
-    out = np.empty_like(v)
-    prev = np.nan
-    for i in range(v.size):
-        step = SPIN_ACCEL * (t[i] - t[i - 1]) if i and t[i] - t[i - 1] <= bridge_s else np.inf
-        reach = prev + step if np.isfinite(prev) else np.inf
-        out[i] = min(v[i], reach) if np.isfinite(v[i]) else reach
-        prev = out[i]
-    return out
+    again after an interval longer than ``bridge_s``, s).
+
+    Row by row that is r_i = min(v_i, r_{i−1} + a·(t_i − t_{i−1})), a = :data:`SPIN_ACCEL`,
+    unrolled: r_i = a·t_i + min_{j ≤ i} (v_j − a·t_j) over the finite v_j of the piece, a
+    running minimum (no Python loop over rows).
+    """
+    x = np.where(np.isfinite(v), v - SPIN_ACCEL * t, np.inf)
+    starts = np.flatnonzero(np.r_[True, np.diff(t) > bridge_s])
+    out = np.empty(v.size)
+    for a, b in zip(starts, np.r_[starts[1:], v.size]):
+        out[a:b] = np.minimum.accumulate(x[a:b])
+    return out + SPIN_ACCEL * t
 
 
-def free_spin(t: np.ndarray, v: np.ndarray, bridge_s: float = 2.5) -> np.ndarray:
+def free_spin(t: np.ndarray, v: np.ndarray, bridge_s: float = GAP_POLICY.bridge) -> np.ndarray:
     """Rows where the wheel spins off the ground.
 
     A spin shows as a speed no tyre reaches from the rows before or after it (more than
