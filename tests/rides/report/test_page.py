@@ -10,7 +10,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from euc_sim.rides.report.page import _simulation_md, said_once
+from euc_sim.rides.report.notes import said_once
+from euc_sim.rides.report.page import _simulation_md
 
 sys.path.append(str(Path(__file__).resolve().parents[2] / "report"))
 import pagenumbers as P  # noqa: E402
