@@ -176,16 +176,15 @@ def resample(log, rate: float = GAP_POLICY.rate,
     spin = spin_rows(d) if "v" in d else np.zeros(len(t), bool)
     notes = _spin_notes(t, spin, max_gap)
     rows = np.flatnonzero(~spin)
-    t = t[rows]
-    if len(t) < 2:
+    if len(rows) < 2:
         raise InputError(f"{log.path}: column 'speed': the wheel spins off the ground on every "
-                         f"row but {len(t)}: no ride to resample")
+                         f"row but {len(rows)}: no ride to resample")
+    tk = t[rows]
     after_spin = np.diff(rows) > 1 if np.isfinite(max_gap) else np.zeros(len(rows) - 1, bool)
-    cuts = np.flatnonzero((np.diff(t) > max_gap) | after_spin)
+    cuts = np.flatnonzero((np.diff(tk) > max_gap) | after_spin)
     bounds = np.split(rows, cuts + 1)
-    notes += [f"gap of {t[i + 1] - t[i]:.2f} s at t = {t[i]:.2f} s (> max_gap {max_gap:g} s): "
+    notes += [f"gap of {tk[i + 1] - tk[i]:.2f} s at t = {tk[i]:.2f} s (> max_gap {max_gap:g} s): "
               f"ride split there, not bridged" for i in cuts if not after_spin[i]]
-    t = d["t"].to_numpy(float)
     chans = [c for c in d.columns if c != "t"]
     parts = []
     for k, idx in enumerate(bounds):
