@@ -35,8 +35,13 @@ from euc_sim.rides.grids.spin import free_spin, spin_json
 __all__ = ["RideSummary", "LogCounters", "MassCheck", "read_counters", "ride_summary",
            "mass_check", "GAP_S", "BRIDGE_S", "MOVING_MPS"]
 
-#: An interval between samples longer than this is a gap, s (as the log reader counts them).
+#: An interval between samples longer than this is a gap, s (as the log reader counts them),
+#: unless the app's own cadence is slower: see :func:`gap_limit`.
 GAP_S = 1.0
+#: The longest interval an app writes in normal logging, s, by the reader's layout name:
+#: EUC World writes when the wheel's frames arrive, in bursts up to 1.7 s apart on an
+#: InMotion V9 (docs/summary.md, "Data quality"); other apps sample at a fixed rate.
+APP_GAP_S = {"eucworld": 2.0}
 #: Intervals up to this are integrated across (energy, distance); longer ones are not, s.
 BRIDGE_S = 2.5
 #: A gap longer than this, s, is a pause of the log (left out of the duration).
@@ -267,12 +272,18 @@ def _integrate_split(t: np.ndarray, p: np.ndarray) -> tuple[float | None, float 
     return float(pos[good].sum() / 3600.0), float(neg[good].sum() / 3600.0)
 
 
-def _gaps(t: np.ndarray) -> dict:
-    """``{"count", "total_s", "longest_s"}`` of the intervals longer than GAP_S."""
+def gap_limit(layout: str | None) -> float:
+    """The interval beyond which a log of this app has a gap, s: the app's normal longest
+    interval (:data:`APP_GAP_S`), else :data:`GAP_S`."""
+    return APP_GAP_S.get(str(layout), GAP_S)
+
+
+def _gaps(t: np.ndarray, limit: float) -> dict:
+    """``{"count", "total_s", "longest_s", "limit_s"}`` of the intervals longer than ``limit``, s."""
     dt = np.diff(t)
-    g = dt[dt > GAP_S]
+    g = dt[dt > limit]
     return {"count": int(g.size), "total_s": float(g.sum()),
-            "longest_s": float(g.max()) if g.size else 0.0}
+            "longest_s": float(g.max()) if g.size else 0.0, "limit_s": float(limit)}
 
 
 def _wheel_distance(t: np.ndarray, v: np.ndarray) -> float:
@@ -385,11 +396,12 @@ def _pwm(d: pd.DataFrame, skip: np.ndarray | None = None) -> tuple[float | None,
     return float(p[i]), float(t[i]), place
 
 
-def _quality(t: np.ndarray) -> tuple[str, str, float | None]:
+def _quality(t: np.ndarray, lim: float) -> tuple[str, str, float | None]:
     """``"good"``, ``"fair"`` or ``"poor"``, one sentence on the sampling and the gaps, and the
     samples per second, all over the log without its pauses (intervals over :data:`PAUSE_S`,
     left out of the duration too: the log was stopped, not losing rows).
 
+    A gap is an interval over ``lim`` (:func:`gap_limit`: what the app normally writes).
     Poor: more than 20 % of the ride in gaps or under 1 sample/s; fair: over 5 %
     or under 2 samples/s.  A poor log weakens every verdict drawn from it.
     """
@@ -397,14 +409,14 @@ def _quality(t: np.ndarray) -> tuple[str, str, float | None]:
     pause = dt[dt > PAUSE_S]
     span = float(t[-1] - t[0] - pause.sum()) if t.size > 1 else 0.0
     hz = float(dt.size - pause.size) / span if span > 0 else None      # a median hides bursts between gaps
-    gaps = _gaps(np.cumsum(np.r_[0.0, np.where(dt > PAUSE_S, 0.0, dt)]))
+    gaps = _gaps(np.cumsum(np.r_[0.0, np.where(dt > PAUSE_S, 0.0, dt)]), lim)
     share = gaps["total_s"] / span if span > 0 else 0.0
     rate = f"{hz:.1f} samples/s" if hz else "unknown sampling rate"
     if gaps["count"]:
-        g = (f"{gaps['count']} gap(s) longer than {GAP_S:g} s, {gaps['total_s']:.0f} s in all "
+        g = (f"{gaps['count']} gap(s) longer than {lim:g} s, {gaps['total_s']:.0f} s in all "
              f"({100 * share:.0f} % of the log, longest {gaps['longest_s']:.1f} s)")
     else:
-        g = f"no gap longer than {GAP_S:g} s"
+        g = f"no gap longer than {lim:g} s"
     if pause.size:
         g += (f"; {pause.size} pause(s) of the log over {PAUSE_S / 60:.0f} min ({pause.sum() / 60:.0f} min) "
               f"left out")
@@ -493,8 +505,9 @@ def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
     if spin.any():
         why["speed_max_mps"] = "rows where the wheel spins off the ground (free_spin) left out"
     pmax, pat, place = _pwm(d, spin)
-    gaps = _gaps(t)
-    q, sentence, hz = _quality(t)
+    lim = gap_limit(getattr(log, "layout", None))
+    gaps = _gaps(t, lim)
+    q, sentence, hz = _quality(t, lim)
     temp = float(np.nanmax(d["temperature"])) if "temperature" in d else None
     c = counters or LogCounters()
     return RideSummary(

@@ -9,7 +9,7 @@ import pytest
 
 from euc_sim.rides.report.summary import BRIDGE_S, mass_check, read_counters, ride_summary
 from euc_sim.rides.source.logs import read_log
-from tests.rides.summarysynth import synth_summary_log
+from tests.rides.summarysynth import as_layout, synth_summary_log
 
 #: ../shared/data beside the clone (or beside the folder of worktrees)
 DATA = next((p / "shared" / "data" for p in Path(__file__).resolve().parents[4:6]
@@ -38,7 +38,7 @@ def test_known_ride(tmp_path):
     assert s.pwm_max_pct == pytest.approx(72.5) and s.pwm_max_at_s == pytest.approx(300.0, abs=0.2)
     assert s.safety_margin_min_pct == pytest.approx(27.5)
     assert s.pwm_max_place["lat"] > 48.0
-    assert s.gaps == {"count": 0, "total_s": 0.0, "longest_s": 0.0}
+    assert s.gaps == {"count": 0, "total_s": 0.0, "longest_s": 0.0, "limit_s": 1.0}
     assert s.quality == "good"
 
 
@@ -204,3 +204,18 @@ def test_a_pause_of_the_log_does_not_make_its_data_poor(tmp_path):
                                   "the log over 5 min (10 min) left out.")
     lost = _summary(synth_summary_log(tmp_path / "b.csv", ride_s=1800.0, gap=(900.0, 290.0)))
     assert lost.quality == "fair" and "1 gap(s) longer than 1 s, 290 s in all" in lost.quality_sentence
+
+
+def test_quality_is_judged_against_what_the_app_normally_writes(tmp_path):
+    """EUC World writes in bursts up to 1.7 s apart (InMotion V9): bursts 1.4 s apart are its
+    normal and read good; the same rows from a fixed-rate app (WheelLog) are gappy."""
+    import pandas as pd
+    src = synth_summary_log(tmp_path / "wl.csv", rate=5.0, ride_s=1200.0)
+    df = pd.read_csv(src, dtype=str, keep_default_na=False)
+    df[(pd.RangeIndex(len(df)) % 12) < 6].to_csv(src, index=False)     # 6 rows, then a 1.4 s hole
+    wl = _summary(src)
+    ew = _summary(as_layout(src, tmp_path / "ew.csv", "eucworld"))
+    assert ew.sampling_hz == pytest.approx(2.5, rel=0.01) and ew.gaps["limit_s"] == 2.0
+    assert ew.gaps["count"] == 0 and ew.quality == "good"
+    assert "no gap longer than 2 s" in ew.quality_sentence
+    assert wl.gaps["limit_s"] == 1.0 and wl.quality == "poor"
