@@ -23,9 +23,31 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
+__all__ = ["gram_lstsq", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
            "basic_interval", "block_bootstrap_indices", "wild_block_signs", "blocks_by_length", "block_labels",
            "draw_blocks", "moving_block_starts", "jackknife_interval"]
+
+
+def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
+    """Least squares from a Gram matrix ``G = [X y]ᵀ[X y]`` (last row and column y).
+
+    Parameters
+    ----------
+    G : ndarray (p + 1, p + 1)
+    cols : list of int, optional
+        Columns of X to fit on (default all).
+
+    Returns
+    -------
+    beta : ndarray
+        Minimiser of |X·β − y|² over ``cols`` (minimum norm where X is rank-deficient).
+    sse : float
+        The sum of squared residuals at ``beta``.
+    """
+    cols = list(range(G.shape[0] - 1)) if cols is None else list(cols)
+    A, b = G[np.ix_(cols, cols)], G[cols, -1]
+    beta = np.linalg.lstsq(A, b, rcond=None)[0]
+    return beta, float(G[-1, -1] - beta @ b)
 
 
 def time_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:

@@ -16,6 +16,7 @@ import numpy as np
 
 from euc_sim.rides.balance.design import BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
 from euc_sim.rides.balance.fit import BalanceFit, _solve, fit_balance, plausibility
+from euc_sim.rides.balance.normal import coefficients, solve_gram
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.grids.signals import RideSignals, break_at_gaps
 from euc_sim.stats import forward_select, time_blocks
@@ -64,6 +65,11 @@ class _HeldoutScores:
         self.design, self.n_folds = design, n_folds
         self._whole: dict[tuple, dict] = {}
         self._rmse: dict[tuple, float] = {}
+        label = time_blocks(design.t, n_folds)
+        Z = design.basis.Z
+        self._fold_grams = [Z[label == b].T @ Z[label == b] for b in range(n_folds)
+                            if np.any(label == b)]
+        self._n = len(label)
 
     def score(self, names, admit: str = "any") -> float:
         if admit not in ADMIT:
@@ -82,17 +88,14 @@ class _HeldoutScores:
         return self._rmse[key]
 
     def _folds(self, names: list, whole: np.ndarray) -> float:
-        d = self.design
-        label = time_blocks(d.t, self.n_folds)
-        err = []
-        for b in range(self.n_folds):
-            train, test = d.rows(label != b), d.rows(label == b)
-            if len(test.P) == 0:
-                continue
-            th = _solve(train, names, whole).x
-            err.append(test.residual(dict(zip(names, th))))
-        r = np.concatenate(err)
-        return float(np.sqrt(np.mean(r ** 2)))
+        """RMS of each fold's residual under the fit on the other folds (from their Grams)."""
+        G, cols = self.design.gram, self.design.basis.columns
+        sse = 0.0
+        for Gb in self._fold_grams:
+            th = solve_gram(G - Gb, cols, names, whole).x
+            v, _ = coefficients(cols, names, th)
+            sse += float(v @ Gb @ v)
+        return float(np.sqrt(max(sse, 0.0) / self._n))
 
 
 def _all_admissible(estimate: dict, idle_cap: float | None = None) -> bool:

@@ -47,7 +47,7 @@ from euc_sim.rides.grids.route import gps_grade
 from euc_sim.rides.grids.signals import RideSignals, sg, window_samples
 
 __all__ = ["RHO_AIR", "CANDIDATES", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDOW", "Design",
-           "Operator", "balance_design", "filter_matrix", "on_bound", "standstill_power",
+           "Operator", "Basis", "balance_design", "filter_matrix", "on_bound", "standstill_power",
            "MIN_STANDSTILL"]
 
 
@@ -209,20 +209,47 @@ class Design:
         return self.weight_full[self.use]
 
     def rows(self, mask: np.ndarray) -> "Design":
-        """The same design with fewer rows in use (``mask`` over the rows in use)."""
+        """The same design with fewer rows in use (``mask`` over the rows in use).
+
+        Its :attr:`operator` is this one's rows (the support may read samples no kept row
+        needs, with zero weight), so folds and halves build no filter matrix of their own.
+        """
+        mask = np.asarray(mask, bool)
         use = self.use.copy()
-        use[np.flatnonzero(self.use)[~np.asarray(mask, bool)]] = False
-        return replace(self, use=use)
+        use[np.flatnonzero(self.use)[~mask]] = False
+        out = replace(self, use=use)
+        op = self.operator
+        out.__dict__["operator"] = replace(op, K=op.K[mask], Kd=op.Kd[mask], Kdd=op.Kdd[mask])
+        out.__dict__["basis"] = replace(self.basis, Z=self.basis.Z[mask])
+        return out
 
     @cached_property
     def operator(self) -> "Operator":
         """The model's linear pieces on the rows it touches (built once per design)."""
         rows = np.flatnonzero(self.use)
-        K, support = filter_matrix(self.segment, self.kernel, rows)
-        Kd, _ = filter_matrix(self.segment, self.dkernel, rows)   # same length: same support
-        Kdd, _ = filter_matrix(self.segment, self.d2kernel, rows)
+        (K, Kd, Kdd), support = filter_matrices(self.segment, (self.kernel, self.dkernel, self.d2kernel), rows)
         X = self.columns_full.iloc[support]
-        return Operator(K=K, Kd=Kd, Kdd=Kdd, columns={c: X[c].to_numpy() for c in X.columns})
+        return Operator(K=K, Kd=Kd, Kdd=Kdd, columns={c: X[c].to_numpy() for c in X.columns},
+                        support=support)
+
+    @cached_property
+    def basis(self) -> "Basis":
+        """The weighted residual's basis on the rows in use (:mod:`~euc_sim.rides.balance.normal`)."""
+        op = self.operator
+        cols = ["inertia"] + sorted({CANDIDATES[n][3] for n in self.candidates
+                                     if CANDIDATES[n][3] is not None})
+        parts = []
+        for c in cols:
+            x = op.columns[c]
+            parts += [op.K @ x, op.Kd @ x, op.Kdd @ x]
+        Z = np.column_stack([np.asarray(p) for p in parts] + [np.ones(len(self.weight)), self.P])
+        return Basis(columns=tuple(cols), Z=Z * self.weight[:, None])
+
+    @cached_property
+    def gram(self) -> np.ndarray:
+        """ZᵀZ of :attr:`basis` over the rows in use."""
+        Z = self.basis.Z
+        return Z.T @ Z
 
     def demand(self, names: Sequence[str], Theta: np.ndarray) -> np.ndarray:
         """Demanded mechanical power plus the losses in it, D + k_cu·F², of B parameter sets, W.
@@ -304,6 +331,24 @@ def _as_sets(Theta) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+class Basis:
+    """The basis ``Z`` of a design's weighted residual w·(P − P̂) on its rows in use.
+
+    Attributes
+    ----------
+    columns : tuple of str
+        Regressor columns, ``"inertia"`` first; column ``3·i + s`` of ``Z`` is
+        w·L₂⁽ˢ⁾[columns[i]] (s = 0, 1, 2: the long filter and its two derivatives).
+    Z : numpy.ndarray
+        Rows in use × (3·len(columns) + 2); the last two columns are w (the
+        constant P₀) and w·P (the measured power), W or N·m.
+    """
+
+    columns: tuple[str, ...]
+    Z: np.ndarray
+
+
+@dataclass(frozen=True)
 class Operator:
     """A design's model as matrices: P̂ = P₀ + K·g(D) on the rows in use.
 
@@ -316,12 +361,15 @@ class Operator:
         Its first and second derivatives L₂', L₂'' on the same support.
     columns : dict
         ``columns_full`` on the support: name -> array (``inertia`` in W, ...).
+    support : numpy.ndarray of int
+        The grid rows the matrices read (their columns), sorted.
     """
 
     K: object
     Kd: object
     Kdd: object
     columns: Mapping[str, np.ndarray]
+    support: np.ndarray
 
 
 def filter_matrix(segment: np.ndarray, kernel: np.ndarray, rows: np.ndarray):
@@ -348,11 +396,19 @@ def filter_matrix(segment: np.ndarray, kernel: np.ndarray, rows: np.ndarray):
     ValueError
         if a row lies within M//2 samples of its segment's end.
     """
+    Ks, support = filter_matrices(segment, [kernel], rows)
+    return Ks[0], support
+
+
+def filter_matrices(segment: np.ndarray, kernels: Sequence[np.ndarray], rows: np.ndarray):
+    """:func:`filter_matrix` for several kernels of one length: their matrices share one
+    support, found once (a coverage count over the segment-sorted samples, no sort)."""
     from scipy import sparse
 
     segment, rows = np.asarray(segment), np.asarray(rows, int)
-    kernel = np.asarray(kernel, float)
-    half = len(kernel) // 2
+    kernels = [np.asarray(k, float) for k in kernels]
+    M = len(kernels[0])
+    half = M // 2
     order = np.argsort(segment, kind="stable")       # samples grouped by segment, in time order
     where = np.empty(len(segment), int)
     where[order] = np.arange(len(segment))
@@ -362,13 +418,19 @@ def filter_matrix(segment: np.ndarray, kernel: np.ndarray, rows: np.ndarray):
     hi = np.searchsorted(seg_sorted, seg_sorted[q], "right")
     if np.any(q - half < lo) or np.any(q + half >= hi):
         raise ValueError(f"rows must lie at least {half} samples inside their segment")
+    # the samples some row reads: sorted positions q - half ... q + half
+    count = np.zeros(len(segment) + 1, int)
+    np.add.at(count, q - half, 1)
+    np.add.at(count, q + half + 1, -1)
+    covered = (np.cumsum(count[:-1]) > 0)[where]                  # by original index
+    support = np.flatnonzero(covered)
+    position = np.cumsum(covered) - 1                              # original index -> support column
     # numpy.convolve 'same': y[i] = sum_j kernel[j] * x[i + half - j]
-    cols = order[q[:, None] + half - np.arange(len(kernel))[None, :]]
-    support, idx = np.unique(cols, return_inverse=True)
-    data = np.broadcast_to(kernel, cols.shape).ravel()
-    K = sparse.csr_matrix((data, idx.ravel(), np.arange(0, cols.size + 1, len(kernel))),
-                          shape=(len(rows), len(support)))
-    return K, support
+    idx = position[order[q[:, None] + half - np.arange(M)[None, :]]].ravel()
+    indptr = np.arange(0, idx.size + 1, M)
+    Ks = [sparse.csr_matrix((np.broadcast_to(k, (len(rows), M)).ravel(), idx, indptr),
+                            shape=(len(rows), len(support))) for k in kernels]
+    return Ks, support
 
 
 def _conv(x: np.ndarray, segment: np.ndarray, kernel: np.ndarray) -> np.ndarray:

@@ -1,7 +1,8 @@
 """Least-squares fit of a ride's balance with wild block bootstrap intervals.
 
 :func:`fit_balance` fits a :class:`~euc_sim.rides.balance.design.Design` (scipy's
-bounded ``least_squares``: the model is linear in every term but the current lag);
+bounded ``least_squares`` on the Gram matrix of its basis: the model is linear in
+every term but the current lag; :mod:`~euc_sim.rides.balance.normal`);
 :func:`plausibility` turns a fit into physical estimates with units and flags.
 """
 
@@ -14,7 +15,8 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from euc_sim.errors import InputError
-from euc_sim.rides.balance.design import BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
+from euc_sim.rides.balance.design import CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
+from euc_sim.rides.balance.normal import solve_gram
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.stats import percentile_interval, wild_block_signs
 
@@ -26,7 +28,7 @@ MIN_BLOCKS = 2
 #: Below this many blocks the intervals are rough (reported as a note).
 FEW_BLOCKS = 5
 
-#: Start values of the least-squares fit (its bounds are :data:`BOUNDS`).
+#: Start values of the least-squares fit (its bounds: :data:`~euc_sim.rides.balance.design.BOUNDS`).
 _START = {"copper_loss": 0.0, "rolling_resistance": 0.0,
           "aerodynamic_drag": 0.0, "road_slope": 0.0, "road_slope_gps": 1.0,
           "drivetrain_idle_loss": 0.0, "current_lag": 0.0}
@@ -84,55 +86,17 @@ class BalanceFit:
         return float(np.sqrt(np.mean(r ** 2)))
 
 
-def _scale(names: Sequence[str]) -> np.ndarray:
-    """Typical size of each parameter: ``least_squares``'s ``x_scale`` and the step test."""
-    return np.array([{"drivetrain_idle_loss": 10.0, "aerodynamic_drag": 0.1,
-                      "rolling_resistance": 0.01, "road_slope": 0.01,
-                      "copper_loss": 0.005}.get(n, 0.1) for n in names])
-
-
-def _bounds(names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
-    lo = np.array([BOUNDS.get(n, (-np.inf, np.inf))[0] for n in names])
-    hi = np.array([BOUNDS.get(n, (-np.inf, np.inf))[1] for n in names])
-    return lo, hi
-
-
 def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray | None = None):
-    """scipy's bounded ``least_squares`` (trf) with the design's analytic Jacobian."""
-    from types import SimpleNamespace
-
-    from scipy.optimize import least_squares
-
-    if not len(names):                      # the inertia-only model: nothing to fit
-        r = design.residual({}, P)
-        return SimpleNamespace(x=np.empty(0), fun=r, jac=np.empty((r.size, 0)))
-    lo, hi = _bounds(names)
-    # start inside the box: from a bound, trf's scaling can take steps too small to leave it
-    inset = np.where(np.isfinite(hi - lo), 1e-3 * (hi - lo), 1e-9)
-    res = least_squares(lambda th: design.residual(dict(zip(names, th)), P),
-                        np.clip(x0, lo + inset, hi - inset),
-                        jac=lambda th: design.jacobian_many(names, th[:, None])[:, :, 0],
-                        bounds=(lo, hi), x_scale=_scale(names), method="trf")
-    res.x = _snap_to_bounds(res.x, lo, hi, _scale(names))
-    return res
-
-
-#: A parameter within this fraction of its typical size from a bound sits on it.
-_BOUND_SNAP = 1e-6
-
-
-def _snap_to_bounds(x: np.ndarray, lo: np.ndarray, hi: np.ndarray,
-                    scale: np.ndarray) -> np.ndarray:
-    """``x`` with values within ``_BOUND_SNAP``·scale of a bound set exactly on it.
-
-    scipy's trf keeps iterates strictly inside the box, so a parameter whose
-    optimum is a bound comes back a rounding error (1e-30) away from it; with
-    the value on the bound, the Gauss-Newton replicates hold it there and the
-    page can say that it sits on its bound.  Returns a new array.
-    """
-    x = np.array(x, dtype=float)
-    x = np.where(np.abs(x - lo) <= _BOUND_SNAP * scale, lo, x)
-    return np.where(np.abs(hi - x) <= _BOUND_SNAP * scale, hi, x)
+    """scipy's bounded ``least_squares`` (trf) of the balance on ``design``'s rows, from the
+    Gram matrix of its basis (:func:`~euc_sim.rides.balance.normal.solve_gram`); ``P``
+    replaces the measured power (rows in use, W)."""
+    if P is None:
+        G = design.gram
+    else:
+        Z = design.basis.Z.copy()
+        Z[:, -1] = design.weight * P
+        G = Z.T @ Z
+    return solve_gram(G, design.basis.columns, names, x0)
 
 
 def block_rows(design: Design, block_s: float = 10.0, check: bool = True) -> int:
@@ -171,21 +135,29 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
     parameter on its bound stays on or inside it, so the percentiles respect
     the bound.
 
-    The replicates' fits are solved together (:func:`_batch_solve`, Gauss-Newton
-    from the fit's estimate); one that leaves the bounds or does not converge is
-    refitted alone by :func:`_solve`, as every replicate once was.
+    A replicate's Gram matrix differs from the fit's only in the measured
+    power's row: the blocks' cross-products of the basis with the residual,
+    summed with the replicate's signs (:mod:`~euc_sim.rides.balance.normal`);
+    each replicate is then fitted from the estimate.
     """
     n = len(e_P)
     if not len(names):
         return np.empty(0), np.empty(0), {}
     rng = np.random.default_rng(seed)
-    targets = fitted_P[:, None] + e_P[:, None] * wild_block_signs(n, L, n_boot, rng)
+    signs = wild_block_signs(n, L, n_boot, rng)[::L]            # one sign per block
+    w = design.weight
+    X, f, g = design.basis.Z[:, :-1], w * fitted_P, w * e_P
+    starts = np.arange(0, n, L)
+    Xg = np.add.reduceat(X * g[:, None], starts, axis=0)         # blocks × basis
+    fg = np.add.reduceat(f * g, starts)
+    G = np.empty((X.shape[1] + 1, X.shape[1] + 1))
+    G[:-1, :-1] = X.T @ X
+    Xf, ff, gg = X.T @ f, f @ f, g @ g
     boots = np.empty((n_boot, len(names)))
-    for c in range(0, n_boot, _CHUNK):
-        sl = slice(c, min(c + _CHUNK, n_boot))
-        boots[sl], done = _batch_solve(design, names, theta, targets[:, sl])
-        for i in np.flatnonzero(~done) + c:
-            boots[i] = _solve(design, names, theta, P=targets[:, i]).x
+    for i in range(n_boot):
+        G[:-1, -1] = G[-1, :-1] = Xf + Xg.T @ signs[:, i]
+        G[-1, -1] = ff + 2.0 * fg @ signs[:, i] + gg
+        boots[i] = solve_gram(G, design.basis.columns, names, theta).x
     corr = {}
     if not n_boot:
         nan = np.full(len(names), np.nan)
@@ -197,119 +169,6 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
         corr = {(a, b): float(C[i, j]) for i, a in enumerate(names)
                 for j, b in enumerate(names) if i != j and np.isfinite(C[i, j])}
     return lo, hi, corr
-
-
-#: Bootstrap replicates solved together (bounds the memory: rows × parameters × chunk).
-_CHUNK = 25
-#: Gauss-Newton stops when every step is below this fraction of the parameter's size.
-_STEP_TOL = 1e-10
-#: ... or when an iteration lowers the cost by less than this fraction of it.
-_COST_TOL = 1e-13
-_MAX_ITER = 50
-
-
-def _gauss_newton_step(J: np.ndarray, r: np.ndarray, Theta: np.ndarray, lo: np.ndarray,
-                       hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Per replicate, the step minimising |r + J·δ|² with the bounds' active set held.
-
-    A parameter on its bound whose cost gradient points out of the box stays
-    there (δ = 0); the others take the Gauss-Newton step, from the normal
-    equations scaled by their diagonal.
-
-    Returns ``(delta, ok)``: parameters × B, and False where the scaled normal
-    matrix is nearly singular (those replicates are left to :func:`_solve`).
-    """
-    Jb = np.ascontiguousarray(J.transpose(2, 1, 0))     # B × parameters × rows
-    A = Jb @ Jb.transpose(0, 2, 1)
-    g = (Jb @ r.T[:, :, None])[:, :, 0]                 # ∇(½|r|²)
-    fixed = (((Theta <= lo[:, None]) & (g.T > 0)) | ((Theta >= hi[:, None]) & (g.T < 0))).T
-    A = np.where(fixed[:, :, None] | fixed[:, None, :], np.eye(A.shape[1]), A)
-    g = np.where(fixed, 0.0, g)
-    d = np.sqrt(np.einsum("bii->bi", A))
-    ok = (d > 0).all(axis=1)
-    d = np.where(d > 0, d, 1.0)
-    A_s = A / (d[:, :, None] * d[:, None, :])
-    ev = np.linalg.eigvalsh(A_s)
-    ok &= ev[:, 0] > 1e-12 * ev[:, -1]
-    A_s[~ok] = np.eye(A.shape[1])
-    delta = -np.linalg.solve(A_s, (g / d)[:, :, None])[:, :, 0] / d
-    return delta.T, ok
-
-
-def _batch_solve(design: Design, names: Sequence[str], theta: np.ndarray,
-                 targets: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Least squares for many targets at once: Gauss-Newton from ``theta``, all together.
-
-    Each replicate takes the Gauss-Newton step, halved until its cost does not
-    rise (:func:`_line_search`).  It is done when the full step is below
-    ``_STEP_TOL`` of every parameter's size, or when the cost no longer falls by
-    more than ``_COST_TOL`` of itself (``least_squares`` stops at 1e-8: its
-    ``ftol``); near a switch between motoring and regenerating the cost has a
-    kink, where that second test ends the iteration.  Bounds: a parameter on its
-    bound with the cost falling outwards is held there, and steps are projected
-    into the box (:func:`_gauss_newton_step`).
-
-    Returns ``(Theta, done)``: B × parameters, and True where the iteration
-    converged; the others (a nearly singular Jacobian, no convergence in
-    ``_MAX_ITER`` steps) are for :func:`_solve`.
-    """
-    names = list(names)
-    B = targets.shape[1]
-    lo, hi = _bounds(names)
-    size = np.abs(theta) + _scale(names)
-    Theta = np.repeat(np.asarray(theta, float)[:, None], B, axis=1)
-    D = design.demand(names, Theta)
-    r = design.weight[:, None] * (targets - design.predict_many(names, Theta, D))
-    cost = np.einsum("nb,nb->b", r, r)
-    active, done = np.ones(B, bool), np.zeros(B, bool)
-    for _ in range(_MAX_ITER):
-        idx = np.flatnonzero(active)
-        if not idx.size:
-            break
-        delta, ok = _gauss_newton_step(design.jacobian_many(names, Theta[:, idx], D[:, idx]),
-                                       r[:, idx], Theta[:, idx], lo, hi)
-        small = (np.abs(delta) <= _STEP_TOL * size[:, None]).all(axis=0)
-        Theta_t, D_t, r_t, cost_t, fell = _line_search(design, names, Theta[:, idx], delta,
-                                                       targets[:, idx], cost[idx])
-        flat = ~fell | (cost[idx] - cost_t <= _COST_TOL * cost[idx])
-        keep = idx[ok & fell]
-        Theta[:, keep], D[:, keep] = Theta_t[:, ok & fell], D_t[:, ok & fell]
-        r[:, keep], cost[keep] = r_t[:, ok & fell], cost_t[ok & fell]
-        done[idx[ok & (small | flat)]] = True
-        active[idx[~ok | small | flat]] = False
-    return Theta.T, done
-
-
-def _line_search(design: Design, names: list[str], Theta: np.ndarray, delta: np.ndarray,
-                 targets: np.ndarray, cost: np.ndarray, halvings: int = 20):
-    """The step Theta + t·delta (projected on the bounds), t = 1, ½, ¼, …: the largest t
-    whose cost is no higher.
-
-    Returns ``(Theta_t, D_t, r_t, cost_t, fell)``, one column per replicate;
-    ``fell`` is False where no such t was found (the columns are then unset).
-    """
-    B = Theta.shape[1]
-    lo, hi = _bounds(names)
-    out = [np.empty_like(Theta), None, np.empty_like(targets), np.full(B, np.inf),
-           np.zeros(B, bool)]
-    todo = np.arange(B)
-    t = 1.0
-    for _ in range(halvings):
-        trial = np.clip(Theta[:, todo] + t * delta[:, todo], lo[:, None], hi[:, None])
-        D_t = design.demand(names, trial)
-        r_t = design.weight[:, None] * (targets[:, todo] - design.predict_many(names, trial, D_t))
-        c_t = np.einsum("nb,nb->b", r_t, r_t)
-        good = np.isfinite(c_t) & (c_t <= cost[todo])
-        if out[1] is None:
-            out[1] = np.empty((D_t.shape[0], B))
-        j = todo[good]
-        out[0][:, j], out[1][:, j], out[2][:, j] = trial[:, good], D_t[:, good], r_t[:, good]
-        out[3][j], out[4][j] = c_t[good], True
-        todo = todo[~good]
-        if not todo.size:
-            break
-        t /= 2
-    return tuple(out)
 
 
 def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int = 200,
@@ -362,7 +221,7 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
     res = _solve(design, names, x0)
     theta = res.x
     est = dict(zip(names, map(float, theta)))
-    e = res.fun
+    e = design.residual(est)
     fitted_P = design.predict(est)
     # Unweighted residuals in P units are what gets resampled.
     e_P = design.P - fitted_P

@@ -19,7 +19,7 @@ from typing import Mapping
 
 import numpy as np
 
-from euc_sim.rides.balance.design import PLAUSIBLE, PRE_WINDOW, Design, filter_matrix
+from euc_sim.rides.balance.design import PLAUSIBLE, PRE_WINDOW, Design
 from euc_sim.rides.grids.route import BIN_M, MIN_SHARED_M, RouteMatch, RoutePosition
 from euc_sim.rides.grids.signals import RideSignals, sg
 
@@ -70,8 +70,7 @@ class GradeProfile:
 
 def _on_support(design: Design, x_full: np.ndarray) -> np.ndarray:
     """``x_full`` (one value per grid row) on the rows the design's operator reads."""
-    _, support = filter_matrix(design.segment, design.kernel, np.flatnonzero(design.use))
-    return x_full[support]
+    return x_full[design.operator.support]
 
 
 def _grade_power(sig: RideSignals, sin_alpha_full: np.ndarray) -> np.ndarray:

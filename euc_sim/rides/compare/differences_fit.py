@@ -33,7 +33,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from euc_sim.rides.compare.resolution import detectable_difference, heldout_signature_rms
-from euc_sim.stats import forward_select, jackknife_interval, percentile_interval, time_blocks
+from euc_sim.stats import forward_select, gram_lstsq, jackknife_interval, percentile_interval, time_blocks
 
 __all__ = ["PairDesign", "PairFit", "DELAY", "block_grams", "pair_fit"]
 
@@ -141,13 +141,6 @@ def block_grams(t: np.ndarray, Z: np.ndarray, n_folds: int = 5, block: float = 3
     return G, fold, np.bincount(ids, minlength=len(fold))
 
 
-def _solve(G: np.ndarray, cols: list) -> tuple[np.ndarray, float]:
-    """Least squares from a Gram matrix (last row/column y): β over ``cols`` and the SSE."""
-    A, b = G[np.ix_(cols, cols)], G[cols, -1]
-    beta = np.linalg.lstsq(A, b, rcond=None)[0]
-    return beta, float(G[-1, -1] - beta @ b)
-
-
 def _test_sse(G: np.ndarray, cols: list, beta: np.ndarray) -> float:
     A, b = G[np.ix_(cols, cols)], G[cols, -1]
     return float(G[-1, -1] - 2.0 * beta @ b + beta @ A @ beta)
@@ -186,7 +179,7 @@ class _Grams:
         cols = self.cols(terms)
         GL = np.tensordot(wL, self.GL, axes=1)
         ks = range(len(self.GO)) if DELAY in terms else [self.mid]
-        fits = {k: _solve(GL + np.tensordot(wO, self.GO[k], axes=1), cols) for k in ks}
+        fits = {k: gram_lstsq(GL + np.tensordot(wO, self.GO[k], axes=1), cols) for k in ks}
         sse = np.array([fits[k][1] for k in ks])
         k = list(ks)[int(np.argmin(sse))]
         return fits[k][0], k, sse

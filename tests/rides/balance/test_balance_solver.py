@@ -1,5 +1,5 @@
-"""The balance fit's fast path: the filter as a sparse matrix, the analytic Jacobian, and the
-bootstrap's replicates solved together (Gauss-Newton) against scipy's least_squares one by one."""
+"""The balance fit's fast path: the filter as a sparse matrix, the analytic Jacobian, and every
+fit solved from the Gram matrix of the residual's basis against scipy's least_squares on the rows."""
 
 from __future__ import annotations
 
@@ -8,7 +8,8 @@ import pytest
 from ridesynth import TRUTH, synth_log
 
 from euc_sim.rides.balance.design import BOUNDS, _conv, balance_design, filter_matrix
-from euc_sim.rides.balance.fit import _batch_solve, _solve, fit_balance
+from euc_sim.rides.balance.fit import _solve, fit_balance
+from euc_sim.rides.balance.normal import bounds, coefficients, scale
 from euc_sim.rides.grids.signals import ride_signals
 
 
@@ -56,36 +57,77 @@ def _replicates(design, names, B, seed, scale=1.0):
     return theta, targets
 
 
-def _check_against_scipy(design, names, theta, targets):
-    batch, done = _batch_solve(design, names, theta, targets)
-    assert done.all()
+def _on_rows(design, names, theta, P):
+    """scipy's least_squares on the ride's rows (the residual and Jacobian of the design)."""
+    from scipy.optimize import least_squares
+
+    lo, hi = bounds(names)
+    inset = np.where(np.isfinite(hi - lo), 1e-3 * (hi - lo), 1e-9)
+    return least_squares(lambda th: design.residual(dict(zip(names, th)), P),
+                         np.clip(theta, lo + inset, hi - inset),
+                         jac=lambda th: design.jacobian_many(names, th[:, None])[:, :, 0],
+                         bounds=(lo, hi), x_scale=scale(names), method="trf")
+
+
+def _check_against_rows(design, names, theta, targets):
+    out = []
     for i in range(targets.shape[1]):
-        ref = _solve(design, names, theta, P=targets[:, i])
-        cost = 0.5 * np.sum(design.residual(dict(zip(names, batch[i])), targets[:, i]) ** 2)
+        fit = _solve(design, names, theta, P=targets[:, i])
+        ref = _on_rows(design, names, theta, targets[:, i])
+        cost = 0.5 * np.sum(design.residual(dict(zip(names, fit.x)), targets[:, i]) ** 2)
         assert cost <= ref.cost * (1 + 1e-8)               # no worse than scipy's own tolerance
-        np.testing.assert_allclose(batch[i], ref.x, rtol=2e-3, atol=1e-3)
-    return batch
+        assert fit.cost == pytest.approx(cost, rel=1e-8)
+        np.testing.assert_allclose(fit.x, ref.x, rtol=2e-3, atol=1e-3)
+        out.append(fit.x)
+    return np.array(out)
 
 
-def test_batch_solve_agrees_with_least_squares(design):
+def test_basis_gives_the_residual_and_its_jacobian(design):
+    names = ["copper_loss", "rolling_resistance", "aerodynamic_drag", "drivetrain_idle_loss",
+             "current_lag"]
+    theta = np.array([0.008, 0.02, 0.3, 15.0, 0.15])
+    v, dv = coefficients(design.basis.columns, names, theta)
+    r = design.residual(dict(zip(names, theta)))
+    J = design.jacobian_many(names, theta[:, None])[:, :, 0]
+    np.testing.assert_allclose(design.basis.Z @ v, r, rtol=0, atol=1e-9 * np.abs(r).max())
+    np.testing.assert_allclose(design.basis.Z @ dv, J, rtol=0, atol=1e-9 * np.abs(J).max())
+
+
+def test_gram_solve_agrees_with_least_squares_on_the_rows(design):
     names = ["copper_loss", "rolling_resistance", "aerodynamic_drag", "drivetrain_idle_loss",
              "current_lag"]
     theta, targets = _replicates(design, names, B=6, seed=1)
-    _check_against_scipy(design, names, theta, targets)
+    _check_against_rows(design, names, theta, targets)
 
 
-def test_batch_solve_holds_a_bound(design):
+def test_gram_solve_holds_a_bound(design):
     """A ride that asks for more rolling loss than a tyre gives: C_rr sits on its upper bound
-    (as with scipy), snapped onto it, and the replicates hold it there."""
+    (as with scipy on the rows), snapped onto it."""
     names = ["rolling_resistance", "drivetrain_idle_loss"]
     hi = BOUNDS["rolling_resistance"][1]
     theta, targets = _replicates(design, names, B=4, seed=2)
     heavy = targets + 0.1 * design.operator.K @ design.operator.columns["rolling"][:, None]
     fit = _solve(design, names, theta, P=heavy[:, 0])
-    assert fit.x[0] > hi - 1e-6
-    batch = _check_against_scipy(design, names, fit.x, heavy)
     assert fit.x[0] == hi                           # snapped onto the bound, not 1e-30 inside
+    batch = _check_against_rows(design, names, fit.x, heavy)
     np.testing.assert_allclose(batch[:, 0], hi, rtol=0, atol=1e-12)
+
+
+def test_folds_from_grams_match_refits_on_the_rows(design):
+    """The held-out score from fold Gram matrices is the refit on each fold's complement."""
+    from euc_sim.rides.balance.crossride import HELDOUT_FOLDS, heldout_score
+    from euc_sim.stats import time_blocks
+
+    names = ["rolling_resistance", "aerodynamic_drag", "drivetrain_idle_loss"]
+    label = time_blocks(design.t, HELDOUT_FOLDS)
+    whole = _solve(design, names, np.zeros(3)).x
+    err = []
+    for b in range(HELDOUT_FOLDS):
+        train, test = design.rows(label != b), design.rows(label == b)
+        th = _on_rows(train, names, whole, train.P).x
+        err.append(test.residual(dict(zip(names, th))))
+    want = float(np.sqrt(np.mean(np.concatenate(err) ** 2)))
+    assert heldout_score(design, names) == pytest.approx(want, rel=1e-6)
 
 
 def test_inertia_only_fits_nothing(design):
