@@ -97,6 +97,8 @@ def _cache_dir() -> str | None:
         parts = ["euc-sim", "numba", _source_hash()]
     path = base
     try:
+        if not os.path.isabs(base):
+            raise OSError(0, "no home folder to cache in")
         _mkdirs(base)
         for part in parts:
             path = os.path.join(path, part)
