@@ -28,8 +28,8 @@ from __future__ import annotations
 import hashlib
 import math
 import os
+import stat
 import sys
-import tempfile
 
 import numpy as np
 
@@ -46,35 +46,103 @@ __all__ = ["build_callback", "CACHE_DIR", "f64p", "i64p", "address", "held_force
            "drift_force_row"]
 
 
-def _cache_dir() -> str:
-    """numba's on-disk cache of these kernels, keyed by the sources compiled into them.
+def _source_hash() -> str:
+    """The hash naming the cache folder of these kernels: of every source compiled into them.
 
     numba itself watches only this file; the laws (:mod:`euc_sim.controllers.motor`,
-    :mod:`euc_sim.controllers.rider`, :mod:`effects`, :mod:`lateral`, :mod:`drift`) and the context layout (:mod:`native_layout`) are compiled in
-    too, so a change to any of them must compile anew: the directory is named by their hash.
+    :mod:`euc_sim.controllers.rider`, :mod:`effects`, :mod:`lateral`, :mod:`drift`) and the
+    context layout (:mod:`native_layout`) are compiled in too, so a change to any of them
+    must compile anew.
     """
     h = hashlib.sha256()
     for module in (motor_law, rider_law, effects, lateral, drift, lay, sys.modules[__name__]):
         with open(module.__file__, "rb") as fh:
             h.update(fh.read())
-    base = config.CACHE_DIR or os.path.join(tempfile.gettempdir(), "euc_sim_numba")
-    return os.path.join(base, h.hexdigest()[:16])
+    return h.hexdigest()[:16]
 
 
-#: Where the compiled kernels are kept between processes.
+def _unsafe(path: str) -> str | None:
+    """Why ``path`` may not hold code this process will load (None: it may).
+
+    numba unpickles the index files of its cache, so whoever can write there runs code
+    here: the folder must be a real folder (not a symbolic link), this user's, and not
+    writable by the group or others.
+    """
+    st = os.lstat(path)
+    if stat.S_ISLNK(st.st_mode):
+        return "it is a symbolic link"
+    if not stat.S_ISDIR(st.st_mode):
+        return "it is not a folder"
+    if hasattr(os, "getuid") and st.st_uid != os.getuid():
+        return f"it belongs to uid {st.st_uid}, not to this user ({os.getuid()})"
+    if st.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
+        return f"the group or others can write to it (mode {stat.S_IMODE(st.st_mode):o})"
+    return None
+
+
+def _cache_dir() -> str | None:
+    """The folder of numba's on-disk cache of these kernels, or None (compile in every process).
+
+    ``$NUMBA_CACHE_DIR/<hash>`` if the user set it, else
+    ``${XDG_CACHE_HOME:-~/.cache}/euc-sim/numba/<hash>`` (:func:`_source_hash`).  Missing
+    folders are made with mode 0700; the folders from ``euc-sim`` (or ``$NUMBA_CACHE_DIR``)
+    down must pass :func:`_unsafe`, else no cache is used and one line on stderr says why.
+    """
+    if config.CACHE_DIR:
+        top = os.path.abspath(config.CACHE_DIR)
+        base, parts = os.path.dirname(top), [os.path.basename(top), _source_hash()]
+    else:
+        xdg = os.environ.get("XDG_CACHE_HOME", "")
+        base = xdg if os.path.isabs(xdg) else os.path.join(os.path.expanduser("~"), ".cache")
+        parts = ["euc-sim", "numba", _source_hash()]
+    path = base
+    try:
+        if not os.path.isabs(base):
+            raise OSError(0, "no home folder to cache in")
+        _mkdirs(base)
+        for part in parts:
+            path = os.path.join(path, part)
+            _mkdirs(path)
+            why = _unsafe(path)
+            if why:
+                break
+    except OSError as exc:
+        why = exc.strerror or str(exc)
+    if not why:
+        return path
+    print(f"euc-sim: warning: not caching compiled kernels in {path}: {why}", file=sys.stderr)
+    return None
+
+
+def _mkdirs(path: str) -> None:
+    """Make ``path`` and its missing parents, each with mode 0700."""
+    if not os.path.lexists(path):
+        _mkdirs(os.path.dirname(path))
+        try:
+            os.mkdir(path, 0o700)
+        except FileExistsError:
+            pass
+
+
+#: Where the compiled kernels are kept between processes (None: nowhere, see :func:`_cache_dir`).
 CACHE_DIR = _cache_dir()
 
 
 def _jit(fn):
-    """``njit(cache=True)`` into :data:`CACHE_DIR` (plain ``njit`` where it cannot cache)."""
+    """``njit(cache=True)`` into :data:`CACHE_DIR`; plain ``njit`` where it cannot cache there."""
+    if CACHE_DIR is None:
+        return njit(fn)
     saved = config.CACHE_DIR
     config.CACHE_DIR = CACHE_DIR
     try:
-        return njit(cache=True)(fn)
-    except Exception:  # noqa: BLE001 - no cache location: compile in every process
+        compiled = njit(cache=True)(fn)
+    except Exception:  # noqa: BLE001 - numba found no usable location
         return njit(fn)
     finally:
         config.CACHE_DIR = saved
+    if not compiled._cache.cache_path.startswith(CACHE_DIR + os.sep):    # numba's fallback location
+        return njit(fn)
+    return compiled
 
 
 def _pointer_to(element):

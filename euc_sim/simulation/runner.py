@@ -16,7 +16,8 @@ Backends
 ``scheduler="local"``
     a :class:`dask.distributed.LocalCluster` of ``workers`` single-threaded worker
     processes (default 2), started and closed by the run, reachable by this process
-    only (TLS with throwaway credentials, no HTTP server: :func:`_local_cluster`).
+    only (TLS with throwaway credentials, no HTTP server:
+    :func:`euc_sim.simulation.dask_backend.local_cluster`).
 ``scheduler="tcp://HOST:PORT"``
     an existing Dask cluster (``dask scheduler`` / ``dask worker``); its workers need
     this package installed.  It is trusted with code: the tasks travel pickled and run
@@ -293,17 +294,20 @@ def _run_dask(fn, tasks, scheduler: str, workers: int | None, done) -> str:
 
     import contextlib
 
+    from euc_sim.simulation.dask_backend import CONNECT_TIMEOUT, check_scheduler, local_cluster
+
     cluster = None
     scratch = contextlib.ExitStack()           # a local cluster's dask-scratch-space, removed after
     if scheduler == "local":
         try:
-            cluster, client = _local_cluster(workers or 2, scratch)
+            cluster, client = local_cluster(workers or 2, scratch)
         except BaseException:
             scratch.close()
             raise
         backend = f"dask local, {workers or 2} workers"
     else:
-        client = Client(scheduler, timeout=30)
+        check_scheduler(scheduler, CONNECT_TIMEOUT)
+        client = Client(scheduler, timeout=CONNECT_TIMEOUT)
         backend = f"dask {scheduler}"
     futures = []
     try:
@@ -328,40 +332,3 @@ def _run_dask(fn, tasks, scheduler: str, workers: int | None, done) -> str:
             cluster.close()
         scratch.close()
     return backend
-
-
-def _local_cluster(workers: int, scratch):
-    """A :class:`distributed.LocalCluster` of ``workers`` single-threaded processes that only
-    this process can use, and its client.
-
-    Every comm (scheduler, nannies, workers) is TLS on 127.0.0.1 with throwaway
-    credentials held in memory (``security=True``: ``Security.temporary()``) and client
-    certificates required, so another local user cannot connect, let alone submit
-    pickled code.  Dask starts an HTTP server on the scheduler and on each worker even
-    without a dashboard; here they serve no routes, on ports chosen by the system, and
-    are stopped as soon as the cluster is up.  ``scratch`` (an ``ExitStack``) gets the
-    cluster's temporary folder and configuration.
-    """
-    import tempfile
-
-    import dask
-    from distributed import Client, LocalCluster
-
-    tmp = scratch.enter_context(tempfile.TemporaryDirectory(prefix="euc-sim-dask-"))
-    scratch.enter_context(dask.config.set({"temporary-directory": tmp, "distributed.scheduler.http.routes": [],
-                                           "distributed.worker.http.routes": []}))
-    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           security=True, dashboard_address="127.0.0.1:0", local_directory=tmp)
-    try:
-        client = Client(cluster)
-        client.run_on_scheduler(_stop_http)
-        client.run(_stop_http)
-    except BaseException:
-        cluster.close()
-        raise
-    return cluster, client
-
-
-def _stop_http(dask_scheduler=None, dask_worker=None) -> None:
-    """Stop a Dask node's HTTP server (run on the scheduler and the workers, in their event loop)."""
-    (dask_scheduler or dask_worker).http_server.stop()

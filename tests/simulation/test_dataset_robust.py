@@ -75,28 +75,118 @@ def _hostname(_):
     return socket.gethostname()
 
 
+def _speaks_http(ip: str, port: int) -> bool:
+    """Whether a plain ``GET / HTTP/1.0`` gets an HTTP answer."""
+    try:
+        with socket.create_connection((ip, port), timeout=2) as s:
+            s.sendall(b"GET / HTTP/1.0\r\n\r\n")
+            return s.recv(16).startswith(b"HTTP/")
+    except OSError:
+        return False
+
+
 @linux
 def test_local_cluster_listens_on_tls_only_without_http(tmp_path):
-    """While ``--scheduler local`` runs: every listening port of the command and its workers is
-    on 127.0.0.1, refuses a client without the cluster's certificate, and none is 8787."""
+    """From the moment ``--scheduler local`` starts until it ends, every listening port of the
+    command and its workers is on 127.0.0.1, speaks no HTTP (not even for a moment) and refuses
+    a TLS client without the cluster's certificate."""
+    import threading
+
     import psutil
 
     from euc_sim.simulation.runner import run_tasks
 
+    me = psutil.Process()
+    probed: dict[tuple[str, int], bool] = {}
     seen: list[set] = []
+    stop = threading.Event()
+
+    def pids():
+        return {me.pid} | {p.pid for p in me.children(recursive=True)}
+
+    def watch():                          # every new listening port, as soon as it opens
+        while not stop.is_set():
+            try:
+                ports = _listening(pids())
+            except psutil.Error:          # a process ended while being looked at
+                continue
+            for addr in ports - probed.keys():
+                probed[addr] = _speaks_http(*addr)
+            stop.wait(0.02)
 
     def check(name, value):
-        me = psutil.Process()
-        pids = {me.pid} | {p.pid for p in me.children(recursive=True)}
-        ports = _listening(pids)
+        ports = _listening(pids())
         seen.append(ports)
-        assert ports and all(ip == "127.0.0.1" for ip, _ in ports), ports
-        assert 8787 not in {port for _, port in ports}
         assert all(_plain_tls_refused(ip, port) for ip, port in ports), ports
 
-    rep = run_tasks(_hostname, [("a", 0), ("b", 1)], scheduler="local", progress=False, on_result=check)
+    watcher = threading.Thread(target=watch, daemon=True)
+    watcher.start()
+    try:
+        rep = run_tasks(_hostname, [("a", 0), ("b", 1)], scheduler="local", progress=False, on_result=check)
+    finally:
+        stop.set()
+        watcher.join()
     assert not rep.failed and len(seen) == 2
     assert len(seen[0]) == 5            # the scheduler, two nannies and two workers: their comms only
+    assert probed and all(ip == "127.0.0.1" for ip, _ in probed), probed
+    assert not [addr for addr, http in probed.items() if http], probed
+
+
+class _NotAScheduler:
+    """A TCP server on 127.0.0.1 that greets every connection with ``mode``: ``garbage`` (an
+    HTTP answer, whose first 8 bytes read as a length of 3.07 EiB), ``silent`` (never a
+    byte) or ``close`` (hangs up at once)."""
+
+    def __init__(self, mode: str):
+        import threading
+
+        self.mode, self.held = mode, []
+        self.sock = socket.create_server(("127.0.0.1", 0))
+        self.address = f"tcp://127.0.0.1:{self.sock.getsockname()[1]}"
+        threading.Thread(target=self._serve, daemon=True).start()
+
+    def _serve(self):
+        while True:
+            try:
+                conn, _ = self.sock.accept()
+            except OSError:
+                return
+            if self.mode == "garbage":
+                conn.sendall(b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n" + bytes(4096))
+            if self.mode == "close":
+                conn.close()
+            else:
+                self.held.append(conn)
+
+    def close(self):
+        self.sock.close()
+        for conn in self.held:
+            conn.close()
+
+
+@pytest.mark.parametrize("mode", ["garbage", "silent", "close"])
+def test_a_server_that_is_no_scheduler_is_refused_in_one_line(tmp_path, capsys, monkeypatch, mode):
+    """``--scheduler`` at something that is not a Dask scheduler: exit 2 and one line naming the
+    address, within the connect timeout (handshake included) + 5 s, and no folder."""
+    import threading
+
+    from euc_sim.simulation import dask_backend
+
+    timeout = 3.0
+    monkeypatch.setattr(dask_backend, "CONNECT_TIMEOUT", timeout)
+    server = _NotAScheduler(mode)
+    codes = []
+    run = threading.Thread(target=lambda: codes.append(_dataset(tmp_path / "d", "--scheduler", server.address)),
+                           daemon=True)
+    try:
+        run.start()
+        run.join(timeout + 5)
+    finally:
+        server.close()
+    assert codes == [2], f"{mode}: {codes or 'still running'} after {timeout + 5} s"
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and server.address in err and "not a Dask scheduler" in err, err
+    assert not (tmp_path / "d").exists()
 
 
 @pytest.mark.parametrize("value", ["a:b", "tcp://host:99999", "http://host:8786", "local2", "tcp://:8786"])
