@@ -102,7 +102,11 @@ def _root(G: np.ndarray) -> np.ndarray:
 
 
 def solve_gram(G: np.ndarray, columns: Sequence[str], names: Sequence[str], x0: np.ndarray):
-    """scipy's bounded ``least_squares`` (trf) of the residual whose Gram matrix is ``G``.
+    """The bounded least-squares fit of the residual whose Gram matrix is ``G``.
+
+    Without the current lag the model is linear and the cost convex: its unconstrained
+    minimum, where it lies inside the bounds, is the answer.  Otherwise scipy's bounded
+    ``least_squares`` (trf) from ``x0``.
 
     Parameters
     ----------
@@ -129,6 +133,15 @@ def solve_gram(G: np.ndarray, columns: Sequence[str], names: Sequence[str], x0: 
         v, dv = coefficients(columns, names, np.empty(0))
         return SimpleNamespace(x=np.empty(0), cost=0.5 * float(v @ G @ v), jac=np.empty((len(v), 0)))
     lo, hi = bounds(names)
+    if "current_lag" not in names:          # linear: the unconstrained optimum, if inside the box
+        v0, D = coefficients(columns, names, np.zeros(len(names)))
+        A = D.T @ G @ D
+        if np.all(np.isfinite(A)) and np.linalg.cond(A) < 1e12:
+            x = np.linalg.solve(A, -D.T @ G @ v0)
+            if np.all((x > lo) & (x < hi)):
+                x = snap_to_bounds(x, lo, hi, scale(names))
+                v = v0 + D @ x
+                return SimpleNamespace(x=x, cost=0.5 * float(v @ G @ v), jac=S @ D)
     inset = np.where(np.isfinite(hi - lo), 1e-3 * (hi - lo), 1e-9)
     res = least_squares(lambda th: S @ coefficients(columns, names, th)[0],
                         np.clip(x0, lo + inset, hi - inset),
