@@ -29,7 +29,8 @@ from bench_analysis import bench_diagnose, bench_identify, bench_uncertainty  # 
 from bench_batch import (_batch_chunk, _effect_requests, bench_batch, bench_dataset,  # noqa: E402,F401
                          mujoco_batch_figures)
 from bench_loops import _replay, bench_closed_loop, bench_inverse, bench_spatial  # noqa: E402,F401
-from bench_rides import bench_ride, bench_ride_mass, bench_ride_page, bench_ride_page_serial  # noqa: E402
+from bench_rides import (bench_ride, bench_ride_fast, bench_ride_mass, bench_ride_page,  # noqa: E402
+                         bench_ride_page_serial)
 from bench_spatial_threads import bench_spatial_threads  # noqa: E402
 from bench_timing import timed, timed_together  # noqa: E402,F401
 
@@ -71,6 +72,7 @@ SECTIONS: dict[str, Callable[[], dict]] = {
     "demo": bench_demo,
     "ride_page": bench_ride_page,
     "ride_page_serial": bench_ride_page_serial,
+    "ride_fast": bench_ride_fast,
 }
 
 

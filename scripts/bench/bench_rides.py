@@ -182,3 +182,60 @@ def bench_ride_page(fit=None, held=None, spec_path=None, workers: int = 2) -> di
 def bench_ride_page_serial() -> dict:
     """The ride page as ``ride_page``, its simulation steps one after the other (one thread)."""
     return bench_ride_page(workers=1)
+
+
+# --- the rider's numbers: every fit without the replay, against reading the log ------------
+def _longest_rides(root, n: int):
+    """The ``n`` longest shared rides (by rows: what reading costs), longest first, and spans, s."""
+    import warnings
+
+    from euc_sim.rides.source.logs import read_log
+
+    warnings.simplefilter("ignore")
+    logs = sorted(root.glob("trips/*/*/*/[0-9]*.csv"))
+    rows = {p: read_log(p, emit_warnings=False) for p in logs}
+    span = {p: r.duration for p, r in rows.items()}
+    return sorted(logs, key=lambda p: len(rows[p].data), reverse=True)[:n], span
+
+
+def bench_ride_fast() -> dict:
+    """The ride page and every fit without the simulated replay, against pandas reading the log;
+    the peak memory of ``ride --compare`` on the two longest rides (a child process)."""
+    import os
+    import resource
+    import subprocess
+    import sys
+    import tempfile
+    from pathlib import Path
+
+    import pandas as pd
+
+    from euc_sim.rides.pipeline import run_ride
+
+    root = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"
+    if not root.is_dir():                       # a worktree beside the shared folder
+        root = Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core"
+    if not root.is_dir():
+        print(f"  {root} absent: skipped")
+        return {"skipped": str(root)}
+    (log, other), span = _longest_rides(root, 2)
+    _warm_up()
+    read = timed(lambda: pd.read_csv(log), repeat=3)
+    load0 = os.getloadavg()[0]
+    with tempfile.TemporaryDirectory() as out:
+        page = timed(lambda: run_ride(log, simulate=False, report_dir=out), repeat=1)
+        cmd = [sys.executable, "-m", "euc_sim.cli", "ride", str(log), "--compare", str(other),
+               "--no-simulate", "--report", str(Path(out) / "pair"), "--quiet"]
+        subprocess.run(cmd, check=True, capture_output=True)
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024.0   # kB on Linux
+    name = "/".join(log.parts[-4:-1])
+    out = {"ride": name, "ride_minutes": span[log] / 60.0, "read_csv_seconds": read,
+           "page_seconds": page, "page_cost_vs_read_csv": page / read, "peak_rss_mb": peak,
+           "compare_minutes": [span[log] / 60.0, span[other] / 60.0],
+           "load_average": [load0, os.getloadavg()[0]], "cpu_count": os.cpu_count()}
+    print(f"  {name} ({span[log] / 60:.0f} min): pandas reads it in {read:.2f} s (the reference); the "
+          f"page and every fit without the replay {page:.1f} s = {page / read:.0f}x (aim <= 10)")
+    print(f"  ride --compare --no-simulate on the two longest rides ({span[log] / 60:.0f} and "
+          f"{span[other] / 60:.0f} min): peak memory {peak:.0f} MB (aim <= 1000); load average "
+          f"{load0:.1f} at the start")
+    return out
