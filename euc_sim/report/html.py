@@ -4,6 +4,9 @@ A page is a title, a first screen of key figures, then sections (open or folded)
 each holding paragraphs, tables and interactive Plotly figures.  It is one file that
 opens offline: Plotly's script, the styles and every figure's data are inline; map
 tiles are the only thing a browser fetches (and a track is drawn without them).
+Nothing a log or spec carries runs: text is escaped, a Markdown link goes only where
+:func:`safe_href` allows, and every page carries a Content-Security-Policy
+(:func:`policy`) that runs only the page's own scripts.
 
 The builders are pure: each returns an HTML fragment (``str``); :func:`page` joins
 them; :func:`write_page` writes ``DIR/index.html`` atomically.
@@ -19,7 +22,7 @@ from pathlib import Path
 from typing import Iterable, Sequence
 
 __all__ = ["KeyFigure", "key_figures", "paragraph", "table", "figure", "section", "page",
-           "write_page", "columns", "lead", "box", "markdown", "PLOTLY_CONFIG"]
+           "write_page", "columns", "lead", "box", "markdown", "safe_href", "policy", "PLOTLY_CONFIG"]
 
 #: Plotly's options on every figure: no logo, no link to Plotly's cloud, PNG export kept.
 PLOTLY_CONFIG = {"displaylogo": False, "responsive": True, "showLink": False}
@@ -132,16 +135,60 @@ def section(title: str, body: str, folded: bool = False) -> str:
 
 
 def page(title: str, subtitle: str, body: Sequence[str]) -> str:
-    """The whole page: styles and Plotly's script inline, then the fragments in order."""
+    """The whole page: styles and Plotly's script inline, then the fragments in order.
+
+    Its Content-Security-Policy (:func:`policy`) lets only the page's own inline scripts
+    and styles run.
+    """
     from plotly.offline import get_plotlyjs
 
     js = get_plotlyjs().replace("</script", "<\\/script")
-    return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
-            "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
-            f"<title>{_esc(title)}</title><style>{_STYLE}</style>"
-            f"<script>{js}</script></head><body>"
+    rest = (f"<style>{_STYLE}</style><script>{js}</script></head><body>"
             f"<h1>{_esc(title)}</h1><p class=\"sub\">{_esc(subtitle)}</p>"
             f"{''.join(body)}</body></html>")
+    return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f'<meta http-equiv="Content-Security-Policy" content="{policy(rest)}">'
+            "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
+            f"<title>{_esc(title)}</title>{rest}")
+
+
+_SCRIPT = re.compile(r"<script>(.*?)</script>", re.S)
+_STYLE_ELEMENT = re.compile(r"<style>(.*?)</style>", re.S)
+#: The style sheets Plotly's script inserts as text (MapLibre's; an empty one it fills by rule).
+_PLOTLY_CSS = re.compile(r"""\.textContent=(['"])((?:(?!\1)[^\\])*)\1""")
+
+
+def _sha256(text: str) -> str:
+    import base64
+    import hashlib
+
+    return "'sha256-" + base64.b64encode(hashlib.sha256(text.encode("utf-8")).digest()).decode("ascii") + "'"
+
+
+def policy(markup: str) -> str:
+    """The Content-Security-Policy of a page whose markup (after ``<head>``) is ``markup``.
+
+    Nothing by default; each inline ``<script>`` by its SHA-256 (no ``'unsafe-inline'``,
+    no ``'unsafe-eval'``: Plotly needs neither); the ``<style>`` elements of the page
+    and of Plotly's script by theirs; style attributes, which Plotly sets as it draws
+    and which run nothing; images inline (``data:``, ``blob:``). Only a page whose
+    figures use the map's tiles (:data:`euc_sim.report.figures.OSM_TILES`) may fetch
+    them (MapLibre fetches, then draws in a ``blob:`` worker). No frame, object, form
+    or base URL.
+    """
+    from euc_sim.report.figures import OSM_TILES
+
+    scripts = _SCRIPT.findall(markup)
+    styles = _STYLE_ELEMENT.findall(markup) + [m[1] for s in scripts for m in _PLOTLY_CSS.findall(s)]
+    img = fetch = ""
+    hosts = {u.split("/")[2] for u in OSM_TILES["source"]}
+    urls = [v for u in OSM_TILES["source"] for v in (u, u.replace("/", "\\u002f"))]    # as JSON may write it
+    if any(u in s for s in scripts[1:] for u in urls):                       # [0] is Plotly's own
+        img = "".join(f" https://{h}" for h in sorted(hosts))
+        fetch = f"; connect-src{img}; worker-src blob:"
+    return (f"default-src 'none'; script-src {' '.join(dict.fromkeys(map(_sha256, scripts)))}; "
+            f"style-src {' '.join(dict.fromkeys(map(_sha256, styles)))}; style-src-attr 'unsafe-inline'; "
+            f"img-src data: blob:{img}{fetch}; base-uri 'none'; form-action 'none'")
 
 
 def write_page(folder: str | Path, text: str) -> Path:
@@ -169,18 +216,48 @@ def lead(sentences: Sequence[str]) -> str:
 
 
 _INLINE = [(re.compile(r"\*\*(.+?)\*\*"), r"<b>\1</b>"), (re.compile(r"`([^`]+)`"), r"<code>\1</code>")]
-_IMAGE = re.compile(r"!\[([^\]]*)\]\(([^)]+)\)")
-_LINK = re.compile(r"\[([^\]]+)\]\(([^)\s]+)\)")
+_LINK = re.compile(r"(!?)\[([^\]]*)\]\(([^)]*)\)")
+#: Where a page may link: the web (http, https), a place on the page, or a file the report
+#: wrote beside it (a relative path of plain names: no scheme, no "..", no leading "/").
+_HREF = re.compile(r"https?://[a-z0-9.-]+(:[0-9]+)?([/?#][\w.~:/?#@!$&'()*+,;=%-]*)?"
+                   r"|#[\w.-]*|([\w-][\w.-]*/)*([\w-][\w.-]*)?", re.ASCII | re.IGNORECASE)
 
 
-def _inline(text: str) -> str:
+def safe_href(url: str) -> str | None:
+    """``url`` where a page may link to it (:data:`_HREF`), else None.
+
+    Anything else (``javascript:``, ``data:``, ``file:``, ``//host``, entities, spaces or
+    control characters anywhere) is refused: the caller shows it as text.
+    """
+    return url if url and _HREF.fullmatch(url) else None
+
+
+def _format(text: str) -> str:
     out = _esc(text)
-    # an image would be a fetch: a link to the PNG next to the page instead
-    out = _IMAGE.sub(lambda m: f'<a href="{m[2]}">figure: {m[1]}</a>', out)
-    out = _LINK.sub(lambda m: f'<a href="{m[2]}">{m[1]}</a>', out)
     for rx, rep in _INLINE:
         out = rx.sub(rep, out)
     return out
+
+
+def _inline(text: str) -> str:
+    """One line of Markdown as HTML: ``**bold**``, ```code```, links; the rest escaped.
+
+    A link or image whose target :func:`safe_href` refuses stays plain text. An image
+    becomes a link to its file (an image would be a fetch).
+    """
+    text = text.replace("\0", "")
+    links: list[str] = []
+
+    def link(m: re.Match) -> str:
+        href = safe_href(m[3])
+        if href is None or not (m[1] or m[2]):
+            return m[0]
+        label = f"figure: {_format(m[2])}" if m[1] else _format(m[2])
+        links.append(f'<a href="{_esc(href)}">{label}</a>')
+        return f"\0{len(links) - 1}\0"
+
+    out = _format(_LINK.sub(link, text))
+    return re.sub(r"\0(\d+)\0", lambda m: links[int(m[1])], out)
 
 
 def _md_table(rows: list[str]) -> str:
