@@ -119,12 +119,15 @@ def figure(fig, div_id: str, height: int = 380) -> str:
     """
     import plotly.io as pio
 
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]*", div_id):
+        raise ValueError(f"figure id {div_id!r}: expected letters, digits, '_' and '-'")
     spec = pio.to_json(fig, validate=False) if not isinstance(fig, dict) else json.dumps(fig)
-    # "</" inside a script element would end it: JSON allows "<\/" for the same string
-    spec = spec.replace("</", "<\\/")
-    return (f'<div id="{_esc(div_id)}" class="fig" style="height:{int(height)}px"></div>'
+    # "</script" or "<!--" inside a script element would end it or change how it ends:
+    # JSON has "<" only inside strings, where "\u003c" is the same character
+    spec = spec.replace("<", "\\u003c")
+    return (f'<div id="{div_id}" class="fig" style="height:{int(height)}px"></div>'
             f'<script>(function(){{var f={spec};'
-            f'Plotly.newPlot("{_esc(div_id)}",f.data,f.layout||{{}},{json.dumps(PLOTLY_CONFIG)});}})();</script>')
+            f'Plotly.newPlot("{div_id}",f.data,f.layout||{{}},{json.dumps(PLOTLY_CONFIG)});}})();</script>')
 
 
 def section(title: str, body: str, folded: bool = False) -> str:

@@ -103,6 +103,14 @@ def test_own_links_stay_links_and_attributes_are_quoted():
     assert "[x](javascript:y)" in out and "<b>bold</b>" in out
 
 
+def test_a_figure_holds_no_markup_and_a_plain_id():
+    frag = H.figure({"data": [{"type": "scatter", "name": f"<!--<script>{RUN}</script>"}]}, "f1")
+    script = frag.split("<script>", 1)[1].rsplit("</script>", 1)[0]
+    assert "<" not in script and json.loads(re.search(r"var f=(.*);Plotly", script)[1])["data"][0]["name"].startswith("<!--")
+    with pytest.raises(ValueError, match="figure id"):
+        H.figure({"data": []}, 'x" onmouseover="y')
+
+
 def _policy(page: str) -> dict[str, list[str]]:
     content = re.search(r'<meta http-equiv="Content-Security-Policy" content="([^"]+)">', page)[1]
     return {d.split()[0]: d.split()[1:] for d in content.split("; ")}
