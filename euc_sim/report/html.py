@@ -14,6 +14,7 @@ them; :func:`write_page` writes ``DIR/index.html`` atomically.
 
 from __future__ import annotations
 
+import functools
 import html
 import json
 import re
@@ -143,10 +144,7 @@ def page(title: str, subtitle: str, body: Sequence[str]) -> str:
     Its Content-Security-Policy (:func:`policy`) lets only the page's own inline scripts
     and styles run.
     """
-    from plotly.offline import get_plotlyjs
-
-    js = get_plotlyjs().replace("</script", "<\\/script")
-    rest = (f"<style>{_STYLE}</style><script>{js}</script></head><body>"
+    rest = (f"<style>{_STYLE}</style><script>{_plotly_js()}</script></head><body>"
             f"<h1>{_esc(title)}</h1><p class=\"sub\">{_esc(subtitle)}</p>"
             f"{''.join(body)}</body></html>")
     return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
@@ -155,9 +153,18 @@ def page(title: str, subtitle: str, body: Sequence[str]) -> str:
             f"<title>{_esc(title)}</title>{rest}")
 
 
+@functools.lru_cache(maxsize=1)
+def _plotly_js() -> str:
+    from plotly.offline import get_plotlyjs
+
+    return get_plotlyjs().replace("</script", "<\\/script")
+
+
 _SCRIPT = re.compile(r"<script>(.*?)</script>", re.S)
-_STYLE_ELEMENT = re.compile(r"<style>(.*?)</style>", re.S)
-#: The style sheets Plotly's script inserts as text (MapLibre's; an empty one it fills by rule).
+#: The script :func:`figure` writes: a JSON literal handed to Plotly, nothing else.
+_FIGURE_SCRIPT = re.compile(r'\(function\(\)\{var f=(.*);Plotly\.newPlot\("[A-Za-z][A-Za-z0-9_-]*",f\.data,'
+                            r"f\.layout\|\|\{\}," + re.escape(json.dumps(PLOTLY_CONFIG)) + r"\);\}\)\(\);", re.S)
+#: Text Plotly's script sets as element content: MapLibre's style sheet among it.
 _PLOTLY_CSS = re.compile(r"""\.textContent=(['"])((?:(?!\1)[^\\])*)\1""")
 
 
@@ -168,26 +175,37 @@ def _sha256(text: str) -> str:
     return "'sha256-" + base64.b64encode(hashlib.sha256(text.encode("utf-8")).digest()).decode("ascii") + "'"
 
 
+def _own_script(text: str) -> bool:
+    """Whether ``text`` is Plotly's script or one :func:`figure` wrote (its data valid JSON)."""
+    if text == _plotly_js():
+        return True
+    m = _FIGURE_SCRIPT.fullmatch(text)
+    try:
+        return m is not None and json.loads(m[1]) is not None
+    except ValueError:
+        return False
+
+
 def policy(markup: str) -> str:
     """The Content-Security-Policy of a page whose markup (after ``<head>``) is ``markup``.
 
-    Nothing by default; each inline ``<script>`` by its SHA-256 (no ``'unsafe-inline'``,
-    no ``'unsafe-eval'``: Plotly needs neither); the ``<style>`` elements of the page
-    and of Plotly's script by theirs; style attributes, which Plotly sets as it draws
-    and which run nothing; images inline (``data:``, ``blob:``). Only a page whose
+    Nothing by default. Scripts: Plotly's and each :func:`figure`'s, by SHA-256 (no
+    ``'unsafe-inline'``, no ``'unsafe-eval'``: Plotly needs neither); any other
+    ``<script>`` in ``markup`` gets no hash and does not run. Styles: the page's and the
+    sheets Plotly's script inserts, by hash; style attributes, which Plotly sets as it
+    draws and which run nothing. Images inline (``data:``, ``blob:``). Only a page whose
     figures use the map's tiles (:data:`euc_sim.report.figures.OSM_TILES`) may fetch
     them (MapLibre fetches, then draws in a ``blob:`` worker). No frame, object, form
     or base URL.
     """
     from euc_sim.report.figures import OSM_TILES
 
-    scripts = _SCRIPT.findall(markup)
-    styles = _STYLE_ELEMENT.findall(markup) + [m[1] for s in scripts for m in _PLOTLY_CSS.findall(s)]
+    scripts = [s for s in _SCRIPT.findall(markup) if _own_script(s)]
+    styles = [_STYLE] + [m[1] for m in _PLOTLY_CSS.findall(_plotly_js())]
     img = fetch = ""
-    hosts = {u.split("/")[2] for u in OSM_TILES["source"]}
     urls = [v for u in OSM_TILES["source"] for v in (u, u.replace("/", "\\u002f"))]    # as JSON may write it
-    if any(u in s for s in scripts[1:] for u in urls):                       # [0] is Plotly's own
-        img = "".join(f" https://{h}" for h in sorted(hosts))
+    if any(u in s for s in scripts if s != _plotly_js() for u in urls):
+        img = "".join(f" https://{h}" for h in sorted({u.split("/")[2] for u in OSM_TILES["source"]}))
         fetch = f"; connect-src{img}; worker-src blob:"
     return (f"default-src 'none'; script-src {' '.join(dict.fromkeys(map(_sha256, scripts)))}; "
             f"style-src {' '.join(dict.fromkeys(map(_sha256, styles)))}; style-src-attr 'unsafe-inline'; "

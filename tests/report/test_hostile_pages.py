@@ -122,11 +122,13 @@ def _sha(text: str) -> str:
 
 def test_the_policy_runs_only_the_pages_own_scripts():
     fig = H.figure({"data": [{"type": "scatter", "x": [1], "y": [2], "name": "</script><b>"}]}, "f1")
-    page = H.page("t <script>", "s", [H.paragraph(f"<script>{RUN}</script>"), fig])
+    # a script no builder wrote (as if one forgot to escape) gets no hash, nor one shaped like a figure's
+    stray = [f"<script>{RUN}</script>", fig.replace('"data":', f'"data":{RUN},"d":', 1)]
+    page = H.page("t <script>", "s", [H.paragraph(f"<script>{RUN}</script>"), fig, *stray])
     p = _policy(page)
     assert p["default-src"] == ["'none'"] and p["base-uri"] == ["'none'"] and p["form-action"] == ["'none'"]
     scripts = re.findall(r"<script>(.*?)</script>", page, re.S)
-    assert len(scripts) == 2 and sorted(p["script-src"]) == sorted(map(_sha, scripts))
+    assert len(scripts) == 4 and sorted(p["script-src"]) == sorted(map(_sha, scripts[:2]))
     assert not any("unsafe" in v for k, vs in p.items() for v in vs if k != "style-src-attr")
     assert "connect-src" not in p and "worker-src" not in p and p["img-src"] == ["data:", "blob:"]
     # a map's page may fetch the tiles, and only those
