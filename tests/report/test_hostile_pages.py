@@ -54,7 +54,11 @@ HREFS = ("[...document.querySelectorAll('a')].map(a => a.getAttribute('href') ??
 CLICK = """(async () => {
   document.addEventListener('click', e => {
     const a = e.target.closest('a');
-    if (a && !/^\\s*javascript:/i.test(a.getAttribute('href') ?? a.getAttribute('xlink:href') ?? '')) e.preventDefault();
+    if (!a) return;
+    let scheme = '';   // as the browser parses it: tabs, newlines and leading spaces dropped
+    try { scheme = new URL(a.getAttribute('href') ?? a.getAttribute('xlink:href') ?? '', document.baseURI).protocol; }
+    catch (err) {}
+    if (scheme !== 'javascript:') e.preventDefault();
   }, true);
   const all = [...document.querySelectorAll('a')];
   for (const a of all) a.dispatchEvent(new MouseEvent('click', {bubbles: true, cancelable: true, view: window}));
