@@ -3,10 +3,10 @@
 :func:`render` starts Debian's ``chromium`` with ``--remote-debugging-pipe`` and
 speaks the DevTools protocol over file descriptors 3 and 4 (JSON messages ended
 by a NUL byte): it opens the page in a 1280×900 viewport, collects every
-uncaught exception and ``console.error`` call, every URL the page requests, runs
-the given JavaScript expressions once the page has settled, and takes a
-screenshot.  :func:`chromium_or_skip` skips a test, saying why, where there is
-no Chromium.
+uncaught exception, ``console.error`` call and Content-Security-Policy violation,
+every URL the page requests, runs the given JavaScript expressions once the page
+has settled, and takes a screenshot.  :func:`chromium_or_skip` skips a test,
+saying why, where there is no Chromium.
 """
 
 from __future__ import annotations
@@ -58,7 +58,8 @@ class Rendered:
     Attributes
     ----------
     errors : list of str
-        Uncaught exceptions and ``console.error`` messages.
+        Uncaught exceptions, ``console.error`` messages and what the page's
+        Content-Security-Policy refused.
     requests : list of str
         Every URL the page requested (the page itself included).
     values : dict
@@ -156,7 +157,7 @@ def _evaluate(pipe: _Pipe, session: str, expr: str):
 def _open(pipe: _Pipe, url: str, width: int, height: int) -> str:
     target = pipe.send("Target.createTarget", {"url": "about:blank"})["targetId"]
     session = pipe.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
-    for m in ("Runtime.enable", "Network.enable", "Page.enable"):
+    for m in ("Runtime.enable", "Network.enable", "Page.enable", "Log.enable"):
         pipe.send(m, None, session)
     pipe.send("Emulation.setDeviceMetricsOverride",
               {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False}, session)
@@ -181,6 +182,8 @@ def _collect(events: list[dict], out: Rendered) -> None:
             out.errors.append((d.get("exception") or {}).get("description") or d.get("text", ""))
         elif meth == "Runtime.consoleAPICalled" and p.get("type") == "error":
             out.errors.append(" ".join(str(a.get("value", a.get("description", ""))) for a in p["args"]))
+        elif meth == "Log.entryAdded" and "Content Security Policy" in p["entry"].get("text", ""):
+            out.errors.append(p["entry"]["text"])
         elif meth == "Network.requestWillBeSent":
             out.requests.append(p["request"]["url"])
 

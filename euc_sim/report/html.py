@@ -4,6 +4,9 @@ A page is a title, a first screen of key figures, then sections (open or folded)
 each holding paragraphs, tables and interactive Plotly figures.  It is one file that
 opens offline: Plotly's script, the styles and every figure's data are inline; map
 tiles are the only thing a browser fetches (and a track is drawn without them).
+Nothing a log or spec carries runs: text is escaped, a Markdown link goes only where
+:func:`safe_href` allows, and every page carries a Content-Security-Policy
+(:func:`policy`) that runs only the page's own scripts.
 
 The builders are pure: each returns an HTML fragment (``str``); :func:`page` joins
 them; :func:`write_page` writes ``DIR/index.html`` atomically.
@@ -11,6 +14,7 @@ them; :func:`write_page` writes ``DIR/index.html`` atomically.
 
 from __future__ import annotations
 
+import functools
 import html
 import json
 import re
@@ -19,7 +23,7 @@ from pathlib import Path
 from typing import Iterable, Sequence
 
 __all__ = ["KeyFigure", "key_figures", "paragraph", "table", "figure", "section", "page",
-           "write_page", "columns", "lead", "box", "markdown", "PLOTLY_CONFIG"]
+           "write_page", "columns", "lead", "box", "markdown", "safe_href", "policy", "PLOTLY_CONFIG"]
 
 #: Plotly's options on every figure: no logo, no link to Plotly's cloud, PNG export kept.
 PLOTLY_CONFIG = {"displaylogo": False, "responsive": True, "showLink": False}
@@ -116,12 +120,15 @@ def figure(fig, div_id: str, height: int = 380) -> str:
     """
     import plotly.io as pio
 
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]*", div_id):
+        raise ValueError(f"figure id {div_id!r}: expected letters, digits, '_' and '-'")
     spec = pio.to_json(fig, validate=False) if not isinstance(fig, dict) else json.dumps(fig)
-    # "</" inside a script element would end it: JSON allows "<\/" for the same string
-    spec = spec.replace("</", "<\\/")
-    return (f'<div id="{_esc(div_id)}" class="fig" style="height:{int(height)}px"></div>'
+    # "</script" or "<!--" inside a script element would end it or change how it ends:
+    # JSON has "<" only inside strings, where "\u003c" is the same character
+    spec = spec.replace("<", "\\u003c")
+    return (f'<div id="{div_id}" class="fig" style="height:{int(height)}px"></div>'
             f'<script>(function(){{var f={spec};'
-            f'Plotly.newPlot("{_esc(div_id)}",f.data,f.layout||{{}},{json.dumps(PLOTLY_CONFIG)});}})();</script>')
+            f'Plotly.newPlot("{div_id}",f.data,f.layout||{{}},{json.dumps(PLOTLY_CONFIG)});}})();</script>')
 
 
 def section(title: str, body: str, folded: bool = False) -> str:
@@ -132,16 +139,77 @@ def section(title: str, body: str, folded: bool = False) -> str:
 
 
 def page(title: str, subtitle: str, body: Sequence[str]) -> str:
-    """The whole page: styles and Plotly's script inline, then the fragments in order."""
-    from plotly.offline import get_plotlyjs
+    """The whole page: styles and Plotly's script inline, then the fragments in order.
 
-    js = get_plotlyjs().replace("</script", "<\\/script")
-    return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
-            "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
-            f"<title>{_esc(title)}</title><style>{_STYLE}</style>"
-            f"<script>{js}</script></head><body>"
+    Its Content-Security-Policy (:func:`policy`) lets only the page's own inline scripts
+    and styles run.
+    """
+    rest = (f"<style>{_STYLE}</style><script>{_plotly_js()}</script></head><body>"
             f"<h1>{_esc(title)}</h1><p class=\"sub\">{_esc(subtitle)}</p>"
             f"{''.join(body)}</body></html>")
+    return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            f'<meta http-equiv="Content-Security-Policy" content="{policy(rest)}">'
+            "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
+            f"<title>{_esc(title)}</title>{rest}")
+
+
+@functools.lru_cache(maxsize=1)
+def _plotly_js() -> str:
+    from plotly.offline import get_plotlyjs
+
+    return get_plotlyjs().replace("</script", "<\\/script")
+
+
+_SCRIPT = re.compile(r"<script>(.*?)</script>", re.S)
+#: The script :func:`figure` writes: a JSON literal handed to Plotly, nothing else.
+_FIGURE_SCRIPT = re.compile(r'\(function\(\)\{var f=(.*);Plotly\.newPlot\("[A-Za-z][A-Za-z0-9_-]*",f\.data,'
+                            r"f\.layout\|\|\{\}," + re.escape(json.dumps(PLOTLY_CONFIG)) + r"\);\}\)\(\);", re.S)
+#: Text Plotly's script sets as element content: MapLibre's style sheet among it.
+_PLOTLY_CSS = re.compile(r"""\.textContent=(['"])((?:(?!\1)[^\\])*)\1""")
+
+
+def _sha256(text: str) -> str:
+    import base64
+    import hashlib
+
+    return "'sha256-" + base64.b64encode(hashlib.sha256(text.encode("utf-8")).digest()).decode("ascii") + "'"
+
+
+def _own_script(text: str) -> bool:
+    """Whether ``text`` is Plotly's script or one :func:`figure` wrote (its data valid JSON)."""
+    if text == _plotly_js():
+        return True
+    m = _FIGURE_SCRIPT.fullmatch(text)
+    try:
+        return m is not None and json.loads(m[1]) is not None
+    except ValueError:
+        return False
+
+
+def policy(markup: str) -> str:
+    """The Content-Security-Policy of a page whose markup (after ``<head>``) is ``markup``.
+
+    Nothing by default. Scripts: Plotly's and each :func:`figure`'s, by SHA-256 (no
+    ``'unsafe-inline'``, no ``'unsafe-eval'``: Plotly needs neither); any other
+    ``<script>`` in ``markup`` gets no hash and does not run. Styles: the page's and the
+    sheets Plotly's script inserts, by hash; style attributes, which Plotly sets as it
+    draws and which run nothing. Images inline (``data:``, ``blob:``). Only a page whose
+    figures use the map's tiles (:data:`euc_sim.report.figures.OSM_TILES`) may fetch
+    them (MapLibre fetches, then draws in a ``blob:`` worker). No frame, object, form
+    or base URL.
+    """
+    from euc_sim.report.figures import OSM_TILES
+
+    scripts = [s for s in _SCRIPT.findall(markup) if _own_script(s)]
+    styles = [_STYLE] + [m[1] for m in _PLOTLY_CSS.findall(_plotly_js())]
+    img = fetch = ""
+    urls = [v for u in OSM_TILES["source"] for v in (u, u.replace("/", "\\u002f"))]    # as JSON may write it
+    if any(u in s for s in scripts if s != _plotly_js() for u in urls):
+        img = "".join(f" https://{h}" for h in sorted({u.split("/")[2] for u in OSM_TILES["source"]}))
+        fetch = f"; connect-src{img}; worker-src blob:"
+    return (f"default-src 'none'; script-src {' '.join(dict.fromkeys(map(_sha256, scripts)))}; "
+            f"style-src {' '.join(dict.fromkeys(map(_sha256, styles)))}; style-src-attr 'unsafe-inline'; "
+            f"img-src data: blob:{img}{fetch}; base-uri 'none'; form-action 'none'")
 
 
 def write_page(folder: str | Path, text: str) -> Path:
@@ -169,18 +237,48 @@ def lead(sentences: Sequence[str]) -> str:
 
 
 _INLINE = [(re.compile(r"\*\*(.+?)\*\*"), r"<b>\1</b>"), (re.compile(r"`([^`]+)`"), r"<code>\1</code>")]
-_IMAGE = re.compile(r"!\[([^\]]*)\]\(([^)]+)\)")
-_LINK = re.compile(r"\[([^\]]+)\]\(([^)\s]+)\)")
+_LINK = re.compile(r"(!?)\[([^\]]*)\]\(([^)]*)\)")
+#: Where a page may link: the web (http, https), a place on the page, or a file the report
+#: wrote beside it (a relative path of plain names: no scheme, no "..", no leading "/").
+_HREF = re.compile(r"https?://[a-z0-9.-]+(:[0-9]+)?([/?#][\w.~:/?#@!$&'()*+,;=%-]*)?"
+                   r"|#[\w.-]*|([\w-][\w.-]*/)*([\w-][\w.-]*)?", re.ASCII | re.IGNORECASE)
 
 
-def _inline(text: str) -> str:
+def safe_href(url: str) -> str | None:
+    """``url`` where a page may link to it (:data:`_HREF`), else None.
+
+    Anything else (``javascript:``, ``data:``, ``file:``, ``//host``, entities, spaces or
+    control characters anywhere) is refused: the caller shows it as text.
+    """
+    return url if url and _HREF.fullmatch(url) else None
+
+
+def _format(text: str) -> str:
     out = _esc(text)
-    # an image would be a fetch: a link to the PNG next to the page instead
-    out = _IMAGE.sub(lambda m: f'<a href="{m[2]}">figure: {m[1]}</a>', out)
-    out = _LINK.sub(lambda m: f'<a href="{m[2]}">{m[1]}</a>', out)
     for rx, rep in _INLINE:
         out = rx.sub(rep, out)
     return out
+
+
+def _inline(text: str) -> str:
+    """One line of Markdown as HTML: ``**bold**``, ```code```, links; the rest escaped.
+
+    A link or image whose target :func:`safe_href` refuses stays plain text. An image
+    becomes a link to its file (an image would be a fetch).
+    """
+    text = text.replace("\0", "")
+    links: list[str] = []
+
+    def link(m: re.Match) -> str:
+        href = safe_href(m[3])
+        if href is None or not (m[1] or m[2]):
+            return m[0]
+        label = f"figure: {_format(m[2])}" if m[1] else _format(m[2])
+        links.append(f'<a href="{_esc(href)}">{label}</a>')
+        return f"\0{len(links) - 1}\0"
+
+    out = _format(_LINK.sub(link, text))
+    return re.sub(r"\0(\d+)\0", lambda m: links[int(m[1])], out)
 
 
 def _md_table(rows: list[str]) -> str:
