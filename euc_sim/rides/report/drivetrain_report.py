@@ -198,8 +198,9 @@ def cutout_of(r: RideDrivetrain, log, limits: dict):
         ok = np.isfinite(d["battery"].to_numpy(float))
         if ok.sum() > 1:
             charge = np.interp(r.sig.t, d["t"].to_numpy(float)[ok], d["battery"].to_numpy(float)[ok])
-    return ride_cutout(r.sig, r.drivetrain, r.mass, charge, Limits(**limits), r.spec.battery_voltage,
-                       computed_pwm_note(r))
+    why = ("the log's PWM is the app's computation from speed and voltage, not a measurement: it does "
+           "not show the load, so neither does a model of it") if computed_pwm_note(r) else None
+    return ride_cutout(r.sig, r.drivetrain, r.mass, charge, Limits(**limits), r.spec.battery_voltage, why)
 
 
 #: Tyre-road friction coefficient the envelope figure assumes (dry asphalt, about 1):
