@@ -357,32 +357,38 @@ def cutout_curves(m: DutyModel, limits: Limits, heldout: float | None = None,
     """Every condition's cut-out speed at every charge, and the danger they make with the limit."""
     curves = tuple(Curve(c, np.asarray(charge, float), np.array([cutout_speed(m, q, c) for q in charge]))
                    for c in conditions)
-    return Cutout(curves, heldout, danger_sentence(curves, limits), m.ocv.source, m.ocv.charge_range)
+    return Cutout(curves, heldout, danger_sentence(curves, limits, m.ocv.charge_range), m.ocv.source,
+                  m.ocv.charge_range)
 
 
-def danger_sentence(curves, limits: Limits) -> str | None:
+def danger_sentence(curves, limits: Limits, charge_range: tuple | None = None) -> str | None:
     """Where the cut-out comes before the wheel's speed limit, in one sentence; None where it never does.
 
-    The condition whose cut-out falls under the limit at the highest charge is said, with
-    that charge.  Never states a speed above the limit as available.
+    Led by the condition whose cut-out falls under the limit at the highest charge (under it at
+    every charge: the one with the lowest cut-out at full charge), the others after it with their
+    own charge.  A charge outside ``charge_range`` (the ride's, %) is said to be extrapolated.
+    Never states a speed above the limit as available.
     """
     L = limits.speed_limit_mps
     if L is None or not curves:
         return None
-    hits = [(c.below(L), c) for c in curves]
-    hits = [(q, c) for q, c in hits if q is not None]
+    hits = [(q, c) for q, c in ((c.below(L), c) for c in curves) if q is not None]
     if not hits:
         return None
-    q, c = max(hits, key=lambda h: h[0])
+    full = lambda c: float(np.nan_to_num(c.speed_mps[-1], nan=np.inf))        # noqa: E731
+    q, c = max(hits, key=lambda h: (h[0], -full(h[1])))
     what = "your tilt-back speed" if limits.source == "log" else "the maker's top speed"
-    others = [h[1].condition.words for h in hits if h[1] is not c]
-    also = f" (also {' and '.join(others)})" if others else ""
+    others = "".join(f"; {o.condition.words}, below {p:.0f} %" if p < o.charge_pct[-1] else
+                     f"; {o.condition.words}, at any charge" for p, o in sorted(hits, key=lambda h: -h[0])
+                     if o is not c)
+    lo = charge_range[0] if charge_range else None
+    note = (f" (extrapolated: this ride's charge went no lower than {lo:.0f} %)"
+            if lo is not None and q < lo else "")
     if q >= c.charge_pct[-1]:
-        top = float(c.speed_mps[-1])
-        return (f"Even at full charge, {c.condition.words}{also}, the motor runs out of voltage (100 % PWM: "
-                f"a cut-out) at about {top * 3.6:.0f} km/h, under {what} of {L * 3.6:.0f} km/h.")
-    return (f"Below {q:.0f} % charge, {c.condition.words}{also}, the motor runs out of voltage (100 % PWM: "
-            f"a cut-out) before {what} of {L * 3.6:.0f} km/h.")
+        return (f"Even at full charge, {c.condition.words}, the motor runs out of voltage (100 % PWM: a cut-out) "
+                f"at about {full(c) * 3.6:.0f} km/h, under {what} of {L * 3.6:.0f} km/h{others}.")
+    return (f"Below {q:.0f} % charge{note}, {c.condition.words}, the motor runs out of voltage (100 % PWM: "
+            f"a cut-out) before {what} of {L * 3.6:.0f} km/h{others}.")
 
 
 def headroom_words(speed_kmh: float, limits: Limits, cutout_kmh: float | None) -> str:
