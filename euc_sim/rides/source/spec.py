@@ -13,7 +13,7 @@ one ``Field| value unit`` row per line, e.g.::
 Four fields are read: ``Wheel diameter`` (inches, converted to the
 wheel's radius in m), ``Net weight`` (kg, the wheel without rider),
 ``Tension`` (the battery's full-charge voltage, V) and ``Max speed`` (km/h, the
-maker's top speed, converted to m/s).  Every value can be given or
+maker's top speed, converted to m/s; a value that cannot be read is left out, not refused).  Every value can be given or
 overridden on its own (:func:`wheel_spec`), so a ride without a spec still runs
 and says what it could not pin down (:attr:`WheelSpec.missing`).
 """
@@ -156,11 +156,15 @@ def read_spec(path) -> WheelSpec:
             names[key] = text.strip()
         if key in _FIELDS:
             attr, units, factor = _FIELDS[key]
-            got[attr] = _number(path, row[0].strip(), text, units) * factor
+            try:
+                got[attr] = _number(path, row[0].strip(), text, units) * factor
+                _check_range(f"{path}: field {_LABEL[attr]!r}", attr, got[attr])
+            except SpecError:
+                if attr != "top_speed":         # the top speed only bounds what the page says: left out
+                    raise
+                got.pop(attr, None)
     if "wheel_mass" not in got:
         raise SpecError(f"{path}: field 'Net weight': missing (expected e.g. 'Net weight| 23.5 kg')")
-    for attr, val in got.items():
-        _check_range(f"{path}: field {_LABEL[attr]!r}", attr, val)
     name = " ".join(names.get(k, "") for k in ("brand", "model")).strip() or path.stem
     return WheelSpec(name=name, source=str(path), **got)
 
