@@ -89,6 +89,19 @@ def _progress(msg: str) -> None:
     sys.stderr.flush()
 
 
+def _limit_line(rep: dict) -> str:
+    """The wheel's limit and where the cut-out comes before it, in one line."""
+    from euc_sim.rides.drive.cutout import Limits
+
+    lim = Limits(**((rep.get("summary") or {}).get("limits") or
+                    {"speed_limit_mps": None, "source": None, "pwm_alarm_pct": None}))
+    cut = rep.get("cutout") or {}
+    tail = (cut["danger"] if cut.get("danger") else
+            "the cut-out stays above it at every charge" if cut.get("curves") and lim.speed_limit_mps
+            else f"cut-out not known: {cut['why']}" if cut.get("why") else "cut-out not compared")
+    return f"limit: {lim.words()}; {tail}"
+
+
 def _print_summary(rep: dict) -> None:
     """The console summary of a ride's result: errors, verdict, effects, mass, windows, simulation."""
     u = rep["error_unit"]
@@ -108,6 +121,7 @@ def _print_summary(rep: dict) -> None:
     for line in _mass_lines(rep):
         print(line)
     print(f"  {rep['mass_check']['sentence']}")
+    print("  " + _limit_line(rep))
     if rep["windows"]:
         print("  windows (s): " + ", ".join(f"{a:.1f}-{b:.1f}" for a, b in rep["windows"][:8])
               + (" ..." if len(rep["windows"]) > 8 else ""))

@@ -180,6 +180,9 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     rep["verdict"] = ride_verdict(rep)
     # the rider's numbers (summary, mass check, battery health), from the log as parsed here
     rep.update(rider_numbers(log, rep, spec, rider_weight))
+    from euc_sim.rides.report.drivetrain_report import cutout_of
+
+    rep["cutout"] = cutout_of(physics[1], log, rep["summary"]["limits"]).as_json()
     rep["report"] = None
     return RideResult(report=rep, analysis=an, traces=traces, simulation=sim, physics=physics)
 

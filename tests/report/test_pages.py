@@ -199,7 +199,7 @@ def _unlabelled(figs: dict) -> list:
 
 def test_ride_figures_have_titles_and_axes_with_units(with_summary):
     figs = with_summary[1]
-    assert set(figs) == {"over_time", "map", "track", "sag", "envelope"}
+    assert set(figs) == {"over_time", "map", "track", "sag", "envelope", "cutout"}
     assert _unlabelled(figs) == []
 
 

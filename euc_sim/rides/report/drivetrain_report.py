@@ -29,7 +29,7 @@ from euc_sim.rides.source.sanity import input_warnings, mass_suspicion
 from euc_sim.rides.source.spec import WheelSpec
 from euc_sim.rides.source.systematic import mass_difference
 
-__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "ride_drivetrain", "plot_envelope", "envelope_figure", "plot_pwm",
+__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "ride_drivetrain", "cutout_of", "plot_envelope", "envelope_figure", "plot_pwm",
            "pwm_figure", "page_section", "TYRE_MU",
            "COMPUTED_PWM_RMS", "computed_pwm_note"]
 
@@ -177,6 +177,30 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
                           "why": "no PWM or safety-margin column in "
                                  + (ride_name(compare) if r.drivetrain.pwm_coef else ride_name(path))}
     return rep, r, test
+
+
+def cutout_of(r: RideDrivetrain, log, limits: dict):
+    """The ride's :class:`euc_sim.rides.drive.cutout.Cutout` (the JSON's ``cutout``).
+
+    Parameters
+    ----------
+    r : RideDrivetrain
+    log : RideLog
+        The same ride parsed: its battery reading (%) gives the charge.
+    limits : dict
+        The summary's ``limits``.
+    """
+    from euc_sim.rides.drive.cutout import Limits, ride_cutout
+
+    d = log.data
+    charge = None
+    if "battery" in d:
+        ok = np.isfinite(d["battery"].to_numpy(float))
+        if ok.sum() > 1:
+            charge = np.interp(r.sig.t, d["t"].to_numpy(float)[ok], d["battery"].to_numpy(float)[ok])
+    why = ("the log's PWM is the app's computation from speed and voltage, not a measurement: it does "
+           "not show the load, so neither does a model of it") if computed_pwm_note(r) else None
+    return ride_cutout(r.sig, r.drivetrain, r.mass, charge, Limits(**limits), r.spec.battery_voltage, why)
 
 
 #: Tyre-road friction coefficient the envelope figure assumes (dry asphalt, about 1):

@@ -5,8 +5,9 @@ PWM, alarms, data quality, mass, battery health) read from the ride JSON's
 ``summary``, ``battery`` and ``total_mass`` (never computed here); a tile whose
 entry is absent says "not available"; with ``--compare``, right under them, what
 differs in the compared ride (:mod:`euc_sim.rides.report.differences_page`).  Then the ride over time on one shared
-axis, the track, the battery's sag and the PWM envelope with the ride's own
-points.  Then, folded, the physics the plain-text page (``index.md``) carries.
+axis, the track, the wheel's limits with the speed at which its motor would run out of voltage
+against the battery's charge (the JSON's ``cutout``), the battery's sag and the PWM
+envelope with the ride's own points.  Then, folded, the physics the plain-text page (``index.md``) carries.
 People's units on the page (km/h, %, Wh, mΩ, °C); the JSON keeps SI.
 """
 
@@ -46,7 +47,8 @@ class RideSeries:
         A jump in ``t`` longer than this, s, is a gap (lines break there).
     channels : dict
         ``speed_kmh``, ``power_W``, ``pwm_pct``, ``voltage_V``, ``current_A``,
-        ``temperature_C``, ``lat``, ``lon`` (deg), each present when logged.
+        ``temperature_C``, ``charge_pct`` (the battery reading), ``lat``, ``lon`` (deg),
+        each present when logged.
     """
 
     t: np.ndarray
@@ -58,7 +60,8 @@ class RideSeries:
         """From :class:`euc_sim.rides.grids.signals.RideSignals`'s ``raw`` grid (``rate`` Hz)."""
         names = {"v": ("speed_kmh", 3.6), "P": ("power_W", 1.0), "pwm": ("pwm_pct", 1.0),
                  "voltage": ("voltage_V", 1.0), "current": ("current_A", 1.0),
-                 "temperature": ("temperature_C", 1.0), "latitude": ("lat", 1.0),
+                 "temperature": ("temperature_C", 1.0), "battery": ("charge_pct", 1.0),
+                 "latitude": ("lat", 1.0),
                  "longitude": ("lon", 1.0)}
         ch = {}
         for col, (name, k) in names.items():
@@ -245,10 +248,7 @@ def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
     p = _num(rep.get("summary"), "pwm_max_pct")
     if p is not None and p >= PWM_BAD:
         out.append("At its peak (Max PWM above) the motor had almost no voltage left: close to a cut-out.")
-    left = speed_left(rep, series, fit) if series is not None else None
-    if left is not None and left[1] is not None:
-        out.append(f"At your highest PWM, riding {left[0]:.0f} km/h, the battery's charge then allowed "
-                   f"about {left[1]:.0f} km/h on the level: {max(left[1] - left[0], 0):.0f} km/h left.")
+    out += limit_sentences(rep, series)
     v = rep.get("verdict") or {}
     if v.get("battery_power") is False:
         out.append("The log's voltage times current is not the battery's power: the physics below is weak.")
@@ -353,23 +353,123 @@ def _steady_pwm(dt, speed: np.ndarray, voltage: float) -> np.ndarray:
     return X @ np.array([coef[n] for n in names]) / V * 100.0
 
 
-def speed_left(rep: Mapping, series: RideSeries, fit) -> tuple[float, float, float | None] | None:
-    """At the summary's max-PWM moment: (speed then, km/h; top speed at that charge, km/h or
-    None past the envelope's grid; PWM then, %), from :func:`euc_sim.rides.drive.drivetrain.envelope`
-    at the open-circuit voltage then (terminal voltage plus the sag R·I)."""
-    from euc_sim.rides.drive.drivetrain import envelope
+def _limits(rep: Mapping):
+    """The summary's ``limits`` as :class:`euc_sim.rides.drive.cutout.Limits` (all unknown without it)."""
+    from euc_sim.rides.drive.cutout import Limits
 
-    m = _max_pwm_mark(rep, series)
-    dt = getattr(fit, "drivetrain", None)
-    if m is None or dt is None or dt.pwm_coef is None or not dt.mass or not dt.battery_coef:
+    lim = (rep.get("summary") or {}).get("limits") or {}
+    return Limits(_num(lim, "speed_limit_mps"), lim.get("source"), _num(lim, "pwm_alarm_pct"), lim.get("why"))
+
+
+def _peak(rep: Mapping, series: RideSeries | None) -> tuple[float, float, float | None] | None:
+    """At the summary's max-PWM moment: (speed, km/h; PWM, %; battery reading, % or None)."""
+    m = _max_pwm_mark(rep, series) if series is not None else None
+    v = None if m is None else series.at("speed_kmh", m[0])
+    if v is None:
         return None
-    V, I, v = series.at("voltage_V", m[0]), series.at("current_A", m[0]), series.at("speed_kmh", m[0])
-    if V is None or v is None:
+    return v, _num(rep.get("summary"), "pwm_max_pct"), series.at("charge_pct", m[0])
+
+
+def _cut_at(rep: Mapping, charge: float | None, condition: str = "level") -> float | None:
+    """The ``cutout`` curve's speed at ``charge`` (%), km/h; None where it cannot say."""
+    curves = (rep.get("cutout") or {}).get("curves") or []
+    c = next((c for c in curves if c["condition"] == condition), None)
+    if c is None or charge is None:
         return None
-    ocv = V + max(dt.battery_coef["R_int"], 0.0) * (I or 0.0)
-    env = envelope(dt, ocv, v_max=max(2.5 * v / 3.6, 15.0), n=251)
-    top = env["full"]["v_limit"]
-    return v, (None if top is None else top * 3.6), _num(rep.get("summary"), "pwm_max_pct")
+    y = np.array([np.nan if x is None else x for x in c["speed_mps"]], float)
+    v = float(np.interp(charge, c["charge_pct"], y))
+    return v * 3.6 if np.isfinite(v) else None
+
+
+def limit_sentences(rep: Mapping, series: RideSeries | None) -> list[str]:
+    """The wheel's limit, where the cut-out comes before it (``cutout.danger``), and how close
+    the ride's highest PWM came; no speed above the wheel's limit is said to be available."""
+    from euc_sim.rides.drive.cutout import CONDITIONS, headroom_words
+
+    lim, cut = _limits(rep), rep.get("cutout") or {}
+    out = [f"Your wheel's limit: {lim.words()}."]
+    if cut.get("danger"):
+        out.append(cut["danger"])
+    elif cut.get("curves") and lim.speed_limit_mps is not None:
+        said = {c["condition"] for c in cut["curves"]}
+        words = [c.words for c in CONDITIONS if c.name in said]
+        out.append("At every charge, " + " and ".join([", ".join(words[:-1]), words[-1]] if len(words) > 1
+                                                      else words)
+                   + ", the motor keeps voltage up to that limit (chart below).")
+    elif cut.get("why"):
+        out.append(f"Where the motor would run out of voltage cannot be said: {cut['why']}.")
+    p = _peak(rep, series)
+    if p is not None and p[1] is not None:
+        out.append(f"At your highest PWM ({p[1]:.0f} %), riding {p[0]:.0f} km/h: "
+                   f"{headroom_words(p[0], lim, _cut_at(rep, p[2]))}.")
+    return out
+
+
+#: The cut-out chart's line for each condition.
+CUTOUT_LABELS = {"level": "on the level", "accelerating_1mps2": "accelerating at 1 m/s²",
+                 "climbing_10pct": "climbing 10 %"}
+#: Their colours, then the limit's (apart from the ride's points, yellow to red by PWM).
+CUTOUT_COLOURS = ("#1a237e", "#6a1b9a", "#00838f", "#212121")
+
+
+def cutout_figure(rep: Mapping, series: RideSeries | None):
+    """Cut-out speed against battery charge for each condition, the wheel's limit, and the
+    ride's own speeds at their charge coloured by the logged PWM; None without curves."""
+    import plotly.graph_objects as go
+
+    cut = rep.get("cutout") or {}
+    if not cut.get("curves"):
+        return None
+    lim = _limits(rep)
+    lines = [Line(f"cut-out {CUTOUT_LABELS.get(c['condition'], c['condition'])}", np.asarray(c["charge_pct"]),
+                  np.array([np.nan if x is None else 3.6 * x for x in c["speed_mps"]], float), "lines")
+             for c in cut["curves"]]
+    top = [np.nanmax(ln.y) if np.isfinite(ln.y).any() else 0.0 for ln in lines]
+    if lim.speed_limit_mps is not None:
+        L = 3.6 * lim.speed_limit_mps
+        src = "tilt-back, from the log" if lim.source == "log" else "the maker's top speed"
+        lines.append(Line(f"your limit: {L:.0f} km/h ({src})", np.array([0.0, 100.0]), np.array([L, L]),
+                          "lines", "dot"))
+        top.append(L)
+    rmse = _num(cut, "heldout_pwm_rmse_pct")
+    note = ("PWM model checked on the ride's second half (fitted on its first): "
+            + (f"{rmse:.1f} points RMS" if rmse is not None else "not enough PWM rows") + "; grey: charges this ride did not reach")
+    fig = xy_figure(lines, "How fast before the motor runs out of voltage (100 % PWM, a cut-out)",
+                    "battery charge, %", "speed, km/h", note)
+    for ln, colour in zip(lines, CUTOUT_COLOURS):
+        fig.update_traces(selector={"name": ln.name}, line={"color": colour})
+    c = (series.channels if series is not None else {})
+    if "charge_pct" in c and "speed_kmh" in c:
+        ok = np.flatnonzero(np.isfinite(c["charge_pct"]) & (c["speed_kmh"] > 2.0))
+        ok = ok[thin(ok.size, MOST_POINTS)]
+        pwm = c.get("pwm_pct")
+        marker = ({"size": 4, "color": pwm[ok], "colorscale": "YlOrRd", "cmin": 0, "cmax": 100, "showscale": True,
+                   "colorbar": {"title": {"text": "logged PWM, %", "side": "right"}, "thickness": 12}}
+                  if pwm is not None else {"size": 4, "color": "#607d8b"})
+        fig.add_trace(go.Scatter(x=c["charge_pct"][ok], y=c["speed_kmh"][ok], mode="markers", marker=marker,
+                                 name="this ride" + (" (colour: logged PWM)" if pwm is not None else "")))
+        top.append(float(np.max(c["speed_kmh"][ok])) if ok.size else 0.0)
+    span = cut.get("ride_charge_pct")
+    if span:
+        for x0, x1 in ((0.0, span[0]), (span[1], 100.0)):
+            if x1 > x0:
+                fig.add_vrect(x0=x0, x1=x1, fillcolor="#9e9e9e", opacity=0.15, line_width=0, layer="below")
+    fig.update_xaxes(range=[0, 100])
+    fig.update_yaxes(range=[0, 1.3 * max(top)])
+    return fig
+
+
+def limits_paragraph(rep: Mapping) -> str:
+    """The limits and the model behind the chart, in words (the summary's ``limits``, ``cutout``)."""
+    lim, cut = _limits(rep), rep.get("cutout") or {}
+    rmse = _num(cut, "heldout_pwm_rmse_pct")
+    return (f"Speed limit: {lim.words()}. PWM alarm: "
+            + (f"{lim.pwm_alarm_pct:.0f} %." if lim.pwm_alarm_pct is not None else "not in the log.")
+            + (f" The PWM model predicts the logged PWM of the ride's second half, fitted on its first, to "
+               f"{rmse:.1f} points RMS." if rmse is not None else "")
+            + (f" Charge to volts: {cut['ocv_source']}." if cut.get("ocv_source") else "")
+            + " The cut-out speeds are the model's: the controller's own current limit, not in the log, "
+              "can come first.")
 
 
 def envelope_figure(rep: Mapping, series: RideSeries, fit):
@@ -388,16 +488,16 @@ def envelope_figure(rep: Mapping, series: RideSeries, fit):
                           "lines", dash))
     lines.append(Line("100 %: no voltage left", np.array([0.0, v[-1] * 3.6]), np.array([100.0, 100.0]),
                       "lines", "dot"))
-    left = speed_left(rep, series, fit)
+    left = _peak(rep, series)
     note = "above this ride's top speed the curves are extrapolated"
-    if left is not None:
-        sp, top, p = left
+    if left is not None and left[1] is not None:
+        from euc_sim.rides.drive.cutout import headroom_words
+
+        sp, p = left[0], left[1]
         lines.append(Line(f"your max PWM: {p:.0f} % at {sp:.0f} km/h", np.array([sp]), np.array([p])))
-        note = (f"at your max PWM the charge then allowed "
-                + (f"{top:.0f} km/h: {max(top - sp, 0):.0f} km/h left" if top is not None else
-                   "more than the figure's end") + "<br>" + note)
+        note = f"at your max PWM: {headroom_words(sp, _limits(rep), _cut_at(rep, left[2]))}<br>" + note
     fig = xy_figure(lines, "How close to the limit: PWM against speed", "speed, km/h", "PWM, %", note)
-    if left is not None:
+    if left is not None and left[1] is not None:
         fig.update_traces(selector={"name": lines[-1].name}, marker={"size": 14, "color": "#c62828",
                                                                     "symbol": "star", "opacity": 1})
     fig.update_yaxes(range=[0, 110])
@@ -411,7 +511,8 @@ def figure_specs(rep: Mapping, series: RideSeries | None, fit=None) -> dict:
     maps = on_the_map(rep, series)
     figs = {"over_time": over_time(rep, series),
             "map": maps[0] if maps else None, "track": maps[1] if maps else None,
-            "sag": sag_figure(rep, fit), "envelope": envelope_figure(rep, series, fit)}
+            "sag": sag_figure(rep, fit), "envelope": envelope_figure(rep, series, fit),
+            "cutout": cutout_figure(rep, series)}
     return {k: f for k, f in figs.items() if f is not None}
 
 
@@ -425,6 +526,10 @@ def _figure_sections(rep: Mapping, figs: dict) -> list[str]:
                                                      H.figure(figs["track"], "track", 460))))
     else:
         out.append(H.section("On the map", H.paragraph("No GPS position in this log: no map.")))
+    why_cut = (rep.get("cutout") or {}).get("why") or "needs the logged PWM and its fitted model"
+    out.append(H.section("Your wheel's limit and the cut-out", (
+        H.figure(figs["cutout"], "cutout", 460) if "cutout" in figs else
+        H.paragraph(f"Cut-out speeds: not available ({why_cut}).")) + H.paragraph(limits_paragraph(rep))))
     why_env = (rep.get("envelope") or {}).get("why", "needs the logged PWM and its fitted model")
     out.append(H.section("The battery and the limit", H.columns(
         H.figure(figs["sag"], "sag", 420) if "sag" in figs else

@@ -53,7 +53,7 @@ def rider_numbers(log, rep: dict, spec=None, rider_weight: float | None = None) 
             warnings.simplefilter("ignore")
             log = read_log(log, emit_warnings=False)
     counters = read_counters(log.path, log)
-    summary = ride_summary(log, counters)
+    summary = ride_summary(log, counters, getattr(spec, "top_speed", None))
     wheel_kg = getattr(spec, "wheel_mass", None) if spec is not None else None
     mc = mass_check(rep.get("total_mass"), rider_weight, wheel_kg)
     src = getattr(spec, "source", None) if spec is not None else None

@@ -30,6 +30,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.geo import haversine
+from euc_sim.rides.drive.cutout import ride_limits
 from euc_sim.rides.grids.spin import free_spin, spin_json
 
 __all__ = ["RideSummary", "LogCounters", "MassCheck", "read_counters", "ride_summary",
@@ -88,6 +89,9 @@ class LogCounters:
         The app's ``power`` column integrated like :func:`ride_summary` integrates V·I, Wh.
     battery_circuit_ohm : float or None
         The battery resistance the wheel reports (EUC World ``euc.batteryCircuitResistance``), Ω.
+    speed_limit_mps : float or None
+        The speed limit (tilt-back) set in the wheel, the highest the log's ``speed_limit``
+        column (EUC World, km/h) reads, m/s.
     """
 
     alarm_rows: int | None = None
@@ -103,6 +107,7 @@ class LogCounters:
     battery_temp_C: float | None = None
     power_Wh_drawn: float | None = None
     battery_circuit_ohm: float | None = None
+    speed_limit_mps: float | None = None
 
 
 @dataclass(frozen=True)
@@ -143,6 +148,7 @@ class RideSummary:
     quality: str = "good"
     quality_sentence: str = ""
     why: dict = field(default_factory=dict)
+    limits: dict | None = None
 
     def to_json(self) -> dict:
         """A JSON-ready dict (plain floats, ``None`` for what is unknown)."""
@@ -217,6 +223,8 @@ def read_counters(path, log=None) -> LogCounters:
     bat = _num(raw, "battery") if eucworld else _num(raw, "battery_level")
     bf = bat[np.isfinite(bat)] if bat is not None else np.array([])
     tb = _num(raw, "temp_batt")
+    lim = _num(raw, "speed_limit")
+    lim = lim[np.isfinite(lim) & (lim > 0)] if lim is not None else np.array([])
     return LogCounters(
         alarm_rows=None if flag is None else int(flag.sum()),
         alarm_episodes=None if flag is None else _episodes(flag),
@@ -229,7 +237,8 @@ def read_counters(path, log=None) -> LogCounters:
         battery_end_pct=float(bf[-1]) if bf.size else None,
         battery_temp_C=float(np.nanmedian(tb)) if tb is not None else None,
         power_Wh_drawn=_power_column_Wh(log) if log is not None else None,
-        battery_circuit_ohm=_extra_value(raw, "euc.batteryCircuitResistance"))
+        battery_circuit_ohm=_extra_value(raw, "euc.batteryCircuitResistance"),
+        speed_limit_mps=float(lim.max()) / 3.6 if lim.size else None)
 
 
 def _extra_value(raw: pd.DataFrame, key: str) -> float | None:
@@ -457,7 +466,7 @@ def _duration(t: np.ndarray, rolling: np.ndarray) -> tuple[float, float]:
     return float(t[-1] - t_start - paused), t_start
 
 
-def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
+def ride_summary(log, counters: LogCounters | None = None, top_speed_mps: float | None = None) -> RideSummary:
     """The ride's summary from its parsed log.
 
     Parameters
@@ -465,7 +474,10 @@ def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
     log : RideLog
         From :func:`euc_sim.rides.source.logs.read_log` (SI units).
     counters : LogCounters, optional
-        From :func:`read_counters`; gives the alarm count (else ``alarms`` is None).
+        From :func:`read_counters`; gives the alarm count (else ``alarms`` is None)
+        and the speed limit set in the wheel.
+    top_speed_mps : float, optional
+        The spec's top speed, m/s: the ``limits``' speed limit where the log has none.
 
     Returns
     -------
@@ -520,7 +532,8 @@ def ride_summary(log, counters: LogCounters | None = None) -> RideSummary:
         distance_wheel_m=wheel, distance_gps_m=gps, distance_speed_integral_m=integral_m, battery_start_pct=b0, battery_end_pct=b1,
         range_left_m=left, safety_margin_min_pct=None if pmax is None else 100.0 - pmax,
         pwm_max_place=place, free_spin=spin_json(t, v, spin), alarm_rows=c.alarm_rows, sampling_hz=hz, temperature_max_C=temp,
-        quality=q, quality_sentence=sentence, why=why)
+        quality=q, quality_sentence=sentence, why=why,
+        limits=ride_limits(c.speed_limit_mps, top_speed_mps).as_json())
 
 
 # --------------------------------------------------------------------------------------

@@ -24,7 +24,7 @@ __all__ = ["SPEC_RANGE", "TOTAL_MASS_RANGE", "SPEED_SCALE_RANGE", "input_warning
 
 #: Plausible values of a wheel's spec: attribute -> (low, high, unit).
 SPEC_RANGE = {"radius": (0.1, 0.4, "m"), "wheel_mass": (5.0, 100.0, "kg"),
-              "battery_voltage": (24.0, 250.0, "V")}
+              "battery_voltage": (24.0, 250.0, "V"), "top_speed": (10.0 / 3.6, 250.0 / 3.6, "m/s")}
 #: A rider with a wheel weighs this much, kg (a child on a small wheel to a heavy
 #: rider with gear on the heaviest wheel).
 TOTAL_MASS_RANGE = (35.0, 350.0)

@@ -10,9 +10,10 @@ one ``Field| value unit`` row per line, e.g.::
     Net weight| 23.5 kg
     Tension| 84 V
 
-Only three fields are read: ``Wheel diameter`` (inches, converted to the
-wheel's radius in m), ``Net weight`` (kg, the wheel without rider) and
-``Tension`` (the battery's full-charge voltage, V).  Every value can be given or
+Four fields are read: ``Wheel diameter`` (inches, converted to the
+wheel's radius in m), ``Net weight`` (kg, the wheel without rider),
+``Tension`` (the battery's full-charge voltage, V) and ``Max speed`` (km/h, the
+maker's top speed, converted to m/s; a value that cannot be read is left out, not refused).  Every value can be given or
 overridden on its own (:func:`wheel_spec`), so a ride without a spec still runs
 and says what it could not pin down (:attr:`WheelSpec.missing`).
 """
@@ -34,6 +35,7 @@ _FIELDS = {
     "wheel diameter": ("radius", ("inch", "inches", '"', "in"), INCH / 2.0),
     "net weight": ("wheel_mass", ("kg",), 1.0),
     "tension": ("battery_voltage", ("v",), 1.0),
+    "max speed": ("top_speed", ("km/h", "km"), 1.0 / 3.6),
 }
 
 
@@ -53,6 +55,8 @@ class WheelSpec:
         The wheel's net weight, kg.
     battery_voltage : float or None
         Full-charge battery voltage, V (the maker's "Tension").
+    top_speed : float or None
+        The maker's top speed, m/s ("Max speed").
     name : str
         Brand and model, or the file name.
     source : str
@@ -62,6 +66,7 @@ class WheelSpec:
     radius: float | None = None
     wheel_mass: float | None = None
     battery_voltage: float | None = None
+    top_speed: float | None = None
     name: str = ""
     source: str = "none"
 
@@ -74,11 +79,12 @@ class WheelSpec:
     def as_json(self) -> dict:
         """Plain dict for the ride JSON (SI units)."""
         return {"radius_m": self.radius, "wheel_mass_kg": self.wheel_mass,
-                "battery_voltage_V": self.battery_voltage, "name": self.name,
+                "battery_voltage_V": self.battery_voltage, "top_speed_mps": self.top_speed, "name": self.name,
                 "source": self.source, "missing": list(self.missing)}
 
 
-_LABEL = {"radius": "Wheel diameter", "wheel_mass": "Net weight", "battery_voltage": "Tension"}
+_LABEL = {"radius": "Wheel diameter", "wheel_mass": "Net weight", "battery_voltage": "Tension",
+          "top_speed": "Max speed"}
 
 
 def _check_range(where: str, attr: str, value: float) -> None:
@@ -150,11 +156,15 @@ def read_spec(path) -> WheelSpec:
             names[key] = text.strip()
         if key in _FIELDS:
             attr, units, factor = _FIELDS[key]
-            got[attr] = _number(path, row[0].strip(), text, units) * factor
+            try:
+                got[attr] = _number(path, row[0].strip(), text, units) * factor
+                _check_range(f"{path}: field {_LABEL[attr]!r}", attr, got[attr])
+            except SpecError:
+                if attr != "top_speed":         # the top speed only bounds what the page says: left out
+                    raise
+                got.pop(attr, None)
     if "wheel_mass" not in got:
         raise SpecError(f"{path}: field 'Net weight': missing (expected e.g. 'Net weight| 23.5 kg')")
-    for attr, val in got.items():
-        _check_range(f"{path}: field {_LABEL[attr]!r}", attr, val)
     name = " ".join(names.get(k, "") for k in ("brand", "model")).strip() or path.stem
     return WheelSpec(name=name, source=str(path), **got)
 
