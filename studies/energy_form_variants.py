@@ -1,6 +1,6 @@
 """What the energy-balance form lacks: two variants of it, measured like the 5 % rule table.
 
-docs/ride_model.md ("The energy-balance form") measures the branch's form: the |v| column
+docs/ride_model.md ("Left, and tried") measures the branch's form: the |v| column
 holds C_rr and any loss proportional to speed under a tyre's bound 0.05, and the selected
 model predicts worse than the efficiency form's on 34 of 35 comparisons.  Two variants, set
 here on the loaded modules only (the package is not changed):
