@@ -159,11 +159,13 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     ride = read_ride(args.log)
     other = read_ride(args.compare) if args.compare else None
     if args.wheel:              # a spec whose voltage class the log cannot have is refused here
-        from euc_sim.rides.source.spec import log_contradictions
+        from euc_sim.rides.source.spec import SpecError, log_contradictions
 
-        for r in (ride, other):
-            if r is not None:
-                log_contradictions(spec, r.log.data)
+        for p, r in ((args.log, ride), (args.compare, other)):
+            try:
+                r is None or log_contradictions(spec, r.log.data)
+            except SpecError as exc:
+                raise SpecError(f"{p}: {exc} (--wheel {args.wheel})") from None
     check_data(ride, other, assumptions=assumptions,
                domain=args.domain)
     if args.json:
