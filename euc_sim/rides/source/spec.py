@@ -39,7 +39,8 @@ import numpy as np
 from euc_sim.errors import BadInputFile
 
 __all__ = ["SpecError", "WheelSpec", "read_spec", "wheel_spec", "find_wheel", "known_wheels",
-           "log_contradictions", "INCH", "SPEC_RANGE", "CELL_V_RANGE", "TOP_SPEED_MARGIN"]
+           "log_contradictions", "INCH", "SPEC_RANGE", "CELL_V_RANGE", "CELL_V_IMPOSSIBLE",
+           "TOP_SPEED_MARGIN"]
 
 INCH = 0.0254     # inch -> m
 KMH = 1 / 3.6     # km/h -> m/s
@@ -146,8 +147,6 @@ _LABEL = {"radius": "Wheel diameter", "wheel_mass": "Net weight", "battery_volta
 
 def _check_range(where: str, attr: str, value: float) -> None:
     """Refuse a value no wheel has (:data:`SPEC_RANGE`), naming it."""
-    if attr not in SPEC_RANGE:
-        return
     lo, hi, unit = SPEC_RANGE[attr]
     if not lo <= value <= hi:
         shown = (f"{2 * value / INCH:.3g} inches (radius {value:.3g} m)" if attr == "radius"
@@ -226,7 +225,11 @@ def read_spec(path) -> WheelSpec:
             got["cell" if key == "cells" else "tyre"] = text.strip()
         if key in _FIELDS:
             attr, units, factor = _FIELDS[key]
-            got[attr] = _number(path, row[0].strip(), text, units) * factor
+            try:
+                got[attr] = _number(path, row[0].strip(), text, units) * factor
+            except SpecError:
+                if attr in _LABEL:          # the three the analysis needs; the others are optional
+                    raise
     if "wheel_mass" not in got:
         raise SpecError(f"{path}: field 'Net weight': missing (expected e.g. 'Net weight| 23.5 kg')")
     for attr, val in got.items():

@@ -53,6 +53,8 @@ def test_a_path_still_works_and_reads_the_new_fields(tmp_path):
     s = wheel_spec(str(f))
     assert (s.name, s.series, s.parallel, s.motor_power, s.energy_Wh) == ("B M", 32, 4, 3500.0, 2400.0)
     assert s.top_speed == pytest.approx(122 / 3.6)
+    f.write_text("Field|Data\nNet weight| 30 kg\nMotor power| 2x1500 W\nBattery| 20 Ah\n")
+    assert (read_spec(f).motor_power, read_spec(f).energy_Wh) == (None, None)   # optional: left unknown
     f.write_text("Field|Data\nNet weight| 30 kg\nBattery architecture| 32 cells\n")
     with pytest.raises(SpecError, match="Battery architecture.*20s2p"):
         read_spec(f)
