@@ -116,7 +116,8 @@ def _cmd_rides(args: argparse.Namespace) -> int:
         r = b["resistance_25C_ohm"] if hist["basis"] == "25C" else b["resistance_ohm"]
         print(f"{e['start'][:16]}  {Path(e['path']).name}: {(s['distance_m'] or 0) / 1000:.1f} km, "
               f"{s['Wh_per_km'] or float('nan'):.1f} Wh/km, battery {s['battery_used_pct'] or 0:.0f} %, "
-              f"resistance {'–' if r is None else f'{1e3 * r:.0f} mΩ'}")
+              f"resistance {'–' if r is None else f'{1e3 * r:.0f} mΩ'}"
+              + (f" ({b['verdict']})" if pack and r is not None else ""))
     if hist.get("trend"):
         print(f"battery: {hist['trend']}")
     ch = hist["change"]
