@@ -118,6 +118,8 @@ def _print_summary(rep: dict) -> None:
         al = f"  aliases: {', '.join(e['aliases'])}" if e["aliases"] else ""
         print(f"  {kind}: {e['name']} = {e['estimate']:.4g} {unit_label(e['unit'])} "
               f"95% [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]{flag}{al}")
+    for w in rep.get("input_warnings") or []:
+        print(f"  warning: {w}")
     for line in _mass_lines(rep):
         print(line)
     print(f"  {rep['mass_check']['sentence']}")
@@ -170,6 +172,14 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     # each log is parsed once, here; a malformed or too short log fails before any output exists
     ride = read_ride(args.log)
     other = read_ride(args.compare) if args.compare else None
+    if args.wheel:              # a spec whose voltage class the log cannot have is refused here
+        from euc_sim.rides.source.spec import SpecError, log_contradictions
+
+        for p, r in ((args.log, ride), (args.compare, other)):
+            try:
+                r is None or log_contradictions(spec, r.log.data)
+            except SpecError as exc:
+                raise SpecError(f"{p}: {exc} (--wheel {args.wheel})") from None
     check_data(ride, other, assumptions=assumptions,
                domain=args.domain)
     if args.json:
@@ -210,9 +220,10 @@ def add_ride_parser(sub) -> None:
                    help="rider + EUC mass, kg (default Table 3: 81)")
     p.add_argument("--radius", type=float, metavar="M",
                    help="wheel radius, m (default 0.2; overrides the spec's diameter)")
-    p.add_argument("--wheel", metavar="SPEC.csv",
-                   help="the wheel's specification (Field|Data rows: wheel diameter, net weight, "
-                        "battery voltage 'Tension')")
+    p.add_argument("--wheel", metavar="NAME|SPEC.csv",
+                   help="the wheel: a shipped wheel's name (v9, lynx, apex, aero, blitz, mten4, "
+                        "'master pro v2', 's22 pro', z10) or a specification file (Field|Data rows: "
+                        "wheel diameter, net weight, battery voltage 'Tension', ...)")
     p.add_argument("--rider-weight", type=float, metavar="KG",
                    help="the rider's declared weight with gear, kg: a prior the log's total mass checks "
                         "(never taken as the answer)")

@@ -91,10 +91,9 @@ def _cmd_rides(args: argparse.Namespace) -> int:
     pack = None
     if args.wheel:
         from euc_sim.rides.drive.battery import pack_spec
+        from euc_sim.rides.source.spec import wheel_spec
 
-        if not Path(args.wheel).is_file():
-            raise FileNotFoundError(f"--wheel {args.wheel}: no such file")
-        pack = pack_spec(args.wheel)
+        pack = pack_spec(wheel_spec(args.wheel))
     paths = find_logs(args.logs)
     if args.json:
         check_writable(args.json)
@@ -108,7 +107,7 @@ def _cmd_rides(args: argparse.Namespace) -> int:
         from euc_sim.report.html import write_page
         from euc_sim.rides.logbook.history_page import history_page
 
-        title = f"Rides of {Path(args.wheel).stem}" if args.wheel else "Rides of one wheel"
+        title = f"Rides of {pack.name}" if pack and pack.name else "Rides of one wheel"
         write_page(args.report, history_page(hist, title))
     if args.json:
         write_json(args.json, hist)
@@ -117,7 +116,10 @@ def _cmd_rides(args: argparse.Namespace) -> int:
         r = b["resistance_25C_ohm"] if hist["basis"] == "25C" else b["resistance_ohm"]
         print(f"{e['start'][:16]}  {Path(e['path']).name}: {(s['distance_m'] or 0) / 1000:.1f} km, "
               f"{s['Wh_per_km'] or float('nan'):.1f} Wh/km, battery {s['battery_used_pct'] or 0:.0f} %, "
-              f"resistance {'–' if r is None else f'{1e3 * r:.0f} mΩ'}")
+              f"resistance {'–' if r is None else f'{1e3 * r:.0f} mΩ'}"
+              + (f" ({b['verdict']})" if pack and r is not None else ""))
+    if hist.get("trend"):
+        print(f"battery: {hist['trend']}")
     ch = hist["change"]
     if ch:
         print(f"latest ride's resistance against the earlier {ch['n_earlier']}: {ch['verdict']} "
@@ -132,7 +134,9 @@ def add_rides_parser(sub) -> None:
     p.add_argument("logs", nargs="+", metavar="DIR_OR_FILE", help="ride logs, or folders searched for them")
     p.add_argument("--report", metavar="DIR", help="write DIR/index.html")
     p.add_argument("--json", metavar="F", help="write the rides' history as one JSON object")
-    p.add_argument("--wheel", metavar="SPEC.csv", help="the wheel's specification (battery architecture, cell resistance)")
+    p.add_argument("--wheel", metavar="NAME|SPEC.csv",
+                   help="the wheel: a shipped wheel's name (v9, lynx, ...) or a specification file "
+                        "(battery architecture, cells): each ride's resistance against the pack's expected one")
     p.add_argument("--n-boot", type=int, default=100, metavar="N", help="bootstrap replicates of each resistance (default 100)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
     p.add_argument("--workers", type=int, default=1, metavar="N", help="processes reading the logs (default 1)")

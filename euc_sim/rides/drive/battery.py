@@ -10,31 +10,88 @@ function) and adds
 - the normalisation to 25 °C where the battery's temperature is logged
   (:func:`to_25C`, an Arrhenius law; docs/summary.md gives the source and the
   sensitivity), and
-- a verdict against the pack's specification: the cell's resistance from the spec
-  file's ``Cell resistance`` field scaled by its ``Battery architecture`` (NsMp);
-  without it, the per-cell figure a rider can compare with the cell's data sheet.
-  The resistance EUC World is set to use for its sag compensation
-  (``euc.batteryCircuitResistance``, a setting, not a measurement) is shown beside
-  it for comparison, never used as the specification.
+- a verdict in a rider's words ("as new", "worn: +35 % resistance", "cannot tell")
+  against the resistance a new pack of the spec's layout has (:meth:`PackSpec.expected`):
+  n_series × R_cell / n_parallel from the cell's figures in ``data/cells.csv`` (each
+  row names its datasheet or test), plus the interconnects, BMS and leads
+  (:data:`INTERCONNECT_OHM`, :data:`FIXED_OHM`).  The resistance EUC World is set to
+  use for its sag compensation (``euc.batteryCircuitResistance``, a setting, not a
+  measurement) is shown beside it for comparison, never used as the specification;
+- across rides, :func:`trend_words`: the first ride's resistance against the last's.
 """
 
 from __future__ import annotations
 
+import csv
 import math
 import re
 from dataclasses import asdict, dataclass
+from functools import lru_cache
 
-__all__ = ["PackSpec", "BatteryHealth", "pack_spec", "to_25C", "battery_health",
-           "battery_health_from_report", "measure_resistance", "EA_J_PER_MOL", "WORN_RATIO", "AGED_RATIO"]
+__all__ = ["PackSpec", "BatteryHealth", "CellFigures", "pack_spec", "cell_figures", "to_25C",
+           "battery_health", "battery_health_from_report", "measure_resistance", "health_verdict",
+           "trend_words", "EA_J_PER_MOL", "AGED_RATIO", "SOC_SPREAD", "INTERCONNECT_OHM", "FIXED_OHM"]
 
 #: Activation energy of the cell's DC resistance, J/mol (Arrhenius normalisation; docs/summary.md).
 EA_J_PER_MOL = 20_000.0
 GAS_CONSTANT = 8.314462618       # J/(mol·K)
 T25_K = 298.15
-#: Resistance over the specified one at which the pack is called worn (a common end-of-life mark) ...
-WORN_RATIO = 2.0
-#: ... and aged.
+#: A ride's interval overlapping the new pack's range but reaching above this × its upper end
+#: cannot tell a new pack from one 30 % worn: "cannot tell".
 AGED_RATIO = 1.3
+#: A cell's DC resistance over a ride's charge range against its mid-charge figure, up to: the
+#: 50S's pulse test gives 14.2 mΩ at mid-charge and 20.0 mΩ full (tayvoy.com), ×1.4.
+SOC_SPREAD = 1.4
+#: Per series step, the welds, nickel strips or busbars between cell groups, Ω (an allowance
+#: of 0.2-1.0 mΩ a step: a few 0.1 mΩ of strip and weld per joint; our estimate, not a datasheet).
+INTERCONNECT_OHM = (0.2e-3, 1.0e-3)
+#: Once per pack: the BMS's MOSFETs, fuse, connectors and the leads to the controller, Ω
+#: (5-30 mΩ: a few mΩ of MOSFETs and of each connector, about 3 mΩ a metre of 10 AWG lead;
+#: our estimate, not a datasheet).
+FIXED_OHM = (5e-3, 30e-3)
+
+
+@dataclass(frozen=True)
+class CellFigures:
+    """One cell's published figures (``data/cells.csv``).
+
+    Attributes
+    ----------
+    cell : str
+        The cell's full name.
+    capacity_mAh : float or None
+    ac_ohm, dc_ohm : float or None
+        AC (1 kHz) impedance and DC (pulse, mid-charge) resistance, Ω.
+    source : str
+        Where each figure is published.
+    """
+
+    cell: str
+    capacity_mAh: float | None
+    ac_ohm: float | None
+    dc_ohm: float | None
+    source: str
+
+
+@lru_cache(maxsize=1)
+def _cells() -> tuple[tuple[tuple[str, ...], CellFigures], ...]:
+    from importlib.resources import files
+
+    text = files("euc_sim.rides.drive").joinpath("data", "cells.csv").read_text(encoding="utf-8")
+    num = (lambda x, k=1.0: float(x) * k if x else None)
+    return tuple((tuple(a.upper() for a in r["aliases"].split(";") if a),
+                  CellFigures(r["cell"], num(r["capacity_mAh"]), num(r["ac_1kHz_mohm"], 1e-3),
+                              num(r["dc_mohm"], 1e-3), r["source"]))
+                 for r in csv.DictReader(text.splitlines()))
+
+
+def cell_figures(text: str) -> CellFigures | None:
+    """The figures of the cell a spec names (``SAMSUNG 50S (21700) li-ion``), or None."""
+    up = str(text).upper()
+    for aliases, fig in _cells():
+        if any(re.search(rf"(?<![A-Z0-9]){re.escape(a)}(?![A-Z0-9])", up) for a in aliases):
+            return fig
+    return None
 
 
 @dataclass(frozen=True)
@@ -48,9 +105,12 @@ class PackSpec:
     cell : str
         The cell model as written.
     cell_resistance_ohm : float or None
-        One cell's DC resistance (``Cell resistance| 15 mOhm``), Ω.
+        One cell's DC resistance where the spec gives it (``Cell resistance| 15 mOhm``), Ω;
+        else the cell table's (:func:`cell_figures`).
     energy_Wh : float or None
         The pack's energy (``Battery| 750 Wh``).
+    name : str
+        The wheel's name.
     """
 
     series: int | None = None
@@ -58,30 +118,37 @@ class PackSpec:
     cell: str = ""
     cell_resistance_ohm: float | None = None
     energy_Wh: float | None = None
+    name: str = ""
 
-    @property
-    def expected_ohm(self) -> float | None:
-        """The pack's resistance from its cells, Ω (wiring and BMS not counted)."""
-        if self.cell_resistance_ohm and self.series and self.parallel:
-            return self.cell_resistance_ohm * self.series / self.parallel
+    def expected(self) -> tuple[tuple[float, float] | None, str]:
+        """The resistance of this pack when new, Ω, as [lo, hi], and its source (or why none).
+
+        lo = n_s·(R_cell/n_p + 0.2 mΩ) + 5 mΩ and hi = n_s·(1.4·R_cell/n_p + 1.0 mΩ) + 30 mΩ:
+        the cells at mid-charge to full (:data:`SOC_SPREAD`) plus the interconnects
+        (:data:`INTERCONNECT_OHM`) and the BMS and leads (:data:`FIXED_OHM`).
+        """
+        if not (self.series and self.parallel):
+            return None, "the spec gives no pack layout (cells in series and in parallel)"
+        layout = f"{self.series}s{self.parallel}p"
+        if self.cell_resistance_ohm:
+            r, src = self.cell_resistance_ohm, f"{layout} of {self.cell or 'cells'} at the spec's cell resistance"
+        else:
+            fig = cell_figures(self.cell) if self.cell else None
+            if fig is None or fig.dc_ohm is None:
+                return None, (f"no resistance figure for the cell {fig.cell if fig else self.cell or '(not named)'}")
+            r, src = fig.dc_ohm, f"{layout} of {fig.cell} ({fig.source})"
+        n, p = self.series, self.parallel
+        lo = n * (r / p + INTERCONNECT_OHM[0]) + FIXED_OHM[0]
+        hi = n * (SOC_SPREAD * r / p + INTERCONNECT_OHM[1]) + FIXED_OHM[1]
+        return (lo, hi), src + "; plus interconnects, BMS and leads (euc-sim's allowance)"
+
+
+def pack_spec(spec) -> PackSpec | None:
+    """The pack of a :class:`euc_sim.rides.source.spec.WheelSpec`; None without one or without a pack."""
+    if spec is None or not (getattr(spec, "series", None) or getattr(spec, "cell", "")):
         return None
-
-
-def pack_spec(path) -> PackSpec | None:
-    """Read the pack's fields of an EUC_core ``Field|Data`` spec file; None when unreadable."""
-    try:
-        rows = [ln.split("|", 1) for ln in open(path, encoding="utf-8").read().splitlines() if "|" in ln]
-    except (OSError, UnicodeDecodeError):
-        return None
-    got = {k.strip().lower(): v.strip() for k, v in rows}
-    arch = re.match(r"\s*(\d+)\s*s\s*(\d+)\s*p", got.get("battery architecture", ""), re.I)
-    res = re.match(r"\s*([\d.]+)\s*(m?)\s*ohm", got.get("cell resistance", ""), re.I)
-    wh = re.match(r"\s*([\d.]+)\s*wh", got.get("battery", ""), re.I)
-    return PackSpec(series=int(arch.group(1)) if arch else None,
-                    parallel=int(arch.group(2)) if arch else None,
-                    cell=got.get("cells", ""),
-                    cell_resistance_ohm=(float(res.group(1)) * (1e-3 if res.group(2) else 1.0)) if res else None,
-                    energy_Wh=float(wh.group(1)) if wh else None)
+    return PackSpec(series=spec.series, parallel=spec.parallel, cell=spec.cell,
+                    cell_resistance_ohm=spec.cell_resistance, energy_Wh=spec.energy_Wh, name=spec.name)
 
 
 def to_25C(r_ohm: float, temp_C: float, ea: float = EA_J_PER_MOL) -> float:
@@ -107,14 +174,18 @@ class BatteryHealth:
         Normalised to 25 °C; None without a battery temperature.
     per_cell_ohm : float or None
         The pack's resistance × parallel / series: one cell's share, Ω.
-    expected_ohm : float or None
-        The pack's resistance from its specification.
+    expected_ohm : tuple or None
+        The resistance of the spec's pack when new, [lo, hi] Ω (:meth:`PackSpec.expected`).
     expected_source : str or None
+        The cell's datasheet or test and the pack's layout.
     app_setting_ohm : float or None
         The resistance EUC World's sag compensation is set to (for comparison only).
     verdict : str
-        ``"as specified"``, ``"aged"``, ``"worn"``, ``"no specification"`` or ``"not measured"``.
+        ``"as new"``, ``"worn: +NN % resistance"``, ``"cannot tell"`` or ``"not measured"``
+        (:func:`health_verdict`).
     sentence : str
+    verdict_why : str
+        Why the verdict, in one clause.
     """
 
     resistance_ohm: float | None
@@ -128,29 +199,58 @@ class BatteryHealth:
     app_setting_ohm: float | None
     verdict: str
     sentence: str
+    verdict_why: str = ""
 
     def to_json(self) -> dict:
         """A JSON-ready dict."""
         out = asdict(self)
-        for k in ("resistance_ci95", "resistance_25C_ci95"):
+        for k in ("resistance_ci95", "resistance_25C_ci95", "expected_ohm"):
             out[k] = list(out[k]) if out[k] is not None else None
         return out
 
 
-def _verdict(r: float, ci, expected: float | None, source: str | None) -> tuple[str, str]:
+def health_verdict(r: float, ci, expected) -> tuple[str, str]:
+    """A pack's resistance against a new one's, in a rider's words, and why in one clause.
+
+    Parameters
+    ----------
+    r, ci : float, tuple or None
+        The ride's resistance and its 95 % interval, Ω.
+    expected : tuple or None
+        A new pack's [lo, hi], Ω.
+
+    Returns
+    -------
+    verdict : str
+        ``"worn: +NN % resistance"`` (the interval above the new pack's range; NN against its
+        upper end), ``"cannot tell"`` (no expected range, or an interval reaching past
+        :data:`AGED_RATIO` × its upper end), else ``"as new"``.
+    why : str
+    """
     if expected is None:
-        return "no specification", (f"Internal resistance {1e3 * r:.0f} mΩ; the specification gives "
-                                    f"no pack resistance to judge it against")
-    lo = ci[0] if ci else r
-    ratio = r / expected
-    if lo > WORN_RATIO * expected:
-        v = "worn"
-    elif lo > AGED_RATIO * expected:
-        v = "aged"
-    else:
-        v = "as specified"
-    return v, (f"Internal resistance {1e3 * r:.0f} mΩ, {ratio:.1f}× the {1e3 * expected:.0f} mΩ of "
-               f"{source}: {v}")
+        return "cannot tell", "no resistance of a new pack to judge it against"
+    lo, hi = expected
+    a, b = ci if ci else (r, r)
+    rng, got = f"the {1e3 * lo:.0f}–{1e3 * hi:.0f} mΩ of a new pack", f"its 95 % interval {1e3 * a:.0f}–{1e3 * b:.0f} mΩ"
+    if a > hi:
+        return f"worn: +{100 * (r / hi - 1):.0f} % resistance", f"{got} lies above {rng}"
+    if b > AGED_RATIO * hi:
+        return "cannot tell", f"{got} is too wide to tell {rng} from a worn one"
+    return "as new", f"{got} {'lies below' if b < lo else 'overlaps'} {rng}"
+
+
+def trend_words(values, cis) -> str:
+    """The resistance from the first ride to the last, in a rider's words (no p-value).
+
+    ``"resistance unchanged across N rides"`` where the first and the last ride's 95 %
+    intervals overlap, else ``"rising: +NN % from first to last"`` or ``"falling: −NN % ..."``.
+    """
+    n = len(values)
+    (a0, b0), (a1, b1) = cis[0], cis[-1]
+    if a1 <= b0 and a0 <= b1:
+        return f"resistance unchanged across {n} rides"
+    pct = 100 * (values[-1] / values[0] - 1)
+    return f"{'rising' if pct > 0 else 'falling'}: {pct:+.0f} % from first to last".replace("-", "−")
 
 
 def battery_health(r_ohm: float | None, ci95, temp_C: float | None = None,
@@ -163,23 +263,28 @@ def battery_health(r_ohm: float | None, ci95, temp_C: float | None = None,
     r_ohm, ci95 : float, tuple
         The drivetrain's ``internal_resistance`` and its 95 % interval, Ω.
     temp_C : float, optional
-        The battery's temperature during the ride, °C (normalises to 25 °C).
+        The battery's temperature during the ride, °C (normalises to 25 °C; without it the
+        verdict compares the resistance as measured, and says so).
     pack : PackSpec, optional
     wheel_reported_ohm : float, optional
         The resistance EUC World's sag compensation is set to, Ω (shown for comparison).
     why : str, optional
         Why the resistance is not measured (when ``r_ohm`` is None).
     """
+    expected, source = pack.expected() if pack else (None, "no wheel specification given")
     if r_ohm is None or not math.isfinite(r_ohm) or r_ohm <= 0:
-        return BatteryHealth(None, None, temp_C, None, None, None, None, None, wheel_reported_ohm,
-                             "not measured", why or "The ride does not give the battery's internal resistance.")
+        return BatteryHealth(None, None, temp_C, None, None, None, expected,
+                             source if expected else None, wheel_reported_ohm, "not measured",
+                             why or "The ride does not give the battery's internal resistance.",
+                             why or "the ride does not give the battery's internal resistance")
     r25 = to_25C(r_ohm, temp_C) if temp_C is not None else None
     ci25 = tuple(to_25C(x, temp_C) for x in ci95) if (temp_C is not None and ci95) else None
     per_cell = r_ohm * pack.parallel / pack.series if pack and pack.series and pack.parallel else None
-    expected, source = (pack.expected_ohm, f"{pack.series}s{pack.parallel}p of {pack.cell or 'cells'} "
-                                           f"(spec)") if pack and pack.expected_ohm else (None, None)
     ref, ref_ci = (r25, ci25) if r25 is not None else (r_ohm, ci95)
-    v, s = _verdict(ref, ref_ci, expected, source)
+    v, vwhy = health_verdict(ref, ref_ci, expected)
+    if expected is None:
+        vwhy = source
+    s = f"Internal resistance {1e3 * ref:.0f} mΩ: {v} ({vwhy})"
     if r25 is not None:
         s += f" (at 25 °C; {1e3 * r_ohm:.0f} mΩ at the logged {temp_C:.0f} °C)."
     else:
@@ -187,7 +292,7 @@ def battery_health(r_ohm: float | None, ci95, temp_C: float | None = None,
     if wheel_reported_ohm:
         s += f" EUC World's sag compensation is set to {1e3 * wheel_reported_ohm:.0f} mΩ."
     return BatteryHealth(r_ohm, tuple(ci95) if ci95 else None, temp_C, r25, ci25, per_cell,
-                         expected, source, wheel_reported_ohm, v, s)
+                         expected, source if expected else None, wheel_reported_ohm, v, s, vwhy)
 
 
 def measure_resistance(log, n_boot: int = 100, seed: int = 0) -> tuple[float, tuple | None]:

@@ -131,6 +131,9 @@ class RideHistory:
     whkm_slope, whkm_slope_ci95 : float or None
         Wh/km per (m/s) of mean moving speed, least squares over the rides.
     why : dict
+    trend : str or None
+        The resistance from the first ride to the last in words
+        (:func:`euc_sim.rides.drive.battery.trend_words`); None under two rides with one.
     """
 
     rides: tuple
@@ -139,6 +142,7 @@ class RideHistory:
     whkm_slope: float | None
     whkm_slope_ci95: tuple | None
     why: dict = field(default_factory=dict)
+    trend: str | None = None
 
     def to_json(self) -> dict:
         """A JSON-ready dict."""
@@ -147,7 +151,7 @@ class RideHistory:
                 "Wh_per_km_vs_speed": {"slope": self.whkm_slope,
                                        "ci95": list(self.whkm_slope_ci95) if self.whkm_slope_ci95 else None,
                                        "unit": "Wh/km per m/s"},
-                "why": dict(self.why)}
+                "trend": self.trend, "why": dict(self.why)}
 
 
 # --------------------------------------------------------------------------------------
@@ -305,9 +309,12 @@ def ride_history(entries) -> RideHistory:
     all25 = bool(with_r) and all(e.battery["resistance_25C_ohm"] is not None for e in with_r)
     key, ci_key = (("resistance_25C_ohm", "resistance_25C_ci95") if all25
                    else ("resistance_ohm", "resistance_ci95"))
-    change = None
+    change = trend = None
     if len(with_r) >= 2:
+        from euc_sim.rides.drive.battery import trend_words
+
         change = change_test([e.battery[key] for e in with_r], [e.battery[ci_key] for e in with_r])
+        trend = trend_words([e.battery[key] for e in with_r], [e.battery[ci_key] for e in with_r])
     else:
         why["change"] = f"{len(with_r)} ride(s) with a measured resistance: a change test needs two"
     sp = [e.summary["speed_mean_moving_mps"] for e in rides]
@@ -316,4 +323,4 @@ def ride_history(entries) -> RideHistory:
     if slope is None:
         why["Wh_per_km_vs_speed"] = "fewer than three rides with a consumption and a speed"
     return RideHistory(rides=rides, basis="25C" if all25 else "as measured", change=change,
-                       whkm_slope=slope, whkm_slope_ci95=sci, why=why)
+                       whkm_slope=slope, whkm_slope_ci95=sci, why=why, trend=trend)

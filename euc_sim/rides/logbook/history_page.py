@@ -87,7 +87,7 @@ def _key_figures(h: dict) -> list:
         tone = "warn" if ch["verdict"] == "changed" else "good"
         out.append(KeyFigure("Battery resistance, latest ride", f"{1e3 * ch['latest']:.0f} mΩ",
                              f"earlier rides {1e3 * ch['earlier_mean']:.0f} mΩ", tone))
-        out.append(KeyFigure("Change test", ch["verdict"],
+        out.append(KeyFigure("Battery resistance trend", h.get("trend") or ch["verdict"],
                              f"p = {ch['p_value']:.2g}; latest − earlier {1e3 * ch['difference']:+.0f} mΩ "
                              f"[{1e3 * ch['difference_ci95'][0]:+.0f}, {1e3 * ch['difference_ci95'][1]:+.0f}]", tone))
     trend = _trend_tile(h)

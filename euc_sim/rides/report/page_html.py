@@ -186,11 +186,8 @@ def _mass_tile(tm: Mapping | None, check: Mapping | None) -> object:
                        "warn" if decl is not None and verdict in ("heavier", "lighter") else "")
 
 
-#: The battery entry's verdict -> tile tone.
-BATTERY_TONE = {"as specified": "good", "aged": "warn", "worn": "bad"}
-#: The battery entry's verdict in a rider's words where the bare verdict misleads
-#: ("no specification" beside a spec the rider gave: the spec has no pack resistance).
-VERDICT_WORDS = {"no specification": "no health verdict (the spec gives no pack resistance)"}
+#: The battery entry's verdict (its first word) -> tile tone.
+BATTERY_TONE = {"as new": "good", "worn:": "bad"}
 
 
 def _battery_tile(rep: Mapping) -> object:
@@ -206,9 +203,12 @@ def _battery_tile(rep: Mapping) -> object:
     if est is None or est <= 0:
         return H.KeyFigure("Battery resistance", NA, short((b or {}).get("sentence", "")) or
                            "the log shows no voltage sag under load", "warn" if est is not None else "")
-    note = VERDICT_WORDS.get(verdict, verdict) + (f"; {1000 * r25:.0f} mΩ at 25 °C" if r25 is not None else
-                      f"; 95 % {1000 * ci[0]:.0f}–{1000 * ci[1]:.0f} mΩ" if ci else "")
-    return H.KeyFigure("Battery resistance", f"{1000 * est:.0f} mΩ", note, BATTERY_TONE.get(verdict, ""))
+    exp, why = (b or {}).get("expected_ohm"), (b or {}).get("verdict_why")
+    note = verdict + (f" (new: {1000 * exp[0]:.0f}–{1000 * exp[1]:.0f} mΩ)" if exp else f" ({why})" if why else "") + (
+        f"; {1000 * r25:.0f} mΩ at 25 °C" if r25 is not None else
+        f"; 95 % {1000 * ci[0]:.0f}–{1000 * ci[1]:.0f} mΩ" if ci else "")
+    tone = next((t for k, t in BATTERY_TONE.items() if verdict.startswith(k)), "")
+    return H.KeyFigure("Battery resistance", f"{1000 * est:.0f} mΩ", note, tone)
 
 
 def key_figures(rep: Mapping) -> list:
@@ -239,7 +239,7 @@ def first_screen(rep: Mapping) -> frozenset:
 
 def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
     """The verdict in sentences: the data's quality first when it weakens everything else."""
-    out = []
+    out = [f"Warning: {w}." for w in rep.get("input_warnings") or []]    # the log against its spec
     _, tone = data_quality(rep.get("summary"))
     if tone in ("bad", "warn"):             # poor data weakens every verdict (its numbers: the tile's)
         out.append(f"The log's data quality is {rep['summary'].get('quality')} (tile above): "
@@ -578,8 +578,9 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
 def _subtitle(rep: Mapping) -> str:
     w = rep.get("wheel") or {}
     src = str(w.get("source") or "").strip()
-    return ("Wheel: " + Path(src.split("+")[0].strip()).stem if src.endswith(".csv") else
-            "Wheel: not specified") + " · euc-sim ride report"
+    file = src.split("+")[0].strip()
+    name = w.get("name") or (Path(file).stem if file.endswith(".csv") else "")
+    return f"Wheel: {name or 'not specified'} · euc-sim ride report"
 
 
 def write_ride_html(rep: Mapping, out_dir, series: RideSeries | None, fit=None,

@@ -35,7 +35,7 @@ def rider_numbers(log, rep: dict, spec=None, rider_weight: float | None = None) 
         The ride JSON built so far: its ``total_mass`` and ``drivetrain`` are read,
         never recomputed.
     spec : WheelSpec, optional
-        The wheel's weight (for the mass check) and source file (for the pack).
+        The wheel's weight (for the mass check) and pack (for the battery's verdict).
     rider_weight : float, optional
         The rider's declared weight, kg.
 
@@ -56,7 +56,8 @@ def rider_numbers(log, rep: dict, spec=None, rider_weight: float | None = None) 
     summary = ride_summary(log, counters, getattr(spec, "top_speed", None))
     wheel_kg = getattr(spec, "wheel_mass", None) if spec is not None else None
     mc = mass_check(rep.get("total_mass"), rider_weight, wheel_kg)
-    src = getattr(spec, "source", None) if spec is not None else None
-    pack = pack_spec(src) if src and src not in ("none",) else None
-    bh = battery_health_from_report(rep.get("drivetrain"), log, counters, pack)
-    return {"summary": summary.to_json(), "mass_check": mc.to_json(), "battery": bh.to_json()}
+    bh = battery_health_from_report(rep.get("drivetrain"), log, counters, pack_spec(spec)).to_json()
+    out = summary.to_json()
+    # CONTRACT's summary.battery: the verdict and what it is judged against (the whole entry: battery)
+    out["battery"] = {k: bh[k] for k in ("verdict", "expected_ohm", "expected_source")}
+    return {"summary": out, "mass_check": mc.to_json(), "battery": bh}

@@ -7,8 +7,9 @@ import warnings
 
 import pytest
 
-from euc_sim.rides.drive.battery import (AGED_RATIO, PackSpec, battery_health, battery_health_from_report,
+from euc_sim.rides.drive.battery import (PackSpec, battery_health, battery_health_from_report,
                                    measure_resistance, pack_spec, to_25C)
+from euc_sim.rides.source.spec import read_spec
 from euc_sim.rides.source.logs import read_log
 from tests.rides.summarysynth import synth_summary_log
 
@@ -36,28 +37,29 @@ def test_to_25C_is_arrhenius_and_identity_at_25():
 
 def test_pack_spec_reads_architecture_and_cell_resistance(tmp_path):
     f = tmp_path / "w.csv"
-    f.write_text("Field|Data\nBattery| 750 Wh\nBattery architecture| 20s2p\nCells| X (21700)\n"
-                 "Cell resistance| 15 mOhm\n")
-    p = pack_spec(f)
-    assert (p.series, p.parallel, p.energy_Wh) == (20, 2, 750.0)
-    assert p.expected_ohm == pytest.approx(0.015 * 20 / 2)
-    assert pack_spec(tmp_path / "missing.csv") is None
+    f.write_text("Field|Data\nNet weight| 20 kg\nBattery| 750 Wh\nBattery architecture| 20s2p\n"
+                 "Cells| X (21700)\nCell resistance| 15 mOhm\n")
+    p = pack_spec(read_spec(f))
+    assert (p.series, p.parallel, p.energy_Wh, p.cell_resistance_ohm) == (20, 2, 750.0, pytest.approx(0.015))
+    (lo, hi), src = p.expected()
+    assert (lo, hi) == (pytest.approx(0.150 + 20 * 0.2e-3 + 5e-3), pytest.approx(0.210 + 20 * 1e-3 + 30e-3))
+    assert "20s2p" in src
+    assert pack_spec(None) is None
 
 
 def test_verdicts():
-    pack = PackSpec(series=20, parallel=2, cell="c", cell_resistance_ohm=0.015)    # 150 mΩ
-    assert battery_health(0.16, (0.15, 0.17), None, pack).verdict == "as specified"
-    assert battery_health(0.25, (0.24, 0.26), None, pack).verdict == "aged"
-    assert battery_health(0.40, (0.35, 0.45), None, pack).verdict == "worn"
-    # an interval reaching below the aged mark is not called aged
-    assert battery_health(0.25, (0.15 * AGED_RATIO - 0.01, 0.3), None, pack).verdict == "as specified"
+    pack = PackSpec(series=20, parallel=2, cell="c", cell_resistance_ohm=0.015)
+    (lo, hi), _ = pack.expected()
+    assert battery_health(0.16, (0.15, 0.17), None, pack).verdict == "as new"
+    assert battery_health(0.4, (0.38, 0.42), None, pack).verdict.startswith("worn: +")
     h = battery_health(0.16, (0.15, 0.17), 35.0, pack)
     assert h.resistance_25C_ohm == pytest.approx(to_25C(0.16, 35.0))
     assert h.per_cell_ohm == pytest.approx(0.016)
-    assert battery_health(0.16, (0.15, 0.17)).verdict == "no specification"
+    assert h.to_json()["expected_ohm"] == [pytest.approx(lo), pytest.approx(hi)]
+    assert battery_health(0.16, (0.15, 0.17)).verdict == "cannot tell"
     app = battery_health(0.16, None, wheel_reported_ohm=0.13)
     assert app.expected_ohm is None and app.app_setting_ohm == 0.13      # a setting, not a spec
-    assert app.verdict == "no specification" and "130 mΩ" in app.sentence
+    assert app.verdict == "cannot tell" and "130 mΩ" in app.sentence
     assert battery_health(None, None, why="no current").verdict == "not measured"
 
 

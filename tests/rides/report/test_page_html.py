@@ -93,15 +93,20 @@ def test_no_alarm_is_said_once(tmp_path):
     assert (two["Alarms"].value, two["Alarms"].note) == ("2", "3 rows of the log flagged")
 
 
-def test_the_battery_tile_says_why_there_is_no_health_verdict():
-    """V9 0 was run with --wheel v9.csv; its battery tile read 'no specification; 212 mΩ at 25 °C'."""
+def test_the_battery_tile_says_the_verdict_and_why():
+    """V9 0 was run with --wheel v9.csv; its battery tile read 'no specification; 212 mΩ at 25 °C'.
+    It now gives the verdict with a new pack's range, or why it cannot tell."""
     b = {"resistance_ohm": 0.186, "resistance_ci95": [0.178, 0.192], "resistance_25C_ohm": 0.212,
-         "verdict": "no specification"}
+         "verdict": "cannot tell", "expected_ohm": None,
+         "verdict_why": "no resistance figure for the cell X"}
     tile = _tiles({"battery": b})["Battery resistance"]
     assert tile.value == "186 mΩ"
-    assert tile.note == "no health verdict (the spec gives no pack resistance); 212 mΩ at 25 °C"
-    aged = _tiles({"battery": dict(b, verdict="aged")})["Battery resistance"]
-    assert aged.note.startswith("aged;") and aged.tone == "warn"
+    assert tile.note == "cannot tell (no resistance figure for the cell X); 212 mΩ at 25 °C" and tile.tone == ""
+    new = _tiles({"battery": dict(b, verdict="as new", expected_ohm=[0.209, 0.33])})["Battery resistance"]
+    assert new.note == "as new (new: 209–330 mΩ); 212 mΩ at 25 °C" and new.tone == "good"
+    worn = _tiles({"battery": dict(b, verdict="worn: +35 % resistance", expected_ohm=[0.1, 0.157])})
+    assert worn["Battery resistance"].note.startswith("worn: +35 % resistance (new: 100–157 mΩ)")
+    assert worn["Battery resistance"].tone == "bad"
 
 
 def test_the_pwm_panel_shows_the_logged_peak_the_tile_gives():
