@@ -9,7 +9,8 @@ the JSON last.
 
 from __future__ import annotations
 
-from euc_sim.cli.common import bounded, seed
+from euc_sim.cli.common import seed
+from euc_sim.cli.options import bounded, workers
 from euc_sim.errors import InputError
 
 import argparse
@@ -132,8 +133,6 @@ def _cmd_ride(args: argparse.Namespace) -> int:
 
     if args.domain not in ("power", "torque"):
         raise InputError(f"--domain must be power or torque, got {args.domain!r}")
-    if args.workers < 1:
-        raise InputError(f"--workers must be at least 1, got {args.workers}")
     if args.n_boot < MIN_BOOT:
         raise InputError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
                          f"bootstrap interval), got {args.n_boot}")
@@ -192,28 +191,33 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's ride object")
     p.add_argument("--domain", default="power", metavar=one_of(("power", "torque")),
                    help="residual in battery power, W (default), or divided by ω, N·m")
-    p.add_argument("--mass", type=float, metavar="KG",
+    from euc_sim.model.parameters import PLAUSIBLE
+    from euc_sim.rides.report.rider_view import RIDER_WEIGHT
+    from euc_sim.rides.source.sanity import SPEC_RANGE, TOTAL_MASS_RANGE
+
+    p.add_argument("--mass", type=bounded(*TOTAL_MASS_RANGE, unit="kg"), metavar="KG",
                    help="rider + EUC mass, kg (default Table 3: 81)")
-    p.add_argument("--radius", type=float, metavar="M",
+    p.add_argument("--radius", type=bounded(*PLAUSIBLE["R"], unit="m"), metavar="M",
                    help="wheel radius, m (default 0.2; overrides the spec's diameter)")
     p.add_argument("--wheel", metavar="SPEC.csv",
                    help="the wheel's specification (Field|Data rows: wheel diameter, net weight, "
                         "battery voltage 'Tension')")
-    p.add_argument("--rider-weight", type=float, metavar="KG",
+    p.add_argument("--rider-weight", type=bounded(*RIDER_WEIGHT, unit="kg"), metavar="KG",
                    help="the rider's declared weight with gear, kg: a prior the log's total mass checks "
                         "(never taken as the answer)")
-    p.add_argument("--wheel-mass", type=float, metavar="KG",
+    p.add_argument("--wheel-mass", type=bounded(*SPEC_RANGE["wheel_mass"][:2], unit="kg"), metavar="KG",
                    help="the wheel's net weight, kg (overrides the spec)")
-    p.add_argument("--battery-voltage", type=float, metavar="V",
+    p.add_argument("--battery-voltage", type=bounded(*SPEC_RANGE["battery_voltage"][:2], unit="V"),
+                   metavar="V",
                    help="full-charge battery voltage, V (overrides the spec)")
-    p.add_argument("--efficiency", type=float, default=0.8, metavar="ETA",
+    p.add_argument("--efficiency", type=bounded(0.1, 1.0), default=0.8, metavar="ETA",
                    help="drivetrain efficiency used only to infer a logged torque from battery "
                         "power (--domain torque, the simulation's torque column; default 0.8); "
                         "the balance fit has no efficiency")
     p.add_argument("--n-boot", type=bounded(MIN_BOOT, 100_000, integer=True), default=200, metavar="N",
                    help=f"bootstrap replicates, at least {MIN_BOOT} (default 200, at most 100000)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
-    p.add_argument("--workers", type=int, default=2, metavar="N",
+    p.add_argument("--workers", type=workers(), default=2, metavar="N",
                    help="threads for the simulation's steps (default 2)")
     deprecated(p, "--jobs", "--workers")
     p.add_argument("--calibrate-rider", action="store_true",
