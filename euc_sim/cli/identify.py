@@ -149,7 +149,7 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--n-boot", type=bounded(0, 100_000, integer=True), default=400, metavar="N",
                    help="block-bootstrap replicates for the 95%% interval (default 400, at most 100000)")
     deprecated(p, "--bootstrap", "--n-boot")
-    p.add_argument("--block", type=bounded(0.01, 600.0, unit="s"), default=None, metavar="S",
+    p.add_argument("--block", type=bounded(0.01, 3600.0, unit="s"), default=None, metavar="S",
                    help="bootstrap block, s (default 1 s, about the correlation time of the "
                         "filtered residual)")
     p.add_argument("--seed", type=seed, default=0,

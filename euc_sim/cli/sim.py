@@ -131,20 +131,33 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                        noise=args.noise, engine=args.engine, variant=args.variant,
                        hide_torques=bool(args.hide_torques), motor=motor, rider_noise=args.rider_noise,
                        rider_delay=args.rider_delay, rolling_model=args.rolling_model,
-                       drift_shape=_drift_shape(args.drift_shape, eff), name=out.with_suffix("").name)
+                       drift_shape=_drift_shape(args.drift_shape, eff, params.h, args.duration), name=out.with_suffix("").name)
     path = api.write_recording(rec, out)
     say(f"simulate: wrote {path} ({man.name}, {args.duration:g} s, {args.engine}, seed {args.seed})")
     return 0
 
 
-def _drift_shape(text, eff):
-    """``--drift-shape`` (needs ``--effect cog_height_drift=VALUE``), or None."""
-    if text is None:
-        return None
-    if "cog_height_drift" not in eff:
+def _drift_shape(text, eff, h: float = 0.6, duration: float = 15.0):
+    """``--drift-shape`` (needs ``--effect cog_height_drift=VALUE``), or None.
+
+    The drift must leave the rider's centre of gravity above the ankle: h(t) (m) at least
+    the plausible least h (:data:`euc_sim.model.parameters.PLAUSIBLE`) over the ``duration`` (s).
+    """
+    from euc_sim.simulation.drift import cog_height, parse_drift_shape
+
+    if text is not None and "cog_height_drift" not in eff:
         raise InputError("--drift-shape shapes the cog_height_drift effect; add --effect cog_height_drift=VALUE")
-    from euc_sim.simulation.drift import parse_drift_shape
-    return parse_drift_shape(text)
+    shape = None if text is None else parse_drift_shape(text)
+    if "cog_height_drift" in eff:
+        import numpy as np
+
+        from euc_sim.model.parameters import PLAUSIBLE
+
+        lowest = float(np.min(cog_height(h, eff["cog_height_drift"], np.linspace(0.0, duration, 2001), shape)))
+        if lowest < PLAUSIBLE["h"][0]:
+            raise InputError(f"effect cog_height_drift={eff['cog_height_drift']:g} m takes h from {h:g} m "
+                             f"down to {lowest:.3g} m; h must stay at least {PLAUSIBLE['h'][0]:g} m")
+    return shape
 
 
 def _cmd_dataset(args: argparse.Namespace) -> int:
@@ -161,6 +174,7 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
     from euc_sim.simulation.runner import check_backend
     check_backend(args.scheduler, args.workers)
     effects = _effects(args.effect)
+    _drift_shape(None, effects, parse_params(args.param).h, args.duration)
     specs = dataset_plan(args.seed, args.duration, params=parse_params(args.param), noise=args.noise,
                          rider_noise=args.rider_noise, engine=args.engine, effects=effects)
     settings = {"seed": args.seed, "duration": args.duration, "noise": args.noise, "engine": args.engine,
@@ -223,9 +237,9 @@ def _cmd_stability(args: argparse.Namespace) -> int:
 
 
 def _controller_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--kp", type=bounded(0.0, 1e5, unit="N·m/rad"), default=600.0, metavar="N·m/rad",
+    p.add_argument("--kp", type=bounded(0.0, 1e5, unit="N·m/rad"), default=600.0, metavar="KP",
                    help="motor PD K_p, N·m/rad (default 600)")
-    p.add_argument("--kd", type=bounded(0.0, 1e4, unit="N·m·s/rad"), default=40.0, metavar="N·m·s/rad",
+    p.add_argument("--kd", type=bounded(0.0, 1e4, unit="N·m·s/rad"), default=40.0, metavar="KD",
                    help="motor PD K_d, N·m·s/rad (default 40)")
     p.add_argument("--motor-limit", type=bounded(1.0, 5000.0, unit="N·m"), default=250.0, metavar="N·m",
                    help="motor torque limit, N·m (default 250)")
@@ -243,13 +257,13 @@ def add_commands(sub) -> None:
     from euc_sim.cli.options import one_of
     from euc_sim.model.mujoco_model import VARIANTS
     from euc_sim.rides.source.sanity import SPEC_RANGE
-    from euc_sim.simulation.effects import names as effect_names
+    from euc_sim.simulation.effects import bounds_text, names as effect_names
     from euc_sim.simulation.engine import ENGINES
     from euc_sim.simulation.maneuvers import MANEUVERS
     from euc_sim.simulation.mocap import NOISE_LEVELS
     from euc_sim.simulation.spatial import PATHS
 
-    effect_help = f"NAME one of {', '.join(effect_names())}"
+    effect_help = f"NAME one of {', '.join(effect_names())}; VALUE within: {bounds_text()}"
     p = sub.add_parser("simulate", help="closed-loop simulation of a maneuver, written as a recording")
     p.add_argument("--maneuver", default=None, metavar="NAME",
                    help=f"{', '.join(m for m in MANEUVERS if m != 'profile')} (default constant_speed; "
@@ -300,11 +314,11 @@ def _add_dataset_parser(sub) -> None:
     from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
     from euc_sim.cli.common import seed
     from euc_sim.cli.options import deprecated, one_of
-    from euc_sim.simulation.effects import names as effect_names
+    from euc_sim.simulation.effects import bounds_text, names as effect_names
     from euc_sim.simulation.engine import ENGINES
     from euc_sim.simulation.mocap import NOISE_LEVELS
 
-    effect_help = f"NAME one of {', '.join(effect_names())}"
+    effect_help = f"NAME one of {', '.join(effect_names())}; VALUE within: {bounds_text()}"
     p = sub.add_parser("dataset", help="a paper-like set of synthetic recordings, in parallel")
     out = p.add_mutually_exclusive_group(required=True)
     out.add_argument("--out-dir", metavar="DIR",

@@ -70,3 +70,26 @@ def _refused(argv, pattern, capsys) -> str:
 ])
 def test_option_out_of_bounds_is_refused_naming_the_bound(argv, pattern, capsys):
     _refused(argv, pattern, capsys)
+
+
+@pytest.mark.parametrize("argv, pattern", [
+    (["--effect", "sensor_time_offset=1e6"], r"effect sensor_time_offset: expected a value in \[-0\.3, 0\.3\] s, got 1e6"),
+    (["--effect", "cog_height_drift=10"], r"effect cog_height_drift: expected a value in \[-0\.6, 0\.6\] m, got 10"),
+    (["--effect", "cog_height_drift=0.6", "--param", "h=0.3", "--duration", "12"],
+     r"cog_height_drift=0\.6 m takes h from 0\.3 m down to .*; h must stay at least 0\.05 m"),
+])
+def test_effect_size_out_of_its_bound_is_refused(argv, pattern, tmp_path, capsys):
+    out = tmp_path / "o.csv"
+    assert main(["simulate", "--out", str(out), "--duration", "1", *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and re.search(pattern, err[0]), err
+    assert not out.exists()
+
+
+def test_effect_bounds_are_in_help():
+    from euc_sim.simulation.effects import CATALOG
+
+    text = " ".join(_commands()["simulate"].format_help().split())
+    for e in CATALOG.values():
+        assert f"{e.name} [{e.bounds[0]:g}, {e.bounds[1]:g}]" in text
+        assert e.bounds[0] <= e.plausible[0] <= e.plausible[1] <= e.bounds[1], e.name
