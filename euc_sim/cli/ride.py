@@ -147,14 +147,14 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     spec = wheel_spec(args.wheel, radius=args.radius, wheel_mass=args.wheel_mass,
                       battery_voltage=args.battery_voltage)
 
-    for p in [args.log] + ([args.compare] if args.compare else []):
-        if not Path(p).is_file():
-            raise FileNotFoundError(f"{p}: no such log file")
     from euc_sim.rides.grids.ride import read_ride
 
     # each log is parsed once, here; a malformed or too short log fails before any output exists
     ride = read_ride(args.log)
     other = read_ride(args.compare) if args.compare else None
+    for r in (ride, other):         # each repair of the reader, one line, whatever --quiet
+        for line in r.log.repairs if r else ():
+            say(f"euc-sim ride: note: {r.name}: {line}")
     check_data(ride, other, assumptions=assumptions,
                domain=args.domain)
     if args.json:

@@ -79,6 +79,9 @@ def run_rides(paths, pack=None, n_boot: int = 100, seed: int = 0, workers: int =
             if say:
                 say(f"rides: reading {j[0]}")
             entries.append(_entry(j))
+    for e in entries:
+        for line in e.repairs:          # each repair of the reader, one line, whatever --quiet
+            sys.stderr.write(f"euc-sim rides: note: {Path(e.path).name}: {line}\n")
     return ride_history(entries)
 
 
