@@ -192,7 +192,7 @@ def test_sigterm_during_a_write_removes_the_temporary_file(log, tmp_path, capsys
 # --- impossible readings ---------------------------------------------------------------------
 @pytest.mark.parametrize("column, value, said", [
     (2, "1e308", "speed: 1 value(s) outside [-150, 150] km/h, first 1e+308 km/h at line 32; rows dropped"),
-    (4, "-inf", "current: 1 value(s) outside [-500, 500] A, first -inf A at line 32; cells emptied")])
+    (4, "-inf", "current: 1 value(s) outside [-500, 500] A, first -inf A at line 32; cells emptied (the rows kept)")])
 def test_impossible_reading_is_dropped_and_said(log, tmp_path, capsys, column, value, said):
     """Found by the fuzz test: a huge speed ended in 'array must not contain infs or NaNs'; one
     such cell is now dropped (the speed's row) or emptied, and said on stderr."""
