@@ -93,3 +93,82 @@ def test_effect_bounds_are_in_help():
     for e in CATALOG.values():
         assert f"{e.name} [{e.bounds[0]:g}, {e.bounds[1]:g}]" in text
         assert e.bounds[0] <= e.plausible[0] <= e.plausible[1] <= e.bounds[1], e.name
+
+
+# --- ride logs ---------------------------------------------------------------------------------
+HEADER = "date,time,speed,voltage,current,power,battery_level,distance,totaldistance,system_temp,cpu_temp,tilt,roll,mode,alert"
+
+
+def _wheellog(path, n: int = 300, volt: float = 65.0, battery: float = 90.0, speed=None, repeat: int = 0):
+    """A WheelLog (old layout) log of ``n`` rows at 5 Hz: speeds in km/h (default 20 ± 5)."""
+    import numpy as np
+
+    t = np.arange(n) * 0.2
+    v = 20.0 + 5.0 * np.sin(t / 5.0) if speed is None else np.asarray(speed, float)
+    rows = []
+    for i in range(n):
+        s = f"{int(t[i]) // 60:02d}:{int(t[i]) % 60:02d}.{int(round(t[i] % 1 * 1000)):03d}"
+        rows.append(f"2024-06-01,10:{s},{v[i]:.2f},{volt:.2f},2.00,{2 * volt:.1f},{battery:g},0,1000,30,0,0,0,0,")
+    for i in range(repeat):                     # the app writes a row twice
+        rows.insert(10 + 2 * i, rows[10 + 2 * i])
+    path.write_text(HEADER + "\n" + "\n".join(rows) + "\n")
+    return path
+
+
+def _err(argv, capsys) -> tuple[int, list[str]]:
+    code = main([str(a) for a in argv])
+    return code, capsys.readouterr().err.strip().splitlines()
+
+
+@pytest.mark.parametrize("command", ["ride", "rides"])
+def test_all_negative_voltages_are_refused_by_ride_and_rides(command, tmp_path, capsys):
+    log = _wheellog(tmp_path / "neg.csv", volt=-65.0)
+    code, err = _err([command, log, "--quiet", "--json", tmp_path / "o.json"], capsys)
+    assert code == 2 and len(err) == 1, err
+    assert re.search(r"neg\.csv: column 'voltage', line 2: 300 of 300 values outside \[0, 200\] V", err[0]), err
+    assert not (tmp_path / "o.json").exists()
+
+
+@pytest.mark.parametrize("command", ["ride", "rides"])
+def test_an_absurd_speed_is_refused_by_ride_and_rides(command, tmp_path, capsys):
+    log = _wheellog(tmp_path / "far.csv", speed=[1e300] * 300)
+    code, err = _err([command, log, "--quiet"], capsys)
+    assert code == 2 and len(err) == 1, err
+    assert re.search(r"far\.csv: column 'speed', line 2: .*outside \[-150, 150\] km/h", err[0]), err
+
+
+def test_negative_speeds_are_named_as_such(tmp_path, capsys):
+    log = _wheellog(tmp_path / "back.csv", speed=-(20.0 + __import__("numpy").zeros(300)))
+    code, err = _err(["ride", log, "--no-simulate"], capsys)
+    assert code == 2 and len(err) == 1 and "moving speeds are negative" in err[0], err
+    assert "nothing was ridden" not in err[0]
+
+
+def test_a_folder_given_as_the_log_is_named_a_folder(tmp_path, capsys):
+    code, err = _err(["ride", tmp_path, "--no-simulate"], capsys)
+    assert code == 2 and len(err) == 1 and "a folder, not a log file" in err[0], err
+
+
+def test_two_speed_columns_are_refused(tmp_path, capsys):
+    log = _wheellog(tmp_path / "two.csv")
+    lines = log.read_text().splitlines()
+    log.write_text("\n".join([lines[0] + ",speed"] + [ln + ",3" for ln in lines[1:]]) + "\n")
+    code, err = _err(["ride", log, "--no-simulate"], capsys)
+    assert code == 2 and len(err) == 1 and re.search(r"column 'speed', line 1: .*twice", err[0]), err
+
+
+def test_a_repair_is_one_line_on_stderr(tmp_path, capsys):
+    """Repeated stamps merged: said on the terminal (here before the log is refused as too short)."""
+    log = _wheellog(tmp_path / "rep.csv", n=30, repeat=2)
+    code, err = _err(["ride", log, "--no-simulate", "--quiet"], capsys)
+    assert code == 2 and err[0] == ("euc-sim ride: note: rep.csv: repeated time stamps: 2 time stamp(s) "
+                                    "shared by 4 rows; averaged into one row each (2 rows merged)"), err
+    assert len(err) == 2 and err[1].startswith("euc-sim ride: error: "), err
+
+
+def test_rides_refuses_logs_of_two_packs(tmp_path, capsys):
+    a = _wheellog(tmp_path / "a64.csv", volt=64.0)
+    b = _wheellog(tmp_path / "b84.csv", volt=84.0)
+    code, err = _err(["rides", a, b, "--quiet", "--n-boot", "10"], capsys)
+    assert code == 2 and len(err) == 1, err
+    assert re.search(r"b84\.csv: a different wheel from .*a64\.csv: .*full charge of 86 V against 65 V", err[0]), err
