@@ -76,7 +76,7 @@ def _allowed(n: int) -> int:
     return max(FEW_ROWS, int(FEW * n))
 
 
-def bound_channel(name: str, column: str, values: np.ndarray, path, repairs: list[str]):
+def bound_channel(name: str, column: str, values: np.ndarray, refuse, repairs: list[str]):
     """The channel's values with the out-of-range ones handled (module docstring).
 
     Parameters
@@ -87,8 +87,9 @@ def bound_channel(name: str, column: str, values: np.ndarray, path, repairs: lis
         The file's column, named in messages.
     values : numpy.ndarray
         In SI units; NaN for empty cells (left alone).  Row ``i`` is line ``i + 2``.
-    path : path
-        The file, named in messages.
+    refuse : callable
+        ``refuse(message, column=, line=)`` → the exception that refuses the log, naming its
+        file (:class:`~euc_sim.rides.source.logs.LogFormatError` bound to the path).
     repairs : list of str
         A repair's sentence is appended here.
 
@@ -103,10 +104,8 @@ def bound_channel(name: str, column: str, values: np.ndarray, path, repairs: lis
     Raises
     ------
     LogFormatError
-        when more than a few values lie out of range.
+        (from ``refuse``) when more than a few values lie out of range.
     """
-    from euc_sim.rides.source.logs import LogFormatError
-
     lo, hi, unit, si = CHANNEL_BOUNDS[name]
     shown = values / si
     with np.errstate(invalid="ignore"):
@@ -119,7 +118,7 @@ def bound_channel(name: str, column: str, values: np.ndarray, path, repairs: lis
     span = f"[{lo:g}, {hi:g}] {unit}"
     n = int(np.isfinite(values).sum() + np.isinf(values).sum())
     if n_bad > _allowed(n):
-        raise LogFormatError(path, f"{n_bad} of {n} values outside {span} (first {shown[i]:.4g} {unit}): "
+        raise refuse(f"{n_bad} of {n} values outside {span} (first {shown[i]:.4g} {unit}): "
                                    f"not this channel's quantity or units; the log is refused",
                              column=column, line=i + 2)
     what = "rows dropped" if name == "v" else "cells emptied (the rows kept)"
@@ -132,21 +131,22 @@ def bound_channel(name: str, column: str, values: np.ndarray, path, repairs: lis
     return out, keep
 
 
-def speed_sign(v: np.ndarray, t: np.ndarray, column: str, path, repairs: list[str]) -> np.ndarray:
+def speed_sign(v: np.ndarray, t: np.ndarray, column: str, refuse, repairs: list[str]) -> np.ndarray:
     """The speed (m/s, rows in time order, stamps ``t`` in s) with isolated sign flips undone.
+
+    ``refuse`` and ``repairs`` as for :func:`bound_channel`.
 
     Raises
     ------
     LogFormatError
-        when most moving speeds are negative, or more than a few rows are sign flips.
+        (from ``refuse``) when most moving speeds are negative, or more than a few rows are
+        sign flips.
     """
-    from euc_sim.rides.source.logs import LogFormatError
-
     moving = np.abs(v) > MOVING
     neg = moving & (v < 0)
     if neg.sum() > 0.5 * moving.sum() > 0:
         i = int(np.flatnonzero(neg)[0])
-        raise LogFormatError(path, f"{int(neg.sum())} of {int(moving.sum())} moving speeds are negative "
+        raise refuse(f"{int(neg.sum())} of {int(moving.sum())} moving speeds are negative "
                                    f"(first {v[i] * 3.6:.4g} km/h at t = {t[i]:.1f} s): the speed's sign "
                                    f"is reversed or the column is no speed; a ride's speed is forward, positive",
                              column=column)
@@ -160,7 +160,7 @@ def speed_sign(v: np.ndarray, t: np.ndarray, column: str, path, repairs: list[st
         return v
     i = int(np.flatnonzero(flip)[0])
     if n > _allowed(int(moving.sum())):
-        raise LogFormatError(path, f"{n} of {int(moving.sum())} moving rows have their speed's sign flipped "
+        raise refuse(f"{n} of {int(moving.sum())} moving rows have their speed's sign flipped "
                                    f"(−v between neighbours near +v; first {v[i] * 3.6:.4g} km/h at t = "
                                    f"{t[i]:.1f} s), more than {FEW:.0%}: the speed column is not to be trusted",
                              column=column)

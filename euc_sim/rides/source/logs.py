@@ -61,6 +61,7 @@ from __future__ import annotations
 import math
 import warnings as _warnings
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Mapping
 
@@ -461,7 +462,8 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
     start = pd.Timestamp(stamps.to_numpy().min())
     table.insert(0, "t", (stamps - start).dt.total_seconds().to_numpy())
     table, n_merged = _time_ordered(table, repairs)
-    table["v"] = speed_sign(table["v"].to_numpy(float), table["t"].to_numpy(float), speed_col, path, repairs)
+    table["v"] = speed_sign(table["v"].to_numpy(float), table["t"].to_numpy(float), speed_col,
+                            partial(LogFormatError, path), repairs)
     summary = _sampling_summary(table["t"].to_numpy(), gap_warn)
     if summary:
         notes.append(summary)
@@ -529,7 +531,7 @@ def _channels(raw: pd.DataFrame, lay, speed_col: str, path: Path, notes: list[st
     """The layout's channels in SI units (``v`` first), the names of the absent ones, and
     the rows to keep (those whose speed is in range; :func:`bound_channel`)."""
     v, keep = bound_channel("v", speed_col, _numeric(raw[speed_col], speed_col, path, required=True)
-                            * lay.speed.scale, path, repairs)
+                            * lay.speed.scale, partial(LogFormatError, path), repairs)
     out = {"v": v}
     absent: list[str] = []
     for name, ch in lay.channels.items():
@@ -538,7 +540,7 @@ def _channels(raw: pd.DataFrame, lay, speed_col: str, path: Path, notes: list[st
             absent.append(name)
             continue
         vals, _ = bound_channel(name, col, _numeric(raw[col], col, path, required=False) * ch.scale,
-                                path, repairs)
+                                partial(LogFormatError, path), repairs)
         finite = np.isfinite(vals)
         if not finite.any():
             absent.append(name)
