@@ -6,7 +6,6 @@ import sys
 from pathlib import Path
 from typing import Sequence
 
-from euc_sim.cli.options import bounded  # noqa: F401  (declared with the other option helpers)
 from euc_sim.errors import InputError
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from euc_sim.cli.common import bounded
+from euc_sim.cli.options import bounded
 
 __all__ = ["add_smoothing_arguments", "add_torques_parser", "add_identify_parser",
            "cmd_torques", "cmd_identify", "smoothing_from_args"]

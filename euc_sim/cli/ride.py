@@ -14,7 +14,6 @@ from euc_sim.cli.options import bounded, workers
 from euc_sim.errors import InputError
 
 import argparse
-import math
 import os
 from pathlib import Path
 
@@ -25,18 +24,11 @@ __all__ = ["add_ride_parser", "run_ride", "MIN_BOOT"]
 
 
 def _assumptions(args: argparse.Namespace):
+    """The ride's assumptions from ``--radius``, ``--mass`` and ``--efficiency`` (each already
+    within its bound, declared with the option)."""
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.grids.signals import RideAssumptions
 
-    from euc_sim.model.parameters import PLAUSIBLE
-    from euc_sim.rides.source.sanity import TOTAL_MASS_RANGE
-
-    for opt, val, (lo, hi), unit in (("--mass", args.mass, TOTAL_MASS_RANGE, "kg"),
-                                     ("--radius", args.radius, PLAUSIBLE["R"], "m")):
-        if val is not None and not (math.isfinite(val) and lo <= val <= hi):
-            raise InputError(f"{opt} must lie in [{lo:g}, {hi:g}] {unit}, got {val!r}")
-    if not (math.isfinite(args.efficiency) and 0 < args.efficiency <= 1):
-        raise InputError(f"--efficiency must be in (0, 1], got {args.efficiency!r}")
     p = TABLE3
     sources = []
     if args.radius is not None:
@@ -152,9 +144,6 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     # each log is parsed once, here; a malformed or too short log fails before any output exists
     ride = read_ride(args.log)
     other = read_ride(args.compare) if args.compare else None
-    for r in (ride, other):         # each repair of the reader, one line, whatever --quiet
-        for line in r.log.repairs if r else ():
-            say(f"euc-sim ride: note: {r.name}: {line}")
     check_data(ride, other, assumptions=assumptions,
                domain=args.domain)
     if args.json:
@@ -163,6 +152,9 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         from euc_sim.cli.common import check_report_folder
 
         check_report_folder(args.report, ("index.md", "index.html"))
+    for r in (ride, other):         # each repair of the reader, one line, whatever --quiet
+        for line in r.log.repairs if r else ():
+            say(f"euc-sim ride: note: {r.name}: {line}")
     rep = run_ride(ride, other, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
                    simulate=not args.no_simulate, jobs=args.workers,

@@ -157,13 +157,27 @@ def test_two_speed_columns_are_refused(tmp_path, capsys):
     assert code == 2 and len(err) == 1 and re.search(r"column 'speed', line 1: .*twice", err[0]), err
 
 
-def test_a_repair_is_one_line_on_stderr(tmp_path, capsys):
-    """Repeated stamps merged: said on the terminal (here before the log is refused as too short)."""
-    log = _wheellog(tmp_path / "rep.csv", n=30, repeat=2)
+NOTE = "{}: note: rep.csv: repeated time stamps: 2 time stamp(s) shared by 4 rows; averaged into one row each (2 rows merged)"
+
+
+def test_a_repair_is_one_line_on_stderr_before_the_work(tmp_path, capsys, monkeypatch):
+    """Repeated stamps merged: said on the terminal once the inputs and outputs are checked
+    (the work itself stubbed out here: it stops with an error)."""
+    from euc_sim.cli import ride
+    from euc_sim.errors import InputError
+
+    def stop(*args, **kwargs):
+        raise InputError("stopped before the work")
+    monkeypatch.setattr(ride, "run_ride", stop)
+    log = _wheellog(tmp_path / "rep.csv", n=600, repeat=2)
     code, err = _err(["ride", log, "--no-simulate", "--quiet"], capsys)
-    assert code == 2 and err[0] == ("euc-sim ride: note: rep.csv: repeated time stamps: 2 time stamp(s) "
-                                    "shared by 4 rows; averaged into one row each (2 rows merged)"), err
-    assert len(err) == 2 and err[1].startswith("euc-sim ride: error: "), err
+    assert code == 2 and err == [NOTE.format("euc-sim ride"), "euc-sim ride: error: stopped before the work"], err
+
+
+def test_rides_says_each_repair(tmp_path, capsys):
+    log = _wheellog(tmp_path / "rep.csv", n=600, repeat=2)
+    code, err = _err(["rides", log, "--quiet", "--n-boot", "10"], capsys)
+    assert code == 0 and err == [NOTE.format("euc-sim rides")], err
 
 
 def test_rides_refuses_logs_of_two_packs(tmp_path, capsys):
