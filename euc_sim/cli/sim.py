@@ -237,7 +237,7 @@ def _cmd_stability(args: argparse.Namespace) -> int:
 
 
 def _controller_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--kp", type=bounded(0.0, 1e5, unit="N·m/rad"), default=600.0, metavar="KP",
+    p.add_argument("--kp", type=bounded(1.0, 1e5, unit="N·m/rad"), default=600.0, metavar="KP",
                    help="motor PD K_p, N·m/rad (default 600)")
     p.add_argument("--kd", type=bounded(0.0, 1e4, unit="N·m·s/rad"), default=40.0, metavar="KD",
                    help="motor PD K_d, N·m·s/rad (default 40)")
