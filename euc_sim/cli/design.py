@@ -103,7 +103,7 @@ def add_commands(sub) -> None:
     """Register ``design`` on the subparsers ``sub``."""
     from euc_sim.cli.common import seed
     from euc_sim.cli.options import bounded, deprecated, workers
-    from euc_sim.cli.sim import DURATION, RIDER_NOISE
+    from euc_sim.cli.sim import RIDER_NOISE
     from euc_sim.identification.design import DESIGN_MANEUVERS
     from euc_sim.simulation.effects import names as effect_names
 
@@ -113,11 +113,13 @@ def add_commands(sub) -> None:
                         "(default constant_speed,deceleration,stop_and_go)")
     p.add_argument("--rides", type=bounded(3, 10_000, integer=True), default=40, metavar="N",
                    help="Monte Carlo rides per maneuver (default 40)")
-    p.add_argument("--duration", type=DURATION, default=15.0, metavar="S", help="s per recording (default 15)")
+    p.add_argument("--duration", type=bounded(5.0, 3600.0, unit="s"), default=15.0, metavar="S",
+                   help="s per recording, at least 5 for the fit's filters (default 15)")
     p.add_argument("--noise-scales", default="0.5,1,2", metavar="S,...",
-                   help="sensor noise as multiples of the paper's 0.2 mm, 0.5° (must include 1; default 0.5,1,2)")
+                   help="sensor noise as multiples of the paper's 0.2 mm, 0.5°, each in (0, 100] "
+                        "(must include 1; default 0.5,1,2)")
     p.add_argument("--targets", default="0.05,0.02,0.01", metavar="SD,...",
-                   help="target standard deviations of h, m (default 0.05,0.02,0.01)")
+                   help="target standard deviations of h, m, each in (0, 1] (default 0.05,0.02,0.01)")
     p.add_argument("--rider-noise", type=RIDER_NOISE, default=3.0, metavar="N·m",
                    help="rider motor noise, N·m (default 3)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="override a Table 3 value (h: the truth)")

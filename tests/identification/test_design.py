@@ -52,7 +52,9 @@ def test_cli_design_writes_the_contract_json(tmp_path, capsys):
 @pytest.mark.parametrize("argv, message", [
     (["--maneuvers", "constant_speed,wheelie"], "--maneuvers: unknown wheelie; valid: constant_speed"),
     (["--rides", "2"], "argument --rides: expected an integer in [3, 10000], got 2"),
-    (["--noise-scales", "0.5,2"], "--noise-scales must be positive and include 1"),
+    (["--noise-scales", "0.5,2"], "--noise-scales must lie in (0, 100] and include 1"),
+    (["--noise-scales", "1,1e300"], "--noise-scales must lie in (0, 100] and include 1"),
+    (["--targets", "1e300"], "--targets must be standard deviations in (0, 1] m"),
     (["--targets", "x"], "--targets expects comma-separated numbers, got 'x'"),
 ])
 def test_cli_design_bad_input_is_one_line_exit_2(argv, message, capsys, tmp_path):
