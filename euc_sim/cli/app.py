@@ -22,7 +22,14 @@ from euc_sim.errors import InputError
 
 
 class OneLineParser(argparse.ArgumentParser):
-    """argparse with its errors on one line and a pointer to ``--help`` (not the whole usage)."""
+    """argparse with its errors on one line and a pointer to ``--help`` (not the whole usage),
+    and every bounded option's range in ``--help``."""
+
+    def __init__(self, *args, **kwargs):
+        from euc_sim.cli.options import BoundsHelpFormatter
+
+        kwargs.setdefault("formatter_class", BoundsHelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):
         first = message.splitlines()[0] if message else "invalid arguments"
@@ -36,8 +43,6 @@ def _cmd_crosscheck(args: argparse.Namespace) -> int:
 
     if args.json:
         check_writable(args.json)
-    if args.samples < 1:
-        raise UsageError(f"--samples must be at least 1, got {args.samples}")
     if args.mjcf is not None:
         from euc_sim.model.mujoco_model import load_model
         load_model(mjcf=args.mjcf)          # fail early on a bad file
@@ -117,8 +122,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("crosscheck", help="prove the MuJoCo model against the analytic equations")
     p.add_argument("--json", metavar="FILE", help="write the figures and bounds as JSON")
-    p.add_argument("--samples", type=int, default=2500,
-                   help="random states per parameter set (4 sets; default 2500)")
+    from euc_sim.cli.options import bounded
+    p.add_argument("--samples", type=bounded(1, 100_000, integer=True), default=2500, metavar="N",
+                   help="random states per parameter set (4 sets; default 2500; memory and time "
+                        "grow with it)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="check one user parameter set instead of the built-in four")
     p.add_argument("--mjcf", metavar="FILE", help="MJCF file (default mjcf/euc_planar.xml)")

@@ -28,30 +28,6 @@ def seed(text: str) -> int:
     return value
 
 
-def bounded(lo: float, hi: float, integer: bool = False, unit: str = ""):
-    """An argparse type: a finite number (an integer with ``integer``) in ``[lo, hi]``.
-
-    The error (one line, exit 2) names the option, the range and the value.
-    """
-    import argparse
-    import math
-
-    what = "an integer" if integer else "a number"
-    span = f"[{lo:g}, {hi:g}]{' ' + unit if unit else ''}"
-
-    def parse(text: str):
-        try:
-            value = int(text) if integer else float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected {what} in {span}, got {text!r}") from None
-        if not (math.isfinite(value) and lo <= value <= hi):
-            raise argparse.ArgumentTypeError(f"expected {what} in {span}, got {text}")
-        return value
-
-    parse.__name__ = "integer" if integer else "number"
-    return parse
-
-
 def format_eigenvalues(ev, digits: int = 3) -> str:
     """Eigenvalues for people: ``-4.22, 0, ±5.86j, -30.1 ± 5.41j`` (1/s).
 

@@ -37,8 +37,6 @@ def _cmd_design(args: argparse.Namespace) -> int:
     if args.effect:                             # refuse bad effect settings before the long h study
         from euc_sim.diagnosis.design import parse_effects
         parse_effects(",".join(args.effect))
-        if args.effect_rides < 3:
-            raise InputError(f"--effect-rides must be an integer of at least 3, got {args.effect_rides!r}")
     res = design([m.strip() for m in args.maneuvers.split(",") if m.strip()], rides=args.rides,
                  duration=args.duration, noise_scales=_floats(args.noise_scales, "--noise-scales"),
                  targets=_floats(args.targets, "--targets"), seed=args.seed, params=parse_params(args.param),
@@ -103,7 +101,9 @@ def _effects(args: argparse.Namespace, res: dict) -> dict:
 
 def add_commands(sub) -> None:
     """Register ``design`` on the subparsers ``sub``."""
-    from euc_sim.cli.options import deprecated
+    from euc_sim.cli.common import seed
+    from euc_sim.cli.options import bounded, deprecated, workers
+    from euc_sim.cli.sim import RIDER_NOISE
     from euc_sim.identification.design import DESIGN_MANEUVERS
     from euc_sim.simulation.effects import names as effect_names
 
@@ -111,21 +111,26 @@ def add_commands(sub) -> None:
     p.add_argument("--maneuvers", default="constant_speed,deceleration,stop_and_go", metavar="A,B,...",
                    help=f"comma-separated, of {', '.join(DESIGN_MANEUVERS)} "
                         "(default constant_speed,deceleration,stop_and_go)")
-    p.add_argument("--rides", type=int, default=40, metavar="N", help="Monte Carlo rides per maneuver (default 40)")
-    p.add_argument("--duration", type=float, default=15.0, metavar="S", help="s per recording (default 15)")
+    p.add_argument("--rides", type=bounded(3, 10_000, integer=True), default=40, metavar="N",
+                   help="Monte Carlo rides per maneuver (default 40)")
+    p.add_argument("--duration", type=bounded(5.0, 3600.0, unit="s"), default=15.0, metavar="S",
+                   help="s per recording, at least 5 for the fit's filters (default 15)")
     p.add_argument("--noise-scales", default="0.5,1,2", metavar="S,...",
-                   help="sensor noise as multiples of the paper's 0.2 mm, 0.5° (must include 1; default 0.5,1,2)")
+                   help="sensor noise as multiples of the paper's 0.2 mm, 0.5°, each in (0, 100] "
+                        "(must include 1; default 0.5,1,2)")
     p.add_argument("--targets", default="0.05,0.02,0.01", metavar="SD,...",
-                   help="target standard deviations of h, m (default 0.05,0.02,0.01)")
-    p.add_argument("--rider-noise", type=float, default=3.0, help="rider motor noise, N·m (default 3)")
+                   help="target standard deviations of h, m, each in (0, 1] (default 0.05,0.02,0.01)")
+    p.add_argument("--rider-noise", type=RIDER_NOISE, default=3.0, metavar="N·m",
+                   help="rider motor noise, N·m (default 3)")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="override a Table 3 value (h: the truth)")
-    p.add_argument("--seed", type=int, default=0, metavar="N", help="seed of the rider and sensor noise (default 0)")
+    p.add_argument("--seed", type=seed, default=0, metavar="N",
+                   help="seed of the rider and sensor noise, a non-negative integer (default 0)")
     p.add_argument("--json", metavar="FILE", help="write the results as JSON (CONTRACT)")
     p.add_argument("--report", metavar="DIR",
                    help="write the figures into DIR: design.png (RMSE(h) curves and h's sd across noise "
                         "levels) and, with --effect, design_effects.png (each effect's sd per maneuver)")
     deprecated(p, "--plot", "--report DIR", dest="plot", metavar="FILE.png", default=None)
-    p.add_argument("--workers", type=int, default=None, metavar="N",
+    p.add_argument("--workers", type=workers(), default=None, metavar="N",
                    help="processes (default: all cores; 1: in this process)")
     p.add_argument("--scheduler", default=None, metavar="local|ADDRESS",
                    help="run on Dask: 'local' starts a local cluster, tcp://HOST:PORT uses a running one")
@@ -134,7 +139,7 @@ def add_commands(sub) -> None:
                         "maneuver measures it, by Monte Carlo with the effect present and by the "
                         f"diagnosis's covariance; NAME one of all, {', '.join(effect_names())}")
     deprecated(p, "--effects", "--effect", convert=lambda text: [e for e in text.split(",") if e.strip()] or [""])
-    p.add_argument("--effect-rides", type=int, default=10, metavar="N",
+    p.add_argument("--effect-rides", type=bounded(3, 10_000, integer=True), default=10, metavar="N",
                    help="Monte Carlo rides per maneuver and effect (default 10)")
     p.add_argument("--with-torques", action="store_true",
                    help="effects: the recordings carry M_d and M_h (default: motion capture only, as the paper)")

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from euc_sim.cli.common import bounded
+from euc_sim.cli.options import bounded
 
 __all__ = ["add_smoothing_arguments", "add_torques_parser", "add_identify_parser",
            "cmd_torques", "cmd_identify", "smoothing_from_args"]
@@ -23,18 +23,20 @@ def add_smoothing_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--smoothing", choices=("consistent", "savgol"), default="consistent",
                    help="consistent: short Savitzky-Golay derivatives + one Gaussian filter on "
                         "every torque term (default); savgol: the paper's recipe")
-    g.add_argument("--window", type=float, metavar="S",
+    from euc_sim.identification.processing import MAX_ORDER
+
+    g.add_argument("--window", type=bounded(0.005, 10.0, unit="s"), metavar="S",
                    help="Savitzky-Golay window, s (default 0.25 consistent, 1.0 savgol)")
-    g.add_argument("--order", type=int, metavar="N",
+    g.add_argument("--order", type=bounded(2, MAX_ORDER, integer=True), metavar="N",
                    help="Savitzky-Golay order (default 5 consistent, 3 savgol)")
-    g.add_argument("--term-sigma", type=float, default=0.3, metavar="S",
+    g.add_argument("--term-sigma", type=bounded(0.0, 10.0, unit="s"), default=0.3, metavar="S",
                    help="Gaussian term filter's standard deviation, s (consistent; default 0.3)")
     g.add_argument("--source", choices=("auto", "state", "mocap"), default="auto",
                    help="use x, gamma, phi (state) or the motion-capture columns (Section 2)")
     g.add_argument("--phi-from", choices=("A", "C"), default="A",
                    help="Section 2: phi as the direction ankle A -> G (exact, CONTRACT's phi; "
                         "default) or by the paper's eq. (3) from the wheel centre C")
-    g.add_argument("--d-ce", type=float, metavar="M",
+    g.add_argument("--d-ce", type=bounded(0.01, 2.0, unit="m"), metavar="M",
                    help="C-E distance for motion-capture files without C columns, m")
     g.add_argument("--param", action="append", metavar="NAME=VALUE",
                    help="override a parameter (else the sidecar's, else Table 3)")
@@ -81,7 +83,9 @@ def _check_option(option: str, name: str, value: float) -> None:
 def add_torques_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser("torques", help="driving and ankle torques from a recording (eqs. 9, 10, 13)")
     p.add_argument("recording", help="CONTRACT recording (CSV or Parquet)")
-    p.add_argument("--h", type=float, metavar="M",
+    from euc_sim.model.parameters import PLAUSIBLE
+
+    p.add_argument("--h", type=bounded(*PLAUSIBLE["h"], unit="m"), metavar="M",
                    help="rider's CoG height, m (default: the sidecar's h, else Table 3's 0.6 m)")
     p.add_argument("--out", required=True, metavar="FILE",
                    help="CSV with t, M_d1, M_d2, M_h, M_d1_2dof, M_d2_2dof (N·m) and valid "
@@ -136,12 +140,16 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
                           "or identify-torques-REC.png (one per recording); every file written "
                           "is printed")
     deprecated(fig, "--plot", "--report DIR", dest="plot", metavar="FILE", default=None)
-    p.add_argument("--h-min", type=float, default=0.1, metavar="M", help="search bound, m")
-    p.add_argument("--h-max", type=float, default=1.5, metavar="M", help="search bound, m")
+    from euc_sim.model.parameters import PLAUSIBLE
+
+    p.add_argument("--h-min", type=bounded(*PLAUSIBLE["h"], unit="m"), default=0.1, metavar="M",
+                   help="search bound, m")
+    p.add_argument("--h-max", type=bounded(*PLAUSIBLE["h"], unit="m"), default=1.5, metavar="M",
+                   help="search bound, m")
     p.add_argument("--n-boot", type=bounded(0, 100_000, integer=True), default=400, metavar="N",
                    help="block-bootstrap replicates for the 95%% interval (default 400, at most 100000)")
     deprecated(p, "--bootstrap", "--n-boot")
-    p.add_argument("--block", type=float, default=None, metavar="S",
+    p.add_argument("--block", type=bounded(0.01, 3600.0, unit="s"), default=None, metavar="S",
                    help="bootstrap block, s (default 1 s, about the correlation time of the "
                         "filtered residual)")
     p.add_argument("--seed", type=seed, default=0,

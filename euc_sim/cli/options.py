@@ -3,7 +3,9 @@
 The names: ``--workers N`` (processes), ``--quiet`` (no progress on stderr), ``--n-boot N``
 (bootstrap replicates), ``--report DIR`` (the folder a command writes its figures or page
 into), ``--out FILE`` (always a file) and ``--out-dir DIR`` (always a folder), ``--effect``
-(repeatable).  An old name is registered by :func:`deprecated`: hidden from ``--help``, and
+(repeatable).  Every numeric option is declared with :func:`bounded` (a finite number in a
+stated range, the range shown in ``--help`` by :class:`BoundsHelpFormatter`); ``--workers``
+with :func:`workers`, bounded by this machine's cores.  An old name is registered by :func:`deprecated`: hidden from ``--help``, and
 using it prints one line on stderr (``euc-sim: --jobs is deprecated; use --workers``).
 tests/cli/test_option_names.py reads every parser and holds the commands to these names.
 """
@@ -11,10 +13,67 @@ tests/cli/test_option_names.py reads every parser and holds the commands to thes
 from __future__ import annotations
 
 import argparse
+import math
+import os
 import sys
 from typing import Callable, Iterable
 
-__all__ = ["DeprecatedOption", "deprecated", "one_of"]
+__all__ = ["DeprecatedOption", "deprecated", "one_of", "bounded", "workers", "max_workers",
+           "BoundsHelpFormatter"]
+
+
+def bounded(lo: float, hi: float, integer: bool = False, unit: str = ""):
+    """An argparse type: a finite number (an integer with ``integer``) in ``[lo, hi]``.
+
+    The error (one line, exit 2) names the option, the range and the value; the range is
+    kept as ``parse.bounds`` and ``parse.span`` (e.g. ``[0, 1] s``) for ``--help``
+    (:class:`BoundsHelpFormatter`) and for checks made after parsing.
+    """
+    what = "an integer" if integer else "a number"
+    span = f"[{lo:g}, {hi:g}]{' ' + unit if unit else ''}"
+
+    def parse(text: str):
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {what} in {span}, got {text!r}") from None
+        if not (math.isfinite(value) and lo <= value <= hi):
+            raise argparse.ArgumentTypeError(f"expected {what} in {span}, got {text}")
+        return value
+
+    parse.__name__ = "integer" if integer else "number"
+    parse.bounds = (lo, hi)
+    parse.span = span
+    return parse
+
+
+def max_workers() -> int:
+    """Most worker processes or threads a command starts: this machine's cores (at least 2).
+
+    More CPU-bound workers than cores only multiply memory (each holds its own model and
+    data) without finishing sooner.
+    """
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:          # not on Linux
+        cores = os.cpu_count() or 1
+    return max(2, cores)
+
+
+def workers():
+    """argparse type of ``--workers``: an integer from 1 to :func:`max_workers`."""
+    return bounded(1, max_workers(), integer=True, unit="(this machine's cores)")
+
+
+class BoundsHelpFormatter(argparse.HelpFormatter):
+    """``--help`` that states the range of every :func:`bounded` option after its text."""
+
+    def _get_help_string(self, action):
+        text = action.help or ""
+        span = getattr(action.type, "span", None)
+        if span and text != argparse.SUPPRESS and span not in text:
+            text = f"{text}; range {span}" if text else f"range {span}"
+        return text
 
 
 class DeprecatedOption(argparse.Action):

@@ -9,11 +9,11 @@ the JSON last.
 
 from __future__ import annotations
 
-from euc_sim.cli.common import bounded, seed
+from euc_sim.cli.common import seed
+from euc_sim.cli.options import bounded, workers
 from euc_sim.errors import InputError
 
 import argparse
-import math
 import os
 from pathlib import Path
 
@@ -24,18 +24,11 @@ __all__ = ["add_ride_parser", "run_ride", "MIN_BOOT"]
 
 
 def _assumptions(args: argparse.Namespace):
+    """The ride's assumptions from ``--radius``, ``--mass`` and ``--efficiency`` (each already
+    within its bound, declared with the option)."""
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.grids.signals import RideAssumptions
 
-    from euc_sim.model.parameters import PLAUSIBLE
-    from euc_sim.rides.source.sanity import TOTAL_MASS_RANGE
-
-    for opt, val, (lo, hi), unit in (("--mass", args.mass, TOTAL_MASS_RANGE, "kg"),
-                                     ("--radius", args.radius, PLAUSIBLE["R"], "m")):
-        if val is not None and not (math.isfinite(val) and lo <= val <= hi):
-            raise InputError(f"{opt} must lie in [{lo:g}, {hi:g}] {unit}, got {val!r}")
-    if not (math.isfinite(args.efficiency) and 0 < args.efficiency <= 1):
-        raise InputError(f"--efficiency must be in (0, 1], got {args.efficiency!r}")
     p = TABLE3
     sources = []
     if args.radius is not None:
@@ -148,8 +141,6 @@ def _cmd_ride(args: argparse.Namespace) -> int:
 
     if args.domain not in ("power", "torque"):
         raise InputError(f"--domain must be power or torque, got {args.domain!r}")
-    if args.workers < 1:
-        raise InputError(f"--workers must be at least 1, got {args.workers}")
     if args.n_boot < MIN_BOOT:
         raise InputError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
                          f"bootstrap interval), got {args.n_boot}")
@@ -164,9 +155,6 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     spec = wheel_spec(args.wheel, radius=args.radius, wheel_mass=args.wheel_mass,
                       battery_voltage=args.battery_voltage)
 
-    for p in [args.log] + ([args.compare] if args.compare else []):
-        if not Path(p).is_file():
-            raise FileNotFoundError(f"{p}: no such log file")
     from euc_sim.rides.grids.ride import read_ride
 
     # each log is parsed once, here; a malformed or too short log fails before any output exists
@@ -188,6 +176,9 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         from euc_sim.cli.common import check_report_folder
 
         check_report_folder(args.report, ("index.md", "index.html"))
+    for r in (ride, other):         # each repair of the reader, one line, whatever --quiet
+        for line in r.log.repairs if r else ():
+            say(f"euc-sim ride: note: {r.name}: {line}")
     rep = run_ride(ride, other, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
                    simulate=not args.no_simulate, jobs=args.workers,
@@ -216,29 +207,34 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's ride object")
     p.add_argument("--domain", default="power", metavar=one_of(("power", "torque")),
                    help="residual in battery power, W (default), or divided by ω, N·m")
-    p.add_argument("--mass", type=float, metavar="KG",
+    from euc_sim.model.parameters import PLAUSIBLE
+    from euc_sim.rides.report.rider_view import RIDER_WEIGHT
+    from euc_sim.rides.source.sanity import SPEC_RANGE, TOTAL_MASS_RANGE
+
+    p.add_argument("--mass", type=bounded(*TOTAL_MASS_RANGE, unit="kg"), metavar="KG",
                    help="rider + EUC mass, kg (default Table 3: 81)")
-    p.add_argument("--radius", type=float, metavar="M",
+    p.add_argument("--radius", type=bounded(*PLAUSIBLE["R"], unit="m"), metavar="M",
                    help="wheel radius, m (default 0.2; overrides the spec's diameter)")
     p.add_argument("--wheel", metavar="NAME|SPEC.csv",
                    help="the wheel: a shipped wheel's name (v9, lynx, apex, aero, blitz, mten4, "
                         "'master pro v2', 's22 pro', z10) or a specification file (Field|Data rows: "
                         "wheel diameter, net weight, battery voltage 'Tension', ...)")
-    p.add_argument("--rider-weight", type=float, metavar="KG",
+    p.add_argument("--rider-weight", type=bounded(*RIDER_WEIGHT, unit="kg"), metavar="KG",
                    help="the rider's declared weight with gear, kg: a prior the log's total mass checks "
                         "(never taken as the answer)")
-    p.add_argument("--wheel-mass", type=float, metavar="KG",
+    p.add_argument("--wheel-mass", type=bounded(*SPEC_RANGE["wheel_mass"][:2], unit="kg"), metavar="KG",
                    help="the wheel's net weight, kg (overrides the spec)")
-    p.add_argument("--battery-voltage", type=float, metavar="V",
+    p.add_argument("--battery-voltage", type=bounded(*SPEC_RANGE["battery_voltage"][:2], unit="V"),
+                   metavar="V",
                    help="full-charge battery voltage, V (overrides the spec)")
-    p.add_argument("--efficiency", type=float, default=0.8, metavar="ETA",
+    p.add_argument("--efficiency", type=bounded(0.1, 1.0), default=0.8, metavar="ETA",
                    help="drivetrain efficiency used only to infer a logged torque from battery "
                         "power (--domain torque, the simulation's torque column; default 0.8); "
                         "the balance fit has no efficiency")
     p.add_argument("--n-boot", type=bounded(MIN_BOOT, 100_000, integer=True), default=200, metavar="N",
                    help=f"bootstrap replicates, at least {MIN_BOOT} (default 200, at most 100000)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
-    p.add_argument("--workers", type=int, default=2, metavar="N",
+    p.add_argument("--workers", type=workers(), default=2, metavar="N",
                    help="threads for the simulation's steps (default 2)")
     deprecated(p, "--jobs", "--workers")
     p.add_argument("--calibrate-rider", action="store_true",

@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 from euc_sim.cli.common import seed
+from euc_sim.cli.options import bounded, workers
 
 __all__ = ["add_rides_parser", "find_logs", "run_rides"]
 
@@ -78,16 +79,15 @@ def run_rides(paths, pack=None, n_boot: int = 100, seed: int = 0, workers: int =
             if say:
                 say(f"rides: reading {j[0]}")
             entries.append(_entry(j))
+    for e in entries:
+        for line in e.repairs:          # each repair of the reader, one line, whatever --quiet
+            sys.stderr.write(f"euc-sim rides: note: {Path(e.path).name}: {line}\n")
     return ride_history(entries)
 
 
 def _cmd_rides(args: argparse.Namespace) -> int:
     from euc_sim.io import check_writable, write_json
 
-    if args.workers < 1:
-        raise InputError(f"--workers must be at least 1, got {args.workers}")
-    if args.n_boot < 10:
-        raise InputError(f"--n-boot must be at least 10 (the intervals are bootstrap percentiles), got {args.n_boot}")
     pack = None
     if args.wheel:
         from euc_sim.rides.drive.battery import pack_spec
@@ -137,8 +137,10 @@ def add_rides_parser(sub) -> None:
     p.add_argument("--wheel", metavar="NAME|SPEC.csv",
                    help="the wheel: a shipped wheel's name (v9, lynx, ...) or a specification file "
                         "(battery architecture, cells): each ride's resistance against the pack's expected one")
-    p.add_argument("--n-boot", type=int, default=100, metavar="N", help="bootstrap replicates of each resistance (default 100)")
+    p.add_argument("--n-boot", type=bounded(10, 100_000, integer=True), default=100, metavar="N",
+                   help="bootstrap replicates of each resistance, at least 10: the intervals are "
+                        "bootstrap percentiles (default 100)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
-    p.add_argument("--workers", type=int, default=1, metavar="N", help="processes reading the logs (default 1)")
+    p.add_argument("--workers", type=workers(), default=1, metavar="N", help="processes reading the logs (default 1)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.set_defaults(func=_cmd_rides)

@@ -10,10 +10,17 @@ import argparse
 import math
 from pathlib import Path
 
-from euc_sim.cli.common import bounded
+from euc_sim.cli.options import bounded, workers
 from euc_sim.errors import InputError
 
-__all__ = ["add_commands"]
+__all__ = ["add_commands", "DURATION", "RIDER_NOISE"]
+
+#: ``--duration`` of a simulated recording: from a tenth of a second (a few control steps)
+#: to an hour (a recording's rows grow with it, and its run time).
+DURATION = bounded(0.1, 3600.0, unit="s")
+#: ``--rider-noise``: the rider's motor noise, N·m; beyond 100 N·m (a third of the motor's
+#: torque) no rider stays on the wheel.
+RIDER_NOISE = bounded(0.0, 100.0, unit="N·m")
 
 
 def _effects(items) -> dict[str, float]:
@@ -107,8 +114,6 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     _check_choice("--rolling-model", args.rolling_model, ("moment", "contact"))
     if args.rolling_model == "contact" and (args.variant != "contact" or args.engine != "mujoco"):
         raise InputError("--rolling-model contact needs --variant contact and --engine mujoco")
-    if not (math.isfinite(args.duration) and args.duration > 0):
-        raise InputError(f"--duration must be a positive number of seconds, got {args.duration!r}")
     if args.profile:
         if args.maneuver not in (None, "profile"):
             raise InputError(f"--profile replaces --maneuver, got --maneuver {args.maneuver!r} too")
@@ -126,20 +131,33 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
                        noise=args.noise, engine=args.engine, variant=args.variant,
                        hide_torques=bool(args.hide_torques), motor=motor, rider_noise=args.rider_noise,
                        rider_delay=args.rider_delay, rolling_model=args.rolling_model,
-                       drift_shape=_drift_shape(args.drift_shape, eff), name=out.with_suffix("").name)
+                       drift_shape=_drift_shape(args.drift_shape, eff, params.h, args.duration), name=out.with_suffix("").name)
     path = api.write_recording(rec, out)
     say(f"simulate: wrote {path} ({man.name}, {args.duration:g} s, {args.engine}, seed {args.seed})")
     return 0
 
 
-def _drift_shape(text, eff):
-    """``--drift-shape`` (needs ``--effect cog_height_drift=VALUE``), or None."""
-    if text is None:
-        return None
-    if "cog_height_drift" not in eff:
+def _drift_shape(text, eff, h: float = 0.6, duration: float = 15.0):
+    """``--drift-shape`` (needs ``--effect cog_height_drift=VALUE``), or None.
+
+    The drift must leave the rider's centre of gravity above the ankle: h(t) (m) at least
+    the plausible least h (:data:`euc_sim.model.parameters.PLAUSIBLE`) over the ``duration`` (s).
+    """
+    from euc_sim.simulation.drift import cog_height, parse_drift_shape
+
+    if text is not None and "cog_height_drift" not in eff:
         raise InputError("--drift-shape shapes the cog_height_drift effect; add --effect cog_height_drift=VALUE")
-    from euc_sim.simulation.drift import parse_drift_shape
-    return parse_drift_shape(text)
+    shape = None if text is None else parse_drift_shape(text)
+    if "cog_height_drift" in eff:
+        import numpy as np
+
+        from euc_sim.model.parameters import PLAUSIBLE
+
+        lowest = float(np.min(cog_height(h, eff["cog_height_drift"], np.linspace(0.0, duration, 2001), shape)))
+        if lowest < PLAUSIBLE["h"][0]:
+            raise InputError(f"effect cog_height_drift={eff['cog_height_drift']:g} m takes h from {h:g} m "
+                             f"down to {lowest:.3g} m; h must stay at least {PLAUSIBLE['h'][0]:g} m")
+    return shape
 
 
 def _cmd_dataset(args: argparse.Namespace) -> int:
@@ -155,9 +173,8 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
     _check_choice("--format", args.format, ("csv", "parquet"))
     from euc_sim.simulation.runner import check_backend
     check_backend(args.scheduler, args.workers)
-    if not (math.isfinite(args.duration) and args.duration > 0):
-        raise InputError(f"--duration must be a positive number of seconds, got {args.duration!r}")
     effects = _effects(args.effect)
+    _drift_shape(None, effects, parse_params(args.param).h, args.duration)
     specs = dataset_plan(args.seed, args.duration, params=parse_params(args.param), noise=args.noise,
                          rider_noise=args.rider_noise, engine=args.engine, effects=effects)
     settings = {"seed": args.seed, "duration": args.duration, "noise": args.noise, "engine": args.engine,
@@ -220,10 +237,13 @@ def _cmd_stability(args: argparse.Namespace) -> int:
 
 
 def _controller_options(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--kp", type=float, default=600.0, help="motor PD K_p, N·m/rad (default 600)")
-    p.add_argument("--kd", type=float, default=40.0, help="motor PD K_d, N·m·s/rad (default 40)")
-    p.add_argument("--motor-limit", type=float, default=250.0, help="motor torque limit, N·m")
-    p.add_argument("--tiltback-speed", type=float, default=None,
+    p.add_argument("--kp", type=bounded(1.0, 1e5, unit="N·m/rad"), default=600.0, metavar="KP",
+                   help="motor PD K_p, N·m/rad (default 600)")
+    p.add_argument("--kd", type=bounded(0.0, 1e4, unit="N·m·s/rad"), default=40.0, metavar="KD",
+                   help="motor PD K_d, N·m·s/rad (default 40)")
+    p.add_argument("--motor-limit", type=bounded(1.0, 5000.0, unit="N·m"), default=250.0, metavar="N·m",
+                   help="motor torque limit, N·m (default 250)")
+    p.add_argument("--tiltback-speed", type=bounded(0.5, 40.0, unit="m/s"), default=None, metavar="M/S",
                    help="speed above which the EUC tilts back, m/s (default none)")
     p.add_argument("--rider-delay", type=bounded(0.0, 1.0, unit="s"), default=0.15,   # the rider's MAX_DELAY
                    help="rider reaction delay, s (default 0.15; at most 1)")
@@ -236,13 +256,14 @@ def add_commands(sub) -> None:
     from euc_sim.cli.common import seed
     from euc_sim.cli.options import one_of
     from euc_sim.model.mujoco_model import VARIANTS
-    from euc_sim.simulation.effects import names as effect_names
+    from euc_sim.rides.source.sanity import SPEC_RANGE
+    from euc_sim.simulation.effects import bounds_text, names as effect_names
     from euc_sim.simulation.engine import ENGINES
     from euc_sim.simulation.maneuvers import MANEUVERS
     from euc_sim.simulation.mocap import NOISE_LEVELS
     from euc_sim.simulation.spatial import PATHS
 
-    effect_help = f"NAME one of {', '.join(effect_names())}"
+    effect_help = f"NAME one of {', '.join(effect_names())}; VALUE within: {bounds_text()}"
     p = sub.add_parser("simulate", help="closed-loop simulation of a maneuver, written as a recording")
     p.add_argument("--maneuver", default=None, metavar="NAME",
                    help=f"{', '.join(m for m in MANEUVERS if m != 'profile')} (default constant_speed; "
@@ -250,7 +271,7 @@ def add_commands(sub) -> None:
     p.add_argument("--model", default="planar", metavar=one_of(("planar", "3d")),
                    help="planar (default) or 3d (mjcf/euc_3d.xml)")
     p.add_argument("--profile", metavar="CSV", help="speed profile with columns t (s), v (m/s)")
-    p.add_argument("--duration", type=float, default=15.0, metavar="S", help="s (default 15)")
+    p.add_argument("--duration", type=DURATION, default=15.0, metavar="S", help="s (default 15)")
     p.add_argument("--seed", type=seed, default=0, metavar="N",
                    help="seed of the rider and sensor noise, a non-negative integer (default 0)")
     p.add_argument("--out", required=True, metavar="NAME.csv", help="recording (.csv or .parquet)")
@@ -268,12 +289,12 @@ def add_commands(sub) -> None:
     p.add_argument("--drivetrain", metavar="RIDE.json",
                    help="voltage-limited motor from a ride's identified drivetrain "
                         "(euc-sim ride --json): its torque falls with speed and battery voltage")
-    p.add_argument("--battery-voltage", type=float, metavar="V",
+    p.add_argument("--battery-voltage", type=bounded(*SPEC_RANGE["battery_voltage"][:2], unit="V"), metavar="V",
                    help="battery voltage for --drivetrain, V (default: the ride's full charge)")
     p.add_argument("--rolling-model", default="moment", metavar=one_of(("moment", "contact")),
                    help="rolling_resistance as an applied moment (default) or as MuJoCo's own rolling "
                         "friction of the tyre (contact; needs --variant contact)")
-    p.add_argument("--rider-noise", type=float, default=DEFAULT_RIDER_NOISE, metavar="N·m",
+    p.add_argument("--rider-noise", type=RIDER_NOISE, default=DEFAULT_RIDER_NOISE, metavar="N·m",
                    help=f"rider motor noise, N·m (default {DEFAULT_RIDER_NOISE:g})")
     _controller_options(p)
     p.set_defaults(func=_cmd_simulate)
@@ -293,11 +314,11 @@ def _add_dataset_parser(sub) -> None:
     from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
     from euc_sim.cli.common import seed
     from euc_sim.cli.options import deprecated, one_of
-    from euc_sim.simulation.effects import names as effect_names
+    from euc_sim.simulation.effects import bounds_text, names as effect_names
     from euc_sim.simulation.engine import ENGINES
     from euc_sim.simulation.mocap import NOISE_LEVELS
 
-    effect_help = f"NAME one of {', '.join(effect_names())}"
+    effect_help = f"NAME one of {', '.join(effect_names())}; VALUE within: {bounds_text()}"
     p = sub.add_parser("dataset", help="a paper-like set of synthetic recordings, in parallel")
     out = p.add_mutually_exclusive_group(required=True)
     out.add_argument("--out-dir", metavar="DIR",
@@ -305,8 +326,8 @@ def _add_dataset_parser(sub) -> None:
     deprecated(out, "--out", "--out-dir")
     p.add_argument("--seed", type=seed, default=0, metavar="N",
                    help="dataset seed: speeds, rider and sensor noise of every recording, a non-negative integer (default 0)")
-    p.add_argument("--duration", type=float, default=15.0, metavar="S", help="s per recording (default 15)")
-    p.add_argument("--workers", type=int, default=None, metavar="N",
+    p.add_argument("--duration", type=DURATION, default=15.0, metavar="S", help="s per recording (default 15)")
+    p.add_argument("--workers", type=workers(), default=None, metavar="N",
                    help="processes on this machine (default: all cores; 1: in this process), "
                         "or the workers of --scheduler local (default 2)")
     p.add_argument("--scheduler", default=None, metavar="local|ADDRESS",
@@ -320,7 +341,8 @@ def _add_dataset_parser(sub) -> None:
     p.add_argument("--format", default="csv", metavar=one_of(("csv", "parquet")), help="csv (default) or parquet")
     p.add_argument("--effect", action="append", metavar="NAME=VALUE",
                    help=f"inject in every recording (repeatable); {effect_help}")
-    p.add_argument("--rider-noise", type=float, default=DEFAULT_RIDER_NOISE, metavar="N·m", help="N·m")
+    p.add_argument("--rider-noise", type=RIDER_NOISE, default=DEFAULT_RIDER_NOISE, metavar="N·m",
+                   help="rider motor noise, N·m")
     p.add_argument("--param", action="append", metavar="NAME=VALUE", help="override a Table 3 value")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     deprecated(p, "--no-progress", "--quiet")

@@ -62,10 +62,16 @@ def add_render_parser(sub) -> None:
     p = sub.add_parser("render", help="replay a recording in the 3-D model (offscreen MuJoCo renderer)")
     p.add_argument("recording", metavar="REC.csv", help="a recording with psi, theta, gamma and C (or E) columns")
     p.add_argument("--out", required=True, metavar="ride.mp4", help=".mp4, .gif or .png (one frame)")
-    p.add_argument("--fps", type=float, default=30.0, help="frames per second of the video (default 30)")
-    p.add_argument("--width", type=int, default=640, help="pixels (default 640)")
-    p.add_argument("--height", type=int, default=480, help="pixels (default 480)")
-    p.add_argument("--time", type=float, default=None, help="with .png: the time of the frame, s (default: middle)")
+    from euc_sim.cli.options import bounded
+
+    p.add_argument("--fps", type=bounded(1.0, 240.0, unit="Hz"), default=30.0, metavar="HZ",
+                   help="frames per second of the video (default 30)")
+    p.add_argument("--width", type=bounded(16, 7680, integer=True, unit="px"), default=640, metavar="PX",
+                   help="pixels (default 640)")
+    p.add_argument("--height", type=bounded(16, 4320, integer=True, unit="px"), default=480, metavar="PX",
+                   help="pixels (default 480)")
+    p.add_argument("--time", type=bounded(0.0, 86_400.0, unit="s"), default=None, metavar="S",
+                   help="with .png: the time of the frame, s (default: middle)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (shown on stderr by default)")
     deprecated(p, "--no-progress", "--quiet")
     p.set_defaults(func=_cmd_render)

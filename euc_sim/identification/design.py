@@ -240,10 +240,11 @@ def _check(maneuvers, rides, duration, noise_scales, targets) -> None:
         raise InputError(f"--rides must be an integer of at least 3, got {rides!r}")
     if not (math.isfinite(duration) and duration >= 5.0):
         raise InputError(f"--duration must be at least 5 s (the fit's filters need it), got {duration!r}")
-    if not all(math.isfinite(s) and s > 0 for s in noise_scales) or 1.0 not in noise_scales:
-        raise InputError(f"--noise-scales must be positive and include 1 (the paper's noise), got {list(noise_scales)}")
-    if not targets or not all(math.isfinite(t) and t > 0 for t in targets):
-        raise InputError(f"--targets must be positive standard deviations in m, got {list(targets)}")
+    if not all(math.isfinite(s) and 0 < s <= 100 for s in noise_scales) or 1.0 not in noise_scales:
+        raise InputError(f"--noise-scales must lie in (0, 100] and include 1 (the paper's noise), "
+                         f"got {list(noise_scales)}")
+    if not targets or not all(math.isfinite(t) and 0 < t <= 1 for t in targets):
+        raise InputError(f"--targets must be standard deviations in (0, 1] m, got {list(targets)}")
 
 
 def recommendation(result: dict) -> str:

@@ -33,7 +33,7 @@ from euc_sim.simulation.lateral import (LATERAL_INPUTS, LATERAL_WINDOW, LEAN_INP
                                         lateral_force_row, lateral_force_rows, lateral_forces,
                                         rider_lean_forces, rider_spatial_correction, upright_slender_moment)
 
-__all__ = ["PeriodicPush", "Effect", "CATALOG", "names", "get", "parse_assignment", "SIGN_SPEED",
+__all__ = ["PeriodicPush", "Effect", "CATALOG", "names", "get", "parse_assignment", "bounds_text", "SIGN_SPEED",
            "smooth_sign", "normal_load", "held_forces", "generalized_force", "lateral_forces", "lateral_force_rows", "lateral_force_row", "LATERAL_INPUTS", "LEAN_INPUTS", "RIDER_MARKER_INPUTS", "rider_spatial_correction",
            "LATERAL_WINDOW", "band_peak_tilt",
            "RIDER_YAW_INERTIA_RATIO", "rider_lean_forces", "upright_slender_moment", "apply_to_params",
@@ -65,6 +65,10 @@ class Effect:
         Range of magnitudes met in practice (for blind studies and plausibility).
     hidden_because : str
         Why a recording without the ``needs`` columns cannot reveal it.
+    bounds : tuple of float
+        Values an injected effect may take (``--effect NAME=VALUE``), in :attr:`unit`: the
+        physical limit beyond which the model of the effect no longer holds; wider than
+        :attr:`plausible`, the same as the diagnosis's validity ranges where it has one.
     """
 
     name: str
@@ -75,37 +79,38 @@ class Effect:
     needs: tuple[str, ...] = ()
     plausible: tuple[float, float] = (0.0, 0.0)
     hidden_because: str = ""
+    bounds: tuple[float, float] = (0.0, 0.0)
 
 
 CATALOG: dict[str, Effect] = {e.name: e for e in (
     Effect("rolling_resistance", "1",
            "resisting moment C_rr·N·R·sign(ẋ) on the wheel from the ground, N the normal load",
-           "external", True, plausible=(0.008, 0.04)),
+           "external", True, plausible=(0.008, 0.04), bounds=(0.0, 0.2)),
     Effect("aerodynamic_drag", "kg/m",
            "force k·ẋ·|ẋ| against the motion, acting at the rider's centre of gravity G",
-           "external", True, plausible=(0.15, 0.6)),
+           "external", True, plausible=(0.15, 0.6), bounds=(0.0, 3.0)),
     Effect("road_slope", "rad",
            "the ground rises by α in +x: gravity tilted by α in the road frame",
-           "external", True, plausible=(-0.06, 0.06)),
+           "external", True, plausible=(-0.06, 0.06), bounds=(-0.3, 0.3)),
     Effect("sensor_time_offset", "s",
            "the rider channel lags the EUC channels: φ_recorded(t) = φ(t − τ)",
-           "measurement", True, plausible=(0.01, 0.1)),
+           "measurement", True, plausible=(0.01, 0.1), bounds=(0.0, 0.3)),
     Effect("rider_mass", "kg",
            "the rider's actual mass differs from the nominal one",
-           "parameter", False, needs=("M_d",), plausible=(45.0, 110.0),
+           "parameter", False, needs=("M_d",), plausible=(45.0, 110.0), bounds=(30.0, 200.0),
            hidden_because=("without M_d a wrong rider mass is absorbed by h: a rider leans about a/g "
                            "for an acceleration a whatever he weighs, so the mass shows in M_d,1 − M_d,2 "
                            "only through the EUC's own mass and inertia, near the noise floor")),
     Effect("cog_height_drift", "m",
            "h changes during the recording (crouching, standing up); estimate is its peak-to-peak change",
-           "parameter", True, plausible=(0.05, 0.25)),
+           "parameter", True, plausible=(0.05, 0.25), bounds=(0.0, 0.6)),
     Effect("lateral_dynamics", "rad",
            "yaw and tilt of the pitch plane: yaw acceleration and Coriolis forces on the inward-leaning bodies, gravity g cos ϑ and the turn's centripetal acceleration; with C and G recorded also the rider's lateral lean out of that plane; estimate is the peak tilt",
-           "external", True, needs=("psi", "theta"), plausible=(0.05, 0.4),
+           "external", True, needs=("psi", "theta"), plausible=(0.05, 0.4), bounds=(0.0, 0.8),
            hidden_because="the recording has no yaw and tilt channels"),
     Effect("wheel_bearing_friction", "N·m·s/rad",
            "viscous torque b·(ẋ/R − γ̇) between wheel and EUC body",
-           "internal", False, needs=("M_d",), plausible=(0.2, 3.0),
+           "internal", False, needs=("M_d",), plausible=(0.2, 3.0), bounds=(0.0, 30.0),
            hidden_because="it acts between bodies, so it cancels from M_d,1 − M_d,2 (moment about P)"),
 )}
 
@@ -140,9 +145,17 @@ def parse_assignment(text: str) -> tuple[str, float]:
         v = float(value)
     except ValueError:
         raise InputError(f"effect {name}: expected a number in {CATALOG[name].unit}, got {value!r}") from None
-    if not np.isfinite(v):
-        raise InputError(f"effect {name}: value must be finite, got {value!r}")
+    lo, hi = CATALOG[name].bounds
+    if not (np.isfinite(v) and lo <= v <= hi):
+        unit = "" if CATALOG[name].unit == "1" else f" {CATALOG[name].unit}"
+        raise InputError(f"effect {name}: expected a value in [{lo:g}, {hi:g}]{unit}, got {value.strip()}")
     return name, v
+
+
+def bounds_text() -> str:
+    """Every effect with the values it may take, for ``--help``: ``rolling_resistance [0, 0.2], ...``."""
+    return ", ".join(f"{e.name} [{e.bounds[0]:g}, {e.bounds[1]:g}]{'' if e.unit == '1' else ' ' + e.unit}"
+                     for e in CATALOG.values())
 
 
 #: Speed below which sign(ẋ) is smoothed, m/s: a Coulomb moment needs a continuous

@@ -95,11 +95,10 @@ def _check_effects(effects: Mapping[str, float] | None) -> dict[str, float]:
             raise SimulationError(f"effect {name}: expected a number, got {value!r}") from None
         if not math.isfinite(v):
             raise SimulationError(f"effect {name}: value must be finite, got {value!r}")
-        if name in ("rolling_resistance", "aerodynamic_drag", "wheel_bearing_friction",
-                    "cog_height_drift", "lateral_dynamics", "sensor_time_offset") and v < 0:
-            raise SimulationError(f"effect {name}: value must be non-negative, got {v!r}")
-        if name == "rider_mass" and v <= 0:
-            raise SimulationError(f"effect rider_mass: the mass must be positive, got {v!r} kg")
+        lo, hi = fx.get(name).bounds            # the catalog's bound of each effect
+        if not lo <= v <= hi:
+            unit = "" if fx.get(name).unit == "1" else f" {fx.get(name).unit}"
+            raise SimulationError(f"effect {name}: expected a value in [{lo:g}, {hi:g}]{unit}, got {v!r}")
         out[name] = v
     return out
 

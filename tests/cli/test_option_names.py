@@ -140,7 +140,7 @@ def test_no_bare_placeholder_for_a_string_option():
 
 
 @pytest.mark.parametrize("old, argv, dest, value", [
-    ("--jobs", ["ride", "LOG.csv", "--jobs", "3"], "workers", 3),
+    ("--jobs", ["ride", "LOG.csv", "--jobs", "2"], "workers", 2),
     ("--no-progress", ["dataset", "--out-dir", "D", "--no-progress"], "quiet", True),
     ("--out", ["dataset", "--out", "D"], "out_dir", "D"),
     ("--out", ["demo", "--out", "D"], "out_dir", "D"),

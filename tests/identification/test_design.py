@@ -51,12 +51,18 @@ def test_cli_design_writes_the_contract_json(tmp_path, capsys):
 
 @pytest.mark.parametrize("argv, message", [
     (["--maneuvers", "constant_speed,wheelie"], "--maneuvers: unknown wheelie; valid: constant_speed"),
-    (["--rides", "2"], "--rides must be an integer of at least 3, got 2"),
-    (["--noise-scales", "0.5,2"], "--noise-scales must be positive and include 1"),
+    (["--rides", "2"], "argument --rides: expected an integer in [3, 10000], got 2"),
+    (["--noise-scales", "0.5,2"], "--noise-scales must lie in (0, 100] and include 1"),
+    (["--noise-scales", "1,1e300"], "--noise-scales must lie in (0, 100] and include 1"),
+    (["--targets", "1e300"], "--targets must be standard deviations in (0, 1] m"),
     (["--targets", "x"], "--targets expects comma-separated numbers, got 'x'"),
 ])
 def test_cli_design_bad_input_is_one_line_exit_2(argv, message, capsys, tmp_path):
-    assert main(["design", "--json", str(tmp_path / "d.json"), *argv]) == 2
+    try:
+        code = main(["design", "--json", str(tmp_path / "d.json"), *argv])
+    except SystemExit as exc:           # refused by argparse (a bounded option)
+        code = exc.code
+    assert code == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
     assert not (tmp_path / "d.json").exists()

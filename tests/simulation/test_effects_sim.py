@@ -127,8 +127,9 @@ def test_lateral_dynamics_obeys_the_equations_it_was_given():
 
 
 @pytest.mark.parametrize("eff, match", [
-    ({"rolling_resistance": -0.01}, "must be non-negative"),
-    ({"rider_mass": 0.0}, "rider_mass: the mass must be positive"),
+    ({"rolling_resistance": -0.01}, r"rolling_resistance: expected a value in \[0, 0\.2\], got -0\.01"),
+    ({"rider_mass": 0.0}, r"rider_mass: expected a value in \[30, 200\] kg, got 0\.0"),
+    ({"sensor_time_offset": 1e6}, r"sensor_time_offset: expected a value in \[0, 0\.3\] s"),
     ({"road_slope": float("nan")}, "must be finite"),
 ])
 def test_bad_effect_values(eff, match):

@@ -47,7 +47,7 @@ from euc_sim.rides.grids.spin import spin_rows
 from euc_sim.rides.source.logs import RideLog, read_log
 
 __all__ = ["RideAssumptions", "RideSignals", "with_found_values", "as_log", "resample", "ride_grid", "sg", "window_samples",
-           "wheel_torque", "ride_signals", "break_at_gaps", "check_readings", "PLAUSIBLE_READING", "split_at_gaps"]
+           "wheel_torque", "ride_signals", "break_at_gaps", "check_readings", "split_at_gaps"]
 
 
 # --------------------------------------------------------------------------------------
@@ -352,33 +352,30 @@ class RideSignals:
         return sg(x, self.raw["segment"].to_numpy(), self.rate, self.window, self.polyorder, deriv)
 
 
-#: Largest magnitude of a plausible reading, by channel of :class:`RideLog` (SI unit):
-#: beyond it a value is a logging fault (or an overflow), not a measurement.
-PLAUSIBLE_READING: dict[str, tuple[float, str]] = {
-    "v": (100.0, "m/s"), "voltage": (1000.0, "V"), "current": (1000.0, "A"),
-    "power": (1e6, "W"), "phase_current": (1e4, "A"), "gps_alt": (1e5, "m"),
-}
-
-
 def check_readings(log: RideLog) -> None:
     """Raise ``InputError`` naming the file, channel and time of an impossible reading.
 
-    Infinite values and magnitudes beyond :data:`PLAUSIBLE_READING` are refused
-    (empty cells, NaN, stay: they are interpolated over or left out), and so is a
-    speed that disagrees with the log's own odometer (:func:`odometer_scale`).
+    The per-log checks of ``euc-sim ride`` and ``euc-sim rides`` alike: a value outside its
+    channel's range (:data:`euc_sim.rides.source.bounds.CHANNEL_BOUNDS`, which
+    :func:`~euc_sim.rides.source.logs.read_log` has already applied to a file; this holds
+    a log built in code to it), infinite values included (empty cells, NaN, stay: they are
+    interpolated over or left out), and a speed that disagrees with the log's own odometer
+    (:func:`odometer_scale`).
     """
+    from euc_sim.rides.source.bounds import CHANNEL_BOUNDS
+
     t = log.data["t"].to_numpy(float)
-    for ch, (limit, unit) in PLAUSIBLE_READING.items():
+    for ch, (lo, hi, unit, si) in CHANNEL_BOUNDS.items():
         if ch not in log.data:
             continue
-        x = log.data[ch].to_numpy(float)
+        x = log.data[ch].to_numpy(float) / si
         with np.errstate(invalid="ignore"):
-            bad = np.flatnonzero(np.isinf(x) | (np.abs(x) > limit))
+            bad = np.flatnonzero(np.isinf(x) | (x < lo) | (x > hi))
         if bad.size:
             i = bad[0]
             name = "speed" if ch == "v" else ch
             raise InputError(f"{log.path}: {name} = {x[i]:.3g} {unit} at t = {t[i]:.1f} s from the "
-                             f"start ({bad.size} such row(s)): beyond ±{limit:g} {unit}, not a "
+                             f"start ({bad.size} such row(s)): outside [{lo:g}, {hi:g}] {unit}, not a "
                              f"plausible reading")
     _check_speed_units(log)
 

@@ -26,7 +26,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 
 __all__ = ["RideEntry", "ChangeTest", "RideHistory", "WheelMismatch", "ride_entry",
-           "change_test", "ride_history", "series_cells", "SERIES_COUNTS"]
+           "change_test", "ride_history", "series_cells", "full_charge", "SERIES_COUNTS"]
 
 #: Cells in series of common EUC packs (67.2 V to 176.4 V full).
 SERIES_COUNTS = (16, 20, 24, 30, 32, 36, 40, 42)
@@ -57,6 +57,11 @@ class RideEntry:
     temperature_C : float or None
         Battery temperature where logged, else the median controller temperature.
     temperature_source : str or None
+    full_charge_V : float or None
+        The pack's full-charge voltage the ride's voltage and battery % imply
+        (:func:`full_charge`), V; None without both channels.
+    repairs : tuple of str
+        What the reader changed in the log (:attr:`~euc_sim.rides.source.logs.RideLog.repairs`).
     """
 
     path: str
@@ -68,11 +73,14 @@ class RideEntry:
     series: tuple
     temperature_C: float | None
     temperature_source: str | None
+    full_charge_V: float | None = None
+    repairs: tuple = ()
 
     def to_json(self) -> dict:
         """A JSON-ready dict."""
         out = asdict(self)
         out["series"] = list(self.series)
+        out["repairs"] = list(self.repairs)
         return out
 
 
@@ -160,6 +168,32 @@ def series_cells(v_max: float, v_min: float) -> tuple[int, ...]:
     return tuple(n for n in SERIES_COUNTS if 3.0 * n <= v_min and v_max <= 4.25 * n)
 
 
+#: Two rides whose full-charge voltages (:func:`full_charge`) differ by more than this
+#: fraction are of different packs: the shared rides of one wheel agree within 3 %, and
+#: the nearest common packs (30 and 32 cells) are 6.7 % apart.
+FULL_CHARGE_SPREAD = 0.05
+
+
+def full_charge(log) -> float | None:
+    """The full-charge voltage the log's voltage and battery % imply, V (None without both).
+
+    Each row at a small current (|I| < 5 A where logged: little sag) gives V·4.2 / (3.3 +
+    0.9·b/100): the apps' battery % runs about linearly from 3.3 V a cell (0 %) to 4.2 V
+    (100 %); the median over the rows.  On the shared rides it is within 3 % of the pack's
+    nominal full charge.
+    """
+    d = log.data
+    if not {"voltage", "battery"} <= set(d.columns):
+        return None
+    V, b = d["voltage"].to_numpy(float), d["battery"].to_numpy(float)
+    ok = np.isfinite(V) & np.isfinite(b) & (V > 0) & (b > 0)
+    if "current" in d:
+        ok &= np.abs(d["current"].to_numpy(float)) < 5.0
+    if ok.sum() < 20:
+        return None
+    return float(np.median(V[ok] * 4.2 / (3.3 + 0.009 * b[ok])))
+
+
 def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
     """Read one log: its summary and its battery resistance (the drivetrain's ``fit_battery``).
 
@@ -169,12 +203,14 @@ def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
         (``ValueError`` / ``OSError``) for a log that cannot be read; the message names the file.
     """
     from euc_sim.rides.drive.battery import battery_health, measure_resistance
+    from euc_sim.rides.grids.signals import check_readings
     from euc_sim.rides.report.summary import read_counters, ride_summary
     from euc_sim.rides.source.logs import read_log
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         log = read_log(path, emit_warnings=False)
+        check_readings(log)                 # the per-log checks of ``euc-sim ride`` too
         counters = read_counters(path, log)
         summary = ride_summary(log, counters)
         try:
@@ -193,7 +229,8 @@ def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
     series = series_cells(float(vf.max()), float(np.quantile(vf, 0.01))) if vf.size else ()
     return RideEntry(path=str(path), start=log.start.isoformat(), layout=log.layout,
                      summary=summary.to_json(), battery=bh.to_json(), model=_model(path),
-                     series=series, temperature_C=temp, temperature_source=tsrc)
+                     series=series, temperature_C=temp, temperature_source=tsrc,
+                     full_charge_V=full_charge(log), repairs=tuple(log.repairs))
 
 
 def _model(path) -> str | None:
@@ -217,6 +254,11 @@ def check_one_wheel(entries) -> None:
         if first.model and e.model and e.model != first.model:
             raise WheelMismatch(f"{e.path}: a different wheel ({e.model}) from {first.path} "
                                 f"({first.model}); give the logs of one wheel")
+        full = (first.full_charge_V, e.full_charge_V)
+        if None not in full and abs(full[1] - full[0]) > FULL_CHARGE_SPREAD * full[0]:
+            raise WheelMismatch(f"{e.path}: a different wheel from {first.path}: its voltage and battery % "
+                                f"give a full charge of {full[1]:.0f} V against {full[0]:.0f} V (more than "
+                                f"{FULL_CHARGE_SPREAD:.0%} apart); give the logs of one wheel")
         allowed &= set(e.series)
         if first.series and e.series and not allowed:
             raise WheelMismatch(f"{e.path}: its battery voltage ({'/'.join(map(str, e.series))} cells "

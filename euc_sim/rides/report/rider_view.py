@@ -15,11 +15,15 @@ import warnings
 __all__ = ["rider_numbers", "check_rider_weight"]
 
 
+#: A rider's declared weight with gear, kg (``--rider-weight``).
+RIDER_WEIGHT = (20.0, 250.0)
+
+
 def check_rider_weight(kg: float | None) -> float | None:
     """The declared rider weight, kg, or a one-line ``ValueError`` naming ``--rider-weight``."""
     if kg is None:
         return None
-    if not (math.isfinite(kg) and 20.0 <= kg <= 250.0):
+    if not (math.isfinite(kg) and RIDER_WEIGHT[0] <= kg <= RIDER_WEIGHT[1]):
         raise InputError(f"--rider-weight is the rider's weight with gear, kg, between 20 and 250; got {kg!r}")
     return float(kg)
 

@@ -43,9 +43,17 @@ What the reader does about problems
 - Empty GPS fields: kept as NaN, counted in a warning.
 - A truncated last line (missing required cells, as when the app is killed while
   writing): dropped, with a warning naming the line.
+- A folder, more than :data:`~euc_sim.rides.source.bounds.MAX_ROWS` rows, or a column
+  name given twice: :class:`LogFormatError`.
+- A value outside its channel's physical range (:mod:`euc_sim.rides.source.bounds`):
+  a few are dropped (speed) or emptied (other channels), said; more refuse the log.
+  The same for the speed's sign: mostly negative refuses the log, an isolated flip is
+  turned back, said.
 
 Each problem is a string in :attr:`RideLog.warnings`; :func:`read_log` also issues
-each through :mod:`warnings` as a :class:`RideLogWarning` unless told not to.
+each through :mod:`warnings` as a :class:`RideLogWarning` unless told not to.  What the
+reader changed in the data (merged, sorted, dropped, emptied, flipped) is also in
+:attr:`RideLog.repairs`, which the commands say on stderr.
 """
 
 from __future__ import annotations
@@ -53,6 +61,7 @@ from __future__ import annotations
 import math
 import warnings as _warnings
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Mapping
 
@@ -60,6 +69,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.errors import BadInputFile
+from euc_sim.rides.source.bounds import MAX_ROWS, bound_channel, speed_sign
 
 __all__ = [
     "LogFormatError", "RideLogWarning", "RideLog", "Channel", "LAYOUTS", "CHANNEL_UNITS",
@@ -240,6 +250,9 @@ class RideLog:
         Data rows in the file.
     n_rows_merged : int
         Rows removed by averaging repeated time stamps.
+    repairs : tuple of str
+        The warnings that changed the data (rows merged, sorted, dropped, cells emptied,
+        signs turned back), one line each.
     """
 
     path: str
@@ -252,6 +265,7 @@ class RideLog:
     n_rows_read: int
     n_rows_merged: int
     units: Mapping[str, str] = field(default_factory=lambda: dict(CHANNEL_UNITS))
+    repairs: tuple[str, ...] = ()
 
     def has(self, channel: str) -> bool:
         """True when ``channel`` is in :attr:`data` (present and not all zero)."""
@@ -365,12 +379,43 @@ def _check_field_counts(path: Path) -> None:
             header = next(reader, None)
             if header is None:
                 return
+            names = [h.strip() for h in header]
+            twice = next((c for i, c in enumerate(names) if c and c in names[:i]), None)
+            if twice is not None:
+                where = [i + 1 for i, c in enumerate(names) if c == twice]
+                raise LogFormatError(path, f"the header names this column twice (columns "
+                                           f"{' and '.join(map(str, where))}); which is the data is "
+                                           f"unknown", column=twice, line=1)
             for line, row in enumerate(reader, start=2):
                 if len(row) > len(header) and any(f.strip() for f in row[len(header):]):
                     raise LogFormatError(path, f"{len(row)} fields, but the header has "
                                                f"{len(header)}", line=line)
     except UnicodeDecodeError as exc:
         raise LogFormatError(path, f"not a UTF-8 text CSV file ({exc.reason})") from None
+
+
+class _Repairs(list):
+    """The reader's repairs; each is also a note, in the order the reader met it."""
+
+    def __init__(self, notes: list[str]):
+        super().__init__()
+        self.notes = notes
+
+    def append(self, text: str) -> None:
+        super().append(text)
+        self.notes.append(text)
+
+
+def _check_size(path: Path) -> None:
+    """Refuse a log of more than :data:`MAX_ROWS` rows before parsing it (the rows counted
+    as newlines, a megabyte at a time)."""
+    n = -1                                  # the header's line
+    with open(path, "rb") as fh:
+        while chunk := fh.read(1 << 20):
+            n += chunk.count(b"\n")
+    if n > MAX_ROWS:
+        raise LogFormatError(path, f"{n} rows, more than the {MAX_ROWS} a log may have (ten times the "
+                                   f"longest ride at the fastest logger's rate); split the log")
 
 
 def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
@@ -406,15 +451,19 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
     raw = _read_table(path)
     lay = _layout_of(raw, layout, path)
     notes: list[str] = []
+    repairs = _Repairs(notes)
     n_read = len(raw)
     speed_col = next(c for c in lay.speed.columns if c in raw.columns)
-    raw = _drop_truncated_last(raw, list(lay.time_columns) + [speed_col], notes)
+    raw = _drop_truncated_last(raw, list(lay.time_columns) + [speed_col], repairs)
     stamps = _times(raw, lay, path)
-    out, absent = _channels(raw, lay, speed_col, path, notes)
-    table = pd.DataFrame(out)
+    out, absent, keep = _channels(raw, lay, speed_col, path, notes, repairs)
+    table = pd.DataFrame(out)[keep]
+    stamps = stamps[keep]
     start = pd.Timestamp(stamps.to_numpy().min())
     table.insert(0, "t", (stamps - start).dt.total_seconds().to_numpy())
-    table, n_merged = _time_ordered(table, notes)
+    table, n_merged = _time_ordered(table, repairs)
+    table["v"] = speed_sign(table["v"].to_numpy(float), table["t"].to_numpy(float), speed_col,
+                            partial(LogFormatError, path), repairs)
     summary = _sampling_summary(table["t"].to_numpy(), gap_warn)
     if summary:
         notes.append(summary)
@@ -427,13 +476,17 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
             _warnings.warn(f"{path.name}: {n}", RideLogWarning, stacklevel=2)
     return RideLog(path=str(path), layout=lay.name, variant=variant,
                    data=table.reset_index(drop=True), start=start, absent=tuple(absent),
-                   warnings=tuple(notes), n_rows_read=n_read, n_rows_merged=n_merged)
+                   warnings=tuple(notes), n_rows_read=n_read, n_rows_merged=n_merged,
+                   repairs=tuple(repairs))
 
 
 def _read_table(path: Path) -> pd.DataFrame:
     """The CSV as text cells with stripped column names; one-line errors naming the file."""
+    if path.is_dir():
+        raise LogFormatError(path, "a folder, not a log file (give one CSV file)")
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")
+    _check_size(path)
     _check_field_counts(path)
     try:
         raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True,
@@ -473,17 +526,21 @@ def _drop_truncated_last(raw: pd.DataFrame, required: list[str], notes: list[str
     return raw
 
 
-def _channels(raw: pd.DataFrame, lay, speed_col: str, path: Path,
-              notes: list[str]) -> tuple[dict[str, np.ndarray], list[str]]:
-    """The layout's channels in SI units (``v`` first) and the names of the absent ones."""
-    out = {"v": _numeric(raw[speed_col], speed_col, path, required=True) * lay.speed.scale}
+def _channels(raw: pd.DataFrame, lay, speed_col: str, path: Path, notes: list[str],
+              repairs: list[str]) -> tuple[dict[str, np.ndarray], list[str], np.ndarray]:
+    """The layout's channels in SI units (``v`` first), the names of the absent ones, and
+    the rows to keep (those whose speed is in range; :func:`bound_channel`)."""
+    v, keep = bound_channel("v", speed_col, _numeric(raw[speed_col], speed_col, path, required=True)
+                            * lay.speed.scale, partial(LogFormatError, path), repairs)
+    out = {"v": v}
     absent: list[str] = []
     for name, ch in lay.channels.items():
         col = next((c for c in ch.columns if c in raw.columns), None)
         if col is None:
             absent.append(name)
             continue
-        vals = _numeric(raw[col], col, path, required=False) * ch.scale
+        vals, _ = bound_channel(name, col, _numeric(raw[col], col, path, required=False) * ch.scale,
+                                partial(LogFormatError, path), repairs)
         finite = np.isfinite(vals)
         if not finite.any():
             absent.append(name)
@@ -510,7 +567,7 @@ def _channels(raw: pd.DataFrame, lay, speed_col: str, path: Path,
         absent = [a for a in absent if a != "pwm"]
         notes.append("pwm: taken as 100 - safety_margin (EUC World's headroom before the "
                      "voltage limit)")
-    return out, absent
+    return out, absent, keep
 
 
 def _time_ordered(table: pd.DataFrame, notes: list[str]) -> tuple[pd.DataFrame, int]:
