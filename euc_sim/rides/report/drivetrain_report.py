@@ -348,7 +348,6 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
     ``shown``: the quantities the page's first screen already gives (``total_mass``,
     ``internal_resistance``, ``top_speed``), said here without their numbers.
     """
-    tm = rep["total_mass"]
     md = _mass_md(rep, shown)
     sel = rep.get("selection") or []
     if sel:

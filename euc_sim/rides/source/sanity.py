@@ -18,7 +18,6 @@ shows against the log is found here:
 
 from __future__ import annotations
 
-import numpy as np
 
 from euc_sim.rides.source.spec import SPEC_RANGE, SpecError, log_contradictions
 
