@@ -1,28 +1,33 @@
-"""The smallest difference a pair of rides can name, predicted from the pair's own noise.
+"""The naming test of a pair of rides, its false-name control and its power.
 
-A difference is named when its 95 % interval excludes zero *and* modelling it
-lowers OTHER's blocked held-out RMS by more than ``min_gain``
-(:mod:`euc_sim.rides.compare.differences_fit`).  Each test has a resolution:
+A difference is named when OTHER's held-out error falls significantly with it
+(:mod:`euc_sim.rides.compare.differences_fit`): OTHER's 30 s blocks, each
+scored by the fit with its fold of *both* rides left out, give per block
+``D_b = SSE_without,b − SSE_with,b``; a one-sided paired t-test of the mean
+``D`` over the B blocks with B − 1 degrees of freedom (:func:`paired_test`; the
+blocks the bootstrap already treats as independent), the p-values of a pair's
+candidates adjusted by Benjamini–Hochberg (:func:`bh_qvalues`), and its 95 %
+interval excluding zero.
 
-* the interval's: a difference smaller than the interval's half-width leaves
-  zero inside it;
-* the gate's: a difference Δ leaves, in OTHER's residuals of the model without
-  it, a systematic error of RMS ``Δ·s`` (``s``: the held-out RMS of the
-  difference's column after the model's other columns, fitted on both rides,
-  have absorbed what they can, per unit of the parameter).  With OTHER's
-  held-out RMS ``σ`` when the difference is modelled and ``e = s·se·√(K/(K−1))``
-  what estimating it on K−1 of K folds costs on the held-out rows (``se``: the
-  interval's half-width over 1.96), the gate is passed when
-  ``σ/√(σ² − e² + Δ²s²) < 1 − g``, i.e.
+Power: a difference Δ leaves, in OTHER's block b of the model without it, a
+systematic error of sum of squares ``Δ²·S_b`` (``S_b``: the difference's
+column on the block after the model's other columns, fitted on both rides
+outside the fold, have absorbed what they can, per unit of the parameter),
+less what estimating it on K−1 of K folds costs (``K/(K−1)·se²·S_b``), plus
+``2Δ·X_b`` (``X_b``: that column against the residual's noise).  So
+``E D_b = μ_b = (Δ² − K/(K−1)·se²)·S_b`` and the t-statistic's noncentrality is
 
-      Δ_gate = √((σ/s)²·((1 − g)⁻² − 1) + (K/(K−1))·se²),
+    mean_b μ_b / √((var_b μ_b + v₀ + 4Δ²·mean_b X_b²) / B),
 
-  about 0.14·σ/s for the 1 % gate (removing an error of RMS b from residuals
-  of RMS σ lowers the RMS by about b²/(2σ²)).
-
-The smallest nameable difference is the larger of the two.  A shift (the
-current's delay) has no column: only its interval (and the logs' finest delay)
-resolves it.
+``v₀`` the blocks' spread of ``D_b`` with no difference (the pair's own, from
+what the estimate leaves).  ``resolvable`` is the smallest Δ at which it
+reaches the noncentrality that a t with B − 1 degrees of freedom passes its
+one-sided level with probability :data:`POWER` (:func:`named_size`), or the
+interval's half-width where that is larger.  A difference whose signature
+varies much from block to block may never reach it (the ratio
+``mean S/sd S·√B`` bounds the statistic): then only the interval resolves.  A
+shift (the current's delay) has no column: only its interval (and the logs'
+finest delay) resolves it.
 
 Study: docs/concealed.md ("What a pair can resolve").
 """
@@ -34,11 +39,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["Z95", "Resolution", "gate_factor", "gate_size", "predicted_gain", "heldout_signature_rms",
+__all__ = ["Z95", "POWER", "Resolution", "paired_test", "bh_qvalues", "noncentrality", "block_means", "named_size",
+           "predicted_gain", "heldout_signature_rms",
            "detectable_difference", "with_floor"]
 
 #: Normal quantile of a two-sided 95 % interval.
 Z95 = 1.959963984540054
+#: The chance of naming at which a pair's ``resolvable`` is stated.
+POWER = 0.8
 
 
 @dataclass(frozen=True)
@@ -55,8 +63,8 @@ class Resolution:
     interval_halfwidth : float or None
         Half the 95 % interval's width, the parameter's unit.
     gate : float or None
-        The size whose signature on OTHER's held-out rows passes the held-out
-        gate (module docstring), the parameter's unit; None for a shift.
+        The size the naming test names with :data:`POWER` (:func:`named_size`),
+        the parameter's unit; None for a shift.
     residual_rms : float or None
         OTHER's blocked held-out RMS with the difference modelled, the fitted
         signal's unit (W for battery power, V, m/s).
@@ -68,9 +76,10 @@ class Resolution:
         the half-width; 0 elsewhere.
     gain_se : float or None
         Standard error of the difference's measured held-out gain, from its
-        spread over the folds (fraction): where it is comparable with the
-        threshold, whether a difference near ``resolvable`` is named is a
-        matter of chance.
+        spread over the folds (fraction).
+    fold_sd : float or None
+        √v₀, the spread of the test's per-block ``D_b`` with no difference
+        (module docstring), the signal's unit squared.
     """
 
     name: str
@@ -81,54 +90,156 @@ class Resolution:
     signature_rms: float | None = None
     floor: float = 0.0
     gain_se: float | None = None
+    fold_sd: float | None = None
 
     def to_json(self) -> dict:
         """The ``differences`` entry's ``resolution`` detail."""
         return {"interval_halfwidth": self.interval_halfwidth, "gate": self.gate,
                 "residual_rms": self.residual_rms, "signature_rms": self.signature_rms,
-                "floor": self.floor, "gain_se": self.gain_se}
+                "floor": self.floor, "gain_se": self.gain_se, "fold_sd": self.fold_sd}
 
 
-def gate_factor(min_gain: float) -> float:
-    """``√((1 − g)⁻² − 1)``: the systematic RMS, in units of the residual RMS, that the gate asks for."""
-    return math.sqrt((1.0 - min_gain) ** -2 - 1.0)
-
-
-def gate_size(residual_rms: float, signature_rms: float, se: float, min_gain: float,
-              n_folds: int) -> float | None:
-    """Smallest difference whose held-out gain passes ``min_gain`` (module docstring).
+def paired_test(sse_with: np.ndarray, sse_without: np.ndarray) -> tuple[float, float, float]:
+    """One-sided paired t-test that a term lowers OTHER's held-out error, over its blocks.
 
     Parameters
     ----------
-    residual_rms : float
-        σ, OTHER's held-out RMS with the difference modelled (signal's unit).
-    signature_rms : float
-        s, the held-out RMS of the difference's column after the other columns,
-        per unit of the parameter.
+    sse_with, sse_without : ndarray (B,)
+        OTHER's held-out SSE per block (its fold of both rides left out) with
+        and without the term, the signal's unit squared.
+
+    Returns
+    -------
+    p : float
+        P(T ≥ t) for t = mean(D)/(sd(D)/√B), ``D_b = without_b − with_b``, T a
+        t with B − 1 degrees of freedom; 1 below two blocks or where every
+        ``D_b`` is zero (a ride against itself).
+    mean, sd : float
+        Mean and standard deviation (ddof 1) of ``D`` over the blocks.
+    """
+    from scipy.stats import t as student
+
+    d = np.asarray(sse_without, float) - np.asarray(sse_with, float)
+    if len(d) < 2:
+        return 1.0, 0.0, 0.0
+    mean, sd = float(d.mean()), float(d.std(ddof=1))
+    scale = float(np.abs(np.asarray(sse_with, float)).mean()) or 1.0
+    if not sd > 1e-12 * scale:
+        return (0.0 if mean > 1e-12 * scale else 1.0), mean, sd
+    return float(student.sf(mean / (sd / math.sqrt(len(d))), len(d) - 1)), mean, sd
+
+
+def bh_qvalues(p) -> np.ndarray:
+    """Benjamini–Hochberg adjusted p-values (q-values) of a family of tests.
+
+    ``q_(i) = min_{j ≥ i} p_(j)·m/j`` over the p-values sorted ascending, capped
+    at 1: naming every test with ``q < α`` keeps the expected share of false
+    names among the names below α (independent or positively dependent tests).
+
+    Parameters
+    ----------
+    p : sequence of float
+
+    Returns
+    -------
+    ndarray, in the order of ``p``
+    """
+    p = np.asarray(p, float)
+    m = len(p)
+    if m == 0:
+        return p
+    order = np.argsort(p)
+    q = p[order] * m / np.arange(1, m + 1)
+    q = np.minimum.accumulate(q[::-1])[::-1]
+    out = np.empty(m)
+    out[order] = np.minimum(q, 1.0)
+    return out
+
+
+def noncentrality(level: float, df: int, power: float = POWER) -> float:
+    """δ: a noncentral t with ``df`` degrees of freedom exceeds its one-sided ``level``
+    critical value with probability ``power``."""
+    from scipy.optimize import brentq
+    from scipy.stats import nct
+    from scipy.stats import t as student
+
+    crit = student.isf(level, df)
+    return float(brentq(lambda nc: nct.sf(crit, df, nc) - power, 0.0, 200.0))
+
+
+def block_means(size: float, signature_ss, se: float, n_folds: int) -> np.ndarray:
+    """``E D_b = (Δ² − K/(K−1)·se²)·S_b`` per block (module docstring), the signal's unit squared.
+
+    Parameters
+    ----------
+    size : float
+        Δ, the parameter's unit.
+    signature_ss : array_like (B,)
+        S_b per unit of the parameter squared.
     se : float
         Standard error of the difference (parameter's unit).
-    min_gain : float
-        The selection's fractional threshold g.
+    n_folds : int
+        K.
+    """
+    return (size ** 2 - n_folds / (n_folds - 1.0) * se ** 2) * np.asarray(signature_ss, float)
+
+
+def named_size(signature_ss, cross, se: float, null_var: float, *, level: float, n_folds: int,
+               power: float = POWER) -> float | None:
+    """Smallest difference :func:`paired_test` names with ``power`` at ``level`` (module docstring).
+
+    Parameters
+    ----------
+    signature_ss : array_like (B,)
+        S_b, the column's held-out sum of squares per block after the model's
+        other columns, per unit of the parameter squared.
+    cross : array_like (B,)
+        X_b, that column against the residual of the model with it, per unit
+        of the parameter.
+    se : float
+        Standard error of the difference (parameter's unit).
+    null_var : float
+        v₀, the spread (variance) of ``D_b`` over the blocks with no difference.
+    level : float
+        One-sided level the p-value must pass.
     n_folds : int
         K, the held-out folds.
 
     Returns
     -------
     float or None
-        Δ_gate in the parameter's unit; None where the column vanishes (s = 0).
+        Δ_test in the parameter's unit; None where the column vanishes or no
+        size reaches the power (found by bisection in log Δ).
     """
-    if not signature_rms > 0 or not np.isfinite(residual_rms):
+    S, X = np.asarray(signature_ss, float), np.asarray(cross, float)
+    B = len(S)
+    if B < 2 or not S.mean() > 0 or not np.isfinite(null_var):
         return None
-    ratio = residual_rms / signature_rms
-    return math.sqrt(ratio ** 2 * gate_factor(min_gain) ** 2 + n_folds / (n_folds - 1.0) * se ** 2)
+    need = noncentrality(level, B - 1, power)
+
+    def short(log_size: float) -> float:
+        size = math.exp(log_size)
+        mu = block_means(size, S, se, n_folds)
+        spread = math.sqrt((mu.var(ddof=1) + null_var + 4.0 * size ** 2 * float(np.mean(X ** 2))) / B)
+        return float(mu.mean()) - need * spread
+
+    scale = math.sqrt((null_var + 1e-300) / float(S.mean()) ** 2) ** 0.5 + se
+    lo, hi = math.log(scale * 1e-6 + 1e-300), math.log(scale * 1e6)
+    if short(hi) < 0:
+        return None
+    for _ in range(100):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if short(mid) < 0 else (lo, mid)
+    return math.exp(hi)
 
 
 def predicted_gain(size: float, residual_rms: float, signature_rms: float, se: float,
                    n_folds: int) -> float:
     """The held-out gain of modelling a difference of ``size``: ``1 − σ/√(σ² − e² + Δ²s²)``.
 
-    Parameters as :func:`gate_size` (``size``: Δ, the parameter's unit); the
-    inverse of :func:`gate_size` at the threshold.
+    ``σ``: OTHER's held-out RMS with the difference modelled, ``s``: its
+    column's after the other columns per unit of the parameter, ``se`` its
+    standard error, ``e² = K/(K−1)·s²·se²`` (``size``: Δ, the parameter's unit).
     """
     e2 = n_folds / (n_folds - 1.0) * (signature_rms * se) ** 2
     return 1.0 - residual_rms / math.sqrt(max(residual_rms ** 2 - e2 + (size * signature_rms) ** 2, 1e-300))
@@ -174,9 +285,9 @@ def heldout_signature_rms(GL: np.ndarray, fold_log: np.ndarray, GO: np.ndarray, 
 
 
 def detectable_difference(name: str, ci95, residual_rms: float | None = None,
-                          signature_rms: float | None = None, *, min_gain: float,
-                          n_folds: int = 5) -> Resolution:
-    """The smallest difference of ``name`` the pair can name: the interval's half-width or the gate's size.
+                          signature_rms: float | None = None, *, blocks: tuple | None = None,
+                          level: float = 0.05, n_folds: int = 5) -> Resolution:
+    """The smallest difference of ``name`` the pair can name: the interval's half-width or the test's size.
 
     Parameters
     ----------
@@ -184,23 +295,29 @@ def detectable_difference(name: str, ci95, residual_rms: float | None = None,
     ci95 : (lo, hi) or None
         The difference's 95 % interval, the parameter's unit.
     residual_rms, signature_rms : float, optional
-        σ and s (:func:`gate_size`); without them (a shift) only the interval resolves.
-    min_gain : float
-        The selection's threshold.
+        OTHER's held-out RMS with the difference modelled and its column's
+        after the other columns (reported).
+    blocks : (signature_ss, cross, null_var), optional
+        :func:`named_size`'s per-block parts; without them (a shift) only the
+        interval resolves.
+    level : float
+        One-sided level the p-value must pass (the false-name rate over the
+        candidates: the level of the smallest of their p-values).
     n_folds : int
 
     Returns
     -------
     Resolution
     """
+    sd = None if blocks is None else float(math.sqrt(max(blocks[2], 0.0)))
     if ci95 is None:
-        return Resolution(name, None, None, None, residual_rms, signature_rms)
+        return Resolution(name, None, None, None, residual_rms, signature_rms, fold_sd=sd)
     half = 0.5 * float(ci95[1] - ci95[0])
     gate = None
-    if residual_rms is not None and signature_rms is not None:
-        gate = gate_size(residual_rms, signature_rms, half / Z95, min_gain, n_folds)
+    if blocks is not None:
+        gate = named_size(blocks[0], blocks[1], half / Z95, blocks[2], level=level, n_folds=n_folds)
     best = half if gate is None else max(half, gate)
-    return Resolution(name, float(best), half, gate, residual_rms, signature_rms)
+    return Resolution(name, float(best), half, gate, residual_rms, signature_rms, fold_sd=sd)
 
 
 def with_floor(res: Resolution, floor: float) -> Resolution:

@@ -1,0 +1,136 @@
+"""How often does ``ride LOG --compare OTHER`` name a difference between two rides that do not differ?
+
+Real null pairs of the shared euc_core rides (``../shared/data/euc_core/trips/*/*/N/N.csv``):
+
+* each ride's two halves, the first as LOG and the second as OTHER (the log cut in
+  two at its middle time, passed as sliced logs; same wheel, rider, tyre and day);
+* consecutive rides of one wheel whose ``meta.csv`` records the same tyre pressure,
+  temperature and wind.
+
+For each pair the differences are computed with the functions
+``euc-sim ride LOG --compare OTHER`` calls (``ride_drivetrain`` then
+``differences_json``; the two rides' drivetrain fits are pickled in ``--work`` and
+read again when there, the differences recomputed on every run).  A pair names
+falsely when it names anything; the rate over the pairs is given with its
+Clopper–Pearson 95 % interval.  Written up in docs/concealed.md ("False names on
+real null pairs").
+
+Usage (from the repository root)::
+
+    nice python scripts/tables/naming_nulls.py --work /tmp/naming_nulls [--only blitz/1 v9/0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import json
+import pickle
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+DATA = ROOT.parent / "shared" / "data" / "euc_core"
+#: meta.csv columns that must agree for two rides to be a null pair.
+SAME = ("tire_pressure", "temperature", "wind")
+
+
+def _meta(csv_path: Path) -> dict:
+    with open(csv_path.parent / "meta.csv", newline="") as fh:
+        return next(csv.DictReader(fh))
+
+
+def _half(log, first: bool):
+    """The first or second half of a parsed log (by time), its clock restarted at zero."""
+    import pandas as pd
+
+    d = log.data
+    mid = 0.5 * float(d["t"].iloc[-1])
+    part = d[d["t"] < mid] if first else d[d["t"] >= mid]
+    t0 = float(part["t"].iloc[0])
+    part = part.assign(t=part["t"] - t0).reset_index(drop=True)
+    stem = Path(log.path)
+    name = stem.with_name(f"{stem.stem}_{'first' if first else 'second'}_half{stem.suffix}")
+    return dataclasses.replace(log, path=str(name), data=part, start=log.start + pd.Timedelta(seconds=t0))
+
+
+def pairs(data: Path, only=None) -> list[tuple[str, Path, Path | None]]:
+    """``(label, LOG, OTHER)``: OTHER None for a ride's halves."""
+    rides = sorted(data.glob("trips/*/*/*/*.csv"))
+    rides = [r for r in rides if r.name != "meta.csv" and r.stem == r.parent.name]
+    if only:
+        rides = [r for r in rides if f"{r.parts[-3]}/{r.parts[-2]}" in only]
+    out = [(f"{r.parts[-3]}/{r.parts[-2]} halves", r, None) for r in rides]
+    by_wheel: dict = {}
+    for r in rides:
+        by_wheel.setdefault(r.parts[-3], []).append(r)
+    for wheel, rs in by_wheel.items():
+        rs = sorted(rs, key=lambda r: int(r.parent.name))
+        for a, b in zip(rs, rs[1:]):
+            ma, mb = _meta(a), _meta(b)
+            if all(ma[k].strip() == mb[k].strip() for k in SAME):
+                out.append((f"{wheel}/{a.parent.name} → {b.parent.name}", a, b))
+    return out
+
+
+def run(label: str, a: Path, b: Path | None, work: Path) -> dict:
+    """The named differences of one null pair (drivetrain fits cached in ``work``)."""
+    from euc_sim.rides.compare.differences_report import differences_json
+    from euc_sim.rides.grids.ride import as_ride
+    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+
+    cache = work / (label.replace("/", "_").replace(" → ", "-").replace(" ", "_") + ".pkl")
+    if cache.exists():
+        log, other, physics = pickle.loads(cache.read_bytes())
+    else:
+        log = as_ride(a).log
+        log, other = (_half(log, True), _half(log, False)) if b is None else (log, as_ride(b).log)
+        physics = ride_drivetrain(log, other)
+        cache.write_bytes(pickle.dumps((log, other, physics)))
+    rep = differences_json(physics[0], physics[1], physics[2], log, other)
+    diffs = rep["differences"]
+    return {"pair": label, "named": sorted(d["name"] for d in diffs if d.get("named")),
+            "p": {d["name"]: d.get("p_value") for d in diffs if d.get("p_value") is not None},
+            "q": {d["name"]: d.get("q_value") for d in diffs if d.get("q_value") is not None},
+            "alias_sets": {d["name"]: d["alias_set"] for d in diffs if d.get("alias_set")}}
+
+
+def table(rows: list) -> str:
+    """Markdown: one line per pair, then the false-name rate and its Clopper–Pearson interval."""
+    from scipy.stats import binomtest
+
+    g = (lambda x: "–" if x is None else f"{x:.2g}")
+    out = ["| pair | named | smallest p (its candidate) | smallest q |", "|---|---|---|---|"]
+    for r in rows:
+        best = min(r["p"].items(), key=lambda kv: kv[1], default=(None, None))
+        q = min(r["q"].values(), default=None)
+        out.append(f"| {r['pair']} | {', '.join(r['named']) or 'nothing'} | "
+                   f"{g(best[1])}{'' if best[0] is None else f' ({best[0]})'} | {g(q)} |")
+    k, n = sum(bool(r["named"]) for r in rows), len(rows)
+    if n:
+        ci = binomtest(k, n).proportion_ci(0.95, method="exact")
+        out.append(f"\nPairs naming anything: {k} of {n} ({100 * k / n:.1f} %; Clopper–Pearson 95 % "
+                   f"{100 * ci.low:.1f}–{100 * ci.high:.1f} %).")
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--data", default=str(DATA), help="the shared euc_core folder")
+    p.add_argument("--work", required=True, help="folder for the pickled drivetrain fits and rows.json")
+    p.add_argument("--only", nargs="+", help="wheel/N rides to use (e.g. blitz/1)")
+    args = p.parse_args(argv)
+    work = Path(args.work)
+    work.mkdir(parents=True, exist_ok=True)
+    rows = []
+    for label, a, b in pairs(Path(args.data), args.only):
+        rows.append(run(label, a, b, work))
+        print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
+    (work / "rows.json").write_text(json.dumps(rows, indent=1))
+    print(table(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
