@@ -91,6 +91,7 @@ def run(label: str, a: Path, b: Path | None, work: Path) -> dict:
     rep = differences_json(physics[0], physics[1], physics[2], log, other)
     diffs = rep["differences"]
     return {"pair": label, "named": sorted(d["name"] for d in diffs if d.get("named")),
+            "sizes": {d["name"]: [d["estimate"], d["ci95"]] for d in diffs if d.get("named")},
             "p": {d["name"]: d.get("p_value") for d in diffs if d.get("p_value") is not None},
             "q": {d["name"]: d.get("q_value") for d in diffs if d.get("q_value") is not None},
             "alias_sets": {d["name"]: d["alias_set"] for d in diffs if d.get("alias_set")}}
@@ -101,17 +102,26 @@ def table(rows: list) -> str:
     from scipy.stats import binomtest
 
     g = (lambda x: "–" if x is None else f"{x:.2g}")
-    out = ["| pair | named | smallest p (its candidate) | smallest q |", "|---|---|---|---|"]
+    out = ["| pair | named [95 % interval] | smallest p (its candidate) | smallest q |", "|---|---|---|---|"]
     for r in rows:
         best = min(r["p"].items(), key=lambda kv: kv[1], default=(None, None))
         q = min(r["q"].values(), default=None)
-        out.append(f"| {r['pair']} | {', '.join(r['named']) or 'nothing'} | "
+        named = [f"{n} {e:.3g} [{ci[0]:.3g}, {ci[1]:.3g}]" for n, (e, ci) in r.get("sizes", {}).items()]
+        out.append(f"| {r['pair']} | {'; '.join(named) or ', '.join(r['named']) or 'nothing'} | "
                    f"{g(best[1])}{'' if best[0] is None else f' ({best[0]})'} | {g(q)} |")
-    k, n = sum(bool(r["named"]) for r in rows), len(rows)
-    if n:
+
+    def rate(what: str, k: int, n: int) -> str:
         ci = binomtest(k, n).proportion_ci(0.95, method="exact")
-        out.append(f"\nPairs naming anything: {k} of {n} ({100 * k / n:.1f} %; Clopper–Pearson 95 % "
-                   f"{100 * ci.low:.1f}–{100 * ci.high:.1f} %).")
+        return f"\n{what}: {k} of {n} ({100 * k / n:.1f} %; Clopper–Pearson 95 % {100 * ci.low:.1f}–{100 * ci.high:.1f} %)."
+
+    n = len(rows)
+    if n:
+        out.append(rate("Pairs naming anything", sum(bool(r["named"]) for r in rows), n))
+        road = [r for r in rows if set(r["named"]) - {"internal_resistance"}]
+        out.append(rate("Pairs naming anything but the battery resistance (which changes along one ride "
+                        "with its charge and pack temperature)", len(road), n))
+        tests = sum(len([c for c in r["p"] if c != "drivetrain_idle_loss"]) for r in rows)
+        out.append(rate("Candidates named, over every candidate tested", sum(len(r["named"]) for r in rows), tests))
     return "\n".join(out)
 
 

@@ -11,9 +11,9 @@ Everything is computed from per-block Gram matrices ``[X y]ᵀ[X y]``: blocks of
 ``block`` seconds inside :func:`euc_sim.stats.time_blocks` folds, so that
 
 * the naming test (fold k of *both* rides left out, OTHER's fold k scored,
-  every fold in turn; a one-sided paired t-test over OTHER's blocks of their
-  held-out SSE without and with a difference,
-  :func:`euc_sim.rides.compare.resolution.paired_test`) and the forward selection
+  every fold in turn; a cross-fitted score test over OTHER's blocks,
+  :func:`euc_sim.rides.compare.resolution.score_test`; the shift: a paired t
+  of the blocks' held-out SSE drop) and the forward selection
   it drives (the candidate of smallest p-value added while it is below
   ``level``) use the folds every other fit uses;
 * the 95 % intervals are the hull of two intervals: a block bootstrap with
@@ -35,8 +35,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from euc_sim.rides.compare.resolution import (Z95, block_means, detectable_difference, heldout_signature_rms,
-                                               paired_test)
+from euc_sim.rides.compare.resolution import (detectable_difference, heldout_signature_rms, paired_test,
+                                               score_test)
 from euc_sim.stats import gram_lstsq, jackknife_interval, percentile_interval, time_blocks
 
 __all__ = ["PairDesign", "PairFit", "DELAY", "block_grams", "pair_fit"]
@@ -104,7 +104,8 @@ class PairFit:
         (:func:`euc_sim.rides.compare.resolution.detectable_difference`), in
         the model its estimate comes from.
     p_values : dict of str -> float
-        Each candidate's one-sided p-value (:func:`paired_test`) against the
+        Each candidate's p-value (:func:`score_test`; the shift's
+        :func:`paired_test`) against the
         selected model: a kept one against the selected model without it,
         the others against the selected model with them added.
     alias_sets : dict of str -> list of str
@@ -233,9 +234,16 @@ class _Grams:
         sse, n = self.fold_sse(terms)
         return float(np.sqrt(max(float(sse.sum()), 0.0) / n.sum())) if n.sum() else np.inf
 
-    def test(self, base, c: str) -> tuple[float, float, float]:
-        """:func:`paired_test` of adding ``c`` to the model ``base``: (p, mean, sd of the blocks' SSE drop)."""
-        return paired_test(self.block_sse(list(base) + [c]), self.block_sse(list(base)))
+    def test(self, base, c: str) -> float:
+        """p-value of adding ``c`` to the model ``base`` (:func:`score_test`; the shift: :func:`paired_test`)."""
+        terms = list(base) + [c]
+        if c == DELAY:
+            return paired_test(self.block_sse(terms), self.block_sse(list(base)))[0]
+        key = ("test", tuple(terms))
+        if key not in self._block_sse:
+            S, X, X0 = _block_parts(self, terms, c)
+            self._block_sse[key] = score_test(X0, X)[0]
+        return self._block_sse[key]
 
     def gain_se(self, terms, c: str) -> float | None:
         """Standard error of ``c``'s held-out gain from its spread over the folds (None below 2 folds).
@@ -302,7 +310,7 @@ def _select(g: _Grams, cands: list, level: float) -> tuple[list, list]:
     selected, left = [], list(cands)
     history = [{"term": "", "heldout_rmse": g.score([]), "p_value": None}]
     while left:
-        ps = {c: g.test(selected, c)[0] for c in left}
+        ps = {c: g.test(selected, c) for c in left}
         best = min(left, key=ps.get)
         if not ps[best] < level:
             break
@@ -325,8 +333,8 @@ def _alias_set(g: _Grams, selected: list, c: str, cands: list, corr: dict, level
             continue
         base = [x for x in selected if x not in (c, o)]
         if abs(corr.get(c, {}).get(o, 0.0)) > ALIAS_SET_CORRELATION or (
-                g.test(base, o)[0] < level and g.test(base, c)[0] < level
-                and not g.test(base + [o], c)[0] < level and not g.test(base + [c], o)[0] < level):
+                g.test(base, o) < level and g.test(base, c) < level
+                and not g.test(base + [o], c) < level and not g.test(base + [c], o) < level):
             out.append(o)
     return [c, *out] if out else []
 
@@ -376,7 +384,7 @@ def pair_fit(design: PairDesign, *, level: float = 0.05, family: int = 1, transf
             boot = None if ci is None else (float(ci[0]), float(ci[1]))
             estimates[c] = (whole[c], _hull(boot, jack[c]) if boot is not None else None)
             without = [x for x in terms if x != c]
-            p_values[c] = g.test(without, c)[0]
+            p_values[c] = g.test(without, c)
             with_ = g.score(terms)
             gains[c] = 1.0 - with_ / g.score(without) if g.score(without) > 0 else 0.0
             resolutions[c] = replace(_resolution(g, terms, c, k, beta, transform, estimates[c], with_,
@@ -394,10 +402,9 @@ def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, estimat
     The column's held-out RMS after the model's other columns (OTHER at the
     model's shift ``k``) and its per-block parts (:func:`_block_parts`), per
     unit of the parameter (the transform's slope in the coefficient: every
-    transform is linear in it); the blocks' spread of the SSE drop with no
-    difference, from what the estimate leaves.
+    transform is linear in it).
     """
-    value, ci = estimate
+    ci = estimate[1]
     if c == DELAY:
         return detectable_difference(c, ci, level=level, n_folds=g.n_folds)
     cols = g.cols(terms)
@@ -407,44 +414,47 @@ def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, estimat
     coef = {g.names[i]: float(b) for i, b in zip(cols, beta)}
     fn = transform.get(c, lambda co: co[c])
     slope = abs(fn({**coef, c: coef[c] + 1.0}) - fn(coef))
-    if not slope > 0 or ci is None:
+    if not slope > 0:
         return detectable_difference(c, ci, level=level, n_folds=g.n_folds)
-    S, X = _block_parts(g, terms, cols, col, others)
-    S, X = S / slope ** 2, X / slope
-    se = 0.5 * (ci[1] - ci[0]) / Z95
-    drop = g.block_sse([x for x in terms if x != c]) - g.block_sse(terms)
-    left = drop - block_means(abs(value), S, se, g.n_folds)
-    null = max(float(np.var(left, ddof=1)) - 4.0 * value ** 2 * float(np.mean(X ** 2)), 0.0)
-    return detectable_difference(c, ci, residual, s / slope, blocks=(S, X, null), level=level,
+    S, X, _ = _block_parts(g, terms, c)
+    return detectable_difference(c, ci, residual, s / slope, blocks=(S / slope ** 2, X / slope), level=level,
                                  n_folds=g.n_folds)
 
 
-def _block_parts(g: _Grams, terms, cols: list, col: int, others: list) -> tuple[np.ndarray, np.ndarray]:
-    """Per OTHER block, ``S_b`` and ``X_b`` (:mod:`~euc_sim.rides.compare.resolution`), per coefficient unit.
+def _block_parts(g: _Grams, terms, c: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per OTHER block, ``S_b``, ``X_b`` and ``X⁰_b`` (:mod:`~euc_sim.rides.compare.resolution`), per
+    coefficient unit.
 
-    ``S_b``: the sum of squares of the difference's column after the model's
-    other columns (fitted on both rides outside the block's fold); ``X_b``: that
-    column against the residual of the model with it (fitted likewise).  A
-    difference Δ adds ``Δ²·S_b + 2Δ·X_b`` to the block's SSE without it.
+    ``S_b``: the sum of squares of ``c``'s column after the model's other
+    columns (fitted on both rides outside the block's fold); ``X_b`` and
+    ``X⁰_b``: that column against the residual of the model with and without
+    ``c`` (fitted likewise).
     """
+    cols, col = g.cols(terms), g.names.index(c)
+    others = [i for i in cols if i != col]
+    without = [x for x in terms if x != c]
     p = g.GL.shape[1]
-    S, X = np.zeros(len(g.fO)), np.zeros(len(g.fO))
+    S, X, X0 = (np.zeros(len(g.fO)) for _ in range(3))
     for f in range(g.n_folds):
         test = g.fO == f
         if not test.any():
             continue
         beta, k, _ = g.fold_fit(f, terms)
+        beta0 = g.fold_fit(f, without)[0]
         A = g.GL[g.fL != f].sum(axis=0) + g.GO[k][~test].sum(axis=0)
         u = np.zeros(p)
         u[col] = 1.0
         if others:
             u[others] -= np.linalg.lstsq(A[np.ix_(others, others)], A[others, col], rcond=None)[0]
-        v = np.zeros(p)
-        v[-1] = 1.0
+        v, v0 = np.zeros(p), np.zeros(p)
+        v[-1] = v0[-1] = 1.0
         v[cols] -= beta
-        S[test] = np.einsum("i,bij,j->b", u, g.GO[k][test], u)
-        X[test] = np.einsum("i,bij,j->b", u, g.GO[k][test], v)
-    return S, X
+        v0[g.cols(without)] -= beta0
+        G = g.GO[k][test]
+        S[test] = np.einsum("i,bij,j->b", u, G, u)
+        X[test] = np.einsum("i,bij,j->b", u, G, v)
+        X0[test] = np.einsum("i,bij,j->b", u, G, v0)
+    return S, X, X0
 
 
 def _correlations(g: _Grams) -> dict:

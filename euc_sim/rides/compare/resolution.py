@@ -1,33 +1,25 @@
 """The naming test of a pair of rides, its false-name control and its power.
 
-A difference is named when OTHER's held-out error falls significantly with it
-(:mod:`euc_sim.rides.compare.differences_fit`): OTHER's 30 s blocks, each
-scored by the fit with its fold of *both* rides left out, give per block
-``D_b = SSE_without,b − SSE_with,b``; a one-sided paired t-test of the mean
-``D`` over the B blocks with B − 1 degrees of freedom (:func:`paired_test`; the
-blocks the bootstrap already treats as independent), the p-values of a pair's
-candidates adjusted by Benjamini–Hochberg (:func:`bh_qvalues`), and its 95 %
-interval excluding zero.
+A difference is named when the residual OTHER's held-out rows leave without
+it goes with its signature (:mod:`euc_sim.rides.compare.differences_fit`): a
+cross-fitted score test.  For each of OTHER's 30 s blocks, with the block's
+fold of *both* rides left out, the difference's column after the model's other
+columns (``sig``) and the residual of the model without it (``r``) give
+``X⁰_b = Σ sig·r``; with it modelled, ``X_b`` (its noise alone).  Then
 
-Power: a difference Δ leaves, in OTHER's block b of the model without it, a
-systematic error of sum of squares ``Δ²·S_b`` (``S_b``: the difference's
-column on the block after the model's other columns, fitted on both rides
-outside the fold, have absorbed what they can, per unit of the parameter),
-less what estimating it on K−1 of K folds costs (``K/(K−1)·se²·S_b``), plus
-``2Δ·X_b`` (``X_b``: that column against the residual's noise).  So
-``E D_b = μ_b = (Δ² − K/(K−1)·se²)·S_b`` and the t-statistic's noncentrality is
+    z = Σ_b X⁰_b / √(Σ_b X_b²),
 
-    mean_b μ_b / √((var_b μ_b + v₀ + 4Δ²·mean_b X_b²) / B),
-
-``v₀`` the blocks' spread of ``D_b`` with no difference (the pair's own, from
-what the estimate leaves).  ``resolvable`` is the smallest Δ at which it
-reaches the noncentrality that a t with B − 1 degrees of freedom passes its
-one-sided level with probability :data:`POWER` (:func:`named_size`), or the
-interval's half-width where that is larger.  A difference whose signature
-varies much from block to block may never reach it (the ratio
-``mean S/sd S·√B`` bounds the statistic): then only the interval resolves.  A
-shift (the current's delay) has no column: only its interval (and the logs'
-finest delay) resolves it.
+two-sided against a t with B − 1 degrees of freedom (:func:`score_test`; the
+blocks the bootstrap already treats as independent).  Without a difference
+``X⁰`` and ``X`` are the same noise and z is a t; a difference Δ adds
+``Δ·S_b`` to each ``X⁰_b`` (``S_b``: the column's sum of squares on the block),
+so z grows as ``Δ·ΣS_b/√(ΣX_b²)``: the smallest difference named with
+:data:`POWER` at a level is ``δ·√(ΣX_b²)/ΣS_b`` (:func:`named_size`, ``δ`` the
+noncentrality a t passes its level with that chance).  The p-values of a
+pair's candidates are adjusted by Benjamini–Hochberg (:func:`bh_qvalues`).  A
+shift (the current's delay) has no column: its test is the paired t of the
+blocks' held-out SSE drop (:func:`paired_test`), and only its interval (and
+the logs' finest delay) resolves it.
 
 Study: docs/concealed.md ("What a pair can resolve").
 """
@@ -39,7 +31,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["Z95", "POWER", "Resolution", "paired_test", "bh_qvalues", "noncentrality", "block_means", "named_size",
+__all__ = ["Z95", "POWER", "Resolution", "paired_test", "score_test", "bh_qvalues", "noncentrality", "named_size",
            "predicted_gain", "heldout_signature_rms",
            "detectable_difference", "with_floor"]
 
@@ -78,8 +70,8 @@ class Resolution:
         Standard error of the difference's measured held-out gain, from its
         spread over the folds (fraction).
     fold_sd : float or None
-        √v₀, the spread of the test's per-block ``D_b`` with no difference
-        (module docstring), the signal's unit squared.
+        √(Σ X_b²), the score's spread with no difference (module docstring),
+        the signal's unit² per unit of the parameter.
     """
 
     name: str
@@ -119,13 +111,14 @@ def paired_test(sse_with: np.ndarray, sse_without: np.ndarray) -> tuple[float, f
     """
     from scipy.stats import t as student
 
-    d = np.asarray(sse_without, float) - np.asarray(sse_with, float)
+    w = np.asarray(sse_with, float)
+    d = np.asarray(sse_without, float) - w
     if len(d) < 2:
         return 1.0, 0.0, 0.0
     mean, sd = float(d.mean()), float(d.std(ddof=1))
-    scale = float(np.abs(np.asarray(sse_with, float)).mean()) or 1.0
-    if not sd > 1e-12 * scale:
-        return (0.0 if mean > 1e-12 * scale else 1.0), mean, sd
+    tiny = 1e-12 * (float(np.abs(w).mean()) or 1.0)
+    if not sd > tiny:
+        return (0.0 if mean > tiny else 1.0), mean, sd
     return float(student.sf(mean / (sd / math.sqrt(len(d))), len(d) - 1)), mean, sd
 
 
@@ -167,70 +160,56 @@ def noncentrality(level: float, df: int, power: float = POWER) -> float:
     return float(brentq(lambda nc: nct.sf(crit, df, nc) - power, 0.0, 200.0))
 
 
-def block_means(size: float, signature_ss, se: float, n_folds: int) -> np.ndarray:
-    """``E D_b = (Δ² − K/(K−1)·se²)·S_b`` per block (module docstring), the signal's unit squared.
+def score_test(cross_without, cross_with) -> tuple[float, float]:
+    """Two-sided cross-fitted score test of one difference (module docstring).
 
     Parameters
     ----------
-    size : float
-        Δ, the parameter's unit.
-    signature_ss : array_like (B,)
-        S_b per unit of the parameter squared.
-    se : float
-        Standard error of the difference (parameter's unit).
-    n_folds : int
-        K.
+    cross_without, cross_with : array_like (B,)
+        ``X⁰_b`` and ``X_b``: per block, the difference's column (after the
+        model's other columns) against the residual of the model without and
+        with it, every fit with the block's fold left out.
+
+    Returns
+    -------
+    p : float
+        ``2·P(T ≥ |z|)``, T a t with B − 1 degrees of freedom; 1 where the
+        noise vanishes (a ride against itself) or below two blocks.
+    z : float
     """
-    return (size ** 2 - n_folds / (n_folds - 1.0) * se ** 2) * np.asarray(signature_ss, float)
+    from scipy.stats import t as student
+
+    x0, x = np.asarray(cross_without, float), np.asarray(cross_with, float)
+    den = math.sqrt(float(np.sum(x ** 2)))
+    if len(x) < 2 or not den > 1e-12 * (abs(float(x0.sum())) + 1e-300) or not den > 0:
+        return 1.0, 0.0
+    z = float(x0.sum()) / den
+    return float(min(1.0, 2.0 * student.sf(abs(z), len(x) - 1))), z
 
 
-def named_size(signature_ss, cross, se: float, null_var: float, *, level: float, n_folds: int,
-               power: float = POWER) -> float | None:
-    """Smallest difference :func:`paired_test` names with ``power`` at ``level`` (module docstring).
+def named_size(signature_ss, cross_with, *, level: float, power: float = POWER) -> float | None:
+    """Smallest difference :func:`score_test` names with ``power`` at ``level``: ``δ·√(ΣX_b²)/ΣS_b``.
 
     Parameters
     ----------
     signature_ss : array_like (B,)
         S_b, the column's held-out sum of squares per block after the model's
         other columns, per unit of the parameter squared.
-    cross : array_like (B,)
+    cross_with : array_like (B,)
         X_b, that column against the residual of the model with it, per unit
         of the parameter.
-    se : float
-        Standard error of the difference (parameter's unit).
-    null_var : float
-        v₀, the spread (variance) of ``D_b`` over the blocks with no difference.
     level : float
-        One-sided level the p-value must pass.
-    n_folds : int
-        K, the held-out folds.
+        Two-sided level the p-value must pass.
 
     Returns
     -------
     float or None
-        Δ_test in the parameter's unit; None where the column vanishes or no
-        size reaches the power (found by bisection in log Δ).
+        The parameter's unit; None where the column vanishes.
     """
-    S, X = np.asarray(signature_ss, float), np.asarray(cross, float)
-    B = len(S)
-    if B < 2 or not S.mean() > 0 or not np.isfinite(null_var):
+    S, X = np.asarray(signature_ss, float), np.asarray(cross_with, float)
+    if len(S) < 2 or not S.sum() > 0:
         return None
-    need = noncentrality(level, B - 1, power)
-
-    def short(log_size: float) -> float:
-        size = math.exp(log_size)
-        mu = block_means(size, S, se, n_folds)
-        spread = math.sqrt((mu.var(ddof=1) + null_var + 4.0 * size ** 2 * float(np.mean(X ** 2))) / B)
-        return float(mu.mean()) - need * spread
-
-    scale = math.sqrt((null_var + 1e-300) / float(S.mean()) ** 2) ** 0.5 + se
-    lo, hi = math.log(scale * 1e-6 + 1e-300), math.log(scale * 1e6)
-    if short(hi) < 0:
-        return None
-    for _ in range(100):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if short(mid) < 0 else (lo, mid)
-    return math.exp(hi)
+    return noncentrality(level / 2.0, len(S) - 1, power) * math.sqrt(float(np.sum(X ** 2))) / float(S.sum())
 
 
 def predicted_gain(size: float, residual_rms: float, signature_rms: float, se: float,
@@ -297,11 +276,11 @@ def detectable_difference(name: str, ci95, residual_rms: float | None = None,
     residual_rms, signature_rms : float, optional
         OTHER's held-out RMS with the difference modelled and its column's
         after the other columns (reported).
-    blocks : (signature_ss, cross, null_var), optional
-        :func:`named_size`'s per-block parts; without them (a shift) only the
-        interval resolves.
+    blocks : (signature_ss, cross_with), optional
+        :func:`named_size`'s per-block parts, per unit of the parameter;
+        without them (a shift) only the interval resolves.
     level : float
-        One-sided level the p-value must pass (the false-name rate over the
+        Level the p-value must pass (the false-name rate over the
         candidates: the level of the smallest of their p-values).
     n_folds : int
 
@@ -309,13 +288,13 @@ def detectable_difference(name: str, ci95, residual_rms: float | None = None,
     -------
     Resolution
     """
-    sd = None if blocks is None else float(math.sqrt(max(blocks[2], 0.0)))
+    sd = None if blocks is None else float(math.sqrt(np.sum(np.asarray(blocks[1], float) ** 2)))
     if ci95 is None:
         return Resolution(name, None, None, None, residual_rms, signature_rms, fold_sd=sd)
     half = 0.5 * float(ci95[1] - ci95[0])
     gate = None
     if blocks is not None:
-        gate = named_size(blocks[0], blocks[1], half / Z95, blocks[2], level=level, n_folds=n_folds)
+        gate = named_size(blocks[0], blocks[1], level=level)
     best = half if gate is None else max(half, gate)
     return Resolution(name, float(best), half, gate, residual_rms, signature_rms, fold_sd=sd)
 

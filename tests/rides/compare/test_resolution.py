@@ -1,4 +1,4 @@
-"""The naming test, its false-name control and the smallest difference it names with 80 % power: the algebra,
+"""The naming test, its false-name control and the smallest difference it names with 80 % power: its calibration,
 the column through the model, and a synthetic pair where the prediction is checked both ways."""
 
 import numpy as np
@@ -9,27 +9,28 @@ from euc_sim.rides.compare import resolution as rs
 from test_differences_fit import _design, _power, _ride
 
 
-def test_the_named_size_is_where_the_paired_test_names_with_80_percent_power():
-    """Blocks' SSE drops drawn as the power model says (signature S_b, noise v₀, the difference
-    against the residual's noise X_b): at the named size the one-sided t names 80 % of them."""
-    from scipy.stats import t as student
-
+def test_the_named_size_is_where_the_score_test_names_with_80_percent_power():
+    """Blocks' held-out scores drawn as the power model says (a difference Δ adds Δ·S_b to each
+    block's noise X_b): at the named size the two-sided test names 80 % of them."""
     rng = np.random.default_rng(0)
-    B, K = 30, 5
+    B = 40
     S = rng.uniform(0.5, 2.0, B) * 1e4
-    for se, v0, X in ((0.0, 400.0, np.zeros(B)), (0.002, 400.0, 30.0 * np.sqrt(S))):
-        d = rs.named_size(S, X, se, v0, level=0.05, n_folds=K)
-        mu = rs.block_means(d, S, se, K)
-        draws = mu + np.sqrt(v0) * rng.standard_normal((20000, B)) + 2.0 * d * X * rng.standard_normal((20000, B))
-        tt = draws.mean(axis=1) / (draws.std(axis=1, ddof=1) / np.sqrt(B))
-        assert np.mean(tt > student.isf(0.05, B - 1)) == pytest.approx(0.8, abs=0.02)
-    # a stricter level (the smallest of six p-values under the false-name control) asks for more
-    assert (rs.named_size(S, 0 * S, 0.0, 400.0, level=0.05 / 6, n_folds=K)
-            > rs.named_size(S, 0 * S, 0.0, 400.0, level=0.05, n_folds=K))
-    assert rs.named_size(0 * S, 0 * S, 0.0, 400.0, level=0.05, n_folds=K) is None
+    sd = 30.0 * np.sqrt(S) * rng.uniform(0.5, 2.0, B)
+    for level in (0.05, 0.05 / 6):
+        d = rs.named_size(S, sd, level=level)
+        noise = sd * rng.standard_normal((4000, B))
+        p = np.array([rs.score_test(d * S + x, x)[0] for x in noise])
+        assert np.mean(p < level) == pytest.approx(0.8, abs=0.03)
+        # without the difference the test names at its level
+        null = np.array([rs.score_test(x, sd * rng.standard_normal(B))[0] for x in noise])
+        assert np.mean(null < level) == pytest.approx(level, abs=0.012)
+    assert rs.named_size(S, sd, level=0.05 / 6) > rs.named_size(S, sd, level=0.05)
+    assert rs.named_size(0 * S, sd, level=0.05) is None
 
 
-def test_the_paired_test_is_one_sided_and_a_ride_against_itself_is_never_significant():
+def test_a_ride_against_itself_is_never_significant_and_the_delays_test_is_one_sided():
+    zero = np.zeros(12)
+    assert rs.score_test(zero, zero)[0] == 1.0
     w = np.array([100.0, 120.0, 90.0, 110.0, 105.0, 98.0])
     assert rs.paired_test(w, w)[0] == 1.0
     lower = w * np.array([1.1, 1.12, 1.08, 1.1, 1.09, 1.11])
@@ -49,7 +50,7 @@ def test_benjamini_hochberg_against_a_hand_computed_answer():
 
 
 def test_the_larger_of_the_interval_and_the_test():
-    blocks = (np.full(20, 1e4), np.zeros(20), 1e4)
+    blocks = (np.full(20, 1e4), np.full(20, 1e3))
     wide = rs.detectable_difference("x", (-3.0, 5.0), 40.0, 500.0, blocks=blocks)
     assert wide.interval_halfwidth == pytest.approx(4.0) and wide.resolvable == pytest.approx(4.0)
     narrow = rs.detectable_difference("x", (0.99, 1.01), 40.0, 500.0, blocks=blocks)
@@ -91,6 +92,7 @@ def test_a_difference_well_above_its_predicted_resolution_is_named_and_well_belo
         fit = pf.pair_fit(_drag_pair(factor * r), n_boot=60, seed=0)
         lo, hi = fit.estimates["aerodynamic_drag"][1]
         assert (fit.p_values["aerodynamic_drag"] < 0.05 and (lo > 0 or hi < 0)) == named
+        assert (fit.p_values["aerodynamic_drag"] < 0.001) == named
         res = fit.resolutions["aerodynamic_drag"]
         assert res.resolvable == pytest.approx(r, rel=0.2)     # the pair's noise, not the effect
         gain = rs.predicted_gain(factor * r, res.residual_rms, res.signature_rms,
@@ -103,9 +105,9 @@ def test_the_json_and_the_page_carry_the_pairs_resolution():
     from euc_sim.rides.report.differences_page import difference_lines
 
     det = {"total_mass": rs.detectable_difference("total_mass", (-2.0, 28.0), 60.0, 1.5,
-                                                  blocks=(np.full(20, 700.0), np.zeros(20), 1e8)),
+                                                  blocks=(np.full(20, 4.0), np.full(20, 14.0))),
            "rolling_resistance": rs.detectable_difference("rolling_resistance", (0.004, 0.016), 60.0, 9000.0,
-                                                          blocks=(np.full(20, 2e10), np.zeros(20), 1e8))}
+                                                          blocks=(np.full(20, 4e9), np.full(20, 3e6)))}
     tested = {"total_mass": {"estimate": 13.0, "ci95": (-2.0, 28.0), "heldout_gain": 0.004, "selected": False,
                              "detectable": det["total_mass"]},
               "rolling_resistance": {"estimate": 0.01, "ci95": (0.004, 0.016), "heldout_gain": 0.002,
