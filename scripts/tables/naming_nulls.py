@@ -4,6 +4,8 @@ Real null pairs of the shared euc_core rides (``../shared/data/euc_core/trips/*/
 
 * each ride's two halves, the first as LOG and the second as OTHER (the log cut in
   two at its middle time, passed as sliced logs; same wheel, rider, tyre and day);
+  with ``--quarters`` also its first quarter against its second and its third
+  against its fourth;
 * consecutive rides of one wheel whose ``meta.csv`` records the same tyre pressure,
   temperature and wind.
 
@@ -17,7 +19,7 @@ real null pairs").
 
 Usage (from the repository root)::
 
-    nice python scripts/tables/naming_nulls.py --work /tmp/naming_nulls [--only blitz/1 v9/0]
+    nice python scripts/tables/naming_nulls.py --work /tmp/naming_nulls [--quarters] [--only blitz/1 v9/0]
 """
 
 from __future__ import annotations
@@ -41,27 +43,30 @@ def _meta(csv_path: Path) -> dict:
         return next(csv.DictReader(fh))
 
 
-def _half(log, first: bool):
-    """The first or second half of a parsed log (by time), its clock restarted at zero."""
+def _part(log, i: int, n: int):
+    """The ``i``-th of ``n`` equal parts of a parsed log (by time), its clock restarted at zero."""
     import pandas as pd
 
     d = log.data
-    mid = 0.5 * float(d["t"].iloc[-1])
-    part = d[d["t"] < mid] if first else d[d["t"] >= mid]
+    end = float(d["t"].iloc[-1])
+    part = d[(d["t"] >= i * end / n) & ((d["t"] < (i + 1) * end / n) if i < n - 1 else True)]
     t0 = float(part["t"].iloc[0])
     part = part.assign(t=part["t"] - t0).reset_index(drop=True)
     stem = Path(log.path)
-    name = stem.with_name(f"{stem.stem}_{'first' if first else 'second'}_half{stem.suffix}")
+    name = stem.with_name(f"{stem.stem}_part{i + 1}of{n}{stem.suffix}")
     return dataclasses.replace(log, path=str(name), data=part, start=log.start + pd.Timedelta(seconds=t0))
 
 
-def pairs(data: Path, only=None) -> list[tuple[str, Path, Path | None]]:
-    """``(label, LOG, OTHER)``: OTHER None for a ride's halves."""
+def pairs(data: Path, only=None, quarters: bool = False) -> list[tuple[str, Path, Path | None]]:
+    """``(label, LOG, OTHER)``: OTHER ``None`` for a ride's halves, ``(i, j, n)`` for its parts i and j of n."""
     rides = sorted(data.glob("trips/*/*/*/*.csv"))
     rides = [r for r in rides if r.name != "meta.csv" and r.stem == r.parent.name]
     if only:
         rides = [r for r in rides if f"{r.parts[-3]}/{r.parts[-2]}" in only]
-    out = [(f"{r.parts[-3]}/{r.parts[-2]} halves", r, None) for r in rides]
+    out = [(f"{r.parts[-3]}/{r.parts[-2]} halves", r, (0, 1, 2)) for r in rides]
+    if quarters:
+        out += [(f"{r.parts[-3]}/{r.parts[-2]} quarters {i + 1}-{i + 2}", r, (i, i + 1, 4))
+                for r in rides for i in (0, 2)]
     by_wheel: dict = {}
     for r in rides:
         by_wheel.setdefault(r.parts[-3], []).append(r)
@@ -74,7 +79,7 @@ def pairs(data: Path, only=None) -> list[tuple[str, Path, Path | None]]:
     return out
 
 
-def run(label: str, a: Path, b: Path | None, work: Path) -> dict:
+def run(label: str, a: Path, b, work: Path) -> dict:
     """The named differences of one null pair (drivetrain fits cached in ``work``)."""
     from euc_sim.rides.compare.differences_report import differences_json
     from euc_sim.rides.grids.ride import as_ride
@@ -85,7 +90,8 @@ def run(label: str, a: Path, b: Path | None, work: Path) -> dict:
         log, other, physics = pickle.loads(cache.read_bytes())
     else:
         log = as_ride(a).log
-        log, other = (_half(log, True), _half(log, False)) if b is None else (log, as_ride(b).log)
+        log, other = (_part(log, b[0], b[2]), _part(log, b[1], b[2])) if isinstance(b, tuple) \
+            else (log, as_ride(b).log)
         physics = ride_drivetrain(log, other)
         cache.write_bytes(pickle.dumps((log, other, physics)))
     rep = differences_json(physics[0], physics[1], physics[2], log, other)
@@ -130,11 +136,12 @@ def main(argv=None) -> int:
     p.add_argument("--data", default=str(DATA), help="the shared euc_core folder")
     p.add_argument("--work", required=True, help="folder for the pickled drivetrain fits and rows.json")
     p.add_argument("--only", nargs="+", help="wheel/N rides to use (e.g. blitz/1)")
+    p.add_argument("--quarters", action="store_true", help="also each ride's quarters 1-2 and 3-4")
     args = p.parse_args(argv)
     work = Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
     rows = []
-    for label, a, b in pairs(Path(args.data), args.only):
+    for label, a, b in pairs(Path(args.data), args.only, args.quarters):
         rows.append(run(label, a, b, work))
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     (work / "rows.json").write_text(json.dumps(rows, indent=1))

@@ -190,3 +190,15 @@ def test_a_delay_within_the_logs_resolution_is_not_named():
     res = df.ride_differences(a, b, tested, {}, {}, "x")
     d = next(d for d in res.items if d.name == "current_delay")
     assert not d.named and "resolve" in d.why
+
+
+def test_the_page_names_the_alias_set():
+    from euc_sim.rides.report.differences_page import difference_lines
+
+    a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
+    tested = _tested(aerodynamic_drag=(0.18, 0.1, 0.26, True), rolling_resistance=(0.01, -0.01, 0.03, False))
+    tested["aerodynamic_drag"]["alias_set"] = ["aerodynamic_drag", "rolling_resistance"]
+    rep = {"compare": "b.csv", **df.ride_differences(a, b, tested, {}, {}, "x").to_json()}
+    lines = difference_lines(rep)
+    assert any(line.startswith("- Drag area: 95 % interval") and
+               "drag area or rolling resistance: this pair cannot tell them apart" in line for line in lines)
