@@ -127,7 +127,9 @@ def table(rows: list) -> str:
         out.append(rate("Pairs naming anything but the battery resistance (which changes along one ride "
                         "with its charge and pack temperature)", len(road), n))
         tests = sum(len([c for c in r["p"] if c != "drivetrain_idle_loss"]) for r in rows)
-        out.append(rate("Candidates named, over every candidate tested", sum(len(r["named"]) for r in rows), tests))
+        if tests:
+            out.append(rate("Candidates named, over every candidate tested", sum(len(r["named"]) for r in rows),
+                            tests))
     return "\n".join(out)
 
 
@@ -141,8 +143,14 @@ def main(argv=None) -> int:
     work = Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
     rows = []
+    from euc_sim.rides.grids.power import RideDataError
+
     for label, a, b in pairs(Path(args.data), args.only, args.quarters):
-        rows.append(run(label, a, b, work))
+        try:
+            rows.append(run(label, a, b, work))
+        except RideDataError as e:         # a part with too little riding: no pair, said
+            print(f"{label}: skipped ({e})", file=sys.stderr, flush=True)
+            continue
         print(json.dumps(rows[-1]), file=sys.stderr, flush=True)
     (work / "rows.json").write_text(json.dumps(rows, indent=1))
     print(table(rows))
