@@ -118,7 +118,8 @@ def table(rows: list) -> str:
 
     def rate(what: str, k: int, n: int) -> str:
         ci = binomtest(k, n).proportion_ci(0.95, method="exact")
-        return f"\n{what}: {k} of {n} ({100 * k / n:.1f} %; Clopper–Pearson 95 % {100 * ci.low:.1f}–{100 * ci.high:.1f} %)."
+        return (f"\n{what}: {k} of {n} ({100 * k / n:.1f} %; Clopper–Pearson 95 % "
+                f"{100 * ci.low:.1f}–{100 * ci.high:.1f} %).")
 
     n = len(rows)
     if n:
