@@ -7,9 +7,12 @@ rolling, drag and the current's delay, a shift of OTHER's signals; terminal
 voltage for the pack resistance; GPS speed for the speed scale).  A difference
 is *named* when both hold:
 
-1. forward selection by the blocked held-out error (fold k of both rides left
-   out, OTHER's fold k scored; :func:`euc_sim.stats.forward_select`, the
-   balance's threshold :data:`MIN_GAIN`) keeps it;
+1. its q-value is below :data:`FALSE_NAME_RATE`: its one-sided p-value (a
+   paired t-test over OTHER's 30 s blocks that modelling it lowers OTHER's
+   held-out error, each block's fold of both rides left out;
+   :func:`euc_sim.rides.compare.resolution.paired_test`) adjusted by
+   Benjamini–Hochberg across the tested physics of the pair
+   (:func:`euc_sim.rides.compare.resolution.bh_qvalues`);
 2. its 95 % interval excludes zero: the hull of a block bootstrap with each
    ride's 30 s blocks drawn independently (each ride's noise; the whole
    selected model refitted and the delay re-searched in every replicate) and a
@@ -19,6 +22,11 @@ is *named* when both hold:
 The difference of the two rides' own estimates (their intervals combined in
 quadrature) is kept beside it as ``independent``; pack-state and controller
 parameters have only that, and are never named.
+
+Where the pair cannot tell a named difference from others (their estimates
+correlate near ±1, or each is significant alone but neither beyond the
+other), the named entry carries the set (``alias_set``): each of its members
+is possible, none certain.
 
 Which differences a pair of rides cannot tell apart: for a tested difference,
 those whose estimates correlate beyond :data:`ALIAS_CORRELATION` in the pair
@@ -38,14 +46,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from euc_sim.rides.compare.resolution import bh_qvalues
 from euc_sim.rides.grids.power import G, RHO_AIR
 
-__all__ = ["Difference", "Differences", "MIN_GAIN", "ALIAS_CORRELATION", "PHYSICS",
+__all__ = ["Difference", "Differences", "FALSE_NAME_RATE", "ALIAS_CORRELATION", "PHYSICS",
            "parameters_from_ride", "difference_interval", "signature_columns",
-           "alias_table", "ride_differences", "rider_sentence"]
+           "alias_table", "with_qvalues", "ride_differences", "rider_sentence"]
 
-#: Fractional drop of OTHER's held-out RMS that keeps a difference (the balance selection's threshold).
-MIN_GAIN = 0.01
+#: The false-name rate controlled across a pair's tested physics (Benjamini–Hochberg q-values below it).
+FALSE_NAME_RATE = 0.05
 #: |correlation| of two signatures over both rides beyond which the pair cannot tell them apart.
 ALIAS_CORRELATION = 0.9
 #: The physics a difference is tested for (the effect catalog's names).
@@ -91,18 +100,23 @@ class Difference:
     independent: tuple[float, tuple[float, float] | None] | None = None
     resolvable: float | None = None
     resolution: dict | None = None
+    p_value: float | None = None
+    q_value: float | None = None
+    alias_set: tuple[str, ...] = ()
 
     def to_json(self) -> dict:
         """``{name, estimate, ci95, unit, named, why, aliases, heldout_gain, independent, resolvable,
-        resolution}``."""
+        resolution, p_value, q_value}`` and ``alias_set`` where the pair cannot tell it from others."""
         g = self.independent
+        extra = {"alias_set": list(self.alias_set)} if self.alias_set else {}
         return {"name": self.name, "estimate": self.estimate,
                 "ci95": list(self.ci95) if self.ci95 else None, "unit": self.unit,
                 "named": self.named, "why": self.why, "aliases": list(self.aliases),
                 "heldout_gain": self.heldout_gain,
                 "independent": None if g is None else {"estimate": g[0],
                                                        "ci95": list(g[1]) if g[1] else None},
-                "resolvable": self.resolvable, "resolution": self.resolution}
+                "resolvable": self.resolvable, "resolution": self.resolution,
+                "p_value": self.p_value, "q_value": self.q_value, **extra}
 
 
 @dataclass(frozen=True)
@@ -265,20 +279,21 @@ def _independent(name, a, b):
 
 
 def _tested_why(name, tested: dict, cannot: dict) -> tuple[bool, str]:
-    ci, gain = tested.get("ci95"), tested.get("heldout_gain")
+    ci, p, q = tested.get("ci95"), tested.get("p_value"), tested.get("q_value")
     if name in cannot:
         return False, cannot[name]
     if ci is None:
         return False, "no interval from the pair fit: cannot be named"
     res = float(tested.get("resolution") or 0.0)
     excl = bool(ci[0] > res or ci[1] < -res)
-    kept = bool(tested.get("selected"))
-    why = (("kept" if kept else "not kept") + " by the pair's held-out selection ("
-           + ("n/a" if gain is None else f"{100 * gain:+.1f} %") + " of the compared ride's held-out RMS"
-           + f", threshold {100 * MIN_GAIN:.0f} %); its interval " + ("excludes" if excl else "includes")
+    sig = q is not None and q < FALSE_NAME_RATE
+    g = (lambda x: "n/a" if x is None else f"{x:.2g}")   # noqa: E731
+    why = (("significant" if sig else "not significant") + f" on the compared ride's held-out blocks (p = {g(p)}, "
+           f"q = {g(q)} after the false-name control across the tested physics, level "
+           f"{100 * FALSE_NAME_RATE:.0f} %); its interval " + ("excludes" if excl else "includes")
            + (" zero" if not res else f" ±{res:.2g} s (the finest delay these logs resolve: their row "
                                       "interval or the fit's grid step)"))
-    return kept and excl, why
+    return sig and excl, why
 
 
 def _one(name, a, b, tested, aliases, cannot) -> Difference:
@@ -290,13 +305,18 @@ def _one(name, a, b, tested, aliases, cannot) -> Difference:
         if name not in PHYSICS:
             named, why = False, why + "; a nuisance of the pair fit, never named"
         ci = tested.get("ci95")
-        if named and aliases:
+        alias_set = tuple(x for x in tested.get("alias_set") or () if x in PHYSICS) if named else ()
+        alias_set = alias_set if len(alias_set) > 1 else ()
+        if alias_set:
+            why += f"; this pair cannot tell {' from '.join(alias_set)} apart: each is possible, none certain"
+        elif named and aliases:
             why += (f"; its estimate correlates beyond {ALIAS_CORRELATION:g} with {', '.join(aliases)}'s "
                     "in this pair (held out, it explains more than they do)")
         det = tested.get("detectable")
         return Difference(name, tested["estimate"], None if ci is None else tuple(ci), unit, named,
                           why, tuple(aliases), tested.get("heldout_gain"), ind,
-                          None if det is None else det.resolvable, None if det is None else det.to_json())
+                          None if det is None else det.resolvable, None if det is None else det.to_json(),
+                          tested.get("p_value"), tested.get("q_value"), alias_set)
     if ind is None:
         return Difference(name, None, None, unit, False, "not identified on "
                           + ("this ride" if a.get("estimate") is None else "the compared ride"))
@@ -305,6 +325,16 @@ def _one(name, a, b, tested, aliases, cannot) -> Difference:
     if ind[1] is None:
         why = "no interval on one ride: cannot be named"
     return Difference(name, ind[0], ind[1], unit, False, why, tuple(aliases), None, ind)
+
+
+def with_qvalues(tested: dict) -> dict:
+    """``tested`` with each tested physics' ``q_value``: Benjamini–Hochberg across those with a p-value.
+
+    Nuisance candidates of the pair fit (never named) are not in the family.
+    """
+    family = [n for n in tested if n in PHYSICS and tested[n].get("p_value") is not None]
+    q = bh_qvalues([tested[n]["p_value"] for n in family])
+    return {n: ({**e, "q_value": float(q[family.index(n)])} if n in family else e) for n, e in tested.items()}
 
 
 def ride_differences(log_params: list, other_params: list, tested: dict, aliases: dict,
@@ -317,7 +347,7 @@ def ride_differences(log_params: list, other_params: list, tested: dict, aliases
     log_params, other_params : list of dict
         ``parameters`` of the two rides (:func:`parameters_from_ride`).
     tested : dict of str -> dict
-        The pair fit of each physics: ``{estimate, ci95, heldout_gain, selected}``
+        The pair fit of each physics: ``{estimate, ci95, heldout_gain, selected, p_value, alias_set}``
         (:func:`euc_sim.rides.compare.differences_report.pair_tests`).
     aliases, cannot_see : dict
         :func:`alias_table`.
@@ -329,6 +359,7 @@ def ride_differences(log_params: list, other_params: list, tested: dict, aliases
     """
     a = {p["name"]: p for p in log_params}
     b = {p["name"]: p for p in other_params}
+    tested = with_qvalues(tested)
     for name in tested:                 # a physics tested though one ride's list lacks it
         a.setdefault(name, {"name": name})
         b.setdefault(name, {"name": name})
@@ -342,14 +373,34 @@ def ride_differences(log_params: list, other_params: list, tested: dict, aliases
     return Differences(tuple(items), dict(cannot_see), rider_sentence(items, log_name))
 
 
+#: A physics in one word or two, for an alias set ("drag or rolling resistance").
+_WORD = {"aerodynamic_drag": "drag", "rolling_resistance": "rolling resistance", "total_mass": "mass",
+         "internal_resistance": "battery resistance", "speed_scale": "tyre size", "current_delay": "delay"}
+
+
 def rider_sentence(items, log_name: str) -> str:
-    """One sentence for the page: the named differences in a rider's words."""
-    parts = []
+    """One sentence for the page: the named differences in a rider's words.
+
+    A named difference with an ``alias_set`` is said as the set ("drag or
+    rolling resistance: this pair cannot tell them apart"), its size as the
+    named member's.
+    """
+    parts, sets = [], []
     for d in items:
         if not d.named or d.name not in _HINT:
             continue
         more, less, fmt, hint = _HINT[d.name]
-        parts.append(f"{fmt.format(abs(d.estimate))} {more if d.estimate > 0 else less} {hint}")
-    if not parts:
+        size = f"{fmt.format(abs(d.estimate))} {more if d.estimate > 0 else less}"
+        if d.alias_set:
+            words = " or ".join(_WORD.get(n, n.replace("_", " ")) for n in d.alias_set)
+            sets.append(f"{words}: this pair cannot tell them apart ({size} if it is "
+                        f"{_WORD.get(d.name, d.name)})")
+        else:
+            parts.append(f"{size} {hint}")
+    if not parts and not sets:
         return f"this ride needed nothing its log can show that {log_name} did not."
-    return f"this ride needed {'; '.join(parts)} than {log_name}."
+    said = [f"this ride needed {'; '.join(parts)} than {log_name}"] if parts else []
+    if sets:
+        said.append(("it also differs by " if parts else f"this ride differs from {log_name} by ")
+                    + "; ".join(sets))
+    return "; ".join(said) + "."

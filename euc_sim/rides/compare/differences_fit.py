@@ -10,9 +10,12 @@ every shift of a grid and the shift that fits best is chosen.
 Everything is computed from per-block Gram matrices ``[X y]ᵀ[X y]``: blocks of
 ``block`` seconds inside :func:`euc_sim.stats.time_blocks` folds, so that
 
-* the blocked held-out score (fold k of *both* rides left out, OTHER's fold k
-  scored, every fold in turn) and forward selection
-  (:func:`euc_sim.stats.forward_select`) use the folds every other fit uses;
+* the naming test (fold k of *both* rides left out, OTHER's fold k scored,
+  every fold in turn; a cross-fitted score test over OTHER's blocks,
+  :func:`euc_sim.rides.compare.resolution.score_test`; the shift: a paired t
+  of the blocks' held-out SSE drop) and the forward selection
+  it drives (the candidate of smallest p-value added while it is below
+  ``level``) use the folds every other fit uses;
 * the 95 % intervals are the hull of two intervals: a block bootstrap with
   each ride's blocks drawn *independently* (each ride's own noise; the shift
   re-chosen in every replicate), and a jackknife-t interval over *paired
@@ -32,13 +35,16 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from euc_sim.rides.compare.resolution import detectable_difference, heldout_signature_rms
-from euc_sim.stats import forward_select, gram_lstsq, jackknife_interval, percentile_interval, time_blocks
+from euc_sim.rides.compare.resolution import (detectable_difference, heldout_signature_rms, paired_test,
+                                               score_test)
+from euc_sim.stats import gram_lstsq, jackknife_interval, percentile_interval, time_blocks
 
 __all__ = ["PairDesign", "PairFit", "DELAY", "block_grams", "pair_fit"]
 
 #: The name of the shift candidate (OTHER's current delay beyond LOG's).
 DELAY = "current_delay"
+#: |correlation| of two differences' estimates beyond which the pair cannot tell them apart.
+ALIAS_SET_CORRELATION = 0.98
 
 
 @dataclass(frozen=True)
@@ -77,10 +83,10 @@ class PairFit:
     Attributes
     ----------
     selected : list of str
-        The differences forward selection kept (held-out RMS of OTHER lowered
-        by more than ``min_gain`` each).
+        The differences forward selection kept (each added with the smallest
+        p-value of those left, below ``level``).
     history : list of dict
-        :func:`euc_sim.stats.forward_select`'s steps.
+        The selection's steps: ``{"term", "heldout_rmse", "p_value"}``.
     estimates : dict of str -> (estimate, (lo, hi)) or None
         Each candidate in the selected model (the selected terms plus itself
         when it was not kept), with its block-bootstrap 95 % interval; the shift
@@ -97,6 +103,14 @@ class PairFit:
         Each candidate's smallest nameable size on this pair
         (:func:`euc_sim.rides.compare.resolution.detectable_difference`), in
         the model its estimate comes from.
+    p_values : dict of str -> float
+        Each candidate's p-value (:func:`score_test`; the shift's
+        :func:`paired_test`) against the
+        selected model: a kept one against the selected model without it,
+        the others against the selected model with them added.
+    alias_sets : dict of str -> list of str
+        For a kept candidate, itself and the candidates the pair cannot tell
+        it from (:func:`_alias_set`), where there are any.
     """
 
     selected: list
@@ -105,6 +119,8 @@ class PairFit:
     gains: dict
     correlations: dict
     resolutions: dict = field(default_factory=dict)
+    p_values: dict = field(default_factory=dict)
+    alias_sets: dict = field(default_factory=dict)
 
 
 def _block_ids(t: np.ndarray, n_folds: int, block: float) -> tuple[np.ndarray, np.ndarray]:
@@ -141,11 +157,6 @@ def block_grams(t: np.ndarray, Z: np.ndarray, n_folds: int = 5, block: float = 3
     return G, fold, np.bincount(ids, minlength=len(fold))
 
 
-def _test_sse(G: np.ndarray, cols: list, beta: np.ndarray) -> float:
-    A, b = G[np.ix_(cols, cols)], G[cols, -1]
-    return float(G[-1, -1] - 2.0 * beta @ b + beta @ A @ beta)
-
-
 def _parabola(sse: np.ndarray, k: int) -> float:
     """Sub-step position of the minimum of ``sse`` near index ``k`` (a parabola through three points)."""
     if k == 0 or k == len(sse) - 1:
@@ -168,7 +179,7 @@ class _Grams:
         self.step = d.shift_step
         self.n_folds = n_folds
         self._fold_fits: dict[tuple, tuple] = {}
-        self._fold_sse: dict[tuple, tuple] = {}
+        self._block_sse: dict[tuple, np.ndarray] = {}
 
     def cols(self, terms) -> list:
         keep = [n for n in self.names if n not in self._deltas or n in terms]
@@ -195,27 +206,44 @@ class _Grams:
                                             (self.fO != f).astype(float), terms)
         return self._fold_fits[key]
 
-    def fold_sse(self, terms) -> tuple[np.ndarray, np.ndarray]:
-        """OTHER's held-out SSE and rows per fold (fold f of both rides left out, OTHER's fold f scored)."""
+    def block_sse(self, terms) -> np.ndarray:
+        """OTHER's held-out SSE per block, each block scored by the fit with its fold of both rides left out."""
         key = tuple(terms)
-        if key in self._fold_sse:
-            return self._fold_sse[key]
-        cols, sse, n = self.cols(terms), [], []
+        if key in self._block_sse:
+            return self._block_sse[key]
+        cols, sse = self.cols(terms), np.zeros(len(self.fO))
         for f in range(self.n_folds):
             test = self.fO == f
             if not test.any():
                 continue
             beta, k, _ = self.fold_fit(f, terms)
-            G = self.GO[k][test].sum(axis=0)
-            sse.append(_test_sse(G, cols, beta))
-            n.append(int(self.nO[test].sum()))
-        self._fold_sse[key] = (np.array(sse, float), np.array(n, int))
-        return self._fold_sse[key]
+            G = self.GO[k][test]
+            sse[test] = (G[:, -1, -1] - 2.0 * G[:, cols, -1] @ beta
+                         + np.einsum("i,bij,j->b", beta, G[:, cols][:, :, cols], beta))
+        self._block_sse[key] = sse
+        return sse
+
+    def fold_sse(self, terms) -> tuple[np.ndarray, np.ndarray]:
+        """OTHER's held-out SSE and rows per fold (fold f of both rides left out, OTHER's fold f scored)."""
+        sse, folds = self.block_sse(terms), [f for f in range(self.n_folds) if (self.fO == f).any()]
+        return (np.array([sse[self.fO == f].sum() for f in folds]),
+                np.array([int(self.nO[self.fO == f].sum()) for f in folds]))
 
     def score(self, terms) -> float:
         """Blocked held-out RMS of OTHER: fold f of both rides left out, OTHER's fold f scored."""
         sse, n = self.fold_sse(terms)
         return float(np.sqrt(max(float(sse.sum()), 0.0) / n.sum())) if n.sum() else np.inf
+
+    def test(self, base, c: str) -> float:
+        """p-value of adding ``c`` to the model ``base`` (:func:`score_test`; the shift: :func:`paired_test`)."""
+        terms = list(base) + [c]
+        if c == DELAY:
+            return paired_test(self.block_sse(terms), self.block_sse(list(base)))[0]
+        key = ("test", tuple(terms))
+        if key not in self._block_sse:
+            S, X, X0 = _block_parts(self, terms, c)
+            self._block_sse[key] = score_test(X0, X)[0]
+        return self._block_sse[key]
 
     def gain_se(self, terms, c: str) -> float | None:
         """Standard error of ``c``'s held-out gain from its spread over the folds (None below 2 folds).
@@ -277,16 +305,55 @@ def _values(g: _Grams, cols, beta, k, sse, terms, transform) -> dict:
     return vals
 
 
-def pair_fit(design: PairDesign, *, min_gain: float, transform: dict | None = None,
+def _select(g: _Grams, cands: list, level: float) -> tuple[list, list]:
+    """Forward selection by the naming test: the candidate of smallest p-value added while below ``level``."""
+    selected, left = [], list(cands)
+    history = [{"term": "", "heldout_rmse": g.score([]), "p_value": None}]
+    while left:
+        ps = {c: g.test(selected, c) for c in left}
+        best = min(left, key=ps.get)
+        if not ps[best] < level:
+            break
+        selected.append(best)
+        left.remove(best)
+        history.append({"term": best, "heldout_rmse": g.score(selected), "p_value": ps[best]})
+    return selected, history
+
+
+def _alias_set(g: _Grams, selected: list, c: str, cands: list, corr: dict, level: float) -> list:
+    """``c`` and the candidates this pair cannot tell it from, or [] when there are none.
+
+    ``o`` joins when their estimates correlate beyond :data:`ALIAS_SET_CORRELATION`
+    (all differences fitted together), or when each is significant alone (in the
+    selected model without both) but neither beyond the other.
+    """
+    out = []
+    for o in cands:
+        if o == c:
+            continue
+        base = [x for x in selected if x not in (c, o)]
+        if abs(corr.get(c, {}).get(o, 0.0)) > ALIAS_SET_CORRELATION or (
+                g.test(base, o) < level and g.test(base, c) < level
+                and not g.test(base + [o], c) < level and not g.test(base + [c], o) < level):
+            out.append(o)
+    return [c, *out] if out else []
+
+
+def pair_fit(design: PairDesign, *, level: float = 0.05, family: int = 1, transform: dict | None = None,
              n_folds: int = 5, block: float = 30.0,
              n_boot: int = 200, seed: int = 0) -> PairFit:
-    """Forward-select the differences, then size each: bootstrap and paired-fraction jackknife.
+    """Forward-select the differences by the naming test, then size each: bootstrap and jackknife.
 
     Parameters
     ----------
     design : PairDesign
-    min_gain : float
-        Fraction of OTHER's held-out RMS a difference must remove to be kept.
+    level : float
+        One-sided p-value below which the selection adds a candidate (the
+        false-name rate the caller controls across candidates).
+    family : int
+        Candidates the caller's false-name control spans: the resolution is
+        stated at the level the smallest p-value of the family must pass,
+        ``level / family``.
     transform : dict of str -> callable, optional
         ``f(coefficients) -> value`` of a difference in its parameter's units
         (default: its own coefficient).
@@ -300,11 +367,11 @@ def pair_fit(design: PairDesign, *, min_gain: float, transform: dict | None = No
     """
     g = _Grams(design, n_folds, block)
     cands = list(design.deltas) + ([DELAY] if len(design.Z_other) > 1 else [])
-    selected, history = forward_select(g.score, [], cands, min_gain)
+    selected, history = _select(g, cands, level)
     transform = transform or {}
     base = g.score(selected)
     rng = np.random.default_rng(seed)
-    estimates, gains, resolutions = {}, {}, {}
+    estimates, gains, resolutions, p_values = {}, {}, {}, {}
     models = [selected] + [selected + [c] for c in cands if c not in selected]
     for terms in models:
         shown = [c for c in terms if c not in estimates]
@@ -316,33 +383,78 @@ def pair_fit(design: PairDesign, *, min_gain: float, transform: dict | None = No
             ci = percentile_interval(np.asarray(draws[c]))
             boot = None if ci is None else (float(ci[0]), float(ci[1]))
             estimates[c] = (whole[c], _hull(boot, jack[c]) if boot is not None else None)
-            without = g.score([x for x in terms if x != c]) if c in selected else base
-            with_ = base if c in selected else g.score(terms)
-            gains[c] = 1.0 - with_ / without if without > 0 else 0.0
-            resolutions[c] = replace(_resolution(g, terms, c, k, beta, transform, estimates[c][1], with_, min_gain),
+            without = [x for x in terms if x != c]
+            p_values[c] = g.test(without, c)
+            with_ = g.score(terms)
+            gains[c] = 1.0 - with_ / g.score(without) if g.score(without) > 0 else 0.0
+            resolutions[c] = replace(_resolution(g, terms, c, k, beta, transform, estimates[c], with_,
+                                                 level / max(family, 1)),
                                      gain_se=g.gain_se(terms, c))
-    return PairFit(selected, history, estimates, gains, _correlations(g), resolutions)
+    corr = _correlations(g)
+    alias_sets = {c: a for c in selected if (a := _alias_set(g, selected, c, cands, corr, level))}
+    return PairFit(selected, history, estimates, gains, corr, resolutions, p_values, alias_sets)
 
 
-def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, ci, residual: float,
-                min_gain: float):
+def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, estimate, residual: float,
+                level: float):
     """``c``'s :class:`~euc_sim.rides.compare.resolution.Resolution` in the model ``terms``.
 
     The column's held-out RMS after the model's other columns (OTHER at the
-    model's shift ``k``), per unit of the parameter (the transform's slope in
-    the coefficient: every transform is linear in it).
+    model's shift ``k``) and its per-block parts (:func:`_block_parts`), per
+    unit of the parameter (the transform's slope in the coefficient: every
+    transform is linear in it).
     """
+    ci = estimate[1]
     if c == DELAY:
-        return detectable_difference(c, ci, min_gain=min_gain, n_folds=g.n_folds)
+        return detectable_difference(c, ci, level=level, n_folds=g.n_folds)
     cols = g.cols(terms)
     col = g.names.index(c)
     others = [i for i in cols if i != col]
     s = heldout_signature_rms(g.GL, g.fL, g.GO[k], g.fO, g.nO, others, col)
     coef = {g.names[i]: float(b) for i, b in zip(cols, beta)}
-    value = transform.get(c, lambda co: co[c])
-    slope = abs(value({**coef, c: coef[c] + 1.0}) - value(coef))
-    s = s / slope if slope > 0 else 0.0
-    return detectable_difference(c, ci, residual, s, min_gain=min_gain, n_folds=g.n_folds)
+    fn = transform.get(c, lambda co: co[c])
+    slope = abs(fn({**coef, c: coef[c] + 1.0}) - fn(coef))
+    if not slope > 0:
+        return detectable_difference(c, ci, level=level, n_folds=g.n_folds)
+    S, X, _ = _block_parts(g, terms, c)
+    return detectable_difference(c, ci, residual, s / slope, blocks=(S / slope ** 2, X / slope), level=level,
+                                 n_folds=g.n_folds)
+
+
+def _block_parts(g: _Grams, terms, c: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per OTHER block, ``S_b``, ``X_b`` and ``X⁰_b`` (:mod:`~euc_sim.rides.compare.resolution`), per
+    coefficient unit.
+
+    ``S_b``: the sum of squares of ``c``'s column after the model's other
+    columns (fitted on both rides outside the block's fold); ``X_b`` and
+    ``X⁰_b``: that column against the residual of the model with and without
+    ``c`` (fitted likewise).
+    """
+    cols, col = g.cols(terms), g.names.index(c)
+    others = [i for i in cols if i != col]
+    without = [x for x in terms if x != c]
+    p = g.GL.shape[1]
+    S, X, X0 = (np.zeros(len(g.fO)) for _ in range(3))
+    for f in range(g.n_folds):
+        test = g.fO == f
+        if not test.any():
+            continue
+        beta, k, _ = g.fold_fit(f, terms)
+        beta0 = g.fold_fit(f, without)[0]
+        A = g.GL[g.fL != f].sum(axis=0) + g.GO[k][~test].sum(axis=0)
+        u = np.zeros(p)
+        u[col] = 1.0
+        if others:
+            u[others] -= np.linalg.lstsq(A[np.ix_(others, others)], A[others, col], rcond=None)[0]
+        v, v0 = np.zeros(p), np.zeros(p)
+        v[-1] = v0[-1] = 1.0
+        v[cols] -= beta
+        v0[g.cols(without)] -= beta0
+        G = g.GO[k][test]
+        S[test] = np.einsum("i,bij,j->b", u, G, u)
+        X[test] = np.einsum("i,bij,j->b", u, G, v)
+        X0[test] = np.einsum("i,bij,j->b", u, G, v0)
+    return S, X, X0
 
 
 def _correlations(g: _Grams) -> dict:

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, MIN_GAIN, alias_table, parameters_from_ride,
-                                       ride_differences, signature_columns)
+from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RATE, PHYSICS, alias_table,
+                                               parameters_from_ride, ride_differences, signature_columns)
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
 from euc_sim.rides.compare.resolution import with_floor
 from euc_sim.rides.drive.mass import mass_regressors
@@ -216,11 +216,12 @@ def gps_design(log_path, compare_path):
 
 
 def _entries(res) -> dict:
-    """Each candidate of one :class:`PairFit` as ``{estimate, ci95, heldout_gain, selected, aliases,
-    detectable}`` (``detectable``: its :class:`~euc_sim.rides.compare.resolution.Resolution`)."""
+    """Each candidate of one :class:`PairFit` as ``{estimate, ci95, heldout_gain, selected, p_value, alias_set,
+    aliases, detectable}`` (``detectable``: its :class:`~euc_sim.rides.compare.resolution.Resolution`)."""
     corr = res.correlations
     return {n: {"estimate": e[0], "ci95": e[1], "heldout_gain": res.gains.get(n),
-                "selected": n in res.selected, "detectable": res.resolutions.get(n),
+                "selected": n in res.selected, "p_value": res.p_values.get(n),
+                "alias_set": res.alias_sets.get(n, []), "detectable": res.resolutions.get(n),
                 "aliases": sorted(o for o, r in corr.get(n, {}).items() if abs(r) > ALIAS_CORRELATION)}
             for n, e in res.estimates.items()}
 
@@ -247,12 +248,12 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     Returns
     -------
     dict of str -> dict
-        ``{estimate, ci95, heldout_gain, selected, aliases, detectable}`` per
+        ``{estimate, ci95, heldout_gain, selected, p_value, alias_set, aliases, detectable}`` per
         physics tested; the delay's also ``resolution`` (:func:`_delay_resolution`,
         s), added to its ``detectable``'s interval half-width.
     """
     fitted = lambda made: None if made is None else pair_fit(   # noqa: E731
-        made[0], min_gain=MIN_GAIN, transform=made[1], n_boot=n_boot, seed=seed)
+        made[0], level=FALSE_NAME_RATE, family=len(PHYSICS), transform=made[1], n_boot=n_boot, seed=seed)
     out = {}
     delay = fitted(power_design(fit, test, mass))
     shift = 0

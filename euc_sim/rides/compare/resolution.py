@@ -1,28 +1,25 @@
-"""The smallest difference a pair of rides can name, predicted from the pair's own noise.
+"""The naming test of a pair of rides, its false-name control and its power.
 
-A difference is named when its 95 % interval excludes zero *and* modelling it
-lowers OTHER's blocked held-out RMS by more than ``min_gain``
-(:mod:`euc_sim.rides.compare.differences_fit`).  Each test has a resolution:
+A difference is named when the residual OTHER's held-out rows leave without
+it goes with its signature (:mod:`euc_sim.rides.compare.differences_fit`): a
+cross-fitted score test.  For each of OTHER's 30 s blocks, with the block's
+fold of *both* rides left out, the difference's column after the model's other
+columns (``sig``) and the residual of the model without it (``r``) give
+``X⁰_b = Σ sig·r``; with it modelled, ``X_b`` (its noise alone).  Then
 
-* the interval's: a difference smaller than the interval's half-width leaves
-  zero inside it;
-* the gate's: a difference Δ leaves, in OTHER's residuals of the model without
-  it, a systematic error of RMS ``Δ·s`` (``s``: the held-out RMS of the
-  difference's column after the model's other columns, fitted on both rides,
-  have absorbed what they can, per unit of the parameter).  With OTHER's
-  held-out RMS ``σ`` when the difference is modelled and ``e = s·se·√(K/(K−1))``
-  what estimating it on K−1 of K folds costs on the held-out rows (``se``: the
-  interval's half-width over 1.96), the gate is passed when
-  ``σ/√(σ² − e² + Δ²s²) < 1 − g``, i.e.
+    z = Σ_b X⁰_b / √(Σ_b X_b²),
 
-      Δ_gate = √((σ/s)²·((1 − g)⁻² − 1) + (K/(K−1))·se²),
-
-  about 0.14·σ/s for the 1 % gate (removing an error of RMS b from residuals
-  of RMS σ lowers the RMS by about b²/(2σ²)).
-
-The smallest nameable difference is the larger of the two.  A shift (the
-current's delay) has no column: only its interval (and the logs' finest delay)
-resolves it.
+two-sided against a t with B − 1 degrees of freedom (:func:`score_test`; the
+blocks the bootstrap already treats as independent).  Without a difference
+``X⁰`` and ``X`` are the same noise and z is a t; a difference Δ adds
+``Δ·S_b`` to each ``X⁰_b`` (``S_b``: the column's sum of squares on the block),
+so z grows as ``Δ·ΣS_b/√(ΣX_b²)``: the smallest difference named with
+:data:`POWER` at a level is ``δ·√(ΣX_b²)/ΣS_b`` (:func:`named_size`, ``δ`` the
+noncentrality a t passes its level with that chance).  The p-values of a
+pair's candidates are adjusted by Benjamini–Hochberg (:func:`bh_qvalues`).  A
+shift (the current's delay) has no column: its test is the paired t of the
+blocks' held-out SSE drop (:func:`paired_test`), and only its interval (and
+the logs' finest delay) resolves it.
 
 Study: docs/concealed.md ("What a pair can resolve").
 """
@@ -34,11 +31,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-__all__ = ["Z95", "Resolution", "gate_factor", "gate_size", "predicted_gain", "heldout_signature_rms",
+__all__ = ["Z95", "POWER", "Resolution", "paired_test", "score_test", "bh_qvalues", "noncentrality", "named_size",
+           "predicted_gain", "heldout_signature_rms",
            "detectable_difference", "with_floor"]
 
 #: Normal quantile of a two-sided 95 % interval.
 Z95 = 1.959963984540054
+#: The chance of naming at which a pair's ``resolvable`` is stated.
+POWER = 0.8
 
 
 @dataclass(frozen=True)
@@ -55,8 +55,8 @@ class Resolution:
     interval_halfwidth : float or None
         Half the 95 % interval's width, the parameter's unit.
     gate : float or None
-        The size whose signature on OTHER's held-out rows passes the held-out
-        gate (module docstring), the parameter's unit; None for a shift.
+        The size the naming test names with :data:`POWER` (:func:`named_size`),
+        the parameter's unit; None for a shift.
     residual_rms : float or None
         OTHER's blocked held-out RMS with the difference modelled, the fitted
         signal's unit (W for battery power, V, m/s).
@@ -68,9 +68,10 @@ class Resolution:
         the half-width; 0 elsewhere.
     gain_se : float or None
         Standard error of the difference's measured held-out gain, from its
-        spread over the folds (fraction): where it is comparable with the
-        threshold, whether a difference near ``resolvable`` is named is a
-        matter of chance.
+        spread over the folds (fraction).
+    fold_sd : float or None
+        √(Σ X_b²), the score's spread with no difference (module docstring),
+        the signal's unit² per unit of the parameter.
     """
 
     name: str
@@ -81,54 +82,143 @@ class Resolution:
     signature_rms: float | None = None
     floor: float = 0.0
     gain_se: float | None = None
+    fold_sd: float | None = None
 
     def to_json(self) -> dict:
         """The ``differences`` entry's ``resolution`` detail."""
         return {"interval_halfwidth": self.interval_halfwidth, "gate": self.gate,
                 "residual_rms": self.residual_rms, "signature_rms": self.signature_rms,
-                "floor": self.floor, "gain_se": self.gain_se}
+                "floor": self.floor, "gain_se": self.gain_se, "fold_sd": self.fold_sd}
 
 
-def gate_factor(min_gain: float) -> float:
-    """``√((1 − g)⁻² − 1)``: the systematic RMS, in units of the residual RMS, that the gate asks for."""
-    return math.sqrt((1.0 - min_gain) ** -2 - 1.0)
-
-
-def gate_size(residual_rms: float, signature_rms: float, se: float, min_gain: float,
-              n_folds: int) -> float | None:
-    """Smallest difference whose held-out gain passes ``min_gain`` (module docstring).
+def paired_test(sse_with: np.ndarray, sse_without: np.ndarray) -> tuple[float, float, float]:
+    """One-sided paired t-test that a term lowers OTHER's held-out error, over its blocks.
 
     Parameters
     ----------
-    residual_rms : float
-        σ, OTHER's held-out RMS with the difference modelled (signal's unit).
-    signature_rms : float
-        s, the held-out RMS of the difference's column after the other columns,
-        per unit of the parameter.
-    se : float
-        Standard error of the difference (parameter's unit).
-    min_gain : float
-        The selection's fractional threshold g.
-    n_folds : int
-        K, the held-out folds.
+    sse_with, sse_without : ndarray (B,)
+        OTHER's held-out SSE per block (its fold of both rides left out) with
+        and without the term, the signal's unit squared.
+
+    Returns
+    -------
+    p : float
+        P(T ≥ t) for t = mean(D)/(sd(D)/√B), ``D_b = without_b − with_b``, T a
+        t with B − 1 degrees of freedom; 1 below two blocks or where every
+        ``D_b`` is zero (a ride against itself).
+    mean, sd : float
+        Mean and standard deviation (ddof 1) of ``D`` over the blocks.
+    """
+    from scipy.stats import t as student
+
+    w = np.asarray(sse_with, float)
+    d = np.asarray(sse_without, float) - w
+    if len(d) < 2:
+        return 1.0, 0.0, 0.0
+    mean, sd = float(d.mean()), float(d.std(ddof=1))
+    tiny = 1e-12 * (float(np.abs(w).mean()) or 1.0)
+    if not sd > tiny:
+        return (0.0 if mean > tiny else 1.0), mean, sd
+    return float(student.sf(mean / (sd / math.sqrt(len(d))), len(d) - 1)), mean, sd
+
+
+def bh_qvalues(p) -> np.ndarray:
+    """Benjamini–Hochberg adjusted p-values (q-values) of a family of tests.
+
+    ``q_(i) = min_{j ≥ i} p_(j)·m/j`` over the p-values sorted ascending, capped
+    at 1: naming every test with ``q < α`` keeps the expected share of false
+    names among the names below α (independent or positively dependent tests).
+
+    Parameters
+    ----------
+    p : sequence of float
+
+    Returns
+    -------
+    ndarray, in the order of ``p``
+    """
+    p = np.asarray(p, float)
+    m = len(p)
+    if m == 0:
+        return p
+    order = np.argsort(p)
+    q = p[order] * m / np.arange(1, m + 1)
+    q = np.minimum.accumulate(q[::-1])[::-1]
+    out = np.empty(m)
+    out[order] = np.minimum(q, 1.0)
+    return out
+
+
+def noncentrality(level: float, df: int, power: float = POWER) -> float:
+    """δ: a noncentral t with ``df`` degrees of freedom exceeds its one-sided ``level``
+    critical value with probability ``power``."""
+    from scipy.optimize import brentq
+    from scipy.stats import nct
+    from scipy.stats import t as student
+
+    crit = student.isf(level, df)
+    return float(brentq(lambda nc: nct.sf(crit, df, nc) - power, 0.0, 200.0))
+
+
+def score_test(cross_without, cross_with) -> tuple[float, float]:
+    """Two-sided cross-fitted score test of one difference (module docstring).
+
+    Parameters
+    ----------
+    cross_without, cross_with : array_like (B,)
+        ``X⁰_b`` and ``X_b``: per block, the difference's column (after the
+        model's other columns) against the residual of the model without and
+        with it, every fit with the block's fold left out.
+
+    Returns
+    -------
+    p : float
+        ``2·P(T ≥ |z|)``, T a t with B − 1 degrees of freedom; 1 where the
+        noise vanishes (a ride against itself) or below two blocks.
+    z : float
+    """
+    from scipy.stats import t as student
+
+    x0, x = np.asarray(cross_without, float), np.asarray(cross_with, float)
+    den = math.sqrt(float(np.sum(x ** 2)))
+    if len(x) < 2 or not den > 1e-12 * (abs(float(x0.sum())) + 1e-300) or not den > 0:
+        return 1.0, 0.0
+    z = float(x0.sum()) / den
+    return float(min(1.0, 2.0 * student.sf(abs(z), len(x) - 1))), z
+
+
+def named_size(signature_ss, cross_with, *, level: float, power: float = POWER) -> float | None:
+    """Smallest difference :func:`score_test` names with ``power`` at ``level``: ``δ·√(ΣX_b²)/ΣS_b``.
+
+    Parameters
+    ----------
+    signature_ss : array_like (B,)
+        S_b, the column's held-out sum of squares per block after the model's
+        other columns, per unit of the parameter squared.
+    cross_with : array_like (B,)
+        X_b, that column against the residual of the model with it, per unit
+        of the parameter.
+    level : float
+        Two-sided level the p-value must pass.
 
     Returns
     -------
     float or None
-        Δ_gate in the parameter's unit; None where the column vanishes (s = 0).
+        The parameter's unit; None where the column vanishes.
     """
-    if not signature_rms > 0 or not np.isfinite(residual_rms):
+    S, X = np.asarray(signature_ss, float), np.asarray(cross_with, float)
+    if len(S) < 2 or not S.sum() > 0:
         return None
-    ratio = residual_rms / signature_rms
-    return math.sqrt(ratio ** 2 * gate_factor(min_gain) ** 2 + n_folds / (n_folds - 1.0) * se ** 2)
+    return noncentrality(level / 2.0, len(S) - 1, power) * math.sqrt(float(np.sum(X ** 2))) / float(S.sum())
 
 
 def predicted_gain(size: float, residual_rms: float, signature_rms: float, se: float,
                    n_folds: int) -> float:
     """The held-out gain of modelling a difference of ``size``: ``1 − σ/√(σ² − e² + Δ²s²)``.
 
-    Parameters as :func:`gate_size` (``size``: Δ, the parameter's unit); the
-    inverse of :func:`gate_size` at the threshold.
+    ``σ``: OTHER's held-out RMS with the difference modelled, ``s``: its
+    column's after the other columns per unit of the parameter, ``se`` its
+    standard error, ``e² = K/(K−1)·s²·se²`` (``size``: Δ, the parameter's unit).
     """
     e2 = n_folds / (n_folds - 1.0) * (signature_rms * se) ** 2
     return 1.0 - residual_rms / math.sqrt(max(residual_rms ** 2 - e2 + (size * signature_rms) ** 2, 1e-300))
@@ -174,9 +264,9 @@ def heldout_signature_rms(GL: np.ndarray, fold_log: np.ndarray, GO: np.ndarray, 
 
 
 def detectable_difference(name: str, ci95, residual_rms: float | None = None,
-                          signature_rms: float | None = None, *, min_gain: float,
-                          n_folds: int = 5) -> Resolution:
-    """The smallest difference of ``name`` the pair can name: the interval's half-width or the gate's size.
+                          signature_rms: float | None = None, *, blocks: tuple | None = None,
+                          level: float = 0.05, n_folds: int = 5) -> Resolution:
+    """The smallest difference of ``name`` the pair can name: the interval's half-width or the test's size.
 
     Parameters
     ----------
@@ -184,23 +274,29 @@ def detectable_difference(name: str, ci95, residual_rms: float | None = None,
     ci95 : (lo, hi) or None
         The difference's 95 % interval, the parameter's unit.
     residual_rms, signature_rms : float, optional
-        σ and s (:func:`gate_size`); without them (a shift) only the interval resolves.
-    min_gain : float
-        The selection's threshold.
+        OTHER's held-out RMS with the difference modelled and its column's
+        after the other columns (reported).
+    blocks : (signature_ss, cross_with), optional
+        :func:`named_size`'s per-block parts, per unit of the parameter;
+        without them (a shift) only the interval resolves.
+    level : float
+        Level the p-value must pass (the false-name rate over the
+        candidates: the level of the smallest of their p-values).
     n_folds : int
 
     Returns
     -------
     Resolution
     """
+    sd = None if blocks is None else float(math.sqrt(np.sum(np.asarray(blocks[1], float) ** 2)))
     if ci95 is None:
-        return Resolution(name, None, None, None, residual_rms, signature_rms)
+        return Resolution(name, None, None, None, residual_rms, signature_rms, fold_sd=sd)
     half = 0.5 * float(ci95[1] - ci95[0])
     gate = None
-    if residual_rms is not None and signature_rms is not None:
-        gate = gate_size(residual_rms, signature_rms, half / Z95, min_gain, n_folds)
+    if blocks is not None:
+        gate = named_size(blocks[0], blocks[1], level=level)
     best = half if gate is None else max(half, gate)
-    return Resolution(name, float(best), half, gate, residual_rms, signature_rms)
+    return Resolution(name, float(best), half, gate, residual_rms, signature_rms, fold_sd=sd)
 
 
 def with_floor(res: Resolution, floor: float) -> Resolution:

@@ -150,6 +150,9 @@ def recorded_metadata(rep: Mapping, log_path=None) -> dict[str, str]:
 
 
 def _aliases(d: Mapping) -> str:
+    if d.get("alias_set"):
+        said = [SHOWN[a].label if a in SHOWN else a.replace("_", " ") for a in d["alias_set"]]
+        return f"{' or '.join(said)}: this pair cannot tell them apart"
     names = [SHOWN[a].label if a in SHOWN else a.replace("_", " ") for a in d.get("aliases") or []]
     return ("cannot be told apart from " + " or ".join(names) + " on these two rides" if names
             else "told apart from the other physics on these two rides")

@@ -1,4 +1,4 @@
-"""What differs between two rides: intervals, the held-out gate, aliases, the adapter, the sentence."""
+"""What differs between two rides: intervals, the naming rule, aliases, the adapter, the sentence."""
 
 import math
 
@@ -73,9 +73,9 @@ def test_adapter_maps_names_and_drag_area_to_k():
 
 
 def _tested(**kw):
-    """Pair-fit entries: name=(estimate, lo, hi, kept)."""
+    """Pair-fit entries: name=(estimate, lo, hi, significant): p = 0.001 where significant, else 0.4."""
     return {n: {"estimate": e, "ci95": (lo, hi), "heldout_gain": 0.05 if kept else 0.001,
-                "selected": kept} for n, (e, lo, hi, kept) in kw.items()}
+                "selected": kept, "p_value": 0.001 if kept else 0.4} for n, (e, lo, hi, kept) in kw.items()}
 
 
 def test_drag_named_alone_and_said_in_a_riders_words():
@@ -95,14 +95,14 @@ def test_drag_named_alone_and_said_in_a_riders_words():
     assert "named_given_log_model" not in js["differences"][0]
 
 
-def test_interval_alone_does_not_name_when_not_kept():
+def test_interval_alone_does_not_name_when_not_significant():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.8, 0.01, 0.2, 1.0)
     res = df.ride_differences(a, b, _tested(aerodynamic_drag=(0.18, 0.1, 0.26, False)), {}, {}, "x")
     assert not any(d.named for d in res.items)
     assert "nothing" in res.sentence
 
 
-def test_kept_but_interval_through_zero_is_not_named():
+def test_significant_but_interval_through_zero_is_not_named():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
     res = df.ride_differences(a, b, _tested(total_mass=(10.0, -2.0, 22.0, True)), {}, {}, "x")
     m = next(d for d in res.items if d.name == "total_mass")
@@ -149,10 +149,38 @@ def test_a_tested_delay_reaches_the_list_with_its_unit():
     assert d.named and d.unit == "s" and "0.4 s more delay" in res.sentence
 
 
-def test_the_threshold_is_the_balance_selections():
-    from euc_sim.rides.balance.crossride import MIN_GAIN
+def test_q_values_control_the_false_names_across_the_tested_physics():
+    a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
+    tested = _tested(total_mass=(30.0, 20.0, 40.0, True), aerodynamic_drag=(0.18, 0.1, 0.26, True),
+                     rolling_resistance=(0.01, 0.002, 0.02, True), drivetrain_idle_loss=(5.0, 1.0, 9.0, True))
+    tested["total_mass"]["p_value"] = 0.04            # alone below 5 %, not after the control over three
+    tested["rolling_resistance"]["p_value"] = 0.01
+    res = df.ride_differences(a, b, tested, {}, {}, "x")
+    by = {d.name: d for d in res.items}
+    # the family: the three tested physics (the idle loss is a nuisance, never named, not counted)
+    assert by["aerodynamic_drag"].q_value == pytest.approx(0.003)
+    assert by["rolling_resistance"].q_value == pytest.approx(0.015)
+    assert by["total_mass"].q_value == pytest.approx(0.04)
+    assert by["drivetrain_idle_loss"].q_value is None and not by["drivetrain_idle_loss"].named
+    tested["total_mass"]["p_value"] = 0.06
+    by = {d.name: d for d in df.ride_differences(a, b, tested, {}, {}, "x").items}
+    assert [n for n, d in by.items() if d.named] == ["aerodynamic_drag", "rolling_resistance"]
+    js = by["total_mass"].to_json()
+    assert js["p_value"] == pytest.approx(0.06) and js["q_value"] == pytest.approx(0.06)
+    assert "alias_set" not in js and "not significant" in js["why"]
 
-    assert df.MIN_GAIN == pytest.approx(MIN_GAIN)
+
+def test_an_alias_set_is_said_on_the_named_entry_and_in_the_sentence():
+    a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
+    tested = _tested(aerodynamic_drag=(0.18, 0.1, 0.26, True), rolling_resistance=(0.01, -0.01, 0.03, False))
+    tested["aerodynamic_drag"]["alias_set"] = ["aerodynamic_drag", "rolling_resistance", "drivetrain_idle_loss"]
+    res = df.ride_differences(a, b, tested, {}, {}, "the 16 May ride")
+    by = {d.name: d.to_json() for d in res.items}
+    assert by["aerodynamic_drag"]["named"]
+    assert by["aerodynamic_drag"]["alias_set"] == ["aerodynamic_drag", "rolling_resistance"]
+    assert "alias_set" not in by["rolling_resistance"]
+    assert "drag or rolling resistance: this pair cannot tell them apart" in res.sentence
+    assert "16 May" in res.sentence
 
 
 def test_a_delay_within_the_logs_resolution_is_not_named():
@@ -162,3 +190,15 @@ def test_a_delay_within_the_logs_resolution_is_not_named():
     res = df.ride_differences(a, b, tested, {}, {}, "x")
     d = next(d for d in res.items if d.name == "current_delay")
     assert not d.named and "resolve" in d.why
+
+
+def test_the_page_names_the_alias_set():
+    from euc_sim.rides.report.differences_page import difference_lines
+
+    a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
+    tested = _tested(aerodynamic_drag=(0.18, 0.1, 0.26, True), rolling_resistance=(0.01, -0.01, 0.03, False))
+    tested["aerodynamic_drag"]["alias_set"] = ["aerodynamic_drag", "rolling_resistance"]
+    rep = {"compare": "b.csv", **df.ride_differences(a, b, tested, {}, {}, "x").to_json()}
+    lines = difference_lines(rep)
+    assert any(line.startswith("- Drag area: 95 % interval") and
+               "drag area or rolling resistance: this pair cannot tell them apart" in line for line in lines)

@@ -59,7 +59,7 @@ def test_block_grams_add_up_and_follow_the_time_folds():
 def test_hidden_drag_is_kept_alone_and_sized():
     log, other = _ride(1), _ride(2)
     d = _design(log, other, _power(log[1], log[2], seed=1), _power(other[1], other[2], k=0.45, seed=2))
-    res = pf.pair_fit(d, min_gain=0.01, n_boot=100, seed=0)
+    res = pf.pair_fit(d, n_boot=100, seed=0)
     assert res.selected == ["aerodynamic_drag"]
     est, (lo, hi) = res.estimates["aerodynamic_drag"]
     assert lo < 0.15 < hi and est == pytest.approx(0.15, rel=0.3)
@@ -69,7 +69,7 @@ def test_hidden_drag_is_kept_alone_and_sized():
 def test_two_rides_of_the_same_physics_keep_nothing():
     log, other = _ride(3), _ride(4)
     d = _design(log, other, _power(log[1], log[2], seed=3), _power(other[1], other[2], seed=4))
-    res = pf.pair_fit(d, min_gain=0.01, n_boot=50, seed=0)
+    res = pf.pair_fit(d, n_boot=50, seed=0)
     assert res.selected == []
     for name in NAMES[5:]:
         lo, hi = res.estimates[name][1]
@@ -81,7 +81,7 @@ def test_a_late_current_is_found_with_its_interval():
     P_other = _power(other[1], other[2], seed=6)
     late = np.roll(P_other, 4)                       # 0.4 s late at 10 Hz
     d = _design(log, other, _power(log[1], log[2], seed=5), late, shifts=list(range(-10, 11)))
-    res = pf.pair_fit(d, min_gain=0.01, n_boot=60, seed=0)
+    res = pf.pair_fit(d, n_boot=60, seed=0)
     assert pf.DELAY in res.selected
     est, (lo, hi) = res.estimates[pf.DELAY]
     assert est == pytest.approx(0.4, abs=0.05) and lo <= 0.4 <= hi and hi - lo > 0
@@ -93,7 +93,7 @@ def test_the_interval_counts_the_fitted_rides_noise_too():
     widths = []
     for noise in (20.0, 160.0):
         d = _design(log, other, _power(log[1], log[2], noise=noise, seed=7), P_other)
-        lo, hi = pf.pair_fit(d, min_gain=0.01, n_boot=80, seed=0).estimates["aerodynamic_drag"][1]
+        lo, hi = pf.pair_fit(d, n_boot=80, seed=0).estimates["aerodynamic_drag"][1]
         widths.append(hi - lo)
     assert widths[1] > 1.3 * widths[0]
 
@@ -119,7 +119,7 @@ def test_rolling_and_drag_alias_on_a_steady_pair_not_mass():
         rides.append((t, v, v * np.gradient(v, t)))
     (tL, vL, aL), (tO, vO, aO) = rides
     d = _design(rides[0], rides[1], _power(vL, aL, seed=12), _power(vO, aO, seed=13))
-    corr = pf.pair_fit(d, min_gain=0.01, n_boot=20, seed=0).correlations
+    corr = pf.pair_fit(d, n_boot=20, seed=0).correlations
     assert abs(corr["aerodynamic_drag"]["rolling_resistance"]) > 0.9
     assert abs(corr["total_mass"]["aerodynamic_drag"]) < 0.9
 
@@ -127,16 +127,17 @@ def test_rolling_and_drag_alias_on_a_steady_pair_not_mass():
 def test_a_condition_moving_along_the_compared_ride_names_no_mass():
     """OTHER's road couples grade to the rider's acceleration in every other fifth (hills where
     the rider slows), flat elsewhere: a mass-like term that changes along the ride.  The
-    bootstrap alone (each ride's noise) names a mass difference; the paired-fraction jackknife
-    sees it change from one part of the ride to the next and the interval takes in zero."""
+    bootstrap alone (each ride's noise) excludes zero; the paired-fraction jackknife sees it
+    change from one part of the ride to the next and the interval takes in zero, so it is not
+    named though the held-out test finds its average (p about 0.01)."""
     log, other = _ride(21), _ride(31)
     t, v, av = other
     coupling = np.where((t // 240.0) % 2 == 0, 1.4, 0.0)        # kg per kg of the 90 kg model
     P_other = _power(v, av, noise=8.0, seed=22) + 90.0 * coupling * av
     d = _design(log, other, _power(log[1], log[2], seed=21), P_other)
-    new = pf.pair_fit(d, min_gain=0.01, n_boot=100, seed=0)
+    new = pf.pair_fit(d, n_boot=100, seed=0)
     lo, hi = new.estimates["total_mass"][1]
-    assert "total_mass" in new.selected and lo < 0.0 < hi
+    assert lo < 0.0 < hi
 
     def bootstrap_only(g, terms, cands, transform, whole):
         return {c: None for c in cands}
@@ -144,7 +145,7 @@ def test_a_condition_moving_along_the_compared_ride_names_no_mass():
     mp = pytest.MonkeyPatch()
     mp.setattr(pf, "_jackknife", bootstrap_only)
     try:
-        lo_b, hi_b = pf.pair_fit(d, min_gain=0.01, n_boot=100, seed=0).estimates["total_mass"][1]
+        lo_b, hi_b = pf.pair_fit(d, n_boot=100, seed=0).estimates["total_mass"][1]
     finally:
         mp.undo()
     assert lo_b > 0.0 and lo < lo_b and hi > hi_b
@@ -155,7 +156,7 @@ def test_the_jackknife_interval_holds_a_constant_hidden_mass():
     log, other = _ride(23), _ride(24)
     d = _design(log, other, _power(log[1], log[2], seed=23),
                 _power(other[1], other[2], dm=30.0, noise=15.0, seed=24))
-    res = pf.pair_fit(d, min_gain=0.01, n_boot=100, seed=0)
+    res = pf.pair_fit(d, n_boot=100, seed=0)
     est, (lo, hi) = res.estimates["total_mass"]
     assert "total_mass" in res.selected and lo > 0.0 and lo < 30.0 < hi
     assert est == pytest.approx(30.0, rel=0.3)

@@ -1,4 +1,4 @@
-"""The smallest difference a pair can name, predicted from the pair's own noise: the gate's algebra,
+"""The naming test, its false-name control and the smallest difference it names with 80 % power: its calibration,
 the column through the model, and a synthetic pair where the prediction is checked both ways."""
 
 import numpy as np
@@ -9,26 +9,55 @@ from euc_sim.rides.compare import resolution as rs
 from test_differences_fit import _design, _power, _ride
 
 
-def test_the_gate_size_is_where_the_predicted_gain_reaches_the_threshold():
-    sigma, s = 40.0, 500.0
-    for se in (0.0, 0.004):
-        d = rs.gate_size(sigma, s, se, 0.01, 5)
-        assert rs.predicted_gain(d, sigma, s, se, 5) == pytest.approx(0.01, rel=1e-9)
-        assert rs.predicted_gain(1.5 * d, sigma, s, se, 5) > 0.01 > rs.predicted_gain(0.7 * d, sigma, s, se, 5)
-    # no estimation cost: b = 0.1425 σ, i.e. removing RMS b lowers the RMS by about b²/(2σ²)
-    assert rs.gate_factor(0.01) == pytest.approx(0.1425, abs=5e-4)
-    assert rs.gate_size(sigma, s, 0.0, 0.01, 5) * s / sigma == pytest.approx(rs.gate_factor(0.01))
-    assert rs.gate_size(sigma, 0.0, 0.0, 0.01, 5) is None
+def test_the_named_size_is_where_the_score_test_names_with_80_percent_power():
+    """Blocks' held-out scores drawn as the power model says (a difference Δ adds Δ·S_b to each
+    block's noise X_b): at the named size the two-sided test names 80 % of them."""
+    rng = np.random.default_rng(0)
+    B = 40
+    S = rng.uniform(0.5, 2.0, B) * 1e4
+    sd = 30.0 * np.sqrt(S) * rng.uniform(0.5, 2.0, B)
+    for level in (0.05, 0.05 / 6):
+        d = rs.named_size(S, sd, level=level)
+        noise = sd * rng.standard_normal((4000, B))
+        p = np.array([rs.score_test(d * S + x, x)[0] for x in noise])
+        assert np.mean(p < level) == pytest.approx(0.8, abs=0.03)
+        # without the difference the test names at its level
+        null = np.array([rs.score_test(x, sd * rng.standard_normal(B))[0] for x in noise])
+        assert np.mean(null < level) == pytest.approx(level, abs=0.012)
+    assert rs.named_size(S, sd, level=0.05 / 6) > rs.named_size(S, sd, level=0.05)
+    assert rs.named_size(0 * S, sd, level=0.05) is None
 
 
-def test_the_larger_of_the_interval_and_the_gate():
-    wide = rs.detectable_difference("x", (-3.0, 5.0), 40.0, 500.0, min_gain=0.01)
+def test_a_ride_against_itself_is_never_significant_and_the_delays_test_is_one_sided():
+    zero = np.zeros(12)
+    assert rs.score_test(zero, zero)[0] == 1.0
+    w = np.array([100.0, 120.0, 90.0, 110.0, 105.0, 98.0])
+    assert rs.paired_test(w, w)[0] == 1.0
+    lower = w * np.array([1.1, 1.12, 1.08, 1.1, 1.09, 1.11])
+    p, mean, _ = rs.paired_test(w, lower)
+    assert p < 0.001 and mean > 0
+    assert rs.paired_test(lower, w)[0] > 0.999
+
+
+def test_benjamini_hochberg_against_a_hand_computed_answer():
+    p = [0.01, 0.04, 0.03, 0.005, 0.2, 0.5]
+    # sorted 0.005 0.01 0.03 0.04 0.2 0.5 → ×6/rank: 0.03 0.03 0.06 0.06 0.24 0.5, then the running
+    # minimum from the top: 0.03 0.03 0.06 0.06 0.24 0.5
+    assert rs.bh_qvalues(p) == pytest.approx([0.03, 0.06, 0.06, 0.03, 0.24, 0.5])
+    assert rs.bh_qvalues([0.02, 0.021, 0.9]) == pytest.approx([0.0315, 0.0315, 0.9])
+    assert rs.bh_qvalues([0.9, 0.95]) == pytest.approx([0.95, 0.95])
+    assert len(rs.bh_qvalues([])) == 0
+
+
+def test_the_larger_of_the_interval_and_the_test():
+    blocks = (np.full(20, 1e4), np.full(20, 1e3))
+    wide = rs.detectable_difference("x", (-3.0, 5.0), 40.0, 500.0, blocks=blocks)
     assert wide.interval_halfwidth == pytest.approx(4.0) and wide.resolvable == pytest.approx(4.0)
-    narrow = rs.detectable_difference("x", (0.99, 1.01), 40.0, 500.0, min_gain=0.01)
+    narrow = rs.detectable_difference("x", (0.99, 1.01), 40.0, 500.0, blocks=blocks)
     assert narrow.resolvable == pytest.approx(narrow.gate) and narrow.gate > 0.01
-    shift = rs.with_floor(rs.detectable_difference("d", (0.3, 0.5), min_gain=0.01), 0.2)
+    shift = rs.with_floor(rs.detectable_difference("d", (0.3, 0.5)), 0.2)
     assert shift.gate is None and shift.resolvable == pytest.approx(0.3) and shift.floor == pytest.approx(0.2)
-    assert rs.detectable_difference("x", None, min_gain=0.01).resolvable is None
+    assert rs.detectable_difference("x", None).resolvable is None
 
 
 def test_the_column_through_the_model_is_what_the_other_columns_leave():
@@ -55,29 +84,30 @@ def _drag_pair(dk):
 
 
 def test_a_difference_well_above_its_predicted_resolution_is_named_and_well_below_is_not():
-    null = pf.pair_fit(_drag_pair(0.0), min_gain=0.01, n_boot=60, seed=0)
+    null = pf.pair_fit(_drag_pair(0.0), n_boot=60, seed=0)
     assert null.selected == []
     r = null.resolutions["aerodynamic_drag"].resolvable
     assert r > 0
     for factor, named in ((3.0, True), (1.0 / 3.0, False)):
-        fit = pf.pair_fit(_drag_pair(factor * r), min_gain=0.01, n_boot=60, seed=0)
+        fit = pf.pair_fit(_drag_pair(factor * r), n_boot=60, seed=0)
         lo, hi = fit.estimates["aerodynamic_drag"][1]
-        assert ("aerodynamic_drag" in fit.selected and (lo > 0 or hi < 0)) == named
+        assert (fit.p_values["aerodynamic_drag"] < 0.05 and (lo > 0 or hi < 0)) == named
+        assert (fit.p_values["aerodynamic_drag"] < 0.001) == named
         res = fit.resolutions["aerodynamic_drag"]
         assert res.resolvable == pytest.approx(r, rel=0.2)     # the pair's noise, not the effect
         gain = rs.predicted_gain(factor * r, res.residual_rms, res.signature_rms,
                                  res.interval_halfwidth / rs.Z95, 5)
         assert gain == pytest.approx(fit.gains["aerodynamic_drag"], abs=0.002)
-        assert 0.0 < res.gain_se < 0.5 * max(gain, 0.01)     # the fold spread: well inside the gate here
 
 
 def test_the_json_and_the_page_carry_the_pairs_resolution():
     from euc_sim.rides.compare import differences as df
     from euc_sim.rides.report.differences_page import difference_lines
 
-    det = {"total_mass": rs.detectable_difference("total_mass", (-2.0, 28.0), 60.0, 1.5, min_gain=0.01),
+    det = {"total_mass": rs.detectable_difference("total_mass", (-2.0, 28.0), 60.0, 1.5,
+                                                  blocks=(np.full(20, 4.0), np.full(20, 14.0))),
            "rolling_resistance": rs.detectable_difference("rolling_resistance", (0.004, 0.016), 60.0, 9000.0,
-                                                          min_gain=0.01)}
+                                                          blocks=(np.full(20, 4e9), np.full(20, 3e6)))}
     tested = {"total_mass": {"estimate": 13.0, "ci95": (-2.0, 28.0), "heldout_gain": 0.004, "selected": False,
                              "detectable": det["total_mass"]},
               "rolling_resistance": {"estimate": 0.01, "ci95": (0.004, 0.016), "heldout_gain": 0.002,
