@@ -34,7 +34,7 @@ change; **cannot tell** otherwise: the recorded change smaller than what the
 pair resolves, nothing recorded that sizes it, or a difference named that
 nothing recorded would cause.  What the pair resolves is the JSON's
 ``resolvable`` for the difference (the larger of the interval's half-width and
-the held-out gate's size, :mod:`euc_sim.rides.compare.resolution`), read, never
+the naming test's 80 %-power size, :mod:`euc_sim.rides.compare.resolution`), read, never
 recomputed here.
 
 Usage::
@@ -294,8 +294,8 @@ def _u(x) -> str:
 
 def resolution_table(rows: list[dict], name: str = "total_mass") -> list[str]:
     """Per pair: the smallest ``name`` difference the pair can name (``resolvable``: the larger of the
-    interval's half-width and the held-out gate's size), beside the estimate and the recorded change."""
-    out = ["| pair (A → B) | B − A | 95 % interval | resolvable | of which: half-width; gate | named | "
+    interval's half-width and the naming test's 80 %-power size), beside the estimate and the recorded change."""
+    out = ["| pair (A → B) | B − A | 95 % interval | resolvable | of which: half-width; 80 %-power size | named | "
            "recorded change |", "|" + " --- |" * 7]
     for r in rows:
         if r["name"] != name or r["estimate"] is None or not r["ci95"]:
@@ -340,7 +340,7 @@ def write_doc(rows: list[dict], cmds: list[str], path: Path) -> None:
           + "; over the named differences: "
           + (", ".join(f"{k} {v}" for k, v in sorted(t['named'].items())) or "none named") + ".", ""]
     md += ["What each pair can resolve: the smallest difference it can name (the JSON's `resolvable`, the "
-           "larger of the 95 % interval's half-width and the held-out gate's size):", ""]
+           "larger of the 95 % interval's half-width and the naming test's 80 %-power size):", ""]
     md += resolves_table(rows) + [""]
     md += table(rows) + ["", "Commands (run from the repository, the shared data beside it):", "", "```"]
     md += cmds + ["```", "", END]
