@@ -78,7 +78,7 @@ SUMMARY = {"duration_s": 1500.0, "moving_s": 1260.0, "distance_m": 12345.0, "dis
 #: The ride JSON's ``mass_check`` and ``battery`` in their form.
 MASS_CHECK = {"declared_rider_kg": 80.0, "verdict": "heavier", "sentence": "heavier"}
 BATTERY = {"resistance_ohm": 0.152, "resistance_ci95": [0.14, 0.16], "resistance_25C_ohm": 0.147,
-           "verdict": "aged", "sentence": "aged"}
+           "verdict": "worn: +35 % resistance", "sentence": "worn: +35 % resistance"}
 
 
 @pytest.fixture(scope="module")
@@ -140,10 +140,10 @@ def test_tiles_show_the_summary_in_peoples_units(with_summary):
     for shown in ("12.3 km", "21 min", "45 km/h", "35 km/h while moving", "320 Wh", "21 Wh regenerated",
                   "24.2 Wh/km", "38 %", "range at this rate: 32 km", "91 %", "least margin 9 % at 2:30",
                   SUMMARY["quality_sentence"].split(": ", 1)[1], "declared rider 80 kg: heavier", "152 mΩ",
-                  "aged; 147 mΩ at 25 °C"):
+                  "worn: +35 % resistance; 147 mΩ at 25 °C"):
         assert shown in text, shown
     raw = with_summary[0].read_text()
-    for tone, label in (("warn", "Battery resistance"), ("warn", "Total mass"), ("bad", "Max PWM"),
+    for tone, label in (("bad", "Battery resistance"), ("warn", "Total mass"), ("bad", "Max PWM"),
                         ("bad", "Data quality")):
         assert f'<div class="{tone}"><div class="l">{label}</div>' in raw, label
 
