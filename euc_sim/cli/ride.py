@@ -96,7 +96,12 @@ def _limit_line(rep: dict) -> str:
 
 
 def _print_summary(rep: dict) -> None:
-    """The console summary of a ride's result: errors, verdict, effects, mass, windows, simulation."""
+    """The console summary of a ride's result: the key figures (the page's tiles), then errors,
+    verdict, effects, mass, windows, simulation."""
+    from euc_sim.rides.report.page_html import key_figure_lines
+
+    for line in key_figure_lines(rep):
+        print(line)
     u = rep["error_unit"]
     print(("" if rep["verdict"]["battery_power"] else "V·I, NOT battery power: ")
           + f"held-out error ({rep['error_measure']}): inertia-only "

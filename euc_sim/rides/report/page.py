@@ -201,21 +201,27 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None)
     pathlib.Path
     """
     from euc_sim.io import write_text
+    from euc_sim.rides.report.page_html import first_screen
 
-    md = (_verdict_md(report, figures, log_path) + _estimates_md(report) + _aliases_md(report)
+    shown = first_screen(report)            # said once: in the key figures, as on the HTML page
+    md = (_verdict_md(report, figures, log_path, shown) + _estimates_md(report) + _aliases_md(report)
           + _localisation_md(report, figures) + _simulation_md(report, figures)
-          + _assumptions_md(report))
+          + _assumptions_md(report, shown))
     return write_text(Path(out_dir) / "index.md", "\n".join(md))
 
 
-def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None) -> list[str]:
-    """Title, what differs (with both logs' metadata, given LOG's path), the verdict, the cross-ride figure."""
+def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None, shown=frozenset()) -> list[str]:
+    """Title, the key figures, what differs (with both logs' metadata, given LOG's path), the
+    verdict, the cross-ride figure."""
     from euc_sim.rides.report.differences_page import difference_section
+    from euc_sim.rides.report.page_html import key_figure_lines
 
-    md = [f"# Ride diagnosis: {Path(r['recording']).name}", ""] + difference_section(r, log_path) + _verdict_lines(r)
+    md = ([f"# Ride diagnosis: {Path(r['recording']).name}", "", "## Key figures", ""]
+          + [f"- {line}" for line in key_figure_lines(r)] + [""]
+          + difference_section(r, log_path) + _verdict_lines(r))
     if "total_mass" in r:
         from euc_sim.rides.report.drivetrain_report import page_section
-        md += page_section(r, figures)
+        md += page_section(r, figures, shown)
     if "controller" in r:
         from euc_sim.rides.law.controller_report import page_lines
         md += page_lines(r["controller"])

@@ -227,6 +227,12 @@ def key_figures(rep: Mapping) -> list:
                _mass_tile(rep.get("total_mass"), rep.get("mass_check")), _battery_tile(rep)])
 
 
+def key_figure_lines(rep: Mapping) -> list[str]:
+    """The first screen's tiles as plain lines, ``"Label: value (note)"``: what the terminal
+    and the plain-text page say first, the same strings as the HTML tiles."""
+    return [f"{k.label}: {k.value}" + (f" ({k.note})" if k.note else "") for k in key_figures(rep)]
+
+
 def first_screen(rep: Mapping) -> frozenset:
     """The fitted quantities the tiles give (the folded parts then say them without numbers)."""
     tiles = {k.label: k.value for k in key_figures(rep)}
