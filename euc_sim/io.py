@@ -71,8 +71,8 @@ def check_output(path: str | Path, folder: bool = False) -> Path:
     Raises
     ------
     euc_sim.errors.BadOutputPath
-        naming the path: a component over :data:`NAME_MAX` bytes; a device, FIFO,
-        socket (or a folder where a file is written) that a rename would replace.
+        naming the path: a component over :data:`NAME_MAX` bytes; a device, FIFO or
+        socket that a rename would replace.
     """
     from euc_sim.errors import BadOutputPath
 
@@ -86,10 +86,9 @@ def check_output(path: str | Path, folder: bool = False) -> Path:
         mode = os.stat(path).st_mode
     except OSError:
         return path                      # nothing there yet (or unreadable: the write will say)
-    if not (stat.S_ISDIR(mode) if folder else stat.S_ISREG(mode)):
-        if folder or not stat.S_ISDIR(mode):
-            raise BadOutputPath(f"output {shown(path)} is a {file_kind(mode)}, not a "
-                                f"{'folder' if folder else 'regular file'}; refusing to replace it")
+    if not (stat.S_ISDIR(mode) or stat.S_ISREG(mode)):     # a file for a folder: the writer says
+        raise BadOutputPath(f"output {shown(path)} is a {file_kind(mode)}, not a "
+                            f"{'folder' if folder else 'regular file'}; refusing to replace it")
     return path
 
 
