@@ -111,7 +111,11 @@ def _cmd_dynamics(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog="euc-sim",
-        description="Electric-unicycle-with-rider simulation, identification and diagnosis.")
+        description="Electric-unicycle-with-rider simulation, identification and diagnosis.",
+        epilog="Outputs are written atomically, never over an input, a device or a FIFO; a symbolic "
+               "link is written through to its target, whose mode is kept. A --report DIR (demo's "
+               "--out-dir) must be new, empty or hold only what euc-sim wrote there "
+               "(listed in DIR/.euc-sim-manifest.json).")
     from euc_sim import __version__
     parser.add_argument("--version", action="version", version=f"euc-sim {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
