@@ -22,7 +22,7 @@ from typing import Any, Callable
 from euc_sim.errors import InputError
 
 __all__ = ["atomic_write", "write_text", "write_json", "to_jsonable", "check_writable", "check_output",
-           "file_kind", "shown", "NAME_MAX",
+           "check_name", "file_kind", "shown", "NAME_MAX",
            "write_recording", "sidecar_paths", "temporary_beside", "is_temporary", "FLOAT_FORMAT",
            "save_figure", "figure_png"]
 
@@ -76,12 +76,7 @@ def check_output(path: str | Path, folder: bool = False) -> Path:
     """
     from euc_sim.errors import BadOutputPath
 
-    path = Path(path)
-    for part in path.parts:
-        size = len(os.fsencode(part))
-        if size > NAME_MAX:
-            raise BadOutputPath(f"output {shown(path)}: the name {shown(_cut(part, 40) + '...')} is {size} "
-                                f"bytes long, over the file-name limit of {NAME_MAX} bytes (NAME_MAX)")
+    path = check_name(path, "output", BadOutputPath)
     try:
         mode = os.stat(path).st_mode
     except OSError:
@@ -89,6 +84,18 @@ def check_output(path: str | Path, folder: bool = False) -> Path:
     if not (stat.S_ISDIR(mode) or stat.S_ISREG(mode)):     # a file for a folder: the writer says
         raise BadOutputPath(f"output {shown(path)} is a {file_kind(mode)}, not a "
                             f"{'folder' if folder else 'regular file'}; refusing to replace it")
+    return path
+
+
+def check_name(path: str | Path, role: str = "output", error: type = InputError) -> Path:
+    """Refuse a path with a component over :data:`NAME_MAX` bytes, naming the path, its role
+    (``output``, ``input``) and the limit (the system's own message says only "File name too long")."""
+    path = Path(path)
+    for part in path.parts:
+        size = len(os.fsencode(part))
+        if size > NAME_MAX:
+            raise error(f"{role} {shown(path)}: the name {shown(_cut(part, 40) + '...')} is {size} "
+                        f"bytes long, over the file-name limit of {NAME_MAX} bytes (NAME_MAX)")
     return path
 
 

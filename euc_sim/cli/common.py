@@ -264,14 +264,15 @@ def check_outputs(args) -> list:
 
 def _check_inputs_are_files(args) -> None:
     """An input that exists is a regular file or a folder (a FIFO would hang the reader, a
-    device be read without end)."""
+    device be read without end); its name fits :data:`euc_sim.io.NAME_MAX`."""
     import os
     import stat
 
     from euc_sim.errors import BadInputFile
-    from euc_sim.io import file_kind
+    from euc_sim.io import check_name, file_kind
 
     for opt, path in _named(args, INPUT_OPTIONS):
+        check_name(path, f"input {opt}", BadInputFile)
         try:
             mode = os.stat(path).st_mode
         except (OSError, ValueError):

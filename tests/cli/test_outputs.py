@@ -291,3 +291,9 @@ def test_a_name_of_250_bytes_is_written(tmp_path):
     name = tmp_path / ("n" * 245 + ".json")
     write_text(name, "{}\n")
     assert name.read_text() == "{}\n" and sorted(tmp_path.iterdir()) == [name]
+
+
+def test_an_input_name_over_255_bytes_is_named_with_the_limit(tmp_path, capsys):
+    long = tmp_path / ("é" * 130 + ".csv")
+    _refused(["torques", long, "--out", tmp_path / "T.csv"], ["input recording", "264 bytes", "NAME_MAX"],
+             capsys, tmp_path)
