@@ -191,12 +191,12 @@ def _guarded(args) -> dict:
     guarded = {}
     for opt, path in _named(args, INPUT_OPTIONS):
         guarded.setdefault(_identity(path), (f"the input {opt} {shown(path)}", path, True))
-        if path.is_dir():
+        if path.is_dir() and args.command == "rides":      # the one command that reads a folder
             for root, dirs, files in os.walk(path):
                 for inner in (Path(root) / n for n in files if n.lower().endswith(".csv")):
                     guarded.setdefault(_identity(inner), (f"the input {shown(inner)} (in the folder {shown(path)})",
                                                           inner, False))
-        elif opt in ("recording", "recordings") and path.name:
+        elif opt == "recording" and path.name and not path.is_dir():
             for side in sidecar_paths(path):
                 guarded.setdefault(_identity(side), (f"the sidecar of {shown(path)}", side, True))
     return guarded
