@@ -297,3 +297,26 @@ def test_an_input_name_over_255_bytes_is_named_with_the_limit(tmp_path, capsys):
     long = tmp_path / ("é" * 130 + ".csv")
     _refused(["torques", long, "--out", tmp_path / "T.csv"], ["input recording", "264 bytes", "NAME_MAX"],
              capsys, tmp_path)
+
+
+def test_a_report_folder_is_written_again_until_its_owner_edits_it(tmp_path, capsys):
+    """Through ``main``: the manifest lets a second run replace the first's figures, not an edited one."""
+    import json
+
+    import numpy as np
+    import pandas as pd
+
+    from euc_sim.cli.common import MANIFEST
+
+    t = np.arange(1800) / 120.0
+    rec = tmp_path / "decel.csv"
+    pd.DataFrame({"t": t, "x": 2.0 * t - 0.3 * t**2, "gamma": 0.02 * np.sin(3 * t),
+                  "phi": 0.05 * np.sin(2 * t)}).to_csv(rec, index=False)
+    rep = tmp_path / "rep"
+    argv = ["identify", str(rec), "--n-boot", "0", "--noise-replicates", "0", "--report", str(rep)]
+    for _ in range(2):
+        assert main(argv) == 0, capsys.readouterr().err
+        listed = json.loads((rep / MANIFEST).read_text())["files"]
+        assert sorted(listed) == ["identify-torques.png", "identify.png"]
+    (rep / "identify.png").write_bytes(b"the owner's own figure")
+    _refused(argv, ["identify.png", "changed since"], capsys, tmp_path)
