@@ -2,6 +2,10 @@
 
 Every output is written to a temporary file in the destination folder and renamed
 into place, so an interrupted or failed command never leaves a half-written file.
+An output must be a regular file or nothing yet (a device, FIFO or socket is refused,
+:func:`check_output`); a symbolic link is written through, its target replaced in
+the target's own folder; an existing file keeps its permission bits, a new one gets
+the umask's.
 """
 
 from __future__ import annotations
@@ -10,18 +14,94 @@ import errno
 import json
 import math
 import os
+import stat
 import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
 from euc_sim.errors import InputError
 
-__all__ = ["atomic_write", "write_text", "write_json", "to_jsonable", "check_writable",
+__all__ = ["atomic_write", "write_text", "write_json", "to_jsonable", "check_writable", "check_output",
+           "check_name", "file_kind", "shown", "NAME_MAX",
            "write_recording", "sidecar_paths", "temporary_beside", "is_temporary", "FLOAT_FORMAT",
            "save_figure", "figure_png"]
 
 #: What marks a temporary file of :func:`atomic_write`: ``.NAME.tmp-XXXXXXXX.EXT``.
 _TEMP_MARK = ".tmp-"
+#: The longest file name (one path component) Linux, macOS and Windows file systems take, in bytes.
+NAME_MAX = 255
+
+
+def shown(path: str | Path) -> str:
+    """A path for a one-line message: as typed, or quoted (``repr``) when it holds a newline or
+    another unprintable character."""
+    text = str(path)
+    return text if text.isprintable() else repr(text)
+
+
+def _cut(name: str, limit: int) -> str:
+    """``name`` cut to at most ``limit`` bytes of UTF-8 (never inside a character)."""
+    return os.fsencode(name)[:max(limit, 1)].decode("utf-8", "ignore") or "x"
+
+
+def file_kind(mode: int) -> str:
+    """What a ``st_mode`` is, for a message: ``FIFO``, ``character device``, ..."""
+    for test, kind in ((stat.S_ISREG, "regular file"), (stat.S_ISDIR, "folder"), (stat.S_ISFIFO, "FIFO (named pipe)"),
+                       (stat.S_ISCHR, "character device"), (stat.S_ISBLK, "block device"),
+                       (stat.S_ISSOCK, "socket")):
+        if test(mode):
+            return kind
+    return "special file"
+
+
+def check_output(path: str | Path, folder: bool = False) -> Path:
+    """Refuse an output whose name is too long or that exists and is not a regular file.
+
+    Parameters
+    ----------
+    path : path
+        The output (a file; with ``folder``, a folder).
+    folder : bool
+        ``path`` is a folder a command writes into.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    euc_sim.errors.BadOutputPath
+        naming the path: a component over :data:`NAME_MAX` bytes; a device, FIFO or
+        socket that a rename would replace.
+    """
+    from euc_sim.errors import BadOutputPath
+
+    path = check_name(path, "output", BadOutputPath)
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return path                      # nothing there yet (or unreadable: the write will say)
+    if not (stat.S_ISDIR(mode) or stat.S_ISREG(mode)):     # a file for a folder: the writer says
+        raise BadOutputPath(f"output {shown(path)} is a {file_kind(mode)}, not a "
+                            f"{'folder' if folder else 'regular file'}; refusing to replace it")
+    return path
+
+
+def check_name(path: str | Path, role: str = "output", error: type = InputError) -> Path:
+    """Refuse a path with a component over :data:`NAME_MAX` bytes, naming the path, its role
+    (``output``, ``input``) and the limit (the system's own message says only "File name too long")."""
+    path = Path(path)
+    for part in path.parts:
+        size = len(os.fsencode(part))
+        if size > NAME_MAX:
+            raise error(f"{role} {shown(path)}: the name {shown(_cut(part, 40) + '...')} is {size} "
+                        f"bytes long, over the file-name limit of {NAME_MAX} bytes (NAME_MAX)")
+    return path
+
+
+def _target(path: Path) -> Path:
+    """Where writing ``path`` lands: the final target of a symbolic link, else ``path``."""
+    return Path(os.path.realpath(path)) if path.is_symlink() else path
 
 
 def temporary_beside(path: str | Path) -> Path:
@@ -41,7 +121,9 @@ def temporary_beside(path: str | Path) -> Path:
         The temporary file (mode 0600, empty).
     """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}{_TEMP_MARK}", suffix=path.suffix, dir=path.parent)
+    suffix = _cut(path.suffix, 16) if len(path.suffix) > 16 else path.suffix
+    stem = _cut(path.stem, NAME_MAX - 1 - len(_TEMP_MARK) - 8 - len(os.fsencode(suffix)))
+    fd, tmp = tempfile.mkstemp(prefix=f".{stem}{_TEMP_MARK}", suffix=suffix, dir=path.parent)
     os.close(fd)
     return Path(tmp)
 
@@ -73,7 +155,7 @@ def check_writable(path: str | Path) -> Path:
     PermissionError, NotADirectoryError, IsADirectoryError
         (``OSError``) naming the path.
     """
-    path = Path(path)
+    path = check_output(path)
     parent = path.parent if str(path.parent) else Path(".")
     if path.is_dir():
         raise IsADirectoryError(errno.EISDIR, f"output {path} is a directory, expected a file path", str(path))
@@ -86,7 +168,7 @@ def check_writable(path: str | Path) -> Path:
                                                 f"folder in {existing}", str(path))
         return path
     try:
-        fd, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".probe", dir=parent)
+        fd, probe = tempfile.mkstemp(prefix=f".{_cut(path.name, 200)}.", suffix=".probe", dir=parent)
         os.close(fd)
         os.unlink(probe)
     except OSError as exc:
@@ -110,7 +192,8 @@ def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
 
     ``tmp_path`` keeps the extension of ``path`` (:func:`temporary_beside`), so a writer
     may choose its format from it.  The folder is created when missing.  On any error the temporary file is removed
-    and nothing appears at ``path``.
+    and nothing appears at ``path``.  A symbolic link is written through (its target is
+    replaced); an existing file keeps its permission bits.
 
     Parameters
     ----------
@@ -125,15 +208,15 @@ def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
         The destination.
     """
     path = check_writable(path)
+    dest = _target(path)
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp_path = temporary_beside(path)
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        tmp_path = temporary_beside(dest)
     except OSError as exc:
         raise _naming(exc, path) from None
     try:
         write(tmp_path)
-        _usual_mode(tmp_path)
-        os.replace(tmp_path, path)
+        _replace(tmp_path, dest)
     except OSError as exc:
         tmp_path.unlink(missing_ok=True)
         raise _naming(exc, path) from exc
@@ -149,9 +232,16 @@ def _umask() -> int:
     return mask
 
 
-def _usual_mode(path: Path) -> None:
-    """Give a temporary file (``mkstemp`` makes 0600) the mode of a normal new file: 0666 & ~umask."""
-    os.chmod(path, 0o666 & ~_umask())
+def _replace(tmp: Path, dest: Path) -> None:
+    """Rename ``tmp`` onto ``dest`` (checked again: it may have become a FIFO meanwhile), with
+    ``dest``'s permission bits when it exists, else a new file's (``mkstemp`` makes 0600)."""
+    check_output(dest)
+    try:
+        mode = stat.S_IMODE(os.stat(dest).st_mode)
+    except FileNotFoundError:
+        mode = 0o666 & ~_umask()
+    os.chmod(tmp, mode)
+    os.replace(tmp, dest)
 
 
 def write_text(path: str | Path, text: str) -> Path:
@@ -284,14 +374,15 @@ def write_recording(df, path: str | Path, meta: dict, truth: dict | None = None)
     temps: list[tuple[Path, Path]] = []
     dest = path
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
         for dest, write in jobs:
-            tmp = temporary_beside(dest)
-            temps.append((tmp, dest))
+            check_output(dest)
+            target = _target(dest)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            tmp = temporary_beside(target)
+            temps.append((tmp, target))
             write(tmp)
-            _usual_mode(tmp)
         for tmp, dest in temps:
-            os.replace(tmp, dest)
+            _replace(tmp, dest)
     except BaseException as exc:
         for tmp, _ in temps:
             tmp.unlink(missing_ok=True)

@@ -79,9 +79,9 @@ SHORTENED: dict[str, str] = {
     "euc-sim demo --out-dir runs/demo":
         "euc-sim demo --out-dir runs/demo",
     f"euc-sim ride {_WL}2020_05_16_08_02_06.csv --compare {_WL}2020_05_28_07_52_00.csv "
-    "--report runs/ride --json runs/ride/ride.json":
+    "--report runs/ride --json runs/ride.json":
         f"euc-sim ride {_WL}2020_05_16_08_02_06.csv --compare {_WL}2020_05_28_07_52_00.csv "
-        "--report runs/ride --json runs/ride/ride.json --n-boot 10 --no-simulate --quiet",
+        "--report runs/ride --json runs/ride.json --n-boot 10 --no-simulate --quiet",
 }
 
 _FENCE = re.compile(r"^```")

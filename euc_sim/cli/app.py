@@ -7,7 +7,8 @@ on stderr naming the culprit and exit code 2.  Any other exception is a bug: one
 line saying so and where its traceback was written, exit code 1.  Nothing
 half-written is left in either case, since every output goes through
 :mod:`euc_sim.io`'s atomic writes, and an output that is an input is refused before
-anything runs (:func:`euc_sim.cli.common.check_outputs`).
+anything runs (:func:`euc_sim.cli.common.check_outputs`), as is a ``--report`` folder
+holding files euc-sim did not write (its manifest lists those it did).
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import sys
 from typing import Sequence
 
 from euc_sim.cli.common import (EXIT_FAIL, EXIT_OK, EXIT_USAGE, UsageError, check_outputs, parse_params,
-                                 say)
+                                 record_outputs, say)
 from euc_sim.errors import InputError
 
 
@@ -115,7 +116,11 @@ def _cmd_dynamics(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = OneLineParser(
         prog="euc-sim",
-        description="Electric-unicycle-with-rider simulation, identification and diagnosis.")
+        description="Electric-unicycle-with-rider simulation, identification and diagnosis.",
+        epilog="Outputs are written atomically, never over an input, a device or a FIFO; a symbolic "
+               "link is written through to its target, whose mode is kept. A --report DIR (demo's "
+               "--out-dir) must be new, empty or hold only what euc-sim wrote there "
+               "(listed in DIR/.euc-sim-manifest.json).")
     from euc_sim import __version__
     parser.add_argument("--version", action="version", version=f"euc-sim {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
@@ -216,8 +221,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     on_term = None
     if threading.current_thread() is threading.main_thread():
         on_term = signal.signal(signal.SIGTERM, _terminated)
+    folders = []
     try:
-        check_outputs(args)
+        folders = check_outputs(args)
         return int(args.func(args))
     except BrokenPipeError:             # the reader left (| head): stop quietly, as cat does
         import os
@@ -237,6 +243,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:           # anything else is euc-sim's own fault
         return _internal_error(args, exc)
     finally:
+        record_outputs(folders)
         warnings.formatwarning = previous
         if on_term is not None:
             signal.signal(signal.SIGTERM, on_term)

@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Sequence
 
 from euc_sim.errors import InputError
+from euc_sim.io import shown
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 
@@ -98,18 +99,21 @@ def param_values(items: Sequence[str] | None) -> dict[str, float]:
     return values
 
 
-#: Options that name a file the command reads.
-INPUT_OPTIONS = ("recording", "recordings", "log", "compare", "profile", "drivetrain", "wheel", "mjcf")
+#: Options that name a file (or, for ``rides``, a folder of logs) the command reads.
+INPUT_OPTIONS = ("recording", "recordings", "log", "logs", "compare", "profile", "drivetrain", "wheel", "mjcf")
 #: Options that name a file the command writes (``--out`` of ``dataset`` and ``demo`` is a folder).
 OUTPUT_OPTIONS = ("out", "json", "plot", "effects_plot")
 #: Commands whose ``--out`` is a folder.
 FOLDER_OUT = ("dataset", "demo")
 #: Commands that write a recording and its sidecars (``NAME.json``, ``NAME.truth.json``).
 WRITES_RECORDING = ("simulate",)
+#: The file in a ``--report`` folder (and ``demo``'s) listing what euc-sim wrote there.
+MANIFEST = ".euc-sim-manifest.json"
 
 
 def _option(name: str) -> str:
-    return name if name in ("recording", "recordings", "log") else "--" + name.replace("_", "-")
+    positional = {"recording": "recording", "recordings": "recording", "log": "log", "logs": "log"}
+    return positional.get(name) or "--" + name.replace("_", "-")
 
 
 def _named(args, names) -> list[tuple[str, Path]]:
@@ -122,12 +126,23 @@ def _named(args, names) -> list[tuple[str, Path]]:
     return out
 
 
-def _same(a: Path, b: Path) -> bool:
+def _identity(path: Path):
+    """What makes two names one file: ``(st_dev, st_ino)`` when it exists (so hard and symbolic
+    links count), else the absolute path with links resolved."""
     import os
 
-    if a.exists() and b.exists():
-        return os.path.samefile(a, b)
-    return os.path.abspath(a) == os.path.abspath(b)
+    try:
+        st = os.stat(path)
+        return st.st_dev, st.st_ino
+    except (OSError, ValueError):
+        return os.path.realpath(path)
+
+
+def _inside(path: Path, folder: Path) -> bool:
+    import os
+
+    p, f = os.path.realpath(path), os.path.realpath(folder)
+    return p == f or p.startswith(f.rstrip(os.sep) + os.sep)
 
 
 def output_files(args) -> list[tuple[str, Path]]:
@@ -136,42 +151,192 @@ def output_files(args) -> list[tuple[str, Path]]:
     return _named(args, names)
 
 
-def check_outputs(args) -> None:
+def report_folders(args) -> list[tuple[str, Path]]:
+    """The folders a command writes as a whole, as ``(option, path)``: ``--report`` and ``demo``'s ``--out-dir``."""
+    return _named(args, ("report",)) + (_named(args, ("out_dir",)) if args.command == "demo" else [])
+
+
+def _guarded(args) -> dict:
+    """Every file an output may not be, ``{identity: (what, path, named)}``: the inputs, the
+    CSV files inside a folder given as input (what ``rides`` reads; ``named`` False), and the
+    sidecars of input recordings."""
+    import os
+
+    from euc_sim.io import sidecar_paths
+
+    guarded = {}
+    for opt, path in _named(args, INPUT_OPTIONS):
+        guarded.setdefault(_identity(path), (f"the input {opt} {shown(path)}", path, True))
+        if path.is_dir() and args.command == "rides":      # the one command that reads a folder
+            for root, dirs, files in os.walk(path):
+                for inner in (Path(root) / n for n in files if n.lower().endswith(".csv")):
+                    guarded.setdefault(_identity(inner), (f"the input {shown(inner)} (in the folder {shown(path)})",
+                                                          inner, False))
+        elif opt == "recording" and path.name and not path.is_dir():
+            for side in sidecar_paths(path):
+                guarded.setdefault(_identity(side), (f"the sidecar of {shown(path)}", side, True))
+    return guarded
+
+
+def check_outputs(args) -> list:
     """Refuse, before anything runs, an output that would destroy an input or another's file.
 
-    An output may not be an input, nor the sidecar of an input recording (a sidecar is
-    touched only by the command that writes its recording), nor another output of
-    the same command; ``simulate`` does not replace a ``NAME.json`` that is not an
-    euc-sim sidecar.  Figures must have a format matplotlib writes.
+    An output may not be an input (by name, hard or symbolic link), a file inside a
+    folder given as input, the sidecar of an input recording, another output of the
+    same command, nor lie inside a ``--report`` folder; it must be a regular file or
+    nothing yet, with a name of at most 255 bytes (:func:`euc_sim.io.check_output`).
+    A ``--report`` folder (``demo``'s ``--out-dir``) must be missing, empty or hold only
+    what euc-sim wrote there (:func:`check_folder_is_ours`).  ``simulate`` does not
+    replace a ``NAME.json`` that is not an euc-sim sidecar.  Figures must have a format
+    matplotlib writes.  An input that exists must be a regular file or a folder.
+
+    Returns
+    -------
+    list
+        The report folders' states, for :func:`record_outputs` once the command ends.
 
     Raises
     ------
     euc_sim.errors.BadOutputPath
         naming the option and the path.
     """
-    from euc_sim.errors import BadOutputPath
-    from euc_sim.io import sidecar_paths
+    import time
 
-    inputs = _named(args, INPUT_OPTIONS)
-    guarded = list(inputs)
-    for opt, path in _named(args, ("recording", "recordings")):
-        if path.name and not path.is_dir():        # a folder given as a recording is its reader's to refuse
-            guarded += [(f"the sidecar of {path}", side) for side in sidecar_paths(path)]
-    outputs = output_files(args)
+    from euc_sim.errors import BadOutputPath
+    from euc_sim.io import check_output
+
+    _check_inputs_are_files(args)
+    guarded = _guarded(args)
+    outputs, folders = output_files(args), report_folders(args)
     for i, (opt, path) in enumerate(outputs):
-        for what, other in guarded:
-            if _same(path, other):
-                culprit = what if what.startswith("the sidecar") else f"the input {what} {other}"
-                raise BadOutputPath(f"{opt} {path}: is {culprit}; refusing to overwrite it")
+        check_output(path)
+        what = guarded.get(_identity(path), (None,))[0]
+        if what is not None:
+            raise BadOutputPath(f"{opt} {shown(path)}: is {what}; refusing to overwrite it")
         for opt2, path2 in outputs[:i]:
-            if _same(path, path2):
-                raise BadOutputPath(f"{opt} {path}: {opt2} writes the same file")
+            if _identity(path) == _identity(path2):
+                raise BadOutputPath(f"{opt} {shown(path)}: {opt2} writes the same file")
+        for fopt, folder in folders:
+            if _inside(path, folder):
+                raise BadOutputPath(f"{opt} {shown(path)} lies inside {fopt} {shown(folder)}, the folder "
+                                    f"{fopt} writes; choose a path outside it")
         if opt in ("--plot", "--effects-plot"):
             from euc_sim.identification.plots import check_figure_path
 
             check_figure_path(path)
     if args.command in WRITES_RECORDING and getattr(args, "out", None):
         _check_foreign_sidecars(Path(args.out))
+    states = []
+    for fopt, folder in folders:
+        check_output(folder, folder=True)
+        for what, path, named in guarded.values():
+            if named and _inside(path, folder):
+                raise BadOutputPath(f"{fopt} {shown(folder)}: holds {what}; refusing to write into it "
+                                    "(choose a new or empty folder)")
+        # a file the run writes is newer than this (less a second for the file system's coarse clock)
+        states.append((folder, check_folder_is_ours(folder, fopt), time.time_ns() - 10**9))
+    return states
+
+
+def _check_inputs_are_files(args) -> None:
+    """An input that exists is a regular file or a folder (a FIFO would hang the reader, a
+    device be read without end); its name fits :data:`euc_sim.io.NAME_MAX`."""
+    import os
+    import stat
+
+    from euc_sim.errors import BadInputFile
+    from euc_sim.io import check_name, file_kind
+
+    for opt, path in _named(args, INPUT_OPTIONS):
+        check_name(path, f"input {opt}", BadInputFile)
+        try:
+            mode = os.stat(path).st_mode
+        except (OSError, ValueError):
+            continue                         # missing: the reader names it
+        if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+            raise BadInputFile(f"{opt} {shown(path)} is a {file_kind(mode)}, not a regular file")
+
+
+def _folder_files(folder: Path) -> dict:
+    """``{relative posix path: (size, mtime_ns)}`` of everything under ``folder`` but the manifest
+    (symbolic links and special files with size -1: they are never euc-sim's)."""
+    import os
+
+    out = {}
+    for root, dirs, files in os.walk(folder):
+        dirs.sort()
+        for name in sorted(files) + [d for d in dirs if os.path.islink(os.path.join(root, d))]:
+            path = Path(root) / name
+            rel = path.relative_to(folder).as_posix()
+            if rel == MANIFEST:
+                continue
+            st = os.lstat(path)
+            out[rel] = (st.st_size, st.st_mtime_ns) if not path.is_symlink() and path.is_file() else (-1, -1)
+    return out
+
+
+def _manifest(folder: Path) -> dict:
+    """The files the manifest of ``folder`` lists, ``{relative path: (size, mtime_ns)}`` (empty if none)."""
+    import json
+
+    try:
+        doc = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
+        return {str(k): (int(v["size"]), int(v["mtime_ns"])) for k, v in doc["files"].items()}
+    except (OSError, ValueError, TypeError, KeyError, AttributeError):
+        return {}
+
+
+def check_folder_is_ours(folder: str | Path, option: str = "--report") -> dict:
+    """Refuse a folder that holds a file euc-sim did not write (or that was changed since).
+
+    A missing or empty folder is fine; otherwise every file in it must be listed in its
+    manifest (:data:`MANIFEST`) with the size and modification time it has now.
+
+    Returns
+    -------
+    dict
+        The folder's files now (:func:`record_outputs` compares them after the command).
+
+    Raises
+    ------
+    euc_sim.errors.BadOutputPath
+        naming the folder and its first foreign file.
+    """
+    from euc_sim.errors import BadOutputPath
+
+    folder = Path(folder)
+    if not folder.is_dir():
+        return {}
+    now, ours = _folder_files(folder), _manifest(folder)
+    for rel, state in now.items():
+        if ours.get(rel) != state:
+            why = "was changed since euc-sim wrote it" if rel in ours else "was not written by euc-sim"
+            raise BadOutputPath(f"{option} {shown(folder)}: {shown(rel)} {why}; refusing to overwrite the "
+                                "folder (choose a new or empty folder)")
+    return now
+
+
+def record_outputs(states) -> None:
+    """After a command: list in each report folder's manifest what euc-sim wrote there.
+
+    The files listed before that are unchanged stay; files that appeared during the run,
+    or were rewritten by it, are added; the manifest is replaced atomically.  A folder
+    whose files did not change is left alone.
+    """
+    from euc_sim.io import write_json
+
+    for folder, before, start in states:
+        if not folder.is_dir():
+            continue
+        now = _folder_files(folder)
+        if now == before:
+            continue
+        files = {rel: {"size": size, "mtime_ns": mtime} for rel, (size, mtime) in now.items()
+                 if size >= 0 and (before.get(rel) == (size, mtime) or mtime >= start)}
+        try:
+            write_json(folder / MANIFEST, {"written_by": "euc-sim", "files": files})
+        except OSError:
+            pass                              # the next run will name the unlisted file
 
 
 def _check_foreign_sidecars(out: Path) -> None:
@@ -190,10 +355,10 @@ def _check_foreign_sidecars(out: Path) -> None:
         except (OSError, ValueError):
             ours = False
         if not ours:
-            raise BadOutputPath(f"--out {out}: its sidecar {meta} exists and is not one euc-sim wrote; "
-                                "refusing to overwrite it (move it or choose another name)")
+            raise BadOutputPath(f"--out {shown(out)}: its sidecar {shown(meta)} exists and is not one euc-sim "
+                                "wrote; refusing to overwrite it (move it or choose another name)")
     if truth.is_file() and not ours:
-        raise BadOutputPath(f"--out {out}: {truth} exists without an euc-sim sidecar beside it; "
+        raise BadOutputPath(f"--out {shown(out)}: {shown(truth)} exists without an euc-sim sidecar beside it; "
                             "refusing to overwrite it")
 
 

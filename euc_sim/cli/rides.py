@@ -33,24 +33,39 @@ def _is_log(path: Path) -> bool:
         return False
 
 
+def _regular(path: Path) -> Path:
+    """``path`` if it is a regular file (a FIFO would hang the reader, a device be read without end)."""
+    import os
+    import stat
+
+    from euc_sim.errors import BadInputFile
+    from euc_sim.io import file_kind, shown
+
+    mode = os.stat(path).st_mode
+    if not stat.S_ISREG(mode):
+        raise BadInputFile(f"{shown(path)} is a {file_kind(mode)}, not a ride log (a regular file)")
+    return path
+
+
 def find_logs(items) -> list[Path]:
     """The log files named, and the recognised ride logs under each folder named.
 
     Raises
     ------
     FileNotFoundError
-        for a path that does not exist; ``ValueError`` for a folder holding no ride log.
+        for a path that does not exist; ``InputError`` for a folder holding no ride log, or a
+        log (named or in a folder) that is a FIFO, device or socket.
     """
     out: list[Path] = []
     for item in items:
         p = Path(item)
         if p.is_dir():
-            found = [f for f in sorted(p.rglob("*.csv")) if _is_log(f)]
+            found = [f for f in sorted(p.rglob("*.csv")) if not f.is_dir() and _is_log(_regular(f))]
             if not found:
                 raise InputError(f"{p}: no ride log (WheelLog, EUC World, DarknessBot CSV) in this folder")
             out.extend(found)
-        elif p.is_file():
-            out.append(p)
+        elif p.exists():
+            out.append(_regular(p))
         else:
             raise FileNotFoundError(f"{p}: no such file or folder")
     return list(dict.fromkeys(out))

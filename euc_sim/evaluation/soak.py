@@ -175,7 +175,7 @@ _VALID = {"simulate": _simulate, "simulate3d": _simulate3d, "identify": _identif
 # --- malformed inputs -------------------------------------------------------------------
 def malformed_run(rng: random.Random) -> Run:
     """A random command line on a spoilt input, a bad option, or an output that is an input."""
-    kind = rng.choice(["csv", "csv", "sidecar", "option", "option", "same", "path", "log"])
+    kind = rng.choice(["csv", "csv", "sidecar", "option", "option", "same", "path", "log", "name", "special"])
     return _MALFORMED[kind](rng)
 
 
@@ -295,8 +295,87 @@ def _bad_log(rng):
                              "--json", "ride.json"], ["ride.json"], ["LOG.csv"], edit)
 
 
+#: File names a user may give: a Markdown link, quotes, a newline, a leading dash, 244 and
+#: 260 bytes (over NAME_MAX), non-ASCII.
+HOSTILE_NAMES = ("[x](javascript:alert(1)).csv", "it's \"quoted\" <b>.csv", "new\nline.csv", "-dash.csv",
+                 "x" * 240 + ".csv", "été 日本 🚲.csv", "é" * 128 + ".csv")
+
+
+def _hostile_name(rng):
+    """A pool input renamed to a hostile name, or an output given one."""
+    name = rng.choice(HOSTILE_NAMES)
+    arg = name if not name.startswith("-") or rng.random() < 0.5 else "./" + name
+    if rng.random() < 0.5:                  # the input so named (its sidecars follow it)
+        cmd = rng.choice(["torques", "diagnose", "ride"])
+        pool_name = "LOG.csv" if cmd == "ride" else rng.choice(["decel.csv", "stopgo.csv"])
+        argv = {"torques": ["torques", arg, "--out", "T.csv"],
+                "diagnose": ["diagnose", arg, "--no-resimulate", "--quiet", "--json", "d.json"],
+                "ride": ["ride", arg, "--no-simulate", "--quiet", "--n-boot", "10", "--json", "ride.json"]}[cmd]
+        fits = len(name.encode()) + len(".truth.json") <= 255          # else it names no file
+        return Run("malformed", argv, [argv[-1]], [pool_name], {"rename": {pool_name: name}} if fits else {})
+    out = name.replace(".csv", ".json")
+    cmd = rng.choice(["torques", "dynamics", "ride"])
+    argv = {"torques": ["torques", "decel.csv", "--out", name.replace(".csv", ".T.csv")],
+            "dynamics": ["dynamics", "--q", "0,0.05,0", "--json", out],
+            "ride": ["ride", "LOG.csv", "--no-simulate", "--quiet", "--n-boot", "10", "--json", out]}[cmd]
+    if argv[-1].startswith("-"):
+        argv[-2:] = [f"{argv[-2]}={argv[-1]}"]       # --out=-x.csv: the one way to name it
+    outs = [argv[-1].split("=", 1)[-1]]
+    return Run("malformed", argv, outs, [a for a in argv if a in (*POOL, "LOG.csv")])
+
+
+#: Special files: (command line, pool inputs, what :func:`spoil` makes).
+SPECIAL = [
+    (["torques", "pipe.csv", "--out", "T.csv"], [], {"fifo": ["pipe.csv"]}),
+    (["torques", "decel.csv", "--out", "pipe.csv"], ["decel.csv"], {"fifo": ["pipe.csv"]}),
+    (["ride", "LOG.csv", "--no-simulate", "--quiet", "--json", "pipe.json"], ["LOG.csv"], {"fifo": ["pipe.json"]}),
+    (["rides", "logs", "--quiet", "--n-boot", "10", "--json", "r.json"], ["LOG.csv"],
+     {"folder": "logs", "fifo": ["logs/stuck.csv"]}),
+    (["rides", "logs", "--quiet", "--n-boot", "10", "--json", "logs/LOG.csv"], ["LOG.csv"], {"folder": "logs"}),
+    (["torques", "away.csv", "--out", "T.csv"], ["decel.csv"], {"outside": {"away.csv": "decel.csv"}}),
+    (["torques", "decel.csv", "--out", "away.csv"], ["decel.csv"], {"outside": {"away.csv": "stopgo.csv"}}),
+    (["identify", "decel.csv", "--n-boot", "0", "--noise-replicates", "0", "--json", "away.json"], ["decel.csv"],
+     {"hard": {"decel.csv": "away.json"}}),
+    (["diagnose", "decel.csv", "--no-resimulate", "--quiet", "--report", "."], ["decel.csv"], {}),
+    (["ride", "LOG.csv", "--no-simulate", "--quiet", "--report", "rep", "--json", "rep/index.html"], ["LOG.csv"], {}),
+    (["ride", "LOG.csv", "--no-simulate", "--quiet", "--report", "rep"], ["LOG.csv"], {"mine": ["rep/index.md"]}),
+]
+
+
+def _special(rng):
+    """A FIFO, a symbolic link to a file outside, a hard link, a folder with a FIFO, a report folder
+    holding the user's file, an output inside the report folder."""
+    argv, inputs, edit = rng.choice(SPECIAL)
+    outs = [a for a in argv if a in ("T.csv", "r.json", "away.csv", "away.json")]
+    return Run("malformed", list(argv), outs, list(inputs), dict(edit))
+
+
 _MALFORMED = {"csv": _bad_csv, "sidecar": _bad_sidecar, "option": _bad_option, "same": _same_file,
-              "path": _bad_path, "log": _bad_log}
+              "path": _bad_path, "log": _bad_log, "name": _hostile_name, "special": _special}
+
+
+def _special_files(folder: Path, edit: dict) -> None:
+    """Make ``edit``'s hostile names and special files in ``folder`` (a run's working folder)."""
+    for old, new in edit.get("rename", {}).items():
+        for p in folder.glob(Path(old).stem + ".*"):      # the sidecars follow the recording
+            p.rename(folder / (Path(new).stem + p.name[len(Path(old).stem):]))
+    if "folder" in edit:
+        sub = folder / edit["folder"]
+        sub.mkdir()
+        for p in folder.glob("LOG.*"):
+            p.rename(sub / p.name)
+    for name in edit.get("fifo", []):
+        os.mkfifo(folder / name)
+    outside = folder.parent / "outside"
+    for link, pool_name in edit.get("outside", {}).items():   # a symbolic link to a file outside
+        outside.mkdir(exist_ok=True)
+        shutil.copy(folder.parent.parent / "pool" / pool_name, outside / link)
+        (folder / link).symlink_to(outside / link)
+    for src, name in edit.get("hard", {}).items():
+        os.link(folder / src, folder / name)
+    for name in edit.get("mine", []):
+        (folder / name).parent.mkdir(parents=True, exist_ok=True)
+        (folder / name).write_text("# the user's own notes\n")
 
 
 def spoil(folder: Path, edit: dict) -> None:
@@ -306,6 +385,7 @@ def spoil(folder: Path, edit: dict) -> None:
 
     for name in edit.get("foreign", []):
         (folder / name).write_text('{"not": "a sidecar of ours"}\n')
+    _special_files(folder, edit)
     if "file" not in edit:
         return
     path, how, col = folder / edit["file"], edit["how"], edit.get("column")

@@ -13,10 +13,15 @@ are not tracked (``.gitignore``).  This is the only command that should write in
 
 from __future__ import annotations
 
+import json
+import os
 import sys
+import tempfile
 from pathlib import Path
 
 from euc_sim.cli import main as euc_sim
+from euc_sim.cli.common import MANIFEST
+from euc_sim.io import write_json
 
 ROOT = Path(__file__).resolve().parents[2]
 SHARED = ROOT.parent / "shared" / "data" / "wheellog"
@@ -29,8 +34,23 @@ def main() -> int:
               file=sys.stderr)
         return 2
     out = ROOT / "docs" / "ride"
-    return euc_sim(["ride", str(SHARED / RIDES[0]), "--compare", str(SHARED / RIDES[1]),
-                    "--report", str(out), "--json", str(out / "ride.json")])
+    # euc-sim writes a --report folder only when new or its own, and never a --json inside it:
+    # the report goes to a new folder, then its files (and the JSON, which names them from
+    # beside them) replace docs/ride's
+    with tempfile.TemporaryDirectory(prefix=".ride-docs-", dir=out.parent) as tmp:
+        stage = Path(tmp)
+        code = euc_sim(["ride", str(SHARED / RIDES[0]), "--compare", str(SHARED / RIDES[1]),
+                        "--report", str(stage / "ride"), "--json", str(stage / "ride.json")])
+        if code:
+            return code
+        rep = json.loads((stage / "ride.json").read_text(encoding="utf-8"))
+        rep["report_dir"] = "."
+        out.mkdir(exist_ok=True)
+        for f in sorted((stage / "ride").iterdir()):
+            if f.name != MANIFEST:
+                os.replace(f, out / f.name)
+        write_json(out / "ride.json", rep)
+    return 0
 
 
 if __name__ == "__main__":

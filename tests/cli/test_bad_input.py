@@ -119,13 +119,14 @@ def test_torques_mark_the_filter_edges(tmp_path, capsys):
 
 def test_single_recording_figures_are_named_for_what_they_show(tmp_path, capsys):
     rec = _write(tmp_path, _frame(1800), name="decel.csv")
-    assert main(["identify", str(rec), "--n-boot", "50", "--report", str(tmp_path)]) == 0
-    fig8, figs67 = tmp_path / "identify.png", tmp_path / "identify-torques.png"
+    rep = tmp_path / "rep"
+    assert main(["identify", str(rec), "--n-boot", "50", "--report", str(rep)]) == 0
+    fig8, figs67 = rep / "identify.png", rep / "identify-torques.png"
     assert fig8.exists() and figs67.exists()
-    assert not (tmp_path / "identify-decel.png").exists()
+    assert not (rep / "identify-decel.png").exists()
     # issue 19, item 14: every file written is announced, and the help says there are two
     printed = [ln.removeprefix("wrote ") for ln in capsys.readouterr().out.splitlines() if ln.startswith("wrote ")]
-    on_disk = sorted(str(p) for p in tmp_path.glob("*.png"))
+    on_disk = sorted(str(p) for p in rep.glob("*.png"))
     assert sorted(printed) == on_disk == [str(figs67), str(fig8)]
     from euc_sim.cli.app import build_parser
     with pytest.raises(SystemExit):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 
@@ -55,3 +57,41 @@ def test_a_tiny_soak_is_clean(soak):
     assert sum(counts[k] for k in ("finished", "refused", "internal", "crash")) == 6
     assert counts["internal"] == counts["crash"] == counts["leftovers"] == 0, res["not_clean"]
     assert res["counts"]["valid"]["finished"] == 3, res["not_clean"]
+
+
+def test_hostile_names_and_special_files_are_made(soak, tmp_path):
+    import os
+    import random
+    import stat
+
+    pool = tmp_path / "pool"
+    pool.mkdir()
+    for name in ("decel.csv", "decel.json", "stopgo.csv", "LOG.csv"):
+        (pool / name).write_text(name)
+    for i, (argv, inputs, edit) in enumerate(soak.SPECIAL):
+        work = tmp_path / f"run-{i}" / "work"
+        work.mkdir(parents=True)
+        for name in inputs:
+            for p in pool.glob(name.split(".")[0] + ".*"):
+                (work / p.name).write_bytes(p.read_bytes())
+        soak.spoil(work, edit)
+        for name in edit.get("fifo", []):
+            assert stat.S_ISFIFO(os.lstat(work / name).st_mode)
+        for name, pool_name in edit.get("outside", {}).items():
+            target = Path(os.readlink(work / name))
+            assert work not in target.parents and target.read_text() == pool_name
+        for src, name in edit.get("hard", {}).items():
+            assert os.path.samefile(work / src, work / name)
+    kinds = {soak.malformed_run(random.Random(s)).edit.get("rename") is not None for s in range(200)}
+    assert kinds == {True, False}
+    run = next(r for r in (soak._hostile_name(random.Random(s)) for s in range(200))
+               if r.edit.get("rename") and "\n" in next(iter(r.edit["rename"].values())))
+    work = tmp_path / "renamed" / "work"
+    work.mkdir(parents=True)
+    for name in ("decel.csv", "decel.json", "stopgo.csv", "LOG.csv"):
+        (work / name).write_text(name)
+    soak.spoil(work, run.edit)
+    (old, new), = run.edit["rename"].items()
+    assert (work / new).read_text() == old and not (work / old).exists()
+    if old == "decel.csv":                             # its sidecar follows it
+        assert (work / new.replace(".csv", ".json")).read_text() == "decel.json"

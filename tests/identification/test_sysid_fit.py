@@ -79,13 +79,13 @@ def test_cli_sysid_writes_its_entry_and_figure(tmp_path, capsys):
     good = write_recording(df, tmp_path / "twin.csv", {"params": {"m": TABLE3.m}})
     code = main(["identify", str(good), "--method", "sysid", "--n-boot", "20",
                  "--noise-replicates", "5", "--json", str(tmp_path / "o.json"),
-                 "--report", str(tmp_path)])
+                 "--report", str(tmp_path / "rep")])
     assert code == 0
     out = json.loads((tmp_path / "o.json").read_text())
     m = out["models"]["3dof"]
     assert "rollout" not in m and m["sysid"]["windows"] == 4
     assert m["sysid"]["h_ci95"][0] <= H_TWIN <= m["sysid"]["h_ci95"][1] and m["at_bound"] == []
-    fig = tmp_path / "identify-sysid.png"
+    fig = tmp_path / "rep" / "identify-sysid.png"
     assert fig.is_file() and str(fig) in out["figures"]
     assert "mujoco.sysid h = " in capsys.readouterr().out
 
