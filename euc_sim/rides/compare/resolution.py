@@ -123,7 +123,8 @@ def paired_test(sse_with: np.ndarray, sse_without: np.ndarray) -> tuple[float, f
 
 
 def bh_qvalues(p) -> np.ndarray:
-    """Benjamini–Hochberg adjusted p-values (q-values) of a family of tests.
+    """Benjamini–Hochberg adjusted p-values (q-values) of a family of tests (scipy's
+    ``false_discovery_control``).
 
     ``q_(i) = min_{j ≥ i} p_(j)·m/j`` over the p-values sorted ascending, capped
     at 1: naming every test with ``q < α`` keeps the expected share of false
@@ -137,16 +138,10 @@ def bh_qvalues(p) -> np.ndarray:
     -------
     ndarray, in the order of ``p``
     """
+    from scipy.stats import false_discovery_control
+
     p = np.asarray(p, float)
-    m = len(p)
-    if m == 0:
-        return p
-    order = np.argsort(p)
-    q = p[order] * m / np.arange(1, m + 1)
-    q = np.minimum.accumulate(q[::-1])[::-1]
-    out = np.empty(m)
-    out[order] = np.minimum(q, 1.0)
-    return out
+    return p if p.size == 0 else false_discovery_control(p, method="bh")
 
 
 def noncentrality(level: float, df: int, power: float = POWER) -> float:

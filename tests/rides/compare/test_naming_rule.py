@@ -42,17 +42,6 @@ def test_a_planted_drag_is_named_with_a_small_p_value():
     assert not res.alias_sets
 
 
-def test_benjamini_hochberg_against_a_hand_computed_answer():
-    p = [0.01, 0.04, 0.03, 0.005, 0.2, 0.5]
-    # sorted 0.005 0.01 0.03 0.04 0.2 0.5, times 6/rank: 0.03 0.03 0.06 0.06 0.24 0.5; the running
-    # minimum from the largest down leaves them so
-    assert rs.bh_qvalues(p) == pytest.approx([0.03, 0.06, 0.06, 0.03, 0.24, 0.5])
-    # 0.02·3/1 = 0.06 > 0.021·3/2 = 0.0315: the step-up takes the smaller
-    assert rs.bh_qvalues([0.02, 0.021, 0.9]) == pytest.approx([0.0315, 0.0315, 0.9])
-    assert rs.bh_qvalues([0.9, 0.95]) == pytest.approx([0.95, 0.95])
-    assert len(rs.bh_qvalues([])) == 0
-
-
 def test_two_collinear_candidates_are_named_as_a_set():
     """Both rides at a steady 20 m/s: rolling (∝ v) and drag (∝ v³) cannot be told apart; a drag
     hidden in OTHER is named with the set, and the page's sentence says so."""
