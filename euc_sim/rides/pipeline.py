@@ -320,8 +320,10 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
         rep["simulation"]["figure"] = figures["simulation"]
     figures.update(_drivetrain_figures(physics, out))
     rep["figures"] = dict(figures)
-    rep["report_markdown"] = write_page(rep, out, figures, getattr(physics[1], "path", None)).name
-    from euc_sim.rides.report.page_html import RideSeries, write_ride_html
+    from euc_sim.rides.report.page_html import RideSeries, first_screen, key_figure_lines, write_ride_html
+
+    rep["report_markdown"] = write_page(rep, out, figures, getattr(physics[1], "path", None),
+                                        key_figure_lines(rep), first_screen(rep)).name
 
     # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
     series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping
+from typing import Mapping, Sequence
 
 import numpy as np
 
@@ -181,7 +181,8 @@ def _interval(ci) -> str:
     return f"[{_fmt(ci[0])}, {_fmt(ci[1])}]" if ci else "–"
 
 
-def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None) -> Path:
+def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None,
+               key_lines: Sequence[str] = (), shown=frozenset()) -> Path:
     """Write ``out_dir/index.md``: the ride's findings with its figures.
 
     Parameters
@@ -195,29 +196,31 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None)
     log_path : path, optional
         LOG's file: where both logs sit beside an euc_core ``meta.csv``, the
         recorded values are said beside the difference they bear on.
+    key_lines : sequence of str
+        The first screen's figures (the HTML tiles' strings), said first.
+    shown : frozenset
+        The fitted quantities those figures give, said later without their numbers.
 
     Returns
     -------
     pathlib.Path
     """
     from euc_sim.io import write_text
-    from euc_sim.rides.report.page_html import first_screen
 
-    shown = first_screen(report)            # said once: in the key figures, as on the HTML page
-    md = (_verdict_md(report, figures, log_path, shown) + _estimates_md(report) + _aliases_md(report)
+    md = (_verdict_md(report, figures, log_path, key_lines, shown) + _estimates_md(report) + _aliases_md(report)
           + _localisation_md(report, figures) + _simulation_md(report, figures)
           + _assumptions_md(report, shown))
     return write_text(Path(out_dir) / "index.md", "\n".join(md))
 
 
-def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None, shown=frozenset()) -> list[str]:
+def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None, key_lines: Sequence[str] = (),
+                shown=frozenset()) -> list[str]:
     """Title, the key figures, what differs (with both logs' metadata, given LOG's path), the
     verdict, the cross-ride figure."""
     from euc_sim.rides.report.differences_page import difference_section
-    from euc_sim.rides.report.page_html import key_figure_lines
 
-    md = ([f"# Ride diagnosis: {Path(r['recording']).name}", "", "## Key figures", ""]
-          + [f"- {line}" for line in key_figure_lines(r)] + [""]
+    key = ["## Key figures", ""] + [f"- {line}" for line in key_lines] + [""] if key_lines else []
+    md = ([f"# Ride diagnosis: {Path(r['recording']).name}", ""] + key
           + difference_section(r, log_path) + _verdict_lines(r))
     if "total_mass" in r:
         from euc_sim.rides.report.drivetrain_report import page_section
