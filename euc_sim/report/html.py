@@ -139,14 +139,17 @@ def section(title: str, body: str, folded: bool = False) -> str:
 
 
 def page(title: str, subtitle: str, body: Sequence[str]) -> str:
-    """The whole page: styles and Plotly's script inline, then the fragments in order.
+    """The whole page: styles and, where a :func:`figure` draws, Plotly's script inline, then
+    the fragments in order.
 
     Its Content-Security-Policy (:func:`policy`) lets only the page's own inline scripts
     and styles run.
     """
-    rest = (f"<style>{_STYLE}</style><script>{_plotly_js()}</script></head><body>"
+    main = "".join(body)
+    plotly = f"<script>{_plotly_js()}</script>" if 'Plotly.newPlot("' in main else ""
+    rest = (f"<style>{_STYLE}</style>{plotly}</head><body>"
             f"<h1>{_esc(title)}</h1><p class=\"sub\">{_esc(subtitle)}</p>"
-            f"{''.join(body)}</body></html>")
+            f"{main}</body></html>")
     return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
             f'<meta http-equiv="Content-Security-Policy" content="{policy(rest)}">'
             "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"

@@ -46,3 +46,11 @@ def test_time_panels_share_one_x_axis():
     lay = fig.to_plotly_json()["layout"]
     assert lay["xaxis"].get("matches") == "x2" or lay["xaxis2"].get("matches") == "x"
     assert lay["yaxis"]["title"]["text"] == "Speed, km/h" and lay["xaxis2"]["title"]["text"].endswith(", min")
+
+
+def test_plotly_only_where_a_figure_draws():
+    """A page without a Plotly figure carries no plotly.js (4.8 MB); one with a figure does."""
+    plain = H.page("t", "s", [H.paragraph("no figure; Plotly.newPlot is only text here")])
+    drawn = H.page("t", "s", [H.figure({"data": [], "layout": {}}, "f1")])
+    assert len(plain) < 50_000 and "Plotly.newPlot(\"f1\"" not in plain
+    assert len(drawn) > 1_000_000 and H._plotly_js() in drawn
