@@ -93,8 +93,13 @@ def _num(d: Mapping | None, key: str) -> float | None:
     return float(v) if isinstance(v, (int, float)) and np.isfinite(v) else None
 
 
-def _ride_tiles(s: Mapping | None) -> list:
-    """Distance, time, speeds, energy, consumption and battery: from ``summary``."""
+#: What the energy tiles say where the log's V·I is not the battery's power.
+NOT_POWER = "the log's V·I is not the battery's power: the app computes its current"
+
+
+def _ride_tiles(s: Mapping | None, not_power: bool = False) -> list:
+    """Distance, time, speeds, energy, consumption and battery: from ``summary``; the energy
+    and consumption not given where the log's V·I is not battery power (``not_power``)."""
     K = H.KeyFigure
     if not s:
         return [K(lbl, NA, "needs the ride's summary") for lbl in
@@ -103,6 +108,8 @@ def _ride_tiles(s: Mapping | None) -> list:
     top, mean = _num(s, "speed_max_mps"), _num(s, "speed_mean_moving_mps")
     drawn, regen, whkm = _num(s, "energy_drawn_Wh"), _num(s, "energy_regen_Wh"), _num(s, "Wh_per_km")
     used, rng = _num(s, "battery_used_pct"), _num(s, "range_m_at_this_rate")
+    if not_power:
+        drawn = regen = whkm = None
     return [
         K("Distance", f"{dist / 1000:.1f} km" if dist is not None else NA,
           f"from {s.get('distance_source')}" if dist is not None else ""),
@@ -112,8 +119,10 @@ def _ride_tiles(s: Mapping | None) -> list:
           "; ".join(x for x in (f"average {mean * 3.6:.0f} km/h while moving" if mean is not None else "",
                                 _spin_note(s.get("free_spin"))) if x)),
         K("Energy drawn", f"{drawn:.0f} Wh" if drawn is not None else NA,
+          NOT_POWER if not_power else
           f"{regen:.0f} Wh regenerated" if regen is not None else "regeneration not logged"),
         K("Consumption", f"{whkm:.1f} Wh/km" if whkm is not None else NA,
+          NOT_POWER if not_power else
           "drawn minus regenerated" if regen is not None else "drawn (no regeneration logged)"),
         K("Battery used", f"{used:.0f} %" if used is not None else NA,
           f"range at this rate: {rng / 1000:.0f} km" if rng is not None else ""),
@@ -217,14 +226,16 @@ def key_figures(rep: Mapping) -> list:
     s = rep.get("summary")
     alarms = s.get("alarms") if s else None
     quality, tone = data_quality(s)
-    return (_ride_tiles(s)
+    not_power = bool((rep.get("unidentified") or {}).get("battery_power"))
+    battery = H.KeyFigure("Battery resistance", NA, NOT_POWER) if not_power else _battery_tile(rep)
+    return (_ride_tiles(s, not_power)
             + [_pwm_tile(s, " (marked on the map)" if (s or {}).get("pwm_max_place") else " (marked over time)"),
                H.KeyFigure("Alarms", NA if alarms is None else str(alarms),
                            "" if not alarms or s.get("alarm_rows") is None else
                            f"{s['alarm_rows']} rows of the log flagged", "warn" if alarms else ""),
                H.KeyFigure("Data quality", str((s or {}).get("quality") or NA),
                            re.sub(r"^Data quality \w+: ", "", quality), tone),
-               _mass_tile(rep.get("total_mass"), rep.get("mass_check")), _battery_tile(rep)])
+               _mass_tile(rep.get("total_mass"), rep.get("mass_check")), battery])
 
 
 def key_figure_lines(rep: Mapping) -> list[str]:

@@ -125,3 +125,20 @@ def test_the_pwm_panel_shows_the_logged_peak_the_tile_gives():
     assert len(peak) == 1 and list(peak[0].y) == [75.0] and list(peak[0].x) == [5.0]
     assert peak[0].yaxis == fig.data[1].yaxis              # on the PWM panel, not the speed one
     assert max(max(tr.y) for tr in fig.data if tr.name.startswith("PWM")) < 75.0
+
+
+def test_no_battery_figures_where_the_logs_power_is_not_the_batterys():
+    """A WheelLog on a Begode: the app computes the current, so V·I is no battery power and
+    neither energy, consumption nor resistance is shown as the battery's."""
+    from euc_sim.rides.report.page_html import NOT_POWER, key_figure_lines
+
+    rep = {"summary": {"energy_drawn_Wh": 309.0, "energy_regen_Wh": 5.0, "Wh_per_km": 20.4,
+                       "distance_m": 15000.0},
+           "battery": {"resistance_ohm": 0.196, "verdict": "as new"},
+           "unidentified": {"battery_power": "V·I is not battery power: ..."}}
+    tiles = {k.label: k for k in key_figures(rep)}
+    for label in ("Energy drawn", "Consumption", "Battery resistance"):
+        assert tiles[label].value == "not available" and tiles[label].note == NOT_POWER, label
+    assert not any("309" in line or "20.4" in line or "196" in line for line in key_figure_lines(rep))
+    rep.pop("unidentified")
+    assert {k.label: k for k in key_figures(rep)}["Energy drawn"].value == "309 Wh"
