@@ -23,7 +23,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-__all__ = ["gram_lstsq", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
+__all__ = ["gram_lstsq", "label_grams", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
            "basic_interval", "block_bootstrap_indices", "wild_block_signs", "blocks_by_length", "block_labels",
            "draw_blocks", "moving_block_starts", "jackknife_interval"]
 
@@ -48,6 +48,21 @@ def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
     A, b = G[np.ix_(cols, cols)], G[cols, -1]
     beta = np.linalg.lstsq(A, b, rcond=None)[0]
     return beta, float(G[-1, -1] - beta @ b)
+
+
+def label_grams(Z: np.ndarray, labels: np.ndarray, n_labels: int) -> np.ndarray:
+    """``Z[labels == b]ᵀ Z[labels == b]`` for each label b of ``0 … n_labels − 1`` (zero where
+    none): the sufficient statistics of a least-squares fit on any union of the labels' rows.
+
+    Returns
+    -------
+    ndarray (n_labels, p, p)
+    """
+    G = np.zeros((n_labels, Z.shape[1], Z.shape[1]))
+    for b in np.unique(labels):
+        zb = Z[labels == b]
+        G[b] = zb.T @ zb
+    return G
 
 
 def time_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:

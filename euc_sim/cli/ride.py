@@ -86,8 +86,7 @@ def _limit_line(rep: dict) -> str:
     """The wheel's limit and where the cut-out comes before it, in one line."""
     from euc_sim.rides.drive.cutout import Limits
 
-    lim = Limits(**((rep.get("summary") or {}).get("limits") or
-                    {"speed_limit_mps": None, "source": None, "pwm_alarm_pct": None}))
+    lim = Limits.of_ride(rep)
     cut = rep.get("cutout") or {}
     tail = (cut["danger"] if cut.get("danger") else
             "the cut-out stays above it at every charge" if cut.get("curves") and lim.speed_limit_mps

@@ -19,7 +19,7 @@ from euc_sim.rides.balance.fit import BalanceFit, _solve, fit_balance, plausibil
 from euc_sim.rides.balance.normal import coefficients, solve_gram
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.grids.signals import RideSignals, break_at_gaps
-from euc_sim.stats import forward_select, time_blocks
+from euc_sim.stats import forward_select, label_grams, time_blocks
 
 __all__ = ["CrossRide", "cross_ride", "effect_entries", "plot_cross_ride", "cross_ride_figure",
            "select_effects", "heldout_score", "admissible", "ADMIT", "HELDOUT_FOLDS", "MIN_GAIN"]
@@ -66,9 +66,7 @@ class _HeldoutScores:
         self._whole: dict[tuple, dict] = {}
         self._rmse: dict[tuple, float] = {}
         label = time_blocks(design.t, n_folds)
-        Z = design.basis.Z
-        self._fold_grams = [Z[label == b].T @ Z[label == b] for b in range(n_folds)
-                            if np.any(label == b)]
+        self._fold_grams = label_grams(design.basis.Z, label, n_folds)
         self._n = len(label)
 
     def score(self, names, admit: str = "any") -> float:

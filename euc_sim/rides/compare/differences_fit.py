@@ -37,7 +37,7 @@ import numpy as np
 
 from euc_sim.rides.compare.resolution import (detectable_difference, heldout_signature_rms, paired_test,
                                                score_test)
-from euc_sim.stats import gram_lstsq, jackknife_interval, percentile_interval, time_blocks
+from euc_sim.stats import gram_lstsq, jackknife_interval, label_grams, percentile_interval, time_blocks
 
 __all__ = ["PairDesign", "PairFit", "DELAY", "block_grams", "pair_fit"]
 
@@ -150,11 +150,7 @@ def block_grams(t: np.ndarray, Z: np.ndarray, n_folds: int = 5, block: float = 3
     fold, count : ndarray (n_blocks,)
     """
     ids, fold = _block_ids(t, n_folds, block)
-    G = np.zeros((len(fold), Z.shape[1], Z.shape[1]))
-    for b in range(len(fold)):
-        zb = Z[ids == b]
-        G[b] = zb.T @ zb
-    return G, fold, np.bincount(ids, minlength=len(fold))
+    return label_grams(Z, ids, len(fold)), fold, np.bincount(ids, minlength=len(fold))
 
 
 def _parabola(sse: np.ndarray, k: int) -> float:
@@ -369,7 +365,6 @@ def pair_fit(design: PairDesign, *, level: float = 0.05, family: int = 1, transf
     cands = list(design.deltas) + ([DELAY] if len(design.Z_other) > 1 else [])
     selected, history = _select(g, cands, level)
     transform = transform or {}
-    base = g.score(selected)
     rng = np.random.default_rng(seed)
     estimates, gains, resolutions, p_values = {}, {}, {}, {}
     models = [selected] + [selected + [c] for c in cands if c not in selected]

@@ -63,7 +63,7 @@ import numpy as np
 
 from euc_sim.rides.drive.energy import window_difference, window_mean, window_samples_odd
 from euc_sim.rides.source.channels import current_from_phase, power_not_measured
-from euc_sim.stats import block_labels, draw_blocks, gram_lstsq, percentile_interval
+from euc_sim.stats import block_labels, draw_blocks, gram_lstsq, label_grams, percentile_interval
 from euc_sim.stats import forward_select as select_by_heldout
 from euc_sim.stats import time_blocks
 from euc_sim.rides.source.logs import RideLog
@@ -338,7 +338,8 @@ def _bootstrap(designs: list, names, signed, settings: MassSettings, mid: int):
     keys = np.unique(np.concatenate(labels))
     n_boot = settings.n_boot if signed else max(10, settings.n_boot // 10)  # |P̂|: slow fits
     # a signed log's fit is linear: a replicate's Gram matrix is its blocks' Grams summed
-    grams = [_block_grams(d, names, lab, keys) for d, lab in zip(designs, labels)] if signed else None
+    grams = ([label_grams(np.column_stack([d.X(names), d.y]), np.searchsorted(keys, lab), keys.size)
+              for d, lab in zip(designs, labels)] if signed else None)
     masses, coefs = [], []
     for _ in range(n_boot):
         pick = keys[draw_blocks(keys.size, rng)]
@@ -354,17 +355,6 @@ def _bootstrap(designs: list, names, signed, settings: MassSettings, mid: int):
             if k == mid:
                 coefs.append([beta[n] for n in names])
     return np.asarray(masses), np.asarray(coefs, float).reshape(-1, len(names))   # no draws: 0 rows
-
-
-def _block_grams(d: _Design, names, labels: np.ndarray, keys: np.ndarray) -> np.ndarray:
-    """``[X y]ᵀ[X y]`` of each block of ``keys`` (zero where the window has none of it)."""
-    Z = np.column_stack([d.X(names), d.y])
-    G = np.zeros((keys.size, Z.shape[1], Z.shape[1]))
-    pos = np.searchsorted(keys, labels)
-    for b in np.unique(pos):
-        zb = Z[pos == b]
-        G[b] = zb.T @ zb
-    return G
 
 
 def _ci(x: np.ndarray) -> tuple[float, float] | None:

@@ -22,6 +22,7 @@ import numpy as np
 
 from euc_sim.report import html as H
 from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
+from euc_sim.rides.drive.cutout import CONDITIONS, Limits, headroom_words
 
 __all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "first_screen", "figure_specs",
            "data_quality",
@@ -370,14 +371,6 @@ def _steady_pwm(dt, speed: np.ndarray, voltage: float) -> np.ndarray:
     return X @ np.array([coef[n] for n in names]) / V * 100.0
 
 
-def _limits(rep: Mapping):
-    """The summary's ``limits`` as :class:`euc_sim.rides.drive.cutout.Limits` (all unknown without it)."""
-    from euc_sim.rides.drive.cutout import Limits
-
-    lim = (rep.get("summary") or {}).get("limits") or {}
-    return Limits(_num(lim, "speed_limit_mps"), lim.get("source"), _num(lim, "pwm_alarm_pct"), lim.get("why"))
-
-
 def _peak(rep: Mapping, series: RideSeries | None) -> tuple[float, float, float | None] | None:
     """At the summary's max-PWM moment: (speed, km/h; PWM, %; battery reading, % or None)."""
     m = _max_pwm_mark(rep, series) if series is not None else None
@@ -401,9 +394,7 @@ def _cut_at(rep: Mapping, charge: float | None, condition: str = "level") -> flo
 def limit_sentences(rep: Mapping, series: RideSeries | None) -> list[str]:
     """The wheel's limit, where the cut-out comes before it (``cutout.danger``), and how close
     the ride's highest PWM came; no speed above the wheel's limit is said to be available."""
-    from euc_sim.rides.drive.cutout import CONDITIONS, headroom_words
-
-    lim, cut = _limits(rep), rep.get("cutout") or {}
+    lim, cut = Limits.of_ride(rep), rep.get("cutout") or {}
     out = [f"Your wheel's limit: {lim.words()}."]
     if cut.get("danger"):
         out.append(cut["danger"])
@@ -437,7 +428,7 @@ def cutout_figure(rep: Mapping, series: RideSeries | None):
     cut = rep.get("cutout") or {}
     if not cut.get("curves"):
         return None
-    lim = _limits(rep)
+    lim = Limits.of_ride(rep)
     lines = [Line(f"cut-out {CUTOUT_LABELS.get(c['condition'], c['condition'])}", np.asarray(c["charge_pct"]),
                   np.array([np.nan if x is None else 3.6 * x for x in c["speed_mps"]], float), "lines")
              for c in cut["curves"]]
@@ -478,7 +469,7 @@ def cutout_figure(rep: Mapping, series: RideSeries | None):
 
 def limits_paragraph(rep: Mapping) -> str:
     """The limits and the model behind the chart, in words (the summary's ``limits``, ``cutout``)."""
-    lim, cut = _limits(rep), rep.get("cutout") or {}
+    lim, cut = Limits.of_ride(rep), rep.get("cutout") or {}
     rmse = _num(cut, "heldout_pwm_rmse_pct")
     return (f"Speed limit: {lim.words()}. PWM alarm: "
             + (f"{lim.pwm_alarm_pct:.0f} %." if lim.pwm_alarm_pct is not None else "not in the log.")
@@ -508,11 +499,10 @@ def envelope_figure(rep: Mapping, series: RideSeries, fit):
     left = _peak(rep, series)
     note = "above this ride's top speed the curves are extrapolated"
     if left is not None and left[1] is not None:
-        from euc_sim.rides.drive.cutout import headroom_words
 
         sp, p = left[0], left[1]
         lines.append(Line(f"your max PWM: {p:.0f} % at {sp:.0f} km/h", np.array([sp]), np.array([p])))
-        note = f"at your max PWM: {headroom_words(sp, _limits(rep), _cut_at(rep, left[2]))}<br>" + note
+        note = f"at your max PWM: {headroom_words(sp, Limits.of_ride(rep), _cut_at(rep, left[2]))}<br>" + note
     fig = xy_figure(lines, "How close to the limit: PWM against speed", "speed, km/h", "PWM, %", note)
     if left is not None and left[1] is not None:
         fig.update_traces(selector={"name": lines[-1].name}, marker={"size": 14, "color": "#c62828",
