@@ -113,9 +113,10 @@ def _ride_tiles(s: Mapping | None, not_power: bool = False) -> list:
         drawn = regen = whkm = None
     return [
         K("Distance", f"{dist / 1000:.1f} km" if dist is not None else NA,
-          f"from {s.get('distance_source')}" if dist is not None else ""),
+          _distance_note(s) if dist is not None else ""),
         K("Riding time", _hm(mov) if mov is not None else NA,
-          f"of {_hm(dur)} logged" if dur is not None else ""),
+          f"of {_hm(dur)}" + (f" ({s['duration_follows']})" if s.get("duration_follows") else " logged")
+          if dur is not None else ""),
         K("Top speed", f"{top * 3.6:.0f} km/h" if top is not None else NA,
           "; ".join(x for x in (f"average {mean * 3.6:.0f} km/h while moving" if mean is not None else "",
                                 _spin_note(s.get("free_spin"))) if x)),
@@ -128,6 +129,16 @@ def _ride_tiles(s: Mapping | None, not_power: bool = False) -> list:
         K("Battery used", f"{used:.0f} %" if used is not None else NA,
           f"range at this rate: {rng / 1000:.0f} km" if rng is not None else ""),
     ]
+
+
+def _distance_note(s: Mapping) -> str:
+    """The counter the distance follows; where it is the GPS, the wheel's own count beside it
+    when they differ by over 2 %."""
+    note = s.get("distance_follows") or f"from {s.get('distance_source')}"
+    dist, wheel = _num(s, "distance_m"), _num(s, "distance_wheel_m")
+    if s.get("distance_source") == "gps" and dist and wheel and abs(wheel / dist - 1) > 0.02:
+        note += f"; the wheel's own count {wheel / 1000:.1f} km ({100 * (wheel / dist - 1):+.0f} %)"
+    return note
 
 
 def _spin_note(spin: Mapping | None) -> str:

@@ -142,3 +142,17 @@ def test_no_battery_figures_where_the_logs_power_is_not_the_batterys():
     assert not any("309" in line or "20.4" in line or "196" in line for line in key_figure_lines(rep))
     rep.pop("unidentified")
     assert {k.label: k for k in key_figures(rep)}["Energy drawn"].value == "309 Wh"
+
+
+def test_distance_and_time_tiles_say_which_counter_they_follow(tmp_path):
+    """A P6 page read 13.5 km against the wheel's trip counter's 14.85 and the app's GPS 14.20,
+    without saying where its figure came from."""
+    from tests.rides.report.test_summary import _eucworld_with_counters
+
+    t = _tiles({"summary": _summary_json(_eucworld_with_counters(tmp_path, gps_scale=0.9))})
+    assert t["Distance"].value == "3.8 km"
+    assert t["Distance"].note == "the app's GPS distance; the wheel's own count 4.2 km (+11 %)"
+    assert t["Riding time"].note == "of 10 min (the app's trip and riding clocks)"
+    wl = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv", gps=False))})
+    assert wl["Distance"].note == "the wheel's trip counter"
+    assert wl["Riding time"].note == "of 10 min (the wheel's first turn to the last row)"
