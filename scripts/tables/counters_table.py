@@ -13,7 +13,7 @@ from the CSV on its own, the way a rider checks the page against the app:
 - WheelLog: ``distance`` (m since the wheel's power-on), ``totaldistance`` (odometer) and
   ``gps_distance`` last minus first; the ``pwm`` column.
 - Both: the log's ``power`` column integrated as the summary integrates V·I (not an
-  independent check: the column is V·I).
+  independent check: the column is V·I); the battery reading of the first and last rows.
 
 ``follows`` is the counter the figure follows (``summary.distance_follows`` and
 ``duration_follows``).  Usage::
@@ -85,6 +85,8 @@ def row(path: Path, root: Path) -> str:
     name = str(rel.parent if rel.stem.isdigit() else rel).replace("euc_core/trips/", "")
     net = None if s.energy_drawn_Wh is None else s.energy_drawn_Wh - (s.energy_regen_Wh or 0.0)
     top = s.speed_max_mps
+    bat = (c.battery_start_pct - c.battery_end_pct
+           if c.battery_start_pct is not None and c.battery_end_pct is not None else None)
     if s.free_spin and a["top"] is not None:       # the app's top speed counts the wheel off the ground
         top = max(top, s.free_spin["speed_max_mps"])
     cells = [
@@ -97,13 +99,16 @@ def row(path: Path, root: Path) -> str:
         f"{s.energy_drawn_Wh:.0f}" if s.energy_drawn_Wh is not None else "–",
         _pct(s.energy_drawn_Wh, c.power_Wh_drawn), _pct(net, a["energy"]),
         f"{s.pwm_max_pct:.1f}" if s.pwm_max_pct is not None else "–",
-        f"{s.pwm_max_pct - a['pwm']:+.1f}" if s.pwm_max_pct is not None and a["pwm"] is not None else "–"]
+        f"{s.pwm_max_pct - a['pwm']:+.1f}" if s.pwm_max_pct is not None and a["pwm"] is not None else "–",
+        f"{s.battery_used_pct:.0f}" if s.battery_used_pct is not None else "–",
+        f"{s.battery_used_pct - bat:+.0f}" if s.battery_used_pct is not None and bat is not None else "–"]
     return "| " + " | ".join(cells) + " |"
 
 
 HEADER = ("| ride | app | distance km | follows | vs trip counter % | vs odometer % | vs GPS counter % "
           "| duration s | follows | vs trip clock % | riding s | vs riding clock % | top km/h | vs app % "
-          "| drawn Wh | vs power column % | net vs energy counter % | PWM max % | vs column, points |")
+          "| drawn Wh | vs power column % | net vs energy counter % | PWM max % | vs column, points "
+          "| battery used % | vs first−last row, points |")
 
 
 def main(argv: list[str]) -> int:
