@@ -58,9 +58,11 @@ def _rises(t: np.ndarray, x: np.ndarray, top_mps: float) -> np.ndarray:
     5-reading running median; a fall below half the reading before (and by more than
     50) is a reset, after which the counter counts again from its new value; a small
     fall (readings out of order) counts nothing until the counter passes its highest
-    reading; a rise faster than ``top_mps`` over the ten intervals on each side of it
-    (+ 50) is bogus (NaN): a counter read late can lag a gap in the rows by one row.  An interval ending on an empty reading is NaN; the increase across
-    empty readings lands on the interval ending on the next reading.
+    reading; a rise faster than ``top_mps`` (+ 50) over the ten intervals on each side of
+    it, and over the time since the reading before it was first read, is bogus (NaN): a
+    counter read late lags a gap in the rows by a row, or repeats its last reading through
+    it.  An interval ending on an empty reading is NaN; the increase across empty readings
+    lands on the interval ending on the next reading.
     """
     out = np.full(max(t.size - 1, 0), np.nan)
     idx = np.flatnonzero(np.isfinite(x))
@@ -71,7 +73,8 @@ def _rises(t: np.ndarray, x: np.ndarray, top_mps: float) -> np.ndarray:
     top = pd.Series(xm).groupby(np.cumsum(reset)).cummax().to_numpy()
     inc = np.where(reset[1:], 0.0, np.diff(top))
     ti, k = t[idx], np.arange(idx.size - 1)
-    reach = ti[np.minimum(k + 11, idx.size - 1)] - ti[np.maximum(k - 10, 0)]
+    first = np.maximum.accumulate(np.where(np.r_[True, xm[1:] != xm[:-1]], np.arange(xm.size), 0))
+    reach = np.maximum(ti[np.minimum(k + 11, idx.size - 1)] - ti[np.maximum(k - 10, 0)], ti[k + 1] - ti[first[k]])
     inc[inc > top_mps * reach + 50.0] = np.nan
     out[idx[1:] - 1] = inc
     return out
@@ -103,8 +106,8 @@ def _gps_distance(d: pd.DataFrame, w: np.ndarray) -> tuple[float | None, str | N
     """The GPS track's length while moving, m, or None with the reason it is not used.
 
     Fixes are taken where latitude/longitude change; a hop between fixes more than
-    5 s apart is filled with the wheel's distance ``w`` (per interval, m:
-    :func:`_wheel_steps`) scaled by the track/wheel ratio of the rest.
+    5 s apart is filled with the wheel's distance ``w`` (per interval, m, as
+    :func:`_distance` counts it) scaled by the track/wheel ratio of the rest.
     """
     if "latitude" not in d or "longitude" not in d:
         return None, "no GPS position in the log"
@@ -157,6 +160,8 @@ def _gps_counter(d: pd.DataFrame, w: np.ndarray, layout: str | None) -> tuple[fl
     t, g = d["t"].to_numpy(float), d["gps_distance"].to_numpy(float)
     inc = _rises(t, g, 2.0 * max(float(np.nanmax(np.abs(d["v"]))), 1.0))
     idx = np.flatnonzero(np.isfinite(g))
+    if idx.size < 2:
+        return None, "the app's GPS distance has fewer than 2 readings"
     span = np.zeros(w.size, bool)
     span[idx[0]:idx[-1]] = True              # a counter counts across its empty cells
     share = w[span].sum() / max(w.sum(), 1e-9)
@@ -177,8 +182,8 @@ def _distance(d: pd.DataFrame, layout: str | None = None):
     turn of the wheel, sampled or not), with the trip before the log's first row where the
     app counts trips (:func:`_trip_start`); where it agrees with the speed integral within
     :data:`COUNTER_AGREE` over the intervals up to :data:`BRIDGE_S` away from longer ones
-    (a counter in another unit or broken does not).  Else the speed integrated over every interval up to
-    :data:`DISTANCE_BRIDGE_S`.  The GPS distance is the app's own GPS counter
+    (a counter in another unit or broken does not).  Else the speed integrated over every
+    interval up to :data:`DISTANCE_BRIDGE_S`.  The GPS distance is the app's own GPS counter
     (:func:`_gps_counter`), else the GPS track (:func:`_gps_distance`).
     """
     t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
@@ -189,7 +194,8 @@ def _distance(d: pd.DataFrame, layout: str | None = None):
     start = 0.0
     if inc is not None:
         name = "trip counter" if col == "distance" else "odometer"
-        both = ok & np.r_[True, ok[:-1]] & np.r_[ok[1:], True] & np.isfinite(inc)   # a counter lags a gap by a row
+        # like with like, away from the gaps (a counter read late lags one by a row)
+        both = ok & np.r_[True, ok[:-1]] & np.r_[ok[1:], True] & np.isfinite(inc)
         ratio = inc[both].sum() / max(trap[both].sum(), 1e-9)
         if abs(ratio - 1.0) <= COUNTER_AGREE:
             follows, start = f"the wheel's {name}", _trip_start(d[col].to_numpy(float), layout)

@@ -354,3 +354,18 @@ def test_darknessbot_gps_track_fills_its_holes_from_the_wheels_counter(tmp_path)
                            tmp_path / "db.csv", "darknessbot"))
     assert s.distance_source == "gps" and s.distance_follows == "the GPS track"
     assert s.distance_m == pytest.approx(RIDE_M, rel=0.005)
+
+
+def test_a_gps_distance_repeating_its_reading_through_a_lost_fix_is_followed(tmp_path):
+    """The app's GPS distance frozen for a minute (the fix lost), then catching up at once."""
+    import pandas as pd
+
+    src = _eucworld_with_counters(tmp_path)
+    df = pd.read_csv(src, dtype=str, keep_default_na=False)
+    t = (pd.to_datetime(df["datetime"].str[:23]) - pd.Timestamp("2024-06-01 10:00:00")).dt.total_seconds()
+    lost = (t >= 200.0) & (t < 260.0)
+    df.loc[lost, "gps_distance"] = df.loc[lost.idxmax() - 1, "gps_distance"]
+    df.to_csv(src, index=False)
+    s = _summary(src)
+    assert s.distance_follows == "the app's GPS distance"
+    assert s.distance_m == pytest.approx(0.95 * RIDE_M, abs=2.0)
