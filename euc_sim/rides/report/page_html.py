@@ -115,7 +115,7 @@ def _ride_tiles(s: Mapping | None, not_power: bool = False) -> list:
         K("Distance", f"{dist / 1000:.1f} km" if dist is not None else NA,
           _distance_note(s) if dist is not None else ""),
         K("Riding time", _hm(mov) if mov is not None else NA,
-          f"of {_hm(dur)}" + (f" ({s['duration_follows']})" if s.get("duration_follows") else " logged")
+          f"of {_hm(dur)}" + (f"; {s['duration_follows']}" if s.get("duration_follows") else " logged")
           if dur is not None else ""),
         K("Top speed", f"{top * 3.6:.0f} km/h" if top is not None else NA,
           "; ".join(x for x in (f"average {mean * 3.6:.0f} km/h while moving" if mean is not None else "",

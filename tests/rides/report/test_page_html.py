@@ -152,7 +152,7 @@ def test_distance_and_time_tiles_say_which_counter_they_follow(tmp_path):
     t = _tiles({"summary": _summary_json(_eucworld_with_counters(tmp_path, gps_scale=0.9))})
     assert t["Distance"].value == "3.8 km"
     assert t["Distance"].note == "the app's GPS distance; the wheel's own count 4.2 km (+11 %)"
-    assert t["Riding time"].note == "of 10 min (the app's trip and riding clocks)"
+    assert t["Riding time"].note == "of 10 min; the app's trip and riding clocks"
     wl = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv", gps=False))})
     assert wl["Distance"].note == "the wheel's trip counter"
-    assert wl["Riding time"].note == "of 10 min (the wheel's first turn to the last row)"
+    assert wl["Riding time"].note == "of 10 min; the wheel's first turn to the last row"
