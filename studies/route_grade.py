@@ -113,7 +113,10 @@ def _f(x, fmt: str) -> str:
 
 
 def table(rows: list[dict]) -> str:
-    """Markdown table of the rows."""
+    """Markdown table of the rows that share a route, then one line naming the others with
+    their held-out ratio (nothing is carried there)."""
+    apart = [r for r in rows if r["match"] is None]
+    rows = [r for r in rows if r["match"] is not None]
     out = ["| pair | GPS on both | match | shared km (share of test ride) | match quality | "
            "offset m | carried | inertia-only W | selected W | ratio | with the carried grade W "
            "| ratio with | on the shared route: inertia-only → selected → with grade W | "
@@ -136,6 +139,9 @@ def table(rows: list[dict]) -> str:
                    f"{r['inertia_only']:.1f} | {r['selected']:.1f} | {r['ratio']:.3f} | "
                    f"{_f(r['with_grade'], '.1f')} | {_f(r['ratio_with'], '.3f')} | {sh} | {g} "
                    f"| {rv} |")
+    if apart:
+        out += ["", "Pairs that share no route (nothing carried; selected / inertia-only held out): "
+                + ", ".join(f"{r['label']} {r['ratio']:.3f}" for r in apart) + "."]
     return "\n".join(out)
 
 
