@@ -93,6 +93,8 @@ class Balance:
     json_extra : callable or None
         ``json_extra(estimate, ci95) -> dict``: more fields of its ride-JSON entry (the
         same quantity in other units).
+    nominal : float
+        Its value where the assumed physics holds exactly, where the fit starts (0: absent).
     """
 
     symbol: str
@@ -110,6 +112,11 @@ class Balance:
     electrical: Callable | None = None
     to_contract: Callable[[float], float] | None = None
     json_extra: Callable | None = None
+    nominal: float = 0.0
+
+    def __post_init__(self):
+        if self.role not in ("column", "constant", "lag") or (self.role == "column") != (self.column is not None):
+            raise ValueError(f"balance term {self.symbol}: role {self.role!r} with column {self.column!r}")
 
 
 @dataclass(frozen=True)

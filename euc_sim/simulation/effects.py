@@ -328,7 +328,8 @@ for _e in (
                            "GPS altitude over 100 m of road (1 if the altitude were exact, less by "
                            "the share of that grade which is altitude error)", (0.0, 1.5),
                            "1 for exact altitude, less by the share of the GPS grade that is error; "
-                           "docs/ride_model.md", (0.0, 1.5), 0.1, "column", "gps_climb", "W", _gps_column)),
+                           "docs/ride_model.md", (0.0, 1.5), 0.1, column="gps_climb", column_unit="W",
+                           regressor=_gps_column, nominal=1.0)),
     Effect("sensor_time_offset", "τ", "s", "the rider channel lags the EUC channels: φ_recorded(t) = φ(t − τ)",
            "measurement", True, plausible=(0.01, 0.1), bounds=(0.0, 0.3)),
     Effect("rider_mass", "m", "kg", "the rider's actual mass differs from the nominal one",

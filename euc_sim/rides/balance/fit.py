@@ -28,10 +28,9 @@ MIN_BLOCKS = 2
 #: Below this many blocks the intervals are rough (reported as a note).
 FEW_BLOCKS = 5
 
-#: Start values of the least-squares fit (its bounds: :data:`~euc_sim.rides.balance.design.BOUNDS`).
-_START = {"copper_loss": 0.0, "rolling_resistance": 0.0,
-          "aerodynamic_drag": 0.0, "road_slope": 0.0, "road_slope_gps": 1.0,
-          "drivetrain_idle_loss": 0.0, "current_lag": 0.0}
+#: Start values of the least-squares fit, each term's nominal value (its bounds:
+#: :data:`~euc_sim.rides.balance.design.BOUNDS`).
+_START = RECORDS.view("balance", lambda b: b.nominal)
 
 
 @dataclass(frozen=True)
