@@ -245,6 +245,12 @@ class Effect:
         The diagnosis's reference magnitude of its candidate column.
     to_params : callable or None
         ``to_params(p, value) -> Params``: a parameter effect applied to the parameters.
+    baseline : str or None
+        The parameter (:class:`~euc_sim.model.parameters.Params` attribute) whose nominal value
+        is the effect's "absent" value (``rider_mass``: ``m``); None: absent is 0.
+    detect_range : (float, float) or None
+        Magnitudes against which detection limits are judged (a deviation from the baseline
+        where it has one); None: :attr:`plausible`.
     balance, conceal, compare, words
         The faces (see the module docstring); None where the effect has none.
     """
@@ -262,6 +268,8 @@ class Effect:
     force: Callable | None = None
     ref: float = 1.0
     to_params: Callable | None = None
+    baseline: str | None = None
+    detect_range: tuple[float, float] | None = None
     balance: Balance | None = None
     conceal: Conceal | None = None
     compare: Compare | None = None
@@ -300,6 +308,11 @@ class Catalog:
 
     def __iter__(self) -> Iterator[Effect]:
         return iter(tuple(self._by_name.values()))
+
+    def absent_value(self, name: str, params) -> float:
+        """The value of ``name`` that means "no effect": its baseline parameter's, else 0."""
+        e = self.get(name)
+        return 0.0 if e.baseline is None else float(getattr(params, e.baseline))
 
     def having(self, face: str) -> tuple[Effect, ...]:
         """The records whose ``face`` is set (``"balance"``, ``"conceal"``, ...)."""

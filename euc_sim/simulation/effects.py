@@ -319,6 +319,7 @@ for _e in (
                            (0.0, 0.3), 0.1, "lag")),
     Effect("road_slope", "α", "rad", "the ground rises by α in +x: gravity tilted by α in the road frame",
            "external", True, plausible=(-0.06, 0.06), bounds=(-0.3, 0.3), force=_slope_force, ref=1e-3,
+           detect_range=(0.01, 0.06),
            balance=Balance("sin α", "1", "constant road grade, force m·g·sin α", (-0.15, 0.15),
                            "grades of public roads (no published source)", (-0.15, 0.15), 0.01, "column", "slope", "W", _slope_column,
                            aliases_when_absent=("rolling_resistance",), to_contract=_asin,
@@ -334,7 +335,7 @@ for _e in (
            "measurement", True, plausible=(0.01, 0.1), bounds=(0.0, 0.3)),
     Effect("rider_mass", "m", "kg", "the rider's actual mass differs from the nominal one",
            "parameter", False, needs=("M_d",), plausible=(45.0, 110.0), bounds=(30.0, 200.0),
-           to_params=_rider_mass_params,
+           to_params=_rider_mass_params, baseline="m", detect_range=(10.0, 30.0),
            hidden_because=("without M_d a wrong rider mass is absorbed by h: a rider leans about a/g "
                            "for an acceleration a whatever he weighs, so the mass shows in M_d,1 − M_d,2 "
                            "only through the EUC's own mass and inertia, near the noise floor")),
