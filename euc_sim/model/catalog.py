@@ -25,20 +25,38 @@ No code branches on an effect's name: a layer reads the face it needs.
 
 Adding an effect
 ----------------
-Write one :class:`Effect` with the faces it has and call ``CATALOG.add(record)`` (the
-package's own records are added in :mod:`euc_sim.simulation.effects`).  Then:
+Write one :class:`Effect` with the faces it has and add it to :data:`CATALOG`, in
+:mod:`euc_sim.simulation.effects` beside the package's records (its place in that list is
+its place among the balance's candidates, the pair fit's columns and the page's lines).
+An electrical loss growing with speed, for example::
 
-- with ``balance``: the ride's balance offers it as a candidate (its ``regressor``
-  column, fitted within ``bounds``, accepted within ``plausible``); with
-  ``balance.electrical`` the ride simulation adds its battery power;
-- with ``conceal``: ``euc_sim.rides.synth.conceal.conceal(raw, NAME, size)`` hides it;
-- with ``compare``: a pair of rides tests its difference (``pair``) and its signature
-  enters the alias table (``signature``);
-- with ``words``: the differences' sentence and the page name it;
-- with ``force`` and ``kind``: ``euc-sim simulate --effect NAME=VALUE`` injects it and the
-  diagnosis fits it (the simulator's and diagnosis's own set, :data:`MECHANICS`).
+    Effect("motor_noload_loss", "c_nl", "W·s/m", "the motor's no-load loss c_nl·|v|, drawn from the battery",
+           balance=Balance("c_nl", "W·s/m", "no-load loss c_nl·|v|", plausible=(0.0, 20.0),
+                           source="where the range comes from", bounds=(0.0, 20.0), scale=1.0,
+                           column="noload", column_unit="m/s", regressor=lambda b: b.L1(np.abs(b.v)),
+                           electrical=lambda value, F, v: value * np.abs(v)),
+           compare=Compare(signature=lambda s: np.abs(s.v), pair=lambda sh, m: sh["rolling"], order=6),
+           conceal=Conceal("wheel_power", "W·s/m", lambda kin, size, **kw: size * np.abs(kin.v)),
+           words=Words("no-load loss", "motor no-load loss", lambda c: c, " W·s/m", "{:.1f}", ...))
 
-tests/model/test_effect_record.py adds one record inside the test and follows it through.
+Then, with no other module edited:
+
+- ``balance``: the ride's balance offers it as a candidate (its ``regressor`` column,
+  fitted within ``bounds`` from ``nominal``, accepted within ``plausible``) and the ride
+  JSON's ``parameters`` and ``effects`` carry it; with ``electrical``, the ride simulation
+  adds its battery power;
+- ``conceal``: ``euc_sim.rides.synth.conceal.conceal(raw, NAME, size)`` hides it;
+- ``compare``: a pair of rides fits its difference (``pair``), its signature enters the
+  alias table (``signature``), and with ``named`` a difference can be named;
+- ``words``: the differences' sentence and the differences page say it;
+- ``force`` and ``kind`` (the contract's simulator effects, ``effects.CATALOG``):
+  ``--effect NAME=VALUE`` accepts it within ``bounds`` and the diagnosis fits its column
+  (a force not linear in its estimate registers its estimate map in
+  ``euc_sim.diagnosis.candidates.ESTIMATE_MAPS``).  The engines apply the contract's
+  eight through their own mechanisms (held forces, tilted gravity, joint damping, h(t),
+  the lateral profile): a new force needs its mechanism in ``simulation/engine.py``.
+
+tests/rides/test_effect_record.py adds one record inside the test and follows it through.
 """
 
 from __future__ import annotations

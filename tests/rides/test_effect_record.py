@@ -17,9 +17,10 @@ import pytest
 import ridesynth
 
 from euc_sim.model.catalog import CATALOG, Balance, Compare, Conceal, Effect, Words
-from euc_sim.rides.balance.crossride import select_effects
+from euc_sim.rides.balance.crossride import cross_ride, effect_entries, select_effects
 from euc_sim.rides.balance.design import CANDIDATES, balance_design
 from euc_sim.rides.balance.fit import fit_balance, plausibility
+from euc_sim.rides.balance.parameters import parameter_list
 from euc_sim.rides.compare import differences as df
 from euc_sim.rides.compare.differences_fit import PairDesign, pair_fit
 from euc_sim.rides.compare.differences_report import _power_columns, _stack
@@ -58,7 +59,8 @@ def test_the_record_is_selected_and_sized_by_the_balance_fit(eddy, tmp_path, mon
     plain, truth = ridesynth.battery_power, {**ridesynth.TRUTH, "aerodynamic_drag": 0.0}
     monkeypatch.setattr(ridesynth, "battery_power",
                         lambda v, a, truth=truth, slope=0.0: plain(v, a, truth, slope) + TRUE_K * v ** 2)
-    design = balance_design(ride_signals(ridesynth.synth_log(tmp_path / "eddy.csv", seed=31, truth=truth)))
+    design, held = (balance_design(ride_signals(ridesynth.synth_log(tmp_path / f"eddy{seed}.csv", seed=seed,
+                                                                    truth=truth))) for seed in (31, 33))
     assert NAME in design.candidates and "eddy" in design.columns_full
     assert CANDIDATES[NAME] == ("k_e", UNIT, "eddy-current loss k_e·v²", "eddy", "m²/s²")
     fit = fit_balance(design, ("copper_loss", "rolling_resistance", "drivetrain_idle_loss", NAME), n_boot=40)
@@ -68,6 +70,10 @@ def test_the_record_is_selected_and_sized_by_the_balance_fit(eddy, tmp_path, mon
     assert entry["plausible"] and entry["symbol"] == "k_e" and entry["unit"] == UNIT
     selected, _, _ = select_effects(design, design.candidates)
     assert NAME in selected
+    cr = cross_ride(design, held, n_boot=20)          # the ride JSON's ``parameters`` and ``effects``
+    assert NAME in cr.accepted and NAME in [e["name"] for e in effect_entries(cr)]
+    entry = next(p for p in parameter_list(cr, {}, {}) if p["name"] == NAME)
+    assert entry["accepted"] and entry["unit"] == UNIT
 
 
 def test_the_record_is_simulated_in_the_ride_simulations_battery_power(eddy, tmp_path):
