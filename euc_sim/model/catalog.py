@@ -97,9 +97,9 @@ class Balance:
     regressor : callable or None
         ``regressor(b) -> array | str``: the L₁-filtered column on a ride, from ``b`` with
         ``v`` (m/s, raw), ``mg`` (N), ``m_eq`` (kg), ``L1(x, deriv=0)`` (the short filter),
-        ``gps_grade`` (sin α from GPS altitude, or None) and ``sign_change`` (share of
-        moving samples against the main direction); a str where the ride cannot offer
-        it, saying why.
+        ``gps_grade`` (sin α from GPS altitude, or None), ``sign_change`` (share of moving
+        samples against the main direction) and ``sign_change_fraction`` (the share a
+        constant grade needs); a str where the ride cannot offer it, saying why.
     aliases_when_absent : tuple of str
         Candidates that stand in for it when the ride cannot offer it (their estimate
         then holds it too).

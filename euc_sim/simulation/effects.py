@@ -256,6 +256,8 @@ def _asin(s: float) -> float:
     return math.asin(max(-1.0, min(1.0, s)))
 
 
+_COPPER = ("copper loss k_cu·F² of the motor's accelerating or braking force F = m_eq·a "
+           "(winding resistance × (R/k_t)²)")
 _CDA_PLAUSIBLE = ("C_dA 0.3–1.0 m²: a standing adult 0.8–0.9 m² (Hoerner 1965 ch. 3), an upright cyclist "
                   "0.5–0.7 m² (Wilson & Schmidt 2020 ch. 5)")
 RECORDS = CATALOG_ALL
@@ -300,10 +302,8 @@ for _e in (
            words=Words("drag", "drag area", lambda k: k / (0.5 * RHO_AIR), " m²", "{:.2f}", "more drag area",
                        "less drag area", "a jacket? a headwind?", "tighter clothes? a tailwind?",
                        ("kg/m more drag", "kg/m less drag", "{:.2f}"), "wind")),
-    Effect("copper_loss", "k_cu", "W/N²", "copper loss k_cu·F² of the motor's accelerating or braking "
-           "force F = m_eq·a (winding resistance × (R/k_t)²)",
-           balance=Balance("k_cu", "W/N²", "copper loss k_cu·F² of the motor's accelerating or braking "
-                           "force F = m_eq·a (winding resistance × (R/k_t)²)", (0.0, 0.035),
+    Effect("copper_loss", "k_cu", "W/N²", _COPPER,
+           balance=Balance("k_cu", "W/N²", _COPPER, (0.0, 0.035),
                            "k_cu = R_w/K_v² with R_w ≤ 0.4 Ω (derived, no published source) and K_v ≥ 3.4 V per m/s", (0.0, 0.035), 0.005, "column", "copper",
                            "N²", lambda b: (b.m_eq * b.L1(b.v, 1)) ** 2,
                            electrical=lambda value, F, v: value * F ** 2)),
