@@ -13,13 +13,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RATE, PHYSICS, alias_table,
+from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RATE, alias_table, physics,
                                                parameters_from_ride, ride_differences, signature_columns)
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
 from euc_sim.rides.compare.resolution import with_floor
 from euc_sim.rides.drive.mass import mass_regressors
-from euc_sim.rides.grids.power import G
 from euc_sim.rides.grids.ride import as_ride, ride_name
+from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "differences_json"]
 
@@ -45,9 +45,7 @@ def _power_columns(sig, lag: int, force, m: float) -> tuple[dict, dict]:
     zero = np.zeros(len(sig.t))
     shared = {n: cols.get(n, zero) for n in SHARED_POWER}
     shared["no_load"] = zero + 1.0
-    delta = {"total_mass": shared["inertia"] + shared["grade"],
-             "rolling_resistance": m * G * shared["rolling"], "aerodynamic_drag": shared["drag"],
-             "drivetrain_idle_loss": zero + 1.0}
+    delta = {e.name: e.compare.pair(shared, m) for e in RECORDS.having("compare") if e.compare.pair is not None}
     return shared, delta
 
 
@@ -253,7 +251,7 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
         s), added to its ``detectable``'s interval half-width.
     """
     fitted = lambda made: None if made is None else pair_fit(   # noqa: E731
-        made[0], level=FALSE_NAME_RATE, family=len(PHYSICS), transform=made[1], n_boot=n_boot, seed=seed)
+        made[0], level=FALSE_NAME_RATE, family=len(physics()), transform=made[1], n_boot=n_boot, seed=seed)
     out = {}
     delay = fitted(power_design(fit, test, mass))
     shift = 0
@@ -272,9 +270,8 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
 
 
 def _coef(params: list) -> dict:
-    return {p["name"]: p["estimate"] for p in params
-            if p["name"] in ("total_mass", "rolling_resistance", "aerodynamic_drag")
-            and p.get("estimate") is not None}
+    assumed = {e.name for e in RECORDS.having("compare") if e.compare.coef is not None}
+    return {p["name"]: p["estimate"] for p in params if p["name"] in assumed and p.get("estimate") is not None}
 
 
 def _signatures(sig, coef: dict) -> dict:
@@ -322,6 +319,5 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
     for n, entry in tested.items():     # within a pair fit, its own estimates' correlations
         if "aliases" in entry and n != DELAY:
             aliases[n] = entry["aliases"]
-    res = ride_differences(log_params, other_params, tested, aliases, cannot, name,
-                           rep.get("mass_difference"))
+    res = ride_differences(log_params, other_params, tested, aliases, cannot, name, rep)
     return res.to_json()
