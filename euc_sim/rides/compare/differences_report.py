@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from euc_sim.rides.compare.channels import CHANNELS, channel_noise, readings
 from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RATE, PHYSICS, alias_table,
                                                parameters_from_ride, ride_differences, signature_columns)
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
@@ -98,12 +99,51 @@ def _valid(sig, y, lag: int, K: int, force, mass: float) -> np.ndarray:
     return _rows(sig, arrays)
 
 
-def _stack(first: bool, shared: dict, delta: dict, y, ok, scale: dict) -> np.ndarray:
-    """``[shared…, differences…, y]`` rows of one ride, columns scaled (differences zero on LOG)."""
+def _stack(first: bool, shared: dict, delta: dict, y, ok, scale: dict, own: dict | None = None,
+           owns=()) -> np.ndarray:
+    """``[shared…, differences…, own…, y]`` rows of one ride, columns scaled (differences zero on LOG;
+    of the channels' own columns ``owns``, this ride's ``own`` only)."""
     nil = np.zeros(ok.sum())
     cols = [shared[n][ok] / scale[n] for n in shared]
     cols += [(nil if first else delta[n][ok] / scale[n]) for n in delta]
+    cols += [own[n][ok] if own and n in own else nil for n in owns]
     return np.column_stack(cols + [y[ok]])
+
+
+def _channel_rows(fit, test, sides: list, scale: dict, channels, window, rate) -> tuple:
+    """Battery power and each channel of :func:`~euc_sim.rides.compare.channels.readings`, stacked.
+
+    Each channel's rows (both rides) are divided by its held-out noise on LOG
+    (:func:`~euc_sim.rides.compare.channels.channel_noise`); rows where a
+    channel or one of its columns is not finite are left out of that channel.
+
+    Returns
+    -------
+    (names, [(tL, ZL), (tO, ZO)]) or None
+        The channels' own columns (after the power model's) and the stacked
+        rows of LOG and OTHER; None where neither ride pair has another channel.
+    """
+    parts = {"power": [(y, sh, de, {}) for sh, de, y, _ in sides]}
+    parts.update(readings(fit, test, [(sh, de, y) for sh, de, y, _ in sides], channels))
+    if len(parts) == 1:
+        return None
+    owns = tuple(n for rows in parts.values() for row in rows for n in row[3])
+    out = [([], []), ([], [])]
+    for rows in parts.values():
+        Z = []
+        for k, ((y, sh, de, own), (_, _, _, ok), r) in enumerate(zip(rows, sides, (fit, test))):
+            ok = ok & np.isfinite(y)
+            for col in (*sh.values(), *de.values(), *own.values()):
+                ok &= np.isfinite(col)
+            t, z = r.sig.t[ok], _stack(k == 0, sh, de, y, ok, scale, own, owns)
+            Z.append(window_means(t, z, window, rate) if window else (t, z))
+        if min(len(z[0]) for z in Z) < 10:
+            continue
+        noise = channel_noise(*Z[0])
+        for k in (0, 1):
+            out[k][0].append(Z[k][0])
+            out[k][1].append(Z[k][1] / noise)
+    return owns, [(np.concatenate(t), np.vstack(z)) for t, z in out]
 
 
 def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
@@ -121,7 +161,7 @@ def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tup
     return tm[keep], sums[keep] / n[keep, None]
 
 
-def power_design(fit, test, mass: float, shifts=None, window: float | None = None):
+def power_design(fit, test, mass: float, shifts=None, window: float | None = None, channels=CHANNELS):
     """Both rides' battery power: LOG's terms shared, a constant each; OTHER's differences and shift.
 
     Parameters
@@ -137,6 +177,10 @@ def power_design(fit, test, mass: float, shifts=None, window: float | None = Non
         One shift: the mass, rolling and drag differences at that shift.
     window : float, optional
         Rows averaged over windows of this many seconds (:func:`window_means`).
+    channels : sequence of str
+        With one shift, the channels stacked beside battery power where both
+        rides have them (:mod:`euc_sim.rides.compare.channels`; () for battery
+        power alone); the delay's design is battery power's alone.
 
     Returns
     -------
@@ -168,6 +212,11 @@ def power_design(fit, test, mass: float, shifts=None, window: float | None = Non
         tL, ZL = window_means(tL, ZL, window, rate)
         tO, ZO = window_means(tO, ZO[0], window, rate)[0], [window_means(tO, z, window, rate)[1] for z in ZO]
     names = (*sL, *dL)
+    stacked = _channel_rows(fit, test, [(sL, dL, yL, okL), (*shifted[0], yO, okO)], scale, channels,
+                            window, rate) if channels and len(shifts) == 1 else None
+    if stacked is not None:
+        names, ((tL, ZL), (tO, ZO0)) = (*names, *stacked[0]), stacked[1]
+        ZO = [ZO0]
     # the delay's design keeps the mass, rolling and drag differences in every model: the shift
     # is tested beyond them
     design = PairDesign(names, tuple(dL) if len(shifts) == 1 else (), tL, ZL, tO, tuple(ZO), 1.0 / rate)
@@ -237,11 +286,12 @@ def _delay_resolution(fit, log_path, compare_path) -> float:
 
 
 def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200,
-               seed: int = 0) -> dict:
+               seed: int = 0, channels=CHANNELS) -> dict:
     """Each physics OTHER needs beyond the model both rides share (:func:`pair_fit` per domain).
 
     The current's delay first, on battery power sample by sample (a shift grid);
-    then the mass, rolling and drag on battery power averaged over
+    then the mass, rolling and drag on battery power and the ``channels`` both
+    logs have (:mod:`euc_sim.rides.compare.channels`), averaged over
     :data:`ROAD_WINDOW` s windows, OTHER at the delay found (when kept);
     terminal voltage for the pack resistance; GPS speed for the speed scale.
 
@@ -264,7 +314,7 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
             out[DELAY]["detectable"] = with_floor(out[DELAY]["detectable"], out[DELAY]["resolution"])
         if DELAY in delay.selected:
             shift = int(round(delay.estimates[DELAY][0] * (1.0 / np.median(np.diff(fit.sig.t)))))
-    for res in (fitted(power_design(fit, test, mass, [shift], ROAD_WINDOW)),
+    for res in (fitted(power_design(fit, test, mass, [shift], ROAD_WINDOW, channels)),
                 fitted(voltage_design(fit, test)), fitted(gps_design(log_path, compare_path))):
         if res is not None:
             out.update(_entries(res))

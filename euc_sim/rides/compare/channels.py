@@ -1,0 +1,163 @@
+"""The pair fit's other channels: the road's load read through voltage sag, phase current and duty.
+
+Battery power is one reading of the load a ride puts on the wheel; a log often
+holds three more, each turned into the power model's own units through the
+constants the ride's drivetrain fit found (:mod:`euc_sim.rides.drive.drivetrain`):
+
+* **voltage sag** (W): the battery's power from its terminal voltage,
+  ``V·(E₀ − k_Q·Q − V)/R_int``, each ride through its own open-circuit line
+  and internal resistance; the columns are battery power's.  Where the log's
+  current is measured this repeats battery power with the voltage's noise;
+  where the app computes the current it is the only battery reading;
+* **phase current** (N): the motor's torque, ``I_ph = k·F + b`` with ``k`` and
+  ``b`` fitted on LOG against LOG's mechanical force (inertia, rolling, drag,
+  climb over speed); the columns are the mechanical ones over speed (copper
+  loss and drain are battery power, not torque).  An unsigned phase current
+  takes the sign of LOG's predicted force;
+* **duty** (N): ``d·V = K_v·v + r_F·F`` (+ the dead-time and flux-weakening
+  terms LOG's fit kept) solved for ``F = P/v``, the force battery power implies,
+  with LOG's constants; the columns are every power column over speed.  Only
+  a measured duty (one the app does not compute from speed and voltage).
+
+Each channel keeps a constant per ride (a sensor's zero, a pack's state; the
+duty also a speed term per ride: the back-EMF constant moves with the magnets'
+temperature), so a channel's calibration drift is not read as a road
+difference.  The difference columns carry the same coefficients in every
+channel: a difference in mass, rolling or drag has its signature in each.
+Every channel's rows (``[X y]``) are divided by the channel's own held-out
+noise on LOG (:func:`channel_noise`), so the stacked least squares weighs each
+by its precision; the stacked rows keep their times, so the pair fit's 30 s
+blocks hold every channel's rows of those 30 s and stay the unit of
+independence of its test (a block's channels may share noise: the score
+test's spread is measured across blocks).
+
+Study: docs/concealed.md ("Every channel of the log").
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["CHANNELS", "MECHANICAL", "readings", "channel_noise"]
+
+#: The channels beside battery power, in the order they are stacked.
+CHANNELS = ("sag", "phase_current", "pwm")
+#: The power model's columns that are forces at the wheel times speed.
+MECHANICAL = ("inertia", "rolling", "drag", "grade")
+
+
+def _over(cols: dict, v: np.ndarray, keep=None) -> dict:
+    """Each column over speed (N per unit where the column is W per unit); zero outside ``keep``."""
+    return {n: (c / v if keep is None or n in keep else np.zeros_like(c)) for n, c in cols.items()}
+
+
+def _sag(r, y) -> tuple | None:
+    V, I = r.sig.extra.get("voltage"), r.sig.extra.get("current")
+    b = r.drivetrain.battery_coef
+    if V is None or I is None or not b or not b.get("R_int", 0.0) > 0:
+        return None
+    from euc_sim.rides.drive.drivetrain import charge_drawn
+
+    E = b["E0"] - b["k_Q"] * charge_drawn(r.sig.t, I)
+    return V * (E - V) / b["R_int"], None, {}
+
+
+def _phase(r, cols: dict, v: np.ndarray, coef: dict, calib: tuple | None):
+    I = r.sig.extra.get("phase_current")
+    if I is None:
+        return None
+    F = sum(coef.get(n, 0.0) * cols[n] for n in MECHANICAL if n in cols) / v
+    if not (I < -0.5).mean() > 0.005:              # a magnitude: the sign of the force
+        I = np.abs(I) * np.sign(F)
+    if calib is None:                               # LOG: k and b against its own force
+        ok = np.isfinite(I) & np.isfinite(F)
+        if ok.sum() < 200:
+            return None
+        calib = tuple(np.linalg.lstsq(np.column_stack([F[ok], np.ones(ok.sum())]), I[ok], rcond=None)[0])
+    if not calib[0] > 0:
+        return None
+    return (I - calib[1]) / calib[0], MECHANICAL, {"calib": calib}
+
+
+def _duty(r, y, coef: dict | None):
+    from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
+    from euc_sim.rides.report.drivetrain_report import computed_pwm_note
+
+    d, V = r.sig.extra.get("pwm"), r.sig.extra.get("voltage")
+    if d is None or V is None or not coef or not coef.get("r_F", 0.0) > 0 or computed_pwm_note(r):
+        return None
+    v = r.sig.v / r.sig.scale.estimate
+    names = [n for n in BASE + tuple(EXTRA) if n in coef and n != "r_F"]
+    F = y / np.maximum(v, 1e-3)
+    rest = pwm_columns(v, F, V, names, coef.get("v_fw", np.inf)) @ np.array([coef[n] for n in names])
+    return (d / 100.0 * V - rest) / coef["r_F"], None, {"speed": v / coef["r_F"]}
+
+
+def readings(fit, test, sides: list, channels=CHANNELS) -> dict:
+    """Each channel both rides can give, as rows of the power model's columns in its own unit.
+
+    Parameters
+    ----------
+    fit, test : RideDrivetrain
+        LOG's and OTHER's analyses (LOG's constants calibrate the phase current
+        and the duty).
+    sides : list of (shared, delta, y) per ride
+        The power design's columns at the pair's lag (W per unit, unscaled) and
+        its signed battery power, W.
+    channels : sequence of str
+        Of :data:`CHANNELS`.
+
+    Returns
+    -------
+    dict of str -> list of (y, shared, delta, own)
+        Per channel, per ride: the reading (W or N), the shared and difference
+        columns in its unit, and its own nuisance columns (named per ride).
+    """
+    out = {}
+    calib = None
+    for c in channels:
+        rows = []
+        for k, (r, (sh, de, y)) in enumerate(zip((fit, test), sides)):
+            v = np.where(np.abs(r.sig.v) > 1e-3, r.sig.v, np.nan)
+            if c == "sag":
+                got = _sag(r, y)
+            elif c == "phase_current":
+                got = _phase(r, sh, v, fit.mass.coef, calib)
+                calib = None if got is None else got[2].pop("calib")
+            else:
+                got = _duty(r, y, fit.drivetrain.pwm_coef)
+            if got is None:
+                break
+            yc, keep, own = got
+            ride = ("log", "other")[k]
+            own = {f"{c}:{n}_{ride}": x for n, x in {"offset": np.ones_like(yc), **own}.items()}
+            if c == "sag":
+                rows.append((yc, sh, de, own))
+            else:
+                rows.append((yc, _over(sh, v, keep), _over(de, v, keep), own))
+        calib = None
+        if len(rows) == 2:
+            out[c] = rows
+    return out
+
+
+def channel_noise(t: np.ndarray, Z: np.ndarray) -> float:
+    """Held-out RMS of ``Z``'s last column on the others: 5 contiguous time folds, each from the rest.
+
+    The scale of one channel's rows on LOG (its own unit), by which they are
+    divided before the channels are stacked.
+    """
+    from euc_sim.stats import time_blocks
+
+    fold = time_blocks(t, 5)
+    live = np.flatnonzero(np.any(Z[:, :-1] != 0, axis=0))
+    X, y = Z[:, live], Z[:, -1]
+    err = np.empty_like(y)
+    for f in range(5):
+        test = fold == f
+        if not test.any():
+            continue
+        beta = np.linalg.lstsq(X[~test], y[~test], rcond=None)[0]
+        err[test] = y[test] - X[test] @ beta
+    s = float(np.sqrt(np.mean(err ** 2))) if len(err) else 0.0
+    return s if np.isfinite(s) and s > 0 else 1.0
