@@ -6,9 +6,12 @@ constants the ride's drivetrain fit found (:mod:`euc_sim.rides.drive.drivetrain`
 
 * **voltage sag** (W): the battery's power from its terminal voltage,
   ``V·(E₀ − k_Q·Q − V)/R_int``, each ride through its own open-circuit line
-  and internal resistance; the columns are battery power's.  Where the log's
-  current is measured this repeats battery power with the voltage's noise;
-  where the app computes the current it is the only battery reading;
+  and internal resistance; the columns are battery power's.  Only where the
+  app computes the current (:func:`euc_sim.rides.source.channels.current_from_phase`,
+  the caller's choice):
+  a measured current's sag repeats battery power with the voltage's noise and
+  the pack's drift along the ride (its warming, its charge), which the
+  channels' combination would read as information;
 * **phase current** (N): the motor's torque, ``I_ph = k·F + b`` with ``k`` and
   ``b`` fitted on LOG against LOG's mechanical force (inertia, rolling, drag,
   climb over speed); the columns are the mechanical ones over speed (copper
@@ -24,12 +27,13 @@ duty also a speed term per ride: the back-EMF constant moves with the magnets'
 temperature), so a channel's calibration drift is not read as a road
 difference.  The difference columns carry the same coefficients in every
 channel: a difference in mass, rolling or drag has its signature in each.
-Every channel's rows (``[X y]``) are divided by the channel's own held-out
-noise on LOG (:func:`channel_noise`), so the stacked least squares weighs each
-by its precision; the stacked rows keep their times, so the pair fit's 30 s
-blocks hold every channel's rows of those 30 s and stay the unit of
-independence of its test (a block's channels may share noise: the score
-test's spread is measured across blocks).
+The channels' rows of one moment are combined by the whitening of their
+held-out residuals on LOG (:func:`whitening`: each channel scaled by its own
+noise, and what two channels share counted once), so the stacked least
+squares weighs each by what it adds; the stacked rows keep their times, so
+the pair fit's 30 s blocks hold every channel's rows of those 30 s and stay
+the unit of independence of its test (the score test's spread is measured
+across blocks).
 
 Study: docs/concealed.md ("Every channel of the log").
 """
@@ -38,12 +42,12 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CHANNELS", "MECHANICAL", "readings", "channel_noise"]
+__all__ = ["CHANNELS", "MECHANICAL", "readings", "whitening"]
 
 #: The channels beside battery power, in the order they are stacked.
 CHANNELS = ("sag", "phase_current", "pwm")
-#: The power model's columns that are forces at the wheel times speed.
-MECHANICAL = ("inertia", "rolling", "drag", "grade")
+#: The power model's columns that are forces at the wheel times speed, and the differences among them.
+MECHANICAL = ("inertia", "rolling", "drag", "grade", "total_mass", "rolling_resistance", "aerodynamic_drag")
 
 
 def _over(cols: dict, v: np.ndarray, keep=None) -> dict:
@@ -141,23 +145,57 @@ def readings(fit, test, sides: list, channels=CHANNELS) -> dict:
     return out
 
 
-def channel_noise(t: np.ndarray, Z: np.ndarray) -> float:
-    """Held-out RMS of ``Z``'s last column on the others: 5 contiguous time folds, each from the rest.
+def _heldout_residuals(t: np.ndarray, Z: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
+    """Each channel's held-out residual (C, n): 5 contiguous time folds, each fitted on the rest.
 
-    The scale of one channel's rows on LOG (its own unit), by which they are
-    divided before the channels are stacked.
+    Without ``scale`` each channel is fitted alone on its live columns; with
+    it the channels (each divided by its ``scale``) are fitted together, one
+    coefficient per column for all: the misfit of the shared model counts.
     """
     from euc_sim.stats import time_blocks
 
     fold = time_blocks(t, 5)
-    live = np.flatnonzero(np.any(Z[:, :-1] != 0, axis=0))
-    X, y = Z[:, live], Z[:, -1]
-    err = np.empty_like(y)
+    E = np.zeros(Z.shape[:2])
     for f in range(5):
         test = fold == f
         if not test.any():
             continue
-        beta = np.linalg.lstsq(X[~test], y[~test], rcond=None)[0]
-        err[test] = y[test] - X[test] @ beta
-    s = float(np.sqrt(np.mean(err ** 2))) if len(err) else 0.0
-    return s if np.isfinite(s) and s > 0 else 1.0
+        if scale is None:
+            for c, z in enumerate(Z):
+                live = np.flatnonzero(np.any(z[:, :-1] != 0, axis=0))
+                beta = np.linalg.lstsq(z[~test][:, live], z[~test, -1], rcond=None)[0]
+                E[c, test] = z[test, -1] - z[test][:, live] @ beta
+        else:
+            z = (Z / scale[:, None, None])[:, ~test].reshape(-1, Z.shape[-1])
+            beta = np.linalg.lstsq(z[:, :-1], z[:, -1], rcond=None)[0]
+            E[:, test] = Z[:, test, -1] - Z[:, test, :-1] @ beta
+    return E
+
+
+def whitening(t: np.ndarray, Z: np.ndarray) -> np.ndarray:
+    """The matrix that whitens the channels' held-out residuals on LOG: ``L⁻¹`` with ``LLᵀ = Σ``.
+
+    Parameters
+    ----------
+    t : ndarray (n,)
+        Row times, s (the same rows in every channel).
+    Z : ndarray (C, n, p)
+        Each channel's ``[X y]`` rows of LOG.
+
+    Returns
+    -------
+    ndarray (C, C)
+        ``Σ`` is the covariance of the channels' held-out residuals of the
+        model they share (one coefficient per column for all channels, each
+        channel first scaled by the RMS of its own held-out residual): a
+        channel its own fit explains well but the shared model does not (a
+        calibration off by a few per cent) counts its misfit as noise.
+        Combining the channels' rows by it makes those residuals uncorrelated
+        with unit variance: least squares on the stacked rows is generalized
+        least squares.
+    """
+    own = np.sqrt(np.mean(_heldout_residuals(t, Z) ** 2, axis=1))
+    own = np.where(np.isfinite(own) & (own > 0), own, 1.0)
+    S = np.atleast_2d(np.cov(_heldout_residuals(t, Z, own)))
+    S += np.eye(len(S)) * 1e-9 * np.trace(S)
+    return np.linalg.inv(np.linalg.cholesky(S))

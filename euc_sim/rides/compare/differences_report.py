@@ -13,13 +13,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from euc_sim.rides.compare.channels import CHANNELS, channel_noise, readings
+from euc_sim.rides.compare.channels import CHANNELS, readings, whitening
 from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RATE, PHYSICS, alias_table,
                                                parameters_from_ride, ride_differences, signature_columns)
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
 from euc_sim.rides.compare.resolution import with_floor
 from euc_sim.rides.drive.mass import mass_regressors
 from euc_sim.rides.grids.power import G
+from euc_sim.rides.source.channels import current_from_phase
 from euc_sim.rides.grids.ride import as_ride, ride_name
 
 __all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "differences_json"]
@@ -110,40 +111,45 @@ def _stack(first: bool, shared: dict, delta: dict, y, ok, scale: dict, own: dict
     return np.column_stack(cols + [y[ok]])
 
 
-def _channel_rows(fit, test, sides: list, scale: dict, channels, window, rate) -> tuple:
-    """Battery power and each channel of :func:`~euc_sim.rides.compare.channels.readings`, stacked.
+def _channel_rows(fit, test, sides: list, scale: dict, channels, window, rate) -> tuple | None:
+    """Battery power and each channel of :func:`~euc_sim.rides.compare.channels.readings`, whitened and stacked.
 
-    Each channel's rows (both rides) are divided by its held-out noise on LOG
-    (:func:`~euc_sim.rides.compare.channels.channel_noise`); rows where a
-    channel or one of its columns is not finite are left out of that channel.
+    Every channel keeps the rows (windows) where all of them and their columns
+    are finite, so that the k-th row of each channel is the same moment; the
+    channels' rows are then combined by :func:`~euc_sim.rides.compare.channels.whitening`
+    of their held-out residuals on LOG (least squares on the stacked rows is
+    generalized least squares across the channels).
 
     Returns
     -------
     (names, [(tL, ZL), (tO, ZO)]) or None
         The channels' own columns (after the power model's) and the stacked
-        rows of LOG and OTHER; None where neither ride pair has another channel.
+        rows of LOG and OTHER; None where the pair has no other channel.
     """
     parts = {"power": [(y, sh, de, {}) for sh, de, y, _ in sides]}
     parts.update(readings(fit, test, [(sh, de, y) for sh, de, y, _ in sides], channels))
     if len(parts) == 1:
         return None
     owns = tuple(n for rows in parts.values() for row in rows for n in row[3])
-    out = [([], []), ([], [])]
-    for rows in parts.values():
+    oks = []
+    for k, (_, _, _, ok) in enumerate(sides):
+        for rows in parts.values():
+            y, sh, de, own = rows[k]
+            for col in (y, *sh.values(), *de.values(), *own.values()):
+                ok = ok & np.isfinite(col)
+        oks.append(ok)
+    if min(ok.sum() for ok in oks) < 200:
+        return None
+    rides = []
+    for k, (ok, r) in enumerate(zip(oks, (fit, test))):
         Z = []
-        for k, ((y, sh, de, own), (_, _, _, ok), r) in enumerate(zip(rows, sides, (fit, test))):
-            ok = ok & np.isfinite(y)
-            for col in (*sh.values(), *de.values(), *own.values()):
-                ok &= np.isfinite(col)
+        for rows in parts.values():
+            y, sh, de, own = rows[k]
             t, z = r.sig.t[ok], _stack(k == 0, sh, de, y, ok, scale, own, owns)
             Z.append(window_means(t, z, window, rate) if window else (t, z))
-        if min(len(z[0]) for z in Z) < 10:
-            continue
-        noise = channel_noise(*Z[0])
-        for k in (0, 1):
-            out[k][0].append(Z[k][0])
-            out[k][1].append(Z[k][1] / noise)
-    return owns, [(np.concatenate(t), np.vstack(z)) for t, z in out]
+        rides.append((Z[0][0], np.stack([z for _, z in Z])))
+    W = whitening(rides[0][0], rides[0][1])
+    return owns, [(np.tile(t, len(W)), np.einsum("ck,krp->crp", W, Z).reshape(-1, Z.shape[-1])) for t, Z in rides]
 
 
 def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
@@ -305,6 +311,8 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     fitted = lambda made: None if made is None else pair_fit(   # noqa: E731
         made[0], level=FALSE_NAME_RATE, family=len(PHYSICS), transform=made[1], n_boot=n_boot, seed=seed)
     out = {}
+    if not all(current_from_phase(as_ride(p).log) for p in (log_path, compare_path)):
+        channels = tuple(c for c in channels if c != "sag")     # a measured current: sag repeats it
     delay = fitted(power_design(fit, test, mass))
     shift = 0
     if delay is not None:
@@ -345,7 +353,7 @@ def pair_aliases(fit, test, coef: dict) -> tuple[dict, dict]:
 
 
 def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int = 200,
-                     seed: int = 0) -> dict:
+                     seed: int = 0, channels=CHANNELS) -> dict:
     """The ``differences`` list and its companions for the ride JSON.
 
     Parameters
@@ -358,6 +366,8 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
         Each log, parsed (as the ride pipeline holds it) or a path (then read once).
     n_boot, seed : int
         Bootstrap replicates of the pair fits and their seed.
+    channels : sequence of str
+        The channels beside battery power (:func:`pair_tests`).
     """
     from euc_sim.rides.report.drivetrain_report import drivetrain_report
 
@@ -368,7 +378,8 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
     aliases, cannot = pair_aliases(fit, test, coef)
     start = log_path.start
     name = f"the {start.day} {start:%B} ride ({ride_name(log_path)})"
-    tested = pair_tests(fit, test, log_path, compare_path, coef.get("total_mass", 80.0), n_boot, seed)
+    tested = pair_tests(fit, test, log_path, compare_path, coef.get("total_mass", 80.0), n_boot, seed,
+                        channels)
     for n, entry in tested.items():     # within a pair fit, its own estimates' correlations
         if "aliases" in entry and n != DELAY:
             aliases[n] = entry["aliases"]
