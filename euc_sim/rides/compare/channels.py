@@ -15,8 +15,9 @@ constants the ride's drivetrain fit found (:mod:`euc_sim.rides.drive.drivetrain`
 * **phase current** (N): the motor's torque, ``I_ph = k·F + b`` with ``k`` and
   ``b`` fitted on LOG against LOG's mechanical force (inertia, rolling, drag,
   climb over speed); the columns are the mechanical ones over speed (copper
-  loss and drain are battery power, not torque).  An unsigned phase current
-  takes the sign of LOG's predicted force;
+  loss and drain are battery power, not torque).  Only a signed phase current:
+  a magnitude folds the braking rows over, where a difference moves it the
+  other way;
 * **duty** (N): ``d·V = K_v·v + r_F·F`` (+ the dead-time and flux-weakening
   terms LOG's fit kept) solved for ``F = P/v``, the force battery power implies,
   with LOG's constants; the columns are every power column over speed.  Only
@@ -24,8 +25,11 @@ constants the ride's drivetrain fit found (:mod:`euc_sim.rides.drive.drivetrain`
 
 Each channel keeps a constant per ride (a sensor's zero, a pack's state; the
 duty also a speed term per ride: the back-EMF constant moves with the magnets'
-temperature), so a channel's calibration drift is not read as a road
-difference.  The difference columns carry the same coefficients in every
+temperature), and the duty a gain on OTHER (LOG's predicted force on OTHER's
+rows: the winding's resistance rises 0.4 %/K, tens of per cent over a ride;
+the phase current's motor constant moves 0.1 %/K, a few kilograms of mass),
+so a channel's calibration drift is not read as a road difference: a
+difference that scales every force at once is left to the other channels.  The difference columns carry the same coefficients in every
 channel: a difference in mass, rolling or drag has its signature in each.
 The channels' rows of one moment are combined by the whitening of their
 held-out residuals on LOG (:func:`whitening`: each channel scaled by its own
@@ -42,10 +46,16 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CHANNELS", "MECHANICAL", "readings", "whitening"]
+__all__ = ["ALL_CHANNELS", "CHANNELS", "DRIFTING", "MECHANICAL", "readings", "whitening"]
 
-#: The channels beside battery power, in the order they are stacked.
-CHANNELS = ("sag", "phase_current", "pwm")
+#: Every channel this module can read beside battery power, in the order they are stacked.
+ALL_CHANNELS = ("sag", "phase_current", "pwm")
+#: The channels the pair fit stacks by default: the duty is left out (on real null pairs it names
+#: road differences its model's misfit makes, docs/concealed.md "Every channel of the log").
+CHANNELS = ("sag", "phase_current")
+#: Channels whose gain drifts within a ride beyond a road difference's resolution (the duty's r_F is the
+#: winding's resistance, +0.4 %/K of copper): OTHER's gain is a nuisance.
+DRIFTING = ("pwm",)
 #: The power model's columns that are forces at the wheel times speed, and the differences among them.
 MECHANICAL = ("inertia", "rolling", "drag", "grade", "total_mass", "rolling_resistance", "aerodynamic_drag")
 
@@ -63,16 +73,16 @@ def _sag(r, y) -> tuple | None:
     from euc_sim.rides.drive.drivetrain import charge_drawn
 
     E = b["E0"] - b["k_Q"] * charge_drawn(r.sig.t, I)
-    return V * (E - V) / b["R_int"], None, {}
+    return V * (E - V) / b["R_int"], None, {}, None
 
 
 def _phase(r, cols: dict, v: np.ndarray, coef: dict, calib: tuple | None):
     I = r.sig.extra.get("phase_current")
     if I is None:
         return None
+    if not (I < -0.5).mean() > 0.005:              # a magnitude: its braking rows fold over
+        return None
     F = sum(coef.get(n, 0.0) * cols[n] for n in MECHANICAL if n in cols) / v
-    if not (I < -0.5).mean() > 0.005:              # a magnitude: the sign of the force
-        I = np.abs(I) * np.sign(F)
     if calib is None:                               # LOG: k and b against its own force
         ok = np.isfinite(I) & np.isfinite(F)
         if ok.sum() < 200:
@@ -80,7 +90,7 @@ def _phase(r, cols: dict, v: np.ndarray, coef: dict, calib: tuple | None):
         calib = tuple(np.linalg.lstsq(np.column_stack([F[ok], np.ones(ok.sum())]), I[ok], rcond=None)[0])
     if not calib[0] > 0:
         return None
-    return (I - calib[1]) / calib[0], MECHANICAL, {"calib": calib}
+    return (I - calib[1]) / calib[0], MECHANICAL, {"calib": calib}, v
 
 
 def _duty(r, y, coef: dict | None):
@@ -94,7 +104,7 @@ def _duty(r, y, coef: dict | None):
     names = [n for n in BASE + tuple(EXTRA) if n in coef and n != "r_F"]
     F = y / np.maximum(v, 1e-3)
     rest = pwm_columns(v, F, V, names, coef.get("v_fw", np.inf)) @ np.array([coef[n] for n in names])
-    return (d / 100.0 * V - rest) / coef["r_F"], None, {"speed": v / coef["r_F"]}
+    return (d / 100.0 * V - rest) / coef["r_F"], None, {"speed": v / coef["r_F"]}, np.where(v > 1e-3, v, np.nan)
 
 
 def readings(fit, test, sides: list, channels=CHANNELS) -> dict:
@@ -109,7 +119,7 @@ def readings(fit, test, sides: list, channels=CHANNELS) -> dict:
         The power design's columns at the pair's lag (W per unit, unscaled) and
         its signed battery power, W.
     channels : sequence of str
-        Of :data:`CHANNELS`.
+        Of :data:`ALL_CHANNELS`.
 
     Returns
     -------
@@ -132,13 +142,14 @@ def readings(fit, test, sides: list, channels=CHANNELS) -> dict:
                 got = _duty(r, y, fit.drivetrain.pwm_coef)
             if got is None:
                 break
-            yc, keep, own = got
+            yc, keep, own, over = got
+            if over is not None:
+                sh, de = _over(sh, over, keep), _over(de, over, keep)
+                if k == 1 and c in DRIFTING:    # OTHER's gain of this channel against LOG's
+                    own["scale"] = sum(fit.mass.coef.get(n, 0.0) * x for n, x in sh.items())
             ride = ("log", "other")[k]
-            own = {f"{c}:{n}_{ride}": x for n, x in {"offset": np.ones_like(yc), **own}.items()}
-            if c == "sag":
-                rows.append((yc, sh, de, own))
-            else:
-                rows.append((yc, _over(sh, v, keep), _over(de, v, keep), own))
+            rows.append((yc, sh, de, {f"{c}:{n}_{ride}": x for n, x in
+                                      {"offset": np.ones_like(yc), **own}.items()}))
         calib = None
         if len(rows) == 2:
             out[c] = rows

@@ -21,8 +21,8 @@ NOISY = 600.0
 
 
 def _pair(tmp_path, dm: float) -> tuple:
-    a = drive_log(tmp_path / "a.csv", seed=5, duration=900.0, noise_w=NOISY)
-    b = drive_log(tmp_path / "b.csv", seed=6, duration=900.0, noise_w=NOISY,
+    a = drive_log(tmp_path / "a.csv", seed=5, duration=900.0, noise_w=NOISY, signed_phase=True)
+    b = drive_log(tmp_path / "b.csv", seed=6, duration=900.0, noise_w=NOISY, signed_phase=True,
                   truth={**DRIVE, "mass": DRIVE["mass"] + dm})
     log, other = as_ride(a).log, as_ride(b).log
     return (log, other, ride_drivetrain(log, other, n_boot=20))
