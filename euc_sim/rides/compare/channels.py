@@ -25,11 +25,13 @@ constants the ride's drivetrain fit found (:mod:`euc_sim.rides.drive.drivetrain`
 
 Each channel keeps a constant per ride (a sensor's zero, a pack's state; the
 duty also a speed term per ride: the back-EMF constant moves with the magnets'
-temperature), and the duty a gain on OTHER (LOG's predicted force on OTHER's
-rows: the winding's resistance rises 0.4 %/K, tens of per cent over a ride;
-the phase current's motor constant moves 0.1 %/K, a few kilograms of mass),
-so a channel's calibration drift is not read as a road difference: a
-difference that scales every force at once is left to the other channels.  The difference columns carry the same coefficients in every
+temperature), and the phase current and the duty a gain on OTHER (LOG's
+predicted force on OTHER's rows: the magnets' flux falls 0.1 %/K and the
+winding's resistance rises 0.4 %/K as the motor warms along a ride), so a
+channel's calibration drift is not read as a road difference: the part of a
+difference that scales every force at once is left to battery power.  On real
+null pairs without it the phase current named a drag (blitz_4's halves) and a
+mass (master_pro_V2_3's halves).  The difference columns carry the same coefficients in every
 channel: a difference in mass, rolling or drag has its signature in each.
 The channels' rows of one moment are combined by the whitening of their
 held-out residuals on LOG (:func:`whitening`: each channel scaled by its own
@@ -53,9 +55,9 @@ ALL_CHANNELS = ("sag", "phase_current", "pwm")
 #: The channels the pair fit stacks by default: the duty is left out (on real null pairs it names
 #: road differences its model's misfit makes, docs/concealed.md "Every channel of the log").
 CHANNELS = ("sag", "phase_current")
-#: Channels whose gain drifts within a ride beyond a road difference's resolution (the duty's r_F is the
-#: winding's resistance, +0.4 %/K of copper): OTHER's gain is a nuisance.
-DRIFTING = ("pwm",)
+#: Channels whose gain drifts with the motor's temperature (the magnets' flux, the winding's
+#: resistance): OTHER's gain is a nuisance.
+DRIFTING = ("phase_current", "pwm")
 #: The power model's columns that are forces at the wheel times speed, and the differences among them.
 MECHANICAL = ("inertia", "rolling", "drag", "grade", "total_mass", "rolling_resistance", "aerodynamic_drag")
 
