@@ -11,7 +11,8 @@ Written up in docs/concealed.md ("Every channel of the log").
 
 Usage (from the repository root)::
 
-    nice python scripts/tables/channel_gain.py /tmp/naming_nulls/*_halves.pkl /tmp/naming_conc/*_{null,mass30,drag,rolling}.pkl
+    nice python scripts/tables/channel_gain.py /tmp/naming_nulls/*_halves.pkl \
+        /tmp/naming_conc/*_{null,mass30,drag,rolling}.pkl
 """
 
 from __future__ import annotations
