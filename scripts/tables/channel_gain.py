@@ -62,7 +62,7 @@ def table(rows: list) -> str:
         for n in ROAD:
             a, b = r["power"].get(n, {}).get("resolvable"), r["all"].get(n, {}).get("resolvable")
             cells.append(f"{g(a)} → {g(b)}")
-            if a and b:
+            if a and b and r["channels"]:
                 ratios[n].append(b / a)
         named = lambda k: ", ".join(n for n in ROAD if r[k].get(n, {}).get("named")) or "nothing"  # noqa: E731
         out.append(f"| {r['pair']} | {', '.join(r['channels']) or 'none'} | {' | '.join(cells)} | "
@@ -75,9 +75,15 @@ def table(rows: list) -> str:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("pickles", nargs="+", help="pairs pickled by naming_nulls.py or concealed_rides.py")
-    p.add_argument("--json", help="write the rows here too")
+    p.add_argument("pickles", nargs="*", help="pairs pickled by naming_nulls.py or concealed_rides.py")
+    p.add_argument("--json", help="write the rows here too (with no pickles: read them from it)")
     args = p.parse_args(argv)
+    if not args.pickles:
+        if not args.json or not Path(args.json).exists():
+            print("channel_gain.py: give pickles, or --json FILE of rows written before", file=sys.stderr)
+            return 2
+        print(table(json.loads(Path(args.json).read_text())))
+        return 0
     rows = []
     for path in map(Path, args.pickles):
         rows.append(run(path))
