@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from euc_sim.rides.compare.channels import CHANNELS, readings, whitening
+from euc_sim.rides.compare.channels import readings, whitening
 from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RATE, PHYSICS, alias_table,
                                                parameters_from_ride, ride_differences, signature_columns)
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
@@ -167,7 +167,7 @@ def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tup
     return tm[keep], sums[keep] / n[keep, None]
 
 
-def power_design(fit, test, mass: float, shifts=None, window: float | None = None, channels=CHANNELS):
+def power_design(fit, test, mass: float, shifts=None, window: float | None = None, channels=()):
     """Both rides' battery power: LOG's terms shared, a constant each; OTHER's differences and shift.
 
     Parameters
@@ -292,12 +292,12 @@ def _delay_resolution(fit, log_path, compare_path) -> float:
 
 
 def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200,
-               seed: int = 0, channels=CHANNELS) -> dict:
+               seed: int = 0, channels=()) -> dict:
     """Each physics OTHER needs beyond the model both rides share (:func:`pair_fit` per domain).
 
     The current's delay first, on battery power sample by sample (a shift grid);
     then the mass, rolling and drag on battery power and the ``channels`` both
-    logs have (:mod:`euc_sim.rides.compare.channels`), averaged over
+    logs have (:mod:`euc_sim.rides.compare.channels`; none by default), averaged over
     :data:`ROAD_WINDOW` s windows, OTHER at the delay found (when kept);
     terminal voltage for the pack resistance; GPS speed for the speed scale.
 
@@ -353,7 +353,7 @@ def pair_aliases(fit, test, coef: dict) -> tuple[dict, dict]:
 
 
 def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int = 200,
-                     seed: int = 0, channels=CHANNELS) -> dict:
+                     seed: int = 0, channels=()) -> dict:
     """The ``differences`` list and its companions for the ride JSON.
 
     Parameters
@@ -367,7 +367,8 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
     n_boot, seed : int
         Bootstrap replicates of the pair fits and their seed.
     channels : sequence of str
-        The channels beside battery power (:func:`pair_tests`).
+        The channels beside battery power (:func:`pair_tests`; none by default,
+        :data:`~euc_sim.rides.compare.channels.CHANNELS` the measured set).
     """
     from euc_sim.rides.report.drivetrain_report import drivetrain_report
 

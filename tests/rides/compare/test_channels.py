@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from drivesynth import DRIVE, drive_log
 
-from euc_sim.rides.compare.channels import whitening
+from euc_sim.rides.compare.channels import CHANNELS, whitening
 from euc_sim.rides.compare.differences_report import differences_json
 from euc_sim.rides.grids.ride import as_ride
 from euc_sim.rides.report.drivetrain_report import ride_drivetrain
@@ -39,8 +39,8 @@ def heavier(tmp_path_factory):
 
 
 def test_a_mass_lost_in_battery_power_is_named_with_the_phase_current(heavier):
-    power = _differences(heavier, channels=())["total_mass"]
-    every = _differences(heavier)["total_mass"]
+    power = _differences(heavier)["total_mass"]
+    every = _differences(heavier, channels=CHANNELS)["total_mass"]
     assert not power["named"]
     assert every["named"], every["why"]
     lo, hi = every["ci95"]
@@ -49,7 +49,7 @@ def test_a_mass_lost_in_battery_power_is_named_with_the_phase_current(heavier):
 
 
 def test_a_pair_without_a_difference_names_nothing_with_every_channel(tmp_path):
-    by = _differences(_pair(tmp_path, 0.0))
+    by = _differences(_pair(tmp_path, 0.0), channels=CHANNELS)
     assert [n for n, d in by.items() if d["named"]] == []
 
 
