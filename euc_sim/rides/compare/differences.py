@@ -3,8 +3,10 @@
 Each physics is sized by one least-squares fit of both rides
 (:mod:`euc_sim.rides.compare.differences_fit`): the terms both rides share are fitted
 on both, the difference Δθ on OTHER's rows only (battery power for the mass,
-rolling, drag and the current's delay, a shift of OTHER's signals; terminal
-voltage for the pack resistance; GPS speed for the speed scale).  A difference
+rolling, drag and the current's delay, a shift of OTHER's signals, with the
+phase current and voltage sag where the logs have them,
+:mod:`euc_sim.rides.compare.channels`; terminal voltage for the pack
+resistance; GPS speed for the speed scale).  A difference
 is *named* when both hold:
 
 1. its q-value is below :data:`FALSE_NAME_RATE`: its one-sided p-value (a
