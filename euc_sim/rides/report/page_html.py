@@ -84,9 +84,50 @@ def _hm(seconds: float) -> str:
     return f"{m // 60} h {m % 60:02d} min" if m >= 60 else f"{m} min"
 
 
-def _mmss(seconds: float) -> str:
+def _into(seconds: float) -> str:
+    """Time into the ride in words: "25 s", "15 min 25 s", "1 h 02 min"."""
     s = int(round(seconds))
-    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+    if s >= 3600:
+        return f"{s // 3600} h {s // 60 % 60:02d} min"
+    return f"{s // 60} min {s % 60:02d} s" if s >= 60 else f"{s} s"
+
+
+def clock_at(clock: Mapping | None, t: float) -> str | None:
+    """The clock time, "HH:MM" in the ride's own zone, ``t`` s after the log's start (the ride
+    JSON's ``clock``); None without it."""
+    from datetime import datetime, timedelta
+
+    try:
+        start = datetime.fromisoformat(str((clock or {})["start"]))
+    except (KeyError, TypeError, ValueError):
+        return None
+    return f"{start + timedelta(seconds=float(t)):%H:%M}"
+
+
+def when(rep: Mapping, t: float, also: str = "") -> str:
+    """A moment of the ride as a rider reads it: its clock time in the ride's own zone and its
+    time into the ride, "18:30 (15 min 25 s into the ride)"; ``also`` joins the parentheses."""
+    at, into = clock_at(rep.get("clock"), t), f"{_into(t)} into the ride"
+    if at:
+        return f"{at} ({into}" + (f"; {also})" if also else ")")
+    return into + (f" ({also})" if also else "")
+
+
+def span_words(rep: Mapping) -> str:
+    """When the log ran, clock times in the ride's own zone, "17:21–17:43 (UTC+02:00)"; '' without."""
+    c, s = rep.get("clock"), rep.get("summary") or {}
+    t0, t1 = clock_at(c, 0.0), clock_at(c, _num(s, "logged_s") or 0.0)
+    return f"{t0}–{t1} ({c.get('zone')})" if t0 and t1 and c.get("zone") else ""
+
+
+def pause_words(rep: Mapping) -> str:
+    """The log's pauses (the ``clock``'s, left out of the duration) with their clock times,
+    "paused 09:03–09:33 (3 min 20 s into the ride, 30 min)"; '' without one."""
+    c = rep.get("clock") or {}
+    out = [f"paused {clock_at(c, a)}–{clock_at(c, b)} ({_into(a)} into the ride, {_hm(b - a)})"
+           if clock_at(c, a) else f"paused {_into(a)} into the ride for {_hm(b - a)}"
+           for a, b in c.get("pauses") or []]
+    return "; ".join(out)
 
 
 def _num(d: Mapping | None, key: str) -> float | None:
@@ -98,10 +139,10 @@ def _num(d: Mapping | None, key: str) -> float | None:
 NOT_POWER = "the log's V·I is not the battery's power: the app computes its current"
 
 
-def _ride_tiles(s: Mapping | None, not_power: bool = False) -> list:
+def _ride_tiles(rep: Mapping, not_power: bool = False) -> list:
     """Distance, time, speeds, energy, consumption and battery: from ``summary``; the energy
     and consumption not given where the log's V·I is not battery power (``not_power``)."""
-    K = H.KeyFigure
+    K, s = H.KeyFigure, rep.get("summary")
     if not s:
         return [K(lbl, NA, "needs the ride's summary") for lbl in
                 ("Distance", "Riding time", "Top speed", "Energy drawn", "Consumption", "Battery used")]
@@ -115,11 +156,12 @@ def _ride_tiles(s: Mapping | None, not_power: bool = False) -> list:
         K("Distance", f"{dist / 1000:.1f} km" if dist is not None else NA,
           _distance_note(s) if dist is not None else ""),
         K("Riding time", _hm(mov) if mov is not None else NA,
-          f"of {_hm(dur)}" + (f"; {s['duration_follows']}" if s.get("duration_follows") else " logged")
-          if dur is not None else ""),
+          "; ".join(x for x in ((f"of {_hm(dur)}" + (f"; {s['duration_follows']}" if s.get("duration_follows")
+                                                      else " logged")) if dur is not None else "",
+                                span_words(rep)) if x)),
         K("Top speed", f"{top * 3.6:.0f} km/h" if top is not None else NA,
           "; ".join(x for x in (f"average {mean * 3.6:.0f} km/h while moving" if mean is not None else "",
-                                _spin_note(s.get("free_spin"))) if x)),
+                                _spin_note(rep, s.get("free_spin"))) if x)),
         K("Energy drawn", f"{drawn:.0f} Wh" if drawn is not None else NA,
           NOT_POWER if not_power else
           f"{regen:.0f} Wh regenerated" if regen is not None else "regeneration not logged"),
@@ -141,24 +183,25 @@ def _distance_note(s: Mapping) -> str:
     return note
 
 
-def _spin_note(spin: Mapping | None) -> str:
+def _spin_note(rep: Mapping, spin: Mapping | None) -> str:
     """The summary's ``free_spin`` (the wheel spinning off the ground) in a few words, or ''."""
     v, n = _num(spin, "speed_max_mps"), (spin or {}).get("count")
     if v is None or not n:
         return ""
     at = _num(spin, "at_s")
     return (f"the wheel spun free (off the ground) at {v * 3.6:.0f} km/h"
-            + (f" at {_mmss(at)}" if n == 1 and at is not None else f" and {n - 1} more time(s)" if n > 1 else "")
+            + (f" at {when(rep, at)}" if n == 1 and at is not None else f" and {n - 1} more time(s)" if n > 1 else "")
             + ": left out")
 
 
-def _pwm_tile(s: Mapping | None, where: str) -> object:
+def _pwm_tile(rep: Mapping, where: str) -> object:
+    s = rep.get("summary")
     p = _num(s, "pwm_max_pct")
     if p is None:
         return H.KeyFigure("Max PWM", NA, "no PWM or safety margin logged" if s else "needs the summary")
     at = _num(s, "pwm_max_at_s")
     tone = "bad" if p >= PWM_BAD else "warn" if p >= PWM_WARN else "good"
-    note = f"least margin {100 - p:.0f} %" + (f" at {_mmss(at)}{where}" if at is not None else "")
+    note = f"least margin {100 - p:.0f} %" + (f" at {when(rep, at, where)}" if at is not None else "")
     return H.KeyFigure("Max PWM", f"{p:.0f} %", note, tone)
 
 
@@ -240,13 +283,14 @@ def key_figures(rep: Mapping) -> list:
     quality, tone = data_quality(s)
     not_power = bool((rep.get("unidentified") or {}).get("battery_power"))
     battery = H.KeyFigure("Battery resistance", NA, NOT_POWER) if not_power else _battery_tile(rep)
-    return (_ride_tiles(s, not_power)
-            + [_pwm_tile(s, " (marked on the map)" if (s or {}).get("pwm_max_place") else " (marked over time)"),
+    return (_ride_tiles(rep, not_power)
+            + [_pwm_tile(rep, "marked on the map" if (s or {}).get("pwm_max_place") else "marked over time"),
                H.KeyFigure("Alarms", NA if alarms is None else str(alarms),
                            "" if not alarms or s.get("alarm_rows") is None else
                            f"{s['alarm_rows']} rows of the log flagged", "warn" if alarms else ""),
                H.KeyFigure("Data quality", str((s or {}).get("quality") or NA),
-                           re.sub(r"^Data quality \w+: ", "", quality), tone),
+                           "; ".join(x for x in (re.sub(r"^Data quality \w+: ", "", quality), pause_words(rep))
+                                     if x), tone),
                _mass_tile(rep.get("total_mass"), rep.get("mass_check")), battery])
 
 
@@ -340,7 +384,7 @@ def on_the_map(rep: Mapping, series: RideSeries):
     keep = thin(series.t.size, MOST_POINTS)
     lat, lon, val = c["lat"][keep], c["lon"][keep], c[key][keep]
     m = _max_pwm_mark(rep, series)
-    mark = None if m is None or m[1] is None else (m[1], m[2], f"max PWM at {_mmss(m[0])}")
+    mark = None if m is None or m[1] is None else (m[1], m[2], f"max PWM at {when(rep, m[0])}")
     title = f"Where you rode, coloured by {label.split(',')[0]}"
     return (track_map(lat, lon, val, label, title + " (OpenStreetMap)", mark),
             track_plain(lat, lon, val, label, title + " (drawn without the map)", mark))
