@@ -114,10 +114,10 @@ def when(rep: Mapping, t: float, also: str = "") -> str:
 
 
 def span_words(rep: Mapping) -> str:
-    """When the log ran, clock times in the ride's own zone, "17:21–17:43 (UTC+02:00)"; '' without."""
+    """When the log ran, clock times in the ride's own zone, "17:21–17:43 in UTC+02:00"; '' without."""
     c, s = rep.get("clock"), rep.get("summary") or {}
     t0, t1 = clock_at(c, 0.0), clock_at(c, _num(s, "logged_s") or 0.0)
-    return f"{t0}–{t1} ({c.get('zone')})" if t0 and t1 and c.get("zone") else ""
+    return f"{t0}–{t1} in {c['zone']}" if t0 and t1 and c.get("zone") else ""
 
 
 def pause_words(rep: Mapping) -> str:

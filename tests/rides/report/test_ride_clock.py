@@ -31,7 +31,7 @@ def test_euc_world_stamps_keep_their_zone_and_the_peak_reads_as_clock_and_time_i
     assert rep["clock"]["start"].startswith("2024-06-01T18:15:00")
     tiles = {k.label: k for k in key_figures(rep)}
     assert "least margin 26 % at 18:30 (15 min 25 s into the ride; marked on the map)" in tiles["Max PWM"].note
-    assert "18:15–18:35 (UTC+02:00)" in tiles["Riding time"].note
+    assert "18:15–18:35 in UTC+02:00" in tiles["Riding time"].note
     lines = "\n".join(key_figure_lines(rep))        # index.md's and the terminal's first lines
     assert "at 18:30 (15 min 25 s into the ride" in lines
 
@@ -41,7 +41,7 @@ def test_wheellog_clock_is_the_phones_and_said_so(tmp_path):
     assert rep["clock"]["utc_offset_s"] is None
     tiles = {k.label: k for k in key_figures(rep)}
     assert "at 09:01 (1 min 05 s into the ride" in tiles["Max PWM"].note
-    assert "(the phone's local time)" in tiles["Riding time"].note
+    assert "in the phone's local time" in tiles["Riding time"].note
 
 
 def test_a_long_pause_is_said_with_its_clock_times(tmp_path):
