@@ -351,18 +351,90 @@ def _max_pwm_mark(rep: Mapping, series: RideSeries):
     return at, series.at("lat", at), series.at("lon", at)
 
 
+#: The width a pause left out of the time axis keeps there, as a share of the axis (a marked gap).
+PAUSE_SHOWN = 0.03
+
+
+@dataclass(frozen=True)
+class TimeAxis:
+    """The figures' time axis without the log's pauses: each pause (the ride JSON's
+    ``clock.pauses``, left out of the duration) squeezed to a marked gap of
+    :data:`PAUSE_SHOWN` of the axis, so the riding either side keeps its width.
+
+    Attributes
+    ----------
+    stretches : tuple of (float, float)
+        The riding between the pauses, s from the log's start.
+    shown_s : float
+        The width each pause keeps on the axis, s.
+    """
+
+    stretches: tuple
+    shown_s: float
+
+    @classmethod
+    def of(cls, rep: Mapping, t: np.ndarray) -> "TimeAxis":
+        from euc_sim.rides.report.summary import PAUSE_S
+
+        if t.size == 0:
+            return cls(((0.0, 0.0),), 0.0)
+        c = rep.get("clock") or {}
+        if "pauses" in c:
+            p = [(float(a), float(b)) for a, b in c["pauses"]]
+        else:                               # a report without a clock: the pauses of the series itself
+            p = [(float(t[k]), float(t[k + 1])) for k in np.flatnonzero(np.diff(t) > PAUSE_S)]
+        edges = [float(t[0])] + [v for ab in p for v in ab] + [float(t[-1])]
+        stretches = tuple(zip(edges[::2], edges[1::2]))
+        return cls(stretches, PAUSE_SHOWN * max(sum(b - a for a, b in stretches), 1.0))
+
+    @property
+    def pauses(self) -> list:
+        """(start, end) of each pause, s."""
+        return [(a[1], b[0]) for a, b in zip(self.stretches, self.stretches[1:])]
+
+    def x(self, t) -> np.ndarray:
+        """Axis position, min, of times ``t`` (s from the log's start); NaN inside a pause."""
+        t = np.asarray(t, float)
+        out = t.copy()
+        for a, b in self.pauses:
+            out = np.where((t > a) & (t < b), np.nan, out)
+            out = np.where(t >= b, out - (b - a - self.shown_s), out)
+        return out / 60.0
+
+    def decorate(self, fig, rows: int) -> None:
+        """Shade each pause's gap with its length, and label the ticks in time into the ride."""
+        if not self.pauses:
+            return
+        for a, b in self.pauses:
+            x0 = float(self.x([a])[0])
+            fig.add_vrect(x0=x0, x1=x0 + self.shown_s / 60.0, fillcolor="#9e9e9e", opacity=0.35,
+                          line_width=0, row="all", col=1)
+            fig.add_annotation(x=x0 + self.shown_s / 120.0, y=1.0, yref="paper", yanchor="bottom",
+                               showarrow=False, text=f"pause of {_hm(b - a)} left out",
+                               font={"size": 11, "color": "#455a64"})
+        ridden = sum(b - a for a, b in self.stretches) / 60.0
+        step = next((m for m in (1, 2, 5, 10, 15, 20, 30, 60, 120) if ridden / m <= 10), 240)
+        mins = [m for a, b in self.stretches for m in np.arange(np.ceil(a / 60.0 / step) * step, b / 60.0 + 1e-9, step)]
+        fig.update_xaxes(tickmode="array", tickvals=[float(v) for v in self.x(np.array(mins) * 60.0)],
+                         ticktext=[f"{m:.0f}" for m in mins])
+        fig.update_xaxes(title_text="time into the ride, min (grey: a pause left out)", row=rows, col=1)
+
+
 def over_time(rep: Mapping, series: RideSeries):
-    """Speed, power, PWM, voltage and temperature on one shared time axis."""
+    """Speed, power, PWM, voltage and temperature on one shared time axis (pauses left out)."""
     c = series.channels
     spec = (("speed_kmh", "Speed", "km/h"), ("power_W", "Battery power", "W"), ("pwm_pct", "PWM", "%"),
             ("voltage_V", "Voltage", "V"), ("temperature_C", "Temperature", "°C"))
     keep = thin(series.t.size, MOST_POINTS)
+    axis = TimeAxis.of(rep, series.t)
+    x = axis.x(series.t[keep])
+    keep, x = keep[np.isfinite(x)], x[np.isfinite(x)]
     panels = [Panel(name, unit, c[k][keep]) for k, name, unit in spec if k in c]
     m = _max_pwm_mark(rep, series)
-    mark = None if m is None else (m[0] / 60.0, f"max PWM {_num(rep['summary'], 'pwm_max_pct'):.0f} %")
+    mark = None if m is None else (float(axis.x([m[0]])[0]), f"max PWM {_num(rep['summary'], 'pwm_max_pct'):.0f} %")
     gap = max(series.gap_s, 1.5 * float(np.median(np.diff(series.t[keep])))) if keep.size > 1 else series.gap_s
-    fig = time_panels(series.t[keep] / 60.0, panels, "The ride over time (zoom one panel: all follow)",
-                      gap / 60.0, mark)
+    fig = time_panels(x, panels, "The ride over time (zoom one panel: all follow)", gap / 60.0, mark)
+    axis.decorate(fig, len(panels))
     if mark is not None and "pwm_pct" in c:        # the peak is one logged row: the grid's mean may not reach it
         import plotly.graph_objects as go
 
