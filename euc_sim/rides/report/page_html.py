@@ -275,16 +275,26 @@ def _battery_tile(rep: Mapping) -> object:
     return H.KeyFigure("Battery resistance", f"{1000 * est:.0f} mΩ", note, tone)
 
 
-def key_figures(rep: Mapping) -> list:
+def compared_view(rep: Mapping) -> dict | None:
+    """The compared ride's numbers (the ride JSON's ``compared``) in the form :func:`key_figures`
+    reads; None without ``--compare``."""
+    c = rep.get("compared")
+    return None if not c else {k: c.get(k) for k in ("recording", "summary", "battery", "total_mass", "mass_check",
+                                                        "unidentified", "clock")}
+
+
+def key_figures(rep: Mapping, marked: bool = True) -> list:
     """The first screen's tiles, every number from the ride result (``summary``, ``battery``,
-    ``total_mass``; the drivetrain's resistance where no ``battery`` entry exists)."""
+    ``total_mass``; the drivetrain's resistance where no ``battery`` entry exists).
+    ``marked``: the page draws this ride, so its max PWM is marked on it."""
     s = rep.get("summary")
     alarms = s.get("alarms") if s else None
     quality, tone = data_quality(s)
     not_power = bool((rep.get("unidentified") or {}).get("battery_power"))
     battery = H.KeyFigure("Battery resistance", NA, NOT_POWER) if not_power else _battery_tile(rep)
     return (_ride_tiles(rep, not_power)
-            + [_pwm_tile(rep, "marked on the map" if (s or {}).get("pwm_max_place") else "marked over time"),
+            + [_pwm_tile(rep, "" if not marked else
+                         "marked on the map" if (s or {}).get("pwm_max_place") else "marked over time"),
                H.KeyFigure("Alarms", NA if alarms is None else str(alarms),
                            "" if not alarms or s.get("alarm_rows") is None else
                            f"{s['alarm_rows']} rows of the log flagged", "warn" if alarms else ""),
@@ -297,7 +307,12 @@ def key_figures(rep: Mapping) -> list:
 def key_figure_lines(rep: Mapping) -> list[str]:
     """The first screen's tiles as plain lines, ``"Label: value (note)"``: what the terminal
     and the plain-text page say first, the same strings as the HTML tiles."""
-    return [f"{k.label}: {k.value}" + (f" ({k.note})" if k.note else "") for k in key_figures(rep)]
+    def lines(r, marked=True):
+        return [f"{k.label}: {k.value}" + (f" ({k.note})" if k.note else "") for k in key_figures(r, marked)]
+
+    other = compared_view(rep)
+    return lines(rep) + ([f"Compared ride, {Path(str(other['recording'])).name}:"] + lines(other, False)
+                         if other else [])
 
 
 def first_screen(rep: Mapping) -> frozenset:
@@ -694,7 +709,11 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
     figs = figure_specs(rep, series, fit)
     from euc_sim.rides.report.differences_page import TITLE, difference_lines
 
-    body = [H.key_figures(key_figures(rep))]
+    other = compared_view(rep)
+    body = [H.key_figures(key_figures(rep)) if other is None else      # --compare: both rides side by side
+            H.columns(H.section(f"This ride: {name}", H.key_figures(key_figures(rep))),
+                      H.section(f"Compared ride: {Path(str(other['recording'])).name}",
+                                H.key_figures(key_figures(other, marked=False))))]
     diff = difference_lines(rep, getattr(fit, "path", None))
     if diff:                    # --compare: what differs leads, right under the ride's numbers
         body.append(H.box(TITLE, H.markdown(diff)))

@@ -12,7 +12,7 @@ from euc_sim.errors import InputError
 import math
 import warnings
 
-__all__ = ["rider_numbers", "check_rider_weight", "ride_clock", "zone_words"]
+__all__ = ["rider_numbers", "compared_numbers", "check_rider_weight", "ride_clock", "zone_words"]
 
 
 #: A rider's declared weight with gear, kg (``--rider-weight``).
@@ -103,3 +103,29 @@ def rider_numbers(log, rep: dict, spec=None, rider_weight: float | None = None) 
     # CONTRACT's summary.battery: the verdict and what it is judged against (the whole entry: battery)
     out["battery"] = {k: bh[k] for k in ("verdict", "expected_ohm", "expected_source")}
     return {"summary": out, "mass_check": mc.to_json(), "battery": bh, "clock": ride_clock(log)}
+
+
+def compared_numbers(log, fitted, spec=None, rider_weight: float | None = None) -> dict:
+    """The compared ride's own numbers: the ride JSON's ``compared``.
+
+    Parameters
+    ----------
+    log : RideLog
+        The compared ride, parsed.
+    fitted : RideDrivetrain
+        Its mass and drivetrain analysis (the pipeline's ``test``), read, not redone.
+    spec : WheelSpec, optional
+    rider_weight : float, optional
+        The declared weight of the compared ride's rider, kg.
+
+    Returns
+    -------
+    dict
+        ``recording``, ``total_mass``, ``unidentified``, and :func:`rider_numbers`'s
+        ``summary``, ``mass_check``, ``battery`` and ``clock``, as LOG's are in the ride JSON.
+    """
+    from euc_sim.rides.report.drivetrain_report import drivetrain_report
+
+    view = drivetrain_report(log, fitted.spec, fitted=fitted)[0]
+    return {"recording": str(log.path), "total_mass": view["total_mass"], "unidentified": view["unidentified"],
+            **rider_numbers(log, view, spec, rider_weight)}
