@@ -27,11 +27,11 @@ def test_euc_world_stamps_keep_their_zone_and_the_peak_reads_as_clock_and_time_i
     src = synth_summary_log(tmp_path / "w.csv", start="2024-06-01 18:15:00", pwm_peak=(925.0, 74.0),
                             ride_s=1200.0)
     rep = _rep(as_layout(src, tmp_path / "e.csv", "eucworld"))
-    assert rep["clock"]["zone"] == "UTC+02:00" and rep["clock"]["utc_offset_s"] == 7200.0
-    assert rep["clock"]["start"].startswith("2024-06-01T18:15:00")
     tiles = {k.label: k for k in key_figures(rep)}
     assert "least margin 26 % at 18:30 (15 min 25 s into the ride; marked on the map)" in tiles["Max PWM"].note
     assert "18:15–18:35 in UTC+02:00" in tiles["Riding time"].note
+    assert rep["clock"]["zone"] == "UTC+02:00" and rep["clock"]["utc_offset_s"] == 7200.0
+    assert rep["clock"]["start"].startswith("2024-06-01T18:15:00")
     lines = "\n".join(key_figure_lines(rep))        # index.md's and the terminal's first lines
     assert "at 18:30 (15 min 25 s into the ride" in lines
 
