@@ -249,9 +249,15 @@ def key_figures(rep: Mapping, marked: bool = True) -> list:
                            "" if not alarms or s.get("alarm_rows") is None else
                            f"{s['alarm_rows']} rows of the log flagged", "warn" if alarms else ""),
                H.KeyFigure("Data quality", str((s or {}).get("quality") or NA),
-                           "; ".join(x for x in (re.sub(r"^Data quality \w+: ", "", quality), pause_words(rep))
-                                     if x), tone),
+                           _and_pauses(re.sub(r"^Data quality \w+: ", "", quality), pause_words(rep)), tone),
                _mass_tile(rep.get("total_mass"), rep.get("mass_check")), battery])
+
+
+def _and_pauses(sentence: str, pauses: str) -> str:
+    """The data-quality sentence with the pauses' clock times added before its full stop."""
+    if not pauses:
+        return sentence
+    return (f"{sentence.rstrip('.')}; {pauses}." if sentence and sentence != NA else pauses)
 
 
 def key_figure_lines(rep: Mapping) -> list[str]:

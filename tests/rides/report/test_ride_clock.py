@@ -50,7 +50,7 @@ def test_a_long_pause_is_said_with_its_clock_times(tmp_path):
                                  ride_s=2400.0))
     assert rep["clock"]["pauses"] and rep["clock"]["pauses"][0][1] - rep["clock"]["pauses"][0][0] > 1700
     note = {k.label: k for k in key_figures(rep)}["Data quality"].note
-    assert "paused 09:03–09:33 (3 min 20 s into the ride, 30 min)" in note
+    assert "; paused 09:03–09:33 (3 min 20 s into the ride, 30 min)." in note and ".;" not in note
 
 
 def test_the_rides_table_shows_one_zone_and_flags_a_bad_pwm_peak(tmp_path, capsys):
