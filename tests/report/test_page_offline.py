@@ -79,7 +79,11 @@ def test_a_long_pause_is_left_out_of_the_time_axis(tmp_path):
     browser.chromium_or_skip()
     page = H.write_page(tmp_path / "p", H.page("pause", "", [H.figure(fig, "over_time", 400)]))
     rng = "document.getElementById('over_time')._fullLayout.xaxis.range"
-    r = browser.render(page, tmp_path / "shot.png", (rng,), ready=READY, settle_s=0.5, offline=True)
+    hover = ("(function(){var gd=document.getElementById('over_time');Plotly.Fx.hover(gd,{xval:30},['xy']);"
+             "return document.querySelector('#over_time .hoverlayer').textContent;})()")
+    r = browser.render(page, tmp_path / "shot.png", (rng, hover), ready=READY, settle_s=0.5, offline=True)
     assert r.script_errors() == []
     lo, hi = r.values[rng]
     assert hi - lo < 45.0                               # as drawn: each ride keeps about half the width
+    # 30 min along the axis: 20 min ridden, the 1.2 min gap, 8.8 min into the second stretch
+    assert "at 530.8 min" in r.values[hover]

@@ -118,10 +118,23 @@ class TimeAxis:
             out = np.where(t >= b, out - (b - a - self.shown_s), out)
         return out / 60.0
 
+    def minutes(self, x) -> np.ndarray:
+        """Time into the ride, min, at axis positions ``x`` (min): :meth:`x` undone."""
+        x = np.asarray(x, float) * 60.0
+        out = x.copy()
+        for a, b in self.pauses:
+            out = np.where(x >= float(self.x([a])[0]) * 60.0 + self.shown_s, out + (b - a - self.shown_s), out)
+        return out / 60.0
+
     def decorate(self, fig, rows: int) -> None:
-        """Shade each pause's gap with its length, and label the ticks in time into the ride."""
+        """Shade each pause's gap with its length, and label the ticks and the hover in time
+        into the ride."""
         if not self.pauses:
             return
+        first = fig.data[0]         # the hover's first line says the time (its title can only say the axis's x)
+        first.customdata = self.minutes(np.asarray(first.x, float))
+        first.hovertemplate = "at %{customdata:.1f} min: " + (first.hovertemplate or "%{y}")
+        fig.update_xaxes(unifiedhovertitle={"text": "into the ride"})
         for a, b in self.pauses:
             x0 = float(self.x([a])[0])
             fig.add_vrect(x0=x0, x1=x0 + self.shown_s / 60.0, fillcolor="#9e9e9e", opacity=0.35,
