@@ -241,7 +241,8 @@ class RideLog:
         sample), ``v`` (wheel speed, m/s) and whichever optional channels are
         present (see :data:`CHANNEL_UNITS`); empty GPS cells are NaN.
     start : pandas.Timestamp
-        Wall-clock time of ``t = 0`` (naive, the phone's local time).
+        Wall-clock time of ``t = 0``, naive: UTC where the log's stamps carry their zone
+        (EUC World), else the phone's local time (WheelLog, DarknessBot).
     absent : tuple of str
         Canonical channels the file lacks, or has only as zeros or empty cells.
     warnings : tuple of str
@@ -253,6 +254,9 @@ class RideLog:
     repairs : tuple of str
         The warnings that changed the data (rows merged, sorted, dropped, cells emptied,
         signs turned back), one line each.
+    utc_offset_s : float or None
+        The zone of the log's first stamp, s east of UTC, where its stamps carry one; None
+        where they do not (then :attr:`start` is the phone's local clock, its zone unknown).
     """
 
     path: str
@@ -266,6 +270,7 @@ class RideLog:
     n_rows_merged: int
     units: Mapping[str, str] = field(default_factory=lambda: dict(CHANNEL_UNITS))
     repairs: tuple[str, ...] = ()
+    utc_offset_s: float | None = None
 
     def has(self, channel: str) -> bool:
         """True when ``channel`` is in :attr:`data` (present and not all zero)."""
@@ -327,8 +332,9 @@ def _numeric(raw: pd.Series, column: str, path, required: bool) -> np.ndarray:
     return vals.to_numpy(dtype=float)
 
 
-def _times(frame: pd.DataFrame, lay: Layout, path) -> pd.Series:
-    """Parse the time stamp columns; the first unparsable one is an error."""
+def _times(frame: pd.DataFrame, lay: Layout, path) -> tuple[pd.Series, float | None]:
+    """Parse the time stamp columns (UTC where they carry a zone) and the first stamp's zone,
+    s east of UTC (None without one); the first unparsable stamp is an error."""
     text = frame[lay.time_columns[0]].astype(str).str.strip()
     for col in lay.time_columns[1:]:
         text = text + " " + frame[col].astype(str).str.strip()
@@ -348,9 +354,11 @@ def _times(frame: pd.DataFrame, lay: Layout, path) -> pd.Series:
         raise LogFormatError(path, f"cannot read the time stamp {text.iloc[i]!r} "
                                    f"(expected e.g. '2020-05-16 08:02:10.002')",
                              column=col, line=i + 2)
+    offset = None
     if getattr(best.dt, "tz", None) is not None:
+        offset = best.iloc[0].utcoffset().total_seconds() if len(best) else None
         best = best.dt.tz_convert("UTC").dt.tz_localize(None)
-    return best
+    return best, offset
 
 
 def _sampling_summary(t: np.ndarray, gap_warn: float) -> str | None:
@@ -455,7 +463,7 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
     n_read = len(raw)
     speed_col = next(c for c in lay.speed.columns if c in raw.columns)
     raw = _drop_truncated_last(raw, list(lay.time_columns) + [speed_col], repairs)
-    stamps = _times(raw, lay, path)
+    stamps, offset = _times(raw, lay, path)
     out, absent, keep = _channels(raw, lay, speed_col, path, notes, repairs)
     table = pd.DataFrame(out)[keep]
     stamps = stamps[keep]
@@ -477,7 +485,7 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
     return RideLog(path=str(path), layout=lay.name, variant=variant,
                    data=table.reset_index(drop=True), start=start, absent=tuple(absent),
                    warnings=tuple(notes), n_rows_read=n_read, n_rows_merged=n_merged,
-                   repairs=tuple(repairs))
+                   repairs=tuple(repairs), utc_offset_s=offset)
 
 
 def _read_table(path: Path) -> pd.DataFrame:

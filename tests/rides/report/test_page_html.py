@@ -29,7 +29,7 @@ def test_the_top_speed_tile_says_a_free_spin_was_left_out(tmp_path):
     s = _summary_json(_with_spin(synth_summary_log(tmp_path / "a.csv")))
     top = _tiles({"summary": s})["Top speed"]
     assert top.value == "25 km/h"
-    assert "spun free (off the ground) at 120 km/h at 10:26: left out" in top.note
+    assert "spun free (off the ground) at 120 km/h at 10 min 26 s into the ride: left out" in top.note
     plain = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv"))})["Top speed"]
     assert "spun" not in plain.note and plain.note.startswith("average 25 km/h")
 
@@ -58,9 +58,9 @@ def test_the_pwm_peak_is_marked_on_the_map_only_with_gps(tmp_path):
     """S22 Pro 0 and Mten4 0 (WheelLog, no GPS): the tile read 'marked on the map' above
     'No GPS position in this log: no map'."""
     with_gps = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "a.csv"))})["Max PWM"]
-    assert with_gps.note == "least margin 28 % at 5:00 (marked on the map)"
+    assert with_gps.note == "least margin 28 % at 5 min 00 s into the ride (marked on the map)"
     no_gps = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv", gps=False))})["Max PWM"]
-    assert no_gps.note == "least margin 28 % at 5:00 (marked over time)"
+    assert no_gps.note == "least margin 28 % at 5 min 00 s into the ride (marked over time)"
 
 
 def test_a_tile_gives_a_reason_whole_not_cut_mid_word():
