@@ -1,0 +1,193 @@
+#!/usr/bin/env python
+"""The loss the rides ask for beyond a tyre's: candidates tested against the shared rides.
+
+    nice python studies/missing_loss.py spin
+    nice python studies/missing_loss.py fits [--only SUBSTR] [--pairs v9] [--json OUT]
+
+``spin``: every shared ride's free-spin moments (``rides/grids/spin.free_spin``: the
+wheel off the ground, no tyre on the road, no rider to carry) where the controller
+holds its top duty (PWM ≥ 95 %) and the speed is steady: the battery power there is
+the drivetrain's no-load loss at that wheel speed (plus the no-load current's copper
+loss), with the drag torque P/ω it stands for and the tyre force P/v it would alias in
+the balance's |v| column, as a share of the ride's true weight (``meta.csv``).
+
+``fits``: each comparison of ``scripts/tables/balance_heldout.py`` fitted three ways,
+the candidate set of ``rides/balance/design.py`` otherwise unchanged:
+
+- ``as_is``: the balance as it stands;
+- ``speed_loss``: the |v| column (C_rr·m·g·|v|) allowed up to C_rr 0.15, i.e. a loss
+  proportional to speed beyond a tyre's 0.05 (a motor's hysteresis loss T_h·|ω| has
+  this column exactly);
+- ``omega2``: a b·ω² loss added as a candidate (the motor's eddy-current loss, viscous
+  friction, or a tyre whose C_rr grows with speed: the same column up to m·g),
+  0 ≤ b ≤ 1 N·m·s/rad.
+
+Printed per comparison: the selected model's held-out error and its change against
+``as_is``, the terms on a plausible edge (``design.on_bound`` at 1e-3 of the range),
+the |v| column's force beyond C_rr 0.05 (N) and the b found.  The shared rides are the
+project's tuning rides: these figures are tuning figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import importlib.util
+import json
+import sys
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+SHARED = Path("/work/shared/data") if Path("/work/shared/data").is_dir() else ROOT.parent / "shared" / "data"
+G = 9.81
+EDGE_REL = 1e-3
+
+
+def _heldout_module():
+    spec = importlib.util.spec_from_file_location("balance_heldout", ROOT / "scripts" / "tables" / "balance_heldout.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+# ---------------------------------------------------------------------------- free spin
+def spin_table() -> list[dict]:
+    """Steady top-duty free-spin stretches of every shared ride."""
+    from euc_sim.rides.grids.ride import as_ride
+    from euc_sim.rides.grids.spin import spin_rows
+    from euc_sim.rides.source.spec import read_spec
+
+    out = []
+    for meta in sorted((SHARED / "euc_core").glob("trips/*/*/*/meta.csv")):
+        with open(meta, newline="") as fh:
+            row = next(csv.DictReader(fh))
+        log = as_ride(meta.parent / f"{meta.parent.name}.csv").log
+        d = log.data
+        spin = spin_rows(d)
+        if not spin.any() or "pwm" not in d:
+            continue
+        spec = read_spec(SHARED / "euc_core" / "specs" / f"{row['wheel']}.csv")
+        R = float(spec.radius)
+        v, P, pwm, t = (d[c].to_numpy(float) for c in ("v", "power", "pwm", "t"))
+        v = np.abs(v)
+        dv = np.gradient(v, t)
+        steady = spin & (pwm >= 95) & (np.abs(dv) < 2.0) & (v > 5.0)
+        weight = (float(row["rider_weight"]) + float(spec.wheel_mass)) * G
+        if not steady.any():
+            out.append({"ride": f"{row['wheel']}/{meta.parent.name}", "spin_rows": int(spin.sum()),
+                        "steady_rows": 0})
+            continue
+        p, w = P[steady], v[steady] / R
+        out.append({"ride": f"{row['wheel']}/{meta.parent.name}", "spin_rows": int(spin.sum()),
+                    "steady_rows": int(steady.sum()), "v": float(np.median(v[steady])),
+                    "omega": float(np.median(w)), "P": float(np.median(p)),
+                    "P_iqr": [float(np.percentile(p, 25)), float(np.percentile(p, 75))],
+                    "torque": float(np.median(p / w)), "force": float(np.median(p / v[steady])),
+                    "crr_equivalent": float(np.median(p / v[steady]) / weight),
+                    "b_if_eddy": float(np.median(p / w ** 2)), "R": R})
+    return out
+
+
+# ---------------------------------------------------------------------------- variants
+VARIANTS = ("as_is", "speed_loss", "omega2")
+
+
+def _omega2_on():
+    """Add the b·ω² candidate to the balance (a patch for this study only)."""
+    from euc_sim.rides.balance import design, fit
+
+    design.CANDIDATES["wheel_bearing_friction"] = ("b", "N·m·s/rad", "b·ω² loss", "spin", "rad²/s²")
+    design.PLAUSIBLE["wheel_bearing_friction"] = (0.0, 1.0, "N·m·s/rad")
+    design.BOUNDS["wheel_bearing_friction"] = (0.0, 1.0)
+    fit._START["wheel_bearing_friction"] = 0.0
+    old = design._regressors
+
+    def regressors(sig, L1, frac):
+        cols, cands, aliases, notes = old(sig, L1, frac)
+        cols["spin"] = L1((sig.raw["v"].to_numpy() / sig.assumptions.R) ** 2)
+        return cols, cands + ["wheel_bearing_friction"], aliases, notes
+    design._regressors = regressors
+
+
+def run_fits(variant: str, only: str | None, pairs: tuple) -> list[dict]:
+    from euc_sim.rides.balance import design
+
+    if variant == "speed_loss":
+        design.BOUNDS["rolling_resistance"] = (0.0, 0.15)
+    elif variant == "omega2":
+        _omega2_on()
+    bh = _heldout_module()
+    rows = []
+    for case in bh.cases(SHARED, pairs):
+        if only and only not in case["label"]:
+            continue
+        print(f"... {variant} {case['label']}", file=sys.stderr, flush=True)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = bh.one(case, 10, 0)
+        est = r["augmented_estimates"]
+        crr = est.get("rolling_resistance", 0.0) if "rolling_resistance" in r["accepted"] else 0.0
+        r["edge"] = [k for k in r["accepted"] if k in est and k != "rolling_resistance" and design.on_bound(k, est[k], EDGE_REL)
+                     ] + (["rolling_resistance"] if crr >= 0.05 * (1 - EDGE_REL) else [])
+        r["excess_force"] = max(crr - 0.05, 0.0) * r["total_mass"] * G
+        r["b"] = est.get("wheel_bearing_friction", 0.0) if "wheel_bearing_friction" in r["accepted"] else 0.0
+        r["variant"] = variant
+        rows.append(r)
+    return rows
+
+
+def compare(runs: dict[str, list[dict]]) -> str:
+    """Markdown: per comparison, each variant's held-out error, change, edges."""
+    base = {r["label"]: r for r in runs["as_is"]}
+    head = "| comparison | " + " | ".join(f"{v} W (Δ), edge" for v in runs) + " |"
+    out = [head, "|---|" + "---|" * len(runs)]
+    for label, b in base.items():
+        cells = []
+        for v, rows in runs.items():
+            r = next((x for x in rows if x["label"] == label), None)
+            if r is None:
+                cells.append("–")
+                continue
+            ch = 100 * (r["selected"] / b["selected"] - 1)
+            extra = (f", ΔF {r['excess_force']:.0f} N" if r["excess_force"] else "") + (
+                f", b {r['b']:.2f}" if r["b"] else "")
+            cells.append(f"{r['selected']:.1f} ({ch:+.1f} %), {', '.join(r['edge']) or '—'}{extra}")
+        out.append(f"| {label} | " + " | ".join(cells) + " |")
+    for v, rows in runs.items():
+        n = len(rows)
+        ch = [100 * (r["selected"] / base[r["label"]]["selected"] - 1) for r in rows]
+        out.append(f"\n{v}: a term on an edge {sum(bool(r['edge']) for r in rows)}/{n}; rule (5 %) "
+                   f"{sum(r['rule_met'] for r in rows)}/{n}; held-out worse by > 2 % on "
+                   f"{sum(c > 2 for c in ch)}, better by > 5 % on {sum(c < -5 for c in ch)}")
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("what", choices=("spin", "fits", "table"))
+    ap.add_argument("--variant", choices=VARIANTS, default=None,
+                    help="fit one variant (each in its own process: the patches are global)")
+    ap.add_argument("--only", default=None)
+    ap.add_argument("--pairs", default="v9")
+    ap.add_argument("--json", default=None, help="fits: write rows here; table: the stem they were written to")
+    a = ap.parse_args(argv)
+    if a.what == "spin":
+        for r in spin_table():
+            print(json.dumps(r))
+        return 0
+    if a.what == "fits":
+        rows = run_fits(a.variant or "as_is", a.only, tuple(w for w in a.pairs.split(",") if w))
+        if a.json:
+            Path(a.json).write_text(json.dumps(rows))
+        return 0
+    runs = {v: json.loads(Path(f"{a.json}.{v}.json").read_text()) for v in VARIANTS
+            if Path(f"{a.json}.{v}.json").exists()}
+    print(compare(runs))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
