@@ -4,6 +4,9 @@
     nice python studies/missing_loss.py spin
     nice python studies/missing_loss.py fits [--only SUBSTR] [--pairs v9] [--json OUT]
 
+``twin``: the tests' synthetic twin (rolling and drag, no b·ω²) fitted with a b·ω²
+candidate offered (0 ≤ b ≤ 0.2): whether the selection names a loss the twin lacks.
+
 ``spin``: every shared ride's free-spin moments (``rides/grids/spin.free_spin``: the
 wheel off the ground, no tyre on the road, no rider to carry) where the controller
 holds its top duty (PWM ≥ 95 %) and the speed is steady: the battery power there is
@@ -20,7 +23,12 @@ the candidate set of ``rides/balance/design.py`` otherwise unchanged:
   this column exactly);
 - ``omega2``: a b·ω² loss added as a candidate (the motor's eddy-current loss, viscous
   friction, or a tyre whose C_rr grows with speed: the same column up to m·g),
-  0 ≤ b ≤ 1 N·m·s/rad.
+  0 ≤ b ≤ 1 N·m·s/rad;
+- ``omega2_spin``: the same, 0 ≤ b ≤ 0.2 (the Apex free spin's b, rounded up);
+- ``omega2_last``: the same, offered only after the balance's own two passes;
+- ``wind``: a steady wind from the GPS heading (two columns v|v|·cos h, v|v|·sin h);
+- ``unsigned``: on a log whose current is never negative, only the rows where the ride
+  surely draws power (a current channel that reports the magnitude).
 
 Printed per comparison: the selected model's held-out error and its change against
 ``as_is``, the terms on a plausible edge (``design.on_bound`` at 1e-3 of the range),
@@ -92,16 +100,19 @@ def spin_table() -> list[dict]:
 
 
 # ---------------------------------------------------------------------------- variants
-VARIANTS = ("as_is", "speed_loss", "omega2")
+VARIANTS = ("as_is", "speed_loss", "omega2", "omega2_spin", "omega2_last", "wind", "unsigned")
+#: The b·ω² bound of ``omega2_spin``: the Apex free spin's no-load loss read as b·ω²
+#: (2.88 kW at 132 rad/s: b = 0.166 N·m·s/rad), rounded up.
+B_SPIN = 0.2
 
 
-def _omega2_on():
-    """Add the b·ω² candidate to the balance (a patch for this study only)."""
+def _omega2_on(b_max: float = 1.0):
+    """Add the b·ω² candidate to the balance, 0 ≤ b ≤ ``b_max`` (a patch for this study only)."""
     from euc_sim.rides.balance import design, fit
 
     design.CANDIDATES["wheel_bearing_friction"] = ("b", "N·m·s/rad", "b·ω² loss", "spin", "rad²/s²")
-    design.PLAUSIBLE["wheel_bearing_friction"] = (0.0, 1.0, "N·m·s/rad")
-    design.BOUNDS["wheel_bearing_friction"] = (0.0, 1.0)
+    design.PLAUSIBLE["wheel_bearing_friction"] = (0.0, b_max, "N·m·s/rad")
+    design.BOUNDS["wheel_bearing_friction"] = (0.0, b_max)
     fit._START["wheel_bearing_friction"] = 0.0
     old = design._regressors
 
@@ -112,13 +123,104 @@ def _omega2_on():
     design._regressors = regressors
 
 
+def _wind_on():
+    """Add a steady wind from the GPS heading h (a patch for this study only).
+
+    Drag k·(v + u)|v + u| with u = w_N·cos h + w_E·sin h the headwind, to first order in
+    u adds 2k·u·v|v|: two columns v|v|·cos h and v|v|·sin h with free coefficients
+    c = 2k·w (kg/s; |c| ≤ 2·0.6·8, a wind up to 8 m/s at C_dA 1 m²), offered together.
+    """
+    from euc_sim.rides.balance import design, fit
+
+    for n, col in (("wind_north", "wind_n"), ("wind_east", "wind_e")):
+        design.CANDIDATES[n] = ("c", "kg/s", "2k·wind", col, "m²/s²")
+        design.PLAUSIBLE[n] = (-9.6, 9.6, "kg/s")
+        design.BOUNDS[n] = (-9.6, 9.6)
+        fit._START[n] = 0.0
+    old = design._regressors
+
+    def regressors(sig, L1, frac):
+        cols, cands, aliases, notes = old(sig, L1, frac)
+        if "gps_heading" in sig.raw:
+            h = sig.raw["gps_heading"].to_numpy(float)           # rad on the grid
+            v = sig.raw["v"].to_numpy(float)
+            ok = np.isfinite(h)
+            cols["wind_n"] = L1(np.where(ok, v * np.abs(v) * np.cos(np.nan_to_num(h)), 0.0))
+            cols["wind_e"] = L1(np.where(ok, v * np.abs(v) * np.sin(np.nan_to_num(h)), 0.0))
+            cands = cands + ["wind_north", "wind_east"]
+        return cols, cands, aliases, notes
+    design._regressors = regressors
+
+
+def _unsigned_on(margin: float = 10.0):
+    """On a log whose battery current is never negative, fit and score only driving rows.
+
+    Such a log reports the current's magnitude: braking reads as drawing, and the signed
+    balance can only meet it with more loss.  Kept: rows whose floor of the true battery
+    power (inertial power plus the least plausible rolling and drag, no grade) has a
+    negative part averaging above −``margin`` W over the filters' reach (a patch for
+    this study only).
+    """
+    import dataclasses
+
+    from scipy.ndimage import uniform_filter1d
+
+    from euc_sim.rides.balance import analysis, design
+    from euc_sim.rides.grids.signals import window_samples
+
+    old = design.balance_design
+
+    def balance_design(sig, *a, **k):
+        d = old(sig, *a, **k)
+        cur = sig.raw["current"].to_numpy(float) if "current" in sig.raw else None
+        if cur is None or (cur < -0.5).mean() > 0.005:
+            return d
+        X = d.columns_full
+        floor = (X["inertia"] + design.PLAUSIBLE["rolling_resistance"][0] * X["rolling"]
+                 + design.PLAUSIBLE["aerodynamic_drag"][0] * X["drag"]).to_numpy(float)
+        n = len(d.kernel) + window_samples(design.PRE_WINDOW, sig.rate, min(2, sig.polyorder))
+        keep = uniform_filter1d(np.minimum(floor, 0.0), n, mode="nearest") >= -margin
+        return dataclasses.replace(d, use=d.use & keep,
+                                   notes=d.notes + ("unsigned current: driving rows only",))
+    design.balance_design = balance_design
+    analysis.balance_design = balance_design
+
+
+def _last_pass(term: str):
+    """Offer ``term`` only after both passes of the selection, as a third pass of the same rule."""
+    from euc_sim.rides.balance import crossride
+    from euc_sim.stats import forward_select
+
+    old = crossride.select_effects
+
+    def select(design, candidates):
+        names, history, blocked = old(design, [c for c in candidates if c != term])
+        if term not in candidates:
+            return names, history, blocked
+        scores = crossride._HeldoutScores(design)
+        kept, extra = forward_select(lambda n: scores.score(n, "plausible"),
+                                     list(crossride.NOMINAL) + names, [term], crossride.MIN_GAIN)
+        return kept[len(crossride.NOMINAL):], history + extra[1:], blocked
+    crossride.select_effects = select
+
+
 def run_fits(variant: str, only: str | None, pairs: tuple) -> list[dict]:
     from euc_sim.rides.balance import design
 
     if variant == "speed_loss":
         design.BOUNDS["rolling_resistance"] = (0.0, 0.15)
+        design.PLAUSIBLE["rolling_resistance"] = (0.005, 0.15, "1")
     elif variant == "omega2":
         _omega2_on()
+    elif variant == "unsigned":
+        _unsigned_on()
+    elif variant == "wind":
+        _wind_on()
+    elif variant == "omega2_spin":
+        _omega2_on(B_SPIN)
+    elif variant == "omega2_last":
+        _omega2_on()
+        _last_pass("wheel_bearing_friction")
     bh = _heldout_module()
     rows = []
     for case in bh.cases(SHARED, pairs):
@@ -137,6 +239,30 @@ def run_fits(variant: str, only: str | None, pairs: tuple) -> list[dict]:
         r["variant"] = variant
         rows.append(r)
     return rows
+
+
+def twin() -> dict:
+    """The synthetic twin of the tests (rolling C_rr 0.015, drag 0.35 kg/m, copper, P₀; no
+    b·ω²), fitted with the b·ω² candidate offered: what the selection names."""
+    import tempfile
+
+    sys.path.insert(0, str(ROOT / "tests" / "rides"))
+    from ridesynth import TRUTH, synth_log
+
+    from euc_sim.rides.balance.crossride import cross_ride
+    from euc_sim.rides.balance.design import balance_design
+    from euc_sim.rides.grids.signals import ride_signals
+
+    _omega2_on(B_SPIN)
+    with tempfile.TemporaryDirectory() as d, warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        fit = balance_design(ride_signals(synth_log(Path(d) / "fit.csv", seed=21)))
+        test = balance_design(ride_signals(synth_log(Path(d) / "test.csv", seed=22)))
+        cr = cross_ride(fit, test, n_boot=20, seed=2)
+    return {"truth": TRUTH, "accepted": list(cr.accepted),
+            "estimates": {k: round(v, 4) for k, v in cr.augmented.estimate.items()},
+            "ci95": {k: [round(x, 4) for x in v] for k, v in cr.augmented.ci95.items()},
+            "heldout_selected": cr.heldout_augmented, "heldout_every_candidate": cr.heldout_full}
 
 
 def compare(runs: dict[str, list[dict]]) -> str:
@@ -167,7 +293,7 @@ def compare(runs: dict[str, list[dict]]) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=("spin", "fits", "table"))
+    ap.add_argument("what", choices=("spin", "fits", "table", "twin"))
     ap.add_argument("--variant", choices=VARIANTS, default=None,
                     help="fit one variant (each in its own process: the patches are global)")
     ap.add_argument("--only", default=None)
@@ -177,6 +303,9 @@ def main(argv=None) -> int:
     if a.what == "spin":
         for r in spin_table():
             print(json.dumps(r))
+        return 0
+    if a.what == "twin":
+        print(json.dumps(twin()))
         return 0
     if a.what == "fits":
         rows = run_fits(a.variant or "as_is", a.only, tuple(w for w in a.pairs.split(",") if w))
