@@ -232,8 +232,7 @@ def run_fits(variant: str, only: str | None, pairs: tuple) -> list[dict]:
             r = bh.one(case, 10, 0)
         est = r["augmented_estimates"]
         crr = est.get("rolling_resistance", 0.0) if "rolling_resistance" in r["accepted"] else 0.0
-        r["edge"] = [k for k in r["accepted"] if k in est and k != "rolling_resistance" and design.on_bound(k, est[k], EDGE_REL)
-                     ] + (["rolling_resistance"] if crr >= 0.05 * (1 - EDGE_REL) else [])
+        r["edge"] = edges(r, variant)
         r["excess_force"] = max(crr - 0.05, 0.0) * r["total_mass"] * G
         r["b"] = est.get("wheel_bearing_friction", 0.0) if "wheel_bearing_friction" in r["accepted"] else 0.0
         r["variant"] = variant
@@ -265,6 +264,29 @@ def twin() -> dict:
             "heldout_selected": cr.heldout_augmented, "heldout_every_candidate": cr.heldout_full}
 
 
+#: Each variant's bounds that differ from ``design.BOUNDS``.
+VARIANT_BOUNDS = {"speed_loss": {"rolling_resistance": (0.0, 0.15)},
+                  "omega2": {"wheel_bearing_friction": (0.0, 1.0)},
+                  "omega2_spin": {"wheel_bearing_friction": (0.0, B_SPIN)},
+                  "omega2_last": {"wheel_bearing_friction": (0.0, B_SPIN)},
+                  "wind": {"wind_north": (-9.6, 9.6), "wind_east": (-9.6, 9.6)}}
+
+
+def edges(row: dict, variant: str) -> list[str]:
+    """The accepted terms of ``row`` on an edge of the variant's bounds (``design.on_bound``
+    at 1e-3 of the range, or of 1 where the range is narrower: C_rr from 0.049)."""
+    from euc_sim.rides.balance import design
+
+    bounds = {**design.BOUNDS, **VARIANT_BOUNDS.get(variant, {})}
+    out = []
+    for k in row["accepted"]:
+        x, (lo, hi) = row["augmented_estimates"].get(k), bounds.get(k, (-np.inf, np.inf))
+        tol = EDGE_REL * max(hi - lo, 1.0)
+        if x is not None and (x >= hi - tol or (lo != 0.0 and x <= lo + tol)):
+            out.append(k)
+    return out
+
+
 def compare(runs: dict[str, list[dict]]) -> str:
     """Markdown: per comparison, each variant's held-out error, change, edges."""
     base = {r["label"]: r for r in runs["as_is"]}
@@ -274,6 +296,8 @@ def compare(runs: dict[str, list[dict]]) -> str:
         cells = []
         for v, rows in runs.items():
             r = next((x for x in rows if x["label"] == label), None)
+            if r is not None:
+                r["edge"] = edges(r, v)
             if r is None:
                 cells.append("–")
                 continue
