@@ -4,9 +4,6 @@
     nice python studies/missing_loss.py spin
     nice python studies/missing_loss.py fits [--only SUBSTR] [--pairs v9] [--json OUT]
 
-``twin``: the tests' synthetic twin (rolling and drag, no b·ω²) fitted with a b·ω²
-candidate offered (0 ≤ b ≤ 0.2): whether the selection names a loss the twin lacks.
-
 ``spin``: every shared ride's free-spin moments (``rides/grids/spin.free_spin``: the
 wheel off the ground, no tyre on the road, no rider to carry) where the controller
 holds its top duty (PWM ≥ 95 %) and the speed is steady: the battery power there is
@@ -240,30 +237,6 @@ def run_fits(variant: str, only: str | None, pairs: tuple) -> list[dict]:
     return rows
 
 
-def twin() -> dict:
-    """The synthetic twin of the tests (rolling C_rr 0.015, drag 0.35 kg/m, copper, P₀; no
-    b·ω²), fitted with the b·ω² candidate offered: what the selection names."""
-    import tempfile
-
-    sys.path.insert(0, str(ROOT / "tests" / "rides"))
-    from ridesynth import TRUTH, synth_log
-
-    from euc_sim.rides.balance.crossride import cross_ride
-    from euc_sim.rides.balance.design import balance_design
-    from euc_sim.rides.grids.signals import ride_signals
-
-    _omega2_on(B_SPIN)
-    with tempfile.TemporaryDirectory() as d, warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        fit = balance_design(ride_signals(synth_log(Path(d) / "fit.csv", seed=21)))
-        test = balance_design(ride_signals(synth_log(Path(d) / "test.csv", seed=22)))
-        cr = cross_ride(fit, test, n_boot=20, seed=2)
-    return {"truth": TRUTH, "accepted": list(cr.accepted),
-            "estimates": {k: round(v, 4) for k, v in cr.augmented.estimate.items()},
-            "ci95": {k: [round(x, 4) for x in v] for k, v in cr.augmented.ci95.items()},
-            "heldout_selected": cr.heldout_augmented, "heldout_every_candidate": cr.heldout_full}
-
-
 #: Each variant's bounds that differ from ``design.BOUNDS``.
 VARIANT_BOUNDS = {"speed_loss": {"rolling_resistance": (0.0, 0.15)},
                   "omega2": {"wheel_bearing_friction": (0.0, 1.0)},
@@ -317,7 +290,7 @@ def compare(runs: dict[str, list[dict]]) -> str:
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("what", choices=("spin", "fits", "table", "twin"))
+    ap.add_argument("what", choices=("spin", "fits", "table"))
     ap.add_argument("--variant", choices=VARIANTS, default=None,
                     help="fit one variant (each in its own process: the patches are global)")
     ap.add_argument("--only", default=None)
@@ -327,9 +300,6 @@ def main(argv=None) -> int:
     if a.what == "spin":
         for r in spin_table():
             print(json.dumps(r))
-        return 0
-    if a.what == "twin":
-        print(json.dumps(twin()))
         return 0
     if a.what == "fits":
         rows = run_fits(a.variant or "as_is", a.only, tuple(w for w in a.pairs.split(",") if w))
