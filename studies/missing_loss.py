@@ -24,6 +24,8 @@ the candidate set of ``rides/balance/design.py`` otherwise unchanged:
 - ``omega2_spin``: the same, 0 ≤ b ≤ 0.2 (the Apex free spin's b, rounded up);
 - ``omega2_last``: the same, offered only after the balance's own two passes;
 - ``wind``: a steady wind from the GPS heading (two columns v|v|·cos h, v|v|·sin h);
+- ``true_mass``: the true total mass handed to the balance (a diagnosis of how much of
+  the edge is the mass the log's energy balance finds);
 - ``unsigned``: on a log whose current is never negative, only the rows where the ride
   surely draws power (a current channel that reports the magnitude).
 
@@ -97,7 +99,8 @@ def spin_table() -> list[dict]:
 
 
 # ---------------------------------------------------------------------------- variants
-VARIANTS = ("as_is", "speed_loss", "omega2", "omega2_spin", "omega2_last", "wind", "unsigned")
+VARIANTS = ("as_is", "speed_loss", "omega2", "omega2_spin", "omega2_last", "wind", "unsigned",
+            "true_mass")
 #: The b·ω² bound of ``omega2_spin``: the Apex free spin's no-load loss read as b·ω²
 #: (2.88 kW at 132 rad/s: b = 0.166 N·m·s/rad), rounded up.
 B_SPIN = 0.2
@@ -201,6 +204,40 @@ def _last_pass(term: str):
     crossride.select_effects = select
 
 
+_TRUTH: dict = {}
+
+
+def _true_mass_on():
+    """Hand the balance the true total mass (rider + wheel, ``meta.csv`` and the spec) in place
+    of the one the log's energy balance finds, m_eq shifted alike (a diagnosis, not a fit:
+    only the shared rides' truths allow it).  WheelLog logs have no truth and keep theirs."""
+    from euc_sim.rides.grids import signals
+
+    old = signals.with_found_values
+
+    def with_truth(assumptions, spec, total_mass):
+        m = _TRUTH.get("mass")
+        if m is None:
+            return old(assumptions, spec, total_mass)
+        found = (total_mass or {}).get("estimate")
+        eq = ((total_mass or {}).get("equivalent_mass") or {}).get("estimate")
+        shift = (eq - found) if (eq is not None and found is not None) else 0.0
+        return old(assumptions, spec, {"estimate": m, "equivalent_mass": {"estimate": m + shift}})
+    signals.with_found_values = with_truth
+
+
+def _truth_of(case: dict) -> float | None:
+    """Rider weight (``meta.csv``) + the spec's net weight, kg, or None."""
+    meta = Path(case["log"]).parent / "meta.csv"
+    if not meta.exists() or case["spec"] is None:
+        return None
+    from euc_sim.rides.source.spec import read_spec
+
+    with open(meta, newline="") as fh:
+        row = next(csv.DictReader(fh))
+    return float(row["rider_weight"]) + float(read_spec(case["spec"]).wheel_mass)
+
+
 def run_fits(variant: str, only: str | None, pairs: tuple) -> list[dict]:
     from euc_sim.rides.balance import design
 
@@ -209,6 +246,8 @@ def run_fits(variant: str, only: str | None, pairs: tuple) -> list[dict]:
         design.PLAUSIBLE["rolling_resistance"] = (0.005, 0.15, "1")
     elif variant == "omega2":
         _omega2_on()
+    elif variant == "true_mass":
+        _true_mass_on()
     elif variant == "unsigned":
         _unsigned_on()
     elif variant == "wind":
@@ -224,6 +263,7 @@ def run_fits(variant: str, only: str | None, pairs: tuple) -> list[dict]:
         if only and only not in case["label"]:
             continue
         print(f"... {variant} {case['label']}", file=sys.stderr, flush=True)
+        _TRUTH["mass"] = _truth_of(case)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             r = bh.one(case, 10, 0)
