@@ -134,11 +134,10 @@ def distance_ahead(t, x_dot, v_ref):
     numpy.ndarray
     """
     import numpy as np
+    from scipy.integrate import cumulative_trapezoid
 
-    t, e = np.asarray(t, float), np.asarray(x_dot, float) - np.asarray(v_ref, float)
-    if t.size < 2:
-        return np.zeros(t.size)
-    return np.concatenate([[0.0], np.cumsum(0.5 * (e[1:] + e[:-1]) * np.diff(t))])
+    return cumulative_trapezoid(np.asarray(x_dot, float) - np.asarray(v_ref, float), np.asarray(t, float),
+                                initial=0.0)
 
 
 def _run_summary(res, m, t0: float, frames: Path | None, name: str) -> dict:

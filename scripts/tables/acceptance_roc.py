@@ -30,8 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-ALIASES = {frozenset({"rolling_resistance", "road_slope"})}
-
+from blind_scoring import ALIAS_FAMILIES
 
 STAT_REASONS = ("BIC drop", "held-out RMSE gain", "|θ|/se")
 
@@ -87,7 +86,7 @@ def load(folder: Path) -> list[dict]:
             continue
         fs = first_step(d["history"])
         right = fs["name"] is not None and (fs["name"] == case["effect"]
-                                            or frozenset({fs["name"], case["effect"]}) in ALIASES)
+                                            or frozenset({fs["name"], case["effect"]}) in ALIAS_FAMILIES)
         rows.append({"where": f"{folder.name}/{stem}", "kind": case["kind"], "effect": case["effect"],
                      "ratio": d["nominal_rmse"] / d["noise_floor"], "right": right,
                      "named": [e["name"] for e in d["effects"]], **fs})

@@ -51,6 +51,7 @@ import numpy as np
 from blind_laws import plan_laws, print_laws, run_laws, score_laws
 from blind_scoring import print_pairs, print_report, score, score_pairs
 from euc_sim.identification.processing import DEFAULT_SMOOTHING
+from euc_sim.io import to_jsonable
 
 MANEUVERS = ("acceleration", "deceleration", "stop_and_go")
 #: Effects concealed in recordings without torques / with M_d recorded.
@@ -358,7 +359,7 @@ def _work(args):
                              smoothing=DEFAULT_SMOOTHING.replace(term_sigma=term_sigma))
     t2 = time.perf_counter()
     view = diagnosis.json_view(res)
-    (out / f"{case['name']}.diagnosis.json").write_text(json.dumps(_jsonable(view), indent=1))
+    (out / f"{case['name']}.diagnosis.json").write_text(json.dumps(to_jsonable(view), indent=1))
     if case["kind"] == "pair":       # each member's size with the other known: its twin alone
         case = {**case, "twin_ratio": _twin_ratios(case, out)}
     kept = {k: view[k] for k in ("effects", "unexplained", "nominal_rmse", "augmented_rmse", "verdict", "decidable",
@@ -380,11 +381,6 @@ def _twin_ratios(case: dict, out: Path) -> dict:
         except ValueError:
             ratios[tw["member"]] = None
     return ratios
-
-
-def _jsonable(x):
-    from euc_sim.io import to_jsonable
-    return to_jsonable(x)
 
 
 def run(cases: list[dict], out: Path, workers: int = 2, resimulate: bool = False,
