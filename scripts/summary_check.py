@@ -19,7 +19,7 @@ import sys
 import warnings
 from pathlib import Path
 
-from euc_sim.rides.report.summary import read_counters, ride_summary
+from euc_sim.rides.report.summary import ride_summary
 from euc_sim.rides.source.logs import read_log
 
 
@@ -31,8 +31,8 @@ def _pct(ours, theirs):
 
 def _row(path: Path, root: Path) -> str:
     log = read_log(path, emit_warnings=False)
-    c = read_counters(path, log)
-    s = ride_summary(log, c)
+    c = log.counters
+    s = ride_summary(log)
     rel = path.relative_to(root)
     name = str(rel.parent if rel.stem.isdigit() else rel).replace("euc_core/trips/", "")
     # like with like: a GPS distance against the app's GPS counter, a wheel one against its trip counter
