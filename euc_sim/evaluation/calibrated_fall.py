@@ -172,8 +172,7 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
 
     from euc_sim.controllers.design import DEFAULT_SCALES, design_rider
     from euc_sim.rides.grids.profile import rider_plan, speed_profile
-    from euc_sim.rides.grids.signals import RideAssumptions
-    from euc_sim.rides.grids.signals import with_found_values
+    from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
     from euc_sim.rides.grids.stops import find_stops
     from euc_sim.rides.rider.rider_params import rider_from
     from euc_sim.rides.sim.sim_steps import motor_from_law
