@@ -25,6 +25,7 @@ from drivesynth import drive_log  # noqa: E402
 from ridesynth import synth_log  # noqa: E402
 
 from euc_sim.cli import main  # noqa: E402
+from euc_sim.rides.source.logs import read_log
 
 #: True when every Plotly figure on the page has been drawn.
 READY = "document.querySelectorAll('.fig').length === document.querySelectorAll('.fig.js-plotly-plot').length"
@@ -43,7 +44,7 @@ def _moving_gps(path: Path) -> Path:
     return path
 
 
-def _ride(argv) -> None:
+def read_log(argv, emit_warnings=False) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         assert main([str(a) for a in argv]) == 0
@@ -54,8 +55,8 @@ def drive(tmp_path_factory):
     """The EUC World twin (GPS, PWM) through ``ride --no-simulate --report``."""
     d = tmp_path_factory.mktemp("drive")
     log = _moving_gps(drive_log(d / "drive.csv", seed=4, duration=300.0))
-    _ride(["ride", log, "--no-simulate", "--n-boot", "10", "--report", d / "rep", "--json", d / "r.json",
-           "--quiet"])
+    read_log(["ride", log, "--no-simulate", "--n-boot", "10", "--report", d / "rep", "--json", d / "r.json",
+           "--quiet"], emit_warnings=False)
     return log, d / "rep", json.loads((d / "r.json").read_text())
 
 
@@ -64,7 +65,7 @@ def simulated(tmp_path_factory):
     """The WheelLog twin (no GPS, no PWM) with a short simulation."""
     d = tmp_path_factory.mktemp("sim")
     log = synth_log(d / "short.csv", seed=2, duration=60.0, gap_at=None)
-    _ride(["ride", log, "--n-boot", "10", "--jobs", "1", "--report", d / "rep", "--quiet"])
+    read_log(["ride", log, "--n-boot", "10", "--jobs", "1", "--report", d / "rep", "--quiet"], emit_warnings=False)
     return d / "rep"
 
 
@@ -89,9 +90,9 @@ def with_summary(drive, tmp_path_factory):
     from euc_sim.rides.report.page_html import RideSeries, figure_specs, write_ride_html
 
     log, _, rep = drive
-    sig = ride_signals(log)
+    sig = ride_signals(read_log(log, emit_warnings=False))
     series = RideSeries.from_frame(sig.raw, sig.rate)
-    fit = analyse(log)
+    fit = analyse(read_log(log, emit_warnings=False))
     rep = dict(rep, summary=SUMMARY, mass_check=MASS_CHECK, battery=BATTERY)
     out = tmp_path_factory.mktemp("summary")
     page = write_ride_html(rep, out, series, fit)
@@ -101,9 +102,9 @@ def with_summary(drive, tmp_path_factory):
 @pytest.fixture(scope="module")
 def diagnosed(tmp_path_factory):
     d = tmp_path_factory.mktemp("diag")
-    _ride(["simulate", "--maneuver", "stop_and_go", "--duration", "10", "--seed", "3",
-           "--effect", "aerodynamic_drag=0.3", "--out", d / "hidden.csv"])
-    _ride(["diagnose", d / "hidden.csv", "--no-resimulate", "--quiet", "--report", d / "rep"])
+    read_log(["simulate", "--maneuver", "stop_and_go", "--duration", "10", "--seed", "3",
+           "--effect", "aerodynamic_drag=0.3", "--out", d / "hidden.csv"], emit_warnings=False)
+    read_log(["diagnose", d / "hidden.csv", "--no-resimulate", "--quiet", "--report", d / "rep"], emit_warnings=False)
     return d / "rep"
 
 

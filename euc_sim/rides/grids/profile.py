@@ -183,7 +183,7 @@ def unpaid_spikes(log: Ride, total_mass: float, factor: float = SPIN_POWER_FACTO
     return out
 
 
-def write_speed_profile(log, path, rate: float = 10.0, window: float = 1.5) -> Path:
+def write_speed_profile(log: Ride, path, rate: float = GAP_POLICY.rate, window: float = 1.5) -> Path:
     """Write :func:`speed_profile` as a CSV (``t,v``) atomically, for the simulator.
 
     Returns
