@@ -92,8 +92,6 @@ KM = 1000.0                 # km -> m
 NEAR_REPEAT = 0.02
 #: Cells read as empty (any case, after stripping), besides the empty string.
 _EMPTY = ("nan", "null", "none")
-#: Every column that may hold a time stamp: parsed as text.
-_TIME_COLUMNS = ("date", "time", "datetime", "Date")
 
 
 class LogFormatError(BadInputFile):
@@ -465,11 +463,12 @@ def _read_table(path: Path) -> pd.DataFrame:
         _check_header(path, header)
         _check_field_counts(path, data, text, len(header))
     empty = [""] + ["".join(c) for w in _EMPTY for c in itertools.product(*zip(w, w.upper()))]
+    times = {c for lay in LAYOUTS.values() for c in lay.time_columns}     # parsed as text
     try:
         raw = pd.read_csv(io.StringIO(text), keep_default_na=False, skipinitialspace=True,
                           index_col=False, low_memory=False,
-                          dtype={c: str for c in (header or ()) if c.strip() in _TIME_COLUMNS},
-                          na_values={c: empty for c in (header or ()) if c.strip() not in _TIME_COLUMNS})
+                          dtype={c: str for c in (header or ()) if c.strip() in times},
+                          na_values={c: empty for c in (header or ()) if c.strip() not in times})
     except pd.errors.EmptyDataError:
         raise LogFormatError(path, "empty file: expected a header row and data rows") from None
     except pd.errors.ParserError as exc:
