@@ -207,7 +207,7 @@ def speed_scale(log: Ride, v_min: float = 4.0, method: str = "doppler") -> Speed
     return SpeedScale(0.5 * (k + k_track), sd, "gps doppler+track")
 
 
-def track_scale(log: Ride, v_min: float = 4.0, max_dt: float = 3.0) -> float | None:
+def track_scale(log: Ride, v_min: float = 4.0, max_dt: float = GAP_POLICY.gps_pair) -> float | None:
     """GPS track distance over the wheel's distance, between successive fixes while moving.
 
     Distances by the haversine formula (:func:`euc_sim.geo.haversine`) between distinct

@@ -146,9 +146,9 @@ def _gap_distance(d: pd.DataFrame) -> tuple[float, float]:
 def _gps_distance(d: pd.DataFrame) -> tuple[float | None, str | None]:
     """The GPS track's length while moving, m, or None with the reason it is not used.
 
-    Fixes are taken where latitude/longitude change; a hop between fixes more than
-    5 s apart is filled with the wheel's distance scaled by the track/wheel ratio of
-    the rest.
+    Fixes are taken where latitude/longitude change; a hop between fixes more than the gap
+    policy's ``gps_hop`` (5 s) apart is filled with the wheel's distance scaled by the
+    track/wheel ratio of the rest.
     """
     if "latitude" not in d or "longitude" not in d:
         return None, "no GPS position in the log"
@@ -166,7 +166,7 @@ def _gps_distance(d: pd.DataFrame) -> tuple[float | None, str | None]:
     ti = t[idx]
     cum = np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1]) * np.minimum(np.diff(t), BRIDGE_S))]
     wheel_hop = np.diff(cum[idx])
-    short = np.diff(ti) <= 5.0
+    short = np.diff(ti) <= GAP_POLICY.gps_hop
     moving_cover = wheel_hop[short].sum() / max(cum[-1], 1e-9)
     if moving_cover < GPS_COVERAGE:
         return None, f"the GPS track covers {100 * moving_cover:.0f} % of the wheel's distance"

@@ -58,6 +58,12 @@ class GapPolicy:
     rider : float
         Longest interval bridged in the rider's channels (the rider fit): its planner needs the
         rows' own detail, so only the 1 Hz logging is bridged.
+    gps_pair : float
+        Longest interval between two GPS fixes whose distance is compared with the wheel's
+        (the speed scale's track): a fix a second or two late still pairs, a lost fix does not.
+    gps_hop : float
+        Longest interval between GPS fixes whose hop counts in the ride's GPS distance; a longer
+        hop is filled with the wheel's distance (the phone lost the sky for a while).
     odometer : float
         Longest interval over which the speed is checked against the wheel's odometer: the
         odometer counts whole metres, so only short intervals compare row by row.
@@ -74,6 +80,8 @@ class GapPolicy:
     profile: float = math.inf
     simulate: float = 120.0
     rider: float = 1.0
+    gps_pair: float = 3.0
+    gps_hop: float = 5.0
     odometer: float = 2.0
     plot_steps: float = 1.5
 
