@@ -106,3 +106,19 @@ def test_a_grid_under_another_policy_is_another_grid(bridge, pieces):
     frame, _ = ride_grid(ride, GapPolicy(bridge=bridge))
     assert frame["segment"].nunique() == pieces
     assert ride_grid(ride)[0]["segment"].nunique() == 2
+
+
+def test_every_gap_number_of_the_ride_side_is_the_policys():
+    """The summary, the charge integral, the plots and the simulation read the one policy."""
+    import euc_sim.rides.drive.drivetrain as drivetrain
+    from euc_sim.rides.sim.simulate import simulation_obstacle
+
+    assert GAP_POLICY.gap_of("eucworld") == 2.0 and GAP_POLICY.gap_of("wheellog") == GAP_POLICY.gap
+    t = np.array([0.0, 0.5, 1.0, 1.6, 2.1, 5.0])
+    assert GAP_POLICY.plot_breaks(t).tolist() == [4]                        # 2.9 s > 1.5 × 0.5 s
+    assert signals.break_at_gaps(t, t)[0].size == t.size + 1
+    # an interval over the policy's 1 s adds no charge, one under it does (3600 A for 0.8 s: 0.8 Ah)
+    q = drivetrain.charge_drawn(np.array([0.0, 1.2, 2.0]), np.full(3, 3600.0))
+    assert q.tolist() == pytest.approx([0.0, 0.0, 0.8])
+    sig = ride_signals(_log(_stamps({60.0: 3.0})))
+    assert simulation_obstacle(sig) is None and "longer than 2 s" in simulation_obstacle(sig, 2.0)
