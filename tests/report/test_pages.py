@@ -44,7 +44,7 @@ def _moving_gps(path: Path) -> Path:
     return path
 
 
-def read_log(argv, emit_warnings=False) -> None:
+def _ride(argv) -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         assert main([str(a) for a in argv]) == 0
@@ -55,8 +55,8 @@ def drive(tmp_path_factory):
     """The EUC World twin (GPS, PWM) through ``ride --no-simulate --report``."""
     d = tmp_path_factory.mktemp("drive")
     log = _moving_gps(drive_log(d / "drive.csv", seed=4, duration=300.0))
-    read_log(["ride", log, "--no-simulate", "--n-boot", "10", "--report", d / "rep", "--json", d / "r.json",
-           "--quiet"], emit_warnings=False)
+    _ride(["ride", log, "--no-simulate", "--n-boot", "10", "--report", d / "rep", "--json", d / "r.json",
+           "--quiet"])
     return log, d / "rep", json.loads((d / "r.json").read_text())
 
 
@@ -65,7 +65,7 @@ def simulated(tmp_path_factory):
     """The WheelLog twin (no GPS, no PWM) with a short simulation."""
     d = tmp_path_factory.mktemp("sim")
     log = synth_log(d / "short.csv", seed=2, duration=60.0, gap_at=None)
-    read_log(["ride", log, "--n-boot", "10", "--jobs", "1", "--report", d / "rep", "--quiet"], emit_warnings=False)
+    _ride(["ride", log, "--n-boot", "10", "--jobs", "1", "--report", d / "rep", "--quiet"])
     return d / "rep"
 
 
@@ -102,9 +102,9 @@ def with_summary(drive, tmp_path_factory):
 @pytest.fixture(scope="module")
 def diagnosed(tmp_path_factory):
     d = tmp_path_factory.mktemp("diag")
-    read_log(["simulate", "--maneuver", "stop_and_go", "--duration", "10", "--seed", "3",
-           "--effect", "aerodynamic_drag=0.3", "--out", d / "hidden.csv"], emit_warnings=False)
-    read_log(["diagnose", d / "hidden.csv", "--no-resimulate", "--quiet", "--report", d / "rep"], emit_warnings=False)
+    _ride(["simulate", "--maneuver", "stop_and_go", "--duration", "10", "--seed", "3",
+           "--effect", "aerodynamic_drag=0.3", "--out", d / "hidden.csv"])
+    _ride(["diagnose", d / "hidden.csv", "--no-resimulate", "--quiet", "--report", d / "rep"])
     return d / "rep"
 
 
