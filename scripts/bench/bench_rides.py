@@ -212,6 +212,7 @@ def bench_ride_fast() -> dict:
     import pandas as pd
 
     from euc_sim.rides.pipeline import run_ride
+    from euc_sim.rides.source.logs import read_log
 
     root = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"
     if not root.is_dir():                       # a worktree beside the shared folder
