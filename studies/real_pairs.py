@@ -277,6 +277,18 @@ def table(rows: list[dict]) -> list[str]:
     return out
 
 
+#: Verdicts the doc's table leaves out (the counts keep them): nothing to compare.
+QUIET = ("agree: no change recorded, none named", "cannot tell: nothing recorded sizes it")
+
+
+def doc_table(rows: list[dict]) -> list[str]:
+    """:func:`table` without its dates column and without the rows whose verdict is in :data:`QUIET`."""
+    keep = [r for r in rows if r["verdict"] not in QUIET]
+    return [ln.replace(" dates |", "", 1).replace(" --- |", "", 1) if i < 2 else
+            "|".join(c for k, c in enumerate(ln.split("|")) if k != 2)
+            for i, ln in enumerate(table(keep))]
+
+
 def tally(rows: list[dict]) -> dict:
     """Verdicts counted: over every row and over the named differences."""
     out: dict = {"all": {}, "named": {}}
@@ -342,8 +354,11 @@ def write_doc(rows: list[dict], cmds: list[str], path: Path) -> None:
     md += ["What each pair can resolve: the smallest difference it can name (the JSON's `resolvable`, the "
            "larger of the 95 % interval's half-width and the naming test's 80 %-power size):", ""]
     md += resolves_table(rows) + [""]
-    md += table(rows) + ["", "Commands (run from the repository, the shared data beside it):", "", "```"]
-    md += cmds + ["```", "", END]
+    md += ["Each difference of each pair but those with nothing to compare (no change recorded and none "
+           "named, or nothing recorded that sizes it; counted above):", ""]
+    md += doc_table(rows) + ["", "One run per pair (run from the repository, the shared data beside it), "
+                             "the first of them:", "", "```"]
+    md += cmds[:1] + ["```", "", END]
     old = path.read_text() if path.exists() else f"{BEGIN}\n{END}\n"
     head, _, rest = old.partition(BEGIN)
     path.write_text(head + "\n".join(md) + rest.partition(END)[2])

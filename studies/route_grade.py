@@ -58,13 +58,13 @@ def one(label: str, fit: Path, test: Path, spec_path: Path | None,
     """Match, decide and carry for one ordered pair; the row of the table."""
     from euc_sim.rides.balance.route_grade import (carried_grade, carry_decision, carry_grade,
                                                   grade_profile, revisit_check)
-    from euc_sim.rides.grids.ride import as_ride
     from euc_sim.rides.grids.route import match_by_speed, match_routes, route_position
     from euc_sim.rides.pipeline import balance_on_mass
+    from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import read_spec
 
     spec = read_spec(spec_path) if spec_path else None
-    an = balance_on_mass(as_ride(fit), as_ride(test), spec, n_boot=0, n_boot_mass=10, seed=0).analysis
+    an = balance_on_mass(read_log(fit), read_log(test), spec, n_boot=0, n_boot_mass=10, seed=0).analysis
     cr = an.cross
     pf = route_position(an.sig_fit.raw)
     pt = route_position(an.sig_test.raw, pf.origin)
@@ -113,7 +113,10 @@ def _f(x, fmt: str) -> str:
 
 
 def table(rows: list[dict]) -> str:
-    """Markdown table of the rows."""
+    """Markdown table of the rows that share a route, then one line naming the others with
+    their held-out ratio (nothing is carried there)."""
+    apart = [r for r in rows if r["match"] is None]
+    rows = [r for r in rows if r["match"] is not None]
     out = ["| pair | GPS on both | match | shared km (share of test ride) | match quality | "
            "offset m | carried | inertia-only W | selected W | ratio | with the carried grade W "
            "| ratio with | on the shared route: inertia-only → selected → with grade W | "
@@ -136,6 +139,9 @@ def table(rows: list[dict]) -> str:
                    f"{r['inertia_only']:.1f} | {r['selected']:.1f} | {r['ratio']:.3f} | "
                    f"{_f(r['with_grade'], '.1f')} | {_f(r['ratio_with'], '.3f')} | {sh} | {g} "
                    f"| {rv} |")
+    if apart:
+        out += ["", "Pairs that share no route (nothing carried; selected / inertia-only held out): "
+                + ", ".join(f"{r['label']} {r['ratio']:.3f}" for r in apart) + "."]
     return "\n".join(out)
 
 

@@ -154,11 +154,14 @@ def _evaluate(pipe: _Pipe, session: str, expr: str):
     return r["result"].get("value")
 
 
-def _open(pipe: _Pipe, url: str, width: int, height: int) -> str:
+def _open(pipe: _Pipe, url: str, width: int, height: int, offline: bool = False) -> str:
     target = pipe.send("Target.createTarget", {"url": "about:blank"})["targetId"]
     session = pipe.send("Target.attachToTarget", {"targetId": target, "flatten": True})["sessionId"]
     for m in ("Runtime.enable", "Network.enable", "Page.enable", "Log.enable"):
         pipe.send(m, None, session)
+    if offline:             # every network request fails, as on a phone without signal
+        pipe.send("Network.emulateNetworkConditions", {"offline": True, "latency": 0, "downloadThroughput": -1,
+                                                       "uploadThroughput": -1}, session)
     pipe.send("Emulation.setDeviceMetricsOverride",
               {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": False}, session)
     pipe.send("Page.navigate", {"url": url}, session)
@@ -190,7 +193,7 @@ def _collect(events: list[dict], out: Rendered) -> None:
 
 def render(page: str | Path, shot: str | Path, expressions=(), *, width: int = 1280, height: int = 900,
            ready: str = "true", settle_s: float = 2.0, timeout: float = 60.0,
-           full_page: bool = False) -> Rendered:
+           full_page: bool = False, offline: bool = False) -> Rendered:
     """Open ``page`` in headless Chromium, settle, evaluate ``expressions``, screenshot to ``shot``.
 
     Parameters
@@ -207,6 +210,8 @@ def render(page: str | Path, shot: str | Path, expressions=(), *, width: int = 1
         Seconds to keep listening after ``ready`` (late script errors, tile requests).
     full_page : bool
         Screenshot the whole page, not only the first screen.
+    offline : bool
+        Block the network (the page itself, a file, still opens).
     """
     exe = chromium()
     if exe is None:
@@ -233,7 +238,7 @@ def render(page: str | Path, shot: str | Path, expressions=(), *, width: int = 1
     pipe = _Pipe(proc, to_w, from_r)
     out = Rendered()
     try:
-        session = _open(pipe, page.as_uri(), width, height)
+        session = _open(pipe, page.as_uri(), width, height, offline)
         _settle(pipe, session, ready, timeout)
         pipe.drain(settle_s)
         out.values = {e: _evaluate(pipe, session, e) for e in expressions}

@@ -152,7 +152,13 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         raise InputError("--calibrate-rider adds a step to the simulation: it cannot go with --no-simulate")
     assumptions = _assumptions(args)
     from euc_sim.rides.report.rider_view import check_rider_weight
-    rider_weight = check_rider_weight(args.rider_weight)
+    weights = args.rider_weight or []
+    if len(weights) > 2:
+        raise InputError(f"--rider-weight: at most twice (LOG's rider, then OTHER's), got {len(weights)} values")
+    if len(weights) == 2 and not args.compare:
+        raise InputError("--rider-weight given twice: the second is OTHER's rider, which needs --compare OTHER.csv")
+    rider_weight = check_rider_weight(weights[0]) if weights else None
+    compare_rider_weight = check_rider_weight(weights[-1]) if weights and args.compare else None
     from euc_sim.rides.balance.analysis import check_data
     from euc_sim.rides.source.spec import wheel_spec
 
@@ -187,7 +193,8 @@ def _cmd_ride(args: argparse.Namespace) -> int:
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
                    simulate=not args.no_simulate, jobs=args.workers,
                    progress=None if args.quiet else _progress, spec=spec,
-                   calibrate_rider=args.calibrate_rider, rider_weight=rider_weight)
+                   calibrate_rider=args.calibrate_rider, rider_weight=rider_weight,
+                   compare_rider_weight=compare_rider_weight)
     if args.json:
         if args.report:         # where the named files are, from the JSON's folder
             rep["report_dir"] = Path(os.path.relpath(Path(args.report).resolve(),
@@ -223,9 +230,10 @@ def add_ride_parser(sub) -> None:
                    help="the wheel: a shipped wheel's name (v9, lynx, apex, aero, blitz, mten4, "
                         "'master pro v2', 's22 pro', z10) or a specification file (Field|Data rows: "
                         "wheel diameter, net weight, battery voltage 'Tension', ...)")
-    p.add_argument("--rider-weight", type=bounded(*RIDER_WEIGHT, unit="kg"), metavar="KG",
+    p.add_argument("--rider-weight", type=bounded(*RIDER_WEIGHT, unit="kg"), metavar="KG", action="append",
                    help="the rider's declared weight with gear, kg: a prior the log's total mass checks "
-                        "(never taken as the answer)")
+                        "(never taken as the answer); with --compare it holds for both rides, or give it "
+                        "twice: LOG's rider, then OTHER's")
     p.add_argument("--wheel-mass", type=bounded(*SPEC_RANGE["wheel_mass"][:2], unit="kg"), metavar="KG",
                    help="the wheel's net weight, kg (overrides the spec)")
     p.add_argument("--battery-voltage", type=bounded(*SPEC_RANGE["battery_voltage"][:2], unit="V"),

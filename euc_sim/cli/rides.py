@@ -126,11 +126,16 @@ def _cmd_rides(args: argparse.Namespace) -> int:
         write_page(args.report, history_page(hist, title))
     if args.json:
         write_json(args.json, hist)
+    from euc_sim.rides.logbook.history_page import pwm_cell, start_in, table_zone
+
+    off, zone = table_zone(hist)
+    print(f"start times in {zone}")
     for e in hist["rides"]:
         s, b = e["summary"], e["battery"]
         r = b["resistance_25C_ohm"] if hist["basis"] == "25C" else b["resistance_ohm"]
-        print(f"{e['start'][:16]}  {Path(e['path']).name}: {(s['distance_m'] or 0) / 1000:.1f} km, "
+        print(f"{start_in(e, off)}  {Path(e['path']).name}: {(s['distance_m'] or 0) / 1000:.1f} km, "
               f"{s['Wh_per_km'] or float('nan'):.1f} Wh/km, battery {s['battery_used_pct'] or 0:.0f} %, "
+              f"max PWM {pwm_cell(s['pwm_max_pct'], ' %')}, "
               f"resistance {'–' if r is None else f'{1e3 * r:.0f} mΩ'}"
               + (f" ({b['verdict']})" if pack and r is not None else ""))
     if hist.get("trend"):

@@ -22,7 +22,7 @@ import scipy.optimize
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.controllers.plant import linear_plant
 from euc_sim.errors import InputError
-from euc_sim.model.parameters import Params, TABLE3
+from euc_sim.model.parameters import Params
 
 __all__ = ["ZETA_UNRESOLVED", "pitch_mode_damping", "damping_floor"]
 

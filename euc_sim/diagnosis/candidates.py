@@ -55,11 +55,6 @@ def visibility(columns) -> dict[str, dict]:
 
 
 # --- the candidate library ---------------------------------------------------------------
-#: Reference magnitude for each force effect's unit column (linear ones are exact).
-_REF = {"rolling_resistance": 1.0, "aerodynamic_drag": 1.0, "road_slope": 1e-3,
-        "wheel_bearing_friction": 1.0, "lateral_dynamics": 1.0}
-
-
 def _force_columns(name: str, prep: Prepared, p: Params, h: float) -> tuple[np.ndarray, np.ndarray]:
     """(kinematic, wheel-row) columns of a force effect per unit of its estimate.
 
@@ -68,10 +63,8 @@ def _force_columns(name: str, prep: Prepared, p: Params, h: float) -> tuple[np.n
     """
     ph = p.replace(h=h)
     kin = prep.kin
-    extra = None
-    if name == "lateral_dynamics":
-        extra = prep.lateral
-    Q = effects.generalized_force(name, _REF[name], ph, kin.q, kin.qd, extra) / _REF[name]
+    ref = effects.get(name).ref        # the column's reference magnitude (linear forces: exact)
+    Q = effects.generalized_force(name, ref, ph, kin.q, kin.qd, prep.lateral) / ref
     kappa = analytic.residual_gain(ph, kin.q[prep.keep])
     return kappa * prep.filtered(analytic.moment_about_contact(ph, Q)), p.R * prep.filtered(Q[:, 0])
 
@@ -137,8 +130,7 @@ def _force_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bo
     """Columns and estimate maps of the force effects the recording can see."""
     cands: dict[str, np.ndarray] = {}
     info: dict[str, dict] = {}
-    for name in ("rolling_resistance", "aerodynamic_drag", "road_slope",
-                 "lateral_dynamics", "wheel_bearing_friction"):
+    for name in (e.name for e in effects.CATALOG.values() if e.force is not None):
         if not vis[name]["visible"]:
             continue
         kin, wh = _force_columns(name, prep, p, h0)
@@ -146,11 +138,13 @@ def _force_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bo
         if not np.any(np.abs(col) > 1e-9):
             continue
         cands[name] = col
-        if name == "lateral_dynamics":
-            info[name] = _lateral_info(prep, p, h0, col, has_w)
-        else:
-            info[name] = {"scale": 1.0, "offset": 0.0}
+        info[name] = ESTIMATE_MAPS.get(name, _linear_info)(prep, p, h0, col, has_w)
     return cands, info
+
+
+def _linear_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: bool) -> dict:
+    """The estimate map of a force linear in its estimate: the coefficient itself."""
+    return {"scale": 1.0, "offset": 0.0}
 
 
 def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: bool) -> dict:
@@ -210,6 +204,11 @@ def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: 
     scales = list(alternatives.values())
     return {"scale": peaks[0], "offset": 0.0, "sqrt": True, "scale_range": [float(min(scales)), float(max(scales))],
             "alternatives": alternatives}
+
+
+#: A force whose estimate is not its column's coefficient: name -> its estimate map
+#: ``f(prep, p, h0, col, has_w) -> info`` (the others: :func:`_linear_info`).
+ESTIMATE_MAPS = {"lateral_dynamics": _lateral_info}
 
 
 def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bool):
@@ -332,13 +331,11 @@ def validity_rules(p: Params, span: tuple, shape: dict | None) -> dict:
         a = float(np.ptp(drift_term.shape_profile(shape, grid) @ theta))
         return None if a <= 0.6 else f"h drift {a:.2f} m peak to peak is beyond physical range (> 0.6 m)"
 
-    return {
-        "rolling_resistance": positive(0, 0.2, ""),
-        "aerodynamic_drag": positive(0, 3.0, "kg/m"),
-        "wheel_bearing_friction": positive(0, 30.0, "N·m·s/rad"),
-        "road_slope": bounded(-0.3, 0.3, "rad"),
-        "lateral_dynamics": bounded(0.5, 2.0, "(coupling scale)"),
-        "rider_mass": bounded(*RIDER_MASS_RANGE, "kg", offset=p.m),
-        "sensor_time_offset": bounded(-0.3, 0.3, "s"),
-        "cog_height_drift": drift,
-    }
+    # a force's coefficient within its record's bounds (a resistance, from 0: of the right sign)
+    rules = {e.name: (positive if e.bounds[0] == 0 else bounded)(*e.bounds, "" if e.unit == "1" else e.unit)
+             for e in effects.CATALOG.values() if e.force is not None}
+    return {**rules,
+            "lateral_dynamics": bounded(0.5, 2.0, "(coupling scale)"),
+            "rider_mass": bounded(*RIDER_MASS_RANGE, "kg", offset=p.m),
+            "sensor_time_offset": bounded(-0.3, 0.3, "s"),
+            "cog_height_drift": drift}

@@ -120,13 +120,14 @@ def heldout_over_floor(heldout_rmse: float, noise_floor: float) -> float:
 NONLINEAR = {"sensor_time_offset": (-0.3, 0.3), "rider_mass": RIDER_MASS_RANGE}
 
 
-#: Magnitudes against which detection limits are judged: the catalog's plausible range,
-#: except the rider mass (a deviation from the nominal mass, kg).
+#: Per nonlinear effect: the half-width of its 1-D search around the current value, the
+#: search's tolerance, and the step of its slope's central difference (its unit).
+SEARCH = {"sensor_time_offset": (0.05, 1e-4, 0.005), "rider_mass": (25.0, 0.05, 2.0)}
+
+
 def plausible_range(name: str) -> tuple[float, float]:
-    if name == "rider_mass":
-        return (10.0, 30.0)
-    lo, hi = effects.get(name).plausible
-    if name == "road_slope":
-        return (0.01, max(abs(lo), abs(hi)))
-    return (lo, hi)
+    """Magnitudes against which detection limits are judged: the record's ``detect_range``
+    (the rider mass: a deviation from the nominal mass, kg), else its plausible range."""
+    e = effects.get(name)
+    return e.detect_range or e.plausible
 

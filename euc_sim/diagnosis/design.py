@@ -77,7 +77,7 @@ def nominal_magnitude(name: str, params: Params = TABLE3) -> float:
     """
     lo, hi = plausible_range(name)
     mid = math.sqrt(lo * hi)
-    return params.m + mid if name == "rider_mass" else mid
+    return fx.RECORDS.absent_value(name, params) + mid
 
 
 def parse_effects(text: str) -> list[str]:
@@ -100,7 +100,7 @@ def parse_effects(text: str) -> list[str]:
 
 def _magnitude(name: str, value: float, params: Params) -> float:
     """|value − no effect|: the size the precision is relative to."""
-    return abs(value - (params.m if name == "rider_mass" else 0.0))
+    return abs(value - fx.RECORDS.absent_value(name, params))
 
 
 def effect_estimate(recording, meta: dict, name: str, params: Params, h0: float) -> tuple[float, float]:

@@ -66,10 +66,11 @@ def sub_cov(problem: reg.Problem, names, cov: np.ndarray, name: str) -> np.ndarr
 
 def is_plausible(name: str, est: float, p: Params) -> bool:
     """Whether an estimate lies in the catalog's plausible range (|α| for the slope)."""
-    lo, hi = effects.get(name).plausible
-    if name == "road_slope":
+    e = effects.get(name)
+    lo, hi = e.plausible
+    if lo < 0:                          # a signed effect: its size
         return abs(est) <= max(abs(lo), abs(hi))
-    if name == "rider_mass":
+    if e.baseline is not None:          # a parameter's value: its range as it is
         return lo <= est <= hi
     return lo * 0.5 <= est <= hi * 1.5
 
@@ -165,7 +166,7 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
                                    max_bic=th.alias_bic, cosine=th.alias_cosine)
         before = s.cv_nominal if i == 0 else s.cv_path[i - 1]
         after = s.cv_path[i] if i < len(selected) - 1 else fin.cv
-        ref = prep.params.m if c == "rider_mass" else 0.0     # the value of "no effect"
+        ref = effects.RECORDS.absent_value(c, prep.params)     # the value of "no effect"
         t_stat = abs(est - ref) / se if se > 0 else float("inf")
         item = {"name": c, "estimate": est, "unit": effects.get(c).unit, "ci95": ci,
                 "rmse_after": after, "aliases": aliases,

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from euc_sim.diagnosis.candidates import build_problem, freeze, validity_rules
-from euc_sim.diagnosis.common import NONLINEAR
+from euc_sim.diagnosis.common import NONLINEAR, SEARCH
 from euc_sim.diagnosis.prepare import Prepared
 from euc_sim.diagnosis.residual import residual_model
 from euc_sim.identification import regression as reg
@@ -56,8 +56,7 @@ def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: f
         for c in nonlin:
             lo, hi = NONLINEAR[c]
             v0 = state[c]
-            w = 0.05 if c == "sensor_time_offset" else 25.0
-            xatol = 1e-4 if c != "rider_mass" else 0.05
+            w, xatol, _ = SEARCH[c]
             a, b = max(lo, v0 - w), min(hi, v0 + w)
             res = minimize_scalar(lambda v: rss(c, v), bounds=(a, b), method="bounded",
                                   options={"xatol": xatol})
@@ -73,7 +72,7 @@ def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: f
     f = reg.fit_set(prob, selected)
     slopes = {}
     for c in nonlin:
-        d = 0.005 if c == "sensor_time_offset" else 2.0
+        d = SEARCH[c][2]
         pa, _ = build({**state, c: state[c] - d})
         pb, _ = build({**state, c: state[c] + d})
         ta = reg.fit_set(pa, selected).theta[c][0]

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
+from euc_sim.simulation.effects import CATALOG
+
 __all__ = ["summary", "write_report", "report_paths", "resimulation_change_text", "FIGURES",
            "residual_figure", "terms_figure", "before_after_figure", "resimulation_figure", "drift_figure"]
 
@@ -468,16 +470,20 @@ def _cell(text: str) -> str:
     return str(text).replace("|", "\\|")
 
 
-def _range(name: str, lo, hi, unit: str, nominal_m: float | None) -> str:
+def _baseline(name: str) -> str | None:
+    """The parameter whose nominal value is ``name``'s "absent" value (its record's ``baseline``)."""
+    return CATALOG[name].baseline if name in CATALOG else None
+
+
+def _range(name: str, lo, hi, unit: str, nominal: dict) -> str:
     u = " (dimensionless)" if unit in ("1", "") else f" {unit}"
-    if name == "rider_mass":
-        return f"a change of {lo:g} to {hi:g}{u} from the nominal {nominal_m:g} kg"
+    if _baseline(name):
+        return f"a change of {lo:g} to {hi:g}{u} from the nominal {nominal.get(_baseline(name)):g}{u}"
     return f"{lo:g} to {hi:g}{u}"
 
 
 def _limits_section(r: dict) -> list[str]:
     """What the recording can and cannot reveal: visibility, detection limit, plausible range."""
-    m = r.get("nominal_params", {}).get("m")
     md = ["## What this recording can and cannot reveal", "",
           "An effect is named when its term stands at least "
           f"{r['thresholds']['min_t']:g} standard errors from zero; *detectable above* is the smallest "
@@ -490,9 +496,9 @@ def _limits_section(r: dict) -> list[str]:
         if lim["detectable_above"] is None:
             da = "—"
         else:
-            da = f"{lim['detectable_above']:.3g}{unit}" + (" (change)" if name == "rider_mass" else "")
+            da = f"{lim['detectable_above']:.3g}{unit}" + (" (change)" if _baseline(name) else "")
         md.append(f"| `{name}` | {'yes via ' + vis['through'] if vis['visible'] else 'no'} | {da} | "
-                  f"{_range(name, *lim['plausible'], lim['unit'], m)} | {_cell(lim['status'])} |")
+                  f"{_range(name, *lim['plausible'], lim['unit'], r.get('nominal_params', {}))} | {_cell(lim['status'])} |")
     md.append("")
     return md
 

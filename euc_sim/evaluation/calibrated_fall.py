@@ -168,8 +168,6 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     With ``frames`` (a folder), each variant's simulated frame is written there as
     ``<variant>.csv`` on the ride's clock, with the distance ahead of the plan (``ahead``, m).
     """
-    import numpy as np
-
     from euc_sim.controllers.design import DEFAULT_SCALES, design_rider
     from euc_sim.rides.grids.profile import rider_plan, speed_profile
     from euc_sim.rides.grids.signals import RideAssumptions, with_found_values

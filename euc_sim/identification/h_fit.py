@@ -202,12 +202,6 @@ class HFit:
         return out
 
 
-def rmse_curve(polys: list[ResidualPoly], h_grid: np.ndarray) -> np.ndarray:
-    """Pooled RMSE(M_d,1 − M_d,2) on a grid of h, N·m."""
-    ss = sum(rp.sum_squares(h_grid) for rp in polys)
-    return np.sqrt(ss / sum(rp.n for rp in polys))
-
-
 def _parabolic_min(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
     """Grid minimiser along the last axis refined by a parabola through 3 points."""
     k = np.clip(np.argmin(J, axis=-1), 1, J.shape[-1] - 2)

@@ -3,7 +3,8 @@
 A page is a title, a first screen of key figures, then sections (open or folded),
 each holding paragraphs, tables and interactive Plotly figures.  It is one file that
 opens offline: Plotly's script, the styles and every figure's data are inline; map
-tiles are the only thing a browser fetches (and a track is drawn without them).
+tiles are the only thing a browser fetches (a track is drawn without them, and a map that
+draws no tile is hidden rather than left an empty frame).
 Nothing a log or spec carries runs: text is escaped, a Markdown link goes only where
 :func:`safe_href` allows, and every page carries a Content-Security-Policy
 (:func:`policy`) that runs only the page's own scripts.
@@ -126,9 +127,16 @@ def figure(fig, div_id: str, height: int = 380) -> str:
     # "</script" or "<!--" inside a script element would end it or change how it ends:
     # JSON has "<" only inside strings, where "\u003c" is the same character
     spec = spec.replace("<", "\\u003c")
-    return (f'<div id="{div_id}" class="fig" style="height:{int(height)}px"></div>'
+    tiles = ' data-map="waiting"' if _is_map(fig) else ""
+    return (f'<div id="{div_id}" class="fig"{tiles} style="height:{int(height)}px"></div>'
             f'<script>(function(){{var f={spec};'
             f'Plotly.newPlot("{div_id}",f.data,f.layout||{{}},{json.dumps(PLOTLY_CONFIG)});}})();</script>')
+
+
+def _is_map(fig) -> bool:
+    """Whether ``fig`` draws on map tiles (a ``map`` subplot: :func:`page` then hides it where none loads)."""
+    layout = fig.get("layout", {}) if isinstance(fig, dict) else fig.layout.to_plotly_json()
+    return "map" in layout
 
 
 def section(title: str, body: str, folded: bool = False) -> str:
@@ -147,9 +155,10 @@ def page(title: str, subtitle: str, body: Sequence[str]) -> str:
     """
     main = "".join(body)
     plotly = f"<script>{_plotly_js()}</script>" if 'Plotly.newPlot("' in main else ""
+    guard = f"<script>{_MAP_GUARD}</script>" if 'data-map="' in main else ""
     rest = (f"<style>{_STYLE}</style>{plotly}</head><body>"
             f"<h1>{_esc(title)}</h1><p class=\"sub\">{_esc(subtitle)}</p>"
-            f"{main}</body></html>")
+            f"{main}{guard}</body></html>")
     return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
             f'<meta http-equiv="Content-Security-Policy" content="{policy(rest)}">'
             "<meta name=\"viewport\" content=\"width=device-width,initial-scale=1\">"
@@ -163,6 +172,23 @@ def _plotly_js() -> str:
     return get_plotlyjs().replace("</script", "<\\/script")
 
 
+#: s a map is given to draw one tile; a map that has drawn none by then (offline, a tile server
+#: down, MapLibre's worker refused from ``file://``) is hidden, and the figure beside it widens.
+MAP_WAIT_S = 8.0
+#: The script that does it (hashed like the figures' by :func:`policy`): it reads MapLibre's
+#: "data" events and its tiles' states, and hides an empty map's column.
+_MAP_GUARD = (
+    "(function(){function drawn(m){if(m._tileDrawn)return true;var st=m.style||{},c=st.tileManagers"
+    "||st.sourceCaches||{};for(var k in c){var t=(c[k]||{})._tiles||{};for(var i in t){if(t[i].state"
+    "==='loaded')return true;}}return false;}function hide(gd){var box=gd.parentNode,cols=box&&box.parentNode;"
+    "if(cols&&cols.classList.contains('cols')){box.style.display='none';cols.style.gridTemplateColumns='1fr';}"
+    "else{gd.style.display='none';}gd.setAttribute('data-map','hidden');window.dispatchEvent(new Event('resize'));}"
+    "function watch(gd,since){var s=gd._fullLayout&&gd._fullLayout.map&&gd._fullLayout.map._subplot,"
+    "m=s&&s.map;if(m&&!m._tileWatch){m._tileWatch=true;m.on('data',function(e){if(e.tile)m._tileDrawn=true;});}"
+    "if(m&&drawn(m)){gd.setAttribute('data-map','drawn');return;}"
+    "if(Date.now()-since>" + str(int(MAP_WAIT_S * 1000)) + "){hide(gd);return;}"
+    "setTimeout(function(){watch(gd,since);},250);}var t0=Date.now();"
+    "document.querySelectorAll('.fig').forEach(function(gd){if(gd.getAttribute('data-map')!==null)watch(gd,t0);});})();")
 _SCRIPT = re.compile(r"<script>(.*?)</script>", re.S)
 #: The script :func:`figure` writes: a JSON literal handed to Plotly, nothing else.
 _FIGURE_SCRIPT = re.compile(r'\(function\(\)\{var f=(.*);Plotly\.newPlot\("[A-Za-z][A-Za-z0-9_-]*",f\.data,'
@@ -180,7 +206,7 @@ def _sha256(text: str) -> str:
 
 def _own_script(text: str) -> bool:
     """Whether ``text`` is Plotly's script or one :func:`figure` wrote (its data valid JSON)."""
-    if text == _plotly_js():
+    if text in (_plotly_js(), _MAP_GUARD):
         return True
     m = _FIGURE_SCRIPT.fullmatch(text)
     try:

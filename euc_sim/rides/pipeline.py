@@ -124,7 +124,7 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
 def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
                   n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
                   progress=None, spec=None, calibrate_rider: bool = False,
-                  rider_weight: float | None = None) -> RideResult:
+                  rider_weight: float | None = None, compare_rider_weight: float | None = None) -> RideResult:
     """Everything ``euc-sim ride`` computes, in order, on logs parsed once.
 
     Parameters
@@ -146,6 +146,8 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
         Add the ``calibrated_rider`` step.
     rider_weight : float, optional
         The rider's declared weight, kg: checked against the log's total mass (``mass_check``).
+    compare_rider_weight : float, optional
+        The same for the compared ride (``compared.mass_check``).
 
     Returns
     -------
@@ -176,6 +178,10 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     rep["verdict"] = ride_verdict(rep)
     # the rider's numbers (summary, mass check, battery health), from the log as parsed here
     rep.update(rider_numbers(log, rep, spec, rider_weight))
+    if compare is not None:         # the compared ride's own numbers, beside LOG's on the page
+        from euc_sim.rides.report.rider_view import compared_numbers
+
+        rep["compared"] = compared_numbers(compare, physics[2], spec, compare_rider_weight)
     from euc_sim.rides.report.drivetrain_report import cutout_of
 
     rep["cutout"] = cutout_of(physics[1], log, rep["summary"]["limits"]).as_json()

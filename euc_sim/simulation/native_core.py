@@ -22,7 +22,6 @@ line on stderr and the callers run their Python loops.
 
 from __future__ import annotations
 
-import ctypes
 import sys
 import threading
 from contextlib import contextmanager

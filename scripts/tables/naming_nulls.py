@@ -19,7 +19,7 @@ real null pairs").
 
 Usage (from the repository root)::
 
-    nice python scripts/tables/naming_nulls.py --work /tmp/naming_nulls [--quarters] [--only blitz/1 v9/0]
+    nice python scripts/tables/naming_nulls.py --work /tmp/naming_nulls [--quarters] [--channels] [--only blitz/1 v9/0]
 """
 
 from __future__ import annotations
@@ -79,8 +79,9 @@ def pairs(data: Path, only=None, quarters: bool = False) -> list[tuple[str, Path
     return out
 
 
-def run(label: str, a: Path, b, work: Path) -> dict:
-    """The named differences of one null pair (drivetrain fits cached in ``work``)."""
+def run(label: str, a: Path, b, work: Path, channels=()) -> dict:
+    """The named differences of one null pair (drivetrain fits cached in ``work``; ``channels``
+    stacked beside battery power, :mod:`euc_sim.rides.compare.channels`)."""
     from euc_sim.rides.compare.differences_report import differences_json
     from euc_sim.rides.report.drivetrain_report import ride_drivetrain
     from euc_sim.rides.source.logs import read_log
@@ -94,7 +95,7 @@ def run(label: str, a: Path, b, work: Path) -> dict:
             else (log, read_log(b, emit_warnings=False))
         physics = ride_drivetrain(log, other)
         cache.write_bytes(pickle.dumps((log, other, physics)))
-    rep = differences_json(physics[0], physics[1], physics[2], log, other)
+    rep = differences_json(physics[0], physics[1], physics[2], log, other, channels=channels)
     diffs = rep["differences"]
     return {"pair": label, "named": sorted(d["name"] for d in diffs if d.get("named")),
             "sizes": {d["name"]: [d["estimate"], d["ci95"]] for d in diffs if d.get("named")},
@@ -140,7 +141,10 @@ def main(argv=None) -> int:
     p.add_argument("--work", required=True, help="folder for the pickled drivetrain fits and rows.json")
     p.add_argument("--only", nargs="+", help="wheel/N rides to use (e.g. blitz/1)")
     p.add_argument("--quarters", action="store_true", help="also each ride's quarters 1-2 and 3-4")
+    p.add_argument("--channels", action="store_true",
+                   help="stack the phase current and voltage sag beside battery power (channels.CHANNELS)")
     args = p.parse_args(argv)
+    from euc_sim.rides.compare.channels import CHANNELS
     work = Path(args.work)
     work.mkdir(parents=True, exist_ok=True)
     rows = []
@@ -148,7 +152,7 @@ def main(argv=None) -> int:
 
     for label, a, b in pairs(Path(args.data), args.only, args.quarters):
         try:
-            rows.append(run(label, a, b, work))
+            rows.append(run(label, a, b, work, CHANNELS if args.channels else ()))
         except RideDataError as e:         # a part with too little riding: no pair, said
             print(f"{label}: skipped ({e})", file=sys.stderr, flush=True)
             continue

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import html
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from euc_sim.rides.grids.power import RHO_AIR
 
@@ -173,6 +173,10 @@ def html_sections(page: str) -> list[tuple[str, str]]:
     """(section title, its text) of an index.html: each tile, each box, the lead, each section."""
     body = page.split("<body>", 1)[-1]
     out = []
+    m = re.search(r'<section><h2>Compared ride: [^<]*</h2>(<div class="kf">.*?</div>)</section>', body, flags=re.S)
+    if m:                   # --compare: the other ride's own tiles, its own quantities
+        out += [(COMPARED, t) for _, t in html_sections("<body>" + m[1])]
+        body = body[:m.start()] + body[m.end():]
     for tile in re.findall(r'<div(?: class="\w+")?><div class="l">(.*?)</div><div class="v">(.*?)</div>'
                            r'(?:<div class="n">(.*?)</div>)?</div>', body, flags=re.S):
         out.append(("tile", _text(f"{tile[0]} {tile[1]}\n{tile[2]}")))
@@ -189,7 +193,10 @@ def md_sections(md: str) -> list[tuple[str, str]]:
     """(heading, its text) of an index.md, split at its ``#``/``##`` headings."""
     out, title, lines = [], "top", []
     for line in md.splitlines():
-        if re.match(r"#{1,2} ", line):
+        if line.startswith("- Compared ride, "):        # --compare: the other ride's key figures
+            out.append((title, "\n".join(lines)))
+            title, lines = COMPARED, []
+        elif re.match(r"#{1,2} ", line):
             out.append((title, "\n".join(lines)))
             title, lines = line.lstrip("#").strip(), []
         else:
@@ -198,9 +205,16 @@ def md_sections(md: str) -> list[tuple[str, str]]:
     return out
 
 
+#: The section of the compared ride's own key figures (``--compare``): its quantities are
+#: another ride's, named apart ("compared:total_mass").
+COMPARED = "compared ride"
+
+
 def page_quantities(sections: list[tuple[str, str]], differences_title: str) -> list[Quantity]:
-    """Every section's quantities, those of ``differences_title`` read as differences."""
-    return [q for title, text in sections for q in quantities(title, text, title == differences_title)]
+    """Every section's quantities, those of ``differences_title`` read as differences, the
+    compared ride's named apart."""
+    out = [q for title, text in sections for q in quantities(title, text, title == differences_title)]
+    return [replace(q, name=f"compared:{q.name}") if q.section == COMPARED else q for q in out]
 
 
 def _same(a: Quantity, b: Quantity) -> bool:

@@ -139,7 +139,7 @@ def test_track_drawn_without_tiles(with_summary, tmp_path):
 def test_tiles_show_the_summary_in_peoples_units(with_summary):
     text = re.sub(r"<[^>]+>", " ", with_summary[0].read_text().split("<body>")[1].split("<script>")[0])
     for shown in ("12.3 km", "21 min", "45 km/h", "35 km/h while moving", "320 Wh", "21 Wh regenerated",
-                  "24.2 Wh/km", "38 %", "range at this rate: 32 km", "91 %", "least margin 9 % at 2:30",
+                  "24.2 Wh/km", "38 %", "range at this rate: 32 km", "91 %", "least margin 9 % at 10:02 (2 min 30 s into the ride",
                   SUMMARY["quality_sentence"].split(": ", 1)[1], "declared rider 80 kg: heavier", "152 mΩ",
                   "worn: +35 % resistance; 147 mΩ at 25 °C"):
         assert shown in text, shown

@@ -50,7 +50,7 @@ def _gps_altitude(seed: int, t: np.ndarray, altitude: np.ndarray, alt_sd: float)
 
 def drive_log(path: Path, seed: int, duration: float = 600.0, truth=DRIVE, signed: bool = True,
               noise_w: float = 30.0, gps: bool = True, phase: bool = True, road=None,
-              alt_sd: float = 1.0) -> Path:
+              alt_sd: float = 1.0, signed_phase: bool = False) -> Path:
     """Write the twin ride; returns ``path``.
 
     True speed v; the wheel logs v/scale.  Force F = m·a + c1 + c3·v² (+ m·g·sin α
@@ -58,6 +58,9 @@ def drive_log(path: Path, seed: int, duration: float = 600.0, truth=DRIVE, signe
     P = D + R_w·I_ph² + P0 (regeneration where negative);
     V = E0 − k_Q·Q − R_int·I; duty d = (K_v·v_wheel + r_F·F)/V with
     F = P/v_wheel; EUC World's safety margin = 100 − 100·d.
+
+    ``signed_phase``: the phase current logged as amp_per_N·F (negative when
+    braking), not its magnitude.
 
     ``road``: a function of the distance ridden s (m) giving (sin α, altitude m); the
     GPS altitude is then the altitude with ``alt_sd`` m of slow error (else a flat
@@ -74,7 +77,7 @@ def drive_log(path: Path, seed: int, duration: float = 600.0, truth=DRIVE, signe
         sin_a, h = road(np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * dt)]))
         F = F + truth["mass"] * 9.81 * sin_a
         alt = _gps_altitude(seed, tf, h, alt_sd)
-    Iph = truth["amp_per_N"] * np.abs(F)
+    Iph = truth["amp_per_N"] * (F if signed_phase else np.abs(F))
     P = F * v + truth["R_w"] * Iph ** 2 + truth["P0"]
     rho = math.exp(-dt / 0.3)
     P = P + ar1_noise(rng, tf.size, noise_w, rho)

@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from euc_sim.rides.balance.design import BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
+from euc_sim.rides.balance.design import BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound, term_role
 from euc_sim.rides.balance.fit import BalanceFit, _solve, fit_balance, plausibility
 from euc_sim.rides.balance.normal import coefficients, solve_gram
 from euc_sim.rides.balance.verdict import unit_label
@@ -111,7 +111,7 @@ def _all_admissible(estimate: dict, idle_cap: float | None = None) -> bool:
         rng = PLAUSIBLE.get(name)
         if rng is not None and not rng[0] <= value <= rng[1]:
             return False
-        if name == "drivetrain_idle_loss" and idle_cap is not None and value > idle_cap:
+        if term_role(name) == "constant" and idle_cap is not None and value > idle_cap:
             return False
     return True
 
@@ -345,8 +345,8 @@ def cross_ride_figure(cr: CrossRide, sig_fit: RideSignals | None = None,
     tt, P_b, pn_b, pa_b = break_at_gaps(td.t, td.P, pn, pa)
     ax[1].plot(tt, P_b, color="k", lw=0.9, label="measured battery power V·I")
     ax[1].plot(tt, pn_b, lw=0.8, label="inertia only\n(no resistance, no loss)")
-    sym = lambda c: CANDIDATES[c][0] + ("+sin α" if c == "rolling_resistance"  # noqa: E731
-                                        and cr.fit_design.aliases.get(c) else "")
+    sym = lambda c: "+".join([CANDIDATES[c][0]] + [CANDIDATES[a][0] for a in  # noqa: E731
+                                                   cr.fit_design.aliases.get(c, ()) if a in CANDIDATES])
     lab = ", ".join(f"{sym(c)}={aug[c]:.3g}" for c in cr.accepted) or "nothing accepted"
     ax[1].plot(tt, pa_b, lw=0.8, label=f"augmented\n({lab})")
     ax[1].set(ylabel="battery power [W]", xlabel="time from start of log [s]",

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from functools import cached_property
+from types import SimpleNamespace
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -44,61 +45,38 @@ import pandas as pd
 
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.rides.grids.route import gps_grade
+from euc_sim.simulation.effects import RECORDS
 from euc_sim.rides.grids.signals import RideSignals, sg, window_samples
 
-__all__ = ["RHO_AIR", "CANDIDATES", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDOW", "Design",
+__all__ = ["RHO_AIR", "CANDIDATES", "term_role", "role_index", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDOW", "Design",
            "Operator", "Basis", "balance_design", "filter_matrix", "on_bound", "standstill_power",
            "MIN_STANDSTILL"]
 
 
-#: Candidate parameters: name -> (symbol, unit, meaning, regressor column or None, column unit).
-CANDIDATES: dict[str, tuple[str, str, str, str | None, str | None]] = {
-    "rolling_resistance": ("C_rr", "1", "rolling-resistance coefficient, force C_rr·N·sign v "
-                           "(in battery power also any loss proportional to speed)",
-                           "rolling", "W"),
-    "aerodynamic_drag": ("k", "kg/m", "drag factor ½ρC_dA, force k·v|v| "
-                         "(in battery power also any loss growing with |v|³)", "drag", "m³/s³"),
-    "copper_loss": ("k_cu", "W/N²", "copper loss k_cu·F² of the motor's accelerating or braking "
-                    "force F = m_eq·a (winding resistance × (R/k_t)²)", "copper", "N²"),
-    "road_slope": ("sin α", "1", "constant road grade, force m·g·sin α", "slope", "W"),
-    "road_slope_gps": ("gain", "1", "gain on the climb m·g·v·sin α, the road's grade read from "
-                       "GPS altitude over 100 m of road (1 if the altitude were exact, less by "
-                       "the share of that grade which is altitude error)",
-                       "gps_climb", "W"),
-    "drivetrain_idle_loss": ("P₀", "W", "constant electrical drain (controller, lights)",
-                             None, None),
-    "current_lag": ("τ_I", "s", "lag of the logged battery current behind the power drawn "
-                    "(first-order lag, to second order: logged P ≈ P − τ_I·Ṗ + τ_I²·P̈)", None, None),
-}
+#: Candidate parameters (the catalog's records with a balance face): name -> (symbol, unit,
+#: meaning, regressor column or None, column unit).
+CANDIDATES = RECORDS.view("balance", lambda b: (b.symbol, b.unit, b.meaning, b.column, b.column_unit))
 #: The inertia-only model: the paper's balance with no resistance and no loss,
 #: P̂ = L₂[m_eq·a·v], nothing fitted (every term is a candidate).
 NOMINAL: tuple[str, ...] = ()
-
 #: Plausible ranges of the physical estimates, with units.
-PLAUSIBLE: dict[str, tuple[float, float, str]] = {
-    "rolling_resistance": (0.005, 0.05, "1"),
-    "aerodynamic_drag": (0.5 * RHO_AIR * 0.3, 0.5 * RHO_AIR * 1.0, "kg/m"),   # C_dA 0.3-1.0 m²
-    "copper_loss": (0.0, 0.035, "W/N²"),       # 1.5·R_ph·(R/k_t)², docs/ride_model.md
-    "road_slope": (-0.15, 0.15, "1"),
-    # 1 for exact altitude, less by the share of the GPS grade that is error; docs/ride_model.md
-    "road_slope_gps": (0.0, 1.5, "1"),
-    "drivetrain_idle_loss": (0.0, 100.0, "W"),
-    "current_lag": (0.0, 0.3, "s"),
-}
-
+PLAUSIBLE = RECORDS.view("balance", lambda b: (*b.plausible, b.unit))
 #: Bounds of the fit: a resistance or loss runs from 0 (absent) to the top of its
 #: plausible range, a grade or GPS gain over its plausible range.  An estimate that
 #: ends on a bound other than "absent" (:func:`on_bound`) is the most that plausible
 #: physics gives while the data asks for more: accepted at that edge, and said so.
-BOUNDS: dict[str, tuple[float, float]] = {
-    "copper_loss": (0.0, PLAUSIBLE["copper_loss"][1]),
-    "rolling_resistance": (0.0, PLAUSIBLE["rolling_resistance"][1]),
-    "aerodynamic_drag": (0.0, PLAUSIBLE["aerodynamic_drag"][1]),
-    "road_slope": PLAUSIBLE["road_slope"][:2],
-    "road_slope_gps": (0.0, PLAUSIBLE["road_slope_gps"][1]),
-    "drivetrain_idle_loss": (0.0, PLAUSIBLE["drivetrain_idle_loss"][1]),
-    "current_lag": (0.0, PLAUSIBLE["current_lag"][1]),
-}
+BOUNDS = RECORDS.view("balance", lambda b: b.bounds)
+
+
+def term_role(name: str) -> str | None:
+    """How the balance applies ``name`` (:attr:`euc_sim.model.catalog.Balance.role`), or None."""
+    face = RECORDS.get(name).balance if name in RECORDS else None
+    return None if face is None else face.role
+
+
+def role_index(names: Sequence[str], role: str) -> int | None:
+    """Index in ``names`` of the parameter whose balance term has ``role`` (``"lag"``, ``"constant"``), or None."""
+    return next((j for j, n in enumerate(names) if term_role(n) == role), None)
 
 
 def on_bound(name: str, value: float, rel: float = 1e-6) -> bool:
@@ -277,11 +255,12 @@ class Design:
         D = self.demand(names, Theta) if D is None else D
         op = self.operator
         P_hat = np.asarray(op.K @ D)
-        if "current_lag" in names:
-            tau = Theta[names.index("current_lag")]
+        lag, const = role_index(names, "lag"), role_index(names, "constant")
+        if lag is not None:
+            tau = Theta[lag]
             P_hat += -tau * np.asarray(op.Kd @ D) + tau ** 2 * np.asarray(op.Kdd @ D)
-        if "drivetrain_idle_loss" in names:
-            P_hat += Theta[names.index("drivetrain_idle_loss")]
+        if const is not None:
+            P_hat += Theta[const]
         return P_hat
 
     def predict(self, params: Mapping[str, float]) -> np.ndarray:
@@ -313,14 +292,14 @@ class Design:
                 G[:, j] = op.columns[col][:, None]
         flat = G.reshape(D.shape[0], -1)
         J = np.asarray(op.K @ flat).reshape(-1, len(names), D.shape[1])
-        if "current_lag" in names:
-            j = names.index("current_lag")
+        j, const = role_index(names, "lag"), role_index(names, "constant")
+        if j is not None:
             tau = Theta[j]
             J += (-tau * np.asarray(op.Kd @ flat).reshape(J.shape)
                   + tau ** 2 * np.asarray(op.Kdd @ flat).reshape(J.shape))
             J[:, j] = -np.asarray(op.Kd @ D) + 2 * tau * np.asarray(op.Kdd @ D)
-        if "drivetrain_idle_loss" in names:
-            J[:, names.index("drivetrain_idle_loss")] = 1.0
+        if const is not None:
+            J[:, const] = 1.0
         return -self.weight[:, None, None] * J
 
 
@@ -455,39 +434,37 @@ PRE_WINDOW = 0.5
 def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
     """The L₁-filtered regressor columns of a ride and the candidates they support.
 
+    Each record with a balance face is offered where its ``regressor`` gives a column
+    (or it has none: a constant or a lag); where it gives a reason instead, the reason is
+    a note and its ``aliases_when_absent`` stand in for it.
     Returns ``(columns, candidates, aliases, notes)``; see :func:`balance_design`.
     """
     A = sig.assumptions
-    mg = A.total_mass * A.g
     raw = sig.raw
     v_raw = raw["v"].to_numpy()
-    notes: list[str] = []
-    cols = {
-        "inertia": A.m_eq * L1(0.5 * v_raw ** 2, 1),       # m_eq·a·v = m_eq·d/dt(v²/2)
-        "rolling": mg * L1(np.abs(v_raw)),
-        "drag": L1(np.abs(v_raw) ** 3),
-        "copper": (A.m_eq * L1(v_raw, 1)) ** 2,             # F² = (m_eq·a)², N²
-    }
-    cands = ["rolling_resistance", "aerodynamic_drag", "copper_loss", "drivetrain_idle_loss",
-             "current_lag"]
-    aliases: dict[str, tuple[str, ...]] = {}
     moving = np.abs(v_raw) > 0.3
     back = float((v_raw[moving] < -0.3).mean()) if moving.any() else 0.0
     fwd = float((v_raw[moving] > 0.3).mean()) if moving.any() else 0.0
-    if min(back, fwd) >= sign_change_fraction:
-        cols["slope"] = mg * L1(v_raw)
-        cands.append("road_slope")
-    else:
-        aliases["rolling_resistance"] = ("road_slope",)
-        aliases["road_slope"] = ("rolling_resistance",)
-        notes.append(f"the speed keeps one sign ({100 * min(back, fwd):.1f} % of moving samples "
-                     f"the other way): rolling resistance and a constant road slope give the "
-                     f"same column, so only C_rr + sin α is estimated (as rolling_resistance)")
-    if sig.has_gps_alt:
-        cols["gps_climb"] = mg * L1(v_raw * gps_grade(raw))      # m·g·v·sin α
-        cands.append("road_slope_gps")
-    else:
-        notes.append("no GPS altitude: road grade unknown; a varying grade stays in the residual")
+    b = SimpleNamespace(v=v_raw, mg=A.total_mass * A.g, m_eq=A.m_eq, L1=L1,
+                        gps_grade=gps_grade(raw) if sig.has_gps_alt else None,
+                        sign_change=min(back, fwd), sign_change_fraction=sign_change_fraction)
+    cols = {"inertia": A.m_eq * L1(0.5 * v_raw ** 2, 1)}       # m_eq·a·v = m_eq·d/dt(v²/2)
+    cands: list[str] = []
+    aliases: dict[str, tuple[str, ...]] = {}
+    notes: list[str] = []
+    for e in RECORDS.having("balance"):
+        t = e.balance
+        col = None if t.regressor is None else t.regressor(b)
+        if isinstance(col, str):
+            for other in t.aliases_when_absent:
+                aliases[other] = (e.name,)
+            if t.aliases_when_absent:
+                aliases[e.name] = t.aliases_when_absent
+            notes.append(col)
+            continue
+        if col is not None:
+            cols[t.column] = col
+        cands.append(e.name)
     return cols, cands, aliases, notes
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from euc_sim.errors import InputError
 from euc_sim.rides.balance.design import CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
 from euc_sim.rides.balance.normal import solve_gram
-from euc_sim.rides.grids.power import RHO_AIR
+from euc_sim.simulation.effects import RECORDS
 from euc_sim.stats import percentile_interval, wild_block_signs
 
 __all__ = ["BalanceFit", "fit_balance", "block_rows", "plausibility", "MIN_BLOCKS", "FEW_BLOCKS"]
@@ -28,10 +28,9 @@ MIN_BLOCKS = 2
 #: Below this many blocks the intervals are rough (reported as a note).
 FEW_BLOCKS = 5
 
-#: Start values of the least-squares fit (its bounds: :data:`~euc_sim.rides.balance.design.BOUNDS`).
-_START = {"copper_loss": 0.0, "rolling_resistance": 0.0,
-          "aerodynamic_drag": 0.0, "road_slope": 0.0, "road_slope_gps": 1.0,
-          "drivetrain_idle_loss": 0.0, "current_lag": 0.0}
+#: Start values of the least-squares fit, each term's nominal value (its bounds:
+#: :data:`~euc_sim.rides.balance.design.BOUNDS`).
+_START = RECORDS.view("balance", lambda b: b.nominal)
 
 
 @dataclass(frozen=True)
@@ -247,7 +246,7 @@ def plausibility(fit: BalanceFit) -> dict[str, dict]:
     """Physical estimates of a fit, with units, intervals and plausibility flags.
 
     Adds the drag area C_dA = 2k/ρ (ρ = 1.2 kg/m³) and the road angle
-    α = arcsin(sin α) where they apply.
+    α = arcsin(sin α) where they apply (the record's ``json_extra``).
 
     Returns
     -------
@@ -268,10 +267,8 @@ def plausibility(fit: BalanceFit) -> dict[str, dict]:
         entry = {"estimate": est, "unit": unit, "ci95": ci, "symbol": sym, "meaning": meaning,
                  "plausible_range": list(rng[:2]) if rng else None, "on_bound": edge,
                  "plausible": bool(rng is None or rng[0] <= est <= rng[1])}
-        if k == "aerodynamic_drag":
-            entry["drag_area_m2"] = 2 * est / RHO_AIR
-            entry["drag_area_m2_ci95"] = [2 * c / RHO_AIR for c in ci]
-        if k == "road_slope":
-            entry["angle_rad"] = math.asin(max(-1.0, min(1.0, est)))
+        json_extra = RECORDS.get(k).balance.json_extra
+        if json_extra is not None:
+            entry.update(json_extra(est, ci))
         out[k] = entry
     return out

@@ -19,7 +19,8 @@ from typing import Sequence
 
 import numpy as np
 
-from euc_sim.rides.balance.design import BOUNDS, CANDIDATES
+from euc_sim.rides.balance.design import BOUNDS, CANDIDATES, role_index, term_role
+from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["coefficients", "solve_gram", "scale", "bounds", "snap_to_bounds"]
 
@@ -44,7 +45,8 @@ def coefficients(columns: Sequence[str], names: Sequence[str], theta: np.ndarray
     p = _SLOTS * len(columns) + 2
     v, dv = np.zeros(p), np.zeros((p, len(names)))
     v[-1] = 1.0
-    tau = float(theta[names.index("current_lag")]) if "current_lag" in names else 0.0
+    lag = role_index(names, "lag")
+    tau = float(theta[lag]) if lag is not None else 0.0
     filt = np.array([1.0, -tau, tau ** 2])               # L₂ − τ·L₂′ + τ²·L₂″
     scale_of = {"inertia": 1.0}
     for j, n in enumerate(names):
@@ -53,23 +55,21 @@ def coefficients(columns: Sequence[str], names: Sequence[str], theta: np.ndarray
             scale_of[col] = float(theta[j])
             i = columns.index(col)
             dv[_SLOTS * i:_SLOTS * i + _SLOTS, j] = -filt
-        elif n == "drivetrain_idle_loss":
+        elif term_role(n) == "constant":
             v[-2] = -float(theta[j])
             dv[-2, j] = -1.0
     for col, th in scale_of.items():
         i = columns.index(col)
         v[_SLOTS * i:_SLOTS * i + _SLOTS] = -th * filt
-        if "current_lag" in names:
-            dv[_SLOTS * i + 1, names.index("current_lag")] = th
-            dv[_SLOTS * i + 2, names.index("current_lag")] = -2.0 * tau * th
+        if lag is not None:
+            dv[_SLOTS * i + 1, lag] = th
+            dv[_SLOTS * i + 2, lag] = -2.0 * tau * th
     return v, dv
 
 
 def scale(names: Sequence[str]) -> np.ndarray:
     """Typical size of each parameter: ``least_squares``'s ``x_scale`` and the step test."""
-    return np.array([{"drivetrain_idle_loss": 10.0, "aerodynamic_drag": 0.1,
-                      "rolling_resistance": 0.01, "road_slope": 0.01,
-                      "copper_loss": 0.005}.get(n, 0.1) for n in names])
+    return np.array([RECORDS.get(n).balance.scale if n in CANDIDATES else 0.1 for n in names])
 
 
 def bounds(names: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
@@ -133,7 +133,7 @@ def solve_gram(G: np.ndarray, columns: Sequence[str], names: Sequence[str], x0: 
         v, dv = coefficients(columns, names, np.empty(0))
         return SimpleNamespace(x=np.empty(0), cost=0.5 * float(v @ G @ v), jac=np.empty((len(v), 0)))
     lo, hi = bounds(names)
-    if "current_lag" not in names:          # linear: the unconstrained optimum, if inside the box
+    if role_index(names, "lag") is None:          # linear: the unconstrained optimum, if inside the box
         v0, D = coefficients(columns, names, np.zeros(len(names)))
         A = D.T @ G @ D
         if np.all(np.isfinite(A)) and np.linalg.cond(A) < 1e12:

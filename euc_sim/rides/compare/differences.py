@@ -3,8 +3,10 @@
 Each physics is sized by one least-squares fit of both rides
 (:mod:`euc_sim.rides.compare.differences_fit`): the terms both rides share are fitted
 on both, the difference Δθ on OTHER's rows only (battery power for the mass,
-rolling, drag and the current's delay, a shift of OTHER's signals; terminal
-voltage for the pack resistance; GPS speed for the speed scale).  A difference
+rolling, drag and the current's delay, a shift of OTHER's signals, with the
+phase current and voltage sag where the logs have them,
+:mod:`euc_sim.rides.compare.channels`; terminal voltage for the pack
+resistance; GPS speed for the speed scale).  A difference
 is *named* when both hold:
 
 1. its q-value is below :data:`FALSE_NAME_RATE`: its one-sided p-value (a
@@ -43,13 +45,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
 from euc_sim.rides.compare.resolution import bh_qvalues
-from euc_sim.rides.grids.power import G, RHO_AIR
+from euc_sim.rides.grids.power import RHO_AIR
+from euc_sim.simulation.effects import RECORDS
 
-__all__ = ["Difference", "Differences", "FALSE_NAME_RATE", "ALIAS_CORRELATION", "PHYSICS",
+__all__ = ["Difference", "Differences", "FALSE_NAME_RATE", "ALIAS_CORRELATION", "physics",
            "parameters_from_ride", "difference_interval", "signature_columns",
            "alias_table", "with_qvalues", "ride_differences", "rider_sentence"]
 
@@ -57,25 +61,10 @@ __all__ = ["Difference", "Differences", "FALSE_NAME_RATE", "ALIAS_CORRELATION", 
 FALSE_NAME_RATE = 0.05
 #: |correlation| of two signatures over both rides beyond which the pair cannot tell them apart.
 ALIAS_CORRELATION = 0.9
-#: The physics a difference is tested for (the effect catalog's names).
-PHYSICS = ("total_mass", "rolling_resistance", "aerodynamic_drag", "internal_resistance",
-           "speed_scale", "current_delay")
-#: Each physics' unit, where a ride's list lacks it.
-_UNIT = {"total_mass": "kg", "rolling_resistance": "1", "aerodynamic_drag": "kg/m",
-         "internal_resistance": "ohm", "speed_scale": "1", "current_delay": "s"}
-#: Why a rider would see it, by parameter, for the page's sentence.
-_HINT = {
-    "aerodynamic_drag": ("kg/m more drag", "kg/m less drag", "{:.2f}", "(a jacket? a headwind?)"),
-    "rolling_resistance": ("more rolling resistance", "less rolling resistance", "{:.3f}",
-                           "(a softer tyre? a rougher road?)"),
-    "total_mass": ("kg more mass", "kg less mass", "{:.0f}", "(a backpack? a passenger?)"),
-    "internal_resistance": ("Ω more battery resistance", "Ω less battery resistance", "{:.3f}",
-                            "(a colder or older pack?)"),
-    "speed_scale": ("more ground per logged metre", "less ground per logged metre", "{:.1%}",
-                    "(a tyre size set differently in the app? a worn tyre?)"),
-    "current_delay": ("s more delay on the current channel", "s less delay on the current channel",
-                      "{:.1f}", "(a different app or logging rate?)"),
-}
+def physics() -> tuple[str, ...]:
+    """The physics a difference may be named for: the catalog's records with a compare face
+    that is not a nuisance of the pair fit."""
+    return tuple(e.name for e in RECORDS.having("compare") if e.compare.named)
 
 
 @dataclass(frozen=True)
@@ -207,7 +196,8 @@ def difference_interval(a: float, a_ci, b: float, b_ci, ratio: bool = False):
 
 # ---------------------------------------------------------------- signatures and aliases
 def signature_columns(v, av, P, t, current=None, climb=None, coef=None) -> dict:
-    """Each physics' battery-power signature, W per unit of the parameter.
+    """Each physics' battery-power signature, W per unit of the parameter (its record's
+    ``compare.signature``, in the records' ``compare.order``).
 
     Parameters
     ----------
@@ -225,16 +215,12 @@ def signature_columns(v, av, P, t, current=None, climb=None, coef=None) -> dict:
     -------
     dict of str -> ndarray
     """
-    c = {"total_mass": 80.0, "rolling_resistance": 0.0, "aerodynamic_drag": 0.0, **(coef or {})}
-    s = np.abs(v)
-    cols = {"aerodynamic_drag": s ** 3, "rolling_resistance": c["total_mass"] * G * s,
-            "total_mass": av + (0.0 if climb is None else np.nan_to_num(climb)),
-            "speed_scale": 2.0 * c["total_mass"] * av + c["rolling_resistance"] * c["total_mass"] * G * s
-            + 3.0 * c["aerodynamic_drag"] * s ** 3,
-            "current_delay": -np.gradient(P, t)}
-    if current is not None:
-        cols["internal_resistance"] = current ** 2
-    return cols
+    faces = sorted((e for e in RECORDS.having("compare") if e.compare.signature is not None),
+                   key=lambda e: e.compare.order)
+    c = {e.name: e.compare.coef for e in RECORDS.having("compare") if e.compare.coef is not None}
+    s = SimpleNamespace(v=v, av=av, P=P, t=t, current=current, climb=climb, coef={**c, **(coef or {})})
+    cols = {e.name: e.compare.signature(s) for e in faces}
+    return {n: col for n, col in cols.items() if col is not None}
 
 
 def alias_table(columns: dict, threshold: float = ALIAS_CORRELATION) -> tuple[dict, dict]:
@@ -274,7 +260,7 @@ def _independent(name, a, b):
         return None
     if not a.get("ci95") or not b.get("ci95"):
         return b["estimate"] - a["estimate"], None
-    d, ci = difference_interval(a["estimate"], a["ci95"], b["estimate"], b["ci95"], name == "speed_scale")
+    d, ci = difference_interval(a["estimate"], a["ci95"], b["estimate"], b["ci95"], _ratio(name))
     return d, tuple(ci)
 
 
@@ -296,16 +282,23 @@ def _tested_why(name, tested: dict, cannot: dict) -> tuple[bool, str]:
     return sig and excl, why
 
 
+def _ratio(name) -> bool:
+    """Whether the difference in ``name`` is a ratio minus 1 (its record's ``compare.ratio``)."""
+    e = RECORDS.get(name) if name in RECORDS else None
+    return bool(e is not None and e.compare is not None and e.compare.ratio)
+
+
 def _one(name, a, b, tested, aliases, cannot) -> Difference:
-    unit = b.get("unit") or a.get("unit") or _UNIT.get(name, "")
-    unit = "1" if name == "speed_scale" else unit
+    e = RECORDS.get(name) if name in RECORDS else None
+    unit = b.get("unit") or a.get("unit") or (e.unit if name in physics() else "")
+    unit = "1" if _ratio(name) else unit
     ind = _independent(name, a, b)
     if tested is not None and tested.get("estimate") is not None:
         named, why = _tested_why(name, tested, cannot)
-        if name not in PHYSICS:
+        if name not in physics():
             named, why = False, why + "; a nuisance of the pair fit, never named"
         ci = tested.get("ci95")
-        alias_set = tuple(x for x in tested.get("alias_set") or () if x in PHYSICS) if named else ()
+        alias_set = tuple(x for x in tested.get("alias_set") or () if x in physics()) if named else ()
         alias_set = alias_set if len(alias_set) > 1 else ()
         if alias_set:
             why += f"; this pair cannot tell {' from '.join(alias_set)} apart: each is possible, none certain"
@@ -321,7 +314,7 @@ def _one(name, a, b, tested, aliases, cannot) -> Difference:
         return Difference(name, None, None, unit, False, "not identified on "
                           + ("this ride" if a.get("estimate") is None else "the compared ride"))
     why = ("not a physics the pair fit tests (state of the pack or controller)"
-           if name not in PHYSICS else "no pair fit possible on these rides: cannot be named")
+           if name not in physics() else "no pair fit possible on these rides: cannot be named")
     if ind[1] is None:
         why = "no interval on one ride: cannot be named"
     return Difference(name, ind[0], ind[1], unit, False, why, tuple(aliases), None, ind)
@@ -332,14 +325,14 @@ def with_qvalues(tested: dict) -> dict:
 
     Nuisance candidates of the pair fit (never named) are not in the family.
     """
-    family = [n for n in tested if n in PHYSICS and tested[n].get("p_value") is not None]
+    family = [n for n in tested if n in physics() and tested[n].get("p_value") is not None]
     q = bh_qvalues([tested[n]["p_value"] for n in family])
     return {n: ({**e, "q_value": float(q[family.index(n)])} if n in family else e) for n, e in tested.items()}
 
 
 def ride_differences(log_params: list, other_params: list, tested: dict, aliases: dict,
                      cannot_see: dict, log_name: str = "the other ride",
-                     mass_view: dict | None = None) -> Differences:
+                     views: dict | None = None) -> Differences:
     """OTHER minus LOG for every parameter of both lists.
 
     Parameters
@@ -353,9 +346,10 @@ def ride_differences(log_params: list, other_params: list, tested: dict, aliases
         :func:`alias_table`.
     log_name : str
         How the sentence names LOG ("the 16 May ride").
-    mass_view : dict, optional
-        The existing ``mass_difference``: the ``total_mass`` entry's
-        ``independent`` view takes its estimate and interval.
+    views : dict, optional
+        The ride JSON's views of differences by key (``mass_difference``): a physics whose
+        record names one (``compare.view``) takes that view's estimate and interval as its
+        ``independent`` detail.
     """
     a = {p["name"]: p for p in log_params}
     b = {p["name"]: p for p in other_params}
@@ -366,16 +360,19 @@ def ride_differences(log_params: list, other_params: list, tested: dict, aliases
     items = []
     for name in [n for n in a if n in b]:
         pa, pb = a[name], b[name]
-        if name == "total_mass" and mass_view and mass_view.get("estimate") is not None:
+        e = RECORDS.get(name) if name in RECORDS else None
+        view = (views or {}).get(e.compare.view) if e is not None and e.compare is not None else None
+        if view and view.get("estimate") is not None:
             pa = {**pa, "estimate": 0.0, "ci95": [0.0, 0.0]}
-            pb = {**pb, "estimate": mass_view["estimate"], "ci95": mass_view["ci95"]}
+            pb = {**pb, "estimate": view["estimate"], "ci95": view["ci95"]}
         items.append(_one(name, pa, pb, tested.get(name), aliases.get(name, []), cannot_see))
     return Differences(tuple(items), dict(cannot_see), rider_sentence(items, log_name))
 
 
-#: A physics in one word or two, for an alias set ("drag or rolling resistance").
-_WORD = {"aerodynamic_drag": "drag", "rolling_resistance": "rolling resistance", "total_mass": "mass",
-         "internal_resistance": "battery resistance", "speed_scale": "tyre size", "current_delay": "delay"}
+def _word(name: str) -> str:
+    """A physics in one word or two, for an alias set ("drag or rolling resistance")."""
+    e = RECORDS.get(name) if name in RECORDS else None
+    return e.words.word if e is not None and e.words is not None else name.replace("_", " ")
 
 
 def rider_sentence(items, log_name: str) -> str:
@@ -387,16 +384,16 @@ def rider_sentence(items, log_name: str) -> str:
     """
     parts, sets = [], []
     for d in items:
-        if not d.named or d.name not in _HINT:
+        w = RECORDS.get(d.name).words if d.named and d.name in RECORDS else None
+        if w is None:
             continue
-        more, less, fmt, hint = _HINT[d.name]
+        more, less, fmt = w.said
         size = f"{fmt.format(abs(d.estimate))} {more if d.estimate > 0 else less}"
         if d.alias_set:
-            words = " or ".join(_WORD.get(n, n.replace("_", " ")) for n in d.alias_set)
-            sets.append(f"{words}: this pair cannot tell them apart ({size} if it is "
-                        f"{_WORD.get(d.name, d.name)})")
+            words = " or ".join(_word(n) for n in d.alias_set)
+            sets.append(f"{words}: this pair cannot tell them apart ({size} if it is {w.word})")
         else:
-            parts.append(f"{size} {hint}")
+            parts.append(f"{size} ({w.hint})")
     if not parts and not sets:
         return f"this ride needed nothing its log can show that {log_name} did not."
     said = [f"this ride needed {'; '.join(parts)} than {log_name}"] if parts else []

@@ -132,7 +132,7 @@ def _block_ids(t: np.ndarray, n_folds: int, block: float) -> tuple[np.ndarray, n
         rows = np.flatnonzero(fold == f)
         if len(rows) == 0:
             continue
-        sub = np.floor((t[rows] - t[rows[0]]) / block).astype(int)
+        sub = np.floor((t[rows] - t[rows].min()) / block).astype(int)
         _, sub = np.unique(sub, return_inverse=True)
         ids[rows] = n + sub
         folds += [f] * (sub.max() + 1)

@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RATE, PHYSICS, alias_table,
+from euc_sim.rides.compare.channels import readings, whitening
+from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RATE, alias_table, physics,
                                                parameters_from_ride, ride_differences, signature_columns)
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
 from euc_sim.rides.compare.resolution import with_floor
 from euc_sim.rides.drive.drivetrain import charge_drawn
 from euc_sim.rides.drive.mass import mass_regressors
-from euc_sim.rides.grids.power import G
+from euc_sim.rides.source.channels import current_from_phase
+from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "differences_json"]
 
@@ -45,9 +47,7 @@ def _power_columns(sig, lag: int, force, m: float) -> tuple[dict, dict]:
     zero = np.zeros(len(sig.t))
     shared = {n: cols.get(n, zero) for n in SHARED_POWER}
     shared["no_load"] = zero + 1.0
-    delta = {"total_mass": shared["inertia"] + shared["grade"],
-             "rolling_resistance": m * G * shared["rolling"], "aerodynamic_drag": shared["drag"],
-             "drivetrain_idle_loss": zero + 1.0}
+    delta = {e.name: e.compare.pair(shared, m) for e in RECORDS.having("compare") if e.compare.pair is not None}
     return shared, delta
 
 
@@ -98,12 +98,56 @@ def _valid(sig, y, lag: int, K: int, force, mass: float) -> np.ndarray:
     return _rows(sig, arrays)
 
 
-def _stack(first: bool, shared: dict, delta: dict, y, ok, scale: dict) -> np.ndarray:
-    """``[shared…, differences…, y]`` rows of one ride, columns scaled (differences zero on LOG)."""
+def _stack(first: bool, shared: dict, delta: dict, y, ok, scale: dict, own: dict | None = None,
+           owns=()) -> np.ndarray:
+    """``[shared…, differences…, own…, y]`` rows of one ride, columns scaled (differences zero on LOG;
+    of the channels' own columns ``owns``, this ride's ``own`` only)."""
     nil = np.zeros(ok.sum())
     cols = [shared[n][ok] / scale[n] for n in shared]
     cols += [(nil if first else delta[n][ok] / scale[n]) for n in delta]
+    cols += [own[n][ok] if own and n in own else nil for n in owns]
     return np.column_stack(cols + [y[ok]])
+
+
+def _channel_rows(fit, test, sides: list, scale: dict, channels, window, rate) -> tuple | None:
+    """Battery power and each channel of :func:`~euc_sim.rides.compare.channels.readings`, whitened and stacked.
+
+    Every channel keeps the rows (windows) where all of them and their columns
+    are finite, so that the k-th row of each channel is the same moment; the
+    channels' rows are then combined by :func:`~euc_sim.rides.compare.channels.whitening`
+    of their held-out residuals on LOG (least squares on the stacked rows is
+    generalized least squares across the channels).
+
+    Returns
+    -------
+    (names, [(tL, ZL), (tO, ZO)]) or None
+        The channels' own columns (after the power model's) and the stacked
+        rows of LOG and OTHER; None where the pair has no other channel.
+    """
+    parts = {"power": [(y, sh, de, {}) for sh, de, y, _ in sides]}
+    parts.update(readings(fit, test, [(sh, de, y) for sh, de, y, _ in sides], channels))
+    if len(parts) == 1:
+        return None
+    owns = tuple(n for rows in parts.values() for row in rows for n in row[3])
+    oks = []
+    for k, (_, _, _, ok) in enumerate(sides):
+        for rows in parts.values():
+            y, sh, de, own = rows[k]
+            for col in (y, *sh.values(), *de.values(), *own.values()):
+                ok = ok & np.isfinite(col)
+        oks.append(ok)
+    if min(ok.sum() for ok in oks) < 200:
+        return None
+    rides = []
+    for k, (ok, r) in enumerate(zip(oks, (fit, test))):
+        Z = []
+        for rows in parts.values():
+            y, sh, de, own = rows[k]
+            t, z = r.sig.t[ok], _stack(k == 0, sh, de, y, ok, scale, own, owns)
+            Z.append(window_means(t, z, window, rate) if window else (t, z))
+        rides.append((Z[0][0], np.stack([z for _, z in Z])))
+    W = whitening(rides[0][0], rides[0][1])
+    return owns, [(np.tile(t, len(W)), np.einsum("ck,krp->crp", W, Z).reshape(-1, Z.shape[-1])) for t, Z in rides]
 
 
 def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
@@ -121,7 +165,7 @@ def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tup
     return tm[keep], sums[keep] / n[keep, None]
 
 
-def power_design(fit, test, mass: float, shifts=None, window: float | None = None):
+def power_design(fit, test, mass: float, shifts=None, window: float | None = None, channels=()):
     """Both rides' battery power: LOG's terms shared, a constant each; OTHER's differences and shift.
 
     Parameters
@@ -137,6 +181,10 @@ def power_design(fit, test, mass: float, shifts=None, window: float | None = Non
         One shift: the mass, rolling and drag differences at that shift.
     window : float, optional
         Rows averaged over windows of this many seconds (:func:`window_means`).
+    channels : sequence of str
+        With one shift, the channels stacked beside battery power where both
+        rides have them (:mod:`euc_sim.rides.compare.channels`; () for battery
+        power alone); the delay's design is battery power's alone.
 
     Returns
     -------
@@ -168,6 +216,11 @@ def power_design(fit, test, mass: float, shifts=None, window: float | None = Non
         tL, ZL = window_means(tL, ZL, window, rate)
         tO, ZO = window_means(tO, ZO[0], window, rate)[0], [window_means(tO, z, window, rate)[1] for z in ZO]
     names = (*sL, *dL)
+    stacked = _channel_rows(fit, test, [(sL, dL, yL, okL), (*shifted[0], yO, okO)], scale, channels,
+                            window, rate) if channels and len(shifts) == 1 else None
+    if stacked is not None:
+        names, ((tL, ZL), (tO, ZO0)) = (*names, *stacked[0]), stacked[1]
+        ZO = [ZO0]
     # the delay's design keeps the mass, rolling and drag differences in every model: the shift
     # is tested beyond them
     design = PairDesign(names, tuple(dL) if len(shifts) == 1 else (), tL, ZL, tO, tuple(ZO), 1.0 / rate)
@@ -236,11 +289,12 @@ def _delay_resolution(fit, log_path, compare_path) -> float:
 
 
 def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200,
-               seed: int = 0) -> dict:
+               seed: int = 0, channels=()) -> dict:
     """Each physics OTHER needs beyond the model both rides share (:func:`pair_fit` per domain).
 
     The current's delay first, on battery power sample by sample (a shift grid);
-    then the mass, rolling and drag on battery power averaged over
+    then the mass, rolling and drag on battery power and the ``channels`` both
+    logs have (:mod:`euc_sim.rides.compare.channels`; none by default), averaged over
     :data:`ROAD_WINDOW` s windows, OTHER at the delay found (when kept);
     terminal voltage for the pack resistance; GPS speed for the speed scale.
 
@@ -252,8 +306,10 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
         s), added to its ``detectable``'s interval half-width.
     """
     fitted = lambda made: None if made is None else pair_fit(   # noqa: E731
-        made[0], level=FALSE_NAME_RATE, family=len(PHYSICS), transform=made[1], n_boot=n_boot, seed=seed)
+        made[0], level=FALSE_NAME_RATE, family=len(physics()), transform=made[1], n_boot=n_boot, seed=seed)
     out = {}
+    if not all(current_from_phase(p) for p in (log_path, compare_path)):
+        channels = tuple(c for c in channels if c != "sag")     # a measured current: sag repeats it
     delay = fitted(power_design(fit, test, mass))
     shift = 0
     if delay is not None:
@@ -263,7 +319,7 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
             out[DELAY]["detectable"] = with_floor(out[DELAY]["detectable"], out[DELAY]["resolution"])
         if DELAY in delay.selected:
             shift = int(round(delay.estimates[DELAY][0] * (1.0 / np.median(np.diff(fit.sig.t)))))
-    for res in (fitted(power_design(fit, test, mass, [shift], ROAD_WINDOW)),
+    for res in (fitted(power_design(fit, test, mass, [shift], ROAD_WINDOW, channels)),
                 fitted(voltage_design(fit, test)), fitted(gps_design(log_path, compare_path))):
         if res is not None:
             out.update(_entries(res))
@@ -271,9 +327,8 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
 
 
 def _coef(params: list) -> dict:
-    return {p["name"]: p["estimate"] for p in params
-            if p["name"] in ("total_mass", "rolling_resistance", "aerodynamic_drag")
-            and p.get("estimate") is not None}
+    assumed = {e.name for e in RECORDS.having("compare") if e.compare.coef is not None}
+    return {p["name"]: p["estimate"] for p in params if p["name"] in assumed and p.get("estimate") is not None}
 
 
 def _signatures(sig, coef: dict) -> dict:
@@ -294,7 +349,7 @@ def pair_aliases(fit, test, coef: dict) -> tuple[dict, dict]:
 
 
 def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int = 200,
-                     seed: int = 0) -> dict:
+                     seed: int = 0, channels=()) -> dict:
     """The ``differences`` list and its companions for the ride JSON.
 
     Parameters
@@ -307,6 +362,9 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
         Each ride, as the ride pipeline holds it.
     n_boot, seed : int
         Bootstrap replicates of the pair fits and their seed.
+    channels : sequence of str
+        The channels beside battery power (:func:`pair_tests`; none by default,
+        :data:`~euc_sim.rides.compare.channels.CHANNELS` the measured set).
     """
     from euc_sim.rides.report.drivetrain_report import drivetrain_report
 
@@ -316,10 +374,10 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
     aliases, cannot = pair_aliases(fit, test, coef)
     start = log_path.start
     name = f"the {start.day} {start:%B} ride ({log_path.name})"
-    tested = pair_tests(fit, test, log_path, compare_path, coef.get("total_mass", 80.0), n_boot, seed)
+    tested = pair_tests(fit, test, log_path, compare_path, coef.get("total_mass", 80.0), n_boot, seed,
+                        channels)
     for n, entry in tested.items():     # within a pair fit, its own estimates' correlations
         if "aliases" in entry and n != DELAY:
             aliases[n] = entry["aliases"]
-    res = ride_differences(log_params, other_params, tested, aliases, cannot, name,
-                           rep.get("mass_difference"))
+    res = ride_differences(log_params, other_params, tested, aliases, cannot, name, rep)
     return res.to_json()

@@ -59,7 +59,9 @@ class Resolution:
         the parameter's unit; None for a shift.
     residual_rms : float or None
         OTHER's blocked held-out RMS with the difference modelled, the fitted
-        signal's unit (W for battery power, V, m/s).
+        signal's unit (W for battery power, V, m/s; 1 where other channels are
+        stacked beside battery power, each whitened:
+        :mod:`euc_sim.rides.compare.channels`).
     signature_rms : float or None
         Held-out RMS of the difference's column after the model's other
         columns, the fitted signal's unit per unit of the parameter.

@@ -20,6 +20,7 @@ import numpy as np
 
 from euc_sim.errors import BadInputFile
 from euc_sim.geo import haversine
+from euc_sim.model.catalog import G, RHO_AIR
 from euc_sim.rides.grids.signals import ride_grid, sg
 from euc_sim.rides.source.channels import current_from_phase
 from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
@@ -29,8 +30,6 @@ from euc_sim.rides.source.systematic import CURRENT_SCALE_SD, GRADE_SHARE
 __all__ = ["G", "RHO_AIR", "NO_GPS_SCALE_SD", "RideDataError", "MassSettings", "SpeedScale",
            "PowerSignals", "speed_scale", "track_scale", "power_signals"]
 
-G = 9.81               # m/s²
-RHO_AIR = 1.2          # kg/m³ at about 20 °C
 #: Speedometer-scale standard deviation, when no GPS speed measures it (relative).
 NO_GPS_SCALE_SD = 0.05
 

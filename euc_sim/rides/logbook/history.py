@@ -44,7 +44,8 @@ class RideEntry:
     ----------
     path : str
     start : str
-        ISO wall-clock time of the log's first sample.
+        ISO wall-clock time of the log's first sample: UTC where the log names its zone,
+        else the phone's local clock (:attr:`~euc_sim.rides.source.ride.Ride.start`).
     layout : str
     summary : dict
         :meth:`euc_sim.rides.report.summary.RideSummary.to_json`.
@@ -62,6 +63,8 @@ class RideEntry:
         (:func:`full_charge`), V; None without both channels.
     repairs : tuple of str
         What the reader changed in the log (:attr:`~euc_sim.rides.source.ride.Ride.repairs`).
+    utc_offset_s : float or None
+        The log's zone, s east of UTC; None where it names none.
     """
 
     path: str
@@ -75,6 +78,7 @@ class RideEntry:
     temperature_source: str | None
     full_charge_V: float | None = None
     repairs: tuple = ()
+    utc_offset_s: float | None = None
 
     def to_json(self) -> dict:
         """A JSON-ready dict."""
@@ -230,7 +234,7 @@ def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
     return RideEntry(path=str(path), start=log.start.isoformat(), layout=log.layout,
                      summary=summary.to_json(), battery=bh.to_json(), model=log.counters.wheel_model,
                      series=series, temperature_C=temp, temperature_source=tsrc,
-                     full_charge_V=full_charge(log), repairs=tuple(log.repairs))
+                     full_charge_V=full_charge(log), repairs=tuple(log.repairs), utc_offset_s=log.utc_offset_s)
 
 
 def check_one_wheel(entries) -> None:

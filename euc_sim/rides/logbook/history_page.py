@@ -10,9 +10,46 @@ from pathlib import Path
 
 from euc_sim.report.html import KeyFigure, figure, key_figures, page, paragraph, section, table
 
-__all__ = ["history_page"]
+__all__ = ["history_page", "table_zone", "start_in", "pwm_cell"]
 
 _LEGEND = {"orientation": "h", "yanchor": "bottom", "y": 1.02, "xanchor": "left", "x": 0}
+
+
+def table_zone(h: dict) -> tuple[float | None, str]:
+    """The one zone the rides' table shows every start in: the zone most of the logs that name
+    one give (s east of UTC, and in words), logs naming none (WheelLog: the phone's clock) taken
+    as already in it; the phone's local time where no log names a zone."""
+    from collections import Counter
+
+    from euc_sim.rides.report.rider_view import zone_words
+
+    offs = Counter(e.get("utc_offset_s") for e in h["rides"] if e.get("utc_offset_s") is not None)
+    if not offs:
+        return None, zone_words(None)
+    off = offs.most_common(1)[0][0]
+    bare = any(e.get("utc_offset_s") is None for e in h["rides"])
+    return off, zone_words(off) + (" (logs naming no zone: the phone's clock, as logged)" if bare else "")
+
+
+def start_in(e: dict, offset_s: float | None) -> str:
+    """A ride's start, "YYYY-MM-DD HH:MM", in the zone ``offset_s`` (:func:`table_zone`)."""
+    from datetime import datetime, timedelta
+
+    t = datetime.fromisoformat(e["start"])
+    if e.get("utc_offset_s") is not None and offset_s is not None:
+        t += timedelta(seconds=offset_s)            # the entry's start is UTC
+    return f"{t:%Y-%m-%d %H:%M}"
+
+
+def pwm_cell(pct: float | None, unit: str = "") -> str:
+    """A ride's max PWM, %, flagged as the ride page's tile judges it (warn from 80 %, bad from 90 %)."""
+    from euc_sim.rides.report.page_html import PWM_BAD, PWM_WARN
+
+    if pct is None:
+        return "–"
+    flag = (f" BAD (≥ {PWM_BAD:.0f} %: close to a cut-out)" if pct >= PWM_BAD else
+            f" high (≥ {PWM_WARN:.0f} %)" if pct >= PWM_WARN else "")
+    return f"{pct:.0f}{unit}{flag}"
 
 
 def _r(e: dict, basis: str) -> tuple:
@@ -64,13 +101,14 @@ def _fmt(x, scale=1.0, nd=0, none="–"):
 
 def _rows(h: dict) -> list:
     rows = []
+    off = table_zone(h)[0]
     for e in h["rides"]:
         s, b = e["summary"], e["battery"]
         r, ci = _r(e, h["basis"])
-        rows.append([e["start"][:16].replace("T", " "), Path(e["path"]).name,
+        rows.append([start_in(e, off), Path(e["path"]).name,
                      _fmt(s["distance_m"], 1e-3, 1), _fmt(s["moving_s"], 1 / 60),
                      _fmt(s["speed_max_mps"], 3.6, 1), _fmt(s["energy_drawn_Wh"]),
-                     _fmt(s["Wh_per_km"], 1, 1), _fmt(s["battery_used_pct"]), _fmt(s["pwm_max_pct"]),
+                     _fmt(s["Wh_per_km"], 1, 1), _fmt(s["battery_used_pct"]), pwm_cell(s["pwm_max_pct"]),
                      "–" if r is None else f"{1e3 * r:.0f} [{1e3 * ci[0]:.0f}, {1e3 * ci[1]:.0f}]",
                      _fmt(e["temperature_C"]), s["quality"]])
     return rows
@@ -125,7 +163,7 @@ def history_page(h: dict, title: str = "Rides of one wheel") -> str:
                                                     "logged temperature (°C)"), "r_temp")))
     body.append(section("Consumption", figure(_whkm_figure(h), "whkm")))
     body.append(section("Every ride", table(
-        ["start", "log", "distance (km)", "moving (min)", "top (km/h)", "drawn (Wh)", "Wh/km",
+        [f"start ({table_zone(h)[1]})", "log", "distance (km)", "moving (min)", "top (km/h)", "drawn (Wh)", "Wh/km",
          "battery used (%)", "max PWM (%)", "resistance (mΩ) [95 %]", "temperature (°C)", "data"],
         _rows(h))))
     return page(title, f"{len(h['rides'])} rides", body)

@@ -21,11 +21,11 @@ from __future__ import annotations
 
 import csv
 import re
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Mapping
+from typing import Mapping
 
-from euc_sim.rides.grids.power import RHO_AIR
+from euc_sim.model.catalog import Words
+from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["Shown", "SHOWN", "TITLE", "difference_lines", "difference_section", "recorded_metadata"]
 
@@ -33,61 +33,10 @@ __all__ = ["Shown", "SHOWN", "TITLE", "difference_lines", "difference_section", 
 TITLE = "What differs in the compared ride"
 
 
-@dataclass(frozen=True)
-class Shown:
-    """How one parameter's difference is said.
-
-    Attributes
-    ----------
-    label : str
-        The physics in a rider's words ("drag area").
-    scale : callable
-        The JSON's unit to the page's.
-    unit : str
-        The page's unit (with its leading space, or ``""``).
-    fmt : str
-        Format of a magnitude in the page's unit.
-    more, less : str
-        The sentence's words after the number, OTHER above or below LOG.
-    hint, hint_less : str
-        Why a rider would see it, OTHER above or below LOG.
-    meta : str or None
-        The ``meta.csv`` column bearing on it.
-    """
-
-    label: str
-    scale: Callable[[float], float]
-    unit: str
-    fmt: str
-    more: str
-    less: str
-    hint: str
-    hint_less: str
-    meta: str | None = None
-
-
-#: Each physics a difference is said for, in the order the page says them.
-SHOWN = {
-    "total_mass": Shown("mass", lambda x: x, " kg", "{:.0f}", "more mass", "less mass",
-                        "a backpack? a passenger?", "a lighter load?", "rider_weight"),
-    "aerodynamic_drag": Shown("drag area", lambda k: k / (0.5 * RHO_AIR), " m²", "{:.2f}",
-                              "more drag area", "less drag area", "a jacket? a headwind?",
-                              "tighter clothes? a tailwind?", "wind"),
-    "rolling_resistance": Shown("rolling resistance", lambda c: 100.0 * c, " % of the weight", "{:.1f}",
-                                "more rolling resistance", "less rolling resistance",
-                                "a softer tyre? a rougher road?", "a harder tyre? a smoother road?",
-                                "tire_pressure"),
-    "internal_resistance": Shown("battery resistance", lambda r: 1000.0 * r, " mΩ", "{:.0f}",
-                                 "more battery resistance", "less battery resistance",
-                                 "a colder or older pack?", "a warmer pack?", "temperature"),
-    "speed_scale": Shown("tyre size (speed scale)", lambda s: 100.0 * s, " %", "{:.1f}",
-                         "more ground per logged metre", "less ground per logged metre",
-                         "a tyre size set differently in the app? a worn tyre?",
-                         "a tyre size set differently in the app? a softer tyre?", "tire_pressure"),
-    "current_delay": Shown("current delay", lambda s: s, " s", "{:.1f}",
-                           "more delay on the current channel", "less delay on the current channel",
-                           "a different app or logging rate?", "a different app or logging rate?"),
-}
+#: Each physics a difference is said for (the catalog's records with words), in the catalog's
+#: order, read live: name -> :class:`~euc_sim.model.catalog.Words`.
+SHOWN = RECORDS.view("words")
+Shown = Words
 #: meta.csv columns said beside a difference: (words, unit).
 META_WORDS = {"rider_weight": ("rider weight", " kg"), "tire_pressure": ("tyre pressure", " bar"),
               "temperature": ("temperature", " °C"), "wind": ("wind", "")}

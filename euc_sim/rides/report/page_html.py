@@ -24,6 +24,7 @@ from euc_sim.report import html as H
 from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
 from euc_sim.rides.drive.cutout import CONDITIONS, Limits, headroom_words
 from euc_sim.rides.source.gaps import GAP_POLICY
+from euc_sim.rides.report.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
 
 __all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "first_screen", "figure_specs",
            "data_quality",
@@ -80,16 +81,6 @@ class RideSeries:
         return v if np.isfinite(v) else None
 
 
-def _hm(seconds: float) -> str:
-    m = int(round(seconds / 60.0))
-    return f"{m // 60} h {m % 60:02d} min" if m >= 60 else f"{m} min"
-
-
-def _mmss(seconds: float) -> str:
-    s = int(round(seconds))
-    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
-
-
 def _num(d: Mapping | None, key: str) -> float | None:
     v = (d or {}).get(key)
     return float(v) if isinstance(v, (int, float)) and np.isfinite(v) else None
@@ -99,10 +90,10 @@ def _num(d: Mapping | None, key: str) -> float | None:
 NOT_POWER = "the log's V·I is not the battery's power: the app computes its current"
 
 
-def _ride_tiles(s: Mapping | None, not_power: bool = False) -> list:
+def _ride_tiles(rep: Mapping, not_power: bool = False) -> list:
     """Distance, time, speeds, energy, consumption and battery: from ``summary``; the energy
     and consumption not given where the log's V·I is not battery power (``not_power``)."""
-    K = H.KeyFigure
+    K, s = H.KeyFigure, rep.get("summary")
     if not s:
         return [K(lbl, NA, "needs the ride's summary") for lbl in
                 ("Distance", "Riding time", "Top speed", "Energy drawn", "Consumption", "Battery used")]
@@ -114,12 +105,14 @@ def _ride_tiles(s: Mapping | None, not_power: bool = False) -> list:
         drawn = regen = whkm = None
     return [
         K("Distance", f"{dist / 1000:.1f} km" if dist is not None else NA,
-          f"from {s.get('distance_source')}" if dist is not None else ""),
+          _distance_note(s) if dist is not None else ""),
         K("Riding time", _hm(mov) if mov is not None else NA,
-          f"of {_hm(dur)} logged" if dur is not None else ""),
+          "; ".join(x for x in ((f"of {_hm(dur)}" + (f"; {s['duration_follows']}" if s.get("duration_follows")
+                                                      else " logged")) if dur is not None else "",
+                                span_words(rep)) if x)),
         K("Top speed", f"{top * 3.6:.0f} km/h" if top is not None else NA,
           "; ".join(x for x in (f"average {mean * 3.6:.0f} km/h while moving" if mean is not None else "",
-                                _spin_note(s.get("free_spin"))) if x)),
+                                _spin_note(rep, s.get("free_spin"))) if x)),
         K("Energy drawn", f"{drawn:.0f} Wh" if drawn is not None else NA,
           NOT_POWER if not_power else
           f"{regen:.0f} Wh regenerated" if regen is not None else "regeneration not logged"),
@@ -131,24 +124,35 @@ def _ride_tiles(s: Mapping | None, not_power: bool = False) -> list:
     ]
 
 
-def _spin_note(spin: Mapping | None) -> str:
+def _distance_note(s: Mapping) -> str:
+    """The counter the distance follows; where it is the GPS, the wheel's own count beside it
+    when they differ by over 2 %."""
+    note = s.get("distance_follows") or f"from {s.get('distance_source')}"
+    dist, wheel = _num(s, "distance_m"), _num(s, "distance_wheel_m")
+    if s.get("distance_source") == "gps" and dist and wheel and abs(wheel / dist - 1) > 0.02:
+        note += f"; the wheel's own count {wheel / 1000:.1f} km ({100 * (wheel / dist - 1):+.0f} %)"
+    return note
+
+
+def _spin_note(rep: Mapping, spin: Mapping | None) -> str:
     """The summary's ``free_spin`` (the wheel spinning off the ground) in a few words, or ''."""
     v, n = _num(spin, "speed_max_mps"), (spin or {}).get("count")
     if v is None or not n:
         return ""
     at = _num(spin, "at_s")
     return (f"the wheel spun free (off the ground) at {v * 3.6:.0f} km/h"
-            + (f" at {_mmss(at)}" if n == 1 and at is not None else f" and {n - 1} more time(s)" if n > 1 else "")
+            + (f" at {when(rep, at)}" if n == 1 and at is not None else f" and {n - 1} more time(s)" if n > 1 else "")
             + ": left out")
 
 
-def _pwm_tile(s: Mapping | None, where: str) -> object:
+def _pwm_tile(rep: Mapping, where: str) -> object:
+    s = rep.get("summary")
     p = _num(s, "pwm_max_pct")
     if p is None:
         return H.KeyFigure("Max PWM", NA, "no PWM or safety margin logged" if s else "needs the summary")
     at = _num(s, "pwm_max_at_s")
     tone = "bad" if p >= PWM_BAD else "warn" if p >= PWM_WARN else "good"
-    note = f"least margin {100 - p:.0f} %" + (f" at {_mmss(at)}{where}" if at is not None else "")
+    note = f"least margin {100 - p:.0f} %" + (f" at {when(rep, at, where)}" if at is not None else "")
     return H.KeyFigure("Max PWM", f"{p:.0f} %", note, tone)
 
 
@@ -222,28 +226,50 @@ def _battery_tile(rep: Mapping) -> object:
     return H.KeyFigure("Battery resistance", f"{1000 * est:.0f} mΩ", note, tone)
 
 
-def key_figures(rep: Mapping) -> list:
+def compared_view(rep: Mapping) -> dict | None:
+    """The compared ride's numbers (the ride JSON's ``compared``) in the form :func:`key_figures`
+    reads; None without ``--compare``."""
+    c = rep.get("compared")
+    return None if not c else {k: c.get(k) for k in ("recording", "summary", "battery", "total_mass", "mass_check",
+                                                        "unidentified", "clock")}
+
+
+def key_figures(rep: Mapping, marked: bool = True) -> list:
     """The first screen's tiles, every number from the ride result (``summary``, ``battery``,
-    ``total_mass``; the drivetrain's resistance where no ``battery`` entry exists)."""
+    ``total_mass``; the drivetrain's resistance where no ``battery`` entry exists).
+    ``marked``: the page draws this ride, so its max PWM is marked on it."""
     s = rep.get("summary")
     alarms = s.get("alarms") if s else None
     quality, tone = data_quality(s)
     not_power = bool((rep.get("unidentified") or {}).get("battery_power"))
     battery = H.KeyFigure("Battery resistance", NA, NOT_POWER) if not_power else _battery_tile(rep)
-    return (_ride_tiles(s, not_power)
-            + [_pwm_tile(s, " (marked on the map)" if (s or {}).get("pwm_max_place") else " (marked over time)"),
+    return (_ride_tiles(rep, not_power)
+            + [_pwm_tile(rep, "" if not marked else
+                         "marked on the map" if (s or {}).get("pwm_max_place") else "marked over time"),
                H.KeyFigure("Alarms", NA if alarms is None else str(alarms),
                            "" if not alarms or s.get("alarm_rows") is None else
                            f"{s['alarm_rows']} rows of the log flagged", "warn" if alarms else ""),
                H.KeyFigure("Data quality", str((s or {}).get("quality") or NA),
-                           re.sub(r"^Data quality \w+: ", "", quality), tone),
+                           _and_pauses(re.sub(r"^Data quality \w+: ", "", quality), pause_words(rep)), tone),
                _mass_tile(rep.get("total_mass"), rep.get("mass_check")), battery])
+
+
+def _and_pauses(sentence: str, pauses: str) -> str:
+    """The data-quality sentence with the pauses' clock times added before its full stop."""
+    if not pauses:
+        return sentence
+    return (f"{sentence.rstrip('.')}; {pauses}." if sentence and sentence != NA else pauses)
 
 
 def key_figure_lines(rep: Mapping) -> list[str]:
     """The first screen's tiles as plain lines, ``"Label: value (note)"``: what the terminal
     and the plain-text page say first, the same strings as the HTML tiles."""
-    return [f"{k.label}: {k.value}" + (f" ({k.note})" if k.note else "") for k in key_figures(rep)]
+    def lines(r, marked=True):
+        return [f"{k.label}: {k.value}" + (f" ({k.note})" if k.note else "") for k in key_figures(r, marked)]
+
+    other = compared_view(rep)
+    return lines(rep) + ([f"Compared ride, {Path(str(other['recording'])).name}:"] + lines(other, False)
+                         if other else [])
 
 
 def first_screen(rep: Mapping) -> frozenset:
@@ -298,17 +324,20 @@ def _max_pwm_mark(rep: Mapping, series: RideSeries):
 
 
 def over_time(rep: Mapping, series: RideSeries):
-    """Speed, power, PWM, voltage and temperature on one shared time axis."""
+    """Speed, power, PWM, voltage and temperature on one shared time axis (pauses left out)."""
     c = series.channels
     spec = (("speed_kmh", "Speed", "km/h"), ("power_W", "Battery power", "W"), ("pwm_pct", "PWM", "%"),
             ("voltage_V", "Voltage", "V"), ("temperature_C", "Temperature", "°C"))
     keep = thin(series.t.size, MOST_POINTS)
+    axis = TimeAxis.of(rep, series.t)
+    x = axis.x(series.t[keep])
+    keep, x = keep[np.isfinite(x)], x[np.isfinite(x)]
     panels = [Panel(name, unit, c[k][keep]) for k, name, unit in spec if k in c]
     m = _max_pwm_mark(rep, series)
-    mark = None if m is None else (m[0] / 60.0, f"max PWM {_num(rep['summary'], 'pwm_max_pct'):.0f} %")
+    mark = None if m is None else (float(axis.x([m[0]])[0]), f"max PWM {_num(rep['summary'], 'pwm_max_pct'):.0f} %")
     gap = max(series.gap_s, GAP_POLICY.plot_steps * float(np.median(np.diff(series.t[keep])))) if keep.size > 1 else series.gap_s
-    fig = time_panels(series.t[keep] / 60.0, panels, "The ride over time (zoom one panel: all follow)",
-                      gap / 60.0, mark)
+    fig = time_panels(x, panels, "The ride over time (zoom one panel: all follow)", gap / 60.0, mark)
+    axis.decorate(fig, len(panels))
     if mark is not None and "pwm_pct" in c:        # the peak is one logged row: the grid's mean may not reach it
         import plotly.graph_objects as go
 
@@ -330,7 +359,7 @@ def on_the_map(rep: Mapping, series: RideSeries):
     keep = thin(series.t.size, MOST_POINTS)
     lat, lon, val = c["lat"][keep], c["lon"][keep], c[key][keep]
     m = _max_pwm_mark(rep, series)
-    mark = None if m is None or m[1] is None else (m[1], m[2], f"max PWM at {_mmss(m[0])}")
+    mark = None if m is None or m[1] is None else (m[1], m[2], f"max PWM at {when(rep, m[0])}")
     title = f"Where you rode, coloured by {label.split(',')[0]}"
     return (track_map(lat, lon, val, label, title + " (OpenStreetMap)", mark),
             track_plain(lat, lon, val, label, title + " (drawn without the map)", mark))
@@ -568,7 +597,11 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
     figs = figure_specs(rep, series, fit)
     from euc_sim.rides.report.differences_page import TITLE, difference_lines
 
-    body = [H.key_figures(key_figures(rep))]
+    other = compared_view(rep)
+    body = [H.key_figures(key_figures(rep)) if other is None else      # --compare: both rides side by side
+            H.columns(H.section(f"This ride: {name}", H.key_figures(key_figures(rep))),
+                      H.section(f"Compared ride: {Path(str(other['recording'])).name}",
+                                H.key_figures(key_figures(other, marked=False))))]
     diff = difference_lines(rep, getattr(fit, "path", None))
     if diff:                    # --compare: what differs leads, right under the ride's numbers
         body.append(H.box(TITLE, H.markdown(diff)))

@@ -12,7 +12,7 @@ import math
 from euc_sim.errors import InputError
 from euc_sim.rides.source.ride import Ride
 
-__all__ = ["rider_numbers", "check_rider_weight"]
+__all__ = ["rider_numbers", "compared_numbers", "check_rider_weight", "ride_clock", "zone_words"]
 
 
 #: A rider's declared weight with gear, kg (``--rider-weight``).
@@ -26,6 +26,44 @@ def check_rider_weight(kg: float | None) -> float | None:
     if not (math.isfinite(kg) and RIDER_WEIGHT[0] <= kg <= RIDER_WEIGHT[1]):
         raise InputError(f"--rider-weight is the rider's weight with gear, kg, between 20 and 250; got {kg!r}")
     return float(kg)
+
+
+def zone_words(offset_s: float | None) -> str:
+    """The zone of a clock, s east of UTC, in words: ``"UTC+02:00"``, or the phone's local time
+    where the log names none (None)."""
+    if offset_s is None:
+        return "the phone's local time"
+    m = int(round(abs(offset_s) / 60.0))
+    return f"UTC{'-' if offset_s < 0 else '+'}{m // 60:02d}:{m % 60:02d}"
+
+
+def ride_clock(log: Ride) -> dict:
+    """When the ride ran, in its own zone: the ride JSON's ``clock``.
+
+    Returns
+    -------
+    dict
+        ``start`` (ISO 8601 clock time of the log's first row in the ride's own zone, with the
+        offset where the log gives one), ``utc_offset_s`` (s east of UTC, None where the log
+        names no zone: WheelLog writes the phone's local clock), ``zone`` (in words) and
+        ``pauses`` ([[t0, t1], ...] s from the log's start: the intervals the summary leaves
+        out of the duration).
+    """
+    from datetime import timedelta, timezone
+
+    import numpy as np
+    import pandas as pd
+
+    from euc_sim.rides.source.gaps import GAP_POLICY
+
+    off = log.utc_offset_s
+    start = pd.Timestamp(log.start)
+    if off is not None:
+        start = (start + pd.Timedelta(seconds=off)).tz_localize(timezone(timedelta(seconds=off)))
+    t = log.data["t"].to_numpy(float)
+    i = np.flatnonzero(np.diff(t) > GAP_POLICY.pause)
+    return {"start": start.isoformat(), "utc_offset_s": off, "zone": zone_words(off),
+            "pauses": [[float(t[k]), float(t[k + 1])] for k in i]}
 
 
 def rider_numbers(log: Ride, rep: dict, spec=None, rider_weight: float | None = None) -> dict:
@@ -58,4 +96,30 @@ def rider_numbers(log: Ride, rep: dict, spec=None, rider_weight: float | None = 
     out = summary.to_json()
     # CONTRACT's summary.battery: the verdict and what it is judged against (the whole entry: battery)
     out["battery"] = {k: bh[k] for k in ("verdict", "expected_ohm", "expected_source")}
-    return {"summary": out, "mass_check": mc.to_json(), "battery": bh}
+    return {"summary": out, "mass_check": mc.to_json(), "battery": bh, "clock": ride_clock(log)}
+
+
+def compared_numbers(log, fitted, spec=None, rider_weight: float | None = None) -> dict:
+    """The compared ride's own numbers: the ride JSON's ``compared``.
+
+    Parameters
+    ----------
+    log : Ride
+        The compared ride, parsed.
+    fitted : RideDrivetrain
+        Its mass and drivetrain analysis (the pipeline's ``test``), read, not redone.
+    spec : WheelSpec, optional
+    rider_weight : float, optional
+        The declared weight of the compared ride's rider, kg.
+
+    Returns
+    -------
+    dict
+        ``recording``, ``total_mass``, ``unidentified``, and :func:`rider_numbers`'s
+        ``summary``, ``mass_check``, ``battery`` and ``clock``, as LOG's are in the ride JSON.
+    """
+    from euc_sim.rides.report.drivetrain_report import drivetrain_report
+
+    view = drivetrain_report(log, fitted.spec, fitted=fitted)[0]
+    return {"recording": str(log.path), "total_mass": view["total_mass"], "unidentified": view["unidentified"],
+            **rider_numbers(log, view, spec, rider_weight)}

@@ -5,13 +5,12 @@ its columns and the app's own counters the reader took beside them (its ``counte
 :class:`~euc_sim.rides.source.counters.LogCounters`: alarm flags, trip counters).  Its
 :class:`RideSummary` is the ride JSON's ``summary`` object (docs/summary.md).
 
-- Duration: from the first turn of the wheel to the last sample (the way EUC
-  World's trip clock runs); the whole log's span is ``logged_s``.
+- Duration and distance: the app's own counters where the log has them, else computed
+  from the log (:mod:`euc_sim.rides.report.distance`); ``distance_follows`` and
+  ``duration_follows`` say which.  The whole log's span is ``logged_s``.
 - Energy: battery voltage × current integrated over time (trapezoid); intervals
   longer than the gap policy's ``bridge`` (:mod:`euc_sim.rides.source.gaps`) are not integrated across (the wheel's state in
   between is unknown).  Drawn is the positive part, regenerated the negative one.
-- Distance: the GPS track where it covers the moving time and agrees in scale with
-  the wheel (a sane track), else the wheel's speed integrated.
 - Battery used: the log's battery percentage near the start minus near the end,
   each the median of the readings at the lowest currents of the first and last
   :data:`BATTERY_WINDOW_S` (a voltage-based percentage sags under current).
@@ -27,10 +26,10 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import pandas as pd
 
-from euc_sim.geo import haversine
 from euc_sim.rides.drive.cutout import ride_limits
 from euc_sim.rides.grids.spin import free_spin, spin_json
-from euc_sim.rides.source.counters import counter_steps as _counter_steps
+from euc_sim.rides.report.distance import (_distance, _duration, _gap_distance, _near, _steps,
+                                          _wheel_distance)
 from euc_sim.rides.source.counters import integrate_split as _integrate_split
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
@@ -47,10 +46,6 @@ MOVING_MPS = 0.5
 START_MPS = 0.05
 #: The span at each end of the ride over which the battery reading is taken, s.
 BATTERY_WINDOW_S = 60.0
-#: A GPS track is used for the distance when it covers this share of the moving time ...
-GPS_COVERAGE = 0.8
-#: ... and its distance over the covered intervals is within this ratio band of the wheel's.
-GPS_RATIO = (0.8, 1.2)
 #: Less battery used than this, points, gives no range (the ratio would be noise).
 MIN_BATTERY_FOR_RANGE = 3.0
 
@@ -94,6 +89,8 @@ class RideSummary:
     quality_sentence: str = ""
     why: dict = field(default_factory=dict)
     limits: dict | None = None
+    distance_follows: str = ""
+    duration_follows: str = ""
 
     def to_json(self) -> dict:
         """A JSON-ready dict (plain floats, ``None`` for what is unknown)."""
@@ -113,10 +110,6 @@ def _plain(v):
 
 # --------------------------------------------------------------------------------------
 # --------------------------------------------------------------------------------------
-def _steps(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Interval lengths, s, and which of them are bridged (not longer than BRIDGE_S)."""
-    dt = np.diff(t)
-    return dt, dt <= BRIDGE_S
 
 
 def _gaps(t: np.ndarray, limit: float) -> dict:
@@ -125,59 +118,6 @@ def _gaps(t: np.ndarray, limit: float) -> dict:
     g = dt[dt > limit]
     return {"count": int(g.size), "total_s": float(g.sum()),
             "longest_s": float(g.max()) if g.size else 0.0, "limit_s": float(limit)}
-
-
-def _wheel_distance(t: np.ndarray, v: np.ndarray) -> float:
-    """The wheel speed integrated over the bridged intervals, m."""
-    dt, ok = _steps(t)
-    seg = 0.5 * (np.abs(v[1:]) + np.abs(v[:-1])) * dt
-    return float(seg[ok].sum())
-
-
-def _gap_distance(d: pd.DataFrame) -> tuple[float, float]:
-    """Distance the log's counter adds over the intervals not bridged, m, and their total time, s."""
-    dt, ok = _steps(d["t"].to_numpy(float))
-    inc = _counter_steps(d)
-    if inc is None or ok.all():
-        return 0.0, float(dt[~ok].sum())
-    return float(np.nansum(inc[~ok])), float(dt[~ok].sum())
-
-
-def _gps_distance(d: pd.DataFrame) -> tuple[float | None, str | None]:
-    """The GPS track's length while moving, m, or None with the reason it is not used.
-
-    Fixes are taken where latitude/longitude change; a hop between fixes more than the gap
-    policy's ``gps_hop`` (5 s) apart is filled with the wheel's distance scaled by the
-    track/wheel ratio of the rest.
-    """
-    if "latitude" not in d or "longitude" not in d:
-        return None, "no GPS position in the log"
-    t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
-    lat, lon = d["latitude"].to_numpy(float), d["longitude"].to_numpy(float)
-    fix = np.isfinite(lat) & np.isfinite(lon) & (np.abs(lat) + np.abs(lon) > 0)
-    if fix.sum() < 10:
-        return None, "fewer than 10 GPS fixes"
-    idx = np.flatnonzero(fix)
-    new = np.r_[True, (np.diff(lat[idx]) != 0) | (np.diff(lon[idx]) != 0)]
-    idx = idx[new]
-    if idx.size < 10:
-        return None, "the GPS position hardly changes"
-    hop = haversine(lat[idx][:-1], lon[idx][:-1], lat[idx][1:], lon[idx][1:])
-    ti = t[idx]
-    cum = np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1]) * np.minimum(np.diff(t), BRIDGE_S))]
-    wheel_hop = np.diff(cum[idx])
-    short = np.diff(ti) <= GAP_POLICY.gps_hop
-    moving_cover = wheel_hop[short].sum() / max(cum[-1], 1e-9)
-    if moving_cover < GPS_COVERAGE:
-        return None, f"the GPS track covers {100 * moving_cover:.0f} % of the wheel's distance"
-    # hops faster than 1.5x the wheel plus 5 m/s are fix jumps: counted at the wheel's length
-    dt_h = np.maximum(np.diff(ti), 1e-3)
-    jump = hop / dt_h > 1.5 * (wheel_hop / dt_h) + 5.0
-    use = short & ~jump
-    ratio = hop[use].sum() / max(wheel_hop[use].sum(), 1e-9)
-    if not GPS_RATIO[0] <= ratio <= GPS_RATIO[1]:
-        return None, f"the GPS track is {ratio:.2f}x the wheel's distance (not sane)"
-    return float(hop[use].sum() + ratio * wheel_hop[~use].sum()), None
 
 
 def _battery(d: pd.DataFrame, t0: float, t_move: float, t1: float) -> tuple[float | None, float | None]:
@@ -257,32 +197,6 @@ def _quality(t: np.ndarray, lim: float) -> tuple[str, str, float | None]:
     return q, f"Data quality {q}: {rate}, {g}{tail}.", hz
 
 
-def _distance(d: pd.DataFrame) -> tuple[float, float, float | None, str | None]:
-    """The wheel's distance, the speed integral over the bridged intervals (the stretch the
-    energy covers), the GPS distance (or None) and why GPS is not used (or None), m.
-
-    The wheel's distance is the log's own trip counter (it counts every turn of the
-    wheel, sampled or not) where it agrees with the speed integral within 10 %; else
-    the speed integral with the gaps filled from the counter where it has them.
-    """
-    covered = _wheel_distance(d["t"].to_numpy(float), d["v"].to_numpy(float))
-    extra, _ = _gap_distance(d)
-    integral = covered + extra
-    inc = _counter_steps(d)
-    counter = float(np.nansum(inc)) if inc is not None else None
-    wheel = counter if counter and abs(counter / max(integral, 1e-9) - 1) <= 0.10 else integral
-    gps, why = _gps_distance(d)
-    return wheel, covered * wheel / max(integral, 1e-9), gps, why
-
-
-def _duration(t: np.ndarray, rolling: np.ndarray) -> tuple[float, float]:
-    """From the first turn of the wheel to the last sample without pauses, s; and the log's span."""
-    t_start = float(t[np.flatnonzero(rolling)[0]]) if rolling.any() else float(t[0])
-    dt = np.diff(t)
-    paused = float(dt[(dt > PAUSE_S) & (t[1:] > t_start)].sum())
-    return float(t[-1] - t_start - paused), t_start
-
-
 def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
     """The ride's summary from its parsed log.
 
@@ -302,12 +216,18 @@ def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
     d = log.data
     t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
     why: dict[str, str] = {}
+    c = log.counters
     moving = v > MOVING_MPS
-    duration, t_start = _duration(t, v > START_MPS)
+    duration, t_start, duration_follows = _duration(t, v > START_MPS, c.duration_s)
     dt, ok = _steps(t)
-    moving_s = float(np.sum(dt[ok & (moving[1:] | moving[:-1])]))
-    wheel, covered, gps, gps_why = _distance(d)
-    dist, source = (gps, "gps") if gps is not None else (wheel, "wheel")
+    moving_own = float(np.sum(dt[ok & (moving[1:] | moving[:-1])]))
+    moving_s = moving_own
+    if _near(c.moving_s, moving_own):                       # the app's riding clock
+        moving_s = float(c.moving_s)
+        duration_follows = duration_follows.replace("trip clock", "trip and riding clocks")
+    layout = log.layout
+    wheel, covered, gps, gps_why, wheel_follows, gps_follows = _distance(d, layout)
+    dist, source, follows = (gps, "gps", gps_follows) if gps is not None else (wheel, "wheel", wheel_follows)
     # energy is integrated over the bridged intervals only: so is the distance it is divided by
     covered_dist = covered * (dist / wheel if wheel > 0 else 1.0)
     integral_m = _wheel_distance(t, v) + _gap_distance(d)[0]
@@ -337,11 +257,10 @@ def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
     gaps = _gaps(t, lim)
     q, sentence, hz = _quality(t, lim)
     temp = float(np.nanmax(d["temperature"])) if "temperature" in d else None
-    c = log.counters
     return RideSummary(
         duration_s=duration, moving_s=moving_s, distance_m=dist,
         distance_source=source, speed_max_mps=float(np.nanmax(np.where(spin, np.nan, v))),
-        speed_mean_moving_mps=covered_dist / moving_s if moving_s > 0 else None,
+        speed_mean_moving_mps=covered_dist / moving_own if moving_own > 0 else None,
         energy_drawn_Wh=drawn, energy_regen_Wh=regen, Wh_per_km=whkm, battery_used_pct=used,
         range_m_at_this_rate=rng, pwm_max_pct=pmax, pwm_max_at_s=pat,
         alarms=c.alarm_episodes, gaps=gaps, logged_s=float(t[-1] - t[0]),
@@ -349,7 +268,8 @@ def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
         range_left_m=left, safety_margin_min_pct=None if pmax is None else 100.0 - pmax,
         pwm_max_place=place, free_spin=spin_json(t, v, spin), alarm_rows=c.alarm_rows, sampling_hz=hz, temperature_max_C=temp,
         quality=q, quality_sentence=sentence, why=why,
-        limits=ride_limits(c.speed_limit_mps, top_speed_mps).as_json())
+        limits=ride_limits(c.speed_limit_mps, top_speed_mps).as_json(),
+        distance_follows=follows, duration_follows=duration_follows)
 
 
 # --------------------------------------------------------------------------------------

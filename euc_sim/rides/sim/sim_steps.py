@@ -40,9 +40,10 @@ import numpy as np
 
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import Params
+from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["SimStep", "motor_from_law", "StepInputs", "LogChannels", "nominal_step", "measured_law_step",
-           "drivetrain_step", "STEP_BUILDERS", "SIM_EFFECTS", "effects_to_inject", "build_steps", "TARGET_RATIO", "CHANNELS",
+           "drivetrain_step", "STEP_BUILDERS", "SIM_EFFECTS", "effects_to_inject", "power_terms", "electrical_power", "build_steps", "TARGET_RATIO", "CHANNELS",
            "log_channels", "simulated_pwm"]
 
 #: Target: a step's held-out battery-power error within this many times the balance fit's
@@ -182,12 +183,21 @@ class StepInputs:
         return tuple(n for n in names if n in ok)
 
 
-#: The balance fit's battery-power terms a step's power model carries.
-POWER_TERMS = ("copper_loss", "drivetrain_idle_loss")
+def power_terms() -> tuple[str, ...]:
+    """The balance fit's battery-power terms a step's power model carries (the catalog's records
+    whose balance term has an ``electrical`` power)."""
+    return tuple(e.name for e in RECORDS.having("balance") if e.balance.electrical is not None)
 
 
 def _power(est: Mapping[str, float]) -> dict:
-    return {k: float(est.get(k, 0.0)) for k in POWER_TERMS if k in est or k == "drivetrain_idle_loss"}
+    """A step's power model: each electrical term fitted, a constant drain always (0 where not fitted)."""
+    return {k: float(est.get(k, 0.0)) for k in power_terms() if k in est or RECORDS.get(k).balance.role == "constant"}
+
+
+def electrical_power(power: Mapping[str, float], F: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Battery power of a step's electrical terms, W, from the motor's force F (N) and speed v (m/s)."""
+    return sum((RECORDS.get(k).balance.electrical(value, F, v) for k, value in power.items()),
+               np.zeros(np.shape(F)))
 
 
 def nominal_step(prev: SimStep | None, inp: StepInputs) -> SimStep:
@@ -274,8 +284,9 @@ def build_steps(inp: StepInputs, builders: Sequence[Callable] = STEP_BUILDERS) -
     return steps
 
 
-#: Fitted balance parameters that the simulator can inject as physics, and how.
-SIM_EFFECTS = ("rolling_resistance", "aerodynamic_drag", "road_slope")
+#: Fitted balance parameters that the simulator can inject as physics (records with a balance
+#: term and a generalised force; their estimate converted by the term's ``to_contract``).
+SIM_EFFECTS = tuple(e.name for e in RECORDS.having("balance") if e.force is not None)
 
 
 def effects_to_inject(estimates: Mapping[str, float], accepted: Sequence[str]) -> tuple[dict, list]:
@@ -291,8 +302,8 @@ def effects_to_inject(estimates: Mapping[str, float], accepted: Sequence[str]) -
     Returns
     -------
     effects : dict
-        ``rolling_resistance`` C_rr (1), ``aerodynamic_drag`` k (kg/m),
-        ``road_slope`` α (rad, from sin α).
+        Those with a generalised force, in the catalog's unit: ``rolling_resistance``
+        C_rr (1), ``aerodynamic_drag`` k (kg/m), ``road_slope`` α (rad, from sin α).
     notes : list of str
         Accepted effects that are not physics of the simulator and how they are
         used instead.
@@ -300,11 +311,11 @@ def effects_to_inject(estimates: Mapping[str, float], accepted: Sequence[str]) -
     eff, notes = {}, []
     for name in accepted:
         val = float(estimates[name])
-        if name == "road_slope":
-            eff[name] = math.asin(max(-1.0, min(1.0, val)))
-        elif name in SIM_EFFECTS:
-            eff[name] = val
-        elif name in POWER_TERMS:
+        e = RECORDS.get(name)
+        term = e.balance
+        if e.force is not None and e.kind is not None:
+            eff[name] = val if term is None or term.to_contract is None else term.to_contract(val)
+        elif term is not None and term.electrical is not None:
             notes.append(f"{name} = {val:.3g} is electrical: added to the predicted battery "
                          f"power, not to the mechanics")
         else:

@@ -44,7 +44,7 @@ from euc_sim.rides.grids.rider_features import reading_step
 from euc_sim.rides.grids.signals import RideAssumptions, RideSignals
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.sim.plan_learning import filter_band
-from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep,
+from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep, electrical_power,
                                      effects_to_inject, simulated_pwm)
 from euc_sim.rides.grids.stops import find_stops
 from euc_sim.rides.sim.envelope import LEAN_SHARE
@@ -372,9 +372,8 @@ def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
     from euc_sim.rides.grids.signals import sg
     from euc_sim.rides.sim.reading import read_as_logged
 
-    pw = step.power
-    P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], R, pw.get("copper_loss", 0.0),
-                      pw.get("drivetrain_idle_loss", 0.0))
+    P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], R) + electrical_power(
+        step.power, np.asarray(df["M_d"], float) / R, np.asarray(df["x_dot"], float))
     ts = df["t"].to_numpy()
     segment = sig.raw["segment"].to_numpy().copy()
     if fell:

@@ -15,7 +15,7 @@ import pandas as pd
 
 from euc_sim.rides.source.gaps import GAP_POLICY
 
-__all__ = ["LogCounters", "log_counters", "counter_steps", "integrate_split"]
+__all__ = ["LogCounters", "log_counters", "rises", "counter_steps", "integrate_split"]
 
 
 @dataclass(frozen=True)
@@ -165,20 +165,46 @@ def _wheel_model(raw: pd.DataFrame) -> str | None:
     return f"{model} {notes.get('euc.serial', '')}".strip() if model else None
 
 
-def counter_steps(d: pd.DataFrame) -> np.ndarray | None:
-    """Per-interval increase of the log's own trip counter, m (NaN where it is unusable).
+def rises(t: np.ndarray, x: np.ndarray, top_mps: float) -> np.ndarray:
+    """Per-interval increase of a counter read ``x`` at times ``t`` (s), in its unit.
 
-    Resets, bogus zeros and jumps faster than twice the top speed are NaN.
+    Readings one or two rows off their neighbours (a bogus row) are taken out by a
+    5-reading running median; a fall below half the reading before (and by more than
+    50) is a reset, after which the counter counts again from its new value; a small
+    fall (readings out of order) counts nothing until the counter passes its highest
+    reading; a rise faster than ``top_mps`` (+ 50) over the ten intervals on each side of
+    it, and over the time since the reading before it was first read, is bogus (NaN): a
+    counter read late lags a gap in the rows by a row, or repeats its last reading through
+    it.  An interval ending on an empty reading is NaN; the increase across empty readings
+    lands on the interval ending on the next reading.
     """
+    out = np.full(max(t.size - 1, 0), np.nan)
+    idx = np.flatnonzero(np.isfinite(x))
+    if idx.size < 2:
+        return out
+    xm = pd.Series(x[idx]).rolling(5, center=True, min_periods=1).median().to_numpy()
+    reset = np.r_[False, xm[1:] < 0.5 * xm[:-1] - 50.0]
+    top = pd.Series(xm).groupby(np.cumsum(reset)).cummax().to_numpy()
+    inc = np.where(reset[1:], 0.0, np.diff(top))
+    ti, k = t[idx], np.arange(idx.size - 1)
+    first = np.maximum.accumulate(np.where(np.r_[True, xm[1:] != xm[:-1]], np.arange(xm.size), 0))
+    reach = np.maximum(ti[np.minimum(k + 11, idx.size - 1)] - ti[np.maximum(k - 10, 0)], ti[k + 1] - ti[first[k]])
+    inc[inc > top_mps * reach + 50.0] = np.nan
+    out[idx[1:] - 1] = inc
+    return out
+
+
+def counter_steps(d: pd.DataFrame, with_column: bool = False):
+    """Per-interval increase of the log's own trip counter (else its odometer), m, NaN where
+    it is unusable (:func:`rises`, rises faster than twice the top speed bogus); with
+    ``with_column`` also the column's name.  None where the log has no usable counter."""
+    top = 2.0 * max(float(np.nanmax(np.abs(d["v"]))), 1.0)
     for col in ("distance", "total_distance"):
         if col in d:
-            x = d[col].to_numpy(float)
-            inc = np.diff(x)
-            top = 2.0 * max(float(np.nanmax(np.abs(d["v"]))), 1.0)
-            bad = ~np.isfinite(inc) | (inc < 0) | (inc > top * np.diff(d["t"].to_numpy(float)) + 50.0)
-            if (~bad).any() and np.nansum(np.where(bad, 0, inc)) > 0:
-                return np.where(bad, np.nan, inc)
-    return None
+            inc = rises(d["t"].to_numpy(float), d[col].to_numpy(float), top)
+            if np.nansum(inc) > 0:
+                return (inc, col) if with_column else inc
+    return (None, None) if with_column else None
 
 
 def integrate_split(t: np.ndarray, p: np.ndarray) -> tuple[float | None, float | None]:

@@ -42,6 +42,11 @@ class GapPolicy:
     app_gap : tuple of (str, float)
         ``(layout, s)``: apps whose normal writing is slower than :attr:`gap`: EUC World writes
         when the wheel's frames arrive, in bursts up to 1.7 s apart (docs/summary.md).
+    distance : float
+        Longest interval the wheel's speed is integrated across for the ride's distance where
+        the log has no usable counter: on the one shared log with longer gaps and a trip counter
+        (WheelLog, InMotion V9), the speed integrated over its 33 gaps of 2.5-60 s is 1 % above
+        the counter's increase, over its 8 gaps of 60-300 s 28 % above (docs/summary.md).
     pause : float
         An interval this long is a pause of the log, left out of the ride's duration: the app
         stopped writing, no rows were lost while riding.
@@ -75,6 +80,7 @@ class GapPolicy:
     rate: float = 10.0
     gap: float = 1.0
     app_gap: tuple = (("eucworld", 2.0),)
+    distance: float = 60.0
     pause: float = 300.0
     charge: float = 1.0
     profile: float = math.inf

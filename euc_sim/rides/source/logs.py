@@ -283,8 +283,9 @@ def _numeric(raw: pd.Series, column: str, path, required: bool) -> np.ndarray:
     return vals
 
 
-def _times(frame: pd.DataFrame, lay: Layout, path) -> pd.Series:
-    """Parse the time stamp columns; the first unparsable one is an error."""
+def _times(frame: pd.DataFrame, lay: Layout, path) -> tuple[pd.Series, float | None]:
+    """Parse the time stamp columns (UTC where they carry a zone) and the first stamp's zone,
+    s east of UTC (None without one); the first unparsable stamp is an error."""
     text = frame[lay.time_columns[0]].astype(str).str.strip()
     for col in lay.time_columns[1:]:
         text = text + " " + frame[col].astype(str).str.strip()
@@ -304,9 +305,11 @@ def _times(frame: pd.DataFrame, lay: Layout, path) -> pd.Series:
         raise LogFormatError(path, f"cannot read the time stamp {text.iloc[i]!r} "
                                    f"(expected e.g. '2020-05-16 08:02:10.002')",
                              column=col, line=i + 2)
+    offset = None
     if getattr(best.dt, "tz", None) is not None:
+        offset = best.iloc[0].utcoffset().total_seconds() if len(best) else None
         best = best.dt.tz_convert("UTC").dt.tz_localize(None)
-    return best
+    return best, offset
 
 
 def _sampling_summary(t: np.ndarray, gap_warn: float) -> str | None:
@@ -420,7 +423,7 @@ def read_log(path, *, layout: str | None = None, emit_warnings: bool = True) -> 
     n_read = len(raw)
     speed_col = next(c for c in lay.speed.columns if c in raw.columns)
     raw = _drop_truncated_last(raw, list(lay.time_columns) + [speed_col], repairs)
-    stamps = _times(raw, lay, path)
+    stamps, offset = _times(raw, lay, path)
     out, absent, keep = _channels(raw, lay, speed_col, path, notes, repairs)
     table = pd.DataFrame(out)[keep]
     stamps = stamps[keep]
@@ -442,7 +445,8 @@ def read_log(path, *, layout: str | None = None, emit_warnings: bool = True) -> 
     table = table.reset_index(drop=True)
     return Ride(path=str(path), layout=lay.name, variant=variant, data=table, start=start,
                 absent=tuple(absent), warnings=tuple(notes), n_rows_read=n_read,
-                n_rows_merged=n_merged, repairs=tuple(repairs), counters=log_counters(whole, table))
+                n_rows_merged=n_merged, repairs=tuple(repairs), counters=log_counters(whole, table),
+                utc_offset_s=offset)
 
 
 def _read_table(path: Path) -> pd.DataFrame:

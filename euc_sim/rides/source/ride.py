@@ -79,7 +79,8 @@ class Ride:
         sample), ``v`` (wheel speed, m/s) and whichever optional channels are
         present (units in :attr:`units`); empty GPS cells are NaN.
     start : pandas.Timestamp
-        Wall-clock time of ``t = 0`` (naive, the phone's local time).
+        Wall-clock time of ``t = 0``, naive: UTC where the log's stamps carry their zone
+        (EUC World), else the phone's local time (WheelLog, DarknessBot).
     absent : tuple of str
         Canonical channels the file lacks, or has only as zeros or empty cells.
     warnings : tuple of str
@@ -95,6 +96,9 @@ class Ride:
         signs turned back), one line each.
     counters : LogCounters
         The app's alarm flags and own trip counters (:mod:`euc_sim.rides.source.counters`).
+    utc_offset_s : float or None
+        The zone of the log's first stamp, s east of UTC, where its stamps carry one; None
+        where they do not (then :attr:`start` is the phone's local clock, its zone unknown).
     """
 
     path: str
@@ -109,6 +113,7 @@ class Ride:
     units: Mapping[str, str] = field(default_factory=lambda: dict(CHANNEL_UNITS), repr=False)
     repairs: tuple[str, ...] = field(default=(), repr=False)
     counters: LogCounters = field(default_factory=LogCounters, repr=False)
+    utc_offset_s: float | None = None
     _grids: dict = field(default_factory=dict, init=False, repr=False)
 
     def has(self, channel: str) -> bool:

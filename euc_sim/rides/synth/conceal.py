@@ -2,7 +2,9 @@
 
 A concealed copy is the ride the wheel would have logged had one thing been
 different: more mass, more drag, more rolling resistance, an aged battery, a
-tyre size set wrong in the app, or a late current channel.  Every injection is
+tyre size set wrong in the app, or a late current channel.  Each effect's record
+(:mod:`euc_sim.model.catalog`, its ``conceal`` face) names its mechanism and, for more
+power at the wheel, that power.  Every injection is
 a pure function of the raw log table (the CSV as the app wrote it, read with
 :func:`read_raw`) that returns a new table; the input is never changed, and
 nothing is drawn at random.
@@ -34,10 +36,11 @@ import pandas as pd
 from scipy.signal import savgol_filter
 
 from euc_sim.rides.drive.drivetrain import charge_drawn
-from euc_sim.rides.grids.power import G, RHO_AIR
+from euc_sim.rides.grids.power import RHO_AIR
+from euc_sim.simulation.effects import RECORDS
 
-__all__ = ["LogConstants", "Kinematics", "EFFECTS", "read_raw", "write_raw", "kinematics",
-           "log_constants", "add_wheel_power", "conceal_mass", "conceal_drag",
+__all__ = ["LogConstants", "Kinematics", "MECHANISMS", "concealable", "read_raw", "write_raw", "kinematics",
+           "log_constants", "add_wheel_power", "conceal_wheel_power", "conceal_mass", "conceal_drag",
            "conceal_rolling", "conceal_resistance", "conceal_tyre_size",
            "conceal_current_delay", "conceal", "electrical_power", "battery_current", "charge_drawn"]
 
@@ -278,27 +281,29 @@ def add_wheel_power(raw: pd.DataFrame, dP_wheel: np.ndarray, eta: float,
     return out
 
 
+def conceal_wheel_power(raw: pd.DataFrame, effect: str, size: float, eta: float = 0.85, **kw) -> pd.DataFrame:
+    """``size`` more of ``effect``, whose record's ``conceal.wheel_power(kin, size, **kw)`` is the
+    extra wheel power, W (:func:`add_wheel_power`)."""
+    kin = kinematics(raw)
+    dP = RECORDS.get(effect).conceal.wheel_power(kin, size, **kw)
+    return add_wheel_power(raw, dP, eta, log_constants(raw, kin), kin)
+
+
 def conceal_mass(raw: pd.DataFrame, dm: float, eta: float = 0.85) -> pd.DataFrame:
     """``dm`` kg more on the wheel: ``ΔP_w = Δm·(a + g·sinθ)·v`` (the climb where GPS altitude is logged)."""
-    kin = kinematics(raw)
-    dP = dm * (kin.a + G * kin.sin_grade) * kin.v
-    return add_wheel_power(raw, dP, eta, log_constants(raw, kin), kin)
+    return conceal_wheel_power(raw, "total_mass", dm, eta)
 
 
 def conceal_drag(raw: pd.DataFrame, dCdA: float, eta: float = 0.85, rho: float = RHO_AIR
                  ) -> pd.DataFrame:
     """``dCdA`` m² more drag area: ``ΔP_w = ½ρ·ΔC_dA·v³``."""
-    kin = kinematics(raw)
-    dP = 0.5 * rho * dCdA * np.abs(kin.v) ** 3
-    return add_wheel_power(raw, dP, eta, log_constants(raw, kin), kin)
+    return conceal_wheel_power(raw, "aerodynamic_drag", dCdA, eta, rho=rho)
 
 
 def conceal_rolling(raw: pd.DataFrame, dCrr: float, total_mass: float, eta: float = 0.85
                     ) -> pd.DataFrame:
     """``dCrr`` more rolling resistance on ``total_mass`` kg: ``ΔP_w = ΔC_rr·m·g·v``."""
-    kin = kinematics(raw)
-    dP = dCrr * total_mass * G * np.abs(kin.v)
-    return add_wheel_power(raw, dP, eta, log_constants(raw, kin), kin)
+    return conceal_wheel_power(raw, "rolling_resistance", dCrr, eta, total_mass=total_mass)
 
 
 def conceal_resistance(raw: pd.DataFrame, dR: float) -> pd.DataFrame:
@@ -342,21 +347,24 @@ def conceal_current_delay(raw: pd.DataFrame, delay: float,
     return out
 
 
-#: Effect name -> (injection, unit of its size).
-EFFECTS = {
-    "total_mass": (conceal_mass, "kg"),
-    "aerodynamic_drag": (conceal_drag, "m^2 (C_dA)"),
-    "rolling_resistance": (conceal_rolling, "1 (C_rr)"),
-    "internal_resistance": (conceal_resistance, "ohm"),
-    "speed_scale": (conceal_tyre_size, "logged/true speed"),
-    "current_delay": (conceal_current_delay, "s"),
+#: A record's conceal mechanism -> the injection ``f(raw, effect, size, **kw)``.
+MECHANISMS = {
+    "wheel_power": conceal_wheel_power,
+    "pack_resistance": lambda raw, effect, size: conceal_resistance(raw, size),
+    "speed_scale": lambda raw, effect, size: conceal_tyre_size(raw, size),
+    "channel_delay": lambda raw, effect, size, **kw: conceal_current_delay(raw, size, **kw),
 }
 
 
+def concealable() -> dict[str, str]:
+    """The effects a log can conceal (records with a conceal face) and the unit of their size."""
+    return {e.name: e.conceal.unit for e in RECORDS.having("conceal")}
+
+
 def conceal(raw: pd.DataFrame, effect: str, size: float, **kw) -> pd.DataFrame:
-    """Hide ``effect`` of ``size`` in ``raw`` (see :data:`EFFECTS`); ``"null"`` returns a copy."""
+    """Hide ``effect`` of ``size`` in ``raw`` (:func:`concealable`); ``"null"`` returns a copy."""
     if effect == "null":
         return raw.copy()
-    if effect not in EFFECTS:
-        raise InputError(f"effect {effect!r}: not one of null, {', '.join(EFFECTS)}")
-    return EFFECTS[effect][0](raw, size, **kw)
+    if effect not in RECORDS or RECORDS.get(effect).conceal is None:
+        raise InputError(f"effect {effect!r}: not one of null, {', '.join(concealable())}")
+    return MECHANISMS[RECORDS.get(effect).conceal.mechanism](raw, effect, size, **kw)

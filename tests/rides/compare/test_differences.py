@@ -136,7 +136,7 @@ def test_mass_difference_view_is_the_independent_detail():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(130.0, 0.5, 0.01, 0.2, 1.0)
     view = {"estimate": 29.0, "ci95": [10.0, 48.0], "unit": "kg"}
     res = df.ride_differences(a, b, _tested(total_mass=(31.0, 22.0, 40.0, True)), {}, {}, "x",
-                              mass_view=view)
+                              views={"mass_difference": view})
     m = next(d for d in res.items if d.name == "total_mass")
     assert m.estimate == pytest.approx(31.0) and m.named
     assert m.independent[0] == pytest.approx(29.0) and m.independent[1] == pytest.approx((10.0, 48.0))

@@ -29,7 +29,7 @@ def test_the_top_speed_tile_says_a_free_spin_was_left_out(tmp_path):
     s = _summary_json(_with_spin(synth_summary_log(tmp_path / "a.csv")))
     top = _tiles({"summary": s})["Top speed"]
     assert top.value == "25 km/h"
-    assert "spun free (off the ground) at 120 km/h at 10:26: left out" in top.note
+    assert "spun free (off the ground) at 120 km/h at 10 min 26 s into the ride: left out" in top.note
     plain = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv"))})["Top speed"]
     assert "spun" not in plain.note and plain.note.startswith("average 25 km/h")
 
@@ -58,9 +58,9 @@ def test_the_pwm_peak_is_marked_on_the_map_only_with_gps(tmp_path):
     """S22 Pro 0 and Mten4 0 (WheelLog, no GPS): the tile read 'marked on the map' above
     'No GPS position in this log: no map'."""
     with_gps = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "a.csv"))})["Max PWM"]
-    assert with_gps.note == "least margin 28 % at 5:00 (marked on the map)"
+    assert with_gps.note == "least margin 28 % at 5 min 00 s into the ride (marked on the map)"
     no_gps = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv", gps=False))})["Max PWM"]
-    assert no_gps.note == "least margin 28 % at 5:00 (marked over time)"
+    assert no_gps.note == "least margin 28 % at 5 min 00 s into the ride (marked over time)"
 
 
 def test_a_tile_gives_a_reason_whole_not_cut_mid_word():
@@ -142,3 +142,17 @@ def test_no_battery_figures_where_the_logs_power_is_not_the_batterys():
     assert not any("309" in line or "20.4" in line or "196" in line for line in key_figure_lines(rep))
     rep.pop("unidentified")
     assert {k.label: k for k in key_figures(rep)}["Energy drawn"].value == "309 Wh"
+
+
+def test_distance_and_time_tiles_say_which_counter_they_follow(tmp_path):
+    """A P6 page read 13.5 km against the wheel's trip counter's 14.85 and the app's GPS 14.20,
+    without saying where its figure came from."""
+    from tests.rides.report.test_summary import _eucworld_with_counters
+
+    t = _tiles({"summary": _summary_json(_eucworld_with_counters(tmp_path, gps_scale=0.9))})
+    assert t["Distance"].value == "3.8 km"
+    assert t["Distance"].note == "the app's GPS distance; the wheel's own count 4.2 km (+11 %)"
+    assert t["Riding time"].note == "of 10 min; the app's trip and riding clocks"
+    wl = _tiles({"summary": _summary_json(synth_summary_log(tmp_path / "b.csv", gps=False))})
+    assert wl["Distance"].note == "the wheel's trip counter"
+    assert wl["Riding time"].note == "of 10 min; the wheel's first turn to the last row"

@@ -5,6 +5,7 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 from euc_sim.rides.report.summary import BRIDGE_S, mass_check, ride_summary
@@ -148,10 +149,15 @@ def test_real_ride_agrees_with_its_own_counters(path):
         log = read_log(path, emit_warnings=False)
     c = log.counters
     s = ride_summary(log)
-    same = c.gps_distance_m if s.distance_source == "gps" else c.distance_m
-    assert s.distance_m == pytest.approx(same, rel=0.03)
-    if c.duration_s is not None:
-        assert s.duration_s == pytest.approx(c.duration_s, rel=0.01)
+    # the counter the page follows, read from the CSV the way a rider reads the app: its rise
+    raw = pd.read_csv(path, usecols=lambda n: n in ("distance", "gps_distance"))
+    col = {"the app's GPS distance": "gps_distance", "the wheel's trip counter": "distance"}[s.distance_follows]
+    x = raw[col].dropna().to_numpy()
+    assert s.distance_m == pytest.approx((x[-1] - x[0]) * (1000.0 if log.layout == "eucworld" else 1.0), rel=0.02)
+    if c.duration_s is not None:                  # EUC World's trip and riding clocks
+        assert s.duration_follows == "the app's trip and riding clocks"
+        assert s.duration_s == pytest.approx(c.duration_s, rel=0.02)
+        assert s.moving_s == pytest.approx(c.moving_s, rel=0.02)
     spin = s.free_spin            # the app's top speed and the logged PWM count the wheel off the ground
     if c.speed_max_mps is not None:
         top = max(s.speed_max_mps, spin["speed_max_mps"]) if spin else s.speed_max_mps
@@ -219,3 +225,147 @@ def test_quality_is_judged_against_what_the_app_normally_writes(tmp_path):
     assert ew.gaps["count"] == 0 and ew.quality == "good"
     assert "no gap longer than 2 s" in ew.quality_sentence
     assert wl.gaps["limit_s"] == 1.0 and wl.quality == "poor"
+
+
+# -- the app's own counters -------------------------------------------------------------
+RIDE_M = 25 / 3.6 * 600                     # the synthetic ride's distance, m
+
+
+def _eucworld_with_counters(tmp_path, *, gap=None, clock0=0.0, trip0_km=0.0, gps_scale=0.95):
+    """The synthetic ride in EUC World's layout with its trip clocks (from the wheel's first turn,
+    ``clock0`` s already run before the log) and its GPS distance (``gps_scale`` × the wheel's),
+    the trip counters starting at ``trip0_km``; ``gap`` = (t, length) rows missing, the app's
+    counters running on."""
+    import numpy as np
+    import pandas as pd
+
+    ew = as_layout(synth_summary_log(tmp_path / "a.csv"), tmp_path / "ew.csv", "eucworld")
+    df = pd.read_csv(ew, dtype=str, keep_default_na=False)
+    t = (pd.to_datetime(df["datetime"].str[:23]) - pd.Timestamp("2024-06-01 10:00:00")).dt.total_seconds()
+    km = pd.to_numeric(df["distance"])
+    df["duration"] = np.floor(clock0 + (t - 20.0).clip(lower=0)).astype(int)
+    df["duration_riding"] = np.floor(clock0 + (t - 20.0).clip(0, 600)).astype(int)
+    df["distance"] = (trip0_km + km).round(3)
+    df["gps_distance"] = (trip0_km + gps_scale * km).round(3)
+    if gap is not None:
+        df = df[(t < gap[0]) | (t >= gap[0] + gap[1])]
+    df.to_csv(ew, index=False)
+    return ew
+
+
+def test_eucworld_follows_the_apps_gps_distance_and_trip_clock_across_a_gap(tmp_path):
+    """A minute of rows missing while riding (the app's counters run on), a log started 59 s
+    and 0.3 km into its trip: the page says what the app says, and which counter it follows."""
+    s = _summary(_eucworld_with_counters(tmp_path, gap=(200.0, 60.0), clock0=59.0, trip0_km=0.3))
+    assert s.distance_source == "gps" and s.distance_follows == "the app's GPS distance"
+    assert s.distance_m == pytest.approx(300.0 + 0.95 * RIDE_M, abs=2.0)
+    assert s.distance_wheel_m == pytest.approx(300.0 + RIDE_M, abs=2.0)           # the trip counter
+    assert s.duration_s == 59 + 620 and s.moving_s == 59 + 600
+    assert s.duration_follows == "the app's trip and riding clocks"
+    # energy and Wh/km still leave the gap out
+    assert s.Wh_per_km == pytest.approx(80 * 10 / (25 / 3.6) / 3.6 / 0.95, rel=0.03)
+
+
+def test_eucworld_gps_counter_missing_part_of_the_ride_is_not_followed(tmp_path):
+    """An app's GPS distance that misses a third of the ride is not the ride's distance."""
+    import pandas as pd
+
+    src = _eucworld_with_counters(tmp_path)
+    df = pd.read_csv(src, dtype=str, keep_default_na=False)
+    df.loc[: len(df) // 3, "gps_distance"] = ""
+    df.to_csv(src, index=False)
+    s = _summary(src)
+    assert s.distance_follows.startswith("the GPS track (the app's GPS distance covers")
+    assert s.distance_m == pytest.approx(RIDE_M, rel=0.005)
+
+
+def _wheellog_lagging_counter(path, gap=(200.0, 60.0)):
+    """WheelLog with rows missing while riding, its trip counter read one row late after the gap."""
+    import numpy as np
+    import pandas as pd
+
+    synth_summary_log(path, gps=False, gap=gap)
+    df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    t = (pd.to_datetime(df["date"] + " " + df["time"]) - pd.Timestamp("2024-06-01 10:00:00")).dt.total_seconds()
+    after = int(np.flatnonzero(t.to_numpy() >= gap[0] + gap[1])[0])
+    df.loc[after, ["distance", "totaldistance"]] = df.loc[after - 1, ["distance", "totaldistance"]].to_numpy()
+    df.to_csv(path, index=False)
+    return path
+
+
+def test_wheellog_follows_its_trip_counter_read_late_after_a_gap(tmp_path):
+    s = _summary(_wheellog_lagging_counter(tmp_path / "a.csv"))
+    assert s.distance_source == "wheel" and s.distance_follows == "the wheel's trip counter"
+    assert s.distance_m == pytest.approx(RIDE_M, abs=2.0)
+    assert s.duration_follows == "the wheel's first turn to the last row"
+
+
+def test_wheellog_counter_readings_out_of_order_count_once(tmp_path):
+    """A counter alternating between two readings a few metres apart (as a WheelLog log does):
+    its rise is last minus first, not the sum of its rises."""
+    import numpy as np
+    import pandas as pd
+
+    path = synth_summary_log(tmp_path / "a.csv", gps=False)
+    df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    x = pd.to_numeric(df["distance"]).to_numpy()
+    odd = (np.arange(x.size) % 2 == 1) & (x > 1000) & (x < 1300)
+    df.loc[odd, "distance"] = (x[odd] - 3).astype(int).astype(str)
+    df.to_csv(path, index=False)
+    s = _summary(path)
+    assert s.distance_m == pytest.approx(RIDE_M, abs=2.0)
+
+
+def test_without_a_counter_the_speed_is_integrated_over_the_gaps_the_wheel_rode(tmp_path):
+    """The older WheelLog layout with its distance columns zero: half a minute of rows missing
+    at 25 km/h is ridden distance."""
+    import pandas as pd
+
+    path = synth_summary_log(tmp_path / "a.csv", gps=False, gap=(200.0, 30.0))
+    df = pd.read_csv(path, dtype=str, keep_default_na=False)
+    df["distance"] = df["totaldistance"] = "0"
+    df.to_csv(path, index=False)
+    s = _summary(path)
+    assert s.distance_m == pytest.approx(RIDE_M, rel=0.002)
+    assert s.distance_follows == "the wheel's speed integrated, gaps up to 60 s bridged"
+
+
+def test_an_odometer_disagreeing_with_the_speed_is_followed_and_said(tmp_path):
+    """DarknessBot: an odometer 4 % above the integrated speed (a tyre smaller than the wheel
+    assumes) is the wheel's own count; one in the wrong unit is not."""
+    import pandas as pd
+
+    src = synth_summary_log(tmp_path / "a.csv", gps=False, gap=(200.0, 45.0))
+    for name, scale, follows in (("odo", 1.04, "the wheel's odometer"),
+                                 ("miles", 1.04 / 1.609, "the wheel's speed integrated")):
+        db = as_layout(src, tmp_path / f"{name}.csv", "darknessbot")
+        df = pd.read_csv(db, dtype=str, keep_default_na=False)
+        m = pd.to_numeric(df["Total mileage"]) - 100.0
+        df["Total mileage"] = (100.0 + scale * m).round(4)
+        df.to_csv(db, index=False)
+        s = _summary(db)
+        assert s.distance_follows.startswith(follows), s.distance_follows
+        want = 1.04 * RIDE_M if scale == 1.04 else RIDE_M
+        assert s.distance_m == pytest.approx(want, rel=0.005), name
+
+
+def test_darknessbot_gps_track_fills_its_holes_from_the_wheels_counter(tmp_path):
+    s = _summary(as_layout(synth_summary_log(tmp_path / "a.csv", gap=(200.0, 60.0)),
+                           tmp_path / "db.csv", "darknessbot"))
+    assert s.distance_source == "gps" and s.distance_follows == "the GPS track"
+    assert s.distance_m == pytest.approx(RIDE_M, rel=0.005)
+
+
+def test_a_gps_distance_repeating_its_reading_through_a_lost_fix_is_followed(tmp_path):
+    """The app's GPS distance frozen for a minute (the fix lost), then catching up at once."""
+    import pandas as pd
+
+    src = _eucworld_with_counters(tmp_path)
+    df = pd.read_csv(src, dtype=str, keep_default_na=False)
+    t = (pd.to_datetime(df["datetime"].str[:23]) - pd.Timestamp("2024-06-01 10:00:00")).dt.total_seconds()
+    lost = (t >= 200.0) & (t < 260.0)
+    df.loc[lost, "gps_distance"] = df.loc[lost.idxmax() - 1, "gps_distance"]
+    df.to_csv(src, index=False)
+    s = _summary(src)
+    assert s.distance_follows == "the app's GPS distance"
+    assert s.distance_m == pytest.approx(0.95 * RIDE_M, abs=2.0)
