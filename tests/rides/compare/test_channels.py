@@ -24,7 +24,7 @@ def _pair(tmp_path, dm: float) -> tuple:
     a = drive_log(tmp_path / "a.csv", seed=5, duration=900.0, noise_w=NOISY, signed_phase=True)
     b = drive_log(tmp_path / "b.csv", seed=6, duration=900.0, noise_w=NOISY, signed_phase=True,
                   truth={**DRIVE, "mass": DRIVE["mass"] + dm})
-    log, other = read_log(a), read_log(b)
+    log, other = read_log(a, emit_warnings=False), read_log(b, emit_warnings=False)
     return (log, other, ride_drivetrain(log, other, n_boot=20))
 
 
