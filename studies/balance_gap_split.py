@@ -30,9 +30,9 @@ import numpy as np
 from euc_sim.rides.balance.analysis import ride_analysis, split_time
 from euc_sim.rides.balance.design import NOMINAL, balance_design
 from euc_sim.rides.balance.fit import fit_balance
-from euc_sim.rides.grids.ride import as_ride
 from euc_sim.rides.grids.signals import RideAssumptions, ride_signals, with_found_values
 from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+from euc_sim.rides.source.logs import read_log
 from euc_sim.rides.source.spec import read_spec
 
 CORE = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"
@@ -115,8 +115,8 @@ def main(argv=None) -> int:
     warnings.simplefilter("ignore")
     try:
         spec = read_spec(a.spec) if a.spec else None
-        log = as_ride(a.log).log
-        others = [None] if not a.compare else [as_ride(c).log for c in a.compare]
+        log = read_log(a.log)
+        others = [None] if not a.compare else [read_log(c) for c in a.compare]
     except (ValueError, OSError) as exc:          # a file that is no ride log or spec
         print(str(exc).splitlines()[0], file=sys.stderr)
         return 2

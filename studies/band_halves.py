@@ -66,6 +66,7 @@ def main(argv=None) -> int:
     import numpy as np
 
     from euc_sim.rides.grids.rider_features import RiderFitError, log_channels
+    from euc_sim.rides.source.logs import read_log
 
     print("| log | second half against first: RMS over the bands dB | fastest band dB | slowest band dB |")
     print("| --- | --- | --- | --- |")
@@ -73,7 +74,7 @@ def main(argv=None) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                ch = log_channels(path)
+                ch = log_channels(read_log(path, emit_warnings=False))
                 r = half_ratio_db(ch["t"], ch["P"], ch["segment"].to_numpy(), 10.0)
             except (RiderFitError, ValueError) as exc:
                 print(f"| {path.relative_to(data)} | not read: {exc} | | |")

@@ -169,13 +169,13 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     """
     from euc_sim.controllers.design import DEFAULT_SCALES, design_rider
     from euc_sim.rides.grids.profile import rider_plan, speed_profile
-    from euc_sim.rides.grids.signals import RideAssumptions
-    from euc_sim.rides.grids.signals import with_found_values
+    from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
     from euc_sim.rides.grids.stops import find_stops
     from euc_sim.rides.rider.rider_params import rider_from
     from euc_sim.rides.sim.sim_steps import motor_from_law
     from euc_sim.rides.sim.simulate import ride_params
     from euc_sim.rides.sim.tracking import simulate_profile
+    from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import wheel_spec
     import functools
 
@@ -194,7 +194,7 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     law, drive = motor_from_law(steps["calibrated_rider"]["motor"]), motor_from_law(step["motor"])
     fitted = {"delay": step["rider"]["delay"], "noise_std": step["rider"]["noise_std"],
               "bandwidth": step["rider"]["bandwidth"]}
-    prof = speed_profile(held, total_mass=A.total_mass)
+    prof = speed_profile(read_log(held, emit_warnings=False), total_mass=A.total_mass)
     t, v = prof["t"].to_numpy(), prof["v"].to_numpy()
     w = (t >= t0) & (t <= t1)
     out = {"rider": fitted, "effects": dict(step["effects_injected"]), "runs": {}}

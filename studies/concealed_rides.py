@@ -77,14 +77,14 @@ def _concealed(data: Path, label: str, case: str, work: Path) -> Path:
 def _run(data: Path, label: str, case: str, work: Path) -> dict:
     """The ``differences`` of CLEAN against the copy (the two rides' drivetrain fits cached)."""
     from euc_sim.rides.compare.differences_report import differences_json
-    from euc_sim.rides.grids.ride import as_ride
+    from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.report.drivetrain_report import ride_drivetrain
 
     cache = work / f"{label}_{case}.pkl"
     if cache.exists():
         log, other, physics = pickle.loads(cache.read_bytes())
     else:
-        log, other = as_ride(data / RIDES[label][0]).log, as_ride(_concealed(data, label, case, work)).log
+        log, other = read_log(data / RIDES[label][0]), read_log(_concealed(data, label, case, work))
         physics = ride_drivetrain(log, other)
         cache.write_bytes(pickle.dumps((log, other, physics)))
     return differences_json(physics[0], physics[1], physics[2], log, other)

@@ -52,7 +52,7 @@ def _integral(x: np.ndarray, t: np.ndarray, segment: np.ndarray) -> np.ndarray:
 
 
 def _grid(log, settings):
-    from euc_sim.rides.grids.ride import GapPolicy
+    from euc_sim.rides.source.gaps import GapPolicy
     from euc_sim.rides.grids.signals import ride_grid
 
     return ride_grid(log, GapPolicy(bridge=settings.max_gap, rate=settings.rate))[0]
@@ -103,7 +103,7 @@ def patched(reading: str, drop_lifted: bool):
         sig = current(ride, settings)
         if reading == "time" or sig.climb is None:
             return sig
-        return distance_climb(power.as_ride_log(ride), sig, settings)
+        return distance_climb(ride, sig, settings)
 
     power._filtered = filtered
     if drop_lifted:
@@ -151,7 +151,7 @@ def _hill_log(alt_sd: float, seed: int = 3, m: float = 110.0, duration: float = 
     import pandas as pd
 
     from euc_sim.rides.grids.route import distance_along
-    from euc_sim.rides.source.logs import RideLog
+    from euc_sim.rides.source.ride import Ride
 
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, duration, 0.2)
@@ -170,9 +170,9 @@ def _hill_log(alt_sd: float, seed: int = 3, m: float = 110.0, duration: float = 
     err = lfilter([1.0], [1.0, -rho], rng.normal(0, alt_sd * math.sqrt(1 - rho ** 2), t.size))
     data = pd.DataFrame({"t": t, "v": v, "voltage": np.full_like(t, 84.0), "current": P / 84.0,
                          "gps_alt": np.round((alt + err)[np.arange(t.size) // 5 * 5], 1)})
-    return RideLog(path="hill.csv", layout="eucworld", variant="", data=data,
-                   start=pd.Timestamp("2026-01-01"), absent=(), warnings=(), n_rows_read=t.size,
-                   n_rows_merged=0)
+    return Ride(path="hill.csv", layout="eucworld", variant="", data=data,
+                start=pd.Timestamp("2026-01-01"), absent=(), warnings=(), n_rows_read=t.size,
+                n_rows_merged=0)
 
 
 def twin() -> str:

@@ -63,15 +63,15 @@ def _heldout_module():
 # ---------------------------------------------------------------------------- free spin
 def spin_table() -> list[dict]:
     """Steady top-duty free-spin stretches of every shared ride."""
-    from euc_sim.rides.grids.ride import as_ride
     from euc_sim.rides.grids.spin import spin_rows
+    from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import read_spec
 
     out = []
     for meta in sorted((SHARED / "euc_core").glob("trips/*/*/*/meta.csv")):
         with open(meta, newline="") as fh:
             row = next(csv.DictReader(fh))
-        log = as_ride(meta.parent / f"{meta.parent.name}.csv").log
+        log = read_log(meta.parent / f"{meta.parent.name}.csv")
         d = log.data
         spin = spin_rows(d)
         if not spin.any() or "pwm" not in d:

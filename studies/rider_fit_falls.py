@@ -23,6 +23,8 @@ import sys
 import time
 from pathlib import Path
 
+from euc_sim.rides.source.gaps import GAP_POLICY
+
 
 def fit_inputs(ride: dict) -> dict:
     """``fit_rider``'s keyword arguments as the ride page's ``calibrated_rider`` step gave them."""
@@ -50,6 +52,7 @@ def run(ride_json: Path, fit_log: Path, **kw) -> dict:
     """The fit with every design point recorded: ``points`` (values, ``fell``, ``fall``), ``fit`` or ``error``."""
     import euc_sim.simulation.engine as engine
     from euc_sim.rides.rider import rider_fit as rf
+    from euc_sim.rides.source.logs import read_log
     from euc_sim.simulation.errors import FallError
 
     inputs = fit_inputs(json.loads(Path(ride_json).read_text()))
@@ -75,7 +78,7 @@ def run(ride_json: Path, fit_log: Path, **kw) -> dict:
     t0 = time.time()
     out = {"ride": str(ride_json), "fit_log": str(fit_log), "settings": kw}
     try:
-        fit = rf.fit_rider(fit_log, progress=lambda s: print("  ", s, flush=True), **inputs, **kw)
+        fit = rf.fit_rider(read_log(fit_log, emit_warnings=False), progress=lambda s: print("  ", s, flush=True), **inputs, **kw)
         out["fit"] = fit.as_json()
     except rf.RiderFitError as exc:
         out["error"] = str(exc)
@@ -89,7 +92,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("ride_json", type=Path, help="the ride page's JSON (with --calibrate-rider)")
     ap.add_argument("fit_log", type=Path, help="the fit ride's log")
-    ap.add_argument("--max-gap", type=float, default=1.0, help="gaps bridged, s (fit_rider's max_gap)")
+    ap.add_argument("--max-gap", type=float, default=GAP_POLICY.rider, help="gaps bridged, s (fit_rider's max_gap)")
     ap.add_argument("--out", type=Path, default=Path("/tmp/h21rf/rider_fit_falls.json"))
     args = ap.parse_args(argv)
     try:

@@ -58,13 +58,13 @@ def one(label: str, fit: Path, test: Path, spec_path: Path | None,
     """Match, decide and carry for one ordered pair; the row of the table."""
     from euc_sim.rides.balance.route_grade import (carried_grade, carry_decision, carry_grade,
                                                   grade_profile, revisit_check)
-    from euc_sim.rides.grids.ride import as_ride
     from euc_sim.rides.grids.route import match_by_speed, match_routes, route_position
     from euc_sim.rides.pipeline import balance_on_mass
+    from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import read_spec
 
     spec = read_spec(spec_path) if spec_path else None
-    an = balance_on_mass(as_ride(fit), as_ride(test), spec, n_boot=0, n_boot_mass=10, seed=0).analysis
+    an = balance_on_mass(read_log(fit), read_log(test), spec, n_boot=0, n_boot_mass=10, seed=0).analysis
     cr = an.cross
     pf = route_position(an.sig_fit.raw)
     pt = route_position(an.sig_test.raw, pf.origin)

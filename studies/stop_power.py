@@ -79,6 +79,7 @@ def main(argv=None) -> int:
     v_max = V_STOP if args.v_max is None else args.v_max
     min_duration = T_STOP if args.min_duration is None else args.min_duration
     from euc_sim.rides.grids.signals import ride_signals
+    from euc_sim.rides.source.logs import read_log
 
     fmt = lambda q: "–" if q is None else f"{q[0]:.0f} / {q[1]:.0f}"     # noqa: E731
     print(f"| log | stops ≥ {min_duration:g} s (s) | |P| at stops W, median / p90 | shorter stands | riding |")
@@ -87,7 +88,7 @@ def main(argv=None) -> int:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             try:
-                frame = ride_signals(path).frame
+                frame = ride_signals(read_log(path, emit_warnings=False)).frame
             except ValueError as exc:
                 print(f"| {path.relative_to(data)} | not read: {exc} | | | |")
                 continue

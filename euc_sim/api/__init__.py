@@ -8,7 +8,8 @@ of them; the command line parses its arguments and calls these.
 from euc_sim.api.functions import (analyse_ride, crosscheck, diagnose, identify, read_recording, read_ride,
                                    render, simulate, write_recording)
 from euc_sim.api.results import (Crosscheck, CrosscheckRow, Diagnosis, Identification, Recording, Rendering,
-                                 Ride, RideAnalysis)
+                                 RideAnalysis)
+from euc_sim.rides.source.ride import Ride
 
 __all__ = ["simulate", "write_recording", "read_recording", "identify", "diagnose", "read_ride",
            "analyse_ride", "render", "crosscheck",

@@ -12,10 +12,13 @@ from __future__ import annotations
 from euc_sim.errors import InputError
 
 from pathlib import Path
-from typing import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 from euc_sim.api.results import (Crosscheck, CrosscheckRow, Diagnosis, Identification, Recording,
-                                 Rendering, Ride, RideAnalysis)
+                                 Rendering, RideAnalysis)
+
+if TYPE_CHECKING:
+    from euc_sim.rides.source.ride import Ride
 
 __all__ = ["simulate", "write_recording", "read_recording", "identify", "diagnose", "read_ride",
            "analyse_ride", "render", "crosscheck"]
@@ -283,6 +286,8 @@ def read_ride(path, *, layout: str | None = None) -> Ride:
     Returns
     -------
     Ride
+        The log parsed once (:class:`euc_sim.rides.source.ride.Ride`): columns in SI units,
+        data-quality facts (``quality``), the app's own counters (``counters``).
 
     Examples
     --------
@@ -293,15 +298,9 @@ def read_ride(path, *, layout: str | None = None) -> Ride:
     >>> ride.layout, ride.duration > 50, "v" in ride.data.columns
     ('wheellog', True, True)
     """
-    import warnings
-
     from euc_sim.rides.source.logs import read_log
 
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")          # the reader's notes are kept in .warnings
-        log = read_log(path, layout=layout)
-    return Ride(path=str(path), layout=log.layout, data=log.data, absent=tuple(log.absent),
-                warnings=tuple(log.warnings), log=log)
+    return read_log(path, layout=layout, emit_warnings=False)    # the reader's notes are in .warnings
 
 
 def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str = "power",
@@ -314,9 +313,9 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
     Parameters
     ----------
     log : path
-        The ride to fit.
+        The ride to fit (read once).
     compare : path, optional
-        A ride of the same wheel to test on.
+        A ride of the same wheel to test on (read once).
     wheel : path, optional
         The wheel's spec CSV (radius, weight, voltage).
     report_dir : path, optional
@@ -350,6 +349,7 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
     from euc_sim.rides.balance.analysis import check_data
     from euc_sim.rides.grids.signals import RideAssumptions
     from euc_sim.rides.pipeline import MIN_BOOT, run_ride
+    from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import wheel_spec
 
     if n_boot < MIN_BOOT:
@@ -359,6 +359,8 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
         if not Path(p).is_file():
             raise FileNotFoundError(f"{p}: no such log file")
     spec = wheel_spec(wheel)
+    log = read_log(log, emit_warnings=False)
+    compare = read_log(compare, emit_warnings=False) if compare else None
     check_data(log, compare, assumptions=RideAssumptions(), domain=domain)
     rep = run_ride(log, compare, report_dir=report_dir, domain=domain, n_boot=n_boot, seed=seed,
                    simulate=simulate, jobs=jobs, progress=progress, spec=spec)

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
-__all__ = ["Recording", "Identification", "Diagnosis", "Ride", "RideAnalysis", "Rendering",
+__all__ = ["Recording", "Identification", "Diagnosis", "RideAnalysis", "Rendering",
            "Crosscheck", "CrosscheckRow"]
 
 
@@ -196,45 +196,6 @@ class Diagnosis(_KeyedResult):
         from euc_sim.diagnosis.report import write_report
 
         return write_report(self.as_result(), folder)
-
-
-@dataclass(frozen=True, eq=False)
-class Ride:
-    """A ride log read into SI units (WheelLog, EUC World or DarknessBot).
-
-    Attributes
-    ----------
-    path : str
-    layout : str
-        ``"wheellog"``, ``"eucworld"`` or ``"darknessbot"``.
-    data : pandas.DataFrame
-        ``t`` s from the first sample, ``v`` wheel speed m/s, and the channels present
-        (``voltage`` V, ``current`` A, ``power`` W, ``pitch`` rad, ...).
-    absent : tuple of str
-        Channels the file lacks (or has only as zeros).
-    warnings : tuple of str
-        One line per problem the reader handled.
-    log : RideLog
-        The reader's own result (:class:`euc_sim.rides.source.logs.RideLog`).
-    """
-
-    path: str
-    layout: str
-    data: Any = field(repr=False)
-    absent: tuple[str, ...] = ()
-    warnings: tuple[str, ...] = field(default=(), repr=False)
-    log: Any = field(default=None, repr=False)
-
-    @property
-    def duration(self) -> float:
-        """Time from the first to the last sample, s."""
-        return float(self.data["t"].iloc[-1]) if len(self.data) else 0.0
-
-    def to_json(self) -> dict:
-        """``path``, ``layout``, ``rows``, ``duration_s``, ``channels``, ``absent``, ``warnings``."""
-        return _jsonable({"path": self.path, "layout": self.layout, "rows": int(len(self.data)),
-                          "duration_s": self.duration, "channels": [c for c in self.data.columns],
-                          "absent": list(self.absent), "warnings": list(self.warnings)})
 
 
 @dataclass(frozen=True, eq=False)

@@ -165,17 +165,17 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     spec = wheel_spec(args.wheel, radius=args.radius, wheel_mass=args.wheel_mass,
                       battery_voltage=args.battery_voltage)
 
-    from euc_sim.rides.grids.ride import read_ride
+    from euc_sim.rides.source.logs import read_log
 
     # each log is parsed once, here; a malformed or too short log fails before any output exists
-    ride = read_ride(args.log)
-    other = read_ride(args.compare) if args.compare else None
+    ride = read_log(args.log, emit_warnings=False)
+    other = read_log(args.compare, emit_warnings=False) if args.compare else None
     if args.wheel:              # a spec whose voltage class the log cannot have is refused here
         from euc_sim.rides.source.spec import SpecError, log_contradictions
 
         for p, r in ((args.log, ride), (args.compare, other)):
             try:
-                r is None or log_contradictions(spec, r.log.data)
+                r is None or log_contradictions(spec, r.data)
             except SpecError as exc:
                 raise SpecError(f"{p}: {exc} (--wheel {args.wheel})") from None
     check_data(ride, other, assumptions=assumptions,
@@ -187,7 +187,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
 
         check_report_folder(args.report, ("index.md", "index.html"))
     for r in (ride, other):         # each repair of the reader, one line, whatever --quiet
-        for line in r.log.repairs if r else ():
+        for line in r.repairs if r else ():
             say(f"euc-sim ride: note: {r.name}: {line}")
     rep = run_ride(ride, other, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,

@@ -1,7 +1,7 @@
 """The ride pipeline: one log (and optionally another) in, one typed result out.
 
-:func:`ride_pipeline` parses each log once (:mod:`euc_sim.rides.grids.ride`), then runs
-the analyses in order on the parsed logs: mass and drivetrain
+:func:`ride_pipeline` takes each log parsed once (a :class:`~euc_sim.rides.source.ride.Ride`
+of :func:`~euc_sim.rides.source.logs.read_log`), then runs the analyses in order on it: mass and drivetrain
 (:mod:`euc_sim.rides.report.drivetrain_report`), the bounded balance fit with its
 held-out selection (:mod:`euc_sim.rides.balance.analysis`), the balance law
 (:mod:`euc_sim.rides.law.controller_report`), the one parameter set
@@ -91,7 +91,7 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
 
     Parameters
     ----------
-    log, compare : path, Ride or RideLog
+    log, compare : Ride
     spec : WheelSpec, optional
     assumptions : RideAssumptions, optional
         Values given on the command line; the spec's radius and the log's mass fill the rest.
@@ -129,8 +129,8 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
 
     Parameters
     ----------
-    log, compare : path, Ride or RideLog
-        The ride to fit, and optionally the ride to test on (each parsed once here).
+    log, compare : Ride
+        The ride to fit, and optionally the ride to test on.
     domain : {"power", "torque"}
     assumptions : RideAssumptions, optional
     n_boot, seed : int
@@ -156,18 +156,14 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
         ``localisation``, ``residual_traces``, ``simulation``, ``report`` (None
         until :func:`write_report`).
     """
-    from euc_sim.rides.grids.ride import as_ride
     from euc_sim.rides.report.rider_view import rider_numbers
 
     say = progress or (lambda s: None)
-    ride, other = as_ride(log), (None if compare is None else as_ride(compare))
-    log, compare = ride.log, (None if other is None else other.log)
-    # the Rides go to every analysis that builds a grid: each grid is built once and kept;
-    # bad logs fail in the mass fit, before any output
-    fitted = balance_on_mass(ride, other, spec, assumptions=assumptions, domain=domain,
+    # each grid is built once and kept on its ride; bad logs fail in the mass fit, before any output
+    fitted = balance_on_mass(log, compare, spec, assumptions=assumptions, domain=domain,
                              n_boot=n_boot, seed=seed, progress=say)
     physics, an = fitted.physics, fitted.analysis
-    rep = _one_parameter_set(an, physics, ride, other, n_boot, seed, say)
+    rep = _one_parameter_set(an, physics, log, compare, n_boot, seed, say)
     if compare is not None:     # what differs between the two rides (rides.compare.differences), each
         # ride's terms from its own energy-balance fit, so both sides are read alike
         from euc_sim.rides.compare.differences_report import differences_json
@@ -214,11 +210,11 @@ def _localise(rep: dict, an, domain: str, log, compare) -> list:
     """Where the inertia-only residual concentrates: ``windows``, ``localisation``, traces."""
     from euc_sim.rides.report.page import residual_windows
 
-    name = Path(log.path).name
+    name = log.name
     nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
     traces = [residual_windows(an.sig_fit, nom, aug, domain, name, True)]
     if an.sig_test is not None:
-        traces.append(residual_windows(an.sig_test, nom, aug, domain, Path(compare.path).name, False))
+        traces.append(residual_windows(an.sig_test, nom, aug, domain, compare.name, False))
     loc = traces[0].localisation
     rep["windows"] = loc["windows"]
     rep["localisation"] = {"residual": f"inertia-only balance residual of {name}, "
@@ -281,9 +277,9 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict, calib
     # the steps' battery-power errors are compared with the balance fit's held-out error (in W)
     balance = rep.get("heldout_error_augmented") if rep.get("error_unit") == "W" else None
     if progress is not None:
-        progress(f"simulating the rider along {Path(ride_path.path).name}: steps {', '.join(ran)}, "
+        progress(f"simulating the rider along {ride_path.name}: steps {', '.join(ran)}, "
                  f"{min(jobs, len(ran))} thread(s)")
-    return simulate_ride(sig, steps, ride_path, scored=scored, label=Path(ride_path.path).name, seed=seed,
+    return simulate_ride(sig, steps, ride_path, scored=scored, label=ride_path.name, seed=seed,
                          workers=jobs, channels=log_channels(rep, balance), progress=progress)
 
 

@@ -241,7 +241,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
 
 
 @dataclass(frozen=True)
-class Ride:
+class PreparedRun:
     """One run of :func:`simulate`, set up and not yet stepped (:func:`prepare`).
 
     ``stepper`` is the engine with the initial state set, ``run`` the rider's law,
@@ -286,8 +286,8 @@ def prepare(maneuver="constant_speed", duration: float = 15.0, *, params: Params
             effects: Mapping[str, float] | None = None, dt: float = DEFAULT_DT,
             fall_bounds: Mapping[str, float] | None = None, contact=None,
             rolling_model: str = "moment", external_force=None,
-            lateral_motion: LateralMotion | None = None, drift_shape=None) -> Ride:
-    """Check a request of :func:`simulate` (same arguments) and set the run up: a :class:`Ride`.
+            lateral_motion: LateralMotion | None = None, drift_shape=None) -> PreparedRun:
+    """Check a request of :func:`simulate` (same arguments) and set the run up: a :class:`PreparedRun`.
 
     Raises
     ------
@@ -324,7 +324,7 @@ def prepare(maneuver="constant_speed", duration: float = 15.0, *, params: Params
         "true_params": p_true.as_dict(), "effects": eff, "motor": motor.as_dict(),
         "rider": rider.as_dict(), "rolling_model": rolling_model,
     }
-    return Ride(stepper, run, ext, motor, rider, p_true, N, t, v_ref, y0, bounds, attrs)
+    return PreparedRun(stepper, run, ext, motor, rider, p_true, N, t, v_ref, y0, bounds, attrs)
 
 
 def _check_request(engine: str, duration, dt: float, variant: str, rolling_model: str) -> None:

@@ -27,11 +27,11 @@ def bench_ride_mass() -> dict:
     warnings.simplefilter("ignore")
     spec = read_spec(root / "specs/blitz.csv")
     t_read = timed(lambda: read_log(log, emit_warnings=False), repeat=1)
-    t_mass = timed(lambda: analyse(log, spec), repeat=1)
+    t_mass = timed(lambda: analyse(read_log(log, emit_warnings=False), spec), repeat=1) - t_read
 
     def whole():
         from euc_sim.rides.pipeline import run_ride
-        return run_ride(log, simulate=False, spec=spec)
+        return run_ride(read_log(log, emit_warnings=False), simulate=False, spec=spec)
 
     cpu0 = time.process_time()
     t_all = timed(whole, repeat=1)
@@ -128,7 +128,6 @@ def bench_ride_page(fit=None, held=None, spec_path=None, workers: int = 2) -> di
     import warnings
     from pathlib import Path
 
-    from euc_sim.rides.grids.ride import read_ride
     from euc_sim.rides.grids.signals import ride_signals
     from euc_sim.rides.pipeline import run_ride
     from euc_sim.rides.sim.sim_steps import StepInputs, build_steps, nominal_step
@@ -152,17 +151,19 @@ def bench_ride_page(fit=None, held=None, spec_path=None, workers: int = 2) -> di
     steps_seen = []
     with tempfile.TemporaryDirectory() as out:
         cpu0 = time.process_time()
-        t_page = timed(lambda: steps_seen.append(run_ride(fit, held, report_dir=out, spec=spec, jobs=workers)),
+        t_page = timed(lambda: steps_seen.append(run_ride(read_log(fit, emit_warnings=False),
+                                                          read_log(held, emit_warnings=False),
+                                                          report_dir=out, spec=spec, jobs=workers)),
                        repeat=1)
         cpu_page = time.process_time() - cpu0
-    ride = read_ride(held)
-    sig = ride_signals(ride.log)
+    ride = read_log(held, emit_warnings=False)
+    sig = ride_signals(ride)
     steps = build_steps(StepInputs(ride_params(sig.assumptions), {}, {}, ()), (nominal_step,))
     cpu0 = time.process_time()
-    t_sim = timed(lambda: simulate_ride(sig, steps, ride.log, label=ride.name, workers=1), repeat=1)
+    t_sim = timed(lambda: simulate_ride(sig, steps, ride, label=ride.name, workers=1), repeat=1)
     cpu_sim = time.process_time() - cpu0
     load1 = os.getloadavg()[0]
-    minutes = read_log(held, emit_warnings=False).duration / 60.0
+    minutes = ride.duration / 60.0
     ran = steps_seen[0]["simulation"]["steps"] if steps_seen[0].get("simulation") else []
     ran = [s["step"] for s in ran if s["ran"]]
     out = {"ride_minutes": minutes, "page_seconds": t_page, "page_cpu_seconds": cpu_page,
@@ -211,6 +212,7 @@ def bench_ride_fast() -> dict:
     import pandas as pd
 
     from euc_sim.rides.pipeline import run_ride
+    from euc_sim.rides.source.logs import read_log
 
     root = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"
     if not root.is_dir():                       # a worktree beside the shared folder
@@ -223,7 +225,8 @@ def bench_ride_fast() -> dict:
     read = timed(lambda: pd.read_csv(log), repeat=3)
     load0 = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as out:
-        page = timed(lambda: run_ride(log, simulate=False, report_dir=out), repeat=1)
+        page = timed(lambda: run_ride(read_log(log, emit_warnings=False), simulate=False, report_dir=out),
+                     repeat=1)
         cmd = [sys.executable, "-m", "euc_sim.cli", "ride", str(log), "--compare", str(other),
                "--no-simulate", "--report", str(Path(out) / "pair"), "--quiet"]
         subprocess.run(cmd, check=True, capture_output=True)

@@ -69,13 +69,13 @@ def one(case: dict, n_boot: int, seed: int) -> dict:
     """Run one comparison as ``euc-sim ride`` fits it; the row of the table."""
     from euc_sim.rides.balance.crossride import admissible
     from euc_sim.rides.balance.design import NOMINAL
-    from euc_sim.rides.grids.ride import as_ride
     from euc_sim.rides.pipeline import balance_on_mass
+    from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import read_spec
 
     spec = read_spec(case["spec"]) if case["spec"] else None
-    log = as_ride(case["log"]).log
-    compare = None if case["compare"] is None else as_ride(case["compare"]).log
+    log = read_log(case["log"], emit_warnings=False)
+    compare = None if case["compare"] is None else read_log(case["compare"], emit_warnings=False)
     fitted = balance_on_mass(log, compare, spec, n_boot=0, n_boot_mass=n_boot, seed=seed)
     assumptions, cr = fitted.assumptions, fitted.analysis.cross
     beaten = cr.heldout_augmented / cr.heldout_full - 1.0

@@ -21,6 +21,7 @@ sys.path.insert(0, str(ROOT))
 from euc_sim.rides.law.controller_report import controller_json, torque_constant  # noqa: E402
 from euc_sim.rides.report.drivetrain_report import drivetrain_report                  # noqa: E402
 from euc_sim.rides.grids.power import MassSettings                                  # noqa: E402
+from euc_sim.rides.source.logs import read_log                                        # noqa: E402
 from euc_sim.rides.source.spec import wheel_spec                                      # noqa: E402
 
 DATA = ROOT.parent / "shared" / "data" / "euc_core"
@@ -41,11 +42,13 @@ def main(argv=None) -> int:
         spec = wheel_spec(str(spec_path) if spec_path.is_file() else None)
         k_t = None
         try:
-            rep, _, _ = drivetrain_report(path, spec, None, MassSettings(n_boot=20, seed=0))
+            rep, _, _ = drivetrain_report(read_log(path, emit_warnings=False), spec, None,
+                                          MassSettings(n_boot=20, seed=0))
             k_t = torque_constant(rep.get("drivetrain"))
         except ValueError as exc:
             print(f"{wheel}/{path.stem}: drivetrain not fitted ({exc})", file=sys.stderr)
-        ctrl = controller_json(path, other, k_t, n_boot=args.n_boot, seed=0)
+        ctrl = controller_json(read_log(path, emit_warnings=False),
+                               other and read_log(other, emit_warnings=False), k_t, n_boot=args.n_boot, seed=0)
         out.append({"wheel": wheel, "ride": path.stem, "compare": other.stem if other else None,
                     "controller": ctrl})
         if ctrl["law"] is None:

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from euc_sim.rides.report.summary import read_counters, ride_summary
+from euc_sim.rides.report.summary import ride_summary
 from euc_sim.rides.source.logs import read_log
 
 #: ../shared/data beside the clone (or beside the folder of worktrees)
@@ -78,8 +78,8 @@ def app_counters(path: Path, layout: str) -> dict:
 def row(path: Path, root: Path) -> str:
     """One Markdown row for the log at ``path``."""
     log = read_log(path, emit_warnings=False)
-    c = read_counters(path, log)
-    s = ride_summary(log, c)
+    c = log.counters
+    s = ride_summary(log)
     a = app_counters(path, log.layout)
     rel = path.relative_to(root)
     name = str(rel.parent if rel.stem.isdigit() else rel).replace("euc_core/trips/", "")

@@ -28,7 +28,6 @@ def row(log_path: Path, spec_path: Path | None) -> str | None:
     from euc_sim.rides.drive.cutout import ride_limits
     from euc_sim.rides.grids.power import MassSettings
     from euc_sim.rides.report.drivetrain_report import analyse, cutout_of
-    from euc_sim.rides.report.summary import read_counters
     from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import WheelSpec, read_spec
 
@@ -36,8 +35,8 @@ def row(log_path: Path, spec_path: Path | None) -> str | None:
     if "pwm" not in log.data:
         return None
     spec = read_spec(spec_path) if spec_path else WheelSpec()
-    r = analyse(log_path, spec, MassSettings(n_boot=20))
-    lim = ride_limits(read_counters(log_path, log).speed_limit_mps, spec.top_speed)
+    r = analyse(log, spec, MassSettings(n_boot=20))
+    lim = ride_limits(log.counters.speed_limit_mps, spec.top_speed)
     c = cutout_of(r, log, lim.as_json())
     held = "–" if c.heldout_pwm_rmse_pct is None else f"{c.heldout_pwm_rmse_pct:.2f}"
     limit = f"{lim.speed_limit_mps * 3.6:.0f} ({lim.source})" if lim.speed_limit_mps else "–"

@@ -83,16 +83,16 @@ def run(label: str, a: Path, b, work: Path, channels=()) -> dict:
     """The named differences of one null pair (drivetrain fits cached in ``work``; ``channels``
     stacked beside battery power, :mod:`euc_sim.rides.compare.channels`)."""
     from euc_sim.rides.compare.differences_report import differences_json
-    from euc_sim.rides.grids.ride import as_ride
     from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.source.logs import read_log
 
     cache = work / (label.replace("/", "_").replace(" → ", "-").replace(" ", "_") + ".pkl")
     if cache.exists():
         log, other, physics = pickle.loads(cache.read_bytes())
     else:
-        log = as_ride(a).log
+        log = read_log(a, emit_warnings=False)
         log, other = (_part(log, b[0], b[2]), _part(log, b[1], b[2])) if isinstance(b, tuple) \
-            else (log, as_ride(b).log)
+            else (log, read_log(b, emit_warnings=False))
         physics = ride_drivetrain(log, other)
         cache.write_bytes(pickle.dumps((log, other, physics)))
     rep = differences_json(physics[0], physics[1], physics[2], log, other, channels=channels)

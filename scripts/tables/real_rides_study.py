@@ -41,6 +41,7 @@ from euc_sim.rides.drive.drivetrain import predict_pwm
 from euc_sim.rides.drive.mass import predict_power
 from euc_sim.rides.grids.power import MassSettings
 from euc_sim.rides.report.drivetrain_report import analyse, computed_pwm_note
+from euc_sim.rides.source.logs import read_log
 from euc_sim.rides.source.spec import read_spec
 
 DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core"
@@ -71,7 +72,7 @@ def study(n_boot: int, seed: int, progress=print) -> list[dict]:
     for k, it in enumerate(items):
         progress(f"[{k + 1}/{len(items)}] {it['wheel']}/{it['ride']}", file=sys.stderr)
         spec = read_spec(it["spec"])
-        fits[k] = analyse(it["log"], spec, settings)
+        fits[k] = analyse(read_log(it["log"], emit_warnings=False), spec, settings)
         it["truth"] = it["rider_weight"] + spec.wheel_mass
     rows = []
     for k, it in enumerate(items):
@@ -152,12 +153,13 @@ def mass_fits(n_boot: int, seed: int, progress=print) -> list[dict]:
     for k, it in enumerate(items):
         spec = read_spec(it["spec"])
         fits = {}
+        log = read_log(it["log"], emit_warnings=False)
         for c, cfg in enumerate(CONFIGS):
             progress(f"[{k + 1}/{len(items)}] {it['wheel']}/{it['ride']} {cfg}", file=sys.stderr)
             st = MassSettings(n_boot=n_boot, seed=seed, **cfg)
             if c == 0 or cfg["scale_method"] != CONFIGS[c - 1]["scale_method"]:
-                sig = power_signals(it["log"], st)
-            m = without_rotating_inertia(fit_mass(it["log"], st, sig=sig), spec.wheel_mass)
+                sig = power_signals(log, st)
+            m = without_rotating_inertia(fit_mass(log, st, sig=sig), spec.wheel_mass)
             fits[c] = None if m.estimate is None else {
                 "estimate": m.estimate, "stat": m.stat_ci95, "sys": dict(m.systematic),
                 "scale": m.scale.estimate, "scale_source": m.scale.source,
@@ -283,7 +285,7 @@ def lowo_table(res: dict) -> str:
               "windows 2/4/8 s, rotating share 0.19 (0.10-0.28) of the net weight (Table 3), the 0.5 % "
               "held-out gain that admits a term, 30 s bootstrap blocks, the ride's one grid "
               f"({MassSettings().rate:g} Hz, gaps up to {MassSettings().max_gap:g} s bridged: "
-              "rides.grids.ride.GAP_POLICY)"]
+              "rides.source.gaps.GAP_POLICY)"]
     return "\n".join(lines)
 
 

@@ -78,9 +78,11 @@ def _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations) -> list[di
     from euc_sim.rides.pipeline import balance_on_mass
     from euc_sim.rides.sim.simulate import effects_to_inject, ride_params, simulation_obstacle
     from euc_sim.rides.sim.tracking import simulate_profile
+    from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import wheel_spec
 
     spec = wheel_spec(spec_path)
+    log = read_log(log, emit_warnings=False)
     fitted = balance_on_mass(log, None, spec, n_boot=n_boot, seed=seed)
     physics, an = fitted.physics, fitted.analysis
     sig = an.sig_fit

@@ -33,6 +33,7 @@ from summarysynth import synth_summary_log  # noqa: E402
 
 from euc_sim.cli import main  # noqa: E402
 from euc_sim.report import html as H  # noqa: E402
+from euc_sim.rides.source.logs import read_log
 
 #: What every payload does if it runs: a mark the checks look for.
 RUN = "document.body.dataset.pwned=1"
@@ -178,9 +179,9 @@ def compared(ride, tmp_path_factory):
                                  ("speed_scale", 0.02, [0.01, 0.03], "1"),
                                  ("internal_resistance", 0.02, [0.01, 0.03], "ohm"))]
     rep = dict(rep, compare=str(other), differences=diffs)
-    sig = ride_signals(log)
+    sig = ride_signals(read_log(log, emit_warnings=False))
     return write_ride_html(rep, tmp_path_factory.mktemp("compared"), RideSeries.from_frame(sig.raw, sig.rate),
-                           analyse(log))
+                           analyse(read_log(log, emit_warnings=False)))
 
 
 @pytest.fixture(scope="module")

@@ -25,6 +25,7 @@ from drivesynth import drive_log  # noqa: E402
 from ridesynth import synth_log  # noqa: E402
 
 from euc_sim.cli import main  # noqa: E402
+from euc_sim.rides.source.logs import read_log
 
 #: True when every Plotly figure on the page has been drawn.
 READY = "document.querySelectorAll('.fig').length === document.querySelectorAll('.fig.js-plotly-plot').length"
@@ -89,9 +90,9 @@ def with_summary(drive, tmp_path_factory):
     from euc_sim.rides.report.page_html import RideSeries, figure_specs, write_ride_html
 
     log, _, rep = drive
-    sig = ride_signals(log)
+    sig = ride_signals(read_log(log, emit_warnings=False))
     series = RideSeries.from_frame(sig.raw, sig.rate)
-    fit = analyse(log)
+    fit = analyse(read_log(log, emit_warnings=False))
     rep = dict(rep, summary=SUMMARY, mass_check=MASS_CHECK, battery=BATTERY)
     out = tmp_path_factory.mktemp("summary")
     page = write_ride_html(rep, out, series, fit)

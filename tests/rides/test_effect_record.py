@@ -28,6 +28,7 @@ from euc_sim.rides.grids.signals import ride_signals
 from euc_sim.rides.report.differences_page import difference_lines
 from euc_sim.rides.sim import sim_steps
 from euc_sim.rides.sim.simulate import _on_grid
+from euc_sim.rides.source.logs import read_log
 from euc_sim.rides.synth import conceal as cc
 
 NAME = "eddy_current_loss"
@@ -59,8 +60,9 @@ def test_the_record_is_selected_and_sized_by_the_balance_fit(eddy, tmp_path, mon
     plain, truth = ridesynth.battery_power, {**ridesynth.TRUTH, "aerodynamic_drag": 0.0}
     monkeypatch.setattr(ridesynth, "battery_power",
                         lambda v, a, truth=truth, slope=0.0: plain(v, a, truth, slope) + TRUE_K * v ** 2)
-    design, held = (balance_design(ride_signals(ridesynth.synth_log(tmp_path / f"eddy{seed}.csv", seed=seed,
-                                                                    truth=truth))) for seed in (31, 33))
+    design, held = (balance_design(ride_signals(read_log(ridesynth.synth_log(tmp_path / f"eddy{seed}.csv", seed=seed,
+                                                                             truth=truth), emit_warnings=False)))
+                    for seed in (31, 33))
     assert NAME in design.candidates and "eddy" in design.columns_full
     assert CANDIDATES[NAME] == ("k_e", UNIT, "eddy-current loss k_e·v²", "eddy", "m²/s²")
     fit = fit_balance(design, ("copper_loss", "rolling_resistance", "drivetrain_idle_loss", NAME), n_boot=40)
@@ -80,7 +82,7 @@ def test_the_record_is_simulated_in_the_ride_simulations_battery_power(eddy, tmp
     assert NAME in sim_steps.power_terms()
     eff, notes = sim_steps.effects_to_inject({NAME: TRUE_K}, [NAME])
     assert eff == {} and notes[0].startswith(f"{NAME} = 3 is electrical")
-    sig = ride_signals(ridesynth.synth_log(tmp_path / "ride.csv", seed=32, gap_at=None))
+    sig = ride_signals(read_log(ridesynth.synth_log(tmp_path / "ride.csv", seed=32, gap_at=None), emit_warnings=False))
     t = sig.frame["t"].to_numpy()
     run = pd.DataFrame({"t": t, "M_d": np.full(t.size, 10.0), "x_dot": np.full(t.size, 5.0),
                         "gamma_dot": np.zeros(t.size), "gamma": np.zeros(t.size)})

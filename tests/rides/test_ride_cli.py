@@ -19,6 +19,7 @@ from euc_sim.rides.grids.signals import split_at_gaps
 from euc_sim.rides.sim.simulate import battery_power, effects_to_inject, ride_params
 from euc_sim.rides.sim.envelope import limit_acceleration
 from euc_sim.rides.sim.tracking import simulate_profile, to_grid
+from euc_sim.rides.source.logs import read_log
 from ridesynth import OLD_HEADER, synth_log
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "data" / "wheellog"
@@ -312,7 +313,7 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
                           (f"rider fell at t = {t_fall} s ({cause}): the simulation stops there",))
 
     monkeypatch.setattr(simulate_mod, "simulate_profile", nominal_falls)
-    rep = run_ride(logs[1], n_boot=20, seed=3, jobs=1, report_dir=tmp_path / "rep")
+    rep = run_ride(read_log(logs[1], emit_warnings=False), n_boot=20, seed=3, jobs=1, report_dir=tmp_path / "rep")
     sim = rep["simulation"]
     page = (tmp_path / "rep" / "index.md").read_text()
     assert f"The simulated rider fell at t = {t_fall:.1f} s (nominal: " in page          # said once

@@ -25,7 +25,7 @@ from ridesynth import synth_log
 
 from euc_sim.cli import main
 from euc_sim.io import is_temporary
-from euc_sim.rides.source.logs import RideLog, read_log
+from euc_sim.rides.source.logs import Ride, read_log
 
 pytestmark = pytest.mark.filterwarnings("ignore::UserWarning")
 
@@ -118,7 +118,7 @@ def test_ride_on_malformed_logs_exits_0_or_2_and_leaves_no_partial_output(mutati
         except (ValueError, OSError) as exc:
             assert str(log) in str(exc) or log.name in str(exc), exc
         else:
-            assert isinstance(parsed, RideLog)
+            assert isinstance(parsed, Ride)
             t = parsed.data["t"].to_numpy()
             assert len(t) >= 1 and all(b > a for a, b in zip(t, t[1:]))   # sorted, no repeats
         out, rep = tmp / "out" / "ride.json", tmp / "out" / "rep"

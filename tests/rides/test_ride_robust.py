@@ -21,6 +21,7 @@ from euc_sim.io import is_temporary
 from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.balance.fit import MIN_BLOCKS, fit_balance
 from euc_sim.rides.grids.signals import ride_signals
+from euc_sim.rides.source.logs import read_log
 
 #: 60 s logs give ~2.9 bootstrap blocks per half: the warning is tested once, below.
 pytestmark = pytest.mark.filterwarnings("ignore:.*bootstrap blocks:UserWarning")
@@ -88,7 +89,7 @@ def test_too_little_data_is_one_line_naming_the_file(tmp_path, capsys):
 
 def test_one_block_never_gives_a_zero_width_interval(tmp_path):
     short = synth_log(tmp_path / "short.csv", seed=3, duration=12.0, gap_at=None, repeats=1)
-    d = balance_design(ride_signals(short))
+    d = balance_design(ride_signals(read_log(short, emit_warnings=False)))
     with pytest.raises(ValueError, match=r"short\.csv: \d+ usable rows .* at least 2 blocks"):
         fit_balance(d, n_boot=20, block_s=10.0)
     fit = fit_balance(d, n_boot=20, block_s=len(d.P) * 0.1 / MIN_BLOCKS)    # exactly 2 blocks

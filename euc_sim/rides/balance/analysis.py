@@ -19,8 +19,8 @@ from euc_sim.errors import InputError
 from euc_sim.rides.balance.crossride import CrossRide, cross_ride, effect_entries, plot_cross_ride
 from euc_sim.rides.balance.design import NOMINAL, Design, balance_design
 from euc_sim.rides.balance.fit import FEW_BLOCKS, block_rows, plausibility
-from euc_sim.rides.grids.ride import GAP_POLICY, ride_name
 from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, ride_signals
+from euc_sim.rides.source.gaps import GAP_POLICY
 
 __all__ = ["RideAnalysis", "ride_report", "ride_analysis", "write_balance", "check_data",
            "split_time"]
@@ -66,9 +66,9 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
 
     Parameters
     ----------
-    log_path : Ride, RideLog or path
-        Ride to fit (a :class:`~euc_sim.rides.grids.ride.Ride` keeps its grid: built once).
-    compare_path : Ride, RideLog or path, optional
+    log_path : Ride
+        Ride to fit (it keeps its grid: built once).
+    compare_path : Ride, optional
         Ride to test on.
     report_dir : path, optional
         Where to write ``ride_balance.png`` and ``ride_balance.csv`` (test ride:
@@ -95,8 +95,8 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
         ``compare`` are file names (no folder: no machine path in outputs).
     """
     say = progress or (lambda msg: None)
-    say(f"reading {ride_name(log_path)}" + ("" if compare_path is None else
-                                            f" and {ride_name(compare_path)}"))
+    say(f"reading {log_path.name}" + ("" if compare_path is None else
+                                            f" and {compare_path.name}"))
     sig_fit = ride_signals(log_path, assumptions, rate, max_gap, window, polyorder)
     sig_test = (None if compare_path is None else
                 ride_signals(compare_path, assumptions, rate, max_gap, window, polyorder))
@@ -129,8 +129,8 @@ def _report(cr: CrossRide, sig_fit: RideSignals, d_fit: Design, d_test: Design,
     block_s, seed = settings["block_s"], settings["seed"]
     aug_phys = plausibility(cr.augmented)
     return {
-        "recording": ride_name(log_path),
-        "compare": None if compare_path is None else ride_name(compare_path),
+        "recording": log_path.name,
+        "compare": None if compare_path is None else compare_path.name,
         "effects": effect_entries(cr),
         "heldout_error_nominal": cr.heldout_nominal,
         "heldout_error_augmented": cr.heldout_augmented,
@@ -169,7 +169,7 @@ def check_data(log_path, compare_path=None, *, assumptions: RideAssumptions = Ri
                domain: str = "power", block_s: float = 10.0) -> None:
     """Fail early, naming the file, on a log :func:`ride_analysis` cannot use.
 
-    Reads the log(s) and checks the fit part (LOG, or its first half without
+    Builds the rides' balance grids (kept on each ride) and checks the fit part (LOG, or its first half without
     ``compare_path``) holds enough rows for the bootstrap (:func:`block_rows`).
 
     Raises
@@ -206,10 +206,10 @@ def _fit_and_test(sig_fit: RideSignals, sig_test: RideSignals | None, log_path, 
     """The fit and test designs and their labels: two rides, or one ride's halves."""
     d_all = balance_design(sig_fit, domain)
     if sig_test is not None:
-        return d_all, balance_design(sig_test, domain), ride_name(log_path), ride_name(compare_path)
+        return d_all, balance_design(sig_test, domain), log_path.name, compare_path.name
     t_mid = split_time(d_all.t)
     return (d_all.rows(d_all.t < t_mid), d_all.rows(d_all.t >= t_mid),
-            f"{ride_name(log_path)} (first half)", f"{ride_name(log_path)} (second half)")
+            f"{log_path.name} (first half)", f"{log_path.name} (second half)")
 
 
 def _notes(sig_fit: RideSignals, sig_test: RideSignals | None, d_fit: Design,

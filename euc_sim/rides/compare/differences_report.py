@@ -18,10 +18,9 @@ from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RAT
                                                parameters_from_ride, ride_differences, signature_columns)
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
 from euc_sim.rides.compare.resolution import with_floor
+from euc_sim.rides.drive.drivetrain import charge_drawn
 from euc_sim.rides.drive.mass import mass_regressors
-from euc_sim.rides.grids.power import G
 from euc_sim.rides.source.channels import current_from_phase
-from euc_sim.rides.grids.ride import as_ride, ride_name
 from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "differences_json"]
@@ -235,9 +234,7 @@ def voltage_design(fit, test):
         V, I = sig.extra.get("voltage"), sig.extra.get("current")
         if V is None or I is None:
             return None
-        dt = np.r_[0.0, np.diff(sig.t)]
-        dt[dt > 1.0] = 0.0
-        Q = np.cumsum(np.nan_to_num(I) * dt) / 3600.0
+        Q = charge_drawn(sig.t, I)
         ok = np.isfinite(V) & np.isfinite(I)
         if ok.sum() < 200:
             return None
@@ -251,10 +248,11 @@ def voltage_design(fit, test):
 
 
 def gps_design(log_path, compare_path):
-    """GPS speed over wheel speed on both rides: a shared scale, OTHER's ratio − 1."""
+    """GPS speed over wheel speed on both rides (each a :class:`~euc_sim.rides.source.ride.Ride`):
+    a shared scale, OTHER's ratio − 1."""
     rides = []
-    for path in (log_path, compare_path):
-        d = as_ride(path).log.data          # a parsed log as it is, a path read
+    for ride in (log_path, compare_path):
+        d = ride.data
         if "gps_speed" not in d:
             return None
         v, g = d["v"].to_numpy(float), d["gps_speed"].to_numpy(float)
@@ -286,7 +284,7 @@ def _delay_resolution(fit, log_path, compare_path) -> float:
     The delay is searched on the mass fit's grid (its own lag in whole steps);
     a shift below one step is the grid's and the stamping's, not a delay.
     """
-    dts = [np.median(np.diff(as_ride(p).log.data["t"].to_numpy(float))) for p in (log_path, compare_path)]
+    dts = [np.median(np.diff(r.data["t"].to_numpy(float))) for r in (log_path, compare_path)]
     return float(max(np.median(np.diff(fit.sig.t)), *dts))
 
 
@@ -310,7 +308,7 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     fitted = lambda made: None if made is None else pair_fit(   # noqa: E731
         made[0], level=FALSE_NAME_RATE, family=len(physics()), transform=made[1], n_boot=n_boot, seed=seed)
     out = {}
-    if not all(current_from_phase(as_ride(p).log) for p in (log_path, compare_path)):
+    if not all(current_from_phase(p) for p in (log_path, compare_path)):
         channels = tuple(c for c in channels if c != "sag")     # a measured current: sag repeats it
     delay = fitted(power_design(fit, test, mass))
     shift = 0
@@ -360,8 +358,8 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
         The ride JSON so far (LOG's ``total_mass``, ``drivetrain``, ``mass_difference``).
     fit, test : RideDrivetrain
         LOG's and OTHER's analyses (:func:`euc_sim.rides.report.drivetrain_report.drivetrain_report`).
-    log_path, compare_path : path or RideLog
-        Each log, parsed (as the ride pipeline holds it) or a path (then read once).
+    log_path, compare_path : Ride
+        Each ride, as the ride pipeline holds it.
     n_boot, seed : int
         Bootstrap replicates of the pair fits and their seed.
     channels : sequence of str
@@ -370,13 +368,12 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
     """
     from euc_sim.rides.report.drivetrain_report import drivetrain_report
 
-    log_path, compare_path = as_ride(log_path).log, as_ride(compare_path).log
     other_view = drivetrain_report(compare_path, test.spec, fitted=test)[0]
     log_params, other_params = parameters_from_ride(rep), parameters_from_ride(other_view)
     coef = _coef(log_params)
     aliases, cannot = pair_aliases(fit, test, coef)
     start = log_path.start
-    name = f"the {start.day} {start:%B} ride ({ride_name(log_path)})"
+    name = f"the {start.day} {start:%B} ride ({log_path.name})"
     tested = pair_tests(fit, test, log_path, compare_path, coef.get("total_mass", 80.0), n_boot, seed,
                         channels)
     for n, entry in tested.items():     # within a pair fit, its own estimates' correlations

@@ -39,6 +39,7 @@ import numpy as np
 from euc_sim.rides.drive.mass import MassFit
 from euc_sim.rides.drive.pwm import BASE, EXTRA, full_duty_force, pwm_columns, select_pwm_terms
 from euc_sim.rides.grids.power import G, RHO_AIR, PowerSignals
+from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.stats import block_labels, draw_blocks, gram_lstsq, label_grams, percentile_interval
 
 __all__ = ["Term", "Drivetrain", "fit_battery", "charge_drawn", "fit_pwm", "predict_pwm", "fit_drivetrain",
@@ -124,7 +125,8 @@ def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: 
 
 
 def charge_drawn(t: np.ndarray, current: np.ndarray) -> np.ndarray:
-    """Charge drawn from the battery since the first sample, Ah (a gap over 1 s adds nothing).
+    """Charge drawn from the battery since the first sample, Ah (an interval over the gap
+    policy's ``charge`` adds nothing: the current across it is unknown).
 
     Parameters
     ----------
@@ -134,7 +136,7 @@ def charge_drawn(t: np.ndarray, current: np.ndarray) -> np.ndarray:
         Battery current, A (NaN counts as 0).
     """
     dt = np.r_[0.0, np.diff(t)]
-    dt[dt > 1.0] = 0.0                                   # across a split gap: unknown
+    dt[dt > GAP_POLICY.charge] = 0.0
     return np.cumsum(np.nan_to_num(current) * dt) / 3600.0
 
 

@@ -66,9 +66,9 @@ from euc_sim.rides.source.channels import current_from_phase, power_not_measured
 from euc_sim.stats import block_labels, draw_blocks, gram_lstsq, label_grams, percentile_interval
 from euc_sim.stats import forward_select as select_by_heldout
 from euc_sim.stats import time_blocks
-from euc_sim.rides.source.logs import RideLog
+from euc_sim.rides.source.ride import Ride
 from euc_sim.rides.grids.power import (G, NO_GPS_SCALE_SD, MassSettings, PowerSignals, RideDataError,
-                                 SpeedScale, as_ride_log, power_signals)
+                                 SpeedScale, power_signals)
 from euc_sim.rides.source.systematic import combined_interval, current_scale_kg, speed_scale_kg
 
 __all__ = ["MassFit", "mass_regressors", "energy_regressors", "fit_mass", "predict_power",
@@ -372,7 +372,7 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
 
     Parameters
     ----------
-    log : RideLog or path
+    log : Ride
     settings : MassSettings
     sig : PowerSignals, optional
         Already computed by :func:`power_signals` (saves the resampling).
@@ -387,7 +387,6 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
         naming the file and the column, for a log without voltage or current
         or one that was never ridden.
     """
-    log = as_ride_log(log)
     sig = sig if sig is not None else power_signals(log, settings)
     lag = _best_lag(sig, settings)
     designs = [_design(sig, lag, w, settings) for w in sorted(settings.windows)]
@@ -470,7 +469,7 @@ def _force_copper(sig: PowerSignals, lag: int, settings: MassSettings, names, be
     return designs, betas
 
 
-def _unidentified(log: RideLog, sig: PowerSignals) -> dict:
+def _unidentified(log: Ride, sig: PowerSignals) -> dict:
     """What this log cannot identify, and why."""
     out = {}
     if not sig.signed:

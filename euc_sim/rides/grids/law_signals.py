@@ -13,7 +13,7 @@ neighbouring rows (Simpson's weights) so that the law can be fitted between
 interval means (:mod:`euc_sim.rides.law.controller_law` fits it).  The rows stay on
 the log's own stamps (the differences and weights are exact there, a grid's
 interpolation would smear them); an interval longer than the ride's one gap
-threshold (:data:`GAP`, the ``bridge`` of :data:`euc_sim.rides.grids.ride.GAP_POLICY`)
+threshold (:data:`GAP`, the ``bridge`` of :data:`euc_sim.rides.source.gaps.GAP_POLICY`)
 breaks every derivative, mean and integral, as it splits the grids.  It raises
 :class:`LawUnavailable` when the log has no pitch, no torque or too few riding rows.
 """
@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from euc_sim.errors import InputError
-from euc_sim.rides.grids.ride import GAP_POLICY, Ride
 from euc_sim.rides.grids.spin import spin_rows
-from euc_sim.rides.source.logs import RideLog
+from euc_sim.rides.source.gaps import GAP_POLICY
+from euc_sim.rides.source.ride import Ride
 
 __all__ = ["LawUnavailable", "LawRows", "law_rows", "V_MIN", "MAX_PITCH", "MIN_ROWS", "GAP",
            "ACCEL_HALF", "INTEGRAL_TAU"]
@@ -174,12 +174,12 @@ def _leaky_integral(x: np.ndarray, t: np.ndarray, tau: float = INTEGRAL_TAU) -> 
     return out
 
 
-def law_rows(log: RideLog, k_t: float | None = None, v_min: float = V_MIN) -> LawRows:
+def law_rows(log: Ride, k_t: float | None = None, v_min: float = V_MIN) -> LawRows:
     """The riding rows of ``log`` with pitch, its rate, speed, acceleration and torque.
 
     Parameters
     ----------
-    log : RideLog or Ride
+    log : Ride
     k_t : float, optional
         Torque constant, N·m/A (phase current → torque).  Without it the phase
         current is used in A; a logged ``torque`` is used as it is.
@@ -191,7 +191,6 @@ def law_rows(log: RideLog, k_t: float | None = None, v_min: float = V_MIN) -> La
     LawUnavailable
         no pitch or no torque channel, or too few riding rows.
     """
-    log = log.log if isinstance(log, Ride) else log
     d = log.data
     d = d.loc[~spin_rows(d)].reset_index(drop=True)       # the wheel off the ground: no law
     if not log.has("tilt"):

@@ -1,7 +1,7 @@
 """Battery power and speed of a ride log on one grid: the signals every energy fit reads.
 
 The log is resampled to the ride's one grid (:func:`euc_sim.rides.grids.signals.ride_grid`
-under :data:`euc_sim.rides.grids.ride.GAP_POLICY`: gaps up to 1.0 s bridged, longer
+under :data:`euc_sim.rides.source.gaps.GAP_POLICY`: gaps up to its ``bridge`` bridged, longer
 ones splitting the ride into segments), the wheel's speed corrected by its scale
 against GPS speed (:func:`speed_scale`: a 6 % optimistic speedometer makes the
 mass 12 % low, since ``a·v`` scales with the square), and every channel filtered
@@ -21,14 +21,14 @@ import numpy as np
 from euc_sim.errors import BadInputFile
 from euc_sim.geo import haversine
 from euc_sim.model.catalog import G, RHO_AIR
-from euc_sim.rides.grids.ride import GAP_POLICY, GapPolicy, Ride
 from euc_sim.rides.grids.signals import ride_grid, sg
 from euc_sim.rides.source.channels import current_from_phase
-from euc_sim.rides.source.logs import RideLog, read_log
+from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
+from euc_sim.rides.source.ride import Ride
 from euc_sim.rides.source.systematic import CURRENT_SCALE_SD, GRADE_SHARE
 
 __all__ = ["G", "RHO_AIR", "NO_GPS_SCALE_SD", "RideDataError", "MassSettings", "SpeedScale",
-           "PowerSignals", "as_ride_log", "speed_scale", "track_scale", "power_signals"]
+           "PowerSignals", "speed_scale", "track_scale", "power_signals"]
 
 #: Speedometer-scale standard deviation, when no GPS speed measures it (relative).
 NO_GPS_SCALE_SD = 0.05
@@ -52,7 +52,7 @@ class MassSettings:
         itself comes from the energy balance over ``windows``.
     max_gap : float
         Longest interval bridged by interpolation, s; longer ones split the ride
-        (the gap policy's ``bridge``, :data:`euc_sim.rides.grids.ride.GAP_POLICY`).
+        (the gap policy's ``bridge``, :data:`euc_sim.rides.source.gaps.GAP_POLICY`).
     v_min : float
         Samples slower than this, m/s, are not fitted (standing, walking).
     max_lag : float
@@ -157,14 +157,7 @@ class PowerSignals:
     raw: Mapping[str, np.ndarray] = field(default_factory=dict)
 
 
-def as_ride_log(log) -> RideLog:
-    """A :class:`RideLog` as it is, a :class:`~euc_sim.rides.grids.ride.Ride`'s log, or read from a path."""
-    if isinstance(log, Ride):
-        return log.log
-    return log if isinstance(log, RideLog) else read_log(log, emit_warnings=False)
-
-
-def speed_scale(log, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
+def speed_scale(log: Ride, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
     """True speed over logged wheel speed, from GPS.
 
     Two measurements: the Doppler speed (least squares through the origin of
@@ -177,7 +170,7 @@ def speed_scale(log, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
 
     Parameters
     ----------
-    log : RideLog or path
+    log : Ride
     v_min : float
         Both speeds above this, m/s (GPS speed is poor when slow).
     method : {"mean", "doppler", "track"}
@@ -191,7 +184,6 @@ def speed_scale(log, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
     """
     if method not in ("mean", "doppler", "track"):
         raise ValueError(f"method must be 'mean', 'doppler' or 'track', got {method!r}")
-    log = as_ride_log(log)
     d = log.data
     if "gps_speed" not in d:
         return SpeedScale(1.0, NO_GPS_SCALE_SD, "assumed")
@@ -214,14 +206,14 @@ def speed_scale(log, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
     return SpeedScale(0.5 * (k + k_track), sd, "gps doppler+track")
 
 
-def track_scale(log, v_min: float = 4.0, max_dt: float = 3.0) -> float | None:
+def track_scale(log: Ride, v_min: float = 4.0, max_dt: float = GAP_POLICY.gps_pair) -> float | None:
     """GPS track distance over the wheel's distance, between successive fixes while moving.
 
     Distances by the haversine formula (:func:`euc_sim.geo.haversine`) between distinct
     successive fixes at most ``max_dt`` s apart with the wheel faster than
     ``v_min`` (m/s) at both; None without 50 such pairs.
     """
-    d = as_ride_log(log).data
+    d = log.data
     if "latitude" not in d or "longitude" not in d:
         return None
     t, v = d["t"].to_numpy(float), d["v"].to_numpy(float)
@@ -240,14 +232,14 @@ def track_scale(log, v_min: float = 4.0, max_dt: float = 3.0) -> float | None:
     return float(dist[use].sum() / wheel[use].sum())
 
 
-def power_signals(log, settings: MassSettings = MassSettings()) -> PowerSignals:
+def power_signals(log: Ride, settings: MassSettings = MassSettings()) -> PowerSignals:
     """Resample, correct the speed scale and filter every channel alike.
 
     Parameters
     ----------
-    log : Ride, RideLog or path
-        A :class:`~euc_sim.rides.grids.ride.Ride` keeps the signals (built once per
-        grid, filter and speed-scale setting) and shares its grid with the balance fit.
+    log : Ride
+        It keeps the signals (built once per grid, filter and speed-scale setting) and
+        shares its grid with the balance fit.
     settings : MassSettings
 
     Raises
@@ -256,7 +248,6 @@ def power_signals(log, settings: MassSettings = MassSettings()) -> PowerSignals:
         naming the file and the column: no voltage or current column, or a
         speed that never exceeds ``settings.v_min``.
     """
-    ride, log = log, as_ride_log(log)
     for col in ("voltage", "current"):
         if col not in log.data:
             raise RideDataError(f"{log.path}: column {col!r}: absent or all zero; battery "
@@ -264,17 +255,13 @@ def power_signals(log, settings: MassSettings = MassSettings()) -> PowerSignals:
     if not (log.data["v"] > settings.v_min).any():
         raise RideDataError(f"{log.path}: column 'speed': never above "
                             f"{settings.v_min * 3.6:.1f} km/h; nothing was ridden")
-    if isinstance(ride, Ride):
-        return ride.derived(("power", settings.rate, settings.max_gap, settings.window,
-                             settings.scale_method), lambda: _filtered(ride, settings))
-    return _filtered(log, settings)
+    return log.derived(("power", settings.rate, settings.max_gap, settings.window,
+                        settings.scale_method), lambda: _filtered(log, settings))
 
 
-def _filtered(ride, settings: MassSettings) -> PowerSignals:
-    """:func:`power_signals` of a ride or log whose columns were checked."""
-    log = as_ride_log(ride)
-    frame, _ = ride_grid(ride if isinstance(ride, Ride) else log,
-                         GapPolicy(bridge=settings.max_gap, rate=settings.rate))
+def _filtered(log: Ride, settings: MassSettings) -> PowerSignals:
+    """:func:`power_signals` of a ride whose columns were checked."""
+    frame, _ = ride_grid(log, GapPolicy(bridge=settings.max_gap, rate=settings.rate))
     seg = frame["segment"].to_numpy()
     k = speed_scale(log, method=settings.scale_method)
     f = lambda x, deriv=0: sg(x, seg, settings.rate, settings.window, 2, deriv)   # noqa: E731

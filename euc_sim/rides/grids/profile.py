@@ -11,7 +11,9 @@ import pandas as pd
 
 from euc_sim.errors import InputError
 from euc_sim.rides.grids.power import G
-from euc_sim.rides.grids.signals import as_log, resample, sg
+from euc_sim.rides.grids.signals import resample, sg
+from euc_sim.rides.source.gaps import GAP_POLICY
+from euc_sim.rides.source.ride import Ride
 
 __all__ = ["speed_profile", "write_speed_profile", "rider_plan", "PLAN_WINDOW", "unpaid_spikes",
            "SPIN_POWER_FACTOR", "SPIN_POWER_MARGIN", "SPIN_GRADE", "SPIN_MIN_DT",
@@ -44,7 +46,7 @@ SPIN_MAX_SPAN = 5.0
 SPIN_BACK = 0.5
 
 
-def speed_profile(log, rate: float = 10.0, window: float = 1.5, polyorder: int = 2,
+def speed_profile(log: Ride, rate: float = GAP_POLICY.rate, window: float = 1.5, polyorder: int = 2,
                   total_mass: float | None = None) -> pd.DataFrame:
     """The logged wheel speed as a simulator input: ``DataFrame(t, v)``.
 
@@ -57,7 +59,7 @@ def speed_profile(log, rate: float = 10.0, window: float = 1.5, polyorder: int =
 
     Parameters
     ----------
-    log : RideLog or path
+    log : Ride
     rate : float
         Hz.
     window : float
@@ -71,9 +73,8 @@ def speed_profile(log, rate: float = 10.0, window: float = 1.5, polyorder: int =
     pandas.DataFrame
         Columns ``t`` (s, strictly increasing) and ``v`` (m/s).
     """
-    log = as_log(log)
     t = log.data["t"].to_numpy()
-    gaps = np.flatnonzero(np.diff(t) > 1.0)
+    gaps = np.flatnonzero(np.diff(t) > GAP_POLICY.gap)
     notes = [f"gap of {t[i + 1] - t[i]:.2f} s at t = {t[i]:.2f} s bridged linearly" for i in gaps]
     if total_mass is not None:
         spikes = unpaid_spikes(log, total_mass)
@@ -92,7 +93,7 @@ def speed_profile(log, rate: float = 10.0, window: float = 1.5, polyorder: int =
                          + ", ".join(f"{t[a]:.1f}" for a, _ in spikes[:10])
                          + (" s, ..." if len(spikes) > 10 else " s"))
             log = replace(log, data=log.data.loc[~drop].reset_index(drop=True))
-    raw, _ = resample(log, rate, max_gap=math.inf)
+    raw, _ = resample(log, rate, max_gap=GAP_POLICY.profile)
     v = sg(raw["v"].to_numpy(), np.zeros(len(raw), int), rate, window, polyorder)
     out = pd.DataFrame({"t": raw["t"].to_numpy(), "v": v})
     out.attrs["notes"] = notes
@@ -107,7 +108,7 @@ def _battery_power(data: pd.DataFrame) -> np.ndarray | None:
     return data["power"].to_numpy(float) if "power" in data else None
 
 
-def unpaid_spikes(log, total_mass: float, factor: float = SPIN_POWER_FACTOR,
+def unpaid_spikes(log: Ride, total_mass: float, factor: float = SPIN_POWER_FACTOR,
                   margin: float = SPIN_POWER_MARGIN, grade: float = SPIN_GRADE,
                   max_span: float = SPIN_MAX_SPAN) -> list[tuple[int, int]]:
     """Wheel-speed spikes the battery cannot pay for: the wheel, not the rider, sped up.
@@ -129,7 +130,7 @@ def unpaid_spikes(log, total_mass: float, factor: float = SPIN_POWER_FACTOR,
 
     Parameters
     ----------
-    log : RideLog or path
+    log : Ride
     total_mass : float
         kg, positive.
     factor, margin, grade : float
@@ -145,7 +146,7 @@ def unpaid_spikes(log, total_mass: float, factor: float = SPIN_POWER_FACTOR,
     """
     if not (math.isfinite(total_mass) and total_mass > 0):
         raise InputError(f"total_mass must be a positive number of kg, got {total_mass!r}")
-    d = as_log(log).data
+    d = log.data
     P = _battery_power(d)
     if P is None or len(d) < 3:
         return []
@@ -182,7 +183,7 @@ def unpaid_spikes(log, total_mass: float, factor: float = SPIN_POWER_FACTOR,
     return out
 
 
-def write_speed_profile(log, path, rate: float = 10.0, window: float = 1.5) -> Path:
+def write_speed_profile(log: Ride, path, rate: float = GAP_POLICY.rate, window: float = 1.5) -> Path:
     """Write :func:`speed_profile` as a CSV (``t,v``) atomically, for the simulator.
 
     Returns

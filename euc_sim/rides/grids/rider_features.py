@@ -15,8 +15,9 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.errors import InputError
-from euc_sim.rides.grids.ride import GAP_POLICY, GapPolicy, Ride
-from euc_sim.rides.grids.signals import RideAssumptions, as_log, ride_grid, sg
+from euc_sim.rides.grids.signals import RideAssumptions, ride_grid, sg
+from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
+from euc_sim.rides.source.ride import Ride
 
 __all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "band_ratio_db",
            "fit_windows"]
@@ -32,14 +33,14 @@ class RiderFitError(InputError):
     """A ride or a setting the rider cannot be fitted on; the message names it."""
 
 
-def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
+def log_channels(log: Ride, assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
                  max_gap: float = GAP_POLICY.bridge) -> pd.DataFrame:
     """The log's rider channels on a uniform grid (split at gaps over ``max_gap`` s).
 
     Parameters
     ----------
-    log : Ride, RideLog or path
-        A :class:`~euc_sim.rides.grids.ride.Ride` lends its grid (:func:`euc_sim.rides.grids.signals.ride_grid`).
+    log : Ride
+        It lends its grid (:func:`euc_sim.rides.grids.signals.ride_grid`).
     assumptions : RideAssumptions
         ``torque_constant`` (N·m/A) turns phase current into torque.
     rate : float
@@ -58,8 +59,7 @@ def log_channels(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
         ``max_gap`` s, the ``count`` of intervals between readings longer (the ride is split
         there) and their ``median`` length, s.
     """
-    raw, _ = ride_grid(log if isinstance(log, Ride) else as_log(log), GapPolicy(bridge=max_gap, rate=rate))
-    log = as_log(log)
+    raw, _ = ride_grid(log, GapPolicy(bridge=max_gap, rate=rate))
     out = {"t": raw["t"].to_numpy(), "segment": raw["segment"].to_numpy(), "v": raw["v"].to_numpy()}
     if log.has("voltage") and log.has("current"):
         out["P"] = raw["voltage"].to_numpy() * raw["current"].to_numpy()

@@ -4,7 +4,7 @@ A ride log (:mod:`euc_sim.rides.source.logs`) has wheel speed and battery voltag
 current at ~5 Hz, irregularly, and no rider lean.  This module
 
 1. resamples it onto a uniform grid (:func:`resample`, :func:`ride_grid`) under
-   the ride's one gap policy (:data:`euc_sim.rides.grids.ride.GAP_POLICY`):
+   the ride's one gap policy (:data:`euc_sim.rides.source.gaps.GAP_POLICY`):
    interpolating linearly across gaps up to ``bridge`` s and **splitting** the
    ride into segments at longer gaps (never bridging them);
 2. smooths and differentiates with one Savitzky–Golay fit (:func:`sg`), the same
@@ -42,11 +42,11 @@ from scipy.signal import savgol_filter
 
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import TABLE3, Params
-from euc_sim.rides.grids.ride import GAP_POLICY, GapPolicy, Ride
 from euc_sim.rides.grids.spin import spin_rows
-from euc_sim.rides.source.logs import RideLog, read_log
+from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
+from euc_sim.rides.source.ride import Ride
 
-__all__ = ["RideAssumptions", "RideSignals", "with_found_values", "as_log", "resample", "ride_grid", "sg", "window_samples",
+__all__ = ["RideAssumptions", "RideSignals", "with_found_values", "resample", "ride_grid", "sg", "window_samples",
            "wheel_torque", "ride_signals", "break_at_gaps", "check_readings", "split_at_gaps"]
 
 
@@ -122,34 +122,23 @@ class RideAssumptions:
 # --------------------------------------------------------------------------------------
 # Resampling and filtering
 # --------------------------------------------------------------------------------------
-def as_log(log) -> RideLog:
-    """A :class:`RideLog` as it is, a :class:`~euc_sim.rides.grids.ride.Ride`'s log, or read from a path."""
-    if isinstance(log, RideLog):
-        return log
-    if isinstance(log, Ride):
-        return log.log
-    return read_log(log, emit_warnings=False)
-
-
-def ride_grid(log, policy: GapPolicy = GAP_POLICY) -> tuple[pd.DataFrame, list[str]]:
-    """:func:`resample` under ``policy``; kept on a :class:`~euc_sim.rides.grids.ride.Ride` (built once).
+def ride_grid(log: Ride, policy: GapPolicy = GAP_POLICY) -> tuple[pd.DataFrame, list[str]]:
+    """:func:`resample` under ``policy``, kept on the :class:`~euc_sim.rides.source.ride.Ride` (built once).
 
     Every grid of a ride (the balance fit's, the mass and drivetrain's) is this one;
     the frame returned must not be modified (a copy is the caller's to make).
     """
-    if isinstance(log, Ride):
-        frame, notes = log.derived(("grid", policy), lambda: resample(log.log, policy.rate, policy.bridge))
-        return frame, list(notes)
-    return resample(log, policy.rate, policy.bridge)
+    frame, notes = log.derived(("grid", policy), lambda: resample(log, policy.rate, policy.bridge))
+    return frame, list(notes)
 
 
-def resample(log, rate: float = GAP_POLICY.rate,
+def resample(log: Ride, rate: float = GAP_POLICY.rate,
              max_gap: float = GAP_POLICY.bridge) -> tuple[pd.DataFrame, list[str]]:
     """Resample a log onto a uniform grid, split at gaps longer than ``max_gap``.
 
     Parameters
     ----------
-    log : RideLog or path
+    log : Ride
     rate : float
         Grid rate, Hz; grid points are multiples of 1/rate from the log's start.
     max_gap : float
@@ -168,7 +157,6 @@ def resample(log, rate: float = GAP_POLICY.rate,
     """
     if rate <= 0 or max_gap <= 0:
         raise InputError(f"rate and max_gap must be positive, got rate={rate}, max_gap={max_gap}")
-    log = as_log(log)
     d = log.data
     t = d["t"].to_numpy(float)
     if len(t) < 2:
@@ -352,7 +340,7 @@ class RideSignals:
         return sg(x, self.raw["segment"].to_numpy(), self.rate, self.window, self.polyorder, deriv)
 
 
-def check_readings(log: RideLog) -> None:
+def check_readings(log: Ride) -> None:
     """Raise ``InputError`` naming the file, channel and time of an impossible reading.
 
     The per-log checks of ``euc-sim ride`` and ``euc-sim rides`` alike: a value outside its
@@ -384,12 +372,12 @@ def check_readings(log: RideLog) -> None:
 MIN_ODOMETER = 200.0
 
 
-def odometer_scale(log: RideLog) -> float | None:
+def odometer_scale(log: Ride) -> float | None:
     """∫|v| dt over the distance the wheel's odometer counted, on the same rows; None without one.
 
     A log whose speed is in the units the reader assumed gives about 1 (0.97–1.0 on
     the logs in ``/work/shared/data``); one in mph read as km/h gives 0.62.  Rows
-    across a gap over 2 s, or where the odometer jumps or resets, are left out.
+    across a gap over the gap policy's ``odometer``, or where the odometer jumps or resets, are left out.
     """
     d = log.data
     col = next((c for c in ("total_distance", "distance") if c in d), None)
@@ -398,14 +386,14 @@ def odometer_scale(log: RideLog) -> float | None:
     t, v, x = (d[c].to_numpy(float) for c in ("t", "v", col))
     dt, dx = np.diff(t), np.diff(x)
     with np.errstate(invalid="ignore"):
-        ok = (dt > 0) & (dt < 2.0) & np.isfinite(v[1:] + v[:-1] + dx) & (dx >= 0) & (dx < 100.0 * dt + 1.0)
+        ok = (dt > 0) & (dt < GAP_POLICY.odometer) & np.isfinite(v[1:] + v[:-1] + dx) & (dx >= 0) & (dx < 100.0 * dt + 1.0)
     travelled = float(np.sum(dx[ok]))
     if travelled < MIN_ODOMETER:
         return None
     return float(np.sum(0.5 * (np.abs(v[1:]) + np.abs(v[:-1]))[ok] * dt[ok])) / travelled
 
 
-def _check_speed_units(log: RideLog) -> None:
+def _check_speed_units(log: Ride) -> None:
     """Refuse a log whose speed disagrees with its own odometer (mph read as km/h: 0.62)."""
     from euc_sim.rides.source.sanity import SPEED_SCALE_RANGE
 
@@ -416,15 +404,15 @@ def _check_speed_units(log: RideLog) -> None:
                          f"speed is in other units or the distance is; convert the log to the app's units")
 
 
-def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
+def ride_signals(log: Ride, assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
                  max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2) -> RideSignals:
     """Resample, smooth and differentiate a ride; battery power and inferred torque.
 
     Parameters
     ----------
-    log : Ride, RideLog or path
-        A :class:`~euc_sim.rides.grids.ride.Ride` keeps the grid and the filtered signals
-        (built once; only the torque, which depends on ``assumptions``, is redone).
+    log : Ride
+        The ride keeps the grid and the filtered signals (built once; only the torque,
+        which depends on ``assumptions``, is redone).
     assumptions : RideAssumptions
     rate : float
         Grid rate, Hz (the gap policy's).
@@ -446,7 +434,7 @@ def ride_signals(log, assumptions: RideAssumptions = RideAssumptions(), rate: fl
     """
     key = ("balance", rate, max_gap, window, polyorder)
     build = lambda: _balance_grid(log, rate, max_gap, window, polyorder)   # noqa: E731
-    g = log.derived(key, build) if isinstance(log, Ride) else build()
+    g = log.derived(key, build)
     M, method = wheel_torque(g.frame["v"].to_numpy(), g.frame["P"].to_numpy(), assumptions, g.phase)
     notes = list(g.notes)
     if "phase_current" in g.raw and assumptions.torque_constant is None:
@@ -470,12 +458,10 @@ class _BalanceGrid:
     has_gps_alt: bool
 
 
-def _balance_grid(log, rate: float, max_gap: float, window: float, polyorder: int) -> _BalanceGrid:
+def _balance_grid(log: Ride, rate: float, max_gap: float, window: float, polyorder: int) -> _BalanceGrid:
     """The balance fit's filtered grid, everything of :func:`ride_signals` but the torque."""
-    grid_of = log if isinstance(log, Ride) else as_log(log)
-    log = as_log(log)
     check_readings(log)
-    raw, notes = ride_grid(grid_of, GapPolicy(bridge=max_gap, rate=rate))
+    raw, notes = ride_grid(log, GapPolicy(bridge=max_gap, rate=rate))
     if log.has("voltage") and log.has("current"):
         P = raw["voltage"].to_numpy() * raw["current"].to_numpy()
         source = "voltage*current"
@@ -513,8 +499,7 @@ def break_at_gaps(t: np.ndarray, *ys: np.ndarray):
     t = np.asarray(t, float)
     if t.size < 2:
         return (t,) + tuple(np.asarray(y, float) for y in ys)
-    step = np.median(np.diff(t))
-    cut = np.flatnonzero(np.diff(t) > 1.5 * step) + 1
+    cut = GAP_POLICY.plot_breaks(t) + 1
     out = [np.insert(t, cut, np.nan)]
     out += [np.insert(np.asarray(y, float), cut, np.nan) for y in ys]
     return tuple(out)
@@ -563,7 +548,8 @@ def split_at_gaps(windows, t: np.ndarray, min_len: float = 0.0) -> list[list[flo
     windows : sequence of [t0, t1]
         s.
     t : array_like
-        Times of the rows, s, increasing; a gap is a step over 1.5 × the median step.
+        Times of the rows, s, increasing; a gap is a step over the gap policy's ``plot_steps``
+        × the median step.
     min_len : float
         Pieces shorter than this, s, are dropped.
 
@@ -575,8 +561,7 @@ def split_at_gaps(windows, t: np.ndarray, min_len: float = 0.0) -> list[list[flo
     t = np.asarray(t, float)
     if t.size < 2:
         return [list(map(float, w)) for w in windows]
-    step = float(np.median(np.diff(t)))
-    cut = np.flatnonzero(np.diff(t) > 1.5 * step)
+    cut = GAP_POLICY.plot_breaks(t)
     starts = np.concatenate([[t[0]], t[cut + 1]])
     ends = np.concatenate([t[cut], [t[-1]]])
     out = []

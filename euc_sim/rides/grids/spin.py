@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from euc_sim.rides.grids.ride import GAP_POLICY
+from euc_sim.rides.source.gaps import GAP_POLICY
 
 __all__ = ["free_spin", "spin_rows", "spin_json", "SPIN_ACCEL", "SPIN_TOL_MPS"]
 

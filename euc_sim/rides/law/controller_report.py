@@ -14,8 +14,6 @@ from __future__ import annotations
 import numpy as np
 
 from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
-from euc_sim.rides.grids.ride import ride_name
-from euc_sim.rides.grids.signals import as_log
 from euc_sim.rides.law.controller_law import Law, fit_law, predict, r2
 
 __all__ = ["torque_constant", "controller_json", "page_lines", "PAPER_PD"]
@@ -49,7 +47,7 @@ def controller_json(log_path, compare_path=None, k_t: float | None = None,
 
     Parameters
     ----------
-    log_path, compare_path : path
+    log_path, compare_path : Ride
         Ride logs of one wheel; the law is fitted on ``log_path``.
     k_t : float, optional
         Torque constant, N·m/A (:func:`torque_constant`); without it the law is
@@ -66,10 +64,10 @@ def controller_json(log_path, compare_path=None, k_t: float | None = None,
         ``{"law": None, "why": str}``.
     """
     try:
-        rows = law_rows(as_log(log_path), k_t)
+        rows = law_rows(log_path, k_t)
         law = fit_law(rows, n_boot=n_boot, seed=seed)
     except LawUnavailable as exc:
-        return {"law": None, "why": f"{ride_name(log_path)}: {exc}"}
+        return {"law": None, "why": f"{log_path.name}: {exc}"}
     out = {"law": _describe(law),
            "terms": [{"name": k, "estimate": v, "ci95": list(ci) if ci else None, "unit": u}
                      for k, (v, ci, u) in law.terms.items()],
@@ -80,19 +78,19 @@ def controller_json(log_path, compare_path=None, k_t: float | None = None,
                            "unit": law.unit},
            "selection": law.history,
            "heldout": {"r2": law.heldout_r2, "channel": law.channel,
-                       "ride": ride_name(log_path) + " (blocked, within the ride)"}}
+                       "ride": log_path.name + " (blocked, within the ride)"}}
     for term in out["terms"]:
         if term["name"] == "torque_limit":      # the fit's clip is a least-squares level, not a bound:
             term["largest_measured"] = float(np.max(np.abs(rows.y)))   # the wheel gave this much
     if compare_path is not None:
         try:
-            other = law_rows(as_log(compare_path), k_t)
+            other = law_rows(compare_path, k_t)
         except LawUnavailable as exc:
-            out["heldout"]["compare_why"] = f"{ride_name(compare_path)}: {exc}"
+            out["heldout"]["compare_why"] = f"{compare_path.name}: {exc}"
         else:
             if other.channel == law.channel:
                 out["heldout"] = {"r2": r2(other.y, predict(other, law.fit)), "channel": law.channel,
-                                  "ride": ride_name(compare_path)}
+                                  "ride": compare_path.name}
     return out
 
 

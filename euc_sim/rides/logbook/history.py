@@ -45,7 +45,7 @@ class RideEntry:
     path : str
     start : str
         ISO wall-clock time of the log's first sample: UTC where the log names its zone,
-        else the phone's local clock (:attr:`~euc_sim.rides.source.logs.RideLog.start`).
+        else the phone's local clock (:attr:`~euc_sim.rides.source.ride.Ride.start`).
     layout : str
     summary : dict
         :meth:`euc_sim.rides.report.summary.RideSummary.to_json`.
@@ -62,7 +62,7 @@ class RideEntry:
         The pack's full-charge voltage the ride's voltage and battery % imply
         (:func:`full_charge`), V; None without both channels.
     repairs : tuple of str
-        What the reader changed in the log (:attr:`~euc_sim.rides.source.logs.RideLog.repairs`).
+        What the reader changed in the log (:attr:`~euc_sim.rides.source.ride.Ride.repairs`).
     utc_offset_s : float or None
         The log's zone, s east of UTC; None where it names none.
     """
@@ -208,15 +208,15 @@ def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
     """
     from euc_sim.rides.drive.battery import battery_health, measure_resistance
     from euc_sim.rides.grids.signals import check_readings
-    from euc_sim.rides.report.summary import read_counters, ride_summary
+    from euc_sim.rides.report.summary import ride_summary
     from euc_sim.rides.source.logs import read_log
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         log = read_log(path, emit_warnings=False)
         check_readings(log)                 # the per-log checks of ``euc-sim ride`` too
-        counters = read_counters(path, log)
-        summary = ride_summary(log, counters)
+        counters = log.counters
+        summary = ride_summary(log)
         try:
             r, ci = measure_resistance(log, n_boot, seed)
             why = None
@@ -232,22 +232,9 @@ def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
     vf = volt[np.isfinite(volt) & (volt > 0)]
     series = series_cells(float(vf.max()), float(np.quantile(vf, 0.01))) if vf.size else ()
     return RideEntry(path=str(path), start=log.start.isoformat(), layout=log.layout,
-                     summary=summary.to_json(), battery=bh.to_json(), model=_model(path),
+                     summary=summary.to_json(), battery=bh.to_json(), model=log.counters.wheel_model,
                      series=series, temperature_C=temp, temperature_source=tsrc,
                      full_charge_V=full_charge(log), repairs=tuple(log.repairs), utc_offset_s=log.utc_offset_s)
-
-
-def _model(path) -> str | None:
-    """``euc.model`` and ``euc.serial`` from EUC World's ``extra`` notes, where present."""
-    import pandas as pd
-
-    try:
-        raw = pd.read_csv(path, dtype=str, keep_default_na=False, usecols=["extra"])
-    except (ValueError, OSError):
-        return None
-    notes = dict(x.split("=", 1) for x in raw["extra"] if isinstance(x, str) and "=" in x)
-    model = notes.get("euc.model")
-    return f"{model} {notes.get('euc.serial', '')}".strip() if model else None
 
 
 def check_one_wheel(entries) -> None:

@@ -13,11 +13,14 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.geo import haversine
+from euc_sim.rides.source.counters import counter_steps as _counter_steps
+from euc_sim.rides.source.counters import rises as _rises
+from euc_sim.rides.source.gaps import GAP_POLICY
 
 #: Intervals up to this are integrated across (energy, distance); longer ones are not, s.
-BRIDGE_S = 2.5
+BRIDGE_S = GAP_POLICY.bridge
 #: A gap longer than this, s, is a pause of the log (left out of the duration).
-PAUSE_S = 300.0
+PAUSE_S = GAP_POLICY.pause
 #: A GPS track is used for the distance when it covers this share of the moving time ...
 GPS_COVERAGE = 0.8
 #: ... and its distance over the covered intervals is within this ratio band of the wheel's.
@@ -27,11 +30,9 @@ GPS_RATIO = (0.8, 1.2)
 GPS_COUNTER_COVERAGE = 0.98
 #: The wheel's own counter is used where it agrees with the speed integral within this share.
 COUNTER_AGREE = 0.10
-#: Intervals up to this are integrated across for the distance where the log has no counter, s:
-#: on the one shared log with longer gaps and a trip counter (WheelLog, InMotion V9), the speed
-#: integrated over its 33 gaps of 2.5-60 s is 1 % above the counter's increase, over its
-#: 8 gaps of 60-300 s 28 % above (docs/summary.md).
-DISTANCE_BRIDGE_S = 60.0
+#: Intervals up to this are integrated across for the distance where the log has no counter, s
+#: (:attr:`GapPolicy.distance`).
+DISTANCE_BRIDGE_S = GAP_POLICY.distance
 #: Layouts whose counters count the app's trip (from 0 at its start), not the log.
 TRIP_LAYOUTS = ("eucworld",)
 #: The app's trip clock is followed where it is within this ratio band of our own duration.
@@ -51,48 +52,6 @@ def _wheel_distance(t: np.ndarray, v: np.ndarray) -> float:
     return float(seg[ok].sum())
 
 
-def _rises(t: np.ndarray, x: np.ndarray, top_mps: float) -> np.ndarray:
-    """Per-interval increase of a counter read ``x`` at times ``t`` (s), in its unit.
-
-    Readings one or two rows off their neighbours (a bogus row) are taken out by a
-    5-reading running median; a fall below half the reading before (and by more than
-    50) is a reset, after which the counter counts again from its new value; a small
-    fall (readings out of order) counts nothing until the counter passes its highest
-    reading; a rise faster than ``top_mps`` (+ 50) over the ten intervals on each side of
-    it, and over the time since the reading before it was first read, is bogus (NaN): a
-    counter read late lags a gap in the rows by a row, or repeats its last reading through
-    it.  An interval ending on an empty reading is NaN; the increase across empty readings
-    lands on the interval ending on the next reading.
-    """
-    out = np.full(max(t.size - 1, 0), np.nan)
-    idx = np.flatnonzero(np.isfinite(x))
-    if idx.size < 2:
-        return out
-    xm = pd.Series(x[idx]).rolling(5, center=True, min_periods=1).median().to_numpy()
-    reset = np.r_[False, xm[1:] < 0.5 * xm[:-1] - 50.0]
-    top = pd.Series(xm).groupby(np.cumsum(reset)).cummax().to_numpy()
-    inc = np.where(reset[1:], 0.0, np.diff(top))
-    ti, k = t[idx], np.arange(idx.size - 1)
-    first = np.maximum.accumulate(np.where(np.r_[True, xm[1:] != xm[:-1]], np.arange(xm.size), 0))
-    reach = np.maximum(ti[np.minimum(k + 11, idx.size - 1)] - ti[np.maximum(k - 10, 0)], ti[k + 1] - ti[first[k]])
-    inc[inc > top_mps * reach + 50.0] = np.nan
-    out[idx[1:] - 1] = inc
-    return out
-
-
-def _counter_steps(d: pd.DataFrame, with_column: bool = False):
-    """Per-interval increase of the log's own trip counter (else its odometer), m, NaN where
-    it is unusable (:func:`_rises`, rises faster than twice the top speed bogus); with
-    ``with_column`` also the column's name.  None where the log has no usable counter."""
-    top = 2.0 * max(float(np.nanmax(np.abs(d["v"]))), 1.0)
-    for col in ("distance", "total_distance"):
-        if col in d:
-            inc = _rises(d["t"].to_numpy(float), d[col].to_numpy(float), top)
-            if np.nansum(inc) > 0:
-                return (inc, col) if with_column else inc
-    return (None, None) if with_column else None
-
-
 def _gap_distance(d: pd.DataFrame) -> tuple[float, float]:
     """Distance the log's counter adds over the intervals not bridged, m, and their total time, s."""
     dt, ok = _steps(d["t"].to_numpy(float))
@@ -106,7 +65,7 @@ def _gps_distance(d: pd.DataFrame, w: np.ndarray) -> tuple[float | None, str | N
     """The GPS track's length while moving, m, or None with the reason it is not used.
 
     Fixes are taken where latitude/longitude change; a hop between fixes more than
-    5 s apart is filled with the wheel's distance ``w`` (per interval, m, as
+    :attr:`GapPolicy.gps_hop` apart is filled with the wheel's distance ``w`` (per interval, m, as
     :func:`_distance` counts it) scaled by the track/wheel ratio of the rest.
     """
     if "latitude" not in d or "longitude" not in d:
@@ -125,7 +84,7 @@ def _gps_distance(d: pd.DataFrame, w: np.ndarray) -> tuple[float | None, str | N
     ti = t[idx]
     cum = np.r_[0.0, np.cumsum(w)]
     wheel_hop = np.diff(cum[idx])
-    short = np.diff(ti) <= 5.0
+    short = np.diff(ti) <= GAP_POLICY.gps_hop
     moving_cover = wheel_hop[short].sum() / max(cum[-1], 1e-9)
     if moving_cover < GPS_COVERAGE:
         return None, f"the GPS track covers {100 * moving_cover:.0f} % of the wheel's distance"

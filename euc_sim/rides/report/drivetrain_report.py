@@ -23,8 +23,8 @@ from euc_sim.rides.drive.grade import GradeProfile, grade_profile
 from euc_sim.rides.drive.mass import MassFit, fit_mass, predict_power
 from euc_sim.rides.drive.pwm import no_force_speed
 from euc_sim.rides.drive.rotating import without_rotating_inertia
-from euc_sim.rides.grids.power import G, MassSettings, PowerSignals, as_ride_log, power_signals
-from euc_sim.rides.grids.ride import ride_name
+from euc_sim.rides.grids.power import G, MassSettings, PowerSignals, power_signals
+from euc_sim.rides.source.ride import Ride
 from euc_sim.rides.source.sanity import input_warnings, mass_suspicion
 from euc_sim.rides.source.spec import WheelSpec
 from euc_sim.rides.source.systematic import mass_difference
@@ -50,11 +50,10 @@ class RideDrivetrain:
     grade: GradeProfile | None = None
 
 
-def analyse(path, spec: WheelSpec = WheelSpec(), settings: MassSettings = MassSettings()
+def analyse(log: Ride, spec: WheelSpec = WheelSpec(), settings: MassSettings = MassSettings()
             ) -> RideDrivetrain:
-    """Read, filter and fit one ride (mass, then drivetrain, then the grade it implies)."""
-    log = as_ride_log(path)                  # a RideLog as it is: the ride is read once
-    sig = power_signals(path, settings)      # a Ride keeps its grid: built once
+    """Filter and fit one ride (mass, then drivetrain, then the grade it implies)."""
+    sig = power_signals(log, settings)       # the ride keeps its grid: built once
     m_eq = fit_mass(log, settings, sig=sig)
     # the drivetrain balances power with m_eq (eq. 6): the rotating inertia is accelerated too
     dt = fit_drivetrain(sig, m_eq, radius=spec.radius, n_boot=max(10, settings.n_boot // 2),
@@ -125,23 +124,23 @@ def _envelope(r: RideDrivetrain, computed_note: str | None) -> dict:
     return env
 
 
-def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
+def drivetrain_report(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
                       settings: MassSettings = MassSettings(), fitted: RideDrivetrain | None = None
                       ) -> tuple[dict, RideDrivetrain, RideDrivetrain | None]:
     """The ride JSON's ``total_mass``, ``drivetrain``, ``pwm``, ``envelope`` and ``wheel``.
 
     Parameters
     ----------
-    path : path
-        The ride log.
+    log : Ride
+        The ride.
     spec : WheelSpec
         Wheel radius, weight, voltage where known.
-    compare : path, optional
+    compare : Ride, optional
         Another ride of the same wheel: its battery power and PWM are predicted
         from this ride's fit (held out).
     settings : MassSettings
     fitted : RideDrivetrain, optional
-        :func:`analyse` of ``path`` already done.
+        :func:`analyse` of ``log`` already done.
 
     Returns
     -------
@@ -149,15 +148,14 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
     fit, test : RideDrivetrain
         The analyses (``test`` None without ``compare``).
     """
-    r = fitted or analyse(path, spec, settings)
-    path = as_ride_log(path)
+    r = fitted or analyse(log, spec, settings)
     dtj = r.drivetrain.as_json()
     note = computed_pwm_note(r)
     if note:
         dtj["resistive_drop"] = {"estimate": None, "ci95": None, "unit": "V/N", "why": note}
         dtj.pop("winding_resistance", None)
     rep = {"total_mass": _total_mass(r), "drivetrain": dtj, "envelope": _envelope(r, note),
-           "input_warnings": input_warnings(path, r.spec, r.mass.scale),
+           "input_warnings": input_warnings(log, r.spec, r.mass.scale),
            "wheel": r.spec.as_json(), "unidentified": dict(r.drivetrain.unidentified),
            "grade": (r.grade.as_json() if r.grade is not None else
                      {"why": "no GPS altitude, or no mass identified: no implied grade"})}
@@ -175,7 +173,7 @@ def drivetrain_report(path, spec: WheelSpec = WheelSpec(), compare=None,
         else:
             rep["pwm"] = {"heldout_rmse": None, "unit": "%",
                           "why": "no PWM or safety-margin column in "
-                                 + (ride_name(compare) if r.drivetrain.pwm_coef else ride_name(path))}
+                                 + (compare.name if r.drivetrain.pwm_coef else log.name)}
     return rep, r, test
 
 
@@ -185,7 +183,7 @@ def cutout_of(r: RideDrivetrain, log, limits: dict):
     Parameters
     ----------
     r : RideDrivetrain
-    log : RideLog
+    log : Ride
         The same ride parsed: its battery reading (%) gives the charge.
     limits : dict
         The summary's ``limits``.
@@ -416,7 +414,7 @@ def ride_drivetrain(log, compare=None, spec=None, n_boot: int = 200, seed: int =
 
     Parameters
     ----------
-    log, compare : path
+    log, compare : Ride
         The fit ride and, optionally, the held-out ride.
     spec : WheelSpec, optional
         The wheel's specification (default: none known).

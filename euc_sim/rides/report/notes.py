@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import re
 
+from euc_sim.rides.source.gaps import GAP_POLICY
+
 __all__ = ["summarise_notes", "said_once", "as_the_tile", "missing_spec_effect"]
 
 
@@ -114,8 +116,8 @@ def summarise_notes(notes, shown: int = 5) -> list[str]:
         elif kind == "empty":
             lines.append(who + _empty_cells(g, arg))
         elif kind == "bridged":
-            lines.append(f"{who}{_gap_summary(g, shown)} longer than 1 s bridged linearly in the "
-                         f"simulated speed profile (every one is listed in the JSON's notes)")
+            lines.append(f"{who}{_gap_summary(g, shown)} longer than {GAP_POLICY.gap:g} s bridged linearly "
+                         f"in the simulated speed profile (every one is listed in the JSON's notes)")
         else:
             lines.append(f"{who}{len(g)} piece(s) between gaps shorter than the "
                          f"{arg}-sample filter window ({sum(g)} samples in all) left out")

@@ -23,6 +23,7 @@ import numpy as np
 from euc_sim.report import html as H
 from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
 from euc_sim.rides.drive.cutout import CONDITIONS, Limits, headroom_words
+from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.report.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
 
 __all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "first_screen", "figure_specs",
@@ -69,7 +70,7 @@ class RideSeries:
         for col, (name, k) in names.items():
             if col in raw and np.isfinite(raw[col].to_numpy(float)).any():
                 ch[name] = raw[col].to_numpy(float) * k
-        return cls(t=raw["t"].to_numpy(float), gap_s=1.5 / rate, channels=ch)
+        return cls(t=raw["t"].to_numpy(float), gap_s=GAP_POLICY.plot_steps / rate, channels=ch)
 
     def at(self, name: str, t: float) -> float | None:
         """The channel at time ``t`` (s), nearest grid row; None when not logged."""
@@ -334,7 +335,7 @@ def over_time(rep: Mapping, series: RideSeries):
     panels = [Panel(name, unit, c[k][keep]) for k, name, unit in spec if k in c]
     m = _max_pwm_mark(rep, series)
     mark = None if m is None else (float(axis.x([m[0]])[0]), f"max PWM {_num(rep['summary'], 'pwm_max_pct'):.0f} %")
-    gap = max(series.gap_s, 1.5 * float(np.median(np.diff(series.t[keep])))) if keep.size > 1 else series.gap_s
+    gap = max(series.gap_s, GAP_POLICY.plot_steps * float(np.median(np.diff(series.t[keep])))) if keep.size > 1 else series.gap_s
     fig = time_panels(x, panels, "The ride over time (zoom one panel: all follow)", gap / 60.0, mark)
     axis.decorate(fig, len(panels))
     if mark is not None and "pwm_pct" in c:        # the peak is one logged row: the grid's mean may not reach it

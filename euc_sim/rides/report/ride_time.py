@@ -91,7 +91,7 @@ class TimeAxis:
 
     @classmethod
     def of(cls, rep: Mapping, t: np.ndarray) -> "TimeAxis":
-        from euc_sim.rides.report.summary import PAUSE_S
+        from euc_sim.rides.source.gaps import GAP_POLICY
 
         if t.size == 0:
             return cls(((0.0, 0.0),), 0.0)
@@ -99,7 +99,7 @@ class TimeAxis:
         if "pauses" in c:
             p = [(float(a), float(b)) for a, b in c["pauses"]]
         else:                               # a report without a clock: the pauses of the series itself
-            p = [(float(t[k]), float(t[k + 1])) for k in np.flatnonzero(np.diff(t) > PAUSE_S)]
+            p = [(float(t[k]), float(t[k + 1])) for k in np.flatnonzero(np.diff(t) > GAP_POLICY.pause)]
         edges = [float(t[0])] + [v for ab in p for v in ab] + [float(t[-1])]
         stretches = tuple(zip(edges[::2], edges[1::2]))
         return cls(stretches, PAUSE_SHOWN * max(sum(b - a for a, b in stretches), 1.0))

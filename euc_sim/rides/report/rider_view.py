@@ -7,10 +7,10 @@ is a typed result of its own module (:mod:`euc_sim.rides.report.summary`,
 
 from __future__ import annotations
 
-from euc_sim.errors import InputError
-
 import math
-import warnings
+
+from euc_sim.errors import InputError
+from euc_sim.rides.source.ride import Ride
 
 __all__ = ["rider_numbers", "compared_numbers", "check_rider_weight", "ride_clock", "zone_words"]
 
@@ -37,7 +37,7 @@ def zone_words(offset_s: float | None) -> str:
     return f"UTC{'-' if offset_s < 0 else '+'}{m // 60:02d}:{m % 60:02d}"
 
 
-def ride_clock(log) -> dict:
+def ride_clock(log: Ride) -> dict:
     """When the ride ran, in its own zone: the ride JSON's ``clock``.
 
     Returns
@@ -54,25 +54,25 @@ def ride_clock(log) -> dict:
     import numpy as np
     import pandas as pd
 
-    from euc_sim.rides.report.summary import PAUSE_S
+    from euc_sim.rides.source.gaps import GAP_POLICY
 
-    off = getattr(log, "utc_offset_s", None)
+    off = log.utc_offset_s
     start = pd.Timestamp(log.start)
     if off is not None:
         start = (start + pd.Timedelta(seconds=off)).tz_localize(timezone(timedelta(seconds=off)))
     t = log.data["t"].to_numpy(float)
-    i = np.flatnonzero(np.diff(t) > PAUSE_S)
+    i = np.flatnonzero(np.diff(t) > GAP_POLICY.pause)
     return {"start": start.isoformat(), "utc_offset_s": off, "zone": zone_words(off),
             "pauses": [[float(t[k]), float(t[k + 1])] for k in i]}
 
 
-def rider_numbers(log, rep: dict, spec=None, rider_weight: float | None = None) -> dict:
+def rider_numbers(log: Ride, rep: dict, spec=None, rider_weight: float | None = None) -> dict:
     """``summary``, ``mass_check`` and ``battery`` of the ride JSON.
 
     Parameters
     ----------
-    log : path or RideLog
-        The ride log, or its parsed form (then it is not read again).
+    log : Ride
+        The ride.
     rep : dict
         The ride JSON built so far: its ``total_mass`` and ``drivetrain`` are read,
         never recomputed.
@@ -87,18 +87,12 @@ def rider_numbers(log, rep: dict, spec=None, rider_weight: float | None = None) 
         ``{"summary": ..., "mass_check": ..., "battery": ...}`` (JSON-ready).
     """
     from euc_sim.rides.drive.battery import battery_health_from_report, pack_spec
-    from euc_sim.rides.report.summary import mass_check, read_counters, ride_summary
-    from euc_sim.rides.source.logs import read_log
+    from euc_sim.rides.report.summary import mass_check, ride_summary
 
-    if not hasattr(log, "data"):
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            log = read_log(log, emit_warnings=False)
-    counters = read_counters(log.path, log)
-    summary = ride_summary(log, counters, getattr(spec, "top_speed", None))
+    summary = ride_summary(log, getattr(spec, "top_speed", None))
     wheel_kg = getattr(spec, "wheel_mass", None) if spec is not None else None
     mc = mass_check(rep.get("total_mass"), rider_weight, wheel_kg)
-    bh = battery_health_from_report(rep.get("drivetrain"), log, counters, pack_spec(spec)).to_json()
+    bh = battery_health_from_report(rep.get("drivetrain"), log, log.counters, pack_spec(spec)).to_json()
     out = summary.to_json()
     # CONTRACT's summary.battery: the verdict and what it is judged against (the whole entry: battery)
     out["battery"] = {k: bh[k] for k in ("verdict", "expected_ohm", "expected_source")}
@@ -110,7 +104,7 @@ def compared_numbers(log, fitted, spec=None, rider_weight: float | None = None) 
 
     Parameters
     ----------
-    log : RideLog
+    log : Ride
         The compared ride, parsed.
     fitted : RideDrivetrain
         Its mass and drivetrain analysis (the pipeline's ``test``), read, not redone.

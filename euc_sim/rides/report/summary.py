@@ -1,15 +1,15 @@
 """The ride as a rider reads it: distance, time, speed, energy, battery, PWM, alarms, gaps.
 
-:func:`ride_summary` is a pure function of a parsed log (:func:`euc_sim.rides.source.logs.read_log`)
-and the few columns the reader does not keep (:class:`LogCounters`, from
-:func:`read_counters`: alarm flags and the app's own trip counters).  Its
+:func:`ride_summary` is a pure function of a parsed log (:func:`euc_sim.rides.source.logs.read_log`),
+its columns and the app's own counters the reader took beside them (its ``counters``,
+:class:`~euc_sim.rides.source.counters.LogCounters`: alarm flags, trip counters).  Its
 :class:`RideSummary` is the ride JSON's ``summary`` object (docs/summary.md).
 
 - Duration and distance: the app's own counters where the log has them, else computed
   from the log (:mod:`euc_sim.rides.report.distance`); ``distance_follows`` and
   ``duration_follows`` say which.  The whole log's span is ``logged_s``.
 - Energy: battery voltage × current integrated over time (trapezoid); intervals
-  longer than :data:`BRIDGE_S` are not integrated across (the wheel's state in
+  longer than the gap policy's ``bridge`` (:mod:`euc_sim.rides.source.gaps`) are not integrated across (the wheel's state in
   between is unknown).  Drawn is the positive part, regenerated the negative one.
 - Battery used: the log's battery percentage near the start minus near the end,
   each the median of the readings at the lowest currents of the first and last
@@ -21,7 +21,6 @@ A quantity the log cannot give is ``None``.
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -29,19 +28,18 @@ import pandas as pd
 
 from euc_sim.rides.drive.cutout import ride_limits
 from euc_sim.rides.grids.spin import free_spin, spin_json
-from euc_sim.rides.report.distance import (BRIDGE_S, PAUSE_S, _counter_steps, _distance, _duration, _gap_distance,
-                                          _near, _steps, _wheel_distance)
+from euc_sim.rides.report.distance import (_distance, _duration, _gap_distance, _near, _steps,
+                                          _wheel_distance)
+from euc_sim.rides.source.counters import integrate_split as _integrate_split
+from euc_sim.rides.source.gaps import GAP_POLICY
+from euc_sim.rides.source.ride import Ride
 
-__all__ = ["RideSummary", "LogCounters", "MassCheck", "read_counters", "ride_summary",
-           "mass_check", "GAP_S", "BRIDGE_S", "MOVING_MPS"]
+__all__ = ["RideSummary", "MassCheck", "ride_summary", "mass_check", "MOVING_MPS"]
 
-#: An interval between samples longer than this is a gap, s (as the log reader counts them),
-#: unless the app's own cadence is slower: see :func:`gap_limit`.
-GAP_S = 1.0
-#: The longest interval an app writes in normal logging, s, by the reader's layout name:
-#: EUC World writes when the wheel's frames arrive, in bursts up to 1.7 s apart on an
-#: InMotion V9 (docs/summary.md, "Data quality"); other apps sample at a fixed rate.
-APP_GAP_S = {"eucworld": 2.0}
+#: Intervals up to this are integrated across (energy, distance); longer ones are not, s.
+BRIDGE_S = GAP_POLICY.bridge
+#: A gap longer than this, s, is a pause of the log (left out of the duration).
+PAUSE_S = GAP_POLICY.pause
 #: Wheel speed above which the wheel counts as moving, m/s (1.8 km/h).
 MOVING_MPS = 0.5
 #: Wheel speed above which the trip has started (the wheel's first turn), m/s (0.18 km/h).
@@ -50,55 +48,6 @@ START_MPS = 0.05
 BATTERY_WINDOW_S = 60.0
 #: Less battery used than this, points, gives no range (the ratio would be noise).
 MIN_BATTERY_FOR_RANGE = 3.0
-
-
-@dataclass(frozen=True)
-class LogCounters:
-    """What the app wrote beside the channels: alarm rows and its own trip counters.
-
-    Attributes
-    ----------
-    alarm_rows : int or None
-        Rows with an alarm or alert flag set; None where the log has no such column.
-    alarm_episodes : int or None
-        Runs of consecutive flagged rows.
-    duration_s, moving_s : float or None
-        The app's trip clock and riding clock at the end (EUC World), s.
-    distance_m : float or None
-        The app's trip distance (wheel odometer) over the log, m.
-    gps_distance_m : float or None
-        The app's GPS trip distance, m.
-    speed_max_mps : float or None
-        The app's top speed, m/s.
-    energy_Wh : float or None
-        The app's energy counter at the end (EUC World ``energy_consumed``), Wh.
-    battery_start_pct, battery_end_pct : float or None
-        The battery reading in the first and last row, %.
-    battery_temp_C : float or None
-        Median battery temperature (EUC World ``temp_batt``), °C.
-    power_Wh_drawn : float or None
-        The app's ``power`` column integrated like :func:`ride_summary` integrates V·I, Wh.
-    battery_circuit_ohm : float or None
-        The battery resistance the wheel reports (EUC World ``euc.batteryCircuitResistance``), Ω.
-    speed_limit_mps : float or None
-        The speed limit (tilt-back) set in the wheel, the highest the log's ``speed_limit``
-        column (EUC World, km/h) reads, m/s.
-    """
-
-    alarm_rows: int | None = None
-    alarm_episodes: int | None = None
-    duration_s: float | None = None
-    moving_s: float | None = None
-    distance_m: float | None = None
-    gps_distance_m: float | None = None
-    speed_max_mps: float | None = None
-    energy_Wh: float | None = None
-    battery_start_pct: float | None = None
-    battery_end_pct: float | None = None
-    battery_temp_C: float | None = None
-    power_Wh_drawn: float | None = None
-    battery_circuit_ohm: float | None = None
-    speed_limit_mps: float | None = None
 
 
 @dataclass(frozen=True)
@@ -160,118 +109,7 @@ def _plain(v):
 
 
 # --------------------------------------------------------------------------------------
-def _episodes(flag: np.ndarray) -> int:
-    """Runs of consecutive True values."""
-    f = np.asarray(flag, bool)
-    return int(f[0]) + int(np.sum(f[1:] & ~f[:-1])) if f.size else 0
-
-
-def _num(raw: pd.DataFrame, col: str) -> np.ndarray | None:
-    if col not in raw.columns:
-        return None
-    vals = pd.to_numeric(raw[col].astype(str).str.strip(), errors="coerce").to_numpy(float)
-    return vals if np.isfinite(vals).any() else None
-
-
-def _last(x: np.ndarray | None, scale: float = 1.0) -> float | None:
-    if x is None:
-        return None
-    f = x[np.isfinite(x)]
-    return float(f[-1]) * scale if f.size else None
-
-
-def _span(x: np.ndarray | None, scale: float = 1.0) -> float | None:
-    if x is None:
-        return None
-    f = x[np.isfinite(x)]
-    return float(f.max() - f.min()) * scale if f.size else None
-
-
-def read_counters(path, log=None) -> LogCounters:
-    """The alarm flags and the app's own counters of the log at ``path`` (read-only).
-
-    Parameters
-    ----------
-    path : path
-        The CSV file (already readable by :func:`euc_sim.rides.source.logs.read_log`).
-    log : RideLog, optional
-        Its parsed form, for the ``power`` column's integral.
-
-    Returns
-    -------
-    LogCounters
-        Fields ``None`` where the layout has no such column.
-    """
-    raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True,
-                      index_col=False)
-    raw.columns = [str(c).strip() for c in raw.columns]
-    flag = None
-    for col in ("alarm", "alert", "Alarm", "Alert"):
-        if col in raw.columns:
-            s = raw[col].astype(str).str.strip()
-            f = ~s.isin(["", "0", "0.0", "nan", "None", "null"])
-            flag = f.to_numpy() if flag is None else flag | f.to_numpy()
-    eucworld = "datetime" in raw.columns
-    km = 1000.0 if eucworld else 1.0
-    bat = _num(raw, "battery") if eucworld else _num(raw, "battery_level")
-    bf = bat[np.isfinite(bat)] if bat is not None else np.array([])
-    tb = _num(raw, "temp_batt")
-    lim = _num(raw, "speed_limit")
-    lim = lim[np.isfinite(lim) & (lim > 0)] if lim is not None else np.array([])
-    return LogCounters(
-        alarm_rows=None if flag is None else int(flag.sum()),
-        alarm_episodes=None if flag is None else _episodes(flag),
-        duration_s=_last(_num(raw, "duration")), moving_s=_last(_num(raw, "duration_riding")),
-        distance_m=_counter_total(log) if log is not None else _span(_num(raw, "distance"), km),
-        gps_distance_m=_span(_num(raw, "gps_distance"), km) if eucworld else None,
-        speed_max_mps=_last(_num(raw, "speed_max"), 1 / 3.6),
-        energy_Wh=_last(_num(raw, "energy_consumed")),
-        battery_start_pct=float(bf[0]) if bf.size else None,
-        battery_end_pct=float(bf[-1]) if bf.size else None,
-        battery_temp_C=float(np.nanmedian(tb)) if tb is not None else None,
-        power_Wh_drawn=_power_column_Wh(log) if log is not None else None,
-        battery_circuit_ohm=_extra_value(raw, "euc.batteryCircuitResistance"),
-        speed_limit_mps=float(lim.max()) / 3.6 if lim.size else None)
-
-
-def _extra_value(raw: pd.DataFrame, key: str) -> float | None:
-    """A ``key=value`` note of EUC World's ``extra`` column, as a number."""
-    if "extra" not in raw.columns:
-        return None
-    hit = raw["extra"].astype(str).str.extract(rf"{re.escape(key)}=([-+0-9.eE]+)")[0].dropna()
-    return float(hit.iloc[-1]) if len(hit) else None
-
-
-def _counter_total(log) -> float | None:
-    """The log's trip counter's increase over the whole log, m (resets and bogus rows left out)."""
-    inc = _counter_steps(log.data)
-    return None if inc is None else float(np.nansum(inc))
-
-
-def _power_column_Wh(log) -> float | None:
-    d = log.data
-    if "power" not in d:
-        return None
-    drawn, _ = _integrate_split(d["t"].to_numpy(float), d["power"].to_numpy(float))
-    return drawn
-
-
 # --------------------------------------------------------------------------------------
-def _integrate_split(t: np.ndarray, p: np.ndarray) -> tuple[float | None, float | None]:
-    """Trapezoid integrals of the positive and negative parts of ``p`` (W), Wh, gaps left out."""
-    dt, ok = _steps(t)
-    good = ok & np.isfinite(p[1:]) & np.isfinite(p[:-1])
-    if not good.any():
-        return None, None
-    pos = 0.5 * (np.clip(p[1:], 0, None) + np.clip(p[:-1], 0, None)) * dt
-    neg = 0.5 * (np.clip(-p[1:], 0, None) + np.clip(-p[:-1], 0, None)) * dt
-    return float(pos[good].sum() / 3600.0), float(neg[good].sum() / 3600.0)
-
-
-def gap_limit(layout: str | None) -> float:
-    """The interval beyond which a log of this app has a gap, s: the app's normal longest
-    interval (:data:`APP_GAP_S`), else :data:`GAP_S`."""
-    return APP_GAP_S.get(str(layout), GAP_S)
 
 
 def _gaps(t: np.ndarray, limit: float) -> dict:
@@ -328,7 +166,8 @@ def _quality(t: np.ndarray, lim: float) -> tuple[str, str, float | None]:
     samples per second, all over the log without its pauses (intervals over :data:`PAUSE_S`,
     left out of the duration too: the log was stopped, not losing rows).
 
-    A gap is an interval over ``lim`` (:func:`gap_limit`: what the app normally writes).
+    A gap is an interval over ``lim`` (:meth:`~euc_sim.rides.source.gaps.GapPolicy.gap_of`: what
+    the app normally writes).
     Poor: more than 20 % of the ride in gaps or under 1 sample/s; fair: over 5 %
     or under 2 samples/s.  A poor log weakens every verdict drawn from it.
     """
@@ -358,16 +197,15 @@ def _quality(t: np.ndarray, lim: float) -> tuple[str, str, float | None]:
     return q, f"Data quality {q}: {rate}, {g}{tail}.", hz
 
 
-def ride_summary(log, counters: LogCounters | None = None, top_speed_mps: float | None = None) -> RideSummary:
+def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
     """The ride's summary from its parsed log.
 
     Parameters
     ----------
-    log : RideLog
-        From :func:`euc_sim.rides.source.logs.read_log` (SI units).
-    counters : LogCounters, optional
-        From :func:`read_counters`; gives the alarm count (else ``alarms`` is None)
-        and the speed limit set in the wheel.
+    log : Ride
+        From :func:`euc_sim.rides.source.logs.read_log` (SI units); its ``counters`` give
+        the alarm count (``alarms`` None without an alarm column) and the speed limit set
+        in the wheel.
     top_speed_mps : float, optional
         The spec's top speed, m/s: the ``limits``' speed limit where the log has none.
 
@@ -378,7 +216,7 @@ def ride_summary(log, counters: LogCounters | None = None, top_speed_mps: float 
     d = log.data
     t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
     why: dict[str, str] = {}
-    c = counters or LogCounters()
+    c = log.counters
     moving = v > MOVING_MPS
     duration, t_start, duration_follows = _duration(t, v > START_MPS, c.duration_s)
     dt, ok = _steps(t)
@@ -387,7 +225,7 @@ def ride_summary(log, counters: LogCounters | None = None, top_speed_mps: float 
     if _near(c.moving_s, moving_own):                       # the app's riding clock
         moving_s = float(c.moving_s)
         duration_follows = duration_follows.replace("trip clock", "trip and riding clocks")
-    layout = getattr(log, "layout", None)
+    layout = log.layout
     wheel, covered, gps, gps_why, wheel_follows, gps_follows = _distance(d, layout)
     dist, source, follows = (gps, "gps", gps_follows) if gps is not None else (wheel, "wheel", wheel_follows)
     # energy is integrated over the bridged intervals only: so is the distance it is divided by
@@ -415,7 +253,7 @@ def ride_summary(log, counters: LogCounters | None = None, top_speed_mps: float 
     if spin.any():
         why["speed_max_mps"] = "rows where the wheel spins off the ground (free_spin) left out"
     pmax, pat, place = _pwm(d, spin)
-    lim = gap_limit(layout)
+    lim = GAP_POLICY.gap_of(log.layout)
     gaps = _gaps(t, lim)
     q, sentence, hz = _quality(t, lim)
     temp = float(np.nanmax(d["temperature"])) if "temperature" in d else None

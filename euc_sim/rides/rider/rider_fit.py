@@ -59,7 +59,8 @@ from euc_sim.rides.rider.response_surface import lhs as _lhs, minimise as _minim
 from euc_sim.rides.sim.reading import quantise, stamp_readings
 from euc_sim.rides.grids.rider_features import (BAND_WINDOWS, RiderFitError, band_features,  # noqa: F401
                                          fit_windows, log_channels)
-from euc_sim.rides.grids.signals import RideAssumptions, as_log
+from euc_sim.rides.grids.signals import RideAssumptions
+from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.rider.rider_params import RIDER_PARAMS, rider_from
 
 __all__ = ["BAND_WINDOWS", "RiderFitError", "RiderFit",
@@ -422,14 +423,14 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
               drivetrain: Mapping[str, float] | None = None,
               assumptions: RideAssumptions = RideAssumptions(),
               channels: Sequence[str] | None = None, windows: int = 3, window_length: float = 60.0,
-              plan_window: float = PLAN_WINDOW, max_gap: float = 1.0, rounds: Sequence[int] = (14, 12, 10),
+              plan_window: float = PLAN_WINDOW, max_gap: float = GAP_POLICY.rider, rounds: Sequence[int] = (14, 12, 10),
               n_boot: int = 200, repeats: int = 1, seed: int = 0, dt: float = 2e-3,
               progress: Callable[[str], None] | None = None) -> RiderFit:
     """Fit the simulated rider's delay, bandwidth and motor noise to a ride log.
 
     Parameters
     ----------
-    log : RideLog or path
+    log : Ride
         The fit ride (never the held-out one).
     params : Params
         The simulated ride's parameters (:func:`euc_sim.rides.sim.simulate.ride_params`).
@@ -500,7 +501,6 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     motor = motor or MotorPD()
     dtv = {"copper_loss": 0.0, "drivetrain_idle_loss": 0.0}
     dtv.update(drivetrain or {})
-    log = as_log(log)
     ch = log_channels(log, assumptions, max_gap=max_gap)
     have = [c for c in ("P", "M", "pitch") if c in ch]
     names = tuple(have if channels is None else channels)

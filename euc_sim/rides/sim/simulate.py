@@ -41,7 +41,8 @@ from euc_sim.errors import InputError
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.grids.profile import rider_plan, speed_profile
 from euc_sim.rides.grids.rider_features import reading_step
-from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, as_log
+from euc_sim.rides.grids.signals import RideAssumptions, RideSignals
+from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.sim.plan_learning import filter_band
 from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep, electrical_power,
                                      effects_to_inject, simulated_pwm)
@@ -49,18 +50,13 @@ from euc_sim.rides.grids.stops import find_stops
 from euc_sim.rides.sim.envelope import LEAN_SHARE
 from euc_sim.rides.sim.tracking import simulate_profile
 
-__all__ = ["SIM_EFFECTS", "MAX_BRIDGED_GAP", "simulation_obstacle", "ride_params", "effects_to_inject",
+__all__ = ["SIM_EFFECTS", "simulation_obstacle", "ride_params", "effects_to_inject",
            "battery_power", "RideSimulation", "simulate_ride", "plot_ride_simulation", "LOG_COLUMNS"]
 
 #: Optional log channels a step is scored on: table stem -> the resampled log's column.
 LOG_COLUMNS = {"I": "phase_current", "pitch": "tilt", "pwm": "pwm"}
 
-#: Longest gap in a log, s, that the simulation bridges (linearly, at the logged speeds);
-#: a log with a longer one (the app left running for hours) is not simulated.
-MAX_BRIDGED_GAP = 120.0
-
-
-def simulation_obstacle(sig: RideSignals, max_gap: float = MAX_BRIDGED_GAP) -> str | None:
+def simulation_obstacle(sig: RideSignals, max_gap: float = GAP_POLICY.simulate) -> str | None:
     """Why a ride cannot be simulated as one profile, or None.
 
     The simulation rides the whole log as one continuous profile, every gap
@@ -485,7 +481,7 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
     steps : sequence of SimStep
         The modelled steps in order (:func:`euc_sim.rides.sim.sim_steps.build_steps`); those
         with a ``why`` are listed, not run.  At least one must run.
-    log : RideLog or path
+    log : Ride
         The same ride, for :func:`euc_sim.rides.grids.profile.speed_profile`.
     scored : array of bool, optional
         Grid rows the errors are measured on (default: every row where the
@@ -521,7 +517,6 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
     if not run:
         raise ValueError(f"steps: expected at least one step that runs, got {[s.name for s in steps]}")
     params = ride_params(sig.assumptions)
-    log = as_log(log)                    # read once: for the profile and for the stamps
     prof = speed_profile(log, sig.rate, sig.window, sig.polyorder, total_mass=sig.assumptions.total_mass)
     t_p, v_p = prof["t"].to_numpy(), prof["v"].to_numpy()
     notes = list(prof.attrs.get("notes", []))

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from euc_sim.rides.source.logs import RideLog
+from euc_sim.rides.source.ride import Ride
 
 __all__ = ["current_from_phase", "duty_from_speed", "power_not_measured"]
 
 
-def current_from_phase(log: RideLog) -> bool:
+def current_from_phase(log: Ride) -> bool:
     """True when the battery current is the app's duty × phase current, not a measurement.
 
     Then the phase current carries no information beyond the battery power and
@@ -31,7 +31,7 @@ def current_from_phase(log: RideLog) -> bool:
     return bool(np.median(np.abs(ratio - 1.0)) < 0.03)
 
 
-def duty_from_speed(log: RideLog) -> float | None:
+def duty_from_speed(log: Ride) -> float | None:
     """The app's constant K (V per m/s) when its logged duty is K·v/V, not a measurement; else None.
 
     A measured duty carries the resistive drop R·I_ph beside the back-EMF; a
@@ -50,7 +50,7 @@ def duty_from_speed(log: RideLog) -> float | None:
     return K if np.sqrt(np.mean((y - K * v) ** 2)) < 0.01 * np.sqrt(np.mean(y ** 2)) else None
 
 
-def power_not_measured(log: RideLog) -> str:
+def power_not_measured(log: Ride) -> str:
     """Why an app-derived battery current carries no scale either ("" when it is measured)."""
     K = duty_from_speed(log)
     if K is None or not current_from_phase(log):

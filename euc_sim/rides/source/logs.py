@@ -1,7 +1,7 @@
 """Readers for electric-unicycle telemetry logs (WheelLog CSV and relatives).
 
 Every layout is read **by column name, never by position**.  The result is one
-:class:`RideLog`: a table in SI units (time from the first sample in s, speeds in
+:class:`~euc_sim.rides.source.ride.Ride`: a table in SI units (time from the first sample in s, speeds in
 m/s, angles in rad, distances in m) plus the list of everything the reader had to
 do to the file (``warnings``) and the channels it found missing (``absent``).
 
@@ -37,7 +37,7 @@ What the reader does about problems
   number of rows merged is a counted warning.
 - Time running backwards: rows are put in time order; counted warning.
 - Irregular sampling: summarised in one warning (median and extreme intervals,
-  number of gaps longer than ``gap_warn`` s).
+  number of gaps longer than the gap policy's ``gap``, :mod:`euc_sim.rides.source.gaps`).
 - Tilt/roll missing or all zero: reported absent (not put in the table) with a
   warning; the same for any other optional channel that is all zero or empty.
 - Empty GPS fields: kept as NaN, counted in a warning.
@@ -50,17 +50,23 @@ What the reader does about problems
   The same for the speed's sign: mostly negative refuses the log, an isolated flip is
   turned back, said.
 
-Each problem is a string in :attr:`RideLog.warnings`; :func:`read_log` also issues
+The file is read once: its bytes are counted, checked and parsed from memory; the app's
+own counters (:mod:`euc_sim.rides.source.counters`) come from the same parsed table.
+
+Each problem is a string in :attr:`Ride.warnings`; :func:`read_log` also issues
 each through :mod:`warnings` as a :class:`RideLogWarning` unless told not to.  What the
 reader changed in the data (merged, sorted, dropped, emptied, flipped) is also in
-:attr:`RideLog.repairs`, which the commands say on stderr.
+:attr:`Ride.repairs`, which the commands say on stderr.
 """
 
 from __future__ import annotations
 
+import csv
+import io
+import itertools
 import math
 import warnings as _warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 from typing import Mapping
@@ -70,9 +76,12 @@ import pandas as pd
 
 from euc_sim.errors import BadInputFile
 from euc_sim.rides.source.bounds import MAX_ROWS, bound_channel, speed_sign
+from euc_sim.rides.source.counters import log_counters
+from euc_sim.rides.source.gaps import GAP_POLICY
+from euc_sim.rides.source.ride import CHANNEL_UNITS, Ride
 
 __all__ = [
-    "LogFormatError", "RideLogWarning", "RideLog", "Channel", "LAYOUTS", "CHANNEL_UNITS",
+    "LogFormatError", "RideLogWarning", "Ride", "Channel", "LAYOUTS", "CHANNEL_UNITS",
     "read_log", "read_wheellog", "detect_layout",
 ]
 
@@ -81,6 +90,8 @@ DEG = math.pi / 180.0       # degree -> rad
 KM = 1000.0                 # km -> m
 #: Intervals shorter than this, s, are counted as near-repeated time stamps (kept).
 NEAR_REPEAT = 0.02
+#: Cells read as empty (any case, after stripping), besides the empty string.
+_EMPTY = ("nan", "null", "none")
 
 
 class LogFormatError(BadInputFile):
@@ -128,16 +139,6 @@ class Channel:
     columns: tuple[str, ...]
     scale: float = 1.0
 
-
-#: Canonical channel -> SI unit (in the :class:`RideLog` table).
-CHANNEL_UNITS: dict[str, str] = {
-    "t": "s", "v": "m/s", "voltage": "V", "current": "A", "power": "W",
-    "phase_current": "A", "torque": "N·m (as the wheel reports it; unverified)",
-    "pwm": "%", "safety_margin": "%", "battery": "%", "distance": "m", "total_distance": "m",
-    "temperature": "°C", "temperature2": "°C", "tilt": "rad", "roll": "rad",
-    "latitude": "deg", "longitude": "deg", "gps_speed": "m/s", "gps_alt": "m",
-    "gps_heading": "rad", "gps_distance": "m",
-}
 
 _GPS = ("latitude", "longitude", "gps_speed", "gps_alt", "gps_heading", "gps_distance")
 
@@ -222,66 +223,6 @@ LAYOUTS: dict[str, Layout] = {
 }
 
 
-@dataclass(frozen=True)
-class RideLog:
-    """A ride log in SI units.
-
-    Attributes
-    ----------
-    path : str
-        The file read.
-    layout : str
-        ``"wheellog"``, ``"eucworld"`` or ``"darknessbot"``; :attr:`variant` tells
-        the WheelLog layouts apart.
-    variant : str
-        ``"old"`` / ``"new"`` for WheelLog (``"new"`` when GPS or phase-current
-        columns are present), else ``""``.
-    data : pandas.DataFrame
-        One row per distinct time stamp, sorted, columns ``t`` (s from the first
-        sample), ``v`` (wheel speed, m/s) and whichever optional channels are
-        present (see :data:`CHANNEL_UNITS`); empty GPS cells are NaN.
-    start : pandas.Timestamp
-        Wall-clock time of ``t = 0``, naive: UTC where the log's stamps carry their zone
-        (EUC World), else the phone's local time (WheelLog, DarknessBot).
-    absent : tuple of str
-        Canonical channels the file lacks, or has only as zeros or empty cells.
-    warnings : tuple of str
-        One line per problem handled.
-    n_rows_read : int
-        Data rows in the file.
-    n_rows_merged : int
-        Rows removed by averaging repeated time stamps.
-    repairs : tuple of str
-        The warnings that changed the data (rows merged, sorted, dropped, cells emptied,
-        signs turned back), one line each.
-    utc_offset_s : float or None
-        The zone of the log's first stamp, s east of UTC, where its stamps carry one; None
-        where they do not (then :attr:`start` is the phone's local clock, its zone unknown).
-    """
-
-    path: str
-    layout: str
-    variant: str
-    data: pd.DataFrame
-    start: pd.Timestamp
-    absent: tuple[str, ...]
-    warnings: tuple[str, ...]
-    n_rows_read: int
-    n_rows_merged: int
-    units: Mapping[str, str] = field(default_factory=lambda: dict(CHANNEL_UNITS))
-    repairs: tuple[str, ...] = ()
-    utc_offset_s: float | None = None
-
-    def has(self, channel: str) -> bool:
-        """True when ``channel`` is in :attr:`data` (present and not all zero)."""
-        return channel in self.data.columns
-
-    @property
-    def duration(self) -> float:
-        """Time from the first to the last sample, s."""
-        return float(self.data["t"].iloc[-1]) if len(self.data) else 0.0
-
-
 # --------------------------------------------------------------------------------------
 def detect_layout(columns, path="<log>") -> Layout:
     """The layout whose signature columns are all among ``columns``.
@@ -315,21 +256,31 @@ def detect_layout(columns, path="<log>") -> Layout:
 
 
 def _numeric(raw: pd.Series, column: str, path, required: bool) -> np.ndarray:
-    """Strings -> float; empty cells -> NaN; anything else non-numeric -> error."""
-    s = raw.astype(str).str.strip()
-    empty = s.eq("") | s.str.lower().isin(["nan", "null", "none"])
-    vals = pd.to_numeric(s.where(~empty), errors="coerce")
-    bad = vals.isna() & ~empty
-    if bad.any():
-        i = int(np.flatnonzero(bad.to_numpy())[0])
-        raise LogFormatError(path, f"expected a number, got {s.iloc[i]!r} "
-                                   f"({int(bad.sum())} such cell(s) in this column)",
-                             column=column, line=i + 2)
+    """A column as floats; empty cells -> NaN; anything else non-numeric -> error.
+
+    A column the parser already read as numbers is taken as it is; one it kept as text
+    (a cell that is not a number) is converted cell by cell, to name the first bad cell.
+    """
+    if raw.dtype.kind in "iuf":
+        vals = raw.to_numpy(dtype=float)
+        empty = np.isnan(vals)
+        s = None
+    else:
+        s = raw.astype(str).str.strip()
+        empty = (s.eq("") | s.str.lower().isin(_EMPTY)).to_numpy()
+        conv = pd.to_numeric(s.where(~empty), errors="coerce")
+        bad = conv.isna().to_numpy() & ~empty
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise LogFormatError(path, f"expected a number, got {s.iloc[i]!r} "
+                                       f"({int(bad.sum())} such cell(s) in this column)",
+                                 column=column, line=i + 2)
+        vals = conv.to_numpy(dtype=float)
     if required and empty.any():
-        i = int(np.flatnonzero(empty.to_numpy())[0])
+        i = int(np.flatnonzero(empty)[0])
         raise LogFormatError(path, f"empty cell in a required column "
                                    f"({int(empty.sum())} such cell(s))", column=column, line=i + 2)
-    return vals.to_numpy(dtype=float)
+    return vals
 
 
 def _times(frame: pd.DataFrame, lay: Layout, path) -> tuple[pd.Series, float | None]:
@@ -377,29 +328,37 @@ def _sampling_summary(t: np.ndarray, gap_warn: float) -> str | None:
             f"{NEAR_REPEAT * 1000:.0f} ms (near-repeats, kept)")
 
 
-def _check_field_counts(path: Path) -> None:
-    """A row with more (non-empty) fields than the header is an error, not a silent cut."""
-    import csv
+def _check_header(path: Path, header: list[str]) -> None:
+    """A column named twice is an error (which one is the data is unknown)."""
+    names = [h.strip() for h in header]
+    twice = next((c for i, c in enumerate(names) if c and c in names[:i]), None)
+    if twice is not None:
+        where = [i + 1 for i, c in enumerate(names) if c == twice]
+        raise LogFormatError(path, f"the header names this column twice (columns "
+                                   f"{' and '.join(map(str, where))}); which is the data is "
+                                   f"unknown", column=twice, line=1)
 
-    try:
-        with open(path, newline="", encoding="utf-8") as fh:
-            reader = csv.reader(fh)
-            header = next(reader, None)
-            if header is None:
-                return
-            names = [h.strip() for h in header]
-            twice = next((c for i, c in enumerate(names) if c and c in names[:i]), None)
-            if twice is not None:
-                where = [i + 1 for i, c in enumerate(names) if c == twice]
-                raise LogFormatError(path, f"the header names this column twice (columns "
-                                           f"{' and '.join(map(str, where))}); which is the data is "
-                                           f"unknown", column=twice, line=1)
-            for line, row in enumerate(reader, start=2):
-                if len(row) > len(header) and any(f.strip() for f in row[len(header):]):
-                    raise LogFormatError(path, f"{len(row)} fields, but the header has "
-                                               f"{len(header)}", line=line)
-    except UnicodeDecodeError as exc:
-        raise LogFormatError(path, f"not a UTF-8 text CSV file ({exc.reason})") from None
+
+def _check_field_counts(path: Path, data: bytes, text: str, n_head: int) -> None:
+    """A row with more (non-empty) fields than the header is an error, not a silent cut.
+
+    The commas of every line are counted at once; only a line with more than the header's
+    is split into fields (all lines are when the file quotes a field).
+    """
+    if '"' in text:
+        rows = enumerate(csv.reader(io.StringIO(text)), start=1)
+    else:
+        arr = np.frombuffer(data, np.uint8)
+        nl = np.flatnonzero(arr == 10)
+        starts, ends = np.r_[0, nl + 1], np.r_[nl, arr.size]
+        commas = np.flatnonzero(arr == 44)
+        n = np.searchsorted(commas, ends) - np.searchsorted(commas, starts)
+        over = np.flatnonzero(n >= n_head)
+        lines = text.split("\n") if over.size else []
+        rows = ((i + 1, next(csv.reader([lines[i]]), [])) for i in over if i < len(lines))
+    for line, row in rows:
+        if line > 1 and len(row) > n_head and any(f.strip() for f in row[n_head:]):
+            raise LogFormatError(path, f"{len(row)} fields, but the header has {n_head}", line=line)
 
 
 class _Repairs(list):
@@ -414,20 +373,22 @@ class _Repairs(list):
         self.notes.append(text)
 
 
-def _check_size(path: Path) -> None:
-    """Refuse a log of more than :data:`MAX_ROWS` rows before parsing it (the rows counted
-    as newlines, a megabyte at a time)."""
-    n = -1                                  # the header's line
+def _read_bytes(path: Path) -> bytes:
+    """The file's bytes, read once; more than :data:`MAX_ROWS` rows (newlines) is refused before
+    anything is parsed (the rest then only counted, a megabyte at a time)."""
+    chunks, n = [], -1                      # the header's line
     with open(path, "rb") as fh:
         while chunk := fh.read(1 << 20):
             n += chunk.count(b"\n")
+            if n <= MAX_ROWS:
+                chunks.append(chunk)
     if n > MAX_ROWS:
         raise LogFormatError(path, f"{n} rows, more than the {MAX_ROWS} a log may have (ten times the "
                                    f"longest ride at the fastest logger's rate); split the log")
+    return b"".join(chunks)
 
 
-def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
-             emit_warnings: bool = True) -> RideLog:
+def read_log(path, *, layout: str | None = None, emit_warnings: bool = True) -> Ride:
     """Read an EUC telemetry log (WheelLog, EUC World or DarknessBot CSV).
 
     Parameters
@@ -437,14 +398,13 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
     layout : str, optional
         Force a layout (one of :data:`LAYOUTS`); by default it is recognised from
         the header.
-    gap_warn : float
-        Intervals longer than this, s, are counted in the sampling warning.
     emit_warnings : bool
         Also issue each warning as a :class:`RideLogWarning` (default True).
 
     Returns
     -------
-    RideLog
+    Ride
+        The columns in SI units, what the reader did, the app's own counters.
 
     Raises
     ------
@@ -456,7 +416,7 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
         when ``path`` does not exist.
     """
     path = Path(path)
-    raw = _read_table(path)
+    raw = whole = _read_table(path)
     lay = _layout_of(raw, layout, path)
     notes: list[str] = []
     repairs = _Repairs(notes)
@@ -472,7 +432,7 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
     table, n_merged = _time_ordered(table, repairs)
     table["v"] = speed_sign(table["v"].to_numpy(float), table["t"].to_numpy(float), speed_col,
                             partial(LogFormatError, path), repairs)
-    summary = _sampling_summary(table["t"].to_numpy(), gap_warn)
+    summary = _sampling_summary(table["t"].to_numpy(), GAP_POLICY.gap)
     if summary:
         notes.append(summary)
     variant = ""
@@ -482,29 +442,41 @@ def read_log(path, *, layout: str | None = None, gap_warn: float = 1.0,
     if emit_warnings:
         for n in notes:
             _warnings.warn(f"{path.name}: {n}", RideLogWarning, stacklevel=2)
-    return RideLog(path=str(path), layout=lay.name, variant=variant,
-                   data=table.reset_index(drop=True), start=start, absent=tuple(absent),
-                   warnings=tuple(notes), n_rows_read=n_read, n_rows_merged=n_merged,
-                   repairs=tuple(repairs), utc_offset_s=offset)
+    table = table.reset_index(drop=True)
+    return Ride(path=str(path), layout=lay.name, variant=variant, data=table, start=start,
+                absent=tuple(absent), warnings=tuple(notes), n_rows_read=n_read,
+                n_rows_merged=n_merged, repairs=tuple(repairs), counters=log_counters(whole, table),
+                utc_offset_s=offset)
 
 
 def _read_table(path: Path) -> pd.DataFrame:
-    """The CSV as text cells with stripped column names; one-line errors naming the file."""
+    """The CSV's cells (numbers where a whole column is numbers, text else; empty cells NaN
+    except in the time stamps' columns) with stripped column names, the file read once;
+    one-line errors naming the file."""
     if path.is_dir():
         raise LogFormatError(path, "a folder, not a log file (give one CSV file)")
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no such file")
-    _check_size(path)
-    _check_field_counts(path)
+    data = _read_bytes(path)
     try:
-        raw = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True,
-                          index_col=False)
+        text = data.decode("utf-8").removeprefix("\ufeff")
+    except UnicodeDecodeError as exc:
+        raise LogFormatError(path, f"not a UTF-8 text CSV file ({exc.reason})") from None
+    header = next(csv.reader(io.StringIO(text[:text.find("\n") + 1 or None]), skipinitialspace=True), None)
+    if header is not None:
+        _check_header(path, header)
+        _check_field_counts(path, data, text, len(header))
+    empty = [""] + ["".join(c) for w in _EMPTY for c in itertools.product(*zip(w, w.upper()))]
+    times = {c for lay in LAYOUTS.values() for c in lay.time_columns}     # parsed as text
+    try:
+        raw = pd.read_csv(io.StringIO(text), keep_default_na=False, skipinitialspace=True,
+                          index_col=False, low_memory=False,
+                          dtype={c: str for c in (header or ()) if c.strip() in times},
+                          na_values={c: empty for c in (header or ()) if c.strip() not in times})
     except pd.errors.EmptyDataError:
         raise LogFormatError(path, "empty file: expected a header row and data rows") from None
     except pd.errors.ParserError as exc:
         raise LogFormatError(path, f"not a readable CSV table ({str(exc).strip()})") from None
-    except UnicodeDecodeError as exc:
-        raise LogFormatError(path, f"not a text CSV file ({exc.reason})") from None
     raw.columns = [str(c).strip() for c in raw.columns]
     if len(raw) == 0:
         raise LogFormatError(path, "header only, no data rows")
@@ -526,10 +498,10 @@ def _layout_of(raw: pd.DataFrame, layout: str | None, path: Path):
 
 def _drop_truncated_last(raw: pd.DataFrame, required: list[str], notes: list[str]) -> pd.DataFrame:
     """A truncated last line (required cells empty) is dropped, loudly (a note)."""
-    last_empty = raw.iloc[-1][required].astype(str).str.strip().eq("").any()
-    if last_empty and len(raw) > 1:
-        notes.append(f"dropped the truncated last line {len(raw) + 1} (empty "
-                     f"{', '.join(c for c in required if not str(raw.iloc[-1][c]).strip())})")
+    last = raw.iloc[-1]
+    blank = [c for c in required if pd.isna(last[c]) or not str(last[c]).strip()]
+    if blank and len(raw) > 1:
+        notes.append(f"dropped the truncated last line {len(raw) + 1} (empty {', '.join(blank)})")
         return raw.iloc[:-1]
     return raw
 
@@ -595,6 +567,6 @@ def _time_ordered(table: pd.DataFrame, notes: list[str]) -> tuple[pd.DataFrame, 
     return table, n_merged
 
 
-def read_wheellog(path, **kwargs) -> RideLog:
+def read_wheellog(path, **kwargs) -> Ride:
     """:func:`read_log` with the WheelLog layout forced."""
     return read_log(path, layout="wheellog", **kwargs)

@@ -40,7 +40,7 @@ def input_warnings(log, spec, scale) -> list[str]:
 
     Parameters
     ----------
-    log : RideLog
+    log : Ride
     spec : WheelSpec
     scale : SpeedScale
         The wheel's speed scale against GPS (:func:`euc_sim.rides.grids.power.speed_scale`).

@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 from scipy.signal import savgol_filter
 
+from euc_sim.rides.drive.drivetrain import charge_drawn
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.simulation.effects import RECORDS
 
@@ -222,13 +223,6 @@ def battery_current(W: np.ndarray, R: float, P: np.ndarray) -> np.ndarray:
         return P / W
     disc = np.maximum(W * W - 4.0 * R * P, 0.0)
     return 2.0 * P / (W + np.sqrt(disc))
-
-
-def charge_drawn(t: np.ndarray, I: np.ndarray) -> np.ndarray:
-    """Charge drawn since the first row, Ah (gaps over 1 s not counted)."""
-    dt = np.r_[0.0, np.diff(t)]
-    dt[dt > 1.0] = 0.0
-    return np.cumsum(np.nan_to_num(I) * dt) / 3600.0
 
 
 def _set_battery(raw: pd.DataFrame, out: pd.DataFrame, consts: LogConstants, R_total: float,

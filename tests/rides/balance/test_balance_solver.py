@@ -11,12 +11,13 @@ from euc_sim.rides.balance.design import BOUNDS, _conv, balance_design, filter_m
 from euc_sim.rides.balance.fit import _solve, fit_balance
 from euc_sim.rides.balance.normal import bounds, coefficients, scale
 from euc_sim.rides.grids.signals import ride_signals
+from euc_sim.rides.source.logs import read_log
 
 
 @pytest.fixture(scope="module")
 def design(tmp_path_factory):
     path = synth_log(tmp_path_factory.mktemp("solver") / "fit.csv", seed=11)
-    return balance_design(ride_signals(path))
+    return balance_design(ride_signals(read_log(path, emit_warnings=False)))
 
 
 def test_filter_matrix_is_the_segmentwise_convolution():

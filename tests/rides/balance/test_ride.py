@@ -92,7 +92,7 @@ def test_assumptions_validate():
 
 
 def test_ride_signals_units(twin):
-    sig = ride_signals(twin[0])
+    sig = ride_signals(read_log(twin[0], emit_warnings=False))
     f = sig.frame[sig.frame["interior"]]
     assert sig.power_source == "voltage*current"
     assert sig.torque_method == "power_efficiency"
@@ -102,7 +102,7 @@ def test_ride_signals_units(twin):
 
 
 def test_speed_profile_is_uniform_and_continuous(twin):
-    sp = speed_profile(twin[0], rate=10.0)
+    sp = speed_profile(read_log(twin[0], emit_warnings=False), rate=10.0)
     assert list(sp.columns) == ["t", "v"]
     assert sp["t"].iloc[0] == 0.0 and np.allclose(np.diff(sp["t"]), 0.1)
     assert np.isfinite(sp["v"]).all()
@@ -113,7 +113,7 @@ def test_speed_profile_is_uniform_and_continuous(twin):
 
 
 def test_written_speed_profile_loads_in_simulator(twin, tmp_path):
-    out = write_speed_profile(twin[0], tmp_path / "profile.csv")
+    out = write_speed_profile(read_log(twin[0], emit_warnings=False), tmp_path / "profile.csv")
     back = pd.read_csv(out)
     assert list(back.columns) == ["t", "v"] and np.all(np.diff(back["t"]) > 0)
     man = load_speed_profile(out)
@@ -123,7 +123,7 @@ def test_written_speed_profile_loads_in_simulator(twin, tmp_path):
 # --- the twin experiment --------------------------------------------------------------
 @pytest.fixture(scope="module")
 def twin_fit(twin):
-    d = balance_design(ride_signals(twin[0]))
+    d = balance_design(ride_signals(read_log(twin[0], emit_warnings=False)))
     return d, fit_balance(d, n_boot=200, seed=3)
 
 
@@ -155,7 +155,7 @@ def test_twin_intervals_are_informative(twin_fit):
 
 def test_twin_cross_ride_improves_and_names_effects(twin, twin_fit):
     d_fit, _ = twin_fit
-    d_test = balance_design(ride_signals(twin[1]))
+    d_test = balance_design(ride_signals(read_log(twin[1], emit_warnings=False)))
     cr = cross_ride(d_fit, d_test, n_boot=100, seed=4)
     assert {"rolling_resistance", "aerodynamic_drag", "copper_loss"} <= set(cr.accepted)
     assert "current_lag" not in cr.accepted               # the twin's current does not lag
@@ -170,7 +170,7 @@ def test_twin_slope_separable_when_wheel_reverses(tmp_path):
     truth = dict(TRUTH, aerodynamic_drag=0.0)
     p = synth_log(tmp_path / "rev.csv", seed=21, slope=0.03, backwards=True, truth=truth,
                   duration=400.0)
-    d = balance_design(ride_signals(p))
+    d = balance_design(ride_signals(read_log(p, emit_warnings=False)))
     assert "road_slope" in d.candidates and not d.aliases
     fit = fit_balance(d, ["copper_loss", "rolling_resistance", "road_slope",
                           "drivetrain_idle_loss"], n_boot=150, seed=5)
@@ -188,7 +188,8 @@ def test_fit_is_reproducible_with_seed(twin_fit):
 
 
 def test_ride_report_contract_form_and_files(twin, tmp_path):
-    rep = ride_report(twin[0], twin[1], report_dir=tmp_path / "rep", n_boot=50)
+    rep = ride_report(read_log(twin[0], emit_warnings=False), read_log(twin[1], emit_warnings=False),
+                      report_dir=tmp_path / "rep", n_boot=50)
     for key in ("effects", "heldout_error_nominal", "heldout_error_augmented", "error_unit"):
         assert key in rep
     assert rep["error_unit"] == "W"
@@ -202,12 +203,12 @@ def test_ride_report_contract_form_and_files(twin, tmp_path):
 
 
 def test_ride_report_without_compare_splits_halves(twin):
-    rep = ride_report(twin[0], n_boot=20)
+    rep = ride_report(read_log(twin[0], emit_warnings=False), n_boot=20)
     assert "second half" in rep["error_measure"]
 
 
 def test_torque_domain_units(twin):
-    d = balance_design(ride_signals(twin[0]), domain="torque")
+    d = balance_design(ride_signals(read_log(twin[0], emit_warnings=False)), domain="torque")
     assert d.unit == "N·m" and (np.abs(d.v) >= A.v_min).all()
 
 
@@ -221,7 +222,8 @@ def test_real_rides_cross_prediction(tmp_path, fit, test):
     from euc_sim.rides.pipeline import run_ride
 
     # the whole pipeline: the balance fit takes the mass this log's energy balance finds
-    rep = run_ride(fit, test, report_dir=tmp_path, n_boot=100, simulate=False)
+    rep = run_ride(read_log(fit, emit_warnings=False), read_log(test, emit_warnings=False), report_dir=tmp_path,
+                   n_boot=100, simulate=False)
     assert rep["aliases"]["rolling_resistance"] == ["road_slope"]   # speed never < 0
     assert rep["power_source"] == "voltage*current"
     assert rep["torque_method"] == "power_efficiency"
@@ -240,6 +242,6 @@ def test_real_rides_cross_prediction(tmp_path, fit, test):
 
 @needs_shared
 def test_real_ride_speed_profile():
-    sp = speed_profile(RIDE_A)
+    sp = speed_profile(read_log(RIDE_A, emit_warnings=False))
     assert sp["v"].max() == pytest.approx(23.12 / 3.6, abs=0.5)
     assert sp["t"].iloc[-1] == pytest.approx(336.0, abs=0.2)

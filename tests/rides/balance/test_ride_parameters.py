@@ -21,13 +21,14 @@ from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
 from euc_sim.rides.balance.verdict import ride_verdict
 from euc_sim.rides.grids.signals import ride_signals
 from euc_sim.stats import forward_select, percentile_interval, time_blocks, wild_block_signs
+from euc_sim.rides.source.logs import read_log
 
 
 @pytest.fixture(scope="module")
 def designs(tmp_path_factory):
     d = tmp_path_factory.mktemp("params")
-    fit = balance_design(ride_signals(synth_log(d / "fit.csv", seed=21)))
-    test = balance_design(ride_signals(synth_log(d / "test.csv", seed=22)))
+    fit = balance_design(ride_signals(read_log(synth_log(d / "fit.csv", seed=21), emit_warnings=False)))
+    test = balance_design(ride_signals(read_log(synth_log(d / "test.csv", seed=22), emit_warnings=False)))
     return fit, test
 
 
@@ -210,7 +211,7 @@ def _lagged_design(tmp_path, a: float):
 
     from scipy.signal import lfilter
 
-    sig = ride_signals(synth_log(tmp_path / "lag.csv", seed=23, noise_w=10.0))
+    sig = ride_signals(read_log(synth_log(tmp_path / "lag.csv", seed=23, noise_w=10.0), emit_warnings=False))
     raw = sig.raw.copy()
     if a > 0:
         P = raw["P"].to_numpy().copy()

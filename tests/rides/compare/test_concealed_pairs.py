@@ -15,7 +15,7 @@ from drivesynth import drive_log
 
 from euc_sim.rides.compare.differences_report import differences_json
 from euc_sim.rides.grids.power import RHO_AIR
-from euc_sim.rides.grids.ride import as_ride
+from euc_sim.rides.source.logs import read_log
 from euc_sim.rides.report.drivetrain_report import ride_drivetrain
 from euc_sim.rides.synth import conceal as cc
 
@@ -35,7 +35,7 @@ def _differences(clean: Path, effects, out: Path, **kw) -> dict:
     for effect, size in effects:
         raw = cc.conceal(raw, effect, size, **(kw if effect in ("aerodynamic_drag", "total_mass") else {}))
     other = cc.write_raw(raw, out)
-    log, cmp = as_ride(clean).log, as_ride(other).log
+    log, cmp = read_log(clean, emit_warnings=False), read_log(other, emit_warnings=False)
     physics = ride_drivetrain(log, cmp, n_boot=20)
     return {d["name"]: d for d in differences_json(physics[0], physics[1], physics[2], log, cmp,
                                                    n_boot=100)["differences"]}

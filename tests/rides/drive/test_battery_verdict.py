@@ -72,9 +72,10 @@ def test_trend_words():
 
 def test_summary_battery_carries_the_contract_keys(tmp_path):
     from euc_sim.rides.report.rider_view import rider_numbers
+    from euc_sim.rides.source.logs import read_log
     from tests.rides.summarysynth import synth_summary_log
 
-    log = synth_summary_log(tmp_path / "a.csv")
+    log = read_log(synth_summary_log(tmp_path / "a.csv"), emit_warnings=False)
     rep = {"drivetrain": {"internal_resistance": {"estimate": 0.4, "ci95": [0.38, 0.42], "unit": "ohm"}}}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -29,7 +29,7 @@ FAST = MassSettings(n_boot=40)
 @pytest.fixture(scope="module")
 def twin(tmp_path_factory):
     d = tmp_path_factory.mktemp("twin")
-    return analyse(drive_log(d / "twin.csv", seed=3), settings=FAST)
+    return analyse(read_log(drive_log(d / "twin.csv", seed=3), emit_warnings=False), settings=FAST)
 
 
 # --- the twin: a ride with known mass and drivetrain ------------------------------------------
@@ -58,7 +58,7 @@ def test_twin_drivetrain_terms(twin):
 
 
 def test_twin_without_gps_widens_the_interval(tmp_path):
-    r = analyse(drive_log(tmp_path / "nogps.csv", seed=3, gps=False), settings=FAST)
+    r = analyse(read_log(drive_log(tmp_path / "nogps.csv", seed=3, gps=False), emit_warnings=False), settings=FAST)
     m = r.mass
     assert m.scale.source == "assumed"
     assert "speed_scale" in m.unidentified
@@ -68,27 +68,28 @@ def test_twin_without_gps_widens_the_interval(tmp_path):
 
 
 def test_twin_without_phase_current_uses_the_proxy(tmp_path):
-    r = analyse(drive_log(tmp_path / "nophase.csv", seed=3, phase=False), settings=FAST)
+    r = analyse(read_log(drive_log(tmp_path / "nophase.csv", seed=3, phase=False), emit_warnings=False), settings=FAST)
     assert "winding_resistance" in r.mass.unidentified
     # the a² proxy misses the copper loss's cross term: a bias of a few %, stated in docs
     assert abs(r.mass.estimate / DRIVE["mass"] - 1) < 0.10
 
 
 def test_unsigned_current_leaves_the_mass_unidentified(tmp_path):
-    r = analyse(drive_log(tmp_path / "unsigned.csv", seed=4, signed=False), settings=FAST)
+    r = analyse(read_log(drive_log(tmp_path / "unsigned.csv", seed=4, signed=False), emit_warnings=False), settings=FAST)
     assert r.mass.estimate is None and "braking cannot be told from driving" in r.mass.why
     assert "regeneration" in r.mass.unidentified
 
 
 def test_same_seed_same_interval(tmp_path):
     p = drive_log(tmp_path / "a.csv", seed=5, duration=300.0)
-    a, b = fit_mass(p, FAST), fit_mass(p, FAST)
+    a, b = fit_mass(read_log(p, emit_warnings=False), FAST), fit_mass(read_log(p, emit_warnings=False), FAST)
     assert a.ci95 == b.ci95
 
 
 def test_pwm_heldout_and_envelope(tmp_path, twin):
     other = drive_log(tmp_path / "other.csv", seed=8, duration=300.0)
-    rep, fit, test = drivetrain_report(twin.path, compare=other, settings=FAST, fitted=twin)
+    rep, fit, test = drivetrain_report(read_log(twin.path, emit_warnings=False),
+                                      compare=read_log(other, emit_warnings=False), settings=FAST, fitted=twin)
     assert rep["pwm"]["unit"] == "%" and rep["pwm"]["heldout_rmse"] < 1.0
     assert rep["total_mass"]["ci95"][0] <= DRIVE["mass"] <= rep["total_mass"]["ci95"][1]
     env = rep["envelope"]
@@ -132,7 +133,7 @@ def test_gps_outage_and_altitude_spike(tmp_path):
         f[13] = "950.0"                          # one altitude spike
     lines[800] = ",".join(f)
     p.write_text("\n".join(lines) + "\n")
-    m = fit_mass(p, FAST)
+    m = fit_mass(read_log(p, emit_warnings=False), FAST)
     assert m.scale.source == "gps" and m.estimate is not None
     assert m.ci95[0] <= DRIVE["mass"] <= m.ci95[1]
 
@@ -258,7 +259,7 @@ def test_real_ride_mass_does_not_hang_on_the_window():
     folder = SHARED / "trips/begode/blitz/4"
     with open(folder / "meta.csv") as fh:
         truth = float(next(csv.DictReader(fh))["rider_weight"]) + read_spec(SHARED / "specs/blitz.csv").wheel_mass
-    m = fit_mass(folder / "4.csv", FAST)
+    m = fit_mass(read_log(folder / "4.csv", emit_warnings=False), FAST)
     masses = np.array(list(m.by_window.values()))
     assert sorted(m.by_window) == [2.0, 4.0, 8.0]
     assert masses.max() / masses.min() - 1 < 0.10
@@ -268,11 +269,11 @@ def test_real_ride_mass_does_not_hang_on_the_window():
 
 @pytest.mark.skipif(not SHARED.is_dir(), reason=f"{SHARED} absent (user's clone)")
 def test_real_unsigned_current_is_said():
-    m = fit_mass(SHARED / "trips/begode/mten4/3/3.csv", MassSettings(n_boot=10))
+    m = fit_mass(read_log(SHARED / "trips/begode/mten4/3/3.csv", emit_warnings=False), MassSettings(n_boot=10))
     assert m.estimate is None and not m.signed and "regeneration" in m.unidentified
     # the app's duty is 6.000·v/V and its current duty × |phase current|: V·I is no battery power
     assert "V·I is not battery power" in m.why and "6.000 V per m/s" in m.unidentified["battery_power"]
-    assert speed_scale(SHARED / "trips/begode/mten4/3/3.csv").source == "assumed"
+    assert speed_scale(read_log(SHARED / "trips/begode/mten4/3/3.csv", emit_warnings=False)).source == "assumed"
 
 
 def test_rotating_inertia_is_taken_out_of_m_eq_with_a_net_weight(twin):
@@ -295,7 +296,7 @@ def test_rotating_share_is_table3s():
 
 
 def test_no_bootstrap_gives_the_estimate_without_intervals(tmp_path):
-    fit = fit_mass(drive_log(tmp_path / "a.csv", seed=3), MassSettings(n_boot=0))
+    fit = fit_mass(read_log(drive_log(tmp_path / "a.csv", seed=3), emit_warnings=False), MassSettings(n_boot=0))
     assert fit.estimate == pytest.approx(DRIVE["mass"], rel=0.15)
     assert fit.stat_ci95 is None and fit.ci95 is None
     assert all(ci is None for ci in fit.coef_ci95.values())

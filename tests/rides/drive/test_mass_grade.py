@@ -48,13 +48,13 @@ def test_the_climb_follows_the_hill(tmp_path):
 
 
 def test_a_flat_altitude_reads_no_climb(tmp_path):
-    sig = power_signals(drive_log(tmp_path / "flat.csv", seed=5, duration=200.0), FAST)
+    sig = power_signals(read_log(drive_log(tmp_path / "flat.csv", seed=5, duration=200.0), emit_warnings=False), FAST)
     assert sig.climb is not None
     assert np.nanmax(np.abs(sig.climb)) < 1e-9
 
 
 def test_without_altitude_there_is_no_climb(tmp_path):
-    sig = power_signals(drive_log(tmp_path / "nogps.csv", seed=5, duration=200.0, gps=False), FAST)
+    sig = power_signals(read_log(drive_log(tmp_path / "nogps.csv", seed=5, duration=200.0, gps=False), emit_warnings=False), FAST)
     assert sig.climb is None and "h" not in sig.raw
-    assert "grade" in fit_mass(drive_log(tmp_path / "n.csv", seed=5, duration=200.0, gps=False),
+    assert "grade" in fit_mass(read_log(drive_log(tmp_path / "n.csv", seed=5, duration=200.0, gps=False), emit_warnings=False),
                                FAST).unidentified

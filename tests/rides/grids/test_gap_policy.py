@@ -1,4 +1,4 @@
-"""The one gap policy of a ride's grids (euc_sim/rides/grids/ride.py: GapPolicy): short intervals
+"""The one gap policy of a ride's grids (euc_sim/rides/source/gaps.py: GapPolicy): short intervals
 bridged by interpolation, long ones splitting every grid and the law's rows alike, and the
 grid kept on the Ride."""
 
@@ -12,9 +12,9 @@ import euc_sim.rides.grids.power as power
 import euc_sim.rides.grids.signals as signals
 from euc_sim.rides.grids.law_signals import GAP, _rate
 from euc_sim.rides.grids.power import MassSettings, power_signals
-from euc_sim.rides.grids.ride import GAP_POLICY, GapPolicy, as_ride
+from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
 from euc_sim.rides.grids.signals import RideAssumptions, ride_grid, ride_signals
-from euc_sim.rides.source.logs import RideLog
+from euc_sim.rides.source.logs import Ride
 
 #: Rows every 0.25 s (exact in binary), with a gap after t = 20 s and another after t = 60 s.
 STEP = 0.25
@@ -28,11 +28,11 @@ def _stamps(gaps: dict[float, float], end: float = 100.0) -> np.ndarray:
     return t
 
 
-def _log(t: np.ndarray) -> RideLog:
+def _log(t: np.ndarray) -> Ride:
     v = 5.0 + np.sin(0.3 * t)
     data = pd.DataFrame({"t": t, "v": v, "voltage": np.full_like(t, 80.0),
                          "current": 5.0 + 3.0 * np.sin(0.2 * t) - 0.2 * (t % 7 < 1)})
-    return RideLog(path="gaps.csv", layout="wheellog", variant="old", data=data,
+    return Ride(path="gaps.csv", layout="wheellog", variant="old", data=data,
                    start=pd.Timestamp("2026-01-01"), absent=(), warnings=(), n_rows_read=t.size,
                    n_rows_merged=0)
 
@@ -47,7 +47,7 @@ def test_the_policy_bridges_up_to_its_threshold_and_splits_beyond():
 
 def test_a_short_gap_is_bridged_and_a_long_one_splits_every_grid():
     # 0.75 s without rows after 20 s (bridged), 3.0 s after 60 s (split)
-    ride = as_ride(_log(_stamps({20.0: 0.75, 60.0: 3.0})))
+    ride = _log(_stamps({20.0: 0.75, 60.0: 3.0}))
     frame, notes = ride_grid(ride)
     assert frame["segment"].nunique() == 2 and len(notes) == 1 and "60.00" in notes[0]
     inside = frame[(frame["t"] > 20.0) & (frame["t"] < 20.75)]
@@ -76,7 +76,7 @@ def test_the_law_rows_break_their_derivatives_at_the_same_threshold():
 def test_a_piece_shorter_than_the_filter_window_is_left_out():
     # 0.5 s of rows (3 rows) between two 3 s gaps: shorter than the 1.5 s balance window
     t = _stamps({40.0: 3.0, 43.5: 3.0})
-    sig = ride_signals(as_ride(_log(t)))
+    sig = ride_signals(_log(t))
     assert sig.frame["segment"].nunique() == 3
     short = sig.frame[(sig.frame["t"] >= 43.0) & (sig.frame["t"] <= 43.5)]
     assert len(short) == 6 and not short["interior"].any() and short["v"].isna().all()
@@ -88,7 +88,7 @@ def test_the_grid_and_its_filtered_signals_are_kept_on_the_ride(monkeypatch):
     for mod, name in ((signals, "resample"), (signals, "_balance_grid"), (power, "_filtered")):
         real = getattr(mod, name)
         monkeypatch.setattr(mod, name, lambda *a, _r=real, _n=name, **k: built.append(_n) or _r(*a, **k))
-    ride = as_ride(_log(_stamps({60.0: 3.0})))
+    ride = _log(_stamps({60.0: 3.0}))
     a = ride_signals(ride)
     b = ride_signals(ride, RideAssumptions(R=0.25))        # another radius: another torque only
     assert power_signals(ride) is power_signals(ride)
@@ -96,15 +96,29 @@ def test_the_grid_and_its_filtered_signals_are_kept_on_the_ride(monkeypatch):
     assert a.raw is b.raw and np.array_equal(a.frame["v"], b.frame["v"], equal_nan=True)
     moving = np.isfinite(a.frame["M"])
     assert moving.any() and np.allclose(b.frame["M"][moving], 1.25 * a.frame["M"][moving])
-    # a log (not a Ride) keeps nothing: each call builds its grid again
-    ride_signals(ride.log)
-    ride_signals(ride.log)
-    assert built.count("resample") == 3
+    ride_signals(ride)
+    assert built.count("resample") == 1
 
 
 @pytest.mark.parametrize("bridge, pieces", [(0.5, 3), (1.0, 2), (4.0, 1)])
 def test_a_grid_under_another_policy_is_another_grid(bridge, pieces):
-    ride = as_ride(_log(_stamps({20.0: 0.75, 60.0: 3.0})))
+    ride = _log(_stamps({20.0: 0.75, 60.0: 3.0}))
     frame, _ = ride_grid(ride, GapPolicy(bridge=bridge))
     assert frame["segment"].nunique() == pieces
     assert ride_grid(ride)[0]["segment"].nunique() == 2
+
+
+def test_every_gap_number_of_the_ride_side_is_the_policys():
+    """The summary, the charge integral, the plots and the simulation read the one policy."""
+    import euc_sim.rides.drive.drivetrain as drivetrain
+    from euc_sim.rides.sim.simulate import simulation_obstacle
+
+    assert GAP_POLICY.gap_of("eucworld") == 2.0 and GAP_POLICY.gap_of("wheellog") == GAP_POLICY.gap
+    t = np.array([0.0, 0.5, 1.0, 1.6, 2.1, 5.0])
+    assert GAP_POLICY.plot_breaks(t).tolist() == [4]                        # 2.9 s > 1.5 × 0.5 s
+    assert signals.break_at_gaps(t, t)[0].size == t.size + 1
+    # an interval over the policy's 1 s adds no charge, one under it does (3600 A for 0.8 s: 0.8 Ah)
+    q = drivetrain.charge_drawn(np.array([0.0, 1.2, 2.0]), np.full(3, 3600.0))
+    assert q.tolist() == pytest.approx([0.0, 0.0, 0.8])
+    sig = ride_signals(_log(_stamps({60.0: 3.0})))
+    assert simulation_obstacle(sig) is None and "longer than 2 s" in simulation_obstacle(sig, 2.0)

@@ -14,7 +14,7 @@ from euc_sim.rides.balance.design import NOMINAL, PLAUSIBLE, balance_design
 from euc_sim.rides.balance.fit import fit_balance
 from euc_sim.rides.grids.route import GRADE_LENGTH_M, MAX_GRADE, distance_along, gps_grade
 from euc_sim.rides.grids.signals import RideAssumptions, ride_signals
-from euc_sim.rides.source.logs import RideLog
+from euc_sim.rides.source.logs import Ride
 
 M, G, C_RR, P0 = 110.0, 9.81, 0.02, 30.0
 
@@ -52,7 +52,7 @@ def _ride(seed: int, duration: float = 1200.0, alt_sd: float = 1.0, settle_m: fl
         gps_alt = gps_alt + 80.0 * np.clip(1.0 - s / settle_m, 0.0, 1.0)
     data = pd.DataFrame({"t": t, "v": v, "voltage": np.full_like(t, 84.0), "current": P / 84.0,
                          "gps_alt": gps_alt})
-    log = RideLog(path=f"hill{seed}.csv", layout="eucworld", variant="", data=data,
+    log = Ride(path=f"hill{seed}.csv", layout="eucworld", variant="", data=data,
                   start=pd.Timestamp("2026-01-01"), absent=(), warnings=(), n_rows_read=len(t),
                   n_rows_merged=0)
     return ride_signals(log, RideAssumptions(total_mass=M, m_eq=M))

@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from euc_sim.rides.grids.law_signals import GAP, LawUnavailable, _rate, _simpson_weights, law_rows
-from euc_sim.rides.source.logs import RideLog
+from euc_sim.rides.source.logs import Ride
 
 
 def test_rate_is_the_mean_rate_on_uneven_stamps_and_nan_at_a_gap():
@@ -33,8 +33,8 @@ def test_simpson_weights_average_a_parabola_exactly():
     assert np.allclose(np.sum(w * x3, axis=1)[1:-1], exact)
 
 
-def _log(cols: dict) -> RideLog:
-    return RideLog(path="synthetic.csv", layout="eucworld", variant="", data=pd.DataFrame(cols),
+def _log(cols: dict) -> Ride:
+    return Ride(path="synthetic.csv", layout="eucworld", variant="", data=pd.DataFrame(cols),
                    start=pd.Timestamp("2026-01-01"), absent=(), warnings=(), n_rows_read=len(cols["t"]),
                    n_rows_merged=0)
 

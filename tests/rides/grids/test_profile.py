@@ -8,14 +8,14 @@ import pandas as pd
 import pytest
 
 from euc_sim.rides.grids.profile import speed_profile, unpaid_spikes
-from euc_sim.rides.source.logs import RideLog
+from euc_sim.rides.source.logs import Ride
 
 M = 150.0                       # kg, rider and wheel
 
 
-def _log(t, v, P) -> RideLog:
+def _log(t, v, P) -> Ride:
     data = pd.DataFrame({"t": t, "v": v, "voltage": np.full_like(t, 84.0), "current": P / 84.0})
-    return RideLog(path="synthetic.csv", layout="eucworld", variant="", data=data,
+    return Ride(path="synthetic.csv", layout="eucworld", variant="", data=data,
                    start=pd.Timestamp("2026-01-01"), absent=(), warnings=(), n_rows_read=len(t),
                    n_rows_merged=0)
 

@@ -16,7 +16,7 @@ from euc_sim.rides.balance.route_grade import (GRADE_LIMIT, carried_grade, carry
 from euc_sim.rides.grids.route import (BIN_M, match_by_gps, match_by_speed, match_routes,
                                        route_position)
 from euc_sim.rides.grids.signals import RideAssumptions, ride_signals
-from euc_sim.rides.source.logs import RideLog
+from euc_sim.rides.source.logs import Ride
 
 M, G = 110.0, 9.81                  # kg, m/s²
 ETA_M, ETA_R, C_RR = 0.85, 0.6, 0.02
@@ -39,7 +39,7 @@ def _speed(s, phase: float, level: float, seed: int, road=(330.0, 140.0), route=
 
 def _ride(start_m: float, length_m: float, phase: float, level: float, seed: int,
           gps: bool = False, shift_m: float = 0.0, route=grade, road=(330.0, 140.0),
-          turn_m: float = np.inf) -> RideLog:
+          turn_m: float = np.inf) -> Ride:
     """A 5 Hz log of a ride from ``start_m`` along the route, its power from the balance;
     back the way it came from ``turn_m``."""
     rng = np.random.default_rng(seed)
@@ -60,7 +60,7 @@ def _ride(start_m: float, length_m: float, phase: float, level: float, seed: int
         x, y = s, 60.0 * np.sin(s / 250.0) + shift_m
         data["latitude"] = LAT0 + np.degrees(y / 6_371_000.0) + rng.normal(0.0, 3e-5, len(t))
         data["longitude"] = LON0 + np.degrees(x / (6_371_000.0 * np.cos(np.radians(LAT0))))
-    return RideLog(path=f"ride{seed}.csv", layout="eucworld", variant="", data=pd.DataFrame(data),
+    return Ride(path=f"ride{seed}.csv", layout="eucworld", variant="", data=pd.DataFrame(data),
                    start=pd.Timestamp("2026-01-01"), absent=(), warnings=(), n_rows_read=len(t),
                    n_rows_merged=0)
 

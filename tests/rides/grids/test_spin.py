@@ -12,7 +12,7 @@ from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.balance.fit import fit_balance
 from euc_sim.rides.grids.signals import RideAssumptions, resample, ride_signals
 from euc_sim.rides.grids.spin import free_spin, spin_rows
-from euc_sim.rides.source.logs import RideLog
+from euc_sim.rides.source.logs import Ride
 
 
 def test_hard_riding_and_timestamp_jitter_are_no_spin():
@@ -33,7 +33,7 @@ def test_hard_riding_and_timestamp_jitter_are_no_spin():
 M = 100.0
 
 
-def _log(spin: bool) -> RideLog:
+def _log(spin: bool) -> Ride:
     """A 5 Hz ride with a stop at 300-320 s; with ``spin``, the wheel lifted there spins
     0 → 30 m/s in 0.8 s and coasts down over 2 s, drawing no power."""
     rng = np.random.default_rng(2)
@@ -49,7 +49,7 @@ def _log(spin: bool) -> RideLog:
         v = np.where(down, 30.0 * (1 - (t - 309.8) / 2.0), v)
     data = pd.DataFrame({"t": t, "v": v, "voltage": np.full_like(t, 84.0), "current": P / 84.0,
                          "tilt": np.zeros_like(t), "torque": np.zeros_like(t)})
-    return RideLog(path="spin.csv", layout="eucworld", variant="", data=data,
+    return Ride(path="spin.csv", layout="eucworld", variant="", data=data,
                    start=pd.Timestamp("2026-01-01"), absent=(), warnings=(), n_rows_read=len(t),
                    n_rows_merged=0)
 

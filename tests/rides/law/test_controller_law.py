@@ -28,7 +28,7 @@ needs_data = pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/euc_
 
 @needs_data
 def test_lynx_law_predicts_the_other_ride():
-    out = controller_json(SHARED / "leaperkim/lynx/0/0.csv", SHARED / "leaperkim/lynx/2/2.csv",
+    out = controller_json(read_log(SHARED / "leaperkim/lynx/0/0.csv", emit_warnings=False), read_log(SHARED / "leaperkim/lynx/2/2.csv", emit_warnings=False),
                           n_boot=20, seed=0)
     assert out["law"] is not None and out["sign"] == -1
     assert out["heldout"]["ride"] == "2.csv" and out["heldout"]["channel"] == "phase_current"
@@ -43,7 +43,7 @@ def test_lynx_law_predicts_the_other_ride():
                                          ("begode/blitz/1/1.csv", "no pitch"),
                                          ("inmotion/v9/0/0.csv", "neither phase current")])
 def test_logs_that_cannot_show_the_law_say_why(ride, words):
-    out = controller_json(SHARED / ride, n_boot=10)
+    out = controller_json(read_log(SHARED / ride, emit_warnings=False), n_boot=10)
     assert out["law"] is None and words in out["why"]
 
 
@@ -133,7 +133,7 @@ def test_simulated_limit_is_the_largest_measured_torque_where_the_fit_is_lower(t
     from euc_sim.rides.synth.lawsynth import K_T, LAW, eucworld_log, wheellog_log
 
     write = wheellog_log if fmt == "wheellog" else eucworld_log
-    out = controller_json(write(concealed_ride, tmp_path / f"{fmt}.csv", seed=1, sign=sign), k_t=K_T,
+    out = controller_json(read_log(write(concealed_ride, tmp_path / f"{fmt}.csv", seed=1, sign=sign), emit_warnings=False), k_t=K_T,
                           n_boot=10, seed=0)
     lim = next(t for t in out["terms"] if t["name"] == "torque_limit")
     true = LAW["torque_limit"]

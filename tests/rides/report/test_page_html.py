@@ -6,7 +6,7 @@ from __future__ import annotations
 import warnings
 
 from euc_sim.rides.report.page_html import key_figures
-from euc_sim.rides.report.summary import read_counters, ride_summary
+from euc_sim.rides.report.summary import ride_summary
 from euc_sim.rides.source.logs import read_log
 from tests.rides.report.test_summary import _with_spin
 from tests.rides.summarysynth import synth_summary_log
@@ -20,7 +20,7 @@ def _summary_json(path) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         log = read_log(path, emit_warnings=False)
-    return ride_summary(log, read_counters(path, log)).to_json()
+    return ride_summary(log).to_json()
 
 
 def test_the_top_speed_tile_says_a_free_spin_was_left_out(tmp_path):

@@ -9,7 +9,7 @@ import warnings
 from euc_sim.cli import main
 from euc_sim.rides.report.page_html import key_figure_lines, key_figures
 from euc_sim.rides.report.rider_view import ride_clock
-from euc_sim.rides.report.summary import read_counters, ride_summary
+from euc_sim.rides.report.summary import ride_summary
 from euc_sim.rides.source.logs import read_log
 from tests.rides.summarysynth import as_layout, synth_summary_log
 
@@ -18,7 +18,7 @@ def _rep(path) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         log = read_log(path, emit_warnings=False)
-    return {"summary": ride_summary(log, read_counters(path, log)).to_json(), "clock": ride_clock(log)}
+    return {"summary": ride_summary(log).to_json(), "clock": ride_clock(log)}
 
 
 def test_euc_world_stamps_keep_their_zone_and_the_peak_reads_as_clock_and_time_into_the_ride(tmp_path):

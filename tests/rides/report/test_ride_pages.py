@@ -16,6 +16,8 @@ from pathlib import Path
 
 import pytest
 
+from euc_sim.rides.source.logs import read_log
+
 DATA = Path(__file__).resolve().parents[4] / "shared" / "data"
 
 pytestmark = pytest.mark.skipif(not (DATA / "euc_core").is_dir(),
@@ -46,7 +48,7 @@ def pages(tmp_path_factory):
         spec = read_spec(spec_path) if spec_path else None
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            rep = run_ride(log, spec=spec, simulate=False, n_boot=10)
+            rep = run_ride(read_log(log, emit_warnings=False), spec=spec, simulate=False, n_boot=10)
         page = write_page(rep, root / str(k), {}).read_text()
         out.append((log, spec, rep, page))
     return out

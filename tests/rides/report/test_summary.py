@@ -8,7 +8,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from euc_sim.rides.report.summary import BRIDGE_S, mass_check, read_counters, ride_summary
+from euc_sim.rides.report.summary import BRIDGE_S, mass_check, ride_summary
 from euc_sim.rides.source.logs import read_log
 from tests.rides.summarysynth import as_layout, synth_summary_log
 
@@ -21,7 +21,7 @@ def _summary(path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         log = read_log(path, emit_warnings=False)
-    return ride_summary(log, read_counters(path, log))
+    return ride_summary(log)
 
 
 def test_known_ride(tmp_path):
@@ -147,8 +147,8 @@ def test_real_ride_agrees_with_its_own_counters(path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         log = read_log(path, emit_warnings=False)
-    c = read_counters(path, log)
-    s = ride_summary(log, c)
+    c = log.counters
+    s = ride_summary(log)
     # the counter the page follows, read from the CSV the way a rider reads the app: its rise
     raw = pd.read_csv(path, usecols=lambda n: n in ("distance", "gps_distance"))
     col = {"the app's GPS distance": "gps_distance", "the wheel's trip counter": "distance"}[s.distance_follows]
@@ -190,7 +190,7 @@ def test_rider_numbers_reads_the_reports_terms(tmp_path):
     path = synth_summary_log(tmp_path / "a.csv")
     rep = {"total_mass": {"estimate": 100.0, "ci95": [90.0, 110.0]},
            "drivetrain": {"internal_resistance": {"estimate": 0.2, "ci95": [0.19, 0.21], "unit": "ohm"}}}
-    out = rider_numbers(path, rep, WheelSpec(wheel_mass=25.0), 90.0)
+    out = rider_numbers(read_log(path, emit_warnings=False), rep, WheelSpec(wheel_mass=25.0), 90.0)
     assert out["summary"]["distance_m"] == pytest.approx(25 / 3.6 * 600, rel=0.005)
     assert out["mass_check"]["verdict"] == "lighter" and out["mass_check"]["difference_kg"] == pytest.approx(-15.0)
     assert "15 kg less than declared" in out["mass_check"]["sentence"]

@@ -9,6 +9,7 @@ import pandas as pd
 import pytest
 
 from euc_sim.rides.rider import rider_fit as rf
+from euc_sim.rides.source.logs import read_log
 
 
 def test_band_features_put_a_fast_sway_in_the_fast_band_and_a_slow_one_in_the_slow():
@@ -58,7 +59,7 @@ def test_a_log_without_battery_power_is_refused(tmp_path):
     p.write_text("datetime,speed,tilt\n" + "\n".join(
         f"2025-07-01T10:00:{i // 5:02d}.{(i % 5) * 200:03d}+0200,20.0,1.0" for i in range(100)) + "\n")
     with pytest.raises(rf.RiderFitError, match="battery power"):
-        rf.log_channels(p)
+        rf.log_channels(read_log(p, emit_warnings=False))
 
 
 @pytest.mark.parametrize("kw, word", [({"n_boot": 0}, "n_boot"), ({"windows": 0}, "windows"),
@@ -82,7 +83,7 @@ def test_concealed_rider_delay_recovered(tmp_path):
     from euc_sim.rides.synth.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
 
     log = eucworld_power_log(rider_ride(5, 110.0, dt=2e-3), tmp_path / "ew.csv", 5)
-    fit = rf.fit_rider(log, windows=1, window_length=80.0, rounds=(12, 10), n_boot=40, seed=5,
+    fit = rf.fit_rider(read_log(log, emit_warnings=False), windows=1, window_length=80.0, rounds=(12, 10), n_boot=40, seed=5,
                        plan_window=10.0, **concealed_fit_inputs())
     d = fit.params["delay"]
     assert abs(d["value"] - RIDER["delay"]) <= 0.05, fit.params

@@ -21,6 +21,7 @@ from euc_sim.rides.sim.simulate import ride_params
 from euc_sim.rides.sim.envelope import LEAN_SHARE, resisting_acceleration, rider_acceleration_limit
 from euc_sim.rides.sim.tracking import simulate_profile
 from euc_sim.simulation.engine import FALL_BOUNDS
+from euc_sim.rides.source.logs import read_log
 
 V9_0 = Path(__file__).resolve().parents[4] / "shared" / "data" / "euc_core" / "trips" / "inmotion" / "v9" / "0" / "0.csv"
 
@@ -55,7 +56,7 @@ def test_rolling_resistance_and_slope_narrow_the_envelope():
 def v9_window():
     if not V9_0.is_file():
         pytest.skip("../shared/data/euc_core absent")
-    prof = speed_profile(V9_0)
+    prof = speed_profile(read_log(V9_0, emit_warnings=False))
     t, v = prof["t"].to_numpy(), prof["v"].to_numpy()
     keep = (t >= 820.0) & (t <= 850.0)
     return t[keep] - t[keep][0], v[keep]

@@ -20,6 +20,7 @@ from euc_sim.model.parameters import TABLE3
 from euc_sim.rides.sim.sim_steps import (STEP_BUILDERS, LogChannels, StepInputs, build_steps,
                                      drivetrain_step, log_channels, measured_law_step, nominal_step,
                                      simulated_pwm)
+from euc_sim.rides.source.logs import read_log
 
 NOM: dict = {}                        # the inertia-only balance fits nothing
 AUG = {"copper_loss": 0.004, "drivetrain_idle_loss": 30.0,
@@ -129,12 +130,12 @@ def test_the_true_law_reproduces_the_logs_current_and_pitch(law_log):
     from euc_sim.rides.sim.simulate import simulate_ride
 
     path, ls, law = law_log
-    sig = ride_signals(path, RideAssumptions(torque_constant=ls.K_T))
+    sig = ride_signals(read_log(path, emit_warnings=False), RideAssumptions(torque_constant=ls.K_T))
     steps = [SimStep("nominal", "paper PD", MotorPD(), None, {}, NOM),
              SimStep("measured_law", "the true law", MotorPD(**law), None, dict(ls.ROAD), NOM),
              SimStep("skipped", "never run", why="for the test")]
     ch = LogChannels(k_t=ls.K_T, pitch_sign=-1.0, pitch_zero=math.radians(-2.0), balance_heldout=100.0)
-    sim = simulate_ride(sig, steps, path, track_iterations=0, channels=ch)
+    sim = simulate_ride(sig, steps, read_log(path, emit_warnings=False), track_iterations=0, channels=ch)
     e = sim.errors
     assert sim.ran == ["nominal", "measured_law"] and not sim.falls
     for key in ("P_W", "I_phase_A", "pitch_rad", "M_Nm", "v_mps"):
@@ -170,10 +171,10 @@ def test_a_figure_per_step_with_the_logs_channels(law_log, tmp_path):
     from euc_sim.rides.sim.simulation_figure import ride_simulation_figure
 
     path, ls, law = law_log
-    sig = ride_signals(path, RideAssumptions(torque_constant=ls.K_T))
+    sig = ride_signals(read_log(path, emit_warnings=False), RideAssumptions(torque_constant=ls.K_T))
     steps = [SimStep("nominal", "paper PD", MotorPD(), None, {}, NOM),
              SimStep("measured_law", "the true law", MotorPD(**law), None, {}, NOM)]
-    sim = simulate_ride(sig, steps, path, track_iterations=0,
+    sim = simulate_ride(sig, steps, read_log(path, emit_warnings=False), track_iterations=0,
                         channels=LogChannels(k_t=ls.K_T, pitch_sign=-1.0, pitch_zero=-0.035))
     fig = ride_simulation_figure(sim)
     assert_readable(fig)

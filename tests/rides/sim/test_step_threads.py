@@ -16,6 +16,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from ridesynth import synth_log  # noqa: E402
 
 from euc_sim.controllers.motor import MotorPD  # noqa: E402
+from euc_sim.rides.source.logs import read_log
 
 NOM = {"copper_loss": 0.004, "drivetrain_idle_loss": 10.0}
 
@@ -26,7 +27,8 @@ def short_ride(tmp_path_factory):
     from euc_sim.rides.grids.signals import ride_signals
 
     path = synth_log(tmp_path_factory.mktemp("threads") / "ride.csv", seed=3, duration=120.0, gap_at=60.0)
-    return path, ride_signals(path)
+    ride = read_log(path, emit_warnings=False)
+    return ride, ride_signals(ride)
 
 
 def _steps():

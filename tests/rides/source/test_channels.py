@@ -9,10 +9,10 @@ import pandas as pd
 import pytest
 
 from euc_sim.rides.source.channels import current_from_phase, duty_from_speed, power_not_measured
-from euc_sim.rides.source.logs import RideLog
+from euc_sim.rides.source.logs import Ride
 
 
-def _log(measured_duty: bool, seed: int = 0) -> RideLog:
+def _log(measured_duty: bool, seed: int = 0) -> Ride:
     rng = np.random.default_rng(seed)
     n = 2000
     v = 8.0 + 4.0 * np.sin(np.arange(n) / 50.0)                  # m/s
@@ -21,12 +21,12 @@ def _log(measured_duty: bool, seed: int = 0) -> RideLog:
     duty = (6.0 * v + (0.15 * I_ph if measured_duty else 0.0)) / V   # back-EMF (+ drop R·I_ph)
     data = pd.DataFrame({"t": np.arange(n) * 0.2, "v": v, "voltage": V, "phase_current": I_ph,
                          "pwm": 100.0 * duty, "current": duty * I_ph})
-    fields = {f.name: None for f in dataclasses.fields(RideLog)}
+    fields = {f.name: None for f in dataclasses.fields(Ride) if f.init}
     fields.update(path="synthetic.csv", layout="wheellog", variant="new", data=data,
                   start=pd.Timestamp(0), absent=(), warnings=(), n_rows_read=n)
     if "n_rows_merged" in fields:
         fields["n_rows_merged"] = 0
-    return RideLog(**fields)
+    return Ride(**fields)
 
 
 def test_duty_computed_from_speed_is_found_and_its_constant_named():

@@ -216,6 +216,15 @@ def test_too_many_fields(tmp_path):
         read_log(write(tmp_path, text))
 
 
+@pytest.mark.parametrize("quoted", [False, True])
+def test_too_many_fields_named_on_their_line_whether_or_not_a_field_is_quoted(tmp_path, quoted):
+    rows = old_rows(["08:02:10.000", "08:02:10.200", "08:02:10.400"], [3.6, 3.7, 3.8]).split("\n")
+    rows[0] += ",,"                                     # empty extra fields: not data, accepted
+    rows[2] += ',"a, b"' if quoted else ",x"            # a comma inside quotes is one field
+    with pytest.raises(ValueError, match=r"log\.csv: line 4: 16 fields, but the header has 15"):
+        read_log(write(tmp_path, OLD + "\n" + "\n".join(rows) + "\n"))
+
+
 def test_missing_file_is_oserror(tmp_path):
     with pytest.raises(FileNotFoundError, match="nope.csv"):
         read_log(tmp_path / "nope.csv")

@@ -13,8 +13,8 @@ from drivesynth import DRIVE, drive_log
 
 from euc_sim.rides.compare.channels import CHANNELS, whitening
 from euc_sim.rides.compare.differences_report import differences_json
-from euc_sim.rides.grids.ride import as_ride
 from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+from euc_sim.rides.source.logs import read_log
 
 #: Battery power noise of the twin pairs, W (AR(1), 0.3 s): a logger whose current reads coarsely.
 NOISY = 600.0
@@ -24,7 +24,7 @@ def _pair(tmp_path, dm: float) -> tuple:
     a = drive_log(tmp_path / "a.csv", seed=5, duration=900.0, noise_w=NOISY, signed_phase=True)
     b = drive_log(tmp_path / "b.csv", seed=6, duration=900.0, noise_w=NOISY, signed_phase=True,
                   truth={**DRIVE, "mass": DRIVE["mass"] + dm})
-    log, other = as_ride(a).log, as_ride(b).log
+    log, other = read_log(a, emit_warnings=False), read_log(b, emit_warnings=False)
     return (log, other, ride_drivetrain(log, other, n_boot=20))
 
 
