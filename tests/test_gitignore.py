@@ -41,6 +41,6 @@ def test_no_tracked_file_is_ignored(in_git):
 
 
 def test_sources_and_figures_are_not_ignored(in_git):
-    kept = ["euc_sim/rides/grids/ride.py", "tests/rides/ridesynth.py", "docs/figures/figure_eight_3d.png",
+    kept = ["euc_sim/rides/source/ride.py", "tests/rides/ridesynth.py", "docs/figures/figure_eight_3d.png",
             "docs/figures/design.png", "scripts/tables/blind_study.py", "mjcf/euc_3d.xml"]
     assert _git("check-ignore", "--no-index", *kept).stdout.split() == []
