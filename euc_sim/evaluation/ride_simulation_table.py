@@ -176,15 +176,13 @@ def band_rows(results: list[dict]) -> list[str]:
 
 BAND_MARK = "**Level and spectrum**"
 BAND_TEXT = (
-    BAND_MARK + " (`simulation.steps[].heldout_bands`): the same runs, each step's battery "
-    "power against the log's band by band, on the scored rows: the simulation read at the log's own "
-    "time stamps (`euc_sim/rides/sim/reading.py`), neither smoothed, split into the rider fit's eight bands "
-    "(Savitzky–Golay windows 0.5 … 6 s, ~2 Hz down to ~0.1 Hz; `rider_features.band_ratio_db`). "
-    "A cell is the RMS over the bands of 20·log10(simulated band RMS / logged band RMS), dB, of "
-    "battery power (P, in brackets the fastest and the slowest band's ratio), and of phase current "
-    "(I) and pitch (on the riding rows) where HELD logs them: 0 dB is the log's level and spectrum, "
-    "+6 dB twice its swing, −6 dB half. Unlike the RMS error it does not penalise a rider whose noise is "
-    "right but drawn independently of the log's.")
+    BAND_MARK + " (`simulation.steps[].heldout_bands`): each step's battery power against the "
+    "log's, on the scored rows read at the log's stamps, split into the rider fit's eight bands "
+    "(Savitzky–Golay windows 0.5 … 6 s, ~2 Hz to ~0.1 Hz; `rider_features.band_ratio_db`). A cell is "
+    "the RMS over the bands of 20·log10(simulated / logged band RMS), dB, of battery power (P; in "
+    "brackets the fastest and slowest band's ratio), phase current (I) and pitch (riding rows) "
+    "where HELD logs them: 0 dB is the log's level and spectrum, ±6 dB twice or half its swing. "
+    "Unlike the RMS error it does not penalise noise that is right but drawn independently.")
 
 
 HAND = "## Reading the table"
