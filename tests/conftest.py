@@ -12,5 +12,7 @@ if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
 import sys
 from pathlib import Path
 
-# helpers shared by every test folder (figcheck) import by name
-sys.path.append(str(Path(__file__).resolve().parent))
+# helpers shared by every test folder (figcheck) import by name, and so do the modules of the
+# table scripts and studies the tests check (blind_study, soak, band_halves, ...)
+ROOT = Path(__file__).resolve().parents[1]
+sys.path += [str(ROOT / "tests"), str(ROOT / "scripts"), str(ROOT / "scripts" / "tables"), str(ROOT / "studies")]

@@ -12,7 +12,7 @@ ROOT = Path(__file__).resolve().parents[1]
 #: (a tuple is one layer of several modules: the exceptions beside the file helpers).
 LAYERS = [("euc_sim.errors", "euc_sim.io", "euc_sim.geo"), "euc_sim.stats", "euc_sim.report", "euc_sim.model",
           "euc_sim.controllers", "euc_sim.simulation", "euc_sim.identification", "euc_sim.diagnosis",
-          "euc_sim.rides", "euc_sim.evaluation", "euc_sim.api", "euc_sim.cli"]
+          "euc_sim.rides", "euc_sim.api", "euc_sim.cli"]
 #: Inside ``euc_sim.rides``: its subpackages, lowest first (docs/architecture.md#rides-by-idea);
 #: ``euc_sim.rides.pipeline`` sits above them all and is the only module left flat.
 RIDES_LAYERS = ["source", "grids", "drive", "balance", "law", "sim", "rider", "report", "compare",
@@ -194,22 +194,34 @@ def _imported_names(path: Path) -> set[str]:
     return names
 
 
-def test_tests_do_not_import_scripts_or_studies():
-    stems = {p.stem for p in _python_files("scripts", "studies")}
-    stems -= {m.rsplit(".", 1)[-1] for m in _modules()}           # a package module of that name is fine
+#: The folders whose modules tests import by name; tests/conftest.py alone puts them on sys.path.
+SCRIPT_FOLDERS = ("scripts", "scripts/tables", "studies")
+
+
+def test_tests_import_scripts_and_studies_only_by_name():
+    """A script's or study's module is imported by its name (``import blind_study``), the
+    folder put on the path by tests/conftest.py only: never as a file, nor as ``scripts.x``."""
+    importable = {p.stem for f in SCRIPT_FOLDERS for p in (ROOT / f).glob("*.py")}
+    others = {p.stem for p in _python_files("scripts", "studies")} - importable
+    conftest = ROOT / "tests" / "conftest.py"
     bad = []
     for path in _python_files("tests"):
-        if path == Path(__file__).resolve():
+        if path in (Path(__file__).resolve(), conftest):
             continue
         text = path.read_text()
-        names = _imported_names(path)
-        bad += [f"{path.relative_to(ROOT)}: imports {n}" for n in names
-                if n.split(".")[0] in stems | {"scripts", "studies"}]
+        bad += [f"{path.relative_to(ROOT)}: imports {n}" for n in _imported_names(path)
+                if n.split(".")[0] in others | {"scripts", "studies"}]
         if "spec_from_file_location" in text:
             bad.append(f"{path.relative_to(ROOT)}: loads a file as a module")
         if "sys.path" in text and ('"scripts"' in text or '"studies"' in text):
             bad.append(f"{path.relative_to(ROOT)}: puts scripts/ or studies/ on sys.path")
-    assert bad == [], "tests run scripts and studies as programs, never import them: " + "; ".join(bad)
+    assert bad == [], "tests import scripts' and studies' modules by name only: " + "; ".join(bad)
+
+
+def test_script_modules_do_not_shadow_each_other():
+    """One name, one module, over the folders tests/conftest.py puts on the path and tests/."""
+    stems = [p.stem for f in (*SCRIPT_FOLDERS, "tests", "tests/rides") for p in (ROOT / f).glob("*.py") if p.stem != "conftest"]
+    assert sorted({s for s in stems if stems.count(s) > 1}) == []
 
 
 def test_scripts_and_studies_do_not_import_tests():

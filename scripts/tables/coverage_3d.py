@@ -122,7 +122,7 @@ def planar_check(args, bs) -> int:
 
 
 def main(argv=None) -> int:
-    from euc_sim.evaluation import blind_study as bs
+    import blind_study as bs
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rides", type=int, default=40)
     ap.add_argument("--seed", type=int, default=101)

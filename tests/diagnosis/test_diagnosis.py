@@ -10,9 +10,7 @@ from __future__ import annotations
 
 import json
 import shutil
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -24,11 +22,8 @@ from euc_sim.diagnosis.common import THRESHOLDS
 from euc_sim.simulation import effects
 from euc_sim.model.parameters import TABLE3
 
-ROOT = Path(__file__).resolve().parents[2]
-
-
-from euc_sim.evaluation import blind_scoring as SCORING  # noqa: E402
-from euc_sim.evaluation import blind_study as BLIND  # noqa: E402
+import blind_scoring as SCORING  # the blind study's code, in scripts/tables/
+import blind_study as BLIND
 
 SEED = 2024
 DURATION = 15.0

@@ -61,7 +61,7 @@ def test_bad_input_is_said():
 def test_blind_study_makes_its_3d_cases_on_threads_as_one_by_one(tmp_path):
     """The blind study's 3-D cases, made by ``make_recordings`` (one in-process task,
     two threads): the files ``make_recording`` writes case by case; a fall left unwritten."""
-    from euc_sim.evaluation import blind_study
+    import blind_study
 
     cases = blind_study.plan_spatial(7, 3, 2.0)
     cases.append({**cases[0], "name": "spatial_falls", "maneuver": "circle", "duration": 8.0,

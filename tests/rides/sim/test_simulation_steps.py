@@ -187,7 +187,7 @@ def test_a_figure_per_step_with_the_logs_channels(law_log, tmp_path):
 
 
 def _table_script():
-    from euc_sim.evaluation import ride_simulation_table
+    import ride_simulation_table
 
     return ride_simulation_table
 

@@ -1,4 +1,4 @@
-"""The soak (euc_sim.evaluation.soak, run as scripts/soak.py) keeps working: a tiny soak, and its sorting of outcomes."""
+"""The soak (scripts/soak.py) keeps working: a tiny soak, and its sorting of outcomes."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 
 @pytest.fixture(scope="module")
 def soak():
-    from euc_sim.evaluation import soak as module
+    import soak as module
 
     return module
 

@@ -5,7 +5,7 @@ import sys
 
 import pytest
 
-from euc_sim.evaluation import rider_fit_falls
+import rider_fit_falls
 
 
 def _ride(measured_ran: bool) -> dict:

@@ -5,7 +5,7 @@ import sys
 import numpy as np
 import pytest
 
-from euc_sim.evaluation import stop_power
+import stop_power
 
 
 def test_stand_power_splits_stops_short_stands_and_riding():

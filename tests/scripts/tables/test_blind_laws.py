@@ -1,6 +1,6 @@
 """Concealed firmware laws of the blind study, smoke size.
 
-:mod:`euc_sim.evaluation.blind_laws` draws a law, rides it in closed loop, writes it as a real log
+scripts/tables/blind_laws.py draws a law, rides it in closed loop, writes it as a real log
 and identifies it blind from the CSV and its sidecar; the full study is
 ``scripts/tables/blind_study.py --laws N`` (docs/controller.md).  Here one short EUC World case:
 the files are written without the truth beside the log, the law is read back in its
@@ -10,12 +10,10 @@ targets, and the scoring counts it.
 from __future__ import annotations
 
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 
-from euc_sim.evaluation.blind_laws import law_outcome, law_work, plan_laws, score_laws
+from blind_laws import law_outcome, law_work, plan_laws, score_laws
 
 
 def test_plan_draws_laws_in_both_formats_reproducibly():

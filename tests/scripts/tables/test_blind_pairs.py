@@ -1,19 +1,14 @@
 """Two missing effects at once (issue 24): found jointly, neither masking the other.
 
-Recordings with two concealed effects (:func:`euc_sim.evaluation.blind_study.make_recording`),
-diagnosed blind; and the pair scoring of :mod:`euc_sim.evaluation.blind_scoring`.
+Recordings with two concealed effects (``make_recording`` of scripts/tables/blind_study.py),
+diagnosed blind; and the pair scoring of scripts/tables/blind_scoring.py.
 """
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
+import blind_scoring as SCORING
+import blind_study as BLIND
 import pytest
-
-ROOT = Path(__file__).resolve().parents[2]
-from euc_sim.evaluation import blind_scoring as SCORING  # noqa: E402
-from euc_sim.evaluation import blind_study as BLIND  # noqa: E402
 
 #: name: (effects, maneuver, its options, hide torques, push, drift shape)
 PAIRS = {

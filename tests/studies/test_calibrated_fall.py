@@ -5,7 +5,7 @@ import sys
 import numpy as np
 import pytest
 
-from euc_sim.evaluation import calibrated_fall
+import calibrated_fall
 
 
 def test_distance_ahead_integrates_the_speed_error():

@@ -5,7 +5,7 @@ import sys
 import numpy as np
 import pytest
 
-from euc_sim.evaluation import band_halves
+import band_halves
 
 
 def test_a_ride_whose_second_half_swings_twice_as_hard_is_six_db_up_in_every_band():

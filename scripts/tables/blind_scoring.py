@@ -1,4 +1,4 @@
-"""Scoring of the blind study (:mod:`euc_sim.evaluation.blind_study`): what was named against the truth.
+"""Scoring of the blind study (``blind_study.py`` here): what was named against the truth.
 
 :func:`score` tallies the confusion table, the estimate errors and the held-out
 RMSE reductions; :func:`blind_targets` checks the study's targets (an alias pair

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import sys
 
-from euc_sim.evaluation import acceptance_roc as roc
+import acceptance_roc as roc
 
 
 def _history(reason: str, accepted: bool, chosen: str) -> list[dict]:
