@@ -300,25 +300,32 @@ def edges(row: dict, variant: str) -> list[str]:
     return out
 
 
+#: Letters for the terms in the per-comparison table.
+_ABBR = {"rolling_resistance": "R", "aerodynamic_drag": "D", "wheel_bearing_friction": "B",
+         "current_lag": "L", "copper_loss": "C", "drivetrain_idle_loss": "I"}
+
+
 def compare(runs: dict[str, list[dict]]) -> str:
-    """Markdown: per comparison, each variant's held-out error, change, edges."""
+    """Markdown: per comparison, ``as_is``'s held-out error (W) and each variant's change (%),
+    with the terms on an edge as letters (:data:`_ABBR`), ΔF (N) and b where kept."""
     base = {r["label"]: r for r in runs["as_is"]}
-    head = "| comparison | " + " | ".join(f"{v} W (Δ), edge" for v in runs) + " |"
-    out = [head, "|---|" + "---|" * len(runs)]
+    out = ["| comparison | " + " | ".join(runs) + " |", "|---|" + "---|" * len(runs)]
     for label, b in base.items():
         cells = []
         for v, rows in runs.items():
             r = next((x for x in rows if x["label"] == label), None)
-            if r is not None:
-                r["edge"] = edges(r, v)
             if r is None:
                 cells.append("–")
                 continue
+            r["edge"] = edges(r, v)
+            ed = "".join(_ABBR.get(t, t) for t in r["edge"]) or "—"
             ch = 100 * (r["selected"] / b["selected"] - 1)
-            extra = (f", ΔF {r['excess_force']:.0f} N" if r["excess_force"] else "") + (
-                f", b {r['b']:.2f}" if r["b"] else "")
-            cells.append(f"{r['selected']:.1f} ({ch:+.1f} %), {', '.join(r['edge']) or '—'}{extra}")
-        out.append(f"| {label} | " + " | ".join(cells) + " |")
+            head = f"{r['selected']:.1f}" if v == "as_is" else f"{ch:+.1f}"
+            head = "0.0" if head in ("+0.0", "-0.0") else head
+            extra = (f" ΔF {r['excess_force']:.0f}" if r["excess_force"] else "") + (
+                f" b {r['b']:.2f}" if r["b"] else "")
+            cells.append(f"{head} {ed}{extra}")
+        out.append(f"| {label.replace(' halves', ' h')} | " + " | ".join(cells) + " |")
     for v, rows in runs.items():
         n = len(rows)
         ch = [100 * (r["selected"] / base[r["label"]]["selected"] - 1) for r in rows]

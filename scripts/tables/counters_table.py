@@ -75,6 +75,19 @@ def app_counters(path: Path, layout: str) -> dict:
     return out
 
 
+#: The ``*_follows`` sentences as the table's short words (docs/summary.md gives the legend).
+SHORT = {"the app's GPS distance": "GPS", "the wheel's trip counter": "trip",
+         "the wheel's speed integrated, gaps up to 60 s bridged": "speed",
+         "the app's trip and riding clocks": "clocks", "the wheel's first turn to the last row": "turn",
+         ", pauses left out": "−pauses"}
+
+
+def _short(follows: str) -> str:
+    for long, short in SHORT.items():
+        follows = follows.replace(long, short)
+    return follows
+
+
 def row(path: Path, root: Path) -> str:
     """One Markdown row for the log at ``path``."""
     log = read_log(path, emit_warnings=False)
@@ -91,9 +104,10 @@ def row(path: Path, root: Path) -> str:
         top = max(top, s.free_spin["speed_max_mps"])
     cells = [
         name, log.layout,
-        f"{s.distance_m / 1000:.2f}", getattr(s, "distance_follows", None) or s.distance_source,
+        f"{s.distance_m / 1000:.2f}", _short(getattr(s, "distance_follows", None) or s.distance_source),
         _pct(s.distance_m, a["trip"]), _pct(s.distance_m, a["odometer"]), _pct(s.distance_m, a["gps"]),
-        f"{s.duration_s:.0f}", getattr(s, "duration_follows", None) or "–", _pct(s.duration_s, a["clock"]),
+        f"{s.duration_s:.0f}", _short(getattr(s, "duration_follows", None) or "–"),
+        _pct(s.duration_s, a["clock"]),
         f"{s.moving_s:.0f}", _pct(s.moving_s, a["riding"]),
         f"{s.speed_max_mps * 3.6:.1f}", _pct(top, a["top"]),
         f"{s.energy_drawn_Wh:.0f}" if s.energy_drawn_Wh is not None else "–",
@@ -105,10 +119,9 @@ def row(path: Path, root: Path) -> str:
     return "| " + " | ".join(cells) + " |"
 
 
-HEADER = ("| ride | app | distance km | follows | vs trip counter % | vs odometer % | vs GPS counter % "
-          "| duration s | follows | vs trip clock % | riding s | vs riding clock % | top km/h | vs app % "
-          "| drawn Wh | vs power column % | net vs energy counter % | PWM max % | vs column, points "
-          "| battery used % | vs first−last row, points |")
+HEADER = ("| ride | app | km | follows | vs trip % | vs odo % | vs GPS % | s | follows | vs clock % "
+          "| riding s | vs riding % | top km/h | vs app % | drawn Wh | vs power % | net vs energy % "
+          "| PWM % | vs col., pt | battery % | vs rows, pt |")
 
 
 def main(argv: list[str]) -> int:

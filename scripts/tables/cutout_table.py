@@ -47,7 +47,12 @@ def row(log_path: Path, spec_path: Path | None) -> str | None:
     else:
         cuts, charge = "– (computed PWM)" if "computation" in (c.why or "") else f"– ({c.why})", "–"
     name = "/".join(log_path.parts[-4:-1]) if "trips" in log_path.parts else log_path.name
-    return f"| {name} | {log.layout} | {held} | {limit} | {charge} | {cuts} | {c.danger or '–'} |"
+    danger = (c.danger or "–").replace(CUT_OUT, "cut-out")
+    return f"| {name} | {log.layout} | {held} | {limit} | {charge} | {cuts} | {danger} |"
+
+
+#: The page's words for a cut-out, shortened in the table (docs/cutout.md says so).
+CUT_OUT = "the motor runs out of voltage (100 % PWM: a cut-out)"
 
 
 def main(argv=None) -> None:
@@ -58,7 +63,7 @@ def main(argv=None) -> None:
     logs = [(p, SHARED / "euc_core" / "specs" / f"{p.parts[-3]}.csv") for p in trips]
     logs += [(p, None) for p in sorted((SHARED / "wheellog").glob("*.csv"))]
     print("| ride | app | PWM held out, points | limit, km/h (source) | ride's charge, % "
-          "| cut-out at the ride's lowest charge: level / 1 m/s² / 10 %, km/h | danger |")
+          "| cut-out at the ride's lowest charge: level / 1 m/s² / 10 %, km/h | danger (the page's) |")
     print("| --- | --- | --- | --- | --- | --- | --- |")
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -176,15 +176,13 @@ def band_rows(results: list[dict]) -> list[str]:
 
 BAND_MARK = "**Level and spectrum**"
 BAND_TEXT = (
-    BAND_MARK + " (`simulation.steps[].heldout_bands`): the same runs, each step's battery "
-    "power against the log's band by band, on the scored rows: the simulation read at the log's own "
-    "time stamps (`euc_sim/rides/sim/reading.py`), neither smoothed, split into the rider fit's eight bands "
-    "(Savitzky–Golay windows 0.5 … 6 s, ~2 Hz down to ~0.1 Hz; `rider_features.band_ratio_db`). "
-    "A cell is the RMS over the bands of 20·log10(simulated band RMS / logged band RMS), dB, of "
-    "battery power (P, in brackets the fastest and the slowest band's ratio), and of phase current "
-    "(I) and pitch (on the riding rows) where HELD logs them: 0 dB is the log's level and spectrum, "
-    "+6 dB twice its swing, −6 dB half. Unlike the RMS error it does not penalise a rider whose noise is "
-    "right but drawn independently of the log's.")
+    BAND_MARK + " (`simulation.steps[].heldout_bands`): each step's battery power against the "
+    "log's, on the scored rows read at the log's stamps, split into the rider fit's eight bands "
+    "(Savitzky–Golay windows 0.5 … 6 s, ~2 Hz to ~0.1 Hz; `rider_features.band_ratio_db`). A cell is "
+    "the RMS over the bands of 20·log10(simulated / logged band RMS), dB, of battery power (P; in "
+    "brackets the fastest and slowest band's ratio), phase current (I) and pitch (riding rows) "
+    "where HELD logs them: 0 dB is the log's level and spectrum, ±6 dB twice or half its swing. "
+    "Unlike the RMS error it does not penalise noise that is right but drawn independently.")
 
 
 HAND = "## Reading the table"
@@ -250,42 +248,28 @@ def write_doc(path: Path, results: list[dict], argv: list[str], seconds: float =
     n_ok = sum(not any(w in r for w in ("| not run", "| failed")) for r in merged)
     text = "\n".join([
         "# The simulated ride against the log, step by step", "",
-        "Each row: `euc-sim ride FIT --compare HELD --wheel W.csv` — the balance fit, the wheel's "
-        "balance law and the drivetrain fitted on FIT, then the MuJoCo rider riding HELD's logged "
-        "speed profile once per modelled step (`simulation.steps` of the ride JSON, "
-        "`euc_sim/rides/sim/sim_steps.py`). A cell is the step's held-out battery-power RMS error (W) "
-        f"and, in brackets, its ratio to the balance fit's held-out error on HELD (bold: within the "
-        f"{TARGET}× target over the whole held-out ride; a pair where a step fell is scored only "
-        f"up to the fall and never bold). Steps: `nominal` (paper PD 600 / 40, default rider, no effects), "
-        "`measured_law` (the firmware law measured on FIT; skipped where FIT shows no law), "
-        "`calibrated_rider` (the rider's delay, bandwidth and motor noise fitted on FIT, its plan the "
-        "logged speed smoothed; only on the rows marked 'calibrated rider', run with `--calibrate-rider`: "
-        "`–` elsewhere), `drivetrain` (voltage-limited motor, "
-        "accepted effects as physics, the augmented fit's accepted losses added to the battery power). In every step the rider first rides "
-        "the profile within his acceleration envelope, band-limited to half the right-half-plane zero "
-        "of his speed response (`envelope.plan_band_limit`), then once more on the plan learned from that "
-        "run through his inverted closed loop (`euc_sim/rides/sim/plan_learning.py`, aiming at the "
-        "profile as logged; rows run before 2026-11-26 16:00 UTC used the older slow correction). Each "
-        "simulated channel is read as the log is written: the 0.2 s mean before each of the log's "
-        "own time stamps, interpolated onto the grid (`euc_sim/rides/sim/reading.py`; rows run before "
-        "2026-11-26 20:10 UTC were averaged straight onto the grid). Phase current, pitch and PWM "
-        "errors are those of the step with the lowest battery-power error, where HELD logs them. "
-        "Every step is scored on the rows all steps rode (up to the first fall: the `scored` "
-        "column gives that span and its share of the held-out ride; a ratio over a short span "
-        "is not the whole ride's). Pitch is scored on the riding rows (speed > 1 m/s).", "",
+        "Each row: `euc-sim ride FIT --compare HELD --wheel W.csv`: the balance fit, the wheel's "
+        "law and the drivetrain fitted on FIT, then the MuJoCo rider riding HELD's logged speed "
+        "profile once per step (`simulation.steps`, `euc_sim/rides/sim/sim_steps.py`). A cell is the "
+        "step's held-out battery-power RMS error (W) and its ratio to the balance fit's held-out "
+        f"error on HELD (bold: within {TARGET}× over the whole held-out ride; never bold after a fall). "
+        "Steps: `nominal` (paper PD 600 / 40, default rider, no effects), `measured_law` (the firmware "
+        "law measured on FIT), `calibrated_rider` (delay, bandwidth and motor noise fitted on FIT; "
+        "rows marked 'calibrated rider', `--calibrate-rider`), `drivetrain` (voltage-limited motor, "
+        "accepted effects as physics and losses added to the battery power). The rider rides the "
+        "band-limited profile (`envelope.plan_band_limit`), then the plan learned through his "
+        "inverted loop (`plan_learning.py`); each channel is read as the log is written "
+        "(`reading.py`). Phase current, pitch (riding rows, > 1 m/s) and PWM errors are the best "
+        "step's. All steps are scored on the rows all rode (`scored`: up to the first fall).", "",
         "Command" + ("s (a later run adds its rows to the earlier ones; the rows it "
                      "does not run are kept):" if len(commands) > 1 else ":"), "",
         *commands, "",
-        f"{n_ok} of {len(merged)} rows ran. Steps within the target: {', '.join(met) or 'none'}.", "",
-        "**Which figures are tuning figures.** Every model is fitted on FIT and scored on HELD. The law's selection thresholds were set on "
-        "synthetic rides (docs/controller.md). The rider's plan learning was traced and built on "
-        "Lynx 0 → 2 (its band compared there): the Lynx rows are tuning figures; the V9, Blitz "
-        "and Master Pro rows chose no setting of it (its constants were fixed before their runs) and are scored where nothing "
-        "was chosen (leave one wheel out). The plan's band limit comes from the model (no constant fitted), but "
-        "it was written after looking at three fall windows whose held-out rides are Master Pro 3 → 6 and 6 → 3, "
-        "Blitz 1 → 4 and 2 → 4 and Lynx 2 → 0 (docs/ride_falls.md). Any later change made by looking at this table turns "
-        "its rows into tuning figures; the check of held-back rides (compared the same "
-        "way) is the test.", "",
+        f"{n_ok} of {len(merged)} rows ran; {len(met)} cells within the target (bold).", "",
+        "**Tuning figures.** Every model is fitted on FIT and scored on HELD. The law's thresholds "
+        "were set on synthetic rides (docs/controller.md); the plan learning on Lynx 0 → 2 (the Lynx "
+        "rows are tuning figures; V9, Blitz, Master Pro chose none of its constants); the band limit "
+        "has no fitted constant but was written after looking at the falls of Master Pro 3 → 6, "
+        "6 → 3, Blitz 1 → 4, 2 → 4 and Lynx 2 → 0 (docs/ride_falls.md). Held-back rides are the test.", "",
     ] + table[:2] + merged + ["", BAND_TEXT, "", *bands[:2], *merged_bands, ""]) + (
         "" if cut < 0 else "\n" + old_text[cut:])
     path.parent.mkdir(parents=True, exist_ok=True)
