@@ -287,7 +287,7 @@ def test_a_run_of_one_wheel_keeps_the_other_wheels_rows_and_commands(tmp_path):
     assert "400 (**0.80**)" in rows_[0]                                           # lynx kept
     assert "1 → 2 | 1,000 |" in rows_[1] and "not run" in rows_[2]
     assert "--out A --pairs lynx,blitz" in text and "--out B --pairs blitz" in text
-    assert "2 of 3 rows ran" in text and "lynx_0_to_2 drivetrain, blitz_1_to_2 drivetrain" in text
+    assert "2 of 3 rows ran; 2 cells within the target (bold)" in text
     assert text.endswith("- kept words\n") and text.count("## Reading the table") == 1
 
 
