@@ -16,7 +16,7 @@ import numpy as np
 
 from euc_sim.rides.balance.design import BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound, term_role
 from euc_sim.rides.balance.fit import BalanceFit, _solve, fit_balance, plausibility
-from euc_sim.rides.balance.normal import coefficients, solve_gram
+from euc_sim.rides.balance.normal import coefficients, solve_grams
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.grids.signals import RideSignals, break_at_gaps
 from euc_sim.stats import forward_select, label_grams, time_blocks
@@ -28,12 +28,6 @@ __all__ = ["CrossRide", "cross_ride", "effect_entries", "plot_cross_ride", "cros
 HELDOUT_FOLDS = 5
 #: A term is kept only if it lowers the held-out error by more than this fraction.
 MIN_GAIN = 0.01
-
-
-def _start(names) -> np.ndarray:
-    from euc_sim.rides.balance.fit import _START
-
-    return np.array([_START[k] for k in names])
 
 
 #: What :func:`heldout_score` admits: every model, the models whose terms all lie in
@@ -74,7 +68,7 @@ class _HeldoutScores:
             raise ValueError(f"admit must be one of {ADMIT}, got {admit!r}")
         key = tuple(names)
         if key not in self._whole:
-            self._whole[key] = dict(zip(key, _solve(self.design, list(key), _start(key)).x))
+            self._whole[key] = dict(zip(key, _solve(self.design, list(key)).x))
         estimate = self._whole[key]
         if admit != "any" and not _all_admissible(estimate, self.design.idle_cap):
             return float("inf")
@@ -82,15 +76,15 @@ class _HeldoutScores:
                                        if k not in NOMINAL):
             return float("inf")
         if key not in self._rmse:
-            self._rmse[key] = self._folds(list(key), np.array(list(estimate.values())))
+            self._rmse[key] = self._folds(list(key))
         return self._rmse[key]
 
-    def _folds(self, names: list, whole: np.ndarray) -> float:
+    def _folds(self, names: list) -> float:
         """RMS of each fold's residual under the fit on the other folds (from their Grams)."""
         G, cols = self.design.gram, self.design.basis.columns
         sse = 0.0
-        for Gb in self._fold_grams:
-            th = solve_gram(G - Gb, cols, names, whole).x
+        fits = solve_grams(G[None] - np.asarray(self._fold_grams), cols, names)
+        for Gb, th in zip(self._fold_grams, fits):
             v, _ = coefficients(cols, names, th)
             sse += float(v @ Gb @ v)
         return float(np.sqrt(max(sse, 0.0) / self._n))
