@@ -21,7 +21,7 @@ import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Iterable, Mapping, Sequence
 
 __all__ = ["KeyFigure", "key_figures", "paragraph", "table", "figure", "section", "page",
            "write_page", "columns", "lead", "box", "markdown", "safe_href", "policy", "PLOTLY_CONFIG"]
@@ -267,6 +267,8 @@ def lead(sentences: Sequence[str]) -> str:
 
 _INLINE = [(re.compile(r"\*\*(.+?)\*\*"), r"<b>\1</b>"), (re.compile(r"`([^`]+)`"), r"<code>\1</code>")]
 _LINK = re.compile(r"(!?)\[([^\]]*)\]\(([^)]*)\)")
+#: A Markdown line that is one image: its target.
+_IMAGE_LINE = re.compile(r"!\[[^\]]*\]\(([^)]*)\)")
 #: Where a page may link: the web (http, https), a place on the page, or a file the report
 #: wrote beside it (a relative path of plain names: no scheme, no "..", no leading "/").
 _HREF = re.compile(r"https?://[a-z0-9.-]+(:[0-9]+)?([/?#][\w.~:/?#@!$&'()*+,;=%-]*)?"
@@ -318,13 +320,16 @@ def _md_table(rows: list[str]) -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{trs}</tbody></table>"
 
 
-def markdown(lines: Sequence[str]) -> str:
+def markdown(lines: Sequence[str], figures: Mapping[str, tuple] | None = None) -> str:
     """The Markdown the plain-text page carries, as HTML: headings, paragraphs, lists, tables.
 
-    Images become links to their PNG (nothing is fetched); ``**bold**`` and
+    An image line whose target is a key of ``figures`` (``{target: (Plotly figure,
+    height in px)}``) is that figure drawn (:func:`figure`, the target its element id);
+    other images become links to their PNG (nothing is fetched); ``**bold**`` and
     ```code``` are kept; everything else is escaped.
     """
     out, block, kind = [], [], None
+    figures = figures or {}
 
     def flush():
         if not block:
@@ -339,6 +344,12 @@ def markdown(lines: Sequence[str]) -> str:
 
     for raw in "\n".join(lines).split("\n"):
         line = raw.rstrip()
+        drawn = _IMAGE_LINE.fullmatch(line)
+        if drawn and drawn[1] in figures:
+            flush()
+            kind = None
+            out.append(figure(figures[drawn[1]][0], drawn[1], figures[drawn[1]][1]))
+            continue
         k = ("h" if line.startswith("#") else "ul" if line.startswith("- ") else
              "table" if line.startswith("|") else None if not line else "p")
         if k != kind or k in ("h", None):

@@ -104,7 +104,9 @@ def test_report_folder(full_run):
     page = (d / "index.md").read_text()
     assert rep["report"] == "index.html" and rep["report_markdown"] == "index.md" and rep["report_dir"] == "rep"      # relative, no machine path
     linked = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", page)
-    assert set(linked) == {"ride_balance.png", "ride_residuals.png", "ride_simulation.png"}
+    assert set(linked) == {"ride_simulation.png"}          # the fits' figures: drawn on index.html
+    html = (d / "index.html").read_text()
+    assert all(f'Plotly.newPlot("{k}"' in html for k in ("cross_ride", "residuals"))
     for name in linked:
         assert (d / name).stat().st_size > 20_000
     for word in ("aerodynamic_drag", "kg/m", "cannot tell apart", "Windows (s)", "plausible"):
@@ -287,7 +289,7 @@ def test_real_rides_done_criterion(tmp_path, capsys):
     assert "| C_rr |" not in page                  # said once, in the Estimates table
     assert rep["aliases"]["rolling_resistance"] == ["road_slope"]
     assert rep["windows"] and all(0.0 <= a < b <= 340.0 for a, b in rep["windows"])
-    for name in ("ride_balance.png", "ride_residuals.png", "index.md"):
+    for name in ("ride_balance.csv", "index.html", "index.md"):
         assert (tmp_path / "rep" / name).stat().st_size > 2_000
     assert "verdict:" in out
 

@@ -70,7 +70,7 @@ def test_outputs_record_no_absolute_path(log, tmp_path, capsys):
     rep = json.loads(text)
     assert rep["recording"] == log.name and rep["report_dir"] == "rep"
     base = out / rep["report_dir"]
-    assert (base / rep["report"]).is_file() and (base / rep["figure"]).is_file()
+    assert (base / rep["report"]).is_file() and (base / rep["table"]).is_file()
     for name in rep["figures"].values():
         assert (base / name).is_file()
 
