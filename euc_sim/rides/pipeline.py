@@ -25,6 +25,9 @@ __all__ = ["RideResult", "BalanceOnMass", "balance_on_mass", "ride_pipeline", "r
 #: Fewest bootstrap replicates the command accepts: effects are accepted on their
 #: 95 % interval, and without replicates there is none (nothing would be accepted).
 MIN_BOOT = 10
+#: ``simulation_why`` (and the page) when the replay was not asked for.
+REPLAY_NOT_ASKED = ("not run: the simulated replay (the MuJoCo rider along this ride's speed, one run per "
+                    "modelled step, minutes) is a step you ask for: euc-sim ride LOG.csv --simulate")
 
 
 @dataclass
@@ -122,7 +125,7 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
 
 
 def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
-                  n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
+                  n_boot: int = 200, seed: int = 0, simulate: bool = False, jobs: int = 1,
                   progress=None, spec=None, calibrate_rider: bool = False,
                   rider_weight: float | None = None, compare_rider_weight: float | None = None) -> RideResult:
     """Everything ``euc-sim ride`` computes, in order, on logs parsed once.
@@ -136,7 +139,8 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     n_boot, seed : int
         Bootstrap replicates and the seed of every random draw.
     simulate : bool
-        Run the closed-loop simulator along the tested ride's speed profile.
+        Replay the ride: the closed-loop simulator along the tested ride's speed profile
+        (minutes; a step the rider asks for, off by default: ``simulation_why`` says so).
     jobs : int
         Threads for the simulation's steps (the results do not depend on it).
     progress : callable, optional
@@ -173,6 +177,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     traces = _localise(rep, an, domain, log, compare)
     sim = _simulation(rep, an, log, compare, seed, jobs, progress, simulate, calibrate_rider)
     rep["simulation"] = None if sim is None else sim.as_json()
+    rep.setdefault("simulation_why", None)
     from euc_sim.rides.balance.verdict import ride_verdict
 
     rep["verdict"] = ride_verdict(rep)
@@ -226,8 +231,10 @@ def _localise(rep: dict, an, domain: str, log, compare) -> list:
 
 def _simulation(rep: dict, an, log, compare, seed: int, jobs: int, progress, simulate: bool,
                 calibrate_rider: bool):
-    """The simulated rider, or None (not asked, or the ride cannot be simulated: a note says why)."""
+    """The simulated rider, or None (not asked, or the ride cannot be simulated: ``simulation_why``
+    says which, and a note why it cannot)."""
     if not simulate:
+        rep["simulation_why"] = REPLAY_NOT_ASKED
         return None
     from euc_sim.rides.sim.simulate import simulation_obstacle
 
@@ -235,6 +242,7 @@ def _simulation(rep: dict, an, log, compare, seed: int, jobs: int, progress, sim
     if why is not None:
         warnings.warn(why, stacklevel=3)
         rep["notes"] = list(rep["notes"]) + [why]
+        rep["simulation_why"] = why
         return None
     return _simulate(an, log, compare, seed, jobs, progress, rep, calibrate_rider)
 

@@ -161,7 +161,7 @@ def bench_ride_page(fit=None, held=None, spec_path=None, workers: int = 2) -> di
         cpu0 = time.process_time()
         t_page = timed(lambda: steps_seen.append(run_ride(read_log(fit, emit_warnings=False),
                                                           read_log(held, emit_warnings=False),
-                                                          report_dir=out, spec=spec, jobs=workers)),
+                                                          report_dir=out, spec=spec, jobs=workers, simulate=True)),
                        repeat=1)
         cpu_page = time.process_time() - cpu0
     ride = read_log(held, emit_warnings=False)

@@ -460,8 +460,8 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         if "simulation" in figures:
             md += ["", f"![simulation against the log, step by step]({figures['simulation']})", ""]
     else:
-        why = [n for n in r.get("notes", []) if n.startswith("simulation skipped")]
-        md += [(why[0][0].upper() + why[0][1:] + ".") if why else "Not run (--no-simulate).", ""]
+        why = r.get("simulation_why") or "not run"
+        md += [why[0].upper() + why[1:] + ".", ""]
     return md
 
 

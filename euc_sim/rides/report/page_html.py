@@ -609,8 +609,9 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
         body.append(H.box(TITLE, H.markdown(diff)))
     body.append(H.lead(_lead(rep, series, fit)))
     body += _figure_sections(rep, figs)
+    replay = f" The simulated replay: {rep['simulation_why']}." if rep.get("simulation_why") else ""
     body.append(H.section("The physics behind it", H.paragraph(
-        "For those who want the model: each part opens on a click."), folded=False))
+        "For those who want the model: each part opens on a click." + replay), folded=False))
     for title, md in markdown_sections(dict(rep), figures or {}, first_screen(rep)):
         body.append(H.section(title, f"<div>{H.markdown(md, plots)}</div>", folded=True))
     body.append(H.paragraph("A plain-text version of this page is index.md in the same folder; "
