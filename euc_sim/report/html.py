@@ -189,12 +189,26 @@ _MAP_GUARD = (
     "if(Date.now()-since>" + str(int(MAP_WAIT_S * 1000)) + "){hide(gd);return;}"
     "setTimeout(function(){watch(gd,since);},250);}var t0=Date.now();"
     "document.querySelectorAll('.fig').forEach(function(gd){if(gd.getAttribute('data-map')!==null)watch(gd,t0);});})();")
-_SCRIPT = re.compile(r"<script>(.*?)</script>", re.S)
 #: The script :func:`figure` writes: a JSON literal handed to Plotly, nothing else.
 _FIGURE_SCRIPT = re.compile(r'\(function\(\)\{var f=(.*);Plotly\.newPlot\("[A-Za-z][A-Za-z0-9_-]*",f\.data,'
                             r"f\.layout\|\|\{\}," + re.escape(json.dumps(PLOTLY_CONFIG)) + r"\);\}\)\(\);", re.S)
 #: Text Plotly's script sets as element content: MapLibre's style sheet among it.
 _PLOTLY_CSS = re.compile(r"""\.textContent=(['"])((?:(?!\1)[^\\])*)\1""")
+
+
+def _scripts(markup: str) -> list[str]:
+    """The text of every ``<script>…</script>`` in ``markup``, in order (a closed one only)."""
+    out, i = [], 0
+    while (a := markup.find("<script>", i)) >= 0 and (b := markup.find("</script>", a + 8)) >= 0:
+        out.append(markup[a + 8:b])
+        i = b + 9
+    return out
+
+
+@functools.lru_cache(maxsize=1)
+def _plotly_styles() -> tuple[str, ...]:
+    """The style sheets Plotly's script inserts (read once: the script is 4.8 MB)."""
+    return tuple(m[1] for m in _PLOTLY_CSS.findall(_plotly_js()))
 
 
 def _sha256(text: str) -> str:
@@ -229,8 +243,8 @@ def policy(markup: str) -> str:
     """
     from euc_sim.report.figures import OSM_TILES
 
-    scripts = [s for s in _SCRIPT.findall(markup) if _own_script(s)]
-    styles = [_STYLE] + [m[1] for m in _PLOTLY_CSS.findall(_plotly_js())]
+    scripts = [s for s in _scripts(markup) if _own_script(s)]
+    styles = [_STYLE, *_plotly_styles()]
     img = fetch = ""
     urls = [v for u in OSM_TILES["source"] for v in (u, u.replace("/", "\\u002f"))]    # as JSON may write it
     if any(u in s for s in scripts if s != _plotly_js() for u in urls):
