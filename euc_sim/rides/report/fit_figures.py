@@ -63,8 +63,11 @@ def _lines(fig: dict, row: int, t: np.ndarray, curves, gap: float) -> None:
 
 
 def _json(a: np.ndarray) -> list:
-    """Values for a spec, 5 significant digits, NaN as null (a break in the line)."""
-    return [None if not np.isfinite(v) else float(f"{v:.5g}") for v in np.asarray(a, float).tolist()]
+    """Values for a spec, 5 significant digits of the largest, NaN as null (a break in the line)."""
+    a = np.asarray(a, float)
+    top = np.nanmax(np.abs(a), initial=0.0, where=np.isfinite(a))
+    a = np.round(a, 4 - int(np.floor(np.log10(top)))) if top > 0 else a
+    return [v if v == v else None for v in np.where(np.isfinite(a), a, np.nan).tolist()]
 
 
 def _shade(fig: dict, row: int, a: float, b: float, label: str | None = None) -> None:
