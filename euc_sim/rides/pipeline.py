@@ -26,8 +26,8 @@ __all__ = ["RideResult", "BalanceOnMass", "balance_on_mass", "ride_pipeline", "r
 #: 95 % interval, and without replicates there is none (nothing would be accepted).
 MIN_BOOT = 10
 #: ``simulation_why`` (and the page) when the replay was not asked for.
-REPLAY_NOT_ASKED = ("not run: the simulated replay (the MuJoCo rider along this ride's speed, one run per "
-                    "modelled step, minutes) is a step you ask for: euc-sim ride LOG.csv --simulate")
+REPLAY_NOT_ASKED = ("not run: a step you ask for (the MuJoCo rider along this ride's speed, one run per "
+                    "modelled step, minutes): euc-sim ride LOG.csv --simulate")
 
 
 @dataclass
