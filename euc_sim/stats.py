@@ -59,9 +59,13 @@ def label_grams(Z: np.ndarray, labels: np.ndarray, n_labels: int) -> np.ndarray:
     ndarray (n_labels, p, p)
     """
     G = np.zeros((n_labels, Z.shape[1], Z.shape[1]))
-    for b in np.unique(labels):
-        zb = Z[labels == b]
-        G[b] = zb.T @ zb
+    order = np.argsort(labels, kind="stable")          # each label's rows one slice: O(n) in all
+    Zs, ls = Z[order], np.asarray(labels)[order]
+    bounds = np.flatnonzero(np.diff(ls)) + 1
+    for lo, hi in zip(np.r_[0, bounds], np.r_[bounds, len(ls)]):
+        if hi > lo:
+            zb = Zs[lo:hi]
+            G[ls[lo]] = zb.T @ zb
     return G
 
 

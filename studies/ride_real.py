@@ -7,8 +7,7 @@ Usage (from the repository root)::
     python studies/ride_real.py [OUT_DIR] [--domain power|torque]
 
 Reads the two WheelLog rides in ``../shared/data/wheellog/`` and writes, per
-direction, ``OUT_DIR/<fit>_to_<test>/ride_balance.png``, ``ride_balance.csv`` and
-``report.json`` (CONTRACT's ``euc-sim ride`` JSON form), then prints a summary.
+direction, ``OUT_DIR/<fit>_to_<test>/ride_balance.csv`` and ``report.json`` (CONTRACT's ``euc-sim ride`` JSON form), then prints a summary.
 """
 
 from __future__ import annotations

@@ -223,20 +223,19 @@ def _cut(src: Path, rows: slice, out: Path) -> Path:
 
 @needs_shared
 def test_ride_figures_on_two_real_rides_with_the_simulation(tmp_path, monkeypatch):
-    """The README's ``ride LOG --compare OTHER`` on 2-minute cuts of two real WheelLog rides:
-    balance, residuals, simulation (item 12: a zoom and the error over time)."""
+    """The README's ``ride LOG --compare OTHER --simulate`` on 2-minute cuts of two real WheelLog
+    rides: the simulation (item 12: a zoom and the error over time; the fits' figures are the
+    page's Plotly figures, tests/report/test_pages.py)."""
     from euc_sim.rides.sim.simulation_figure import ZOOM_S
 
     wl = SHARED / "wheellog"
     fit = _cut(wl / "2020_05_16_08_02_06.csv", slice(1, 600), tmp_path / "a.csv")
     test = _cut(wl / "2020_05_28_07_52_00.csv", slice(170, 770), tmp_path / "b.csv")
-    saved, written = _ride(["ride", fit, "--compare", test, "--report", tmp_path / "rep", "--n-boot", "20"],
-                           monkeypatch)
-    assert len(saved) == written == 3
+    saved, written = _ride(["ride", fit, "--compare", test, "--report", tmp_path / "rep", "--n-boot", "20",
+                            "--simulate"], monkeypatch)
+    assert len(saved) == written == 1
     for fig in saved:
         assert_readable(fig)
-    labels = line_labels(next(f for f in saved if "Battery-power balance fitted" in _titles(f)))
-    assert any("a.csv (fit)" in s for s in labels) and any("b.csv (test)" in s for s in labels)
     sim, = [f for f in saved if "Simulated rider" in _titles(f)]
     spans = [ax.get_xlim()[1] - ax.get_xlim()[0] for ax in sim.axes]
     assert min(spans) == pytest.approx(ZOOM_S) and max(spans) > 1.5 * ZOOM_S   # a zoom, the whole ride
@@ -245,15 +244,15 @@ def test_ride_figures_on_two_real_rides_with_the_simulation(tmp_path, monkeypatc
 
 @needs_shared
 def test_ride_figures_with_the_drivetrain(tmp_path, monkeypatch):
-    """A real ride with PWM and GPS altitude, split in halves: envelope (item 11), PWM, grade,
-    balance (item 13: the whole ride is labelled as such), residuals."""
+    """A real ride with PWM and GPS altitude, split in halves: envelope (item 11), grade; the
+    balance's Plotly figure labels the whole ride as such (item 13)."""
     from euc_sim.rides.grids.power import G
     from euc_sim.rides.report.drivetrain_report import TYRE_MU
 
     core = SHARED / "euc_core"
     saved, written = _ride(["ride", core / "trips/inmotion/v9/2/2.csv", "--wheel", core / "specs/v9.csv",
                             "--report", tmp_path / "rep", "--no-simulate", "--n-boot", "10"], monkeypatch)
-    assert len(saved) == written == 5
+    assert len(saved) == written == 2
     for fig in saved:
         assert_readable(fig)
     env, = [f for f in saved if "envelope" in _titles(f).lower()]
@@ -262,6 +261,5 @@ def test_ride_figures_with_the_drivetrain(tmp_path, monkeypatch):
     assert np.nanmax(drawn) <= TYRE_MU * G + 1e-9
     assert ax.get_ylim()[1] < 1.2 * TYRE_MU * G
     assert "current limit" in _titles(env)
-    labels = line_labels(next(f for f in saved if "Battery-power balance fitted" in _titles(f)))
-    assert not any("first half) (fit)" in s for s in labels)
-    assert any("whole ride" in s for s in labels) and any("held out" in s for s in labels)
+    page = (tmp_path / "rep" / "index.html").read_text()
+    assert "first half) (fit)" not in page and "the whole ride" in page and "second half: held out" in page

@@ -304,7 +304,7 @@ def read_ride(path, *, layout: str | None = None) -> Ride:
 
 
 def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str = "power",
-                 n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
+                 n_boot: int = 200, seed: int = 0, simulate: bool = False, jobs: int = 1,
                  progress: Callable[[str], None] | None = None) -> RideAnalysis:
     """Everything ``euc-sim ride`` finds in a ride log: total mass, drivetrain, rolling
     resistance, drag, grade, the wheel's balance law, the ride's summary and, with
@@ -326,7 +326,8 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
     seed : int
         Seed of every random draw.
     simulate : bool
-        Also run the closed-loop simulation along the tested ride (minutes).
+        Also replay the ride: the closed-loop simulation along the tested ride (minutes;
+        off unless asked).
     jobs : int
         Processes for that simulation.
     progress : callable, optional

@@ -137,6 +137,8 @@ def _print_summary(rep: dict) -> None:
         fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
         if fell:
             print(f"  simulation along {sim['ride']}: {fell}")
+    else:
+        print(f"  simulated replay: {rep.get('simulation_why') or 'not run'}")
 
 
 def _cmd_ride(args: argparse.Namespace) -> int:
@@ -148,8 +150,9 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     if args.n_boot < MIN_BOOT:
         raise InputError(f"--n-boot must be at least {MIN_BOOT} (an effect is accepted on its "
                          f"bootstrap interval), got {args.n_boot}")
-    if args.calibrate_rider and args.no_simulate:
-        raise InputError("--calibrate-rider adds a step to the simulation: it cannot go with --no-simulate")
+    if args.calibrate_rider and args.simulate is False:
+        raise InputError("--calibrate-rider adds a step to the simulated replay: it cannot go with --no-simulate")
+    simulate = bool(args.simulate or args.calibrate_rider)
     assumptions = _assumptions(args)
     from euc_sim.rides.report.rider_view import check_rider_weight
     weights = args.rider_weight or []
@@ -191,7 +194,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
             say(f"euc-sim ride: note: {r.name}: {line}")
     rep = run_ride(ride, other, report_dir=args.report, domain=args.domain,
                    assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
-                   simulate=not args.no_simulate, jobs=args.workers,
+                   simulate=simulate, jobs=args.workers,
                    progress=None if args.quiet else _progress, spec=spec,
                    calibrate_rider=args.calibrate_rider, rider_weight=rider_weight,
                    compare_rider_weight=compare_rider_weight)
@@ -252,8 +255,10 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--calibrate-rider", action="store_true",
                    help="add the step 'calibrated_rider': the simulated rider's delay, bandwidth and "
                         "motor noise fitted on LOG (minutes of simulation)")
-    p.add_argument("--no-simulate", action="store_true",
-                   help="skip the closed-loop simulation along the ride's speed profile")
+    p.add_argument("--simulate", action=argparse.BooleanOptionalAction, default=None,
+                   help="also replay the ride: the closed-loop MuJoCo rider along the tested ride's speed "
+                        "profile, once per modelled step (minutes; not run by default, --no-simulate "
+                        "says so explicitly; --calibrate-rider turns it on)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     deprecated(p, "--verbose", "--quiet", nargs=0, dest="verbose", default=False,
                note="progress is shown unless --quiet")

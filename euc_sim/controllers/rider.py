@@ -30,7 +30,6 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
-from scipy.linalg.lapack import dtrtrs
 
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.errors import InputError
@@ -305,6 +304,8 @@ class RiderRun:
             rhs -= past[:L] @ du0
             if L < n + 1:
                 lower = np.asfortranarray(lower[:L, :L])
+            from scipy.linalg.lapack import dtrtrs
+
             du, info = dtrtrs(lower, rhs, lower=1, unitdiag=1)   # forward substitution (LAPACK)
         else:
             du = rhs

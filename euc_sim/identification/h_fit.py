@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
-from scipy.optimize import minimize_scalar
 
 from euc_sim.errors import InputError
 from euc_sim.model import analytic
@@ -416,6 +415,8 @@ def _refined_minimum(polys: list[ResidualPoly], grid: np.ndarray, J: np.ndarray)
     k = int(np.argmin(J))
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, len(grid) - 1)]
     f = lambda h: float(sum(rp.sum_squares(h) for rp in polys)) / n_tot      # noqa: E731
+    from scipy.optimize import minimize_scalar
+
     res = minimize_scalar(f, bounds=(a, b), method="bounded", options={"xatol": 1e-10})
     h_opt = float(res.x) if res.fun <= J[k] else float(grid[k])
     return h_opt, math.sqrt(min(res.fun, J[k]))

@@ -32,9 +32,6 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
-from scipy.integrate import cumulative_trapezoid
-from scipy.ndimage import gaussian_filter1d
-from scipy.signal import savgol_filter
 
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
@@ -201,6 +198,8 @@ def savgol_derivatives(y: np.ndarray, dt: float, window: int, order: int, axis: 
         Same shape as ``y``; units of y, y/s, y/s².
     """
     y = np.asarray(y, dtype=float)
+    from scipy.signal import savgol_filter
+
     return tuple(savgol_filter(y, window, order, deriv=k, delta=dt, axis=axis, mode="interp")
                  for k in (0, 1, 2))
 
@@ -215,6 +214,8 @@ def term_filter(y: np.ndarray, sigma_samples: float, axis: int = -1) -> np.ndarr
     y = np.asarray(y, dtype=float)
     if sigma_samples <= 0:
         return y.copy()
+    from scipy.ndimage import gaussian_filter1d
+
     return gaussian_filter1d(y, sigma_samples, axis=axis, mode="nearest", truncate=_TRUNCATE)
 
 
@@ -340,6 +341,8 @@ def mocap_state(df: pd.DataFrame, p: Params, smoothing: Smoothing, d_CE: float |
         phi_raw = np.arctan2(r_CG[:, 0] + p.l0 * np.sin(g0), r_CG[:, 2] + p.l0 * np.cos(g0))
     v_C = moving_frame(C1, psi, theta)                                        # v_Cx
     a_C = moving_frame(C2, psi, theta)                                        # a_Cx
+    from scipy.integrate import cumulative_trapezoid
+
     x = cumulative_trapezoid(v_C[:, 0], t, initial=0.0)
     gam = savgol_derivatives(gamma_raw, dt, w, o)
     phi = savgol_derivatives(phi_raw, dt, w, o)

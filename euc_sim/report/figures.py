@@ -115,7 +115,9 @@ def time_panels(t_min: np.ndarray, panels: Sequence[Panel], title: str, gap_min:
         fig.update_yaxes(title_text=f"{p.name}, {p.unit}", row=i, col=1, title_font={"size": 11})
     fig.update_xaxes(title_text="time from the start of the log, min", row=n, col=1)
     if mark is not None:
-        fig.add_vline(x=mark[0], line={"color": "#c62828", "width": 1, "dash": "dot"})
+        for i in range(1, n + 1):       # one shape per panel (add_vline's search of every subplot is slow)
+            fig.add_shape(type="line", x0=mark[0], x1=mark[0], xref=f"x{'' if i == 1 else i}", y0=0, y1=1,
+                          yref=f"y{'' if i == 1 else i} domain", line={"color": "#c62828", "width": 1, "dash": "dot"})
         fig.add_annotation(x=mark[0], y=1.0, yref="paper", text=mark[1], showarrow=False,
                            yanchor="bottom", font={"color": "#c62828", "size": 11})
     fig.update_layout(title={"text": title}, margin=_MARGIN, hovermode="x unified",

@@ -21,7 +21,7 @@ import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Iterable, Mapping, Sequence
 
 __all__ = ["KeyFigure", "key_figures", "paragraph", "table", "figure", "section", "page",
            "write_page", "columns", "lead", "box", "markdown", "safe_href", "policy", "PLOTLY_CONFIG"]
@@ -189,12 +189,26 @@ _MAP_GUARD = (
     "if(Date.now()-since>" + str(int(MAP_WAIT_S * 1000)) + "){hide(gd);return;}"
     "setTimeout(function(){watch(gd,since);},250);}var t0=Date.now();"
     "document.querySelectorAll('.fig').forEach(function(gd){if(gd.getAttribute('data-map')!==null)watch(gd,t0);});})();")
-_SCRIPT = re.compile(r"<script>(.*?)</script>", re.S)
 #: The script :func:`figure` writes: a JSON literal handed to Plotly, nothing else.
 _FIGURE_SCRIPT = re.compile(r'\(function\(\)\{var f=(.*);Plotly\.newPlot\("[A-Za-z][A-Za-z0-9_-]*",f\.data,'
                             r"f\.layout\|\|\{\}," + re.escape(json.dumps(PLOTLY_CONFIG)) + r"\);\}\)\(\);", re.S)
 #: Text Plotly's script sets as element content: MapLibre's style sheet among it.
 _PLOTLY_CSS = re.compile(r"""\.textContent=(['"])((?:(?!\1)[^\\])*)\1""")
+
+
+def _scripts(markup: str) -> list[str]:
+    """The text of every ``<script>…</script>`` in ``markup``, in order (a closed one only)."""
+    out, i = [], 0
+    while (a := markup.find("<script>", i)) >= 0 and (b := markup.find("</script>", a + 8)) >= 0:
+        out.append(markup[a + 8:b])
+        i = b + 9
+    return out
+
+
+@functools.lru_cache(maxsize=1)
+def _plotly_styles() -> tuple[str, ...]:
+    """The style sheets Plotly's script inserts (read once: the script is 4.8 MB)."""
+    return tuple(m[1] for m in _PLOTLY_CSS.findall(_plotly_js()))
 
 
 def _sha256(text: str) -> str:
@@ -229,8 +243,8 @@ def policy(markup: str) -> str:
     """
     from euc_sim.report.figures import OSM_TILES
 
-    scripts = [s for s in _SCRIPT.findall(markup) if _own_script(s)]
-    styles = [_STYLE] + [m[1] for m in _PLOTLY_CSS.findall(_plotly_js())]
+    scripts = [s for s in _scripts(markup) if _own_script(s)]
+    styles = [_STYLE, *_plotly_styles()]
     img = fetch = ""
     urls = [v for u in OSM_TILES["source"] for v in (u, u.replace("/", "\\u002f"))]    # as JSON may write it
     if any(u in s for s in scripts if s != _plotly_js() for u in urls):
@@ -267,6 +281,8 @@ def lead(sentences: Sequence[str]) -> str:
 
 _INLINE = [(re.compile(r"\*\*(.+?)\*\*"), r"<b>\1</b>"), (re.compile(r"`([^`]+)`"), r"<code>\1</code>")]
 _LINK = re.compile(r"(!?)\[([^\]]*)\]\(([^)]*)\)")
+#: A Markdown line that is one image: its target.
+_IMAGE_LINE = re.compile(r"!\[[^\]]*\]\(([^)]*)\)")
 #: Where a page may link: the web (http, https), a place on the page, or a file the report
 #: wrote beside it (a relative path of plain names: no scheme, no "..", no leading "/").
 _HREF = re.compile(r"https?://[a-z0-9.-]+(:[0-9]+)?([/?#][\w.~:/?#@!$&'()*+,;=%-]*)?"
@@ -318,13 +334,16 @@ def _md_table(rows: list[str]) -> str:
     return f"<table><thead><tr>{head}</tr></thead><tbody>{trs}</tbody></table>"
 
 
-def markdown(lines: Sequence[str]) -> str:
+def markdown(lines: Sequence[str], figures: Mapping[str, tuple] | None = None) -> str:
     """The Markdown the plain-text page carries, as HTML: headings, paragraphs, lists, tables.
 
-    Images become links to their PNG (nothing is fetched); ``**bold**`` and
+    An image line whose target is a key of ``figures`` (``{target: (Plotly figure,
+    height in px)}``) is that figure drawn (:func:`figure`, the target its element id);
+    other images become links to their PNG (nothing is fetched); ``**bold**`` and
     ```code``` are kept; everything else is escaped.
     """
     out, block, kind = [], [], None
+    figures = figures or {}
 
     def flush():
         if not block:
@@ -339,6 +358,12 @@ def markdown(lines: Sequence[str]) -> str:
 
     for raw in "\n".join(lines).split("\n"):
         line = raw.rstrip()
+        drawn = _IMAGE_LINE.fullmatch(line)
+        if drawn and drawn[1] in figures:
+            flush()
+            kind = None
+            out.append(figure(figures[drawn[1]][0], drawn[1], figures[drawn[1]][1]))
+            continue
         k = ("h" if line.startswith("#") else "ul" if line.startswith("- ") else
              "table" if line.startswith("|") else None if not line else "p")
         if k != kind or k in ("h", None):

@@ -25,6 +25,9 @@ __all__ = ["RideResult", "BalanceOnMass", "balance_on_mass", "ride_pipeline", "r
 #: Fewest bootstrap replicates the command accepts: effects are accepted on their
 #: 95 % interval, and without replicates there is none (nothing would be accepted).
 MIN_BOOT = 10
+#: ``simulation_why`` (and the page) when the replay was not asked for.
+REPLAY_NOT_ASKED = ("not run: a step you ask for (the MuJoCo rider along this ride's speed, one run per "
+                    "modelled step, minutes): euc-sim ride LOG.csv --simulate")
 
 
 @dataclass
@@ -122,7 +125,7 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
 
 
 def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
-                  n_boot: int = 200, seed: int = 0, simulate: bool = True, jobs: int = 1,
+                  n_boot: int = 200, seed: int = 0, simulate: bool = False, jobs: int = 1,
                   progress=None, spec=None, calibrate_rider: bool = False,
                   rider_weight: float | None = None, compare_rider_weight: float | None = None) -> RideResult:
     """Everything ``euc-sim ride`` computes, in order, on logs parsed once.
@@ -136,7 +139,8 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     n_boot, seed : int
         Bootstrap replicates and the seed of every random draw.
     simulate : bool
-        Run the closed-loop simulator along the tested ride's speed profile.
+        Replay the ride: the closed-loop simulator along the tested ride's speed profile
+        (minutes; a step the rider asks for, off by default: ``simulation_why`` says so).
     jobs : int
         Threads for the simulation's steps (the results do not depend on it).
     progress : callable, optional
@@ -173,6 +177,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     traces = _localise(rep, an, domain, log, compare)
     sim = _simulation(rep, an, log, compare, seed, jobs, progress, simulate, calibrate_rider)
     rep["simulation"] = None if sim is None else sim.as_json()
+    rep.setdefault("simulation_why", None)
     from euc_sim.rides.balance.verdict import ride_verdict
 
     rep["verdict"] = ride_verdict(rep)
@@ -226,8 +231,10 @@ def _localise(rep: dict, an, domain: str, log, compare) -> list:
 
 def _simulation(rep: dict, an, log, compare, seed: int, jobs: int, progress, simulate: bool,
                 calibrate_rider: bool):
-    """The simulated rider, or None (not asked, or the ride cannot be simulated: a note says why)."""
+    """The simulated rider, or None (not asked, or the ride cannot be simulated: ``simulation_why``
+    says which, and a note why it cannot)."""
     if not simulate:
+        rep["simulation_why"] = REPLAY_NOT_ASKED
         return None
     from euc_sim.rides.sim.simulate import simulation_obstacle
 
@@ -235,6 +242,7 @@ def _simulation(rep: dict, an, log, compare, seed: int, jobs: int, progress, sim
     if why is not None:
         warnings.warn(why, stacklevel=3)
         rep["notes"] = list(rep["notes"]) + [why]
+        rep["simulation_why"] = why
         return None
     return _simulate(an, log, compare, seed, jobs, progress, rep, calibrate_rider)
 
@@ -307,11 +315,10 @@ def write_report(res: RideResult, out: Path) -> None:
 def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
     from euc_sim.io import atomic_write
     from euc_sim.rides.balance.analysis import write_balance
-    from euc_sim.rides.report.page import plot_residuals, write_page
+    from euc_sim.rides.report.page import write_page
 
-    figures = {"cross_ride": write_balance(an, out).name,
-               "residuals": plot_residuals(traces, out / "ride_residuals.png").name}
-    rep["figure"] = figures["cross_ride"]
+    rep["table"] = write_balance(an, out).name
+    figures = _drivetrain_figures(physics, out)        # PNG files
     if sim is not None:
         from euc_sim.rides.sim.simulate import plot_ride_simulation
 
@@ -320,7 +327,6 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
                      lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
         rep["simulation"]["table"] = "ride_simulation.csv"
         rep["simulation"]["figure"] = figures["simulation"]
-    figures.update(_drivetrain_figures(physics, out))
     rep["figures"] = dict(figures)
     from euc_sim.rides.report.page_html import RideSeries, first_screen, key_figure_lines, write_ride_html
 
@@ -329,17 +335,33 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
 
     # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
     series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)
-    rep["report"] = write_ride_html(rep, out, series, physics[1], figures).name
+    plots = _fit_plots(an, traces, physics)
+    rep["report"] = write_ride_html(rep, out, series, physics[1], {**figures, **{k: k for k in plots}},
+                                    plots).name
+
+
+def _fit_plots(an, traces, physics) -> dict:
+    """The fits' figures the page draws (Plotly), by key (the markdown's figure key, the element id)."""
+    from euc_sim.rides.report import fit_figures as F
+
+    plots = {"cross_ride": (F.balance_figure(an.cross, an.sig_fit, an.sig_test), F.BALANCE_HEIGHT),
+             "residuals": (F.residuals_figure(traces), F.residuals_height(len(traces)))}
+    _, fit, test = physics
+    if fit.drivetrain.pwm_coef is not None:
+        target = test if test is not None and "pwm" in test.sig.extra else fit
+        plots["pwm"] = (F.pwm_figure(target, fit.drivetrain.pwm_coef, f"PWM of {Path(target.path).name}, "
+                                     f"model fitted on {Path(fit.path).name}"), F.PWM_HEIGHT)
+    return plots
 
 
 
 
 def _drivetrain_figures(physics, out: Path) -> dict:
-    """The envelope, PWM and grade figures of the ride page, by key -> file name."""
+    """The envelope and grade figures of the ride page (PNG), by key -> file name."""
     from euc_sim.rides.drive.grade import plot_grade
-    from euc_sim.rides.report.drivetrain_report import plot_envelope, plot_pwm
+    from euc_sim.rides.report.drivetrain_report import plot_envelope
 
-    rep, fit, test = physics
+    rep, fit, _ = physics
     figs = {}
     if fit.grade is not None:
         figs["grade"] = plot_grade(fit.grade, out / "ride_grade.png",
@@ -347,11 +369,6 @@ def _drivetrain_figures(physics, out: Path) -> dict:
                                          f"balance implies, against GPS altitude").name
     if "speed" in rep["envelope"]:
         figs["envelope"] = plot_envelope(rep["envelope"], out / "ride_envelope.png").name
-    if fit.drivetrain.pwm_coef is not None:
-        target = test if test is not None and "pwm" in test.sig.extra else fit
-        figs["pwm"] = plot_pwm(target, out / "ride_pwm.png", fit.drivetrain.pwm_coef,
-                               title=f"PWM of {Path(target.path).name}, model fitted on "
-                                     f"{Path(fit.path).name}").name
     return figs
 
 

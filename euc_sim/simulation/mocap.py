@@ -31,7 +31,6 @@ from typing import Mapping
 
 import numpy as np
 import pandas as pd
-from scipy.interpolate import CubicHermiteSpline
 
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
@@ -56,6 +55,8 @@ def sample_times(duration: float, rate: float = RATE) -> np.ndarray:
 
 
 def _hermite(t_src, y, ydot, t):
+    from scipy.interpolate import CubicHermiteSpline
+
     return CubicHermiteSpline(t_src, y, ydot)(t)
 
 

@@ -9,6 +9,16 @@ import numpy as np
 from bench_timing import timed
 
 
+def _shared_root():
+    """``shared/data/euc_core`` beside the checkout or any folder above it (a worktree sits deeper)."""
+    from pathlib import Path
+
+    for up in Path(__file__).resolve().parents:
+        if (up / "shared" / "data" / "euc_core").is_dir():
+            return up / "shared" / "data" / "euc_core"
+    return Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core"
+
+
 # --- a 60-minute real ride, mass and drivetrain ---------------------------------
 def bench_ride_mass() -> dict:
     """A 64-minute real ride (Blitz 4): mass + drivetrain, and the whole ride command without simulation."""
@@ -19,7 +29,7 @@ def bench_ride_mass() -> dict:
     from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import read_spec
 
-    root = Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core"
+    root = _shared_root()
     log = root / "trips/begode/blitz/4/4.csv"
     if not log.is_file():
         print(f"  {log} absent: skipped")
@@ -135,9 +145,7 @@ def bench_ride_page(fit=None, held=None, spec_path=None, workers: int = 2) -> di
     from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import read_spec
 
-    root = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"
-    if not root.is_dir():                       # a worktree beside the shared folder
-        root = Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core"
+    root = _shared_root()
     fit = Path(fit or root / "trips/begode/blitz/2/2.csv")
     held = Path(held or root / "trips/begode/blitz/4/4.csv")
     spec_path = spec_path or (root / "specs/blitz.csv" if fit.is_relative_to(root) else None)
@@ -153,7 +161,7 @@ def bench_ride_page(fit=None, held=None, spec_path=None, workers: int = 2) -> di
         cpu0 = time.process_time()
         t_page = timed(lambda: steps_seen.append(run_ride(read_log(fit, emit_warnings=False),
                                                           read_log(held, emit_warnings=False),
-                                                          report_dir=out, spec=spec, jobs=workers)),
+                                                          report_dir=out, spec=spec, jobs=workers, simulate=True)),
                        repeat=1)
         cpu_page = time.process_time() - cpu0
     ride = read_log(held, emit_warnings=False)
@@ -214,9 +222,7 @@ def bench_ride_fast() -> dict:
     from euc_sim.rides.pipeline import run_ride
     from euc_sim.rides.source.logs import read_log
 
-    root = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"
-    if not root.is_dir():                       # a worktree beside the shared folder
-        root = Path(__file__).resolve().parents[3] / "shared" / "data" / "euc_core"
+    root = _shared_root()
     if not root.is_dir():
         print(f"  {root} absent: skipped")
         return {"skipped": str(root)}

@@ -40,7 +40,7 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix=".ride-docs-", dir=out.parent) as tmp:
         stage = Path(tmp)
         code = euc_sim(["ride", str(SHARED / RIDES[0]), "--compare", str(SHARED / RIDES[1]),
-                        "--report", str(stage / "ride"), "--json", str(stage / "ride.json")])
+                        "--report", str(stage / "ride"), "--json", str(stage / "ride.json"), "--simulate"])
         if code:
             return code
         rep = json.loads((stage / "ride.json").read_text(encoding="utf-8"))

@@ -82,7 +82,7 @@ def command(p: dict, out: Path, n_boot: int, seed: int) -> list[str]:
     return [sys.executable, "-m", "euc_sim.cli", "ride", str(p["fit_log"]), "--compare",
             str(p["held_log"]), "--wheel", str(p["spec"]), "--report", str(d / "report"),
             "--json", str(d / "ride.json"), "--n-boot", str(n_boot), "--seed", str(seed),
-            "--workers", "1"] + (["--calibrate-rider"] if p.get("calibrated") else [])
+            "--workers", "1", "--simulate"] + (["--calibrate-rider"] if p.get("calibrated") else [])
 
 
 def run_pair(p: dict, out: Path, n_boot: int, seed: int, again: bool, run: bool = True) -> dict:

@@ -65,7 +65,7 @@ def simulated(tmp_path_factory):
     """The WheelLog twin (no GPS, no PWM) with a short simulation."""
     d = tmp_path_factory.mktemp("sim")
     log = synth_log(d / "short.csv", seed=2, duration=60.0, gap_at=None)
-    _ride(["ride", log, "--n-boot", "10", "--jobs", "1", "--report", d / "rep", "--quiet"])
+    _ride(["ride", log, "--n-boot", "10", "--jobs", "1", "--report", d / "rep", "--quiet", "--simulate"])
     return d / "rep"
 
 
@@ -225,3 +225,25 @@ def test_the_browser_check_sees_errors_and_fetches(tmp_path):
     errs = r.script_errors()
     assert any("logged" in e for e in errs) and any("TypeError" in e for e in errs)
     assert r.foreign_requests(page) == ["https://example.com/x"]
+
+
+#: The fits' figures the folded parts draw (Plotly, not PNG files).
+FIT_FIGURES = ("cross_ride", "residuals", "pwm")
+
+
+def test_the_fits_figures_are_drawn_in_the_folded_parts_with_titles_and_units(drive, tmp_path):
+    """The held-out balance, its residual and the PWM model: drawn on the page (no PNG beside
+    it), each with a title and every y axis titled with its unit; the plain text links none."""
+    folder = drive[1]
+    assert not {"ride_balance.png", "ride_residuals.png", "ride_pwm.png"} & {p.name for p in folder.iterdir()}
+    assert "](cross_ride)" not in (folder / "index.md").read_text()
+    ask = {k: (f"document.getElementById('{k}').layout.title.text",
+               f"Object.keys(document.getElementById('{k}').layout).filter(a => /^yaxis/.test(a))"
+               f".map(a => document.getElementById('{k}').layout[a].title.text)",
+               f"document.getElementById('{k}').data.length") for k in FIT_FIGURES}
+    r = _render(folder / "index.html", tmp_path, *(e for k in ask.values() for e in k))
+    assert r.script_errors() == []
+    for name, (title, yaxes, traces) in ask.items():
+        assert r.values[title], name
+        assert r.values[yaxes] and all(_UNIT.search(t or "") for t in r.values[yaxes]), (name, r.values[yaxes])
+        assert r.values[traces] >= 2, name

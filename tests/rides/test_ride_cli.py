@@ -50,7 +50,7 @@ def full_run(logs, tmp_path_factory):
     """One complete run: --compare, --report, --json, simulation included."""
     d = tmp_path_factory.mktemp("out")
     code = main(["ride", str(logs[0]), "--compare", str(logs[1]), "--report", str(d / "rep"),
-                 "--json", str(d / "out.json"), "--n-boot", "40", "--seed", "3"])
+                 "--json", str(d / "out.json"), "--n-boot", "40", "--seed", "3", "--simulate"])
     assert code == 0
     return json.loads((d / "out.json").read_text()), d / "rep"
 
@@ -104,7 +104,9 @@ def test_report_folder(full_run):
     page = (d / "index.md").read_text()
     assert rep["report"] == "index.html" and rep["report_markdown"] == "index.md" and rep["report_dir"] == "rep"      # relative, no machine path
     linked = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", page)
-    assert set(linked) == {"ride_balance.png", "ride_residuals.png", "ride_simulation.png"}
+    assert set(linked) == {"ride_simulation.png"}          # the fits' figures: drawn on index.html
+    html = (d / "index.html").read_text()
+    assert all(f'Plotly.newPlot("{k}"' in html for k in ("cross_ride", "residuals"))
     for name in linked:
         assert (d / name).stat().st_size > 20_000
     for word in ("aerodynamic_drag", "kg/m", "cannot tell apart", "Windows (s)", "plausible"):
@@ -287,7 +289,7 @@ def test_real_rides_done_criterion(tmp_path, capsys):
     assert "| C_rr |" not in page                  # said once, in the Estimates table
     assert rep["aliases"]["rolling_resistance"] == ["road_slope"]
     assert rep["windows"] and all(0.0 <= a < b <= 340.0 for a, b in rep["windows"])
-    for name in ("ride_balance.png", "ride_residuals.png", "index.md"):
+    for name in ("ride_balance.csv", "index.html", "index.md"):
         assert (tmp_path / "rep" / name).stat().st_size > 2_000
     assert "verdict:" in out
 
@@ -313,7 +315,8 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
                           (f"rider fell at t = {t_fall} s ({cause}): the simulation stops there",))
 
     monkeypatch.setattr(simulate_mod, "simulate_profile", nominal_falls)
-    rep = run_ride(read_log(logs[1], emit_warnings=False), n_boot=20, seed=3, jobs=1, report_dir=tmp_path / "rep")
+    rep = run_ride(read_log(logs[1], emit_warnings=False), n_boot=20, seed=3, jobs=1, report_dir=tmp_path / "rep",
+                   simulate=True)
     sim = rep["simulation"]
     page = (tmp_path / "rep" / "index.md").read_text()
     assert f"The simulated rider fell at t = {t_fall:.1f} s (nominal: " in page          # said once
@@ -360,3 +363,22 @@ def test_the_page_says_when_the_last_step_sways_less_or_more_than_the_log():
     assert sway_sentence([step("drivetrain", -SWAY_DB + 0.5)]) is None
     assert sway_sentence([{"step": "drivetrain", "ran": True, "heldout_bands": None}]) is None
     assert sway_sentence([]) is None
+
+
+def test_the_replay_runs_only_when_asked_and_the_page_says_how(logs, tmp_path, capsys, monkeypatch):
+    """Without --simulate no simulation runs: the JSON's simulation is null with its why, and the
+    page, its plain text and the terminal say how to ask for it."""
+    import euc_sim.rides.pipeline as pipeline
+
+    monkeypatch.setattr(pipeline, "_simulate", lambda *a, **k: pytest.fail("the replay ran unasked"))
+    code, out, err = run(["ride", logs[0], "--json", tmp_path / "o.json", "--report", tmp_path / "rep",
+                          "--n-boot", "10", "--quiet"], capsys)
+    assert code == 0, err
+    rep = json.loads((tmp_path / "o.json").read_text())
+    assert rep["simulation"] is None and "--simulate" in rep["simulation_why"]
+    for page in ("index.md", "index.html"):
+        assert "ride LOG.csv --simulate" in (tmp_path / "rep" / page).read_text(), page
+    assert "simulated replay: not run" in out
+    code, _, err = run(["ride", logs[0], "--calibrate-rider", "--no-simulate", "--json", tmp_path / "p.json"],
+                       capsys)
+    assert code == 2 and len(err) == 1 and "--no-simulate" in err[0]

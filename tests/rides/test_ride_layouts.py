@@ -31,7 +31,7 @@ def ride(request, tmp_path_factory):
     log = layout_log(d / f"{request.param}.csv", request.param)
     err = io.StringIO()
     with contextlib.redirect_stderr(err):
-        code = main(["ride", str(log), "--json", str(d / "out.json"), "--report", str(d / "rep")])
+        code = main(["ride", str(log), "--json", str(d / "out.json"), "--report", str(d / "rep"), "--simulate"])
     rep = json.loads((d / "out.json").read_text()) if code == 0 else None
     return request.param, log, code, err.getvalue(), rep, d / "rep"
 

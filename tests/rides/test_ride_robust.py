@@ -70,7 +70,7 @@ def test_outputs_record_no_absolute_path(log, tmp_path, capsys):
     rep = json.loads(text)
     assert rep["recording"] == log.name and rep["report_dir"] == "rep"
     base = out / rep["report_dir"]
-    assert (base / rep["report"]).is_file() and (base / rep["figure"]).is_file()
+    assert (base / rep["report"]).is_file() and (base / rep["table"]).is_file()
     for name in rep["figures"].values():
         assert (base / name).is_file()
 
@@ -130,7 +130,7 @@ def test_interrupt_stops_workers_and_leaves_nothing(log, tmp_path, sig, code):
     its own: no process is left behind, and the steps end at their next rider block)."""
     argv = [sys.executable, "-c", "import sys; from euc_sim.cli import main; sys.exit(main())",
             "ride", str(log), "--n-boot", "10", "--workers", "2", "--report", str(tmp_path / "rep"),
-            "--json", str(tmp_path / "o.json")]
+            "--json", str(tmp_path / "o.json"), "--simulate"]
     # A shell starts a background job with SIGINT ignored, and Python keeps an ignored SIGINT:
     # run from such a job (nohup ... &, some CI runners) the command would never see the Ctrl-C
     # this test sends.  A user's terminal delivers it, so the child starts with the default.
@@ -239,7 +239,7 @@ def test_halves_split_the_rows_not_the_clock_and_long_gaps_are_not_simulated(tmp
     log.write_text("\n".join([header] + rows + later) + "\n")
     with pytest.warns(UserWarning, match=r"simulation skipped: paused\.csv has 1 gap\(s\) longer"):
         code, _, err = run(["ride", log, "--n-boot", "10", "--json", tmp_path / "o.json",
-                            "--report", tmp_path / "rep"], capsys)
+                            "--report", tmp_path / "rep", "--simulate"], capsys)
     assert code == 0, err
     rep = json.loads((tmp_path / "o.json").read_text())
     assert rep["simulation"] is None

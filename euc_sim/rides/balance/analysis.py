@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.errors import InputError
-from euc_sim.rides.balance.crossride import CrossRide, cross_ride, effect_entries, plot_cross_ride
+from euc_sim.rides.balance.crossride import CrossRide, cross_ride, effect_entries
 from euc_sim.rides.balance.design import NOMINAL, Design, balance_design
 from euc_sim.rides.balance.fit import FEW_BLOCKS, block_rows, plausibility
 from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, ride_signals
@@ -71,8 +71,8 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
     compare_path : Ride, optional
         Ride to test on.
     report_dir : path, optional
-        Where to write ``ride_balance.png`` and ``ride_balance.csv`` (test ride:
-        t, measured and predicted battery power), atomically.
+        Where to write ``ride_balance.csv`` (test ride: t, measured and predicted
+        battery power), atomically.
     assumptions : RideAssumptions
     rate, max_gap, window, polyorder :
         See :func:`ride_signals`.
@@ -114,7 +114,7 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
                                        n_boot=n_boot, block_s=block_s, seed=seed))
     an = RideAnalysis(report=report, cross=cr, sig_fit=sig_fit, sig_test=sig_test)
     if report_dir is not None:
-        report["figure"] = write_balance(an, report_dir).name
+        report["table"] = write_balance(an, report_dir).name
     return an
 
 
@@ -161,7 +161,7 @@ def _report(cr: CrossRide, sig_fit: RideSignals, d_fit: Design, d_test: Design,
         "bootstrap": {"n_boot": n_boot, "block_s": block_s, "seed": seed},
         "rows": {"fit": len(d_fit.P), "test": len(d_test.P)},
         "notes": notes,
-        "figure": None,
+        "table": None,
     }
 
 
@@ -227,19 +227,17 @@ def _notes(sig_fit: RideSignals, sig_test: RideSignals | None, d_fit: Design,
 
 
 def write_balance(an: RideAnalysis, report_dir) -> Path:
-    """Write ``ride_balance.png`` and ``ride_balance.csv`` (the test ride) atomically.
+    """Write ``ride_balance.csv`` (the test ride: t, v, measured and predicted battery power) atomically.
 
     Returns
     -------
     pathlib.Path
-        The figure.
+        The table.
     """
     from euc_sim.io import atomic_write
 
     cr, d_test, report_dir = an.cross, an.cross.test_design, Path(report_dir)
-    fig = plot_cross_ride(cr, report_dir / "ride_balance.png", an.sig_fit, an.sig_test)
     table = pd.DataFrame({"t": d_test.t, "v": d_test.v, "P_measured": d_test.P,
                           "P_nominal": d_test.predict(cr.nominal.estimate),
                           "P_augmented": d_test.predict(cr.augmented.estimate)})
-    atomic_write(report_dir / "ride_balance.csv", lambda p: table.to_csv(p, index=False))
-    return fig
+    return atomic_write(report_dir / "ride_balance.csv", lambda p: table.to_csv(p, index=False))

@@ -2,38 +2,29 @@
 
 :func:`cross_ride` accepts the effects that blocked held-out validation on the
 fit ride keeps (:func:`select_effects`, the selection rule of every ride fit),
-:func:`effect_entries` writes them as CONTRACT's effect entries and
-:func:`plot_cross_ride` draws the held-out prediction.
+:func:`effect_entries` writes them as CONTRACT's effect entries (the page draws the
+held-out prediction: :func:`euc_sim.rides.report.fit_figures.balance_figure`).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from euc_sim.rides.balance.design import BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound, term_role
+from euc_sim.rides.balance.design import BOUNDS, NOMINAL, PLAUSIBLE, Design, on_bound, term_role
 from euc_sim.rides.balance.fit import BalanceFit, _solve, fit_balance, plausibility
-from euc_sim.rides.balance.normal import coefficients, solve_gram
+from euc_sim.rides.balance.normal import coefficients, solve_grams
 from euc_sim.rides.balance.verdict import unit_label
-from euc_sim.rides.grids.signals import RideSignals, break_at_gaps
 from euc_sim.stats import forward_select, label_grams, time_blocks
 
-__all__ = ["CrossRide", "cross_ride", "effect_entries", "plot_cross_ride", "cross_ride_figure",
-           "select_effects", "heldout_score", "admissible", "ADMIT", "HELDOUT_FOLDS", "MIN_GAIN"]
+__all__ = ["CrossRide", "cross_ride", "effect_entries", "select_effects", "heldout_score", "admissible", "ADMIT", "HELDOUT_FOLDS", "MIN_GAIN"]
 
 #: Contiguous time folds of the fit ride that score a model held out.
 HELDOUT_FOLDS = 5
 #: A term is kept only if it lowers the held-out error by more than this fraction.
 MIN_GAIN = 0.01
-
-
-def _start(names) -> np.ndarray:
-    from euc_sim.rides.balance.fit import _START
-
-    return np.array([_START[k] for k in names])
 
 
 #: What :func:`heldout_score` admits: every model, the models whose terms all lie in
@@ -74,7 +65,7 @@ class _HeldoutScores:
             raise ValueError(f"admit must be one of {ADMIT}, got {admit!r}")
         key = tuple(names)
         if key not in self._whole:
-            self._whole[key] = dict(zip(key, _solve(self.design, list(key), _start(key)).x))
+            self._whole[key] = dict(zip(key, _solve(self.design, list(key)).x))
         estimate = self._whole[key]
         if admit != "any" and not _all_admissible(estimate, self.design.idle_cap):
             return float("inf")
@@ -82,15 +73,15 @@ class _HeldoutScores:
                                        if k not in NOMINAL):
             return float("inf")
         if key not in self._rmse:
-            self._rmse[key] = self._folds(list(key), np.array(list(estimate.values())))
+            self._rmse[key] = self._folds(list(key))
         return self._rmse[key]
 
-    def _folds(self, names: list, whole: np.ndarray) -> float:
+    def _folds(self, names: list) -> float:
         """RMS of each fold's residual under the fit on the other folds (from their Grams)."""
         G, cols = self.design.gram, self.design.basis.columns
         sse = 0.0
-        for Gb in self._fold_grams:
-            th = solve_gram(G - Gb, cols, names, whole).x
+        fits = solve_grams(G[None] - np.asarray(self._fold_grams), cols, names)
+        for Gb, th in zip(self._fold_grams, fits):
             v, _ = coefficients(cols, names, th)
             sse += float(v @ Gb @ v)
         return float(np.sqrt(max(sse, 0.0) / self._n))
@@ -310,78 +301,3 @@ def effect_entries(cr: CrossRide) -> list[dict]:
                 entry[extra] = ph[extra]
         out.append(entry)
     return out
-
-
-def plot_cross_ride(cr: CrossRide, path, sig_fit: RideSignals | None = None,
-                    sig_test: RideSignals | None = None) -> Path:
-    """Write :func:`cross_ride_figure` to ``path`` (PNG, atomically)."""
-    from euc_sim.io import save_figure
-
-    return save_figure(cross_ride_figure(cr, sig_fit, sig_test), path)
-
-
-def cross_ride_figure(cr: CrossRide, sig_fit: RideSignals | None = None,
-                      sig_test: RideSignals | None = None):
-    """Figure: the test ride's battery power, inertia-only against augmented prediction.
-
-    Panels: (1) wheel speed of both rides, m/s (one ride split in halves: the
-    whole ride, its held-out second half shaded); (2) on the test ride, the
-    measured battery power against both models' predictions (parameters from the
-    fit ride), W; (3) their residuals with RMS values and the ratio.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    from matplotlib.figure import Figure
-
-    td = cr.test_design
-    pn = td.predict(cr.nominal.estimate)
-    pa = td.predict(cr.augmented.estimate)
-    fig = Figure(figsize=(13, 10), layout="constrained")
-    ax = fig.subplots(3, 1)
-    _speed_panel(ax[0], cr, sig_fit, sig_test)
-    aug = cr.augmented.estimate
-    tt, P_b, pn_b, pa_b = break_at_gaps(td.t, td.P, pn, pa)
-    ax[1].plot(tt, P_b, color="k", lw=0.9, label="measured battery power V·I")
-    ax[1].plot(tt, pn_b, lw=0.8, label="inertia only\n(no resistance, no loss)")
-    sym = lambda c: "+".join([CANDIDATES[c][0]] + [CANDIDATES[a][0] for a in  # noqa: E731
-                                                   cr.fit_design.aliases.get(c, ()) if a in CANDIDATES])
-    lab = ", ".join(f"{sym(c)}={aug[c]:.3g}" for c in cr.accepted) or "nothing accepted"
-    ax[1].plot(tt, pa_b, lw=0.8, label=f"augmented\n({lab})")
-    ax[1].set(ylabel="battery power [W]", xlabel="time from start of log [s]",
-              title=f"{cr.test_label}: predicted from its speed with parameters fitted on "
-                    f"{cr.fit_label}")
-    rn = td.weight * (td.P - pn)           # W, or N·m in the torque domain
-    ra = td.weight * (td.P - pa)
-    tt, rn, ra = break_at_gaps(td.t, rn, ra)
-    ax[2].plot(tt, rn, lw=0.7, label=f"inertia only:\nRMS {cr.heldout_nominal:.0f} {td.unit}")
-    ax[2].plot(tt, ra, lw=0.7, label=f"augmented:\nRMS {cr.heldout_augmented:.0f} {td.unit}")
-    ax[2].axhline(0, color="grey", lw=0.5)
-    what = "measured − predicted" if td.domain == "power" else "(measured − predicted)·R/v"
-    ax[2].set(ylabel=f"{what} [{td.unit}]", xlabel="time from start of log [s]",
-              title=f"Held-out residual; error ratio augmented / inertia-only = {cr.ratio:.2f}")
-    for a in ax:
-        a.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0.0)
-    fig.suptitle(f"Battery-power balance fitted on {cr.fit_label}, tested on {cr.test_label}",
-                 fontsize=11)
-    return fig
-
-
-def _speed_panel(ax, cr: CrossRide, sig_fit: RideSignals | None, sig_test: RideSignals | None) -> None:
-    """Logged speed: both rides, or one ride with its held-out second half shaded."""
-    if sig_fit is not None and sig_test is None:          # one ride, split in halves
-        t = sig_fit.frame["t"].to_numpy()
-        ax.plot(*break_at_gaps(t, sig_fit.frame["v"]), lw=0.8,
-                label=f"{Path(str(sig_fit.path)).name}, the whole ride")
-        ax.axvspan(float(cr.test_design.t.min()), float(t.max()), color="tab:orange", alpha=0.15,
-                   lw=0, label="second half: held out (test);\nthe first half is the fit")
-    else:
-        if sig_fit is not None:
-            ax.plot(*break_at_gaps(sig_fit.frame["t"], sig_fit.frame["v"]), lw=0.8,
-                    label=f"{cr.fit_label} (fit)")
-        if sig_test is not None:
-            ax.plot(*break_at_gaps(sig_test.frame["t"], sig_test.frame["v"]), lw=0.8,
-                    label=f"{cr.test_label} (test)")
-    ax.set(ylabel="wheel speed v [m/s]", xlabel="time from start of log [s]",
-           title="Logged wheel speed (10 Hz grid, Savitzky–Golay 1.5 s)")

@@ -26,7 +26,8 @@ torque also drives the rider's lean changes (m·h·φ̈ in eq. 5, unmeasured her
 which look like noise in P; with P as a regressor that noise attenuates every
 coefficient.  Putting P on the left keeps the noise in the target, where least
 squares tolerates it.  The model is linear in every parameter but the current
-lag, so it is fitted with scipy's bounded ``least_squares``.
+lag: at each lag a bounded linear fit, the lag searched on its profile cost
+(:mod:`~euc_sim.rides.balance.normal`).
 
 The candidate parameters (:data:`CANDIDATES`), their plausible ranges
 (:data:`PLAUSIBLE`) and the regressors of a ride (:func:`balance_design`) live

@@ -1,7 +1,7 @@
 """Least-squares fit of a ride's balance with wild block bootstrap intervals.
 
 :func:`fit_balance` fits a :class:`~euc_sim.rides.balance.design.Design` (scipy's
-bounded ``least_squares`` on the Gram matrix of its basis: the model is linear in
+bounded least squares on the Gram matrix of its basis: the model is linear in
 every term but the current lag; :mod:`~euc_sim.rides.balance.normal`);
 :func:`plausibility` turns a fit into physical estimates with units and flags.
 """
@@ -16,7 +16,7 @@ import numpy as np
 
 from euc_sim.errors import InputError
 from euc_sim.rides.balance.design import CANDIDATES, NOMINAL, PLAUSIBLE, Design, on_bound
-from euc_sim.rides.balance.normal import solve_gram
+from euc_sim.rides.balance.normal import solve_gram, solve_grams
 from euc_sim.simulation.effects import RECORDS
 from euc_sim.stats import percentile_interval, wild_block_signs
 
@@ -27,11 +27,6 @@ __all__ = ["BalanceFit", "fit_balance", "block_rows", "plausibility", "MIN_BLOCK
 MIN_BLOCKS = 2
 #: Below this many blocks the intervals are rough (reported as a note).
 FEW_BLOCKS = 5
-
-#: Start values of the least-squares fit, each term's nominal value (its bounds:
-#: :data:`~euc_sim.rides.balance.design.BOUNDS`).
-_START = RECORDS.view("balance", lambda b: b.nominal)
-
 
 @dataclass(frozen=True)
 class BalanceFit:
@@ -85,9 +80,9 @@ class BalanceFit:
         return float(np.sqrt(np.mean(r ** 2)))
 
 
-def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray | None = None):
-    """scipy's bounded ``least_squares`` (trf) of the balance on ``design``'s rows, from the
-    Gram matrix of its basis (:func:`~euc_sim.rides.balance.normal.solve_gram`); ``P``
+def _solve(design: Design, names: Sequence[str], P: np.ndarray | None = None):
+    """The bounded least-squares fit of the balance on ``design``'s rows, from the Gram
+    matrix of its basis (:func:`~euc_sim.rides.balance.normal.solve_gram`); ``P``
     replaces the measured power (rows in use, W)."""
     if P is None:
         G = design.gram
@@ -95,7 +90,7 @@ def _solve(design: Design, names: Sequence[str], x0: np.ndarray, P: np.ndarray |
         Z = design.basis.Z.copy()
         Z[:, -1] = design.weight * P
         G = Z.T @ Z
-    return solve_gram(G, design.basis.columns, names, x0)
+    return solve_gram(G, design.basis.columns, names)
 
 
 def block_rows(design: Design, block_s: float = 10.0, check: bool = True) -> int:
@@ -120,8 +115,8 @@ def block_rows(design: Design, block_s: float = 10.0, check: bool = True) -> int
     return L
 
 
-def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P: np.ndarray,
-               e_P: np.ndarray, L: int, n_boot: int, seed: int):
+def _bootstrap(design: Design, names: Sequence[str], fitted_P: np.ndarray, e_P: np.ndarray, L: int,
+               n_boot: int, seed: int):
     """Wild block bootstrap: 2.5/97.5 percentiles and replicate correlations.
 
     Each replicate keeps every residual at its own row and flips the sign of
@@ -137,11 +132,15 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
     A replicate's Gram matrix differs from the fit's only in the measured
     power's row: the blocks' cross-products of the basis with the residual,
     summed with the replicate's signs (:mod:`~euc_sim.rides.balance.normal`);
-    each replicate is then fitted from the estimate.
+    the replicates are fitted together
+    (:func:`~euc_sim.rides.balance.normal.solve_grams`).
     """
     n = len(e_P)
     if not len(names):
         return np.empty(0), np.empty(0), {}
+    if not n_boot:
+        nan = np.full(len(names), np.nan)
+        return nan, nan, {}
     rng = np.random.default_rng(seed)
     signs = wild_block_signs(n, L, n_boot, rng)[::L]            # one sign per block
     w = design.weight
@@ -149,18 +148,12 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
     starts = np.arange(0, n, L)
     Xg = np.add.reduceat(X * g[:, None], starts, axis=0)         # blocks × basis
     fg = np.add.reduceat(f * g, starts)
-    G = np.empty((X.shape[1] + 1, X.shape[1] + 1))
-    G[:-1, :-1] = X.T @ X
-    Xf, ff, gg = X.T @ f, f @ f, g @ g
-    boots = np.empty((n_boot, len(names)))
-    for i in range(n_boot):
-        G[:-1, -1] = G[-1, :-1] = Xf + Xg.T @ signs[:, i]
-        G[-1, -1] = ff + 2.0 * fg @ signs[:, i] + gg
-        boots[i] = solve_gram(G, design.basis.columns, names, theta).x
+    G = np.empty((n_boot, X.shape[1] + 1, X.shape[1] + 1))
+    G[:, :-1, :-1] = X.T @ X
+    G[:, :-1, -1] = G[:, -1, :-1] = (X.T @ f)[None] + signs.T @ Xg
+    G[:, -1, -1] = f @ f + 2.0 * signs.T @ fg + g @ g
+    boots = solve_grams(G, design.basis.columns, names)
     corr = {}
-    if not n_boot:
-        nan = np.full(len(names), np.nan)
-        return nan, nan, corr
     lo, hi = percentile_interval(boots)
     if n_boot > 2:
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -172,7 +165,7 @@ def _bootstrap(design: Design, names: Sequence[str], theta: np.ndarray, fitted_P
 
 def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int = 200,
                 block_s: float = 10.0, seed: int = 0) -> BalanceFit:
-    """Least squares (scipy ``least_squares``) with wild block bootstrap 95 % intervals.
+    """Bounded least squares with wild block bootstrap 95 % intervals.
 
     Residuals of a ride are autocorrelated (the filter; an unknown, varying road
     grade; the rider's lean, which the motor must also drive), so the bootstrap
@@ -216,8 +209,7 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
     if n <= len(names) + 2:
         raise InputError(f"{design.path}: {n} usable rows, too few for {len(names)} parameters")
     L = block_rows(design, block_s, check=n_boot > 0)
-    x0 = np.array([_START[k] for k in names])
-    res = _solve(design, names, x0)
+    res = _solve(design, names)
     theta = res.x
     est = dict(zip(names, map(float, theta)))
     e = design.residual(est)
@@ -231,7 +223,7 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
         se = np.sqrt(np.clip(np.diag(cov), 0, None))
     except np.linalg.LinAlgError:
         se = np.full(len(names), np.nan)
-    lo, hi, corr = _bootstrap(design, names, theta, fitted_P, e_P, L, n_boot, seed)
+    lo, hi, corr = _bootstrap(design, names, fitted_P, e_P, L, n_boot, seed)
     # a bounded estimate's replicates can pile up on one side of it (on or near its bound):
     # the interval reaches out to the estimate, widened, never narrowed
     lo, hi = np.fmin(lo, theta), np.fmax(hi, theta)

@@ -234,6 +234,13 @@ def heldout_rmse(X: np.ndarray, y: np.ndarray, t: np.ndarray, signed: bool,
     """
     n_blocks = n_blocks or (10 if signed else 4)
     label = time_blocks(t, n_blocks)
+    if signed:                  # linear: each fold's fit from the other blocks' Gram matrices
+        grams = label_grams(np.column_stack([X, y]), label, n_blocks)
+        total, sse = grams.sum(axis=0), 0.0
+        for Gb in grams:
+            r = np.append(gram_lstsq(total - Gb)[0], -1.0)         # y − X·β = −[X y]·r
+            sse += float(r @ Gb @ r)
+        return float(np.sqrt(max(sse, 0.0) / len(y)))
     err = np.empty_like(y)
     for b in range(n_blocks):
         test = label == b

@@ -4,8 +4,8 @@
 :mod:`euc_sim.rides.drive.drivetrain` on a log (and, with ``compare``, predicts the
 other ride's battery power and PWM from this one's fit) and returns the
 CONTRACT's ``total_mass``, ``drivetrain`` and ``pwm`` objects plus the
-``envelope``.  :func:`plot_envelope` and :func:`plot_pwm` draw the page's
-figures.  The rider's stated weight is never read.
+``envelope``.  :func:`plot_envelope` draws the envelope's figure (the page draws the
+PWM model's: :func:`euc_sim.rides.report.fit_figures.pwm_figure`).  The rider's stated weight is never read.
 """
 
 from __future__ import annotations
@@ -29,8 +29,8 @@ from euc_sim.rides.source.sanity import input_warnings, mass_suspicion
 from euc_sim.rides.source.spec import WheelSpec
 from euc_sim.rides.source.systematic import mass_difference
 
-__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "ride_drivetrain", "cutout_of", "plot_envelope", "envelope_figure", "plot_pwm",
-           "pwm_figure", "page_section", "TYRE_MU",
+__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "ride_drivetrain", "cutout_of", "plot_envelope", "envelope_figure",
+           "page_section", "TYRE_MU",
            "COMPUTED_PWM_RMS", "computed_pwm_note"]
 
 #: A logged duty that its model explains better than this, percentage points, is
@@ -258,34 +258,6 @@ def envelope_figure(env: dict, title: str = ""):
                  fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(loc="upper left", bbox_to_anchor=(1.12, 1.0), fontsize=8, borderaxespad=0.0)
-    return fig
-
-
-def plot_pwm(r: RideDrivetrain, path, coef: dict | None = None, title: str = "") -> Path:
-    """Write :func:`pwm_figure` to ``path`` (PNG, atomically)."""
-    return save_figure(pwm_figure(r, coef, title), path)
-
-
-def pwm_figure(r: RideDrivetrain, coef: dict | None = None, title: str = ""):
-    """PWM predicted by the drivetrain model against the logged one.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    from matplotlib.figure import Figure
-
-    coef = coef or r.drivetrain.pwm_coef
-    pred, obs = predict_pwm(r.sig, coef)
-    fig = Figure(figsize=(7.5, 5.2), layout="constrained")
-    ax = fig.add_subplot()
-    ax.plot(obs, pred, ".", ms=1.5, alpha=0.3, label=f"log samples:\nrms {_rms(pred - obs):.1f} points")
-    lim = [0, max(100.0, float(np.nanmax(obs)))]
-    ax.plot(lim, lim, "k-", lw=0.8, label="equal")
-    ax.set_xlabel("logged PWM, %")
-    ax.set_ylabel("predicted PWM, %")
-    fig.suptitle(title or "PWM: (back-EMF + resistive drop) / battery voltage", fontsize=10)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0.0, markerscale=6)
     return fig
 
 

@@ -4,8 +4,8 @@
 balances (:mod:`euc_sim.rides.balance.fit`) over a whole ride and hands the inertia-only
 residual to the diagnosis module's :func:`euc_sim.diagnosis.localise.localise`, which
 returns the windows (s) where the mismatch concentrates, as ``euc-sim diagnose``
-does for a recording.  :func:`plot_residuals` draws the residuals over time
-with those windows shaded and :func:`write_page` writes ``DIR/index.md``.
+does for a recording (the page draws them:
+:func:`euc_sim.rides.report.fit_figures.residuals_figure`); :func:`write_page` writes ``DIR/index.md``.
 """
 
 from __future__ import annotations
@@ -19,10 +19,10 @@ import numpy as np
 
 from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.balance.verdict import unit_label
-from euc_sim.rides.grids.signals import RideSignals, break_at_gaps, split_at_gaps
+from euc_sim.rides.grids.signals import RideSignals, split_at_gaps
 from euc_sim.rides.report.notes import as_the_tile, missing_spec_effect, said_once, summarise_notes
 
-__all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "plot_residuals", "residuals_figure", "write_page",
+__all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "write_page",
            "falls_sentence", "markdown_sections",
            "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
@@ -122,52 +122,6 @@ def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
                          unit=d.unit, localisation=loc, in_sample=in_sample)
 
 
-def plot_residuals(traces, path) -> Path:
-    """Write :func:`residuals_figure` to ``path`` (PNG, atomically)."""
-    from euc_sim.io import save_figure
-
-    return save_figure(residuals_figure(traces), path, dpi=100)
-
-
-def residuals_figure(traces):
-    """Figure: balance residuals over time, one panel per ride, windows shaded.
-
-    Each panel: the inertia-only and augmented residuals, the augmented one's
-    30 s moving mean (slow: a hill, wind), and the windows where the
-    inertia-only residual concentrates; its legend beside it.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    from matplotlib.figure import Figure
-
-    traces = list(traces)
-    fig = Figure(figsize=(13, 3.8 * len(traces) + 0.5), layout="constrained")
-    axes = fig.subplots(len(traces), 1, squeeze=False)
-    for ax, tr in zip(axes[:, 0], traces):
-        tt, rn, ra, sl = break_at_gaps(tr.t, tr.nominal, tr.augmented, tr.slow())
-        j = tr.as_json()
-        ax.plot(tt, rn, lw=0.6, label=f"inertia only: RMS {j['rms_nominal']:.0f} {tr.unit}")
-        ax.plot(tt, ra, lw=0.6, label=f"augmented: RMS {j['rms_augmented']:.0f} {tr.unit}")
-        ax.plot(tt, sl, color="k", lw=1.4,
-                label=f"augmented, {SLOW_S:.0f} s moving mean:\nRMS {j['slow_rms_augmented']:.0f} "
-                      f"{tr.unit}")
-        for i, (a, b) in enumerate(tr.localisation["windows"]):
-            ax.axvspan(a, b, color="tab:orange", alpha=0.2, lw=0,
-                       label=(f"windows where the inertia-only\nresidual concentrates "
-                              f"({100 * tr.localisation['share']:.0f} % of its energy)")
-                       if i == 0 else None)
-        ax.axhline(0, color="grey", lw=0.5)
-        kind = "in sample (fitted here)" if tr.in_sample else "held out (fitted on the other ride)"
-        ax.set(xlabel="time from start of log [s]",
-               ylabel=f"measured − predicted [{tr.unit}]",
-               title=f"{tr.label}: balance residual, {kind}")
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0.0)
-    fig.suptitle("Battery-power balance residual over time", fontsize=11)
-    return fig
-
-
 def _fmt(x, nd=3) -> str:
     if x is None:
         return "–"
@@ -228,10 +182,13 @@ def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None, key_lines: S
     if "controller" in r:
         from euc_sim.rides.law.controller_report import page_lines
         md += page_lines(r["controller"])
-    if "cross_ride" in figures:
-        md += ["## Cross-ride prediction", "",
-               f"![cross-ride prediction]({figures['cross_ride']})", ""]
-    return md
+    return md + _cross_ride_md(figures)
+
+
+def _cross_ride_md(figures: Mapping[str, str]) -> list[str]:
+    if "cross_ride" not in figures:
+        return []
+    return ["## Cross-ride prediction", "", f"![cross-ride prediction]({figures['cross_ride']})", ""]
 
 
 def _verdict_lines(r: dict) -> list[str]:
@@ -271,7 +228,7 @@ def markdown_sections(r: dict, figures: Mapping[str, str],
     from euc_sim.rides.law.controller_report import page_lines
     from euc_sim.rides.report.drivetrain_report import page_section
 
-    return [("The balance model and the diagnosis", _verdict_lines(r) + _estimates_md(r)
+    return [("The balance model and the diagnosis", _verdict_lines(r) + _cross_ride_md(figures) + _estimates_md(r)
              + _aliases_md(r) + _localisation_md(r, figures)),
             ("Mass, drivetrain and battery, term by term",
              page_section(r, figures, shown) if "total_mass" in r else ["Not computed."]),
@@ -503,8 +460,8 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         if "simulation" in figures:
             md += ["", f"![simulation against the log, step by step]({figures['simulation']})", ""]
     else:
-        why = [n for n in r.get("notes", []) if n.startswith("simulation skipped")]
-        md += [(why[0][0].upper() + why[0][1:] + ".") if why else "Not run (--no-simulate).", ""]
+        why = r.get("simulation_why") or "not run"
+        md += [why[0].upper() + why[1:] + ".", ""]
     return md
 
 

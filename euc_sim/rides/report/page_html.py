@@ -577,7 +577,7 @@ def _figure_sections(rep: Mapping, figs: dict) -> list[str]:
 
 
 def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
-              figures: Mapping[str, str] | None = None) -> str:
+              figures: Mapping[str, str] | None = None, plots: Mapping[str, tuple] | None = None) -> str:
     """The whole page (a string).
 
     Parameters
@@ -589,7 +589,9 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
     fit : RideDrivetrain, optional
         The fit ride's mass and drivetrain analysis (sag line, PWM model).
     figures : mapping, optional
-        The plain-text page's PNG file names (linked from the folded parts).
+        The folded parts' figures by key: a PNG's file name (linked), or a key of ``plots``.
+    plots : mapping, optional
+        ``{id: (Plotly figure, height px)}``: the folded parts' figures drawn on the page.
     """
     from euc_sim.rides.report.page import markdown_sections
 
@@ -607,10 +609,11 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
         body.append(H.box(TITLE, H.markdown(diff)))
     body.append(H.lead(_lead(rep, series, fit)))
     body += _figure_sections(rep, figs)
+    replay = f" The simulated replay: {rep['simulation_why']}." if rep.get("simulation_why") else ""
     body.append(H.section("The physics behind it", H.paragraph(
-        "For those who want the model: each part opens on a click."), folded=False))
+        "For those who want the model: each part opens on a click." + replay), folded=False))
     for title, md in markdown_sections(dict(rep), figures or {}, first_screen(rep)):
-        body.append(H.section(title, f"<div>{H.markdown(md)}</div>", folded=True))
+        body.append(H.section(title, f"<div>{H.markdown(md, plots)}</div>", folded=True))
     body.append(H.paragraph("A plain-text version of this page is index.md in the same folder; "
                             "every number in SI is in the ride's JSON."))
     return H.page(f"Your ride: {name}", _subtitle(rep), body)
@@ -625,6 +628,6 @@ def _subtitle(rep: Mapping) -> str:
 
 
 def write_ride_html(rep: Mapping, out_dir, series: RideSeries | None, fit=None,
-                    figures: Mapping[str, str] | None = None) -> Path:
+                    figures: Mapping[str, str] | None = None, plots: Mapping[str, tuple] | None = None) -> Path:
     """Write ``out_dir/index.html`` (atomically); returns its path."""
-    return H.write_page(out_dir, ride_html(rep, series, fit, figures))
+    return H.write_page(out_dir, ride_html(rep, series, fit, figures, plots))

@@ -73,7 +73,7 @@ def _on_rows(design, names, theta, P):
 def _check_against_rows(design, names, theta, targets):
     out = []
     for i in range(targets.shape[1]):
-        fit = _solve(design, names, theta, P=targets[:, i])
+        fit = _solve(design, names, P=targets[:, i])
         ref = _on_rows(design, names, theta, targets[:, i])
         cost = 0.5 * np.sum(design.residual(dict(zip(names, fit.x)), targets[:, i]) ** 2)
         assert cost <= ref.cost * (1 + 1e-8)               # no worse than scipy's own tolerance
@@ -108,7 +108,7 @@ def test_gram_solve_holds_a_bound(design):
     hi = BOUNDS["rolling_resistance"][1]
     theta, targets = _replicates(design, names, B=4, seed=2)
     heavy = targets + 0.1 * design.operator.K @ design.operator.columns["rolling"][:, None]
-    fit = _solve(design, names, theta, P=heavy[:, 0])
+    fit = _solve(design, names, P=heavy[:, 0])
     assert fit.x[0] == hi                           # snapped onto the bound, not 1e-30 inside
     batch = _check_against_rows(design, names, fit.x, heavy)
     np.testing.assert_allclose(batch[:, 0], hi, rtol=0, atol=1e-12)
@@ -121,7 +121,7 @@ def test_folds_from_grams_match_refits_on_the_rows(design):
 
     names = ["rolling_resistance", "aerodynamic_drag", "drivetrain_idle_loss"]
     label = time_blocks(design.t, HELDOUT_FOLDS)
-    whole = _solve(design, names, np.zeros(3)).x
+    whole = _solve(design, names).x
     err = []
     for b in range(HELDOUT_FOLDS):
         train, test = design.rows(label != b), design.rows(label == b)

@@ -197,7 +197,6 @@ def test_ride_report_contract_form_and_files(twin, tmp_path):
     for e in rep["effects"]:
         assert {"name", "estimate", "unit", "ci95", "rmse_after", "aliases", "evidence"} <= set(e)
     json.dumps(rep)                                          # plain JSON types
-    assert (tmp_path / "rep" / "ride_balance.png").stat().st_size > 10_000
     table = pd.read_csv(tmp_path / "rep" / "ride_balance.csv")
     assert list(table.columns) == ["t", "v", "P_measured", "P_nominal", "P_augmented"]
 

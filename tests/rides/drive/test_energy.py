@@ -47,3 +47,23 @@ def test_window_samples_odd_rejects_a_bad_window():
     assert window_samples_odd(2.0, RATE) == 21 and window_samples_odd(0.05, RATE) == 3
     with pytest.raises(ValueError, match="window and rate must be positive, got window=-1"):
         window_samples_odd(-1.0, RATE)
+
+
+def test_blocked_heldout_error_from_grams_is_the_refit_on_each_fold():
+    """The mass fit's blocked held-out RMS (signed log: from the blocks' Gram matrices) equals
+    refitting by least squares on the rows of every other block and predicting the block."""
+    from euc_sim.rides.drive.mass import heldout_rmse
+    from euc_sim.stats import time_blocks
+
+    rng = np.random.default_rng(0)
+    n = 3000
+    t = np.arange(n) * 0.5
+    X = np.column_stack([rng.normal(size=n) * 1e4, np.abs(rng.normal(size=n)) * 300,
+                         rng.normal(size=n) ** 2 * 50, np.ones(n)])
+    y = X @ np.array([100.0, 0.02, 0.3, 20.0]) + rng.normal(size=n) * 500
+    label, err = time_blocks(t, 10), np.empty(n)
+    for b in range(10):
+        test = label == b
+        beta = np.linalg.lstsq(X[~test], y[~test], rcond=None)[0]
+        err[test] = y[test] - X[test] @ beta
+    assert heldout_rmse(X, y, t, True) == pytest.approx(float(np.sqrt(np.mean(err ** 2))), rel=1e-9)
