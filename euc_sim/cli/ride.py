@@ -152,7 +152,8 @@ def _cmd_ride(args: argparse.Namespace) -> int:
                          f"bootstrap interval), got {args.n_boot}")
     if args.calibrate_rider and args.simulate is False:
         raise InputError("--calibrate-rider adds a step to the simulated replay: it cannot go with --no-simulate")
-    simulate = bool(args.simulate or args.calibrate_rider)
+    # with --compare the replay runs unless refused: CONTRACT's compared JSON carries its "simulation"
+    simulate = bool(args.calibrate_rider or (args.compare is not None if args.simulate is None else args.simulate))
     assumptions = _assumptions(args)
     from euc_sim.rides.report.rider_view import check_rider_weight
     weights = args.rider_weight or []
@@ -256,9 +257,9 @@ def add_ride_parser(sub) -> None:
                    help="add the step 'calibrated_rider': the simulated rider's delay, bandwidth and "
                         "motor noise fitted on LOG (minutes of simulation)")
     p.add_argument("--simulate", action=argparse.BooleanOptionalAction, default=None,
-                   help="also replay the ride: the closed-loop MuJoCo rider along the tested ride's speed "
-                        "profile, once per modelled step (minutes; not run by default, --no-simulate "
-                        "says so explicitly; --calibrate-rider turns it on)")
+                   help="replay the ride: the closed-loop MuJoCo rider along the tested ride's speed "
+                        "profile, once per modelled step (minutes; by default run with --compare only, "
+                        "--no-simulate skips it; --calibrate-rider turns it on)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     deprecated(p, "--verbose", "--quiet", nargs=0, dest="verbose", default=False,
                note="progress is shown unless --quiet")

@@ -27,7 +27,8 @@ __all__ = ["RideResult", "BalanceOnMass", "balance_on_mass", "ride_pipeline", "r
 MIN_BOOT = 10
 #: ``simulation_why`` (and the page) when the replay was not asked for.
 REPLAY_NOT_ASKED = ("not run: a step you ask for (the MuJoCo rider along this ride's speed, one run per "
-                    "modelled step, minutes): euc-sim ride LOG.csv --simulate")
+                    "modelled step, minutes): euc-sim ride LOG.csv --simulate (with --compare it runs "
+                    "unless --no-simulate)")
 
 
 @dataclass

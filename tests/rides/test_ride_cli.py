@@ -382,3 +382,21 @@ def test_the_replay_runs_only_when_asked_and_the_page_says_how(logs, tmp_path, c
     code, _, err = run(["ride", logs[0], "--calibrate-rider", "--no-simulate", "--json", tmp_path / "p.json"],
                        capsys)
     assert code == 2 and len(err) == 1 and "--no-simulate" in err[0]
+
+
+def test_with_compare_the_replay_runs_unless_refused(logs, tmp_path, capsys, monkeypatch):
+    """CONTRACT: the compared ride's JSON carries its "simulation"; --no-simulate skips it."""
+    import euc_sim.rides.pipeline as pipeline
+
+    asked = []
+
+    def not_run(rep, an, log, compare, seed, jobs, progress, simulate, calibrate_rider):
+        asked.append(simulate)
+        rep["simulation_why"] = "stubbed"
+
+    monkeypatch.setattr(pipeline, "_simulation", not_run)
+    for extra in ([], ["--no-simulate"]):
+        code, _, err = run(["ride", logs[0], "--compare", logs[1], "--n-boot", "10", "--quiet",
+                            "--json", tmp_path / f"c{len(extra)}.json", *extra], capsys)
+        assert code == 0, err
+    assert asked == [True, False]
