@@ -14,14 +14,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping
 
+from euc_sim.io import to_jsonable
+
 __all__ = ["Recording", "Identification", "Diagnosis", "RideAnalysis", "Rendering",
            "Crosscheck", "CrosscheckRow"]
-
-
-def _jsonable(obj: Any) -> Any:
-    from euc_sim.io import to_jsonable
-
-    return to_jsonable(obj)
 
 
 class _KeyedResult:
@@ -46,7 +42,7 @@ class _KeyedResult:
         out = {}
         for k in self.key_order:
             out[k] = self.details[k] if k in self.details else getattr(self, k)
-        return _jsonable(out)
+        return to_jsonable(out)
 
     def get(self, key: str, default=None):
         """The value of a JSON key, whether a field or one of :attr:`details`."""
@@ -87,7 +83,7 @@ class Recording:
 
     def to_json(self) -> dict:
         """The sidecar object (``NAME.json``)."""
-        return _jsonable(dict(self.meta))
+        return to_jsonable(dict(self.meta))
 
 
 @dataclass(frozen=True, eq=False)
@@ -120,7 +116,7 @@ class Identification:
 
     def to_json(self) -> dict:
         """CONTRACT's ``euc-sim identify`` object (``recordings``, ``models``, ``per_recording``)."""
-        return _jsonable({
+        return to_jsonable({
             "recordings": list(self.recordings),
             "models": {m: f.as_json() for m, f in self.models.items()},
             "per_recording": [{"recording": name, "models": {m: f.as_json() for m, f in fits.items()}}
@@ -284,6 +280,6 @@ class Crosscheck:
 
     def to_json(self) -> dict:
         """CONTRACT's ``euc-sim crosscheck`` object: ``ok`` and ``checks``."""
-        return _jsonable({"ok": self.ok, "checks": [
+        return to_jsonable({"ok": self.ok, "checks": [
             {"name": c.name, "value": c.value, "bound": c.bound, "detail": c.detail, "ok": c.ok}
             for c in self.checks]})

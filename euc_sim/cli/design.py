@@ -23,8 +23,8 @@ def _floats(text: str, option: str) -> list[float]:
 
 def _cmd_design(args: argparse.Namespace) -> int:
     from euc_sim.cli.common import parse_params, say
-    from euc_sim.identification.design import design, plot_design
-    from euc_sim.io import check_writable, write_json
+    from euc_sim.identification.design import design, design_figure
+    from euc_sim.io import check_writable, save_figure, write_json
     from euc_sim.simulation.runner import check_backend
 
     if args.report:             # the figures as DIR/design.png and DIR/design_effects.png
@@ -62,7 +62,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
     if args.json:
         write_json(args.json, out)
     if args.plot:
-        plot_design(res, args.plot)
+        save_figure(design_figure(res), args.plot)
         say(f"design: wrote {args.plot}")
     return 0
 
@@ -70,7 +70,8 @@ def _cmd_design(args: argparse.Namespace) -> int:
 def _effects(args: argparse.Namespace, res: dict) -> dict:
     """The catalog effects' part of ``design``: run, print a table, draw the figure."""
     from euc_sim.cli.common import parse_params, say
-    from euc_sim.diagnosis.design import effects_design, parse_effects, plot_effects_design
+    from euc_sim.diagnosis.design import effects_design, effects_design_figure, parse_effects
+    from euc_sim.io import save_figure
 
     eff = effects_design([r["maneuver"] for r in res["maneuvers"]], parse_effects(",".join(args.effect)),
                          rides=args.effect_rides,
@@ -94,7 +95,7 @@ def _effects(args: argparse.Namespace, res: dict) -> dict:
                          if c.get("sd") is not None else c.get("why", c.get("failed", "-"))[:28])
         print(head + "".join(f"{x:>30}" for x in cells))
     if args.effects_plot:
-        plot_effects_design(eff, args.effects_plot)
+        save_figure(effects_design_figure(eff), args.effects_plot)
         say(f"design: wrote {args.effects_plot}")
     return eff
 

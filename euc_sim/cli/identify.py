@@ -185,7 +185,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     from euc_sim.cli.common import UsageError
     from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK
     from euc_sim.identification.controller_fit import identify_controller
-    from euc_sim.io import check_writable, write_json
+    from euc_sim.io import check_writable, save_figure, write_json
 
     if args.json:
         check_writable(args.json)
@@ -224,9 +224,9 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
     per_json, riders, figures = _per_recording(args, names, recs, per)
     if args.plot:
-        from euc_sim.identification.plots import plot_rmse_curves
+        from euc_sim.identification.plots import rmse_curves_figure
 
-        figures.insert(0, str(plot_rmse_curves(names, per, pooled, args.plot)))
+        figures.insert(0, str(save_figure(rmse_curves_figure(names, per, pooled), args.plot)))
 
     h_per = [rec.params.replace(h=fits["3dof"].h) for rec, fits in zip(recs, per)]
     controller = identify_controller([r.kin for r in recs], h_per)
@@ -280,9 +280,10 @@ def _per_recording(args: argparse.Namespace, names: list[str], recs: list, per: 
                 rec.kin, rec.df["M_d"].to_numpy(), M_h, rec.params).as_json()
         per_json.append(entry)
         if fig_path is not None:
-            from euc_sim.identification.plots import plot_recording
+            from euc_sim.identification.plots import recording_figure
+            from euc_sim.io import save_figure
 
-            figures.append(str(plot_recording(rec, torques(rec.kin, p_h), fits["3dof"], fig_path)))
+            figures.append(str(save_figure(recording_figure(rec, torques(rec.kin, p_h), fits["3dof"]), fig_path)))
     return per_json, riders, figures
 
 
@@ -350,12 +351,13 @@ def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dic
               f"({r.windows} windows of 1 s, {r.seconds:.1f} s; largest |correlation| of h with a "
               f"window state {m[key]['max_abs_correlation_h']:.2f}){warn}")
         if args.plot:
-            from euc_sim.identification.plots import plot_rollout
+            from euc_sim.identification.plots import rollout_figure
+            from euc_sim.io import save_figure
 
             base = Path(args.plot)
             tag = "" if len(recs) == 1 else f"-{Path(rec.name).stem}"
-            fig = plot_rollout(rec.name, r, base.with_name(f"{base.stem}-{key}{tag}{base.suffix or '.png'}"),
-                               tool="MuJoCo" if key == "rollout" else "mujoco.sysid")
+            fig = save_figure(rollout_figure(rec.name, r, tool="MuJoCo" if key == "rollout" else "mujoco.sysid"),
+                              base.with_name(f"{base.stem}-{key}{tag}{base.suffix or '.png'}"))
             out["figures"].append(str(fig))
     w = [1.0 / max(((r.h_ci95[1] - r.h_ci95[0]) / 3.92) ** 2, 1e-18) for r in fits]
     h = sum(wi * r.h for wi, r in zip(w, fits)) / sum(w)

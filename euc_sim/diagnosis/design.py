@@ -39,7 +39,6 @@ from __future__ import annotations
 
 import math
 import warnings
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -53,8 +52,7 @@ from euc_sim.identification import regression as reg
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation import effects as fx
 
-__all__ = ["nominal_magnitude", "effect_estimate", "effect_study", "effects_design", "plot_effects_design",
-           "effects_design_figure",
+__all__ = ["nominal_magnitude", "effect_estimate", "effect_study", "effects_design", "effects_design_figure",
            "RELATIVE_TARGETS", "parse_effects"]
 
 #: Target standard deviations as fractions of the effect's magnitude.
@@ -293,13 +291,6 @@ def _check(maneuvers, effect_names, rides, duration, noise_scale, valid_maneuver
         raise InputError(f"--duration must be at least 5 s (the fit's filters need it), got {duration!r}")
     if not (math.isfinite(noise_scale) and noise_scale > 0):
         raise InputError(f"noise_scale must be positive, got {noise_scale!r}")
-
-
-def plot_effects_design(result: dict, path) -> Path:
-    """Write :func:`effects_design_figure` to ``path`` (atomically)."""
-    from euc_sim.io import save_figure
-
-    return save_figure(effects_design_figure(result), path)
 
 
 def effects_design_figure(result: dict):

@@ -23,7 +23,6 @@ _TERMS = {
 }
 _UNITS = {"gamma": "N·m/rad", "gamma_d": "N·m·s/rad", "phi": "N·m/rad", "phi_d": "N·m·s/rad",
           "x_d": "N·s", "x_dd": "N·s²", "const": "N·m"}
-_PAPER_NAMES = {"gamma": "K_p", "gamma_d": "K_d"}
 
 
 @dataclass

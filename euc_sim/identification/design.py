@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import math
 import warnings
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -46,7 +45,7 @@ from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation.mocap import NOISE_LEVELS
 
 __all__ = ["DESIGN_MANEUVERS", "FLAT_FACTOR", "FISHER_MAX_LAG", "maneuver_study", "design",
-           "recommendation", "plot_design", "design_figure"]
+           "recommendation", "design_figure"]
 
 #: Maneuvers the design can simulate (the built-in ones; a profile needs a file).
 DESIGN_MANEUVERS = ("constant_speed", "acceleration", "deceleration", "stop_and_go")
@@ -261,13 +260,6 @@ def recommendation(result: dict) -> str:
     lines.append(f"Record {best['maneuver']}: {best['recordings_for'][f'{tight:g}']} recording(s) of "
                  f"{result['duration']:g} s reach ±{tight * 1000:g} mm (one gives ±{best['h_sd'] * 1000:.1f} mm).")
     return " ".join(lines)
-
-
-def plot_design(result: dict, path) -> Path:
-    """Write :func:`design_figure` to ``path`` (atomically)."""
-    from euc_sim.io import save_figure
-
-    return save_figure(design_figure(result), path)
 
 
 def design_figure(result: dict):

@@ -16,8 +16,8 @@ from euc_sim.errors import InputError
 from euc_sim.identification.h_fit import MIN_RISE
 from euc_sim.io import save_figure
 
-__all__ = ["plot_recording", "recording_figure", "plot_rmse_curves", "rmse_curves_figure",
-           "plot_maneuver_curves", "maneuver_curves_figure", "verdict_label", "plot_rollout", "rollout_figure", "check_figure_path", "plain_log_ticks"]
+__all__ = ["recording_figure", "rmse_curves_figure",
+           "plot_maneuver_curves", "maneuver_curves_figure", "verdict_label", "rollout_figure", "check_figure_path", "plain_log_ticks"]
 
 
 def check_figure_path(path) -> Path:
@@ -37,11 +37,6 @@ def check_figure_path(path) -> Path:
         raise InputError(f"figure {path}: unknown format {suffix!r}; expected one of "
                          f"{', '.join(sorted(kinds))} (e.g. .png)")
     return path
-
-
-def plot_recording(rec, torques_df, fit, path) -> Path:
-    """Write :func:`recording_figure` to ``path`` (atomically)."""
-    return save_figure(recording_figure(rec, torques_df, fit), path)
 
 
 def recording_figure(rec, torques_df, fit):
@@ -101,11 +96,6 @@ def recording_figure(rec, torques_df, fit):
     fig.suptitle(f"{Path(rec.name).name}: processed data (cf. the paper's Figs. 6-7); "
                  f"smoothing {kin.smoothing.method}", fontsize=10)
     return fig
-
-
-def plot_rmse_curves(names, per_recording, pooled, path) -> Path:
-    """Write :func:`rmse_curves_figure` to ``path`` (atomically)."""
-    return save_figure(rmse_curves_figure(names, per_recording, pooled), path)
 
 
 def rmse_curves_figure(names, per_recording, pooled):
@@ -285,11 +275,6 @@ def plain_log_ticks(axis, ticks=None) -> None:
     axis.set_minor_formatter(NullFormatter())
     if ticks is not None:
         axis.set_minor_locator(NullLocator())
-
-
-def plot_rollout(name: str, fit, path, tool: str = "MuJoCo") -> Path:
-    """Write :func:`rollout_figure` to ``path`` (atomically)."""
-    return save_figure(rollout_figure(name, fit, tool), path)
 
 
 def rollout_figure(name: str, fit, tool: str = "MuJoCo"):

@@ -139,9 +139,6 @@ def check_inverse(sets=PARAMETER_SETS, n: int = 2500, seed: int = 200, mjcf=None
 
 
 # --- trajectories -------------------------------------------------------------------
-TorqueLaw = Callable[[float], tuple[float, float]]
-
-
 def simulate_mujoco(sim: EucMujoco, q0, qd0, duration: float, torques=(0.0, 0.0)):
     """Step MuJoCo with constant torques; return times and paper states (N, 6)."""
     sim.set_state(q0, qd0)

@@ -37,8 +37,7 @@ from euc_sim.simulation.lateral import (LATERAL_INPUTS, LATERAL_WINDOW, LEAN_INP
 __all__ = ["PeriodicPush", "Effect", "CATALOG", "RECORDS", "names", "get", "parse_assignment", "bounds_text", "SIGN_SPEED",
            "smooth_sign", "normal_load", "held_forces", "generalized_force", "lateral_forces", "lateral_force_rows", "lateral_force_row", "LATERAL_INPUTS", "LEAN_INPUTS", "RIDER_MARKER_INPUTS", "rider_spatial_correction",
            "LATERAL_WINDOW", "band_peak_tilt",
-           "RIDER_YAW_INERTIA_RATIO", "rider_lean_forces", "upright_slender_moment", "apply_to_params",
-           "delay_signal"]
+           "RIDER_YAW_INERTIA_RATIO", "rider_lean_forces", "upright_slender_moment", "apply_to_params"]
 
 #: The contract's simulator effects (those with a ``kind``), by name: what ``--effect`` injects and
 #: the diagnosis fits.  Filled at the end of this module from :data:`RECORDS`, the package's
@@ -374,15 +373,6 @@ for _e in (
 ):
     RECORDS.add(_e)
 CATALOG.update({e.name: e for e in RECORDS if e.kind is not None})
-
-
-def delay_signal(t: np.ndarray, y: np.ndarray, tau: float) -> np.ndarray:
-    """y(t − τ) by linear interpolation, holding the first value before the start.
-
-    The ``sensor_time_offset`` effect applies this to the rider channel φ.
-    """
-    t = np.asarray(t, dtype=float)
-    return np.interp(t - tau, t, np.asarray(y, dtype=float))
 
 
 @dataclass(frozen=True)

@@ -49,7 +49,7 @@ def synthetic(tmp_path_factory):
     """The EUC World twin against a copy with +0.5 m² of drag area hidden in every channel."""
     d = tmp_path_factory.mktemp("pair")
     clean = drive_log(d / "a.csv", seed=3, duration=400.0)
-    other = cc.write_raw(cc.conceal_drag(cc.read_raw(clean), 0.5, eta=1.0), d / "b.csv")
+    other = cc.write_raw(cc.conceal_wheel_power(cc.read_raw(clean), "aerodynamic_drag", 0.5, eta=1.0), d / "b.csv")
     return _compare(clean, other, d)
 
 
@@ -192,7 +192,7 @@ def test_index_md_says_both_logs_metadata_once(tmp_path):
             "wheel,brand,year,app,trip_type,rider_weight,tire_pressure,temperature,wind,rain\n"
             f"w,x,2025,euc_world,0,{kg},{bar},20,low,False\n")
     clean = drive_log(rides["0"], seed=3, duration=400.0)
-    cc.write_raw(cc.conceal_mass(cc.read_raw(clean), 30.0, eta=1.0), rides["1"])
+    cc.write_raw(cc.conceal_wheel_power(cc.read_raw(clean), "total_mass", 30.0, eta=1.0), rides["1"])
     rep_dir, rep = _compare(clean, rides["1"], tmp_path / "out")
     assert [d["name"] for d in rep["differences"] if d["named"]] == ["total_mass"]
     md = (rep_dir / "index.md").read_text()

@@ -21,7 +21,7 @@ from euc_sim.rides.balance.crossride import CrossRide
 from euc_sim.rides.balance.fit import plausibility
 from euc_sim.rides.grids.power import RHO_AIR
 
-__all__ = ["parameter_list", "drivetrain_view", "accepted_names", "DRIVETRAIN_PLAUSIBLE",
+__all__ = ["parameter_list", "drivetrain_view", "DRIVETRAIN_PLAUSIBLE",
            "MASS_NUISANCE"]
 
 #: Plausible ranges of the battery and motor terms (the drivetrain view's names), SI.
@@ -122,11 +122,6 @@ def parameter_list(cr: CrossRide, total_mass: Mapping, drivetrain: Mapping,
     """
     return (_balance_entries(cr) + [_mass_entry(total_mass)] + _drivetrain_entries(drivetrain)
             + _controller_entries(controller))
-
-
-def accepted_names(parameters) -> list[str]:
-    """Names of the accepted parameters."""
-    return [p["name"] for p in parameters if p["accepted"]]
 
 
 def drivetrain_view(drivetrain: Mapping, parameters) -> dict:

@@ -20,12 +20,12 @@ A quantity the log cannot give is ``None``.
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
 import pandas as pd
 
+from euc_sim.io import to_jsonable
 from euc_sim.rides.drive.cutout import ride_limits
 from euc_sim.rides.grids.spin import free_spin, spin_json
 from euc_sim.rides.report.distance import (_distance, _duration, _gap_distance, _near, _steps,
@@ -94,18 +94,7 @@ class RideSummary:
 
     def to_json(self) -> dict:
         """A JSON-ready dict (plain floats, ``None`` for what is unknown)."""
-        out = asdict(self)
-        return {k: _plain(v) for k, v in out.items()}
-
-
-def _plain(v):
-    if isinstance(v, dict):
-        return {k: _plain(x) for k, x in v.items()}
-    if isinstance(v, (np.floating, float)):
-        return None if not math.isfinite(float(v)) else float(v)
-    if isinstance(v, np.integer):
-        return int(v)
-    return v
+        return to_jsonable(asdict(self))
 
 
 # --------------------------------------------------------------------------------------
@@ -303,10 +292,7 @@ class MassCheck:
 
     def to_json(self) -> dict:
         """A JSON-ready dict (kg)."""
-        out = asdict(self)
-        for k in ("log_ci95", "difference_ci95"):
-            out[k] = list(out[k]) if out[k] is not None else None
-        return {k: _plain(v) for k, v in out.items()}
+        return to_jsonable(asdict(self))
 
 
 def mass_check(total_mass: dict | None, rider_kg: float | None, wheel_kg: float | None) -> MassCheck:

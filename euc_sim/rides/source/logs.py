@@ -82,7 +82,7 @@ from euc_sim.rides.source.ride import CHANNEL_UNITS, Ride
 
 __all__ = [
     "LogFormatError", "RideLogWarning", "Ride", "Channel", "LAYOUTS", "CHANNEL_UNITS",
-    "read_log", "read_wheellog", "detect_layout",
+    "read_log", "detect_layout",
 ]
 
 KMH = 1.0 / 3.6            # km/h -> m/s
@@ -565,8 +565,3 @@ def _time_ordered(table: pd.DataFrame, notes: list[str]) -> tuple[pd.DataFrame, 
         notes.append(f"repeated time stamps: {len(rep)} time stamp(s) shared by "
                      f"{int(rep.sum())} rows; averaged into one row each ({n_merged} rows merged)")
     return table, n_merged
-
-
-def read_wheellog(path, **kwargs) -> Ride:
-    """:func:`read_log` with the WheelLog layout forced."""
-    return read_log(path, layout="wheellog", **kwargs)

@@ -36,12 +36,11 @@ import pandas as pd
 from scipy.signal import savgol_filter
 
 from euc_sim.rides.drive.drivetrain import charge_drawn
-from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["LogConstants", "Kinematics", "MECHANISMS", "concealable", "read_raw", "write_raw", "kinematics",
-           "log_constants", "add_wheel_power", "conceal_wheel_power", "conceal_mass", "conceal_drag",
-           "conceal_rolling", "conceal_resistance", "conceal_tyre_size",
+           "log_constants", "add_wheel_power", "conceal_wheel_power",
+           "conceal_resistance", "conceal_tyre_size",
            "conceal_current_delay", "conceal", "electrical_power", "battery_current", "charge_drawn"]
 
 KMH = 1.0 / 3.6
@@ -287,23 +286,6 @@ def conceal_wheel_power(raw: pd.DataFrame, effect: str, size: float, eta: float 
     kin = kinematics(raw)
     dP = RECORDS.get(effect).conceal.wheel_power(kin, size, **kw)
     return add_wheel_power(raw, dP, eta, log_constants(raw, kin), kin)
-
-
-def conceal_mass(raw: pd.DataFrame, dm: float, eta: float = 0.85) -> pd.DataFrame:
-    """``dm`` kg more on the wheel: ``ΔP_w = Δm·(a + g·sinθ)·v`` (the climb where GPS altitude is logged)."""
-    return conceal_wheel_power(raw, "total_mass", dm, eta)
-
-
-def conceal_drag(raw: pd.DataFrame, dCdA: float, eta: float = 0.85, rho: float = RHO_AIR
-                 ) -> pd.DataFrame:
-    """``dCdA`` m² more drag area: ``ΔP_w = ½ρ·ΔC_dA·v³``."""
-    return conceal_wheel_power(raw, "aerodynamic_drag", dCdA, eta, rho=rho)
-
-
-def conceal_rolling(raw: pd.DataFrame, dCrr: float, total_mass: float, eta: float = 0.85
-                    ) -> pd.DataFrame:
-    """``dCrr`` more rolling resistance on ``total_mass`` kg: ``ΔP_w = ΔC_rr·m·g·v``."""
-    return conceal_wheel_power(raw, "rolling_resistance", dCrr, eta, total_mass=total_mass)
 
 
 def conceal_resistance(raw: pd.DataFrame, dR: float) -> pd.DataFrame:

@@ -39,7 +39,7 @@ def test_a_ride_against_itself_names_nothing(clean, tmp_path):
 
 def test_hidden_drag_is_named_alone_and_sized(clean, tmp_path):
     # η = 1: the balance adds its losses, so a drag hidden behind η < 1 reads k/η when motoring
-    other = cc.write_raw(cc.conceal_drag(cc.read_raw(clean), 0.5, eta=1.0), tmp_path / "b.csv")
+    other = cc.write_raw(cc.conceal_wheel_power(cc.read_raw(clean), "aerodynamic_drag", 0.5, eta=1.0), tmp_path / "b.csv")
     rep = _compare(clean, other, tmp_path / "o.json")
     by = {d["name"]: d for d in rep["differences"]}
     drag = by["aerodynamic_drag"]

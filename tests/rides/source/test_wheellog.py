@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from euc_sim.rides.source.logs import LogFormatError, RideLogWarning, read_log, read_wheellog
+from euc_sim.rides.source.logs import LogFormatError, RideLogWarning, read_log
 
 SHARED = Path(__file__).resolve().parents[4] / "shared" / "data" / "wheellog"
 
@@ -233,7 +233,7 @@ def test_missing_file_is_oserror(tmp_path):
 def test_forced_layout_checks_columns(tmp_path):
     p = write(tmp_path, "Date,Speed\n2024-01-01T10:00:00,10\n")
     with pytest.raises(LogFormatError, match="column 'date'"):
-        read_wheellog(p)
+        read_log(p, layout="wheellog")
 
 
 # --- other apps' layouts (from third-party parsers; see the module docstring) -------------

@@ -62,7 +62,7 @@ def test_zero_sizes_change_nothing_physical():
 
 def test_drag_extra_battery_power_is_the_physics_term():
     raw, eta = _raw(), 0.85
-    out = cc.conceal_drag(raw, 0.25, eta=eta)
+    out = cc.conceal_wheel_power(raw, "aerodynamic_drag", 0.25, eta=eta)
     v = raw["speed"].to_numpy() / 3.6
     P0 = (raw["voltage"] * raw["current"]).to_numpy()
     extra = (out["voltage"] * out["current"]).to_numpy() - P0
@@ -76,7 +76,7 @@ def test_drag_extra_battery_power_is_the_physics_term():
 
 def test_rolling_extra_battery_power_is_the_physics_term():
     raw = _raw()
-    out = cc.conceal_rolling(raw, 0.01, total_mass=100.0, eta=0.9)
+    out = cc.conceal_wheel_power(raw, "rolling_resistance", 0.01, eta=0.9, total_mass=100.0)
     v = raw["speed"].to_numpy() / 3.6
     P0 = (raw["voltage"] * raw["current"]).to_numpy()
     extra = (out["voltage"] * out["current"]).to_numpy() - P0
@@ -90,7 +90,7 @@ def test_voltage_sags_with_the_packs_own_resistance():
     assert cc.log_constants(raw, kin).R_pack == pytest.approx(0.15, rel=0.05)
     c = cc.log_constants(raw, kin)
     assert c.k_Q == pytest.approx(0.001 * 3600 / np.mean(raw["current"]), rel=0.2)
-    out = cc.conceal_drag(raw, 0.3)
+    out = cc.conceal_wheel_power(raw, "aerodynamic_drag", 0.3)
     dV = (out["voltage"] - raw["voltage"]).to_numpy()
     dI = (out["current"] - raw["current"]).to_numpy()
     # the pack's own sag and the extra charge drawn
@@ -100,7 +100,7 @@ def test_voltage_sags_with_the_packs_own_resistance():
 def test_mass_adds_inertia_and_climb_and_phase_current():
     raw = _raw()
     kin = cc.kinematics(raw)
-    out = cc.conceal_mass(raw, 30.0, eta=0.85)
+    out = cc.conceal_wheel_power(raw, "total_mass", 30.0, eta=0.85)
     dP_w = 30.0 * (kin.a + G * kin.sin_grade) * kin.v
     P_el = (raw["voltage"] * raw["current"]).to_numpy()
     mot = (P_el > 0) & (P_el * 0.85 + dP_w > 0)
