@@ -1,7 +1,5 @@
 """docs/effects.md is the catalog's records as they are: regenerate it when a record changes."""
 
-
-
 import effect_catalog
 
 from euc_sim.model.catalog import CATALOG, Effect
