@@ -6,8 +6,9 @@ Usage (from the repository root, with ``../shared`` beside it)::
 
 Runs ``euc-sim ride`` on the two shared WheelLog rides (fit on the first, test on
 the second) into ``docs/ride/``: ``index.md``, the figures and ``ride.json`` (which
-names files relative to itself, no machine path).  The CSV tables it also writes
-are not tracked (``.gitignore``).  This is the only command that should write into
+names files relative to itself, no machine path); a file of ``docs/ride/`` the run does not
+write is removed (``git rm`` it).  The CSV tables and ``index.html`` it also writes are not
+tracked (``.gitignore``).  This is the only command that should write into
 ``docs/ride/``; try ``euc-sim ride`` yourself with ``--report runs/ride``.
 """
 
@@ -46,6 +47,10 @@ def main() -> int:
         rep = json.loads((stage / "ride.json").read_text(encoding="utf-8"))
         rep["report_dir"] = "."
         out.mkdir(exist_ok=True)
+        written = {f.name for f in (stage / "ride").iterdir()} | {"ride.json"}
+        for f in out.iterdir():         # a file the page no longer writes (a dropped figure) goes
+            if f.is_file() and f.name not in written:
+                f.unlink()
         for f in sorted((stage / "ride").iterdir()):
             if f.name != MANIFEST:
                 os.replace(f, out / f.name)

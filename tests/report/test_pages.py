@@ -247,3 +247,13 @@ def test_the_fits_figures_are_drawn_in_the_folded_parts_with_titles_and_units(dr
         assert r.values[title], name
         assert r.values[yaxes] and all(_UNIT.search(t or "") for t in r.values[yaxes]), (name, r.values[yaxes])
         assert r.values[traces] >= 2, name
+
+
+def test_a_battery_gauge_that_never_moved_says_so():
+    """A full pack reads 100 % for its first watt-hours: "0 %" alone read as a ride that drew nothing."""
+    from euc_sim.rides.report.page_html import key_figure_lines
+
+    s = {"energy_drawn_Wh": 19.1, "battery_used_pct": 0.0, "battery_start_pct": 100.0, "battery_end_pct": 100.0}
+    assert "Battery used: 0 % (the wheel's gauge read 100 % throughout)" in key_figure_lines({"summary": s})
+    s.update(battery_used_pct=4.0, battery_end_pct=96.0, range_m_at_this_rate=26000.0)
+    assert "Battery used: 4 % (range at this rate: 26 km)" in key_figure_lines({"summary": s})

@@ -173,7 +173,9 @@ def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None, key_lines: S
     verdict, the cross-ride figure."""
     from euc_sim.rides.report.differences_page import difference_section
 
-    key = ["## Key figures", ""] + [f"- {line}" for line in key_lines] + [""] if key_lines else []
+    cut = next((i + 1 for i, line in enumerate(key_lines) if line.startswith("Compared ride, ")), len(key_lines))
+    key = (["## Key figures", ""] + [f"- {line}" for line in key_lines[:cut]]      # the compared ride's nest
+           + [f"  - {line}" for line in key_lines[cut:]] + [""] if key_lines else [])
     md = ([f"# Ride diagnosis: {Path(r['recording']).name}", ""] + key
           + difference_section(r, log_path) + _verdict_lines(r))
     if "total_mass" in r:

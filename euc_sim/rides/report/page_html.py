@@ -120,7 +120,9 @@ def _ride_tiles(rep: Mapping, not_power: bool = False) -> list:
           NOT_POWER if not_power else
           "drawn minus regenerated" if regen is not None else "drawn (no regeneration logged)"),
         K("Battery used", f"{used:.0f} %" if used is not None else NA,
-          f"range at this rate: {rng / 1000:.0f} km" if rng is not None else ""),
+          f"range at this rate: {rng / 1000:.0f} km" if rng is not None else
+          f"the wheel's gauge read {s['battery_start_pct']:.0f} % throughout"
+          if used == 0 and drawn and s.get("battery_start_pct") is not None else ""),
     ]
 
 

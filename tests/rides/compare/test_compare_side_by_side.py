@@ -47,6 +47,10 @@ def test_both_rides_numbers_side_by_side_each_with_its_rider(compared, capsys):
     md = (d / "rep" / "index.md").read_text()
     key = md.split("## Key figures")[1].split("\n## ")[0]
     assert key.count("- Distance:") == 2 and "- Compared ride, b.csv:" in key
+    # the compared ride's tiles nest under its name, not a second flat run of the same labels
+    ours, theirs = key.split("- Compared ride, b.csv:")
+    assert re.search(r"^- Distance:", ours, re.M) and not re.search(r"^- ", theirs, re.M)
+    assert re.search(r"^  - Distance:", theirs, re.M)
 
 
 def test_the_terminal_gives_both_rides(tmp_path, capsys):
