@@ -274,35 +274,6 @@ class Design:
         P = self.P if target is None else target
         return self.weight * (P - self.predict(params))
 
-    def jacobian_many(self, names: Sequence[str], Theta: np.ndarray,
-                      D: np.ndarray | None = None) -> np.ndarray:
-        """∂ residual / ∂ parameter of B parameter sets, rows × len(names) × B (analytic).
-
-        ∂P̂/∂θ_j = L₂[column_j], ∂P̂/∂P₀ = 1; with τ_I, L₂ becomes
-        L₂ − τ_I·L₂' + τ_I²·L₂'' and ∂P̂/∂τ_I = (−L₂' + 2τ_I·L₂'')[D];
-        the residual's derivative is −weight times these.
-        """
-        op = self.operator
-        names = list(names)
-        Theta = _as_sets(Theta)
-        D = self.demand(names, Theta) if D is None else D
-        G = np.zeros((D.shape[0], len(names), D.shape[1]))
-        for j, name in enumerate(names):
-            col = CANDIDATES[name][3]
-            if col is not None:
-                G[:, j] = op.columns[col][:, None]
-        flat = G.reshape(D.shape[0], -1)
-        J = np.asarray(op.K @ flat).reshape(-1, len(names), D.shape[1])
-        j, const = role_index(names, "lag"), role_index(names, "constant")
-        if j is not None:
-            tau = Theta[j]
-            J += (-tau * np.asarray(op.Kd @ flat).reshape(J.shape)
-                  + tau ** 2 * np.asarray(op.Kdd @ flat).reshape(J.shape))
-            J[:, j] = -np.asarray(op.Kd @ D) + 2 * tau * np.asarray(op.Kdd @ D)
-        if const is not None:
-            J[:, const] = 1.0
-        return -self.weight[:, None, None] * J
-
 
 def _as_sets(Theta) -> np.ndarray:
     """Parameter sets as parameters × B (a 1-D array is one set; no parameter, one empty set)."""

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -15,7 +14,7 @@ from euc_sim.rides.grids.signals import resample, sg
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
 
-__all__ = ["speed_profile", "write_speed_profile", "rider_plan", "PLAN_WINDOW", "unpaid_spikes",
+__all__ = ["speed_profile", "rider_plan", "PLAN_WINDOW", "unpaid_spikes",
            "SPIN_POWER_FACTOR", "SPIN_POWER_MARGIN", "SPIN_GRADE", "SPIN_MIN_DT",
            "SPIN_MAX_SPAN", "SPIN_BACK"]
 
@@ -181,19 +180,6 @@ def unpaid_spikes(log: Ride, total_mass: float, factor: float = SPIN_POWER_FACTO
         out.append((start, end))
         k = end
     return out
-
-
-def write_speed_profile(log: Ride, path, rate: float = GAP_POLICY.rate, window: float = 1.5) -> Path:
-    """Write :func:`speed_profile` as a CSV (``t,v``) atomically, for the simulator.
-
-    Returns
-    -------
-    pathlib.Path
-    """
-    from euc_sim.io import atomic_write
-
-    prof = speed_profile(log, rate, window)
-    return atomic_write(path, lambda p: prof.to_csv(p, index=False, float_format="%.6f"))
 
 
 def rider_plan(t: np.ndarray, v: np.ndarray, window: float = PLAN_WINDOW) -> np.ndarray:

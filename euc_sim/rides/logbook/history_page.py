@@ -103,7 +103,7 @@ def _rows(h: dict) -> list:
     rows = []
     off = table_zone(h)[0]
     for e in h["rides"]:
-        s, b = e["summary"], e["battery"]
+        s = e["summary"]
         r, ci = _r(e, h["basis"])
         rows.append([start_in(e, off), Path(e["path"]).name,
                      _fmt(s["distance_m"], 1e-3, 1), _fmt(s["moving_s"], 1 / 60),

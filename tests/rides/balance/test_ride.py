@@ -17,7 +17,7 @@ from euc_sim.rides.balance.analysis import ride_report
 from euc_sim.rides.balance.crossride import cross_ride
 from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.balance.fit import fit_balance, plausibility
-from euc_sim.rides.grids.profile import speed_profile, write_speed_profile
+from euc_sim.rides.grids.profile import speed_profile
 from euc_sim.rides.grids.signals import RideAssumptions, resample, ride_signals, sg, wheel_torque
 from euc_sim.rides.source.logs import read_log
 from euc_sim.simulation.maneuvers import load_speed_profile
@@ -113,7 +113,8 @@ def test_speed_profile_is_uniform_and_continuous(twin):
 
 
 def test_written_speed_profile_loads_in_simulator(twin, tmp_path):
-    out = write_speed_profile(read_log(twin[0], emit_warnings=False), tmp_path / "profile.csv")
+    out = tmp_path / "profile.csv"
+    speed_profile(read_log(twin[0], emit_warnings=False)).to_csv(out, index=False, float_format="%.6f")
     back = pd.read_csv(out)
     assert list(back.columns) == ["t", "v"] and np.all(np.diff(back["t"]) > 0)
     man = load_speed_profile(out)
