@@ -17,7 +17,7 @@ import numpy as np
 
 from euc_sim.geo import local_metres
 
-__all__ = ["Panel", "Line", "with_breaks", "thin", "time_panels", "track_map", "track_plain", "xy_figure",
+__all__ = ["Panel", "Line", "with_breaks", "thin", "time_panels", "plain_values", "track_map", "track_plain", "xy_figure",
            "OSM_STYLE", "OSM_TILES", "map_zoom"]
 
 #: A MapLibre style with OpenStreetMap's raster tiles only (no glyphs, no sprites: nothing
@@ -87,9 +87,19 @@ def thin(n: int, most: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, most).round().astype(int))
 
 
+def plain_values(a) -> list:
+    """Values for a plain Plotly spec, 5 significant digits of the largest, NaN as null (a break
+    in the line)."""
+    a = np.asarray(a, float)
+    top = np.nanmax(np.abs(a), initial=0.0, where=np.isfinite(a))
+    a = np.round(a, 4 - int(np.floor(np.log10(top)))) if top > 0 else a
+    return [v if v == v else None for v in np.where(np.isfinite(a), a, np.nan).tolist()]
+
+
 def time_panels(t_min: np.ndarray, panels: Sequence[Panel], title: str, gap_min: float,
-                mark: tuple[float, str] | None = None):
-    """Quantities stacked on one shared time axis (zoom one, all follow).
+                mark: tuple[float, str] | None = None) -> dict:
+    """Quantities stacked on one shared time axis (zoom one, all follow): a plain Plotly spec
+    (``{"data", "layout"}``; no per-property validation).
 
     Parameters
     ----------
@@ -102,27 +112,35 @@ def time_panels(t_min: np.ndarray, panels: Sequence[Panel], title: str, gap_min:
     mark : (float, str), optional
         A moment to mark on every panel (min) and its label.
     """
-    from plotly.subplots import make_subplots
-    import plotly.graph_objects as go
-
-    n = len(panels)
-    fig = make_subplots(rows=n, cols=1, shared_xaxes=True, vertical_spacing=0.025)
-    for i, p in enumerate(panels, start=1):
-        tt, yy = with_breaks(t_min, gap_min, p.y)
-        fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", name=f"{p.name}, {p.unit}",
-                                 line={"width": 1.2}, showlegend=False,
-                                 hovertemplate=f"%{{y:.1f}} {p.unit}<extra>{p.name}</extra>"), row=i, col=1)
-        fig.update_yaxes(title_text=f"{p.name}, {p.unit}", row=i, col=1, title_font={"size": 11})
-    fig.update_xaxes(title_text="time from the start of the log, min", row=n, col=1)
+    n, space = len(panels), 0.025
+    h = (1.0 - space * (n - 1)) / n
+    layout = {"title": {"text": title}, "margin": _MARGIN, "hovermode": "x unified", "height": 140 * n + 110,
+              "shapes": [], "annotations": []}
+    data = []
+    cols = with_breaks(t_min, gap_min, *(p.y for p in panels))
+    x = plain_values(cols[0])
+    for i, (p, y) in enumerate(zip(panels, cols[1:]), start=1):
+        ax = "" if i == 1 else str(i)
+        top = 1.0 - (i - 1) * (h + space)
+        layout[f"xaxis{ax}"] = {"anchor": f"y{ax}", "domain": [0.0, 1.0]}
+        if i < n:
+            layout[f"xaxis{ax}"].update(matches=f"x{n}", showticklabels=False)
+        layout[f"yaxis{ax}"] = {"anchor": f"x{ax}", "domain": [max(top - h, 0.0), top],
+                                "title": {"text": f"{p.name}, {p.unit}", "font": {"size": 11}}}
+        data.append({"type": "scatter", "x": x, "y": plain_values(y), "mode": "lines",
+                     "name": f"{p.name}, {p.unit}", "line": {"width": 1.2}, "showlegend": False,
+                     "hovertemplate": f"%{{y:.1f}} {p.unit}<extra>{p.name}</extra>",
+                     "xaxis": f"x{ax}", "yaxis": f"y{ax}"})
+        if mark is not None:
+            layout["shapes"].append({"type": "line", "x0": mark[0], "x1": mark[0], "xref": f"x{ax}", "y0": 0,
+                                     "y1": 1, "yref": f"y{ax} domain",
+                                     "line": {"color": "#c62828", "width": 1, "dash": "dot"}})
+    layout[f"xaxis{'' if n == 1 else n}"]["title"] = {"text": "time from the start of the log, min"}
     if mark is not None:
-        for i in range(1, n + 1):       # one shape per panel (add_vline's search of every subplot is slow)
-            fig.add_shape(type="line", x0=mark[0], x1=mark[0], xref=f"x{'' if i == 1 else i}", y0=0, y1=1,
-                          yref=f"y{'' if i == 1 else i} domain", line={"color": "#c62828", "width": 1, "dash": "dot"})
-        fig.add_annotation(x=mark[0], y=1.0, yref="paper", text=mark[1], showarrow=False,
-                           yanchor="bottom", font={"color": "#c62828", "size": 11})
-    fig.update_layout(title={"text": title}, margin=_MARGIN, hovermode="x unified",
-                      height=140 * n + 110)
-    return fig
+        layout["annotations"].append({"x": mark[0], "y": 1.0, "yref": "paper", "text": mark[1],
+                                      "showarrow": False, "yanchor": "bottom",
+                                      "font": {"color": "#c62828", "size": 11}})
+    return {"data": data, "layout": layout}
 
 
 def map_zoom(lat: np.ndarray, lon: np.ndarray, width_px: float = 600, height_px: float = 440) -> float:

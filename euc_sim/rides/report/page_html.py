@@ -339,14 +339,13 @@ def over_time(rep: Mapping, series: RideSeries):
     fig = time_panels(x, panels, "The ride over time (zoom one panel: all follow)", gap / 60.0, mark)
     axis.decorate(fig, len(panels))
     if mark is not None and "pwm_pct" in c:        # the peak is one logged row: the grid's mean may not reach it
-        import plotly.graph_objects as go
-
         row = [k for k, _, _ in spec if k in c].index("pwm_pct") + 1
-        fig.add_trace(go.Scatter(x=[mark[0]], y=[_num(rep["summary"], "pwm_max_pct")], mode="markers",
-                                 name="max PWM, logged row", showlegend=False,
-                                 marker={"symbol": "star", "size": 11, "color": "#c62828"},
-                                 hovertemplate="%{y:.0f} % (the logged row; the line is the 10 Hz grid's mean)"
-                                               "<extra>max PWM</extra>"), row=row, col=1)
+        ax = "" if row == 1 else str(row)
+        fig["data"].append({"type": "scatter", "x": [mark[0]], "y": [_num(rep["summary"], "pwm_max_pct")],
+                            "mode": "markers", "name": "max PWM, logged row", "showlegend": False,
+                            "marker": {"symbol": "star", "size": 11, "color": "#c62828"},
+                            "hovertemplate": "%{y:.0f} % (the logged row; the line is the 10 Hz grid's mean)"
+                                             "<extra>max PWM</extra>", "xaxis": f"x{ax}", "yaxis": f"y{ax}"})
     return fig
 
 
@@ -556,7 +555,7 @@ def figure_specs(rep: Mapping, series: RideSeries | None, fit=None) -> dict:
 def _figure_sections(rep: Mapping, figs: dict) -> list[str]:
     out = []
     if "over_time" in figs:
-        n = len(figs["over_time"].data)
+        n = len(figs["over_time"]["data"])
         out.append(H.section("The ride over time", H.figure(figs["over_time"], "over_time", 140 * n + 110)))
     if "map" in figs:
         out.append(H.section("On the map", H.columns(H.figure(figs["map"], "map", 460),
