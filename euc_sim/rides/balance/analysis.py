@@ -237,7 +237,8 @@ def write_balance(an: RideAnalysis, report_dir) -> Path:
     from euc_sim.io import atomic_write
 
     cr, d_test, report_dir = an.cross, an.cross.test_design, Path(report_dir)
-    table = pd.DataFrame({"t": d_test.t, "v": d_test.v, "P_measured": d_test.P,
-                          "P_nominal": d_test.predict(cr.nominal.estimate),
-                          "P_augmented": d_test.predict(cr.augmented.estimate)})
-    return atomic_write(report_dir / "ride_balance.csv", lambda p: table.to_csv(p, index=False))
+    cols = {"t": d_test.t, "v": d_test.v, "P_measured": d_test.P,
+            "P_nominal": d_test.predict(cr.nominal.estimate), "P_augmented": d_test.predict(cr.augmented.estimate)}
+    # 7 significant digits (0.01 s, 1 mW): numpy's writer, several times faster than pandas' repr of each float
+    return atomic_write(report_dir / "ride_balance.csv", lambda p: np.savetxt(
+        p, np.column_stack(list(cols.values())), fmt="%.7g", delimiter=",", header=",".join(cols), comments=""))
