@@ -212,10 +212,10 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
     res = _solve(design, names)
     theta = res.x
     est = dict(zip(names, map(float, theta)))
-    e = design.residual(est)
     fitted_P = design.predict(est)
     # Unweighted residuals in P units are what gets resampled.
     e_P = design.P - fitted_P
+    e = design.weight * e_P                 # design.residual(est), its prediction not redone
     J = res.jac
     dof = max(n - len(names), 1)
     try:
