@@ -189,14 +189,13 @@ def block_bootstrap_indices(blocks: Sequence[np.ndarray], rng: np.random.Generat
 
 
 def wild_block_signs(n: int, L: int, n_boot: int, rng: np.random.Generator) -> np.ndarray:
-    """Rademacher signs constant over blocks of ``L`` rows: ``n`` × ``n_boot``.
+    """Rademacher signs of the blocks of ``L`` rows of ``n``: ceil(n / L) × ``n_boot``.
 
-    A wild block bootstrap multiplies each residual by its block's sign, keeping
-    every residual at its own row (and so its dependence on the regime).
+    A wild block bootstrap multiplies each residual by its block's sign (row i: block
+    i // L), keeping every residual at its own row (and so its dependence on the regime).
     """
     n_blocks = int(np.ceil(n / L))
-    signs = rng.choice(np.array([-1.0, 1.0]), size=(n_blocks, n_boot))
-    return np.repeat(signs, L, axis=0)[:n]
+    return rng.choice(np.array([-1.0, 1.0]), size=(n_blocks, n_boot))
 
 
 def percentile_interval(draws: np.ndarray, level: float = 0.95, axis: int = 0,

@@ -142,7 +142,7 @@ def _bootstrap(design: Design, names: Sequence[str], fitted_P: np.ndarray, e_P: 
         nan = np.full(len(names), np.nan)
         return nan, nan, {}
     rng = np.random.default_rng(seed)
-    signs = wild_block_signs(n, L, n_boot, rng)[::L]            # one sign per block
+    signs = wild_block_signs(n, L, n_boot, rng)                 # one sign per block
     w = design.weight
     X, f, g = design.basis.Z[:, :-1], w * fitted_P, w * e_P
     starts = np.arange(0, n, L)
