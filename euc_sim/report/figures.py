@@ -1,7 +1,8 @@
 """Interactive figures every page uses: curves on one time axis, a track on a map, x–y plots.
 
-Pure builders: each takes arrays already in people's units and returns a
-``plotly.graph_objects.Figure`` with a title, axis titles carrying units and the
+Pure builders: each takes arrays already in people's units and returns a plain Plotly
+spec (``{"data": [...], "layout": {...}}``, drawn by :func:`euc_sim.report.html.figure`
+without Plotly's per-property validation) with a title, axis titles carrying units and the
 legend off the data.  The map draws OpenStreetMap raster tiles (the only thing a
 page fetches) under the track; the track is a trace of its own, drawn when the
 tiles cannot load.
@@ -87,12 +88,12 @@ def thin(n: int, most: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, most).round().astype(int))
 
 
-def plain_values(a) -> list:
-    """Values for a plain Plotly spec, 5 significant digits of the largest, NaN as null (a break
-    in the line)."""
+def plain_values(a, digits: int | None = 5) -> list:
+    """Values for a plain Plotly spec, ``digits`` significant digits of the largest (None: as
+    they are), NaN as null (a break in the line)."""
     a = np.asarray(a, float)
     top = np.nanmax(np.abs(a), initial=0.0, where=np.isfinite(a))
-    a = np.round(a, 4 - int(np.floor(np.log10(top)))) if top > 0 else a
+    a = np.round(a, digits - 1 - int(np.floor(np.log10(top)))) if top > 0 and digits else a
     return [v if v == v else None for v in np.where(np.isfinite(a), a, np.nan).tolist()]
 
 
@@ -166,75 +167,64 @@ def track_map(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label: 
     mark : (lat, lon, text), optional
         A point to mark (a star) with its hover text.
     """
-    import plotly.graph_objects as go
-
     ok = np.isfinite(lat) & np.isfinite(lon)
     lat, lon, value = lat[ok], lon[ok], np.asarray(value, float)[ok]
-    fig = go.Figure()
-    fig.add_trace(go.Scattermap(lat=lat, lon=lon, mode="lines", line={"width": 2, "color": "#37474f"},
-                                name="track", hoverinfo="skip", showlegend=False))
-    fig.add_trace(go.Scattermap(
-        lat=lat, lon=lon, mode="markers", name=value_label, showlegend=False,
-        **_coloured_points(value, value_label, 6)))
+    la, lo = plain_values(lat, None), plain_values(lon, None)
+    data = [{"type": "scattermap", "lat": la, "lon": lo, "mode": "lines", "line": {"width": 2, "color": "#37474f"},
+             "name": "track", "hoverinfo": "skip", "showlegend": False},
+            {"type": "scattermap", "lat": la, "lon": lo, "mode": "markers", "name": value_label, "showlegend": False,
+             **_coloured_points(value, value_label, 6)}]
     if mark is not None:
-        fig.add_trace(go.Scattermap(lat=[mark[0]], lon=[mark[1]], mode="markers", name=mark[2],
-                                    marker={"size": 16, "color": "#c62828"}, hovertext=[mark[2]],
-                                    hoverinfo="text", showlegend=True))
-    fig.update_layout(
-        title={"text": title}, margin={"l": 10, "r": 10, "t": 60, "b": 40},
-        legend={"orientation": "h", "yanchor": "top", "y": -0.02, "x": 0.0},
-        map={"style": OSM_STYLE, "layers": [OSM_TILES], "center": {"lat": float(np.mean(lat)), "lon": float(np.mean(lon))},
-             "zoom": map_zoom(lat, lon)})
-    return fig
+        data.append({"type": "scattermap", "lat": [mark[0]], "lon": [mark[1]], "mode": "markers", "name": mark[2],
+                     "marker": {"size": 16, "color": "#c62828"}, "hovertext": [mark[2]], "hoverinfo": "text",
+                     "showlegend": True})
+    layout = {"title": {"text": title}, "margin": {"l": 10, "r": 10, "t": 60, "b": 40},
+              "legend": {"orientation": "h", "yanchor": "top", "y": -0.02, "x": 0.0},
+              "map": {"style": OSM_STYLE, "layers": [OSM_TILES],
+                      "center": {"lat": float(np.mean(lat)), "lon": float(np.mean(lon))}, "zoom": map_zoom(lat, lon)}}
+    return {"data": data, "layout": layout}
 
 
 
 def _coloured_points(value: np.ndarray, value_label: str, size: int) -> dict:
     """A track's points coloured by ``value``, with its colour bar and hover text (both maps)."""
-    return {"marker": {"size": size, "color": value, "colorscale": "Turbo", "showscale": True,
+    return {"marker": {"size": size, "color": plain_values(value), "colorscale": "Turbo", "showscale": True,
                        "colorbar": {"title": {"text": value_label, "side": "right"}, "thickness": 14}},
             "hovertemplate": f"%{{marker.color:.0f}} {value_label}<extra></extra>"}
 
-def xy_figure(lines: Sequence[Line], title: str, x_title: str, y_title: str, note: str = ""):
-    """Points and lines against a common x axis; ``note`` is a line under the title."""
-    import plotly.graph_objects as go
-
-    fig = go.Figure()
-    for ln in lines:
-        kw = ({"marker": {"size": 4, "opacity": 0.45}} if ln.mode == "markers"
-              else {"line": {"width": 2, "dash": ln.dash}})
-        fig.add_trace(go.Scatter(x=ln.x, y=ln.y, mode=ln.mode, name=ln.name, **kw))
+def xy_figure(lines: Sequence[Line], title: str, x_title: str, y_title: str, note: str = "") -> dict:
+    """Points and lines against a common x axis; ``note`` is a line under the title (a plain
+    Plotly spec)."""
+    data = [{"type": "scatter", "x": plain_values(ln.x), "y": plain_values(ln.y), "mode": ln.mode, "name": ln.name,
+             **({"marker": {"size": 4, "opacity": 0.45}} if ln.mode == "markers"
+                else {"line": {"width": 2, "dash": ln.dash}})} for ln in lines]
     text = title + (f"<br><sup>{note}</sup>" if note else "")
-    fig.update_layout(title={"text": text}, xaxis_title=x_title, yaxis_title=y_title,
-                      margin=_MARGIN, legend=_LEGEND)
-    return fig
+    return {"data": data, "layout": {"title": {"text": text}, "xaxis": {"title": {"text": x_title}},
+                                     "yaxis": {"title": {"text": y_title}}, "margin": _MARGIN, "legend": _LEGEND}}
 
 
 def track_plain(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label: str, title: str,
                 mark: tuple[float, float, str] | None = None):
     """The track on plain axes, km east and north of its first point, equal aspect: drawn
     wherever the page opens (no tiles, no WebGL)."""
-    import plotly.graph_objects as go
-
     ok = np.isfinite(lat) & np.isfinite(lon)
     lat, lon, value = lat[ok], lon[ok], np.asarray(value, float)[ok]
+
     def xy(la, lo):
         east_north = local_metres(la, lo, (float(lat[0]), float(lon[0]))) / 1000.0
         return east_north[:, 0], east_north[:, 1]
 
     x, y = xy(lat, lon)
-    fig = go.Figure()
-    fig.add_trace(go.Scatter(x=x, y=y, mode="lines", line={"width": 1.5, "color": "#90a4ae"},
-                             hoverinfo="skip", showlegend=False))
-    fig.add_trace(go.Scatter(
-        x=x, y=y, mode="markers", showlegend=False, name=value_label,
-        **_coloured_points(value, value_label, 5)))
+    x, y = plain_values(x), plain_values(y)
+    data = [{"type": "scatter", "x": x, "y": y, "mode": "lines", "line": {"width": 1.5, "color": "#90a4ae"},
+             "hoverinfo": "skip", "showlegend": False},
+            {"type": "scatter", "x": x, "y": y, "mode": "markers", "showlegend": False, "name": value_label,
+             **_coloured_points(value, value_label, 5)}]
     if mark is not None:
         mx, my = xy(mark[0], mark[1])
-        fig.add_trace(go.Scatter(x=[mx], y=[my], mode="markers", name=mark[2],
-                                 marker={"size": 16, "color": "#c62828", "symbol": "star"}))
-    fig.update_layout(title={"text": title}, margin=_MARGIN, legend=_LEGEND,
-                      xaxis={"title": {"text": "east of the start, km"}},
-                      yaxis={"title": {"text": "north of the start, km"}, "scaleanchor": "x",
-                             "scaleratio": 1})
-    return fig
+        data.append({"type": "scatter", "x": plain_values(mx), "y": plain_values(my), "mode": "markers",
+                     "name": mark[2], "marker": {"size": 16, "color": "#c62828", "symbol": "star"}})
+    return {"data": data, "layout": {"title": {"text": title}, "margin": _MARGIN, "legend": _LEGEND,
+                                     "xaxis": {"title": {"text": "east of the start, km"}},
+                                     "yaxis": {"title": {"text": "north of the start, km"}, "scaleanchor": "x",
+                                               "scaleratio": 1}}}
