@@ -19,7 +19,7 @@ import numpy as np
 from euc_sim.geo import local_metres
 
 __all__ = ["Panel", "Line", "with_breaks", "thin", "time_panels", "plain_values", "track_map", "track_plain", "xy_figure",
-           "OSM_STYLE", "OSM_TILES", "map_zoom"]
+           "OSM_STYLE", "OSM_TILES", "map_zoom", "TURBO", "YL_OR_RD"]
 
 #: A MapLibre style with OpenStreetMap's raster tiles only (no glyphs, no sprites: nothing
 #: else is fetched).
@@ -30,6 +30,14 @@ OSM_STYLE = {"version": 8, "sources": {},
 #: tile that cannot load leaves the background, never the track, undrawn.
 OSM_TILES = {"sourcetype": "raster", "below": "traces", "sourceattribution": "© OpenStreetMap contributors",
              "source": ["https://tile.openstreetmap.org/{z}/{x}/{y}.png"]}
+
+#: Colour scales written out (plotly.js knows neither Turbo nor Python's YlOrRd by name).
+TURBO = [[k / 14, c] for k, c in enumerate(
+    ("#30123b", "#4145ab", "#4675ed", "#39a2fc", "#1bcfd4", "#24eca6", "#61fc6c", "#a4fc3b", "#d1e834",
+     "#f3c63a", "#fe9b2d", "#f36315", "#d93806", "#b11901", "#7a0402"))]
+YL_OR_RD = [[k / 8, f"rgb({c})"] for k, c in enumerate(
+    ("255,255,204", "255,237,160", "254,217,118", "254,178,76", "253,141,60", "252,78,42", "227,26,28",
+     "189,0,38", "128,0,38"))]
 
 #: Legends under the axes, never on the data nor on the title.
 _LEGEND = {"orientation": "h", "yanchor": "top", "y": -0.2, "xanchor": "left", "x": 0.0}
@@ -188,7 +196,7 @@ def track_map(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label: 
 
 def _coloured_points(value: np.ndarray, value_label: str, size: int) -> dict:
     """A track's points coloured by ``value``, with its colour bar and hover text (both maps)."""
-    return {"marker": {"size": size, "color": plain_values(value), "colorscale": "Turbo", "showscale": True,
+    return {"marker": {"size": size, "color": plain_values(value), "colorscale": TURBO, "showscale": True,
                        "colorbar": {"title": {"text": value_label, "side": "right"}, "thickness": 14}},
             "hovertemplate": f"%{{marker.color:.0f}} {value_label}<extra></extra>"}
 

@@ -21,7 +21,8 @@ from typing import Mapping
 import numpy as np
 
 from euc_sim.report import html as H
-from euc_sim.report.figures import Line, Panel, plain_values, thin, time_panels, track_map, track_plain, xy_figure
+from euc_sim.report.figures import (YL_OR_RD, Line, Panel, plain_values, thin, time_panels, track_map, track_plain,
+                                    xy_figure)
 from euc_sim.rides.drive.cutout import CONDITIONS, Limits, headroom_words
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.report.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
@@ -478,7 +479,7 @@ def cutout_figure(rep: Mapping, series: RideSeries | None):
         ok = np.flatnonzero(np.isfinite(c["charge_pct"]) & (c["speed_kmh"] > 2.0))
         ok = ok[thin(ok.size, MOST_POINTS)]
         pwm = c.get("pwm_pct")
-        marker = ({"size": 4, "color": plain_values(pwm[ok]), "colorscale": "YlOrRd", "cmin": 0, "cmax": 100, "showscale": True,
+        marker = ({"size": 4, "color": plain_values(pwm[ok]), "colorscale": YL_OR_RD, "cmin": 0, "cmax": 100, "showscale": True,
                    "colorbar": {"title": {"text": "logged PWM, %", "side": "right"}, "thickness": 12}}
                   if pwm is not None else {"size": 4, "color": "#607d8b"})
         fig["data"].append({"type": "scatter", "x": plain_values(c["charge_pct"][ok]),
