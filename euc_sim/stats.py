@@ -44,8 +44,11 @@ def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
     sse : float
         The sum of squared residuals at ``beta``.
     """
-    cols = list(range(G.shape[0] - 1)) if cols is None else list(cols)
-    A, b = G[np.ix_(cols, cols)], G[cols, -1]
+    if cols is None:
+        A, b = G[:-1, :-1], G[:-1, -1]
+    else:
+        cols = list(cols)
+        A, b = G[np.ix_(cols, cols)], G[cols, -1]
     beta = np.linalg.lstsq(A, b, rcond=None)[0]
     return beta, float(G[-1, -1] - beta @ b)
 
