@@ -44,8 +44,11 @@ def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
     sse : float
         The sum of squared residuals at ``beta``.
     """
-    cols = list(range(G.shape[0] - 1)) if cols is None else list(cols)
-    A, b = G[np.ix_(cols, cols)], G[cols, -1]
+    if cols is None:
+        A, b = G[:-1, :-1], G[:-1, -1]
+    else:
+        cols = list(cols)
+        A, b = G[np.ix_(cols, cols)], G[cols, -1]
     beta = np.linalg.lstsq(A, b, rcond=None)[0]
     return beta, float(G[-1, -1] - beta @ b)
 
@@ -189,14 +192,13 @@ def block_bootstrap_indices(blocks: Sequence[np.ndarray], rng: np.random.Generat
 
 
 def wild_block_signs(n: int, L: int, n_boot: int, rng: np.random.Generator) -> np.ndarray:
-    """Rademacher signs constant over blocks of ``L`` rows: ``n`` × ``n_boot``.
+    """Rademacher signs of the blocks of ``L`` rows of ``n``: ceil(n / L) × ``n_boot``.
 
-    A wild block bootstrap multiplies each residual by its block's sign, keeping
-    every residual at its own row (and so its dependence on the regime).
+    A wild block bootstrap multiplies each residual by its block's sign (row i: block
+    i // L), keeping every residual at its own row (and so its dependence on the regime).
     """
     n_blocks = int(np.ceil(n / L))
-    signs = rng.choice(np.array([-1.0, 1.0]), size=(n_blocks, n_boot))
-    return np.repeat(signs, L, axis=0)[:n]
+    return rng.choice(np.array([-1.0, 1.0]), size=(n_blocks, n_boot))
 
 
 def percentile_interval(draws: np.ndarray, level: float = 0.95, axis: int = 0,

@@ -1,7 +1,8 @@
 """Interactive figures every page uses: curves on one time axis, a track on a map, x–y plots.
 
-Pure builders: each takes arrays already in people's units and returns a
-``plotly.graph_objects.Figure`` with a title, axis titles carrying units and the
+Pure builders: each takes arrays already in people's units and returns a plain Plotly
+spec (``{"data": [...], "layout": {...}}``, drawn by :func:`euc_sim.report.html.figure`
+without Plotly's per-property validation) with a title, axis titles carrying units and the
 legend off the data.  The map draws OpenStreetMap raster tiles (the only thing a
 page fetches) under the track; the track is a trace of its own, drawn when the
 tiles cannot load.
@@ -17,8 +18,8 @@ import numpy as np
 
 from euc_sim.geo import local_metres
 
-__all__ = ["Panel", "Line", "with_breaks", "thin", "time_panels", "track_map", "track_plain", "xy_figure",
-           "OSM_STYLE", "OSM_TILES", "map_zoom"]
+__all__ = ["Panel", "Line", "with_breaks", "thin", "time_panels", "plain_values", "track_map", "track_plain", "xy_figure",
+           "OSM_STYLE", "OSM_TILES", "map_zoom", "TURBO", "YL_OR_RD"]
 
 #: A MapLibre style with OpenStreetMap's raster tiles only (no glyphs, no sprites: nothing
 #: else is fetched).
@@ -29,6 +30,14 @@ OSM_STYLE = {"version": 8, "sources": {},
 #: tile that cannot load leaves the background, never the track, undrawn.
 OSM_TILES = {"sourcetype": "raster", "below": "traces", "sourceattribution": "© OpenStreetMap contributors",
              "source": ["https://tile.openstreetmap.org/{z}/{x}/{y}.png"]}
+
+#: Colour scales written out (plotly.js knows neither Turbo nor Python's YlOrRd by name).
+TURBO = [[k / 14, c] for k, c in enumerate(
+    ("#30123b", "#4145ab", "#4675ed", "#39a2fc", "#1bcfd4", "#24eca6", "#61fc6c", "#a4fc3b", "#d1e834",
+     "#f3c63a", "#fe9b2d", "#f36315", "#d93806", "#b11901", "#7a0402"))]
+YL_OR_RD = [[k / 8, f"rgb({c})"] for k, c in enumerate(
+    ("255,255,204", "255,237,160", "254,217,118", "254,178,76", "253,141,60", "252,78,42", "227,26,28",
+     "189,0,38", "128,0,38"))]
 
 #: Legends under the axes, never on the data nor on the title.
 _LEGEND = {"orientation": "h", "yanchor": "top", "y": -0.2, "xanchor": "left", "x": 0.0}
@@ -87,9 +96,19 @@ def thin(n: int, most: int) -> np.ndarray:
     return np.unique(np.linspace(0, n - 1, most).round().astype(int))
 
 
+def plain_values(a, digits: int | None = 5) -> list:
+    """Values for a plain Plotly spec, ``digits`` significant digits of the largest (None: as
+    they are), NaN as null (a break in the line)."""
+    a = np.asarray(a, float)
+    top = np.nanmax(np.abs(a), initial=0.0, where=np.isfinite(a))
+    a = np.round(a, digits - 1 - int(np.floor(np.log10(top)))) if top > 0 and digits else a
+    return [v if v == v else None for v in np.where(np.isfinite(a), a, np.nan).tolist()]
+
+
 def time_panels(t_min: np.ndarray, panels: Sequence[Panel], title: str, gap_min: float,
-                mark: tuple[float, str] | None = None):
-    """Quantities stacked on one shared time axis (zoom one, all follow).
+                mark: tuple[float, str] | None = None) -> dict:
+    """Quantities stacked on one shared time axis (zoom one, all follow): a plain Plotly spec
+    (``{"data", "layout"}``; no per-property validation).
 
     Parameters
     ----------
@@ -102,27 +121,35 @@ def time_panels(t_min: np.ndarray, panels: Sequence[Panel], title: str, gap_min:
     mark : (float, str), optional
         A moment to mark on every panel (min) and its label.
     """
-    from plotly.subplots import make_subplots
-    import plotly.graph_objects as go
-
-    n = len(panels)
-    fig = make_subplots(rows=n, cols=1, shared_xaxes=True, vertical_spacing=0.025)
-    for i, p in enumerate(panels, start=1):
-        tt, yy = with_breaks(t_min, gap_min, p.y)
-        fig.add_trace(go.Scatter(x=tt, y=yy, mode="lines", name=f"{p.name}, {p.unit}",
-                                 line={"width": 1.2}, showlegend=False,
-                                 hovertemplate=f"%{{y:.1f}} {p.unit}<extra>{p.name}</extra>"), row=i, col=1)
-        fig.update_yaxes(title_text=f"{p.name}, {p.unit}", row=i, col=1, title_font={"size": 11})
-    fig.update_xaxes(title_text="time from the start of the log, min", row=n, col=1)
+    n, space = len(panels), 0.025
+    h = (1.0 - space * (n - 1)) / n
+    layout = {"title": {"text": title}, "margin": _MARGIN, "hovermode": "x unified", "height": 140 * n + 110,
+              "shapes": [], "annotations": []}
+    data = []
+    cols = with_breaks(t_min, gap_min, *(p.y for p in panels))
+    x = plain_values(cols[0])
+    for i, (p, y) in enumerate(zip(panels, cols[1:]), start=1):
+        ax = "" if i == 1 else str(i)
+        top = 1.0 - (i - 1) * (h + space)
+        layout[f"xaxis{ax}"] = {"anchor": f"y{ax}", "domain": [0.0, 1.0]}
+        if i < n:
+            layout[f"xaxis{ax}"].update(matches=f"x{n}", showticklabels=False)
+        layout[f"yaxis{ax}"] = {"anchor": f"x{ax}", "domain": [max(top - h, 0.0), top],
+                                "title": {"text": f"{p.name}, {p.unit}", "font": {"size": 11}}}
+        data.append({"type": "scatter", "x": x, "y": plain_values(y), "mode": "lines",
+                     "name": f"{p.name}, {p.unit}", "line": {"width": 1.2}, "showlegend": False,
+                     "hovertemplate": f"%{{y:.1f}} {p.unit}<extra>{p.name}</extra>",
+                     "xaxis": f"x{ax}", "yaxis": f"y{ax}"})
+        if mark is not None:
+            layout["shapes"].append({"type": "line", "x0": mark[0], "x1": mark[0], "xref": f"x{ax}", "y0": 0,
+                                     "y1": 1, "yref": f"y{ax} domain",
+                                     "line": {"color": "#c62828", "width": 1, "dash": "dot"}})
+    layout[f"xaxis{'' if n == 1 else n}"]["title"] = {"text": "time from the start of the log, min"}
     if mark is not None:
-        for i in range(1, n + 1):       # one shape per panel (add_vline's search of every subplot is slow)
-            fig.add_shape(type="line", x0=mark[0], x1=mark[0], xref=f"x{'' if i == 1 else i}", y0=0, y1=1,
-                          yref=f"y{'' if i == 1 else i} domain", line={"color": "#c62828", "width": 1, "dash": "dot"})
-        fig.add_annotation(x=mark[0], y=1.0, yref="paper", text=mark[1], showarrow=False,
-                           yanchor="bottom", font={"color": "#c62828", "size": 11})
-    fig.update_layout(title={"text": title}, margin=_MARGIN, hovermode="x unified",
-                      height=140 * n + 110)
-    return fig
+        layout["annotations"].append({"x": mark[0], "y": 1.0, "yref": "paper", "text": mark[1],
+                                      "showarrow": False, "yanchor": "bottom",
+                                      "font": {"color": "#c62828", "size": 11}})
+    return {"data": data, "layout": layout}
 
 
 def map_zoom(lat: np.ndarray, lon: np.ndarray, width_px: float = 600, height_px: float = 440) -> float:
@@ -148,75 +175,64 @@ def track_map(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label: 
     mark : (lat, lon, text), optional
         A point to mark (a star) with its hover text.
     """
-    import plotly.graph_objects as go
-
     ok = np.isfinite(lat) & np.isfinite(lon)
     lat, lon, value = lat[ok], lon[ok], np.asarray(value, float)[ok]
-    fig = go.Figure()
-    fig.add_trace(go.Scattermap(lat=lat, lon=lon, mode="lines", line={"width": 2, "color": "#37474f"},
-                                name="track", hoverinfo="skip", showlegend=False))
-    fig.add_trace(go.Scattermap(
-        lat=lat, lon=lon, mode="markers", name=value_label, showlegend=False,
-        **_coloured_points(value, value_label, 6)))
+    la, lo = plain_values(lat, None), plain_values(lon, None)
+    data = [{"type": "scattermap", "lat": la, "lon": lo, "mode": "lines", "line": {"width": 2, "color": "#37474f"},
+             "name": "track", "hoverinfo": "skip", "showlegend": False},
+            {"type": "scattermap", "lat": la, "lon": lo, "mode": "markers", "name": value_label, "showlegend": False,
+             **_coloured_points(value, value_label, 6)}]
     if mark is not None:
-        fig.add_trace(go.Scattermap(lat=[mark[0]], lon=[mark[1]], mode="markers", name=mark[2],
-                                    marker={"size": 16, "color": "#c62828"}, hovertext=[mark[2]],
-                                    hoverinfo="text", showlegend=True))
-    fig.update_layout(
-        title={"text": title}, margin={"l": 10, "r": 10, "t": 60, "b": 40},
-        legend={"orientation": "h", "yanchor": "top", "y": -0.02, "x": 0.0},
-        map={"style": OSM_STYLE, "layers": [OSM_TILES], "center": {"lat": float(np.mean(lat)), "lon": float(np.mean(lon))},
-             "zoom": map_zoom(lat, lon)})
-    return fig
+        data.append({"type": "scattermap", "lat": [mark[0]], "lon": [mark[1]], "mode": "markers", "name": mark[2],
+                     "marker": {"size": 16, "color": "#c62828"}, "hovertext": [mark[2]], "hoverinfo": "text",
+                     "showlegend": True})
+    layout = {"title": {"text": title}, "margin": {"l": 10, "r": 10, "t": 60, "b": 40},
+              "legend": {"orientation": "h", "yanchor": "top", "y": -0.02, "x": 0.0},
+              "map": {"style": OSM_STYLE, "layers": [OSM_TILES],
+                      "center": {"lat": float(np.mean(lat)), "lon": float(np.mean(lon))}, "zoom": map_zoom(lat, lon)}}
+    return {"data": data, "layout": layout}
 
 
 
 def _coloured_points(value: np.ndarray, value_label: str, size: int) -> dict:
     """A track's points coloured by ``value``, with its colour bar and hover text (both maps)."""
-    return {"marker": {"size": size, "color": value, "colorscale": "Turbo", "showscale": True,
+    return {"marker": {"size": size, "color": plain_values(value), "colorscale": TURBO, "showscale": True,
                        "colorbar": {"title": {"text": value_label, "side": "right"}, "thickness": 14}},
             "hovertemplate": f"%{{marker.color:.0f}} {value_label}<extra></extra>"}
 
-def xy_figure(lines: Sequence[Line], title: str, x_title: str, y_title: str, note: str = ""):
-    """Points and lines against a common x axis; ``note`` is a line under the title."""
-    import plotly.graph_objects as go
-
-    fig = go.Figure()
-    for ln in lines:
-        kw = ({"marker": {"size": 4, "opacity": 0.45}} if ln.mode == "markers"
-              else {"line": {"width": 2, "dash": ln.dash}})
-        fig.add_trace(go.Scatter(x=ln.x, y=ln.y, mode=ln.mode, name=ln.name, **kw))
+def xy_figure(lines: Sequence[Line], title: str, x_title: str, y_title: str, note: str = "") -> dict:
+    """Points and lines against a common x axis; ``note`` is a line under the title (a plain
+    Plotly spec)."""
+    data = [{"type": "scatter", "x": plain_values(ln.x), "y": plain_values(ln.y), "mode": ln.mode, "name": ln.name,
+             **({"marker": {"size": 4, "opacity": 0.45}} if ln.mode == "markers"
+                else {"line": {"width": 2, "dash": ln.dash}})} for ln in lines]
     text = title + (f"<br><sup>{note}</sup>" if note else "")
-    fig.update_layout(title={"text": text}, xaxis_title=x_title, yaxis_title=y_title,
-                      margin=_MARGIN, legend=_LEGEND)
-    return fig
+    return {"data": data, "layout": {"title": {"text": text}, "xaxis": {"title": {"text": x_title}},
+                                     "yaxis": {"title": {"text": y_title}}, "margin": _MARGIN, "legend": _LEGEND}}
 
 
 def track_plain(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label: str, title: str,
                 mark: tuple[float, float, str] | None = None):
     """The track on plain axes, km east and north of its first point, equal aspect: drawn
     wherever the page opens (no tiles, no WebGL)."""
-    import plotly.graph_objects as go
-
     ok = np.isfinite(lat) & np.isfinite(lon)
     lat, lon, value = lat[ok], lon[ok], np.asarray(value, float)[ok]
+
     def xy(la, lo):
         east_north = local_metres(la, lo, (float(lat[0]), float(lon[0]))) / 1000.0
         return east_north[:, 0], east_north[:, 1]
 
     x, y = xy(lat, lon)
-    fig = go.Figure()
-    fig.add_trace(go.Scatter(x=x, y=y, mode="lines", line={"width": 1.5, "color": "#90a4ae"},
-                             hoverinfo="skip", showlegend=False))
-    fig.add_trace(go.Scatter(
-        x=x, y=y, mode="markers", showlegend=False, name=value_label,
-        **_coloured_points(value, value_label, 5)))
+    x, y = plain_values(x), plain_values(y)
+    data = [{"type": "scatter", "x": x, "y": y, "mode": "lines", "line": {"width": 1.5, "color": "#90a4ae"},
+             "hoverinfo": "skip", "showlegend": False},
+            {"type": "scatter", "x": x, "y": y, "mode": "markers", "showlegend": False, "name": value_label,
+             **_coloured_points(value, value_label, 5)}]
     if mark is not None:
         mx, my = xy(mark[0], mark[1])
-        fig.add_trace(go.Scatter(x=[mx], y=[my], mode="markers", name=mark[2],
-                                 marker={"size": 16, "color": "#c62828", "symbol": "star"}))
-    fig.update_layout(title={"text": title}, margin=_MARGIN, legend=_LEGEND,
-                      xaxis={"title": {"text": "east of the start, km"}},
-                      yaxis={"title": {"text": "north of the start, km"}, "scaleanchor": "x",
-                             "scaleratio": 1})
-    return fig
+        data.append({"type": "scatter", "x": plain_values(mx), "y": plain_values(my), "mode": "markers",
+                     "name": mark[2], "marker": {"size": 16, "color": "#c62828", "symbol": "star"}})
+    return {"data": data, "layout": {"title": {"text": title}, "margin": _MARGIN, "legend": _LEGEND,
+                                     "xaxis": {"title": {"text": "east of the start, km"}},
+                                     "yaxis": {"title": {"text": "north of the start, km"}, "scaleanchor": "x",
+                                               "scaleratio": 1}}}

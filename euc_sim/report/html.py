@@ -211,6 +211,7 @@ def _plotly_styles() -> tuple[str, ...]:
     return tuple(m[1] for m in _PLOTLY_CSS.findall(_plotly_js()))
 
 
+@functools.lru_cache(maxsize=16)          # Plotly's script (4.8 MB) is hashed once, not once a page
 def _sha256(text: str) -> str:
     import base64
     import hashlib

@@ -218,9 +218,10 @@ def _localise(rep: dict, an, domain: str, log, compare) -> list:
 
     name = log.name
     nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
-    traces = [residual_windows(an.sig_fit, nom, aug, domain, name, True)]
+    d_fit, d_test = an.designs
+    traces = [residual_windows(an.sig_fit, nom, aug, domain, name, True, design=d_fit)]
     if an.sig_test is not None:
-        traces.append(residual_windows(an.sig_test, nom, aug, domain, compare.name, False))
+        traces.append(residual_windows(an.sig_test, nom, aug, domain, compare.name, False, design=d_test))
     loc = traces[0].localisation
     rep["windows"] = loc["windows"]
     rep["localisation"] = {"residual": f"inertia-only balance residual of {name}, "

@@ -43,7 +43,7 @@ def test_lines_break_at_gaps_and_thinning_keeps_the_ends():
 def test_time_panels_share_one_x_axis():
     t = np.linspace(0, 10, 50)
     fig = time_panels(t, [Panel("Speed", "km/h", t), Panel("PWM", "%", t)], "title", 1.0, (5.0, "mark"))
-    lay = fig.to_plotly_json()["layout"]
+    lay = fig["layout"]
     assert lay["xaxis"].get("matches") == "x2" or lay["xaxis2"].get("matches") == "x"
     assert lay["yaxis"]["title"]["text"] == "Speed, km/h" and lay["xaxis2"]["title"]["text"].endswith(", min")
 

@@ -70,11 +70,11 @@ def test_a_long_pause_is_left_out_of_the_time_axis(tmp_path):
     rep = {"summary": {"pwm_max_pct": 50.0, "pwm_max_at_s": 1200.0 + 502 * 60.0 + 600.0},
            "clock": {"start": "2024-06-08T09:00:00", "pauses": [[1199.5, 1200.0 + 502 * 60.0]]}}
     fig = over_time(rep, _paused_series())
-    x = np.concatenate([np.asarray(tr.x, float) for tr in fig.data])
+    x = np.concatenate([np.array(tr["x"], float) for tr in fig["data"]])
     assert np.nanmax(x) - np.nanmin(x) < 45.0          # 40 min ridden, the pause a short gap
-    assert any("pause of 8 h 22 min left out" in (a.text or "") for a in fig.layout.annotations)
-    assert [s.type for s in fig.layout.shapes].count("rect") >= 1
-    ticks = list(fig.layout.xaxis.ticktext)
+    assert any("pause of 8 h 22 min left out" in (a.get("text") or "") for a in fig["layout"]["annotations"])
+    assert [s["type"] for s in fig["layout"]["shapes"]].count("rect") >= 1
+    ticks = list(fig["layout"]["xaxis"]["ticktext"])
     assert ticks[:2] == ["0", "5"] and "530" in ticks        # time into the ride, the pause counted
     browser.chromium_or_skip()
     page = H.write_page(tmp_path / "p", H.page("pause", "", [H.figure(fig, "over_time", 400)]))

@@ -170,9 +170,14 @@ def test_without_summary_the_tiles_say_not_available(drive):
 _UNIT = re.compile(r", [^,]+$|N·m")
 
 
+def _spec(fig) -> dict:
+    """A figure as its plain spec (the pages' builders write one; Plotly figures convert)."""
+    return fig if isinstance(fig, dict) else fig.to_plotly_json()
+
+
 def _titles(fig) -> list[str]:
     """Every cartesian axis title that has data on it, and the figure's title."""
-    lay = fig.to_plotly_json()["layout"]
+    lay = _spec(fig)["layout"]
     out = [lay.get("title", {}).get("text", "")]
     for key, ax in lay.items():
         if re.fullmatch(r"[xy]axis\d*", key) and ax.get("type") != "category":
@@ -191,9 +196,10 @@ def _unlabelled(figs: dict) -> list:
         if not titles[0]:
             bad.append((name, "no title"))
         bad += [(name, t) for t in titles[1:] if not _UNIT.search(t or "")]
-        for tr in fig.data:
-            cb = getattr(getattr(tr, "marker", None), "colorbar", None)
-            if getattr(tr.marker, "showscale", False) and not _UNIT.search(cb.title.text or ""):
+        for tr in _spec(fig)["data"]:
+            marker = tr.get("marker") or {}
+            text = ((marker.get("colorbar") or {}).get("title") or {}).get("text") or ""
+            if marker.get("showscale", False) and not _UNIT.search(text):
                 bad.append((name, "colour bar without unit"))
     return bad
 

@@ -142,7 +142,7 @@ def _bootstrap(design: Design, names: Sequence[str], fitted_P: np.ndarray, e_P: 
         nan = np.full(len(names), np.nan)
         return nan, nan, {}
     rng = np.random.default_rng(seed)
-    signs = wild_block_signs(n, L, n_boot, rng)[::L]            # one sign per block
+    signs = wild_block_signs(n, L, n_boot, rng)                 # one sign per block
     w = design.weight
     X, f, g = design.basis.Z[:, :-1], w * fitted_P, w * e_P
     starts = np.arange(0, n, L)
@@ -212,10 +212,10 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
     res = _solve(design, names)
     theta = res.x
     est = dict(zip(names, map(float, theta)))
-    e = design.residual(est)
     fitted_P = design.predict(est)
     # Unweighted residuals in P units are what gets resampled.
     e_P = design.P - fitted_P
+    e = design.weight * e_P                 # design.residual(est), its prediction not redone
     J = res.jac
     dof = max(n - len(names), 1)
     try:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from euc_sim.report.figures import Line, thin, with_breaks, xy_figure
+from euc_sim.report.figures import Line, plain_values, thin, with_breaks, xy_figure
 from euc_sim.rides.balance.design import CANDIDATES
 
 __all__ = ["balance_figure", "residuals_figure", "residuals_height", "pwm_figure", "MOST_POINTS",
@@ -55,19 +55,11 @@ def _lines(fig: dict, row: int, t: np.ndarray, curves, gap: float) -> None:
     """``curves``: (name, y, line style) over ``t`` (s), thinned, broken at gaps, on ``row``."""
     keep = thin(t.size, MOST_POINTS)
     cols = with_breaks(t[keep], gap, *(np.asarray(y, float)[keep] for _, y, _ in curves))
-    x = _json(cols[0])
+    x = plain_values(cols[0])
     for (name, _, style), y in zip(curves, cols[1:]):
-        fig["data"].append({"type": "scatter", "mode": "lines", "x": x, "y": _json(y), "name": name,
+        fig["data"].append({"type": "scatter", "mode": "lines", "x": x, "y": plain_values(y), "name": name,
                             "line": style, "xaxis": f"x{_axis(row)}", "yaxis": f"y{_axis(row)}",
                             "hovertemplate": "%{y:.0f}<extra>" + name.split(":")[0] + "</extra>"})
-
-
-def _json(a: np.ndarray) -> list:
-    """Values for a spec, 5 significant digits of the largest, NaN as null (a break in the line)."""
-    a = np.asarray(a, float)
-    top = np.nanmax(np.abs(a), initial=0.0, where=np.isfinite(a))
-    a = np.round(a, 4 - int(np.floor(np.log10(top)))) if top > 0 else a
-    return [v if v == v else None for v in np.where(np.isfinite(a), a, np.nan).tolist()]
 
 
 def _shade(fig: dict, row: int, a: float, b: float, label: str | None = None) -> None:

@@ -85,7 +85,8 @@ class ResidualTrace:
 def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
                      augmented: Mapping[str, float], domain: str = "power",
                      label: str | None = None, in_sample: bool = True,
-                     smooth: float = WINDOW_SMOOTH, min_len: float = WINDOW_MIN) -> ResidualTrace:
+                     smooth: float = WINDOW_SMOOTH, min_len: float = WINDOW_MIN,
+                     design=None) -> ResidualTrace:
     """The inertia-only and augmented residuals of a whole ride, and where they concentrate.
 
     Parameters
@@ -99,6 +100,8 @@ def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
         Whether the parameters were fitted on this ride (reported, not used).
     smooth, min_len : float
         s, passed to :func:`euc_sim.diagnosis.localise.localise`.
+    design : Design, optional
+        ``balance_design(sig, domain)`` when already built.
 
     Returns
     -------
@@ -110,7 +113,7 @@ def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
     """
     from euc_sim.diagnosis.localise import localise
 
-    d = balance_design(sig, domain)
+    d = design if design is not None else balance_design(sig, domain)
     r_nom = d.residual(nominal)
     r_aug = d.residual(augmented)
     v = d.v

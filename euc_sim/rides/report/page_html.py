@@ -21,7 +21,8 @@ from typing import Mapping
 import numpy as np
 
 from euc_sim.report import html as H
-from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
+from euc_sim.report.figures import (YL_OR_RD, Line, Panel, plain_values, thin, time_panels, track_map, track_plain,
+                                    xy_figure)
 from euc_sim.rides.drive.cutout import CONDITIONS, Limits, headroom_words
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.report.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
@@ -341,14 +342,13 @@ def over_time(rep: Mapping, series: RideSeries):
     fig = time_panels(x, panels, "The ride over time (zoom one panel: all follow)", gap / 60.0, mark)
     axis.decorate(fig, len(panels))
     if mark is not None and "pwm_pct" in c:        # the peak is one logged row: the grid's mean may not reach it
-        import plotly.graph_objects as go
-
         row = [k for k, _, _ in spec if k in c].index("pwm_pct") + 1
-        fig.add_trace(go.Scatter(x=[mark[0]], y=[_num(rep["summary"], "pwm_max_pct")], mode="markers",
-                                 name="max PWM, logged row", showlegend=False,
-                                 marker={"symbol": "star", "size": 11, "color": "#c62828"},
-                                 hovertemplate="%{y:.0f} % (the logged row; the line is the 10 Hz grid's mean)"
-                                               "<extra>max PWM</extra>"), row=row, col=1)
+        ax = "" if row == 1 else str(row)
+        fig["data"].append({"type": "scatter", "x": [mark[0]], "y": [_num(rep["summary"], "pwm_max_pct")],
+                            "mode": "markers", "name": "max PWM, logged row", "showlegend": False,
+                            "marker": {"symbol": "star", "size": 11, "color": "#c62828"},
+                            "hovertemplate": "%{y:.0f} % (the logged row; the line is the 10 Hz grid's mean)"
+                                             "<extra>max PWM</extra>", "xaxis": f"x{ax}", "yaxis": f"y{ax}"})
     return fig
 
 
@@ -455,8 +455,6 @@ CUTOUT_COLOURS = ("#1a237e", "#6a1b9a", "#00838f", "#212121")
 def cutout_figure(rep: Mapping, series: RideSeries | None):
     """Cut-out speed against battery charge for each condition, the wheel's limit, and the
     ride's own speeds at their charge coloured by the logged PWM; None without curves."""
-    import plotly.graph_objects as go
-
     cut = rep.get("cutout") or {}
     if not cut.get("curves"):
         return None
@@ -476,26 +474,29 @@ def cutout_figure(rep: Mapping, series: RideSeries | None):
             + (f"{rmse:.1f} points RMS" if rmse is not None else "not enough PWM rows") + "; grey: charges this ride did not reach")
     fig = xy_figure(lines, "How fast before the motor runs out of voltage (100 % PWM, a cut-out)",
                     "battery charge, %", "speed, km/h", note)
-    for ln, colour in zip(lines, CUTOUT_COLOURS):
-        fig.update_traces(selector={"name": ln.name}, line={"color": colour})
+    for tr, colour in zip(fig["data"], CUTOUT_COLOURS):
+        tr["line"]["color"] = colour
     c = (series.channels if series is not None else {})
     if "charge_pct" in c and "speed_kmh" in c:
         ok = np.flatnonzero(np.isfinite(c["charge_pct"]) & (c["speed_kmh"] > 2.0))
         ok = ok[thin(ok.size, MOST_POINTS)]
         pwm = c.get("pwm_pct")
-        marker = ({"size": 4, "color": pwm[ok], "colorscale": "YlOrRd", "cmin": 0, "cmax": 100, "showscale": True,
+        marker = ({"size": 4, "color": plain_values(pwm[ok]), "colorscale": YL_OR_RD, "cmin": 0, "cmax": 100, "showscale": True,
                    "colorbar": {"title": {"text": "logged PWM, %", "side": "right"}, "thickness": 12}}
                   if pwm is not None else {"size": 4, "color": "#607d8b"})
-        fig.add_trace(go.Scatter(x=c["charge_pct"][ok], y=c["speed_kmh"][ok], mode="markers", marker=marker,
-                                 name="this ride" + (" (colour: logged PWM)" if pwm is not None else "")))
+        fig["data"].append({"type": "scatter", "x": plain_values(c["charge_pct"][ok]),
+                            "y": plain_values(c["speed_kmh"][ok]), "mode": "markers", "marker": marker,
+                            "name": "this ride" + (" (colour: logged PWM)" if pwm is not None else "")})
         top.append(float(np.max(c["speed_kmh"][ok])) if ok.size else 0.0)
     span = cut.get("ride_charge_pct")
     if span:
         for x0, x1 in ((0.0, span[0]), (span[1], 100.0)):
             if x1 > x0:
-                fig.add_vrect(x0=x0, x1=x1, fillcolor="#9e9e9e", opacity=0.15, line_width=0, layer="below")
-    fig.update_xaxes(range=[0, 100])
-    fig.update_yaxes(range=[0, 1.3 * max(top)])
+                fig["layout"].setdefault("shapes", []).append(
+                    {"type": "rect", "xref": "x", "yref": "y domain", "x0": x0, "x1": x1, "y0": 0, "y1": 1,
+                     "fillcolor": "#9e9e9e", "opacity": 0.15, "line": {"width": 0}, "layer": "below"})
+    fig["layout"]["xaxis"]["range"] = [0, 100]
+    fig["layout"]["yaxis"]["range"] = [0, 1.3 * max(top)]
     return fig
 
 
@@ -537,9 +538,8 @@ def envelope_figure(rep: Mapping, series: RideSeries, fit):
         note = f"at your max PWM: {headroom_words(sp, Limits.of_ride(rep), _cut_at(rep, left[2]))}<br>" + note
     fig = xy_figure(lines, "How close to the limit: PWM against speed", "speed, km/h", "PWM, %", note)
     if left is not None and left[1] is not None:
-        fig.update_traces(selector={"name": lines[-1].name}, marker={"size": 14, "color": "#c62828",
-                                                                    "symbol": "star", "opacity": 1})
-    fig.update_yaxes(range=[0, 110])
+        fig["data"][-1]["marker"] = {"size": 14, "color": "#c62828", "symbol": "star", "opacity": 1}
+    fig["layout"]["yaxis"]["range"] = [0, 110]
     return fig
 
 
@@ -558,7 +558,7 @@ def figure_specs(rep: Mapping, series: RideSeries | None, fit=None) -> dict:
 def _figure_sections(rep: Mapping, figs: dict) -> list[str]:
     out = []
     if "over_time" in figs:
-        n = len(figs["over_time"].data)
+        n = len(figs["over_time"]["data"])
         out.append(H.section("The ride over time", H.figure(figs["over_time"], "over_time", 140 * n + 110)))
     if "map" in figs:
         out.append(H.section("On the map", H.columns(H.figure(figs["map"], "map", 460),

@@ -126,25 +126,35 @@ class TimeAxis:
             out = np.where(x >= float(self.x([a])[0]) * 60.0 + self.shown_s, out + (b - a - self.shown_s), out)
         return out / 60.0
 
-    def decorate(self, fig, rows: int) -> None:
+    def decorate(self, fig: dict, rows: int) -> None:
         """Shade each pause's gap with its length, and label the ticks and the hover in time
-        into the ride."""
+        into the ride (``fig``: :func:`euc_sim.report.figures.time_panels`' plain spec, ``rows`` panels)."""
         if not self.pauses:
             return
-        first = fig.data[0]         # the hover's first line says the time (its title can only say the axis's x)
-        first.customdata = self.minutes(np.asarray(first.x, float))
-        first.hovertemplate = "at %{customdata:.1f} min: " + (first.hovertemplate or "%{y}")
-        fig.update_xaxes(unifiedhovertitle={"text": "into the ride"})
+        from euc_sim.report.figures import plain_values
+
+        lay = fig["layout"]
+        first = fig["data"][0]      # the hover's first line says the time (its title can only say the axis's x)
+        first["customdata"] = plain_values(self.minutes(np.array(first["x"], float)))
+        first["hovertemplate"] = "at %{customdata:.1f} min: " + (first.get("hovertemplate") or "%{y}")
+        axes = [f"xaxis{'' if i == 1 else i}" for i in range(1, rows + 1)]
+        for ax in axes:
+            lay[ax]["unifiedhovertitle"] = {"text": "into the ride"}
         for a, b in self.pauses:
             x0 = float(self.x([a])[0])
-            fig.add_vrect(x0=x0, x1=x0 + self.shown_s / 60.0, fillcolor="#9e9e9e", opacity=0.35,
-                          line_width=0, row="all", col=1)
-            fig.add_annotation(x=x0 + self.shown_s / 120.0, y=1.0, yref="paper", yanchor="bottom",
-                               showarrow=False, text=f"pause of {hm(b - a)} left out",
-                               font={"size": 11, "color": "#455a64"})
+            for i in range(1, rows + 1):
+                k = "" if i == 1 else str(i)
+                lay["shapes"].append({"type": "rect", "x0": x0, "x1": x0 + self.shown_s / 60.0, "xref": f"x{k}",
+                                      "y0": 0, "y1": 1, "yref": f"y{k} domain", "fillcolor": "#9e9e9e",
+                                      "opacity": 0.35, "line": {"width": 0}})
+            lay["annotations"].append({"x": x0 + self.shown_s / 120.0, "y": 1.0, "yref": "paper",
+                                       "yanchor": "bottom", "showarrow": False,
+                                       "text": f"pause of {hm(b - a)} left out",
+                                       "font": {"size": 11, "color": "#455a64"}})
         ridden = sum(b - a for a, b in self.stretches) / 60.0
         step = next((m for m in (1, 2, 5, 10, 15, 20, 30, 60, 120) if ridden / m <= 10), 240)
         mins = [m for a, b in self.stretches for m in np.arange(np.ceil(a / 60.0 / step) * step, b / 60.0 + 1e-9, step)]
-        fig.update_xaxes(tickmode="array", tickvals=[float(v) for v in self.x(np.array(mins) * 60.0)],
-                         ticktext=[f"{m:.0f}" for m in mins])
-        fig.update_xaxes(title_text="time into the ride, min (grey: a pause left out)", row=rows, col=1)
+        for ax in axes:
+            lay[ax].update(tickmode="array", tickvals=[float(v) for v in self.x(np.array(mins) * 60.0)],
+                           ticktext=[f"{m:.0f}" for m in mins])
+        lay[axes[-1]]["title"] = {"text": "time into the ride, min (grey: a pause left out)"}

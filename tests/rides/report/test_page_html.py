@@ -121,10 +121,10 @@ def test_the_pwm_panel_shows_the_logged_peak_the_tile_gives():
                                                    "pwm_pct": np.full(t.size, 60.0)})
     rep = {"summary": {"pwm_max_pct": 75.0, "pwm_max_at_s": 300.0}}
     fig = over_time(rep, series)
-    peak = [tr for tr in fig.data if tr.name == "max PWM, logged row"]
-    assert len(peak) == 1 and list(peak[0].y) == [75.0] and list(peak[0].x) == [5.0]
-    assert peak[0].yaxis == fig.data[1].yaxis              # on the PWM panel, not the speed one
-    assert max(max(tr.y) for tr in fig.data if tr.name.startswith("PWM")) < 75.0
+    peak = [tr for tr in fig["data"] if tr["name"] == "max PWM, logged row"]
+    assert len(peak) == 1 and list(peak[0]["y"]) == [75.0] and list(peak[0]["x"]) == [5.0]
+    assert peak[0]["yaxis"] == fig["data"][1]["yaxis"]        # on the PWM panel, not the speed one
+    assert max(max(tr["y"]) for tr in fig["data"] if tr["name"].startswith("PWM")) < 75.0
 
 
 def test_no_battery_figures_where_the_logs_power_is_not_the_batterys():
