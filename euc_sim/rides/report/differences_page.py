@@ -127,7 +127,8 @@ def difference_lines(rep: Mapping, log_path=None) -> list[str]:
     from, the metadata recorded, :func:`recorded_metadata` of LOG at ``log_path``),
     then what the pair could have seen of the rest (each entry's ``resolvable``,
     the smallest difference the pair can name, else its interval's half-width),
-    and which of the rest the pair cannot resolve (an estimate below ``resolvable``).
+    which of the rest the pair cannot resolve (an estimate below ``resolvable``), and
+    each one not named whose rides' own fits (``independent``) differ, with the test's why.
     """
     diffs = [d for d in rep.get("differences") or [] if d.get("name") in SHOWN]
     if not diffs:
@@ -166,6 +167,13 @@ def difference_lines(rep: Mapping, log_path=None) -> list[str]:
             out.append(f"- {said_below}")
         else:
             out[0] += f" {said_below}"
+    for d in rest:                  # the rides' own fits differ where the paired test names nothing
+        ci = (d.get("independent") or {}).get("ci95")
+        if ci and (ci[0] > 0 or ci[1] < 0):
+            s = SHOWN[d["name"]]
+            out.append(f"- {s.label[0].upper() + s.label[1:]}: each ride's own fit differs by "
+                       f"{_signed(s, d['independent']['estimate'])}{s.unit} (95 % interval {_interval(s, ci)}), "
+                       f"but the paired test does not name it: {d.get('why') or 'not significant'}.")
     said = list(dict.fromkeys(meta[d["name"]] for d in diffs if d["name"] in meta))
     if said and not named:
         out += ["", "For comparison, the logs' metadata record "

@@ -8,6 +8,7 @@ is a typed result of its own module (:mod:`euc_sim.rides.report.summary`,
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 from euc_sim.errors import InputError
 from euc_sim.rides.source.ride import Ride
@@ -121,5 +122,5 @@ def compared_numbers(log, fitted, spec=None, rider_weight: float | None = None) 
     from euc_sim.rides.report.drivetrain_report import drivetrain_report
 
     view = drivetrain_report(log, fitted.spec, fitted=fitted)[0]
-    return {"recording": str(log.path), "total_mass": view["total_mass"], "unidentified": view["unidentified"],
+    return {"recording": Path(log.path).name, "total_mass": view["total_mass"], "unidentified": view["unidentified"],
             **rider_numbers(log, view, spec, rider_weight)}
