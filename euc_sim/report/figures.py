@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
+from plotly.colors import make_colorscale, sequential
 
 from euc_sim.geo import local_metres
 
@@ -31,13 +32,9 @@ OSM_STYLE = {"version": 8, "sources": {},
 OSM_TILES = {"sourcetype": "raster", "below": "traces", "sourceattribution": "© OpenStreetMap contributors",
              "source": ["https://tile.openstreetmap.org/{z}/{x}/{y}.png"]}
 
-#: Colour scales written out (plotly.js knows neither Turbo nor Python's YlOrRd by name).
-TURBO = [[k / 14, c] for k, c in enumerate(
-    ("#30123b", "#4145ab", "#4675ed", "#39a2fc", "#1bcfd4", "#24eca6", "#61fc6c", "#a4fc3b", "#d1e834",
-     "#f3c63a", "#fe9b2d", "#f36315", "#d93806", "#b11901", "#7a0402"))]
-YL_OR_RD = [[k / 8, f"rgb({c})"] for k, c in enumerate(
-    ("255,255,204", "255,237,160", "254,217,118", "254,178,76", "253,141,60", "252,78,42", "227,26,28",
-     "189,0,38", "128,0,38"))]
+#: Plotly's own Turbo and YlOrRd as explicit scales (plotly.js knows neither by name).
+TURBO = make_colorscale(sequential.Turbo)
+YL_OR_RD = make_colorscale(sequential.YlOrRd)
 
 #: Legends under the axes, never on the data nor on the title.
 _LEGEND = {"orientation": "h", "yanchor": "top", "y": -0.2, "xanchor": "left", "x": 0.0}
