@@ -349,7 +349,7 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
     """
     from euc_sim.rides.balance.analysis import check_data
     from euc_sim.rides.grids.signals import RideAssumptions
-    from euc_sim.rides.pipeline import MIN_BOOT, run_ride
+    from euc_sim.rides.pipeline import MIN_BOOT
     from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import wheel_spec
 
@@ -366,6 +366,22 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
     rep = run_ride(log, compare, report_dir=report_dir, domain=domain, n_boot=n_boot, seed=seed,
                    simulate=simulate, jobs=jobs, progress=progress, spec=spec)
     return RideAnalysis.from_dict(rep)
+
+
+def run_ride(log, compare=None, *, report_dir=None, **kwargs) -> dict:
+    """:func:`~euc_sim.rides.pipeline.ride_pipeline` on parsed rides, the report folder written when
+    given; returns the ride JSON (:func:`~euc_sim.rides.render.contract.ride_json`)."""
+    from euc_sim.rides.pipeline import ride_pipeline
+    from euc_sim.rides.render.contract import ride_json
+    from euc_sim.rides.render.report_files import write_report
+
+    res = ride_pipeline(log, compare, **kwargs)
+    files = None
+    if report_dir is not None:          # every file at the end: an interrupted run writes none
+        if kwargs.get("progress"):
+            kwargs["progress"](f"writing the report to {report_dir}")
+        files = write_report(res, Path(report_dir))
+    return ride_json(res, files)
 
 
 def render(recording, out, *, fps: float = 30.0, width: int = 640, height: int = 480,

@@ -17,9 +17,11 @@ import argparse
 import os
 from pathlib import Path
 
-from euc_sim.rides.pipeline import MIN_BOOT, run_ride  # noqa: F401  (the public API)
+from euc_sim.rides.pipeline import MIN_BOOT, ride_pipeline
+from euc_sim.rides.render.contract import ride_json
+from euc_sim.rides.render.report_files import write_report
 
-__all__ = ["add_ride_parser", "run_ride", "MIN_BOOT"]
+__all__ = ["add_ride_parser", "MIN_BOOT"]
 
 
 
@@ -193,16 +195,21 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     for r in (ride, other):         # each repair of the reader, one line, whatever --quiet
         for line in r.repairs if r else ():
             say(f"euc-sim ride: note: {r.name}: {line}")
-    rep = run_ride(ride, other, report_dir=args.report, domain=args.domain,
-                   assumptions=assumptions, n_boot=args.n_boot, seed=args.seed,
-                   simulate=simulate, jobs=args.workers,
-                   progress=None if args.quiet else _progress, spec=spec,
-                   calibrate_rider=args.calibrate_rider, rider_weight=rider_weight,
-                   compare_rider_weight=compare_rider_weight)
+    res = ride_pipeline(ride, other, domain=args.domain, assumptions=assumptions, n_boot=args.n_boot,
+                        seed=args.seed, simulate=simulate, jobs=args.workers,
+                        progress=None if args.quiet else _progress, spec=spec,
+                        calibrate_rider=args.calibrate_rider, rider_weight=rider_weight,
+                        compare_rider_weight=compare_rider_weight)
+    files = where = None
+    if args.report:             # every file at the end: an interrupted run writes none
+        if not args.quiet:
+            _progress(f"writing the report to {args.report}")
+        files = write_report(res, Path(args.report))
+        if args.json:           # where the named files are, from the JSON's folder
+            where = Path(os.path.relpath(Path(args.report).resolve(),
+                                         Path(args.json).resolve().parent)).as_posix()
+    rep = ride_json(res, files, where)
     if args.json:
-        if args.report:         # where the named files are, from the JSON's folder
-            rep["report_dir"] = Path(os.path.relpath(Path(args.report).resolve(),
-                                                     Path(args.json).resolve().parent)).as_posix()
         write_json(args.json, rep)
     _print_summary(rep)
     if rep["report"]:

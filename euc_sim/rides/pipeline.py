@@ -7,20 +7,21 @@ held-out selection (:mod:`euc_sim.rides.balance.analysis`), the balance law
 (:mod:`euc_sim.rides.law.controller_report`), the one parameter set
 (:mod:`euc_sim.rides.balance.parameters`), the residual's localisation, the simulated
 rider (:mod:`euc_sim.rides.sim.sim_steps`) and the verdict.  It returns a
-:class:`RideResult`; the JSON (:attr:`RideResult.report`) and the page
-(:func:`write_report`) are renderers at the edge.  ``euc-sim ride``
-(:mod:`euc_sim.cli.ride`) parses its arguments and calls it; scripts call it too.
+:class:`~euc_sim.rides.result.RideResult` and writes no file: the JSON
+(:func:`euc_sim.rides.render.contract.ride_json`) and the report folder
+(:func:`euc_sim.rides.render.report_files.write_report`) are renderers at the edge.
+``euc-sim ride`` (:mod:`euc_sim.cli.ride`) parses its arguments and calls it, then them.
 """
 
 from __future__ import annotations
 
-import os
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
-__all__ = ["RideResult", "BalanceOnMass", "balance_on_mass", "ride_pipeline", "run_ride", "write_report",
-           "MIN_BOOT"]
+from euc_sim.rides.result import ComparedRide, MassDrivetrain, RideResult, RiderNumbers
+
+__all__ = ["RideResult", "BalanceOnMass", "balance_on_mass", "ride_pipeline", "MIN_BOOT"]
 
 #: Fewest bootstrap replicates the command accepts: effects are accepted on their
 #: 95 % interval, and without replicates there is none (nothing would be accepted).
@@ -29,42 +30,6 @@ MIN_BOOT = 10
 REPLAY_NOT_ASKED = ("not run: a step you ask for (the MuJoCo rider along this ride's speed, one run per "
                     "modelled step, minutes): euc-sim ride LOG.csv --simulate (with --compare it runs "
                     "unless --no-simulate)")
-
-
-@dataclass
-class RideResult:
-    """What :func:`ride_pipeline` computed.
-
-    Attributes
-    ----------
-    report : dict
-        CONTRACT's ``euc-sim ride`` object (``parameters``, ``effects``, ``total_mass``,
-        ``drivetrain``, ``controller``, ``simulation``, ``verdict``, ...).
-    analysis : RideAnalysis
-        The balance fit (:mod:`euc_sim.rides.balance.analysis`).
-    traces : list
-        Residual traces of the fit and test rides (:func:`euc_sim.rides.report.page.residual_windows`).
-    simulation : object or None
-        :func:`euc_sim.rides.sim.simulate.simulate_ride`'s result.
-    physics : tuple
-        ``(report, fit, test)`` of :func:`euc_sim.rides.report.drivetrain_report.drivetrain_report`.
-    """
-
-    report: dict
-    analysis: object
-    traces: list
-    simulation: object
-    physics: tuple
-
-
-def run_ride(log, compare=None, *, report_dir=None, **kwargs) -> dict:
-    """:func:`ride_pipeline`, the report folder written when given; returns the JSON object."""
-    res = ride_pipeline(log, compare, **kwargs)
-    if report_dir is not None:          # every file at the end: an interrupted run writes none
-        if kwargs.get("progress"):
-            kwargs["progress"](f"writing the report to {report_dir}")
-        write_report(res, Path(report_dir))
-    return res.report
 
 
 @dataclass(frozen=True)
@@ -129,7 +94,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
                   n_boot: int = 200, seed: int = 0, simulate: bool = False, jobs: int = 1,
                   progress=None, spec=None, calibrate_rider: bool = False,
                   rider_weight: float | None = None, compare_rider_weight: float | None = None) -> RideResult:
-    """Everything ``euc-sim ride`` computes, in order, on logs parsed once.
+    """Everything ``euc-sim ride`` computes, in order, on logs parsed once; no file is written.
 
     Parameters
     ----------
@@ -157,96 +122,86 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     Returns
     -------
     RideResult
-        ``report`` is CONTRACT's ``euc-sim ride`` object plus ``windows``,
-        ``localisation``, ``residual_traces``, ``simulation``, ``report`` (None
-        until :func:`write_report`).
     """
-    from euc_sim.rides.report.rider_view import rider_numbers
+    from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
+    from euc_sim.rides.balance.verdict import verdict_of
+    from euc_sim.rides.law.controller_report import controller_json, torque_constant
+    from euc_sim.rides.report.drivetrain_report import cutout_of
 
     say = progress or (lambda s: None)
     # each grid is built once and kept on its ride; bad logs fail in the mass fit, before any output
     fitted = balance_on_mass(log, compare, spec, assumptions=assumptions, domain=domain,
                              n_boot=n_boot, seed=seed, progress=say)
-    physics, an = fitted.physics, fitted.analysis
-    rep = _one_parameter_set(an, physics, log, compare, n_boot, seed, say)
+    (view, fit, test), an = fitted.physics, fitted.analysis
+    mass = MassDrivetrain(fit, test, view)
+    say("reading the wheel's balance law")
+    law = controller_json(log, compare, torque_constant(view.get("drivetrain")), n_boot, seed)
+    parameters = tuple(parameter_list(an.cross, view["total_mass"], view["drivetrain"], law))
+    drivetrain = drivetrain_view(view["drivetrain"], parameters)
+    differences = None
     if compare is not None:     # what differs between the two rides (rides.compare.differences), each
         # ride's terms from its own energy-balance fit, so both sides are read alike
-        from euc_sim.rides.compare.differences_report import differences_json
+        from euc_sim.rides.compare.differences_report import pair_differences
 
-        rep.update(differences_json(physics[0], physics[1], physics[2], log, compare))
+        differences = pair_differences(view, fit, test, log, compare)
     say("locating the residual")
-    traces = _localise(rep, an, domain, log, compare)
-    sim = _simulation(rep, an, log, compare, seed, jobs, progress, simulate, calibrate_rider)
-    rep["simulation"] = None if sim is None else sim.as_json()
-    rep.setdefault("simulation_why", None)
-    from euc_sim.rides.balance.verdict import ride_verdict
-
-    rep["verdict"] = ride_verdict(rep)
+    traces = _localise(an, domain, log, compare)
+    notes = tuple(an.report["notes"]) + (_mass_grid_note(fit),)
+    sim, why = _simulation(an, log, compare, seed, jobs, progress, simulate, calibrate_rider,
+                           law, parameters, drivetrain, view)
+    if sim is None and why != REPLAY_NOT_ASKED:
+        notes += (why,)
+    verdict = verdict_of(an.cross, view["unidentified"].get("battery_power"), an.report["error_unit"])
     # the rider's numbers (summary, mass check, battery health), from the log as parsed here
-    rep.update(rider_numbers(log, rep, spec, rider_weight))
+    rider = _rider_numbers(log, view["total_mass"], drivetrain, spec, rider_weight)
+    compared = None
     if compare is not None:         # the compared ride's own numbers, beside LOG's on the page
-        from euc_sim.rides.report.rider_view import compared_numbers
+        from euc_sim.rides.report.drivetrain_report import drivetrain_report
 
-        rep["compared"] = compared_numbers(compare, physics[2], spec, compare_rider_weight)
-    from euc_sim.rides.report.drivetrain_report import cutout_of
-
-    rep["cutout"] = cutout_of(physics[1], log, rep["summary"]["limits"]).as_json()
-    rep["report"] = None
-    return RideResult(report=rep, analysis=an, traces=traces, simulation=sim, physics=physics)
-
-
-def _one_parameter_set(an, physics, log, compare, n_boot: int, seed: int, say) -> dict:
-    """The balance report joined with the mass, drivetrain and law, and the one ``parameters`` list."""
-    from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
-    from euc_sim.rides.law.controller_report import controller_json, torque_constant
-
-    rep = dict(an.report)
-    rep.update(physics[0])
-    rep["notes"] = list(rep["notes"]) + [_mass_grid_note(physics[1])]
-    say("reading the wheel's balance law")
-    rep["controller"] = controller_json(log, compare, torque_constant(rep.get("drivetrain")),
-                                        n_boot, seed)
-    rep["parameters"] = parameter_list(an.cross, rep["total_mass"], rep["drivetrain"],
-                                       rep["controller"])
-    rep["drivetrain"] = drivetrain_view(rep["drivetrain"], rep["parameters"])
-    return rep
+        other = drivetrain_report(compare, test.spec, fitted=test)[0]
+        compared = ComparedRide(Path(compare.path).name, test, other,
+                                _rider_numbers(compare, other["total_mass"], other["drivetrain"], spec,
+                                               compare_rider_weight))
+    cutout = cutout_of(fit, log, rider.summary.limits)
+    return RideResult(balance=an, notes=notes, mass=mass, law=law, parameters=parameters,
+                      drivetrain=drivetrain, differences=differences, traces=tuple(traces),
+                      simulation=sim, simulation_why=why, verdict=verdict, rider=rider,
+                      compared=compared, cutout=cutout)
 
 
-def _localise(rep: dict, an, domain: str, log, compare) -> list:
-    """Where the inertia-only residual concentrates: ``windows``, ``localisation``, traces."""
+def _rider_numbers(log, total_mass, drivetrain, spec, rider_weight) -> RiderNumbers:
+    """The summary, mass check, battery and clock of one ride (:mod:`euc_sim.rides.report.rider_view`)."""
+    from euc_sim.rides.report.rider_view import rider_numbers
+
+    return RiderNumbers(*rider_numbers(log, total_mass, drivetrain, spec, rider_weight))
+
+
+def _localise(an, domain: str, log, compare) -> list:
+    """Where the inertia-only residual concentrates: the residual traces of the fit (and test) ride."""
     from euc_sim.rides.report.page import residual_windows
 
-    name = log.name
     nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
     d_fit, d_test = an.designs
-    traces = [residual_windows(an.sig_fit, nom, aug, domain, name, True, design=d_fit)]
+    traces = [residual_windows(an.sig_fit, nom, aug, domain, log.name, True, design=d_fit)]
     if an.sig_test is not None:
         traces.append(residual_windows(an.sig_test, nom, aug, domain, compare.name, False, design=d_test))
-    loc = traces[0].localisation
-    rep["windows"] = loc["windows"]
-    rep["localisation"] = {"residual": f"inertia-only balance residual of {name}, "
-                                       f"{rep['error_unit']}",
-                           "share": loc["share"], "correlations": loc["correlations"]}
-    rep["residual_traces"] = [tr.as_json() for tr in traces]
     return traces
 
 
-def _simulation(rep: dict, an, log, compare, seed: int, jobs: int, progress, simulate: bool,
-                calibrate_rider: bool):
-    """The simulated rider, or None (not asked, or the ride cannot be simulated: ``simulation_why``
-    says which, and a note why it cannot)."""
+def _simulation(an, log, compare, seed: int, jobs: int, progress, simulate: bool,
+                calibrate_rider: bool, law, parameters, drivetrain, view):
+    """The simulated rider and None, or None and why there is none (not asked, or the ride cannot
+    be simulated: a warning then says why)."""
     if not simulate:
-        rep["simulation_why"] = REPLAY_NOT_ASKED
-        return None
+        return None, REPLAY_NOT_ASKED
     from euc_sim.rides.sim.simulate import simulation_obstacle
 
     why = simulation_obstacle(an.sig_test if an.sig_test is not None else an.sig_fit)
     if why is not None:
         warnings.warn(why, stacklevel=3)
-        rep["notes"] = list(rep["notes"]) + [why]
-        rep["simulation_why"] = why
-        return None
-    return _simulate(an, log, compare, seed, jobs, progress, rep, calibrate_rider)
+        return None, why
+    return _simulate(an, log, compare, seed, jobs, progress, calibrate_rider, law, parameters,
+                     drivetrain, view), None
 
 
 def _mass_grid_note(fit) -> str:
@@ -267,9 +222,10 @@ def _rider_steps():
     return RIDER_STEPS
 
 
-def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict, calibrate_rider: bool = False):
+def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider: bool, law, parameters,
+              drivetrain, view):
     """The closed-loop rider along the tested ride, once per modelled step (:mod:`euc_sim.rides.sim.sim_steps`),
-    built from the fit ride's results in ``rep``; the second half scored without compare."""
+    built from the fit ride's results; the second half scored without compare."""
     from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
     from euc_sim.rides.sim.simulate import ride_params, simulate_ride
 
@@ -280,97 +236,16 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, rep: dict, calib
         t = sig.frame["t"].to_numpy()
         scored = t >= an.cross.test_design.t.min()      # the test half's first row
     cr = an.cross
+    fitted = {"controller": law, "parameters": list(parameters), "drivetrain": drivetrain,
+              "envelope": view["envelope"]}
     steps = build_steps(StepInputs(ride_params(sig.assumptions), cr.nominal.estimate,
-                                   cr.augmented.estimate, cr.accepted, rep, log),
+                                   cr.augmented.estimate, cr.accepted, fitted, log),
                         _rider_steps() if calibrate_rider else STEP_BUILDERS)
     ran = [s.name for s in steps if s.why is None]
     # the steps' battery-power errors are compared with the balance fit's held-out error (in W)
-    balance = rep.get("heldout_error_augmented") if rep.get("error_unit") == "W" else None
+    balance = cr.heldout_augmented if an.report["error_unit"] == "W" else None
     if progress is not None:
         progress(f"simulating the rider along {ride_path.name}: steps {', '.join(ran)}, "
                  f"{min(jobs, len(ran))} thread(s)")
     return simulate_ride(sig, steps, ride_path, scored=scored, label=ride_path.name, seed=seed,
-                         workers=jobs, channels=log_channels(rep, balance), progress=progress)
-
-
-def write_report(res: RideResult, out: Path) -> None:
-    """Figures, tables, ``index.html`` and ``index.md`` into ``out``; ``res.report`` gets their file names.
-
-    Everything is first written into a hidden folder inside ``out`` and moved into
-    place (``index.md`` last) only once all of it exists: a failure or an
-    interruption half-way leaves ``out`` as it was.
-    """
-    import shutil
-    import tempfile
-
-    out.mkdir(parents=True, exist_ok=True)
-    stage = Path(tempfile.mkdtemp(prefix=".ride-report-", dir=out))
-    try:
-        _write_report_files(res.report, res.analysis, res.traces, res.simulation, res.physics, stage)
-        names = sorted((p.name for p in stage.iterdir()), key=lambda n: n in ("index.md", "index.html"))
-        for name in names:
-            os.replace(stage / name, out / name)
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
-
-
-def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
-    from euc_sim.io import atomic_write
-    from euc_sim.rides.balance.analysis import write_balance
-    from euc_sim.rides.report.page import write_page
-
-    rep["table"] = write_balance(an, out).name
-    figures = _drivetrain_figures(physics, out)        # PNG files
-    if sim is not None:
-        from euc_sim.rides.sim.simulate import plot_ride_simulation
-
-        figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
-        atomic_write(out / "ride_simulation.csv",
-                     lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
-        rep["simulation"]["table"] = "ride_simulation.csv"
-        rep["simulation"]["figure"] = figures["simulation"]
-    rep["figures"] = dict(figures)
-    from euc_sim.rides.report.page_html import RideSeries, first_screen, key_figure_lines, write_ride_html
-
-    rep["report_markdown"] = write_page(rep, out, figures, getattr(physics[1], "path", None),
-                                        key_figure_lines(rep), first_screen(rep)).name
-
-    # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
-    series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)
-    plots = _fit_plots(an, traces, physics)
-    rep["report"] = write_ride_html(rep, out, series, physics[1], {**figures, **{k: k for k in plots}},
-                                    plots).name
-
-
-def _fit_plots(an, traces, physics) -> dict:
-    """The fits' figures the page draws (Plotly), by key (the markdown's figure key, the element id)."""
-    from euc_sim.rides.report import fit_figures as F
-
-    plots = {"cross_ride": (F.balance_figure(an.cross, an.sig_fit, an.sig_test), F.BALANCE_HEIGHT),
-             "residuals": (F.residuals_figure(traces), F.residuals_height(len(traces)))}
-    _, fit, test = physics
-    if fit.drivetrain.pwm_coef is not None:
-        target = test if test is not None and "pwm" in test.sig.extra else fit
-        plots["pwm"] = (F.pwm_figure(target, fit.drivetrain.pwm_coef, f"PWM of {Path(target.path).name}, "
-                                     f"model fitted on {Path(fit.path).name}"), F.PWM_HEIGHT)
-    return plots
-
-
-
-
-def _drivetrain_figures(physics, out: Path) -> dict:
-    """The envelope and grade figures of the ride page (PNG), by key -> file name."""
-    from euc_sim.rides.drive.grade import plot_grade
-    from euc_sim.rides.report.drivetrain_report import plot_envelope
-
-    rep, fit, _ = physics
-    figs = {}
-    if fit.grade is not None:
-        figs["grade"] = plot_grade(fit.grade, out / "ride_grade.png",
-                                   title=f"{Path(fit.path).name}: the altitude the battery-power "
-                                         f"balance implies, against GPS altitude").name
-    if "speed" in rep["envelope"]:
-        figs["envelope"] = plot_envelope(rep["envelope"], out / "ride_envelope.png").name
-    return figs
-
-
+                         workers=jobs, channels=log_channels(fitted, balance), progress=progress)

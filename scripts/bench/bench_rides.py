@@ -40,7 +40,7 @@ def bench_ride_mass() -> dict:
     t_mass = timed(lambda: analyse(read_log(log, emit_warnings=False), spec), repeat=1) - t_read
 
     def whole():
-        from euc_sim.rides.pipeline import run_ride
+        from euc_sim.api.functions import run_ride
         return run_ride(read_log(log, emit_warnings=False), simulate=False, spec=spec)
 
     cpu0 = time.process_time()
@@ -139,7 +139,7 @@ def bench_ride_page(fit=None, held=None, spec_path=None, workers: int = 2) -> di
     from pathlib import Path
 
     from euc_sim.rides.grids.signals import ride_signals
-    from euc_sim.rides.pipeline import run_ride
+    from euc_sim.api.functions import run_ride
     from euc_sim.rides.sim.sim_steps import StepInputs, build_steps, nominal_step
     from euc_sim.rides.sim.simulate import ride_params, simulate_ride
     from euc_sim.rides.source.logs import read_log
@@ -219,7 +219,7 @@ def bench_ride_fast() -> dict:
 
     import pandas as pd
 
-    from euc_sim.rides.pipeline import run_ride
+    from euc_sim.api.functions import run_ride
     from euc_sim.rides.source.logs import read_log
 
     root = _shared_root()

@@ -168,7 +168,7 @@ def test_a_repair_is_one_line_on_stderr_before_the_work(tmp_path, capsys, monkey
 
     def stop(*args, **kwargs):
         raise InputError("stopped before the work")
-    monkeypatch.setattr(ride, "run_ride", stop)
+    monkeypatch.setattr(ride, "ride_pipeline", stop)
     log = _wheellog(tmp_path / "rep.csv", n=600, repeat=2)
     code, err = _err(["ride", log, "--no-simulate", "--quiet"], capsys)
     assert code == 2 and err == [NOTE.format("euc-sim ride"), "euc-sim ride: error: stopped before the work"], err

@@ -297,7 +297,7 @@ def test_real_rides_done_criterion(tmp_path, capsys):
 def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, monkeypatch, tmp_path):
     """The ride JSON's simulation.falls (CONTRACT) and a common scored span after a fall."""
     import euc_sim.rides.sim.simulate as simulate_mod
-    from euc_sim.rides.pipeline import run_ride
+    from euc_sim.api.functions import run_ride
     from euc_sim.rides.sim.tracking import ProfileRun
 
     real = simulate_mod.simulate_profile

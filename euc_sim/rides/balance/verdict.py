@@ -3,14 +3,16 @@
 A ride page must never contradict itself: an effect the balance fit
 accepts but whose estimate lies outside its plausible range is a *candidate*,
 not the verdict, and a log whose V·I is not battery power gets no
-battery-power verdict at all.  :func:`ride_verdict` turns the ``euc-sim ride``
-report into ``{"text", "named", "candidates", "battery_power"}``; the page
-and the console print it as it is.
+battery-power verdict at all.  :func:`ride_verdict` turns the balance fit's accepted
+effects into a :class:`Verdict`; the page and the console print it as it is.
 """
 
 from __future__ import annotations
 
-__all__ = ["ride_verdict", "unit_label", "on_the_edge", "NOT_EXPLAINED"]
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+__all__ = ["Effect", "Verdict", "ride_verdict", "verdict_of", "unit_label", "on_the_edge", "NOT_EXPLAINED"]
 
 #: The verdict when every accepted effect is implausible.
 NOT_EXPLAINED = "the mismatch is not explained by a plausible effect"
@@ -21,56 +23,124 @@ def unit_label(unit: str) -> str:
     return "dimensionless" if unit in ("1", "", None) else str(unit)
 
 
-def ride_verdict(report: dict) -> dict:
-    """The verdict of an ``euc-sim ride`` report.
+@dataclass(frozen=True)
+class Effect:
+    """An accepted balance effect as the verdict reads it.
+
+    Attributes
+    ----------
+    name : str
+    estimate : float
+        In ``unit``.
+    unit : str
+    plausible : bool
+        Whether ``estimate`` lies in its plausible range.
+    plausible_range : sequence of float or None
+        (lo, hi), in ``unit``.
+    on_bound : bool
+        On an edge of its plausible range (the ride asks for more).
+    """
+
+    name: str
+    estimate: float
+    unit: str
+    plausible: bool = True
+    plausible_range: tuple | None = None
+    on_bound: bool = False
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The ride's one-line verdict.
+
+    Attributes
+    ----------
+    battery_power : bool
+        Whether the log's V·I is battery power.
+    named : tuple of str
+        The accepted effects whose estimates are plausible, in the order kept.
+    candidates : tuple of str
+        Accepted but implausible: listed, never named.
+    text : str
+        One sentence.
+    why : str or None
+        Why there is no battery-power verdict.
+    """
+
+    battery_power: bool
+    named: tuple[str, ...]
+    candidates: tuple[str, ...]
+    text: str
+    why: str | None = None
+
+
+def verdict_of(cross, not_power: str | None = None, error_unit: str = "W") -> Verdict:
+    """:func:`ride_verdict` of a :class:`~euc_sim.rides.balance.crossride.CrossRide`.
 
     Parameters
     ----------
-    report : dict
-        The ride JSON (``effects``, ``unidentified``, ``heldout_error_nominal``,
-        ``heldout_error_augmented``, ``ratio``, ``error_unit``).
+    cross : CrossRide
+    not_power : str, optional
+        Why the log's V·I is not battery power (the drivetrain's ``battery_power``), if it is not.
+    error_unit : {"W", "N·m"}
+    """
+    from euc_sim.rides.balance.fit import plausibility
+
+    phys = plausibility(cross.augmented)
+    effects = [Effect(c, phys[c]["estimate"], phys[c]["unit"], phys[c]["plausible"],
+                      phys[c]["plausible_range"], phys[c]["on_bound"]) for c in cross.accepted]
+    held = [c for c in cross.selected if c not in cross.accepted]
+    return ride_verdict(effects, cross.selection, held, error_unit, not_power)
+
+
+def ride_verdict(effects: Sequence[Effect], selection: Sequence[Mapping] = (), held: Sequence[str] = (),
+                 error_unit: str = "W", not_power: str | None = None) -> Verdict:
+    """The verdict of a ride's balance fit.
+
+    Parameters
+    ----------
+    effects : sequence of Effect
+        The accepted effects, in the order kept.
+    selection : sequence of mapping
+        The held-out selection's steps (``term``, ``heldout_rmse`` in ``error_unit``), the
+        inertia-only model first.
+    held : sequence of str
+        Terms the selection kept but left out of the balance (they help only beside an
+        implausible term).
+    error_unit : str
+    not_power : str, optional
+        Why the log's V·I is not battery power; then nothing is named.
 
     Returns
     -------
-    dict
-        ``battery_power`` (bool: whether the log's V·I is battery power),
-        ``named`` (the accepted effects whose estimates are plausible, strongest
-        first), ``candidates`` (accepted but implausible: listed, never named),
-        ``text`` (one sentence) and ``why`` (the reason, when there is no
-        battery-power verdict).
+    Verdict
     """
-    not_power = (report.get("unidentified") or {}).get("battery_power")
-    effects = report.get("effects") or []
-    named = [e["name"] for e in effects if e.get("plausible", True)]
-    cand = [e["name"] for e in effects if not e.get("plausible", True)]
-    shown = {e["name"]: _with_numbers(e) for e in effects}
-    out = {"battery_power": not_power is None, "named": named, "candidates": cand}
+    named = tuple(e.name for e in effects if e.plausible)
+    cand = tuple(e.name for e in effects if not e.plausible)
+    shown = {e.name: _with_numbers(e) for e in effects}
     if not_power is not None:
-        out["text"] = ("no battery-power verdict: this log's V·I is not battery power, so "
-                       "nothing is named from it")
-        out["why"] = not_power
-        out["named"], out["candidates"] = [], [e["name"] for e in effects]
-        return out
+        return Verdict(False, (), tuple(e.name for e in effects),
+                       "no battery-power verdict: this log's V·I is not battery power, so "
+                       "nothing is named from it", not_power)
     if named:
         text = "the inertia-only model leaves out " + ", ".join(named)
-        edge = [e["name"] for e in effects if e.get("plausible", True) and e.get("on_bound")]
+        edge = [e.name for e in effects if e.plausible and e.on_bound]
         if edge:
             text += "; " + on_the_edge(edge)
         if cand:
             text += (f"; also accepted but implausible (candidates, not named): "
                      f"{'; '.join(shown[c] for c in cand)}")
-        held = [c for c in report.get("selected_not_accepted") or [] if c not in named]
-        if held:
-            text += (f"; {', '.join(held)} would lower the held-out error further only in a "
+        left = [c for c in held if c not in named]
+        if left:
+            text += (f"; {', '.join(left)} would lower the held-out error further only in a "
                      f"model with a term outside its plausible range: not named")
     elif cand:
         text = f"{NOT_EXPLAINED} (candidates, each implausible: {'; '.join(shown[c] for c in cand)})"
-    elif report.get("selected_not_accepted"):
-        text = NOT_EXPLAINED + _why_nothing(report)
+    elif held:
+        text = NOT_EXPLAINED + _why_nothing(selection, held, error_unit)
     else:
-        text = "nothing is missing that this ride can reveal" + _why_nothing(report)
-    out["text"] = text
-    return out
+        text = "nothing is missing that this ride can reveal" + _why_nothing(selection, held, error_unit)
+    return Verdict(True, named, cand, text)
 
 
 def on_the_edge(names: list[str]) -> str:
@@ -83,23 +153,20 @@ def on_the_edge(names: list[str]) -> str:
             f"rest is not explained")
 
 
-def _why_nothing(report: dict) -> str:
+def _why_nothing(selection, held, unit: str) -> str:
     """Why no effect was accepted, with the numbers: the held-out selection kept none."""
-    sel = report.get("selection") or []
-    if not sel:
+    if not selection:
         return ""
-    u = report.get("error_unit", "W")
-    held = report.get("selected_not_accepted") or []
     if held:
         return (f": {', '.join(held)} would lower the held-out error only in a model with a "
                 f"term outside its plausible range, so nothing is named")
     return (f": no candidate lowers the blocked held-out error of the inertia-only balance "
-            f"({sel[0]['heldout_rmse']:.0f} {u}) enough to be kept")
+            f"({selection[0]['heldout_rmse']:.0f} {unit}) enough to be kept")
 
 
-def _with_numbers(e: dict) -> str:
-    """``name estimate unit (plausible lo–hi)``: an effect entry in words."""
-    u = unit_label(e.get("unit"))
-    rng = e.get("plausible_range")
-    out = f"{e['name']} {e['estimate']:.3g} {u}"
+def _with_numbers(e: Effect) -> str:
+    """``name estimate unit (plausible lo–hi)``: an effect in words."""
+    u = unit_label(e.unit)
+    rng = e.plausible_range
+    out = f"{e.name} {e.estimate:.3g} {u}"
     return out + (f" (plausible {rng[0]:.3g}–{rng[1]:.3g})" if rng else "")

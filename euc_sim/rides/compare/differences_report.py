@@ -23,7 +23,8 @@ from euc_sim.rides.drive.mass import mass_regressors
 from euc_sim.rides.source.channels import current_from_phase
 from euc_sim.simulation.effects import RECORDS
 
-__all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "differences_json"]
+__all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "differences_json",
+           "pair_differences"]
 
 #: Speed above which rows enter the held-out tests, m/s.
 V_MIN = 1.0
@@ -350,7 +351,13 @@ def pair_aliases(fit, test, coef: dict) -> tuple[dict, dict]:
 
 def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int = 200,
                      seed: int = 0, channels=()) -> dict:
-    """The ``differences`` list and its companions for the ride JSON.
+    """The ``differences`` list and its companions for the ride JSON: :func:`pair_differences`'s."""
+    return pair_differences(rep, fit, test, log_path, compare_path, n_boot, seed, channels).to_json()
+
+
+def pair_differences(rep: dict, fit, test, log_path, compare_path, n_boot: int = 200,
+                     seed: int = 0, channels=()):
+    """What differs between two rides of one wheel.
 
     Parameters
     ----------
@@ -365,6 +372,10 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
     channels : sequence of str
         The channels beside battery power (:func:`pair_tests`; none by default,
         :data:`~euc_sim.rides.compare.channels.CHANNELS` the measured set).
+
+    Returns
+    -------
+    Differences
     """
     from euc_sim.rides.report.drivetrain_report import drivetrain_report
 
@@ -379,5 +390,4 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
     for n, entry in tested.items():     # within a pair fit, its own estimates' correlations
         if "aliases" in entry and n != DELAY:
             aliases[n] = entry["aliases"]
-    res = ride_differences(log_params, other_params, tested, aliases, cannot, name, rep)
-    return res.to_json()
+    return ride_differences(log_params, other_params, tested, aliases, cannot, name, rep)

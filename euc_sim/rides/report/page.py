@@ -204,9 +204,7 @@ def _verdict_lines(r: dict) -> list[str]:
           f"{' (first half)' if not r.get('compare') else ''}, tested on **{test}**. "
           f"Model: the wheel's longitudinal balance in the {r['domain']} domain "
           f"({r['error_measure']}).", ""]
-    from euc_sim.rides.balance.verdict import ride_verdict
-
-    v = r.get("verdict") or ride_verdict(r)
+    v = r["verdict"]
     md += ["## Verdict", "", f"- **{v['text'][0].upper() + v['text'][1:]}.**"]
     if v["candidates"] and v["battery_power"]:
         md.append("- Candidates accepted by the held-out balance but outside their plausible "

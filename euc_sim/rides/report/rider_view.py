@@ -8,12 +8,11 @@ is a typed result of its own module (:mod:`euc_sim.rides.report.summary`,
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 from euc_sim.errors import InputError
 from euc_sim.rides.source.ride import Ride
 
-__all__ = ["rider_numbers", "compared_numbers", "check_rider_weight", "ride_clock", "zone_words"]
+__all__ = ["rider_numbers", "check_rider_weight", "ride_clock", "zone_words"]
 
 
 #: A rider's declared weight with gear, kg (``--rider-weight``).
@@ -67,16 +66,15 @@ def ride_clock(log: Ride) -> dict:
             "pauses": [[float(t[k]), float(t[k + 1])] for k in i]}
 
 
-def rider_numbers(log: Ride, rep: dict, spec=None, rider_weight: float | None = None) -> dict:
-    """``summary``, ``mass_check`` and ``battery`` of the ride JSON.
+def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: float | None = None) -> tuple:
+    """The summary, the mass check, the battery's health and the clock of one ride.
 
     Parameters
     ----------
     log : Ride
         The ride.
-    rep : dict
-        The ride JSON built so far: its ``total_mass`` and ``drivetrain`` are read,
-        never recomputed.
+    total_mass, drivetrain : mapping
+        The ride's total mass and drivetrain terms, read, never recomputed.
     spec : WheelSpec, optional
         The wheel's weight (for the mass check) and pack (for the battery's verdict).
     rider_weight : float, optional
@@ -84,43 +82,14 @@ def rider_numbers(log: Ride, rep: dict, spec=None, rider_weight: float | None = 
 
     Returns
     -------
-    dict
-        ``{"summary": ..., "mass_check": ..., "battery": ...}`` (JSON-ready).
+    tuple
+        (RideSummary, MassCheck, BatteryHealth, clock dict).
     """
     from euc_sim.rides.drive.battery import battery_health_from_report, pack_spec
     from euc_sim.rides.report.summary import mass_check, ride_summary
 
     summary = ride_summary(log, getattr(spec, "top_speed", None))
     wheel_kg = getattr(spec, "wheel_mass", None) if spec is not None else None
-    mc = mass_check(rep.get("total_mass"), rider_weight, wheel_kg)
-    bh = battery_health_from_report(rep.get("drivetrain"), log, log.counters, pack_spec(spec)).to_json()
-    out = summary.to_json()
-    # CONTRACT's summary.battery: the verdict and what it is judged against (the whole entry: battery)
-    out["battery"] = {k: bh[k] for k in ("verdict", "expected_ohm", "expected_source")}
-    return {"summary": out, "mass_check": mc.to_json(), "battery": bh, "clock": ride_clock(log)}
-
-
-def compared_numbers(log, fitted, spec=None, rider_weight: float | None = None) -> dict:
-    """The compared ride's own numbers: the ride JSON's ``compared``.
-
-    Parameters
-    ----------
-    log : Ride
-        The compared ride, parsed.
-    fitted : RideDrivetrain
-        Its mass and drivetrain analysis (the pipeline's ``test``), read, not redone.
-    spec : WheelSpec, optional
-    rider_weight : float, optional
-        The declared weight of the compared ride's rider, kg.
-
-    Returns
-    -------
-    dict
-        ``recording``, ``total_mass``, ``unidentified``, and :func:`rider_numbers`'s
-        ``summary``, ``mass_check``, ``battery`` and ``clock``, as LOG's are in the ride JSON.
-    """
-    from euc_sim.rides.report.drivetrain_report import drivetrain_report
-
-    view = drivetrain_report(log, fitted.spec, fitted=fitted)[0]
-    return {"recording": Path(log.path).name, "total_mass": view["total_mass"], "unidentified": view["unidentified"],
-            **rider_numbers(log, view, spec, rider_weight)}
+    mc = mass_check(total_mass, rider_weight, wheel_kg)
+    bh = battery_health_from_report(drivetrain, log, log.counters, pack_spec(spec))
+    return summary, mc, bh, ride_clock(log)

@@ -219,7 +219,7 @@ needs_shared = pytest.mark.skipif(not SHARED.is_dir(), reason=f"{SHARED} absent 
 @needs_shared
 @pytest.mark.parametrize("fit, test", [(RIDE_A, RIDE_B), (RIDE_B, RIDE_A)], ids=["16to28", "28to16"])
 def test_real_rides_cross_prediction(tmp_path, fit, test):
-    from euc_sim.rides.pipeline import run_ride
+    from euc_sim.api.functions import run_ride
 
     # the whole pipeline: the balance fit takes the mass this log's energy balance finds
     rep = run_ride(read_log(fit, emit_warnings=False), read_log(test, emit_warnings=False), report_dir=tmp_path,

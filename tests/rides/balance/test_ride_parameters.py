@@ -19,7 +19,7 @@ from euc_sim.rides.balance.design import (BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE
 from euc_sim.rides.balance.fit import fit_balance, plausibility
 from euc_sim.rides.balance.normal import coefficients
 from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
-from euc_sim.rides.balance.verdict import ride_verdict
+from euc_sim.rides.balance.verdict import Effect, ride_verdict, verdict_of
 from euc_sim.rides.grids.signals import ride_signals
 from euc_sim.stats import forward_select, percentile_interval, time_blocks, wild_block_signs
 from euc_sim.rides.source.logs import read_log
@@ -135,8 +135,8 @@ def test_a_drag_beyond_its_plausible_range_is_accepted_on_its_edge_and_said(desi
     assert entry["on_bound"] and "ON THE EDGE" in entry["evidence"]
     params = {p["name"]: p for p in parameter_list(cr, {"estimate": None, "why": "x"}, {})}
     assert params["aerodynamic_drag"]["accepted"] and "edge" in params["aerodynamic_drag"]["why"]
-    verdict = ride_verdict({"effects": effect_entries(cr), "selection": list(cr.selection)})
-    assert "aerodynamic_drag" in verdict["named"] and re.search(r"\baerodynamic_drag\b[^;]* on the edge of (its|their) plausible", verdict["text"])
+    verdict = verdict_of(cr)
+    assert "aerodynamic_drag" in verdict.named and re.search(r"\baerodynamic_drag\b[^;]* on the edge of (its|their) plausible", verdict.text)
 
 
 def test_a_speed_squared_loss_would_impersonate_rolling_and_drag(tmp_path):
@@ -275,21 +275,19 @@ def test_a_term_fitted_to_absent_is_not_named(tmp_path):
 
 def test_the_verdict_says_what_is_held_out_and_why():
     """A named effect on its edge, and a candidate that helps only beside an implausible term."""
-    edge = {"name": "rolling_resistance", "estimate": 0.05, "unit": "1", "plausible": True,
-            "on_bound": True, "plausible_range": [0.005, 0.05]}
-    inside = {"name": "aerodynamic_drag", "estimate": 0.3, "unit": "kg/m", "plausible": True,
-              "on_bound": False, "plausible_range": [0.18, 0.6]}
-    rep = {"effects": [edge, inside], "selected_not_accepted": ["current_lag"],
-           "selection": [{"term": "inertia only", "heldout_rmse": 500.0}]}
-    v = ride_verdict(rep)
-    assert v["named"] == ["rolling_resistance", "aerodynamic_drag"]
-    assert "; rolling_resistance sits on the edge of its plausible range: the ride asks" in v["text"]
-    assert "0.05" not in v["text"] and "0.3" not in v["text"]      # the values are the table's, said once
-    three = ride_verdict(dict(rep, effects=[edge, dict(inside, on_bound=True),
-                                            dict(edge, name="drivetrain_idle_loss")]))
+    from dataclasses import replace
+
+    edge = Effect("rolling_resistance", 0.05, "1", True, (0.005, 0.05), on_bound=True)
+    inside = Effect("aerodynamic_drag", 0.3, "kg/m", True, (0.18, 0.6), on_bound=False)
+    selection = [{"term": "inertia only", "heldout_rmse": 500.0}]
+    v = ride_verdict([edge, inside], selection, ["current_lag"])
+    assert v.named == ("rolling_resistance", "aerodynamic_drag")
+    assert "; rolling_resistance sits on the edge of its plausible range: the ride asks" in v.text
+    assert "0.05" not in v.text and "0.3" not in v.text      # the values are the table's, said once
+    three = ride_verdict([edge, replace(inside, on_bound=True), replace(edge, name="drivetrain_idle_loss")],
+                         selection, ["current_lag"])
     assert ("rolling_resistance, aerodynamic_drag and drivetrain_idle_loss sit on the edge of their "
-            "plausible ranges: the ride asks for more than plausible physics") in three["text"]
-    assert "current_lag would lower the held-out error further only in a model" in v["text"]
-    nothing = ride_verdict({"effects": [], "selected_not_accepted": ["current_lag"],
-                            "selection": rep["selection"]})
-    assert nothing["named"] == [] and "outside its plausible range, so nothing is named" in nothing["text"]
+            "plausible ranges: the ride asks for more than plausible physics") in three.text
+    assert "current_lag would lower the held-out error further only in a model" in v.text
+    nothing = ride_verdict([], selection, ["current_lag"])
+    assert nothing.named == () and "outside its plausible range, so nothing is named" in nothing.text

@@ -71,7 +71,9 @@ def test_trend_words():
 
 
 def test_summary_battery_carries_the_contract_keys(tmp_path):
+    from euc_sim.rides.render.contract import rider_json
     from euc_sim.rides.report.rider_view import rider_numbers
+    from euc_sim.rides.result import RiderNumbers
     from euc_sim.rides.source.logs import read_log
     from tests.rides.summarysynth import synth_summary_log
 
@@ -79,7 +81,7 @@ def test_summary_battery_carries_the_contract_keys(tmp_path):
     rep = {"drivetrain": {"internal_resistance": {"estimate": 0.4, "ci95": [0.38, 0.42], "unit": "ohm"}}}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        out = rider_numbers(log, rep, find_wheel("v9"))
+        out = rider_json(RiderNumbers(*rider_numbers(log, None, rep["drivetrain"], find_wheel("v9"))))
     sb = out["summary"]["battery"]
     assert set(sb) == {"verdict", "expected_ohm", "expected_source"}
     assert sb["verdict"].startswith("worn: +") and len(sb["expected_ohm"]) == 2

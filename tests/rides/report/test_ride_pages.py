@@ -38,7 +38,7 @@ def _logs() -> list[tuple[Path, Path | None]]:
 @pytest.fixture(scope="session")
 def pages(tmp_path_factory):
     """(log, spec, report, page text) for each of the 21 logs."""
-    from euc_sim.rides.pipeline import run_ride
+    from euc_sim.api.functions import run_ride
     from euc_sim.rides.report.page import write_page
     from euc_sim.rides.source.spec import read_spec
 

@@ -184,18 +184,22 @@ def test_other_layouts_give_the_same_summary(tmp_path, layout):
 
 
 def test_rider_numbers_reads_the_reports_terms(tmp_path):
+    from euc_sim.rides.render.contract import rider_json
     from euc_sim.rides.report.rider_view import check_rider_weight, rider_numbers
+    from euc_sim.rides.result import RiderNumbers
     from euc_sim.rides.source.spec import WheelSpec
 
     path = synth_summary_log(tmp_path / "a.csv")
     rep = {"total_mass": {"estimate": 100.0, "ci95": [90.0, 110.0]},
            "drivetrain": {"internal_resistance": {"estimate": 0.2, "ci95": [0.19, 0.21], "unit": "ohm"}}}
-    out = rider_numbers(read_log(path, emit_warnings=False), rep, WheelSpec(wheel_mass=25.0), 90.0)
+    log = read_log(path, emit_warnings=False)
+    out = rider_json(RiderNumbers(*rider_numbers(log, rep["total_mass"], rep["drivetrain"], WheelSpec(wheel_mass=25.0), 90.0)))
     assert out["summary"]["distance_m"] == pytest.approx(25 / 3.6 * 600, rel=0.005)
     assert out["mass_check"]["verdict"] == "lighter" and out["mass_check"]["difference_kg"] == pytest.approx(-15.0)
     assert "15 kg less than declared" in out["mass_check"]["sentence"]
     assert out["battery"]["resistance_ohm"] == 0.2
-    assert rider_numbers(read_log(path, emit_warnings=False), rep)["summary"] == out["summary"]
+    assert rider_numbers(log, rep["total_mass"], rep["drivetrain"])[0].to_json() == rider_numbers(
+        log, rep["total_mass"], rep["drivetrain"], WheelSpec(wheel_mass=25.0), 90.0)[0].to_json()
     with pytest.raises(ValueError, match="--rider-weight"):
         check_rider_weight(500.0)
 

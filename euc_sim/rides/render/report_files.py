@@ -1,0 +1,98 @@
+"""The report folder of a ride: figures, tables, ``index.md`` and ``index.html``.
+
+:func:`write_report` renders a :class:`~euc_sim.rides.result.RideResult` into a folder and
+returns the files' names (:class:`~euc_sim.rides.render.contract.ReportFiles`), which the
+JSON then names.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from euc_sim.rides.render.contract import ReportFiles, ride_json
+from euc_sim.rides.result import RideResult
+
+__all__ = ["write_report"]
+
+
+def write_report(res: RideResult, out: Path) -> ReportFiles:
+    """Figures, tables, ``index.html`` and ``index.md`` into ``out``; returns their names.
+
+    Everything is first written into a hidden folder inside ``out`` and moved into
+    place (``index.md`` last) only once all of it exists: a failure or an
+    interruption half-way leaves ``out`` as it was.
+    """
+    import shutil
+    import tempfile
+
+    out.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".ride-report-", dir=out))
+    try:
+        files = _write_report_files(res, stage)
+        names = sorted((p.name for p in stage.iterdir()), key=lambda n: n in ("index.md", "index.html"))
+        for name in names:
+            os.replace(stage / name, out / name)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    return files
+
+
+def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
+    from euc_sim.io import atomic_write
+    from euc_sim.rides.balance.analysis import write_balance
+    from euc_sim.rides.report.page import write_page
+    from euc_sim.rides.report.page_html import RideSeries, first_screen, key_figure_lines, write_ride_html
+
+    an, sim, fit = res.balance, res.simulation, res.mass.fit
+    rep = ride_json(res)        # the pages read the JSON object, the files' names added as they exist
+    rep["table"] = write_balance(an, out).name
+    figures = _drivetrain_figures(res, out)        # PNG files
+    sim_files = {}
+    if sim is not None:
+        from euc_sim.rides.sim.simulate import plot_ride_simulation
+
+        figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
+        atomic_write(out / "ride_simulation.csv",
+                     lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
+        sim_files = {"table": "ride_simulation.csv", "figure": figures["simulation"]}
+        rep["simulation"].update(sim_files)
+    rep["figures"] = dict(figures)
+    rep["report_markdown"] = write_page(rep, out, figures, getattr(fit, "path", None),
+                                        key_figure_lines(rep), first_screen(rep)).name
+    # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
+    series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)
+    plots = _fit_plots(res)
+    html = write_ride_html(rep, out, series, fit, {**figures, **{k: k for k in plots}}, plots).name
+    return ReportFiles(rep["table"], figures, rep["report_markdown"], html, sim_files.get("table"),
+                       sim_files.get("figure"))
+
+
+def _fit_plots(res: RideResult) -> dict:
+    """The fits' figures the page draws (Plotly), by key (the markdown's figure key, the element id)."""
+    from euc_sim.rides.report import fit_figures as F
+
+    an, fit, test = res.balance, res.mass.fit, res.mass.test
+    plots = {"cross_ride": (F.balance_figure(an.cross, an.sig_fit, an.sig_test), F.BALANCE_HEIGHT),
+             "residuals": (F.residuals_figure(list(res.traces)), F.residuals_height(len(res.traces)))}
+    if fit.drivetrain.pwm_coef is not None:
+        target = test if test is not None and "pwm" in test.sig.extra else fit
+        plots["pwm"] = (F.pwm_figure(target, fit.drivetrain.pwm_coef, f"PWM of {Path(target.path).name}, "
+                                     f"model fitted on {Path(fit.path).name}"), F.PWM_HEIGHT)
+    return plots
+
+
+def _drivetrain_figures(res: RideResult, out: Path) -> dict:
+    """The envelope and grade figures of the ride page (PNG), by key -> file name."""
+    from euc_sim.rides.drive.grade import plot_grade
+    from euc_sim.rides.report.drivetrain_report import plot_envelope
+
+    fit, env = res.mass.fit, res.mass.view["envelope"]
+    figs = {}
+    if fit.grade is not None:
+        figs["grade"] = plot_grade(fit.grade, out / "ride_grade.png",
+                                   title=f"{Path(fit.path).name}: the altitude the battery-power "
+                                         f"balance implies, against GPS altitude").name
+    if "speed" in env:
+        figs["envelope"] = plot_envelope(env, out / "ride_envelope.png").name
+    return figs
