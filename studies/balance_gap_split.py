@@ -120,8 +120,8 @@ def main(argv=None) -> int:
     except (ValueError, OSError) as exc:          # a file that is no ride log or spec
         print(str(exc).splitlines()[0], file=sys.stderr)
         return 2
-    mass = ride_drivetrain(log, None, spec, 10, a.seed)[0]["total_mass"]
-    assumptions = with_found_values(RideAssumptions(), spec, mass)
+    mass = ride_drivetrain(log, None, spec, 10, a.seed).mass
+    assumptions = with_found_values(RideAssumptions(), spec, mass.estimate, (mass.equivalent or {}).get("estimate"))
     print(f"{Path(a.log).name}: total mass {assumptions.total_mass:.1f} kg (energy balance)")
     print("1. the comparison as `euc-sim ride` fits it")
     for name, cmp_ in zip(a.compare or ["halves"], others):

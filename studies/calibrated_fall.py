@@ -187,7 +187,9 @@ def window_runs(pair: Path, held: Path, spec_path: Path, t0: float, t1: float, n
     steps = {s["step"]: s for s in ride["simulation"]["steps"]}
     if "calibrated_rider" not in steps or not isinstance(steps["drivetrain"]["rider"], dict):
         raise ValueError(f"{pair / 'ride.json'}: no calibrated rider in its drivetrain step")
-    A = with_found_values(RideAssumptions(), wheel_spec(spec_path), ride["total_mass"])
+    tm = ride["total_mass"]
+    A = with_found_values(RideAssumptions(), wheel_spec(spec_path), tm.get("estimate"),
+                          (tm.get("equivalent_mass") or {}).get("estimate"))
     params = ride_params(A)
 
     step = steps["drivetrain"]

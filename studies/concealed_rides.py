@@ -87,7 +87,7 @@ def _run(data: Path, label: str, case: str, work: Path) -> dict:
         log, other = read_log(data / RIDES[label][0]), read_log(_concealed(data, label, case, work))
         physics = ride_drivetrain(log, other)
         cache.write_bytes(pickle.dumps((log, other, physics)))
-    return differences_json(physics[0], physics[1], physics[2], log, other)
+    return differences_json(physics, log, other)
 
 
 def score(rep: dict, case: str) -> dict:

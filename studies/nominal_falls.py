@@ -92,7 +92,7 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
            "log": lg, "runs": {}, "notes": [n for n in prof.attrs["notes"] if "spike" in n], "spikes": True,
            "ride": "ride (fitted on itself)"}
     if run == "firmware":
-        ctrl = controller_json(log, None, torque_constant(physics[0].get("drivetrain")), n_boot, 0)
+        ctrl = controller_json(log, None, torque_constant(physics.terms), n_boot, 0)
         motor, notes = firmware_motor(ctrl, params)
         out["notes"] += notes
         lim = next(t for t in ctrl["terms"] if t["name"] == "torque_limit")
@@ -133,7 +133,8 @@ def ride_window(case: tuple, data: Path, n_boot: int, spikes: bool) -> dict:
     fit, held, spec_path, t0, t1 = case
     spec = wheel_spec(data / spec_path)
     physics = ride_drivetrain(data / fit, None, spec, n_boot, 0)
-    A = with_found_values(RideAssumptions(), spec, physics[0]["total_mass"])
+    A = with_found_values(RideAssumptions(), spec, physics.mass.estimate,
+                          (physics.mass.equivalent or {}).get("estimate"))
     params = ride_params(A)
     prof = speed_profile(data / held, total_mass=A.total_mass if spikes else None)
     t, v = prof["t"].to_numpy(), prof["v"].to_numpy()

@@ -30,9 +30,26 @@ import functools
 import json
 import sys
 from dataclasses import replace
+from types import SimpleNamespace
 from pathlib import Path
 
 VARIANTS = ("base", "noise3", "no_preview", "no_delay", "lean0.4", "lean0.5", "no_limit", "learned")
+
+
+def _law(ctrl: dict):
+    """The balance law of a ride JSON's ``controller`` object, as the steps take it."""
+    from euc_sim.rides.law.controller_report import ControllerFit
+
+    if ctrl.get("law") is None:
+        return ControllerFit(None, ctrl.get("why"))
+    w = ctrl["within_ride"]
+    law = SimpleNamespace(terms={t["name"]: (t["estimate"], t.get("ci95"), t["unit"]) for t in ctrl["terms"]},
+                          names=[t["name"] for t in ctrl["terms"]], sign=ctrl["sign"],
+                          sign_share=ctrl["sign_share"], channel=ctrl["channel"], unit=w["unit"],
+                          heldout_r2=w["r2"], nominal_r2=w["nominal_r2"], blind_r2=w["without_pitch_r2"],
+                          heldout_rmse=w["rmse"], history=ctrl["selection"])
+    top = next((t.get("largest_measured") for t in ctrl["terms"] if t["name"] == "torque_limit"), None)
+    return ControllerFit(law, torque_constant=ctrl.get("torque_constant"), largest_measured=top)
 
 
 def main(argv=None) -> int:
@@ -54,6 +71,7 @@ def main(argv=None) -> int:
 
     import euc_sim.rides.sim.simulate as simulate_module
     from euc_sim.rides.grids.signals import RideAssumptions, ride_signals
+    from euc_sim.rides.drive.drivetrain import Term
     from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
     from euc_sim.rides.sim.tracking import simulate_profile
     from euc_sim.simulation.engine import default_rider
@@ -70,8 +88,12 @@ def main(argv=None) -> int:
         return 2
     est = lambda blk: {k: v["estimate"] for k, v in blk.items() if isinstance(v, dict) and "estimate" in v}  # noqa: E731
     params = simulate_module.ride_params(sig.assumptions)
+    dt = {k: Term(v.get("estimate"), v.get("ci95"), v.get("unit")) for k, v in rep["drivetrain"].items()}
+    voltage = (rep["envelope"].get("full") or {}).get("voltage") or (rep["drivetrain"].get("ocv_start") or {}).get("estimate")
     inp = StepInputs(params, est(rep["inertia_only_parameters"]), est(rep["all_estimates"]),
-                     [e["name"] for e in rep["effects"]], rep, None)
+                     [e["name"] for e in rep["effects"]],
+                     [SimpleNamespace(name=q["name"], accepted=q["accepted"]) for q in rep["parameters"]],
+                     _law(rep["controller"]), dt, voltage)
     steps = [s for s in build_steps(inp, STEP_BUILDERS) if s.name == args.step and s.why is None]
     if not steps:
         print(f"ride_step_ablation: --step {args.step}: not a step that runs on {pair}", file=sys.stderr)
@@ -92,7 +114,7 @@ def main(argv=None) -> int:
         run = replace(step, rider=s["rider"]) if "rider" in s else step
         sim = simulate_module.simulate_ride(sig, [run], args.held, seed=0, workers=1,
                                             track_iterations=1 if s.get("learn") else 0,
-                                            channels=log_channels(rep, balance))
+                                            channels=log_channels(dt, inp.law, balance))
         tab = sim.table.assign(t=sim.table["t"].round(2)).merge(bal[["t", "P_augmented"]], on="t", how="left")
         ok = tab["scored"].astype(bool) & tab["P_augmented"].notna() & tab[f"P_{step.name}"].notna()
         d = tab.loc[ok]

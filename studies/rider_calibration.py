@@ -80,7 +80,7 @@ def _analysis(fit_path, test_path, spec_path, seed: int):
     from euc_sim.rides.source.spec import wheel_spec
 
     fitted = balance_on_mass(fit_path, test_path, wheel_spec(spec_path), n_boot=50, seed=seed)
-    k_t = torque_constant(fitted.physics[0].get("drivetrain"))
+    k_t = torque_constant(fitted.physics.terms)
     return fitted.analysis, fitted.assumptions, k_t
 
 

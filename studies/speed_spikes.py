@@ -49,7 +49,8 @@ def main(argv=None) -> int:
         spec = wheel_spec(spec_path) if spec_path else None
         try:
             physics = ride_drivetrain(path, None, spec, args.n_boot, 0)
-            mass = with_found_values(RideAssumptions(), spec, physics[0]["total_mass"]).total_mass
+            mass = with_found_values(RideAssumptions(), spec, physics.mass.estimate,
+                                    (physics.mass.equivalent or {}).get("estimate")).total_mass
         except ValueError as exc:
             print(f"| {name} | – | not read: {str(exc)[:80]} | | | |", flush=True)
             continue

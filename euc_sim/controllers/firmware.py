@@ -34,7 +34,8 @@ from euc_sim.controllers.motor import MotorPD
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 
-__all__ = ["FirmwareError", "firmware_settings", "kd_resolved", "firmware_motor", "voltage_limit_settings", "CARRIED"]
+__all__ = ["FirmwareError", "firmware_settings", "kd_resolved", "firmware_motor", "voltage_limit_settings",
+           "voltage_limits", "CARRIED"]
 
 #: Terms of the ``controller`` entry that MotorPD carries -> its setting.
 CARRIED = {"K_p": "Kp", "K_d": "Kd", "torque_limit": "torque_limit",
@@ -188,28 +189,33 @@ def voltage_limit_settings(ride: dict, R: float, voltage: float | None = None) -
         naming the missing or invalid field.
     """
     dt = ride.get("drivetrain") if isinstance(ride, dict) else None
+    dt = dt if isinstance(dt, dict) else {}
+    est = {k: t["estimate"] for k, t in dt.items()
+           if isinstance(t, dict) and isinstance(t.get("estimate"), (int, float))}
+    if voltage is None:                 # a malformed envelope or ocv_start counts as absent
+        env = ride.get("envelope") if isinstance(ride, dict) else None
+        full = env.get("full") if isinstance(env, dict) else None
+        voltage = (full.get("voltage") if isinstance(full, dict) else None) or est.get("ocv_start")
+    return voltage_limits(est, R, voltage)
+
+
+def voltage_limits(estimates, R: float, voltage: float | None) -> dict:
+    """:func:`voltage_limit_settings` from the drivetrain's estimates by name (SI) and a battery voltage, V."""
     for k in ("back_emf_per_speed", "resistive_drop"):
-        if not isinstance(dt, dict) or not isinstance(dt.get(k), dict) or \
-                not isinstance(dt[k].get("estimate"), (int, float)):
+        if not isinstance(estimates.get(k), (int, float)):
             raise FirmwareError(f"field 'drivetrain.{k}.estimate' missing "
                                 f"(written by euc-sim ride on a log with PWM)")
-    if voltage is None:                 # a malformed envelope or ocv_start counts as absent
-        env = ride.get("envelope")
-        full = env.get("full") if isinstance(env, dict) else None
-        ocv = dt.get("ocv_start")
-        voltage = (full.get("voltage") if isinstance(full, dict) else None) or \
-            (ocv.get("estimate") if isinstance(ocv, dict) else None)
     if voltage is None:
         raise FirmwareError("no battery voltage; give --battery-voltage V")
     if not (isinstance(voltage, (int, float)) and math.isfinite(voltage) and voltage > 0):
         raise FirmwareError(f"battery voltage must be a finite positive number of volts, got {voltage!r}")
-    r_F = dt["resistive_drop"]["estimate"]
+    r_F = estimates["resistive_drop"]
     if not (math.isfinite(r_F) and r_F > 0):
         raise FirmwareError(f"field 'drivetrain.resistive_drop.estimate' must be positive for a "
                             f"voltage limit, got {r_F!r}")
-    extra = {k: float(dt[j]["estimate"]) for k, j in (("dead_time", "dead_time"),
-                                                      ("flux_weakening", "flux_weakening"),
-                                                      ("fw_speed", "flux_weakening_up_to"))
-             if isinstance(dt.get(j), dict) and isinstance(dt[j].get("estimate"), (int, float))}
-    return {"voltage": float(voltage), "back_emf": float(dt["back_emf_per_speed"]["estimate"]),
+    extra = {k: float(estimates[j]) for k, j in (("dead_time", "dead_time"),
+                                                 ("flux_weakening", "flux_weakening"),
+                                                 ("fw_speed", "flux_weakening_up_to"))
+             if isinstance(estimates.get(j), (int, float))}
+    return {"voltage": float(voltage), "back_emf": float(estimates["back_emf_per_speed"]),
             "drop": float(r_F) / R, **extra}

@@ -19,7 +19,7 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
-from euc_sim.rides.result import ComparedRide, MassDrivetrain, RideResult, RiderNumbers
+from euc_sim.rides.result import ComparedRide, RideResult, RiderNumbers
 
 __all__ = ["RideResult", "BalanceOnMass", "balance_on_mass", "ride_pipeline", "MIN_BOOT"]
 
@@ -38,8 +38,8 @@ class BalanceOnMass:
 
     Attributes
     ----------
-    physics : tuple
-        ``(report, fit, test)`` of :func:`euc_sim.rides.report.drivetrain_report.ride_drivetrain`.
+    physics : MassDrivetrain
+        :func:`euc_sim.rides.report.drivetrain_report.ride_drivetrain`'s result.
     assumptions : RideAssumptions
         The assumptions handed to the balance fit (the log's total mass, the spec's radius).
     analysis : RideAnalysis
@@ -84,7 +84,8 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
     physics = ride_drivetrain(log, compare, spec, n_boot if n_boot_mass is None else n_boot_mass, seed)
     # the spec's radius and the mass this log gives reach the balance fit (Table 3 only where
     # neither the command line, the spec nor the log gives a value)
-    assumptions = with_found_values(assumptions or RideAssumptions(), spec, physics[0]["total_mass"])
+    assumptions = with_found_values(assumptions or RideAssumptions(), spec, physics.mass.estimate,
+                                    (physics.mass.equivalent or {}).get("estimate"))
     an = ride_analysis(log, compare, assumptions=assumptions, domain=domain, n_boot=n_boot,
                        seed=seed, progress=progress)
     return BalanceOnMass(physics, assumptions, an)
@@ -125,44 +126,42 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     """
     from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
     from euc_sim.rides.balance.verdict import verdict_of
-    from euc_sim.rides.law.controller_report import controller_json, torque_constant
+    from euc_sim.rides.law.controller_report import controller_fit, torque_constant
     from euc_sim.rides.report.drivetrain_report import cutout_of
 
     say = progress or (lambda s: None)
     # each grid is built once and kept on its ride; bad logs fail in the mass fit, before any output
     fitted = balance_on_mass(log, compare, spec, assumptions=assumptions, domain=domain,
                              n_boot=n_boot, seed=seed, progress=say)
-    (view, fit, test), an = fitted.physics, fitted.analysis
-    mass = MassDrivetrain(fit, test, view)
+    mass, an = fitted.physics, fitted.analysis
     say("reading the wheel's balance law")
-    law = controller_json(log, compare, torque_constant(view.get("drivetrain")), n_boot, seed)
-    parameters = tuple(parameter_list(an.cross, view["total_mass"], view["drivetrain"], law))
-    drivetrain = drivetrain_view(view["drivetrain"], parameters)
+    law = controller_fit(log, compare, torque_constant(mass.terms), n_boot, seed)
+    parameters = parameter_list(an.cross, mass.mass, mass.terms, law)
+    drivetrain = drivetrain_view(mass.terms, parameters)
     differences = None
     if compare is not None:     # what differs between the two rides (rides.compare.differences), each
         # ride's terms from its own energy-balance fit, so both sides are read alike
         from euc_sim.rides.compare.differences_report import pair_differences
 
-        differences = pair_differences(view, fit, test, log, compare)
+        differences = pair_differences(mass, log, compare)
     say("locating the residual")
     traces = _localise(an, domain, log, compare)
-    notes = tuple(an.report["notes"]) + (_mass_grid_note(fit),)
+    notes = tuple(an.report["notes"]) + (_mass_grid_note(mass.fit),)
     sim, why = _simulation(an, log, compare, seed, jobs, progress, simulate, calibrate_rider,
-                           law, parameters, drivetrain, view)
+                           law, parameters, drivetrain, mass)
     if sim is None and why != REPLAY_NOT_ASKED:
         notes += (why,)
-    verdict = verdict_of(an.cross, view["unidentified"].get("battery_power"), an.report["error_unit"])
+    verdict = verdict_of(an.cross, mass.unidentified.get("battery_power"), an.report["error_unit"])
     # the rider's numbers (summary, mass check, battery health), from the log as parsed here
-    rider = _rider_numbers(log, view["total_mass"], drivetrain, spec, rider_weight)
+    rider = _rider_numbers(log, mass.mass, drivetrain, spec, rider_weight)
     compared = None
     if compare is not None:         # the compared ride's own numbers, beside LOG's on the page
-        from euc_sim.rides.report.drivetrain_report import drivetrain_report
+        from euc_sim.rides.report.drivetrain_report import computed_pwm_note, reported_mass, reported_terms
 
-        other = drivetrain_report(compare, test.spec, fitted=test)[0]
-        compared = ComparedRide(Path(compare.path).name, test, other,
-                                _rider_numbers(compare, other["total_mass"], other["drivetrain"], spec,
-                                               compare_rider_weight))
-    cutout = cutout_of(fit, log, rider.summary.limits)
+        test, test_mass = mass.test, reported_mass(mass.test)
+        compared = ComparedRide(Path(compare.path).name, test, test_mass, _rider_numbers(
+            compare, test_mass, reported_terms(test, computed_pwm_note(test)), spec, compare_rider_weight))
+    cutout = cutout_of(mass.fit, log, rider.summary.limits)
     return RideResult(balance=an, notes=notes, mass=mass, law=law, parameters=parameters,
                       drivetrain=drivetrain, differences=differences, traces=tuple(traces),
                       simulation=sim, simulation_why=why, verdict=verdict, rider=rider,
@@ -189,7 +188,7 @@ def _localise(an, domain: str, log, compare) -> list:
 
 
 def _simulation(an, log, compare, seed: int, jobs: int, progress, simulate: bool,
-                calibrate_rider: bool, law, parameters, drivetrain, view):
+                calibrate_rider: bool, law, parameters, drivetrain, mass):
     """The simulated rider and None, or None and why there is none (not asked, or the ride cannot
     be simulated: a warning then says why)."""
     if not simulate:
@@ -201,7 +200,7 @@ def _simulation(an, log, compare, seed: int, jobs: int, progress, simulate: bool
         warnings.warn(why, stacklevel=3)
         return None, why
     return _simulate(an, log, compare, seed, jobs, progress, calibrate_rider, law, parameters,
-                     drivetrain, view), None
+                     drivetrain, mass), None
 
 
 def _mass_grid_note(fit) -> str:
@@ -223,7 +222,7 @@ def _rider_steps():
 
 
 def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider: bool, law, parameters,
-              drivetrain, view):
+              drivetrain, mass):
     """The closed-loop rider along the tested ride, once per modelled step (:mod:`euc_sim.rides.sim.sim_steps`),
     built from the fit ride's results; the second half scored without compare."""
     from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
@@ -236,10 +235,11 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider:
         t = sig.frame["t"].to_numpy()
         scored = t >= an.cross.test_design.t.min()      # the test half's first row
     cr = an.cross
-    fitted = {"controller": law, "parameters": list(parameters), "drivetrain": drivetrain,
-              "envelope": view["envelope"]}
+    ocv = drivetrain.get("ocv_start")
+    voltage = (mass.envelope.get("full") or {}).get("voltage") or (None if ocv is None else ocv.estimate)
     steps = build_steps(StepInputs(ride_params(sig.assumptions), cr.nominal.estimate,
-                                   cr.augmented.estimate, cr.accepted, fitted, log),
+                                   cr.augmented.estimate, cr.accepted, parameters, law, drivetrain,
+                                   voltage, log),
                         _rider_steps() if calibrate_rider else STEP_BUILDERS)
     ran = [s.name for s in steps if s.why is None]
     # the steps' battery-power errors are compared with the balance fit's held-out error (in W)
@@ -248,4 +248,4 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider:
         progress(f"simulating the rider along {ride_path.name}: steps {', '.join(ran)}, "
                  f"{min(jobs, len(ran))} thread(s)")
     return simulate_ride(sig, steps, ride_path, scored=scored, label=ride_path.name, seed=seed,
-                         workers=jobs, channels=log_channels(fitted, balance), progress=progress)
+                         workers=jobs, channels=log_channels(drivetrain, law, balance), progress=progress)

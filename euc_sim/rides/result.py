@@ -11,39 +11,20 @@ file.  The JSON CONTRACT.md describes is one rendering of it
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
-
 from euc_sim.rides.balance.analysis import RideAnalysis
+from euc_sim.rides.balance.parameters import Parameter
 from euc_sim.rides.balance.verdict import Verdict
+from euc_sim.rides.compare.differences import Differences
 from euc_sim.rides.drive.battery import BatteryHealth
 from euc_sim.rides.drive.cutout import Cutout
-from euc_sim.rides.report.drivetrain_report import RideDrivetrain
+from euc_sim.rides.drive.mass import MassFit
+from euc_sim.rides.law.controller_report import ControllerFit
+from euc_sim.rides.report.drivetrain_report import MassDrivetrain, RideDrivetrain
+from euc_sim.rides.report.page import ResidualTrace
 from euc_sim.rides.report.summary import MassCheck, RideSummary
+from euc_sim.rides.sim.simulate import RideSimulation
 
-__all__ = ["RideResult", "MassDrivetrain", "RiderNumbers", "ComparedRide"]
-
-
-@dataclass(frozen=True)
-class MassDrivetrain:
-    """The total mass, the drivetrain, the PWM model and the envelope of the fit ride.
-
-    Attributes
-    ----------
-    fit : RideDrivetrain
-        The fit ride's analysis: its :class:`~euc_sim.rides.drive.mass.MassFit`,
-        :class:`~euc_sim.rides.drive.drivetrain.Drivetrain`, grade profile and wheel spec.
-    test : RideDrivetrain or None
-        The compared ride's own analysis (None without ``compare``).
-    view : dict
-        :func:`~euc_sim.rides.report.drivetrain_report.drivetrain_report`'s objects of the fit
-        ride (``total_mass``, ``drivetrain`` before the balance's terms replace the energy
-        balance's, ``envelope``, ``input_warnings``, ``wheel``, ``unidentified``, ``grade``;
-        with ``compare`` also ``mass_difference``, ``power_heldout`` and ``pwm``).
-    """
-
-    fit: RideDrivetrain
-    test: RideDrivetrain | None
-    view: dict
+__all__ = ["RideResult", "RiderNumbers", "ComparedRide"]
 
 
 @dataclass(frozen=True)
@@ -78,14 +59,14 @@ class ComparedRide:
         The compared log's file name.
     drivetrain : RideDrivetrain
         Its own mass and drivetrain analysis.
-    view : dict
-        Its :func:`~euc_sim.rides.report.drivetrain_report.drivetrain_report` objects.
+    mass : MassFit
+        Its total mass as reported.
     rider : RiderNumbers
     """
 
     recording: str
     drivetrain: RideDrivetrain
-    view: dict
+    mass: MassFit
     rider: RiderNumbers
 
 
@@ -102,12 +83,13 @@ class RideResult:
         The ride's notes: the balance fit's, the mass fit's grid, why the ride cannot be
         simulated.
     mass : MassDrivetrain
-        Total mass, drivetrain, PWM model and envelope.
-    law : dict
-        The wheel's balance law (:func:`~euc_sim.rides.law.controller_report.controller_json`).
-    parameters : tuple of dict
+        Total mass, drivetrain, PWM model and envelope
+        (:func:`~euc_sim.rides.report.drivetrain_report.mass_drivetrain`).
+    law : ControllerFit
+        The wheel's balance law (:func:`~euc_sim.rides.law.controller_report.controller_fit`).
+    parameters : tuple of Parameter
         Every fitted quantity once (:func:`~euc_sim.rides.balance.parameters.parameter_list`).
-    drivetrain : dict
+    drivetrain : dict of str -> Term
         The drivetrain with the balance fit's road and loss terms
         (:func:`~euc_sim.rides.balance.parameters.drivetrain_view`).
     differences : Differences or None
@@ -130,19 +112,14 @@ class RideResult:
     balance: RideAnalysis
     notes: tuple[str, ...]
     mass: MassDrivetrain
-    law: dict
-    parameters: tuple
+    law: ControllerFit
+    parameters: tuple[Parameter, ...]
     drivetrain: dict
-    differences: Any
-    traces: tuple
-    simulation: Any
+    differences: Differences | None
+    traces: tuple[ResidualTrace, ...]
+    simulation: RideSimulation | None
     simulation_why: str | None
     verdict: Verdict
     rider: RiderNumbers
     compared: ComparedRide | None
     cutout: Cutout
-
-    @property
-    def recording(self) -> str:
-        """The fit log's file name."""
-        return self.balance.fit_name

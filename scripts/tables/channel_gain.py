@@ -38,7 +38,8 @@ def run(path: Path) -> dict:
     from euc_sim.rides.report.drivetrain_report import computed_pwm_note
     from euc_sim.rides.source.channels import current_from_phase
 
-    log, other, (rep, fit, test) = pickle.loads(path.read_bytes())
+    log, other, physics = pickle.loads(path.read_bytes())
+    fit, test = physics.fit, physics.test
     has = {"sag": all(current_from_phase(x) for x in (log, other)),
            "phase_current": all("phase_current" in r.sig.extra for r in (fit, test)),
            "pwm": fit.drivetrain.pwm_coef is not None and all(
@@ -46,7 +47,7 @@ def run(path: Path) -> dict:
     used = [c for c in CHANNELS if has[c]]
     out = {"pair": path.stem, "channels": used}
     for key, ch in (("power", ()), ("all", CHANNELS)):
-        diffs = {d["name"]: d for d in differences_json(rep, fit, test, log, other, channels=ch)["differences"]}
+        diffs = {d["name"]: d for d in differences_json(physics, log, other, channels=ch)["differences"]}
         out[key] = {n: {"resolvable": diffs[n].get("resolvable"), "named": diffs[n].get("named"),
                         "estimate": diffs[n].get("estimate")} for n in ROAD if n in diffs}
     return out

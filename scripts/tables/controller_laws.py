@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from euc_sim.rides.law.controller_report import controller_json, torque_constant  # noqa: E402
-from euc_sim.rides.report.drivetrain_report import drivetrain_report                  # noqa: E402
+from euc_sim.rides.report.drivetrain_report import mass_drivetrain                  # noqa: E402
 from euc_sim.rides.grids.power import MassSettings                                  # noqa: E402
 from euc_sim.rides.source.logs import read_log                                        # noqa: E402
 from euc_sim.rides.source.spec import wheel_spec                                      # noqa: E402
@@ -42,9 +42,8 @@ def main(argv=None) -> int:
         spec = wheel_spec(str(spec_path) if spec_path.is_file() else None)
         k_t = None
         try:
-            rep, _, _ = drivetrain_report(read_log(path, emit_warnings=False), spec, None,
-                                          MassSettings(n_boot=20, seed=0))
-            k_t = torque_constant(rep.get("drivetrain"))
+            k_t = torque_constant(mass_drivetrain(read_log(path, emit_warnings=False), spec, None,
+                                                  MassSettings(n_boot=20, seed=0)).terms)
         except ValueError as exc:
             print(f"{wheel}/{path.stem}: drivetrain not fitted ({exc})", file=sys.stderr)
         ctrl = controller_json(read_log(path, emit_warnings=False),

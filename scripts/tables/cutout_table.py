@@ -37,7 +37,7 @@ def row(log_path: Path, spec_path: Path | None) -> str | None:
     spec = read_spec(spec_path) if spec_path else WheelSpec()
     r = analyse(log, spec, MassSettings(n_boot=20))
     lim = ride_limits(log.counters.speed_limit_mps, spec.top_speed)
-    c = cutout_of(r, log, lim.as_json())
+    c = cutout_of(r, log, lim)
     held = "–" if c.heldout_pwm_rmse_pct is None else f"{c.heldout_pwm_rmse_pct:.2f}"
     limit = f"{lim.speed_limit_mps * 3.6:.0f} ({lim.source})" if lim.speed_limit_mps else "–"
     if c.curves:

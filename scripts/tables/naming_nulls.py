@@ -95,7 +95,7 @@ def run(label: str, a: Path, b, work: Path, channels=()) -> dict:
             else (log, read_log(b, emit_warnings=False))
         physics = ride_drivetrain(log, other)
         cache.write_bytes(pickle.dumps((log, other, physics)))
-    rep = differences_json(physics[0], physics[1], physics[2], log, other, channels=channels)
+    rep = differences_json(physics, log, other, channels=channels)
     diffs = rep["differences"]
     return {"pair": label, "named": sorted(d["name"] for d in diffs if d.get("named")),
             "sizes": {d["name"]: [d["estimate"], d["ci95"]] for d in diffs if d.get("named")},

@@ -101,7 +101,7 @@ def _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations) -> list[di
     if firmware:
         from euc_sim.controllers.firmware import FirmwareError, firmware_motor
 
-        ctrl = controller_json(log, None, torque_constant(physics[0].get("drivetrain")), n_boot, seed)
+        ctrl = controller_json(log, None, torque_constant(physics.terms), n_boot, seed)
         try:
             motor, _ = firmware_motor(ctrl, params)
             runs.append(("firmware", {}, motor))

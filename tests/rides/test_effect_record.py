@@ -74,8 +74,8 @@ def test_the_record_is_selected_and_sized_by_the_balance_fit(eddy, tmp_path, mon
     assert NAME in selected
     cr = cross_ride(design, held, n_boot=20)          # the ride JSON's ``parameters`` and ``effects``
     assert NAME in cr.accepted and NAME in [e["name"] for e in effect_entries(cr)]
-    entry = next(p for p in parameter_list(cr, {}, {}) if p["name"] == NAME)
-    assert entry["accepted"] and entry["unit"] == UNIT
+    entry = next(p for p in parameter_list(cr, None, {}) if p.name == NAME)
+    assert entry.accepted and entry.unit == UNIT
 
 
 def test_the_record_is_simulated_in_the_ride_simulations_battery_power(eddy, tmp_path):

@@ -119,11 +119,10 @@ def test_the_spec_radius_and_the_found_mass_reach_the_balance_fit():
     from euc_sim.rides.grids.signals import RideAssumptions
     from euc_sim.rides.grids.signals import with_found_values
 
-    tm = {"estimate": 115.0, "equivalent_mass": {"estimate": 122.0}}
-    a = with_found_values(RideAssumptions(), WheelSpec(radius=0.254, name="Blitz"), tm)
+    a = with_found_values(RideAssumptions(), WheelSpec(radius=0.254, name="Blitz"), 115.0, 122.0)
     assert (a.R, a.total_mass, a.m_eq) == (0.254, 115.0, 122.0)
     assert a.source_of("R").startswith("spec (Blitz") and a.source_of("total_mass").startswith("found")
     given = RideAssumptions(R=0.22, sources=(("R", "--radius"),))
-    b = with_found_values(given, WheelSpec(radius=0.254), {"estimate": None})
+    b = with_found_values(given, WheelSpec(radius=0.254), None)
     assert b.R == 0.22 and b.source_of("R") == "--radius"
     assert b.total_mass == RideAssumptions().total_mass and b.source_of("total_mass") == "default (Table 3)"

@@ -15,13 +15,15 @@ terms of the mass and are not shown as C_rr, C_dA or P₀).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Mapping
 
 from euc_sim.rides.balance.crossride import CrossRide
 from euc_sim.rides.balance.fit import plausibility
+from euc_sim.rides.drive.drivetrain import Term
 from euc_sim.rides.grids.power import RHO_AIR
 
-__all__ = ["parameter_list", "drivetrain_view", "DRIVETRAIN_PLAUSIBLE",
+__all__ = ["Parameter", "parameter_list", "drivetrain_view", "DRIVETRAIN_PLAUSIBLE",
            "MASS_NUISANCE"]
 
 #: Plausible ranges of the battery and motor terms (the drivetrain view's names), SI.
@@ -43,7 +45,45 @@ MASS_NUISANCE = ("C_rr", "C_dA", "no_load_power", "copper_loss_per_force2",
                  "copper_loss_per_accel2", "grade_mass")
 
 
-def _balance_entries(cr: CrossRide) -> list[dict]:
+@dataclass(frozen=True)
+class Parameter:
+    """One fitted quantity of the ride, with its verdict.
+
+    Attributes
+    ----------
+    name : str
+        The contract's name (``rolling_resistance``, ``total_mass``,
+        ``internal_resistance``, ``controller.K_p``, ...).
+    estimate : float or None
+        In ``unit``; None where not identified.
+    ci95 : sequence of float or None
+        Its 95 % interval.
+    unit : str or None
+    plausible : bool
+    accepted : bool
+        An accepted entry is plausible.
+    why : str or None
+        Why it is not accepted (or on the edge of its range).
+    source : {"balance", "energy balance", "drivetrain", "controller"}
+    plausible_range : sequence of float or None
+        The balance's terms only.
+    on_bound : bool or None
+        The balance's terms only: accepted on an edge of the plausible range.
+    """
+
+    name: str
+    estimate: float | None
+    ci95: tuple | None
+    unit: str | None
+    plausible: bool
+    accepted: bool
+    why: str | None
+    source: str
+    plausible_range: tuple | None = None
+    on_bound: bool | None = None
+
+
+def _balance_entries(cr: CrossRide) -> list[Parameter]:
     """The balance fit's parameters: the augmented fit's where kept, the full fit's otherwise."""
     aug, full = plausibility(cr.augmented), plausibility(cr.full)
     out = []
@@ -63,76 +103,74 @@ def _balance_entries(cr: CrossRide) -> list[dict]:
             accepted = False
             why = (f"not kept: it lowers the blocked held-out error of {cr.fit_label} by less "
                    f"than the selection's threshold")
-        entry = {"name": name, "estimate": e["estimate"], "ci95": e["ci95"], "unit": e["unit"],
-                 "plausible": bool(e["plausible"]),
-                 "accepted": bool(accepted), "why": why, "source": "balance",
-                 "plausible_range": e["plausible_range"], "on_bound": bool(e["on_bound"])}
-        out.append(entry)
+        out.append(Parameter(name, e["estimate"], e["ci95"], e["unit"], bool(e["plausible"]), bool(accepted),
+                             why, "balance", e["plausible_range"], bool(e["on_bound"])))
     return out
 
 
-def _mass_entry(total_mass: Mapping) -> dict:
-    est = total_mass.get("estimate")
-    return {"name": "total_mass", "estimate": est, "ci95": total_mass.get("ci95"), "unit": "kg",
-            "plausible": est is not None, "accepted": est is not None,
-            "why": None if est is not None else total_mass.get("why"), "source": "energy balance"}
+def _mass_entry(mass) -> Parameter:
+    est = None if mass is None else mass.estimate
+    return Parameter("total_mass", est, None if mass is None else mass.ci95, "kg", est is not None,
+                     est is not None, None if est is not None else getattr(mass, "why", None), "energy balance")
 
 
-def _drivetrain_entries(drivetrain: Mapping) -> list[dict]:
+def _drivetrain_entries(terms: Mapping) -> list[Parameter]:
     out = []
-    for name, t in drivetrain.items():
-        if name in MASS_NUISANCE or not isinstance(t, dict):
+    for name, t in terms.items():
+        if name in MASS_NUISANCE:
             continue
-        est = t.get("estimate")
+        est = t.estimate
         lo, hi = DRIVETRAIN_PLAUSIBLE.get(name, (-math.inf, math.inf))
         ok = est is not None and math.isfinite(est) and lo <= est <= hi
-        why = t.get("why") if est is None else (None if ok else
-                                                f"outside its plausible range {lo:g} to {hi:g}")
-        out.append({"name": name, "estimate": est, "ci95": t.get("ci95"), "unit": t.get("unit"),
-                    "plausible": bool(ok), "accepted": bool(ok), "why": why, "source": "drivetrain"})
+        why = t.why if est is None else (None if ok else f"outside its plausible range {lo:g} to {hi:g}")
+        out.append(Parameter(name, est, t.ci95, t.unit, bool(ok), bool(ok), why, "drivetrain"))
     return out
 
 
-def _controller_entries(controller: Mapping | None) -> list[dict]:
-    if not isinstance(controller, dict) or controller.get("law") is None:
+def _controller_entries(law) -> list[Parameter]:
+    if law is None or law.law is None:
         return []
-    return [{"name": f"controller.{t['name']}", "estimate": t.get("estimate"), "ci95": t.get("ci95"),
-             "unit": t.get("unit"), "plausible": t.get("estimate") is not None,
-             "accepted": t.get("estimate") is not None, "why": None, "source": "controller"}
-            for t in controller.get("terms", []) if isinstance(t, dict)]
+    return [Parameter(f"controller.{k}", v, ci, u, v is not None, v is not None, None, "controller")
+            for k, (v, ci, u) in law.law.terms.items()]
 
 
-def parameter_list(cr: CrossRide, total_mass: Mapping, drivetrain: Mapping,
-                   controller: Mapping | None = None) -> list[dict]:
+def parameter_list(cr: CrossRide, mass, terms: Mapping, law=None) -> tuple[Parameter, ...]:
     """CONTRACT's ``parameters``: every fitted quantity of the ride once.
 
     Parameters
     ----------
     cr : CrossRide
         The balance fit (its resistances and losses).
-    total_mass, drivetrain, controller : mapping
-        The ride JSON's objects (``drivetrain`` before :func:`drivetrain_view`).
+    mass : MassFit or None
+        The total mass as reported (:func:`~euc_sim.rides.report.drivetrain_report.reported_mass`).
+    terms : mapping of str -> Term
+        The drivetrain's terms as reported, before :func:`drivetrain_view`.
+    law : ControllerFit, optional
+        The wheel's balance law (:func:`euc_sim.rides.law.controller_report.controller_fit`).
 
     Returns
     -------
-    list of dict
-        ``{"name", "estimate", "ci95", "unit", "plausible", "accepted", "why",
-        "source"}`` (the balance's also ``"on_bound"``: accepted on the edge of its
-        plausible range, where the ride asks for more); an accepted entry is plausible.
+    tuple of Parameter
+        The balance's first (the kept terms, then the rest of the full fit's), the total
+        mass, the drivetrain's terms, the balance law's.
     """
-    return (_balance_entries(cr) + [_mass_entry(total_mass)] + _drivetrain_entries(drivetrain)
-            + _controller_entries(controller))
+    return tuple(_balance_entries(cr) + [_mass_entry(mass)] + _drivetrain_entries(terms)
+                 + _controller_entries(law))
 
 
-def drivetrain_view(drivetrain: Mapping, parameters) -> dict:
-    """The ``drivetrain`` object with C_rr, C_dA, the no-load power and copper loss from ``parameters``.
+def drivetrain_view(terms: Mapping, parameters) -> dict:
+    """The drivetrain's terms with C_rr, C_dA, the no-load power and copper loss from ``parameters``.
 
     The energy balance's coefficients (fitted for the mass, where they also hold
     losses with the same speed law) are dropped; each road and loss term is the
     balance fit's number, marked ``accepted``.
+
+    Returns
+    -------
+    dict of str -> Term
     """
-    by = {p["name"]: p for p in parameters}
-    out = {k: dict(v) for k, v in drivetrain.items() if k not in MASS_NUISANCE}
+    by = {p.name: p for p in parameters}
+    out = {k: v for k, v in terms.items() if k not in MASS_NUISANCE}
     for key, name, f, unit in (("C_rr", "rolling_resistance", 1.0, "dimensionless"),
                                ("C_dA", "aerodynamic_drag", 2.0 / RHO_AIR, "m^2"),
                                ("no_load_power", "drivetrain_idle_loss", 1.0, "W"),
@@ -140,11 +178,6 @@ def drivetrain_view(drivetrain: Mapping, parameters) -> dict:
         p = by.get(name)
         if p is None:
             continue
-        out[key] = {"estimate": p["estimate"] * f,
-                    "ci95": [c * f for c in p["ci95"]] if p["ci95"] else None, "unit": unit,
-                    "accepted": p["accepted"], "parameter": name}
-        if not p["accepted"]:
-            out[key]["why"] = p["why"]
+        out[key] = Term(p.estimate * f, [c * f for c in p.ci95] if p.ci95 else None, unit,
+                        why=None if p.accepted else p.why, accepted=p.accepted, parameter=name)
     return out
-
-

@@ -54,7 +54,7 @@ from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["Difference", "Differences", "FALSE_NAME_RATE", "ALIAS_CORRELATION", "physics",
-           "parameters_from_ride", "difference_interval", "signature_columns",
+           "parameters_from_fit", "difference_interval", "signature_columns",
            "alias_table", "with_qvalues", "ride_differences", "rider_sentence"]
 
 #: The false-name rate controlled across a pair's tested physics (Benjamini–Hochberg q-values below it).
@@ -128,29 +128,34 @@ class Differences:
                 "differences_interval": self.interval_method}
 
 
-# ---------------------------------------------------------------- adapter (until the merge)
+# ---------------------------------------------------------------- the rides' parameters
 def _entry(name, est, ci, unit) -> dict:
     return {"name": name, "estimate": est, "ci95": list(ci) if ci else None, "unit": unit}
 
 
-def parameters_from_ride(rep: dict) -> list[dict]:
-    """The ride's ``parameters`` list; ADAPTER from today's views where the list is absent.
+def parameters_from_fit(mass, terms) -> list[dict]:
+    """A ride's parameters as the pair comparison reads them, from its mass and drivetrain fits.
 
-    Until the balance model emits ``parameters``, the list is built from the
-    ride JSON's ``drivetrain`` ``{NAME: {estimate, ci95, unit}}`` and
-    ``total_mass`` views: ``C_rr`` → ``rolling_resistance``, ``C_dA`` →
-    ``aerodynamic_drag`` (k = ½ρC_dA, kg/m), ``total_mass.lag_s`` →
-    ``current_delay`` (no interval), the total mass with its statistical
-    interval (the systematic parts a wheel shares cancel between two rides).
+    The drivetrain's terms by name, ``C_rr`` → ``rolling_resistance``, ``C_dA`` →
+    ``aerodynamic_drag`` (k = ½ρC_dA, kg/m), the mass fit's lag → ``current_delay``
+    (no interval), the total mass with its statistical interval (the systematic parts a
+    wheel shares cancel between two rides).
+
+    Parameters
+    ----------
+    mass : MassFit
+        The total mass as reported (``estimate``, ``stat_ci95``, ``ci95`` kg, ``lag`` s).
+    terms : mapping of str -> Term
+        The drivetrain's terms as reported.
+
+    Returns
+    -------
+    list of dict
+        ``{"name", "estimate", "ci95", "unit"}``.
     """
-    if rep.get("parameters"):
-        return list(rep["parameters"])
-    out = []
-    tm = rep.get("total_mass") or {}
-    out.append(_entry("total_mass", tm.get("estimate"),
-                      tm.get("statistical_ci95") or tm.get("ci95"), "kg"))
-    for name, t in (rep.get("drivetrain") or {}).items():
-        est, ci = t.get("estimate"), t.get("ci95")
+    out = [_entry("total_mass", mass.estimate, mass.stat_ci95 or mass.ci95, "kg")]
+    for name, t in terms.items():
+        est, ci = t.estimate, t.ci95
         if name == "C_rr":
             out.append(_entry("rolling_resistance", est, ci, "1"))
         elif name == "C_dA":
@@ -158,9 +163,9 @@ def parameters_from_ride(rep: dict) -> list[dict]:
             out.append(_entry("aerodynamic_drag", None if est is None else k * est,
                               [k * x for x in ci] if ci else None, "kg/m"))
         else:
-            out.append(_entry(name, est, ci, t.get("unit") or ""))
-    if tm.get("lag_s") is not None:
-        out.append(_entry("current_delay", tm["lag_s"], None, "s"))
+            out.append(_entry(name, est, ci, t.unit or ""))
+    if mass.lag is not None:
+        out.append(_entry("current_delay", mass.lag, None, "s"))
     return out
 
 
@@ -338,7 +343,7 @@ def ride_differences(log_params: list, other_params: list, tested: dict, aliases
     Parameters
     ----------
     log_params, other_params : list of dict
-        ``parameters`` of the two rides (:func:`parameters_from_ride`).
+        ``parameters`` of the two rides (:func:`parameters_from_fit`).
     tested : dict of str -> dict
         The pair fit of each physics: ``{estimate, ci95, heldout_gain, selected, p_value, alias_set}``
         (:func:`euc_sim.rides.compare.differences_report.pair_tests`).
@@ -347,7 +352,7 @@ def ride_differences(log_params: list, other_params: list, tested: dict, aliases
     log_name : str
         How the sentence names LOG ("the 16 May ride").
     views : dict, optional
-        The ride JSON's views of differences by key (``mass_difference``): a physics whose
+        The rides' own measures of a difference by key (``mass_difference``): a physics whose
         record names one (``compare.view``) takes that view's estimate and interval as its
         ``independent`` detail.
     """

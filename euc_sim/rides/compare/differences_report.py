@@ -15,7 +15,7 @@ import numpy as np
 
 from euc_sim.rides.compare.channels import readings, whitening
 from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RATE, alias_table, physics,
-                                               parameters_from_ride, ride_differences, signature_columns)
+                                               parameters_from_fit, ride_differences, signature_columns)
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
 from euc_sim.rides.compare.resolution import with_floor
 from euc_sim.rides.drive.drivetrain import charge_drawn
@@ -349,22 +349,20 @@ def pair_aliases(fit, test, coef: dict) -> tuple[dict, dict]:
     return aliases, cannot
 
 
-def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int = 200,
-                     seed: int = 0, channels=()) -> dict:
+def differences_json(physics, log_path, compare_path, n_boot: int = 200, seed: int = 0,
+                     channels=()) -> dict:
     """The ``differences`` list and its companions for the ride JSON: :func:`pair_differences`'s."""
-    return pair_differences(rep, fit, test, log_path, compare_path, n_boot, seed, channels).to_json()
+    return pair_differences(physics, log_path, compare_path, n_boot, seed, channels).to_json()
 
 
-def pair_differences(rep: dict, fit, test, log_path, compare_path, n_boot: int = 200,
-                     seed: int = 0, channels=()):
+def pair_differences(physics, log_path, compare_path, n_boot: int = 200, seed: int = 0, channels=()):
     """What differs between two rides of one wheel.
 
     Parameters
     ----------
-    rep : dict
-        The ride JSON so far (LOG's ``total_mass``, ``drivetrain``, ``mass_difference``).
-    fit, test : RideDrivetrain
-        LOG's and OTHER's analyses (:func:`euc_sim.rides.report.drivetrain_report.drivetrain_report`).
+    physics : MassDrivetrain
+        LOG's mass and drivetrain with OTHER's analysis
+        (:func:`euc_sim.rides.report.drivetrain_report.mass_drivetrain` with ``compare``).
     log_path, compare_path : Ride
         Each ride, as the ride pipeline holds it.
     n_boot, seed : int
@@ -377,10 +375,11 @@ def pair_differences(rep: dict, fit, test, log_path, compare_path, n_boot: int =
     -------
     Differences
     """
-    from euc_sim.rides.report.drivetrain_report import drivetrain_report
+    from euc_sim.rides.report.drivetrain_report import computed_pwm_note, reported_mass, reported_terms
 
-    other_view = drivetrain_report(compare_path, test.spec, fitted=test)[0]
-    log_params, other_params = parameters_from_ride(rep), parameters_from_ride(other_view)
+    fit, test = physics.fit, physics.test
+    log_params = parameters_from_fit(physics.mass, physics.terms)
+    other_params = parameters_from_fit(reported_mass(test), reported_terms(test, computed_pwm_note(test)))
     coef = _coef(log_params)
     aliases, cannot = pair_aliases(fit, test, coef)
     start = log_path.start
@@ -390,4 +389,5 @@ def pair_differences(rep: dict, fit, test, log_path, compare_path, n_boot: int =
     for n, entry in tested.items():     # within a pair fit, its own estimates' correlations
         if "aliases" in entry and n != DELAY:
             aliases[n] = entry["aliases"]
-    return ride_differences(log_params, other_params, tested, aliases, cannot, name, rep)
+    return ride_differences(log_params, other_params, tested, aliases, cannot, name,
+                            {"mass_difference": physics.mass_difference})

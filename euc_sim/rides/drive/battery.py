@@ -29,7 +29,7 @@ from dataclasses import asdict, dataclass
 from functools import lru_cache
 
 __all__ = ["PackSpec", "BatteryHealth", "CellFigures", "pack_spec", "cell_figures", "to_25C",
-           "battery_health", "battery_health_from_report", "measure_resistance", "health_verdict",
+           "battery_health", "battery_health_of", "measure_resistance", "health_verdict",
            "trend_words", "EA_J_PER_MOL", "AGED_RATIO", "SOC_SPREAD", "INTERCONNECT_OHM", "FIXED_OHM"]
 
 #: Activation energy of the cell's DC resistance, J/mol (Arrhenius normalisation; docs/summary.md).
@@ -309,10 +309,14 @@ def measure_resistance(log, n_boot: int = 100, seed: int = 0) -> tuple[float, tu
     return coef["R_int"], ci["R_int"]
 
 
-def battery_health_from_report(drivetrain: dict | None, log=None, counters=None,
-                               pack: PackSpec | None = None) -> BatteryHealth:
-    """:func:`battery_health` of the ride JSON's ``drivetrain.internal_resistance`` (not recomputed)."""
-    term = (drivetrain or {}).get("internal_resistance") or {}
+def battery_health_of(term, log=None, counters=None, pack: PackSpec | None = None) -> BatteryHealth:
+    """:func:`battery_health` of the drivetrain's ``internal_resistance`` term (not recomputed).
+
+    ``term``: a :class:`~euc_sim.rides.drive.drivetrain.Term` (``estimate`` Ω, ``ci95``, ``why``),
+    or None when the drivetrain has none.
+    """
     temp = getattr(counters, "battery_temp_C", None)
     wheel = getattr(counters, "battery_circuit_ohm", None)
-    return battery_health(term.get("estimate"), term.get("ci95"), temp, pack, wheel, term.get("why"))
+    if term is None:
+        return battery_health(None, None, temp, pack, wheel, None)
+    return battery_health(term.estimate, term.ci95, temp, pack, wheel, term.why)

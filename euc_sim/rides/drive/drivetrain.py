@@ -55,14 +55,24 @@ class Term:
 
     Attributes
     ----------
-    estimate : float
+    estimate : float or None
+        None where the log cannot identify the term.
     ci95 : tuple of float or None
-    unit : str
+    unit : str or None
+    why : str or None
+        Why the term is not identified.
+    accepted : bool or None
+        For a term the balance fit gives (``parameter``): whether it is accepted.
+    parameter : str or None
+        The balance fit's parameter this term repeats (C_rr from ``rolling_resistance``, ...).
     """
 
-    estimate: float
+    estimate: float | None
     ci95: tuple[float, float] | None
-    unit: str
+    unit: str | None
+    why: str | None = None
+    accepted: bool | None = None
+    parameter: str | None = None
 
     def as_json(self) -> dict:
         """``{"estimate", "ci95", "unit"}``."""

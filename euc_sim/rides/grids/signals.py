@@ -505,20 +505,22 @@ def break_at_gaps(t: np.ndarray, *ys: np.ndarray):
     return tuple(out)
 
 
-def with_found_values(assumptions, spec, total_mass: dict):
+def with_found_values(assumptions, spec, total_mass: float | None, m_eq: float | None = None):
     """The balance fit's assumptions with the spec's radius and the mass this log gives.
 
     A value given on the command line stays; otherwise the radius comes from the
-    spec and the total mass (with m_eq, eq. 6) from ``total_mass`` (the ride
-    JSON's object, found from the log), and only what neither gives keeps Table
-    3's default.  ``sources`` says which is which.
+    spec and the total mass (with m_eq, eq. 6) from ``total_mass`` (found from the
+    log), and only what neither gives keeps Table 3's default.  ``sources`` says which
+    is which.
 
     Parameters
     ----------
     assumptions : RideAssumptions
     spec : WheelSpec or None
-    total_mass : dict
-        The ride JSON's ``total_mass`` (``estimate`` None when not identified).
+    total_mass : float or None
+        The log's total mass, kg (None when not identified).
+    m_eq : float, optional
+        The mass the energy balance accelerates (eq. 6), kg; default ``total_mass``.
 
     Returns
     -------
@@ -532,10 +534,9 @@ def with_found_values(assumptions, spec, total_mass: dict):
     if "R" not in src and spec is not None and spec.radius is not None:
         new["R"] = spec.radius
         src["R"] = f"spec ({spec.name or 'wheel'}: wheel diameter)"
-    m = (total_mass or {}).get("estimate")
+    m = total_mass
     if "total_mass" not in src and m is not None and m > 0:
-        eq = (total_mass.get("equivalent_mass") or {}).get("estimate")
-        new["total_mass"], new["m_eq"] = m, (eq if eq is not None else m)
+        new["total_mass"], new["m_eq"] = m, (m_eq if m_eq is not None else m)
         src["total_mass"] = "found from this log's energy balance (total_mass)"
     return dataclasses.replace(assumptions, sources=tuple(src.items()), **new)
 

@@ -1,35 +1,73 @@
 """The ride JSON's ``controller`` object and its section of the ride page.
 
-:func:`controller_json` reads the wheel's balance law from LOG
+:func:`controller_fit` reads the wheel's balance law from LOG
 (:mod:`euc_sim.rides.law.controller_law`), with the torque constant the drivetrain fit
 identified (K_t = K_e, the back-EMF constant, N·m/A), and with a compare ride
 predicts that ride's phase current (or torque) from its pitch: the CONTRACT's
-``heldout``.  Where the log cannot show the law the object is
-``{"law": null, "why": ...}``.
+``heldout``.  :func:`controller_entry` is the CONTRACT's ``controller`` object, which the
+firmware (:mod:`euc_sim.controllers.firmware`) reads.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+from typing import Mapping
 
 import numpy as np
 
 from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.law.controller_law import Law, fit_law, predict, r2
 
-__all__ = ["torque_constant", "controller_json", "page_lines", "PAPER_PD"]
+__all__ = ["ControllerFit", "controller_fit", "controller_entry", "torque_constant", "controller_json",
+           "describe", "page_lines", "PAPER_PD"]
 
 #: The paper's nominal motor law, N·m/rad and N·m·s/rad (controllers.motor.MotorPD's defaults).
 PAPER_PD = {"K_p": 600.0, "K_d": 40.0}
 
 
-def torque_constant(drivetrain_json: dict | None) -> float | None:
-    """K_t, N·m/A: the back-EMF constant (V·s/rad) the drivetrain fit identified, or None."""
-    term = (drivetrain_json or {}).get("back_emf_constant") or {}
-    k = term.get("estimate")
+@dataclass(frozen=True)
+class ControllerFit:
+    """The wheel's balance law read from a ride, or why the log cannot show it.
+
+    Attributes
+    ----------
+    law : Law or None
+        :func:`~euc_sim.rides.law.controller_law.fit_law`'s result.
+    why : str or None
+        Why there is no law.
+    torque_constant : float or None
+        K_t, N·m/A, the law was read with (None: the law is in A of phase current).
+    largest_measured : float or None
+        The largest |torque| (or current) of the fitted rows: what the wheel gave.
+    heldout_r2 : float or None
+        R² of the law's prediction on the compared ride's rows (or blocked, within the ride).
+    heldout_ride : str or None
+        Where ``heldout_r2`` was measured.
+    compare_why : str or None
+        Why the compared ride could not be predicted.
+    """
+
+    law: Law | None
+    why: str | None = None
+    torque_constant: float | None = None
+    largest_measured: float | None = None
+    heldout_r2: float | None = None
+    heldout_ride: str | None = None
+    compare_why: str | None = None
+
+
+def torque_constant(terms: Mapping | None) -> float | None:
+    """K_t, N·m/A: the back-EMF constant (V·s/rad) the drivetrain fit identified, or None.
+
+    ``terms``: the drivetrain's terms by name (:class:`~euc_sim.rides.drive.drivetrain.Term`).
+    """
+    term = (terms or {}).get("back_emf_constant")
+    k = None if term is None else term.estimate
     return float(k) if isinstance(k, (int, float)) and k > 0 else None
 
 
-def _describe(law: Law) -> str:
+def describe(law: Law) -> str:
+    """The law in words, beside the paper's PD where it is in N·m."""
     kp, kd = law.terms["K_p"][0], law.terms["K_d"][0]
     u = law.unit
     extra = [n.replace("_", " ") for n in law.names[3:]]
@@ -41,9 +79,9 @@ def _describe(law: Law) -> str:
     return text
 
 
-def controller_json(log_path, compare_path=None, k_t: float | None = None,
-                    n_boot: int = 100, seed: int = 0) -> dict:
-    """CONTRACT's ``controller`` object for LOG (and its prediction of COMPARE).
+def controller_fit(log_path, compare_path=None, k_t: float | None = None,
+                   n_boot: int = 100, seed: int = 0) -> ControllerFit:
+    """The wheel's balance law read from LOG (and its prediction of COMPARE's current or torque).
 
     Parameters
     ----------
@@ -57,41 +95,65 @@ def controller_json(log_path, compare_path=None, k_t: float | None = None,
 
     Returns
     -------
+    ControllerFit
+    """
+    try:
+        rows = law_rows(log_path, k_t)
+        law = fit_law(rows, n_boot=n_boot, seed=seed)
+    except LawUnavailable as exc:
+        return ControllerFit(None, f"{log_path.name}: {exc}")
+    out = dict(law=law, torque_constant=k_t, heldout_r2=law.heldout_r2,
+               heldout_ride=log_path.name + " (blocked, within the ride)")
+    if "torque_limit" in law.terms:     # the fit's clip is a least-squares level, not a bound:
+        out["largest_measured"] = float(np.max(np.abs(rows.y)))     # the wheel gave this much
+    if compare_path is not None:
+        try:
+            other = law_rows(compare_path, k_t)
+        except LawUnavailable as exc:
+            out["compare_why"] = f"{compare_path.name}: {exc}"
+        else:
+            if other.channel == law.channel:
+                out.update(heldout_r2=r2(other.y, predict(other, law.fit)), heldout_ride=compare_path.name)
+    return ControllerFit(**out)
+
+
+def controller_entry(c: ControllerFit) -> dict:
+    """CONTRACT's ``controller`` object: what ``euc-sim sim --firmware`` reads
+    (:func:`euc_sim.controllers.firmware.firmware_motor`), and the simulated replay with it.
+
+    Returns
+    -------
     dict
         ``law`` (str), ``terms`` [{name, estimate, ci95, unit}] (``torque_limit`` also
         ``largest_measured``: the largest |torque| of the fitted rows), ``sign``,
         ``heldout`` {r2, channel, ride}, ``within_ride``, ``selection``; or
         ``{"law": None, "why": str}``.
     """
-    try:
-        rows = law_rows(log_path, k_t)
-        law = fit_law(rows, n_boot=n_boot, seed=seed)
-    except LawUnavailable as exc:
-        return {"law": None, "why": f"{log_path.name}: {exc}"}
-    out = {"law": _describe(law),
+    law = c.law
+    if law is None:
+        return {"law": None, "why": c.why}
+    out = {"law": describe(law),
            "terms": [{"name": k, "estimate": v, "ci95": list(ci) if ci else None, "unit": u}
                      for k, (v, ci, u) in law.terms.items()],
            "sign": law.sign, "sign_share": law.sign_share,
-           "torque_constant": k_t, "channel": law.channel,
+           "torque_constant": c.torque_constant, "channel": law.channel,
            "within_ride": {"r2": law.heldout_r2, "nominal_r2": law.nominal_r2,
                            "without_pitch_r2": law.blind_r2, "rmse": law.heldout_rmse,
                            "unit": law.unit},
            "selection": law.history,
-           "heldout": {"r2": law.heldout_r2, "channel": law.channel,
-                       "ride": log_path.name + " (blocked, within the ride)"}}
+           "heldout": {"r2": c.heldout_r2, "channel": law.channel, "ride": c.heldout_ride}}
     for term in out["terms"]:
-        if term["name"] == "torque_limit":      # the fit's clip is a least-squares level, not a bound:
-            term["largest_measured"] = float(np.max(np.abs(rows.y)))   # the wheel gave this much
-    if compare_path is not None:
-        try:
-            other = law_rows(compare_path, k_t)
-        except LawUnavailable as exc:
-            out["heldout"]["compare_why"] = f"{compare_path.name}: {exc}"
-        else:
-            if other.channel == law.channel:
-                out["heldout"] = {"r2": r2(other.y, predict(other, law.fit)), "channel": law.channel,
-                                  "ride": compare_path.name}
+        if term["name"] == "torque_limit":
+            term["largest_measured"] = c.largest_measured
+    if c.compare_why is not None:
+        out["heldout"]["compare_why"] = c.compare_why
     return out
+
+
+def controller_json(log_path, compare_path=None, k_t: float | None = None,
+                    n_boot: int = 100, seed: int = 0) -> dict:
+    """:func:`controller_entry` of :func:`controller_fit` (for scripts that want the object)."""
+    return controller_entry(controller_fit(log_path, compare_path, k_t, n_boot, seed))
 
 
 def page_lines(ctrl: dict | None) -> list[str]:

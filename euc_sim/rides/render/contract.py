@@ -9,9 +9,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from euc_sim.rides.law.controller_report import controller_entry
 from euc_sim.rides.result import RideResult, RiderNumbers
 
-__all__ = ["ReportFiles", "ride_json", "verdict_json", "rider_json"]
+__all__ = ["ReportFiles", "ride_json", "verdict_json", "rider_json", "physics_json", "total_mass_json",
+           "term_json", "parameter_json"]
 
 
 @dataclass(frozen=True)
@@ -36,6 +38,77 @@ class ReportFiles:
     html: str | None = None
     simulation_table: str | None = None
     simulation_figure: str | None = None
+
+
+def term_json(t) -> dict:
+    """A drivetrain term: ``estimate``, ``ci95``, ``unit`` (a balance fit's also ``accepted`` and
+    ``parameter``), and ``why`` where it is not identified or not accepted."""
+    out = {"estimate": t.estimate, "ci95": list(t.ci95) if t.ci95 else None, "unit": t.unit}
+    if t.parameter is not None:
+        out.update(accepted=t.accepted, parameter=t.parameter)
+        if not t.accepted:
+            out["why"] = t.why
+    elif t.why is not None:
+        out["why"] = t.why
+    return out
+
+
+def parameter_json(p) -> dict:
+    """One entry of CONTRACT's ``parameters`` (a balance term's also ``plausible_range``, ``on_bound``)."""
+    out = {"name": p.name, "estimate": p.estimate, "ci95": list(p.ci95) if p.ci95 else None, "unit": p.unit,
+           "plausible": p.plausible, "accepted": p.accepted, "why": p.why, "source": p.source}
+    if p.source == "balance":
+        out.update(plausible_range=p.plausible_range, on_bound=p.on_bound)
+    return out
+
+
+def total_mass_json(m, spec) -> dict:
+    """CONTRACT's ``total_mass`` of a reported :class:`~euc_sim.rides.drive.mass.MassFit` (the rider's
+    mass where the spec gives the wheel's net weight)."""
+    out = {"estimate": m.estimate, "ci95": list(m.ci95) if m.ci95 else None,
+           "unit": "kg", "lag_s": m.lag, "speed_scale": m.scale.estimate, "speed_scale_source": m.scale.source,
+           "signed_current": m.signed, "terms": m.terms, "balance": m.history,
+           "n_samples": m.n_samples,
+           "by_window": [{"window_s": w, "estimate": x} for w, x in m.by_window.items()],
+           "equivalent_mass": m.equivalent or None,
+           "systematic": dict(m.systematic) if m.estimate is not None else None,
+           "statistical_ci95": list(m.stat_ci95) if m.stat_ci95 else None,
+           "copper_column": m.copper_column}
+    if m.estimate is None:
+        out["why"] = m.why
+    if spec.wheel_mass is not None and m.estimate is not None:
+        out["rider_mass"] = {"estimate": m.estimate - spec.wheel_mass,
+                             "ci95": [x - spec.wheel_mass for x in m.ci95] if m.ci95 else None,
+                             "note": "total minus the spec's net weight (rider with gear)"}
+    else:
+        out["rider_mass"] = None
+        out["rider_mass_why"] = ("no wheel weight (give --wheel SPEC.csv or --wheel-mass)"
+                                 if m.estimate is not None else m.why)
+    return out
+
+
+def physics_json(md) -> dict:
+    """CONTRACT's ``total_mass``, ``drivetrain`` (the energy balance's terms), ``envelope``,
+    ``input_warnings``, ``wheel``, ``unidentified``, ``grade`` and, with a compared ride,
+    ``mass_difference``, ``power_heldout`` and ``pwm`` of a
+    :class:`~euc_sim.rides.report.drivetrain_report.MassDrivetrain`."""
+    fit = md.fit
+    rep = {"total_mass": total_mass_json(md.mass, fit.spec),
+           "drivetrain": {k: term_json(t) for k, t in md.terms.items()}, "envelope": md.envelope,
+           "input_warnings": md.input_warnings, "wheel": fit.spec.as_json(), "unidentified": dict(md.unidentified),
+           "grade": (fit.grade.as_json() if fit.grade is not None else
+                     {"why": "no GPS altitude, or no mass identified: no implied grade"})}
+    if md.test is None:
+        return rep
+    rep["mass_difference"] = md.mass_difference
+    rep["power_heldout"] = {"rmse": md.power_heldout[0], "rms_power": md.power_heldout[1], "unit": "W"}
+    if md.pwm_why is None:
+        rep["pwm"] = {"heldout_rmse": md.pwm_heldout, "unit": "%"}
+        if md.pwm_note:
+            rep["pwm"]["note"] = md.pwm_note
+    else:
+        rep["pwm"] = {"heldout_rmse": None, "unit": "%", "why": md.pwm_why}
+    return rep
 
 
 def verdict_json(v) -> dict:
@@ -82,10 +155,10 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
     rep = dict(res.balance.report)
     rep["notes"] = list(res.notes)
     rep["table"] = files.table if files else None
-    rep.update(res.mass.view)
-    rep["controller"] = res.law
-    rep["parameters"] = list(res.parameters)
-    rep["drivetrain"] = res.drivetrain
+    rep.update(physics_json(res.mass))
+    rep["controller"] = controller_entry(res.law)
+    rep["parameters"] = [parameter_json(p) for p in res.parameters]
+    rep["drivetrain"] = {k: term_json(t) for k, t in res.drivetrain.items()}
     if res.differences is not None:
         rep.update(res.differences.to_json())
     loc = res.traces[0].localisation
@@ -99,8 +172,8 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
     rep.update(rider_json(res.rider))
     if res.compared is not None:        # the compared ride's own numbers, beside LOG's on the page
         c = res.compared
-        rep["compared"] = {"recording": c.recording, "total_mass": c.view["total_mass"],
-                           "unidentified": c.view["unidentified"], **rider_json(c.rider)}
+        rep["compared"] = {"recording": c.recording, "total_mass": total_mass_json(c.mass, c.drivetrain.spec),
+                           "unidentified": dict(c.drivetrain.drivetrain.unidentified), **rider_json(c.rider)}
     rep["cutout"] = res.cutout.as_json()
     rep["report"] = files.html if files else None
     if files is not None:

@@ -87,7 +87,7 @@ def _drivetrain_figures(res: RideResult, out: Path) -> dict:
     from euc_sim.rides.drive.grade import plot_grade
     from euc_sim.rides.report.drivetrain_report import plot_envelope
 
-    fit, env = res.mass.fit, res.mass.view["envelope"]
+    fit, env = res.mass.fit, res.mass.envelope
     figs = {}
     if fit.grade is not None:
         figs["grade"] = plot_grade(fit.grade, out / "ride_grade.png",

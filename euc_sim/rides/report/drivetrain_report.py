@@ -1,10 +1,10 @@
 """One ride's mass, drivetrain, PWM and cut-out envelope, as the ride JSON carries them.
 
-:func:`drivetrain_report` runs :mod:`euc_sim.rides.drive.mass` and
+:func:`mass_drivetrain` runs :mod:`euc_sim.rides.drive.mass` and
 :mod:`euc_sim.rides.drive.drivetrain` on a log (and, with ``compare``, predicts the
-other ride's battery power and PWM from this one's fit) and returns the
-CONTRACT's ``total_mass``, ``drivetrain`` and ``pwm`` objects plus the
-``envelope``.  :func:`plot_envelope` draws the envelope's figure (the page draws the
+other ride's battery power and PWM from this one's fit) and returns a
+:class:`MassDrivetrain` (the JSON's ``total_mass``, ``drivetrain``, ``pwm`` and
+``envelope``: :mod:`euc_sim.rides.render.contract`).  :func:`plot_envelope` draws the envelope's figure (the page draws the
 PWM model's: :func:`euc_sim.rides.report.fit_figures.pwm_figure`).  The rider's stated weight is never read.
 """
 
@@ -18,7 +18,7 @@ import numpy as np
 
 from euc_sim.io import save_figure
 from euc_sim.rides.balance.verdict import unit_label
-from euc_sim.rides.drive.drivetrain import Drivetrain, envelope, fit_drivetrain, predict_pwm
+from euc_sim.rides.drive.drivetrain import Drivetrain, Term, envelope, fit_drivetrain, predict_pwm
 from euc_sim.rides.drive.grade import GradeProfile, grade_profile
 from euc_sim.rides.drive.mass import MassFit, fit_mass, predict_power
 from euc_sim.rides.drive.pwm import no_force_speed
@@ -29,7 +29,8 @@ from euc_sim.rides.source.sanity import input_warnings, mass_suspicion
 from euc_sim.rides.source.spec import WheelSpec
 from euc_sim.rides.source.systematic import mass_difference
 
-__all__ = ["RideDrivetrain", "analyse", "drivetrain_report", "ride_drivetrain", "cutout_of", "plot_envelope", "envelope_figure",
+__all__ = ["RideDrivetrain", "MassDrivetrain", "analyse", "mass_drivetrain", "ride_drivetrain",
+           "reported_mass", "reported_terms", "cutout_of", "plot_envelope", "envelope_figure",
            "page_section", "TYRE_MU",
            "COMPUTED_PWM_RMS", "computed_pwm_note"]
 
@@ -79,32 +80,27 @@ def computed_pwm_note(r: RideDrivetrain) -> str | None:
     return None
 
 
-def _total_mass(r: RideDrivetrain) -> dict:
-    m = r.mass
-    why = mass_suspicion(m.estimate)
-    if why is not None:                 # never a confident absurd mass
-        m = dataclasses.replace(m, estimate=None, ci95=None, stat_ci95=None, why=why, by_window={},
-                                equivalent={})
-    out = {"estimate": m.estimate, "ci95": list(m.ci95) if m.ci95 else None,
-           "unit": "kg", "lag_s": m.lag, "speed_scale": m.scale.estimate, "speed_scale_source": m.scale.source,
-           "signed_current": m.signed, "terms": m.terms, "balance": m.history,
-           "n_samples": m.n_samples,
-           "by_window": [{"window_s": w, "estimate": x} for w, x in m.by_window.items()],
-           "equivalent_mass": m.equivalent or None,
-           "systematic": dict(m.systematic) if m.estimate is not None else None,
-           "statistical_ci95": list(m.stat_ci95) if m.stat_ci95 else None,
-           "copper_column": m.copper_column}
-    if m.estimate is None:
-        out["why"] = m.why
-    if r.spec.wheel_mass is not None and m.estimate is not None:
-        out["rider_mass"] = {"estimate": m.estimate - r.spec.wheel_mass,
-                             "ci95": [x - r.spec.wheel_mass for x in m.ci95] if m.ci95 else None,
-                             "note": "total minus the spec's net weight (rider with gear)"}
-    else:
-        out["rider_mass"] = None
-        out["rider_mass_why"] = ("no wheel weight (give --wheel SPEC.csv or --wheel-mass)"
-                                 if m.estimate is not None else m.why)
-    return out
+def reported_mass(r: RideDrivetrain) -> MassFit:
+    """The ride's total mass as reported: an absurd estimate withdrawn, with why (never a
+    confident absurd mass)."""
+    why = mass_suspicion(r.mass.estimate)
+    if why is None:
+        return r.mass
+    return dataclasses.replace(r.mass, estimate=None, ci95=None, stat_ci95=None, why=why, by_window={},
+                               equivalent={})
+
+
+def reported_terms(r: RideDrivetrain, computed_note: str | None = None) -> dict[str, Term]:
+    """The drivetrain's terms as reported, by name: the identified ones, then each term the log
+    cannot identify (estimate None, with why); with ``computed_note`` (:func:`computed_pwm_note`)
+    the resistive drop is not identified and the winding resistance left out."""
+    terms = dict(r.drivetrain.terms)
+    for k, why in r.drivetrain.unidentified.items():
+        terms.setdefault(k, Term(None, None, None, why=why))
+    if computed_note:
+        terms["resistive_drop"] = Term(None, None, "V/N", why=computed_note)
+        terms.pop("winding_resistance", None)
+    return terms
 
 
 def _envelope(r: RideDrivetrain, computed_note: str | None) -> dict:
@@ -124,10 +120,61 @@ def _envelope(r: RideDrivetrain, computed_note: str | None) -> dict:
     return env
 
 
-def drivetrain_report(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
-                      settings: MassSettings = MassSettings(), fitted: RideDrivetrain | None = None
-                      ) -> tuple[dict, RideDrivetrain, RideDrivetrain | None]:
-    """The ride JSON's ``total_mass``, ``drivetrain``, ``pwm``, ``envelope`` and ``wheel``.
+@dataclass(frozen=True)
+class MassDrivetrain:
+    """The total mass, the drivetrain, the PWM model and the envelope of a ride.
+
+    Attributes
+    ----------
+    fit : RideDrivetrain
+        The ride's analysis (:func:`analyse`).
+    test : RideDrivetrain or None
+        The compared ride's own analysis (None without one).
+    mass : MassFit
+        The total mass as reported (:func:`reported_mass`).
+    terms : dict of str -> Term
+        The drivetrain's terms as reported (:func:`reported_terms`).
+    envelope : dict
+        The acceleration the voltage leaves against speed (``speed``, ``full``, ``low``,
+        ``voltage_source``, ``ride_top_speed``), or ``{"why"}``.
+    input_warnings : list of str
+        What the log and the spec say against each other.
+    pwm_note : str or None
+        Why the logged duty is the app's computation (:func:`computed_pwm_note`).
+    mass_difference : dict or None
+        The compared ride's mass minus this one's
+        (:func:`euc_sim.rides.source.systematic.mass_difference`).
+    power_heldout : tuple of float or None
+        The compared ride's battery power predicted from this ride's mass fit: (RMS error,
+        RMS power), W.
+    pwm_heldout : float or None
+        The compared ride's duty predicted from this ride's PWM model, RMS percentage points.
+    pwm_why : str or None
+        Why there is no ``pwm_heldout`` (with a compared ride).
+    """
+
+    fit: RideDrivetrain
+    test: RideDrivetrain | None
+    mass: MassFit
+    terms: dict
+    envelope: dict
+    input_warnings: list
+    pwm_note: str | None = None
+    mass_difference: dict | None = None
+    power_heldout: tuple | None = None
+    pwm_heldout: float | None = None
+    pwm_why: str | None = None
+
+    @property
+    def unidentified(self) -> dict:
+        """Term -> why this log cannot identify it."""
+        return self.fit.drivetrain.unidentified
+
+
+def mass_drivetrain(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
+                    settings: MassSettings = MassSettings(), fitted: RideDrivetrain | None = None
+                    ) -> MassDrivetrain:
+    """The total mass, drivetrain, PWM model and envelope of ``log``.
 
     Parameters
     ----------
@@ -144,40 +191,28 @@ def drivetrain_report(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
 
     Returns
     -------
-    report : dict
-    fit, test : RideDrivetrain
-        The analyses (``test`` None without ``compare``).
+    MassDrivetrain
     """
     r = fitted or analyse(log, spec, settings)
-    dtj = r.drivetrain.as_json()
     note = computed_pwm_note(r)
-    if note:
-        dtj["resistive_drop"] = {"estimate": None, "ci95": None, "unit": "V/N", "why": note}
-        dtj.pop("winding_resistance", None)
-    rep = {"total_mass": _total_mass(r), "drivetrain": dtj, "envelope": _envelope(r, note),
-           "input_warnings": input_warnings(log, r.spec, r.mass.scale),
-           "wheel": r.spec.as_json(), "unidentified": dict(r.drivetrain.unidentified),
-           "grade": (r.grade.as_json() if r.grade is not None else
-                     {"why": "no GPS altitude, or no mass identified: no implied grade"})}
-    test = None
-    if compare is not None:
-        test = analyse(compare, spec, settings)
-        rep["mass_difference"] = mass_difference(r.mass, test.mass)
-        pred, obs = predict_power(test.sig, r.mass)
-        rep["power_heldout"] = {"rmse": _rms(pred - obs), "rms_power": _rms(obs), "unit": "W"}
-        if r.drivetrain.pwm_coef is not None and "pwm" in test.sig.extra:
-            pp, po = predict_pwm(test.sig, r.drivetrain.pwm_coef)
-            rep["pwm"] = {"heldout_rmse": _rms(pp - po), "unit": "%"}
-            if note:
-                rep["pwm"]["note"] = note
-        else:
-            rep["pwm"] = {"heldout_rmse": None, "unit": "%",
-                          "why": "no PWM or safety-margin column in "
-                                 + (compare.name if r.drivetrain.pwm_coef else log.name)}
-    return rep, r, test
+    out = dict(fit=r, test=None, mass=reported_mass(r), terms=reported_terms(r, note),
+               envelope=_envelope(r, note), input_warnings=input_warnings(log, r.spec, r.mass.scale),
+               pwm_note=note)
+    if compare is None:
+        return MassDrivetrain(**out)
+    test = analyse(compare, spec, settings)
+    pred, obs = predict_power(test.sig, r.mass)
+    out.update(test=test, mass_difference=mass_difference(r.mass, test.mass),
+               power_heldout=(_rms(pred - obs), _rms(obs)))
+    if r.drivetrain.pwm_coef is not None and "pwm" in test.sig.extra:
+        pp, po = predict_pwm(test.sig, r.drivetrain.pwm_coef)
+        out["pwm_heldout"] = _rms(pp - po)
+    else:
+        out["pwm_why"] = "no PWM or safety-margin column in " + (compare.name if r.drivetrain.pwm_coef else log.name)
+    return MassDrivetrain(**out)
 
 
-def cutout_of(r: RideDrivetrain, log, limits: dict):
+def cutout_of(r: RideDrivetrain, log, limits):
     """The ride's :class:`euc_sim.rides.drive.cutout.Cutout` (the JSON's ``cutout``).
 
     Parameters
@@ -185,10 +220,10 @@ def cutout_of(r: RideDrivetrain, log, limits: dict):
     r : RideDrivetrain
     log : Ride
         The same ride parsed: its battery reading (%) gives the charge.
-    limits : dict
-        The summary's ``limits``.
+    limits : Limits
+        The wheel's limits (the summary's).
     """
-    from euc_sim.rides.drive.cutout import Limits, ride_cutout
+    from euc_sim.rides.drive.cutout import ride_cutout
 
     d = log.data
     charge = None
@@ -198,7 +233,7 @@ def cutout_of(r: RideDrivetrain, log, limits: dict):
             charge = np.interp(r.sig.t, d["t"].to_numpy(float)[ok], d["battery"].to_numpy(float)[ok])
     why = ("the log's PWM is the app's computation from speed and voltage, not a measurement: it does "
            "not show the load, so neither does a model of it") if computed_pwm_note(r) else None
-    return ride_cutout(r.sig, r.drivetrain, r.mass, charge, Limits(**limits), r.spec.battery_voltage, why)
+    return ride_cutout(r.sig, r.drivetrain, r.mass, charge, limits, r.spec.battery_voltage, why)
 
 
 #: Tyre-road friction coefficient the envelope figure assumes (dry asphalt, about 1):
@@ -381,8 +416,8 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
     return md + [""]
 
 
-def ride_drivetrain(log, compare=None, spec=None, n_boot: int = 200, seed: int = 0):
-    """Mass, drivetrain, PWM and envelope of a ride log, as ``euc-sim ride`` reports them.
+def ride_drivetrain(log, compare=None, spec=None, n_boot: int = 200, seed: int = 0) -> MassDrivetrain:
+    """Mass, drivetrain, PWM and envelope of a ride log, as ``euc-sim ride`` finds them.
 
     Parameters
     ----------
@@ -397,13 +432,9 @@ def ride_drivetrain(log, compare=None, spec=None, n_boot: int = 200, seed: int =
 
     Returns
     -------
-    tuple
-        :func:`drivetrain_report`'s (report, fit, test).
+    MassDrivetrain
     """
-    from euc_sim.rides.grids.power import MassSettings
-    from euc_sim.rides.source.spec import WheelSpec
-
-    return drivetrain_report(log, spec or WheelSpec(), compare, MassSettings(n_boot=n_boot, seed=seed))
+    return mass_drivetrain(log, spec or WheelSpec(), compare, MassSettings(n_boot=n_boot, seed=seed))
 
 
 def _nuisance_note(dt: dict) -> list[str]:

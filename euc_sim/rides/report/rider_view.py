@@ -73,8 +73,10 @@ def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: fl
     ----------
     log : Ride
         The ride.
-    total_mass, drivetrain : mapping
-        The ride's total mass and drivetrain terms, read, never recomputed.
+    total_mass : MassFit or None
+        The ride's total mass as reported, read, never recomputed.
+    drivetrain : mapping of str -> Term
+        The ride's drivetrain terms (its ``internal_resistance``), read, never recomputed.
     spec : WheelSpec, optional
         The wheel's weight (for the mass check) and pack (for the battery's verdict).
     rider_weight : float, optional
@@ -85,11 +87,11 @@ def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: fl
     tuple
         (RideSummary, MassCheck, BatteryHealth, clock dict).
     """
-    from euc_sim.rides.drive.battery import battery_health_from_report, pack_spec
+    from euc_sim.rides.drive.battery import battery_health_of, pack_spec
     from euc_sim.rides.report.summary import mass_check, ride_summary
 
     summary = ride_summary(log, getattr(spec, "top_speed", None))
     wheel_kg = getattr(spec, "wheel_mass", None) if spec is not None else None
     mc = mass_check(total_mass, rider_weight, wheel_kg)
-    bh = battery_health_from_report(drivetrain, log, log.counters, pack_spec(spec))
+    bh = battery_health_of((drivetrain or {}).get("internal_resistance"), log, log.counters, pack_spec(spec))
     return summary, mc, bh, ride_clock(log)

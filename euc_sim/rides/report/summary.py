@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.io import to_jsonable
-from euc_sim.rides.drive.cutout import ride_limits
+from euc_sim.rides.drive.cutout import Limits, ride_limits
 from euc_sim.rides.grids.spin import free_spin, spin_json
 from euc_sim.rides.report.distance import (_distance, _duration, _gap_distance, _near, _steps,
                                           _wheel_distance)
@@ -88,13 +88,15 @@ class RideSummary:
     quality: str = "good"
     quality_sentence: str = ""
     why: dict = field(default_factory=dict)
-    limits: dict | None = None
+    limits: Limits | None = None
     distance_follows: str = ""
     duration_follows: str = ""
 
     def to_json(self) -> dict:
         """A JSON-ready dict (plain floats, ``None`` for what is unknown)."""
-        return to_jsonable(asdict(self))
+        out = asdict(self)
+        out["limits"] = None if self.limits is None else self.limits.as_json()
+        return to_jsonable(out)
 
 
 # --------------------------------------------------------------------------------------
@@ -257,7 +259,7 @@ def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
         range_left_m=left, safety_margin_min_pct=None if pmax is None else 100.0 - pmax,
         pwm_max_place=place, free_spin=spin_json(t, v, spin), alarm_rows=c.alarm_rows, sampling_hz=hz, temperature_max_C=temp,
         quality=q, quality_sentence=sentence, why=why,
-        limits=ride_limits(c.speed_limit_mps, top_speed_mps).as_json(),
+        limits=ride_limits(c.speed_limit_mps, top_speed_mps),
         distance_follows=follows, duration_follows=duration_follows)
 
 
@@ -295,13 +297,13 @@ class MassCheck:
         return to_jsonable(asdict(self))
 
 
-def mass_check(total_mass: dict | None, rider_kg: float | None, wheel_kg: float | None) -> MassCheck:
+def mass_check(total_mass, rider_kg: float | None, wheel_kg: float | None) -> MassCheck:
     """Test the declared weight against the log's total mass; the declaration is never the answer.
 
     Parameters
     ----------
-    total_mass : dict or None
-        The ride JSON's ``total_mass`` (``estimate``, ``ci95``, kg).
+    total_mass : MassFit or None
+        The log's total mass as reported (``estimate``, ``ci95`` kg, ``why``).
     rider_kg : float or None
         The rider's declared weight, kg (with the gear worn).
     wheel_kg : float or None
@@ -312,8 +314,8 @@ def mass_check(total_mass: dict | None, rider_kg: float | None, wheel_kg: float 
     MassCheck
         ``consistent`` when the declared total lies inside the log's 95 % interval.
     """
-    tm = total_mass or {}
-    est, ci = tm.get("estimate"), tm.get("ci95")
+    est = getattr(total_mass, "estimate", None)
+    ci = getattr(total_mass, "ci95", None)
     declared = rider_kg + wheel_kg if rider_kg is not None and wheel_kg is not None else None
     base = dict(declared_rider_kg=rider_kg, wheel_kg=wheel_kg, declared_total_kg=declared,
                 log_total_kg=est, log_ci95=tuple(ci) if ci else None)
@@ -326,7 +328,7 @@ def mass_check(total_mass: dict | None, rider_kg: float | None, wheel_kg: float 
                                   "the declared weight cannot be checked.")
     if est is None or not ci:
         return MassCheck(**base, difference_kg=None, difference_ci95=None, verdict="cannot tell",
-                         sentence=f"The log does not give the total mass ({tm.get('why', 'not identified')}); "
+                         sentence=f"The log does not give the total mass ({total_mass.why if est is None else 'not identified'}); "
                                   f"the declared {rider_kg:.0f} kg is not checked.")
     diff, dci = est - declared, (ci[0] - declared, ci[1] - declared)
     if dci[0] <= 0 <= dci[1]:

@@ -43,7 +43,7 @@ def calibrated_rider_step(prev, inp):
     eff, _ = effects_to_inject(inp.augmented, inp.accepted)
     power = {k: float(inp.augmented.get(k, d)) for k, d in
              (("copper_loss", 0.0), ("drivetrain_idle_loss", 0.0))}
-    k_t = torque_constant((inp.ride or {}).get("drivetrain"))
+    k_t = torque_constant(inp.drivetrain)
     try:
         fit = fit_rider(inp.fit_log, params=inp.params, motor=prev.motor, effects=eff, drivetrain=power,
                         assumptions=RideAssumptions(torque_constant=k_t))

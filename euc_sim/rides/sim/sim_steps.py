@@ -159,8 +159,14 @@ class StepInputs:
         The inertia-only and augmented balance fits' estimates (``CrossRide``).
     accepted : sequence of str
         Accepted balance effects.
-    ride : dict
-        The fit ride's JSON so far (``controller``, ``drivetrain``, ``envelope``).
+    parameters : sequence of Parameter
+        The ride's one parameter set (:func:`euc_sim.rides.balance.parameters.parameter_list`).
+    law : ControllerFit or None
+        The wheel's balance law (:func:`euc_sim.rides.law.controller_report.controller_fit`).
+    drivetrain : mapping of str -> Term
+        The drivetrain's terms (:func:`euc_sim.rides.balance.parameters.drivetrain_view`).
+    voltage : float or None
+        The battery's full-charge voltage, V (the envelope's, else the fitted open-circuit voltage).
     fit_log : path or None
         The fit ride's log (for steps fitted on it, e.g. a calibrated rider).
     """
@@ -169,13 +175,16 @@ class StepInputs:
     nominal: Mapping[str, float]
     augmented: Mapping[str, float]
     accepted: Sequence[str]
-    ride: Mapping = field(default_factory=dict)
+    parameters: Sequence = ()
+    law: object = None
+    drivetrain: Mapping = field(default_factory=dict)
+    voltage: float | None = None
     fit_log: object = None
 
     @property
     def accepted_parameters(self) -> tuple[str, ...]:
         """Names of the accepted entries of the ride's ``parameters`` (empty without them)."""
-        return tuple(p["name"] for p in self.ride.get("parameters", ()) if p.get("accepted"))
+        return tuple(p.name for p in self.parameters if p.accepted)
 
     def physics(self, *names: str) -> tuple[str, ...]:
         """Those of ``names`` that are accepted parameters, in order."""
@@ -210,18 +219,19 @@ def measured_law_step(prev: SimStep, inp: StepInputs) -> SimStep:
     """The firmware law measured on the fit ride replaces the paper's PD (the rider redesigned for it)."""
     from euc_sim.controllers.damping import ZETA_UNRESOLVED
     from euc_sim.controllers.firmware import FirmwareError, firmware_motor, kd_resolved
+    from euc_sim.rides.law.controller_report import controller_entry
 
-    ctrl = inp.ride.get("controller")
     name, what = "measured_law", "the wheel's balance law measured on the fit ride"
-    if not isinstance(ctrl, dict) or ctrl.get("law") is None:
-        why = (ctrl or {}).get("why") if isinstance(ctrl, dict) else None
+    if inp.law is None or inp.law.law is None:
+        why = None if inp.law is None else inp.law.why
         return replace(prev, name=name, what=what, notes=(),
                        why=f"the fit ride shows no balance law ({why or 'no controller entry'})")
+    ctrl = controller_entry(inp.law)        # the firmware reads the law as `euc-sim sim --firmware` does
     try:
         motor, notes = firmware_motor(ctrl, inp.params)
     except FirmwareError as exc:
         return replace(prev, name=name, what=what, notes=(), why=str(exc))
-    law_terms = [f"controller.{t['name']}" for t in ctrl.get("terms", []) if isinstance(t, dict)]
+    law_terms = [f"controller.{k}" for k in inp.law.law.terms]
     return replace(prev, physics=prev.physics + inp.physics(*law_terms),
                    name=name, what=f"{what}: K_p = {motor.Kp:.0f} N·m/rad, K_d = "
                                          f"{motor.Kd:.0f} N·m·s/rad" + ("" if kd_resolved(_term(ctrl, "K_d")) else
@@ -236,12 +246,12 @@ def _term(ctrl: Mapping, name: str):
 
 def drivetrain_step(prev: SimStep, inp: StepInputs) -> SimStep:
     """The voltage-limited motor, the accepted effects as physics, the augmented fit's power model."""
-    from euc_sim.controllers.firmware import FirmwareError, voltage_limit_settings
+    from euc_sim.controllers.firmware import FirmwareError, voltage_limits
 
     eff, notes = effects_to_inject(inp.augmented, inp.accepted)
     motor = prev.motor
     try:
-        motor = replace(prev.motor, **voltage_limit_settings(dict(inp.ride), inp.params.R))
+        motor = replace(prev.motor, **voltage_limits(_estimates(inp.drivetrain), inp.params.R, inp.voltage))
         limit = f"voltage-limited motor ({motor.voltage:.0f} V)"
     except (FirmwareError, ValueError) as exc:
         limit = "no voltage limit"
@@ -350,30 +360,40 @@ class LogChannels:
     balance_heldout: float | None = None
 
 
-def log_channels(ride: Mapping, balance_heldout: float | None = None) -> LogChannels:
-    """:class:`LogChannels` from the fit ride's JSON (``drivetrain``, ``controller``)."""
+def _estimates(terms: Mapping) -> dict[str, float]:
+    """The finite estimates of the drivetrain's terms, by name."""
+    return {k: float(t.estimate) for k, t in (terms or {}).items()
+            if isinstance(t.estimate, (int, float)) and math.isfinite(t.estimate)}
+
+
+def log_channels(drivetrain: Mapping | None = None, law=None, balance_heldout: float | None = None) -> LogChannels:
+    """:class:`LogChannels` from the fit ride's drivetrain terms and balance law.
+
+    Parameters
+    ----------
+    drivetrain : mapping of str -> Term, optional
+        :func:`euc_sim.rides.balance.parameters.drivetrain_view`.
+    law : ControllerFit, optional
+        :func:`euc_sim.rides.law.controller_report.controller_fit`.
+    balance_heldout : float, optional
+        The balance fit's held-out error, W.
+    """
     from euc_sim.rides.law.controller_report import torque_constant
 
-    dt = ride.get("drivetrain") if isinstance(ride.get("drivetrain"), dict) else {}
-
-    def est(name):
-        v = (dt.get(name) or {}).get("estimate") if isinstance(dt.get(name), dict) else None
-        return float(v) if isinstance(v, (int, float)) and math.isfinite(v) else None
-
+    est = _estimates(drivetrain)
     pwm = None
-    if est("back_emf_per_speed") is not None and est("resistive_drop") is not None:
-        pwm = {"K_v": est("back_emf_per_speed"), "r_F": est("resistive_drop")}
+    if "back_emf_per_speed" in est and "resistive_drop" in est:
+        pwm = {"K_v": est["back_emf_per_speed"], "r_F": est["resistive_drop"]}
         for key, name in (("dead_time", "dead_time"), ("flux_weakening", "flux_weakening"),
                           ("v_fw", "flux_weakening_up_to")):
-            if est(name) is not None:
-                pwm[key] = est(name)
-    ctrl = ride.get("controller")
+            if name in est:
+                pwm[key] = est[name]
     sign = zero = None
-    if isinstance(ctrl, dict) and ctrl.get("law") is not None and ctrl.get("sign") in (1, -1):
-        sign = float(ctrl["sign"])
-        zero = next((float(t["estimate"]) for t in ctrl.get("terms", [])
-                     if t.get("name") == "pitch_zero"), 0.0)
-    return LogChannels(k_t=torque_constant(dt), pwm=pwm, pitch_sign=sign, pitch_zero=zero,
+    fit = None if law is None else law.law
+    if fit is not None and fit.sign in (1, -1):
+        sign = float(fit.sign)
+        zero = float(fit.terms["pitch_zero"][0]) if "pitch_zero" in fit.terms else 0.0
+    return LogChannels(k_t=torque_constant(drivetrain), pwm=pwm, pitch_sign=sign, pitch_zero=zero,
                        balance_heldout=balance_heldout)
 
 

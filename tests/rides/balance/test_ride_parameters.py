@@ -133,8 +133,8 @@ def test_a_drag_beyond_its_plausible_range_is_accepted_on_its_edge_and_said(desi
     cr = cross_ride(heavy, heavy, n_boot=0)
     entry = next(e for e in effect_entries(cr) if e["name"] == "aerodynamic_drag")
     assert entry["on_bound"] and "ON THE EDGE" in entry["evidence"]
-    params = {p["name"]: p for p in parameter_list(cr, {"estimate": None, "why": "x"}, {})}
-    assert params["aerodynamic_drag"]["accepted"] and "edge" in params["aerodynamic_drag"]["why"]
+    params = {p.name: p for p in parameter_list(cr, None, {})}
+    assert params["aerodynamic_drag"].accepted and "edge" in params["aerodynamic_drag"].why
     verdict = verdict_of(cr)
     assert "aerodynamic_drag" in verdict.named and re.search(r"\baerodynamic_drag\b[^;]* on the edge of (its|their) plausible", verdict.text)
 
@@ -179,23 +179,27 @@ def test_held_out_selection_names_the_true_effects(cross):
 
 
 def test_parameters_list_each_quantity_once_and_accepts_only_plausible(cross):
-    total = {"estimate": 84.0, "ci95": [80.0, 88.0]}
-    dt = {"C_rr": {"estimate": 0.5, "ci95": [0.4, 0.6], "unit": "dimensionless"},
-          "internal_resistance": {"estimate": 0.2, "ci95": [0.19, 0.21], "unit": "ohm"},
-          "ocv_per_Ah": {"estimate": -3.0, "ci95": [-4.0, -2.0], "unit": "V/Ah"}}
+    from types import SimpleNamespace
+
+    from euc_sim.rides.drive.drivetrain import Term
+
+    total = SimpleNamespace(estimate=84.0, ci95=(80.0, 88.0), why=None)
+    dt = {"C_rr": Term(0.5, (0.4, 0.6), "dimensionless"),
+          "internal_resistance": Term(0.2, (0.19, 0.21), "ohm"),
+          "ocv_per_Ah": Term(-3.0, (-4.0, -2.0), "V/Ah")}
     params = parameter_list(cross, total, dt)
-    names = [p["name"] for p in params]
+    names = [p.name for p in params]
     assert len(names) == len(set(names))
     assert "C_rr" not in names                                 # the mass fit's nuisance term
-    by = {p["name"]: p for p in params}
-    assert all(p["plausible"] for p in params if p["accepted"])
+    by = {p.name: p for p in params}
+    assert all(p.plausible for p in params if p.accepted)
     assert not [n for n in by if n.startswith("eta")]         # no efficiency anywhere
-    assert not by["ocv_per_Ah"]["accepted"] and by["internal_resistance"]["accepted"]
-    assert set(cross.accepted) <= {n for n, p in by.items() if p["accepted"]}
+    assert not by["ocv_per_Ah"].accepted and by["internal_resistance"].accepted
+    assert set(cross.accepted) <= {n for n, p in by.items() if p.accepted}
     view = drivetrain_view(dt, params)
-    assert view["C_rr"]["estimate"] == by["rolling_resistance"]["estimate"]
-    assert view["C_rr"]["parameter"] == "rolling_resistance"
-    assert view["copper_loss_per_force2"]["estimate"] == by["copper_loss"]["estimate"]
+    assert view["C_rr"].estimate == by["rolling_resistance"].estimate
+    assert view["C_rr"].parameter == "rolling_resistance"
+    assert view["copper_loss_per_force2"].estimate == by["copper_loss"].estimate
 
 
 # --- the lag of the logged current ------------------------------------------------------

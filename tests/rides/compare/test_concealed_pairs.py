@@ -37,7 +37,7 @@ def _differences(clean: Path, effects, out: Path, **kw) -> dict:
     other = cc.write_raw(raw, out)
     log, cmp = read_log(clean, emit_warnings=False), read_log(other, emit_warnings=False)
     physics = ride_drivetrain(log, cmp, n_boot=20)
-    return {d["name"]: d for d in differences_json(physics[0], physics[1], physics[2], log, cmp,
+    return {d["name"]: d for d in differences_json(physics, log, cmp,
                                                    n_boot=100)["differences"]}
 
 

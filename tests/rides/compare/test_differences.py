@@ -51,14 +51,17 @@ def test_constant_signature_cannot_be_seen():
 
 
 def _params(mass, cdA, crr, R, scale, w=0.02):
-    return df.parameters_from_ride({
-        "total_mass": {"estimate": mass, "ci95": [mass - 20, mass + 20],
-                       "statistical_ci95": [mass - 5, mass + 5], "lag_s": 0.0},
-        "drivetrain": {"C_dA": {"estimate": cdA, "ci95": [cdA - 0.05, cdA + 0.05], "unit": "m^2"},
-                       "C_rr": {"estimate": crr, "ci95": [crr - 0.002, crr + 0.002], "unit": "dimensionless"},
-                       "internal_resistance": {"estimate": R, "ci95": [R - 0.01, R + 0.01], "unit": "ohm"},
-                       "speed_scale": {"estimate": scale, "ci95": [scale - w, scale + w], "unit": "dimensionless"},
-                       "ocv_start": {"estimate": 84.0, "ci95": [83.9, 84.1], "unit": "V"}}})
+    from types import SimpleNamespace
+
+    from euc_sim.rides.drive.drivetrain import Term
+
+    return df.parameters_from_fit(
+        SimpleNamespace(estimate=mass, ci95=(mass - 20, mass + 20), stat_ci95=(mass - 5, mass + 5), lag=0.0),
+        {"C_dA": Term(cdA, (cdA - 0.05, cdA + 0.05), "m^2"),
+         "C_rr": Term(crr, (crr - 0.002, crr + 0.002), "dimensionless"),
+         "internal_resistance": Term(R, (R - 0.01, R + 0.01), "ohm"),
+         "speed_scale": Term(scale, (scale - w, scale + w), "dimensionless"),
+         "ocv_start": Term(84.0, (83.9, 84.1), "V")})
 
 
 def test_adapter_maps_names_and_drag_area_to_k():
@@ -68,8 +71,6 @@ def test_adapter_maps_names_and_drag_area_to_k():
     assert p["total_mass"]["ci95"] == [95.0, 105.0]          # statistical part
     assert p["current_delay"]["ci95"] is None
     assert {"rolling_resistance", "internal_resistance", "speed_scale", "ocv_start"} <= set(p)
-    own = [{"name": "x", "estimate": 1.0, "ci95": [0, 2], "unit": "1"}]
-    assert df.parameters_from_ride({"parameters": own}) == own
 
 
 def _tested(**kw):

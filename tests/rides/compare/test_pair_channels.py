@@ -29,8 +29,8 @@ def _pair(tmp_path, dm: float) -> tuple:
 
 
 def _differences(pair, **kw) -> dict:
-    log, other, (rep, fit, test) = pair
-    return {d["name"]: d for d in differences_json(rep, fit, test, log, other, n_boot=50, **kw)["differences"]}
+    log, other, physics = pair
+    return {d["name"]: d for d in differences_json(physics, log, other, n_boot=50, **kw)["differences"]}
 
 
 @pytest.fixture(scope="module")

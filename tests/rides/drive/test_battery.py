@@ -7,8 +7,9 @@ import warnings
 
 import pytest
 
-from euc_sim.rides.drive.battery import (PackSpec, battery_health, battery_health_from_report,
+from euc_sim.rides.drive.battery import (PackSpec, battery_health, battery_health_of,
                                    measure_resistance, pack_spec, to_25C)
+from euc_sim.rides.drive.drivetrain import Term
 from euc_sim.rides.source.spec import read_spec
 from euc_sim.rides.source.logs import read_log
 from tests.rides.summarysynth import synth_summary_log
@@ -64,8 +65,8 @@ def test_verdicts():
 
 
 def test_from_report_reads_the_drivetrain_term_not_a_second_fit():
-    dt = {"internal_resistance": {"estimate": 0.2, "ci95": [0.19, 0.21], "unit": "ohm"}}
-    h = battery_health_from_report(dt)
+    h = battery_health_of(Term(0.2, (0.19, 0.21), "ohm"))
     assert h.resistance_ohm == 0.2 and h.resistance_ci95 == (0.19, 0.21)
     assert h.to_json()["resistance_ci95"] == [0.19, 0.21]
-    assert battery_health_from_report({}).verdict == "not measured"
+    assert battery_health_of(None).verdict == "not measured"
+    assert battery_health_of(Term(None, None, None, why="no current")).verdict == "not measured"

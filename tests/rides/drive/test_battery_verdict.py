@@ -78,7 +78,9 @@ def test_summary_battery_carries_the_contract_keys(tmp_path):
     from tests.rides.summarysynth import synth_summary_log
 
     log = read_log(synth_summary_log(tmp_path / "a.csv"), emit_warnings=False)
-    rep = {"drivetrain": {"internal_resistance": {"estimate": 0.4, "ci95": [0.38, 0.42], "unit": "ohm"}}}
+    from euc_sim.rides.drive.drivetrain import Term
+
+    rep = {"drivetrain": {"internal_resistance": Term(0.4, (0.38, 0.42), "ohm")}}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         out = rider_json(RiderNumbers(*rider_numbers(log, None, rep["drivetrain"], find_wheel("v9"))))

@@ -18,7 +18,8 @@ from euc_sim.rides.drive.drivetrain import envelope, max_force
 from euc_sim.rides.drive.mass import fit_mass
 from euc_sim.rides.drive.rotating import ROTATING_SHARE, without_rotating_inertia
 from euc_sim.rides.grids.power import MassSettings, RideDataError, power_signals, speed_scale
-from euc_sim.rides.report.drivetrain_report import analyse, drivetrain_report
+from euc_sim.rides.render.contract import physics_json
+from euc_sim.rides.report.drivetrain_report import analyse, mass_drivetrain
 from euc_sim.rides.source.logs import LogFormatError, read_log
 from euc_sim.rides.source.spec import SpecError, read_spec, wheel_spec
 
@@ -88,8 +89,8 @@ def test_same_seed_same_interval(tmp_path):
 
 def test_pwm_heldout_and_envelope(tmp_path, twin):
     other = drive_log(tmp_path / "other.csv", seed=8, duration=300.0)
-    rep, fit, test = drivetrain_report(read_log(twin.path, emit_warnings=False),
-                                      compare=read_log(other, emit_warnings=False), settings=FAST, fitted=twin)
+    rep = physics_json(mass_drivetrain(read_log(twin.path, emit_warnings=False),
+                                       compare=read_log(other, emit_warnings=False), settings=FAST, fitted=twin))
     assert rep["pwm"]["unit"] == "%" and rep["pwm"]["heldout_rmse"] < 1.0
     assert rep["total_mass"]["ci95"][0] <= DRIVE["mass"] <= rep["total_mass"]["ci95"][1]
     env = rep["envelope"]
@@ -99,7 +100,7 @@ def test_pwm_heldout_and_envelope(tmp_path, twin):
     assert np.all(np.diff(full[np.isfinite(full)]) < 0)          # falls with speed
     assert np.all(low[ok] < full[ok])                               # and with charge
     assert env["low"]["v_limit"] < env["full"]["v_limit"]
-    dt = fit.drivetrain
+    dt = twin.drivetrain
     assert max_force(dt, 5.0, 84.0) > max_force(dt, 10.0, 84.0) > 0
     assert max_force(dt, 84.0 / DRIVE["K_v"] + 1.0, 84.0) == 0.0     # past the back-EMF limit
 

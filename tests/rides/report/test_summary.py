@@ -127,14 +127,16 @@ def test_a_free_spin_is_not_the_rides_top_speed_or_pwm(tmp_path):
 
 
 def test_mass_check_verdicts():
-    tm = {"estimate": 110.0, "ci95": [100.0, 120.0]}
+    from types import SimpleNamespace
+
+    tm = SimpleNamespace(estimate=110.0, ci95=(100.0, 120.0), why=None)
     assert mass_check(tm, 85.0, 25.0).verdict == "consistent"
     heavier = mass_check(tm, 60.0, 25.0)
     assert heavier.verdict == "heavier" and heavier.difference_kg == pytest.approx(25.0)
     assert heavier.difference_ci95 == pytest.approx((15.0, 35.0))
     assert "25 kg more" in heavier.sentence
     assert mass_check(tm, 100.0, 25.0).verdict == "lighter"
-    assert mass_check({"estimate": None, "why": "x"}, 80.0, 25.0).verdict == "cannot tell"
+    assert mass_check(SimpleNamespace(estimate=None, ci95=None, why="x"), 80.0, 25.0).verdict == "cannot tell"
     assert mass_check(tm, 80.0, None).verdict == "cannot tell"
 
 
@@ -190,8 +192,12 @@ def test_rider_numbers_reads_the_reports_terms(tmp_path):
     from euc_sim.rides.source.spec import WheelSpec
 
     path = synth_summary_log(tmp_path / "a.csv")
-    rep = {"total_mass": {"estimate": 100.0, "ci95": [90.0, 110.0]},
-           "drivetrain": {"internal_resistance": {"estimate": 0.2, "ci95": [0.19, 0.21], "unit": "ohm"}}}
+    from types import SimpleNamespace
+
+    from euc_sim.rides.drive.drivetrain import Term
+
+    rep = {"total_mass": SimpleNamespace(estimate=100.0, ci95=(90.0, 110.0), why=None),
+           "drivetrain": {"internal_resistance": Term(0.2, (0.19, 0.21), "ohm")}}
     log = read_log(path, emit_warnings=False)
     out = rider_json(RiderNumbers(*rider_numbers(log, rep["total_mass"], rep["drivetrain"], WheelSpec(wheel_mass=25.0), 90.0)))
     assert out["summary"]["distance_m"] == pytest.approx(25 / 3.6 * 600, rel=0.005)

@@ -8,7 +8,7 @@ def test_calibrated_rider_step_sits_between_the_law_and_the_drivetrain_and_says_
     from euc_sim.rides.sim.sim_steps import StepInputs, build_steps
 
     est = {"copper_loss": 0.004}
-    steps = build_steps(StepInputs(TABLE3, est, est, (), {}, None), RIDER_STEPS)
+    steps = build_steps(StepInputs(TABLE3, est, est, ()), RIDER_STEPS)
     assert [s.name for s in steps] == ["nominal", "measured_law", "calibrated_rider", "drivetrain"]
     cal = steps[2]
     assert cal.why is not None and "no fit ride log" in cal.why

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -17,6 +18,8 @@ import pytest
 
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import TABLE3
+from euc_sim.rides.drive.drivetrain import Term
+from euc_sim.rides.law.controller_report import ControllerFit
 from euc_sim.rides.sim.sim_steps import (STEP_BUILDERS, LogChannels, StepInputs, build_steps,
                                      drivetrain_step, log_channels, measured_law_step, nominal_step,
                                      simulated_pwm)
@@ -25,28 +28,35 @@ from euc_sim.rides.source.logs import read_log
 NOM: dict = {}                        # the inertia-only balance fits nothing
 AUG = {"copper_loss": 0.004, "drivetrain_idle_loss": 30.0,
        "rolling_resistance": 0.012, "aerodynamic_drag": 0.3}
-CONTROLLER = {"law": "PD + tilt-back", "sign": -1,
-              "terms": [{"name": "K_p", "estimate": 5687.0, "unit": "N·m/rad"},
-                        {"name": "K_d", "estimate": 120.0, "unit": "N·m·s/rad"},
-                        {"name": "pitch_zero", "estimate": -0.03, "unit": "rad (logged)"},
-                        {"name": "K_i", "estimate": 50.0, "unit": "N·m/(rad·s)"}]}
-DRIVETRAIN = {"back_emf_per_speed": {"estimate": 7.5}, "resistive_drop": {"estimate": 0.004},
-              "dead_time": {"estimate": 0.03}, "back_emf_constant": {"estimate": 1.6}}
-RIDE = {"controller": CONTROLLER, "drivetrain": DRIVETRAIN, "envelope": {"full": {"voltage": 151.2}}}
+#: The balance law's terms: name -> (estimate, ci95, unit).
+TERMS = {"K_p": (5687.0, None, "N·m/rad"), "K_d": (120.0, None, "N·m·s/rad"),
+         "pitch_zero": (-0.03, None, "rad (logged)"), "K_i": (50.0, None, "N·m/(rad·s)")}
+DRIVETRAIN = {"back_emf_per_speed": Term(7.5, None, "V·s/m"), "resistive_drop": Term(0.004, None, "V/N"),
+              "dead_time": Term(0.03, None, "1"), "back_emf_constant": Term(1.6, None, "V·s/rad")}
 
 
-def inputs(ride) -> StepInputs:
+def _law(terms=TERMS) -> ControllerFit:
+    """A balance law as the fit ride gives it (PD + tilt-back, in N·m, logged pitch sign −1)."""
+    law = SimpleNamespace(terms=dict(terms), names=["K_p", "K_d", "pitch_zero", "K_i"], sign=-1, sign_share=1.0,
+                          channel="torque", unit="N·m", heldout_r2=0.6, nominal_r2=0.5, blind_r2=0.1,
+                          heldout_rmse=10.0, history=[])
+    return ControllerFit(law, heldout_r2=0.6, heldout_ride="fit.csv")
+
+
+LAW = _law()
+
+
+def inputs(law=LAW, drivetrain=DRIVETRAIN, voltage=151.2) -> StepInputs:
     return StepInputs(TABLE3, NOM, AUG, ("rolling_resistance", "aerodynamic_drag", "copper_loss",
-                                         "drivetrain_idle_loss"), ride)
+                                         "drivetrain_idle_loss"), law=law, drivetrain=drivetrain, voltage=voltage)
 
 
 def test_an_unresolved_kd_is_damped_and_said_in_the_step_and_its_json():
     """Lynx 0's K_d came out −37 (interval [−51, −29]); the step damps the pitch mode instead of 0."""
     from euc_sim.controllers.damping import damping_floor
 
-    terms = [dict(t, estimate=-37.0, ci95=[-51.1, -29.2]) if t["name"] == "K_d" else t
-             for t in CONTROLLER["terms"]]
-    nom, law, dt = build_steps(inputs(dict(RIDE, controller=dict(CONTROLLER, terms=terms))))
+    terms = dict(TERMS, K_d=(-37.0, (-51.1, -29.2), "N·m·s/rad"))
+    nom, law, dt = build_steps(inputs(_law(terms)))
     kd = damping_floor(TABLE3, 5687.0)
     assert law.motor.Kd == pytest.approx(kd, rel=1e-6) and dt.motor.Kd == law.motor.Kd
     assert "not resolved" in law.what and "ζ ≥ 0.7" in law.what
@@ -56,7 +66,7 @@ def test_an_unresolved_kd_is_damped_and_said_in_the_step_and_its_json():
 
 
 def test_steps_without_a_law_skip_the_measured_law_and_build_on_the_nominal():
-    steps = build_steps(inputs({"controller": {"law": None, "why": "no pitch in the log"}}))
+    steps = build_steps(inputs(ControllerFit(None, "no pitch in the log"), {}, None))
     assert [s.name for s in steps] == ["nominal", "measured_law", "drivetrain"]
     nom, law, dt = steps
     assert nom.motor == MotorPD() and nom.rider is None and nom.effects == {} and nom.why is None
@@ -69,7 +79,7 @@ def test_steps_without_a_law_skip_the_measured_law_and_build_on_the_nominal():
 
 
 def test_measured_law_and_voltage_limit_carry_into_the_last_step():
-    nom, law, dt = build_steps(inputs(RIDE))
+    nom, law, dt = build_steps(inputs())
     assert (law.motor.Kp, law.motor.Kd) == (5687.0, 120.0) and law.why is None
     assert any("K_i" in n for n in law.notes)                          # measured, not simulated
     assert (dt.motor.Kp, dt.motor.Kd) == (5687.0, 120.0)
@@ -89,7 +99,7 @@ def test_a_new_step_is_one_builder_and_the_next_step_inherits_it():
                        notes=())
 
     builders = STEP_BUILDERS[:2] + (calibrated,) + STEP_BUILDERS[2:]
-    steps = build_steps(inputs(RIDE), builders)
+    steps = build_steps(inputs(), builders)
     assert [s.name for s in steps] == ["nominal", "measured_law", "calibrated_rider", "drivetrain"]
     assert steps[2].rider is rider and steps[2].motor.Kp == 5687.0
     assert steps[3].rider is rider                                      # carried to the next step
@@ -97,12 +107,12 @@ def test_a_new_step_is_one_builder_and_the_next_step_inherits_it():
     assert STEP_BUILDERS == (nominal_step, measured_law_step, drivetrain_step)
 
 
-def test_log_channels_from_the_ride_json():
-    ch = log_channels(RIDE, balance_heldout=500.0)
+def test_log_channels_from_the_drivetrain_and_the_law():
+    ch = log_channels(DRIVETRAIN, LAW, balance_heldout=500.0)
     assert ch.k_t == pytest.approx(1.6) and ch.pitch_sign == -1.0
     assert ch.pitch_zero == pytest.approx(-0.03) and ch.balance_heldout == 500.0
     assert ch.pwm == {"K_v": 7.5, "r_F": 0.004, "dead_time": 0.03}
-    none = log_channels({"controller": {"law": None}, "drivetrain": None})
+    none = log_channels(None, ControllerFit(None, "no pitch"))
     assert none.k_t is None and none.pwm is None and none.pitch_sign is None
 
 
