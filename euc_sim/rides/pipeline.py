@@ -146,12 +146,12 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
         differences = pair_differences(mass, log, compare)
     say("locating the residual")
     traces = _localise(an, domain, log, compare)
-    notes = tuple(an.report["notes"]) + (_mass_grid_note(mass.fit),)
+    notes = tuple(an.notes) + (_mass_grid_note(mass.fit),)
     sim, why = _simulation(an, log, compare, seed, jobs, progress, simulate, calibrate_rider,
                            law, parameters, drivetrain, mass)
     if sim is None and why != REPLAY_NOT_ASKED:
         notes += (why,)
-    verdict = verdict_of(an.cross, mass.unidentified.get("battery_power"), an.report["error_unit"])
+    verdict = verdict_of(an.cross, mass.unidentified.get("battery_power"), an.error_unit)
     # the rider's numbers (summary, mass check, battery health), from the log as parsed here
     rider = _rider_numbers(log, mass.mass, drivetrain, spec, rider_weight)
     compared = None
@@ -243,7 +243,7 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider:
                         _rider_steps() if calibrate_rider else STEP_BUILDERS)
     ran = [s.name for s in steps if s.why is None]
     # the steps' battery-power errors are compared with the balance fit's held-out error (in W)
-    balance = cr.heldout_augmented if an.report["error_unit"] == "W" else None
+    balance = cr.heldout_augmented if an.error_unit == "W" else None
     if progress is not None:
         progress(f"simulating the rider along {ride_path.name}: steps {', '.join(ran)}, "
                  f"{min(jobs, len(ran))} thread(s)")

@@ -390,9 +390,9 @@ def test_with_compare_the_replay_runs_unless_refused(logs, tmp_path, capsys, mon
 
     asked = []
 
-    def not_run(rep, an, log, compare, seed, jobs, progress, simulate, calibrate_rider):
+    def not_run(an, log, compare, seed, jobs, progress, simulate, calibrate_rider, *fitted):
         asked.append(simulate)
-        rep["simulation_why"] = "stubbed"
+        return None, "stubbed"
 
     monkeypatch.setattr(pipeline, "_simulation", not_run)
     for extra in ([], ["--no-simulate"]):

@@ -1,67 +1,103 @@
-"""A ride's balance diagnosis end to end: CONTRACT's ``euc-sim ride`` JSON form.
+"""A ride's balance diagnosis end to end.
 
-:func:`ride_analysis` reads the ride(s), builds the balance designs, runs the
-cross-ride comparison (:mod:`euc_sim.rides.balance.crossride`) and assembles the report;
-:func:`ride_report` returns only the report.
+:func:`ride_analysis` builds the ride(s)' balance designs and runs the cross-ride
+comparison (:mod:`euc_sim.rides.balance.crossride`); the JSON is rendered from its
+:class:`RideAnalysis` (:func:`euc_sim.rides.render.contract.balance_json`).
 """
 
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
 from euc_sim.errors import InputError
-from euc_sim.rides.balance.crossride import CrossRide, cross_ride, effect_entries
-from euc_sim.rides.balance.design import NOMINAL, Design, balance_design
-from euc_sim.rides.balance.fit import FEW_BLOCKS, block_rows, plausibility
+from euc_sim.rides.balance.crossride import CrossRide, cross_ride
+from euc_sim.rides.balance.design import Design, balance_design
+from euc_sim.rides.balance.fit import FEW_BLOCKS, block_rows
 from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, ride_signals
 from euc_sim.rides.source.gaps import GAP_POLICY
 
-__all__ = ["RideAnalysis", "ride_report", "ride_analysis", "write_balance", "check_data",
+__all__ = ["RideAnalysis", "BalanceSettings", "ride_analysis", "write_balance", "check_data",
            "split_time"]
 
 
 @dataclass(frozen=True)
-class RideAnalysis:
-    """What :func:`ride_analysis` computed: the JSON report and the objects behind it.
+class BalanceSettings:
+    """How the balance fit read and resampled the ride and drew its bootstrap.
 
     Attributes
     ----------
-    report : dict
-        CONTRACT's ``euc-sim ride`` form (see :func:`ride_report`).
+    rate : float
+        Grid rate, Hz.
+    window : float
+        Savitzky-Golay window, s.
+    polyorder : int
+    max_gap : float
+        Longest gap bridged, s.
+    n_boot : int
+        Bootstrap replicates.
+    block_s : float
+        Bootstrap block, s.
+    seed : int
+    """
+
+    rate: float = GAP_POLICY.rate
+    window: float = 1.5
+    polyorder: int = 2
+    max_gap: float = GAP_POLICY.bridge
+    n_boot: int = 200
+    block_s: float = 10.0
+    seed: int = 0
+
+
+@dataclass(frozen=True)
+class RideAnalysis:
+    """What :func:`ride_analysis` computed.
+
+    Attributes
+    ----------
     cross : CrossRide
     sig_fit, sig_test : RideSignals
         The fit ride and the compare ride (None without ``compare_path``).
     designs : tuple of Design
         The balance design of the whole fit ride and of the compare ride (None without
         ``compare_path``): built once, read again by the residual's localisation.
+    notes : tuple of str
+        The reader's, the resampling's and the design's notes, and the mass caveat.
+    domain : {"power", "torque"}
+    assumptions : RideAssumptions
+    settings : BalanceSettings
+    recording, compare : str
+        The fit and compare logs' file names (``compare`` None without one).
     """
 
-    report: dict
     cross: CrossRide
     sig_fit: RideSignals
     sig_test: RideSignals | None
     designs: tuple = (None, None)
+    notes: tuple = ()
+    domain: str = "power"
+    assumptions: RideAssumptions = field(default_factory=RideAssumptions)
+    settings: BalanceSettings = field(default_factory=BalanceSettings)
+    recording: str = ""
+    compare: str | None = None
+
+    @property
+    def error_unit(self) -> str:
+        """The balance's residual unit: W, or N·m in the torque domain."""
+        return "W" if self.domain == "power" else "N·m"
 
 
-def ride_report(log_path, compare_path=None, **kwargs) -> dict:
-    """Diagnose a ride's longitudinal balance; CONTRACT's ``euc-sim ride`` JSON form.
-
-    ``ride_analysis(log_path, compare_path, **kwargs).report``: see :func:`ride_analysis`.
-    """
-    return ride_analysis(log_path, compare_path, **kwargs).report
-
-
-def ride_analysis(log_path, compare_path=None, *, report_dir=None,
+def ride_analysis(log_path, compare_path=None, *,
                   assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
                   max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2,
                   domain: str = "power", n_boot: int = 200, block_s: float = 10.0,
                   seed: int = 0, progress: Callable[[str], None] | None = None) -> RideAnalysis:
-    """Diagnose a ride's longitudinal balance; CONTRACT's ``euc-sim ride`` JSON form.
+    """Diagnose a ride's longitudinal balance.
 
     Fits the inertia-only balance (η_m, η_r) and the augmented one on
     ``log_path`` and measures both on ``compare_path``; without ``compare_path``
@@ -73,9 +109,6 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
         Ride to fit (it keeps its grid: built once).
     compare_path : Ride, optional
         Ride to test on.
-    report_dir : path, optional
-        Where to write ``ride_balance.csv`` (test ride: t, measured and predicted
-        battery power), atomically.
     assumptions : RideAssumptions
     rate, max_gap, window, polyorder :
         See :func:`ride_signals`.
@@ -88,14 +121,6 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
     Returns
     -------
     RideAnalysis
-        ``.report`` is the dict
-        ``{"effects": [...], "heldout_error_nominal", "heldout_error_augmented",
-        "error_unit"}`` plus ``ratio``, ``nominal_parameters`` (the inertia-only
-        model's terms in the augmented fit: none since the balance fits no efficiency), ``all_estimates`` (every
-        candidate of the full fit, flagged), ``aliases``, ``torque_method``,
-        ``power_source``, ``assumptions``, ``filter``, ``bootstrap``, ``notes``,
-        ``figure`` (file name inside ``report_dir``); ``recording`` and
-        ``compare`` are file names (no folder: no machine path in outputs).
     """
     say = progress or (lambda msg: None)
     say(f"reading {log_path.name}" + ("" if compare_path is None else
@@ -111,62 +136,11 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
     if n_boot and blocks < FEW_BLOCKS:
         notes.append(_few_blocks(fit_label, blocks, block_s))
         warnings.warn(notes[-1], stacklevel=2)
-    report = _report(cr, sig_fit, d_fit, d_test, (fit_label, test_label), notes, domain,
-                     assumptions, dict(log_path=log_path, compare_path=compare_path, rate=rate,
-                                       window=window, polyorder=polyorder, max_gap=max_gap,
-                                       n_boot=n_boot, block_s=block_s, seed=seed))
-    an = RideAnalysis(report=report, cross=cr, sig_fit=sig_fit, sig_test=sig_test,
-                      designs=(d_all, None if sig_test is None else d_test))
-    if report_dir is not None:
-        report["table"] = write_balance(an, report_dir).name
-    return an
-
-
-def _report(cr: CrossRide, sig_fit: RideSignals, d_fit: Design, d_test: Design,
-            labels: tuple[str, str], notes: list[str], domain: str,
-            assumptions: RideAssumptions, settings: dict) -> dict:
-    """CONTRACT's ``euc-sim ride`` dict from the cross-ride fits (``figure`` still None)."""
-    fit_label, test_label = labels
-    log_path, compare_path = settings["log_path"], settings["compare_path"]
-    rate, window, polyorder = settings["rate"], settings["window"], settings["polyorder"]
-    max_gap, n_boot = settings["max_gap"], settings["n_boot"]
-    block_s, seed = settings["block_s"], settings["seed"]
-    aug_phys = plausibility(cr.augmented)
-    return {
-        "recording": log_path.name,
-        "compare": None if compare_path is None else compare_path.name,
-        "effects": effect_entries(cr),
-        "heldout_error_nominal": cr.heldout_nominal,
-        "heldout_error_augmented": cr.heldout_augmented,
-        "error_unit": "W" if domain == "power" else "N·m",
-        "error_measure": (f"RMS of measured minus predicted battery power"
-                          f"{'' if domain == 'power' else ' divided by ω = v/R'} on {test_label}, "
-                          f"parameters fitted on {fit_label}"),
-        "ratio": cr.ratio,
-        "heldout_error_all_candidates": cr.heldout_full,
-        "selection": [dict(h) for h in cr.selection],
-        "selected_not_accepted": [c for c in cr.selected if c not in cr.accepted],
-        "insample_error_nominal": cr.nominal.rmse,
-        "insample_error_augmented": cr.augmented.rmse,
-        "nominal_parameters": {k: aug_phys[k] for k in NOMINAL},
-        "inertia_only_parameters": plausibility(cr.nominal),
-        "all_estimates": plausibility(cr.full),
-        "aliases": {k: list(v) for k, v in d_fit.aliases.items()},
-        "confounded": {k: list(cr.full.confounded(k)) for k in cr.full.names
-                       if cr.full.confounded(k)},
-        "bootstrap_correlation_full_fit": {f"{a}~{b}": r for (a, b), r in cr.full.boot_corr.items()
-                                           if a < b},
-        "domain": domain,
-        "torque_method": sig_fit.torque_method,
-        "power_source": sig_fit.power_source,
-        "assumptions": assumptions.as_dict(),
-        "filter": {"rate_hz": rate, "window_s": window, "polyorder": polyorder,
-                   "max_gap_s": max_gap},
-        "bootstrap": {"n_boot": n_boot, "block_s": block_s, "seed": seed},
-        "rows": {"fit": len(d_fit.P), "test": len(d_test.P)},
-        "notes": notes,
-        "table": None,
-    }
+    return RideAnalysis(cross=cr, sig_fit=sig_fit, sig_test=sig_test,
+                        designs=(d_all, None if sig_test is None else d_test), notes=tuple(notes),
+                        domain=domain, assumptions=assumptions,
+                        settings=BalanceSettings(rate, window, polyorder, max_gap, n_boot, block_s, seed),
+                        recording=log_path.name, compare=None if compare_path is None else compare_path.name)
 
 
 def check_data(log_path, compare_path=None, *, assumptions: RideAssumptions = RideAssumptions(),

@@ -9,10 +9,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from euc_sim.rides.balance.crossride import effect_entries
+from euc_sim.rides.balance.design import NOMINAL
+from euc_sim.rides.balance.fit import plausibility
 from euc_sim.rides.law.controller_report import controller_entry
 from euc_sim.rides.result import RideResult, RiderNumbers
 
-__all__ = ["ReportFiles", "ride_json", "verdict_json", "rider_json", "physics_json", "total_mass_json",
+__all__ = ["ReportFiles", "ride_json", "balance_json", "verdict_json", "rider_json", "physics_json", "total_mass_json",
            "term_json", "parameter_json"]
 
 
@@ -38,6 +41,49 @@ class ReportFiles:
     html: str | None = None
     simulation_table: str | None = None
     simulation_figure: str | None = None
+
+
+def balance_json(an) -> dict:
+    """CONTRACT's balance keys of a :class:`~euc_sim.rides.balance.analysis.RideAnalysis`
+    (``recording`` ... ``notes``, ``table`` None), in the command's order."""
+    cr, st = an.cross, an.settings
+    d_fit, d_test = cr.fit_design, cr.test_design
+    aug_phys = plausibility(cr.augmented)
+    return {
+        "recording": an.recording,
+        "compare": an.compare,
+        "effects": effect_entries(cr),
+        "heldout_error_nominal": cr.heldout_nominal,
+        "heldout_error_augmented": cr.heldout_augmented,
+        "error_unit": an.error_unit,
+        "error_measure": (f"RMS of measured minus predicted battery power"
+                          f"{'' if an.domain == 'power' else ' divided by ω = v/R'} on {cr.test_label}, "
+                          f"parameters fitted on {cr.fit_label}"),
+        "ratio": cr.ratio,
+        "heldout_error_all_candidates": cr.heldout_full,
+        "selection": [dict(h) for h in cr.selection],
+        "selected_not_accepted": [c for c in cr.selected if c not in cr.accepted],
+        "insample_error_nominal": cr.nominal.rmse,
+        "insample_error_augmented": cr.augmented.rmse,
+        "nominal_parameters": {k: aug_phys[k] for k in NOMINAL},
+        "inertia_only_parameters": plausibility(cr.nominal),
+        "all_estimates": plausibility(cr.full),
+        "aliases": {k: list(v) for k, v in d_fit.aliases.items()},
+        "confounded": {k: list(cr.full.confounded(k)) for k in cr.full.names
+                       if cr.full.confounded(k)},
+        "bootstrap_correlation_full_fit": {f"{a}~{b}": r for (a, b), r in cr.full.boot_corr.items()
+                                           if a < b},
+        "domain": an.domain,
+        "torque_method": an.sig_fit.torque_method,
+        "power_source": an.sig_fit.power_source,
+        "assumptions": an.assumptions.as_dict(),
+        "filter": {"rate_hz": st.rate, "window_s": st.window, "polyorder": st.polyorder,
+                   "max_gap_s": st.max_gap},
+        "bootstrap": {"n_boot": st.n_boot, "block_s": st.block_s, "seed": st.seed},
+        "rows": {"fit": len(d_fit.P), "test": len(d_test.P)},
+        "notes": list(an.notes),
+        "table": None,
+    }
 
 
 def term_json(t) -> dict:
@@ -152,7 +198,7 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
     -------
     dict
     """
-    rep = dict(res.balance.report)
+    rep = balance_json(res.balance)
     rep["notes"] = list(res.notes)
     rep["table"] = files.table if files else None
     rep.update(physics_json(res.mass))
