@@ -72,7 +72,7 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
 
     from euc_sim.controllers.firmware import firmware_motor
     from euc_sim.rides.grids.profile import speed_profile
-    from euc_sim.rides.law.controller_report import controller_json, torque_constant
+    from euc_sim.rides.law.controller_report import controller_entry, controller_fit, torque_constant
     from euc_sim.rides.pipeline import balance_on_mass
     from euc_sim.rides.sim.simulate import ride_params
     from euc_sim.rides.sim.tracking import simulate_profile
@@ -92,7 +92,7 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
            "log": lg, "runs": {}, "notes": [n for n in prof.attrs["notes"] if "spike" in n], "spikes": True,
            "ride": "ride (fitted on itself)"}
     if run == "firmware":
-        ctrl = controller_json(log, None, torque_constant(physics.terms), n_boot, 0)
+        ctrl = controller_entry(controller_fit(log, None, torque_constant(physics.terms), n_boot, 0))
         motor, notes = firmware_motor(ctrl, params)
         out["notes"] += notes
         lim = next(t for t in ctrl["terms"] if t["name"] == "torque_limit")

@@ -345,17 +345,6 @@ class Cutout:
     charge_range: tuple | None = None
     why: str | None = None
 
-    def as_json(self) -> dict:
-        """The CONTRACT's ``cutout`` object (speeds in m/s, NaN as null)."""
-        if self.why is not None and not self.curves:
-            return {"curves": None, "heldout_pwm_rmse_pct": self.heldout_pwm_rmse_pct, "danger": None,
-                    "why": self.why}
-        return {"curves": [{"condition": c.condition.name, "charge_pct": [float(x) for x in c.charge_pct],
-                            "speed_mps": [None if not np.isfinite(x) else float(x) for x in c.speed_mps]}
-                           for c in self.curves],
-                "heldout_pwm_rmse_pct": self.heldout_pwm_rmse_pct, "danger": self.danger,
-                "ocv_source": self.ocv_source,
-                "ride_charge_pct": list(self.charge_range) if self.charge_range else None}
 
 
 def cutout_curves(m: DutyModel, limits: Limits, heldout: float | None = None,

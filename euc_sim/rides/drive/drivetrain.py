@@ -74,11 +74,6 @@ class Term:
     accepted: bool | None = None
     parameter: str | None = None
 
-    def as_json(self) -> dict:
-        """``{"estimate", "ci95", "unit"}``."""
-        return {"estimate": self.estimate, "ci95": list(self.ci95) if self.ci95 else None,
-                "unit": self.unit}
-
 
 @dataclass(frozen=True)
 class Drivetrain:
@@ -87,7 +82,7 @@ class Drivetrain:
     Attributes
     ----------
     terms : dict of str -> Term
-        By name (see :meth:`as_json`).
+        By name (the JSON's ``drivetrain``: :func:`euc_sim.rides.render.contract.term_json`).
     unidentified : dict of str -> str
         Term -> why this log cannot identify it.
     pwm_coef : dict or None
@@ -106,13 +101,6 @@ class Drivetrain:
     battery_coef: dict | None
     mass: float | None
     road: dict
-
-    def as_json(self) -> dict:
-        """The CONTRACT's ``drivetrain`` object: ``{NAME: {estimate, ci95, unit}}``."""
-        out = {k: t.as_json() for k, t in self.terms.items()}
-        for k, why in self.unidentified.items():
-            out.setdefault(k, {"estimate": None, "ci95": None, "unit": None, "why": why})
-        return out
 
 
 def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: int,

@@ -64,12 +64,6 @@ class GradeProfile:
     climb_gps_m: float
     climb_implied_m: float
 
-    def as_json(self) -> dict:
-        """The summary numbers (no arrays), m."""
-        return {"rms_implied_vs_gps_m": self.rms_m, "ascent_gps_m": self.climb_gps_m,
-                "ascent_implied_m": self.climb_implied_m, "unit": "m",
-                "distance_km": float(self.distance[-1]) if self.distance.size else 0.0}
-
 
 def _ascent(h: np.ndarray, t: np.ndarray, segment: np.ndarray, span: float = 30.0) -> float:
     """Total ascent, m, of h after a ``span`` s moving mean, segment by segment."""

@@ -18,8 +18,8 @@ import numpy as np
 from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.law.controller_law import Law, fit_law, predict, r2
 
-__all__ = ["ControllerFit", "controller_fit", "controller_entry", "torque_constant", "controller_json",
-           "describe", "page_lines", "PAPER_PD"]
+__all__ = ["ControllerFit", "controller_fit", "controller_entry", "torque_constant", "describe", "page_lines",
+           "PAPER_PD"]
 
 #: The paper's nominal motor law, N·m/rad and N·m·s/rad (controllers.motor.MotorPD's defaults).
 PAPER_PD = {"K_p": 600.0, "K_d": 40.0}
@@ -148,12 +148,6 @@ def controller_entry(c: ControllerFit) -> dict:
     if c.compare_why is not None:
         out["heldout"]["compare_why"] = c.compare_why
     return out
-
-
-def controller_json(log_path, compare_path=None, k_t: float | None = None,
-                    n_boot: int = 100, seed: int = 0) -> dict:
-    """:func:`controller_entry` of :func:`controller_fit` (for scripts that want the object)."""
-    return controller_entry(controller_fit(log_path, compare_path, k_t, n_boot, seed))
 
 
 def page_lines(ctrl: dict | None) -> list[str]:

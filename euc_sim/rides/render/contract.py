@@ -9,6 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from euc_sim.rides.balance.crossride import effect_entries
 from euc_sim.rides.balance.design import NOMINAL
 from euc_sim.rides.balance.fit import plausibility
@@ -16,7 +18,8 @@ from euc_sim.rides.law.controller_report import controller_entry
 from euc_sim.rides.result import RideResult, RiderNumbers
 
 __all__ = ["ReportFiles", "ride_json", "balance_json", "verdict_json", "rider_json", "physics_json", "total_mass_json",
-           "term_json", "parameter_json"]
+           "term_json", "parameter_json",
+           "spec_json", "grade_json", "cutout_json"]
 
 
 @dataclass(frozen=True)
@@ -41,6 +44,39 @@ class ReportFiles:
     html: str | None = None
     simulation_table: str | None = None
     simulation_figure: str | None = None
+
+
+def spec_json(spec) -> dict:
+    """CONTRACT's ``wheel``: a :class:`~euc_sim.rides.source.spec.WheelSpec` in SI units."""
+    return {"radius_m": spec.radius, "wheel_mass_kg": spec.wheel_mass,
+            "battery_voltage_V": spec.battery_voltage, "name": spec.name,
+            "source": spec.source, "missing": list(spec.missing),
+            "top_speed_mps": spec.top_speed, "motor_power_W": spec.motor_power,
+            "energy_Wh": spec.energy_Wh,
+            "pack_layout": f"{spec.series}s{spec.parallel}p" if spec.series and spec.parallel else None,
+            "cell": spec.cell or None, "tyre": spec.tyre or None}
+
+
+def grade_json(g) -> dict:
+    """CONTRACT's ``grade``: a :class:`~euc_sim.rides.drive.grade.GradeProfile`'s numbers (no arrays), m;
+    ``{"why"}`` without one."""
+    if g is None:
+        return {"why": "no GPS altitude, or no mass identified: no implied grade"}
+    return {"rms_implied_vs_gps_m": g.rms_m, "ascent_gps_m": g.climb_gps_m,
+            "ascent_implied_m": g.climb_implied_m, "unit": "m",
+            "distance_km": float(g.distance[-1]) if g.distance.size else 0.0}
+
+
+def cutout_json(c) -> dict:
+    """CONTRACT's ``cutout`` of a :class:`~euc_sim.rides.drive.cutout.Cutout` (speeds in m/s, NaN as null)."""
+    if c.why is not None and not c.curves:
+        return {"curves": None, "heldout_pwm_rmse_pct": c.heldout_pwm_rmse_pct, "danger": None, "why": c.why}
+    return {"curves": [{"condition": cv.condition.name, "charge_pct": [float(x) for x in cv.charge_pct],
+                        "speed_mps": [None if not np.isfinite(x) else float(x) for x in cv.speed_mps]}
+                       for cv in c.curves],
+            "heldout_pwm_rmse_pct": c.heldout_pwm_rmse_pct, "danger": c.danger,
+            "ocv_source": c.ocv_source,
+            "ride_charge_pct": list(c.charge_range) if c.charge_range else None}
 
 
 def balance_json(an) -> dict:
@@ -141,9 +177,8 @@ def physics_json(md) -> dict:
     fit = md.fit
     rep = {"total_mass": total_mass_json(md.mass, fit.spec),
            "drivetrain": {k: term_json(t) for k, t in md.terms.items()}, "envelope": md.envelope,
-           "input_warnings": md.input_warnings, "wheel": fit.spec.as_json(), "unidentified": dict(md.unidentified),
-           "grade": (fit.grade.as_json() if fit.grade is not None else
-                     {"why": "no GPS altitude, or no mass identified: no implied grade"})}
+           "input_warnings": md.input_warnings, "wheel": spec_json(fit.spec), "unidentified": dict(md.unidentified),
+           "grade": grade_json(fit.grade)}
     if md.test is None:
         return rep
     rep["mass_difference"] = md.mass_difference
@@ -220,7 +255,7 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
         c = res.compared
         rep["compared"] = {"recording": c.recording, "total_mass": total_mass_json(c.mass, c.drivetrain.spec),
                            "unidentified": dict(c.drivetrain.drivetrain.unidentified), **rider_json(c.rider)}
-    rep["cutout"] = res.cutout.as_json()
+    rep["cutout"] = cutout_json(res.cutout)
     rep["report"] = files.html if files else None
     if files is not None:
         rep["figures"] = dict(files.figures)

@@ -131,16 +131,6 @@ class WheelSpec:
         return tuple(k for k in ("radius", "wheel_mass", "battery_voltage")
                      if getattr(self, k) is None)
 
-    def as_json(self) -> dict:
-        """Plain dict for the ride JSON (SI units)."""
-        return {"radius_m": self.radius, "wheel_mass_kg": self.wheel_mass,
-                "battery_voltage_V": self.battery_voltage, "name": self.name,
-                "source": self.source, "missing": list(self.missing),
-                "top_speed_mps": self.top_speed, "motor_power_W": self.motor_power,
-                "energy_Wh": self.energy_Wh,
-                "pack_layout": f"{self.series}s{self.parallel}p" if self.series and self.parallel else None,
-                "cell": self.cell or None, "tyre": self.tyre or None}
-
 
 _LABEL = {"radius": "Wheel diameter", "wheel_mass": "Net weight", "battery_voltage": "Tension",
           "top_speed": "Max speed"}

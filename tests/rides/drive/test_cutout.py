@@ -211,11 +211,12 @@ def test_the_cutout_chart_is_drawn_in_a_browser(twin):
 
 
 def test_the_spec_gives_its_top_speed_and_an_unreadable_one_is_left_out(tmp_path):
+    from euc_sim.rides.render.contract import spec_json
     from euc_sim.rides.source.spec import read_spec
 
     p = tmp_path / "w.csv"
     p.write_text("Field|Data\nNet weight| 23.5 kg\nMax speed| 122 km/h (150km/h Race mode)\n")
     assert read_spec(p).top_speed * 3.6 == pytest.approx(122.0)
-    assert read_spec(p).as_json()["top_speed_mps"] == pytest.approx(122 / 3.6)
+    assert spec_json(read_spec(p))["top_speed_mps"] == pytest.approx(122 / 3.6)
     p.write_text("Field|Data\nNet weight| 23.5 kg\nMax speed| fast\n")
     assert read_spec(p).top_speed is None

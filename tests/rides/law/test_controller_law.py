@@ -19,10 +19,17 @@ import pytest
 
 from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.law.controller_law import BASE, fit_law, fit_params, predict, r2
-from euc_sim.rides.law.controller_report import controller_json, page_lines
+from euc_sim.rides.law.controller_report import controller_entry, controller_fit, page_lines
 from euc_sim.rides.source.logs import read_log
 
 SHARED = Path(__file__).resolve().parents[4] / "shared" / "data" / "euc_core" / "trips"
+
+
+def controller_json(*args, **kwargs) -> dict:
+    """The ride JSON's ``controller`` object of :func:`controller_fit`."""
+    return controller_entry(controller_fit(*args, **kwargs))
+
+
 needs_data = pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/euc_core absent")
 
 
