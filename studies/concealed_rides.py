@@ -78,7 +78,7 @@ def _run(data: Path, label: str, case: str, work: Path) -> dict:
     """The ``differences`` of CLEAN against the copy (the two rides' drivetrain fits cached)."""
     from euc_sim.rides.compare.differences_report import differences_json
     from euc_sim.rides.source.logs import read_log
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
 
     cache = work / f"{label}_{case}.pkl"
     if cache.exists():

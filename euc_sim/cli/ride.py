@@ -97,7 +97,7 @@ def _limit_line(rep: dict) -> str:
 def _print_summary(rep: dict) -> None:
     """The console summary of a ride's result: the key figures (the page's tiles), then errors,
     verdict, effects, mass, windows, simulation."""
-    from euc_sim.rides.report.page_html import key_figure_lines
+    from euc_sim.rides.render.page_html import key_figure_lines
 
     for line in key_figure_lines(rep):
         print(line)
@@ -127,7 +127,7 @@ def _print_summary(rep: dict) -> None:
     sim = rep["simulation"]
     if sim:
         e = sim["errors"]
-        from euc_sim.rides.report.page import falls_sentence
+        from euc_sim.rides.render.page import falls_sentence
 
         if sim["scored_rows"]:
             print(f"  simulation along {sim['ride']}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
@@ -155,7 +155,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     # with --compare the replay runs unless refused: CONTRACT's compared JSON carries its "simulation"
     simulate = bool(args.calibrate_rider or (args.compare is not None if args.simulate is None else args.simulate))
     assumptions = _assumptions(args)
-    from euc_sim.rides.report.rider_view import check_rider_weight
+    from euc_sim.rides.summary.rider_view import check_rider_weight
     weights = args.rider_weight or []
     if len(weights) > 2:
         raise InputError(f"--rider-weight: at most twice (LOG's rider, then OTHER's), got {len(weights)} values")
@@ -223,7 +223,7 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--domain", default="power", metavar=one_of(("power", "torque")),
                    help="residual in battery power, W (default), or divided by ω, N·m")
     from euc_sim.model.parameters import PLAUSIBLE
-    from euc_sim.rides.report.rider_view import RIDER_WEIGHT
+    from euc_sim.rides.summary.rider_view import RIDER_WEIGHT
     from euc_sim.rides.source.sanity import SPEC_RANGE, TOTAL_MASS_RANGE
 
     p.add_argument("--mass", type=bounded(*TOTAL_MASS_RANGE, unit="kg"), metavar="KG",

@@ -120,13 +120,13 @@ def _cmd_rides(args: argparse.Namespace) -> int:
     hist = run_rides(paths, pack, args.n_boot, args.seed, args.workers, say).to_json()
     if args.report:
         from euc_sim.report.html import write_page
-        from euc_sim.rides.logbook.history_page import history_page
+        from euc_sim.rides.render.history_page import history_page
 
         title = f"Rides of {pack.name}" if pack and pack.name else "Rides of one wheel"
         write_page(args.report, history_page(hist, title))
     if args.json:
         write_json(args.json, hist)
-    from euc_sim.rides.logbook.history_page import pwm_cell, start_in, table_zone
+    from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
 
     off, zone = table_zone(hist)
     print(f"start times in {zone}")

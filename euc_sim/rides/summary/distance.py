@@ -4,7 +4,7 @@
 trip counter (or odometer), else the wheel's speed integrated; :func:`_duration` follows
 the app's trip clock, else the time from the wheel's first turn to the last row.  Each
 says, in words, which it follows (the summary's ``distance_follows`` and
-``duration_follows``, docs/summary.md).  Used by :mod:`euc_sim.rides.report.summary`.
+``duration_follows``, docs/summary.md).  Used by :mod:`euc_sim.rides.summary.summary`.
 """
 
 from __future__ import annotations

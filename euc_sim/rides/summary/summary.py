@@ -6,7 +6,7 @@ its columns and the app's own counters the reader took beside them (its ``counte
 :class:`RideSummary` is the ride JSON's ``summary`` object (docs/summary.md).
 
 - Duration and distance: the app's own counters where the log has them, else computed
-  from the log (:mod:`euc_sim.rides.report.distance`); ``distance_follows`` and
+  from the log (:mod:`euc_sim.rides.summary.distance`); ``distance_follows`` and
   ``duration_follows`` say which.  The whole log's span is ``logged_s``.
 - Energy: battery voltage × current integrated over time (trapezoid); intervals
   longer than the gap policy's ``bridge`` (:mod:`euc_sim.rides.source.gaps`) are not integrated across (the wheel's state in
@@ -28,7 +28,7 @@ import pandas as pd
 from euc_sim.io import to_jsonable
 from euc_sim.rides.drive.cutout import ride_limits
 from euc_sim.rides.grids.spin import free_spin, spin_json
-from euc_sim.rides.report.distance import (_distance, _duration, _gap_distance, _near, _steps,
+from euc_sim.rides.summary.distance import (_distance, _duration, _gap_distance, _near, _steps,
                                           _wheel_distance)
 from euc_sim.rides.source.counters import integrate_split as _integrate_split
 from euc_sim.rides.source.gaps import GAP_POLICY

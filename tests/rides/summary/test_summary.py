@@ -8,7 +8,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from euc_sim.rides.report.summary import BRIDGE_S, mass_check, ride_summary
+from euc_sim.rides.summary.summary import BRIDGE_S, mass_check, ride_summary
 from euc_sim.rides.source.logs import read_log
 from tests.rides.summarysynth import as_layout, synth_summary_log
 
@@ -184,7 +184,7 @@ def test_other_layouts_give_the_same_summary(tmp_path, layout):
 
 
 def test_rider_numbers_reads_the_reports_terms(tmp_path):
-    from euc_sim.rides.report.rider_view import check_rider_weight, rider_numbers
+    from euc_sim.rides.summary.rider_view import check_rider_weight, rider_numbers
     from euc_sim.rides.source.spec import WheelSpec
 
     path = synth_summary_log(tmp_path / "a.csv")

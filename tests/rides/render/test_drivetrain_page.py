@@ -1,8 +1,8 @@
-"""The mass and drivetrain section of the ride page (euc_sim.rides.report.drivetrain_report)."""
+"""The mass and drivetrain section of the ride page (euc_sim.rides.render.drivetrain_page)."""
 
 from __future__ import annotations
 
-from euc_sim.rides.report.drivetrain_report import _mass_md
+from euc_sim.rides.render.drivetrain_page import _mass_md
 
 
 def test_the_mass_interval_names_its_parts_without_an_efficiency():
@@ -21,7 +21,7 @@ def test_the_mass_interval_names_its_parts_without_an_efficiency():
 def test_the_mass_fits_own_terms_are_said_apart_from_the_balance_model():
     """Lynx pages showed winding_resistance 0.44 ohm and phase_resistance_pwm 0.074 ohm, and V9
     pages a grade ratio of 0.44 beside the balance's GPS gain 0.56, without saying which is which."""
-    from euc_sim.rides.report.drivetrain_report import _nuisance_note
+    from euc_sim.rides.render.drivetrain_page import _nuisance_note
 
     both = " ".join(_nuisance_note({"winding_resistance": {"estimate": 0.44},
                                     "phase_resistance_pwm": {"estimate": 0.074},

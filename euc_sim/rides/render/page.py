@@ -5,7 +5,7 @@ balances (:mod:`euc_sim.rides.balance.fit`) over a whole ride and hands the iner
 residual to the diagnosis module's :func:`euc_sim.diagnosis.localise.localise`, which
 returns the windows (s) where the mismatch concentrates, as ``euc-sim diagnose``
 does for a recording (the page draws them:
-:func:`euc_sim.rides.report.fit_figures.residuals_figure`); :func:`write_page` writes ``DIR/index.md``.
+:func:`euc_sim.rides.render.fit_figures.residuals_figure`); :func:`write_page` writes ``DIR/index.md``.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.grids.signals import RideSignals, split_at_gaps
-from euc_sim.rides.report.notes import as_the_tile, missing_spec_effect, said_once, summarise_notes
+from euc_sim.rides.render.notes import as_the_tile, missing_spec_effect, said_once, summarise_notes
 
 __all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "write_page",
            "falls_sentence", "markdown_sections",
@@ -174,7 +174,7 @@ def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None, key_lines: S
                 shown=frozenset()) -> list[str]:
     """Title, the key figures, what differs (with both logs' metadata, given LOG's path), the
     verdict, the cross-ride figure."""
-    from euc_sim.rides.report.differences_page import difference_section
+    from euc_sim.rides.render.differences_page import difference_section
 
     cut = next((i + 1 for i, line in enumerate(key_lines) if line.startswith("Compared ride, ")), len(key_lines))
     key = (["## Key figures", ""] + [f"- {line}" for line in key_lines[:cut]]      # the compared ride's nest
@@ -182,7 +182,7 @@ def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None, key_lines: S
     md = ([f"# Ride diagnosis: {Path(r['recording']).name}", ""] + key
           + difference_section(r, log_path) + _verdict_lines(r))
     if "total_mass" in r:
-        from euc_sim.rides.report.drivetrain_report import page_section
+        from euc_sim.rides.render.drivetrain_page import page_section
         md += page_section(r, figures, shown)
     if "controller" in r:
         from euc_sim.rides.law.controller_report import page_lines
@@ -228,10 +228,10 @@ def markdown_sections(r: dict, figures: Mapping[str, str],
     The same builders as :func:`write_page`'s, grouped as a reader looks for them: the
     balance model and its diagnosis, the mass and drivetrain, the firmware's law, the
     simulation's steps, the assumptions.  ``shown``: quantities the first screen already
-    gives (:func:`euc_sim.rides.report.drivetrain_report.page_section`), not repeated.
+    gives (:func:`euc_sim.rides.render.drivetrain_page.page_section`), not repeated.
     """
     from euc_sim.rides.law.controller_report import page_lines
-    from euc_sim.rides.report.drivetrain_report import page_section
+    from euc_sim.rides.render.drivetrain_page import page_section
 
     return [("The balance model and the diagnosis", _verdict_lines(r) + _cross_ride_md(figures) + _estimates_md(r)
              + _aliases_md(r) + _localisation_md(r, figures)),

@@ -7,9 +7,9 @@ from __future__ import annotations
 import warnings
 
 from euc_sim.cli import main
-from euc_sim.rides.report.page_html import key_figure_lines, key_figures
-from euc_sim.rides.report.rider_view import ride_clock
-from euc_sim.rides.report.summary import ride_summary
+from euc_sim.rides.render.page_html import key_figure_lines, key_figures
+from euc_sim.rides.summary.rider_view import ride_clock
+from euc_sim.rides.summary.summary import ride_summary
 from euc_sim.rides.source.logs import read_log
 from tests.rides.summarysynth import as_layout, synth_summary_log
 

@@ -1,7 +1,7 @@
 """The rider's numbers of one ride, for the ride JSON and page: summary, mass check, battery.
 
 One entry point, :func:`rider_numbers`, called once by ``euc-sim ride``; each part
-is a typed result of its own module (:mod:`euc_sim.rides.report.summary`,
+is a typed result of its own module (:mod:`euc_sim.rides.summary.summary`,
 :mod:`euc_sim.rides.drive.battery`).
 """
 
@@ -88,7 +88,7 @@ def rider_numbers(log: Ride, rep: dict, spec=None, rider_weight: float | None = 
         ``{"summary": ..., "mass_check": ..., "battery": ...}`` (JSON-ready).
     """
     from euc_sim.rides.drive.battery import battery_health_from_report, pack_spec
-    from euc_sim.rides.report.summary import mass_check, ride_summary
+    from euc_sim.rides.summary.summary import mass_check, ride_summary
 
     summary = ride_summary(log, getattr(spec, "top_speed", None))
     wheel_kg = getattr(spec, "wheel_mass", None) if spec is not None else None
@@ -119,7 +119,7 @@ def compared_numbers(log, fitted, spec=None, rider_weight: float | None = None) 
         ``recording``, ``total_mass``, ``unidentified``, and :func:`rider_numbers`'s
         ``summary``, ``mass_check``, ``battery`` and ``clock``, as LOG's are in the ride JSON.
     """
-    from euc_sim.rides.report.drivetrain_report import drivetrain_report
+    from euc_sim.rides.drive.drivetrain_report import drivetrain_report
 
     view = drivetrain_report(log, fitted.spec, fitted=fitted)[0]
     return {"recording": Path(log.path).name, "total_mass": view["total_mass"], "unidentified": view["unidentified"],

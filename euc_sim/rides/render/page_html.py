@@ -4,7 +4,7 @@ First screen: the ride's numbers (distance, time, speeds, energy, Wh/km, battery
 PWM, alarms, data quality, mass, battery health) read from the ride JSON's
 ``summary``, ``battery`` and ``total_mass`` (never computed here); a tile whose
 entry is absent says "not available"; with ``--compare``, right under them, what
-differs in the compared ride (:mod:`euc_sim.rides.report.differences_page`).  Then the ride over time on one shared
+differs in the compared ride (:mod:`euc_sim.rides.render.differences_page`).  Then the ride over time on one shared
 axis, the track, the wheel's limits with the speed at which its motor would run out of voltage
 against the battery's charge (the JSON's ``cutout``), the battery's sag and the PWM
 envelope with the ride's own points.  Then, folded, the physics the plain-text page (``index.md``) carries.
@@ -25,7 +25,7 @@ from euc_sim.report.figures import (YL_OR_RD, Line, Panel, plain_values, thin, t
                                     xy_figure)
 from euc_sim.rides.drive.cutout import CONDITIONS, Limits, headroom_words
 from euc_sim.rides.source.gaps import GAP_POLICY
-from euc_sim.rides.report.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
+from euc_sim.rides.render.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
 
 __all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "first_screen", "figure_specs",
            "data_quality",
@@ -595,11 +595,11 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
     plots : mapping, optional
         ``{id: (Plotly figure, height px)}``: the folded parts' figures drawn on the page.
     """
-    from euc_sim.rides.report.page import markdown_sections
+    from euc_sim.rides.render.page import markdown_sections
 
     name = Path(rep["recording"]).name
     figs = figure_specs(rep, series, fit)
-    from euc_sim.rides.report.differences_page import TITLE, difference_lines
+    from euc_sim.rides.render.differences_page import TITLE, difference_lines
 
     other = compared_view(rep)
     body = [H.key_figures(key_figures(rep)) if other is None else      # --compare: both rides side by side

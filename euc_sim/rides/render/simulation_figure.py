@@ -4,7 +4,8 @@ A ride is minutes long and the steps' simulations overlap nearly everywhere, so 
 figure shows the whole ride once (speed), then a zoomed window where the first and
 last steps differ most (battery power, and phase current, pitch and PWM where the
 log has them), and each step's battery-power error over time as a moving RMS.  :func:`ride_simulation_figure` builds it from a
-:class:`euc_sim.rides.sim.simulate.RideSimulation`; :func:`zoom_window` picks the window.
+:class:`euc_sim.rides.sim.simulate.RideSimulation`; :func:`zoom_window` picks the window;
+:func:`plot_ride_simulation` writes it.
 """
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import numpy as np
 
 from euc_sim.rides.grids.signals import break_at_gaps
 
-__all__ = ["ride_simulation_figure", "zoom_window", "moving_rms", "ZOOM_S", "RMS_S", "PANELS"]
+__all__ = ["plot_ride_simulation", "ride_simulation_figure", "zoom_window", "moving_rms", "ZOOM_S", "RMS_S", "PANELS"]
 
 #: s: length of the zoomed window.
 ZOOM_S = 60.0
@@ -173,3 +174,10 @@ def _error_panel(ax, t, tb, sim, e, names, styles, letter) -> None:
            title=f"({letter}) battery-power error of each step over time; last / first step = "
                  f"{e['ratio_P']:.2f}")
     _legend_right(ax)
+
+
+def plot_ride_simulation(sim, path) -> "Path":
+    """Write :func:`ride_simulation_figure` to ``path`` (PNG, atomically)."""
+    from euc_sim.io import save_figure
+
+    return save_figure(ride_simulation_figure(sim), path, dpi=100)

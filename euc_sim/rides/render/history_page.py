@@ -21,7 +21,7 @@ def table_zone(h: dict) -> tuple[float | None, str]:
     as already in it; the phone's local time where no log names a zone."""
     from collections import Counter
 
-    from euc_sim.rides.report.rider_view import zone_words
+    from euc_sim.rides.summary.rider_view import zone_words
 
     offs = Counter(e.get("utc_offset_s") for e in h["rides"] if e.get("utc_offset_s") is not None)
     if not offs:
@@ -43,7 +43,7 @@ def start_in(e: dict, offset_s: float | None) -> str:
 
 def pwm_cell(pct: float | None, unit: str = "") -> str:
     """A ride's max PWM, %, flagged as the ride page's tile judges it (warn from 80 %, bad from 90 %)."""
-    from euc_sim.rides.report.page_html import PWM_BAD, PWM_WARN
+    from euc_sim.rides.render.page_html import PWM_BAD, PWM_WARN
 
     if pct is None:
         return "–"

@@ -1,14 +1,14 @@
-"""The ride page's first screen as a rider reads it (euc_sim.rides.report.page_html): what each
+"""The ride page's first screen as a rider reads it (euc_sim.rides.render.page_html): what each
 tile says beside its number, built from a synthetic log's summary."""
 
 from __future__ import annotations
 
 import warnings
 
-from euc_sim.rides.report.page_html import key_figures
-from euc_sim.rides.report.summary import ride_summary
+from euc_sim.rides.render.page_html import key_figures
+from euc_sim.rides.summary.summary import ride_summary
 from euc_sim.rides.source.logs import read_log
-from tests.rides.report.test_summary import _with_spin
+from tests.rides.summary.test_summary import _with_spin
 from tests.rides.summarysynth import synth_summary_log
 
 
@@ -37,7 +37,7 @@ def test_the_top_speed_tile_says_a_free_spin_was_left_out(tmp_path):
 def test_the_lead_says_when_named_physics_sits_on_its_edge():
     """Blitz 1: C_rr, k and P₀ all on their plausible edges; the verdict said 'the rest is not
     explained' while the first screen said only 'shows what the standard model lacks'."""
-    from euc_sim.rides.report.page_html import _lead
+    from euc_sim.rides.render.page_html import _lead
 
     named = ["aerodynamic_drag", "rolling_resistance", "copper_loss"]
     rep = {"verdict": {"battery_power": True, "named": named},
@@ -65,7 +65,7 @@ def test_the_pwm_peak_is_marked_on_the_map_only_with_gps(tmp_path):
 
 def test_a_tile_gives_a_reason_whole_not_cut_mid_word():
     """Mten4 0's mass tile read 'the battery current is never negative: braking cannot be tol'."""
-    from euc_sim.rides.report.page_html import short
+    from euc_sim.rides.render.page_html import short
 
     why = ("the battery current is never negative: braking cannot be told from driving, so the "
            "acceleration power's sign is lost and the mass is not identified")
@@ -114,7 +114,7 @@ def test_the_pwm_panel_shows_the_logged_peak_the_tile_gives():
     the line is the 10 Hz grid's mean. The panel now carries the logged peak as a point."""
     import numpy as np
 
-    from euc_sim.rides.report.page_html import RideSeries, over_time
+    from euc_sim.rides.render.page_html import RideSeries, over_time
 
     t = np.arange(0.0, 600.0, 0.1)
     series = RideSeries(t=t, gap_s=0.15, channels={"speed_kmh": np.full(t.size, 30.0),
@@ -130,7 +130,7 @@ def test_the_pwm_panel_shows_the_logged_peak_the_tile_gives():
 def test_no_battery_figures_where_the_logs_power_is_not_the_batterys():
     """A WheelLog on a Begode: the app computes the current, so V·I is no battery power and
     neither energy, consumption nor resistance is shown as the battery's."""
-    from euc_sim.rides.report.page_html import NOT_POWER, key_figure_lines
+    from euc_sim.rides.render.page_html import NOT_POWER, key_figure_lines
 
     rep = {"summary": {"energy_drawn_Wh": 309.0, "energy_regen_Wh": 5.0, "Wh_per_km": 20.4,
                        "distance_m": 15000.0},
@@ -147,7 +147,7 @@ def test_no_battery_figures_where_the_logs_power_is_not_the_batterys():
 def test_distance_and_time_tiles_say_which_counter_they_follow(tmp_path):
     """A P6 page read 13.5 km against the wheel's trip counter's 14.85 and the app's GPS 14.20,
     without saying where its figure came from."""
-    from tests.rides.report.test_summary import _eucworld_with_counters
+    from tests.rides.summary.test_summary import _eucworld_with_counters
 
     t = _tiles({"summary": _summary_json(_eucworld_with_counters(tmp_path, gps_scale=0.9))})
     assert t["Distance"].value == "3.8 km"

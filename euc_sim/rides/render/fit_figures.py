@@ -149,7 +149,7 @@ def residuals_figure(traces):
     ----------
     traces : sequence of ResidualTrace
     """
-    from euc_sim.rides.report.page import SLOW_S
+    from euc_sim.rides.render.page import SLOW_S
 
     traces = list(traces)
     titles = [f"{tr.label}: balance residual, "

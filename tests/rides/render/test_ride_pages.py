@@ -39,7 +39,7 @@ def _logs() -> list[tuple[Path, Path | None]]:
 def pages(tmp_path_factory):
     """(log, spec, report, page text) for each of the 21 logs."""
     from euc_sim.rides.pipeline import run_ride
-    from euc_sim.rides.report.page import write_page
+    from euc_sim.rides.render.page import write_page
     from euc_sim.rides.source.spec import read_spec
 
     out = []

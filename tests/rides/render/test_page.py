@@ -1,4 +1,4 @@
-"""The ride page's folded parts (euc_sim.rides.report.page): every fitted value said once.
+"""The ride page's folded parts (euc_sim.rides.render.page): every fitted value said once.
 
 The Lynx ride 2 page gave C_rr 0.0251 and k 0.553 kg/m in 'Estimates' and again in the
 simulation's section ("effects injected ...: rolling_resistance = 0.0251, ..."), k_cu in a
@@ -10,8 +10,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from euc_sim.rides.report.notes import said_once
-from euc_sim.rides.report.page import _simulation_md
+from euc_sim.rides.render.notes import said_once
+from euc_sim.rides.render.page import _simulation_md
 
 sys.path.append(str(Path(__file__).resolve().parents[2] / "report"))
 import pagenumbers as P  # noqa: E402
@@ -49,7 +49,7 @@ def test_said_once_keeps_what_the_tables_do_not_give():
 def test_the_sampling_note_agrees_with_the_tiles_rate():
     """V9 0: the Data quality tile gave '2.9 samples/s', the notes 'about 37.0 Hz' (the median
     interval of rows that come in bursts between 409 gaps)."""
-    from euc_sim.rides.report.page import _assumptions_md
+    from euc_sim.rides.render.page import _assumptions_md
 
     note = ("irregular sampling: intervals 0.008-5.072 s (median 0.027 s, about 37.0 Hz); 409 gap(s) "
             "longer than 1 s; 883 interval(s) shorter than 20 ms (near-repeats, kept)")
@@ -69,7 +69,7 @@ def test_the_sampling_note_agrees_with_the_tiles_rate():
 def test_the_torque_inferred_from_power_is_said_as_an_assumption_for_the_torque_only():
     """The pages read 'Logged torque from power_efficiency (assumed efficiency 0.8)' and, among
     the balance fit's assumptions, 'torque from power_efficiency', beside a balance with no efficiency."""
-    from euc_sim.rides.report.page import _assumptions_md
+    from euc_sim.rides.render.page import _assumptions_md
 
     md = "\n".join(_simulation_md(_report([]), {}))
     assert "power_efficiency" not in md

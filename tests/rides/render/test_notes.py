@@ -1,9 +1,9 @@
-"""The ride page's notes for people (euc_sim.rides.report.notes.summarise_notes): one line for a
+"""The ride page's notes for people (euc_sim.rides.render.notes.summarise_notes): one line for a
 ride's hundreds of logging gaps, the JSON keeping every one."""
 
 from __future__ import annotations
 
-from euc_sim.rides.report.notes import summarise_notes
+from euc_sim.rides.render.notes import summarise_notes
 
 
 def test_gaps_and_short_pieces_become_one_line_each_per_ride():

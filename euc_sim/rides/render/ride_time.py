@@ -1,6 +1,6 @@
 """Times as a rider reads them: clock time in the ride's own zone and time into the ride.
 
-The ride JSON's ``clock`` (:func:`euc_sim.rides.report.rider_view.ride_clock`: the log's start in
+The ride JSON's ``clock`` (:func:`euc_sim.rides.summary.rider_view.ride_clock`: the log's start in
 its own zone, the zone, the pauses) turns a time in s from the log's start into words
 (:func:`when`: "18:30 (15 min 25 s into the ride)"), and :class:`TimeAxis` leaves the pauses
 out of the figures' time axis.
