@@ -1,6 +1,6 @@
 """Known effects hidden in the shared EUC World rides: does ``ride CLEAN --compare CONCEALED`` name them? Written up in docs/concealed.md.
 
-For each ride, each effect of :mod:`euc_sim.rides.synth.conceal` in turn, two pairs
+For each ride, each effect of :mod:`conceal` (studies/conceal.py) in turn, two pairs
 of effects together, and a null are hidden in a copy of the log; the
 differences of ``euc-sim ride CLEAN --compare COPY`` are computed with the
 functions that command calls (``ride_drivetrain`` then ``differences_json``;
@@ -24,9 +24,10 @@ import pickle
 import sys
 from pathlib import Path
 
+import conceal as cc
+
 from euc_sim.rides.compare.resolution import Z95, predicted_gain
 from euc_sim.rides.grids.power import RHO_AIR
-from euc_sim.rides.synth import conceal as cc
 
 #: The shared rides beside the repository (``--data`` elsewhere).
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"

@@ -24,9 +24,9 @@ sys.path.append(str(Path(__file__).resolve().parent))
 import browser  # noqa: E402
 import pagenumbers as P  # noqa: E402
 from drivesynth import drive_log  # noqa: E402
+import conceal as cc  # noqa: E402
 
 from euc_sim.cli import main  # noqa: E402
-from euc_sim.rides.synth import conceal as cc  # noqa: E402
 from euc_sim.rides.render.differences_page import TITLE, difference_lines, recorded_metadata  # noqa: E402
 from euc_sim.rides.grids.power import RHO_AIR  # noqa: E402
 

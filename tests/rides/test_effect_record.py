@@ -14,6 +14,7 @@ from types import SimpleNamespace
 import numpy as np
 import pandas as pd
 import pytest
+import conceal as cc
 import ridesynth
 
 from euc_sim.model.catalog import CATALOG, Balance, Compare, Conceal, Effect, Words
@@ -29,7 +30,6 @@ from euc_sim.rides.render.differences_page import difference_lines
 from euc_sim.rides.sim import sim_steps
 from euc_sim.rides.sim.simulate import _on_grid
 from euc_sim.rides.source.logs import read_log
-from euc_sim.rides.synth import conceal as cc
 
 NAME = "eddy_current_loss"
 UNIT = "W·s²/m²"

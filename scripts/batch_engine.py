@@ -7,7 +7,7 @@ noise) are the same linear laws written as array operations over the rides.
 Each ride has its own maneuver and noise seed; the parameters, motor and rider
 are shared (the Monte Carlo of one rider).  :func:`simulate_batch` matches
 :func:`euc_sim.simulation.engine.simulate` (MuJoCo RK4 and the analytic DOP853
-engine) to 1e-9 rad (``tests/simulation/test_batch.py``).
+engine) to 1e-9 rad (``tests/scripts/test_batch_engine.py``).
 
 Not here: the catalog's effects and the contact ground (use the per-ride engine);
 a ride that falls is frozen at its fall and flagged (``BatchRun.fell``).
@@ -16,7 +16,7 @@ Role: a cross-check only.  Studies (``dataset``, the blind study,
 both ``design`` modules) run their rides through MuJoCo batches on threads
 (:mod:`euc_sim.simulation.mujoco_batch`, every batchable effect, both grounds);
 this engine, a second and independent integration of eqs. (5)-(8), is held to
-MuJoCo by ``tests/simulation/test_batch.py`` and timed beside it in
+MuJoCo by ``tests/scripts/test_batch_engine.py`` and timed beside it in
 ``scripts/bench.py batch``.
 
 Layout: the state is an array of shape (6, R), rows (x, γ, φ, ẋ, γ̇, φ̇) in the

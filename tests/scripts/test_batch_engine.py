@@ -1,11 +1,11 @@
-"""The batch engine against the per-ride engines (1e-9 rad), falls, and bad input."""
+"""The batch engine (scripts/batch_engine.py) against the per-ride engines (1e-9 rad), falls, and bad input."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from batch_engine import simulate_batch
 
-from euc_sim.simulation.batch import simulate_batch
 from euc_sim.simulation.engine import default_rider, simulate
 from euc_sim.simulation.errors import FallError, SimulationError
 from euc_sim.simulation.maneuvers import make_maneuver

@@ -1,4 +1,4 @@
-"""Many 3-D rides at once: :func:`~euc_sim.simulation.spatial.simulate_3d` on threads.
+"""Many 3-D rides at once for the blind study: :func:`~euc_sim.simulation.spatial.simulate_3d` on threads.
 
 The planar rides of a study go to ``mujoco.batch.Batch``
 (:mod:`euc_sim.simulation.mujoco_batch`); the 3-D rides run natively, one ``MjData`` each,
@@ -9,7 +9,7 @@ releases it, so rides on different threads step in C at once; only their set-up 
 lateral design, the path, the context) and their DataFrames hold the GIL.
 
 Exact: a ride on a thread is the ride :func:`simulate_3d` makes alone, bit for bit
-(``tests/simulation/test_spatial_threads.py``): each ride's state lives in its own
+(``tests/scripts/tables/test_spatial_threads.py``): each ride's state lives in its own
 ``MjData`` and context, nothing is shared between rides but read-only models and the
 callback's registry; BLAS is held to one thread during the rides (threadpoolctl), as in
 :mod:`euc_sim.simulation.mujoco_batch`, so that no BLAS pool spins against the rides.

@@ -3,9 +3,9 @@
 import numpy as np
 import pandas as pd
 import pytest
+import conceal as cc
 
 from euc_sim.rides.grids.power import G, RHO_AIR
-from euc_sim.rides.synth import conceal as cc
 
 
 def _raw(n=3000, seed=0, R=0.15):

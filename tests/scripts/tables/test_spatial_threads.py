@@ -1,16 +1,16 @@
-"""3-D rides on threads (:mod:`euc_sim.simulation.spatial_threads`): the rides ``simulate_3d``
+"""3-D rides on threads (scripts/tables/spatial_threads.py): the rides ``simulate_3d``
 makes alone, bit for bit; a fall returned in its place."""
 
 from __future__ import annotations
 
 import mujoco
 import pytest
+from spatial_threads import ride_3d_many
 
 from euc_sim.simulation import native_core
 from euc_sim.simulation.engine import default_rider
 from euc_sim.simulation.errors import FallError, SimulationError
 from euc_sim.simulation.spatial import simulate_3d, write_spatial
-from euc_sim.simulation.spatial_threads import ride_3d_many
 
 
 def _requests():

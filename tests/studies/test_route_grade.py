@@ -1,4 +1,4 @@
-"""Two rides of one route (euc_sim/rides/grids/route.py, euc_sim/rides/balance/route_grade.py):
+"""Two rides of one route (studies/route_grade.py):
 the route matched, the grade along it read on one ride and carried to the other."""
 
 from __future__ import annotations
@@ -11,12 +11,10 @@ import pytest
 
 from euc_sim.rides.balance.design import NOMINAL, balance_design
 from euc_sim.rides.balance.fit import fit_balance
-from euc_sim.rides.balance.route_grade import (GRADE_LIMIT, carried_grade, carry_decision,
-                                               carry_grade, grade_profile, revisit_check)
-from euc_sim.rides.grids.route import (BIN_M, match_by_gps, match_by_speed, match_routes,
-                                       route_position)
 from euc_sim.rides.grids.signals import RideAssumptions, ride_signals
 from euc_sim.rides.source.logs import Ride
+from route_grade import (BIN_M, GRADE_LIMIT, carried_grade, carry_decision, carry_grade, grade_profile,
+                         match_by_gps, match_by_speed, match_routes, revisit_check, route_position)
 
 M, G = 110.0, 9.81                  # kg, m/s²
 ETA_M, ETA_R, C_RR = 0.85, 0.6, 0.02

@@ -1,4 +1,4 @@
-"""``euc-sim demo``: the main job on embedded defaults, end to end, told as a story.
+"""The demo job (``euc-sim demo`` calls :func:`run_demo`): the main job on embedded defaults, end to end, told as a story.
 
 1. Simulate the paper's longitudinal maneuvers (Table 1: constant speed 7,
    acceleration 3, deceleration 2, plus stop-and-go 2), 15 s each, at 120 Hz with the
@@ -17,13 +17,22 @@ Every random draw comes from ``seed``.
 from __future__ import annotations
 
 import sys
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
+from euc_sim import io
+from euc_sim.api.functions import diagnose, identify, simulate, write_recording
+from euc_sim.api.results import Recording
 from euc_sim.errors import InputError
+from euc_sim.identification import h_fit
+from euc_sim.identification.plots import plot_maneuver_curves, verdict_label
+from euc_sim.report import html
+from euc_sim.simulation import dataset, effects
+from euc_sim.simulation.maneuvers import make_maneuver
 
 __all__ = ["run_demo", "PAPER_RESULTS", "CONCEALABLE", "draw_concealed_effect", "Story", "Section"]
 
@@ -69,8 +78,6 @@ class Section:
 
     def to_html(self, folder: Path) -> str:
         """The section through the one page template, its figures inline (read from ``folder``)."""
-        from euc_sim.report import html
-
         body = html.markdown(self.to_markdown(figures=False)[2:])
         body += "".join(html.image(folder / path, caption) for path, caption in self.figures)
         return html.section(self.title, body)
@@ -92,8 +99,6 @@ class Story:
 
     def to_html(self, folder: Path) -> str:
         """The page (``index.html``) through the one template; figures read from ``folder``."""
-        from euc_sim.report import html
-
         return html.page(self.title, "", [html.markdown([" ".join(self.opening)])]
                          + [s.to_html(folder) for s in self.sections])
 
@@ -108,8 +113,6 @@ def draw_concealed_effect(rng: np.random.Generator) -> tuple[str, float]:
     -------
     (name, value) : (str, float)
     """
-    from euc_sim.simulation import effects
-
     name = CONCEALABLE[int(rng.integers(len(CONCEALABLE)))]
     hi = max(abs(v) for v in effects.get(name).plausible)
     value = float(rng.uniform(0.5 * hi, hi))
@@ -138,8 +141,6 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
     pathlib.Path
         The index page.
     """
-    from euc_sim import io
-
     say = progress or (lambda s: None)
     out = Path(out)
     io.check_writable(out / "index.md")
@@ -155,16 +156,12 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
     story = Story("euc-sim demo", _opening(seed, len(paths)),
                   (_identification_section(groups, p), _models_section(groups, p), _paper_section(groups),
                    _concealed_section(concealed)))
-    from euc_sim.report.html import write_page
-
-    write_page(out, story.to_html(out))
+    html.write_page(out, story.to_html(out))
     return io.write_text(out / "index.md", story.to_markdown())
 
 
 def _simulate_maneuvers(folder: Path, seed: int, workers: int | None) -> tuple[list, list[Path]]:
     """Step 1: the paper's maneuvers as recordings; their specs and paths."""
-    from euc_sim.simulation import dataset
-
     specs = dataset.dataset_plan(seed=seed, duration=15.0)
     report = dataset.run_dataset(folder, specs, workers=workers, progress=sys.stderr.isatty())
     if report.failed:
@@ -179,18 +176,12 @@ def _identify(specs: list, paths: list[Path], figure: Path, seed: int) -> list[t
     -------
     list of (maneuver, Identification)
     """
-    import warnings
-
-    import euc_sim
-    from euc_sim.identification import h_fit
-    from euc_sim.identification.plots import plot_maneuver_curves
-
     by_man: dict[str, list] = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for spec, p in zip(specs, paths):
             by_man.setdefault(spec.maneuver.name, []).append(h_fit.load(p))
-    groups = [(man, euc_sim.identify(recs, n_boot=200, seed=seed)) for man, recs in by_man.items()]
+    groups = [(man, identify(recs, n_boot=200, seed=seed)) for man, recs in by_man.items()]
     plot_maneuver_curves([(man, len(fit.recordings), fit.models) for man, fit in groups], figure,
                          true_h=specs[0].params.h)
     return groups
@@ -201,19 +192,14 @@ def _conceal_and_diagnose(folder: Path, seed: int, say: Callable[[str], None]) -
 
     Returns ``{"effect", "value", "unit", "diagnosis"}``.
     """
-    import euc_sim
-    from euc_sim import io
-    from euc_sim.simulation import effects
-    from euc_sim.simulation.maneuvers import make_maneuver
-
     rng = np.random.default_rng([seed, 5])
     effect, k_true = draw_concealed_effect(rng)
     v = float(rng.uniform(2.0, 3.0))
-    rec = euc_sim.simulate(make_maneuver("stop_and_go", v=v), 20.0, seed=int(rng.integers(1, 2**31 - 1)),
+    rec = simulate(make_maneuver("stop_and_go", v=v), 20.0, seed=int(rng.integers(1, 2**31 - 1)),
                            effects={effect: k_true}, hide_torques=True, name="concealed")
-    rec = euc_sim.Recording(rec.name, rec.data, {**rec.meta, "maneuver_options": {"v": v}}, rec.truth)
-    conc = euc_sim.write_recording(rec, folder / "concealed.csv")
-    found = euc_sim.diagnose(conc, progress=lambda s: say(f"    diagnose: {s}"))
+    rec = Recording(rec.name, rec.data, {**rec.meta, "maneuver_options": {"v": v}}, rec.truth)
+    conc = write_recording(rec, folder / "concealed.csv")
+    found = diagnose(conc, progress=lambda s: say(f"    diagnose: {s}"))
     io.write_json(folder / "diagnosis.json", found.to_json())
     found.write_report(folder / "report")
     return {"effect": effect, "value": k_true, "unit": effects.get(effect).unit, "diagnosis": found}
@@ -235,8 +221,6 @@ def _identification_section(groups: list[tuple], p) -> Section:
     """Step 4: what each model identified, against the truth, and why their order is so."""
     true_h = p.h
     says, rows = [], [("maneuver", "recordings", "model", "h (m)", "95% interval", "RMSE (N·m)", "verdict")]
-    from euc_sim.identification.plots import verdict_label
-
     for man, fit in groups:
         f3, f2 = fit.models["3dof"], fit.models["2dof"]
         for model, f in (("3-DoF", f3), ("2-DoF", f2)):
@@ -305,16 +289,14 @@ def _order_sentences(groups: list[tuple], p) -> list[str]:
 
 def _shallow_sentences(groups: list[tuple], true_h: float) -> list[str]:
     """Why a maneuver whose RMSE curve has a clear minimum may still not be called identifiable."""
-    from euc_sim.identification.h_fit import MIN_RISE
-
     out = []
     for man, fit in groups:
         f = fit.models["3dof"]
-        if f.identifiable or not f.flatness < MIN_RISE:
+        if f.identifiable or not f.flatness < h_fit.MIN_RISE:
             continue
         out.append(f"{man.replace('_', ' ').capitalize()} is shallow: its RMSE has a minimum at "
                    f"{f.h:.3f} m but rises only {100 * f.flatness:.0f}% within ±0.1 m of it (identifiable "
-                   f"from {100 * MIN_RISE:.0f}%), because near equilibrium h's terms are small against the "
+                   f"from {100 * h_fit.MIN_RISE:.0f}%), because near equilibrium h's terms are small against the "
                    "residual; a model error of the residual's size could then move h by up to about 0.1 m, "
                    "so the verdict is withheld, as the paper found for its constant-speed ride (Fig. 8(c)); "
                    f"on these simulated rides, whose residual is noise, the interval "
