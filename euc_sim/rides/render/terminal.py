@@ -1,20 +1,24 @@
-"""The ride's result as the terminal shows it after ``euc-sim ride``: one line a fact.
+"""What the terminal shows after ``euc-sim ride`` and ``euc-sim rides``: one line a fact.
 
 :func:`summary_lines` reads the ride JSON: the key figures (the page's tiles, the same strings),
 then the held-out errors, the verdict, the effects, the mass, the wheel's limit, the windows
-and the simulated replay.  The command prints the lines; nothing here writes.
+and the simulated replay.  :func:`history_lines` reads the ``rides`` JSON: one line a ride in
+one zone, then the battery's trend and the latest ride's change.  The commands print the
+lines; nothing here writes.
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Mapping
 
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.drive.cutout import Limits
+from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
 from euc_sim.rides.render.page import falls_sentence
 from euc_sim.rides.render.page_html import key_figure_lines
 
-__all__ = ["summary_lines"]
+__all__ = ["summary_lines", "history_lines"]
 
 
 def _step_line(st: Mapping) -> str:
@@ -110,3 +114,38 @@ def summary_lines(rep: Mapping) -> list[str]:
         lines.append("  windows (s): " + ", ".join(f"{a:.1f}-{b:.1f}" for a, b in rep["windows"][:8])
                      + (" ..." if len(rep["windows"]) > 8 else ""))
     return lines + _simulation_lines(rep)
+
+
+def history_lines(hist: Mapping, verdicts: bool = False) -> list[str]:
+    """The terminal's table of one wheel's rides, one string a line (no newlines).
+
+    Parameters
+    ----------
+    hist : mapping
+        The ``euc-sim rides`` JSON object (CONTRACT).
+    verdicts : bool
+        Whether the battery's pack is known (``--wheel``): each ride's resistance then carries
+        its verdict.
+
+    Returns
+    -------
+    list of str
+    """
+    off, zone = table_zone(hist)
+    lines = [f"start times in {zone}"]
+    for e in hist["rides"]:
+        s, b = e["summary"], e["battery"]
+        r = b["resistance_25C_ohm"] if hist["basis"] == "25C" else b["resistance_ohm"]
+        lines.append(f"{start_in(e, off)}  {Path(e['path']).name}: {(s['distance_m'] or 0) / 1000:.1f} km, "
+                     f"{s['Wh_per_km'] or float('nan'):.1f} Wh/km, battery {s['battery_used_pct'] or 0:.0f} %, "
+                     f"max PWM {pwm_cell(s['pwm_max_pct'], ' %')}, "
+                     f"resistance {'–' if r is None else f'{1e3 * r:.0f} mΩ'}"
+                     + (f" ({b['verdict']})" if verdicts and r is not None else ""))
+    if hist.get("trend"):
+        lines.append(f"battery: {hist['trend']}")
+    ch = hist["change"]
+    if ch:
+        lines.append(f"latest ride's resistance against the earlier {ch['n_earlier']}: {ch['verdict']} "
+                     f"(difference {1e3 * ch['difference']:+.0f} mΩ, 95% [{1e3 * ch['difference_ci95'][0]:+.0f}, "
+                     f"{1e3 * ch['difference_ci95'][1]:+.0f}], p = {ch['p_value']:.2g})")
+    return lines
