@@ -43,7 +43,7 @@ class RideResult:
     analysis : RideAnalysis
         The balance fit (:mod:`euc_sim.rides.balance.analysis`).
     traces : list
-        Residual traces of the fit and test rides (:func:`euc_sim.rides.render.page.residual_windows`).
+        Residual traces of the fit and test rides (:func:`euc_sim.rides.balance.residual.residual_windows`).
     simulation : object or None
         :func:`euc_sim.rides.sim.simulate.simulate_ride`'s result.
     physics : tuple
@@ -214,7 +214,7 @@ def _one_parameter_set(an, physics, log, compare, n_boot: int, seed: int, say) -
 
 def _localise(rep: dict, an, domain: str, log, compare) -> list:
     """Where the inertia-only residual concentrates: ``windows``, ``localisation``, traces."""
-    from euc_sim.rides.render.page import residual_windows
+    from euc_sim.rides.balance.residual import residual_windows
 
     name = log.name
     nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
@@ -316,7 +316,7 @@ def write_report(res: RideResult, out: Path) -> None:
 
 def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
     from euc_sim.io import atomic_write
-    from euc_sim.rides.balance.analysis import write_balance
+    from euc_sim.rides.render.fit_figures import write_balance
     from euc_sim.rides.render.page import write_page
 
     rep["table"] = write_balance(an, out).name
@@ -360,8 +360,7 @@ def _fit_plots(an, traces, physics) -> dict:
 
 def _drivetrain_figures(physics, out: Path) -> dict:
     """The envelope and grade figures of the ride page (PNG), by key -> file name."""
-    from euc_sim.rides.drive.grade import plot_grade
-    from euc_sim.rides.render.drivetrain_page import plot_envelope
+    from euc_sim.rides.render.drivetrain_page import plot_envelope, plot_grade
 
     rep, fit, _ = physics
     figs = {}

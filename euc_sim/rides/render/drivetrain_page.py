@@ -1,9 +1,10 @@
-"""The ride page's mass and drivetrain section and the cut-out envelope's figure.
+"""The ride page's mass and drivetrain section, and the envelope's and the grade's figures.
 
 :func:`page_section` words the ride JSON's ``total_mass``, ``drivetrain``, ``pwm``, ``grade``
 and ``envelope`` (:mod:`euc_sim.rides.drive.drivetrain_report`) for the page;
-:func:`plot_envelope` draws the envelope's figure (the page draws the PWM model's:
-:func:`euc_sim.rides.render.fit_figures.pwm_figure`).
+:func:`plot_envelope` draws the envelope's figure and :func:`plot_grade` the altitude the
+balance implies (:mod:`euc_sim.rides.drive.grade`); the page draws the PWM model's
+(:func:`euc_sim.rides.render.fit_figures.pwm_figure`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from euc_sim.io import save_figure
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.grids.power import G
 
-__all__ = ["plot_envelope", "envelope_figure", "page_section", "TYRE_MU"]
+__all__ = ["plot_envelope", "envelope_figure", "plot_grade", "grade_figure", "page_section", "TYRE_MU"]
 
 
 #: Tyre-road friction coefficient the envelope figure assumes (dry asphalt, about 1):
@@ -76,6 +77,50 @@ def envelope_figure(env: dict, title: str = ""):
                  fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(loc="upper left", bbox_to_anchor=(1.12, 1.0), fontsize=8, borderaxespad=0.0)
+    return fig
+
+
+def plot_grade(g, path, title: str = "") -> Path:
+    """Write :func:`grade_figure` to ``path`` (PNG, atomically)."""
+    return save_figure(grade_figure(g, title), path)
+
+
+def grade_figure(g, title: str = ""):
+    """Altitude against distance: GPS, implied by the balance, and the fitted grade term.
+
+    Parameters
+    ----------
+    g : euc_sim.rides.drive.grade.GradeProfile
+    title : str
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    def broken(y):          # NaN between segments: the implied altitude restarts at each
+        cut = np.flatnonzero(g.segment[1:] != g.segment[:-1]) + 1
+        return np.insert(g.distance, cut, np.nan), np.insert(y, cut, np.nan)
+
+    fig = Figure(figsize=(9, 5.6), layout="constrained")
+    ax = fig.add_subplot()
+    ax.plot(*broken(g.gps), color="k", lw=1.2,
+            label=f"GPS altitude (ascent {g.climb_gps_m:.0f} m)")
+    ax.plot(*broken(g.implied), color="tab:blue", lw=1.0,
+            label=f"implied by battery power, ∫(P − P̂ without grade)/(m·g) dt, restarted at "
+                  f"GPS after each gap (ascent {g.climb_implied_m:.0f} m; {g.rms_m:.0f} m RMS "
+                  f"from GPS)")
+    if g.fitted is not None:
+        ax.plot(*broken(g.fitted), color="tab:orange", lw=1.0, ls="--",
+                label="the fit's grade term, (β_h/m)·GPS altitude (β_h < m: altitude noise "
+                      "attenuates it)")
+    ax.set_xlabel("distance ridden, km")
+    ax.set_ylabel("altitude, m")
+    fig.suptitle(title or "Road grade: the altitude the battery-power balance implies, "
+                          "against GPS altitude", fontsize=10)
+    ax.grid(alpha=0.3)
+    fig.legend(loc="outside lower center", fontsize=8)
     return fig
 
 

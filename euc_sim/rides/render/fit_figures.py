@@ -1,4 +1,5 @@
-"""The fits' figures on the ride page: the held-out balance, its residual over time, the PWM model.
+"""The fits' figures on the ride page: the held-out balance, its residual over time, the PWM model;
+and the held-out balance's table (:func:`write_balance`, ``ride_balance.csv``).
 
 Each builder returns a Plotly figure (drawn by the page, :func:`euc_sim.report.html.figure`)
 readable alone: a title, axis titles with units, legends under the axes.  Long rides are
@@ -14,7 +15,7 @@ import numpy as np
 from euc_sim.report.figures import Line, plain_values, thin, with_breaks, xy_figure
 from euc_sim.rides.balance.design import CANDIDATES
 
-__all__ = ["balance_figure", "residuals_figure", "residuals_height", "pwm_figure", "MOST_POINTS",
+__all__ = ["balance_figure", "residuals_figure", "residuals_height", "pwm_figure", "write_balance", "MOST_POINTS",
            "BALANCE_HEIGHT", "PWM_HEIGHT"]
 
 #: Points per curve at most (a 90-minute ride at 10 Hz has 54,000).
@@ -149,7 +150,7 @@ def residuals_figure(traces):
     ----------
     traces : sequence of ResidualTrace
     """
-    from euc_sim.rides.render.page import SLOW_S
+    from euc_sim.rides.balance.residual import SLOW_S
 
     traces = list(traces)
     titles = [f"{tr.label}: balance residual, "
@@ -197,3 +198,26 @@ def pwm_figure(r, coef: dict | None = None, title: str = ""):
                       Line("equal", np.array([0.0, top]), np.array([0.0, top]), mode="lines")],
                      title or "PWM: (back-EMF + resistive drop) / battery voltage", "logged PWM, %",
                      "predicted PWM, %")
+
+
+def write_balance(an, report_dir) -> Path:
+    """Write ``ride_balance.csv`` (the test ride: t, v, measured and predicted battery power) atomically.
+
+    Parameters
+    ----------
+    an : euc_sim.rides.balance.analysis.RideAnalysis
+    report_dir : path
+
+    Returns
+    -------
+    pathlib.Path
+        The table.
+    """
+    from euc_sim.io import atomic_write
+
+    cr, d_test, report_dir = an.cross, an.cross.test_design, Path(report_dir)
+    cols = {"t": d_test.t, "v": d_test.v, "P_measured": d_test.P,
+            "P_nominal": d_test.predict(cr.nominal.estimate), "P_augmented": d_test.predict(cr.augmented.estimate)}
+    # 7 significant digits (0.01 s, 1 mW): numpy's writer, several times faster than pandas' repr of each float
+    return atomic_write(report_dir / "ride_balance.csv", lambda p: np.savetxt(
+        p, np.column_stack(list(cols.values())), fmt="%.7g", delimiter=",", header=",".join(cols), comments=""))

@@ -10,6 +10,8 @@ log has them), and each step's battery-power error over time as a moving RMS.  :
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 
 from euc_sim.rides.grids.signals import break_at_gaps
@@ -140,8 +142,6 @@ def ride_simulation_figure(sim):
                         f"steps differ most: {what}")
         _legend_right(ax[k])
     _error_panel(ax[-1], t, tb, sim, e, names, styles[1:], "abcdefg"[n - 1])
-    from pathlib import Path
-
     fig.suptitle(f"Simulated rider along {Path(sim.label).name}, step by step ({' → '.join(names)}):\n"
                  f"the whole ride, a zoom where the steps differ, and the error over time", fontsize=11)
     return fig
@@ -176,7 +176,7 @@ def _error_panel(ax, t, tb, sim, e, names, styles, letter) -> None:
     _legend_right(ax)
 
 
-def plot_ride_simulation(sim, path) -> "Path":
+def plot_ride_simulation(sim, path) -> Path:
     """Write :func:`ride_simulation_figure` to ``path`` (PNG, atomically)."""
     from euc_sim.io import save_figure
 

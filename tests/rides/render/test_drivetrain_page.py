@@ -1,8 +1,11 @@
-"""The mass and drivetrain section of the ride page (euc_sim.rides.render.drivetrain_page)."""
+"""The mass and drivetrain section of the ride page and its figures (euc_sim.rides.render.drivetrain_page)."""
 
 from __future__ import annotations
 
-from euc_sim.rides.render.drivetrain_page import _mass_md
+from euc_sim.rides.drive.grade import grade_profile
+from euc_sim.rides.drive.mass import MassFit
+from euc_sim.rides.render.drivetrain_page import _mass_md, plot_grade
+from tests.rides.drive.test_grade import _ride
 
 
 def test_the_mass_interval_names_its_parts_without_an_efficiency():
@@ -34,3 +37,12 @@ def test_the_mass_fits_own_terms_are_said_apart_from_the_balance_model():
     assert _nuisance_note({"speed_scale": {"estimate": 1.0}}) == []
     alone = " ".join(_nuisance_note({"phase_resistance_pwm": {"estimate": 0.074}}))
     assert alone == ""
+
+
+def test_grade_figure_is_written(tmp_path):
+    sig, fit, t, h = _ride(gps_noise=1.0)
+    fit = MassFit(**{**fit.__dict__, "coef": {**fit.coef, "grade": 80.0}})
+    g = grade_profile(sig, fit, t, h)
+    assert g.fitted is not None
+    out = plot_grade(g, tmp_path / "grade.png")
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
