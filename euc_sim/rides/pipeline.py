@@ -2,7 +2,7 @@
 
 :func:`ride_pipeline` takes each log parsed once (a :class:`~euc_sim.rides.source.ride.Ride`
 of :func:`~euc_sim.rides.source.logs.read_log`), then runs the analyses in order on it: mass and drivetrain
-(:mod:`euc_sim.rides.report.drivetrain_report`), the bounded balance fit with its
+(:mod:`euc_sim.rides.drive.drivetrain_report`), the bounded balance fit with its
 held-out selection (:mod:`euc_sim.rides.balance.analysis`), the balance law
 (:mod:`euc_sim.rides.law.controller_report`), the one parameter set
 (:mod:`euc_sim.rides.balance.parameters`), the residual's localisation, the simulated
@@ -39,7 +39,7 @@ class BalanceOnMass:
     Attributes
     ----------
     physics : MassDrivetrain
-        :func:`euc_sim.rides.report.drivetrain_report.ride_drivetrain`'s result.
+        :func:`euc_sim.rides.drive.drivetrain_report.ride_drivetrain`'s result.
     assumptions : RideAssumptions
         The assumptions handed to the balance fit (the log's total mass, the spec's radius).
     analysis : RideAnalysis
@@ -77,7 +77,7 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
     """
     from euc_sim.rides.balance.analysis import ride_analysis
     from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
 
     say = progress or (lambda s: None)
     say("finding the total mass and the drivetrain")
@@ -127,7 +127,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
     from euc_sim.rides.balance.verdict import verdict_of
     from euc_sim.rides.law.controller_report import controller_fit, torque_constant
-    from euc_sim.rides.report.drivetrain_report import cutout_of
+    from euc_sim.rides.drive.drivetrain_report import cutout_of
 
     say = progress or (lambda s: None)
     # each grid is built once and kept on its ride; bad logs fail in the mass fit, before any output
@@ -156,7 +156,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     rider = _rider_numbers(log, mass.mass, drivetrain, spec, rider_weight)
     compared = None
     if compare is not None:         # the compared ride's own numbers, beside LOG's on the page
-        from euc_sim.rides.report.drivetrain_report import computed_pwm_note, reported_mass, reported_terms
+        from euc_sim.rides.drive.drivetrain_report import computed_pwm_note, reported_mass, reported_terms
 
         test, test_mass = mass.test, reported_mass(mass.test)
         compared = ComparedRide(Path(compare.path).name, test, test_mass, _rider_numbers(
@@ -169,15 +169,15 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
 
 
 def _rider_numbers(log, total_mass, drivetrain, spec, rider_weight) -> RiderNumbers:
-    """The summary, mass check, battery and clock of one ride (:mod:`euc_sim.rides.report.rider_view`)."""
-    from euc_sim.rides.report.rider_view import rider_numbers
+    """The summary, mass check, battery and clock of one ride (:mod:`euc_sim.rides.summary.rider_view`)."""
+    from euc_sim.rides.summary.rider_view import rider_numbers
 
     return RiderNumbers(*rider_numbers(log, total_mass, drivetrain, spec, rider_weight))
 
 
 def _localise(an, domain: str, log, compare) -> list:
     """Where the inertia-only residual concentrates: the residual traces of the fit (and test) ride."""
-    from euc_sim.rides.report.page import residual_windows
+    from euc_sim.rides.balance.residual import residual_windows
 
     nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
     d_fit, d_test = an.designs

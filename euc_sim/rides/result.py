@@ -19,9 +19,9 @@ from euc_sim.rides.drive.battery import BatteryHealth
 from euc_sim.rides.drive.cutout import Cutout
 from euc_sim.rides.drive.mass import MassFit
 from euc_sim.rides.law.controller_report import ControllerFit
-from euc_sim.rides.report.drivetrain_report import MassDrivetrain, RideDrivetrain
-from euc_sim.rides.report.page import ResidualTrace
-from euc_sim.rides.report.summary import MassCheck, RideSummary
+from euc_sim.rides.drive.drivetrain_report import MassDrivetrain, RideDrivetrain
+from euc_sim.rides.balance.residual import ResidualTrace
+from euc_sim.rides.summary.summary import MassCheck, RideSummary
 from euc_sim.rides.sim.simulate import RideSimulation
 
 __all__ = ["RideResult", "RiderNumbers", "ComparedRide"]
@@ -34,13 +34,13 @@ class RiderNumbers:
     Attributes
     ----------
     summary : RideSummary
-        Distance, time, speed, energy, battery, limits (:mod:`euc_sim.rides.report.summary`).
+        Distance, time, speed, energy, battery, limits (:mod:`euc_sim.rides.summary.summary`).
     mass_check : MassCheck
         The declared rider weight against the log's total mass.
     battery : BatteryHealth
         The pack's internal resistance against what its cells give.
     clock : dict
-        :func:`~euc_sim.rides.report.rider_view.ride_clock`: when the ride ran, in its zone.
+        :func:`~euc_sim.rides.summary.rider_view.ride_clock`: when the ride ran, in its zone.
     """
 
     summary: RideSummary
@@ -84,7 +84,7 @@ class RideResult:
         simulated.
     mass : MassDrivetrain
         Total mass, drivetrain, PWM model and envelope
-        (:func:`~euc_sim.rides.report.drivetrain_report.mass_drivetrain`).
+        (:func:`~euc_sim.rides.drive.drivetrain_report.mass_drivetrain`).
     law : ControllerFit
         The wheel's balance law (:func:`~euc_sim.rides.law.controller_report.controller_fit`).
     parameters : tuple of Parameter

@@ -1,7 +1,6 @@
 """Synthetic recordings: simulate, sample like motion capture, write with sidecars.
 
-:func:`simulated_recording` makes one recording in memory; :func:`write_simulated`
-writes it (``NAME.csv`` + ``NAME.json`` + ``NAME.truth.json``); :func:`run_dataset`
+:func:`simulated_recording` makes one recording in memory; :func:`run_dataset`
 makes a set shaped like the paper's longitudinal recordings (Table 1: constant
 speed 7, acceleration 3, deceleration 2; plus stop-and-go) in parallel
 (:mod:`euc_sim.simulation.runner`: a process pool or Dask).
@@ -36,7 +35,7 @@ from euc_sim.simulation.maneuvers import Maneuver, make_maneuver
 from euc_sim.simulation.engine import default_rider, simulate, true_params
 
 __all__ = ["PAPER_SET", "DEFAULT_RIDER_NOISE", "RecordingSpec", "simulated_recording", "simulated_recordings",
-           "write_simulated", "dataset_plan", "run_dataset", "plan_digest", "DATASET_BATCH"]
+           "dataset_plan", "run_dataset", "plan_digest", "DATASET_BATCH"]
 
 #: The paper's longitudinal maneuvers (Table 1) and how many recordings of each, plus
 #: stop-and-go, which identifies h best (docs/scale.md).
@@ -157,17 +156,6 @@ def _sampled(spec: RecordingSpec, run):
 def _unit(name: str) -> str:
     from euc_sim.simulation.effects import get
     return get(name).unit
-
-
-def write_simulated(path: str | Path, spec: RecordingSpec) -> Path:
-    """Simulate, sample and write ``path`` with ``NAME.json`` and ``NAME.truth.json``.
-
-    The destination is checked before the simulation runs; nothing is written when
-    the run fails.
-    """
-    io.check_writable(path)
-    rec, meta, truth = simulated_recording(spec)
-    return io.write_recording(rec, path, meta, truth)
 
 
 def dataset_plan(seed: int = 0, duration: float = 15.0, counts=PAPER_SET, params: Params = TABLE3,

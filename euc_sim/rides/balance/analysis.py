@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -21,8 +20,7 @@ from euc_sim.rides.balance.fit import FEW_BLOCKS, block_rows
 from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, ride_signals
 from euc_sim.rides.source.gaps import GAP_POLICY
 
-__all__ = ["RideAnalysis", "BalanceSettings", "ride_analysis", "write_balance", "check_data",
-           "split_time"]
+__all__ = ["RideAnalysis", "BalanceSettings", "ride_analysis", "check_data", "split_time"]
 
 
 @dataclass(frozen=True)
@@ -203,21 +201,3 @@ def _notes(sig_fit: RideSignals, sig_test: RideSignals | None, d_fit: Design,
     if sig_test is not None:
         notes += [f"{test_label}: {n}" for n in sig_test.notes]
     return notes
-
-
-def write_balance(an: RideAnalysis, report_dir) -> Path:
-    """Write ``ride_balance.csv`` (the test ride: t, v, measured and predicted battery power) atomically.
-
-    Returns
-    -------
-    pathlib.Path
-        The table.
-    """
-    from euc_sim.io import atomic_write
-
-    cr, d_test, report_dir = an.cross, an.cross.test_design, Path(report_dir)
-    cols = {"t": d_test.t, "v": d_test.v, "P_measured": d_test.P,
-            "P_nominal": d_test.predict(cr.nominal.estimate), "P_augmented": d_test.predict(cr.augmented.estimate)}
-    # 7 significant digits (0.01 s, 1 mW): numpy's writer, several times faster than pandas' repr of each float
-    return atomic_write(report_dir / "ride_balance.csv", lambda p: np.savetxt(
-        p, np.column_stack(list(cols.values())), fmt="%.7g", delimiter=",", header=",".join(cols), comments=""))

@@ -142,7 +142,7 @@ def parameter_list(cr: CrossRide, mass, terms: Mapping, law=None) -> tuple[Param
     cr : CrossRide
         The balance fit (its resistances and losses).
     mass : MassFit or None
-        The total mass as reported (:func:`~euc_sim.rides.report.drivetrain_report.reported_mass`).
+        The total mass as reported (:func:`~euc_sim.rides.drive.drivetrain_report.reported_mass`).
     terms : mapping of str -> Term
         The drivetrain's terms as reported, before :func:`drivetrain_view`.
     law : ControllerFit, optional

@@ -1,6 +1,6 @@
 """The ride JSON's ``differences`` for ``euc-sim ride LOG --compare OTHER``.
 
-Glue between the two rides' drivetrain analyses (:mod:`euc_sim.rides.report.drivetrain_report`)
+Glue between the two rides' drivetrain analyses (:mod:`euc_sim.rides.drive.drivetrain_report`)
 and the pure functions of :mod:`euc_sim.rides.compare.differences` and
 :mod:`euc_sim.rides.compare.differences_fit`: each domain's rows of both rides (battery
 power with LOG's terms and delay, terminal voltage, GPS speed against wheel
@@ -362,7 +362,7 @@ def pair_differences(physics, log_path, compare_path, n_boot: int = 200, seed: i
     ----------
     physics : MassDrivetrain
         LOG's mass and drivetrain with OTHER's analysis
-        (:func:`euc_sim.rides.report.drivetrain_report.mass_drivetrain` with ``compare``).
+        (:func:`euc_sim.rides.drive.drivetrain_report.mass_drivetrain` with ``compare``).
     log_path, compare_path : Ride
         Each ride, as the ride pipeline holds it.
     n_boot, seed : int
@@ -375,7 +375,7 @@ def pair_differences(physics, log_path, compare_path, n_boot: int = 200, seed: i
     -------
     Differences
     """
-    from euc_sim.rides.report.drivetrain_report import computed_pwm_note, reported_mass, reported_terms
+    from euc_sim.rides.drive.drivetrain_report import computed_pwm_note, reported_mass, reported_terms
 
     fit, test = physics.fit, physics.test
     log_params = parameters_from_fit(physics.mass, physics.terms)

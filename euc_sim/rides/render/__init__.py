@@ -1,1 +1,1 @@
-"""Renderers of a ride's result: the CONTRACT's JSON, the report folder, the pages."""
+"""Rendering of a ride's results: the CONTRACT's JSON, the report folder, the Markdown and HTML pages, their sections and every figure."""

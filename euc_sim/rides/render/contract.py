@@ -173,7 +173,7 @@ def physics_json(md) -> dict:
     """CONTRACT's ``total_mass``, ``drivetrain`` (the energy balance's terms), ``envelope``,
     ``input_warnings``, ``wheel``, ``unidentified``, ``grade`` and, with a compared ride,
     ``mass_difference``, ``power_heldout`` and ``pwm`` of a
-    :class:`~euc_sim.rides.report.drivetrain_report.MassDrivetrain`."""
+    :class:`~euc_sim.rides.drive.drivetrain_report.MassDrivetrain`."""
     fit = md.fit
     rep = {"total_mass": total_mass_json(md.mass, fit.spec),
            "drivetrain": {k: term_json(t) for k, t in md.terms.items()}, "envelope": md.envelope,

@@ -40,9 +40,9 @@ def write_report(res: RideResult, out: Path) -> ReportFiles:
 
 def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
     from euc_sim.io import atomic_write
-    from euc_sim.rides.balance.analysis import write_balance
-    from euc_sim.rides.report.page import write_page
-    from euc_sim.rides.report.page_html import RideSeries, first_screen, key_figure_lines, write_ride_html
+    from euc_sim.rides.render.fit_figures import write_balance
+    from euc_sim.rides.render.page import write_page
+    from euc_sim.rides.render.page_html import RideSeries, first_screen, key_figure_lines, write_ride_html
 
     an, sim, fit = res.balance, res.simulation, res.mass.fit
     rep = ride_json(res)        # the pages read the JSON object, the files' names added as they exist
@@ -50,7 +50,7 @@ def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
     figures = _drivetrain_figures(res, out)        # PNG files
     sim_files = {}
     if sim is not None:
-        from euc_sim.rides.sim.simulate import plot_ride_simulation
+        from euc_sim.rides.render.simulation_figure import plot_ride_simulation
 
         figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
         atomic_write(out / "ride_simulation.csv",
@@ -70,7 +70,7 @@ def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
 
 def _fit_plots(res: RideResult) -> dict:
     """The fits' figures the page draws (Plotly), by key (the markdown's figure key, the element id)."""
-    from euc_sim.rides.report import fit_figures as F
+    from euc_sim.rides.render import fit_figures as F
 
     an, fit, test = res.balance, res.mass.fit, res.mass.test
     plots = {"cross_ride": (F.balance_figure(an.cross, an.sig_fit, an.sig_test), F.BALANCE_HEIGHT),
@@ -84,8 +84,7 @@ def _fit_plots(res: RideResult) -> dict:
 
 def _drivetrain_figures(res: RideResult, out: Path) -> dict:
     """The envelope and grade figures of the ride page (PNG), by key -> file name."""
-    from euc_sim.rides.drive.grade import plot_grade
-    from euc_sim.rides.report.drivetrain_report import plot_envelope
+    from euc_sim.rides.render.drivetrain_page import plot_envelope, plot_grade
 
     fit, env = res.mass.fit, res.mass.envelope
     figs = {}

@@ -1,0 +1,252 @@
+"""One ride's mass, drivetrain, PWM model and cut-out envelope.
+
+:func:`mass_drivetrain` runs :mod:`euc_sim.rides.drive.mass` and
+:mod:`euc_sim.rides.drive.drivetrain` on a log (and, with ``compare``, predicts the
+other ride's battery power and PWM from this one's fit) and returns a
+:class:`MassDrivetrain` (the JSON's ``total_mass``, ``drivetrain``, ``pwm`` and
+``envelope``: :mod:`euc_sim.rides.render.contract`; drawn and worded by
+:mod:`euc_sim.rides.render.drivetrain_page`).  The rider's stated weight is never read.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from euc_sim.rides.drive.drivetrain import Drivetrain, Term, envelope, fit_drivetrain, predict_pwm
+from euc_sim.rides.drive.grade import GradeProfile, grade_profile
+from euc_sim.rides.drive.mass import MassFit, fit_mass, predict_power
+from euc_sim.rides.drive.pwm import no_force_speed
+from euc_sim.rides.drive.rotating import without_rotating_inertia
+from euc_sim.rides.grids.power import MassSettings, PowerSignals, power_signals
+from euc_sim.rides.source.ride import Ride
+from euc_sim.rides.source.sanity import input_warnings, mass_suspicion
+from euc_sim.rides.source.spec import WheelSpec
+from euc_sim.rides.source.systematic import mass_difference
+
+__all__ = ["RideDrivetrain", "MassDrivetrain", "analyse", "mass_drivetrain", "ride_drivetrain",
+           "reported_mass", "reported_terms", "cutout_of", "COMPUTED_PWM_RMS", "computed_pwm_note"]
+
+#: A logged duty that its model explains better than this, percentage points, is
+#: taken to be computed by the app from speed and voltage, not measured.
+COMPUTED_PWM_RMS = 0.3
+
+
+@dataclass(frozen=True)
+class RideDrivetrain:
+    """Everything identified on one ride (see :func:`analyse`)."""
+
+    path: str
+    sig: PowerSignals
+    mass: MassFit
+    drivetrain: Drivetrain
+    spec: WheelSpec
+    grade: GradeProfile | None = None
+
+
+def analyse(log: Ride, spec: WheelSpec = WheelSpec(), settings: MassSettings = MassSettings()
+            ) -> RideDrivetrain:
+    """Filter and fit one ride (mass, then drivetrain, then the grade it implies)."""
+    sig = power_signals(log, settings)       # the ride keeps its grid: built once
+    m_eq = fit_mass(log, settings, sig=sig)
+    # the drivetrain balances power with m_eq (eq. 6): the rotating inertia is accelerated too
+    dt = fit_drivetrain(sig, m_eq, radius=spec.radius, n_boot=max(10, settings.n_boot // 2),
+                        seed=settings.seed)
+    alt = log.data["gps_alt"].to_numpy(float) if "gps_alt" in log.data else None
+    grade = None if alt is None else grade_profile(sig, m_eq, log.data["t"].to_numpy(float), alt)
+    return RideDrivetrain(log.path, sig, without_rotating_inertia(m_eq, spec.wheel_mass), dt, spec, grade)
+
+
+def _rms(x: np.ndarray) -> float:
+    return float(np.sqrt(np.mean(np.square(x)))) if x.size else float("nan")
+
+
+def computed_pwm_note(r: RideDrivetrain) -> str | None:
+    """Why the logged duty of ``r`` is taken as computed by the app, or None if measured."""
+    if r.drivetrain.pwm_coef is None:
+        return None
+    pred, obs = predict_pwm(r.sig, r.drivetrain.pwm_coef)
+    rms = _rms(pred - obs)
+    if rms < COMPUTED_PWM_RMS:
+        return (f"the logged duty follows speed and voltage to {rms:.2f} percentage points: "
+                f"the app computes it, it is not measured; the resistive drop is not identified")
+    return None
+
+
+def reported_mass(r: RideDrivetrain) -> MassFit:
+    """The ride's total mass as reported: an absurd estimate withdrawn, with why (never a
+    confident absurd mass)."""
+    why = mass_suspicion(r.mass.estimate)
+    if why is None:
+        return r.mass
+    return dataclasses.replace(r.mass, estimate=None, ci95=None, stat_ci95=None, why=why, by_window={},
+                               equivalent={})
+
+
+def reported_terms(r: RideDrivetrain, computed_note: str | None = None) -> dict[str, Term]:
+    """The drivetrain's terms as reported, by name: the identified ones, then each term the log
+    cannot identify (estimate None, with why); with ``computed_note`` (:func:`computed_pwm_note`)
+    the resistive drop is not identified and the winding resistance left out."""
+    terms = dict(r.drivetrain.terms)
+    for k, why in r.drivetrain.unidentified.items():
+        terms.setdefault(k, Term(None, None, None, why=why))
+    if computed_note:
+        terms["resistive_drop"] = Term(None, None, "V/N", why=computed_note)
+        terms.pop("winding_resistance", None)
+    return terms
+
+
+def _envelope(r: RideDrivetrain, computed_note: str | None) -> dict:
+    """The cut-out envelope, or why there is none (``computed_note``: :func:`computed_pwm_note`)."""
+    dt = r.drivetrain
+    if dt.pwm_coef is None or not dt.mass:
+        return {"why": "needs the PWM model and the mass: "
+                       + (dt.unidentified.get("pwm") or r.mass.why or "unavailable")}
+    if computed_note:
+        return {"why": computed_note}
+    V = r.spec.battery_voltage or (dt.battery_coef["E0"] if dt.battery_coef else None)
+    src = "spec" if r.spec.battery_voltage else "open-circuit voltage fitted at the ride's start"
+    v_zero = no_force_speed(dt.pwm_coef, V)
+    env = envelope(dt, V, v_max=1.05 * v_zero if v_zero else 2.0 * float(np.nanmax(r.sig.v)))
+    env["voltage_source"] = src
+    env["ride_top_speed"] = float(np.nanmax(r.sig.v))
+    return env
+
+
+@dataclass(frozen=True)
+class MassDrivetrain:
+    """The total mass, the drivetrain, the PWM model and the envelope of a ride.
+
+    Attributes
+    ----------
+    fit : RideDrivetrain
+        The ride's analysis (:func:`analyse`).
+    test : RideDrivetrain or None
+        The compared ride's own analysis (None without one).
+    mass : MassFit
+        The total mass as reported (:func:`reported_mass`).
+    terms : dict of str -> Term
+        The drivetrain's terms as reported (:func:`reported_terms`).
+    envelope : dict
+        The acceleration the voltage leaves against speed (``speed``, ``full``, ``low``,
+        ``voltage_source``, ``ride_top_speed``), or ``{"why"}``.
+    input_warnings : list of str
+        What the log and the spec say against each other.
+    pwm_note : str or None
+        Why the logged duty is the app's computation (:func:`computed_pwm_note`).
+    mass_difference : dict or None
+        The compared ride's mass minus this one's
+        (:func:`euc_sim.rides.source.systematic.mass_difference`).
+    power_heldout : tuple of float or None
+        The compared ride's battery power predicted from this ride's mass fit: (RMS error,
+        RMS power), W.
+    pwm_heldout : float or None
+        The compared ride's duty predicted from this ride's PWM model, RMS percentage points.
+    pwm_why : str or None
+        Why there is no ``pwm_heldout`` (with a compared ride).
+    """
+
+    fit: RideDrivetrain
+    test: RideDrivetrain | None
+    mass: MassFit
+    terms: dict
+    envelope: dict
+    input_warnings: list
+    pwm_note: str | None = None
+    mass_difference: dict | None = None
+    power_heldout: tuple | None = None
+    pwm_heldout: float | None = None
+    pwm_why: str | None = None
+
+    @property
+    def unidentified(self) -> dict:
+        """Term -> why this log cannot identify it."""
+        return self.fit.drivetrain.unidentified
+
+
+def mass_drivetrain(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
+                    settings: MassSettings = MassSettings(), fitted: RideDrivetrain | None = None
+                    ) -> MassDrivetrain:
+    """The total mass, drivetrain, PWM model and envelope of ``log``.
+
+    Parameters
+    ----------
+    log : Ride
+        The ride.
+    spec : WheelSpec
+        Wheel radius, weight, voltage where known.
+    compare : Ride, optional
+        Another ride of the same wheel: its battery power and PWM are predicted
+        from this ride's fit (held out).
+    settings : MassSettings
+    fitted : RideDrivetrain, optional
+        :func:`analyse` of ``log`` already done.
+
+    Returns
+    -------
+    MassDrivetrain
+    """
+    r = fitted or analyse(log, spec, settings)
+    note = computed_pwm_note(r)
+    out = dict(fit=r, test=None, mass=reported_mass(r), terms=reported_terms(r, note),
+               envelope=_envelope(r, note), input_warnings=input_warnings(log, r.spec, r.mass.scale),
+               pwm_note=note)
+    if compare is None:
+        return MassDrivetrain(**out)
+    test = analyse(compare, spec, settings)
+    pred, obs = predict_power(test.sig, r.mass)
+    out.update(test=test, mass_difference=mass_difference(r.mass, test.mass),
+               power_heldout=(_rms(pred - obs), _rms(obs)))
+    if r.drivetrain.pwm_coef is not None and "pwm" in test.sig.extra:
+        pp, po = predict_pwm(test.sig, r.drivetrain.pwm_coef)
+        out["pwm_heldout"] = _rms(pp - po)
+    else:
+        out["pwm_why"] = "no PWM or safety-margin column in " + (compare.name if r.drivetrain.pwm_coef else log.name)
+    return MassDrivetrain(**out)
+
+
+def cutout_of(r: RideDrivetrain, log, limits):
+    """The ride's :class:`euc_sim.rides.drive.cutout.Cutout` (the JSON's ``cutout``).
+
+    Parameters
+    ----------
+    r : RideDrivetrain
+    log : Ride
+        The same ride parsed: its battery reading (%) gives the charge.
+    limits : Limits
+        The wheel's limits (the summary's).
+    """
+    from euc_sim.rides.drive.cutout import ride_cutout
+
+    d = log.data
+    charge = None
+    if "battery" in d:
+        ok = np.isfinite(d["battery"].to_numpy(float))
+        if ok.sum() > 1:
+            charge = np.interp(r.sig.t, d["t"].to_numpy(float)[ok], d["battery"].to_numpy(float)[ok])
+    why = ("the log's PWM is the app's computation from speed and voltage, not a measurement: it does "
+           "not show the load, so neither does a model of it") if computed_pwm_note(r) else None
+    return ride_cutout(r.sig, r.drivetrain, r.mass, charge, limits, r.spec.battery_voltage, why)
+
+
+def ride_drivetrain(log, compare=None, spec=None, n_boot: int = 200, seed: int = 0) -> MassDrivetrain:
+    """Mass, drivetrain, PWM and envelope of a ride log, as ``euc-sim ride`` finds them.
+
+    Parameters
+    ----------
+    log, compare : Ride
+        The fit ride and, optionally, the held-out ride.
+    spec : WheelSpec, optional
+        The wheel's specification (default: none known).
+    n_boot : int
+        Bootstrap replicates of the mass fit.
+    seed : int
+        Seed of the bootstrap draws.
+
+    Returns
+    -------
+    MassDrivetrain
+    """
+    return mass_drivetrain(log, spec or WheelSpec(), compare, MassSettings(n_boot=n_boot, seed=seed))

@@ -1,0 +1,97 @@
+"""The rider's numbers of one ride, for the ride JSON and page: summary, mass check, battery.
+
+One entry point, :func:`rider_numbers`, called once by ``euc-sim ride``; each part
+is a typed result of its own module (:mod:`euc_sim.rides.summary.summary`,
+:mod:`euc_sim.rides.drive.battery`).
+"""
+
+from __future__ import annotations
+
+import math
+
+from euc_sim.errors import InputError
+from euc_sim.rides.source.ride import Ride
+
+__all__ = ["rider_numbers", "check_rider_weight", "ride_clock", "zone_words"]
+
+
+#: A rider's declared weight with gear, kg (``--rider-weight``).
+RIDER_WEIGHT = (20.0, 250.0)
+
+
+def check_rider_weight(kg: float | None) -> float | None:
+    """The declared rider weight, kg, or a one-line ``ValueError`` naming ``--rider-weight``."""
+    if kg is None:
+        return None
+    if not (math.isfinite(kg) and RIDER_WEIGHT[0] <= kg <= RIDER_WEIGHT[1]):
+        raise InputError(f"--rider-weight is the rider's weight with gear, kg, between 20 and 250; got {kg!r}")
+    return float(kg)
+
+
+def zone_words(offset_s: float | None) -> str:
+    """The zone of a clock, s east of UTC, in words: ``"UTC+02:00"``, or the phone's local time
+    where the log names none (None)."""
+    if offset_s is None:
+        return "the phone's local time"
+    m = int(round(abs(offset_s) / 60.0))
+    return f"UTC{'-' if offset_s < 0 else '+'}{m // 60:02d}:{m % 60:02d}"
+
+
+def ride_clock(log: Ride) -> dict:
+    """When the ride ran, in its own zone: the ride JSON's ``clock``.
+
+    Returns
+    -------
+    dict
+        ``start`` (ISO 8601 clock time of the log's first row in the ride's own zone, with the
+        offset where the log gives one), ``utc_offset_s`` (s east of UTC, None where the log
+        names no zone: WheelLog writes the phone's local clock), ``zone`` (in words) and
+        ``pauses`` ([[t0, t1], ...] s from the log's start: the intervals the summary leaves
+        out of the duration).
+    """
+    from datetime import timedelta, timezone
+
+    import numpy as np
+    import pandas as pd
+
+    from euc_sim.rides.source.gaps import GAP_POLICY
+
+    off = log.utc_offset_s
+    start = pd.Timestamp(log.start)
+    if off is not None:
+        start = (start + pd.Timedelta(seconds=off)).tz_localize(timezone(timedelta(seconds=off)))
+    t = log.data["t"].to_numpy(float)
+    i = np.flatnonzero(np.diff(t) > GAP_POLICY.pause)
+    return {"start": start.isoformat(), "utc_offset_s": off, "zone": zone_words(off),
+            "pauses": [[float(t[k]), float(t[k + 1])] for k in i]}
+
+
+def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: float | None = None) -> tuple:
+    """The summary, the mass check, the battery's health and the clock of one ride.
+
+    Parameters
+    ----------
+    log : Ride
+        The ride.
+    total_mass : MassFit or None
+        The ride's total mass as reported, read, never recomputed.
+    drivetrain : mapping of str -> Term
+        The ride's drivetrain terms (its ``internal_resistance``), read, never recomputed.
+    spec : WheelSpec, optional
+        The wheel's weight (for the mass check) and pack (for the battery's verdict).
+    rider_weight : float, optional
+        The rider's declared weight, kg.
+
+    Returns
+    -------
+    tuple
+        (RideSummary, MassCheck, BatteryHealth, clock dict).
+    """
+    from euc_sim.rides.drive.battery import battery_health_of, pack_spec
+    from euc_sim.rides.summary.summary import mass_check, ride_summary
+
+    summary = ride_summary(log, getattr(spec, "top_speed", None))
+    wheel_kg = getattr(spec, "wheel_mass", None) if spec is not None else None
+    mc = mass_check(total_mass, rider_weight, wheel_kg)
+    bh = battery_health_of((drivetrain or {}).get("internal_resistance"), log, log.counters, pack_spec(spec))
+    return summary, mc, bh, ride_clock(log)
