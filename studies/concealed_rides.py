@@ -3,7 +3,7 @@
 For each ride, each effect of :mod:`conceal` (studies/conceal.py) in turn, two pairs
 of effects together, and a null are hidden in a copy of the log; the
 differences of ``euc-sim ride CLEAN --compare COPY`` are computed with the
-functions that command calls (``ride_drivetrain`` then ``differences_json``;
+functions that command calls (``ride_drivetrain`` then ``pair_differences``;
 the balance, controller and simulation steps do not feed the differences) and
 read: is every hidden effect named and nothing else, is each sized within
 ±30 % (or its truth inside its interval), does the null name nothing.
@@ -77,7 +77,8 @@ def _concealed(data: Path, label: str, case: str, work: Path) -> Path:
 
 def _run(data: Path, label: str, case: str, work: Path) -> dict:
     """The ``differences`` of CLEAN against the copy (the two rides' drivetrain fits cached)."""
-    from euc_sim.rides.compare.differences_report import differences_json
+    from euc_sim.rides.compare.differences_report import pair_differences
+    from euc_sim.rides.render.contract import differences_json
     from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
 
@@ -88,7 +89,7 @@ def _run(data: Path, label: str, case: str, work: Path) -> dict:
         log, other = read_log(data / RIDES[label][0]), read_log(_concealed(data, label, case, work))
         physics = ride_drivetrain(log, other)
         cache.write_bytes(pickle.dumps((log, other, physics)))
-    return differences_json(physics, log, other)
+    return differences_json(pair_differences(physics, log, other))
 
 
 def score(rep: dict, case: str) -> dict:

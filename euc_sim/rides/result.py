@@ -21,6 +21,7 @@ from euc_sim.rides.drive.mass import MassFit
 from euc_sim.rides.law.controller_report import ControllerFit
 from euc_sim.rides.drive.drivetrain_report import MassDrivetrain, RideDrivetrain
 from euc_sim.rides.balance.residual import ResidualTrace
+from euc_sim.rides.summary.rider_view import Clock
 from euc_sim.rides.summary.summary import MassCheck, RideSummary
 from euc_sim.rides.sim.simulate import RideSimulation
 
@@ -39,14 +40,14 @@ class RiderNumbers:
         The declared rider weight against the log's total mass.
     battery : BatteryHealth
         The pack's internal resistance against what its cells give.
-    clock : dict
-        :func:`~euc_sim.rides.summary.rider_view.ride_clock`: when the ride ran, in its zone.
+    clock : Clock
+        When the ride ran, in its zone.
     """
 
     summary: RideSummary
     mass_check: MassCheck
     battery: BatteryHealth
-    clock: dict
+    clock: Clock
 
 
 @dataclass(frozen=True)

@@ -5,7 +5,7 @@ Reads pairs pickled by ``scripts/tables/naming_nulls.py`` (a ride's halves and
 quarters) and ``studies/concealed_rides.py`` (a ride against its concealed copy):
 ``(LOG, OTHER, (ride JSON, LOG's fit, OTHER's fit))``.  For each pair the
 differences are computed twice with the functions the CLI calls
-(``differences_json``): ``channels=()`` and the default
+(``pair_differences``): ``channels=()`` and the default
 (:data:`euc_sim.rides.compare.channels.CHANNELS`, those both logs have).
 Written up in docs/concealed.md ("Every channel of the log").
 
@@ -34,7 +34,8 @@ HIDDEN = {"mass30": "total_mass", "drag": "aerodynamic_drag", "rolling": "rollin
 def run(path: Path) -> dict:
     """Each road difference's ``resolvable`` and ``named``, battery power alone and every channel."""
     from euc_sim.rides.compare.channels import CHANNELS
-    from euc_sim.rides.compare.differences_report import differences_json
+    from euc_sim.rides.compare.differences_report import pair_differences
+    from euc_sim.rides.render.contract import differences_json
     from euc_sim.rides.drive.drivetrain_report import computed_pwm_note
     from euc_sim.rides.source.channels import current_from_phase
 
@@ -47,7 +48,7 @@ def run(path: Path) -> dict:
     used = [c for c in CHANNELS if has[c]]
     out = {"pair": path.stem, "channels": used}
     for key, ch in (("power", ()), ("all", CHANNELS)):
-        diffs = {d["name"]: d for d in differences_json(physics, log, other, channels=ch)["differences"]}
+        diffs = {d["name"]: d for d in differences_json(pair_differences(physics, log, other, channels=ch))["differences"]}
         out[key] = {n: {"resolvable": diffs[n].get("resolvable"), "named": diffs[n].get("named"),
                         "estimate": diffs[n].get("estimate")} for n in ROAD if n in diffs}
     return out

@@ -11,7 +11,7 @@ Real null pairs of the shared euc_core rides (``../shared/data/euc_core/trips/*/
 
 For each pair the differences are computed with the functions
 ``euc-sim ride LOG --compare OTHER`` calls (``ride_drivetrain`` then
-``differences_json``; the two rides' drivetrain fits are pickled in ``--work`` and
+``pair_differences``; the two rides' drivetrain fits are pickled in ``--work`` and
 read again when there, the differences recomputed on every run).  A pair names
 falsely when it names anything; the rate over the pairs is given with its
 Clopper–Pearson 95 % interval.  Written up in docs/concealed.md ("False names on
@@ -82,7 +82,8 @@ def pairs(data: Path, only=None, quarters: bool = False) -> list[tuple[str, Path
 def run(label: str, a: Path, b, work: Path, channels=()) -> dict:
     """The named differences of one null pair (drivetrain fits cached in ``work``; ``channels``
     stacked beside battery power, :mod:`euc_sim.rides.compare.channels`)."""
-    from euc_sim.rides.compare.differences_report import differences_json
+    from euc_sim.rides.compare.differences_report import pair_differences
+    from euc_sim.rides.render.contract import differences_json
     from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
     from euc_sim.rides.source.logs import read_log
 
@@ -95,7 +96,7 @@ def run(label: str, a: Path, b, work: Path, channels=()) -> dict:
             else (log, read_log(b, emit_warnings=False))
         physics = ride_drivetrain(log, other)
         cache.write_bytes(pickle.dumps((log, other, physics)))
-    rep = differences_json(physics, log, other, channels=channels)
+    rep = differences_json(pair_differences(physics, log, other, channels=channels))
     diffs = rep["differences"]
     return {"pair": label, "named": sorted(d["name"] for d in diffs if d.get("named")),
             "sizes": {d["name"]: [d["estimate"], d["ci95"]] for d in diffs if d.get("named")},

@@ -66,14 +66,6 @@ class ResidualTrace:
         den = np.convolve(np.ones_like(r), np.ones(w), mode="same")
         return num / den
 
-    def as_json(self) -> dict:
-        loc = self.localisation
-        return {"ride": self.label, "in_sample": self.in_sample, "unit": self.unit,
-                "windows": loc["windows"], "share": loc["share"],
-                "correlations": loc["correlations"],
-                "rms_nominal": float(np.sqrt(np.mean(self.nominal ** 2))),
-                "rms_augmented": float(np.sqrt(np.mean(self.augmented ** 2))),
-                "slow_rms_augmented": float(np.sqrt(np.mean(self.slow() ** 2)))}
 
 
 def residual_windows(sig: RideSignals, nominal: Mapping[str, float],

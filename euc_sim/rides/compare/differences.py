@@ -93,20 +93,6 @@ class Difference:
     q_value: float | None = None
     alias_set: tuple[str, ...] = ()
 
-    def to_json(self) -> dict:
-        """``{name, estimate, ci95, unit, named, why, aliases, heldout_gain, independent, resolvable,
-        resolution, p_value, q_value}`` and ``alias_set`` where the pair cannot tell it from others."""
-        g = self.independent
-        extra = {"alias_set": list(self.alias_set)} if self.alias_set else {}
-        return {"name": self.name, "estimate": self.estimate,
-                "ci95": list(self.ci95) if self.ci95 else None, "unit": self.unit,
-                "named": self.named, "why": self.why, "aliases": list(self.aliases),
-                "heldout_gain": self.heldout_gain,
-                "independent": None if g is None else {"estimate": g[0],
-                                                       "ci95": list(g[1]) if g[1] else None},
-                "resolvable": self.resolvable, "resolution": self.resolution,
-                "p_value": self.p_value, "q_value": self.q_value, **extra}
-
 
 @dataclass(frozen=True)
 class Differences:
@@ -119,13 +105,6 @@ class Differences:
                             "compared ride); 95 % interval: hull of a block bootstrap (each ride's 30 s "
                             "blocks drawn independently) and a jackknife-t over paired fifths of the "
                             "two rides")
-
-    def to_json(self) -> dict:
-        """The ride JSON's ``differences`` list and its companions."""
-        return {"differences": [d.to_json() for d in self.items],
-                "differences_cannot_see": dict(self.cannot_see),
-                "differences_sentence": self.sentence,
-                "differences_interval": self.interval_method}
 
 
 # ---------------------------------------------------------------- the rides' parameters

@@ -23,8 +23,7 @@ from euc_sim.rides.drive.mass import mass_regressors
 from euc_sim.rides.source.channels import current_from_phase
 from euc_sim.simulation.effects import RECORDS
 
-__all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "differences_json",
-           "pair_differences"]
+__all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "pair_differences"]
 
 #: Speed above which rows enter the held-out tests, m/s.
 V_MIN = 1.0
@@ -347,12 +346,6 @@ def pair_aliases(fit, test, coef: dict) -> tuple[dict, dict]:
     if fit.sig.climb is None or test.sig.climb is None:
         aliases.setdefault("total_mass", [])
     return aliases, cannot
-
-
-def differences_json(physics, log_path, compare_path, n_boot: int = 200, seed: int = 0,
-                     channels=()) -> dict:
-    """The ``differences`` list and its companions for the ride JSON: :func:`pair_differences`'s."""
-    return pair_differences(physics, log_path, compare_path, n_boot, seed, channels).to_json()
 
 
 def pair_differences(physics, log_path, compare_path, n_boot: int = 200, seed: int = 0, channels=()):

@@ -19,7 +19,8 @@ from euc_sim.rides.result import RideResult, RiderNumbers
 
 __all__ = ["ReportFiles", "ride_json", "balance_json", "verdict_json", "rider_json", "physics_json", "total_mass_json",
            "term_json", "parameter_json",
-           "spec_json", "grade_json", "cutout_json"]
+           "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json",
+           "difference_json", "differences_json", "clock_json"]
 
 
 @dataclass(frozen=True)
@@ -77,6 +78,48 @@ def cutout_json(c) -> dict:
             "heldout_pwm_rmse_pct": c.heldout_pwm_rmse_pct, "danger": c.danger,
             "ocv_source": c.ocv_source,
             "ride_charge_pct": list(c.charge_range) if c.charge_range else None}
+
+
+def simulation_json(sim) -> dict:
+    """CONTRACT's ``simulation`` of a :class:`~euc_sim.rides.sim.simulate.RideSimulation` (its
+    table goes to CSV)."""
+    loc = sim.localisation
+    return {"ride": sim.label, "errors": sim.errors, "effects_injected": sim.effects,
+            "drivetrain": sim.parameters, "falls": list(sim.falls), "steps": list(sim.steps),
+            "windows": loc.get("windows", []), "windows_share": loc.get("share"),
+            "correlations": loc.get("correlations", {}), "scored_rows": sim.scored_rows,
+            "pitch_scored_rows": sim.pitch_scored_rows, "notes": list(sim.notes)}
+
+
+def trace_json(tr) -> dict:
+    """One of CONTRACT's ``residual_traces``: a :class:`~euc_sim.rides.balance.residual.ResidualTrace`'s
+    windows and RMS values (its arrays are drawn, not written)."""
+    loc = tr.localisation
+    return {"ride": tr.label, "in_sample": tr.in_sample, "unit": tr.unit,
+            "windows": loc["windows"], "share": loc["share"], "correlations": loc["correlations"],
+            "rms_nominal": float(np.sqrt(np.mean(tr.nominal ** 2))),
+            "rms_augmented": float(np.sqrt(np.mean(tr.augmented ** 2))),
+            "slow_rms_augmented": float(np.sqrt(np.mean(tr.slow() ** 2)))}
+
+
+def difference_json(d) -> dict:
+    """One of CONTRACT's ``differences``: a :class:`~euc_sim.rides.compare.differences.Difference`
+    (``alias_set`` where the pair cannot tell it from others)."""
+    g = d.independent
+    extra = {"alias_set": list(d.alias_set)} if d.alias_set else {}
+    return {"name": d.name, "estimate": d.estimate, "ci95": list(d.ci95) if d.ci95 else None, "unit": d.unit,
+            "named": d.named, "why": d.why, "aliases": list(d.aliases), "heldout_gain": d.heldout_gain,
+            "independent": None if g is None else {"estimate": g[0], "ci95": list(g[1]) if g[1] else None},
+            "resolvable": d.resolvable, "resolution": d.resolution, "p_value": d.p_value,
+            "q_value": d.q_value, **extra}
+
+
+def differences_json(res) -> dict:
+    """CONTRACT's ``differences`` list and its companions of a
+    :class:`~euc_sim.rides.compare.differences.Differences`."""
+    return {"differences": [difference_json(d) for d in res.items],
+            "differences_cannot_see": dict(res.cannot_see), "differences_sentence": res.sentence,
+            "differences_interval": res.interval_method}
 
 
 def balance_json(an) -> dict:
@@ -199,20 +242,25 @@ def verdict_json(v) -> dict:
     return out if v.why is None else {**out, "why": v.why}
 
 
+def clock_json(c) -> dict:
+    """CONTRACT's ``clock``: ``start``, ``utc_offset_s``, ``zone`` and ``pauses`` ([[t0, t1], ...] s)."""
+    return {"start": c.start, "utc_offset_s": c.utc_offset_s, "zone": c.zone, "pauses": [list(p) for p in c.pauses]}
+
+
 def rider_json(r: RiderNumbers) -> dict:
     """CONTRACT's ``summary`` (with its ``battery`` verdict), ``mass_check``, ``battery`` and ``clock``."""
     bh = r.battery.to_json()
     out = r.summary.to_json()
     # CONTRACT's summary.battery: the verdict and what it is judged against (the whole entry: battery)
     out["battery"] = {k: bh[k] for k in ("verdict", "expected_ohm", "expected_source")}
-    return {"summary": out, "mass_check": r.mass_check.to_json(), "battery": bh, "clock": r.clock}
+    return {"summary": out, "mass_check": r.mass_check.to_json(), "battery": bh, "clock": clock_json(r.clock)}
 
 
 def _simulation(res: RideResult, files: ReportFiles | None) -> dict:
     """``simulation`` and ``simulation_why``, the one that is set first (as the command wrote them)."""
     if res.simulation is None:
         return {"simulation_why": res.simulation_why, "simulation": None}
-    sim = res.simulation.as_json()
+    sim = simulation_json(res.simulation)
     if files is not None and files.simulation_table:
         sim["table"], sim["figure"] = files.simulation_table, files.simulation_figure
     return {"simulation": sim, "simulation_why": res.simulation_why}
@@ -241,13 +289,13 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
     rep["parameters"] = [parameter_json(p) for p in res.parameters]
     rep["drivetrain"] = {k: term_json(t) for k, t in res.drivetrain.items()}
     if res.differences is not None:
-        rep.update(res.differences.to_json())
+        rep.update(differences_json(res.differences))
     loc = res.traces[0].localisation
     rep["windows"] = loc["windows"]
     rep["localisation"] = {"residual": f"inertia-only balance residual of {res.traces[0].label}, "
                                        f"{rep['error_unit']}",
                            "share": loc["share"], "correlations": loc["correlations"]}
-    rep["residual_traces"] = [tr.as_json() for tr in res.traces]
+    rep["residual_traces"] = [trace_json(tr) for tr in res.traces]
     rep.update(_simulation(res, files))
     rep["verdict"] = verdict_json(res.verdict)
     rep.update(rider_json(res.rider))

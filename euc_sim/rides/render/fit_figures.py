@@ -14,6 +14,7 @@ import numpy as np
 
 from euc_sim.report.figures import Line, plain_values, thin, with_breaks, xy_figure
 from euc_sim.rides.balance.design import CANDIDATES
+from euc_sim.rides.render.contract import trace_json
 
 __all__ = ["balance_figure", "residuals_figure", "residuals_height", "pwm_figure", "write_balance", "MOST_POINTS",
            "BALANCE_HEIGHT", "PWM_HEIGHT"]
@@ -158,7 +159,7 @@ def residuals_figure(traces):
               for tr in traces]
     fig = _stack(titles, residuals_height(len(traces)))
     for row, tr in enumerate(traces, start=1):
-        j = tr.as_json()
+        j = trace_json(tr)
         _lines(fig, row, np.asarray(tr.t, float), [
             (f"inertia only: RMS {j['rms_nominal']:.0f} {tr.unit}", tr.nominal, {"width": 0.7, "color": _NOMINAL}),
             (f"augmented: RMS {j['rms_augmented']:.0f} {tr.unit}", tr.augmented,

@@ -175,17 +175,17 @@ class RideSimulation:
         """Names of the steps that ran, in order."""
         return [s["step"] for s in self.steps if s["ran"]]
 
-    def as_json(self) -> dict:
-        """JSON-ready summary (the table goes to CSV)."""
-        return {"ride": self.label, "errors": self.errors, "effects_injected": self.effects,
-                "drivetrain": self.parameters, "falls": list(self.falls), "steps": list(self.steps),
-                "windows": self.localisation.get("windows", []),
-                "windows_share": self.localisation.get("share"),
-                "correlations": self.localisation.get("correlations", {}),
-                "scored_rows": int(self.table["scored"].sum()),
-                "pitch_scored_rows": int(_pitch_rows(self.table, self.table["scored"].to_numpy()).sum())
-                if "pitch_log" in self.table else 0,
-                "notes": list(self.notes)}
+    @property
+    def scored_rows(self) -> int:
+        """Rows the errors are measured on."""
+        return int(self.table["scored"].sum())
+
+    @property
+    def pitch_scored_rows(self) -> int:
+        """Scored rows the pitch error is measured on (the riding ones; 0 without a logged pitch)."""
+        if "pitch_log" not in self.table:
+            return 0
+        return int(_pitch_rows(self.table, self.table["scored"].to_numpy()).sum())
 
 
 def _rms(x: np.ndarray) -> float:

@@ -8,11 +8,12 @@ is a typed result of its own module (:mod:`euc_sim.rides.summary.summary`,
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from euc_sim.errors import InputError
 from euc_sim.rides.source.ride import Ride
 
-__all__ = ["rider_numbers", "check_rider_weight", "ride_clock", "zone_words"]
+__all__ = ["Clock", "rider_numbers", "check_rider_weight", "ride_clock", "zone_words"]
 
 
 #: A rider's declared weight with gear, kg (``--rider-weight``).
@@ -37,18 +38,31 @@ def zone_words(offset_s: float | None) -> str:
     return f"UTC{'-' if offset_s < 0 else '+'}{m // 60:02d}:{m % 60:02d}"
 
 
-def ride_clock(log: Ride) -> dict:
-    """When the ride ran, in its own zone: the ride JSON's ``clock``.
+@dataclass(frozen=True)
+class Clock:
+    """When a ride ran, in its own zone.
 
-    Returns
-    -------
-    dict
-        ``start`` (ISO 8601 clock time of the log's first row in the ride's own zone, with the
-        offset where the log gives one), ``utc_offset_s`` (s east of UTC, None where the log
-        names no zone: WheelLog writes the phone's local clock), ``zone`` (in words) and
-        ``pauses`` ([[t0, t1], ...] s from the log's start: the intervals the summary leaves
-        out of the duration).
+    Attributes
+    ----------
+    start : str
+        ISO 8601 clock time of the log's first row in the ride's own zone (with the offset where
+        the log gives one).
+    utc_offset_s : float or None
+        s east of UTC; None where the log names no zone (WheelLog writes the phone's local clock).
+    zone : str
+        The zone in words (:func:`zone_words`).
+    pauses : tuple of (float, float)
+        s from the log's start: the intervals the summary leaves out of the duration.
     """
+
+    start: str
+    utc_offset_s: float | None
+    zone: str
+    pauses: tuple = ()
+
+
+def ride_clock(log: Ride) -> Clock:
+    """When the ride ran, in its own zone (the ride JSON's ``clock``)."""
     from datetime import timedelta, timezone
 
     import numpy as np
@@ -62,8 +76,7 @@ def ride_clock(log: Ride) -> dict:
         start = (start + pd.Timedelta(seconds=off)).tz_localize(timezone(timedelta(seconds=off)))
     t = log.data["t"].to_numpy(float)
     i = np.flatnonzero(np.diff(t) > GAP_POLICY.pause)
-    return {"start": start.isoformat(), "utc_offset_s": off, "zone": zone_words(off),
-            "pauses": [[float(t[k]), float(t[k + 1])] for k in i]}
+    return Clock(start.isoformat(), off, zone_words(off), tuple((float(t[k]), float(t[k + 1])) for k in i))
 
 
 def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: float | None = None) -> tuple:
@@ -85,7 +98,7 @@ def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: fl
     Returns
     -------
     tuple
-        (RideSummary, MassCheck, BatteryHealth, clock dict).
+        (RideSummary, MassCheck, BatteryHealth, Clock).
     """
     from euc_sim.rides.drive.battery import battery_health_of, pack_spec
     from euc_sim.rides.summary.summary import mass_check, ride_summary

@@ -3,7 +3,7 @@
 The synthetic twin (``drivesynth``) always; the shared EUC World ride ``aero_0``
 too when the shared data is present (skipped otherwise).  The differences are
 those ``ride LOG --compare OTHER`` computes (``ride_drivetrain`` then
-``differences_json``).
+``pair_differences``).
 """
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ import pytest
 from drivesynth import drive_log
 import conceal as cc
 
-from euc_sim.rides.compare.differences_report import differences_json
+from euc_sim.rides.compare.differences_report import pair_differences
+from euc_sim.rides.render.contract import differences_json
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.rides.source.logs import read_log
 from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
@@ -37,8 +38,8 @@ def _differences(clean: Path, effects, out: Path, **kw) -> dict:
     other = cc.write_raw(raw, out)
     log, cmp = read_log(clean, emit_warnings=False), read_log(other, emit_warnings=False)
     physics = ride_drivetrain(log, cmp, n_boot=20)
-    return {d["name"]: d for d in differences_json(physics, log, cmp,
-                                                   n_boot=100)["differences"]}
+    return {d["name"]: d for d in differences_json(pair_differences(physics, log, cmp,
+                                                                    n_boot=100))["differences"]}
 
 
 def _check(by: dict, truth: dict) -> None:

@@ -7,6 +7,7 @@ import pytest
 
 from euc_sim.rides.compare import differences as df
 from euc_sim.rides.grids.power import RHO_AIR
+from euc_sim.rides.render.contract import difference_json, differences_json
 
 
 def _ride(seed, n=4000):
@@ -90,7 +91,7 @@ def test_drag_named_alone_and_said_in_a_riders_words():
     assert drag.estimate == pytest.approx(0.18)                     # the pair fit's
     assert drag.independent[0] == pytest.approx(0.5 * RHO_AIR * 0.3)   # the rides' own, beside it
     assert "0.18 kg/m more drag" in res.sentence and "16 May" in res.sentence
-    js = res.to_json()
+    js = differences_json(res)
     assert {"name", "estimate", "ci95", "unit", "named", "why", "aliases", "independent"} \
         <= set(js["differences"][0])
     assert "named_given_log_model" not in js["differences"][0]
@@ -166,7 +167,7 @@ def test_q_values_control_the_false_names_across_the_tested_physics():
     tested["total_mass"]["p_value"] = 0.06
     by = {d.name: d for d in df.ride_differences(a, b, tested, {}, {}, "x").items}
     assert [n for n, d in by.items() if d.named] == ["aerodynamic_drag", "rolling_resistance"]
-    js = by["total_mass"].to_json()
+    js = difference_json(by["total_mass"])
     assert js["p_value"] == pytest.approx(0.06) and js["q_value"] == pytest.approx(0.06)
     assert "alias_set" not in js and "not significant" in js["why"]
 
@@ -176,7 +177,7 @@ def test_an_alias_set_is_said_on_the_named_entry_and_in_the_sentence():
     tested = _tested(aerodynamic_drag=(0.18, 0.1, 0.26, True), rolling_resistance=(0.01, -0.01, 0.03, False))
     tested["aerodynamic_drag"]["alias_set"] = ["aerodynamic_drag", "rolling_resistance", "drivetrain_idle_loss"]
     res = df.ride_differences(a, b, tested, {}, {}, "the 16 May ride")
-    by = {d.name: d.to_json() for d in res.items}
+    by = {d.name: difference_json(d) for d in res.items}
     assert by["aerodynamic_drag"]["named"]
     assert by["aerodynamic_drag"]["alias_set"] == ["aerodynamic_drag", "rolling_resistance"]
     assert "alias_set" not in by["rolling_resistance"]
@@ -199,7 +200,7 @@ def test_the_page_names_the_alias_set():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
     tested = _tested(aerodynamic_drag=(0.18, 0.1, 0.26, True), rolling_resistance=(0.01, -0.01, 0.03, False))
     tested["aerodynamic_drag"]["alias_set"] = ["aerodynamic_drag", "rolling_resistance"]
-    rep = {"compare": "b.csv", **df.ride_differences(a, b, tested, {}, {}, "x").to_json()}
+    rep = {"compare": "b.csv", **differences_json(df.ride_differences(a, b, tested, {}, {}, "x"))}
     lines = difference_lines(rep)
     assert any(line.startswith("- Drag area: 95 % interval") and
                "drag area or rolling resistance: this pair cannot tell them apart" in line for line in lines)

@@ -12,7 +12,8 @@ import pytest
 from drivesynth import DRIVE, drive_log
 
 from euc_sim.rides.compare.channels import CHANNELS, whitening
-from euc_sim.rides.compare.differences_report import differences_json
+from euc_sim.rides.compare.differences_report import pair_differences
+from euc_sim.rides.render.contract import differences_json
 from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
 from euc_sim.rides.source.logs import read_log
 
@@ -30,7 +31,7 @@ def _pair(tmp_path, dm: float) -> tuple:
 
 def _differences(pair, **kw) -> dict:
     log, other, physics = pair
-    return {d["name"]: d for d in differences_json(physics, log, other, n_boot=50, **kw)["differences"]}
+    return {d["name"]: d for d in differences_json(pair_differences(physics, log, other, n_boot=50, **kw))["differences"]}
 
 
 @pytest.fixture(scope="module")

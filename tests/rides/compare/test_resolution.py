@@ -6,6 +6,7 @@ import pytest
 
 from euc_sim.rides.compare import differences_fit as pf
 from euc_sim.rides.compare import resolution as rs
+from euc_sim.rides.render.contract import differences_json
 from test_differences_fit import _design, _power, _ride
 
 
@@ -112,7 +113,7 @@ def test_the_json_and_the_page_carry_the_pairs_resolution():
                              "detectable": det["total_mass"]},
               "rolling_resistance": {"estimate": 0.01, "ci95": (0.004, 0.016), "heldout_gain": 0.002,
                                      "selected": False, "detectable": det["rolling_resistance"]}}
-    res = df.ride_differences([], [], tested, {}, {}, "x").to_json()
+    res = differences_json(df.ride_differences([], [], tested, {}, {}, "x"))
     by = {d["name"]: d for d in res["differences"]}
     assert by["total_mass"]["resolvable"] == pytest.approx(det["total_mass"].resolvable)
     assert by["total_mass"]["resolution"]["gate"] == pytest.approx(det["total_mass"].gate)

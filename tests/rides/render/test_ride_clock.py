@@ -8,6 +8,7 @@ import warnings
 
 from euc_sim.cli import main
 from euc_sim.rides.render.page_html import key_figure_lines, key_figures
+from euc_sim.rides.render.contract import clock_json
 from euc_sim.rides.summary.rider_view import ride_clock
 from euc_sim.rides.summary.summary import ride_summary
 from euc_sim.rides.source.logs import read_log
@@ -18,7 +19,7 @@ def _rep(path) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         log = read_log(path, emit_warnings=False)
-    return {"summary": ride_summary(log).to_json(), "clock": ride_clock(log)}
+    return {"summary": ride_summary(log).to_json(), "clock": clock_json(ride_clock(log))}
 
 
 def test_euc_world_stamps_keep_their_zone_and_the_peak_reads_as_clock_and_time_into_the_ride(tmp_path):

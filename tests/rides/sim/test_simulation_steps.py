@@ -155,7 +155,7 @@ def test_the_true_law_reproduces_the_logs_current_and_pitch(law_log):
     assert e["measured_law"]["pitch_rad"] < math.radians(1.0)
     assert e["measured_law"]["I_phase_A"] < e["nominal"]["I_phase_A"]
     assert e["augmented"] == e["measured_law"] and e["nominal"] == e["nominal"]
-    by = {s["step"]: s for s in sim.as_json()["steps"]}
+    by = {s["step"]: s for s in sim.steps}
     assert by["skipped"]["ran"] is False and by["skipped"]["heldout_rmse"] == {}
     assert by["measured_law"]["ratio_to_balance"] == pytest.approx(e["measured_law"]["P_W"] / 100.0)
     assert by["measured_law"]["target_ratio"] == 1.2 and by["nominal"]["fell"] is None
