@@ -85,14 +85,14 @@ def test_mass_difference_verdicts_and_shared_parts_cancel():
     sys_ = {"current_scale": 20.0, "rotating_share": 2.0, "speed_scale": 2.0, "grade": 1.0}
     a = _fit(100.0, 95.0, 105.0, sys_)
     d = mass_difference(a, _fit(125.0, 120.0, 130.0, sys_))
-    assert d["verdict"] == "heavier" and d["unit"] == "kg" and d["estimate"] == pytest.approx(25.0)
+    assert d.verdict == "heavier" and d.unit == "kg" and d.estimate == pytest.approx(25.0)
     # the wheel's current scale (20 kg) cancels: the half-width is √(5² + 5² + 2·(2² + 1²))
-    assert d["ci95"][0] == pytest.approx(25.0 - (50 + 10) ** 0.5)
-    assert mass_difference(a, _fit(80.0, 75.0, 85.0, sys_))["verdict"] == "lighter"
-    assert mass_difference(a, _fit(103.0, 98.0, 108.0, sys_))["verdict"] == "cannot tell"
+    assert d.ci95[0] == pytest.approx(25.0 - (50 + 10) ** 0.5)
+    assert mass_difference(a, _fit(80.0, 75.0, 85.0, sys_)).verdict == "lighter"
+    assert mass_difference(a, _fit(103.0, 98.0, 108.0, sys_)).verdict == "cannot tell"
     none = mass_difference(a, SimpleNamespace(estimate=None, stat_ci95=None, systematic={},
                                               scale=SpeedScale(1.0, 0.05, "assumed")))
-    assert none["estimate"] is None and none["verdict"] == "cannot tell" and none["why"]
+    assert none.estimate is None and none.verdict == "cannot tell" and none.why
 
 
 def test_the_interval_adds_systematic_parts_in_quadrature_and_holds_the_estimate():

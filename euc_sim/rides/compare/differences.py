@@ -346,9 +346,9 @@ def ride_differences(log_params: list, other_params: list, tested: dict, aliases
         pa, pb = a[name], b[name]
         e = RECORDS.get(name) if name in RECORDS else None
         view = (views or {}).get(e.compare.view) if e is not None and e.compare is not None else None
-        if view and view.get("estimate") is not None:
+        if view is not None and view.estimate is not None:
             pa = {**pa, "estimate": 0.0, "ci95": [0.0, 0.0]}
-            pb = {**pb, "estimate": view["estimate"], "ci95": view["ci95"]}
+            pb = {**pb, "estimate": view.estimate, "ci95": list(view.ci95)}
         items.append(_one(name, pa, pb, tested.get(name), aliases.get(name, []), cannot_see))
     return Differences(tuple(items), dict(cannot_see), rider_sentence(items, log_name))
 

@@ -24,7 +24,7 @@ from euc_sim.rides.grids.power import MassSettings, PowerSignals, power_signals
 from euc_sim.rides.source.ride import Ride
 from euc_sim.rides.source.sanity import input_warnings, mass_suspicion
 from euc_sim.rides.source.spec import WheelSpec
-from euc_sim.rides.source.systematic import mass_difference
+from euc_sim.rides.source.systematic import MassDifference, mass_difference
 
 __all__ = ["RideDrivetrain", "MassDrivetrain", "analyse", "mass_drivetrain", "ride_drivetrain",
            "reported_mass", "reported_terms", "cutout_of", "COMPUTED_PWM_RMS", "computed_pwm_note"]
@@ -136,7 +136,7 @@ class MassDrivetrain:
         What the log and the spec say against each other.
     pwm_note : str or None
         Why the logged duty is the app's computation (:func:`computed_pwm_note`).
-    mass_difference : dict or None
+    mass_difference : MassDifference or None
         The compared ride's mass minus this one's
         (:func:`euc_sim.rides.source.systematic.mass_difference`).
     power_heldout : tuple of float or None
@@ -155,7 +155,7 @@ class MassDrivetrain:
     envelope: dict
     input_warnings: list
     pwm_note: str | None = None
-    mass_difference: dict | None = None
+    mass_difference: MassDifference | None = None
     power_heldout: tuple | None = None
     pwm_heldout: float | None = None
     pwm_why: str | None = None

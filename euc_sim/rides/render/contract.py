@@ -7,9 +7,11 @@ typed objects.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
+
+from euc_sim.io import to_jsonable
 
 from euc_sim.rides.balance.crossride import effect_entries
 from euc_sim.rides.balance.design import NOMINAL
@@ -20,7 +22,8 @@ from euc_sim.rides.result import RideResult, RiderNumbers
 __all__ = ["ReportFiles", "ride_json", "balance_json", "verdict_json", "rider_json", "physics_json", "total_mass_json",
            "term_json", "parameter_json",
            "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json",
-           "difference_json", "differences_json", "clock_json"]
+           "difference_json", "differences_json", "clock_json",
+           "mass_difference_json", "mass_check_json"]
 
 
 @dataclass(frozen=True)
@@ -212,6 +215,20 @@ def total_mass_json(m, spec) -> dict:
     return out
 
 
+def mass_difference_json(d) -> dict:
+    """CONTRACT's ``mass_difference``: a :class:`~euc_sim.rides.source.systematic.MassDifference`."""
+    out = {"estimate": d.estimate, "ci95": None if d.ci95 is None else list(d.ci95), "unit": d.unit,
+           "verdict": d.verdict}
+    if d.why is not None:
+        return {**out, "why": d.why}
+    return {**out, "cancelled": list(d.cancelled), "note": d.note}
+
+
+def mass_check_json(m) -> dict:
+    """CONTRACT's ``mass_check``: a :class:`~euc_sim.rides.summary.summary.MassCheck` (kg)."""
+    return to_jsonable(asdict(m))
+
+
 def physics_json(md) -> dict:
     """CONTRACT's ``total_mass``, ``drivetrain`` (the energy balance's terms), ``envelope``,
     ``input_warnings``, ``wheel``, ``unidentified``, ``grade`` and, with a compared ride,
@@ -224,7 +241,7 @@ def physics_json(md) -> dict:
            "grade": grade_json(fit.grade)}
     if md.test is None:
         return rep
-    rep["mass_difference"] = md.mass_difference
+    rep["mass_difference"] = mass_difference_json(md.mass_difference)
     rep["power_heldout"] = {"rmse": md.power_heldout[0], "rms_power": md.power_heldout[1], "unit": "W"}
     if md.pwm_why is None:
         rep["pwm"] = {"heldout_rmse": md.pwm_heldout, "unit": "%"}
@@ -253,7 +270,7 @@ def rider_json(r: RiderNumbers) -> dict:
     out = r.summary.to_json()
     # CONTRACT's summary.battery: the verdict and what it is judged against (the whole entry: battery)
     out["battery"] = {k: bh[k] for k in ("verdict", "expected_ohm", "expected_source")}
-    return {"summary": out, "mass_check": r.mass_check.to_json(), "battery": bh, "clock": clock_json(r.clock)}
+    return {"summary": out, "mass_check": mass_check_json(r.mass_check), "battery": bh, "clock": clock_json(r.clock)}
 
 
 def _simulation(res: RideResult, files: ReportFiles | None) -> dict:

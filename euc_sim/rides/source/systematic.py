@@ -28,6 +28,7 @@ speed-scale method and the copper-loss model).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 __all__ = ["CURRENT_SCALE_SD", "GRADE_SHARE", "combined_interval", "speed_scale_kg",
            "current_scale_kg", "mass_difference", "SHARED_BY_A_WHEEL"]
@@ -78,7 +79,34 @@ def combined_interval(estimate: float, stat_ci95, systematic: dict) -> tuple[flo
     return (estimate - math.sqrt(below ** 2 + s2), estimate + math.sqrt(above ** 2 + s2))
 
 
-def mass_difference(a, b) -> dict:
+@dataclass(frozen=True)
+class MassDifference:
+    """The compared ride's total mass minus this one's.
+
+    Attributes
+    ----------
+    estimate : float or None
+        kg; None when either mass is not identified.
+    ci95 : tuple of float or None
+        Its 95 % interval, kg.
+    verdict : {"heavier", "lighter", "cannot tell"}
+        "heavier": the interval above zero (the compared ride carried more).
+    why : str or None
+        Why there is no estimate.
+    cancelled : tuple of str
+        The systematic parts the two rides share, which cancel.
+    """
+
+    estimate: float | None
+    ci95: tuple | None
+    verdict: str
+    why: str | None = None
+    cancelled: tuple = ()
+    unit: str = "kg"
+    note: str = "the compared ride minus this one; 'heavier': the compared ride carried more"
+
+
+def mass_difference(a, b) -> MassDifference:
     """Total mass of ride ``b`` minus ride ``a`` of the same wheel, with its 95 % interval.
 
     The bootstrap intervals of the two rides are independent, and so are the
@@ -96,16 +124,11 @@ def mass_difference(a, b) -> dict:
 
     Returns
     -------
-    dict
-        ``{"estimate", "ci95", "unit": "kg", "verdict"}`` with verdict
-        "heavier" (the interval above zero: ``b`` carried more), "lighter" or
-        "cannot tell"; ``estimate`` None with a ``why`` when either mass is not
-        identified.
+    MassDifference
     """
     if a.estimate is None or b.estimate is None or not a.stat_ci95 or not b.stat_ci95:
         which = "this ride" if a.estimate is None else "the compared ride"
-        return {"estimate": None, "ci95": None, "unit": "kg", "verdict": "cannot tell",
-                "why": f"the mass of {which} is not identified"}
+        return MassDifference(None, None, "cannot tell", f"the mass of {which} is not identified")
     both_assumed = a.scale.source == "assumed" and b.scale.source == "assumed"
     shared = set(SHARED_BY_A_WHEEL) | ({"speed_scale"} if both_assumed else set())
     s2 = sum(x * x for f in (a, b) for k, x in f.systematic.items()
@@ -116,6 +139,4 @@ def mass_difference(a, b) -> dict:
     ci = (d - math.sqrt(max(lo_b, 0) ** 2 + max(hi_a, 0) ** 2 + s2),
           d + math.sqrt(max(hi_b, 0) ** 2 + max(lo_a, 0) ** 2 + s2))
     verdict = "heavier" if ci[0] > 0 else "lighter" if ci[1] < 0 else "cannot tell"
-    return {"estimate": d, "ci95": list(ci), "unit": "kg", "verdict": verdict,
-            "cancelled": sorted(shared),
-            "note": "the compared ride minus this one; 'heavier': the compared ride carried more"}
+    return MassDifference(d, ci, verdict, cancelled=tuple(sorted(shared)))

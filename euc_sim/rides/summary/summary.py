@@ -292,10 +292,6 @@ class MassCheck:
     verdict: str
     sentence: str
 
-    def to_json(self) -> dict:
-        """A JSON-ready dict (kg)."""
-        return to_jsonable(asdict(self))
-
 
 def mass_check(total_mass, rider_kg: float | None, wheel_kg: float | None) -> MassCheck:
     """Test the declared weight against the log's total mass; the declaration is never the answer.
