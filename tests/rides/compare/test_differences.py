@@ -136,7 +136,9 @@ def test_speed_scale_is_a_ratio_minus_one():
 
 def test_mass_difference_view_is_the_independent_detail():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(130.0, 0.5, 0.01, 0.2, 1.0)
-    view = {"estimate": 29.0, "ci95": [10.0, 48.0], "unit": "kg"}
+    from euc_sim.rides.source.systematic import MassDifference
+
+    view = MassDifference(29.0, (10.0, 48.0), "heavier")
     res = df.ride_differences(a, b, _tested(total_mass=(31.0, 22.0, 40.0, True)), {}, {}, "x",
                               views={"mass_difference": view})
     m = next(d for d in res.items if d.name == "total_mass")
