@@ -74,12 +74,6 @@ class Limits:
                "pwm_alarm_pct": self.pwm_alarm_pct}
         return out if self.why is None else {**out, "why": self.why}
 
-    @classmethod
-    def of_ride(cls, rep) -> "Limits":
-        """The limits a ride JSON's ``summary.limits`` carries (all unknown without it)."""
-        lim = (rep.get("summary") or {}).get("limits") or {}
-        return cls(lim.get("speed_limit_mps"), lim.get("source"), lim.get("pwm_alarm_pct"), lim.get("why"))
-
     def words(self) -> str:
         """The limit as a rider reads it: "35 km/h (the tilt-back speed set in the wheel, from the log)"."""
         if self.speed_limit_mps is None:

@@ -16,6 +16,7 @@ from euc_sim.io import to_jsonable
 from euc_sim.rides.balance.crossride import effect_entries
 from euc_sim.rides.balance.design import NOMINAL
 from euc_sim.rides.balance.fit import plausibility
+from euc_sim.rides.drive.cutout import Limits
 from euc_sim.rides.law.controller_report import controller_entry
 from euc_sim.rides.result import RideResult, RiderNumbers
 
@@ -23,7 +24,7 @@ __all__ = ["ReportFiles", "ride_json", "balance_json", "verdict_json", "rider_js
            "term_json", "parameter_json",
            "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json",
            "difference_json", "differences_json", "clock_json",
-           "mass_difference_json", "mass_check_json"]
+           "mass_difference_json", "mass_check_json", "limits_of"]
 
 
 @dataclass(frozen=True)
@@ -213,6 +214,13 @@ def total_mass_json(m, spec) -> dict:
         out["rider_mass_why"] = ("no wheel weight (give --wheel SPEC.csv or --wheel-mass)"
                                  if m.estimate is not None else m.why)
     return out
+
+
+def limits_of(rep) -> Limits:
+    """The :class:`~euc_sim.rides.drive.cutout.Limits` a ride JSON's ``summary.limits`` carries (all
+    unknown without it): what the pages read back of the JSON they render."""
+    lim = (rep.get("summary") or {}).get("limits") or {}
+    return Limits(lim.get("speed_limit_mps"), lim.get("source"), lim.get("pwm_alarm_pct"), lim.get("why"))
 
 
 def mass_difference_json(d) -> dict:

@@ -23,8 +23,9 @@ import numpy as np
 from euc_sim.report import html as H
 from euc_sim.report.figures import (YL_OR_RD, Line, Panel, plain_values, thin, time_panels, track_map, track_plain,
                                     xy_figure)
-from euc_sim.rides.drive.cutout import CONDITIONS, Limits, headroom_words
+from euc_sim.rides.drive.cutout import CONDITIONS, headroom_words
 from euc_sim.rides.source.gaps import GAP_POLICY
+from euc_sim.rides.render.contract import limits_of
 from euc_sim.rides.render.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
 
 __all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "first_screen", "figure_specs",
@@ -426,7 +427,7 @@ def _cut_at(rep: Mapping, charge: float | None, condition: str = "level") -> flo
 def limit_sentences(rep: Mapping, series: RideSeries | None) -> list[str]:
     """The wheel's limit, where the cut-out comes before it (``cutout.danger``), and how close
     the ride's highest PWM came; no speed above the wheel's limit is said to be available."""
-    lim, cut = Limits.of_ride(rep), rep.get("cutout") or {}
+    lim, cut = limits_of(rep), rep.get("cutout") or {}
     out = [f"Your wheel's limit: {lim.words()}."]
     if cut.get("danger"):
         out.append(cut["danger"])
@@ -458,7 +459,7 @@ def cutout_figure(rep: Mapping, series: RideSeries | None):
     cut = rep.get("cutout") or {}
     if not cut.get("curves"):
         return None
-    lim = Limits.of_ride(rep)
+    lim = limits_of(rep)
     lines = [Line(f"cut-out {CUTOUT_LABELS.get(c['condition'], c['condition'])}", np.asarray(c["charge_pct"]),
                   np.array([np.nan if x is None else 3.6 * x for x in c["speed_mps"]], float), "lines")
              for c in cut["curves"]]
@@ -502,7 +503,7 @@ def cutout_figure(rep: Mapping, series: RideSeries | None):
 
 def limits_paragraph(rep: Mapping) -> str:
     """The limits and the model behind the chart, in words (the summary's ``limits``, ``cutout``)."""
-    lim, cut = Limits.of_ride(rep), rep.get("cutout") or {}
+    lim, cut = limits_of(rep), rep.get("cutout") or {}
     rmse = _num(cut, "heldout_pwm_rmse_pct")
     return (f"Speed limit: {lim.words()}. PWM alarm: "
             + (f"{lim.pwm_alarm_pct:.0f} %." if lim.pwm_alarm_pct is not None else "not in the log.")
@@ -535,7 +536,7 @@ def envelope_figure(rep: Mapping, series: RideSeries, fit):
 
         sp, p = left[0], left[1]
         lines.append(Line(f"your max PWM: {p:.0f} % at {sp:.0f} km/h", np.array([sp]), np.array([p])))
-        note = f"at your max PWM: {headroom_words(sp, Limits.of_ride(rep), _cut_at(rep, left[2]))}<br>" + note
+        note = f"at your max PWM: {headroom_words(sp, limits_of(rep), _cut_at(rep, left[2]))}<br>" + note
     fig = xy_figure(lines, "How close to the limit: PWM against speed", "speed, km/h", "PWM, %", note)
     if left is not None and left[1] is not None:
         fig["data"][-1]["marker"] = {"size": 14, "color": "#c62828", "symbol": "star", "opacity": 1}

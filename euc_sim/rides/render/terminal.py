@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Mapping
 
 from euc_sim.rides.balance.verdict import unit_label
-from euc_sim.rides.drive.cutout import Limits
+from euc_sim.rides.render.contract import limits_of
 from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
 from euc_sim.rides.render.page import falls_sentence
 from euc_sim.rides.render.page_html import key_figure_lines
@@ -53,7 +53,7 @@ def _mass_lines(rep: Mapping) -> list[str]:
 
 def _limit_line(rep: Mapping) -> str:
     """The wheel's limit and where the cut-out comes before it."""
-    lim = Limits.of_ride(rep)
+    lim = limits_of(rep)
     cut = rep.get("cutout") or {}
     tail = (cut["danger"] if cut.get("danger") else
             "the cut-out stays above it at every charge" if cut.get("curves") and lim.speed_limit_mps
