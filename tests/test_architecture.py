@@ -238,6 +238,41 @@ def test_the_rendering_rules_see_a_violation():
                                              ("euc_sim.cli.rides", "euc_sim.rides.logbook.history")]
 
 
+#: Objects of the ride JSON (CONTRACT) an analysis once read back instead of the typed result.
+RIDE_JSON_OBJECTS = frozenset({"summary", "drivetrain", "controller", "parameters", "effects", "verdict",
+                               "envelope", "cutout", "selection", "selected_not_accepted", "simulation",
+                               "residual_traces", "localisation", "mass_check", "compared"})
+
+
+def _json_reads(source: str) -> list[tuple[int, str]]:
+    """(line, key): where ``source`` reads one of :data:`RIDE_JSON_OBJECTS` from a mapping
+    (``x["key"]`` or ``x.get("key")``)."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        key = None
+        if isinstance(node, ast.Subscript) and isinstance(node.ctx, ast.Load):
+            key = node.slice.value if isinstance(node.slice, ast.Constant) else None
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "get"
+              and node.args and isinstance(node.args[0], ast.Constant)):
+            key = node.args[0].value
+        if key in RIDE_JSON_OBJECTS:
+            out.append((node.lineno, key))
+    return out
+
+
+def test_no_analysis_reads_the_ride_json():
+    """Analyses take the typed result (:mod:`euc_sim.rides.result`); only rendering reads the JSON back."""
+    reads = [(m, line, key) for m, path in sorted(_modules().items())
+             if _within(m, "euc_sim.rides") and not _within(m, RENDER)
+             for line, key in _json_reads(path.read_text())]
+    assert reads == []
+
+
+def test_the_json_read_check_sees_a_violation():
+    src = 'def f(rep, ride):\n    a = rep["drivetrain"]\n    b = ride.get("controller")\n    rep["verdict"] = 1\n'
+    assert _json_reads(src) == [(2, "drivetrain"), (3, "controller")]
+
+
 @pytest.mark.parametrize("name", sorted(_modules()))
 def test_no_module_over_the_limit(name):
     n = len(_modules()[name].read_text().splitlines())
