@@ -19,7 +19,12 @@ the same plan only, never a folder holding anything else.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
+import os
+import shutil
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
@@ -32,8 +37,10 @@ from euc_sim import io
 from euc_sim.errors import InputError
 from euc_sim.simulation.mocap import motion_capture
 from euc_sim.model.parameters import Params, TABLE3
+from euc_sim.simulation import effects as fx
 from euc_sim.simulation.maneuvers import Maneuver, make_maneuver
 from euc_sim.simulation.engine import default_rider, simulate, true_params
+from euc_sim.simulation.runner import RunReport, _reason, check_backend, run_tasks
 
 __all__ = ["PAPER_SET", "DEFAULT_RIDER_NOISE", "RecordingSpec", "simulated_recording", "simulated_recordings",
            "write_simulated", "dataset_plan", "run_dataset", "plan_digest", "DATASET_BATCH"]
@@ -110,7 +117,7 @@ def simulated_recordings(specs: list[RecordingSpec], nthread: int = 1) -> list:
     list
         Per spec, in order: ``(recording, meta, truth)``, or the ``FallError`` of its rider.
     """
-    from euc_sim.simulation.mujoco_batch import simulate_rides
+    from euc_sim.simulation.mujoco_batch import simulate_rides  # deferred: loads scipy.linalg, mujoco (0.4 s)
 
     runs = simulate_rides([_request(s) for s in specs], nthread=nthread)
     return [run if isinstance(run, Exception) else _sampled(spec, run) for spec, run in zip(specs, runs)]
@@ -155,8 +162,7 @@ def _sampled(spec: RecordingSpec, run):
 
 
 def _unit(name: str) -> str:
-    from euc_sim.simulation.effects import get
-    return get(name).unit
+    return fx.get(name).unit
 
 
 def write_simulated(path: str | Path, spec: RecordingSpec) -> Path:
@@ -228,8 +234,6 @@ MANIFEST = "dataset.json"
 def _make_batch(args):
     """Worker side: one batch of recordings in memory (written by the parent, atomically);
     a spec whose rider fell gives its one-line reason instead."""
-    from euc_sim.simulation.runner import _reason
-
     specs, nthread = args
     return [_reason(v) if isinstance(v, Exception) else v for v in simulated_recordings(specs, nthread)]
 
@@ -238,9 +242,6 @@ def plan_digest(specs: list[RecordingSpec], ext: str = ".csv") -> str:
     """SHA-256 (hex) of everything that makes a dataset's files: each spec's name, maneuver,
     duration, seed, parameters, effects, noise, engine, ground, motor, rider and
     disturbances, and the format ``ext``."""
-    import hashlib
-    import json
-
     def one(s: RecordingSpec) -> dict:
         force = s.external_force
         return {"name": s.name, "maneuver": s.maneuver.as_dict(), "duration": s.duration, "seed": s.seed,
@@ -257,8 +258,6 @@ def plan_digest(specs: list[RecordingSpec], ext: str = ".csv") -> str:
 def _check_folder(out_dir: Path, digest: str) -> None:
     """Raise ``InputError`` (one line) unless ``out_dir`` is missing, empty, or a previous
     dataset of the same plan (its manifest's ``plan`` is ``digest``) holding nothing else."""
-    import json
-
     if not out_dir.exists():
         return
     if not out_dir.is_dir():
@@ -290,9 +289,6 @@ class _Staging:
         self.path: Path | None = None
 
     def __enter__(self) -> Path:
-        import os
-        import tempfile
-
         parent, name = self.out_dir.parent, self.out_dir.name
         try:
             parent.mkdir(parents=True, exist_ok=True)
@@ -306,10 +302,6 @@ class _Staging:
     def commit(self) -> None:
         """Rename the staged folder into place (an existing dataset of the same plan is
         moved aside first and removed after)."""
-        import os
-        import shutil
-        import tempfile
-
         os.chmod(self.path, 0o777 & ~_umask())          # mkdtemp makes 0700
         if self.out_dir.is_dir() and any(self.out_dir.iterdir()):
             aside = Path(tempfile.mkdtemp(prefix=f".{self.out_dir.name}.old-", dir=self.out_dir.parent))
@@ -324,8 +316,6 @@ class _Staging:
         self._clean()
 
     def _clean(self) -> None:
-        import shutil
-
         if self.path is not None:
             shutil.rmtree(self.path, ignore_errors=True)
             self.path = None
@@ -337,9 +327,6 @@ class _Staging:
 
 def _remove_stale(parent: Path, prefix: str) -> None:
     """Remove ``PREFIX<pid>-XXXX`` folders in ``parent`` whose process no longer runs."""
-    import os
-    import shutil
-
     for d in parent.glob(prefix + "*"):
         pid = d.name[len(prefix):].split("-")[0]
         if not (d.is_dir() and pid.isdigit()):
@@ -353,8 +340,6 @@ def _remove_stale(parent: Path, prefix: str) -> None:
 
 
 def _umask() -> int:
-    import os
-
     mask = os.umask(0)
     os.umask(mask)
     return mask
@@ -410,8 +395,6 @@ def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | 
         for a folder that is neither missing, empty nor a dataset of this plan, or a bad
         ``batch``/backend, before anything runs.
     """
-    from euc_sim.simulation.runner import RunReport, check_backend, run_tasks
-
     out_dir = Path(out_dir)
     check_backend(scheduler, workers)
     batch = DATASET_BATCH if batch is None else batch
