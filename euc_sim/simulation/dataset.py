@@ -37,10 +37,9 @@ from euc_sim import io
 from euc_sim.errors import InputError
 from euc_sim.simulation.mocap import motion_capture
 from euc_sim.model.parameters import Params, TABLE3
-from euc_sim.simulation import effects as fx
+from euc_sim.simulation import effects as fx, runner
 from euc_sim.simulation.maneuvers import Maneuver, make_maneuver
 from euc_sim.simulation.engine import default_rider, simulate, true_params
-from euc_sim.simulation.runner import RunReport, _reason, check_backend, run_tasks
 
 __all__ = ["PAPER_SET", "DEFAULT_RIDER_NOISE", "RecordingSpec", "simulated_recording", "simulated_recordings",
            "write_simulated", "dataset_plan", "run_dataset", "plan_digest", "DATASET_BATCH"]
@@ -235,7 +234,7 @@ def _make_batch(args):
     """Worker side: one batch of recordings in memory (written by the parent, atomically);
     a spec whose rider fell gives its one-line reason instead."""
     specs, nthread = args
-    return [_reason(v) if isinstance(v, Exception) else v for v in simulated_recordings(specs, nthread)]
+    return [runner._reason(v) if isinstance(v, Exception) else v for v in simulated_recordings(specs, nthread)]
 
 
 def plan_digest(specs: list[RecordingSpec], ext: str = ".csv") -> str:
@@ -396,7 +395,7 @@ def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | 
         ``batch``/backend, before anything runs.
     """
     out_dir = Path(out_dir)
-    check_backend(scheduler, workers)
+    runner.check_backend(scheduler, workers)
     batch = DATASET_BATCH if batch is None else batch
     if not (isinstance(batch, int) and not isinstance(batch, bool) and batch >= 1):
         raise InputError(f"batch: expected a positive number of recordings, got {batch!r}")
@@ -415,11 +414,11 @@ def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | 
                     rec, meta, truth = value
                     written[spec.name] = io.write_recording(rec, stage / f"{spec.name}{ext}", meta, truth).name
 
-        by_batch = run_tasks(_make_batch, [(n, (g, threads)) for n, g in groups.items()], scheduler=scheduler,
+        by_batch = runner.run_tasks(_make_batch, [(n, (g, threads)) for n, g in groups.items()], scheduler=scheduler,
                              workers=workers, progress=progress, desc="dataset", on_result=write)
         for name, reason in by_batch.failed.items():      # a batch that died: each of its recordings named
             fell.update({spec.name: reason for spec in groups[name]})
-        report = RunReport(names=[s.name for s in specs], backend=by_batch.backend, seconds=by_batch.seconds)
+        report = runner.RunReport(names=[s.name for s in specs], backend=by_batch.backend, seconds=by_batch.seconds)
         report.results = {s.name: out_dir / written[s.name] for s in specs if s.name in written}
         report.failed = {s.name: fell[s.name] for s in specs if s.name in fell}
         settings = dict(settings or {})
