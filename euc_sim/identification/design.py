@@ -47,7 +47,6 @@ from euc_sim.simulation.engine import default_rider
 from euc_sim.simulation.errors import FallError
 from euc_sim.simulation.maneuvers import make_maneuver
 from euc_sim.simulation.mocap import NOISE_LEVELS, motion_capture
-from euc_sim.simulation.runner import run_tasks
 
 __all__ = ["DESIGN_MANEUVERS", "FLAT_FACTOR", "FISHER_MAX_LAG", "maneuver_study", "design",
            "recommendation", "design_figure"]
@@ -191,6 +190,8 @@ def design(maneuvers: Sequence[str], *, rides: int = 40, duration: float = 15.0,
         naming the argument, for unknown maneuvers or bad numbers; and when a
         maneuver's rides all fall or fail.
     """
+    from euc_sim.simulation.runner import run_tasks  # deferred: loads multiprocessing, tqdm (0.03 s)
+
     _check(maneuvers, rides, duration, noise_scales, targets)
     tasks = [(m, (m, rides, float(duration), tuple(noise_scales), (int(seed), i), params, rider_noise))
              for i, m in enumerate(maneuvers)]
