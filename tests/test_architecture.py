@@ -349,9 +349,7 @@ IMPORTS_AT_TOP = ["euc_sim/errors.py", "euc_sim/io.py", "euc_sim/geo.py", "euc_s
                   "euc_sim/model", "euc_sim/controllers", "euc_sim/simulation", "euc_sim/identification",
                   "euc_sim/diagnosis"]
 #: Files inside IMPORTS_AT_TOP not done yet (being reshaped on another branch).
-IMPORTS_PENDING = {"euc_sim/simulation/spatial_threads.py", "euc_sim/simulation/lateral.py",
-                   "euc_sim/simulation/native_core.py", "euc_sim/identification/coverage.py",
-                   "euc_sim/identification/sysid_fit.py"}
+IMPORTS_PENDING: set = set()
 
 
 def _undeclared_deferred(path: Path) -> list[str]:
