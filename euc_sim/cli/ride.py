@@ -18,8 +18,6 @@ import os
 from pathlib import Path
 
 from euc_sim.rides.pipeline import MIN_BOOT, ride_pipeline
-from euc_sim.rides.render.contract import ride_json
-from euc_sim.rides.render.report_files import write_report
 
 __all__ = ["add_ride_parser", "MIN_BOOT"]
 
@@ -106,6 +104,9 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     for r in (ride, other):         # each repair of the reader, one line, whatever --quiet
         for line in r.repairs if r else ():
             say(f"euc-sim ride: note: {r.name}: {line}")
+    from euc_sim.rides.render.contract import ride_json  # deferred: loads pandas, scipy (1.2 s)
+    from euc_sim.rides.render.report_files import write_report  # deferred: loads pandas, scipy (1.2 s)
+
     res = ride_pipeline(ride, other, domain=args.domain, assumptions=assumptions, n_boot=args.n_boot,
                         seed=args.seed, simulate=simulate, jobs=args.workers,
                         progress=None if args.quiet else _progress, spec=spec,

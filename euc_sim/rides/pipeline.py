@@ -19,9 +19,7 @@ import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
-from euc_sim.rides.result import ComparedRide, RideResult, RiderNumbers
-
-__all__ = ["RideResult", "BalanceOnMass", "balance_on_mass", "ride_pipeline", "MIN_BOOT"]
+__all__ = ["BalanceOnMass", "balance_on_mass", "ride_pipeline", "MIN_BOOT"]
 
 #: Fewest bootstrap replicates the command accepts: effects are accepted on their
 #: 95 % interval, and without replicates there is none (nothing would be accepted).
@@ -128,6 +126,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     from euc_sim.rides.balance.verdict import verdict_of
     from euc_sim.rides.law.controller_report import controller_fit, torque_constant
     from euc_sim.rides.drive.drivetrain_report import cutout_of
+    from euc_sim.rides.result import ComparedRide, RideResult  # deferred: loads pandas, scipy (1.2 s)
 
     say = progress or (lambda s: None)
     # each grid is built once and kept on its ride; bad logs fail in the mass fit, before any output
@@ -170,6 +169,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
 
 def _rider_numbers(log, total_mass, drivetrain, spec, rider_weight) -> RiderNumbers:
     """The summary, mass check, battery and clock of one ride (:mod:`euc_sim.rides.summary.rider_view`)."""
+    from euc_sim.rides.result import RiderNumbers  # deferred: loads pandas, scipy (1.2 s)
     from euc_sim.rides.summary.rider_view import rider_numbers
 
     return RiderNumbers(*rider_numbers(log, total_mass, drivetrain, spec, rider_weight))
