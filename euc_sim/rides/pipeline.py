@@ -18,6 +18,10 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:       # the result's modules load pandas and scipy: imported where a ride runs
+    from euc_sim.rides.result import RideResult, RiderNumbers
 
 __all__ = ["BalanceOnMass", "balance_on_mass", "ride_pipeline", "MIN_BOOT"]
 
@@ -150,7 +154,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
                            law, parameters, drivetrain, mass)
     if sim is None and why != REPLAY_NOT_ASKED:
         notes += (why,)
-    verdict = verdict_of(an.cross, mass.unidentified.get("battery_power"), an.error_unit)
+    verdict = verdict_of(an.cross, parameters, mass.unidentified.get("battery_power"), an.error_unit)
     # the rider's numbers (summary, mass check, battery health), from the log as parsed here
     rider = _rider_numbers(log, mass.mass, drivetrain, spec, rider_weight)
     compared = None

@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Mapping, Sequence
 
-__all__ = ["Effect", "Verdict", "ride_verdict", "verdict_of", "unit_label", "on_the_edge", "NOT_EXPLAINED"]
+__all__ = ["Verdict", "ride_verdict", "verdict_of", "unit_label", "on_the_edge", "NOT_EXPLAINED"]
 
 #: The verdict when every accepted effect is implausible.
 NOT_EXPLAINED = "the mismatch is not explained by a plausible effect"
@@ -21,32 +21,6 @@ NOT_EXPLAINED = "the mismatch is not explained by a plausible effect"
 def unit_label(unit: str) -> str:
     """A unit for people: ``"1"`` (a ratio) is written "dimensionless", the rest as given."""
     return "dimensionless" if unit in ("1", "", None) else str(unit)
-
-
-@dataclass(frozen=True)
-class Effect:
-    """An accepted balance effect as the verdict reads it.
-
-    Attributes
-    ----------
-    name : str
-    estimate : float
-        In ``unit``.
-    unit : str
-    plausible : bool
-        Whether ``estimate`` lies in its plausible range.
-    plausible_range : sequence of float or None
-        (lo, hi), in ``unit``.
-    on_bound : bool
-        On an edge of its plausible range (the ride asks for more).
-    """
-
-    name: str
-    estimate: float
-    unit: str
-    plausible: bool = True
-    plausible_range: tuple | None = None
-    on_bound: bool = False
 
 
 @dataclass(frozen=True)
@@ -74,33 +48,32 @@ class Verdict:
     why: str | None = None
 
 
-def verdict_of(cross, not_power: str | None = None, error_unit: str = "W") -> Verdict:
-    """:func:`ride_verdict` of a :class:`~euc_sim.rides.balance.crossride.CrossRide`.
+def verdict_of(cross, parameters, not_power: str | None = None, error_unit: str = "W") -> Verdict:
+    """:func:`ride_verdict` of a :class:`~euc_sim.rides.balance.crossride.CrossRide` and the ride's
+    parameters (:func:`~euc_sim.rides.balance.parameters.parameter_list`: the accepted effects' entries).
 
     Parameters
     ----------
     cross : CrossRide
+    parameters : sequence of Parameter
     not_power : str, optional
         Why the log's V·I is not battery power (the drivetrain's ``battery_power``), if it is not.
     error_unit : {"W", "N·m"}
     """
-    from euc_sim.rides.balance.fit import plausibility
-
-    phys = plausibility(cross.augmented)
-    effects = [Effect(c, phys[c]["estimate"], phys[c]["unit"], phys[c]["plausible"],
-                      phys[c]["plausible_range"], phys[c]["on_bound"]) for c in cross.accepted]
+    by = {p.name: p for p in parameters if p.source == "balance"}
     held = [c for c in cross.selected if c not in cross.accepted]
-    return ride_verdict(effects, cross.selection, held, error_unit, not_power)
+    return ride_verdict([by[c] for c in cross.accepted], cross.selection, held, error_unit, not_power)
 
 
-def ride_verdict(effects: Sequence[Effect], selection: Sequence[Mapping] = (), held: Sequence[str] = (),
+def ride_verdict(effects: Sequence, selection: Sequence[Mapping] = (), held: Sequence[str] = (),
                  error_unit: str = "W", not_power: str | None = None) -> Verdict:
     """The verdict of a ride's balance fit.
 
     Parameters
     ----------
-    effects : sequence of Effect
-        The accepted effects, in the order kept.
+    effects : sequence of Parameter
+        The accepted effects' entries (``name``, ``estimate``, ``unit``, ``plausible``,
+        ``plausible_range``, ``on_bound``), in the order kept.
     selection : sequence of mapping
         The held-out selection's steps (``term``, ``heldout_rmse`` in ``error_unit``), the
         inertia-only model first.
@@ -164,7 +137,7 @@ def _why_nothing(selection, held, unit: str) -> str:
             f"({selection[0]['heldout_rmse']:.0f} {unit}) enough to be kept")
 
 
-def _with_numbers(e: Effect) -> str:
+def _with_numbers(e) -> str:
     """``name estimate unit (plausible lo–hi)``: an effect in words."""
     u = unit_label(e.unit)
     rng = e.plausible_range

@@ -18,8 +18,8 @@ from euc_sim.rides.balance.design import (BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE
                                           on_bound)
 from euc_sim.rides.balance.fit import fit_balance, plausibility
 from euc_sim.rides.balance.normal import coefficients
-from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
-from euc_sim.rides.balance.verdict import Effect, ride_verdict, verdict_of
+from euc_sim.rides.balance.parameters import Parameter, drivetrain_view, parameter_list
+from euc_sim.rides.balance.verdict import ride_verdict, verdict_of
 from euc_sim.rides.grids.signals import ride_signals
 from euc_sim.stats import forward_select, percentile_interval, time_blocks, wild_block_signs
 from euc_sim.rides.source.logs import read_log
@@ -135,7 +135,7 @@ def test_a_drag_beyond_its_plausible_range_is_accepted_on_its_edge_and_said(desi
     assert entry["on_bound"] and "ON THE EDGE" in entry["evidence"]
     params = {p.name: p for p in parameter_list(cr, None, {})}
     assert params["aerodynamic_drag"].accepted and "edge" in params["aerodynamic_drag"].why
-    verdict = verdict_of(cr)
+    verdict = verdict_of(cr, parameter_list(cr, None, {}))
     assert "aerodynamic_drag" in verdict.named and re.search(r"\baerodynamic_drag\b[^;]* on the edge of (its|their) plausible", verdict.text)
 
 
@@ -281,8 +281,8 @@ def test_the_verdict_says_what_is_held_out_and_why():
     """A named effect on its edge, and a candidate that helps only beside an implausible term."""
     from dataclasses import replace
 
-    edge = Effect("rolling_resistance", 0.05, "1", True, (0.005, 0.05), on_bound=True)
-    inside = Effect("aerodynamic_drag", 0.3, "kg/m", True, (0.18, 0.6), on_bound=False)
+    edge = Parameter("rolling_resistance", 0.05, None, "1", True, True, None, "balance", (0.005, 0.05), True)
+    inside = Parameter("aerodynamic_drag", 0.3, None, "kg/m", True, True, None, "balance", (0.18, 0.6), False)
     selection = [{"term": "inertia only", "heldout_rmse": 500.0}]
     v = ride_verdict([edge, inside], selection, ["current_lag"])
     assert v.named == ("rolling_resistance", "aerodynamic_drag")
