@@ -18,7 +18,7 @@ import conceal as cc
 import ridesynth
 
 from euc_sim.model.catalog import CATALOG, Balance, Compare, Conceal, Effect, Words
-from euc_sim.rides.balance.crossride import cross_ride, effect_entries, select_effects
+from euc_sim.rides.balance.crossride import cross_ride, select_effects
 from euc_sim.rides.balance.design import CANDIDATES, balance_design
 from euc_sim.rides.balance.fit import fit_balance, plausibility
 from euc_sim.rides.balance.parameters import parameter_list
@@ -26,7 +26,7 @@ from euc_sim.rides.compare import differences as df
 from euc_sim.rides.compare.differences_fit import PairDesign, pair_fit
 from euc_sim.rides.compare.differences_report import _power_columns, _stack
 from euc_sim.rides.grids.signals import ride_signals
-from euc_sim.rides.render.contract import difference_json
+from euc_sim.rides.render.contract import difference_json, effect_entries
 from euc_sim.rides.render.differences_page import difference_lines
 from euc_sim.rides.sim import sim_steps
 from euc_sim.rides.sim.simulate import _on_grid

@@ -2,7 +2,7 @@
 
 :func:`cross_ride` accepts the effects that blocked held-out validation on the
 fit ride keeps (:func:`select_effects`, the selection rule of every ride fit),
-:func:`effect_entries` writes them as CONTRACT's effect entries (the page draws the
+the JSON's effect entries are :func:`euc_sim.rides.render.contract.effect_entries` (the page draws the
 held-out prediction: :func:`euc_sim.rides.render.fit_figures.balance_figure`).
 """
 
@@ -16,10 +16,9 @@ import numpy as np
 from euc_sim.rides.balance.design import BOUNDS, NOMINAL, PLAUSIBLE, Design, on_bound, term_role
 from euc_sim.rides.balance.fit import BalanceFit, _solve, fit_balance, plausibility
 from euc_sim.rides.balance.normal import coefficients, solve_grams
-from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.stats import forward_select, label_grams, time_blocks
 
-__all__ = ["CrossRide", "cross_ride", "effect_entries", "select_effects", "heldout_score", "admissible", "ADMIT", "HELDOUT_FOLDS", "MIN_GAIN"]
+__all__ = ["CrossRide", "cross_ride", "select_effects", "heldout_score", "admissible", "ADMIT", "HELDOUT_FOLDS", "MIN_GAIN"]
 
 #: Contiguous time folds of the fit ride that score a model held out.
 HELDOUT_FOLDS = 5
@@ -263,47 +262,3 @@ def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block
                      heldout_augmented=augmented.rmse_on(test_design),
                      heldout_full=full.rmse_on(test_design),
                      fit_label=fit_label, test_label=test_label, selection=tuple(history))
-
-
-def effect_entries(cr: CrossRide) -> list[dict]:
-    """CONTRACT's effect entries for the accepted effects, strongest first."""
-    out = []
-    cum = list(NOMINAL)
-    phys = plausibility(cr.augmented)
-    for c in cr.accepted:
-        cum.append(c)
-        rmse_after = cr.fit_design_rmse(cum)
-        ph = phys[c]
-        exact = list(cr.fit_design.aliases.get(c, ()))
-        confounded = [x for x in cr.full.confounded(c) if x not in exact]
-        aliases = exact + confounded
-        step = next((h for h in cr.selection[1:] if c in h["term"].split("+")), None)
-        before = cr.selection[max(0, list(cr.selection).index(step) - 1)] if step else None
-        ev = (f"adding {ph['symbol']} ({ph['meaning']}) lowers the blocked held-out RMS error "
-              f"on {cr.fit_label} from {before['heldout_rmse']:.0f} to {step['heldout_rmse']:.0f} "
-              f"{cr.nominal.unit}" if step else f"{ph['symbol']} ({ph['meaning']})")
-        ev += f", 95% interval {ph['ci95'][0]:.3g} to {ph['ci95'][1]:.3g} {unit_label(ph['unit'])}"
-        if exact:
-            ev += (f"; the speed never changes sign, so it is the sum of this and "
-                   f"{' and '.join(exact)} (a constant road grade looks the same)")
-        if confounded:
-            ev += (f"; in the fit with every candidate its estimate trades off against "
-                   f"{' and '.join(confounded)} (bootstrap correlation beyond ±0.8): this ride "
-                   f"cannot tell them apart")
-        if ph["on_bound"]:
-            lo, hi = ph["plausible_range"]
-            ev += (f"; ON THE EDGE of its plausible range {lo:g} to {hi:g} "
-                   f"{unit_label(ph['unit'])}: the ride asks for more than plausible "
-                   f"{ph['symbol']} gives, and something the model lacks supplies the rest")
-        if not ph["plausible"]:
-            ev += (f"; OUTSIDE the plausible range {ph['plausible_range'][0]:g} to "
-                   f"{ph['plausible_range'][1]:g} {unit_label(ph['unit'])}: it also absorbs something else")
-        entry = {"name": c, "estimate": ph["estimate"], "unit": ph["unit"], "ci95": ph["ci95"],
-                 "rmse_after": rmse_after, "aliases": aliases, "evidence": ev,
-                 "plausible": ph["plausible"], "plausible_range": ph["plausible_range"],
-                 "on_bound": ph["on_bound"]}
-        for extra in ("drag_area_m2", "drag_area_m2_ci95", "angle_rad"):
-            if extra in ph:
-                entry[extra] = ph[extra]
-        out.append(entry)
-    return out

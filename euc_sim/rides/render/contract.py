@@ -13,14 +13,14 @@ import numpy as np
 
 from euc_sim.io import to_jsonable
 
-from euc_sim.rides.balance.crossride import effect_entries
 from euc_sim.rides.balance.design import NOMINAL
+from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.balance.fit import plausibility
 from euc_sim.rides.drive.cutout import Limits
 from euc_sim.rides.law.controller_report import controller_entry
 from euc_sim.rides.result import RideResult, RiderNumbers
 
-__all__ = ["ReportFiles", "ride_json", "balance_json", "verdict_json", "rider_json", "physics_json", "total_mass_json",
+__all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "verdict_json", "rider_json", "physics_json", "total_mass_json",
            "term_json", "parameter_json",
            "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json",
            "difference_json", "differences_json", "clock_json",
@@ -124,6 +124,51 @@ def differences_json(res) -> dict:
     return {"differences": [difference_json(d) for d in res.items],
             "differences_cannot_see": dict(res.cannot_see), "differences_sentence": res.sentence,
             "differences_interval": res.interval_method}
+
+
+def effect_entries(cr) -> list[dict]:
+    """CONTRACT's ``effects``: an entry for each effect a
+    :class:`~euc_sim.rides.balance.crossride.CrossRide` accepted, in the order kept, with its evidence in words."""
+    out = []
+    cum = list(NOMINAL)
+    phys = plausibility(cr.augmented)
+    for c in cr.accepted:
+        cum.append(c)
+        rmse_after = cr.fit_design_rmse(cum)
+        ph = phys[c]
+        exact = list(cr.fit_design.aliases.get(c, ()))
+        confounded = [x for x in cr.full.confounded(c) if x not in exact]
+        aliases = exact + confounded
+        step = next((h for h in cr.selection[1:] if c in h["term"].split("+")), None)
+        before = cr.selection[max(0, list(cr.selection).index(step) - 1)] if step else None
+        ev = (f"adding {ph['symbol']} ({ph['meaning']}) lowers the blocked held-out RMS error "
+              f"on {cr.fit_label} from {before['heldout_rmse']:.0f} to {step['heldout_rmse']:.0f} "
+              f"{cr.nominal.unit}" if step else f"{ph['symbol']} ({ph['meaning']})")
+        ev += f", 95% interval {ph['ci95'][0]:.3g} to {ph['ci95'][1]:.3g} {unit_label(ph['unit'])}"
+        if exact:
+            ev += (f"; the speed never changes sign, so it is the sum of this and "
+                   f"{' and '.join(exact)} (a constant road grade looks the same)")
+        if confounded:
+            ev += (f"; in the fit with every candidate its estimate trades off against "
+                   f"{' and '.join(confounded)} (bootstrap correlation beyond ±0.8): this ride "
+                   f"cannot tell them apart")
+        if ph["on_bound"]:
+            lo, hi = ph["plausible_range"]
+            ev += (f"; ON THE EDGE of its plausible range {lo:g} to {hi:g} "
+                   f"{unit_label(ph['unit'])}: the ride asks for more than plausible "
+                   f"{ph['symbol']} gives, and something the model lacks supplies the rest")
+        if not ph["plausible"]:
+            ev += (f"; OUTSIDE the plausible range {ph['plausible_range'][0]:g} to "
+                   f"{ph['plausible_range'][1]:g} {unit_label(ph['unit'])}: it also absorbs something else")
+        entry = {"name": c, "estimate": ph["estimate"], "unit": ph["unit"], "ci95": ph["ci95"],
+                 "rmse_after": rmse_after, "aliases": aliases, "evidence": ev,
+                 "plausible": ph["plausible"], "plausible_range": ph["plausible_range"],
+                 "on_bound": ph["on_bound"]}
+        for extra in ("drag_area_m2", "drag_area_m2_ci95", "angle_rad"):
+            if extra in ph:
+                entry[extra] = ph[extra]
+        out.append(entry)
+    return out
 
 
 def balance_json(an) -> dict:
