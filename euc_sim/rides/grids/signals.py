@@ -111,13 +111,6 @@ class RideAssumptions:
         """Where the value ``name`` ("R" or "total_mass") came from."""
         return dict(self.sources).get(name, "default (Table 3)")
 
-    def as_dict(self) -> dict:
-        return {"R": self.R, "total_mass": self.total_mass, "m_eq": self.m_eq, "g": self.g,
-                "efficiency_for_torque": self.efficiency,
-                "torque_constant": self.torque_constant, "v_min": self.v_min,
-                "sources": {k: self.source_of(k) for k in ("R", "total_mass")},
-                "source": ("; ".join(f"{k}: {self.source_of(k)}" for k in ("R", "total_mass")))}
-
 
 # --------------------------------------------------------------------------------------
 # Resampling and filtering

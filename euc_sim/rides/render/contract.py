@@ -20,7 +20,7 @@ from euc_sim.rides.drive.cutout import Limits
 from euc_sim.rides.law.controller_report import controller_entry
 from euc_sim.rides.result import RideResult, RiderNumbers
 
-__all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "verdict_json", "rider_json", "physics_json", "total_mass_json",
+__all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json", "verdict_json", "rider_json", "physics_json", "total_mass_json",
            "term_json", "parameter_json",
            "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json",
            "difference_json", "differences_json", "clock_json",
@@ -171,6 +171,15 @@ def effect_entries(cr) -> list[dict]:
     return out
 
 
+def assumptions_json(a) -> dict:
+    """CONTRACT's ``assumptions``: the :class:`~euc_sim.rides.grids.signals.RideAssumptions` the balance
+    fit took (SI), each found value's source."""
+    return {"R": a.R, "total_mass": a.total_mass, "m_eq": a.m_eq, "g": a.g, "efficiency_for_torque": a.efficiency,
+            "torque_constant": a.torque_constant, "v_min": a.v_min,
+            "sources": {k: a.source_of(k) for k in ("R", "total_mass")},
+            "source": "; ".join(f"{k}: {a.source_of(k)}" for k in ("R", "total_mass"))}
+
+
 def balance_json(an) -> dict:
     """CONTRACT's balance keys of a :class:`~euc_sim.rides.balance.analysis.RideAnalysis`
     (``recording`` ... ``notes``, ``table`` None), in the command's order."""
@@ -204,7 +213,7 @@ def balance_json(an) -> dict:
         "domain": an.domain,
         "torque_method": an.sig_fit.torque_method,
         "power_source": an.sig_fit.power_source,
-        "assumptions": an.assumptions.as_dict(),
+        "assumptions": assumptions_json(an.assumptions),
         "filter": {"rate_hz": st.rate, "window_s": st.window, "polyorder": st.polyorder,
                    "max_gap_s": st.max_gap},
         "bootstrap": {"n_boot": st.n_boot, "block_s": st.block_s, "seed": st.seed},
