@@ -128,8 +128,8 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     """
     from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
     from euc_sim.rides.balance.verdict import verdict_of
-    from euc_sim.rides.law.controller_report import controller_fit, torque_constant
     from euc_sim.rides.drive.drivetrain_report import cutout_of
+    from euc_sim.rides.law.controller_report import controller_fit, torque_constant
     from euc_sim.rides.result import ComparedRide, RideResult  # deferred: loads pandas, scipy (1.2 s)
 
     say = progress or (lambda s: None)
