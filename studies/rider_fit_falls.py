@@ -29,6 +29,7 @@ from euc_sim.rides.source.gaps import GAP_POLICY
 def fit_inputs(ride: dict) -> dict:
     """``fit_rider``'s keyword arguments as the ride page's ``calibrated_rider`` step gave them."""
     from euc_sim.rides.grids.signals import RideAssumptions
+    from euc_sim.rides.drive.drivetrain import Term
     from euc_sim.rides.law.controller_report import torque_constant
     from euc_sim.rides.sim.sim_steps import motor_from_law
     from euc_sim.rides.sim.simulate import ride_params
@@ -42,10 +43,11 @@ def fit_inputs(ride: dict) -> dict:
     i = names.index("calibrated_rider")
     prev = [s for s in steps[:i] if s["ran"]][-1]
     dtv = steps[names.index("drivetrain")]
+    dt = {k: Term(t.get("estimate"), t.get("ci95"), t.get("unit")) for k, t in (ride.get("drivetrain") or {}).items()}
     return {"params": ride_params(RideAssumptions(R=a["R"], total_mass=a["total_mass"], m_eq=a["m_eq"])),
             "motor": motor_from_law(prev["motor"]), "effects": dict(dtv["effects_injected"]),
             "drivetrain": dict(dtv["power_model"]),
-            "assumptions": RideAssumptions(torque_constant=torque_constant(ride.get("drivetrain")))}
+            "assumptions": RideAssumptions(torque_constant=torque_constant(dt))}
 
 
 def run(ride_json: Path, fit_log: Path, **kw) -> dict:

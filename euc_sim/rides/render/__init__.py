@@ -1,1 +1,2 @@
-"""Rendering of a ride's results: the CONTRACT's JSON, the report folder, the Markdown and HTML pages, their sections and every figure."""
+"""Rendering of a ride's results: the CONTRACT's JSON, the report folder, the Markdown and HTML
+pages, their sections and every figure."""

@@ -20,11 +20,10 @@ from euc_sim.rides.drive.cutout import Limits
 from euc_sim.rides.law.controller_report import controller_entry
 from euc_sim.rides.result import RideResult, RiderNumbers
 
-__all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json", "verdict_json", "rider_json", "physics_json", "total_mass_json",
-           "term_json", "parameter_json",
-           "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json",
-           "difference_json", "differences_json", "clock_json",
-           "mass_difference_json", "mass_check_json", "limits_of"]
+__all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json",
+           "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
+           "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json", "difference_json",
+           "differences_json", "clock_json", "mass_difference_json", "mass_check_json", "limits_of"]
 
 
 @dataclass(frozen=True)
