@@ -22,8 +22,9 @@ from __future__ import annotations
 from typing import Callable, Sequence
 
 import numpy as np
+from numpy.linalg import _umath_linalg
 
-__all__ = ["gram_lstsq", "label_grams", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
+__all__ = ["gram_lstsq", "gram_lstsq_many", "label_grams", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
            "basic_interval", "block_bootstrap_indices", "wild_block_signs", "blocks_by_length", "block_labels",
            "draw_blocks", "moving_block_starts", "jackknife_interval"]
 
@@ -51,6 +52,29 @@ def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
         A, b = G[np.ix_(cols, cols)], G[cols, -1]
     beta = np.linalg.lstsq(A, b, rcond=None)[0]
     return beta, float(G[-1, -1] - beta @ b)
+
+
+def gram_lstsq_many(G: np.ndarray) -> np.ndarray:
+    """:func:`gram_lstsq`'s ``beta`` (all columns) of each Gram matrix of a stack, the same
+    LAPACK solve on each, in one call.
+
+    Parameters
+    ----------
+    G : ndarray (..., p + 1, p + 1)
+
+    Returns
+    -------
+    ndarray (..., p)
+    """
+    G = np.asarray(G, dtype=float)
+    A, b, p = G[..., :-1, :-1], G[..., :-1, -1:], G.shape[-1] - 1
+    with np.errstate(call=_lstsq_failed, invalid="call", over="ignore", divide="ignore", under="ignore"):
+        x = _umath_linalg.lstsq(A, b, np.finfo(float).eps * p, signature="ddd->ddid")[0]
+    return x[..., 0].copy()
+
+
+def _lstsq_failed(err, flag):
+    raise np.linalg.LinAlgError("SVD did not converge in Linear Least Squares")
 
 
 def label_grams(Z: np.ndarray, labels: np.ndarray, n_labels: int) -> np.ndarray:
