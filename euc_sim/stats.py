@@ -26,7 +26,7 @@ from numpy.linalg import _umath_linalg
 
 __all__ = ["gram_lstsq", "gram_lstsq_many", "label_grams", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
            "basic_interval", "block_bootstrap_indices", "wild_block_signs", "blocks_by_length", "block_labels",
-           "draw_blocks", "moving_block_starts", "jackknife_interval"]
+           "draw_blocks", "distinct", "moving_block_starts", "jackknife_interval"]
 
 
 def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
@@ -175,6 +175,15 @@ def interleaved_folds(t: np.ndarray, n_folds: int, block: float,
     return folds
 
 
+def distinct(a) -> np.ndarray:
+    """``np.unique(a)`` of a 1-D array, read off in O(n) where ``a`` is already in order (as
+    segment and block labels on a time grid are) instead of hashed or sorted again."""
+    a = np.asarray(a)
+    if a.ndim == 1 and a.dtype.kind in "iub" and (a.size < 2 or bool(np.all(a[1:] >= a[:-1]))):
+        return a[np.r_[True, a[1:] != a[:-1]]] if a.size else a.copy()
+    return np.unique(a)
+
+
 def block_labels(t: np.ndarray, block: float, t0: float | None = None) -> np.ndarray:
     """Block number of each sample: consecutive ``block``-second stretches from ``t0`` (s)."""
     t = np.asarray(t, float)
@@ -184,7 +193,7 @@ def block_labels(t: np.ndarray, block: float, t0: float | None = None) -> np.nda
 def blocks_by_length(t: np.ndarray, block: float) -> list[np.ndarray]:
     """Row indices of consecutive ``block``-second stretches of ``t`` (s), in order."""
     label = block_labels(t, block)
-    return [np.flatnonzero(label == b) for b in np.unique(label)]
+    return [np.flatnonzero(label == b) for b in distinct(label)]
 
 
 def draw_blocks(n_blocks: int, rng: np.random.Generator) -> np.ndarray:

@@ -66,3 +66,13 @@ def test_gram_lstsq_many_is_each_gram_lstsq_to_the_bit():
         many = gram_lstsq_many(G.reshape(2, 3, p + 1, p + 1))
         assert many.shape == (2, 3, p)
         assert np.array_equal(many.reshape(6, p), np.stack([gram_lstsq(g)[0] for g in G]))
+
+
+def test_distinct_is_np_unique_in_order_or_not():
+    from euc_sim.stats import distinct
+
+    rng = np.random.default_rng(0)
+    for a in (np.repeat([0, 0, 3, 7], [5, 1, 4, 2]), rng.integers(0, 9, 50), np.array([], int),
+              np.array([2]), np.array([1.5, np.nan, 1.5, np.nan]), np.array([True, False, True])):
+        got = distinct(a)
+        assert got.dtype == np.unique(a).dtype and np.array_equal(got, np.unique(a), equal_nan=True)

@@ -90,7 +90,8 @@ def thin(n: int, most: int) -> np.ndarray:
     """Indices of at most ``most`` of ``n`` rows, evenly spaced, first and last kept."""
     if n <= most:
         return np.arange(n)
-    return np.unique(np.linspace(0, n - 1, most).round().astype(int))
+    idx = np.linspace(0, n - 1, most).round().astype(int)      # in order: distinct where it steps
+    return idx[np.diff(idx, prepend=-1) != 0]
 
 
 def plain_values(a, digits: int | None = 5) -> list:

@@ -63,7 +63,7 @@ import numpy as np
 
 from euc_sim.rides.drive.energy import window_difference, window_mean, window_samples_odd
 from euc_sim.rides.source.channels import current_from_phase, power_not_measured
-from euc_sim.stats import block_labels, draw_blocks, gram_lstsq_many, label_grams, percentile_interval
+from euc_sim.stats import block_labels, distinct, draw_blocks, gram_lstsq_many, label_grams, percentile_interval
 from euc_sim.stats import forward_select as select_by_heldout
 from euc_sim.stats import time_blocks
 from euc_sim.rides.source.ride import Ride
@@ -341,7 +341,7 @@ def _bootstrap(designs: list, names, signed, settings: MassSettings, mid: int):
     rng = np.random.default_rng(settings.seed)
     t0 = min(d.t[0] for d in designs)
     labels = [block_labels(d.t, settings.block, t0) for d in designs]
-    blocks = [{b: np.flatnonzero(lab == b) for b in np.unique(lab)} for lab in labels]
+    blocks = [] if signed else [{b: np.flatnonzero(lab == b) for b in distinct(lab)} for lab in labels]
     keys = np.unique(np.concatenate(labels))
     n_boot = settings.n_boot if signed else max(10, settings.n_boot // 10)  # |P̂|: slow fits
     # a signed log's fit is linear: a replicate's Gram matrix is its blocks' Grams summed
