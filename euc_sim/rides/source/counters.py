@@ -182,15 +182,29 @@ def rises(t: np.ndarray, x: np.ndarray, top_mps: float) -> np.ndarray:
     idx = np.flatnonzero(np.isfinite(x))
     if idx.size < 2:
         return out
-    xm = pd.Series(x[idx]).rolling(5, center=True, min_periods=1).median().to_numpy()
+    xm = _median5(x[idx])
     reset = np.r_[False, xm[1:] < 0.5 * xm[:-1] - 50.0]
-    top = pd.Series(xm).groupby(np.cumsum(reset)).cummax().to_numpy()
+    top = (np.maximum.accumulate(xm) if not reset.any() else
+           pd.Series(xm).groupby(np.cumsum(reset)).cummax().to_numpy())
     inc = np.where(reset[1:], 0.0, np.diff(top))
     ti, k = t[idx], np.arange(idx.size - 1)
     first = np.maximum.accumulate(np.where(np.r_[True, xm[1:] != xm[:-1]], np.arange(xm.size), 0))
     reach = np.maximum(ti[np.minimum(k + 11, idx.size - 1)] - ti[np.maximum(k - 10, 0)], ti[k + 1] - ti[first[k]])
     inc[inc > top_mps * reach + 50.0] = np.nan
     out[idx[1:] - 1] = inc
+    return out
+
+
+def _median5(x: np.ndarray) -> np.ndarray:
+    """Running median of 5 finite readings, centred, of fewer at the ends (pandas'
+    ``rolling(5, center=True, min_periods=1).median()``; an even count's is the mean of
+    the middle two), each window sorted at once."""
+    out = np.empty(x.size)
+    if x.size >= 5:
+        out[2:-2] = np.sort(np.lib.stride_tricks.sliding_window_view(x, 5), axis=1)[:, 2]
+    for i in (range(x.size) if x.size < 5 else (0, 1, x.size - 2, x.size - 1)):
+        w = np.sort(x[max(i - 2, 0):i + 3])
+        out[i] = w[w.size // 2] if w.size % 2 else (w[w.size // 2 - 1] + w[w.size // 2]) / 2
     return out
 
 
