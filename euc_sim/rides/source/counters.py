@@ -119,9 +119,7 @@ def log_counters(raw: pd.DataFrame, data: pd.DataFrame) -> LogCounters:
     flag = None
     for col in ("alarm", "alert", "Alarm", "Alert"):
         if col in raw.columns:
-            s = raw[col].astype(str).str.strip()
-            f = ~s.isin(["", "0", "0.0", "nan", "None", "null"]) & raw[col].notna()
-            flag = f.to_numpy() if flag is None else flag | f.to_numpy()
+            flag = _raised(raw[col]) if flag is None else flag | _raised(raw[col])
     eucworld = "datetime" in raw.columns
     km = 1000.0 if eucworld else 1.0
     bat = _num(raw, "battery") if eucworld else _num(raw, "battery_level")
@@ -146,6 +144,15 @@ def log_counters(raw: pd.DataFrame, data: pd.DataFrame) -> LogCounters:
         power_Wh_drawn=power,
         battery_circuit_ohm=_extra_value(raw, "euc.batteryCircuitResistance"),
         speed_limit_mps=float(lim.max()) / 3.6 if lim.size else None, wheel_model=_wheel_model(raw))
+
+
+def _raised(col: pd.Series) -> np.ndarray:
+    """Rows whose alarm cell is set: not empty, not 0 (nor 0.0, nan, None, null)."""
+    if col.dtype.kind in "iuf":                 # numbers: any but 0 and NaN (-0.0 reads as set)
+        x = col.to_numpy()
+        return ~np.isnan(x) & ~((x == 0) & ~np.signbit(x)) if x.dtype.kind == "f" else x != 0
+    s = col.astype(str).str.strip()
+    return (~s.isin(["", "0", "0.0", "nan", "None", "null"]) & col.notna()).to_numpy()
 
 
 def _extra_value(raw: pd.DataFrame, key: str) -> float | None:

@@ -562,12 +562,11 @@ def _time_ordered(table: pd.DataFrame, notes: list[str]) -> tuple[pd.DataFrame, 
     if back:
         notes.append(f"time ran backwards at {back} row(s); rows put in time order")
         table = table.sort_values("t", kind="stable").reset_index(drop=True)
-    counts = table["t"].value_counts()
-    rep = counts[counts > 1]
-    n_merged = 0
-    if len(rep):
-        n_merged = int(rep.sum() - len(rep))
+    same = np.diff(table["t"].to_numpy()) == 0          # in time order: a repeat follows its stamp
+    n_merged = int(same.sum())
+    if n_merged:
+        n_stamps = int((same & ~np.r_[False, same[:-1]]).sum())
         table = table.groupby("t", sort=True, as_index=False).mean()
-        notes.append(f"repeated time stamps: {len(rep)} time stamp(s) shared by "
-                     f"{int(rep.sum())} rows; averaged into one row each ({n_merged} rows merged)")
+        notes.append(f"repeated time stamps: {n_stamps} time stamp(s) shared by "
+                     f"{n_merged + n_stamps} rows; averaged into one row each ({n_merged} rows merged)")
     return table, n_merged
