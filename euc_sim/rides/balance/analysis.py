@@ -244,7 +244,7 @@ def write_balance(an: RideAnalysis, report_dir) -> Path:
     cr, d_test, report_dir = an.cross, an.cross.test_design, Path(report_dir)
     cols = {"t": d_test.t, "v": d_test.v, "P_measured": d_test.P,
             "P_nominal": d_test.predict(cr.nominal.estimate), "P_augmented": d_test.predict(cr.augmented.estimate)}
-    # 7 significant digits (0.01 s, 1 mW), every row formatted from Python floats at once
-    row = ",".join(["%.7g"] * len(cols)).__mod__
-    rows = map(row, map(tuple, np.column_stack(list(cols.values())).tolist()))
-    return write_text(report_dir / "ride_balance.csv", "\n".join([",".join(cols), *rows, ""]))
+    # 7 significant digits (0.01 s, 1 mW), the whole table one format of Python floats
+    table = np.column_stack(list(cols.values()))
+    rows = (",".join(["%.7g"] * len(cols)) + "\n") * len(table) % tuple(table.ravel().tolist())
+    return write_text(report_dir / "ride_balance.csv", ",".join(cols) + "\n" + rows)
