@@ -208,9 +208,14 @@ _PLOTLY_CSS = re.compile(r"""\.textContent=(['"])((?:(?!\1)[^\\])*)\1""")
 
 def _scripts(markup: str) -> list[str]:
     """The text of every ``<script>…</script>`` in ``markup``, in order (a closed one only)."""
-    out, i = [], 0
-    while (a := markup.find("<script>", i)) >= 0 and (b := markup.find("</script>", a + 8)) >= 0:
-        out.append(markup[a + 8:b])
+    out, i, plotly = [], 0, _plotly_js()
+    while (a := markup.find("<script>", i)) >= 0:
+        if markup.startswith(plotly, a + 8) and markup.startswith("</script>", b := a + 8 + len(plotly)):
+            out.append(plotly)                 # the one object: hashed once, not copied a page
+        elif (b := markup.find("</script>", a + 8)) >= 0:
+            out.append(markup[a + 8:b])
+        else:
+            break
         i = b + 9
     return out
 
@@ -268,11 +273,22 @@ def policy(markup: str) -> str:
 
 def write_page(folder: str | Path, text: str) -> Path:
     """Write ``folder/index.html`` atomically (the folder is created); returns its path."""
-    from euc_sim.io import write_text
+    from euc_sim.io import atomic_write
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    return write_text(folder / "index.html", text)
+    # Plotly's script, where the page inlines it, from its UTF-8 kept once (a page with any
+    # character beyond Latin-1 would otherwise widen and encode its 4.8 MB again)
+    a = text.find("<script>") + 8
+    cut = (a, a + len(_plotly_js())) if a >= 8 and text.startswith(_plotly_js(), a) else (len(text), len(text))
+    data = b"".join([text[:cut[0]].encode("utf-8"), _plotly_utf8() if cut[1] > cut[0] else b"",
+                     text[cut[1]:].encode("utf-8")])
+    return atomic_write(folder / "index.html", lambda p: p.write_bytes(data))
+
+
+@functools.lru_cache(maxsize=1)
+def _plotly_utf8() -> bytes:
+    return _plotly_js().encode("utf-8")
 
 
 def columns(*fragments: str) -> str:
