@@ -202,8 +202,6 @@ _MAP_GUARD = (
 #: The script :func:`figure` writes: a JSON literal handed to Plotly, nothing else.
 _FIGURE_SCRIPT = re.compile(r'\(function\(\)\{var f=(.*);Plotly\.newPlot\("[A-Za-z][A-Za-z0-9_-]*",f\.data,'
                             r"f\.layout\|\|\{\}," + re.escape(json.dumps(PLOTLY_CONFIG)) + r"\);\}\)\(\);", re.S)
-#: Text Plotly's script sets as element content: MapLibre's style sheet among it.
-_PLOTLY_CSS = re.compile(r"""\.textContent=(['"])((?:(?!\1)[^\\])*)\1""")
 
 
 def _scripts(markup: str) -> list[str]:
@@ -222,8 +220,18 @@ def _scripts(markup: str) -> list[str]:
 
 @functools.lru_cache(maxsize=1)
 def _plotly_styles() -> tuple[str, ...]:
-    """The style sheets Plotly's script inserts (read once: the script is 4.8 MB)."""
-    return tuple(m[1] for m in _PLOTLY_CSS.findall(_plotly_js()))
+    """The style sheets Plotly's script inserts (read once: the script is 4.8 MB): the text of
+    each ``.textContent='…'`` (or ``"…"``) without a backslash, MapLibre's style sheet among them."""
+    js, out, i = _plotly_js(), [], 0
+    while (k := js.find(".textContent=", i)) >= 0:
+        q, a = js[k + 13:k + 14], k + 14
+        end = js.find(q, a) if q in ("'", '"') else -1
+        if end >= 0 and "\\" not in js[a:end]:
+            out.append(js[a:end])
+            i = end + 1
+        else:
+            i = k + 1
+    return tuple(out)
 
 
 @functools.lru_cache(maxsize=16)          # Plotly's script (4.8 MB) is hashed once, not once a page
