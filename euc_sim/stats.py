@@ -86,12 +86,14 @@ def label_grams(Z: np.ndarray, labels: np.ndarray, n_labels: int) -> np.ndarray:
     ndarray (n_labels, p, p)
     """
     G = np.zeros((n_labels, Z.shape[1], Z.shape[1]))
-    order = np.argsort(labels, kind="stable")          # each label's rows one slice: O(n) in all
-    Zs, ls = Z[order], np.asarray(labels)[order]
+    Z, ls = np.ascontiguousarray(Z), np.asarray(labels)
+    if ls.size > 1 and not bool(np.all(ls[1:] >= ls[:-1])):   # each label's rows one slice: O(n) in all
+        order = np.argsort(ls, kind="stable")
+        Z, ls = Z[order], ls[order]
     bounds = np.flatnonzero(np.diff(ls)) + 1
     for lo, hi in zip(np.r_[0, bounds], np.r_[bounds, len(ls)]):
         if hi > lo:
-            zb = Zs[lo:hi]
+            zb = Z[lo:hi]
             G[ls[lo]] = zb.T @ zb
     return G
 

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Callable
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from euc_sim.errors import InputError
 from euc_sim.rides.balance.crossride import CrossRide, cross_ride, effect_entries
@@ -97,6 +98,17 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
         ``figure`` (file name inside ``report_dir``); ``recording`` and
         ``compare`` are file names (no folder: no machine path in outputs).
     """
+    with threadpool_limits(limits=1, user_api="blas"):      # as rides.drive.mass.fit_mass
+        return _ride_analysis(log_path, compare_path, report_dir=report_dir, assumptions=assumptions, rate=rate,
+                              max_gap=max_gap, window=window, polyorder=polyorder, domain=domain,
+                              n_boot=n_boot, block_s=block_s, seed=seed, progress=progress)
+
+
+def _ride_analysis(log_path, compare_path=None, *, report_dir=None,
+                   assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
+                   max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2,
+                   domain: str = "power", n_boot: int = 200, block_s: float = 10.0,
+                   seed: int = 0, progress: Callable[[str], None] | None = None) -> RideAnalysis:
     say = progress or (lambda msg: None)
     say(f"reading {log_path.name}" + ("" if compare_path is None else
                                             f" and {compare_path.name}"))
@@ -110,7 +122,7 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
     blocks = len(d_fit.P) / (block_s * rate)
     if n_boot and blocks < FEW_BLOCKS:
         notes.append(_few_blocks(fit_label, blocks, block_s))
-        warnings.warn(notes[-1], stacklevel=2)
+        warnings.warn(notes[-1], stacklevel=3)
     report = _report(cr, sig_fit, d_fit, d_test, (fit_label, test_label), notes, domain,
                      assumptions, dict(log_path=log_path, compare_path=compare_path, rate=rate,
                                        window=window, polyorder=polyorder, max_gap=max_gap,

@@ -35,6 +35,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from euc_sim.rides.drive.mass import MassFit
 from euc_sim.rides.drive.pwm import BASE, EXTRA, full_duty_force, pwm_columns, select_pwm_terms
@@ -228,6 +229,12 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
         Wheel radius, m (from the spec): converts K_v to the back-EMF constant
         K_e = K_v·R, V·s/rad.
     """
+    with threadpool_limits(limits=1, user_api="blas"):      # as rides.drive.mass.fit_mass
+        return _fit_drivetrain(sig, mass, radius, n_boot, seed)
+
+
+def _fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None,
+                    n_boot: int = 100, seed: int = 0) -> Drivetrain:
     terms, why = {}, dict(mass.unidentified)
     m = mass.estimate
     c = mass.coef

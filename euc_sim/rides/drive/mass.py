@@ -60,6 +60,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from euc_sim.rides.drive.energy import window_difference, window_mean, window_samples_odd
 from euc_sim.rides.source.channels import current_from_phase, power_not_measured
@@ -396,6 +397,13 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
         naming the file and the column, for a log without voltage or current
         or one that was never ridden.
     """
+    # one BLAS thread: the fits' products are of ride-long vectors, which BLAS would split
+    # across threads that, on a shared machine, wait milliseconds each for a core
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _fit_mass(log, settings, sig)
+
+
+def _fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | None = None) -> MassFit:
     sig = sig if sig is not None else power_signals(log, settings)
     lag = _best_lag(sig, settings)
     designs = [_design(sig, lag, w, settings) for w in sorted(settings.windows)]

@@ -471,7 +471,7 @@ def _read_table(path: Path) -> pd.DataFrame:
     # spaces after a comma or at a line's start are skipped; a file without any is read without
     # that check of every field; the time stamps' columns are text as the parser infers them,
     # read again as text only where it read numbers
-    spaced = text.startswith(" ") or any(s in text for s in (", ", "\n ", "\r "))
+    spaced = " " in text and (text.startswith(" ") or any(s in text for s in (", ", "\n ", "\r ")))
     read = lambda **dtype: pd.read_csv(                                  # noqa: E731
         io.StringIO(text), keep_default_na=False, skipinitialspace=spaced, index_col=False, low_memory=False,
         na_values={c: empty for c in (header or ()) if c.strip() not in times}, **dtype)
