@@ -22,6 +22,7 @@ line on stderr and the callers run their Python loops.
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 from contextlib import contextmanager
@@ -140,7 +141,6 @@ def _find_pointers(base: int, targets: dict[str, int], what: str) -> dict[str, i
     where ``/proc/self/mem`` cannot be read (then the Python loops run) or a pointer is
     not found.
     """
-    import os
 
     try:
         fd = os.open("/proc/self/mem", os.O_RDONLY)
@@ -195,7 +195,7 @@ def available() -> bool:
 
 def _compile():
     """numba ``cfunc`` of the kernels with MuJoCo's control-callback signature."""
-    from euc_sim.simulation.native_kernels import build_callback
+    from euc_sim.simulation.native_kernels import build_callback  # deferred: loads numba (0.3 s)
 
     offs = field_offsets(("qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"))
     offs.update(model_offsets(("body_ipos", "site_pos")))
@@ -240,6 +240,30 @@ def registered(data, context: Context):
                 _STATE["previous"] = None
                 _IDLE.notify_all()
 
+
+
+#: Steps run in C between two looks for a fall when no progress is asked for (a fallen run
+#: goes on at most this far: not into the NaN warnings of a diverging MuJoCo state).
+CHUNK_STEPS = 100
+
+
+def ride(m, d, context: Context, steps: int, chunk: int = CHUNK_STEPS, progress=None) -> None:
+    """Step ``d`` ``steps`` times with ``context`` served (:func:`registered`), ``chunk`` steps
+    at a time, until the callback flags a fall; without one, the callback once more for the
+    last row (``mj_forward``, no step).  ``progress(k)`` before each block, ``k`` steps done."""
+    import mujoco
+
+    context.c[C_PER] = calls_per_step(m, d)
+    with registered(d, context):
+        for k0 in range(0, steps + 1, chunk):
+            if progress is not None:
+                progress(k0)
+            if steps > k0:
+                mujoco.mj_step(m, d, nstep=min(chunk, steps - k0))
+            if context.c[C_FALL] >= 0:
+                return
+        context.c[C_CALLS] = 0
+        mujoco.mj_forward(m, d)
 
 @contextmanager
 def exclusive(cb):

@@ -337,7 +337,7 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
 
 
 def test_the_falls_are_said_once_with_the_runs_they_ended():
-    from euc_sim.rides.report.page import falls_sentence
+    from euc_sim.rides.render.page import falls_sentence
 
     cause = "|phi| = 0.700 rad exceeds the bound 0.7 rad"
     both = [{"t": 842.921, "cause": cause, "run": "nominal"}, {"t": 842.921, "cause": cause, "run": "augmented"}]
@@ -350,7 +350,7 @@ def test_the_falls_are_said_once_with_the_runs_they_ended():
 
 
 def test_the_page_says_when_the_last_step_sways_less_or_more_than_the_log():
-    from euc_sim.rides.report.page import SWAY_DB, sway_sentence
+    from euc_sim.rides.render.page import SWAY_DB, sway_sentence
 
     def step(name, fast):
         return {"step": name, "ran": True,

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -22,8 +21,7 @@ from euc_sim.rides.balance.fit import FEW_BLOCKS, block_rows, plausibility
 from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, ride_signals
 from euc_sim.rides.source.gaps import GAP_POLICY
 
-__all__ = ["RideAnalysis", "ride_report", "ride_analysis", "write_balance", "check_data",
-           "split_time"]
+__all__ = ["RideAnalysis", "ride_report", "ride_analysis", "check_data", "split_time"]
 
 
 @dataclass(frozen=True)
@@ -57,7 +55,7 @@ def ride_report(log_path, compare_path=None, **kwargs) -> dict:
     return ride_analysis(log_path, compare_path, **kwargs).report
 
 
-def ride_analysis(log_path, compare_path=None, *, report_dir=None,
+def ride_analysis(log_path, compare_path=None, *,
                   assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
                   max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2,
                   domain: str = "power", n_boot: int = 200, block_s: float = 10.0,
@@ -74,9 +72,6 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
         Ride to fit (it keeps its grid: built once).
     compare_path : Ride, optional
         Ride to test on.
-    report_dir : path, optional
-        Where to write ``ride_balance.csv`` (test ride: t, measured and predicted
-        battery power), atomically.
     assumptions : RideAssumptions
     rate, max_gap, window, polyorder :
         See :func:`ride_signals`.
@@ -95,16 +90,16 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
         model's terms in the augmented fit: none since the balance fits no efficiency), ``all_estimates`` (every
         candidate of the full fit, flagged), ``aliases``, ``torque_method``,
         ``power_source``, ``assumptions``, ``filter``, ``bootstrap``, ``notes``,
-        ``figure`` (file name inside ``report_dir``); ``recording`` and
+        ``figure`` (None: the page names it); ``recording`` and
         ``compare`` are file names (no folder: no machine path in outputs).
     """
     with threadpool_limits(limits=1, user_api="blas"):      # as rides.drive.mass.fit_mass
-        return _ride_analysis(log_path, compare_path, report_dir=report_dir, assumptions=assumptions, rate=rate,
-                              max_gap=max_gap, window=window, polyorder=polyorder, domain=domain,
-                              n_boot=n_boot, block_s=block_s, seed=seed, progress=progress)
+        return _ride_analysis(log_path, compare_path, assumptions=assumptions, rate=rate, max_gap=max_gap,
+                              window=window, polyorder=polyorder, domain=domain, n_boot=n_boot,
+                              block_s=block_s, seed=seed, progress=progress)
 
 
-def _ride_analysis(log_path, compare_path=None, *, report_dir=None,
+def _ride_analysis(log_path, compare_path=None, *,
                    assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
                    max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2,
                    domain: str = "power", n_boot: int = 200, block_s: float = 10.0,
@@ -129,8 +124,6 @@ def _ride_analysis(log_path, compare_path=None, *, report_dir=None,
                                        n_boot=n_boot, block_s=block_s, seed=seed))
     an = RideAnalysis(report=report, cross=cr, sig_fit=sig_fit, sig_test=sig_test,
                       designs=(d_all, None if sig_test is None else d_test))
-    if report_dir is not None:
-        report["table"] = write_balance(an, report_dir).name
     return an
 
 
@@ -241,22 +234,3 @@ def _notes(sig_fit: RideSignals, sig_test: RideSignals | None, d_fit: Design,
     if sig_test is not None:
         notes += [f"{test_label}: {n}" for n in sig_test.notes]
     return notes
-
-
-def write_balance(an: RideAnalysis, report_dir) -> Path:
-    """Write ``ride_balance.csv`` (the test ride: t, v, measured and predicted battery power) atomically.
-
-    Returns
-    -------
-    pathlib.Path
-        The table.
-    """
-    from euc_sim.io import write_text
-
-    cr, d_test, report_dir = an.cross, an.cross.test_design, Path(report_dir)
-    cols = {"t": d_test.t, "v": d_test.v, "P_measured": d_test.P,
-            "P_nominal": d_test.predict(cr.nominal.estimate), "P_augmented": d_test.predict(cr.augmented.estimate)}
-    # 7 significant digits (0.01 s, 1 mW), the whole table one format of Python floats
-    table = np.column_stack(list(cols.values()))
-    rows = (",".join(["%.7g"] * len(cols)) + "\n") * len(table) % tuple(table.ravel().tolist())
-    return write_text(report_dir / "ride_balance.csv", ",".join(cols) + "\n" + rows)

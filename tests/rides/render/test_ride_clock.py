@@ -1,0 +1,72 @@
+"""Times as a rider reads them: clock time in the ride's own zone and time into the ride, on
+the tiles (the page, index.md and the terminal say the tiles' strings), and one zone in the
+``rides`` table with its PWM peaks flagged as the page judges them."""
+
+from __future__ import annotations
+
+import warnings
+
+from euc_sim.cli import main
+from euc_sim.rides.render.page_html import key_figure_lines, key_figures
+from euc_sim.rides.summary.rider_view import ride_clock
+from euc_sim.rides.summary.summary import ride_summary
+from euc_sim.rides.source.logs import read_log
+from tests.rides.summarysynth import as_layout, synth_summary_log
+
+
+def _rep(path) -> dict:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        log = read_log(path, emit_warnings=False)
+    return {"summary": ride_summary(log).to_json(), "clock": ride_clock(log)}
+
+
+def test_euc_world_stamps_keep_their_zone_and_the_peak_reads_as_clock_and_time_into_the_ride(tmp_path):
+    """EUC World writes "…T18:15:00.000+0200": the reader made it 16:15 UTC, and the tile said
+    "least margin 26 % at 15:25" (time into the ride, read as a clock time)."""
+    src = synth_summary_log(tmp_path / "w.csv", start="2024-06-01 18:15:00", pwm_peak=(925.0, 74.0),
+                            ride_s=1200.0)
+    rep = _rep(as_layout(src, tmp_path / "e.csv", "eucworld"))
+    tiles = {k.label: k for k in key_figures(rep)}
+    assert "least margin 26 % at 18:30 (15 min 25 s into the ride; marked on the map)" in tiles["Max PWM"].note
+    assert "18:15–18:35 in UTC+02:00" in tiles["Riding time"].note
+    assert rep["clock"]["zone"] == "UTC+02:00" and rep["clock"]["utc_offset_s"] == 7200.0
+    assert rep["clock"]["start"].startswith("2024-06-01T18:15:00")
+    lines = "\n".join(key_figure_lines(rep))        # index.md's and the terminal's first lines
+    assert "at 18:30 (15 min 25 s into the ride" in lines
+
+
+def test_wheellog_clock_is_the_phones_and_said_so(tmp_path):
+    rep = _rep(synth_summary_log(tmp_path / "w.csv", start="2024-06-01 09:00:00", pwm_peak=(65.0, 70.0)))
+    assert rep["clock"]["utc_offset_s"] is None
+    tiles = {k.label: k for k in key_figures(rep)}
+    assert "at 09:01 (1 min 05 s into the ride" in tiles["Max PWM"].note
+    assert "in the phone's local time" in tiles["Riding time"].note
+
+
+def test_a_long_pause_is_said_with_its_clock_times(tmp_path):
+    """A log left running through a stop: the data-quality tile says when the pause was."""
+    rep = _rep(synth_summary_log(tmp_path / "p.csv", start="2024-06-01 09:00:00", gap=(200.0, 1800.0),
+                                 ride_s=2400.0))
+    assert rep["clock"]["pauses"] and rep["clock"]["pauses"][0][1] - rep["clock"]["pauses"][0][0] > 1700
+    note = {k.label: k for k in key_figures(rep)}["Data quality"].note
+    assert "; paused 09:03–09:33 (3 min 20 s into the ride, 30 min)." in note and ".;" not in note
+
+
+def test_the_rides_table_shows_one_zone_and_flags_a_bad_pwm_peak(tmp_path, capsys):
+    """EUC World (UTC+02:00) and WheelLog (the phone's clock) rides started at the same local
+    10:00: the table read 08:00 for one and 10:00 for the other; a 94 % peak was not flagged."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    src = synth_summary_log(tmp_path / "a.csv", start="2024-06-01 10:00:00", pwm_peak=(100.0, 94.0),
+                            amps_wave=0.8, R_int=0.15, ocv_per_Ah=1.0, amps=20.0)
+    as_layout(src, logs / "euc_world.csv", "eucworld")
+    synth_summary_log(logs / "wheellog.csv", start="2024-06-02 10:00:00", amps_wave=0.8, R_int=0.15,
+                      ocv_per_Ah=1.0, amps=20.0)
+    assert main(["rides", str(logs), "--n-boot", "10", "--quiet", "--report", str(tmp_path / "page")]) == 0
+    out = capsys.readouterr().out
+    assert "start times in UTC+02:00" in out
+    assert "2024-06-01 10:00  euc_world.csv" in out and "2024-06-02 10:00  wheellog.csv" in out
+    assert "max PWM 94 % BAD (≥ 90 %: close to a cut-out)" in out
+    page = (tmp_path / "page" / "index.html").read_text()
+    assert "start (UTC+02:00" in page and "94 BAD (≥ 90 %" in page and "2024-06-01 10:00" in page
