@@ -63,8 +63,8 @@ class ResidualTrace:
         dt = float(np.median(np.diff(self.t))) if self.t.size > 1 else 1.0
         w = max(1, min(r.size, int(round(span / dt))))     # "same" keeps r's length
         num = np.convolve(r, np.ones(w), mode="same")
-        den = np.convolve(np.ones_like(r), np.ones(w), mode="same")
-        return num / den
+        k = np.arange(r.size) + (w - 1) // 2                # the samples under each window: counted
+        return num / (np.minimum(k, r.size - 1) - np.maximum(0, k - w + 1) + 1)
 
     def as_json(self) -> dict:
         loc = self.localisation
