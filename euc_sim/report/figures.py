@@ -98,9 +98,12 @@ def plain_values(a, digits: int | None = 5) -> list:
     """Values for a plain Plotly spec, ``digits`` significant digits of the largest (None: as
     they are), NaN as null (a break in the line)."""
     a = np.asarray(a, float)
-    top = np.nanmax(np.abs(a), initial=0.0, where=np.isfinite(a))
+    finite = np.isfinite(a)
+    top = np.nanmax(np.abs(a), initial=0.0, where=finite)
     a = np.round(a, digits - 1 - int(np.floor(np.log10(top)))) if top > 0 and digits else a
-    return [v if v == v else None for v in np.where(np.isfinite(a), a, np.nan).tolist()]
+    if finite.all():
+        return a.tolist()
+    return [v if v == v else None for v in np.where(finite, a, np.nan).tolist()]
 
 
 def time_panels(t_min: np.ndarray, panels: Sequence[Panel], title: str, gap_min: float,
