@@ -19,12 +19,15 @@ its folds from here (docs/architecture.md#statistics-in-one-place).
 
 from __future__ import annotations
 
+import functools
 from typing import Callable, Sequence
 
 import numpy as np
 from numpy.linalg import _umath_linalg
+from threadpoolctl import ThreadpoolController
 
-__all__ = ["gram_lstsq", "gram_lstsq_many", "label_grams", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
+__all__ = ["gram_lstsq", "gram_lstsq_many", "one_blas_thread",
+           "label_grams", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
            "basic_interval", "block_bootstrap_indices", "wild_block_signs", "blocks_by_length", "block_labels",
            "draw_blocks", "distinct", "moving_block_starts", "jackknife_interval"]
 
@@ -52,6 +55,21 @@ def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
         A, b = G[np.ix_(cols, cols)], G[cols, -1]
     beta = np.linalg.lstsq(A, b, rcond=None)[0]
     return beta, float(G[-1, -1] - beta @ b)
+
+
+def one_blas_thread():
+    """A context in which BLAS runs on one thread.
+
+    The ride fits' products are of ride-long vectors, which BLAS splits across threads that,
+    on a shared machine, wait milliseconds each for a core; their results are the same on one.
+    The libraries are found once a process (threadpoolctl's scan of them costs milliseconds).
+    """
+    return _threadpools().limit(limits=1, user_api="blas")
+
+
+@functools.lru_cache(maxsize=1)
+def _threadpools() -> ThreadpoolController:
+    return ThreadpoolController()
 
 
 def gram_lstsq_many(G: np.ndarray) -> np.ndarray:

@@ -76,3 +76,15 @@ def test_distinct_is_np_unique_in_order_or_not():
               np.array([2]), np.array([1.5, np.nan, 1.5, np.nan]), np.array([True, False, True])):
         got = distinct(a)
         assert got.dtype == np.unique(a).dtype and np.array_equal(got, np.unique(a), equal_nan=True)
+
+
+def test_one_blas_thread_holds_blas_to_one_thread_and_gives_the_pool_back():
+    from threadpoolctl import threadpool_info
+
+    from euc_sim.stats import one_blas_thread
+
+    blas = lambda: [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]   # noqa: E731
+    before = blas()
+    with one_blas_thread():
+        assert blas() and set(blas()) == {1}
+    assert blas() == before

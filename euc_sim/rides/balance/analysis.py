@@ -12,7 +12,6 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from euc_sim.errors import InputError
 from euc_sim.rides.balance.crossride import CrossRide, cross_ride, effect_entries
@@ -20,6 +19,7 @@ from euc_sim.rides.balance.design import NOMINAL, Design, balance_design
 from euc_sim.rides.balance.fit import FEW_BLOCKS, block_rows, plausibility
 from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, ride_signals
 from euc_sim.rides.source.gaps import GAP_POLICY
+from euc_sim.stats import one_blas_thread
 
 __all__ = ["RideAnalysis", "ride_report", "ride_analysis", "check_data", "split_time"]
 
@@ -93,7 +93,7 @@ def ride_analysis(log_path, compare_path=None, *,
         ``figure`` (None: the page names it); ``recording`` and
         ``compare`` are file names (no folder: no machine path in outputs).
     """
-    with threadpool_limits(limits=1, user_api="blas"):      # as rides.drive.mass.fit_mass
+    with one_blas_thread():
         return _ride_analysis(log_path, compare_path, assumptions=assumptions, rate=rate, max_gap=max_gap,
                               window=window, polyorder=polyorder, domain=domain, n_boot=n_boot,
                               block_s=block_s, seed=seed, progress=progress)

@@ -35,13 +35,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from euc_sim.rides.drive.mass import MassFit
 from euc_sim.rides.drive.pwm import BASE, EXTRA, full_duty_force, pwm_columns, select_pwm_terms
 from euc_sim.rides.grids.power import G, RHO_AIR, PowerSignals
 from euc_sim.rides.source.gaps import GAP_POLICY
-from euc_sim.stats import block_labels, draw_blocks, gram_lstsq_many, label_grams, percentile_interval
+from euc_sim.stats import block_labels, draw_blocks, gram_lstsq_many, label_grams, one_blas_thread, percentile_interval
 
 __all__ = ["Term", "Drivetrain", "fit_battery", "charge_drawn", "fit_pwm", "predict_pwm", "fit_drivetrain",
            "envelope", "max_force", "CELL_FULL", "CELL_LOW"]
@@ -229,7 +228,7 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
         Wheel radius, m (from the spec): converts K_v to the back-EMF constant
         K_e = K_v·R, V·s/rad.
     """
-    with threadpool_limits(limits=1, user_api="blas"):      # as rides.drive.mass.fit_mass
+    with one_blas_thread():
         return _fit_drivetrain(sig, mass, radius, n_boot, seed)
 
 

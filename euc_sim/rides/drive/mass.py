@@ -60,13 +60,12 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 
 from euc_sim.rides.drive.energy import window_difference, window_mean, window_samples_odd
 from euc_sim.rides.source.channels import current_from_phase, power_not_measured
 from euc_sim.stats import block_labels, distinct, draw_blocks, gram_lstsq_many, label_grams, percentile_interval
 from euc_sim.stats import forward_select as select_by_heldout
-from euc_sim.stats import time_blocks
+from euc_sim.stats import one_blas_thread, time_blocks
 from euc_sim.rides.source.ride import Ride
 from euc_sim.rides.grids.power import (G, NO_GPS_SCALE_SD, MassSettings, PowerSignals, RideDataError,
                                  SpeedScale, power_signals)
@@ -397,9 +396,7 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
         naming the file and the column, for a log without voltage or current
         or one that was never ridden.
     """
-    # one BLAS thread: the fits' products are of ride-long vectors, which BLAS would split
-    # across threads that, on a shared machine, wait milliseconds each for a core
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         return _fit_mass(log, settings, sig)
 
 
