@@ -23,8 +23,12 @@ import functools
 from typing import Callable, Sequence
 
 import numpy as np
-from numpy.linalg import _umath_linalg
 from threadpoolctl import ThreadpoolController
+
+try:                    # the gufunc np.linalg.lstsq calls on one matrix (gram_lstsq_many: on a stack)
+    from numpy.linalg import _umath_linalg
+except ImportError:
+    _umath_linalg = None
 
 __all__ = ["gram_lstsq", "gram_lstsq_many", "one_blas_thread",
            "label_grams", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
@@ -86,6 +90,8 @@ def gram_lstsq_many(G: np.ndarray) -> np.ndarray:
     """
     G = np.asarray(G, dtype=float)
     A, b, p = G[..., :-1, :-1], G[..., :-1, -1:], G.shape[-1] - 1
+    if _umath_linalg is None:       # a numpy without the gufunc: one call each
+        return np.array([gram_lstsq(g)[0] for g in G.reshape(-1, p + 1, p + 1)]).reshape(G.shape[:-2] + (p,))
     with np.errstate(call=_lstsq_failed, invalid="call", over="ignore", divide="ignore", under="ignore"):
         x = _umath_linalg.lstsq(A, b, np.finfo(float).eps * p, signature="ddd->ddid")[0]
     return x[..., 0].copy()
