@@ -15,6 +15,7 @@ from typing import Mapping
 
 import numpy as np
 
+from euc_sim.diagnosis.localise import localise
 from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.grids.signals import RideSignals, split_at_gaps
 
@@ -105,8 +106,6 @@ def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
         as adjacent samples; its windows are then cut at those gaps
         (:func:`split_at_gaps`).
     """
-    from euc_sim.diagnosis.localise import localise
-
     d = design if design is not None else balance_design(sig, domain)
     r_nom = d.residual(nominal)
     r_aug = d.residual(augmented)

@@ -15,6 +15,8 @@ import numpy as np
 from euc_sim.io import write_text
 from euc_sim.report.figures import Line, plain_values, thin, with_breaks, xy_figure
 from euc_sim.rides.balance.design import CANDIDATES
+from euc_sim.rides.balance.residual import SLOW_S
+from euc_sim.rides.drive.drivetrain import predict_pwm
 
 __all__ = ["balance_figure", "residuals_figure", "residuals_height", "pwm_figure", "write_balance", "MOST_POINTS",
            "BALANCE_HEIGHT", "PWM_HEIGHT"]
@@ -151,8 +153,6 @@ def residuals_figure(traces):
     ----------
     traces : sequence of ResidualTrace
     """
-    from euc_sim.rides.balance.residual import SLOW_S
-
     traces = list(traces)
     titles = [f"{tr.label}: balance residual, "
               + ("in sample (fitted here)" if tr.in_sample else "held out (fitted on the other ride)")
@@ -189,8 +189,6 @@ def pwm_figure(r, coef: dict | None = None, title: str = ""):
         The PWM model (default the ride's own).
     title : str
     """
-    from euc_sim.rides.drive.drivetrain import predict_pwm
-
     pred, obs = predict_pwm(r.sig, coef or r.drivetrain.pwm_coef)
     keep = thin(obs.size, MOST_POINTS)
     rms = float(np.sqrt(np.mean((pred - obs) ** 2))) if obs.size else float("nan")
