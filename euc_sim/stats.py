@@ -25,8 +25,10 @@ from typing import Callable, Sequence
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-try:                    # the gufunc np.linalg.lstsq calls on one matrix (gram_lstsq_many: on a stack)
-    from numpy.linalg import _umath_linalg
+try:                    # the gufunc np.linalg.lstsq calls on one matrix (gram_lstsq_many: on a stack);
+    from numpy.linalg import _umath_linalg      # numpy >= 2 names it lstsq (1.26: lstsq_m/lstsq_n)
+    if not hasattr(_umath_linalg, "lstsq"):
+        _umath_linalg = None
 except ImportError:
     _umath_linalg = None
 
