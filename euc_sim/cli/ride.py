@@ -123,7 +123,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     rep = ride_json(res, files, where)
     if args.json:
         write_json(args.json, rep)
-    from euc_sim.rides.render.terminal import summary_lines     # deferred: pandas, scipy, plotly
+    from euc_sim.rides.render.terminal import summary_lines  # deferred: loads pandas, scipy, plotly (1.5 s)
 
     for line in summary_lines(rep):
         print(line)
