@@ -304,7 +304,11 @@ def _mass_md(rep: dict, shown=frozenset()) -> list[str]:
     for w in rep.get("input_warnings", []):
         md.append(f"- **Warning**: {w}.")
     d = rep.get("mass_difference")
-    if d:
+    said = any(x.get("name") == "total_mass" and (x.get("independent") or {}).get("ci95")
+               for x in rep.get("differences") or [])
+    if d and said:                  # the differences' block says it, once
+        md.append("- The compared ride minus this one: in 'What differs in the compared ride' above.")
+    elif d:
         md.append("- The compared ride minus this one: " + (
             f"**{d['estimate']:+.0f} kg**, 95 % interval {d['ci95'][0]:+.0f} to {d['ci95'][1]:+.0f} "
             f"kg: **{d['verdict']}**" if d.get("estimate") is not None else
