@@ -121,8 +121,12 @@ def _print_summary(rep: dict) -> None:
         print(line)
     print(f"  {rep['mass_check']['sentence']}")
     print("  " + _limit_line(rep))
+    from euc_sim.rides.report.ride_time import clock_of, span_at, spans_legend
+
     if rep["windows"]:
-        print("  windows (s): " + ", ".join(f"{a:.1f}-{b:.1f}" for a, b in rep["windows"][:8])
+        clock = rep.get("clock")
+        print(f"  windows, {spans_legend(clock)}: " + ", ".join(span_at(clock, a, b, "-")
+                                                           for a, b in rep["windows"][:8])
               + (" ..." if len(rep["windows"]) > 8 else ""))
     sim = rep["simulation"]
     if sim:
@@ -134,7 +138,7 @@ def _print_summary(rep: dict) -> None:
                   f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
             for st in sim.get("steps", []):
                 print(f"    step {st['step']}: " + (_step_line(st) if st["ran"] else f"not run ({st['why']})"))
-        fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
+        fell = falls_sentence(sim.get("falls", []), sim["scored_rows"], clock_of(rep, sim.get("ride")))
         if fell:
             print(f"  simulation along {sim['ride']}: {fell}")
     else:

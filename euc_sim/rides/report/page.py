@@ -21,6 +21,7 @@ from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.grids.signals import RideSignals, split_at_gaps
 from euc_sim.rides.report.notes import as_the_tile, missing_spec_effect, said_once, summarise_notes
+from euc_sim.rides.report.ride_time import clock_of, span_at, spans_legend, when
 
 __all__ = ["ResidualTrace", "residual_windows", "split_at_gaps", "write_page",
            "falls_sentence", "markdown_sections",
@@ -320,10 +321,11 @@ def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     loc = r.get("localisation", {})
     md = ["", "## Where the mismatch concentrates", ""]
     if r.get("windows"):
-        md.append("Windows (s) where the inertia-only residual of "
+        clock = r.get("clock")
+        md.append("Windows where the inertia-only residual of "
                   f"{Path(r['recording']).name} concentrates "
-                  f"({100 * (loc.get('share') or 0):.0f} % of its energy): "
-                  + ", ".join(f"{a:.1f}–{b:.1f}" for a, b in r["windows"]) + ".")
+                  f"({100 * (loc.get('share') or 0):.0f} % of its energy), {spans_legend(clock)}: "
+                  + ", ".join(span_at(clock, a, b) for a, b in r["windows"]) + ".")
     else:
         md.append("No window stands out: the residual is spread over the ride.")
     if loc.get("correlations"):
@@ -340,15 +342,17 @@ def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     return md
 
 
-def falls_sentence(falls: list, scored_rows: int) -> str | None:
-    """One sentence on the simulated rider's falls (``simulation.falls``), each time and cause
-    said once with the runs it ended; None without a fall."""
+def falls_sentence(falls: list, scored_rows: int, clock: Mapping | None = None) -> str | None:
+    """One sentence on the simulated rider's falls (``simulation.falls``), each time (clock time
+    in the ride's zone, from its ``clock``, and time into the ride) and cause said once with the
+    runs it ended; None without a fall."""
     if not falls:
         return None
     groups: dict[tuple, list[str]] = {}
     for f in falls:
         groups.setdefault((round(float(f["t"]), 1), f["cause"]), []).append(f.get("run", "run"))
-    said = "; ".join(f"at t = {t:.1f} s ({' and '.join(runs)}: {cause})" for (t, cause), runs in groups.items())
+    said = "; ".join(f"at {when({'clock': clock}, t, ' and '.join(runs) + ': ' + cause)}"
+                     for (t, cause), runs in groups.items())
     tail = ("no scored row was ridden before it, so there is no error to report" if scored_rows == 0
             else f"errors are over the {scored_rows} scored rows ridden before it")
     return f"the simulated rider fell {said}; the profile was not ridden again, and {tail}"
@@ -396,8 +400,9 @@ def sway_sentence(ran: list) -> str | None:
             f"the logged one.")
 
 
-def _step_row(st: dict, balance) -> str:
-    """One row of the steps' table: what the step adds, its held-out errors and its fall."""
+def _step_row(st: dict, balance, clock: Mapping | None = None) -> str:
+    """One row of the steps' table: what the step adds, its held-out errors and its fall (when:
+    the simulated ride's ``clock``)."""
     if not st["ran"]:
         return f"| {st['step']} | not run: {st['why']} |" + " – |" * 9
     h = st["heldout_rmse"]
@@ -407,7 +412,7 @@ def _step_row(st: dict, balance) -> str:
 
     ratio = st.get("ratio_to_balance")
     rc = "–" if ratio is None else (f"**{ratio:.2f}**" if ratio <= st["target_ratio"] else f"{ratio:.2f}")
-    fell = "–" if not st.get("fell") else f"t = {st['fell']['t']:.1f} s"
+    fell = "–" if not st.get("fell") else when({"clock": clock}, st["fell"]["t"])
     bands = bands_cell(st.get("heldout_bands"))
     return (f"| {st['step']} | {st['what']} | {cell('P_W', '.0f', 'W')} | {rc} | {bands} | "
             f"{cell('I_phase_A', '.1f', 'A')} | {cell('pitch_rad', '.2f', '°', float(np.degrees(1.0)))} | "
@@ -445,7 +450,8 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
                "| step | what it adds | battery power RMS | × balance fit | bands, dB (P: fast … slow) "
                "| phase current RMS | pitch RMS | PWM RMS | torque RMS | speed RMS | fell |",
                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
-        md += [_step_row(st, balance) for st in steps]
+        clock = clock_of(r, sim.get("ride"))
+        md += [_step_row(st, balance, clock) for st in steps]
         inj = (", ".join(sim["effects_injected"]) + " at their estimates above") if sim["effects_injected"] else "none"
         md += ["", f"Last / first step battery-power error: **{e['ratio_P']:.2f}** "
                f"(effects injected as physics in the last step: {inj}). The torque column scores "
@@ -454,10 +460,10 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         if sway:
             md += [sway, ""]
         if sim.get("windows"):
-            md.append(f"Windows (s) where the last step's ({steps[-1]['step'] if steps else 'augmented'}) "
-                      "power error concentrates: "
-                      + ", ".join(f"{a:.1f}–{b:.1f}" for a, b in sim["windows"]) + ".")
-        fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
+            md.append(f"Windows where the last step's ({steps[-1]['step'] if steps else 'augmented'}) "
+                      f"power error concentrates, {spans_legend(clock)}: "
+                      + ", ".join(span_at(clock, a, b) for a, b in sim["windows"]) + ".")
+        fell = falls_sentence(sim.get("falls", []), sim["scored_rows"], clock)
         if fell:
             md += [fell[0].upper() + fell[1:] + ".", ""]
         for n in summarise_notes([said_once(n) for n in sim.get("notes", [])]):

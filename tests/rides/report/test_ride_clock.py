@@ -70,3 +70,27 @@ def test_the_rides_table_shows_one_zone_and_flags_a_bad_pwm_peak(tmp_path, capsy
     assert "max PWM 94 % BAD (≥ 90 %: close to a cut-out)" in out
     page = (tmp_path / "page" / "index.html").read_text()
     assert "start (UTC+02:00" in page and "94 BAD (≥ 90 %" in page and "2024-06-01 10:00" in page
+
+
+def test_windows_and_falls_read_as_clock_and_time_into_the_ride():
+    """The residual's windows read "182.1-186.9" (s into the ride) and a fall "at t = 842.9 s"
+    while the tiles give clock times of the ride's zone: they now read as the tiles do; a fall
+    on the compared ride is said in that ride's clock."""
+    from euc_sim.rides.report.page import _localisation_md, falls_sentence
+    from euc_sim.rides.report.ride_time import clock_of
+
+    clock = {"start": "2025-07-26T13:51:01.613000+02:00", "utc_offset_s": 7200.0, "zone": "UTC+02:00",
+             "pauses": []}
+    rep = {"recording": "4.csv", "windows": [[177.8, 183.2], [3897.0, 3905.5]], "clock": clock,
+           "localisation": {"share": 0.57}}
+    line = next(x for x in _localisation_md(rep, {}) if x.startswith("Windows"))
+    assert ("(57 % of its energy), clock time in UTC+02:00 (time into the ride, min:s): "
+            "13:53:59–13:54:04 (2:58–3:03), 14:55:58–14:56:07 (1:04:57–1:05:06).") in line
+    assert "177.8" not in line
+    other = {**clock, "start": "2025-07-17T16:48:42.819000+02:00"}
+    rep["compared"] = {"recording": "2.csv", "clock": other}
+    fell = falls_sentence([{"t": 842.9, "cause": "|phi| too large", "run": "nominal"}], 10, clock_of(rep, "2.csv"))
+    assert "fell at 17:02 (14 min 03 s into the ride; nominal: |phi| too large)" in fell
+    assert clock_of(rep, "4.csv") is clock and clock_of({"clock": clock}, "2.csv") is clock
+    bare = {"recording": "x.csv", "windows": [[177.8, 183.2]], "localisation": {}}
+    assert "time into the ride, min:s: 2:58–3:03." in _localisation_md(bare, {})[3]
