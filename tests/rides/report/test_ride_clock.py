@@ -94,3 +94,35 @@ def test_windows_and_falls_read_as_clock_and_time_into_the_ride():
     assert clock_of(rep, "4.csv") is clock and clock_of({"clock": clock}, "2.csv") is clock
     bare = {"recording": "x.csv", "windows": [[177.8, 183.2]], "localisation": {}}
     assert "time into the ride, min:s: 2:58–3:03." in _localisation_md(bare, {})[3]
+
+
+def _entry(name: str, start: str, offset):
+    from euc_sim.rides.logbook.history import RideEntry
+
+    summary = {"distance_m": 5000.0, "moving_s": 900.0, "speed_max_mps": 10.0, "energy_drawn_Wh": 100.0,
+               "Wh_per_km": 20.0, "battery_used_pct": 10.0, "pwm_max_pct": 60.0, "quality": "good",
+               "speed_mean_moving_mps": 6.0}
+    battery = {"resistance_ohm": 0.15, "resistance_ci95": [0.14, 0.16], "resistance_25C_ohm": None,
+               "resistance_25C_ci95": None}
+    return RideEntry(path=f"/x/{name}", start=start, layout="eucworld" if offset is not None else "wheellog",
+                     summary=summary, battery=battery, model=None, series=(), temperature_C=None,
+                     temperature_source=None, utc_offset_s=offset)
+
+
+def test_the_rides_are_in_the_order_they_were_ridden_whatever_zone_their_log_keeps():
+    """EUC World keeps UTC (a ride at 10:00 in UTC+02:00 is stored as 08:00), WheelLog the
+    phone's clock (a ride at 09:00 local is stored as 09:00): sorted on the stored strings the
+    later EUC World ride came first.  Sorted on the instant (the phone's clock taken in the
+    zone the table shows), the table reads down in time, in one zone."""
+    from euc_sim.rides.logbook.history import ride_history
+    from euc_sim.rides.logbook.history_page import history_page, start_in, table_zone
+
+    h = ride_history([_entry("euc_world.csv", "2024-06-01T08:00:00", 7200.0),
+                      _entry("wheellog.csv", "2024-06-01T09:00:00", None),
+                      _entry("later.csv", "2024-06-01T09:30:00", 7200.0)]).to_json()
+    assert [e["path"][3:] for e in h["rides"]] == ["wheellog.csv", "euc_world.csv", "later.csv"]
+    off, zone = table_zone(h)
+    assert [start_in(e, off) for e in h["rides"]] == ["2024-06-01 09:00", "2024-06-01 10:00", "2024-06-01 11:30"]
+    page = history_page(h)
+    assert page.index("wheellog.csv") < page.index("euc_world.csv") < page.index("later.csv")
+    assert f"start ({zone})" in page and zone.startswith("UTC+02:00")
