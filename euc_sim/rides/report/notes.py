@@ -37,12 +37,15 @@ _MEDIAN_HZ = re.compile(r"\(median ([\d.]+) s, about ([\d.]+) Hz\)")
 
 def as_the_tile(note: str, hz: float | None) -> str:
     """The reader's sampling note beside the Data quality tile: its gap count said as the
-    tile counts gaps, and a median rate well above the whole log's ``hz`` (samples/s; rows in
-    bursts between gaps) said as such, not as the log's rate."""
+    tile counts gaps, and its median interval's rate not as a second rate of the log (the
+    tile's ``hz``, samples/s, is the whole log's): well above it, as the rate within bursts
+    between gaps; near it, left out (the median interval said alone)."""
     note = _OWN_GAPS.sub(r"gaps longer than \1 s as the tile counts", note)
     m = _MEDIAN_HZ.search(note)
-    if m is None or not hz or float(m[2]) <= 2.0 * hz:
+    if m is None or not hz:
         return note
+    if float(m[2]) <= 2.0 * hz:
+        return note.replace(m[0], f"(median {m[1]} s between rows; the tile's rate counts the whole log)")
     return note.replace(m[0], f"(median {m[1]} s: {m[2]} Hz within bursts between gaps; the tile's rate "
                               f"counts the whole log)")
 

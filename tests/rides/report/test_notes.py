@@ -48,3 +48,17 @@ def test_empty_cells_of_many_columns_become_one_line_per_ride():
         "empty cells (of 5990 rows; kept as NaN): gps_lat, gps_lon, gps_speed 540 each; temp 5",
         "pwm: taken as 100 - safety_margin",
         "b.csv: empty cells (of 4819 rows; kept as NaN): roll, temp 4 each"]
+
+
+def test_the_sampling_note_gives_no_second_rate_beside_the_tiles():
+    """Z10 0: the Data quality tile read 12.2 samples/s and the notes "(median 0.077 s, about
+    13.0 Hz)": one rate, two values.  The note keeps its median interval; a median rate far
+    above the tile's is said as the rate within bursts, as before."""
+    from euc_sim.rides.report.notes import as_the_tile
+
+    note = ("irregular sampling: intervals 0.007-0.522 s (median 0.077 s, about 13.0 Hz); "
+            "0 gap(s) longer than 1 s; 422 interval(s) shorter than 20 ms (near-repeats, kept)")
+    said = as_the_tile(note, 12.2)
+    assert "Hz" not in said and "(median 0.077 s between rows; the tile's rate counts the whole log)" in said
+    bursts = as_the_tile(note.replace("0.077 s, about 13.0 Hz", "0.100 s, about 10.0 Hz"), 3.3)
+    assert "10.0 Hz within bursts between gaps" in bursts
