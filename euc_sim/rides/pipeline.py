@@ -330,13 +330,12 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
         rep["simulation"]["table"] = "ride_simulation.csv"
         rep["simulation"]["figure"] = figures["simulation"]
     rep["figures"] = dict(figures)
-    from euc_sim.rides.report.page_html import RideSeries, first_screen, key_figure_lines, write_ride_html
-
-    rep["report_markdown"] = write_page(rep, out, figures, getattr(physics[1], "path", None),
-                                        key_figure_lines(rep), first_screen(rep)).name
+    from euc_sim.rides.report.page_html import RideSeries, first_screen, key_figure_lines, limits_md, write_ride_html
 
     # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
     series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)
+    rep["report_markdown"] = write_page(rep, out, figures, getattr(physics[1], "path", None),
+                                        key_figure_lines(rep), first_screen(rep), limits_md(rep, series)).name
     plots = _fit_plots(an, traces, physics)
     rep["report"] = write_ride_html(rep, out, series, physics[1], {**figures, **{k: k for k in plots}},
                                     plots).name

@@ -224,3 +224,23 @@ def test_the_mass_difference_is_said_once_as_the_key_figures_difference(syntheti
         rest = "\n".join(t for title, t in secs if title != TITLE)
         assert "The compared ride minus this one: in 'What differs in the compared ride' above." in rest, kind
         assert number not in rest and said not in rest, kind
+
+
+def test_one_check_of_the_pwm_model_on_every_part_of_the_page(synthetic):
+    """Blitz 4 against 2: the cut-out section said the PWM model predicts "the ride's second
+    half, fitted on its first, to 2.1 points RMS" while the folded part and the terminal said
+    1.5 points on the compared ride; index.md had no word of the wheel's limit or the cut-out.
+    With --compare the page states the compared ride's check (the JSON's ``pwm``), once, and
+    index.md carries the limits' section as the page does."""
+    import re
+
+    rep_dir, rep = synthetic
+    said = f"predicts the logged PWM of the compared ride (b.csv), fitted on this one, to " \
+           f"{rep['pwm']['heldout_rmse']:.1f} points RMS"
+    for kind, text in (("md", (rep_dir / "index.md").read_text()),
+                       ("html", P._text((rep_dir / "index.html").read_text()))):
+        assert text.count(said) == 1, kind
+        assert "second half, fitted on its first" not in text, kind
+        assert not re.search(r"PWM of the other ride predicted from this one: \**\d", text), kind
+    md = (rep_dir / "index.md").read_text()
+    assert "## Your wheel's limit and the cut-out" in md and "Your wheel's limit: " in md

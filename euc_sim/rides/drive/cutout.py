@@ -33,7 +33,7 @@ from euc_sim.rides.drive.pwm import back_emf
 
 __all__ = ["Limits", "ride_limits", "OcvLine", "ocv_line", "Condition", "CONDITIONS", "DutyModel",
            "duty_model", "ride_cutout", "duty", "cutout_speed", "Curve", "Cutout", "cutout_curves", "danger_sentence",
-           "headroom_words", "heldout_pwm_rmse", "CHARGE_GRID", "CELL_FULL", "CELL_EMPTY"]
+           "headroom_words", "heldout_pwm_rmse", "pwm_check", "CHARGE_GRID", "CELL_FULL", "CELL_EMPTY"]
 
 G = 9.81
 #: Charge levels the curves are given at, %.
@@ -441,6 +441,21 @@ def heldout_pwm_rmse(sig, n_boot: int = 0) -> float | None:
     coef, _ = fit_pwm(first, n_boot=n_boot)
     pred, obs = predict_pwm(second, coef)
     return float(np.sqrt(np.mean((pred - obs) ** 2))) if pred.size else None
+
+
+def pwm_check(rep) -> tuple[str, str, float] | None:
+    """The one check of the duty model a ride's pages state: (kind, on what, RMS error in points).
+
+    On the compared ride where there is one (the ride JSON's ``pwm``: the figure the terminal
+    gives too), else on the ride's second half fitted on its first (``cutout``); None without.
+    """
+    from pathlib import Path
+
+    other = (rep.get("pwm") or {}).get("heldout_rmse")
+    if other is not None and math.isfinite(other):
+        return "compared", f"the compared ride ({Path(str(rep.get('compare') or '')).name}), fitted on this one", other
+    rmse = (rep.get("cutout") or {}).get("heldout_pwm_rmse_pct")
+    return None if rmse is None or not math.isfinite(rmse) else ("halves", "the ride's second half, fitted on its first", rmse)
 
 
 def duty_model(dt, mass, ocv: OcvLine) -> DutyModel:

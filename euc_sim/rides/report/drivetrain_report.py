@@ -320,7 +320,8 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
     """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope.
 
     ``shown``: the quantities the page's first screen already gives (``total_mass``,
-    ``internal_resistance``, ``top_speed``), said here without their numbers.
+    ``internal_resistance``, ``top_speed``; ``pwm_heldout``, the compared ride's PWM check, in
+    its limits' section), said here without their numbers.
     """
     md = _mass_md(rep, shown)
     sel = rep.get("selection") or []
@@ -357,7 +358,8 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
     if rep.get("pwm"):
         p = rep["pwm"]
         md += ["", "PWM of the other ride predicted from this one: "
-                   + (f"**{p['heldout_rmse']:.1f} percentage points RMS**" if p.get("heldout_rmse")
+                   + ("in 'Your wheel's limit and the cut-out' above" if "pwm_heldout" in shown else
+                      f"**{p['heldout_rmse']:.1f} percentage points RMS**" if p.get("heldout_rmse")
                       is not None else f"not available ({p.get('why', '')})")]
     if "pwm" in figures:
         md += ["", f"![PWM predicted against logged]({figures['pwm']})"]

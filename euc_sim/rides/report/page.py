@@ -140,7 +140,7 @@ def _interval(ci) -> str:
 
 
 def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None,
-               key_lines: Sequence[str] = (), shown=frozenset()) -> Path:
+               key_lines: Sequence[str] = (), shown=frozenset(), limits: Sequence[str] = ()) -> Path:
     """Write ``out_dir/index.md``: the ride's findings with its figures.
 
     Parameters
@@ -158,6 +158,9 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None,
         The first screen's figures (the HTML tiles' strings), said first.
     shown : frozenset
         The fitted quantities those figures give, said later without their numbers.
+    limits : sequence of str
+        The wheel's limit and the cut-out, Markdown lines with their heading (the HTML page's
+        sentences: :func:`euc_sim.rides.report.page_html.limits_md`), after the verdict.
 
     Returns
     -------
@@ -165,23 +168,24 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None,
     """
     from euc_sim.io import write_text
 
-    md = (_verdict_md(report, figures, log_path, key_lines, shown) + _estimates_md(report) + _aliases_md(report)
+    md = (_verdict_md(report, figures, log_path, key_lines, shown, limits) + _estimates_md(report)
+          + _aliases_md(report)
           + _localisation_md(report, figures) + _simulation_md(report, figures)
           + _assumptions_md(report, shown))
     return write_text(Path(out_dir) / "index.md", "\n".join(md))
 
 
 def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None, key_lines: Sequence[str] = (),
-                shown=frozenset()) -> list[str]:
+                shown=frozenset(), limits: Sequence[str] = ()) -> list[str]:
     """Title, the key figures, what differs (with both logs' metadata, given LOG's path), the
-    verdict, the cross-ride figure."""
+    verdict, the wheel's limit and the cut-out (``limits``), the cross-ride figure."""
     from euc_sim.rides.report.differences_page import difference_section
 
     cut = next((i + 1 for i, line in enumerate(key_lines) if line.startswith("Compared ride, ")), len(key_lines))
     key = (["## Key figures", ""] + [f"- {line}" for line in key_lines[:cut]]      # the compared ride's nest
            + [f"  - {line}" for line in key_lines[cut:]] + [""] if key_lines else [])
     md = ([f"# Ride diagnosis: {Path(r['recording']).name}", ""] + key
-          + difference_section(r, log_path) + _verdict_lines(r))
+          + difference_section(r, log_path) + _verdict_lines(r) + list(limits))
     if "total_mass" in r:
         from euc_sim.rides.report.drivetrain_report import page_section
         md += page_section(r, figures, shown)
