@@ -31,7 +31,7 @@ from euc_sim.rides.balance.analysis import ride_analysis, split_time
 from euc_sim.rides.balance.design import NOMINAL, balance_design
 from euc_sim.rides.balance.fit import fit_balance
 from euc_sim.rides.grids.signals import RideAssumptions, ride_signals, with_found_values
-from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
 from euc_sim.rides.source.logs import read_log
 from euc_sim.rides.source.spec import read_spec
 

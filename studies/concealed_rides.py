@@ -1,6 +1,6 @@
 """Known effects hidden in the shared EUC World rides: does ``ride CLEAN --compare CONCEALED`` name them? Written up in docs/concealed.md.
 
-For each ride, each effect of :mod:`euc_sim.rides.synth.conceal` in turn, two pairs
+For each ride, each effect of :mod:`conceal` (studies/conceal.py) in turn, two pairs
 of effects together, and a null are hidden in a copy of the log; the
 differences of ``euc-sim ride CLEAN --compare COPY`` are computed with the
 functions that command calls (``ride_drivetrain`` then ``differences_json``;
@@ -24,9 +24,10 @@ import pickle
 import sys
 from pathlib import Path
 
+import conceal as cc
+
 from euc_sim.rides.compare.resolution import Z95, predicted_gain
 from euc_sim.rides.grids.power import RHO_AIR
-from euc_sim.rides.synth import conceal as cc
 
 #: The shared rides beside the repository (``--data`` elsewhere).
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "euc_core"
@@ -78,7 +79,7 @@ def _run(data: Path, label: str, case: str, work: Path) -> dict:
     """The ``differences`` of CLEAN against the copy (the two rides' drivetrain fits cached)."""
     from euc_sim.rides.compare.differences_report import differences_json
     from euc_sim.rides.source.logs import read_log
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
 
     cache = work / f"{label}_{case}.pkl"
     if cache.exists():

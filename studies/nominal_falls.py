@@ -124,7 +124,7 @@ def ride_window(case: tuple, data: Path, n_boot: int, spikes: bool) -> dict:
     from euc_sim.rides.grids.profile import speed_profile
     from euc_sim.rides.grids.signals import RideAssumptions
     from euc_sim.rides.grids.signals import with_found_values
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
     from euc_sim.rides.sim.simulate import ride_params
     from euc_sim.rides.sim.tracking import simulate_profile
     from euc_sim.rides.source.logs import read_log

@@ -17,7 +17,8 @@ import sys
 from pathlib import Path
 
 from euc_sim.io import write_json
-from euc_sim.rides.balance.analysis import ride_report
+from euc_sim.rides.balance.analysis import ride_analysis
+from euc_sim.rides.render.fit_figures import write_balance
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "wheellog"
 RIDES = ["2020_05_16_08_02_06.csv", "2020_05_28_07_52_00.csv"]
@@ -35,8 +36,8 @@ def main(argv=None) -> int:
     out = Path(args.out)
     for fit, test in [(RIDES[0], RIDES[1]), (RIDES[1], RIDES[0])]:
         d = out / f"{Path(fit).stem}_to_{Path(test).stem}_{args.domain}"
-        rep = ride_report(SHARED / fit, SHARED / test, report_dir=d, domain=args.domain,
-                          n_boot=args.n_boot)
+        an = ride_analysis(SHARED / fit, SHARED / test, domain=args.domain, n_boot=args.n_boot)
+        rep = dict(an.report, table=write_balance(an, d).name)
         write_json(d / "report.json", rep)
         print(f"fit {fit} -> test {test} ({args.domain}): held-out RMS inertia-only "
               f"{rep['heldout_error_nominal']:.1f} {rep['error_unit']}, augmented "

@@ -2,7 +2,7 @@
 
 The simulated rider calibrated on a ride log: proof on a concealed rider, and real rides.
 
-``concealed``: rides with a known rider (:data:`euc_sim.rides.synth.ridersynth.RIDER`: 0.2 s,
+``concealed``: rides with a known rider (:data:`ridersynth.RIDER`: 0.2 s,
 bandwidth 0.4, 5 N·m of noise) under lawsynth's concealed wheel law, written as EUC World
 logs; :func:`euc_sim.rides.rider.rider_fit.fit_rider` fits the rider on each; the table gives
 the recovered values, their 95 % intervals and whether they cover the truth.  Seed 11 is
@@ -42,7 +42,7 @@ PLANTS = {"table3": {}, "master_pro": {"R": 0.2794, "total_mass": 130.44}}
 def concealed(seeds, duration: float, out: Path, windows: int, length: float, repeats: int = 1,
               plan_window: float = 10.0, wheel_law: str = "concealed", plant: str = "table3",
               truth: dict | None = None) -> list[dict]:
-    from euc_sim.rides.synth.ridersynth import (PAPER_LAW, RIDER, WHEEL_LAW, concealed_fit_inputs,
+    from ridersynth import (PAPER_LAW, RIDER, WHEEL_LAW, concealed_fit_inputs,
                                         eucworld_power_log, rider_ride)
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.rider.rider_fit import fit_rider

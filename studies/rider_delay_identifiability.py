@@ -2,7 +2,7 @@
 
 Can a 5 Hz log tell the rider's reaction delay from his bandwidth?  A local identifiability study.
 
-Rides of :mod:`euc_sim.rides.synth.ridersynth` (lawsynth's concealed wheel law, its speed plan) are
+Rides of :mod:`ridersynth` (studies/ridersynth.py) (lawsynth's concealed wheel law, its speed plan) are
 written as EUC World logs for the concealed rider (τ 0.2 s, ρ 0.4, σ 5 N·m) and for riders
 moved one step in each of τ, log ρ, log σ, on the same seeds (common random numbers).  Each
 log gives sets of features; per set:
@@ -86,7 +86,7 @@ def log_features(path) -> dict:
     ``xphase`` (pitch against speed, rad)."""
     from euc_sim.rides.grids.profile import rider_plan
     from euc_sim.rides.grids.rider_features import band_features, log_channels
-    from euc_sim.rides.synth.ridersynth import concealed_fit_inputs
+    from ridersynth import concealed_fit_inputs
 
     ch = log_channels(path, concealed_fit_inputs()["assumptions"])
     t, seg, v = ch["t"].to_numpy(), ch["segment"].to_numpy(), ch["v"].to_numpy()
@@ -103,7 +103,7 @@ def log_features(path) -> dict:
 
 
 def ride_features(seed: int, rider: dict, duration: float, out: Path, dt: float) -> dict:
-    from euc_sim.rides.synth.ridersynth import eucworld_power_log, rider_ride
+    from ridersynth import eucworld_power_log, rider_ride
 
     path = out / f"id_{seed}_{rider['delay']:.3f}_{rider['bandwidth']:.3f}_{rider['noise_std']:.3f}.csv"
     eucworld_power_log(rider_ride(seed, duration, rider=rider, dt=dt), path, seed)
@@ -120,7 +120,7 @@ def sandwich_sd(J: np.ndarray, S: np.ndarray, free: list[int]) -> np.ndarray:
 
 
 def main(argv=None) -> int:
-    from euc_sim.rides.synth.ridersynth import RIDER
+    from ridersynth import RIDER
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[101, 102, 103, 104, 105, 106, 107, 108])

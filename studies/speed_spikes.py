@@ -33,7 +33,7 @@ def main(argv=None) -> int:
     from euc_sim.rides.grids.profile import unpaid_spikes
     from euc_sim.rides.grids.signals import RideAssumptions
     from euc_sim.rides.grids.signals import with_found_values
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
     from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import wheel_spec
 

@@ -13,10 +13,10 @@ ROOT = Path(__file__).resolve().parents[1]
 LAYERS = [("euc_sim.errors", "euc_sim.io", "euc_sim.geo"), "euc_sim.stats", "euc_sim.report", "euc_sim.model",
           "euc_sim.controllers", "euc_sim.simulation", "euc_sim.identification", "euc_sim.diagnosis",
           "euc_sim.rides", "euc_sim.api", "euc_sim.cli"]
-#: Inside ``euc_sim.rides``: its subpackages, lowest first (docs/architecture.md#rides-by-idea);
-#: ``euc_sim.rides.pipeline`` sits above them all and is the only module left flat.
-RIDES_LAYERS = ["source", "grids", "drive", "balance", "law", "sim", "rider", "report", "compare",
-                "logbook", "synth"]
+#: Inside ``euc_sim.rides``: its subpackages, lowest first (docs/architecture.md#rides-by-idea),
+#: ``render`` on top; ``euc_sim.rides.pipeline`` sits above them all and is the only module left flat.
+RIDES_LAYERS = ["source", "grids", "drive", "summary", "balance", "law", "sim", "rider", "compare",
+                "logbook", "synth", "render"]
 RIDES_FLAT = {"__init__", "pipeline"}
 #: Upward imports allowed (none).
 UPWARD_ALLOWED: set = set()
@@ -148,13 +148,94 @@ def test_no_relative_imports():
 
 
 def test_the_rides_layering_check_sees_a_violation():
-    graph = {"euc_sim.rides.grids.signals": {"euc_sim.rides.report.page"},
-             "euc_sim.rides.report.page": {"euc_sim.rides.grids.signals"},
+    graph = {"euc_sim.rides.grids.signals": {"euc_sim.rides.render.page"},
+             "euc_sim.rides.render.page": {"euc_sim.rides.grids.signals"},
              "euc_sim.rides.pipeline": {"euc_sim.rides.sim.simulate"},
              "euc_sim.rides.sim.simulate": {"euc_sim.rides.pipeline", "euc_sim.stats"}}
-    assert _rides_upward(graph) == [("euc_sim.rides.grids.signals", "euc_sim.rides.report.page"),
+    assert _rides_upward(graph) == [("euc_sim.rides.grids.signals", "euc_sim.rides.render.page"),
                                     ("euc_sim.rides.sim.simulate", "euc_sim.rides.pipeline")]
-    assert _rides_subpackage_cycles(graph) == [("grids", "report"), ("pipeline", "sim")]
+    assert _rides_subpackage_cycles(graph) == [("grids", "render"), ("pipeline", "sim")]
+
+
+#: The rendering subpackage: pages, figures and the terminal's lines, drawn from results.
+RENDER = "euc_sim.rides.render"
+#: The log readers: rendering renders results, it never reads a log.
+LOG_READERS = "euc_sim.rides.source.logs"
+#: The ride side's faces: from ``euc_sim.rides`` they call the pipeline and the renderers.
+FACES = ("euc_sim.cli.ride", "euc_sim.cli.rides")
+FACE_MAY_IMPORT = ("euc_sim.rides.pipeline", RENDER)
+#: Analysis modules' imports of rendering still allowed, each with why.
+ANALYSIS_RENDER_ALLOWED = {
+    ("euc_sim.rides.pipeline", f"{RENDER}.{m}"): "write_report, the report folder's writer, leaves the pipeline"
+    for m in ("drivetrain_page", "fit_figures", "page", "page_html", "simulation_figure")}
+#: The faces' other imports from ``euc_sim.rides``, each with why (the validated request that the
+#: CLI and the API will share has no module yet: what builds it is listed here).
+FACE_EXCEPTIONS = {
+    ("euc_sim.cli.ride", "euc_sim.rides.source.logs"): "the request: each log parsed once, before any output",
+    ("euc_sim.cli.ride", "euc_sim.rides.source.spec"): "the request: --wheel's spec and the logs it contradicts",
+    ("euc_sim.cli.ride", "euc_sim.rides.source.sanity"): "the bounds --mass and the spec overrides declare",
+    ("euc_sim.cli.ride", "euc_sim.rides.summary.rider_view"): "the bound --rider-weight declares",
+    ("euc_sim.cli.ride", "euc_sim.rides.grids.signals"): "the request: RideAssumptions from --radius, --mass",
+    ("euc_sim.cli.ride", "euc_sim.rides.balance.analysis"): "the request: check_data refuses a log before any output",
+    ("euc_sim.cli.rides", "euc_sim.rides.source.logs"): "which files in a folder are logs (detect_layout)",
+    ("euc_sim.cli.rides", "euc_sim.rides.source.spec"): "the request: --wheel's spec",
+    ("euc_sim.cli.rides", "euc_sim.rides.drive.battery"): "the request: --wheel's battery pack",
+    ("euc_sim.cli.rides", "euc_sim.rides.logbook.history"): "the rides command's pipeline (ride_entry, ride_history)",
+}
+
+
+def _within(module: str, package: str) -> bool:
+    return module == package or module.startswith(package + ".")
+
+
+def _analysis_imports_render(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
+    """(importer, imported): a module of euc_sim.rides outside rendering, the pipeline included,
+    importing rendering."""
+    return sorted((m, d) for m, deps in graph.items() for d in deps
+                  if _within(m, "euc_sim.rides") and not _within(m, RENDER) and _within(d, RENDER))
+
+
+def _render_reads_logs(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
+    """(importer, imported): a rendering module importing the log readers."""
+    return sorted((m, d) for m, deps in graph.items() for d in deps if _within(m, RENDER) and _within(d, LOG_READERS))
+
+
+def _faces_beyond_pipeline(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
+    """(face, imported): a face importing from euc_sim.rides other than the pipeline and rendering."""
+    return sorted((m, d) for m in FACES for d in graph.get(m, ())
+                  if _within(d, "euc_sim.rides") and not any(_within(d, ok) for ok in FACE_MAY_IMPORT))
+
+
+def test_analysis_never_imports_rendering():
+    assert [p for p in _analysis_imports_render(GRAPH) if p not in ANALYSIS_RENDER_ALLOWED] == []
+    assert sorted(set(ANALYSIS_RENDER_ALLOWED) - set(_analysis_imports_render(GRAPH))) == [], "stale exception"
+
+
+def test_rendering_never_imports_the_log_readers():
+    assert _render_reads_logs(GRAPH) == []
+
+
+def test_the_faces_call_only_the_pipeline_and_the_renderers():
+    beyond = _faces_beyond_pipeline(GRAPH)
+    assert [p for p in beyond if p not in FACE_EXCEPTIONS] == []
+    assert sorted(set(FACE_EXCEPTIONS) - set(beyond)) == [], "stale exception"
+
+
+def test_the_rendering_rules_see_a_violation():
+    graph = {"euc_sim.rides.pipeline": {"euc_sim.rides.render.page"},
+             "euc_sim.rides.balance.fit": {"euc_sim.rides.render"},
+             "euc_sim.rides.render.page": {"euc_sim.rides.source.logs", "euc_sim.rides.balance.fit"},
+             "euc_sim.rides.render.terminal": {"euc_sim.rides.source.spec"},
+             "euc_sim.rides.renderer": {"euc_sim.rides.render.page"},
+             "euc_sim.cli.ride": {"euc_sim.rides.pipeline", "euc_sim.rides.render.terminal",
+                                  "euc_sim.rides.balance.fit", "euc_sim.io"},
+             "euc_sim.cli.rides": {"euc_sim.rides.logbook.history"}}
+    assert _analysis_imports_render(graph) == [("euc_sim.rides.balance.fit", "euc_sim.rides.render"),
+                                               ("euc_sim.rides.pipeline", "euc_sim.rides.render.page"),
+                                               ("euc_sim.rides.renderer", "euc_sim.rides.render.page")]
+    assert _render_reads_logs(graph) == [("euc_sim.rides.render.page", "euc_sim.rides.source.logs")]
+    assert _faces_beyond_pipeline(graph) == [("euc_sim.cli.ride", "euc_sim.rides.balance.fit"),
+                                             ("euc_sim.cli.rides", "euc_sim.rides.logbook.history")]
 
 
 @pytest.mark.parametrize("name", sorted(_modules()))

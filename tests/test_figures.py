@@ -226,7 +226,7 @@ def test_ride_figures_on_two_real_rides_with_the_simulation(tmp_path, monkeypatc
     """The README's ``ride LOG --compare OTHER --simulate`` on 2-minute cuts of two real WheelLog
     rides: the simulation (item 12: a zoom and the error over time; the fits' figures are the
     page's Plotly figures, tests/report/test_pages.py)."""
-    from euc_sim.rides.sim.simulation_figure import ZOOM_S
+    from euc_sim.rides.render.simulation_figure import ZOOM_S
 
     wl = SHARED / "wheellog"
     fit = _cut(wl / "2020_05_16_08_02_06.csv", slice(1, 600), tmp_path / "a.csv")
@@ -247,7 +247,7 @@ def test_ride_figures_with_the_drivetrain(tmp_path, monkeypatch):
     """A real ride with PWM and GPS altitude, split in halves: envelope (item 11), grade; the
     balance's Plotly figure labels the whole ride as such (item 13)."""
     from euc_sim.rides.grids.power import G
-    from euc_sim.rides.report.drivetrain_report import TYRE_MU
+    from euc_sim.rides.render.drivetrain_page import TYRE_MU
 
     core = SHARED / "euc_core"
     saved, written = _ride(["ride", core / "trips/inmotion/v9/2/2.csv", "--wheel", core / "specs/v9.csv",

@@ -1,4 +1,4 @@
-"""``euc-sim diagnose`` and ``euc-sim demo``.
+"""``euc-sim diagnose`` and ``euc-sim demo`` (the job: :func:`euc_sim.api.demo.run_demo`).
 
 Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_commands`; bad input
 raises ``ValueError`` or ``OSError`` (exit 2, one line) and nothing half-written is
@@ -40,7 +40,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     import time
 
     from euc_sim.cli.common import say
-    from euc_sim.cli.demo import run_demo
+    from euc_sim.api.demo import run_demo
 
     t0 = time.perf_counter()
     page = run_demo(args.out_dir, seed=args.seed, progress=lambda s: say(f"demo: {s}"))

@@ -44,105 +44,12 @@ def _assumptions(args: argparse.Namespace):
     return RideAssumptions.from_params(p, efficiency=args.efficiency, sources=tuple(sources))
 
 
-def _step_line(st: dict) -> str:
-    """One step's held-out battery-power error and its ratio to the balance fit's, for the terminal."""
-    p = st["heldout_rmse"].get("P_W")
-    r = st.get("ratio_to_balance")
-    return (f"battery-power RMS {p:.0f} W" if p is not None else "no battery-power error") + \
-        (f", {r:.2f}x the balance fit's held-out error (target {st['target_ratio']:g}x)" if r else "")
-
-
-def _mass_lines(rep: dict) -> list[str]:
-    """The console summary of the mass, the drivetrain and the PWM."""
-    tm = rep["total_mass"]
-    if tm["estimate"] is None:
-        lines = [f"  total mass: not identified ({tm['why']})"]
-    else:
-        ci = tm["ci95"]
-        lines = [f"  total mass (rider + wheel): {tm['estimate']:.0f} kg"
-                 + (f" 95% [{ci[0]:.0f}, {ci[1]:.0f}]" if ci else "")
-                 + (f"  FLAG: {tm['flag']}" if "flag" in tm else "")]
-        if tm.get("rider_mass"):
-            rm = tm["rider_mass"]
-            lines.append(f"  rider (with gear): {rm['estimate']:.0f} kg")
-    for name, why in rep["unidentified"].items():
-        lines.append(f"  not identified: {name}: {why}")
-    if rep.get("pwm") and rep["pwm"].get("heldout_rmse") is not None:
-        lines.append(f"  PWM held out: {rep['pwm']['heldout_rmse']:.1f} percentage points RMS")
-    if rep.get("differences_sentence"):
-        lines.append(f"  compared: {rep['differences_sentence']}")
-    return lines
-
-
 def _progress(msg: str) -> None:
     """Progress line on stderr (module-level: picklable for the simulation's workers)."""
     import sys
 
     sys.stderr.write(f"ride: {msg} ...\n")     # one write: lines of two workers never mix
     sys.stderr.flush()
-
-
-def _limit_line(rep: dict) -> str:
-    """The wheel's limit and where the cut-out comes before it, in one line."""
-    from euc_sim.rides.drive.cutout import Limits
-
-    lim = Limits.of_ride(rep)
-    cut = rep.get("cutout") or {}
-    tail = (cut["danger"] if cut.get("danger") else
-            "the cut-out stays above it at every charge" if cut.get("curves") and lim.speed_limit_mps
-            else f"cut-out not known: {cut['why']}" if cut.get("why") else "cut-out not compared")
-    return f"limit: {lim.words()}; {tail}"
-
-
-def _print_summary(rep: dict) -> None:
-    """The console summary of a ride's result: the key figures (the page's tiles), then errors,
-    verdict, effects, mass, windows, simulation."""
-    from euc_sim.rides.report.page_html import key_figure_lines
-
-    for line in key_figure_lines(rep):
-        print(line)
-    u = rep["error_unit"]
-    print(("" if rep["verdict"]["battery_power"] else "V·I, NOT battery power: ")
-          + f"held-out error ({rep['error_measure']}): inertia-only "
-          f"{rep['heldout_error_nominal']:.1f} {u}, augmented {rep['heldout_error_augmented']:.1f} "
-          f"{u}, ratio {rep['ratio']:.2f}")
-    from euc_sim.rides.balance.verdict import unit_label
-
-    print(f"  verdict: {rep['verdict']['text']}")
-    for e in rep["effects"]:
-        kind = "named" if e["name"] in rep["verdict"]["named"] else "candidate"
-        flag = "" if e["plausible"] else "  IMPLAUSIBLE"
-        al = f"  aliases: {', '.join(e['aliases'])}" if e["aliases"] else ""
-        print(f"  {kind}: {e['name']} = {e['estimate']:.4g} {unit_label(e['unit'])} "
-              f"95% [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]{flag}{al}")
-    for w in rep.get("input_warnings") or []:
-        print(f"  warning: {w}")
-    for line in _mass_lines(rep):
-        print(line)
-    print(f"  {rep['mass_check']['sentence']}")
-    print("  " + _limit_line(rep))
-    from euc_sim.rides.report.ride_time import clock_of, span_at, spans_legend
-
-    if rep["windows"]:
-        clock = rep.get("clock")
-        print(f"  windows, {spans_legend(clock)}: " + ", ".join(span_at(clock, a, b, "-")
-                                                           for a, b in rep["windows"][:8])
-              + (" ..." if len(rep["windows"]) > 8 else ""))
-    sim = rep["simulation"]
-    if sim:
-        e = sim["errors"]
-        from euc_sim.rides.report.page import falls_sentence
-
-        if sim["scored_rows"]:
-            print(f"  simulation along {sim['ride']}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
-                  f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
-            for st in sim.get("steps", []):
-                print(f"    step {st['step']}: " + (_step_line(st) if st["ran"] else f"not run ({st['why']})"))
-        fell = falls_sentence(sim.get("falls", []), sim["scored_rows"], clock_of(rep, sim.get("ride")))
-        if fell:
-            print(f"  simulation along {sim['ride']}: {fell}")
-    else:
-        print(f"  simulated replay: {rep.get('simulation_why') or 'not run'}")
 
 
 def _cmd_ride(args: argparse.Namespace) -> int:
@@ -159,7 +66,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     # with --compare the replay runs unless refused: CONTRACT's compared JSON carries its "simulation"
     simulate = bool(args.calibrate_rider or (args.compare is not None if args.simulate is None else args.simulate))
     assumptions = _assumptions(args)
-    from euc_sim.rides.report.rider_view import check_rider_weight
+    from euc_sim.rides.summary.rider_view import check_rider_weight
     weights = args.rider_weight or []
     if len(weights) > 2:
         raise InputError(f"--rider-weight: at most twice (LOG's rider, then OTHER's), got {len(weights)} values")
@@ -208,7 +115,10 @@ def _cmd_ride(args: argparse.Namespace) -> int:
             rep["report_dir"] = Path(os.path.relpath(Path(args.report).resolve(),
                                                      Path(args.json).resolve().parent)).as_posix()
         write_json(args.json, rep)
-    _print_summary(rep)
+    from euc_sim.rides.render.terminal import summary_lines     # deferred: pandas, scipy, plotly
+
+    for line in summary_lines(rep):
+        print(line)
     if rep["report"]:
         say(f"ride: report written to {Path(args.report) / rep['report']}")
     return 0
@@ -227,7 +137,7 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--domain", default="power", metavar=one_of(("power", "torque")),
                    help="residual in battery power, W (default), or divided by ω, N·m")
     from euc_sim.model.parameters import PLAUSIBLE
-    from euc_sim.rides.report.rider_view import RIDER_WEIGHT
+    from euc_sim.rides.summary.rider_view import RIDER_WEIGHT
     from euc_sim.rides.source.sanity import SPEC_RANGE, TOTAL_MASS_RANGE
 
     p.add_argument("--mass", type=bounded(*TOTAL_MASS_RANGE, unit="kg"), metavar="KG",

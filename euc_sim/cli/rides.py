@@ -120,31 +120,16 @@ def _cmd_rides(args: argparse.Namespace) -> int:
     hist = run_rides(paths, pack, args.n_boot, args.seed, args.workers, say).to_json()
     if args.report:
         from euc_sim.report.html import write_page
-        from euc_sim.rides.logbook.history_page import history_page
+        from euc_sim.rides.render.history_page import history_page
 
         title = f"Rides of {pack.name}" if pack and pack.name else "Rides of one wheel"
         write_page(args.report, history_page(hist, title))
     if args.json:
         write_json(args.json, hist)
-    from euc_sim.rides.logbook.history_page import pwm_cell, start_in, table_zone
+    from euc_sim.rides.render.terminal import history_lines
 
-    off, zone = table_zone(hist)
-    print(f"start times in {zone}")
-    for e in hist["rides"]:
-        s, b = e["summary"], e["battery"]
-        r = b["resistance_25C_ohm"] if hist["basis"] == "25C" else b["resistance_ohm"]
-        print(f"{start_in(e, off)}  {Path(e['path']).name}: {(s['distance_m'] or 0) / 1000:.1f} km, "
-              f"{s['Wh_per_km'] or float('nan'):.1f} Wh/km, battery {s['battery_used_pct'] or 0:.0f} %, "
-              f"max PWM {pwm_cell(s['pwm_max_pct'], ' %')}, "
-              f"resistance {'–' if r is None else f'{1e3 * r:.0f} mΩ'}"
-              + (f" ({b['verdict']})" if pack and r is not None else ""))
-    if hist.get("trend"):
-        print(f"battery: {hist['trend']}")
-    ch = hist["change"]
-    if ch:
-        print(f"latest ride's resistance against the earlier {ch['n_earlier']}: {ch['verdict']} "
-              f"(difference {1e3 * ch['difference']:+.0f} mΩ, 95% [{1e3 * ch['difference_ci95'][0]:+.0f}, "
-              f"{1e3 * ch['difference_ci95'][1]:+.0f}], p = {ch['p_value']:.2g})")
+    for line in history_lines(hist, verdicts=pack is not None):
+        print(line)
     return 0
 
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-
-import numpy as np
 import pandas as pd
 
 from euc_sim.model import analytic
@@ -18,29 +16,6 @@ TORQUE_COLUMNS = ("t", "M_d1", "M_d2", "M_h", "M_d1_2dof", "M_d2_2dof")
 
 
 # --- torques ----------------------------------------------------------------------------
-def torques_raw(p: Params, q, qd, qdd) -> dict[str, np.ndarray]:
-    """The five torque estimates at ``p.h``, unfiltered, N·m.
-
-    Parameters
-    ----------
-    p : Params
-    q, qd, qdd : array_like, shape (..., 3)
-
-    Returns
-    -------
-    dict
-        ``M_d1`` (eq. 9), ``M_d2`` (eq. 10), ``M_h`` (row 3 of eq. 5), ``M_d1_2dof``,
-        ``M_d2_2dof`` (eq. 13).
-    """
-    return {
-        "M_d1": analytic.driving_torque_1(p, q, qd, qdd),
-        "M_d2": analytic.driving_torque_2(p, q, qd, qdd),
-        "M_h": analytic.rider_torque(p, q, qd, qdd),
-        "M_d1_2dof": analytic.reduced_driving_torque_1(p, q, qd, qdd),
-        "M_d2_2dof": analytic.reduced_driving_torque_2(p, q, qd, qdd),
-    }
-
-
 def torques(kin: Kinematics, p: Params) -> pd.DataFrame:
     """The torque estimates of a recording, each with the consistent term filter.
 
@@ -58,10 +33,11 @@ def torques(kin: Kinematics, p: Params) -> pd.DataFrame:
         last ``kin.smoothing.edge`` rows have less filter support).
     """
     sig = kin.smoothing.sigma_samples(kin.dt)
-    raw = torques_raw(p, kin.q, kin.qd, kin.qdd)
-    out = {"t": kin.t}
-    out.update({k: term_filter(v, sig) for k, v in raw.items()})
-    return pd.DataFrame(out, columns=list(TORQUE_COLUMNS))
+    q, qd, qdd = kin.q, kin.qd, kin.qdd
+    raw = (*analytic.torques(p, q, qd, qdd),                     # eqs. (9), (10), row 3 of eq. (5)
+           analytic.reduced_driving_torque_1(p, q, qd, qdd), analytic.reduced_driving_torque_2(p, q, qd, qdd))
+    return pd.DataFrame({"t": kin.t, **{k: term_filter(v, sig) for k, v in zip(TORQUE_COLUMNS[1:], raw)}},
+                        columns=list(TORQUE_COLUMNS))
 
 
 # --- the residual as a rational function of h ---------------------------------------------

@@ -13,9 +13,9 @@ face              read by                                     holds
 ================  ==========================================  =====================================
 ``force``         simulation, diagnosis                       generalised force Q_e(value, p, q, q̇)
 ``balance``       rides.balance (fit), rides.sim (power)      regressor column, bounds, plausible
-``conceal``       rides.synth.conceal                         how a log hides it (a mechanism)
+``conceal``       studies/conceal.py                          how a log hides it (a mechanism)
 ``compare``       rides.compare                               power signature, pair-fit column
-``words``         rides.compare sentence, rides.report page   what a rider reads
+``words``         rides.compare sentence, rides.render page   what a rider reads
 ================  ==========================================  =====================================
 
 A face's callables take plain arrays or a namespace of arrays (documented on the face),
@@ -45,7 +45,7 @@ Then, with no other module edited:
   fitted within ``bounds`` from ``nominal``, accepted within ``plausible``) and the ride
   JSON's ``parameters`` and ``effects`` carry it; with ``electrical``, the ride simulation
   adds its battery power;
-- ``conceal``: ``euc_sim.rides.synth.conceal.conceal(raw, NAME, size)`` hides it;
+- ``conceal``: ``conceal.conceal(raw, NAME, size)`` (studies/conceal.py) hides it;
 - ``compare``: a pair of rides fits its difference (``pair``), its signature enters the
   alias table (``signature``), and with ``named`` a difference can be named;
 - ``words``: the differences' sentence and the differences page say it;
@@ -139,7 +139,7 @@ class Balance:
 
 @dataclass(frozen=True)
 class Conceal:
-    """How a log conceals the effect (:mod:`euc_sim.rides.synth.conceal`).
+    """How a log conceals the effect (studies/conceal.py).
 
     Attributes
     ----------

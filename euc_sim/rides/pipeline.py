@@ -2,7 +2,7 @@
 
 :func:`ride_pipeline` takes each log parsed once (a :class:`~euc_sim.rides.source.ride.Ride`
 of :func:`~euc_sim.rides.source.logs.read_log`), then runs the analyses in order on it: mass and drivetrain
-(:mod:`euc_sim.rides.report.drivetrain_report`), the bounded balance fit with its
+(:mod:`euc_sim.rides.drive.drivetrain_report`), the bounded balance fit with its
 held-out selection (:mod:`euc_sim.rides.balance.analysis`), the balance law
 (:mod:`euc_sim.rides.law.controller_report`), the one parameter set
 (:mod:`euc_sim.rides.balance.parameters`), the residual's localisation, the simulated
@@ -43,11 +43,11 @@ class RideResult:
     analysis : RideAnalysis
         The balance fit (:mod:`euc_sim.rides.balance.analysis`).
     traces : list
-        Residual traces of the fit and test rides (:func:`euc_sim.rides.report.page.residual_windows`).
+        Residual traces of the fit and test rides (:func:`euc_sim.rides.balance.residual.residual_windows`).
     simulation : object or None
         :func:`euc_sim.rides.sim.simulate.simulate_ride`'s result.
     physics : tuple
-        ``(report, fit, test)`` of :func:`euc_sim.rides.report.drivetrain_report.drivetrain_report`.
+        ``(report, fit, test)`` of :func:`euc_sim.rides.drive.drivetrain_report.drivetrain_report`.
     """
 
     report: dict
@@ -74,7 +74,7 @@ class BalanceOnMass:
     Attributes
     ----------
     physics : tuple
-        ``(report, fit, test)`` of :func:`euc_sim.rides.report.drivetrain_report.ride_drivetrain`.
+        ``(report, fit, test)`` of :func:`euc_sim.rides.drive.drivetrain_report.ride_drivetrain`.
     assumptions : RideAssumptions
         The assumptions handed to the balance fit (the log's total mass, the spec's radius).
     analysis : RideAnalysis
@@ -112,7 +112,7 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
     """
     from euc_sim.rides.balance.analysis import ride_analysis
     from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
-    from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
 
     say = progress or (lambda s: None)
     say("finding the total mass and the drivetrain")
@@ -161,7 +161,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
         ``localisation``, ``residual_traces``, ``simulation``, ``report`` (None
         until :func:`write_report`).
     """
-    from euc_sim.rides.report.rider_view import rider_numbers
+    from euc_sim.rides.summary.rider_view import rider_numbers
 
     say = progress or (lambda s: None)
     # each grid is built once and kept on its ride; bad logs fail in the mass fit, before any output
@@ -185,10 +185,10 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     # the rider's numbers (summary, mass check, battery health), from the log as parsed here
     rep.update(rider_numbers(log, rep, spec, rider_weight))
     if compare is not None:         # the compared ride's own numbers, beside LOG's on the page
-        from euc_sim.rides.report.rider_view import compared_numbers
+        from euc_sim.rides.summary.rider_view import compared_numbers
 
         rep["compared"] = compared_numbers(compare, physics[2], spec, compare_rider_weight)
-    from euc_sim.rides.report.drivetrain_report import cutout_of
+    from euc_sim.rides.drive.drivetrain_report import cutout_of
 
     rep["cutout"] = cutout_of(physics[1], log, rep["summary"]["limits"]).as_json()
     rep["report"] = None
@@ -214,7 +214,7 @@ def _one_parameter_set(an, physics, log, compare, n_boot: int, seed: int, say) -
 
 def _localise(rep: dict, an, domain: str, log, compare) -> list:
     """Where the inertia-only residual concentrates: ``windows``, ``localisation``, traces."""
-    from euc_sim.rides.report.page import residual_windows
+    from euc_sim.rides.balance.residual import residual_windows
 
     name = log.name
     nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
@@ -316,13 +316,13 @@ def write_report(res: RideResult, out: Path) -> None:
 
 def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
     from euc_sim.io import atomic_write
-    from euc_sim.rides.balance.analysis import write_balance
-    from euc_sim.rides.report.page import write_page
+    from euc_sim.rides.render.fit_figures import write_balance
+    from euc_sim.rides.render.page import write_page
 
     rep["table"] = write_balance(an, out).name
     figures = _drivetrain_figures(physics, out)        # PNG files
     if sim is not None:
-        from euc_sim.rides.sim.simulate import plot_ride_simulation
+        from euc_sim.rides.render.simulation_figure import plot_ride_simulation
 
         figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
         atomic_write(out / "ride_simulation.csv",
@@ -330,7 +330,7 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
         rep["simulation"]["table"] = "ride_simulation.csv"
         rep["simulation"]["figure"] = figures["simulation"]
     rep["figures"] = dict(figures)
-    from euc_sim.rides.report.page_html import RideSeries, first_screen, key_figure_lines, limits_md, write_ride_html
+    from euc_sim.rides.render.page_html import RideSeries, first_screen, key_figure_lines, limits_md, write_ride_html
 
     # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
     series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)
@@ -343,7 +343,7 @@ def _write_report_files(rep: dict, an, traces, sim, physics, out: Path) -> None:
 
 def _fit_plots(an, traces, physics) -> dict:
     """The fits' figures the page draws (Plotly), by key (the markdown's figure key, the element id)."""
-    from euc_sim.rides.report import fit_figures as F
+    from euc_sim.rides.render import fit_figures as F
 
     plots = {"cross_ride": (F.balance_figure(an.cross, an.sig_fit, an.sig_test), F.BALANCE_HEIGHT),
              "residuals": (F.residuals_figure(traces), F.residuals_height(len(traces)))}
@@ -359,8 +359,7 @@ def _fit_plots(an, traces, physics) -> dict:
 
 def _drivetrain_figures(physics, out: Path) -> dict:
     """The envelope and grade figures of the ride page (PNG), by key -> file name."""
-    from euc_sim.rides.drive.grade import plot_grade
-    from euc_sim.rides.report.drivetrain_report import plot_envelope
+    from euc_sim.rides.render.drivetrain_page import plot_envelope, plot_grade
 
     rep, fit, _ = physics
     figs = {}

@@ -40,11 +40,8 @@ from euc_sim.simulation import native_core as nc
 from euc_sim.simulation import native_layout as lay
 from euc_sim.simulation.errors import FallError
 
-__all__ = ["native_loop", "planar_context", "available", "LAST_RUN", "CHUNK_STEPS"]
+__all__ = ["native_loop", "planar_context", "available", "LAST_RUN"]
 
-#: Steps run in C between two looks for a fall when no progress is asked for (a fallen run
-#: goes on at most this far: not into the NaN warnings of a diverging MuJoCo state).
-CHUNK_STEPS = 100
 #: The last native run of this process: rows recorded by the callback, its calls, calls per step.
 LAST_RUN: dict = {}
 
@@ -121,25 +118,13 @@ def planar_context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bo
 
 def _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None, forces=None, moving=None):
     """:func:`native_loop` with the callback built."""
-    import mujoco
-
-    m, d, n = stepper.m, stepper.d, run.n
+    n = run.n
     ctx, P, M_d, M_h = planar_context(stepper, motor, run, N, y0, bounds, forces, dt, moving)
     phi_max, gam_max = bounds["phi"], bounds["gamma"]
-    ctx.c[lay.C_PER] = nc.calls_per_step(m, d)
-    chunk = n + 1 if progress is not None else CHUNK_STEPS
-    with nc.registered(d, ctx):
-        for k0 in range(0, N + 1, chunk):
-            if progress is not None:
-                progress(k0 * dt)
-            steps = min(chunk, N - k0)
-            if steps:
-                mujoco.mj_step(m, d, nstep=steps)
-            if ctx.c[lay.C_FALL] >= 0:
-                break
-        else:                                 # the last row: the callback once more, no step
-            ctx.c[lay.C_CALLS] = 0
-            mujoco.mj_forward(m, d)
+    if progress is None:
+        nc.ride(stepper.m, stepper.d, ctx, N)
+    else:
+        nc.ride(stepper.m, stepper.d, ctx, N, chunk=n + 1, progress=lambda k: progress(k * dt))
     run.z = ctx.rider_z(lay.P_RIDER)
     LAST_RUN.update(rows=int(ctx.c[lay.C_K]), calls=int(ctx.c[lay.C_CALLS]), per=int(ctx.c[lay.C_PER]))
     if ctx.c[lay.C_FALL] >= 0:

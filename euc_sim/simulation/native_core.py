@@ -241,6 +241,30 @@ def registered(data, context: Context):
                 _IDLE.notify_all()
 
 
+
+#: Steps run in C between two looks for a fall when no progress is asked for (a fallen run
+#: goes on at most this far: not into the NaN warnings of a diverging MuJoCo state).
+CHUNK_STEPS = 100
+
+
+def ride(m, d, context: Context, steps: int, chunk: int = CHUNK_STEPS, progress=None) -> None:
+    """Step ``d`` ``steps`` times with ``context`` served (:func:`registered`), ``chunk`` steps
+    at a time, until the callback flags a fall; without one, the callback once more for the
+    last row (``mj_forward``, no step).  ``progress(k)`` before each block, ``k`` steps done."""
+    import mujoco
+
+    context.c[C_PER] = calls_per_step(m, d)
+    with registered(d, context):
+        for k0 in range(0, steps + 1, chunk):
+            if progress is not None:
+                progress(k0)
+            if steps > k0:
+                mujoco.mj_step(m, d, nstep=min(chunk, steps - k0))
+            if context.c[C_FALL] >= 0:
+                return
+        context.c[C_CALLS] = 0
+        mujoco.mj_forward(m, d)
+
 @contextmanager
 def exclusive(cb):
     """Install ``cb`` as MuJoCo's control callback for the block, alone.

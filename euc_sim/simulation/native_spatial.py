@@ -35,8 +35,6 @@ __all__ = ["native_ride", "spatial_context", "ROW_COLUMNS", "LAST_RUN"]
 ROW_COLUMNS = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref", "psi",
                "theta", "psi_dot", "theta_dot", "M_lean", "M_twist", "e_y",
                "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
-#: Steps run in C between two looks for a fall (a fallen run goes on at most this far).
-CHUNK_STEPS = 100
 #: The last native 3-D run of this process: rows recorded by the callback.
 LAST_RUN: dict = {}
 _FALL_KINDS = ("state", "theta", "phi", "gamma")
@@ -82,20 +80,9 @@ def native_ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, path,
     """
     if nc.callback() is None:
         return None
-    import mujoco
-
-    m, d = sim.model, sim.data
     ctx, out = spatial_context(sim, run, motor, lateral, path, v_ref, N, dt, y0, bounds, tilt_bound,
                         turn_effort_time)
-    ctx.c[lay.C_PER] = nc.calls_per_step(m, d)
-    with nc.registered(d, ctx):
-        for k0 in range(0, N, CHUNK_STEPS):
-            mujoco.mj_step(m, d, nstep=min(CHUNK_STEPS, N - k0))
-            if ctx.c[lay.C_FALL] >= 0:
-                break
-        else:                                   # the last row: the callback once more, no step
-            ctx.c[lay.C_CALLS] = 0
-            mujoco.mj_forward(m, d)
+    nc.ride(sim.model, sim.data, ctx, N)
     run.z = ctx.rider_z(lay.S_RIDER)
     LAST_RUN.update(rows=int(ctx.c[lay.C_K]), per=int(ctx.c[lay.C_PER]))
     if ctx.c[lay.C_FALL] >= 0:

@@ -33,7 +33,7 @@ def bench_dataset() -> dict:
 # --- the batch engine ------------------------------------------------------------
 def _batch_chunk(args) -> int:
     """Worker: one chunk of rides on the batch engine; returns how many fell."""
-    from euc_sim.simulation.batch import simulate_batch
+    from batch_engine import simulate_batch          # scripts/, on the path of scripts/bench.py
     from euc_sim.simulation.engine import default_rider
     from euc_sim.simulation.maneuvers import make_maneuver
 

@@ -25,7 +25,7 @@ def bench_ride_mass() -> dict:
     import warnings
     from pathlib import Path
 
-    from euc_sim.rides.report.drivetrain_report import analyse
+    from euc_sim.rides.drive.drivetrain_report import analyse
     from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import read_spec
 
@@ -119,7 +119,7 @@ def _warm_up() -> float:
 
     t0 = time.perf_counter()
     import euc_sim.rides.balance.analysis  # noqa: F401  (the page's heavy imports: scipy.signal, pandas)
-    import euc_sim.rides.report.page_html  # noqa: F401
+    import euc_sim.rides.render.page_html  # noqa: F401
     import euc_sim.rides.pipeline  # noqa: F401
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.sim.tracking import simulate_profile

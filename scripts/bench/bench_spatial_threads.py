@@ -2,7 +2,7 @@
 """Benchmark of 3-D rides on threads (``scripts/bench.py`` section ``spatial_threads``).
 
 ``rides`` native 3-D rides of ``duration`` s (paths in turn, the study's rider with 3 N·m
-motor noise, seeds 0 … rides-1) ridden by :func:`euc_sim.simulation.spatial_threads.ride_3d_many`
+motor noise, seeds 0 … rides-1) ridden by :func:`spatial_threads.ride_3d_many` (scripts/tables/)
 on 1 and on 2 threads, in one process, interleaved (best of 3), beside the machine's ceiling:
 two bare ``mj_step`` loops of ``mjcf/euc_3d.xml`` on two threads at once over one; and the
 same rides as the blind study makes them (``write_spatial``: recording sampled, three files
@@ -19,8 +19,9 @@ import sys
 import tempfile
 from pathlib import Path
 
-if str(Path(__file__).resolve().parent) not in sys.path:
-    sys.path.insert(0, str(Path(__file__).resolve().parent))
+for _folder in (Path(__file__).resolve().parent, Path(__file__).resolve().parents[1] / "tables"):
+    if str(_folder) not in sys.path:            # bench_timing; spatial_threads (the blind study's)
+        sys.path.insert(0, str(_folder))
 
 from bench_timing import at_once, timed_together  # noqa: E402
 
@@ -34,7 +35,7 @@ def bench_spatial_threads(rides: int = 8, duration: float = 20.0) -> dict:
     from euc_sim.model.spatial import EucSpatial
     from euc_sim.simulation.engine import default_rider
     from euc_sim.simulation.spatial import simulate_3d, write_spatial
-    from euc_sim.simulation.spatial_threads import ride_3d_many
+    from spatial_threads import ride_3d_many
 
     rider = default_rider(noise_std=3.0)
     reqs = [{"path": PATHS[s % len(PATHS)], "duration": duration, "seed": s, "rider": rider} for s in range(rides)]

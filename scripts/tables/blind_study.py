@@ -306,7 +306,7 @@ def _make_spatial(args) -> int:
     a case whose rider falls is left unwritten (its ``_work`` then says so). Returns how many fell."""
     cases, out, nthread = args
     from euc_sim.simulation.spatial import write_spatial
-    from euc_sim.simulation.spatial_threads import ride_3d_many
+    from spatial_threads import ride_3d_many
     made = ride_3d_many([spatial_request(c, out) for c in cases], nthread=nthread, ride=write_spatial)
     return sum(isinstance(res, Exception) for res in made)
 

@@ -35,7 +35,7 @@ def run(path: Path) -> dict:
     """Each road difference's ``resolvable`` and ``named``, battery power alone and every channel."""
     from euc_sim.rides.compare.channels import CHANNELS
     from euc_sim.rides.compare.differences_report import differences_json
-    from euc_sim.rides.report.drivetrain_report import computed_pwm_note
+    from euc_sim.rides.drive.drivetrain_report import computed_pwm_note
     from euc_sim.rides.source.channels import current_from_phase
 
     log, other, (rep, fit, test) = pickle.loads(path.read_bytes())

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from euc_sim.rides.law.controller_report import controller_json, torque_constant  # noqa: E402
-from euc_sim.rides.report.drivetrain_report import drivetrain_report                  # noqa: E402
+from euc_sim.rides.drive.drivetrain_report import drivetrain_report                  # noqa: E402
 from euc_sim.rides.grids.power import MassSettings                                  # noqa: E402
 from euc_sim.rides.source.logs import read_log                                        # noqa: E402
 from euc_sim.rides.source.spec import wheel_spec                                      # noqa: E402

@@ -2,7 +2,7 @@
 
 For every ride of ``../shared/data/euc_core/trips`` and ``../shared/data/wheellog`` one
 Markdown row: our distance, duration, riding time, top speed, energy and PWM peak
-(:func:`euc_sim.rides.report.summary.ride_summary`, what the page and the terminal show)
+(:func:`euc_sim.rides.summary.summary.ride_summary`, what the page and the terminal show)
 and the % difference (points for the PWM) to each counter the app wrote, read here
 from the CSV on its own, the way a rider checks the page against the app:
 
@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from euc_sim.rides.report.summary import ride_summary
+from euc_sim.rides.summary.summary import ride_summary
 from euc_sim.rides.source.logs import read_log
 
 #: ../shared/data beside the clone (or beside the folder of worktrees)

@@ -3,7 +3,7 @@
 For every ride of ``../shared/data/euc_core/`` (with its wheel's spec) and the WheelLog
 ride with a PWM column: the summary's ``limits`` (the log's ``speed_limit``, else the
 spec's top speed) and the ride JSON's ``cutout`` as ``euc-sim ride`` computes them
-(:func:`euc_sim.rides.report.drivetrain_report.cutout_of`): the duty model's error on the
+(:func:`euc_sim.rides.drive.drivetrain_report.cutout_of`): the duty model's error on the
 ride's second half when fitted on its first, the cut-out speeds at the ride's lowest
 charge, and the danger sentence.
 
@@ -27,7 +27,7 @@ def row(log_path: Path, spec_path: Path | None) -> str | None:
     """One Markdown row, or None when the log has no PWM."""
     from euc_sim.rides.drive.cutout import ride_limits
     from euc_sim.rides.grids.power import MassSettings
-    from euc_sim.rides.report.drivetrain_report import analyse, cutout_of
+    from euc_sim.rides.drive.drivetrain_report import analyse, cutout_of
     from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import WheelSpec, read_spec
 

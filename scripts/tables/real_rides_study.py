@@ -6,7 +6,7 @@ Usage (from the repository root)::
     python scripts/tables/real_rides_study.py [--n-boot 50] [--lowo-only] [--json OUT.json]
 
 Reads ``../shared/data/euc_core/`` (rides, ``meta.csv`` and ``specs/``).  The tool
-(:func:`euc_sim.rides.drive.mass.fit_mass`, :func:`euc_sim.rides.report.drivetrain_report.analyse`)
+(:func:`euc_sim.rides.drive.mass.fit_mass`, :func:`euc_sim.rides.drive.drivetrain_report.analyse`)
 sees only the log and the spec; the rider's stated weight in ``meta.csv`` is used
 here, and only here, to score it: truth = rider weight + wheel net weight.
 
@@ -40,7 +40,7 @@ from euc_sim.io import write_json
 from euc_sim.rides.drive.drivetrain import predict_pwm
 from euc_sim.rides.drive.mass import predict_power
 from euc_sim.rides.grids.power import MassSettings
-from euc_sim.rides.report.drivetrain_report import analyse, computed_pwm_note
+from euc_sim.rides.drive.drivetrain_report import analyse, computed_pwm_note
 from euc_sim.rides.source.logs import read_log
 from euc_sim.rides.source.spec import read_spec
 

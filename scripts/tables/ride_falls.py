@@ -154,15 +154,22 @@ def main(argv=None) -> int:
         chosen = [c for c in chosen if c[0] in args.only]
     import pandas as pd
 
-    from euc_sim.rides.sim.pool import run_jobs
+    from euc_sim.simulation.runner import run_tasks
 
     chosen.sort(key=lambda c: c[1].stat().st_size)          # the short logs first
-    jobs = [(n, log, spec, args.n_boot, args.seed, tuple(args.runs), args.track_iterations, args.out)
+    jobs = [(n, (n, log, spec, args.n_boot, args.seed, tuple(args.runs), args.track_iterations, args.out))
             for n, log, spec in chosen]
-    done = run_jobs(ride_log, jobs, args.workers,
-                    on_done=lambda i, k: print(f"ride_falls: log {k}/{len(jobs)} done ({jobs[i][0]})",
-                                               file=sys.stderr, flush=True))
-    rows = [r for rs in done for r in rs]
+    done: list[str] = []
+
+    def note(name, _rows) -> None:
+        done.append(name)
+        print(f"ride_falls: log {len(done)}/{len(jobs)} done ({name})", file=sys.stderr, flush=True)
+
+    rep = run_tasks(ride_log, jobs, workers=args.workers, progress=False, on_result=note)
+    if rep.failed:
+        print("ride_falls: failed: " + "; ".join(f"{n}: {why}" for n, why in rep.failed.items()), file=sys.stderr)
+        return 1
+    rows = [r for rs in rep.results.values() for r in rs]
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     table = pd.DataFrame(rows)

@@ -159,7 +159,7 @@ def rows(results: list[dict]) -> list[str]:
 
 def band_rows(results: list[dict]) -> list[str]:
     """The level-and-spectrum table: per pair and step, the band ratios to the log's."""
-    from euc_sim.rides.report.page import bands_cell
+    from euc_sim.rides.render.page import bands_cell
 
     md = ["| wheel | fit → held out | " + " | ".join(f"{s} dB" for s in STEPS) + " |",
           "|" + " --- |" * (2 + len(STEPS))]

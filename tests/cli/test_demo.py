@@ -54,7 +54,7 @@ def test_demo_writes_its_story_and_finds_the_concealed_effect(tmp_path, capsys):
 def test_the_seed_draws_the_concealed_effect_too():
     import numpy as np
 
-    from euc_sim.cli.demo import CONCEALABLE, draw_concealed_effect
+    from euc_sim.api.demo import CONCEALABLE, draw_concealed_effect
     drawn = {draw_concealed_effect(np.random.default_rng([s, 5]))[0] for s in range(1, 9)}
     assert drawn == set(CONCEALABLE)
     assert draw_concealed_effect(np.random.default_rng([3, 5])) == \
@@ -62,7 +62,7 @@ def test_the_seed_draws_the_concealed_effect_too():
 
 
 def test_the_story_renders_sections_tables_and_figures():
-    from euc_sim.cli.demo import Section, Story
+    from euc_sim.api.demo import Section, Story
 
     story = Story("t", ("Opening one.", "Opening two."),
                   (Section("A", ("It went.",), (("x", "y"), ("1", "2")), (("f.png", "a figure"),)),))
@@ -76,7 +76,7 @@ def test_the_story_as_a_page_inlines_its_figures(tmp_path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from euc_sim.cli.demo import Section, Story
+    from euc_sim.api.demo import Section, Story
 
     fig, ax = plt.subplots()
     ax.plot([0, 1], [0, 1])

@@ -24,10 +24,10 @@ sys.path.append(str(Path(__file__).resolve().parent))
 import browser  # noqa: E402
 import pagenumbers as P  # noqa: E402
 from drivesynth import drive_log  # noqa: E402
+import conceal as cc  # noqa: E402
 
 from euc_sim.cli import main  # noqa: E402
-from euc_sim.rides.synth import conceal as cc  # noqa: E402
-from euc_sim.rides.report.differences_page import TITLE, difference_lines, recorded_metadata  # noqa: E402
+from euc_sim.rides.render.differences_page import TITLE, difference_lines, recorded_metadata  # noqa: E402
 from euc_sim.rides.grids.power import RHO_AIR  # noqa: E402
 
 WHEELLOG = Path(__file__).resolve().parents[3] / "shared" / "data" / "wheellog"
@@ -80,7 +80,7 @@ def test_every_number_appears_once(which, request):
 
 def test_a_poor_log_and_a_high_pwm_are_said_once(synthetic, tmp_path):
     """The tiles' data quality and max PWM are not repeated by the lead or the notes."""
-    from euc_sim.rides.report.page_html import write_ride_html
+    from euc_sim.rides.render.page_html import write_ride_html
 
     rep = dict(synthetic[1], summary={
         "duration_s": 400.0, "moving_s": 380.0, "pwm_max_pct": 93.0, "pwm_max_at_s": 120.0,

@@ -86,8 +86,8 @@ BATTERY = {"resistance_ohm": 0.152, "resistance_ci95": [0.14, 0.16], "resistance
 def with_summary(drive, tmp_path_factory):
     """The drive page rebuilt with a ``summary`` (as the ride JSON carries it once computed)."""
     from euc_sim.rides.grids.signals import ride_signals
-    from euc_sim.rides.report.drivetrain_report import analyse
-    from euc_sim.rides.report.page_html import RideSeries, figure_specs, write_ride_html
+    from euc_sim.rides.drive.drivetrain_report import analyse
+    from euc_sim.rides.render.page_html import RideSeries, figure_specs, write_ride_html
 
     log, _, rep = drive
     sig = ride_signals(read_log(log, emit_warnings=False))
@@ -150,7 +150,7 @@ def test_tiles_show_the_summary_in_peoples_units(with_summary):
 
 
 def test_data_quality_without_the_summarys_verdict_states_the_gaps():
-    from euc_sim.rides.report.page_html import data_quality
+    from euc_sim.rides.render.page_html import data_quality
 
     line, tone = data_quality({"duration_s": 1000.0, "gaps": {"count": 2, "total_s": 300.0, "longest_s": 200.0},
                                "sampling_hz": 2.5})
@@ -257,7 +257,7 @@ def test_the_fits_figures_are_drawn_in_the_folded_parts_with_titles_and_units(dr
 
 def test_a_battery_gauge_that_never_moved_says_so():
     """A full pack reads 100 % for its first watt-hours: "0 %" alone read as a ride that drew nothing."""
-    from euc_sim.rides.report.page_html import key_figure_lines
+    from euc_sim.rides.render.page_html import key_figure_lines
 
     s = {"energy_drawn_Wh": 19.1, "battery_used_pct": 0.0, "battery_start_pct": 100.0, "battery_end_pct": 100.0}
     assert "Battery used: 0 % (the wheel's gauge read 100 % throughout)" in key_figure_lines({"summary": s})

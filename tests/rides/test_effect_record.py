@@ -14,6 +14,7 @@ from types import SimpleNamespace
 import numpy as np
 import pandas as pd
 import pytest
+import conceal as cc
 import ridesynth
 
 from euc_sim.model.catalog import CATALOG, Balance, Compare, Conceal, Effect, Words
@@ -25,11 +26,10 @@ from euc_sim.rides.compare import differences as df
 from euc_sim.rides.compare.differences_fit import PairDesign, pair_fit
 from euc_sim.rides.compare.differences_report import _power_columns, _stack
 from euc_sim.rides.grids.signals import ride_signals
-from euc_sim.rides.report.differences_page import difference_lines
+from euc_sim.rides.render.differences_page import difference_lines
 from euc_sim.rides.sim import sim_steps
 from euc_sim.rides.sim.simulate import _on_grid
 from euc_sim.rides.source.logs import read_log
-from euc_sim.rides.synth import conceal as cc
 
 NAME = "eddy_current_loss"
 UNIT = "W·s²/m²"

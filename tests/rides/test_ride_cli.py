@@ -293,7 +293,7 @@ def test_real_rides_done_criterion(tmp_path, capsys):
         assert (tmp_path / "rep" / name).stat().st_size > 2_000
     assert "verdict:" in out
     a, b = rep["windows"][0]                # the terminal says the windows as the page does
-    from euc_sim.rides.report.ride_time import span_at
+    from euc_sim.rides.render.ride_time import span_at
 
     assert "  windows, clock time in the phone's local time (time into the ride, min:s): " \
         + span_at(rep["clock"], a, b, "-") in out and f"{a:.1f}-" not in out
@@ -324,7 +324,7 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
                    simulate=True)
     sim = rep["simulation"]
     page = (tmp_path / "rep" / "index.md").read_text()
-    from euc_sim.rides.report.ride_time import clock_at
+    from euc_sim.rides.render.ride_time import clock_at
 
     at = clock_at(rep["clock"], t_fall)                   # clock time of the ride's own zone
     assert f"The simulated rider fell at {at} (40 s into the ride; nominal: " in page          # said once
@@ -346,7 +346,7 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
 
 
 def test_the_falls_are_said_once_with_the_runs_they_ended():
-    from euc_sim.rides.report.page import falls_sentence
+    from euc_sim.rides.render.page import falls_sentence
 
     cause = "|phi| = 0.700 rad exceeds the bound 0.7 rad"
     both = [{"t": 842.921, "cause": cause, "run": "nominal"}, {"t": 842.921, "cause": cause, "run": "augmented"}]
@@ -360,7 +360,7 @@ def test_the_falls_are_said_once_with_the_runs_they_ended():
 
 
 def test_the_page_says_when_the_last_step_sways_less_or_more_than_the_log():
-    from euc_sim.rides.report.page import SWAY_DB, sway_sentence
+    from euc_sim.rides.render.page import SWAY_DB, sway_sentence
 
     def step(name, fast):
         return {"step": name, "ran": True,

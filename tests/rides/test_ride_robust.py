@@ -211,7 +211,7 @@ def test_slow_part_of_a_trace_shorter_than_its_span():
     """Found by the fuzz test: a 25 s trace and a 30 s moving mean broke the residual figure."""
     import numpy as np
 
-    from euc_sim.rides.report.page import ResidualTrace
+    from euc_sim.rides.balance.residual import ResidualTrace
 
     t = np.arange(250) * 0.1
     r = np.sin(t)

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import warnings
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Callable
 
 import numpy as np
@@ -21,8 +20,7 @@ from euc_sim.rides.balance.fit import FEW_BLOCKS, block_rows, plausibility
 from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, ride_signals
 from euc_sim.rides.source.gaps import GAP_POLICY
 
-__all__ = ["RideAnalysis", "ride_report", "ride_analysis", "write_balance", "check_data",
-           "split_time"]
+__all__ = ["RideAnalysis", "ride_report", "ride_analysis", "check_data", "split_time"]
 
 
 @dataclass(frozen=True)
@@ -56,7 +54,7 @@ def ride_report(log_path, compare_path=None, **kwargs) -> dict:
     return ride_analysis(log_path, compare_path, **kwargs).report
 
 
-def ride_analysis(log_path, compare_path=None, *, report_dir=None,
+def ride_analysis(log_path, compare_path=None, *,
                   assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
                   max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2,
                   domain: str = "power", n_boot: int = 200, block_s: float = 10.0,
@@ -73,9 +71,6 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
         Ride to fit (it keeps its grid: built once).
     compare_path : Ride, optional
         Ride to test on.
-    report_dir : path, optional
-        Where to write ``ride_balance.csv`` (test ride: t, measured and predicted
-        battery power), atomically.
     assumptions : RideAssumptions
     rate, max_gap, window, polyorder :
         See :func:`ride_signals`.
@@ -94,7 +89,7 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
         model's terms in the augmented fit: none since the balance fits no efficiency), ``all_estimates`` (every
         candidate of the full fit, flagged), ``aliases``, ``torque_method``,
         ``power_source``, ``assumptions``, ``filter``, ``bootstrap``, ``notes``,
-        ``figure`` (file name inside ``report_dir``); ``recording`` and
+        ``figure`` (None: the page names it); ``recording`` and
         ``compare`` are file names (no folder: no machine path in outputs).
     """
     say = progress or (lambda msg: None)
@@ -117,8 +112,6 @@ def ride_analysis(log_path, compare_path=None, *, report_dir=None,
                                        n_boot=n_boot, block_s=block_s, seed=seed))
     an = RideAnalysis(report=report, cross=cr, sig_fit=sig_fit, sig_test=sig_test,
                       designs=(d_all, None if sig_test is None else d_test))
-    if report_dir is not None:
-        report["table"] = write_balance(an, report_dir).name
     return an
 
 
@@ -229,21 +222,3 @@ def _notes(sig_fit: RideSignals, sig_test: RideSignals | None, d_fit: Design,
     if sig_test is not None:
         notes += [f"{test_label}: {n}" for n in sig_test.notes]
     return notes
-
-
-def write_balance(an: RideAnalysis, report_dir) -> Path:
-    """Write ``ride_balance.csv`` (the test ride: t, v, measured and predicted battery power) atomically.
-
-    Returns
-    -------
-    pathlib.Path
-        The table.
-    """
-    from euc_sim.io import atomic_write
-
-    cr, d_test, report_dir = an.cross, an.cross.test_design, Path(report_dir)
-    cols = {"t": d_test.t, "v": d_test.v, "P_measured": d_test.P,
-            "P_nominal": d_test.predict(cr.nominal.estimate), "P_augmented": d_test.predict(cr.augmented.estimate)}
-    # 7 significant digits (0.01 s, 1 mW): numpy's writer, several times faster than pandas' repr of each float
-    return atomic_write(report_dir / "ride_balance.csv", lambda p: np.savetxt(
-        p, np.column_stack(list(cols.values())), fmt="%.7g", delimiter=",", header=",".join(cols), comments=""))

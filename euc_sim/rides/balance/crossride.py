@@ -3,7 +3,7 @@
 :func:`cross_ride` accepts the effects that blocked held-out validation on the
 fit ride keeps (:func:`select_effects`, the selection rule of every ride fit),
 :func:`effect_entries` writes them as CONTRACT's effect entries (the page draws the
-held-out prediction: :func:`euc_sim.rides.report.fit_figures.balance_figure`).
+held-out prediction: :func:`euc_sim.rides.render.fit_figures.balance_figure`).
 """
 
 from __future__ import annotations

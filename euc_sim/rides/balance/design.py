@@ -50,7 +50,7 @@ from euc_sim.simulation.effects import RECORDS
 from euc_sim.rides.grids.signals import RideSignals, sg, window_samples
 
 __all__ = ["RHO_AIR", "CANDIDATES", "term_role", "role_index", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDOW", "Design",
-           "Operator", "Basis", "balance_design", "filter_matrix", "on_bound", "standstill_power",
+           "Operator", "Basis", "balance_design", "filter_matrices", "on_bound", "standstill_power",
            "MIN_STANDSTILL"]
 
 
@@ -323,23 +323,24 @@ class Operator:
     support: np.ndarray
 
 
-def filter_matrix(segment: np.ndarray, kernel: np.ndarray, rows: np.ndarray):
-    """A segment-wise convolution as a sparse matrix on the rows it touches.
+def filter_matrices(segment: np.ndarray, kernels: Sequence[np.ndarray], rows: np.ndarray):
+    """Segment-wise convolutions as sparse matrices on the rows they touch.
 
     Parameters
     ----------
     segment : numpy.ndarray of int
-        Segment label of each sample; the filter never crosses a boundary.
-    kernel : numpy.ndarray
-        Convolution coefficients (odd length M), as for ``numpy.convolve``.
+        Segment label of each sample; a filter never crosses a boundary.
+    kernels : sequence of numpy.ndarray
+        Convolution coefficients (one odd length M), as for ``numpy.convolve``.
     rows : numpy.ndarray of int
         Output rows, each at least M//2 samples inside its segment.
 
     Returns
     -------
-    K : scipy.sparse.csr_matrix, shape (len(rows), len(support))
+    Ks : list of scipy.sparse.csr_matrix, each shape (len(rows), len(support))
     support : numpy.ndarray of int
-        The samples the rows read, sorted: ``K @ x[support]`` equals the
+        The samples the rows read, sorted, found once for all kernels (a coverage count
+        over the segment-sorted samples, no sort): ``K @ x[support]`` equals the
         segment-wise ``numpy.convolve(x, kernel, mode="same")`` at ``rows``.
 
     Raises
@@ -347,13 +348,6 @@ def filter_matrix(segment: np.ndarray, kernel: np.ndarray, rows: np.ndarray):
     ValueError
         if a row lies within M//2 samples of its segment's end.
     """
-    Ks, support = filter_matrices(segment, [kernel], rows)
-    return Ks[0], support
-
-
-def filter_matrices(segment: np.ndarray, kernels: Sequence[np.ndarray], rows: np.ndarray):
-    """:func:`filter_matrix` for several kernels of one length: their matrices share one
-    support, found once (a coverage count over the segment-sorted samples, no sort)."""
     from scipy import sparse
 
     segment, rows = np.asarray(segment), np.asarray(rows, int)

@@ -99,7 +99,7 @@ def _phase(r, cols: dict, v: np.ndarray, coef: dict, calib: tuple | None):
 
 def _duty(r, y, coef: dict | None):
     from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
-    from euc_sim.rides.report.drivetrain_report import computed_pwm_note
+    from euc_sim.rides.drive.drivetrain_report import computed_pwm_note
 
     d, V = r.sig.extra.get("pwm"), r.sig.extra.get("voltage")
     if d is None or V is None or not coef or not coef.get("r_F", 0.0) > 0 or computed_pwm_note(r):

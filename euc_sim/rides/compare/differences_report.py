@@ -1,6 +1,6 @@
 """The ride JSON's ``differences`` for ``euc-sim ride LOG --compare OTHER``.
 
-Glue between the two rides' drivetrain analyses (:mod:`euc_sim.rides.report.drivetrain_report`)
+Glue between the two rides' drivetrain analyses (:mod:`euc_sim.rides.drive.drivetrain_report`)
 and the pure functions of :mod:`euc_sim.rides.compare.differences` and
 :mod:`euc_sim.rides.compare.differences_fit`: each domain's rows of both rides (battery
 power with LOG's terms and delay, terminal voltage, GPS speed against wheel
@@ -357,7 +357,7 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
     rep : dict
         The ride JSON so far (LOG's ``total_mass``, ``drivetrain``, ``mass_difference``).
     fit, test : RideDrivetrain
-        LOG's and OTHER's analyses (:func:`euc_sim.rides.report.drivetrain_report.drivetrain_report`).
+        LOG's and OTHER's analyses (:func:`euc_sim.rides.drive.drivetrain_report.drivetrain_report`).
     log_path, compare_path : Ride
         Each ride, as the ride pipeline holds it.
     n_boot, seed : int
@@ -366,7 +366,7 @@ def differences_json(rep: dict, fit, test, log_path, compare_path, n_boot: int =
         The channels beside battery power (:func:`pair_tests`; none by default,
         :data:`~euc_sim.rides.compare.channels.CHANNELS` the measured set).
     """
-    from euc_sim.rides.report.drivetrain_report import drivetrain_report
+    from euc_sim.rides.drive.drivetrain_report import drivetrain_report
 
     other_view = drivetrain_report(compare_path, test.spec, fitted=test)[0]
     log_params, other_params = parameters_from_ride(rep), parameters_from_ride(other_view)

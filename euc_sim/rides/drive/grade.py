@@ -7,7 +7,7 @@ term is, to first order, the power of climbing::
 
 Integrated over the ride it gives the altitude the battery says the rider
 climbed: the grade the fit sees, which the ride page draws against GPS
-altitude over distance (:func:`plot_grade`).  Where the two part, the balance
+altitude over distance (:func:`euc_sim.rides.render.drivetrain_page.plot_grade`).  Where the two part, the balance
 is missing something that varies along the road (wind, a loss it leaves out)
 or the altitude is wrong.  The fitted grade term itself is ``β_h·g·ḣ_GPS``
 with ``β_h`` below m where altitude noise attenuates it; its altitude
@@ -17,14 +17,13 @@ with ``β_h`` below m where altitude noise attenuates it; its altitude
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from euc_sim.rides.drive.mass import MassFit, mass_regressors
 from euc_sim.rides.grids.power import G, PowerSignals
 
-__all__ = ["GradeProfile", "grade_profile", "plot_grade", "grade_figure", "V_STILL"]
+__all__ = ["GradeProfile", "grade_profile", "V_STILL"]
 
 #: Below this speed, m/s, nothing is climbed: the implied climb rate is taken as 0.
 V_STILL = 1.0
@@ -132,44 +131,3 @@ def grade_profile(sig: PowerSignals, fit: MassFit, gps_t: np.ndarray,
                         rms_m=float(np.sqrt(np.mean((implied - h_gps) ** 2))),
                         climb_gps_m=_ascent(h_gps, sig.t, sig.segment),
                         climb_implied_m=_ascent(implied, sig.t, sig.segment))
-
-
-def plot_grade(g: GradeProfile, path, title: str = "") -> Path:
-    """Write :func:`grade_figure` to ``path`` (PNG, atomically)."""
-    from euc_sim.io import save_figure
-
-    return save_figure(grade_figure(g, title), path)
-
-
-def grade_figure(g: GradeProfile, title: str = ""):
-    """Altitude against distance: GPS, implied by the balance, and the fitted grade term.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    from matplotlib.figure import Figure
-
-    def broken(y):          # NaN between segments: the implied altitude restarts at each
-        cut = np.flatnonzero(g.segment[1:] != g.segment[:-1]) + 1
-        return np.insert(g.distance, cut, np.nan), np.insert(y, cut, np.nan)
-
-    fig = Figure(figsize=(9, 5.6), layout="constrained")
-    ax = fig.add_subplot()
-    ax.plot(*broken(g.gps), color="k", lw=1.2,
-            label=f"GPS altitude (ascent {g.climb_gps_m:.0f} m)")
-    ax.plot(*broken(g.implied), color="tab:blue", lw=1.0,
-            label=f"implied by battery power, ∫(P − P̂ without grade)/(m·g) dt, restarted at "
-                  f"GPS after each gap (ascent {g.climb_implied_m:.0f} m; {g.rms_m:.0f} m RMS "
-                  f"from GPS)")
-    if g.fitted is not None:
-        ax.plot(*broken(g.fitted), color="tab:orange", lw=1.0, ls="--",
-                label="the fit's grade term, (β_h/m)·GPS altitude (β_h < m: altitude noise "
-                      "attenuates it)")
-    ax.set_xlabel("distance ridden, km")
-    ax.set_ylabel("altitude, m")
-    fig.suptitle(title or "Road grade: the altitude the battery-power balance implies, "
-                          "against GPS altitude", fontsize=10)
-    ax.grid(alpha=0.3)
-    fig.legend(loc="outside lower center", fontsize=8)
-    return fig

@@ -49,7 +49,7 @@ class RideEntry:
         else the phone's local clock (:attr:`~euc_sim.rides.source.ride.Ride.start`).
     layout : str
     summary : dict
-        :meth:`euc_sim.rides.report.summary.RideSummary.to_json`.
+        :meth:`euc_sim.rides.summary.summary.RideSummary.to_json`.
     battery : dict
         :meth:`euc_sim.rides.drive.battery.BatteryHealth.to_json`.
     model : str or None
@@ -242,7 +242,7 @@ def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
     """
     from euc_sim.rides.drive.battery import battery_health, measure_resistance
     from euc_sim.rides.grids.signals import check_readings
-    from euc_sim.rides.report.summary import ride_summary
+    from euc_sim.rides.summary.summary import ride_summary
     from euc_sim.rides.source.logs import read_log
 
     with warnings.catch_warnings():

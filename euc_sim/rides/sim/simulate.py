@@ -51,7 +51,7 @@ from euc_sim.rides.sim.envelope import LEAN_SHARE
 from euc_sim.rides.sim.tracking import simulate_profile
 
 __all__ = ["SIM_EFFECTS", "simulation_obstacle", "ride_params", "effects_to_inject",
-           "battery_power", "RideSimulation", "simulate_ride", "plot_ride_simulation", "LOG_COLUMNS"]
+           "battery_power", "RideSimulation", "simulate_ride", "LOG_COLUMNS"]
 
 #: Optional log channels a step is scored on: table stem -> the resampled log's column.
 LOG_COLUMNS = {"I": "phase_current", "pitch": "tilt", "pwm": "pwm"}
@@ -568,10 +568,3 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
                           steps=_step_entries(steps, errors, falls, channels.balance_heldout, bands),
                           notes=tuple(notes))
 
-
-def plot_ride_simulation(sim: RideSimulation, path) -> "Path":
-    """Write :func:`euc_sim.rides.sim.simulation_figure.ride_simulation_figure` to ``path`` (PNG, atomically)."""
-    from euc_sim.io import save_figure
-    from euc_sim.rides.sim.simulation_figure import ride_simulation_figure
-
-    return save_figure(ride_simulation_figure(sim), path, dpi=100)

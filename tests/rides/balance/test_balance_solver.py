@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from ridesynth import TRUTH, synth_log
 
-from euc_sim.rides.balance.design import BOUNDS, _conv, balance_design, filter_matrix
+from euc_sim.rides.balance.design import BOUNDS, _conv, balance_design, filter_matrices
 from euc_sim.rides.balance.fit import _solve, fit_balance
 from euc_sim.rides.balance.normal import bounds, coefficients, scale
 from euc_sim.rides.grids.signals import ride_signals
@@ -27,11 +27,11 @@ def test_filter_matrix_is_the_segmentwise_convolution():
     x = rng.normal(size=segment.size)
     want = _conv(x, segment, kernel)
     rows = np.flatnonzero(np.isfinite(want))
-    K, support = filter_matrix(segment, kernel, rows)
+    (K,), support = filter_matrices(segment, [kernel], rows)
     np.testing.assert_allclose(K @ x[support], want[rows], rtol=1e-13, atol=1e-13)
     assert not np.isin(np.flatnonzero(segment == 1), support).any()
     with pytest.raises(ValueError, match="inside their segment"):
-        filter_matrix(segment, kernel, np.array([0]))
+        filter_matrices(segment, [kernel], np.array([0]))
 
 
 def _basis_jacobian(design, names, theta):

@@ -13,12 +13,13 @@ import pandas as pd
 import pytest
 from ridesynth import TRUTH, A, synth_log
 
-from euc_sim.rides.balance.analysis import ride_report
+from euc_sim.rides.balance.analysis import ride_analysis, ride_report
 from euc_sim.rides.balance.crossride import cross_ride
 from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.balance.fit import fit_balance, plausibility
 from euc_sim.rides.grids.profile import speed_profile
 from euc_sim.rides.grids.signals import RideAssumptions, resample, ride_signals, sg, wheel_torque
+from euc_sim.rides.render.fit_figures import write_balance
 from euc_sim.rides.source.logs import read_log
 from euc_sim.simulation.maneuvers import load_speed_profile
 
@@ -189,8 +190,9 @@ def test_fit_is_reproducible_with_seed(twin_fit):
 
 
 def test_ride_report_contract_form_and_files(twin, tmp_path):
-    rep = ride_report(read_log(twin[0], emit_warnings=False), read_log(twin[1], emit_warnings=False),
-                      report_dir=tmp_path / "rep", n_boot=50)
+    an = ride_analysis(read_log(twin[0], emit_warnings=False), read_log(twin[1], emit_warnings=False), n_boot=50)
+    rep = an.report
+    write_balance(an, tmp_path / "rep")
     for key in ("effects", "heldout_error_nominal", "heldout_error_augmented", "error_unit"):
         assert key in rep
     assert rep["error_unit"] == "W"

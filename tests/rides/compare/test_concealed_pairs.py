@@ -12,12 +12,12 @@ from pathlib import Path
 
 import pytest
 from drivesynth import drive_log
+import conceal as cc
 
 from euc_sim.rides.compare.differences_report import differences_json
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.rides.source.logs import read_log
-from euc_sim.rides.report.drivetrain_report import ride_drivetrain
-from euc_sim.rides.synth import conceal as cc
+from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
 
 SHARED = (Path(__file__).resolve().parents[4] / "shared" / "data" / "euc_core" / "trips" / "nosfet"
           / "aero" / "0" / "0.csv")

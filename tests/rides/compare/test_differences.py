@@ -193,7 +193,7 @@ def test_a_delay_within_the_logs_resolution_is_not_named():
 
 
 def test_the_page_names_the_alias_set():
-    from euc_sim.rides.report.differences_page import difference_lines
+    from euc_sim.rides.render.differences_page import difference_lines
 
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
     tested = _tested(aerodynamic_drag=(0.18, 0.1, 0.26, True), rolling_resistance=(0.01, -0.01, 0.03, False))

@@ -6,10 +6,10 @@ import json
 
 import pytest
 from drivesynth import drive_log
+import conceal as cc
 
 from euc_sim.cli.app import main
 from euc_sim.rides.grids.power import RHO_AIR
-from euc_sim.rides.synth import conceal as cc
 
 
 def _compare(a, b, out):

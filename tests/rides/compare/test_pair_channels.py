@@ -13,7 +13,7 @@ from drivesynth import DRIVE, drive_log
 
 from euc_sim.rides.compare.channels import CHANNELS, whitening
 from euc_sim.rides.compare.differences_report import differences_json
-from euc_sim.rides.report.drivetrain_report import ride_drivetrain
+from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
 from euc_sim.rides.source.logs import read_log
 
 #: Battery power noise of the twin pairs, W (AR(1), 0.3 s): a logger whose current reads coarsely.

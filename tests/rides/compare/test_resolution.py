@@ -102,7 +102,7 @@ def test_a_difference_well_above_its_predicted_resolution_is_named_and_well_belo
 
 def test_the_json_and_the_page_carry_the_pairs_resolution():
     from euc_sim.rides.compare import differences as df
-    from euc_sim.rides.report.differences_page import difference_lines
+    from euc_sim.rides.render.differences_page import difference_lines
 
     det = {"total_mass": rs.detectable_difference("total_mass", (-2.0, 28.0), 60.0, 1.5,
                                                   blocks=(np.full(20, 4.0), np.full(20, 14.0))),
@@ -128,7 +128,7 @@ def test_the_json_and_the_page_carry_the_pairs_resolution():
 def test_a_difference_of_the_rides_own_fits_that_the_pair_does_not_name_is_explained():
     """The tiles give each ride's own resistance; where those differ and the paired test names
     nothing, the differences block says both, so the page does not contradict itself."""
-    from euc_sim.rides.report.differences_page import difference_lines
+    from euc_sim.rides.render.differences_page import difference_lines
 
     entry = {"name": "internal_resistance", "estimate": 0.0146, "ci95": [-0.015, 0.044], "unit": "ohm",
              "named": False, "resolvable": 0.068, "why": "not significant on the compared ride's held-out "

@@ -71,7 +71,7 @@ def test_trend_words():
 
 
 def test_summary_battery_carries_the_contract_keys(tmp_path):
-    from euc_sim.rides.report.rider_view import rider_numbers
+    from euc_sim.rides.summary.rider_view import rider_numbers
     from euc_sim.rides.source.logs import read_log
     from tests.rides.summarysynth import synth_summary_log
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from euc_sim.rides.drive.grade import grade_profile, plot_grade
+from euc_sim.rides.drive.grade import grade_profile
 from euc_sim.rides.drive.mass import MassFit
 from euc_sim.rides.grids.power import G, PowerSignals, SpeedScale
 
@@ -48,12 +48,3 @@ def test_no_altitude_or_no_mass_gives_none():
     assert grade_profile(sig, fit, t, np.full_like(h, np.nan)) is None
     unknown = MassFit(**{**fit.__dict__, "estimate": None})
     assert grade_profile(sig, unknown, t, h) is None
-
-
-def test_grade_figure_is_written(tmp_path):
-    sig, fit, t, h = _ride(gps_noise=1.0)
-    fit = MassFit(**{**fit.__dict__, "coef": {**fit.coef, "grade": 80.0}})
-    g = grade_profile(sig, fit, t, h)
-    assert g.fitted is not None
-    out = plot_grade(g, tmp_path / "grade.png")
-    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

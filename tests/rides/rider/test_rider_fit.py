@@ -80,7 +80,7 @@ def test_concealed_rider_delay_recovered(tmp_path):
     while the fit was changed (with common draws and the 6 s plan it ended at 0.282 s), so
     this is a regression check, not a score: the study's setting (six 35 s windows, two
     draws) is scored on fresh seeds by studies/rider_calibration.py (docs/rider_calibration.md)."""
-    from euc_sim.rides.synth.ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
+    from ridersynth import RIDER, concealed_fit_inputs, eucworld_power_log, rider_ride
 
     log = eucworld_power_log(rider_ride(5, 110.0, dt=2e-3), tmp_path / "ew.csv", 5)
     fit = rf.fit_rider(read_log(log, emit_warnings=False), windows=1, window_length=80.0, rounds=(12, 10), n_boot=40, seed=5,

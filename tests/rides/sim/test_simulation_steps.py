@@ -167,8 +167,8 @@ def test_a_figure_per_step_with_the_logs_channels(law_log, tmp_path):
 
     from euc_sim.rides.grids.signals import RideAssumptions, ride_signals
     from euc_sim.rides.sim.sim_steps import SimStep
-    from euc_sim.rides.sim.simulate import plot_ride_simulation, simulate_ride
-    from euc_sim.rides.sim.simulation_figure import ride_simulation_figure
+    from euc_sim.rides.render.simulation_figure import plot_ride_simulation, ride_simulation_figure
+    from euc_sim.rides.sim.simulate import simulate_ride
 
     path, ls, law = law_log
     sig = ride_signals(read_log(path, emit_warnings=False), RideAssumptions(torque_constant=ls.K_T))

@@ -1,0 +1,154 @@
+"""What the terminal shows after ``euc-sim ride`` and ``euc-sim rides``: one line a fact.
+
+:func:`summary_lines` reads the ride JSON: the key figures (the page's tiles, the same strings),
+then the held-out errors, the verdict, the effects, the mass, the wheel's limit, the windows
+and the simulated replay.  :func:`history_lines` reads the ``rides`` JSON: one line a ride in
+one zone, then the battery's trend and the latest ride's change.  The commands print the
+lines; nothing here writes.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Mapping
+
+from euc_sim.rides.balance.verdict import unit_label
+from euc_sim.rides.drive.cutout import Limits
+from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
+from euc_sim.rides.render.page import falls_sentence
+from euc_sim.rides.render.page_html import key_figure_lines
+from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend
+
+__all__ = ["summary_lines", "history_lines"]
+
+
+def _step_line(st: Mapping) -> str:
+    """One step's held-out battery-power error and its ratio to the balance fit's."""
+    p = st["heldout_rmse"].get("P_W")
+    r = st.get("ratio_to_balance")
+    return (f"battery-power RMS {p:.0f} W" if p is not None else "no battery-power error") + \
+        (f", {r:.2f}x the balance fit's held-out error (target {st['target_ratio']:g}x)" if r else "")
+
+
+def _mass_lines(rep: Mapping) -> list[str]:
+    """The mass, the drivetrain's unidentified terms, the PWM and the compared ride."""
+    tm = rep["total_mass"]
+    if tm["estimate"] is None:
+        lines = [f"  total mass: not identified ({tm['why']})"]
+    else:
+        ci = tm["ci95"]
+        lines = [f"  total mass (rider + wheel): {tm['estimate']:.0f} kg"
+                 + (f" 95% [{ci[0]:.0f}, {ci[1]:.0f}]" if ci else "")
+                 + (f"  FLAG: {tm['flag']}" if "flag" in tm else "")]
+        if tm.get("rider_mass"):
+            rm = tm["rider_mass"]
+            lines.append(f"  rider (with gear): {rm['estimate']:.0f} kg")
+    for name, why in rep["unidentified"].items():
+        lines.append(f"  not identified: {name}: {why}")
+    if rep.get("pwm") and rep["pwm"].get("heldout_rmse") is not None:
+        lines.append(f"  PWM held out: {rep['pwm']['heldout_rmse']:.1f} percentage points RMS")
+    if rep.get("differences_sentence"):
+        lines.append(f"  compared: {rep['differences_sentence']}")
+    return lines
+
+
+def _limit_line(rep: Mapping) -> str:
+    """The wheel's limit and where the cut-out comes before it."""
+    lim = Limits.of_ride(rep)
+    cut = rep.get("cutout") or {}
+    tail = (cut["danger"] if cut.get("danger") else
+            "the cut-out stays above it at every charge" if cut.get("curves") and lim.speed_limit_mps
+            else f"cut-out not known: {cut['why']}" if cut.get("why") else "cut-out not compared")
+    return f"limit: {lim.words()}; {tail}"
+
+
+def _effect_lines(rep: Mapping) -> list[str]:
+    """The held-out errors, the verdict and each effect kept, named or a candidate."""
+    u = rep["error_unit"]
+    lines = [("" if rep["verdict"]["battery_power"] else "V·I, NOT battery power: ")
+             + f"held-out error ({rep['error_measure']}): inertia-only "
+             f"{rep['heldout_error_nominal']:.1f} {u}, augmented {rep['heldout_error_augmented']:.1f} "
+             f"{u}, ratio {rep['ratio']:.2f}",
+             f"  verdict: {rep['verdict']['text']}"]
+    for e in rep["effects"]:
+        kind = "named" if e["name"] in rep["verdict"]["named"] else "candidate"
+        flag = "" if e["plausible"] else "  IMPLAUSIBLE"
+        al = f"  aliases: {', '.join(e['aliases'])}" if e["aliases"] else ""
+        lines.append(f"  {kind}: {e['name']} = {e['estimate']:.4g} {unit_label(e['unit'])} "
+                     f"95% [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]{flag}{al}")
+    return lines
+
+
+def _simulation_lines(rep: Mapping) -> list[str]:
+    """The simulated replay's errors step by step and its falls, or why it did not run."""
+    sim = rep["simulation"]
+    if not sim:
+        return [f"  simulated replay: {rep.get('simulation_why') or 'not run'}"]
+    e, lines = sim["errors"], []
+    if sim["scored_rows"]:
+        lines.append(f"  simulation along {sim['ride']}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
+                     f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
+        lines += [f"    step {st['step']}: " + (_step_line(st) if st["ran"] else f"not run ({st['why']})")
+                  for st in sim.get("steps", [])]
+    fell = falls_sentence(sim.get("falls", []), sim["scored_rows"], clock_of(rep, sim.get("ride")))
+    if fell:
+        lines.append(f"  simulation along {sim['ride']}: {fell}")
+    return lines
+
+
+def summary_lines(rep: Mapping) -> list[str]:
+    """The terminal's summary of a ride's result, one string a line (no newlines).
+
+    Parameters
+    ----------
+    rep : mapping
+        The ``euc-sim ride`` JSON object (CONTRACT).
+
+    Returns
+    -------
+    list of str
+    """
+    lines = list(key_figure_lines(rep)) + _effect_lines(rep)
+    lines += [f"  warning: {w}" for w in rep.get("input_warnings") or []]
+    lines += _mass_lines(rep) + [f"  {rep['mass_check']['sentence']}", "  " + _limit_line(rep)]
+    if rep["windows"]:
+        clock = rep.get("clock")
+        lines.append(f"  windows, {spans_legend(clock)}: " + ", ".join(span_at(clock, a, b, "-")
+                                                                    for a, b in rep["windows"][:8])
+                     + (" ..." if len(rep["windows"]) > 8 else ""))
+    return lines + _simulation_lines(rep)
+
+
+def history_lines(hist: Mapping, verdicts: bool = False) -> list[str]:
+    """The terminal's table of one wheel's rides, one string a line (no newlines).
+
+    Parameters
+    ----------
+    hist : mapping
+        The ``euc-sim rides`` JSON object (CONTRACT).
+    verdicts : bool
+        Whether the battery's pack is known (``--wheel``): each ride's resistance then carries
+        its verdict.
+
+    Returns
+    -------
+    list of str
+    """
+    off, zone = table_zone(hist)
+    lines = [f"start times in {zone}"]
+    for e in hist["rides"]:
+        s, b = e["summary"], e["battery"]
+        r = b["resistance_25C_ohm"] if hist["basis"] == "25C" else b["resistance_ohm"]
+        lines.append(f"{start_in(e, off)}  {Path(e['path']).name}: {(s['distance_m'] or 0) / 1000:.1f} km, "
+                     f"{s['Wh_per_km'] or float('nan'):.1f} Wh/km, battery {s['battery_used_pct'] or 0:.0f} %, "
+                     f"max PWM {pwm_cell(s['pwm_max_pct'], ' %')}, "
+                     f"resistance {'–' if r is None else f'{1e3 * r:.0f} mΩ'}"
+                     + (f" ({b['verdict']})" if verdicts and r is not None else ""))
+    if hist.get("trend"):
+        lines.append(f"battery: {hist['trend']}")
+    ch = hist["change"]
+    if ch:
+        lines.append(f"latest ride's resistance against the earlier {ch['n_earlier']}: {ch['verdict']} "
+                     f"(difference {1e3 * ch['difference']:+.0f} mΩ, 95% [{1e3 * ch['difference_ci95'][0]:+.0f}, "
+                     f"{1e3 * ch['difference_ci95'][1]:+.0f}], p = {ch['p_value']:.2g})")
+    return lines

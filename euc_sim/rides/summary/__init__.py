@@ -1,0 +1,1 @@
+"""The rider's numbers of a ride: distance, time, speed, energy, battery, clock, mass check."""

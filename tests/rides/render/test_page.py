@@ -1,0 +1,83 @@
+"""The ride page's folded parts (euc_sim.rides.render.page): every fitted value said once.
+
+The Lynx ride 2 page gave C_rr 0.0251 and k 0.553 kg/m in 'Estimates' and again in the
+simulation's section ("effects injected ...: rolling_resistance = 0.0251, ..."), k_cu in a
+simulation note, and the firmware law's K_i, K_d in its table and in the notes.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from euc_sim.rides.render.notes import said_once
+from euc_sim.rides.render.page import _simulation_md
+
+sys.path.append(str(Path(__file__).resolve().parents[2] / "report"))
+import pagenumbers as P  # noqa: E402
+
+
+def _report(notes) -> dict:
+    return {"error_unit": "W", "heldout_error_augmented": 500.0,
+            "assumptions": {"efficiency_for_torque": 0.8},
+            "simulation": {"ride": "b.csv", "errors": {"ratio_P": 0.33, "M_log_method": "power_efficiency"},
+                           "steps": [], "scored_rows": 4828, "notes": notes,
+                           "effects_injected": {"rolling_resistance": 0.0251, "aerodynamic_drag": 0.553}}}
+
+
+def test_the_simulation_names_its_physics_without_repeating_their_values():
+    notes = ["drivetrain: copper_loss = 0.00609 is electrical: added to the predicted battery power, "
+             "not to the mechanics",
+             "measured_law: K_i = -144 N·m/(rad·s) measured but not simulated (MotorPD has no such term)"]
+    md = "\n".join(_simulation_md(_report(notes), {}))
+    assert "rolling_resistance, aerodynamic_drag at their estimates above" in md
+    for value in ("0.0251", "0.553", "0.00609", "-144"):
+        assert value not in md
+    assert "copper_loss is electrical" in md and "K_i measured but not simulated" in md
+    assert not [q for q in P.quantities("sim", md) if q.name in ("rolling_resistance", "aerodynamic_drag")]
+
+
+def test_said_once_keeps_what_the_tables_do_not_give():
+    kd = ("measured_law: K_d measured 4.2 N·m·s/rad, 95 % interval [-54.3, 63.1]: not resolved by the "
+          "log (the interval reaches 0 or below); the simulator uses K_d = 87.2 N·m·s/rad")
+    assert said_once(kd) == ("measured_law: K_d as measured (the law's table): not resolved by the log "
+                             "(the interval reaches 0 or below); the simulator uses K_d = 87.2 N·m·s/rad")
+    other = "nominal: tracking correction 1: RMS speed error while riding 0.455 -> 0.034 m/s"
+    assert said_once(other) == other
+
+
+def test_the_sampling_note_agrees_with_the_tiles_rate():
+    """V9 0: the Data quality tile gave '2.9 samples/s', the notes 'about 37.0 Hz' (the median
+    interval of rows that come in bursts between 409 gaps)."""
+    from euc_sim.rides.render.page import _assumptions_md
+
+    note = ("irregular sampling: intervals 0.008-5.072 s (median 0.027 s, about 37.0 Hz); 409 gap(s) "
+            "longer than 1 s; 883 interval(s) shorter than 20 ms (near-repeats, kept)")
+    rep = {"assumptions": {"R": 0.2, "total_mass": 100.0, "m_eq": 104.0, "sources": {}},
+           "torque_method": "power_efficiency", "power_source": "voltage*current", "notes": [note],
+           "summary": {"sampling_hz": 2.877}}
+    md = "\n".join(_assumptions_md(rep, frozenset({"gaps"})))
+    assert ("(median 0.027 s: 37.0 Hz within bursts between gaps; the tile's rate counts the whole log); "
+            "gaps longer than 1 s as the tile counts;") in md
+    assert not [q for q in P.quantities("notes", md) if q.name == "sampling_rate"]   # the tile's, said once
+    assert "37.0 Hz" in "\n".join(_assumptions_md(rep))         # index.md has no tile: as written
+    even = dict(rep, notes=[note.replace("0.027 s, about 37.0 Hz", "0.200 s, about 5.0 Hz")],
+                summary={"sampling_hz": 4.9})
+    said = "\n".join(_assumptions_md(even, frozenset({"gaps"})))     # near the tile's: no second rate
+    assert "(median 0.200 s between rows; the tile's rate counts the whole log)" in said and "Hz" not in said
+
+
+def test_the_torque_inferred_from_power_is_said_as_an_assumption_for_the_torque_only():
+    """The pages read 'Logged torque from power_efficiency (assumed efficiency 0.8)' and, among
+    the balance fit's assumptions, 'torque from power_efficiency', beside a balance with no efficiency."""
+    from euc_sim.rides.render.page import _assumptions_md
+
+    md = "\n".join(_simulation_md(_report([]), {}))
+    assert "power_efficiency" not in md
+    assert ("The torque column scores against a logged torque from battery power at an assumed drivetrain "
+            "efficiency of 0.8 (--efficiency; only for this torque, the energy balance has no efficiency).") in md
+    rep = {"assumptions": {"R": 0.2, "total_mass": 100.0, "m_eq": 104.0, "sources": {}, "efficiency_for_torque": 0.8},
+           "torque_method": "power_efficiency", "power_source": "voltage*current", "domain": "power"}
+    line = _assumptions_md(rep)[2]
+    assert "torque" not in line and line.endswith("power from voltage*current.")
+    assert "torque from battery power at an assumed" in _assumptions_md(dict(rep, domain="torque"))[2]

@@ -1,0 +1,128 @@
+"""Times as a rider reads them: clock time in the ride's own zone and time into the ride, on
+the tiles (the page, index.md and the terminal say the tiles' strings), and one zone in the
+``rides`` table with its PWM peaks flagged as the page judges them."""
+
+from __future__ import annotations
+
+import warnings
+
+from euc_sim.cli import main
+from euc_sim.rides.render.page_html import key_figure_lines, key_figures
+from euc_sim.rides.summary.rider_view import ride_clock
+from euc_sim.rides.summary.summary import ride_summary
+from euc_sim.rides.source.logs import read_log
+from tests.rides.summarysynth import as_layout, synth_summary_log
+
+
+def _rep(path) -> dict:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        log = read_log(path, emit_warnings=False)
+    return {"summary": ride_summary(log).to_json(), "clock": ride_clock(log)}
+
+
+def test_euc_world_stamps_keep_their_zone_and_the_peak_reads_as_clock_and_time_into_the_ride(tmp_path):
+    """EUC World writes "…T18:15:00.000+0200": the reader made it 16:15 UTC, and the tile said
+    "least margin 26 % at 15:25" (time into the ride, read as a clock time)."""
+    src = synth_summary_log(tmp_path / "w.csv", start="2024-06-01 18:15:00", pwm_peak=(925.0, 74.0),
+                            ride_s=1200.0)
+    rep = _rep(as_layout(src, tmp_path / "e.csv", "eucworld"))
+    tiles = {k.label: k for k in key_figures(rep)}
+    assert "least margin 26 % at 18:30 (15 min 25 s into the ride; marked on the map)" in tiles["Max PWM"].note
+    assert "18:15–18:35 in UTC+02:00" in tiles["Riding time"].note
+    assert rep["clock"]["zone"] == "UTC+02:00" and rep["clock"]["utc_offset_s"] == 7200.0
+    assert rep["clock"]["start"].startswith("2024-06-01T18:15:00")
+    lines = "\n".join(key_figure_lines(rep))        # index.md's and the terminal's first lines
+    assert "at 18:30 (15 min 25 s into the ride" in lines
+
+
+def test_wheellog_clock_is_the_phones_and_said_so(tmp_path):
+    rep = _rep(synth_summary_log(tmp_path / "w.csv", start="2024-06-01 09:00:00", pwm_peak=(65.0, 70.0)))
+    assert rep["clock"]["utc_offset_s"] is None
+    tiles = {k.label: k for k in key_figures(rep)}
+    assert "at 09:01 (1 min 05 s into the ride" in tiles["Max PWM"].note
+    assert "in the phone's local time" in tiles["Riding time"].note
+
+
+def test_a_long_pause_is_said_with_its_clock_times(tmp_path):
+    """A log left running through a stop: the data-quality tile says when the pause was."""
+    rep = _rep(synth_summary_log(tmp_path / "p.csv", start="2024-06-01 09:00:00", gap=(200.0, 1800.0),
+                                 ride_s=2400.0))
+    assert rep["clock"]["pauses"] and rep["clock"]["pauses"][0][1] - rep["clock"]["pauses"][0][0] > 1700
+    note = {k.label: k for k in key_figures(rep)}["Data quality"].note
+    assert "; paused 09:03–09:33 (3 min 20 s into the ride, 30 min)." in note and ".;" not in note
+
+
+def test_the_rides_table_shows_one_zone_and_flags_a_bad_pwm_peak(tmp_path, capsys):
+    """EUC World (UTC+02:00) and WheelLog (the phone's clock) rides started at the same local
+    10:00: the table read 08:00 for one and 10:00 for the other; a 94 % peak was not flagged."""
+    logs = tmp_path / "logs"
+    logs.mkdir()
+    src = synth_summary_log(tmp_path / "a.csv", start="2024-06-01 10:00:00", pwm_peak=(100.0, 94.0),
+                            amps_wave=0.8, R_int=0.15, ocv_per_Ah=1.0, amps=20.0)
+    as_layout(src, logs / "euc_world.csv", "eucworld")
+    synth_summary_log(logs / "wheellog.csv", start="2024-06-02 10:00:00", amps_wave=0.8, R_int=0.15,
+                      ocv_per_Ah=1.0, amps=20.0)
+    assert main(["rides", str(logs), "--n-boot", "10", "--quiet", "--report", str(tmp_path / "page")]) == 0
+    out = capsys.readouterr().out
+    assert "start times in UTC+02:00" in out
+    assert "2024-06-01 10:00  euc_world.csv" in out and "2024-06-02 10:00  wheellog.csv" in out
+    assert "max PWM 94 % BAD (≥ 90 %: close to a cut-out)" in out
+    page = (tmp_path / "page" / "index.html").read_text()
+    assert "start (UTC+02:00" in page and "94 BAD (≥ 90 %" in page and "2024-06-01 10:00" in page
+
+
+def test_windows_and_falls_read_as_clock_and_time_into_the_ride():
+    """The residual's windows read "182.1-186.9" (s into the ride) and a fall "at t = 842.9 s"
+    while the tiles give clock times of the ride's zone: they now read as the tiles do; a fall
+    on the compared ride is said in that ride's clock."""
+    from euc_sim.rides.render.page import _localisation_md, falls_sentence
+    from euc_sim.rides.render.ride_time import clock_of
+
+    clock = {"start": "2025-07-26T13:51:01.613000+02:00", "utc_offset_s": 7200.0, "zone": "UTC+02:00",
+             "pauses": []}
+    rep = {"recording": "4.csv", "windows": [[177.8, 183.2], [3897.0, 3905.5]], "clock": clock,
+           "localisation": {"share": 0.57}}
+    line = next(x for x in _localisation_md(rep, {}) if x.startswith("Windows"))
+    assert ("(57 % of its energy), clock time in UTC+02:00 (time into the ride, min:s): "
+            "13:53:59–13:54:04 (2:58–3:03), 14:55:58–14:56:07 (1:04:57–1:05:06).") in line
+    assert "177.8" not in line
+    other = {**clock, "start": "2025-07-17T16:48:42.819000+02:00"}
+    rep["compared"] = {"recording": "2.csv", "clock": other}
+    fell = falls_sentence([{"t": 842.9, "cause": "|phi| too large", "run": "nominal"}], 10, clock_of(rep, "2.csv"))
+    assert "fell at 17:02 (14 min 03 s into the ride; nominal: |phi| too large)" in fell
+    assert clock_of(rep, "4.csv") is clock and clock_of({"clock": clock}, "2.csv") is clock
+    bare = {"recording": "x.csv", "windows": [[177.8, 183.2]], "localisation": {}}
+    assert "time into the ride, min:s: 2:58–3:03." in _localisation_md(bare, {})[3]
+
+
+def _entry(name: str, start: str, offset):
+    from euc_sim.rides.logbook.history import RideEntry
+
+    summary = {"distance_m": 5000.0, "moving_s": 900.0, "speed_max_mps": 10.0, "energy_drawn_Wh": 100.0,
+               "Wh_per_km": 20.0, "battery_used_pct": 10.0, "pwm_max_pct": 60.0, "quality": "good",
+               "speed_mean_moving_mps": 6.0}
+    battery = {"resistance_ohm": 0.15, "resistance_ci95": [0.14, 0.16], "resistance_25C_ohm": None,
+               "resistance_25C_ci95": None}
+    return RideEntry(path=f"/x/{name}", start=start, layout="eucworld" if offset is not None else "wheellog",
+                     summary=summary, battery=battery, model=None, series=(), temperature_C=None,
+                     temperature_source=None, utc_offset_s=offset)
+
+
+def test_the_rides_are_in_the_order_they_were_ridden_whatever_zone_their_log_keeps():
+    """EUC World keeps UTC (a ride at 10:00 in UTC+02:00 is stored as 08:00), WheelLog the
+    phone's clock (a ride at 09:00 local is stored as 09:00): sorted on the stored strings the
+    later EUC World ride came first.  Sorted on the instant (the phone's clock taken in the
+    zone the table shows), the table reads down in time, in one zone."""
+    from euc_sim.rides.logbook.history import ride_history
+    from euc_sim.rides.render.history_page import history_page, start_in, table_zone
+
+    h = ride_history([_entry("euc_world.csv", "2024-06-01T08:00:00", 7200.0),
+                      _entry("wheellog.csv", "2024-06-01T09:00:00", None),
+                      _entry("later.csv", "2024-06-01T09:30:00", 7200.0)]).to_json()
+    assert [e["path"][3:] for e in h["rides"]] == ["wheellog.csv", "euc_world.csv", "later.csv"]
+    off, zone = table_zone(h)
+    assert [start_in(e, off) for e in h["rides"]] == ["2024-06-01 09:00", "2024-06-01 10:00", "2024-06-01 11:30"]
+    page = history_page(h)
+    assert page.index("wheellog.csv") < page.index("euc_world.csv") < page.index("later.csv")
+    assert f"start ({zone})" in page and zone.startswith("UTC+02:00")

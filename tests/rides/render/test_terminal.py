@@ -1,0 +1,43 @@
+"""The terminal's summary of a ride (euc_sim.rides.render.terminal): lines from the result alone."""
+
+from __future__ import annotations
+
+import copy
+import json
+from pathlib import Path
+
+from euc_sim.rides.render.terminal import history_lines, summary_lines
+
+RIDE = Path(__file__).resolve().parents[3] / "docs" / "ride" / "ride.json"
+
+
+def test_each_simulated_step_has_its_line_and_a_step_not_run_says_why():
+    rep = json.loads(RIDE.read_text())
+    steps = rep["simulation"]["steps"]
+    lines = summary_lines(rep)
+    assert all("\n" not in line for line in lines)
+    assert [ln.strip().split(":")[0] for ln in lines if ln.startswith("    step ")] == [f"step {s['step']}" for s in steps]
+    skipped = copy.deepcopy(rep)
+    skipped["simulation"]["steps"][-1].update(ran=False, why="no time left")
+    assert summary_lines(skipped)[-1].endswith(f"step {steps[-1]['step']}: not run (no time left)")
+
+
+def test_a_ride_not_simulated_says_why_in_its_last_line():
+    rep = json.loads(RIDE.read_text())
+    rep.update(simulation=None, simulation_why="--no-simulate")
+    assert summary_lines(rep)[-1] == "  simulated replay: --no-simulate"
+
+
+def _history(verdict: str = "as new") -> dict:
+    ride = {"path": "/logs/2.csv", "start": "2025-07-17T14:48:00", "utc_offset_s": 7200.0,
+            "summary": {"distance_m": 12200.0, "Wh_per_km": 37.8, "battery_used_pct": 10.0, "pwm_max_pct": 91.0},
+            "battery": {"resistance_ohm": 0.148, "resistance_25C_ohm": None, "verdict": verdict}}
+    return {"rides": [ride], "basis": "as logged", "trend": None, "change": None}
+
+
+def test_the_rides_table_is_in_the_one_zone_and_says_a_verdict_only_with_a_pack():
+    lines = history_lines(_history(), verdicts=False)
+    assert lines == ["start times in UTC+02:00",
+                     "2025-07-17 16:48  2.csv: 12.2 km, 37.8 Wh/km, battery 10 %, "
+                     "max PWM 91 % BAD (≥ 90 %: close to a cut-out), resistance 148 mΩ"]
+    assert history_lines(_history(), verdicts=True)[-1].endswith("resistance 148 mΩ (as new)")
