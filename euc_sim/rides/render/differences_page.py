@@ -126,6 +126,17 @@ def _own_words(d: Mapping) -> str:
             f"(95 % interval {_interval(s, ind['ci95'])})")
 
 
+def _test_words(d: Mapping) -> str:
+    """The paired test's verdict on ``d`` in short: "not significant, p = 0.071, q = 0.14" (and
+    "its own interval includes zero" where that is why), else its ``why`` as written."""
+    why, p, q = d.get("why") or "not significant", d.get("p_value"), d.get("q_value")
+    sig = next((w for w in ("not significant", "significant") if why.startswith(w)), None)
+    if sig is None or p is None:
+        return why
+    return (f"{sig}, p = {p:.2g}" + (f", q = {q:.2g}" if q is not None else "")
+            + ("; its own interval includes zero" if "interval includes" in why else ""))
+
+
 def _resolvable(d: Mapping) -> float:
     """The smallest difference the pair can name: the JSON's ``resolvable``, else the interval's half-width."""
     r = d.get("resolvable")
@@ -190,19 +201,11 @@ def difference_lines(rep: Mapping, log_path=None) -> list[str]:
             out.append(f"- {said_below}")
         else:
             out[0] += f" {said_below}"
-    for d in own:                   # the key figures' difference, with the paired test's why
+    for d in own:                   # the key figures' difference, with the paired test's verdict
         ci, s = d["independent"]["ci95"], SHOWN[d["name"]]
-        apart = ci[0] > 0 or ci[1] < 0
-        why = d.get("why") or "not significant"
-        if not apart and why.startswith("not significant") and d.get("p_value") is not None:
-            why = f"not significant, p = {d['p_value']:.2g}" + (
-                f", q = {d['q_value']:.2g}" if d.get("q_value") is not None else "")
-            out.append(f"- {s.label[0].upper() + s.label[1:]}: {_own_words(d)}: cannot tell, nor can "
-                       f"the paired test ({why}).")
-        else:
-            out.append(f"- {s.label[0].upper() + s.label[1:]}: {_own_words(d)}"
-                       + (", but the paired test does not name it: " if apart else
-                          ": cannot tell; nor does the paired test name it: ") + f"{why}.")
+        out.append(f"- {s.label[0].upper() + s.label[1:]}: {_own_words(d)}"
+                   + (", but the paired test does not name it (" if ci[0] > 0 or ci[1] < 0 else
+                      ": cannot tell, nor can the paired test (") + f"{_test_words(d)}).")
     said = list(dict.fromkeys(meta[d["name"]] for d in diffs if d["name"] in meta))
     if said and not named:
         out += ["", "For comparison, the logs' metadata record "
