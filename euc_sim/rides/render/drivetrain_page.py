@@ -124,6 +124,15 @@ def grade_figure(g, title: str = ""):
     return fig
 
 
+def _level_cutout(cut) -> tuple[float, float] | None:
+    """The cut-out chart's speed on the level at 100 % and at 0 % charge, km/h (the ride JSON's
+    ``cutout``); None without both."""
+    c = next((c for c in (cut or {}).get("curves") or [] if c["condition"] == "level"), None)
+    ends = [] if c is None else [c["speed_mps"][c["charge_pct"].index(q)] if q in c["charge_pct"] else None
+                                 for q in (100.0, 0.0)]
+    return (3.6 * ends[0], 3.6 * ends[1]) if len(ends) == 2 and None not in ends else None
+
+
 #: A systematic part of the mass's interval (``total_mass.systematic``) in people's words:
 #: ``efficiency_model`` is the choice of copper-loss column (κ·F² or its proxy κ·a²).
 SYSTEMATIC_WORDS = {"efficiency_model": "copper-loss model (κ·F² or κ·a²)",
@@ -234,8 +243,15 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
             x = env[name]["v_limit"]
             return (f"none is left above {x * 3.6:.0f} km/h" if x is not None else
                     f"some is still left at {end:.0f} km/h, the figure's end")
-        md += ["", f"Envelope (voltage limit): at full charge ({env['full']['voltage']:.0f} V) "
-                   f"{left('full')}; at low charge ({env['low']['voltage']:.0f} V) {left('low')}. "
+        level = _level_cutout(rep.get("cutout"))
+        said = (f"at full charge ({env['full']['voltage']:.0f} V) {left('full')}; at low charge "
+                f"({env['low']['voltage']:.0f} V) {left('low')}. " if level is None else
+                f"the acceleration left at full duty with the pack at {env['full']['voltage']:.0f} V and at "
+                f"{env['low']['voltage']:.0f} V. The speed at which none is left on the level is the page's "
+                f"cut-out chart's, at the charge as this log reads it ("
+                f"{rep['cutout'].get('ocv_source') or 'its battery reading'}): {level[0]:.0f} km/h at 100 %, "
+                f"{level[1]:.0f} km/h at 0 %. ")
+        md += ["", "Envelope (voltage limit): " + said
                    + ("Faster than this ride's top speed (in the key figures above)" if "top_speed" in shown
                       else f"This ride's top speed was {env.get('ride_top_speed', float('nan')) * 3.6:.0f} "
                            f"km/h: faster than that")

@@ -540,7 +540,7 @@ def envelope_figure(rep: Mapping, series: RideSeries, fit):
     lines = [Line("this ride", c["speed_kmh"][keep], c["pwm_pct"][keep])]
     for name, dash in (("full", "solid"), ("low", "dash")):
         V = env[name]["voltage"]
-        lines.append(Line(f"steady speed at {name} charge ({V:.0f} V)", v * 3.6, _steady_pwm(dt, v, V),
+        lines.append(Line(f"steady speed, the pack at {V:.0f} V", v * 3.6, _steady_pwm(dt, v, V),
                           "lines", dash))
     lines.append(Line("100 %: no voltage left", np.array([0.0, v[-1] * 3.6]), np.array([100.0, 100.0]),
                       "lines", "dot"))
