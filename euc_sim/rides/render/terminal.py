@@ -47,8 +47,11 @@ def _mass_lines(rep: Mapping) -> list[str]:
         lines.append(f"  not identified: {name}: {why}")
     if rep.get("pwm") and rep["pwm"].get("heldout_rmse") is not None:
         lines.append(f"  PWM held out: {rep['pwm']['heldout_rmse']:.1f} percentage points RMS")
-    if rep.get("differences_sentence"):
-        lines.append(f"  compared: {rep['differences_sentence']}")
+    if rep.get("differences_sentence"):     # the JSON's "this ride" is the compared one: named as the page does
+        other = Path(str(rep.get("compare") or "")).name
+        said = rep["differences_sentence"]
+        lines.append("  compared: " + (f"the compared ride ({other})" + said[len("this ride"):]
+                                       if other and said.startswith("this ride") else said))
     return lines
 
 
