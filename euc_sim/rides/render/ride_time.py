@@ -85,10 +85,13 @@ def when(rep: Mapping, t: float, also: str = "") -> str:
 
 
 def span_words(rep: Mapping) -> str:
-    """When the log ran, clock times in the ride's own zone, "17:21–17:43 in UTC+02:00"; '' without."""
+    """When the log ran, clock times in the ride's own zone, "logged 17:21–17:43 in UTC+02:00",
+    with its length where the summary's duration (another clock) rounds to another; '' without."""
     c, s = rep.get("clock"), rep.get("summary") or {}
-    t0, t1 = clock_at(c, 0.0), clock_at(c, float(s.get("logged_s") or 0.0))
-    return f"{t0}–{t1} in {c['zone']}" if t0 and t1 and c.get("zone") else ""
+    logged = float(s.get("logged_s") or 0.0)
+    t0, t1 = clock_at(c, 0.0), clock_at(c, logged)
+    own = f" ({hm(logged)})" if s.get("duration_s") is not None and hm(logged) != hm(float(s["duration_s"])) else ""
+    return f"logged {t0}–{t1}{own} in {c['zone']}" if t0 and t1 and c.get("zone") else ""
 
 
 def pause_words(rep: Mapping) -> str:

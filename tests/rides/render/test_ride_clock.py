@@ -29,7 +29,7 @@ def test_euc_world_stamps_keep_their_zone_and_the_peak_reads_as_clock_and_time_i
     rep = _rep(as_layout(src, tmp_path / "e.csv", "eucworld"))
     tiles = {k.label: k for k in key_figures(rep)}
     assert "least margin 26 % at 18:30 (15 min 25 s into the ride; marked on the map)" in tiles["Max PWM"].note
-    assert "18:15–18:35 in UTC+02:00" in tiles["Riding time"].note
+    assert "logged 18:15–18:35 (21 min) in UTC+02:00" in tiles["Riding time"].note
     assert rep["clock"]["zone"] == "UTC+02:00" and rep["clock"]["utc_offset_s"] == 7200.0
     assert rep["clock"]["start"].startswith("2024-06-01T18:15:00")
     lines = "\n".join(key_figure_lines(rep))        # index.md's and the terminal's first lines
@@ -126,3 +126,16 @@ def test_the_rides_are_in_the_order_they_were_ridden_whatever_zone_their_log_kee
     page = history_page(h)
     assert page.index("wheellog.csv") < page.index("euc_world.csv") < page.index("later.csv")
     assert f"start ({zone})" in page and zone.startswith("UTC+02:00")
+
+
+def test_the_riding_time_says_which_clock_gives_each_length():
+    """Blitz 2: "18 min (of 19 min; the app's trip and riding clocks; 16:48–17:10 in UTC+02:00)":
+    the span reads 22 min against the 19 min beside it.  The span is said as the log's, with its
+    own length where it differs."""
+    rep = {"summary": {"moving_s": 1091.0, "duration_s": 1111.0, "logged_s": 1289.11,
+                       "duration_follows": "the app's trip and riding clocks"},
+           "clock": {"start": "2025-07-17T16:48:42.819000+02:00", "utc_offset_s": 7200.0, "zone": "UTC+02:00"}}
+    note = {k.label: k for k in key_figures(rep)}["Riding time"].note
+    assert note == "of 19 min; the app's trip and riding clocks; logged 16:48–17:10 (21 min) in UTC+02:00"
+    same = dict(rep, summary={**rep["summary"], "logged_s": 1120.0})
+    assert {k.label: k for k in key_figures(same)}["Riding time"].note.endswith("; logged 16:48–17:07 in UTC+02:00")
