@@ -514,8 +514,8 @@ def limits_paragraph(rep: Mapping, limit: bool = True) -> str:
             + (f" The PWM model predicts the logged PWM of {check[1]}, to {check[2]:.1f} points RMS."
                if check else "")
             + (f" Charge to volts: {cut['ocv_source']}." if cut.get("ocv_source") else "")
-            + " The cut-out speeds are the model's: the controller's own current limit, not in the log, "
-              "can come first.")
+            + (" The cut-out speeds are the model's: the controller's own current limit, not in the log, "
+               "can come first." if cut.get("curves") else ""))
 
 
 #: The limits' section's title, on the page and in index.md.
