@@ -11,6 +11,7 @@ the umask's.
 from __future__ import annotations
 
 import errno
+import io
 import json
 import math
 import os
@@ -19,7 +20,9 @@ import tempfile
 from pathlib import Path
 from typing import Any, Callable
 
-from euc_sim.errors import InputError
+import numpy as np
+
+from euc_sim.errors import BadOutputPath, InputError
 
 __all__ = ["atomic_write", "write_text", "write_json", "to_jsonable", "check_writable", "check_output",
            "check_name", "file_kind", "shown", "NAME_MAX",
@@ -74,8 +77,6 @@ def check_output(path: str | Path, folder: bool = False) -> Path:
         naming the path: a component over :data:`NAME_MAX` bytes; a device, FIFO or
         socket that a rename would replace.
     """
-    from euc_sim.errors import BadOutputPath
-
     path = check_name(path, "output", BadOutputPath)
     try:
         mode = os.stat(path).st_mode
@@ -275,8 +276,6 @@ def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
 
 def figure_png(fig, dpi: int = 110) -> bytes:
     """A matplotlib Figure as PNG bytes (for pages written only once all is made)."""
-    import io
-
     buf = io.BytesIO()
     fig.savefig(buf, dpi=dpi, format="png")
     return buf.getvalue()
@@ -346,8 +345,6 @@ def write_recording(df, path: str | Path, meta: dict, truth: dict | None = None)
     them were written, recording last, so a failure leaves none of them behind.
     Floats are written with :data:`FLOAT_FORMAT`: the same table gives the same bytes.
     """
-    import numpy as np
-
     path = Path(path)
     ext = path.suffix.lower()
     if ext not in (".csv", ".parquet"):

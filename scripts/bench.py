@@ -42,7 +42,7 @@ def bench_demo() -> dict:
     import time
 
     import euc_sim
-    from euc_sim.cli.demo import run_demo
+    from euc_sim.api.demo import run_demo
 
     euc_sim.simulate("deceleration", 15.0, seed=1)                     # warm: imports, numba cache
     bare = timed(lambda: euc_sim.simulate("deceleration", 15.0, seed=1), repeat=3)

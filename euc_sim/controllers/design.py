@@ -59,7 +59,7 @@ def design_rider(p: Params = TABLE3, motor: MotorPD | None = None, delay: float 
         With K such that M_h = −K s stabilises ṡ = A_s s + B_s M_h (s with the
         speed-error integral appended unless ``scales["x_int"]`` is None).
     """
-    import control  # python-control; imported here, it takes seconds to load
+    import control  # deferred: loads control (1.6 s)
 
     motor = motor or MotorPD()
     sc = dict(DEFAULT_SCALES)

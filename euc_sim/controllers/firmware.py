@@ -30,7 +30,7 @@ from __future__ import annotations
 import math
 
 from euc_sim.controllers.damping import ZETA_UNRESOLVED, damping_floor
-from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.motor import MotorError, MotorPD
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 
@@ -151,8 +151,6 @@ def firmware_motor(ctrl, p: Params | None = None, **limits) -> tuple[MotorPD, li
     FirmwareError
         see :func:`firmware_settings`; also when the settings are out of MotorPD's range.
     """
-    from euc_sim.controllers.motor import MotorError
-
     settings, notes = firmware_settings(ctrl, p)
     try:
         return MotorPD(**settings, **limits), notes

@@ -112,7 +112,7 @@ def lateral_plant(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3,
     """
     import mujoco
 
-    from euc_sim.model.spatial import EucSpatial
+    from euc_sim.model.spatial import EucSpatial  # deferred: loads mujoco (0.1 s)
 
     sim = EucSpatial(params, tyre, timestep=dt)
     sim.set_straight(speed)

@@ -25,6 +25,7 @@ Optional motor noise: an Ornstein–Uhlenbeck torque added to M_h, seeded.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -110,7 +111,6 @@ class Rider:
 
     def replace(self, **changes) -> "Rider":
         """A copy with some settings changed (validated again)."""
-        import dataclasses
         return dataclasses.replace(self, **changes)
 
 
@@ -384,7 +384,7 @@ def _delay_law(p: Params, motor: MotorPD, K: tuple, dt: float, n: int, predictor
     tuple
         K Φⁿ as a tuple of floats, KG (n,), lower (n+1, n+1), past (n+1, n).
     """
-    from euc_sim.controllers.plant import predictor_rows
+    from euc_sim.controllers.plant import predictor_rows  # deferred: loads scipy.linalg (0.3 s)
 
     K = np.asarray(K, dtype=float)
     if predictor and n > 0:

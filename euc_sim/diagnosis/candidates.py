@@ -8,13 +8,14 @@ measurement effects (rider mass, h drift, time offset).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
 
 from euc_sim.diagnosis import drift_term
 from euc_sim.diagnosis.common import H_BOUNDS, LATERAL_WINDOW, RIDER_MASS_RANGE
-from euc_sim.diagnosis.prepare import Prepared
+from euc_sim.diagnosis.prepare import Prepared, lateral_inputs, marker_tilt
 from euc_sim.diagnosis.residual import residual_model
 from euc_sim.identification import regression as reg
 from euc_sim.model import analytic
@@ -168,9 +169,6 @@ def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: 
     (the crowned tyre's rolling radius, the patch's moment on the spin) the term leaves out
     (docs/spatial.md).
     """
-    from dataclasses import replace
-
-    from euc_sim.diagnosis.prepare import lateral_inputs, marker_tilt
     df, dt = prep.raw, prep.kin.dt
     psi = np.unwrap(df["psi"].to_numpy(float))
     tilts = [df["theta"].to_numpy(float), marker_tilt(df, psi)]

@@ -49,8 +49,15 @@ from euc_sim.diagnosis.estimates import estimate_of, sub_cov
 from euc_sim.diagnosis.prepare import prepare
 from euc_sim.errors import InputError
 from euc_sim.identification import regression as reg
+from euc_sim.identification.design import DESIGN_MANEUVERS
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation import effects as fx
+from euc_sim.simulation.dataset import RecordingSpec, simulated_recordings
+from euc_sim.simulation.engine import default_rider, true_params
+from euc_sim.simulation.errors import FallError
+from euc_sim.simulation.maneuvers import make_maneuver
+from euc_sim.simulation.mocap import NOISE_LEVELS
+from euc_sim.simulation.runner import run_tasks
 
 __all__ = ["nominal_magnitude", "effect_estimate", "effect_study", "effects_design", "effects_design_figure",
            "RELATIVE_TARGETS", "parse_effects"]
@@ -153,12 +160,6 @@ def effect_study(args) -> dict:
     dict
         ``estimates`` and ``se`` (one per ride that did not fall), ``fell``.
     """
-    from euc_sim.simulation.dataset import RecordingSpec, simulated_recordings
-    from euc_sim.simulation.engine import default_rider, true_params
-    from euc_sim.simulation.errors import FallError
-    from euc_sim.simulation.maneuvers import make_maneuver
-    from euc_sim.simulation.mocap import NOISE_LEVELS
-
     name, effect, value, rides, duration, scale, (seed, i, j), p, rider_noise, with_torques = args
     seeds = [int(c.generate_state(1)[0])
              for c in np.random.SeedSequence(seed, spawn_key=(1, i, j)).spawn(rides)]
@@ -229,9 +230,6 @@ def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rid
     ValueError
         naming the argument, for unknown effects or maneuvers, or bad numbers.
     """
-    from euc_sim.identification.design import DESIGN_MANEUVERS
-    from euc_sim.simulation.runner import run_tasks
-
     _check(maneuvers, effect_names, rides, duration, noise_scale, DESIGN_MANEUVERS)
     cols = _COLUMNS + (("M_d", "M_h") if with_torques else ())
     table = {}
@@ -305,7 +303,7 @@ def effects_design_figure(result: dict):
     from matplotlib import rcParamsDefault
     from matplotlib.figure import Figure
 
-    from euc_sim.identification.plots import plain_log_ticks
+    from euc_sim.identification.plots import plain_log_ticks  # deferred: loads matplotlib (0.3 s)
 
     names = [e for e, v in result["effects"].items() if v["visible"]]
     mans = list(result["by_maneuver"])

@@ -40,7 +40,12 @@ import math
 import numpy as np
 import pandas as pd
 
+from euc_sim.controllers.motor import MotorPD
 from euc_sim.diagnosis.prepare import Prepared
+from euc_sim.diagnosis.rider_noise import motor_noise_level, recording_seed
+from euc_sim.simulation import effects
+from euc_sim.simulation.engine import default_rider
+from euc_sim.simulation.spatial import PATHS, simulate_3d, spatial_recording
 
 __all__ = ["plan_of", "twin_recording", "calibrate_item", "model_floor", "twin_floor", "calibrate_lateral",
            "noisy_twins", "twin_artifacts", "NOISE_DRAWS"]
@@ -60,7 +65,6 @@ def plan_of(prep: Prepared) -> dict | None:
     forward speed and Σv / Σ|ψ̇| over the samples whose 2 s mean yaw rate is at least half
     its peak are read from the recording.
     """
-    from euc_sim.simulation.spatial import PATHS
     path = prep.meta.get("maneuver")
     if path not in PATHS or path == "straight" or prep.lateral is None or not set(MARKERS) <= set(prep.raw.columns):
         return None
@@ -109,11 +113,6 @@ def twin_recording(prep: Prepared, plan: dict, h: float, noise_std: float = 0.0,
     ValueError
         when the twin falls (:class:`~euc_sim.simulation.errors.FallError`).
     """
-    from euc_sim.controllers.motor import MotorPD
-    from euc_sim.simulation import effects
-    from euc_sim.simulation.engine import default_rider
-    from euc_sim.simulation.spatial import simulate_3d, spatial_recording
-
     p = prep.params.replace(h=float(np.clip(h, 0.3, 1.1)))
     motor = MotorPD()
     t = prep.raw["t"].to_numpy(float)
@@ -257,9 +256,6 @@ def noisy_twins(prep: Prepared, plan: dict, h: float, diagnose, draws: int = NOI
         out and counted in ``failed``) and ``floor``: the RMS of ``heldout`` (None when
         none), N·m.
     """
-    from euc_sim.diagnosis.rider_noise import motor_noise_level, recording_seed
-    from euc_sim.simulation.engine import default_rider
-
     out = {"level": None, "seeds": [], "heldout": [], "failed": 0, "floor": None}
     if "M_h" not in prep.raw.columns or draws <= 0:
         return out

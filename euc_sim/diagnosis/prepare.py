@@ -16,7 +16,10 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.diagnosis.common import LATERAL_WINDOW, RIDER_MASS_RANGE, SELECT_RATE, DiagnosisError
+from euc_sim.identification import processing, recordings
+from euc_sim.io import sidecar_paths
 from euc_sim.model.parameters import Params
+from euc_sim.model.rider_spatial import plane_coordinates
 
 __all__ = ["Prepared", "prepare", "noise_sd", "lateral_inputs", "marker_tilt"]
 
@@ -99,12 +102,10 @@ class Prepared:
 
     def filtered(self, y: np.ndarray, sigma: float | None = None) -> np.ndarray:
         """The consistent term filter applied along the last axis, at the kept samples."""
-        from euc_sim.identification.processing import term_filter
-        return term_filter(y, self.sigma if sigma is None else sigma, axis=-1)[..., self.keep]
+        return processing.term_filter(y, self.sigma if sigma is None else sigma, axis=-1)[..., self.keep]
 
 
 def _read(source, meta: Mapping | None):
-    from euc_sim.identification import recordings
     if isinstance(source, pd.DataFrame):
         name = str(dict(meta or {}).get("name", "<DataFrame>"))
         df = recordings.validate_recording(source.copy(), name)
@@ -124,8 +125,6 @@ def _nominal_params(params, meta: dict, source, name: str) -> Params:
         ``params.m``, or the argument) when the rider's mass is outside
         :data:`RIDER_MASS_RANGE`: the diagnosis varies it by several kg.
     """
-    from euc_sim.identification import recordings
-    from euc_sim.io import sidecar_paths
     if isinstance(params, Params):
         p, where = params, "params"
     elif params is not None:
@@ -171,7 +170,6 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
     DiagnosisError
         for a recording too short for the filters.
     """
-    from euc_sim.identification import processing
     df, meta, name = _read(source, meta)
     p = _nominal_params(params, meta, source, name)
     sm = smoothing or processing.DEFAULT_SMOOTHING
@@ -206,7 +204,6 @@ def lateral_inputs(df: pd.DataFrame, gamma, l0: float, dt: float, window: float 
     ẍ and G's acceleration in the tilted plane through the same fit, for the rider's
     translation in space (:func:`euc_sim.model.rider_spatial.rider_translation_forces`).
     """
-    from euc_sim.identification import processing
     w = int(round(window / dt)) | 1
     o = 3
     theta, theta_d, theta_dd = processing.savgol_derivatives(df["theta"].to_numpy(float), dt, w, o)
@@ -216,7 +213,6 @@ def lateral_inputs(df: pd.DataFrame, gamma, l0: float, dt: float, window: float 
     if lean is not None:
         lateral.update(lean=lean[0], lean_d=lean[1], lean_dd=lean[2], theta_dd=theta_dd)
         if q is not None and R is not None:   # G's own acceleration, ẍ and G in the plane through the same fit
-            from euc_sim.model.rider_spatial import plane_coordinates
             G = df[["G_X", "G_Y", "G_Z"]].to_numpy(float)
             C = df[["C_X", "C_Y", "C_Z"]].to_numpy(float)
             xi, zeta = plane_coordinates(G, C, psi, marker_tilt(df, psi), R, gamma, lean[0], l0)
@@ -230,7 +226,6 @@ def lateral_inputs(df: pd.DataFrame, gamma, l0: float, dt: float, window: float 
 def marker_tilt(df: pd.DataFrame, psi) -> np.ndarray | None:
     """The EUC's tilt from its own markers, ϑ_E = atan2(−b_y, b_z) with b = T_ψᵀ (E − C), rad,
     in the heading ``psi`` (rad, (N,)); None without the C and E columns (see :func:`_rider_lean`)."""
-    from euc_sim.identification import processing
     cols = ("C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z")
     if not set(cols) <= set(df.columns):
         return None
@@ -251,7 +246,6 @@ def _rider_lean(df: pd.DataFrame, psi, gamma, l0: float, dt: float, w: int, o: i
     G seen from the ankle A in that tilted frame (eq. 1) is
     (h cos λ sin φ, −h sin λ, h cos λ cos φ): λ = atan2(−y_AG, z_AG), whatever h.
     """
-    from euc_sim.identification import processing
     cols = ("C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
     if not set(cols) <= set(df.columns):
         return None

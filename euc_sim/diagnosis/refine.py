@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 
 from euc_sim.diagnosis.candidates import build_problem, freeze, validity_rules
 from euc_sim.diagnosis.common import NONLINEAR, SEARCH
@@ -29,8 +30,6 @@ def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: f
     ends within three search tolerances of an end of it).  ``given``: columns
     fitted beside every set (:func:`selection.project_out`), or None.
     """
-    from scipy.optimize import minimize_scalar
-
     p = prep.params
     nonlin = [c for c in selected if c in NONLINEAR]
     linear = tuple(c for c in selected if c not in NONLINEAR)

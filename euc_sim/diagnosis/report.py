@@ -24,6 +24,9 @@ from pathlib import Path
 
 import numpy as np
 
+from euc_sim.diagnosis.report_html import diagnosis_html
+from euc_sim.io import atomic_write, figure_png, write_text
+from euc_sim.report.html import write_page
 from euc_sim.simulation.effects import CATALOG
 
 __all__ = ["summary", "write_report", "report_paths", "resimulation_change_text", "FIGURES",
@@ -249,7 +252,7 @@ def before_after_figure(result: dict):
     A logarithmic N·m axis with plain numbers and a second axis in multiples of
     the noise floor: a bar near the floor stays distinct from it; every bar is labelled.
     """
-    from euc_sim.identification.plots import plain_log_ticks
+    from euc_sim.identification.plots import plain_log_ticks  # deferred: loads matplotlib, pandas (0.6 s)
 
     floor = result["noise_floor"]
     labels, values = ["nominal"], [result["nominal_rmse"]]
@@ -368,8 +371,6 @@ def write_report(result: dict, outdir: str | Path) -> Path:
     OSError
         naming the path that cannot be written.
     """
-    from euc_sim.io import atomic_write, figure_png, write_text
-
     if "_series" not in result:
         raise ValueError("result: expected the dict returned by diagnose() (with '_series'), "
                          "got one without its arrays")
@@ -379,8 +380,6 @@ def write_report(result: dict, outdir: str | Path) -> Path:
         fig = build(result)
         figures[name] = None if fig is None else figure_png(fig, dpi)
     page = _markdown(result, has_resim=figures["resimulation.png"] is not None)
-    from euc_sim.diagnosis.report_html import diagnosis_html
-    from euc_sim.report.html import write_page
 
     html = diagnosis_html(result, page)
     for name, png in figures.items():

@@ -12,6 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import plotly.graph_objects as go
 
 from euc_sim.report import html as H
 
@@ -65,7 +66,6 @@ def _thin(n: int) -> np.ndarray:
 
 def residual_figure(r: dict):
     """The residual over time, nominal and with the effects, windows shaded, the noise band."""
-    import plotly.graph_objects as go
     from plotly.subplots import make_subplots
 
     s = r["_series"]
@@ -104,8 +104,6 @@ def residual_figure(r: dict):
 
 def before_after_figure(r: dict):
     """Held-out error of the nominal model and with the effects, against the noise floor."""
-    import plotly.graph_objects as go
-
     labels = ["nominal model", "with the effects found", "sensor noise alone"]
     vals = [r["nominal_rmse"], r["augmented_rmse"], r["noise_floor"]]
     fig = go.Figure(go.Bar(x=labels, y=vals, marker_color=["#c62828", "#1565c0", "#9e9e9e"],

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from euc_sim.diagnosis.prepare import Prepared
-from euc_sim.identification import regression as reg
+from euc_sim.identification import h_fit as ident, processing, regression as reg
 from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 
@@ -61,7 +61,6 @@ def residual_model(prep: Prepared, p: Params | None = None, sigma: float | None 
     subset.  With another ``sigma`` (a different term filter, samples)
     the same polynomial is built here on the full length.
     """
-    from euc_sim.identification import h_fit as ident
     p = prep.params if p is None else p
     kin = prep.kin
     if sigma is None:
@@ -114,7 +113,6 @@ def noise_floor(prep: Prepared, h: float, seed: int = 0) -> dict:
         ``rms`` (N·m, kinematic residual), ``rms_stacked`` (all rows), ``tau_int``
         (kept samples), ``noise``: the residual samples (stacked).
     """
-    from euc_sim.identification import processing
     rng = np.random.default_rng(seed)
     n = prep.t.size
     sm = prep.kin.smoothing

@@ -10,6 +10,9 @@ import numpy as np
 
 from euc_sim.diagnosis.prepare import Prepared
 from euc_sim.model.parameters import Params
+from euc_sim.simulation import engine as simulation, maneuvers
+from euc_sim.simulation.drift import DriftShape
+from euc_sim.simulation.lateral import LATERAL_INPUTS
 
 __all__ = ["resimulate_recording"]
 
@@ -21,7 +24,6 @@ def _sim_params(p: Params, h: float) -> Params:
 def _maneuver_of(prep: Prepared):
     """The planned maneuver: the sidecar's (name and ``maneuver_options``) when it names a
     built-in one, else the recording's own filtered speed as a ``profile``."""
-    from euc_sim.simulation import maneuvers
     name = prep.meta.get("maneuver")
     opts = prep.meta.get("maneuver_options") or {}
     if isinstance(name, str) and name in maneuvers.MANEUVERS and name != "profile":
@@ -57,7 +59,6 @@ def resimulate_recording(prep: Prepared, result: dict, engine: str = "mujoco") -
         and ẋ (m/s) against the recording; ``series`` (t, recorded and simulated φ, ẋ)
         for the figure; or ``reason`` when the maneuver could not be re-simulated.
     """
-    from euc_sim.simulation import engine as simulation
     t = prep.t
     k = prep.keep
     man, how = _maneuver_of(prep)
@@ -119,8 +120,6 @@ def _lateral_motion(prep: Prepared, duration: float, sim_dt: float):
     """
     from scipy.integrate import cumulative_trapezoid
 
-    from euc_sim.simulation import maneuvers
-    from euc_sim.simulation.lateral import LATERAL_INPUTS
     t = prep.t
     grid = np.arange(int(round(duration / sim_dt)) + 1) * sim_dt + t[0]
     on = {key: np.interp(grid, t, prep.lateral[key]) for key in LATERAL_INPUTS}
@@ -131,7 +130,6 @@ def _lateral_motion(prep: Prepared, duration: float, sim_dt: float):
 
 def _drift_profile(result: dict):
     """The named drift's h(t) as the simulator's ``profile`` shape (times from the recording's start)."""
-    from euc_sim.simulation.drift import DriftShape
     item = next(e for e in result["effects"] if e["name"] == "cog_height_drift")
     ht = item["h_of_t"]
     t = np.asarray(ht["t"], float)

@@ -33,6 +33,7 @@ draws its rider-noise and sensor-noise seeds from it.
 from __future__ import annotations
 
 import math
+import textwrap
 import warnings
 from typing import Sequence
 
@@ -42,7 +43,10 @@ from euc_sim.errors import InputError
 from euc_sim.identification.h_fit import identify_h, residual_poly
 from euc_sim.identification.processing import DEFAULT_SMOOTHING, kinematics
 from euc_sim.model.parameters import Params, TABLE3
-from euc_sim.simulation.mocap import NOISE_LEVELS
+from euc_sim.simulation.engine import default_rider
+from euc_sim.simulation.errors import FallError
+from euc_sim.simulation.maneuvers import make_maneuver
+from euc_sim.simulation.mocap import NOISE_LEVELS, motion_capture
 
 __all__ = ["DESIGN_MANEUVERS", "FLAT_FACTOR", "FISHER_MAX_LAG", "maneuver_study", "design",
            "recommendation", "design_figure"]
@@ -108,11 +112,7 @@ def maneuver_study(args) -> dict:
         ``identifiable`` (scales × rides); ``h_grid`` and ``rmse_rel`` (scales × grid),
         the mean RMSE(h) curve over the rides divided by its minimum; ``fell``.
     """
-    from euc_sim.simulation.engine import default_rider
-    from euc_sim.simulation.errors import FallError
-    from euc_sim.simulation.maneuvers import make_maneuver
-    from euc_sim.simulation.mocap import motion_capture
-    from euc_sim.simulation.mujoco_batch import simulate_rides
+    from euc_sim.simulation.mujoco_batch import simulate_rides  # deferred: loads scipy.linalg, mujoco (0.4 s)
 
     name, rides, duration, scales, (seed, index), p, rider_noise = args
     states = [c.generate_state(2) for c in np.random.SeedSequence(seed, spawn_key=(index,)).spawn(rides)]
@@ -190,7 +190,7 @@ def design(maneuvers: Sequence[str], *, rides: int = 40, duration: float = 15.0,
         naming the argument, for unknown maneuvers or bad numbers; and when a
         maneuver's rides all fall or fail.
     """
-    from euc_sim.simulation.runner import run_tasks
+    from euc_sim.simulation.runner import run_tasks  # deferred: loads multiprocessing, tqdm (0.03 s)
 
     _check(maneuvers, rides, duration, noise_scales, targets)
     tasks = [(m, (m, rides, float(duration), tuple(noise_scales), (int(seed), i), params, rider_noise))
@@ -274,7 +274,7 @@ def design_figure(result: dict):
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
-    from euc_sim.identification.plots import plain_log_ticks
+    from euc_sim.identification.plots import plain_log_ticks  # deferred: loads matplotlib (0.3 s)
 
     scales = result["noise"]["scales"]
     fig = Figure(figsize=(max(4.4 * len(scales), 9.0), 8.2), layout="constrained")
@@ -317,5 +317,4 @@ def design_figure(result: dict):
 
 
 def _wrap(text: str, width: int = 70) -> str:
-    import textwrap
     return "\n".join(textwrap.wrap(text, width))

@@ -27,6 +27,7 @@ the filtered balance back to N·m.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -37,6 +38,7 @@ from euc_sim.errors import InputError
 from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 from euc_sim.identification.processing import DEFAULT_SMOOTHING, Kinematics, Smoothing, kinematics, term_filter
+from euc_sim.identification.recordings import params_from_meta, read_recording
 from euc_sim.identification.torques import MODELS, model_functions
 from euc_sim.stats import basic_interval, moving_block_starts
 
@@ -326,8 +328,6 @@ def with_noise(fit: HFit, spread, n_boot: int, block: float, blocks: int,
     -------
     HFit
     """
-    import dataclasses
-
     sd, b = spread.sd, spread.bias
     if not (math.isfinite(sd) and math.isfinite(b)):
         return fit
@@ -372,8 +372,6 @@ def with_full_block(reduced: HFit, full: HFit, n_boot: int, block: float, blocks
     HFit
         ``reduced`` itself when ``full`` has no replicates.
     """
-    import dataclasses
-
     if full.boot.size == 0:
         return reduced
     boot = reduced.h + (np.asarray(full.boot, dtype=float) - full.h)
@@ -514,8 +512,6 @@ def load(path, smoothing: Smoothing = DEFAULT_SMOOTHING, params: Params | None =
     ------
     euc_sim.identification.recordings.RecordingError, FileNotFoundError
     """
-    from euc_sim.identification.recordings import params_from_meta, read_recording
-
     df, meta = read_recording(path)
     p = params if params is not None else params_from_meta(meta, path)
     if d_CE is None and meta.get("d_CE") is not None:
@@ -559,7 +555,7 @@ def identify_recordings(recs: list[Recording], bounds=(0.1, 1.5), grid_step: flo
 
     per = [borrow(fits, [pp[REDUCED]]) for fits, pp in zip(per, polys)]
     pooled = borrow(pooled, [pp[REDUCED] for pp in polys]) if len(recs) > 1 else per[0]
-    from euc_sim.identification import noise_bootstrap as nb
+    from euc_sim.identification import noise_bootstrap as nb  # deferred: loads scipy.signal (1.1 s)
 
     n_noise = nb.N_REPLICATES if n_noise is None else int(n_noise)
     if n_noise > 0:

@@ -26,6 +26,7 @@ from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
 from euc_sim.identification.processing import (Kinematics, Smoothing, kinematics, sample_period,
                                                savgol_derivatives)
+from euc_sim.identification.recordings import is_mocap
 
 #: Smooth part of a measured column: Savitzky–Golay window (s) and order.  Long enough
 #: to pass only ~1/6 of white noise, short enough to follow ~1 Hz rider motion.
@@ -42,8 +43,6 @@ _CHUNK = 20
 
 def _state_level(df: pd.DataFrame, kin_kw: dict) -> bool:
     """Whether :func:`kinematics` differentiates the recorded x, γ, φ directly."""
-    from euc_sim.identification.recordings import is_mocap
-
     src = kin_kw.get("source", "auto")
     return src == "state" or (src == "auto" and not is_mocap(df))
 

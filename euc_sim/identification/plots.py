@@ -11,9 +11,11 @@ from pathlib import Path
 import numpy as np
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
+from matplotlib.ticker import FixedLocator, FormatStrFormatter, LogLocator, NullFormatter, NullLocator
 
 from euc_sim.errors import InputError
 from euc_sim.identification.h_fit import MIN_RISE
+from euc_sim.identification.processing import term_filter
 from euc_sim.io import save_figure
 
 __all__ = ["recording_figure", "rmse_curves_figure",
@@ -70,7 +72,6 @@ def recording_figure(rec, torques_df, fit):
             sl = kin.interior            # edges lack filter support: not drawn, shaded
             ti = t[sl]
             if "M_d" in rec.df.columns:      # through the same term filter as the estimates
-                from euc_sim.identification.processing import term_filter
 
                 M_d = term_filter(rec.df["M_d"].to_numpy(dtype=float),
                                   kin.smoothing.sigma_samples(kin.dt))
@@ -268,8 +269,6 @@ def plain_log_ticks(axis, ticks=None) -> None:
     ticks : sequence of float, optional
         The tick positions; by default 1, 2 and 5 of every decade.
     """
-    from matplotlib.ticker import FixedLocator, FormatStrFormatter, LogLocator, NullFormatter, NullLocator
-
     axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)) if ticks is None else FixedLocator(list(ticks)))
     axis.set_major_formatter(FormatStrFormatter("%g"))
     axis.set_minor_formatter(NullFormatter())

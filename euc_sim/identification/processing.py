@@ -34,6 +34,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.errors import InputError
+from euc_sim.identification.recordings import RecordingError, check_length, is_mocap
 from euc_sim.model.parameters import Params
 
 __all__ = [
@@ -377,8 +378,6 @@ def kinematics(df: pd.DataFrame, p: Params, smoothing: Smoothing = DEFAULT_SMOOT
     euc_sim.identification.recordings.RecordingError
         when the recording is too short for the smoothing.
     """
-    from euc_sim.identification.recordings import check_length, is_mocap
-
     t = df["t"].to_numpy(dtype=float)
     dt = sample_period(t)
     check_length(df, name, smoothing.min_samples(dt),
@@ -389,7 +388,6 @@ def kinematics(df: pd.DataFrame, p: Params, smoothing: Smoothing = DEFAULT_SMOOT
     has_mocap = {"G_X", "G_Y", "G_Z", "psi", "theta", "gamma"} <= set(df.columns) and (
         {"C_X", "C_Y", "C_Z"} <= set(df.columns) or {"E_X", "E_Y", "E_Z"} <= set(df.columns))
     if source == "mocap" and not has_mocap:
-        from euc_sim.identification.recordings import RecordingError
         raise RecordingError(f"{name}: column 'G_X' row 0: motion-capture columns (C or E, G, "
                              f"psi, theta, gamma) are needed for Section 2 processing")
     if source == "mocap" or (source == "auto" and is_mocap(df)):
@@ -397,7 +395,6 @@ def kinematics(df: pd.DataFrame, p: Params, smoothing: Smoothing = DEFAULT_SMOOT
     w, o = smoothing.samples(dt), smoothing.order
     missing = [c for c in ("x", "gamma", "phi") if c not in df.columns]
     if missing:
-        from euc_sim.identification.recordings import RecordingError
         raise RecordingError(f"{name}: column {missing[0]!r} missing: the state source needs x, gamma "
                              f"and phi{' (or the motion-capture columns with --source mocap)' if has_mocap else ''}")
     Q = df[["x", "gamma", "phi"]].to_numpy(dtype=float)

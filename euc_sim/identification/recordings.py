@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.errors import BadInputFile
-from euc_sim.model.parameters import Params
+from euc_sim.model.parameters import Params, check_plausible
 
 __all__ = [
     "RecordingError", "RecordingWarning", "STATE_COLUMNS", "MOCAP_COLUMNS", "ANGLE_COLUMNS",
@@ -126,8 +126,6 @@ def params_from_meta(meta: dict[str, Any], source: str | Path = "sidecar") -> Pa
     RecordingError
         naming the sidecar and the offending parameter.
     """
-    from euc_sim.model.parameters import check_plausible
-
     values = meta.get("params") or {}
     if not isinstance(values, dict):
         raise RecordingError(f"{source}: \"params\" must be an object {{NAME: value}}, "

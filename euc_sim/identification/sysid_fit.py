@@ -112,7 +112,7 @@ def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
     if not sysid_available():
         raise RolloutError(MISSING_EXTRA)
     import mujoco.sysid as ms
-    from absl import logging as absl_logging
+    from absl import logging as absl_logging  # deferred: loads absl, the mujoco[sysid] extra's (optional)
     absl_logging.set_verbosity(absl_logging.ERROR)      # one warning per window otherwise
 
     t0 = time.perf_counter()

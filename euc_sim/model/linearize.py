@@ -168,7 +168,7 @@ def check_against_mujoco(p: Params = TABLE3, y=None, u=None, dt: float = 1e-3,
     """
     import mujoco
 
-    from euc_sim.model.mujoco_model import EucMujoco
+    from euc_sim.model.mujoco_model import EucMujoco  # deferred: loads mujoco (0.1 s)
 
     y = np.asarray(CHECK_POINT[0] if y is None else y, dtype=float)
     u = CHECK_POINT[1] if u is None else tuple(u)

@@ -15,13 +15,21 @@ them; :func:`write_page` writes ``DIR/index.html`` atomically.
 
 from __future__ import annotations
 
+import base64
 import functools
+import hashlib
 import html
 import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Mapping, Sequence
+
+import plotly.io as pio
+from plotly.offline import get_plotlyjs
+
+from euc_sim.io import write_text
+from euc_sim.report.figures import OSM_TILES
 
 __all__ = ["KeyFigure", "key_figures", "paragraph", "table", "figure", "section", "page",
            "write_page", "columns", "lead", "box", "markdown", "safe_href", "policy", "PLOTLY_CONFIG"]
@@ -119,8 +127,6 @@ def figure(fig, div_id: str, height: int = 380) -> str:
     height : int
         Pixels.
     """
-    import plotly.io as pio
-
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]*", div_id):
         raise ValueError(f"figure id {div_id!r}: expected letters, digits, '_' and '-'")
     spec = pio.to_json(fig, validate=False) if not isinstance(fig, dict) else json.dumps(fig)
@@ -167,8 +173,6 @@ def page(title: str, subtitle: str, body: Sequence[str]) -> str:
 
 @functools.lru_cache(maxsize=1)
 def _plotly_js() -> str:
-    from plotly.offline import get_plotlyjs
-
     return get_plotlyjs().replace("</script", "<\\/script")
 
 
@@ -213,9 +217,6 @@ def _plotly_styles() -> tuple[str, ...]:
 
 @functools.lru_cache(maxsize=16)          # Plotly's script (4.8 MB) is hashed once, not once a page
 def _sha256(text: str) -> str:
-    import base64
-    import hashlib
-
     return "'sha256-" + base64.b64encode(hashlib.sha256(text.encode("utf-8")).digest()).decode("ascii") + "'"
 
 
@@ -242,8 +243,6 @@ def policy(markup: str) -> str:
     them (MapLibre fetches, then draws in a ``blob:`` worker). No frame, object, form
     or base URL.
     """
-    from euc_sim.report.figures import OSM_TILES
-
     scripts = [s for s in _scripts(markup) if _own_script(s)]
     styles = [_STYLE, *_plotly_styles()]
     img = fetch = ""
@@ -258,8 +257,6 @@ def policy(markup: str) -> str:
 
 def write_page(folder: str | Path, text: str) -> Path:
     """Write ``folder/index.html`` atomically (the folder is created); returns its path."""
-    from euc_sim.io import write_text
-
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     return write_text(folder / "index.html", text)
@@ -380,8 +377,6 @@ def markdown(lines: Sequence[str], figures: Mapping[str, tuple] | None = None) -
 
 def image(path: str | Path, caption: str) -> str:
     """A PNG or SVG figure inline (a data URI: the page fetches nothing), with its caption."""
-    import base64
-
     path = Path(path)
     kind = {".png": "image/png", ".svg": "image/svg+xml"}.get(path.suffix.lower())
     if kind is None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import socket
 import struct
+import tempfile
 import time
 
 from distributed import Client, LocalCluster, Nanny, Scheduler, Worker
@@ -66,8 +67,6 @@ def local_cluster(workers: int, scratch):
     pickled code.  No node opens an HTTP port (:class:`_NoHttp`).  ``scratch`` (an
     ``ExitStack``) gets the cluster's temporary folder and configuration.
     """
-    import tempfile
-
     import dask
 
     tmp = scratch.enter_context(tempfile.TemporaryDirectory(prefix="euc-sim-dask-"))

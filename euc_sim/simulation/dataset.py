@@ -1,7 +1,6 @@
 """Synthetic recordings: simulate, sample like motion capture, write with sidecars.
 
-:func:`simulated_recording` makes one recording in memory; :func:`write_simulated`
-writes it (``NAME.csv`` + ``NAME.json`` + ``NAME.truth.json``); :func:`run_dataset`
+:func:`simulated_recording` makes one recording in memory; :func:`run_dataset`
 makes a set shaped like the paper's longitudinal recordings (Table 1: constant
 speed 7, acceleration 3, deceleration 2; plus stop-and-go) in parallel
 (:mod:`euc_sim.simulation.runner`: a process pool or Dask).
@@ -19,7 +18,12 @@ the same plan only, never a folder holding anything else.
 
 from __future__ import annotations
 
+import hashlib
+import json
 import math
+import os
+import shutil
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping
@@ -32,11 +36,12 @@ from euc_sim import io
 from euc_sim.errors import InputError
 from euc_sim.simulation.mocap import motion_capture
 from euc_sim.model.parameters import Params, TABLE3
+from euc_sim.simulation import effects as fx, runner
 from euc_sim.simulation.maneuvers import Maneuver, make_maneuver
 from euc_sim.simulation.engine import default_rider, simulate, true_params
 
 __all__ = ["PAPER_SET", "DEFAULT_RIDER_NOISE", "RecordingSpec", "simulated_recording", "simulated_recordings",
-           "write_simulated", "dataset_plan", "run_dataset", "plan_digest", "DATASET_BATCH"]
+           "dataset_plan", "run_dataset", "plan_digest", "DATASET_BATCH"]
 
 #: The paper's longitudinal maneuvers (Table 1) and how many recordings of each, plus
 #: stop-and-go, which identifies h best (docs/scale.md).
@@ -110,7 +115,7 @@ def simulated_recordings(specs: list[RecordingSpec], nthread: int = 1) -> list:
     list
         Per spec, in order: ``(recording, meta, truth)``, or the ``FallError`` of its rider.
     """
-    from euc_sim.simulation.mujoco_batch import simulate_rides
+    from euc_sim.simulation.mujoco_batch import simulate_rides  # deferred: loads scipy.linalg, mujoco (0.4 s)
 
     runs = simulate_rides([_request(s) for s in specs], nthread=nthread)
     return [run if isinstance(run, Exception) else _sampled(spec, run) for spec, run in zip(specs, runs)]
@@ -155,19 +160,7 @@ def _sampled(spec: RecordingSpec, run):
 
 
 def _unit(name: str) -> str:
-    from euc_sim.simulation.effects import get
-    return get(name).unit
-
-
-def write_simulated(path: str | Path, spec: RecordingSpec) -> Path:
-    """Simulate, sample and write ``path`` with ``NAME.json`` and ``NAME.truth.json``.
-
-    The destination is checked before the simulation runs; nothing is written when
-    the run fails.
-    """
-    io.check_writable(path)
-    rec, meta, truth = simulated_recording(spec)
-    return io.write_recording(rec, path, meta, truth)
+    return fx.get(name).unit
 
 
 def dataset_plan(seed: int = 0, duration: float = 15.0, counts=PAPER_SET, params: Params = TABLE3,
@@ -228,19 +221,14 @@ MANIFEST = "dataset.json"
 def _make_batch(args):
     """Worker side: one batch of recordings in memory (written by the parent, atomically);
     a spec whose rider fell gives its one-line reason instead."""
-    from euc_sim.simulation.runner import _reason
-
     specs, nthread = args
-    return [_reason(v) if isinstance(v, Exception) else v for v in simulated_recordings(specs, nthread)]
+    return [runner._reason(v) if isinstance(v, Exception) else v for v in simulated_recordings(specs, nthread)]
 
 
 def plan_digest(specs: list[RecordingSpec], ext: str = ".csv") -> str:
     """SHA-256 (hex) of everything that makes a dataset's files: each spec's name, maneuver,
     duration, seed, parameters, effects, noise, engine, ground, motor, rider and
     disturbances, and the format ``ext``."""
-    import hashlib
-    import json
-
     def one(s: RecordingSpec) -> dict:
         force = s.external_force
         return {"name": s.name, "maneuver": s.maneuver.as_dict(), "duration": s.duration, "seed": s.seed,
@@ -257,8 +245,6 @@ def plan_digest(specs: list[RecordingSpec], ext: str = ".csv") -> str:
 def _check_folder(out_dir: Path, digest: str) -> None:
     """Raise ``InputError`` (one line) unless ``out_dir`` is missing, empty, or a previous
     dataset of the same plan (its manifest's ``plan`` is ``digest``) holding nothing else."""
-    import json
-
     if not out_dir.exists():
         return
     if not out_dir.is_dir():
@@ -290,9 +276,6 @@ class _Staging:
         self.path: Path | None = None
 
     def __enter__(self) -> Path:
-        import os
-        import tempfile
-
         parent, name = self.out_dir.parent, self.out_dir.name
         try:
             parent.mkdir(parents=True, exist_ok=True)
@@ -306,10 +289,6 @@ class _Staging:
     def commit(self) -> None:
         """Rename the staged folder into place (an existing dataset of the same plan is
         moved aside first and removed after)."""
-        import os
-        import shutil
-        import tempfile
-
         os.chmod(self.path, 0o777 & ~_umask())          # mkdtemp makes 0700
         if self.out_dir.is_dir() and any(self.out_dir.iterdir()):
             aside = Path(tempfile.mkdtemp(prefix=f".{self.out_dir.name}.old-", dir=self.out_dir.parent))
@@ -324,8 +303,6 @@ class _Staging:
         self._clean()
 
     def _clean(self) -> None:
-        import shutil
-
         if self.path is not None:
             shutil.rmtree(self.path, ignore_errors=True)
             self.path = None
@@ -337,9 +314,6 @@ class _Staging:
 
 def _remove_stale(parent: Path, prefix: str) -> None:
     """Remove ``PREFIX<pid>-XXXX`` folders in ``parent`` whose process no longer runs."""
-    import os
-    import shutil
-
     for d in parent.glob(prefix + "*"):
         pid = d.name[len(prefix):].split("-")[0]
         if not (d.is_dir() and pid.isdigit()):
@@ -353,8 +327,6 @@ def _remove_stale(parent: Path, prefix: str) -> None:
 
 
 def _umask() -> int:
-    import os
-
     mask = os.umask(0)
     os.umask(mask)
     return mask
@@ -410,10 +382,8 @@ def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | 
         for a folder that is neither missing, empty nor a dataset of this plan, or a bad
         ``batch``/backend, before anything runs.
     """
-    from euc_sim.simulation.runner import RunReport, check_backend, run_tasks
-
     out_dir = Path(out_dir)
-    check_backend(scheduler, workers)
+    runner.check_backend(scheduler, workers)
     batch = DATASET_BATCH if batch is None else batch
     if not (isinstance(batch, int) and not isinstance(batch, bool) and batch >= 1):
         raise InputError(f"batch: expected a positive number of recordings, got {batch!r}")
@@ -432,11 +402,11 @@ def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | 
                     rec, meta, truth = value
                     written[spec.name] = io.write_recording(rec, stage / f"{spec.name}{ext}", meta, truth).name
 
-        by_batch = run_tasks(_make_batch, [(n, (g, threads)) for n, g in groups.items()], scheduler=scheduler,
+        by_batch = runner.run_tasks(_make_batch, [(n, (g, threads)) for n, g in groups.items()], scheduler=scheduler,
                              workers=workers, progress=progress, desc="dataset", on_result=write)
         for name, reason in by_batch.failed.items():      # a batch that died: each of its recordings named
             fell.update({spec.name: reason for spec in groups[name]})
-        report = RunReport(names=[s.name for s in specs], backend=by_batch.backend, seconds=by_batch.seconds)
+        report = runner.RunReport(names=[s.name for s in specs], backend=by_batch.backend, seconds=by_batch.seconds)
         report.results = {s.name: out_dir / written[s.name] for s in specs if s.name in written}
         report.failed = {s.name: fell[s.name] for s in specs if s.name in fell}
         settings = dict(settings or {})

@@ -51,6 +51,7 @@ external forces are evaluated at the start of each step and held, in both engine
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from itertools import chain
@@ -66,6 +67,7 @@ from euc_sim.simulation import effects as fx
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation.errors import FallError, SimulationError, check_stable
 from euc_sim.simulation.maneuvers import LateralMotion, as_maneuver, lateral_profile
+from euc_sim.simulation.native import native_loop
 from euc_sim.simulation.steppers import _AnalyticStepper, _MujocoStepper  # noqa: F401  (re-exported)
 
 
@@ -118,7 +120,7 @@ def default_rider(params: Params = TABLE3, motor: MotorPD | None = None,
                   noise_std: float = 0.0, delay: float = 0.15) -> Rider:
     """The LQR-designed rider of :func:`euc_sim.controllers.design.design_rider`, cached per
     (params, motor), with the given motor noise (N·m) and reaction delay (s)."""
-    from euc_sim.controllers.design import design_rider
+    from euc_sim.controllers.design import design_rider  # deferred: loads scipy.linalg (0.3 s)
 
     motor = motor or MotorPD()
     key = (params, motor)
@@ -225,8 +227,6 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     try:
         result = None
         if native and engine == "mujoco":
-            from euc_sim.simulation.native import native_loop
-
             forces = (ext.k_drag, ext.C_rr, ext.N_load, ride.p_true.R, external_force) if ext.per_step else None
             result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress, forces,
                                  _moving(ext, ride.p_true, dt))
@@ -386,9 +386,7 @@ def _external_inputs(p_true: Params, eff: dict, t: np.ndarray, v_ref: np.ndarray
             lat_scale = (eff["lateral_dynamics"] / peak) ** 2 if peak > 0 else 0.0
     C_rr = eff.get("rolling_resistance", 0.0)
     if rolling_model == "contact":
-        import dataclasses
-
-        from euc_sim.model.mujoco_model import ContactSettings
+        from euc_sim.model.mujoco_model import ContactSettings  # deferred: loads mujoco (0.1 s)
         contact = dataclasses.replace(contact or ContactSettings(), rolling_friction=C_rr * p_true.R)
         C_rr = 0.0                              # the contact itself resists the rolling
     k_drag = eff.get("aerodynamic_drag", 0.0)

@@ -65,7 +65,7 @@ def check_stable(data, t: float) -> None:
     t : float
         The run's end, s.
     """
-    from euc_sim.model.mujoco_model import instability
+    from euc_sim.model.mujoco_model import instability  # deferred: loads mujoco (0.1 s)
 
     detail = instability(data)
     if detail:

@@ -15,6 +15,7 @@ import numpy as np
 
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
+from euc_sim.model.rider_spatial import rider_translation_forces
 
 #: The tilt and yaw signals the ``lateral_dynamics`` term needs (rad, rad/s, rad/s²).
 LATERAL_INPUTS = ("theta", "theta_d", "psi_d", "psi_dd")
@@ -315,7 +316,6 @@ def rider_spatial_correction(p: Params, q, qd, extra: dict) -> np.ndarray:
     numpy.ndarray, shape (N, 3)
         (N, N·m, N·m) to add to eq. (5)'s right-hand side.
     """
-    from euc_sim.model.rider_spatial import rider_translation_forces
     lat = {k: extra[k] for k in LATERAL_INPUTS}
     lean = {k: extra[k] for k in LATERAL_INPUTS + LEAN_INPUTS}
     p2 = p.replace(m=2.0 * p.m)          # both modelled terms are linear in the rider's mass

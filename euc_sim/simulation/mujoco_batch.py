@@ -52,17 +52,23 @@ native ``simulate`` in another thread meanwhile waits for it.
 
 from __future__ import annotations
 
+import queue
 import sys
+import threading
 from functools import lru_cache
 from typing import Callable, Mapping, Sequence
 
+import mujoco
+import mujoco.batch
 import numpy as np
 from scipy.linalg.lapack import dtrtrs
 from threadpoolctl import threadpool_limits
 
+from euc_sim.controllers.motor import pd_torque
+from euc_sim.model.mujoco_model import build_spec
 from euc_sim.simulation import engine
 from euc_sim.simulation.errors import FallError, UnstableError
-from euc_sim.simulation.native_core import exclusive
+from euc_sim.simulation.native_core import exclusive, field_offsets
 
 __all__ = ["simulate_rides", "batchable", "available", "NU", "BATCH_EFFECTS", "PIPELINE_BATCHES"]
 
@@ -108,10 +114,7 @@ def _compile():
     """numba ``cfunc`` with MuJoCo's control-callback signature, context in ``d->userdata``."""
     from numba import carray, cfunc, njit, types
 
-    from euc_sim.controllers.motor import pd_torque
-
-    from euc_sim.simulation.native_core import field_offsets
-    from euc_sim.simulation.native_kernels import address, f64p, held_forces, i64p
+    from euc_sim.simulation.native_kernels import address, f64p, held_forces, i64p  # deferred: loads numba (0.3 s)
 
     offs = field_offsets(("userdata", "qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"))
     W_UD, W_QPOS, W_QVEL = offs["userdata"] // 8, offs["qpos"] // 8, offs["qvel"] // 8
@@ -295,9 +298,6 @@ def _pipeline(batches, nthread: int, finished) -> None:
     (``finished(ids, results)``).  ``Batch.step`` releases the GIL: one thread's rider law,
     records and DataFrames (numpy, Python) overlap the others' steps.  A failure in any
     thread is raised here after the threads stop."""
-    import queue
-    import threading
-
     todo: queue.Queue = queue.Queue(maxsize=nthread)
     results: queue.Queue = queue.Queue()
     failed = threading.Event()
@@ -362,8 +362,6 @@ def _compiled(p, variant: str, contact, timestep: float, gravity: tuple, dof_dam
               tendon_damping: tuple):
     """Compile the model of (parameters, ground, contact) with userdata, and set what
     :class:`euc_sim.simulation.engine._MujocoStepper` sets on its copy (shared read-only)."""
-    from euc_sim.model.mujoco_model import build_spec
-
     spec = build_spec(p, variant, contact=contact)
     spec.nuserdata = NU
     m = spec.compile()
@@ -397,9 +395,6 @@ def _run_batch(rides: list, forces: list, nthread: int) -> list:
 
     ``forces``: each ride's ``external_force`` F(t), N, or None; tabulated on the grid.
     """
-    import mujoco
-    import mujoco.batch
-
     S, N, n = len(rides), rides[0].N, rides[0].run.n
     cache: dict = {}
     models = [_batch_model(r, cache) for r in rides]
@@ -413,7 +408,7 @@ def _run_batch(rides: list, forces: list, nthread: int) -> list:
     for s, r in enumerate(rides):
         qpos[s], qvel[s], warm[s] = r.stepper.d.qpos, r.stepper.d.qvel, r.stepper.d.qacc_warmstart
         P[s, :n + 1] = r.y0
-    per = _calls_per_step(mujoco, models, rides)
+    per = _calls_per_step(models, rides)
     for s, r in enumerate(rides):
         ud[s] = _userdata_row(r, per, (P[s, n:].ctypes.data, MD[s].ctypes.data, MH[s].ctypes.data),
                               0 if pushes[s] is None else pushes[s].ctypes.data)
@@ -486,10 +481,8 @@ def _fall(ride, states: np.ndarray, M_d: np.ndarray, M_h: np.ndarray, k: int) ->
     raise RuntimeError(f"mujoco_batch: step {k} was flagged as a fall but is within the bounds")
 
 
-def _calls_per_step(mujoco, models: list, rides: list) -> int:
+def _calls_per_step(models: list, rides: list) -> int:
     """Callback calls per ``mj_step`` of the batch's model (4 with RK4), counted on a 1-simulation batch."""
-    import mujoco.batch
-
     probe = mujoco.batch.Batch(models[0], 1, 1, False)
     row = np.zeros(NU)
     row[[S_PER, S_AM, S_AA, S_MAGIC]] = (1.0, rides[0].stepper.a_motor, rides[0].stepper.a_ankle, _MAGIC)

@@ -22,6 +22,7 @@ line on stderr and the callers run their Python loops.
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 from contextlib import contextmanager
@@ -140,7 +141,6 @@ def _find_pointers(base: int, targets: dict[str, int], what: str) -> dict[str, i
     where ``/proc/self/mem`` cannot be read (then the Python loops run) or a pointer is
     not found.
     """
-    import os
 
     try:
         fd = os.open("/proc/self/mem", os.O_RDONLY)
@@ -195,7 +195,7 @@ def available() -> bool:
 
 def _compile():
     """numba ``cfunc`` of the kernels with MuJoCo's control-callback signature."""
-    from euc_sim.simulation.native_kernels import build_callback
+    from euc_sim.simulation.native_kernels import build_callback  # deferred: loads numba (0.3 s)
 
     offs = field_offsets(("qpos", "qvel", "ctrl", "qfrc_applied", "xfrc_applied"))
     offs.update(model_offsets(("body_ipos", "site_pos")))

@@ -14,11 +14,15 @@ encoding: ``imageio`` with ``imageio-ffmpeg`` (MP4) or Pillow (GIF).
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
+import imageio.v3 as iio
 import numpy as np
 import pandas as pd
+from tqdm import tqdm
 
+from euc_sim import io
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 
@@ -155,12 +159,7 @@ def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, hei
     """
     import mujoco
 
-    from euc_sim import io
-    from euc_sim.model.spatial import EucSpatial
-
-    import sys
-
-    from tqdm import tqdm
+    from euc_sim.model.spatial import EucSpatial  # deferred: loads mujoco (0.1 s)
 
     recording, out = Path(recording), Path(out)
     if not (16 <= width <= 4096 and 16 <= height <= 4096):
@@ -213,8 +212,6 @@ def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, hei
 
 
 def _write_frames(out: Path, frames, fps: float, io) -> None:
-    import imageio.v3 as iio
-
     suffix = out.suffix.lower()
 
     def write(tmp: Path) -> None:

@@ -43,14 +43,19 @@ argument), never on the backend, the worker or the order of completion.
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
 import os
 import signal
 import sys
+import threading
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
+
+from tqdm import tqdm
 
 from euc_sim.errors import InputError
 
@@ -146,8 +151,6 @@ def worker_init(parent: int) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if sys.platform.startswith("linux"):
-        import ctypes
-
         PR_SET_PDEATHSIG = 1
         try:
             ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
@@ -159,7 +162,6 @@ def worker_init(parent: int) -> None:
 
 class _Progress:
     def __init__(self, total: int, desc: str, enabled: bool):
-        from tqdm import tqdm
         self.bar = tqdm(total=total, desc=desc, unit="task", disable=not enabled, file=sys.stderr)
 
     def update(self, failed: int) -> None:
@@ -173,8 +175,6 @@ class _Progress:
 
 def _sigterm_as_interrupt():
     """Make SIGTERM raise KeyboardInterrupt (main thread only); returns the old handler."""
-    import threading
-
     if threading.current_thread() is not threading.main_thread():
         return None
 
@@ -292,9 +292,7 @@ def _run_dask(fn, tasks, scheduler: str, workers: int | None, done) -> str:
     from distributed import Client, as_completed as dask_completed
     from distributed.scheduler import KilledWorker
 
-    import contextlib
-
-    from euc_sim.simulation.dask_backend import CONNECT_TIMEOUT, check_scheduler, local_cluster
+    from euc_sim.simulation.dask_backend import CONNECT_TIMEOUT, check_scheduler, local_cluster  # deferred: loads distributed (0.3 s)
 
     cluster = None
     scratch = contextlib.ExitStack()           # a local cluster's dask-scratch-space, removed after

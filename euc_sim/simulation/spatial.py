@@ -26,15 +26,18 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from euc_sim import io
 from euc_sim.controllers.lateral import LateralRider, design_lateral
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.controllers.rider import RiderRun
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation import effects
+from euc_sim.simulation.engine import FALL_BOUNDS, default_rider
 from euc_sim.simulation.errors import FallError, SimulationError, check_stable
 from euc_sim.simulation.maneuvers import make_maneuver
-from euc_sim.simulation.mocap import E_HEIGHT
+from euc_sim.simulation.mocap import E_HEIGHT, NOISE_LEVELS, sample_times
+from euc_sim.simulation.native_spatial import native_ride
 
 __all__ = ["PATHS", "PATH_SPEEDS", "TILT_BOUND", "Path3D", "make_path", "simulate_3d",
            "spatial_recording", "TURNING_PATHS", "RIDEABLE_SPEEDS", "RIDEABLE_RADII", "RIDEABLE_LATERAL_ACCEL",
@@ -244,8 +247,7 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     SimulationError
         for a bad path, duration or speed.
     """
-    from euc_sim.model.spatial import EucSpatial
-    from euc_sim.simulation.engine import default_rider
+    from euc_sim.model.spatial import EucSpatial  # deferred: loads mujoco (0.1 s)
 
     if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
         raise SimulationError(f"duration must be a positive number of seconds, got {duration!r}")
@@ -267,9 +269,6 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     sim.set_straight(v0, g0, f0)
     y0, rows = (0.0, g0, f0, v0, 0.0, 0.0), None
     if native and external_force is None:
-        from euc_sim.simulation.engine import FALL_BOUNDS
-        from euc_sim.simulation.native_spatial import native_ride
-
         rows = native_ride(sim, run, motor, lateral, route, v_ref, N, dt, y0, FALL_BOUNDS, TILT_BOUND,
                            TURN_EFFORT_TIME)
     if rows is None:
@@ -312,8 +311,6 @@ def _ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, track: "_Tr
           v_ref: list, N: int, dt: float, y0: tuple, push=None) -> list:
     """The 1 kHz loop of :func:`simulate_3d`: one row per step (its column order)."""
     import mujoco
-
-    from euc_sim.simulation.engine import FALL_BOUNDS
 
     m, d, params = sim.model, sim.data, sim.params
     rq, rv = sim.qadr["root"], sim.vadr["root"]
@@ -410,8 +407,6 @@ def spatial_recording(run: pd.DataFrame, *, noise: str = "paper", seed: int = 0,
     """
     from scipy.interpolate import CubicSpline
 
-    from euc_sim.simulation.mocap import NOISE_LEVELS, sample_times
-
     if noise not in NOISE_LEVELS:
         raise InputError(f"unknown noise level {noise!r}; valid: {', '.join(NOISE_LEVELS)}")
     sig_pos, sig_ang = NOISE_LEVELS[noise]
@@ -453,9 +448,6 @@ def write_spatial(out, path: str, duration: float, *, params: Params = TABLE3, s
     FallError
         when the rider falls (nothing is written).
     """
-    from euc_sim import io
-    from euc_sim.simulation.engine import default_rider
-
     motor = motor or MotorPD()
     rider = default_rider(params, motor, noise_std=rider_noise, delay=rider_delay)
     run = simulate_3d(path, duration, params=params, speed=speed, motor=motor, rider=rider, seed=seed,

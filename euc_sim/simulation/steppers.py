@@ -12,6 +12,7 @@ tests that drive a stepper directly.
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 
@@ -27,7 +28,7 @@ class _MujocoStepper:
     def __init__(self, p: Params, variant: str, dt: float, eff: dict, contact):
         import mujoco
 
-        from euc_sim.model.mujoco_model import EucMujoco
+        from euc_sim.model.mujoco_model import EucMujoco  # deferred: loads mujoco (0.1 s)
 
         self.mj = mujoco
         self.sim = EucMujoco(p, variant, contact=contact, timestep=dt)
@@ -83,8 +84,6 @@ class _MujocoStepper:
     def _make_step(self):
         """``step(M_d, M_h)`` as a closure over MjData's views: attribute look-ups cost more
         than the step's own arithmetic at 1 kHz."""
-        from functools import partial
-
         mj_step = partial(self.mj.mj_step, self.m, self.d)
         ctrl, qpos, qvel = self._ctrl, self._qpos, self._qvel
         a_motor, a_ankle = self.a_motor, self.a_ankle

@@ -71,13 +71,13 @@ def _by(study, effect=None, kind="effect"):
 @pytest.fixture(scope="module")
 def noise_free(tmp_path_factory):
     """A noise-free deceleration with rolling resistance, torques recorded."""
+    from euc_sim import io
     from euc_sim.simulation import dataset
     from euc_sim.simulation.maneuvers import make_maneuver
-    out = tmp_path_factory.mktemp("nf")
     spec = dataset.RecordingSpec("nf", make_maneuver("deceleration"), 12.0, 3,
                                  effects=(("rolling_resistance", 0.02),), noise="none")
-    path = dataset.write_simulated(out / "nf.csv", spec)
-    return path
+    rec, meta, truth = dataset.simulated_recording(spec)
+    return io.write_recording(rec, tmp_path_factory.mktemp("nf") / "nf.csv", meta, truth)
 
 
 def test_residual_matches_the_paper_torques_and_the_catalog_term(noise_free):
