@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -449,8 +450,6 @@ def pwm_check(rep) -> tuple[str, str, float] | None:
     On the compared ride where there is one (the ride JSON's ``pwm``: the figure the terminal
     gives too), else on the ride's second half fitted on its first (``cutout``); None without.
     """
-    from pathlib import Path
-
     other = (rep.get("pwm") or {}).get("heldout_rmse")
     if other is not None and math.isfinite(other):
         return "compared", f"the compared ride ({Path(str(rep.get('compare') or '')).name}), fitted on this one", other

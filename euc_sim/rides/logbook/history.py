@@ -21,7 +21,9 @@ from euc_sim.errors import InputError
 
 import math
 import warnings
+from collections import Counter
 from dataclasses import asdict, dataclass, field
+from datetime import datetime, timedelta
 
 import numpy as np
 
@@ -180,8 +182,6 @@ def shared_offset(offsets) -> float | None:
     offsets : iterable of float or None
         Each log's ``utc_offset_s``.
     """
-    from collections import Counter
-
     offs = Counter(o for o in offsets if o is not None)
     return offs.most_common(1)[0][0] if offs else None
 
@@ -195,8 +195,6 @@ def utc_start(start: str, utc_offset_s: float | None, shared: float | None):
     -------
     datetime.datetime
     """
-    from datetime import datetime, timedelta
-
     t = datetime.fromisoformat(start)
     return t if utc_offset_s is not None or shared is None else t - timedelta(seconds=shared)
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from euc_sim.report.html import KeyFigure, figure, key_figures, page, paragraph, section, table
+from euc_sim.rides.logbook.history import shared_offset
 
 __all__ = ["history_page", "table_zone", "start_in", "pwm_cell"]
 
@@ -20,7 +21,6 @@ def table_zone(h: dict) -> tuple[float | None, str]:
     one give (s east of UTC, and in words: :func:`~euc_sim.rides.logbook.history.shared_offset`,
     the zone the rides are sorted in), logs naming none (WheelLog: the phone's clock) taken
     as already in it; the phone's local time where no log names a zone."""
-    from euc_sim.rides.logbook.history import shared_offset
     from euc_sim.rides.summary.rider_view import zone_words
 
     off = shared_offset(e.get("utc_offset_s") for e in h["rides"])

@@ -9,6 +9,7 @@ out of the figures' time axis.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Mapping
 
 import numpy as np
@@ -52,8 +53,6 @@ def clock_at(clock: Mapping | None, t: float, seconds: bool = False) -> str | No
 def clock_of(rep: Mapping, recording) -> Mapping | None:
     """The ``clock`` of the ride whose file is ``recording``: the compared ride's (``compared``)
     where it is that one, else this ride's."""
-    from pathlib import Path
-
     other = rep.get("compared") or {}
     if other.get("recording") and recording and Path(str(other["recording"])).name == Path(str(recording)).name:
         return other.get("clock")
