@@ -364,9 +364,11 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         fell = falls_sentence(sim.get("falls", []), sim["scored_rows"], clock)
         if fell:
             md += [fell[0].upper() + fell[1:] + ".", ""]
-        at = (lambda t: when({"clock": clock}, float(t)))     # noqa: E731  the simulated ride's moments
-        for n in summarise_notes([said_once(n) for n in sim.get("notes", [])], at=lambda _, t: at(t)):
-            md.append("- " + re.sub(r"\bup to t = ([\d.]+) s\b", lambda m: "up to " + at(m[1]), n))
+        def at(_, t) -> str:        # a moment of the simulated ride, in its clock
+            return when({"clock": clock}, float(t))
+
+        for n in summarise_notes([said_once(n) for n in sim.get("notes", [])], at=at):
+            md.append("- " + re.sub(r"\bup to t = ([\d.]+) s\b", lambda m: "up to " + at("", m[1]), n))
         if "simulation" in figures:
             md += ["", f"![simulation against the log, step by step]({figures['simulation']})", ""]
     else:
@@ -403,6 +405,9 @@ def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:
     if "gaps" in shown:         # the ride's own gap count is the Data quality tile's
         hz = (r.get("summary") or {}).get("sampling_hz")
         notes = [n if re.match(r"\S+\.csv: ", n) else as_the_tile(n, hz) for n in notes]
-    md += [f"- {n}" for n in summarise_notes(notes, at=lambda who, t: when({"clock": clock_of(r, who[:-2])}, t))]
+    def at(who: str, t: float) -> str:      # a moment of the ride the note names ("2.csv: "), in its clock
+        return when({"clock": clock_of(r, who.rstrip(": "))}, t)
+
+    md += [f"- {n}" for n in summarise_notes(notes, at=at)]
     md.append("")
     return md
