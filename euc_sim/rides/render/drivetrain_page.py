@@ -154,7 +154,10 @@ def _mass_md(rep: dict, shown=frozenset()) -> list[str]:
         md.append("- Total mass (rider + wheel"
                   + ("" if eq else ", with the wheel's rotating inertia: no net weight given")
                   + f"): {value} (from battery power alone; speed scale {tm['speed_scale']:.3f}, "
-                    f"{tm['speed_scale_source']}; current–speed delay {tm['lag_s']:+.1f} s).")
+                    f"{tm['speed_scale_source']}; current–speed delay {tm['lag_s']:+.1f} s, a shift of the "
+                    f"current" + ("; the balance's own lag of it, current_lag, is in Estimates, a first-order lag"
+                                  if any(q.get("name") == "current_lag" and q.get("accepted")
+                                         for q in rep.get("parameters") or []) else "") + ").")
         if eq:
             md.append(f"- The energy balance finds m_eq = {eq['estimate']:.0f} kg (eq. 6: it also "
                       f"accelerates the wheel's rotating inertia J_w/R², taken as "
