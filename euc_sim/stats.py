@@ -19,13 +19,23 @@ its folds from here (docs/architecture.md#statistics-in-one-place).
 
 from __future__ import annotations
 
+import functools
 from typing import Callable, Sequence
 
 import numpy as np
+from threadpoolctl import ThreadpoolController
 
-__all__ = ["gram_lstsq", "label_grams", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
+try:                    # the gufunc np.linalg.lstsq calls on one matrix (gram_lstsq_many: on a stack);
+    from numpy.linalg import _umath_linalg      # numpy >= 2 names it lstsq (1.26: lstsq_m/lstsq_n)
+    if not hasattr(_umath_linalg, "lstsq"):
+        _umath_linalg = None
+except ImportError:
+    _umath_linalg = None
+
+__all__ = ["gram_lstsq", "gram_lstsq_many", "one_blas_thread",
+           "label_grams", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
            "basic_interval", "block_bootstrap_indices", "wild_block_signs", "blocks_by_length", "block_labels",
-           "draw_blocks", "moving_block_starts", "jackknife_interval"]
+           "draw_blocks", "distinct", "moving_block_starts", "jackknife_interval"]
 
 
 def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
@@ -53,6 +63,46 @@ def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
     return beta, float(G[-1, -1] - beta @ b)
 
 
+def one_blas_thread():
+    """A context in which BLAS runs on one thread.
+
+    The ride fits' products are of ride-long vectors, which BLAS splits across threads that,
+    on a shared machine, wait milliseconds each for a core; their results are the same on one.
+    The libraries are found once a process (threadpoolctl's scan of them costs milliseconds).
+    """
+    return _threadpools().limit(limits=1, user_api="blas")
+
+
+@functools.lru_cache(maxsize=1)
+def _threadpools() -> ThreadpoolController:
+    return ThreadpoolController()
+
+
+def gram_lstsq_many(G: np.ndarray) -> np.ndarray:
+    """:func:`gram_lstsq`'s ``beta`` (all columns) of each Gram matrix of a stack, the same
+    LAPACK solve on each, in one call.
+
+    Parameters
+    ----------
+    G : ndarray (..., p + 1, p + 1)
+
+    Returns
+    -------
+    ndarray (..., p)
+    """
+    G = np.asarray(G, dtype=float)
+    A, b, p = G[..., :-1, :-1], G[..., :-1, -1:], G.shape[-1] - 1
+    if _umath_linalg is None:       # a numpy without the gufunc: one call each
+        return np.array([gram_lstsq(g)[0] for g in G.reshape(-1, p + 1, p + 1)]).reshape(G.shape[:-2] + (p,))
+    with np.errstate(call=_lstsq_failed, invalid="call", over="ignore", divide="ignore", under="ignore"):
+        x = _umath_linalg.lstsq(A, b, np.finfo(float).eps * p, signature="ddd->ddid")[0]
+    return x[..., 0].copy()
+
+
+def _lstsq_failed(err, flag):
+    raise np.linalg.LinAlgError("SVD did not converge in Linear Least Squares")
+
+
 def label_grams(Z: np.ndarray, labels: np.ndarray, n_labels: int) -> np.ndarray:
     """``Z[labels == b]ᵀ Z[labels == b]`` for each label b of ``0 … n_labels − 1`` (zero where
     none): the sufficient statistics of a least-squares fit on any union of the labels' rows.
@@ -62,12 +112,14 @@ def label_grams(Z: np.ndarray, labels: np.ndarray, n_labels: int) -> np.ndarray:
     ndarray (n_labels, p, p)
     """
     G = np.zeros((n_labels, Z.shape[1], Z.shape[1]))
-    order = np.argsort(labels, kind="stable")          # each label's rows one slice: O(n) in all
-    Zs, ls = Z[order], np.asarray(labels)[order]
+    Z, ls = np.ascontiguousarray(Z), np.asarray(labels)
+    if ls.size > 1 and not bool(np.all(ls[1:] >= ls[:-1])):   # each label's rows one slice: O(n) in all
+        order = np.argsort(ls, kind="stable")
+        Z, ls = Z[order], ls[order]
     bounds = np.flatnonzero(np.diff(ls)) + 1
     for lo, hi in zip(np.r_[0, bounds], np.r_[bounds, len(ls)]):
         if hi > lo:
-            zb = Zs[lo:hi]
+            zb = Z[lo:hi]
             G[ls[lo]] = zb.T @ zb
     return G
 
@@ -151,6 +203,15 @@ def interleaved_folds(t: np.ndarray, n_folds: int, block: float,
     return folds
 
 
+def distinct(a) -> np.ndarray:
+    """``np.unique(a)`` of a 1-D array, read off in O(n) where ``a`` is already in order (as
+    segment and block labels on a time grid are) instead of hashed or sorted again."""
+    a = np.asarray(a)
+    if a.ndim == 1 and a.dtype.kind in "iub" and (a.size < 2 or bool(np.all(a[1:] >= a[:-1]))):
+        return a[np.r_[True, a[1:] != a[:-1]]] if a.size else a.copy()
+    return np.unique(a)
+
+
 def block_labels(t: np.ndarray, block: float, t0: float | None = None) -> np.ndarray:
     """Block number of each sample: consecutive ``block``-second stretches from ``t0`` (s)."""
     t = np.asarray(t, float)
@@ -160,7 +221,7 @@ def block_labels(t: np.ndarray, block: float, t0: float | None = None) -> np.nda
 def blocks_by_length(t: np.ndarray, block: float) -> list[np.ndarray]:
     """Row indices of consecutive ``block``-second stretches of ``t`` (s), in order."""
     label = block_labels(t, block)
-    return [np.flatnonzero(label == b) for b in np.unique(label)]
+    return [np.flatnonzero(label == b) for b in distinct(label)]
 
 
 def draw_blocks(n_blocks: int, rng: np.random.Generator) -> np.ndarray:

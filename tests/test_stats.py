@@ -53,3 +53,38 @@ def test_jackknife_interval_is_the_t_interval_of_the_leave_one_out_spread():
     assert 1.0 - lo == pytest.approx(hi - 1.0, rel=1e-12)
     assert jackknife_interval(1.0, loo[:2]) is None
     assert jackknife_interval(1.0, np.full(4, 2.0)) == (1.0, 1.0)
+
+
+def test_gram_lstsq_many_is_each_gram_lstsq_to_the_bit():
+    from euc_sim.stats import gram_lstsq, gram_lstsq_many
+
+    rng = np.random.default_rng(3)
+    for p in (1, 2, 5):
+        Z = rng.normal(size=(300, p + 1)) * rng.lognormal(0.0, 3.0, p + 1)
+        Z[:, -2] = Z[:, 0] if p > 1 else Z[:, -2]              # rank-deficient: the minimum-norm beta
+        G = np.stack([(Z * w[:, None]).T @ Z for w in rng.integers(0, 3, (6, 300)).astype(float)])
+        many = gram_lstsq_many(G.reshape(2, 3, p + 1, p + 1))
+        assert many.shape == (2, 3, p)
+        assert np.array_equal(many.reshape(6, p), np.stack([gram_lstsq(g)[0] for g in G]))
+
+
+def test_distinct_is_np_unique_in_order_or_not():
+    from euc_sim.stats import distinct
+
+    rng = np.random.default_rng(0)
+    for a in (np.repeat([0, 0, 3, 7], [5, 1, 4, 2]), rng.integers(0, 9, 50), np.array([], int),
+              np.array([2]), np.array([1.5, np.nan, 1.5, np.nan]), np.array([True, False, True])):
+        got = distinct(a)
+        assert got.dtype == np.unique(a).dtype and np.array_equal(got, np.unique(a), equal_nan=True)
+
+
+def test_one_blas_thread_holds_blas_to_one_thread_and_gives_the_pool_back():
+    from threadpoolctl import threadpool_info
+
+    from euc_sim.stats import one_blas_thread
+
+    blas = lambda: [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]   # noqa: E731
+    before = blas()
+    with one_blas_thread():
+        assert blas() and set(blas()) == {1}
+    assert blas() == before

@@ -115,7 +115,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
             rep["report_dir"] = Path(os.path.relpath(Path(args.report).resolve(),
                                                      Path(args.json).resolve().parent)).as_posix()
         write_json(args.json, rep)
-    from euc_sim.rides.render.terminal import summary_lines     # deferred: pandas, scipy, plotly
+    from euc_sim.rides.render.terminal import summary_lines  # deferred: loads pandas, scipy, plotly (1.5 s)
 
     for line in summary_lines(rep):
         print(line)

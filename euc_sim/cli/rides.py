@@ -126,7 +126,7 @@ def _cmd_rides(args: argparse.Namespace) -> int:
         write_page(args.report, history_page(hist, title))
     if args.json:
         write_json(args.json, hist)
-    from euc_sim.rides.render.terminal import history_lines
+    from euc_sim.rides.render.terminal import history_lines  # deferred: loads pandas, scipy, plotly (1.5 s)
 
     for line in history_lines(hist, verdicts=pack is not None):
         print(line)

@@ -15,19 +15,9 @@ __all__ = ["localise", "signals_of", "hot_windows"]
 # --- localisation --------------------------------------------------------------------------
 def hot_windows(t: np.ndarray, hot: np.ndarray, min_len: float) -> list[list[float]]:
     """Runs of True in ``hot`` lasting at least ``min_len`` s, as [[t0, t1], ...] (s)."""
-    windows = []
-    i = 0
-    while i < hot.size:
-        if hot[i]:
-            j = i
-            while j + 1 < hot.size and hot[j + 1]:
-                j += 1
-            if t[j] - t[i] >= min_len:
-                windows.append([float(t[i]), float(t[j])])
-            i = j + 1
-        else:
-            i += 1
-    return windows
+    edges = np.flatnonzero(np.diff(np.r_[False, np.asarray(hot, bool), False]))
+    first, last = edges[::2], edges[1::2] - 1
+    return [[float(t[i]), float(t[j])] for i, j in zip(first, last) if t[j] - t[i] >= min_len]
 
 
 def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],

@@ -90,16 +90,20 @@ def thin(n: int, most: int) -> np.ndarray:
     """Indices of at most ``most`` of ``n`` rows, evenly spaced, first and last kept."""
     if n <= most:
         return np.arange(n)
-    return np.unique(np.linspace(0, n - 1, most).round().astype(int))
+    idx = np.linspace(0, n - 1, most).round().astype(int)      # in order: distinct where it steps
+    return idx[np.diff(idx, prepend=-1) != 0]
 
 
 def plain_values(a, digits: int | None = 5) -> list:
     """Values for a plain Plotly spec, ``digits`` significant digits of the largest (None: as
     they are), NaN as null (a break in the line)."""
     a = np.asarray(a, float)
-    top = np.nanmax(np.abs(a), initial=0.0, where=np.isfinite(a))
+    finite = np.isfinite(a)
+    top = np.nanmax(np.abs(a), initial=0.0, where=finite)
     a = np.round(a, digits - 1 - int(np.floor(np.log10(top)))) if top > 0 and digits else a
-    return [v if v == v else None for v in np.where(np.isfinite(a), a, np.nan).tolist()]
+    if finite.all():
+        return a.tolist()
+    return [v if v == v else None for v in np.where(finite, a, np.nan).tolist()]
 
 
 def time_panels(t_min: np.ndarray, panels: Sequence[Panel], title: str, gap_min: float,

@@ -21,6 +21,7 @@ import hashlib
 import html
 import json
 import re
+import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Mapping, Sequence
@@ -28,7 +29,7 @@ from typing import Iterable, Mapping, Sequence
 import plotly.io as pio
 from plotly.offline import get_plotlyjs
 
-from euc_sim.io import write_text
+from euc_sim.io import atomic_write
 from euc_sim.report.figures import OSM_TILES
 
 __all__ = ["KeyFigure", "key_figures", "paragraph", "table", "figure", "section", "page",
@@ -133,10 +134,19 @@ def figure(fig, div_id: str, height: int = 380) -> str:
     # "</script" or "<!--" inside a script element would end it or change how it ends:
     # JSON has "<" only inside strings, where "\u003c" is the same character
     spec = spec.replace("<", "\\u003c")
+    with _WRITTEN_LOCK:                         # valid JSON: policy() need not parse it again
+        _WRITTEN[spec] = None
+        while len(_WRITTEN) > 64:
+            del _WRITTEN[next(iter(_WRITTEN))]
     tiles = ' data-map="waiting"' if _is_map(fig) else ""
     return (f'<div id="{div_id}" class="fig"{tiles} style="height:{int(height)}px"></div>'
             f'<script>(function(){{var f={spec};'
             f'Plotly.newPlot("{div_id}",f.data,f.layout||{{}},{json.dumps(PLOTLY_CONFIG)});}})();</script>')
+
+
+#: The latest figures' JSON as :func:`figure` wrote it (insertion order: the oldest leave first).
+_WRITTEN: dict[str, None] = {}
+_WRITTEN_LOCK = threading.Lock()
 
 
 def _is_map(fig) -> bool:
@@ -196,23 +206,36 @@ _MAP_GUARD = (
 #: The script :func:`figure` writes: a JSON literal handed to Plotly, nothing else.
 _FIGURE_SCRIPT = re.compile(r'\(function\(\)\{var f=(.*);Plotly\.newPlot\("[A-Za-z][A-Za-z0-9_-]*",f\.data,'
                             r"f\.layout\|\|\{\}," + re.escape(json.dumps(PLOTLY_CONFIG)) + r"\);\}\)\(\);", re.S)
-#: Text Plotly's script sets as element content: MapLibre's style sheet among it.
-_PLOTLY_CSS = re.compile(r"""\.textContent=(['"])((?:(?!\1)[^\\])*)\1""")
 
 
 def _scripts(markup: str) -> list[str]:
     """The text of every ``<script>…</script>`` in ``markup``, in order (a closed one only)."""
-    out, i = [], 0
-    while (a := markup.find("<script>", i)) >= 0 and (b := markup.find("</script>", a + 8)) >= 0:
-        out.append(markup[a + 8:b])
+    out, i, plotly = [], 0, _plotly_js()
+    while (a := markup.find("<script>", i)) >= 0:
+        if markup.startswith(plotly, a + 8) and markup.startswith("</script>", b := a + 8 + len(plotly)):
+            out.append(plotly)                 # the one object: hashed once, not copied a page
+        elif (b := markup.find("</script>", a + 8)) >= 0:
+            out.append(markup[a + 8:b])
+        else:
+            break
         i = b + 9
     return out
 
 
 @functools.lru_cache(maxsize=1)
 def _plotly_styles() -> tuple[str, ...]:
-    """The style sheets Plotly's script inserts (read once: the script is 4.8 MB)."""
-    return tuple(m[1] for m in _PLOTLY_CSS.findall(_plotly_js()))
+    """The style sheets Plotly's script inserts (read once: the script is 4.8 MB): the text of
+    each ``.textContent='…'`` (or ``"…"``) without a backslash, MapLibre's style sheet among them."""
+    js, out, i = _plotly_js(), [], 0
+    while (k := js.find(".textContent=", i)) >= 0:
+        q, a = js[k + 13:k + 14], k + 14
+        end = js.find(q, a) if q in ("'", '"') else -1
+        if end >= 0 and "\\" not in js[a:end]:
+            out.append(js[a:end])
+            i = end + 1
+        else:
+            i = k + 1
+    return tuple(out)
 
 
 @functools.lru_cache(maxsize=16)          # Plotly's script (4.8 MB) is hashed once, not once a page
@@ -226,7 +249,7 @@ def _own_script(text: str) -> bool:
         return True
     m = _FIGURE_SCRIPT.fullmatch(text)
     try:
-        return m is not None and json.loads(m[1]) is not None
+        return m is not None and (m[1] in _WRITTEN or json.loads(m[1]) is not None)
     except ValueError:
         return False
 
@@ -259,7 +282,18 @@ def write_page(folder: str | Path, text: str) -> Path:
     """Write ``folder/index.html`` atomically (the folder is created); returns its path."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    return write_text(folder / "index.html", text)
+    # Plotly's script, where the page inlines it, from its UTF-8 kept once (a page with any
+    # character beyond Latin-1 would otherwise widen and encode its 4.8 MB again)
+    a = text.find("<script>") + 8
+    cut = (a, a + len(_plotly_js())) if a >= 8 and text.startswith(_plotly_js(), a) else (len(text), len(text))
+    data = b"".join([text[:cut[0]].encode("utf-8"), _plotly_utf8() if cut[1] > cut[0] else b"",
+                     text[cut[1]:].encode("utf-8")])
+    return atomic_write(folder / "index.html", lambda p: p.write_bytes(data))
+
+
+@functools.lru_cache(maxsize=1)
+def _plotly_utf8() -> bytes:
+    return _plotly_js().encode("utf-8")
 
 
 def columns(*fragments: str) -> str:

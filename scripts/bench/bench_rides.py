@@ -121,6 +121,15 @@ def _warm_up() -> float:
     import euc_sim.rides.balance.analysis  # noqa: F401  (the page's heavy imports: scipy.signal, pandas)
     import euc_sim.rides.render.page_html  # noqa: F401
     import euc_sim.rides.pipeline  # noqa: F401
+    import importlib
+    import pkgutil
+
+    import euc_sim.diagnosis.localise  # noqa: F401
+    import euc_sim.rides
+    # every module the pipeline imports where it first needs one (each compiled from source
+    # where PYTHONDONTWRITEBYTECODE is set): a one-off of the process, not of the page
+    for mod in pkgutil.walk_packages(euc_sim.rides.__path__, "euc_sim.rides."):
+        importlib.import_module(mod.name)
     from euc_sim.model.parameters import TABLE3
     from euc_sim.rides.sim.tracking import simulate_profile
     from euc_sim.simulation.native_core import available
@@ -207,6 +216,25 @@ def _longest_rides(root, n: int):
     return sorted(logs, key=lambda p: len(rows[p].data), reverse=True)[:n], span
 
 
+def _stages(marks: list) -> dict:
+    """Seconds per stage of one ride page from the pipeline's progress messages (each the
+    start of a step): reading, mass and drivetrain, the balance fits, the rest of the
+    analyses (balance law, parameter set, residual, rider's numbers), the page."""
+    def stage(step: str) -> str:
+        if step == "read_log" or step.startswith("finding the total mass"):
+            return "read_log" if step == "read_log" else "mass_drivetrain"
+        if step.startswith("writing the report"):
+            return "page"
+        if step.startswith(("reading the wheel's", "locating")):
+            return "law_residual_numbers"
+        return "balance_fits" if step.startswith(("reading ", "fitting ")) else "law_residual_numbers"
+
+    out: dict = {}
+    for (step, t0), (_, t1) in zip(marks, marks[1:]):
+        out[stage(step)] = out.get(stage(step), 0.0) + t1 - t0
+    return out
+
+
 def bench_ride_fast() -> dict:
     """The ride page and every fit without the simulated replay, against pandas reading the log;
     the peak memory of ``ride --compare`` on the two longest rides (a child process)."""
@@ -230,9 +258,19 @@ def bench_ride_fast() -> dict:
     _warm_up()
     read = timed(lambda: pd.read_csv(log), repeat=3)
     load0 = os.getloadavg()[0]
+    marks: list = []
+    cpu0 = time.process_time()
+
+    def one_page(out):
+        marks[:] = [("read_log", time.perf_counter())]
+        run_ride(read_log(log, emit_warnings=False), simulate=False, report_dir=out,
+                 progress=lambda step: marks.append((step, time.perf_counter())))
+        marks.append(("end", time.perf_counter()))
+
     with tempfile.TemporaryDirectory() as out:
-        page = timed(lambda: run_ride(read_log(log, emit_warnings=False), simulate=False, report_dir=out),
-                     repeat=1)
+        page = timed(lambda: one_page(out), repeat=1)
+        page_cpu = time.process_time() - cpu0
+        stages = _stages(marks)
         cmd = [sys.executable, "-m", "euc_sim.cli", "ride", str(log), "--compare", str(other),
                "--no-simulate", "--report", str(Path(out) / "pair"), "--quiet"]
         subprocess.run(cmd, check=True, capture_output=True)
@@ -240,10 +278,13 @@ def bench_ride_fast() -> dict:
     name = "/".join(log.parts[-4:-1])
     out = {"ride": name, "ride_minutes": span[log] / 60.0, "read_csv_seconds": read,
            "page_seconds": page, "page_cost_vs_read_csv": page / read, "peak_rss_mb": peak,
+           "page_cpu_seconds": page_cpu, "stages_seconds": stages,
            "compare_minutes": [span[log] / 60.0, span[other] / 60.0],
            "load_average": [load0, os.getloadavg()[0]], "cpu_count": os.cpu_count()}
     print(f"  {name} ({span[log] / 60:.0f} min): pandas reads it in {read:.2f} s (the reference); the "
-          f"page and every fit without the replay {page:.1f} s = {page / read:.0f}x (aim <= 10)")
+          f"page and every fit without the replay {page:.2f} s = {page / read:.0f}x (aim <= 10; "
+          f"{page_cpu:.2f} s CPU)")
+    print("  of which " + ", ".join(f"{k} {v:.3f} s" for k, v in stages.items()))
     print(f"  ride --compare --no-simulate on the two longest rides ({span[log] / 60:.0f} and "
           f"{span[other] / 60:.0f} min): peak memory {peak:.0f} MB (aim <= 1000); load average "
           f"{load0:.1f} at the start")

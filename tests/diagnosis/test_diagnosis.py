@@ -358,3 +358,13 @@ def test_refined_estimates_and_h_on_their_bounds_are_listed_once():
     fin.fit.h = 0.6                                      # the reported h alone on the bound: said here
     assert "lies on the search bound" in dict(diagnosis._at_bound(0.6, H_BOUNDS[1], fin, decision))["h_augmented"]
     assert list(dict(diagnosis._at_bound(H_BOUNDS[0], 0.6, fin, {"effects": [], "tentative": []}))) == ["h_nominal"]
+
+
+def test_hot_windows_are_the_runs_lasting_min_len_including_one_at_either_end():
+    from euc_sim.diagnosis.localise import hot_windows
+
+    t = np.arange(12) * 0.25
+    hot = np.array([1, 1, 1, 0, 1, 1, 0, 0, 1, 1, 1, 1], bool)
+    assert hot_windows(t, hot, 0.5) == [[0.0, 0.5], [2.0, 2.75]]
+    assert hot_windows(t, hot, 0.25) == [[0.0, 0.5], [1.0, 1.25], [2.0, 2.75]]
+    assert hot_windows(t, np.zeros(12, bool), 0.0) == [] and hot_windows(t[:0], hot[:0], 0.0) == []

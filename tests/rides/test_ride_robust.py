@@ -245,3 +245,19 @@ def test_halves_split_the_rows_not_the_clock_and_long_gaps_are_not_simulated(tmp
     assert rep["simulation"] is None
     assert abs(rep["rows"]["fit"] - rep["rows"]["test"]) < 0.1 * rep["rows"]["fit"]
     assert "Simulation skipped" in (tmp_path / "rep" / "index.md").read_text()
+
+
+def test_the_residuals_slow_part_is_its_moving_mean_over_the_samples_each_window_holds():
+    import numpy as np
+    import pytest
+
+    from euc_sim.rides.balance.residual import ResidualTrace
+
+    r = np.random.default_rng(0).normal(size=301) * 100.0
+    tr = ResidualTrace("x", np.arange(301) * 0.1, r, r, "W", {}, True)
+    for span in (0.1, 3.0, 30.0, 1e3):
+        w = max(1, min(301, round(span / 0.1)))
+        held = np.convolve(np.ones(301), np.ones(w), mode="same")          # samples in each window
+        assert np.array_equal(tr.slow(span=span), np.convolve(r, np.ones(w), mode="same") / held)
+    assert tr.slow(span=0.3)[0] == pytest.approx((r[0] + r[1]) / 2)          # an end: two samples
+    assert tr.slow(span=0.3)[5] == pytest.approx((r[4] + r[5] + r[6]) / 3)

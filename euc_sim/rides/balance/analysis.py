@@ -19,6 +19,7 @@ from euc_sim.rides.balance.design import NOMINAL, Design, balance_design
 from euc_sim.rides.balance.fit import FEW_BLOCKS, block_rows, plausibility
 from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, ride_signals
 from euc_sim.rides.source.gaps import GAP_POLICY
+from euc_sim.stats import one_blas_thread
 
 __all__ = ["RideAnalysis", "ride_report", "ride_analysis", "check_data", "split_time"]
 
@@ -92,6 +93,17 @@ def ride_analysis(log_path, compare_path=None, *,
         ``figure`` (None: the page names it); ``recording`` and
         ``compare`` are file names (no folder: no machine path in outputs).
     """
+    with one_blas_thread():
+        return _ride_analysis(log_path, compare_path, assumptions=assumptions, rate=rate, max_gap=max_gap,
+                              window=window, polyorder=polyorder, domain=domain, n_boot=n_boot,
+                              block_s=block_s, seed=seed, progress=progress)
+
+
+def _ride_analysis(log_path, compare_path=None, *,
+                   assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
+                   max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2,
+                   domain: str = "power", n_boot: int = 200, block_s: float = 10.0,
+                   seed: int = 0, progress: Callable[[str], None] | None = None) -> RideAnalysis:
     say = progress or (lambda msg: None)
     say(f"reading {log_path.name}" + ("" if compare_path is None else
                                             f" and {compare_path.name}"))
@@ -105,7 +117,7 @@ def ride_analysis(log_path, compare_path=None, *,
     blocks = len(d_fit.P) / (block_s * rate)
     if n_boot and blocks < FEW_BLOCKS:
         notes.append(_few_blocks(fit_label, blocks, block_s))
-        warnings.warn(notes[-1], stacklevel=2)
+        warnings.warn(notes[-1], stacklevel=3)
     report = _report(cr, sig_fit, d_fit, d_test, (fit_label, test_label), notes, domain,
                      assumptions, dict(log_path=log_path, compare_path=compare_path, rate=rate,
                                        window=window, polyorder=polyorder, max_gap=max_gap,

@@ -15,6 +15,7 @@ from typing import Mapping
 
 import numpy as np
 
+from euc_sim.diagnosis.localise import localise
 from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.grids.signals import RideSignals, split_at_gaps
 
@@ -63,8 +64,8 @@ class ResidualTrace:
         dt = float(np.median(np.diff(self.t))) if self.t.size > 1 else 1.0
         w = max(1, min(r.size, int(round(span / dt))))     # "same" keeps r's length
         num = np.convolve(r, np.ones(w), mode="same")
-        den = np.convolve(np.ones_like(r), np.ones(w), mode="same")
-        return num / den
+        k = np.arange(r.size) + (w - 1) // 2                # the samples under each window: counted
+        return num / (np.minimum(k, r.size - 1) - np.maximum(0, k - w + 1) + 1)
 
     def as_json(self) -> dict:
         loc = self.localisation
@@ -105,8 +106,6 @@ def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
         as adjacent samples; its windows are then cut at those gaps
         (:func:`split_at_gaps`).
     """
-    from euc_sim.diagnosis.localise import localise
-
     d = design if design is not None else balance_design(sig, domain)
     r_nom = d.residual(nominal)
     r_aug = d.residual(augmented)

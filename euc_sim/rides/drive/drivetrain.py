@@ -40,7 +40,7 @@ from euc_sim.rides.drive.mass import MassFit
 from euc_sim.rides.drive.pwm import BASE, EXTRA, full_duty_force, pwm_columns, select_pwm_terms
 from euc_sim.rides.grids.power import G, RHO_AIR, PowerSignals
 from euc_sim.rides.source.gaps import GAP_POLICY
-from euc_sim.stats import block_labels, draw_blocks, gram_lstsq, label_grams, percentile_interval
+from euc_sim.stats import block_labels, draw_blocks, gram_lstsq_many, label_grams, one_blas_thread, percentile_interval
 
 __all__ = ["Term", "Drivetrain", "fit_battery", "charge_drawn", "fit_pwm", "predict_pwm", "fit_drivetrain",
            "envelope", "max_force", "CELL_FULL", "CELL_LOW"]
@@ -115,11 +115,12 @@ def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: 
     rng = np.random.default_rng(seed)
     _, label = np.unique(block_labels(t, block), return_inverse=True)
     G = label_grams(np.column_stack([X, y]), label, int(label.max()) + 1)
-    draws = []
-    for _ in range(n_boot):
-        counts = np.bincount(draw_blocks(len(G), rng), minlength=len(G)).astype(float)
-        draws.append(gram_lstsq(np.tensordot(counts, G, axes=1))[0])
-    q = percentile_interval(np.asarray(draws).reshape(n_boot, X.shape[1]), min_draws=10)
+    flat, p1 = G.reshape(len(G), -1), G.shape[-1]
+    summed = np.empty((n_boot, p1, p1))
+    for i in range(n_boot):
+        counts = np.bincount(draw_blocks(len(G), rng), minlength=len(G)).astype(float)[None]
+        summed[i] = np.dot(counts, flat).reshape(p1, p1)
+    q = percentile_interval(gram_lstsq_many(summed).reshape(n_boot, X.shape[1]), min_draws=10)
     ci = [None if q is None else (float(q[0, j]), float(q[1, j])) for j in range(X.shape[1])]
     return beta, ci
 
@@ -227,6 +228,12 @@ def fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None
         Wheel radius, m (from the spec): converts K_v to the back-EMF constant
         K_e = K_v·R, V·s/rad.
     """
+    with one_blas_thread():
+        return _fit_drivetrain(sig, mass, radius, n_boot, seed)
+
+
+def _fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = None,
+                    n_boot: int = 100, seed: int = 0) -> Drivetrain:
     terms, why = {}, dict(mass.unidentified)
     m = mass.estimate
     c = mass.coef

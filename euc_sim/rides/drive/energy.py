@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from euc_sim.errors import InputError
+from euc_sim.stats import distinct
 
 __all__ = ["window_mean", "window_difference", "window_samples_odd"]
 
@@ -35,7 +36,7 @@ def window_samples_odd(window: float, rate: float) -> int:
 
 def _segments(segment: np.ndarray):
     seg = np.asarray(segment)
-    for s in np.unique(seg):
+    for s in distinct(seg):
         yield np.flatnonzero(seg == s)
 
 

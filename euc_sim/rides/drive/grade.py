@@ -22,6 +22,7 @@ import numpy as np
 
 from euc_sim.rides.drive.mass import MassFit, mass_regressors
 from euc_sim.rides.grids.power import G, PowerSignals
+from euc_sim.stats import distinct
 
 __all__ = ["GradeProfile", "grade_profile", "V_STILL"]
 
@@ -75,7 +76,7 @@ def _ascent(h: np.ndarray, t: np.ndarray, segment: np.ndarray, span: float = 30.
     total = 0.0
     dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
     w = max(1, int(round(span / dt)))
-    for s in np.unique(segment):
+    for s in distinct(segment):
         x = h[segment == s]
         x = x[np.isfinite(x)]
         if x.size < 2:
@@ -119,7 +120,7 @@ def grade_profile(sig: PowerSignals, fit: MassFit, gps_t: np.ndarray,
     dt[new_seg] = 0.0
     implied, fitted = np.empty_like(h_gps), np.empty_like(h_gps)
     beta = fit.coef.get("grade")
-    for s in np.unique(sig.segment):
+    for s in distinct(sig.segment):
         idx = np.flatnonzero(sig.segment == s)
         start = h_gps[idx[0]]
         implied[idx] = start + np.cumsum(rate[idx] * dt[idx])

@@ -63,9 +63,9 @@ import numpy as np
 
 from euc_sim.rides.drive.energy import window_difference, window_mean, window_samples_odd
 from euc_sim.rides.source.channels import current_from_phase, power_not_measured
-from euc_sim.stats import block_labels, draw_blocks, gram_lstsq, label_grams, percentile_interval
+from euc_sim.stats import block_labels, distinct, draw_blocks, gram_lstsq_many, label_grams, percentile_interval
 from euc_sim.stats import forward_select as select_by_heldout
-from euc_sim.stats import time_blocks
+from euc_sim.stats import one_blas_thread, time_blocks
 from euc_sim.rides.source.ride import Ride
 from euc_sim.rides.grids.power import (G, NO_GPS_SCALE_SD, MassSettings, PowerSignals, RideDataError,
                                  SpeedScale, power_signals)
@@ -236,9 +236,9 @@ def heldout_rmse(X: np.ndarray, y: np.ndarray, t: np.ndarray, signed: bool,
     label = time_blocks(t, n_blocks)
     if signed:                  # linear: each fold's fit from the other blocks' Gram matrices
         grams = label_grams(np.column_stack([X, y]), label, n_blocks)
-        total, sse = grams.sum(axis=0), 0.0
-        for Gb in grams:
-            r = np.append(gram_lstsq(total - Gb)[0], -1.0)         # y − X·β = −[X y]·r
+        sse = 0.0
+        for Gb, beta in zip(grams, gram_lstsq_many(grams.sum(axis=0) - grams)):
+            r = np.append(beta, -1.0)                               # y − X·β = −[X y]·r
             sse += float(r @ Gb @ r)
         return float(np.sqrt(max(sse, 0.0) / len(y)))
     err = np.empty_like(y)
@@ -341,27 +341,29 @@ def _bootstrap(designs: list, names, signed, settings: MassSettings, mid: int):
     rng = np.random.default_rng(settings.seed)
     t0 = min(d.t[0] for d in designs)
     labels = [block_labels(d.t, settings.block, t0) for d in designs]
-    blocks = [{b: np.flatnonzero(lab == b) for b in np.unique(lab)} for lab in labels]
+    blocks = [] if signed else [{b: np.flatnonzero(lab == b) for b in distinct(lab)} for lab in labels]
     keys = np.unique(np.concatenate(labels))
     n_boot = settings.n_boot if signed else max(10, settings.n_boot // 10)  # |P̂|: slow fits
     # a signed log's fit is linear: a replicate's Gram matrix is its blocks' Grams summed
-    grams = ([label_grams(np.column_stack([d.X(names), d.y]), np.searchsorted(keys, lab), keys.size)
-              for d, lab in zip(designs, labels)] if signed else None)
-    masses, coefs = [], []
-    for _ in range(n_boot):
+    # (keys, (p + 1)²) each: a replicate's Gram matrix is its block counts times these
+    grams = ([label_grams(np.column_stack([d.X(names), d.y]), np.searchsorted(keys, lab),
+                          keys.size).reshape(keys.size, -1) for d, lab in zip(designs, labels)] if signed else None)
+    p1 = len(names) + 1
+    coef = np.empty((n_boot, len(designs), len(names)))
+    summed = np.empty((n_boot, len(designs), p1, p1))
+    for i in range(n_boot):
         pick = keys[draw_blocks(keys.size, rng)]
-        counts = np.bincount(np.searchsorted(keys, pick), minlength=keys.size).astype(float)
+        counts = np.bincount(np.searchsorted(keys, pick), minlength=keys.size).astype(float)[None]
         for k, d in enumerate(designs):
             if signed:
-                coef = gram_lstsq(np.tensordot(counts, grams[k], axes=1))[0]
+                summed[i, k] = np.dot(counts, grams[k]).reshape(p1, p1)
             else:
                 idx = np.concatenate([blocks[k].get(b, np.empty(0, int)) for b in pick])
-                coef = _solve(d.X(names)[idx], d.y[idx], signed)
-            beta = dict(zip(names, coef))
-            masses.append(_mass(beta))
-            if k == mid:
-                coefs.append([beta[n] for n in names])
-    return np.asarray(masses), np.asarray(coefs, float).reshape(-1, len(names))   # no draws: 0 rows
+                coef[i, k] = _solve(d.X(names)[idx], d.y[idx], signed)
+    if signed:
+        coef = gram_lstsq_many(summed)
+    m = coef[:, :, names.index("inertia")].ravel()
+    return np.where(m > 0, m, np.nan), coef[:, mid, :]                      # no draws: 0 rows
 
 
 def _ci(x: np.ndarray) -> tuple[float, float] | None:
@@ -394,6 +396,11 @@ def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | N
         naming the file and the column, for a log without voltage or current
         or one that was never ridden.
     """
+    with one_blas_thread():
+        return _fit_mass(log, settings, sig)
+
+
+def _fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | None = None) -> MassFit:
     sig = sig if sig is not None else power_signals(log, settings)
     lag = _best_lag(sig, settings)
     designs = [_design(sig, lag, w, settings) for w in sorted(settings.windows)]

@@ -45,6 +45,7 @@ from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.grids.spin import spin_rows
 from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
 from euc_sim.rides.source.ride import Ride
+from euc_sim.stats import distinct
 
 __all__ = ["RideAssumptions", "RideSignals", "with_found_values", "resample", "ride_grid", "sg", "window_samples",
            "wheel_torque", "ride_signals", "break_at_gaps", "check_readings", "split_at_gaps"]
@@ -226,7 +227,7 @@ def sg(x: np.ndarray, segment: np.ndarray, rate: float, window: float = 1.5,
     segment = np.asarray(segment)
     n = window_samples(window, rate, polyorder)
     out = np.full(x.shape, np.nan)
-    for s in np.unique(segment):
+    for s in distinct(segment):
         m = segment == s
         if m.sum() < n or not np.isfinite(x[m]).all():    # e.g. a segment without GPS fix
             continue
@@ -244,7 +245,7 @@ def _interior(segment: np.ndarray, half: int) -> np.ndarray:
     """True for samples at least ``half`` samples from their segment's ends."""
     segment = np.asarray(segment)
     keep = np.zeros(segment.shape, bool)
-    for s in np.unique(segment):
+    for s in distinct(segment):
         idx = np.flatnonzero(segment == s)
         if idx.size > 2 * half:
             keep[idx[half: idx.size - half]] = True

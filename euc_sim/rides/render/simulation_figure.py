@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from euc_sim.io import save_figure
 from euc_sim.rides.grids.signals import break_at_gaps
 
 __all__ = ["plot_ride_simulation", "ride_simulation_figure", "zoom_window", "moving_rms", "ZOOM_S", "RMS_S", "PANELS"]
@@ -178,6 +179,4 @@ def _error_panel(ax, t, tb, sim, e, names, styles, letter) -> None:
 
 def plot_ride_simulation(sim, path) -> Path:
     """Write :func:`ride_simulation_figure` to ``path`` (PNG, atomically)."""
-    from euc_sim.io import save_figure
-
     return save_figure(ride_simulation_figure(sim), path, dpi=100)

@@ -119,9 +119,7 @@ def log_counters(raw: pd.DataFrame, data: pd.DataFrame) -> LogCounters:
     flag = None
     for col in ("alarm", "alert", "Alarm", "Alert"):
         if col in raw.columns:
-            s = raw[col].astype(str).str.strip()
-            f = ~s.isin(["", "0", "0.0", "nan", "None", "null"]) & raw[col].notna()
-            flag = f.to_numpy() if flag is None else flag | f.to_numpy()
+            flag = _raised(raw[col]) if flag is None else flag | _raised(raw[col])
     eucworld = "datetime" in raw.columns
     km = 1000.0 if eucworld else 1.0
     bat = _num(raw, "battery") if eucworld else _num(raw, "battery_level")
@@ -146,6 +144,15 @@ def log_counters(raw: pd.DataFrame, data: pd.DataFrame) -> LogCounters:
         power_Wh_drawn=power,
         battery_circuit_ohm=_extra_value(raw, "euc.batteryCircuitResistance"),
         speed_limit_mps=float(lim.max()) / 3.6 if lim.size else None, wheel_model=_wheel_model(raw))
+
+
+def _raised(col: pd.Series) -> np.ndarray:
+    """Rows whose alarm cell is set: not empty, not 0 (nor 0.0, nan, None, null)."""
+    if col.dtype.kind in "iuf":                 # numbers: any but 0 and NaN (-0.0 reads as set)
+        x = col.to_numpy()
+        return ~np.isnan(x) & ~((x == 0) & ~np.signbit(x)) if x.dtype.kind == "f" else x != 0
+    s = col.astype(str).str.strip()
+    return (~s.isin(["", "0", "0.0", "nan", "None", "null"]) & col.notna()).to_numpy()
 
 
 def _extra_value(raw: pd.DataFrame, key: str) -> float | None:
@@ -182,15 +189,29 @@ def rises(t: np.ndarray, x: np.ndarray, top_mps: float) -> np.ndarray:
     idx = np.flatnonzero(np.isfinite(x))
     if idx.size < 2:
         return out
-    xm = pd.Series(x[idx]).rolling(5, center=True, min_periods=1).median().to_numpy()
+    xm = _median5(x[idx])
     reset = np.r_[False, xm[1:] < 0.5 * xm[:-1] - 50.0]
-    top = pd.Series(xm).groupby(np.cumsum(reset)).cummax().to_numpy()
+    top = (np.maximum.accumulate(xm) if not reset.any() else
+           pd.Series(xm).groupby(np.cumsum(reset)).cummax().to_numpy())
     inc = np.where(reset[1:], 0.0, np.diff(top))
     ti, k = t[idx], np.arange(idx.size - 1)
     first = np.maximum.accumulate(np.where(np.r_[True, xm[1:] != xm[:-1]], np.arange(xm.size), 0))
     reach = np.maximum(ti[np.minimum(k + 11, idx.size - 1)] - ti[np.maximum(k - 10, 0)], ti[k + 1] - ti[first[k]])
     inc[inc > top_mps * reach + 50.0] = np.nan
     out[idx[1:] - 1] = inc
+    return out
+
+
+def _median5(x: np.ndarray) -> np.ndarray:
+    """Running median of 5 finite readings, centred, of fewer at the ends (pandas'
+    ``rolling(5, center=True, min_periods=1).median()``; an even count's is the mean of
+    the middle two), each window sorted at once."""
+    out = np.empty(x.size)
+    if x.size >= 5:
+        out[2:-2] = np.sort(np.lib.stride_tricks.sliding_window_view(x, 5), axis=1)[:, 2]
+    for i in (range(x.size) if x.size < 5 else (0, 1, x.size - 2, x.size - 1)):
+        w = np.sort(x[max(i - 2, 0):i + 3])
+        out[i] = w[w.size // 2] if w.size % 2 else (w[w.size // 2 - 1] + w[w.size // 2]) / 2
     return out
 
 

@@ -468,11 +468,17 @@ def _read_table(path: Path) -> pd.DataFrame:
         _check_field_counts(path, data, text, len(header))
     empty = [""] + ["".join(c) for w in _EMPTY for c in itertools.product(*zip(w, w.upper()))]
     times = {c for lay in LAYOUTS.values() for c in lay.time_columns}     # parsed as text
+    # spaces after a comma or at a line's start are skipped; a file without any is read without
+    # that check of every field; the time stamps' columns are text as the parser infers them,
+    # read again as text only where it read numbers
+    spaced = " " in text and (text.startswith(" ") or any(s in text for s in (", ", "\n ", "\r ")))
+    read = lambda **dtype: pd.read_csv(                                  # noqa: E731
+        io.StringIO(text), keep_default_na=False, skipinitialspace=spaced, index_col=False, low_memory=False,
+        na_values={c: empty for c in (header or ()) if c.strip() not in times}, **dtype)
     try:
-        raw = pd.read_csv(io.StringIO(text), keep_default_na=False, skipinitialspace=True,
-                          index_col=False, low_memory=False,
-                          dtype={c: str for c in (header or ()) if c.strip() in times},
-                          na_values={c: empty for c in (header or ()) if c.strip() not in times})
+        raw = read()
+        if any(str(raw[c].dtype) != "str" for c in raw.columns if str(c).strip() in times):
+            raw = read(dtype={c: str for c in (header or ()) if c.strip() in times})
     except pd.errors.EmptyDataError:
         raise LogFormatError(path, "empty file: expected a header row and data rows") from None
     except pd.errors.ParserError as exc:
@@ -556,12 +562,11 @@ def _time_ordered(table: pd.DataFrame, notes: list[str]) -> tuple[pd.DataFrame, 
     if back:
         notes.append(f"time ran backwards at {back} row(s); rows put in time order")
         table = table.sort_values("t", kind="stable").reset_index(drop=True)
-    counts = table["t"].value_counts()
-    rep = counts[counts > 1]
-    n_merged = 0
-    if len(rep):
-        n_merged = int(rep.sum() - len(rep))
+    same = np.diff(table["t"].to_numpy()) == 0          # in time order: a repeat follows its stamp
+    n_merged = int(same.sum())
+    if n_merged:
+        n_stamps = int((same & ~np.r_[False, same[:-1]]).sum())
         table = table.groupby("t", sort=True, as_index=False).mean()
-        notes.append(f"repeated time stamps: {len(rep)} time stamp(s) shared by "
-                     f"{int(rep.sum())} rows; averaged into one row each ({n_merged} rows merged)")
+        notes.append(f"repeated time stamps: {n_stamps} time stamp(s) shared by "
+                     f"{n_merged + n_stamps} rows; averaged into one row each ({n_merged} rows merged)")
     return table, n_merged
