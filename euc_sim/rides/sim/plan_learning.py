@@ -24,6 +24,7 @@ import math
 import numpy as np
 
 from euc_sim.errors import InputError
+from euc_sim.rides.grids.signals import sg, window_samples
 
 __all__ = ["filter_band", "closed_loop_response", "inverse_correction", "COHERENCE_MIN", "TREND_WINDOW",
            "SEGMENT_S"]
@@ -57,8 +58,6 @@ def filter_band(rate: float = 10.0, window: float = 1.5, polyorder: int = 2) -> 
     """
     from scipy.signal import freqz, savgol_coeffs
 
-    from euc_sim.rides.grids.signals import window_samples
-
     n = window_samples(window, rate, polyorder)
     w, h = freqz(savgol_coeffs(n, polyorder), worN=8192, fs=rate)
     below = np.flatnonzero(np.abs(h) < 2 ** -0.5)
@@ -66,8 +65,6 @@ def filter_band(rate: float = 10.0, window: float = 1.5, polyorder: int = 2) -> 
 
 
 def _detrend(x: np.ndarray, rate: float) -> np.ndarray:
-    from euc_sim.rides.grids.signals import sg
-
     return x - sg(x, np.zeros(x.size, int), rate, TREND_WINDOW, 1)
 
 
