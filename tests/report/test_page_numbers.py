@@ -198,3 +198,49 @@ def test_index_md_says_both_logs_metadata_once(tmp_path):
     md = (rep_dir / "index.md").read_text()
     assert md.count("rider weight 85 → 97 kg") == 1
     assert _problems(rep_dir)["md"] == []
+
+
+def _signed(x: float) -> str:
+    return ("+" if round(x) > 0 else "−" if round(x) < 0 else "") + f"{abs(x):.0f}"
+
+
+def test_the_mass_difference_is_said_once_as_the_key_figures_difference(synthetic):
+    """Blitz 4 against 2: the box said "cannot resolve differences smaller than mass ±31 kg" (the
+    paired test's size) while the mass section said "+22 kg, 95 % interval −21 to +51 kg" (the two
+    rides' own fits, the tiles' difference): one difference stated twice, not alike.  The box
+    says the tiles' difference with the paired test's verdict beside it; the mass section
+    points there; index.md and the HTML page say the same."""
+    rep_dir, rep = synthetic
+    d = rep["mass_difference"]
+    said = (f"each ride's own fit (the key figures) differs by {_signed(d['estimate'])} kg "
+            f"(95 % interval {_signed(d['ci95'][0])} to {_signed(d['ci95'][1])} kg)")
+    number = f"{d['estimate']:+.0f} kg"
+    for kind, secs in (("md", P.md_sections((rep_dir / "index.md").read_text())),
+                       ("html", P.html_sections((rep_dir / "index.html").read_text()))):
+        box = "\n".join(t for title, t in secs if title == TITLE)
+        assert said in box, kind
+        assert "paired test" in box.split(said, 1)[1].split("\n", 1)[0], kind
+        assert "mass ±" not in box, kind                 # the paired test's size: not a second figure
+        rest = "\n".join(t for title, t in secs if title != TITLE)
+        assert "The compared ride minus this one: in 'What differs in the compared ride' above." in rest, kind
+        assert number not in rest and said not in rest, kind
+
+
+def test_one_check_of_the_pwm_model_on_every_part_of_the_page(synthetic):
+    """Blitz 4 against 2: the cut-out section said the PWM model predicts "the ride's second
+    half, fitted on its first, to 2.1 points RMS" while the folded part and the terminal said
+    1.5 points on the compared ride; index.md had no word of the wheel's limit or the cut-out.
+    With --compare the page states the compared ride's check (the JSON's ``pwm``), once, and
+    index.md carries the limits' section as the page does."""
+    import re
+
+    rep_dir, rep = synthetic
+    said = f"predicts the logged PWM of the compared ride (b.csv), fitted on this one, to " \
+           f"{rep['pwm']['heldout_rmse']:.1f} points RMS"
+    for kind, text in (("md", (rep_dir / "index.md").read_text()),
+                       ("html", P._text((rep_dir / "index.html").read_text()))):
+        assert text.count(said) == 1, kind
+        assert "second half, fitted on its first" not in text, kind
+        assert not re.search(r"PWM of the other ride predicted from this one: \**\d", text), kind
+    md = (rep_dir / "index.md").read_text()
+    assert "## Your wheel's limit and the cut-out" in md and "Your wheel's limit: " in md

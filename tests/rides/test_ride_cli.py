@@ -109,7 +109,7 @@ def test_report_folder(full_run):
     assert all(f'Plotly.newPlot("{k}"' in html for k in ("cross_ride", "residuals"))
     for name in linked:
         assert (d / name).stat().st_size > 20_000
-    for word in ("aerodynamic_drag", "kg/m", "cannot tell apart", "Windows (s)", "plausible"):
+    for word in ("aerodynamic_drag", "kg/m", "cannot tell apart", "Windows where", "plausible"):
         assert word in page
     assert not [p for p in d.iterdir() if is_temporary(p)]                     # no temporary files left
 
@@ -292,6 +292,11 @@ def test_real_rides_done_criterion(tmp_path, capsys):
     for name in ("ride_balance.csv", "index.html", "index.md"):
         assert (tmp_path / "rep" / name).stat().st_size > 2_000
     assert "verdict:" in out
+    a, b = rep["windows"][0]                # the terminal says the windows as the page does
+    from euc_sim.rides.render.ride_time import span_at
+
+    assert "  windows, clock time in the phone's local time (time into the ride, min:s): " \
+        + span_at(rep["clock"], a, b, "-") in out and f"{a:.1f}-" not in out
 
 
 def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, monkeypatch, tmp_path):
@@ -319,7 +324,11 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
                    simulate=True)
     sim = rep["simulation"]
     page = (tmp_path / "rep" / "index.md").read_text()
-    assert f"The simulated rider fell at t = {t_fall:.1f} s (nominal: " in page          # said once
+    from euc_sim.rides.render.ride_time import clock_at
+
+    at = clock_at(rep["clock"], t_fall)                   # clock time of the ride's own zone
+    assert f"The simulated rider fell at {at} (40 s into the ride; nominal: " in page          # said once
+    assert f"| {at} (40 s into the ride) |" in page       # the steps' table, alike
     assert page.count("exceeds the bound") == 1
     assert (tmp_path / "rep" / "ride_simulation.png").stat().st_size > 20_000
     assert sim["falls"] == [{"t": t_fall, "cause": "|gamma| = 0.6 rad exceeds the bound", "run": "nominal"}]
@@ -342,7 +351,8 @@ def test_the_falls_are_said_once_with_the_runs_they_ended():
     cause = "|phi| = 0.700 rad exceeds the bound 0.7 rad"
     both = [{"t": 842.921, "cause": cause, "run": "nominal"}, {"t": 842.921, "cause": cause, "run": "augmented"}]
     text = falls_sentence(both, 0)
-    assert text.count("842.9 s") == 1 and text.count(cause) == 1 and "nominal and augmented" in text
+    assert text.count("14 min 03 s into the ride") == 1 and text.count(cause) == 1
+    assert "nominal and augmented" in text
     assert "not ridden again" in text and "no error to report" in text
     one = falls_sentence(both[:1], 120)
     assert "(nominal: " in one and "over the 120 scored rows ridden before it" in one

@@ -21,12 +21,15 @@ from euc_sim.errors import InputError
 
 import math
 import warnings
+from collections import Counter
 from dataclasses import asdict, dataclass, field
+from datetime import datetime, timedelta
 
 import numpy as np
 
 __all__ = ["RideEntry", "ChangeTest", "RideHistory", "WheelMismatch", "ride_entry",
-           "change_test", "ride_history", "series_cells", "full_charge", "SERIES_COUNTS"]
+           "change_test", "ride_history", "series_cells", "full_charge", "shared_offset", "utc_start",
+           "SERIES_COUNTS"]
 
 #: Cells in series of common EUC packs (67.2 V to 176.4 V full).
 SERIES_COUNTS = (16, 20, 24, 30, 32, 36, 40, 42)
@@ -135,7 +138,7 @@ class RideHistory:
     Attributes
     ----------
     rides : tuple of RideEntry
-        In time order.
+        In time order: the instant each started (:func:`utc_start`).
     basis : str
         ``"25C"`` or ``"as measured"``: which resistance the change test compares.
     change : ChangeTest or None
@@ -167,6 +170,35 @@ class RideHistory:
 
 
 # --------------------------------------------------------------------------------------
+def shared_offset(offsets) -> float | None:
+    """The zone most of the logs naming one give, s east of UTC (the first of equals); None
+    where none names one.
+
+    The rides are shown in it, and a log naming none (WheelLog, DarknessBot: the phone's
+    clock) is taken to be in it.
+
+    Parameters
+    ----------
+    offsets : iterable of float or None
+        Each log's ``utc_offset_s``.
+    """
+    offs = Counter(o for o in offsets if o is not None)
+    return offs.most_common(1)[0][0] if offs else None
+
+
+def utc_start(start: str, utc_offset_s: float | None, shared: float | None):
+    """The instant a ride started, naive UTC: ``start`` itself where its log names its zone
+    (``utc_offset_s`` not None: the reader's start is UTC), else the phone's clock taken in the
+    ``shared`` zone (:func:`shared_offset`; as logged without one).
+
+    Returns
+    -------
+    datetime.datetime
+    """
+    t = datetime.fromisoformat(start)
+    return t if utc_offset_s is not None or shared is None else t - timedelta(seconds=shared)
+
+
 def series_cells(v_max: float, v_min: float) -> tuple[int, ...]:
     """Cell counts in series consistent with the ride's voltages (3.0-4.25 V a cell)."""
     return tuple(n for n in SERIES_COUNTS if 3.0 * n <= v_min and v_max <= 4.25 * n)
@@ -335,7 +367,9 @@ def ride_history(entries) -> RideHistory:
     WheelMismatch
         when the logs are not of one wheel.
     """
-    rides = tuple(sorted(entries, key=lambda e: e.start))
+    entries = list(entries)
+    zone = shared_offset(e.utc_offset_s for e in entries)
+    rides = tuple(sorted(entries, key=lambda e: utc_start(e.start, e.utc_offset_s, zone)))
     check_one_wheel(rides)
     why = {}
     with_r = [e for e in rides if e.battery["resistance_ohm"] is not None and e.battery["resistance_ci95"]]

@@ -7,7 +7,9 @@ typed objects.
 
 from __future__ import annotations
 
+import math
 from dataclasses import asdict, dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -23,7 +25,8 @@ from euc_sim.rides.result import RideResult, RiderNumbers
 __all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json",
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
            "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json", "difference_json",
-           "differences_json", "clock_json", "mass_difference_json", "mass_check_json", "limits_of"]
+           "differences_json", "clock_json", "mass_difference_json", "mass_check_json", "limits_of",
+           "pwm_check"]
 
 
 @dataclass(frozen=True)
@@ -274,6 +277,19 @@ def limits_of(rep) -> Limits:
     unknown without it): what the pages read back of the JSON they render."""
     lim = (rep.get("summary") or {}).get("limits") or {}
     return Limits(lim.get("speed_limit_mps"), lim.get("source"), lim.get("pwm_alarm_pct"), lim.get("why"))
+
+
+def pwm_check(rep) -> tuple[str, str, float] | None:
+    """The one check of the duty model a ride's pages state: (kind, on what, RMS error in points).
+
+    On the compared ride where there is one (the ride JSON's ``pwm``: the figure the terminal
+    gives too), else on the ride's second half fitted on its first (``cutout``); None without.
+    """
+    other = (rep.get("pwm") or {}).get("heldout_rmse")
+    if other is not None and math.isfinite(other):
+        return "compared", f"the compared ride ({Path(str(rep.get('compare') or '')).name}), fitted on this one", other
+    rmse = (rep.get("cutout") or {}).get("heldout_pwm_rmse_pct")
+    return None if rmse is None or not math.isfinite(rmse) else ("halves", "the ride's second half, fitted on its first", rmse)
 
 
 def mass_difference_json(d) -> dict:

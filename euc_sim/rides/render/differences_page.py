@@ -9,7 +9,9 @@ difference comes with its 95 % interval and what the pair cannot tell it from; w
 nothing named, one sentence says so and what the pair could have seen (each
 entry's ``resolvable``, the smallest difference the pair can name, computed with the
 differences; the interval's half-width where the JSON has none), and, where an
-estimate lies below it, that the pair cannot resolve less.
+estimate lies below it, that the pair cannot resolve less.  A difference the key figures
+show both values of (the mass, the battery's resistance) is said once, as those values'
+difference with its interval, and the paired test's verdict beside it.
 
 Given LOG's path, where both logs sit beside an euc_core ``meta.csv`` (rider weight,
 tyre pressure, temperature, wind), the recorded values are said beside the
@@ -27,7 +29,7 @@ from typing import Mapping
 from euc_sim.model.catalog import Words
 from euc_sim.simulation.effects import RECORDS
 
-__all__ = ["Shown", "SHOWN", "TITLE", "difference_lines", "difference_section", "recorded_metadata"]
+__all__ = ["Shown", "SHOWN", "TITLE", "KEY_FIGURES", "difference_lines", "difference_section", "recorded_metadata"]
 
 #: The block's heading, on the page and in index.md.
 TITLE = "What differs in the compared ride"
@@ -47,8 +49,8 @@ def _size(s: Shown, x: float) -> str:
 
 
 def _signed(s: Shown, x: float) -> str:
-    v = s.scale(x)
-    return ("+" if v > 0 else "−" if v < 0 else "") + s.fmt.format(abs(v))
+    v, shown = s.scale(x), s.fmt.format(abs(s.scale(x)))
+    return ("" if float(shown) == 0 else "+" if v > 0 else "−" if v < 0 else "") + shown
 
 
 def _interval(s: Shown, ci) -> str:
@@ -107,6 +109,34 @@ def _aliases(d: Mapping) -> str:
             else "told apart from the other physics on these two rides")
 
 
+#: The differences whose two values the key figures show, each ride's own fit (the tiles):
+#: said as those fits' difference (the JSON's ``independent``), never as the paired test's size.
+KEY_FIGURES = ("total_mass", "internal_resistance")
+
+
+def _own_fits(d: Mapping) -> bool:
+    """Whether ``d`` is said as the key figures' difference (:data:`KEY_FIGURES`, with an interval)."""
+    return d.get("name") in KEY_FIGURES and bool((d.get("independent") or {}).get("ci95"))
+
+
+def _own_words(d: Mapping) -> str:
+    """"each ride's own fit (the key figures) differs by +22 kg (95 % interval −21 to +51 kg)"."""
+    s, ind = SHOWN[d["name"]], d["independent"]
+    return (f"each ride's own fit (the key figures) differs by {_signed(s, ind['estimate'])}{s.unit} "
+            f"(95 % interval {_interval(s, ind['ci95'])})")
+
+
+def _test_words(d: Mapping) -> str:
+    """The paired test's verdict on ``d`` in short: "not significant, p = 0.071, q = 0.14" (and
+    "its own interval includes zero" where that is why), else its ``why`` as written."""
+    why, p, q = d.get("why") or "not significant", d.get("p_value"), d.get("q_value")
+    sig = next((w for w in ("not significant", "significant") if why.startswith(w)), None)
+    if sig is None or p is None:
+        return why
+    return (f"{sig}, p = {p:.2g}" + (f", q = {q:.2g}" if q is not None else "")
+            + ("; its own interval includes zero" if "interval includes" in why else ""))
+
+
 def _resolvable(d: Mapping) -> float:
     """The smallest difference the pair can name: the JSON's ``resolvable``, else the interval's half-width."""
     r = d.get("resolvable")
@@ -128,7 +158,9 @@ def difference_lines(rep: Mapping, log_path=None) -> list[str]:
     then what the pair could have seen of the rest (each entry's ``resolvable``,
     the smallest difference the pair can name, else its interval's half-width),
     which of the rest the pair cannot resolve (an estimate below ``resolvable``), and
-    each one not named whose rides' own fits (``independent``) differ, with the test's why.
+    each one the key figures show (:data:`KEY_FIGURES`) as the rides' own fits' difference
+    (``independent``) with the paired test's why: one statement of it on the page (the mass
+    section points here).
     """
     diffs = [d for d in rep.get("differences") or [] if d.get("name") in SHOWN]
     if not diffs:
@@ -139,7 +171,8 @@ def difference_lines(rep: Mapping, log_path=None) -> list[str]:
     meta = recorded_metadata(rep, log_path)
     named = sorted((d for d in diffs if d.get("named") and d.get("estimate") is not None and d.get("ci95")),
                    key=lambda d: list(SHOWN).index(d["name"]))
-    rest = [d for d in diffs if d not in named and d.get("estimate") is not None and d.get("ci95")]
+    own = [d for d in diffs if d not in named and _own_fits(d)]
+    rest = [d for d in diffs if d not in named and d not in own and d.get("estimate") is not None and d.get("ci95")]
     if named:
         parts = [f"{_size(s, d['estimate'])} "
                  + (f"{s.more} ({s.hint})" if d["estimate"] > 0 else f"{s.less} ({s.hint_less})")
@@ -148,7 +181,8 @@ def difference_lines(rep: Mapping, log_path=None) -> list[str]:
         for d in named:
             s = SHOWN[d["name"]]
             out.append(f"- {s.label[0].upper() + s.label[1:]}: 95 % interval {_interval(s, d['ci95'])}; "
-                       f"{_aliases(d)}" + (f"; {meta[d['name']]}" if d["name"] in meta else "") + ".")
+                       f"{_aliases(d)}" + (f"; {meta[d['name']]}" if d["name"] in meta else "")
+                       + (f"; {_own_words(d)}" if _own_fits(d) else "") + ".")
     else:
         out = [f"**Nothing differs between {this} and {other} that this pair of rides can show.**"]
     below = [d for d in rest if d.get("resolvable") is not None and abs(d["estimate"]) < d["resolvable"]]
@@ -167,13 +201,11 @@ def difference_lines(rep: Mapping, log_path=None) -> list[str]:
             out.append(f"- {said_below}")
         else:
             out[0] += f" {said_below}"
-    for d in rest:                  # the rides' own fits differ where the paired test names nothing
-        ci = (d.get("independent") or {}).get("ci95")
-        if ci and (ci[0] > 0 or ci[1] < 0):
-            s = SHOWN[d["name"]]
-            out.append(f"- {s.label[0].upper() + s.label[1:]}: each ride's own fit differs by "
-                       f"{_signed(s, d['independent']['estimate'])}{s.unit} (95 % interval {_interval(s, ci)}), "
-                       f"but the paired test does not name it: {d.get('why') or 'not significant'}.")
+    for d in own:                   # the key figures' difference, with the paired test's verdict
+        ci, s = d["independent"]["ci95"], SHOWN[d["name"]]
+        out.append(f"- {s.label[0].upper() + s.label[1:]}: {_own_words(d)}"
+                   + (", but the paired test does not name it (" if ci[0] > 0 or ci[1] < 0 else
+                      ": cannot tell, nor can the paired test (") + f"{_test_words(d)}).")
     said = list(dict.fromkeys(meta[d["name"]] for d in diffs if d["name"] in meta))
     if said and not named:
         out += ["", "For comparison, the logs' metadata record "

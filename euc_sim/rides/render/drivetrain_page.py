@@ -124,6 +124,15 @@ def grade_figure(g, title: str = ""):
     return fig
 
 
+def _level_cutout(cut) -> tuple[float, float] | None:
+    """The cut-out chart's speed on the level at 100 % and at 0 % charge, km/h (the ride JSON's
+    ``cutout``); None without both."""
+    c = next((c for c in (cut or {}).get("curves") or [] if c["condition"] == "level"), None)
+    ends = [] if c is None else [c["speed_mps"][c["charge_pct"].index(q)] if q in c["charge_pct"] else None
+                                 for q in (100.0, 0.0)]
+    return (3.6 * ends[0], 3.6 * ends[1]) if len(ends) == 2 and None not in ends else None
+
+
 #: A systematic part of the mass's interval (``total_mass.systematic``) in people's words:
 #: ``efficiency_model`` is the choice of copper-loss column (κ·F² or its proxy κ·a²).
 SYSTEMATIC_WORDS = {"efficiency_model": "copper-loss model (κ·F² or κ·a²)",
@@ -145,7 +154,10 @@ def _mass_md(rep: dict, shown=frozenset()) -> list[str]:
         md.append("- Total mass (rider + wheel"
                   + ("" if eq else ", with the wheel's rotating inertia: no net weight given")
                   + f"): {value} (from battery power alone; speed scale {tm['speed_scale']:.3f}, "
-                    f"{tm['speed_scale_source']}; current–speed delay {tm['lag_s']:+.1f} s).")
+                    f"{tm['speed_scale_source']}; current–speed delay {tm['lag_s']:+.1f} s, a shift of the "
+                    f"current" + ("; the balance's own lag of it, current_lag, is in Estimates, a first-order lag"
+                                  if any(q.get("name") == "current_lag" and q.get("accepted")
+                                         for q in rep.get("parameters") or []) else "") + ").")
         if eq:
             md.append(f"- The energy balance finds m_eq = {eq['estimate']:.0f} kg (eq. 6: it also "
                       f"accelerates the wheel's rotating inertia J_w/R², taken as "
@@ -167,7 +179,11 @@ def _mass_md(rep: dict, shown=frozenset()) -> list[str]:
     for w in rep.get("input_warnings", []):
         md.append(f"- **Warning**: {w}.")
     d = rep.get("mass_difference")
-    if d:
+    said = any(x.get("name") == "total_mass" and (x.get("independent") or {}).get("ci95")
+               for x in rep.get("differences") or [])
+    if d and said:                  # the differences' block says it, once
+        md.append("- The compared ride minus this one: in 'What differs in the compared ride' above.")
+    elif d:
         md.append("- The compared ride minus this one: " + (
             f"**{d['estimate']:+.0f} kg**, 95 % interval {d['ci95'][0]:+.0f} to {d['ci95'][1]:+.0f} "
             f"kg: **{d['verdict']}**" if d.get("estimate") is not None else
@@ -179,7 +195,8 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
     """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope.
 
     ``shown``: the quantities the page's first screen already gives (``total_mass``,
-    ``internal_resistance``, ``top_speed``), said here without their numbers.
+    ``internal_resistance``, ``top_speed``; ``pwm_heldout``, the compared ride's PWM check, in
+    its limits' section), said here without their numbers.
     """
     md = _mass_md(rep, shown)
     sel = rep.get("selection") or []
@@ -216,7 +233,8 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
     if rep.get("pwm"):
         p = rep["pwm"]
         md += ["", "PWM of the other ride predicted from this one: "
-                   + (f"**{p['heldout_rmse']:.1f} percentage points RMS**" if p.get("heldout_rmse")
+                   + ("in 'Your wheel's limit and the cut-out' above" if "pwm_heldout" in shown else
+                      f"**{p['heldout_rmse']:.1f} percentage points RMS**" if p.get("heldout_rmse")
                       is not None else f"not available ({p.get('why', '')})")]
     if "pwm" in figures:
         md += ["", f"![PWM predicted against logged]({figures['pwm']})"]
@@ -228,8 +246,15 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
             x = env[name]["v_limit"]
             return (f"none is left above {x * 3.6:.0f} km/h" if x is not None else
                     f"some is still left at {end:.0f} km/h, the figure's end")
-        md += ["", f"Envelope (voltage limit): at full charge ({env['full']['voltage']:.0f} V) "
-                   f"{left('full')}; at low charge ({env['low']['voltage']:.0f} V) {left('low')}. "
+        level = _level_cutout(rep.get("cutout"))
+        said = (f"at full charge ({env['full']['voltage']:.0f} V) {left('full')}; at low charge "
+                f"({env['low']['voltage']:.0f} V) {left('low')}. " if level is None else
+                f"the acceleration left at full duty with the pack at {env['full']['voltage']:.0f} V and at "
+                f"{env['low']['voltage']:.0f} V. The speed at which none is left on the level is the page's "
+                f"cut-out chart's, at the charge as this log reads it ("
+                f"{rep['cutout'].get('ocv_source') or 'its battery reading'}): {level[0]:.0f} km/h at 100 %, "
+                f"{level[1]:.0f} km/h at 0 %. ")
+        md += ["", "Envelope (voltage limit): " + said
                    + ("Faster than this ride's top speed (in the key figures above)" if "top_speed" in shown
                       else f"This ride's top speed was {env.get('ride_top_speed', float('nan')) * 3.6:.0f} "
                            f"km/h: faster than that")

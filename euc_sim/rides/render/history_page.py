@@ -9,6 +9,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from euc_sim.report.html import KeyFigure, figure, key_figures, page, paragraph, section, table
+from euc_sim.rides.logbook.history import shared_offset
 
 __all__ = ["history_page", "table_zone", "start_in", "pwm_cell"]
 
@@ -17,16 +18,14 @@ _LEGEND = {"orientation": "h", "yanchor": "bottom", "y": 1.02, "xanchor": "left"
 
 def table_zone(h: dict) -> tuple[float | None, str]:
     """The one zone the rides' table shows every start in: the zone most of the logs that name
-    one give (s east of UTC, and in words), logs naming none (WheelLog: the phone's clock) taken
+    one give (s east of UTC, and in words: :func:`~euc_sim.rides.logbook.history.shared_offset`,
+    the zone the rides are sorted in), logs naming none (WheelLog: the phone's clock) taken
     as already in it; the phone's local time where no log names a zone."""
-    from collections import Counter
-
     from euc_sim.rides.summary.rider_view import zone_words
 
-    offs = Counter(e.get("utc_offset_s") for e in h["rides"] if e.get("utc_offset_s") is not None)
-    if not offs:
+    off = shared_offset(e.get("utc_offset_s") for e in h["rides"])
+    if off is None:
         return None, zone_words(None)
-    off = offs.most_common(1)[0][0]
     bare = any(e.get("utc_offset_s") is None for e in h["rides"])
     return off, zone_words(off) + (" (logs naming no zone: the phone's clock, as logged)" if bare else "")
 
@@ -62,7 +61,8 @@ def _r(e: dict, basis: str) -> tuple:
 def _resistance_figure(h: dict, x_key: str, title: str, x_title: str) -> dict:
     """Resistance (mΩ) with its 95 % interval against date or temperature."""
     pts = [(r, ci, e) for e in h["rides"] for r, ci in [_r(e, h["basis"])] if r is not None and ci]
-    xs = [e["start"] if x_key == "date" else e["temperature_C"] for _, _, e in pts]
+    off = table_zone(h)[0]
+    xs = [start_in(e, off) if x_key == "date" else e["temperature_C"] for _, _, e in pts]
     ys = [1e3 * r for r, _, _ in pts]
     up = [1e3 * (ci[1] - r) for r, ci, _ in pts]
     lo = [1e3 * (r - ci[0]) for r, ci, _ in pts]
@@ -118,7 +118,9 @@ def _key_figures(h: dict) -> list:
     rides = h["rides"]
     dist = sum(e["summary"]["distance_m"] or 0 for e in rides)
     energy = sum(e["summary"]["energy_drawn_Wh"] or 0 for e in rides)
-    out = [KeyFigure("Rides", str(len(rides)), f"{rides[0]['start'][:10]} to {rides[-1]['start'][:10]}"),
+    off = table_zone(h)[0]
+    first, last = start_in(rides[0], off)[:10], start_in(rides[-1], off)[:10]
+    out = [KeyFigure("Rides", str(len(rides)), f"{first} to {last}"),
            KeyFigure("Distance", f"{dist / 1000:.1f} km"), KeyFigure("Energy drawn", f"{energy:.0f} Wh")]
     ch = h["change"]
     if ch:
@@ -158,7 +160,8 @@ def history_page(h: dict, title: str = "Rides of one wheel") -> str:
             + (f"The latest ride against the earlier {ch['n_earlier']}: {ch['verdict']} (p = {ch['p_value']:.2g}). "
                + (ch["note"] + "." if ch["note"] else "") if ch else h["why"].get("change", "")))
     body.append(section("Battery over time", paragraph(text)
-                        + figure(_resistance_figure(h, "date", "Battery internal resistance per ride", "date"), "r_date")
+                        + figure(_resistance_figure(h, "date", "Battery internal resistance per ride",
+                                                   f"start ({table_zone(h)[1]})"), "r_date")
                         + figure(_resistance_figure(h, "temp", "Battery internal resistance against temperature",
                                                     "logged temperature (°C)"), "r_temp")))
     body.append(section("Consumption", figure(_whkm_figure(h), "whkm")))

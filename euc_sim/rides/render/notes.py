@@ -37,12 +37,15 @@ _MEDIAN_HZ = re.compile(r"\(median ([\d.]+) s, about ([\d.]+) Hz\)")
 
 def as_the_tile(note: str, hz: float | None) -> str:
     """The reader's sampling note beside the Data quality tile: its gap count said as the
-    tile counts gaps, and a median rate well above the whole log's ``hz`` (samples/s; rows in
-    bursts between gaps) said as such, not as the log's rate."""
+    tile counts gaps, and its median interval's rate not as a second rate of the log (the
+    tile's ``hz``, samples/s, is the whole log's): well above it, as the rate within bursts
+    between gaps; near it, left out (the median interval said alone)."""
     note = _OWN_GAPS.sub(r"gaps longer than \1 s as the tile counts", note)
     m = _MEDIAN_HZ.search(note)
-    if m is None or not hz or float(m[2]) <= 2.0 * hz:
+    if m is None or not hz:
         return note
+    if float(m[2]) <= 2.0 * hz:
+        return note.replace(m[0], f"(median {m[1]} s between rows; the tile's rate counts the whole log)")
     return note.replace(m[0], f"(median {m[1]} s: {m[2]} Hz within bursts between gaps; the tile's rate "
                               f"counts the whole log)")
 
@@ -77,17 +80,22 @@ def _empty_cells(g: list, rows: str) -> str:
     return f"empty cells (of {rows} rows; kept as NaN): " + "; ".join(parts)
 
 
-def _gap_summary(g: list, shown: int) -> str:
-    """"count (total, longest; at t = …)" of gaps ``[(length, t), ...]``, s."""
+def _gap_summary(g: list, shown: int, at=None) -> str:
+    """"count (total, longest; at …)" of gaps ``[(length, t), ...]``, s; each moment as ``at(t)``
+    says it, else "t = … s"."""
     lens = [x[0] for x in g]
-    at = ", ".join(f"{x[1]:.0f}" for x in g[:shown]) + (", …" if len(g) > shown else "")
-    return f"{len(g)} logging gap(s) (total {sum(lens):.1f} s, longest {max(lens):.2f} s; at t = {at} s)"
+    more = ", …" if len(g) > shown else ""
+    when = (", ".join(at(x[1]) for x in g[:shown]) + more if at else
+            "t = " + ", ".join(f"{x[1]:.0f}" for x in g[:shown]) + more + " s")
+    return f"{len(g)} logging gap(s) (total {sum(lens):.1f} s, longest {max(lens):.2f} s; at {when})"
 
 
-def summarise_notes(notes, shown: int = 5) -> list[str]:
+def summarise_notes(notes, shown: int = 5, at=None) -> list[str]:
     """The notes for people: a ride's gaps (count, total, longest), its too-short segments
     and its columns' empty cells in one line each (the JSON keeps every one); the other
-    notes as they are, in order."""
+    notes as they are, in order.  ``at(who, t)``, given a note's ride prefix ("2.csv: " or
+    '') and a time in s from that log's start, says the gaps' moments (clock time and time
+    into the ride); without it they are said in s."""
     groups: dict[tuple, list] = {}
     out: list = []
     for n in notes:
@@ -109,14 +117,15 @@ def summarise_notes(notes, shown: int = 5) -> list[str]:
             continue
         kind, who, arg = item
         g = groups[item]
+        moment = (lambda t, who=who: at(who, t)) if at else None
         if kind == "split":
-            lines.append(f"{who}{_gap_summary(g, shown)} longer than {arg} s split the ride there "
+            lines.append(f"{who}{_gap_summary(g, shown, moment)} longer than {arg} s split the ride there "
                          f"for every fit (balance, mass, law): not bridged (every one is listed in "
                          f"the JSON's notes)")
         elif kind == "empty":
             lines.append(who + _empty_cells(g, arg))
         elif kind == "bridged":
-            lines.append(f"{who}{_gap_summary(g, shown)} longer than {GAP_POLICY.gap:g} s bridged linearly "
+            lines.append(f"{who}{_gap_summary(g, shown, moment)} longer than {GAP_POLICY.gap:g} s bridged linearly "
                          f"in the simulated speed profile (every one is listed in the JSON's notes)")
         else:
             lines.append(f"{who}{len(g)} piece(s) between gaps shorter than the "

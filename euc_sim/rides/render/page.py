@@ -15,6 +15,7 @@ import numpy as np
 from euc_sim.rides.balance.residual import SLOW_S
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.render.notes import as_the_tile, missing_spec_effect, said_once, summarise_notes
+from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend, when
 
 __all__ = ["write_page", "falls_sentence", "markdown_sections"]
 
@@ -33,7 +34,7 @@ def _interval(ci) -> str:
 
 
 def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None,
-               key_lines: Sequence[str] = (), shown=frozenset()) -> Path:
+               key_lines: Sequence[str] = (), shown=frozenset(), limits: Sequence[str] = ()) -> Path:
     """Write ``out_dir/index.md``: the ride's findings with its figures.
 
     Parameters
@@ -51,6 +52,9 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None,
         The first screen's figures (the HTML tiles' strings), said first.
     shown : frozenset
         The fitted quantities those figures give, said later without their numbers.
+    limits : sequence of str
+        The wheel's limit and the cut-out, Markdown lines with their heading (the HTML page's
+        sentences: :func:`euc_sim.rides.render.page_html.limits_md`), after the verdict.
 
     Returns
     -------
@@ -58,23 +62,24 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None,
     """
     from euc_sim.io import write_text
 
-    md = (_verdict_md(report, figures, log_path, key_lines, shown) + _estimates_md(report) + _aliases_md(report)
+    md = (_verdict_md(report, figures, log_path, key_lines, shown, limits) + _estimates_md(report)
+          + _aliases_md(report)
           + _localisation_md(report, figures) + _simulation_md(report, figures)
           + _assumptions_md(report, shown))
     return write_text(Path(out_dir) / "index.md", "\n".join(md))
 
 
 def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None, key_lines: Sequence[str] = (),
-                shown=frozenset()) -> list[str]:
+                shown=frozenset(), limits: Sequence[str] = ()) -> list[str]:
     """Title, the key figures, what differs (with both logs' metadata, given LOG's path), the
-    verdict, the cross-ride figure."""
+    verdict, the wheel's limit and the cut-out (``limits``), the cross-ride figure."""
     from euc_sim.rides.render.differences_page import difference_section
 
     cut = next((i + 1 for i, line in enumerate(key_lines) if line.startswith("Compared ride, ")), len(key_lines))
     key = (["## Key figures", ""] + [f"- {line}" for line in key_lines[:cut]]      # the compared ride's nest
            + [f"  - {line}" for line in key_lines[cut:]] + [""] if key_lines else [])
     md = ([f"# Ride diagnosis: {Path(r['recording']).name}", ""] + key
-          + difference_section(r, log_path) + _verdict_lines(r))
+          + difference_section(r, log_path) + _verdict_lines(r) + list(limits))
     if "total_mass" in r:
         from euc_sim.rides.render.drivetrain_page import page_section
         md += page_section(r, figures, shown)
@@ -212,10 +217,11 @@ def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     loc = r.get("localisation", {})
     md = ["", "## Where the mismatch concentrates", ""]
     if r.get("windows"):
-        md.append("Windows (s) where the inertia-only residual of "
+        clock = r.get("clock")
+        md.append("Windows where the inertia-only residual of "
                   f"{Path(r['recording']).name} concentrates "
-                  f"({100 * (loc.get('share') or 0):.0f} % of its energy): "
-                  + ", ".join(f"{a:.1f}–{b:.1f}" for a, b in r["windows"]) + ".")
+                  f"({100 * (loc.get('share') or 0):.0f} % of its energy), {spans_legend(clock)}: "
+                  + ", ".join(span_at(clock, a, b) for a, b in r["windows"]) + ".")
     else:
         md.append("No window stands out: the residual is spread over the ride.")
     if loc.get("correlations"):
@@ -232,15 +238,17 @@ def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
     return md
 
 
-def falls_sentence(falls: list, scored_rows: int) -> str | None:
-    """One sentence on the simulated rider's falls (``simulation.falls``), each time and cause
-    said once with the runs it ended; None without a fall."""
+def falls_sentence(falls: list, scored_rows: int, clock: Mapping | None = None) -> str | None:
+    """One sentence on the simulated rider's falls (``simulation.falls``), each time (clock time
+    in the ride's zone, from its ``clock``, and time into the ride) and cause said once with the
+    runs it ended; None without a fall."""
     if not falls:
         return None
     groups: dict[tuple, list[str]] = {}
     for f in falls:
         groups.setdefault((round(float(f["t"]), 1), f["cause"]), []).append(f.get("run", "run"))
-    said = "; ".join(f"at t = {t:.1f} s ({' and '.join(runs)}: {cause})" for (t, cause), runs in groups.items())
+    said = "; ".join(f"at {when({'clock': clock}, t, ' and '.join(runs) + ': ' + cause)}"
+                     for (t, cause), runs in groups.items())
     tail = ("no scored row was ridden before it, so there is no error to report" if scored_rows == 0
             else f"errors are over the {scored_rows} scored rows ridden before it")
     return f"the simulated rider fell {said}; the profile was not ridden again, and {tail}"
@@ -288,8 +296,9 @@ def sway_sentence(ran: list) -> str | None:
             f"the logged one.")
 
 
-def _step_row(st: dict, balance) -> str:
-    """One row of the steps' table: what the step adds, its held-out errors and its fall."""
+def _step_row(st: dict, balance, clock: Mapping | None = None) -> str:
+    """One row of the steps' table: what the step adds, its held-out errors and its fall (when:
+    the simulated ride's ``clock``)."""
     if not st["ran"]:
         return f"| {st['step']} | not run: {st['why']} |" + " – |" * 9
     h = st["heldout_rmse"]
@@ -299,7 +308,7 @@ def _step_row(st: dict, balance) -> str:
 
     ratio = st.get("ratio_to_balance")
     rc = "–" if ratio is None else (f"**{ratio:.2f}**" if ratio <= st["target_ratio"] else f"{ratio:.2f}")
-    fell = "–" if not st.get("fell") else f"t = {st['fell']['t']:.1f} s"
+    fell = "–" if not st.get("fell") else when({"clock": clock}, st["fell"]["t"])
     bands = bands_cell(st.get("heldout_bands"))
     return (f"| {st['step']} | {st['what']} | {cell('P_W', '.0f', 'W')} | {rc} | {bands} | "
             f"{cell('I_phase_A', '.1f', 'A')} | {cell('pitch_rad', '.2f', '°', float(np.degrees(1.0)))} | "
@@ -337,7 +346,8 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
                "| step | what it adds | battery power RMS | × balance fit | bands, dB (P: fast … slow) "
                "| phase current RMS | pitch RMS | PWM RMS | torque RMS | speed RMS | fell |",
                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
-        md += [_step_row(st, balance) for st in steps]
+        clock = clock_of(r, sim.get("ride"))
+        md += [_step_row(st, balance, clock) for st in steps]
         inj = (", ".join(sim["effects_injected"]) + " at their estimates above") if sim["effects_injected"] else "none"
         md += ["", f"Last / first step battery-power error: **{e['ratio_P']:.2f}** "
                f"(effects injected as physics in the last step: {inj}). The torque column scores "
@@ -346,14 +356,17 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         if sway:
             md += [sway, ""]
         if sim.get("windows"):
-            md.append(f"Windows (s) where the last step's ({steps[-1]['step'] if steps else 'augmented'}) "
-                      "power error concentrates: "
-                      + ", ".join(f"{a:.1f}–{b:.1f}" for a, b in sim["windows"]) + ".")
-        fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
+            md.append(f"Windows where the last step's ({steps[-1]['step'] if steps else 'augmented'}) "
+                      f"power error concentrates, {spans_legend(clock)}: "
+                      + ", ".join(span_at(clock, a, b) for a, b in sim["windows"]) + ".")
+        fell = falls_sentence(sim.get("falls", []), sim["scored_rows"], clock)
         if fell:
             md += [fell[0].upper() + fell[1:] + ".", ""]
-        for n in summarise_notes([said_once(n) for n in sim.get("notes", [])]):
-            md.append(f"- {n}")
+        def at(_, t) -> str:        # a moment of the simulated ride, in its clock
+            return when({"clock": clock}, float(t))
+
+        for n in summarise_notes([said_once(n) for n in sim.get("notes", [])], at=at):
+            md.append("- " + re.sub(r"\bup to t = ([\d.]+) s\b", lambda m: "up to " + at("", m[1]), n))
         if "simulation" in figures:
             md += ["", f"![simulation against the log, step by step]({figures['simulation']})", ""]
     else:
@@ -390,6 +403,9 @@ def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:
     if "gaps" in shown:         # the ride's own gap count is the Data quality tile's
         hz = (r.get("summary") or {}).get("sampling_hz")
         notes = [n if re.match(r"\S+\.csv: ", n) else as_the_tile(n, hz) for n in notes]
-    md += [f"- {n}" for n in summarise_notes(notes)]
+    def at(who: str, t: float) -> str:      # a moment of the ride the note names ("2.csv: "), in its clock
+        return when({"clock": clock_of(r, who.rstrip(": "))}, t)
+
+    md += [f"- {n}" for n in summarise_notes(notes, at=at)]
     md.append("")
     return md

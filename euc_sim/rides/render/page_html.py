@@ -24,13 +24,12 @@ from euc_sim.report import html as H
 from euc_sim.report.figures import (YL_OR_RD, Line, Panel, plain_values, thin, time_panels, track_map, track_plain,
                                     xy_figure)
 from euc_sim.rides.drive.cutout import CONDITIONS, headroom_words
-from euc_sim.rides.source.gaps import GAP_POLICY
-from euc_sim.rides.render.contract import limits_of
+from euc_sim.rides.render.contract import limits_of, pwm_check
 from euc_sim.rides.render.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
+from euc_sim.rides.source.gaps import GAP_POLICY
 
 __all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "first_screen", "figure_specs",
-           "data_quality",
-           "PWM_WARN", "PWM_BAD", "BATTERY_TONE"]
+           "data_quality", "LIMITS_TITLE", "limits_md", "PWM_WARN", "PWM_BAD", "BATTERY_TONE"]
 
 #: Max PWM, %, from which the tile warns (amber) and alarms (red): near 100 % the motor has
 #: no voltage left to push the rider back up.
@@ -277,13 +276,16 @@ def key_figure_lines(rep: Mapping) -> list[str]:
 
 
 def first_screen(rep: Mapping) -> frozenset:
-    """The fitted quantities the tiles give (the folded parts then say them without numbers)."""
+    """The fitted quantities the tiles give, and the limits' section's check of the PWM model on
+    the compared ride (``pwm_heldout``): the folded parts then say them without numbers."""
     tiles = {k.label: k.value for k in key_figures(rep)}
     gaps = "gap" in data_quality(rep.get("summary"))[0]
+    check = pwm_check(rep)
     return frozenset([name for label, name in (("Total mass", "total_mass"), ("Battery resistance",
                                                                               "internal_resistance"),
                                                ("Top speed", "top_speed"))
-                      if tiles.get(label, NA) != NA] + (["gaps"] if gaps else []))
+                      if tiles.get(label, NA) != NA] + (["gaps"] if gaps else [])
+                     + (["pwm_heldout"] if check and check[0] != "halves" else []))
 
 
 def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
@@ -470,9 +472,10 @@ def cutout_figure(rep: Mapping, series: RideSeries | None):
         lines.append(Line(f"your limit: {L:.0f} km/h ({src})", np.array([0.0, 100.0]), np.array([L, L]),
                           "lines", "dot"))
         top.append(L)
-    rmse = _num(cut, "heldout_pwm_rmse_pct")
-    note = ("PWM model checked on the ride's second half (fitted on its first): "
-            + (f"{rmse:.1f} points RMS" if rmse is not None else "not enough PWM rows") + "; grey: charges this ride did not reach")
+    check = pwm_check(rep)
+    note = ("PWM model checked on " + (f"{check[1]}: {check[2]:.1f} points RMS" if check else
+                                       "the ride's second half: not enough PWM rows")
+            + "; grey: charges this ride did not reach")
     fig = xy_figure(lines, "How fast before the motor runs out of voltage (100 % PWM, a cut-out)",
                     "battery charge, %", "speed, km/h", note)
     for tr, colour in zip(fig["data"], CUTOUT_COLOURS):
@@ -501,17 +504,28 @@ def cutout_figure(rep: Mapping, series: RideSeries | None):
     return fig
 
 
-def limits_paragraph(rep: Mapping) -> str:
-    """The limits and the model behind the chart, in words (the summary's ``limits``, ``cutout``)."""
+def limits_paragraph(rep: Mapping, limit: bool = True) -> str:
+    """The limits and the model behind the chart, in words (the summary's ``limits``, ``cutout``,
+    :func:`pwm_check`); ``limit`` False: the speed limit left to the sentences before it."""
     lim, cut = limits_of(rep), rep.get("cutout") or {}
-    rmse = _num(cut, "heldout_pwm_rmse_pct")
-    return (f"Speed limit: {lim.words()}. PWM alarm: "
+    check = pwm_check(rep)
+    return ((f"Speed limit: {lim.words()}. " if limit else "") + "PWM alarm: "
             + (f"{lim.pwm_alarm_pct:.0f} %." if lim.pwm_alarm_pct is not None else "not in the log.")
-            + (f" The PWM model predicts the logged PWM of the ride's second half, fitted on its first, to "
-               f"{rmse:.1f} points RMS." if rmse is not None else "")
+            + (f" The PWM model predicts the logged PWM of {check[1]}, to {check[2]:.1f} points RMS."
+               if check else "")
             + (f" Charge to volts: {cut['ocv_source']}." if cut.get("ocv_source") else "")
-            + " The cut-out speeds are the model's: the controller's own current limit, not in the log, "
-              "can come first.")
+            + (" The cut-out speeds are the model's: the controller's own current limit, not in the log, "
+               "can come first." if cut.get("curves") else ""))
+
+
+#: The limits' section's title, on the page and in index.md.
+LIMITS_TITLE = "Your wheel's limit and the cut-out"
+
+
+def limits_md(rep: Mapping, series: RideSeries | None) -> list[str]:
+    """index.md's limits section: the page's sentences on the wheel's limit and the cut-out
+    (:func:`limit_sentences`, the lead's) and :func:`limits_paragraph` (the section's)."""
+    return [f"## {LIMITS_TITLE}", "", " ".join(limit_sentences(rep, series) + [limits_paragraph(rep, False)]), ""]
 
 
 def envelope_figure(rep: Mapping, series: RideSeries, fit):
@@ -526,7 +540,7 @@ def envelope_figure(rep: Mapping, series: RideSeries, fit):
     lines = [Line("this ride", c["speed_kmh"][keep], c["pwm_pct"][keep])]
     for name, dash in (("full", "solid"), ("low", "dash")):
         V = env[name]["voltage"]
-        lines.append(Line(f"steady speed at {name} charge ({V:.0f} V)", v * 3.6, _steady_pwm(dt, v, V),
+        lines.append(Line(f"steady speed, the pack at {V:.0f} V", v * 3.6, _steady_pwm(dt, v, V),
                           "lines", dash))
     lines.append(Line("100 %: no voltage left", np.array([0.0, v[-1] * 3.6]), np.array([100.0, 100.0]),
                       "lines", "dot"))
@@ -567,7 +581,7 @@ def _figure_sections(rep: Mapping, figs: dict) -> list[str]:
     else:
         out.append(H.section("On the map", H.paragraph("No GPS position in this log: no map.")))
     why_cut = (rep.get("cutout") or {}).get("why") or "needs the logged PWM and its fitted model"
-    out.append(H.section("Your wheel's limit and the cut-out", (
+    out.append(H.section(LIMITS_TITLE, (
         H.figure(figs["cutout"], "cutout", 460) if "cutout" in figs else
         H.paragraph(f"Cut-out speeds: not available ({why_cut}).")) + H.paragraph(limits_paragraph(rep))))
     why_env = (rep.get("envelope") or {}).get("why", "needs the logged PWM and its fitted model")

@@ -42,7 +42,8 @@ def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
     from euc_sim.io import atomic_write
     from euc_sim.rides.render.fit_figures import write_balance
     from euc_sim.rides.render.page import write_page
-    from euc_sim.rides.render.page_html import RideSeries, first_screen, key_figure_lines, write_ride_html
+    from euc_sim.rides.render.page_html import (RideSeries, first_screen, key_figure_lines, limits_md,
+                                                write_ride_html)
 
     an, sim, fit = res.balance, res.simulation, res.mass.fit
     rep = ride_json(res)        # the pages read the JSON object, the files' names added as they exist
@@ -58,10 +59,10 @@ def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
         sim_files = {"table": "ride_simulation.csv", "figure": figures["simulation"]}
         rep["simulation"].update(sim_files)
     rep["figures"] = dict(figures)
-    rep["report_markdown"] = write_page(rep, out, figures, getattr(fit, "path", None),
-                                        key_figure_lines(rep), first_screen(rep)).name
     # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
     series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)
+    rep["report_markdown"] = write_page(rep, out, figures, getattr(fit, "path", None), key_figure_lines(rep),
+                                        first_screen(rep), limits_md(rep, series)).name
     plots = _fit_plots(res)
     html = write_ride_html(rep, out, series, fit, {**figures, **{k: k for k in plots}}, plots).name
     return ReportFiles(rep["table"], figures, rep["report_markdown"], html, sim_files.get("table"),

@@ -9,11 +9,13 @@ out of the figures' time axis.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 
-__all__ = ["hm", "clock_at", "when", "span_words", "pause_words", "TimeAxis", "PAUSE_SHOWN"]
+__all__ = ["hm", "clock_at", "when", "span_words", "pause_words", "clock_of", "spans_legend", "span_at",
+           "TimeAxis", "PAUSE_SHOWN"]
 
 
 def hm(seconds: float) -> str:
@@ -30,16 +32,46 @@ def _into(seconds: float) -> str:
     return f"{s // 60} min {s % 60:02d} s" if s >= 60 else f"{s} s"
 
 
-def clock_at(clock: Mapping | None, t: float) -> str | None:
-    """The clock time, "HH:MM" in the ride's own zone, ``t`` s after the log's start (the ride
-    JSON's ``clock``); None without it."""
+def _min_s(seconds: float) -> str:
+    """Time into the ride as a stopwatch shows it: "2:58" (min:s), "1:02:05" (h:min:s)."""
+    s = int(round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
+
+
+def clock_at(clock: Mapping | None, t: float, seconds: bool = False) -> str | None:
+    """The clock time, "HH:MM" (or "HH:MM:SS" with ``seconds``) in the ride's own zone, ``t`` s
+    after the log's start (the ride JSON's ``clock``); None without it."""
     from datetime import datetime, timedelta
 
     try:
         start = datetime.fromisoformat(str((clock or {})["start"]))
     except (KeyError, TypeError, ValueError):
         return None
-    return f"{start + timedelta(seconds=float(t)):%H:%M}"
+    return f"{start + timedelta(seconds=float(t)):{'%H:%M:%S' if seconds else '%H:%M'}}"
+
+
+def clock_of(rep: Mapping, recording) -> Mapping | None:
+    """The ``clock`` of the ride whose file is ``recording``: the compared ride's (``compared``)
+    where it is that one, else this ride's."""
+    other = rep.get("compared") or {}
+    if other.get("recording") and recording and Path(str(other["recording"])).name == Path(str(recording)).name:
+        return other.get("clock")
+    return rep.get("clock")
+
+
+def spans_legend(clock: Mapping | None) -> str:
+    """How :func:`span_at` writes a span: "clock time in UTC+02:00 (time into the ride, min:s)"."""
+    zone = (clock or {}).get("zone")
+    return (f"clock time in {zone} (time into the ride, min:s)" if zone and clock_at(clock, 0.0)
+            else "time into the ride, min:s")
+
+
+def span_at(clock: Mapping | None, a: float, b: float, dash: str = "–") -> str:
+    """A span of the ride, ``a`` to ``b`` s from the log's start, as :func:`spans_legend` says:
+    "13:53:59–13:54:04 (2:58–3:03)"; the time into the ride alone without a clock."""
+    into = f"{_min_s(a)}{dash}{_min_s(b)}"
+    t0, t1 = clock_at(clock, a, True), clock_at(clock, b, True)
+    return f"{t0}{dash}{t1} ({into})" if t0 and t1 else into
 
 
 def when(rep: Mapping, t: float, also: str = "") -> str:
@@ -52,10 +84,13 @@ def when(rep: Mapping, t: float, also: str = "") -> str:
 
 
 def span_words(rep: Mapping) -> str:
-    """When the log ran, clock times in the ride's own zone, "17:21–17:43 in UTC+02:00"; '' without."""
+    """When the log ran, clock times in the ride's own zone, "logged 17:21–17:43 in UTC+02:00",
+    with its length where the summary's duration (another clock) rounds to another; '' without."""
     c, s = rep.get("clock"), rep.get("summary") or {}
-    t0, t1 = clock_at(c, 0.0), clock_at(c, float(s.get("logged_s") or 0.0))
-    return f"{t0}–{t1} in {c['zone']}" if t0 and t1 and c.get("zone") else ""
+    logged = float(s.get("logged_s") or 0.0)
+    t0, t1 = clock_at(c, 0.0), clock_at(c, logged)
+    own = f" ({hm(logged)})" if s.get("duration_s") is not None and hm(logged) != hm(float(s["duration_s"])) else ""
+    return f"logged {t0}–{t1}{own} in {c['zone']}" if t0 and t1 and c.get("zone") else ""
 
 
 def pause_words(rep: Mapping) -> str:

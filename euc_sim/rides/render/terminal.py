@@ -17,6 +17,7 @@ from euc_sim.rides.render.contract import limits_of
 from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
 from euc_sim.rides.render.page import falls_sentence
 from euc_sim.rides.render.page_html import key_figure_lines
+from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend
 
 __all__ = ["summary_lines", "history_lines"]
 
@@ -46,8 +47,11 @@ def _mass_lines(rep: Mapping) -> list[str]:
         lines.append(f"  not identified: {name}: {why}")
     if rep.get("pwm") and rep["pwm"].get("heldout_rmse") is not None:
         lines.append(f"  PWM held out: {rep['pwm']['heldout_rmse']:.1f} percentage points RMS")
-    if rep.get("differences_sentence"):
-        lines.append(f"  compared: {rep['differences_sentence']}")
+    if rep.get("differences_sentence"):     # the JSON's "this ride" is the compared one: named as the page does
+        other = Path(str(rep.get("compare") or "")).name
+        said = rep["differences_sentence"]
+        lines.append("  compared: " + (f"the compared ride ({other})" + said[len("this ride"):]
+                                       if other and said.startswith("this ride") else said))
     return lines
 
 
@@ -89,7 +93,7 @@ def _simulation_lines(rep: Mapping) -> list[str]:
                      f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
         lines += [f"    step {st['step']}: " + (_step_line(st) if st["ran"] else f"not run ({st['why']})")
                   for st in sim.get("steps", [])]
-    fell = falls_sentence(sim.get("falls", []), sim["scored_rows"])
+    fell = falls_sentence(sim.get("falls", []), sim["scored_rows"], clock_of(rep, sim.get("ride")))
     if fell:
         lines.append(f"  simulation along {sim['ride']}: {fell}")
     return lines
@@ -111,7 +115,9 @@ def summary_lines(rep: Mapping) -> list[str]:
     lines += [f"  warning: {w}" for w in rep.get("input_warnings") or []]
     lines += _mass_lines(rep) + [f"  {rep['mass_check']['sentence']}", "  " + _limit_line(rep)]
     if rep["windows"]:
-        lines.append("  windows (s): " + ", ".join(f"{a:.1f}-{b:.1f}" for a, b in rep["windows"][:8])
+        clock = rep.get("clock")
+        lines.append(f"  windows, {spans_legend(clock)}: " + ", ".join(span_at(clock, a, b, "-")
+                                                                    for a, b in rep["windows"][:8])
                      + (" ..." if len(rep["windows"]) > 8 else ""))
     return lines + _simulation_lines(rep)
 

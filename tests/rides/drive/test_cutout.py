@@ -210,6 +210,25 @@ def test_the_cutout_chart_is_drawn_in_a_browser(twin):
     assert "km/h" in r.values[axis] and "cut-out" in r.values[title]
 
 
+def test_the_envelope_says_the_cutout_charts_speeds_not_a_second_set(twin):
+    """Blitz 4: the cut-out chart put the motor out of voltage on the level at 92 km/h at 100 %
+    charge (the log's own charge to volts) while the envelope said "at full charge (134 V) none
+    is left above 96 km/h" (the spec's voltage): one limit, two figures.  The envelope keeps its
+    voltages and gives the chart's speeds; its curves on the page are named by voltage alone."""
+    import browser
+
+    page, rep = twin
+    level = [c for c in rep["cutout"]["curves"] if c["condition"] == "level"][0]
+    ends = [3.6 * level["speed_mps"][level["charge_pct"].index(q)] for q in (100.0, 0.0)]
+    md = (page.parent / "index.md").read_text()
+    line = next(x for x in md.splitlines() if x.startswith("Envelope (voltage limit)"))
+    assert f": {ends[0]:.0f} km/h at 100 %, {ends[1]:.0f} km/h at 0 %." in line and "none is left above" not in line
+    browser.chromium_or_skip()
+    names = "document.getElementById('envelope').data.map(d => d.name).join('|')"
+    r = browser.render(page, page.parent / "env.png", (names,), ready="!!document.getElementById('envelope').data")
+    assert r.script_errors() == [] and "the pack at" in r.values[names] and "charge" not in r.values[names]
+
+
 def test_the_spec_gives_its_top_speed_and_an_unreadable_one_is_left_out(tmp_path):
     from euc_sim.rides.render.contract import spec_json
     from euc_sim.rides.source.spec import read_spec

@@ -48,3 +48,34 @@ def test_empty_cells_of_many_columns_become_one_line_per_ride():
         "empty cells (of 5990 rows; kept as NaN): gps_lat, gps_lon, gps_speed 540 each; temp 5",
         "pwm: taken as 100 - safety_margin",
         "b.csv: empty cells (of 4819 rows; kept as NaN): roll, temp 4 each"]
+
+
+def test_the_sampling_note_gives_no_second_rate_beside_the_tiles():
+    """Z10 0: the Data quality tile read 12.2 samples/s and the notes "(median 0.077 s, about
+    13.0 Hz)": one rate, two values.  The note keeps its median interval; a median rate far
+    above the tile's is said as the rate within bursts, as before."""
+    from euc_sim.rides.render.notes import as_the_tile
+
+    note = ("irregular sampling: intervals 0.007-0.522 s (median 0.077 s, about 13.0 Hz); "
+            "0 gap(s) longer than 1 s; 422 interval(s) shorter than 20 ms (near-repeats, kept)")
+    said = as_the_tile(note, 12.2)
+    assert "Hz" not in said and "(median 0.077 s between rows; the tile's rate counts the whole log)" in said
+    bursts = as_the_tile(note.replace("0.077 s, about 13.0 Hz", "0.100 s, about 10.0 Hz"), 3.3)
+    assert "10.0 Hz within bursts between gaps" in bursts
+
+
+def test_the_gaps_are_said_at_their_moments_in_each_rides_clock():
+    """Blitz 4: "2 logging gap(s) (…; at t = 2248, 3840 s)" while the tiles give clock times:
+    the page says each gap's clock time and time into the ride, a compared ride's in its own."""
+    from euc_sim.rides.render.page import _assumptions_md
+
+    clock = {"start": "2025-07-26T13:51:01.613000+02:00", "utc_offset_s": 7200.0, "zone": "UTC+02:00"}
+    rep = {"assumptions": {"R": 0.2, "total_mass": 100.0, "m_eq": 104.0, "sources": {}},
+           "torque_method": "power_efficiency", "power_source": "voltage*current", "clock": clock,
+           "compared": {"recording": "2.csv", "clock": {**clock, "start": "2025-07-17T16:48:42.8+02:00"}},
+           "notes": [f"{who}gap of 3.00 s at t = {t:.2f} s (> max_gap 2.5 s): ride split there, not bridged"
+                     for who, t in (("", 2248.0), ("", 3840.0), ("2.csv: ", 60.0))]}
+    md = "\n".join(_assumptions_md(rep))
+    assert "at 14:28 (37 min 28 s into the ride), 14:55 (1 h 04 min into the ride))" in md
+    assert "2.csv: 1 logging gap(s) (total 3.0 s, longest 3.00 s; at 16:49 (1 min 00 s into the ride))" in md
+    assert "t = 2248" not in md

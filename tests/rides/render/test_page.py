@@ -63,7 +63,8 @@ def test_the_sampling_note_agrees_with_the_tiles_rate():
     assert "37.0 Hz" in "\n".join(_assumptions_md(rep))         # index.md has no tile: as written
     even = dict(rep, notes=[note.replace("0.027 s, about 37.0 Hz", "0.200 s, about 5.0 Hz")],
                 summary={"sampling_hz": 4.9})
-    assert "about 5.0 Hz" in "\n".join(_assumptions_md(even, frozenset({"gaps"})))
+    said = "\n".join(_assumptions_md(even, frozenset({"gaps"})))     # near the tile's: no second rate
+    assert "(median 0.200 s between rows; the tile's rate counts the whole log)" in said and "Hz" not in said
 
 
 def test_the_torque_inferred_from_power_is_said_as_an_assumption_for_the_torque_only():
@@ -80,3 +81,18 @@ def test_the_torque_inferred_from_power_is_said_as_an_assumption_for_the_torque_
     line = _assumptions_md(rep)[2]
     assert "torque" not in line and line.endswith("power from voltage*current.")
     assert "torque from battery power at an assumed" in _assumptions_md(dict(rep, domain="torque"))[2]
+
+
+def test_the_mass_fits_delay_says_it_is_not_the_balances_current_lag():
+    """Z10 0: the mass section said "current–speed delay +0.4 s" and Estimates "current_lag 0.3 s":
+    one lag of the logged current, two figures, neither saying what it is.  The mass section says
+    its delay is a shift and where the balance's first-order lag is."""
+    from euc_sim.rides.render.drivetrain_page import _mass_md
+
+    tm = {"estimate": 110.0, "ci95": [72.0, 148.0], "speed_scale": 1.0, "speed_scale_source": "assumed",
+          "lag_s": 0.4}
+    rep = {"total_mass": tm, "parameters": [{"name": "current_lag", "estimate": 0.3, "accepted": True}]}
+    line = _mass_md(rep, frozenset({"total_mass"}))[2]
+    assert ("current–speed delay +0.4 s, a shift of the current; the balance's own lag of it, current_lag, "
+            "is in Estimates, a first-order lag)") in line
+    assert _mass_md({**rep, "parameters": []})[2].endswith("current–speed delay +0.4 s, a shift of the current).")

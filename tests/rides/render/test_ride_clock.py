@@ -30,7 +30,7 @@ def test_euc_world_stamps_keep_their_zone_and_the_peak_reads_as_clock_and_time_i
     rep = _rep(as_layout(src, tmp_path / "e.csv", "eucworld"))
     tiles = {k.label: k for k in key_figures(rep)}
     assert "least margin 26 % at 18:30 (15 min 25 s into the ride; marked on the map)" in tiles["Max PWM"].note
-    assert "18:15–18:35 in UTC+02:00" in tiles["Riding time"].note
+    assert "logged 18:15–18:35 (21 min) in UTC+02:00" in tiles["Riding time"].note
     assert rep["clock"]["zone"] == "UTC+02:00" and rep["clock"]["utc_offset_s"] == 7200.0
     assert rep["clock"]["start"].startswith("2024-06-01T18:15:00")
     lines = "\n".join(key_figure_lines(rep))        # index.md's and the terminal's first lines
@@ -71,3 +71,72 @@ def test_the_rides_table_shows_one_zone_and_flags_a_bad_pwm_peak(tmp_path, capsy
     assert "max PWM 94 % BAD (≥ 90 %: close to a cut-out)" in out
     page = (tmp_path / "page" / "index.html").read_text()
     assert "start (UTC+02:00" in page and "94 BAD (≥ 90 %" in page and "2024-06-01 10:00" in page
+
+
+def test_windows_and_falls_read_as_clock_and_time_into_the_ride():
+    """The residual's windows read "182.1-186.9" (s into the ride) and a fall "at t = 842.9 s"
+    while the tiles give clock times of the ride's zone: they now read as the tiles do; a fall
+    on the compared ride is said in that ride's clock."""
+    from euc_sim.rides.render.page import _localisation_md, falls_sentence
+    from euc_sim.rides.render.ride_time import clock_of
+
+    clock = {"start": "2025-07-26T13:51:01.613000+02:00", "utc_offset_s": 7200.0, "zone": "UTC+02:00",
+             "pauses": []}
+    rep = {"recording": "4.csv", "windows": [[177.8, 183.2], [3897.0, 3905.5]], "clock": clock,
+           "localisation": {"share": 0.57}}
+    line = next(x for x in _localisation_md(rep, {}) if x.startswith("Windows"))
+    assert ("(57 % of its energy), clock time in UTC+02:00 (time into the ride, min:s): "
+            "13:53:59–13:54:04 (2:58–3:03), 14:55:58–14:56:07 (1:04:57–1:05:06).") in line
+    assert "177.8" not in line
+    other = {**clock, "start": "2025-07-17T16:48:42.819000+02:00"}
+    rep["compared"] = {"recording": "2.csv", "clock": other}
+    fell = falls_sentence([{"t": 842.9, "cause": "|phi| too large", "run": "nominal"}], 10, clock_of(rep, "2.csv"))
+    assert "fell at 17:02 (14 min 03 s into the ride; nominal: |phi| too large)" in fell
+    assert clock_of(rep, "4.csv") is clock and clock_of({"clock": clock}, "2.csv") is clock
+    bare = {"recording": "x.csv", "windows": [[177.8, 183.2]], "localisation": {}}
+    assert "time into the ride, min:s: 2:58–3:03." in _localisation_md(bare, {})[3]
+
+
+def _entry(name: str, start: str, offset):
+    from euc_sim.rides.logbook.history import RideEntry
+
+    summary = {"distance_m": 5000.0, "moving_s": 900.0, "speed_max_mps": 10.0, "energy_drawn_Wh": 100.0,
+               "Wh_per_km": 20.0, "battery_used_pct": 10.0, "pwm_max_pct": 60.0, "quality": "good",
+               "speed_mean_moving_mps": 6.0}
+    battery = {"resistance_ohm": 0.15, "resistance_ci95": [0.14, 0.16], "resistance_25C_ohm": None,
+               "resistance_25C_ci95": None}
+    return RideEntry(path=f"/x/{name}", start=start, layout="eucworld" if offset is not None else "wheellog",
+                     summary=summary, battery=battery, model=None, series=(), temperature_C=None,
+                     temperature_source=None, utc_offset_s=offset)
+
+
+def test_the_rides_are_in_the_order_they_were_ridden_whatever_zone_their_log_keeps():
+    """EUC World keeps UTC (a ride at 10:00 in UTC+02:00 is stored as 08:00), WheelLog the
+    phone's clock (a ride at 09:00 local is stored as 09:00): sorted on the stored strings the
+    later EUC World ride came first.  Sorted on the instant (the phone's clock taken in the
+    zone the table shows), the table reads down in time, in one zone."""
+    from euc_sim.rides.logbook.history import ride_history
+    from euc_sim.rides.render.history_page import history_page, start_in, table_zone
+
+    h = ride_history([_entry("euc_world.csv", "2024-06-01T08:00:00", 7200.0),
+                      _entry("wheellog.csv", "2024-06-01T09:00:00", None),
+                      _entry("later.csv", "2024-06-01T09:30:00", 7200.0)]).to_json()
+    assert [e["path"][3:] for e in h["rides"]] == ["wheellog.csv", "euc_world.csv", "later.csv"]
+    off, zone = table_zone(h)
+    assert [start_in(e, off) for e in h["rides"]] == ["2024-06-01 09:00", "2024-06-01 10:00", "2024-06-01 11:30"]
+    page = history_page(h)
+    assert page.index("wheellog.csv") < page.index("euc_world.csv") < page.index("later.csv")
+    assert f"start ({zone})" in page and zone.startswith("UTC+02:00")
+
+
+def test_the_riding_time_says_which_clock_gives_each_length():
+    """Blitz 2: "18 min (of 19 min; the app's trip and riding clocks; 16:48–17:10 in UTC+02:00)":
+    the span reads 22 min against the 19 min beside it.  The span is said as the log's, with its
+    own length where it differs."""
+    rep = {"summary": {"moving_s": 1091.0, "duration_s": 1111.0, "logged_s": 1289.11,
+                       "duration_follows": "the app's trip and riding clocks"},
+           "clock": {"start": "2025-07-17T16:48:42.819000+02:00", "utc_offset_s": 7200.0, "zone": "UTC+02:00"}}
+    note = {k.label: k for k in key_figures(rep)}["Riding time"].note
+    assert note == "of 19 min; the app's trip and riding clocks; logged 16:48–17:10 (21 min) in UTC+02:00"
+    same = dict(rep, summary={**rep["summary"], "logged_s": 1120.0})
+    assert {k.label: k for k in key_figures(same)}["Riding time"].note.endswith("; logged 16:48–17:07 in UTC+02:00")

@@ -41,3 +41,18 @@ def test_the_rides_table_is_in_the_one_zone_and_says_a_verdict_only_with_a_pack(
                      "2025-07-17 16:48  2.csv: 12.2 km, 37.8 Wh/km, battery 10 %, "
                      "max PWM 91 % BAD (≥ 90 %: close to a cut-out), resistance 148 mΩ"]
     assert history_lines(_history(), verdicts=True)[-1].endswith("resistance 148 mΩ (as new)")
+
+
+def test_the_windows_and_the_compared_ride_read_as_the_page_says_them():
+    """The terminal said "windows (s): 76.6-96.3, …" beside tiles in clock time, and "compared:
+    this ride needed …" under this ride's own figures, meaning the compared one."""
+    from euc_sim.rides.render.ride_time import span_at
+
+    rep = json.loads(RIDE.read_text())
+    lines = summary_lines(rep)
+    win = next(ln for ln in lines if ln.startswith("  windows"))
+    a, b = rep["windows"][0]
+    assert win.startswith("  windows, clock time in the phone's local time (time into the ride, min:s): "
+                          + span_at(rep["clock"], a, b, "-")) and f"{a:.1f}" not in win
+    said = next(ln for ln in lines if ln.startswith("  compared: "))
+    assert said.startswith(f"  compared: the compared ride ({rep['compare']}) needed ") and "this ride" not in said
