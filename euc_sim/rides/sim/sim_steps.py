@@ -38,8 +38,12 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
+from euc_sim.controllers.damping import ZETA_UNRESOLVED
+from euc_sim.controllers.firmware import FirmwareError, firmware_motor, kd_resolved, voltage_limits
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import Params
+from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
+from euc_sim.rides.law.controller_report import controller_entry, torque_constant
 from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["SimStep", "motor_from_law", "StepInputs", "LogChannels", "nominal_step", "measured_law_step",
@@ -217,10 +221,6 @@ def nominal_step(prev: SimStep | None, inp: StepInputs) -> SimStep:
 
 def measured_law_step(prev: SimStep, inp: StepInputs) -> SimStep:
     """The firmware law measured on the fit ride replaces the paper's PD (the rider redesigned for it)."""
-    from euc_sim.controllers.damping import ZETA_UNRESOLVED
-    from euc_sim.controllers.firmware import FirmwareError, firmware_motor, kd_resolved
-    from euc_sim.rides.law.controller_report import controller_entry
-
     name, what = "measured_law", "the wheel's balance law measured on the fit ride"
     if inp.law is None or inp.law.law is None:
         why = None if inp.law is None else inp.law.why
@@ -246,8 +246,6 @@ def _term(ctrl: Mapping, name: str):
 
 def drivetrain_step(prev: SimStep, inp: StepInputs) -> SimStep:
     """The voltage-limited motor, the accepted effects as physics, the augmented fit's power model."""
-    from euc_sim.controllers.firmware import FirmwareError, voltage_limits
-
     eff, notes = effects_to_inject(inp.augmented, inp.accepted)
     motor = prev.motor
     try:
@@ -378,8 +376,6 @@ def log_channels(drivetrain: Mapping | None = None, law=None, balance_heldout: f
     balance_heldout : float, optional
         The balance fit's held-out error, W.
     """
-    from euc_sim.rides.law.controller_report import torque_constant
-
     est = _estimates(drivetrain)
     pwm = None
     if "back_emf_per_speed" in est and "resistive_drop" in est:
@@ -416,8 +412,6 @@ def simulated_pwm(coef: Mapping[str, float], v: np.ndarray, F: np.ndarray,
     numpy.ndarray
         100·(K_v·v + r_F·F + c_dt·V·sign F − c_fw·v·min(v, v_fw))/V.
     """
-    from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
-
     names = [n for n in BASE + tuple(EXTRA) if n in coef]
     V = np.asarray(V, float)
     X = pwm_columns(np.asarray(v, float), np.asarray(F, float), V, names, coef.get("v_fw", np.inf))
