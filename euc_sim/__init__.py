@@ -36,7 +36,7 @@ __version__ = "0.1.0"
 
 def __getattr__(name: str):
     if name in _API:
-        from euc_sim import api
+        from euc_sim import api  # deferred: loads numpy, pandas (0.6 s); `import euc_sim` takes 0.03 s
 
         return getattr(api, name)
     raise AttributeError(f"module 'euc_sim' has no attribute {name!r}")

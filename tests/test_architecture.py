@@ -347,9 +347,10 @@ DEFERRED = "# deferred:"
 #: Where the rule holds (folders or files); extend it as the rest of the package is done.
 IMPORTS_AT_TOP = ["euc_sim/errors.py", "euc_sim/io.py", "euc_sim/geo.py", "euc_sim/stats.py", "euc_sim/report",
                   "euc_sim/model", "euc_sim/controllers", "euc_sim/simulation", "euc_sim/identification",
-                  "euc_sim/diagnosis"]
+                  "euc_sim/diagnosis", "euc_sim/__init__.py", "euc_sim/cli", "euc_sim/rides/source",
+                  "euc_sim/rides/grids", "euc_sim/rides/rider", "euc_sim/rides/synth", "euc_sim/rides/sim"]
 #: Files inside IMPORTS_AT_TOP not done yet (being reshaped on another branch).
-IMPORTS_PENDING: set = set()
+IMPORTS_PENDING: set = {"euc_sim/rides/sim/sim_steps.py", "euc_sim/cli/ride.py", "euc_sim/cli/rides.py"}
 
 
 def _undeclared_deferred(path: Path) -> list[str]:

@@ -14,12 +14,30 @@ holding files euc-sim did not write (its manifest lists those it did).
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
+import threading
+import warnings
 from typing import Sequence
 
-from euc_sim.cli.common import (EXIT_FAIL, EXIT_OK, EXIT_USAGE, UsageError, check_outputs, parse_params,
-                                 record_outputs, say)
+import numpy as np
+
+from euc_sim import __version__
+from euc_sim.cli.common import (EXIT_FAIL, EXIT_OK, EXIT_USAGE, UsageError, check_outputs, internal_error_report,
+                                 parse_params, record_outputs, say)
+from euc_sim.cli.design import add_commands as add_design_commands
+from euc_sim.cli.diagnose import add_commands as add_diagnose_commands
+from euc_sim.cli.identify import add_identify_parser, add_torques_parser
+from euc_sim.cli.options import BoundsHelpFormatter, bounded
+from euc_sim.cli.ride import add_ride_parser
+from euc_sim.cli.rides import add_rides_parser
+from euc_sim.cli.sim import add_commands as add_sim_commands
+from euc_sim.cli.spatial import add_render_parser
 from euc_sim.errors import InputError
+from euc_sim.io import check_writable, write_json
+from euc_sim.model import analytic
+from euc_sim.model.mujoco_model import EucMujoco, load_model
 
 
 class OneLineParser(argparse.ArgumentParser):
@@ -27,8 +45,6 @@ class OneLineParser(argparse.ArgumentParser):
     and every bounded option's range in ``--help``."""
 
     def __init__(self, *args, **kwargs):
-        from euc_sim.cli.options import BoundsHelpFormatter
-
         kwargs.setdefault("formatter_class", BoundsHelpFormatter)
         super().__init__(*args, **kwargs)
 
@@ -39,13 +55,11 @@ class OneLineParser(argparse.ArgumentParser):
 
 # --- crosscheck ---------------------------------------------------------------------
 def _cmd_crosscheck(args: argparse.Namespace) -> int:
-    from euc_sim.model import crosscheck
-    from euc_sim.io import check_writable, write_json
+    from euc_sim.model import crosscheck  # deferred: loads scipy (0.5 s)
 
     if args.json:
         check_writable(args.json)
     if args.mjcf is not None:
-        from euc_sim.model.mujoco_model import load_model
         load_model(mjcf=args.mjcf)          # fail early on a bad file
     sets = dict(crosscheck.PARAMETER_SETS)
     if args.param:
@@ -67,8 +81,6 @@ def _cmd_crosscheck(args: argparse.Namespace) -> int:
 
 # --- dynamics --------------------------------------------------------------------------
 def _parse_vector(text: str, n: int, option: str):
-    import numpy as np
-
     parts = [s for s in text.replace(";", ",").split(",") if s.strip()]
     if len(parts) != n:
         raise UsageError(f"{option} expects {n} comma-separated numbers, got {text!r}")
@@ -82,12 +94,6 @@ def _parse_vector(text: str, n: int, option: str):
 
 
 def _cmd_dynamics(args: argparse.Namespace) -> int:
-    import numpy as np
-
-    from euc_sim.model import analytic
-    from euc_sim.io import write_json
-    from euc_sim.model.mujoco_model import EucMujoco
-
     p = parse_params(args.param)
     q = _parse_vector(args.q, 3, "--q (x, gamma, phi)")
     qd = _parse_vector(args.qd, 3, "--qd (x_d, gamma_d, phi_d)")
@@ -121,13 +127,11 @@ def build_parser() -> argparse.ArgumentParser:
                "link is written through to its target, whose mode is kept. A --report DIR (demo's "
                "--out-dir) must be new, empty or hold only what euc-sim wrote there "
                "(listed in DIR/.euc-sim-manifest.json).")
-    from euc_sim import __version__
     parser.add_argument("--version", action="version", version=f"euc-sim {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
 
     p = sub.add_parser("crosscheck", help="prove the MuJoCo model against the analytic equations")
     p.add_argument("--json", metavar="FILE", help="write the figures and bounds as JSON")
-    from euc_sim.cli.options import bounded
     p.add_argument("--samples", type=bounded(1, 100_000, integer=True), default=2500, metavar="N",
                    help="random states per parameter set (4 sets; default 2500; memory and time "
                         "grow with it)")
@@ -145,26 +149,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", metavar="FILE", help="write the figures as JSON")
     p.set_defaults(func=_cmd_dynamics)
 
-    from euc_sim.cli.sim import add_commands as add_sim_commands
     add_sim_commands(sub)
 
-    from euc_sim.cli.identify import add_identify_parser, add_torques_parser
     add_torques_parser(sub)
     add_identify_parser(sub)
 
-    from euc_sim.cli.diagnose import add_commands as add_diagnose_commands
     add_diagnose_commands(sub)
 
-    from euc_sim.cli.ride import add_ride_parser
     add_ride_parser(sub)
 
-    from euc_sim.cli.rides import add_rides_parser
     add_rides_parser(sub)        # euc-sim rides DIR_OR_FILES... --report DIR --json F
 
-    from euc_sim.cli.spatial import add_render_parser
     add_render_parser(sub)
 
-    from euc_sim.cli.design import add_commands as add_design_commands
     add_design_commands(sub)
     return parser
 
@@ -199,8 +196,6 @@ def _os_message(exc: OSError) -> str:
 
 
 def _internal_error(args, exc: BaseException) -> int:
-    from euc_sim.cli.common import internal_error_report
-
     where = internal_error_report(args, exc)
     tail = f"; the traceback is in {where}" if where else "; no file could take the traceback"
     print(f"euc-sim {args.command}: internal error: {type(exc).__name__}: {_first_line(exc)}{tail}",
@@ -210,10 +205,6 @@ def _internal_error(args, exc: BaseException) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``euc-sim``; returns the exit code (130 on Ctrl-C, 143 on SIGTERM)."""
-    import signal
-    import threading
-    import warnings
-
     parser = build_parser()
     args = parser.parse_args(argv)
     previous = warnings.formatwarning
@@ -226,7 +217,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         folders = check_outputs(args)
         return int(args.func(args))
     except BrokenPipeError:             # the reader left (| head): stop quietly, as cat does
-        import os
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())    # no second error when Python flushes stdout
         return EXIT_BROKEN_PIPE

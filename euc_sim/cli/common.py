@@ -2,12 +2,24 @@
 
 from __future__ import annotations
 
+import argparse
+import json
+import os
+import platform
+import stat
 import sys
+import tempfile
+import time
+import traceback
 from pathlib import Path
 from typing import Sequence
 
-from euc_sim.errors import InputError
-from euc_sim.io import shown
+import numpy as np
+
+from euc_sim import __version__
+from euc_sim.errors import BadInputFile, BadOutputPath, InputError
+from euc_sim.io import check_name, check_output, check_writable, file_kind, shown, sidecar_paths, write_json
+from euc_sim.model.parameters import Params, check_plausible
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 
@@ -18,8 +30,6 @@ class UsageError(InputError):
 
 def seed(text: str) -> int:
     """argparse type of ``--seed``: a non-negative integer (numpy's seeds), named in the error."""
-    import argparse
-
     try:
         value = int(text)
     except ValueError:
@@ -42,8 +52,6 @@ def format_eigenvalues(ev, digits: int = 3) -> str:
     digits : int
         Significant digits.
     """
-    import numpy as np
-
     z = np.array([complex(*e) if isinstance(e, (tuple, list)) else complex(e) for e in ev])
     tol = 1e-9 * max(1.0, float(np.abs(z).max(initial=0.0)))
     re = np.where(np.abs(z.real) < tol, 0.0, z.real) + 0.0     # + 0.0 turns -0.0 into 0.0
@@ -79,8 +87,6 @@ def parse_params(items: Sequence[str] | None):
     UsageError, euc_sim.model.parameters.ParameterError
         naming the parameter, expected and actual value.
     """
-    from euc_sim.model.parameters import Params, check_plausible
-
     values = param_values(items)
     return check_plausible(Params.from_mapping(values), values)
 
@@ -129,8 +135,6 @@ def _named(args, names) -> list[tuple[str, Path]]:
 def _identity(path: Path):
     """What makes two names one file: ``(st_dev, st_ino)`` when it exists (so hard and symbolic
     links count), else the absolute path with links resolved."""
-    import os
-
     try:
         st = os.stat(path)
         return st.st_dev, st.st_ino
@@ -139,8 +143,6 @@ def _identity(path: Path):
 
 
 def _inside(path: Path, folder: Path) -> bool:
-    import os
-
     p, f = os.path.realpath(path), os.path.realpath(folder)
     return p == f or p.startswith(f.rstrip(os.sep) + os.sep)
 
@@ -160,10 +162,6 @@ def _guarded(args) -> dict:
     """Every file an output may not be, ``{identity: (what, path, named)}``: the inputs, the
     CSV files inside a folder given as input (what ``rides`` reads; ``named`` False), and the
     sidecars of input recordings."""
-    import os
-
-    from euc_sim.io import sidecar_paths
-
     guarded = {}
     for opt, path in _named(args, INPUT_OPTIONS):
         guarded.setdefault(_identity(path), (f"the input {opt} {shown(path)}", path, True))
@@ -200,11 +198,6 @@ def check_outputs(args) -> list:
     euc_sim.errors.BadOutputPath
         naming the option and the path.
     """
-    import time
-
-    from euc_sim.errors import BadOutputPath
-    from euc_sim.io import check_output
-
     _check_inputs_are_files(args)
     guarded = _guarded(args)
     outputs, folders = output_files(args), report_folders(args)
@@ -221,7 +214,7 @@ def check_outputs(args) -> list:
                 raise BadOutputPath(f"{opt} {shown(path)} lies inside {fopt} {shown(folder)}, the folder "
                                     f"{fopt} writes; choose a path outside it")
         if opt in ("--plot", "--effects-plot"):
-            from euc_sim.identification.plots import check_figure_path
+            from euc_sim.identification.plots import check_figure_path  # deferred: loads matplotlib (0.2 s)
 
             check_figure_path(path)
     if args.command in WRITES_RECORDING and getattr(args, "out", None):
@@ -241,12 +234,6 @@ def check_outputs(args) -> list:
 def _check_inputs_are_files(args) -> None:
     """An input that exists is a regular file or a folder (a FIFO would hang the reader, a
     device be read without end); its name fits :data:`euc_sim.io.NAME_MAX`."""
-    import os
-    import stat
-
-    from euc_sim.errors import BadInputFile
-    from euc_sim.io import check_name, file_kind
-
     for opt, path in _named(args, INPUT_OPTIONS):
         check_name(path, f"input {opt}", BadInputFile)
         try:
@@ -260,8 +247,6 @@ def _check_inputs_are_files(args) -> None:
 def _folder_files(folder: Path) -> dict:
     """``{relative posix path: (size, mtime_ns)}`` of everything under ``folder`` but the manifest
     (symbolic links and special files with size -1: they are never euc-sim's)."""
-    import os
-
     out = {}
     for root, dirs, files in os.walk(folder):
         dirs.sort()
@@ -277,8 +262,6 @@ def _folder_files(folder: Path) -> dict:
 
 def _manifest(folder: Path) -> dict:
     """The files the manifest of ``folder`` lists, ``{relative path: (size, mtime_ns)}`` (empty if none)."""
-    import json
-
     try:
         doc = json.loads((folder / MANIFEST).read_text(encoding="utf-8"))
         return {str(k): (int(v["size"]), int(v["mtime_ns"])) for k, v in doc["files"].items()}
@@ -302,8 +285,6 @@ def check_folder_is_ours(folder: str | Path, option: str = "--report") -> dict:
     euc_sim.errors.BadOutputPath
         naming the folder and its first foreign file.
     """
-    from euc_sim.errors import BadOutputPath
-
     folder = Path(folder)
     if not folder.is_dir():
         return {}
@@ -323,8 +304,6 @@ def record_outputs(states) -> None:
     or were rewritten by it, are added; the manifest is replaced atomically.  A folder
     whose files did not change is left alone.
     """
-    from euc_sim.io import write_json
-
     for folder, before, start in states:
         if not folder.is_dir():
             continue
@@ -341,11 +320,6 @@ def record_outputs(states) -> None:
 
 def _check_foreign_sidecars(out: Path) -> None:
     """``simulate --out NAME.csv`` replaces NAME.json only when it is a sidecar euc-sim wrote."""
-    import json
-
-    from euc_sim.errors import BadOutputPath
-    from euc_sim.io import sidecar_paths
-
     meta, truth = sidecar_paths(out)
     ours = False
     if meta.is_file():
@@ -368,13 +342,6 @@ def internal_error_report(args, exc: BaseException) -> Path | None:
     The file goes to the folder of the command's first output when that folder exists,
     else to :func:`tempfile.gettempdir`.
     """
-    import os
-    import platform
-    import tempfile
-    import traceback
-
-    from euc_sim import __version__
-
     folders = []
     for _, path in output_files(args) if hasattr(args, "command") else []:
         folders.append(path.parent if str(path.parent) else Path("."))
@@ -409,10 +376,6 @@ def check_report_folder(folder, names: Sequence[str]):
     NotADirectoryError, OSError
         naming the path.
     """
-    from pathlib import Path
-
-    from euc_sim.io import check_writable
-
     out = Path(folder)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"--report {out}: exists and is not a folder")

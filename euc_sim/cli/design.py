@@ -9,7 +9,13 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from euc_sim.cli.common import parse_params, say, seed
+from euc_sim.cli.options import bounded, deprecated, workers
+from euc_sim.cli.sim import RIDER_NOISE
 from euc_sim.errors import InputError
+from euc_sim.identification.design import DESIGN_MANEUVERS, design, design_figure
+from euc_sim.io import check_writable, save_figure, write_json
+from euc_sim.simulation.effects import names as effect_names
 
 __all__ = ["add_commands"]
 
@@ -22,10 +28,7 @@ def _floats(text: str, option: str) -> list[float]:
 
 
 def _cmd_design(args: argparse.Namespace) -> int:
-    from euc_sim.cli.common import parse_params, say
-    from euc_sim.identification.design import design, design_figure
-    from euc_sim.io import check_writable, save_figure, write_json
-    from euc_sim.simulation.runner import check_backend
+    from euc_sim.simulation.runner import check_backend  # deferred: loads multiprocessing, tqdm (0.02 s)
 
     if args.report:             # the figures as DIR/design.png and DIR/design_effects.png
         args.plot = str(Path(args.report) / "design.png")
@@ -35,7 +38,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
             check_writable(path)
     check_backend(args.scheduler, args.workers)
     if args.effect:                             # refuse bad effect settings before the long h study
-        from euc_sim.diagnosis.design import parse_effects
+        from euc_sim.diagnosis.design import parse_effects  # deferred: loads scipy.optimize, tqdm (0.4 s)
         parse_effects(",".join(args.effect))
     res = design([m.strip() for m in args.maneuvers.split(",") if m.strip()], rides=args.rides,
                  duration=args.duration, noise_scales=_floats(args.noise_scales, "--noise-scales"),
@@ -69,9 +72,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
 
 def _effects(args: argparse.Namespace, res: dict) -> dict:
     """The catalog effects' part of ``design``: run, print a table, draw the figure."""
-    from euc_sim.cli.common import parse_params, say
-    from euc_sim.diagnosis.design import effects_design, effects_design_figure, parse_effects
-    from euc_sim.io import save_figure
+    from euc_sim.diagnosis.design import effects_design, effects_design_figure, parse_effects  # deferred: loads scipy.optimize, tqdm (0.4 s)
 
     eff = effects_design([r["maneuver"] for r in res["maneuvers"]], parse_effects(",".join(args.effect)),
                          rides=args.effect_rides,
@@ -102,12 +103,6 @@ def _effects(args: argparse.Namespace, res: dict) -> dict:
 
 def add_commands(sub) -> None:
     """Register ``design`` on the subparsers ``sub``."""
-    from euc_sim.cli.common import seed
-    from euc_sim.cli.options import bounded, deprecated, workers
-    from euc_sim.cli.sim import RIDER_NOISE
-    from euc_sim.identification.design import DESIGN_MANEUVERS
-    from euc_sim.simulation.effects import names as effect_names
-
     p = sub.add_parser("design", help="experiment design: how precisely each maneuver identifies h")
     p.add_argument("--maneuvers", default="constant_speed,deceleration,stop_and_go", metavar="A,B,...",
                    help=f"comma-separated, of {', '.join(DESIGN_MANEUVERS)} "

@@ -7,18 +7,19 @@ left (every output goes through :mod:`euc_sim.io`).
 
 from __future__ import annotations
 
-from euc_sim.cli.common import seed
-
 import argparse
+import time
+
+from euc_sim import api
+from euc_sim.cli.common import parse_params, say, seed
+from euc_sim.cli.options import deprecated
+from euc_sim.io import check_writable, write_json
 
 __all__ = ["add_commands"]
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from euc_sim import api
-    from euc_sim.cli.common import parse_params, say
-    from euc_sim.diagnosis.report import report_paths
-    from euc_sim.io import check_writable, write_json
+    from euc_sim.diagnosis.report import report_paths  # deferred: loads plotly (0.03 s)
 
     # every output is checked before any work, so a bad path costs no minute of work
     for path in ([args.json] if args.json else []) + (report_paths(args.report) if args.report else []):
@@ -37,10 +38,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
-    import time
-
-    from euc_sim.cli.common import say
-    from euc_sim.api.demo import run_demo
+    from euc_sim.api.demo import run_demo  # deferred: loads matplotlib, plotly, tqdm (0.3 s)
 
     t0 = time.perf_counter()
     page = run_demo(args.out_dir, seed=args.seed, progress=lambda s: say(f"demo: {s}"))
@@ -50,8 +48,6 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 def add_commands(sub) -> None:
     """Register ``diagnose`` and ``demo`` on the subparsers ``sub``."""
-    from euc_sim.cli.options import deprecated
-
     p = sub.add_parser("diagnose", help="find the physics the nominal model leaves out of a recording")
     p.add_argument("recording", metavar="REC.csv", help="a CONTRACT recording (.csv or .parquet)")
     p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's diagnosis object")

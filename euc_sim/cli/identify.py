@@ -9,9 +9,22 @@ line and exit code 2.
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
-from euc_sim.cli.options import bounded
+import numpy as np
+
+from euc_sim import api
+from euc_sim.cli.common import UsageError, param_values, parse_params, seed
+from euc_sim.cli.options import bounded, deprecated
+from euc_sim.identification.base_params import identify_base_parameters
+from euc_sim.identification.controller_fit import identify_controller, identify_rider_delay
+from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, load
+from euc_sim.identification.processing import MAX_ORDER, Smoothing
+from euc_sim.identification.recordings import params_from_meta, read_sidecar
+from euc_sim.identification.torques import torques
+from euc_sim.io import atomic_write, check_writable, save_figure, sidecar_paths, write_json
+from euc_sim.model.parameters import PLAUSIBLE, UNITS
 
 __all__ = ["add_smoothing_arguments", "add_torques_parser", "add_identify_parser",
            "cmd_torques", "cmd_identify", "smoothing_from_args"]
@@ -23,7 +36,6 @@ def add_smoothing_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--smoothing", choices=("consistent", "savgol"), default="consistent",
                    help="consistent: short Savitzky-Golay derivatives + one Gaussian filter on "
                         "every torque term (default); savgol: the paper's recipe")
-    from euc_sim.identification.processing import MAX_ORDER
 
     g.add_argument("--window", type=bounded(0.005, 10.0, unit="s"), metavar="S",
                    help="Savitzky-Golay window, s (default 0.25 consistent, 1.0 savgol)")
@@ -44,18 +56,11 @@ def add_smoothing_arguments(p: argparse.ArgumentParser) -> None:
 
 def smoothing_from_args(args: argparse.Namespace):
     """The :class:`euc_sim.identification.processing.Smoothing` of the command line."""
-    from euc_sim.identification.processing import Smoothing
-
     return Smoothing(method=args.smoothing, window=args.window, order=args.order,
                      term_sigma=args.term_sigma)
 
 
 def _load(path: str, args: argparse.Namespace, h: float | None = None):
-    from euc_sim.cli.common import param_values, parse_params
-    from euc_sim.identification.h_fit import load
-    from euc_sim.identification.recordings import params_from_meta, read_sidecar
-    from euc_sim.io import sidecar_paths
-
     meta = read_sidecar(path)
     params_from_meta(meta, sidecar_paths(path)[0])     # the sidecar's values, naming it
     parse_params(args.param)                          # --param's, naming the parameter
@@ -70,9 +75,6 @@ def _load(path: str, args: argparse.Namespace, h: float | None = None):
 
 def _check_option(option: str, name: str, value: float) -> None:
     """A parameter given as an option, against its plausible range (message names the option)."""
-    from euc_sim.cli.common import UsageError
-    from euc_sim.model.parameters import PLAUSIBLE, UNITS
-
     lo, hi = PLAUSIBLE[name]
     if not lo <= value <= hi:
         raise UsageError(f"{option} must lie in [{lo:g}, {hi:g}] {UNITS[name]} for a rider, "
@@ -83,7 +85,6 @@ def _check_option(option: str, name: str, value: float) -> None:
 def add_torques_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser("torques", help="driving and ankle torques from a recording (eqs. 9, 10, 13)")
     p.add_argument("recording", help="CONTRACT recording (CSV or Parquet)")
-    from euc_sim.model.parameters import PLAUSIBLE
 
     p.add_argument("--h", type=bounded(*PLAUSIBLE["h"], unit="m"), metavar="M",
                    help="rider's CoG height, m (default: the sidecar's h, else Table 3's 0.6 m)")
@@ -102,11 +103,6 @@ def cmd_torques(args: argparse.Namespace) -> int:
     half-width of either end (:attr:`Kinematics.interior`), where the Savitzky-Golay
     end fits and the term filter lack support and the torques are not to be trusted.
     """
-    import numpy as np
-
-    from euc_sim.identification.torques import torques
-    from euc_sim.io import atomic_write, check_writable
-
     check_writable(args.out)
     if args.h is not None:
         _check_option("--h", "h", args.h)
@@ -127,9 +123,6 @@ def cmd_torques(args: argparse.Namespace) -> int:
 
 # --- identify ------------------------------------------------------------------------------
 def add_identify_parser(sub) -> argparse.ArgumentParser:
-    from euc_sim.cli.common import seed
-    from euc_sim.cli.options import deprecated
-
     p = sub.add_parser("identify", help="identify the rider's CoG height h (and more) from recordings")
     p.add_argument("recordings", nargs="+", help="CONTRACT recordings (CSV or Parquet)")
     p.add_argument("--json", metavar="FILE", help="write the results (CONTRACT's identify form)")
@@ -140,7 +133,6 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
                           "or identify-torques-REC.png (one per recording); every file written "
                           "is printed")
     deprecated(fig, "--plot", "--report DIR", dest="plot", metavar="FILE", default=None)
-    from euc_sim.model.parameters import PLAUSIBLE
 
     p.add_argument("--h-min", type=bounded(*PLAUSIBLE["h"], unit="m"), default=0.1, metavar="M",
                    help="search bound, m")
@@ -181,24 +173,18 @@ def _figure_paths(plot: str, names: list[str]) -> list[Path]:
 
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify h (both models, per recording and pooled), the controller and the rider."""
-    from euc_sim import api
-    from euc_sim.cli.common import UsageError
-    from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK
-    from euc_sim.identification.controller_fit import identify_controller
-    from euc_sim.io import check_writable, save_figure, write_json
-
     if args.json:
         check_writable(args.json)
     if args.report:             # Fig. 8 as DIR/identify.png, Figs. 6/7 beside it
         args.plot = str(Path(args.report) / "identify.png")
     if args.plot:
-        from euc_sim.identification.plots import check_figure_path
+        from euc_sim.identification.plots import check_figure_path  # deferred: loads matplotlib (0.2 s)
 
         check_figure_path(args.plot)
         check_writable(args.plot)
     if args.n_boot < 0:
         raise UsageError(f"--n-boot must be non-negative, got {args.n_boot}")
-    from euc_sim.identification.noise_bootstrap import N_REPLICATES
+    from euc_sim.identification.noise_bootstrap import N_REPLICATES  # deferred: loads scipy.signal (1.0 s)
     n_noise = N_REPLICATES if args.noise_replicates is None else args.noise_replicates
     if n_noise < 0:
         raise UsageError(f"--noise-replicates must be non-negative, got {n_noise}")
@@ -210,7 +196,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     _check_option("--h-min", "h", args.h_min)
     _check_option("--h-max", "h", args.h_max)
     if args.method == "sysid":
-        from euc_sim.identification.sysid_fit import MISSING_EXTRA, sysid_available
+        from euc_sim.identification.sysid_fit import MISSING_EXTRA, sysid_available  # deferred: loads scipy.signal (0.9 s)
 
         if not sysid_available():
             raise UsageError(MISSING_EXTRA)
@@ -224,7 +210,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
     per_json, riders, figures = _per_recording(args, names, recs, per)
     if args.plot:
-        from euc_sim.identification.plots import rmse_curves_figure
+        from euc_sim.identification.plots import rmse_curves_figure  # deferred: loads matplotlib (0.2 s)
 
         figures.insert(0, str(save_figure(rmse_curves_figure(names, per, pooled), args.plot)))
 
@@ -261,10 +247,6 @@ def cmd_identify(args: argparse.Namespace) -> int:
 def _per_recording(args: argparse.Namespace, names: list[str], recs: list, per: list[dict]):
     """Each recording's JSON entry (models, controller, rider, base parameters), its rider
     fit, and the Figs. 6/7 written beside Fig. 8 (``--report``): (entries, rider fits, figure paths)."""
-    from euc_sim.identification.base_params import identify_base_parameters
-    from euc_sim.identification.controller_fit import identify_controller, identify_rider_delay
-    from euc_sim.identification.torques import torques
-
     per_json, riders, figures = [], [], []
     fig_paths = _figure_paths(args.plot, names) if args.plot else [None] * len(recs)
     for rec, fits, fig_path in zip(recs, per, fig_paths):
@@ -280,8 +262,7 @@ def _per_recording(args: argparse.Namespace, names: list[str], recs: list, per: 
                 rec.kin, rec.df["M_d"].to_numpy(), M_h, rec.params).as_json()
         per_json.append(entry)
         if fig_path is not None:
-            from euc_sim.identification.plots import recording_figure
-            from euc_sim.io import save_figure
+            from euc_sim.identification.plots import recording_figure  # deferred: loads matplotlib (0.2 s)
 
             figures.append(str(save_figure(recording_figure(rec, torques(rec.kin, p_h), fits["3dof"]), fig_path)))
     return per_json, riders, figures
@@ -324,11 +305,8 @@ def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dic
     """``--method rollout`` / ``sysid``: h by simulation error per recording (our rollout or
     ``mujoco.sysid``), pooled by inverse variance; added to the 3-DoF entries of the JSON
     under the method's name, printed, and (with ``--report``) drawn."""
-    import math
-
-    from euc_sim.cli.common import UsageError
-    from euc_sim.identification.rollout_fit import fit_rollout
-    from euc_sim.identification.sysid_fit import fit_sysid
+    from euc_sim.identification.rollout_fit import fit_rollout  # deferred: loads scipy.signal (1.0 s)
+    from euc_sim.identification.sysid_fit import fit_sysid  # deferred: loads scipy.signal (0.9 s)
 
     key = args.method
     fit = fit_rollout if key == "rollout" else fit_sysid
@@ -351,8 +329,7 @@ def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dic
               f"({r.windows} windows of 1 s, {r.seconds:.1f} s; largest |correlation| of h with a "
               f"window state {m[key]['max_abs_correlation_h']:.2f}){warn}")
         if args.plot:
-            from euc_sim.identification.plots import rollout_figure
-            from euc_sim.io import save_figure
+            from euc_sim.identification.plots import rollout_figure  # deferred: loads matplotlib (0.2 s)
 
             base = Path(args.plot)
             tag = "" if len(recs) == 1 else f"-{Path(rec.name).stem}"

@@ -7,11 +7,31 @@ raises ``ValueError`` (exit 2, one line) and nothing is written.
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import time
 from pathlib import Path
 
-from euc_sim.cli.options import bounded, workers
+import numpy as np
+
+from euc_sim import api
+from euc_sim.cli.common import format_eigenvalues as eig_text, parse_params, say, seed
+from euc_sim.cli.options import bounded, deprecated, one_of, workers
+from euc_sim.cli.spatial import simulate_3d_command
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
 from euc_sim.errors import InputError
+from euc_sim.io import check_writable, write_json
+from euc_sim.model.mujoco_model import VARIANTS
+from euc_sim.model.parameters import PLAUSIBLE
+from euc_sim.rides.source.sanity import SPEC_RANGE
+from euc_sim.simulation import effects as fx
+from euc_sim.simulation.drift import cog_height, parse_drift_shape
+from euc_sim.simulation.effects import bounds_text, names as effect_names
+from euc_sim.simulation.engine import ENGINES, default_rider
+from euc_sim.simulation.maneuvers import MANEUVERS, load_speed_profile, make_maneuver
+from euc_sim.simulation.mocap import NOISE_LEVELS
+from euc_sim.simulation.spatial import PATHS
 
 __all__ = ["add_commands", "DURATION", "RIDER_NOISE"]
 
@@ -24,7 +44,6 @@ RIDER_NOISE = bounded(0.0, 100.0, unit="N·m")
 
 
 def _effects(items) -> dict[str, float]:
-    from euc_sim.simulation import effects as fx
     out: dict[str, float] = {}
     for item in items or ():
         name, value = fx.parse_assignment(item)
@@ -41,9 +60,7 @@ def _check_choice(option: str, value: str, valid) -> None:
 
 def _voltage_limit(path, R: float, voltage: float | None) -> dict:
     """``MotorPD`` voltage-limit settings from a ride JSON (:func:`euc_sim.controllers.firmware.voltage_limit_settings`)."""
-    import json
-
-    from euc_sim.controllers.firmware import FirmwareError, voltage_limit_settings
+    from euc_sim.controllers.firmware import FirmwareError, voltage_limit_settings  # deferred: loads scipy.optimize (0.4 s)
 
     try:
         rep = json.loads(Path(path).read_text(encoding="utf-8"))
@@ -56,7 +73,6 @@ def _voltage_limit(path, R: float, voltage: float | None) -> dict:
 
 
 def _motor(args, R: float = 0.2, p=None):
-    from euc_sim.controllers.motor import MotorPD
     lim = {}
     if getattr(args, "drivetrain", None):
         lim = _voltage_limit(args.drivetrain, R, args.battery_voltage)
@@ -73,10 +89,7 @@ def _motor(args, R: float = 0.2, p=None):
 def _firmware(path, lim: dict, p=None):
     """The wheel's measured balance law (the ride JSON's ``controller``, :mod:`euc_sim.controllers.firmware`)
     with the voltage limit, or None when the ride shows no law (the paper's PD is then used)."""
-    import json
-
-    from euc_sim.controllers.firmware import FirmwareError, firmware_motor
-    from euc_sim.cli.common import say
+    from euc_sim.controllers.firmware import FirmwareError, firmware_motor  # deferred: loads scipy.optimize (0.4 s)
 
     ctrl = json.loads(Path(path).read_text(encoding="utf-8")).get("controller")
     if not isinstance(ctrl, dict) or ctrl.get("law") is None:
@@ -91,21 +104,12 @@ def _firmware(path, lim: dict, p=None):
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from euc_sim import api
-    from euc_sim.cli.common import parse_params, say
-    from euc_sim.io import check_writable
-    from euc_sim.simulation.mocap import NOISE_LEVELS
-    from euc_sim.simulation.engine import ENGINES
-    from euc_sim.simulation.maneuvers import MANEUVERS, load_speed_profile, make_maneuver
-    from euc_sim.model.mujoco_model import VARIANTS
-
     out = Path(args.out)
     if out.suffix.lower() not in (".csv", ".parquet"):
         raise InputError(f"--out must end in .csv or .parquet, got {str(out)!r}")
     check_writable(out)
     _check_choice("--model", args.model, ("planar", "3d"))
     if args.model == "3d":          # the spatial model
-        from euc_sim.cli.spatial import simulate_3d_command
         _check_choice("--noise", args.noise, tuple(NOISE_LEVELS))
         return simulate_3d_command(args, _motor(args))
     _check_choice("--noise", args.noise, tuple(NOISE_LEVELS))
@@ -143,16 +147,10 @@ def _drift_shape(text, eff, h: float = 0.6, duration: float = 15.0):
     The drift must leave the rider's centre of gravity above the ankle: h(t) (m) at least
     the plausible least h (:data:`euc_sim.model.parameters.PLAUSIBLE`) over the ``duration`` (s).
     """
-    from euc_sim.simulation.drift import cog_height, parse_drift_shape
-
     if text is not None and "cog_height_drift" not in eff:
         raise InputError("--drift-shape shapes the cog_height_drift effect; add --effect cog_height_drift=VALUE")
     shape = None if text is None else parse_drift_shape(text)
     if "cog_height_drift" in eff:
-        import numpy as np
-
-        from euc_sim.model.parameters import PLAUSIBLE
-
         lowest = float(np.min(cog_height(h, eff["cog_height_drift"], np.linspace(0.0, duration, 2001), shape)))
         if lowest < PLAUSIBLE["h"][0]:
             raise InputError(f"effect cog_height_drift={eff['cog_height_drift']:g} m takes h from {h:g} m "
@@ -161,17 +159,12 @@ def _drift_shape(text, eff, h: float = 0.6, duration: float = 15.0):
 
 
 def _cmd_dataset(args: argparse.Namespace) -> int:
-    import time
-
-    from euc_sim.cli.common import parse_params, say
-    from euc_sim.simulation.dataset import dataset_plan, run_dataset
-    from euc_sim.simulation.mocap import NOISE_LEVELS
-    from euc_sim.simulation.engine import ENGINES
+    from euc_sim.simulation.dataset import dataset_plan, run_dataset  # deferred: loads multiprocessing, tqdm (0.02 s)
 
     _check_choice("--noise", args.noise, tuple(NOISE_LEVELS))
     _check_choice("--engine", args.engine, ENGINES)
     _check_choice("--format", args.format, ("csv", "parquet"))
-    from euc_sim.simulation.runner import check_backend
+    from euc_sim.simulation.runner import check_backend  # deferred: loads multiprocessing, tqdm (0.02 s)
     check_backend(args.scheduler, args.workers)
     effects = _effects(args.effect)
     _drift_shape(None, effects, parse_params(args.param).h, args.duration)
@@ -194,11 +187,8 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
 
 
 def _cmd_stability(args: argparse.Namespace) -> int:
-    from euc_sim.cli.common import parse_params
-    from euc_sim.io import check_writable, write_json
-    from euc_sim.simulation.stability import stability_report
-    from euc_sim.simulation.engine import default_rider
-    from euc_sim.controllers.design import delay_tolerance
+    from euc_sim.simulation.stability import stability_report  # deferred: loads scipy.linalg (0.2 s)
+    from euc_sim.controllers.design import delay_tolerance  # deferred: loads scipy.linalg (0.2 s)
 
     if args.json:
         check_writable(args.json)
@@ -213,8 +203,6 @@ def _cmd_stability(args: argparse.Namespace) -> int:
         jc["analytic_vs_mjd_transitionFD"]["relative_error"] < 1e-4
     stable = rep["max_real_part"]["motor_pd_and_rider"] < 0 and rep["rider_loop"]["stable_with_delay"]
     rep["ok"] = bool(jac_ok and stable)
-
-    from euc_sim.cli.common import format_eigenvalues as eig_text
 
     print(f"operating point: upright at {args.speed:g} m/s; motor Kp = {motor.Kp:g} N·m/rad, "
           f"Kd = {motor.Kd:g} N·m·s/rad")
@@ -252,17 +240,6 @@ def _controller_options(p: argparse.ArgumentParser) -> None:
 
 def add_commands(sub) -> None:
     """Register ``simulate``, ``dataset`` and ``stability`` on the subparsers ``sub``."""
-    from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
-    from euc_sim.cli.common import seed
-    from euc_sim.cli.options import one_of
-    from euc_sim.model.mujoco_model import VARIANTS
-    from euc_sim.rides.source.sanity import SPEC_RANGE
-    from euc_sim.simulation.effects import bounds_text, names as effect_names
-    from euc_sim.simulation.engine import ENGINES
-    from euc_sim.simulation.maneuvers import MANEUVERS
-    from euc_sim.simulation.mocap import NOISE_LEVELS
-    from euc_sim.simulation.spatial import PATHS
-
     effect_help = f"NAME one of {', '.join(effect_names())}; VALUE within: {bounds_text()}"
     p = sub.add_parser("simulate", help="closed-loop simulation of a maneuver, written as a recording")
     p.add_argument("--maneuver", default=None, metavar="NAME",
@@ -311,13 +288,6 @@ def add_commands(sub) -> None:
 
 def _add_dataset_parser(sub) -> None:
     """Register ``dataset`` on the subparsers ``sub``."""
-    from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
-    from euc_sim.cli.common import seed
-    from euc_sim.cli.options import deprecated, one_of
-    from euc_sim.simulation.effects import bounds_text, names as effect_names
-    from euc_sim.simulation.engine import ENGINES
-    from euc_sim.simulation.mocap import NOISE_LEVELS
-
     effect_help = f"NAME one of {', '.join(effect_names())}; VALUE within: {bounds_text()}"
     p = sub.add_parser("dataset", help="a paper-like set of synthetic recordings, in parallel")
     out = p.add_mutually_exclusive_group(required=True)

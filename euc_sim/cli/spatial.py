@@ -8,17 +8,18 @@ import argparse
 import math
 from pathlib import Path
 
+from euc_sim import api
+from euc_sim.cli.common import parse_params, say
+from euc_sim.cli.options import bounded, deprecated
 from euc_sim.errors import InputError
+from euc_sim.simulation.lateral import LATERAL_WINDOW, min_duration
+from euc_sim.simulation.spatial import PATHS, write_spatial
 
 __all__ = ["simulate_3d_command", "add_render_parser"]
 
 
 def simulate_3d_command(args: argparse.Namespace, motor) -> int:
     """The ``--model 3d`` branch of ``euc-sim simulate``: ``--maneuver`` names a path."""
-    from euc_sim.cli.common import parse_params, say
-    from euc_sim.simulation.lateral import LATERAL_WINDOW, min_duration
-    from euc_sim.simulation.spatial import PATHS, write_spatial
-
     name = args.maneuver or "figure_eight"
     if args.profile or name not in PATHS:
         raise InputError(f"--model 3d: --maneuver must be one of {', '.join(PATHS)}, got "
@@ -41,9 +42,6 @@ def simulate_3d_command(args: argparse.Namespace, motor) -> int:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    from euc_sim import api
-    from euc_sim.cli.common import say
-
     out = Path(args.out)
     if out.suffix.lower() not in (".mp4", ".gif", ".png"):
         raise InputError(f"--out must end in .mp4, .gif or .png, got {str(out)!r}")
@@ -57,12 +55,9 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
 def add_render_parser(sub) -> None:
     """Register ``euc-sim render REC --out ride.mp4|ride.gif|frame.png``."""
-    from euc_sim.cli.options import deprecated
-
     p = sub.add_parser("render", help="replay a recording in the 3-D model (offscreen MuJoCo renderer)")
     p.add_argument("recording", metavar="REC.csv", help="a recording with psi, theta, gamma and C (or E) columns")
     p.add_argument("--out", required=True, metavar="ride.mp4", help=".mp4, .gif or .png (one frame)")
-    from euc_sim.cli.options import bounded
 
     p.add_argument("--fps", type=bounded(1.0, 240.0, unit="Hz"), default=30.0, metavar="HZ",
                    help="frames per second of the video (default 30)")

@@ -34,7 +34,7 @@ alike cancels most of that bias in the regression.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -43,8 +43,10 @@ from scipy.signal import savgol_filter
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.grids.spin import spin_rows
+from euc_sim.rides.source.bounds import CHANNEL_BOUNDS
 from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
 from euc_sim.rides.source.ride import Ride
+from euc_sim.rides.source.sanity import SPEED_SCALE_RANGE
 from euc_sim.stats import distinct
 
 __all__ = ["RideAssumptions", "RideSignals", "with_found_values", "resample", "ride_grid", "sg", "window_samples",
@@ -351,8 +353,6 @@ def check_readings(log: Ride) -> None:
     interpolated over or left out), and a speed that disagrees with the log's own odometer
     (:func:`odometer_scale`).
     """
-    from euc_sim.rides.source.bounds import CHANNEL_BOUNDS
-
     t = log.data["t"].to_numpy(float)
     for ch, (lo, hi, unit, si) in CHANNEL_BOUNDS.items():
         if ch not in log.data:
@@ -396,8 +396,6 @@ def odometer_scale(log: Ride) -> float | None:
 
 def _check_speed_units(log: Ride) -> None:
     """Refuse a log whose speed disagrees with its own odometer (mph read as km/h: 0.62)."""
-    from euc_sim.rides.source.sanity import SPEED_SCALE_RANGE
-
     scale = odometer_scale(log)
     if scale is not None and not SPEED_SCALE_RANGE[0] <= scale <= SPEED_SCALE_RANGE[1]:
         raise InputError(f"{log.path}: column 'speed': the speed integrates to {scale:.2f} × the "
@@ -526,8 +524,6 @@ def with_found_values(assumptions, spec, total_mass: dict):
     RideAssumptions
         A new object.
     """
-    import dataclasses
-
     src = dict(assumptions.sources)
     new = {}
     if "R" not in src and spec is not None and spec.radius is not None:
@@ -538,7 +534,7 @@ def with_found_values(assumptions, spec, total_mass: dict):
         eq = (total_mass.get("equivalent_mass") or {}).get("estimate")
         new["total_mass"], new["m_eq"] = m, (eq if eq is not None else m)
         src["total_mass"] = "found from this log's energy balance (total_mass)"
-    return dataclasses.replace(assumptions, sources=tuple(src.items()), **new)
+    return replace(assumptions, sources=tuple(src.items()), **new)
 
 
 def split_at_gaps(windows, t: np.ndarray, min_len: float = 0.0) -> list[list[float]]:

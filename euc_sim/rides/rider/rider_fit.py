@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from numbers import Integral
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
@@ -54,7 +55,7 @@ import pandas as pd
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.controllers.rider import Rider
 from euc_sim.model.parameters import Params
-from euc_sim.rides.grids.profile import PLAN_WINDOW, rider_plan
+from euc_sim.rides.grids.profile import PLAN_WINDOW, rider_plan, speed_profile
 from euc_sim.rides.rider.response_surface import lhs as _lhs, minimise as _minimise, surface as _surface
 from euc_sim.rides.sim.reading import quantise, stamp_readings
 from euc_sim.rides.grids.rider_features import (BAND_WINDOWS, RiderFitError, band_features,  # noqa: F401
@@ -62,6 +63,10 @@ from euc_sim.rides.grids.rider_features import (BAND_WINDOWS, RiderFitError, ban
 from euc_sim.rides.grids.signals import RideAssumptions
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.rider.rider_params import RIDER_PARAMS, rider_from
+from euc_sim.rides.sim.simulate import battery_power
+from euc_sim.simulation.engine import simulate
+from euc_sim.simulation.errors import FallError
+from euc_sim.simulation.maneuvers import Maneuver
 
 __all__ = ["BAND_WINDOWS", "RiderFitError", "RiderFit",
            "log_channels", "band_features", "fit_windows", "fit_rider"]
@@ -137,11 +142,6 @@ def _simulated_channels(setup: _Setup, rider: Rider, draw: int = 0) -> pd.DataFr
     log's own stamp (:func:`~euc_sim.rides.sim.reading.stamp_readings`), written in the log's
     steps where it has them (``channels.attrs["quantum"]``: 0.1° pitch, 0.1 A current), then put on the log's grid as the log is.  ``draw`` picks the motor noise
     and the steps' zero (seed ``setup.seed + 1000 draw + window``)."""
-    from euc_sim.rides.sim.simulate import battery_power
-    from euc_sim.simulation.engine import simulate
-    from euc_sim.simulation.errors import FallError
-    from euc_sim.simulation.maneuvers import Maneuver
-
     ch = setup.channels
     t = ch["t"].to_numpy()
     stamps = ch.attrs["stamps"]
@@ -485,10 +485,6 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
         falls at every design point, or a bad ``windows``, ``window_length``, ``rounds``
         or ``n_boot`` (named before any simulation).
     """
-    from numbers import Integral
-
-    from euc_sim.rides.grids.profile import speed_profile
-
     for name, value, least in (("windows", windows, 1), ("n_boot", n_boot, 2), ("repeats", repeats, 1)):
         if not (isinstance(value, Integral) and value >= least):
             raise RiderFitError(f"{name} must be an integer of at least {least}, got {value!r}")

@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass
 from typing import Mapping
 
+from euc_sim.controllers.design import DEFAULT_SCALES, design_rider
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.controllers.rider import Rider
 from euc_sim.model.parameters import Params
@@ -66,8 +67,6 @@ def rider_from(values: Mapping[str, float], params: Params, motor: MotorPD) -> R
         LQR gains from :func:`euc_sim.controllers.design.design_rider` with the ankle-torque
         scale of Bryson's rule multiplied by √bandwidth.
     """
-    from euc_sim.controllers.design import DEFAULT_SCALES, design_rider
-
     bw = float(values["bandwidth"])
     if not (math.isfinite(bw) and bw > 0):
         raise RiderFitError(f"bandwidth must be a positive number, got {bw!r}")

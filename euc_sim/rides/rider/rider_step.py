@@ -11,6 +11,7 @@ from dataclasses import replace
 
 from euc_sim.rides.grids.profile import PLAN_WINDOW
 from euc_sim.rides.grids.signals import RideAssumptions
+from euc_sim.rides.law.controller_report import torque_constant
 from euc_sim.rides.rider.rider_fit import RiderFitError, fit_rider
 from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, effects_to_inject
 
@@ -35,8 +36,6 @@ def calibrated_rider_step(prev, inp):
     -------
     SimStep
     """
-    from euc_sim.rides.law.controller_report import torque_constant
-
     name, what = "calibrated_rider", "the rider calibrated on the fit ride"
     if inp.fit_log is None:
         return replace(prev, name=name, what=what, notes=(), why="no fit ride log to calibrate the rider on")

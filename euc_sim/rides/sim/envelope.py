@@ -14,8 +14,12 @@ from typing import Mapping
 
 import numpy as np
 
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.plant import speed_zero
+from euc_sim.controllers.rider import trim
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params
+from euc_sim.simulation.engine import FALL_BOUNDS
 
 __all__ = ["LEAN_SHARE", "limit_acceleration", "moving_average", "plan_band_limit",
            "rider_acceleration_limit", "resisting_acceleration"]
@@ -128,8 +132,6 @@ def plan_band_limit(params: Params, motor=None) -> tuple[float, float]:
     (width, z) : tuple of float
         s, and the zero z, rad/s.  Width 0 when the response has no such zero.
     """
-    from euc_sim.controllers.plant import speed_zero
-
     z = speed_zero(params, motor)
     if not (math.isfinite(z) and z > 0):
         return 0.0, z
@@ -158,10 +160,6 @@ def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEA
         m/s², positive.
     """
     from scipy.optimize import brentq
-
-    from euc_sim.controllers.motor import MotorPD
-    from euc_sim.controllers.rider import trim
-    from euc_sim.simulation.engine import FALL_BOUNDS
 
     if not (math.isfinite(lean_share) and 0 < lean_share < 1):
         raise InputError(f"lean_share must be in (0, 1), got {lean_share!r}")

@@ -22,8 +22,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from scipy.signal import csd, freqz, savgol_coeffs, welch
 
 from euc_sim.errors import InputError
+from euc_sim.rides.grids.signals import sg, window_samples
 
 __all__ = ["filter_band", "closed_loop_response", "inverse_correction", "COHERENCE_MIN", "TREND_WINDOW",
            "SEGMENT_S"]
@@ -55,10 +57,6 @@ def filter_band(rate: float = 10.0, window: float = 1.5, polyorder: int = 2) -> 
         The lowest frequency where the filter's gain falls below 1/√2, Hz (0.72 Hz for
         the ride defaults 10 Hz, 1.5 s, order 2).
     """
-    from scipy.signal import freqz, savgol_coeffs
-
-    from euc_sim.rides.grids.signals import window_samples
-
     n = window_samples(window, rate, polyorder)
     w, h = freqz(savgol_coeffs(n, polyorder), worN=8192, fs=rate)
     below = np.flatnonzero(np.abs(h) < 2 ** -0.5)
@@ -66,8 +64,6 @@ def filter_band(rate: float = 10.0, window: float = 1.5, polyorder: int = 2) -> 
 
 
 def _detrend(x: np.ndarray, rate: float) -> np.ndarray:
-    from euc_sim.rides.grids.signals import sg
-
     return x - sg(x, np.zeros(x.size, int), rate, TREND_WINDOW, 1)
 
 
@@ -90,8 +86,6 @@ def closed_loop_response(t: np.ndarray, plan: np.ndarray, v_sim: np.ndarray):
     coherence : numpy.ndarray
         Squared coherence (0–1).
     """
-    from scipy.signal import csd, welch
-
     t = np.asarray(t, float)
     rate = 1.0 / float(np.median(np.diff(t)))
     x = _detrend(np.asarray(plan, float), rate)

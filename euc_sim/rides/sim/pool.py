@@ -11,6 +11,8 @@ processes: :func:`euc_sim.simulation.runner.run_tasks`.
 
 from __future__ import annotations
 
+import threading
+from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
 from typing import Any, Callable, Sequence
 
 __all__ = ["run_threads"]
@@ -38,9 +40,6 @@ def run_threads(fn: Callable[[Any, Any], Any], jobs: Sequence, workers: int,
         Results in the order of ``jobs``; the first job's exception (in the order jobs
         end) is re-raised here, the other jobs stopped first.
     """
-    import threading
-    from concurrent.futures import FIRST_EXCEPTION, ThreadPoolExecutor, wait
-
     note = on_done or (lambda i, k: None)
     cancel = threading.Event()
     if workers <= 1 or len(jobs) <= 1:

@@ -29,6 +29,7 @@ ridden again after a fall, and every step is scored on the rows all of them rode
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from functools import partial
 from pathlib import Path
 from dataclasses import dataclass, field
@@ -36,19 +37,26 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
+from euc_sim.diagnosis.localise import localise
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.grids.profile import rider_plan, speed_profile
-from euc_sim.rides.grids.rider_features import reading_step
-from euc_sim.rides.grids.signals import RideAssumptions, RideSignals
+from euc_sim.rides.grids.law_signals import MAX_PITCH, V_MIN
+from euc_sim.rides.grids.rider_features import RiderFitError, band_ratio_db, reading_step
+from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, sg, split_at_gaps
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.sim.plan_learning import filter_band
 from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep, electrical_power,
                                      effects_to_inject, simulated_pwm)
 from euc_sim.rides.grids.stops import find_stops
 from euc_sim.rides.sim.envelope import LEAN_SHARE
+from euc_sim.rides.sim.pool import run_threads
+from euc_sim.rides.sim.reading import read_as_logged
 from euc_sim.rides.sim.tracking import simulate_profile
+from euc_sim.simulation.engine import default_rider
+from euc_sim.simulation.native_core import available
 
 __all__ = ["SIM_EFFECTS", "simulation_obstacle", "ride_params", "effects_to_inject",
            "battery_power", "RideSimulation", "simulate_ride", "LOG_COLUMNS"]
@@ -259,14 +267,6 @@ def _run_steps(jobs: Sequence[_StepJob], params: Params, workers: int,
     numbers.  An interruption ends the running rides within a rider block
     (:func:`euc_sim.rides.sim.pool.run_threads`).
     """
-    from concurrent.futures import ThreadPoolExecutor
-
-    from threadpoolctl import threadpool_limits
-
-    from euc_sim.rides.sim.pool import run_threads
-    from euc_sim.simulation.engine import default_rider
-    from euc_sim.simulation.native_core import available
-
     say = progress or (lambda msg: None)
     riders = None
     if workers > 1 and len(jobs) > 0:
@@ -289,8 +289,6 @@ def _pitch_rows(table: pd.DataFrame, ok: np.ndarray) -> np.ndarray:
     As :func:`euc_sim.rides.grids.law_signals.law_rows`: speed above ``V_MIN`` and pitch within
     ``MAX_PITCH`` of its riding median (a wheel standing, lying or carried is not balancing).
     """
-    from euc_sim.rides.grids.law_signals import MAX_PITCH, V_MIN
-
     if "pitch_log" not in table:
         return ok
     pitch = table["pitch_log"].to_numpy()
@@ -320,9 +318,6 @@ def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict:
 def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: float,
                     min_len: float, name: str) -> dict:
     """Where step ``name``'s battery-power error concentrates (windows in s)."""
-    from euc_sim.diagnosis.localise import localise
-    from euc_sim.rides.grids.signals import split_at_gaps
-
     t = table["t"].to_numpy()
     r = (table["P_log"] - table[f"P_{name}"]).to_numpy()
     good = ok & np.isfinite(r)
@@ -336,8 +331,6 @@ def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: 
 
 def _logged(sig: RideSignals) -> dict:
     """The log's channels on its grid, smoothed as :class:`RideSignals` smooths its own."""
-    from euc_sim.rides.grids.signals import sg
-
     frame, raw = sig.frame, sig.raw
     out = {"t": frame["t"].to_numpy(), "v_log": frame["v"].to_numpy(), "M_log": frame["M"].to_numpy(),
            "P_log": frame["P"].to_numpy()}
@@ -369,8 +362,6 @@ def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
     want = ["v", "M", "P"] + [c for c in LOG_COLUMNS if f"{c}_log" in logged]
     if df is None:
         return {f"{col}_{name}": np.full(t.size, np.nan) for col in want}, {}
-    from euc_sim.rides.grids.signals import sg
-    from euc_sim.rides.sim.reading import read_as_logged
 
     P = battery_power(df["M_d"], df["x_dot"], df["gamma_dot"], R) + electrical_power(
         step.power, np.asarray(df["M_d"], float) / R, np.asarray(df["x_dot"], float))
@@ -427,8 +418,6 @@ def _band_errors(sig: RideSignals, reads: Mapping[str, Mapping[str, np.ndarray]]
     neither smoothed (:func:`euc_sim.rides.grids.rider_features.band_ratio_db`), keyed as
     ``heldout_rmse``; a channel without two rows to compare is left out.
     """
-    from euc_sim.rides.grids.rider_features import RiderFitError, band_ratio_db
-
     seg = sig.raw["segment"].to_numpy()
     logged = {"P": "P"} | LOG_COLUMNS
     out = {}

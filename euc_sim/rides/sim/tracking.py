@@ -13,15 +13,26 @@ brings the 1 kHz simulation onto the log's grid.
 
 from __future__ import annotations
 
+import sys
+import threading
 from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
+from tqdm import tqdm
 
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import trim
 from euc_sim.model.parameters import Params
+from euc_sim.rides.grids.law_signals import V_MIN
+from euc_sim.rides.grids.stops import find_stops, moving_segments, rest_rows
 from euc_sim.rides.sim.envelope import (LEAN_SHARE, limit_acceleration, moving_average, plan_band_limit,
                                         resisting_acceleration, rider_acceleration_limit)
+from euc_sim.rides.sim.plan_learning import filter_band, inverse_correction
+from euc_sim.simulation.engine import default_rider, simulate
+from euc_sim.simulation.errors import FallError
+from euc_sim.simulation.maneuvers import Maneuver
 
 __all__ = ["to_grid", "ProfileRun", "simulate_profile", "RideCancelled"]
 
@@ -84,10 +95,6 @@ class _RideClock:
     :class:`RideCancelled` at its next tick once ``cancel`` (a :class:`threading.Event`) is set."""
 
     def __init__(self, total: float, desc: str, enabled: bool, position: int = 0, cancel=None):
-        import sys
-
-        from tqdm import tqdm
-
         self.cancel = cancel
         self.bar = tqdm(total=round(total, 1), desc=desc, unit="s", unit_scale=False, file=sys.stderr,
                         disable=not enabled, position=position, mininterval=1.0, bar_format="{desc}: {percentage:3.0f}%|{bar}| "
@@ -111,8 +118,6 @@ class _Stretches:
     started and ends those riding at their next rider block."""
 
     def __init__(self, t, v_plan, segments, params, effects, seed, dt, clock, motor, rider, pool):
-        import threading
-
         self.quit = threading.Event()
         self.segments = segments
 
@@ -156,9 +161,6 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
     largest |ẋ| at which a stretch ended at a stop, m/s.  A fall in a stretch raises
     :class:`FallError` at the ride's time with the ride up to it as ``trajectory``.  With
     ``pool`` (a thread pool), the stretches ride side by side (:class:`_Stretches`)."""
-    from euc_sim.rides.grids.stops import moving_segments, rest_rows
-    from euc_sim.simulation.errors import FallError
-
     segments = moving_segments(t.size, list(stops)) if stops else [(0, t.size - 1)]
     pieces, x_end, t_end, step_off, attrs = [], 0.0, None, 0.0, {}
     rest_pose = _rest_pose(params, motor) if stops else (0.0, 0.0)
@@ -207,9 +209,6 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
 
 def _ride(t, v_plan, params, effects, seed, dt, clock, motor, rider) -> pd.DataFrame:
     """:func:`euc_sim.simulation.engine.simulate` along the plan (t from 0, s; m/s) from its trim."""
-    from euc_sim.simulation.engine import default_rider, simulate
-    from euc_sim.simulation.maneuvers import Maneuver
-
     man = Maneuver("profile", float(v_plan[0]), (), (tuple(t.tolist()), tuple(v_plan.tolist())))
     df = simulate(man, float(t[-1]), params=params, motor=motor,
                   rider=rider if rider is not None else default_rider(params, motor), seed=seed,
@@ -232,9 +231,6 @@ def _stretch_seed(seed: int, i: int) -> int:
 
 def _rest_pose(params: Params, motor) -> tuple[float, float]:
     """(γ, φ) of the trim at rest, rad (:func:`euc_sim.controllers.rider.trim` at a = v = 0)."""
-    from euc_sim.controllers.motor import MotorPD
-    from euc_sim.controllers.rider import trim
-
     gamma, phi, _, _ = trim(params, motor or MotorPD(), 0.0, 0.0)
     return float(gamma), float(phi)
 
@@ -249,10 +245,6 @@ def _correct_plan(t, target, plan, run, params, effects, seed, dt, iterations: i
     say so) and the last kept run stands.  Returns the frame of the run kept; appends to
     ``notes``.
     """
-    from euc_sim.rides.grids.law_signals import V_MIN
-    from euc_sim.rides.sim.plan_learning import inverse_correction
-    from euc_sim.simulation.errors import FallError
-
     df, v_sim, _ = run
     riding = np.abs(target) > V_MIN
     if not riding.any():
@@ -371,8 +363,6 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     RideCancelled
         when ``cancel`` is set during the run.
     """
-    from euc_sim.simulation.errors import FallError
-
     say = progress or (lambda msg: None)
     t = np.asarray(t, float)
     v = logged = np.asarray(v, float)
@@ -405,8 +395,6 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
                          f"most from the {'limited' if a_limit is not None else 'logged'} profile")
             v = v_band
     if stops is None:
-        from euc_sim.rides.grids.stops import find_stops
-
         stops = find_stops(t, logged) if t.size > 1 else ()
     stops = tuple((int(a), int(b)) for a, b in stops)
     ends = [i for stop in stops for i in stop]
@@ -431,8 +419,6 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
     finally:
         clock.close()
     if t.size >= 5:
-        from euc_sim.rides.sim.plan_learning import filter_band
-
         band = filter_band() if learn_band is None else learn_band
         df = _correct_plan(t, logged, v, (df, v_sim, err), params, effects, seed, dt,
                            track_iterations, band, notes, say, clock_of, motor, rider, stops, pool)

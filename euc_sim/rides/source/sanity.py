@@ -18,6 +18,7 @@ shows against the log is found here:
 
 from __future__ import annotations
 
+from pathlib import Path
 
 from euc_sim.rides.source.spec import SPEC_RANGE, SpecError, log_contradictions
 
@@ -45,8 +46,6 @@ def input_warnings(log, spec, scale) -> list[str]:
     scale : SpeedScale
         The wheel's speed scale against GPS (:func:`euc_sim.rides.grids.power.speed_scale`).
     """
-    from pathlib import Path
-
     name = Path(str(log.path)).name                 # no machine path in outputs
     out = []
     if scale.source != "assumed" and not SPEED_SCALE_RANGE[0] <= scale.estimate <= SPEED_SCALE_RANGE[1]:

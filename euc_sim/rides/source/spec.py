@@ -32,6 +32,7 @@ import csv
 import re
 from dataclasses import dataclass, replace
 from functools import lru_cache
+from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
@@ -252,8 +253,6 @@ def _key(text: str) -> str:
 @lru_cache(maxsize=1)
 def _table() -> tuple[tuple[tuple[str, ...], WheelSpec], ...]:
     """The shipped wheels (``data/wheels.csv``): (names and aliases, spec) per row."""
-    from importlib.resources import files
-
     text = files("euc_sim.rides.source").joinpath("data", "wheels.csv").read_text(encoding="utf-8")
     out = []
     for r in csv.DictReader(text.splitlines()):

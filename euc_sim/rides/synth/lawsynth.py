@@ -20,6 +20,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.model.parameters import TABLE3
+from euc_sim.simulation.engine import default_rider, simulate
+from euc_sim.simulation.maneuvers import Maneuver
+
 #: The concealed law: PD gains, tilt-back 2° reached 10 km/h above its 30 km/h onset, a limit.
 LAW = {"Kp": 2000.0, "Kd": 200.0, "tiltback_speed": 30.0 / 3.6,
        "tiltback_gain": math.radians(2.0) / (10.0 / 3.6), "torque_limit": 45.0}
@@ -92,11 +97,6 @@ def law_ride(seed: int = 1, duration: float = 300.0, law=LAW) -> pd.DataFrame:
     FallError
         when the rider falls under this law and plan.
     """
-    from euc_sim.controllers.motor import MotorPD
-    from euc_sim.model.parameters import TABLE3
-    from euc_sim.simulation.engine import default_rider, simulate
-    from euc_sim.simulation.maneuvers import Maneuver
-
     motor = MotorPD(**law)
     rider = default_rider(TABLE3, motor, **RIDER)
     t, v = profile(seed, duration)
