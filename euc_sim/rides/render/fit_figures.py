@@ -48,7 +48,7 @@ def _stack(titles, height: int) -> dict:
         layout["annotations"].append({"text": title, "xref": "paper", "yref": "paper", "x": 0.5, "y": top,
                                       "xanchor": "center", "yanchor": "bottom", "showarrow": False,
                                       "font": {"size": 13}})
-    layout[f"xaxis{'' if n == 1 else n}"]["title"] = {"text": "time from the start of the log, s"}
+    layout[f"xaxis{'' if n == 1 else n}"]["title"] = {"text": "time from the start of the log, min"}
     return {"data": [], "layout": layout}
 
 
@@ -57,10 +57,11 @@ def _axis(row: int) -> str:
 
 
 def _lines(fig: dict, row: int, t: np.ndarray, curves, gap: float) -> None:
-    """``curves``: (name, y, line style) over ``t`` (s), thinned, broken at gaps, on ``row``."""
+    """``curves``: (name, y, line style) over ``t`` (s; drawn in min, as the page's other times), thinned,
+    broken at gaps, on ``row``."""
     keep = thin(t.size, MOST_POINTS)
     cols = with_breaks(t[keep], gap, *(np.asarray(y, float)[keep] for _, y, _ in curves))
-    x = plain_values(cols[0])
+    x = plain_values(cols[0] / 60.0)
     for (name, _, style), y in zip(curves, cols[1:]):
         fig["data"].append({"type": "scatter", "mode": "lines", "x": x, "y": plain_values(y), "name": name,
                             "line": style, "xaxis": f"x{_axis(row)}", "yaxis": f"y{_axis(row)}",
@@ -68,8 +69,8 @@ def _lines(fig: dict, row: int, t: np.ndarray, curves, gap: float) -> None:
 
 
 def _shade(fig: dict, row: int, a: float, b: float, label: str | None = None) -> None:
-    """A span of time shaded on ``row``'s panel, ``label`` written at its top left."""
-    ax = _axis(row)
+    """A span of time, ``a`` to ``b`` s (drawn in min), shaded on ``row``'s panel, ``label`` at its top left."""
+    ax, a, b = _axis(row), a / 60.0, b / 60.0
     fig["layout"]["shapes"].append({"type": "rect", "xref": f"x{ax}", "yref": f"y{ax} domain", "x0": a, "x1": b,
                                     "y0": 0.0, "y1": 1.0, "fillcolor": _SHADE, "line": {"width": 0},
                                     "layer": "below"})

@@ -140,3 +140,21 @@ def test_the_riding_time_says_which_clock_gives_each_length():
     assert note == "of 19 min; the app's trip and riding clocks; logged 16:48–17:10 (21 min) in UTC+02:00"
     same = dict(rep, summary={**rep["summary"], "logged_s": 1120.0})
     assert {k.label: k for k in key_figures(same)}["Riding time"].note.endswith("; logged 16:48–17:07 in UTC+02:00")
+
+
+def test_the_residual_figure_draws_the_windows_on_the_minutes_the_page_says():
+    """The page says a window "2:58–3:03" (min:s into the ride) beside a figure whose axis read
+    178–183 s: the figure's time axis is in minutes, as the ride-over-time figure's."""
+    import numpy as np
+
+    from euc_sim.rides.balance.residual import ResidualTrace
+    from euc_sim.rides.render.fit_figures import residuals_figure
+
+    t = np.arange(0.0, 600.0, 0.1)
+    r = np.sin(t / 10.0)
+    loc = {"windows": [[177.8, 183.2]], "share": 0.57, "correlations": {}}
+    fig = residuals_figure([ResidualTrace("4.csv", t, r, 0.5 * r, "W", loc, True)])
+    shade = fig["layout"]["shapes"][0]
+    assert (shade["x0"], shade["x1"]) == (177.8 / 60.0, 183.2 / 60.0)
+    assert fig["layout"]["xaxis"]["title"]["text"] == "time from the start of the log, min"
+    assert max(x for x in fig["data"][0]["x"] if x is not None) < 10.0 + 1e-9
