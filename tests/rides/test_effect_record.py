@@ -147,8 +147,7 @@ def test_the_record_is_compared_between_rides_and_named_on_the_page(eddy):
     assert NAME in res.selected
     est, ci = res.estimates[NAME]
     assert ci[0] < TRUE_K < ci[1]
-    tested = {NAME: {"estimate": est, "ci95": ci, "heldout_gain": res.gains.get(NAME), "selected": True,
-                     "p_value": res.p_values.get(NAME), "alias_set": []}}
+    tested = {NAME: df.Tested(est, ci, res.gains.get(NAME), True, res.p_values.get(NAME))}
     out = df.ride_differences([], [], tested, {}, {}, "the 16 May ride")
     d = next(x for x in out.items if x.name == NAME)
     assert d.named and d.unit == UNIT

@@ -44,16 +44,17 @@ Study: docs/concealed.md.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 from types import SimpleNamespace
 
 import numpy as np
 
-from euc_sim.rides.compare.resolution import bh_qvalues
+from euc_sim.rides.compare.resolution import Resolution, bh_qvalues
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.simulation.effects import RECORDS
 
-__all__ = ["Difference", "Differences", "FALSE_NAME_RATE", "ALIAS_CORRELATION", "physics",
+__all__ = ["Tested", "Difference", "Differences", "FALSE_NAME_RATE", "ALIAS_CORRELATION", "physics",
            "parameters_from_fit", "difference_interval", "signature_columns",
            "alias_table", "with_qvalues", "ride_differences", "rider_sentence"]
 
@@ -68,14 +69,53 @@ def physics() -> tuple[str, ...]:
 
 
 @dataclass(frozen=True)
+class Tested:
+    """One physics' pair fit (:func:`euc_sim.rides.compare.differences_report.pair_tests`).
+
+    Attributes
+    ----------
+    estimate : float or None
+        OTHER minus LOG, the parameter's unit.
+    ci95 : (float, float) or None
+        Its 95 % interval.
+    heldout_gain : float or None
+        Fraction of OTHER's held-out error it removes.
+    selected : bool
+        Kept by the pair fit's forward selection.
+    p_value, q_value : float or None
+        One-sided p-value of the held-out test; its Benjamini–Hochberg q-value
+        across the tested physics (:func:`with_qvalues`).
+    alias_set : tuple of str
+        The candidates the pair cannot tell it from (itself included).
+    aliases : tuple of str
+        Candidates whose estimates correlate beyond :data:`ALIAS_CORRELATION` with it.
+    detectable : Resolution or None
+        The smallest difference the pair can name.
+    resolution : float or None
+        The finest value the logs resolve (the delay's), s; None elsewhere.
+    """
+
+    estimate: float | None
+    ci95: tuple[float, float] | None
+    heldout_gain: float | None = None
+    selected: bool = False
+    p_value: float | None = None
+    alias_set: tuple[str, ...] = ()
+    aliases: tuple[str, ...] = ()
+    detectable: Resolution | None = None
+    resolution: float | None = None
+    q_value: float | None = None
+
+
+@dataclass(frozen=True)
 class Difference:
     """OTHER minus LOG for one parameter (CONTRACT's ``differences`` entry).
 
     ``estimate`` and ``ci95`` are the pair fit's where the physics is tested,
     else the two rides' own estimates differenced (``independent``, kept for both).
-    ``resolvable`` is the smallest difference the pair can name (the parameter's
-    unit; :func:`euc_sim.rides.compare.resolution.detectable_difference`), with
-    its parts in ``resolution``; None where the physics is not tested.
+    ``detectable`` is the smallest difference the pair can name and its parts
+    (:func:`euc_sim.rides.compare.resolution.detectable_difference`); None where
+    the physics is not tested.
     """
 
     name: str
@@ -87,11 +127,15 @@ class Difference:
     aliases: tuple[str, ...] = ()
     heldout_gain: float | None = None
     independent: tuple[float, tuple[float, float] | None] | None = None
-    resolvable: float | None = None
-    resolution: dict | None = None
+    detectable: Resolution | None = None
     p_value: float | None = None
     q_value: float | None = None
     alias_set: tuple[str, ...] = ()
+
+    @property
+    def resolvable(self) -> float | None:
+        """The smallest difference the pair can name, the parameter's unit; None where not tested."""
+        return None if self.detectable is None else self.detectable.resolvable
 
 
 @dataclass(frozen=True)
@@ -248,13 +292,13 @@ def _independent(name, a, b):
     return d, tuple(ci)
 
 
-def _tested_why(name, tested: dict, cannot: dict) -> tuple[bool, str]:
-    ci, p, q = tested.get("ci95"), tested.get("p_value"), tested.get("q_value")
+def _tested_why(name, tested: Tested, cannot: dict) -> tuple[bool, str]:
+    ci, p, q = tested.ci95, tested.p_value, tested.q_value
     if name in cannot:
         return False, cannot[name]
     if ci is None:
         return False, "no interval from the pair fit: cannot be named"
-    res = float(tested.get("resolution") or 0.0)
+    res = float(tested.resolution or 0.0)
     excl = bool(ci[0] > res or ci[1] < -res)
     sig = q is not None and q < FALSE_NAME_RATE
     g = (lambda x: "n/a" if x is None else f"{x:.2g}")   # noqa: E731
@@ -277,23 +321,21 @@ def _one(name, a, b, tested, aliases, cannot) -> Difference:
     unit = b.get("unit") or a.get("unit") or (e.unit if name in physics() else "")
     unit = "1" if _ratio(name) else unit
     ind = _independent(name, a, b)
-    if tested is not None and tested.get("estimate") is not None:
+    if tested is not None and tested.estimate is not None:
         named, why = _tested_why(name, tested, cannot)
         if name not in physics():
             named, why = False, why + "; a nuisance of the pair fit, never named"
-        ci = tested.get("ci95")
-        alias_set = tuple(x for x in tested.get("alias_set") or () if x in physics()) if named else ()
+        ci = tested.ci95
+        alias_set = tuple(x for x in tested.alias_set if x in physics()) if named else ()
         alias_set = alias_set if len(alias_set) > 1 else ()
         if alias_set:
             why += f"; this pair cannot tell {' from '.join(alias_set)} apart: each is possible, none certain"
         elif named and aliases:
             why += (f"; its estimate correlates beyond {ALIAS_CORRELATION:g} with {', '.join(aliases)}'s "
                     "in this pair (held out, it explains more than they do)")
-        det = tested.get("detectable")
-        return Difference(name, tested["estimate"], None if ci is None else tuple(ci), unit, named,
-                          why, tuple(aliases), tested.get("heldout_gain"), ind,
-                          None if det is None else det.resolvable, None if det is None else det.to_json(),
-                          tested.get("p_value"), tested.get("q_value"), alias_set)
+        return Difference(name, tested.estimate, None if ci is None else tuple(ci), unit, named,
+                          why, tuple(aliases), tested.heldout_gain, ind, tested.detectable,
+                          tested.p_value, tested.q_value, alias_set)
     if ind is None:
         return Difference(name, None, None, unit, False, "not identified on "
                           + ("this ride" if a.get("estimate") is None else "the compared ride"))
@@ -304,17 +346,18 @@ def _one(name, a, b, tested, aliases, cannot) -> Difference:
     return Difference(name, ind[0], ind[1], unit, False, why, tuple(aliases), None, ind)
 
 
-def with_qvalues(tested: dict) -> dict:
-    """``tested`` with each tested physics' ``q_value``: Benjamini–Hochberg across those with a p-value.
+def with_qvalues(tested: Mapping[str, Tested]) -> dict[str, Tested]:
+    """``tested`` (physics name -> its pair fit) with each tested physics' ``q_value``:
+    Benjamini–Hochberg across those with a p-value.
 
     Nuisance candidates of the pair fit (never named) are not in the family.
     """
-    family = [n for n in tested if n in physics() and tested[n].get("p_value") is not None]
-    q = bh_qvalues([tested[n]["p_value"] for n in family])
-    return {n: ({**e, "q_value": float(q[family.index(n)])} if n in family else e) for n, e in tested.items()}
+    family = [n for n in tested if n in physics() and tested[n].p_value is not None]
+    q = bh_qvalues([tested[n].p_value for n in family])
+    return {n: (replace(e, q_value=float(q[family.index(n)])) if n in family else e) for n, e in tested.items()}
 
 
-def ride_differences(log_params: list, other_params: list, tested: dict, aliases: dict,
+def ride_differences(log_params: list, other_params: list, tested: Mapping[str, Tested], aliases: dict,
                      cannot_see: dict, log_name: str = "the other ride",
                      views: dict | None = None) -> Differences:
     """OTHER minus LOG for every parameter of both lists.
@@ -323,8 +366,8 @@ def ride_differences(log_params: list, other_params: list, tested: dict, aliases
     ----------
     log_params, other_params : list of dict
         ``parameters`` of the two rides (:func:`parameters_from_fit`).
-    tested : dict of str -> dict
-        The pair fit of each physics: ``{estimate, ci95, heldout_gain, selected, p_value, alias_set}``
+    tested : mapping of str -> Tested
+        The pair fit of each physics tested
         (:func:`euc_sim.rides.compare.differences_report.pair_tests`).
     aliases, cannot_see : dict
         :func:`alias_table`.

@@ -11,11 +11,14 @@ tell apart.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from euc_sim.rides.compare.channels import readings, whitening
-from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RATE, alias_table, physics,
-                                               parameters_from_fit, ride_differences, signature_columns)
+from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RATE, Tested, alias_table,
+                                               parameters_from_fit, physics, ride_differences,
+                                               signature_columns)
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
 from euc_sim.rides.compare.resolution import with_floor
 from euc_sim.rides.drive.drivetrain import charge_drawn
@@ -267,14 +270,12 @@ def gps_design(log_path, compare_path):
     return design, {"speed_scale": lambda co: co["speed_scale"] / co["scale"]}
 
 
-def _entries(res) -> dict:
-    """Each candidate of one :class:`PairFit` as ``{estimate, ci95, heldout_gain, selected, p_value, alias_set,
-    aliases, detectable}`` (``detectable``: its :class:`~euc_sim.rides.compare.resolution.Resolution`)."""
+def _entries(res) -> dict[str, Tested]:
+    """Each candidate of one :class:`PairFit` by name, as a :class:`~euc_sim.rides.compare.differences.Tested`."""
     corr = res.correlations
-    return {n: {"estimate": e[0], "ci95": e[1], "heldout_gain": res.gains.get(n),
-                "selected": n in res.selected, "p_value": res.p_values.get(n),
-                "alias_set": res.alias_sets.get(n, []), "detectable": res.resolutions.get(n),
-                "aliases": sorted(o for o, r in corr.get(n, {}).items() if abs(r) > ALIAS_CORRELATION)}
+    return {n: Tested(e[0], e[1], res.gains.get(n), n in res.selected, res.p_values.get(n),
+                      tuple(res.alias_sets.get(n, ())), detectable=res.resolutions.get(n),
+                      aliases=tuple(sorted(o for o, r in corr.get(n, {}).items() if abs(r) > ALIAS_CORRELATION)))
             for n, e in res.estimates.items()}
 
 
@@ -289,7 +290,7 @@ def _delay_resolution(fit, log_path, compare_path) -> float:
 
 
 def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200,
-               seed: int = 0, channels=()) -> dict:
+               seed: int = 0, channels=()) -> dict[str, Tested]:
     """Each physics OTHER needs beyond the model both rides share (:func:`pair_fit` per domain).
 
     The current's delay first, on battery power sample by sample (a shift grid);
@@ -300,10 +301,9 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
 
     Returns
     -------
-    dict of str -> dict
-        ``{estimate, ci95, heldout_gain, selected, p_value, alias_set, aliases, detectable}`` per
-        physics tested; the delay's also ``resolution`` (:func:`_delay_resolution`,
-        s), added to its ``detectable``'s interval half-width.
+    dict of str -> Tested
+        Each physics tested by name; the delay's ``resolution`` (:func:`_delay_resolution`,
+        s) is added to its ``detectable``'s interval half-width.
     """
     fitted = lambda made: None if made is None else pair_fit(   # noqa: E731
         made[0], level=FALSE_NAME_RATE, family=len(physics()), transform=made[1], n_boot=n_boot, seed=seed)
@@ -314,9 +314,8 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     shift = 0
     if delay is not None:
         out.update(_entries(delay))
-        out[DELAY]["resolution"] = _delay_resolution(fit, log_path, compare_path)
-        if out[DELAY]["detectable"] is not None:
-            out[DELAY]["detectable"] = with_floor(out[DELAY]["detectable"], out[DELAY]["resolution"])
+        floor, det = _delay_resolution(fit, log_path, compare_path), out[DELAY].detectable
+        out[DELAY] = replace(out[DELAY], resolution=floor, detectable=None if det is None else with_floor(det, floor))
         if DELAY in delay.selected:
             shift = int(round(delay.estimates[DELAY][0] * (1.0 / np.median(np.diff(fit.sig.t)))))
     for res in (fitted(power_design(fit, test, mass, [shift], ROAD_WINDOW, channels)),
@@ -380,7 +379,7 @@ def pair_differences(physics, log_path, compare_path, n_boot: int = 200, seed: i
     tested = pair_tests(fit, test, log_path, compare_path, coef.get("total_mass", 80.0), n_boot, seed,
                         channels)
     for n, entry in tested.items():     # within a pair fit, its own estimates' correlations
-        if "aliases" in entry and n != DELAY:
-            aliases[n] = entry["aliases"]
+        if n != DELAY:
+            aliases[n] = list(entry.aliases)
     return ride_differences(log_params, other_params, tested, aliases, cannot, name,
                             {"mass_difference": physics.mass_difference})

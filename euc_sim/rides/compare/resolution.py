@@ -86,12 +86,6 @@ class Resolution:
     gain_se: float | None = None
     fold_sd: float | None = None
 
-    def to_json(self) -> dict:
-        """The ``differences`` entry's ``resolution`` detail."""
-        return {"interval_halfwidth": self.interval_halfwidth, "gate": self.gate,
-                "residual_rms": self.residual_rms, "signature_rms": self.signature_rms,
-                "floor": self.floor, "gain_se": self.gain_se, "fold_sd": self.fold_sd}
-
 
 def paired_test(sse_with: np.ndarray, sse_without: np.ndarray) -> tuple[float, float, float]:
     """One-sided paired t-test that a term lowers OTHER's held-out error, over its blocks.

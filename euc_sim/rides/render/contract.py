@@ -24,7 +24,7 @@ from euc_sim.rides.result import RideResult, RiderNumbers
 
 __all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json",
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
-           "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json", "difference_json",
+           "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json", "resolution_json", "difference_json",
            "differences_json", "clock_json", "mass_difference_json", "mass_check_json", "limits_of",
            "pwm_check"]
 
@@ -108,6 +108,15 @@ def trace_json(tr) -> dict:
             "slow_rms_augmented": float(np.sqrt(np.mean(tr.slow() ** 2)))}
 
 
+def resolution_json(r) -> dict | None:
+    """A ``differences`` entry's ``resolution`` detail: the parts of a
+    :class:`~euc_sim.rides.compare.resolution.Resolution` (None where not tested)."""
+    if r is None:
+        return None
+    return {"interval_halfwidth": r.interval_halfwidth, "gate": r.gate, "residual_rms": r.residual_rms,
+            "signature_rms": r.signature_rms, "floor": r.floor, "gain_se": r.gain_se, "fold_sd": r.fold_sd}
+
+
 def difference_json(d) -> dict:
     """One of CONTRACT's ``differences``: a :class:`~euc_sim.rides.compare.differences.Difference`
     (``alias_set`` where the pair cannot tell it from others)."""
@@ -116,7 +125,7 @@ def difference_json(d) -> dict:
     return {"name": d.name, "estimate": d.estimate, "ci95": list(d.ci95) if d.ci95 else None, "unit": d.unit,
             "named": d.named, "why": d.why, "aliases": list(d.aliases), "heldout_gain": d.heldout_gain,
             "independent": None if g is None else {"estimate": g[0], "ci95": list(g[1]) if g[1] else None},
-            "resolvable": d.resolvable, "resolution": d.resolution, "p_value": d.p_value,
+            "resolvable": d.resolvable, "resolution": resolution_json(d.detectable), "p_value": d.p_value,
             "q_value": d.q_value, **extra}
 
 

@@ -1,6 +1,7 @@
 """What differs between two rides: intervals, the naming rule, aliases, the adapter, the sentence."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -76,8 +77,8 @@ def test_adapter_maps_names_and_drag_area_to_k():
 
 def _tested(**kw):
     """Pair-fit entries: name=(estimate, lo, hi, significant): p = 0.001 where significant, else 0.4."""
-    return {n: {"estimate": e, "ci95": (lo, hi), "heldout_gain": 0.05 if kept else 0.001,
-                "selected": kept, "p_value": 0.001 if kept else 0.4} for n, (e, lo, hi, kept) in kw.items()}
+    return {n: df.Tested(e, (lo, hi), 0.05 if kept else 0.001, kept, 0.001 if kept else 0.4)
+            for n, (e, lo, hi, kept) in kw.items()}
 
 
 def test_drag_named_alone_and_said_in_a_riders_words():
@@ -157,8 +158,9 @@ def test_q_values_control_the_false_names_across_the_tested_physics():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
     tested = _tested(total_mass=(30.0, 20.0, 40.0, True), aerodynamic_drag=(0.18, 0.1, 0.26, True),
                      rolling_resistance=(0.01, 0.002, 0.02, True), drivetrain_idle_loss=(5.0, 1.0, 9.0, True))
-    tested["total_mass"]["p_value"] = 0.04            # alone below 5 %, not after the control over three
-    tested["rolling_resistance"]["p_value"] = 0.01
+    # alone below 5 %, not after the control over three
+    tested["total_mass"] = replace(tested["total_mass"], p_value=0.04)
+    tested["rolling_resistance"] = replace(tested["rolling_resistance"], p_value=0.01)
     res = df.ride_differences(a, b, tested, {}, {}, "x")
     by = {d.name: d for d in res.items}
     # the family: the three tested physics (the idle loss is a nuisance, never named, not counted)
@@ -166,7 +168,7 @@ def test_q_values_control_the_false_names_across_the_tested_physics():
     assert by["rolling_resistance"].q_value == pytest.approx(0.015)
     assert by["total_mass"].q_value == pytest.approx(0.04)
     assert by["drivetrain_idle_loss"].q_value is None and not by["drivetrain_idle_loss"].named
-    tested["total_mass"]["p_value"] = 0.06
+    tested["total_mass"] = replace(tested["total_mass"], p_value=0.06)
     by = {d.name: d for d in df.ride_differences(a, b, tested, {}, {}, "x").items}
     assert [n for n, d in by.items() if d.named] == ["aerodynamic_drag", "rolling_resistance"]
     js = difference_json(by["total_mass"])
@@ -177,7 +179,8 @@ def test_q_values_control_the_false_names_across_the_tested_physics():
 def test_an_alias_set_is_said_on_the_named_entry_and_in_the_sentence():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
     tested = _tested(aerodynamic_drag=(0.18, 0.1, 0.26, True), rolling_resistance=(0.01, -0.01, 0.03, False))
-    tested["aerodynamic_drag"]["alias_set"] = ["aerodynamic_drag", "rolling_resistance", "drivetrain_idle_loss"]
+    tested["aerodynamic_drag"] = replace(tested["aerodynamic_drag"], alias_set=(
+        "aerodynamic_drag", "rolling_resistance", "drivetrain_idle_loss"))
     res = df.ride_differences(a, b, tested, {}, {}, "the 16 May ride")
     by = {d.name: difference_json(d) for d in res.items}
     assert by["aerodynamic_drag"]["named"]
@@ -190,7 +193,7 @@ def test_an_alias_set_is_said_on_the_named_entry_and_in_the_sentence():
 def test_a_delay_within_the_logs_resolution_is_not_named():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
     tested = _tested(current_delay=(0.07, 0.06, 0.08, True))
-    tested["current_delay"]["resolution"] = 0.1
+    tested["current_delay"] = replace(tested["current_delay"], resolution=0.1)
     res = df.ride_differences(a, b, tested, {}, {}, "x")
     d = next(d for d in res.items if d.name == "current_delay")
     assert not d.named and "resolve" in d.why
@@ -201,7 +204,8 @@ def test_the_page_names_the_alias_set():
 
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
     tested = _tested(aerodynamic_drag=(0.18, 0.1, 0.26, True), rolling_resistance=(0.01, -0.01, 0.03, False))
-    tested["aerodynamic_drag"]["alias_set"] = ["aerodynamic_drag", "rolling_resistance"]
+    tested["aerodynamic_drag"] = replace(tested["aerodynamic_drag"],
+                                         alias_set=("aerodynamic_drag", "rolling_resistance"))
     rep = {"compare": "b.csv", **differences_json(df.ride_differences(a, b, tested, {}, {}, "x"))}
     lines = difference_lines(rep)
     assert any(line.startswith("- Drag area: 95 % interval") and

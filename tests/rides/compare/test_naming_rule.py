@@ -60,8 +60,8 @@ def test_two_collinear_candidates_are_named_as_a_set():
     kept = [c for c in res.selected if c in ("aerodynamic_drag", "rolling_resistance")]
     assert len(kept) == 1
     assert set(res.alias_sets[kept[0]]) == {"aerodynamic_drag", "rolling_resistance"}
-    tested = {n: {"estimate": e[0], "ci95": e[1], "p_value": res.p_values[n], "selected": n in res.selected,
-                  "alias_set": res.alias_sets.get(n, [])} for n, e in res.estimates.items()}
+    tested = {n: df.Tested(e[0], e[1], p_value=res.p_values[n], selected=n in res.selected,
+                           alias_set=tuple(res.alias_sets.get(n, ()))) for n, e in res.estimates.items()}
     out = df.ride_differences([], [], tested, {}, {}, "the 16 May ride")
     named = [x for x in out.items if x.named]
     assert [x.name for x in named] == kept and set(named[0].alias_set) == {"aerodynamic_drag",

@@ -109,10 +109,8 @@ def test_the_json_and_the_page_carry_the_pairs_resolution():
                                                   blocks=(np.full(20, 4.0), np.full(20, 14.0))),
            "rolling_resistance": rs.detectable_difference("rolling_resistance", (0.004, 0.016), 60.0, 9000.0,
                                                           blocks=(np.full(20, 4e9), np.full(20, 3e6)))}
-    tested = {"total_mass": {"estimate": 13.0, "ci95": (-2.0, 28.0), "heldout_gain": 0.004, "selected": False,
-                             "detectable": det["total_mass"]},
-              "rolling_resistance": {"estimate": 0.01, "ci95": (0.004, 0.016), "heldout_gain": 0.002,
-                                     "selected": False, "detectable": det["rolling_resistance"]}}
+    tested = {"total_mass": df.Tested(13.0, (-2.0, 28.0), 0.004, detectable=det["total_mass"]),
+              "rolling_resistance": df.Tested(0.01, (0.004, 0.016), 0.002, detectable=det["rolling_resistance"])}
     res = differences_json(df.ride_differences([], [], tested, {}, {}, "x"))
     by = {d["name"]: d for d in res["differences"]}
     assert by["total_mass"]["resolvable"] == pytest.approx(det["total_mass"].resolvable)
