@@ -54,7 +54,7 @@ from euc_sim.rides.compare.resolution import Resolution, bh_qvalues
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.simulation.effects import RECORDS
 
-__all__ = ["Tested", "Difference", "Differences", "FALSE_NAME_RATE", "ALIAS_CORRELATION", "physics",
+__all__ = ["Measured", "Tested", "Difference", "Differences", "FALSE_NAME_RATE", "ALIAS_CORRELATION", "physics",
            "parameters_from_fit", "difference_interval", "signature_columns",
            "alias_table", "with_qvalues", "ride_differences", "rider_sentence"]
 
@@ -66,6 +66,27 @@ def physics() -> tuple[str, ...]:
     """The physics a difference may be named for: the catalog's records with a compare face
     that is not a nuisance of the pair fit."""
     return tuple(e.name for e in RECORDS.having("compare") if e.compare.named)
+
+
+@dataclass(frozen=True)
+class Measured:
+    """One ride's own estimate of a parameter, as the pair comparison reads it (:func:`parameters_from_fit`).
+
+    Attributes
+    ----------
+    name : str
+        The parameter's name (``total_mass``, ``aerodynamic_drag``, ...).
+    estimate : float or None
+        In ``unit``; None where not identified.
+    ci95 : (float, float) or None
+        Its 95 % interval.
+    unit : str
+    """
+
+    name: str
+    estimate: float | None = None
+    ci95: tuple[float, float] | None = None
+    unit: str = ""
 
 
 @dataclass(frozen=True)
@@ -152,11 +173,11 @@ class Differences:
 
 
 # ---------------------------------------------------------------- the rides' parameters
-def _entry(name, est, ci, unit) -> dict:
-    return {"name": name, "estimate": est, "ci95": list(ci) if ci else None, "unit": unit}
+def _entry(name, est, ci, unit) -> Measured:
+    return Measured(name, est, tuple(ci) if ci else None, unit)
 
 
-def parameters_from_fit(mass, terms) -> list[dict]:
+def parameters_from_fit(mass, terms) -> list[Measured]:
     """A ride's parameters as the pair comparison reads them, from its mass and drivetrain fits.
 
     The drivetrain's terms by name, ``C_rr`` → ``rolling_resistance``, ``C_dA`` →
@@ -173,8 +194,7 @@ def parameters_from_fit(mass, terms) -> list[dict]:
 
     Returns
     -------
-    list of dict
-        ``{"name", "estimate", "ci95", "unit"}``.
+    list of Measured
     """
     out = [_entry("total_mass", mass.estimate, mass.stat_ci95 or mass.ci95, "kg")]
     for name, t in terms.items():
@@ -184,7 +204,7 @@ def parameters_from_fit(mass, terms) -> list[dict]:
         elif name == "C_dA":
             k = 0.5 * RHO_AIR
             out.append(_entry("aerodynamic_drag", None if est is None else k * est,
-                              [k * x for x in ci] if ci else None, "kg/m"))
+                              tuple(k * x for x in ci) if ci else None, "kg/m"))
         else:
             out.append(_entry(name, est, ci, t.unit or ""))
     if mass.lag is not None:
@@ -223,7 +243,7 @@ def difference_interval(a: float, a_ci, b: float, b_ci, ratio: bool = False):
 
 
 # ---------------------------------------------------------------- signatures and aliases
-def signature_columns(v, av, P, t, current=None, climb=None, coef=None) -> dict:
+def signature_columns(v, av, P, t, current=None, climb=None, coef=None) -> dict[str, np.ndarray]:
     """Each physics' battery-power signature, W per unit of the parameter (its record's
     ``compare.signature``, in the records' ``compare.order``).
 
@@ -282,13 +302,13 @@ def alias_table(columns: dict, threshold: float = ALIAS_CORRELATION) -> tuple[di
 
 
 # ---------------------------------------------------------------- the differences
-def _independent(name, a, b):
+def _independent(name, a: Measured, b: Measured):
     """(estimate, ci95) of the two rides' own estimates differenced, or None."""
-    if a.get("estimate") is None or b.get("estimate") is None:
+    if a.estimate is None or b.estimate is None:
         return None
-    if not a.get("ci95") or not b.get("ci95"):
-        return b["estimate"] - a["estimate"], None
-    d, ci = difference_interval(a["estimate"], a["ci95"], b["estimate"], b["ci95"], _ratio(name))
+    if not a.ci95 or not b.ci95:
+        return b.estimate - a.estimate, None
+    d, ci = difference_interval(a.estimate, a.ci95, b.estimate, b.ci95, _ratio(name))
     return d, tuple(ci)
 
 
@@ -316,9 +336,9 @@ def _ratio(name) -> bool:
     return bool(e is not None and e.compare is not None and e.compare.ratio)
 
 
-def _one(name, a, b, tested, aliases, cannot) -> Difference:
+def _one(name, a: Measured, b: Measured, tested, aliases, cannot) -> Difference:
     e = RECORDS.get(name) if name in RECORDS else None
-    unit = b.get("unit") or a.get("unit") or (e.unit if name in physics() else "")
+    unit = b.unit or a.unit or (e.unit if name in physics() else "")
     unit = "1" if _ratio(name) else unit
     ind = _independent(name, a, b)
     if tested is not None and tested.estimate is not None:
@@ -338,7 +358,7 @@ def _one(name, a, b, tested, aliases, cannot) -> Difference:
                           tested.p_value, tested.q_value, alias_set)
     if ind is None:
         return Difference(name, None, None, unit, False, "not identified on "
-                          + ("this ride" if a.get("estimate") is None else "the compared ride"))
+                          + ("this ride" if a.estimate is None else "the compared ride"))
     why = ("not a physics the pair fit tests (state of the pack or controller)"
            if name not in physics() else "no pair fit possible on these rides: cannot be named")
     if ind[1] is None:
@@ -364,8 +384,8 @@ def ride_differences(log_params: list, other_params: list, tested: Mapping[str, 
 
     Parameters
     ----------
-    log_params, other_params : list of dict
-        ``parameters`` of the two rides (:func:`parameters_from_fit`).
+    log_params, other_params : list of Measured
+        The two rides' own estimates (:func:`parameters_from_fit`).
     tested : mapping of str -> Tested
         The pair fit of each physics tested
         (:func:`euc_sim.rides.compare.differences_report.pair_tests`).
@@ -378,20 +398,20 @@ def ride_differences(log_params: list, other_params: list, tested: Mapping[str, 
         record names one (``compare.view``) takes that view's estimate and interval as its
         ``independent`` detail.
     """
-    a = {p["name"]: p for p in log_params}
-    b = {p["name"]: p for p in other_params}
+    a = {p.name: p for p in log_params}
+    b = {p.name: p for p in other_params}
     tested = with_qvalues(tested)
     for name in tested:                 # a physics tested though one ride's list lacks it
-        a.setdefault(name, {"name": name})
-        b.setdefault(name, {"name": name})
+        a.setdefault(name, Measured(name))
+        b.setdefault(name, Measured(name))
     items = []
     for name in [n for n in a if n in b]:
         pa, pb = a[name], b[name]
         e = RECORDS.get(name) if name in RECORDS else None
         view = (views or {}).get(e.compare.view) if e is not None and e.compare is not None else None
         if view is not None and view.estimate is not None:
-            pa = {**pa, "estimate": 0.0, "ci95": [0.0, 0.0]}
-            pb = {**pb, "estimate": view.estimate, "ci95": list(view.ci95)}
+            pa = replace(pa, estimate=0.0, ci95=(0.0, 0.0))
+            pb = replace(pb, estimate=view.estimate, ci95=tuple(view.ci95))
         items.append(_one(name, pa, pb, tested.get(name), aliases.get(name, []), cannot_see))
     return Differences(tuple(items), dict(cannot_see), rider_sentence(items, log_name))
 

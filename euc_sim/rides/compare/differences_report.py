@@ -325,12 +325,13 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     return out
 
 
-def _coef(params: list) -> dict:
+def _coef(params: list) -> dict[str, float]:
+    """LOG's estimates by name of the parameters the signatures assume (:func:`signature_columns`'s ``coef``)."""
     assumed = {e.name for e in RECORDS.having("compare") if e.compare.coef is not None}
-    return {p["name"]: p["estimate"] for p in params if p["name"] in assumed and p.get("estimate") is not None}
+    return {p.name: p.estimate for p in params if p.name in assumed and p.estimate is not None}
 
 
-def _signatures(sig, coef: dict) -> dict:
+def _signatures(sig, coef: dict) -> dict[str, np.ndarray]:
     cur = sig.extra.get("current")
     return signature_columns(sig.v, sig.av, sig.P, sig.t, cur, sig.climb, coef)
 

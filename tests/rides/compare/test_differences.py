@@ -67,11 +67,11 @@ def _params(mass, cdA, crr, R, scale, w=0.02):
 
 
 def test_adapter_maps_names_and_drag_area_to_k():
-    p = {x["name"]: x for x in _params(100.0, 0.5, 0.01, 0.2, 1.0)}
-    assert p["aerodynamic_drag"]["estimate"] == pytest.approx(0.5 * RHO_AIR * 0.5)
-    assert p["aerodynamic_drag"]["unit"] == "kg/m"
-    assert p["total_mass"]["ci95"] == [95.0, 105.0]          # statistical part
-    assert p["current_delay"]["ci95"] is None
+    p = {x.name: x for x in _params(100.0, 0.5, 0.01, 0.2, 1.0)}
+    assert p["aerodynamic_drag"].estimate == pytest.approx(0.5 * RHO_AIR * 0.5)
+    assert p["aerodynamic_drag"].unit == "kg/m"
+    assert p["total_mass"].ci95 == (95.0, 105.0)          # statistical part
+    assert p["current_delay"].ci95 is None
     assert {"rolling_resistance", "internal_resistance", "speed_scale", "ocv_start"} <= set(p)
 
 
@@ -114,7 +114,7 @@ def test_significant_but_interval_through_zero_is_not_named():
 
 def test_state_of_charge_never_named():
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
-    b = [dict(p, estimate=80.0, ci95=[79.9, 80.1]) if p["name"] == "ocv_start" else p for p in b]
+    b = [replace(p, estimate=80.0, ci95=(79.9, 80.1)) if p.name == "ocv_start" else p for p in b]
     res = df.ride_differences(a, b, _tested(), {}, {}, "x")
     ocv = next(d for d in res.items if d.name == "ocv_start")
     assert ocv.estimate == pytest.approx(-4.0) and not ocv.named
