@@ -64,7 +64,7 @@ DRIFTING = ("phase_current", "pwm")
 MECHANICAL = ("inertia", "rolling", "drag", "grade", "total_mass", "rolling_resistance", "aerodynamic_drag")
 
 
-def _over(cols: dict, v: np.ndarray, keep=None) -> dict:
+def _over(cols: dict, v: np.ndarray, keep=None) -> dict[str, np.ndarray]:
     """Each column over speed (N per unit where the column is W per unit); zero outside ``keep``."""
     return {n: (c / v if keep is None or n in keep else np.zeros_like(c)) for n, c in cols.items()}
 
@@ -111,7 +111,7 @@ def _duty(r, y, coef: dict | None):
     return (d / 100.0 * V - rest) / coef["r_F"], None, {"speed": v / coef["r_F"]}, np.where(v > 1e-3, v, np.nan)
 
 
-def readings(fit, test, sides: list, channels=CHANNELS) -> dict:
+def readings(fit, test, sides: list, channels=CHANNELS) -> dict[str, list[tuple]]:
     """Each channel both rides can give, as rows of the power model's columns in its own unit.
 
     Parameters

@@ -39,12 +39,31 @@ from euc_sim.rides.compare.resolution import (detectable_difference, heldout_sig
                                                score_test)
 from euc_sim.stats import gram_lstsq, jackknife_interval, label_grams, percentile_interval, time_blocks
 
-__all__ = ["PairDesign", "PairFit", "DELAY", "block_grams", "pair_fit"]
+__all__ = ["PairDesign", "PairFit", "Step", "DELAY", "block_grams", "pair_fit"]
 
 #: The name of the shift candidate (OTHER's current delay beyond LOG's).
 DELAY = "current_delay"
 #: |correlation| of two differences' estimates beyond which the pair cannot tell them apart.
 ALIAS_SET_CORRELATION = 0.98
+
+
+@dataclass(frozen=True)
+class Step:
+    """One step of the pair fit's forward selection.
+
+    Attributes
+    ----------
+    term : str
+        The difference added ("" for the model with none).
+    heldout_rmse : float
+        OTHER's blocked held-out RMS after the step, the fitted signal's unit.
+    p_value : float or None
+        The added difference's p-value; None for the first step.
+    """
+
+    term: str
+    heldout_rmse: float
+    p_value: float | None = None
 
 
 @dataclass(frozen=True)
@@ -85,8 +104,8 @@ class PairFit:
     selected : list of str
         The differences forward selection kept (each added with the smallest
         p-value of those left, below ``level``).
-    history : list of dict
-        The selection's steps: ``{"term", "heldout_rmse", "p_value"}``.
+    history : list of Step
+        The selection's steps.
     estimates : dict of str -> (estimate, (lo, hi)) or None
         Each candidate in the selected model (the selected terms plus itself
         when it was not kept), with its block-bootstrap 95 % interval; the shift
@@ -256,7 +275,7 @@ class _Grams:
         return float(np.std(g, ddof=1) / np.sqrt(ok.sum()))
 
 
-def _draws(g: _Grams, terms, cands, transform, n_boot: int, rng) -> dict:
+def _draws(g: _Grams, terms, cands, transform, n_boot: int, rng) -> dict[str, list[float]]:
     """Bootstrap draws of each candidate's value, each ride's blocks drawn independently."""
     cols = g.cols(terms)
     out = {c: [] for c in cands}
@@ -270,7 +289,7 @@ def _draws(g: _Grams, terms, cands, transform, n_boot: int, rng) -> dict:
     return out
 
 
-def _jackknife(g: _Grams, terms, cands, transform, whole: dict) -> dict:
+def _jackknife(g: _Grams, terms, cands, transform, whole: dict) -> dict[str, tuple[float, float] | None]:
     """Jackknife-t 95 % interval of each candidate over paired fractions.
 
     Pair-unit ``k`` is fold ``k`` of LOG together with fold ``k`` of OTHER,
@@ -293,7 +312,7 @@ def _hull(a, b):
     return (float(min(a[0], b[0])), float(max(a[1], b[1])))
 
 
-def _values(g: _Grams, cols, beta, k, sse, terms, transform) -> dict:
+def _values(g: _Grams, cols, beta, k, sse, terms, transform) -> dict[str, float]:
     coef = {g.names[i]: float(b) for i, b in zip(cols, beta)}
     vals = {n: transform.get(n, lambda c, n=n: c[n])(coef) for n in terms if n != DELAY}
     if DELAY in terms:
@@ -304,7 +323,7 @@ def _values(g: _Grams, cols, beta, k, sse, terms, transform) -> dict:
 def _select(g: _Grams, cands: list, level: float) -> tuple[list, list]:
     """Forward selection by the naming test: the candidate of smallest p-value added while below ``level``."""
     selected, left = [], list(cands)
-    history = [{"term": "", "heldout_rmse": g.score([]), "p_value": None}]
+    history = [Step("", g.score([]))]
     while left:
         ps = {c: g.test(selected, c) for c in left}
         best = min(left, key=ps.get)
@@ -312,7 +331,7 @@ def _select(g: _Grams, cands: list, level: float) -> tuple[list, list]:
             break
         selected.append(best)
         left.remove(best)
-        history.append({"term": best, "heldout_rmse": g.score(selected), "p_value": ps[best]})
+        history.append(Step(best, g.score(selected), ps[best]))
     return selected, history
 
 
@@ -452,7 +471,7 @@ def _block_parts(g: _Grams, terms, c: str) -> tuple[np.ndarray, np.ndarray, np.n
     return S, X, X0
 
 
-def _correlations(g: _Grams) -> dict:
+def _correlations(g: _Grams) -> dict[str, dict[str, float]]:
     """Correlations of the differences' estimates with every difference in the model (no shift)."""
     cols = g.cols(g._deltas)
     G = g.GL.sum(axis=0) + g.GO[g.mid].sum(axis=0)
