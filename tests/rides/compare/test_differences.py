@@ -210,3 +210,16 @@ def test_the_page_names_the_alias_set():
     lines = difference_lines(rep)
     assert any(line.startswith("- Drag area: 95 % interval") and
                "drag area or rolling resistance: this pair cannot tell them apart" in line for line in lines)
+
+
+def test_compare_returns_no_plain_dict():
+    """The pair comparison returns typed records; a dict only as a mapping keyed by name (``dict[str, X]``)."""
+    import ast
+    from pathlib import Path
+
+    folder = Path(df.__file__).parent
+    plain = [f"{p.name}:{fn.name}" for p in sorted(folder.glob("*.py"))
+             for fn in ast.walk(ast.parse(p.read_text()))
+             if isinstance(fn, ast.FunctionDef) and fn.returns is not None
+             and ast.unparse(fn.returns) in ("dict", "list[dict]")]
+    assert not plain
