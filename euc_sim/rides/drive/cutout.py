@@ -29,6 +29,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from euc_sim.rides.drive.drivetrain import _pwm_rows, fit_pwm, predict_pwm
 from euc_sim.rides.drive.pwm import back_emf
 
 __all__ = ["Limits", "ride_limits", "OcvLine", "ocv_line", "Condition", "CONDITIONS", "DutyModel",
@@ -412,8 +413,6 @@ def heldout_pwm_rmse(sig, n_boot: int = 0) -> float | None:
     The halves split the rows the duty model uses at their middle time.  None when either
     half has too few of them.
     """
-    from euc_sim.rides.drive.drivetrain import _pwm_rows, fit_pwm, predict_pwm
-
     ok = _pwm_rows(sig)
     if ok.sum() < 400:
         return None
