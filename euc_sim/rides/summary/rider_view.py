@@ -14,7 +14,6 @@ from datetime import timedelta, timezone
 import numpy as np
 
 from euc_sim.errors import InputError
-from euc_sim.rides.drive.battery import battery_health_of, pack_spec
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
 
@@ -100,6 +99,7 @@ def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: fl
     tuple
         (RideSummary, MassCheck, BatteryHealth, Clock).
     """
+    from euc_sim.rides.drive.battery import battery_health_of, pack_spec  # deferred: loads euc_sim.rides.drive.battery (0.003 s), not loaded by --help
     from euc_sim.rides.summary.summary import mass_check, ride_summary  # deferred: loads scipy (1.1 s)
 
     summary = ride_summary(log, getattr(spec, "top_speed", None))
