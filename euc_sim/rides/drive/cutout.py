@@ -341,7 +341,6 @@ class Cutout:
     why: str | None = None
 
 
-
 def cutout_curves(m: DutyModel, limits: Limits, heldout: float | None = None,
                   conditions=CONDITIONS, charge=CHARGE_GRID) -> Cutout:
     """Every condition's cut-out speed at every charge, and the danger they make with the limit."""
