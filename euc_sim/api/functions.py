@@ -9,13 +9,23 @@ one line naming the file, column or parameter.
 
 from __future__ import annotations
 
-from euc_sim.errors import InputError
-
+import math
+import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
-from euc_sim.api.results import (Crosscheck, CrosscheckRow, Diagnosis, Identification, Recording,
-                                 Rendering, RideAnalysis)
+from euc_sim import io
+from euc_sim.api.results import Crosscheck, CrosscheckRow, Diagnosis, Identification, Recording, Rendering, RideAnalysis
+from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
+from euc_sim.errors import InputError
+from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, identify_recordings, load
+from euc_sim.identification.recordings import read_recording as _read_recording
+from euc_sim.model.parameters import TABLE3, Params, check_plausible
+from euc_sim.rides.pipeline import MIN_BOOT, ride_pipeline
+from euc_sim.rides.source.spec import wheel_spec
+from euc_sim.simulation.engine import default_rider
+from euc_sim.simulation.maneuvers import MANEUVERS, make_maneuver
 
 if TYPE_CHECKING:
     from euc_sim.rides.source.ride import Ride
@@ -28,7 +38,6 @@ def _params(params):
     """``Params``, a mapping of Table 3 names to values (checked as plausible), or None."""
     if params is None or not isinstance(params, Mapping):
         return params
-    from euc_sim.model.parameters import Params, check_plausible
 
     return check_plausible(Params.from_mapping(dict(params)), params)
 
@@ -90,12 +99,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, seed: int = 0
     >>> rec.to_json()["maneuver"]
     'deceleration'
     """
-    from euc_sim.controllers.motor import MotorPD
-    from euc_sim.controllers.rider import DEFAULT_RIDER_NOISE
-    from euc_sim.model.parameters import TABLE3
-    from euc_sim.simulation.dataset import RecordingSpec, simulated_recording
-    from euc_sim.simulation.engine import default_rider
-    from euc_sim.simulation.maneuvers import MANEUVERS, make_maneuver
+    from euc_sim.simulation.dataset import RecordingSpec, simulated_recording  # deferred: loads multiprocessing, tqdm (0.02 s)
 
     if isinstance(maneuver, str):
         if maneuver not in MANEUVERS or maneuver == "profile":
@@ -138,8 +142,6 @@ def write_recording(recording: Recording, path) -> Path:
     >>> sorted(p.name for p in folder.iterdir())
     ['ride.csv', 'ride.json', 'ride.truth.json']
     """
-    from euc_sim import io
-
     truth = None if recording.truth is None else dict(recording.truth)
     return io.write_recording(recording.data, path, dict(recording.meta), truth)
 
@@ -169,9 +171,7 @@ def read_recording(path) -> Recording:
     >>> rec.name, len(rec.data), rec.truth is None
     ('ride.csv', 241, True)
     """
-    from euc_sim.identification.recordings import read_recording as read
-
-    data, meta = read(path)
+    data, meta = _read_recording(path)
     return Recording(name=Path(path).name, data=data, meta=meta, truth=None)
 
 
@@ -213,8 +213,6 @@ def identify(recordings: Sequence, *, bounds: tuple[float, float] = (0.1, 1.5), 
     >>> abs(fit.h - 0.6) < 0.05, sorted(fit.to_json()["models"])
     (True, ['2dof', '3dof'])
     """
-    from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, identify_recordings, load
-
     if not recordings:
         raise InputError("identify: no recordings given")
     p = _params(params)
@@ -263,9 +261,7 @@ def diagnose(recording, *, params=None, resimulate: bool = True, calibrate: bool
     >>> sorted(k for k in d.to_json() if k in ("recording", "nominal_rmse", "effects", "unexplained", "windows"))
     ['effects', 'nominal_rmse', 'recording', 'unexplained', 'windows']
     """
-    import warnings
-
-    from euc_sim.diagnosis.pipeline import diagnose as run
+    from euc_sim.diagnosis.pipeline import diagnose as run  # deferred: loads scipy (0.7 s)
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")          # repaired gaps are reported by the reader
@@ -298,7 +294,7 @@ def read_ride(path, *, layout: str | None = None) -> Ride:
     >>> ride.layout, ride.duration > 50, "v" in ride.data.columns
     ('wheellog', True, True)
     """
-    from euc_sim.rides.source.logs import read_log
+    from euc_sim.rides.source.logs import read_log  # deferred: loads euc_sim.rides.source.bounds (0.01 s)
 
     return read_log(path, layout=layout, emit_warnings=False)    # the reader's notes are in .warnings
 
@@ -347,11 +343,9 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
     >>> sorted(k for k in ride.to_json() if k.startswith("heldout_error_"))[:2]
     ['heldout_error_all_candidates', 'heldout_error_augmented']
     """
-    from euc_sim.rides.balance.analysis import check_data
-    from euc_sim.rides.grids.signals import RideAssumptions
-    from euc_sim.rides.pipeline import MIN_BOOT
-    from euc_sim.rides.source.logs import read_log
-    from euc_sim.rides.source.spec import wheel_spec
+    from euc_sim.rides.balance.analysis import check_data  # deferred: loads scipy (1.1 s)
+    from euc_sim.rides.grids.signals import RideAssumptions  # deferred: loads scipy (1.1 s)
+    from euc_sim.rides.source.logs import read_log  # deferred: loads euc_sim.rides.source.bounds (0.01 s)
 
     if n_boot < MIN_BOOT:
         raise InputError(f"n_boot must be at least {MIN_BOOT} (an effect is accepted on its "
@@ -371,9 +365,8 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
 def run_ride(log, compare=None, *, report_dir=None, **kwargs) -> dict:
     """:func:`~euc_sim.rides.pipeline.ride_pipeline` on parsed rides, the report folder written when
     given; returns the ride JSON (:func:`~euc_sim.rides.render.contract.ride_json`)."""
-    from euc_sim.rides.pipeline import ride_pipeline
-    from euc_sim.rides.render.contract import ride_json
-    from euc_sim.rides.render.report_files import write_report
+    from euc_sim.rides.render.contract import ride_json  # deferred: loads scipy (1.1 s)
+    from euc_sim.rides.render.report_files import write_report  # deferred: loads scipy, plotly (1.2 s)
 
     res = ride_pipeline(log, compare, **kwargs)
     files = None
@@ -416,9 +409,7 @@ def render(recording, out, *, fps: float = 30.0, width: int = 640, height: int =
     >>> euc_sim.render(rec, folder / "frame.png", width=160, height=120).frames   # doctest: +SKIP
     1
     """
-    import math
-
-    from euc_sim.simulation.render import render_recording
+    from euc_sim.simulation.render import render_recording  # deferred: loads imageio, tqdm (0.03 s)
 
     out = Path(out)
     if out.suffix.lower() not in (".mp4", ".gif", ".png"):
@@ -455,7 +446,7 @@ def crosscheck(samples: int = 2500, *, params=None, mjcf=None,
     >>> euc_sim.crosscheck(samples=20).ok
     True
     """
-    from euc_sim.model import crosscheck as cc
+    from euc_sim.model import crosscheck as cc  # deferred: loads scipy (0.7 s)
 
     if samples < 1:
         raise InputError(f"samples must be at least 1, got {samples}")

@@ -183,13 +183,13 @@ class Diagnosis(_KeyedResult):
 
     def summary(self) -> str:
         """The diagnosis in a few lines, as ``euc-sim diagnose`` prints it."""
-        from euc_sim.diagnosis.report import summary
+        from euc_sim.diagnosis.report import summary  # deferred: loads plotly (0.03 s)
 
         return summary(self.as_result())
 
     def write_report(self, folder) -> Path:
         """Write the report (``index.html``, its plain text ``index.md`` and the figures) to ``folder``; returns ``index.md``."""
-        from euc_sim.diagnosis.report import write_report
+        from euc_sim.diagnosis.report import write_report  # deferred: loads plotly (0.03 s)
 
         return write_report(self.as_result(), folder)
 

@@ -9,25 +9,28 @@ the JSON last.
 
 from __future__ import annotations
 
-from euc_sim.cli.common import seed
-from euc_sim.cli.options import bounded, workers
-from euc_sim.errors import InputError
-
 import argparse
 import os
+import sys
 from pathlib import Path
 
+from euc_sim.cli.common import check_report_folder, say, seed
+from euc_sim.cli.options import bounded, deprecated, one_of, workers
+from euc_sim.errors import InputError
+from euc_sim.io import check_writable, write_json
+from euc_sim.model.parameters import PLAUSIBLE, TABLE3
 from euc_sim.rides.pipeline import MIN_BOOT, ride_pipeline
+from euc_sim.rides.source.sanity import SPEC_RANGE, TOTAL_MASS_RANGE
+from euc_sim.rides.source.spec import SpecError, log_contradictions, wheel_spec
+from euc_sim.rides.summary.rider_view import RIDER_WEIGHT, check_rider_weight
 
 __all__ = ["add_ride_parser", "MIN_BOOT"]
-
 
 
 def _assumptions(args: argparse.Namespace):
     """The ride's assumptions from ``--radius``, ``--mass`` and ``--efficiency`` (each already
     within its bound, declared with the option)."""
-    from euc_sim.model.parameters import TABLE3
-    from euc_sim.rides.grids.signals import RideAssumptions
+    from euc_sim.rides.grids.signals import RideAssumptions  # deferred: loads scipy (1.1 s)
 
     p = TABLE3
     sources = []
@@ -46,16 +49,11 @@ def _assumptions(args: argparse.Namespace):
 
 def _progress(msg: str) -> None:
     """Progress line on stderr (module-level: picklable for the simulation's workers)."""
-    import sys
-
     sys.stderr.write(f"ride: {msg} ...\n")     # one write: lines of two workers never mix
     sys.stderr.flush()
 
 
 def _cmd_ride(args: argparse.Namespace) -> int:
-    from euc_sim.cli.common import say
-    from euc_sim.io import check_writable, write_json
-
     if args.domain not in ("power", "torque"):
         raise InputError(f"--domain must be power or torque, got {args.domain!r}")
     if args.n_boot < MIN_BOOT:
@@ -66,7 +64,6 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     # with --compare the replay runs unless refused: CONTRACT's compared JSON carries its "simulation"
     simulate = bool(args.calibrate_rider or (args.compare is not None if args.simulate is None else args.simulate))
     assumptions = _assumptions(args)
-    from euc_sim.rides.summary.rider_view import check_rider_weight
     weights = args.rider_weight or []
     if len(weights) > 2:
         raise InputError(f"--rider-weight: at most twice (LOG's rider, then OTHER's), got {len(weights)} values")
@@ -74,19 +71,17 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         raise InputError("--rider-weight given twice: the second is OTHER's rider, which needs --compare OTHER.csv")
     rider_weight = check_rider_weight(weights[0]) if weights else None
     compare_rider_weight = check_rider_weight(weights[-1]) if weights and args.compare else None
-    from euc_sim.rides.balance.analysis import check_data
-    from euc_sim.rides.source.spec import wheel_spec
+    from euc_sim.rides.balance.analysis import check_data  # deferred: loads scipy (1.1 s)
 
     spec = wheel_spec(args.wheel, radius=args.radius, wheel_mass=args.wheel_mass,
                       battery_voltage=args.battery_voltage)
 
-    from euc_sim.rides.source.logs import read_log
+    from euc_sim.rides.source.logs import read_log  # deferred: loads euc_sim.rides.source.bounds (0.01 s)
 
     # each log is parsed once, here; a malformed or too short log fails before any output exists
     ride = read_log(args.log, emit_warnings=False)
     other = read_log(args.compare, emit_warnings=False) if args.compare else None
     if args.wheel:              # a spec whose voltage class the log cannot have is refused here
-        from euc_sim.rides.source.spec import SpecError, log_contradictions
 
         for p, r in ((args.log, ride), (args.compare, other)):
             try:
@@ -98,8 +93,6 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     if args.json:
         check_writable(args.json)
     if args.report:
-        from euc_sim.cli.common import check_report_folder
-
         check_report_folder(args.report, ("index.md", "index.html"))
     for r in (ride, other):         # each repair of the reader, one line, whatever --quiet
         for line in r.repairs if r else ():
@@ -134,8 +127,6 @@ def _cmd_ride(args: argparse.Namespace) -> int:
 
 def add_ride_parser(sub) -> None:
     """Register ``ride`` on the subparsers ``sub``."""
-    from euc_sim.cli.options import deprecated, one_of
-
     p = sub.add_parser("ride", help="diagnose a real EUC ride log (WheelLog, EUC World, DarknessBot)")
     p.add_argument("log", metavar="LOG.csv", help="ride log to fit")
     p.add_argument("--compare", metavar="OTHER.csv",
@@ -144,9 +135,6 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--json", metavar="OUT.json", help="write CONTRACT's ride object")
     p.add_argument("--domain", default="power", metavar=one_of(("power", "torque")),
                    help="residual in battery power, W (default), or divided by ω, N·m")
-    from euc_sim.model.parameters import PLAUSIBLE
-    from euc_sim.rides.summary.rider_view import RIDER_WEIGHT
-    from euc_sim.rides.source.sanity import SPEC_RANGE, TOTAL_MASS_RANGE
 
     p.add_argument("--mass", type=bounded(*TOTAL_MASS_RANGE, unit="kg"), metavar="KG",
                    help="rider + EUC mass, kg (default Table 3: 81)")

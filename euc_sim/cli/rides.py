@@ -8,21 +8,24 @@ written then.
 
 from __future__ import annotations
 
-from euc_sim.errors import InputError
-
 import argparse
+import os
+import stat
 import sys
 from pathlib import Path
 
-from euc_sim.cli.common import seed
+from euc_sim.cli.common import check_report_folder, seed
 from euc_sim.cli.options import bounded, workers
+from euc_sim.errors import BadInputFile, InputError
+from euc_sim.io import check_writable, file_kind, shown, write_json
+from euc_sim.rides.source.spec import wheel_spec
 
 __all__ = ["add_rides_parser", "find_logs", "run_rides"]
 
 
 def _is_log(path: Path) -> bool:
     """A CSV whose header a ride-log layout recognises."""
-    from euc_sim.rides.source.logs import LogFormatError, detect_layout
+    from euc_sim.rides.source.logs import LogFormatError, detect_layout  # deferred: loads euc_sim.rides.source.bounds (0.01 s)
 
     try:
         with open(path, encoding="utf-8") as fh:
@@ -35,11 +38,6 @@ def _is_log(path: Path) -> bool:
 
 def _regular(path: Path) -> Path:
     """``path`` if it is a regular file (a FIFO would hang the reader, a device be read without end)."""
-    import os
-    import stat
-
-    from euc_sim.errors import BadInputFile
-    from euc_sim.io import file_kind, shown
 
     mode = os.stat(path).st_mode
     if not stat.S_ISREG(mode):
@@ -72,7 +70,7 @@ def find_logs(items) -> list[Path]:
 
 
 def _entry(args):
-    from euc_sim.rides.logbook.history import ride_entry
+    from euc_sim.rides.logbook.history import ride_entry  # deferred: loads scipy (1.1 s)
 
     path, pack, n_boot, sd = args
     return ride_entry(path, pack, n_boot, sd)
@@ -80,11 +78,11 @@ def _entry(args):
 
 def run_rides(paths, pack=None, n_boot: int = 100, seed: int = 0, workers: int = 1, say=None):
     """The :class:`euc_sim.rides.logbook.history.RideHistory` of the logs ``paths``."""
-    from euc_sim.rides.logbook.history import ride_history
+    from euc_sim.rides.logbook.history import ride_history  # deferred: loads scipy (1.1 s)
 
     jobs = [(p, pack, n_boot, seed) for p in paths]
     if workers > 1 and len(jobs) > 1:
-        from concurrent.futures import ProcessPoolExecutor
+        from concurrent.futures import ProcessPoolExecutor  # deferred: loads multiprocessing (0.02 s)
 
         with ProcessPoolExecutor(max_workers=min(workers, len(jobs))) as ex:
             entries = list(ex.map(_entry, jobs))
@@ -101,26 +99,21 @@ def run_rides(paths, pack=None, n_boot: int = 100, seed: int = 0, workers: int =
 
 
 def _cmd_rides(args: argparse.Namespace) -> int:
-    from euc_sim.io import check_writable, write_json
-
     pack = None
     if args.wheel:
-        from euc_sim.rides.drive.battery import pack_spec
-        from euc_sim.rides.source.spec import wheel_spec
+        from euc_sim.rides.drive.battery import pack_spec  # deferred: loads euc_sim.rides.drive.battery (0.003 s), not loaded by --help
 
         pack = pack_spec(wheel_spec(args.wheel))
     paths = find_logs(args.logs)
     if args.json:
         check_writable(args.json)
     if args.report:
-        from euc_sim.cli.common import check_report_folder
-
         check_report_folder(args.report, ("index.html",))
     say = None if args.quiet else (lambda m: (sys.stderr.write(m + "\n"), sys.stderr.flush()))
     hist = run_rides(paths, pack, args.n_boot, args.seed, args.workers, say).to_json()
     if args.report:
-        from euc_sim.report.html import write_page
-        from euc_sim.rides.render.history_page import history_page
+        from euc_sim.report.html import write_page  # deferred: loads plotly (0.05 s)
+        from euc_sim.rides.render.history_page import history_page  # deferred: loads scipy, plotly (1.2 s)
 
         title = f"Rides of {pack.name}" if pack and pack.name else "Rides of one wheel"
         write_page(args.report, history_page(hist, title))

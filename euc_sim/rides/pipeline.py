@@ -20,6 +20,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
+from euc_sim.rides.summary.rider_view import rider_numbers
+
 if TYPE_CHECKING:       # the result's modules load pandas and scipy: imported where a ride runs
     from euc_sim.rides.result import RideResult, RiderNumbers
 
@@ -77,9 +81,9 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
     -------
     BalanceOnMass
     """
-    from euc_sim.rides.balance.analysis import ride_analysis
-    from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
-    from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
+    from euc_sim.rides.balance.analysis import ride_analysis  # deferred: loads scipy (1.1 s)
+    from euc_sim.rides.grids.signals import RideAssumptions, with_found_values  # deferred: loads scipy (1.1 s)
+    from euc_sim.rides.drive.drivetrain_report import ride_drivetrain  # deferred: loads scipy (1.1 s)
 
     say = progress or (lambda s: None)
     say("finding the total mass and the drivetrain")
@@ -126,10 +130,10 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     -------
     RideResult
     """
-    from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
-    from euc_sim.rides.balance.verdict import verdict_of
-    from euc_sim.rides.drive.drivetrain_report import cutout_of
-    from euc_sim.rides.law.controller_report import controller_fit, torque_constant
+    from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list  # deferred: loads scipy (1.1 s)
+    from euc_sim.rides.balance.verdict import verdict_of  # deferred: loads euc_sim.rides.balance.verdict (0.003 s), not loaded by --help
+    from euc_sim.rides.drive.drivetrain_report import cutout_of  # deferred: loads scipy (1.1 s)
+    from euc_sim.rides.law.controller_report import controller_fit, torque_constant  # deferred: loads scipy.linalg (0.3 s)
     from euc_sim.rides.result import ComparedRide, RideResult  # deferred: loads pandas, scipy (1.2 s)
 
     say = progress or (lambda s: None)
@@ -144,7 +148,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     differences = None
     if compare is not None:     # what differs between the two rides (rides.compare.differences), each
         # ride's terms from its own energy-balance fit, so both sides are read alike
-        from euc_sim.rides.compare.differences_report import pair_differences
+        from euc_sim.rides.compare.differences_report import pair_differences  # deferred: loads scipy (1.1 s)
 
         differences = pair_differences(mass, log, compare)
     say("locating the residual")
@@ -159,7 +163,7 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     rider = _rider_numbers(log, mass.mass, drivetrain, spec, rider_weight)
     compared = None
     if compare is not None:         # the compared ride's own numbers, beside LOG's on the page
-        from euc_sim.rides.drive.drivetrain_report import computed_pwm_note, reported_mass, reported_terms
+        from euc_sim.rides.drive.drivetrain_report import computed_pwm_note, reported_mass, reported_terms  # deferred: loads scipy (1.1 s)
 
         test, test_mass = mass.test, reported_mass(mass.test)
         compared = ComparedRide(Path(compare.path).name, test, test_mass, _rider_numbers(
@@ -174,14 +178,13 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
 def _rider_numbers(log, total_mass, drivetrain, spec, rider_weight) -> RiderNumbers:
     """The summary, mass check, battery and clock of one ride (:mod:`euc_sim.rides.summary.rider_view`)."""
     from euc_sim.rides.result import RiderNumbers  # deferred: loads pandas, scipy (1.2 s)
-    from euc_sim.rides.summary.rider_view import rider_numbers
 
     return RiderNumbers(*rider_numbers(log, total_mass, drivetrain, spec, rider_weight))
 
 
 def _localise(an, domain: str, log, compare) -> list:
     """Where the inertia-only residual concentrates: the residual traces of the fit (and test) ride."""
-    from euc_sim.rides.balance.residual import residual_windows
+    from euc_sim.rides.balance.residual import residual_windows  # deferred: loads scipy (1.1 s)
 
     nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
     d_fit, d_test = an.designs
@@ -197,7 +200,7 @@ def _simulation(an, log, compare, seed: int, jobs: int, progress, simulate: bool
     be simulated: a warning then says why)."""
     if not simulate:
         return None, REPLAY_NOT_ASKED
-    from euc_sim.rides.sim.simulate import simulation_obstacle
+    from euc_sim.rides.sim.simulate import simulation_obstacle  # deferred: loads scipy (1.1 s)
 
     why = simulation_obstacle(an.sig_test if an.sig_test is not None else an.sig_fit)
     if why is not None:
@@ -209,9 +212,7 @@ def _simulation(an, log, compare, seed: int, jobs: int, progress, simulate: bool
 
 def _mass_grid_note(fit) -> str:
     """How the mass and drivetrain fits treated the log's gaps (the ride's one grid, their own filter)."""
-    import numpy as np
-
-    from euc_sim.rides.grids.power import MassSettings
+    from euc_sim.rides.grids.power import MassSettings  # deferred: loads scipy (1.1 s)
 
     n = len(np.unique(fit.sig.segment))
     return (f"mass and drivetrain fits: gaps up to {MassSettings.max_gap:g} s bridged linearly on "
@@ -220,7 +221,7 @@ def _mass_grid_note(fit) -> str:
 
 
 def _rider_steps():
-    from euc_sim.rides.rider.rider_step import RIDER_STEPS
+    from euc_sim.rides.rider.rider_step import RIDER_STEPS  # deferred: loads scipy (1.1 s)
 
     return RIDER_STEPS
 
@@ -229,8 +230,8 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider:
               drivetrain, mass):
     """The closed-loop rider along the tested ride, once per modelled step (:mod:`euc_sim.rides.sim.sim_steps`),
     built from the fit ride's results; the second half scored without compare."""
-    from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
-    from euc_sim.rides.sim.simulate import ride_params, simulate_ride
+    from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels  # deferred: loads scipy (1.1 s)
+    from euc_sim.rides.sim.simulate import ride_params, simulate_ride  # deferred: loads scipy (1.1 s)
 
     sig = an.sig_test if an.sig_test is not None else an.sig_fit
     ride_path = compare if compare is not None else log

@@ -15,6 +15,7 @@ bounds' box, solved exactly (:func:`box_qp`); the lag is searched on its profile
 
 from __future__ import annotations
 
+from itertools import product
 from types import SimpleNamespace
 from typing import Sequence
 
@@ -172,7 +173,6 @@ def box_qp(A: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tupl
         x[todo[same]] = xs[same]
         state[todo] = new
         todo = todo[~same]
-    from itertools import product
 
     patterns = np.array(list(product((-1, 0, 1), repeat=k)), dtype=np.int8)
     span = hi - lo

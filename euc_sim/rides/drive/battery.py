@@ -27,6 +27,7 @@ import math
 import re
 from dataclasses import asdict, dataclass
 from functools import lru_cache
+from importlib.resources import files
 
 __all__ = ["PackSpec", "BatteryHealth", "CellFigures", "pack_spec", "cell_figures", "to_25C",
            "battery_health", "battery_health_of", "measure_resistance", "health_verdict",
@@ -75,8 +76,6 @@ class CellFigures:
 
 @lru_cache(maxsize=1)
 def _cells() -> tuple[tuple[tuple[str, ...], CellFigures], ...]:
-    from importlib.resources import files
-
     text = files("euc_sim.rides.drive").joinpath("data", "cells.csv").read_text(encoding="utf-8")
     num = (lambda x, k=1.0: float(x) * k if x else None)
     return tuple((tuple(a.upper() for a in r["aliases"].split(";") if a),
@@ -301,8 +300,8 @@ def measure_resistance(log, n_boot: int = 100, seed: int = 0) -> tuple[float, tu
     The same computation ``euc-sim ride`` reports (:func:`euc_sim.rides.drive.drivetrain.fit_battery`
     on :func:`euc_sim.rides.grids.power.power_signals`), for commands that read many logs.
     """
-    from euc_sim.rides.drive.drivetrain import fit_battery
-    from euc_sim.rides.grids.power import MassSettings, power_signals
+    from euc_sim.rides.drive.drivetrain import fit_battery  # deferred: loads scipy (1.1 s)
+    from euc_sim.rides.grids.power import MassSettings, power_signals  # deferred: loads scipy (1.1 s)
 
     sig = power_signals(log, MassSettings(n_boot=n_boot, seed=seed))
     coef, ci = fit_battery(sig, n_boot, seed)

@@ -29,6 +29,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from euc_sim.rides.drive.drivetrain import _pwm_rows, fit_pwm, predict_pwm
 from euc_sim.rides.drive.pwm import back_emf
 
 __all__ = ["Limits", "ride_limits", "OcvLine", "ocv_line", "Condition", "CONDITIONS", "DutyModel",
@@ -340,7 +341,6 @@ class Cutout:
     why: str | None = None
 
 
-
 def cutout_curves(m: DutyModel, limits: Limits, heldout: float | None = None,
                   conditions=CONDITIONS, charge=CHARGE_GRID) -> Cutout:
     """Every condition's cut-out speed at every charge, and the danger they make with the limit."""
@@ -412,8 +412,6 @@ def heldout_pwm_rmse(sig, n_boot: int = 0) -> float | None:
     The halves split the rows the duty model uses at their middle time.  None when either
     half has too few of them.
     """
-    from euc_sim.rides.drive.drivetrain import _pwm_rows, fit_pwm, predict_pwm
-
     ok = _pwm_rows(sig)
     if ok.sum() < 400:
         return None

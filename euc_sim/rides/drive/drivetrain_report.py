@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from euc_sim.rides.drive.cutout import ride_cutout
 from euc_sim.rides.drive.drivetrain import Drivetrain, Term, envelope, fit_drivetrain, predict_pwm
 from euc_sim.rides.drive.grade import GradeProfile, grade_profile
 from euc_sim.rides.drive.mass import MassFit, fit_mass, predict_power
@@ -218,8 +219,6 @@ def cutout_of(r: RideDrivetrain, log, limits):
     limits : Limits
         The wheel's limits (the summary's).
     """
-    from euc_sim.rides.drive.cutout import ride_cutout
-
     d = log.data
     charge = None
     if "battery" in d:

@@ -17,8 +17,6 @@ else as measured (said in ``basis``).
 
 from __future__ import annotations
 
-from euc_sim.errors import InputError
-
 import math
 import warnings
 from collections import Counter
@@ -26,6 +24,12 @@ from dataclasses import asdict, dataclass, field
 from datetime import datetime, timedelta
 
 import numpy as np
+
+from euc_sim.errors import InputError
+from euc_sim.rides.drive.battery import battery_health, measure_resistance, trend_words
+from euc_sim.rides.grids.signals import check_readings
+from euc_sim.rides.source.logs import read_log
+from euc_sim.rides.summary.summary import ride_summary
 
 __all__ = ["RideEntry", "ChangeTest", "RideHistory", "WheelMismatch", "ride_entry",
            "change_test", "ride_history", "series_cells", "full_charge", "shared_offset", "utc_start",
@@ -238,11 +242,6 @@ def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
     LogFormatError, RideDataError, FileNotFoundError
         (``ValueError`` / ``OSError``) for a log that cannot be read; the message names the file.
     """
-    from euc_sim.rides.drive.battery import battery_health, measure_resistance
-    from euc_sim.rides.grids.signals import check_readings
-    from euc_sim.rides.summary.summary import ride_summary
-    from euc_sim.rides.source.logs import read_log
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         log = read_log(path, emit_warnings=False)
@@ -378,8 +377,6 @@ def ride_history(entries) -> RideHistory:
                    else ("resistance_ohm", "resistance_ci95"))
     change = trend = None
     if len(with_r) >= 2:
-        from euc_sim.rides.drive.battery import trend_words
-
         change = change_test([e.battery[key] for e in with_r], [e.battery[ci_key] for e in with_r])
         trend = trend_words([e.battery[key] for e in with_r], [e.battery[ci_key] for e in with_r])
     else:

@@ -6,10 +6,13 @@ mΩ, %, °C), SI in the JSON.
 
 from __future__ import annotations
 
+from datetime import datetime, timedelta
 from pathlib import Path
 
 from euc_sim.report.html import KeyFigure, figure, key_figures, page, paragraph, section, table
 from euc_sim.rides.logbook.history import shared_offset
+from euc_sim.rides.render.page_html import PWM_BAD, PWM_WARN
+from euc_sim.rides.summary.rider_view import zone_words
 
 __all__ = ["history_page", "table_zone", "start_in", "pwm_cell"]
 
@@ -21,8 +24,6 @@ def table_zone(h: dict) -> tuple[float | None, str]:
     one give (s east of UTC, and in words: :func:`~euc_sim.rides.logbook.history.shared_offset`,
     the zone the rides are sorted in), logs naming none (WheelLog: the phone's clock) taken
     as already in it; the phone's local time where no log names a zone."""
-    from euc_sim.rides.summary.rider_view import zone_words
-
     off = shared_offset(e.get("utc_offset_s") for e in h["rides"])
     if off is None:
         return None, zone_words(None)
@@ -32,8 +33,6 @@ def table_zone(h: dict) -> tuple[float | None, str]:
 
 def start_in(e: dict, offset_s: float | None) -> str:
     """A ride's start, "YYYY-MM-DD HH:MM", in the zone ``offset_s`` (:func:`table_zone`)."""
-    from datetime import datetime, timedelta
-
     t = datetime.fromisoformat(e["start"])
     if e.get("utc_offset_s") is not None and offset_s is not None:
         t += timedelta(seconds=offset_s)            # the entry's start is UTC
@@ -42,8 +41,6 @@ def start_in(e: dict, offset_s: float | None) -> str:
 
 def pwm_cell(pct: float | None, unit: str = "") -> str:
     """A ride's max PWM, %, flagged as the ride page's tile judges it (warn from 80 %, bad from 90 %)."""
-    from euc_sim.rides.render.page_html import PWM_BAD, PWM_WARN
-
     if pct is None:
         return "–"
     flag = (f" BAD (≥ {PWM_BAD:.0f} %: close to a cut-out)" if pct >= PWM_BAD else

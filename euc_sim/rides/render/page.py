@@ -12,10 +12,15 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from euc_sim.io import write_text
 from euc_sim.rides.balance.residual import SLOW_S
 from euc_sim.rides.balance.verdict import unit_label
+from euc_sim.rides.law.controller_report import page_lines
+from euc_sim.rides.render.differences_page import difference_section
+from euc_sim.rides.render.drivetrain_page import page_section
 from euc_sim.rides.render.notes import as_the_tile, missing_spec_effect, said_once, summarise_notes
 from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend, when
+from euc_sim.rides.sim.sim_steps import TARGET_RATIO
 
 __all__ = ["write_page", "falls_sentence", "markdown_sections"]
 
@@ -60,8 +65,6 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None,
     -------
     pathlib.Path
     """
-    from euc_sim.io import write_text
-
     md = (_verdict_md(report, figures, log_path, key_lines, shown, limits) + _estimates_md(report)
           + _aliases_md(report)
           + _localisation_md(report, figures) + _simulation_md(report, figures)
@@ -73,18 +76,14 @@ def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None, key_lines: S
                 shown=frozenset(), limits: Sequence[str] = ()) -> list[str]:
     """Title, the key figures, what differs (with both logs' metadata, given LOG's path), the
     verdict, the wheel's limit and the cut-out (``limits``), the cross-ride figure."""
-    from euc_sim.rides.render.differences_page import difference_section
-
     cut = next((i + 1 for i, line in enumerate(key_lines) if line.startswith("Compared ride, ")), len(key_lines))
     key = (["## Key figures", ""] + [f"- {line}" for line in key_lines[:cut]]      # the compared ride's nest
            + [f"  - {line}" for line in key_lines[cut:]] + [""] if key_lines else [])
     md = ([f"# Ride diagnosis: {Path(r['recording']).name}", ""] + key
           + difference_section(r, log_path) + _verdict_lines(r) + list(limits))
     if "total_mass" in r:
-        from euc_sim.rides.render.drivetrain_page import page_section
         md += page_section(r, figures, shown)
     if "controller" in r:
-        from euc_sim.rides.law.controller_report import page_lines
         md += page_lines(r["controller"])
     return md + _cross_ride_md(figures)
 
@@ -127,9 +126,6 @@ def markdown_sections(r: dict, figures: Mapping[str, str],
     simulation's steps, the assumptions.  ``shown``: quantities the first screen already
     gives (:func:`euc_sim.rides.render.drivetrain_page.page_section`), not repeated.
     """
-    from euc_sim.rides.law.controller_report import page_lines
-    from euc_sim.rides.render.drivetrain_page import page_section
-
     return [("The balance model and the diagnosis", _verdict_lines(r) + _cross_ride_md(figures) + _estimates_md(r)
              + _aliases_md(r) + _localisation_md(r, figures)),
             ("Mass, drivetrain and battery, term by term",
@@ -324,7 +320,6 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
         e = sim["errors"]
         steps = sim.get("steps", [])
         balance = r.get("heldout_error_augmented") if r.get("error_unit") == "W" else None
-        from euc_sim.rides.sim.sim_steps import TARGET_RATIO
 
         target = steps[0]["target_ratio"] if steps else TARGET_RATIO
         md += [f"The simulator's rider rode the logged speed profile of **{sim['ride']}** "

@@ -24,7 +24,11 @@ from euc_sim.report import html as H
 from euc_sim.report.figures import (YL_OR_RD, Line, Panel, plain_values, thin, time_panels, track_map, track_plain,
                                     xy_figure)
 from euc_sim.rides.drive.cutout import CONDITIONS, headroom_words
+from euc_sim.rides.drive.drivetrain import charge_drawn
+from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
 from euc_sim.rides.render.contract import limits_of, pwm_check
+from euc_sim.rides.render.differences_page import TITLE, difference_lines
+from euc_sim.rides.render.page import markdown_sections
 from euc_sim.rides.render.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
 from euc_sim.rides.source.gaps import GAP_POLICY
 
@@ -372,8 +376,6 @@ def on_the_map(rep: Mapping, series: RideSeries):
 
 def sag_figure(rep: Mapping, fit):
     """Voltage against current, the charge's fall taken out, with the fitted line V = E₀ − R·I."""
-    from euc_sim.rides.drive.drivetrain import charge_drawn
-
     bc = getattr(getattr(fit, "drivetrain", None), "battery_coef", None)
     sig = getattr(fit, "sig", None)
     if not bc or sig is None or "current" not in sig.extra:
@@ -396,8 +398,6 @@ def sag_figure(rep: Mapping, fit):
 def _steady_pwm(dt, speed: np.ndarray, voltage: float) -> np.ndarray:
     """PWM, %, that holds ``speed`` (m/s) on the level at ``voltage`` (V): the fitted duty model
     (:func:`euc_sim.rides.drive.pwm.pwm_columns`) at the road force c₁ + c₃·v²."""
-    from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
-
     coef = dt.pwm_coef
     names = [n for n in BASE + tuple(EXTRA) if n in coef]
     F = dt.road["c1"] + dt.road["c3"] * speed ** 2
@@ -610,11 +610,8 @@ def ride_html(rep: Mapping, series: RideSeries | None, fit=None,
     plots : mapping, optional
         ``{id: (Plotly figure, height px)}``: the folded parts' figures drawn on the page.
     """
-    from euc_sim.rides.render.page import markdown_sections
-
     name = Path(rep["recording"]).name
     figs = figure_specs(rep, series, fit)
-    from euc_sim.rides.render.differences_page import TITLE, difference_lines
 
     other = compared_view(rep)
     body = [H.key_figures(key_figures(rep)) if other is None else      # --compare: both rides side by side

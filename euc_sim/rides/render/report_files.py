@@ -8,9 +8,18 @@ JSON then names.
 from __future__ import annotations
 
 import os
+import shutil
+import tempfile
 from pathlib import Path
 
+from euc_sim.io import atomic_write
+from euc_sim.rides.render import fit_figures as F
 from euc_sim.rides.render.contract import ReportFiles, ride_json
+from euc_sim.rides.render.drivetrain_page import plot_envelope, plot_grade
+from euc_sim.rides.render.fit_figures import write_balance
+from euc_sim.rides.render.page import write_page
+from euc_sim.rides.render.page_html import RideSeries, first_screen, key_figure_lines, limits_md, write_ride_html
+from euc_sim.rides.render.simulation_figure import plot_ride_simulation
 from euc_sim.rides.result import RideResult
 
 __all__ = ["write_report"]
@@ -23,9 +32,6 @@ def write_report(res: RideResult, out: Path) -> ReportFiles:
     place (``index.md`` last) only once all of it exists: a failure or an
     interruption half-way leaves ``out`` as it was.
     """
-    import shutil
-    import tempfile
-
     out.mkdir(parents=True, exist_ok=True)
     stage = Path(tempfile.mkdtemp(prefix=".ride-report-", dir=out))
     try:
@@ -39,20 +45,12 @@ def write_report(res: RideResult, out: Path) -> ReportFiles:
 
 
 def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
-    from euc_sim.io import atomic_write
-    from euc_sim.rides.render.fit_figures import write_balance
-    from euc_sim.rides.render.page import write_page
-    from euc_sim.rides.render.page_html import (RideSeries, first_screen, key_figure_lines, limits_md,
-                                                write_ride_html)
-
     an, sim, fit = res.balance, res.simulation, res.mass.fit
     rep = ride_json(res)        # the pages read the JSON object, the files' names added as they exist
     rep["table"] = write_balance(an, out).name
     figures = _drivetrain_figures(res, out)        # PNG files
     sim_files = {}
     if sim is not None:
-        from euc_sim.rides.render.simulation_figure import plot_ride_simulation
-
         figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
         atomic_write(out / "ride_simulation.csv",
                      lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
@@ -71,8 +69,6 @@ def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
 
 def _fit_plots(res: RideResult) -> dict:
     """The fits' figures the page draws (Plotly), by key (the markdown's figure key, the element id)."""
-    from euc_sim.rides.render import fit_figures as F
-
     an, fit, test = res.balance, res.mass.fit, res.mass.test
     plots = {"cross_ride": (F.balance_figure(an.cross, an.sig_fit, an.sig_test), F.BALANCE_HEIGHT),
              "residuals": (F.residuals_figure(list(res.traces)), F.residuals_height(len(res.traces)))}
@@ -85,8 +81,6 @@ def _fit_plots(res: RideResult) -> dict:
 
 def _drivetrain_figures(res: RideResult, out: Path) -> dict:
     """The envelope and grade figures of the ride page (PNG), by key -> file name."""
-    from euc_sim.rides.render.drivetrain_page import plot_envelope, plot_grade
-
     fit, env = res.mass.fit, res.mass.envelope
     figs = {}
     if fit.grade is not None:

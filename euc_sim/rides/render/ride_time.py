@@ -9,10 +9,14 @@ out of the figures' time axis.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from datetime import datetime, timedelta
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
+
+from euc_sim.report.figures import plain_values
+from euc_sim.rides.source.gaps import GAP_POLICY
 
 __all__ = ["hm", "clock_at", "when", "span_words", "pause_words", "clock_of", "spans_legend", "span_at",
            "TimeAxis", "PAUSE_SHOWN"]
@@ -41,8 +45,6 @@ def _min_s(seconds: float) -> str:
 def clock_at(clock: Mapping | None, t: float, seconds: bool = False) -> str | None:
     """The clock time, "HH:MM" (or "HH:MM:SS" with ``seconds``) in the ride's own zone, ``t`` s
     after the log's start (the ride JSON's ``clock``); None without it."""
-    from datetime import datetime, timedelta
-
     try:
         start = datetime.fromisoformat(str((clock or {})["start"]))
     except (KeyError, TypeError, ValueError):
@@ -126,8 +128,6 @@ class TimeAxis:
 
     @classmethod
     def of(cls, rep: Mapping, t: np.ndarray) -> "TimeAxis":
-        from euc_sim.rides.source.gaps import GAP_POLICY
-
         if t.size == 0:
             return cls(((0.0, 0.0),), 0.0)
         c = rep.get("clock") or {}
@@ -166,7 +166,6 @@ class TimeAxis:
         into the ride (``fig``: :func:`euc_sim.report.figures.time_panels`' plain spec, ``rows`` panels)."""
         if not self.pauses:
             return
-        from euc_sim.report.figures import plain_values
 
         lay = fig["layout"]
         first = fig["data"][0]      # the hover's first line says the time (its title can only say the axis's x)

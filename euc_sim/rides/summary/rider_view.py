@@ -9,8 +9,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from datetime import timedelta, timezone
+
+import numpy as np
 
 from euc_sim.errors import InputError
+from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
 
 __all__ = ["Clock", "rider_numbers", "check_rider_weight", "ride_clock", "zone_words"]
@@ -63,12 +67,7 @@ class Clock:
 
 def ride_clock(log: Ride) -> Clock:
     """When the ride ran, in its own zone (the ride JSON's ``clock``)."""
-    from datetime import timedelta, timezone
-
-    import numpy as np
     import pandas as pd
-
-    from euc_sim.rides.source.gaps import GAP_POLICY
 
     off = log.utc_offset_s
     start = pd.Timestamp(log.start)
@@ -100,8 +99,8 @@ def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: fl
     tuple
         (RideSummary, MassCheck, BatteryHealth, Clock).
     """
-    from euc_sim.rides.drive.battery import battery_health_of, pack_spec
-    from euc_sim.rides.summary.summary import mass_check, ride_summary
+    from euc_sim.rides.drive.battery import battery_health_of, pack_spec  # deferred: loads euc_sim.rides.drive.battery (0.003 s), not loaded by --help
+    from euc_sim.rides.summary.summary import mass_check, ride_summary  # deferred: loads scipy (1.1 s)
 
     summary = ride_summary(log, getattr(spec, "top_speed", None))
     wheel_kg = getattr(spec, "wheel_mass", None) if spec is not None else None
