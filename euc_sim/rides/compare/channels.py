@@ -48,6 +48,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from euc_sim.rides.drive.drivetrain import charge_drawn
+from euc_sim.rides.drive.drivetrain_report import computed_pwm_note
+from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
+from euc_sim.stats import time_blocks
+
 __all__ = ["ALL_CHANNELS", "CHANNELS", "DRIFTING", "MECHANICAL", "readings", "whitening"]
 
 #: Every channel this module can read beside battery power, in the order they are stacked.
@@ -74,7 +79,6 @@ def _sag(r, y) -> tuple | None:
     b = r.drivetrain.battery_coef
     if V is None or I is None or not b or not b.get("R_int", 0.0) > 0:
         return None
-    from euc_sim.rides.drive.drivetrain import charge_drawn
 
     E = b["E0"] - b["k_Q"] * charge_drawn(r.sig.t, I)
     return V * (E - V) / b["R_int"], None, {}, None
@@ -98,8 +102,6 @@ def _phase(r, cols: dict, v: np.ndarray, coef: dict, calib: tuple | None):
 
 
 def _duty(r, y, coef: dict | None):
-    from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
-    from euc_sim.rides.drive.drivetrain_report import computed_pwm_note
 
     d, V = r.sig.extra.get("pwm"), r.sig.extra.get("voltage")
     if d is None or V is None or not coef or not coef.get("r_F", 0.0) > 0 or computed_pwm_note(r):
@@ -167,7 +169,6 @@ def _heldout_residuals(t: np.ndarray, Z: np.ndarray, scale: np.ndarray | None = 
     it the channels (each divided by its ``scale``) are fitted together, one
     coefficient per column for all: the misfit of the shared model counts.
     """
-    from euc_sim.stats import time_blocks
 
     fold = time_blocks(t, 5)
     E = np.zeros(Z.shape[:2])

@@ -22,6 +22,7 @@ from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RAT
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
 from euc_sim.rides.compare.resolution import with_floor
 from euc_sim.rides.drive.drivetrain import charge_drawn
+from euc_sim.rides.drive.drivetrain_report import computed_pwm_note, reported_mass, reported_terms
 from euc_sim.rides.drive.mass import mass_regressors
 from euc_sim.rides.source.channels import current_from_phase
 from euc_sim.simulation.effects import RECORDS
@@ -368,7 +369,6 @@ def pair_differences(physics, log_path, compare_path, n_boot: int = 200, seed: i
     -------
     Differences
     """
-    from euc_sim.rides.drive.drivetrain_report import computed_pwm_note, reported_mass, reported_terms
 
     fit, test = physics.fit, physics.test
     log_params = parameters_from_fit(physics.mass, physics.terms)
