@@ -164,6 +164,8 @@ def _guarded(args) -> dict:
     sidecars of input recordings."""
     guarded = {}
     for opt, path in _named(args, INPUT_OPTIONS):
+        if opt == "--wheel" and not path.is_file():     # a shipped wheel's name, not a file
+            continue
         guarded.setdefault(_identity(path), (f"the input {opt} {shown(path)}", path, True))
         if path.is_dir() and args.command == "rides":      # the one command that reads a folder
             for root, dirs, files in os.walk(path):

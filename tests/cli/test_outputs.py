@@ -320,3 +320,20 @@ def test_a_report_folder_is_written_again_until_its_owner_edits_it(tmp_path, cap
         assert sorted(listed) == ["identify-torques.png", "identify.png"]
     (rep / "identify.png").write_bytes(b"the owner's own figure")
     _refused(argv, ["identify.png", "changed since"], capsys, tmp_path)
+
+
+def test_a_wheel_name_is_not_an_input_file(tmp_path, monkeypatch):
+    """``--wheel z10`` names a shipped wheel: ``--report z10`` beside it is a new folder, not the input."""
+    from argparse import Namespace
+
+    from euc_sim.cli.common import check_outputs
+    from euc_sim.errors import BadOutputPath
+
+    monkeypatch.chdir(tmp_path)
+    args = Namespace(command="ride", log=str(_inputs(tmp_path) / "rec.csv"), compare=None, wheel="z10",
+                     report="z10", json=None)
+    check_outputs(args)                                     # refused as 'holds the input --wheel z10' before
+    (tmp_path / "z10").mkdir()
+    (tmp_path / "z10" / "spec.csv").write_text("Field|Data\n")
+    with pytest.raises(BadOutputPath, match="holds the input --wheel"):
+        check_outputs(Namespace(**{**vars(args), "wheel": "z10/spec.csv"}))
