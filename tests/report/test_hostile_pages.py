@@ -167,7 +167,8 @@ def compared(ride, tmp_path_factory):
     """The ride's page with named differences and both logs' ``meta.csv`` fields hostile."""
     from euc_sim.rides.grids.signals import ride_signals
     from euc_sim.rides.drive.drivetrain_report import analyse
-    from euc_sim.rides.render.page_html import RideSeries, write_ride_html
+    from euc_sim.rides.render.page_html import write_ride_html
+    from euc_sim.rides.render.series import RideSeries
 
     log, other, _, rep = ride
     (log.parent / "meta.csv").write_text(

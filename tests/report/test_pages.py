@@ -87,7 +87,8 @@ def with_summary(drive, tmp_path_factory):
     """The drive page rebuilt with a ``summary`` (as the ride JSON carries it once computed)."""
     from euc_sim.rides.grids.signals import ride_signals
     from euc_sim.rides.drive.drivetrain_report import analyse
-    from euc_sim.rides.render.page_html import RideSeries, figure_specs, write_ride_html
+    from euc_sim.rides.render.page_html import figure_specs, write_ride_html
+    from euc_sim.rides.render.series import RideSeries
 
     log, _, rep = drive
     sig = ride_signals(read_log(log, emit_warnings=False))

@@ -59,7 +59,7 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None,
         The fitted quantities those figures give, said later without their numbers.
     limits : sequence of str
         The wheel's limit and the cut-out, Markdown lines with their heading (the HTML page's
-        sentences: :func:`euc_sim.rides.render.page_html.limits_md`), after the verdict.
+        sentences: :func:`euc_sim.rides.render.limits_page.limits_md`), after the verdict.
 
     Returns
     -------

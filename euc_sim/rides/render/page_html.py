@@ -14,81 +14,30 @@ People's units on the page (km/h, %, Wh, mΩ, °C); the JSON keeps SI.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
 
 import numpy as np
 
 from euc_sim.report import html as H
-from euc_sim.report.figures import (YL_OR_RD, Line, Panel, plain_values, thin, time_panels, track_map, track_plain,
-                                    xy_figure)
-from euc_sim.rides.drive.cutout import CONDITIONS, headroom_words
+from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
 from euc_sim.rides.drive.drivetrain import charge_drawn
-from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
-from euc_sim.rides.render.contract import limits_of, pwm_check
+from euc_sim.rides.render.contract import pwm_check
 from euc_sim.rides.render.differences_page import TITLE, difference_lines
+from euc_sim.rides.render.limits_page import (LIMITS_TITLE, cutout_figure, envelope_figure, limit_sentences,
+                                              limits_paragraph)
 from euc_sim.rides.render.page import markdown_sections
+from euc_sim.rides.render.series import MOST_POINTS, RideSeries, json_number, max_pwm_mark
 from euc_sim.rides.render.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
 from euc_sim.rides.source.gaps import GAP_POLICY
 
-__all__ = ["RideSeries", "ride_html", "write_ride_html", "key_figures", "first_screen", "figure_specs",
-           "data_quality", "LIMITS_TITLE", "limits_md", "PWM_WARN", "PWM_BAD", "BATTERY_TONE"]
+__all__ = ["ride_html", "write_ride_html", "key_figures", "first_screen", "figure_specs",
+           "data_quality", "PWM_WARN", "PWM_BAD", "BATTERY_TONE"]
 
 #: Max PWM, %, from which the tile warns (amber) and alarms (red): near 100 % the motor has
 #: no voltage left to push the rider back up.
 PWM_WARN, PWM_BAD = 80.0, 90.0
-#: Most points per trace on the page (the page stays a few MB on an hour's ride).
-MOST_POINTS = 6000
 NA = "not available"
-
-
-@dataclass(frozen=True)
-class RideSeries:
-    """What the page draws over time: the ride command's parsed log on its grid.
-
-    Attributes
-    ----------
-    t : numpy.ndarray
-        s from the log's start.
-    gap_s : float
-        A jump in ``t`` longer than this, s, is a gap (lines break there).
-    channels : dict
-        ``speed_kmh``, ``power_W``, ``pwm_pct``, ``voltage_V``, ``current_A``,
-        ``temperature_C``, ``charge_pct`` (the battery reading), ``lat``, ``lon`` (deg),
-        each present when logged.
-    """
-
-    t: np.ndarray
-    gap_s: float
-    channels: Mapping[str, np.ndarray]
-
-    @classmethod
-    def from_frame(cls, raw, rate: float) -> "RideSeries":
-        """From :class:`euc_sim.rides.grids.signals.RideSignals`'s ``raw`` grid (``rate`` Hz)."""
-        names = {"v": ("speed_kmh", 3.6), "P": ("power_W", 1.0), "pwm": ("pwm_pct", 1.0),
-                 "voltage": ("voltage_V", 1.0), "current": ("current_A", 1.0),
-                 "temperature": ("temperature_C", 1.0), "battery": ("charge_pct", 1.0),
-                 "latitude": ("lat", 1.0),
-                 "longitude": ("lon", 1.0)}
-        ch = {}
-        for col, (name, k) in names.items():
-            if col in raw and np.isfinite(raw[col].to_numpy(float)).any():
-                ch[name] = raw[col].to_numpy(float) * k
-        return cls(t=raw["t"].to_numpy(float), gap_s=GAP_POLICY.plot_steps / rate, channels=ch)
-
-    def at(self, name: str, t: float) -> float | None:
-        """The channel at time ``t`` (s), nearest grid row; None when not logged."""
-        y = self.channels.get(name)
-        if y is None or self.t.size == 0:
-            return None
-        v = float(y[int(np.argmin(np.abs(self.t - t)))])
-        return v if np.isfinite(v) else None
-
-
-def _num(d: Mapping | None, key: str) -> float | None:
-    v = (d or {}).get(key)
-    return float(v) if isinstance(v, (int, float)) and np.isfinite(v) else None
 
 
 #: What the energy tiles say where the log's V·I is not the battery's power.
@@ -102,10 +51,10 @@ def _ride_tiles(rep: Mapping, not_power: bool = False) -> list:
     if not s:
         return [K(lbl, NA, "needs the ride's summary") for lbl in
                 ("Distance", "Riding time", "Top speed", "Energy drawn", "Consumption", "Battery used")]
-    dist, mov, dur = _num(s, "distance_m"), _num(s, "moving_s"), _num(s, "duration_s")
-    top, mean = _num(s, "speed_max_mps"), _num(s, "speed_mean_moving_mps")
-    drawn, regen, whkm = _num(s, "energy_drawn_Wh"), _num(s, "energy_regen_Wh"), _num(s, "Wh_per_km")
-    used, rng = _num(s, "battery_used_pct"), _num(s, "range_m_at_this_rate")
+    dist, mov, dur = json_number(s, "distance_m"), json_number(s, "moving_s"), json_number(s, "duration_s")
+    top, mean = json_number(s, "speed_max_mps"), json_number(s, "speed_mean_moving_mps")
+    drawn, regen, whkm = json_number(s, "energy_drawn_Wh"), json_number(s, "energy_regen_Wh"), json_number(s, "Wh_per_km")
+    used, rng = json_number(s, "battery_used_pct"), json_number(s, "range_m_at_this_rate")
     if not_power:
         drawn = regen = whkm = None
     return [
@@ -135,7 +84,7 @@ def _distance_note(s: Mapping) -> str:
     """The counter the distance follows; where it is the GPS, the wheel's own count beside it
     when they differ by over 2 %."""
     note = s.get("distance_follows") or f"from {s.get('distance_source')}"
-    dist, wheel = _num(s, "distance_m"), _num(s, "distance_wheel_m")
+    dist, wheel = json_number(s, "distance_m"), json_number(s, "distance_wheel_m")
     if s.get("distance_source") == "gps" and dist and wheel and abs(wheel / dist - 1) > 0.02:
         note += f"; the wheel's own count {wheel / 1000:.1f} km ({100 * (wheel / dist - 1):+.0f} %)"
     return note
@@ -143,10 +92,10 @@ def _distance_note(s: Mapping) -> str:
 
 def _spin_note(rep: Mapping, spin: Mapping | None) -> str:
     """The summary's ``free_spin`` (the wheel spinning off the ground) in a few words, or ''."""
-    v, n = _num(spin, "speed_max_mps"), (spin or {}).get("count")
+    v, n = json_number(spin, "speed_max_mps"), (spin or {}).get("count")
     if v is None or not n:
         return ""
-    at = _num(spin, "at_s")
+    at = json_number(spin, "at_s")
     return (f"the wheel spun free (off the ground) at {v * 3.6:.0f} km/h"
             + (f" at {when(rep, at)}" if n == 1 and at is not None else f" and {n - 1} more time(s)" if n > 1 else "")
             + ": left out")
@@ -154,10 +103,10 @@ def _spin_note(rep: Mapping, spin: Mapping | None) -> str:
 
 def _pwm_tile(rep: Mapping, where: str) -> object:
     s = rep.get("summary")
-    p = _num(s, "pwm_max_pct")
+    p = json_number(s, "pwm_max_pct")
     if p is None:
         return H.KeyFigure("Max PWM", NA, "no PWM or safety margin logged" if s else "needs the summary")
-    at = _num(s, "pwm_max_at_s")
+    at = json_number(s, "pwm_max_at_s")
     tone = "bad" if p >= PWM_BAD else "warn" if p >= PWM_WARN else "good"
     note = f"least margin {100 - p:.0f} %" + (f" at {when(rep, at, where)}" if at is not None else "")
     return H.KeyFigure("Max PWM", f"{p:.0f} %", note, tone)
@@ -174,10 +123,10 @@ def data_quality(s: Mapping | None) -> tuple[str, str]:
     tone = {"good": "good", "fair": "warn", "poor": "bad"}.get(str(s.get("quality", "")), "")
     if s.get("quality_sentence"):
         return str(s["quality_sentence"]), tone
-    g, dur = s.get("gaps"), _num(s, "duration_s")
+    g, dur = s.get("gaps"), json_number(s, "duration_s")
     if not g or not dur:
         return NA, tone
-    rate = _num(s, "sampling_hz")
+    rate = json_number(s, "sampling_hz")
     return (f"{g.get('count', 0)} gaps, {g.get('total_s', 0):.0f} s "
             f"({100 * (g.get('total_s') or 0.0) / dur:.0f} % of the ride)"
             + (f", longest {g['longest_s']:.0f} s" if g.get("longest_s") else "")
@@ -195,12 +144,12 @@ def short(text: str, most: int = 70) -> str:
 
 def _mass_tile(tm: Mapping | None, check: Mapping | None) -> object:
     """The total mass found from the log, and the ride JSON's ``mass_check`` of the declared weight."""
-    est = _num(tm, "estimate")
+    est = json_number(tm, "estimate")
     if est is None:
         return H.KeyFigure("Total mass", NA, short((tm or {}).get("why") or ""))
     ci = (tm or {}).get("ci95")
     note = f"95 % {ci[0]:.0f}–{ci[1]:.0f} kg" if ci else ""
-    decl = _num(check, "declared_rider_kg")
+    decl = json_number(check, "declared_rider_kg")
     verdict = str((check or {}).get("verdict", ""))
     if decl is not None:
         note = f"declared rider {decl:.0f} kg: {verdict}"
@@ -217,11 +166,11 @@ def _battery_tile(rep: Mapping) -> object:
     resistance, without a verdict, where the ride result has no ``battery``)."""
     b = rep.get("battery")
     if b:
-        est, ci, verdict = _num(b, "resistance_ohm"), b.get("resistance_ci95"), str(b.get("verdict", ""))
-        r25 = _num(b, "resistance_25C_ohm")
+        est, ci, verdict = json_number(b, "resistance_ohm"), b.get("resistance_ci95"), str(b.get("verdict", ""))
+        r25 = json_number(b, "resistance_25C_ohm")
     else:
         r = (rep.get("drivetrain") or {}).get("internal_resistance") or {}
-        est, ci, verdict, r25 = _num(r, "estimate"), r.get("ci95"), "no health verdict", None
+        est, ci, verdict, r25 = json_number(r, "estimate"), r.get("ci95"), "no health verdict", None
     if est is None or est <= 0:
         return H.KeyFigure("Battery resistance", NA, short((b or {}).get("sentence", "")) or
                            "the log shows no voltage sag under load", "warn" if est is not None else "")
@@ -300,7 +249,7 @@ def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
         out.append(f"The log's data quality is {rep['summary'].get('quality')} (tile above): "
                    + ("treat every verdict below as weak." if tone == "bad" else
                       "the figures below are a little less certain."))
-    p = _num(rep.get("summary"), "pwm_max_pct")
+    p = json_number(rep.get("summary"), "pwm_max_pct")
     if p is not None and p >= PWM_BAD:
         out.append("At its peak (Max PWM above) the motor had almost no voltage left: close to a cut-out.")
     out += limit_sentences(rep, series)
@@ -322,17 +271,6 @@ def _lead(rep: Mapping, series=None, fit=None) -> list[str]:
     return out
 
 
-def _max_pwm_mark(rep: Mapping, series: RideSeries):
-    """(t s, lat, lon) of the summary's max PWM, lat/lon None without GPS; None without it."""
-    at = _num(rep.get("summary"), "pwm_max_at_s")
-    if at is None:
-        return None
-    place = (rep.get("summary") or {}).get("pwm_max_place") or {}
-    if _num(place, "lat") is not None and _num(place, "lon") is not None:
-        return at, place["lat"], place["lon"]
-    return at, series.at("lat", at), series.at("lon", at)
-
-
 def over_time(rep: Mapping, series: RideSeries):
     """Speed, power, PWM, voltage and temperature on one shared time axis (pauses left out)."""
     c = series.channels
@@ -343,15 +281,15 @@ def over_time(rep: Mapping, series: RideSeries):
     x = axis.x(series.t[keep])
     keep, x = keep[np.isfinite(x)], x[np.isfinite(x)]
     panels = [Panel(name, unit, c[k][keep]) for k, name, unit in spec if k in c]
-    m = _max_pwm_mark(rep, series)
-    mark = None if m is None else (float(axis.x([m[0]])[0]), f"max PWM {_num(rep['summary'], 'pwm_max_pct'):.0f} %")
+    m = max_pwm_mark(rep, series)
+    mark = None if m is None else (float(axis.x([m[0]])[0]), f"max PWM {json_number(rep['summary'], 'pwm_max_pct'):.0f} %")
     gap = max(series.gap_s, GAP_POLICY.plot_steps * float(np.median(np.diff(series.t[keep])))) if keep.size > 1 else series.gap_s
     fig = time_panels(x, panels, "The ride over time (zoom one panel: all follow)", gap / 60.0, mark)
     axis.decorate(fig, len(panels))
     if mark is not None and "pwm_pct" in c:        # the peak is one logged row: the grid's mean may not reach it
         row = [k for k, _, _ in spec if k in c].index("pwm_pct") + 1
         ax = "" if row == 1 else str(row)
-        fig["data"].append({"type": "scatter", "x": [mark[0]], "y": [_num(rep["summary"], "pwm_max_pct")],
+        fig["data"].append({"type": "scatter", "x": [mark[0]], "y": [json_number(rep["summary"], "pwm_max_pct")],
                             "mode": "markers", "name": "max PWM, logged row", "showlegend": False,
                             "marker": {"symbol": "star", "size": 11, "color": "#c62828"},
                             "hovertemplate": "%{y:.0f} % (the logged row; the line is the 10 Hz grid's mean)"
@@ -367,7 +305,7 @@ def on_the_map(rep: Mapping, series: RideSeries):
     key, label = ("pwm_pct", "PWM, %") if "pwm_pct" in c else ("power_W", "battery power, W")
     keep = thin(series.t.size, MOST_POINTS)
     lat, lon, val = c["lat"][keep], c["lon"][keep], c[key][keep]
-    m = _max_pwm_mark(rep, series)
+    m = max_pwm_mark(rep, series)
     mark = None if m is None or m[1] is None else (m[1], m[2], f"max PWM at {when(rep, m[0])}")
     title = f"Where you rode, coloured by {label.split(',')[0]}"
     return (track_map(lat, lon, val, label, title + " (OpenStreetMap)", mark),
@@ -385,7 +323,7 @@ def sag_figure(rep: Mapping, fit):
     y = V + bc["k_Q"] * charge_drawn(sig.t, I)          # the voltage at the start's charge
     keep = thin(int(ok.sum()), 4000)
     Ix, Vy = I[ok][keep], y[ok][keep]
-    R = _num(rep.get("battery"), "resistance_ohm") or bc["R_int"]       # the same fit's value, as reported
+    R = json_number(rep.get("battery"), "resistance_ohm") or bc["R_int"]       # the same fit's value, as reported
     grid = np.linspace(float(np.min(Ix)), float(np.max(Ix)), 50)
     fitted = (f"fitted: {bc['E0']:.1f} V − {1000 * R:.0f} mΩ × current" if R > 0 else
               "fitted: no sag (the resistance found is not positive)")
@@ -393,169 +331,6 @@ def sag_figure(rep: Mapping, fit):
                      "Battery sag: voltage against current", "battery current, A",
                      "voltage at the start's charge, V",
                      "each sample's voltage with the fall from the charge drawn so far added back")
-
-
-def _steady_pwm(dt, speed: np.ndarray, voltage: float) -> np.ndarray:
-    """PWM, %, that holds ``speed`` (m/s) on the level at ``voltage`` (V): the fitted duty model
-    (:func:`euc_sim.rides.drive.pwm.pwm_columns`) at the road force c₁ + c₃·v²."""
-    coef = dt.pwm_coef
-    names = [n for n in BASE + tuple(EXTRA) if n in coef]
-    F = dt.road["c1"] + dt.road["c3"] * speed ** 2
-    V = np.full(speed.shape, float(voltage))
-    X = pwm_columns(speed, F, V, names, coef.get("v_fw", np.inf))
-    return X @ np.array([coef[n] for n in names]) / V * 100.0
-
-
-def _peak(rep: Mapping, series: RideSeries | None) -> tuple[float, float, float | None] | None:
-    """At the summary's max-PWM moment: (speed, km/h; PWM, %; battery reading, % or None)."""
-    m = _max_pwm_mark(rep, series) if series is not None else None
-    v = None if m is None else series.at("speed_kmh", m[0])
-    if v is None:
-        return None
-    return v, _num(rep.get("summary"), "pwm_max_pct"), series.at("charge_pct", m[0])
-
-
-def _cut_at(rep: Mapping, charge: float | None, condition: str = "level") -> float | None:
-    """The ``cutout`` curve's speed at ``charge`` (%), km/h; None where it cannot say."""
-    curves = (rep.get("cutout") or {}).get("curves") or []
-    c = next((c for c in curves if c["condition"] == condition), None)
-    if c is None or charge is None:
-        return None
-    y = np.array([np.nan if x is None else x for x in c["speed_mps"]], float)
-    v = float(np.interp(charge, c["charge_pct"], y))
-    return v * 3.6 if np.isfinite(v) else None
-
-
-def limit_sentences(rep: Mapping, series: RideSeries | None) -> list[str]:
-    """The wheel's limit, where the cut-out comes before it (``cutout.danger``), and how close
-    the ride's highest PWM came; no speed above the wheel's limit is said to be available."""
-    lim, cut = limits_of(rep), rep.get("cutout") or {}
-    out = [f"Your wheel's limit: {lim.words()}."]
-    if cut.get("danger"):
-        out.append(cut["danger"])
-    elif cut.get("curves") and lim.speed_limit_mps is not None:
-        said = {c["condition"] for c in cut["curves"]}
-        words = [c.words for c in CONDITIONS if c.name in said]
-        out.append("At every charge, " + " and ".join([", ".join(words[:-1]), words[-1]] if len(words) > 1
-                                                      else words)
-                   + ", the motor keeps voltage up to that limit (chart below).")
-    elif cut.get("why"):
-        out.append(f"Where the motor would run out of voltage cannot be said: {cut['why']}.")
-    p = _peak(rep, series)
-    if p is not None and p[1] is not None:
-        out.append(f"At your highest PWM ({p[1]:.0f} %), riding {p[0]:.0f} km/h: "
-                   f"{headroom_words(p[0], lim, _cut_at(rep, p[2]))}.")
-    return out
-
-
-#: The cut-out chart's line for each condition.
-CUTOUT_LABELS = {"level": "on the level", "accelerating_1mps2": "accelerating at 1 m/s²",
-                 "climbing_10pct": "climbing 10 %"}
-#: Their colours, then the limit's (apart from the ride's points, yellow to red by PWM).
-CUTOUT_COLOURS = ("#1a237e", "#6a1b9a", "#00838f", "#212121")
-
-
-def cutout_figure(rep: Mapping, series: RideSeries | None):
-    """Cut-out speed against battery charge for each condition, the wheel's limit, and the
-    ride's own speeds at their charge coloured by the logged PWM; None without curves."""
-    cut = rep.get("cutout") or {}
-    if not cut.get("curves"):
-        return None
-    lim = limits_of(rep)
-    lines = [Line(f"cut-out {CUTOUT_LABELS.get(c['condition'], c['condition'])}", np.asarray(c["charge_pct"]),
-                  np.array([np.nan if x is None else 3.6 * x for x in c["speed_mps"]], float), "lines")
-             for c in cut["curves"]]
-    top = [np.nanmax(ln.y) if np.isfinite(ln.y).any() else 0.0 for ln in lines]
-    if lim.speed_limit_mps is not None:
-        L = 3.6 * lim.speed_limit_mps
-        src = "tilt-back, from the log" if lim.source == "log" else "the maker's top speed"
-        lines.append(Line(f"your limit: {L:.0f} km/h ({src})", np.array([0.0, 100.0]), np.array([L, L]),
-                          "lines", "dot"))
-        top.append(L)
-    check = pwm_check(rep)
-    note = ("PWM model checked on " + (f"{check[1]}: {check[2]:.1f} points RMS" if check else
-                                       "the ride's second half: not enough PWM rows")
-            + "; grey: charges this ride did not reach")
-    fig = xy_figure(lines, "How fast before the motor runs out of voltage (100 % PWM, a cut-out)",
-                    "battery charge, %", "speed, km/h", note)
-    for tr, colour in zip(fig["data"], CUTOUT_COLOURS):
-        tr["line"]["color"] = colour
-    c = (series.channels if series is not None else {})
-    if "charge_pct" in c and "speed_kmh" in c:
-        ok = np.flatnonzero(np.isfinite(c["charge_pct"]) & (c["speed_kmh"] > 2.0))
-        ok = ok[thin(ok.size, MOST_POINTS)]
-        pwm = c.get("pwm_pct")
-        marker = ({"size": 4, "color": plain_values(pwm[ok]), "colorscale": YL_OR_RD, "cmin": 0, "cmax": 100, "showscale": True,
-                   "colorbar": {"title": {"text": "logged PWM, %", "side": "right"}, "thickness": 12}}
-                  if pwm is not None else {"size": 4, "color": "#607d8b"})
-        fig["data"].append({"type": "scatter", "x": plain_values(c["charge_pct"][ok]),
-                            "y": plain_values(c["speed_kmh"][ok]), "mode": "markers", "marker": marker,
-                            "name": "this ride" + (" (colour: logged PWM)" if pwm is not None else "")})
-        top.append(float(np.max(c["speed_kmh"][ok])) if ok.size else 0.0)
-    span = cut.get("ride_charge_pct")
-    if span:
-        for x0, x1 in ((0.0, span[0]), (span[1], 100.0)):
-            if x1 > x0:
-                fig["layout"].setdefault("shapes", []).append(
-                    {"type": "rect", "xref": "x", "yref": "y domain", "x0": x0, "x1": x1, "y0": 0, "y1": 1,
-                     "fillcolor": "#9e9e9e", "opacity": 0.15, "line": {"width": 0}, "layer": "below"})
-    fig["layout"]["xaxis"]["range"] = [0, 100]
-    fig["layout"]["yaxis"]["range"] = [0, 1.3 * max(top)]
-    return fig
-
-
-def limits_paragraph(rep: Mapping, limit: bool = True) -> str:
-    """The limits and the model behind the chart, in words (the summary's ``limits``, ``cutout``,
-    :func:`pwm_check`); ``limit`` False: the speed limit left to the sentences before it."""
-    lim, cut = limits_of(rep), rep.get("cutout") or {}
-    check = pwm_check(rep)
-    return ((f"Speed limit: {lim.words()}. " if limit else "") + "PWM alarm: "
-            + (f"{lim.pwm_alarm_pct:.0f} %." if lim.pwm_alarm_pct is not None else "not in the log.")
-            + (f" The PWM model predicts the logged PWM of {check[1]}, to {check[2]:.1f} points RMS."
-               if check else "")
-            + (f" Charge to volts: {cut['ocv_source']}." if cut.get("ocv_source") else "")
-            + (" The cut-out speeds are the model's: the controller's own current limit, not in the log, "
-               "can come first." if cut.get("curves") else ""))
-
-
-#: The limits' section's title, on the page and in index.md.
-LIMITS_TITLE = "Your wheel's limit and the cut-out"
-
-
-def limits_md(rep: Mapping, series: RideSeries | None) -> list[str]:
-    """index.md's limits section: the page's sentences on the wheel's limit and the cut-out
-    (:func:`limit_sentences`, the lead's) and :func:`limits_paragraph` (the section's)."""
-    return [f"## {LIMITS_TITLE}", "", " ".join(limit_sentences(rep, series) + [limits_paragraph(rep, False)]), ""]
-
-
-def envelope_figure(rep: Mapping, series: RideSeries, fit):
-    """The PWM a steady speed takes at full and low charge, with the ride's own points."""
-    env = rep.get("envelope") or {}
-    dt = getattr(fit, "drivetrain", None)
-    c = series.channels
-    if "speed" not in env or dt is None or dt.pwm_coef is None or "pwm_pct" not in c:
-        return None
-    v = np.asarray(env["speed"], float)
-    keep = thin(series.t.size, MOST_POINTS)
-    lines = [Line("this ride", c["speed_kmh"][keep], c["pwm_pct"][keep])]
-    for name, dash in (("full", "solid"), ("low", "dash")):
-        V = env[name]["voltage"]
-        lines.append(Line(f"steady speed, the pack at {V:.0f} V", v * 3.6, _steady_pwm(dt, v, V),
-                          "lines", dash))
-    lines.append(Line("100 %: no voltage left", np.array([0.0, v[-1] * 3.6]), np.array([100.0, 100.0]),
-                      "lines", "dot"))
-    left = _peak(rep, series)
-    note = "above this ride's top speed the curves are extrapolated"
-    if left is not None and left[1] is not None:
-
-        sp, p = left[0], left[1]
-        lines.append(Line(f"your max PWM: {p:.0f} % at {sp:.0f} km/h", np.array([sp]), np.array([p])))
-        note = f"at your max PWM: {headroom_words(sp, limits_of(rep), _cut_at(rep, left[2]))}<br>" + note
-    fig = xy_figure(lines, "How close to the limit: PWM against speed", "speed, km/h", "PWM, %", note)
-    if left is not None and left[1] is not None:
-        fig["data"][-1]["marker"] = {"size": 14, "color": "#c62828", "symbol": "star", "opacity": 1}
-    fig["layout"]["yaxis"]["range"] = [0, 110]
-    return fig
 
 
 def figure_specs(rep: Mapping, series: RideSeries | None, fit=None) -> dict:

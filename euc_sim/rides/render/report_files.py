@@ -18,7 +18,9 @@ from euc_sim.rides.render.contract import ReportFiles, ride_json
 from euc_sim.rides.render.drivetrain_page import plot_envelope, plot_grade
 from euc_sim.rides.render.fit_figures import write_balance
 from euc_sim.rides.render.page import write_page
-from euc_sim.rides.render.page_html import RideSeries, first_screen, key_figure_lines, limits_md, write_ride_html
+from euc_sim.rides.render.limits_page import limits_md
+from euc_sim.rides.render.page_html import first_screen, key_figure_lines, write_ride_html
+from euc_sim.rides.render.series import RideSeries
 from euc_sim.rides.render.simulation_figure import plot_ride_simulation
 from euc_sim.rides.result import RideResult
 

@@ -105,7 +105,7 @@ def _random_curves(rng):
 
 def test_no_sentence_gives_speed_beyond_the_limit():
     """Property over random rides: every speed said (but the rider's own) is at most the limit."""
-    from euc_sim.rides.render.page_html import limit_sentences
+    from euc_sim.rides.render.limits_page import limit_sentences
 
     rng = np.random.default_rng(11)
     for _ in range(400):

@@ -114,7 +114,8 @@ def test_the_pwm_panel_shows_the_logged_peak_the_tile_gives():
     the line is the 10 Hz grid's mean. The panel now carries the logged peak as a point."""
     import numpy as np
 
-    from euc_sim.rides.render.page_html import RideSeries, over_time
+    from euc_sim.rides.render.page_html import over_time
+    from euc_sim.rides.render.series import RideSeries
 
     t = np.arange(0.0, 600.0, 0.1)
     series = RideSeries(t=t, gap_s=0.15, channels={"speed_kmh": np.full(t.size, 30.0),
