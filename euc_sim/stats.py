@@ -20,6 +20,7 @@ its folds from here (docs/architecture.md#statistics-in-one-place).
 from __future__ import annotations
 
 import functools
+import sys
 from typing import Callable, Sequence
 
 import numpy as np
@@ -68,13 +69,14 @@ def one_blas_thread():
 
     The ride fits' products are of ride-long vectors, which BLAS splits across threads that,
     on a shared machine, wait milliseconds each for a core; their results are the same on one.
-    The libraries are found once a process (threadpoolctl's scan of them costs milliseconds).
+    The libraries are scanned again only after a module was imported (a new one may bring its
+    own BLAS, as scipy's wheels do); the scan costs milliseconds.
     """
-    return _threadpools().limit(limits=1, user_api="blas")
+    return _threadpools(len(sys.modules)).limit(limits=1, user_api="blas")
 
 
 @functools.lru_cache(maxsize=1)
-def _threadpools() -> ThreadpoolController:
+def _threadpools(n_modules: int) -> ThreadpoolController:
     return ThreadpoolController()
 
 

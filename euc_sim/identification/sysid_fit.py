@@ -38,13 +38,13 @@ import time
 import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
-from threadpoolctl import threadpool_limits
 
 from euc_sim.identification.noise_bootstrap import split_noise
 from euc_sim.identification.processing import Kinematics, sample_period
 from euc_sim.identification.rollout_fit import BOUND_TOL, WINDOW, RolloutError, RolloutFit
 from euc_sim.model.mujoco_model import JointIndex, build_spec, from_mujoco, to_mujoco
 from euc_sim.model.parameters import Params
+from euc_sim.stats import one_blas_thread
 
 #: Optimizer iterations at most.
 MAX_ITER = 40
@@ -122,7 +122,7 @@ def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
     # the backend's full verbosity is what puts the end point's Jacobian in the result;
     # one BLAS thread: on a shared machine the backend's dense JᵀJ (W·3L × (1 + 6W)) took
     # 0.36 s per iteration with the default thread pool, 2.5 ms with one thread
-    with threadpool_limits(limits=1, user_api="blas"):
+    with one_blas_thread():
         opt, res = ms.optimize(prob.params, prob.residual_fn, optimizer="mujoco", verbose=False,
                                max_iters=max_iter, x_scale=x_scale, output=io.StringIO())
         r_star, preds, _ = prob.residual_fn(opt.as_vector(), opt.copy(), return_pred_all=True)

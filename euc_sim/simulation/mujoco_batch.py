@@ -62,13 +62,13 @@ import mujoco
 import mujoco.batch
 import numpy as np
 from scipy.linalg.lapack import dtrtrs
-from threadpoolctl import threadpool_limits
 
 from euc_sim.controllers.motor import pd_torque
 from euc_sim.model.mujoco_model import build_spec
 from euc_sim.simulation import engine
 from euc_sim.simulation.errors import FallError, UnstableError
 from euc_sim.simulation.native_core import exclusive, field_offsets
+from euc_sim.stats import one_blas_thread
 
 __all__ = ["simulate_rides", "batchable", "available", "NU", "BATCH_EFFECTS", "PIPELINE_BATCHES"]
 
@@ -247,7 +247,7 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int 
             progress(done)
 
     if in_batch:                        # BLAS on one thread: its idle threads spin against the batch's
-        with threadpool_limits(limits=1, user_api="blas"), exclusive(_CALLBACK):
+        with one_blas_thread(), exclusive(_CALLBACK):
             batches = _prepared_batches(requests, in_batch, batch)
             if nthread >= 2 and len(in_batch) >= PIPELINE_BATCHES * nthread * batch:
                 _pipeline(batches, nthread, finished)

@@ -22,9 +22,9 @@ from __future__ import annotations
 from concurrent.futures import ThreadPoolExecutor
 from typing import Callable, Mapping, Sequence
 
-from threadpoolctl import threadpool_limits
 
 from euc_sim.simulation.errors import FallError, SimulationError
+from euc_sim.stats import one_blas_thread
 
 __all__ = ["ride_3d_many"]
 
@@ -81,7 +81,7 @@ def ride_3d_many(requests: Sequence[Mapping], *, nthread: int = 2, ride: Callabl
                 progress(i + 1)
         return results
     native_core.available()            # build the callback once, before the threads (one line if it cannot)
-    with threadpool_limits(limits=1, user_api="blas"), ThreadPoolExecutor(nthread) as pool:
+    with one_blas_thread(), ThreadPoolExecutor(nthread) as pool:
         futures = [pool.submit(one, r) for r in requests]
         for i, f in enumerate(futures):                # in order: a bad request raises here, the rest finish
             results[i] = f.result()

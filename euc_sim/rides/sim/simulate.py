@@ -37,7 +37,6 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
-from threadpoolctl import threadpool_limits
 
 from euc_sim.diagnosis.localise import localise
 from euc_sim.errors import InputError
@@ -57,6 +56,7 @@ from euc_sim.rides.sim.reading import read_as_logged
 from euc_sim.rides.sim.tracking import simulate_profile
 from euc_sim.simulation.engine import default_rider
 from euc_sim.simulation.native_core import available
+from euc_sim.stats import one_blas_thread
 
 __all__ = ["SIM_EFFECTS", "simulation_obstacle", "ride_params", "effects_to_inject",
            "battery_power", "RideSimulation", "simulate_ride", "LOG_COLUMNS"]
@@ -274,7 +274,7 @@ def _run_steps(jobs: Sequence[_StepJob], params: Params, workers: int,
         default_rider(params)              # designed once, not by each thread
         riders = ThreadPoolExecutor(workers, thread_name_prefix="euc-sim-ride")
     try:
-        with threadpool_limits(limits=1, user_api="blas"):
+        with one_blas_thread():
             return run_threads(partial(_ride_step, pool=riders), jobs, len(jobs) if riders else 1,
                                on_done=lambda i, k: say(f"simulation {k}/{len(jobs)} done "
                                                         f"({jobs[i].step.name})"))
