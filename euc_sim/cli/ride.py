@@ -118,7 +118,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
         write_json(args.json, rep)
     from euc_sim.rides.render.terminal import summary_lines  # deferred: loads pandas, scipy, plotly (1.5 s)
 
-    for line in summary_lines(rep):
+    for line in summary_lines(res):
         print(line)
     if rep["report"]:
         say(f"ride: report written to {Path(args.report) / rep['report']}")

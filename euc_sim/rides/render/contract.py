@@ -7,10 +7,7 @@ typed objects.
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
-
 import numpy as np
 
 from euc_sim.io import to_jsonable
@@ -18,7 +15,6 @@ from euc_sim.io import to_jsonable
 from euc_sim.rides.balance.design import NOMINAL
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.balance.fit import plausibility
-from euc_sim.rides.drive.cutout import Limits
 from euc_sim.rides.law.controller_report import controller_entry
 from euc_sim.rides.result import RideResult, RiderNumbers
 
@@ -26,7 +22,7 @@ __all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assump
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
            "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json", "resolution_json",
            "difference_json", "differences_json", "clock_json", "mass_difference_json", "mass_check_json",
-           "limits_of", "pwm_check"]
+           "error_measure"]
 
 
 @dataclass(frozen=True)
@@ -191,6 +187,13 @@ def assumptions_json(a) -> dict:
             "source": "; ".join(f"{k}: {a.source_of(k)}" for k in ("R", "total_mass"))}
 
 
+def error_measure(an) -> str:
+    """What a :class:`~euc_sim.rides.balance.analysis.RideAnalysis`'s held-out errors measure, in words."""
+    cr = an.cross
+    return (f"RMS of measured minus predicted battery power{'' if an.domain == 'power' else ' divided by ω = v/R'} "
+            f"on {cr.test_label}, parameters fitted on {cr.fit_label}")
+
+
 def balance_json(an) -> dict:
     """CONTRACT's balance keys of a :class:`~euc_sim.rides.balance.analysis.RideAnalysis`
     (``recording`` ... ``notes``, ``table`` None), in the command's order."""
@@ -204,9 +207,7 @@ def balance_json(an) -> dict:
         "heldout_error_nominal": cr.heldout_nominal,
         "heldout_error_augmented": cr.heldout_augmented,
         "error_unit": an.error_unit,
-        "error_measure": (f"RMS of measured minus predicted battery power"
-                          f"{'' if an.domain == 'power' else ' divided by ω = v/R'} on {cr.test_label}, "
-                          f"parameters fitted on {cr.fit_label}"),
+        "error_measure": error_measure(an),
         "ratio": cr.ratio,
         "heldout_error_all_candidates": cr.heldout_full,
         "selection": [dict(h) for h in cr.selection],
@@ -279,26 +280,6 @@ def total_mass_json(m, spec) -> dict:
         out["rider_mass_why"] = ("no wheel weight (give --wheel SPEC.csv or --wheel-mass)"
                                  if m.estimate is not None else m.why)
     return out
-
-
-def limits_of(rep) -> Limits:
-    """The :class:`~euc_sim.rides.drive.cutout.Limits` a ride JSON's ``summary.limits`` carries (all
-    unknown without it): what the pages read back of the JSON they render."""
-    lim = (rep.get("summary") or {}).get("limits") or {}
-    return Limits(lim.get("speed_limit_mps"), lim.get("source"), lim.get("pwm_alarm_pct"), lim.get("why"))
-
-
-def pwm_check(rep) -> tuple[str, str, float] | None:
-    """The one check of the duty model a ride's pages state: (kind, on what, RMS error in points).
-
-    On the compared ride where there is one (the ride JSON's ``pwm``: the figure the terminal
-    gives too), else on the ride's second half fitted on its first (``cutout``); None without.
-    """
-    other = (rep.get("pwm") or {}).get("heldout_rmse")
-    if other is not None and math.isfinite(other):
-        return "compared", f"the compared ride ({Path(str(rep.get('compare') or '')).name}), fitted on this one", other
-    rmse = (rep.get("cutout") or {}).get("heldout_pwm_rmse_pct")
-    return None if rmse is None or not math.isfinite(rmse) else ("halves", "the ride's second half, fitted on its first", rmse)
 
 
 def mass_difference_json(d) -> dict:

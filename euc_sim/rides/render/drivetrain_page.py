@@ -1,7 +1,7 @@
 """The ride page's mass and drivetrain section, and the envelope's and the grade's figures.
 
-:func:`page_section` words the ride JSON's ``total_mass``, ``drivetrain``, ``pwm``, ``grade``
-and ``envelope`` (:mod:`euc_sim.rides.drive.drivetrain_report`) for the page;
+:func:`page_section` words a ride's total mass, drivetrain, PWM check, grade and envelope
+(:mod:`euc_sim.rides.drive.drivetrain_report`) for the page;
 :func:`plot_envelope` draws the envelope's figure and :func:`plot_grade` the altitude the
 balance implies (:mod:`euc_sim.rides.drive.grade`); the page draws the PWM model's
 (:func:`euc_sim.rides.render.fit_figures.pwm_figure`).
@@ -125,120 +125,120 @@ def grade_figure(g, title: str = ""):
 
 
 def _level_cutout(cut) -> tuple[float, float] | None:
-    """The cut-out chart's speed on the level at 100 % and at 0 % charge, km/h (the ride JSON's
-    ``cutout``); None without both."""
-    c = next((c for c in (cut or {}).get("curves") or [] if c["condition"] == "level"), None)
-    ends = [] if c is None else [c["speed_mps"][c["charge_pct"].index(q)] if q in c["charge_pct"] else None
-                                 for q in (100.0, 0.0)]
-    return (3.6 * ends[0], 3.6 * ends[1]) if len(ends) == 2 and None not in ends else None
+    """The :class:`~euc_sim.rides.drive.cutout.Cutout`'s speed on the level at 100 % and at 0 %
+    charge, km/h; None without both."""
+    c = next((c for c in cut.curves if c.condition.name == "level"), None)
+    q = [] if c is None else list(c.charge_pct)
+    ends = [float(c.speed_mps[q.index(x)]) if x in q else np.nan for x in (100.0, 0.0)]
+    return None if c is None or np.isnan(ends).any() else (3.6 * ends[0], 3.6 * ends[1])
 
 
-#: A systematic part of the mass's interval (``total_mass.systematic``) in people's words:
+#: A systematic part of the mass's interval (the mass fit's ``systematic``) in people's words:
 #: ``efficiency_model`` is the choice of copper-loss column (κ·F² or its proxy κ·a²).
 SYSTEMATIC_WORDS = {"efficiency_model": "copper-loss model (κ·F² or κ·a²)",
                     "rotating_share": "rotating inertia's share"}
 
 
-def _mass_md(rep: dict, shown=frozenset()) -> list[str]:
+def _mass_md(res, shown=frozenset()) -> list[str]:
     """The page's lines on the total mass, its interval's parts, warnings and the difference;
     the total mass itself not repeated where ``shown`` (the first screen) has it."""
-    tm = rep["total_mass"]
+    m, md_ = res.mass.mass, res.mass
     md = ["## What the wheel weighs with its rider, and how close to a cut-out", ""]
-    if tm["estimate"] is None:
-        md.append(f"- Total mass (rider + wheel): **not identified**: {tm['why']}.")
+    if m.estimate is None:
+        md.append(f"- Total mass (rider + wheel): **not identified**: {m.why}.")
     else:
-        ci = tm["ci95"]
-        eq = tm.get("equivalent_mass")
+        ci, eq = m.ci95, m.equivalent
         value = ("in the key figures above" if "total_mass" in shown else
-                 f"**{tm['estimate']:.0f} kg**, 95 % interval " + (f"{ci[0]:.0f}–{ci[1]:.0f} kg" if ci else "–"))
+                 f"**{m.estimate:.0f} kg**, 95 % interval " + (f"{ci[0]:.0f}–{ci[1]:.0f} kg" if ci else "–"))
         md.append("- Total mass (rider + wheel"
                   + ("" if eq else ", with the wheel's rotating inertia: no net weight given")
-                  + f"): {value} (from battery power alone; speed scale {tm['speed_scale']:.3f}, "
-                    f"{tm['speed_scale_source']}; current–speed delay {tm['lag_s']:+.1f} s, a shift of the "
+                  + f"): {value} (from battery power alone; speed scale {m.scale.estimate:.3f}, "
+                    f"{m.scale.source}; current–speed delay {m.lag:+.1f} s, a shift of the "
                     f"current" + ("; the balance's own lag of it, current_lag, is in Estimates, a first-order lag"
-                                  if any(q.get("name") == "current_lag" and q.get("accepted")
-                                         for q in rep.get("parameters") or []) else "") + ").")
+                                  if any(q.name == "current_lag" and q.accepted for q in res.parameters) else "")
+                  + ").")
         if eq:
             md.append(f"- The energy balance finds m_eq = {eq['estimate']:.0f} kg (eq. 6: it also "
                       f"accelerates the wheel's rotating inertia J_w/R², taken as "
                       f"{eq['rotating_inertia']:.1f} kg, {eq['rotating_inertia_range'][0]:.1f}–"
                       f"{eq['rotating_inertia_range'][1]:.1f} kg, from the net weight).")
-        if tm.get("systematic") and tm.get("statistical_ci95"):
-            st = tm["statistical_ci95"]
+        if m.systematic and m.stat_ci95:
+            st = m.stat_ci95
             md.append(f"- The interval is the bootstrap's ({st[0]:.0f}–{st[1]:.0f} kg) with what the "
                       f"log cannot calibrate added in quadrature (95 % half-widths: " + ", ".join(
                           f"{SYSTEMATIC_WORDS.get(k, k.replace('_', ' '))} {v:.1f} kg"
-                          for k, v in tm["systematic"].items()) + ").")
-        if tm.get("by_window"):
+                          for k, v in m.systematic.items()) + ").")
+        if m.by_window:
             md.append("- Energy balance over windows of " + ", ".join(
-                f"{w['window_s']:g} s: {w['estimate']:.0f} kg" for w in tm["by_window"])
+                f"{w:g} s: {x:.0f} kg" for w, x in m.by_window.items())
                 + " (the interval pools them: the log cannot choose one).")
-        if tm.get("rider_mass"):
-            md.append(f"- Rider with gear: {tm['rider_mass']['estimate']:.0f} kg "
+        if md_.fit.spec.wheel_mass is not None:
+            md.append(f"- Rider with gear: {m.estimate - md_.fit.spec.wheel_mass:.0f} kg "
                       f"(total minus the spec's net weight).")
-    for w in rep.get("input_warnings", []):
+    for w in md_.input_warnings:
         md.append(f"- **Warning**: {w}.")
-    d = rep.get("mass_difference")
-    said = any(x.get("name") == "total_mass" and (x.get("independent") or {}).get("ci95")
-               for x in rep.get("differences") or [])
+    d = md_.mass_difference
+    said = any(x.name == "total_mass" and x.independent and x.independent[1]
+               for x in (res.differences.items if res.differences else ()))
     if d and said:                  # the differences' block says it, once
         md.append("- The compared ride minus this one: in 'What differs in the compared ride' above.")
     elif d:
         md.append("- The compared ride minus this one: " + (
-            f"**{d['estimate']:+.0f} kg**, 95 % interval {d['ci95'][0]:+.0f} to {d['ci95'][1]:+.0f} "
-            f"kg: **{d['verdict']}**" if d.get("estimate") is not None else
-            f"**cannot tell** ({d.get('why', '')})") + ".")
+            f"**{d.estimate:+.0f} kg**, 95 % interval {d.ci95[0]:+.0f} to {d.ci95[1]:+.0f} "
+            f"kg: **{d.verdict}**" if d.estimate is not None else
+            f"**cannot tell** ({d.why or ''})") + ".")
     return md
 
 
-def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
-    """Markdown lines for the ride page: mass, balance by term, grade, PWM, envelope.
+def page_section(res, figures: dict, shown=frozenset()) -> list[str]:
+    """Markdown lines for the ride page (a :class:`~euc_sim.rides.result.RideResult`'s): mass,
+    balance by term, grade, PWM, envelope.
 
     ``shown``: the quantities the page's first screen already gives (``total_mass``,
     ``internal_resistance``, ``top_speed``; ``pwm_heldout``, the compared ride's PWM check, in
     its limits' section), said here without their numbers.
     """
-    md = _mass_md(rep, shown)
-    sel = rep.get("selection") or []
+    md = _mass_md(res, shown)
+    sel = res.balance.cross.selection
     if sel:
         md += ["", "How the balance was chosen (the one selection rule of the page): the fit "
                    "ride's error on each of its own five time blocks, fitted on the other four, "
                    "after each kept term. These are not the held-out errors of the verdict, "
                    "which are scored on the ride held out:", "",
-               "| step | fit ride, blocked RMS, " + rep.get("error_unit", "W") + " |", "|---|---|"]
+               "| step | fit ride, blocked RMS, " + res.balance.error_unit + " |", "|---|---|"]
         md += [f"| + {h['term']} | {h['heldout_rmse']:.0f} |" for h in sel]
-    dt = rep["drivetrain"]
+    dt = res.drivetrain
     md += ["", "| drivetrain term | estimate | 95 % interval | unit |", "|---|---|---|---|"]
     for name, t in dt.items():
-        if "parameter" in t:            # a balance-fit parameter: in the Estimates table
+        if t.parameter is not None:            # a balance-fit parameter: in the Estimates table
             continue
-        if t.get("estimate") is None:
-            md.append(f"| {name} | not identified | {t.get('why', '')} | |")
+        if t.estimate is None:
+            md.append(f"| {name} | not identified | {t.why or ''} | |")
         elif name in shown:
-            md.append(f"| {name} | in the key figures above | | {unit_label(t['unit'])} |")
+            md.append(f"| {name} | in the key figures above | | {unit_label(t.unit)} |")
         else:
-            ci = t.get("ci95")
-            md.append(f"| {name} | {t['estimate']:.4g} | "
-                      + (f"{ci[0]:.4g} – {ci[1]:.4g}" if ci else "–") + f" | {unit_label(t['unit'])} |")
+            ci = t.ci95
+            md.append(f"| {name} | {t.estimate:.4g} | "
+                      + (f"{ci[0]:.4g} – {ci[1]:.4g}" if ci else "–") + f" | {unit_label(t.unit)} |")
     md += _nuisance_note(dt)
-    g = rep.get("grade", {})
-    if "rms_implied_vs_gps_m" in g:
+    g, mass = res.mass.fit.grade, res.mass
+    if g is not None:
         md += ["", f"Road grade as the battery sees it: integrating the power the balance "
-                   f"leaves unexplained without its grade term, over {g['distance_km']:.1f} km, "
-                   f"gives an altitude {g['rms_implied_vs_gps_m']:.0f} m RMS from GPS altitude "
-                   f"(ascent {g['ascent_implied_m']:.0f} m against GPS's "
-                   f"{g['ascent_gps_m']:.0f} m)."]
+                   f"leaves unexplained without its grade term, over "
+                   f"{float(g.distance[-1]) if g.distance.size else 0.0:.1f} km, "
+                   f"gives an altitude {g.rms_m:.0f} m RMS from GPS altitude "
+                   f"(ascent {g.climb_implied_m:.0f} m against GPS's "
+                   f"{g.climb_gps_m:.0f} m)."]
     if "grade" in figures:
         md += ["", f"![altitude implied by the balance against GPS altitude]({figures['grade']})"]
-    if rep.get("pwm"):
-        p = rep["pwm"]
+    if mass.test is not None:
         md += ["", "PWM of the other ride predicted from this one: "
                    + ("in 'Your wheel's limit and the cut-out' above" if "pwm_heldout" in shown else
-                      f"**{p['heldout_rmse']:.1f} percentage points RMS**" if p.get("heldout_rmse")
-                      is not None else f"not available ({p.get('why', '')})")]
+                      f"**{mass.pwm_heldout:.1f} percentage points RMS**" if mass.pwm_heldout
+                      is not None else f"not available ({mass.pwm_why or ''})")]
     if "pwm" in figures:
         md += ["", f"![PWM predicted against logged]({figures['pwm']})"]
-    env = rep["envelope"]
+    env = mass.envelope
     if "speed" in env:
         end = env["speed"][-1] * 3.6
 
@@ -246,13 +246,13 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
             x = env[name]["v_limit"]
             return (f"none is left above {x * 3.6:.0f} km/h" if x is not None else
                     f"some is still left at {end:.0f} km/h, the figure's end")
-        level = _level_cutout(rep.get("cutout"))
+        level = _level_cutout(res.cutout)
         said = (f"at full charge ({env['full']['voltage']:.0f} V) {left('full')}; at low charge "
                 f"({env['low']['voltage']:.0f} V) {left('low')}. " if level is None else
                 f"the acceleration left at full duty with the pack at {env['full']['voltage']:.0f} V and at "
                 f"{env['low']['voltage']:.0f} V. The speed at which none is left on the level is the page's "
                 f"cut-out chart's, at the charge as this log reads it ("
-                f"{rep['cutout'].get('ocv_source') or 'its battery reading'}): {level[0]:.0f} km/h at 100 %, "
+                f"{res.cutout.ocv_source or 'its battery reading'}): {level[0]:.0f} km/h at 100 %, "
                 f"{level[1]:.0f} km/h at 0 %. ")
         md += ["", "Envelope (voltage limit): " + said
                    + ("Faster than this ride's top speed (in the key figures above)" if "top_speed" in shown
@@ -263,16 +263,17 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
         md += ["", f"Envelope: {env.get('why', 'not available')}."]
     if "envelope" in figures:
         md += ["", f"![cut-out envelope]({figures['envelope']})"]
-    for name, why in rep.get("unidentified", {}).items():
-        if (dt.get(name) or {}).get("estimate") is not None or name not in dt:   # else said in the table
+    for name, why in mass.unidentified.items():
+        if name not in dt or dt[name].estimate is not None:   # else said in the table
             md.append(f"- Not identified, {name}: {why}.")
     return md + [""]
 
 
 def _nuisance_note(dt: dict) -> list[str]:
-    """What the drivetrain table's terms that read the balance's physics again are: the mass
-    fit's own copper and grade terms, and the PWM's phase resistance beside the copper loss's."""
-    has = lambda k: dt.get(k, {}).get("estimate") is not None  # noqa: E731
+    """What the drivetrain table's terms (name -> :class:`~euc_sim.rides.drive.drivetrain.Term`) that
+    read the balance's physics again are: the mass fit's own copper and grade terms, and the PWM's
+    phase resistance beside the copper loss's."""
+    has = lambda k: k in dt and dt[k].estimate is not None  # noqa: E731
     own = [k for k in ("winding_resistance", "copper_loss_per_force2", "copper_loss_per_accel2",
                        "grade_mass") if has(k)]
     out = []

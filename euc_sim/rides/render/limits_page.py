@@ -1,25 +1,26 @@
 """The wheel's limits on the ride's page: its speed limit, the speed at which the motor runs out of
 voltage (100 % PWM, a cut-out) against the battery's charge, and the ride's own points against both.
 
-Read from the ride JSON's ``summary.limits`` and ``cutout`` (:mod:`euc_sim.rides.drive.cutout`);
+Read from the ride's summary's :class:`~euc_sim.rides.drive.cutout.Limits` and its
+:class:`~euc_sim.rides.drive.cutout.Cutout`;
 the lead's sentences (:func:`limit_sentences`), the section's paragraph (:func:`limits_paragraph`),
 its chart (:func:`cutout_figure`) and its plain-text version (:func:`limits_md`).
 """
 
 from __future__ import annotations
 
-from typing import Mapping
+import math
+from pathlib import Path
 
 import numpy as np
 
 from euc_sim.report.figures import YL_OR_RD, Line, plain_values, thin, xy_figure
-from euc_sim.rides.drive.cutout import CONDITIONS, headroom_words
+from euc_sim.rides.drive.cutout import CONDITIONS, Limits, headroom_words
 from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
-from euc_sim.rides.render.contract import limits_of, pwm_check
-from euc_sim.rides.render.series import MOST_POINTS, RideSeries, json_number, max_pwm_mark
+from euc_sim.rides.render.series import MOST_POINTS, RideSeries, max_pwm_mark, number
 
 __all__ = ["limit_sentences", "limits_paragraph", "cutout_figure", "limits_md", "LIMITS_TITLE", "CUTOUT_LABELS",
-           "envelope_figure"]
+           "envelope_figure", "pwm_check"]
 
 
 def _steady_pwm(dt, speed: np.ndarray, voltage: float) -> np.ndarray:
@@ -33,45 +34,62 @@ def _steady_pwm(dt, speed: np.ndarray, voltage: float) -> np.ndarray:
     return X @ np.array([coef[n] for n in names]) / V * 100.0
 
 
-def _peak(rep: Mapping, series: RideSeries | None) -> tuple[float, float, float | None] | None:
+def _limits(res) -> Limits:
+    """The wheel's limits the ride's summary carries (all unknown without them)."""
+    return res.rider.summary.limits or Limits(None, None, None)
+
+
+def pwm_check(res) -> tuple[str, str, float] | None:
+    """The one check of the duty model a ride's pages state: (kind, on what, RMS error in points).
+
+    On the compared ride where there is one (the figure the terminal gives too), else on the
+    ride's second half fitted on its first (the cut-out's); None without.
+    """
+    other = res.mass.pwm_heldout
+    if other is not None and math.isfinite(other):
+        return "compared", f"the compared ride ({Path(str(res.balance.compare or '')).name}), fitted on this one", other
+    rmse = res.cutout.heldout_pwm_rmse_pct
+    return None if rmse is None or not math.isfinite(rmse) else ("halves", "the ride's second half, fitted on its first", rmse)
+
+
+def _peak(res, series: RideSeries | None) -> tuple[float, float, float | None] | None:
     """At the summary's max-PWM moment: (speed, km/h; PWM, %; battery reading, % or None)."""
-    m = max_pwm_mark(rep, series) if series is not None else None
+    m = max_pwm_mark(res.rider.summary, series) if series is not None else None
     v = None if m is None else series.at("speed_kmh", m[0])
     if v is None:
         return None
-    return v, json_number(rep.get("summary"), "pwm_max_pct"), series.at("charge_pct", m[0])
+    return v, number(res.rider.summary.pwm_max_pct), series.at("charge_pct", m[0])
 
 
-def _cut_at(rep: Mapping, charge: float | None, condition: str = "level") -> float | None:
-    """The ``cutout`` curve's speed at ``charge`` (%), km/h; None where it cannot say."""
-    curves = (rep.get("cutout") or {}).get("curves") or []
-    c = next((c for c in curves if c["condition"] == condition), None)
+def _cut_at(cut, charge: float | None, condition: str = "level") -> float | None:
+    """The :class:`~euc_sim.rides.drive.cutout.Cutout`'s curve's speed at ``charge`` (%), km/h; None
+    where it cannot say."""
+    c = next((c for c in cut.curves if c.condition.name == condition), None)
     if c is None or charge is None:
         return None
-    y = np.array([np.nan if x is None else x for x in c["speed_mps"]], float)
-    v = float(np.interp(charge, c["charge_pct"], y))
+    v = float(np.interp(charge, c.charge_pct, np.asarray(c.speed_mps, float)))
     return v * 3.6 if np.isfinite(v) else None
 
 
-def limit_sentences(rep: Mapping, series: RideSeries | None) -> list[str]:
-    """The wheel's limit, where the cut-out comes before it (``cutout.danger``), and how close
+def limit_sentences(res, series: RideSeries | None) -> list[str]:
+    """The wheel's limit, where the cut-out comes before it (the cut-out's ``danger``), and how close
     the ride's highest PWM came; no speed above the wheel's limit is said to be available."""
-    lim, cut = limits_of(rep), rep.get("cutout") or {}
+    lim, cut = _limits(res), res.cutout
     out = [f"Your wheel's limit: {lim.words()}."]
-    if cut.get("danger"):
-        out.append(cut["danger"])
-    elif cut.get("curves") and lim.speed_limit_mps is not None:
-        said = {c["condition"] for c in cut["curves"]}
+    if cut.danger:
+        out.append(cut.danger)
+    elif cut.curves and lim.speed_limit_mps is not None:
+        said = {c.condition.name for c in cut.curves}
         words = [c.words for c in CONDITIONS if c.name in said]
         out.append("At every charge, " + " and ".join([", ".join(words[:-1]), words[-1]] if len(words) > 1
                                                       else words)
                    + ", the motor keeps voltage up to that limit (chart below).")
-    elif cut.get("why"):
-        out.append(f"Where the motor would run out of voltage cannot be said: {cut['why']}.")
-    p = _peak(rep, series)
+    elif cut.why:
+        out.append(f"Where the motor would run out of voltage cannot be said: {cut.why}.")
+    p = _peak(res, series)
     if p is not None and p[1] is not None:
         out.append(f"At your highest PWM ({p[1]:.0f} %), riding {p[0]:.0f} km/h: "
-                   f"{headroom_words(p[0], lim, _cut_at(rep, p[2]))}.")
+                   f"{headroom_words(p[0], lim, _cut_at(cut, p[2]))}.")
     return out
 
 
@@ -82,16 +100,16 @@ CUTOUT_LABELS = {"level": "on the level", "accelerating_1mps2": "accelerating at
 CUTOUT_COLOURS = ("#1a237e", "#6a1b9a", "#00838f", "#212121")
 
 
-def cutout_figure(rep: Mapping, series: RideSeries | None):
+def cutout_figure(res, series: RideSeries | None):
     """Cut-out speed against battery charge for each condition, the wheel's limit, and the
     ride's own speeds at their charge coloured by the logged PWM; None without curves."""
-    cut = rep.get("cutout") or {}
-    if not cut.get("curves"):
+    cut = res.cutout
+    if not cut.curves:
         return None
-    lim = limits_of(rep)
-    lines = [Line(f"cut-out {CUTOUT_LABELS.get(c['condition'], c['condition'])}", np.asarray(c["charge_pct"]),
-                  np.array([np.nan if x is None else 3.6 * x for x in c["speed_mps"]], float), "lines")
-             for c in cut["curves"]]
+    lim = _limits(res)
+    lines = [Line(f"cut-out {CUTOUT_LABELS.get(c.condition.name, c.condition.name)}",
+                  np.asarray(c.charge_pct, float), 3.6 * np.asarray(c.speed_mps, float), "lines")
+             for c in cut.curves]
     top = [np.nanmax(ln.y) if np.isfinite(ln.y).any() else 0.0 for ln in lines]
     if lim.speed_limit_mps is not None:
         L = 3.6 * lim.speed_limit_mps
@@ -99,7 +117,7 @@ def cutout_figure(rep: Mapping, series: RideSeries | None):
         lines.append(Line(f"your limit: {L:.0f} km/h ({src})", np.array([0.0, 100.0]), np.array([L, L]),
                           "lines", "dot"))
         top.append(L)
-    check = pwm_check(rep)
+    check = pwm_check(res)
     note = ("PWM model checked on " + (f"{check[1]}: {check[2]:.1f} points RMS" if check else
                                        "the ride's second half: not enough PWM rows")
             + "; grey: charges this ride did not reach")
@@ -119,7 +137,7 @@ def cutout_figure(rep: Mapping, series: RideSeries | None):
                             "y": plain_values(c["speed_kmh"][ok]), "mode": "markers", "marker": marker,
                             "name": "this ride" + (" (colour: logged PWM)" if pwm is not None else "")})
         top.append(float(np.max(c["speed_kmh"][ok])) if ok.size else 0.0)
-    span = cut.get("ride_charge_pct")
+    span = cut.charge_range
     if span:
         for x0, x1 in ((0.0, span[0]), (span[1], 100.0)):
             if x1 > x0:
@@ -131,36 +149,35 @@ def cutout_figure(rep: Mapping, series: RideSeries | None):
     return fig
 
 
-def limits_paragraph(rep: Mapping, limit: bool = True) -> str:
-    """The limits and the model behind the chart, in words (the summary's ``limits``, ``cutout``,
+def limits_paragraph(res, limit: bool = True) -> str:
+    """The limits and the model behind the chart, in words (the summary's limits, the cut-out,
     :func:`pwm_check`); ``limit`` False: the speed limit left to the sentences before it."""
-    lim, cut = limits_of(rep), rep.get("cutout") or {}
-    check = pwm_check(rep)
+    lim, cut = _limits(res), res.cutout
+    check = pwm_check(res)
     return ((f"Speed limit: {lim.words()}. " if limit else "") + "PWM alarm: "
             + (f"{lim.pwm_alarm_pct:.0f} %." if lim.pwm_alarm_pct is not None else "not in the log.")
             + (f" The PWM model predicts the logged PWM of {check[1]}, to {check[2]:.1f} points RMS."
                if check else "")
-            + (f" Charge to volts: {cut['ocv_source']}." if cut.get("ocv_source") else "")
+            + (f" Charge to volts: {cut.ocv_source}." if cut.ocv_source else "")
             + (" The cut-out speeds are the model's: the controller's own current limit, not in the log, "
-               "can come first." if cut.get("curves") else ""))
+               "can come first." if cut.curves else ""))
 
 
 #: The limits' section's title, on the page and in index.md.
 LIMITS_TITLE = "Your wheel's limit and the cut-out"
 
 
-def limits_md(rep: Mapping, series: RideSeries | None) -> list[str]:
+def limits_md(res, series: RideSeries | None) -> list[str]:
     """index.md's limits section: the page's sentences on the wheel's limit and the cut-out
     (:func:`limit_sentences`, the lead's) and :func:`limits_paragraph` (the section's)."""
-    return [f"## {LIMITS_TITLE}", "", " ".join(limit_sentences(rep, series) + [limits_paragraph(rep, False)]), ""]
+    return [f"## {LIMITS_TITLE}", "", " ".join(limit_sentences(res, series) + [limits_paragraph(res, False)]), ""]
 
 
-def envelope_figure(rep: Mapping, series: RideSeries, fit):
+def envelope_figure(res, series: RideSeries):
     """The PWM a steady speed takes at full and low charge, with the ride's own points."""
-    env = rep.get("envelope") or {}
-    dt = getattr(fit, "drivetrain", None)
+    env, dt = res.mass.envelope, res.mass.fit.drivetrain
     c = series.channels
-    if "speed" not in env or dt is None or dt.pwm_coef is None or "pwm_pct" not in c:
+    if "speed" not in env or dt.pwm_coef is None or "pwm_pct" not in c:
         return None
     v = np.asarray(env["speed"], float)
     keep = thin(series.t.size, MOST_POINTS)
@@ -171,13 +188,13 @@ def envelope_figure(rep: Mapping, series: RideSeries, fit):
                           "lines", dash))
     lines.append(Line("100 %: no voltage left", np.array([0.0, v[-1] * 3.6]), np.array([100.0, 100.0]),
                       "lines", "dot"))
-    left = _peak(rep, series)
+    left = _peak(res, series)
     note = "above this ride's top speed the curves are extrapolated"
     if left is not None and left[1] is not None:
 
         sp, p = left[0], left[1]
         lines.append(Line(f"your max PWM: {p:.0f} % at {sp:.0f} km/h", np.array([sp]), np.array([p])))
-        note = f"at your max PWM: {headroom_words(sp, limits_of(rep), _cut_at(rep, left[2]))}<br>" + note
+        note = f"at your max PWM: {headroom_words(sp, _limits(res), _cut_at(res.cutout, left[2]))}<br>" + note
     fig = xy_figure(lines, "How close to the limit: PWM against speed", "speed, km/h", "PWM, %", note)
     if left is not None and left[1] is not None:
         fig["data"][-1]["marker"] = {"size": 14, "color": "#c62828", "symbol": "star", "opacity": 1}

@@ -15,11 +15,14 @@ import numpy as np
 from euc_sim.io import write_text
 from euc_sim.rides.balance.residual import SLOW_S
 from euc_sim.rides.balance.verdict import unit_label
-from euc_sim.rides.law.controller_report import page_lines
+from euc_sim.rides.law.controller_report import controller_entry, page_lines
+from euc_sim.rides.render.contract import effect_entries, error_measure
 from euc_sim.rides.render.differences_page import difference_section
 from euc_sim.rides.render.drivetrain_page import page_section
 from euc_sim.rides.render.notes import as_the_tile, missing_spec_effect, said_once, summarise_notes
 from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend, when
+from euc_sim.rides.render.series import number
+from euc_sim.rides.result import RideResult
 from euc_sim.rides.sim.sim_steps import TARGET_RATIO
 
 __all__ = ["write_page", "falls_sentence", "markdown_sections"]
@@ -38,21 +41,16 @@ def _interval(ci) -> str:
     return f"[{_fmt(ci[0])}, {_fmt(ci[1])}]" if ci else "–"
 
 
-def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None,
-               key_lines: Sequence[str] = (), shown=frozenset(), limits: Sequence[str] = ()) -> Path:
+def write_page(res: RideResult, out_dir, figures: Mapping[str, str], key_lines: Sequence[str] = (),
+               shown=frozenset(), limits: Sequence[str] = ()) -> Path:
     """Write ``out_dir/index.md``: the ride's findings with its figures.
 
     Parameters
     ----------
-    report : dict
-        The ``euc-sim ride`` JSON object (with ``windows``, ``localisation`` and,
-        when run, ``simulation``).
+    res : RideResult
     out_dir : path
     figures : mapping
         ``{"cross_ride"|"residuals"|"simulation": file name inside out_dir}``.
-    log_path : path, optional
-        LOG's file: where both logs sit beside an euc_core ``meta.csv``, the
-        recorded values are said beside the difference they bear on.
     key_lines : sequence of str
         The first screen's figures (the HTML tiles' strings), said first.
     shown : frozenset
@@ -65,26 +63,21 @@ def write_page(report: dict, out_dir, figures: Mapping[str, str], log_path=None,
     -------
     pathlib.Path
     """
-    md = (_verdict_md(report, figures, log_path, key_lines, shown, limits) + _estimates_md(report)
-          + _aliases_md(report)
-          + _localisation_md(report, figures) + _simulation_md(report, figures)
-          + _assumptions_md(report, shown))
+    md = (_verdict_md(res, figures, key_lines, shown, limits) + _estimates_md(res) + _aliases_md(res)
+          + _localisation_md(res, figures) + _simulation_md(res, figures) + _assumptions_md(res, shown))
     return write_text(Path(out_dir) / "index.md", "\n".join(md))
 
 
-def _verdict_md(r: dict, figures: Mapping[str, str], log_path=None, key_lines: Sequence[str] = (),
+def _verdict_md(res: RideResult, figures: Mapping[str, str], key_lines: Sequence[str] = (),
                 shown=frozenset(), limits: Sequence[str] = ()) -> list[str]:
-    """Title, the key figures, what differs (with both logs' metadata, given LOG's path), the
+    """Title, the key figures, what differs (with both logs' metadata, beside LOG's path), the
     verdict, the wheel's limit and the cut-out (``limits``), the cross-ride figure."""
     cut = next((i + 1 for i, line in enumerate(key_lines) if line.startswith("Compared ride, ")), len(key_lines))
     key = (["## Key figures", ""] + [f"- {line}" for line in key_lines[:cut]]      # the compared ride's nest
            + [f"  - {line}" for line in key_lines[cut:]] + [""] if key_lines else [])
-    md = ([f"# Ride diagnosis: {Path(r['recording']).name}", ""] + key
-          + difference_section(r, log_path) + _verdict_lines(r) + list(limits))
-    if "total_mass" in r:
-        md += page_section(r, figures, shown)
-    if "controller" in r:
-        md += page_lines(r["controller"])
+    md = ([f"# Ride diagnosis: {Path(res.balance.recording).name}", ""] + key
+          + difference_section(res.differences, res.balance.compare, res.mass.fit.path) + _verdict_lines(res)
+          + list(limits) + page_section(res, figures, shown) + page_lines(controller_entry(res.law)))
     return md + _cross_ride_md(figures)
 
 
@@ -94,30 +87,30 @@ def _cross_ride_md(figures: Mapping[str, str]) -> list[str]:
     return ["## Cross-ride prediction", "", f"![cross-ride prediction]({figures['cross_ride']})", ""]
 
 
-def _verdict_lines(r: dict) -> list[str]:
+def _verdict_lines(res: RideResult) -> list[str]:
     """What was fitted on what, and the balance fit's verdict with its held-out errors."""
-    unit = r["error_unit"]
-    test = Path(r["compare"]).name if r.get("compare") else "the second half of the same ride"
-    md = [f"Fitted on **{Path(r['recording']).name}**"
-          f"{' (first half)' if not r.get('compare') else ''}, tested on **{test}**. "
-          f"Model: the wheel's longitudinal balance in the {r['domain']} domain "
-          f"({r['error_measure']}).", ""]
-    v = r["verdict"]
-    md += ["## Verdict", "", f"- **{v['text'][0].upper() + v['text'][1:]}.**"]
-    if v["candidates"] and v["battery_power"]:
+    an, v = res.balance, res.verdict
+    cr, unit = an.cross, an.error_unit
+    test = Path(an.compare).name if an.compare else "the second half of the same ride"
+    md = [f"Fitted on **{Path(an.recording).name}**"
+          f"{' (first half)' if not an.compare else ''}, tested on **{test}**. "
+          f"Model: the wheel's longitudinal balance in the {an.domain} domain "
+          f"({error_measure(an)}).", ""]
+    md += ["## Verdict", "", f"- **{v.text[0].upper() + v.text[1:]}.**"]
+    if v.candidates and v.battery_power:
         md.append("- Candidates accepted by the held-out balance but outside their plausible "
-                  "ranges (see 'Estimates'): " + ", ".join(f"`{c}`" for c in v["candidates"]) + ".")
-    if v["battery_power"]:
-        md.append(f"- Held-out error: inertia-only {r['heldout_error_nominal']:.1f} {unit}, "
-                  f"augmented {r['heldout_error_augmented']:.1f} {unit}; ratio **{r['ratio']:.2f}** "
-                  f"({'better' if r['ratio'] < 1 else 'NOT better'} out of sample).")
+                  "ranges (see 'Estimates'): " + ", ".join(f"`{c}`" for c in v.candidates) + ".")
+    if v.battery_power:
+        md.append(f"- Held-out error: inertia-only {cr.heldout_nominal:.1f} {unit}, "
+                  f"augmented {cr.heldout_augmented:.1f} {unit}; ratio **{cr.ratio:.2f}** "
+                  f"({'better' if cr.ratio < 1 else 'NOT better'} out of sample).")
     else:
-        md.append(f"- Why: {v['why']}. The held-out figures below compare V·I with the model "
+        md.append(f"- Why: {v.why}. The held-out figures below compare V·I with the model "
                   f"and say nothing about battery power.")
     return md + [""]
 
 
-def markdown_sections(r: dict, figures: Mapping[str, str],
+def markdown_sections(res: RideResult, figures: Mapping[str, str],
                       shown=frozenset()) -> list[tuple[str, list[str]]]:
     """The plain-text page's content in the HTML page's folded parts: (title, Markdown lines).
 
@@ -126,61 +119,59 @@ def markdown_sections(r: dict, figures: Mapping[str, str],
     simulation's steps, the assumptions.  ``shown``: quantities the first screen already
     gives (:func:`euc_sim.rides.render.drivetrain_page.page_section`), not repeated.
     """
-    return [("The balance model and the diagnosis", _verdict_lines(r) + _cross_ride_md(figures) + _estimates_md(r)
-             + _aliases_md(r) + _localisation_md(r, figures)),
-            ("Mass, drivetrain and battery, term by term",
-             page_section(r, figures, shown) if "total_mass" in r else ["Not computed."]),
-            ("The firmware's balance law", page_lines(r.get("controller"))),
-            ("The simulation, step by step", _simulation_md(r, figures)),
-            ("Assumptions and notes", _assumptions_md(r, shown))]
+    return [("The balance model and the diagnosis", _verdict_lines(res) + _cross_ride_md(figures)
+             + _estimates_md(res) + _aliases_md(res) + _localisation_md(res, figures)),
+            ("Mass, drivetrain and battery, term by term", page_section(res, figures, shown)),
+            ("The firmware's balance law", page_lines(controller_entry(res.law))),
+            ("The simulation, step by step", _simulation_md(res, figures)),
+            ("Assumptions and notes", _assumptions_md(res, shown))]
 
 
-def _estimates_md(r: dict) -> list[str]:
-    """The balance fit's parameters (``parameters``, one row each), each effect's evidence,
-    and how the fit with every candidate scores held out."""
+def _estimates_md(res: RideResult) -> list[str]:
+    """The balance fit's parameters (one row each), each effect's evidence, and how the fit
+    with every candidate scores held out."""
     md = ["## Estimates", "",
           "| parameter | estimate | unit | 95 % interval | plausible range | accepted | note |",
           "| --- | --- | --- | --- | --- | --- | --- |"]
-    rows = [p for p in r.get("parameters", []) if p.get("source") == "balance"]
-    if not rows:               # a report without the one parameter set (the balance fit alone)
-        rows = [{"name": k, "accepted": e["plausible"], **e} for k, e in r["nominal_parameters"].items()]
-        rows += [{"accepted": True, **e} for e in r["effects"]]
-    for p in rows:
-        md.append(f"| {p['name']} | {_fmt(p['estimate'])} | {unit_label(p['unit'])} | "
-                  f"{_interval(p['ci95'])} | {_interval(p.get('plausible_range'))} | "
-                  f"{'yes' if p['accepted'] else 'no'} | {p.get('why') or '–'} |")
+    for p in res.parameters:
+        if p.source == "balance":
+            md.append(f"| {p.name} | {_fmt(p.estimate)} | {unit_label(p.unit)} | "
+                      f"{_interval(p.ci95)} | {_interval(p.plausible_range)} | "
+                      f"{'yes' if p.accepted else 'no'} | {p.why or '–'} |")
     md.append("")
-    for e in r["effects"]:
+    for e in effect_entries(res.balance.cross):
         md += [f"- **{e['name']}**: {e['evidence']}."]
         if "drag_area_m2" in e:
             md[-1] += (f" As a drag area C_dA = {_fmt(e['drag_area_m2'])} m² "
                        f"(95 % {_interval(e['drag_area_m2_ci95'])}); a standing rider is 0.3–1 m².")
-    full = r.get("heldout_error_all_candidates")
+    full = res.balance.cross.heldout_full
     if full is not None:
-        md += ["", f"The fit with every candidate (bounded alike) predicts {r.get('compare') or 'the held-out half'} "
-                   f"to {_fmt(full, 4)} {r['error_unit']} RMS (its estimates are in the JSON's "
+        md += ["", f"The fit with every candidate (bounded alike) predicts {res.balance.compare or 'the held-out half'} "
+                   f"to {_fmt(full, 4)} {res.balance.error_unit} RMS (its estimates are in the JSON's "
                    f"`all_estimates`, not repeated here)."]
     return md
 
 
-def _aliases_md(r: dict) -> list[str]:
+def _aliases_md(res: RideResult) -> list[str]:
     """What the ride cannot tell apart: exact aliases, confounded pairs, caveats."""
+    cr = res.balance.cross
     md = ["", "## What this ride cannot tell apart", ""]
     seen: set = set()
-    for name, al in r["aliases"].items():
+    for name, al in cr.fit_design.aliases.items():
         pairs = [a for a in al if frozenset((name, a)) not in seen]
         seen.update(frozenset((name, a)) for a in al)
         if pairs:
             md.append(f"- `{name}` and {', '.join(f'`{a}`' for a in pairs)}: identical columns "
                       f"(the speed never changes sign), only their sum is estimated (reported "
                       f"as `{name}`).")
-    for name, al in r.get("confounded", {}).items():
+    for name in cr.full.names:
+        al = cr.full.confounded(name)
         pairs = [a for a in al if frozenset((name, a)) not in seen]
         seen.update(frozenset((name, a)) for a in al)
         if pairs:
             md.append(f"- `{name}` trades off against {', '.join(f'`{a}`' for a in pairs)} "
                       f"(bootstrap correlation beyond ±0.8 in the fit with every candidate).")
-    md += [f"- {_mass_note(n)}." for n in r.get("notes", []) if _limit_note(n)]
+    md += [f"- {_mass_note(n)}." for n in res.notes if _limit_note(n)]
     return md
 
 
@@ -197,53 +188,57 @@ def _mass_note(note: str) -> str:
     return _FOUND.sub(r"the masses are those \1 ('What the wheel weighs')", note)
 
 
-def torque_words(method: str, assumptions: Mapping) -> str:
+def torque_words(method: str, efficiency: float) -> str:
     """How the log's torque was inferred (``torque_method``), in words: from battery power it
     takes the ``--efficiency`` assumption, which the energy balance itself does not use."""
     if method == "power_efficiency":
-        return (f"battery power at an assumed drivetrain efficiency of {assumptions['efficiency_for_torque']:g} "
+        return (f"battery power at an assumed drivetrain efficiency of {efficiency:g} "
                 f"(--efficiency; only for this torque, the energy balance has no efficiency)")
     if method == "phase_current":
         return "phase current × the torque constant"
     return str(method)
 
 
-def _localisation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
+def _rms(x) -> float:
+    return float(np.sqrt(np.mean(x ** 2)))
+
+
+def _localisation_md(res: RideResult, figures: Mapping[str, str]) -> list[str]:
     """Where the inertia-only residual concentrates, with its figure."""
-    loc = r.get("localisation", {})
+    loc = res.traces[0].localisation
     md = ["", "## Where the mismatch concentrates", ""]
-    if r.get("windows"):
-        clock = r.get("clock")
+    if loc["windows"]:
+        clock = res.rider.clock
         md.append("Windows where the inertia-only residual of "
-                  f"{Path(r['recording']).name} concentrates "
-                  f"({100 * (loc.get('share') or 0):.0f} % of its energy), {spans_legend(clock)}: "
-                  + ", ".join(span_at(clock, a, b) for a, b in r["windows"]) + ".")
+                  f"{Path(res.balance.recording).name} concentrates "
+                  f"({100 * (loc['share'] or 0):.0f} % of its energy), {spans_legend(clock)}: "
+                  + ", ".join(span_at(clock, a, b) for a, b in loc["windows"]) + ".")
     else:
         md.append("No window stands out: the residual is spread over the ride.")
-    if loc.get("correlations"):
+    if loc["correlations"]:
         md.append("Correlation of that residual with: " + ", ".join(
             f"{k} {v:+.2f}" for k, v in loc["correlations"].items()) + ".")
-    for tr in r.get("residual_traces", []):        # the held-out ride's RMS: the verdict's errors
-        rms = ("RMS as in the verdict's held-out errors, augmented" if not tr["in_sample"] else
+    for tr in res.traces:        # the held-out ride's RMS: the verdict's errors
+        rms = ("RMS as in the verdict's held-out errors, augmented" if not tr.in_sample else
                f"RMS of the fit itself, not held out: inertia-only "
-               f"{tr['rms_nominal']:.0f} {tr['unit']}, augmented {tr['rms_augmented']:.0f}")
-        md.append(f"- {tr['ride']} ({'in sample' if tr['in_sample'] else 'held out'}): {rms}, of which the "
-                  f"{SLOW_S:.0f} s moving mean (slow: hills, wind) {tr['slow_rms_augmented']:.0f} {tr['unit']}.")
+               f"{_rms(tr.nominal):.0f} {tr.unit}, augmented {_rms(tr.augmented):.0f}")
+        md.append(f"- {tr.label} ({'in sample' if tr.in_sample else 'held out'}): {rms}, of which the "
+                  f"{SLOW_S:.0f} s moving mean (slow: hills, wind) {_rms(tr.slow()):.0f} {tr.unit}.")
     if "residuals" in figures:
         md += ["", f"![residual over time]({figures['residuals']})", ""]
     return md
 
 
-def falls_sentence(falls: list, scored_rows: int, clock: Mapping | None = None) -> str | None:
-    """One sentence on the simulated rider's falls (``simulation.falls``), each time (clock time
-    in the ride's zone, from its ``clock``, and time into the ride) and cause said once with the
+def falls_sentence(falls: list, scored_rows: int, clock=None) -> str | None:
+    """One sentence on the simulated rider's falls (the simulation's ``falls``), each time (clock
+    time in the ride's zone, from its ``clock``, and time into the ride) and cause said once with the
     runs it ended; None without a fall."""
     if not falls:
         return None
     groups: dict[tuple, list[str]] = {}
     for f in falls:
         groups.setdefault((round(float(f["t"]), 1), f["cause"]), []).append(f.get("run", "run"))
-    said = "; ".join(f"at {when({'clock': clock}, t, ' and '.join(runs) + ': ' + cause)}"
+    said = "; ".join(f"at {when(clock, t, ' and '.join(runs) + ': ' + cause)}"
                      for (t, cause), runs in groups.items())
     tail = ("no scored row was ridden before it, so there is no error to report" if scored_rows == 0
             else f"errors are over the {scored_rows} scored rows ridden before it")
@@ -271,7 +266,7 @@ SWAY_DB = 6.0
 def sway_sentence(ran: list) -> str | None:
     """What the last step's fastest battery-power band says of the rider's sway, or None.
 
-    ``ran``: the steps that ran (``simulation.steps``).  Said when that band (~2 Hz) is more
+    ``ran``: the steps that ran (the simulation's ``steps``).  Said when that band (~2 Hz) is more
     than :data:`SWAY_DB` from the log's: the simulated rider sways less (or more) than the
     logged one, which an RMS error does not show.
     """
@@ -292,7 +287,7 @@ def sway_sentence(ran: list) -> str | None:
             f"the logged one.")
 
 
-def _step_row(st: dict, balance, clock: Mapping | None = None) -> str:
+def _step_row(st: dict, balance, clock=None) -> str:
     """One row of the steps' table: what the step adds, its held-out errors and its fall (when:
     the simulated ride's ``clock``)."""
     if not st["ran"]:
@@ -304,7 +299,7 @@ def _step_row(st: dict, balance, clock: Mapping | None = None) -> str:
 
     ratio = st.get("ratio_to_balance")
     rc = "–" if ratio is None else (f"**{ratio:.2f}**" if ratio <= st["target_ratio"] else f"{ratio:.2f}")
-    fell = "–" if not st.get("fell") else when({"clock": clock}, st["fell"]["t"])
+    fell = "–" if not st.get("fell") else when(clock, st["fell"]["t"])
     bands = bands_cell(st.get("heldout_bands"))
     return (f"| {st['step']} | {st['what']} | {cell('P_W', '.0f', 'W')} | {rc} | {bands} | "
             f"{cell('I_phase_A', '.1f', 'A')} | {cell('pitch_rad', '.2f', '°', float(np.degrees(1.0)))} | "
@@ -312,23 +307,22 @@ def _step_row(st: dict, balance, clock: Mapping | None = None) -> str:
             f"| {fell} |")
 
 
-def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
+def _simulation_md(res: RideResult, figures: Mapping[str, str]) -> list[str]:
     """The closed-loop simulation along the ride against its log, one row per modelled step."""
-    sim = r.get("simulation")
+    sim, an = res.simulation, res.balance
     md = ["## Simulation against the ride", ""]
-    if sim:
-        e = sim["errors"]
-        steps = sim.get("steps", [])
-        balance = r.get("heldout_error_augmented") if r.get("error_unit") == "W" else None
+    if sim is not None:
+        e, steps = sim.errors, sim.steps
+        balance = an.cross.heldout_augmented if an.error_unit == "W" else None
 
         target = steps[0]["target_ratio"] if steps else TARGET_RATIO
-        md += [f"The simulator's rider rode the logged speed profile of **{sim['ride']}** "
+        md += [f"The simulator's rider rode the logged speed profile of **{sim.label}** "
                f"(MuJoCo, 1 kHz) once per modelled step, each step adding one piece to the one "
                f"before; its motor torque gave the battery power through the fitted drivetrain, "
                f"phase current (torque / K_t), pitch (in the log's convention, scored on the riding rows) and PWM duty (the "
                f"drivetrain's duty model). Each simulated channel is read at the log's own time "
                f"stamps (the mean over the 0.2 s before each) and put on the grid as the log is. "
-               f"Errors on {sim['scored_rows']} rows of the 10 Hz grid, both sides smoothed alike. "
+               f"Errors on {sim.scored_rows} rows of the 10 Hz grid, both sides smoothed alike. "
                f"The bands compare battery power's level and spectrum with the log's, unsmoothed "
                f"(and phase current's and pitch's, where logged): "
                f"the RMS over eight bands (~2 Hz to ~0.1 Hz) of 20·log10(simulated / logged band RMS), "
@@ -341,65 +335,65 @@ def _simulation_md(r: dict, figures: Mapping[str, str]) -> list[str]:
                "| step | what it adds | battery power RMS | × balance fit | bands, dB (P: fast … slow) "
                "| phase current RMS | pitch RMS | PWM RMS | torque RMS | speed RMS | fell |",
                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
-        clock = clock_of(r, sim.get("ride"))
+        clock = clock_of(res, sim.label)
         md += [_step_row(st, balance, clock) for st in steps]
-        inj = (", ".join(sim["effects_injected"]) + " at their estimates above") if sim["effects_injected"] else "none"
+        inj = (", ".join(sim.effects) + " at their estimates above") if sim.effects else "none"
         md += ["", f"Last / first step battery-power error: **{e['ratio_P']:.2f}** "
                f"(effects injected as physics in the last step: {inj}). The torque column scores "
-               f"against a logged torque from {torque_words(e['M_log_method'], r['assumptions'])}.", ""]
+               f"against a logged torque from {torque_words(e['M_log_method'], an.assumptions.efficiency)}.", ""]
         sway = sway_sentence([st for st in steps if st["ran"]])
         if sway:
             md += [sway, ""]
-        if sim.get("windows"):
+        windows = sim.localisation.get("windows", [])
+        if windows:
             md.append(f"Windows where the last step's ({steps[-1]['step'] if steps else 'augmented'}) "
                       f"power error concentrates, {spans_legend(clock)}: "
-                      + ", ".join(span_at(clock, a, b) for a, b in sim["windows"]) + ".")
-        fell = falls_sentence(sim.get("falls", []), sim["scored_rows"], clock)
+                      + ", ".join(span_at(clock, a, b) for a, b in windows) + ".")
+        fell = falls_sentence(sim.falls, sim.scored_rows, clock)
         if fell:
             md += [fell[0].upper() + fell[1:] + ".", ""]
         def at(_, t) -> str:        # a moment of the simulated ride, in its clock
-            return when({"clock": clock}, float(t))
+            return when(clock, float(t))
 
-        for n in summarise_notes([said_once(n) for n in sim.get("notes", [])], at=at):
+        for n in summarise_notes([said_once(n) for n in sim.notes], at=at):
             md.append("- " + re.sub(r"\bup to t = ([\d.]+) s\b", lambda m: "up to " + at("", m[1]), n))
         if "simulation" in figures:
             md += ["", f"![simulation against the log, step by step]({figures['simulation']})", ""]
     else:
-        why = r.get("simulation_why") or "not run"
+        why = res.simulation_why or "not run"
         md += [why[0].upper() + why[1:] + ".", ""]
     return md
 
 
-def _assumptions_md(r: dict, shown=frozenset()) -> list[str]:
+def _assumptions_md(res: RideResult, shown=frozenset()) -> list[str]:
     """Which values came from the spec, the log or the command line, which are defaults; every note."""
     md = ["## Assumptions and notes", ""]
-    a = r["assumptions"]
-    src = a.get("sources", {})
-    msrc = src.get('total_mass', a.get('source', ''))
+    an = res.balance
+    a = an.assumptions
+    msrc = a.source_of("total_mass")
     masses = (f"masses as 'What the wheel weighs' gives them ({msrc})" if str(msrc).startswith("found from this log")
-              else f"masses given: {a['total_mass']:.4g} kg total, {a['m_eq']:.4g} kg equivalent ({msrc})")
-    md.append(f"- Balance fit ('Cross-ride prediction', 'Estimates'): wheel radius R = {a['R']:g} m "
-              f"({src.get('R', a.get('source', ''))}); {masses}; power from {r['power_source']}"
-              + (f"; torque from {torque_words(r['torque_method'], a)}" if r.get("domain") == "torque" else "")
+              else f"masses given: {a.total_mass:.4g} kg total, {a.m_eq:.4g} kg equivalent ({msrc})")
+    md.append(f"- Balance fit ('Cross-ride prediction', 'Estimates'): wheel radius R = {a.R:g} m "
+              f"({a.source_of('R')}); {masses}; power from {an.sig_fit.power_source}"
+              + (f"; torque from {torque_words(an.sig_fit.torque_method, a.efficiency)}" if an.domain == "torque"
+                 else "") + ".")
+    w = res.mass.fit.spec
+    given = (("wheel radius", w.radius, "m"), ("net weight", w.wheel_mass, "kg"),
+             ("battery voltage", w.battery_voltage, "V"))
+    have = [f"{name} {x:.4g} {u}" for name, x, u in given if x is not None]
+    miss = [name for name, x, _ in given if x is None]
+    src = " + ".join(Path(x.strip()).name if x.strip().endswith(".csv") else x.strip()
+                     for x in str(w.source or "none").split("+"))
+    md.append(f"- From the wheel's specification ({src}): "
+              f"{', '.join(have) or 'nothing'}"
+              + (f"; not given: {', '.join(miss)} (" + missing_spec_effect(miss) + ")" if miss else "")
               + ".")
-    w = r.get("wheel")
-    if w is not None:
-        given = {"radius_m": ("wheel radius", "m"), "wheel_mass_kg": ("net weight", "kg"),
-                 "battery_voltage_V": ("battery voltage", "V")}
-        have = [f"{name} {w[k]:.4g} {u}" for k, (name, u) in given.items() if w.get(k) is not None]
-        miss = [name for k, (name, _) in given.items() if w.get(k) is None]
-        src = " + ".join(Path(x.strip()).name if x.strip().endswith(".csv") else x.strip()
-                         for x in str(w.get("source") or "none").split("+"))
-        md.append(f"- From the wheel's specification ({src}): "
-                  f"{', '.join(have) or 'nothing'}"
-                  + (f"; not given: {', '.join(miss)} (" + missing_spec_effect(miss) + ")" if miss else "")
-                  + ".")
-    notes = [n for n in r.get("notes", []) if not _limit_note(n)]
+    notes = [n for n in res.notes if not _limit_note(n)]
     if "gaps" in shown:         # the ride's own gap count is the Data quality tile's
-        hz = (r.get("summary") or {}).get("sampling_hz")
+        hz = number(res.rider.summary.sampling_hz)
         notes = [n if re.match(r"\S+\.csv: ", n) else as_the_tile(n, hz) for n in notes]
     def at(who: str, t: float) -> str:      # a moment of the ride the note names ("2.csv: "), in its clock
-        return when({"clock": clock_of(r, who.rstrip(": "))}, t)
+        return when(clock_of(res, who.rstrip(": ")), t)
 
     md += [f"- {n}" for n in summarise_notes(notes, at=at)]
     md.append("")

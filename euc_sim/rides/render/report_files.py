@@ -14,7 +14,7 @@ from pathlib import Path
 
 from euc_sim.io import atomic_write
 from euc_sim.rides.render import fit_figures as F
-from euc_sim.rides.render.contract import ReportFiles, ride_json
+from euc_sim.rides.render.contract import ReportFiles
 from euc_sim.rides.render.drivetrain_page import plot_envelope, plot_grade
 from euc_sim.rides.render.fit_figures import write_balance
 from euc_sim.rides.render.page import write_page
@@ -47,9 +47,8 @@ def write_report(res: RideResult, out: Path) -> ReportFiles:
 
 
 def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
-    an, sim, fit = res.balance, res.simulation, res.mass.fit
-    rep = ride_json(res)        # the pages read the JSON object, the files' names added as they exist
-    rep["table"] = write_balance(an, out).name
+    an, sim = res.balance, res.simulation
+    table = write_balance(an, out).name
     figures = _drivetrain_figures(res, out)        # PNG files
     sim_files = {}
     if sim is not None:
@@ -57,16 +56,12 @@ def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
         atomic_write(out / "ride_simulation.csv",
                      lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
         sim_files = {"table": "ride_simulation.csv", "figure": figures["simulation"]}
-        rep["simulation"].update(sim_files)
-    rep["figures"] = dict(figures)
     # the page's curves come from the log as the balance fit parsed it (the fit ride's grid)
     series = RideSeries.from_frame(an.sig_fit.raw, an.sig_fit.rate)
-    rep["report_markdown"] = write_page(rep, out, figures, getattr(fit, "path", None), key_figure_lines(rep),
-                                        first_screen(rep), limits_md(rep, series)).name
+    md = write_page(res, out, figures, key_figure_lines(res), first_screen(res), limits_md(res, series)).name
     plots = _fit_plots(res)
-    html = write_ride_html(rep, out, series, fit, {**figures, **{k: k for k in plots}}, plots).name
-    return ReportFiles(rep["table"], figures, rep["report_markdown"], html, sim_files.get("table"),
-                       sim_files.get("figure"))
+    html = write_ride_html(res, out, series, {**figures, **{k: k for k in plots}}, plots).name
+    return ReportFiles(table, figures, md, html, sim_files.get("table"), sim_files.get("figure"))
 
 
 def _fit_plots(res: RideResult) -> dict:

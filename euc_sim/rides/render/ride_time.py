@@ -1,7 +1,7 @@
 """Times as a rider reads them: clock time in the ride's own zone and time into the ride.
 
-The ride JSON's ``clock`` (:func:`euc_sim.rides.summary.rider_view.ride_clock`: the log's start in
-its own zone, the zone, the pauses) turns a time in s from the log's start into words
+A ride's :class:`~euc_sim.rides.summary.rider_view.Clock` (:func:`~euc_sim.rides.summary.rider_view.ride_clock`:
+the log's start in its own zone, the zone, the pauses) turns a time in s from the log's start into words
 (:func:`when`: "18:30 (15 min 25 s into the ride)"), and :class:`TimeAxis` leaves the pauses
 out of the figures' time axis.
 """
@@ -11,11 +11,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from datetime import datetime, timedelta
 from pathlib import Path
-from typing import Mapping
-
 import numpy as np
 
 from euc_sim.report.figures import plain_values
+from euc_sim.rides.render.series import number
 from euc_sim.rides.source.gaps import GAP_POLICY
 
 __all__ = ["hm", "clock_at", "when", "span_words", "pause_words", "clock_of", "spans_legend", "span_at",
@@ -42,33 +41,33 @@ def _min_s(seconds: float) -> str:
     return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
 
 
-def clock_at(clock: Mapping | None, t: float, seconds: bool = False) -> str | None:
+def clock_at(clock, t: float, seconds: bool = False) -> str | None:
     """The clock time, "HH:MM" (or "HH:MM:SS" with ``seconds``) in the ride's own zone, ``t`` s
-    after the log's start (the ride JSON's ``clock``); None without it."""
+    after the log's start (its :class:`~euc_sim.rides.summary.rider_view.Clock`); None without it."""
     try:
-        start = datetime.fromisoformat(str((clock or {})["start"]))
-    except (KeyError, TypeError, ValueError):
+        start = datetime.fromisoformat(str(clock.start))
+    except (AttributeError, TypeError, ValueError):
         return None
     return f"{start + timedelta(seconds=float(t)):{'%H:%M:%S' if seconds else '%H:%M'}}"
 
 
-def clock_of(rep: Mapping, recording) -> Mapping | None:
-    """The ``clock`` of the ride whose file is ``recording``: the compared ride's (``compared``)
-    where it is that one, else this ride's."""
-    other = rep.get("compared") or {}
-    if other.get("recording") and recording and Path(str(other["recording"])).name == Path(str(recording)).name:
-        return other.get("clock")
-    return rep.get("clock")
+def clock_of(res, recording):
+    """The clock of the ride whose file is ``recording`` (a :class:`~euc_sim.rides.result.RideResult`'s):
+    the compared ride's where it is that one, else this ride's."""
+    other = res.compared
+    if other is not None and recording and Path(other.recording).name == Path(str(recording)).name:
+        return other.rider.clock
+    return res.rider.clock
 
 
-def spans_legend(clock: Mapping | None) -> str:
+def spans_legend(clock) -> str:
     """How :func:`span_at` writes a span: "clock time in UTC+02:00 (time into the ride, min:s)"."""
-    zone = (clock or {}).get("zone")
+    zone = getattr(clock, "zone", None)
     return (f"clock time in {zone} (time into the ride, min:s)" if zone and clock_at(clock, 0.0)
             else "time into the ride, min:s")
 
 
-def span_at(clock: Mapping | None, a: float, b: float, dash: str = "–") -> str:
+def span_at(clock, a: float, b: float, dash: str = "–") -> str:
     """A span of the ride, ``a`` to ``b`` s from the log's start, as :func:`spans_legend` says:
     "13:53:59–13:54:04 (2:58–3:03)"; the time into the ride alone without a clock."""
     into = f"{_min_s(a)}{dash}{_min_s(b)}"
@@ -76,32 +75,31 @@ def span_at(clock: Mapping | None, a: float, b: float, dash: str = "–") -> str
     return f"{t0}{dash}{t1} ({into})" if t0 and t1 else into
 
 
-def when(rep: Mapping, t: float, also: str = "") -> str:
-    """A moment of the ride as a rider reads it: its clock time in the ride's own zone and its
-    time into the ride, "18:30 (15 min 25 s into the ride)"; ``also`` joins the parentheses."""
-    at, into = clock_at(rep.get("clock"), t), f"{_into(t)} into the ride"
+def when(clock, t: float, also: str = "") -> str:
+    """A moment of the ride as a rider reads it: its clock time in the ride's own zone (``clock``)
+    and its time into the ride, "18:30 (15 min 25 s into the ride)"; ``also`` joins the parentheses."""
+    at, into = clock_at(clock, t), f"{_into(t)} into the ride"
     if at:
         return f"{at} ({into}" + (f"; {also})" if also else ")")
     return into + (f" ({also})" if also else "")
 
 
-def span_words(rep: Mapping) -> str:
+def span_words(clock, s) -> str:
     """When the log ran, clock times in the ride's own zone, "logged 17:21–17:43 in UTC+02:00",
-    with its length where the summary's duration (another clock) rounds to another; '' without."""
-    c, s = rep.get("clock"), rep.get("summary") or {}
-    logged = float(s.get("logged_s") or 0.0)
-    t0, t1 = clock_at(c, 0.0), clock_at(c, logged)
-    own = f" ({hm(logged)})" if s.get("duration_s") is not None and hm(logged) != hm(float(s["duration_s"])) else ""
-    return f"logged {t0}–{t1}{own} in {c['zone']}" if t0 and t1 and c.get("zone") else ""
+    with its length where the summary ``s``'s duration (another clock) rounds to another; '' without."""
+    logged = float(s.logged_s or 0.0)
+    t0, t1 = clock_at(clock, 0.0), clock_at(clock, logged)
+    dur = number(s.duration_s)
+    own = f" ({hm(logged)})" if dur is not None and hm(logged) != hm(dur) else ""
+    return f"logged {t0}–{t1}{own} in {clock.zone}" if t0 and t1 and clock.zone else ""
 
 
-def pause_words(rep: Mapping) -> str:
-    """The log's pauses (the ``clock``'s, left out of the duration) with their clock times,
+def pause_words(clock) -> str:
+    """The log's pauses (the clock's, left out of the duration) with their clock times,
     "paused 09:03–09:33 (3 min 20 s into the ride, 30 min)"; '' without one."""
-    c = rep.get("clock") or {}
-    out = [f"paused {clock_at(c, a)}–{clock_at(c, b)} ({_into(a)} into the ride, {hm(b - a)})"
-           if clock_at(c, a) else f"paused {_into(a)} into the ride for {hm(b - a)}"
-           for a, b in c.get("pauses") or []]
+    out = [f"paused {clock_at(clock, a)}–{clock_at(clock, b)} ({_into(a)} into the ride, {hm(b - a)})"
+           if clock_at(clock, a) else f"paused {_into(a)} into the ride for {hm(b - a)}"
+           for a, b in getattr(clock, "pauses", ())]
     return "; ".join(out)
 
 
@@ -111,8 +109,8 @@ PAUSE_SHOWN = 0.03
 
 @dataclass(frozen=True)
 class TimeAxis:
-    """The figures' time axis without the log's pauses: each pause (the ride JSON's
-    ``clock.pauses``, left out of the duration) squeezed to a marked gap of
+    """The figures' time axis without the log's pauses: each pause (the clock's ``pauses``,
+    left out of the duration) squeezed to a marked gap of
     :data:`PAUSE_SHOWN` of the axis, so the riding either side keeps its width.
 
     Attributes
@@ -127,12 +125,11 @@ class TimeAxis:
     shown_s: float
 
     @classmethod
-    def of(cls, rep: Mapping, t: np.ndarray) -> "TimeAxis":
+    def of(cls, clock, t: np.ndarray) -> "TimeAxis":
         if t.size == 0:
             return cls(((0.0, 0.0),), 0.0)
-        c = rep.get("clock") or {}
-        if "pauses" in c:
-            p = [(float(a), float(b)) for a, b in c["pauses"]]
+        if clock is not None:
+            p = [(float(a), float(b)) for a, b in clock.pauses]
         else:                               # a report without a clock: the pauses of the series itself
             p = [(float(t[k]), float(t[k + 1])) for k in np.flatnonzero(np.diff(t) > GAP_POLICY.pause)]
         edges = [float(t[0])] + [v for ab in p for v in ab] + [float(t[-1])]

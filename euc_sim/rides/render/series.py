@@ -13,7 +13,7 @@ import numpy as np
 
 from euc_sim.rides.source.gaps import GAP_POLICY
 
-__all__ = ["RideSeries", "MOST_POINTS", "json_number", "max_pwm_mark"]
+__all__ = ["RideSeries", "MOST_POINTS", "number", "max_pwm_mark"]
 
 #: Most points per trace on the page (the page stays a few MB on an hour's ride).
 MOST_POINTS = 6000
@@ -62,19 +62,18 @@ class RideSeries:
         return v if np.isfinite(v) else None
 
 
-def json_number(d: Mapping | None, key: str) -> float | None:
-    """``d[key]`` as a finite float, None where absent or not a number."""
-    v = (d or {}).get(key)
-    return float(v) if isinstance(v, (int, float)) and np.isfinite(v) else None
+def number(x) -> float | None:
+    """``x`` as a finite float, None where it is None or not a finite number."""
+    return float(x) if isinstance(x, (int, float, np.integer, np.floating)) and np.isfinite(x) else None
 
 
-
-def max_pwm_mark(rep: Mapping, series: RideSeries):
-    """(t s, lat, lon) of the summary's max PWM, lat/lon None without GPS; None without it."""
-    at = json_number(rep.get("summary"), "pwm_max_at_s")
+def max_pwm_mark(s, series: RideSeries):
+    """(t s, lat, lon) of the :class:`~euc_sim.rides.summary.summary.RideSummary` ``s``'s max PWM,
+    lat/lon None without GPS; None without it."""
+    at = number(s.pwm_max_at_s)
     if at is None:
         return None
-    place = (rep.get("summary") or {}).get("pwm_max_place") or {}
-    if json_number(place, "lat") is not None and json_number(place, "lon") is not None:
+    place = s.pwm_max_place or {}
+    if number(place.get("lat")) is not None and number(place.get("lon")) is not None:
         return at, place["lat"], place["lon"]
     return at, series.at("lat", at), series.at("lon", at)

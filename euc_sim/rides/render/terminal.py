@@ -1,10 +1,10 @@
 """What the terminal shows after ``euc-sim ride`` and ``euc-sim rides``: one line a fact.
 
-:func:`summary_lines` reads the ride JSON: the key figures (the page's tiles, the same strings),
-then the held-out errors, the verdict, the effects, the mass, the wheel's limit, the windows
-and the simulated replay.  :func:`history_lines` reads the ``rides`` JSON: one line a ride in
-one zone, then the battery's trend and the latest ride's change.  The commands print the
-lines; nothing here writes.
+:func:`summary_lines` reads the ride's :class:`~euc_sim.rides.result.RideResult`: the key figures
+(the page's tiles, the same strings), then the held-out errors, the verdict, the effects, the mass,
+the wheel's limit, the windows and the simulated replay.  :func:`history_lines` reads the ``rides``
+JSON: one line a ride in one zone, then the battery's trend and the latest ride's change.  The
+commands print the lines; nothing here writes.
 """
 
 from __future__ import annotations
@@ -12,12 +12,14 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Mapping
 
+from euc_sim.rides.balance.fit import plausibility
 from euc_sim.rides.balance.verdict import unit_label
-from euc_sim.rides.render.contract import limits_of
 from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
-from euc_sim.rides.render.page import falls_sentence
+from euc_sim.rides.render.limits_page import _limits
+from euc_sim.rides.render.page import error_measure, falls_sentence
 from euc_sim.rides.render.page_html import key_figure_lines
 from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend
+from euc_sim.rides.result import RideResult
 
 __all__ = ["summary_lines", "history_lines"]
 
@@ -30,96 +32,95 @@ def _step_line(st: Mapping) -> str:
         (f", {r:.2f}x the balance fit's held-out error (target {st['target_ratio']:g}x)" if r else "")
 
 
-def _mass_lines(rep: Mapping) -> list[str]:
+def _mass_lines(res: RideResult) -> list[str]:
     """The mass, the drivetrain's unidentified terms, the PWM and the compared ride."""
-    tm = rep["total_mass"]
-    if tm["estimate"] is None:
-        lines = [f"  total mass: not identified ({tm['why']})"]
+    m, wheel = res.mass.mass, res.mass.fit.spec.wheel_mass
+    if m.estimate is None:
+        lines = [f"  total mass: not identified ({m.why})"]
     else:
-        ci = tm["ci95"]
-        lines = [f"  total mass (rider + wheel): {tm['estimate']:.0f} kg"
-                 + (f" 95% [{ci[0]:.0f}, {ci[1]:.0f}]" if ci else "")
-                 + (f"  FLAG: {tm['flag']}" if "flag" in tm else "")]
-        if tm.get("rider_mass"):
-            rm = tm["rider_mass"]
-            lines.append(f"  rider (with gear): {rm['estimate']:.0f} kg")
-    for name, why in rep["unidentified"].items():
+        lines = [f"  total mass (rider + wheel): {m.estimate:.0f} kg"
+                 + (f" 95% [{m.ci95[0]:.0f}, {m.ci95[1]:.0f}]" if m.ci95 else "")]
+        if wheel is not None:
+            lines.append(f"  rider (with gear): {m.estimate - wheel:.0f} kg")
+    for name, why in res.mass.unidentified.items():
         lines.append(f"  not identified: {name}: {why}")
-    if rep.get("pwm") and rep["pwm"].get("heldout_rmse") is not None:
-        lines.append(f"  PWM held out: {rep['pwm']['heldout_rmse']:.1f} percentage points RMS")
-    if rep.get("differences_sentence"):     # the JSON's "this ride" is the compared one: named as the page does
-        other = Path(str(rep.get("compare") or "")).name
-        said = rep["differences_sentence"]
+    if res.mass.pwm_heldout is not None:
+        lines.append(f"  PWM held out: {res.mass.pwm_heldout:.1f} percentage points RMS")
+    if res.differences is not None and res.differences.sentence:   # "this ride" is the compared one: named as the page does
+        other, said = Path(str(res.balance.compare or "")).name, res.differences.sentence
         lines.append("  compared: " + (f"the compared ride ({other})" + said[len("this ride"):]
                                        if other and said.startswith("this ride") else said))
     return lines
 
 
-def _limit_line(rep: Mapping) -> str:
+def _limit_line(res: RideResult) -> str:
     """The wheel's limit and where the cut-out comes before it."""
-    lim = limits_of(rep)
-    cut = rep.get("cutout") or {}
-    tail = (cut["danger"] if cut.get("danger") else
-            "the cut-out stays above it at every charge" if cut.get("curves") and lim.speed_limit_mps
-            else f"cut-out not known: {cut['why']}" if cut.get("why") else "cut-out not compared")
+    lim, cut = _limits(res), res.cutout
+    tail = (cut.danger if cut.danger else
+            "the cut-out stays above it at every charge" if cut.curves and lim.speed_limit_mps
+            else f"cut-out not known: {cut.why}" if cut.why else "cut-out not compared")
     return f"limit: {lim.words()}; {tail}"
 
 
-def _effect_lines(rep: Mapping) -> list[str]:
+def _effect_lines(res: RideResult) -> list[str]:
     """The held-out errors, the verdict and each effect kept, named or a candidate."""
-    u = rep["error_unit"]
-    lines = [("" if rep["verdict"]["battery_power"] else "V·I, NOT battery power: ")
-             + f"held-out error ({rep['error_measure']}): inertia-only "
-             f"{rep['heldout_error_nominal']:.1f} {u}, augmented {rep['heldout_error_augmented']:.1f} "
-             f"{u}, ratio {rep['ratio']:.2f}",
-             f"  verdict: {rep['verdict']['text']}"]
-    for e in rep["effects"]:
-        kind = "named" if e["name"] in rep["verdict"]["named"] else "candidate"
+    an, v = res.balance, res.verdict
+    cr, u = an.cross, an.error_unit
+    lines = [("" if v.battery_power else "V·I, NOT battery power: ")
+             + f"held-out error ({error_measure(an)}): inertia-only "
+             f"{cr.heldout_nominal:.1f} {u}, augmented {cr.heldout_augmented:.1f} "
+             f"{u}, ratio {cr.ratio:.2f}",
+             f"  verdict: {v.text}"]
+    phys = plausibility(cr.augmented)
+    for c in cr.accepted:
+        e = phys[c]
+        aliases = list(cr.fit_design.aliases.get(c, ()))
+        aliases += [x for x in cr.full.confounded(c) if x not in aliases]
+        kind = "named" if c in v.named else "candidate"
         flag = "" if e["plausible"] else "  IMPLAUSIBLE"
-        al = f"  aliases: {', '.join(e['aliases'])}" if e["aliases"] else ""
-        lines.append(f"  {kind}: {e['name']} = {e['estimate']:.4g} {unit_label(e['unit'])} "
+        al = f"  aliases: {', '.join(aliases)}" if aliases else ""
+        lines.append(f"  {kind}: {c} = {e['estimate']:.4g} {unit_label(e['unit'])} "
                      f"95% [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]{flag}{al}")
     return lines
 
 
-def _simulation_lines(rep: Mapping) -> list[str]:
+def _simulation_lines(res: RideResult) -> list[str]:
     """The simulated replay's errors step by step and its falls, or why it did not run."""
-    sim = rep["simulation"]
-    if not sim:
-        return [f"  simulated replay: {rep.get('simulation_why') or 'not run'}"]
-    e, lines = sim["errors"], []
-    if sim["scored_rows"]:
-        lines.append(f"  simulation along {sim['ride']}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
+    sim = res.simulation
+    if sim is None:
+        return [f"  simulated replay: {res.simulation_why or 'not run'}"]
+    e, lines = sim.errors, []
+    if sim.scored_rows:
+        lines.append(f"  simulation along {sim.label}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
                      f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
         lines += [f"    step {st['step']}: " + (_step_line(st) if st["ran"] else f"not run ({st['why']})")
-                  for st in sim.get("steps", [])]
-    fell = falls_sentence(sim.get("falls", []), sim["scored_rows"], clock_of(rep, sim.get("ride")))
+                  for st in sim.steps]
+    fell = falls_sentence(sim.falls, sim.scored_rows, clock_of(res, sim.label))
     if fell:
-        lines.append(f"  simulation along {sim['ride']}: {fell}")
+        lines.append(f"  simulation along {sim.label}: {fell}")
     return lines
 
 
-def summary_lines(rep: Mapping) -> list[str]:
+def summary_lines(res: RideResult) -> list[str]:
     """The terminal's summary of a ride's result, one string a line (no newlines).
 
     Parameters
     ----------
-    rep : mapping
-        The ``euc-sim ride`` JSON object (CONTRACT).
+    res : RideResult
 
     Returns
     -------
     list of str
     """
-    lines = list(key_figure_lines(rep)) + _effect_lines(rep)
-    lines += [f"  warning: {w}" for w in rep.get("input_warnings") or []]
-    lines += _mass_lines(rep) + [f"  {rep['mass_check']['sentence']}", "  " + _limit_line(rep)]
-    if rep["windows"]:
-        clock = rep.get("clock")
+    lines = key_figure_lines(res) + _effect_lines(res)
+    lines += [f"  warning: {w}" for w in res.mass.input_warnings]
+    lines += _mass_lines(res) + [f"  {res.rider.mass_check.sentence}", "  " + _limit_line(res)]
+    windows, clock = res.traces[0].localisation["windows"], res.rider.clock
+    if windows:
         lines.append(f"  windows, {spans_legend(clock)}: " + ", ".join(span_at(clock, a, b, "-")
-                                                                    for a, b in rep["windows"][:8])
-                     + (" ..." if len(rep["windows"]) > 8 else ""))
-    return lines + _simulation_lines(rep)
+                                                                    for a, b in windows[:8])
+                     + (" ..." if len(windows) > 8 else ""))
+    return lines + _simulation_lines(res)
 
 
 def history_lines(hist: Mapping, verdicts: bool = False) -> list[str]:
