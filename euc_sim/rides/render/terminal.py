@@ -12,11 +12,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Mapping
 
-from euc_sim.rides.balance.fit import plausibility
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
-from euc_sim.rides.render.limits_page import _limits
-from euc_sim.rides.render.page import error_measure, falls_sentence
+from euc_sim.rides.render.contract import effect_entries, error_measure
+from euc_sim.rides.render.limits_page import limits_of
+from euc_sim.rides.render.page import falls_sentence
 from euc_sim.rides.render.page_html import key_figure_lines
 from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend
 from euc_sim.rides.result import RideResult
@@ -55,7 +55,7 @@ def _mass_lines(res: RideResult) -> list[str]:
 
 def _limit_line(res: RideResult) -> str:
     """The wheel's limit and where the cut-out comes before it."""
-    lim, cut = _limits(res), res.cutout
+    lim, cut = limits_of(res), res.cutout
     tail = (cut.danger if cut.danger else
             "the cut-out stays above it at every charge" if cut.curves and lim.speed_limit_mps
             else f"cut-out not known: {cut.why}" if cut.why else "cut-out not compared")
@@ -71,15 +71,11 @@ def _effect_lines(res: RideResult) -> list[str]:
              f"{cr.heldout_nominal:.1f} {u}, augmented {cr.heldout_augmented:.1f} "
              f"{u}, ratio {cr.ratio:.2f}",
              f"  verdict: {v.text}"]
-    phys = plausibility(cr.augmented)
-    for c in cr.accepted:
-        e = phys[c]
-        aliases = list(cr.fit_design.aliases.get(c, ()))
-        aliases += [x for x in cr.full.confounded(c) if x not in aliases]
-        kind = "named" if c in v.named else "candidate"
+    for e in effect_entries(cr):
+        kind = "named" if e["name"] in v.named else "candidate"
         flag = "" if e["plausible"] else "  IMPLAUSIBLE"
-        al = f"  aliases: {', '.join(aliases)}" if aliases else ""
-        lines.append(f"  {kind}: {c} = {e['estimate']:.4g} {unit_label(e['unit'])} "
+        al = f"  aliases: {', '.join(e['aliases'])}" if e["aliases"] else ""
+        lines.append(f"  {kind}: {e['name']} = {e['estimate']:.4g} {unit_label(e['unit'])} "
                      f"95% [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]{flag}{al}")
     return lines
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from euc_sim.rides.render.notes import said_once
+from euc_sim.rides.render.page import said_once
 from euc_sim.rides.render.page import _simulation_md
 
 sys.path.append(str(Path(__file__).resolve().parents[2] / "report"))
