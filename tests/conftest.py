@@ -16,3 +16,34 @@ from pathlib import Path
 # table scripts and studies the tests check (blind_study, soak, band_halves, ...)
 ROOT = Path(__file__).resolve().parents[1]
 sys.path += [str(ROOT / "tests"), str(ROOT / "scripts"), str(ROOT / "scripts" / "tables"), str(ROOT / "studies")]
+
+
+import pytest  # noqa: E402
+
+
+def _ride_result(tmp, compare: bool):
+    import warnings
+
+    from ridesynth import synth_log
+
+    from euc_sim.rides.pipeline import ride_pipeline
+    from euc_sim.rides.source.logs import read_log
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        log = read_log(synth_log(tmp / "fit.csv", seed=3), emit_warnings=False)
+        other = read_log(synth_log(tmp / "other.csv", seed=4), emit_warnings=False) if compare else None
+        return ride_pipeline(log, other, n_boot=10)
+
+
+@pytest.fixture(scope="session")
+def ride_result(tmp_path_factory):
+    """The typed result of ``euc-sim ride`` on a synthetic log (:class:`~euc_sim.rides.result.RideResult`):
+    the renderers' tests replace its parts."""
+    return _ride_result(tmp_path_factory.mktemp("ride"), False)
+
+
+@pytest.fixture(scope="session")
+def compared_result(tmp_path_factory):
+    """The same with a second synthetic ride compared (differences, the compared ride's numbers)."""
+    return _ride_result(tmp_path_factory.mktemp("compared"), True)

@@ -4,53 +4,48 @@ the tiles (the page, index.md and the terminal say the tiles' strings), and one 
 
 from __future__ import annotations
 
-import warnings
+from dataclasses import replace
 
 from euc_sim.cli import main
 from euc_sim.rides.render.page_html import key_figure_lines, key_figures
-from euc_sim.rides.render.contract import clock_json
-from euc_sim.rides.summary.rider_view import ride_clock
-from euc_sim.rides.summary.summary import ride_summary
-from euc_sim.rides.source.logs import read_log
+from euc_sim.rides.summary.rider_view import Clock
 from tests.rides.summarysynth import as_layout, synth_summary_log
+from tests.rides.typed_ride import mass_fit, rider_of
 
 
-def _rep(path) -> dict:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        log = read_log(path, emit_warnings=False)
-    return {"summary": ride_summary(log).to_json(), "clock": clock_json(ride_clock(log))}
+def _tiles(rider) -> dict:
+    return {k.label: k for k in key_figures(rider, mass_fit())}
 
 
-def test_euc_world_stamps_keep_their_zone_and_the_peak_reads_as_clock_and_time_into_the_ride(tmp_path):
+def test_euc_world_stamps_keep_their_zone_and_the_peak_reads_as_clock_and_time_into_the_ride(tmp_path, ride_result):
     """EUC World writes "…T18:15:00.000+0200": the reader made it 16:15 UTC, and the tile said
     "least margin 26 % at 15:25" (time into the ride, read as a clock time)."""
     src = synth_summary_log(tmp_path / "w.csv", start="2024-06-01 18:15:00", pwm_peak=(925.0, 74.0),
                             ride_s=1200.0)
-    rep = _rep(as_layout(src, tmp_path / "e.csv", "eucworld"))
-    tiles = {k.label: k for k in key_figures(rep)}
+    rider = rider_of(as_layout(src, tmp_path / "e.csv", "eucworld"))
+    tiles = _tiles(rider)
     assert "least margin 26 % at 18:30 (15 min 25 s into the ride; marked on the map)" in tiles["Max PWM"].note
     assert "logged 18:15–18:35 (21 min) in UTC+02:00" in tiles["Riding time"].note
-    assert rep["clock"]["zone"] == "UTC+02:00" and rep["clock"]["utc_offset_s"] == 7200.0
-    assert rep["clock"]["start"].startswith("2024-06-01T18:15:00")
-    lines = "\n".join(key_figure_lines(rep))        # index.md's and the terminal's first lines
+    assert rider.clock.zone == "UTC+02:00" and rider.clock.utc_offset_s == 7200.0
+    assert rider.clock.start.startswith("2024-06-01T18:15:00")
+    lines = "\n".join(key_figure_lines(replace(ride_result, rider=rider)))   # index.md's and the terminal's first lines
     assert "at 18:30 (15 min 25 s into the ride" in lines
 
 
 def test_wheellog_clock_is_the_phones_and_said_so(tmp_path):
-    rep = _rep(synth_summary_log(tmp_path / "w.csv", start="2024-06-01 09:00:00", pwm_peak=(65.0, 70.0)))
-    assert rep["clock"]["utc_offset_s"] is None
-    tiles = {k.label: k for k in key_figures(rep)}
+    rider = rider_of(synth_summary_log(tmp_path / "w.csv", start="2024-06-01 09:00:00", pwm_peak=(65.0, 70.0)))
+    assert rider.clock.utc_offset_s is None
+    tiles = _tiles(rider)
     assert "at 09:01 (1 min 05 s into the ride" in tiles["Max PWM"].note
     assert "in the phone's local time" in tiles["Riding time"].note
 
 
 def test_a_long_pause_is_said_with_its_clock_times(tmp_path):
     """A log left running through a stop: the data-quality tile says when the pause was."""
-    rep = _rep(synth_summary_log(tmp_path / "p.csv", start="2024-06-01 09:00:00", gap=(200.0, 1800.0),
-                                 ride_s=2400.0))
-    assert rep["clock"]["pauses"] and rep["clock"]["pauses"][0][1] - rep["clock"]["pauses"][0][0] > 1700
-    note = {k.label: k for k in key_figures(rep)}["Data quality"].note
+    rider = rider_of(synth_summary_log(tmp_path / "p.csv", start="2024-06-01 09:00:00", gap=(200.0, 1800.0),
+                                       ride_s=2400.0))
+    assert rider.clock.pauses and rider.clock.pauses[0][1] - rider.clock.pauses[0][0] > 1700
+    note = _tiles(rider)["Data quality"].note
     assert "; paused 09:03–09:33 (3 min 20 s into the ride, 30 min)." in note and ".;" not in note
 
 
@@ -73,27 +68,33 @@ def test_the_rides_table_shows_one_zone_and_flags_a_bad_pwm_peak(tmp_path, capsy
     assert "start (UTC+02:00" in page and "94 BAD (≥ 90 %" in page and "2024-06-01 10:00" in page
 
 
-def test_windows_and_falls_read_as_clock_and_time_into_the_ride():
+def test_windows_and_falls_read_as_clock_and_time_into_the_ride(ride_result):
     """The residual's windows read "182.1-186.9" (s into the ride) and a fall "at t = 842.9 s"
     while the tiles give clock times of the ride's zone: they now read as the tiles do; a fall
     on the compared ride is said in that ride's clock."""
     from euc_sim.rides.render.page import _localisation_md, falls_sentence
     from euc_sim.rides.render.ride_time import clock_of
+    from euc_sim.rides.result import ComparedRide
 
-    clock = {"start": "2025-07-26T13:51:01.613000+02:00", "utc_offset_s": 7200.0, "zone": "UTC+02:00",
-             "pauses": []}
-    rep = {"recording": "4.csv", "windows": [[177.8, 183.2], [3897.0, 3905.5]], "clock": clock,
-           "localisation": {"share": 0.57}}
-    line = next(x for x in _localisation_md(rep, {}) if x.startswith("Windows"))
+    clock = Clock("2025-07-26T13:51:01.613000+02:00", 7200.0, "UTC+02:00")
+    trace = replace(ride_result.traces[0], localisation={"windows": [[177.8, 183.2], [3897.0, 3905.5]],
+                                                         "share": 0.57, "correlations": {}})
+    res = replace(ride_result, balance=replace(ride_result.balance, recording="4.csv"), traces=(trace,),
+                  rider=replace(ride_result.rider, clock=clock))
+    line = next(x for x in _localisation_md(res, {}) if x.startswith("Windows"))
     assert ("(57 % of its energy), clock time in UTC+02:00 (time into the ride, min:s): "
             "13:53:59–13:54:04 (2:58–3:03), 14:55:58–14:56:07 (1:04:57–1:05:06).") in line
     assert "177.8" not in line
-    other = {**clock, "start": "2025-07-17T16:48:42.819000+02:00"}
-    rep["compared"] = {"recording": "2.csv", "clock": other}
-    fell = falls_sentence([{"t": 842.9, "cause": "|phi| too large", "run": "nominal"}], 10, clock_of(rep, "2.csv"))
+    other = replace(clock, start="2025-07-17T16:48:42.819000+02:00")
+    compared = replace(res, compared=ComparedRide("2.csv", res.mass.fit, res.mass.mass,
+                                                  replace(res.rider, clock=other)))
+    fell = falls_sentence([{"t": 842.9, "cause": "|phi| too large", "run": "nominal"}], 10,
+                          clock_of(compared, "2.csv"))
     assert "fell at 17:02 (14 min 03 s into the ride; nominal: |phi| too large)" in fell
-    assert clock_of(rep, "4.csv") is clock and clock_of({"clock": clock}, "2.csv") is clock
-    bare = {"recording": "x.csv", "windows": [[177.8, 183.2]], "localisation": {}}
+    assert clock_of(compared, "4.csv") is clock and clock_of(res, "2.csv") is clock
+    bare = replace(res, traces=(replace(trace, localisation={"windows": [[177.8, 183.2]], "share": None,
+                                                             "correlations": {}}),),
+                   rider=replace(res.rider, clock=None))
     assert "time into the ride, min:s: 2:58–3:03." in _localisation_md(bare, {})[3]
 
 
@@ -129,17 +130,18 @@ def test_the_rides_are_in_the_order_they_were_ridden_whatever_zone_their_log_kee
     assert f"start ({zone})" in page and zone.startswith("UTC+02:00")
 
 
-def test_the_riding_time_says_which_clock_gives_each_length():
+def test_the_riding_time_says_which_clock_gives_each_length(ride_result):
     """Blitz 2: "18 min (of 19 min; the app's trip and riding clocks; 16:48–17:10 in UTC+02:00)":
     the span reads 22 min against the 19 min beside it.  The span is said as the log's, with its
     own length where it differs."""
-    rep = {"summary": {"moving_s": 1091.0, "duration_s": 1111.0, "logged_s": 1289.11,
-                       "duration_follows": "the app's trip and riding clocks"},
-           "clock": {"start": "2025-07-17T16:48:42.819000+02:00", "utc_offset_s": 7200.0, "zone": "UTC+02:00"}}
-    note = {k.label: k for k in key_figures(rep)}["Riding time"].note
+    r = ride_result.rider
+    rider = replace(r, summary=replace(r.summary, moving_s=1091.0, duration_s=1111.0, logged_s=1289.11,
+                                       duration_follows="the app's trip and riding clocks"),
+                    clock=Clock("2025-07-17T16:48:42.819000+02:00", 7200.0, "UTC+02:00"))
+    note = _tiles(rider)["Riding time"].note
     assert note == "of 19 min; the app's trip and riding clocks; logged 16:48–17:10 (21 min) in UTC+02:00"
-    same = dict(rep, summary={**rep["summary"], "logged_s": 1120.0})
-    assert {k.label: k for k in key_figures(same)}["Riding time"].note.endswith("; logged 16:48–17:07 in UTC+02:00")
+    same = replace(rider, summary=replace(rider.summary, logged_s=1120.0))
+    assert _tiles(same)["Riding time"].note.endswith("; logged 16:48–17:07 in UTC+02:00")
 
 
 def test_the_residual_figure_draws_the_windows_on_the_minutes_the_page_says():

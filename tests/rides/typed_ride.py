@@ -1,0 +1,44 @@
+"""Typed ride results for the renderers' tests: a ride's numbers read from a log, a mass fit,
+a battery verdict and a whole :class:`~euc_sim.rides.result.RideResult` with parts replaced."""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import replace
+
+from euc_sim.rides.drive.battery import BatteryHealth
+from euc_sim.rides.drive.mass import MassFit
+from euc_sim.rides.grids.power import SpeedScale
+from euc_sim.rides.result import RiderNumbers
+from euc_sim.rides.source.logs import read_log
+from euc_sim.rides.summary.rider_view import rider_numbers
+
+
+def read(path):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return read_log(path, emit_warnings=False)
+
+
+def rider_of(path, **summary) -> RiderNumbers:
+    """The summary, mass check, battery and clock of the log at ``path`` (no mass, no drivetrain),
+    the summary's fields in ``summary`` replaced."""
+    r = RiderNumbers(*rider_numbers(read(path), None, {}))
+    return replace(r, summary=replace(r.summary, **summary)) if summary else r
+
+
+def mass_fit(estimate=None, ci95=None, why: str = "", **kw) -> MassFit:
+    """A total mass as reported, kg (not identified, with ``why``, by default)."""
+    return MassFit(estimate, ci95, {}, {}, [], [], 0.0, SpeedScale(1.0, 0.0, "assumed"), True, 0, {}, why, **kw)
+
+
+def battery(resistance_ohm=None, verdict: str = "cannot tell", **kw) -> BatteryHealth:
+    """A battery verdict: the pack's resistance, Ω, and what it is judged against."""
+    out = dict(resistance_ci95=None, temperature_C=None, resistance_25C_ohm=None, resistance_25C_ci95=None,
+               per_cell_ohm=None, expected_ohm=None, expected_source=None, app_setting_ohm=None, sentence="")
+    return BatteryHealth(resistance_ohm=resistance_ohm, verdict=verdict, **{**out, **kw})
+
+
+def with_summary(res, **summary):
+    """``res`` (a RideResult) with its summary's fields replaced."""
+    return replace(res, rider=replace(res.rider, summary=replace(res.rider.summary, **summary)))
