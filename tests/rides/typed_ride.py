@@ -29,7 +29,9 @@ def rider_of(path, **summary) -> RiderNumbers:
 
 def mass_fit(estimate=None, ci95=None, why: str = "", **kw) -> MassFit:
     """A total mass as reported, kg (not identified, with ``why``, by default)."""
-    return MassFit(estimate, ci95, {}, {}, [], [], 0.0, SpeedScale(1.0, 0.0, "assumed"), True, 0, {}, why, **kw)
+    out = dict(coef={}, coef_ci95={}, terms=[], history=[], lag=0.0, scale=SpeedScale(1.0, 0.0, "assumed"),
+               signed=True, n_samples=0, unidentified={})
+    return MassFit(estimate=estimate, ci95=ci95, why=why, **{**out, **kw})
 
 
 def battery(resistance_ohm=None, verdict: str = "cannot tell", **kw) -> BatteryHealth:

@@ -64,17 +64,22 @@ def test_the_sampling_note_gives_no_second_rate_beside_the_tiles():
     assert "10.0 Hz within bursts between gaps" in bursts
 
 
-def test_the_gaps_are_said_at_their_moments_in_each_rides_clock():
+def test_the_gaps_are_said_at_their_moments_in_each_rides_clock(ride_result):
     """Blitz 4: "2 logging gap(s) (…; at t = 2248, 3840 s)" while the tiles give clock times:
     the page says each gap's clock time and time into the ride, a compared ride's in its own."""
-    from euc_sim.rides.render.page import _assumptions_md
+    from dataclasses import replace
 
-    clock = {"start": "2025-07-26T13:51:01.613000+02:00", "utc_offset_s": 7200.0, "zone": "UTC+02:00"}
-    rep = {"assumptions": {"R": 0.2, "total_mass": 100.0, "m_eq": 104.0, "sources": {}},
-           "torque_method": "power_efficiency", "power_source": "voltage*current", "clock": clock,
-           "compared": {"recording": "2.csv", "clock": {**clock, "start": "2025-07-17T16:48:42.8+02:00"}},
-           "notes": [f"{who}gap of 3.00 s at t = {t:.2f} s (> max_gap 2.5 s): ride split there, not bridged"
-                     for who, t in (("", 2248.0), ("", 3840.0), ("2.csv: ", 60.0))]}
+    from euc_sim.rides.render.page import _assumptions_md
+    from euc_sim.rides.result import ComparedRide
+    from euc_sim.rides.summary.rider_view import Clock
+
+    clock = Clock("2025-07-26T13:51:01.613000+02:00", 7200.0, "UTC+02:00")
+    res = ride_result
+    other = replace(res.rider, clock=replace(clock, start="2025-07-17T16:48:42.8+02:00"))
+    rep = replace(res, rider=replace(res.rider, clock=clock),
+                  compared=ComparedRide("2.csv", res.mass.fit, res.mass.mass, other),
+                  notes=tuple(f"{who}gap of 3.00 s at t = {t:.2f} s (> max_gap 2.5 s): ride split there, not bridged"
+                              for who, t in (("", 2248.0), ("", 3840.0), ("2.csv: ", 60.0))))
     md = "\n".join(_assumptions_md(rep))
     assert "at 14:28 (37 min 28 s into the ride), 14:55 (1 h 04 min into the ride))" in md
     assert "2.csv: 1 logging gap(s) (total 3.0 s, longest 3.00 s; at 16:49 (1 min 00 s into the ride))" in md

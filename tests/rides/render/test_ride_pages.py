@@ -38,7 +38,8 @@ def _logs() -> list[tuple[Path, Path | None]]:
 @pytest.fixture(scope="session")
 def pages(tmp_path_factory):
     """(log, spec, report, page text) for each of the 21 logs."""
-    from euc_sim.api.functions import run_ride
+    from euc_sim.rides.pipeline import ride_pipeline
+    from euc_sim.rides.render.contract import ride_json
     from euc_sim.rides.render.page import write_page
     from euc_sim.rides.source.spec import read_spec
 
@@ -48,8 +49,8 @@ def pages(tmp_path_factory):
         spec = read_spec(spec_path) if spec_path else None
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            rep = run_ride(read_log(log, emit_warnings=False), spec=spec, simulate=False, n_boot=10)
-        page = write_page(rep, root / str(k), {}).read_text()
+            res = ride_pipeline(read_log(log, emit_warnings=False), spec=spec, simulate=False, n_boot=10)
+        rep, page = ride_json(res), write_page(res, root / str(k), {}).read_text()
         out.append((log, spec, rep, page))
     return out
 

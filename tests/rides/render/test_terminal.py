@@ -4,28 +4,42 @@ from __future__ import annotations
 
 import copy
 import json
+from dataclasses import replace
 from pathlib import Path
 
+import pandas as pd
+
 from euc_sim.rides.render.terminal import history_lines, summary_lines
+from euc_sim.rides.sim.simulate import RideSimulation
+from euc_sim.rides.summary.rider_view import Clock
 
 RIDE = Path(__file__).resolve().parents[3] / "docs" / "ride" / "ride.json"
 
 
-def test_each_simulated_step_has_its_line_and_a_step_not_run_says_why():
-    rep = json.loads(RIDE.read_text())
-    steps = rep["simulation"]["steps"]
-    lines = summary_lines(rep)
+def _simulated(res, steps=None):
+    """``res`` with the simulation of the documented ride (docs/ride/ride.json)."""
+    sim = json.loads(RIDE.read_text())["simulation"]
+    table = pd.DataFrame({"scored": [True] * sim["scored_rows"]})
+    return replace(res, simulation=RideSimulation(sim["ride"], table, sim["errors"], sim["effects_injected"],
+                                                  sim["drivetrain"], sim["falls"], {}, steps or sim["steps"],
+                                                  tuple(sim["notes"])), simulation_why=None)
+
+
+def test_each_simulated_step_has_its_line_and_a_step_not_run_says_why(ride_result):
+    res = _simulated(ride_result)
+    steps = res.simulation.steps
+    lines = summary_lines(res)
     assert all("\n" not in line for line in lines)
     assert [ln.strip().split(":")[0] for ln in lines if ln.startswith("    step ")] == [f"step {s['step']}" for s in steps]
-    skipped = copy.deepcopy(rep)
-    skipped["simulation"]["steps"][-1].update(ran=False, why="no time left")
-    assert summary_lines(skipped)[-1].endswith(f"step {steps[-1]['step']}: not run (no time left)")
+    skipped = copy.deepcopy(steps)
+    skipped[-1].update(ran=False, why="no time left")
+    assert summary_lines(_simulated(ride_result, skipped))[-1].endswith(
+        f"step {steps[-1]['step']}: not run (no time left)")
 
 
-def test_a_ride_not_simulated_says_why_in_its_last_line():
-    rep = json.loads(RIDE.read_text())
-    rep.update(simulation=None, simulation_why="--no-simulate")
-    assert summary_lines(rep)[-1] == "  simulated replay: --no-simulate"
+def test_a_ride_not_simulated_says_why_in_its_last_line(ride_result):
+    res = replace(ride_result, simulation=None, simulation_why="--no-simulate")
+    assert summary_lines(res)[-1] == "  simulated replay: --no-simulate"
 
 
 def _history(verdict: str = "as new") -> dict:
@@ -43,16 +57,22 @@ def test_the_rides_table_is_in_the_one_zone_and_says_a_verdict_only_with_a_pack(
     assert history_lines(_history(), verdicts=True)[-1].endswith("resistance 148 mΩ (as new)")
 
 
-def test_the_windows_and_the_compared_ride_read_as_the_page_says_them():
+def test_the_windows_and_the_compared_ride_read_as_the_page_says_them(compared_result):
     """The terminal said "windows (s): 76.6-96.3, …" beside tiles in clock time, and "compared:
     this ride needed …" under this ride's own figures, meaning the compared one."""
     from euc_sim.rides.render.ride_time import span_at
 
     rep = json.loads(RIDE.read_text())
-    lines = summary_lines(rep)
+    clock = Clock(**rep["clock"])
+    trace = replace(compared_result.traces[0], localisation={**compared_result.traces[0].localisation,
+                                                             "windows": rep["windows"]})
+    res = replace(compared_result, traces=(trace,) + compared_result.traces[1:],
+                  rider=replace(compared_result.rider, clock=clock),
+                  differences=replace(compared_result.differences, sentence=rep["differences_sentence"]))
+    lines = summary_lines(res)
     win = next(ln for ln in lines if ln.startswith("  windows"))
     a, b = rep["windows"][0]
     assert win.startswith("  windows, clock time in the phone's local time (time into the ride, min:s): "
-                          + span_at(rep["clock"], a, b, "-")) and f"{a:.1f}" not in win
+                          + span_at(clock, a, b, "-")) and f"{a:.1f}" not in win
     said = next(ln for ln in lines if ln.startswith("  compared: "))
-    assert said.startswith(f"  compared: the compared ride ({rep['compare']}) needed ") and "this ride" not in said
+    assert said.startswith(f"  compared: the compared ride ({res.balance.compare}) needed ") and "this ride" not in said
