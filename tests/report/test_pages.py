@@ -76,28 +76,34 @@ SUMMARY = {"duration_s": 1500.0, "moving_s": 1260.0, "distance_m": 12345.0, "dis
            "range_m_at_this_rate": 32500.0, "pwm_max_pct": 91.0, "pwm_max_at_s": 150.0, "alarms": 3,
            "gaps": {"count": 4, "total_s": 400.0, "longest_s": 250.0}, "sampling_hz": 4.9,
            "quality": "poor", "quality_sentence": "Data quality poor: 4.9 samples/s, 4 gap(s) (27 % of the log)"}
-#: The ride JSON's ``mass_check`` and ``battery`` in their form.
-MASS_CHECK = {"declared_rider_kg": 80.0, "verdict": "heavier", "sentence": "heavier"}
-BATTERY = {"resistance_ohm": 0.152, "resistance_ci95": [0.14, 0.16], "resistance_25C_ohm": 0.147,
-           "verdict": "worn: +35 % resistance", "sentence": "worn: +35 % resistance"}
-
-
 @pytest.fixture(scope="module")
 def with_summary(drive, tmp_path_factory):
-    """The drive page rebuilt with a ``summary`` (as the ride JSON carries it once computed)."""
+    """The drive page rebuilt with the summary :data:`SUMMARY`, a declared rider heavier than the
+    log's mass and a worn battery."""
+    from dataclasses import replace
+
+    from typed_ride import battery, summary
+
     from euc_sim.rides.grids.signals import ride_signals
-    from euc_sim.rides.drive.drivetrain_report import analyse
+    from euc_sim.rides.pipeline import ride_pipeline
     from euc_sim.rides.render.page_html import figure_specs, write_ride_html
     from euc_sim.rides.render.series import RideSeries
 
-    log, _, rep = drive
+    log = drive[0]
     sig = ride_signals(read_log(log, emit_warnings=False))
     series = RideSeries.from_frame(sig.raw, sig.rate)
-    fit = analyse(read_log(log, emit_warnings=False))
-    rep = dict(rep, summary=SUMMARY, mass_check=MASS_CHECK, battery=BATTERY)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = ride_pipeline(read_log(log, emit_warnings=False), n_boot=10)
+    r = res.rider
+    res = replace(res, rider=replace(
+        r, summary=summary(**SUMMARY),
+        mass_check=replace(r.mass_check, declared_rider_kg=80.0, verdict="heavier", sentence="heavier"),
+        battery=battery(0.152, "worn: +35 % resistance", resistance_ci95=(0.14, 0.16), resistance_25C_ohm=0.147,
+                        sentence="worn: +35 % resistance")))
     out = tmp_path_factory.mktemp("summary")
-    page = write_ride_html(rep, out, series, fit)
-    return page, figure_specs(rep, series, fit)
+    page = write_ride_html(res, out, series)
+    return page, figure_specs(res, series)
 
 
 @pytest.fixture(scope="module")
@@ -151,12 +157,14 @@ def test_tiles_show_the_summary_in_peoples_units(with_summary):
 
 
 def test_data_quality_without_the_summarys_verdict_states_the_gaps():
+    from typed_ride import summary
+
     from euc_sim.rides.render.page_html import data_quality
 
-    line, tone = data_quality({"duration_s": 1000.0, "gaps": {"count": 2, "total_s": 300.0, "longest_s": 200.0},
-                               "sampling_hz": 2.5})
+    line, tone = data_quality(summary(duration_s=1000.0, gaps={"count": 2, "total_s": 300.0, "longest_s": 200.0},
+                                      sampling_hz=2.5, quality=""))
     assert line == "2 gaps, 300 s (30 % of the ride), longest 200 s; 2.5 samples/s" and tone == ""
-    assert data_quality({"quality": "fair", "quality_sentence": "Data quality fair: x."}) == \
+    assert data_quality(summary(quality="fair", quality_sentence="Data quality fair: x.")) == \
         ("Data quality fair: x.", "warn")
 
 
@@ -256,11 +264,17 @@ def test_the_fits_figures_are_drawn_in_the_folded_parts_with_titles_and_units(dr
         assert r.values[traces] >= 2, name
 
 
-def test_a_battery_gauge_that_never_moved_says_so():
+def test_a_battery_gauge_that_never_moved_says_so(ride_result):
     """A full pack reads 100 % for its first watt-hours: "0 %" alone read as a ride that drew nothing."""
+    from dataclasses import replace
+
+    from typed_ride import summary
+
     from euc_sim.rides.render.page_html import key_figure_lines
 
-    s = {"energy_drawn_Wh": 19.1, "battery_used_pct": 0.0, "battery_start_pct": 100.0, "battery_end_pct": 100.0}
-    assert "Battery used: 0 % (the wheel's gauge read 100 % throughout)" in key_figure_lines({"summary": s})
-    s.update(battery_used_pct=4.0, battery_end_pct=96.0, range_m_at_this_rate=26000.0)
-    assert "Battery used: 4 % (range at this rate: 26 km)" in key_figure_lines({"summary": s})
+    s = summary(energy_drawn_Wh=19.1, battery_used_pct=0.0, battery_start_pct=100.0, battery_end_pct=100.0)
+    res = replace(ride_result, rider=replace(ride_result.rider, summary=s))
+    assert "Battery used: 0 % (the wheel's gauge read 100 % throughout)" in key_figure_lines(res)
+    s = replace(s, battery_used_pct=4.0, battery_end_pct=96.0, range_m_at_this_rate=26000.0)
+    res = replace(ride_result, rider=replace(ride_result.rider, summary=s))
+    assert "Battery used: 4 % (range at this rate: 26 km)" in key_figure_lines(res)

@@ -44,3 +44,14 @@ def battery(resistance_ohm=None, verdict: str = "cannot tell", **kw) -> BatteryH
 def with_summary(res, **summary):
     """``res`` (a RideResult) with its summary's fields replaced."""
     return replace(res, rider=replace(res.rider, summary=replace(res.rider.summary, **summary)))
+
+
+def summary(**fields):
+    """A :class:`~euc_sim.rides.summary.summary.RideSummary` with ``fields`` given and every other
+    required one unknown (no gaps)."""
+    from dataclasses import MISSING, fields as all_fields
+
+    from euc_sim.rides.summary.summary import RideSummary
+
+    unknown = {f.name: None for f in all_fields(RideSummary) if f.default is MISSING and f.default_factory is MISSING}
+    return RideSummary(**{**unknown, "gaps": {}, **fields})
