@@ -157,32 +157,39 @@ def ride(tmp_path_factory):
     d = tmp_path_factory.mktemp("ride")
     log = drive_log(d / (" ".join(NAMED[:3]) + ".csv"), seed=4, duration=120.0)
     other = drive_log(d / (" ".join(NAMED[2:]) + ".csv"), seed=5, duration=120.0)
-    _run(["ride", log, "--compare", other, "--wheel", _spec(d), "--no-simulate", "--n-boot", "10",
+    spec = _spec(d)
+    _run(["ride", log, "--compare", other, "--wheel", spec, "--no-simulate", "--n-boot", "10",
           "--report", d / "rep", "--json", d / "r.json", "--quiet"])
-    return log, other, d / "rep" / "index.html", json.loads((d / "r.json").read_text())
+    return log, other, d / "rep" / "index.html", spec
 
 
 @pytest.fixture(scope="module")
 def compared(ride, tmp_path_factory):
     """The ride's page with named differences and both logs' ``meta.csv`` fields hostile."""
+    from dataclasses import replace
+
+    from euc_sim.rides.compare.differences import Difference
     from euc_sim.rides.grids.signals import ride_signals
-    from euc_sim.rides.drive.drivetrain_report import analyse
+    from euc_sim.rides.pipeline import ride_pipeline
     from euc_sim.rides.render.page_html import write_ride_html
     from euc_sim.rides.render.series import RideSeries
+    from euc_sim.rides.source.spec import wheel_spec
 
-    log, other, _, rep = ride
+    log, other, _, spec = ride
     (log.parent / "meta.csv").write_text(
         "wheel,brand,rider_weight,tire_pressure,temperature,wind\n"
         + ",".join(["w", "b"] + [f'"{x}"' for x in (NAMED[0], NAMED[1], FIELDS[1], NAMED[4] + FIELDS[2])]) + "\n")
-    diffs = [{"name": n, "estimate": e, "ci95": ci, "unit": u, "named": True, "aliases": []}
-             for n, e, ci, u in (("total_mass", 8.0, [2.0, 14.0], "kg"),
-                                 ("rolling_resistance", 0.004, [0.001, 0.007], "1"),
-                                 ("speed_scale", 0.02, [0.01, 0.03], "1"),
-                                 ("internal_resistance", 0.02, [0.01, 0.03], "ohm"))]
-    rep = dict(rep, compare=str(other), differences=diffs)
+    diffs = tuple(Difference(n, e, ci, u, True, "") for n, e, ci, u in (
+        ("total_mass", 8.0, (2.0, 14.0), "kg"), ("rolling_resistance", 0.004, (0.001, 0.007), "1"),
+        ("speed_scale", 0.02, (0.01, 0.03), "1"), ("internal_resistance", 0.02, (0.01, 0.03), "ohm")))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = ride_pipeline(read_log(log, emit_warnings=False), read_log(other, emit_warnings=False),
+                            spec=wheel_spec(str(spec)), n_boot=10)
+    res = replace(res, balance=replace(res.balance, compare=str(other)),
+                  differences=replace(res.differences, items=diffs))
     sig = ride_signals(read_log(log, emit_warnings=False))
-    return write_ride_html(rep, tmp_path_factory.mktemp("compared"), RideSeries.from_frame(sig.raw, sig.rate),
-                           analyse(read_log(log, emit_warnings=False)))
+    return write_ride_html(res, tmp_path_factory.mktemp("compared"), RideSeries.from_frame(sig.raw, sig.rate))
 
 
 @pytest.fixture(scope="module")

@@ -11,9 +11,9 @@ units with its interval and aliases, or, with nothing named, what the pair could
 
 from __future__ import annotations
 
-import json
 import sys
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
@@ -26,7 +26,7 @@ import pagenumbers as P  # noqa: E402
 from drivesynth import drive_log  # noqa: E402
 import conceal as cc  # noqa: E402
 
-from euc_sim.cli import main  # noqa: E402
+from euc_sim.rides.compare.differences import Difference, Differences  # noqa: E402
 from euc_sim.rides.render.differences_page import TITLE, difference_lines, recorded_metadata  # noqa: E402
 from euc_sim.rides.grids.power import RHO_AIR  # noqa: E402
 
@@ -36,12 +36,18 @@ BOX_BOTTOM = "document.querySelector('.box').getBoundingClientRect().bottom"
 LEAD_BOTTOM = "document.querySelector('.lead').getBoundingClientRect().bottom"
 
 
-def _compare(log, other, out: Path) -> tuple[Path, dict]:
+def _compare(log, other, out: Path) -> tuple:
+    """``ride LOG --compare OTHER --no-simulate --report``: the folder, the ride JSON and the typed result."""
+    from euc_sim.rides.pipeline import ride_pipeline
+    from euc_sim.rides.render.contract import ride_json
+    from euc_sim.rides.render.report_files import write_report
+    from euc_sim.rides.source.logs import read_log
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        assert main(["ride", str(log), "--compare", str(other), "--no-simulate", "--n-boot", "20",
-                     "--report", str(out / "rep"), "--json", str(out / "r.json"), "--quiet"]) == 0
-    return out / "rep", json.loads((out / "r.json").read_text())
+        res = ride_pipeline(read_log(log, emit_warnings=False), read_log(other, emit_warnings=False), n_boot=20)
+        rep = ride_json(res, write_report(res, out / "rep"))
+    return out / "rep", rep, res
 
 
 @pytest.fixture(scope="module")
@@ -74,21 +80,24 @@ def _problems(rep_dir: Path) -> dict:
 
 @pytest.mark.parametrize("which", ["synthetic", "wheellog"])
 def test_every_number_appears_once(which, request):
-    rep_dir, _ = request.getfixturevalue(which)
+    rep_dir = request.getfixturevalue(which)[0]
     assert _problems(rep_dir) == {"html": [], "md": []}
 
 
 def test_a_poor_log_and_a_high_pwm_are_said_once(synthetic, tmp_path):
     """The tiles' data quality and max PWM are not repeated by the lead or the notes."""
+    from typed_ride import summary
+
     from euc_sim.rides.render.page_html import write_ride_html
 
-    rep = dict(synthetic[1], summary={
-        "duration_s": 400.0, "moving_s": 380.0, "pwm_max_pct": 93.0, "pwm_max_at_s": 120.0,
-        "gaps": {"count": 12, "total_s": 130.0, "longest_s": 40.0}, "sampling_hz": 2.9, "quality": "poor",
-        "quality_sentence": "Data quality poor: 2.9 samples/s, 12 gap(s) (33 % of the log); treat every "
-                            "verdict below as weak"},
-        notes=list(synthetic[1]["notes"]) + ["irregular sampling: intervals 0.1-40 s; 12 gap(s) longer than 1 s"])
-    page = write_ride_html(rep, tmp_path, None).read_text()
+    res = synthetic[2]
+    s = summary(duration_s=400.0, moving_s=380.0, pwm_max_pct=93.0, pwm_max_at_s=120.0,
+                gaps={"count": 12, "total_s": 130.0, "longest_s": 40.0}, sampling_hz=2.9, quality="poor",
+                quality_sentence="Data quality poor: 2.9 samples/s, 12 gap(s) (33 % of the log); treat every "
+                                 "verdict below as weak")
+    res = replace(res, rider=replace(res.rider, summary=s),
+                  notes=res.notes + ("irregular sampling: intervals 0.1-40 s; 12 gap(s) longer than 1 s",))
+    page = write_ride_html(res, tmp_path, None).read_text()
     qs = P.page_quantities(P.html_sections(page), TITLE)
     assert {"max_pwm", "sampling_rate", "gaps"} <= {q.name for q in qs}
     assert P.problems(qs) == []
@@ -111,12 +120,12 @@ def test_the_check_sees_a_repeat_two_values_and_an_efficiency_above_one():
 
 
 def test_the_page_leads_with_the_differences(synthetic):
-    rep_dir, rep = synthetic
+    rep_dir, rep, res = synthetic
     html = (rep_dir / "index.html").read_text()
     assert html.index('class="kf"') < html.index('class="box"') < html.index('class="lead"')
     md = (rep_dir / "index.md").read_text()
     assert md.index(f"## {TITLE}") < md.index("## Verdict")
-    lines = difference_lines(rep)
+    lines = difference_lines(res.differences, res.balance.compare)
     assert lines and lines[0] in md and lines[0].startswith("**")
     named = [d for d in rep["differences"] if d["named"]]
     assert ("needed" in lines[0]) == bool(named) and ("Nothing differs" in lines[0]) == (not named)
@@ -131,19 +140,17 @@ def test_the_differences_fit_the_first_screen(synthetic, tmp_path):
 
 
 def _diff(name, est, ci, unit, named, aliases=()):
-    return {"name": name, "estimate": est, "ci95": ci, "unit": unit, "named": named, "why": "",
-            "aliases": list(aliases)}
+    return Difference(name, est, tuple(ci), unit, named, "", tuple(aliases))
 
 
 def test_a_named_drag_in_peoples_units_with_its_interval_and_aliases():
     k = 0.5 * RHO_AIR
-    rep = {"compare": "b.csv", "differences_sentence": "this ride needed more than the 16 May ride (a.csv).",
-           "differences": [_diff("aerodynamic_drag", 0.25 * k, [0.15 * k, 0.35 * k], "kg/m", True,
-                                 ["rolling_resistance"]),
-                           _diff("internal_resistance", 0.02, [0.01, 0.03], "ohm", True),
-                           _diff("total_mass", 3.0, [-20.0, 26.0], "kg", False),
-                           _diff("ocv_start", 1.0, [0.5, 1.5], "V", False)]}
-    lines = difference_lines(rep)
+    res = Differences((_diff("aerodynamic_drag", 0.25 * k, [0.15 * k, 0.35 * k], "kg/m", True, ["rolling_resistance"]),
+                       _diff("internal_resistance", 0.02, [0.01, 0.03], "ohm", True),
+                       _diff("total_mass", 3.0, [-20.0, 26.0], "kg", False),
+                       _diff("ocv_start", 1.0, [0.5, 1.5], "V", False)),
+                      sentence="this ride needed more than the 16 May ride (a.csv).")
+    lines = difference_lines(res, "b.csv")
     assert lines[0] == ("**The compared ride (b.csv) needed 0.25 m² more drag area (a jacket? a headwind?); "
                         "20 mΩ more battery resistance (a colder or older pack?) than this ride (16 May).**")
     assert "- Drag area: 95 % interval +0.15 to +0.35 m²; cannot be told apart from rolling resistance" in lines[2]
@@ -153,15 +160,14 @@ def test_a_named_drag_in_peoples_units_with_its_interval_and_aliases():
 
 
 def test_nothing_named_says_so_and_what_the_pair_could_see():
-    rep = {"compare": "b.csv", "differences": [
-        _diff("total_mass", -3.0, [-40.0, 30.0], "kg", False),
-        _diff("speed_scale", 0.01, [-0.03, 0.05], "1", False),
-        _diff("rolling_resistance", 0.001, [-0.01, 0.012], "1", False)]}
-    assert difference_lines(rep) == [
+    res = Differences((_diff("total_mass", -3.0, [-40.0, 30.0], "kg", False),
+                       _diff("speed_scale", 0.01, [-0.03, 0.05], "1", False),
+                       _diff("rolling_resistance", 0.001, [-0.01, 0.012], "1", False)))
+    assert difference_lines(res, "b.csv") == [
         "**Nothing differs between this ride and the compared ride (b.csv) that this pair of rides can show.** "
         "The smallest differences it could have seen: mass ±35 kg, rolling resistance ±1.1 % of the weight, "
         "tyre size (speed scale) ±4.0 %."]
-    assert difference_lines({"compare": "b.csv"}) == [] and difference_lines({"differences": []}) == []
+    assert difference_lines(None, "b.csv") == [] and difference_lines(Differences(()), None) == []
 
 
 def test_the_metadata_of_both_rides_beside_the_difference(tmp_path):
@@ -171,13 +177,13 @@ def test_the_metadata_of_both_rides_beside_the_difference(tmp_path):
         (tmp_path / "v9" / n / "meta.csv").write_text(
             "wheel,brand,year,app,trip_type,rider_weight,tire_pressure,temperature,wind,rain\n"
             f"v9,inmotion,2025,euc_world,0,{kg},{bar},20,low,False\n")
-    rep = {"compare": "1.csv", "differences": [_diff("total_mass", 8.0, [2.0, 14.0], "kg", True)]}
+    res = Differences((_diff("total_mass", 8.0, [2.0, 14.0], "kg", True),))
     log = tmp_path / "v9" / "0" / "0.csv"
-    meta = recorded_metadata(rep, log)
+    meta = recorded_metadata("1.csv", log)
     assert meta["total_mass"] == "the logs record rider weight 85 → 92 kg"
     assert meta["rolling_resistance"] == "the logs record tyre pressure 2.5 → 2.2 bar"
-    assert difference_lines(rep, log)[2].endswith("; the logs record rider weight 85 → 92 kg.")
-    assert recorded_metadata(rep) == {} and recorded_metadata(dict(rep, compare="0.csv"), log) == {}
+    assert difference_lines(res, "1.csv", log)[2].endswith("; the logs record rider weight 85 → 92 kg.")
+    assert recorded_metadata("1.csv") == {} and recorded_metadata("0.csv", log) == {}
 
 
 def test_index_md_says_both_logs_metadata_once(tmp_path):
@@ -193,7 +199,7 @@ def test_index_md_says_both_logs_metadata_once(tmp_path):
             f"w,x,2025,euc_world,0,{kg},{bar},20,low,False\n")
     clean = drive_log(rides["0"], seed=3, duration=400.0)
     cc.write_raw(cc.conceal_wheel_power(cc.read_raw(clean), "total_mass", 30.0, eta=1.0), rides["1"])
-    rep_dir, rep = _compare(clean, rides["1"], tmp_path / "out")
+    rep_dir, rep, _ = _compare(clean, rides["1"], tmp_path / "out")
     assert [d["name"] for d in rep["differences"] if d["named"]] == ["total_mass"]
     md = (rep_dir / "index.md").read_text()
     assert md.count("rider weight 85 → 97 kg") == 1
@@ -210,7 +216,7 @@ def test_the_mass_difference_is_said_once_as_the_key_figures_difference(syntheti
     rides' own fits, the tiles' difference): one difference stated twice, not alike.  The box
     says the tiles' difference with the paired test's verdict beside it; the mass section
     points there; index.md and the HTML page say the same."""
-    rep_dir, rep = synthetic
+    rep_dir, rep, _ = synthetic
     d = rep["mass_difference"]
     said = (f"each ride's own fit (the key figures) differs by {_signed(d['estimate'])} kg "
             f"(95 % interval {_signed(d['ci95'][0])} to {_signed(d['ci95'][1])} kg)")
@@ -234,7 +240,7 @@ def test_one_check_of_the_pwm_model_on_every_part_of_the_page(synthetic):
     index.md carries the limits' section as the page does."""
     import re
 
-    rep_dir, rep = synthetic
+    rep_dir, rep, _ = synthetic
     said = f"predicts the logged PWM of the compared ride (b.csv), fitted on this one, to " \
            f"{rep['pwm']['heldout_rmse']:.1f} points RMS"
     for kind, text in (("md", (rep_dir / "index.md").read_text()),

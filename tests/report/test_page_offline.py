@@ -65,12 +65,18 @@ def _paused_series() -> RideSeries:
     return RideSeries(t=t, gap_s=0.75, channels={"speed_kmh": v, "pwm_pct": 2.0 * v})
 
 
-def test_a_long_pause_is_left_out_of_the_time_axis(tmp_path):
+def test_a_long_pause_is_left_out_of_the_time_axis(tmp_path, ride_result):
     """MTen4: a 502-minute pause the data-quality tile said was left out squeezed both rides to
     the edges of the time axis. The axis leaves it out, as a marked gap."""
-    rep = {"summary": {"pwm_max_pct": 50.0, "pwm_max_at_s": 1200.0 + 502 * 60.0 + 600.0},
-           "clock": {"start": "2024-06-08T09:00:00", "pauses": [[1199.5, 1200.0 + 502 * 60.0]]}}
-    fig = over_time(rep, _paused_series())
+    from dataclasses import replace
+
+    from typed_ride import summary
+
+    from euc_sim.rides.summary.rider_view import Clock
+
+    rider = replace(ride_result.rider, summary=summary(pwm_max_pct=50.0, pwm_max_at_s=1200.0 + 502 * 60.0 + 600.0),
+                    clock=Clock("2024-06-08T09:00:00", None, "", ((1199.5, 1200.0 + 502 * 60.0),)))
+    fig = over_time(replace(ride_result, rider=rider), _paused_series())
     x = np.concatenate([np.array(tr["x"], float) for tr in fig["data"]])
     assert np.nanmax(x) - np.nanmin(x) < 45.0          # 40 min ridden, the pause a short gap
     assert any("pause of 8 h 22 min left out" in (a.get("text") or "") for a in fig["layout"]["annotations"])
