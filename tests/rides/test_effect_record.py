@@ -26,7 +26,7 @@ from euc_sim.rides.compare import differences as df
 from euc_sim.rides.compare.differences_fit import PairDesign, pair_fit
 from euc_sim.rides.compare.differences_report import _power_columns, _stack
 from euc_sim.rides.grids.signals import ride_signals
-from euc_sim.rides.render.contract import difference_json, effect_entries
+from euc_sim.rides.render.contract import effect_entries
 from euc_sim.rides.render.differences_page import difference_lines
 from euc_sim.rides.sim import sim_steps
 from euc_sim.rides.sim.simulate import _on_grid
@@ -152,9 +152,7 @@ def test_the_record_is_compared_between_rides_and_named_on_the_page(eddy):
     d = next(x for x in out.items if x.name == NAME)
     assert d.named and d.unit == UNIT
     assert f"{UNIT} more eddy-current loss (a hotter motor?)" in out.sentence
-    rep = {"compare": "b.csv", "differences": [difference_json(x) for x in out.items],
-           "differences_sentence": out.sentence}
-    page = "\n".join(difference_lines(rep))
+    page = "\n".join(difference_lines(out, "b.csv"))
     assert "more eddy-current loss (a hotter motor?)" in page and "- Eddy-current loss: 95 % interval" in page
 
 

@@ -294,9 +294,10 @@ def test_real_rides_done_criterion(tmp_path, capsys):
     assert "verdict:" in out
     a, b = rep["windows"][0]                # the terminal says the windows as the page does
     from euc_sim.rides.render.ride_time import span_at
+    from euc_sim.rides.summary.rider_view import Clock
 
     assert "  windows, clock time in the phone's local time (time into the ride, min:s): " \
-        + span_at(rep["clock"], a, b, "-") in out and f"{a:.1f}-" not in out
+        + span_at(Clock(**rep["clock"]), a, b, "-") in out and f"{a:.1f}-" not in out
 
 
 def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, monkeypatch, tmp_path):
@@ -325,8 +326,9 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
     sim = rep["simulation"]
     page = (tmp_path / "rep" / "index.md").read_text()
     from euc_sim.rides.render.ride_time import clock_at
+    from euc_sim.rides.summary.rider_view import Clock
 
-    at = clock_at(rep["clock"], t_fall)                   # clock time of the ride's own zone
+    at = clock_at(Clock(**rep["clock"]), t_fall)          # clock time of the ride's own zone
     assert f"The simulated rider fell at {at} (40 s into the ride; nominal: " in page          # said once
     assert f"| {at} (40 s into the ride) |" in page       # the steps' table, alike
     assert page.count("exceeds the bound") == 1

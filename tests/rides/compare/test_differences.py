@@ -206,8 +206,7 @@ def test_the_page_names_the_alias_set():
     tested = _tested(aerodynamic_drag=(0.18, 0.1, 0.26, True), rolling_resistance=(0.01, -0.01, 0.03, False))
     tested["aerodynamic_drag"] = replace(tested["aerodynamic_drag"],
                                          alias_set=("aerodynamic_drag", "rolling_resistance"))
-    rep = {"compare": "b.csv", **differences_json(df.ride_differences(a, b, tested, {}, {}, "x"))}
-    lines = difference_lines(rep)
+    lines = difference_lines(df.ride_differences(a, b, tested, {}, {}, "x"), "b.csv")
     assert any(line.startswith("- Drag area: 95 % interval") and
                "drag area or rolling resistance: this pair cannot tell them apart" in line for line in lines)
 

@@ -111,13 +111,14 @@ def test_the_json_and_the_page_carry_the_pairs_resolution():
                                                           blocks=(np.full(20, 4e9), np.full(20, 3e6)))}
     tested = {"total_mass": df.Tested(13.0, (-2.0, 28.0), 0.004, detectable=det["total_mass"]),
               "rolling_resistance": df.Tested(0.01, (0.004, 0.016), 0.002, detectable=det["rolling_resistance"])}
-    res = differences_json(df.ride_differences([], [], tested, {}, {}, "x"))
+    typed = df.ride_differences([], [], tested, {}, {}, "x")
+    res = differences_json(typed)
     by = {d["name"]: d for d in res["differences"]}
     assert by["total_mass"]["resolvable"] == pytest.approx(det["total_mass"].resolvable)
     assert by["total_mass"]["resolution"]["gate"] == pytest.approx(det["total_mass"].gate)
     mass = det["total_mass"].resolvable
     assert mass > 13.0                                     # the estimate lies below what the pair resolves
-    lines = difference_lines({"compare": "b.csv", **res})
+    lines = difference_lines(typed, "b.csv")
     assert lines[0].endswith(f"This pair cannot resolve differences smaller than mass ±{mass:.0f} kg: "
                              "its estimate lies below that, so whether the rides differ by it cannot be said.")
     # rolling's estimate lies above what the pair resolves: said as what the pair could have seen
@@ -127,17 +128,20 @@ def test_the_json_and_the_page_carry_the_pairs_resolution():
 def test_a_difference_of_the_rides_own_fits_that_the_pair_does_not_name_is_explained():
     """The tiles give each ride's own resistance; where those differ and the paired test names
     nothing, the differences block says both, so the page does not contradict itself."""
+    from dataclasses import replace
+
+    from euc_sim.rides.compare.differences import Difference, Differences
     from euc_sim.rides.render.differences_page import difference_lines
 
-    entry = {"name": "internal_resistance", "estimate": 0.0146, "ci95": [-0.015, 0.044], "unit": "ohm",
-             "named": False, "resolvable": 0.068, "why": "not significant on the compared ride's held-out "
-             "blocks (p = 0.021, q = 0.11 after the false-name control across the tested physics, level 5 %)",
-             "independent": {"estimate": 0.0146, "ci95": [0.0042, 0.024]}}
-    lines = difference_lines({"compare": "b.csv", "differences": [entry]})
+    entry = Difference("internal_resistance", 0.0146, (-0.015, 0.044), "ohm", False,
+                       "not significant on the compared ride's held-out blocks (p = 0.021, q = 0.11 after the "
+                       "false-name control across the tested physics, level 5 %)",
+                       independent=(0.0146, (0.0042, 0.024)), detectable=rs.Resolution("internal_resistance", 0.068, None))
+    lines = difference_lines(Differences((entry,)), "b.csv")
     said = [ln for ln in lines if "each ride's own fit (the key figures) differs" in ln]
     assert len(said) == 1 and "+15 mΩ (95 % interval +4 to +24 mΩ)" in said[0] and "q = 0.11" in said[0]
-    overlapping = {**entry, "independent": {"estimate": 0.0146, "ci95": [-0.002, 0.03]}}
-    lines = difference_lines({"compare": "b.csv", "differences": [overlapping]})
+    overlapping = replace(entry, independent=(0.0146, (-0.002, 0.03)))
+    lines = difference_lines(Differences((overlapping,)), "b.csv")
     said = [ln for ln in lines if "each ride's own fit" in ln]     # the tiles' difference, not the test's size
     assert len(said) == 1 and "+15 mΩ (95 % interval −2 to +30 mΩ): cannot tell" in said[0]
     assert not any("resistance ±" in ln for ln in lines)

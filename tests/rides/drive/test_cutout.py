@@ -103,8 +103,11 @@ def _random_curves(rng):
     return out
 
 
-def test_no_sentence_gives_speed_beyond_the_limit():
+def test_no_sentence_gives_speed_beyond_the_limit(ride_result):
     """Property over random rides: every speed said (but the rider's own) is at most the limit."""
+    from dataclasses import replace
+
+    from euc_sim.rides.drive.cutout import Cutout
     from euc_sim.rides.render.limits_page import limit_sentences
 
     rng = np.random.default_rng(11)
@@ -121,11 +124,10 @@ def test_no_sentence_gives_speed_beyond_the_limit():
             assert int(m[1]) <= round(L * 3.6 - rider * 3.6) + 1
         for text in [danger or "", words]:
             assert all(int(x) <= round(L * 3.6) for x in KMH.findall(text)), text
-        rep = {"summary": {"limits": lim.as_json()}, "cutout": {
-            "curves": [{"condition": c.condition.name, "charge_pct": list(c.charge_pct),
-                        "speed_mps": [None if np.isnan(x) else x for x in c.speed_mps]} for c in curves],
-            "danger": danger}}
-        lead = " ".join(limit_sentences(rep, None))
+        r = ride_result.rider
+        res = replace(ride_result, rider=replace(r, summary=replace(r.summary, limits=lim)),
+                      cutout=Cutout(curves=tuple(curves), danger=danger))
+        lead = " ".join(limit_sentences(res, None))
         assert "left" not in lead
         assert all(int(x) <= round(L * 3.6) for x in KMH.findall(lead)), lead
 
