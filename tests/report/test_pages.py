@@ -156,16 +156,15 @@ def test_tiles_show_the_summary_in_peoples_units(with_summary):
         assert f'<div class="{tone}"><div class="l">{label}</div>' in raw, label
 
 
-def test_data_quality_without_the_summarys_verdict_states_the_gaps():
+def test_data_quality_is_the_summarys_verdict_and_its_tone():
     from typed_ride import summary
 
     from euc_sim.rides.render.page_html import data_quality
 
-    line, tone = data_quality(summary(duration_s=1000.0, gaps={"count": 2, "total_s": 300.0, "longest_s": 200.0},
-                                      sampling_hz=2.5, quality=""))
-    assert line == "2 gaps, 300 s (30 % of the ride), longest 200 s; 2.5 samples/s" and tone == ""
     assert data_quality(summary(quality="fair", quality_sentence="Data quality fair: x.")) == \
         ("Data quality fair: x.", "warn")
+    assert data_quality(summary(quality="poor", quality_sentence="Data quality poor: y.")) == \
+        ("Data quality poor: y.", "bad")
 
 
 def test_without_summary_the_tiles_say_not_available(drive):

@@ -48,10 +48,11 @@ def with_summary(res, **summary):
 
 def summary(**fields):
     """A :class:`~euc_sim.rides.summary.summary.RideSummary` with ``fields`` given and every other
-    required one unknown (no gaps)."""
+    required one unknown (no gaps, no limit known)."""
     from dataclasses import MISSING, fields as all_fields
 
+    from euc_sim.rides.drive.cutout import Limits
     from euc_sim.rides.summary.summary import RideSummary
 
     unknown = {f.name: None for f in all_fields(RideSummary) if f.default is MISSING and f.default_factory is MISSING}
-    return RideSummary(**{**unknown, "gaps": {}, **fields})
+    return RideSummary(**{**unknown, "gaps": {}, "limits": Limits(None, None, None), **fields})

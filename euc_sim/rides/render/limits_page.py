@@ -15,12 +15,12 @@ from pathlib import Path
 import numpy as np
 
 from euc_sim.report.figures import YL_OR_RD, Line, plain_values, thin, xy_figure
-from euc_sim.rides.drive.cutout import CONDITIONS, Limits, headroom_words
+from euc_sim.rides.drive.cutout import CONDITIONS, headroom_words
 from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
 from euc_sim.rides.render.series import MOST_POINTS, RideSeries, max_pwm_mark, number
 
 __all__ = ["limit_sentences", "limits_paragraph", "cutout_figure", "limits_md", "LIMITS_TITLE", "CUTOUT_LABELS",
-           "envelope_figure", "pwm_check", "limits_of"]
+           "envelope_figure", "pwm_check"]
 
 
 def _steady_pwm(dt, speed: np.ndarray, voltage: float) -> np.ndarray:
@@ -32,11 +32,6 @@ def _steady_pwm(dt, speed: np.ndarray, voltage: float) -> np.ndarray:
     V = np.full(speed.shape, float(voltage))
     X = pwm_columns(speed, F, V, names, coef.get("v_fw", np.inf))
     return X @ np.array([coef[n] for n in names]) / V * 100.0
-
-
-def limits_of(res) -> Limits:
-    """The wheel's limits the ride's summary carries (all unknown without them)."""
-    return res.rider.summary.limits or Limits(None, None, None)
 
 
 def pwm_check(res) -> tuple[str, str, float] | None:
@@ -74,7 +69,7 @@ def _cut_at(cut, charge: float | None, condition: str = "level") -> float | None
 def limit_sentences(res, series: RideSeries | None) -> list[str]:
     """The wheel's limit, where the cut-out comes before it (the cut-out's ``danger``), and how close
     the ride's highest PWM came; no speed above the wheel's limit is said to be available."""
-    lim, cut = limits_of(res), res.cutout
+    lim, cut = res.rider.summary.limits, res.cutout
     out = [f"Your wheel's limit: {lim.words()}."]
     if cut.danger:
         out.append(cut.danger)
@@ -106,7 +101,7 @@ def cutout_figure(res, series: RideSeries | None):
     cut = res.cutout
     if not cut.curves:
         return None
-    lim = limits_of(res)
+    lim = res.rider.summary.limits
     lines = [Line(f"cut-out {CUTOUT_LABELS.get(c.condition.name, c.condition.name)}",
                   np.asarray(c.charge_pct, float), 3.6 * np.asarray(c.speed_mps, float), "lines")
              for c in cut.curves]
@@ -152,7 +147,7 @@ def cutout_figure(res, series: RideSeries | None):
 def limits_paragraph(res, limit: bool = True) -> str:
     """The limits and the model behind the chart, in words (the summary's limits, the cut-out,
     :func:`pwm_check`); ``limit`` False: the speed limit left to the sentences before it."""
-    lim, cut = limits_of(res), res.cutout
+    lim, cut = res.rider.summary.limits, res.cutout
     check = pwm_check(res)
     return ((f"Speed limit: {lim.words()}. " if limit else "") + "PWM alarm: "
             + (f"{lim.pwm_alarm_pct:.0f} %." if lim.pwm_alarm_pct is not None else "not in the log.")
@@ -194,7 +189,7 @@ def envelope_figure(res, series: RideSeries):
 
         sp, p = left[0], left[1]
         lines.append(Line(f"your max PWM: {p:.0f} % at {sp:.0f} km/h", np.array([sp]), np.array([p])))
-        note = f"at your max PWM: {headroom_words(sp, limits_of(res), _cut_at(res.cutout, left[2]))}<br>" + note
+        note = f"at your max PWM: {headroom_words(sp, res.rider.summary.limits, _cut_at(res.cutout, left[2]))}<br>" + note
     fig = xy_figure(lines, "How close to the limit: PWM against speed", "speed, km/h", "PWM, %", note)
     if left is not None and left[1] is not None:
         fig["data"][-1]["marker"] = {"size": 14, "color": "#c62828", "symbol": "star", "opacity": 1}

@@ -112,22 +112,8 @@ def _pwm_tile(r: RiderNumbers, where: str) -> object:
 
 def data_quality(s) -> tuple[str, str]:
     """The :class:`~euc_sim.rides.summary.summary.RideSummary`'s one line on the log's gaps and
-    sampling, and its tile tone.
-
-    The verdict (``quality``: good, fair, poor) and its sentence are the summary's own;
-    without them the gaps are stated with no verdict.
-    """
-    tone = {"good": "good", "fair": "warn", "poor": "bad"}.get(str(s.quality or ""), "")
-    if s.quality_sentence:
-        return str(s.quality_sentence), tone
-    g, dur = s.gaps, number(s.duration_s)
-    if not g or not dur:
-        return NA, tone
-    rate = number(s.sampling_hz)
-    return (f"{g.get('count', 0)} gaps, {g.get('total_s', 0):.0f} s "
-            f"({100 * (g.get('total_s') or 0.0) / dur:.0f} % of the ride)"
-            + (f", longest {g['longest_s']:.0f} s" if g.get("longest_s") else "")
-            + (f"; {rate:.1f} samples/s" if rate else "")), tone
+    sampling (its verdict, ``quality``: good, fair, poor, worded), and its tile tone."""
+    return s.quality_sentence or NA, {"good": "good", "fair": "warn", "poor": "bad"}.get(s.quality, "")
 
 
 def short(text: str, most: int = 70) -> str:

@@ -15,7 +15,6 @@ import numpy as np
 
 from euc_sim.report.figures import plain_values
 from euc_sim.rides.render.series import number
-from euc_sim.rides.source.gaps import GAP_POLICY
 
 __all__ = ["hm", "clock_at", "when", "span_words", "pause_words", "clock_of", "spans_legend", "span_at",
            "TimeAxis", "PAUSE_SHOWN"]
@@ -128,11 +127,7 @@ class TimeAxis:
     def of(cls, clock, t: np.ndarray) -> "TimeAxis":
         if t.size == 0:
             return cls(((0.0, 0.0),), 0.0)
-        if clock is not None:
-            p = [(float(a), float(b)) for a, b in clock.pauses]
-        else:                               # a report without a clock: the pauses of the series itself
-            p = [(float(t[k]), float(t[k + 1])) for k in np.flatnonzero(np.diff(t) > GAP_POLICY.pause)]
-        edges = [float(t[0])] + [v for ab in p for v in ab] + [float(t[-1])]
+        edges = [float(t[0])] + [float(v) for ab in clock.pauses for v in ab] + [float(t[-1])]
         stretches = tuple(zip(edges[::2], edges[1::2]))
         return cls(stretches, PAUSE_SHOWN * max(sum(b - a for a, b in stretches), 1.0))
 

@@ -15,7 +15,6 @@ from typing import Mapping
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
 from euc_sim.rides.render.contract import effect_entries, error_measure
-from euc_sim.rides.render.limits_page import limits_of
 from euc_sim.rides.render.page import falls_sentence
 from euc_sim.rides.render.page_html import key_figure_lines
 from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend
@@ -55,7 +54,7 @@ def _mass_lines(res: RideResult) -> list[str]:
 
 def _limit_line(res: RideResult) -> str:
     """The wheel's limit and where the cut-out comes before it."""
-    lim, cut = limits_of(res), res.cutout
+    lim, cut = res.rider.summary.limits, res.cutout
     tail = (cut.danger if cut.danger else
             "the cut-out stays above it at every charge" if cut.curves and lim.speed_limit_mps
             else f"cut-out not known: {cut.why}" if cut.why else "cut-out not compared")
