@@ -1,4 +1,4 @@
-"""The ride JSON's ``controller`` object and its section of the ride page.
+"""The wheel's balance law read from a ride, and the ride JSON's ``controller`` object.
 
 :func:`controller_fit` reads the wheel's balance law from LOG
 (:mod:`euc_sim.rides.law.controller_law`), with the torque constant the drivetrain fit
@@ -18,8 +18,7 @@ import numpy as np
 from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.law.controller_law import Law, fit_law, predict, r2
 
-__all__ = ["ControllerFit", "controller_fit", "controller_entry", "torque_constant", "describe", "page_lines",
-           "PAPER_PD"]
+__all__ = ["ControllerFit", "controller_fit", "controller_entry", "torque_constant", "describe", "PAPER_PD"]
 
 #: The paper's nominal motor law, N·m/rad and N·m·s/rad (controllers.motor.MotorPD's defaults).
 PAPER_PD = {"K_p": 600.0, "K_d": 40.0}
@@ -148,23 +147,3 @@ def controller_entry(c: ControllerFit) -> dict:
     if c.compare_why is not None:
         out["heldout"]["compare_why"] = c.compare_why
     return out
-
-
-def page_lines(ctrl: dict | None) -> list[str]:
-    """The ride page's section on the wheel's balance law (markdown lines)."""
-    md = ["## The wheel's balance law", ""]
-    if not ctrl or ctrl.get("law") is None:
-        md += [f"Not read from this log: {(ctrl or {}).get('why', 'not computed')}.", ""]
-        return md
-    md += [f"{ctrl['law']}. Logged pitch sign {ctrl['sign']:+d} (forward lean "
-           f"{'raises' if ctrl['sign'] > 0 else 'lowers'} the logged tilt).", "",
-           "| term | estimate | 95 % | unit |", "|---|---|---|---|"]
-    for t in ctrl["terms"]:
-        ci = t["ci95"]
-        md.append(f"| {t['name']} | {t['estimate']:.4g} | "
-                  + (f"{ci[0]:.4g} – {ci[1]:.4g}" if ci else "–") + f" | {t['unit']} |")
-    h, w = ctrl["heldout"], ctrl["within_ride"]
-    md += ["", f"Held-out R² of the {h['channel']} predicted from the pitch: **{h['r2']:.3f}** "
-               f"({h['ride']}); within the fitted ride {w['r2']:.3f} (PD alone {w['nominal_r2']:.3f}, "
-               f"speed and acceleration without the pitch {w['without_pitch_r2']:.3f}).", ""]
-    return md

@@ -20,7 +20,7 @@ import numpy as np
 from euc_sim.io import write_text
 from euc_sim.rides.balance.residual import SLOW_S
 from euc_sim.rides.balance.verdict import unit_label
-from euc_sim.rides.law.controller_report import controller_entry, page_lines
+from euc_sim.rides.law.controller_report import describe
 from euc_sim.rides.render.contract import effect_entries, error_measure
 from euc_sim.rides.render.differences_page import difference_section
 from euc_sim.rides.render.drivetrain_page import page_section
@@ -30,7 +30,7 @@ from euc_sim.rides.result import RideResult
 from euc_sim.rides.sim.sim_steps import TARGET_RATIO
 from euc_sim.rides.source.gaps import GAP_POLICY
 
-__all__ = ["write_page", "falls_sentence", "markdown_sections", "summarise_notes", "said_once", "as_the_tile",
+__all__ = ["write_page", "falls_sentence", "markdown_sections", "law_md", "summarise_notes", "said_once", "as_the_tile",
            "missing_spec_effect"]
 
 
@@ -83,7 +83,7 @@ def _verdict_md(res: RideResult, figures: Mapping[str, str], key_lines: Sequence
            + [f"  - {line}" for line in key_lines[cut:]] + [""] if key_lines else [])
     md = ([f"# Ride diagnosis: {Path(res.balance.recording).name}", ""] + key
           + difference_section(res.differences, res.balance.compare, res.mass.fit.path) + _verdict_lines(res)
-          + list(limits) + page_section(res, figures, shown) + page_lines(controller_entry(res.law)))
+          + list(limits) + page_section(res, figures, shown) + law_md(res.law))
     return md + _cross_ride_md(figures)
 
 
@@ -128,9 +128,26 @@ def markdown_sections(res: RideResult, figures: Mapping[str, str],
     return [("The balance model and the diagnosis", _verdict_lines(res) + _cross_ride_md(figures)
              + _estimates_md(res) + _aliases_md(res) + _localisation_md(res, figures)),
             ("Mass, drivetrain and battery, term by term", page_section(res, figures, shown)),
-            ("The firmware's balance law", page_lines(controller_entry(res.law))),
+            ("The firmware's balance law", law_md(res.law)),
             ("The simulation, step by step", _simulation_md(res, figures)),
             ("Assumptions and notes", _assumptions_md(res, shown))]
+
+
+def law_md(c) -> list[str]:
+    """The page's section on the wheel's balance law (a
+    :class:`~euc_sim.rides.law.controller_report.ControllerFit`), Markdown lines."""
+    md = ["## The wheel's balance law", ""]
+    law = c.law
+    if law is None:
+        return md + [f"Not read from this log: {c.why}.", ""]
+    md += [f"{describe(law)}. Logged pitch sign {law.sign:+d} (forward lean "
+           f"{'raises' if law.sign > 0 else 'lowers'} the logged tilt).", "",
+           "| term | estimate | 95 % | unit |", "|---|---|---|---|"]
+    md += [f"| {k} | {v:.4g} | " + (f"{ci[0]:.4g} – {ci[1]:.4g}" if ci else "–") + f" | {u} |"
+           for k, (v, ci, u) in law.terms.items()]
+    return md + ["", f"Held-out R² of the {law.channel} predicted from the pitch: **{c.heldout_r2:.3f}** "
+                     f"({c.heldout_ride}); within the fitted ride {law.heldout_r2:.3f} (PD alone "
+                     f"{law.nominal_r2:.3f}, speed and acceleration without the pitch {law.blind_r2:.3f}).", ""]
 
 
 def _estimates_md(res: RideResult) -> list[str]:

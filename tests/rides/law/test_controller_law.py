@@ -19,7 +19,8 @@ import pytest
 
 from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.law.controller_law import BASE, fit_law, fit_params, predict, r2
-from euc_sim.rides.law.controller_report import controller_entry, controller_fit, page_lines
+from euc_sim.rides.law.controller_report import controller_entry, controller_fit
+from euc_sim.rides.render.page import law_md
 from euc_sim.rides.source.logs import read_log
 
 SHARED = Path(__file__).resolve().parents[4] / "shared" / "data" / "euc_core" / "trips"
@@ -35,14 +36,15 @@ needs_data = pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/euc_
 
 @needs_data
 def test_lynx_law_predicts_the_other_ride():
-    out = controller_json(read_log(SHARED / "leaperkim/lynx/0/0.csv", emit_warnings=False), read_log(SHARED / "leaperkim/lynx/2/2.csv", emit_warnings=False),
-                          n_boot=20, seed=0)
+    fit = controller_fit(read_log(SHARED / "leaperkim/lynx/0/0.csv", emit_warnings=False),
+                         read_log(SHARED / "leaperkim/lynx/2/2.csv", emit_warnings=False), n_boot=20, seed=0)
+    out = controller_entry(fit)
     assert out["law"] is not None and out["sign"] == -1
     assert out["heldout"]["ride"] == "2.csv" and out["heldout"]["channel"] == "phase_current"
     assert out["heldout"]["r2"] >= 0.9                         # issue 21's target
     kp = next(t for t in out["terms"] if t["name"] == "K_p")
     assert kp["unit"] == "A/rad" and kp["ci95"][0] < kp["estimate"] < kp["ci95"][1]
-    assert any("balance law" in line for line in page_lines(out))
+    assert any("balance law" in line for line in law_md(fit))
 
 
 @needs_data
