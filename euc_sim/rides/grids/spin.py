@@ -1,12 +1,8 @@
 """The wheel spinning off the ground in a ride log: lifted at a stop, or fallen with the motor on.
 
-Such rows are no part of the ride.  :func:`free_spin` finds them from the log's own
-stamps and speed (no mass, no power): every grid of a ride leaves them out
-(:func:`euc_sim.rides.grids.signals.resample` splits the ride there, the balance law's
-rows skip them), and the ride's summary leaves them out of its top speed and PWM peak
-and says them apart (:func:`spin_json`).  On the shared rides a free spin of 2.5 s
-(Apex 0: 0 → 122 km/h in 0.8 s at a stop) was enough to put the balance fit's held-out
-error at 2,321 W; without it, 344 W (docs/ride_model.md, "The wheel spinning free").
+:func:`free_spin` finds such rows from the log's stamps and speed alone; every grid of a
+ride leaves them out and the summary says them apart (:func:`spin_json`).  See
+docs/ride_model.md, "The wheel spinning free".
 """
 
 from __future__ import annotations
