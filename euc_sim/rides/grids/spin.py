@@ -23,12 +23,9 @@ SPIN_TOL_MPS = 2.5
 
 
 def _reach(t: np.ndarray, v: np.ndarray, bridge_s: float) -> np.ndarray:
-    """The highest speed a tyre reaches at each row from the rows before it, m/s (starting
-    again after an interval longer than ``bridge_s``, s).
-
-    Row by row that is r_i = min(v_i, r_{i−1} + a·(t_i − t_{i−1})), a = :data:`SPIN_ACCEL`,
-    unrolled: r_i = a·t_i + min_{j ≤ i} (v_j − a·t_j) over the finite v_j of the piece, a
-    running minimum (no Python loop over rows).
+    """The highest speed a tyre reaches at each row from the rows before it, m/s (restarting
+    after an interval over ``bridge_s`` s): r_i = a·t_i + min_{j ≤ i}(v_j − a·t_j), a =
+    :data:`SPIN_ACCEL`, a running minimum.
     """
     x = np.where(np.isfinite(v), v - SPIN_ACCEL * t, np.inf)
     starts = np.flatnonzero(np.r_[True, np.diff(t) > bridge_s])
@@ -39,25 +36,10 @@ def _reach(t: np.ndarray, v: np.ndarray, bridge_s: float) -> np.ndarray:
 
 
 def free_spin(t: np.ndarray, v: np.ndarray, bridge_s: float = GAP_POLICY.bridge) -> np.ndarray:
-    """Rows where the wheel spins off the ground.
-
-    A spin shows as a speed no tyre reaches from the rows before or after it (more than
-    :data:`SPIN_TOL_MPS` beyond :data:`SPIN_ACCEL` of acceleration or braking); around
-    those rows, the spin-up before them and the coast-down after them (the speed rising
-    into it, then falling, above the speed it started from or ended at) belong to it.
-
-    Parameters
-    ----------
-    t : numpy.ndarray
-        s, increasing.
-    v : numpy.ndarray
-        |wheel speed|, m/s.
-    bridge_s : float
-        s; across a longer interval the wheel's state is unknown (no reach carried over).
-
-    Returns
-    -------
-    numpy.ndarray of bool
+    """Rows where the wheel spins off the ground: a speed (``v`` |m/s| at ``t`` s) no tyre
+    reaches from the rows before or after it (more than :data:`SPIN_TOL_MPS` beyond
+    :data:`SPIN_ACCEL`), with the spin-up before and the coast-down after; no reach carried
+    across an interval over ``bridge_s`` s.
     """
     t, v = np.asarray(t, float), np.asarray(v, float)
     if v.size == 0:
