@@ -43,10 +43,8 @@ CANDIDATES = RECORDS.view("balance", lambda b: (b.symbol, b.unit, b.meaning, b.c
 NOMINAL: tuple[str, ...] = ()
 #: Plausible ranges of the physical estimates, with units.
 PLAUSIBLE = RECORDS.view("balance", lambda b: (*b.plausible, b.unit))
-#: Bounds of the fit: a resistance or loss runs from 0 (absent) to the top of its
-#: plausible range, a grade or GPS gain over its plausible range.  An estimate that
-#: ends on a bound other than "absent" (:func:`on_bound`) is the most that plausible
-#: physics gives while the data asks for more: accepted at that edge, and said so.
+#: Bounds of the fit: a resistance or loss from 0 (absent) to the top of its plausible range, a
+#: grade or GPS gain over its plausible range (an estimate on an edge: :func:`on_bound`).
 BOUNDS = RECORDS.view("balance", lambda b: b.bounds)
 
 

@@ -15,10 +15,8 @@ from euc_sim.rides.grids.signals import RideSignals, split_at_gaps
 
 __all__ = ["ResidualTrace", "residual_windows", "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
-#: localise() settings for rides, s: minutes-long logs at ~5 Hz need a longer
-#: smoothing of the residual power and a longer shortest window than its
-#: 1 s / 0.5 s defaults (made for 120 Hz motion capture), else the windows
-#: fragment into dozens of sub-second pieces.
+#: localise() smoothing and shortest window for minutes-long 5 Hz rides, s (its defaults are
+#: for 120 Hz motion capture).
 WINDOW_SMOOTH = 5.0
 WINDOW_MIN = 3.0
 #: Moving-mean length, s, of the residual's slow part (hills, wind, temperature).

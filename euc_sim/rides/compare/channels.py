@@ -23,10 +23,8 @@ __all__ = ["ALL_CHANNELS", "CHANNELS", "DRIFTING", "MECHANICAL", "readings", "wh
 
 #: Every channel this module can read beside battery power, in the order they are stacked.
 ALL_CHANNELS = ("sag", "phase_current", "pwm")
-#: The channels measured for the pair fit (docs/concealed.md "Every channel of the log"): the duty
-#: left out (on real null pairs it names road differences its model's misfit makes).  The ride's
-#: comparison stacks none by default: on the shared rides they resolve about as finely as battery
-#: power alone (median 0.99) and name more on null pairs.
+#: The channels measured for the pair fit, the duty left out; the ride's comparison stacks none by
+#: default (docs/concealed.md, "Every channel of the log").
 CHANNELS = ("sag", "phase_current")
 #: Channels whose gain drifts with the motor's temperature (the magnets' flux, the winding's
 #: resistance): OTHER's gain is a nuisance.

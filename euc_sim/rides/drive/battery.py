@@ -35,9 +35,7 @@ SOC_SPREAD = 1.4
 #: Per series step, the welds, nickel strips or busbars between cell groups, Ω (an allowance
 #: of 0.2-1.0 mΩ a step: a few 0.1 mΩ of strip and weld per joint; our estimate, not a datasheet).
 INTERCONNECT_OHM = (0.2e-3, 1.0e-3)
-#: Once per pack: the BMS's MOSFETs, fuse, connectors and the leads to the controller, Ω
-#: (5-30 mΩ: a few mΩ of MOSFETs and of each connector, about 3 mΩ a metre of 10 AWG lead;
-#: our estimate, not a datasheet).
+#: Once per pack: BMS MOSFETs, fuse, connectors and leads, Ω (our estimate, not a datasheet).
 FIXED_OHM = (5e-3, 30e-3)
 
 

@@ -18,19 +18,13 @@ __all__ = ["speed_profile", "rider_plan", "PLAN_WINDOW", "unpaid_spikes",
            "SPIN_POWER_FACTOR", "SPIN_POWER_MARGIN", "SPIN_GRADE", "SPIN_MIN_DT",
            "SPIN_MAX_SPAN", "SPIN_BACK"]
 
-#: The rider's plan: the logged speed smoothed over this many seconds.  The logged speed
-#: holds the rider's own sway; a simulated rider told to follow it corrects every wobble
-#: as if intended.  Value: see docs/rider_calibration.md#proof-on-a-concealed-rider.
+#: The rider's plan: the logged speed smoothed over this many s (it holds the rider's own
+#: sway).  Value: docs/rider_calibration.md#proof-on-a-concealed-rider.
 PLAN_WINDOW = 6.0
 
-#: A wheel-speed rise counts as paid for while its kinetic energy ½m(v₁² − v₀²) is at most
-#: SPIN_POWER_FACTOR × the battery energy over the span + (SPIN_POWER_MARGIN + m g SPIN_GRADE v̄)
-#: × the span (:func:`unpaid_spikes`).  The rider and wheel speeding up together cannot gain
-#: more kinetic energy than the battery gives plus what a descent gives (efficiency ≤ 1, the
-#: wheel's own inertia and the resistances only add to what is needed); the factor and the
-#: margin allow for power samples that miss part of the span, SPIN_GRADE for the steepest
-#: descent allowed (15 %: 1.47 m/s² with no power at all).  Values: see
-#: docs/ride_falls.md#the-measured-cause.
+#: A wheel-speed rise is paid for while ½m(v₁² − v₀²) ≤ SPIN_POWER_FACTOR × the battery energy
+#: + (SPIN_POWER_MARGIN W + m g SPIN_GRADE v̄) × the span (:func:`unpaid_spikes`; the steepest
+#: descent allowed 15 %).  Values: docs/ride_falls.md#the-measured-cause.
 SPIN_POWER_FACTOR = 2.0
 SPIN_POWER_MARGIN = 500.0
 SPIN_GRADE = 0.15
@@ -38,9 +32,8 @@ SPIN_GRADE = 0.15
 #: apart on master_pro_V2/6) would turn a 0.1 m/s step into 5 m/s².
 SPIN_MIN_DT = 0.3
 UNKNOWN_POWER = 1e6       # W: a row without battery power pays for any rise
-#: The longest a wheel spinning free is followed after the top of the unpaid rise, s; it ends
-#: where its speed is back within SPIN_BACK (m/s) of where it rose from (a wheel that spins up
-#: and holds is followed past its plateau).  Values: see docs/ride_falls.md.
+#: A free spin is followed at most SPIN_MAX_SPAN s after its top, ending where the speed is back
+#: within SPIN_BACK m/s of where it rose from.  Values: docs/ride_falls.md.
 SPIN_MAX_SPAN = 5.0
 SPIN_BACK = 0.5
 

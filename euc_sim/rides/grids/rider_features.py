@@ -22,10 +22,8 @@ from euc_sim.rides.source.ride import Ride
 __all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "band_ratio_db",
            "fit_windows"]
 
-#: Savitzky–Golay windows, s, whose differences split a channel into bands (steps of about √2:
-#: eight leaky bands from ~2 Hz down to ~0.1 Hz; a 2 Hz sway peaks in the third, a 0.12 Hz one
-#: in the last.  Four bands of 0.7-6 s left the delay and the bandwidth on a ridge,
-#: docs/rider_calibration.md).
+#: Savitzky–Golay windows, s, whose differences split a channel into eight leaky bands, ~2 Hz
+#: down to ~0.1 Hz (docs/rider_calibration.md).
 BAND_WINDOWS = (0.5, 0.7, 1.0, 1.5, 2.1, 3.0, 4.2, 6.0)
 
 

@@ -32,9 +32,6 @@ __all__ = ["RideAssumptions", "RideSignals", "with_found_values", "resample", "r
            "wheel_torque", "ride_signals", "break_at_gaps", "check_readings", "split_at_gaps"]
 
 
-# --------------------------------------------------------------------------------------
-# Assumptions
-# --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class RideAssumptions:
     """What a ride log does not say, with Table 3 / CONTRACT defaults.
@@ -89,9 +86,6 @@ class RideAssumptions:
         return dict(self.sources).get(name, "default (Table 3)")
 
 
-# --------------------------------------------------------------------------------------
-# Resampling and filtering
-# --------------------------------------------------------------------------------------
 def ride_grid(log: Ride, policy: GapPolicy = GAP_POLICY) -> tuple[pd.DataFrame, list[str]]:
     """:func:`resample` under ``policy``, kept on the ride (built once); do not modify the frame."""
     frame, notes = log.derived(("grid", policy), lambda: resample(log, policy.rate, policy.bridge))
@@ -198,9 +192,6 @@ def _interior(segment: np.ndarray, half: int) -> np.ndarray:
     return keep
 
 
-# --------------------------------------------------------------------------------------
-# Torque
-# --------------------------------------------------------------------------------------
 def wheel_torque(v: np.ndarray, power: np.ndarray, assumptions: RideAssumptions = RideAssumptions(),
                  phase_current: np.ndarray | None = None) -> tuple[np.ndarray, str]:
     """Motor torque on the wheel, N·m, and how it was obtained.
@@ -221,9 +212,6 @@ def wheel_torque(v: np.ndarray, power: np.ndarray, assumptions: RideAssumptions 
     return M, "power_efficiency"
 
 
-# --------------------------------------------------------------------------------------
-# Signals
-# --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class RideSignals:
     """A ride on a uniform grid, raw and consistently smoothed.

@@ -13,10 +13,7 @@ from euc_sim.rides.source.gaps import GAP_POLICY
 
 __all__ = ["free_spin", "spin_rows", "spin_json", "SPIN_ACCEL", "SPIN_TOL_MPS"]
 
-#: Acceleration or braking no tyre on the road carries, m/s² (grip μ ≈ 1: 1 g): a wheel
-#: speed reached from (or left to) its neighbours faster than this, by more than
-#: :data:`SPIN_TOL_MPS`, is the wheel spinning off the ground (lifted, or fallen with the
-#: motor on), not the ride.
+#: Acceleration or braking no tyre on the road carries, m/s² (grip μ ≈ 1).
 SPIN_ACCEL = 9.81
 #: Speed beyond the tyre's reach, m/s, that makes a row a free spin (timestamp jitter stays below).
 SPIN_TOL_MPS = 2.5

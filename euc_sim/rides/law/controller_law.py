@@ -58,7 +58,6 @@ _TB_GRID = np.linspace(0.30, 0.95, 14)       # tilt-back onset: quantiles of the
 _LIM_GRID = (0.9, 0.95, 0.98, 0.99, 0.995, 0.999)   # torque limit: quantiles of |y|
 
 
-# --------------------------------------------------------------------------------------
 def _columns(rows: LawRows, names, p: dict, mean3: bool = False) -> np.ndarray:
     """Columns of the law, torque = X·c, one per name (``torque_limit`` has none); ``p`` gives
     ``v_tb`` and, for ``brake_gain``, the nominal ``sign`` and ``tilt0``.  ``mean3``: each

@@ -146,7 +146,6 @@ class RideHistory:
                 "trend": self.trend, "why": dict(self.why)}
 
 
-# --------------------------------------------------------------------------------------
 def shared_offset(offsets) -> float | None:
     """The zone (s east of UTC) most of the logs naming one give, the first of equals; None
     where none does.  Logs naming none are taken to be in it.
@@ -168,9 +167,8 @@ def series_cells(v_max: float, v_min: float) -> tuple[int, ...]:
     return tuple(n for n in SERIES_COUNTS if 3.0 * n <= v_min and v_max <= 4.25 * n)
 
 
-#: Two rides whose full-charge voltages (:func:`full_charge`) differ by more than this
-#: fraction are of different packs: the shared rides of one wheel agree within 3 %, and
-#: the nearest common packs (30 and 32 cells) are 6.7 % apart.
+#: Full-charge voltages (:func:`full_charge`) differing by more than this fraction: different
+#: packs (one wheel's rides agree within 3 %; 30 and 32 cells are 6.7 % apart).
 FULL_CHARGE_SPREAD = 0.05
 
 

@@ -47,9 +47,6 @@ __all__ = ["BAND_WINDOWS", "RiderFitError", "RiderFit",
 BLOCK = 10.0
 
 
-# --------------------------------------------------------------------------------------
-# The simulated rider read like the log
-# --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class _Setup:
     """Everything a window simulation needs but the rider."""
@@ -168,9 +165,6 @@ def _log_rms(ms: np.ndarray) -> np.ndarray:
     return 0.5 * np.log(ms.mean(axis=0))
 
 
-# --------------------------------------------------------------------------------------
-# The fit
-# --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class RiderFit:
     """The rider calibrated on a ride.
@@ -274,10 +268,8 @@ def _ride_or_halve(setup: _Setup, rows, block, x: np.ndarray, anchor: np.ndarray
 
 #: Offset of the noise seeds on which the search's paths are compared.
 CHECK_SEED = 100_000
-#: Step of the design points' noise seeds.  Common draws at every point let the search end
-#: where one realisation happens to match the log (scoring seed 32: 0.309 s, weighted distance
-#: 2.9 on the design's draws, 25 on others against 12 for the truth); independent draws leave
-#: that noise to the surface's least squares.
+#: Step of the design points' noise seeds: independent draws leave their noise to the surface's
+#: least squares (common draws let the search end where one realisation matches the log).
 POINT_SEED = 10_007
 #: Half-widths of the search boxes by level, in the scaled [0, 1] coordinates.
 _HALVES = (0.5, 0.2, 0.08)

@@ -24,12 +24,8 @@ from euc_sim.simulation.engine import FALL_BOUNDS
 __all__ = ["LEAN_SHARE", "limit_acceleration", "moving_average", "plan_band_limit",
            "rider_acceleration_limit", "resisting_acceleration"]
 
-#: Share of the fall bound |φ| ≤ φ_max that the rider's steady lean φ*(a) may use: the
-#: profile's acceleration is limited to the a where |φ*(a)| = LEAN_SHARE·φ_max
-#: (:func:`rider_acceleration_limit`, 1.5 m/s² for Table 3).  Starting or stopping an
-#: acceleration makes the rider's lean overshoot its trim about twice over (the plant is
-#: non-minimum-phase in speed: to lean back, the wheel must first run ahead), so the rest of
-#: the range is the transient's.  Value: see docs/ride_falls.md#the-fix.
+#: Share of the fall bound |φ| ≤ φ_max the rider's steady lean φ*(a) may use (1.5 m/s² for
+#: Table 3; the rest is the lean's overshoot).  Value: docs/ride_falls.md#the-fix.
 LEAN_SHARE = 0.3
 
 

@@ -16,10 +16,7 @@ import numpy as np
 
 __all__ = ["CHANNEL_BOUNDS", "FEW", "FEW_ROWS", "MAX_ROWS", "bound_channel", "speed_sign"]
 
-#: Most data rows a log may have.  The longest shared ride has 37 780 rows, and 90 min
-#: at the fastest logger's 37 Hz is 200 000: two million admits ten times that, and the
-#: reader holds it in 1.2 GB (measured: text cells, then floats); a longer log is refused
-#: after counting its lines, before it is parsed.
+#: Most data rows a log may have: ten times 90 min at the fastest logger's 37 Hz (1.2 GB read).
 MAX_ROWS = 2_000_000
 
 #: Fraction of a channel's values that may lie out of range and be repaired (dropped or

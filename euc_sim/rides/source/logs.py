@@ -162,7 +162,6 @@ LAYOUTS: dict[str, Layout] = {
 }
 
 
-# --------------------------------------------------------------------------------------
 def detect_layout(columns, path="<log>") -> Layout:
     """The layout whose signature columns are all among ``columns``; LogFormatError naming the missing one."""
     cols = set(columns)

@@ -22,9 +22,8 @@ __all__ = ["SPEC_RANGE", "TOTAL_MASS_RANGE", "SPEED_SCALE_RANGE", "TYRE_SCALE_RA
 TOTAL_MASS_RANGE = (35.0, 350.0)
 #: The wheel's speed against GPS speed: beyond this, the speed column is suspect.
 SPEED_SCALE_RANGE = (0.75, 1.33)
-#: GPS speed over the wheel's, beyond which (its whole 95 % interval) the tyre is not the one
-#: the wheel's speed assumes: 8 % slow (a tyre's tolerance) to 15 % fast (makers' speedometers
-#: read high by design: 10-13 % on the shared V9 and Master Pro V2 rides).
+#: GPS speed over the wheel's beyond which (its whole 95 % interval) the tyre is not the one the
+#: wheel assumes: 8 % slow (tyre tolerance) to 15 % fast (speedometers read high by design).
 TYRE_SCALE_RANGE = (1 / 1.15, 1.08)
 
 

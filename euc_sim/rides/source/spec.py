@@ -44,9 +44,7 @@ SPEC_RANGE = {"radius": (0.1, 0.4, "m"), "wheel_mass": (5.0, 100.0, "kg"),
               "battery_voltage": (24.0, 250.0, "V"), "top_speed": (10.0 / 3.6, 250.0 / 3.6, "m/s")}
 #: A Li-ion cell's voltage over a ride, V: from empty under load (2.5) to just above full (4.25).
 CELL_V_RANGE = (2.5, 4.25)
-#: A log whose highest voltage (99th percentile) stays below this per cell rode a pack that
-#: was nearly empty the whole ride, which no wheel allows (it tilts back near 3.3 V a cell),
-#: or has fewer cells than the spec; above this it has more: the spec's voltage class is impossible.
+#: The log's 99th-percentile voltage per cell outside this, V: the spec's voltage class is impossible.
 CELL_V_IMPOSSIBLE = (3.4, 4.35)
 #: The log's wheel speed (99.9th percentile) above this × the spec's top speed contradicts it.
 TOP_SPEED_MARGIN = 1.15
