@@ -10,7 +10,7 @@ import pandas as pd
 
 from euc_sim.errors import InputError
 from euc_sim.rides.grids.power import G
-from euc_sim.rides.grids.signals import resample, sg
+from euc_sim.rides.grids.signals import battery_power_of, resample, sg
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
 
@@ -75,13 +75,6 @@ def speed_profile(log: Ride, rate: float = GAP_POLICY.rate, window: float = 1.5,
     return out
 
 
-def _battery_power(data: pd.DataFrame) -> np.ndarray | None:
-    """Battery power per row, W (voltage × current, else the logged power), or None."""
-    if "voltage" in data and "current" in data:
-        return (data["voltage"] * data["current"]).to_numpy(float)
-    return data["power"].to_numpy(float) if "power" in data else None
-
-
 def unpaid_spikes(log: Ride, total_mass: float, factor: float = SPIN_POWER_FACTOR,
                   margin: float = SPIN_POWER_MARGIN, grade: float = SPIN_GRADE,
                   max_span: float = SPIN_MAX_SPAN) -> list[tuple[int, int]]:
@@ -102,7 +95,7 @@ def unpaid_spikes(log: Ride, total_mass: float, factor: float = SPIN_POWER_FACTO
     if not (math.isfinite(total_mass) and total_mass > 0):
         raise InputError(f"total_mass must be a positive number of kg, got {total_mass!r}")
     d = log.data
-    P = _battery_power(d)
+    P = battery_power_of(d)[0]
     if P is None or len(d) < 3:
         return []
     t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))

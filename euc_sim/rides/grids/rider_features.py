@@ -15,7 +15,7 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.errors import InputError
-from euc_sim.rides.grids.signals import RideAssumptions, ride_grid, sg
+from euc_sim.rides.grids.signals import RideAssumptions, battery_power_of, ride_grid, sg
 from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
 from euc_sim.rides.source.ride import Ride
 
@@ -46,11 +46,8 @@ def log_channels(log: Ride, assumptions: RideAssumptions = RideAssumptions(), ra
     """
     raw, _ = ride_grid(log, GapPolicy(bridge=max_gap, rate=rate))
     out = {"t": raw["t"].to_numpy(), "segment": raw["segment"].to_numpy(), "v": raw["v"].to_numpy()}
-    if log.has("voltage") and log.has("current"):
-        out["P"] = raw["voltage"].to_numpy() * raw["current"].to_numpy()
-    elif log.has("power"):
-        out["P"] = raw["power"].to_numpy()
-    else:
+    out["P"] = battery_power_of(raw)[0]
+    if out["P"] is None:
         raise RiderFitError(f"{log.path}: no voltage and current and no power column: the rider is "
                             f"fitted to battery power")
     if log.has("torque"):

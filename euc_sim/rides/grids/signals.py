@@ -29,7 +29,7 @@ from euc_sim.rides.source.sanity import SPEED_SCALE_RANGE
 from euc_sim.stats import distinct
 
 __all__ = ["RideAssumptions", "RideSignals", "with_found_values", "resample", "ride_grid", "sg", "window_samples",
-           "wheel_torque", "ride_signals", "break_at_gaps", "check_readings", "split_at_gaps"]
+           "wheel_torque", "ride_signals", "battery_power_of", "break_at_gaps", "check_readings", "split_at_gaps"]
 
 
 @dataclass(frozen=True)
@@ -340,13 +340,8 @@ def _balance_grid(log: Ride, rate: float, max_gap: float, window: float, polyord
     """The balance fit's filtered grid, everything of :func:`ride_signals` but the torque."""
     check_readings(log)
     raw, notes = ride_grid(log, GapPolicy(bridge=max_gap, rate=rate))
-    if log.has("voltage") and log.has("current"):
-        P = raw["voltage"].to_numpy() * raw["current"].to_numpy()
-        source = "voltage*current"
-    elif log.has("power"):
-        P = raw["power"].to_numpy()
-        source = "power column"
-    else:
+    P, source = battery_power_of(raw)
+    if P is None:
         lacking = [c for c in ("voltage", "current") if not log.has(c)]
         raise InputError(f"{log.path}: column {' and '.join(map(repr, lacking))}: absent, empty "
                          f"or all zero, and no 'power' column: battery power is needed")
@@ -370,6 +365,13 @@ def _balance_grid(log: Ride, rate: float, max_gap: float, window: float, polyord
                         phase=f(raw["phase_current"].to_numpy()) if "phase_current" in raw else None,
                         notes=tuple(log.warnings) + tuple(notes),
                         has_gps_alt="gps_alt" in raw and np.isfinite(raw["gps_alt"]).mean() > 0.5)
+
+
+def battery_power_of(frame: pd.DataFrame) -> tuple[np.ndarray | None, str | None]:
+    """Battery power per row, W, and its source: ``voltage × current``, else the ``power`` column, else None."""
+    if "voltage" in frame and "current" in frame:
+        return (frame["voltage"] * frame["current"]).to_numpy(float), "voltage*current"
+    return (frame["power"].to_numpy(float), "power column") if "power" in frame else (None, None)
 
 
 def break_at_gaps(t: np.ndarray, *ys: np.ndarray):
