@@ -215,40 +215,19 @@ class RideAnalysis:
     result: RideResult = field(repr=False)
     files: Any = None
 
-    @property
-    def effects(self) -> tuple[str, ...]:
-        """The accepted physics the nominal (inertia-only) model lacks, in the order kept."""
-        return tuple(self.result.balance.cross.accepted)
-
-    @property
-    def heldout_error_nominal(self) -> float:
-        """Held-out error without the effects, in :attr:`error_unit`."""
-        return self.result.balance.cross.heldout_nominal
-
-    @property
-    def heldout_error_augmented(self) -> float:
-        """Held-out error with the effects, in :attr:`error_unit`."""
-        return self.result.balance.cross.heldout_augmented
-
-    @property
-    def error_unit(self) -> str:
-        """``"W"`` (battery power) or ``"N·m"`` (torque)."""
-        return self.result.balance.error_unit
-
-    @property
-    def parameters(self) -> tuple:
-        """Every fitted physical quantity once (:class:`~euc_sim.rides.balance.parameters.Parameter`)."""
-        return self.result.parameters
-
-    @property
-    def total_mass(self):
-        """Rider plus wheel, kg (:class:`~euc_sim.rides.drive.mass.MassFit`: ``estimate``, ``ci95``)."""
-        return self.result.mass.mass
-
-    @property
-    def summary(self):
-        """The ride as a rider reads it (:class:`~euc_sim.rides.summary.summary.RideSummary`)."""
-        return self.result.rider.summary
+    effects = property(lambda self: tuple(self.result.balance.cross.accepted),
+                       doc="Names of the accepted physics the nominal (inertia-only) model lacks, in the order kept.")
+    heldout_error_nominal = property(lambda self: self.result.balance.cross.heldout_nominal,
+                                     doc="Held-out error without the effects, in :attr:`error_unit`.")
+    heldout_error_augmented = property(lambda self: self.result.balance.cross.heldout_augmented,
+                                       doc="Held-out error with the effects, in :attr:`error_unit`.")
+    error_unit = property(lambda self: self.result.balance.error_unit, doc='``"W"`` or ``"N·m"``.')
+    parameters = property(lambda self: self.result.parameters,
+                          doc="Every fitted quantity once (:class:`~euc_sim.rides.balance.parameters.Parameter`).")
+    total_mass = property(lambda self: self.result.mass.mass,
+                          doc="Rider plus wheel, kg (:class:`~euc_sim.rides.drive.mass.MassFit`).")
+    summary = property(lambda self: self.result.rider.summary,
+                       doc="The ride as a rider reads it (:class:`~euc_sim.rides.summary.summary.RideSummary`).")
 
     def to_json(self) -> dict:
         """CONTRACT's ``euc-sim ride`` object (plain Python types), as the command writes it."""

@@ -18,7 +18,7 @@ from numbers import Real
 from typing import TYPE_CHECKING
 
 from euc_sim.errors import InputError
-from euc_sim.model.parameters import PLAUSIBLE, TABLE3
+from euc_sim.model.parameters import TABLE3
 from euc_sim.rides.source.sanity import TOTAL_MASS_RANGE
 from euc_sim.rides.source.spec import SPEC_RANGE, SpecError, WheelSpec, log_contradictions, wheel_spec
 
@@ -31,10 +31,10 @@ __all__ = ["RideRequest", "ride_request", "MIN_BOOT", "BOUNDS", "DOMAINS"]
 #: Fewest bootstrap replicates: effects are accepted on their 95 % interval, and without
 #: replicates there is none (nothing would be accepted).
 MIN_BOOT = 10
-#: Each numeric option of the request: (low, high, unit, integer).
-BOUNDS = {"mass": (*TOTAL_MASS_RANGE, "kg", False), "radius": (*PLAUSIBLE["R"], "m", False),
-          "rider_weight": (20.0, 250.0, "kg", False), "wheel_mass": (*SPEC_RANGE["wheel_mass"][:2], "kg", False),
-          "battery_voltage": (*SPEC_RANGE["battery_voltage"][:2], "V", False),
+#: Each numeric option of the request: (low, high, unit, integer); the spec's values span the wheels
+#: there are (:data:`~euc_sim.rides.source.spec.SPEC_RANGE`).
+BOUNDS = {**{k: (*SPEC_RANGE[k], False) for k in ("radius", "wheel_mass", "battery_voltage")},
+          "mass": (*TOTAL_MASS_RANGE, "kg", False), "rider_weight": (20.0, 250.0, "kg", False),
           "efficiency": (0.1, 1.0, "", False), "n_boot": (MIN_BOOT, 100_000, "", True)}
 #: The residual's domains: battery power, W, or power divided by ω, N·m.
 DOMAINS = ("power", "torque")
