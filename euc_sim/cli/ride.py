@@ -12,6 +12,7 @@ the JSON last.
 from __future__ import annotations
 
 import argparse
+import inspect
 import os
 import sys
 from pathlib import Path
@@ -19,7 +20,7 @@ from pathlib import Path
 from euc_sim.cli.common import check_report_folder, say, seed
 from euc_sim.cli.options import bounded, deprecated, one_of, workers
 from euc_sim.io import check_writable, write_json
-from euc_sim.rides.request import BOUNDS, DOMAINS, MIN_BOOT, ride_request
+from euc_sim.rides.request import BOUNDS, DOMAINS, ride_request
 
 __all__ = ["add_ride_parser"]
 
@@ -30,19 +31,9 @@ def _progress(msg: str) -> None:
     sys.stderr.flush()
 
 
-def _bound(name: str):
-    """The option's argparse type: the number of :data:`~euc_sim.rides.request.BOUNDS`, its range
-    shown in ``--help`` and checked by :func:`~euc_sim.rides.request.ride_request`."""
-    lo, hi, unit, integer = BOUNDS[name]
-    return bounded(lo, hi, integer=integer, unit=unit, checked=False)
-
-
 def _cmd_ride(args: argparse.Namespace) -> int:
-    req = ride_request(args.log, args.compare, wheel=args.wheel, radius=args.radius, mass=args.mass,
-                       wheel_mass=args.wheel_mass, battery_voltage=args.battery_voltage,
-                       efficiency=args.efficiency, rider_weight=args.rider_weight, domain=args.domain,
-                       n_boot=args.n_boot, seed=args.seed, simulate=args.simulate,
-                       calibrate_rider=args.calibrate_rider)
+    # each of the request's keywords is an option of the same name: the API's and the command's are one
+    req = ride_request(**{k: getattr(args, k) for k in inspect.signature(ride_request).parameters})
     if args.json:
         check_writable(args.json)
     if args.report:
@@ -86,28 +77,29 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--domain", default="power", metavar=one_of(DOMAINS),
                    help="residual in battery power, W (default), or divided by ω, N·m")
 
-    p.add_argument("--mass", type=_bound("mass"), metavar="KG",
+    p.add_argument("--mass", type=bounded(*BOUNDS["mass"], checked=False), metavar="KG",
                    help="rider + EUC mass, kg (default Table 3: 81)")
-    p.add_argument("--radius", type=_bound("radius"), metavar="M",
+    p.add_argument("--radius", type=bounded(*BOUNDS["radius"], checked=False), metavar="M",
                    help="wheel radius, m (default 0.2; overrides the spec's diameter)")
     p.add_argument("--wheel", metavar="NAME|SPEC.csv",
                    help="the wheel: a shipped wheel's name (v9, lynx, apex, aero, blitz, mten4, "
                         "'master pro v2', 's22 pro', z10) or a specification file (Field|Data rows: "
                         "wheel diameter, net weight, battery voltage 'Tension', ...)")
-    p.add_argument("--rider-weight", type=_bound("rider_weight"), metavar="KG", action="append",
+    p.add_argument("--rider-weight", type=bounded(*BOUNDS["rider_weight"], checked=False), metavar="KG",
+                   action="append",
                    help="the rider's declared weight with gear, kg: a prior the log's total mass checks "
                         "(never taken as the answer); with --compare it holds for both rides, or give it "
                         "twice: LOG's rider, then OTHER's")
-    p.add_argument("--wheel-mass", type=_bound("wheel_mass"), metavar="KG",
+    p.add_argument("--wheel-mass", type=bounded(*BOUNDS["wheel_mass"], checked=False), metavar="KG",
                    help="the wheel's net weight, kg (overrides the spec)")
-    p.add_argument("--battery-voltage", type=_bound("battery_voltage"), metavar="V",
+    p.add_argument("--battery-voltage", type=bounded(*BOUNDS["battery_voltage"], checked=False), metavar="V",
                    help="full-charge battery voltage, V (overrides the spec)")
-    p.add_argument("--efficiency", type=_bound("efficiency"), default=0.8, metavar="ETA",
+    p.add_argument("--efficiency", type=bounded(*BOUNDS["efficiency"], checked=False), default=0.8, metavar="ETA",
                    help="drivetrain efficiency used only to infer a logged torque from battery "
                         "power (--domain torque, the simulation's torque column; default 0.8); "
                         "the balance fit has no efficiency")
-    p.add_argument("--n-boot", type=_bound("n_boot"), default=200, metavar="N",
-                   help=f"bootstrap replicates, at least {MIN_BOOT} (default 200, at most 100000)")
+    p.add_argument("--n-boot", type=bounded(*BOUNDS["n_boot"], checked=False), default=200, metavar="N",
+                   help="bootstrap replicates (default 200)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
     p.add_argument("--workers", type=workers(), default=2, metavar="N",
                    help="threads for the simulation's steps (default 2)")

@@ -1,13 +1,9 @@
-"""The validated request of a ride analysis: what ``euc-sim ride`` and :func:`euc_sim.analyse_ride` both build.
+"""The validated request of a ride analysis, that ``euc-sim ride`` and :func:`euc_sim.analyse_ride` both build.
 
-:func:`ride_request` checks every option (each number against its bound in :data:`BOUNDS`, the
-domain, the rider weights), resolves the wheel's spec, reads each log once and refuses a log the
-analysis cannot use, all before any output exists; :func:`~euc_sim.rides.pipeline.ride_pipeline`
-takes the :class:`RideRequest` it returns.  Bad input raises :class:`~euc_sim.errors.InputError`
-(``OSError`` for a missing file) with one line naming the parameter as ``euc-sim ride`` spells it
-(``--n-boot`` for ``n_boot``), so the command and the API refuse a bad request with the same line.
-The command declares its numeric options with :data:`BOUNDS` (``--help`` states them) and leaves
-their check to :func:`ride_request`.
+:func:`ride_request` checks every option (each number against its bound in :data:`BOUNDS`, which
+the command's ``--help`` states), resolves the wheel's spec and reads each log once, refusing a log
+the analysis cannot use before any output exists; bad input raises :class:`~euc_sim.errors.InputError`
+(``OSError`` for a missing file), one line naming the option as the command spells it (``--n-boot``).
 """
 
 from __future__ import annotations
@@ -31,11 +27,12 @@ __all__ = ["RideRequest", "ride_request", "MIN_BOOT", "BOUNDS", "DOMAINS"]
 #: Fewest bootstrap replicates: effects are accepted on their 95 % interval, and without
 #: replicates there is none (nothing would be accepted).
 MIN_BOOT = 10
-#: Each numeric option of the request: (low, high, unit, integer); the spec's values span the wheels
-#: there are (:data:`~euc_sim.rides.source.spec.SPEC_RANGE`).
-BOUNDS = {**{k: (*SPEC_RANGE[k], False) for k in ("radius", "wheel_mass", "battery_voltage")},
-          "mass": (*TOTAL_MASS_RANGE, "kg", False), "rider_weight": (20.0, 250.0, "kg", False),
-          "efficiency": (0.1, 1.0, "", False), "n_boot": (MIN_BOOT, 100_000, "", True)}
+#: Each numeric option of the request: (low, high, integer, unit), as
+#: :func:`euc_sim.cli.options.bounded` takes them; the spec's values span the wheels there are
+#: (:data:`~euc_sim.rides.source.spec.SPEC_RANGE`).
+BOUNDS = {**{k: (lo, hi, False, unit) for k, (lo, hi, unit) in SPEC_RANGE.items() if k != "top_speed"},
+          "mass": (*TOTAL_MASS_RANGE, False, "kg"), "rider_weight": (20.0, 250.0, False, "kg"),
+          "efficiency": (0.1, 1.0, False, ""), "n_boot": (MIN_BOOT, 100_000, True, "")}
 #: The residual's domains: battery power, W, or power divided by ω, N·m.
 DOMAINS = ("power", "torque")
 
@@ -44,26 +41,19 @@ DOMAINS = ("power", "torque")
 class RideRequest:
     """One ride analysis, every value checked: what :func:`~euc_sim.rides.pipeline.ride_pipeline` runs.
 
-    Built by :func:`ride_request`; a script holding rides already parsed may build one directly
-    (its values are then its own to check).
+    Built by :func:`ride_request` (a script holding rides already parsed may build one directly).
 
     Attributes
     ----------
     log, compare : Ride
         The ride to fit, and optionally the ride to test on, each parsed once.
     spec : WheelSpec or None
-        The wheel's specification, with ``--radius``, ``--wheel-mass``, ``--battery-voltage``.
     assumptions : RideAssumptions or None
         Radius, total mass and efficiency given (None: the spec's and the log's).
-    domain : {"power", "torque"}
-    n_boot, seed : int
-        Bootstrap replicates and the seed of every random draw.
-    simulate : bool
-        Replay the ride: the closed-loop simulator along the tested ride's speed profile.
-    calibrate_rider : bool
-        Add the ``calibrated_rider`` step to the replay.
+    domain, n_boot, seed, simulate, calibrate_rider
+        As :func:`ride_request` takes them (``simulate`` resolved to a bool).
     rider_weight, compare_rider_weight : float or None
-        The riders' declared weights, kg: priors the logs' total masses check.
+        The riders' declared weights, kg.
     """
 
     log: Ride
@@ -79,7 +69,7 @@ class RideRequest:
     compare_rider_weight: float | None = None
 
 
-def _check(name: str, value, lo: float, hi: float, unit: str = "", integer: bool = False):
+def _check(name: str, value, lo: float, hi: float, integer: bool, unit: str):
     """``value`` if a finite number (an integer with ``integer``) in ``[lo, hi]``, else an
     InputError naming ``--name``, the bound and the value."""
     ok = isinstance(value, Real) and not isinstance(value, bool) and math.isfinite(value) and lo <= value <= hi
@@ -87,20 +77,6 @@ def _check(name: str, value, lo: float, hi: float, unit: str = "", integer: bool
         span = f"[{lo:g}, {hi:g}]{' ' + unit if unit else ''}"
         raise InputError("--" + name.replace("_", "-"), f"{'an integer' if integer else 'a number'} in {span}", value)
     return int(value) if integer else float(value)
-
-
-def _assumptions(radius, mass, efficiency: float):
-    """The ride's assumptions from ``radius``, m, and ``mass`` (rider and EUC), kg."""
-    from euc_sim.rides.grids.signals import RideAssumptions  # deferred: loads scipy (1.1 s)
-
-    p, sources = TABLE3, []
-    if radius is not None:
-        p = p.replace(R=radius)
-        sources.append(("R", "--radius"))
-    if mass is not None:        # its bound's low end exceeds the EUC's own mass (m0 + mw)
-        p = p.replace(m=mass - p.m0 - p.mw)
-        sources.append(("total_mass", "--mass"))
-    return RideAssumptions.from_params(p, efficiency=efficiency, sources=tuple(sources))
 
 
 def ride_request(log, compare=None, *, wheel=None, radius: float | None = None, mass: float | None = None,
@@ -140,6 +116,7 @@ def ride_request(log, compare=None, *, wheel=None, radius: float | None = None, 
         One line naming the option (``--n-boot``), the file or its column.
     """
     from euc_sim.rides.balance.analysis import check_data  # deferred: loads scipy (1.1 s)
+    from euc_sim.rides.grids.signals import RideAssumptions  # deferred: loads scipy (1.1 s)
     from euc_sim.rides.source.logs import read_log  # deferred: loads euc_sim.rides.source.bounds (0.01 s)
 
     if domain not in DOMAINS:
@@ -153,7 +130,12 @@ def ride_request(log, compare=None, *, wheel=None, radius: float | None = None, 
         raise InputError("--calibrate-rider adds a step to the simulated replay: it cannot go with --no-simulate")
     # with compare the replay runs unless refused: CONTRACT's compared JSON carries its "simulation"
     simulate = bool(calibrate_rider or (compare is not None if simulate is None else simulate))
-    assumptions = _assumptions(given["radius"], given["mass"], given["efficiency"])
+    p, sources = TABLE3, []
+    if given["radius"] is not None:
+        p, sources = p.replace(R=given["radius"]), [("R", "--radius")]
+    if given["mass"] is not None:         # its bound's low end exceeds the EUC's own mass (m0 + mw)
+        p, sources = p.replace(m=given["mass"] - p.m0 - p.mw), sources + [("total_mass", "--mass")]
+    assumptions = RideAssumptions.from_params(p, efficiency=given["efficiency"], sources=tuple(sources))
     weights = [] if rider_weight is None else [rider_weight] if isinstance(rider_weight, Real) else list(rider_weight)
     if len(weights) > 2:
         raise InputError(f"--rider-weight: at most twice (LOG's rider, then OTHER's), got {len(weights)} values")

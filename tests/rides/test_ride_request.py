@@ -70,7 +70,7 @@ def test_the_n_boot_rule_is_stated_once_and_both_faces_follow_it(tmp_path, capsy
                 compares.append(f"{path.name}:{node.lineno}")
     assert setters == ["request.py"] and compares == []
 
-    monkeypatch.setitem(request.BOUNDS, "n_boot", (30, 100_000, "", True))
+    monkeypatch.setitem(request.BOUNDS, "n_boot", (30, 100_000, True, ""))
     log = synth_log(tmp_path / "fit.csv", seed=3)
     line = _cli_line([log, "--n-boot", "20", "--no-simulate"], capsys)
     assert line == "--n-boot: expected an integer in [30, 100000], got 20"
