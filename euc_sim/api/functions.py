@@ -342,7 +342,7 @@ def analyse_ride(log, compare=None, *, report_dir=None, simulate: bool = False, 
     >>> sorted(k for k in ride.to_json() if k.startswith("heldout_error_"))[:2]
     ['heldout_error_all_candidates', 'heldout_error_augmented']
     """
-    return _analysed(ride_request(log, compare, simulate=simulate, **options), report_dir, jobs, progress)
+    return analyse_request(ride_request(log, compare, simulate=simulate, **options), report_dir, jobs, progress)
 
 
 def run_ride(log, compare=None, *, report_dir=None, jobs: int = 1, progress=None, **request) -> dict:
@@ -351,13 +351,13 @@ def run_ride(log, compare=None, *, report_dir=None, jobs: int = 1, progress=None
     folder written when given; returns the ride JSON (:func:`~euc_sim.rides.render.contract.ride_json`)."""
     from euc_sim.rides.render.contract import ride_json  # deferred: loads scipy (1.1 s)
 
-    done = _analysed(RideRequest(log, compare, **request), report_dir, jobs, progress)
+    done = analyse_request(RideRequest(log, compare, **request), report_dir, jobs, progress)
     return ride_json(done.result, done.files)
 
 
-def _analysed(req: RideRequest, report_dir, jobs: int, progress) -> RideAnalysis:
-    """The pipeline on ``req``, then the report folder when asked (every file at the end: an
-    interrupted run writes none)."""
+def analyse_request(req: RideRequest, report_dir=None, jobs: int = 1, progress=None) -> RideAnalysis:
+    """The pipeline on a request (:func:`~euc_sim.rides.request.ride_request`), then the report
+    folder when asked (every file at the end: an interrupted run writes none)."""
     from euc_sim.rides.pipeline import ride_pipeline  # deferred: loads scipy (1.1 s)
     from euc_sim.rides.render.report_files import write_report  # deferred: loads scipy, plotly (1.2 s)
 

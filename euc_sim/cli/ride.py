@@ -17,6 +17,7 @@ import os
 import sys
 from pathlib import Path
 
+from euc_sim.api.functions import analyse_request
 from euc_sim.cli.common import check_report_folder, say, seed
 from euc_sim.cli.options import bounded, deprecated, one_of, workers
 from euc_sim.io import check_writable, write_json
@@ -41,20 +42,13 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     for r in (req.log, req.compare):         # each repair of the reader, one line, whatever --quiet
         for line in r.repairs if r else ():
             say(f"euc-sim ride: note: {r.name}: {line}")
-    from euc_sim.rides.pipeline import ride_pipeline  # deferred: loads pandas, scipy (1.2 s)
     from euc_sim.rides.render.contract import ride_json  # deferred: loads pandas, scipy (1.2 s)
-    from euc_sim.rides.render.report_files import write_report  # deferred: loads pandas, scipy (1.2 s)
 
-    res = ride_pipeline(req, jobs=args.workers, progress=None if args.quiet else _progress)
-    files = where = None
-    if args.report:             # every file at the end: an interrupted run writes none
-        if not args.quiet:
-            _progress(f"writing the report to {args.report}")
-        files = write_report(res, Path(args.report))
-        if args.json:           # where the named files are, from the JSON's folder
-            where = Path(os.path.relpath(Path(args.report).resolve(),
-                                         Path(args.json).resolve().parent)).as_posix()
-    rep = ride_json(res, files, where)
+    done = analyse_request(req, args.report, args.workers, None if args.quiet else _progress)
+    where = None
+    if args.report and args.json:           # where the named files are, from the JSON's folder
+        where = Path(os.path.relpath(Path(args.report).resolve(), Path(args.json).resolve().parent)).as_posix()
+    rep = ride_json(done.result, done.files, where)
     if args.json:
         write_json(args.json, rep)
     from euc_sim.rides.render.terminal import summary_lines  # deferred: loads pandas, scipy, plotly (1.5 s)
