@@ -56,8 +56,8 @@ def test_a_missing_log_is_refused_with_the_same_line(tmp_path, capsys):
 
 
 def test_the_n_boot_rule_is_stated_once_and_both_faces_follow_it(tmp_path, capsys, monkeypatch):
-    """MIN_BOOT is set in the request module alone and nothing else compares n_boot with a
-    number; changing the bound changes what the command, its --help and the API accept."""
+    """MIN_BOOT is set in the request module alone and no face compares n_boot with a number;
+    changing the bound changes what the commands, their --help and the API accept."""
     setters, compares = [], []
     for path in sorted((ROOT / "euc_sim").rglob("*.py")):
         if "identification" in path.parts:             # identify's own replicates, another rule
@@ -76,9 +76,10 @@ def test_the_n_boot_rule_is_stated_once_and_both_faces_follow_it(tmp_path, capsy
     assert line == "--n-boot: expected an integer in [30, 100000], got 20"
     with pytest.raises(ValueError, match=r"^--n-boot: expected an integer in \[30, 100000\], got 20$"):
         euc_sim.analyse_ride(log, n_boot=20)
-    with pytest.raises(SystemExit):
-        main(["ride", "--help"])
-    assert "range [30, 100000]" in " ".join(capsys.readouterr().out.split())
+    for command in ("ride", "rides"):       # the logbook's replicates take the same bound
+        with pytest.raises(SystemExit):
+            main([command, "--help"])
+        assert "range [30, 100000]" in " ".join(capsys.readouterr().out.split()), command
 
 
 def test_the_request_holds_the_rides_read_once_and_the_checked_options(tmp_path):
