@@ -322,10 +322,9 @@ def analyse_ride(log, compare=None, *, report_dir=None, simulate: bool = False, 
         Threads for that simulation.
     progress : callable, optional
     **options
-        The command's options: ``wheel`` (a shipped wheel's name or a spec file), ``domain``
-        (``"power"`` or ``"torque"``), ``n_boot`` (at least 10), ``seed``, ``rider_weight`` (kg,
-        one or two), ``mass``, ``radius``, ``wheel_mass``, ``battery_voltage``, ``efficiency``,
-        ``calibrate_rider``.
+        The command's other options (:func:`~euc_sim.rides.request.ride_request`): ``wheel``,
+        ``domain``, ``n_boot``, ``seed``, ``rider_weight``, ``mass``, ``radius``, ``wheel_mass``,
+        ``battery_voltage``, ``efficiency``, ``calibrate_rider``.
 
     Returns
     -------

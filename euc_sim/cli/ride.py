@@ -1,12 +1,10 @@
 """``euc-sim ride LOG.csv [--compare OTHER.csv] --report DIR --json OUT.json``.
 
-Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_ride_parser`.  The options
-become the request :func:`euc_sim.analyse_ride` builds too
-(:func:`euc_sim.rides.request.ride_request`: every value checked, each log read once).
-Bad input (a missing or malformed log, an unusable option, an unwritable
-output) raises ``ValueError`` or ``OSError``: one line, exit 2.  Outputs are
-checked writable before any work and written atomically (:mod:`euc_sim.io`),
-the JSON last.
+Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_ride_parser`; the options
+are :func:`euc_sim.analyse_ride`'s request (:func:`euc_sim.rides.request.ride_request`).  Bad
+input (a missing or malformed log, an unusable option, an unwritable output) raises ``ValueError``
+or ``OSError``: one line, exit 2.  Outputs are checked writable before any work and written
+atomically (:mod:`euc_sim.io`), the JSON last.
 """
 
 from __future__ import annotations
