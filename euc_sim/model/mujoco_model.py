@@ -248,7 +248,11 @@ def load_model(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path
 
 @lru_cache(maxsize=16)
 def _compiled(params: Params, variant: str, path: str, stamp, contact) -> mujoco.MjModel:
-    spec = build_spec(params, variant, path, contact)
+    return compile_spec(build_spec(params, variant, path, contact))
+
+
+def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
+    """``spec.compile()``, a failure as one-line ``ModelError``."""
     try:
         return spec.compile()
     except Exception as exc:

@@ -17,7 +17,7 @@ import mujoco
 import numpy as np
 
 from euc_sim.errors import InputError
-from euc_sim.model.mujoco_model import ModelError, _find, load_spec
+from euc_sim.model.mujoco_model import ModelError, _find, compile_spec, load_spec
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["MJCF_3D_PATH", "TyreContact", "build_spatial_spec", "load_spatial_model",
@@ -107,11 +107,7 @@ def build_spatial_spec(params: Params = TABLE3, tyre: TyreContact | None = None,
 def load_spatial_model(params: Params = TABLE3, tyre: TyreContact | None = None,
                        mjcf: str | Path | None = None) -> mujoco.MjModel:
     """Compile :func:`build_spatial_spec`."""
-    spec = build_spatial_spec(params, tyre, mjcf)
-    try:
-        return spec.compile()
-    except Exception as exc:
-        raise ModelError(f"MJCF does not compile with these parameters: {str(exc).splitlines()[0]}") from None
+    return compile_spec(build_spatial_spec(params, tyre, mjcf))
 
 
 def euler_yaw_tilt_pitch(xmat) -> tuple[float, float, float]:

@@ -132,22 +132,9 @@ def _sampled(spec: RecordingSpec, run):
 def dataset_plan(seed: int = 0, duration: float = 15.0, counts=PAPER_SET, params: Params = TABLE3,
                  noise: str = "paper", rider_noise: float = DEFAULT_RIDER_NOISE,
                  engine: str = "mujoco", effects: Mapping[str, float] | None = None) -> list[RecordingSpec]:
-    """Specs of a paper-like dataset, speeds varied per recording from the seed.
-
-    Parameters
-    ----------
-    seed : int
-        Dataset seed.
-    duration : float
-        Length of each recording, s.
-    counts : sequence of (maneuver, count)
-    params : Params
-    noise : {"paper", "none"}
-    rider_noise : float
-        Rider motor noise, N·m.
-    engine : {"mujoco", "analytic"}
-    effects : mapping, optional
-        Effects injected in every recording.
+    """Specs of a paper-like dataset (``counts``: (maneuver, count) pairs), speeds varied per
+    recording from the dataset ``seed``; each recording ``duration`` s long with ``noise``,
+    rider noise ``rider_noise``, N·m, on ``engine``, with ``effects`` in every one.
     """
     total = sum(c for _, c in counts)
     children = np.random.SeedSequence(int(seed)).spawn(total)

@@ -229,11 +229,7 @@ class PreparedRun:
         if exc.partial is None:
             return
         st, u = exc.partial
-        t, v_ref = self.t, self.v_ref
-        exc.trajectory = pd.DataFrame({
-            "t": t[:len(st)], "x": st[:, 0], "gamma": st[:, 1], "phi": st[:, 2], "x_dot": st[:, 3],
-            "gamma_dot": st[:, 4], "phi_dot": st[:, 5], "M_d": u[:, 0], "M_h": u[:, 1],
-            "v_ref": v_ref[:len(st)]})
+        exc.trajectory = _trajectory(self.t[:len(st)], st, u, self.v_ref[:len(st)])
 
 
 def prepare(maneuver="constant_speed", duration: float = 15.0, *, params: Params = TABLE3,
@@ -437,13 +433,15 @@ def _moving(ext: _ExternalInputs, p: Params, dt: float):
 
 
 def _trajectory(t: np.ndarray, states: np.ndarray, U: np.ndarray, v_ref: np.ndarray,
-                ext: _ExternalInputs) -> pd.DataFrame:
-    """The run as the module docstring's columns."""
+                ext: _ExternalInputs | None = None) -> pd.DataFrame:
+    """The run as the module docstring's columns (``h``, ``psi``, ``theta`` from ``ext``)."""
     df = pd.DataFrame({
         "t": t, "x": states[:, 0], "gamma": states[:, 1], "phi": states[:, 2],
         "x_dot": states[:, 3], "gamma_dot": states[:, 4], "phi_dot": states[:, 5],
         "M_d": U[:, 0], "M_h": U[:, 1], "v_ref": v_ref,
     })
+    if ext is None:
+        return df
     if ext.h_t is not None:
         df["h"] = ext.h_t
     if ext.lat is not None:

@@ -173,27 +173,20 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     ----------
     path : str
         One of :data:`PATHS`.
-    duration : float
-        s.
-    params : Params
+    duration, dt : float
+        Length of the run and control period (the timestep), s.
+    params, motor, seed, tyre
+        As :func:`euc_sim.simulation.engine.simulate`; ``tyre`` a :class:`TyreContact`.
     speed : float, optional
         Planned speed, m/s (:data:`PATH_SPEEDS` by default).
-    motor : MotorPD, optional
     rider : controllers.rider.Rider, optional
         Longitudinal rider (default: the planar LQR design, 0.15 s delay, no noise).
     lateral : LateralRider, optional
-        Lateral rider (default: designed at ``speed`` with ``lateral_delay``).
-    seed : int
-        Seed of the rider's motor noise.
-    dt : float
-        Control period and timestep, s.
-    tyre : TyreContact, optional
+        Lateral rider (default: designed at ``speed`` with ``lateral_delay``, s).
     maneuver : Maneuver, optional
         Planned speed profile (constant ``speed`` by default; the lateral gains stay those at ``speed``).
     integrator : str, optional
         MuJoCo integrator of the run (the lateral design linearises ``implicitfast``).
-    lateral_delay : float
-        Reaction delay of the default lateral rider, s, compensated by a predictor.
     radius : float, optional
         Turn radius of ``circle``, ``u_turn`` and ``figure_eight``, m (default :data:`RADIUS`).
     native : bool
