@@ -33,29 +33,13 @@ class FirmwareError(InputError):
 
 def firmware_settings(ctrl, p: Params | None = None,
                       zeta: float = ZETA_UNRESOLVED) -> tuple[dict, list[str]]:
-    """MotorPD settings from a ride JSON's ``controller`` entry, and notes.
+    """MotorPD settings from a ride JSON's ``controller`` entry (CONTRACT's object), and notes.
 
-    Parameters
-    ----------
-    ctrl : dict
-        CONTRACT's ``controller`` object.
-    p : Params, optional
-        The ride's parameters, for the damping of an unresolved K_d (default Table 3).
-    zeta : float
-        Damping ratio given to the pitch mode when K_d is unresolved.
-
-    Returns
-    -------
-    settings : dict
-        ``Kp`` (N·m/rad), ``Kd`` (N·m·s/rad) and where identified ``torque_limit`` (N·m),
-        ``tiltback_speed`` (m/s), ``tiltback_gain`` (rad per m/s).
-    notes : list of str
-        What was not carried, or changed.
-
-    Raises
-    ------
-    FirmwareError
-        For a missing law, a law not in N·m, or a term that is not a finite number.
+    ``p``: the ride's parameters for the damping of an unresolved K_d (default Table 3),
+    given the pitch-mode damping ratio ``zeta``.  Returns ``settings`` (``Kp`` N·m/rad,
+    ``Kd`` N·m·s/rad, and where identified ``torque_limit`` N·m, ``tiltback_speed`` m/s,
+    ``tiltback_gain`` rad per m/s) and ``notes`` (what was not carried, or changed).
+    ``FirmwareError`` for a missing law, a law not in N·m, or a non-finite term.
     """
     if not isinstance(ctrl, dict):
         raise FirmwareError(f"controller: expected an object, got {type(ctrl).__name__}")

@@ -264,26 +264,10 @@ def delayed_lqr_torque(e_v: float, e_gamma: float, e_phi: float, gamma_dot: floa
     """The rider's commanded ankle torque at one step, N·m: M_h = sat(M_h* − K Φⁿ ŝ − Σ KG_i δu_{k−n+i}).
 
     The one source of the per-step law (:meth:`RiderRun.command`; compiled by
-    :mod:`euc_sim.simulation.native_kernels`).
-
-    Parameters
-    ----------
-    e_v, e_gamma, e_phi : float
-        Sensed ẋ − v_ref (m/s), γ − γ* (rad), φ − φ* (rad).
-    gamma_dot, phi_dot : float
-        Sensed γ̇, φ̇, rad/s.
-    z : float
-        ∫(ẋ − v_ref) dt before this step, m (used when ``integral``).
-    history : float
-        Σ_{i<n} KG_i δu_{k−n+i}, N·m.
-    u_ref : float
-        The trim M_h*, N·m.
-    k_pred : sequence of 5 or 6 floats
-        K Φⁿ; the sixth weighs z.
-    integral : bool
-        Whether the gains include the integral of the speed error.
-    limit : float
-        |M_h| limit, N·m.
+    :mod:`euc_sim.simulation.native_kernels`).  ``e_v``, ``e_gamma``, ``e_phi``, ``gamma_dot``,
+    ``phi_dot``: the sensed ŝ (m/s, rad, rad, rad/s, rad/s); ``z``: ∫(ẋ − v_ref) dt before this
+    step, m (weighed by ``k_pred[5]`` when ``integral``); ``history``: Σ KG_i δu, N·m;
+    ``u_ref``: M_h*, N·m; ``k_pred``: K Φⁿ; ``limit``: |M_h| limit, N·m.
     """
     fb = (k_pred[0] * e_v + k_pred[1] * e_gamma + k_pred[2] * e_phi
           + k_pred[3] * gamma_dot + k_pred[4] * phi_dot)

@@ -161,29 +161,12 @@ def _rider_mass_params(p: Params, value: float) -> Params:
 
 
 def generalized_force(name: str, value: float, p: Params, q, qd, extra=None) -> np.ndarray:
-    """Generalised force Q_e of an effect in the paper's coordinates, by virtual power.
+    """Generalised force Q_e, (..., 3): (N, N·m, N·m), of effect ``name`` in the paper's coordinates.
 
-    Parameters
-    ----------
-    name : str
-        An effect with a ``force``.
-    value : float
-        Its magnitude in the catalog's unit (``lateral_dynamics``: a scale, 1 the physics).
-    p : Params
-    q, qd : array_like, shape (..., 3)
-    extra : dict, optional
-        ``lateral_dynamics``: the keys of :data:`LATERAL_INPUTS` (and of :data:`LEAN_INPUTS`
-        for the rider's lean, :func:`rider_lean_forces`), broadcastable to q.
-
-    Returns
-    -------
-    numpy.ndarray, shape (..., 3)
-        (N, N·m, N·m) added to the right-hand side of eq. (5).
-
-    Raises
-    ------
-    ValueError
-        For an unknown effect or one without a generalised force.
+    ``value`` in the catalog's unit (``lateral_dynamics``: a scale, 1 the physics); ``q``,
+    ``qd`` (..., 3); ``extra`` for ``lateral_dynamics``: the keys of :data:`LATERAL_INPUTS`
+    (and :data:`LEAN_INPUTS`, :data:`RIDER_MARKER_INPUTS` where recorded), broadcastable to
+    q.  ``ValueError`` for an unknown effect or one without a generalised force.
     """
     e = get(name)
     if e.force is None:

@@ -114,7 +114,6 @@ def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, hei
 
     Parameters
     ----------
-    recording, out : path
     fps : float
         Frames per second of a video.
     width, height : int
@@ -126,15 +125,8 @@ def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, hei
     progress : bool
         A progress bar on stderr.
 
-    Returns
-    -------
-    int
-        The number of frames written.
-
-    Raises
-    ------
-    RenderError
-        For a bad recording or size, or when no OpenGL backend can be created.
+    Returns the number of frames written; ``RenderError`` for a bad recording or size, or
+    when no OpenGL backend can be created.
     """
     import mujoco
 
