@@ -63,7 +63,7 @@ def _check_effects(effects: Mapping[str, float] | None) -> dict[str, float]:
     out = {}
     for name, value in dict(effects or {}).items():
         try:
-            fx.get(name)                                # unknown name: lists the valid ones
+            e = fx.get(name)                            # unknown name: lists the valid ones
         except ValueError as exc:
             raise SimulationError(str(exc)) from None
         try:
@@ -72,9 +72,9 @@ def _check_effects(effects: Mapping[str, float] | None) -> dict[str, float]:
             raise SimulationError(f"effect {name}: expected a number, got {value!r}") from None
         if not math.isfinite(v):
             raise SimulationError(f"effect {name}: value must be finite, got {value!r}")
-        lo, hi = fx.get(name).bounds            # the catalog's bound of each effect
+        lo, hi = e.bounds
         if not lo <= v <= hi:
-            unit = "" if fx.get(name).unit == "1" else f" {fx.get(name).unit}"
+            unit = "" if e.unit == "1" else f" {e.unit}"
             raise SimulationError(f"effect {name}: expected a value in [{lo:g}, {hi:g}]{unit}, got {v!r}")
         out[name] = v
     return out

@@ -127,19 +127,6 @@ def worker_init(parent: int) -> None:
         os._exit(1)
 
 
-class _Progress:
-    def __init__(self, total: int, desc: str, enabled: bool):
-        self.bar = tqdm(total=total, desc=desc, unit="task", disable=not enabled, file=sys.stderr)
-
-    def update(self, failed: int) -> None:
-        self.bar.update()
-        if failed:
-            self.bar.set_postfix(failed=failed)
-
-    def close(self) -> None:
-        self.bar.close()
-
-
 def _sigterm_as_interrupt():
     """Make SIGTERM raise KeyboardInterrupt (main thread only); returns the old handler."""
     if threading.current_thread() is not threading.main_thread():
@@ -174,7 +161,7 @@ def run_tasks(fn: Callable, tasks: Sequence[tuple[str, Any]], *, scheduler: str 
     if len(set(names)) != len(names):
         raise ValueError("run_tasks: task names must be unique")
     report = RunReport(names=names)
-    bar = _Progress(len(tasks), desc, progress)
+    bar = tqdm(total=len(tasks), desc=desc, unit="task", disable=not progress, file=sys.stderr)
 
     def done(name: str, ok: bool, value) -> None:
         if ok:
@@ -183,7 +170,9 @@ def run_tasks(fn: Callable, tasks: Sequence[tuple[str, Any]], *, scheduler: str 
                 on_result(name, value)
         else:
             report.failed[name] = value
-        bar.update(len(report.failed))
+        bar.update()
+        if report.failed:
+            bar.set_postfix(failed=len(report.failed))
 
     t0 = time.perf_counter()
     old = _sigterm_as_interrupt()

@@ -338,12 +338,8 @@ def _ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, track: "_Tr
             f = float(push(k * dt))
             xfrc[rb, 0], xfrc[rb, 1] = f * cp, f * sp
         mujoco.mj_step(m, d)
-        x_s += dt * 0.5 * (x_dot + _forward_speed(qvel, rv, psi))
+        x_s += dt * 0.5 * (x_dot + (math.cos(psi) * float(qvel[rv]) + math.sin(psi) * float(qvel[rv + 1])))
     return rows
-
-
-def _forward_speed(qvel, rv: int, psi: float) -> float:
-    return math.cos(psi) * float(qvel[rv]) + math.sin(psi) * float(qvel[rv + 1])
 
 
 def _fall(t, theta, phi, gamma, phi_max, gam_max):
