@@ -1,14 +1,10 @@
 """The ``euc-sim`` command line.
 
-Each subcommand is a ``_cmd_NAME(args) -> int`` function registered in
-:func:`build_parser`.  Bad input (an :class:`euc_sim.errors.InputError` raised
-anywhere below, an argparse error, or an ``OSError`` about a path) becomes one line
-on stderr naming the culprit and exit code 2.  Any other exception is a bug: one
-line saying so and where its traceback was written, exit code 1.  Nothing
-half-written is left in either case, since every output goes through
-:mod:`euc_sim.io`'s atomic writes, and an output that is an input is refused before
-anything runs (:func:`euc_sim.cli.common.check_outputs`), as is a ``--report`` folder
-holding files euc-sim did not write (its manifest lists those it did).
+Each subcommand is a ``_cmd_NAME(args) -> int`` registered in :func:`build_parser`.  Bad
+input (:class:`euc_sim.errors.InputError`, an argparse error, an ``OSError`` about a path)
+is one line naming the culprit and exit 2; any other exception is a bug: one line with
+where its traceback was written, exit 1.  Outputs are written atomically and checked
+before anything runs (:func:`euc_sim.cli.common.check_outputs`).
 """
 
 from __future__ import annotations
