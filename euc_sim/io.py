@@ -55,7 +55,8 @@ def file_kind(mode: int) -> str:
 
 
 def check_output(path: str | Path, folder: bool = False) -> Path:
-    """Refuse (:class:`~euc_sim.errors.BadOutputPath`) an output whose name is too long or that exists and is not a regular file (with ``folder``: a folder)."""
+    """Refuse (:class:`~euc_sim.errors.BadOutputPath`) an output whose name is too long or that exists and is not
+    a regular file (with ``folder``: a folder)."""
     path = check_name(path, "output", BadOutputPath)
     try:
         mode = os.stat(path).st_mode
@@ -84,7 +85,8 @@ def _target(path: Path) -> Path:
 
 
 def temporary_beside(path: str | Path) -> Path:
-    """Create an empty temporary file (mode 0600) beside ``path`` keeping its extension: ``ride.mp4`` → ``.ride.tmp-XXXXXXXX.mp4``."""
+    """Create an empty temporary file (mode 0600) beside ``path`` keeping its extension: ``ride.mp4`` →
+    ``.ride.tmp-XXXXXXXX.mp4``."""
     path = Path(path)
     suffix = _cut(path.suffix, 16) if len(path.suffix) > 16 else path.suffix
     stem = _cut(path.stem, NAME_MAX - 1 - len(_TEMP_MARK) - 8 - len(os.fsencode(suffix)))

@@ -161,7 +161,8 @@ def block_bootstrap_indices(blocks: Sequence[np.ndarray], rng: np.random.Generat
 
 
 def wild_block_signs(n: int, L: int, n_boot: int, rng: np.random.Generator) -> np.ndarray:
-    """Rademacher signs (ceil(n / L), n_boot) of the blocks of ``L`` rows (row i: block i // L) for a wild block bootstrap."""
+    """Rademacher signs (ceil(n / L), n_boot) of the blocks of ``L`` rows (row i: block i // L) for a wild block
+    bootstrap."""
     n_blocks = int(np.ceil(n / L))
     return rng.choice(np.array([-1.0, 1.0]), size=(n_blocks, n_boot))
 

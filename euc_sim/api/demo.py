@@ -41,7 +41,8 @@ MODELS_STUDY = "docs/identification_models.md"
 
 @dataclass(frozen=True)
 class Section:
-    """One part of the demo's story: a ``title``, full ``sentences``, a ``table`` (header row first, or empty) and ``figures`` ((file, caption))."""
+    """One part of the demo's story: a ``title``, full ``sentences``, a ``table`` (header row first, or empty) and
+    ``figures`` ((file, caption))."""
 
     title: str
     sentences: tuple[str, ...]
@@ -85,7 +86,8 @@ class Story:
 
 
 def draw_concealed_effect(rng: np.random.Generator) -> tuple[str, float]:
-    """The concealed effect and its magnitude (CONTRACT unit) drawn from ``rng``: uniform in the upper half of its plausible range, a slope with a random sign."""
+    """The concealed effect and its magnitude (CONTRACT unit) drawn from ``rng``: uniform in the upper half of its
+    plausible range, a slope with a random sign."""
     name = CONCEALABLE[int(rng.integers(len(CONCEALABLE)))]
     hi = max(abs(v) for v in effects.get(name).plausible)
     value = float(rng.uniform(0.5 * hi, hi))
@@ -151,7 +153,8 @@ def _identify(specs: list, paths: list[Path], figure: Path, seed: int) -> list[t
 
 
 def _conceal_and_diagnose(folder: Path, seed: int, say: Callable[[str], None]) -> dict:
-    """Step 3: one seeded effect concealed in a stop-and-go ride, diagnosed blind: ``{"effect", "value", "unit", "diagnosis"}``."""
+    """Step 3: one seeded effect concealed in a stop-and-go ride, diagnosed blind: ``{"effect", "value", "unit",
+    "diagnosis"}``."""
     rng = np.random.default_rng([seed, 5])
     effect, k_true = draw_concealed_effect(rng)
     v = float(rng.uniform(2.0, 3.0))

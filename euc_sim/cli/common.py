@@ -72,7 +72,8 @@ def say(msg: str) -> None:
 
 
 def parse_params(items: Sequence[str] | None):
-    """``--param NAME=VALUE`` pairs → Params (Table 3 for the rest), checked as plausible (UsageError, ParameterError)."""
+    """``--param NAME=VALUE`` pairs → Params (Table 3 for the rest), checked as plausible (UsageError,
+    ParameterError)."""
     values = param_values(items)
     return check_plausible(Params.from_mapping(values), values)
 
@@ -145,7 +146,8 @@ def report_folders(args) -> list[tuple[str, Path]]:
 
 
 def _guarded(args) -> dict:
-    """Every file an output may not be, ``{identity: (what, path, named)}``: inputs, CSVs inside an input folder (``named`` False), input sidecars."""
+    """Every file an output may not be, ``{identity: (what, path, named)}``: inputs, CSVs inside an input folder
+    (``named`` False), input sidecars."""
     guarded = {}
     for opt, path in _named(args, INPUT_OPTIONS):
         if opt == "--wheel" and not path.is_file():     # a shipped wheel's name, not a file
@@ -244,7 +246,8 @@ def _manifest(folder: Path) -> dict:
 
 
 def check_folder_is_ours(folder: str | Path, option: str = "--report") -> dict:
-    """Refuse (BadOutputPath) a folder holding a file not in its :data:`MANIFEST` with its current size and time; return its files now."""
+    """Refuse (BadOutputPath) a folder holding a file not in its :data:`MANIFEST` with its current size and time;
+    return its files now."""
     folder = Path(folder)
     if not folder.is_dir():
         return {}
@@ -258,7 +261,8 @@ def check_folder_is_ours(folder: str | Path, option: str = "--report") -> dict:
 
 
 def record_outputs(states) -> None:
-    """After a command: add to each report folder's manifest the files written during the run (atomically; unchanged folders are left alone)."""
+    """After a command: add to each report folder's manifest the files written during the run (atomically;
+    unchanged folders are left alone)."""
     for folder, before, start in states:
         if not folder.is_dir():
             continue

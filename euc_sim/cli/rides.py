@@ -1,4 +1,5 @@
-"""``euc-sim rides DIR_OR_FILES... --report DIR --json F``: many rides of one wheel (registered by :func:`add_rides_parser`)."""
+"""``euc-sim rides DIR_OR_FILES... --report DIR --json F``: many rides of one wheel (registered by
+:func:`add_rides_parser`)."""
 
 from __future__ import annotations
 
@@ -40,7 +41,8 @@ def _regular(path: Path) -> Path:
 
 
 def find_logs(items) -> list[Path]:
-    """The log files named and the ride logs under each folder named (FileNotFoundError; InputError for a folder without logs or a special file)."""
+    """The log files named and the ride logs under each folder named (FileNotFoundError; InputError for a folder
+    without logs or a special file)."""
     out: list[Path] = []
     for item in items:
         p = Path(item)

@@ -55,7 +55,8 @@ def _check_choice(option: str, value: str, valid) -> None:
 
 
 def _voltage_limit(path, R: float, voltage: float | None) -> dict:
-    """``MotorPD`` voltage-limit settings from a ride JSON (:func:`euc_sim.controllers.firmware.voltage_limit_settings`)."""
+    """``MotorPD`` voltage-limit settings from a ride JSON
+    (:func:`euc_sim.controllers.firmware.voltage_limit_settings`)."""
     from euc_sim.controllers.firmware import FirmwareError, voltage_limit_settings  # deferred: loads scipy.optimize (0.4 s)
 
     try:
@@ -138,7 +139,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _drift_shape(text, eff, h: float = 0.6, duration: float = 15.0):
-    """``--drift-shape`` (needs ``--effect cog_height_drift=VALUE``), or None; h(t) must stay above the plausible least h over ``duration`` s."""
+    """``--drift-shape`` (needs ``--effect cog_height_drift=VALUE``), or None; h(t) must stay above the plausible
+    least h over ``duration`` s."""
     if text is not None and "cog_height_drift" not in eff:
         raise InputError("--drift-shape shapes the cog_height_drift effect; add --effect cog_height_drift=VALUE")
     shape = None if text is None else parse_drift_shape(text)

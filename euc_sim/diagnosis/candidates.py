@@ -27,7 +27,8 @@ __all__ = ["visibility", "build_problem", "DriftGiven", "freeze", "validity_rule
 
 # --- visibility -------------------------------------------------------------------------
 def visibility(columns) -> dict[str, dict]:
-    """Which catalog effects a recording with these ``columns`` can reveal: ``{effect: {"visible", "through", "reason"}}``."""
+    """Which catalog effects a recording with these ``columns`` can reveal: ``{effect: {"visible", "through",
+    "reason"}}``."""
     cols = set(columns)
     out = {}
     for name, e in effects.CATALOG.items():
@@ -46,7 +47,8 @@ def visibility(columns) -> dict[str, dict]:
 
 # --- the candidate library ---------------------------------------------------------------
 def _force_columns(name: str, prep: Prepared, p: Params, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """(kinematic, wheel-row) columns of a force effect per unit estimate: κ(q)·F[R Q_e,x + Q_e,γ + Q_e,φ] and F[R Q_e,x], F the term filter."""
+    """(kinematic, wheel-row) columns of a force effect per unit estimate: κ(q)·F[R Q_e,x + Q_e,γ + Q_e,φ] and F[R
+    Q_e,x], F the term filter."""
     ph = p.replace(h=h)
     kin = prep.kin
     ref = effects.get(name).ref        # the column's reference magnitude (linear forces: exact)
@@ -213,7 +215,8 @@ def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w
 
 
 class DriftGiven:
-    """The h drift's adaptive term (:class:`regression.Problem`): its shape scanned on what the set's other members leave.
+    """The h drift's adaptive term (:class:`regression.Problem`): its shape scanned on what the set's other
+    members leave.
 
     Called with the others' names (a sorted tuple) it gives :class:`regression.Adapted`;
     :meth:`shape` the shape chosen; cached per set.
@@ -259,7 +262,8 @@ def freeze(problem: reg.Problem, info: dict, names) -> tuple[reg.Problem, dict]:
 
 
 def validity_rules(p: Params, span: tuple, shape: dict | None) -> dict:
-    """Physical-range checks of each candidate's θ (None: valid, else why); ``span``: first and last time, s; ``shape``: the drift's."""
+    """Physical-range checks of each candidate's θ (None: valid, else why); ``span``: first and last time, s;
+    ``shape``: the drift's."""
     grid = np.linspace(span[0], span[1], 201)
 
     def positive(lo, hi, unit):

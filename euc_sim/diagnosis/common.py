@@ -89,7 +89,8 @@ def h_at_bound(h: float) -> bool:
 
 
 def heldout_over_floor(heldout_rmse: float, noise_floor: float) -> float:
-    """Held-out RMSE over the noise floor (both N·m): the diagnosis's one "× the noise floor" figure (inf for a zero floor)."""
+    """Held-out RMSE over the noise floor (both N·m): the diagnosis's one "× the noise floor" figure (inf for a
+    zero floor)."""
     return heldout_rmse / noise_floor if noise_floor > 0 else float("inf")
 
 

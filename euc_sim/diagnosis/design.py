@@ -49,7 +49,8 @@ _LATERAL_COLUMNS = ("psi", "theta")
 
 
 def nominal_magnitude(name: str, params: Params = TABLE3) -> float:
-    """The effect's Monte Carlo value, CONTRACT unit: the geometric middle of its plausible range (``rider_mass``: the nominal mass plus it, kg)."""
+    """The effect's Monte Carlo value, CONTRACT unit: the geometric middle of its plausible range (``rider_mass``:
+    the nominal mass plus it, kg)."""
     lo, hi = plausible_range(name)
     mid = math.sqrt(lo * hi)
     return fx.RECORDS.absent_value(name, params) + mid
@@ -90,7 +91,8 @@ def effect_estimate(recording, meta: dict, name: str, params: Params, h0: float)
 
 
 def effect_study(args) -> dict:
-    """One (maneuver, effect) task of :func:`effects_design`: ``estimates`` and ``se`` per ride that did not fall, and ``fell``."""
+    """One (maneuver, effect) task of :func:`effects_design`: ``estimates`` and ``se`` per ride that did not fall,
+    and ``fell``."""
     name, effect, value, rides, duration, scale, (seed, i, j), p, rider_noise, with_torques = args
     seeds = [int(c.generate_state(1)[0])
              for c in np.random.SeedSequence(seed, spawn_key=(1, i, j)).spawn(rides)]
@@ -214,7 +216,8 @@ def _check(maneuvers, effect_names, rides, duration, noise_scale, valid_maneuver
 
 
 def effects_design_figure(result: dict):
-    """Each effect's sd relative to its magnitude per maneuver: Monte Carlo (bars), covariance (markers), the detection line 1/min_t."""
+    """Each effect's sd relative to its magnitude per maneuver: Monte Carlo (bars), covariance (markers), the
+    detection line 1/min_t."""
     from matplotlib import rcParamsDefault
     from matplotlib.figure import Figure
 

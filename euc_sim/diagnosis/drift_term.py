@@ -29,7 +29,8 @@ WANDER_RESOLUTION = 4.0
 
 def wander_basis(t: np.ndarray, t0: float, t1: float, spacing: float = WANDER_RESOLUTION,
                  derivative: int = 0) -> np.ndarray:
-    """Half-range cosines cos(jπ(t − t0)/(t1 − t0)), j = 1 … round((t1 − t0)/``spacing``), or a derivative, at ``t`` (s): (n, k).
+    """Half-range cosines cos(jπ(t − t0)/(t1 − t0)), j = 1 … round((t1 − t0)/``spacing``), or a derivative, at
+    ``t`` (s): (n, k).
 
     Global and zero-mean, so every coefficient is fixed by the whole ride and a held-out
     block is interpolated, not extrapolated.
@@ -190,7 +191,8 @@ def peak_to_peak(shape: dict, span: tuple, theta: np.ndarray, cov: np.ndarray) -
 
 
 def unit_shape_limit(shape: dict, span: tuple, theta: np.ndarray, cov: np.ndarray, min_t: float) -> float:
-    """Smallest peak-to-peak change of this shape the selection would accept, m: Δ = √((min_t² + k − 1) / sᵀC⁻¹s), s the unit shape of ``theta``."""
+    """Smallest peak-to-peak change of this shape the selection would accept, m: Δ = √((min_t² + k − 1) / sᵀC⁻¹s),
+    s the unit shape of ``theta``."""
     ptp, _ = peak_to_peak(shape, span, theta, np.zeros((theta.size, theta.size)))
     if ptp <= 0:
         return float("inf")

@@ -38,7 +38,8 @@ def estimate_of(info: dict, theta: np.ndarray, cov: np.ndarray, dof: float) -> t
 
 
 def coupling_of(info: dict, theta: np.ndarray, cov: np.ndarray, dof: float) -> dict:
-    """The lateral term's coupling ``s`` (1), its Student-t ``s_ci95`` (clipped at 0) and ``alternatives`` (rad per √s of each choice)."""
+    """The lateral term's coupling ``s`` (1), its Student-t ``s_ci95`` (clipped at 0) and ``alternatives`` (rad
+    per √s of each choice)."""
     from scipy.stats import t as student
     q = float(student.ppf(0.975, max(dof, 1.0)))
     s, se_s = float(theta[0]), float(np.sqrt(max(cov[0, 0], 0.0)))
@@ -154,7 +155,8 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
 
 
 def detection_limits(problem: reg.Problem, info: dict, s, vis: dict, thresholds) -> dict:
-    """Per effect, the smallest value this recording would name (``min_t`` × its se, the estimate's unit), against the plausible range; invisible ones with the reason."""
+    """Per effect, the smallest value this recording would name (``min_t`` × its se, the estimate's unit), against
+    the plausible range; invisible ones with the reason."""
     limits = {}
     for c in problem.candidates:
         base_set = tuple(x for x in s.selected if x != c) + (c,)
@@ -181,7 +183,8 @@ def detection_limits(problem: reg.Problem, info: dict, s, vis: dict, thresholds)
 
 
 def drift_of_time(info: dict, theta, cov: np.ndarray, h: float, dof: float, step: float = 0.25) -> dict:
-    """The drift's ``shape``, ``h_of_t`` (``t`` s, ``h`` m, ``ci95_halfwidth`` m every ``step`` s) and ``windows`` where h changes, s."""
+    """The drift's ``shape``, ``h_of_t`` (``t`` s, ``h`` m, ``ci95_halfwidth`` m every ``step`` s) and ``windows``
+    where h changes, s."""
     from scipy.stats import t as student
     t0, t1 = info["span"]
     grid = np.arange(t0, t1 + 1e-9, step)

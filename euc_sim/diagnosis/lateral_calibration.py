@@ -35,7 +35,8 @@ NOISE_DRAWS = 2
 
 
 def plan_of(prep: Prepared) -> dict | None:
-    """The ride's plan ``{"path", "speed" (m/s), "radius" (m or None), "from"}``, or None without a 3-D path or the markers.
+    """The ride's plan ``{"path", "speed" (m/s), "radius" (m or None), "from"}``, or None without a 3-D path or
+    the markers.
 
     Speed and radius come from the sidecar's ``maneuver_options``, else from the recording:
     the mean forward speed and Σv / Σ|ψ̇| where the 2 s mean yaw rate is at least half its peak.
@@ -104,7 +105,8 @@ def twin_recording(prep: Prepared, plan: dict, h: float, noise_std: float = 0.0,
 
 
 def calibrate_item(item: dict, twin: dict, truth: float) -> dict | None:
-    """The recording's ``lateral_dynamics`` item calibrated by its twin's (None when the twin's coupling is not positive).
+    """The recording's ``lateral_dynamics`` item calibrated by its twin's (None when the twin's coupling is not
+    positive).
 
     Choice k estimates a_k √s; the twin's gain is b_k = a_k,twin √s_twin / truth_twin (``truth``
     in rad) and c_k = a_k / b_k; the estimate is c_first √s.  The interval adds the choices'
@@ -228,7 +230,8 @@ def noisy_twins(prep: Prepared, plan: dict, h: float, diagnose, draws: int = NOI
 
 
 def twin_artifacts(decision: dict, twin: dict) -> list[str]:
-    """Move the effects the twin names too from ``decision["effects"]`` to ``tentative``, with a note; returns their names.
+    """Move the effects the twin names too from ``decision["effects"]`` to ``tentative``, with a note; returns
+    their names.
 
     The twin has none of the catalog's other physics, so what it names beside
     ``lateral_dynamics`` is the term's approximation, not evidence.

@@ -108,7 +108,8 @@ def _read(source, meta: Mapping | None):
 
 
 def _nominal_params(params, meta: dict, source, name: str) -> Params:
-    """``params`` when given, else the sidecar's (or Table 3); DiagnosisError, naming the source, for a rider mass outside :data:`RIDER_MASS_RANGE`."""
+    """``params`` when given, else the sidecar's (or Table 3); DiagnosisError, naming the source, for a rider mass
+    outside :data:`RIDER_MASS_RANGE`."""
     if isinstance(params, Params):
         p, where = params, "params"
     elif params is not None:
@@ -211,7 +212,8 @@ def marker_tilt(df: pd.DataFrame, psi) -> np.ndarray | None:
 
 
 def _rider_lean(df: pd.DataFrame, psi, gamma, l0: float, dt: float, w: int, o: int):
-    """The rider's lateral lean λ relative to the EUC body and its rates (rad, rad/s, rad/s²), or None without C, E and G.
+    """The rider's lateral lean λ relative to the EUC body and its rates (rad, rad/s, rad/s²), or None without C,
+    E and G.
 
     The tilt is taken from the markers, ϑ_E = atan2(−b_y, b_z), b = T_ψᵀ (E − C) (finer than
     the recorded angle); G seen from A in the tilted frame is (h cos λ sin φ, −h sin λ,

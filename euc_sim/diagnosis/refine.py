@@ -19,7 +19,8 @@ __all__ = ["refine", "relinearised", "Final", "final_model"]
 
 
 def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: float, given=None):
-    """Estimate nonlinear effects (time offset, rider mass) by a 1-D search each over the value itself, h and the linear effects profiled out.
+    """Estimate nonlinear effects (time offset, rider mass) by a 1-D search each over the value itself, h and the
+    linear effects profiled out.
 
     Returns the state ``{name: value}``, the rebuilt (problem, info) (each refined effect's
     info with its ``search`` interval and ``at_bound``), the fit, and the slope dθ/dv of each
@@ -132,7 +133,8 @@ class Final:
 
 
 def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress=None, given=None) -> Final:
-    """The selection ``s``'s model, its nonlinear effects refined; ``given``: columns fitted beside every set, or None."""
+    """The selection ``s``'s model, its nonlinear effects refined; ``given``: columns fitted beside every set, or
+    None."""
     selected = tuple(s.selected)
     estimates = {c: info[c]["offset"] + info[c]["scale"] * float(s.fit.theta[c][0])
                  for c in selected if not info[c].get("drift")}

@@ -23,7 +23,8 @@ __all__ = ["ResidualModel", "residual_model", "noise_floor"]
 # --- the residual --------------------------------------------------------------------------
 @dataclass(frozen=True)
 class ResidualModel:
-    """r(h) = P(h)/D(h) = M_d,1 − M_d,2 on the kept samples, P term-filtered; with M_d recorded r_w(h) = w₀ + w₁ h stacked below."""
+    """r(h) = P(h)/D(h) = M_d,1 − M_d,2 on the kept samples, P term-filtered; with M_d recorded r_w(h) = w₀ + w₁ h
+    stacked below."""
 
     P: np.ndarray                # (3, n)
     D: np.ndarray                # (2, n)
@@ -49,7 +50,8 @@ _H_NODES = np.array([0.5, 1.0, 1.5])
 
 
 def residual_model(prep: Prepared, p: Params | None = None, sigma: float | None = None) -> ResidualModel:
-    """Build r(h) (and r_w(h)) on the kept samples; another term filter ``sigma`` (samples) rebuilds the polynomial on the full length."""
+    """Build r(h) (and r_w(h)) on the kept samples; another term filter ``sigma`` (samples) rebuilds the
+    polynomial on the full length."""
     p = prep.params if p is None else p
     kin = prep.kin
     if sigma is None:

@@ -101,7 +101,8 @@ def _injected(prep: Prepared, named: list[dict]) -> tuple[dict, float]:
 
 
 def _lateral_motion(prep: Prepared, duration: float, sim_dt: float):
-    """The recording's own tilt and yaw on the run's grid (only the prescribed :data:`~euc_sim.simulation.lateral.LATERAL_INPUTS`)."""
+    """The recording's own tilt and yaw on the run's grid (only the prescribed
+    :data:`~euc_sim.simulation.lateral.LATERAL_INPUTS`)."""
     from scipy.integrate import cumulative_trapezoid
 
     t = prep.t

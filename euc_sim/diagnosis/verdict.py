@@ -107,7 +107,8 @@ def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: di
 
 
 def cannot_see(limits: dict, vis: dict) -> dict[str, str]:
-    """``{effect: why}`` of effects invisible here (a column missing) or whose detection limit lies above their plausible range's lower end."""
+    """``{effect: why}`` of effects invisible here (a column missing) or whose detection limit lies above their
+    plausible range's lower end."""
     out = {}
     for name, lim in limits.items():
         unit = "" if lim["unit"] in ("1", "") else f" {lim['unit']}"

@@ -31,7 +31,8 @@ def base_groups(p: Params) -> np.ndarray:
 
 
 def base_regressor(q, qd, qdd, g: float = TABLE3.g) -> np.ndarray:
-    """Regressor Y (..., 3, 6) with inverse_dynamics(p, q, q̇, q̈) = Y · base_groups(p) (eqs. 5–8, groups :data:`BASE_GROUPS`)."""
+    """Regressor Y (..., 3, 6) with inverse_dynamics(p, q, q̇, q̈) = Y · base_groups(p) (eqs. 5–8, groups
+    :data:`BASE_GROUPS`)."""
     q, qd, qdd = (np.asarray(a, dtype=float) for a in (q, qd, qdd))
     _, ga, ph = q[..., 0], q[..., 1], q[..., 2]
     _, gd, pd_ = qd[..., 0], qd[..., 1], qd[..., 2]

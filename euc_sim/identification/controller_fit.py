@@ -80,7 +80,8 @@ def _controller_rows(kin: Kinematics, p: Params, terms) -> tuple[np.ndarray, np.
 
 
 def identify_controller(kin, p, terms=("gamma", "gamma_d")) -> ControllerFit:
-    """The EUC's controller: M_d,2 (eq. 10) ≈ Σ K_k · term_k (default K_p γ + K_d γ̇), target and regressors term-filtered alike.
+    """The EUC's controller: M_d,2 (eq. 10) ≈ Σ K_k · term_k (default K_p γ + K_d γ̇), target and regressors
+    term-filtered alike.
 
     ``kin``, ``p``: one recording or lists pooled into one fit (``p.h`` the rider height used);
     ``terms`` from ``gamma, gamma_d, x_d, x_dd, phi, phi_d, const``.
@@ -98,7 +99,8 @@ def identify_controller(kin, p, terms=("gamma", "gamma_d")) -> ControllerFit:
 
 @dataclass
 class RiderFit(ControllerFit):
-    """The rider's delayed law; ``delay_curve`` holds (delays, rmse); ``at_bound`` when the best delay is the first or last searched."""
+    """The rider's delayed law; ``delay_curve`` holds (delays, rmse); ``at_bound`` when the best delay is the
+    first or last searched."""
 
     delay_curve: tuple = ()
     at_bound: bool = False
@@ -112,7 +114,8 @@ class RiderFit(ControllerFit):
 
 def identify_rider_delay(kin: Kinematics, p: Params, terms=("phi", "phi_d", "const"),
                          max_delay: float = 0.5) -> RiderFit:
-    """M_h (row 3 of eq. 5) ≈ Σ k_j · term_j(t − τ): a delayed PD law, τ searched from 0 to ``max_delay`` s (:func:`fit_delayed_law`)."""
+    """M_h (row 3 of eq. 5) ≈ Σ k_j · term_j(t − τ): a delayed PD law, τ searched from 0 to ``max_delay`` s
+    (:func:`fit_delayed_law`)."""
     _check_terms(terms, "rider")
     y, X = _filtered_rows(kin, analytic.rider_torque(p, kin.q, kin.qd, kin.qdd), terms)
     fit = fit_delayed_law(y, X, kin.dt, max_delay)

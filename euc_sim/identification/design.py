@@ -75,7 +75,8 @@ def _fit(rec, p: Params):
 
 
 def maneuver_study(args) -> dict:
-    """One maneuver task of :func:`design` (``(maneuver, rides, duration, noise_scales, (seed, index), params, rider_noise)``).
+    """One maneuver task of :func:`design` (``(maneuver, rides, duration, noise_scales, (seed, index), params,
+    rider_noise)``).
 
     Returns ``h`` (scales × rides, m), ``fisher_var`` (scales, m²), ``identifiable``, ``h_grid``
     and ``rmse_rel`` (the mean RMSE(h) curve over its minimum, scales × grid) and ``fell``.
@@ -222,7 +223,8 @@ def recommendation(result: dict) -> str:
 
 
 def design_figure(result: dict):
-    """The RMSE(h) curves (the paper's Fig. 8) per noise scale and h's sd across scales (Monte Carlo and Fisher), one colour per maneuver."""
+    """The RMSE(h) curves (the paper's Fig. 8) per noise scale and h's sd across scales (Monte Carlo and Fisher),
+    one colour per maneuver."""
     from matplotlib import rcParamsDefault
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D

@@ -350,7 +350,8 @@ def _bootstrap_interval(polys: list[ResidualPoly], grid: np.ndarray, boot_tot: n
 
 
 def _basic_interval(boot: np.ndarray, h: float, lo: float, hi: float) -> tuple[float, float]:
-    """The basic (reverse-percentile) 95 % interval of ``boot`` about ``h``, within [lo, hi], m (docs/coverage.md#what-the-interval-is-now)."""
+    """The basic (reverse-percentile) 95 % interval of ``boot`` about ``h``, within [lo, hi], m
+    (docs/coverage.md#what-the-interval-is-now)."""
     b_lo, b_hi = basic_interval(boot, h)
     return float(max(lo, b_lo)), float(min(hi, b_hi))
 

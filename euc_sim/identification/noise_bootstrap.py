@@ -110,7 +110,8 @@ def grid_minimum(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class NoiseCurves:
-    """Σ residual² (N²·m²) on a grid of h (m) of one recording's smooth part (``base``, per model) and its replicates (``reps``, (n_rep, K)); ``sigma``: noise σ per column."""
+    """Σ residual² (N²·m²) on a grid of h (m) of one recording's smooth part (``base``, per model) and its
+    replicates (``reps``, (n_rep, K)); ``sigma``: noise σ per column."""
 
     grid: np.ndarray
     base: dict
@@ -162,7 +163,8 @@ def noise_curves(df: pd.DataFrame, p: Params, smoothing: Smoothing, grid: np.nda
 
 @dataclass(frozen=True)
 class NoiseSpread:
-    """What fresh measurement noise does to ĥ, one model: ``h_smooth`` (the smooth parts' h, m) and ``boot`` (each replicate's, m)."""
+    """What fresh measurement noise does to ĥ, one model: ``h_smooth`` (the smooth parts' h, m) and ``boot`` (each
+    replicate's, m)."""
 
     h_smooth: float
     boot: np.ndarray
@@ -179,7 +181,8 @@ class NoiseSpread:
 
 
 def noise_spread(curves: list[NoiseCurves], model: str) -> NoiseSpread:
-    """Pool the replicate curves of several recordings (replicate j with j) and minimise each, one model (ValueError when grids or counts differ)."""
+    """Pool the replicate curves of several recordings (replicate j with j) and minimise each, one model
+    (ValueError when grids or counts differ)."""
     if not curves:
         raise ValueError("no recordings to pool")
     grid = curves[0].grid

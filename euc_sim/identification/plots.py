@@ -23,7 +23,8 @@ __all__ = ["recording_figure", "rmse_curves_figure",
 
 
 def check_figure_path(path) -> Path:
-    """Refuse, before any work, a figure name whose extension matplotlib cannot write (naming path and supported ones)."""
+    """Refuse, before any work, a figure name whose extension matplotlib cannot write (naming path and supported
+    ones)."""
     from matplotlib.backend_bases import FigureCanvasBase
 
     path = Path(path)
@@ -36,7 +37,8 @@ def check_figure_path(path) -> Path:
 
 
 def recording_figure(rec, torques_df, fit):
-    """The paper's Fig. 6/7 for one recording: (ψ), (ϑ) where recorded, γ, φ, and M_d,1 against M_d,2 (3-DoF, identified h).
+    """The paper's Fig. 6/7 for one recording: (ψ), (ϑ) where recorded, γ, φ, and M_d,1 against M_d,2 (3-DoF,
+    identified h).
 
     ``rec``: :class:`~euc_sim.identification.h_fit.Recording`; ``torques_df``:
     :func:`euc_sim.identification.torques.torques` at the identified h; ``fit``: its 3-DoF HFit.
@@ -134,7 +136,8 @@ def rmse_curves_figure(names, per_recording, pooled):
 
 
 def verdict_label(fit) -> str:
-    """The identifiability verdict in a few words naming its rule: ``"rise 300%: identifiable"``, ``"rise 25% < 75%: shallow"``."""
+    """The identifiability verdict in a few words naming its rule: ``"rise 300%: identifiable"``, ``"rise 25% <
+    75%: shallow"``."""
     rise = f"rise {100 * fit.flatness:.0f}%"
     if fit.identifiable:
         return f"{rise}: identifiable"
@@ -219,7 +222,8 @@ def plain_log_ticks(axis, ticks=None) -> None:
 
 
 def rollout_figure(name: str, fit, tool: str = "MuJoCo"):
-    """The rollout fit of h (``tool="mujoco.sysid"`` for :mod:`~euc_sim.identification.sysid_fit`): each window's rollout over the recorded γ and φ, and the parameter correlations."""
+    """The rollout fit of h (``tool="mujoco.sysid"`` for :mod:`~euc_sim.identification.sysid_fit`): each window's
+    rollout over the recorded γ and φ, and the parameter correlations."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(12, 7.5), layout="constrained")

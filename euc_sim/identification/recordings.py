@@ -58,7 +58,8 @@ def is_mocap(df: pd.DataFrame) -> bool:
 
 
 def read_sidecar(path: str | Path) -> dict[str, Any]:
-    """The metadata in ``NAME.json`` beside ``NAME.csv``; ``{}`` when there is none (RecordingError when not a JSON object)."""
+    """The metadata in ``NAME.json`` beside ``NAME.csv``; ``{}`` when there is none (RecordingError when not a
+    JSON object)."""
     path = Path(path)
     if not path.name or path.is_dir():
         raise RecordingError(f"{path}: is a folder, expected a recording file (.csv or .parquet)")
@@ -150,7 +151,8 @@ def check_time(df: pd.DataFrame, name: str) -> None:
 
 
 def check_finite(df: pd.DataFrame, name: str, columns, max_gap: int = MAX_GAP) -> pd.DataFrame:
-    """Interpolate runs of NaN/inf up to ``max_gap`` samples in ``columns`` (with a RecordingWarning), refuse longer ones or gaps at an end; returns a new frame."""
+    """Interpolate runs of NaN/inf up to ``max_gap`` samples in ``columns`` (with a RecordingWarning), refuse
+    longer ones or gaps at an end; returns a new frame."""
     out = df.copy()
     repaired = 0
     for col in columns:
@@ -178,7 +180,8 @@ def check_finite(df: pd.DataFrame, name: str, columns, max_gap: int = MAX_GAP) -
 
 
 def check_angles(df: pd.DataFrame, name: str) -> None:
-    """Refuse angle columns that look like degrees: ``gamma``, ``phi``, ``theta`` beyond :data:`PITCH_LIMIT`, ``psi`` stepping over 1 rad a sample."""
+    """Refuse angle columns that look like degrees: ``gamma``, ``phi``, ``theta`` beyond :data:`PITCH_LIMIT`,
+    ``psi`` stepping over 1 rad a sample."""
     for col in ("gamma", "phi", "theta"):
         if col in df.columns:
             y = df[col].to_numpy(dtype=float)
@@ -219,7 +222,8 @@ def check_length(df: pd.DataFrame, name: str, min_samples: int, why: str = "the 
 
 
 def validate_recording(df: pd.DataFrame, name: str = "recording", max_gap: int = MAX_GAP) -> pd.DataFrame:
-    """Check a recording's columns (state ``t, x, gamma, phi`` or motion capture), time, values and angles; returns a repaired copy."""
+    """Check a recording's columns (state ``t, x, gamma, phi`` or motion capture), time, values and angles;
+    returns a repaired copy."""
     cols = set(df.columns)
     if "t" not in cols:
         raise RecordingError(f"{name}: column 't' row 0: missing required column 't' "

@@ -141,7 +141,8 @@ class Adapted:
 
 @dataclass(frozen=True)
 class Fit:
-    """A least-squares fit of one candidate set with h profiled: ``names``, ``h``, ``theta`` per candidate, weighted ``rss``, ``n`` samples."""
+    """A least-squares fit of one candidate set with h profiled: ``names``, ``h``, ``theta`` per candidate,
+    weighted ``rss``, ``n`` samples."""
 
     names: tuple[str, ...]
     h: float

@@ -193,7 +193,8 @@ def _trials(problem: Problem, current: tuple, remaining: list, n_eff: float, n_b
 
 def _pair_step(problem: Problem, current: tuple, remaining: list, n_eff: float, cur_bic: float, cur_cv: float,
                n_blocks: int, guard: float, judge: dict) -> dict | None:
-    """The best pair of remaining candidates added together when it passes :func:`forward_select`'s tests and each member drops the BIC by ``min_bic_drop`` given the other."""
+    """The best pair of remaining candidates added together when it passes :func:`forward_select`'s tests and each
+    member drops the BIC by ``min_bic_drop`` given the other."""
     tried = []
     for i, a in enumerate(remaining):
         for b in remaining[i + 1:]:
@@ -227,7 +228,8 @@ def _pair_step(problem: Problem, current: tuple, remaining: list, n_eff: float, 
 
 def _swap(problem: Problem, f: Fit, cur_bic: float, others: list, n_eff: float, min_bic_drop: float,
           min_t: float, cluster: float):
-    """The best replacement of one member by an outsider lowering the BIC by ``min_bic_drop`` (valid, newcomer |θ|/se ≥ ``min_t``): (replaced name, fit, BIC), or None."""
+    """The best replacement of one member by an outsider lowering the BIC by ``min_bic_drop`` (valid, newcomer
+    |θ|/se ≥ ``min_t``): (replaced name, fit, BIC), or None."""
     if len(f.names) < 2:
         return None
     best = None
@@ -245,7 +247,8 @@ def _swap(problem: Problem, f: Fit, cur_bic: float, others: list, n_eff: float, 
 
 def _backward(problem: Problem, f: Fit, cur_bic: float, n_eff: float, min_bic_drop: float, min_t: float,
               cluster: float) -> tuple[str | None, str]:
-    """The member whose removal costs the least BIC, when below ``min_bic_drop`` or its |θ|/se below ``min_t``, and why; (None, "") otherwise."""
+    """The member whose removal costs the least BIC, when below ``min_bic_drop`` or its |θ|/se below ``min_t``,
+    and why; (None, "") otherwise."""
     if len(f.names) < 2:
         return None, ""
     cov, _ = covariance(problem, f, cluster)
@@ -352,7 +355,8 @@ def find_aliases(problem: Problem, selected: Sequence[str], name: str,
 
 
 def project_out(problem: Problem, P: np.ndarray | None) -> Problem:
-    """The problem with the columns ``P`` (n, k) projected out of the target and every candidate (``None``: ``problem``)."""
+    """The problem with the columns ``P`` (n, k) projected out of the target and every candidate (``None``:
+    ``problem``)."""
     if P is None:
         return problem
     P = np.asarray(P, dtype=float).reshape(problem.n, -1)
@@ -379,7 +383,8 @@ def project_out(problem: Problem, P: np.ndarray | None) -> Problem:
 
 
 def sinusoid_basis(time: np.ndarray, fmin: float = 0.1, fmax: float = 3.0, n_freq: int = 300):
-    """An ``extra`` for :func:`heldout_rmse`: the sinusoid in [fmin, fmax] Hz best fitting the training residual, as two full-length columns."""
+    """An ``extra`` for :func:`heldout_rmse`: the sinusoid in [fmin, fmax] Hz best fitting the training residual,
+    as two full-length columns."""
     t = np.asarray(time, dtype=float)
     freqs = np.linspace(fmin, fmax, n_freq)
 

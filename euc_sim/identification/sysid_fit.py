@@ -39,7 +39,8 @@ MISSING_EXTRA = ("--method sysid needs MuJoCo's system-identification toolbox: "
 
 
 def sysid_available() -> bool:
-    """Whether ``mujoco.sysid`` imports with its optional dependencies (checked by its ``optimize``: it swallows a missing one)."""
+    """Whether ``mujoco.sysid`` imports with its optional dependencies (checked by its ``optimize``: it swallows a
+    missing one)."""
     try:
         import mujoco.sysid as ms
     except ImportError:
@@ -216,7 +217,8 @@ class _Problem:
         return (pred.data - meas.data) / self.sig, pred, meas
 
     def residual_fn(self, x, prm, return_pred_all=False):
-        """All windows in one call of the toolbox's ``model_residual`` (one batched rollout), its column-major finite-difference batch put back in order."""
+        """All windows in one call of the toolbox's ``model_residual`` (one batched rollout), its column-major
+        finite-difference batch put back in order."""
         self.n_eval += x.shape[1] if np.ndim(x) > 1 else 1
         r, pred, meas = self.ms.model_residual(
             x, prm, lambda q: self.build(q, self.spec), self.windows, self.modify_residual,

@@ -89,7 +89,8 @@ def plain_values(a, digits: int | None = 5) -> list:
 
 def time_panels(t_min: np.ndarray, panels: Sequence[Panel], title: str, gap_min: float,
                 mark: tuple[float, str] | None = None) -> dict:
-    """Quantities stacked on one shared time axis ``t_min`` (min); lines break at jumps over ``gap_min`` (min); ``mark``: (min, label)."""
+    """Quantities stacked on one shared time axis ``t_min`` (min); lines break at jumps over ``gap_min`` (min);
+    ``mark``: (min, label)."""
     n, space = len(panels), 0.025
     h = (1.0 - space * (n - 1)) / n
     layout = {"title": {"text": title}, "margin": _MARGIN, "hovermode": "x unified", "height": 140 * n + 110,
@@ -133,7 +134,8 @@ def map_zoom(lat: np.ndarray, lon: np.ndarray, width_px: float = 600, height_px:
 
 def track_map(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label: str, title: str,
               mark: tuple[float, float, str] | None = None):
-    """The track (``lat``, ``lon`` deg; NaN rows left out) on OpenStreetMap tiles coloured by ``value`` (``value_label`` with unit); ``mark``: (lat, lon, text)."""
+    """The track (``lat``, ``lon`` deg; NaN rows left out) on OpenStreetMap tiles coloured by ``value``
+    (``value_label`` with unit); ``mark``: (lat, lon, text)."""
     ok = np.isfinite(lat) & np.isfinite(lon)
     lat, lon, value = lat[ok], lon[ok], np.asarray(value, float)[ok]
     la, lo = plain_values(lat, None), plain_values(lon, None)

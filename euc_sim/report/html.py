@@ -58,7 +58,8 @@ details>div{padding:0 0 0 12px}details h3{font-size:1.02em;margin:.8em 0 .2em}
 
 @dataclass(frozen=True)
 class KeyFigure:
-    """One number on the first screen: ``label`` ("Distance"), ``value`` with unit ("12.4 km"), a short ``note``, ``tone`` (``""``, ``"good"``, ``"warn"``, ``"bad"``)."""
+    """One number on the first screen: ``label`` ("Distance"), ``value`` with unit ("12.4 km"), a short ``note``,
+    ``tone`` (``""``, ``"good"``, ``"warn"``, ``"bad"``)."""
 
     label: str
     value: str
@@ -99,7 +100,8 @@ def table(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
 
 
 def figure(fig, div_id: str, height: int = 380) -> str:
-    """An interactive Plotly figure (object or spec dict), data inline, in element ``div_id`` (letters, digits, ``_``, ``-``), ``height`` px."""
+    """An interactive Plotly figure (object or spec dict), data inline, in element ``div_id`` (letters, digits,
+    ``_``, ``-``), ``height`` px."""
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]*", div_id):
         raise ValueError(f"figure id {div_id!r}: expected letters, digits, '_' and '-'")
     spec = pio.to_json(fig, validate=False) if not isinstance(fig, dict) else json.dumps(fig)
@@ -135,7 +137,8 @@ def section(title: str, body: str, folded: bool = False) -> str:
 
 
 def page(title: str, subtitle: str, body: Sequence[str]) -> str:
-    """The whole page: styles, Plotly's script where a :func:`figure` draws, then the fragments, under its :func:`policy`."""
+    """The whole page: styles, Plotly's script where a :func:`figure` draws, then the fragments, under its
+    :func:`policy`."""
     main = "".join(body)
     plotly = f"<script>{_plotly_js()}</script>" if 'Plotly.newPlot("' in main else ""
     guard = f"<script>{_MAP_GUARD}</script>" if 'data-map="' in main else ""
@@ -296,7 +299,8 @@ def _format(text: str) -> str:
 
 
 def _inline(text: str) -> str:
-    """One line of Markdown as HTML: ``**bold**``, ```code```, safe links (an image becomes a link); the rest escaped."""
+    """One line of Markdown as HTML: ``**bold**``, ```code```, safe links (an image becomes a link); the rest
+    escaped."""
     text = text.replace("\0", "")
     links: list[str] = []
 
