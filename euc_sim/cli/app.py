@@ -146,18 +146,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_dynamics)
 
     add_sim_commands(sub)
-
     add_torques_parser(sub)
     add_identify_parser(sub)
-
     add_diagnose_commands(sub)
-
     add_ride_parser(sub)
-
-    add_rides_parser(sub)        # euc-sim rides DIR_OR_FILES... --report DIR --json F
-
+    add_rides_parser(sub)
     add_render_parser(sub)
-
     add_design_commands(sub)
     return parser
 

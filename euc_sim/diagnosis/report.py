@@ -353,9 +353,7 @@ def write_report(result: dict, outdir: str | Path) -> Path:
 
 def report_paths(outdir: str | Path) -> list[Path]:
     """The files :func:`write_report` writes into ``outdir`` (to check them before any work)."""
-    out = Path(outdir)
-    return [out / n for n in ("index.html", "index.md", "residual.png", "terms.png", "before_after.png", "resimulation.png",
-                              "drift.png")]
+    return [Path(outdir) / n for n in ("index.html", "index.md", *FIGURES)]
 
 
 def _markdown(result: dict, has_resim: bool) -> str:

@@ -169,11 +169,7 @@ class HFit:
 def _parabolic_min(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
     """Grid minimiser along the last axis refined by a parabola through 3 points."""
     k = np.clip(np.argmin(J, axis=-1), 1, J.shape[-1] - 2)
-    idx = np.arange(J.shape[0]) if J.ndim == 2 else None
-    if J.ndim == 1:
-        j0, j1, j2 = J[k - 1], J[k], J[k + 1]
-    else:
-        j0, j1, j2 = J[idx, k - 1], J[idx, k], J[idx, k + 1]
+    j0, j1, j2 = (np.take_along_axis(J, np.expand_dims(k + d, -1), -1)[..., 0] for d in (-1, 0, 1))
     den = j0 - 2 * j1 + j2
     step = grid[1] - grid[0]
     off = np.where(den > 0, 0.5 * (j0 - j2) / np.where(den > 0, den, 1.0), 0.0)
