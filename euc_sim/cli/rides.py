@@ -1,10 +1,5 @@
-"""``euc-sim rides DIR_OR_FILES... --report DIR --json F``: many rides of one wheel.
-
-Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_rides_parser`.
-Bad input (no readable log, logs of different wheels, an unwritable output)
-raises ``ValueError`` or ``OSError``: one line naming the file, exit 2; nothing is
-written then.
-"""
+"""``euc-sim rides DIR_OR_FILES... --report DIR --json F``: many rides of one wheel (registered by
+:func:`add_rides_parser`)."""
 
 from __future__ import annotations
 
@@ -47,14 +42,8 @@ def _regular(path: Path) -> Path:
 
 
 def find_logs(items) -> list[Path]:
-    """The log files named, and the recognised ride logs under each folder named.
-
-    Raises
-    ------
-    FileNotFoundError
-        for a path that does not exist; ``InputError`` for a folder holding no ride log, or a
-        log (named or in a folder) that is a FIFO, device or socket.
-    """
+    """The log files named and the ride logs under each folder named (FileNotFoundError; InputError for a folder
+    without logs or a special file)."""
     out: list[Path] = []
     for item in items:
         p = Path(item)
