@@ -199,18 +199,9 @@ class Diagnosis(_KeyedResult):
 
 @dataclass(frozen=True, eq=False)
 class RideAnalysis:
-    """What ``euc-sim ride`` finds in a log: the pipeline's typed result, and the report's files.
-
-    ``to_json()`` renders CONTRACT's ``euc-sim ride`` object from it
-    (:func:`euc_sim.rides.render.contract.ride_json`); the properties read the typed tree.
-
-    Attributes
-    ----------
-    result : RideResult
-        Everything :func:`euc_sim.rides.pipeline.ride_pipeline` computed (:mod:`euc_sim.rides.result`).
-    files : ReportFiles or None
-        The report folder's files, when one was written.
-    """
+    """What ``euc-sim ride`` finds in a log: the pipeline's typed ``result``
+    (:class:`~euc_sim.rides.result.RideResult`) and the report folder's ``files`` (None without one);
+    the properties read the typed tree, ``to_json()`` renders CONTRACT's object from it."""
 
     result: RideResult = field(repr=False)
     files: Any = None

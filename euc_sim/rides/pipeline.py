@@ -103,21 +103,9 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
 
 
 def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResult:
-    """Everything ``euc-sim ride`` computes, in order, on logs parsed once; no file is written.
-
-    Parameters
-    ----------
-    req : RideRequest
-        The rides, the wheel's spec and the options (:func:`euc_sim.rides.request.ride_request`).
-        Without ``req.simulate`` the replay does not run and ``simulation_why`` says how to ask.
-    jobs : int
-        Threads for the simulation's steps (the results do not depend on it).
-    progress : callable, optional
-        Called with a short status string at each step.
-
-    Returns
-    -------
-    RideResult
+    """Everything ``euc-sim ride`` computes, in order, on the request's rides
+    (:func:`euc_sim.rides.request.ride_request`); no file is written.  ``jobs``: threads of the
+    simulation's steps (the results do not depend on it); ``progress`` receives a short line at each step.
     """
     log, compare, spec, n_boot, seed = req.log, req.compare, req.spec, req.n_boot, req.seed
     say = progress or (lambda s: None)

@@ -39,22 +39,10 @@ DOMAINS = ("power", "torque")
 
 @dataclass(frozen=True)
 class RideRequest:
-    """One ride analysis, every value checked: what :func:`~euc_sim.rides.pipeline.ride_pipeline` runs.
-
-    Built by :func:`ride_request` (a script holding rides already parsed may build one directly).
-
-    Attributes
-    ----------
-    log, compare : Ride
-        The ride to fit, and optionally the ride to test on, each parsed once.
-    spec : WheelSpec or None
-    assumptions : RideAssumptions or None
-        Radius, total mass and efficiency given (None: the spec's and the log's).
-    domain, n_boot, seed, simulate, calibrate_rider
-        As :func:`ride_request` takes them (``simulate`` resolved to a bool).
-    rider_weight, compare_rider_weight : float or None
-        The riders' declared weights, kg.
-    """
+    """One ride analysis, every value checked (by :func:`ride_request`; a script holding rides already
+    parsed may build one directly): what :func:`~euc_sim.rides.pipeline.ride_pipeline` runs.  ``log`` and
+    ``compare`` are parsed rides; ``assumptions`` the radius, total mass and efficiency given; the rest as
+    :func:`ride_request` takes them, ``simulate`` resolved to a bool, the riders' weights in kg."""
 
     log: Ride
     compare: Ride | None = None
@@ -91,24 +79,15 @@ def ride_request(log, compare=None, *, wheel=None, radius: float | None = None, 
         The ride to fit and, optionally, a ride of the same wheel to test on (each read once).
     wheel : str or path, optional
         A shipped wheel's name or a spec file (:func:`~euc_sim.rides.source.spec.wheel_spec`).
-    radius, mass, wheel_mass, battery_voltage : float, optional
-        Wheel radius, m; rider plus EUC, kg; the wheel's net weight, kg; full-charge voltage, V.
-    efficiency : float
-        Drivetrain efficiency that infers a logged torque from battery power.
+    radius, mass, wheel_mass, battery_voltage, efficiency : float, optional
+        Wheel radius, m; rider plus EUC, kg; the wheel's net weight, kg; full-charge voltage, V;
+        the drivetrain efficiency that infers a logged torque from battery power.
     rider_weight : float or sequence of float, optional
         The rider's declared weight with gear, kg; two values: LOG's rider, then COMPARE's.
-    domain : {"power", "torque"}
-    n_boot : int
-        Bootstrap replicates, at least :data:`MIN_BOOT`.
-    seed : int
-        Seed of every random draw.
+    domain, n_boot, seed : {"power", "torque"}, int, int
     simulate : bool, optional
         Replay the ride (default: with ``compare`` only; ``calibrate_rider`` turns it on).
     calibrate_rider : bool
-
-    Returns
-    -------
-    RideRequest
 
     Raises
     ------
