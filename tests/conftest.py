@@ -27,13 +27,12 @@ def _ride_result(tmp, compare: bool):
     from ridesynth import synth_log
 
     from euc_sim.rides.pipeline import ride_pipeline
-    from euc_sim.rides.source.logs import read_log
+    from euc_sim.rides.request import ride_request
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        log = read_log(synth_log(tmp / "fit.csv", seed=3), emit_warnings=False)
-        other = read_log(synth_log(tmp / "other.csv", seed=4), emit_warnings=False) if compare else None
-        return ride_pipeline(log, other, n_boot=10)
+        other = synth_log(tmp / "other.csv", seed=4) if compare else None
+        return ride_pipeline(ride_request(synth_log(tmp / "fit.csv", seed=3), other, n_boot=10, simulate=False))
 
 
 @pytest.fixture(scope="session")

@@ -171,9 +171,9 @@ def compared(ride, tmp_path_factory):
     from euc_sim.rides.compare.differences import Difference
     from euc_sim.rides.grids.signals import ride_signals
     from euc_sim.rides.pipeline import ride_pipeline
+    from euc_sim.rides.request import ride_request
     from euc_sim.rides.render.page_html import write_ride_html
     from euc_sim.rides.render.series import RideSeries
-    from euc_sim.rides.source.spec import wheel_spec
 
     log, other, _, spec = ride
     (log.parent / "meta.csv").write_text(
@@ -184,8 +184,7 @@ def compared(ride, tmp_path_factory):
         ("speed_scale", 0.02, (0.01, 0.03), "1"), ("internal_resistance", 0.02, (0.01, 0.03), "ohm")))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = ride_pipeline(read_log(log, emit_warnings=False), read_log(other, emit_warnings=False),
-                            spec=wheel_spec(str(spec)), n_boot=10)
+        res = ride_pipeline(ride_request(log, other, wheel=spec, n_boot=10, simulate=False))
     res = replace(res, balance=replace(res.balance, compare=str(other)),
                   differences=replace(res.differences, items=diffs))
     sig = ride_signals(read_log(log, emit_warnings=False))

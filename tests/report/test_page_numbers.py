@@ -41,11 +41,11 @@ def _compare(log, other, out: Path) -> tuple:
     from euc_sim.rides.pipeline import ride_pipeline
     from euc_sim.rides.render.contract import ride_json
     from euc_sim.rides.render.report_files import write_report
-    from euc_sim.rides.source.logs import read_log
+    from euc_sim.rides.request import ride_request
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = ride_pipeline(read_log(log, emit_warnings=False), read_log(other, emit_warnings=False), n_boot=20)
+        res = ride_pipeline(ride_request(log, other, n_boot=20, simulate=False))
         rep = ride_json(res, write_report(res, out / "rep"))
     return out / "rep", rep, res
 

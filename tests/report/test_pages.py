@@ -86,6 +86,7 @@ def with_summary(drive, tmp_path_factory):
 
     from euc_sim.rides.grids.signals import ride_signals
     from euc_sim.rides.pipeline import ride_pipeline
+    from euc_sim.rides.request import ride_request
     from euc_sim.rides.render.page_html import figure_specs, write_ride_html
     from euc_sim.rides.render.series import RideSeries
 
@@ -94,7 +95,7 @@ def with_summary(drive, tmp_path_factory):
     series = RideSeries.from_frame(sig.raw, sig.rate)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = ride_pipeline(read_log(log, emit_warnings=False), n_boot=10)
+        res = ride_pipeline(ride_request(log, n_boot=10, simulate=False))
     r = res.rider
     res = replace(res, rider=replace(
         r, summary=summary(**SUMMARY),

@@ -2,7 +2,7 @@
 
 All 21 real logs of ``../shared/data`` (18 of nine wheels with their specs, 3
 WheelLog rides without one) go through the page/JSON builder once
-(``run_ride(..., simulate=False)``, 10 bootstrap replicates: the properties
+(``ride_pipeline(ride_request(..., simulate=False))``, 10 bootstrap replicates: the properties
 checked do not depend on the replicate count), shared by every test below.
 About a minute on one core; skipped when the data are absent (a user's clone).
 """
@@ -15,8 +15,6 @@ import warnings
 from pathlib import Path
 
 import pytest
-
-from euc_sim.rides.source.logs import read_log
 
 DATA = Path(__file__).resolve().parents[4] / "shared" / "data"
 
@@ -41,6 +39,7 @@ def pages(tmp_path_factory):
     from euc_sim.rides.pipeline import ride_pipeline
     from euc_sim.rides.render.contract import ride_json
     from euc_sim.rides.render.page import write_page
+    from euc_sim.rides.request import ride_request
     from euc_sim.rides.source.spec import read_spec
 
     out = []
@@ -49,7 +48,7 @@ def pages(tmp_path_factory):
         spec = read_spec(spec_path) if spec_path else None
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            res = ride_pipeline(read_log(log, emit_warnings=False), spec=spec, simulate=False, n_boot=10)
+            res = ride_pipeline(ride_request(log, wheel=spec_path, simulate=False, n_boot=10))
         rep, page = ride_json(res), write_page(res, root / str(k), {}).read_text()
         out.append((log, spec, rep, page))
     return out
