@@ -197,7 +197,7 @@ def fit_params(rows: LawRows, names) -> dict:
     return fit
 
 
-def _physical(fit: dict) -> dict:
+def _physical(fit: dict) -> dict[str, float]:
     """The coefficients in the log's convention → the paper's law (γ forward positive):
     ``tilt = s·γ + tilt₀``, M = K_p (γ − γ_ref) + K_d γ̇ + K_i ∫γ."""
     c = fit["beta"]
@@ -328,7 +328,7 @@ class Law:
     notes: list = field(default_factory=list)
 
 
-def _terms(fit: dict, unit: str) -> dict:
+def _terms(fit: dict, unit: str) -> dict[str, tuple[float, str]]:
     """The physical terms for people and JSON: name → (value, unit)."""
     per = unit + "/rad"
     out = {"K_p": (fit["K_p"], per), "K_d": (fit["K_d"], unit + "·s/rad"),

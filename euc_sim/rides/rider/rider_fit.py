@@ -246,7 +246,8 @@ class RiderFit:
                 "falls": [dict(f) for f in self.falls], "notes": list(self.notes)}
 
 
-def _values_of(x: np.ndarray) -> dict:
+def _values_of(x: np.ndarray) -> dict[str, float]:
+    """The rider's parameters by name, in their own units, from the fit's scaled ``x``."""
     return {p.name: p.from_unit(float(u)) for p, u in zip(RIDER_PARAMS, x)}
 
 

@@ -202,7 +202,7 @@ def power_terms() -> tuple[str, ...]:
     return tuple(e.name for e in RECORDS.having("balance") if e.balance.electrical is not None)
 
 
-def _power(est: Mapping[str, float]) -> dict:
+def _power(est: Mapping[str, float]) -> dict[str, float]:
     """A step's power model: each electrical term fitted, a constant drain always (0 where not fitted)."""
     return {k: float(est.get(k, 0.0)) for k in power_terms() if k in est or RECORDS.get(k).balance.role == "constant"}
 

@@ -329,7 +329,7 @@ def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: 
     return dict(loc, windows=split_at_gaps(loc["windows"], t[good], min_len))
 
 
-def _logged(sig: RideSignals) -> dict:
+def _logged(sig: RideSignals) -> dict[str, np.ndarray]:
     """The log's channels on its grid, smoothed as :class:`RideSignals` smooths its own."""
     frame, raw = sig.frame, sig.raw
     out = {"t": frame["t"].to_numpy(), "v_log": frame["v"].to_numpy(), "M_log": frame["M"].to_numpy(),
