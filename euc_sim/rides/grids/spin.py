@@ -4,18 +4,20 @@ Such rows are no part of the ride.  :func:`free_spin` finds them from the log's 
 stamps and speed (no mass, no power): every grid of a ride leaves them out
 (:func:`euc_sim.rides.grids.signals.resample` splits the ride there, the balance law's
 rows skip them), and the ride's summary leaves them out of its top speed and PWM peak
-and says them apart (:func:`spin_json`).  On the shared rides a free spin of 2.5 s
+and says them apart (:func:`spin_stats`).  On the shared rides a free spin of 2.5 s
 (Apex 0: 0 → 122 km/h in 0.8 s at a stop) was enough to put the balance fit's held-out
 error at 2,321 W; without it, 344 W (docs/ride_model.md, "The wheel spinning free").
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from euc_sim.rides.source.gaps import GAP_POLICY
 
-__all__ = ["free_spin", "spin_rows", "spin_json", "SPIN_ACCEL", "SPIN_TOL_MPS"]
+__all__ = ["free_spin", "spin_rows", "FreeSpins", "spin_stats", "SPIN_ACCEL", "SPIN_TOL_MPS"]
 
 #: Acceleration or braking no tyre on the road carries, m/s² (grip μ ≈ 1: 1 g): a wheel
 #: speed reached from (or left to) its neighbours faster than this, by more than
@@ -97,11 +99,21 @@ def _whole_spins(seed: np.ndarray, v: np.ndarray) -> np.ndarray:
     return out
 
 
-def spin_json(t: np.ndarray, v: np.ndarray, spin: np.ndarray) -> dict | None:
-    """``{"count", "total_s", "speed_max_mps", "at_s"}`` of the free spins, or None without one."""
+@dataclass(frozen=True)
+class FreeSpins:
+    """A ride's free spins: how many, their total time, s, the fastest speed, m/s, and when, s."""
+
+    count: int
+    total_s: float
+    speed_max_mps: float
+    at_s: float
+
+
+def spin_stats(t: np.ndarray, v: np.ndarray, spin: np.ndarray) -> FreeSpins | None:
+    """The free spins of rows ``spin`` (:func:`free_spin`), or None without one."""
     if not spin.any():
         return None
     i = int(np.flatnonzero(spin)[np.argmax(v[spin])])
     runs = np.flatnonzero(np.diff(np.r_[0, spin.astype(int), 0]))
     total = sum(float(t[min(b, t.size - 1)] - t[max(a - 1, 0)]) for a, b in zip(runs[::2], runs[1::2]))
-    return {"count": int(runs.size // 2), "total_s": total, "speed_max_mps": float(v[i]), "at_s": float(t[i])}
+    return FreeSpins(int(runs.size // 2), total, float(v[i]), float(t[i]))

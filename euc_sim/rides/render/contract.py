@@ -8,7 +8,7 @@ typed objects.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -26,7 +26,7 @@ __all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assump
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
            "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json", "resolution_json",
            "difference_json", "differences_json", "clock_json", "mass_difference_json", "mass_check_json",
-           "limits_of", "pwm_check"]
+           "limits_of", "pwm_check", "summary_json", "battery_json", "history_json"]
 
 
 @dataclass(frozen=True)
@@ -352,8 +352,8 @@ def clock_json(c) -> dict:
 
 def rider_json(r: RiderNumbers) -> dict:
     """CONTRACT's ``summary`` (with its ``battery`` verdict), ``mass_check``, ``battery`` and ``clock``."""
-    bh = r.battery.to_json()
-    out = r.summary.to_json()
+    bh = battery_json(r.battery)
+    out = summary_json(r.summary)
     # CONTRACT's summary.battery: the verdict and what it is judged against (the whole entry: battery)
     out["battery"] = {k: bh[k] for k in ("verdict", "expected_ohm", "expected_source")}
     return {"summary": out, "mass_check": mass_check_json(r.mass_check), "battery": bh, "clock": clock_json(r.clock)}
@@ -414,3 +414,33 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
     if report_dir is not None:
         rep["report_dir"] = report_dir
     return rep
+
+
+def summary_json(s) -> dict:
+    """CONTRACT's ``summary`` of a :class:`~euc_sim.rides.summary.summary.RideSummary` (plain floats,
+    None for what is unknown)."""
+    out = asdict(s)
+    out["limits"] = None if s.limits is None else s.limits.as_json()
+    return to_jsonable(out)
+
+
+def battery_json(b) -> dict:
+    """CONTRACT's ``battery``: a :class:`~euc_sim.rides.drive.battery.BatteryHealth` (Ω, °C)."""
+    out = asdict(b)
+    for k in ("resistance_ci95", "resistance_25C_ci95", "expected_ohm"):
+        out[k] = list(out[k]) if out[k] is not None else None
+    return out
+
+
+def history_json(h) -> dict:
+    """The ``euc-sim rides`` object of a :class:`~euc_sim.rides.logbook.history.RideHistory`: each ride's
+    entry (its ``summary`` and ``battery`` as in the ride JSON), the change test and the Wh/km slope."""
+    rides = [{**{f.name: getattr(e, f.name) for f in fields(e)}, "summary": summary_json(e.summary),
+              "battery": battery_json(e.battery), "series": list(e.series), "repairs": list(e.repairs)}
+             for e in h.rides]
+    change = None if h.change is None else {**asdict(h.change), "difference_ci95": list(h.change.difference_ci95)}
+    return {"rides": rides, "basis": h.basis, "change": change,
+            "Wh_per_km_vs_speed": {"slope": h.whkm_slope,
+                                   "ci95": list(h.whkm_slope_ci95) if h.whkm_slope_ci95 else None,
+                                   "unit": "Wh/km per m/s"},
+            "trend": h.trend, "why": dict(h.why)}

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import warnings
 
+from euc_sim.rides.render.contract import summary_json
 from euc_sim.rides.render.page_html import key_figures
 from euc_sim.rides.summary.summary import ride_summary
 from euc_sim.rides.source.logs import read_log
@@ -20,7 +21,7 @@ def _summary_json(path) -> dict:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         log = read_log(path, emit_warnings=False)
-    return ride_summary(log).to_json()
+    return summary_json(ride_summary(log))
 
 
 def test_the_top_speed_tile_says_a_free_spin_was_left_out(tmp_path):
