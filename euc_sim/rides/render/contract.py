@@ -19,14 +19,15 @@ from euc_sim.rides.balance.design import NOMINAL
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.balance.fit import plausibility
 from euc_sim.rides.drive.cutout import Limits
-from euc_sim.rides.law.controller_report import controller_entry
+from euc_sim.rides.law.controller_report import describe
 from euc_sim.rides.result import RideResult, RiderNumbers
 
 __all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json",
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
            "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json", "resolution_json",
            "difference_json", "differences_json", "clock_json", "mass_difference_json", "mass_check_json",
-           "limits_of", "pwm_check", "summary_json", "battery_json", "history_json"]
+           "limits_of", "pwm_check", "summary_json", "battery_json", "history_json",
+           "controller_json"]
 
 
 @dataclass(frozen=True)
@@ -388,7 +389,7 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
     rep["notes"] = list(res.notes)
     rep["table"] = files.table if files else None
     rep.update(physics_json(res.mass))
-    rep["controller"] = controller_entry(res.law)
+    rep["controller"] = controller_json(res.law)
     rep["parameters"] = [parameter_json(p) for p in res.parameters]
     rep["drivetrain"] = {k: term_json(t) for k, t in res.drivetrain.items()}
     if res.differences is not None:
@@ -444,3 +445,24 @@ def history_json(h) -> dict:
                                    "ci95": list(h.whkm_slope_ci95) if h.whkm_slope_ci95 else None,
                                    "unit": "Wh/km per m/s"},
             "trend": h.trend, "why": dict(h.why)}
+
+
+def controller_json(c) -> dict:
+    """CONTRACT's ``controller`` of a :class:`~euc_sim.rides.law.controller_report.ControllerFit`:
+    ``law`` (words), ``terms`` [{name, estimate, ci95, unit}] (``torque_limit`` also
+    ``largest_measured``), ``sign``, ``heldout``, ``within_ride``, ``selection``; or ``{"law": None, "why"}``.
+    ``euc-sim sim --firmware`` reads it back (:func:`euc_sim.controllers.firmware.law_terms`)."""
+    law = c.law
+    if law is None:
+        return {"law": None, "why": c.why}
+    terms = [{"name": k, "estimate": v, "ci95": list(ci) if ci else None, "unit": u,
+              **({"largest_measured": c.largest_measured} if k == "torque_limit" else {})}
+             for k, (v, ci, u) in law.terms.items()]
+    heldout = {"r2": c.heldout_r2, "channel": law.channel, "ride": c.heldout_ride}
+    if c.compare_why is not None:
+        heldout["compare_why"] = c.compare_why
+    return {"law": describe(law), "terms": terms, "sign": law.sign, "sign_share": law.sign_share,
+            "torque_constant": c.torque_constant, "channel": law.channel,
+            "within_ride": {"r2": law.heldout_r2, "nominal_r2": law.nominal_r2,
+                            "without_pitch_r2": law.blind_r2, "rmse": law.heldout_rmse, "unit": law.unit},
+            "selection": law.history, "heldout": heldout}

@@ -43,7 +43,7 @@ from euc_sim.controllers.firmware import FirmwareError, firmware_motor, kd_resol
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import Params
 from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
-from euc_sim.rides.law.controller_report import controller_entry, torque_constant
+from euc_sim.rides.law.controller_report import firmware_terms, torque_constant
 from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["SimStep", "motor_from_law", "StepInputs", "LogChannels", "nominal_step", "measured_law_step",
@@ -226,22 +226,18 @@ def measured_law_step(prev: SimStep, inp: StepInputs) -> SimStep:
         why = None if inp.law is None else inp.law.why
         return replace(prev, name=name, what=what, notes=(),
                        why=f"the fit ride shows no balance law ({why or 'no controller entry'})")
-    ctrl = controller_entry(inp.law)        # the firmware reads the law as `euc-sim sim --firmware` does
+    terms = firmware_terms(inp.law)        # the firmware reads the law as `euc-sim sim --firmware` does
     try:
-        motor, notes = firmware_motor(ctrl, inp.params)
+        motor, notes = firmware_motor(terms, inp.params)
     except FirmwareError as exc:
         return replace(prev, name=name, what=what, notes=(), why=str(exc))
     law_terms = [f"controller.{k}" for k in inp.law.law.terms]
     return replace(prev, physics=prev.physics + inp.physics(*law_terms),
                    name=name, what=f"{what}: K_p = {motor.Kp:.0f} N·m/rad, K_d = "
-                                         f"{motor.Kd:.0f} N·m·s/rad" + ("" if kd_resolved(_term(ctrl, "K_d")) else
+                                         f"{motor.Kd:.0f} N·m·s/rad" + ("" if kd_resolved(terms.get("K_d")) else
                                          " (K_d not resolved by the log: pitch mode damped to ζ ≥ "
                                          f"{ZETA_UNRESOLVED:g})"), motor=motor, rider=None,
                    notes=tuple(notes), why=None)
-
-
-def _term(ctrl: Mapping, name: str):
-    return next((t for t in ctrl.get("terms", []) if isinstance(t, dict) and t.get("name") == name), None)
 
 
 def drivetrain_step(prev: SimStep, inp: StepInputs) -> SimStep:

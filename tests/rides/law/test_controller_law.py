@@ -19,7 +19,8 @@ import pytest
 
 from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.law.controller_law import BASE, fit_law, fit_params, predict, r2
-from euc_sim.rides.law.controller_report import controller_entry, controller_fit, page_lines
+from euc_sim.rides.law.controller_report import controller_fit, page_lines
+from euc_sim.rides.render import contract
 from euc_sim.rides.source.logs import read_log
 
 SHARED = Path(__file__).resolve().parents[4] / "shared" / "data" / "euc_core" / "trips"
@@ -27,7 +28,7 @@ SHARED = Path(__file__).resolve().parents[4] / "shared" / "data" / "euc_core" / 
 
 def controller_json(*args, **kwargs) -> dict:
     """The ride JSON's ``controller`` object of :func:`controller_fit`."""
-    return controller_entry(controller_fit(*args, **kwargs))
+    return contract.controller_json(controller_fit(*args, **kwargs))
 
 
 needs_data = pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/euc_core absent")
@@ -136,7 +137,7 @@ def test_simulated_limit_is_the_largest_measured_torque_where_the_fit_is_lower(t
                                                                              fmt, sign):
     """The fit's limit comes out low on the concealed law (45 N·m, docs/controller.md); the
     largest |torque| of the log is nearer the truth and not above it, and the simulator uses it."""
-    from euc_sim.controllers.firmware import firmware_motor
+    from euc_sim.controllers.firmware import firmware_motor, law_terms
     from euc_sim.rides.synth.lawsynth import K_T, LAW, eucworld_log, wheellog_log
 
     write = wheellog_log if fmt == "wheellog" else eucworld_log
@@ -146,7 +147,7 @@ def test_simulated_limit_is_the_largest_measured_torque_where_the_fit_is_lower(t
     true = LAW["torque_limit"]
     assert lim["estimate"] < lim["largest_measured"] <= true * 1.02
     assert abs(lim["largest_measured"] - true) < abs(lim["estimate"] - true)
-    assert firmware_motor(out)[0].torque_limit == lim["largest_measured"]
+    assert firmware_motor(law_terms(out))[0].torque_limit == lim["largest_measured"]
 
 
 def test_two_terms_needed_together_are_kept_as_a_pair():
