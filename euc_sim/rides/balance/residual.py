@@ -15,7 +15,7 @@ from typing import Mapping
 
 import numpy as np
 
-from euc_sim.diagnosis.localise import localise
+from euc_sim.diagnosis.localise import Localisation, localise
 from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.grids.signals import RideSignals, split_at_gaps
 
@@ -43,9 +43,8 @@ class ResidualTrace:
     nominal, augmented : numpy.ndarray
         Measured − predicted battery power, W (or N·m in the torque domain).
     unit : str
-    localisation : dict
-        :func:`euc_sim.diagnosis.localise.localise` of ``nominal``: ``windows`` [[t0, t1], ...]
-        s, ``share`` of the residual energy inside them, ``correlations``.
+    localisation : Localisation
+        Of ``nominal`` (:func:`euc_sim.diagnosis.localise.localise`).
     in_sample : bool
         True when the parameters were fitted on this ride.
     """
@@ -55,7 +54,7 @@ class ResidualTrace:
     nominal: np.ndarray
     augmented: np.ndarray
     unit: str
-    localisation: dict
+    localisation: Localisation
     in_sample: bool
 
     def slow(self, which: str = "augmented", span: float = SLOW_S) -> np.ndarray:

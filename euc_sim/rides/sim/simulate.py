@@ -38,7 +38,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from euc_sim.diagnosis.localise import localise
+from euc_sim.diagnosis.localise import Localisation, localise
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.grids.profile import rider_plan, speed_profile
@@ -158,9 +158,8 @@ class RideSimulation:
     falls : list of dict
         ``{"t": s, "cause": str, "run": step}`` of each step that ended in a fall
         (CONTRACT's ``simulation.falls``).
-    localisation : dict
-        :func:`euc_sim.diagnosis.localise.localise` on the last step's power error (W):
-        windows (s), share, correlations.
+    localisation : Localisation
+        Of the last step's power error, W (:func:`euc_sim.diagnosis.localise.localise`).
     steps : list of dict
         CONTRACT's ``simulation.steps``: each step's description
         (:meth:`SimStep.describe`), ``heldout_rmse``, ``ratio_to_balance`` (battery-power
@@ -174,7 +173,7 @@ class RideSimulation:
     effects: dict
     parameters: dict
     falls: list
-    localisation: dict
+    localisation: Localisation
     steps: list = field(default_factory=list)
     notes: tuple[str, ...] = field(default=())
 
@@ -316,13 +315,13 @@ def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict:
 
 
 def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: float,
-                    min_len: float, name: str) -> dict:
+                    min_len: float, name: str) -> Localisation:
     """Where step ``name``'s battery-power error concentrates (windows in s)."""
     t = table["t"].to_numpy()
     r = (table["P_log"] - table[f"P_{name}"]).to_numpy()
     good = ok & np.isfinite(r)
     if good.sum() < 4:
-        return {"windows": [], "share": None, "correlations": {}}
+        return Localisation(windows=[], share=None, correlations={})
     loc = localise(t[good], r[good], {"speed": table["v_log"].to_numpy()[good],
                                       "acceleration": a[good]},
                    smooth=smooth, min_len=min_len)
