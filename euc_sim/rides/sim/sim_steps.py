@@ -48,7 +48,7 @@ from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["SimStep", "motor_from_law", "StepInputs", "LogChannels", "nominal_step", "measured_law_step",
            "drivetrain_step", "STEP_BUILDERS", "SIM_EFFECTS", "effects_to_inject", "power_terms", "electrical_power", "build_steps", "TARGET_RATIO", "CHANNELS",
-           "log_channels", "simulated_pwm"]
+           "VOLTAGE_EXTRAS", "log_channels", "simulated_pwm"]
 
 #: Target: a step's held-out battery-power error within this many times the balance fit's
 #: held-out error (docs/ride_simulation.md).
@@ -62,11 +62,12 @@ CHANNELS = {"P": ("P_W", "W", "battery power"), "I": ("I_phase_A", "A", "phase c
 
 #: The voltage limit's settings a drivetrain fit may add (:meth:`MotorPD.voltage_torque`); a step's
 #: JSON law carries each that differs from its default.
-_VOLTAGE_EXTRAS = ("dead_time", "flux_weakening", "fw_speed")
+VOLTAGE_EXTRAS = ("dead_time", "flux_weakening", "fw_speed")
 
 
 def motor_from_law(law: Mapping[str, float]) -> MotorPD:
-    """The motor a step's JSON ``motor`` describes (the inverse of :meth:`SimStep.describe`'s law).
+    """The motor a step's JSON ``motor`` describes (the inverse of
+    :func:`euc_sim.rides.render.contract.sim_step_json`'s law).
 
     Parameters
     ----------
@@ -79,7 +80,7 @@ def motor_from_law(law: Mapping[str, float]) -> MotorPD:
     -------
     MotorPD
     """
-    extra = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop") + _VOLTAGE_EXTRAS
+    extra = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop") + VOLTAGE_EXTRAS
     return MotorPD(Kp=law["K_p"], Kd=law["K_d"], torque_limit=law["torque_limit"],
                    **{k: law[k] for k in extra if k in law})
 
@@ -128,27 +129,6 @@ class SimStep:
     plan_window: float | None = None
     rider_fit: Mapping[str, float] = field(default_factory=dict)
     physics: tuple[str, ...] = ()
-
-    def describe(self) -> dict:
-        """JSON-ready description of the step (its law, rider, effects, power model)."""
-        m = self.motor
-        law = {"K_p": m.Kp, "K_d": m.Kd, "torque_limit": m.torque_limit}
-        if math.isfinite(m.tiltback_speed):
-            law.update(tiltback_speed=m.tiltback_speed, tiltback_gain=m.tiltback_gain)
-        if math.isfinite(m.voltage):
-            law.update(voltage=m.voltage, back_emf=m.back_emf, drop=m.drop)
-            law.update({k: getattr(m, k) for k in _VOLTAGE_EXTRAS
-                        if getattr(m, k) != MotorPD.__dataclass_fields__[k].default})
-        rider = None if self.rider is None else {
-            "delay": float(getattr(self.rider, "delay", float("nan"))),
-            "noise_std": float(getattr(self.rider, "noise_std", float("nan"))),
-            "plan_window": self.plan_window,
-            **({"bandwidth": float(self.rider_fit["bandwidth"])} if "bandwidth" in self.rider_fit else {})}
-        return {"step": self.name, "what": self.what, "ran": self.why is None, "why": self.why,
-                "physics": list(self.physics),
-                "motor": law, "rider": rider or "default LQR rider designed for this motor",
-                "effects_injected": dict(self.effects), "power_model": dict(self.power),
-                "notes": list(self.notes)}
 
 
 @dataclass(frozen=True)

@@ -43,11 +43,11 @@ from euc_sim.errors import InputError
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.grids.profile import rider_plan, speed_profile
 from euc_sim.rides.grids.law_signals import MAX_PITCH, V_MIN
-from euc_sim.rides.grids.rider_features import RiderFitError, band_ratio_db, reading_step
+from euc_sim.rides.grids.rider_features import BandRatio, RiderFitError, band_ratio_db, reading_step
 from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, sg, split_at_gaps
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.sim.plan_learning import filter_band
-from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep, electrical_power,
+from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, LogChannels, SimStep, electrical_power,
                                      effects_to_inject, simulated_pwm)
 from euc_sim.rides.grids.stops import find_stops
 from euc_sim.rides.sim.envelope import LEAN_SHARE
@@ -59,7 +59,7 @@ from euc_sim.simulation.native_core import available
 from euc_sim.stats import one_blas_thread
 
 __all__ = ["SIM_EFFECTS", "simulation_obstacle", "ride_params", "effects_to_inject",
-           "battery_power", "RideSimulation", "simulate_ride", "LOG_COLUMNS"]
+           "battery_power", "StepScore", "RideSimulation", "simulate_ride", "LOG_COLUMNS"]
 
 #: Optional log channels a step is scored on: table stem -> the resampled log's column.
 LOG_COLUMNS = {"I": "phase_current", "pitch": "tilt", "pwm": "pwm"}
@@ -132,6 +132,30 @@ def battery_power(M_d: np.ndarray, x_dot: np.ndarray, gamma_dot: np.ndarray, R: 
 
 
 @dataclass(frozen=True)
+class StepScore:
+    """A step of the simulated ride and its score on the held-out log.
+
+    Attributes
+    ----------
+    step : SimStep
+    heldout_rmse : dict of str -> float
+        RMS over the scored rows by channel key (:data:`CHANNELS`; the finite ones, none when not run).
+    heldout_bands : dict of str -> BandRatio, or None
+        Battery power, phase current and pitch band by band (:func:`_band_errors`); None when not run.
+    ratio_to_balance : float or None
+        Battery-power error over the balance fit's held-out error.
+    fell : mapping or None
+        The step's first fall (``t`` s, ``cause``).
+    """
+
+    step: SimStep
+    heldout_rmse: dict[str, float]
+    heldout_bands: dict[str, BandRatio] | None
+    ratio_to_balance: float | None
+    fell: Mapping | None
+
+
+@dataclass(frozen=True)
 class RideSimulation:
     """Simulated against logged ride, on the log's grid, consistently smoothed.
 
@@ -142,45 +166,46 @@ class RideSimulation:
     table : pandas.DataFrame
         ``t`` s, ``scored`` (bool: the rows the errors are measured on), and per
         source (``log`` and each step that ran, e.g. ``nominal``): ``v_<src>`` m/s,
-        ``M_<src>`` N·m (the log's inferred, see ``errors["M_log_method"]``),
+        ``M_<src>`` N·m (the log's inferred, see ``torque_method``),
         ``P_<src>`` W, and where the log has them ``I_<src>`` A (phase current),
         ``pitch_<src>`` rad (in the log's convention), ``pwm_<src>`` %.
-    errors : dict
-        RMS over the scored rows per step that ran ``{name: {"P_W", "M_Nm", "v_mps",
-        "I_phase_A", "pitch_rad", "pwm_pct"}}`` (channels the log lacks omitted);
-        ``nominal`` and ``augmented`` are the first and last step that ran (CONTRACT);
-        the pitch on the riding rows only (``pitch_scored_rows`` in the JSON);
-        ``ratio_P`` = augmented / nominal battery-power error.
+    errors : dict of str -> dict of str -> float
+        RMS over the scored rows per step that ran, by channel key (``P_W``, ``M_Nm``, ``v_mps``,
+        ``I_phase_A``, ``pitch_rad``, ``pwm_pct``: those the log has); the pitch on the riding rows only.
+    torque_method : str
+        How the log's torque was inferred.
     effects : dict
         Effects injected into the last step.
-    parameters : dict
-        Battery-power model per step ``{name: {copper_loss, drivetrain_idle_loss}}``.
     falls : list of dict
         ``{"t": s, "cause": str, "run": step}`` of each step that ended in a fall
         (CONTRACT's ``simulation.falls``).
     localisation : Localisation
         Of the last step's power error, W (:func:`euc_sim.diagnosis.localise.localise`).
-    steps : list of dict
-        CONTRACT's ``simulation.steps``: each step's description
-        (:meth:`SimStep.describe`), ``heldout_rmse``, ``ratio_to_balance`` (battery-power
-        error over the balance fit's held-out error) and ``fell``.
+    steps : list of StepScore
+        Every step, those not run too.
     notes : tuple of str
     """
 
     label: str
     table: pd.DataFrame
-    errors: dict
+    errors: dict[str, dict[str, float]]
+    torque_method: str
     effects: dict
-    parameters: dict
     falls: list
     localisation: Localisation
-    steps: list = field(default_factory=list)
+    steps: list[StepScore] = field(default_factory=list)
     notes: tuple[str, ...] = field(default=())
 
     @property
     def ran(self) -> list[str]:
         """Names of the steps that ran, in order."""
-        return [s["step"] for s in self.steps if s["ran"]]
+        return [s.step.name for s in self.steps if s.step.why is None]
+
+    @property
+    def ratio_P(self) -> float:
+        """The last step's battery-power error over the first's (NaN where the first's is 0)."""
+        first, last = self.errors[self.ran[0]]["P_W"], self.errors[self.ran[-1]]["P_W"]
+        return last / first if first > 0 else float("nan")
 
     @property
     def scored_rows(self) -> int:
@@ -297,8 +322,8 @@ def _pitch_rows(table: pd.DataFrame, ok: np.ndarray) -> np.ndarray:
     return riding & (np.abs(pitch - np.median(pitch[riding])) < MAX_PITCH)
 
 
-def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict:
-    """RMS of log − simulation over the scored rows, per step and channel, and the power-error ratio.
+def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict[str, dict[str, float]]:
+    """RMS of log − simulation over the scored rows, per step and channel key.
 
     The pitch is scored on the riding rows only (:func:`_pitch_rows`).
     """
@@ -308,9 +333,6 @@ def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict:
         errors[name] = {key: _rms((table[f"{col}_log"] - table[f"{col}_{name}"])[rows[col]])
                         for col, (key, _, _) in CHANNELS.items()
                         if f"{col}_log" in table and f"{col}_{name}" in table}
-    errors["nominal"], errors["augmented"] = errors[names[0]], errors[names[-1]]
-    nom_P = errors["nominal"]["P_W"]
-    errors["ratio_P"] = errors["augmented"]["P_W"] / nom_P if nom_P > 0 else float("nan")
     return errors
 
 
@@ -409,7 +431,7 @@ def _align_pitch(table: pd.DataFrame, ok: np.ndarray,
 
 
 def _band_errors(sig: RideSignals, reads: Mapping[str, Mapping[str, np.ndarray]],
-                 rows: Mapping[str, np.ndarray]) -> dict:
+                 rows: Mapping[str, np.ndarray]) -> dict[str, dict[str, BandRatio]]:
     """Each step's channels against the log's, band by band (level and spectrum), on the scored rows.
 
     Battery power, and phase current and pitch where both sides have them (pitch on the
@@ -433,24 +455,18 @@ def _band_errors(sig: RideSignals, reads: Mapping[str, Mapping[str, np.ndarray]]
     return out
 
 
-def _step_entries(steps: Sequence[SimStep], errors: dict, falls: list,
-                  balance: float | None, bands: Mapping[str, dict] | None = None) -> list[dict]:
-    """CONTRACT's ``simulation.steps``: description, held-out errors, ratio to the balance fit,
-    and the held-out bands of battery power, phase current and pitch (``heldout_bands``,
-    :func:`_band_errors`)."""
+def _scores(steps: Sequence[SimStep], errors: Mapping[str, Mapping[str, float]], falls: list,
+            balance: float | None, bands: Mapping[str, dict] | None = None) -> list[StepScore]:
+    """Each step's :class:`StepScore` (``balance``: the balance fit's held-out error, W)."""
     out = []
     for step in steps:
-        entry = step.describe()
-        e = errors.get(step.name) if step.why is None else None
-        entry["heldout_rmse"] = {k: v for k, v in (e or {}).items() if np.isfinite(v)}
-        entry["heldout_bands"] = (bands or {}).get(step.name) if step.why is None else None
-        p = entry["heldout_rmse"].get("P_W")
-        entry["ratio_to_balance"] = (p / balance if p is not None and balance and balance > 0
-                                     else None)
-        entry["target_ratio"] = TARGET_RATIO
+        ran = step.why is None
+        rmse = {k: v for k, v in ((errors.get(step.name) if ran else None) or {}).items() if np.isfinite(v)}
+        p = rmse.get("P_W")
         fell = [f for f in falls if f["run"] == step.name]
-        entry["fell"] = {"t": fell[0]["t"], "cause": fell[0]["cause"]} if fell else None
-        out.append(entry)
+        out.append(StepScore(step, rmse, (bands or {}).get(step.name) if ran else None,
+                             p / balance if p is not None and balance and balance > 0 else None,
+                             fell[0] if fell else None))
     return out
 
 
@@ -545,14 +561,9 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
         table, note = _align_pitch(table, ok, names)
         notes += [note] if note else []
     errors = _errors(table, ok, names)
-    errors["M_log_method"] = sig.torque_method
     bands = _band_errors(sig, reads, {"P": ok, "I": ok, "pitch": _pitch_rows(table, ok)})
     loc = _localise_error(table, sig.frame["a"].to_numpy(), ok, window_smooth, window_min, names[-1])
-    return RideSimulation(label=label or str(sig.path), table=table, errors=errors,
-                          effects=dict(run[-1].effects),
-                          parameters={s.name: dict(s.power) for s in run}
-                          | {"nominal": dict(run[0].power), "augmented": dict(run[-1].power)},
-                          falls=falls, localisation=loc,
-                          steps=_step_entries(steps, errors, falls, channels.balance_heldout, bands),
-                          notes=tuple(notes))
+    return RideSimulation(label=label or str(sig.path), table=table, errors=errors, torque_method=sig.torque_method,
+                          effects=dict(run[-1].effects), falls=falls, localisation=loc,
+                          steps=_scores(steps, errors, falls, channels.balance_heldout, bands), notes=tuple(notes))
 

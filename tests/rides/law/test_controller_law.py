@@ -102,7 +102,7 @@ def test_predict_clips_at_the_fitted_limit(tmp_path):
     _linear_law_log(tmp_path / "law.csv", seed=7, sign=1)
     rows = law_rows(read_log(tmp_path / "law.csv", emit_warnings=False))
     fit = fit_params(rows, list(BASE) + ["torque_limit"])
-    assert np.all(np.abs(predict(rows, fit)) <= fit["M_max"] + 1e-9)
+    assert np.all(np.abs(predict(rows, fit)) <= fit.M_max + 1e-9)
     with_tb = r2(rows.y, predict(rows, fit_params(rows, list(BASE) + ["tiltback"])))
     assert with_tb > r2(rows.y, predict(rows, fit_params(rows, BASE))) + 0.3   # tilt-back matters here
 
