@@ -36,8 +36,8 @@ from euc_sim.controllers.motor import MotorError, MotorPD
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 
-__all__ = ["FirmwareError", "LawTerm", "law_terms", "firmware_settings", "kd_resolved", "firmware_motor", "voltage_limit_settings",
-           "voltage_limits", "CARRIED"]
+__all__ = ["FirmwareError", "LawTerm", "law_terms", "firmware_settings", "kd_resolved", "firmware_motor",
+           "voltage_limit_settings", "voltage_limits", "CARRIED"]
 
 #: Terms of the ``controller`` entry that MotorPD carries -> its setting.
 CARRIED = {"K_p": "Kp", "K_d": "Kd", "torque_limit": "torque_limit",
@@ -59,14 +59,8 @@ class LawTerm(NamedTuple):
 
 
 def law_terms(ctrl) -> dict[str, LawTerm]:
-    """The terms by name of a ride JSON's ``controller`` object (``law``, ``terms`` [{name,
-    estimate, ci95, unit}]).
-
-    Raises
-    ------
-    FirmwareError
-        for an entry that is not an object, or a missing law (``law`` null: its ``why`` is quoted).
-    """
+    """The terms by name of a ride JSON's ``controller`` object (``law``, ``terms`` [{name, estimate,
+    ci95, unit}]); :class:`FirmwareError` for one that is not an object or shows no law (its ``why`` quoted)."""
     if not isinstance(ctrl, dict):
         raise FirmwareError(f"controller: expected an object, got {type(ctrl).__name__}")
     if ctrl.get("law") is None:

@@ -20,8 +20,8 @@ from euc_sim.rides.grids.signals import RideAssumptions, ride_grid, sg
 from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
 from euc_sim.rides.source.ride import Ride
 
-__all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "BandRatio", "band_ratio_db",
-           "fit_windows"]
+__all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "BandRatio",
+           "band_ratio_db", "fit_windows"]
 
 #: Savitzky–Golay windows, s, whose differences split a channel into bands (steps of about √2:
 #: eight leaky bands from ~2 Hz down to ~0.1 Hz; a 2 Hz sway peaks in the third, a 0.12 Hz one

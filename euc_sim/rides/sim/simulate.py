@@ -133,20 +133,9 @@ def battery_power(M_d: np.ndarray, x_dot: np.ndarray, gamma_dot: np.ndarray, R: 
 
 @dataclass(frozen=True)
 class StepScore:
-    """A step of the simulated ride and its score on the held-out log.
-
-    Attributes
-    ----------
-    step : SimStep
-    heldout_rmse : dict of str -> float
-        RMS over the scored rows by channel key (:data:`CHANNELS`; the finite ones, none when not run).
-    heldout_bands : dict of str -> BandRatio, or None
-        Battery power, phase current and pitch band by band (:func:`_band_errors`); None when not run.
-    ratio_to_balance : float or None
-        Battery-power error over the balance fit's held-out error.
-    fell : mapping or None
-        The step's first fall (``t`` s, ``cause``).
-    """
+    """A step and its score on the held-out log: RMS over the scored rows by channel key
+    (:data:`CHANNELS`, the finite ones), band by band (:func:`_band_errors`; None when not run),
+    the battery-power error over the balance fit's held-out error, and its first fall (``t`` s, ``cause``)."""
 
     step: SimStep
     heldout_rmse: dict[str, float]
