@@ -72,7 +72,7 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
 
     from euc_sim.controllers.firmware import firmware_motor
     from euc_sim.rides.grids.profile import speed_profile
-    from euc_sim.rides.law.controller_report import controller_entry, controller_fit, torque_constant
+    from euc_sim.rides.law.controller_report import controller_fit, firmware_terms, torque_constant
     from euc_sim.rides.pipeline import balance_on_mass
     from euc_sim.rides.sim.simulate import ride_params
     from euc_sim.rides.sim.tracking import simulate_profile
@@ -92,16 +92,17 @@ def own_window(case: tuple, data: Path, n_boot: int) -> dict:
            "log": lg, "runs": {}, "notes": [n for n in prof.attrs["notes"] if "spike" in n], "spikes": True,
            "ride": "ride (fitted on itself)"}
     if run == "firmware":
-        ctrl = controller_entry(controller_fit(log, None, torque_constant(physics.terms), n_boot, 0))
-        motor, notes = firmware_motor(ctrl, params)
+        ctrl = controller_fit(log, None, torque_constant(physics.terms), n_boot, 0)
+        terms = firmware_terms(ctrl)
+        motor, notes = firmware_motor(terms, params)
         out["notes"] += notes
-        lim = next(t for t in ctrl["terms"] if t["name"] == "torque_limit")
-        fitted = lim["estimate"]
-        above = int((np.abs(lg["phase_current"]) * ctrl["torque_constant"] > fitted).sum())
+        lim = terms["torque_limit"]
+        fitted = lim.estimate
+        above = int((np.abs(lg["phase_current"]) * ctrl.torque_constant > fitted).sum())
         out["notes"].append(f"measured law: K_p {motor.Kp:.0f} N·m/rad, K_d {motor.Kd:.1f} N·m·s/rad, fitted torque "
-                            f"limit {fitted:.1f} N·m (95 % {lim['ci95'][0]:.1f}-{lim['ci95'][1]:.1f}); the log's "
-                            f"largest |phase current| × K_t ({ctrl['torque_constant']:.3f} N·m/A) is "
-                            f"{lim['largest_measured']:.1f} N·m, {above} of {len(lg)} rows above the fitted limit")
+                            f"limit {fitted:.1f} N·m (95 % {lim.ci95[0]:.1f}-{lim.ci95[1]:.1f}); the log's "
+                            f"largest |phase current| × K_t ({ctrl.torque_constant:.3f} N·m/A) is "
+                            f"{lim.largest_measured:.1f} N·m, {above} of {len(lg)} rows above the fitted limit")
         motors = ((f"measured law, fitted {fitted:.0f} N·m limit (the fit's), plan band-limited",
                    dataclasses.replace(motor, torque_limit=fitted)),
                   (f"measured law, {motor.torque_limit:.0f} N·m limit (as simulated now), plan band-limited", motor))

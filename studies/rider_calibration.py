@@ -89,6 +89,7 @@ def real(wheel: str, seed: int, windows: int, length: float, rider: list | None 
     import dataclasses
 
     from euc_sim.rides.grids.profile import PLAN_WINDOW
+    from euc_sim.rides.render.contract import rider_fit_json
     from euc_sim.rides.rider.rider_fit import fit_rider
     from euc_sim.rides.sim.simulate import effects_to_inject, ride_params, simulate_ride
 
@@ -108,7 +109,7 @@ def real(wheel: str, seed: int, windows: int, length: float, rider: list | None 
                         assumptions=dataclasses.replace(A, torque_constant=k_t), windows=windows,
                         window_length=length, seed=seed, max_gap=max_gap,
                         progress=lambda s: print("  ", s, flush=True))
-        out.update(rider_fit=fit.as_json(), fit_seconds=round(time.time() - t0, 1))
+        out.update(rider_fit=rider_fit_json(fit), fit_seconds=round(time.time() - t0, 1))
         print(json.dumps(fit.params, indent=1), flush=True)
         calibrated = fit.rider
     else:                   # the values of an earlier fit_rider run on the same fit ride

@@ -53,6 +53,7 @@ def fit_inputs(ride: dict) -> dict:
 def run(ride_json: Path, fit_log: Path, **kw) -> dict:
     """The fit with every design point recorded: ``points`` (values, ``fell``, ``fall``), ``fit`` or ``error``."""
     import euc_sim.simulation.engine as engine
+    from euc_sim.rides.render.contract import rider_fit_json
     from euc_sim.rides.rider import rider_fit as rf
     from euc_sim.rides.source.logs import read_log
     from euc_sim.simulation.errors import FallError
@@ -81,7 +82,7 @@ def run(ride_json: Path, fit_log: Path, **kw) -> dict:
     out = {"ride": str(ride_json), "fit_log": str(fit_log), "settings": kw}
     try:
         fit = rf.fit_rider(read_log(fit_log, emit_warnings=False), progress=lambda s: print("  ", s, flush=True), **inputs, **kw)
-        out["fit"] = fit.as_json()
+        out["fit"] = rider_fit_json(fit)
     except rf.RiderFitError as exc:
         out["error"] = str(exc)
     finally:

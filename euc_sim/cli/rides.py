@@ -100,7 +100,9 @@ def _cmd_rides(args: argparse.Namespace) -> int:
     if args.report:
         check_report_folder(args.report, ("index.html",))
     say = None if args.quiet else (lambda m: (sys.stderr.write(m + "\n"), sys.stderr.flush()))
-    hist = run_rides(paths, pack, args.n_boot, args.seed, args.workers, say).to_json()
+    from euc_sim.rides.render.contract import history_json  # deferred: loads the balance fit (0.3 s)
+
+    hist = history_json(run_rides(paths, pack, args.n_boot, args.seed, args.workers, say))
     if args.report:
         from euc_sim.report.html import write_page  # deferred: loads plotly (0.05 s)
         from euc_sim.rides.render.history_page import history_page  # deferred: loads scipy, plotly (1.2 s)

@@ -86,13 +86,13 @@ def _motor(args, R: float = 0.2, p=None):
 def _firmware(path, lim: dict, p=None):
     """The wheel's measured balance law (the ride JSON's ``controller``, :mod:`euc_sim.controllers.firmware`)
     with the voltage limit, or None when the ride shows no law (the paper's PD is then used)."""
-    from euc_sim.controllers.firmware import FirmwareError, firmware_motor  # deferred: loads scipy.optimize (0.4 s)
+    from euc_sim.controllers.firmware import FirmwareError, firmware_motor, law_terms  # deferred: loads scipy.optimize (0.4 s)
 
     ctrl = json.loads(Path(path).read_text(encoding="utf-8")).get("controller")
     if not isinstance(ctrl, dict) or ctrl.get("law") is None:
         return None
     try:
-        motor, notes = firmware_motor(ctrl, p, **lim)
+        motor, notes = firmware_motor(law_terms(ctrl), p, **lim)
     except FirmwareError as exc:
         raise InputError(f"--drivetrain {path}: {exc}") from None
     say(f"simulate: the wheel's measured law replaces the PD gains: K_p = {motor.Kp:.0f} N·m/rad, "

@@ -1,7 +1,9 @@
 """The wheel's measured balance law as the simulator's motor controller.
 
-:func:`firmware_motor` turns the ride JSON's ``controller`` entry (the PD law
-M_d = K_p (γ − γ_ref) + K_d γ̇ of :mod:`euc_sim.rides.law.controller_law`, in N·m) into a
+The ride JSON's ``controller`` entry (the PD law
+M_d = K_p (γ − γ_ref) + K_d γ̇ of :mod:`euc_sim.rides.law.controller_law`, in N·m) is read
+as :class:`LawTerm` objects by :func:`law_terms` (the ride's analysis hands over the same from its
+fit); :func:`firmware_motor` turns them into a
 :class:`~euc_sim.controllers.motor.MotorPD`: K_p, K_d, the torque limit and the tilt-back
 where identified; what MotorPD cannot carry is listed in the notes.  A K_d the log does
 not resolve is replaced by :func:`~euc_sim.controllers.damping.damping_floor` (pitch-mode
@@ -13,14 +15,15 @@ is not a bound; docs/controller.md).
 from __future__ import annotations
 
 import math
+from typing import Mapping, NamedTuple
 
 from euc_sim.controllers.damping import ZETA_UNRESOLVED, damping_floor
 from euc_sim.controllers.motor import MotorError, MotorPD
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 
-__all__ = ["FirmwareError", "firmware_settings", "kd_resolved", "firmware_motor", "voltage_limit_settings",
-           "voltage_limits", "CARRIED"]
+__all__ = ["FirmwareError", "LawTerm", "law_terms", "firmware_settings", "kd_resolved", "firmware_motor",
+           "voltage_limit_settings", "voltage_limits", "CARRIED"]
 
 #: Terms of the ``controller`` entry that MotorPD carries -> its setting.
 CARRIED = {"K_p": "Kp", "K_d": "Kd", "torque_limit": "torque_limit",
@@ -31,31 +34,47 @@ class FirmwareError(InputError):
     """A ride JSON ``controller`` entry that cannot drive the simulator; the message says why."""
 
 
-def firmware_settings(ctrl, p: Params | None = None,
+class LawTerm(NamedTuple):
+    """One term of a measured law: its estimate, 95 % interval (or None) and unit; the torque
+    limit's also the largest |torque| the log measured."""
+
+    estimate: float | None
+    ci95: tuple | None
+    unit: str | None
+    largest_measured: float | None = None
+
+
+def law_terms(ctrl) -> dict[str, LawTerm]:
+    """The terms by name of a ride JSON's ``controller`` object (``law``, ``terms`` [{name, estimate,
+    ci95, unit}]); :class:`FirmwareError` for one that is not an object or shows no law (its ``why`` quoted)."""
+    if not isinstance(ctrl, dict):
+        raise FirmwareError(f"controller: expected an object, got {type(ctrl).__name__}")
+    if ctrl.get("law") is None:
+        raise FirmwareError(f"controller: the ride shows no law ({ctrl.get('why', 'no why given')})")
+    return {t.get("name"): LawTerm(t.get("estimate"), t.get("ci95"), t.get("unit"), t.get("largest_measured"))
+            for t in ctrl.get("terms", []) if isinstance(t, dict)}
+
+
+def firmware_settings(terms: Mapping[str, LawTerm], p: Params | None = None,
                       zeta: float = ZETA_UNRESOLVED) -> tuple[dict, list[str]]:
-    """MotorPD settings from a ride JSON's ``controller`` entry (CONTRACT's object), and notes.
+    """MotorPD settings from a measured law's terms by name (:func:`law_terms`), and notes.
 
     ``p``: the ride's parameters for the damping of an unresolved K_d (default Table 3),
     given the pitch-mode damping ratio ``zeta``.  Returns ``settings`` (``Kp`` N·m/rad,
     ``Kd`` N·m·s/rad, and where identified ``torque_limit`` N·m, ``tiltback_speed`` m/s,
     ``tiltback_gain`` rad per m/s) and ``notes`` (what was not carried, or changed).
-    ``FirmwareError`` for a missing law, a law not in N·m, or a non-finite term.
+    ``FirmwareError`` for a law not in N·m, or a non-finite term.
     """
-    if not isinstance(ctrl, dict):
-        raise FirmwareError(f"controller: expected an object, got {type(ctrl).__name__}")
-    if ctrl.get("law") is None:
-        raise FirmwareError(f"controller: the ride shows no law ({ctrl.get('why', 'no why given')})")
-    terms = {t.get("name"): t for t in ctrl.get("terms", []) if isinstance(t, dict)}
     if "K_p" not in terms:
         raise FirmwareError("controller: no 'K_p' term")
-    if not str(terms["K_p"].get("unit", "")).startswith("N·m"):
-        raise FirmwareError(f"controller: K_p is in {terms['K_p'].get('unit')!r}, expected N·m/rad "
+    if not str(terms["K_p"].unit or "").startswith("N·m"):
+        raise FirmwareError(f"controller: K_p is in {terms['K_p'].unit!r}, expected N·m/rad "
                             f"(run euc-sim ride with --wheel SPEC.csv so the torque constant is known)")
     settings, notes = {}, []
     for name, key in CARRIED.items():
         if name not in terms:
             continue
-        val = terms[name].get("estimate")
+        val = terms[name].estimate
         if not (isinstance(val, (int, float)) and math.isfinite(val)):
             raise FirmwareError(f"controller: term {name!r} estimate must be a finite number, got {val!r}")
         settings[key] = float(val)
@@ -78,12 +97,12 @@ def firmware_settings(ctrl, p: Params | None = None,
         settings.pop("tiltback_speed")
     for name in terms:
         if name not in CARRIED and name != "pitch_zero":
-            notes.append(f"{name} = {terms[name].get('estimate'):.3g} {terms[name].get('unit', '')} "
+            notes.append(f"{name} = {terms[name].estimate:.3g} {terms[name].unit or ''} "
                          f"measured but not simulated (MotorPD has no such term)")
     if "torque_limit" not in settings:
         notes.append(f"no torque limit identified: MotorPD's default {MotorPD.torque_limit:g} N·m kept")
     else:
-        top = terms["torque_limit"].get("largest_measured")
+        top = terms["torque_limit"].largest_measured
         if isinstance(top, (int, float)) and math.isfinite(top) and top > settings["torque_limit"]:
             notes.append(f"torque limit: the fitted {settings['torque_limit']:.4g} N·m is below the largest "
                          f"|torque| the same log measured, {top:.4g} N·m (the firmware gave that much); "
@@ -92,24 +111,25 @@ def firmware_settings(ctrl, p: Params | None = None,
     return settings, notes
 
 
-def kd_resolved(term) -> bool:
-    """Whether a ``controller`` K_d term (dict or None) lies above zero: its 95 % interval, else its estimate."""
+def kd_resolved(term: LawTerm | None) -> bool:
+    """Whether a law's K_d term lies above zero: its 95 % interval, else its estimate."""
     if term is None:
         return False
-    ci = term.get("ci95")
+    ci = term.ci95
     if isinstance(ci, (list, tuple)) and len(ci) == 2 and all(isinstance(c, (int, float)) for c in ci):
         return min(ci) > 0
-    return term.get("estimate", 0.0) > 0
+    return (term.estimate or 0.0) > 0
 
 
-def _ci(term) -> str:
-    ci = term.get("ci95")
+def _ci(term: LawTerm) -> str:
+    ci = term.ci95
     return f"[{ci[0]:.3g}, {ci[1]:.3g}]" if isinstance(ci, (list, tuple)) and len(ci) == 2 else "not given"
 
 
-def firmware_motor(ctrl, p: Params | None = None, **limits) -> tuple[MotorPD, list[str]]:
-    """The measured law as a :class:`MotorPD` with voltage ``limits``, and notes; ``FirmwareError`` as :func:`firmware_settings` or out of range."""
-    settings, notes = firmware_settings(ctrl, p)
+def firmware_motor(terms: Mapping[str, LawTerm], p: Params | None = None, **limits) -> tuple[MotorPD, list[str]]:
+    """The measured law's ``terms`` as a :class:`MotorPD` with voltage ``limits``, and notes;
+    ``FirmwareError`` as :func:`firmware_settings` or out of range."""
+    settings, notes = firmware_settings(terms, p)
     try:
         return MotorPD(**settings, **limits), notes
     except MotorError as exc:

@@ -2,14 +2,23 @@
 
 from __future__ import annotations
 
-from typing import Mapping
+from typing import Mapping, TypedDict
 
 import numpy as np
 
 from euc_sim.diagnosis.common import DiagnosisError
 from euc_sim.diagnosis.prepare import Prepared
 
-__all__ = ["localise", "signals_of", "hot_windows"]
+__all__ = ["Localisation", "localise", "signals_of", "hot_windows"]
+
+
+class Localisation(TypedDict):
+    """Where a residual concentrates: ``windows`` [[t0, t1], ...] s, the ``share`` of its energy
+    inside them, and its Pearson ``correlations`` with each signal by name."""
+
+    windows: list[list[float]]
+    share: float | None
+    correlations: dict[str, float]
 
 
 # --- localisation --------------------------------------------------------------------------
@@ -21,7 +30,7 @@ def hot_windows(t: np.ndarray, hot: np.ndarray, min_len: float) -> list[list[flo
 
 
 def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
-             smooth: float = 1.0, factor: float = 2.0, min_len: float = 0.5) -> dict:
+             smooth: float = 1.0, factor: float = 2.0, min_len: float = 0.5) -> Localisation:
     """Where the residual concentrates and what it moves with.
 
     Parameters
@@ -39,8 +48,7 @@ def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
 
     Returns
     -------
-    dict
-        ``windows`` ([t0, t1], s), ``share`` of the energy inside them, ``correlations``.
+    Localisation
     """
     t = np.asarray(t, float)
     r = np.asarray(r, float)

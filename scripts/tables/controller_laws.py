@@ -18,7 +18,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
-from euc_sim.rides.law.controller_report import controller_entry, controller_fit, torque_constant  # noqa: E402
+from euc_sim.rides.law.controller_report import controller_fit, torque_constant  # noqa: E402
+from euc_sim.rides.render.contract import controller_json  # noqa: E402
 from euc_sim.rides.drive.drivetrain_report import mass_drivetrain                  # noqa: E402
 from euc_sim.rides.grids.power import MassSettings                                  # noqa: E402
 from euc_sim.rides.source.logs import read_log                                        # noqa: E402
@@ -46,7 +47,7 @@ def main(argv=None) -> int:
                                                   MassSettings(n_boot=20, seed=0)).terms)
         except ValueError as exc:
             print(f"{wheel}/{path.stem}: drivetrain not fitted ({exc})", file=sys.stderr)
-        ctrl = controller_entry(controller_fit(read_log(path, emit_warnings=False),
+        ctrl = controller_json(controller_fit(read_log(path, emit_warnings=False),
                                                other and read_log(other, emit_warnings=False), k_t,
                                                n_boot=args.n_boot, seed=0))
         out.append({"wheel": wheel, "ride": path.stem, "compare": other.stem if other else None,

@@ -101,7 +101,7 @@ def row(path: Path, root: Path) -> str:
     bat = (c.battery_start_pct - c.battery_end_pct
            if c.battery_start_pct is not None and c.battery_end_pct is not None else None)
     if s.free_spin and a["top"] is not None:       # the app's top speed counts the wheel off the ground
-        top = max(top, s.free_spin["speed_max_mps"])
+        top = max(top, s.free_spin.speed_max_mps)
     cells = [
         name, log.layout,
         f"{s.distance_m / 1000:.2f}", _short(getattr(s, "distance_follows", None) or s.distance_source),

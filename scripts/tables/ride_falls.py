@@ -10,7 +10,7 @@ For each of the 21 shared real logs (``../shared/data/euc_core/trips/*/*/N/N.csv
 wheel's spec where there is one, and ``../shared/data/wheellog/*.csv``) it runs what
 ``euc-sim ride LOG --wheel SPEC`` runs before simulating (the drivetrain and mass fit, the
 balance fit of :func:`euc_sim.rides.balance.analysis.ride_analysis`, the measured balance law of
-:func:`euc_sim.rides.law.controller_report.controller_entry`) and then rides the log's speed
+:func:`euc_sim.rides.law.controller_report.controller_fit`) and then rides the log's speed
 profile (:func:`euc_sim.rides.grids.profile.speed_profile`) with
 :func:`euc_sim.rides.sim.tracking.simulate_profile`:
 
@@ -74,7 +74,7 @@ def _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations) -> list[di
     import numpy as np
 
     from euc_sim.rides.grids.profile import speed_profile
-    from euc_sim.rides.law.controller_report import controller_entry, controller_fit, torque_constant
+    from euc_sim.rides.law.controller_report import controller_fit, firmware_terms, torque_constant
     from euc_sim.rides.pipeline import balance_on_mass
     from euc_sim.rides.sim.simulate import effects_to_inject, ride_params, simulation_obstacle
     from euc_sim.rides.sim.tracking import simulate_profile
@@ -101,9 +101,9 @@ def _ride_log(name, log, spec_path, n_boot, seed, wanted, iterations) -> list[di
     if firmware:
         from euc_sim.controllers.firmware import FirmwareError, firmware_motor
 
-        ctrl = controller_entry(controller_fit(log, None, torque_constant(physics.terms), n_boot, seed))
+        law = controller_fit(log, None, torque_constant(physics.terms), n_boot, seed)
         try:
-            motor, _ = firmware_motor(ctrl, params)
+            motor, _ = firmware_motor(firmware_terms(law), params)
             runs.append(("firmware", {}, motor))
         except FirmwareError as exc:
             base["firmware"] = str(exc)

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from euc_sim.controllers.firmware import FirmwareError, firmware_motor
+from euc_sim.controllers.firmware import FirmwareError, firmware_motor, law_terms
 from euc_sim.model.parameters import TABLE3
 from euc_sim.simulation.engine import default_rider, simulate
 from euc_sim.simulation.maneuvers import make_maneuver
@@ -22,7 +22,7 @@ LYNX = {"law": "PD on the pitch", "sign": -1,
 
 
 def test_measured_law_rides_in_closed_loop():
-    motor, notes = firmware_motor(LYNX)
+    motor, notes = firmware_motor(law_terms(LYNX))
     assert motor.Kp == pytest.approx(5365.2) and motor.Kd == pytest.approx(29.37)
     assert any("accel_setpoint_gain" in n for n in notes)      # said, not silently dropped
     df = simulate(make_maneuver("stop_and_go"), 20.0, motor=motor, rider=default_rider(TABLE3, motor))
@@ -35,7 +35,7 @@ def test_tiltback_and_limit_carried():
         {"name": "tiltback_speed", "estimate": 8.3, "unit": "m/s"},
         {"name": "tiltback_gain", "estimate": 0.0126, "unit": "rad/(m/s)"},
         {"name": "torque_limit", "estimate": 110.0, "unit": "N·m"}])
-    motor, _ = firmware_motor(ctrl)
+    motor, _ = firmware_motor(law_terms(ctrl))
     assert motor.tiltback_speed == 8.3 and motor.torque_limit == 110.0
     assert motor.gamma_ref(10.0) == pytest.approx(-0.0126 * 1.7)
 
@@ -46,7 +46,7 @@ def test_limit_below_the_logs_largest_torque_is_raised(largest, used):
     limit = {"name": "torque_limit", "estimate": 110.0, "ci95": [97.0, 121.0], "unit": "N·m"}
     if largest is not None:
         limit["largest_measured"] = largest
-    motor, notes = firmware_motor(dict(LYNX, terms=LYNX["terms"] + [limit]))
+    motor, notes = firmware_motor(law_terms(dict(LYNX, terms=LYNX["terms"] + [limit])))
     assert motor.torque_limit == used
     assert any("largest |torque|" in n and "137" in n for n in notes) == (used == 137.0)
 
@@ -59,7 +59,7 @@ def test_limit_below_the_logs_largest_torque_is_raised(largest, used):
 ])
 def test_bad_entries_named(ctrl, words):
     with pytest.raises(FirmwareError, match=words):
-        firmware_motor(ctrl)
+        firmware_motor(law_terms(ctrl))
 
 
 def test_simulate_uses_the_measured_law(tmp_path, capsys):
@@ -95,13 +95,13 @@ def test_unresolved_kd_is_damped_and_said(ci95):
 
     est = -37.0 if ci95 is None or ci95[1] < 0 else 24.2
     terms = [dict(t, estimate=est, ci95=ci95) if t["name"] == "K_d" else t for t in LYNX["terms"]]
-    motor, notes = firmware_motor(dict(LYNX, terms=terms), TABLE3)
+    motor, notes = firmware_motor(law_terms(dict(LYNX, terms=terms)), TABLE3)
     assert motor.Kd == pytest.approx(damping_floor(TABLE3, 5365.2), rel=1e-6)
     assert any("not resolved" in n and f"{est:.3g}" in n and "damping ratio 0.7" in n for n in notes)
 
 
 def test_resolved_kd_is_kept():
-    motor, notes = firmware_motor(LYNX, TABLE3)             # K_d 29.4, interval [5.1, 49.8] above 0
+    motor, notes = firmware_motor(law_terms(LYNX), TABLE3)             # K_d 29.4, interval [5.1, 49.8] above 0
     assert motor.Kd == pytest.approx(29.37) and not any("not resolved" in n for n in notes)
 
 

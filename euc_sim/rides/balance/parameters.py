@@ -132,7 +132,7 @@ def parameter_list(cr: CrossRide, mass, terms: Mapping, law=None) -> tuple[Param
                  + _controller_entries(law))
 
 
-def drivetrain_view(terms: Mapping, parameters) -> dict:
+def drivetrain_view(terms: Mapping, parameters) -> dict[str, Term]:
     """The drivetrain's terms with C_rr, C_dA, the no-load power and copper loss from ``parameters``.
 
     The energy balance's coefficients (fitted for the mass, where they also hold

@@ -9,7 +9,7 @@ from typing import Mapping
 
 import numpy as np
 
-from euc_sim.diagnosis.localise import localise
+from euc_sim.diagnosis.localise import Localisation, localise
 from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.grids.signals import RideSignals, split_at_gaps
 
@@ -28,8 +28,8 @@ class ResidualTrace:
     """A ride's balance residual over time under two parameter sets.
 
     ``t`` (s) the design's rows; ``nominal``, ``augmented`` measured − predicted power (W, or
-    N·m in the torque domain); ``localisation`` the windows (s), ``share`` and
-    ``correlations`` of ``nominal``; ``in_sample`` when fitted on this ride.
+    N·m in the torque domain); ``localisation`` (:class:`~euc_sim.diagnosis.localise.Localisation`)
+    of ``nominal``; ``in_sample`` when fitted on this ride.
     """
 
     label: str
@@ -37,7 +37,7 @@ class ResidualTrace:
     nominal: np.ndarray
     augmented: np.ndarray
     unit: str
-    localisation: dict
+    localisation: Localisation
     in_sample: bool
 
     def slow(self, which: str = "augmented", span: float = SLOW_S) -> np.ndarray:

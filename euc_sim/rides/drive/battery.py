@@ -14,7 +14,7 @@ from __future__ import annotations
 import csv
 import math
 import re
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from functools import lru_cache
 from importlib.resources import files
 
@@ -155,13 +155,6 @@ class BatteryHealth:
     verdict: str
     sentence: str
     verdict_why: str = ""
-
-    def to_json(self) -> dict:
-        """A JSON-ready dict."""
-        out = asdict(self)
-        for k in ("resistance_ci95", "resistance_25C_ci95", "expected_ohm"):
-            out[k] = list(out[k]) if out[k] is not None else None
-        return out
 
 
 def health_verdict(r: float, ci, expected) -> tuple[str, str]:

@@ -162,7 +162,7 @@ class MassDrivetrain:
     pwm_why: str | None = None
 
     @property
-    def unidentified(self) -> dict:
+    def unidentified(self) -> dict[str, str]:
         """Term -> why this log cannot identify it."""
         return self.fit.drivetrain.unidentified
 

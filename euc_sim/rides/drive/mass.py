@@ -388,7 +388,7 @@ def _force_copper(sig: PowerSignals, lag: int, settings: MassSettings, names, be
     return designs, betas
 
 
-def _unidentified(log: Ride, sig: PowerSignals) -> dict:
+def _unidentified(log: Ride, sig: PowerSignals) -> dict[str, str]:
     """What this log cannot identify, and why."""
     out = {}
     if not sig.signed:

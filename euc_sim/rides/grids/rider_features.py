@@ -10,6 +10,7 @@ itself (simulated moments on a response surface) is :mod:`euc_sim.rides.rider.ri
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -19,8 +20,8 @@ from euc_sim.rides.grids.signals import RideAssumptions, battery_power_of, ride_
 from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
 from euc_sim.rides.source.ride import Ride
 
-__all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "band_ratio_db",
-           "fit_windows"]
+__all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "BandRatio",
+           "band_ratio_db", "fit_windows"]
 
 #: Savitzky–Golay windows, s, whose differences split a channel into eight leaky bands, ~2 Hz
 #: down to ~0.1 Hz (docs/rider_calibration.md).
@@ -108,8 +109,19 @@ def band_features(y: np.ndarray, segment: np.ndarray, rate: float, rows: np.ndar
     return np.stack([np.mean(bands[ok & (block == b)] ** 2, axis=0) for b in labels])
 
 
+@dataclass(frozen=True)
+class BandRatio:
+    """A channel against its reference band by band: the :data:`BAND_WINDOWS` (s) splitting the
+    bands, fastest first, each band's RMS ratio, dB, and their root mean square (0: the same
+    level and spectrum)."""
+
+    windows_s: list[float]
+    ratio_dB: list[float]
+    rms_dB: float
+
+
 def band_ratio_db(y: np.ndarray, y_ref: np.ndarray, segment: np.ndarray, rate: float,
-                  rows: np.ndarray) -> dict:
+                  rows: np.ndarray) -> BandRatio:
     """How a channel's level and spectrum differ from a reference's: the ratio of their bands' RMS, dB.
 
     Both channels get :func:`band_features` over the same ``rows`` (those where both are
@@ -131,10 +143,7 @@ def band_ratio_db(y: np.ndarray, y_ref: np.ndarray, segment: np.ndarray, rate: f
 
     Returns
     -------
-    dict
-        ``windows_s``: the :data:`BAND_WINDOWS` (s) splitting the bands, fastest first;
-        ``ratio_dB``: (bands,) list; ``rms_dB``: their root mean square, dB (0: the same
-        level and spectrum).
+    BandRatio
 
     Raises
     ------
@@ -151,8 +160,7 @@ def band_ratio_db(y: np.ndarray, y_ref: np.ndarray, segment: np.ndarray, rate: f
     if use.sum() < 2:
         raise RiderFitError(f"band features need at least 2 finite rows, got {int(use.sum())}")
     ratio = 10.0 / math.log(10.0) * np.log(np.mean(b[use] ** 2, axis=0) / np.mean(b_ref[use] ** 2, axis=0))
-    return {"windows_s": list(BAND_WINDOWS), "ratio_dB": [float(r) for r in ratio],
-            "rms_dB": float(np.sqrt(np.mean(ratio ** 2)))}
+    return BandRatio(list(BAND_WINDOWS), [float(r) for r in ratio], float(np.sqrt(np.mean(ratio ** 2))))
 
 
 def _bands(y: np.ndarray, segment: np.ndarray, rate: float, windows: tuple | None = None) -> np.ndarray:

@@ -1,17 +1,19 @@
 """The wheel spinning off the ground in a ride log: lifted at a stop, or fallen with the motor on.
 
 :func:`free_spin` finds such rows from the log's stamps and speed alone; every grid of a
-ride leaves them out and the summary says them apart (:func:`spin_json`).  See
+ride leaves them out and the summary says them apart (:func:`spin_stats`).  See
 docs/ride_model.md, "The wheel spinning free".
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from euc_sim.rides.source.gaps import GAP_POLICY
 
-__all__ = ["free_spin", "spin_rows", "spin_json", "SPIN_ACCEL", "SPIN_TOL_MPS"]
+__all__ = ["free_spin", "spin_rows", "FreeSpins", "spin_stats", "SPIN_ACCEL", "SPIN_TOL_MPS"]
 
 #: Acceleration or braking no tyre on the road carries, m/s² (grip μ ≈ 1).
 SPIN_ACCEL = 9.81
@@ -72,11 +74,21 @@ def _whole_spins(seed: np.ndarray, v: np.ndarray) -> np.ndarray:
     return out
 
 
-def spin_json(t: np.ndarray, v: np.ndarray, spin: np.ndarray) -> dict | None:
-    """``{"count", "total_s", "speed_max_mps", "at_s"}`` of the free spins, or None without one."""
+@dataclass(frozen=True)
+class FreeSpins:
+    """A ride's free spins: how many, their total time, s, the fastest speed, m/s, and when, s."""
+
+    count: int
+    total_s: float
+    speed_max_mps: float
+    at_s: float
+
+
+def spin_stats(t: np.ndarray, v: np.ndarray, spin: np.ndarray) -> FreeSpins | None:
+    """The free spins of rows ``spin`` (:func:`free_spin`), or None without one."""
     if not spin.any():
         return None
     i = int(np.flatnonzero(spin)[np.argmax(v[spin])])
     runs = np.flatnonzero(np.diff(np.r_[0, spin.astype(int), 0]))
     total = sum(float(t[min(b, t.size - 1)] - t[max(a - 1, 0)]) for a, b in zip(runs[::2], runs[1::2]))
-    return {"count": int(runs.size // 2), "total_s": total, "speed_max_mps": float(v[i]), "at_s": float(t[i])}
+    return FreeSpins(int(runs.size // 2), total, float(v[i]), float(t[i]))

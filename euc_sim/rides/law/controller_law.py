@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg
@@ -27,7 +28,7 @@ from euc_sim.rides.grids.law_signals import (INTEGRAL_TAU, MAX_PITCH, V_MIN, Law
 
 # LawUnavailable, LawRows, law_rows, V_MIN, MAX_PITCH and INTEGRAL_TAU are defined in
 # euc_sim.rides.grids.law_signals and exported here too: this module is the law's public face.
-__all__ = ["LawUnavailable", "LawRows", "Law", "CATALOG", "BASE", "V_MIN", "MAX_PITCH", "MIN_GAIN",
+__all__ = ["LawUnavailable", "LawRows", "Law", "LawFit", "CATALOG", "BASE", "V_MIN", "MAX_PITCH", "MIN_GAIN",
            "INTEGRAL_TAU", "R2_MIN", "law_rows", "fit_params", "predict", "fit_law",
            "heldout_score", "r2"]
 
@@ -58,18 +59,18 @@ _TB_GRID = np.linspace(0.30, 0.95, 14)       # tilt-back onset: quantiles of the
 _LIM_GRID = (0.9, 0.95, 0.98, 0.99, 0.995, 0.999)   # torque limit: quantiles of |y|
 
 
-def _columns(rows: LawRows, names, p: dict, mean3: bool = False) -> np.ndarray:
-    """Columns of the law, torque = X·c, one per name (``torque_limit`` has none); ``p`` gives
-    ``v_tb`` and, for ``brake_gain``, the nominal ``sign`` and ``tilt0``.  ``mean3``: each
-    column as its mean over [t₋₁, t₊₁] (``rows.w3``), the interval of the rate columns.
+def _columns(rows: LawRows, names, v_tb: float = np.inf, nominal: tuple[float, float] | None = None,
+             mean3: bool = False) -> np.ndarray:
+    """Columns of the law, torque = X·c, one per name (``torque_limit`` has none): the tilt-back's
+    above its onset ``v_tb`` (m/s), ``brake_gain``'s by the nominal PD's (sign, tilt0).  ``mean3``:
+    each column as its mean over [t₋₁, t₊₁] (``rows.w3``), the interval of the rate columns.
     """
     tilt, v, z = (rows.tilt3, rows.v3, rows.z3) if mean3 else (rows.tilt, rows.v, rows.z)
     make = {"offset": lambda: np.ones_like(tilt), "P": lambda: tilt,
             "D": lambda: rows.tilt_dot,
-            "tiltback": lambda: np.maximum(v - p.get("v_tb", np.inf), 0.0),
+            "tiltback": lambda: np.maximum(v - v_tb, 0.0),
             "accel_setpoint": lambda: rows.a, "integral": lambda: z,
-            "brake_gain": lambda: (tilt - p["tilt0_nom"])
-            * (p["sign_nom"] * (tilt - p["tilt0_nom"]) < 0)}
+            "brake_gain": lambda: (tilt - nominal[1]) * (nominal[0] * (tilt - nominal[1]) < 0)}
     cols = []
     for n in names:
         if n == "torque_limit":
@@ -115,7 +116,20 @@ def _censored_lstsq(X: np.ndarray, y: np.ndarray, M: float, at_limit: np.ndarray
     return beta
 
 
-def fit_params(rows: LawRows, names) -> dict:
+class LawFit(NamedTuple):
+    """One fit of the law (:func:`fit_params`): ``beta`` column -> coefficient (the log's convention),
+    the tilt-back onset ``v_tb`` m/s and limit ``M_max`` (unit of y; inf without), the nominal PD's
+    (sign, tilt0) and the ``physical`` terms (:func:`_physical`)."""
+
+    names: list
+    beta: dict[str, float]
+    v_tb: float
+    M_max: float
+    nominal: tuple[float, float]
+    physical: dict[str, float]
+
+
+def fit_params(rows: LawRows, names) -> LawFit:
     """Fit the law with terms ``names`` (``BASE`` plus any of ``CATALOG``) on ``rows``.
 
     Linear least squares of the torque on the columns of :func:`_columns`; the
@@ -125,17 +139,13 @@ def fit_params(rows: LawRows, names) -> dict:
 
     Returns
     -------
-    dict
-        ``names``, ``beta`` (name → coefficient), ``v_tb`` (m/s), ``M_max`` (unit of
-        y; inf without the limit), ``sign_nom``, ``tilt0_nom`` and the physical
-        terms of :func:`_physical` (``sign``, ``tilt0``, ``K_p``, ``K_d``, ...).
+    LawFit
     """
     names = list(names)
     lin = [n for n in names if n != "torque_limit"]
     y = _target(rows)
-    b0 = _lstsq(_columns(rows, BASE, {}, mean3=True), y)
-    p = {"sign_nom": 1.0 if b0[1] >= 0 else -1.0,
-         "tilt0_nom": float(-b0[0] / b0[1]) if b0[1] else 0.0}
+    b0 = _lstsq(_columns(rows, BASE, mean3=True), y)
+    nominal = (1.0 if b0[1] >= 0 else -1.0, float(-b0[0] / b0[1]) if b0[1] else 0.0)
     lims = [np.inf]
     if "torque_limit" in names:
         lims = [float(np.quantile(np.abs(rows.y), q)) for q in _LIM_GRID]
@@ -145,21 +155,20 @@ def fit_params(rows: LawRows, names) -> dict:
     best = None
     for M in lims:
         for v_tb in v_tbs:
-            X = _columns(rows, lin, dict(p, v_tb=v_tb), mean3=True)
+            X = _columns(rows, lin, v_tb, nominal, mean3=True)
             beta = _censored_lstsq(X, y, M, np.any(np.abs(rows.y3) >= 0.99 * M, axis=1))
             sse = float(np.sum((y - np.clip(X @ beta, -M, M)) ** 2))
             if best is None or sse < best[0]:
                 best = (sse, beta, M, v_tb)
     _, beta, M, v_tb = best
-    fit = dict(p, names=names, beta=dict(zip(lin, map(float, beta))), v_tb=v_tb, M_max=M)
-    fit.update(_physical(fit))
-    return fit
+    c = dict(zip(lin, map(float, beta)))
+    return LawFit(names, c, v_tb, M, nominal, _physical(c))
 
 
-def _physical(fit: dict) -> dict:
-    """The coefficients in the log's convention → the paper's law (γ forward positive):
-    ``tilt = s·γ + tilt₀``, M = K_p (γ − γ_ref) + K_d γ̇ + K_i ∫γ."""
-    c = fit["beta"]
+def _physical(c: dict[str, float]) -> dict[str, float]:
+    """The coefficients ``c`` in the log's convention → the paper's law (γ forward positive):
+    ``tilt = s·γ + tilt₀``, M = K_p (γ − γ_ref) + K_d γ̇ + K_i ∫γ: ``sign``, ``K_p``, ``K_d``,
+    ``tilt0`` and the kept terms' gains."""
     s = 1.0 if c["P"] >= 0 else -1.0
     Kp = abs(c["P"])
     out = {"sign": s, "K_p": Kp, "K_d": s * c["D"], "tilt0": -c["offset"] / c["P"] if c["P"] else 0.0}
@@ -174,13 +183,13 @@ def _physical(fit: dict) -> dict:
     return out
 
 
-def predict(rows: LawRows, fit: dict, mean3: bool = False) -> np.ndarray:
+def predict(rows: LawRows, fit: LawFit, mean3: bool = False) -> np.ndarray:
     """The law's torque on ``rows`` from their pitch, speed and acceleration (unit of
     ``rows.y``), clipped at the limit; ``mean3``: its mean over [t₋₁, t₊₁], the fitted
     quantity (:func:`_target`)."""
-    lin = [n for n in fit["names"] if n != "torque_limit"]
-    pred = _columns(rows, lin, fit, mean3) @ np.array([fit["beta"][n] for n in lin])
-    return np.clip(pred, -fit["M_max"], fit["M_max"])
+    lin = [n for n in fit.names if n != "torque_limit"]
+    pred = _columns(rows, lin, fit.v_tb, fit.nominal, mean3) @ np.array([fit.beta[n] for n in lin])
+    return np.clip(pred, -fit.M_max, fit.M_max)
 
 
 def r2(y: np.ndarray, pred: np.ndarray) -> float:
@@ -246,7 +255,7 @@ class Law:
     ----------
     names : list of str
         ``BASE`` plus the kept catalogued terms, in order.
-    fit : dict
+    fit : LawFit
         :func:`fit_params` on the whole log.
     terms : dict
         Physical term → ``(estimate, ci95 or None, unit)``, paper's signs.
@@ -267,7 +276,7 @@ class Law:
     """
 
     names: list
-    fit: dict
+    fit: LawFit
     terms: dict
     sign: int
     heldout_rmse: float
@@ -282,22 +291,22 @@ class Law:
     notes: list = field(default_factory=list)
 
 
-def _terms(fit: dict, unit: str) -> dict:
+def _terms(fit: LawFit, unit: str) -> dict[str, tuple[float, str]]:
     """The physical terms for people and JSON: name → (value, unit)."""
-    per = unit + "/rad"
-    out = {"K_p": (fit["K_p"], per), "K_d": (fit["K_d"], unit + "·s/rad"),
-           "pitch_zero": (fit["tilt0"], "rad (logged)")}
-    if "tiltback_gain" in fit:
-        out["tiltback_speed"] = (fit["v_tb"], "m/s")
-        out["tiltback_gain"] = (fit["tiltback_gain"], "rad/(m/s)")
-    if "accel_setpoint_gain" in fit:
-        out["accel_setpoint_gain"] = (fit["accel_setpoint_gain"], "rad/(m/s^2)")
-    if "K_i" in fit:
-        out["K_i"] = (fit["K_i"], unit + "/(rad·s)")
-    if "K_p_brake" in fit:
-        out["K_p_brake"] = (fit["K_p_brake"], per)
-    if np.isfinite(fit["M_max"]):
-        out["torque_limit"] = (fit["M_max"], unit)
+    per, ph = unit + "/rad", fit.physical
+    out = {"K_p": (ph["K_p"], per), "K_d": (ph["K_d"], unit + "·s/rad"),
+           "pitch_zero": (ph["tilt0"], "rad (logged)")}
+    if "tiltback_gain" in ph:
+        out["tiltback_speed"] = (fit.v_tb, "m/s")
+        out["tiltback_gain"] = (ph["tiltback_gain"], "rad/(m/s)")
+    if "accel_setpoint_gain" in ph:
+        out["accel_setpoint_gain"] = (ph["accel_setpoint_gain"], "rad/(m/s^2)")
+    if "K_i" in ph:
+        out["K_i"] = (ph["K_i"], unit + "/(rad·s)")
+    if "K_p_brake" in ph:
+        out["K_p_brake"] = (ph["K_p_brake"], per)
+    if np.isfinite(fit.M_max):
+        out["torque_limit"] = (fit.M_max, unit)
     return out
 
 
@@ -308,7 +317,7 @@ def _bootstrap(rows: LawRows, names, n_boot: int, seed: int, block: float = 30.0
     for _ in range(n_boot):
         idx = block_bootstrap_indices(blocks, rng)
         f = fit_params(rows.take(idx), names)
-        signs.append(f["sign"])
+        signs.append(f.physical["sign"])
         draws.append({k: v for k, (v, _) in _terms(f, rows.unit).items()})
     return draws, np.asarray(signs)
 
@@ -338,7 +347,7 @@ def fit_law(rows: LawRows, n_boot: int = 100, seed: int = 0) -> Law:
     r2_blind = _without_pitch_r2(rows)
     pitch_only = [n for n in names if n != "accel_setpoint"]
     r2_pitch = r2_kept if pitch_only == names else heldout_score(rows, pitch_only)[1]
-    v_tb = fit_params(rows, pitch_only)["v_tb"]
+    v_tb = fit_params(rows, pitch_only).v_tb
     r2_speed = _without_pitch_r2(rows, accel=False, v_tb=v_tb)
     if r2_pitch < R2_MIN or r2_pitch - r2_speed < PITCH_GAIN:
         raise LawUnavailable(
@@ -362,7 +371,7 @@ def fit_law(rows: LawRows, n_boot: int = 100, seed: int = 0) -> Law:
             # never narrowed, so the interval always holds its own estimate
             ci = (float(min(q[0], val)), float(max(q[1], val)))
         terms[k] = (float(val), ci, unit)
-    sign = int(fit["sign"])
+    sign = int(fit.physical["sign"])
     return Law(names=names, fit=fit, terms=terms, sign=sign, heldout_rmse=rmse,
                heldout_r2=r2_kept, nominal_r2=r2_nom, blind_r2=r2_blind, history=history, channel=rows.channel,
                unit=rows.unit, scale=rows.scale, sign_share=float(np.mean(signs == sign)) if signs.size else math.nan)

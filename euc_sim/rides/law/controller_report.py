@@ -1,7 +1,8 @@
 """The ride JSON's ``controller`` object: :func:`controller_fit` reads the wheel's balance
 law from LOG with the drivetrain's K_t = K_e (N·m/A) and predicts a compare ride's phase
-current or torque from its pitch (CONTRACT ``heldout``); :func:`controller_entry` is what
-the firmware (:mod:`euc_sim.controllers.firmware`) reads.
+current or torque from its pitch (CONTRACT ``heldout``; the JSON:
+:func:`euc_sim.rides.render.contract.controller_json`); :func:`firmware_terms` hands the law to
+the firmware (:mod:`euc_sim.controllers.firmware`).
 """
 
 from __future__ import annotations
@@ -11,10 +12,11 @@ from typing import Mapping
 
 import numpy as np
 
+from euc_sim.controllers.firmware import LawTerm
 from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.law.controller_law import Law, fit_law, predict, r2
 
-__all__ = ["ControllerFit", "controller_fit", "controller_entry", "torque_constant", "describe", "PAPER_PD"]
+__all__ = ["ControllerFit", "controller_fit", "firmware_terms", "torque_constant", "describe", "PAPER_PD"]
 
 #: The paper's nominal motor law, N·m/rad and N·m·s/rad (controllers.motor.MotorPD's defaults).
 PAPER_PD = {"K_p": 600.0, "K_d": 40.0}
@@ -98,34 +100,10 @@ def controller_fit(log_path, compare_path=None, k_t: float | None = None,
     return ControllerFit(**out)
 
 
-def controller_entry(c: ControllerFit) -> dict:
-    """CONTRACT's ``controller`` object: what ``euc-sim sim --firmware`` reads
-    (:func:`euc_sim.controllers.firmware.firmware_motor`), and the simulated replay with it.
-
-    Returns
-    -------
-    dict
-        ``law`` (str), ``terms`` [{name, estimate, ci95, unit}] (``torque_limit`` also
-        ``largest_measured``: the largest |torque| of the fitted rows), ``sign``,
-        ``heldout`` {r2, channel, ride}, ``within_ride``, ``selection``; or
-        ``{"law": None, "why": str}``.
-    """
-    law = c.law
-    if law is None:
-        return {"law": None, "why": c.why}
-    out = {"law": describe(law),
-           "terms": [{"name": k, "estimate": v, "ci95": list(ci) if ci else None, "unit": u}
-                     for k, (v, ci, u) in law.terms.items()],
-           "sign": law.sign, "sign_share": law.sign_share,
-           "torque_constant": c.torque_constant, "channel": law.channel,
-           "within_ride": {"r2": law.heldout_r2, "nominal_r2": law.nominal_r2,
-                           "without_pitch_r2": law.blind_r2, "rmse": law.heldout_rmse,
-                           "unit": law.unit},
-           "selection": law.history,
-           "heldout": {"r2": c.heldout_r2, "channel": law.channel, "ride": c.heldout_ride}}
-    for term in out["terms"]:
-        if term["name"] == "torque_limit":
-            term["largest_measured"] = c.largest_measured
-    if c.compare_why is not None:
-        out["heldout"]["compare_why"] = c.compare_why
-    return out
+def firmware_terms(c: ControllerFit) -> dict[str, LawTerm]:
+    """The law's terms as the simulator's firmware reads them (:func:`euc_sim.controllers.firmware.firmware_motor`;
+    the ride JSON's ``controller`` carries the same); empty without a law."""
+    if c.law is None:
+        return {}
+    return {k: LawTerm(v, ci, u, c.largest_measured if k == "torque_limit" else None)
+            for k, (v, ci, u) in c.law.terms.items()}

@@ -12,16 +12,16 @@ from __future__ import annotations
 import math
 import warnings
 from collections import Counter
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from datetime import datetime, timedelta
 
 import numpy as np
 
 from euc_sim.errors import InputError
-from euc_sim.rides.drive.battery import battery_health, measure_resistance, trend_words
+from euc_sim.rides.drive.battery import BatteryHealth, battery_health, measure_resistance, trend_words
 from euc_sim.rides.grids.signals import check_readings
 from euc_sim.rides.source.logs import read_log
-from euc_sim.rides.summary.summary import ride_summary
+from euc_sim.rides.summary.summary import RideSummary, ride_summary
 
 __all__ = ["RideEntry", "ChangeTest", "RideHistory", "WheelMismatch", "ride_entry",
            "change_test", "ride_history", "series_cells", "full_charge", "shared_offset", "utc_start",
@@ -44,8 +44,8 @@ class RideEntry:
     path, layout : str
     start : str
         ISO wall-clock time of the first sample (UTC where the log names its zone).
-    summary, battery : dict
-        The ride's RideSummary and BatteryHealth as JSON.
+    summary : RideSummary
+    battery : BatteryHealth
     model : str or None
         The wheel's model and serial where the app wrote them.
     series : tuple of int
@@ -63,8 +63,8 @@ class RideEntry:
     path: str
     start: str
     layout: str
-    summary: dict
-    battery: dict
+    summary: RideSummary
+    battery: BatteryHealth
     model: str | None
     series: tuple
     temperature_C: float | None
@@ -72,13 +72,6 @@ class RideEntry:
     full_charge_V: float | None = None
     repairs: tuple = ()
     utc_offset_s: float | None = None
-
-    def to_json(self) -> dict:
-        """A JSON-ready dict."""
-        out = asdict(self)
-        out["series"] = list(self.series)
-        out["repairs"] = list(self.repairs)
-        return out
 
 
 @dataclass(frozen=True)
@@ -101,12 +94,6 @@ class ChangeTest:
     verdict: str
     n_earlier: int
     note: str = ""
-
-    def to_json(self) -> dict:
-        """A JSON-ready dict."""
-        out = asdict(self)
-        out["difference_ci95"] = list(self.difference_ci95)
-        return out
 
 
 @dataclass(frozen=True)
@@ -135,15 +122,6 @@ class RideHistory:
     whkm_slope_ci95: tuple | None
     why: dict = field(default_factory=dict)
     trend: str | None = None
-
-    def to_json(self) -> dict:
-        """A JSON-ready dict."""
-        return {"rides": [r.to_json() for r in self.rides], "basis": self.basis,
-                "change": self.change.to_json() if self.change else None,
-                "Wh_per_km_vs_speed": {"slope": self.whkm_slope,
-                                       "ci95": list(self.whkm_slope_ci95) if self.whkm_slope_ci95 else None,
-                                       "unit": "Wh/km per m/s"},
-                "trend": self.trend, "why": dict(self.why)}
 
 
 def shared_offset(offsets) -> float | None:
@@ -212,7 +190,7 @@ def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
     vf = volt[np.isfinite(volt) & (volt > 0)]
     series = series_cells(float(vf.max()), float(np.quantile(vf, 0.01))) if vf.size else ()
     return RideEntry(path=str(path), start=log.start.isoformat(), layout=log.layout,
-                     summary=summary.to_json(), battery=bh.to_json(), model=log.counters.wheel_model,
+                     summary=summary, battery=bh, model=log.counters.wheel_model,
                      series=series, temperature_C=temp, temperature_source=tsrc,
                      full_charge_V=full_charge(log), repairs=tuple(log.repairs), utc_offset_s=log.utc_offset_s)
 
@@ -304,18 +282,18 @@ def ride_history(entries) -> RideHistory:
     rides = tuple(sorted(entries, key=lambda e: utc_start(e.start, e.utc_offset_s, zone)))
     check_one_wheel(rides)
     why = {}
-    with_r = [e for e in rides if e.battery["resistance_ohm"] is not None and e.battery["resistance_ci95"]]
-    all25 = bool(with_r) and all(e.battery["resistance_25C_ohm"] is not None for e in with_r)
+    with_r = [e for e in rides if e.battery.resistance_ohm is not None and e.battery.resistance_ci95]
+    all25 = bool(with_r) and all(e.battery.resistance_25C_ohm is not None for e in with_r)
     key, ci_key = (("resistance_25C_ohm", "resistance_25C_ci95") if all25
                    else ("resistance_ohm", "resistance_ci95"))
     change = trend = None
     if len(with_r) >= 2:
-        change = change_test([e.battery[key] for e in with_r], [e.battery[ci_key] for e in with_r])
-        trend = trend_words([e.battery[key] for e in with_r], [e.battery[ci_key] for e in with_r])
+        r, ci = [getattr(e.battery, key) for e in with_r], [getattr(e.battery, ci_key) for e in with_r]
+        change, trend = change_test(r, ci), trend_words(r, ci)
     else:
         why["change"] = f"{len(with_r)} ride(s) with a measured resistance: a change test needs two"
-    sp = [e.summary["speed_mean_moving_mps"] for e in rides]
-    wk = [e.summary["Wh_per_km"] for e in rides]
+    sp = [e.summary.speed_mean_moving_mps for e in rides]
+    wk = [e.summary.Wh_per_km for e in rides]
     slope, sci = _slope([np.nan if s is None else s for s in sp], [np.nan if w is None else w for w in wk])
     if slope is None:
         why["Wh_per_km_vs_speed"] = "fewer than three rides with a consumption and a speed"

@@ -7,7 +7,9 @@ typed objects.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+import math
+from dataclasses import asdict, dataclass, field, fields
+
 import numpy as np
 
 from euc_sim.io import to_jsonable
@@ -15,14 +17,17 @@ from euc_sim.io import to_jsonable
 from euc_sim.rides.balance.design import NOMINAL
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.balance.fit import plausibility
-from euc_sim.rides.law.controller_report import controller_entry
+from euc_sim.rides.law.controller_report import describe
 from euc_sim.rides.result import RideResult, RiderNumbers
+from euc_sim.rides.sim.sim_steps import TARGET_RATIO, VOLTAGE_EXTRAS
 
 __all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json",
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
            "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json", "resolution_json",
            "difference_json", "differences_json", "clock_json", "mass_difference_json", "mass_check_json",
-           "error_measure"]
+           "error_measure", "summary_json", "battery_json", "history_json",
+           "controller_json", "rider_fit_json", "sim_step_json", "step_score_json", "simulation_errors_json",
+           "simulation_drivetrain_json"]
 
 
 @dataclass(frozen=True)
@@ -86,8 +91,9 @@ def simulation_json(sim) -> dict:
     """CONTRACT's ``simulation`` of a :class:`~euc_sim.rides.sim.simulate.RideSimulation` (its
     table goes to CSV)."""
     loc = sim.localisation
-    return {"ride": sim.label, "errors": sim.errors, "effects_injected": sim.effects,
-            "drivetrain": sim.parameters, "falls": list(sim.falls), "steps": list(sim.steps),
+    return {"ride": sim.label, "errors": simulation_errors_json(sim), "effects_injected": sim.effects,
+            "drivetrain": simulation_drivetrain_json(sim), "falls": list(sim.falls),
+            "steps": [step_score_json(s) for s in sim.steps],
             "windows": loc.get("windows", []), "windows_share": loc.get("share"),
             "correlations": loc.get("correlations", {}), "scored_rows": sim.scored_rows,
             "pitch_scored_rows": sim.pitch_scored_rows, "notes": list(sim.notes)}
@@ -333,8 +339,8 @@ def clock_json(c) -> dict:
 
 def rider_json(r: RiderNumbers) -> dict:
     """CONTRACT's ``summary`` (with its ``battery`` verdict), ``mass_check``, ``battery`` and ``clock``."""
-    bh = r.battery.to_json()
-    out = r.summary.to_json()
+    bh = battery_json(r.battery)
+    out = summary_json(r.summary)
     # CONTRACT's summary.battery: the verdict and what it is judged against (the whole entry: battery)
     out["battery"] = {k: bh[k] for k in ("verdict", "expected_ohm", "expected_source")}
     return {"summary": out, "mass_check": mass_check_json(r.mass_check), "battery": bh, "clock": clock_json(r.clock)}
@@ -369,7 +375,7 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
     rep["notes"] = list(res.notes)
     rep["table"] = files.table if files else None
     rep.update(physics_json(res.mass))
-    rep["controller"] = controller_entry(res.law)
+    rep["controller"] = controller_json(res.law)
     rep["parameters"] = [parameter_json(p) for p in res.parameters]
     rep["drivetrain"] = {k: term_json(t) for k, t in res.drivetrain.items()}
     if res.differences is not None:
@@ -395,3 +401,106 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
     if report_dir is not None:
         rep["report_dir"] = report_dir
     return rep
+
+
+def summary_json(s) -> dict:
+    """CONTRACT's ``summary`` of a :class:`~euc_sim.rides.summary.summary.RideSummary` (plain floats,
+    None for what is unknown)."""
+    out = asdict(s)
+    out["limits"] = None if s.limits is None else s.limits.as_json()
+    return to_jsonable(out)
+
+
+def battery_json(b) -> dict:
+    """CONTRACT's ``battery``: a :class:`~euc_sim.rides.drive.battery.BatteryHealth` (Ω, °C)."""
+    out = asdict(b)
+    for k in ("resistance_ci95", "resistance_25C_ci95", "expected_ohm"):
+        out[k] = list(out[k]) if out[k] is not None else None
+    return out
+
+
+def history_json(h) -> dict:
+    """The ``euc-sim rides`` object of a :class:`~euc_sim.rides.logbook.history.RideHistory`: each ride's
+    entry (its ``summary`` and ``battery`` as in the ride JSON), the change test and the Wh/km slope."""
+    rides = [{**{f.name: getattr(e, f.name) for f in fields(e)}, "summary": summary_json(e.summary),
+              "battery": battery_json(e.battery), "series": list(e.series), "repairs": list(e.repairs)}
+             for e in h.rides]
+    change = None if h.change is None else {**asdict(h.change), "difference_ci95": list(h.change.difference_ci95)}
+    return {"rides": rides, "basis": h.basis, "change": change,
+            "Wh_per_km_vs_speed": {"slope": h.whkm_slope,
+                                   "ci95": list(h.whkm_slope_ci95) if h.whkm_slope_ci95 else None,
+                                   "unit": "Wh/km per m/s"},
+            "trend": h.trend, "why": dict(h.why)}
+
+
+def controller_json(c) -> dict:
+    """CONTRACT's ``controller`` of a :class:`~euc_sim.rides.law.controller_report.ControllerFit`:
+    ``law`` (words), ``terms`` [{name, estimate, ci95, unit}] (``torque_limit`` also
+    ``largest_measured``), ``sign``, ``heldout``, ``within_ride``, ``selection``; or ``{"law": None, "why"}``.
+    ``euc-sim sim --firmware`` reads it back (:func:`euc_sim.controllers.firmware.law_terms`)."""
+    law = c.law
+    if law is None:
+        return {"law": None, "why": c.why}
+    terms = [{"name": k, "estimate": v, "ci95": list(ci) if ci else None, "unit": u,
+              **({"largest_measured": c.largest_measured} if k == "torque_limit" else {})}
+             for k, (v, ci, u) in law.terms.items()]
+    heldout = {"r2": c.heldout_r2, "channel": law.channel, "ride": c.heldout_ride}
+    if c.compare_why is not None:
+        heldout["compare_why"] = c.compare_why
+    return {"law": describe(law), "terms": terms, "sign": law.sign, "sign_share": law.sign_share,
+            "torque_constant": c.torque_constant, "channel": law.channel,
+            "within_ride": {"r2": law.heldout_r2, "nominal_r2": law.nominal_r2,
+                            "without_pitch_r2": law.blind_r2, "rmse": law.heldout_rmse, "unit": law.unit},
+            "selection": law.history, "heldout": heldout}
+
+
+def rider_fit_json(fit) -> dict:
+    """The studies' JSON of a :class:`~euc_sim.rides.rider.rider_fit.RiderFit` (the rider calibrated on a ride)."""
+    return {"params": fit.params, "rider": fit.rider.as_dict(), "objective": fit.objective,
+            "objective_nominal": fit.objective_nominal, "features": fit.features,
+            "windows": [list(w) for w in fit.windows], "simulations": fit.simulations,
+            "falls": [dict(f) for f in fit.falls], "notes": list(fit.notes)}
+
+
+def sim_step_json(step) -> dict:
+    """A :class:`~euc_sim.rides.sim.sim_steps.SimStep` as CONTRACT's ``simulation.steps`` describe it:
+    its law (``motor``, read back by :func:`~euc_sim.rides.sim.sim_steps.motor_from_law`), rider,
+    effects and power model."""
+    m = step.motor
+    law = {"K_p": m.Kp, "K_d": m.Kd, "torque_limit": m.torque_limit}
+    if math.isfinite(m.tiltback_speed):
+        law.update(tiltback_speed=m.tiltback_speed, tiltback_gain=m.tiltback_gain)
+    if math.isfinite(m.voltage):
+        law.update(voltage=m.voltage, back_emf=m.back_emf, drop=m.drop)
+        law.update({k: getattr(m, k) for k in VOLTAGE_EXTRAS
+                    if getattr(m, k) != type(m).__dataclass_fields__[k].default})
+    rider = None if step.rider is None else {
+        "delay": float(getattr(step.rider, "delay", float("nan"))),
+        "noise_std": float(getattr(step.rider, "noise_std", float("nan"))),
+        "plan_window": step.plan_window,
+        **({"bandwidth": float(step.rider_fit["bandwidth"])} if "bandwidth" in step.rider_fit else {})}
+    return {"step": step.name, "what": step.what, "ran": step.why is None, "why": step.why,
+            "physics": list(step.physics), "motor": law, "rider": rider or "default LQR rider designed for this motor",
+            "effects_injected": dict(step.effects), "power_model": dict(step.power), "notes": list(step.notes)}
+
+
+def step_score_json(s) -> dict:
+    """One of CONTRACT's ``simulation.steps``: a :class:`~euc_sim.rides.sim.simulate.StepScore`."""
+    bands = None if s.heldout_bands is None else {k: asdict(b) for k, b in s.heldout_bands.items()}
+    return {**sim_step_json(s.step), "heldout_rmse": dict(s.heldout_rmse), "heldout_bands": bands,
+            "ratio_to_balance": s.ratio_to_balance, "target_ratio": TARGET_RATIO,
+            "fell": None if s.fell is None else {"t": s.fell["t"], "cause": s.fell["cause"]}}
+
+
+def simulation_errors_json(sim) -> dict:
+    """CONTRACT's ``simulation.errors``: each step that ran, ``nominal`` and ``augmented`` (the first
+    and the last), ``ratio_P`` and ``M_log_method``."""
+    e, ran = sim.errors, sim.ran
+    return {**e, "nominal": e[ran[0]], "augmented": e[ran[-1]], "ratio_P": sim.ratio_P,
+            "M_log_method": sim.torque_method}
+
+
+def simulation_drivetrain_json(sim) -> dict:
+    """CONTRACT's ``simulation.drivetrain``: each step's battery-power model that ran, ``nominal`` and ``augmented``."""
+    run = [s.step for s in sim.steps if s.step.why is None]
+    return {s.name: dict(s.power) for s in run} | {"nominal": dict(run[0].power), "augmented": dict(run[-1].power)}

@@ -173,7 +173,7 @@ def _error_panel(ax, t, tb, sim, e, names, styles, letter) -> None:
     ax.set_ylim(bottom=0.0)
     ax.set(ylabel=f"{RMS_S:.0f} s moving RMS of\nlog − simulation [W]", xlabel="time from start of log [s]",
            title=f"({letter}) battery-power error of each step over time; last / first step = "
-                 f"{e['ratio_P']:.2f}")
+                 f"{sim.ratio_P:.2f}")
     _legend_right(ax)
 
 

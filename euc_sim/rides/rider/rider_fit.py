@@ -198,15 +198,9 @@ class RiderFit:
     notes: tuple = field(default=())
     falls: tuple = field(default=())
 
-    def as_json(self) -> dict:
-        """JSON-ready summary."""
-        return {"params": self.params, "rider": self.rider.as_dict(), "objective": self.objective,
-                "objective_nominal": self.objective_nominal, "features": self.features,
-                "windows": [list(w) for w in self.windows], "simulations": self.simulations,
-                "falls": [dict(f) for f in self.falls], "notes": list(self.notes)}
 
-
-def _values_of(x: np.ndarray) -> dict:
+def _values_of(x: np.ndarray) -> dict[str, float]:
+    """The rider's parameters by name, in their own units, from the fit's scaled ``x``."""
     return {p.name: p.from_unit(float(u)) for p, u in zip(RIDER_PARAMS, x)}
 
 

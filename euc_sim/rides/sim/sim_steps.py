@@ -24,12 +24,12 @@ from euc_sim.controllers.firmware import FirmwareError, firmware_motor, kd_resol
 from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import Params
 from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
-from euc_sim.rides.law.controller_report import controller_entry, torque_constant
+from euc_sim.rides.law.controller_report import firmware_terms, torque_constant
 from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["SimStep", "motor_from_law", "StepInputs", "LogChannels", "nominal_step", "measured_law_step",
            "drivetrain_step", "STEP_BUILDERS", "SIM_EFFECTS", "effects_to_inject", "power_terms", "electrical_power", "build_steps", "TARGET_RATIO", "CHANNELS",
-           "log_channels", "simulated_pwm"]
+           "VOLTAGE_EXTRAS", "log_channels", "simulated_pwm"]
 
 #: Target: a step's held-out battery-power error within this many times the balance fit's
 #: held-out error (docs/ride_simulation.md).
@@ -43,12 +43,13 @@ CHANNELS = {"P": ("P_W", "W", "battery power"), "I": ("I_phase_A", "A", "phase c
 
 #: The voltage limit's settings a drivetrain fit may add (:meth:`MotorPD.voltage_torque`); a step's
 #: JSON law carries each that differs from its default.
-_VOLTAGE_EXTRAS = ("dead_time", "flux_weakening", "fw_speed")
+VOLTAGE_EXTRAS = ("dead_time", "flux_weakening", "fw_speed")
 
 
 def motor_from_law(law: Mapping[str, float]) -> MotorPD:
-    """The motor a step's JSON ``motor`` describes (the inverse of :meth:`SimStep.describe`'s law)."""
-    extra = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop") + _VOLTAGE_EXTRAS
+    """The motor a step's JSON ``motor`` describes (the inverse of
+    :func:`euc_sim.rides.render.contract.sim_step_json`'s law)."""
+    extra = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop") + VOLTAGE_EXTRAS
     return MotorPD(Kp=law["K_p"], Kd=law["K_d"], torque_limit=law["torque_limit"],
                    **{k: law[k] for k in extra if k in law})
 
@@ -92,27 +93,6 @@ class SimStep:
     plan_window: float | None = None
     rider_fit: Mapping[str, float] = field(default_factory=dict)
     physics: tuple[str, ...] = ()
-
-    def describe(self) -> dict:
-        """JSON-ready description of the step (its law, rider, effects, power model)."""
-        m = self.motor
-        law = {"K_p": m.Kp, "K_d": m.Kd, "torque_limit": m.torque_limit}
-        if math.isfinite(m.tiltback_speed):
-            law.update(tiltback_speed=m.tiltback_speed, tiltback_gain=m.tiltback_gain)
-        if math.isfinite(m.voltage):
-            law.update(voltage=m.voltage, back_emf=m.back_emf, drop=m.drop)
-            law.update({k: getattr(m, k) for k in _VOLTAGE_EXTRAS
-                        if getattr(m, k) != MotorPD.__dataclass_fields__[k].default})
-        rider = None if self.rider is None else {
-            "delay": float(getattr(self.rider, "delay", float("nan"))),
-            "noise_std": float(getattr(self.rider, "noise_std", float("nan"))),
-            "plan_window": self.plan_window,
-            **({"bandwidth": float(self.rider_fit["bandwidth"])} if "bandwidth" in self.rider_fit else {})}
-        return {"step": self.name, "what": self.what, "ran": self.why is None, "why": self.why,
-                "physics": list(self.physics),
-                "motor": law, "rider": rider or "default LQR rider designed for this motor",
-                "effects_injected": dict(self.effects), "power_model": dict(self.power),
-                "notes": list(self.notes)}
 
 
 @dataclass(frozen=True)
@@ -163,7 +143,7 @@ def power_terms() -> tuple[str, ...]:
     return tuple(e.name for e in RECORDS.having("balance") if e.balance.electrical is not None)
 
 
-def _power(est: Mapping[str, float]) -> dict:
+def _power(est: Mapping[str, float]) -> dict[str, float]:
     """A step's power model: each electrical term fitted, a constant drain always (0 where not fitted)."""
     return {k: float(est.get(k, 0.0)) for k in power_terms() if k in est or RECORDS.get(k).balance.role == "constant"}
 
@@ -187,22 +167,18 @@ def measured_law_step(prev: SimStep, inp: StepInputs) -> SimStep:
         why = None if inp.law is None else inp.law.why
         return replace(prev, name=name, what=what, notes=(),
                        why=f"the fit ride shows no balance law ({why or 'no controller entry'})")
-    ctrl = controller_entry(inp.law)        # the firmware reads the law as `euc-sim sim --firmware` does
+    terms = firmware_terms(inp.law)        # the firmware reads the law as `euc-sim sim --firmware` does
     try:
-        motor, notes = firmware_motor(ctrl, inp.params)
+        motor, notes = firmware_motor(terms, inp.params)
     except FirmwareError as exc:
         return replace(prev, name=name, what=what, notes=(), why=str(exc))
     law_terms = [f"controller.{k}" for k in inp.law.law.terms]
     return replace(prev, physics=prev.physics + inp.physics(*law_terms),
                    name=name, what=f"{what}: K_p = {motor.Kp:.0f} N·m/rad, K_d = "
-                                         f"{motor.Kd:.0f} N·m·s/rad" + ("" if kd_resolved(_term(ctrl, "K_d")) else
+                                         f"{motor.Kd:.0f} N·m·s/rad" + ("" if kd_resolved(terms.get("K_d")) else
                                          " (K_d not resolved by the log: pitch mode damped to ζ ≥ "
                                          f"{ZETA_UNRESOLVED:g})"), motor=motor, rider=None,
                    notes=tuple(notes), why=None)
-
-
-def _term(ctrl: Mapping, name: str):
-    return next((t for t in ctrl.get("terms", []) if isinstance(t, dict) and t.get("name") == name), None)
 
 
 def drivetrain_step(prev: SimStep, inp: StepInputs) -> SimStep:

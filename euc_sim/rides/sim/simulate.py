@@ -24,16 +24,16 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from euc_sim.diagnosis.localise import localise
+from euc_sim.diagnosis.localise import Localisation, localise
 from euc_sim.errors import InputError
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.grids.profile import rider_plan, speed_profile
 from euc_sim.rides.grids.law_signals import MAX_PITCH, V_MIN
-from euc_sim.rides.grids.rider_features import RiderFitError, band_ratio_db, reading_step
+from euc_sim.rides.grids.rider_features import BandRatio, RiderFitError, band_ratio_db, reading_step
 from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, sg, split_at_gaps
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.sim.plan_learning import filter_band
-from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, TARGET_RATIO, LogChannels, SimStep, electrical_power,
+from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, LogChannels, SimStep, electrical_power,
                                      effects_to_inject, simulated_pwm)
 from euc_sim.rides.grids.stops import find_stops
 from euc_sim.rides.sim.envelope import LEAN_SHARE
@@ -45,7 +45,7 @@ from euc_sim.simulation.native_core import available
 from euc_sim.stats import one_blas_thread
 
 __all__ = ["SIM_EFFECTS", "simulation_obstacle", "ride_params", "effects_to_inject",
-           "battery_power", "RideSimulation", "simulate_ride", "LOG_COLUMNS"]
+           "battery_power", "StepScore", "RideSimulation", "simulate_ride", "LOG_COLUMNS"]
 
 #: Optional log channels a step is scored on: table stem -> the resampled log's column.
 LOG_COLUMNS = {"I": "phase_current", "pitch": "tilt", "pwm": "pwm"}
@@ -87,6 +87,19 @@ def battery_power(M_d: np.ndarray, x_dot: np.ndarray, gamma_dot: np.ndarray, R: 
 
 
 @dataclass(frozen=True)
+class StepScore:
+    """A step and its score on the held-out log: RMS over the scored rows by channel key
+    (:data:`CHANNELS`, the finite ones), band by band (:func:`_band_errors`; None when not run),
+    the battery-power error over the balance fit's held-out error, and its first fall (``t`` s, ``cause``)."""
+
+    step: SimStep
+    heldout_rmse: dict[str, float]
+    heldout_bands: dict[str, BandRatio] | None
+    ratio_to_balance: float | None
+    fell: Mapping | None
+
+
+@dataclass(frozen=True)
 class RideSimulation:
     """Simulated against logged ride, on the log's grid, consistently smoothed.
 
@@ -97,35 +110,42 @@ class RideSimulation:
         ``t`` s, ``scored`` (bool), and per source (``log`` and each step that ran):
         ``v_<src>`` m/s, ``M_<src>`` N·m, ``P_<src>`` W and where logged ``I_<src>`` A,
         ``pitch_<src>`` rad (the log's convention), ``pwm_<src>`` %.
-    errors : dict
-        RMS over the scored rows per step ``{name: {"P_W", "M_Nm", "v_mps", "I_phase_A",
-        "pitch_rad", "pwm_pct"}}``; ``nominal``/``augmented`` the first and last step
-        (CONTRACT); ``ratio_P`` their battery-power ratio.
-    effects, parameters : dict
-        Effects injected into the last step; each step's power model.
+    errors : dict of str -> dict of str -> float
+        RMS over the scored rows per step that ran, by channel key (``P_W``, ``M_Nm``, ``v_mps``,
+        ``I_phase_A``, ``pitch_rad``, ``pwm_pct``: those logged); the pitch on the riding rows.
+    torque_method : str
+        How the log's torque was inferred.
+    effects : dict
+        Effects injected into the last step.
     falls : list of dict
         ``{"t", "cause", "run"}`` per fall (CONTRACT ``simulation.falls``).
-    localisation : dict
+    localisation : Localisation
         :func:`euc_sim.diagnosis.localise.localise` of the last step's power error.
-    steps : list of dict
-        CONTRACT ``simulation.steps``.
+    steps : list of StepScore
+        Every step, those not run too.
     notes : tuple of str
     """
 
     label: str
     table: pd.DataFrame
-    errors: dict
+    errors: dict[str, dict[str, float]]
+    torque_method: str
     effects: dict
-    parameters: dict
     falls: list
-    localisation: dict
-    steps: list = field(default_factory=list)
+    localisation: Localisation
+    steps: list[StepScore] = field(default_factory=list)
     notes: tuple[str, ...] = field(default=())
 
     @property
     def ran(self) -> list[str]:
         """Names of the steps that ran, in order."""
-        return [s["step"] for s in self.steps if s["ran"]]
+        return [s.step.name for s in self.steps if s.step.why is None]
+
+    @property
+    def ratio_P(self) -> float:
+        """The last step's battery-power error over the first's (NaN where the first's is 0)."""
+        first, last = self.errors[self.ran[0]]["P_W"], self.errors[self.ran[-1]]["P_W"]
+        return last / first if first > 0 else float("nan")
 
     @property
     def scored_rows(self) -> int:
@@ -226,8 +246,8 @@ def _pitch_rows(table: pd.DataFrame, ok: np.ndarray) -> np.ndarray:
     return riding & (np.abs(pitch - np.median(pitch[riding])) < MAX_PITCH)
 
 
-def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict:
-    """RMS of log − simulation over the scored rows, per step and channel, and the power-error ratio.
+def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict[str, dict[str, float]]:
+    """RMS of log − simulation over the scored rows, per step and channel key.
 
     The pitch is scored on the riding rows only (:func:`_pitch_rows`).
     """
@@ -237,27 +257,24 @@ def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict:
         errors[name] = {key: _rms((table[f"{col}_log"] - table[f"{col}_{name}"])[rows[col]])
                         for col, (key, _, _) in CHANNELS.items()
                         if f"{col}_log" in table and f"{col}_{name}" in table}
-    errors["nominal"], errors["augmented"] = errors[names[0]], errors[names[-1]]
-    nom_P = errors["nominal"]["P_W"]
-    errors["ratio_P"] = errors["augmented"]["P_W"] / nom_P if nom_P > 0 else float("nan")
     return errors
 
 
 def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: float,
-                    min_len: float, name: str) -> dict:
+                    min_len: float, name: str) -> Localisation:
     """Where step ``name``'s battery-power error concentrates (windows in s)."""
     t = table["t"].to_numpy()
     r = (table["P_log"] - table[f"P_{name}"]).to_numpy()
     good = ok & np.isfinite(r)
     if good.sum() < 4:
-        return {"windows": [], "share": None, "correlations": {}}
+        return Localisation(windows=[], share=None, correlations={})
     loc = localise(t[good], r[good], {"speed": table["v_log"].to_numpy()[good],
                                       "acceleration": a[good]},
                    smooth=smooth, min_len=min_len)
     return dict(loc, windows=split_at_gaps(loc["windows"], t[good], min_len))
 
 
-def _logged(sig: RideSignals) -> dict:
+def _logged(sig: RideSignals) -> dict[str, np.ndarray]:
     """The log's channels on its grid, smoothed as :class:`RideSignals` smooths its own."""
     frame, raw = sig.frame, sig.raw
     out = {"t": frame["t"].to_numpy(), "v_log": frame["v"].to_numpy(), "M_log": frame["M"].to_numpy(),
@@ -334,7 +351,7 @@ def _align_pitch(table: pd.DataFrame, ok: np.ndarray,
 
 
 def _band_errors(sig: RideSignals, reads: Mapping[str, Mapping[str, np.ndarray]],
-                 rows: Mapping[str, np.ndarray]) -> dict:
+                 rows: Mapping[str, np.ndarray]) -> dict[str, dict[str, BandRatio]]:
     """Each step's channels against the log's, band by band (level and spectrum), on the scored rows.
 
     Battery power, and phase current and pitch where both sides have them (pitch on the
@@ -358,22 +375,18 @@ def _band_errors(sig: RideSignals, reads: Mapping[str, Mapping[str, np.ndarray]]
     return out
 
 
-def _step_entries(steps: Sequence[SimStep], errors: dict, falls: list,
-                  balance: float | None, bands: Mapping[str, dict] | None = None) -> list[dict]:
-    """CONTRACT's ``simulation.steps``: description, held-out errors and bands, ratio to the balance fit."""
+def _scores(steps: Sequence[SimStep], errors: Mapping[str, Mapping[str, float]], falls: list,
+            balance: float | None, bands: Mapping[str, dict] | None = None) -> list[StepScore]:
+    """Each step's :class:`StepScore` (``balance``: the balance fit's held-out error, W)."""
     out = []
     for step in steps:
-        entry = step.describe()
-        e = errors.get(step.name) if step.why is None else None
-        entry["heldout_rmse"] = {k: v for k, v in (e or {}).items() if np.isfinite(v)}
-        entry["heldout_bands"] = (bands or {}).get(step.name) if step.why is None else None
-        p = entry["heldout_rmse"].get("P_W")
-        entry["ratio_to_balance"] = (p / balance if p is not None and balance and balance > 0
-                                     else None)
-        entry["target_ratio"] = TARGET_RATIO
+        ran = step.why is None
+        rmse = {k: v for k, v in ((errors.get(step.name) if ran else None) or {}).items() if np.isfinite(v)}
+        p = rmse.get("P_W")
         fell = [f for f in falls if f["run"] == step.name]
-        entry["fell"] = {"t": fell[0]["t"], "cause": fell[0]["cause"]} if fell else None
-        out.append(entry)
+        out.append(StepScore(step, rmse, (bands or {}).get(step.name) if ran else None,
+                             p / balance if p is not None and balance and balance > 0 else None,
+                             fell[0] if fell else None))
     return out
 
 
@@ -451,14 +464,9 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
         table, note = _align_pitch(table, ok, names)
         notes += [note] if note else []
     errors = _errors(table, ok, names)
-    errors["M_log_method"] = sig.torque_method
     bands = _band_errors(sig, reads, {"P": ok, "I": ok, "pitch": _pitch_rows(table, ok)})
     loc = _localise_error(table, sig.frame["a"].to_numpy(), ok, window_smooth, window_min, names[-1])
-    return RideSimulation(label=label or str(sig.path), table=table, errors=errors,
-                          effects=dict(run[-1].effects),
-                          parameters={s.name: dict(s.power) for s in run}
-                          | {"nominal": dict(run[0].power), "augmented": dict(run[-1].power)},
-                          falls=falls, localisation=loc,
-                          steps=_step_entries(steps, errors, falls, channels.balance_heldout, bands),
-                          notes=tuple(notes))
+    return RideSimulation(label=label or str(sig.path), table=table, errors=errors, torque_method=sig.torque_method,
+                          effects=dict(run[-1].effects), falls=falls, localisation=loc,
+                          steps=_scores(steps, errors, falls, channels.balance_heldout, bands), notes=tuple(notes))
 

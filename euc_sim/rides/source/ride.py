@@ -12,7 +12,6 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from euc_sim.io import to_jsonable
 from euc_sim.rides.source.counters import LogCounters
 from euc_sim.rides.source.gaps import GAP_POLICY
 
@@ -116,9 +115,3 @@ class Ride:
         if key not in self._grids:
             self._grids[key] = build()
         return self._grids[key]
-
-    def to_json(self) -> dict:
-        """``path``, ``layout``, ``rows``, ``duration_s``, ``channels``, ``absent``, ``warnings``."""
-        return to_jsonable({"path": self.path, "layout": self.layout, "rows": int(len(self.data)),
-                            "duration_s": self.duration, "channels": list(self.data.columns),
-                            "absent": list(self.absent), "warnings": list(self.warnings)})

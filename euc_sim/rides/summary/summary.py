@@ -10,21 +10,20 @@ is ``None``.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 
-from euc_sim.io import to_jsonable
 from euc_sim.rides.drive.cutout import Limits, ride_limits
-from euc_sim.rides.grids.spin import free_spin, spin_json
+from euc_sim.rides.grids.spin import FreeSpins, free_spin, spin_stats
 from euc_sim.rides.summary.distance import (_distance, _duration, _gap_distance, _near, _steps,
                                           _wheel_distance)
 from euc_sim.rides.source.counters import integrate_split as _integrate_split
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
 
-__all__ = ["RideSummary", "MassCheck", "ride_summary", "mass_check", "MOVING_MPS"]
+__all__ = ["RideSummary", "Gaps", "MassCheck", "ride_summary", "mass_check", "MOVING_MPS"]
 
 #: Intervals up to this are integrated across (energy, distance); longer ones are not, s.
 BRIDGE_S = GAP_POLICY.bridge
@@ -38,6 +37,16 @@ START_MPS = 0.05
 BATTERY_WINDOW_S = 60.0
 #: Less battery used than this, points, gives no range (the ratio would be noise).
 MIN_BATTERY_FOR_RANGE = 3.0
+
+
+@dataclass(frozen=True)
+class Gaps:
+    """The log's intervals longer than ``limit_s``: how many, their total and the longest, s."""
+
+    count: int
+    total_s: float
+    longest_s: float
+    limit_s: float
 
 
 @dataclass(frozen=True)
@@ -61,7 +70,7 @@ class RideSummary:
     pwm_max_pct: float | None
     pwm_max_at_s: float | None
     alarms: int | None
-    gaps: dict
+    gaps: Gaps
     logged_s: float = 0.0
     distance_wheel_m: float | None = None
     distance_gps_m: float | None = None
@@ -71,7 +80,7 @@ class RideSummary:
     range_left_m: float | None = None
     safety_margin_min_pct: float | None = None
     pwm_max_place: dict | None = None
-    free_spin: dict | None = None
+    free_spin: FreeSpins | None = None
     alarm_rows: int | None = None
     sampling_hz: float | None = None
     temperature_max_C: float | None = None
@@ -82,23 +91,16 @@ class RideSummary:
     distance_follows: str = ""
     duration_follows: str = ""
 
-    def to_json(self) -> dict:
-        """A JSON-ready dict (plain floats, ``None`` for what is unknown)."""
-        out = asdict(self)
-        out["limits"] = None if self.limits is None else self.limits.as_json()
-        return to_jsonable(out)
-
 
 # --------------------------------------------------------------------------------------
 # --------------------------------------------------------------------------------------
 
 
-def _gaps(t: np.ndarray, limit: float) -> dict:
-    """``{"count", "total_s", "longest_s", "limit_s"}`` of the intervals longer than ``limit``, s."""
+def _gaps(t: np.ndarray, limit: float) -> Gaps:
+    """The intervals of ``t`` longer than ``limit``, s."""
     dt = np.diff(t)
     g = dt[dt > limit]
-    return {"count": int(g.size), "total_s": float(g.sum()),
-            "longest_s": float(g.max()) if g.size else 0.0, "limit_s": float(limit)}
+    return Gaps(int(g.size), float(g.sum()), float(g.max()) if g.size else 0.0, float(limit))
 
 
 def _battery(d: pd.DataFrame, t0: float, t_move: float, t1: float) -> tuple[float | None, float | None]:
@@ -153,11 +155,11 @@ def _quality(t: np.ndarray, lim: float) -> tuple[str, str, float | None]:
     span = float(t[-1] - t[0] - pause.sum()) if t.size > 1 else 0.0
     hz = float(dt.size - pause.size) / span if span > 0 else None      # a median hides bursts between gaps
     gaps = _gaps(np.cumsum(np.r_[0.0, np.where(dt > PAUSE_S, 0.0, dt)]), lim)
-    share = gaps["total_s"] / span if span > 0 else 0.0
+    share = gaps.total_s / span if span > 0 else 0.0
     rate = f"{hz:.1f} samples/s" if hz else "unknown sampling rate"
-    if gaps["count"]:
-        g = (f"{gaps['count']} gap(s) longer than {lim:g} s, {gaps['total_s']:.0f} s in all "
-             f"({100 * share:.0f} % of the log, longest {gaps['longest_s']:.1f} s)")
+    if gaps.count:
+        g = (f"{gaps.count} gap(s) longer than {lim:g} s, {gaps.total_s:.0f} s in all "
+             f"({100 * share:.0f} % of the log, longest {gaps.longest_s:.1f} s)")
     else:
         g = f"no gap longer than {lim:g} s"
     if pause.size:
@@ -231,7 +233,7 @@ def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
         alarms=c.alarm_episodes, gaps=gaps, logged_s=float(t[-1] - t[0]),
         distance_wheel_m=wheel, distance_gps_m=gps, distance_speed_integral_m=integral_m, battery_start_pct=b0, battery_end_pct=b1,
         range_left_m=left, safety_margin_min_pct=None if pmax is None else 100.0 - pmax,
-        pwm_max_place=place, free_spin=spin_json(t, v, spin), alarm_rows=c.alarm_rows, sampling_hz=hz, temperature_max_C=temp,
+        pwm_max_place=place, free_spin=spin_stats(t, v, spin), alarm_rows=c.alarm_rows, sampling_hz=hz, temperature_max_C=temp,
         quality=q, quality_sentence=sentence, why=why,
         limits=ride_limits(c.speed_limit_mps, top_speed_mps),
         distance_follows=follows, duration_follows=duration_follows)

@@ -36,7 +36,7 @@ WL_HEADER = ("date,time,latitude,longitude,gps_speed,gps_alt,gps_heading,gps_dis
              "system_temp,temp2,tilt,roll,mode,alert")
 
 
-def draw_law(rng: np.random.Generator) -> dict:
+def draw_law(rng: np.random.Generator) -> dict[str, float]:
     """A concealed firmware law for the blind study, as :class:`euc_sim.controllers.motor.MotorPD`
     keywords (SI): K_p 1,500-5,000 N·m/rad, K_d 100-400 N·m·s/rad, tilt-back 2° reached
     10 km/h above an onset drawn in 24-34 km/h, a torque limit of 45-70 N·m."""
@@ -72,7 +72,7 @@ def law_ride(seed: int = 1, duration: float = 300.0, law=LAW) -> pd.DataFrame:
     return df[["t", "x_dot", "gamma", "gamma_dot", "M_d"]]
 
 
-def _sample(ride: pd.DataFrame, ts: np.ndarray, mean_over: float = 0.2) -> dict:
+def _sample(ride: pd.DataFrame, ts: np.ndarray, mean_over: float = 0.2) -> dict[str, np.ndarray]:
     """The wheel's telemetry at times ``ts``: each channel's mean over the ``mean_over`` s
     before (a wheel reports its readings averaged over its telemetry period)."""
     t = ride["t"].to_numpy()

@@ -10,6 +10,7 @@ import pytest
 from euc_sim.rides.drive.battery import (PackSpec, battery_health, battery_health_of,
                                    measure_resistance, pack_spec, to_25C)
 from euc_sim.rides.drive.drivetrain import Term
+from euc_sim.rides.render.contract import battery_json
 from euc_sim.rides.source.spec import read_spec
 from euc_sim.rides.source.logs import read_log
 from tests.rides.summarysynth import synth_summary_log
@@ -56,7 +57,7 @@ def test_verdicts():
     h = battery_health(0.16, (0.15, 0.17), 35.0, pack)
     assert h.resistance_25C_ohm == pytest.approx(to_25C(0.16, 35.0))
     assert h.per_cell_ohm == pytest.approx(0.016)
-    assert h.to_json()["expected_ohm"] == [pytest.approx(lo), pytest.approx(hi)]
+    assert battery_json(h)["expected_ohm"] == [pytest.approx(lo), pytest.approx(hi)]
     assert battery_health(0.16, (0.15, 0.17)).verdict == "cannot tell"
     app = battery_health(0.16, None, wheel_reported_ohm=0.13)
     assert app.expected_ohm is None and app.app_setting_ohm == 0.13      # a setting, not a spec
@@ -67,6 +68,6 @@ def test_verdicts():
 def test_from_report_reads_the_drivetrain_term_not_a_second_fit():
     h = battery_health_of(Term(0.2, (0.19, 0.21), "ohm"))
     assert h.resistance_ohm == 0.2 and h.resistance_ci95 == (0.19, 0.21)
-    assert h.to_json()["resistance_ci95"] == [0.19, 0.21]
+    assert battery_json(h)["resistance_ci95"] == [0.19, 0.21]
     assert battery_health_of(None).verdict == "not measured"
     assert battery_health_of(Term(None, None, None, why="no current")).verdict == "not measured"

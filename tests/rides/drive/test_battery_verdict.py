@@ -9,6 +9,7 @@ import pytest
 
 from euc_sim.rides.drive.battery import (AGED_RATIO, PackSpec, battery_health, cell_figures, health_verdict,
                                          pack_spec, trend_words)
+from euc_sim.rides.render.contract import battery_json
 from euc_sim.rides.source.spec import find_wheel
 
 
@@ -57,7 +58,7 @@ def test_the_verdict_reads_the_25C_value():
     # as measured inside the range, but at 5 °C: its 25 °C value is far lower, below the range
     cold = battery_health(hi * 0.95, (hi * 0.9, hi * 0.99), 5.0, pack)
     assert cold.resistance_25C_ci95[1] < lo and "lies below" in cold.verdict_why
-    j = cold.to_json()
+    j = battery_json(cold)
     assert j["verdict"] == "as new" and j["expected_ohm"] == [pytest.approx(lo), pytest.approx(hi)]
     assert "20s2p" in j["expected_source"] and "50G" in j["expected_source"]
 

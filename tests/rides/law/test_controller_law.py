@@ -19,7 +19,8 @@ import pytest
 
 from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.law.controller_law import BASE, fit_law, fit_params, predict, r2
-from euc_sim.rides.law.controller_report import controller_entry, controller_fit
+from euc_sim.rides.law.controller_report import controller_fit
+from euc_sim.rides.render import contract
 from euc_sim.rides.render.page import law_md
 from euc_sim.rides.source.logs import read_log
 
@@ -28,7 +29,7 @@ SHARED = Path(__file__).resolve().parents[4] / "shared" / "data" / "euc_core" / 
 
 def controller_json(*args, **kwargs) -> dict:
     """The ride JSON's ``controller`` object of :func:`controller_fit`."""
-    return controller_entry(controller_fit(*args, **kwargs))
+    return contract.controller_json(controller_fit(*args, **kwargs))
 
 
 needs_data = pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/euc_core absent")
@@ -38,7 +39,7 @@ needs_data = pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/data/euc_
 def test_lynx_law_predicts_the_other_ride():
     fit = controller_fit(read_log(SHARED / "leaperkim/lynx/0/0.csv", emit_warnings=False),
                          read_log(SHARED / "leaperkim/lynx/2/2.csv", emit_warnings=False), n_boot=20, seed=0)
-    out = controller_entry(fit)
+    out = contract.controller_json(fit)
     assert out["law"] is not None and out["sign"] == -1
     assert out["heldout"]["ride"] == "2.csv" and out["heldout"]["channel"] == "phase_current"
     assert out["heldout"]["r2"] >= 0.9                         # issue 21's target
@@ -103,7 +104,7 @@ def test_predict_clips_at_the_fitted_limit(tmp_path):
     _linear_law_log(tmp_path / "law.csv", seed=7, sign=1)
     rows = law_rows(read_log(tmp_path / "law.csv", emit_warnings=False))
     fit = fit_params(rows, list(BASE) + ["torque_limit"])
-    assert np.all(np.abs(predict(rows, fit)) <= fit["M_max"] + 1e-9)
+    assert np.all(np.abs(predict(rows, fit)) <= fit.M_max + 1e-9)
     with_tb = r2(rows.y, predict(rows, fit_params(rows, list(BASE) + ["tiltback"])))
     assert with_tb > r2(rows.y, predict(rows, fit_params(rows, BASE))) + 0.3   # tilt-back matters here
 
@@ -138,7 +139,7 @@ def test_simulated_limit_is_the_largest_measured_torque_where_the_fit_is_lower(t
                                                                              fmt, sign):
     """The fit's limit comes out low on the concealed law (45 N·m, docs/controller.md); the
     largest |torque| of the log is nearer the truth and not above it, and the simulator uses it."""
-    from euc_sim.controllers.firmware import firmware_motor
+    from euc_sim.controllers.firmware import firmware_motor, law_terms
     from euc_sim.rides.synth.lawsynth import K_T, LAW, eucworld_log, wheellog_log
 
     write = wheellog_log if fmt == "wheellog" else eucworld_log
@@ -148,7 +149,7 @@ def test_simulated_limit_is_the_largest_measured_torque_where_the_fit_is_lower(t
     true = LAW["torque_limit"]
     assert lim["estimate"] < lim["largest_measured"] <= true * 1.02
     assert abs(lim["largest_measured"] - true) < abs(lim["estimate"] - true)
-    assert firmware_motor(out)[0].torque_limit == lim["largest_measured"]
+    assert firmware_motor(law_terms(out))[0].torque_limit == lim["largest_measured"]
 
 
 def test_two_terms_needed_together_are_kept_as_a_pair():

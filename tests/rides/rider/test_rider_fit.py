@@ -8,6 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from euc_sim.rides.render.contract import rider_fit_json
 from euc_sim.rides.rider import rider_fit as rf
 from euc_sim.rides.source.logs import read_log
 
@@ -94,7 +95,7 @@ def test_concealed_rider_delay_recovered(tmp_path):
     noise_ratio = fit.params["noise_std"]["value"] / RIDER["noise_std"]
     assert abs(np.log(noise_ratio)) <= np.log(1.5), fit.params          # within a factor 1.5
     assert fit.objective < fit.objective_nominal
-    js = fit.as_json()
+    js = rider_fit_json(fit)
     assert set(js["params"]) == {"delay", "bandwidth", "noise_std"}
     assert js["rider"]["delay"] == pytest.approx(d["value"])
 

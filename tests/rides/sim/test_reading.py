@@ -54,6 +54,6 @@ def test_read_as_logged_has_the_spectrum_of_a_log_of_the_same_process_where_the_
     log = np.interp(grid, stamps, stamp_readings(t, _noise(1, n), stamps))
     sim = _noise(2, n)
     read = band_ratio_db(read_as_logged(t, sim, stamps, grid), log, seg, 10.0, rows)
-    assert np.max(np.abs(read["ratio_dB"])) < 1.5
+    assert np.max(np.abs(read.ratio_dB)) < 1.5
     binned = band_ratio_db(to_grid(t, sim, grid), log, seg, 10.0, rows)
-    assert binned["ratio_dB"][0] > 6.0
+    assert binned.ratio_dB[0] > 6.0

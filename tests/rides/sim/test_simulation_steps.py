@@ -20,6 +20,7 @@ from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import TABLE3
 from euc_sim.rides.drive.drivetrain import Term
 from euc_sim.rides.law.controller_report import ControllerFit
+from euc_sim.rides.render.contract import sim_step_json, simulation_json
 from euc_sim.rides.sim.sim_steps import (STEP_BUILDERS, LogChannels, StepInputs, build_steps,
                                      drivetrain_step, log_channels, measured_law_step, nominal_step,
                                      simulated_pwm)
@@ -60,7 +61,7 @@ def test_an_unresolved_kd_is_damped_and_said_in_the_step_and_its_json():
     kd = damping_floor(TABLE3, 5687.0)
     assert law.motor.Kd == pytest.approx(kd, rel=1e-6) and dt.motor.Kd == law.motor.Kd
     assert "not resolved" in law.what and "ζ ≥ 0.7" in law.what
-    described = law.describe()
+    described = sim_step_json(law)
     assert described["motor"]["K_d"] == pytest.approx(kd, rel=1e-6)
     assert any("-37" in n and "not resolved" in n for n in described["notes"])
 
@@ -86,7 +87,7 @@ def test_measured_law_and_voltage_limit_carry_into_the_last_step():
     assert dt.motor.voltage == pytest.approx(151.2) and dt.motor.back_emf == pytest.approx(7.5)
     assert dt.motor.drop == pytest.approx(0.004 / TABLE3.R)
     assert dt.motor.dead_time == pytest.approx(0.03)
-    d = dt.describe()
+    d = sim_step_json(dt)
     assert d["step"] == "drivetrain" and d["ran"] and d["motor"]["voltage"] == pytest.approx(151.2)
 
 
@@ -154,8 +155,9 @@ def test_the_true_law_reproduces_the_logs_current_and_pitch(law_log):
     assert e["measured_law"]["pitch_rad"] < 0.5 * e["nominal"]["pitch_rad"]
     assert e["measured_law"]["pitch_rad"] < math.radians(1.0)
     assert e["measured_law"]["I_phase_A"] < e["nominal"]["I_phase_A"]
-    assert e["augmented"] == e["measured_law"] and e["nominal"] == e["nominal"]
-    by = {s["step"]: s for s in sim.steps}
+    js = simulation_json(sim)
+    assert js["errors"]["augmented"] == e["measured_law"] and js["errors"]["nominal"] == e["nominal"]
+    by = {s["step"]: s for s in js["steps"]}
     assert by["skipped"]["ran"] is False and by["skipped"]["heldout_rmse"] == {}
     assert by["measured_law"]["ratio_to_balance"] == pytest.approx(e["measured_law"]["P_W"] / 100.0)
     assert by["measured_law"]["target_ratio"] == 1.2 and by["nominal"]["fell"] is None
@@ -334,7 +336,7 @@ def test_motor_from_law_inverts_the_steps_description():
                    voltage=151.2, back_emf=7.43, drop=0.123)
     weakened = replace(full, dead_time=0.03, flux_weakening=0.011, fw_speed=12.0)   # a drivetrain fit's extras
     for m in (plain, full, weakened):
-        assert motor_from_law(SimStep("drivetrain", "", motor=m).describe()["motor"]) == m
+        assert motor_from_law(sim_step_json(SimStep("drivetrain", "", motor=m))["motor"]) == m
 
 
 def test_calibrated_riders_description_carries_his_fitted_values():
@@ -346,10 +348,10 @@ def test_calibrated_riders_description_carries_his_fitted_values():
 
     fitted = {"delay": 0.281, "bandwidth": 0.101, "noise_std": 1.84}
     rider = rider_from(fitted, ride_params(RideAssumptions()), MotorPD())
-    got = SimStep("calibrated_rider", "", rider=rider, plan_window=6.0, rider_fit=fitted).describe()["rider"]
+    got = sim_step_json(SimStep("calibrated_rider", "", rider=rider, plan_window=6.0, rider_fit=fitted))["rider"]
     assert got == {"delay": pytest.approx(0.281), "noise_std": pytest.approx(1.84), "plan_window": 6.0,
                    "bandwidth": pytest.approx(0.101)}
-    assert "bandwidth" not in SimStep("nominal", "", rider=rider).describe()["rider"]
+    assert "bandwidth" not in sim_step_json(SimStep("nominal", "", rider=rider))["rider"]
 
 
 def test_battery_power_adds_the_losses_in_both_regimes():

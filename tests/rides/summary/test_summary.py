@@ -8,7 +8,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from euc_sim.rides.summary.summary import BRIDGE_S, mass_check, ride_summary
+from euc_sim.rides.render.contract import summary_json
+from euc_sim.rides.summary.summary import BRIDGE_S, Gaps, mass_check, ride_summary
 from euc_sim.rides.source.logs import read_log
 from tests.rides.summarysynth import as_layout, synth_summary_log
 
@@ -39,7 +40,7 @@ def test_known_ride(tmp_path):
     assert s.pwm_max_pct == pytest.approx(72.5) and s.pwm_max_at_s == pytest.approx(300.0, abs=0.2)
     assert s.safety_margin_min_pct == pytest.approx(27.5)
     assert s.pwm_max_place["lat"] > 48.0
-    assert s.gaps == {"count": 0, "total_s": 0.0, "longest_s": 0.0, "limit_s": 1.0}
+    assert s.gaps == Gaps(count=0, total_s=0.0, longest_s=0.0, limit_s=1.0)
     assert s.quality == "good"
 
 
@@ -62,7 +63,7 @@ def test_regen_is_counted_apart(tmp_path):
 
 def test_gap_is_not_integrated_across_and_lowers_quality(tmp_path):
     s = _summary(synth_summary_log(tmp_path / "a.csv", gps=False, gap=(200.0, 150.0)))
-    assert s.gaps["count"] == 1 and s.gaps["longest_s"] == pytest.approx(150.2, abs=0.3)
+    assert s.gaps.count == 1 and s.gaps.longest_s == pytest.approx(150.2, abs=0.3)
     assert s.quality == "poor"                   # 150 s of 640 s missing
     assert s.distance_source == "wheel"
     # the distance still comes from the wheel's trip counter across the gap ...
@@ -88,7 +89,7 @@ def test_absent_channels_give_null(tmp_path):
     s = _summary(path)
     assert s.pwm_max_pct is None and s.pwm_max_at_s is None and s.distance_source == "wheel"
     assert s.battery_used_pct == 0.0 and s.range_m_at_this_rate is None
-    js = s.to_json()
+    js = summary_json(s)
     assert set(js) >= {"duration_s", "moving_s", "distance_m", "distance_source", "speed_max_mps",
                        "speed_mean_moving_mps", "energy_drawn_Wh", "energy_regen_Wh", "Wh_per_km",
                        "battery_used_pct", "range_m_at_this_rate", "pwm_max_pct", "pwm_max_at_s",
@@ -120,8 +121,8 @@ def test_a_free_spin_is_not_the_rides_top_speed_or_pwm(tmp_path):
     s = _summary(_with_spin(synth_summary_log(tmp_path / "a.csv")))
     assert s.speed_max_mps == pytest.approx(25 / 3.6, rel=1e-6)
     assert s.pwm_max_pct == pytest.approx(72.5) and s.pwm_max_at_s == pytest.approx(300.0, abs=0.2)
-    assert s.free_spin["count"] == 1 and s.free_spin["speed_max_mps"] == pytest.approx(120 / 3.6, rel=0.01)
-    assert 625.4 <= s.free_spin["at_s"] <= 626.6 and s.free_spin["total_s"] == pytest.approx(5.6, abs=0.3)  # until 9 km/h
+    assert s.free_spin.count == 1 and s.free_spin.speed_max_mps == pytest.approx(120 / 3.6, rel=0.01)
+    assert 625.4 <= s.free_spin.at_s <= 626.6 and s.free_spin.total_s == pytest.approx(5.6, abs=0.3)  # until 9 km/h
     assert "speed_max_mps" in s.why
     assert _summary(synth_summary_log(tmp_path / "b.csv")).free_spin is None
 
@@ -162,7 +163,7 @@ def test_real_ride_agrees_with_its_own_counters(path):
         assert s.moving_s == pytest.approx(c.moving_s, rel=0.02)
     spin = s.free_spin            # the app's top speed and the logged PWM count the wheel off the ground
     if c.speed_max_mps is not None:
-        top = max(s.speed_max_mps, spin["speed_max_mps"]) if spin else s.speed_max_mps
+        top = max(s.speed_max_mps, spin.speed_max_mps) if spin else s.speed_max_mps
         assert top == pytest.approx(c.speed_max_mps, rel=0.05)
     assert s.energy_drawn_Wh == pytest.approx(c.power_Wh_drawn, rel=0.05)
     if "pwm" in log.data:
@@ -204,15 +205,15 @@ def test_rider_numbers_reads_the_reports_terms(tmp_path):
     assert out["mass_check"]["verdict"] == "lighter" and out["mass_check"]["difference_kg"] == pytest.approx(-15.0)
     assert "15 kg less than declared" in out["mass_check"]["sentence"]
     assert out["battery"]["resistance_ohm"] == 0.2
-    assert rider_numbers(log, rep["total_mass"], rep["drivetrain"])[0].to_json() == rider_numbers(
-        log, rep["total_mass"], rep["drivetrain"], WheelSpec(wheel_mass=25.0), 90.0)[0].to_json()
+    assert summary_json(rider_numbers(log, rep["total_mass"], rep["drivetrain"])[0]) == summary_json(rider_numbers(
+        log, rep["total_mass"], rep["drivetrain"], WheelSpec(wheel_mass=25.0), 90.0)[0])
 
 
 def test_a_pause_of_the_log_does_not_make_its_data_poor(tmp_path):
     """S22 Pro 0 was 'poor: 1.7 samples/s, 49 gap(s) ... (20 % of the log, longest 1517.3 s)',
     a 25-minute pause (left out of the duration) counted as lost rows."""
     s = _summary(synth_summary_log(tmp_path / "a.csv", ride_s=1800.0, gap=(900.0, 600.0)))
-    assert s.gaps["longest_s"] == pytest.approx(600.2, abs=0.01)          # the JSON's gaps keep it
+    assert s.gaps.longest_s == pytest.approx(600.2, abs=0.01)          # the JSON's gaps keep it
     assert s.quality == "good" and s.sampling_hz == pytest.approx(5.0, rel=0.01)
     assert s.quality_sentence == ("Data quality good: 5.0 samples/s, no gap longer than 1 s; 1 pause(s) of "
                                   "the log over 5 min (10 min) left out.")
@@ -229,10 +230,10 @@ def test_quality_is_judged_against_what_the_app_normally_writes(tmp_path):
     df[(pd.RangeIndex(len(df)) % 12) < 6].to_csv(src, index=False)     # 6 rows, then a 1.4 s hole
     wl = _summary(src)
     ew = _summary(as_layout(src, tmp_path / "ew.csv", "eucworld"))
-    assert ew.sampling_hz == pytest.approx(2.5, rel=0.01) and ew.gaps["limit_s"] == 2.0
-    assert ew.gaps["count"] == 0 and ew.quality == "good"
+    assert ew.sampling_hz == pytest.approx(2.5, rel=0.01) and ew.gaps.limit_s == 2.0
+    assert ew.gaps.count == 0 and ew.quality == "good"
     assert "no gap longer than 2 s" in ew.quality_sentence
-    assert wl.gaps["limit_s"] == 1.0 and wl.quality == "poor"
+    assert wl.gaps.limit_s == 1.0 and wl.quality == "poor"
 
 
 # -- the app's own counters -------------------------------------------------------------
