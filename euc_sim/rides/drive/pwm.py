@@ -35,8 +35,7 @@ import numpy as np
 from euc_sim.stats import forward_select as select_by_heldout
 from euc_sim.rides.drive.mass import heldout_rmse
 
-__all__ = ["BASE", "EXTRA", "MIN_GAIN", "pwm_columns", "select_pwm_terms", "full_duty_force",
-           "no_force_speed", "back_emf"]
+__all__ = ["BASE", "EXTRA", "MIN_GAIN", "pwm_columns", "select_pwm_terms", "no_force_speed", "back_emf"]
 
 #: Always in the model: back-EMF (K_v, V per m/s) and resistive drop (r_F, V/N).
 BASE = ("K_v", "r_F")
@@ -94,33 +93,6 @@ def select_pwm_terms(v: np.ndarray, F: np.ndarray, V: np.ndarray, duty: np.ndarr
                           list(BASE), list(EXTRA), MIN_GAIN)
 
 
-def full_duty_force(coef: Mapping[str, float], speed: np.ndarray, voltage: float,
-                    R_int: float = 0.0) -> np.ndarray:
-    """Largest forward wheel force at duty 1, N (may be negative: nothing left).
-
-    With the terminal voltage sagging under the battery current
-    ``V_t = V − R_int·F·v/V`` and ``V_t·(1 − c_dt) = e(v) + r_F·F``, the back-EMF
-    ``e(v) = K_v·v − c_fw·v·min(v, v_fw)``::
-
-        F_max = ((1 − c_dt)·V − e(v)) / (r_F + (1 − c_dt)·R_int·v/V)
-
-    Parameters
-    ----------
-    coef : mapping
-        ``K_v``, ``r_F`` and any of :data:`EXTRA` (missing: 0), ``v_fw`` (m/s)
-        with ``flux_weakening``.
-    speed : array_like
-        m/s (its magnitude is used).
-    voltage : float
-        Open-circuit battery voltage, V.
-    R_int : float
-        Internal resistance, Ω.
-    """
-    v = np.abs(np.asarray(speed, float))
-    keep = 1.0 - coef.get("dead_time", 0.0)
-    return (keep * voltage - back_emf(coef, v)) / (coef["r_F"] + keep * R_int * v / voltage)
-
-
 def back_emf(coef: Mapping[str, float], speed) -> np.ndarray:
     """The back-EMF at ``speed`` (m/s, magnitude used), V: K_v·v − c_fw·v·min(v, v_fw)."""
     v = np.abs(np.asarray(speed, float))
@@ -129,7 +101,7 @@ def back_emf(coef: Mapping[str, float], speed) -> np.ndarray:
 
 
 def no_force_speed(coef: Mapping[str, float], voltage: float) -> float | None:
-    """Speed, m/s, where the back-EMF alone takes the whole duty (F_max = 0), or None.
+    """Speed, m/s, where the back-EMF alone takes the whole duty (no force left even without losses), or None.
 
     The smallest positive root of ``back_emf(v) = (1 − c_dt)·V``; None when the
     back-EMF stays below it at every speed.

@@ -25,15 +25,15 @@ __all__ = ["plot_envelope", "envelope_figure", "plot_grade", "grade_figure", "pa
 TYRE_MU = 1.0
 
 
-def plot_envelope(env: dict, path, title: str = "") -> Path:
+def plot_envelope(env, path, title: str = "") -> Path:
     """Write :func:`envelope_figure` to ``path`` (PNG, atomically)."""
     return save_figure(envelope_figure(env, title), path)
 
 
-def envelope_figure(env: dict, title: str = ""):
+def envelope_figure(env, title: str = ""):
     """The acceleration the battery voltage allows (and the lean it takes) against speed.
 
-    Full and low charge.  The voltage limit is drawn only where it is below what the
+    Full and low charge, of an :class:`~euc_sim.rides.drive.cutout.Envelope`.  The voltage limit is drawn only where it is below what the
     tyre can carry (a ≤ :data:`TYRE_MU`·g, lean atan(μ)); above, the model says
     nothing (the controller's current limit, not in the log, or the tyre's grip
     decides) and the figure says so.
@@ -44,22 +44,22 @@ def envelope_figure(env: dict, title: str = ""):
     """
     from matplotlib.figure import Figure
 
-    v = np.asarray(env["speed"]) * 3.6
+    v = env.speed * 3.6
     a_tyre = TYRE_MU * G
     fig = Figure(figsize=(9, 4.6), layout="constrained")
     ax = fig.add_subplot()
     clipped = False
-    for name, style in (("full", "-"), ("low", "--")):
-        a = np.asarray(env[name]["accel"], float)
+    for name, side, style in (("full", env.full, "-"), ("low", env.low, "--")):
+        a = side.accel
         clipped |= bool(np.any(a > a_tyre))
         ax.plot(v, np.where(a <= a_tyre, a, np.nan), style,
-                label=f"{name} charge ({env[name]['voltage']:.0f} V): voltage limit")
+                label=f"{name} charge ({side.voltage:.0f} V): voltage limit")
     ax.axhline(a_tyre, color="k", lw=1.0, ls=":",
                label=f"tyre grip, μ ≈ {TYRE_MU:g}: at most {a_tyre:.1f} m/s²")
     if clipped:
         ax.axhspan(a_tyre, 1.15 * a_tyre, color="tab:red", alpha=0.08, lw=0,
                    label="above the tyre's grip: the model\nsays nothing, not drawn")
-    top = env.get("ride_top_speed")
+    top = env.ride_top_speed
     if top is not None and top * 3.6 < v[-1]:
         ax.axvspan(top * 3.6, v[-1], color="grey", alpha=0.15,
                    label="faster than this ride: extrapolated")
@@ -122,15 +122,6 @@ def grade_figure(g, title: str = ""):
     ax.grid(alpha=0.3)
     fig.legend(loc="outside lower center", fontsize=8)
     return fig
-
-
-def _level_cutout(cut) -> tuple[float, float] | None:
-    """The cut-out chart's speed on the level at 100 % and at 0 % charge, km/h (the ride JSON's
-    ``cutout``); None without both."""
-    c = next((c for c in (cut or {}).get("curves") or [] if c["condition"] == "level"), None)
-    ends = [] if c is None else [c["speed_mps"][c["charge_pct"].index(q)] if q in c["charge_pct"] else None
-                                 for q in (100.0, 0.0)]
-    return (3.6 * ends[0], 3.6 * ends[1]) if len(ends) == 2 and None not in ends else None
 
 
 #: A systematic part of the mass's interval (``total_mass.systematic``) in people's words:
@@ -244,16 +235,11 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
 
         def left(name):
             x = env[name]["v_limit"]
-            return (f"none is left above {x * 3.6:.0f} km/h" if x is not None else
-                    f"some is still left at {end:.0f} km/h, the figure's end")
-        level = _level_cutout(rep.get("cutout"))
-        said = (f"at full charge ({env['full']['voltage']:.0f} V) {left('full')}; at low charge "
-                f"({env['low']['voltage']:.0f} V) {left('low')}. " if level is None else
-                f"the acceleration left at full duty with the pack at {env['full']['voltage']:.0f} V and at "
-                f"{env['low']['voltage']:.0f} V. The speed at which none is left on the level is the page's "
-                f"cut-out chart's, at the charge as this log reads it ("
-                f"{rep['cutout'].get('ocv_source') or 'its battery reading'}): {level[0]:.0f} km/h at 100 %, "
-                f"{level[1]:.0f} km/h at 0 %. ")
+            return f"{x * 3.6:.0f} km/h" if x is not None else f"above {end:.0f} km/h (the figure's end)"
+        said = (f"the acceleration left at full duty with the pack at {env['full']['voltage']:.0f} V (100 % "
+                f"charge) and at {env['low']['voltage']:.0f} V (0 %), the charge as this log reads it "
+                f"({env['voltage_source']}). The speed at which none is left on the level is the cut-out "
+                f"chart's: {left('full')} at 100 %, {left('low')} at 0 %. ")
         md += ["", "Envelope (voltage limit): " + said
                    + ("Faster than this ride's top speed (in the key figures above)" if "top_speed" in shown
                       else f"This ride's top speed was {env.get('ride_top_speed', float('nan')) * 3.6:.0f} "

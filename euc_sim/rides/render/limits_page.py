@@ -14,23 +14,11 @@ import numpy as np
 
 from euc_sim.report.figures import YL_OR_RD, Line, plain_values, thin, xy_figure
 from euc_sim.rides.drive.cutout import CONDITIONS, headroom_words
-from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
 from euc_sim.rides.render.contract import limits_of, pwm_check
 from euc_sim.rides.render.series import MOST_POINTS, RideSeries, json_number, max_pwm_mark
 
 __all__ = ["limit_sentences", "limits_paragraph", "cutout_figure", "limits_md", "LIMITS_TITLE", "CUTOUT_LABELS",
            "envelope_figure"]
-
-
-def _steady_pwm(dt, speed: np.ndarray, voltage: float) -> np.ndarray:
-    """PWM, %, that holds ``speed`` (m/s) on the level at ``voltage`` (V): the fitted duty model
-    (:func:`euc_sim.rides.drive.pwm.pwm_columns`) at the road force c₁ + c₃·v²."""
-    coef = dt.pwm_coef
-    names = [n for n in BASE + tuple(EXTRA) if n in coef]
-    F = dt.road["c1"] + dt.road["c3"] * speed ** 2
-    V = np.full(speed.shape, float(voltage))
-    X = pwm_columns(speed, F, V, names, coef.get("v_fw", np.inf))
-    return X @ np.array([coef[n] for n in names]) / V * 100.0
 
 
 def _peak(rep: Mapping, series: RideSeries | None) -> tuple[float, float, float | None] | None:
@@ -155,20 +143,20 @@ def limits_md(rep: Mapping, series: RideSeries | None) -> list[str]:
     return [f"## {LIMITS_TITLE}", "", " ".join(limit_sentences(rep, series) + [limits_paragraph(rep, False)]), ""]
 
 
-def envelope_figure(rep: Mapping, series: RideSeries, fit):
-    """The PWM a steady speed takes at full and low charge, with the ride's own points."""
+def envelope_figure(rep: Mapping, series: RideSeries):
+    """The PWM a steady speed takes on the level at full and empty charge (the ride JSON's ``envelope``:
+    the cut-out chart's model), with the ride's own points."""
     env = rep.get("envelope") or {}
-    dt = getattr(fit, "drivetrain", None)
     c = series.channels
-    if "speed" not in env or dt is None or dt.pwm_coef is None or "pwm_pct" not in c:
+    if "speed" not in env or "pwm_pct" not in c:
         return None
     v = np.asarray(env["speed"], float)
     keep = thin(series.t.size, MOST_POINTS)
     lines = [Line("this ride", c["speed_kmh"][keep], c["pwm_pct"][keep])]
     for name, dash in (("full", "solid"), ("low", "dash")):
         V = env[name]["voltage"]
-        lines.append(Line(f"steady speed, the pack at {V:.0f} V", v * 3.6, _steady_pwm(dt, v, V),
-                          "lines", dash))
+        lines.append(Line(f"steady speed, the pack at {V:.0f} V", v * 3.6,
+                          np.array(env[name]["pwm_pct"], float), "lines", dash))
     lines.append(Line("100 %: no voltage left", np.array([0.0, v[-1] * 3.6]), np.array([100.0, 100.0]),
                       "lines", "dot"))
     left = _peak(rep, series)

@@ -58,7 +58,7 @@ def missing_spec_effect(missing) -> str:
     if "net weight" in missing:
         out.append("the mass found is m_eq, the wheel's rotating inertia not taken out")
     if "battery voltage" in missing:
-        out.append("the envelope takes the open-circuit voltage fitted at the ride's start")
+        out.append("the cut-out chart and the envelope turn the charge into volts from the log's voltage alone")
     return "; ".join(out)
 
 

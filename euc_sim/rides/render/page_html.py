@@ -340,7 +340,7 @@ def figure_specs(rep: Mapping, series: RideSeries | None, fit=None) -> dict:
     maps = on_the_map(rep, series)
     figs = {"over_time": over_time(rep, series),
             "map": maps[0] if maps else None, "track": maps[1] if maps else None,
-            "sag": sag_figure(rep, fit), "envelope": envelope_figure(rep, series, fit),
+            "sag": sag_figure(rep, fit), "envelope": envelope_figure(rep, series),
             "cutout": cutout_figure(rep, series)}
     return {k: f for k, f in figs.items() if f is not None}
 
