@@ -320,14 +320,14 @@ def full_duty_accel(m: DutyModel, v, volts: float, iterations: int = 60) -> np.n
     bisection between 0 and the acceleration the back-EMF alone would leave without sag or losses.
     """
     v = np.asarray(v, float)
+    vs = np.maximum(v, SPEED_RANGE[0])                    # below it the duty is NaN: so is the answer
     keep = 1.0 - m.pwm.get("dead_time", 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        hi = np.maximum((keep * volts - back_emf(m.pwm, v)) / m.pwm["r_F"] / m.scale
-                        + (abs(m.p0) / v + abs(m.c1)) / m.scale, 0.0) / m.m_eq
-    lo = np.zeros_like(v)
+    hi = np.maximum((keep * volts - back_emf(m.pwm, vs)) / m.pwm["r_F"] / m.scale
+                    + (abs(m.p0) / vs + abs(m.c1)) / m.scale, 0.0) / m.m_eq
+    lo = np.zeros_like(vs)
     for _ in range(iterations):
         mid = 0.5 * (lo + hi)
-        over = duty(m, v, volts, mid) >= 1.0
+        over = duty(m, vs, volts, mid) >= 1.0
         lo, hi = np.where(over, lo, mid), np.where(over, mid, hi)
     return np.where(duty(m, v, volts) < 1.0, lo, np.nan)
 
