@@ -601,11 +601,12 @@ def ride_cutout(sig, dt, model: DutyModel | str, limits: Limits, why: str | None
         :func:`ride_duty_model`.
     limits : Limits
     why : str, optional
-        Why the logged duty cannot be modelled (an app's computed duty): no curves.
+        Why the logged duty cannot be modelled (an app's computed duty): no curves, and no held-out
+        error (the model fits the app's formula, whatever the load: it checks nothing).
     """
-    if dt.pwm_coef is None:
-        return Cutout(why=model)
+    if dt.pwm_coef is None or why is not None:      # an app's duty is the model's own: no check either
+        return Cutout(why=why or model)
     heldout = heldout_pwm_rmse(sig)
-    if why is not None or isinstance(model, str):
-        return Cutout(heldout_pwm_rmse_pct=heldout, why=why or model)
+    if isinstance(model, str):
+        return Cutout(heldout_pwm_rmse_pct=heldout, why=model)
     return cutout_curves(model, limits, heldout)

@@ -304,9 +304,13 @@ def pwm_check(rep) -> tuple[str, str, float] | None:
     """The one check of the duty model a ride's pages state: (kind, on what, RMS error in points).
 
     On the compared ride where there is one (the ride JSON's ``pwm``: the figure the terminal
-    gives too), else on the ride's second half fitted on its first (``cutout``); None without.
+    gives too), else on the ride's second half fitted on its first (``cutout``); None without, and
+    None where the logged duty is the app's computation (``pwm.note``): the model fits its formula.
     """
-    other = (rep.get("pwm") or {}).get("heldout_rmse")
+    pwm = rep.get("pwm") or {}
+    if pwm.get("note"):
+        return None
+    other = pwm.get("heldout_rmse")
     if other is not None and math.isfinite(other):
         return "compared", f"the compared ride ({Path(str(rep.get('compare') or '')).name}), fitted on this one", other
     rmse = (rep.get("cutout") or {}).get("heldout_pwm_rmse_pct")

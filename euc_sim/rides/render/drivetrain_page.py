@@ -225,6 +225,7 @@ def page_section(rep: dict, figures: dict, shown=frozenset()) -> list[str]:
         p = rep["pwm"]
         md += ["", "PWM of the other ride predicted from this one: "
                    + ("in 'Your wheel's limit and the cut-out' above" if "pwm_heldout" in shown else
+                      f"no check: {p['note']}" if p.get("note") else
                       f"**{p['heldout_rmse']:.1f} percentage points RMS**" if p.get("heldout_rmse")
                       is not None else f"not available ({p.get('why', '')})")]
     if "pwm" in figures:

@@ -45,7 +45,9 @@ def _mass_lines(rep: Mapping) -> list[str]:
             lines.append(f"  rider (with gear): {rm['estimate']:.0f} kg")
     for name, why in rep["unidentified"].items():
         lines.append(f"  not identified: {name}: {why}")
-    if rep.get("pwm") and rep["pwm"].get("heldout_rmse") is not None:
+    if rep.get("pwm") and rep["pwm"].get("note"):
+        lines.append(f"  PWM held out: no check, {rep['pwm']['note']}")
+    elif rep.get("pwm") and rep["pwm"].get("heldout_rmse") is not None:
         lines.append(f"  PWM held out: {rep['pwm']['heldout_rmse']:.1f} percentage points RMS")
     if rep.get("differences_sentence"):     # the JSON's "this ride" is the compared one: named as the page does
         other = Path(str(rep.get("compare") or "")).name

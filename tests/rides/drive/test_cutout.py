@@ -292,6 +292,32 @@ def test_the_envelope_and_the_cutout_chart_state_one_speed(twin):
     assert env["low"]["v_limit"] == pytest.approx(level["speed_mps"][0], abs=1e-6)
 
 
+def test_an_apps_computed_pwm_is_not_called_a_check(tmp_path):
+    """Z10 and MTen4: the app computes the PWM from speed and voltage, so the duty model fits its formula
+    and the page said "to 0.0 points RMS", a check of nothing.  Neither the JSON nor the page gives one."""
+    from drivesynth import drive_log
+
+    from euc_sim.cli import main
+    from euc_sim.rides.render.contract import pwm_check
+
+    log = drive_log(tmp_path / "app.csv", seed=4, duration=300.0)
+    t = pd.read_csv(log, dtype=str, keep_default_na=False)
+    v, V = t["speed"].astype(float) / 3.6, t["voltage"].astype(float)
+    t["safety_margin"] = [f"{x:.1f}" for x in 100.0 - 100.0 * 6.0 * v / V]      # the app's duty, 6 V per m/s
+    t.to_csv(log, index=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        assert main(["ride", str(log), "--no-simulate", "--n-boot", "20", "--report", str(tmp_path / "r"),
+                     "--json", str(tmp_path / "r.json"), "--quiet"]) == 0
+    rep = json.loads((tmp_path / "r.json").read_text())
+    assert "app's computation" in rep["cutout"]["why"] and rep["cutout"]["heldout_pwm_rmse_pct"] is None
+    md = (tmp_path / "r" / "index.md").read_text()
+    assert "app's computation" in md and "points RMS" not in md
+    assert pwm_check({"pwm": {"heldout_rmse": 0.0, "unit": "%", "note": "the app computes it"},
+                      "cutout": {"heldout_pwm_rmse_pct": 0.01}}) is None
+    assert pwm_check({"pwm": {"heldout_rmse": 1.5, "unit": "%"}})[2] == 1.5
+
+
 def test_the_spec_gives_its_top_speed_and_an_unreadable_one_is_left_out(tmp_path):
     from euc_sim.rides.render.contract import spec_json
     from euc_sim.rides.source.spec import read_spec
