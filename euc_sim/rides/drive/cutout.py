@@ -17,9 +17,12 @@ the ground speed is ``s·v``, ``s`` the speedometer's scale)::
     V_t   = (V_ocv + sqrt(V_ocv² − 4·R_int·P)) / 2            terminal voltage: V_t·(V_ocv − V_t)/R_int = P
     d     = (e(v) + r_F·P/v) / V_t + c_dt                      the fitted duty model, e the back-EMF
 
-The cut-out speed is the lowest speed with ``d = 1`` (:func:`scipy.optimize.brentq`
-in the first bracket of a speed grid where ``d − 1`` changes sign); where the battery
-cannot give ``P`` at all (``V_ocv² < 4·R_int·P``) the duty is taken as above 1.
+The cut-out speed is the lowest speed with ``d = 1`` (:func:`limit_speed`, any other duty
+alike); where the battery cannot give ``P`` at all (``V_ocv² < 4·R_int·P``) the duty is taken
+as above 1.  The page's envelope (:func:`envelope`: the steady duty and the acceleration left
+against speed at full and empty charge) is the same model, so it ends where the chart does.
+The model is the fit's own: ``r_F`` multiplies ``P/v`` as in :func:`~euc_sim.rides.drive.drivetrain.fit_pwm`,
+so the losses and the sag stay in; it is fitted, and said, from 2 m/s up.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ from euc_sim.rides.drive.drivetrain import _pwm_rows, fit_pwm, predict_pwm
 from euc_sim.rides.drive.pwm import back_emf
 
 __all__ = ["Limits", "ride_limits", "OcvLine", "ocv_line", "Condition", "CONDITIONS", "DutyModel",
-           "duty_model", "ride_duty_model", "ride_cutout", "duty", "limit_speed", "full_duty_accel", "Curve",
+           "duty_model", "duty", "limit_speed", "full_duty_accel", "Curve",
            "Cutout", "cutout_curves", "ChargeEnvelope", "Envelope", "envelope", "danger_sentence",
            "headroom_words", "heldout_pwm_rmse", "CHARGE_GRID", "CELL_FULL", "CELL_EMPTY"]
 
@@ -279,25 +282,9 @@ def duty(m: DutyModel, v, volts: float, accel=0.0, grade=0.0) -> np.ndarray:
 
 def limit_speed(m: DutyModel, volts: float, c: Condition, fraction: float = 1.0, speeds=SPEED_RANGE,
                 n: int = 233) -> float:
-    """The lowest speed reading, m/s, at which the duty reaches ``fraction`` (1: the cut-out).
-
-    Parameters
-    ----------
-    m : DutyModel
-    volts : float
-        The pack's open-circuit voltage, V.
-    c : Condition
-    fraction : float
-        The duty, 1 = 100 %.
-    speeds : tuple of float
-        The speeds searched, m/s.
-    n : int
-        Grid points of the first search (the root is then refined by :func:`scipy.optimize.brentq`).
-
-    Returns
-    -------
-    float
-        0 when the duty reaches ``fraction`` at the slowest speed searched; NaN when not before the fastest.
+    """The lowest speed reading, m/s, at which the duty reaches ``fraction`` (1: the cut-out) on a pack
+    of open-circuit ``volts`` (V) in condition ``c``: the first of ``n`` ``speeds`` (m/s) past it, then
+    :func:`scipy.optimize.brentq`.  0 when reached at the slowest speed searched; NaN when not before the fastest.
     """
     from scipy.optimize import brentq
 
@@ -399,10 +386,8 @@ class ChargeEnvelope:
 
     Attributes
     ----------
-    charge_pct : float
-        The battery reading, %.
     voltage : float
-        The pack's open-circuit voltage at it, V.
+        The pack's open-circuit voltage at the charge, V.
     accel : numpy.ndarray
         The acceleration on the level at which the duty reaches 100 %, m/s² (:func:`full_duty_accel`).
     pwm_pct : numpy.ndarray
@@ -412,7 +397,6 @@ class ChargeEnvelope:
         this charge): above it nothing is left; None when the envelope's speeds end first.
     """
 
-    charge_pct: float
     voltage: float
     accel: np.ndarray
     pwm_pct: np.ndarray
@@ -451,19 +435,20 @@ class Envelope:
     why: str | None = None
 
 
-def envelope(m: DutyModel, v_max: float, ride_top_speed: float, n: int = 61) -> Envelope:
-    """The :class:`Envelope` of the duty model ``m`` on ``n`` speeds from 0 to ``v_max`` (m/s).
+def envelope(m: DutyModel, ride_top_speed: float, n: int = 61) -> Envelope:
+    """The :class:`Envelope` of the duty model ``m`` on ``n`` speeds from 0 to 10 % past the full charge's
+    ``v_limit`` (to twice ``ride_top_speed``, m/s, where there is none).
 
     The model is :func:`duty`'s, the cut-out chart's: its ``v_limit`` at full charge is the chart's
     level speed at 100 %.  Below :data:`SPEED_RANGE`'s slowest speed the values are NaN.
     """
-    speed = np.linspace(0.0, v_max, n)
+    cut = {q: limit_speed(m, float(m.ocv(q)), CONDITIONS[0]) for q in (100.0, 0.0)}
+    speed = np.linspace(0.0, 1.1 * cut[100.0] if cut[100.0] > 0 else 2.0 * ride_top_speed, n)
 
-    def at(charge: float) -> ChargeEnvelope:
-        V = float(m.ocv(charge))
-        cut = limit_speed(m, V, CONDITIONS[0])
-        return ChargeEnvelope(charge, V, full_duty_accel(m, speed, V), 100.0 * duty(m, speed, V),
-                              cut if cut <= v_max else None)
+    def at(q: float) -> ChargeEnvelope:
+        V = float(m.ocv(q))
+        return ChargeEnvelope(V, full_duty_accel(m, speed, V), 100.0 * duty(m, speed, V),
+                              cut[q] if cut[q] <= speed[-1] else None)
 
     return Envelope(speed, at(100.0), at(0.0), m.ocv.source, ride_top_speed)
 
@@ -561,52 +546,3 @@ def duty_model(dt, mass, ocv: OcvLine) -> DutyModel:
                      c3=float(c.get("drag", 0.0)), p0=float(c.get("no_load", 0.0)),
                      copper=float(c.get("copper", 0.0)), copper_column=mass.copper_column,
                      scale=float(mass.scale.estimate))
-
-
-def ride_duty_model(sig, dt, mass, charge: np.ndarray | None, spec_voltage: float | None = None
-                    ) -> DutyModel | str:
-    """The ride's :class:`DutyModel`, or why there is none.
-
-    Parameters
-    ----------
-    sig : PowerSignals
-        The ride on its grid (voltage, current).
-    dt : Drivetrain
-    mass : MassFit
-    charge : numpy.ndarray or None
-        The log's battery reading on ``sig.t``, %.
-    spec_voltage : float, optional
-        The pack's full-charge voltage, V.
-    """
-    if dt.pwm_coef is None:
-        return dt.unidentified.get("pwm") or "no PWM in the log"
-    if not dt.mass or not dt.battery_coef:
-        return "needs the mass and the battery found from the log"
-    line = ocv_line(sig.extra["voltage"], sig.extra.get("current"), charge, dt.battery_coef["R_int"], spec_voltage)
-    if line is None:
-        return ("no battery reading in the log and no battery voltage in the spec: the charge cannot be turned "
-                "into volts")
-    return duty_model(dt, mass, line)
-
-
-def ride_cutout(sig, dt, model: DutyModel | str, limits: Limits, why: str | None = None) -> Cutout:
-    """The ride's :class:`Cutout`, or one saying why there is none.
-
-    Parameters
-    ----------
-    sig : PowerSignals
-        The ride on its grid (voltage, pwm).
-    dt : Drivetrain
-    model : DutyModel or str
-        :func:`ride_duty_model`.
-    limits : Limits
-    why : str, optional
-        Why the logged duty cannot be modelled (an app's computed duty): no curves, and no held-out
-        error (the model fits the app's formula, whatever the load: it checks nothing).
-    """
-    if dt.pwm_coef is None or why is not None:      # an app's duty is the model's own: no check either
-        return Cutout(why=why or model)
-    heldout = heldout_pwm_rmse(sig)
-    if isinstance(model, str):
-        return Cutout(heldout_pwm_rmse_pct=heldout, why=model)
-    return cutout_curves(model, limits, heldout)

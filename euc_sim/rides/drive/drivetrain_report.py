@@ -15,11 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from euc_sim.rides.drive.cutout import DutyModel, Envelope, envelope, ride_cutout, ride_duty_model
+from euc_sim.rides.drive.cutout import (Cutout, DutyModel, Envelope, cutout_curves, duty_model, envelope,
+                                        heldout_pwm_rmse, ocv_line)
 from euc_sim.rides.drive.drivetrain import Drivetrain, Term, fit_drivetrain, predict_pwm
 from euc_sim.rides.drive.grade import GradeProfile, grade_profile
 from euc_sim.rides.drive.mass import MassFit, fit_mass, predict_power
-from euc_sim.rides.drive.pwm import no_force_speed
 from euc_sim.rides.drive.rotating import without_rotating_inertia
 from euc_sim.rides.grids.power import MassSettings, PowerSignals, power_signals
 from euc_sim.rides.source.ride import Ride
@@ -100,20 +100,24 @@ def reported_terms(r: RideDrivetrain, computed_note: str | None = None) -> dict[
 
 
 def duty_model_of(r: RideDrivetrain, log) -> DutyModel | str:
-    """The ride's duty model (:func:`euc_sim.rides.drive.cutout.ride_duty_model`), or why there is none.
-
-    Parameters
-    ----------
-    r : RideDrivetrain
-    log : Ride
-        The same ride parsed: its battery reading (%) gives the charge.
-    """
-    d, charge = log.data, None
+    """The ride's :class:`~euc_sim.rides.drive.cutout.DutyModel` (the cut-out chart's and the envelope's),
+    its charge turned into volts by the log's battery reading (``log``: the same ride parsed) or the
+    spec's voltage (:func:`~euc_sim.rides.drive.cutout.ocv_line`); or why there is none."""
+    dt, d, charge = r.drivetrain, log.data, None
+    if dt.pwm_coef is None:
+        return dt.unidentified.get("pwm") or "no PWM in the log"
+    if not dt.mass or not dt.battery_coef:
+        return "needs the mass and the battery found from the log"
     if "battery" in d:
         ok = np.isfinite(d["battery"].to_numpy(float))
         if ok.sum() > 1:
             charge = np.interp(r.sig.t, d["t"].to_numpy(float)[ok], d["battery"].to_numpy(float)[ok])
-    return ride_duty_model(r.sig, r.drivetrain, r.mass, charge, r.spec.battery_voltage)
+    line = ocv_line(r.sig.extra["voltage"], r.sig.extra.get("current"), charge, dt.battery_coef["R_int"],
+                    r.spec.battery_voltage)
+    if line is None:
+        return ("no battery reading in the log and no battery voltage in the spec: the charge cannot be turned "
+                "into volts")
+    return duty_model(dt, r.mass, line)
 
 
 def _envelope(r: RideDrivetrain, log, computed_note: str | None) -> Envelope:
@@ -127,9 +131,7 @@ def _envelope(r: RideDrivetrain, log, computed_note: str | None) -> Envelope:
     m = duty_model_of(r, log)
     if isinstance(m, str):
         return Envelope(why=m)
-    top = float(np.nanmax(r.sig.v))
-    v_zero = no_force_speed(dt.pwm_coef, float(m.ocv(100.0)))
-    return envelope(m, 1.05 * v_zero if v_zero else 2.0 * top, top)
+    return envelope(m, float(np.nanmax(r.sig.v)))
 
 
 @dataclass(frozen=True)
@@ -223,8 +225,10 @@ def mass_drivetrain(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
     return MassDrivetrain(**out)
 
 
-def cutout_of(r: RideDrivetrain, log, limits):
-    """The ride's :class:`euc_sim.rides.drive.cutout.Cutout` (the JSON's ``cutout``).
+def cutout_of(r: RideDrivetrain, log, limits) -> Cutout:
+    """The ride's :class:`euc_sim.rides.drive.cutout.Cutout` (the JSON's ``cutout``), or one saying why
+    there is none: an app's computed duty has neither curves nor a held-out error (the model fits the
+    app's formula, whatever the load: it checks nothing).
 
     Parameters
     ----------
@@ -234,9 +238,14 @@ def cutout_of(r: RideDrivetrain, log, limits):
     limits : Limits
         The wheel's limits (the summary's).
     """
-    why = ("the log's PWM is the app's computation from speed and voltage, not a measurement: it does "
-           "not show the load, so neither does a model of it") if computed_pwm_note(r) else None
-    return ride_cutout(r.sig, r.drivetrain, duty_model_of(r, log), limits, why)
+    if computed_pwm_note(r):
+        return Cutout(why="the log's PWM is the app's computation from speed and voltage, not a measurement: "
+                          "it does not show the load, so neither does a model of it")
+    m = duty_model_of(r, log)
+    if r.drivetrain.pwm_coef is None:
+        return Cutout(why=m)
+    heldout = heldout_pwm_rmse(r.sig)
+    return Cutout(heldout_pwm_rmse_pct=heldout, why=m) if isinstance(m, str) else cutout_curves(m, limits, heldout)
 
 
 def ride_drivetrain(log, compare=None, spec=None, n_boot: int = 200, seed: int = 0) -> MassDrivetrain:

@@ -35,7 +35,7 @@ import numpy as np
 from euc_sim.stats import forward_select as select_by_heldout
 from euc_sim.rides.drive.mass import heldout_rmse
 
-__all__ = ["BASE", "EXTRA", "MIN_GAIN", "pwm_columns", "select_pwm_terms", "no_force_speed", "back_emf"]
+__all__ = ["BASE", "EXTRA", "MIN_GAIN", "pwm_columns", "select_pwm_terms", "back_emf"]
 
 #: Always in the model: back-EMF (K_v, V per m/s) and resistive drop (r_F, V/N).
 BASE = ("K_v", "r_F")
@@ -98,24 +98,3 @@ def back_emf(coef: Mapping[str, float], speed) -> np.ndarray:
     v = np.abs(np.asarray(speed, float))
     c = coef.get("flux_weakening", 0.0)
     return coef["K_v"] * v - c * v * np.minimum(v, coef.get("v_fw", np.inf))
-
-
-def no_force_speed(coef: Mapping[str, float], voltage: float) -> float | None:
-    """Speed, m/s, where the back-EMF alone takes the whole duty (no force left even without losses), or None.
-
-    The smallest positive root of ``back_emf(v) = (1 − c_dt)·V``; None when the
-    back-EMF stays below it at every speed.
-    """
-    K, c = coef["K_v"], coef.get("flux_weakening", 0.0)
-    v_fw = coef.get("v_fw", np.inf)
-    need = (1.0 - coef.get("dead_time", 0.0)) * voltage
-    if c != 0:
-        disc = K * K - 4.0 * c * need
-        if disc >= 0:
-            root = (K - np.sqrt(disc)) / (2.0 * c)
-            if 0 < root <= v_fw:
-                return float(root)
-    slope = K - c * v_fw                      # beyond v_fw the back-EMF is linear again
-    if not np.isfinite(v_fw) or slope <= 0:
-        return need / K if c == 0 and K > 0 else None
-    return float(v_fw + (need - float(back_emf(coef, v_fw))) / slope)

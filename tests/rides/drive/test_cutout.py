@@ -99,7 +99,7 @@ def test_the_envelope_ends_where_the_cutout_chart_does():
     m = _model(R_int=0.2, c3=0.3, p0=40.0, copper=0.004, copper_column="force", scale=0.93,
                pwm={"K_v": 5.5, "r_F": 0.02, "dead_time": 0.02})
     cut = cutout_curves(m, Limits(None, None, None))
-    env = envelope(m, 20.0, 10.0, n=401)
+    env = envelope(m, 10.0, n=401)
     for side, k in ((env.full, -1), (env.low, 0)):
         assert side.v_limit == cut.curves[0].speed_mps[k] == limit_speed(m, side.voltage, LEVEL)
         v = np.interp(100.0, side.pwm_pct[5:], env.speed[5:])       # from 2 m/s up, the PWM rises

@@ -8,7 +8,7 @@ import pytest
 
 from euc_sim.controllers.motor import MotorError, MotorPD
 from euc_sim.rides.drive.cutout import DutyModel, OcvLine, full_duty_accel
-from euc_sim.rides.drive.pwm import BASE, back_emf, no_force_speed, pwm_columns, select_pwm_terms
+from euc_sim.rides.drive.pwm import BASE, back_emf, pwm_columns, select_pwm_terms
 
 TRUE = {"K_v": 7.4, "r_F": 0.03, "dead_time": 0.03, "flux_weakening": 0.09}
 
@@ -48,11 +48,11 @@ def _force_left(coef, speed, volts):
     return np.nan_to_num(full_duty_accel(m, np.asarray(speed, float), volts, iterations=80))
 
 
-def test_no_force_speed_is_the_root_and_none_when_weakening_wins():
-    v0 = no_force_speed(TRUE, 140.0)
-    assert _force_left(TRUE, [0.99 * v0], 140.0)[0] > 0 and _force_left(TRUE, [1.01 * v0], 140.0)[0] == 0
-    assert no_force_speed({"K_v": 7.0, "r_F": 0.03}, 140.0) == pytest.approx(20.0)
-    assert no_force_speed({"K_v": 7.0, "r_F": 0.03, "flux_weakening": 0.2}, 140.0) is None
+def test_no_force_is_left_where_the_back_emf_takes_the_whole_duty():
+    """7 V/(m/s) against 140 V: none left from 20 m/s; with 3 % dead time, from 140·0.97/7 = 19.4 m/s."""
+    assert _force_left({"K_v": 7.0, "r_F": 0.03}, [19.99, 20.01], 140.0).tolist() == [
+        pytest.approx(0.01 * 7.0 / 0.03, rel=1e-6), 0.0]
+    assert _force_left({"K_v": 7.0, "r_F": 0.03, "dead_time": 0.03}, [19.41], 140.0)[0] == 0.0
 
 
 def test_flux_weakening_is_not_extrapolated_past_the_fitted_speeds():
@@ -60,8 +60,6 @@ def test_flux_weakening_is_not_extrapolated_past_the_fitted_speeds():
     e = back_emf(coef, np.array([5.0, 10.0, 20.0]))
     K, c = TRUE["K_v"], TRUE["flux_weakening"]
     np.testing.assert_allclose(e, [K * 5 - c * 25, K * 10 - c * 100, K * 20 - c * 200])
-    v0 = no_force_speed(coef, 140.0)
-    assert v0 > 10.0 and _force_left(coef, [0.99 * v0], 140.0)[0] > 0 == _force_left(coef, [1.01 * v0], 140.0)[0]
     cols = pwm_columns(np.array([20.0]), np.array([0.0]), np.array([1.0]), ["flux_weakening"], 10.0)
     assert cols[0, 0] == -200.0
 
