@@ -24,9 +24,9 @@ from euc_sim.rides.result import RideResult, RiderNumbers
 
 __all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json",
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
-           "spec_json", "grade_json", "cutout_json", "envelope_json", "simulation_json", "trace_json", "resolution_json",
-           "difference_json", "differences_json", "clock_json", "mass_difference_json", "mass_check_json",
-           "limits_of", "pwm_check"]
+           "spec_json", "grade_json", "cutout_json", "envelope_json", "simulation_json", "trace_json",
+           "resolution_json", "difference_json", "differences_json", "clock_json", "mass_difference_json",
+           "mass_check_json", "limits_of", "pwm_check"]
 
 
 @dataclass(frozen=True)

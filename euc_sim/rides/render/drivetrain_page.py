@@ -33,9 +33,9 @@ def plot_envelope(env, path, title: str = "") -> Path:
 def envelope_figure(env, title: str = ""):
     """The acceleration the battery voltage allows (and the lean it takes) against speed.
 
-    Full and low charge, of an :class:`~euc_sim.rides.drive.cutout.Envelope`.  The voltage limit is drawn only where it is below what the
-    tyre can carry (a ≤ :data:`TYRE_MU`·g, lean atan(μ)); above, the model says
-    nothing (the controller's current limit, not in the log, or the tyre's grip
+    Full and low charge, of an :class:`~euc_sim.rides.drive.cutout.Envelope`.  The voltage limit is
+    drawn only where it is below what the tyre can carry (a ≤ :data:`TYRE_MU`·g, lean atan(μ)); above,
+    the model says nothing (the controller's current limit, not in the log, or the tyre's grip
     decides) and the figure says so.
 
     Returns
