@@ -1,12 +1,8 @@
 """The project's exceptions: a user's mistake, told apart from the program's.
 
-Every check on what a user gave (a command-line option, a parameter, a recording, a
-log, a sidecar, an output path) raises one of these.  The command line turns them
-into one line naming the culprit and exit code 2; any other exception is a bug in
-euc-sim and becomes an internal error (exit 1, the traceback in a file).
-
-They subclass :class:`ValueError` and :class:`TypeError` (as python-control's
-``ControlArgument`` and ``ControlDimension`` do), so code that catches those keeps
+Every check on what a user gave raises one of these; the command line turns them into one
+line naming the culprit and exit code 2 (any other exception is an internal error, exit 1).
+They subclass :class:`ValueError` (and :class:`TypeError`), so callers catching those keep
 working.
 """
 
@@ -24,17 +20,10 @@ def describe(value, limit: int = 40) -> str:
 
 
 class InputError(ValueError):
-    """A value the user gave cannot be used; the message names it, what was expected and what came.
+    """A value the user gave cannot be used; the message names it.
 
-    Parameters
-    ----------
-    message : str
-        The whole message, or (with ``expected``) the name of the argument.
-    expected : str, optional
-        What the argument should be; with it the message reads
-        ``"NAME: expected EXPECTED, got ACTUAL"``.
-    actual : object, optional
-        What the argument was.
+    With ``expected``, ``message`` is the argument's name and the message reads
+    ``"NAME: expected EXPECTED, got ACTUAL"``.
     """
 
     def __init__(self, message: str, expected: str | None = None, actual=None):
@@ -49,14 +38,8 @@ class InputTypeError(InputError, TypeError):
 
 
 class BadInputFile(InputError):
-    """A file the user gave cannot be read as what it should be.
-
-    Parameters
-    ----------
-    path : path or str
-        The file; alone, the whole message (which then names the file itself).
-    problem : str, optional
-        What is wrong, naming the column, row or field.
+    """A file the user gave cannot be read as what it should be: ``path`` alone is the whole
+    message, else ``problem`` names the column, row or field.
     """
 
     path = None

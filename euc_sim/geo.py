@@ -1,8 +1,4 @@
-"""Positions on the Earth: great-circle distances and local metres from GPS fixes.
-
-One place for the Earth's radius and the two conversions every GPS reader uses
-(the ride summary's distance, the GPS speed scale, route matching, the track figure).
-"""
+"""Positions on the Earth: great-circle distances and local metres from GPS fixes."""
 
 from __future__ import annotations
 
@@ -16,18 +12,7 @@ EARTH_RADIUS_M = 6_371_000.0
 
 
 def haversine(lat1, lon1, lat2, lon2) -> np.ndarray:
-    """Great-circle distance between two sets of points, m.
-
-    Parameters
-    ----------
-    lat1, lon1, lat2, lon2 : array_like
-        Latitudes and longitudes, degrees (broadcast together).
-
-    Returns
-    -------
-    ndarray
-        Distance along the sphere of radius :data:`EARTH_RADIUS_M`, m.
-    """
+    """Great-circle distance, m, between points given in degrees (broadcast), on a sphere of :data:`EARTH_RADIUS_M`."""
     p1, p2 = np.radians(lat1), np.radians(lat2)
     dl = np.radians(np.asarray(lon2, float) - np.asarray(lon1, float))
     a = np.sin((p2 - p1) / 2) ** 2 + np.cos(p1) * np.cos(p2) * np.sin(dl / 2) ** 2
@@ -35,20 +20,7 @@ def haversine(lat1, lon1, lat2, lon2) -> np.ndarray:
 
 
 def local_metres(lat, lon, origin: tuple[float, float]) -> np.ndarray:
-    """Equirectangular projection about ``origin``: metres east and north (columns).
-
-    Parameters
-    ----------
-    lat, lon : array_like
-        Degrees.
-    origin : (float, float)
-        Latitude and longitude of the projection's centre, degrees.
-
-    Returns
-    -------
-    ndarray (n, 2)
-        East and north of ``origin``, m (good to 0.1 % within 10 km of it).
-    """
+    """Equirectangular projection about ``origin`` (lat, lon deg): (n, 2) metres east and north (0.1 % within 10 km)."""
     lat0, lon0 = np.radians(origin[0]), np.radians(origin[1])
     x = EARTH_RADIUS_M * np.cos(lat0) * (np.radians(np.asarray(lon, float)) - lon0)
     y = EARTH_RADIUS_M * (np.radians(np.asarray(lat, float)) - lat0)

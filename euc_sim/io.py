@@ -1,11 +1,9 @@
 """Files in and out: atomic writes and JSON.
 
-Every output is written to a temporary file in the destination folder and renamed
-into place, so an interrupted or failed command never leaves a half-written file.
-An output must be a regular file or nothing yet (a device, FIFO or socket is refused,
-:func:`check_output`); a symbolic link is written through, its target replaced in
-the target's own folder; an existing file keeps its permission bits, a new one gets
-the umask's.
+Every output goes to a temporary file beside its destination and is renamed into place,
+so a failed command leaves no half-written file.  An output must be a regular file or
+nothing yet (:func:`check_output`); a symbolic link is written through; an existing
+file keeps its permission bits, a new one gets the umask's.
 """
 
 from __future__ import annotations
@@ -36,8 +34,7 @@ NAME_MAX = 255
 
 
 def shown(path: str | Path) -> str:
-    """A path for a one-line message: as typed, or quoted (``repr``) when it holds a newline or
-    another unprintable character."""
+    """A path for a one-line message: as typed, or ``repr`` when it holds an unprintable character."""
     text = str(path)
     return text if text.isprintable() else repr(text)
 
@@ -58,25 +55,8 @@ def file_kind(mode: int) -> str:
 
 
 def check_output(path: str | Path, folder: bool = False) -> Path:
-    """Refuse an output whose name is too long or that exists and is not a regular file.
-
-    Parameters
-    ----------
-    path : path
-        The output (a file; with ``folder``, a folder).
-    folder : bool
-        ``path`` is a folder a command writes into.
-
-    Returns
-    -------
-    pathlib.Path
-
-    Raises
-    ------
-    euc_sim.errors.BadOutputPath
-        naming the path: a component over :data:`NAME_MAX` bytes; a device, FIFO or
-        socket that a rename would replace.
-    """
+    """Refuse (:class:`~euc_sim.errors.BadOutputPath`) an output whose name is too long or that exists and is not
+    a regular file (with ``folder``: a folder)."""
     path = check_name(path, "output", BadOutputPath)
     try:
         mode = os.stat(path).st_mode
@@ -89,8 +69,7 @@ def check_output(path: str | Path, folder: bool = False) -> Path:
 
 
 def check_name(path: str | Path, role: str = "output", error: type = InputError) -> Path:
-    """Refuse a path with a component over :data:`NAME_MAX` bytes, naming the path, its role
-    (``output``, ``input``) and the limit (the system's own message says only "File name too long")."""
+    """Refuse a path with a component over :data:`NAME_MAX` bytes, naming the path, its role and the limit."""
     path = Path(path)
     for part in path.parts:
         size = len(os.fsencode(part))
@@ -106,21 +85,8 @@ def _target(path: Path) -> Path:
 
 
 def temporary_beside(path: str | Path) -> Path:
-    """Create an empty temporary file beside ``path`` that keeps its extension.
-
-    ``ride.mp4`` gets ``.ride.tmp-XXXXXXXX.mp4``: a writer that picks its format from
-    the extension (ffmpeg, matplotlib, pandas) reads the right one.
-
-    Parameters
-    ----------
-    path : path
-        The destination; its folder must exist.
-
-    Returns
-    -------
-    pathlib.Path
-        The temporary file (mode 0600, empty).
-    """
+    """Create an empty temporary file (mode 0600) beside ``path`` keeping its extension: ``ride.mp4`` →
+    ``.ride.tmp-XXXXXXXX.mp4``."""
     path = Path(path)
     suffix = _cut(path.suffix, 16) if len(path.suffix) > 16 else path.suffix
     stem = _cut(path.stem, NAME_MAX - 1 - len(_TEMP_MARK) - 8 - len(os.fsencode(suffix)))
@@ -136,25 +102,13 @@ def is_temporary(path: str | Path) -> bool:
 
 
 def check_writable(path: str | Path) -> Path:
-    """Fail early, with the path named, when ``path``'s folder cannot take a new file.
+    """Fail early, naming the path, when ``path``'s folder cannot take a new file.
 
-    Nothing is created: a missing folder is checked through its nearest existing
-    ancestor (which must be a writable folder), and made only when a file is written
-    (:func:`atomic_write`, :func:`write_recording`), so a refusal leaves no empty folder.
-
-    Parameters
-    ----------
-    path : path
-        The output file.
-
-    Returns
-    -------
-    pathlib.Path
+    Nothing is created: a missing folder is checked through its nearest existing ancestor.
 
     Raises
     ------
     PermissionError, NotADirectoryError, IsADirectoryError
-        (``OSError``) naming the path.
     """
     path = check_output(path)
     parent = path.parent if str(path.parent) else Path(".")
@@ -179,7 +133,7 @@ def check_writable(path: str | Path) -> Path:
 
 
 def _naming(exc: OSError, path: Path) -> OSError:
-    """The same kind of OSError, naming ``path`` ("[Errno 27] File too large" says nothing of which)."""
+    """The same kind of OSError, naming ``path``."""
     if exc.filename is not None:
         return exc
     try:
@@ -189,24 +143,10 @@ def _naming(exc: OSError, path: Path) -> OSError:
 
 
 def atomic_write(path: str | Path, write: Callable[[Path], None]) -> Path:
-    """Call ``write(tmp_path)`` then rename the temporary file onto ``path``.
+    """Call ``write(tmp_path)`` then rename the temporary file onto ``path``; return ``path``.
 
-    ``tmp_path`` keeps the extension of ``path`` (:func:`temporary_beside`), so a writer
-    may choose its format from it.  The folder is created when missing.  On any error the temporary file is removed
-    and nothing appears at ``path``.  A symbolic link is written through (its target is
-    replaced); an existing file keeps its permission bits.
-
-    Parameters
-    ----------
-    path : path
-        Destination.
-    write : callable
-        Writes the complete content to the path it is given.
-
-    Returns
-    -------
-    pathlib.Path
-        The destination.
+    ``tmp_path`` keeps ``path``'s extension; the folder is created when missing; on any error
+    the temporary file is removed and nothing appears at ``path``.
     """
     path = check_writable(path)
     dest = _target(path)
@@ -234,8 +174,7 @@ def _umask() -> int:
 
 
 def _replace(tmp: Path, dest: Path) -> None:
-    """Rename ``tmp`` onto ``dest`` (checked again: it may have become a FIFO meanwhile), with
-    ``dest``'s permission bits when it exists, else a new file's (``mkstemp`` makes 0600)."""
+    """Rename ``tmp`` onto ``dest`` (checked again) with ``dest``'s permission bits, else a new file's."""
     check_output(dest)
     try:
         mode = stat.S_IMODE(os.stat(dest).st_mode)
@@ -251,25 +190,7 @@ def write_text(path: str | Path, text: str) -> Path:
 
 
 def save_figure(fig, path: str | Path, dpi: int = 110) -> Path:
-    """Write a matplotlib Figure atomically, in the format its extension names (PNG by default).
-
-    Figures are built by pure functions that return them (``matplotlib.figure.Figure``,
-    not registered with pyplot, so nothing needs closing); this is the one place they
-    are written.
-
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-    path : path
-        Destination; its suffix (``.png``, ``.pdf``, ...) chooses the format.
-    dpi : int
-        Dots per inch.
-
-    Returns
-    -------
-    pathlib.Path
-        The destination.
-    """
+    """Write a matplotlib Figure atomically in the format its suffix names (default PNG), ``dpi`` dots per inch."""
     kind = Path(path).suffix.lstrip(".").lower() or "png"
     return atomic_write(path, lambda p: fig.savefig(p, dpi=dpi, format=kind))
 
@@ -296,13 +217,16 @@ def to_jsonable(obj: Any) -> Any:
     return obj
 
 
+def _json_text(obj: Any) -> str:
+    return json.dumps(to_jsonable(obj), indent=2, ensure_ascii=False) + "\n"
+
+
 def write_json(path: str | Path, obj: Any) -> Path:
     """Write one JSON object atomically, indented, with a final newline."""
-    return write_text(path, json.dumps(to_jsonable(obj), indent=2, ensure_ascii=False) + "\n")
+    return write_text(path, _json_text(obj))
 
 
-#: printf format of floats in recording CSVs: 10 significant digits (0.1 µm at 1 km,
-#: 1e-10 rad), fixed so that the same run gives the same bytes.
+#: printf format of floats in recording CSVs: 10 significant digits, the same bytes every run.
 FLOAT_FORMAT = "%.10g"
 
 
@@ -316,34 +240,24 @@ def sidecar_paths(path: str | Path) -> tuple[Path, Path]:
 def write_recording(df, path: str | Path, meta: dict, truth: dict | None = None) -> Path:
     """Write a recording (CONTRACT) with its sidecar ``NAME.json`` and optional ``NAME.truth.json``.
 
+    All files go to temporary names first and are renamed only once all are written, the
+    recording last; floats use :data:`FLOAT_FORMAT`.
+
     Parameters
     ----------
     df : pandas.DataFrame
         The recording's columns (``t`` first, SI units, radians).
     path : path
-        ``NAME.csv`` or ``NAME.parquet`` (the format follows the extension).
+        ``NAME.csv`` or ``NAME.parquet``.
     meta : dict
-        The sidecar: ``{"params": ..., "maneuver": ..., "source": ...}``.
+        The sidecar.
     truth : dict, optional
         What the analysis must not see (injected effects, true parameters).
-
-    Returns
-    -------
-    pathlib.Path
-        The recording's path.
 
     Raises
     ------
     euc_sim.errors.InputError
         for another extension or non-finite values in the table.
-    OSError
-        for an unwritable destination (nothing is written then).
-
-    Notes
-    -----
-    Every file goes to a temporary name first; the renames happen only after all of
-    them were written, recording last, so a failure leaves none of them behind.
-    Floats are written with :data:`FLOAT_FORMAT`: the same table gives the same bytes.
     """
     path = Path(path)
     ext = path.suffix.lower()
@@ -361,12 +275,9 @@ def write_recording(df, path: str | Path, meta: dict, truth: dict | None = None)
         else:
             df.to_parquet(tmp, index=False)
 
-    jobs = [(meta_path, lambda p: p.write_text(json.dumps(to_jsonable(meta), indent=2,
-                                                          ensure_ascii=False) + "\n", encoding="utf-8"))]
+    jobs = [(meta_path, lambda p: p.write_text(_json_text(meta), encoding="utf-8"))]
     if truth is not None:
-        jobs.append((truth_path, lambda p: p.write_text(json.dumps(to_jsonable(truth), indent=2,
-                                                                   ensure_ascii=False) + "\n",
-                                                        encoding="utf-8")))
+        jobs.append((truth_path, lambda p: p.write_text(_json_text(truth), encoding="utf-8")))
     jobs.append((path, write_table))
     temps: list[tuple[Path, Path]] = []
     dest = path

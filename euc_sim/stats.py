@@ -1,20 +1,9 @@
-"""Resampling statistics shared by identification and the ride analyses.
+"""Resampling and least-squares helpers shared by identification and the ride analyses.
 
-One block bootstrap (:func:`block_bootstrap_indices`, moving blocks;
-:func:`wild_block_signs`, sign flips of whole blocks), one percentile interval
-(:func:`percentile_interval`, and :func:`basic_interval`, its reflection about the
-estimate), one jackknife-t interval over units left out in turn
-(:func:`jackknife_interval`), the time folds of held-out validation (:func:`time_blocks`,
-equal counts;
-:func:`span_blocks`, equal durations; :func:`interleaved_folds`, short blocks dealt to
-the folds in turn with a guard) and one forward selection scored on held-out error
-(:func:`forward_select`).  numpy, with scipy's t quantile; every draw comes from the
-``numpy.random.Generator`` passed in.
-
-Identification's selection (:mod:`euc_sim.identification.selection`) ranks its
-candidates by an information criterion and gates each step on held-out gain,
-|θ|/se and physics, with pair, swap and backward steps: a different rule, which takes
-its folds from here (docs/architecture.md#statistics-in-one-place).
+Block bootstraps (moving blocks, wild block signs), percentile, basic and jackknife-t
+intervals, the time folds of held-out validation, Gram-matrix least squares and a forward
+selection scored on held-out error.  Every draw comes from the ``numpy.random.Generator``
+passed in.  See docs/architecture.md#statistics-in-one-place.
 """
 
 from __future__ import annotations
@@ -42,18 +31,8 @@ __all__ = ["gram_lstsq", "gram_lstsq_many", "one_blas_thread",
 def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
     """Least squares from a Gram matrix ``G = [X y]ᵀ[X y]`` (last row and column y).
 
-    Parameters
-    ----------
-    G : ndarray (p + 1, p + 1)
-    cols : list of int, optional
-        Columns of X to fit on (default all).
-
-    Returns
-    -------
-    beta : ndarray
-        Minimiser of |X·β − y|² over ``cols`` (minimum norm where X is rank-deficient).
-    sse : float
-        The sum of squared residuals at ``beta``.
+    Returns ``beta``, the (minimum-norm) minimiser of |X·β − y|² over the columns ``cols``
+    (default all), and the sum of squared residuals at it.
     """
     if cols is None:
         A, b = G[:-1, :-1], G[:-1, -1]
@@ -65,13 +44,7 @@ def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
 
 
 def one_blas_thread():
-    """A context in which BLAS runs on one thread.
-
-    The ride fits' products are of ride-long vectors, which BLAS splits across threads that,
-    on a shared machine, wait milliseconds each for a core; their results are the same on one.
-    The libraries are scanned again only after a module was imported (a new one may bring its
-    own BLAS, as scipy's wheels do); the scan costs milliseconds.
-    """
+    """A context in which BLAS runs on one thread (ride-long products gain nothing from more)."""
     return _threadpools(len(sys.modules)).limit(limits=1, user_api="blas")
 
 
@@ -81,17 +54,7 @@ def _threadpools(n_modules: int) -> ThreadpoolController:
 
 
 def gram_lstsq_many(G: np.ndarray) -> np.ndarray:
-    """:func:`gram_lstsq`'s ``beta`` (all columns) of each Gram matrix of a stack, the same
-    LAPACK solve on each, in one call.
-
-    Parameters
-    ----------
-    G : ndarray (..., p + 1, p + 1)
-
-    Returns
-    -------
-    ndarray (..., p)
-    """
+    """:func:`gram_lstsq`'s ``beta`` (all columns) of each Gram matrix of a stack (..., p + 1, p + 1) → (..., p)."""
     G = np.asarray(G, dtype=float)
     A, b, p = G[..., :-1, :-1], G[..., :-1, -1:], G.shape[-1] - 1
     if _umath_linalg is None:       # a numpy without the gufunc: one call each
@@ -106,13 +69,7 @@ def _lstsq_failed(err, flag):
 
 
 def label_grams(Z: np.ndarray, labels: np.ndarray, n_labels: int) -> np.ndarray:
-    """``Z[labels == b]ᵀ Z[labels == b]`` for each label b of ``0 … n_labels − 1`` (zero where
-    none): the sufficient statistics of a least-squares fit on any union of the labels' rows.
-
-    Returns
-    -------
-    ndarray (n_labels, p, p)
-    """
+    """``Z[labels == b]ᵀ Z[labels == b]`` for each label b in 0 … n_labels − 1 (zero where none) → (n_labels, p, p)."""
     G = np.zeros((n_labels, Z.shape[1], Z.shape[1]))
     Z, ls = np.ascontiguousarray(Z), np.asarray(labels)
     if ls.size > 1 and not bool(np.all(ls[1:] >= ls[:-1])):   # each label's rows one slice: O(n) in all
@@ -127,35 +84,13 @@ def label_grams(Z: np.ndarray, labels: np.ndarray, n_labels: int) -> np.ndarray:
 
 
 def time_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
-    """Fold label 0 … n_blocks − 1 of each sample: contiguous time blocks of equal counts.
-
-    Parameters
-    ----------
-    t : ndarray
-        Sample times, s, increasing.
-    n_blocks : int
-
-    Returns
-    -------
-    ndarray of int
-    """
+    """Fold label 0 … n_blocks − 1 of each sample: contiguous blocks of equal counts (``t`` increasing, s)."""
     edges = np.quantile(t, np.linspace(0, 1, n_blocks + 1))
     return np.clip(np.searchsorted(edges, t, side="right") - 1, 0, n_blocks - 1)
 
 
 def span_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
-    """Fold label 0 … n_blocks − 1 of each sample: contiguous time blocks of equal durations.
-
-    Parameters
-    ----------
-    t : ndarray
-        Sample times, s (any order).
-    n_blocks : int
-
-    Returns
-    -------
-    ndarray of int
-    """
+    """Fold label 0 … n_blocks − 1 of each sample: contiguous blocks of equal durations (``t`` in s, any order)."""
     t = np.asarray(t, dtype=float)
     t0, t1 = t.min(), t.max()
     b = np.floor((t - t0) / (t1 - t0 + 1e-12) * n_blocks).astype(int)
@@ -164,26 +99,11 @@ def span_blocks(t: np.ndarray, n_blocks: int) -> np.ndarray:
 
 def interleaved_folds(t: np.ndarray, n_folds: int, block: float,
                       guard: float) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Folds of blocked cross-validation: ``block``-second blocks dealt to the folds in turn.
+    """Folds ``[(train, test), ...]`` of blocked cross-validation.
 
-    The record is cut into contiguous blocks of about ``block`` s (at least
-    ``n_folds``); block i belongs to fold i mod ``n_folds``, so every fold holds out
-    blocks spread over the whole record (a record that is not stationary is then not
-    tested on extrapolation).  Training samples within ``guard`` s of any held-out
-    sample are dropped, so a smoothing filter does not leak.
-
-    Parameters
-    ----------
-    t : ndarray
-        Sample times, s (any order).
-    n_folds : int
-    block, guard : float
-        s.
-
-    Returns
-    -------
-    list of (train, test)
-        Row indices of each fold.
+    Blocks of about ``block`` s (at least ``n_folds``) are dealt to the folds in turn, so each
+    fold holds out blocks spread over the record; training rows within ``guard`` s of a
+    held-out row are dropped so a smoothing filter does not leak.  ``t`` in s, any order.
     """
     t = np.asarray(t, dtype=float)
     span = t.max() - t.min()
@@ -206,8 +126,7 @@ def interleaved_folds(t: np.ndarray, n_folds: int, block: float,
 
 
 def distinct(a) -> np.ndarray:
-    """``np.unique(a)`` of a 1-D array, read off in O(n) where ``a`` is already in order (as
-    segment and block labels on a time grid are) instead of hashed or sorted again."""
+    """``np.unique(a)`` of a 1-D array, in O(n) where ``a`` is already in order."""
     a = np.asarray(a)
     if a.ndim == 1 and a.dtype.kind in "iub" and (a.size < 2 or bool(np.all(a[1:] >= a[:-1]))):
         return a[np.r_[True, a[1:] != a[:-1]]] if a.size else a.copy()
@@ -232,47 +151,25 @@ def draw_blocks(n_blocks: int, rng: np.random.Generator) -> np.ndarray:
 
 
 def moving_block_starts(n: int, L: int, n_boot: int, rng: np.random.Generator) -> np.ndarray:
-    """Start samples of a moving-block bootstrap: ``n_boot`` × ceil(n/L) blocks of ``L`` samples
-    starting anywhere in 0 … n − L."""
+    """Start samples (n_boot, ceil(n/L)) of a moving-block bootstrap of blocks of ``L`` samples."""
     return rng.integers(0, n - L + 1, size=(n_boot, int(np.ceil(n / L))))
 
 
 def block_bootstrap_indices(blocks: Sequence[np.ndarray], rng: np.random.Generator) -> np.ndarray:
-    """One moving-block bootstrap replicate: as many blocks as given, drawn with replacement.
-
-    Parameters
-    ----------
-    blocks : sequence of ndarray of int
-        Row indices of each block (:func:`blocks_by_length`).
-    rng : numpy.random.Generator
-
-    Returns
-    -------
-    ndarray of int
-        The replicate's rows (blocks concatenated).
-    """
+    """One moving-block bootstrap replicate: the rows of ``len(blocks)`` blocks drawn with replacement."""
     return np.concatenate([blocks[i] for i in draw_blocks(len(blocks), rng)])
 
 
 def wild_block_signs(n: int, L: int, n_boot: int, rng: np.random.Generator) -> np.ndarray:
-    """Rademacher signs of the blocks of ``L`` rows of ``n``: ceil(n / L) × ``n_boot``.
-
-    A wild block bootstrap multiplies each residual by its block's sign (row i: block
-    i // L), keeping every residual at its own row (and so its dependence on the regime).
-    """
+    """Rademacher signs (ceil(n / L), n_boot) of the blocks of ``L`` rows (row i: block i // L) for a wild block
+    bootstrap."""
     n_blocks = int(np.ceil(n / L))
     return rng.choice(np.array([-1.0, 1.0]), size=(n_blocks, n_boot))
 
 
 def percentile_interval(draws: np.ndarray, level: float = 0.95, axis: int = 0,
                         min_draws: int = 1) -> np.ndarray | None:
-    """Equal-tailed percentile interval of bootstrap ``draws`` (None below ``min_draws``).
-
-    Returns
-    -------
-    ndarray or None
-        ``[lo, hi]`` along the first axis of the result (shape 2 × the other axes).
-    """
+    """Equal-tailed percentile interval ``[lo, hi]`` of ``draws`` along ``axis`` (None below ``min_draws``)."""
     draws = np.asarray(draws, float)
     if draws.shape[axis] < max(min_draws, 1):
         return None
@@ -281,24 +178,7 @@ def percentile_interval(draws: np.ndarray, level: float = 0.95, axis: int = 0,
 
 
 def basic_interval(draws: np.ndarray, estimate: float, level: float = 0.95) -> tuple[float, float]:
-    """Basic (reverse-percentile) interval: the replicates' spread reflected about the estimate.
-
-    ``[2·estimate − q_hi, 2·estimate − q_lo]`` with ``[q_lo, q_hi]`` the
-    :func:`percentile_interval` of ``draws``; it follows a skewed bootstrap
-    distribution the way the plain percentile interval does not.
-
-    Parameters
-    ----------
-    draws : ndarray
-        Bootstrap replicates of the estimate (one axis).
-    estimate : float
-        The estimate on the whole sample, in the draws' unit.
-    level : float
-
-    Returns
-    -------
-    (lo, hi) : tuple of float
-    """
+    """Basic (reverse-percentile) interval ``(2·estimate − q_hi, 2·estimate − q_lo)`` of bootstrap ``draws``."""
     q_lo, q_hi = percentile_interval(np.ravel(draws), level)
     return float(2 * estimate - q_hi), float(2 * estimate - q_lo)
 
@@ -307,24 +187,8 @@ def jackknife_interval(estimate: float, leave_one_out, level: float = 0.95,
                        min_units: int = 3) -> tuple[float, float] | None:
     """Jackknife-t interval ``estimate ± t(K−1)·se`` from K leave-one-unit-out estimates.
 
-    ``se² = (K−1)/K · Σ (θ₋ₖ − θ̄)²`` (Efron & Tibshirani 1993, §11.2); the units
-    are whatever was left out in turn (parts of a record), so the interval
-    counts how the estimate moves from one unit to another.
-
-    Parameters
-    ----------
-    estimate : float
-        The estimate on every unit.
-    leave_one_out : array_like
-        The K estimates, each with one unit left out.
-    level : float
-    min_units : int
-        Fewest units that give an interval.
-
-    Returns
-    -------
-    (lo, hi) or None
-        None below ``min_units`` estimates or when their spread is not finite.
+    se² = (K−1)/K · Σ (θ₋ₖ − θ̄)² (Efron & Tibshirani 1993, §11.2).  None below ``min_units``
+    estimates or when se is not finite.
     """
     from scipy.stats import t as student_t
 
@@ -346,29 +210,22 @@ def forward_select(score: Callable[[list], float], base: list, candidates: list,
     Parameters
     ----------
     score : callable
-        ``score(names) -> float``, the held-out error of the model with those
-        terms (``inf``: the model is not admissible, e.g. a term on its bound).
+        ``score(names) -> float``, held-out error (``inf``: not admissible).
     base : list of str
         Terms always in the model.
     candidates : list of str
-        Terms tried, one more per step.
     min_gain : float
         A step is kept only if it lowers the score by more than this fraction.
     max_step : int
-        1: one term per step.  2: a step may also add two terms together that
-        each do not earn a step alone (not admissible alone, score ``inf``, e.g.
-        drag and rolling each pushed onto a bound when fitted without the other;
-        or lowering the score by less than ``min_gain`` alone), when the pair
-        lowers the score by more than ``min_gain`` below the current and the
-        best single term.
+        2: a step may also add two terms that do not earn a step alone, when the pair
+        beats both the current score and the best single term by ``min_gain``.
 
     Returns
     -------
     names : list of str
-        ``base`` plus the kept terms, in the order kept.
+        ``base`` plus the kept terms, in order.
     history : list of dict
-        ``{"term", "heldout_rmse"}`` after each step, the base model (terms
-        joined by "+") first; a pair step's term is the two joined by "+".
+        ``{"term", "heldout_rmse"}`` per step, the base first (terms joined by "+").
     """
     names = list(base)
     cur = score(names)

@@ -15,10 +15,10 @@ LAYERS = [("euc_sim.errors", "euc_sim.io", "euc_sim.geo"), "euc_sim.stats", "euc
           "euc_sim.rides", "euc_sim.api", "euc_sim.cli"]
 #: Inside ``euc_sim.rides``: its subpackages, lowest first (docs/architecture.md#rides-by-idea),
 #: then the typed result (``result.py``) its renderers read, ``render`` on top;
-#: ``euc_sim.rides.pipeline`` sits above them all.
+#: ``euc_sim.rides.pipeline`` and the request it runs (``request.py``) sit above them all.
 RIDES_LAYERS = ["source", "grids", "drive", "summary", "balance", "law", "sim", "rider", "compare",
                 "logbook", "synth", "result", "render"]
-RIDES_FLAT = {"__init__", "result", "pipeline"}
+RIDES_FLAT = {"__init__", "result", "pipeline", "request"}
 #: Upward imports allowed (none).
 UPWARD_ALLOWED: set = set()
 MAX_LINES = 650
@@ -162,21 +162,16 @@ def test_the_rides_layering_check_sees_a_violation():
 RENDER = "euc_sim.rides.render"
 #: The log readers: rendering renders results, it never reads a log.
 LOG_READERS = "euc_sim.rides.source.logs"
-#: The ride side's faces: from ``euc_sim.rides`` they call the pipeline and the renderers.
+#: The ride side's faces: from ``euc_sim.rides`` they build the validated request, call the
+#: pipeline and the renderers.
 FACES = ("euc_sim.cli.ride", "euc_sim.cli.rides")
-FACE_MAY_IMPORT = ("euc_sim.rides.pipeline", RENDER)
+FACE_MAY_IMPORT = ("euc_sim.rides.request", "euc_sim.rides.pipeline", RENDER)
 #: Analysis modules' imports of rendering still allowed, each with why (none: the pipeline
 #: returns a typed result and writes no file).
 ANALYSIS_RENDER_ALLOWED: dict = {}
-#: The faces' other imports from ``euc_sim.rides``, each with why (the validated request that the
-#: CLI and the API will share has no module yet: what builds it is listed here).
+#: The faces' other imports from ``euc_sim.rides``, each with why (``euc-sim rides`` has no
+#: request module: what builds its request is listed here).
 FACE_EXCEPTIONS = {
-    ("euc_sim.cli.ride", "euc_sim.rides.source.logs"): "the request: each log parsed once, before any output",
-    ("euc_sim.cli.ride", "euc_sim.rides.source.spec"): "the request: --wheel's spec and the logs it contradicts",
-    ("euc_sim.cli.ride", "euc_sim.rides.source.sanity"): "the bounds --mass and the spec overrides declare",
-    ("euc_sim.cli.ride", "euc_sim.rides.summary.rider_view"): "the bound --rider-weight declares",
-    ("euc_sim.cli.ride", "euc_sim.rides.grids.signals"): "the request: RideAssumptions from --radius, --mass",
-    ("euc_sim.cli.ride", "euc_sim.rides.balance.analysis"): "the request: check_data refuses a log before any output",
     ("euc_sim.cli.rides", "euc_sim.rides.source.logs"): "which files in a folder are logs (detect_layout)",
     ("euc_sim.cli.rides", "euc_sim.rides.source.spec"): "the request: --wheel's spec",
     ("euc_sim.cli.rides", "euc_sim.rides.drive.battery"): "the request: --wheel's battery pack",

@@ -1,17 +1,9 @@
-"""The demo job (``euc-sim demo`` calls :func:`run_demo`): the main job on embedded defaults, end to end, told as a story.
+"""The demo job (``euc-sim demo``, :func:`run_demo`): the main job on embedded defaults, told as a story.
 
-1. Simulate the paper's longitudinal maneuvers (Table 1: constant speed 7,
-   acceleration 3, deceleration 2, plus stop-and-go 2), 15 s each, at 120 Hz with the
-   paper's noise.
-2. Identify h with both models, pooled per maneuver (:func:`euc_sim.identify`), and draw
-   the paper's Fig. 8 (RMSE against h, one panel per maneuver, PNG and SVG).
-3. Conceal one effect (drawn by the seed from :data:`CONCEALABLE`, at a seeded random
-   magnitude) in a stop-and-go recording and diagnose it blind (:func:`euc_sim.diagnose`),
-   then compare with the truth file.
-4. Write ``OUT/index.md`` from a :class:`Story`: sections of sentences that state what
-   happened, a table and the figures.
-
-Every random draw comes from ``seed``.
+Simulate the paper's maneuvers (Table 1 plus stop-and-go, 15 s, 120 Hz, the paper's
+noise); identify h pooled per maneuver and draw Fig. 8; conceal one seeded effect in a
+stop-and-go ride and diagnose it blind; write the page from a :class:`Story`.  Every
+draw comes from ``seed``.
 """
 
 from __future__ import annotations
@@ -49,18 +41,8 @@ MODELS_STUDY = "docs/identification_models.md"
 
 @dataclass(frozen=True)
 class Section:
-    """One part of the demo's story: a title, sentences, and optionally a table and figures.
-
-    Attributes
-    ----------
-    title : str
-    sentences : tuple of str
-        Each a full sentence stating an outcome.
-    table : tuple of tuple of str
-        Header row first; empty for none.
-    figures : tuple of (str, str)
-        (file relative to the index, caption).
-    """
+    """One part of the demo's story: a ``title``, full ``sentences``, a ``table`` (header row first, or empty) and
+    ``figures`` ((file, caption))."""
 
     title: str
     sentences: tuple[str, ...]
@@ -104,15 +86,8 @@ class Story:
 
 
 def draw_concealed_effect(rng: np.random.Generator) -> tuple[str, float]:
-    """The demo's concealed effect and its magnitude, both drawn from ``rng``.
-
-    The magnitude is uniform in the upper half of the effect's plausible range (in
-    its CONTRACT unit), so that a 20 s ride can show it; a slope gets a random sign.
-
-    Returns
-    -------
-    (name, value) : (str, float)
-    """
+    """The concealed effect and its magnitude (CONTRACT unit) drawn from ``rng``: uniform in the upper half of its
+    plausible range, a slope with a random sign."""
     name = CONCEALABLE[int(rng.integers(len(CONCEALABLE)))]
     hi = max(abs(v) for v in effects.get(name).plausible)
     value = float(rng.uniform(0.5 * hi, hi))
@@ -123,23 +98,18 @@ def draw_concealed_effect(rng: np.random.Generator) -> tuple[str, float]:
 
 def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
              progress: Callable[[str], None] | None = None, workers: int | None = 2) -> Path:
-    """Run the demo and write ``out/index.html`` (the page) and ``out/index.md`` (its plain text).
+    """Run the demo and write ``out/index.html`` and ``out/index.md``; returns the index page.
 
     Parameters
     ----------
     out : path
         Output folder (created).
     seed : int
-        Seed of the dataset, the concealed effect and every other draw.
+        Seed of every draw.
     progress : callable, optional
-        Receives one plain line per step (progress bars only when stderr is a terminal).
+        Receives one plain line per step.
     workers : int, optional
-        Processes for the simulations (default 2).
-
-    Returns
-    -------
-    pathlib.Path
-        The index page.
+        Processes for the simulations.
     """
     say = progress or (lambda s: None)
     out = Path(out)
@@ -170,12 +140,7 @@ def _simulate_maneuvers(folder: Path, seed: int, workers: int | None) -> tuple[l
 
 
 def _identify(specs: list, paths: list[Path], figure: Path, seed: int) -> list[tuple]:
-    """Step 2: h pooled per maneuver, both models, and the Fig. 8 figure.
-
-    Returns
-    -------
-    list of (maneuver, Identification)
-    """
+    """Step 2: h pooled per maneuver, both models, and the Fig. 8 figure: [(maneuver, Identification)]."""
     by_man: dict[str, list] = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -188,10 +153,8 @@ def _identify(specs: list, paths: list[Path], figure: Path, seed: int) -> list[t
 
 
 def _conceal_and_diagnose(folder: Path, seed: int, say: Callable[[str], None]) -> dict:
-    """Step 3: one effect drawn by the seed, concealed in a stop-and-go ride, diagnosed blind.
-
-    Returns ``{"effect", "value", "unit", "diagnosis"}``.
-    """
+    """Step 3: one seeded effect concealed in a stop-and-go ride, diagnosed blind: ``{"effect", "value", "unit",
+    "diagnosis"}``."""
     rng = np.random.default_rng([seed, 5])
     effect, k_true = draw_concealed_effect(rng)
     v = float(rng.uniform(2.0, 3.0))

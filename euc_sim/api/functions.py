@@ -22,8 +22,7 @@ from euc_sim.errors import InputError
 from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, identify_recordings, load
 from euc_sim.identification.recordings import read_recording as _read_recording
 from euc_sim.model.parameters import TABLE3, Params, check_plausible
-from euc_sim.rides.pipeline import MIN_BOOT, ride_pipeline
-from euc_sim.rides.source.spec import wheel_spec
+from euc_sim.rides.request import RideRequest, ride_request
 from euc_sim.simulation.engine import default_rider
 from euc_sim.simulation.maneuvers import MANEUVERS, make_maneuver
 
@@ -299,12 +298,14 @@ def read_ride(path, *, layout: str | None = None) -> Ride:
     return read_log(path, layout=layout, emit_warnings=False)    # the reader's notes are in .warnings
 
 
-def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str = "power",
-                 n_boot: int = 200, seed: int = 0, simulate: bool = False, jobs: int = 1,
-                 progress: Callable[[str], None] | None = None) -> RideAnalysis:
+def analyse_ride(log, compare=None, *, report_dir=None, simulate: bool = False, jobs: int = 1,
+                 progress: Callable[[str], None] | None = None, **options) -> RideAnalysis:
     """Everything ``euc-sim ride`` finds in a ride log: total mass, drivetrain, rolling
     resistance, drag, grade, the wheel's balance law, the ride's summary and, with
     ``compare``, the held-out error on another ride and what differs between the two.
+
+    The request is the command's (:func:`euc_sim.rides.request.ride_request`): a bad value is
+    refused with the line ``euc-sim ride`` prints, naming the option (``--n-boot`` for ``n_boot``).
 
     Parameters
     ----------
@@ -312,21 +313,18 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
         The ride to fit (read once).
     compare : path, optional
         A ride of the same wheel to test on (read once).
-    wheel : path, optional
-        The wheel's spec CSV (radius, weight, voltage).
     report_dir : path, optional
         Folder for the report page and figures.
-    domain : {"power", "torque"}
-    n_boot : int
-        Bootstrap replicates (at least 10).
-    seed : int
-        Seed of every random draw.
     simulate : bool
         Also replay the ride: the closed-loop simulation along the tested ride (minutes;
-        off unless asked).
+        off unless asked; ``calibrate_rider`` needs it).
     jobs : int
-        Processes for that simulation.
+        Threads for that simulation.
     progress : callable, optional
+    **options
+        The command's other options (:func:`~euc_sim.rides.request.ride_request`): ``wheel``,
+        ``domain``, ``n_boot``, ``seed``, ``rider_weight``, ``mass``, ``radius``, ``wheel_mass``,
+        ``battery_voltage``, ``efficiency``, ``calibrate_rider``.
 
     Returns
     -------
@@ -343,38 +341,32 @@ def analyse_ride(log, compare=None, *, wheel=None, report_dir=None, domain: str 
     >>> sorted(k for k in ride.to_json() if k.startswith("heldout_error_"))[:2]
     ['heldout_error_all_candidates', 'heldout_error_augmented']
     """
-    from euc_sim.rides.balance.analysis import check_data  # deferred: loads scipy (1.1 s)
-    from euc_sim.rides.grids.signals import RideAssumptions  # deferred: loads scipy (1.1 s)
-    from euc_sim.rides.source.logs import read_log  # deferred: loads euc_sim.rides.source.bounds (0.01 s)
-
-    if n_boot < MIN_BOOT:
-        raise InputError(f"n_boot must be at least {MIN_BOOT} (an effect is accepted on its "
-                         f"bootstrap interval), got {n_boot}")
-    for p in [log] + ([compare] if compare else []):
-        if not Path(p).is_file():
-            raise FileNotFoundError(f"{p}: no such log file")
-    spec = wheel_spec(wheel)
-    log = read_log(log, emit_warnings=False)
-    compare = read_log(compare, emit_warnings=False) if compare else None
-    check_data(log, compare, assumptions=RideAssumptions(), domain=domain)
-    rep = run_ride(log, compare, report_dir=report_dir, domain=domain, n_boot=n_boot, seed=seed,
-                   simulate=simulate, jobs=jobs, progress=progress, spec=spec)
-    return RideAnalysis.from_dict(rep)
+    return analyse_request(ride_request(log, compare, simulate=simulate, **options), report_dir, jobs, progress)
 
 
-def run_ride(log, compare=None, *, report_dir=None, **kwargs) -> dict:
-    """:func:`~euc_sim.rides.pipeline.ride_pipeline` on parsed rides, the report folder written when
-    given; returns the ride JSON (:func:`~euc_sim.rides.render.contract.ride_json`)."""
+def run_ride(log, compare=None, *, report_dir=None, jobs: int = 1, progress=None, **request) -> dict:
+    """:func:`~euc_sim.rides.pipeline.ride_pipeline` on rides already parsed (a
+    :class:`~euc_sim.rides.request.RideRequest` of ``request``'s fields, unchecked), the report
+    folder written when given; returns the ride JSON (:func:`~euc_sim.rides.render.contract.ride_json`)."""
     from euc_sim.rides.render.contract import ride_json  # deferred: loads scipy (1.1 s)
+
+    done = analyse_request(RideRequest(log, compare, **request), report_dir, jobs, progress)
+    return ride_json(done.result, done.files)
+
+
+def analyse_request(req: RideRequest, report_dir=None, jobs: int = 1, progress=None) -> RideAnalysis:
+    """The pipeline on a request (:func:`~euc_sim.rides.request.ride_request`), then the report
+    folder when asked (every file at the end: an interrupted run writes none)."""
+    from euc_sim.rides.pipeline import ride_pipeline  # deferred: loads scipy (1.1 s)
     from euc_sim.rides.render.report_files import write_report  # deferred: loads scipy, plotly (1.2 s)
 
-    res = ride_pipeline(log, compare, **kwargs)
+    res = ride_pipeline(req, jobs=jobs, progress=progress)
     files = None
-    if report_dir is not None:          # every file at the end: an interrupted run writes none
-        if kwargs.get("progress"):
-            kwargs["progress"](f"writing the report to {report_dir}")
+    if report_dir is not None:
+        if progress:
+            progress(f"writing the report to {report_dir}")
         files = write_report(res, Path(report_dir))
-    return ride_json(res, files)
+    return RideAnalysis(res, files)
 
 
 def render(recording, out, *, fps: float = 30.0, width: int = 640, height: int = 480,

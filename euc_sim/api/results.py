@@ -1,10 +1,10 @@
 """The typed results of the public API (:mod:`euc_sim.api`): frozen dataclasses, each
 with ``to_json()`` giving the JSON object of CONTRACT.md that the matching command writes.
 
-Where a pipeline returns a large dictionary (the diagnosis, the ride analysis), the
-result keeps CONTRACT's keys as fields, every other key of the dictionary as a typed
-field or under ``details``, and the order of the keys, so that ``to_json()`` gives
-back the command's JSON object byte for byte.
+Where a pipeline returns a large dictionary (the diagnosis), the result keeps CONTRACT's
+keys as fields, every other key of the dictionary as a typed field or under ``details``,
+and the order of the keys, so that ``to_json()`` gives back the command's JSON object
+byte for byte.  The ride analysis holds the pipeline's typed result and renders its JSON.
 """
 
 from __future__ import annotations
@@ -12,9 +12,12 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import TYPE_CHECKING, Any, Mapping
 
 from euc_sim.io import to_jsonable
+
+if TYPE_CHECKING:
+    from euc_sim.rides.result import RideResult
 
 __all__ = ["Recording", "Identification", "Diagnosis", "RideAnalysis", "Rendering",
            "Crosscheck", "CrosscheckRow"]
@@ -195,37 +198,33 @@ class Diagnosis(_KeyedResult):
 
 
 @dataclass(frozen=True, eq=False)
-class RideAnalysis(_KeyedResult):
-    """What ``euc-sim ride`` finds in a log (CONTRACT's ``euc-sim ride`` object).
+class RideAnalysis:
+    """What ``euc-sim ride`` finds in a log: the pipeline's typed ``result``
+    (:class:`~euc_sim.rides.result.RideResult`) and the report folder's ``files`` (None without one);
+    the properties read the typed tree, ``to_json()`` renders CONTRACT's object from it."""
 
-    Attributes
-    ----------
-    effects : list of dict
-        The accepted physics the nominal (inertia-only) model lacks.
-    heldout_error_nominal, heldout_error_augmented : float
-        Held-out error without and with the effects, in :attr:`error_unit`.
-    error_unit : str
-    parameters : list of dict
-        Every fitted physical quantity once: ``name``, ``estimate``, ``ci95``, ``unit``,
-        ``plausible``, ``accepted``, ``why``.
-    total_mass : dict
-        Rider plus wheel, kg: ``estimate``, ``ci95``.
-    summary : dict or None
-        The ride as a rider reads it (distance m, energy Wh, ...).
-    details : mapping
-        Every other key (``drivetrain``, ``controller``, ``simulation``, ``differences``, ...).
-    key_order : tuple of str
-    """
+    result: RideResult = field(repr=False)
+    files: Any = None
 
-    effects: list
-    heldout_error_nominal: float
-    heldout_error_augmented: float
-    error_unit: str
-    parameters: list = field(default_factory=list)
-    total_mass: Mapping[str, Any] | None = None
-    summary: Mapping[str, Any] | None = None
-    details: Mapping[str, Any] = field(default_factory=dict, repr=False)
-    key_order: tuple[str, ...] = field(default=(), repr=False)
+    effects = property(lambda self: tuple(self.result.balance.cross.accepted),
+                       doc="Names of the accepted physics the nominal (inertia-only) model lacks, in the order kept.")
+    heldout_error_nominal = property(lambda self: self.result.balance.cross.heldout_nominal,
+                                     doc="Held-out error without the effects, in :attr:`error_unit`.")
+    heldout_error_augmented = property(lambda self: self.result.balance.cross.heldout_augmented,
+                                       doc="Held-out error with the effects, in :attr:`error_unit`.")
+    error_unit = property(lambda self: self.result.balance.error_unit, doc='``"W"`` or ``"N·m"``.')
+    parameters = property(lambda self: self.result.parameters,
+                          doc="Every fitted quantity once (:class:`~euc_sim.rides.balance.parameters.Parameter`).")
+    total_mass = property(lambda self: self.result.mass.mass,
+                          doc="Rider plus wheel, kg (:class:`~euc_sim.rides.drive.mass.MassFit`).")
+    summary = property(lambda self: self.result.rider.summary,
+                       doc="The ride as a rider reads it (:class:`~euc_sim.rides.summary.summary.RideSummary`).")
+
+    def to_json(self) -> dict:
+        """CONTRACT's ``euc-sim ride`` object (plain Python types), as the command writes it."""
+        from euc_sim.rides.render.contract import ride_json  # deferred: loads scipy (1.1 s)
+
+        return to_jsonable(ride_json(self.result, self.files))
 
 
 @dataclass(frozen=True)

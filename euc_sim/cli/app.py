@@ -1,14 +1,10 @@
 """The ``euc-sim`` command line.
 
-Each subcommand is a ``_cmd_NAME(args) -> int`` function registered in
-:func:`build_parser`.  Bad input (an :class:`euc_sim.errors.InputError` raised
-anywhere below, an argparse error, or an ``OSError`` about a path) becomes one line
-on stderr naming the culprit and exit code 2.  Any other exception is a bug: one
-line saying so and where its traceback was written, exit code 1.  Nothing
-half-written is left in either case, since every output goes through
-:mod:`euc_sim.io`'s atomic writes, and an output that is an input is refused before
-anything runs (:func:`euc_sim.cli.common.check_outputs`), as is a ``--report`` folder
-holding files euc-sim did not write (its manifest lists those it did).
+Each subcommand is a ``_cmd_NAME(args) -> int`` registered in :func:`build_parser`.  Bad
+input (:class:`euc_sim.errors.InputError`, an argparse error, an ``OSError`` about a path)
+is one line naming the culprit and exit 2; any other exception is a bug: one line with
+where its traceback was written, exit 1.  Outputs are written atomically and checked
+before anything runs (:func:`euc_sim.cli.common.check_outputs`).
 """
 
 from __future__ import annotations
@@ -150,18 +146,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=_cmd_dynamics)
 
     add_sim_commands(sub)
-
     add_torques_parser(sub)
     add_identify_parser(sub)
-
     add_diagnose_commands(sub)
-
     add_ride_parser(sub)
-
-    add_rides_parser(sub)        # euc-sim rides DIR_OR_FILES... --report DIR --json F
-
+    add_rides_parser(sub)
     add_render_parser(sub)
-
     add_design_commands(sub)
     return parser
 

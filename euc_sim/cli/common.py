@@ -40,17 +40,9 @@ def seed(text: str) -> int:
 
 
 def format_eigenvalues(ev, digits: int = 3) -> str:
-    """Eigenvalues for people: ``-4.22, 0, ±5.86j, -30.1 ± 5.41j`` (1/s).
+    """Eigenvalues (complex, or (re, im) pairs), 1/s, for people: ``-4.22, 0, ±5.86j, -30.1 ± 5.41j``.
 
-    Parts below ``1e-9`` times the largest magnitude are round-off and print as 0
-    (never ``-0`` or ``4.44e-16-5.86j``); a conjugate pair prints once, with ±.
-
-    Parameters
-    ----------
-    ev : iterable of (float, float) or complex
-        Real and imaginary parts.
-    digits : int
-        Significant digits.
+    Parts below 1e-9 of the largest magnitude print as 0; a conjugate pair prints once, with ±.
     """
     z = np.array([complex(*e) if isinstance(e, (tuple, list)) else complex(e) for e in ev])
     tol = 1e-9 * max(1.0, float(np.abs(z).max(initial=0.0)))
@@ -80,13 +72,8 @@ def say(msg: str) -> None:
 
 
 def parse_params(items: Sequence[str] | None):
-    """``--param NAME=VALUE`` pairs → Params (Table 3 for the rest), checked as plausible.
-
-    Raises
-    ------
-    UsageError, euc_sim.model.parameters.ParameterError
-        naming the parameter, expected and actual value.
-    """
+    """``--param NAME=VALUE`` pairs → Params (Table 3 for the rest), checked as plausible (UsageError,
+    ParameterError)."""
     values = param_values(items)
     return check_plausible(Params.from_mapping(values), values)
 
@@ -159,9 +146,8 @@ def report_folders(args) -> list[tuple[str, Path]]:
 
 
 def _guarded(args) -> dict:
-    """Every file an output may not be, ``{identity: (what, path, named)}``: the inputs, the
-    CSV files inside a folder given as input (what ``rides`` reads; ``named`` False), and the
-    sidecars of input recordings."""
+    """Every file an output may not be, ``{identity: (what, path, named)}``: inputs, CSVs inside an input folder
+    (``named`` False), input sidecars."""
     guarded = {}
     for opt, path in _named(args, INPUT_OPTIONS):
         if opt == "--wheel" and not path.is_file():     # a shipped wheel's name, not a file
@@ -181,24 +167,12 @@ def _guarded(args) -> dict:
 def check_outputs(args) -> list:
     """Refuse, before anything runs, an output that would destroy an input or another's file.
 
-    An output may not be an input (by name, hard or symbolic link), a file inside a
-    folder given as input, the sidecar of an input recording, another output of the
-    same command, nor lie inside a ``--report`` folder; it must be a regular file or
-    nothing yet, with a name of at most 255 bytes (:func:`euc_sim.io.check_output`).
-    A ``--report`` folder (``demo``'s ``--out-dir``) must be missing, empty or hold only
-    what euc-sim wrote there (:func:`check_folder_is_ours`).  ``simulate`` does not
-    replace a ``NAME.json`` that is not an euc-sim sidecar.  Figures must have a format
-    matplotlib writes.  An input that exists must be a regular file or a folder.
-
-    Returns
-    -------
-    list
-        The report folders' states, for :func:`record_outputs` once the command ends.
-
-    Raises
-    ------
-    euc_sim.errors.BadOutputPath
-        naming the option and the path.
+    An output may not be an input (by name or link), a file in an input folder, an input's
+    sidecar, another output, nor lie inside a ``--report`` folder; it must pass
+    :func:`euc_sim.io.check_output`.  A report folder must pass :func:`check_folder_is_ours`.
+    ``simulate`` does not replace a ``NAME.json`` that is not an euc-sim sidecar; figures need
+    a format matplotlib writes; an existing input must be a regular file or a folder.
+    Returns the report folders' states for :func:`record_outputs`; raises BadOutputPath.
     """
     _check_inputs_are_files(args)
     guarded = _guarded(args)
@@ -272,21 +246,8 @@ def _manifest(folder: Path) -> dict:
 
 
 def check_folder_is_ours(folder: str | Path, option: str = "--report") -> dict:
-    """Refuse a folder that holds a file euc-sim did not write (or that was changed since).
-
-    A missing or empty folder is fine; otherwise every file in it must be listed in its
-    manifest (:data:`MANIFEST`) with the size and modification time it has now.
-
-    Returns
-    -------
-    dict
-        The folder's files now (:func:`record_outputs` compares them after the command).
-
-    Raises
-    ------
-    euc_sim.errors.BadOutputPath
-        naming the folder and its first foreign file.
-    """
+    """Refuse (BadOutputPath) a folder holding a file not in its :data:`MANIFEST` with its current size and time;
+    return its files now."""
     folder = Path(folder)
     if not folder.is_dir():
         return {}
@@ -300,12 +261,8 @@ def check_folder_is_ours(folder: str | Path, option: str = "--report") -> dict:
 
 
 def record_outputs(states) -> None:
-    """After a command: list in each report folder's manifest what euc-sim wrote there.
-
-    The files listed before that are unchanged stay; files that appeared during the run,
-    or were rewritten by it, are added; the manifest is replaced atomically.  A folder
-    whose files did not change is left alone.
-    """
+    """After a command: add to each report folder's manifest the files written during the run (atomically;
+    unchanged folders are left alone)."""
     for folder, before, start in states:
         if not folder.is_dir():
             continue
@@ -339,11 +296,7 @@ def _check_foreign_sidecars(out: Path) -> None:
 
 
 def internal_error_report(args, exc: BaseException) -> Path | None:
-    """Write ``exc``'s traceback to a file; return its path (None when no file could be written).
-
-    The file goes to the folder of the command's first output when that folder exists,
-    else to :func:`tempfile.gettempdir`.
-    """
+    """Write ``exc``'s traceback beside the command's first output (else in the temp folder); its path, or None."""
     folders = []
     for _, path in output_files(args) if hasattr(args, "command") else []:
         folders.append(path.parent if str(path.parent) else Path("."))
@@ -366,18 +319,7 @@ def internal_error_report(args, exc: BaseException) -> Path | None:
 
 
 def check_report_folder(folder, names: Sequence[str]):
-    """``--report DIR`` before any work: a folder (or nothing yet) that can take ``names``.
-
-    Returns
-    -------
-    pathlib.Path
-        The folder.
-
-    Raises
-    ------
-    NotADirectoryError, OSError
-        naming the path.
-    """
+    """``--report DIR`` before any work: a folder (or nothing yet) that can take ``names``; returns the folder."""
     out = Path(folder)
     if out.exists() and not out.is_dir():
         raise NotADirectoryError(f"--report {out}: exists and is not a folder")

@@ -1,8 +1,4 @@
-"""``euc-sim design``: which maneuvers identify h, and how many recordings of each.
-
-Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_commands`; the
-computation is :func:`euc_sim.identification.design.design`.
-"""
+"""``euc-sim design``: which maneuvers identify h (:func:`euc_sim.identification.design.design`)."""
 
 from __future__ import annotations
 

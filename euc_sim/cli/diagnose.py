@@ -1,9 +1,4 @@
-"""``euc-sim diagnose`` and ``euc-sim demo`` (the job: :func:`euc_sim.api.demo.run_demo`).
-
-Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_commands`; bad input
-raises ``ValueError`` or ``OSError`` (exit 2, one line) and nothing half-written is
-left (every output goes through :mod:`euc_sim.io`).
-"""
+"""``euc-sim diagnose`` and ``euc-sim demo`` (:func:`euc_sim.api.demo.run_demo`), registered by :func:`add_commands`."""
 
 from __future__ import annotations
 

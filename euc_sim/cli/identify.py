@@ -1,10 +1,4 @@
-"""The ``euc-sim torques`` and ``euc-sim identify`` commands (registered in :mod:`euc_sim.cli.app`).
-
-Both read recordings with :func:`euc_sim.identification.recordings.read_recording`, differentiate
-them with :mod:`euc_sim.identification.processing` and write through :mod:`euc_sim.io`'s atomic
-writes; bad input raises :class:`euc_sim.errors.InputError` (or ``OSError`` for a path), which the CLI turns into one
-line and exit code 2.
-"""
+"""The ``euc-sim torques`` and ``euc-sim identify`` commands (registered in :mod:`euc_sim.cli.app`)."""
 
 from __future__ import annotations
 
@@ -23,7 +17,7 @@ from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, load
 from euc_sim.identification.processing import MAX_ORDER, Smoothing
 from euc_sim.identification.recordings import params_from_meta, read_sidecar
 from euc_sim.identification.torques import torques
-from euc_sim.io import atomic_write, check_writable, save_figure, sidecar_paths, write_json
+from euc_sim.io import FLOAT_FORMAT, atomic_write, check_writable, save_figure, sidecar_paths, write_json
 from euc_sim.model.parameters import PLAUSIBLE, UNITS
 
 __all__ = ["add_smoothing_arguments", "add_torques_parser", "add_identify_parser",
@@ -97,12 +91,8 @@ def add_torques_parser(sub) -> argparse.ArgumentParser:
 
 
 def cmd_torques(args: argparse.Namespace) -> int:
-    """Write the five torque estimates of one recording as CSV, with a ``valid`` column.
-
-    ``valid`` is 1 on the interior samples and 0 on the samples within a filter's
-    half-width of either end (:attr:`Kinematics.interior`), where the Savitzky-Golay
-    end fits and the term filter lack support and the torques are not to be trusted.
-    """
+    """Write the five torque estimates of one recording as CSV, ``valid`` 0 within a filter's half-width of either
+    end (:attr:`Kinematics.interior`)."""
     check_writable(args.out)
     if args.h is not None:
         _check_option("--h", "h", args.h)
@@ -112,7 +102,7 @@ def cmd_torques(args: argparse.Namespace) -> int:
     valid = np.zeros(len(T), dtype=int)
     valid[sl] = 1                      # 0: within a filter's half-width of either end
     T = T.assign(valid=valid)
-    atomic_write(args.out, lambda path: T.to_csv(path, index=False, float_format="%.10g"))
+    atomic_write(args.out, lambda path: T.to_csv(path, index=False, float_format=FLOAT_FORMAT))
     d = (T["M_d1"] - T["M_d2"]).to_numpy()[sl]
     print(f"{rec.name}: h = {rec.params.h:.4g} m, {len(T)} samples; "
           f"RMSE(M_d1 - M_d2) = {float((d**2).mean() ** 0.5):.4g} N·m on the "
@@ -269,12 +259,7 @@ def _per_recording(args: argparse.Namespace, names: list[str], recs: list, per: 
 
 
 def _at_bound(names: list[str], per: list[dict], pooled: dict, riders: list) -> list[tuple[str, str]]:
-    """Every fitted quantity that ends on its search bound: (JSON path, a sentence).
-
-    The paths name the quantity in the identify JSON (``models.3dof.h``,
-    ``per_recording[0].rider.delay``); one recording's pooled fit is its own, so the
-    sentence is shared.
-    """
+    """Every fitted quantity that ends on its search bound: (JSON path, e.g. ``models.3dof.h``, a sentence)."""
     hits = []
     what = {"h": "h = {h:.3f} m lies on the search bound [{lo:g}, {hi:g}] m: it is a bound, "
                  "not a minimum (widen --h-min/--h-max or use a ride that identifies h)",
@@ -302,9 +287,8 @@ def _at_bound(names: list[str], per: list[dict], pooled: dict, riders: list) -> 
 
 
 def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dict], out: dict) -> None:
-    """``--method rollout`` / ``sysid``: h by simulation error per recording (our rollout or
-    ``mujoco.sysid``), pooled by inverse variance; added to the 3-DoF entries of the JSON
-    under the method's name, printed, and (with ``--report``) drawn."""
+    """``--method rollout`` / ``sysid``: h by simulation error per recording, pooled by inverse variance, into the
+    JSON, printed and drawn."""
     from euc_sim.identification.rollout_fit import fit_rollout  # deferred: loads scipy.signal (1.0 s)
     from euc_sim.identification.sysid_fit import fit_sysid  # deferred: loads scipy.signal (0.9 s)
 

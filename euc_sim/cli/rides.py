@@ -1,10 +1,5 @@
-"""``euc-sim rides DIR_OR_FILES... --report DIR --json F``: many rides of one wheel.
-
-Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_rides_parser`.
-Bad input (no readable log, logs of different wheels, an unwritable output)
-raises ``ValueError`` or ``OSError``: one line naming the file, exit 2; nothing is
-written then.
-"""
+"""``euc-sim rides DIR_OR_FILES... --report DIR --json F``: many rides of one wheel (registered by
+:func:`add_rides_parser`)."""
 
 from __future__ import annotations
 
@@ -18,6 +13,7 @@ from euc_sim.cli.common import check_report_folder, seed
 from euc_sim.cli.options import bounded, workers
 from euc_sim.errors import BadInputFile, InputError
 from euc_sim.io import check_writable, file_kind, shown, write_json
+from euc_sim.rides.request import BOUNDS
 from euc_sim.rides.source.spec import wheel_spec
 
 __all__ = ["add_rides_parser", "find_logs", "run_rides"]
@@ -46,14 +42,8 @@ def _regular(path: Path) -> Path:
 
 
 def find_logs(items) -> list[Path]:
-    """The log files named, and the recognised ride logs under each folder named.
-
-    Raises
-    ------
-    FileNotFoundError
-        for a path that does not exist; ``InputError`` for a folder holding no ride log, or a
-        log (named or in a folder) that is a FIFO, device or socket.
-    """
+    """The log files named and the ride logs under each folder named (FileNotFoundError; InputError for a folder
+    without logs or a special file)."""
     out: list[Path] = []
     for item in items:
         p = Path(item)
@@ -135,9 +125,9 @@ def add_rides_parser(sub) -> None:
     p.add_argument("--wheel", metavar="NAME|SPEC.csv",
                    help="the wheel: a shipped wheel's name (v9, lynx, ...) or a specification file "
                         "(battery architecture, cells): each ride's resistance against the pack's expected one")
-    p.add_argument("--n-boot", type=bounded(10, 100_000, integer=True), default=100, metavar="N",
-                   help="bootstrap replicates of each resistance, at least 10: the intervals are "
-                        "bootstrap percentiles (default 100)")
+    p.add_argument("--n-boot", type=bounded(*BOUNDS["n_boot"]), default=100, metavar="N",
+                   help="bootstrap replicates of each resistance: the intervals are bootstrap percentiles "
+                        "(default 100)")
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
     p.add_argument("--workers", type=workers(), default=1, metavar="N", help="processes reading the logs (default 1)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")

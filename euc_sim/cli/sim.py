@@ -1,8 +1,4 @@
-"""``euc-sim simulate``, ``euc-sim dataset`` and ``euc-sim stability``.
-
-Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_commands`; bad input
-raises ``ValueError`` (exit 2, one line) and nothing is written.
-"""
+"""``euc-sim simulate``, ``euc-sim dataset`` and ``euc-sim stability`` (registered by :func:`add_commands`)."""
 
 from __future__ import annotations
 
@@ -59,7 +55,8 @@ def _check_choice(option: str, value: str, valid) -> None:
 
 
 def _voltage_limit(path, R: float, voltage: float | None) -> dict:
-    """``MotorPD`` voltage-limit settings from a ride JSON (:func:`euc_sim.controllers.firmware.voltage_limit_settings`)."""
+    """``MotorPD`` voltage-limit settings from a ride JSON
+    (:func:`euc_sim.controllers.firmware.voltage_limit_settings`)."""
     from euc_sim.controllers.firmware import FirmwareError, voltage_limit_settings  # deferred: loads scipy.optimize (0.4 s)
 
     try:
@@ -142,11 +139,8 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _drift_shape(text, eff, h: float = 0.6, duration: float = 15.0):
-    """``--drift-shape`` (needs ``--effect cog_height_drift=VALUE``), or None.
-
-    The drift must leave the rider's centre of gravity above the ankle: h(t) (m) at least
-    the plausible least h (:data:`euc_sim.model.parameters.PLAUSIBLE`) over the ``duration`` (s).
-    """
+    """``--drift-shape`` (needs ``--effect cog_height_drift=VALUE``), or None; h(t) must stay above the plausible
+    least h over ``duration`` s."""
     if text is not None and "cog_height_drift" not in eff:
         raise InputError("--drift-shape shapes the cog_height_drift effect; add --effect cog_height_drift=VALUE")
     shape = None if text is None else parse_drift_shape(text)

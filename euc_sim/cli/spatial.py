@@ -1,6 +1,4 @@
-"""``euc-sim simulate --model 3d`` and ``euc-sim render``: the spatial model on the
-command line.  Bad input raises ``ValueError`` (exit 2, one line); nothing is written
-half-way (atomic writes of :mod:`euc_sim.io`)."""
+"""``euc-sim simulate --model 3d`` and ``euc-sim render``: the spatial model on the command line."""
 
 from __future__ import annotations
 

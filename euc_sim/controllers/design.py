@@ -1,16 +1,9 @@
 """Design of the rider's gains with python-control.
 
-The plant is the analytic linearisation of eq. (5) (:func:`euc_sim.model.linearize.jacobians`)
-at upright riding, with the motor PD (:class:`euc_sim.controllers.motor.MotorPD`) closed
-inside it, reduced to s = (ẋ, γ, φ, γ̇, φ̇) (x is cyclic) and driven by M_h:
-
-    ṡ = A_s s + B_s M_h,   A_s = (A + B_d K_motor)|_s,   B_s = B_h|_s.
-
-The rider's gains K minimise ∫ sᵀQs + R M_h² (``control.lqr``), with Q and R from
-the largest tolerable deviations (Bryson's rule, :data:`DEFAULT_SCALES`).  The
-reaction delay is handled by the predictor of :mod:`euc_sim.controllers.rider` (its rows:
-:func:`euc_sim.controllers.plant.predictor_rows`), and :func:`delayed_closed_loop_radius` checks
-the sampled loop with the delay buffer exactly as the simulation runs it.
+K minimises ∫ sᵀQs + R M_h² (``control.lqr``) on the plant of
+:mod:`euc_sim.controllers.plant`, Q and R from the largest tolerable deviations (Bryson's
+rule, :data:`DEFAULT_SCALES`); :func:`delayed_closed_loop_radius` checks the sampled loop
+with the delay buffer and the predictor exactly as the simulation runs it.
 """
 
 from __future__ import annotations
@@ -29,10 +22,8 @@ from euc_sim.model.parameters import Params, TABLE3
 __all__ = ["DEFAULT_SCALES", "STATE_NAMES", "design_rider",
            "delayed_closed_loop_matrix", "delayed_closed_loop_radius", "delay_tolerance"]
 
-#: Bryson's-rule scales: tolerable speed error (m/s), body and rider pitch errors (rad),
-#: their rates (rad/s; None: not weighted), the integral of the speed error (m; None:
-#: no integral action) and the ankle torque (N·m).  The integral is weighted lightly:
-#: it only removes steady speed errors (slopes, drag), slowly, like a rider adapting.
+#: Bryson's-rule scales: speed error (m/s), pitch errors (rad), their rates (rad/s; None:
+#: not weighted), the speed error's integral (m; None: no integral action), ankle torque (N·m).
 DEFAULT_SCALES = {"x_dot": 0.15, "gamma": 0.2, "phi": 0.1, "gamma_dot": None, "phi_dot": None,
                   "x_int": 0.5, "M_h": 5.0}
 STATE_NAMES = ("x_dot", "gamma", "phi", "gamma_dot", "phi_dot", "x_int")
@@ -40,24 +31,10 @@ STATE_NAMES = ("x_dot", "gamma", "phi", "gamma_dot", "phi_dot", "x_int")
 
 def design_rider(p: Params = TABLE3, motor: MotorPD | None = None, delay: float = 0.15,
                  scales: dict | None = None, **rider_settings) -> Rider:
-    """LQR gains of the rider on the linearised loop with the motor PD in it.
+    """LQR rider (M_h = −K s) on the linearised loop with the motor PD in it.
 
-    Parameters
-    ----------
-    p : Params
-    motor : MotorPD, optional
-    delay : float
-        Reaction delay of the returned rider, s.
-    scales : dict, optional
-        Overrides of :data:`DEFAULT_SCALES`.
-    **rider_settings
-        Other :class:`~controllers.rider.Rider` fields (noise_std, predictor, ...).
-
-    Returns
-    -------
-    Rider
-        With K such that M_h = −K s stabilises ṡ = A_s s + B_s M_h (s with the
-        speed-error integral appended unless ``scales["x_int"]`` is None).
+    ``delay``: the rider's reaction delay, s; ``scales``: overrides of :data:`DEFAULT_SCALES`
+    (``x_int`` None: no integral state); ``rider_settings``: other :class:`Rider` fields.
     """
     import control  # deferred: loads control (1.6 s)
 
@@ -79,18 +56,8 @@ def delayed_closed_loop_matrix(p: Params, motor: MotorPD, rider: Rider, dt: floa
                                true_delay: float | None = None) -> np.ndarray:
     """Transition matrix of the sampled loop with the delay buffer and the predictor.
 
-    State (s_k, s_{k−1}, …, s_{k−D}, δu_{k−1}, …, δu_{k−n}) with D = true delay / dt
-    (the plant's) and n = rider.delay / dt (the predictor's).
-
-    Parameters
-    ----------
-    p : Params
-    motor : MotorPD
-    rider : Rider
-    dt : float
-        Control period, s.
-    true_delay : float, optional
-        The actual delay, s (default: the rider's own).
+    State (s_k, …, s_{k−D}, δu_{k−1}, …, δu_{k−n}), D = ``true_delay``/dt (default the
+    rider's) and n = rider.delay/dt; ``dt``: control period, s.
     """
     K = np.asarray(rider.K, dtype=float)
     A, B = rider_plant(p, motor, has_integral(K))
@@ -124,10 +91,7 @@ def delayed_closed_loop_matrix(p: Params, motor: MotorPD, rider: Rider, dt: floa
 def delayed_closed_loop_radius(p: Params = TABLE3, motor: MotorPD | None = None,
                                rider: Rider | None = None, speed: float = 0.0,
                                dt: float = 0.005, true_delay: float | None = None) -> float:
-    """Spectral radius of :func:`delayed_closed_loop_matrix` (< 1: stable).
-
-    ``dt`` defaults to 5 ms to keep the matrix small; the simulation runs at 1 ms.
-    """
+    """Spectral radius of :func:`delayed_closed_loop_matrix` (< 1: stable); ``dt`` 5 ms keeps it small."""
     motor = motor or MotorPD()
     rider = rider or design_rider(p, motor)
     T = delayed_closed_loop_matrix(p, motor, rider, dt, true_delay)
@@ -136,13 +100,8 @@ def delayed_closed_loop_radius(p: Params = TABLE3, motor: MotorPD | None = None,
 
 def delay_tolerance(p: Params = TABLE3, motor: MotorPD | None = None, rider: Rider | None = None,
                     dt: float = 0.005, max_delay: float = 0.6) -> tuple[float, float]:
-    """Range of actual delays the rider (with its predictor tuned to rider.delay) survives.
-
-    Returns
-    -------
-    (lo, hi) : tuple of float
-        Smallest and largest actual delay, s, on a dt grid, for which the sampled loop
-        stays stable, searched outward from the rider's own delay.
+    """(lo, hi), s: the actual delays on a ``dt`` grid the rider (his predictor tuned to rider.delay)
+    survives, searched outward from his own; NaNs if unstable at it.
     """
     motor = motor or MotorPD()
     rider = rider or design_rider(p, motor)

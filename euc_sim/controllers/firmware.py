@@ -1,28 +1,13 @@
 """The wheel's measured balance law as the simulator's motor controller.
 
-``euc-sim ride`` writes the law a real wheel's firmware runs into the ride JSON's
-``controller`` entry (:mod:`euc_sim.rides.law.controller_law`): a PD on the pitch,
-M_d = K_p (γ − γ_ref) + K_d γ̇, with the catalogued terms that held-out
-validation kept.  :func:`firmware_motor` turns that entry into a
-:class:`euc_sim.controllers.motor.MotorPD`, the interface the simulator's engines and the
-rider's design use, carrying K_p, K_d, the torque limit and the tilt-back
-(onset and slope) where the ride identified them.
-
-Not carried (listed by :func:`firmware_motor` in its notes): a set-point moving
-with acceleration, integral action and a braking gain unlike the driving one;
-MotorPD has no state for them.  The law must be in N·m (the ride had a torque
-constant: ``--wheel`` with the wheel's diameter, or a logged torque).
-
-A K_d the log cannot resolve (its 95 % interval, or the estimate where no interval is
-given, at or below zero) is replaced by the smallest K_d that gives the body pitch mode
-the damping ratio :data:`euc_sim.controllers.damping.ZETA_UNRESOLVED` at the measured K_p
-(:func:`euc_sim.controllers.damping.damping_floor`), or the estimate where that is larger; the
-notes say so with both figures.
-
-A fitted torque limit below the largest |torque| the same log measured (the term's
-``largest_measured``) is raised to it: the fit's limit is the level that clips the law's
-prediction best in least squares, not a bound (on synthetic logs it came out at 27–34 N·m
-for a true 45, docs/controller.md), and the firmware did give the larger torque.
+:func:`firmware_motor` turns the ride JSON's ``controller`` entry (the PD law
+M_d = K_p (γ − γ_ref) + K_d γ̇ of :mod:`euc_sim.rides.law.controller_law`, in N·m) into a
+:class:`~euc_sim.controllers.motor.MotorPD`: K_p, K_d, the torque limit and the tilt-back
+where identified; what MotorPD cannot carry is listed in the notes.  A K_d the log does
+not resolve is replaced by :func:`~euc_sim.controllers.damping.damping_floor` (pitch-mode
+damping ratio :data:`~euc_sim.controllers.damping.ZETA_UNRESOLVED`) if larger; a fitted
+torque limit below the largest |torque| the log measured is raised to it (the fit's limit
+is not a bound; docs/controller.md).
 """
 
 from __future__ import annotations
@@ -48,32 +33,13 @@ class FirmwareError(InputError):
 
 def firmware_settings(ctrl, p: Params | None = None,
                       zeta: float = ZETA_UNRESOLVED) -> tuple[dict, list[str]]:
-    """MotorPD settings from a ride JSON's ``controller`` entry, and notes.
+    """MotorPD settings from a ride JSON's ``controller`` entry (CONTRACT's object), and notes.
 
-    Parameters
-    ----------
-    ctrl : dict
-        CONTRACT's ``controller`` object (``law``, ``terms`` [{name, estimate, ci95, unit}], ``sign``).
-    p : Params, optional
-        The ride's parameters, for the damping of an unresolved K_d (default the paper's
-        Table 3, said in the notes).
-    zeta : float
-        Damping ratio given to the pitch mode when K_d is unresolved.
-
-    Returns
-    -------
-    settings : dict
-        ``Kp`` (N·m/rad), ``Kd`` (N·m·s/rad; unresolved: see the module) and,
-        where identified, ``torque_limit`` (N·m), ``tiltback_speed`` (m/s),
-        ``tiltback_gain`` (rad per m/s).
-    notes : list of str
-        What was not carried, or changed.
-
-    Raises
-    ------
-    FirmwareError
-        for a missing law (``law`` null: its ``why`` is quoted), a law not in N·m,
-        or a term that is not a finite number.
+    ``p``: the ride's parameters for the damping of an unresolved K_d (default Table 3),
+    given the pitch-mode damping ratio ``zeta``.  Returns ``settings`` (``Kp`` N·m/rad,
+    ``Kd`` N·m·s/rad, and where identified ``torque_limit`` N·m, ``tiltback_speed`` m/s,
+    ``tiltback_gain`` rad per m/s) and ``notes`` (what was not carried, or changed).
+    ``FirmwareError`` for a missing law, a law not in N·m, or a non-finite term.
     """
     if not isinstance(ctrl, dict):
         raise FirmwareError(f"controller: expected an object, got {type(ctrl).__name__}")
@@ -127,8 +93,7 @@ def firmware_settings(ctrl, p: Params | None = None,
 
 
 def kd_resolved(term) -> bool:
-    """Whether a ``controller`` K_d term (dict or None) is resolved: its 95 % interval
-    (else its estimate) lies above zero."""
+    """Whether a ``controller`` K_d term (dict or None) lies above zero: its 95 % interval, else its estimate."""
     if term is None:
         return False
     ci = term.get("ci95")
@@ -143,15 +108,7 @@ def _ci(term) -> str:
 
 
 def firmware_motor(ctrl, p: Params | None = None, **limits) -> tuple[MotorPD, list[str]]:
-    """The measured law as a :class:`MotorPD` (``limits``: its voltage-limit settings), and notes.
-
-    ``p``: the ride's parameters (:func:`firmware_settings`).
-
-    Raises
-    ------
-    FirmwareError
-        see :func:`firmware_settings`; also when the settings are out of MotorPD's range.
-    """
+    """The measured law as a :class:`MotorPD` with voltage ``limits``, and notes; ``FirmwareError`` as :func:`firmware_settings` or out of range."""
     settings, notes = firmware_settings(ctrl, p)
     try:
         return MotorPD(**settings, **limits), notes
@@ -162,29 +119,10 @@ def firmware_motor(ctrl, p: Params | None = None, **limits) -> tuple[MotorPD, li
 def voltage_limit_settings(ride: dict, R: float, voltage: float | None = None) -> dict:
     """:class:`MotorPD`'s voltage-limit settings from a ride JSON's identified drivetrain.
 
-    K_v (V per m/s) and the resistive drop r_F (V/N) give r_M = r_F/R (V/(N·m)),
-    with the dead time and flux weakening where the ride kept them.
-
-    Parameters
-    ----------
-    ride : dict
-        The ride JSON (``drivetrain``, ``envelope``).
-    R : float
-        Wheel radius, m.
-    voltage : float, optional
-        Battery voltage, V; default the envelope's full-charge voltage, else the
-        drivetrain's ``ocv_start``.
-
-    Returns
-    -------
-    dict
-        ``voltage`` V, ``back_emf`` V·s/m, ``drop`` V/(N·m), and ``dead_time`` (1),
-        ``flux_weakening`` V/(m/s)², ``fw_speed`` m/s where identified.
-
-    Raises
-    ------
-    FirmwareError
-        naming the missing or invalid field.
+    ``R``: wheel radius, m; ``voltage``: battery voltage, V (default the envelope's
+    full-charge voltage, else ``ocv_start``).  Returns ``voltage`` V, ``back_emf`` V·s/m,
+    ``drop`` = r_F/R V/(N·m), and where identified ``dead_time``, ``flux_weakening``
+    V/(m/s)², ``fw_speed`` m/s; ``FirmwareError`` naming a missing or invalid field.
     """
     dt = ride.get("drivetrain") if isinstance(ride, dict) else None
     dt = dt if isinstance(dt, dict) else {}

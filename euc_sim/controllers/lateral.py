@@ -1,23 +1,15 @@
 """The rider's lateral law: balance sideways and steer along a path, by leaning and
 twisting the wheel.
 
-Designed on MuJoCo's own linearisation of the spatial model
-(:func:`mujoco.mjd_transitionFD` on :class:`euc_sim.model.spatial.EucSpatial`) at
-upright straight running at the maneuver's speed.  At that operating point the
-linearisation splits exactly into a longitudinal part (kept as in the planar work:
-motor PD and the delayed rider with predictor) and a lateral part, whose state is
+An LQR design (``control.dlqr``, Bryson's rule from :data:`LATERAL_SCALES`) on MuJoCo's
+linearisation (``mjd_transitionFD``) of :class:`euc_sim.model.spatial.EucSpatial` at
+upright straight running, whose lateral part has the state :data:`LATERAL_STATE`
 
-    z = (e_y, e_ψ, ϑ, lean, twist, ė_y, ϑ̇, ψ̇, leaṅ, twisṫ, ∫e_y dt)
+    z = (e_y, e_ψ, ϑ, lean, twist, ė_y, ϑ̇, ψ̇, leaṅ, twisṫ, ∫e_y dt)
 
-with e_y the lateral offset of C from the path (m, left positive), e_ψ the heading
-error (rad), ϑ the tilt, lean and twist the rider's ankle hinges (rad), and inputs
-u = (M_lean, M_twist), N·m.  The gains K minimise Σ zᵀQz + uᵀRu (``control.dlqr``
-on the 1 ms transition matrices, Bryson's rule from :data:`LATERAL_SCALES`); on a
-curve the references are those of a steady turn of curvature κ:
-ϑ_ref = −atan(v² κ / g) (into the turn: positive ϑ tilts to the right), ψ̇_ref = v κ.
-
-:func:`lateral_delay_margin` is the largest common input delay the sampled loop
-tolerates (spectral radius of the loop with a delay line).
+(e_y the offset of C from the path, m, left positive; angles rad) and inputs u =
+(M_lean, M_twist), N·m.  On a curve of curvature κ the references are a steady turn's:
+ϑ_ref = −atan(v² κ / g), ψ̇_ref = v κ.  See docs/spatial.md (Lateral rider).
 """
 
 from __future__ import annotations
@@ -43,7 +35,7 @@ LATERAL_SCALES = {"e_y": 0.3, "e_psi": 0.3, "theta": 0.1, "lean": 0.2, "twist": 
 
 @dataclass(frozen=True)
 class LateralRider:
-    """Lateral gains u = −K z (K: 2 × 11) designed at ``speed``.
+    """Lateral gains u = −K z designed at ``speed``.
 
     Attributes
     ----------
@@ -54,20 +46,13 @@ class LateralRider:
     dt : float
         Control period of the design, s.
     delay_margin : float
-        Largest common delay of both inputs the sampled loop tolerates, s; with a
-        reaction ``delay``, the largest delay beyond it (the predictor expecting
-        ``delay``).
+        Largest common input delay (beyond ``delay``, predicted) the sampled loop tolerates, s.
     torque_limit : float
         |M_lean|, |M_twist| limit, N·m.
     delay : float
         The rider's reaction delay, s: he senses z(t − delay).
-    K_pred : numpy.ndarray, shape (2, 11)
-        K Φⁿ (n = delay/dt): the gains on the sensed, delayed state.
-    K_hist : numpy.ndarray, shape (2, 2n)
-        (K Φ^{n−1} Γ, …, K Γ) side by side: the gains on the last n commands (oldest
-        first), so that u = −K ẑ(t) with the predicted present state
-        ẑ = Φⁿ z(t − delay) + Σ Φ^{n−1−i} Γ u_{k−n+i} (as the longitudinal rider,
-        :func:`euc_sim.controllers.plant.predictor_rows`).
+    K_pred, K_hist : numpy.ndarray, shapes (2, 11), (2, 2n)
+        The predictor's gains (:func:`lateral_predictor_rows`), n = delay/dt.
     """
 
     K: np.ndarray
@@ -93,22 +78,8 @@ class LateralRider:
 
 def lateral_plant(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3,
                   tyre=None) -> tuple[np.ndarray, np.ndarray]:
-    """Discrete lateral plant (Φ, Γ) at upright straight running, from ``mjd_transitionFD``.
-
-    Parameters
-    ----------
-    params : Params
-    speed : float
-        Forward speed, m/s.
-    dt : float
-        Timestep, s.
-    tyre : TyreContact, optional
-
-    Returns
-    -------
-    Phi : numpy.ndarray, shape (11, 11)
-    Gamma : numpy.ndarray, shape (11, 2)
-        On :data:`LATERAL_STATE` (the integral row appended), inputs (M_lean, M_twist).
+    """Discrete lateral plant (Φ (11, 11), Γ (11, 2)) on :data:`LATERAL_STATE` at upright
+    straight running at ``speed``, m/s, timestep ``dt``, s, from ``mjd_transitionFD``.
     """
     import mujoco
 
@@ -140,16 +111,9 @@ def lateral_plant(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3,
 
 def design_lateral(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3,
                    tyre=None, scales: dict | None = None, delay: float = 0.0) -> LateralRider:
-    """LQR lateral rider (``control.dlqr``) on :func:`lateral_plant`.
-
-    With a reaction ``delay`` (s) the rider senses the lateral state ``delay`` late
-    and predicts the present one on the same plant (:func:`lateral_predictor_rows`);
-    the delay margin is then the extra delay the predicting loop tolerates.
-
-    Raises
-    ------
-    ValueError
-        when the design does not stabilise the sampled plant.
+    """LQR lateral rider on :func:`lateral_plant`; with a reaction ``delay``, s, the rider
+    predicts the present state (:func:`lateral_predictor_rows`).  ``InputError`` for a bad
+    speed or delay.
     """
     import control
 
@@ -174,13 +138,8 @@ def design_lateral(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3
 
 
 def lateral_predictor_rows(Phi: np.ndarray, Gam: np.ndarray, K: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """K Φⁿ and (K Φ^{n−1} Γ, …, K Γ): the predictor's gains for a delay of n steps.
-
-    Returns
-    -------
-    K_pred : numpy.ndarray, shape (2, 11)
-    K_hist : numpy.ndarray, shape (2, 2n)
-        Column pairs weight the commands u_{k−n}, …, u_{k−1} (oldest first).
+    """K Φⁿ (2, 11) and (K Φ^{n−1} Γ, …, K Γ) (2, 2n): the predictor's gains for a delay of n
+    steps, ẑ = Φⁿ z_{k−n} + Σ Φ^{n−1−i} Γ u_{k−n+i} (commands oldest first).
     """
     K = np.asarray(K, dtype=float)
     m = Gam.shape[1]
@@ -194,13 +153,9 @@ def lateral_predictor_rows(Phi: np.ndarray, Gam: np.ndarray, K: np.ndarray, n: i
 
 def lateral_delay_margin(Phi: np.ndarray, Gam: np.ndarray, K: np.ndarray, dt: float,
                          block: int = 5, max_delay: float = 0.5, delay: float = 0.0) -> float:
-    """Largest common input delay (s, on a ``block·dt`` grid) for which the loop
-    z⁺ = Φ z + Γ u(t − τ), u = −K z stays stable (spectral radius < 1).
-
-    With a reaction ``delay`` the rider senses z(t − delay) and predicts the present
-    state (:func:`lateral_predictor_rows`, at the ``block·dt`` resolution); the margin
-    is then the largest delay τ beyond ``delay`` that the predicting loop tolerates.
-    The loop is resampled at ``block·dt`` (Φᵇ, Σ Φⁱ Γ) to keep the delay line short.
+    """Largest common input delay τ, s (on a ``block·dt`` grid), for which z⁺ = Φ z + Γ u(t − τ),
+    u = −K ẑ stays stable (spectral radius < 1); with a reaction ``delay`` predicted, the
+    margin beyond it.
     """
     Pb = np.linalg.matrix_power(Phi, block)
     Gb = sum(np.linalg.matrix_power(Phi, i) for i in range(block)) @ Gam
@@ -215,9 +170,9 @@ def lateral_delay_margin(Phi: np.ndarray, Gam: np.ndarray, K: np.ndarray, dt: fl
 
 
 def _delayed_loop(Pb, Gb, K_pred, K_hist, S: int, D: int) -> np.ndarray:
-    """Transition matrix of the sampled loop with sensing delay S (predicted) and an
-    unpredicted input delay D, blocks; state (z_k, z_{k−1}, …, z_{k−S}, u_{k−1}, …,
-    u_{k−S−D})."""
+    """Transition matrix of the sampled loop with sensing delay S (predicted) and input delay D,
+    blocks; state (z_k, …, z_{k−S}, u_{k−1}, …, u_{k−S−D}).
+    """
     n, m = Gb.shape
     H = max(S + D, 1)                              # commands kept
     N = n * (S + 1) + m * H

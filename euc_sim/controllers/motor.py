@@ -1,19 +1,10 @@
-"""The EUC's motor controller: a PD law on the body pitch.
-
-The paper (Section 3) suspects the embedded law is based on γ and γ̇; the simplest
-such law is
+"""The EUC's motor controller: a PD law on the body pitch (Section 3),
 
     M_d = K_p (γ − γ_ref(ẋ)) + K_d γ̇,        |M_d| ≤ M_max,
 
-with γ_ref = 0 unless tilt-back is on: above ``tiltback_speed`` real EUCs tilt the
-pedals back, γ_ref = −k_tb (|ẋ| − v_tb) sign(ẋ), so the rider has to lean back and
-slows down.  M_d > 0 drives the wheel forward and pitches the body back (eq. 8).
-
-Voltage limit (optional, from a ride's identified drivetrain): at full duty the
-controller applies the battery voltage V to the motor, ``V = K_v·|ẋ| + r_M·M``
-(back-EMF plus resistive drop), so while motoring (M·ẋ > 0) the torque cannot
-exceed ``M_V(ẋ) = (V − K_v·|ẋ|)/r_M``, which falls with speed and with charge.
-Braking is not voltage-limited (the back-EMF helps it).
+γ_ref = −k_tb (|ẋ| − v_tb) sign(ẋ) above the tilt-back speed v_tb, else 0; M_d > 0
+drives the wheel forward and pitches the body back (eq. 8).  An optional voltage limit
+(from a ride's drivetrain) caps the motoring torque at M_V(ẋ) = (V − K_v|ẋ|)/r_M.
 """
 
 from __future__ import annotations
@@ -37,30 +28,27 @@ class MotorPD:
     Attributes
     ----------
     Kp : float
-        Proportional gain, N·m/rad.  With Table 3 a forward acceleration a needs
-        γ ≈ R m_11 a / K_p, about 1.6° per m/s² at the default.
+        Proportional gain, N·m/rad.
     Kd : float
         Derivative gain, N·m·s/rad.
     torque_limit : float
-        |M_d| limit, N·m (a hub motor's peak torque).
+        |M_d| limit, N·m.
     tiltback_speed : float
-        Speed above which the set-point tilts back, m/s; ``inf`` (default) for none.
+        Speed above which the set-point tilts back, m/s; ``inf`` for none.
     tiltback_gain : float
-        Tilt-back slope, rad per m/s above ``tiltback_speed``.
+        Tilt-back slope, rad per m/s.
     voltage : float
-        Battery voltage for the voltage limit, V; ``inf`` (default) for none.
+        Battery voltage of the voltage limit, V; ``inf`` for none.
     back_emf : float
-        K_v, back-EMF per forward speed, V·s/m.
+        K_v, V·s/m.
     drop : float
-        r_M, resistive drop per torque, V/(N·m) (the ride's V/N over the wheel radius).
+        r_M, resistive drop per torque, V/(N·m).
     dead_time : float
-        c_dt, duty lost to the bridge's dead time (1): the motor sees (1 − c_dt)·V.
+        c_dt, duty lost to dead time: the motor sees (1 − c_dt)·V.
     flux_weakening : float
-        c_fw, fall of the back-EMF per speed with speed, V/(m/s)²: back-EMF
-        K_v·|ẋ| − c_fw·|ẋ|·min(|ẋ|, fw_speed) (:mod:`euc_sim.rides.drive.pwm`).
+        c_fw, V/(m/s)²: back-EMF K_v|ẋ| − c_fw|ẋ| min(|ẋ|, fw_speed) (:mod:`euc_sim.rides.drive.pwm`).
     fw_speed : float
-        Speed, m/s, beyond which the flux weakening stops growing (the fastest
-        of the ride it was fitted on); ``inf`` for none.
+        Speed beyond which the flux weakening stops growing, m/s; ``inf`` for none.
     """
 
     Kp: float = 600.0
@@ -108,17 +96,7 @@ class MotorPD:
         return -self.tiltback_gain if abs(speed) > self.tiltback_speed else 0.0
 
     def torque(self, gamma: float, gamma_dot: float, speed: float = 0.0) -> float:
-        """Motor torque M_d, N·m, limited to ±``torque_limit`` (:func:`pd_torque`).
-
-        Parameters
-        ----------
-        gamma : float
-            EUC body pitch, rad.
-        gamma_dot : float
-            Its rate, rad/s.
-        speed : float
-            Forward speed ẋ, m/s (used by tilt-back only).
-        """
+        """Motor torque M_d, N·m, from γ (rad), γ̇ (rad/s) and ẋ (m/s, for tilt-back and the voltage limit)."""
         return pd_torque(gamma, gamma_dot, speed, *self.law_args())
 
     def law_args(self) -> tuple:
@@ -136,8 +114,7 @@ class MotorPD:
         return max(((1.0 - self.dead_time) * self.voltage - emf) / self.drop, 0.0)
 
     def as_dict(self) -> dict:
-        """Settings as a JSON-ready dict (``inf`` tilt-back speed as ``None``; the
-        dead-time and flux-weakening settings only where a drivetrain set them)."""
+        """Settings as a JSON-ready dict (``inf`` as ``None``; dead time and flux weakening only where set)."""
         d = asdict(self)
         for k, default in (("dead_time", 0.0), ("flux_weakening", 0.0), ("fw_speed", math.inf)):
             if d[k] == default:
@@ -151,11 +128,8 @@ class MotorPD:
 def pd_torque(gamma: float, gamma_dot: float, speed: float, Kp: float, Kd: float, torque_limit: float,
               tiltback_speed: float, tiltback_gain: float, voltage: float, back_emf: float, drop: float,
               dead_time: float, flux_weakening: float, fw_speed: float) -> float:
-    """The law of :class:`MotorPD` as a pure function of floats, N·m.
-
-    The one source of the motor law: :meth:`MotorPD.torque` calls it, and
-    :mod:`euc_sim.simulation.native` compiles it (numba) into MuJoCo's control callback.
-    Arguments after ``speed`` are :meth:`MotorPD.law_args`; γ in rad, γ̇ in rad/s, ẋ in m/s.
+    """The law of :class:`MotorPD` as a pure function of floats, N·m: the one source of the motor law
+    (compiled by the native loops).  Arguments after ``speed`` are :meth:`MotorPD.law_args`.
     """
     g_ref = 0.0
     if tiltback_speed != math.inf:                  # γ_ref(ẋ), MotorPD.gamma_ref

@@ -1,22 +1,14 @@
 """The human rider: an ankle torque M_h that balances the rider over the wheel and
 follows a desired speed profile.
 
-To speed up the rider leans forward (φ > 0), to slow down leans back (φ < 0), as the
-paper's deceleration data show (Fig. 6(c)-(d)).  The law is a trim (feedforward) for
-the planned acceleration plus state feedback on the deviation from it:
+A trim for the planned acceleration (:func:`trim`, eqs. 5-8) plus LQR state feedback
+(:mod:`euc_sim.controllers.design`) on the deviation from it:
 
-    M_h(t) = M_h*(a_ref) − K · ŝ(t),    s = (ẋ − v_ref, γ − γ*, φ − φ*, γ̇, φ̇, ∫(ẋ − v_ref)dt),
+    M_h(t) = M_h*(a_ref) − K · ŝ(t),    s = (ẋ − v_ref, γ − γ*, φ − φ*, γ̇, φ̇, ∫(ẋ − v_ref)dt).
 
-with the trim (γ*, φ*, M_d*, M_h*) of steady acceleration a from eqs. (5)-(8)
-(:func:`trim`) and K from ``control.lqr`` (:mod:`euc_sim.controllers.design`).
-
-The rider senses the state with a reaction delay τ (default 0.15 s), implemented as a
-buffer: at step k the rider sees s_{k−n}, n = τ/dt.  A delay that long is close to
-the limit of what plain state feedback tolerates on this plant (the rider
-pendulum's unstable pole is near 4 rad/s; see ``euc-sim stability``), so by default
-the rider compensates it with an internal model, as in the optimal-control model
-of the human operator (Kleinman, Baron and Levison): the sensed state is predicted
-over the delay with the linearised closed loop and the rider's own recent commands,
+The rider senses s with a reaction delay τ = n dt (default 0.15 s) and predicts it over
+the delay with the linearised closed loop and his own recent commands (Kleinman, Baron
+and Levison's internal model):
 
     ŝ_k = Φⁿ s_{k−n} + Σ_{i<n} Φ^{n−1−i} Γ δu_{k−n+i}.
 
@@ -38,8 +30,7 @@ from euc_sim.model.parameters import Params
 
 __all__ = ["Rider", "RiderError", "trim", "motor_noise", "RiderRun", "DEFAULT_RIDER_NOISE", "delayed_lqr_torque"]
 
-#: Rider motor noise of generated recordings (command line, datasets), N·m, 1 sigma:
-#: the rider sways, as the paper's constant-speed recordings show.
+#: Rider motor noise of generated recordings (command line, datasets), N·m, 1 sigma.
 DEFAULT_RIDER_NOISE = 3.0
 
 
@@ -47,8 +38,7 @@ class RiderError(InputError):
     """An invalid rider setting; the message names it."""
 
 
-#: Longest reaction delay a rider is given, s: a human's is 0.1–0.4 s, and the delay
-#: buffer and the predictor grow with it.
+#: Longest reaction delay a rider is given, s (a human's is 0.1–0.4 s).
 MAX_DELAY = 1.0
 
 
@@ -59,23 +49,21 @@ class Rider:
     Attributes
     ----------
     K : tuple of 5 or 6 floats
-        Feedback gains on (ẋ − v_ref [m/s], γ − γ* [rad], φ − φ* [rad], γ̇ [rad/s],
-        φ̇ [rad/s]) and optionally ∫(ẋ − v_ref) dt [m], in N·s, N·m/rad, N·m/rad,
-        N·m·s/rad, N·m·s/rad, N.
+        Gains on (ẋ − v_ref [m/s], γ − γ* [rad], φ − φ* [rad], γ̇ [rad/s], φ̇ [rad/s]) and
+        optionally ∫(ẋ − v_ref) dt [m].
     delay : float
         Reaction delay, s.
     predictor : bool
-        Compensate the delay with the internal model (default True).
+        Compensate the delay with the internal model.
     noise_std : float
         Standard deviation of the motor noise added to M_h, N·m (0: none).
     noise_tau : float
         Correlation time of the motor noise, s.
     torque_limit : float
-        |M_h| limit, N·m (ankle strength).
+        |M_h| limit, N·m.
     anticipation : float
-        Preview, s: the rider sets up the lean for the acceleration planned this far
-        ahead (the plant is non-minimum-phase in speed: to slow down the wheel must
-        first run ahead of the rider), and tracks the speed planned this far ahead.
+        Preview, s: the rider leans for, and tracks, the plan this far ahead (the plant
+        is non-minimum-phase in speed).
     """
 
     K: tuple = field(default=(0.0,) * 5)
@@ -115,27 +103,11 @@ class Rider:
 
 
 def trim(p: Params, motor: MotorPD, a, v=0.0):
-    """Steady acceleration a at speed v: (γ*, φ*, M_d*, M_h*) from eqs. (5)-(8).
+    """Steady acceleration a at speed v: (γ*, φ*, M_d*, M_h*), rad, rad, N·m, N·m, from eqs. (5)-(8).
 
-    With q̈ = (a, 0, 0) and no rates, eq. (5) row 1 gives M_d = R m_11 a; the motor
-    law gives γ* = γ_ref(v) + M_d/K_p; row 2 gives M_h = M_d + m_21 a − (m0 h0 − m l0)
-    g sin γ*; row 3, m h (g sin φ − a cos φ) = M_h, gives φ* = atan2(a, g) +
-    asin(M_h / (m h √(g² + a²))).
-
-    Parameters
-    ----------
-    p : Params
-        The rider's model of the system (nominal parameters).
-    motor : MotorPD
-    a : float or array_like
-        Acceleration, m/s².
-    v : float or array_like
-        Speed, m/s (tilt-back set-point only).
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        γ* (rad), φ* (rad), M_d* (N·m), M_h* (N·m), broadcast over a and v.
+    Row 1 of eq. (5) gives M_d = R m_11 a, the motor law γ* = γ_ref(v) + M_d/K_p, row 2
+    M_h = M_d + m_21 a − (m0 h0 − m l0) g sin γ*, row 3 φ* = atan2(a, g) + asin(M_h / (m h √(g² + a²))).
+    ``p`` is the rider's model (nominal parameters); ``a`` (m/s²) and ``v`` (m/s) broadcast.
     """
     a = np.asarray(a, dtype=float)
     v = np.broadcast_to(np.asarray(v, dtype=float), a.shape)
@@ -153,21 +125,7 @@ def trim(p: Params, motor: MotorPD, a, v=0.0):
 
 
 def motor_noise(n: int, dt: float, std: float, tau: float, seed: int) -> np.ndarray:
-    """Ornstein–Uhlenbeck noise, n samples at step dt, stationary std ``std``, N·m.
-
-    Parameters
-    ----------
-    n : int
-        Number of samples.
-    dt : float
-        Sample time, s.
-    std : float
-        Stationary standard deviation, N·m (0 gives zeros).
-    tau : float
-        Correlation time, s.
-    seed : int
-        Seed of ``numpy.random.default_rng``.
-    """
+    """Ornstein–Uhlenbeck noise: n samples at step dt, s, stationary std ``std``, N·m, correlation time ``tau``, s."""
     if std == 0.0:
         return np.zeros(n)
     from scipy.signal import lfilter
@@ -198,10 +156,8 @@ class RiderRun:
 
     Notes
     -----
-    :meth:`command` is called once per control step with the state history; it
-    returns the ankle torque to apply.  The state history is a list of 6-tuples
-    whose first n entries hold the (steady) state before t = 0, so that the delay
-    buffer is simply a look-back of n entries.
+    The state history Y is padded with n entries of the state before t = 0: entry k + n
+    is the state at step k, entry k the state the rider senses then.
     """
 
     def __init__(self, rider: Rider, p: Params, motor: MotorPD, v_ref: np.ndarray,
@@ -235,16 +191,7 @@ class RiderRun:
         return float(self.v_ref[n]), float(self.gamma_ref[n]), float(self.phi_ref[n]), float(self.u_ref[n])
 
     def command(self, k: int, Y) -> tuple[float, float]:
-        """Ankle torque at control step k: (commanded M_h, applied M_h with noise), N·m.
-
-        Parameters
-        ----------
-        k : int
-            Step index (0 at t = 0).
-        Y : sequence of 6-tuples
-            Padded state history (x, γ, φ, ẋ, γ̇, φ̇): the delay buffer.  Entry
-            k + n is the state now, entry k the delayed state the rider senses.
-        """
+        """Ankle torque at step k from the padded history ``Y``: (commanded, applied with noise) M_h, N·m."""
         if self._lists is None:   # Python lists: indexing them costs less than numpy scalars
             self._lists = tuple(a.tolist() for a in (self.v_ref, self.gamma_ref, self.phi_ref,
                                                      self.u_ref, self.noise))
@@ -262,25 +209,12 @@ class RiderRun:
         return u, u + noise[k]
 
     def commands(self, k0: int, Y_sensed: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Ankle torques of steps k0 … k0 + L − 1 at once: the law of :meth:`command`, vectorised.
+        """Ankle torques of steps k0 … k0 + L − 1 at once, L ≤ n + 1: :meth:`command` vectorised.
 
-        The rider senses states n steps old, so a block of up to n + 1 steps needs
-        only states already simulated; the commands' own history enters through the
-        predictor's Σ KG_i δu term, a linear recursion solved exactly for the whole
-        block as a unit lower-triangular system (forward substitution).  A block in
-        which the torque limit binds is done step by step by :meth:`command`.
-
-        Parameters
-        ----------
-        k0 : int
-            First step of the block.
-        Y_sensed : numpy.ndarray, shape (L, 6), L ≤ n + 1
-            The padded history's entries k0 … k0 + L − 1: the states the rider senses.
-
-        Returns
-        -------
-        tuple of numpy.ndarray
-            Commanded and applied (with noise) M_h, each (L,), N·m.
+        The predictor's recursion over the block is solved as a unit lower-triangular system
+        (:func:`_chunk_matrices`); a block in which the torque limit binds is done step by step.
+        ``Y_sensed`` (L, 6) are the padded history's entries k0 …; returns commanded and applied
+        M_h, each (L,), N·m.
         """
         Y_sensed = np.asarray(Y_sensed, dtype=float)
         L, n = len(Y_sensed), self.n
@@ -327,32 +261,13 @@ class RiderRun:
 
 def delayed_lqr_torque(e_v: float, e_gamma: float, e_phi: float, gamma_dot: float, phi_dot: float,
                        z: float, history: float, u_ref: float, k_pred, integral: bool, limit: float) -> float:
-    """The rider's commanded ankle torque at one step, N·m: the law of :meth:`RiderRun.command`.
+    """The rider's commanded ankle torque at one step, N·m: M_h = sat(M_h* − K Φⁿ ŝ − Σ KG_i δu_{k−n+i}).
 
-    M_h = sat(M_h* − (K Φⁿ ŝ + Σ KG_i δu_{k−n+i})) with ŝ the sensed deviation from the
-    trim and the last n commands' deviations δu (the predictor's history term).  The one
-    source of the per-step law: :meth:`RiderRun.command` calls it and
-    :mod:`euc_sim.simulation.native_kernels` compiles it (numba) into MuJoCo's control
-    callback.  Pure function of floats (``k_pred`` indexable).
-
-    Parameters
-    ----------
-    e_v, e_gamma, e_phi : float
-        Sensed ẋ − v_ref (m/s), γ − γ* (rad), φ − φ* (rad), n steps old.
-    gamma_dot, phi_dot : float
-        Sensed γ̇, φ̇, rad/s.
-    z : float
-        ∫(ẋ − v_ref) dt before this step, m (used when ``integral``).
-    history : float
-        Σ_{i<n} KG_i δu_{k−n+i}, N·m (0 without predictor or delay).
-    u_ref : float
-        The trim M_h* now, N·m.
-    k_pred : sequence of 5 or 6 floats
-        K Φⁿ (:func:`_delay_law`); the sixth weighs z.
-    integral : bool
-        Whether the gains include the integral of the speed error.
-    limit : float
-        |M_h| limit, N·m.
+    The one source of the per-step law (:meth:`RiderRun.command`; compiled by
+    :mod:`euc_sim.simulation.native_kernels`).  ``e_v``, ``e_gamma``, ``e_phi``, ``gamma_dot``,
+    ``phi_dot``: the sensed ŝ (m/s, rad, rad, rad/s, rad/s); ``z``: ∫(ẋ − v_ref) dt before this
+    step, m (weighed by ``k_pred[5]`` when ``integral``); ``history``: Σ KG_i δu, N·m;
+    ``u_ref``: M_h*, N·m; ``k_pred``: K Φⁿ; ``limit``: |M_h| limit, N·m.
     """
     fb = (k_pred[0] * e_v + k_pred[1] * e_gamma + k_pred[2] * e_phi
           + k_pred[3] * gamma_dot + k_pred[4] * phi_dot)
@@ -364,7 +279,7 @@ def delayed_lqr_torque(e_v: float, e_gamma: float, e_phi: float, gamma_dot: floa
 
 
 class _Lookup:
-    """``Y[k]`` for k in a block, backed by the block's sensed states (for :meth:`RiderRun.command`)."""
+    """``Y[k]`` for k in a block, backed by the block's sensed states."""
 
     def __init__(self, k0: int, Y_sensed: np.ndarray):
         self.k0, self.rows = k0, Y_sensed.tolist()
@@ -375,14 +290,8 @@ class _Lookup:
 
 @lru_cache(maxsize=32)
 def _delay_law(p: Params, motor: MotorPD, K: tuple, dt: float, n: int, predictor: bool):
-    """The rider's delayed law for (p, motor, K, dt, n), cached: the predictor's rows
-    (:func:`euc_sim.controllers.plant.predictor_rows`, a matrix exponential) and the block
-    matrices of :func:`_chunk_matrices`.  Arrays are read-only (shared between runs).
-
-    Returns
-    -------
-    tuple
-        K Φⁿ as a tuple of floats, KG (n,), lower (n+1, n+1), past (n+1, n).
+    """K Φⁿ (tuple), KG (n,), lower and past (:func:`_chunk_matrices`) of the delayed law, cached
+    and read-only (:func:`euc_sim.controllers.plant.predictor_rows`).
     """
     from euc_sim.controllers.plant import predictor_rows  # deferred: loads scipy.linalg (0.3 s)
 
@@ -399,13 +308,10 @@ def _delay_law(p: Params, motor: MotorPD, K: tuple, dt: float, n: int, predictor
 
 
 def _chunk_matrices(KG: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The predictor's command recursion over a block of n + 1 steps, as matrices.
+    """The predictor's recursion over a block of n + 1 steps: ``lower`` δu_block = r − ``past`` δu_before.
 
-    With δu_k + Σ_{i<n} KG_i δu_{k−n+i} = r_k for the block's steps k = k0 + j, the
-    terms on the block's own earlier commands form the unit lower-triangular
-    ``lower`` ((n+1) × (n+1), entry (j, j') = KG_{n−j+j'} for j' < j) and those on the
-    n commands before the block the matrix ``past`` ((n+1) × n, entry (j, m) = KG_{m−j}
-    for m ≥ j), so that ``lower`` δu_block = r − ``past`` δu_before.
+    ``lower`` (n+1, n+1) is unit lower-triangular, entry (j, j') = KG_{n−j+j'} for j' < j;
+    ``past`` (n+1, n) has entry (j, m) = KG_{m−j} for m ≥ j.
     """
     n = len(KG)
     lower = np.eye(n + 1, order="F")

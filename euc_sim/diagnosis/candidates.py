@@ -27,18 +27,8 @@ __all__ = ["visibility", "build_problem", "DriftGiven", "freeze", "validity_rule
 
 # --- visibility -------------------------------------------------------------------------
 def visibility(columns) -> dict[str, dict]:
-    """Which catalog effects a recording with these columns can reveal, and why not.
-
-    Parameters
-    ----------
-    columns : iterable of str
-        The recording's columns.
-
-    Returns
-    -------
-    dict
-        ``{effect: {"visible": bool, "through": str, "reason": str}}``.
-    """
+    """Which catalog effects a recording with these ``columns`` can reveal: ``{effect: {"visible", "through",
+    "reason"}}``."""
     cols = set(columns)
     out = {}
     for name, e in effects.CATALOG.items():
@@ -57,11 +47,8 @@ def visibility(columns) -> dict[str, dict]:
 
 # --- the candidate library ---------------------------------------------------------------
 def _force_columns(name: str, prep: Prepared, p: Params, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """(kinematic, wheel-row) columns of a force effect per unit of its estimate.
-
-    κ(q) · F[R Q_e,x + Q_e,γ + Q_e,φ] and F[R Q_e,x], F the term filter: the same
-    filter as every term of the residual (docs/identification.md).
-    """
+    """(kinematic, wheel-row) columns of a force effect per unit estimate: κ(q)·F[R Q_e,x + Q_e,γ + Q_e,φ] and F[R
+    Q_e,x], F the term filter."""
     ph = p.replace(h=h)
     kin = prep.kin
     ref = effects.get(name).ref        # the column's reference magnitude (linear forces: exact)
@@ -79,31 +66,19 @@ def _sensitivity(prep: Prepared, p: Params, h: float, vary: Callable[[float], tu
 
 
 def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[reg.Problem, dict]:
-    """The selection problem: residual r(h), candidate columns and validity rules.
-
-    Parameters
-    ----------
-    prep : Prepared
-    h0 : float
-        h at which the candidate columns are evaluated, m (the nominal estimate).
-    p : Params, optional
-        Nominal parameters (``prep.params`` by default).
+    """The selection problem: residual r(h), candidate columns at ``h0`` (m) and validity rules.
 
     Returns
     -------
     problem : regression.Problem
     info : dict
-        Per candidate: how its coefficient maps to CONTRACT's estimate
-        (``{"scale": s, "offset": o}``: estimate = o + s·θ; ``"drift"`` for the h
-        drift's splines, whose estimate is the peak-to-peak change of Δh(t) over
-        ``"span"``, :mod:`euc_sim.diagnosis.drift_term`).
+        Per candidate, how θ maps to CONTRACT's estimate: ``{"scale": s, "offset": o}``
+        (estimate = o + s·θ), or ``"drift"`` (:mod:`euc_sim.diagnosis.drift_term`).
 
     Notes
     -----
-    The rider-mass term is the wheel row's only (it needs M_d): in the kinematic row
-    the residual's sensitivity to m is mostly the noise's own (m scales the noisy
-    rider terms), and a regression on it would "explain" noise by a rider mass near
-    zero.
+    The rider-mass term is the wheel row's only (needs M_d): in the kinematic row the
+    residual's sensitivity to m is mostly the noise's own.
     """
     p = prep.params if p is None else p
     model = residual_model(prep, p)
@@ -149,24 +124,13 @@ def _linear_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: b
 
 
 def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: bool) -> dict:
-    """The estimate map of ``lateral_dynamics``: its peak tilt, rad, from the coupling s.
+    """The estimate map of ``lateral_dynamics``: peak tilt (rad) = √s · band peak of the recorded tilt.
 
-    Every term of effects.lateral_forces is of second order in the turn (ϑψ̈, ψ̇ϑ̇, ψ̇²,
-    ẋψ̇ϑ, ϑ² with ψ̇ ∝ tan ϑ): a fitted coupling strength s means a tilt √s times the
-    recorded one, and the estimate is √s · :func:`effects.band_peak_tilt` of the recorded
-    tilt channel (CONTRACT's peak tilt: the peak over the couplings' bandwidth).
-
-    Two choices the recording cannot make move that number, and their envelope widens
-    the interval (``scale_range``, rad per √s): the tilt whose peak is read (the angle
-    channel, or the EUC's C, E markers, 12× finer) and the couplings' window
-    (:data:`LATERAL_WINDOW` halved or doubled: s fitted on that window's column, s_w, is
-    taken as the projection of the fitted term s·c onto it, s_w = s ⟨c_w, c⟩ / ⟨c_w, c_w⟩);
-    where the markers show the rider's lean, also the rider's yaw inertia, which no
-    recording measures: isotropic (the column's convention) or slender
-    (:func:`effects.upright_slender_moment` added to the column, projected the same way).
-    With M_d recorded, also the kinematic row alone (s_kin / s of single-column fits at
-    h0): the wheel row carries the contact's longitudinal force, whose lateral coupling
-    (the crowned tyre's rolling radius, the patch's moment on the spin) the term leaves out
+    Every lateral term is of second order in the turn, so a coupling s means a tilt √s times
+    the recorded one.  ``scale_range`` (rad per √s) spans the choices the recording cannot
+    make: the tilt source (angle channel or C, E markers), the window (:data:`LATERAL_WINDOW`
+    halved or doubled, s projected as s_w = s ⟨c_w, c⟩ / ⟨c_w, c_w⟩), with the lean markers
+    the rider's yaw inertia (isotropic or slender), and with M_d the kinematic row alone
     (docs/spatial.md).
     """
     df, dt = prep.raw, prep.kin.dt
@@ -251,13 +215,11 @@ def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w
 
 
 class DriftGiven:
-    """The h drift's term inside a candidate set: its shape scanned on what the set's other
-    members leave (:func:`drift_term.choose_shape` with their columns), so that a second
-    effect does not pull the shape (the adaptive hook of :class:`regression.Problem`).
+    """The h drift's adaptive term (:class:`regression.Problem`): its shape scanned on what the set's other
+    members leave.
 
-    Calling it with the other members' names (a sorted tuple) gives
-    :class:`regression.Adapted`; :meth:`shape` the shape chosen for them.  Results are
-    cached per set.
+    Called with the others' names (a sorted tuple) it gives :class:`regression.Adapted`;
+    :meth:`shape` the shape chosen; cached per set.
     """
 
     def __init__(self, prep: Prepared, p: Params, h0: float, cands: dict, span: tuple):
@@ -300,11 +262,8 @@ def freeze(problem: reg.Problem, info: dict, names) -> tuple[reg.Problem, dict]:
 
 
 def validity_rules(p: Params, span: tuple, shape: dict | None) -> dict:
-    """Physical-range checks of each candidate's coefficients (None: valid, else why not).
-
-    ``span``: the recording's first and last time, s; ``shape``: the drift's
-    (:func:`euc_sim.diagnosis.drift_term.shape_profile`).
-    """
+    """Physical-range checks of each candidate's θ (None: valid, else why); ``span``: first and last time, s;
+    ``shape``: the drift's."""
     grid = np.linspace(span[0], span[1], 201)
 
     def positive(lo, hi, unit):

@@ -24,35 +24,29 @@ class DiagnosisError(InputError):
 
 @dataclass(frozen=True)
 class Thresholds:
-    """Decision thresholds of the diagnosis (dimensionless unless stated).
-
-    The acceptance thresholds were set a priori; ``generic_gain`` and ``floor_ratio`` on
-    null recordings only, never on the blind-study cases; they belong to the default term
-    filter (0.3 s).  Values: see docs/diagnosis.md, section 4 and "The term filter".
+    """Decision thresholds of the diagnosis (dimensionless unless stated; docs/diagnosis.md, section 4).
 
     Attributes
     ----------
     min_bic_drop : float
-        BIC (with n_eff) must drop at least this much to accept a term.
+        Smallest BIC drop (with n_eff) to accept a term.
     min_cv_gain : float
-        Held-out RMSE must drop at least this fraction.
+        Smallest fractional drop of the held-out RMSE.
     min_t : float
-        |estimate| / standard error (cluster sandwich) of an accepted term.
+        Smallest |estimate| / standard error of an accepted term.
     max_h_halfwidth : float
-        h is identifiable when its 95% half-width is at most this, m; otherwise the
-        recording cannot decide (a constant force and a wrong h are aliases).
+        Largest 95 % half-width of h, m, for the recording to decide.
     generic_gain : float
-        A generic periodic basis beating the final model by this fraction of held-out
-        RMSE means structure is left that no catalogued effect explains.
+        A generic periodic basis beating the final model by this fraction of held-out RMSE
+        means structure is left unexplained.
     floor_ratio : float
-        Final held-out RMSE above this multiple of the noise floor, with a generic
-        basis also helping by half of ``generic_gain``, means the same.
+        Final held-out RMSE above this multiple of the noise floor, with the generic basis
+        helping by half of ``generic_gain``, means the same.
     unexplained_keep : float
-        With structure left unexplained, an accepted effect is named only when it cut
-        the held-out RMSE to at most this fraction; otherwise it is listed under
-        ``tentative``.
+        With structure unexplained, an effect is named only when it cut the held-out RMSE to
+        at most this fraction; otherwise it is ``tentative``.
     alias_bic : float
-        Another candidate swapped in within this BIC of the accepted set is an alias.
+        A candidate swapped in within this BIC of the accepted set is an alias.
     alias_cosine : float
         |cosine| between two single-column terms above which they are aliases.
     """
@@ -95,24 +89,8 @@ def h_at_bound(h: float) -> bool:
 
 
 def heldout_over_floor(heldout_rmse: float, noise_floor: float) -> float:
-    """The held-out RMSE over the noise floor: how far a model is from explaining all but noise.
-
-    The one "× the noise floor" figure of the diagnosis, printed and in the JSON
-    (``heldout_over_floor`` of the reported model; ``generic.floor_ratio`` of every
-    selected effect, the figure the ``unexplained`` test uses).
-
-    Parameters
-    ----------
-    heldout_rmse : float
-        Held-out RMSE of the residual under a model, N·m.
-    noise_floor : float
-        RMS of the residual that measurement noise alone leaves, N·m.
-
-    Returns
-    -------
-    float
-        Dimensionless; inf for a zero floor.
-    """
+    """Held-out RMSE over the noise floor (both N·m): the diagnosis's one "× the noise floor" figure (inf for a
+    zero floor)."""
     return heldout_rmse / noise_floor if noise_floor > 0 else float("inf")
 
 

@@ -1,38 +1,13 @@
 """Experiment design for the catalog effects: how precisely each maneuver measures each one.
 
-:mod:`euc_sim.identification.design` answers the question for h; this module answers
-it for CONTRACT's effects, with the diagnosis's own regression, so the figures are
-those a diagnosis of such recordings would report.
-
-For each maneuver and each effect:
-
-* Monte Carlo: R recordings simulated with the effect present at a nominal
-  magnitude (:func:`nominal_magnitude`, the geometric middle of the catalog's
-  plausible range) and the paper's sensor noise (times a scale), each diagnosed as
-  :func:`euc_sim.diagnosis.pipeline.diagnose` would fit that effect: the recording
-  prepared (:func:`euc_sim.diagnosis.prepare.prepare`), the candidate library built
-  (:func:`euc_sim.diagnosis.candidates.build_problem`) and the nominal model plus
-  that effect's term fitted jointly with h (:func:`euc_sim.identification.regression.fit_set`).
-  ``sd`` is the spread of the R estimates (one recording each), ``bias`` their mean
-  minus the truth.
-* Covariance prediction: the same fit's cluster-robust covariance
-  (:func:`euc_sim.identification.regression.covariance`, the diagnosis's standard
-  errors), mapped to the effect's unit (:func:`euc_sim.diagnosis.estimates.estimate_of`);
-  ``sd_cov`` is the root mean of the R predicted variances.  It is the analogue of
-  the Fisher prediction of h's design for a residual that is not white.
-
-Recordings needed: independent recordings pool to sd/√n, so n = ⌈(sd / (f·|a|))²⌉
-for a target sd of a fraction f of the effect's magnitude a (``recordings_for``), and
-n = ⌈(min_t·sd / |a|)²⌉ for the effect to stand ``min_t`` standard errors from zero,
-the diagnosis's threshold for naming it (``recordings_to_detect``).
-
-Effects a recording cannot reveal (a column missing: the torque M_d for the rider
-mass and the bearing friction when torques are not recorded) are listed with the
-diagnosis's reason and no figures.
-
-Seeds: run seed S gives the (maneuver i, effect j) task the child
-``SeedSequence(S, spawn_key=(1, i, j))``, each ride one grandchild, so a task's
-figures do not depend on which other maneuvers and effects are studied.
+For each maneuver and effect, R recordings are simulated with the effect at
+:func:`nominal_magnitude` and the paper's sensor noise (times a scale), and fitted as the
+diagnosis would (nominal model plus that effect's term, jointly with h): ``sd`` is the
+spread of the R estimates, ``bias`` their mean minus the truth, ``sd_cov`` the root mean of
+the predicted variances (the diagnosis's cluster covariance).  Recordings needed:
+n = ⌈(sd / (f·|a|))²⌉ for a target sd of a fraction f of the magnitude a, and
+n = ⌈(min_t·sd / |a|)²⌉ to name it.  Task (maneuver i, effect j) of run seed S draws from
+``SeedSequence(S, spawn_key=(1, i, j))``.  :mod:`euc_sim.identification.design` does the same for h.
 """
 
 from __future__ import annotations
@@ -74,25 +49,15 @@ _LATERAL_COLUMNS = ("psi", "theta")
 
 
 def nominal_magnitude(name: str, params: Params = TABLE3) -> float:
-    """The effect's value in the Monte Carlo, in its CONTRACT unit.
-
-    The geometric middle of the catalog's plausible range (the diagnosis's range for
-    detection limits, :func:`euc_sim.diagnosis.common.plausible_range`); for
-    ``rider_mass`` the nominal mass plus that middle deviation, kg.
-    """
+    """The effect's Monte Carlo value, CONTRACT unit: the geometric middle of its plausible range (``rider_mass``:
+    the nominal mass plus it, kg)."""
     lo, hi = plausible_range(name)
     mid = math.sqrt(lo * hi)
     return fx.RECORDS.absent_value(name, params) + mid
 
 
 def parse_effects(text: str) -> list[str]:
-    """``"all"`` or comma-separated CONTRACT effect names → the list, checked.
-
-    Raises
-    ------
-    ValueError
-        naming ``--effect`` and the unknown or repeated names.
-    """
+    """``"all"`` or comma-separated CONTRACT effect names → the list, checked (naming ``--effect``)."""
     names = list(fx.CATALOG) if text.strip() == "all" else [e.strip() for e in text.split(",") if e.strip()]
     bad = [e for e in names if e not in fx.CATALOG]
     if not names or bad:
@@ -109,30 +74,10 @@ def _magnitude(name: str, value: float, params: Params) -> float:
 
 
 def effect_estimate(recording, meta: dict, name: str, params: Params, h0: float) -> tuple[float, float]:
-    """The diagnosis's estimate of one effect on one recording, and its standard error.
+    """The diagnosis's estimate of one effect on one recording and its standard error, in the effect's unit.
 
-    Parameters
-    ----------
-    recording : pandas.DataFrame
-        A CONTRACT recording.
-    meta : dict
-        Its sidecar.
-    name : str
-        The effect (a candidate of :func:`euc_sim.diagnosis.candidates.build_problem`).
-    params : Params
-        Nominal parameters.
-    h0 : float
-        h at which the candidate columns are built, m.
-
-    Returns
-    -------
-    (estimate, se) : (float, float)
-        In the effect's unit.
-
-    Raises
-    ------
-    ValueError
-        when the recording cannot reveal the effect.
+    ``h0`` (m): the h at which the candidate columns are built.  ValueError when the
+    recording cannot reveal the effect.
     """
     prep = prepare(recording, params=params, meta=meta)
     problem, info = build_problem(prep, h0)
@@ -146,20 +91,8 @@ def effect_estimate(recording, meta: dict, name: str, params: Params, h0: float)
 
 
 def effect_study(args) -> dict:
-    """One (maneuver, effect): R recordings with the effect present, each diagnosed.
-
-    Parameters
-    ----------
-    args : tuple
-        ``(maneuver, effect, value, rides, duration, noise_scale, (seed, i, j), params,
-        rider_noise, with_torques)`` (one tuple: a task of
-        :func:`euc_sim.simulation.runner.run_tasks`).
-
-    Returns
-    -------
-    dict
-        ``estimates`` and ``se`` (one per ride that did not fall), ``fell``.
-    """
+    """One (maneuver, effect) task of :func:`effects_design`: ``estimates`` and ``se`` per ride that did not fall,
+    and ``fell``."""
     name, effect, value, rides, duration, scale, (seed, i, j), p, rider_noise, with_torques = args
     seeds = [int(c.generate_state(1)[0])
              for c in np.random.SeedSequence(seed, spawn_key=(1, i, j)).spawn(rides)]
@@ -198,37 +131,28 @@ def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rid
     maneuvers : sequence of str
         Names of :data:`euc_sim.identification.design.DESIGN_MANEUVERS`.
     effect_names : sequence of str
-        CONTRACT effect names.
     rides : int
-        Monte Carlo recordings per (maneuver, effect), at least 3.
+        Recordings per (maneuver, effect), at least 3.
     duration : float
         Length of each recording, s.
     noise_scale : float
-        Sensor noise as a multiple of the paper's (0.2 mm, 0.5°).
+        Sensor noise as a multiple of the paper's.
     seed : int
     params : Params
         Nominal parameters (h: the truth).
     rider_noise : float
         Rider motor noise, N·m.
     with_torques : bool
-        Record M_d and M_h (the wheel row of the diagnosis; the rider mass and the
-        bearing friction become visible).
+        Record M_d and M_h (rider mass and bearing friction become visible).
     scheduler, workers, progress
-        See :func:`euc_sim.simulation.runner.run_tasks` (one task per maneuver and effect).
+        See :func:`euc_sim.simulation.runner.run_tasks`.
 
     Returns
     -------
     dict
-        ``effects`` (per effect: ``nominal``, ``magnitude``, ``unit``, ``visible``,
-        ``reason``), ``by_maneuver`` (maneuver → effect → ``sd``, ``sd_cov``,
-        ``bias``, ``recordings_for`` (target fraction of the magnitude → n),
-        ``recordings_to_detect``, ``rides``, ``fell``), ``best`` (effect → maneuver
-        with the smallest sd) and the settings.
-
-    Raises
-    ------
-    ValueError
-        naming the argument, for unknown effects or maneuvers, or bad numbers.
+        ``effects`` (per effect: ``nominal``, ``magnitude``, ``unit``, ``visible``, ``reason``),
+        ``by_maneuver`` (maneuver → effect → ``sd``, ``sd_cov``, ``bias``, ``recordings_for``,
+        ``recordings_to_detect``, ``rides``, ``fell``), ``best`` and the settings.
     """
     _check(maneuvers, effect_names, rides, duration, noise_scale, DESIGN_MANEUVERS)
     cols = _COLUMNS + (("M_d", "M_h") if with_torques else ())
@@ -292,14 +216,8 @@ def _check(maneuvers, effect_names, rides, duration, noise_scale, valid_maneuver
 
 
 def effects_design_figure(result: dict):
-    """Each effect's sd from one recording relative to its magnitude, per maneuver:
-    Monte Carlo (bars) and the covariance prediction (markers), with the diagnosis's
-    detection line (1/min_t).
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
+    """Each effect's sd relative to its magnitude per maneuver: Monte Carlo (bars), covariance (markers), the
+    detection line 1/min_t."""
     from matplotlib import rcParamsDefault
     from matplotlib.figure import Figure
 

@@ -1,23 +1,11 @@
-"""The candidate term of ``cog_height_drift``: h(t) of unknown smooth shape.
+"""The candidate term of ``cog_height_drift``: h(t) = h + θ·g(t), g a smooth shape the data choose.
 
-h(t) = h + Δh(t), Δh(t) = θ·g(t) with g a shape the data choose
-(:func:`choose_shape`): a half-cosine ramp or a 1 − cos dip of any start (1 s steps)
-and length (:data:`SHAPE_LENGTHS`), the catalog's 12 s sine (two columns), or a slow
-wander (half-range cosines of the ride's length, :func:`wander_basis`, zero mean so
-that the nuisance h and the drift do not alias).  A ramp's or dip's start and length
-count as two parameters in the BIC.
-
-The residual of the nominal model for a moving G is, to first order in Δh,
-
-    r ≈ −∂r/∂h · Δh(t)  +  κ·F[R Q_x + Q_γ + Q_φ](Q_drift(ḣ, ḧ)),
-
-the second part the inertial forces of G moving along the rider's axis
-(:func:`euc_sim.simulation.drift.drift_forces`, the ḣ terms of the kinetic energy),
-linear in θ through ġ, g̈; with M_d recorded, the wheel row likewise.
-
-The estimate is CONTRACT's peak-to-peak change of h, max Δh − min Δh over the
-recording, its standard error by the delta method (the difference of the shape's
-rows at the arg-max and arg-min), and the band of Δh(t) from the covariance of θ.
+Shapes (:func:`choose_shape`): a half-cosine ramp or 1 − cos dip of any start and length
+(:data:`SHAPE_LENGTHS`; start and length count two BIC parameters), the catalog's 12 s
+sine, or a slow wander (:func:`wander_basis`, zero mean so h and the drift do not alias).
+To first order r ≈ −∂r/∂h · Δh(t) + κ·F[R Q_x + Q_γ + Q_φ](Q_drift(ḣ, ḧ)), the second part
+G's inertial forces along the rider's axis (:func:`euc_sim.simulation.drift.drift_forces`).
+The estimate is the peak-to-peak Δh, its se by the delta method; see docs/diagnosis.md.
 """
 
 from __future__ import annotations
@@ -41,15 +29,11 @@ WANDER_RESOLUTION = 4.0
 
 def wander_basis(t: np.ndarray, t0: float, t1: float, spacing: float = WANDER_RESOLUTION,
                  derivative: int = 0) -> np.ndarray:
-    """The drift's basis (or its derivative) at times ``t`` (s), shape (n, k).
+    """Half-range cosines cos(jπ(t − t0)/(t1 − t0)), j = 1 … round((t1 − t0)/``spacing``), or a derivative, at
+    ``t`` (s): (n, k).
 
-    Half-range cosines cos(jπ(t − t0)/(t1 − t0)), j = 1 … k, k = round((t1 − t0) /
-    ``spacing``): smooth, zero-mean over the recording (so h stays the mean height),
-    and global, so that every coefficient is fixed by the whole ride and a held-out
-    block is interpolated, not extrapolated (local splines were tried: a held-out
-    block at either end, or in a hold where ∂r/∂h ≈ 0, left their coefficient free
-    and the held-out RMSE exploded).  Resolution about ``spacing`` s: a crouch of a
-    few seconds, a dip, a slow wander.
+    Global and zero-mean, so every coefficient is fixed by the whole ride and a held-out
+    block is interpolated, not extrapolated.
     """
     L = float(t1 - t0)
     k = max(int(round(L / spacing)), 2)
@@ -71,13 +55,11 @@ START_STEP = 1.0
 
 
 def shape_profile(shape: dict, t: np.ndarray, derivative: int = 0) -> np.ndarray:
-    """Unit profile g(t) (or ġ, g̈) of a drift shape, shape (n, k).
+    """Unit profile g(t) (or ġ, g̈) of a drift shape, (n, k).
 
-    ``{"kind": "ramp"|"dip", "start": s, "length": s}``: one column, unit peak to peak
-    (half-cosine ramp, 1 − cos dip: the simulator's laws, smooth in h and ḣ);
-    ``{"kind": "sine"}``: the catalog's 12 s sine and cosine (two columns, ½ each);
-    ``{"kind": "smooth", "span": (t0, t1)}``: the half-range cosines of
-    :func:`wander_basis` (a slow wander).
+    ``{"kind": "ramp"|"dip", "start", "length"}`` (s): one column, unit peak to peak;
+    ``{"kind": "sine"}``: the 12 s sine and cosine (½ each); ``{"kind": "smooth", "span": (t0, t1)}``:
+    :func:`wander_basis`.
     """
     t = np.asarray(t, float)
     kind = shape["kind"]
@@ -117,14 +99,10 @@ def candidate_shapes(t0: float, t1: float) -> list[dict]:
 
 def choose_shape(t: np.ndarray, y: np.ndarray, drdh: np.ndarray, n_eff: float,
                  given: np.ndarray | None = None) -> dict:
-    """The shape whose term −∂r/∂h·g(t) best explains y with h free (BIC with n_eff).
+    """The shape whose first-order term −∂r/∂h·g(t) best explains ``y`` with h free, by BIC with ``n_eff``.
 
-    A scan on the first-order term only (no ḣ terms): y ≈ a·∂r/∂h + (−∂r/∂h·G)θ by
-    least squares for every shape, ``n_eff`` ln RSS + k ln n_eff, smallest wins.
-    ``t``, ``y``, ``drdh``: the stacked residual's times, values and ∂r/∂h;
-    ``given``: columns (n, k) of other effects fitted with every shape (the drift is
-    then the shape that best explains what they leave: a second effect would
-    otherwise pull the scan to a shape that imitates it).
+    ``t``, ``y``, ``drdh``: the stacked residual's times, values and ∂r/∂h; ``given``: columns
+    (n, k) of other effects fitted beside every shape.
     """
     t0, t1 = float(np.min(t)), float(np.max(t))
     base = drdh[:, None] if given is None or given.size == 0 else np.column_stack([drdh, given])
@@ -168,20 +146,10 @@ def _unit_profiles(kind: str, L: float, starts: np.ndarray, t: np.ndarray) -> np
 
 def drift_columns(prep: Prepared, p: Params, h0: float, drdh: np.ndarray, has_w: bool,
                   shape: dict) -> np.ndarray:
-    """Stacked residual columns of a drift shape (m of Δh per unit θ_j), with the ḣ terms.
+    """Stacked residual columns of a drift ``shape`` (per unit θ_j, m of Δh), with the ḣ terms.
 
-    Parameters
-    ----------
-    prep : Prepared
-    p : Params
-    h0 : float
-        h at which the columns are evaluated, m.
-    drdh : numpy.ndarray
-        ∂r/∂h of the stacked residual at h0, N·m/m (kept samples, rows stacked).
-    has_w : bool
-        Whether the wheel row (M_d recorded) is stacked below.
-    shape : dict
-        :func:`shape_profile`'s description.
+    ``h0`` (m): where the columns are evaluated; ``drdh``: ∂r/∂h there, N·m/m; ``has_w``: the
+    wheel row is stacked below.
     """
     kin = prep.kin
     k = prep.keep
@@ -223,12 +191,8 @@ def peak_to_peak(shape: dict, span: tuple, theta: np.ndarray, cov: np.ndarray) -
 
 
 def unit_shape_limit(shape: dict, span: tuple, theta: np.ndarray, cov: np.ndarray, min_t: float) -> float:
-    """Smallest peak-to-peak change of this shape the selection would accept, m.
-
-    For θ = Δ·s (s: the shape of ``theta`` with unit peak-to-peak change) the group's
-    statistic is √(W − (k − 1)), W = Δ² sᵀC⁻¹s; it reaches ``min_t`` at
-    Δ = √((min_t² + k − 1) / sᵀC⁻¹s).
-    """
+    """Smallest peak-to-peak change of this shape the selection would accept, m: Δ = √((min_t² + k − 1) / sᵀC⁻¹s),
+    s the unit shape of ``theta``."""
     ptp, _ = peak_to_peak(shape, span, theta, np.zeros((theta.size, theta.size)))
     if ptp <= 0:
         return float("inf")
@@ -253,31 +217,11 @@ def blind_windows(t: np.ndarray, drdh: np.ndarray, floor_rms: float, tau_int: fl
                   dh_max: float) -> list[list[float]]:
     """Where even the largest plausible drift would stay hidden: [[t0, t1], ...], s.
 
-    h enters the residual through ∂r/∂h (docs/diagnosis.md), which follows the rider's
-    torque: large in speed changes, only the sway's in a hold at constant speed.  A
-    drift placed at [a, b] (a dip of ``length`` in :data:`SHAPE_LENGTHS`: h leaves
-    and comes back; or a ramp starting at a: h leaves and stays until the end) has
-    first-order term −∂r/∂h·g(t); with the noise floor's variance scaled by its
-    correlation time, its smallest nameable peak-to-peak change is
-    ``min_t`` σ √(τ / Σ(∂r/∂h g)²); it is seen when that is at most ``dh_max``.
-    Blindness belongs to a placement, not to a time:
-    each window is a longest interval holding no placement this recording could see
-    (windows may overlap), so that a drift wholly inside one, on the scan's grid,
-    cannot be seen at any plausible size.  Its ḣ terms, second order for slow
-    changes, are left out of this bound.
-
-    Parameters
-    ----------
-    t, drdh : numpy.ndarray
-        Times (s) and ∂r/∂h (N·m/m) of the stacked residual samples.
-    floor_rms : float
-        Noise floor, N·m.
-    tau_int : float
-        Correlation time of the noise-only residual, samples.
-    min_t : float
-        The selection's |θ|/se threshold.
-    dh_max : float
-        Largest plausible peak-to-peak change, m.
+    A drift placed at [a, b] (a dip of each :data:`SHAPE_LENGTHS`, or a ramp from a) has
+    first-order term −∂r/∂h·g(t) and is nameable from ``min_t`` σ √(τ / Σ(∂r/∂h g)²); each
+    window is a longest interval holding no placement seen at ``dh_max`` (m).  ``t``, ``drdh``:
+    times (s) and ∂r/∂h (N·m/m) of the stacked residual; ``floor_rms``: noise floor, N·m;
+    ``tau_int``: its correlation time, samples.
     """
     t = np.asarray(t, float)
     t0, t1 = float(np.min(t)), float(np.max(t))

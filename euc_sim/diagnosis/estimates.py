@@ -38,15 +38,8 @@ def estimate_of(info: dict, theta: np.ndarray, cov: np.ndarray, dof: float) -> t
 
 
 def coupling_of(info: dict, theta: np.ndarray, cov: np.ndarray, dof: float) -> dict:
-    """The lateral term's fitted coupling and what maps it to a peak tilt (an extra JSON field).
-
-    Returns
-    -------
-    dict
-        ``s`` (the coupling, 1), ``s_ci95`` (its Student-t 95 % interval, clipped at 0) and
-        ``alternatives``: rad per √s of each choice the recording cannot make
-        (``candidates._lateral_info``; the estimate is ``alternatives[first] · √s``).
-    """
+    """The lateral term's coupling ``s`` (1), its Student-t ``s_ci95`` (clipped at 0) and ``alternatives`` (rad
+    per √s of each choice)."""
     from scipy.stats import t as student
     q = float(student.ppf(0.975, max(dof, 1.0)))
     s, se_s = float(theta[0]), float(np.sqrt(max(cov[0, 0], 0.0)))
@@ -76,33 +69,12 @@ def is_plausible(name: str, est: float, p: Params) -> bool:
 
 
 def alias_estimates(problem: reg.Problem, selected, name: str, aliases, info: dict, dof: float) -> dict:
-    """What the recording identifies, expressed as each alias's own estimate.
+    """The identified term expressed as each alias's own estimate (e.g. C_rr for rolling resistance, α rad for a slope).
 
-    Two aliases explain the residual with the same term (rolling resistance and a
-    slope: both a constant force along the road while the speed keeps one sign,
-    docs/diagnosis.md).  The identified quantity is that combined term; swapping the
-    alias's column for ``name`` in the accepted set (h re-identified) maps it to the
-    alias's CONTRACT unit: a C_rr for rolling resistance, α (rad) for a slope.
-
-    Parameters
-    ----------
-    problem : regression.Problem
-    selected : sequence of str
-        The accepted set, containing ``name``.
-    name : str
-    aliases : sequence of str
-        :func:`euc_sim.identification.selection.find_aliases` of ``name``.
-    info : dict
-        Estimate maps of the candidates (``candidates.build_problem``).
-    dof : float
-        Degrees of freedom of the Student-t interval.
-
-    Returns
-    -------
-    dict
-        ``{alias: {"estimate", "unit", "ci95", "t", "rss"}}`` for every alias with a
-        linear, single-column term (not the h drift's shape, not the nonlinear time
-        offset or rider mass, whose swapped column is a linearisation only).
+    Swapping the alias's column for ``name`` in ``selected`` (h re-identified) maps the term
+    to the alias's unit (docs/diagnosis.md).  Returns ``{alias: {"estimate", "unit", "ci95",
+    "t", "rss"}}`` for every alias with a linear single-column term; ``dof`` for the
+    Student-t interval.
     """
     without = tuple(c for c in selected if c != name)
     out = {}
@@ -140,18 +112,7 @@ def evidence(name: str, est: float, unit: str, before: float, after: float, t_st
 
 
 def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, thresholds) -> list[dict]:
-    """CONTRACT's ``effects`` list of the selected set: estimate, interval, aliases, evidence.
-
-    Parameters
-    ----------
-    prep : prepare.Prepared
-    problem, info : the selection problem and its estimate maps (``build_problem``)
-    s : selection.Selection
-    fin : refine.Final
-    n_eff : float
-        Effective sample count of the BIC.
-    thresholds : common.Thresholds
-    """
+    """CONTRACT's ``effects`` list of the selected set: estimate, interval, aliases, evidence."""
     th = thresholds
     selected = tuple(s.selected)
     out = []
@@ -194,12 +155,8 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
 
 
 def detection_limits(problem: reg.Problem, info: dict, s, vis: dict, thresholds) -> dict:
-    """What this recording could have seen: per effect, the smallest value it would name.
-
-    An effect is named when its term stands ``min_t`` standard errors from zero, so
-    the limit is ``min_t`` × its standard error (in the estimate's unit), judged
-    against the catalog's plausible range; invisible effects give the reason.
-    """
+    """Per effect, the smallest value this recording would name (``min_t`` × its se, the estimate's unit), against
+    the plausible range; invisible ones with the reason."""
     limits = {}
     for c in problem.candidates:
         base_set = tuple(x for x in s.selected if x != c) + (c,)
@@ -226,15 +183,8 @@ def detection_limits(problem: reg.Problem, info: dict, s, vis: dict, thresholds)
 
 
 def drift_of_time(info: dict, theta, cov: np.ndarray, h: float, dof: float, step: float = 0.25) -> dict:
-    """The drift's shape and h(t) with its 95 % band, every ``step`` s (for JSON and the report).
-
-    Returns
-    -------
-    dict
-        ``shape`` (the scanned shape: kind, start and length in s), ``h_of_t``:
-        ``{"t": [s], "h": [m], "ci95_halfwidth": [m]}`` and ``windows``: where h changes
-        ([[t0, t1], ...], s).
-    """
+    """The drift's ``shape``, ``h_of_t`` (``t`` s, ``h`` m, ``ci95_halfwidth`` m every ``step`` s) and ``windows``
+    where h changes, s."""
     from scipy.stats import t as student
     t0, t1 = info["span"]
     grid = np.arange(t0, t1 + 1e-9, step)

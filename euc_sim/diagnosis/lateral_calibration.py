@@ -1,36 +1,13 @@
-"""The lateral term calibrated on a simulated twin of the ride.
+"""The ``lateral_dynamics`` estimate of a 3-D ride calibrated on a simulated twin of the ride.
 
-Through the recording the ``lateral_dynamics`` estimate of a 3-D ride runs low: at 1 kHz the
-catalogued term fits the spatial model's coupling at s = 0.99–1.02, through a 120 Hz motion
-capture at 0.90–0.93 (docs/spatial.md, "Through the recording": the Section 2 projection of
-the markers, the wheel row, the sampling and the term filter).  That loss belongs to the
-pipeline, and a simulation measures it on the ride itself:
-
-1. the ride's plan (the sidecar's 3-D path with its ``maneuver_options`` speed and turn
-   radius; where the options are missing, the mean speed, and the distance over the heading
-   change where the yaw rate turns, read from the recording) is ridden again in the spatial model
-   (:func:`euc_sim.simulation.spatial.simulate_3d`) with the fitted h and the simulator's own
-   riders, without motor noise;
-2. the twin is recorded as the recording was (its sampling rate and its columns,
-   :func:`~euc_sim.simulation.spatial.spatial_recording`, no sensor noise: no draw, so the
-   calibration is deterministic) and diagnosed as it was;
-3. its estimate over its own truth (CONTRACT's peak tilt: the band peak of its 1 kHz tilt,
-   :func:`euc_sim.simulation.effects.band_peak_tilt`) is the pipeline's gain b_k for each
-   choice k the recording cannot make (the ``alternatives`` of
-   :func:`euc_sim.diagnosis.estimates.coupling_of`); the recording's estimate of each choice
-   is divided by its own gain (:func:`calibrate_item`).  The interval adds the calibrated
-   choices' reach and the coupling's 95 % interval in quadrature.
-
-The twin also says how much structure the catalogued term leaves on a ride of the spatial
-model itself (its held-out RMSE): the model's floor, which :func:`model_floor` adds to the
-noise floor of the ``unexplained`` test (on a noise-free recording the noise floor is the
-interpolation's own 5–7·10⁻⁵ N·m, and every ride was flagged for the term's approximation),
-and what the twin's diagnosis names beside the lateral term is not named on the recording
-(:func:`twin_artifacts`).  The rider's own motor noise excites lateral motion (his twist)
-that the term does not model, so that floor is measured on twins whose rider carries the
-noise the recording shows (:func:`noisy_twins`: the level read from the recorded M_h by
-:mod:`euc_sim.diagnosis.rider_noise`, :data:`NOISE_DRAWS` draws seeded from the recording);
-the calibration of the estimate keeps the noise-free twin, so the interval is unchanged.
+Through the recording the estimate runs low (docs/spatial.md#diagnosis-on-3-d-recordings).
+The ride's plan (:func:`plan_of`) is ridden again in the spatial model with the fitted h,
+recorded as the recording was (no noise: deterministic) and diagnosed; its estimate over
+its own truth (the band peak of its tilt) is the pipeline's gain b_k of each choice k, by
+which the recording's estimate is divided (:func:`calibrate_item`).  Twins whose rider
+carries the recording's motor noise (:func:`noisy_twins`) give the model's floor that
+:func:`model_floor` adds to the ``unexplained`` test's.  See
+docs/coverage.md#calibrated-on-a-simulated-twin-of-the-ride-the-interval-measured-cause.
 """
 
 from __future__ import annotations
@@ -58,12 +35,11 @@ NOISE_DRAWS = 2
 
 
 def plan_of(prep: Prepared) -> dict | None:
-    """The ride's plan: ``{"path", "speed" (m/s), "radius" (m or None), "from"}``, or None
-    where the sidecar names no 3-D path or the recording lacks the markers.
+    """The ride's plan ``{"path", "speed" (m/s), "radius" (m or None), "from"}``, or None without a 3-D path or
+    the markers.
 
-    Speed and radius come from the sidecar's ``maneuver_options``; where absent, the mean
-    forward speed and Σv / Σ|ψ̇| over the samples whose 2 s mean yaw rate is at least half
-    its peak are read from the recording.
+    Speed and radius come from the sidecar's ``maneuver_options``, else from the recording:
+    the mean forward speed and Σv / Σ|ψ̇| where the 2 s mean yaw rate is at least half its peak.
     """
     path = prep.meta.get("maneuver")
     if path not in PATHS or path == "straight" or prep.lateral is None or not set(MARKERS) <= set(prep.raw.columns):
@@ -95,23 +71,23 @@ def twin_recording(prep: Prepared, plan: dict, h: float, noise_std: float = 0.0,
     h : float
         The fitted h, m.
     noise_std : float
-        The twin rider's motor noise, N·m (0: none, the calibration's twin).
+        The twin rider's motor noise, N·m (0: none).
     seed : int
-        Seed of that noise (:func:`euc_sim.diagnosis.rider_noise.recording_seed`).
+        Seed of that noise.
 
     Returns
     -------
     recording : pandas.DataFrame
-        The twin's recording: the recording's own columns and sampling rate, no sensor noise.
+        The recording's columns and sampling rate, no sensor noise.
     meta : dict
-        Its sidecar (the recording's, without the plan's options: nothing to calibrate).
+        Its sidecar.
     truth : float
-        Its peak tilt (the band peak of its 1 kHz tilt), rad.
+        Its peak tilt, rad.
 
     Raises
     ------
     ValueError
-        when the twin falls (:class:`~euc_sim.simulation.errors.FallError`).
+        when the twin falls.
     """
     p = prep.params.replace(h=float(np.clip(h, 0.3, 1.1)))
     motor = MotorPD()
@@ -129,32 +105,13 @@ def twin_recording(prep: Prepared, plan: dict, h: float, noise_std: float = 0.0,
 
 
 def calibrate_item(item: dict, twin: dict, truth: float) -> dict | None:
-    """The recording's ``lateral_dynamics`` item calibrated by its twin's.
+    """The recording's ``lateral_dynamics`` item calibrated by its twin's (None when the twin's coupling is not
+    positive).
 
-    Parameters
-    ----------
-    item, twin : dict
-        The ``lateral_dynamics`` effect items of the recording and of its twin (with
-        ``coupling``: :func:`euc_sim.diagnosis.estimates.coupling_of`).
-    truth : float
-        The twin's peak tilt, rad.
-
-    Returns
-    -------
-    dict or None
-        The item with ``estimate`` and ``ci95`` calibrated and a ``calibration`` field
-        (the uncalibrated estimate and interval, the twin's estimate, truth and gain b of
-        each choice); None when the twin's coupling is not positive.
-
-    Notes
-    -----
-    Choice k estimates a_k √s (a_k rad per √s); the twin's gain is
-    b_k = a_k,twin √s_twin / truth_twin and the calibrated choice c_k = a_k / b_k.  The
-    estimate is ĉ = c_first √s.  The interval adds, each way, the choices' relative reach
-    (1 − min_k c_k / c_first, max_k c_k / c_first − 1) and the coupling interval's
-    (1 − √(s_lo / s), √(s_hi / s) − 1) in quadrature: the two are independent errors.
-    Quadrature rather than product: see
-    docs/coverage.md#calibrated-on-a-simulated-twin-of-the-ride-the-interval-measured-cause.
+    Choice k estimates a_k √s; the twin's gain is b_k = a_k,twin √s_twin / truth_twin (``truth``
+    in rad) and c_k = a_k / b_k; the estimate is c_first √s.  The interval adds the choices'
+    relative reach and the coupling interval's in quadrature.  The item gains a
+    ``calibration`` field (uncalibrated estimate and interval, the twin's estimate, truth, b).
     """
     cp, ct = item["coupling"], twin["coupling"]
     if ct["s"] <= 0 or cp["s"] <= 0 or truth <= 0:
@@ -203,18 +160,15 @@ def calibrate_lateral(prep: Prepared, h: float, diagnose, draws: int | None = No
     h : float
         The fitted h with the named effects, m.
     diagnose : callable
-        :func:`euc_sim.diagnosis.pipeline.diagnose` (passed in: no import cycle); called
-        with ``calibrate=False``.
+        :func:`euc_sim.diagnosis.pipeline.diagnose` (passed in: no import cycle).
+    draws : int, optional
+        Noisy twins (default :data:`NOISE_DRAWS`; 0: the floor is the noise-free twin's).
 
     Returns
     -------
     dict
-        ``done`` (bool); with ``done``: ``plan``, ``truth`` (rad), ``item`` (the twin's
-        ``lateral_dynamics`` item, named or tentative), ``heldout`` (the twin's held-out
-        RMSE, N·m), ``noisy`` (:func:`noisy_twins`); otherwise ``reason``.
-    draws : int, optional
-        Noisy twins (:data:`NOISE_DRAWS` by default; 0: none, the floor is the noise-free
-        twin's).
+        ``done``; with it ``plan``, ``truth`` (rad), ``item`` (the twin's ``lateral_dynamics``
+        item), ``heldout`` (N·m), ``noisy`` (:func:`noisy_twins`); otherwise ``reason``.
     """
     plan = plan_of(prep)
     if plan is None:
@@ -240,21 +194,14 @@ def _diagnose_twin(rec: pd.DataFrame, meta: dict, prep: Prepared, diagnose) -> d
 
 
 def noisy_twins(prep: Prepared, plan: dict, h: float, diagnose, draws: int = NOISE_DRAWS) -> dict:
-    """The twin with the rider's motor noise read from the recording: what the lateral term
-    leaves on a ride of the spatial model whose rider is as noisy as this one.
-
-    The level is :func:`euc_sim.diagnosis.rider_noise.motor_noise_level` of the recorded
-    M_h at the twin rider's correlation time; each of ``draws`` twins takes the seed
-    :func:`~euc_sim.diagnosis.rider_noise.recording_seed` (the recording's content and the
-    draw's index), is recorded as the recording was (no sensor noise) and diagnosed.
+    """Twins whose rider carries the motor noise read from the recorded M_h.
 
     Returns
     -------
     dict
-        ``level`` (N·m, or None without a recorded M_h), ``seeds``, ``heldout`` (each draw's
-        held-out RMSE, N·m; a draw whose twin fell or named no ``lateral_dynamics`` is left
-        out and counted in ``failed``) and ``floor``: the RMS of ``heldout`` (None when
-        none), N·m.
+        ``level`` (N·m, None without M_h), ``seeds``, ``heldout`` (held-out RMSE per draw,
+        N·m; a twin that fell or named no ``lateral_dynamics`` is counted in ``failed``) and
+        ``floor``, their RMS (None when none), N·m.
     """
     out = {"level": None, "seeds": [], "heldout": [], "failed": 0, "floor": None}
     if "M_h" not in prep.raw.columns or draws <= 0:
@@ -283,13 +230,11 @@ def noisy_twins(prep: Prepared, plan: dict, h: float, diagnose, draws: int = NOI
 
 
 def twin_artifacts(decision: dict, twin: dict) -> list[str]:
-    """Move the effects the twin names too from ``decision["effects"]`` to its ``tentative``.
+    """Move the effects the twin names too from ``decision["effects"]`` to ``tentative``, with a note; returns
+    their names.
 
-    The twin has none of the catalog's other physics: what its diagnosis names beside
-    ``lateral_dynamics`` (on 3-D rides a rider mass of 67–69 kg and a slope of −0.0003 rad,
-    through the wheel row) is the lateral term's approximation seen through the recording,
-    and the same name on the recording is no evidence of that physics.  Returns the names
-    moved (a note in ``decision["notes"]`` says so).
+    The twin has none of the catalog's other physics, so what it names beside
+    ``lateral_dynamics`` is the term's approximation, not evidence.
     """
     moved = [e for e in decision["effects"] if e["name"] != "lateral_dynamics" and e["name"] in twin.get("names", {})]
     if moved:

@@ -27,11 +27,11 @@ def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
     Parameters
     ----------
     t, r : numpy.ndarray
-        Time (s) and residual (N·m), same length, uniformly sampled.
+        Time (s) and residual (N·m), uniformly sampled.
     signals : mapping of str to numpy.ndarray
-        Signals to correlate with (speed, acceleration, lean, ...), same length.
+        Signals to correlate with, same length.
     smooth : float
-        Moving-average length for the residual's power, s.
+        Moving-average length of the residual's power, s.
     factor : float
         A window is where the smoothed power exceeds ``factor`` × its median.
     min_len : float
@@ -40,8 +40,7 @@ def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
     Returns
     -------
     dict
-        ``windows``: list of [t0, t1] (s); ``share``: fraction of the residual's energy
-        inside them; ``correlations``: Pearson correlation with each signal.
+        ``windows`` ([t0, t1], s), ``share`` of the energy inside them, ``correlations``.
     """
     t = np.asarray(t, float)
     r = np.asarray(r, float)

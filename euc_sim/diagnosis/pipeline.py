@@ -54,42 +54,34 @@ RELINEARISE_TOL = {"sensor_time_offset": 0.002, "rider_mass": 0.5}
 def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | None = None,
              thresholds: Thresholds = THRESHOLDS, resimulate: bool = True, seed: int = 0,
              smoothing=None, progress: Callable[[str], None] | None = None, calibrate: bool = True) -> dict:
-    """Diagnose a recording: where the nominal model fails, which catalogued physics is
-    missing, with estimates, intervals, aliases and the improvement.
+    """Diagnose a recording: where the nominal model fails, which catalogued physics is missing, with estimates,
+    intervals, aliases and the improvement.
 
     Parameters
     ----------
     source : path or pandas.DataFrame
-        A CONTRACT recording (CSV/Parquet with its sidecar ``NAME.json``); the
-        ``NAME.truth.json`` file is never read.
+        A CONTRACT recording (its ``NAME.truth.json`` is never read).
     params : Params or mapping, optional
-        Nominal parameters (default: the sidecar's, else Table 3); h is always
-        identified.
+        Nominal parameters (default the sidecar's, else Table 3); h is always identified.
     meta : mapping, optional
-        Metadata when ``source`` is a DataFrame (maneuver, duration, seed).
+        Metadata when ``source`` is a DataFrame.
     thresholds : Thresholds
     resimulate : bool
-        Re-simulate the maneuver with the accepted effects injected (needs the
-        maneuver in the metadata).
+        Re-simulate the maneuver with the accepted effects injected.
     seed : int
         Seed of the noise-floor draw.
     smoothing : processing.Smoothing, optional
-        The consistent recipe (default ``processing.DEFAULT_SMOOTHING``).
     progress : callable, optional
-        Receives a short message at the start of each step ("1/6 prepare: ...").
+        Receives a short message at the start of each step.
     calibrate : bool
-        Where ``lateral_dynamics`` is selected on a 3-D ride (a 3-D path in the sidecar,
-        tilt, yaw and the C, E markers recorded): calibrate its estimate and interval on a
-        simulated twin of the ride, and add the term's own remainder on the twin to the
-        floor of the ``unexplained`` test (:mod:`.lateral_calibration`).
+        Calibrate a selected ``lateral_dynamics`` on a simulated twin of a 3-D ride
+        (:mod:`.lateral_calibration`).
 
     Returns
     -------
     dict
-        CONTRACT's diagnosis object (``recording``, ``nominal_rmse``, ``effects``,
-        ``unexplained``, ``windows``) plus ``h_nominal``, ``h_augmented``,
-        ``augmented_rmse``, ``noise_floor``, ``decidable``, ``verdict``, ``limits``,
-        ``visibility``, ``correlations``, ``history``, ``resimulation`` and more.
+        CONTRACT's diagnosis object plus ``h_nominal``, ``h_augmented``, ``augmented_rmse``,
+        ``noise_floor``, ``decidable``, ``verdict``, ``limits``, ``history`` and more.
     """
     say = progress or (lambda s: None)
     th = thresholds
@@ -152,8 +144,8 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
 
 
 def _twin_summary(twin: dict, noise_floor: float, floor_test: float) -> dict:
-    """``lateral_calibration`` of the JSON: the twin's plan, truth, estimate and remainder,
-    and the floor the ``unexplained`` test used (N·m); or why there is no twin."""
+    """``lateral_calibration`` of the JSON: the twin's plan, truth, estimate, remainder and the test's floor
+    (N·m), or why there is none."""
     if not twin["done"]:
         return {"done": False, "reason": twin["reason"], "plan": twin.get("plan")}
     return {"done": True, "plan": twin["plan"], "twin_truth": twin["truth"], "twin_estimate": twin["item"]["estimate"],
@@ -168,14 +160,7 @@ def _stacked_time(prep: Prepared, model: ResidualModel) -> np.ndarray:
 
 
 def _check_excitation(prep: Prepared, model: ResidualModel) -> None:
-    """Refuse a recording whose residual is zero whatever h is (nothing moves).
-
-    Raises
-    ------
-    DiagnosisError
-        naming the recording: a motionless recording, or one that the nominal model
-        matches exactly at every h, leaves nothing to select on (every RMSE is zero).
-    """
+    """Refuse (DiagnosisError) a recording whose residual is zero at every h: nothing to select on."""
     lo, hi = H_BOUNDS
     rms = max(float(np.sqrt(np.mean(model(h) ** 2))) for h in (lo, 0.5 * (lo + hi), hi))
     if rms < 1e-9:
@@ -186,9 +171,8 @@ def _check_excitation(prep: Prepared, model: ResidualModel) -> None:
 
 
 def _nonlinear_hint(problem: reg.Problem, info: dict, s, n_eff: float, th: Thresholds) -> dict | None:
-    """A rider mass or time offset that the last selection step refused although it dropped
-    the BIC by ``min_bic_drop`` (its linear column, taken at the nominal value, is poor far
-    from it): ``{name: value at its trial}``, the largest drop; None otherwise."""
+    """``{name: value}`` of a rider mass or time offset the last step refused though it dropped the BIC by
+    ``min_bic_drop`` (its linear column is poor far from nominal); None otherwise."""
     last = s.history[-1]
     if last.accepted or not last.trials:
         return None
@@ -205,20 +189,14 @@ def _nonlinear_hint(problem: reg.Problem, info: dict, s, n_eff: float, th: Thres
 
 
 def _periodic_columns(fin: Final, time: np.ndarray) -> np.ndarray:
-    """The sinusoid (0.1-3 Hz, two columns) that best fits what the final model leaves
-    (:func:`selection.sinusoid_basis` on every sample)."""
+    """The 0.1–3 Hz sinusoid (two columns) best fitting what the final model leaves."""
     y = fin.problem.y(fin.fit.h) - fin.problem.design(fin.fit.names) @ fin.fit.coef_vector()
     return sel.sinusoid_basis(time)(np.arange(time.size), y, fin.fit.h)
 
 
 def _select(prep: Prepared, h0: float, n_eff: float, th: Thresholds, say, given=None):
-    """Candidates and selection, the columns rebuilt at the augmented h until it settles.
-
-    The candidate columns depend on h: a large missing effect drags the nominal h away
-    (to the search bound for a strong slalom), so the columns are rebuilt at the
-    augmented model's h and the selection is run again until h settles.  ``given``:
-    columns fitted beside every set (:func:`selection.project_out`), or None.
-    """
+    """Candidates and selection, the columns rebuilt at the augmented h (and about refined nonlinear values) until
+    it settles."""
     h_cols, state = h0, None
     for it in range(COLUMN_ITERATIONS + RELINEARISE):
         problem, info = build_problem(prep, h_cols) if state is None else relinearised(prep, h_cols, state)
@@ -250,9 +228,8 @@ def _select(prep: Prepared, h0: float, n_eff: float, th: Thresholds, say, given=
 
 def _add_blind_windows(limits: dict, model: ResidualModel, time: np.ndarray, h: float, floor: dict,
                        th: Thresholds) -> None:
-    """``limits["cog_height_drift"]["blind_windows"]``: where no plausible drift could be seen
-    (:func:`euc_sim.diagnosis.drift_term.blind_windows`, ∂r/∂h at h, m), and
-    ``analysed_span``: the first and last residual sample, s (the filter's edges are cut)."""
+    """Add ``blind_windows`` (:func:`euc_sim.diagnosis.drift_term.blind_windows`) and ``analysed_span`` (s) to the
+    drift's limits."""
     if "cog_height_drift" not in limits:
         return
     dh = 1e-4
@@ -280,8 +257,7 @@ def _reported_model(problem: reg.Problem, s, fin: Final, decision: dict) -> tupl
 
 
 def _localisation(prep: Prepared, model: ResidualModel, h: float) -> tuple[dict, str]:
-    """Localise on the row that carries the mismatch (the wheel row when M_d is recorded
-    and it dominates)."""
+    """Localise on the row that carries the mismatch (the wheel row where it dominates)."""
     r_loc, loc_row = model.kinematic(h), "M_d,1 - M_d,2"
     if model.W is not None:
         r_w = model.wheel(h)
@@ -354,12 +330,8 @@ def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limi
 
 
 def _at_bound(h_nominal: float, h_augmented: float, fin: Final, decision: dict) -> list[tuple[str, str]]:
-    """Every fitted quantity that ends on its search bound: (JSON key, a note or "").
-
-    h is searched in :data:`H_BOUNDS`; the time offset and the rider mass by a 1-D
-    search each (:func:`~euc_sim.diagnosis.refine.refine`).  The verdict's own note
-    already says when the augmented h lies on the bound (its sentence is then "").
-    """
+    """Every fitted quantity that ends on its search bound: (JSON key, a note, "" where the verdict's note already
+    says it)."""
     lo, hi = H_BOUNDS
     hits = []
     if h_at_bound(h_nominal):
@@ -382,8 +354,7 @@ def _at_bound(h_nominal: float, h_augmented: float, fin: Final, decision: dict) 
 
 
 def _single_fits(problem: reg.Problem, nk: int) -> dict:
-    """Each candidate alone with h: (residual at its h, its fitted term, h) for the
-    kinematic row, then the same two for the wheel row (None without M_d)."""
+    """Each candidate alone with h: (residual at its h, its term, h, and the same two for the wheel row or None)."""
     out = {}
     for c in problem.candidates:
         f = reg.fit_set(problem, (c,))

@@ -32,29 +32,21 @@ class Prepared:
     Attributes
     ----------
     kin : processing.Kinematics
-        Short Savitzky–Golay (q, q̇, q̈) of every sample; the consistent term filter
-        is still to be applied to each torque term (:func:`processing.term_filter`).
+        Short Savitzky–Golay (q, q̇, q̈) of every sample; the term filter is still to be applied.
     sigma : float
         The term filter's standard deviation, samples.
     M_d : numpy.ndarray or None
         (N,) recorded driving torque (unfiltered), N·m.
     lateral : dict or None
-        Where ``psi`` and ``theta`` are recorded: the smoothed inputs of the lateral
-        term, keys :data:`euc_sim.simulation.effects.LATERAL_INPUTS` ((N,) arrays: rad, rad/s,
-        rad/s, rad/s²); with C and G recorded also those of
-        :data:`~euc_sim.simulation.effects.LEAN_INPUTS` (the rider's lean, from G out
-        of the EUC's plane).
+        The lateral term's inputs (:func:`lateral_inputs`) where ``psi`` and ``theta`` are recorded.
     keep : numpy.ndarray
-        Absolute indices of the residual samples used (interior of the filters,
-        decimated to :data:`SELECT_RATE`).
+        Indices of the residual samples used (interior, decimated to :data:`SELECT_RATE`).
     params : Params
-        Nominal parameters (Table 3 overridden by the sidecar; h is identified).
+        Nominal parameters (h is identified).
     meta : dict
-        Sidecar metadata.
     name : str
-        Recording name.
     noise_sd : dict
-        Estimated white-noise standard deviation per channel (m or rad).
+        White-noise standard deviation per channel, m or rad.
     raw : pandas.DataFrame
         The validated recording (not modified).
     """
@@ -116,15 +108,8 @@ def _read(source, meta: Mapping | None):
 
 
 def _nominal_params(params, meta: dict, source, name: str) -> Params:
-    """The nominal parameters: ``params`` when given, else the sidecar's (or Table 3).
-
-    Raises
-    ------
-    DiagnosisError
-        naming where the parameters came from (the sidecar file and its field
-        ``params.m``, or the argument) when the rider's mass is outside
-        :data:`RIDER_MASS_RANGE`: the diagnosis varies it by several kg.
-    """
+    """``params`` when given, else the sidecar's (or Table 3); DiagnosisError, naming the source, for a rider mass
+    outside :data:`RIDER_MASS_RANGE`."""
     if isinstance(params, Params):
         p, where = params, "params"
     elif params is not None:
@@ -145,25 +130,20 @@ def _nominal_params(params, meta: dict, source, name: str) -> Params:
 
 def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None = None,
             smoothing=None, rate: float = SELECT_RATE) -> Prepared:
-    """Read, validate and differentiate a recording (processing.py's consistent recipe).
+    """Read, validate and differentiate a recording by the consistent recipe.
 
     Parameters
     ----------
     source : path or pandas.DataFrame
-        A CONTRACT recording (CSV/Parquet with its sidecar, state or motion-capture
-        columns) or its table.
+        A CONTRACT recording (state or motion-capture columns) or its table.
     params : Params or mapping, optional
-        Nominal parameters; default: the sidecar's, else Table 3.
+        Nominal parameters; default the sidecar's, else Table 3.
     meta : mapping, optional
-        Metadata for a DataFrame source (the sidecar's content).
+        Metadata for a DataFrame source.
     smoothing : processing.Smoothing, optional
-        Default: ``processing.DEFAULT_SMOOTHING`` (consistent filtering, docs/identification.md).
+        Default ``processing.DEFAULT_SMOOTHING``.
     rate : float
         Residual samples kept per second, Hz.
-
-    Returns
-    -------
-    Prepared
 
     Raises
     ------
@@ -194,15 +174,11 @@ def lateral_inputs(df: pd.DataFrame, gamma, l0: float, dt: float, window: float 
                    q=None, R: float | None = None) -> dict:
     """The lateral term's inputs from a recording's ``theta`` and ``psi`` (and C, E, G).
 
-    Tilt and yaw are inputs of the lateral term, not terms of the balance: a longer
-    cubic Savitzky–Golay fit (``window``, s) keeps their noise out of the column (errors
-    in variables).  Keys :data:`euc_sim.simulation.effects.LATERAL_INPUTS`, and
-    :data:`~euc_sim.simulation.effects.LEAN_INPUTS` where the markers show the rider's
-    lean ((N,) arrays: rad, rad/s, rad/s²); ``gamma`` the EUC's pitch, rad; ``l0`` m.
-    With the paper coordinates ``q`` ((N, 3): x m, γ, φ rad) and the wheel radius ``R``
-    (m) also :data:`~euc_sim.simulation.effects.RIDER_MARKER_INPUTS`: ψ, G's acceleration,
-    ẍ and G's acceleration in the tilted plane through the same fit, for the rider's
-    translation in space (:func:`euc_sim.model.rider_spatial.rider_translation_forces`).
+    A longer cubic Savitzky–Golay fit (``window``, s) keeps their noise out of the column
+    (errors in variables).  Keys :data:`euc_sim.simulation.effects.LATERAL_INPUTS`, with the
+    markers also ``LEAN_INPUTS``, and with ``q`` ((N, 3)) and ``R`` (m) also
+    ``RIDER_MARKER_INPUTS``; (N,) arrays in rad, rad/s, rad/s² (m/s² for accelerations).
+    ``gamma`` the EUC's pitch, rad; ``l0``, m; ``dt``, s.
     """
     w = int(round(window / dt)) | 1
     o = 3
@@ -236,15 +212,12 @@ def marker_tilt(df: pd.DataFrame, psi) -> np.ndarray | None:
 
 
 def _rider_lean(df: pd.DataFrame, psi, gamma, l0: float, dt: float, w: int, o: int):
-    """The rider's lateral lean λ relative to the EUC body and its rates (rad, rad/s,
-    rad/s²), or None without the C, E and G columns.
+    """The rider's lateral lean λ relative to the EUC body and its rates (rad, rad/s, rad/s²), or None without C,
+    E and G.
 
-    The EUC's tilt is taken from its own markers, ϑ_E = atan2(−b_y, b_z) with
-    b = T_ψᵀ (E − C) = (sin γ, −sin ϑ cos γ, cos ϑ cos γ): 0.2 mm over the 0.42 m of C–E
-    is 12× finer than the recorded angle's 0.5°, whose noise would otherwise enter λ
-    whole (and, through the lean terms, attenuate the lateral coupling fitted on it).
-    G seen from the ankle A in that tilted frame (eq. 1) is
-    (h cos λ sin φ, −h sin λ, h cos λ cos φ): λ = atan2(−y_AG, z_AG), whatever h.
+    The tilt is taken from the markers, ϑ_E = atan2(−b_y, b_z), b = T_ψᵀ (E − C) (finer than
+    the recorded angle); G seen from A in the tilted frame is (h cos λ sin φ, −h sin λ,
+    h cos λ cos φ), so λ = atan2(−y_AG, z_AG).
     """
     cols = ("C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
     if not set(cols) <= set(df.columns):
@@ -258,12 +231,7 @@ def _rider_lean(df: pd.DataFrame, psi, gamma, l0: float, dt: float, w: int, o: i
 
 
 def _raw_channels(df: pd.DataFrame) -> dict[str, np.ndarray]:
-    """Unsmoothed x, γ, φ (or their motion-capture stand-ins) for the noise estimate.
-
-    A motion-capture file has no x or φ column: φ is taken as the lean of C→G (E→G)
-    in the heading plane, atan2((G − C)·(cos ψ, sin ψ), G_Z − C_Z), and x's noise as
-    that of C_X (E_X).  Only their sample-to-sample noise matters here.
-    """
+    """Unsmoothed x, γ, φ for the noise estimate (motion capture: φ the lean of C→G in the heading plane, x as C_X)."""
     out = {}
     base = "C" if {"C_X", "C_Y", "C_Z"} <= set(df.columns) else "E"
     if "x" in df.columns:
@@ -283,11 +251,7 @@ def _raw_channels(df: pd.DataFrame) -> dict[str, np.ndarray]:
 
 
 def noise_sd(y: np.ndarray) -> float:
-    """White-noise level of a channel from its third differences (robust, MAD).
-
-    For white noise of sd σ, Δ³y has sd σ·√20; smooth motion at 120 Hz contributes
-    little to Δ³.
-    """
+    """White-noise level of a channel from its third differences (MAD; Δ³ of white noise σ has sd σ√20)."""
     d3 = np.diff(np.asarray(y, float), 3)
     return float(1.4826 * np.median(np.abs(d3 - np.median(d3))) / math.sqrt(20.0))
 

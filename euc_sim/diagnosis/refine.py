@@ -19,16 +19,12 @@ __all__ = ["refine", "relinearised", "Final", "final_model"]
 
 
 def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: float, given=None):
-    """Estimate nonlinear effects (time offset, rider mass) by a 1-D search each.
+    """Estimate nonlinear effects (time offset, rider mass) by a 1-D search each over the value itself, h and the
+    linear effects profiled out.
 
-    Their columns are linearisations; the estimate is refined by minimising the
-    residual's RSS over the effect's value itself (re-aligned rider channel, rider
-    mass changed), with h and the linear effects profiled out.  Returns the state
-    ``{name: value}``, the rebuilt (problem, info), the fit, and the slope dθ/dv of
-    each linearised coefficient (to convert its standard error).  The info of each
-    refined effect carries its last ``search`` interval and ``at_bound`` (the value
-    ends within three search tolerances of an end of it).  ``given``: columns
-    fitted beside every set (:func:`selection.project_out`), or None.
+    Returns the state ``{name: value}``, the rebuilt (problem, info) (each refined effect's
+    info with its ``search`` interval and ``at_bound``), the fit, and the slope dθ/dv of each
+    linearised coefficient.  ``given``: columns fitted beside every set, or None.
     """
     p = prep.params
     nonlin = [c for c in selected if c in NONLINEAR]
@@ -85,13 +81,10 @@ def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: f
 
 
 def relinearised(prep: Prepared, h: float, state: dict) -> tuple[reg.Problem, dict]:
-    """The selection problem linearised about refined nonlinear values instead of the nominal ones.
+    """The selection problem linearised about refined values ``state`` instead of the nominal ones.
 
-    A rider mass or time offset far from nominal (tens of kg) leaves a second-order misfit
-    in its linear column that other candidates would explain.  Columns are rebuilt at the
-    values ``state`` (:func:`refine`), and the target is r_v(h) + Σ X_v·(v − v_0), equal
-    to the nominal residual to first order about v: the nonlinear candidate's θ is again
-    v − v_0 (the estimate maps of the nominal problem), and fits exactly where v is right.
+    Target r_v(h) + Σ X_v·(v − v_0): equal to the nominal residual to first order about v, so
+    θ is again v − v_0 and fits exactly where v is right.
     """
     p = prep.params
     nominal = {"sensor_time_offset": 0.0, "rider_mass": p.m}
@@ -113,22 +106,19 @@ def relinearised(prep: Prepared, h: float, state: dict) -> tuple[reg.Problem, di
 
 @dataclass(frozen=True)
 class Final:
-    """The model after selection and refinement: the one whose estimates are reported.
+    """The model after selection and refinement, whose estimates are reported.
 
     Attributes
     ----------
     problem : regression.Problem
-        Its columns (rebuilt at the refined nonlinear values, when there are any).
     info : dict
-        Per candidate, how θ maps to CONTRACT's estimate (see ``build_problem``).
+        Estimate maps (``build_problem``).
     fit : regression.Fit
-        Fit of the selected set.
     slopes : dict
-        dθ/dv of each refined nonlinear effect (to convert its standard error).
+        dθ/dv of each refined nonlinear effect.
     cov : numpy.ndarray
-        Covariance of (θ, h) (``regression.covariance``, 2 s clusters).
+        Covariance of (θ, h), 2 s clusters.
     dof : float
-        Its degrees of freedom.
     cv : float
         Held-out RMSE of the selected set, N·m.
     """
@@ -143,11 +133,8 @@ class Final:
 
 
 def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress=None, given=None) -> Final:
-    """The selected set's model, its nonlinear effects refined (:func:`refine`).
-
-    ``s`` is the :class:`~euc_sim.identification.selection.Selection` on ``problem``;
-    ``given``: columns fitted beside every set (a periodic structure), or None.
-    """
+    """The selection ``s``'s model, its nonlinear effects refined; ``given``: columns fitted beside every set, or
+    None."""
     selected = tuple(s.selected)
     estimates = {c: info[c]["offset"] + info[c]["scale"] * float(s.fit.theta[c][0])
                  for c in selected if not info[c].get("drift")}

@@ -1,21 +1,8 @@
 """The diagnosis as a person reads it: a terminal summary and a page with figures.
 
-:func:`summary` gives a few lines for the terminal; :func:`write_report` writes
-``DIR/index.html`` (:mod:`euc_sim.diagnosis.report_html`), ``DIR/index.md`` and its PNG figures:
-
-- ``residual.png``: the residual M_d,1 − M_d,2 over time, nominal and with the
-  accepted effects, the windows where the mismatch concentrates shaded;
-- ``terms.png``: the nominal residual against each candidate term (what a
-  unit of each effect would add), with the correlation;
-- ``before_after.png``: held-out residual RMSE before and after, against the noise
-  floor;
-- ``resimulation.png``: the recording against the nominal and the augmented
-  simulation (rider lean φ, speed ẋ);
-- ``drift.png``: with ``cog_height_drift`` named, h(t) with its 95 % band.
-
-Each figure is built by a pure function of the result that returns a matplotlib
-Figure (:data:`FIGURES`: file name -> builder); :func:`write_report` renders them.
-Figures use degrees only for display; everything else is SI.
+:func:`summary` gives the terminal lines; :func:`write_report` writes ``DIR/index.html``,
+``DIR/index.md`` and the PNG figures of :data:`FIGURES` (each a pure function of the
+result returning a matplotlib Figure, None when it does not apply).
 """
 
 from __future__ import annotations
@@ -46,18 +33,7 @@ def _fmt_effect(e: dict) -> str:
 
 
 def summary(result: dict) -> str:
-    """A short terminal summary of a diagnosis result.
-
-    Parameters
-    ----------
-    result : dict
-        From :func:`euc_sim.diagnosis.pipeline.diagnose`.
-
-    Returns
-    -------
-    str
-        A few lines, no trailing newline.
-    """
+    """A few terminal lines (no trailing newline) on a result of :func:`euc_sim.diagnosis.pipeline.diagnose`."""
     r = result
     found = bool(r["effects"])
     lines = [f"{r['recording']}: {r['verdict']}"]
@@ -118,9 +94,7 @@ def _calibration_lines(r: dict) -> list[str]:
 
 
 def _floor_ratio_text(r: dict) -> str:
-    """The ``unexplained`` test's held-out RMSE over the noise floor, named: it counts the
-    tentative effects too, so it differs from ``heldout_over_floor`` when there are any.
-    On a calibrated 3-D ride the floor also holds the lateral term's remainder on its twin."""
+    """The ``unexplained`` test's held-out RMSE over its noise floor, named (it counts the tentative effects too)."""
     whose = ("with every selected effect, the tentative ones too" if r.get("tentative")
              else "with the accepted effects")
     lc = r.get("lateral_calibration") or {}
@@ -199,11 +173,7 @@ def residual_figure(result: dict):
 
 
 def terms_figure(result: dict):
-    """``terms.png``: the residual against each candidate term fitted alone.
-
-    Each candidate is fitted jointly with h, so each panel's residual is at its
-    own h (in its title); one legend for the figure.
-    """
+    """``terms.png``: the residual against each candidate term fitted alone (jointly with h, h in each title)."""
     from matplotlib.lines import Line2D
 
     s = result["_series"]
@@ -247,11 +217,7 @@ def terms_figure(result: dict):
 
 
 def before_after_figure(result: dict):
-    """``before_after.png``: held-out residual RMSE before and after each accepted effect.
-
-    A logarithmic N·m axis with plain numbers and a second axis in multiples of
-    the noise floor: a bar near the floor stays distinct from it; every bar is labelled.
-    """
+    """``before_after.png``: held-out residual RMSE before and after each accepted effect (log axis)."""
     from euc_sim.identification.plots import plain_log_ticks  # deferred: loads matplotlib, pandas (0.6 s)
 
     floor = result["noise_floor"]
@@ -347,10 +313,7 @@ FIGURES = {"residual.png": (residual_figure, 110), "terms.png": (terms_figure, 1
 
 
 def write_report(result: dict, outdir: str | Path) -> Path:
-    """Write ``outdir/index.html`` (the page) and ``outdir/index.md`` (its plain text) with the figures.
-
-    Everything is made in memory first and each file written atomically, the pages
-    last: a failure leaves no half-written file and no page.
+    """Write ``outdir/index.html``, ``outdir/index.md`` and the figures, each file atomically, the pages last.
 
     Parameters
     ----------
@@ -362,14 +325,12 @@ def write_report(result: dict, outdir: str | Path) -> Path:
     Returns
     -------
     pathlib.Path
-        The Markdown page (the HTML page ``index.html`` is beside it).
+        The Markdown page.
 
     Raises
     ------
     ValueError
         when ``result`` has no ``_series`` (it was read back from JSON).
-    OSError
-        naming the path that cannot be written.
     """
     if "_series" not in result:
         raise ValueError("result: expected the dict returned by diagnose() (with '_series'), "
@@ -392,9 +353,7 @@ def write_report(result: dict, outdir: str | Path) -> Path:
 
 def report_paths(outdir: str | Path) -> list[Path]:
     """The files :func:`write_report` writes into ``outdir`` (to check them before any work)."""
-    out = Path(outdir)
-    return [out / n for n in ("index.html", "index.md", "residual.png", "terms.png", "before_after.png", "resimulation.png",
-                              "drift.png")]
+    return [Path(outdir) / n for n in ("index.html", "index.md", *FIGURES)]
 
 
 def _markdown(result: dict, has_resim: bool) -> str:
@@ -502,24 +461,21 @@ def _limits_section(r: dict) -> list[str]:
     return md
 
 
-#: Relative changes of the re-simulated lean's RMSE, %, below which the text calls the change
-#: "hardly any" and above which (a fall) "large"; wording only, no decision rests on them.
+#: Changes of the re-simulated lean's RMSE, %, worded "hardly any" below and "large" (a fall) above.
 RESIM_SMALL_CHANGE, RESIM_LARGE_FALL = 5.0, 25.0
 
 
 def resimulation_change_text(change: float) -> str:
-    """The report's sentence on how the lean's re-simulated RMSE changed, worded by its size.
+    """The report's paragraph on how the lean's re-simulated RMSE changed.
 
     Parameters
     ----------
     change : float
-        Relative change of the RMSE of the lean φ, augmented against nominal, % (negative:
-        the augmented re-simulation follows the recording more closely).
+        Relative change of the RMSE of φ, augmented against nominal, % (negative: closer).
 
     Returns
     -------
     str
-        One paragraph: the change said as a fall, a rise or hardly any, and what it means.
     """
     check = ("This is a check that the augmented model, run forward in closed loop, reproduces the "
              "ride at least as well as the nominal one, not the test of the effect (that is the "

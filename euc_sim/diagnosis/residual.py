@@ -23,12 +23,8 @@ __all__ = ["ResidualModel", "residual_model", "noise_floor"]
 # --- the residual --------------------------------------------------------------------------
 @dataclass(frozen=True)
 class ResidualModel:
-    """Residual of the nominal model as a closed-form function of h, kept samples.
-
-    Kinematic row (identification.residual_poly): r(h) = P(h)/D(h) = M_d,1 − M_d,2,
-    P's coefficients term-filtered.  With M_d recorded the wheel row
-    r_w(h) = M_d,1(h) − M_d = w₀ + w₁ h (both term-filtered) is stacked below.
-    """
+    """r(h) = P(h)/D(h) = M_d,1 − M_d,2 on the kept samples, P term-filtered; with M_d recorded r_w(h) = w₀ + w₁ h
+    stacked below."""
 
     P: np.ndarray                # (3, n)
     D: np.ndarray                # (2, n)
@@ -54,13 +50,8 @@ _H_NODES = np.array([0.5, 1.0, 1.5])
 
 
 def residual_model(prep: Prepared, p: Params | None = None, sigma: float | None = None) -> ResidualModel:
-    """Build r(h) (and r_w(h) with M_d recorded) on the kept samples.
-
-    The kinematic row is :func:`euc_sim.identification.h_fit.residual_poly` when the
-    default filter is used; its samples are the interior ones, of which ``keep`` is a
-    subset.  With another ``sigma`` (a different term filter, samples)
-    the same polynomial is built here on the full length.
-    """
+    """Build r(h) (and r_w(h)) on the kept samples; another term filter ``sigma`` (samples) rebuilds the
+    polynomial on the full length."""
     p = prep.params if p is None else p
     kin = prep.kin
     if sigma is None:
@@ -92,26 +83,11 @@ def residual_model(prep: Prepared, p: Params | None = None, sigma: float | None 
 
 # --- noise floor ---------------------------------------------------------------------------
 def noise_floor(prep: Prepared, h: float, seed: int = 0) -> dict:
-    """The residual that the recording's own sensor noise produces through the filter.
+    """The residual the recording's own sensor noise produces through the filter, at ``h`` (m).
 
-    White noise with the level estimated from each channel (:func:`noise_sd`) is
-    filtered like the data and propagated to the residual (linearised about the
-    filtered motion).  Its RMS is the floor below which nothing can be named; its
-    correlation time gives the effective sample count n_eff of the BIC.
-
-    Parameters
-    ----------
-    prep : Prepared
-    h : float
-        m.
-    seed : int
-        Seed of the noise draw.
-
-    Returns
-    -------
-    dict
-        ``rms`` (N·m, kinematic residual), ``rms_stacked`` (all rows), ``tau_int``
-        (kept samples), ``noise``: the residual samples (stacked).
+    White noise of each channel's level (:func:`noise_sd`), filtered like the data and
+    propagated linearly.  Returns ``rms`` (N·m, kinematic row), ``rms_stacked`` (all rows),
+    ``tau_int`` (samples, for n_eff) and ``noise`` (the stacked samples).
     """
     rng = np.random.default_rng(seed)
     n = prep.t.size

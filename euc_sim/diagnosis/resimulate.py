@@ -43,21 +43,10 @@ def _maneuver_of(prep: Prepared):
 def resimulate_recording(prep: Prepared, result: dict, engine: str = "mujoco") -> dict:
     """Re-simulate the recording's maneuver, nominal and augmented, with the same controllers.
 
-    The rider's plan is the sidecar's maneuver when it names a built-in one (with
-    its ``maneuver_options``), else the recording's own speed (a ``profile``), so the
-    closed loop of
-    :func:`euc_sim.simulation.engine.simulate` (default motor PD and LQR rider) reproduces
-    the maneuver; the nominal run uses h identified by the nominal model, the
-    augmented one h re-identified with the accepted effects, which are injected as
-    physics (moment, force at G, gravity direction, joint damping, mass, h(t), and a
-    re-aligned rider channel for a time offset).
-
-    Returns
-    -------
-    dict
-        ``done``; per run (``nominal``, ``augmented``) the RMSE of φ (rad), γ (rad)
-        and ẋ (m/s) against the recording; ``series`` (t, recorded and simulated φ, ẋ)
-        for the figure; or ``reason`` when the maneuver could not be re-simulated.
+    The plan is the sidecar's built-in maneuver, else the recording's own speed profile; the
+    nominal run uses the nominal h, the augmented one the re-identified h with the accepted
+    effects injected as physics.  Returns ``done``; per run the RMSE of φ, γ (rad) and ẋ (m/s)
+    against the recording; ``series`` for the figure; or ``reason``.
     """
     t = prep.t
     k = prep.keep
@@ -112,12 +101,8 @@ def _injected(prep: Prepared, named: list[dict]) -> tuple[dict, float]:
 
 
 def _lateral_motion(prep: Prepared, duration: float, sim_dt: float):
-    """The recording's own tilt and yaw on the run's grid (a ``maneuvers.LateralMotion``).
-
-    Only the prescribed motion's inputs (:data:`euc_sim.simulation.lateral.LATERAL_INPUTS`,
-    (N,) series) are carried over; ``prep.lateral``'s other inputs of the fit (the rider's
-    lean, G's (N, 3) acceleration) are the simulated rider's own outputs, not its plan.
-    """
+    """The recording's own tilt and yaw on the run's grid (only the prescribed
+    :data:`~euc_sim.simulation.lateral.LATERAL_INPUTS`)."""
     from scipy.integrate import cumulative_trapezoid
 
     t = prep.t

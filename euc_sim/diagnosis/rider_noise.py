@@ -1,23 +1,11 @@
 """The rider's motor-noise level read from the recorded ankle torque.
 
-The simulator's rider adds an Ornstein–Uhlenbeck torque n(t) of standard deviation σ and
-correlation time τ to his delayed law (:func:`euc_sim.controllers.rider.motor_noise`): the recorded
-M_h is u(t) + n(t), u the command.  The command reacts to states at least the reaction
-delay old and passes through the rider's body, so it is smooth at the recording's sampling
-interval, while n, sampled every Δt, is an AR(1) sequence with ρ = exp(−Δt/τ) whose second
-difference n_{k+1} − 2 n_k + n_{k−1} has variance σ² (6 − 4ρ_a − 4ρ_b + 2ρ_a ρ_b)
-(ρ_a, ρ_b of the two intervals; 2σ²(1 − ρ)(3 − ρ) at a uniform rate).  The mean square of
-the recorded M_h's second difference over that factor is σ̂²: the command contributes its
-own (small) second difference, the noise the rest.  It needs no state, so the recording's
-sensor noise (which the torques do not carry) does not enter.
-
-Accuracy: see docs/coverage.md#the-twin-carries-the-riders-own-motor-noise-the-unexplained-floor.
-The level assumes the correlation time of the twin's rider
-(``Rider.noise_tau``, 0.05 s): the twin carries the noise whose second differences the
-recording shows.
-
-The twin's draw is seeded from the recording itself (:func:`recording_seed`): the same
-recording gives the same twin.
+The simulator's rider adds an Ornstein–Uhlenbeck torque of σ and correlation time τ to his
+smooth delayed command (:func:`euc_sim.controllers.rider.motor_noise`); sampled, it is
+AR(1) with ρ = exp(−Δt/τ), whose second difference has variance
+σ² (6 − 4ρ_a − 4ρ_b + 2ρ_a ρ_b), so the recorded M_h's second differences give σ̂ without
+any state.  τ is the twin rider's (``Rider.noise_tau``).  Accuracy:
+docs/coverage.md#the-twin-carries-the-riders-own-motor-noise-the-unexplained-floor.
 """
 
 from __future__ import annotations
@@ -33,27 +21,10 @@ __all__ = ["motor_noise_level", "recording_seed"]
 
 
 def motor_noise_level(t: np.ndarray, M_h: np.ndarray, tau: float) -> float:
-    """The standard deviation of the rider's OU motor noise in a recorded ankle torque, N·m.
+    """σ̂ = √(mean (ΔΔM_h)² / mean (6 − 4ρ_a − 4ρ_b + 2ρ_a ρ_b)) of a recorded ankle torque, N·m.
 
-    Parameters
-    ----------
-    t : numpy.ndarray, shape (N,)
-        Sample times, s (increasing; N ≥ 3).
-    M_h : numpy.ndarray, shape (N,)
-        Recorded ankle torque (applied: command plus noise), N·m.
-    tau : float
-        Correlation time of the noise, s.
-
-    Returns
-    -------
-    float
-        σ̂ = √(mean (ΔΔM_h)² / mean (6 − 4ρ_a − 4ρ_b + 2ρ_a ρ_b)), ρ = exp(−Δt/τ) of each
-        interval; NaN when fewer than 3 finite samples.
-
-    Raises
-    ------
-    ValueError
-        when ``tau`` is not positive or the arrays differ in length.
+    ``t`` (s, increasing) and ``M_h`` (N·m) of equal length, ``tau`` > 0 (s); NaN with fewer
+    than 3 finite samples.
     """
     t, y = np.asarray(t, float), np.asarray(M_h, float)
     if not (math.isfinite(tau) and tau > 0):
@@ -72,9 +43,7 @@ def motor_noise_level(t: np.ndarray, M_h: np.ndarray, tau: float) -> float:
 
 
 def recording_seed(raw, draw: int = 0) -> int:
-    """A seed for the twin's noise from the recording's own content (CRC-32 of its
-    ``t`` and ``M_h`` columns, or ``t`` alone) and the draw's index: deterministic,
-    different between recordings and between draws."""
+    """A seed from the recording's content (CRC-32 of ``t`` and ``M_h``, or ``t``) and the draw's index."""
     cols = [c for c in ("t", "M_h") if c in raw.columns]
     crc = 0
     for c in cols:

@@ -16,25 +16,11 @@ __all__ = ["leftover", "judge", "cannot_see"]
 
 
 def leftover(fin, selected, floor_stacked: float, thresholds) -> dict:
-    """Structure left after the selected set: a generic periodic basis, and the noise floor.
+    """Structure left after the selected set: a generic periodic basis against the noise floor.
 
-    Parameters
-    ----------
-    fin : refine.Final
-    selected : sequence of str
-    floor_stacked : float
-        Noise floor of all residual rows, N·m.
-    thresholds : common.Thresholds
-    beside_structure : bool
-        The effects were selected with the periodic structure left fitted beside them:
-        each earned its place given it, so they are named beside ``unexplained``.
-
-    Returns
-    -------
-    dict
-        ``heldout_without``, ``heldout_with`` (N·m), ``gain``, ``floor_ratio``
-        (:func:`~euc_sim.diagnosis.common.heldout_over_floor` of every selected effect,
-        tentative ones too) and ``unexplained`` (bool).
+    ``floor_stacked``: noise floor of all residual rows, N·m.  Returns ``heldout_without``,
+    ``heldout_with`` (N·m), ``gain``, ``floor_ratio`` (every selected effect, tentative ones
+    too) and ``unexplained``.
     """
     cv_wo, cv_gen = sel.generic_gain(fin.problem, selected, sel.sinusoid_basis(fin.problem.time))
     gain = 1.0 - cv_gen / cv_wo
@@ -65,22 +51,21 @@ def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: di
     cv_nominal : float
         Held-out RMSE of the nominal model, N·m.
     fin : refine.Final
-    limits : dict
-        :func:`euc_sim.diagnosis.estimates.detection_limits`.
-    vis : dict
-        :func:`euc_sim.diagnosis.candidates.visibility`.
-    left : dict
-        :func:`leftover`.
+    limits, vis, left : dict
+        :func:`~euc_sim.diagnosis.estimates.detection_limits`,
+        :func:`~euc_sim.diagnosis.candidates.visibility`, :func:`leftover`.
     has_w : bool
-        Whether M_d is recorded (the wheel row).
+        Whether M_d is recorded.
     thresholds : common.Thresholds
+    beside_structure : bool
+        The effects were selected beside the periodic structure, so are named beside
+        ``unexplained``.
 
     Returns
     -------
     dict
-        ``verdict`` (str), ``effects``, ``tentative`` (lists of dict), ``unexplained``,
-        ``decidable`` (bool), ``notes`` (list of str), ``cannot_see``
-        (:func:`cannot_see`).
+        ``verdict``, ``effects``, ``tentative``, ``unexplained``, ``decidable``, ``notes``,
+        ``cannot_see``.
     """
     th = thresholds
     unexplained = left["unexplained"]
@@ -122,22 +107,8 @@ def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: di
 
 
 def cannot_see(limits: dict, vis: dict) -> dict[str, str]:
-    """Effects this recording could not reveal at a plausible size, and why.
-
-    Parameters
-    ----------
-    limits : dict
-        :func:`euc_sim.diagnosis.estimates.detection_limits`.
-    vis : dict
-        :func:`euc_sim.diagnosis.candidates.visibility`.
-
-    Returns
-    -------
-    dict
-        ``{effect: why}``: invisible effects (a column is missing: the reason from the
-        catalog's observability) and effects whose detection limit lies above the
-        lower end of their plausible range.
-    """
+    """``{effect: why}`` of effects invisible here (a column missing) or whose detection limit lies above their
+    plausible range's lower end."""
     out = {}
     for name, lim in limits.items():
         unit = "" if lim["unit"] in ("1", "") else f" {lim['unit']}"

@@ -31,16 +31,8 @@ def base_groups(p: Params) -> np.ndarray:
 
 
 def base_regressor(q, qd, qdd, g: float = TABLE3.g) -> np.ndarray:
-    """Regressor Y with inverse_dynamics(p, q, q̇, q̈) = Y(q, q̇, q̈) · base_groups(p).
-
-    Eqs. (5)-(8) are linear in the six groups of :data:`BASE_GROUPS`; column k holds
-    ∂(M q̈ + h − Q_gravity)/∂θ_k.  ``tests/test_identification.py`` checks the
-    identity against :func:`euc_sim.model.analytic.inverse_dynamics` for random parameters.
-
-    Returns
-    -------
-    ndarray, shape (..., 3, 6)
-    """
+    """Regressor Y (..., 3, 6) with inverse_dynamics(p, q, q̇, q̈) = Y · base_groups(p) (eqs. 5–8, groups
+    :data:`BASE_GROUPS`)."""
     q, qd, qdd = (np.asarray(a, dtype=float) for a in (q, qd, qdd))
     _, ga, ph = q[..., 0], q[..., 1], q[..., 2]
     _, gd, pd_ = qd[..., 0], qd[..., 1], qd[..., 2]
@@ -69,22 +61,20 @@ class BaseFit:
     Attributes
     ----------
     names : list of str
-    estimate, std_error : ndarray
-        SI units of each group.
-    nominal : ndarray
-        The groups from the parameters the recording was processed with.
+    estimate, std_error, nominal : ndarray
+        SI units of each group; ``nominal`` from the parameters used in processing.
     identifiable : ndarray of bool
-        Relative standard error below ``rel_tol``, sensitivity above
-        ``min_sensitivity`` and the column outside the numerical null space.
+        Relative standard error below ``rel_tol``, sensitivity above ``min_sensitivity``,
+        outside the numerical null space.
     condition_number : float
         Of the column-normalised regressor.
     rows : str
         Which equations were used.
     rmse : float
-        Residual of the fit, N·m (row 1 is scaled by R).
+        N·m (row 1 scaled by R).
     sensitivity : ndarray
-        Relative RMS change of the fitted torques for a 10 % error in each group,
-        the others compensating.
+        Relative RMS change of the fitted torques for a 10 % error in each group, the
+        others compensating.
     """
 
     names: list
@@ -108,32 +98,11 @@ class BaseFit:
 
 def identify_base_parameters(kin: Kinematics, M_d, M_h=None, p: Params = TABLE3,
                              rel_tol: float = 0.1, min_sensitivity: float = 1e-4) -> BaseFit:
-    """All base-parameter groups by linear least squares where M_d is known.
+    """All base-parameter groups by linear least squares where M_d (N·m) is known.
 
-    Uses R·row 1 = M_d and row 2 + row 3 = −M_d (M_h cancels), plus rows 2 and 3
-    separately when M_h is known too.  Every regressor column and the torques get
-    the same term filter (consistent filtering); edge samples are dropped.
-
-    Parameters
-    ----------
-    kin : Kinematics
-    M_d : array_like, shape (N,)
-        Known driving torque, N·m.
-    M_h : array_like, optional
-        Known ankle torque, N·m.
-    p : Params
-        Supplies g and the nominal values reported beside the estimates.
-    rel_tol : float
-        Largest relative standard error of an identifiable group (standard errors
-        allow for the residual's correlation over the filter's length).
-    min_sensitivity : float
-        Smallest relative change of the fitted torques (RMS, as a fraction of the
-        torques' RMS) that a 10 % error in the group causes after the other groups
-        compensate; below it the group is called not identifiable.
-
-    Returns
-    -------
-    BaseFit
+    Uses R·row 1 = M_d and row 2 + row 3 = −M_d, plus rows 2 and 3 when M_h (N·m) is known;
+    regressors and torques term-filtered alike, edges dropped.  ``p`` supplies g and the
+    nominal values; ``rel_tol`` and ``min_sensitivity`` decide :attr:`BaseFit.identifiable`.
     """
     sig = kin.smoothing.sigma_samples(kin.dt)
     sl = kin.interior

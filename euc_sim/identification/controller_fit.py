@@ -32,10 +32,9 @@ class ControllerFit:
     Attributes
     ----------
     gains : dict of str to float
-        Per term (``gamma`` → K_p, ``gamma_d`` → K_d, ...), SI (see ``units``).
+        Per term (``gamma`` → K_p, ``gamma_d`` → K_d, ...), in ``units``.
     units : dict of str to str
     r2 : float
-        Coefficient of determination.
     rmse : float
         N·m.
     delay : float
@@ -81,23 +80,11 @@ def _controller_rows(kin: Kinematics, p: Params, terms) -> tuple[np.ndarray, np.
 
 
 def identify_controller(kin, p, terms=("gamma", "gamma_d")) -> ControllerFit:
-    """The EUC's controller: M_d,2 ≈ Σ K_k · term_k (default K_p γ + K_d γ̇).
+    """The EUC's controller: M_d,2 (eq. 10) ≈ Σ K_k · term_k (default K_p γ + K_d γ̇), target and regressors
+    term-filtered alike.
 
-    M_d,2 (eq. 10) needs no torque measurement and no ẍ.  Target and regressors get
-    the same term filter, which a linear law passes through unchanged.
-
-    Parameters
-    ----------
-    kin : Kinematics or list of Kinematics
-        One recording, or several pooled into one least-squares fit.
-    p : Params or list of Params
-        With the rider height h to use (identified or known); one per recording.
-    terms : sequence of str
-        From ``gamma, gamma_d, x_d, x_dd, phi, phi_d, const``.
-
-    Returns
-    -------
-    ControllerFit
+    ``kin``, ``p``: one recording or lists pooled into one fit (``p.h`` the rider height used);
+    ``terms`` from ``gamma, gamma_d, x_d, x_dd, phi, phi_d, const``.
     """
     _check_terms(terms, "controller")
     kins = kin if isinstance(kin, (list, tuple)) else [kin]
@@ -112,12 +99,8 @@ def identify_controller(kin, p, terms=("gamma", "gamma_d")) -> ControllerFit:
 
 @dataclass
 class RiderFit(ControllerFit):
-    """The rider's delayed law; ``delay_curve`` holds (delays, rmse).
-
-    ``at_bound`` is True when the best delay is the first or last one searched
-    (``delay_curve[0][0]`` or ``[-1]``): the residual may fall further outside the
-    search, and the delay is a bound, not an estimate.
-    """
+    """The rider's delayed law; ``delay_curve`` holds (delays, rmse); ``at_bound`` when the best delay is the
+    first or last searched."""
 
     delay_curve: tuple = ()
     at_bound: bool = False
@@ -131,24 +114,8 @@ class RiderFit(ControllerFit):
 
 def identify_rider_delay(kin: Kinematics, p: Params, terms=("phi", "phi_d", "const"),
                          max_delay: float = 0.5) -> RiderFit:
-    """M_h(t) ≈ Σ k_j · term_j(t − τ): a delayed PD law, τ by a search over samples.
-
-    M_h is row 3 of eq. (5) (:func:`euc_sim.model.analytic.rider_torque`); for each delay
-    from 0 to ``max_delay`` the gains are a least-squares fit, and the delay with the
-    smallest residual is reported.
-
-    Parameters
-    ----------
-    kin : Kinematics
-    p : Params
-    terms : sequence of str
-    max_delay : float
-        Longest delay tried, s.
-
-    Returns
-    -------
-    RiderFit
-    """
+    """M_h (row 3 of eq. 5) ≈ Σ k_j · term_j(t − τ): a delayed PD law, τ searched from 0 to ``max_delay`` s
+    (:func:`fit_delayed_law`)."""
     _check_terms(terms, "rider")
     y, X = _filtered_rows(kin, analytic.rider_torque(p, kin.q, kin.qd, kin.qdd), terms)
     fit = fit_delayed_law(y, X, kin.dt, max_delay)
@@ -158,25 +125,10 @@ def identify_rider_delay(kin: Kinematics, p: Params, terms=("phi", "phi_d", "con
 
 
 def fit_delayed_law(y: np.ndarray, X: np.ndarray, dt: float, max_delay: float) -> dict:
-    """y(t) ≈ X(t − τ) · coef, τ a whole number of samples in [0, max_delay].
+    """y(t) ≈ X(t − τ) · coef, τ the whole number of samples in [0, max_delay] (s) with the smallest residual.
 
-    For each delay the coefficients are a least-squares fit on the overlapping
-    samples; the delay with the smallest residual RMSE wins.
-
-    Parameters
-    ----------
-    y : ndarray, shape (N,)
-    X : ndarray, shape (N, k)
-    dt : float
-        Sample period, s.
-    max_delay : float
-        Longest delay tried, s.
-
-    Returns
-    -------
-    dict
-        ``coef``, ``r2``, ``rmse``, ``delay`` (s), ``delay_curve`` (delays s, rmse) and
-        ``at_bound`` (the best delay is the first or the last one searched).
+    Returns ``coef``, ``r2``, ``rmse``, ``delay`` (s), ``delay_curve`` (delays s, rmse) and
+    ``at_bound``; ``y`` (N,), ``X`` (N, k), ``dt`` s.
     """
     n_max = int(min(round(max_delay / dt), len(y) // 2))
     fits = [_lstsq_fit(y[n:], X[: len(X) - n]) for n in range(n_max + 1)]

@@ -1,33 +1,13 @@
 """Experiment design: which maneuvers identify h, and how many recordings of each.
 
-Before recording, for a rider, the sensor noise and a list of maneuvers:
-
-* Monte Carlo: R rides of each maneuver as one MuJoCo batch
-  (:func:`euc_sim.simulation.mujoco_batch.simulate_rides`, the rider's motor noise seeded
-  per ride), sampled like motion capture at each noise level
-  (:func:`euc_sim.simulation.mocap.motion_capture`, seeded), and h fitted per ride as
-  the paper does (:func:`euc_sim.identification.h_fit.identify_h`, 3-DoF model,
-  RMSE(M_d,1 − M_d,2) minimised).  ``h_sd`` is the spread of the R estimates (one
-  recording each).
-* Fisher information: the fit minimises Σ r_k(h)² with r = M_d,1 − M_d,2 (filtered).
-  Linearised at the true h, ĥ − h ≈ −Σ s_k e_k / Σ s_k², with s = ∂r/∂h on the
-  noise-free recording (exact, from the polynomial form of r) and e the residual
-  the sensor noise leaves at the true h.  With e's autocovariance C (stationary,
-  pooled over the rides, Bartlett-tapered to ``FISHER_MAX_LAG``),
-
-      var ĥ = sᵀ C s / (sᵀ s)²,
-
-  which is 1/I(h), the inverse Fisher information, when e is white; with a
-  correlated e it is the variance of the unweighted fit (the sandwich form).
-  ``h_sd_fisher`` is its square root, averaged over the rides' variances.
-
-Recordings needed for a target precision σ*: independent recordings of one
-maneuver pool to h_sd/√n, so n = ⌈(h_sd/σ*)²⌉.  A maneuver is *flat* (the paper's
-constant speed and figure-eight) when it needs at least ``FLAT_FACTOR`` times
-the recordings of the best maneuver for the same precision.
-
-Seeds: run seed S gives maneuver i the child ``SeedSequence(S).spawn(M)[i]``; ride r
-draws its rider-noise and sensor-noise seeds from it.
+Monte Carlo: R rides of each maneuver (one MuJoCo batch, rider noise seeded per ride),
+sampled like motion capture at each noise level and fitted as the paper does (3-DoF,
+:func:`euc_sim.identification.h_fit.identify_h`); ``h_sd`` is the spread of the R estimates.
+Fisher: linearised at the true h, ĥ − h ≈ −Σ s_k e_k / Σ s_k², s = ∂r/∂h, so
+var ĥ = sᵀ C s / (sᵀ s)², C the residual's autocovariance (Bartlett-tapered to
+:data:`FISHER_MAX_LAG`); ``h_sd_fisher`` its square root.  Recordings for a target σ*:
+n = ⌈(h_sd/σ*)²⌉; a maneuver needing :data:`FLAT_FACTOR` times the best one's is *flat*.
+Maneuver i of run seed S draws from ``SeedSequence(S).spawn(M)[i]``.
 """
 
 from __future__ import annotations
@@ -95,22 +75,11 @@ def _fit(rec, p: Params):
 
 
 def maneuver_study(args) -> dict:
-    """One maneuver: R rides on the batch engine, the fit at each noise scale.
+    """One maneuver task of :func:`design` (``(maneuver, rides, duration, noise_scales, (seed, index), params,
+    rider_noise)``).
 
-    Parameters
-    ----------
-    args : tuple
-        ``(maneuver, rides, duration, noise_scales, (seed, index), params, rider_noise)``:
-        name, number of rides, s, multiples of the paper's sensor noise, the run seed
-        and the maneuver's index (its ``SeedSequence`` child), Params, rider motor noise N·m.  (One tuple: a task of
-        :func:`euc_sim.simulation.runner.run_tasks`.)
-
-    Returns
-    -------
-    dict
-        ``h`` (scales × rides) estimates, m; ``fisher_var`` (scales,), m²;
-        ``identifiable`` (scales × rides); ``h_grid`` and ``rmse_rel`` (scales × grid),
-        the mean RMSE(h) curve over the rides divided by its minimum; ``fell``.
+    Returns ``h`` (scales × rides, m), ``fisher_var`` (scales, m²), ``identifiable``, ``h_grid``
+    and ``rmse_rel`` (the mean RMSE(h) curve over its minimum, scales × grid) and ``fell``.
     """
     from euc_sim.simulation.mujoco_batch import simulate_rides  # deferred: loads scipy.linalg, mujoco (0.4 s)
 
@@ -166,29 +135,20 @@ def design(maneuvers: Sequence[str], *, rides: int = 40, duration: float = 15.0,
     duration : float
         Length of each recording, s.
     noise_scales : sequence of float
-        Sensor noise as multiples of the paper's (0.2 mm, 0.5°); 1.0 must be among them.
+        Sensor noise as multiples of the paper's (0.2 mm, 0.5°); must include 1.0.
     targets : sequence of float
         Target standard deviations of h, m.
     seed : int
     params : Params
     rider_noise : float
         Rider motor noise, N·m.
-    scheduler, workers
-        See :func:`euc_sim.simulation.runner.run_tasks` (one task per maneuver).
-    progress : bool
+    scheduler, workers, progress
+        See :func:`euc_sim.simulation.runner.run_tasks`.
 
     Returns
     -------
     dict
-        CONTRACT's ``euc-sim design`` JSON: ``maneuvers`` (one entry per maneuver, at
-        the paper's noise, with ``by_noise`` across the scales), ``h_true``, the
-        settings, ``flat`` and ``recommendation``; plus ``curves`` for the figure.
-
-    Raises
-    ------
-    ValueError
-        naming the argument, for unknown maneuvers or bad numbers; and when a
-        maneuver's rides all fall or fail.
+        CONTRACT's ``euc-sim design`` JSON plus ``curves`` for the figure.
     """
     from euc_sim.simulation.runner import run_tasks  # deferred: loads multiprocessing, tqdm (0.03 s)
 
@@ -263,13 +223,8 @@ def recommendation(result: dict) -> str:
 
 
 def design_figure(result: dict):
-    """The RMSE(h) curves (like the paper's Fig. 8) at each noise scale and h's sd across
-    noise scales (Monte Carlo and Fisher), one colour per maneuver, one legend for the figure.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
+    """The RMSE(h) curves (the paper's Fig. 8) per noise scale and h's sd across scales (Monte Carlo and Fisher),
+    one colour per maneuver."""
     from matplotlib import rcParamsDefault
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D

@@ -1,28 +1,9 @@
-"""Torques and parameters from a recording: the paper's Section 4, and beyond it.
+"""h from a recording: the minimiser of RMSE(M_d,1 − M_d,2) (paper Section 4).
 
-* :func:`torques` — M_d,1 (eq. 9), M_d,2 (eq. 10), M_h (row 3 of eq. 5) of the 3-DoF
-  model and M̄_d,1, M̄_d,2 (eq. 13) of the reduced model, all from
-  :mod:`euc_sim.model.analytic`, with the consistent term filter applied.
-* :func:`identify_h` — h minimising RMSE(M_d,1 − M_d,2), both models, per recording
-  or pooled, with the whole RMSE(h) curve, a block-bootstrap 95 % interval and an
-  identifiability verdict.
-* :func:`identify_base_parameters` — where M_d is known, the base-parameter groups
-  by linear least squares on the regressor form of eqs. (5)–(8).
-* :func:`identify_controller` — M_d ≈ K_p γ + K_d γ̇ (+ more terms) fitted to M_d,2,
-  which needs no torque measurement.
-* :func:`identify_rider_delay` — a delayed PD law fitted to the estimated M_h.
-
-Why the RMSE curve is cheap: for a fixed recording M_d,1 is affine in h and
-M_d,1 − M_d,2 = P(h)/D(h) with P quadratic and D = m_11 R + m_21 + m_31 affine in h
-(see :func:`euc_sim.model.analytic.driving_torque_2`).  :func:`residual_poly` recovers
-P's and D's coefficients per sample exactly from three evaluations of the
-analytic torques, so RMSE(h) on a whole grid of h is a few array operations.
-
-Consistent filtering: the numerator P is a linear combination, with constant
-coefficients, of the terms of the angular-momentum balance about the contact point
-(docs/identification.md).  The same Gaussian low-pass is applied to P's three coefficient
-series (and hence to every term) while D, which varies by < 1 % along a ride, scales
-the filtered balance back to N·m.
+M_d,1 (eq. 9) is affine in h and M_d,1 − M_d,2 = P(h)/D(h), P quadratic and
+D = m_11 R + m_21 + m_31 affine in h, so RMSE(h) on a whole grid is a few array
+operations (:func:`residual_poly`).  P's coefficients are term-filtered (the consistent
+filter); D varies by < 1 % along a ride.  See docs/identification.md and docs/coverage.md.
 """
 
 from __future__ import annotations
@@ -43,8 +24,7 @@ from euc_sim.identification.torques import MODELS, model_functions
 from euc_sim.stats import basic_interval, moving_block_starts
 
 
-#: Values of h at which the analytic torques are evaluated to recover their
-#: polynomial coefficients in h, m (any three distinct positive values).
+#: Values of h (m) at which the torques are evaluated to recover their coefficients in h.
 _H_NODES = np.array([0.5, 1.0, 1.5])
 
 
@@ -56,10 +36,9 @@ class ResidualPoly:
     ----------
     model : str
     P : ndarray, shape (3, N)
-        Coefficients of h⁰, h¹, h² of the numerator (M_d,1 − M_d,2)·D, term-filtered,
-        N·m·kg·m per power of h.
+        Coefficients of h⁰, h¹, h² of (M_d,1 − M_d,2)·D, N·m·kg·m per power of h.
     D : ndarray, shape (2, N)
-        Coefficients of h⁰, h¹ of D = m_11 R + m_21 + m_31, kg·m.
+        Coefficients of h⁰, h¹ of D, kg·m.
     t : ndarray, shape (N,)
     """
 
@@ -90,12 +69,7 @@ def _lagrange_coefficients(nodes: np.ndarray, values: np.ndarray) -> np.ndarray:
 
 
 def residual_poly(kin: Kinematics, p: Params, model: str = "3dof") -> ResidualPoly:
-    """The exact polynomial form in h of M_d,1 − M_d,2 for one recording.
-
-    Evaluates the analytic torques (eqs. 9, 10 or 13) at three values of h, recovers
-    the coefficients of the numerator P(h) = (M_d,1 − M_d,2)·D(h) and of the
-    denominator D(h) = m_11 R + m_21 + m_31 (reduced: m_21 = 0), filters P's
-    coefficients with the term filter, and keeps the interior samples.
+    """The exact polynomial form in h of M_d,1 − M_d,2 (eqs. 9, 10 or 13) for one recording.
 
     Parameters
     ----------
@@ -137,16 +111,11 @@ class HFit:
     rmse : float
         RMSE at the minimum, N·m.
     h_ci95 : tuple of float
-        95 % moving-block bootstrap interval (basic, i.e. reverse percentile), m,
-        clipped to the search bounds (NaN without bootstrap).
+        95 % interval (basic bootstrap, widened by :func:`with_noise`), m, within the bounds.
     identifiable : bool
-        The verdict, one statistic: ``flatness`` (the rise) at least ``min_rise``
-        (:data:`MIN_RISE`), with an interior minimum and (with bootstrap) an interval
-        that stays off the search bounds and is at most ``max_ci_width`` wide.
+        The verdict (:func:`_verdict`).
     flatness : float
-        The rise: RMSE(h ± 0.1 m)/RMSE(h) − 1, the smaller side.  For a curve
-        SS(h) = SS₀ + c (h − ĥ)² it is sqrt(1 + c·0.01 m²/SS₀) − 1, the curvature
-        relative to the noise floor SS₀.
+        The rise RMSE(h ± 0.1 m)/RMSE(h) − 1, the smaller side.
     h_grid, rmse_grid : ndarray
         The RMSE(h) curve, m and N·m.
     boot : ndarray
@@ -155,9 +124,7 @@ class HFit:
     reason : str
         One sentence on the verdict.
     h_ci95_block : tuple of float
-        The moving-block bootstrap's interval alone, m (``h_ci95`` is it until
-        :func:`with_noise` widens it); the reduced model's is drawn from the full
-        model's replicates (:func:`with_full_block`).
+        The moving-block bootstrap's interval alone, m.
     noise_sd, noise_bias : float
         Spread and bias of ĥ due to the measurement noise, m (NaN until :func:`with_noise`).
     """
@@ -178,11 +145,7 @@ class HFit:
     noise_bias: float = math.nan
 
     def at_bound(self) -> list[str]:
-        """The fitted quantities that end on the search bounds: ``"h"``, ``"h_ci95"``.
-
-        Within two grid steps of ``h_grid[0]`` or ``h_grid[-1]``, the margin the
-        verdict uses: h there is a bound, not a minimum; an interval there was clipped.
-        """
+        """The fitted quantities within two grid steps of the search bounds: ``"h"``, ``"h_ci95"``."""
         lo, hi = float(self.h_grid[0]), float(self.h_grid[-1])
         margin = 2 * float(self.h_grid[1] - self.h_grid[0])
         out = ["h"] if not (lo + margin <= self.h <= hi - margin) else []
@@ -206,43 +169,30 @@ class HFit:
 def _parabolic_min(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
     """Grid minimiser along the last axis refined by a parabola through 3 points."""
     k = np.clip(np.argmin(J, axis=-1), 1, J.shape[-1] - 2)
-    idx = np.arange(J.shape[0]) if J.ndim == 2 else None
-    if J.ndim == 1:
-        j0, j1, j2 = J[k - 1], J[k], J[k + 1]
-    else:
-        j0, j1, j2 = J[idx, k - 1], J[idx, k], J[idx, k + 1]
+    j0, j1, j2 = (np.take_along_axis(J, np.expand_dims(k + d, -1), -1)[..., 0] for d in (-1, 0, 1))
     den = j0 - 2 * j1 + j2
     step = grid[1] - grid[0]
     off = np.where(den > 0, 0.5 * (j0 - j2) / np.where(den > 0, den, 1.0), 0.0)
     return grid[k] + np.clip(off, -1.0, 1.0) * step
 
 
-#: Moving-block bootstrap block, s: about the correlation time of the filtered residual
-#: (three term-filter σ).  Value: see docs/coverage.md#what-the-interval-is-now.
+#: Moving-block bootstrap block, s (docs/coverage.md#what-the-interval-is-now).
 BOOTSTRAP_BLOCK = 1.0
 
 
 def _block_sums(x: np.ndarray, L: int, starts: np.ndarray) -> np.ndarray:
-    """Sums of x (K, N) over the drawn blocks [s, s + L) of each replicate → (n_boot, K).
-
-    Only the ratio to the total drawn length matters for the minimiser, and every
-    recording contributes ceil(N/L) blocks of L samples, so sums are not normalised.
-    """
+    """Sums of x (K, N) over the drawn blocks [s, s + L) of each replicate → (n_boot, K)."""
     cs = np.concatenate([np.zeros((x.shape[0], 1)), np.cumsum(x, axis=1)], axis=1)
     return (cs[:, starts + L] - cs[:, starts]).sum(axis=2).T
 
 
-#: The identifiability threshold on the rise of RMSE(h) within ±0.1 m of its minimum
-#: (:attr:`HFit.flatness`): it separates constant-speed rides from accelerating, braking
-#: and stop-and-go ones.  Value: see docs/identification.md.
+#: Smallest :attr:`HFit.flatness` called identifiable (docs/identification.md).
 MIN_RISE = 0.75
 #: Widest 95 % interval still called identifiable, m (braking rides: 0.007-0.054 m).
 MAX_CI_WIDTH = 0.15
-#: Fewest bootstrap replicates that give a 95 % interval; with fewer (``--n-boot 0``)
-#: no verdict of "identifiable" is given.
+#: Fewest bootstrap replicates that give a 95 % interval (and a verdict of identifiable).
 MIN_BOOT = 50
-#: Fewest bootstrap blocks (over all recordings) for the interval to mean anything: a
-#: ride resampled in one block of 1,000 s has no replicate that differs.
+#: Fewest bootstrap blocks (over all recordings) for the interval to mean anything.
 MIN_BLOCKS = 8
 
 
@@ -251,12 +201,8 @@ def identify_h(polys: list[ResidualPoly], bounds=(0.1, 1.5), grid_step: float = 
                max_ci_width: float = MAX_CI_WIDTH, min_rise: float = MIN_RISE) -> HFit:
     """Minimise the pooled RMSE(M_d,1 − M_d,2) over h in ``bounds``.
 
-    A grid search (``grid_step``) keeps the whole curve; a bounded Brent search
-    (``scipy.optimize.minimize_scalar``) in the bracket around the grid minimum
-    refines it.  The 95 % interval is a moving-block bootstrap over time: per
-    recording, blocks of ``block`` seconds are drawn with replacement (seeded), the
-    minimiser is recomputed on the grid (parabolic refinement), and the basic
-    (reverse-percentile) interval [2ĥ − q97.5, 2ĥ − q2.5] is reported.
+    A grid search keeps the whole curve and a bounded Brent search refines its minimum;
+    the 95 % interval is the basic interval of a moving-block bootstrap over time.
 
     Parameters
     ----------
@@ -267,18 +213,14 @@ def identify_h(polys: list[ResidualPoly], bounds=(0.1, 1.5), grid_step: float = 
     grid_step : float
         Grid spacing, m.
     n_boot : int
-        Bootstrap replicates (fewer than :data:`MIN_BOOT`: never "identifiable",
-        since the interval that backs the verdict is missing or unreliable).
+        Bootstrap replicates (fewer than :data:`MIN_BOOT`: never identifiable).
     block : float
         Block length, s.
     seed : int
-        Seed of the bootstrap draws.
     max_ci_width : float
         Widest 95 % interval still called identifiable, m.
     min_rise : float
-        Smallest relative rise of the RMSE within ±0.1 m of the minimum still called
-        identifiable (:data:`MIN_RISE`, calibrated on constant-speed against braking
-        and accelerating rides).
+        Smallest ``flatness`` still called identifiable (:data:`MIN_RISE`).
 
     Returns
     -------
@@ -310,23 +252,10 @@ def with_noise(fit: HFit, spread, n_boot: int, block: float, blocks: int,
                max_ci_width: float = MAX_CI_WIDTH, min_rise: float = MIN_RISE) -> HFit:
     """``fit`` with its interval widened by what the measurement noise does to ĥ.
 
-    The interval becomes the union of the block bootstrap's and ĥ − b ± 1.96 s, where
-    s and b are the spread and the (errors-in-variables) bias of ĥ under fresh noise
-    (:func:`euc_sim.identification.noise_bootstrap.noise_spread`); the verdict is
-    re-drawn on it.  Why both: on simulated rides the whole error of ĥ is measurement
-    noise, which the block bootstrap under-covers; on real rides the model's own
-    misfit, which only the block bootstrap sees, adds to it (docs/coverage.md).
-
-    Parameters
-    ----------
-    fit : HFit
-    spread : NoiseSpread
-    n_boot, block, blocks
-        The block bootstrap's replicates, block (s) and block count, for the verdict.
-
-    Returns
-    -------
-    HFit
+    The interval becomes the union of the block bootstrap's and ĥ − b ± 1.96 s, s and b
+    the spread and bias of ĥ under fresh noise (:class:`~euc_sim.identification.noise_bootstrap.NoiseSpread`);
+    the verdict is re-drawn (docs/coverage.md).  ``n_boot, block, blocks``: the block
+    bootstrap's replicates, block (s) and block count, for the verdict.
     """
     sd, b = spread.sd, spread.bias
     if not (math.isfinite(sd) and math.isfinite(b)):
@@ -347,30 +276,12 @@ REDUCED, FULL = "2dof", "3dof"
 
 def with_full_block(reduced: HFit, full: HFit, n_boot: int, block: float, blocks: int,
                     max_ci_width: float = MAX_CI_WIDTH, min_rise: float = MIN_RISE) -> HFit:
-    """The reduced model's fit with the block bootstrap's replicates of the full model.
+    """The reduced model's fit with the full model's block-bootstrap replicates.
 
-    The replicates become ĥ̄ + (ĥ* − ĥ), ĥ* the full model's replicates on the same
-    recordings and block draws, and the basic interval is drawn from them; the verdict is
-    re-drawn.  Why: the reduced model's residual carries the reduction's misfit, which is
-    fixed by the trajectory, and its h is, by definition, what the reduction makes of the
-    trajectory (the coverage study scores it against its own noise-free h).  Its own block
-    bootstrap resamples that misfit as if it were noise: on noise-free 15 s decelerations
-    its interval is 24 mm wide (the full model's 0.0 mm), and with the paper's noise it
-    adds in quadrature (34.5 mm against the full model's 23.8 mm).  What the noise does to
-    the two models' h is the same: over 100 decelerations their errors correlate at
-    0.997 (docs/coverage.md#why-the-reduced-model-over-covered-tuning-seeds-700000-and-0).
-
-    Parameters
-    ----------
-    reduced, full : HFit
-        Fits of the same recordings, with the same bootstrap draws (seed).
-    n_boot, block, blocks
-        The block bootstrap's replicates, block (s) and block count, for the verdict.
-
-    Returns
-    -------
-    HFit
-        ``reduced`` itself when ``full`` has no replicates.
+    The replicates become ĥ̄ + (ĥ* − ĥ), ĥ* the full model's replicates on the same draws,
+    and the verdict is re-drawn: the reduced model's own bootstrap would resample the
+    reduction's misfit as noise (docs/coverage.md#why-the-reduced-model-over-covered-tuning-seeds-700000-and-0).
+    Returns ``reduced`` itself when ``full`` has no replicates.
     """
     if full.boot.size == 0:
         return reduced
@@ -385,11 +296,7 @@ def with_full_block(reduced: HFit, full: HFit, n_boot: int, block: float, blocks
 
 def _curve_and_draws(polys: list[ResidualPoly], grid: np.ndarray, n_boot: int, block: float,
                      seed: int) -> tuple[np.ndarray, np.ndarray, list]:
-    """Pooled mean square residual on the grid, the bootstrap replicates' sums, and their draws.
-
-    Returns ``J`` (len(grid),), N·m²; ``boot_tot`` (n_boot, len(grid)); and per recording
-    ``(L, starts)``: the block length in samples and the drawn block starts (seeded).
-    """
+    """Pooled mean square residual ``J`` on the grid, N·m², the replicates' sums, and per recording ``(L, starts)``."""
     n_tot = sum(rp.n for rp in polys)
     rng = np.random.default_rng(seed)
     draws = []
@@ -439,13 +346,8 @@ def _bootstrap_interval(polys: list[ResidualPoly], grid: np.ndarray, boot_tot: n
 
 
 def _basic_interval(boot: np.ndarray, h: float, lo: float, hi: float) -> tuple[float, float]:
-    """The basic (reverse-percentile) 95 % interval of the replicates ``boot`` about ``h``,
-    within the search bounds [lo, hi], m.
-
-    The replicates' spread reflected about h: resampling blocks of a ride whose information
-    sits in one maneuver skews the replicates, which the basic interval follows and the plain
-    percentile one does not (docs/coverage.md#what-the-interval-is-now).
-    """
+    """The basic (reverse-percentile) 95 % interval of ``boot`` about ``h``, within [lo, hi], m
+    (docs/coverage.md#what-the-interval-is-now)."""
     b_lo, b_hi = basic_interval(boot, h)
     return float(max(lo, b_lo)), float(min(hi, b_hi))
 
@@ -500,17 +402,13 @@ def load(path, smoothing: Smoothing = DEFAULT_SMOOTHING, params: Params | None =
     path : path
     smoothing : Smoothing
     params : Params, optional
-        Overrides the sidecar's parameters (else Table 3 with the sidecar's entries).
+        Overrides the sidecar's parameters.
     d_CE : float, optional
         C–E distance for motion-capture files, m (else the sidecar's ``"d_CE"``).
     phi_from : {"A", "C"}
-        The exact rider pitch (default) or eq. (3), motion-capture files only.
+        The exact rider pitch or eq. (3), motion-capture files only.
     source : {"auto", "state", "mocap"}
         See :func:`euc_sim.identification.processing.kinematics`.
-
-    Raises
-    ------
-    euc_sim.identification.recordings.RecordingError, FileNotFoundError
     """
     df, meta = read_recording(path)
     p = params if params is not None else params_from_meta(meta, path)
@@ -526,11 +424,8 @@ def identify_recordings(recs: list[Recording], bounds=(0.1, 1.5), grid_step: flo
                         max_ci_width: float = MAX_CI_WIDTH, n_noise: int | None = None) -> dict:
     """Per-recording and pooled h for both models.
 
-    Each interval is the block bootstrap's (the reduced model's from the full model's
-    replicates, :func:`with_full_block`) widened by ``n_noise`` replicates of every
-    recording with fresh measurement noise (:func:`with_noise`; default
-    :data:`euc_sim.identification.noise_bootstrap.N_REPLICATES`, 0 keeps the block
-    bootstrap alone).
+    Intervals: :func:`with_full_block` for the reduced model, then :func:`with_noise` with
+    ``n_noise`` noise replicates per recording (default ``noise_bootstrap.N_REPLICATES``; 0: none).
 
     Returns
     -------

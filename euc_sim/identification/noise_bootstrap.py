@@ -1,16 +1,11 @@
 """What the measurement noise does to h: a parametric bootstrap over the recording's own noise.
 
-Why it is needed: the error of ĥ comes from the measurement noise, mostly the noise on
-the rider's pitch φ; the angles enter the regressors that multiply h, so their noise
-also biases ĥ (errors in variables), and the moving-block bootstrap over time misses
-part of the scatter.  See docs/coverage.md#where-the-error-of-h-comes-from.
-
-Here the noise itself is resampled: each measured column is split into a smooth part
-(a Savitzky–Golay fit of :data:`BASE_WINDOW`) and white noise whose σ is estimated from
-the fit's residual; replicates are the smooth part plus fresh noise of that σ, each
-identified like the recording.  The replicates' spread is the sampling spread of ĥ
-due to the measurement noise; their mean minus the smooth part's own h estimates the
-errors-in-variables bias (:class:`NoiseSpread`); :func:`euc_sim.identification.h_fit.with_noise` widens the interval by both.
+Each measured column is split into a smooth part (Savitzky–Golay, :data:`BASE_WINDOW`) and
+white noise of estimated σ; replicates are the smooth part plus fresh noise, identified
+like the recording.  Their spread is ĥ's spread due to the noise and their mean minus the
+smooth part's h its errors-in-variables bias (:class:`NoiseSpread`), which
+:func:`euc_sim.identification.h_fit.with_noise` adds to the interval
+(docs/coverage.md#where-the-error-of-h-comes-from).
 """
 
 from __future__ import annotations
@@ -28,8 +23,7 @@ from euc_sim.identification.processing import (Kinematics, Smoothing, kinematics
                                                savgol_derivatives)
 from euc_sim.identification.recordings import is_mocap
 
-#: Smooth part of a measured column: Savitzky–Golay window (s) and order.  Long enough
-#: to pass only ~1/6 of white noise, short enough to follow ~1 Hz rider motion.
+#: Smooth part of a measured column: Savitzky–Golay window (s) and order (passes ~1/6 of white noise).
 BASE_WINDOW = 0.5
 BASE_ORDER = 5
 #: Columns that carry measurement noise (whichever a recording has).
@@ -54,23 +48,10 @@ def _window_samples(dt: float) -> int:
 
 
 def split_noise(y: np.ndarray, dt: float) -> tuple[np.ndarray, float]:
-    """A measured column as smooth part + white noise: (smooth part, noise σ).
+    """A measured column (N,) at period ``dt`` (s) as (smooth part, white-noise σ̂), both in y's unit.
 
-    The residual of a Savitzky–Golay projection of centre weight c₀ keeps a fraction
-    1 − c₀ of white noise's variance, so σ̂² = mean(residual²)/(1 − c₀) (interior
-    samples).
-
-    Parameters
-    ----------
-    y : ndarray, shape (N,)
-        Samples at period ``dt``.
-    dt : float
-        Sample period, s.
-
-    Returns
-    -------
-    (ndarray, float)
-        The smooth part (units of y) and σ̂ (units of y).
+    A Savitzky–Golay projection of centre weight c₀ leaves 1 − c₀ of white noise's variance,
+    so σ̂² = mean(residual²)/(1 − c₀) over the interior.
     """
     y = np.asarray(y, dtype=float)
     w = min(_window_samples(dt), len(y) - 1 + len(y) % 2)
@@ -82,8 +63,7 @@ def split_noise(y: np.ndarray, dt: float) -> tuple[np.ndarray, float]:
     return smooth, float(math.sqrt(np.mean(r ** 2) / (1.0 - c0))) if r.size else 0.0
 
 
-#: Noise replicates per recording (``euc-sim identify --noise-replicates``).  40 give the
-#: spread of ĥ to about ±11 %.
+#: Noise replicates per recording (``--noise-replicates``): the spread of ĥ to about ±11 %.
 N_REPLICATES = 40
 #: Step of the grid on which replicates are minimised, m.
 FINE_STEP = 0.001
@@ -97,13 +77,10 @@ def replicate_grid(bounds: tuple[float, float]) -> np.ndarray:
 
 
 def sum_squares_near(rp, grid: np.ndarray, h_ref: float) -> np.ndarray:
-    """Σ_t (M_d,1 − M_d,2)² on ``grid`` (..., K), with the denominator's variation along
-    the ride frozen at ``h_ref``, N²·m².
+    """Σ_t (M_d,1 − M_d,2)² on ``grid`` (..., K), N²·m², with D's variation along the ride frozen at ``h_ref``.
 
-    Exact: Σ P(h)²/D(h)², P quadratic, D affine per sample.  D varies by < 1 % along a
-    ride, so D_t(h) ≈ D_t(h_ref)·D̄(h)/D̄(h_ref) (D̄ the mean), which makes the sum
-    (D̄(h_ref)/D̄(h))² times a quartic in h whose five coefficients are sums over the
-    ride: the cost no longer grows with grid × samples.
+    With D_t(h) ≈ D_t(h_ref)·D̄(h)/D̄(h_ref) the sum is (D̄(h_ref)/D̄(h))² times a quartic in h
+    whose five coefficients are sums over the ride.
     """
     w = 1.0 / (rp.D[0] + h_ref * rp.D[1]) ** 2
     P0, P1, P2 = rp.P[0], rp.P[1], rp.P[2]
@@ -133,20 +110,8 @@ def grid_minimum(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class NoiseCurves:
-    """Sums of squared residuals on a grid of h for one recording: its smooth part and
-    its noise replicates, per model.
-
-    Attributes
-    ----------
-    grid : ndarray, shape (K,)
-        h, m.
-    base : dict of str to ndarray, shape (K,)
-        Σ residual² of the smooth part, N²·m².
-    reps : dict of str to ndarray, shape (n_rep, K)
-        Σ residual² of each replicate, N²·m².
-    sigma : dict of str to float
-        Estimated noise σ per column (m or rad).
-    """
+    """Σ residual² (N²·m²) on a grid of h (m) of one recording's smooth part (``base``, per model) and its
+    replicates (``reps``, (n_rep, K)); ``sigma``: noise σ per column."""
 
     grid: np.ndarray
     base: dict
@@ -156,33 +121,11 @@ class NoiseCurves:
 
 def noise_curves(df: pd.DataFrame, p: Params, smoothing: Smoothing, grid: np.ndarray, h_ref: dict,
                  residual_poly, n_rep: int = N_REPLICATES, seed: int = 0, **kin_kw) -> NoiseCurves:
-    """The RMSE(h) curves of ``n_rep`` replicates of a recording with fresh noise.
+    """The RMSE(h) curves of ``n_rep`` replicates of a validated recording with fresh noise (seeded).
 
-    Parameters
-    ----------
-    df : DataFrame
-        A validated recording.
-    p : Params
-    smoothing : Smoothing
-        As for the recording itself.
-    grid : ndarray
-        h at which the curves are evaluated, m (:func:`replicate_grid`).
-    h_ref : dict of str to float
-        Per model, the recording's own ĥ (m), where :func:`sum_squares_near` is exact.
-    residual_poly : callable
-        :func:`euc_sim.identification.h_fit.residual_poly` (passed in: h_fit calls this
-        module).
-    n_rep : int
-        Replicates.
-    seed : int
-        Seed of the fresh noise.
-    **kin_kw
-        Passed to :func:`euc_sim.identification.processing.kinematics` (``d_CE``,
-        ``phi_from``, ``source``).
-
-    Returns
-    -------
-    NoiseCurves
+    ``grid``: h (m, :func:`replicate_grid`); ``h_ref``: per model the recording's own ĥ (m);
+    ``residual_poly``: :func:`euc_sim.identification.h_fit.residual_poly` (passed in: no
+    import cycle); ``**kin_kw``: passed to :func:`euc_sim.identification.processing.kinematics`.
     """
     if int(n_rep) != n_rep or n_rep < 0:
         raise InputError(f"n_rep must be a non-negative integer, got {n_rep!r}")
@@ -220,23 +163,15 @@ def noise_curves(df: pd.DataFrame, p: Params, smoothing: Smoothing, grid: np.nda
 
 @dataclass(frozen=True)
 class NoiseSpread:
-    """What fresh measurement noise does to ĥ, one model (one or several recordings pooled).
-
-    Attributes
-    ----------
-    h_smooth : float
-        h of the smooth parts, m.
-    boot : ndarray
-        h of each replicate, m.
-    """
+    """What fresh measurement noise does to ĥ, one model: ``h_smooth`` (the smooth parts' h, m) and ``boot`` (each
+    replicate's, m)."""
 
     h_smooth: float
     boot: np.ndarray
 
     @property
     def bias(self) -> float:
-        """Mean replicate minus h of the smooth parts: the noise's (errors-in-variables)
-        bias of ĥ, m."""
+        """Mean replicate minus h of the smooth parts: the errors-in-variables bias of ĥ, m."""
         return float(np.mean(self.boot) - self.h_smooth) if self.boot.size else math.nan
 
     @property
@@ -246,14 +181,8 @@ class NoiseSpread:
 
 
 def noise_spread(curves: list[NoiseCurves], model: str) -> NoiseSpread:
-    """Pool the replicate curves of several recordings (replicate j with replicate j) and
-    minimise each, one model.
-
-    Raises
-    ------
-    ValueError
-        when the recordings' grids or replicate counts differ.
-    """
+    """Pool the replicate curves of several recordings (replicate j with j) and minimise each, one model
+    (ValueError when grids or counts differ)."""
     if not curves:
         raise ValueError("no recordings to pool")
     grid = curves[0].grid

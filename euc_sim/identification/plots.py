@@ -23,13 +23,8 @@ __all__ = ["recording_figure", "rmse_curves_figure",
 
 
 def check_figure_path(path) -> Path:
-    """Refuse, before any work, a figure name whose extension matplotlib cannot write.
-
-    Raises
-    ------
-    ValueError
-        naming the path, the extension and the supported ones.
-    """
+    """Refuse, before any work, a figure name whose extension matplotlib cannot write (naming path and supported
+    ones)."""
     from matplotlib.backend_bases import FigureCanvasBase
 
     path = Path(path)
@@ -42,22 +37,11 @@ def check_figure_path(path) -> Path:
 
 
 def recording_figure(rec, torques_df, fit):
-    """Fig. 6/7 of the paper for one recording.
+    """The paper's Fig. 6/7 for one recording: (ψ), (ϑ) where recorded, γ, φ, and M_d,1 against M_d,2 (3-DoF,
+    identified h).
 
-    Panels (ψ), (ϑ) where recorded, then γ, φ, and M_d,1 against M_d,2 of the
-    3-DoF model at the identified h with the RMSE in the title.
-
-    Parameters
-    ----------
-    rec : euc_sim.identification.h_fit.Recording
-    torques_df : DataFrame
-        :func:`euc_sim.identification.torques.torques` at the identified h.
-    fit : HFit
-        The 3-DoF fit of this recording.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
+    ``rec``: :class:`~euc_sim.identification.h_fit.Recording`; ``torques_df``:
+    :func:`euc_sim.identification.torques.torques` at the identified h; ``fit``: its 3-DoF HFit.
     """
     from matplotlib.figure import Figure
 
@@ -100,24 +84,11 @@ def recording_figure(rec, torques_df, fit):
 
 
 def rmse_curves_figure(names, per_recording, pooled):
-    """Fig. 8 of the paper: RMSE(M_d,1 − M_d,2) against h, 3-DoF and 2-DoF.
+    """The paper's Fig. 8: RMSE(M_d,1 − M_d,2) against h, 3-DoF and 2-DoF, per recording and pooled.
 
-    One panel per recording plus a pooled panel (when more than one), each with
-    both models' curves divided by their own minimum, on one logarithmic scale
-    shared by every panel: the rise within ±0.1 m of the minimum (the
-    identifiability verdict's statistic, :attr:`HFit.flatness`) reads the same
-    in every panel, against the threshold :data:`MIN_RISE`.  Minima, the points
-    at ±0.1 m and the 95 % intervals are marked; one legend for the figure.
-
-    Parameters
-    ----------
-    names : list of str
-    per_recording : list of dict of model → HFit
-    pooled : dict of model → HFit
-
-    Returns
-    -------
-    matplotlib.figure.Figure
+    Each curve over its own minimum on one shared log scale, so the rise within ±0.1 m
+    (:attr:`HFit.flatness`) reads the same against :data:`MIN_RISE` in every panel.
+    ``per_recording``: list of dict model → HFit; ``pooled``: dict model → HFit.
     """
     from matplotlib.figure import Figure
 
@@ -165,12 +136,8 @@ def rmse_curves_figure(names, per_recording, pooled):
 
 
 def verdict_label(fit) -> str:
-    """The identifiability verdict in a few words, naming the rule that decided it.
-
-    ``"rise 300%: identifiable"``; a curve with an interior minimum whose RMSE grows
-    less than :data:`MIN_RISE` within ±0.1 m is ``"rise 25% < 75%: shallow"`` (its
-    minimum exists, but an error of the model the size of the residual would move it).
-    """
+    """The identifiability verdict in a few words naming its rule: ``"rise 300%: identifiable"``, ``"rise 25% <
+    75%: shallow"``."""
     rise = f"rise {100 * fit.flatness:.0f}%"
     if fit.identifiable:
         return f"{rise}: identifiable"
@@ -190,23 +157,9 @@ def plot_maneuver_curves(groups, path, true_h: float | None = None) -> list[Path
 
 
 def maneuver_curves_figure(groups, true_h: float | None = None):
-    """The paper's Fig. 8: RMSE(M_d,1 − M_d,2) against h, one panel per maneuver, the
-    3-DoF and the reduced 2-DoF model in each.
+    """Fig. 8 per maneuver: pooled RMSE(h) (N·m) of both models, minima, 95 % intervals and the true h (m) where known.
 
-    Each curve is the maneuver's recordings pooled (:func:`euc_sim.identification.h_fit.identify_h`),
-    in N·m on a linear scale from 0; minima and 95 % intervals are marked, and the
-    true h where it is known (a simulation).
-
-    Parameters
-    ----------
-    groups : sequence of (str, int, dict of model → HFit)
-        Per maneuver: its name, its number of recordings and the pooled fits; at most 4.
-    true_h : float, optional
-        The simulated truth, m.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
+    ``groups``: per maneuver (name, number of recordings, dict model → HFit), at most 4.
     """
     from matplotlib.figure import Figure
 
@@ -260,15 +213,7 @@ def _relative_log_axis(ax, top: float) -> None:
 
 
 def plain_log_ticks(axis, ticks=None) -> None:
-    """Plain-number tick labels on a logarithmic axis (``40``, ``0.5``; never ``4×10^1``).
-
-    Parameters
-    ----------
-    axis : matplotlib.axis.Axis
-        ``ax.xaxis`` or ``ax.yaxis`` of a log-scaled axes.
-    ticks : sequence of float, optional
-        The tick positions; by default 1, 2 and 5 of every decade.
-    """
+    """Plain-number tick labels (``40``, ``0.5``) on a log axis, at ``ticks`` (default 1, 2, 5 per decade)."""
     axis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)) if ticks is None else FixedLocator(list(ticks)))
     axis.set_major_formatter(FormatStrFormatter("%g"))
     axis.set_minor_formatter(NullFormatter())
@@ -277,14 +222,8 @@ def plain_log_ticks(axis, ticks=None) -> None:
 
 
 def rollout_figure(name: str, fit, tool: str = "MuJoCo"):
-    """The rollout fit of h (:mod:`euc_sim.identification.rollout_fit`, or
-    :mod:`~euc_sim.identification.sysid_fit` with ``tool="mujoco.sysid"``): each window's
-    rollout over the recorded γ and φ, and the parameter correlation matrix.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
+    """The rollout fit of h (``tool="mujoco.sysid"`` for :mod:`~euc_sim.identification.sysid_fit`): each window's
+    rollout over the recorded γ and φ, and the parameter correlations."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=(12, 7.5), layout="constrained")

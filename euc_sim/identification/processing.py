@@ -1,28 +1,11 @@
 """From a recording to (q, q̇, q̈): the paper's Section 2 and the smoothing.
 
-Two recipes, one :class:`Smoothing` setting:
-
-``"consistent"`` (the default)
-    Derivatives from a *short* Savitzky–Golay fit (0.25 s, order 5 at 120 Hz, whose
-    bias on ~1 Hz motion is negligible), then **one** linear low-pass, a Gaussian of
-    ``term_sigma`` seconds, applied identically to every term of the torque
-    equations (:func:`term_filter`).  This is the state-variable-filter idea of
-    classical identification: since the same filter multiplies every term, an
-    equation that holds sample by sample still holds after filtering, so the filter
-    removes the noise without biasing the balance of the terms.
-``"savgol"`` (the paper's recipe)
-    q, q̇, q̈ straight from one long Savitzky–Golay fit (1 s, order 3), each
-    derivative from the fitted polynomial (``savgol_filter(deriv=k)``).  Each
-    derivative then has its own frequency response; on ~1 Hz motion the mismatch
-    biases h low by 5-10 % and sets the residual floor.
-
-The two compared (null residual and h): see docs/identification.md.
-
-Section 2 for motion-capture files (:func:`mocap_state`): C from the EUC pivot E
-with the Euler angles (yaw-tilt-pitch) and the C–E distance, r_CG in the moving
-frame by eqs. (1)–(2), φ by eq. (3) or exactly from the ankle A (the default: eq. (3)
-measures the lean from C and overstates it by about l0 (φ − γ)/(h − l0)), and v_Cx,
-a_Cx as the longitudinal components of Ṙ_C, R̈_C in the moving frame.
+:class:`Smoothing` ``"consistent"`` (default): short Savitzky–Golay derivatives, then one
+Gaussian low-pass applied identically to every torque term (:func:`term_filter`), so an
+equation holding sample by sample still holds after filtering.  ``"savgol"`` (the
+paper's): q, q̇, q̈ from one long Savitzky–Golay fit.  Compared in docs/identification.md.
+Motion-capture files (:func:`mocap_state`): C from the pivot E, r_CG by eqs. (1)–(2),
+φ by eq. (3) or exactly from the ankle A.
 """
 
 from __future__ import annotations
@@ -58,22 +41,13 @@ class Smoothing:
     Attributes
     ----------
     method : {"consistent", "savgol"}
-        ``"consistent"``: short Savitzky–Golay derivatives, then one Gaussian
-        low-pass applied identically to every torque term.  ``"savgol"``: the paper's
-        recipe, derivatives from one long Savitzky–Golay fit, no term filter.
     window : float or None
-        Savitzky–Golay window, s (rounded to an odd number of samples); ``None`` for
-        the method's default: 0.25 s consistent, 1.0 s savgol.
+        Savitzky–Golay window, s (rounded to an odd number of samples); ``None``: 0.25 s
+        consistent, 1.0 s savgol.
     order : int or None
-        Savitzky–Golay polynomial order; ``None``: 5 consistent, 3 savgol.
+        Savitzky–Golay order in [2, MAX_ORDER]; ``None``: 5 consistent, 3 savgol.
     term_sigma : float
-        Standard deviation of the Gaussian term filter, s (consistent only); 0 turns
-        it off.
-
-    Raises
-    ------
-    ValueError
-        for an unknown method, a non-positive window or an order outside [2, MAX_ORDER].
+        Standard deviation of the Gaussian term filter, s (consistent only; 0: off).
     """
 
     method: str = "consistent"
@@ -109,7 +83,7 @@ class Smoothing:
         return self.term_sigma / dt
 
     def edge(self, dt: float) -> int:
-        """Samples at each end where the filters lack support; dropped from fits."""
+        """Samples at each end where the filters lack support (dropped from fits)."""
         return self.samples(dt) // 2 + int(math.ceil(3.0 * self.sigma_samples(dt)))
 
     def min_samples(self, dt: float) -> int:
@@ -141,13 +115,11 @@ class Kinematics:
     t : ndarray, shape (N,)
         Time, s.
     q, qd, qdd : ndarray, shape (N, 3)
-        (x, γ, φ) in m, rad; rates m/s, rad/s; accelerations m/s², rad/s².
+        (x, γ, φ) in m, rad, and their first and second time derivatives.
     extra : dict of str to ndarray
-        Yaw and tilt (``psi``, ``theta``) in rad where recorded, for figures: as
-        recorded for state-level files, smoothed for motion-capture files.
+        Yaw and tilt (``psi``, ``theta``), rad, where recorded.
     smoothing : Smoothing
-        How they were obtained; its term filter is still to be applied to the
-        torque terms (:func:`term_filter`).
+        Its term filter is still to be applied to the torque terms.
     """
 
     t: np.ndarray
@@ -176,27 +148,9 @@ def sample_period(t: np.ndarray) -> float:
 
 
 def savgol_derivatives(y: np.ndarray, dt: float, window: int, order: int, axis: int = 0):
-    """Smoothed signal and its first two derivatives from one Savitzky–Golay fit.
+    """Signal and first two derivatives (units y, y/s, y/s²) from one Savitzky–Golay fit along ``axis``.
 
-    Each is the value or derivative of the local fitted polynomial at the centre
-    sample (``scipy.signal.savgol_filter`` with ``deriv``); ``mode="interp"`` fits the
-    end polynomials to the first and last windows.
-
-    Parameters
-    ----------
-    y : ndarray
-        Samples, uniform in time along ``axis``.
-    dt : float
-        Sample period, s.
-    window : int
-        Odd window length, samples.
-    order : int
-        Polynomial order.
-
-    Returns
-    -------
-    y0, y1, y2 : ndarray
-        Same shape as ``y``; units of y, y/s, y/s².
+    ``window`` (odd) in samples, ``dt`` in s; ``mode="interp"`` at the ends.
     """
     y = np.asarray(y, dtype=float)
     from scipy.signal import savgol_filter
@@ -206,12 +160,7 @@ def savgol_derivatives(y: np.ndarray, dt: float, window: int, order: int, axis: 
 
 
 def term_filter(y: np.ndarray, sigma_samples: float, axis: int = -1) -> np.ndarray:
-    """The consistent low-pass: a Gaussian of ``sigma_samples`` along ``axis``.
-
-    Linear and time-invariant, so applying it to every term of an equation that
-    holds sample by sample keeps the equation; returns ``y`` unchanged (a copy) for
-    ``sigma_samples == 0``.
-    """
+    """The consistent low-pass: a Gaussian of ``sigma_samples`` along ``axis`` (0: a copy of ``y``)."""
     y = np.asarray(y, dtype=float)
     if sigma_samples <= 0:
         return y.copy()
@@ -246,32 +195,13 @@ def T_pitch(gamma: np.ndarray) -> np.ndarray:
 
 
 def moving_frame(vec_ground: np.ndarray, psi: np.ndarray, theta: np.ndarray) -> np.ndarray:
-    """Eq. (1): r = T_ϑᵀ T_ψᵀ R, a ground-frame vector in the moving frame (x, y, z).
-
-    Parameters
-    ----------
-    vec_ground : ndarray, shape (N, 3)
-    psi, theta : ndarray, shape (N,)
-        Yaw and tilt of the EUC, rad.
-
-    Returns
-    -------
-    ndarray, shape (N, 3)
-    """
+    """Eq. (1): r = T_ϑᵀ T_ψᵀ R, ground-frame vectors (N, 3) in the moving frame, ψ and ϑ in rad."""
     rot = np.einsum("...ji,...kj->...ik", T_theta(theta), T_psi(psi))   # T_ϑᵀ T_ψᵀ
     return np.einsum("...ij,...j->...i", rot, np.asarray(vec_ground, dtype=float))
 
 
 def wheel_centre(E: np.ndarray, psi, theta, gamma, d_CE: float) -> np.ndarray:
-    """C from the EUC pivot E: E lies d_CE from C along the EUC body's axis.
-
-    The body axis in the ground frame is T_ψ T_ϑ T_γ e_z (yaw-tilt-pitch).
-
-    Returns
-    -------
-    ndarray, shape (N, 3)
-        C in the ground frame, m.
-    """
+    """C (N, 3), m: E lies d_CE from C along the body axis T_ψ T_ϑ T_γ e_z."""
     rot = T_psi(psi) @ T_theta(theta) @ T_pitch(gamma)
     return np.asarray(E, dtype=float) - d_CE * rot[..., :, 2]
 
@@ -283,34 +213,20 @@ def mocap_state(df: pd.DataFrame, p: Params, smoothing: Smoothing, d_CE: float |
     Parameters
     ----------
     df : DataFrame
-        ``t``, ``psi, theta, gamma`` (rad), ``G_X, G_Y, G_Z`` and either ``C_X..C_Z``
-        or ``E_X..E_Z`` (m, ground frame).
+        ``t``, ``psi, theta, gamma`` (rad), ``G_X..G_Z`` and ``C_X..C_Z`` or ``E_X..E_Z`` (m).
     p : Params
         Uses ``l0`` for ``phi_from="A"``.
     smoothing : Smoothing
     d_CE : float, optional
         Distance C–E along the EUC body, m; needed when C is not recorded.
     phi_from : {"A", "C"}
-        ``"C"``: eq. (3), φ = arctan(x_CG / z_CG), the rider's pitch seen from the
-        wheel centre.  The model's φ is measured from the ankle A, l0 below C along
-        the EUC body, so eq. (3) overstates the lean by about l0 (φ − γ)/(h − l0)
-        (9 % of the rider's lean relative to the board for l0 = 0.05 m, h = 0.6 m).
-        ``"A"`` (the default) is the exact alternative, CONTRACT's φ:
-        φ = atan2(x_CG + l0 sin γ, z_CG + l0 cos γ), the direction A→G.  On the
-        synthetic deceleration of ``tests/test_processing.py`` with the paper's noise
-        eq. (3) moves the identified h from 0.593 m to 0.474 m (true 0.6 m).
+        ``"C"``: eq. (3), φ = atan2(x_CG, z_CG), which overstates the lean by about
+        l0 (φ − γ)/(h − l0); ``"A"``: exact, φ = atan2(x_CG + l0 sin γ, z_CG + l0 cos γ).
 
     Returns
     -------
     Kinematics
-        x = ∫ v_Cx dt, ẋ = v_Cx, ẍ = a_Cx (longitudinal components of Ṙ_C, R̈_C in
-        the moving frame); γ, φ with derivatives from the smoothing; ψ, ϑ in
-        ``extra``.
-
-    Raises
-    ------
-    ValueError
-        when C is not recorded and ``d_CE`` is not given, or ``phi_from`` is unknown.
+        x = ∫ v_Cx dt, ẋ = v_Cx, ẍ = a_Cx (moving frame); ψ, ϑ in ``extra``.
     """
     if phi_from not in ("C", "A"):
         raise InputError(f"phi_from must be 'C' (eq. 3) or 'A' (exact), got {phi_from!r}")
@@ -362,21 +278,20 @@ def kinematics(df: pd.DataFrame, p: Params, smoothing: Smoothing = DEFAULT_SMOOT
     Parameters
     ----------
     df : DataFrame
-        A validated recording (:func:`euc_sim.identification.recordings.read_recording`).
+        From :func:`euc_sim.identification.recordings.read_recording`.
     p : Params
     smoothing : Smoothing
     d_CE, phi_from
-        Motion-capture files only, see :func:`mocap_state`.
+        Motion-capture only, see :func:`mocap_state`.
     name : str
         The file, for messages.
     source : {"auto", "state", "mocap"}
-        Which columns to use: ``"auto"`` takes x, γ, φ when present and the
-        motion-capture columns (Section 2) otherwise; ``"mocap"`` forces Section 2.
+        ``"auto"``: x, γ, φ when present, else the motion-capture columns.
 
     Raises
     ------
-    euc_sim.identification.recordings.RecordingError
-        when the recording is too short for the smoothing.
+    RecordingError
+        when the recording is too short for the smoothing or lacks the columns.
     """
     t = df["t"].to_numpy(dtype=float)
     dt = sample_period(t)

@@ -1,12 +1,9 @@
 """Reading and validating recordings (CONTRACT.md, "A recording").
 
-A recording is a CSV or Parquet file with a header row, one sample a row, SI units
-and angles in radians, and an optional sidecar ``NAME.json`` with metadata.  The
-truth file ``NAME.truth.json`` of a synthetic recording is never read here.
-
-Every problem is a :class:`RecordingError` (a ``ValueError``) whose one-line message
-names the file, the column and the row (1-based data row, header excluded), so that
-``euc-sim`` can print it as is.
+A CSV or Parquet file, one sample a row, SI units and radians, with an optional sidecar
+``NAME.json``; ``NAME.truth.json`` is never read here.  Every problem is a
+:class:`RecordingError` whose one-line message names the file, the column and the row
+(1-based data row).
 """
 
 from __future__ import annotations
@@ -35,12 +32,9 @@ STATE_COLUMNS = ("t", "x", "gamma", "phi")
 MOCAP_COLUMNS = ("t", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z", "psi", "theta", "gamma")
 #: Columns holding angles, rad.
 ANGLE_COLUMNS = ("gamma", "phi", "psi", "theta")
-#: Largest |angle| (rad) a pitch or tilt may reach before it looks like degrees: a
-#: ridden EUC pitches a few degrees and a rider leans at most ~20°; 30° in radians is
-#: 0.52, so a recording in degrees is refused as soon as any angle exceeds 0.52°.
+#: Largest |pitch, lean or tilt|, rad: beyond it (0.52, i.e. 0.52° if in degrees) the column looks like degrees.
 PITCH_LIMIT = math.radians(30.0)
-#: Plausible sample period of a recording, s: 10 kHz to 10 Hz.  Milliseconds (120 Hz
-#: gives 8.3) and sample indices (1) fall outside.
+#: Plausible sample period of a recording, s: 10 kHz to 10 Hz (milliseconds and sample indices fall outside).
 SAMPLE_PERIOD_RANGE = (1e-4, 0.1)
 #: Largest plausible |value| of a column, in its SI unit: positions (m), torques (N·m).
 MAGNITUDE_LIMITS = {"x": 1e5, "M_d": 1e4, "M_h": 1e4}
@@ -64,15 +58,8 @@ def is_mocap(df: pd.DataFrame) -> bool:
 
 
 def read_sidecar(path: str | Path) -> dict[str, Any]:
-    """The metadata in ``NAME.json`` beside ``NAME.csv``; ``{}`` when there is none.
-
-    ``NAME.truth.json`` is never read.
-
-    Raises
-    ------
-    RecordingError
-        when the sidecar exists but is not a JSON object, or ``path`` is a folder.
-    """
+    """The metadata in ``NAME.json`` beside ``NAME.csv``; ``{}`` when there is none (RecordingError when not a
+    JSON object)."""
     path = Path(path)
     if not path.name or path.is_dir():
         raise RecordingError(f"{path}: is a folder, expected a recording file (.csv or .parquet)")
@@ -119,13 +106,7 @@ def _check_maneuver_options(side: Path, opts) -> None:
 
 
 def params_from_meta(meta: dict[str, Any], source: str | Path = "sidecar") -> Params:
-    """Table 3 overridden by ``meta["params"]``.
-
-    Raises
-    ------
-    RecordingError
-        naming the sidecar and the offending parameter.
-    """
+    """Table 3 overridden by ``meta["params"]`` (RecordingError naming the sidecar and the parameter)."""
     values = meta.get("params") or {}
     if not isinstance(values, dict):
         raise RecordingError(f"{source}: \"params\" must be an object {{NAME: value}}, "
@@ -142,13 +123,7 @@ def _first_row(mask: np.ndarray) -> int:
 
 
 def check_time(df: pd.DataFrame, name: str) -> None:
-    """Strictly increasing, finite time.
-
-    Raises
-    ------
-    RecordingError
-        naming the first row where ``t`` repeats or goes back.
-    """
+    """Strictly increasing, finite time (RecordingError naming the first row where it is not)."""
     t = df["t"].to_numpy(dtype=float)
     bad = ~np.isfinite(t)
     if bad.any():
@@ -176,29 +151,8 @@ def check_time(df: pd.DataFrame, name: str) -> None:
 
 
 def check_finite(df: pd.DataFrame, name: str, columns, max_gap: int = MAX_GAP) -> pd.DataFrame:
-    """Interpolate short runs of NaN/inf, refuse long ones; returns a new frame.
-
-    Parameters
-    ----------
-    df : DataFrame
-    name : str
-        The file, for messages.
-    columns : iterable of str
-        Columns to check (the others pass through).
-    max_gap : int
-        Longest run of consecutive missing samples that is interpolated.
-
-    Raises
-    ------
-    RecordingError
-        naming the column and the first row of a gap longer than ``max_gap`` (or of
-        a gap at either end, which cannot be interpolated).
-
-    Warns
-    -----
-    RecordingWarning
-        with the number of interpolated samples.
-    """
+    """Interpolate runs of NaN/inf up to ``max_gap`` samples in ``columns`` (with a RecordingWarning), refuse
+    longer ones or gaps at an end; returns a new frame."""
     out = df.copy()
     repaired = 0
     for col in columns:
@@ -226,16 +180,8 @@ def check_finite(df: pd.DataFrame, name: str, columns, max_gap: int = MAX_GAP) -
 
 
 def check_angles(df: pd.DataFrame, name: str) -> None:
-    """Refuse pitch/tilt columns that look like degrees.
-
-    ``gamma``, ``phi`` and ``theta`` beyond ±60° are not a ridden EUC; ``psi`` (yaw)
-    may wind up, so it is refused only when its steps exceed 1 rad per sample.
-
-    Raises
-    ------
-    RecordingError
-        naming the column and the row of the first implausible value.
-    """
+    """Refuse angle columns that look like degrees: ``gamma``, ``phi``, ``theta`` beyond :data:`PITCH_LIMIT`,
+    ``psi`` stepping over 1 rad a sample."""
     for col in ("gamma", "phi", "theta"):
         if col in df.columns:
             y = df[col].to_numpy(dtype=float)
@@ -255,13 +201,7 @@ def check_angles(df: pd.DataFrame, name: str) -> None:
 
 
 def check_magnitudes(df: pd.DataFrame, name: str) -> None:
-    """Refuse values no ride reaches (1e300 m, 1e6 N·m): a wrong unit or a corrupt file.
-
-    Raises
-    ------
-    RecordingError
-        naming the column, the row, the value and the limit.
-    """
+    """Refuse values no ride reaches (1e300 m, 1e6 N·m): a wrong unit or a corrupt file."""
     limits = dict(MAGNITUDE_LIMITS)
     limits.update({c: MOCAP_LIMIT for c in df.columns if str(c).startswith(("C_", "E_", "G_"))})
     for col, limit in limits.items():
@@ -275,27 +215,15 @@ def check_magnitudes(df: pd.DataFrame, name: str) -> None:
 
 
 def check_length(df: pd.DataFrame, name: str, min_samples: int, why: str = "the smoothing window") -> None:
-    """Refuse a recording shorter than ``min_samples`` rows.
-
-    Raises
-    ------
-    RecordingError
-    """
+    """Refuse a recording shorter than ``min_samples`` rows."""
     if len(df) < min_samples:
         raise RecordingError(f"{name}: column 't' row {len(df)}: only {len(df)} samples, "
                              f"too short for {why} (needs at least {min_samples})")
 
 
 def validate_recording(df: pd.DataFrame, name: str = "recording", max_gap: int = MAX_GAP) -> pd.DataFrame:
-    """Check a recording's columns, time, values and angles; returns a repaired copy.
-
-    Either the state columns (``t, x, gamma, phi``) or the motion-capture columns
-    (``t``, C or E, G, ``psi, theta, gamma``) must be present.
-
-    Raises
-    ------
-    RecordingError
-    """
+    """Check a recording's columns (state ``t, x, gamma, phi`` or motion capture), time, values and angles;
+    returns a repaired copy."""
     cols = set(df.columns)
     if "t" not in cols:
         raise RecordingError(f"{name}: column 't' row 0: missing required column 't' "
@@ -337,28 +265,18 @@ def validate_recording(df: pd.DataFrame, name: str = "recording", max_gap: int =
 
 
 def read_recording(path: str | Path, max_gap: int = MAX_GAP) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """Read and validate a recording and its sidecar.
-
-    Parameters
-    ----------
-    path : path
-        ``NAME.csv`` or ``NAME.parquet`` (CONTRACT.md).
-    max_gap : int
-        Longest run of non-finite samples interpolated (with a warning).
+    """Read and validate a recording (``NAME.csv`` or ``NAME.parquet``) and its sidecar.
 
     Returns
     -------
     df : pandas.DataFrame
-        The validated columns (a new frame; short gaps interpolated).
+        The validated columns (short gaps, up to ``max_gap`` samples, interpolated).
     meta : dict
         The sidecar ``NAME.json`` (``{}`` when absent) plus ``"path"``.
 
     Raises
     ------
-    RecordingError
-        (a ``ValueError``) for any invalid content, naming file, column and row.
-    FileNotFoundError
-        when the file does not exist.
+    RecordingError, FileNotFoundError
     """
     path = Path(path)
     name = str(path)

@@ -1,26 +1,11 @@
 """Least squares with a nuisance parameter, blocked in time: the regression behind selection.
 
-The model of a residual y (length n) is::
-
-    y(h) = Σ_{c ∈ S} X_c θ_c + e,
-
-where ``y(h)`` depends on a scalar nuisance parameter ``h`` (the rider's centre-of-
-gravity height in euc-sim) that is re-identified for every candidate set S by a
-bounded 1-D search with θ profiled out by linear least squares, each candidate ``c``
-is a named group of one or more columns ``X_c`` (n × k_c), and e is a residual that
-is *not* white: it has been through a smoothing filter, so successive samples are
-strongly correlated.  Two consequences are built in here (the third, the BIC with an
-effective sample count, is in :mod:`euc_sim.identification.selection`):
-
-- held-out validation is blocked in time (contiguous blocks of
-  :data:`BLOCK_LENGTH` s dealt to the folds in turn, with a guard gap so the filter
-  does not leak the held-out blocks into the training set);
-- standard errors come from a cluster ("blocked residuals") sandwich covariance.
-
-Public functions
-----------------
-:func:`fit_set`, :func:`heldout_rmse`, :func:`covariance`, :func:`correlation_time`,
-:func:`time_blocks`.
+A residual y (length n) is modelled as y(h) = Σ_{c ∈ S} X_c θ_c + e, h a scalar nuisance
+(the rider's CoG height) re-identified for every candidate set S by a bounded 1-D search
+with θ profiled out, each candidate ``c`` a named group of columns X_c (n × k_c).  e is
+filtered, hence correlated: held-out validation is blocked in time with a guard gap, and
+standard errors come from a cluster sandwich covariance (the BIC's effective sample count
+is in :mod:`euc_sim.identification.selection`).
 """
 
 from __future__ import annotations
@@ -49,27 +34,22 @@ class Problem:
     Attributes
     ----------
     target : callable
-        ``target(h) -> y``, the residual (shape (n,)) for nuisance value ``h``.
+        ``target(h) -> y``, shape (n,).
     candidates : mapping of str to numpy.ndarray
-        Named candidate groups, each (n, k) with k ≥ 1 (or (n,) for one column).
+        Named candidate groups, each (n, k) or (n,).
     time : numpy.ndarray
-        (n,) time of each residual sample, s; samples may repeat a time (stacked
-        residuals), blocking is by time.
+        (n,) time of each sample, s (may repeat for stacked residuals); blocking is by time.
     bounds : tuple of float
-        Search interval of the nuisance parameter.
+        Search interval of h.
     validity : mapping of str to callable, optional
-        ``validity[name](theta) -> None | str``: a reason to refuse the candidate
-        with coefficients ``theta`` (a wrong sign, a magnitude out of physics).
+        ``validity[name](theta) -> None | str``: a reason to refuse the estimate.
     weights : numpy.ndarray, optional
-        (n,) non-negative weights of the residual samples (default 1).
+        (n,) non-negative sample weights (default 1).
     shape_params : mapping of str to int, optional
-        Parameters of a candidate that the data chose before the fit (a shape's start
-        and length): counted in the BIC with its columns (default 0).
+        Parameters the data chose for a candidate before the fit, counted in the BIC.
     adaptive : mapping of str to callable, optional
-        ``adaptive[name](others) -> Adapted``: a candidate whose columns the data choose
-        given the other candidates of the set (``others``, a sorted tuple of names),
-        e.g. a shape scanned on what the others leave; it replaces ``candidates[name]``,
-        ``shape_params[name]`` and ``validity[name]`` inside a set (:meth:`columns`).
+        ``adaptive[name](others) -> Adapted``: columns chosen given the set's other members
+        (a sorted tuple of names); replaces the candidate's other entries inside a set.
     """
 
     target: Callable[[float], np.ndarray]
@@ -111,8 +91,7 @@ class Problem:
         return int(self.time.size)
 
     def adapted(self, name: str, names: Sequence[str]) -> "Adapted":
-        """Candidate ``name`` inside the set ``names``: its columns, chosen parameters and
-        validity (the adaptive hook's, given the set's other members, where it has one)."""
+        """Candidate ``name`` inside the set ``names`` (through its adaptive hook where it has one)."""
         if name in self.adaptive:
             a = self.adaptive[name](tuple(sorted(c for c in names if c != name)))
             X = np.asarray(a.columns, dtype=float)
@@ -133,8 +112,7 @@ class Problem:
         return np.hstack([self.columns(c, names) for c in names])
 
     def frozen(self, names: Sequence[str]) -> "Problem":
-        """The problem with every adaptive candidate fixed as it is inside the set ``names``
-        (a candidate outside it: as it would join it)."""
+        """The problem with every adaptive candidate fixed as it is (or would be) inside the set ``names``."""
         if not self.adaptive:
             return self
         cands, shape, valid = dict(self.candidates), dict(self.shape_params), dict(self.validity)
@@ -154,8 +132,7 @@ class Problem:
 
 @dataclass(frozen=True)
 class Adapted:
-    """An adaptive candidate inside one set: its columns (n, k), the parameters the data
-    chose for it (counted in the BIC), and its validity check (``check(θ) -> None | str``)."""
+    """An adaptive candidate inside one set: columns (n, k), parameters chosen (for the BIC), validity check."""
 
     columns: np.ndarray
     n_shape: int = 0
@@ -164,20 +141,8 @@ class Adapted:
 
 @dataclass(frozen=True)
 class Fit:
-    """A least-squares fit of one candidate set with the nuisance profiled.
-
-    Attributes
-    ----------
-    names : tuple of str
-    h : float
-        Nuisance parameter at the optimum.
-    theta : dict of str to numpy.ndarray
-        Coefficients per candidate.
-    rss : float
-        Weighted residual sum of squares on the fitted samples.
-    n : int
-        Samples fitted.
-    """
+    """A least-squares fit of one candidate set with h profiled: ``names``, ``h``, ``theta`` per candidate,
+    weighted ``rss``, ``n`` samples."""
 
     names: tuple[str, ...]
     h: float
@@ -196,24 +161,14 @@ class Fit:
 
 
 def time_blocks(time: np.ndarray, n_blocks: int) -> np.ndarray:
-    """Index 0..n_blocks-1 of the contiguous time block of each sample.
-
-    Raises
-    ------
-    SelectionError
-        when ``n_blocks`` < 2.
-    """
+    """Index 0..n_blocks-1 of the contiguous time block of each sample (``n_blocks`` ≥ 2)."""
     if n_blocks < 2:
         raise SelectionError(f"n_blocks must be at least 2, got {n_blocks}")
     return span_blocks(time, n_blocks)
 
 
 def correlation_time(e: np.ndarray, max_lag: int | None = None) -> float:
-    """Integrated autocorrelation time of a residual, in samples (≥ 1).
-
-    τ_int = 1 + 2 Σ_k ρ_k summed up to the first non-positive ρ_k (Geyer's initial
-    positive sequence, simplified).  A white residual gives about 1.
-    """
+    """Integrated autocorrelation time τ_int = 1 + 2 Σ ρ_k up to the first ρ_k ≤ 0, samples (≥ 1)."""
     e = np.asarray(e, dtype=float)
     e = e - e.mean()
     n = e.size
@@ -274,20 +229,7 @@ def _split_theta(problem: Problem, names: Sequence[str], theta: np.ndarray) -> d
 
 
 def fit_set(problem: Problem, names: Sequence[str], idx: np.ndarray | None = None) -> Fit:
-    """Fit the candidate set ``names`` jointly with the nuisance parameter.
-
-    Parameters
-    ----------
-    problem : Problem
-    names : sequence of str
-        Candidates to include (may be empty: the nuisance alone).
-    idx : numpy.ndarray of int, optional
-        Samples to fit (all by default).
-
-    Returns
-    -------
-    Fit
-    """
+    """Fit the candidate set ``names`` (may be empty) jointly with h, on samples ``idx`` (default all)."""
     names = tuple(names)
     unknown = [c for c in names if c not in problem.candidates]
     if unknown:
@@ -298,21 +240,8 @@ def fit_set(problem: Problem, names: Sequence[str], idx: np.ndarray | None = Non
     return Fit(names, h, _split_theta(problem, names, theta), rss, int(idx.size))
 
 
-#: Length of the contiguous held-out blocks, s (several correlation times of the
-#: filtered residual).
+#: Length of the contiguous held-out blocks, s (several correlation times of the residual).
 BLOCK_LENGTH = 2.0
-
-
-def _train_test(problem: Problem, n_blocks: int, guard: float, block: float = BLOCK_LENGTH):
-    """Folds of blocked cross-validation (:func:`euc_sim.stats.interleaved_folds`).
-
-    The record is cut into contiguous blocks of ``block`` s; block i belongs to fold
-    i mod ``n_blocks``, so every fold holds out blocks spread over the whole maneuver
-    (a maneuver is not stationary: holding out its whole first fifth would test
-    extrapolation to speeds the training never saw).  Training samples closer than
-    ``guard`` s to any held-out sample are dropped, so the filter does not leak.
-    """
-    return interleaved_folds(problem.time, n_blocks, block, guard)
 
 
 def heldout_rmse(problem: Problem, names: Sequence[str], n_blocks: int = 10,
@@ -324,26 +253,23 @@ def heldout_rmse(problem: Problem, names: Sequence[str], n_blocks: int = 10,
     problem : Problem
     names : sequence of str
     n_blocks : int
-        Folds: contiguous blocks of :data:`BLOCK_LENGTH` s are dealt to the folds in
-        turn; each fold is held out once.
+        Folds: blocks of :data:`BLOCK_LENGTH` s dealt to the folds in turn.
     guard : float
-        Time, s, dropped from the training set on each side of the held-out block
-        (the smoothing filter's reach).
+        Time dropped from training on each side of a held-out block, s.
     extra : callable, optional
-        ``extra(train_idx, train_residual, h) -> (n, k) columns`` built from the
-        training samples only (a generic basis, see :func:`generic_gain`); added to
-        the design of that fold.
+        ``extra(train_idx, train_residual, h) -> (n, k)`` columns built from the training
+        samples only, added to that fold's design (:func:`~euc_sim.identification.selection.generic_gain`).
 
     Returns
     -------
     float
-        sqrt(Σ e² / Σ n) over the held-out samples, the residual's unit.
+        sqrt(Σ w e² / n) over the held-out samples, the residual's unit.
     """
     names = tuple(names)
     X = problem.design(names)
     w = np.ones(problem.n) if problem.weights is None else problem.weights
     sse, cnt = 0.0, 0
-    for train, test in _train_test(problem, n_blocks, guard):
+    for train, test in interleaved_folds(problem.time, n_blocks, BLOCK_LENGTH, guard):
         if train.size < 10:
             raise SelectionError(f"n_blocks={n_blocks} and guard={guard} leave a fold without training samples")
         h, theta, _ = _profile(problem, X, train)
@@ -366,18 +292,12 @@ def _jacobian_h(problem: Problem, h: float, step: float = 1e-4) -> np.ndarray:
 
 
 def covariance(problem: Problem, fit: Fit, cluster: float) -> tuple[np.ndarray, float]:
-    """Covariance of (θ, h): cluster-robust, never below the autocorrelation-scaled one.
+    """Covariance of (θ, h): the cluster sandwich, each variance raised to at least the conventional one.
 
-    The residual is linearised in h at the optimum: J = [X, −∂y/∂h]; the sandwich
-    (JᵀJ)⁻¹ (Σ_b J_bᵀ e_b e_bᵀ J_b) (JᵀJ)⁻¹ · G/(G−1) over G blocks.  With G ≈ 10
-    blocks the sandwich is biased low, most for a column that varies slowly from
-    block to block (the 12 s h drift: on null recordings it gave |θ|/se up to 14).
-    So each parameter's variance is raised, where lower, to the conventional one
-    s² (JᵀJ)⁻¹ scaled by the residual's integrated correlation time τ_int; the
-    sandwich's correlations are kept.  This is the rule "the larger of the robust and
-    the conventional standard error" (Angrist & Pischke, *Mostly Harmless
-    Econometrics*, 2009, §8.2.3).  In the blind study it lifted the 95 % intervals'
-    coverage from 84–88 % to 96–99 %.
+    J = [X, −∂y/∂h] at the optimum; robust = (JᵀJ)⁻¹ (Σ_b J_bᵀ e_b e_bᵀ J_b) (JᵀJ)⁻¹ · G/(G−1)
+    over G clusters of ``cluster`` s; each standard error is raised, where lower, to that of
+    s² (JᵀJ)⁻¹ τ_int, keeping the sandwich's correlations (Angrist & Pischke 2009, §8.2.3:
+    with G ≈ 10 the sandwich is biased low for slowly varying columns).
 
     Returns
     -------

@@ -1,25 +1,13 @@
 """h by simulation error in MuJoCo: a second opinion where both torques are recorded.
 
-The recording is cut into windows of :data:`WINDOW` seconds.  Each window is rolled
-out open loop in the planar MuJoCo model (``ideal`` ground) with the recorded M_d and
-M_h, from an initial state (x, γ, φ, ẋ, γ̇, φ̇) that is a free parameter of its own
-(multiple shooting without continuity constraints: the peer's recipe; restarting from
-the recorded states gave 0.48-0.54 m).  h and all window states minimise the
-simulation error Σ ((q_sim − q_rec)/σ)² over x, γ, φ, with σ each channel's noise
-estimated from the recording (:func:`euc_sim.identification.noise_bootstrap.split_noise`),
-by Levenberg–Marquardt with h clipped to its bounds, solving each step through the
-Schur complement of the block-arrow normal equations (h couples all windows, each
-window's state only its own rows; ``scipy.optimize.least_squares`` spent 4 s per SVD of
-the dense Jacobian, and its sparse ``lsmr`` solver did not converge in 50 steps).  The Jacobian comes from
-finite differences done as one batched :func:`mujoco.rollout.rollout` call: per window
-the nominal state, six perturbed states and one model with h perturbed (h moves the
-rider's centre of mass, ``body_ipos`` of ``rider``, in a copy of the compiled model).
-
-The 95 % interval is Gauss–Newton's: ĥ ± 1.96 sqrt(s² (JᵀJ)⁻¹_hh), s² the residual
-variance per degree of freedom; :attr:`RolloutFit.correlation` is the full parameter
-correlation matrix.  The torques are held between samples by linear interpolation
-(:data:`SUBSTEPS` steps per sample); the recorded torque is the simulator's sample,
-not its average over the sample period.
+The recording is cut into windows of :data:`WINDOW` s, each rolled out open loop in the
+planar model with the recorded M_d and M_h from a free initial state (multiple shooting
+without continuity constraints).  h and the window states minimise
+Σ ((q_sim − q_rec)/σ)² over x, γ, φ, σ each channel's noise, by Levenberg–Marquardt through
+the Schur complement of the block-arrow normal equations; the Jacobian is finite
+differences in one batched :func:`mujoco.rollout.rollout` call.  The 95 % interval is
+Gauss–Newton's, ĥ ± 1.96 sqrt(s² (JᵀJ)⁻¹_hh).  Torques are interpolated linearly between
+samples (:data:`SUBSTEPS` per sample).  See docs/coverage.md.
 """
 
 from __future__ import annotations
@@ -65,21 +53,20 @@ class RolloutFit:
     h : float
         m.
     h_ci95 : tuple of float
-        Gauss–Newton 95 % interval, m.
+        95 % interval, m.
     seconds : float
         Wall time of the fit, s.
     windows : int
     at_bound : list of str
         Fitted quantities that end on their search bound (``"h"``).
     correlation : ndarray, shape (1 + 6 W, 1 + 6 W)
-        Parameter correlation matrix: h first, then each window's
-        (x, γ, φ, ẋ, γ̇, φ̇).
-    t : ndarray
-        Sample times of the windows, s, shape (W, L).
+        Parameter correlations: h, then each window's (x, γ, φ, ẋ, γ̇, φ̇).
+    t : ndarray, shape (W, L)
+        Sample times of the windows, s.
     q_rec, q_fit : ndarray, shape (W, L, 3)
-        Recorded and rolled-out (x, γ, φ) per window.
+        Recorded and rolled-out (x, γ, φ).
     rms : ndarray, shape (3,)
-        RMS simulation error per channel (x m, γ rad, φ rad).
+        RMS simulation error per channel (m, rad, rad).
     nfev : int
         Residual evaluations.
     """
@@ -171,7 +158,7 @@ def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
     Parameters
     ----------
     df : DataFrame
-        A recording with ``t, x, gamma, phi, M_d, M_h`` (state level).
+        A state-level recording with ``t, x, gamma, phi, M_d, M_h``.
     kin : Kinematics
         Its kinematics (the windows' starting guesses).
     p : Params
@@ -186,7 +173,7 @@ def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
     Raises
     ------
     RolloutError
-        without ``M_d`` and ``M_h`` or x, γ, φ columns, or shorter than one window.
+        without the torque or state columns, or shorter than one window.
     """
     t0 = time.perf_counter()
     need = [c for c in ("M_d", "M_h", "x", "gamma", "phi") if c not in df.columns]
@@ -244,15 +231,7 @@ def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
 
 
 def _levenberg_marquardt(fun, jac, h: float, S: np.ndarray, lo: float, hi: float):
-    """Minimise Σ fun(h, S)² over h in [lo, hi] and the window states S (W, 6).
-
-    Each step solves the damped normal equations through the Schur complement of their
-    block-arrow form (h couples every window; a window's state only its own rows).
-
-    Returns
-    -------
-    (h, S, r, cost, nfev)
-    """
+    """Minimise Σ fun(h, S)² over h in [lo, hi] and the window states S (W, 6): (h, S, r, cost, nfev)."""
     n_win = len(S)
     r = fun(h, S).reshape(n_win, -1)
     cost, mu, nfev = float(np.sum(r ** 2)), 1e-3, 1

@@ -1,22 +1,9 @@
-"""Generic selection of named candidate terms for a residual, with a nuisance parameter.
+"""Forward stepwise selection of named candidate terms for a residual y(h) with a nuisance h.
 
-This module knows nothing about unicycles.  It is the selection method; the candidate
-library (physically derived columns) lives in :mod:`euc_sim.diagnosis.candidates`, in the
-spirit of PySINDy's split between a feature library and an optimiser.  The regression
-it runs (a residual y(h) with a nuisance h, fits, blocked held-out RMSE, cluster
-covariance) is :mod:`euc_sim.identification.regression`.
-
-The residual is *not* white (it has been through a smoothing filter), so the
-information criterion (BIC) counts an *effective* number of samples n_eff = n / τ_int,
-τ_int the integrated autocorrelation time of the residual.
-
-Forward stepwise selection keeps the history of every step (all trials, their BIC
-and held-out RMSE, why the best one was or was not accepted).
-
-Public functions
-----------------
-:func:`bic`, :func:`forward_select`, :func:`find_aliases`, :func:`generic_gain`,
-:func:`sinusoid_basis`.
+Generic (no unicycle here): the candidate library is :mod:`euc_sim.diagnosis.candidates`,
+the regression (fits, blocked held-out RMSE, cluster covariance)
+:mod:`euc_sim.identification.regression`.  The residual is filtered, so the BIC counts
+n_eff = n / τ_int samples, τ_int the integrated autocorrelation time.
 """
 
 from __future__ import annotations
@@ -52,11 +39,9 @@ class Selection:
     Attributes
     ----------
     selected : tuple of str
-        Accepted candidates in the order of acceptance (strongest first).
-    fit : Fit
-        Final fit on all samples.
-    nominal : Fit
-        Fit of the nuisance alone.
+        Accepted candidates in the order of acceptance.
+    fit, nominal : Fit
+        Final fit on all samples; fit of the nuisance alone.
     cv_nominal, cv_final : float
         Held-out RMSE of the nuisance-only model and of the final set.
     cv_path : list of float
@@ -91,40 +76,28 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
                    pairs: bool = False, progress: Callable[[str], None] | None = None) -> Selection:
     """Forward stepwise selection with blocked held-out validation and BIC.
 
-    At each step every remaining candidate is added in turn to the accepted set, the
-    nuisance re-identified, and BIC (with n_eff) and the held-out RMSE computed.
-    The candidate with the lowest BIC is accepted when all of these hold:
-
-    - BIC drops by at least ``min_bic_drop``;
-    - the held-out RMSE drops by at least the fraction ``min_cv_gain``;
-    - every coefficient of the new group has |θ|/se ≥ ``min_t`` (cluster sandwich);
-    - ``problem.validity[name](θ)`` has no objection.
-
-    Otherwise selection stops.
+    Each step adds every remaining candidate in turn (h re-identified); the lowest-BIC one
+    is accepted when the BIC drops by ``min_bic_drop``, the held-out RMSE by the fraction
+    ``min_cv_gain``, each coefficient group has |θ|/se ≥ ``min_t`` (cluster sandwich) and
+    ``problem.validity`` has no objection.  Otherwise selection stops.
 
     Parameters
     ----------
     problem : Problem
     n_blocks, guard : int, float
-        Held-out validation (see :func:`heldout_rmse`).
+        Held-out validation (:func:`~euc_sim.identification.regression.heldout_rmse`).
     min_bic_drop, min_cv_gain, min_t : float
-        Acceptance thresholds (dimensionless).
+        Acceptance thresholds.
     cluster : float
         Cluster length for standard errors, s.
     max_terms : int
-        At most this many candidates are accepted.
     allowed : sequence of str, optional
-        Candidates eligible (all by default).
+        Eligible candidates (default all).
     n_eff : float, optional
-        Effective sample count for the BIC; by default n / τ_int of the nominal
-        residual (which overstates the correlation when an effect dominates it:
-        prefer τ_int of a noise-only residual, as :func:`euc_sim.diagnosis.residual.noise_floor` does).
+        Effective sample count for the BIC (default n / τ_int of the nominal residual).
     pairs : bool
-        Find effects jointly: when no single candidate earns its place, try every pair of
-        the remaining ones added together (each must earn its place given the other; two
-        effects can mask each other); after each acceptance drop a member that the others
-        made redundant (backward step); a candidate refused in one step is offered again
-        in the next, given the new set.  Default False: plain forward selection.
+        When no single candidate earns its place try pairs (each must earn its place given
+        the other), and after each acceptance try a swap and a backward step.
 
     Returns
     -------
@@ -220,14 +193,8 @@ def _trials(problem: Problem, current: tuple, remaining: list, n_eff: float, n_b
 
 def _pair_step(problem: Problem, current: tuple, remaining: list, n_eff: float, cur_bic: float, cur_cv: float,
                n_blocks: int, guard: float, judge: dict) -> dict | None:
-    """The best pair of remaining candidates added together, when it earns its place.
-
-    Accepted when the pair's BIC drops by ``min_bic_drop`` and its held-out RMSE by
-    ``min_cv_gain``, each member stands ``min_t`` standard errors from zero, every
-    member of the set is physics, and each of the two drops the BIC by ``min_bic_drop``
-    given the other (neither is a passenger of the other).  Pairs are tried in order
-    of BIC, the held-out RMSE only for those passing the rest.
-    """
+    """The best pair of remaining candidates added together when it passes :func:`forward_select`'s tests and each
+    member drops the BIC by ``min_bic_drop`` given the other."""
     tried = []
     for i, a in enumerate(remaining):
         for b in remaining[i + 1:]:
@@ -261,9 +228,8 @@ def _pair_step(problem: Problem, current: tuple, remaining: list, n_eff: float, 
 
 def _swap(problem: Problem, f: Fit, cur_bic: float, others: list, n_eff: float, min_bic_drop: float,
           min_t: float, cluster: float):
-    """The best replacement of one member by a candidate outside the set, when it lowers the
-    BIC by ``min_bic_drop`` with every member physics and the newcomer ``min_t`` standard
-    errors from zero: (replaced name, its fit, its BIC); None otherwise."""
+    """The best replacement of one member by an outsider lowering the BIC by ``min_bic_drop`` (valid, newcomer
+    |θ|/se ≥ ``min_t``): (replaced name, fit, BIC), or None."""
     if len(f.names) < 2:
         return None
     best = None
@@ -281,9 +247,8 @@ def _swap(problem: Problem, f: Fit, cur_bic: float, others: list, n_eff: float, 
 
 def _backward(problem: Problem, f: Fit, cur_bic: float, n_eff: float, min_bic_drop: float, min_t: float,
               cluster: float) -> tuple[str | None, str]:
-    """The member of the set that no longer earns its place given the others (the one whose
-    removal costs the least BIC, when that is below ``min_bic_drop`` or its |θ|/se is below
-    ``min_t``), and why; (None, "") when every member does."""
+    """The member whose removal costs the least BIC, when below ``min_bic_drop`` or its |θ|/se below ``min_t``,
+    and why; (None, "") otherwise."""
     if len(f.names) < 2:
         return None, ""
     cov, _ = covariance(problem, f, cluster)
@@ -306,8 +271,7 @@ def n_params(problem: Problem, names: Sequence[str]) -> int:
 
 
 def group_t(problem: Problem, f: Fit, cov: np.ndarray, name: str) -> float:
-    """|θ|/se of candidate ``name`` in the fit ``f`` (a group of k columns: its Wald
-    statistic as an equivalent |t|, √max(W − (k − 1), 0))."""
+    """|θ|/se of candidate ``name`` in ``f``; for a group of k columns √max(W − (k − 1), 0), W its Wald statistic."""
     i0 = 0
     for c in f.names:
         k = f.theta[c].size
@@ -365,26 +329,9 @@ def find_aliases(problem: Problem, selected: Sequence[str], name: str,
                  cosine: float = 0.95) -> list[str]:
     """Candidates this recording cannot tell apart from ``name``.
 
-    Candidate ``a`` is an alias of ``name`` when, in the accepted set with ``name``
-    swapped for ``a`` (h re-identified), the fit is physically valid and its BIC is
-    within ``max_bic`` of the accepted set's (the data do not decisively prefer
-    ``name``), or when the two single columns have |cosine| ≥ ``cosine``.
-
-    Parameters
-    ----------
-    problem : Problem
-    selected : sequence of str
-        The accepted set, containing ``name``.
-    name : str
-    candidates : sequence of str
-        Candidates to test.
-    n_eff : float
-        Effective sample count of the BIC.
-    max_bic, cosine : float
-
-    Returns
-    -------
-    list of str
+    ``a`` is an alias when, with ``name`` swapped for ``a`` in ``selected`` (h re-identified),
+    the fit is valid and its BIC within ``max_bic`` of the accepted set's, or when the two
+    single columns have |cosine| ≥ ``cosine``.
     """
     selected = tuple(selected)
     without = tuple(c for c in selected if c != name)
@@ -408,10 +355,8 @@ def find_aliases(problem: Problem, selected: Sequence[str], name: str,
 
 
 def project_out(problem: Problem, P: np.ndarray | None) -> Problem:
-    """The problem with the columns ``P`` (n, k) fitted alongside every set: the target and
-    every candidate projected onto P's orthogonal complement (a nuisance structure, e.g. a
-    periodic disturbance no candidate explains, that each candidate is then tested beside).
-    ``None`` returns ``problem``."""
+    """The problem with the columns ``P`` (n, k) projected out of the target and every candidate (``None``:
+    ``problem``)."""
     if P is None:
         return problem
     P = np.asarray(P, dtype=float).reshape(problem.n, -1)
@@ -438,14 +383,8 @@ def project_out(problem: Problem, P: np.ndarray | None) -> Problem:
 
 
 def sinusoid_basis(time: np.ndarray, fmin: float = 0.1, fmax: float = 3.0, n_freq: int = 300):
-    """A generic basis builder: the sinusoid that best fits the training residual.
-
-    Returns a function usable as ``extra`` in :func:`heldout_rmse`: it scans
-    frequencies in [fmin, fmax] Hz on the training samples (least squares on sin and
-    cos, so gaps are handled), and returns the two full-length columns at the best
-    frequency.  A periodic disturbance extrapolates to the held-out block; filtered
-    noise does not.
-    """
+    """An ``extra`` for :func:`heldout_rmse`: the sinusoid in [fmin, fmax] Hz best fitting the training residual,
+    as two full-length columns."""
     t = np.asarray(time, dtype=float)
     freqs = np.linspace(fmin, fmax, n_freq)
 
@@ -466,12 +405,7 @@ def sinusoid_basis(time: np.ndarray, fmin: float = 0.1, fmax: float = 3.0, n_fre
 
 def generic_gain(problem: Problem, selected: Sequence[str], extra: Callable,
                  n_blocks: int = 10, guard: float = 0.5) -> tuple[float, float]:
-    """Held-out RMSE without and with a generic basis on top of ``selected``.
-
-    Returns
-    -------
-    (cv_without, cv_with) : tuple of float
-    """
+    """Held-out RMSE ``(without, with)`` a generic basis ``extra`` on top of ``selected``."""
     a = heldout_rmse(problem, selected, n_blocks, guard)
     b = heldout_rmse(problem, selected, n_blocks, guard, extra=extra)
     return a, b

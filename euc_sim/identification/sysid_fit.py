@@ -1,33 +1,12 @@
 """h by simulation error with MuJoCo's own toolbox, ``mujoco.sysid``.
 
-The same problem as :mod:`euc_sim.identification.rollout_fit` (1 s windows, each with
-a free initial state (x, γ, φ, ẋ, γ̇, φ̇), residual Σ((q_sim − q_rec)/σ)² over x, γ, φ),
-posed in the toolbox's terms so that the two can be compared on the same recordings:
-
-- ``h`` is a :class:`mujoco.sysid.Parameter` whose modifier writes the rider's centre
-  of mass (``body("rider").ipos``) into the :class:`mujoco.MjSpec`; each window's state
-  is a 6-vector ``Parameter`` without a modifier.
-- each window is one measured sequence of a :class:`mujoco.sysid.ModelSequences`
-  (controls M_d, M_h; "sensor" data the recorded x, γ, φ);
-- :func:`mujoco.sysid.optimize` (its ``mujoco`` backend, :func:`mujoco.minimize.least_squares`)
-  minimises the residual of :func:`mujoco.sysid.build_residual_fn`;
-- the interval is :func:`mujoco.sysid.calculate_intervals` on the returned Jacobian.
-
-Three hooks were needed (the toolbox's own extension points):
-
-- ``custom_rollout``: the toolbox starts every sequence from its recorded initial
-  state; free initial states (multiple shooting) must come from the parameters.
-  The hook also memoises each window's rollout by (h, window state), so a
-  finite-difference column that moves one window's state re-runs that window only.
-- ``modify_residual``: the default residual divides each window's error by the norm of
-  that window's data (``normalize_residual``), not by the measurement noise, so x
-  (metres travelled) weighs almost nothing beside γ; the hook returns (q_sim − q_rec)/σ.
-- ``build_model``: the default recompiles the spec for every finite-difference column
-  of every window; the hook memoises the compiled model by h (``fast=True``).
-
-The torques enter as the mean of consecutive samples held over each step (the toolbox
-holds a control constant over a step), as the linear interpolation of
-:mod:`~euc_sim.identification.rollout_fit` does with one substep.
+The problem of :mod:`euc_sim.identification.rollout_fit` in the toolbox's terms: ``h`` a
+``Parameter`` writing the rider's ``ipos`` into the MjSpec, each window's state a
+6-vector ``Parameter``, each window one sequence of a ``ModelSequences``, solved by
+:func:`mujoco.sysid.optimize`, the interval from ``calculate_intervals``.  Three hooks:
+``custom_rollout`` (free initial states, memoised per window), ``modify_residual``
+((q_sim − q_rec)/σ rather than the data norm) and ``build_model`` (compiled model
+memoised by h).  Torques enter as the mean of consecutive samples held over each step.
 """
 
 from __future__ import annotations
@@ -60,11 +39,8 @@ MISSING_EXTRA = ("--method sysid needs MuJoCo's system-identification toolbox: "
 
 
 def sysid_available() -> bool:
-    """Whether ``mujoco.sysid`` imports with its optional dependencies.
-
-    ``mujoco.sysid`` swallows a missing dependency (absl-py, plotly, tabulate) and then
-    exports nothing, so presence is checked by its ``optimize``.
-    """
+    """Whether ``mujoco.sysid`` imports with its optional dependencies (checked by its ``optimize``: it swallows a
+    missing one)."""
     try:
         import mujoco.sysid as ms
     except ImportError:
@@ -78,36 +54,23 @@ def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
 
     Parameters
     ----------
-    df : DataFrame
-        A recording with ``t, x, gamma, phi, M_d, M_h`` (state level).
-    kin : Kinematics
-        Its kinematics (the windows' starting guesses).
-    p : Params
-        Every parameter but h.
-    h0 : float
-        Starting h, m.
-    bounds : (float, float)
-        Search bounds of h, m.
-    window : float
-        Window length, s.
+    df, kin, p, h0, bounds, window
+        As :func:`~euc_sim.identification.rollout_fit.fit_rollout`.
     fast : bool
-        Memoise the compiled model by h (``build_model`` hook); ``False`` lets the
-        toolbox recompile the spec for every column of every window.
+        Memoise the compiled model by h (False: recompile for every column of every window).
     max_iter : int
         Optimizer iterations at most.
 
     Returns
     -------
     RolloutFit
-        As :func:`~euc_sim.identification.rollout_fit.fit_rollout`; ``h_ci95`` from
-        :func:`mujoco.sysid.calculate_intervals` (Student t, α = 0.05); ``nfev`` counts
-        parameter vectors evaluated.
+        ``h_ci95`` from :func:`mujoco.sysid.calculate_intervals`; ``nfev`` counts parameter
+        vectors evaluated.
 
     Raises
     ------
     RolloutError
-        without ``M_d``, ``M_h`` or the states, shorter than one window, or without
-        the ``mujoco[sysid]`` extra.
+        as ``fit_rollout``, or without the ``mujoco[sysid]`` extra.
     """
     if not sysid_available():
         raise RolloutError(MISSING_EXTRA)
@@ -254,10 +217,8 @@ class _Problem:
         return (pred.data - meas.data) / self.sig, pred, meas
 
     def residual_fn(self, x, prm, return_pred_all=False):
-        """All windows in one call of the toolbox's ``model_residual`` (its ``residual``
-        calls it once per window: one batched rollout, one MjData, one deep copy of the
-        parameters per window and column).  It stacks a finite-difference batch
-        column-major, so the columns are put back here."""
+        """All windows in one call of the toolbox's ``model_residual`` (one batched rollout), its column-major
+        finite-difference batch put back in order."""
         self.n_eval += x.shape[1] if np.ndim(x) > 1 else 1
         r, pred, meas = self.ms.model_residual(
             x, prm, lambda q: self.build(q, self.spec), self.windows, self.modify_residual,

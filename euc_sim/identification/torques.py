@@ -1,4 +1,5 @@
-"""M_d,1 (eq. 9), M_d,2 (eq. 10) and M_h of the 3-DoF model, and M̄_d,1, M̄_d,2 (eq. 13) of the reduced model, from a recording's kinematics."""
+"""M_d,1 (eq. 9), M_d,2 (eq. 10) and M_h of the 3-DoF model, and M̄_d,1, M̄_d,2 (eq. 13) of the reduced model,
+from a recording's kinematics."""
 
 from __future__ import annotations
 

@@ -1,12 +1,9 @@
 """The analytic 3-DoF model of the paper, eqs. (5)-(13), vectorised over time.
 
-Generalised coordinates q = (x, gamma, phi): wheel-centre position (m), EUC body
-pitch (rad) and rider pitch (rad), signs as in CONTRACT.md.  Every function takes
-arrays whose last axis holds the three coordinates, shape ``(3,)`` or ``(N, 3)``,
-and returns arrays with the same leading shape; there is no Python loop over
-samples.  Torques are arrays broadcastable to the leading shape.
-
-Equations of motion (eq. 5)::
+q = (x [m], gamma [rad], phi [rad]), signs as in CONTRACT.md; every function takes
+arrays whose last axis holds the three coordinates (rates in m/s, rad/s), shape ``(3,)``
+or ``(N, 3)``, and returns the same leading shape; torques (N·m) broadcast to it.
+Generalised forces are (N, N·m, N·m).  Equations of motion (eq. 5)::
 
     M(q) q̈ + h(q, q̇) = Q(q, M_d, M_h)
 """
@@ -34,20 +31,7 @@ def _split(q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def mass_matrix(p: Params, q: np.ndarray) -> np.ndarray:
-    """Mass matrix M(q), eq. (6).
-
-    Parameters
-    ----------
-    p : Params
-        Model parameters.
-    q : array_like, shape (..., 3)
-        Coordinates (x [m], gamma [rad], phi [rad]).
-
-    Returns
-    -------
-    numpy.ndarray, shape (..., 3, 3)
-        Symmetric mass matrix in SI units (kg, kg·m, kg·m²).
-    """
+    """Mass matrix M(q), eq. (6), shape (..., 3, 3), kg, kg·m, kg·m²."""
     _, gamma, phi = _split(q)
     M = np.empty(gamma.shape + (3, 3))
     m_11 = p.m + p.m0 + p.mw + p.Jw / p.R**2                    # eq. (6)
@@ -66,19 +50,7 @@ def mass_matrix(p: Params, q: np.ndarray) -> np.ndarray:
 
 
 def nonlinear_terms(p: Params, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-    """The vector h(q, q̇) of velocity-dependent terms, eq. (7).
-
-    Parameters
-    ----------
-    p : Params
-    q, qd : array_like, shape (..., 3)
-        Coordinates and their rates (m/s, rad/s).
-
-    Returns
-    -------
-    numpy.ndarray, shape (..., 3)
-        N, N·m, N·m.
-    """
+    """The velocity-dependent terms h(q, q̇), eq. (7), shape (..., 3)."""
     _, gamma, phi = _split(q)
     _, gamma_d, phi_d = _split(qd)
     h_vec = np.empty(np.broadcast_shapes(gamma.shape, gamma_d.shape) + (3,))
@@ -90,22 +62,7 @@ def nonlinear_terms(p: Params, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
 
 
 def generalized_forces(p: Params, q: np.ndarray, M_d=0.0, M_h=0.0) -> np.ndarray:
-    """Generalised forces Q(q, M_d, M_h), eq. (8).
-
-    Parameters
-    ----------
-    p : Params
-    q : array_like, shape (..., 3)
-    M_d : float or array_like
-        Motor driving torque, wheel on EUC body, N·m.
-    M_h : float or array_like
-        Rider's ankle torque, N·m.
-
-    Returns
-    -------
-    numpy.ndarray, shape (..., 3)
-        N, N·m, N·m.
-    """
+    """Generalised forces Q(q, M_d, M_h), eq. (8): M_d the motor torque (wheel on body), M_h the ankle torque, N·m."""
     _, gamma, phi = _split(q)
     M_d = np.asarray(M_d, dtype=float)
     M_h = np.asarray(M_h, dtype=float)
@@ -123,28 +80,14 @@ def gravity_forces(p: Params, q: np.ndarray) -> np.ndarray:
 
 
 def forward_dynamics(p: Params, q: np.ndarray, qd: np.ndarray, M_d=0.0, M_h=0.0) -> np.ndarray:
-    """Accelerations q̈ = M⁻¹ (Q − h), from eq. (5).
-
-    Returns
-    -------
-    numpy.ndarray, shape (..., 3)
-        (ẍ [m/s²], γ̈ [rad/s²], φ̈ [rad/s²]).
-    """
+    """Accelerations q̈ = M⁻¹ (Q − h), eq. (5): (ẍ [m/s²], γ̈ [rad/s²], φ̈ [rad/s²])."""
     rhs = generalized_forces(p, q, M_d, M_h) - nonlinear_terms(p, q, qd)
     return np.linalg.solve(mass_matrix(p, q), rhs[..., None])[..., 0]
 
 
 def inverse_dynamics(p: Params, q: np.ndarray, qd: np.ndarray, qdd: np.ndarray) -> np.ndarray:
-    """Generalised actuation forces M q̈ + h − Q_gravity needed for a motion, eq. (5).
-
-    This is the quantity MuJoCo's ``mj_inverse`` returns, mapped to the paper's
-    coordinates; it equals Q(q, M_d, M_h) − Q(q, 0, 0) = (M_d/R, M_h − M_d, −M_h)
-    when the motion is one the two torques can produce.
-
-    Returns
-    -------
-    numpy.ndarray, shape (..., 3)
-        N, N·m, N·m.
+    """M q̈ + h − Q_gravity, eq. (5): what ``mj_inverse`` returns, mapped; equals
+    (M_d/R, M_h − M_d, −M_h) for a motion the two torques can produce.
     """
     _, gamma, phi = _split(q)
     _, gamma_d, phi_d = _split(qd)
@@ -172,15 +115,10 @@ def driving_torque_1(p: Params, q, qd, qdd) -> np.ndarray:
 
 
 def driving_torque_2(p: Params, q, qd, qdd) -> np.ndarray:
-    """M_d,2: the driving torque with ẍ eliminated using all three rows, eq. (10), N·m.
+    """M_d,2, eq. (10), N·m: ẍ eliminated with all three rows (it does not depend on the ẍ given).
 
-    Rows 2 + 3 of eq. (5) contain −M_d with the ankle torque cancelled; eliminating ẍ
-    with row 1 leaves, with ID = M q̈ + h − Q_gravity (:func:`inverse_dynamics`) and
-    a = m_21 + m_31::
-
-        M_d,2 = R (a ID_1 − m_11 (ID_2 + ID_3)) / (m_11 R + a)
-
-    in which ẍ cancels exactly: M_d,2 does not depend on the ẍ given.
+    With ID = :func:`inverse_dynamics` and a = m_21 + m_31:
+    M_d,2 = R (a ID_1 − m_11 (ID_2 + ID_3)) / (m_11 R + a).
     """
     return torques(p, q, qd, qdd)[1]
 
@@ -207,10 +145,8 @@ def kinetic_energy(p: Params, q, qd) -> np.ndarray:
 
 
 def potential_energy(p: Params, q) -> np.ndarray:
-    """Gravitational potential energy V, J, with the ground (z = 0) as reference.
-
-    V = g [m (R − l0 cos γ + h cos φ) + m0 (R + h0 cos γ) + mw R]; −∂V/∂q is the
-    gravity part of eq. (8).
+    """Gravitational potential energy V, J, ground at z = 0:
+    V = g [m (R − l0 cos γ + h cos φ) + m0 (R + h0 cos γ) + mw R].
     """
     _, gamma, phi = _split(q)
     return p.g * (p.m * (p.R - p.l0 * np.cos(gamma) + p.h * np.cos(phi))
@@ -226,21 +162,13 @@ def state_derivative(p: Params, y: np.ndarray, M_d=0.0, M_h=0.0) -> np.ndarray:
 
 # --- what M_d,1 − M_d,2 sees ------------------------------------------------------------
 def moment_about_contact(p: Params, Q) -> np.ndarray:
-    """R Q_x + Q_γ + Q_φ: the power of Q in a rigid rotation of the whole system about P.
-
-    A rotation δω of everything about the contact point P has δẋ = R δω and
-    δγ̇ = δφ̇ = δω, so this is the moment of the forces about P, N·m.  Torques between
-    bodies give zero: (M_d/R)·R − M_d = 0, M_h − M_h = 0.
-    """
+    """R Q_x + Q_γ + Q_φ, N·m: the moment of Q about the contact point P (torques between bodies give 0)."""
     Q = np.asarray(Q, dtype=float)
     return p.R * Q[..., 0] + Q[..., 1] + Q[..., 2]
 
 
 def residual_gain(p: Params, q) -> np.ndarray:
-    """κ(q) = R m_11 / (m_11 R + m_21 + m_31) > 0, dimensionless.
-
-    With an extra generalised force Q_e acting (eq. 5 with Q + Q_e), the torques of
-    eqs. (9)-(10) computed by the nominal model differ by
+    """κ(q) = R m_11 / (m_11 R + m_21 + m_31) > 0: an extra force Q_e makes
     M_d,1 − M_d,2 = κ(q) (R Q_e,x + Q_e,γ + Q_e,φ).
     """
     _, gamma, phi = _split(q)

@@ -1,12 +1,8 @@
 """The catalog of physical effects: one record per effect, read by every layer.
 
-In the spirit of MuJoCo's ``sysid`` ``Parameter`` (a name, a nominal value, bounds and
-how the model applies it, in one object), an :class:`Effect` holds everything the
-package says about one physical effect: its CONTRACT name, symbol and unit, the bounds
-a fit or an injection may take and the plausible range with its source, how the
-simulator applies it, its regressor and signature in a ride's energy balance, how a
-log conceals it, and the words a page uses.  Each part is a *face*, ``None`` where the
-effect has none:
+An :class:`Effect` holds everything the package says about one physical effect (its
+CONTRACT name, symbol, unit, bounds and plausible range) and its *faces*, ``None`` where
+the effect has none:
 
 ================  ==========================================  =====================================
 face              read by                                     holds
@@ -18,10 +14,9 @@ face              read by                                     holds
 ``words``         rides.compare sentence, rides.render page   what a rider reads
 ================  ==========================================  =====================================
 
-A face's callables take plain arrays or a namespace of arrays (documented on the face),
-so this module and the records stay free of the layers above; the records themselves
-live in :mod:`euc_sim.simulation.effects`, where the generalised forces can be written.
-No code branches on an effect's name: a layer reads the face it needs.
+A face's callables take plain arrays or a namespace of arrays, so this module stays free
+of the layers above; the records live in :mod:`euc_sim.simulation.effects`.  No code
+branches on an effect's name: a layer reads the face it needs.
 
 Adding an effect
 ----------------
@@ -309,13 +304,7 @@ class Catalog:
         self._by_name.pop(name, None)
 
     def get(self, name: str) -> Effect:
-        """The record called ``name``.
-
-        Raises
-        ------
-        InputError
-            for an unknown name, listing the valid ones.
-        """
+        """The record called ``name``; ``InputError`` listing the valid ones otherwise."""
         try:
             return self._by_name[name]
         except KeyError:

@@ -1,11 +1,8 @@
-"""Proof that the MuJoCo model and the analytic Lagrange equations agree.
+"""Proof that the MuJoCo model and the analytic Lagrange equations agree (``euc-sim crosscheck``).
 
-Every check returns a :class:`Check` with the worst error found and its bound;
-``euc-sim crosscheck`` prints them and writes CONTRACT's JSON form.
-
-Relative errors are ‖MuJoCo − analytic‖∞ / ‖analytic‖∞ per sample, the
-denominator floored at ``1e-6 · m g h`` (N·m) for vectors that happen to be near
-zero at a sample, so that round-off on a zero entry is not read as a relative error.
+Every check returns a :class:`Check`, the worst error and its bound.  Relative errors
+are ‖MuJoCo − analytic‖∞ / ‖analytic‖∞ per sample, the denominator floored at
+1e-6·m g h, N·m.  See docs/simulation.md.
 """
 
 from __future__ import annotations
@@ -33,14 +30,12 @@ PARAMETER_SETS: dict[str, Params] = {
     "low_body": TABLE3.replace(h0=0.02, l0=0.12, J0=0.3, m0=9.0),
 }
 
-#: Bounds of the issue: 1e-8 relative for the static checks (ideal), 1e-6 rad for the
-#: 5 s trajectories, 1e-6 relative energy drift.
+#: Bounds: relative for the static checks (ideal), rad for the 5 s trajectories, relative energy drift.
 STATIC_BOUND = 1e-8
 TRAJECTORY_BOUND = 1e-6
 ENERGY_BOUND = 1e-6
-#: Contact variant against pure rolling over 2 s at the stiffest setting (see
-#: contact_convergence): the soft contact sinks the wheel by ~R·1e-4 and lets the tyre
-#: creep, which a rigid rolling model does not have.
+#: Contact variant against pure rolling over 2 s at the stiffest setting, rad (the soft
+#: contact sinks and creeps).
 CONTACT_BOUND = 1e-2
 
 
@@ -64,15 +59,7 @@ class Check:
 
 
 def random_states(n: int, seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Random (q, q̇, q̈), each (n, 3): angles over the full circle, rates up to a few rad/s.
-
-    Parameters
-    ----------
-    n : int
-        Number of states.
-    seed : int
-        Seed of the generator.
-    """
+    """Random (q, q̇, q̈) from ``seed``, each (n, 3): angles over the full circle, rates up to a few rad/s."""
     rng = np.random.default_rng(seed)
     q = np.column_stack([rng.uniform(-5, 5, n), rng.uniform(-np.pi, np.pi, (n, 2))])
     qd = rng.normal(0.0, [3.0, 3.0, 3.0], (n, 3))
@@ -164,10 +151,8 @@ def simulate_analytic(p: Params, q0, qd0, t_eval, torques=(0.0, 0.0)) -> np.ndar
     return sol.y.T
 
 
-#: Initial states and torques of the trajectory checks: passive (the rider falls over
-#: and swings through, rates up to 30 rad/s), and constant motor and ankle torques
-#: (M_d = 20 N·m, M_h = 10 N·m; rates up to 27 rad/s).  Beyond ~100 rad/s RK4 at 1 kHz
-#: itself departs by more than 1e-6 rad; that is integration error, not model error.
+#: Initial states and torques (N·m) of the trajectory checks: passive (the rider falls and
+#: swings through) and constant torques; rates stay below 30 rad/s, where RK4 at 1 kHz is exact.
 TRAJECTORY_CASES = {
     "passive": ((0.0, 0.05, 0.1), (0.5, 0.0, 0.0), (0.0, 0.0)),
     "constant_torques": ((0.0, 0.1, -0.05), (0.0, 0.0, 0.0), (20.0, 10.0)),
@@ -211,10 +196,7 @@ CONTACT_TIMECONSTS = (0.02, 0.008, 0.002, 0.001)
 def contact_convergence(p: Params = TABLE3, duration: float = 2.0,
                         timeconsts: Iterable[float] = CONTACT_TIMECONSTS,
                         mjcf=None) -> list[tuple[float, float]]:
-    """Contact variant against pure rolling, for stiffer and stiffer contact.
-
-    The case is the constant-torque trajectory; returns ``(timeconst, max |Δγ|,|Δφ|)``.
-    """
+    """(timeconst, max |Δγ|,|Δφ|) of the contact variant against pure rolling, stiffer and stiffer, on the constant-torque case."""
     q0, qd0, torques = TRAJECTORY_CASES["constant_torques"]
     rows = []
     for tc in timeconsts:
@@ -240,19 +222,9 @@ def check_contact(p: Params = TABLE3, mjcf=None) -> list[Check]:
 
 def run_all(n_per_set: int = 2500, progress: Callable[[str], None] | None = None,
             sets: dict[str, Params] | None = None, mjcf=None) -> list[Check]:
-    """All cross-checks.
-
-    Parameters
-    ----------
-    n_per_set : int
-        Random states per parameter set for the static checks (2500 × 4 sets = 10,000).
-    progress : callable, optional
-        Called with the name of each stage.
-    sets : dict, optional
-        Parameter sets for the static checks (default :data:`PARAMETER_SETS`); the
-        trajectory and energy checks use the first one.
-    mjcf : path, optional
-        MJCF file (default ``mjcf/euc_planar.xml``).
+    """All cross-checks: the static ones on ``n_per_set`` random states of each of ``sets`` (default
+    :data:`PARAMETER_SETS`), the trajectory, energy and contact ones on the first set;
+    ``progress(stage)`` names each stage.
     """
     say = progress or (lambda s: None)
     sets = sets or PARAMETER_SETS

@@ -1,18 +1,13 @@
 """Linearisation of the paper's 3-DoF model (the plant; the controllers designed on it live above it).
 
 State y = (x, γ, φ, ẋ, γ̇, φ̇) (m, rad, rad, m/s, rad/s, rad/s), inputs u = (M_d, M_h)
-(N·m).  The equations of motion (eq. 5) give ẏ = f(y, u) = (q̇, M⁻¹(Q − h)); their
-Jacobians are written out by hand from eqs. (6)-(8):
+(N·m), ẏ = f(y, u) = (q̇, M⁻¹(Q − h)) (eq. 5), with the hand-written Jacobians
 
     ∂q̈/∂q  = M⁻¹ (∂Q/∂q − ∂h/∂q − (∂M/∂q) q̈)
     ∂q̈/∂q̇  = −M⁻¹ ∂h/∂q̇
     ∂q̈/∂u  = M⁻¹ ∂Q/∂u,      ∂Q/∂M_d = (1/R, −1, 0),  ∂Q/∂M_h = (0, 1, −1)
 
-and are checked against central differences and against MuJoCo's
-``mjd_transitionFD`` (:func:`check_against_mujoco`).
-
-The rider loop is broken at M_h; its delay margin is the smallest pure delay τ with
-L(jω) e^{−jωτ} = −1 at a gain crossover |L(jω)| = 1 (:func:`delay_margin`).
+checked against central differences and MuJoCo's ``mjd_transitionFD``.
 """
 
 from __future__ import annotations
@@ -35,22 +30,8 @@ REDUCED_STATE = (3, 1, 2, 4, 5)
 
 
 def jacobians(p: Params, y, M_d: float = 0.0, M_h: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
-    """Analytic Jacobians A = ∂f/∂y (6×6) and B = ∂f/∂u (6×2) of eq. (5).
-
-    Parameters
-    ----------
-    p : Params
-    y : array_like, shape (6,)
-        State (x [m], γ [rad], φ [rad], ẋ [m/s], γ̇ [rad/s], φ̇ [rad/s]).
-    M_d, M_h : float
-        Motor and ankle torques, N·m.
-
-    Returns
-    -------
-    A : numpy.ndarray, shape (6, 6)
-        1/s and 1/s² blocks.
-    B : numpy.ndarray, shape (6, 2)
-        Columns for M_d and M_h, (1/(kg·m·s)... SI) per N·m.
+    """Analytic Jacobians A = ∂f/∂y (6×6) and B = ∂f/∂u (6×2) of eq. (5) at state ``y``
+    (module units) and torques ``M_d``, ``M_h``, N·m.
     """
     y = np.asarray(y, dtype=float)
     if y.shape != (6,):
@@ -110,15 +91,7 @@ def numeric_jacobians(p: Params, y, M_d: float = 0.0, M_h: float = 0.0,
 
 
 def discretize(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Zero-order-hold discretisation: Φ = e^{A dt}, Γ = ∫₀^dt e^{As} ds B.
-
-    Parameters
-    ----------
-    A, B : numpy.ndarray
-        Continuous-time matrices (n×n, n×m).
-    dt : float
-        Sample time, s.
-    """
+    """Zero-order-hold discretisation of (A, B) at step ``dt``, s: Φ = e^{A dt}, Γ = ∫₀^dt e^{As} ds B."""
     n, m = B.shape
     E = np.zeros((n + m, n + m))
     E[:n, :n], E[:n, n:] = A * dt, B * dt
@@ -127,14 +100,8 @@ def discretize(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.
 
 
 def euler_discretize(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """MuJoCo's semi-implicit Euler step of ẏ = Ay + Bu, y = (q, q̇): q̇' = q̇ + dt q̈, q' = q + dt q̇'.
-
-    Parameters
-    ----------
-    A, B : numpy.ndarray
-        Continuous-time matrices of a second-order system (2n×2n, 2n×m).
-    dt : float
-        Step, s.
+    """MuJoCo's semi-implicit Euler step of ẏ = Ay + Bu, y = (q, q̇), at step ``dt``, s:
+    q̇' = q̇ + dt q̈, q' = q + dt q̇'.
     """
     n = A.shape[0] // 2
     Aq, Av, Bv = A[n:, :n], A[n:, n:], B[n:]
@@ -144,9 +111,8 @@ def euler_discretize(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarra
     return Ad, Bd
 
 
-#: Operating point of the MuJoCo check: riding at 2 m/s, pitched and pitching, both
-#: torques on (at exactly zero state and torque MuJoCo 4.0's mjd_transitionFD returns
-#: B = 0, so the check point is a generic one).
+#: Operating point of the MuJoCo check: a generic one (at zero state and torque
+#: ``mjd_transitionFD`` returns B = 0).
 CHECK_POINT = ((0.0, 0.02, 0.05, 2.0, 0.1, -0.1), (10.0, 5.0))
 
 
@@ -154,17 +120,10 @@ def check_against_mujoco(p: Params = TABLE3, y=None, u=None, dt: float = 1e-3,
                          eps: float = 1e-6) -> dict:
     """Compare the analytic Jacobians with MuJoCo's ``mjd_transitionFD`` (ideal variant).
 
-    MuJoCo's discrete transition (qpos tangent, qvel) → next, taken with the
-    semi-implicit Euler integrator (``mjd_transitionFD`` does not support RK4), is
-    mapped to the paper's state with the rolling Jacobian T (qvel = T q̇) and the
-    read-out map S (q = S qpos); it is compared with :func:`euler_discretize` of (A, B).
-
-    Returns
-    -------
-    dict
-        ``{"A_max_abs_error": float, "B_max_abs_error": float, "A_scale": float,
-        "B_scale": float, "relative_error": float}``: worst entry errors of the
-        discrete matrices, their largest entries, and the larger ratio.
+    MuJoCo's semi-implicit Euler transition (it does not differentiate RK4), mapped to the
+    paper's state (qvel = T q̇, q = S qpos), against :func:`euler_discretize` of (A, B).
+    Returns the worst entry errors ``A_max_abs_error``, ``B_max_abs_error``, the largest
+    entries ``A_scale``, ``B_scale`` and the larger ratio ``relative_error``.
     """
     import mujoco
 
@@ -173,8 +132,6 @@ def check_against_mujoco(p: Params = TABLE3, y=None, u=None, dt: float = 1e-3,
     y = np.asarray(CHECK_POINT[0] if y is None else y, dtype=float)
     u = CHECK_POINT[1] if u is None else tuple(u)
     sim = EucMujoco(p, "ideal", timestep=dt)
-    # mjd_transitionFD does not support RK4: differentiate the semi-implicit Euler
-    # step instead and compare it with the same discretisation of (A, B).
     sim.model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
     sim.set_state(y[:3], y[3:])
     sim.set_torques(*u)
@@ -222,17 +179,10 @@ def loop_transfer(A: np.ndarray, B: np.ndarray, K: np.ndarray, w: np.ndarray) ->
 
 def delay_margin(A: np.ndarray, B: np.ndarray, K: np.ndarray,
                  w_min: float = 1e-2, w_max: float = 1e3, n: int = 4000) -> tuple[float, float]:
-    """Delay margin of the loop u = −K s around ṡ = A s + B u, s.
+    """Delay margin of the loop u = −K s around ṡ = A s + B u: (τ [s], ω_c [rad/s]).
 
-    The closed loop without delay must be stable; the margin is the smallest delay
-    τ = ((arg L(jω_c) + π) mod 2π) / ω_c over the gain crossovers |L(jω_c)| = 1,
-    refined by bisection on a log-spaced grid.
-
-    Returns
-    -------
-    (tau, omega_c) : tuple of float
-        Delay margin (s) and the crossover frequency where it occurs (rad/s);
-        ``(inf, nan)`` when |L| never crosses 1.
+    The smallest τ = ((arg L(jω_c) + π) mod 2π) / ω_c over the gain crossovers |L(jω_c)| = 1
+    (the closed loop without delay stable); ``(inf, nan)`` when |L| never crosses 1.
     """
     w = np.logspace(math.log10(w_min), math.log10(w_max), n)
     mag = np.abs(loop_transfer(A, B, K, w)) - 1.0

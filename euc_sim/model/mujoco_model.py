@@ -1,41 +1,20 @@
-"""The MuJoCo model: build it from ``mjcf/euc_planar.xml`` with any parameters, and
-read it in the paper's coordinates.
+"""The MuJoCo model: ``mjcf/euc_planar.xml`` built through :class:`mujoco.MjSpec` with any
+parameters, read in the paper's coordinates (see docs/simulation.md).
 
-Parameters are applied through :class:`mujoco.MjSpec`, never by editing XML text.
-Two ground models:
+Ground variants: ``ideal``, pure rolling in exact reduced coordinates (no wheel hinge: its
+spin inertia is the slide's armature J_w/R², the motor acts on the tendon ``motor_shaft`` =
+x/R − gamma, eq. 8; physics only) and ``contact``, the wheel rolling on the floor through
+friction (a vertical slide ``z``; the wheel may slip).  Joints are read by name:
 
-``ideal``
-    pure rolling in exact reduced coordinates, physics only (no geoms, sites,
-    camera or light; the wheel body fused into the EUC body): the wheel has no hinge of its own.
-    Its absolute angle is x/R, so its spin inertia J_w enters the kinetic energy as
-    ½ J_w (ẋ/R)², exactly the slide's ``armature`` J_w/R²; the motor acts on the
-    fixed tendon ``motor_shaft`` = x/R − gamma (the rotor angle relative to the
-    body), so M_d gives M_d/R on x and −M_d on gamma (eq. 8).  No constraint is
-    solved: the XML's rolling equality is removed (the XML as written is the same
-    model with a wheel hinge and that equality; it is 1.7× slower to step);
-``contact``
-    the wheel rolls on the floor through friction; the EUC body gets a vertical
-    slide ``z`` and the wheel may slip.
-
-The map between MuJoCo's (qpos, qvel, qacc) and the paper's (q, q̇, q̈), in both
-directions, is :func:`to_mujoco` / :func:`from_mujoco`; everything is read by
-joint name, never by a fixed index.
-
-MuJoCo coordinates (by joint name):
-
-=============  ======================================  =====================
-joint          meaning                                  in paper coordinates
-=============  ======================================  =====================
-``x``          slide of the wheel centre C              x
-``z``          (contact only) height of C above R       0 when rolling
-``euc_pitch``  EUC body pitch                           gamma
-``wheel_spin`` (contact only) wheel angle relative to      x / R − gamma
-               the EUC body
-``rider_pitch`` rider pitch relative to the EUC body     phi − gamma
-=============  ======================================  =====================
-
-The wheel's absolute angle is a derived readout in both variants
-(:attr:`EucMujoco.wheel_angle`).
+=============== ================================= ===================
+joint           meaning                           paper coordinates
+=============== ================================= ===================
+``x``           slide of the wheel centre C       x
+``z``           (contact) height of C above R     0 when rolling
+``euc_pitch``   EUC body pitch                    gamma
+``wheel_spin``  (contact) wheel relative to body  x / R − gamma
+``rider_pitch`` rider relative to the EUC body    phi − gamma
+=============== ================================= ===================
 """
 
 from __future__ import annotations
@@ -74,19 +53,14 @@ _UNSTABLE = ("BADQACC", "BADQVEL", "BADQPOS")
 
 
 def _quiet_warning(message: str) -> None:
-    """MuJoCo's warnings are read from ``data.warning`` (:func:`instability`), not printed:
-    the default handler writes them to stdout and to ``MUJOCO_LOG.TXT`` in the working folder."""
+    """Swallow MuJoCo's warnings (read from ``data.warning`` by :func:`instability`, never printed)."""
 
 
 mujoco.set_mju_user_warning(_quiet_warning)
 
 
 def instability(data) -> str | None:
-    """What MuJoCo's warning counters say of an unstable run, or None when they say nothing.
-
-    MuJoCo resets the state when an acceleration, velocity or position becomes NaN,
-    infinite or huge (``mj_checkAcc``/``mj_checkVel``/``mj_checkPos``) and counts it in
-    ``data.warning``; the run goes on from rest, so the recording alone would not show it.
+    """What MuJoCo's warning counters say of a run it reset (a NaN, infinite or huge state), or None.
 
     Returns
     -------
@@ -112,18 +86,15 @@ class ContactSettings:
     Attributes
     ----------
     timeconst : float
-        Contact ``solref`` time constant, s: smaller is stiffer (≥ 2 timesteps).
+        Contact ``solref`` time constant, s (≥ 2 timesteps).
     dampratio : float
         Contact ``solref`` damping ratio.
     friction : float
         Sliding friction coefficient of the tyre on the floor.
     rolling_friction : float
-        MuJoCo rolling-friction coefficient, m (torque = coefficient × normal force);
-        non-zero switches the contact to ``condim`` 6.  The rolling-resistance
-        coefficient C_rr of CONTRACT is this divided by R.
+        MuJoCo rolling-friction coefficient, m (C_rr × R); non-zero switches to ``condim`` 6.
     impratio : float
-        Ratio of frictional to normal constraint impedance; large values make the
-        friction cone stiffer (less creep).
+        Frictional to normal constraint impedance ratio (larger: less creep).
     """
 
     timeconst: float = 0.002
@@ -150,13 +121,7 @@ def _find(spec: mujoco.MjSpec, kind: str, name: str, path: Path):
 
 
 def load_spec(path: str | Path) -> mujoco.MjSpec:
-    """An MJCF file as an editable ``mujoco.MjSpec``.
-
-    Raises
-    ------
-    ModelError
-        naming the file when it is missing or cannot be parsed.
-    """
+    """An MJCF file as an editable ``mujoco.MjSpec``; ``ModelError`` naming the file if missing or unparsable."""
     path = Path(path)
     if not path.is_file():
         raise ModelError(f"MJCF file not found: {path}")
@@ -181,14 +146,10 @@ def build_spec(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path
     contact : ContactSettings, optional
         Used by the ``contact`` variant.
 
-    Returns
-    -------
-    mujoco.MjSpec
-
     Raises
     ------
     ModelError
-        for an unknown variant, a missing file or a missing named element.
+        For an unknown variant, a missing file or a missing named element.
     """
     if variant not in VARIANTS:
         raise ModelError(f"unknown ground variant {variant!r}; expected one of {', '.join(VARIANTS)}")
@@ -230,7 +191,7 @@ def build_spec(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path
 
 
 def _make_reduced(spec: mujoco.MjSpec, p: Params, path: Path) -> None:
-    """Pure rolling in reduced coordinates (x, gamma, rider_pitch): see the module docstring."""
+    """Pure rolling in reduced coordinates (x, gamma, rider_pitch), physics only."""
     # no contacts and no constraints exist in the ideal variant: skip both stages
     spec.option.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_CONTACT | mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)
     shaft = spec.add_tendon(name=SHAFT_TENDON)          # rotor angle: x/R − gamma
@@ -277,10 +238,8 @@ def _make_contact(spec: mujoco.MjSpec, p: Params, c: ContactSettings, path: Path
 
 def load_model(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path | None = None,
                contact: ContactSettings | None = None) -> mujoco.MjModel:
-    """Compile the model with the given parameters and ground variant (see :func:`build_spec`).
-
-    Compiled models are cached by (parameters, variant, file and its modification
-    time, contact settings); each call returns its own copy, free to modify.
+    """Compile the model (see :func:`build_spec`); cached by parameters, variant, file
+    (and its modification time) and contact settings, each call returning its own copy.
     """
     path = Path(mjcf) if mjcf is not None else MJCF_PATH
     stamp = path.stat().st_mtime_ns if path.is_file() else None     # a missing file: build_spec says so
@@ -289,7 +248,11 @@ def load_model(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path
 
 @lru_cache(maxsize=16)
 def _compiled(params: Params, variant: str, path: str, stamp, contact) -> mujoco.MjModel:
-    spec = build_spec(params, variant, path, contact)
+    return compile_spec(build_spec(params, variant, path, contact))
+
+
+def compile_spec(spec: mujoco.MjSpec) -> mujoco.MjModel:
+    """``spec.compile()``, a failure as one-line ``ModelError``."""
     try:
         return spec.compile()
     except Exception as exc:
@@ -331,9 +294,7 @@ class JointIndex:
 def paper_jacobian(index: JointIndex, R: float) -> np.ndarray:
     """T with qvel = T q̇ under pure rolling, shape (nv, 3).
 
-    Generalised quantities map with it: M_paper = Tᵀ M_mj T, bias_paper = Tᵀ bias_mj,
-    Q_paper = Tᵀ Q_mj.  The ideal variant has no wheel hinge (reduced coordinates), so
-    there T only reorders and maps rider_pitch = phi − gamma: the map is exact.
+    M_paper = Tᵀ M_mj T, bias_paper = Tᵀ bias_mj, Q_paper = Tᵀ Q_mj (exact in the ideal variant).
     """
     T = np.zeros((index.nv, 3))
     d = index.dof
@@ -348,21 +309,8 @@ def paper_jacobian(index: JointIndex, R: float) -> np.ndarray:
 
 
 def to_mujoco(index: JointIndex, R: float, q, qd=None, qdd=None):
-    """Paper coordinates → MuJoCo's (qpos, qvel, qacc), assuming pure rolling.
-
-    Parameters
-    ----------
-    index : JointIndex
-    R : float
-        Wheel radius, m.
-    q, qd, qdd : array_like, shape (..., 3)
-        (x, gamma, phi) and their rates; ``qd`` and ``qdd`` default to zero.
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        qpos (..., nq), qvel (..., nv), qacc (..., nv); z = 0 in the contact variant
-        (the wheel centre at height R).
+    """Paper coordinates (x, gamma, phi) and rates, (..., 3), → MuJoCo's (qpos, qvel, qacc),
+    assuming pure rolling (z = 0 in the contact variant); ``qd``, ``qdd`` default to zero.
     """
     q = np.asarray(q, dtype=float)
     qd = np.zeros_like(q) if qd is None else np.asarray(qd, dtype=float)
@@ -378,16 +326,8 @@ def to_mujoco(index: JointIndex, R: float, q, qd=None, qdd=None):
 
 
 def from_mujoco(index: JointIndex, qpos, qvel=None, qacc=None):
-    """MuJoCo's (qpos, qvel, qacc) → paper coordinates (q, q̇, q̈).
-
-    x is read from the slide joint (the wheel centre), gamma from the pitch hinge and
-    phi = gamma + rider_pitch; the wheel's spin is not needed (under pure rolling it
-    equals x/R − gamma; under contact the difference is slip).
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        q, q̇, q̈, each (..., 3); q̇ and q̈ are ``None`` when not given.
+    """MuJoCo's (qpos, qvel, qacc) → paper coordinates (q, q̇, q̈), each (..., 3) or None
+    when not given; phi = gamma + rider_pitch, the wheel's spin is not read.
     """
     def pick(arr, adr):
         arr = np.asarray(arr, dtype=float)
@@ -405,10 +345,8 @@ class EucMujoco:
 
     Parameters
     ----------
-    params : Params
-    variant : {"ideal", "contact"}
-    mjcf : path, optional
-    contact : ContactSettings, optional
+    params, variant, mjcf, contact
+        As :func:`build_spec`.
     timestep : float, optional
         Overrides the XML's 1 ms, s.
 
@@ -440,13 +378,7 @@ class EucMujoco:
 
     # -- state --------------------------------------------------------------------
     def set_state(self, q, qd=None, time: float = 0.0) -> None:
-        """Set the state from paper coordinates (pure rolling) and run ``mj_forward``.
-
-        Raises
-        ------
-        ValueError
-            for a non-finite state.
-        """
+        """Set the state from paper coordinates (pure rolling) and run ``mj_forward``."""
         q = np.asarray(q, dtype=float)
         qd = np.zeros(3) if qd is None else np.asarray(qd, dtype=float)
         if q.shape != (3,) or qd.shape != (3,):
@@ -504,15 +436,9 @@ class EucMujoco:
             return float(qp[i["x"]] / self.params.R)
         return float(qp[i["euc_pitch"]] + qp[i["wheel_spin"]])
 
-    @property
-    def wheel_slip(self) -> float:
-        """x − R · wheel angle, m: zero under pure rolling (identically so in the ideal variant)."""
-        return float(self.data.qpos[self.index.qpos["x"]] - self.params.R * self.wheel_angle)
-
     def set_bearing_damping(self, c: float) -> None:
-        """Viscous friction of the wheel bearing, N·m·s/rad, on the rotor speed ẋ/R − γ̇.
-
-        Ideal variant: damping of the ``motor_shaft`` tendon; contact: of ``wheel_spin``.
+        """Viscous bearing friction, N·m·s/rad, on the rotor speed ẋ/R − γ̇ (damping of
+        ``motor_shaft`` in the ideal variant, of ``wheel_spin`` in the contact one).
         """
         if self.index.has_spin:
             self.model.dof_damping[self.index.dof["wheel_spin"]] = c
@@ -541,10 +467,8 @@ class EucMujoco:
         return self.T.T @ self.data.qfrc_bias
 
     def inverse(self, q, qd, qdd) -> np.ndarray:
-        """Generalised forces for (q, q̇, q̈) by ``mj_inverse``, mapped: Tᵀ qfrc_inverse, (3,).
-
-        This loads (q, q̇, q̈) into the wrapper's ``data``: the state held before the call
-        is replaced (call :meth:`set_state` before stepping again).
+        """Generalised forces for (q, q̇, q̈) by ``mj_inverse``, Tᵀ qfrc_inverse, (3,); replaces
+        the state held in ``data``.
         """
         qpos, qvel, qacc = to_mujoco(self.index, self.params.R, q, qd, qdd)
         if self.index.has_z:

@@ -1,7 +1,5 @@
-"""Model parameters of the EUC-rider system (the paper's Table 3).
-
-One immutable, validated object.  Lengths in m, masses in kg, inertias in kg·m²,
-``g`` in m/s².
+"""Model parameters of the EUC-rider system (the paper's Table 3): one immutable, validated
+object; m, kg, kg·m², m/s² (:data:`UNITS`, :data:`DESCRIPTION`).
 """
 
 from __future__ import annotations
@@ -37,9 +35,8 @@ DESCRIPTION = {
 }
 
 
-#: Physically plausible range of each parameter for an EUC with a human rider, in its
-#: unit (:data:`UNITS`): what a user-given value (``--param``, ``--h``, a sidecar) is
-#: checked against by :func:`check_plausible`.  Table 3 sits well inside.
+#: Plausible range of each parameter for an EUC with a human rider, in :data:`UNITS`
+#: (:func:`check_plausible`).
 PLAUSIBLE = {
     "R": (0.05, 0.5), "m": (30.0, 200.0), "m0": (1.0, 150.0), "mw": (0.2, 50.0),
     "J": (0.1, 100.0), "Jw": (1e-3, 5.0), "J0": (0.0, 20.0), "h0": (0.0, 0.5),
@@ -55,29 +52,9 @@ class ParameterError(InputError):
 class Params:
     """Parameters of the 3-DoF model, Table 3 of the paper (``h`` defaults to 0.6 m).
 
-    Attributes
-    ----------
-    R : float
-        Wheel radius, m.
-    m, m0, mw : float
-        Masses of the rider, the EUC body and the wheel, kg.
-    J, Jw, J0 : float
-        Mass moments of inertia of the rider (about G), the wheel (about C) and the
-        EUC body (about G0), kg·m².
-    h0 : float
-        Distance C–G0, m (EUC body's centre of gravity above the wheel centre).
-    l0 : float
-        Distance A–C, m (ankle hinge below the wheel centre).
-    h : float
-        Distance A–G, m (rider's centre of gravity above the ankle).
-    g : float
-        Gravitational acceleration, m/s².
-
-    Raises
-    ------
-    ParameterError
-        (a ``ValueError``) for a non-finite value, a negative value, or a zero value
-        of anything but ``J0``, ``h0``, ``l0``.
+    Attributes: R, m, m0, mw, J, Jw, J0, h0, l0, h, g as in :data:`DESCRIPTION`, units
+    :data:`UNITS`.  ``ParameterError`` (a ``ValueError``) for a non-finite or negative value,
+    or zero for anything but J0, h0, l0.
     """
 
     R: float = 0.2
@@ -125,13 +102,7 @@ class Params:
         return self.m + self.m0 + self.mw
 
     def replace(self, **changes: Any) -> "Params":
-        """Return a copy with some parameters changed (validated again).
-
-        Raises
-        ------
-        ParameterError
-            for an unknown name or an invalid value.
-        """
+        """A copy with some parameters changed (validated again); ``ParameterError`` for an unknown name."""
         unknown = sorted(set(changes) - set(names()))
         if unknown:
             raise ParameterError(
@@ -154,23 +125,8 @@ class Params:
 
 
 def check_plausible(p: "Params", given: Mapping[str, Any] | None = None) -> "Params":
-    """Refuse parameters outside :data:`PLAUSIBLE` (``--h 1e6``, ``m=1e300``).
-
-    Parameters
-    ----------
-    p : Params
-    given : mapping, optional
-        Only these names are checked (default: all).
-
-    Returns
-    -------
-    Params
-        ``p`` itself.
-
-    Raises
-    ------
-    ParameterError
-        naming the parameter, the expected range with its unit, and the value.
+    """Refuse parameters outside :data:`PLAUSIBLE` (all, or only the names ``given``); returns
+    ``p``, else ``ParameterError`` naming the parameter, its range and the value.
     """
     for name in (given if given is not None else names()):
         lo, hi = PLAUSIBLE[name]

@@ -1,16 +1,10 @@
-"""The spatial MuJoCo model (``mjcf/euc_3d.xml``): an EUC with a rounded tyre rolling
-on a plane through frictional contact, and a rider hinged at the ankle in pitch,
-lateral lean and twist.
+"""The spatial MuJoCo model (``mjcf/euc_3d.xml``): an EUC with a rounded tyre rolling on a
+plane through frictional contact, and a rider hinged at the ankle in pitch, lateral lean
+and twist.
 
-Parameters are applied through :class:`mujoco.MjSpec` (Table 3, the tyre's crown
-radius, the contact's stiffness), never by editing XML text.  Everything is read by
-name: the free joint ``root`` of the EUC body, the hinges ``wheel_spin``,
-``rider_pitch``, ``rider_lean``, ``rider_twist``, the sites ``C``, ``E``, ``G`` and
-the collision geom ``tyre_contact``.
-
-Angles of the paper's Fig. 2: the EUC body's orientation is Rz(ψ) Rx(ϑ) Ry(γ)
-(yaw ψ, tilt ϑ, pitch γ; :func:`euler_yaw_tilt_pitch`).  The rider's pitch is
-φ = γ + rider_pitch (CONTRACT's sign: top forward positive).
+Parameters go in through :class:`mujoco.MjSpec`; everything is read by name.  The EUC
+body's orientation is Rz(ψ) Rx(ϑ) Ry(γ) (yaw, tilt, pitch of Fig. 2); the rider's pitch
+is φ = γ + rider_pitch.  See docs/spatial.md.
 """
 
 from __future__ import annotations
@@ -23,7 +17,7 @@ import mujoco
 import numpy as np
 
 from euc_sim.errors import InputError
-from euc_sim.model.mujoco_model import ModelError, _find, load_spec
+from euc_sim.model.mujoco_model import ModelError, _find, compile_spec, load_spec
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["MJCF_3D_PATH", "TyreContact", "build_spatial_spec", "load_spatial_model",
@@ -42,20 +36,17 @@ class TyreContact:
     Attributes
     ----------
     crown_radius : float
-        Radius of the tyre's cross-section at the tread, m (a 16 x 3 inch EUC tyre:
-        about 0.04 m).  The collision ellipsoid has semi-axes (R, √(r_c R), R).
+        Radius of the tread's cross-section, m; the collision ellipsoid has semi-axes (R, √(r_c R), R).
     timeconst : float
-        Contact ``solref`` time constant, s: smaller is stiffer (≥ 2 timesteps).
+        Contact ``solref`` time constant, s (≥ 2 timesteps).
     dampratio : float
         Contact ``solref`` damping ratio.
     friction : float
         Sliding friction coefficient of tyre on floor.
     impratio : float
-        Frictional to normal impedance ratio (stiffer friction cone, less creep).
+        Frictional to normal impedance ratio.
     torsional : float
-        Torsional (spin) friction coefficient of the contact patch, m (MuJoCo's
-        ``condim`` 4): the patch's resistance to spinning about the normal, which
-        carries the yaw moment a turn needs (a point contact would carry none).
+        Torsional friction of the contact patch, m (``condim`` 4): it carries a turn's yaw moment.
     """
 
     crown_radius: float = 0.04
@@ -77,23 +68,11 @@ class TyreContact:
 
 def build_spatial_spec(params: Params = TABLE3, tyre: TyreContact | None = None,
                        mjcf: str | Path | None = None) -> mujoco.MjSpec:
-    """Load ``mjcf/euc_3d.xml`` and apply Table 3 parameters and the tyre through MjSpec.
+    """Load ``mjcf/euc_3d.xml`` and apply the parameters and the tyre through MjSpec.
 
-    Parameters
-    ----------
-    params : Params
-        Model parameters.  The rider's lateral inertia about G is J (as in pitch),
-        his yaw inertia 0.2 J; the EUC body's x inertia J0; the wheel's diametral
-        inertia 0.6 Jw.
-    tyre : TyreContact, optional
-        Crown radius and contact settings (defaults of :class:`TyreContact`).
-    mjcf : path, optional
-        The MJCF file (``mjcf/euc_3d.xml`` by default).
-
-    Raises
-    ------
-    ModelError
-        for a missing file, an unparsable file or a missing named element.
+    The rider's lateral inertia about G is J, his yaw inertia 0.2 J; the EUC body's x
+    inertia J0; the wheel's diametral inertia 0.6 Jw.  ``ModelError`` for a missing or
+    unparsable file or a missing named element.
     """
     tyre = tyre or TyreContact()
     path = Path(mjcf) if mjcf is not None else MJCF_3D_PATH
@@ -128,11 +107,7 @@ def build_spatial_spec(params: Params = TABLE3, tyre: TyreContact | None = None,
 def load_spatial_model(params: Params = TABLE3, tyre: TyreContact | None = None,
                        mjcf: str | Path | None = None) -> mujoco.MjModel:
     """Compile :func:`build_spatial_spec`."""
-    spec = build_spatial_spec(params, tyre, mjcf)
-    try:
-        return spec.compile()
-    except Exception as exc:
-        raise ModelError(f"MJCF does not compile with these parameters: {str(exc).splitlines()[0]}") from None
+    return compile_spec(build_spatial_spec(params, tyre, mjcf))
 
 
 def euler_yaw_tilt_pitch(xmat) -> tuple[float, float, float]:
@@ -145,9 +120,8 @@ def euler_yaw_tilt_pitch(xmat) -> tuple[float, float, float]:
 
 
 def euler_rates(psi: float, theta: float, omega_world) -> tuple[float, float, float]:
-    """(ψ̇, ϑ̇, γ̇), rad/s, from the body's angular velocity in the ground frame, rad/s.
-
-    ω = ψ̇ e_Z + ϑ̇ Rz(ψ) e_x + γ̇ Rz(ψ) Rx(ϑ) e_y, solved for the rates.
+    """(ψ̇, ϑ̇, γ̇), rad/s, from the body's ground-frame angular velocity ω, rad/s:
+    ω = ψ̇ e_Z + ϑ̇ Rz(ψ) e_x + γ̇ Rz(ψ) Rx(ϑ) e_y solved for the rates.
     """
     cp, sp, ct, st = math.cos(psi), math.sin(psi), math.cos(theta), math.sin(theta)
     wx, wy, wz = (float(w) for w in omega_world)
@@ -169,7 +143,7 @@ class EucSpatial:
         Overrides the XML's 1 ms, s.
     mjcf : path, optional
     integrator : {"implicitfast", "RK4", "Euler"}, optional
-        Overrides the XML's ``implicitfast`` (``mjd_transitionFD`` does not support RK4).
+        Overrides the XML's ``implicitfast``.
     """
 
     def __init__(self, params: Params = TABLE3, tyre: TyreContact | None = None,
@@ -200,8 +174,9 @@ class EucSpatial:
     # -- state -----------------------------------------------------------------------
     def set_straight(self, speed: float, gamma: float = 0.0, phi: float = 0.0,
                      heading: float = 0.0) -> None:
-        """Upright rolling at ``speed`` (m/s) along ``heading`` (rad), body pitch γ and
-        rider pitch φ (rad), the wheel resting at the contact's static sinkage."""
+        """Upright rolling at ``speed`` (m/s) along ``heading``, body pitch γ and rider pitch φ
+        (rad), at the contact's static sinkage.
+        """
         for name, v in (("speed", speed), ("gamma", gamma), ("phi", phi), ("heading", heading)):
             if not math.isfinite(v):
                 raise InputError(f"initial {name} must be finite, got {v!r}")
@@ -247,9 +222,9 @@ class EucSpatial:
         return self.data.site_xpos[self.site[name]].copy()
 
     def contact(self) -> tuple[np.ndarray, np.ndarray]:
-        """Tyre contact point (ground frame, m) and the force of the floor on the tyre
-        (ground frame, N: normal along +Z, friction in the plane); NaN and zeros
-        when the tyre is off the floor."""
+        """Tyre contact point (m) and the floor's force on the tyre (N), ground frame; NaN and
+        zeros when the tyre is off the floor.
+        """
         d = self.data
         for i in range(d.ncon):
             c = d.contact[i]

@@ -1,16 +1,9 @@
 """Symbolic derivation of the equations of motion with sympy (the paper's Appendix A).
 
-From the geometry of Fig. 5 (wheel centre C at height R, G0 at h0 above C along the
-EUC body, ankle A at l0 below C, rider's G at h above A) this module builds
-
-* the kinetic energy T from the bodies' velocities, to be compared with eq. (A.1);
-* the gravitational potential V;
-* the generalised forces of the motor and ankle torques from their virtual power,
-  which with −∂V/∂q gives eq. (A.2) / eq. (8);
-* Lagrange's equations (4), d/dt ∂T/∂q̇ − ∂T/∂q = Q,
-
-and the printed equations (6)-(8) and (13) for comparison.  ``tests/test_symbolic.py``
-shows that every difference simplifies to zero.
+From the geometry of Fig. 5: the kinetic energy T (eq. A.1), the potential V, the torques'
+generalised forces by virtual power (eqs. A.2, 8) and Lagrange's equations (4); and the
+printed equations (6)-(8), (13) for comparison.  The lateral terms by Kane's method
+(:func:`derive_lateral`, :func:`derive_rider_lean`).  A proof, run by the tests.
 """
 
 from __future__ import annotations
@@ -84,13 +77,7 @@ def derive() -> Derivation:
 
 
 def paper_equations(d: Derivation) -> dict[str, sp.Expr | sp.Matrix]:
-    """The paper's printed expressions in the derivation's symbols.
-
-    Returns
-    -------
-    dict
-        ``T`` (A.1), ``M`` (6), ``h`` (7), ``Q`` (8), ``virtual_power_Q`` (A.2).
-    """
+    """The paper's printed ``T`` (A.1), ``M`` (6), ``h`` (7), ``Q`` (8) and ``virtual_power_Q`` (A.2) in the derivation's symbols."""
     P = d.params
     R, m, m0, mw, J, Jw, J0, h0, l0, h, g = (P[k] for k in "R m m0 mw J Jw J0 h0 l0 h g".split())
     _, gamma, phi = d.q
@@ -135,10 +122,8 @@ def paper_reduced_torques(d: Derivation) -> tuple[sp.Expr, sp.Expr]:
 
 
 def reduced_torques_from_lagrange(d: Derivation) -> tuple[sp.Expr, sp.Expr]:
-    """M̄_d,1, M̄_d,2 solved from the derived equations with J0 = h0 = l0 = 0.
-
-    M_d,1 solves the first row for M_d; M_d,2 solves rows 1 and 2+3 for M_d with ẍ
-    eliminated (eqs. 9-10 applied to the reduced model, eqs. 11-12).
+    """M̄_d,1, M̄_d,2 solved from the derived equations with J0 = h0 = l0 = 0: row 1 for M_d, and
+    rows 1 and 2+3 with ẍ eliminated (eqs. 9-12).
     """
     P = d.params
     red = {P["J0"]: 0, P["h0"]: 0, P["l0"]: 0}
@@ -153,30 +138,19 @@ def reduced_torques_from_lagrange(d: Derivation) -> tuple[sp.Expr, sp.Expr]:
 def derive_lateral() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
     """The ``lateral_dynamics`` generalised force from the 3-D positions, by Kane's method.
 
-    The paper's plane is carried along the ground by the contact point P (velocity
-    ẋ e_f(ψ)), yawed by ψ(t) and tilted by ϑ(t) about the heading e_f, positive to the
-    right as in eq. (2).  Bodies sit in
-    it as in Fig. 5; each body turns about the tilted pitch axis e_a = e_u × e_f at
-    its pitch rate plus the frame's own rate Ω·e_a.  The wheel and the EUC body are
-    isotropic (Table 3 gives their pitch inertias alone); the rider's inertia is
-    diag(J, J, k·J) about G in his own frame, with the full Euler equation
-    I ω̇ + ω × I ω, ω = Ω + φ̇ e_a: k = 1 is the isotropic rider of
-    :func:`euc_sim.simulation.effects.lateral_forces`, k =
-    ``effects.RIDER_YAW_INERTIA_RATIO`` (0.2) the 3-D model's slender rider, whose
-    difference is ``effects.upright_slender_moment``.  With the partial velocities
-    ∂v/∂q̇ (Kane: x is a path length, so P's position is not a function of x alone),
-    the generalised inertia and gravity forces are compared with the planar ones
-    (ψ = ϑ = 0 and their rates zero); the difference, with its sign for the
-    right-hand side of eq. (5), is the lateral generalised force.
+    The paper's plane rides on P (velocity ẋ e_f(ψ)), yawed by ψ and tilted by ϑ (eq. 2);
+    each body turns about the tilted pitch axis e_a at its pitch rate plus Ω·e_a.  Wheel and
+    body are isotropic; the rider's inertia is diag(J, J, k·J) with the full Euler equation
+    (k = 1: :func:`euc_sim.simulation.effects.lateral_forces`; k = 0.2: the slender rider).
+    Q is the planar generalised inertia and gravity forces less the spatial ones.
 
     Returns
     -------
     symbols : tuple of sympy.Symbol
-        ``(R, m, m0, mw, J, Jw, J0, h0, l0, h, g, k, gamma, phi, x_d, gamma_d, phi_d,
-        theta, theta_d, psi_d, psi_dd)``, plain symbols for ``sympy.lambdify`` (k: the
-        rider's yaw over pitch inertia).
+        ``(R, m, m0, mw, J, Jw, J0, h0, l0, h, g, k, gamma, phi, x_d, gamma_d, phi_d, theta,
+        theta_d, psi_d, psi_dd)`` for ``sympy.lambdify``.
     Q : sympy.Matrix, shape (3, 1)
-        (N, N·m, N·m); :func:`euc_sim.simulation.effects.lateral_forces` is the same in numpy.
+        (N, N·m, N·m).
     """
     t = sp.Symbol("t")
     R, m, m0, mw, J, Jw, J0, h0, l0, h, g, k_yaw = sp.symbols("R m m0 mw J Jw J0 h0 l0 h g k", positive=True)
@@ -235,25 +209,19 @@ def derive_lateral() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
 
 @lru_cache(maxsize=1)
 def derive_rider_lean() -> tuple[tuple[sp.Symbol, ...], sp.Matrix]:
-    """The rider's share of the spatial coupling that :func:`derive_lateral` leaves out.
+    """The rider's lean λ (about his fore-aft axis after φ, as ``mjcf/euc_3d.xml``), by Kane's method.
 
-    :func:`derive_lateral` keeps the rider upright in the EUC's tilted plane.  In ``mjcf/euc_3d.xml`` he leans by λ about his fore-aft axis after his
-    pitch φ: G = A + h n with n = cos λ e_z' − sin λ e_a, e_z' = sin φ e_f + cos φ e_u;
-    his angular velocity is ω = Ω + φ̇ e_a + λ̇ e_x' (e_x' = cos φ e_f − sin φ e_u), his
-    inertia about G is J 1 + (J_z − J) n nᵀ.  By Kane's method (partial velocities
-    ∂v_G/∂q̇, ∂ω/∂φ̇ = e_a), the generalised inertia and gravity forces of this rider,
-    subtracted from those of the in-plane isotropic rider of :func:`derive_lateral` (k = 1),
-    give the force :func:`euc_sim.simulation.effects.rider_lean_forces` approximates
-    (it keeps the terms of first order in λ, and every order at λ = 0).
+    G = A + h n, n = cos λ e_z' − sin λ e_a; ω = Ω + φ̇ e_a + λ̇ e_x'; inertia J 1 + (J_z − J) n nᵀ.
+    Q is the in-plane isotropic rider's generalised forces less this rider's: what
+    :func:`euc_sim.simulation.effects.rider_lean_forces` keeps to first order in λ.
 
     Returns
     -------
     symbols : tuple of sympy.Symbol
-        ``(R, m, J, J_z, l0, h, g, gamma, phi, x_d, gamma_d, phi_d, theta, theta_d,
-        psi_d, psi_dd, lean, lean_d, theta_dd, acc0, acc1, acc2, lean_dd)`` for
-        ``sympy.lambdify`` (acc0..acc2: ẍ, γ̈, φ̈).
+        ``(R, m, J, J_z, l0, h, g, gamma, phi, x_d, gamma_d, phi_d, theta, theta_d, psi_d,
+        psi_dd, lean, lean_d, theta_dd, acc0, acc1, acc2, lean_dd)`` (acc: ẍ, γ̈, φ̈).
     Q : sympy.Matrix, shape (3, 1)
-        (N, N·m, N·m) on the right-hand side of eq. (5); not simplified.
+        (N, N·m, N·m), not simplified.
     """
     t = sp.Symbol("t")
     R, m, J, J_z, l0, h, g = sp.symbols("R m J J_z l0 h g", positive=True)

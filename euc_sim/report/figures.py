@@ -1,11 +1,8 @@
 """Interactive figures every page uses: curves on one time axis, a track on a map, x–y plots.
 
-Pure builders: each takes arrays already in people's units and returns a plain Plotly
-spec (``{"data": [...], "layout": {...}}``, drawn by :func:`euc_sim.report.html.figure`
-without Plotly's per-property validation) with a title, axis titles carrying units and the
-legend off the data.  The map draws OpenStreetMap raster tiles (the only thing a
-page fetches) under the track; the track is a trace of its own, drawn when the
-tiles cannot load.
+Pure builders taking arrays in people's units and returning a plain Plotly spec
+(``{"data", "layout"}``) with a title, axis titles with units and the legend off the data.
+The map draws OpenStreetMap tiles under a track trace that shows without them.
 """
 
 from __future__ import annotations
@@ -43,17 +40,7 @@ _MARGIN = {"l": 60, "r": 20, "t": 80, "b": 110}
 
 @dataclass(frozen=True)
 class Panel:
-    """One row of :func:`time_panels`: a quantity over time.
-
-    Attributes
-    ----------
-    name : str
-        In a rider's words ("Speed").
-    unit : str
-        People's unit ("km/h").
-    y : numpy.ndarray
-        Values in ``unit``, one per time.
-    """
+    """One row of :func:`time_panels`: ``name`` ("Speed"), ``unit`` ("km/h") and ``y`` in it, one per time."""
 
     name: str
     unit: str
@@ -72,13 +59,7 @@ class Line:
 
 
 def with_breaks(t: np.ndarray, gap: float, *ys: np.ndarray):
-    """Insert a NaN row wherever ``t`` jumps by more than ``gap``: no line bridges a gap.
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        ``t`` then each of ``ys``, with the breaks inserted.
-    """
+    """``t`` then each of ``ys`` with a NaN row inserted wherever ``t`` jumps by more than ``gap``."""
     t = np.asarray(t, float)
     cut = np.flatnonzero(np.diff(t) > gap) + 1
     out = [np.insert(t, cut, np.nan)]
@@ -108,20 +89,8 @@ def plain_values(a, digits: int | None = 5) -> list:
 
 def time_panels(t_min: np.ndarray, panels: Sequence[Panel], title: str, gap_min: float,
                 mark: tuple[float, str] | None = None) -> dict:
-    """Quantities stacked on one shared time axis (zoom one, all follow): a plain Plotly spec
-    (``{"data", "layout"}``; no per-property validation).
-
-    Parameters
-    ----------
-    t_min : numpy.ndarray
-        Time from the log's start, min.
-    panels : sequence of Panel
-    title : str
-    gap_min : float
-        A jump in time larger than this, min, breaks the lines.
-    mark : (float, str), optional
-        A moment to mark on every panel (min) and its label.
-    """
+    """Quantities stacked on one shared time axis ``t_min`` (min); lines break at jumps over ``gap_min`` (min);
+    ``mark``: (min, label)."""
     n, space = len(panels), 0.025
     h = (1.0 - space * (n - 1)) / n
     layout = {"title": {"text": title}, "margin": _MARGIN, "hovermode": "x unified", "height": 140 * n + 110,
@@ -165,17 +134,8 @@ def map_zoom(lat: np.ndarray, lon: np.ndarray, width_px: float = 600, height_px:
 
 def track_map(lat: np.ndarray, lon: np.ndarray, value: np.ndarray, value_label: str, title: str,
               mark: tuple[float, float, str] | None = None):
-    """The track on OpenStreetMap tiles, each point coloured by ``value``.
-
-    Parameters
-    ----------
-    lat, lon : numpy.ndarray
-        deg; NaN rows are left out.
-    value : numpy.ndarray
-        The colour, in people's units; ``value_label`` names it with its unit.
-    mark : (lat, lon, text), optional
-        A point to mark (a star) with its hover text.
-    """
+    """The track (``lat``, ``lon`` deg; NaN rows left out) on OpenStreetMap tiles coloured by ``value``
+    (``value_label`` with unit); ``mark``: (lat, lon, text)."""
     ok = np.isfinite(lat) & np.isfinite(lon)
     lat, lon, value = lat[ok], lon[ok], np.asarray(value, float)[ok]
     la, lo = plain_values(lat, None), plain_values(lon, None)

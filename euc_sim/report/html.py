@@ -1,16 +1,10 @@
 """One HTML page template for every report: ride, rides, diagnosis and the demo.
 
-A page is a title, a first screen of key figures, then sections (open or folded),
-each holding paragraphs, tables and interactive Plotly figures.  It is one file that
-opens offline: Plotly's script, the styles and every figure's data are inline; map
-tiles are the only thing a browser fetches (a track is drawn without them, and a map that
-draws no tile is hidden rather than left an empty frame).
-Nothing a log or spec carries runs: text is escaped, a Markdown link goes only where
-:func:`safe_href` allows, and every page carries a Content-Security-Policy
-(:func:`policy`) that runs only the page's own scripts.
-
-The builders are pure: each returns an HTML fragment (``str``); :func:`page` joins
-them; :func:`write_page` writes ``DIR/index.html`` atomically.
+A title, a first screen of key figures, then sections of paragraphs, tables and inline
+interactive Plotly figures, in one file that opens offline (map tiles are the only fetch).
+Text is escaped, links pass :func:`safe_href`, and a Content-Security-Policy
+(:func:`policy`) runs only the page's own scripts.  Builders return HTML fragments;
+:func:`page` joins them and :func:`write_page` writes ``DIR/index.html`` atomically.
 """
 
 from __future__ import annotations
@@ -64,19 +58,8 @@ details>div{padding:0 0 0 12px}details h3{font-size:1.02em;margin:.8em 0 .2em}
 
 @dataclass(frozen=True)
 class KeyFigure:
-    """One number on the first screen.
-
-    Attributes
-    ----------
-    label : str
-        What it is, in a rider's words ("Distance").
-    value : str
-        The number with its unit, formatted for people ("12.4 km").
-    note : str
-        One short line under it (an interval, when, a verdict); may be empty.
-    tone : str
-        ``""``, ``"good"``, ``"warn"`` or ``"bad"``: the tile's colour.
-    """
+    """One number on the first screen: ``label`` ("Distance"), ``value`` with unit ("12.4 km"), a short ``note``,
+    ``tone`` (``""``, ``"good"``, ``"warn"``, ``"bad"``)."""
 
     label: str
     value: str
@@ -117,17 +100,8 @@ def table(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
 
 
 def figure(fig, div_id: str, height: int = 380) -> str:
-    """An interactive Plotly figure, its data inline.
-
-    Parameters
-    ----------
-    fig : plotly.graph_objects.Figure or dict
-        The figure; its layout should carry a title and axis titles with units.
-    div_id : str
-        A unique element id on the page (letters, digits, ``_``, ``-``).
-    height : int
-        Pixels.
-    """
+    """An interactive Plotly figure (object or spec dict), data inline, in element ``div_id`` (letters, digits,
+    ``_``, ``-``), ``height`` px."""
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]*", div_id):
         raise ValueError(f"figure id {div_id!r}: expected letters, digits, '_' and '-'")
     spec = pio.to_json(fig, validate=False) if not isinstance(fig, dict) else json.dumps(fig)
@@ -163,12 +137,8 @@ def section(title: str, body: str, folded: bool = False) -> str:
 
 
 def page(title: str, subtitle: str, body: Sequence[str]) -> str:
-    """The whole page: styles and, where a :func:`figure` draws, Plotly's script inline, then
-    the fragments in order.
-
-    Its Content-Security-Policy (:func:`policy`) lets only the page's own inline scripts
-    and styles run.
-    """
+    """The whole page: styles, Plotly's script where a :func:`figure` draws, then the fragments, under its
+    :func:`policy`."""
     main = "".join(body)
     plotly = f"<script>{_plotly_js()}</script>" if 'Plotly.newPlot("' in main else ""
     guard = f"<script>{_MAP_GUARD}</script>" if 'data-map="' in main else ""
@@ -257,14 +227,9 @@ def _own_script(text: str) -> bool:
 def policy(markup: str) -> str:
     """The Content-Security-Policy of a page whose markup (after ``<head>``) is ``markup``.
 
-    Nothing by default. Scripts: Plotly's and each :func:`figure`'s, by SHA-256 (no
-    ``'unsafe-inline'``, no ``'unsafe-eval'``: Plotly needs neither); any other
-    ``<script>`` in ``markup`` gets no hash and does not run. Styles: the page's and the
-    sheets Plotly's script inserts, by hash; style attributes, which Plotly sets as it
-    draws and which run nothing. Images inline (``data:``, ``blob:``). Only a page whose
-    figures use the map's tiles (:data:`euc_sim.report.figures.OSM_TILES`) may fetch
-    them (MapLibre fetches, then draws in a ``blob:`` worker). No frame, object, form
-    or base URL.
+    Nothing by default; scripts and styles by SHA-256 (Plotly's, each :func:`figure`'s, the
+    page's), style attributes, ``data:`` and ``blob:`` images; the map's tiles
+    (:data:`euc_sim.report.figures.OSM_TILES`) only where a figure uses them.
     """
     scripts = [s for s in _scripts(markup) if _own_script(s)]
     styles = [_STYLE, *_plotly_styles()]
@@ -322,11 +287,7 @@ _HREF = re.compile(r"https?://[a-z0-9.-]+(:[0-9]+)?([/?#][\w.~:/?#@!$&'()*+,;=%-
 
 
 def safe_href(url: str) -> str | None:
-    """``url`` where a page may link to it (:data:`_HREF`), else None.
-
-    Anything else (``javascript:``, ``data:``, ``file:``, ``//host``, entities, spaces or
-    control characters anywhere) is refused: the caller shows it as text.
-    """
+    """``url`` where a page may link to it (:data:`_HREF`), else None (the caller shows it as text)."""
     return url if url and _HREF.fullmatch(url) else None
 
 
@@ -338,11 +299,8 @@ def _format(text: str) -> str:
 
 
 def _inline(text: str) -> str:
-    """One line of Markdown as HTML: ``**bold**``, ```code```, links; the rest escaped.
-
-    A link or image whose target :func:`safe_href` refuses stays plain text. An image
-    becomes a link to its file (an image would be a fetch).
-    """
+    """One line of Markdown as HTML: ``**bold**``, ```code```, safe links (an image becomes a link); the rest
+    escaped."""
     text = text.replace("\0", "")
     links: list[str] = []
 
@@ -367,12 +325,10 @@ def _md_table(rows: list[str]) -> str:
 
 
 def markdown(lines: Sequence[str], figures: Mapping[str, tuple] | None = None) -> str:
-    """The Markdown the plain-text page carries, as HTML: headings, paragraphs, lists, tables.
+    """Markdown lines as HTML: headings, paragraphs, lists, tables.
 
-    An image line whose target is a key of ``figures`` (``{target: (Plotly figure,
-    height in px)}``) is that figure drawn (:func:`figure`, the target its element id);
-    other images become links to their PNG (nothing is fetched); ``**bold**`` and
-    ```code``` are kept; everything else is escaped.
+    An image whose target is a key of ``figures`` (``{target: (Plotly figure, height px)}``) is
+    drawn by :func:`figure`; other images become links to their file.
     """
     out, block, kind = [], [], None
     figures = figures or {}

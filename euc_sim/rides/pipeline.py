@@ -1,7 +1,7 @@
 """The ride pipeline: one log (and optionally another) in, one typed result out.
 
-:func:`ride_pipeline` takes each log parsed once (a :class:`~euc_sim.rides.source.ride.Ride`
-of :func:`~euc_sim.rides.source.logs.read_log`), then runs the analyses in order on it: mass and drivetrain
+:func:`ride_pipeline` takes the validated request (:class:`~euc_sim.rides.request.RideRequest`:
+each log parsed once, the wheel's spec, the options), then runs the analyses in order on it: mass and drivetrain
 (:mod:`euc_sim.rides.drive.drivetrain_report`), the bounded balance fit with its
 held-out selection (:mod:`euc_sim.rides.balance.analysis`), the balance law
 (:mod:`euc_sim.rides.law.controller_report`), the one parameter set
@@ -10,7 +10,8 @@ rider (:mod:`euc_sim.rides.sim.sim_steps`) and the verdict.  It returns a
 :class:`~euc_sim.rides.result.RideResult` and writes no file: the JSON
 (:func:`euc_sim.rides.render.contract.ride_json`) and the report folder
 (:func:`euc_sim.rides.render.report_files.write_report`) are renderers at the edge.
-``euc-sim ride`` (:mod:`euc_sim.cli.ride`) parses its arguments and calls it, then them.
+``euc-sim ride`` (:mod:`euc_sim.cli.ride`) and :func:`euc_sim.analyse_ride` build the request
+(:func:`~euc_sim.rides.request.ride_request`) and call it, then them.
 """
 
 from __future__ import annotations
@@ -18,20 +19,28 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from euc_sim.rides.balance.analysis import ride_analysis
+from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
+from euc_sim.rides.balance.residual import residual_windows
+from euc_sim.rides.balance.verdict import verdict_of
+from euc_sim.rides.compare.differences_report import pair_differences
+from euc_sim.rides.drive.drivetrain_report import (computed_pwm_note, cutout_of, reported_mass, reported_terms,
+                                                   ride_drivetrain)
+from euc_sim.rides.grids.power import MassSettings
+from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
+from euc_sim.rides.law.controller_report import controller_fit, torque_constant
+from euc_sim.rides.request import RideRequest
+from euc_sim.rides.result import ComparedRide, RideResult, RiderNumbers
+from euc_sim.rides.rider.rider_step import RIDER_STEPS
+from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
+from euc_sim.rides.sim.simulate import ride_params, simulate_ride, simulation_obstacle
 from euc_sim.rides.summary.rider_view import rider_numbers
 
-if TYPE_CHECKING:       # the result's modules load pandas and scipy: imported where a ride runs
-    from euc_sim.rides.result import RideResult, RiderNumbers
+__all__ = ["BalanceOnMass", "balance_on_mass", "ride_pipeline"]
 
-__all__ = ["BalanceOnMass", "balance_on_mass", "ride_pipeline", "MIN_BOOT"]
-
-#: Fewest bootstrap replicates the command accepts: effects are accepted on their
-#: 95 % interval, and without replicates there is none (nothing would be accepted).
-MIN_BOOT = 10
 #: ``simulation_why`` (and the page) when the replay was not asked for.
 REPLAY_NOT_ASKED = ("not run: a step you ask for (the MuJoCo rider along this ride's speed, one run per "
                     "modelled step, minutes): euc-sim ride LOG.csv --simulate (with --compare it runs "
@@ -81,10 +90,6 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
     -------
     BalanceOnMass
     """
-    from euc_sim.rides.balance.analysis import ride_analysis  # deferred: loads scipy (1.1 s)
-    from euc_sim.rides.grids.signals import RideAssumptions, with_found_values  # deferred: loads scipy (1.1 s)
-    from euc_sim.rides.drive.drivetrain_report import ride_drivetrain  # deferred: loads scipy (1.1 s)
-
     say = progress or (lambda s: None)
     say("finding the total mass and the drivetrain")
     physics = ride_drivetrain(log, compare, spec, n_boot if n_boot_mass is None else n_boot_mass, seed)
@@ -97,48 +102,15 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
     return BalanceOnMass(physics, assumptions, an)
 
 
-def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
-                  n_boot: int = 200, seed: int = 0, simulate: bool = False, jobs: int = 1,
-                  progress=None, spec=None, calibrate_rider: bool = False,
-                  rider_weight: float | None = None, compare_rider_weight: float | None = None) -> RideResult:
-    """Everything ``euc-sim ride`` computes, in order, on logs parsed once; no file is written.
-
-    Parameters
-    ----------
-    log, compare : Ride
-        The ride to fit, and optionally the ride to test on.
-    domain : {"power", "torque"}
-    assumptions : RideAssumptions, optional
-    n_boot, seed : int
-        Bootstrap replicates and the seed of every random draw.
-    simulate : bool
-        Replay the ride: the closed-loop simulator along the tested ride's speed profile
-        (minutes; a step the rider asks for, off by default: ``simulation_why`` says so).
-    jobs : int
-        Threads for the simulation's steps (the results do not depend on it).
-    progress : callable, optional
-        Called with a short status string at each step.
-    spec : WheelSpec, optional
-    calibrate_rider : bool
-        Add the ``calibrated_rider`` step.
-    rider_weight : float, optional
-        The rider's declared weight, kg: checked against the log's total mass (``mass_check``).
-    compare_rider_weight : float, optional
-        The same for the compared ride (``compared.mass_check``).
-
-    Returns
-    -------
-    RideResult
+def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResult:
+    """Everything ``euc-sim ride`` computes, in order, on the request's rides
+    (:func:`euc_sim.rides.request.ride_request`); no file is written.  ``jobs``: threads of the
+    simulation's steps (the results do not depend on it); ``progress`` receives a short line at each step.
     """
-    from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list  # deferred: loads scipy (1.1 s)
-    from euc_sim.rides.balance.verdict import verdict_of  # deferred: loads euc_sim.rides.balance.verdict (0.003 s), not loaded by --help
-    from euc_sim.rides.drive.drivetrain_report import cutout_of  # deferred: loads scipy (1.1 s)
-    from euc_sim.rides.law.controller_report import controller_fit, torque_constant  # deferred: loads scipy.linalg (0.3 s)
-    from euc_sim.rides.result import ComparedRide, RideResult  # deferred: loads pandas, scipy (1.2 s)
-
+    log, compare, spec, n_boot, seed = req.log, req.compare, req.spec, req.n_boot, req.seed
     say = progress or (lambda s: None)
     # each grid is built once and kept on its ride; bad logs fail in the mass fit, before any output
-    fitted = balance_on_mass(log, compare, spec, assumptions=assumptions, domain=domain,
+    fitted = balance_on_mass(log, compare, spec, assumptions=req.assumptions, domain=req.domain,
                              n_boot=n_boot, seed=seed, progress=say)
     mass, an = fitted.physics, fitted.analysis
     say("reading the wheel's balance law")
@@ -148,26 +120,22 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
     differences = None
     if compare is not None:     # what differs between the two rides (rides.compare.differences), each
         # ride's terms from its own energy-balance fit, so both sides are read alike
-        from euc_sim.rides.compare.differences_report import pair_differences  # deferred: loads scipy (1.1 s)
-
         differences = pair_differences(mass, log, compare)
     say("locating the residual")
-    traces = _localise(an, domain, log, compare)
+    traces = _localise(an, req.domain, log, compare)
     notes = tuple(an.notes) + (_mass_grid_note(mass.fit),)
-    sim, why = _simulation(an, log, compare, seed, jobs, progress, simulate, calibrate_rider,
+    sim, why = _simulation(an, log, compare, seed, jobs, progress, req.simulate, req.calibrate_rider,
                            law, parameters, drivetrain, mass)
     if sim is None and why != REPLAY_NOT_ASKED:
         notes += (why,)
     verdict = verdict_of(an.cross, parameters, mass.unidentified.get("battery_power"), an.error_unit)
     # the rider's numbers (summary, mass check, battery health), from the log as parsed here
-    rider = _rider_numbers(log, mass.mass, drivetrain, spec, rider_weight)
+    rider = _rider_numbers(log, mass.mass, drivetrain, spec, req.rider_weight)
     compared = None
     if compare is not None:         # the compared ride's own numbers, beside LOG's on the page
-        from euc_sim.rides.drive.drivetrain_report import computed_pwm_note, reported_mass, reported_terms  # deferred: loads scipy (1.1 s)
-
         test, test_mass = mass.test, reported_mass(mass.test)
         compared = ComparedRide(Path(compare.path).name, test, test_mass, _rider_numbers(
-            compare, test_mass, reported_terms(test, computed_pwm_note(test)), spec, compare_rider_weight))
+            compare, test_mass, reported_terms(test, computed_pwm_note(test)), spec, req.compare_rider_weight))
     cutout = cutout_of(mass.fit, log, rider.summary.limits)
     return RideResult(balance=an, notes=notes, mass=mass, law=law, parameters=parameters,
                       drivetrain=drivetrain, differences=differences, traces=tuple(traces),
@@ -177,15 +145,11 @@ def ride_pipeline(log, compare=None, *, domain: str = "power", assumptions=None,
 
 def _rider_numbers(log, total_mass, drivetrain, spec, rider_weight) -> RiderNumbers:
     """The summary, mass check, battery and clock of one ride (:mod:`euc_sim.rides.summary.rider_view`)."""
-    from euc_sim.rides.result import RiderNumbers  # deferred: loads pandas, scipy (1.2 s)
-
     return RiderNumbers(*rider_numbers(log, total_mass, drivetrain, spec, rider_weight))
 
 
 def _localise(an, domain: str, log, compare) -> list:
     """Where the inertia-only residual concentrates: the residual traces of the fit (and test) ride."""
-    from euc_sim.rides.balance.residual import residual_windows  # deferred: loads scipy (1.1 s)
-
     nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
     d_fit, d_test = an.designs
     traces = [residual_windows(an.sig_fit, nom, aug, domain, log.name, True, design=d_fit)]
@@ -200,8 +164,6 @@ def _simulation(an, log, compare, seed: int, jobs: int, progress, simulate: bool
     be simulated: a warning then says why)."""
     if not simulate:
         return None, REPLAY_NOT_ASKED
-    from euc_sim.rides.sim.simulate import simulation_obstacle  # deferred: loads scipy (1.1 s)
-
     why = simulation_obstacle(an.sig_test if an.sig_test is not None else an.sig_fit)
     if why is not None:
         warnings.warn(why, stacklevel=3)
@@ -212,27 +174,16 @@ def _simulation(an, log, compare, seed: int, jobs: int, progress, simulate: bool
 
 def _mass_grid_note(fit) -> str:
     """How the mass and drivetrain fits treated the log's gaps (the ride's one grid, their own filter)."""
-    from euc_sim.rides.grids.power import MassSettings  # deferred: loads scipy (1.1 s)
-
     n = len(np.unique(fit.sig.segment))
     return (f"mass and drivetrain fits: gaps up to {MassSettings.max_gap:g} s bridged linearly on "
             f"the ride's {MassSettings.rate:g} Hz grid (the balance fit's), longer ones split the "
             f"ride ({n} piece(s))")
 
 
-def _rider_steps():
-    from euc_sim.rides.rider.rider_step import RIDER_STEPS  # deferred: loads scipy (1.1 s)
-
-    return RIDER_STEPS
-
-
 def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider: bool, law, parameters,
               drivetrain, mass):
     """The closed-loop rider along the tested ride, once per modelled step (:mod:`euc_sim.rides.sim.sim_steps`),
     built from the fit ride's results; the second half scored without compare."""
-    from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels  # deferred: loads scipy (1.1 s)
-    from euc_sim.rides.sim.simulate import ride_params, simulate_ride  # deferred: loads scipy (1.1 s)
-
     sig = an.sig_test if an.sig_test is not None else an.sig_fit
     ride_path = compare if compare is not None else log
     scored = None
@@ -246,7 +197,7 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider:
     steps = build_steps(StepInputs(ride_params(sig.assumptions), cr.nominal.estimate,
                                    cr.augmented.estimate, cr.accepted, parameters, law, drivetrain,
                                    voltage, log),
-                        _rider_steps() if calibrate_rider else STEP_BUILDERS)
+                        RIDER_STEPS if calibrate_rider else STEP_BUILDERS)
     ran = [s.name for s in steps if s.why is None]
     # the steps' battery-power errors are compared with the balance fit's held-out error (in W)
     balance = cr.heldout_augmented if an.error_unit == "W" else None

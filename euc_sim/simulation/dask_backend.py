@@ -1,7 +1,5 @@
-"""The Dask side of :mod:`euc_sim.simulation.runner`: a private local cluster without any HTTP
-server, and a check that a remote address is a Dask scheduler before a client talks to it.
-
-Imports ``distributed`` at once, so :mod:`runner` imports this module only when Dask runs.
+"""The Dask side of :mod:`euc_sim.simulation.runner`: a private local cluster without HTTP
+servers, and a check that a remote address is a Dask scheduler (imports ``distributed``).
 """
 
 from __future__ import annotations
@@ -27,8 +25,7 @@ _MAX_HANDSHAKE = 1 << 16
 
 
 class _NoHttp:
-    """A Dask node that serves no HTTP: distributed starts an HTTP server on every scheduler
-    and worker, dashboard or not, and it answers anyone who connects."""
+    """A Dask node that serves no HTTP (distributed starts one on every node and it answers anyone)."""
 
     def start_http_server(self, *args, **kwargs) -> None:
         return None
@@ -58,14 +55,10 @@ class _Cluster(LocalCluster):
 
 
 def local_cluster(workers: int, scratch):
-    """A local cluster of ``workers`` single-threaded processes that only this process can use,
-    and its client.
+    """A local cluster of ``workers`` single-threaded processes only this process can use, and its client.
 
-    Every comm (scheduler, nannies, workers) is TLS on 127.0.0.1 with throwaway
-    credentials held in memory (``security=True``: ``Security.temporary()``) and client
-    certificates required, so another local user cannot connect, let alone submit
-    pickled code.  No node opens an HTTP port (:class:`_NoHttp`).  ``scratch`` (an
-    ``ExitStack``) gets the cluster's temporary folder and configuration.
+    TLS on 127.0.0.1 with throwaway credentials and client certificates required; no HTTP
+    port.  ``scratch`` (an ``ExitStack``) gets the temporary folder and configuration.
     """
     import dask
 
@@ -82,13 +75,9 @@ def local_cluster(workers: int, scratch):
 
 
 def check_scheduler(address: str, timeout: float) -> None:
-    """Raise :class:`InputError` (naming ``--scheduler`` and ``address``) unless a ``tcp://``
-    address accepts a connection and sends a Dask handshake within ``timeout`` s.
-
-    distributed's own client waits for the handshake without a deadline and allocates
-    whatever length the peer's first 8 bytes announce; here at most ``_MAX_HANDSHAKE``
-    bytes are read.  A ``tls://`` address is left to the client (its peer must hold a
-    certificate of the user's authority).
+    """``InputError`` naming ``--scheduler`` unless a ``tcp://`` address sends a Dask handshake of at
+    most ``_MAX_HANDSHAKE`` bytes within ``timeout`` s (distributed's client would wait forever
+    and allocate what the peer announces); ``tls://`` is left to the client.
     """
     scheme, loc = parse_address(address)
     if scheme != "tcp":

@@ -1,19 +1,11 @@
 """Synthetic recordings: simulate, sample like motion capture, write with sidecars.
 
-:func:`simulated_recording` makes one recording in memory; :func:`run_dataset`
-makes a set shaped like the paper's longitudinal recordings (Table 1: constant
-speed 7, acceleration 3, deceleration 2; plus stop-and-go) in parallel
-(:mod:`euc_sim.simulation.runner`: a process pool or Dask).
-
-Seeds: a recording with seed s draws the rider's motor noise from s and the
-measurement noise from (s, 120); a dataset with seed S gives recording i the seed
-``SeedSequence(S).spawn(n)[i]``, and its speeds from the same stream, so every file
-is reproducible on its own.
-
-A dataset's folder appears whole or not at all: :func:`run_dataset` writes into a
-hidden folder beside it and renames that into place once the manifest is written;
-its manifest names the plan (:func:`plan_digest`), so a rerun replaces a dataset of
-the same plan only, never a folder holding anything else.
+:func:`simulated_recording` makes one recording in memory; :func:`run_dataset` writes a
+set shaped like the paper's longitudinal recordings (Table 1, plus stop-and-go) in
+parallel (:mod:`euc_sim.simulation.runner`).  Recording i of a dataset with seed S has
+the seed ``SeedSequence(S).spawn(n)[i]`` (rider noise from it, measurement noise from
+(s, 120)), so every file is reproducible on its own.  A dataset's folder appears whole
+or not at all, and a rerun replaces only a dataset of the same plan (:func:`plan_digest`).
 """
 
 from __future__ import annotations
@@ -65,11 +57,9 @@ class RecordingSpec:
     motor: MotorPD = field(default_factory=MotorPD)
     rider: Rider | None = None
     rolling_model: str = "moment"
-    #: an out-of-catalog disturbance F(t) at G, N (see simulation.simulate); its
-    #: description goes to the truth file only
+    #: out-of-catalog F(t) at G, N (:func:`simulate`); in the truth file only
     external_force: object = None
-    #: shape of h(t) with ``cog_height_drift`` (:class:`euc_sim.simulation.drift.DriftShape`;
-    #: None: the catalog's 12 s sine); it goes to the truth file only
+    #: shape of h(t) with ``cog_height_drift`` (:class:`~euc_sim.simulation.drift.DriftShape`)
     drift_shape: object = None
 
 
@@ -83,37 +73,17 @@ def _request(spec: RecordingSpec) -> dict:
 
 
 def simulated_recording(spec: RecordingSpec):
-    """Simulate and sample one recording.
-
-    Returns
-    -------
-    (recording, meta, truth) : (pandas.DataFrame, dict, dict)
-        CONTRACT columns at 120 Hz, the ``NAME.json`` sidecar and the
-        ``NAME.truth.json`` content.
-
-    Raises
-    ------
-    FallError
-        when the rider falls (nothing is produced).
+    """Simulate and sample one recording: (recording, meta, truth), the CONTRACT columns at
+    120 Hz, the ``NAME.json`` sidecar and the ``NAME.truth.json`` content; ``FallError`` when
+    the rider falls.
     """
     return _sampled(spec, simulate(**_request(spec)))
 
 
 def simulated_recordings(specs: list[RecordingSpec], nthread: int = 1) -> list:
-    """:func:`simulated_recording` of many specs, their rides in MuJoCo batches on ``nthread``
-    threads (:func:`euc_sim.simulation.mujoco_batch.simulate_rides`: the same runs).
-
-    Parameters
-    ----------
-    specs : list of RecordingSpec
-        The recordings to simulate.
-    nthread : int
-        Threads of the MuJoCo batch.
-
-    Returns
-    -------
-    list
-        Per spec, in order: ``(recording, meta, truth)``, or the ``FallError`` of its rider.
+    """:func:`simulated_recording` of many specs, in MuJoCo batches on ``nthread`` threads
+    (:func:`euc_sim.simulation.mujoco_batch.simulate_rides`); per spec, in order, its
+    ``(recording, meta, truth)`` or the ``FallError`` of its rider.
     """
     from euc_sim.simulation.mujoco_batch import simulate_rides  # deferred: loads scipy.linalg, mujoco (0.4 s)
 
@@ -122,7 +92,7 @@ def simulated_recordings(specs: list[RecordingSpec], nthread: int = 1) -> list:
 
 
 def _sampled(spec: RecordingSpec, run):
-    """The recording, sidecar and truth of a spec's simulated run (see :func:`simulated_recording`)."""
+    """The recording, sidecar and truth of a spec's simulated run."""
     eff = dict(spec.effects)
     rider = spec.rider or default_rider(spec.params, spec.motor)
     p_true = true_params(spec.params, eff)
@@ -140,7 +110,7 @@ def _sampled(spec: RecordingSpec, run):
         "torques": "hidden" if spec.hide_torques else "true M_d, M_h of the simulation",
     }
     truth = {
-        "effects": {k: {"value": v, "unit": _unit(k)} for k, v in eff.items()},
+        "effects": {k: {"value": v, "unit": fx.get(k).unit} for k, v in eff.items()},
         "params": p_true.as_dict(),
         "nominal_params": spec.params.as_dict(),
         "maneuver": spec.maneuver.as_dict(),
@@ -159,29 +129,12 @@ def _sampled(spec: RecordingSpec, run):
     return rec, meta, truth
 
 
-def _unit(name: str) -> str:
-    return fx.get(name).unit
-
-
 def dataset_plan(seed: int = 0, duration: float = 15.0, counts=PAPER_SET, params: Params = TABLE3,
                  noise: str = "paper", rider_noise: float = DEFAULT_RIDER_NOISE,
                  engine: str = "mujoco", effects: Mapping[str, float] | None = None) -> list[RecordingSpec]:
-    """Specs of a paper-like dataset, speeds varied per recording from the seed.
-
-    Parameters
-    ----------
-    seed : int
-        Dataset seed.
-    duration : float
-        Length of each recording, s.
-    counts : sequence of (maneuver, count)
-    params : Params
-    noise : {"paper", "none"}
-    rider_noise : float
-        Rider motor noise, N·m.
-    engine : {"mujoco", "analytic"}
-    effects : mapping, optional
-        Effects injected in every recording.
+    """Specs of a paper-like dataset (``counts``: (maneuver, count) pairs), speeds varied per
+    recording from the dataset ``seed``; each recording ``duration`` s long with ``noise``,
+    rider noise ``rider_noise``, N·m, on ``engine``, with ``effects`` in every one.
     """
     total = sum(c for _, c in counts)
     children = np.random.SeedSequence(int(seed)).spawn(total)
@@ -209,26 +162,21 @@ def dataset_plan(seed: int = 0, duration: float = 15.0, counts=PAPER_SET, params
     return specs
 
 
-#: Recordings per task of :func:`run_dataset` unless told.  The rider's law is batched
-#: across a batch's rides (:mod:`euc_sim.simulation.mujoco_batch`), and the rounding of
-#: its sums depends on the batch's make-up; batches fixed by the plan alone (never by
-#: the backend or the number of workers) give serial, pool and Dask runs the same bytes.
+#: Recordings per task of :func:`run_dataset` unless told: fixed by the plan, never by the
+#: backend, so that serial, pool and Dask runs give the same bytes (the batched rider's rounding).
 DATASET_BATCH = 8
 #: The manifest beside the recordings.
 MANIFEST = "dataset.json"
 
 
 def _make_batch(args):
-    """Worker side: one batch of recordings in memory (written by the parent, atomically);
-    a spec whose rider fell gives its one-line reason instead."""
+    """Worker side: one batch of recordings in memory, a fallen rider's spec as its one-line reason."""
     specs, nthread = args
     return [runner._reason(v) if isinstance(v, Exception) else v for v in simulated_recordings(specs, nthread)]
 
 
 def plan_digest(specs: list[RecordingSpec], ext: str = ".csv") -> str:
-    """SHA-256 (hex) of everything that makes a dataset's files: each spec's name, maneuver,
-    duration, seed, parameters, effects, noise, engine, ground, motor, rider and
-    disturbances, and the format ``ext``."""
+    """SHA-256 (hex) of everything that makes a dataset's files: every spec's settings and the format ``ext``."""
     def one(s: RecordingSpec) -> dict:
         force = s.external_force
         return {"name": s.name, "maneuver": s.maneuver.as_dict(), "duration": s.duration, "seed": s.seed,
@@ -243,8 +191,9 @@ def plan_digest(specs: list[RecordingSpec], ext: str = ".csv") -> str:
 
 
 def _check_folder(out_dir: Path, digest: str) -> None:
-    """Raise ``InputError`` (one line) unless ``out_dir`` is missing, empty, or a previous
-    dataset of the same plan (its manifest's ``plan`` is ``digest``) holding nothing else."""
+    """Raise ``InputError`` unless ``out_dir`` is missing, empty, or a dataset of the same plan
+    (manifest ``plan`` = ``digest``) holding nothing else.
+    """
     if not out_dir.exists():
         return
     if not out_dir.is_dir():
@@ -265,10 +214,10 @@ def _check_folder(out_dir: Path, digest: str) -> None:
 
 
 class _Staging:
-    """A hidden folder beside ``out_dir`` (``.NAME.partial-PID-XXXX``) that becomes ``out_dir``
-    when :meth:`commit` is called, and is removed, with the parent folders this run made,
-    otherwise (an error, Ctrl-C).  Partial folders of processes no longer running are
-    removed first."""
+    """A hidden folder beside ``out_dir`` (``.NAME.partial-PID-XXXX``) that :meth:`commit` renames
+    into place; removed otherwise, with the parent folders this run made.  Partial folders of
+    dead processes are removed first.
+    """
 
     def __init__(self, out_dir: Path):
         self.out_dir = out_dir
@@ -287,9 +236,8 @@ class _Staging:
         return self.path
 
     def commit(self) -> None:
-        """Rename the staged folder into place (an existing dataset of the same plan is
-        moved aside first and removed after)."""
-        os.chmod(self.path, 0o777 & ~_umask())          # mkdtemp makes 0700
+        """Rename the staged folder into place, an existing dataset of the same plan moved aside and removed."""
+        os.chmod(self.path, 0o777 & ~io._umask())          # mkdtemp makes 0700
         if self.out_dir.is_dir() and any(self.out_dir.iterdir()):
             aside = Path(tempfile.mkdtemp(prefix=f".{self.out_dir.name}.old-", dir=self.out_dir.parent))
             os.replace(self.out_dir, aside / self.out_dir.name)
@@ -326,61 +274,46 @@ def _remove_stale(parent: Path, prefix: str) -> None:
             pass
 
 
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
-
-
 def run_dataset(out_dir: str | Path, specs: list[RecordingSpec], workers: int | None = None,
                 progress: bool = True, ext: str = ".csv", scheduler: str | None = None,
                 threads: int = 1, batch: int | None = None, settings: Mapping | None = None):
     """Write every spec's recording into ``out_dir``, in parallel (:mod:`runner`).
 
-    The specs go in batches (:func:`simulated_recordings`: one ``mujoco.batch.Batch``
-    on ``threads`` threads each); a batch is one task of the process pool or of Dask.
-    Workers simulate and return the recordings; this process writes them into a hidden
-    folder beside ``out_dir`` as they arrive, then the manifest, then renames the
-    folder into place: an interrupted or failed run leaves nothing (and an existing
-    dataset as it was), and a remote Dask cluster needs no shared folder.  A recording
-    whose rider falls (or whose worker dies) is named in the report and the manifest;
-    the others are written.
+    Batches of specs (:func:`simulated_recordings`) are the tasks of the pool or of Dask;
+    this process writes their recordings into a staging folder, then the manifest, then
+    renames it into place: a failed run leaves nothing.  A recording whose rider falls (or
+    whose worker dies) is named in the report and the manifest.
 
     Parameters
     ----------
     out_dir : path
-        Missing, empty, or a previous dataset of the same plan (:func:`plan_digest`),
-        which is replaced; anything else is refused.
+        Missing, empty, or a previous dataset of the same plan (replaced).
     specs : list of RecordingSpec
     workers : int, optional
-        Worker processes (default: all cores; 1 runs in this process), or the local
-        Dask cluster's workers.
+        Worker processes (default: all cores; 1: this process) or local Dask workers.
     progress : bool
-        A progress bar (over batches) on stderr.
+        A progress bar on stderr.
     ext : {".csv", ".parquet"}
     scheduler : {None, "local"} or str
         See :func:`euc_sim.simulation.runner.run_tasks`.
     threads : int
-        Threads of each batch (a worker machine's cores under Dask).
+        Threads of each batch.
     batch : int, optional
         Recordings per batch (default :data:`DATASET_BATCH`; the bytes depend on it).
     settings : mapping, optional
-        The settings that made ``specs`` (the command's seed, duration, noise …), kept in
-        the manifest (``settings``; its ``seed`` also as ``seed``).
+        The settings that made ``specs``, kept in the manifest.
 
     Returns
     -------
     RunReport
-        By recording: ``results`` maps each written recording's name to its path;
-        ``failed`` maps the others to the reason.  The manifest ``dataset.json`` beside
-        them holds ``recordings`` (in the order of ``specs``), ``failed`` (name ->
-        reason), ``maneuvers``, ``duration``, ``seed``, ``settings`` and ``plan``.
+        ``results``: name → path of each written recording; ``failed``: name → reason.
+        The manifest ``dataset.json`` holds ``recordings``, ``failed``, ``maneuvers``,
+        ``duration``, ``seed``, ``settings`` and ``plan``.
 
     Raises
     ------
     ValueError
-        for a folder that is neither missing, empty nor a dataset of this plan, or a bad
-        ``batch``/backend, before anything runs.
+        For a refused folder or a bad ``batch``/backend, before anything runs.
     """
     out_dir = Path(out_dir)
     runner.check_backend(scheduler, workers)

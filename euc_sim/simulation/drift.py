@@ -1,27 +1,14 @@
 """The rider's centre of gravity moving: h(t) of ``cog_height_drift`` and its ḣ forces.
 
-CONTRACT's ``cog_height_drift=VALUE`` is the peak-to-peak change of h, m.  Its shape
-over the ride is a :class:`DriftShape` (default: the catalog's original slow sine,
-h + (Δh/2) sin(2π t / 12 s)):
+CONTRACT's ``cog_height_drift=VALUE`` is the peak-to-peak change Δh, m, of h over the
+ride, shaped by a :class:`DriftShape`: ``sine`` (default: period 12 s), ``ramp``
+(half-cosine by ``sign``·Δh, then held), ``dip`` (1 − cos, there and back), ``wander``
+(three seeded sines of periods 6-25 s) or ``profile`` (a cubic spline through knots).
 
-- ``sine``: h + (Δh/2) sin(2π (t − start) / length) (length: the period, s);
-- ``ramp``: h moves by ``sign``·Δh between ``start`` and ``start + length`` (a
-  half-cosine, smooth in h and ḣ) and stays there (crouching, then staying down);
-- ``dip``: h moves by ``sign``·Δh and back within ``start`` … ``start + length``
-  (1 − cos: crouching for an obstacle);
-- ``wander``: a slow random wander, three sines of periods 6-25 s with phases drawn
-  from ``seed``, scaled to Δh peak to peak over the times given;
-- ``profile``: Δh(t) given at times ``knots_t`` (s) as ``knots_dh`` (m), a cubic
-  spline (the diagnosis's fitted h(t) is re-simulated this way); ``VALUE`` scales it
-  to that peak-to-peak change.
-
-A moving G is a rheonomic constraint: the equations of motion with h frozen at
-h(t) miss the inertial forces of G's motion along the rider's axis e = (sin φ, cos φ),
-m (ḧ e + 2 ḣ φ̇ e⊥), e⊥ = (cos φ, −sin φ) (relative and Coriolis accelerations).
-:func:`drift_forces` gives their generalised force Q = −m J_Gᵀ(ḧ e + 2 ḣ φ̇ e⊥), J_G
-the Jacobian of G's position (x − l0 sin γ + h sin φ, R − l0 cos γ + h cos φ; eq. 6's m_23); the
-lean row is −2 m h ḣ φ̇, the d/dt(m h² φ̇) of the kinetic energy.  The simulator
-adds it to eq. (8); the diagnosis's drift term carries it too.
+G moving along the rider's axis e = (sin φ, cos φ) adds the inertial forces
+Q = −m J_Gᵀ (ḧ e + 2 ḣ φ̇ e⊥), e⊥ = (cos φ, −sin φ), J_G the Jacobian of G's position
+(:func:`drift_forces`), added to eq. (8) by the simulator and the diagnosis alike
+(docs/diagnosis.md).
 """
 
 from __future__ import annotations
@@ -44,7 +31,7 @@ MIN_LENGTH = 1.0
 
 @dataclass(frozen=True)
 class DriftShape:
-    """Shape of h(t) over the ride (see the module's docstring).
+    """Shape of h(t) over the ride (see the module docstring).
 
     Attributes
     ----------
@@ -53,7 +40,7 @@ class DriftShape:
     start : float
         s from the start of the recording.
     length : float
-        s: duration of the ramp or dip, period of the sine.
+        Duration of the ramp or dip, period of the sine, s.
     sign : float
         +1: h rises first (standing up), −1: h falls first (crouching).
     seed : int
@@ -132,19 +119,7 @@ def _unit_profile(shape: DriftShape, t: np.ndarray) -> np.ndarray:
 
 
 def cog_height(h: float, peak_to_peak: float, t, shape: DriftShape | None = None) -> np.ndarray:
-    """h(t) of the ``cog_height_drift`` effect, m.
-
-    Parameters
-    ----------
-    h : float
-        h at the start of the drift (the sine's mean), m.
-    peak_to_peak : float
-        Δh, m (CONTRACT's estimate of the effect).
-    t : array_like
-        s.
-    shape : DriftShape, optional
-        Default: the catalog's sine of period 12 s.
-    """
+    """h(t), m: ``h`` at the start (the sine's mean), m, plus ``peak_to_peak`` Δh, m, times the unit ``shape`` at t, s."""
     t = np.asarray(t, dtype=float)
     return h + peak_to_peak * _unit_profile(shape or DriftShape(), t)
 
@@ -156,17 +131,10 @@ def drift_rates(h_t: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def drift_forces(p: Params, q, qd, h, h_d, h_dd) -> np.ndarray:
-    """Generalised force of G's motion along the rider's axis (the ḣ terms), (N, N·m, N·m).
+    """Generalised force of G's motion along the rider's axis, (..., 3): (N, N·m, N·m).
 
-    Q = −m J_Gᵀ (ḧ e + 2 ḣ φ̇ e⊥), e = (sin φ, cos φ), e⊥ = (cos φ, −sin φ); to add
-    to the right-hand side of eq. (5) with h(t) in the mass matrix.
-
-    Parameters
-    ----------
-    p : Params
-    q, qd : array_like, shape (..., 3)
-    h, h_d, h_dd : array_like
-        h (m), ḣ (m/s), ḧ (m/s²), broadcastable to q's leading shape.
+    Q = −m J_Gᵀ (ḧ e + 2 ḣ φ̇ e⊥), added to eq. (5) with h(t) in the mass matrix; ``h``
+    (m), ``h_d`` (m/s), ``h_dd`` (m/s²) broadcast to q's leading shape.
     """
     q = np.asarray(q, dtype=float)
     qd = np.asarray(qd, dtype=float)

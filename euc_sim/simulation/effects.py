@@ -1,21 +1,14 @@
 """The effect catalog: physics the nominal model of the paper leaves out.
 
-Each effect carries its CONTRACT name, the unit of its estimate, where it acts, and
-its physics as a generalised force in the paper's coordinates q = (x, gamma, phi),
-found by virtual power as in the paper's Appendix A:
+Each effect's physics is a generalised force in the paper's coordinates q = (x, gamma,
+phi), found by virtual power as in Appendix A:
 
     δP = Q_e · δq̇  ⇒  M q̈ + h = Q(M_d, M_h) + Q_e.                          (5)+
 
-The simulator adds ``Q_e`` to the equations it integrates; the diagnosis turns it into
-a candidate term of the residual.  Effects that change a parameter (rider mass,
-centre-of-gravity height) or a measurement (time offset of the rider channel) have no
-generalised force: they act through :func:`apply_to_params` or on the recording.
-
-What a recording without torques can reveal (docs/diagnosis.md): the driving-torque
-residual M_d,1 − M_d,2 equals κ(q)·(R Q_e,x + Q_e,γ + Q_e,φ) (see
-:func:`euc_sim.model.analytic.kinematic_residual`): the moment of the extra forces about
-the wheel–ground contact point P.  Torques between bodies (motor, ankle, bearing
-friction) have R Q_x + Q_γ + Q_φ = 0 and cancel.
+Effects on a parameter or a measurement act through :func:`apply_to_params` or on the
+recording.  The torque-free residual M_d,1 − M_d,2 sees κ(q)·(R Q_e,x + Q_e,γ + Q_e,φ),
+the moment about the contact point P, so torques between bodies cancel
+(docs/diagnosis.md).  The records themselves are written here (docs/effects.md).
 """
 
 from __future__ import annotations
@@ -39,9 +32,7 @@ __all__ = ["PeriodicPush", "Effect", "CATALOG", "RECORDS", "names", "get", "pars
            "LATERAL_WINDOW", "band_peak_tilt",
            "RIDER_YAW_INERTIA_RATIO", "rider_lean_forces", "upright_slender_moment", "apply_to_params"]
 
-#: The contract's simulator effects (those with a ``kind``), by name: what ``--effect`` injects and
-#: the diagnosis fits.  Filled at the end of this module from :data:`RECORDS`, the package's
-#: whole catalog (:mod:`euc_sim.model.catalog`), whose records are written here.
+#: The contract's simulator effects (those with a ``kind``), by name; filled from :data:`RECORDS` below.
 CATALOG: dict[str, Effect] = {}
 
 
@@ -51,13 +42,7 @@ def names() -> tuple[str, ...]:
 
 
 def get(name: str) -> Effect:
-    """The effect called ``name``.
-
-    Raises
-    ------
-    ValueError
-        for an unknown name, listing the valid ones.
-    """
+    """The effect called ``name``; ``InputError`` (a ``ValueError``) listing the valid ones otherwise."""
     try:
         return CATALOG[name]
     except KeyError:
@@ -88,8 +73,7 @@ def bounds_text() -> str:
                      for e in CATALOG.values())
 
 
-#: Speed below which sign(ẋ) is smoothed, m/s: a Coulomb moment needs a continuous
-#: law to be integrated; 1 cm/s is far below riding speeds.
+#: Speed below which sign(ẋ) is smoothed, m/s (far below riding speeds).
 SIGN_SPEED = 0.01
 
 
@@ -99,11 +83,7 @@ def smooth_sign(v: np.ndarray, scale: float = SIGN_SPEED) -> np.ndarray:
 
 
 def normal_load(p: Params, alpha: float = 0.0) -> float:
-    """Static normal load of the wheel on the road, (m + m0 + mw)·g·cos α, N.
-
-    Vertical accelerations of the centres of mass change the load by a few per cent
-    in riding; the catalog uses the static value in simulation and diagnosis alike.
-    """
+    """Static normal load of the wheel on the road, (m + m0 + mw)·g·cos α, N."""
     return p.total_mass * p.g * np.cos(alpha)
 
 
@@ -111,12 +91,9 @@ def held_forces(x_dot: float, k_drag: float, C_rr: float, N_load: float, R: floa
                 F_push: float) -> tuple[float, float]:
     """(F_x at G, N; rolling moment on the wheel, N·m) held over a step, from ẋ (m/s) at its start.
 
-    F_x = −k ẋ|ẋ| + F(t) (``aerodynamic_drag`` k in kg/m, an ``external_force`` F(t), N, or 0)
-    and τ = −C_rr N R tanh(ẋ / :data:`SIGN_SPEED`) (``rolling_resistance``; N_load from
-    :func:`normal_load`, R the wheel radius, m).  The one law of every loop that applies
-    them: ``simulate``'s Python loop, and compiled by numba (scalars only) the native
-    callback (:mod:`~euc_sim.simulation.native_kernels`) and the batch's
-    (:mod:`~euc_sim.simulation.mujoco_batch`).
+    F_x = −k ẋ|ẋ| + F(t) (``aerodynamic_drag`` k, kg/m; ``external_force`` F, N) and
+    τ = −C_rr N R tanh(ẋ / :data:`SIGN_SPEED`).  The one law of every loop (numba-compiled by
+    the native callback and the batch): scalars only.
     """
     return (-k_drag * x_dot * abs(x_dot) + F_push,
             -C_rr * N_load * R * math.tanh(x_dot / SIGN_SPEED))
@@ -184,33 +161,12 @@ def _rider_mass_params(p: Params, value: float) -> Params:
 
 
 def generalized_force(name: str, value: float, p: Params, q, qd, extra=None) -> np.ndarray:
-    """Generalised force Q_e of an effect in the paper's coordinates, by virtual power.
+    """Generalised force Q_e, (..., 3): (N, N·m, N·m), of effect ``name`` in the paper's coordinates.
 
-    Parameters
-    ----------
-    name : str
-        An effect with a force (its record's ``force``): ``rolling_resistance``,
-        ``aerodynamic_drag``, ``road_slope``, ``wheel_bearing_friction``, ``lateral_dynamics``.
-    value : float
-        Its magnitude in the catalog's unit (C_rr; k in kg/m; α in rad; b in N·m·s/rad;
-        for ``lateral_dynamics`` a scale, 1 for the physical coupling).
-    p : Params
-    q, qd : array_like, shape (..., 3)
-    extra : dict, optional
-        ``lateral_dynamics`` needs the keys of :data:`LATERAL_INPUTS` (see
-        :func:`lateral_forces`), broadcastable to q's leading shape; where it also
-        has those of :data:`LEAN_INPUTS` (a 3-D recording shows the rider's lateral
-        lean), :func:`rider_lean_forces` is added.
-
-    Returns
-    -------
-    numpy.ndarray, shape (..., 3)
-        (N, N·m, N·m) to add to the right-hand side of eq. (5).
-
-    Raises
-    ------
-    ValueError
-        for an effect that has no generalised force or an unknown name.
+    ``value`` in the catalog's unit (``lateral_dynamics``: a scale, 1 the physics); ``q``,
+    ``qd`` (..., 3); ``extra`` for ``lateral_dynamics``: the keys of :data:`LATERAL_INPUTS`
+    (and :data:`LEAN_INPUTS`, :data:`RIDER_MARKER_INPUTS` where recorded), broadcastable to
+    q.  ``ValueError`` for an unknown effect or one without a generalised force.
     """
     e = get(name)
     if e.force is None:
@@ -220,8 +176,7 @@ def generalized_force(name: str, value: float, p: Params, q, qd, extra=None) -> 
 
 
 def apply_to_params(p: Params, name: str, value: float) -> Params:
-    """Parameters with a parameter-type effect applied (its record's ``to_params``:
-    ``rider_mass`` sets m); other effects leave the parameters unchanged."""
+    """Parameters with a parameter-type effect applied (its record's ``to_params``); others unchanged."""
     e = get(name)
     return p if e.to_params is None else e.to_params(p, value)
 
@@ -377,10 +332,7 @@ CATALOG.update({e.name: e for e in RECORDS if e.kind is not None})
 
 @dataclass(frozen=True)
 class PeriodicPush:
-    """A horizontal force A·sin(2π f t) at the rider's G, N: a disturbance outside the catalog.
-
-    Picklable, so it can travel to worker processes with a :class:`euc_sim.simulation.dataset.RecordingSpec`.
-    """
+    """A horizontal force A·sin(2π f t) at the rider's G, N: a picklable disturbance outside the catalog."""
 
     amplitude: float
     frequency: float

@@ -22,31 +22,11 @@ column         unit   meaning
 =============  =====  ==========================================================
 
 Both controllers run at 1/dt with a zero-order hold; the rider's reaction delay is a
-look-back buffer over the state history (:class:`euc_sim.controllers.rider.RiderRun`).
-
-Engines
--------
-``mujoco``
-    :class:`euc_sim.model.mujoco_model.EucMujoco` (RK4 at dt), state read by joint name.
-``analytic``
-    eqs. (5)-(8) plus the effects' generalised forces
-    (:func:`euc_sim.simulation.effects.generalized_force`), integrated over each control step
-    by ``scipy.integrate.solve_ivp`` (DOP853, rtol 1e-10) with the same held torques,
-    so the two engines are comparable sample by sample.
-
-Effects (CONTRACT's catalog) act as physics in both engines:
-``rolling_resistance`` (moment on the wheel; MuJoCo: τ/R in ``qfrc_applied`` on ``x``,
-the wheel's angle being x/R, or ``xfrc_applied`` on ``wheel`` in the contact variant,
-or true rolling friction with ``contact=ContactSettings(rolling_friction=...)`` on
-the contact variant), ``aerodynamic_drag`` (force at G; MuJoCo: ``xfrc_applied`` on
-``rider``), ``road_slope`` (``model.opt.gravity`` tilted in the road frame),
-``wheel_bearing_friction`` (damping of the rotor speed ẋ/R − γ̇), ``rider_mass`` (parameters
-through MjSpec), ``cog_height_drift`` (``model.body_ipos`` of ``rider`` each step),
-``lateral_dynamics`` (a prescribed slalom, tilt ϑ(t) with the yaw rate of a
-coordinated turn, acts through :func:`euc_sim.simulation.effects.lateral_forces`; MuJoCo:
-``qfrc_applied``).  Velocity-dependent
-external forces are evaluated at the start of each step and held, in both engines.
-``sensor_time_offset`` acts on the recording only (:mod:`euc_sim.recording`).
+look-back buffer over the state history.  Engines: ``mujoco``
+(:class:`euc_sim.model.mujoco_model.EucMujoco`, RK4 at dt) and ``analytic`` (eqs. 5-8
+plus the effects' generalised forces, DOP853 over each step with the same held
+torques).  The catalog's effects act as physics in both, velocity-dependent forces
+held over each step from its start; see docs/simulation.md.
 """
 
 from __future__ import annotations
@@ -74,13 +54,8 @@ from euc_sim.simulation.steppers import _AnalyticStepper, _MujocoStepper  # noqa
 ENGINES = ("mujoco", "analytic")
 #: Fall bounds, rad: |φ| (rider) and |γ| (EUC body) beyond these end the run.
 FALL_BOUNDS = {"phi": 0.7, "gamma": 0.5}
-COLUMNS = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref")
 #: Control period and MuJoCo timestep of :func:`simulate` by default, s.
 DEFAULT_DT = 1e-3
-#: Effects handled by the simulator as physics (all of CONTRACT's catalog).
-SIM_EFFECTS = ("rolling_resistance", "aerodynamic_drag", "road_slope", "wheel_bearing_friction",
-               "rider_mass", "cog_height_drift", "lateral_dynamics", "sensor_time_offset")
-
 
 
 # --- effects -------------------------------------------------------------------------
@@ -88,7 +63,7 @@ def _check_effects(effects: Mapping[str, float] | None) -> dict[str, float]:
     out = {}
     for name, value in dict(effects or {}).items():
         try:
-            fx.get(name)                                # unknown name: lists the valid ones
+            e = fx.get(name)                            # unknown name: lists the valid ones
         except ValueError as exc:
             raise SimulationError(str(exc)) from None
         try:
@@ -97,9 +72,9 @@ def _check_effects(effects: Mapping[str, float] | None) -> dict[str, float]:
             raise SimulationError(f"effect {name}: expected a number, got {value!r}") from None
         if not math.isfinite(v):
             raise SimulationError(f"effect {name}: value must be finite, got {value!r}")
-        lo, hi = fx.get(name).bounds            # the catalog's bound of each effect
+        lo, hi = e.bounds
         if not lo <= v <= hi:
-            unit = "" if fx.get(name).unit == "1" else f" {fx.get(name).unit}"
+            unit = "" if e.unit == "1" else f" {e.unit}"
             raise SimulationError(f"effect {name}: expected a value in [{lo:g}, {hi:g}]{unit}, got {v!r}")
         out[name] = v
     return out
@@ -118,8 +93,9 @@ _RIDERS: dict = {}
 
 def default_rider(params: Params = TABLE3, motor: MotorPD | None = None,
                   noise_std: float = 0.0, delay: float = 0.15) -> Rider:
-    """The LQR-designed rider of :func:`euc_sim.controllers.design.design_rider`, cached per
-    (params, motor), with the given motor noise (N·m) and reaction delay (s)."""
+    """The LQR rider of :func:`euc_sim.controllers.design.design_rider`, cached per (params,
+    motor), with motor noise ``noise_std``, N·m, and reaction ``delay``, s.
+    """
     from euc_sim.controllers.design import design_rider  # deferred: loads scipy.linalg (0.3 s)
 
     motor = motor or MotorPD()
@@ -144,21 +120,18 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     Parameters
     ----------
     maneuver : str or Maneuver
-        A name of :data:`MANEUVERS` (not ``profile``), or a :class:`Maneuver` from
-        :func:`make_maneuver` / :func:`load_speed_profile`.
+        A name of :data:`MANEUVERS` (not ``profile``), or a :class:`Maneuver`.
     duration : float
         Length of the run, s.
     params : Params
-        Nominal parameters.  With the effects applied (:func:`true_params`) they are
-        the simulated physics and the rider's model of his own body: a rider knows
-        his weight, whatever the analyst assumes.
+        Nominal parameters; with the effects applied (:func:`true_params`) they are the
+        simulated physics and the rider's model of his own body.
     motor : MotorPD, optional
         The EUC's controller (default gains when omitted).
     rider : Rider, optional
-        The rider (``controllers.design.design_rider(true_params(params, effects), motor)``
-        when omitted: 0.15 s delay, no motor noise).
+        Default: :func:`default_rider` of the true parameters (0.15 s delay, no noise).
     seed : int
-        Seed of the rider's motor noise (no other randomness here).
+        Seed of the rider's motor noise (the only randomness).
     engine : {"mujoco", "analytic"}
     variant : {"ideal", "contact"}
         MuJoCo ground model (the analytic engine is pure rolling).
@@ -171,53 +144,36 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     contact : ContactSettings, optional
         MuJoCo contact variant settings.
     rolling_model : {"moment", "contact"}
-        How ``rolling_resistance`` acts: an applied moment −C_rr N R sign(ẋ) on the
-        wheel (both engines, CONTRACT's definition), or MuJoCo's own rolling friction
-        of the tyre contact (coefficient C_rr·R, m; MuJoCo engine, contact variant).
+        ``rolling_resistance`` as the applied moment −C_rr N R sign(ẋ) (CONTRACT), or as
+        MuJoCo's rolling friction of the tyre contact (coefficient C_rr·R, m; contact variant).
     external_force : callable, optional
-        ``F(t)``: a horizontal force, N, along +x at the rider's centre of gravity G,
-        held over each control step in both engines.  It is not a catalog effect: use
-        it to put disturbances the catalog does not know into a run (for example
-        :class:`euc_sim.simulation.effects.PeriodicPush`, the out-of-catalog case of the blind study).
+        ``F(t)``, N, along +x at the rider's G, held over each step; for disturbances outside
+        the catalog (e.g. :class:`euc_sim.simulation.effects.PeriodicPush`).
     lateral_motion : LateralMotion, optional
-        With ``lateral_dynamics``: the tilt and yaw to use (arrays on the run's grid,
-        ``round(duration / dt) + 1`` samples), for example a recording's, instead of
-        the built-in slalom.  The effect's value is then an effective peak tilt: the
-        coupling is scaled by (value / max|ϑ|)², so value = max|ϑ| is the physics.
+        With ``lateral_dynamics``: tilt and yaw on the run's grid instead of the built-in
+        slalom; the coupling is scaled by (value / max|ϑ|)².
     drift_shape : euc_sim.simulation.drift.DriftShape, optional
-        With ``cog_height_drift``: the shape of h(t) (ramp, dip, wander, sine, profile;
-        default the catalog's 12 s sine); the effect's value stays its peak-to-peak
-        change, m.  The inertial forces of G moving along the rider's axis (the ḣ
-        terms, :func:`euc_sim.simulation.drift.drift_forces`) act in both engines.
+        With ``cog_height_drift``: the shape of h(t) (default the catalog's 12 s sine).
     progress : callable, optional
-        ``progress(t)`` with the simulated time, s, every rider block (about 0.15 s of
-        ride): for a progress bar over a long run.
+        ``progress(t)`` with the simulated time, s, every rider block.
     native : bool
-        Run the MuJoCo loop without Python per step (:mod:`euc_sim.simulation.native`:
-        the motor PD and the rider's delayed law as a numba-compiled MuJoCo control callback).
-        It applies to the ``mujoco`` engine with every input: the callback holds drag, the
-        rolling-resistance moment, ``external_force`` (tabulated on the grid) and the
-        generalised forces of ``lateral_dynamics`` and ``cog_height_drift`` over each step,
-        and moves the rider's centre of gravity in the model to h(t) for each step, as the
-        Python loop does.  ``native=False``, or a machine where numba cannot compile (one line
-        on stderr), runs the Python loop.  Both loops agree to rounding (≤ 1e-9 rad over a
-        ride, both ground variants, ``tests/simulation/test_native.py``).
+        Run the MuJoCo loop as a numba control callback (:mod:`euc_sim.simulation.native`),
+        every input included; False, or where numba cannot compile, the Python loop.  The
+        two agree to rounding.
 
     Returns
     -------
     pandas.DataFrame
-        Columns as in the module docstring, ``round(duration / dt) + 1`` rows;
-        ``df.attrs`` holds the run's description (maneuver, params, effects, engine,
-        controllers, seed).
+        The module docstring's columns, ``round(duration / dt) + 1`` rows; ``df.attrs``
+        describes the run.
 
     Raises
     ------
     FallError
-        (a ``ValueError``) when |φ| or |γ| passes its bound or the state is not finite;
-        the message gives the time of the fall, and its ``trajectory`` the run up to it
-        (the columns ``t`` … ``v_ref`` above).
+        (a ``ValueError``) when |φ| or |γ| passes its bound or the state is not finite; its
+        ``trajectory`` holds the run up to the fall.
     SimulationError
-        for an unknown engine, maneuver, effect or a bad duration.
+        For an unknown engine, maneuver, effect or a bad duration.
     """
     ride = prepare(maneuver, duration, params=params, motor=motor, rider=rider, seed=seed, engine=engine,
                    variant=variant, effects=effects, dt=dt, fall_bounds=fall_bounds, contact=contact,
@@ -242,11 +198,11 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
 
 @dataclass(frozen=True)
 class PreparedRun:
-    """One run of :func:`simulate`, set up and not yet stepped (:func:`prepare`).
+    """One run of :func:`simulate`, set up and not yet stepped.
 
-    ``stepper`` is the engine with the initial state set, ``run`` the rider's law,
-    ``ext`` the effects' inputs on the grid ``t`` (N + 1 samples, s), ``y0`` the
-    initial state (x, γ, φ, ẋ, γ̇, φ̇), ``bounds`` the fall bounds, rad.
+    ``stepper`` is the engine with the initial state set, ``run`` the rider's law, ``ext``
+    the effects' inputs on the grid ``t`` (N + 1 samples, s), ``y0`` the initial state
+    (x, γ, φ, ẋ, γ̇, φ̇), ``bounds`` the fall bounds, rad.
     """
 
     stepper: object
@@ -263,21 +219,17 @@ class PreparedRun:
     attrs: dict
 
     def frame(self, states: np.ndarray, U: np.ndarray) -> pd.DataFrame:
-        """The run's DataFrame (module docstring's columns, ``attrs``) from states (N+1, 6) and torques (N+1, 2)."""
+        """The run's DataFrame from states (N+1, 6) and torques (N+1, 2)."""
         df = _trajectory(self.t, states, U, self.v_ref, self.ext)
         df.attrs.update(self.attrs)
         return df
 
     def attach_partial(self, exc: FallError) -> None:
-        """Give a fall its ``trajectory``: the run up to it, from its ``partial`` (states, torques)."""
+        """Give a fall its ``trajectory`` from its ``partial`` (states, torques)."""
         if exc.partial is None:
             return
         st, u = exc.partial
-        t, v_ref = self.t, self.v_ref
-        exc.trajectory = pd.DataFrame({
-            "t": t[:len(st)], "x": st[:, 0], "gamma": st[:, 1], "phi": st[:, 2], "x_dot": st[:, 3],
-            "gamma_dot": st[:, 4], "phi_dot": st[:, 5], "M_d": u[:, 0], "M_h": u[:, 1],
-            "v_ref": v_ref[:len(st)]})
+        exc.trajectory = _trajectory(self.t[:len(st)], st, u, self.v_ref[:len(st)])
 
 
 def prepare(maneuver="constant_speed", duration: float = 15.0, *, params: Params = TABLE3,
@@ -287,13 +239,7 @@ def prepare(maneuver="constant_speed", duration: float = 15.0, *, params: Params
             fall_bounds: Mapping[str, float] | None = None, contact=None,
             rolling_model: str = "moment", external_force=None,
             lateral_motion: LateralMotion | None = None, drift_shape=None) -> PreparedRun:
-    """Check a request of :func:`simulate` (same arguments) and set the run up: a :class:`PreparedRun`.
-
-    Raises
-    ------
-    SimulationError
-        as :func:`simulate`.
-    """
+    """Check a :func:`simulate` request (same arguments) and set the run up; ``SimulationError`` as :func:`simulate`."""
     _check_request(engine, duration, dt, variant, rolling_model)
     man = as_maneuver(maneuver)
     eff = _check_effects(effects)
@@ -348,12 +294,9 @@ def _check_request(engine: str, duration, dt: float, variant: str, rolling_model
 class _ExternalInputs:
     """What acts on the plant besides the motor and ankle torques, on the run's grid.
 
-    ``C_rr`` (1) and ``N_load`` (N): the rolling-resistance moment; ``k_drag`` (kg/m);
-    ``push``: F(t) at G, N; ``h_t``: h over the grid, m (``cog_height_drift``);
-    ``lat`` and ``lat_scale``: the tilt and yaw of ``lateral_dynamics``; ``contact``:
-    the MuJoCo contact settings (with the tyre's rolling friction under
-    ``rolling_model="contact"``); ``per_step``: whether any of them must be
-    evaluated at every step.
+    ``C_rr`` (1), ``N_load`` (N): rolling resistance; ``k_drag`` (kg/m); ``push``: F(t) at G,
+    N; ``h_t``: h, m; ``lat``, ``lat_scale``: ``lateral_dynamics``; ``contact``: MuJoCo
+    contact settings; ``per_step``: whether any must be evaluated every step.
     """
 
     C_rr: float
@@ -401,13 +344,10 @@ def _external_inputs(p_true: Params, eff: dict, t: np.ndarray, v_ref: np.ndarray
 def _closed_loop(stepper, motor: MotorPD, run: RiderRun, ext: _ExternalInputs, p_true: Params,
                  dt: float, N: int, y0: tuple, bounds: Mapping[str, float],
                  progress: Callable[[float], None] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Step the plant N times under the held motor and ankle torques; states (N+1, 6) and torques (N+1, 2).
+    """Step the plant N times under the held torques; states (N+1, 6) and torques (N+1, 2).
 
-    The rider senses states n = delay/dt steps old, so his ankle torques are computed
-    a block of n + 1 steps at a time (:meth:`euc_sim.controllers.rider.RiderRun.commands`);
-    the motor PD sees the current state and runs at every step.  Velocity-dependent
-    external forces are evaluated at the start of each step and held over it.
-    Per-step quantities are Python floats: the loop stays off numpy.
+    The rider's ankle torques come a block of n + 1 = delay/dt + 1 steps at a time
+    (:meth:`RiderRun.commands`); the motor PD runs every step.  Python floats per step.
     """
     n = run.n
     Y = [y0] * (n + 1)                         # padded state history: the delay buffer
@@ -446,7 +386,7 @@ def _closed_loop(stepper, motor: MotorPD, run: RiderRun, ext: _ExternalInputs, p
 
 
 def _rows(states: list) -> np.ndarray:
-    """A list of 6-tuples as an (n, 6) array (``np.fromiter``: twice as fast as ``np.array``)."""
+    """A list of 6-tuples as an (n, 6) array."""
     return np.fromiter(chain.from_iterable(states), float, 6 * len(states)).reshape(len(states), 6)
 
 
@@ -482,8 +422,7 @@ class _EffectsRow:
 
 
 def _moving(ext: _ExternalInputs, p: Params, dt: float):
-    """``lateral_dynamics`` and ``cog_height_drift`` on the grid for the native loop
-    (:func:`euc_sim.simulation.native.native_loop`'s ``moving``), the tables ``_EffectsRow`` reads; None without them."""
+    """The ``lateral_dynamics`` and ``cog_height_drift`` tables of the native loop's ``moving``; None without them."""
     if ext.lat is None and ext.h_t is None:
         return None
     lat = ext.lat
@@ -494,13 +433,15 @@ def _moving(ext: _ExternalInputs, p: Params, dt: float):
 
 
 def _trajectory(t: np.ndarray, states: np.ndarray, U: np.ndarray, v_ref: np.ndarray,
-                ext: _ExternalInputs) -> pd.DataFrame:
-    """The run as the module docstring's columns."""
+                ext: _ExternalInputs | None = None) -> pd.DataFrame:
+    """The run as the module docstring's columns (``h``, ``psi``, ``theta`` from ``ext``)."""
     df = pd.DataFrame({
         "t": t, "x": states[:, 0], "gamma": states[:, 1], "phi": states[:, 2],
         "x_dot": states[:, 3], "gamma_dot": states[:, 4], "phi_dot": states[:, 5],
         "M_d": U[:, 0], "M_h": U[:, 1], "v_ref": v_ref,
     })
+    if ext is None:
+        return df
     if ext.h_t is not None:
         df["h"] = ext.h_t
     if ext.lat is not None:

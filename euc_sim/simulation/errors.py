@@ -12,16 +12,8 @@ class SimulationError(InputError):
 class FallError(SimulationError):
     """The rider or the EUC fell: a state left its bound or became non-finite.
 
-    Attributes
-    ----------
-    t : float
-        Time of the fall, s.
-    quantity : str
-        ``"phi"``, ``"gamma"`` or ``"state"`` (non-finite).
-    value : float
-        The offending value, rad.
-    trajectory : pandas.DataFrame or None
-        The run up to the fall, where the simulator provides it.
+    Attributes: ``t`` (s), ``quantity`` (``"phi"``, ``"gamma"``, ``"theta"`` or ``"state"``),
+    ``value`` (rad), ``bound`` (rad or None), ``trajectory`` (the run up to the fall, or None).
     """
 
     partial = None
@@ -38,15 +30,7 @@ class FallError(SimulationError):
 
 
 class UnstableError(FallError):
-    """MuJoCo found a non-finite or huge state and reset it: the run is not a ride.
-
-    Parameters
-    ----------
-    t : float
-        Time at which it was noticed, s.
-    detail : str
-        Which of MuJoCo's counters fired (:func:`euc_sim.model.mujoco_model.instability`).
-    """
+    """MuJoCo found a non-finite or huge state by ``t``, s, and reset it (``detail``: its counters): not a ride."""
 
     def __init__(self, t: float, detail: str):
         self.t, self.quantity, self.value, self.bound = t, "state", float("nan"), None
@@ -56,15 +40,7 @@ class UnstableError(FallError):
 
 
 def check_stable(data, t: float) -> None:
-    """Raise :class:`UnstableError` when MuJoCo's warning counters in ``data`` say it reset the state.
-
-    Parameters
-    ----------
-    data : mujoco.MjData
-        The run's data, after its last step.
-    t : float
-        The run's end, s.
-    """
+    """Raise :class:`UnstableError` when MuJoCo's warning counters in ``data`` say it reset the state by ``t``, s."""
     from euc_sim.model.mujoco_model import instability  # deferred: loads mujoco (0.1 s)
 
     detail = instability(data)

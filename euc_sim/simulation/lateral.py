@@ -1,12 +1,12 @@
 """The yaw and tilt of a turning EUC acting on its pitch plane (the ``lateral_dynamics`` effect).
 
-The couplings :mod:`euc_sim.simulation.effects` catalogues as ``lateral_dynamics``: the tilted,
-turning plane's generalised force on the paper's coordinates (:func:`lateral_forces`, with its
-per-step float form :func:`lateral_force_row`, the one law of the Python loop and the native
-callback), the rider's lateral lean (:func:`rider_lean_forces`), his spatial correction from the
-G marker (:func:`rider_spatial_correction`) and the upright slender rider's term
-(:func:`upright_slender_moment`), and the tilt the effect is scored against
-(:func:`band_peak_tilt`).  :mod:`effects` re-exports every name.
+The tilted, turning plane's generalised force on the paper's coordinates
+(:func:`lateral_forces`; per step :func:`lateral_force_row`), the rider's lateral lean
+(:func:`rider_lean_forces`), his spatial correction from the G marker
+(:func:`rider_spatial_correction`), the upright slender rider's term
+(:func:`upright_slender_moment`) and the tilt the effect is scored against
+(:func:`band_peak_tilt`).  :mod:`effects` re-exports every name.  See docs/diagnosis.md
+(Lateral dynamics) and docs/spatial.md.
 """
 
 from __future__ import annotations
@@ -20,41 +20,18 @@ from euc_sim.model.rider_spatial import rider_translation_forces
 #: The tilt and yaw signals the ``lateral_dynamics`` term needs (rad, rad/s, rad/s²).
 LATERAL_INPUTS = ("theta", "theta_d", "psi_d", "psi_dd")
 
-#: The couplings' bandwidth: the window, s, of the cubic Savitzky–Golay fit through which
-#: the tilt and yaw enter the lateral term: it follows the figure-eight's yaw reversals
-#: (1.25 s curvature ramps) with the paper's angle noise.  Value: see docs/spatial.md.
+#: The couplings' bandwidth: the window, s, of the cubic Savitzky–Golay fit of tilt and yaw
+#: (docs/spatial.md).
 LATERAL_WINDOW = 0.5
 
 
 def band_peak_tilt(theta, dt: float, window: float = LATERAL_WINDOW) -> float:
     """``lateral_dynamics``' peak tilt (CONTRACT), rad: max |ϑ| over the couplings' bandwidth.
 
-    The tilt ϑ of a ride is the turn's lean plus the rider's balance wobble; the lateral
-    couplings act through the tilt seen over :data:`LATERAL_WINDOW` (the diagnosis's
-    columns), so the peak tilt is that of the tilt smoothed by the same cubic
-    Savitzky–Golay fit (``scipy.signal.savgol_filter``, window ``round(window/dt) | 1``
-    samples), over the samples a whole window from either end (where the fit is centred).
-    The same function gives a simulation's truth (its true tilt at 1 kHz) and the
-    diagnosis's estimate (the recorded tilt).
-
-    Parameters
-    ----------
-    theta : array_like, shape (N,)
-        Tilt, rad, sampled uniformly.
-    dt : float
-        Sample period, s.
-    window : float
-        Smoothing window, s.
-
-    Returns
-    -------
-    float
-        rad.
-
-    Raises
-    ------
-    ValueError
-        for a record shorter than two windows.
+    The tilt ``theta`` (rad, sampled every ``dt`` s) smoothed by the cubic Savitzky–Golay fit
+    of ``window`` s through which the couplings act, its peak over the samples a half window
+    from either end: the rider's wobble left out.  Gives both a simulation's truth and the
+    diagnosis's estimate.  ``InputError`` for a record shorter than two windows.
     """
     from scipy.signal import savgol_filter
     theta = np.asarray(theta, dtype=float)
@@ -67,53 +44,33 @@ def band_peak_tilt(theta, dt: float, window: float = LATERAL_WINDOW) -> float:
 
 
 def min_duration(dt: float = 1e-3, window: float = LATERAL_WINDOW) -> float:
-    """Shortest record, s, whose tilt :func:`band_peak_tilt` can read: two smoothing windows.
-
-    Parameters
-    ----------
-    dt : float
-        Sample period, s.
-    window : float
-        Smoothing window, s.
-    """
+    """Shortest record, s, whose tilt :func:`band_peak_tilt` can read (two windows at ``dt``)."""
     return (2 * (int(round(window / dt)) | 1) - 1) * dt
 
 
 def lateral_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd) -> np.ndarray:
     """Generalised force of yaw and tilt on the pitch plane (``lateral_dynamics``).
 
-    The paper's plane (Fig. 2) is carried by the EUC: its origin, the contact point P,
-    runs along the ground with speed ẋ and heading ψ, and it is tilted about the
-    heading by ϑ_l = −ϑ towards the left (CONTRACT's ϑ, eq. 2, is positive to the right).  A point of a body at (ξ, ζ) in the plane (ξ ahead of P, ζ along the
-    tilted up-axis e_u) is at r = P + ξ e_f + ζ e_u.  Its acceleration, less the
-    planar one (ẍ + ξ̈, ζ̈), and gravity, less the planar g, are, along e_f and e_u,
+    The plane rides on the EUC (origin P at the contact, speed ẋ, heading ψ) tilted by
+    ϑ_l = −ϑ to the left.  A body point at (ξ, ζ) in the plane gains, along e_f and e_u,
 
         δa_f = −ξ ψ̇² − 2 ζ̇ ψ̇ sin ϑ_l − ζ (2 ϑ̇_l ψ̇ cos ϑ_l + ψ̈ sin ϑ_l),
         δa_u = (ẋ + 2 ξ̇) ψ̇ sin ϑ_l + ξ ψ̈ sin ϑ_l − ζ (ϑ̇_l² + ψ̇² sin² ϑ_l) + g (cos ϑ_l − 1),
 
-    and each body's pitch rate gains −ψ̇ sin ϑ_l (the yaw rate seen about the tilted
-    pitch axis).  By Kane's method (x is a path length, so the x-row is not a plain
-    Lagrange equation), with the partial velocities ∂(ξ, ζ)/∂q of eq. (A.1)'s geometry,
-
-        Q_i = −Σ_b m_b (δa_f ∂ξ_b/∂q_i + δa_u ∂ζ_b/∂q_i)
-              + Σ_b J_b (ψ̈ sin ϑ_l + ψ̇ ϑ̇_l cos ϑ_l) ∂ω_b/∂q̇_i.
-
-    In a steady coordinated turn (ψ̇ = g tan ϑ_l / ẋ, ϑ̇ = ψ̈ = 0) the gravity part is the
-    familiar g/cos ϑ felt in the plane; in a slalom the yaw acceleration acting on the
-    rider's inward-leaning centre of gravity dominates.  Only the bodies' pitch-axis
-    inertias (Table 3) are known, so gyroscopic terms of the other axes are left out.
-    ``euc_sim.model.symbolic.derive_lateral`` derives the same from the 3-D positions.
+    and each pitch rate −ψ̇ sin ϑ_l; by Kane's method, Q_i = −Σ_b m_b (δa_f ∂ξ_b/∂q_i +
+    δa_u ∂ζ_b/∂q_i) + Σ_b J_b (ψ̈ sin ϑ_l + ψ̇ ϑ̇_l cos ϑ_l) ∂ω_b/∂q̇_i.  Only the pitch
+    inertias (Table 3) are known: other gyroscopic terms are left out.  Proven against
+    ``euc_sim.model.symbolic.derive_lateral``.
 
     Parameters
     ----------
     p : Params
     q, qd : array_like, shape (..., 3)
-        Paper coordinates and rates (x is the distance run along the path).
+        Paper coordinates and rates (x the distance run along the path).
     theta, theta_d : array_like
-        Tilt ϑ, rad, positive to the right (CONTRACT, eq. 2: a turn with ψ̇ > 0, to the
-        left, leans the rider to ϑ < 0), and its rate, rad/s.
+        Tilt ϑ, rad, positive to the right (CONTRACT, eq. 2), and its rate, rad/s.
     psi_d, psi_dd : array_like
-        Yaw rate ψ̇, rad/s, and yaw acceleration ψ̈, rad/s².
+        Yaw rate ψ̇, rad/s, and acceleration ψ̈, rad/s².
 
     Returns
     -------
@@ -134,12 +91,7 @@ def lateral_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd) -> np.ndarra
 
 def lateral_force_rows(p: Params, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, phi_d,
                        s_theta, c_theta, theta_d, psi_d, psi_dd) -> tuple:
-    """(Q_x, Q_γ, Q_φ) of :func:`lateral_forces` from the angles' sines and cosines.
-
-    Plain arithmetic on its arguments, so Python floats (the simulator's call, once a
-    step) and numpy arrays (:func:`lateral_forces`) give the same force; units and
-    symbols as there.  The law itself is :func:`lateral_force_row`.
-    """
+    """(Q_x, Q_γ, Q_φ) of :func:`lateral_forces` from the angles' sines and cosines, floats or arrays alike."""
     return lateral_force_row(p.mw, p.m0, p.m, p.h0, p.l0, p.h, p.R, p.g, p.Jw, p.J0, p.J,
                              s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, phi_d,
                              s_theta, c_theta, theta_d, psi_d, psi_dd)
@@ -147,11 +99,8 @@ def lateral_force_rows(p: Params, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d, 
 
 def lateral_force_row(mw, m0, m, h0, l0, h, R, g, Jw, J0, J, s_gamma, c_gamma, s_phi, c_phi, x_d, gamma_d,
                       phi_d, s_theta, c_theta, theta_d, psi_d, psi_dd) -> tuple:
-    """:func:`lateral_force_rows` with Table 3's parameters as numbers (kg, m, kg·m², m/s²).
-
-    The one law of every loop that applies ``lateral_dynamics``: the Python loop (through
-    :func:`lateral_force_rows`), and compiled by numba (scalars only) the native callback
-    (:mod:`~euc_sim.simulation.native_kernels`).  Arithmetic only, no loop over the bodies.
+    """:func:`lateral_force_rows` with Table 3's parameters as numbers (kg, m, kg·m², m/s²): the one
+    law of every loop (numba-compiled by the native callback), arithmetic only.
     """
     sg, cg, sp_, cp = s_gamma, c_gamma, s_phi, c_phi
     # CONTRACT's ϑ (eq. 2) is positive tilting to the right; the derivation below leans
@@ -185,43 +134,21 @@ def lateral_force_row(mw, m0, m, h0, l0, h, R, g, Jw, J0, J, s_gamma, c_gamma, s
 #: The rider's lateral lean relative to the EUC body, its rates and the tilt
 #: acceleration (rad, rad/s, rad/s², rad/s²) that :func:`rider_lean_forces` needs.
 LEAN_INPUTS = ("lean", "lean_d", "lean_dd", "theta_dd")
-#: The rider's inertia about his long axis over J (his pitch and lateral inertia about
-#: G): a standing body is slender, its yaw inertia a fraction of the pitch one.  The
-#: spatial model (``model.spatial.build_spatial_spec``) uses the same ratio.
+#: The rider's inertia about his long axis over J (a standing body is slender); the spatial
+#: model uses the same ratio.
 RIDER_YAW_INERTIA_RATIO = 0.2
 
 
 def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lean_d, lean_dd, theta_dd) -> np.ndarray:
     """Generalised force of the rider's lateral lean λ relative to the EUC body.
 
-    :func:`lateral_forces` carries every body in the EUC's plane, tilted by ϑ.  A
-    rider who leans by λ about his ankle's fore-aft axis (after his pitch φ, the
-    lateral hinge of ``mjcf/euc_3d.xml``; λ > 0 to the right like ϑ) has his
-    centre of gravity G out of that plane by y = −h sin λ along the pitch axis e_a
-    and his long axis n = (cos λ sin φ, −sin λ, cos λ cos φ) in the tilted frame
-    (e_f, e_a, e_u).  Two terms follow, by Kane's method with ∂ω/∂φ̇ = e_a:
-
-    * the offset y, carried by the frame's rotation Ω = ψ̇ e_z + ϑ̇ e_f, accelerates G by
-      a_f = y (−ψ̈ cos ϑ + 2 ϑ̇ ψ̇ sin ϑ) − 2 ẏ ψ̇ cos ϑ and
-      a_u = y (ϑ̈ + ψ̇² sin ϑ cos ϑ) + 2 ẏ ϑ̇, and the in-plane arm shortened to
-      h cos λ adds d²/dt² [h (cos λ − 1)(sin φ, cos φ)] (without its φ̈ part) and the
-      frame's terms of :func:`lateral_force_rows` on that change;
-      Q_i = −m (a_f ∂ξ_G/∂q_i + a_u ∂ζ_G/∂q_i);
-    * the rider's rotation with inertia I = J 1 + (J_z − J) n nᵀ about G
-      (J_z = :data:`RIDER_YAW_INERTIA_RATIO` · J): beyond J φ̈ and the frame's own
-      pitch rate (in :func:`lateral_forces`), e_a · d(I ω)/dt has
-      J λ̇ Ω·e_z' + (J_z − J) (−sin λ · d(n·ω)/dt + (n·ω) e_a·ṅ),
-      e_z' = (sin φ, 0, cos φ) the rider's axis before the lean.
-
-    Less the upright slender rider's own term (λ = λ̇ = λ̈ = 0, the (J_z − J) term),
-    which :func:`lateral_forces` leaves out with its isotropic rider: a recording
-    without lean (the planar simulator's lateral cases) then sees exactly the physics
-    that was injected.  Terms of second order in λ times q̈ (inertia, not force) and in
-    the partial velocities are left out: the force is exact at λ = 0 and to first order
-    in λ (``euc_sim.model.symbolic.derive_rider_lean``, a test).  On the
-    3-D model's circle (30 s, seed 1, no sensor noise) the two terms take the
-    remainder left by :func:`lateral_forces` from 0.45 to 0.11 N·m RMS
-    (before the upright slender term was taken out; ``docs/spatial.md``).
+    A rider leaning by λ about his ankle's fore-aft axis (after his pitch φ; λ > 0 to the
+    right) has G out of the plane by y = −h sin λ and an in-plane arm h cos λ.  By Kane's
+    method: the translation of that offset and arm change in the turning, tilted frame, and
+    the rotation of the rider's inertia I = J 1 + (J_z − J) n nᵀ about G (J_z =
+    :data:`RIDER_YAW_INERTIA_RATIO` · J), less the upright slender term
+    (:func:`upright_slender_moment`) that :func:`lateral_forces` leaves out.  Exact at λ = 0
+    and to first order in λ (``euc_sim.model.symbolic.derive_rider_lean``).
 
     Parameters
     ----------
@@ -232,8 +159,7 @@ def rider_lean_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd, lean, lea
     psi_d, psi_dd : array_like
         Yaw rate, rad/s, and acceleration, rad/s².
     lean, lean_d, lean_dd : array_like
-        The rider's lean λ relative to the EUC body, rad (positive to the right), and
-        its rates, rad/s, rad/s².
+        The rider's lean λ relative to the EUC body, rad, and its rates.
 
     Returns
     -------
@@ -292,29 +218,13 @@ RIDER_MARKER_INPUTS = ("psi", "G_dd", "x_dd", "xi_dd", "zeta_dd")
 
 
 def rider_spatial_correction(p: Params, q, qd, extra: dict) -> np.ndarray:
-    """The rider's translation in space where G's marker is recorded.
+    """The rider's translation in space where G's marker is recorded, (N, 3): (N, N·m, N·m).
 
     Replaces the modelled translation of the rider (the m-linear part of
     :func:`lateral_forces` + :func:`rider_lean_forces`) by the one the marker G measures
-    (:func:`euc_sim.model.rider_spatial.rider_translation_forces`): the rider's translation
-    and rotation are what those terms leave (docs/spatial.md, the ablation).  The rider's
-    rotation keeps the isotropic convention (the slender term is the interval's
-    alternative, ``diagnosis.candidates``).
-
-    Parameters
-    ----------
-    p : Params
-    q, qd : array_like, shape (N, 3)
-        Paper coordinates (m, rad) and rates (m/s, rad/s).
-    extra : dict
-        :data:`LATERAL_INPUTS`, :data:`LEAN_INPUTS` and :data:`RIDER_MARKER_INPUTS`
-        (rad, rad/s, rad/s², m/s² as in :func:`lateral_forces`, :func:`rider_lean_forces`
-        and :func:`euc_sim.model.rider_spatial.rider_translation_forces`).
-
-    Returns
-    -------
-    numpy.ndarray, shape (N, 3)
-        (N, N·m, N·m) to add to eq. (5)'s right-hand side.
+    (:func:`euc_sim.model.rider_spatial.rider_translation_forces`; docs/spatial.md, the
+    ablation).  ``extra`` holds :data:`LATERAL_INPUTS`, :data:`LEAN_INPUTS` and
+    :data:`RIDER_MARKER_INPUTS`.
     """
     lat = {k: extra[k] for k in LATERAL_INPUTS}
     lean = {k: extra[k] for k in LATERAL_INPUTS + LEAN_INPUTS}
@@ -327,13 +237,11 @@ def rider_spatial_correction(p: Params, q, qd, extra: dict) -> np.ndarray:
 
 
 def upright_slender_moment(p: Params, phi, theta, theta_d, psi_d) -> np.ndarray:
-    """The upright slender rider's pitch moment about the ankle, N·m (the (J_z − J) term).
+    """The upright slender rider's pitch moment about the ankle, N·m.
 
     (J_z − J)(ψ̇ cos ϑ cos φ + ϑ̇ sin φ)(−ϑ̇ cos φ + ψ̇ cos ϑ sin φ), J_z =
-    :data:`RIDER_YAW_INERTIA_RATIO` · J: the term by which a rider slender about his long
-    axis differs from :func:`lateral_forces`' isotropic rider at λ = 0; the rider's pitch
-    row of eq. (5) gets −this for the slender rider.  ``phi``, ``theta`` rad; ``theta_d``,
-    ``psi_d`` rad/s.
+    :data:`RIDER_YAW_INERTIA_RATIO` · J: the slender rider's difference from the isotropic
+    one at λ = 0 (the pitch row gets −this).  ``phi``, ``theta`` rad; ``theta_d``, ``psi_d`` rad/s.
     """
     phi, th, th_d, ps_d = (np.asarray(a, dtype=float) for a in (phi, theta, theta_d, psi_d))
     s_p, c_p, c_th = np.sin(phi), np.cos(phi), np.cos(th)

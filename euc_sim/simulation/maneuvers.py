@@ -29,8 +29,7 @@ def _ramp(u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _add_ramp(v: np.ndarray, a: np.ndarray, u: np.ndarray, dv: float, dur: float) -> None:
-    """``v += dv·s(u)`` and ``a += dv·s'(u)/dur`` in place, :func:`_ramp` evaluated inside (0, 1)
-    only: outside, s is exactly 0 or 1 and s' is 0, so the sums are those over whole arrays."""
+    """``v += dv·s(u)`` and ``a += dv·s'(u)/dur`` in place, :func:`_ramp` evaluated inside (0, 1) only."""
     inside = (u > 0.0) & (u < 1.0)
     v += dv * (u >= 1.0)
     if inside.any():
@@ -50,12 +49,11 @@ class Maneuver:
     v0 : float
         Speed at t = 0, m/s.
     ramps : tuple of (start, duration, target)
-        Smooth (cosine) speed changes: start time s, duration s, target speed m/s.
+        Cosine speed changes: start s, duration s, target speed m/s.
     table : tuple of (t, v) tuples, optional
-        A tabulated profile (``profile``), interpolated by PCHIP, held beyond its ends.
+        A tabulated profile (``profile``), PCHIP-interpolated, held beyond its ends.
     options : tuple of (name, value)
-        The :func:`make_maneuver` options that built it (for sidecars:
-        ``make_maneuver(name, **dict(options))`` rebuilds it).
+        The :func:`make_maneuver` options that rebuild it.
     """
 
     name: str
@@ -102,21 +100,11 @@ OPTION_RANGES = {"v": (-30.0, 30.0), "v0": (-30.0, 30.0), "v1": (-30.0, 30.0), "
 
 
 def make_maneuver(name: str, **options) -> Maneuver:
-    """A built-in maneuver, shaped like the paper's recordings (speeds in m/s, times in s).
+    """A built-in maneuver shaped like the paper's recordings (speeds in m/s, times in s).
 
-    Parameters
-    ----------
-    name : str
-        ``constant_speed`` (options v), ``acceleration`` (v0, v1, start, ramp),
-        ``deceleration`` (v0, v1, start, ramp) or ``stop_and_go`` (v, start, ramp,
-        hold, cycles).
-    **options
-        Overrides of the defaults below.
-
-    Raises
-    ------
-    SimulationError
-        for an unknown name or option; the message lists the valid ones.
+    ``constant_speed`` (option v), ``acceleration`` and ``deceleration`` (v0, v1, start,
+    ramp) or ``stop_and_go`` (v, start, ramp, hold, cycles); ``options`` override the
+    defaults.  ``SimulationError`` listing the valid names or options.
     """
     defaults = {
         "constant_speed": {"v": 3.0},
@@ -159,13 +147,8 @@ def make_maneuver(name: str, **options) -> Maneuver:
 
 
 def load_speed_profile(path: str | Path) -> Maneuver:
-    """A ``profile`` maneuver from a CSV with columns ``t`` (s) and ``v`` (m/s).
-
-    Raises
-    ------
-    SimulationError
-        for a missing or malformed file: missing columns, non-numeric or non-finite
-        values, fewer than one row, t not strictly increasing.
+    """A ``profile`` maneuver from a CSV with columns ``t`` (s, strictly increasing) and ``v``
+    (m/s); ``SimulationError`` naming what is missing or malformed.
     """
     path = Path(path)
     if not path.is_file():
@@ -207,15 +190,9 @@ def as_maneuver(maneuver) -> Maneuver:
     raise SimulationError(f"maneuver must be a name or a Maneuver, got {type(maneuver).__name__}")
 
 
-
-
 @dataclass(frozen=True)
 class LateralMotion:
-    """Prescribed tilt and yaw of the ``lateral_dynamics`` slalom (arrays over t).
-
-    Attributes: ``theta`` (rad), ``theta_d`` (rad/s), ``psi`` (rad), ``psi_d`` (rad/s),
-    ``psi_dd`` (rad/s²).
-    """
+    """Prescribed tilt and yaw over t: ``theta`` (rad), ``theta_d`` (rad/s), ``psi`` (rad), ``psi_d`` (rad/s), ``psi_dd`` (rad/s²)."""
 
     theta: np.ndarray
     theta_d: np.ndarray
@@ -225,26 +202,12 @@ class LateralMotion:
 
 
 def lateral_profile(peak_tilt: float, t, v_ref) -> LateralMotion:
-    """Slalom of the ``lateral_dynamics`` effect.
+    """Slalom of the ``lateral_dynamics`` effect over times ``t``, s, at planned speed ``v_ref``, m/s.
 
-    The tilt is ϑ ∝ sin(2π t / 6 s) · min(1, |v_ref| / 2 m/s), scaled so that its
-    peak is ``peak_tilt`` (riders lean into turns less at walking pace); the yaw rate
-    is that of a coordinated turn at the planned speed, ψ̇ = −g tan ϑ / max(|v_ref|,
-    1 m/s), g = 9.81 m/s²: the rider leans into the turn, to the left (ϑ < 0 in
-    CONTRACT's sign, eq. 2) while the path turns left (ψ̇ > 0).  Rates are central differences on the grid t.
-
-    Parameters
-    ----------
-    peak_tilt : float
-        max |ϑ|, rad.
-    t : array_like
-        Times, s, increasing.
-    v_ref : array_like
-        Planned speed at t, m/s.
-
-    Returns
-    -------
-    LateralMotion
+    ϑ ∝ −sin(2π t / :data:`LATERAL_PERIOD`) · min(1, |v_ref| / :data:`LATERAL_FULL_TILT_SPEED`),
+    peak ``peak_tilt``, rad; the yaw rate of a coordinated turn, ψ̇ = g tan(−ϑ) /
+    max(|v_ref|, :data:`LATERAL_MIN_SPEED`) (leaning left, ϑ < 0, while turning left);
+    rates by central differences.
     """
     t = np.asarray(t, dtype=float)
     speed = np.abs(np.asarray(v_ref, dtype=float))

@@ -1,27 +1,12 @@
 """Synthetic motion capture: a simulated run sampled like the paper's OptiTrack data.
 
-The paper (Section 2) records at 120 Hz with an accuracy of ±0.20 mm in position
-and ±0.5° in angle.  Here those figures are taken as **one standard deviation** of
-independent Gaussian noise per sample and axis (:data:`NOISE_LEVELS`); "none" gives
-exact samples.
-
-Columns written (CONTRACT's recording):
-
-- state level: ``t, x, gamma, phi, psi, theta`` and, unless hidden, the true
-  ``M_d, M_h`` (the torque held at the sample time);
-- motion-capture level: ``C_X, C_Y, C_Z`` (wheel centre), ``E_X, E_Y, E_Z`` (the EUC's
-  pivot point E, the MJCF site 0.42 m above C on the body axis), ``G_X, G_Y, G_Z``
-  (the rider's centre of gravity), m, ground frame, built with eqs. (1)-(2):
-  R = T_ψ T_ϑ r for offsets r in the EUC's moving frame.
-
-How the noise enters: ψ, ϑ, γ and φ get angle noise; C and E get position noise;
-G is placed at A + h(sin φ_rec, ·, cos φ_rec) with the *recorded* (noisy) φ plus
-position noise, since the rider's centre of gravity comes from a skeleton model whose
-error shows as an error of the lean; x is the true x plus position noise.
-
-Sampling: states by cubic Hermite interpolation of the 1 kHz run (values and rates),
-torques by their zero-order hold.  ``sensor_time_offset`` τ delays the rider channel
-(φ and G): φ_rec(t) = φ(t − τ), held at φ(0) before the start.
+120 Hz with the paper's ±0.20 mm and ±0.5° taken as one standard deviation of Gaussian
+noise (:data:`NOISE_LEVELS`).  Columns (:data:`RECORDING_COLUMNS`): ``t, x, gamma, phi,
+psi, theta``, the held ``M_d, M_h`` unless hidden, and the markers C, E (0.42 m above C)
+and G, m, ground frame, by eqs. (1)-(2).  Angles get angle noise, C, E and x position
+noise, and G sits at A + h(sin φ_rec, ·, cos φ_rec) with the recorded φ plus position
+noise.  States by cubic Hermite interpolation, torques by zero-order hold;
+``sensor_time_offset`` τ delays φ and G: φ_rec(t) = φ(t − τ).
 """
 
 from __future__ import annotations
@@ -72,13 +57,12 @@ def _rotate(psi, theta, r):
 def motion_capture(run: pd.DataFrame, params: Params, *, noise: str = "paper", seed: int = 0,
                    effects: Mapping[str, float] | None = None, rate: float = RATE,
                    hide_torques: bool = False) -> pd.DataFrame:
-    """Sample a simulated run at ``rate`` with seeded noise, in CONTRACT's columns.
+    """Sample a simulated run at ``rate``, Hz, with seeded noise, in CONTRACT's columns.
 
     Parameters
     ----------
     run : pandas.DataFrame
-        Output of :func:`euc_sim.simulation.engine.simulate` (t, x, gamma, phi, x_dot,
-        gamma_dot, phi_dot, M_d, M_h; h, psi, theta when present).
+        Output of :func:`euc_sim.simulation.engine.simulate`.
     params : Params
         The true parameters (R, l0 and h place C and G).
     noise : {"paper", "none"} or (float, float)
@@ -87,20 +71,13 @@ def motion_capture(run: pd.DataFrame, params: Params, *, noise: str = "paper", s
         Seed of the measurement noise.
     effects : mapping, optional
         Only ``sensor_time_offset`` (s) acts here.
-    rate : float
-        Sampling rate, Hz.
     hide_torques : bool
         Leave out M_d and M_h.
-
-    Returns
-    -------
-    pandas.DataFrame
-        :data:`RECORDING_COLUMNS` (without the torques when hidden).
 
     Raises
     ------
     ValueError
-        for an unknown noise level or a run without the needed columns.
+        For an unknown noise level or a run without the needed columns.
     """
     if isinstance(noise, str) and noise not in NOISE_LEVELS:
         raise InputError(f"unknown noise level {noise!r}; valid: {', '.join(NOISE_LEVELS)}")

@@ -1,53 +1,13 @@
 """MuJoCo rides in batches on threads: ``mujoco.batch.Batch`` with the catalog's effects.
 
-:func:`simulate_rides` runs many requests of :func:`euc_sim.simulation.engine.simulate`
-(each its own maneuver, seed, parameters, rider and effects) as the simulations of one
-``mujoco.batch.Batch`` on ``nthread`` threads, and returns what ``simulate`` returns for
-each: the same DataFrame, or the ``FallError`` it raises.
-
-* **Per step, in C.** A numba ``cfunc`` installed as MuJoCo's control callback runs,
-  at the first callback call of every step (RK4 calls it once per stage; the count is
-  measured on the batch), the motor PD (:func:`euc_sim.controllers.motor.pd_torque`, the one
-  motor law), records the state, checks the fall bounds and sets the step's held
-  external forces from the state at its start (:func:`euc_sim.simulation.effects.held_forces`,
-  the one law of every loop, compiled): aerodynamic drag −k ẋ|ẋ| at G
-  (``xfrc_applied`` on ``rider``), the rolling-resistance moment −C_rr N R tanh(ẋ/v_s)
-  (``qfrc_applied`` on ``x`` as τ/R, or ``xfrc_applied`` on ``wheel`` in the contact
-  variant) and an ``external_force`` F(t) at G, tabulated on the grid.  This is
-  exactly what :func:`simulate` holds over each step.  Every
-  simulation's settings, counters and buffer addresses live in its own
-  ``MjData.userdata`` (``nuserdata`` = :data:`NU` slots of the model), never in a
-  global: the threads never share a simulation's context.
-* **Per model.** ``road_slope`` (gravity in the road frame), ``wheel_bearing_friction``
-  (damping), ``rider_mass`` (parameters through MjSpec) and the contact settings give
-  each ride the model :func:`simulate` builds (``Batch.set_models``, one model per
-  distinct setting): exact.
-* **Per block, in numpy.** The rider's delayed law (:meth:`euc_sim.controllers.rider.RiderRun.commands`,
-  blocks of n + 1 steps) is vectorised across the batch's simulations between
-  ``batch.step(nstep=block)`` calls: the same operations on stacked rows, the
-  predictor's recursion solved for all rides of one rider law at once (LAPACK
-  ``dtrtrs`` with many right-hand sides); a ride whose torque limit binds in a block is
-  done step by step by its own :class:`RiderRun`.  The batch agrees with ``simulate``
-  to rounding (≤ 1e-9 rad over a ride, ``tests/simulation/test_mujoco_batch.py``).
-* **Not in the batch.** ``cog_height_drift`` and ``lateral_dynamics`` need tabulated
-  inputs and (the drift) a model field per step, which the batch's callback does not
-  carry; ``engine="analytic"``, ``lateral_motion`` and ``drift_shape`` likewise.  Such
-  requests run through :func:`simulate` itself (natively, the two effects included),
-  one after the other: MuJoCo's control callback is process-global, so they cannot
-  share the batch's threads.  ``sensor_time_offset`` acts on the recording only.
-
-* **On threads.** Many batches are pipelined (:func:`_pipeline`): each of ``nthread``
-  threads steps batches of its own, one ``Batch`` on one thread (``Batch.step``
-  releases the GIL), while the calling thread sets up the next batch
-  (:func:`engine.prepare`, about 7 % of a ride's CPU time) and the threads' Python work
-  (the rider's blocks, the DataFrames) overlaps the others' stepping: nothing
-  serial keeps a core idle.  Fewer batches run one after the other, each ``Batch``
-  on ``nthread`` threads.
-
-Where numba cannot compile, every request runs through :func:`simulate` (one line
-on stderr).  One call at a time per process holds MuJoCo's (process-global) control
-callback for its batches; it takes :mod:`euc_sim.simulation.native`'s lock, so a
-native ``simulate`` in another thread meanwhile waits for it.
+:func:`simulate_rides` runs many :func:`euc_sim.simulation.engine.simulate` requests as the
+simulations of ``mujoco.batch.Batch`` objects and returns, per request, the DataFrame
+``simulate`` returns or the ``FallError`` it raises.  Per step, a numba ``cfunc`` control
+callback applies the motor PD, the held external forces (:func:`euc_sim.simulation.effects.held_forces`)
+and the fall bounds, its context in each simulation's ``MjData.userdata``; per block of
+n + 1 steps, the rider's delayed law runs in numpy across the batch.  Requests the batch
+cannot carry (other effects, ``engine="analytic"``) run through ``simulate``.  Agrees with
+``simulate`` to rounding.  See docs/mujoco_batch.md.
 """
 
 from __future__ import annotations
@@ -93,7 +53,7 @@ _UNUSABLE_REASON = ""
 
 
 def batchable(request: Mapping) -> bool:
-    """Whether a request of :func:`simulate` (its keyword arguments) runs in the batch."""
+    """Whether a :func:`simulate` request (its keyword arguments) runs in the batch."""
     eff = dict(request.get("effects") or {})
     return (request.get("engine", "mujoco") == "mujoco" and set(eff) <= set(BATCH_EFFECTS)
             and request.get("lateral_motion") is None and request.get("drift_shape") is None)
@@ -184,37 +144,29 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int 
     Parameters
     ----------
     requests : sequence of mapping
-        Keyword arguments of :func:`euc_sim.simulation.engine.simulate` (``maneuver``,
-        ``duration``, ``seed``, ``params``, ``effects`` …), one mapping per ride.
+        Keyword arguments of :func:`euc_sim.simulation.engine.simulate`, one mapping per ride.
     nthread : int
-        Threads stepping the batches (0: MuJoCo's default pool).  Where the batched
-        requests fill at least :data:`PIPELINE_BATCHES` × ``nthread`` batches (and
-        ``nthread`` ≥ 2), each thread steps batches of its own (a ``mujoco.batch.Batch``
-        on one thread) while the calling thread prepares the next (:func:`_pipeline`):
-        no core waits for the Python work (set-up, the rider's block law, DataFrames).
-        Otherwise the batches run one after the other, each on ``nthread`` threads, the
-        Python work between them.  Threads never change a ride.
+        Threads stepping the batches (0: MuJoCo's default pool).  From
+        :data:`PIPELINE_BATCHES` × ``nthread`` batches on (``nthread`` ≥ 2) each thread steps
+        batches of its own while the calling thread prepares the next (:func:`_pipeline`);
+        otherwise the batches run one after the other on ``nthread`` threads.  Threads never
+        change a ride.
     batch : int
-        Rides per ``Batch`` at most (a 20 s ride's records take about 1.3 MB; the
-        pipeline holds at most ``2 nthread + 2`` batches at once).  The batches' make-up
-        (hence the rounding of the rider's batched sums) depends on ``batch`` only.
+        Rides per ``Batch`` at most; the batches' make-up (hence the rounding of the rider's
+        batched sums) depends on it only.
     progress : callable, optional
-        ``progress(n)`` with the number of rides finished, as they finish (called in
-        the calling thread).
+        ``progress(n)`` with the number of rides finished, called in the calling thread.
 
     Returns
     -------
     list
-        Per request, in order: the DataFrame :func:`simulate` returns, or the
-        ``FallError`` it raises (with its ``trajectory``).
+        Per request, in order: the DataFrame of :func:`simulate` or the ``FallError`` it raises.
 
     Raises
     ------
     SimulationError
-        for a request :func:`simulate` refuses: its arguments, engine, duration, step,
-        ground, maneuver and effects are checked before any ride runs; what only
-        setting the ride up finds (e.g. contact settings) is raised as its batch is
-        prepared, before any result is returned.
+        For a request :func:`simulate` refuses, before any ride runs (set-up errors such as
+        contact settings: as its batch is prepared).
     """
     if not (isinstance(batch, int) and batch >= 1 and isinstance(nthread, int) and nthread >= 0):
         raise engine.SimulationError(f"simulate_rides: batch must be a positive and nthread a non-negative "
@@ -277,9 +229,9 @@ def _check(request: Mapping) -> None:
 
 
 def _prepared_batches(requests: Sequence[Mapping], ids: list, size: int):
-    """Yield (request indices, rides, external forces) of ``size`` rides at most, each ride
-    set up (:func:`engine.prepare`) as its batch is yielded: one ``Batch`` per (steps,
-    delay, dt, ground), so that blocks run in step and the layout is one."""
+    """Yield (request indices, rides, external forces) of ``size`` rides at most, one
+    ``Batch`` per (steps, delay, dt, ground); each ride is prepared as its batch is yielded.
+    """
     groups: dict = {}
     for i in ids:
         ride = engine.prepare(**requests[i])
@@ -293,11 +245,10 @@ def _prepared_batches(requests: Sequence[Mapping], ids: list, size: int):
 
 
 def _pipeline(batches, nthread: int, finished) -> None:
-    """Run ``batches`` on ``nthread`` threads, each stepping one ``Batch`` at a time in C, while
-    the calling thread prepares the next (``batches`` is a generator) and reports
-    (``finished(ids, results)``).  ``Batch.step`` releases the GIL: one thread's rider law,
-    records and DataFrames (numpy, Python) overlap the others' steps.  A failure in any
-    thread is raised here after the threads stop."""
+    """Run ``batches`` on ``nthread`` threads, one ``Batch`` per thread at a time, while the
+    calling thread prepares the next and calls ``finished(ids, results)``; a thread's failure
+    is raised here after the threads stop.
+    """
     todo: queue.Queue = queue.Queue(maxsize=nthread)
     results: queue.Queue = queue.Queue()
     failed = threading.Event()
@@ -346,8 +297,7 @@ def _pipeline(batches, nthread: int, finished) -> None:
 
 
 def _batch_model(ride, cache: dict):
-    """The ride's MuJoCo model as :func:`simulate` builds it, with :data:`NU` userdata slots
-    (``cache``: this batch's models by setting, so that rides of one setting share one)."""
+    """The ride's model as :func:`simulate` builds it with :data:`NU` userdata slots, shared through ``cache``."""
     st = ride.stepper
     m0 = st.m
     key = (st.p, st.sim.variant, ride.ext.contact, float(m0.opt.timestep), tuple(m0.opt.gravity.tolist()),
@@ -360,8 +310,7 @@ def _batch_model(ride, cache: dict):
 @lru_cache(maxsize=64)
 def _compiled(p, variant: str, contact, timestep: float, gravity: tuple, dof_damping: tuple,
               tendon_damping: tuple):
-    """Compile the model of (parameters, ground, contact) with userdata, and set what
-    :class:`euc_sim.simulation.engine._MujocoStepper` sets on its copy (shared read-only)."""
+    """Compile the model of (parameters, ground, contact) with userdata and the stepper's settings."""
     spec = build_spec(p, variant, contact=contact)
     spec.nuserdata = NU
     m = spec.compile()
@@ -390,10 +339,8 @@ def _userdata_row(ride, per: int, addrs: tuple, push_addr: int) -> np.ndarray:
 
 
 def _run_batch(rides: list, forces: list, nthread: int) -> list:
-    """Rides of equal length, delay and step as one ``mujoco.batch.Batch`` on ``nthread`` threads
-    (1: the calling thread; 0: MuJoCo's default pool); results in order.
-
-    ``forces``: each ride's ``external_force`` F(t), N, or None; tabulated on the grid.
+    """Rides of equal length, delay and step as one ``Batch`` on ``nthread`` threads (0: MuJoCo's
+    pool); results in order.  ``forces``: each ride's ``external_force`` F(t), N, or None.
     """
     S, N, n = len(rides), rides[0].N, rides[0].run.n
     cache: dict = {}
@@ -445,12 +392,8 @@ def _run_batch(rides: list, forces: list, nthread: int) -> list:
 
 
 def _drop_reset(active: np.ndarray, ud: np.ndarray, k0: int, steps: int, run, out: list) -> np.ndarray:
-    """The simulations of ``active`` still running after a block; those MuJoCo reset get an
-    :class:`UnstableError` in ``out``.
-
-    MuJoCo resets a simulation whose state became NaN, infinite or huge, and
-    ``mj_resetData`` zeroes its userdata: the step count reads 0.  Any other count
-    than the block's end is a bug.
+    """The simulations of ``active`` still running after a block; those MuJoCo reset (its
+    ``mj_resetData`` zeroes the step count) get an :class:`UnstableError` in ``out``.
     """
     rides, P, MD, MH, n = run
     lost = ud[active, S_K] != k0 + steps
@@ -465,7 +408,7 @@ def _drop_reset(active: np.ndarray, ud: np.ndarray, k0: int, steps: int, run, ou
 
 
 def _states(qpos: np.ndarray, qvel: np.ndarray, st) -> np.ndarray:
-    """(x, γ, φ, ẋ, γ̇, φ̇) per row of the bound qpos, qvel, as :meth:`_MujocoStepper.state` reads them."""
+    """(x, γ, φ, ẋ, γ̇, φ̇) per row of the bound qpos, qvel."""
     g, gd = qpos[:, st.ig], qvel[:, st.vg]
     return np.column_stack([qpos[:, st.ix], g, g + qpos[:, st.ir], qvel[:, st.vx], gd, gd + qvel[:, st.vr]])
 
@@ -482,7 +425,7 @@ def _fall(ride, states: np.ndarray, M_d: np.ndarray, M_h: np.ndarray, k: int) ->
 
 
 def _calls_per_step(models: list, rides: list) -> int:
-    """Callback calls per ``mj_step`` of the batch's model (4 with RK4), counted on a 1-simulation batch."""
+    """Callback calls per ``mj_step`` (4 with RK4), counted on a 1-simulation batch."""
     probe = mujoco.batch.Batch(models[0], 1, 1, False)
     row = np.zeros(NU)
     row[[S_PER, S_AM, S_AA, S_MAGIC]] = (1.0, rides[0].stepper.a_motor, rides[0].stepper.a_ankle, _MAGIC)
@@ -495,12 +438,11 @@ def _calls_per_step(models: list, rides: list) -> int:
 
 
 class _RiderBlocks:
-    """:meth:`euc_sim.controllers.rider.RiderRun.commands` for many runs at once, vectorised across them.
+    """:meth:`euc_sim.controllers.rider.RiderRun.commands` vectorised across many runs.
 
-    The runs' references, noise and command histories are stacked; each run's ``du``
-    becomes a row view of the stack, so that a run done by its own :meth:`commands`
-    (the torque limit binds) shares the history.  Runs of one rider law (the same
-    predictor matrices) are solved together.
+    Each run's ``du`` becomes a row view of the stack, so that a run done by its own
+    :meth:`commands` (the torque limit binds) shares the history; runs of one rider law
+    are solved together.
     """
 
     def __init__(self, runs: list):
@@ -524,8 +466,9 @@ class _RiderBlocks:
             self.laws.append(runs[members[0]])
 
     def applied(self, ids: np.ndarray, k0: int, Y: np.ndarray) -> np.ndarray:
-        """Applied M_h (with noise) of steps k0 … k0 + L − 1 for runs ``ids``, (len(ids), L), N·m;
-        ``Y`` (len(ids), L, 6) are the sensed states (the padded histories' entries k0 …)."""
+        """Applied M_h (with noise), N·m, (len(ids), L), of steps k0 … k0 + L − 1 for runs ``ids``
+        from the sensed states ``Y`` (len(ids), L, 6).
+        """
         out = np.empty(Y.shape[:2])
         for j, ref in enumerate(self.laws):
             sel = np.flatnonzero(self.law_of[ids] == j)

@@ -1,31 +1,12 @@
 """The planar MuJoCo closed loop without Python per step: motor and rider as a native callback.
 
-The motor PD (:func:`euc_sim.controllers.motor.pd_torque`) and the rider's delayed LQR with its
-predictor, integral speed tracking and motor noise (:func:`euc_sim.controllers.rider.delayed_lqr_torque`
-on the buffers of :class:`euc_sim.controllers.rider.RiderRun`) are compiled by numba into MuJoCo's
-control callback (:mod:`euc_sim.simulation.native_kernels`).  At the first callback call
-of each step (RK4 calls it once per stage; the count per step is measured on the model,
-not assumed) the callback records the state, computes M_d from it and M_h from the
-state n steps old and the last n commands, and holds both over the step (zero-order
-hold at dt), with the step's held drag, rolling-resistance moment and external force
-(:func:`euc_sim.simulation.effects.held_forces` from ẋ at its start, as the Python loop
-holds them) and generalised forces of yaw and tilt (``lateral_dynamics``,
-:func:`~euc_sim.simulation.effects.lateral_force_row`) and of a moving centre of gravity
-(``cog_height_drift``, :func:`~euc_sim.simulation.drift.drift_force_row`, with h(t) in the
-model's ``body_ipos``).  ``mj_step(model, data, nstep)`` then runs the whole ride in C, in chunks
-between which Python only looks for a fall (and reports progress).
-
-The run's state lives in its own context (:mod:`euc_sim.simulation.native_core`),
-registered for its ``MjData`` only: runs on several threads go native together.  The
-rider's ``du`` buffer is the :class:`RiderRun`'s own; its z is written back at the end.
-
-The rider's per-step law is the Python reference's (:meth:`RiderRun.command`) step by
-step, where the Python loop solves each block of n + 1 steps at once
-(:meth:`RiderRun.commands`): the two loops agree to rounding (≤ 1e-9 rad over a ride,
-``tests/simulation/test_native.py``), not bit for bit.
-
-Where numba is missing or cannot compile, :func:`native_loop` says so in one line on
-stderr and returns ``None``; the caller runs the Python loop.
+The motor PD, the rider's delayed LQR with its predictor and the held external forces
+(drag, rolling resistance, ``external_force``, ``lateral_dynamics``, ``cog_height_drift``
+with h(t) in the model) run in the compiled callback of
+:mod:`euc_sim.simulation.native_kernels` at the first call of each step; ``mj_step`` runs
+the ride in C in chunks, Python only looking for a fall.  The rider's law goes step by
+step where the Python loop solves blocks: the two agree to rounding.  Where numba cannot
+compile, :func:`native_loop` returns ``None`` after one line on stderr.
 """
 
 from __future__ import annotations
@@ -51,21 +32,15 @@ available = nc.available
 def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: tuple,
                 bounds: Mapping[str, float], raise_fall,
                 progress=None, forces=None, moving=None) -> tuple[np.ndarray, np.ndarray] | None:
-    """:func:`euc_sim.simulation.engine._closed_loop` for a MuJoCo stepper.
+    """:func:`euc_sim.simulation.engine._closed_loop` for a MuJoCo stepper: states (N+1, 6) and
+    torques (N+1, 2), or ``None`` when the callback cannot be built.
 
-    Same states (N+1, 6) and torques (N+1, 2); ``None`` (and one line on stderr) when the
-    callback cannot be built: the caller then runs the Python loop.  ``raise_fall(t, y,
-    phi_max, gam_max)`` raises at the first recorded state outside ``bounds``, as the
-    Python loop does; the ``FallError`` carries ``partial``, the states and torques of
-    steps 0 … k − 1, as the Python loop's does.  ``progress(t)``: the simulated time, s,
-    at every rider block (n + 1 steps), as in the Python loop.  ``forces``: ``(k_drag,
-    C_rr, N_load, R, F)`` of :func:`euc_sim.simulation.effects.held_forces`, ``F`` the
-    ``external_force`` callable F(t) or None, applied at every step; None: none.
-    ``moving``: with ``forces``, the held generalised forces of ``lateral_dynamics`` and
-    ``cog_height_drift``, ``(table3, lat, lat_scale, h)``: ``table3`` the 11 numbers of
-    :func:`euc_sim.simulation.effects.lateral_force_row` (mw … J), ``lat`` (N, 5) rows
-    (sin ϑ, cos ϑ, ϑ̇, ψ̇, ψ̈) or None, ``h`` (N + 1, 3) rows (h, ḣ, ḧ) or None (then
-    h_k is also the model's ``body_ipos`` of ``rider`` over step k; h_0 must be in the model).
+    ``raise_fall(t, y, phi_max, gam_max)`` raises at the first state outside ``bounds`` (its
+    ``partial``: steps 0 … k − 1); ``progress(t)`` every rider block; ``forces``:
+    ``(k_drag, C_rr, N_load, R, F)`` of :func:`~euc_sim.simulation.effects.held_forces` (F(t)
+    or None); ``moving``: ``(table3, lat, lat_scale, h)``, the 11 parameters of
+    :func:`~euc_sim.simulation.lateral.lateral_force_row`, rows (sin ϑ, cos ϑ, ϑ̇, ψ̇, ψ̈) and
+    (h, ḣ, ḧ) or None.
     """
     if nc.callback() is None:
         return None
@@ -74,18 +49,9 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
 
 def planar_context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bounds, forces=None,
                    dt: float = 0.0, moving=None):
-    """A planar run's context (:mod:`euc_sim.simulation.native_layout`) for ``stepper.d``.
-
-    Parameters as :func:`native_loop`; an external force F(t) is tabulated at k·dt, k < N.  To run it elsewhere (a thread, a batch): set
-    ``ctx.c[C_PER]`` to :func:`native_core.calls_per_step`, register the ``MjData`` with
-    :func:`native_core.registered`, ``mj_step`` it N steps, then set ``ctx.c[C_CALLS] = 0``
-    and ``mj_forward`` it once for the last row.
-
-    Returns
-    -------
-    tuple
-        The :class:`native_core.Context` and the arrays the callback fills: padded state
-        history P (N + 1 + n, 6; row n + k is step k), M_d and M_h (N + 1,), N·m.
+    """A planar run's context for ``stepper.d`` (parameters as :func:`native_loop`) and the arrays
+    the callback fills: the padded state history (N + 1 + n, 6; row n + k is step k), M_d and
+    M_h (N + 1,), N·m.  Run it with :func:`native_core.ride`.
     """
     n = run.n
     ctx = nc.Context(lay.KIND_PLANAR, N + 1)

@@ -1,23 +1,12 @@
 """The machinery the native MuJoCo loops share: one control callback, a registry of runs.
 
-MuJoCo's control callback ``mjcb_control`` is one process-wide function pointer.  The
-callback here (compiled by numba's ``cfunc`` in :mod:`euc_sim.simulation.native_kernels`)
-is installed while at least one native run is active, and serves every registered
-``MjData`` at once: the registry is a table of (``MjData`` address, context address)
-pairs, and each run's context — an int64 array of indices and buffer addresses, with
-its float settings and buffers — holds all of that simulation's controller state.
-Simulations on other threads, or in ``mujoco.batch``, each register their own
-``MjData`` and context; an ``MjData`` not registered is left alone by the callback.
-
-Interface of a context (for a caller building its own, e.g. a batch of rides): its
-slots are :mod:`euc_sim.simulation.native_layout`'s; :class:`Context` fills them; :func:`registered` registers a ``MjData`` with one for the
-duration of a ``with`` block.
-
-``mjData`` fields (``qpos``, ``qvel``, ``ctrl``, ``qfrc_applied``, ``xfrc_applied``) and ``mjModel``'s
-(``body_ipos``, ``site_pos``: a moving centre of gravity) are reached through offsets in the
-structs found at run time on live ones (:func:`field_offsets`, :func:`model_offsets`), never hard-coded.
-Where numba is missing or cannot compile, :func:`callback` returns ``None`` after one
-line on stderr and the callers run their Python loops.
+MuJoCo's ``mjcb_control`` is one process-wide pointer.  The callback (compiled in
+:mod:`euc_sim.simulation.native_kernels`) is installed while a native run is active and
+serves every registered ``MjData`` from its own context (:class:`Context`, slots of
+:mod:`native_layout`): runs on any threads never share state; an unregistered
+``MjData`` is left alone.  Struct fields are reached through offsets found at run time
+(:func:`field_offsets`, :func:`model_offsets`).  Where numba cannot compile,
+:func:`callback` returns ``None`` after one line on stderr and the Python loops run.
 """
 
 from __future__ import annotations
@@ -70,9 +59,9 @@ class Context:
         self.c[C_ACT:C_ACT + len(ids)] = ids
 
     def rider(self, first: int, run) -> None:
-        """The rider block at slot ``first`` from a :class:`euc_sim.controllers.rider.RiderRun` (its own
-        ``du`` buffer: the run's state stays in it; z in the block's floats, read back by
-        :meth:`rider_z`)."""
+        """The rider block at slot ``first`` from a :class:`~euc_sim.controllers.rider.RiderRun`
+        (its own ``du`` buffer; z in the block's floats, :meth:`rider_z`).
+        """
         for off, arr in ((R_VREF, run.v_ref), (R_GREF, run.gamma_ref), (R_PREF, run.phi_ref),
                          (R_UREF, run.u_ref), (R_NOISE, run.noise), (R_DU, run.du), (R_KHIST, run.k_hist)):
             self.put(first + off, np.ascontiguousarray(arr, dtype=np.float64))
@@ -92,17 +81,14 @@ class Context:
 
 
 def field_offsets(names: Sequence[str] = ("qpos", "qvel", "ctrl")) -> dict[str, int]:
-    """Byte offsets in ``mjData`` of the array pointers ``names``, found on two live MjData.
-
-    Each is the first 8-byte word of the struct equal to the array's address; the two
-    models (with ``nuserdata`` > 0, so that ``userdata`` is allocated) must agree.
+    """Byte offsets in ``mjData`` of the array pointers ``names``, found on two live MjData
+    (with ``nuserdata`` > 0) that must agree.
     """
     return _offsets(names, data=True)
 
 
 def model_offsets(names: Sequence[str] = ("body_ipos", "site_pos")) -> dict[str, int]:
-    """Byte offsets in ``mjModel`` of the array pointers ``names``, found on two live MjModel
-    as :func:`field_offsets` finds mjData's."""
+    """Byte offsets in ``mjModel`` of the array pointers ``names``, as :func:`field_offsets`."""
     return _offsets(names, data=False)
 
 
@@ -125,21 +111,16 @@ def _offsets(names: Sequence[str], data: bool) -> dict[str, int]:
     return found[0]
 
 
-#: The largest struct prefix searched for the pointers, bytes (mjData's pointers follow
-#: about 160 kB of fixed arrays in MuJoCo 3-4).
+#: The largest struct prefix searched for the pointers, bytes.
 _SCAN_LIMIT = 8 << 20
 
 
 def _find_pointers(base: int, targets: dict[str, int], what: str) -> dict[str, int]:
     """Byte offset from ``base`` of the first 8-byte word equal to each target address.
 
-    The struct's memory is read through ``/proc/self/mem`` a page at a time, never by
-    dereferencing: the search may run past the struct's end (its size is not known
-    here), and a plain read past it faults where the next page is not mapped (mjData in
-    a mapping of its own, as in a Dask worker's task thread: see docs/robustness.md).
-    The kernel's read stops at the first page not mapped instead.  Raises RuntimeError
-    where ``/proc/self/mem`` cannot be read (then the Python loops run) or a pointer is
-    not found.
+    Read through ``/proc/self/mem`` a page at a time, never by dereferencing: the search may
+    run past the struct's end, where the next page may be unmapped (docs/robustness.md).
+    ``RuntimeError`` where that file cannot be read or a pointer is not found.
     """
 
     try:
@@ -172,8 +153,7 @@ def _find_pointers(base: int, targets: dict[str, int], what: str) -> dict[str, i
 
 
 def callback():
-    """The compiled control callback (built once per process), or ``None`` after one line on
-    stderr saying why the Python loop runs instead."""
+    """The compiled control callback (built once per process), or ``None`` after one line on stderr."""
     if _STATE["callback"] is None:
         try:
             _STATE["callback"] = _compile()
@@ -206,11 +186,8 @@ def _compile():
 
 @contextmanager
 def registered(data, context: Context):
-    """Serve ``data`` (an ``MjData``) with ``context`` by the callback inside the block.
-
-    Installs the callback for the first active run and restores the previous one after
-    the last.  Raises RuntimeError when the callback cannot be built (:func:`available`
-    says whether it can) or all :data:`SLOTS` are taken.
+    """Serve ``data`` (an ``MjData``) with ``context`` inside the block, installing the callback for
+    the first active run; ``RuntimeError`` if it cannot be built or all :data:`SLOTS` are taken.
     """
     import mujoco
 
@@ -241,16 +218,14 @@ def registered(data, context: Context):
                 _IDLE.notify_all()
 
 
-
-#: Steps run in C between two looks for a fall when no progress is asked for (a fallen run
-#: goes on at most this far: not into the NaN warnings of a diverging MuJoCo state).
+#: Steps run in C between two looks for a fall (a fallen run goes on at most this far).
 CHUNK_STEPS = 100
 
 
 def ride(m, d, context: Context, steps: int, chunk: int = CHUNK_STEPS, progress=None) -> None:
-    """Step ``d`` ``steps`` times with ``context`` served (:func:`registered`), ``chunk`` steps
-    at a time, until the callback flags a fall; without one, the callback once more for the
-    last row (``mj_forward``, no step).  ``progress(k)`` before each block, ``k`` steps done."""
+    """Step ``d`` ``steps`` times with ``context`` served, ``chunk`` steps at a time, until the callback
+    flags a fall; then once more (``mj_forward``) for the last row.  ``progress(k)`` before each block.
+    """
     import mujoco
 
     context.c[C_PER] = calls_per_step(m, d)
@@ -265,13 +240,11 @@ def ride(m, d, context: Context, steps: int, chunk: int = CHUNK_STEPS, progress=
         context.c[C_CALLS] = 0
         mujoco.mj_forward(m, d)
 
+
 @contextmanager
 def exclusive(cb):
-    """Install ``cb`` as MuJoCo's control callback for the block, alone.
-
-    Waits for the runs that :func:`registered` serves to end, and holds new ones back
-    until the block ends (MuJoCo's callback is one per process); restores the previous
-    callback after.  For a callback of another layout (:mod:`mujoco_batch`).
+    """Install ``cb`` (a callback of another layout, :mod:`mujoco_batch`) alone for the block: waits for
+    the registered runs to end and holds new ones back.
     """
     import mujoco
 
@@ -289,11 +262,9 @@ _CALLS_PER_STEP: dict = {}
 
 
 def calls_per_step(m, d) -> int:
-    """Callback calls per ``mj_step`` (4 for RK4), counted on a copy of ``d`` the first time a
-    model with this integrator and these disable flags is stepped in the process (the probe
-    allocates an ``MjData``: ~1 ms, about 1 ms a ride otherwise).
-
-    Call with the callback built (:func:`callback`)."""
+    """Callback calls per ``mj_step`` (4 for RK4), counted once per integrator and disable flags
+    on a copy of ``d`` (the callback built).
+    """
     key = (int(m.opt.integrator), int(m.opt.disableflags))
     if key not in _CALLS_PER_STEP:
         _CALLS_PER_STEP[key] = _count_calls(m, d)

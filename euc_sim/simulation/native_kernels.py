@@ -1,26 +1,14 @@
 """The numba kernels of the native MuJoCo loops and the one control callback that runs them.
 
 Imported only by :func:`euc_sim.simulation.native_core.build_callback` (it needs numba).
-The callback ``void(const mjModel*, mjData*)`` looks its ``mjData`` up in the registry
-of :mod:`euc_sim.simulation.native_core` (pairs of MjData address, context address) and
-runs that simulation's kernel on its own context: the state of every run (counters,
-delay buffers, predictor history, integrators, the recorded rows) lives in that run's
-arrays, so any number of simulations, on any threads, can run at once.  An MjData not
-in the registry is left alone.
-
-Contexts are int64 arrays whose slots are the ``C_*`` / ``P_*`` / ``S_*`` indices of
-:mod:`euc_sim.simulation.native_layout`; float settings and buffers are reached through
-the addresses they hold.  The laws are the project's own pure functions compiled here:
-:func:`euc_sim.controllers.motor.pd_torque`, :func:`euc_sim.controllers.rider.delayed_lqr_torque` and the
-held drag, rolling resistance and external force of :func:`euc_sim.simulation.effects.held_forces`,
-the yaw and tilt of :func:`euc_sim.simulation.lateral.lateral_force_row` and the moving centre of
-gravity's forces of :func:`euc_sim.simulation.drift.drift_force_row`.
-
-A moving centre of gravity (``cog_height_drift``) also moves the model: h_k is ``body_ipos``'s
-z of ``rider`` (and ``site_pos``'s of G) over the whole of step k, as the Python loop sets
-it before ``mj_step``.  The callback runs inside ``mj_forward`` after the position stage, so
-h_{k+1} is written at the last callback call of step k (``c[C_PER]`` calls a step), before
-step k + 1 computes its positions; h_0 is in the model before the first step.
+The callback looks its ``mjData`` up in the registry of :mod:`native_core` and runs that
+simulation's kernel on its own context (int64 arrays laid out by :mod:`native_layout`),
+so simulations on any threads never share state.  The laws are the project's pure
+functions compiled: :func:`~euc_sim.controllers.motor.pd_torque`,
+:func:`~euc_sim.controllers.rider.delayed_lqr_torque`, :func:`~euc_sim.simulation.effects.held_forces`,
+:func:`~euc_sim.simulation.lateral.lateral_force_row` and :func:`~euc_sim.simulation.drift.drift_force_row`.
+With ``cog_height_drift``, h_{k+1} is written into the model at the last callback call of
+step k, before step k + 1 computes its positions.
 """
 
 from __future__ import annotations
@@ -47,13 +35,7 @@ __all__ = ["build_callback", "CACHE_DIR", "f64p", "i64p", "address", "held_force
 
 
 def _source_hash() -> str:
-    """The hash naming the cache folder of these kernels: of every source compiled into them.
-
-    numba itself watches only this file; the laws (:mod:`euc_sim.controllers.motor`,
-    :mod:`euc_sim.controllers.rider`, :mod:`effects`, :mod:`lateral`, :mod:`drift`) and the
-    context layout (:mod:`native_layout`) are compiled in too, so a change to any of them
-    must compile anew.
-    """
+    """Hash of every source compiled into the kernels (numba watches only this file): the cache folder's name."""
     h = hashlib.sha256()
     for module in (motor_law, rider_law, effects, lateral, drift, lay, sys.modules[__name__]):
         with open(module.__file__, "rb") as fh:
@@ -62,11 +44,8 @@ def _source_hash() -> str:
 
 
 def _unsafe(path: str) -> str | None:
-    """Why ``path`` may not hold code this process will load (None: it may).
-
-    numba unpickles the index files of its cache, so whoever can write there runs code
-    here: the folder must be a real folder (not a symbolic link), this user's, and not
-    writable by the group or others.
+    """Why ``path`` may not hold code this process loads (numba unpickles its cache), or None:
+    it must be a real folder of this user's, not writable by group or others.
     """
     st = os.lstat(path)
     if stat.S_ISLNK(st.st_mode):
@@ -81,12 +60,10 @@ def _unsafe(path: str) -> str | None:
 
 
 def _cache_dir() -> str | None:
-    """The folder of numba's on-disk cache of these kernels, or None (compile in every process).
+    """numba's cache folder for these kernels, or None (compile in every process, one line on stderr).
 
-    ``$NUMBA_CACHE_DIR/<hash>`` if the user set it, else
-    ``${XDG_CACHE_HOME:-~/.cache}/euc-sim/numba/<hash>`` (:func:`_source_hash`).  Missing
-    folders are made with mode 0700; the folders from ``euc-sim`` (or ``$NUMBA_CACHE_DIR``)
-    down must pass :func:`_unsafe`, else no cache is used and one line on stderr says why.
+    ``$NUMBA_CACHE_DIR/<hash>`` if set, else ``${XDG_CACHE_HOME:-~/.cache}/euc-sim/numba/<hash>``;
+    made with mode 0700 and checked by :func:`_unsafe`.
     """
     if config.CACHE_DIR:
         top = os.path.abspath(config.CACHE_DIR)
@@ -181,10 +158,8 @@ drift_force_row = _jit(drift.drift_force_row)
 
 @_jit
 def _rider(c, k, Y, r):
-    """The longitudinal rider's applied M_h at step k (:meth:`euc_sim.controllers.rider.RiderRun.command`).
-
-    ``Y``: the padded state history (row k: the state n steps ago); ``r``: the context
-    slot of the rider's block (:data:`euc_sim.simulation.native_core.RIDER_SLOTS`).
+    """The longitudinal rider's applied M_h at step k (:meth:`RiderRun.command`); ``Y`` the
+    padded state history, ``r`` the context slot of the rider's block.
     """
     n = c[r + lay.R_N]
     rf = f64p(c[r + lay.R_FLOATS])                 # dt, limit, z, K Φⁿ (6)
@@ -213,8 +188,7 @@ def _motor_torque(f, gamma, gamma_dot, speed):
 
 @_jit
 def _hold_forces(qfrc, xfrc, c, f, k, x_dot):
-    """Set the held forces of step k from ẋ at its start, as ``engine._MujocoStepper.set_effects``:
-    F_x at G on ``rider``, the rolling moment on ``wheel`` (about +y) or τ/R on x."""
+    """Set the held forces of step k from ẋ at its start: F_x at G, the rolling moment on ``wheel`` or τ/R on x."""
     push = c[lay.P_PUSH]
     F, tau = held_forces(x_dot, f[lay.F_KDRAG], f[lay.F_CRR], f[lay.F_NLOAD], f[lay.F_R],
                          f64p(push)[k] if push != 0 else 0.0)
@@ -227,10 +201,9 @@ def _hold_forces(qfrc, xfrc, c, f, k, x_dot):
 
 @_jit
 def _hold_generalized(qfrc, c, f, k, row):
-    """Set the held generalised forces of ``lateral_dynamics`` and ``cog_height_drift`` for step
-    k from the state ``row`` at its start, as ``engine._EffectsRow`` and ``_MujocoStepper.set_effects``:
-    Q = lat_scale Q_lat + Q_h in the paper's coordinates, on top of τ/R on x (if the wheel
-    does not spin), into ``qfrc_applied``'s x, euc_pitch and rider_pitch rows."""
+    """Add the held generalised forces of ``lateral_dynamics`` and ``cog_height_drift`` for step k
+    (Q = lat_scale Q_lat + Q_h, paper coordinates) into ``qfrc_applied``.
+    """
     Q0, Q1, Q2 = 0.0, 0.0, 0.0
     lat, dr = c[lay.P_LAT], c[lay.P_DRIFT]
     p = lay.F_TABLE3
@@ -257,8 +230,7 @@ def _hold_generalized(qfrc, c, f, k, row):
 
 @_jit
 def _move_g(model, c, w_bipos, w_spos):
-    """Write h of the next step (row ``c[C_K]`` of the height table) into ``body_ipos`` of
-    ``rider`` and ``site_pos`` of G (``_MujocoStepper.set_effects``)."""
+    """Write the next step's h into ``body_ipos`` of ``rider`` and ``site_pos`` of G."""
     k = c[lay.C_K]
     if k >= c[lay.C_ROWS]:
         return
@@ -450,12 +422,9 @@ def build_callback(w_qpos: int, w_qvel: int, w_ctrl: int, w_qfrc: int, w_xfrc: i
                    w_spos: int, registry_address: int, slots: int):
     """The cfunc ``void(const mjModel*, mjData*)``: find ``d`` in the registry, run its kernel.
 
-    ``w_*``: the word offsets of ``qpos``, ``qvel``, ``ctrl``, ``qfrc_applied`` and
-    ``xfrc_applied`` in ``mjData``, ``w_bipos`` and ``w_spos`` those of ``body_ipos`` and
-    ``site_pos`` in ``mjModel``.  The kernel runs
-    at the first of the callback's calls in each step (``c[C_PER]`` calls per step; RK4
-    calls it once per stage); every call writes the held controls (zero-order hold at dt);
-    the last call of a planar step with a moving centre of gravity moves it to the next step's h.
+    ``w_*``: word offsets of the ``mjData`` (``mjModel`` for ``w_bipos``, ``w_spos``) fields.
+    The kernel runs at the first of the ``c[C_PER]`` calls of each step; every call writes
+    the held controls.
     """
     @cfunc(types.void(types.CPointer(types.int64), types.CPointer(types.int64)))
     def control(m, d):

@@ -1,16 +1,10 @@
 """The layout of a native run's context: the slots of its int64 and float64 arrays.
 
-Shared by :mod:`euc_sim.simulation.native_core` (which fills contexts) and
-:mod:`euc_sim.simulation.native_kernels` (which reads them in the control callback).
-A context is an int64 array of ``C_SIZE`` slots: the common ``C_*`` slots; for
-``KIND_PLANAR`` runs the ``P_*`` slots and a rider block at ``P_RIDER``; for
-``KIND_SPATIAL`` runs the ``S_*`` slots and a rider block at ``S_RIDER``; a rider block's
-slots are at the ``R_*`` offsets from its first slot.  Slots named for an array hold its
-address (C-contiguous float64).  Its floats, ``F_SIZE`` of them at the address in
-``C_FLOATS``: the motor law's settings (:meth:`euc_sim.controllers.motor.MotorPD.law_args`) at
-0 … 10, the held controls from ``F_HELD`` (in the order of the ``C_ACT`` actuators),
-then the ``F_*`` settings and states.  A rider block's own floats (``R_FLOATS``): dt,
-the torque limit, the integrator z, then K Φⁿ (6, zero-padded).
+Filled by :mod:`native_core`, read by :mod:`native_kernels`.  Int slots: the common
+``C_*``, then ``P_*`` (planar) or ``S_*`` (spatial) with a rider block of ``R_*`` offsets;
+a slot named for an array holds its address.  Float slots (at ``C_FLOATS``): the motor
+law's settings, the held controls from ``F_HELD``, then the ``F_*``; a rider block's own
+floats (``R_FLOATS``): dt, torque limit, z, K Φⁿ (6, zero-padded).
 """
 
 KIND_PLANAR, KIND_SPATIAL, KIND_COUNT = 1, 2, 3

@@ -1,20 +1,9 @@
 """The 3-D MuJoCo closed loop without Python per step (:func:`euc_sim.simulation.spatial.simulate_3d`).
 
-The loop of ``spatial._ride`` as the native callback's spatial kernel
-(:func:`euc_sim.simulation.native_kernels.spatial_step`): at the first callback call of
-each step it reads the paper's state from qpos/qvel (pose, yaw/tilt/pitch and their
-rates, the travelled distance by the trapezoid rule), runs the motor PD, the delayed
-longitudinal rider (:func:`euc_sim.controllers.rider.delayed_lqr_torque`), the nearest path point
-and the lateral rider (with its predictor and turn-effort estimate when it has a
-delay), records the row and holds the four controls over the step.  The last row is
-recorded by the callback under ``mj_forward`` (no step).
-
-The Python loop stays the reference and the fallback: ``simulate_3d(native=False)``, or
-a machine where numba cannot compile (one line on stderr).  Without a lateral delay the
-two agree bit for bit (measured here with the rider's 0.15 s delay too: his predictor's
-sum is BLAS's ``ddot`` in both, where numba's and numpy's BLAS agree); the lateral
-predictor's sums are taken in another order than numpy's matrix products, and those runs
-agree to rounding (``tests/simulation/test_native_spatial.py``).
+The loop of ``spatial._ride`` as the callback's spatial kernel
+(:func:`euc_sim.simulation.native_kernels.spatial_step`).  The Python loop stays the
+reference and the fallback; without a lateral delay the two agree bit for bit, with one
+to rounding (the predictor's sums in another order).
 """
 
 from __future__ import annotations
@@ -43,40 +32,13 @@ _FALL_KINDS = ("state", "theta", "phi", "gamma")
 def native_ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, path, v_ref: np.ndarray,
                 N: int, dt: float, y0: tuple, bounds: dict, tilt_bound: float,
                 turn_effort_time: float) -> np.ndarray | None:
-    """``spatial._ride`` natively: the rows (N + 1, 26) in :data:`ROW_COLUMNS`' order.
+    """``spatial._ride`` natively: the rows (N + 1, 26) in :data:`ROW_COLUMNS`' order, or ``None``
+    (one line on stderr) when the callback cannot be built.
 
-    Parameters
-    ----------
-    sim : EucSpatial
-        The model, set to its initial state.
-    run : RiderRun
-        The longitudinal rider of the run (its ``du`` and ``z`` advance as in the Python loop).
-    motor : MotorPD
-    lateral : LateralRider
-    path : Path3D
-        The path followed.
-    v_ref : numpy.ndarray, shape (N + 1,)
-        Planned speed, m/s.
-    N : int
-        Steps.
-    dt : float
-        Timestep, s.
-    y0 : tuple
-        The planar state before t = 0 (the rider's delay buffer).
-    bounds : dict
-        ``{"phi": rad, "gamma": rad}`` fall bounds; ``tilt_bound``: |ϑ| bound, rad.
-    turn_effort_time : float
-        Time constant of the delayed lateral rider's turn-effort estimate, s.
-
-    Returns
-    -------
-    numpy.ndarray or None
-        ``None`` (one line on stderr) when the callback cannot be built.
-
-    Raises
-    ------
-    FallError
-        at the first step whose state is out of bounds, as the Python loop.
+    ``sim`` is set to its initial state; ``run``'s ``du`` and ``z`` advance as in the Python
+    loop; ``v_ref`` (N + 1,) m/s; ``y0`` the planar state before t = 0; ``bounds``
+    (``phi``, ``gamma``) and ``tilt_bound``, rad; ``turn_effort_time``, s.  ``FallError`` at
+    the first step out of bounds.
     """
     if nc.callback() is None:
         return None
@@ -93,9 +55,7 @@ def native_ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, path,
 
 
 def spatial_context(sim, run, motor, lateral, path, v_ref, N, dt, y0, bounds, tilt_bound, turn_effort_time):
-    """A 3-D run's context (:mod:`euc_sim.simulation.native_layout`) for ``sim.data`` and the
-    rows (N + 1, 26) the callback fills; parameters as :func:`native_ride`, which shows
-    how to run it (calls per step, registration, the last row under ``mj_forward``)."""
+    """A 3-D run's context for ``sim.data`` and the rows (N + 1, 26) the callback fills (parameters as :func:`native_ride`)."""
     ctx = nc.Context(lay.KIND_SPATIAL, N + 1)
     out = ctx.put(lay.S_OUT, np.zeros((N + 1, len(ROW_COLUMNS))))
     n = run.n

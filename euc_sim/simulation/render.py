@@ -1,15 +1,10 @@
 """Replay a recording in the spatial model with MuJoCo's offscreen renderer.
 
-The pose of each frame comes from the recording: the wheel centre C (``C_X..C_Z``,
-or from the pivot E with the Euler angles), the EUC body's yaw-tilt-pitch
-(``psi, theta, gamma``) and the rider's pitch and lean from G seen in the body frame
-(``phi`` when present for the pitch).  The wheel's spin is the travelled distance
-over R.  The camera ``follow`` of ``mjcf/euc_3d.xml`` tracks the rider.
-
-Headless rendering needs an OpenGL backend: ``MUJOCO_GL=egl`` (Debian ``libegl1``
-with ``libegl-mesa0``) or ``MUJOCO_GL=osmesa`` (``libosmesa6``); :mod:`euc_sim`
-sets ``MUJOCO_GL=egl`` when there is no display and the variable is unset.  Video
-encoding: ``imageio`` with ``imageio-ffmpeg`` (MP4) or Pillow (GIF).
+Each frame's pose comes from the recording: C (or E with the Euler angles), the body's
+yaw, tilt, pitch and the rider's pitch and lean from G; the wheel's spin is the
+travelled distance over R.  Headless rendering needs ``MUJOCO_GL=egl`` or ``osmesa``
+(:mod:`euc_sim` sets ``egl`` without a display); videos by ``imageio`` (MP4 with
+``imageio-ffmpeg``, GIF with Pillow).
 """
 
 from __future__ import annotations
@@ -49,12 +44,8 @@ _POSE_COLUMNS = ("t", "x", "psi", "theta", "gamma", "phi", "C_X", "C_Y", "C_Z", 
 
 
 def _checked(df: pd.DataFrame, path: Path) -> pd.DataFrame:
-    """The recording with its pose columns as finite floats, at least one row, and t increasing.
-
-    Raises
-    ------
-    RenderError
-        naming the file, the column and the first bad row (1-based, header excluded).
+    """The recording with its pose columns as finite floats and t increasing; ``RenderError``
+    naming the file, the column and the first bad row.
     """
     if len(df) == 0:
         raise RenderError(f"{path}: no data rows (header only)")
@@ -88,18 +79,8 @@ def _rot(psi, theta, gamma) -> np.ndarray:
 
 
 def poses(df: pd.DataFrame, p: Params = TABLE3, name: str = "recording") -> dict[str, np.ndarray]:
-    """Per-sample pose of the spatial model from a recording.
-
-    Returns
-    -------
-    dict
-        ``C`` (N, 3) m, ``R`` (N, 3, 3) body orientation, ``spin`` (N,) rad wheel angle
-        relative to the body, ``rider_pitch``, ``rider_lean`` (N,) rad.
-
-    Raises
-    ------
-    RenderError
-        naming the first missing column.
+    """Per-sample pose of the spatial model from a recording: ``C`` (N, 3) m, ``R`` (N, 3, 3),
+    ``spin``, ``rider_pitch``, ``rider_lean`` (N,) rad; ``RenderError`` naming a missing column.
     """
     for col in ("t", "psi", "theta", "gamma"):
         if col not in df.columns:
@@ -129,33 +110,23 @@ def poses(df: pd.DataFrame, p: Params = TABLE3, name: str = "recording") -> dict
 
 def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, height: int = 480,
                      frame_time: float | None = None, params: Params = TABLE3, progress: bool = True) -> int:
-    """Render ``recording`` to ``out`` (.mp4, .gif, or .png for one frame at ``frame_time``).
+    """Render ``recording`` (CSV or Parquet) to ``out``: .mp4, .gif, or .png for one frame.
 
     Parameters
     ----------
-    recording, out : path
-        The recording (CSV or Parquet) and the file to write; the extension of ``out``
-        chooses the format.
     fps : float
         Frames per second of a video.
     width, height : int
         Frame size, pixels.
     frame_time : float, optional
-        With ``.png``: the time of the frame, s (default: the middle of the recording).
+        With ``.png``: the frame's time, s (default: the middle).
     params : Params
         The model drawn.
     progress : bool
-        A progress bar over the frames on stderr.
+        A progress bar on stderr.
 
-    Returns
-    -------
-    int
-        The number of frames written.
-
-    Raises
-    ------
-    RenderError
-        for a bad recording, a bad size, or when no OpenGL backend can be created.
+    Returns the number of frames written; ``RenderError`` for a bad recording or size, or
+    when no OpenGL backend can be created.
     """
     import mujoco
 

@@ -1,44 +1,13 @@
 """Run many named tasks (rides, recordings, diagnoses) serially, in a process pool or on Dask.
 
-One engine for ``euc-sim dataset``, ``scripts/tables/blind_study.py`` and the sweeps of
-``euc-sim design``: :func:`run_tasks` calls ``fn(arg)`` for every named task and
-returns a :class:`RunReport` (results by name, failures by name, a summary table).
-
-Backends
---------
-``scheduler=None, workers=1``
-    in this process, in order.
-``scheduler=None, workers=N``
-    a :class:`concurrent.futures.ProcessPoolExecutor` of N processes on this
-    machine.  Workers ignore Ctrl-C (the parent handles it) and die with their
-    parent (Linux ``prctl(PR_SET_PDEATHSIG, SIGKILL)``), so a parent killed even by
-    SIGKILL leaves no worker running.
-``scheduler="local"``
-    a :class:`dask.distributed.LocalCluster` of ``workers`` single-threaded worker
-    processes (default 2), started and closed by the run, reachable by this process
-    only (TLS with throwaway credentials, no HTTP server:
-    :func:`euc_sim.simulation.dask_backend.local_cluster`).
-``scheduler="tcp://HOST:PORT"``
-    an existing Dask cluster (``dask scheduler`` / ``dask worker``); its workers need
-    this package installed.  It is trusted with code: the tasks travel pickled and run
-    there, and the results come back pickled and are unpickled here.
-
-Failures
---------
-``fn`` raising (a rider fall is a ``ValueError``) fails that task only: the reason
-(exception type and first line) is kept by name and the other tasks finish.  A
-worker process that dies (killed, segfault) fails the tasks it was running: in
-the process pool they are retried one at a time in fresh single-process pools, so
-only the task that kills its worker is reported (``worker died``); Dask retries on
-other workers itself and reports ``KilledWorker`` by name.
-
-Interruption: Ctrl-C, and SIGTERM while :func:`run_tasks` runs, raise
-``KeyboardInterrupt`` in the parent, which kills the pool's processes or closes the
-Dask cluster before re-raising.  Results are handed to ``on_result`` in the parent as
-they arrive, so outputs are written by one process only.
-
-Determinism: a task's result depends on its argument only (seeds travel in the
-argument), never on the backend, the worker or the order of completion.
+:func:`run_tasks` calls ``fn(arg)`` for every named task and returns a :class:`RunReport`.
+Backends: in this process (``workers=1``), a process pool of N (workers ignore Ctrl-C and
+die with their parent), a local Dask cluster (``scheduler="local"``, TLS, reachable by
+this process only) or a running Dask scheduler (trusted with code: tasks and results
+travel pickled).  A task that raises, or whose worker dies, fails alone, by name.
+Ctrl-C and SIGTERM stop the workers before re-raising; results reach ``on_result`` in
+the parent as they arrive; a task's result depends on its argument only.  See
+docs/scale.md.
 """
 
 from __future__ import annotations
@@ -77,7 +46,7 @@ class RunReport:
     backend : str
         ``serial``, ``pool of N`` or ``dask <address>``.
     seconds : float
-        Wall time of the run, s.
+        Wall time, s.
     """
 
     names: list
@@ -142,11 +111,9 @@ def _guarded(fn: Callable, arg) -> tuple[bool, Any]:
 
 
 def worker_init(parent: int) -> None:
-    """Pool worker: ignore Ctrl-C, default SIGTERM (the parent stops the pool) and die with the parent.
+    """Pool worker: ignore Ctrl-C, default SIGTERM, and die with the parent (Linux ``PR_SET_PDEATHSIG``).
 
-    Pass as ``ProcessPoolExecutor(initializer=worker_init, initargs=(os.getpid(),))``;
-    on Linux the worker asks the kernel for SIGKILL when its parent dies
-    (``prctl(PR_SET_PDEATHSIG)``), so even a SIGKILLed command leaves no worker behind.
+    Pass as ``ProcessPoolExecutor(initializer=worker_init, initargs=(os.getpid(),))``.
     """
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
@@ -158,19 +125,6 @@ def worker_init(parent: int) -> None:
             pass
     if os.getppid() != parent:                   # the parent died before prctl took effect
         os._exit(1)
-
-
-class _Progress:
-    def __init__(self, total: int, desc: str, enabled: bool):
-        self.bar = tqdm(total=total, desc=desc, unit="task", disable=not enabled, file=sys.stderr)
-
-    def update(self, failed: int) -> None:
-        self.bar.update()
-        if failed:
-            self.bar.set_postfix(failed=failed)
-
-    def close(self) -> None:
-        self.bar.close()
 
 
 def _sigterm_as_interrupt():
@@ -186,37 +140,28 @@ def _sigterm_as_interrupt():
 def run_tasks(fn: Callable, tasks: Sequence[tuple[str, Any]], *, scheduler: str | None = None,
               workers: int | None = None, progress: bool = True, desc: str = "tasks",
               on_result: Callable[[str, Any], None] | None = None) -> RunReport:
-    """Run ``fn(arg)`` for every ``(name, arg)`` in ``tasks``.
+    """Run ``fn(arg)`` for every ``(name, arg)`` in ``tasks`` (unique names).
 
     Parameters
     ----------
     fn : callable
-        A module-level function (picklable), one argument.
+        A module-level (picklable) function of one argument.
     tasks : sequence of (str, object)
-        Unique names and arguments.
     scheduler : {None, "local"} or str
-        None: this machine (``workers`` processes); ``"local"``: a local Dask cluster;
-        otherwise the address of a running Dask scheduler.
+        None: this machine; ``"local"``: a local Dask cluster; else a Dask scheduler's address.
     workers : int, optional
-        Processes of the pool (default: all cores; 1 runs in this process) or of the
-        local Dask cluster (default 2).
+        Pool processes (default: all cores; 1 runs in this process) or local Dask workers (default 2).
     progress : bool
-        A progress bar over the whole run on stderr.
-    desc : str
-        The bar's label.
+        A progress bar on stderr, labelled ``desc``.
     on_result : callable, optional
         ``on_result(name, value)`` in this process for each success, as it arrives.
-
-    Returns
-    -------
-    RunReport
     """
     check_backend(scheduler, workers)
     names = [n for n, _ in tasks]
     if len(set(names)) != len(names):
         raise ValueError("run_tasks: task names must be unique")
     report = RunReport(names=names)
-    bar = _Progress(len(tasks), desc, progress)
+    bar = tqdm(total=len(tasks), desc=desc, unit="task", disable=not progress, file=sys.stderr)
 
     def done(name: str, ok: bool, value) -> None:
         if ok:
@@ -225,7 +170,9 @@ def run_tasks(fn: Callable, tasks: Sequence[tuple[str, Any]], *, scheduler: str 
                 on_result(name, value)
         else:
             report.failed[name] = value
-        bar.update(len(report.failed))
+        bar.update()
+        if report.failed:
+            bar.set_postfix(failed=len(report.failed))
 
     t0 = time.perf_counter()
     old = _sigterm_as_interrupt()

@@ -1,21 +1,11 @@
 """Closed loop of the spatial model: a rider who balances, steers and follows a path.
 
-:func:`simulate_3d` runs one path in :class:`euc_sim.model.spatial.EucSpatial` at
-1 kHz.  Longitudinal loop as in the planar work (motor PD on γ, the delayed rider
-with predictor of :mod:`euc_sim.controllers.rider`, fed the paper's state read from the 3-D
-model: x the travelled distance, γ the pitch of Fig. 2, φ = γ + rider_pitch);
-lateral loop by :mod:`euc_sim.controllers.lateral` (lean and twist) on the path errors.
-
-Paths (:data:`PATHS`) are curvature profiles κ(s) of arc length, integrated from the
-origin heading +X, at a constant planned speed:
-
-``circle``  2 m straight, then a left circle of radius 4 m;
-``u_turn``  6 m straight, a left half circle of radius 4 m, straight back;
-``slalom``  κ = κ0 sin(2π s / 10 m) after 2 m straight, κ0 = 0.15 m⁻¹;
-``figure_eight``  2 m straight, then alternating full left and right circles of radius 4 m.
-
-Curvature changes are cosine ramps over 2.5 m centred on the joints (no step in the lean).  Falls (|ϑ| >
-0.6 rad, |φ| or |γ| beyond the planar bounds) raise :class:`FallError` with the time.
+:func:`simulate_3d` rides one path of :data:`PATHS` (curvature profiles κ(s) from the
+origin heading +X, cosine ramps of 2.5 m at their joints) in
+:class:`euc_sim.model.spatial.EucSpatial` at 1 kHz: the planar loop (motor PD, the
+delayed rider of :mod:`euc_sim.controllers.rider`) on the paper's state read from the 3-D
+model, the lateral rider of :mod:`euc_sim.controllers.lateral` on the path errors.
+See docs/spatial.md (Paths).
 """
 
 from __future__ import annotations
@@ -60,8 +50,7 @@ _DS = 0.01      # m, path sampling
 
 @dataclass(frozen=True)
 class Path3D:
-    """A planar path sampled every 1 cm: arc length s, ground X, Y (m), heading (rad),
-    curvature κ (1/m, left positive)."""
+    """A planar path sampled every 1 cm: arc length s, X, Y (m), heading (rad), curvature κ (1/m, left positive)."""
 
     name: str
     s: np.ndarray
@@ -76,24 +65,15 @@ TURNING_PATHS = ("circle", "slalom", "figure_eight", "u_turn")
 #: Speeds drawn for the turning paths, m/s: the lateral rider follows all four at 2 m/s
 #: (docs/spatial.md) and falls on circles of radius 3 m at 2.5 m/s.
 RIDEABLE_SPEEDS = (1.5, 2.2)
-#: Turn radii drawn, m, and the largest lateral acceleration v²/R drawn per path, m/s²:
-#: the rider follows a circle of R = 3 m at 2 m/s (1.33 m/s²) and falls at 2.5 m; the
-#: figure-eight's reversals are harder: R = 4 m at 2 m/s (1.0 m/s²) is ridden, 3.9 m
-#: at 2 m/s fell at 15.9 s (blind-study seed 3).
+#: Turn radii drawn, m, and the largest lateral acceleration v²/R drawn per path, m/s²
+#: (below the falls of docs/spatial.md; the figure-eight's reversals are harder).
 RIDEABLE_RADII = (3.5, 5.5)
 RIDEABLE_LATERAL_ACCEL = {"circle": 1.25, "u_turn": 1.25, "figure_eight": 0.9}
 
 
 def draw_spatial_ride(j: int, rng: np.random.Generator) -> dict:
-    """The j-th ride of a 3-D study from the seeded ``rng``.
-
-    Returns
-    -------
-    dict
-        ``path`` (:data:`TURNING_PATHS` in turn), ``speed`` (m/s, uniform in
-        :data:`RIDEABLE_SPEEDS`) and ``radius`` (m, uniform in :data:`RIDEABLE_RADII`
-        above v² / :data:`RIDEABLE_LATERAL_ACCEL` of the path; None for the slalom,
-        whose curvature is its own).
+    """The j-th ride of a 3-D study from the seeded ``rng``: ``path`` (:data:`TURNING_PATHS` in
+    turn), ``speed``, m/s, and ``radius``, m (None for the slalom), drawn within the rideable ranges.
     """
     path = TURNING_PATHS[j % len(TURNING_PATHS)]
     speed = round(float(rng.uniform(*RIDEABLE_SPEEDS)), 3)
@@ -120,8 +100,7 @@ def _segments(name: str, length: float, radius: float = RADIUS) -> list[tuple[fl
 
 
 def make_path(name: str, length: float, radius: float | None = None) -> Path3D:
-    """The path ``name`` (:data:`PATHS`) sampled over ``length`` m of arc length, its
-    turns of ``radius`` m (:data:`RADIUS` by default)."""
+    """The path ``name`` sampled over ``length`` m of arc length, turns of ``radius`` m (default :data:`RADIUS`)."""
     if name not in PATHS:
         raise SimulationError(f"unknown path {name!r}; valid paths: {', '.join(PATHS)}")
     radius = RADIUS if radius is None else radius
@@ -145,8 +124,7 @@ def make_path(name: str, length: float, radius: float | None = None) -> Path3D:
 
 
 class _Tracker:
-    """Nearest path point, searched forward from the last one (paths do not fold back
-    within a step)."""
+    """Nearest path point, searched forward from the last one."""
 
     def __init__(self, path: Path3D):
         self.X, self.Y = path.X.tolist(), path.Y.tolist()
@@ -195,57 +173,41 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     ----------
     path : str
         One of :data:`PATHS`.
-    duration : float
-        s.
-    params : Params
+    duration, dt : float
+        Length of the run and control period (the timestep), s.
+    params, motor, seed, tyre
+        As :func:`euc_sim.simulation.engine.simulate`; ``tyre`` a :class:`TyreContact`.
     speed : float, optional
         Planned speed, m/s (:data:`PATH_SPEEDS` by default).
-    motor : MotorPD, optional
     rider : controllers.rider.Rider, optional
-        Longitudinal rider (the planar LQR design, 0.15 s delay, no noise).
+        Longitudinal rider (default: the planar LQR design, 0.15 s delay, no noise).
     lateral : LateralRider, optional
-        Lateral rider (designed at ``speed`` with ``lateral_delay`` when omitted).
-    seed : int
-        Seed of the rider's motor noise.
-    dt : float
-        Control period and timestep, s.
-    tyre : TyreContact, optional
+        Lateral rider (default: designed at ``speed`` with ``lateral_delay``, s).
     maneuver : Maneuver, optional
-        Planned speed profile (constant ``speed`` by default); the lateral gains stay
-        those designed at ``speed``.
+        Planned speed profile (constant ``speed`` by default; the lateral gains stay those at ``speed``).
     integrator : str, optional
-        MuJoCo integrator of the run (:class:`EucSpatial`; the lateral design always
-        linearises the XML's ``implicitfast``).
-    lateral_delay : float
-        Reaction delay of the default lateral rider, s (0: none; 0.15 s is the
-        longitudinal rider's), compensated by a predictor.
+        MuJoCo integrator of the run (the lateral design linearises ``implicitfast``).
     radius : float, optional
-        Turn radius of ``circle``, ``u_turn`` and ``figure_eight``, m (:data:`RADIUS`
-        by default).
+        Turn radius of ``circle``, ``u_turn`` and ``figure_eight``, m (default :data:`RADIUS`).
     native : bool
-        Run the loop without Python per step (:mod:`euc_sim.simulation.native_spatial`: motor,
-        riders and path tracking as a numba-compiled MuJoCo control callback).  ``False``,
-        or a machine where numba cannot compile (one line on stderr), runs the Python loop,
-        the reference; the two agree to rounding (``tests/simulation/test_native_spatial.py``).
+        Run the loop as a numba control callback (:mod:`euc_sim.simulation.native_spatial`);
+        False, or where numba cannot compile, the Python loop (they agree to rounding).
     external_force : callable, optional
-        F(t), N: a horizontal force at the rider's centre of mass along the EUC's heading
-        (``xfrc_applied``), e.g. :class:`euc_sim.simulation.effects.PeriodicPush`, the
-        out-of-catalog disturbance of the blind study; ridden by the Python loop.
+        F(t), N, at the rider's centre of mass along the heading; ridden by the Python loop.
 
     Returns
     -------
     pandas.DataFrame
-        Columns t, x, gamma, phi, x_dot, gamma_dot, phi_dot, M_d, M_h, v_ref, psi,
-        theta, psi_dot, theta_dot, M_lean, M_twist, e_y (m, path offset), C_X..G_Z
-        (site positions, m), P_X, P_Y (tyre contact point, m), F_X, F_Y, F_Z (floor on
-        tyre, N); ``attrs`` describe the run.
+        t, x, gamma, phi, x_dot, gamma_dot, phi_dot, M_d, M_h, v_ref, psi, theta, psi_dot,
+        theta_dot, M_lean, M_twist, e_y (path offset, m), C_X … G_Z (site positions, m);
+        ``attrs`` describe the run.
 
     Raises
     ------
     FallError
-        when |ϑ| > :data:`TILT_BOUND`, |φ| > 0.7 or |γ| > 0.5 rad (the message gives the time).
+        When |ϑ| > :data:`TILT_BOUND`, |φ| > 0.7 or |γ| > 0.5 rad.
     SimulationError
-        for a bad path, duration or speed.
+        For a bad path, duration or speed.
     """
     from euc_sim.model.spatial import EucSpatial  # deferred: loads mujoco (0.1 s)
 
@@ -289,10 +251,8 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
 
 
 def _pose(qp, rq: int, ip: int, il: int, p: Params):
-    """Body rotation (row-major 9-list) and the sites C, E, G from qpos, ground frame.
-
-    From qpos itself, not from ``data.xmat``/``site_xpos``: after ``mj_step`` those
-    still hold the kinematics of the step's start, one timestep behind qpos.
+    """Body rotation (row-major 9-list) and the sites C, E, G from qpos, ground frame (``data.xmat``
+    lags qpos by a step after ``mj_step``).
     """
     w, x, y, z = qp[rq + 3:rq + 7]
     R = [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
@@ -378,12 +338,8 @@ def _ride(sim, run: RiderRun, motor: MotorPD, lateral: LateralRider, track: "_Tr
             f = float(push(k * dt))
             xfrc[rb, 0], xfrc[rb, 1] = f * cp, f * sp
         mujoco.mj_step(m, d)
-        x_s += dt * 0.5 * (x_dot + _forward_speed(qvel, rv, psi))
+        x_s += dt * 0.5 * (x_dot + (math.cos(psi) * float(qvel[rv]) + math.sin(psi) * float(qvel[rv + 1])))
     return rows
-
-
-def _forward_speed(qvel, rv: int, psi: float) -> float:
-    return math.cos(psi) * float(qvel[rv]) + math.sin(psi) * float(qvel[rv + 1])
 
 
 def _fall(t, theta, phi, gamma, phi_max, gam_max):
@@ -400,10 +356,9 @@ def spatial_recording(run: pd.DataFrame, *, noise: str = "paper", seed: int = 0,
                       rate: float = 120.0, hide_torques: bool = False) -> pd.DataFrame:
     """Sample a :func:`simulate_3d` run like the paper's motion capture.
 
-    Columns t, psi, theta, gamma (angle noise), C_X..G_Z (position noise) from the
-    model's own sites by cubic spline of the 1 kHz samples, and the held M_d, M_h
-    (unless hidden): no ``x``, no ``phi``, so the Section 2 pipeline (eqs. 1-3)
-    computes the state itself.  Noise levels of :data:`euc_sim.simulation.mocap.NOISE_LEVELS`.
+    t, psi, theta, gamma and C_X … G_Z by cubic spline with the noise of
+    :data:`~euc_sim.simulation.mocap.NOISE_LEVELS`, and the held M_d, M_h unless hidden; no
+    ``x``, ``phi``: the Section 2 pipeline (eqs. 1-3) computes the state.
     """
     from scipy.interpolate import CubicSpline
 
@@ -431,22 +386,10 @@ def write_spatial(out, path: str, duration: float, *, params: Params = TABLE3, s
                   radius: float | None = None, external_force=None):
     """Simulate ``path`` in the spatial model and write a recording with sidecars.
 
-    ``external_force``: an out-of-catalog F(t) at the rider (:func:`simulate_3d`), named in
-    the truth file only.
-
-    ``NAME.csv`` (or ``.parquet``) holds :func:`spatial_recording`'s motion-capture
-    columns; ``NAME.json`` the known parameters (not h) and the maneuver;
-    ``NAME.truth.json`` the true parameters, controllers and the path-following error.
-
-    Returns
-    -------
-    pathlib.Path
-        The written recording.
-
-    Raises
-    ------
-    FallError
-        when the rider falls (nothing is written).
+    ``NAME.csv`` holds :func:`spatial_recording`'s columns, ``NAME.json`` the known
+    parameters (not h) and the maneuver, ``NAME.truth.json`` the truth and path error;
+    ``external_force`` (see :func:`simulate_3d`) is named in the truth only.  Returns the
+    recording's path; ``FallError`` when the rider falls (nothing written).
     """
     motor = motor or MotorPD()
     rider = default_rider(params, motor, noise_std=rider_noise, delay=rider_delay)

@@ -1,7 +1,4 @@
-"""Stability of the closed loops: the plant's linearisation with the motor PD and the rider designed on it.
-
-It sits above both :mod:`euc_sim.model.linearize` (the plant) and :mod:`controllers` (the laws designed on it).
-"""
+"""Stability of the closed loops: the plant's linearisation with the motor PD and the rider designed on it."""
 
 from __future__ import annotations
 
@@ -22,27 +19,12 @@ def _eig_list(A: np.ndarray) -> list[list[float]]:
 
 def stability_report(p: Params = TABLE3, motor=None, rider=None, speed: float = 0.0,
                      check_mujoco: bool = True) -> dict:
-    """Linearisation at upright riding at ``speed``, eigenvalues and the rider's delay margin.
+    """Linearisation at upright riding at ``speed``, m/s, its eigenvalues and the rider's delay margin.
 
-    Parameters
-    ----------
-    p : Params
-    motor : controllers.motor.MotorPD, optional
-        Default gains when omitted.
-    rider : controllers.rider.Rider, optional
-        Designed by :func:`euc_sim.controllers.design.design_rider` when omitted.
-    speed : float
-        Forward speed of the operating point, m/s (x is cyclic; speed enters only
-        through the tilt-back set-point).
-    check_mujoco : bool
-        Also compare the Jacobians with ``mjd_transitionFD``.
-
-    Returns
-    -------
-    dict
-        JSON-ready: eigenvalues ([re, im] pairs, 1/s) of the open loop, the loop with
-        the motor PD, the full loop without delay and the discrete loop with the
-        rider's delay and predictor; the delay margins; the Jacobian checks.
+    JSON-ready: eigenvalues ([re, im], 1/s) of the open loop, with the motor PD and with the
+    rider; the delay margins and the discrete loop with the rider's delay and predictor; the
+    Jacobian checks (against ``mjd_transitionFD`` with ``check_mujoco``).  ``motor`` and
+    ``rider`` default to the default gains and :func:`~euc_sim.controllers.design.design_rider`.
     """
 
     motor = motor or MotorPD()

@@ -13,6 +13,7 @@ from euc_sim.rides.drive.drivetrain_report import MassDrivetrain
 from euc_sim.rides.law.controller_report import ControllerFit
 from euc_sim.rides.pipeline import REPLAY_NOT_ASKED, ride_pipeline
 from euc_sim.rides.render.contract import ride_json
+from euc_sim.rides.request import RideRequest
 from euc_sim.rides.result import RideResult
 from euc_sim.rides.source.logs import read_log
 
@@ -23,7 +24,7 @@ def test_the_pipeline_returns_the_typed_result_and_writes_no_file(tmp_path, monk
     before = sorted(tmp_path.rglob("*"))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = ride_pipeline(log, n_boot=10)
+        res = ride_pipeline(RideRequest(log, n_boot=10))
     assert sorted(tmp_path.rglob("*")) == before                   # no file, no folder
     assert isinstance(res, RideResult) and isinstance(res.mass, MassDrivetrain)
     assert isinstance(res.verdict, Verdict) and isinstance(res.law, ControllerFit)

@@ -45,8 +45,12 @@ def test_an_absurd_spec_is_refused_in_one_line_naming_the_field(tmp_path, capsys
 
 
 def test_an_absurd_override_is_refused():
-    with pytest.raises(SpecError, match="--wheel-mass: 0.5 kg"):
-        wheel_spec(wheel_mass=0.5)
+    from euc_sim.rides.request import ride_request
+
+    with pytest.raises(ValueError, match=r"--wheel-mass: expected a number in \[5, 100\] kg, got 0.5"):
+        ride_request("absent.csv", wheel_mass=0.5)
+    with pytest.raises(ValueError, match=r"--radius: expected a number in \[0.1, 0.4\] m, got -3"):
+        ride_request("absent.csv", radius=-3.0)
     assert wheel_spec(wheel_mass=23.5).wheel_mass == 23.5
 
 

@@ -296,25 +296,19 @@ def wheel_spec(path=None, *, radius: float | None = None, wheel_mass: float | No
         A ``Field|Data`` file (:func:`read_spec`), or the name or alias of a shipped
         wheel (:func:`find_wheel`; ``v9``, ``inmotion v9``).
     radius, wheel_mass, battery_voltage : float, optional
-        m, kg, V; each replaces the file's value.
+        m, kg, V; each replaces the file's value (checked by the ride's request,
+        :func:`euc_sim.rides.request.ride_request`, against :data:`SPEC_RANGE`).
 
     Raises
     ------
     SpecError
-        for a non-positive override, naming it, or an unknown wheel name (listing the known ones).
+        for an unknown wheel name (listing the known ones).
     FileNotFoundError
         for a path (a name with a suffix or a folder) that does not exist.
     """
     spec = _resolve(path) if path is not None else WheelSpec()
-    over = {}
-    for key, val in (("radius", radius), ("wheel_mass", wheel_mass),
-                     ("battery_voltage", battery_voltage)):
-        if val is None:
-            continue
-        if not (val == val and 0 < val < float("inf")):
-            raise SpecError(f"wheel {key}: expected a positive number, got {val!r}")
-        _check_range(f"--{key.replace('_', '-')}", key, float(val))
-        over[key] = float(val)
+    over = {key: float(val) for key, val in (("radius", radius), ("wheel_mass", wheel_mass),
+                                             ("battery_voltage", battery_voltage)) if val is not None}
     if over:
         src = spec.source if spec.source != "none" else ""
         spec = replace(spec, source=(src + " + command line").lstrip(" +"), **over)

@@ -7,30 +7,15 @@ is a typed result of its own module (:mod:`euc_sim.rides.summary.summary`,
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from datetime import timedelta, timezone
 
 import numpy as np
 
-from euc_sim.errors import InputError
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
 
-__all__ = ["Clock", "rider_numbers", "check_rider_weight", "ride_clock", "zone_words"]
-
-
-#: A rider's declared weight with gear, kg (``--rider-weight``).
-RIDER_WEIGHT = (20.0, 250.0)
-
-
-def check_rider_weight(kg: float | None) -> float | None:
-    """The declared rider weight, kg, or a one-line ``ValueError`` naming ``--rider-weight``."""
-    if kg is None:
-        return None
-    if not (math.isfinite(kg) and RIDER_WEIGHT[0] <= kg <= RIDER_WEIGHT[1]):
-        raise InputError(f"--rider-weight is the rider's weight with gear, kg, between 20 and 250; got {kg!r}")
-    return float(kg)
+__all__ = ["Clock", "rider_numbers", "ride_clock", "zone_words"]
 
 
 def zone_words(offset_s: float | None) -> str:

@@ -187,7 +187,7 @@ def test_other_layouts_give_the_same_summary(tmp_path, layout):
 
 def test_rider_numbers_reads_the_reports_terms(tmp_path):
     from euc_sim.rides.render.contract import rider_json
-    from euc_sim.rides.summary.rider_view import check_rider_weight, rider_numbers
+    from euc_sim.rides.summary.rider_view import rider_numbers
     from euc_sim.rides.result import RiderNumbers
     from euc_sim.rides.source.spec import WheelSpec
 
@@ -206,8 +206,6 @@ def test_rider_numbers_reads_the_reports_terms(tmp_path):
     assert out["battery"]["resistance_ohm"] == 0.2
     assert rider_numbers(log, rep["total_mass"], rep["drivetrain"])[0].to_json() == rider_numbers(
         log, rep["total_mass"], rep["drivetrain"], WheelSpec(wheel_mass=25.0), 90.0)[0].to_json()
-    with pytest.raises(ValueError, match="--rider-weight"):
-        check_rider_weight(500.0)
 
 
 def test_a_pause_of_the_log_does_not_make_its_data_poor(tmp_path):
