@@ -26,22 +26,8 @@ __all__ = ["RideAnalysis", "BalanceSettings", "ride_analysis", "check_data", "sp
 
 @dataclass(frozen=True)
 class BalanceSettings:
-    """How the balance fit read and resampled the ride and drew its bootstrap.
-
-    Attributes
-    ----------
-    rate : float
-        Grid rate, Hz.
-    window : float
-        Savitzky-Golay window, s.
-    polyorder : int
-    max_gap : float
-        Longest gap bridged, s.
-    n_boot : int
-        Bootstrap replicates.
-    block_s : float
-        Bootstrap block, s.
-    seed : int
+    """How the balance fit read the ride (``rate`` Hz, Savitzky–Golay ``window`` s and
+    ``polyorder``, ``max_gap`` s) and drew its bootstrap (``n_boot``, ``block_s`` s, ``seed``).
     """
 
     rate: float = GAP_POLICY.rate
@@ -61,12 +47,10 @@ class RideAnalysis:
     ----------
     cross : CrossRide
     sig_fit, sig_test : RideSignals
-        The fit ride and the compare ride (None without ``compare_path``).
+        The fit ride and the compare ride (None without one).
     designs : tuple of Design
-        The balance design of the whole fit ride and of the compare ride (None without
-        ``compare_path``): built once, read again by the residual's localisation.
+        The balance designs of the whole fit ride and of the compare ride.
     notes : tuple of str
-        The reader's, the resampling's and the design's notes, and the mass caveat.
     domain : {"power", "torque"}
     assumptions : RideAssumptions
     settings : BalanceSettings
@@ -98,28 +82,10 @@ def ride_analysis(log_path, compare_path=None, *,
                   seed: int = 0, progress: Callable[[str], None] | None = None) -> RideAnalysis:
     """Diagnose a ride's longitudinal balance.
 
-    Fits the inertia-only balance (η_m, η_r) and the augmented one on
-    ``log_path`` and measures both on ``compare_path``; without ``compare_path``
-    the first half of the ride is the fit and the second half the test.
-
-    Parameters
-    ----------
-    log_path : Ride
-        Ride to fit (it keeps its grid: built once).
-    compare_path : Ride, optional
-        Ride to test on.
-    assumptions : RideAssumptions
-    rate, max_gap, window, polyorder :
-        See :func:`ride_signals`.
-    domain : {"power", "torque"}
-    n_boot, block_s, seed :
-        See :func:`fit_balance`.
-    progress : callable, optional
-        Called with a short line at each step.
-
-    Returns
-    -------
-    RideAnalysis
+    Fits the inertia-only and the augmented balance on ``log_path`` and measures both on
+    ``compare_path`` (without one: the first half fits, the second tests).  ``rate``,
+    ``max_gap``, ``window``, ``polyorder`` as :func:`ride_signals`; ``n_boot``, ``block_s``,
+    ``seed`` as :func:`fit_balance`; ``progress`` is called with a short line at each step.
     """
     with one_blas_thread():
         return _ride_analysis(log_path, compare_path, assumptions=assumptions, rate=rate, max_gap=max_gap,
@@ -155,15 +121,8 @@ def _ride_analysis(log_path, compare_path=None, *,
 
 def check_data(log_path, compare_path=None, *, assumptions: RideAssumptions = RideAssumptions(),
                domain: str = "power", block_s: float = 10.0) -> None:
-    """Fail early, naming the file, on a log :func:`ride_analysis` cannot use.
-
-    Builds the rides' balance grids (kept on each ride) and checks the fit part (LOG, or its first half without
-    ``compare_path``) holds enough rows for the bootstrap (:func:`block_rows`).
-
-    Raises
-    ------
-    ValueError, OSError
-        naming the file and what is missing.
+    """Fail early, naming the file, on a log :func:`ride_analysis` cannot use: the fit part
+    must hold enough rows for the bootstrap (:func:`block_rows`).
     """
     sig_fit = ride_signals(log_path, assumptions)
     sig_test = None if compare_path is None else ride_signals(compare_path, assumptions)

@@ -1,9 +1,7 @@
 """Inertia-only against augmented balance: fitted on one ride, tested on another.
 
-:func:`cross_ride` accepts the effects that blocked held-out validation on the
-fit ride keeps (:func:`select_effects`, the selection rule of every ride fit),
-the JSON's effect entries are :func:`euc_sim.rides.render.contract.effect_entries` (the page draws the
-held-out prediction: :func:`euc_sim.rides.render.fit_figures.balance_figure`).
+:func:`cross_ride` accepts the effects blocked held-out validation on the fit ride keeps
+(:func:`select_effects`, the selection rule of every ride fit).
 """
 
 from __future__ import annotations
@@ -32,13 +30,9 @@ ADMIT = ("any", "plausible", "interior")
 
 
 def heldout_score(design: Design, names, n_folds: int = HELDOUT_FOLDS, admit: str = "any") -> float:
-    """Blocked held-out RMS error of the bounded balance with ``names`` on ``design``, W or N·m.
-
-    Each of ``n_folds`` contiguous time blocks is predicted from a bounded fit
-    (:data:`~euc_sim.rides.balance.design.BOUNDS`) on the others.  A model whose
-    fit on the whole design is not admitted scores ``inf``: with ``admit`` =
-    ``"plausible"``, one with a non-nominal term outside its plausible range;
-    with ``"interior"``, also one with a term on a bound (:data:`ADMIT`).
+    """Blocked held-out RMS error (W or N·m) of the bounded balance with ``names``: each of
+    ``n_folds`` contiguous blocks predicted from the others; ``inf`` when the whole fit is not
+    admitted under ``admit`` (:data:`ADMIT`: ``"plausible"``, ``"interior"`` also off the bounds).
     """
     return _HeldoutScores(design, n_folds).score(names, admit)
 
@@ -87,13 +81,8 @@ class _HeldoutScores:
 
 
 def _all_admissible(estimate: dict, idle_cap: float | None = None) -> bool:
-    """True when every non-nominal term of ``estimate`` lies in its plausible range.
-
-    A term on an edge of its plausible range (the fit's bound) is admissible: it is
-    the most that plausible physics gives, and is accepted at that edge
-    (:func:`~euc_sim.rides.balance.design.on_bound` marks it).  ``idle_cap`` (W,
-    :attr:`Design.idle_cap`): the ride's own standstill power, above which a
-    constant drain P₀ is not plausible.
+    """True when every non-nominal term of ``estimate`` lies in its plausible range (an edge
+    included), P₀ not above ``idle_cap`` (W, the ride's standstill power).
     """
     for name, value in estimate.items():
         if name in NOMINAL:
@@ -109,28 +98,12 @@ def _all_admissible(estimate: dict, idle_cap: float | None = None) -> bool:
 def select_effects(design: Design, candidates) -> tuple[list[str], list[dict], list[str]]:
     """The terms blocked held-out validation keeps, the history, and the terms held out of it.
 
-    Forward selection (:func:`euc_sim.stats.forward_select`) from the
-    inertia-only model, in two passes of one rule: each step adds the candidate
-    that lowers :func:`heldout_score` most, if by more than :data:`MIN_GAIN`,
-    first among the models whose terms all lie inside their plausible ranges and
-    off their bounds, then, from the model that pass ends with, among those whose
-    terms may also sit on an edge of their range.  The interior pass explains
-    what plausible physics can without an edge (a single term pushed onto its
-    bound would otherwise take the share of two: drag and rolling, or drag and
-    P₀); the edge pass adds the loss a ride asks for beyond that, at the most
-    plausible physics gives.  A step may add two terms at once (terms each
-    inadmissible alone and admissible together; docs/ride_model.md).
-
-    Returns
-    -------
-    kept : list of str
-        In the order kept.
-    history : list of dict
-        ``{"term", "heldout_rmse"}`` after each step, the inertia-only model first.
-    blocked : list of str
-        Candidates left that would lower the held-out error of the kept model by
-        more than :data:`MIN_GAIN`, but only in a model with a term (theirs or
-        another's) outside its plausible range.
+    Forward selection from the inertia-only model, each step adding the candidate that
+    lowers :func:`heldout_score` most by more than :data:`MIN_GAIN`: first among models with
+    every term inside its plausible range and off its bounds, then allowing edges.  A step
+    may add two terms at once (docs/ride_model.md, "One selection rule, two passes").
+    Returns the kept terms in order, ``{"term", "heldout_rmse"}`` after each step, and the
+    candidates that help only beside an implausible term (``blocked``).
     """
     others = [c for c in candidates if c not in NOMINAL]
     scores = _HeldoutScores(design)
@@ -165,14 +138,8 @@ def _accepted_model(design: Design, selected) -> list[str]:
 
 
 def admissible(fit: BalanceFit, names, idle_cap: float | None = None) -> list[str]:
-    """Those of ``names`` whose estimate in ``fit`` lies in its plausible range.
-
-    A term on an edge of its range is admissible at that edge (``on_bound`` in
-    :func:`~euc_sim.rides.balance.fit.plausibility`); one outside it (a GPS gain
-    below its range, P₀ above the ride's standstill power) stays in the balance, but
-    nothing is named or simulated from it.  A term fitted to 0 where 0 means "absent"
-    (the lower bound of a loss or a lag) is not admissible either: there is nothing to
-    name.  ``idle_cap``: see :func:`_all_admissible`.
+    """Those of ``names`` whose estimate in ``fit`` lies in its plausible range (an edge
+    included, 0 as "absent" not); ``idle_cap`` as :func:`_all_admissible`.
     """
     phys = plausibility(fit)
     return [c for c in names if phys[c]["plausible"] and not _absent(c, fit.estimate[c])
@@ -192,16 +159,11 @@ class CrossRide:
     Attributes
     ----------
     nominal, full, augmented : BalanceFit
-        Fits on the fit ride: inertia only (nothing fitted); every candidate the ride
-        supports; nominal plus the accepted effects alone (:func:`_accepted_model`).
+        Fits on the fit ride: inertia only; every candidate; nominal plus the accepted effects.
     accepted : tuple of str
-        Effects kept by blocked held-out validation on the fit ride
-        (:func:`select_effects`) whose estimates are plausible (:func:`admissible`;
-        a term may sit on an edge of its plausible range), in the order kept.
+        Effects kept by :func:`select_effects` whose estimates are :func:`admissible`, in order.
     selected : tuple of str
-        The terms the selection kept, then those it held out because they lower
-        the held-out error only outside their plausible range
-        (:func:`select_effects`'s ``blocked``).
+        The terms the selection kept, then its ``blocked`` ones.
     selection : list of dict
         ``{"term", "heldout_rmse"}`` after each kept step, the inertia-only model first.
     heldout_nominal, heldout_augmented, heldout_full : float
@@ -237,12 +199,8 @@ class CrossRide:
 def cross_ride(fit_design: Design, test_design: Design, n_boot: int = 200, block_s: float = 10.0,
                seed: int = 0, fit_label: str = "fit", test_label: str = "test",
                progress: Callable[[str], None] | None = None) -> CrossRide:
-    """Fit the nominal and augmented balances on one design, measure both on another.
-
-    An effect is *accepted* when blocked held-out validation on the fit ride keeps
-    it (:func:`select_effects`) and its bounded estimate is plausible
-    (:func:`admissible`).
-    ``progress``, when given, is called with a short line before each bootstrapped fit.
+    """Fit the nominal and augmented balances on one design, measure both on another;
+    ``progress`` is called with a short line before each bootstrapped fit.
     """
     say = progress or (lambda msg: None)
     common = [c for c in fit_design.candidates if c in test_design.candidates]

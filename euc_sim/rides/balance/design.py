@@ -1,37 +1,17 @@
 """The wheel's longitudinal balance of a ride, every term filtered alike, ready to fit.
 
-Balance of the whole EUC + rider along the road (no rider lean needed: the
-rider's and motor's internal torques cancel)::
-
-    m_eq·a·R = M_wheel − R·(C_rr·N·sign v + k·v|v| + m·g·sin α)
-
-The balance is used in the power domain (multiply by ω = v/R) in its
-energy-balance form: the battery supplies the mechanical power the ride
-demands plus the electrical losses, in both regimes (no efficiency)::
+The balance of EUC and rider along the road, m_eq·a·R = M_wheel − R·(C_rr·N·sign v +
+k·v|v| + m·g·sin α), is used in its energy form (losses added, no efficiency)::
 
     D = m_eq·a·v + C_rr·m·g·|v| + k·|v|³ + m·g·sin α·v
     P = P₀ + D + k_cu·F²,   F = m_eq·a
 
-P₀ is a constant drain (controller, lights), W; k_cu·F² the copper loss of the
-force the motor adds to accelerate or brake (winding resistance × (R/k_t)²,
-W/N²).  A loss proportional to speed (iron, bearings) gives the column |v|
-of rolling resistance, and one growing with |v|³ that of drag: in battery
-power they cannot be told apart, so ``rolling_resistance`` and
-``aerodynamic_drag`` hold them too (docs/ride_model.md).  The inertial power
-is computed as m_eq·d/dt(v²/2) from the same Savitzky–Golay fit that smooths
-P and every other regressor, so filtering commutes with the equation.
-
-Why battery power is the target (output error) and not a regressor: the motor
-torque also drives the rider's lean changes (m·h·φ̈ in eq. 5, unmeasured here),
-which look like noise in P; with P as a regressor that noise attenuates every
-coefficient.  Putting P on the left keeps the noise in the target, where least
-squares tolerates it.  The model is linear in every parameter but the current
-lag: at each lag a bounded linear fit, the lag searched on its profile cost
-(:mod:`~euc_sim.rides.balance.normal`).
-
-The candidate parameters (:data:`CANDIDATES`), their plausible ranges
-(:data:`PLAUSIBLE`) and the regressors of a ride (:func:`balance_design`) live
-here; the fit and its intervals in :mod:`euc_sim.rides.balance.fit`.
+(P₀ a constant drain, W; k_cu the copper loss, W/N²; speed-linear and |v|³ losses fold
+into rolling and drag).  Battery power is the target, not a regressor, so the rider's
+unmeasured lean torque stays in the target's noise.  Linear in every parameter but the
+current lag (:mod:`~euc_sim.rides.balance.normal`).  The candidates (:data:`CANDIDATES`),
+their plausible ranges and the ride's regressors (:func:`balance_design`) live here; the
+fit in :mod:`euc_sim.rides.balance.fit`.  See docs/ride_model.md.
 """
 
 from __future__ import annotations
@@ -63,10 +43,8 @@ CANDIDATES = RECORDS.view("balance", lambda b: (b.symbol, b.unit, b.meaning, b.c
 NOMINAL: tuple[str, ...] = ()
 #: Plausible ranges of the physical estimates, with units.
 PLAUSIBLE = RECORDS.view("balance", lambda b: (*b.plausible, b.unit))
-#: Bounds of the fit: a resistance or loss runs from 0 (absent) to the top of its
-#: plausible range, a grade or GPS gain over its plausible range.  An estimate that
-#: ends on a bound other than "absent" (:func:`on_bound`) is the most that plausible
-#: physics gives while the data asks for more: accepted at that edge, and said so.
+#: Bounds of the fit: a resistance or loss from 0 (absent) to the top of its plausible range, a
+#: grade or GPS gain over its plausible range (an estimate on an edge: :func:`on_bound`).
 BOUNDS = RECORDS.view("balance", lambda b: b.bounds)
 
 
@@ -82,10 +60,8 @@ def role_index(names: Sequence[str], role: str) -> int | None:
 
 
 def on_bound(name: str, value: float, rel: float = 1e-6) -> bool:
-    """True when ``value`` sits on a bound of :data:`BOUNDS` that is not "absent" (0).
-
-    Such an estimate is the bound, not all the data asks for: the unbounded fit
-    would leave the plausible range (docs/ride_model.md, "accepted on the edge").
+    """True when ``value`` sits on a bound of :data:`BOUNDS` that is not "absent" (0): the most
+    plausible physics gives (docs/ride_model.md, "accepted on the edge").
     """
     lo, hi = BOUNDS.get(name, (-np.inf, np.inf))
     tol = rel * max(abs(hi - lo), 1.0) if np.isfinite(hi - lo) else 0.0
@@ -101,55 +77,37 @@ class Design:
         D = inertia + C_rr·rolling + k·drag + sin α·slope + gain·gps_climb + k_cu·copper
         P̂ = P₀ + (L₂ − τ_I·L₂' + τ_I²·L₂'')[D]
 
-    τ_I (``current_lag``) is a first-order lag of the logged battery current
-    behind the power drawn (the wheel's current report averages or lags):
-    1/(1 + τ_I·s) = 1 − τ_I·s + τ_I²·s² − …, so to second order the lag turns P
-    into P − τ_I·Ṗ + τ_I²·P̈.  L₂' and L₂'' are the first and second derivatives
-    from the same Savitzky–Golay fit as L₂, so the rows in use do not change
-    with τ_I; the expansion holds over L₂'s passband (about 0.6 Hz for 1.5 s)
-    for τ_I up to its bound, 0.3 s (docs/ride_model.md).
-
-    Filtering.  Every regressor is first passed through a short Savitzky–Golay
-    fit L₁ (``inertia`` through its derivative; ``copper`` is the square of
-    the L₁ acceleration); then one longer Savitzky–Golay fit L₂ smooths the
-    prediction.  The measured battery power gets exactly L₂∘L₁, so both sides
-    carry the same linear filter (the square in ``copper`` is taken after L₁).
+    τ_I (``current_lag``) is a first-order lag of the logged current to second order, L₂'
+    and L₂'' the derivatives of the same Savitzky–Golay fit L₂.  Every regressor first
+    passes a short fit L₁ (``copper`` squared after it); the measured power gets L₂∘L₁, so
+    both sides carry the same linear filter.
 
     Attributes
     ----------
     columns_full : pandas.DataFrame
-        On the whole grid, L₁-filtered: ``inertia`` = m_eq·d/dt(v²/2), W;
-        ``rolling`` = m·g·|v|, W; ``drag`` = |v|³, m³/s³; ``slope`` = m·g·v, W
-        (only when v changes sign); ``gps_climb`` = m·g·v·sin α, W, sin α from
-        GPS altitude over distance (:func:`~euc_sim.rides.grids.route.gps_grade`;
-        only with GPS altitude).
+        L₁-filtered on the whole grid: ``inertia`` m_eq·d/dt(v²/2) W, ``rolling`` m·g·|v| W,
+        ``drag`` |v|³ m³/s³, ``slope`` m·g·v W, ``gps_climb`` m·g·v·sin α W (where supported).
     P_full : numpy.ndarray
-        Battery power V·I filtered by L₂∘L₁, W (NaN near segment ends).
+        Battery power V·I filtered by L₂∘L₁, W.
     segment : numpy.ndarray of int
     use : numpy.ndarray of bool
         Rows that enter the residual.
-    kernel : numpy.ndarray
-        L₂'s convolution coefficients.
-    dkernel, d2kernel : numpy.ndarray
-        L₂' and L₂'': the same fit's first (1/s) and second (1/s²) derivatives.
+    kernel, dkernel, d2kernel : numpy.ndarray
+        L₂'s convolution coefficients and its first (1/s) and second (1/s²) derivatives.
     weight_full : numpy.ndarray
-        Residual weight: 1 (``domain="power"``), or R/v, s (``"torque"``:
-        residuals become battery-side torque errors, N·m).
+        Residual weight: 1 (power), or R/v s (torque: residuals in N·m).
     t_full, v_full : numpy.ndarray
         s; L₂∘L₁-smoothed speed, m/s.
     domain, unit : str
         ``"power"``/``"W"`` or ``"torque"``/``"N·m"``.
     candidates : tuple of str
-        Parameters this ride supports (keys of :data:`CANDIDATES`).
+        Parameters this ride supports.
     aliases : dict
         Candidate -> candidates this ride cannot tell apart from it.
     notes : tuple of str
     path : str
     idle_cap : float or None
-        Upper quartile of the battery power the log reports at standstill, W
-        (:func:`standstill_power`): P₀ above it is not plausible on this ride.
-        None when the log does not tell (too little standstill, or a current
-        report that reads 0 at standstill).
+        :func:`standstill_power`, W: P₀ above it is not plausible on this ride.
     """
 
     columns_full: pd.DataFrame
@@ -189,10 +147,8 @@ class Design:
         return self.weight_full[self.use]
 
     def rows(self, mask: np.ndarray) -> "Design":
-        """The same design with fewer rows in use (``mask`` over the rows in use).
-
-        Its :attr:`operator` is this one's rows (the support may read samples no kept row
-        needs, with zero weight), so folds and halves build no filter matrix of their own.
+        """The same design with fewer rows in use (``mask`` over the rows in use), reusing this
+        one's filter matrices.
         """
         mask = np.asarray(mask, bool)
         use = self.use.copy()
@@ -232,11 +188,7 @@ class Design:
         return Z.T @ Z
 
     def demand(self, names: Sequence[str], Theta: np.ndarray) -> np.ndarray:
-        """Demanded mechanical power plus the losses in it, D + k_cu·F², of B parameter sets, W.
-
-        ``Theta`` holds one row per name (shape len(names) × B); resistances and
-        losses not named are 0.  Returns support × B.
-        """
+        """D + k_cu·F² of B parameter sets (``Theta``: len(names) × B; unnamed terms 0), W; support × B."""
         op = self.operator
         Theta = _as_sets(Theta)
         D = np.repeat(op.columns["inertia"][:, None], Theta.shape[1], axis=1)
@@ -248,10 +200,7 @@ class Design:
 
     def predict_many(self, names: Sequence[str], Theta: np.ndarray,
                      D: np.ndarray | None = None) -> np.ndarray:
-        """Battery power P̂ of B parameter sets on the rows in use, W (rows × B).
-
-        ``D`` is :meth:`demand` when already computed.
-        """
+        """Battery power P̂ of B parameter sets on the rows in use, W (rows × B); ``D`` reuses :meth:`demand`."""
         names = list(names)
         Theta = _as_sets(Theta)
         D = self.demand(names, Theta) if D is None else D
@@ -286,14 +235,8 @@ def _as_sets(Theta) -> np.ndarray:
 class Basis:
     """The basis ``Z`` of a design's weighted residual w·(P − P̂) on its rows in use.
 
-    Attributes
-    ----------
-    columns : tuple of str
-        Regressor columns, ``"inertia"`` first; column ``3·i + s`` of ``Z`` is
-        w·L₂⁽ˢ⁾[columns[i]] (s = 0, 1, 2: the long filter and its two derivatives).
-    Z : numpy.ndarray
-        Rows in use × (3·len(columns) + 2); the last two columns are w (the
-        constant P₀) and w·P (the measured power), W or N·m.
+    Column ``3·i + s`` of ``Z`` is w·L₂⁽ˢ⁾[columns[i]] (s = 0, 1, 2), ``"inertia"`` first;
+    the last two are w (the constant P₀) and w·P (the measured power), W or N·m.
     """
 
     columns: tuple[str, ...]
@@ -304,17 +247,8 @@ class Basis:
 class Operator:
     """A design's model as matrices: P̂ = P₀ + K·g(D) on the rows in use.
 
-    Attributes
-    ----------
-    K : scipy.sparse.csr_matrix
-        The long filter L₂ from the rows it touches (the support) to the rows in
-        use: ``K @ x[support] == _conv(x, segment, kernel)[use]``.
-    Kd, Kdd : scipy.sparse.csr_matrix
-        Its first and second derivatives L₂', L₂'' on the same support.
-    columns : dict
-        ``columns_full`` on the support: name -> array (``inertia`` in W, ...).
-    support : numpy.ndarray of int
-        The grid rows the matrices read (their columns), sorted.
+    ``K``, ``Kd``, ``Kdd`` (sparse) are L₂ and its derivatives from the ``support`` rows they
+    read to the rows in use; ``columns`` holds ``columns_full`` on the support.
     """
 
     K: object
@@ -327,27 +261,10 @@ class Operator:
 def filter_matrices(segment: np.ndarray, kernels: Sequence[np.ndarray], rows: np.ndarray):
     """Segment-wise convolutions as sparse matrices on the rows they touch.
 
-    Parameters
-    ----------
-    segment : numpy.ndarray of int
-        Segment label of each sample; a filter never crosses a boundary.
-    kernels : sequence of numpy.ndarray
-        Convolution coefficients (one odd length M), as for ``numpy.convolve``.
-    rows : numpy.ndarray of int
-        Output rows, each at least M//2 samples inside its segment.
-
-    Returns
-    -------
-    Ks : list of scipy.sparse.csr_matrix, each shape (len(rows), len(support))
-    support : numpy.ndarray of int
-        The samples the rows read, sorted, found once for all kernels (a coverage count
-        over the segment-sorted samples, no sort): ``K @ x[support]`` equals the
-        segment-wise ``numpy.convolve(x, kernel, mode="same")`` at ``rows``.
-
-    Raises
-    ------
-    ValueError
-        if a row lies within M//2 samples of its segment's end.
+    Each kernel (one odd length M, as for ``numpy.convolve``) becomes a (len(rows),
+    len(support)) matrix with ``K @ x[support]`` equal to the segment-wise
+    ``numpy.convolve(x, kernel, mode="same")`` at ``rows``; ``support`` is the sorted samples
+    read.  ValueError for a row within M//2 samples of its segment's end.
     """
     from scipy import sparse
 
@@ -401,10 +318,8 @@ PRE_WINDOW = 0.5
 def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
     """The L₁-filtered regressor columns of a ride and the candidates they support.
 
-    Each record with a balance face is offered where its ``regressor`` gives a column
-    (or it has none: a constant or a lag); where it gives a reason instead, the reason is
-    a note and its ``aliases_when_absent`` stand in for it.
-    Returns ``(columns, candidates, aliases, notes)``; see :func:`balance_design`.
+    A record whose ``regressor`` gives a reason instead of a column adds a note and its
+    ``aliases_when_absent``.  Returns ``(columns, candidates, aliases, notes)``.
     """
     A = sig.assumptions
     raw = sig.raw
@@ -440,13 +355,8 @@ MIN_STANDSTILL = 10.0
 
 
 def standstill_power(v: np.ndarray, P: np.ndarray, rate: float) -> float | None:
-    """Upper quartile of the battery power at standstill (|v| < 0.05 m/s), W, or None.
-
-    At standstill the battery gives the constant drain P₀ plus what balancing
-    the rider takes (≥ 0), so P₀ is at most this; the upper quartile leaves a
-    quarter of the readings to noise.  None with less than
-    :data:`MIN_STANDSTILL` s of standstill, or when most standstill readings are
-    exactly 0 (a current report that zeroes small currents says nothing of P₀).
+    """Upper quartile of the battery power at standstill (|v| < 0.05 m/s), W: a bound on P₀.
+    None with less than :data:`MIN_STANDSTILL` s of standstill or mostly zero readings.
     """
     still = (np.abs(v) < 0.05) & np.isfinite(P)
     if still.sum() < MIN_STANDSTILL * rate or np.mean(P[still] == 0.0) > 0.5:
@@ -458,26 +368,17 @@ def balance_design(sig: RideSignals, domain: str = "power",
                    sign_change_fraction: float = 0.02, pre_window: float = PRE_WINDOW) -> Design:
     """The longitudinal balance of a ride, every term filtered alike.
 
-    ``road_slope`` (a constant grade) is offered only when the speed changes sign
-    on at least ``sign_change_fraction`` of the moving samples: otherwise its
-    column m·g·v equals the rolling-resistance column m·g·|v| and the two alias
-    exactly (docs/diagnosis.md); the design then says so in ``aliases`` and the
-    rolling-resistance estimate stands for C_rr + sin α.  ``road_slope_gps`` needs
-    GPS altitude.
-
     Parameters
     ----------
     sig : RideSignals
         Its ``window`` and ``polyorder`` give the main filter L₂.
     domain : {"power", "torque"}
-        Residuals in W, or divided by ω = v/R (rows with |v| ≥ v_min) in N·m.
+        Residuals in W, or divided by ω = v/R (|v| ≥ v_min) in N·m.
     sign_change_fraction : float
+        ``road_slope`` is offered only when the speed changes sign on this share of the
+        moving samples; otherwise it aliases rolling resistance (docs/diagnosis.md).
     pre_window : float
-        Window of the short pre-filter L₁, s (see :class:`Design`).
-
-    Returns
-    -------
-    Design
+        Window of the short pre-filter L₁, s.
     """
     from scipy.signal import savgol_coeffs
 

@@ -1,9 +1,8 @@
 """Least-squares fit of a ride's balance with wild block bootstrap intervals.
 
-:func:`fit_balance` fits a :class:`~euc_sim.rides.balance.design.Design` (scipy's
-bounded least squares on the Gram matrix of its basis: the model is linear in
-every term but the current lag; :mod:`~euc_sim.rides.balance.normal`);
-:func:`plausibility` turns a fit into physical estimates with units and flags.
+:func:`fit_balance` fits a :class:`~euc_sim.rides.balance.design.Design` by bounded least
+squares on its Gram matrix (:mod:`~euc_sim.rides.balance.normal`); :func:`plausibility`
+turns a fit into physical estimates with units and flags.
 """
 
 from __future__ import annotations
@@ -36,13 +35,10 @@ class BalanceFit:
     ----------
     names : tuple of str
         Fitted parameters (keys of :data:`CANDIDATES`).
-    estimate : dict
-        Value of each, in the unit of :data:`CANDIDATES`.
-    ci95 : dict
-        95 % percentile intervals from a wild block bootstrap (:func:`_bootstrap`).
+    estimate, ci95 : dict
+        Value of each (unit of :data:`CANDIDATES`) and its 95 % wild block bootstrap interval.
     se_naive : dict
-        Standard errors from the Jacobian, assuming independent residuals (they
-        are not: shown for comparison only).
+        Jacobian standard errors assuming independent residuals (comparison only).
     rmse : float
         In-sample RMS weighted residual, W or N·m.
     n : int
@@ -51,8 +47,7 @@ class BalanceFit:
         Bootstrap settings.
     unit : str
     boot_corr : dict
-        Correlation of the bootstrap replicates of each pair of parameters,
-        ``{(a, b): r}``; |r| near 1 means this ride cannot tell a from b.
+        ``{(a, b): r}`` correlation of the replicates; |r| near 1: a and b not told apart.
     """
 
     names: tuple[str, ...]
@@ -94,13 +89,8 @@ def _solve(design: Design, names: Sequence[str], P: np.ndarray | None = None):
 
 
 def block_rows(design: Design, block_s: float = 10.0, check: bool = True) -> int:
-    """Rows per bootstrap block of ``block_s`` s on ``design``'s grid.
-
-    Raises
-    ------
-    ValueError
-        (with ``check``) naming the ride, when its rows in use hold fewer than
-        :data:`MIN_BLOCKS` blocks: too little data for an interval.
+    """Rows per bootstrap block of ``block_s`` s; ValueError (with ``check``) naming the ride
+    when its rows in use hold fewer than :data:`MIN_BLOCKS` blocks.
     """
     if not (math.isfinite(block_s) and block_s > 0):
         raise InputError(f"block_s must be a positive number of seconds, got {block_s!r}")
@@ -119,20 +109,10 @@ def _bootstrap(design: Design, names: Sequence[str], fitted_P: np.ndarray, e_P: 
                n_boot: int, seed: int):
     """Wild block bootstrap: 2.5/97.5 percentiles and replicate correlations.
 
-    Each replicate keeps every residual at its own row and flips the sign of
-    whole blocks of ``L`` rows at random (Rademacher weights per block): the
-    autocorrelation within a block is kept, and so is the residual's
-    dependence on the regime (an inertia-only fit leaves large residuals on
-    the regenerating rows, which a moving-block bootstrap would carry onto the
-    motoring rows, biasing η_m so far that its estimate could fall outside its
-    own interval).  The replicates then centre on the estimate, and a
-    parameter on its bound stays on or inside it, so the percentiles respect
-    the bound.
-
-    A replicate's Gram matrix differs from the fit's only in the measured
-    power's row: the blocks' cross-products of the basis with the residual,
-    summed with the replicate's signs (:mod:`~euc_sim.rides.balance.normal`);
-    the replicates are fitted together
+    Each replicate flips the sign of whole blocks of ``L`` residuals, each left at its own
+    row (Rademacher weights), keeping the autocorrelation and the residual's dependence on
+    the regime; a parameter on its bound stays within it.  Only the measured power's row of
+    the Gram matrix changes, so the replicates are fitted together
     (:func:`~euc_sim.rides.balance.normal.solve_grams`).
     """
     n = len(e_P)
@@ -165,37 +145,25 @@ def _bootstrap(design: Design, names: Sequence[str], fitted_P: np.ndarray, e_P: 
 
 def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int = 200,
                 block_s: float = 10.0, seed: int = 0) -> BalanceFit:
-    """Bounded least squares with wild block bootstrap 95 % intervals.
-
-    Residuals of a ride are autocorrelated (the filter; an unknown, varying road
-    grade; the rider's lean, which the motor must also drive), so the bootstrap
-    flips the sign of contiguous blocks of ``block_s`` seconds of residuals, each
-    left at its own row, adds them to the fitted power and refits; the intervals
-    are the 2.5 and 97.5 percentiles.
-    Draws use ``numpy.random.default_rng(seed)``.
+    """Bounded least squares with wild block bootstrap 95 % intervals (:func:`_bootstrap`).
 
     Parameters
     ----------
     design : Design
     names : sequence of str, optional
-        Parameters to fit (default: all of ``design.candidates``); none: the
-        inertia-only model, nothing fitted.
+        Parameters to fit (default ``design.candidates``); none: the inertia-only model.
     n_boot : int
-        Bootstrap replicates (0: no intervals, NaN).
+        Bootstrap replicates (0: NaN intervals).
     block_s : float
         Block length, s.
     seed : int
-
-    Returns
-    -------
-    BalanceFit
+        Seed of ``numpy.random.default_rng``.
 
     Raises
     ------
     ValueError
-        naming the ride, when it has too few rows for the parameters, or (with
-        ``n_boot`` > 0) fewer than :data:`MIN_BLOCKS` blocks: with one block every
-        replicate is the fit itself and the interval would have zero width.
+        Naming the ride: too few rows for the parameters, or (``n_boot`` > 0) fewer than
+        :data:`MIN_BLOCKS` blocks.
     """
     names = list(names) if names is not None else list(design.candidates)
     for n in NOMINAL:

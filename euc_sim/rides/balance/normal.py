@@ -135,27 +135,10 @@ def _pattern_solve(A: np.ndarray, b: np.ndarray, state: np.ndarray, lo: np.ndarr
 def box_qp(A: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """argmin ½·xᵀAx + bᵀx on lo ≤ x ≤ hi, for a batch of small convex problems.
 
-    Block pivoting on the set of variables held on a bound (a free variable outside
-    the box goes onto the bound it crossed, a held one whose gradient points into the
-    box is freed) until the set repeats: the point then satisfies the KKT conditions,
-    which are sufficient for a convex problem.  A problem whose pivoting cycles is
-    solved by trying every set (3ᵏ) and keeping the best feasible point.
-
-    Parameters
-    ----------
-    A : numpy.ndarray
-        (n, k, k) symmetric positive (semi-)definite.
-    b : numpy.ndarray
-        (n, k).
-    lo, hi : numpy.ndarray
-        (k,) finite bounds, lo < hi.
-
-    Returns
-    -------
-    x : numpy.ndarray
-        (n, k) minimisers.
-    state : numpy.ndarray
-        (n, k) int8: 0 free, −1 on the lower bound, +1 on the upper.
+    Block pivoting on the set of variables held on a bound until the set repeats (then the
+    KKT conditions hold); a problem that cycles is solved by trying every set (3ᵏ).  ``A``
+    (n, k, k) symmetric positive semi-definite, ``b`` (n, k), ``lo``, ``hi`` (k,) finite.
+    Returns the (n, k) minimisers and their state (int8: 0 free, −1 lower, +1 upper bound).
     """
     n, k = b.shape
     state = np.zeros((n, k), dtype=np.int8)
@@ -195,12 +178,8 @@ _LAG_STEPS = 60
 
 
 class _Profile:
-    """Half the squared residual of a batch of Grams as polynomials in the lag τ.
-
-    With ``z`` the linear parameters over their :func:`scale`, the cost is
-    ½·(c(τ) + 2·b(τ)ᵀz + zᵀA(τ)z), and A, b, c are polynomials of degree 4 in τ
-    (the coefficients ``v`` are of degree 2): their coefficients are summed once,
-    so a lag costs a k × k problem, not the basis's p × p.
+    """Half the squared residual of a batch of Grams as polynomials (degree 4) in the lag τ,
+    ½·(c(τ) + 2·b(τ)ᵀz + zᵀA(τ)z), z the linear parameters over their :func:`scale`.
     """
 
     def __init__(self, G: np.ndarray, columns: Sequence[str], linear: Sequence[str]):
@@ -284,17 +263,9 @@ def _best_lag(prof: _Profile, n: int, lag: str) -> np.ndarray:
 def solve_grams(G: np.ndarray, columns: Sequence[str], names: Sequence[str]) -> np.ndarray:
     """The bounded least-squares fits of the residuals whose Gram matrices are ``G`` (n, p, p).
 
-    The residual is linear in every parameter but the current lag τ_I: at a given lag
-    the fit is a small convex quadratic problem in a box (:func:`box_qp`, exact).  With
-    the lag, its profile cost is minimised over the lag's bounds: the best of an even
-    grid of :data:`_LAG_GRID` lags, then Newton steps on the profile's slope
-    (:func:`_best_lag`).  Every problem of the batch runs in lockstep.
-
-    Returns
-    -------
-    numpy.ndarray
-        (n, len(names)) estimates, in the order of ``names``, snapped onto a bound they
-        sit on (:func:`snap_to_bounds`).
+    At a given lag each fit is a box QP (:func:`box_qp`); the lag's profile cost is
+    minimised over an even grid of :data:`_LAG_GRID` lags, then Newton steps, the batch in
+    lockstep.  Returns (n, len(names)) estimates snapped onto a bound they sit on.
     """
     names = list(names)
     G = np.asarray(G, dtype=float)
@@ -313,22 +284,9 @@ def solve_grams(G: np.ndarray, columns: Sequence[str], names: Sequence[str]) -> 
 
 
 def solve_gram(G: np.ndarray, columns: Sequence[str], names: Sequence[str]):
-    """The bounded least-squares fit of the residual whose Gram matrix is ``G`` (:func:`solve_grams`).
-
-    Parameters
-    ----------
-    G : numpy.ndarray
-        ZᵀZ over the rows fitted (:attr:`~euc_sim.rides.balance.design.Design.basis`).
-    columns : sequence of str
-        :attr:`~euc_sim.rides.balance.design.Basis.columns`.
-    names : sequence of str
-        Parameters to fit.
-
-    Returns
-    -------
-    SimpleNamespace
-        ``x`` (bounded estimate, snapped onto a bound it sits on), ``cost`` (half the
-        sum of squared residuals at ``x``), ``jac`` (a Jacobian with the rows' JᵀJ).
+    """The bounded least-squares fit of one Gram matrix ``G`` = ZᵀZ (:func:`solve_grams`):
+    ``x`` (snapped estimate), ``cost`` (half the sum of squared residuals), ``jac`` (a
+    Jacobian with the rows' JᵀJ).
     """
     names = list(names)
     x = solve_grams(np.asarray(G)[None], columns, names)[0]

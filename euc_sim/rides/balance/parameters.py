@@ -1,15 +1,10 @@
 """The ride's one parameter set: every fitted physical quantity once, with its verdict.
 
-The ride JSON's ``parameters`` (CONTRACT, "Added in session 4") lists each
-quantity once: the balance fit's resistances and losses
-(:mod:`euc_sim.rides.balance.crossride`, bounded fits, effects kept by blocked held-out
-validation), the total mass (:mod:`euc_sim.rides.drive.mass`), the battery and motor
-terms (:mod:`euc_sim.rides.drive.drivetrain`) and the balance law's terms
-(:mod:`euc_sim.rides.law.controller_report`).  ``drivetrain``, ``total_mass``,
-``controller`` and ``effects`` are views: :func:`drivetrain_view` rewrites the
-drivetrain object so that its road and loss terms repeat the numbers of the
-balance fit (the energy balance's own speed and loss coefficients are nuisance
-terms of the mass and are not shown as C_rr, C_dA or P₀).
+The ride JSON's ``parameters`` (CONTRACT) lists the balance fit's resistances and losses,
+the total mass, the battery and motor terms and the balance law's terms once each;
+``drivetrain``, ``total_mass``, ``controller`` and ``effects`` are views of it.
+:func:`drivetrain_view` makes the drivetrain's road and loss terms repeat the balance
+fit's numbers (the energy balance's own are nuisance terms of the mass).
 """
 
 from __future__ import annotations
@@ -52,23 +47,17 @@ class Parameter:
     Attributes
     ----------
     name : str
-        The contract's name (``rolling_resistance``, ``total_mass``,
-        ``internal_resistance``, ``controller.K_p``, ...).
-    estimate : float or None
-        In ``unit``; None where not identified.
-    ci95 : sequence of float or None
-        Its 95 % interval.
+        The contract's name (``rolling_resistance``, ``total_mass``, ``controller.K_p``, ...).
+    estimate, ci95 : float, sequence or None
+        In ``unit``, with its 95 % interval; None where not identified.
     unit : str or None
-    plausible : bool
-    accepted : bool
+    plausible, accepted : bool
         An accepted entry is plausible.
     why : str or None
         Why it is not accepted (or on the edge of its range).
     source : {"balance", "energy balance", "drivetrain", "controller"}
-    plausible_range : sequence of float or None
+    plausible_range, on_bound : sequence of float, bool or None
         The balance's terms only.
-    on_bound : bool or None
-        The balance's terms only: accepted on an edge of the plausible range.
     """
 
     name: str
@@ -135,24 +124,9 @@ def _controller_entries(law) -> list[Parameter]:
 
 
 def parameter_list(cr: CrossRide, mass, terms: Mapping, law=None) -> tuple[Parameter, ...]:
-    """CONTRACT's ``parameters``: every fitted quantity of the ride once.
-
-    Parameters
-    ----------
-    cr : CrossRide
-        The balance fit (its resistances and losses).
-    mass : MassFit or None
-        The total mass as reported (:func:`~euc_sim.rides.drive.drivetrain_report.reported_mass`).
-    terms : mapping of str -> Term
-        The drivetrain's terms as reported, before :func:`drivetrain_view`.
-    law : ControllerFit, optional
-        The wheel's balance law (:func:`euc_sim.rides.law.controller_report.controller_fit`).
-
-    Returns
-    -------
-    tuple of Parameter
-        The balance's first (the kept terms, then the rest of the full fit's), the total
-        mass, the drivetrain's terms, the balance law's.
+    """CONTRACT's ``parameters``: the balance's terms (kept first, then the full fit's), the
+    total ``mass`` as reported, the drivetrain's ``terms`` (before :func:`drivetrain_view`)
+    and the balance ``law``'s, each once.
     """
     return tuple(_balance_entries(cr) + [_mass_entry(mass)] + _drivetrain_entries(terms)
                  + _controller_entries(law))

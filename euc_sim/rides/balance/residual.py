@@ -1,11 +1,5 @@
-"""Where a ride's balance residual concentrates.
-
-:func:`residual_windows` evaluates the fitted inertia-only and augmented
-balances (:mod:`euc_sim.rides.balance.fit`) over a whole ride and hands the inertia-only
-residual to the diagnosis module's :func:`euc_sim.diagnosis.localise.localise`, which
-returns the windows (s) where the mismatch concentrates, as ``euc-sim diagnose``
-does for a recording (the page draws them:
-:func:`euc_sim.rides.render.fit_figures.residuals_figure`).
+"""Where a ride's balance residual concentrates: :func:`residual_windows` hands the
+inertia-only residual over the whole ride to :func:`euc_sim.diagnosis.localise.localise`.
 """
 
 from __future__ import annotations
@@ -21,10 +15,8 @@ from euc_sim.rides.grids.signals import RideSignals, split_at_gaps
 
 __all__ = ["ResidualTrace", "residual_windows", "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
-#: localise() settings for rides, s: minutes-long logs at ~5 Hz need a longer
-#: smoothing of the residual power and a longer shortest window than its
-#: 1 s / 0.5 s defaults (made for 120 Hz motion capture), else the windows
-#: fragment into dozens of sub-second pieces.
+#: localise() smoothing and shortest window for minutes-long 5 Hz rides, s (its defaults are
+#: for 120 Hz motion capture).
 WINDOW_SMOOTH = 5.0
 WINDOW_MIN = 3.0
 #: Moving-mean length, s, of the residual's slow part (hills, wind, temperature).
@@ -35,19 +27,9 @@ SLOW_S = 30.0
 class ResidualTrace:
     """A ride's balance residual over time under two parameter sets.
 
-    Attributes
-    ----------
-    label : str
-    t : numpy.ndarray
-        s, rows the design uses (gaps and segment ends left out).
-    nominal, augmented : numpy.ndarray
-        Measured − predicted battery power, W (or N·m in the torque domain).
-    unit : str
-    localisation : dict
-        :func:`euc_sim.diagnosis.localise.localise` of ``nominal``: ``windows`` [[t0, t1], ...]
-        s, ``share`` of the residual energy inside them, ``correlations``.
-    in_sample : bool
-        True when the parameters were fitted on this ride.
+    ``t`` (s) the design's rows; ``nominal``, ``augmented`` measured − predicted power (W, or
+    N·m in the torque domain); ``localisation`` the windows (s), ``share`` and
+    ``correlations`` of ``nominal``; ``in_sample`` when fitted on this ride.
     """
 
     label: str
@@ -76,27 +58,9 @@ def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
                      design=None) -> ResidualTrace:
     """The inertia-only and augmented residuals of a whole ride, and where they concentrate.
 
-    Parameters
-    ----------
-    sig : RideSignals
-    nominal, augmented : mapping
-        Fitted parameters (``CrossRide.nominal.estimate``, ``.augmented.estimate``).
-    domain : {"power", "torque"}
-    label : str, optional
-    in_sample : bool
-        Whether the parameters were fitted on this ride (reported, not used).
-    smooth, min_len : float
-        s, passed to :func:`euc_sim.diagnosis.localise.localise`.
-    design : Design, optional
-        ``balance_design(sig, domain)`` when already built.
-
-    Returns
-    -------
-    ResidualTrace
-        The rows are the design's: uniform 1/rate except across the gaps where
-        the ride was split, which ``localise`` (made for uniform sampling) sees
-        as adjacent samples; its windows are then cut at those gaps
-        (:func:`split_at_gaps`).
+    ``nominal``, ``augmented``: fitted parameters; ``smooth``, ``min_len`` (s) go to
+    ``localise``; ``design`` reuses a built one.  Its windows are cut at the gaps where the
+    ride was split (:func:`split_at_gaps`).
     """
     d = design if design is not None else balance_design(sig, domain)
     r_nom = d.residual(nominal)

@@ -1,10 +1,7 @@
 """The one-line verdict of a ride: what it names, and what it refuses to name.
 
-A ride page must never contradict itself: an effect the balance fit
-accepts but whose estimate lies outside its plausible range is a *candidate*,
-not the verdict, and a log whose V·I is not battery power gets no
-battery-power verdict at all.  :func:`ride_verdict` turns the balance fit's accepted
-effects into a :class:`Verdict`; the page and the console print it as it is.
+An accepted effect whose estimate is implausible is a candidate, not the verdict, and a
+log whose V·I is not battery power gets no battery-power verdict (:func:`ride_verdict`).
 """
 
 from __future__ import annotations
@@ -25,20 +22,9 @@ def unit_label(unit: str) -> str:
 
 @dataclass(frozen=True)
 class Verdict:
-    """The ride's one-line verdict.
-
-    Attributes
-    ----------
-    battery_power : bool
-        Whether the log's V·I is battery power.
-    named : tuple of str
-        The accepted effects whose estimates are plausible, in the order kept.
-    candidates : tuple of str
-        Accepted but implausible: listed, never named.
-    text : str
-        One sentence.
-    why : str or None
-        Why there is no battery-power verdict.
+    """The ride's one-line verdict: ``battery_power`` (whether V·I is battery power), ``named``
+    (the accepted, plausible effects in order), ``candidates`` (accepted but implausible:
+    never named), ``text`` (one sentence), ``why`` (no battery-power verdict).
     """
 
     battery_power: bool
@@ -49,16 +35,8 @@ class Verdict:
 
 
 def verdict_of(cross, parameters, not_power: str | None = None, error_unit: str = "W") -> Verdict:
-    """:func:`ride_verdict` of a :class:`~euc_sim.rides.balance.crossride.CrossRide` and the ride's
-    parameters (:func:`~euc_sim.rides.balance.parameters.parameter_list`: the accepted effects' entries).
-
-    Parameters
-    ----------
-    cross : CrossRide
-    parameters : sequence of Parameter
-    not_power : str, optional
-        Why the log's V·I is not battery power (the drivetrain's ``battery_power``), if it is not.
-    error_unit : {"W", "N·m"}
+    """:func:`ride_verdict` of a CrossRide and the ride's ``parameters``; ``not_power`` says why
+    V·I is not battery power, if it is not.
     """
     by = {p.name: p for p in parameters if p.source == "balance"}
     held = [c for c in cross.selected if c not in cross.accepted]
@@ -69,24 +47,9 @@ def ride_verdict(effects: Sequence, selection: Sequence[Mapping] = (), held: Seq
                  error_unit: str = "W", not_power: str | None = None) -> Verdict:
     """The verdict of a ride's balance fit.
 
-    Parameters
-    ----------
-    effects : sequence of Parameter
-        The accepted effects' entries (``name``, ``estimate``, ``unit``, ``plausible``,
-        ``plausible_range``, ``on_bound``), in the order kept.
-    selection : sequence of mapping
-        The held-out selection's steps (``term``, ``heldout_rmse`` in ``error_unit``), the
-        inertia-only model first.
-    held : sequence of str
-        Terms the selection kept but left out of the balance (they help only beside an
-        implausible term).
-    error_unit : str
-    not_power : str, optional
-        Why the log's V·I is not battery power; then nothing is named.
-
-    Returns
-    -------
-    Verdict
+    ``effects``: the accepted effects' Parameter entries in the order kept; ``selection``:
+    the held-out steps (``term``, ``heldout_rmse`` in ``error_unit``); ``held``: terms kept but
+    left out of the balance; ``not_power``: why V·I is not battery power (nothing named).
     """
     named = tuple(e.name for e in effects if e.plausible)
     cand = tuple(e.name for e in effects if not e.plausible)

@@ -1,47 +1,13 @@
 """The pair fit's other channels: the road's load read through voltage sag, phase current and duty.
 
-Battery power is one reading of the load a ride puts on the wheel; a log often
-holds three more, each turned into the power model's own units through the
-constants the ride's drivetrain fit found (:mod:`euc_sim.rides.drive.drivetrain`):
-
-* **voltage sag** (W): the battery's power from its terminal voltage,
-  ``V·(E₀ − k_Q·Q − V)/R_int``, each ride through its own open-circuit line
-  and internal resistance; the columns are battery power's.  Only where the
-  app computes the current (:func:`euc_sim.rides.source.channels.current_from_phase`,
-  the caller's choice):
-  a measured current's sag repeats battery power with the voltage's noise and
-  the pack's drift along the ride (its warming, its charge), which the
-  channels' combination would read as information;
-* **phase current** (N): the motor's torque, ``I_ph = k·F + b`` with ``k`` and
-  ``b`` fitted on LOG against LOG's mechanical force (inertia, rolling, drag,
-  climb over speed); the columns are the mechanical ones over speed (copper
-  loss and drain are battery power, not torque).  Only a signed phase current:
-  a magnitude folds the braking rows over, where a difference moves it the
-  other way;
-* **duty** (N): ``d·V = K_v·v + r_F·F`` (+ the dead-time and flux-weakening
-  terms LOG's fit kept) solved for ``F = P/v``, the force battery power implies,
-  with LOG's constants; the columns are every power column over speed.  Only
-  a measured duty (one the app does not compute from speed and voltage).
-
-Each channel keeps a constant per ride (a sensor's zero, a pack's state; the
-duty also a speed term per ride: the back-EMF constant moves with the magnets'
-temperature), and the phase current and the duty a gain on OTHER (LOG's
-predicted force on OTHER's rows: the magnets' flux falls 0.1 %/K and the
-winding's resistance rises 0.4 %/K as the motor warms along a ride), so a
-channel's calibration drift is not read as a road difference: the part of a
-difference that scales every force at once is left to battery power.  On real
-null pairs without it the phase current named a drag (blitz_4's halves) and a
-mass (master_pro_V2_3's halves).  The difference columns carry the same coefficients in every
-channel: a difference in mass, rolling or drag has its signature in each.
-The channels' rows of one moment are combined by the whitening of their
-held-out residuals on LOG (:func:`whitening`: each channel scaled by its own
-noise, and what two channels share counted once), so the stacked least
-squares weighs each by what it adds; the stacked rows keep their times, so
-the pair fit's 30 s blocks hold every channel's rows of those 30 s and stay
-the unit of independence of its test (the score test's spread is measured
-across blocks).
-
-Study: docs/concealed.md ("Every channel of the log").
+Each is turned into the power model's units through the ride's drivetrain constants:
+voltage sag (W, V·(E₀ − k_Q·Q − V)/R_int; only where the app computes the current),
+signed phase current (N, I_ph = k·F + b fitted on LOG) and measured duty (N, d·V =
+K_v·v + r_F·F solved for F).  Each keeps a constant per ride, and the current and duty a
+gain on OTHER, so calibration drift is not read as a road difference.  The channels'
+rows of one moment are combined by the whitening of their held-out residuals on LOG
+(:func:`whitening`), keeping their times and the 30 s blocks.  Study: docs/concealed.md
+("Every channel of the log").
 """
 
 from __future__ import annotations
@@ -57,10 +23,8 @@ __all__ = ["ALL_CHANNELS", "CHANNELS", "DRIFTING", "MECHANICAL", "readings", "wh
 
 #: Every channel this module can read beside battery power, in the order they are stacked.
 ALL_CHANNELS = ("sag", "phase_current", "pwm")
-#: The channels measured for the pair fit (docs/concealed.md "Every channel of the log"): the duty
-#: left out (on real null pairs it names road differences its model's misfit makes).  The ride's
-#: comparison stacks none by default: on the shared rides they resolve about as finely as battery
-#: power alone (median 0.99) and name more on null pairs.
+#: The channels measured for the pair fit, the duty left out; the ride's comparison stacks none by
+#: default (docs/concealed.md, "Every channel of the log").
 CHANNELS = ("sag", "phase_current")
 #: Channels whose gain drifts with the motor's temperature (the magnets' flux, the winding's
 #: resistance): OTHER's gain is a nuisance.
@@ -163,11 +127,8 @@ def readings(fit, test, sides: list, channels=CHANNELS) -> dict[str, list[tuple]
 
 
 def _heldout_residuals(t: np.ndarray, Z: np.ndarray, scale: np.ndarray | None = None) -> np.ndarray:
-    """Each channel's held-out residual (C, n): 5 contiguous time folds, each fitted on the rest.
-
-    Without ``scale`` each channel is fitted alone on its live columns; with
-    it the channels (each divided by its ``scale``) are fitted together, one
-    coefficient per column for all: the misfit of the shared model counts.
+    """Each channel's held-out residual (C, n) over 5 time folds: each channel alone, or with
+    ``scale`` all fitted together with one coefficient per column.
     """
 
     fold = time_blocks(t, 5)
@@ -189,26 +150,9 @@ def _heldout_residuals(t: np.ndarray, Z: np.ndarray, scale: np.ndarray | None = 
 
 
 def whitening(t: np.ndarray, Z: np.ndarray) -> np.ndarray:
-    """The matrix that whitens the channels' held-out residuals on LOG: ``L⁻¹`` with ``LLᵀ = Σ``.
-
-    Parameters
-    ----------
-    t : ndarray (n,)
-        Row times, s (the same rows in every channel).
-    Z : ndarray (C, n, p)
-        Each channel's ``[X y]`` rows of LOG.
-
-    Returns
-    -------
-    ndarray (C, C)
-        ``Σ`` is the covariance of the channels' held-out residuals of the
-        model they share (one coefficient per column for all channels, each
-        channel first scaled by the RMS of its own held-out residual): a
-        channel its own fit explains well but the shared model does not (a
-        calibration off by a few per cent) counts its misfit as noise.
-        Combining the channels' rows by it makes those residuals uncorrelated
-        with unit variance: least squares on the stacked rows is generalized
-        least squares.
+    """``L⁻¹`` (C, C) with LLᵀ = Σ, the covariance of the channels' held-out residuals of their
+    shared model on LOG (rows ``Z`` (C, n, p) at times ``t``, each channel first scaled by its
+    own residual's RMS): least squares on the combined rows is generalized least squares.
     """
     own = np.sqrt(np.mean(_heldout_residuals(t, Z) ** 2, axis=1))
     own = np.where(np.isfinite(own) & (own > 0), own, 1.0)

@@ -1,44 +1,15 @@
 """What differs between two rides of one wheel: OTHER minus LOG for every parameter.
 
 Each physics is sized by one least-squares fit of both rides
-(:mod:`euc_sim.rides.compare.differences_fit`): the terms both rides share are fitted
-on both, the difference Δθ on OTHER's rows only (battery power for the mass,
-rolling, drag and the current's delay, a shift of OTHER's signals, with the
-phase current and voltage sag where the logs have them,
-:mod:`euc_sim.rides.compare.channels`; terminal voltage for the pack
-resistance; GPS speed for the speed scale).  A difference
-is *named* when both hold:
-
-1. its q-value is below :data:`FALSE_NAME_RATE`: its one-sided p-value (a
-   paired t-test over OTHER's 30 s blocks that modelling it lowers OTHER's
-   held-out error, each block's fold of both rides left out;
-   :func:`euc_sim.rides.compare.resolution.paired_test`) adjusted by
-   Benjamini–Hochberg across the tested physics of the pair
-   (:func:`euc_sim.rides.compare.resolution.bh_qvalues`);
-2. its 95 % interval excludes zero: the hull of a block bootstrap with each
-   ride's 30 s blocks drawn independently (each ride's noise; the whole
-   selected model refitted and the delay re-searched in every replicate) and a
-   jackknife-t interval over paired fractions of the two rides (the mismatch
-   between two real rides that changes along them: route, grade, wind).
-
-The difference of the two rides' own estimates (their intervals combined in
-quadrature) is kept beside it as ``independent``; pack-state and controller
-parameters have only that, and are never named.
-
-Where the pair cannot tell a named difference from others (their estimates
-correlate near ±1, or each is significant alone but neither beyond the
-other), the named entry carries the set (``alias_set``): each of its members
-is possible, none certain.
-
-Which differences a pair of rides cannot tell apart: for a tested difference,
-those whose estimates correlate beyond :data:`ALIAS_CORRELATION` in the pair
-fit's own normal equations; for the delay and the rest, the correlation of
-their power signatures over both rides (:func:`signature_columns`,
-:func:`alias_table`): drag ∝ v³, rolling ∝ v, mass ∝ a·v plus the climb,
-battery resistance ∝ I², the speed scale every speed term at once, the
-current delay the phase of power against acceleration (dP/dt).
-
-Study: docs/concealed.md.
+(:mod:`euc_sim.rides.compare.differences_fit`): shared terms on both, the difference Δθ
+on OTHER's rows.  A difference is named when its q-value (a paired held-out test over
+OTHER's 30 s blocks, Benjamini–Hochberg across the pair's tested physics;
+:mod:`euc_sim.rides.compare.resolution`) is below :data:`FALSE_NAME_RATE` and its 95 %
+interval (hull of a two-ride block bootstrap and a jackknife-t over paired fractions)
+excludes zero.  The rides' own estimates differenced are kept as ``independent``
+(pack-state and controller parameters have only that, never named).  Differences the
+pair cannot tell apart (correlated estimates or power signatures, :func:`alias_table`)
+are carried as an ``alias_set``.  Study: docs/concealed.md.
 """
 
 from __future__ import annotations
@@ -70,17 +41,8 @@ def physics() -> tuple[str, ...]:
 
 @dataclass(frozen=True)
 class Measured:
-    """One ride's own estimate of a parameter, as the pair comparison reads it (:func:`parameters_from_fit`).
-
-    Attributes
-    ----------
-    name : str
-        The parameter's name (``total_mass``, ``aerodynamic_drag``, ...).
-    estimate : float or None
-        In ``unit``; None where not identified.
-    ci95 : (float, float) or None
-        Its 95 % interval.
-    unit : str
+    """One ride's own estimate of a parameter: ``name``, ``estimate`` (in ``unit``, None where
+    not identified) and its 95 % interval ``ci95``.
     """
 
     name: str
@@ -95,25 +57,21 @@ class Tested:
 
     Attributes
     ----------
-    estimate : float or None
-        OTHER minus LOG, the parameter's unit.
-    ci95 : (float, float) or None
-        Its 95 % interval.
+    estimate, ci95 : float, (float, float) or None
+        OTHER minus LOG in the parameter's unit, and its 95 % interval.
     heldout_gain : float or None
         Fraction of OTHER's held-out error it removes.
     selected : bool
         Kept by the pair fit's forward selection.
     p_value, q_value : float or None
-        One-sided p-value of the held-out test; its Benjamini–Hochberg q-value
-        across the tested physics (:func:`with_qvalues`).
-    alias_set : tuple of str
-        The candidates the pair cannot tell it from (itself included).
-    aliases : tuple of str
-        Candidates whose estimates correlate beyond :data:`ALIAS_CORRELATION` with it.
+        One-sided p-value of the held-out test; its Benjamini–Hochberg q-value.
+    alias_set, aliases : tuple of str
+        The candidates the pair cannot tell it from (itself included); those correlating
+        beyond :data:`ALIAS_CORRELATION`.
     detectable : Resolution or None
         The smallest difference the pair can name.
     resolution : float or None
-        The finest value the logs resolve (the delay's), s; None elsewhere.
+        The finest delay the logs resolve, s.
     """
 
     estimate: float | None
@@ -130,13 +88,8 @@ class Tested:
 
 @dataclass(frozen=True)
 class Difference:
-    """OTHER minus LOG for one parameter (CONTRACT's ``differences`` entry).
-
-    ``estimate`` and ``ci95`` are the pair fit's where the physics is tested,
-    else the two rides' own estimates differenced (``independent``, kept for both).
-    ``detectable`` is the smallest difference the pair can name and its parts
-    (:func:`euc_sim.rides.compare.resolution.detectable_difference`); None where
-    the physics is not tested.
+    """OTHER minus LOG for one parameter (CONTRACT's ``differences`` entry): the pair fit's
+    estimate where the physics is tested, else the rides' own differenced (``independent``).
     """
 
     name: str
@@ -178,23 +131,9 @@ def _entry(name, est, ci, unit) -> Measured:
 
 
 def parameters_from_fit(mass, terms) -> list[Measured]:
-    """A ride's parameters as the pair comparison reads them, from its mass and drivetrain fits.
-
-    The drivetrain's terms by name, ``C_rr`` → ``rolling_resistance``, ``C_dA`` →
-    ``aerodynamic_drag`` (k = ½ρC_dA, kg/m), the mass fit's lag → ``current_delay``
-    (no interval), the total mass with its statistical interval (the systematic parts a
-    wheel shares cancel between two rides).
-
-    Parameters
-    ----------
-    mass : MassFit
-        The total mass as reported (``estimate``, ``stat_ci95``, ``ci95`` kg, ``lag`` s).
-    terms : mapping of str -> Term
-        The drivetrain's terms as reported.
-
-    Returns
-    -------
-    list of Measured
+    """A ride's parameters as the pair comparison reads them: the total mass (statistical
+    interval, kg), the drivetrain's ``terms`` (``C_rr`` → ``rolling_resistance``, ``C_dA`` →
+    ``aerodynamic_drag`` k = ½ρC_dA kg/m) and the mass fit's lag → ``current_delay`` (s).
     """
     out = [_entry("total_mass", mass.estimate, mass.stat_ci95 or mass.ci95, "kg")]
     for name, t in terms.items():
@@ -214,21 +153,8 @@ def parameters_from_fit(mass, terms) -> list[Measured]:
 
 # ---------------------------------------------------------------- intervals
 def difference_interval(a: float, a_ci, b: float, b_ci, ratio: bool = False):
-    """``b − a`` (or ``b/a − 1``) and its 95 % interval from two independent intervals.
-
-    Parameters
-    ----------
-    a, b : float
-        LOG's and OTHER's estimates.
-    a_ci, b_ci : (lo, hi)
-        Their 95 % intervals.
-    ratio : bool
-        Combine in logarithms and return ``b/a − 1`` (positive estimates only).
-
-    Returns
-    -------
-    estimate : float
-    ci95 : (float, float)
+    """``b − a`` (or ``b/a − 1`` with ``ratio``, combined in logarithms) and its 95 % interval from
+    the two rides' independent intervals ``a_ci``, ``b_ci``, added in quadrature side by side.
     """
     f = math.log if ratio else (lambda x: x)
     fa, fb = f(a), f(b)
@@ -272,19 +198,9 @@ def signature_columns(v, av, P, t, current=None, climb=None, coef=None) -> dict[
 
 
 def alias_table(columns: dict, threshold: float = ALIAS_CORRELATION) -> tuple[dict, dict]:
-    """Which signatures a pair of rides cannot tell apart, from their correlations.
-
-    Parameters
-    ----------
-    columns : dict of str -> ndarray
-        :func:`signature_columns` over both rides (concatenated), same length.
-
-    Returns
-    -------
-    aliases : dict of str -> list of str
-        Each name's partners with |correlation| above ``threshold``.
-    cannot_see : dict of str -> str
-        Names whose signature is constant or absent on these rides, with why.
+    """Which signatures (:func:`signature_columns` over both rides) a pair cannot tell apart:
+    each name's partners with |correlation| above ``threshold``, and the names whose
+    signature is constant or absent, with why.
     """
     names = list(columns)
     M = np.column_stack([columns[n] for n in names])
@@ -387,16 +303,14 @@ def ride_differences(log_params: list, other_params: list, tested: Mapping[str, 
     log_params, other_params : list of Measured
         The two rides' own estimates (:func:`parameters_from_fit`).
     tested : mapping of str -> Tested
-        The pair fit of each physics tested
-        (:func:`euc_sim.rides.compare.differences_report.pair_tests`).
+        The pair fit of each physics tested.
     aliases, cannot_see : dict
         :func:`alias_table`.
     log_name : str
         How the sentence names LOG ("the 16 May ride").
     views : dict, optional
-        The rides' own measures of a difference by key (``mass_difference``): a physics whose
-        record names one (``compare.view``) takes that view's estimate and interval as its
-        ``independent`` detail.
+        The rides' own measures of a difference by key (``mass_difference``), taken as the
+        ``independent`` detail of the physics whose record names it (``compare.view``).
     """
     a = {p.name: p for p in log_params}
     b = {p.name: p for p in other_params}
@@ -423,11 +337,8 @@ def _word(name: str) -> str:
 
 
 def rider_sentence(items, log_name: str) -> str:
-    """One sentence for the page: the named differences in a rider's words.
-
-    A named difference with an ``alias_set`` is said as the set ("drag or
-    rolling resistance: this pair cannot tell them apart"), its size as the
-    named member's.
+    """One sentence for the page: the named differences in a rider's words, an ``alias_set``
+    said as the set ("drag or rolling resistance: this pair cannot tell them apart").
     """
     parts, sets = [], []
     for d in items:

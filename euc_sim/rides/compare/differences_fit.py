@@ -1,32 +1,14 @@
 """One least-squares fit of two rides: shared nuisance terms, OTHER-only difference terms Δθ.
 
-LOG's rows carry the shared columns; OTHER's rows carry the same columns plus
-one column per difference (zero on LOG's rows), so each Δθ is what OTHER needs
-beyond the model both rides share.  Per-ride terms (a constant each, say) are
-columns that are zero on the other ride.  A difference in the current's delay
-is a shift of OTHER's columns against its power: OTHER's design is given at
-every shift of a grid and the shift that fits best is chosen.
-
-Everything is computed from per-block Gram matrices ``[X y]ᵀ[X y]``: blocks of
-``block`` seconds inside :func:`euc_sim.stats.time_blocks` folds, so that
-
-* the naming test (fold k of *both* rides left out, OTHER's fold k scored,
-  every fold in turn; a cross-fitted score test over OTHER's blocks,
-  :func:`euc_sim.rides.compare.resolution.score_test`; the shift: a paired t
-  of the blocks' held-out SSE drop) and the forward selection
-  it drives (the candidate of smallest p-value added while it is below
-  ``level``) use the folds every other fit uses;
-* the 95 % intervals are the hull of two intervals: a block bootstrap with
-  each ride's blocks drawn *independently* (each ride's own noise; the shift
-  re-chosen in every replicate), and a jackknife-t interval over *paired
-  fractions* (the k-th of the ``n_folds`` time folds of LOG paired with the
-  k-th of OTHER, pair-unit k left out in turn, t with ``n_folds − 1`` degrees
-  of freedom).  The jackknife measures how much the difference changes from
-  one part of the rides to another: on two real rides the route, grade, wind
-  and conditions differ part by part and the difference absorbs them; an
-  effect carried by every part of a ride leaves it near the bootstrap's width.
-
-Study: docs/concealed.md.
+LOG's rows carry the shared columns, OTHER's the same plus one column per difference
+(zero on LOG's), so each Δθ is what OTHER needs beyond the shared model; a difference of
+the current's delay is a shift of OTHER's columns, chosen on a grid.  Everything comes
+from per-block Gram matrices ``[X y]ᵀ[X y]`` within :func:`euc_sim.stats.time_blocks`
+folds: the naming test (both rides' fold k left out, OTHER's scored;
+:func:`~euc_sim.rides.compare.resolution.score_test`) drives a forward selection, and the
+95 % interval is the hull of a block bootstrap (each ride's blocks drawn independently)
+and a jackknife-t over paired fractions of the rides (how the difference changes along
+them).  Study: docs/concealed.md.
 """
 
 from __future__ import annotations
@@ -49,16 +31,8 @@ ALIAS_SET_CORRELATION = 0.98
 
 @dataclass(frozen=True)
 class Step:
-    """One step of the pair fit's forward selection.
-
-    Attributes
-    ----------
-    term : str
-        The difference added ("" for the model with none).
-    heldout_rmse : float
-        OTHER's blocked held-out RMS after the step, the fitted signal's unit.
-    p_value : float or None
-        The added difference's p-value; None for the first step.
+    """One step of the forward selection: the ``term`` added ("" for none), OTHER's blocked
+    held-out RMS after it, and the term's p-value (None for the first step).
     """
 
     term: str
@@ -72,18 +46,17 @@ class PairDesign:
 
     Attributes
     ----------
-    names : tuple of str
-        Column names of ``X`` (shared and per-ride terms, then the differences).
-    deltas : tuple of str
-        The difference columns (candidates), a subset of ``names``.
+    names, deltas : tuple of str
+        Column names of ``X`` (shared and per-ride terms, then the differences); the
+        difference columns.
     t_log, Z_log : ndarray
         LOG's times (s) and ``[X y]`` rows (difference columns zero).
     t_other : ndarray
         OTHER's times, s.
     Z_other : tuple of ndarray
-        OTHER's ``[X y]`` rows at each shift of the grid (one entry: no shift).
+        OTHER's ``[X y]`` rows at each shift of the grid, the middle entry no shift.
     shift_step : float
-        Seconds per grid step; the middle entry of ``Z_other`` is no shift.
+        Seconds per grid step.
     """
 
     names: tuple
@@ -102,34 +75,21 @@ class PairFit:
     Attributes
     ----------
     selected : list of str
-        The differences forward selection kept (each added with the smallest
-        p-value of those left, below ``level``).
+        The differences kept (each the smallest p-value left, below ``level``).
     history : list of Step
-        The selection's steps.
     estimates : dict of str -> (estimate, (lo, hi)) or None
-        Each candidate in the selected model (the selected terms plus itself
-        when it was not kept), with its block-bootstrap 95 % interval; the shift
-        in seconds.  The interval is the hull of the block bootstrap's and the
-        paired-fraction jackknife's (see the module's docstring).
+        Each candidate in the selected model (plus itself), with its 95 % interval; the
+        shift in s.
     gains : dict of str -> float
-        Each candidate's fractional drop of OTHER's held-out RMS against the
-        selected model without it.
+        Each candidate's fractional drop of OTHER's held-out RMS.
     correlations : dict of str -> dict of str -> float
-        Correlation of each pair of differences' estimates when all are fitted
-        together (from the pair's own normal equations): near ±1, the pair
-        cannot tell them apart.
+        Correlation of the differences' estimates fitted together (near ±1: not told apart).
     resolutions : dict of str -> Resolution
-        Each candidate's smallest nameable size on this pair
-        (:func:`euc_sim.rides.compare.resolution.detectable_difference`), in
-        the model its estimate comes from.
+        Each candidate's smallest nameable size on this pair.
     p_values : dict of str -> float
-        Each candidate's p-value (:func:`score_test`; the shift's
-        :func:`paired_test`) against the
-        selected model: a kept one against the selected model without it,
-        the others against the selected model with them added.
+        Each candidate's p-value against the selected model (a kept one without it).
     alias_sets : dict of str -> list of str
-        For a kept candidate, itself and the candidates the pair cannot tell
-        it from (:func:`_alias_set`), where there are any.
+        For a kept candidate, itself and those the pair cannot tell it from.
     """
 
     selected: list
@@ -161,13 +121,7 @@ def _block_ids(t: np.ndarray, n_folds: int, block: float) -> tuple[np.ndarray, n
 
 def block_grams(t: np.ndarray, Z: np.ndarray, n_folds: int = 5, block: float = 30.0
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-block Gram matrices of ``Z`` (rows × columns), each block's fold and row count.
-
-    Returns
-    -------
-    G : ndarray (n_blocks, p, p)
-    fold, count : ndarray (n_blocks,)
-    """
+    """Per-block Gram matrices (n_blocks, p, p) of ``Z`` (rows × columns), each block's fold and row count."""
     ids, fold = _block_ids(t, n_folds, block)
     return label_grams(Z, ids, len(fold)), fold, np.bincount(ids, minlength=len(fold))
 
@@ -261,12 +215,7 @@ class _Grams:
         return self._block_sse[key]
 
     def gain_se(self, terms, c: str) -> float | None:
-        """Standard error of ``c``'s held-out gain from its spread over the folds (None below 2 folds).
-
-        The fold-by-fold gains ``1 − RMS_with/RMS_without`` on OTHER's held-out
-        rows: their standard deviation over √K says how far the whole gain can
-        fall from what the difference's size predicts.
-        """
+        """Standard error of ``c``'s held-out gain from its spread over the folds (None below 2 folds)."""
         (w, n), (wo, _) = self.fold_sse(terms), self.fold_sse([x for x in terms if x != c])
         ok = (wo > 0) & (n > 0)
         if ok.sum() < 2:
@@ -336,11 +285,8 @@ def _select(g: _Grams, cands: list, level: float) -> tuple[list, list]:
 
 
 def _alias_set(g: _Grams, selected: list, c: str, cands: list, corr: dict, level: float) -> list:
-    """``c`` and the candidates this pair cannot tell it from, or [] when there are none.
-
-    ``o`` joins when their estimates correlate beyond :data:`ALIAS_SET_CORRELATION`
-    (all differences fitted together), or when each is significant alone (in the
-    selected model without both) but neither beyond the other.
+    """``c`` and the candidates this pair cannot tell it from (correlation beyond
+    :data:`ALIAS_SET_CORRELATION`, or each significant alone but neither beyond the other), or [].
     """
     out = []
     for o in cands:
@@ -363,22 +309,15 @@ def pair_fit(design: PairDesign, *, level: float = 0.05, family: int = 1, transf
     ----------
     design : PairDesign
     level : float
-        One-sided p-value below which the selection adds a candidate (the
-        false-name rate the caller controls across candidates).
+        One-sided p-value below which the selection adds a candidate.
     family : int
-        Candidates the caller's false-name control spans: the resolution is
-        stated at the level the smallest p-value of the family must pass,
+        Candidates the caller's false-name control spans: the resolution is stated at
         ``level / family``.
     transform : dict of str -> callable, optional
-        ``f(coefficients) -> value`` of a difference in its parameter's units
-        (default: its own coefficient).
+        ``f(coefficients) -> value`` of a difference in its parameter's units.
     n_folds, block : int, float
         Held-out folds per ride and bootstrap blocks, s.
     n_boot, seed : int
-
-    Returns
-    -------
-    PairFit
     """
     g = _Grams(design, n_folds, block)
     cands = list(design.deltas) + ([DELAY] if len(design.Z_other) > 1 else [])
@@ -411,12 +350,8 @@ def pair_fit(design: PairDesign, *, level: float = 0.05, family: int = 1, transf
 
 def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, estimate, residual: float,
                 level: float):
-    """``c``'s :class:`~euc_sim.rides.compare.resolution.Resolution` in the model ``terms``.
-
-    The column's held-out RMS after the model's other columns (OTHER at the
-    model's shift ``k``) and its per-block parts (:func:`_block_parts`), per
-    unit of the parameter (the transform's slope in the coefficient: every
-    transform is linear in it).
+    """``c``'s Resolution in the model ``terms``: its column's held-out RMS after the others and
+    its per-block parts (:func:`_block_parts`), per unit of the parameter.
     """
     ci = estimate[1]
     if c == DELAY:
@@ -436,13 +371,9 @@ def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, estimat
 
 
 def _block_parts(g: _Grams, terms, c: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per OTHER block, ``S_b``, ``X_b`` and ``X⁰_b`` (:mod:`~euc_sim.rides.compare.resolution`), per
-    coefficient unit.
-
-    ``S_b``: the sum of squares of ``c``'s column after the model's other
-    columns (fitted on both rides outside the block's fold); ``X_b`` and
-    ``X⁰_b``: that column against the residual of the model with and without
-    ``c`` (fitted likewise).
+    """Per OTHER block, ``S_b`` (sum of squares of ``c``'s column after the others) and ``X_b``,
+    ``X⁰_b`` (that column against the residual with and without ``c``), each fitted outside
+    the block's fold, per coefficient unit.
     """
     cols, col = g.cols(terms), g.names.index(c)
     others = [i for i in cols if i != col]

@@ -1,12 +1,7 @@
-"""The ride JSON's ``differences`` for ``euc-sim ride LOG --compare OTHER``.
-
-Glue between the two rides' drivetrain analyses (:mod:`euc_sim.rides.drive.drivetrain_report`)
-and the pure functions of :mod:`euc_sim.rides.compare.differences` and
-:mod:`euc_sim.rides.compare.differences_fit`: each domain's rows of both rides (battery
-power with LOG's terms and delay, terminal voltage, GPS speed against wheel
-speed) become one :class:`~euc_sim.rides.compare.differences_fit.PairDesign`; both
-rides' signals give the signatures whose correlations say what the pair cannot
-tell apart.
+"""The ride JSON's ``differences`` for ``euc-sim ride LOG --compare OTHER``: each domain's rows
+of both rides (battery power, terminal voltage, GPS speed) as one
+:class:`~euc_sim.rides.compare.differences_fit.PairDesign`, and the signatures whose
+correlations say what the pair cannot tell apart.
 """
 
 from __future__ import annotations
@@ -72,10 +67,8 @@ def _rows(sig, arrays) -> np.ndarray:
 
 
 def own_lag(sig, y, K: int, force, mass: float) -> int:
-    """LOG's delay, samples (−K … K): the least-squares fit of its power on the shared terms, best RMS.
-
-    The pair's base delay by the pair fit's own criterion (the mass fit's lag is
-    chosen on energy windows), so that a ride against itself shifts by nothing.
+    """LOG's delay, samples (−K … K), by the pair fit's own criterion (best RMS of its power on
+    the shared terms), so that a ride against itself shifts by nothing.
     """
     best = (np.inf, 0)
     for lag in range(-K, K + 1):
@@ -90,10 +83,8 @@ def own_lag(sig, y, K: int, force, mass: float) -> int:
 
 
 def _valid(sig, y, lag: int, K: int, force, mass: float) -> np.ndarray:
-    """Rows with every column finite at every shift ``lag − K … lag + K``: one rule for both rides.
-
-    Both rides keep the rows the whole delay grid can score, so a ride against
-    itself is fitted on the same rows on both sides (its differences exactly zero).
+    """Rows with every column finite at every shift ``lag − K … lag + K``: one rule for both
+    rides, so a ride against itself fits the same rows.
     """
     arrays = [y]
     for j in range(-K, K + 1):
@@ -114,19 +105,9 @@ def _stack(first: bool, shared: dict, delta: dict, y, ok, scale: dict, own: dict
 
 
 def _channel_rows(fit, test, sides: list, scale: dict, channels, window, rate) -> tuple | None:
-    """Battery power and each channel of :func:`~euc_sim.rides.compare.channels.readings`, whitened and stacked.
-
-    Every channel keeps the rows (windows) where all of them and their columns
-    are finite, so that the k-th row of each channel is the same moment; the
-    channels' rows are then combined by :func:`~euc_sim.rides.compare.channels.whitening`
-    of their held-out residuals on LOG (least squares on the stacked rows is
-    generalized least squares across the channels).
-
-    Returns
-    -------
-    (names, [(tL, ZL), (tO, ZO)]) or None
-        The channels' own columns (after the power model's) and the stacked
-        rows of LOG and OTHER; None where the pair has no other channel.
+    """Battery power and each channel of :func:`~euc_sim.rides.compare.channels.readings` on the
+    rows where all are finite, combined by their :func:`~euc_sim.rides.compare.channels.whitening`;
+    (the channels' own column names, [(tL, ZL), (tO, ZO)]) or None without another channel.
     """
     parts = {"power": [(y, sh, de, {}) for sh, de, y, _ in sides]}
     parts.update(readings(fit, test, [(sh, de, y) for sh, de, y, _ in sides], channels))
@@ -155,11 +136,7 @@ def _channel_rows(fit, test, sides: list, scale: dict, channels, window, rate) -
 
 
 def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tuple[np.ndarray, np.ndarray]:
-    """Means of ``Z``'s rows over consecutive ``width``-second windows with at least 90 % of their rows.
-
-    The energy balance over a window (Δ(v²/2), ∫v, ∫v³, ∫P, all over T) is
-    these means; the power noise no term models averages down (eq. 12's windows).
-    """
+    """Means of ``Z``'s rows over consecutive ``width``-second windows with at least 90 % of their rows."""
     label = np.floor((t - t[0]) / width).astype(int)
     _, inv, n = np.unique(label, return_inverse=True, return_counts=True)
     sums = np.zeros((len(n), Z.shape[1]))
@@ -175,20 +152,15 @@ def power_design(fit, test, mass: float, shifts=None, window: float | None = Non
     Parameters
     ----------
     fit, test : RideDrivetrain
-        LOG's and OTHER's analyses.
     mass : float
         LOG's total mass, kg (the rolling signature's weight).
     shifts : sequence of int, optional
-        OTHER's extra delays tried, samples beyond LOG's lag; default: the
-        grid ±:data:`MAX_SHIFT`, the mass, rolling and drag differences in every
-        model (the delay's design).
-        One shift: the mass, rolling and drag differences at that shift.
+        OTHER's extra delays, samples beyond LOG's lag (default ±:data:`MAX_SHIFT`: the
+        delay's design); one shift: the mass, rolling and drag differences there.
     window : float, optional
-        Rows averaged over windows of this many seconds (:func:`window_means`).
+        Rows averaged over windows of this many s (:func:`window_means`).
     channels : sequence of str
-        With one shift, the channels stacked beside battery power where both
-        rides have them (:mod:`euc_sim.rides.compare.channels`; () for battery
-        power alone); the delay's design is battery power's alone.
+        With one shift, the channels stacked beside battery power.
 
     Returns
     -------
@@ -281,11 +253,7 @@ def _entries(res) -> dict[str, Tested]:
 
 
 def _delay_resolution(fit, log_path, compare_path) -> float:
-    """The finest delay the logs resolve, s: one step of the analysis grid or the longer median row interval.
-
-    The delay is searched on the mass fit's grid (its own lag in whole steps);
-    a shift below one step is the grid's and the stamping's, not a delay.
-    """
+    """The finest delay the logs resolve, s: one step of the mass fit's grid or the longer median row interval."""
     dts = [np.median(np.diff(r.data["t"].to_numpy(float))) for r in (log_path, compare_path)]
     return float(max(np.median(np.diff(fit.sig.t)), *dts))
 
@@ -350,24 +318,9 @@ def pair_aliases(fit, test, coef: dict) -> tuple[dict, dict]:
 
 
 def pair_differences(physics, log_path, compare_path, n_boot: int = 200, seed: int = 0, channels=()):
-    """What differs between two rides of one wheel.
-
-    Parameters
-    ----------
-    physics : MassDrivetrain
-        LOG's mass and drivetrain with OTHER's analysis
-        (:func:`euc_sim.rides.drive.drivetrain_report.mass_drivetrain` with ``compare``).
-    log_path, compare_path : Ride
-        Each ride, as the ride pipeline holds it.
-    n_boot, seed : int
-        Bootstrap replicates of the pair fits and their seed.
-    channels : sequence of str
-        The channels beside battery power (:func:`pair_tests`; none by default,
-        :data:`~euc_sim.rides.compare.channels.CHANNELS` the measured set).
-
-    Returns
-    -------
-    Differences
+    """What differs between two rides of one wheel: ``physics`` (LOG's mass and drivetrain with
+    OTHER's analysis), both rides, the pair fits' ``n_boot`` and ``seed``, and the ``channels``
+    beside battery power (:func:`pair_tests`).
     """
 
     fit, test = physics.fit, physics.test

@@ -1,27 +1,13 @@
 """The naming test of a pair of rides, its false-name control and its power.
 
-A difference is named when the residual OTHER's held-out rows leave without
-it goes with its signature (:mod:`euc_sim.rides.compare.differences_fit`): a
-cross-fitted score test.  For each of OTHER's 30 s blocks, with the block's
-fold of *both* rides left out, the difference's column after the model's other
-columns (``sig``) and the residual of the model without it (``r``) give
-``X⁰_b = Σ sig·r``; with it modelled, ``X_b`` (its noise alone).  Then
-
-    z = Σ_b X⁰_b / √(Σ_b X_b²),
-
-two-sided against a t with B − 1 degrees of freedom (:func:`score_test`; the
-blocks the bootstrap already treats as independent).  Without a difference
-``X⁰`` and ``X`` are the same noise and z is a t; a difference Δ adds
-``Δ·S_b`` to each ``X⁰_b`` (``S_b``: the column's sum of squares on the block),
-so z grows as ``Δ·ΣS_b/√(ΣX_b²)``: the smallest difference named with
-:data:`POWER` at a level is ``δ·√(ΣX_b²)/ΣS_b`` (:func:`named_size`, ``δ`` the
-noncentrality a t passes its level with that chance).  The p-values of a
-pair's candidates are adjusted by Benjamini–Hochberg (:func:`bh_qvalues`).  A
-shift (the current's delay) has no column: its test is the paired t of the
-blocks' held-out SSE drop (:func:`paired_test`), and only its interval (and
-the logs' finest delay) resolves it.
-
-Study: docs/concealed.md ("What a pair can resolve").
+A cross-fitted score test: for each of OTHER's 30 s blocks, both rides' fold left out,
+the difference's column after the model's others against the residual without it gives
+X⁰_b (with it modelled, X_b), and z = Σ_b X⁰_b / √(Σ_b X_b²) is tested against a t with
+B − 1 degrees of freedom (:func:`score_test`).  A difference Δ adds Δ·S_b to each X⁰_b, so
+the smallest named with :data:`POWER` is δ·√(ΣX_b²)/ΣS_b (:func:`named_size`).  p-values
+are adjusted by Benjamini–Hochberg (:func:`bh_qvalues`); a shift (the current's delay) is
+tested by the paired t of the blocks' held-out SSE drop (:func:`paired_test`).  Study:
+docs/concealed.md ("What a pair can resolve").
 """
 
 from __future__ import annotations
@@ -43,37 +29,28 @@ POWER = 0.8
 
 @dataclass(frozen=True)
 class Resolution:
-    """The smallest difference of one parameter a pair of rides can name.
+    """The smallest difference of one parameter a pair of rides can name (parameter's unit).
 
     Attributes
     ----------
     name : str
-        The parameter.
     resolvable : float or None
-        The larger of ``interval_halfwidth`` (plus ``floor``) and ``gate``, the
-        parameter's unit; None without an interval.
+        The larger of ``interval_halfwidth`` (plus ``floor``) and ``gate``.
     interval_halfwidth : float or None
-        Half the 95 % interval's width, the parameter's unit.
+        Half the 95 % interval's width.
     gate : float or None
-        The size the naming test names with :data:`POWER` (:func:`named_size`),
-        the parameter's unit; None for a shift.
+        The size the naming test names with :data:`POWER`; None for a shift.
     residual_rms : float or None
-        OTHER's blocked held-out RMS with the difference modelled, the fitted
-        signal's unit (W for battery power, V, m/s; 1 where other channels are
-        stacked beside battery power, each whitened:
-        :mod:`euc_sim.rides.compare.channels`).
+        OTHER's blocked held-out RMS with the difference modelled, the signal's unit (1
+        where channels are stacked, each whitened).
     signature_rms : float or None
-        Held-out RMS of the difference's column after the model's other
-        columns, the fitted signal's unit per unit of the parameter.
+        Held-out RMS of the difference's column after the others, per unit of the parameter.
     floor : float
-        The finest value the logs resolve (the delay's row interval), added to
-        the half-width; 0 elsewhere.
+        The finest value the logs resolve (the delay's row interval); 0 elsewhere.
     gain_se : float or None
-        Standard error of the difference's measured held-out gain, from its
-        spread over the folds (fraction).
+        Standard error of the measured held-out gain (fraction).
     fold_sd : float or None
-        √(Σ X_b²), the score's spread with no difference (module docstring),
-        the signal's unit² per unit of the parameter.
+        √(Σ X_b²), the score's spread with no difference.
     """
 
     name: str
@@ -88,22 +65,11 @@ class Resolution:
 
 
 def paired_test(sse_with: np.ndarray, sse_without: np.ndarray) -> tuple[float, float, float]:
-    """One-sided paired t-test that a term lowers OTHER's held-out error, over its blocks.
+    """One-sided paired t-test that a term lowers OTHER's held-out error over its blocks.
 
-    Parameters
-    ----------
-    sse_with, sse_without : ndarray (B,)
-        OTHER's held-out SSE per block (its fold of both rides left out) with
-        and without the term, the signal's unit squared.
-
-    Returns
-    -------
-    p : float
-        P(T ≥ t) for t = mean(D)/(sd(D)/√B), ``D_b = without_b − with_b``, T a
-        t with B − 1 degrees of freedom; 1 below two blocks or where every
-        ``D_b`` is zero (a ride against itself).
-    mean, sd : float
-        Mean and standard deviation (ddof 1) of ``D`` over the blocks.
+    ``sse_with``, ``sse_without`` (B,): OTHER's held-out SSE per block.  Returns P(T ≥ t) for
+    t = mean(D)/(sd(D)/√B), D_b = without_b − with_b (1 below two blocks or with every D_b
+    zero), and the mean and sd (ddof 1) of D.
     """
     from scipy.stats import t as student
 
@@ -119,20 +85,8 @@ def paired_test(sse_with: np.ndarray, sse_without: np.ndarray) -> tuple[float, f
 
 
 def bh_qvalues(p) -> np.ndarray:
-    """Benjamini–Hochberg adjusted p-values (q-values) of a family of tests (scipy's
-    ``false_discovery_control``).
-
-    ``q_(i) = min_{j ≥ i} p_(j)·m/j`` over the p-values sorted ascending, capped
-    at 1: naming every test with ``q < α`` keeps the expected share of false
-    names among the names below α (independent or positively dependent tests).
-
-    Parameters
-    ----------
-    p : sequence of float
-
-    Returns
-    -------
-    ndarray, in the order of ``p``
+    """Benjamini–Hochberg q-values of a family of p-values, in their order: q_(i) = min_{j ≥ i}
+    p_(j)·m/j capped at 1 (scipy's ``false_discovery_control``).
     """
     from scipy.stats import false_discovery_control
 
@@ -152,21 +106,9 @@ def noncentrality(level: float, df: int, power: float = POWER) -> float:
 
 
 def score_test(cross_without, cross_with) -> tuple[float, float]:
-    """Two-sided cross-fitted score test of one difference (module docstring).
-
-    Parameters
-    ----------
-    cross_without, cross_with : array_like (B,)
-        ``X⁰_b`` and ``X_b``: per block, the difference's column (after the
-        model's other columns) against the residual of the model without and
-        with it, every fit with the block's fold left out.
-
-    Returns
-    -------
-    p : float
-        ``2·P(T ≥ |z|)``, T a t with B − 1 degrees of freedom; 1 where the
-        noise vanishes (a ride against itself) or below two blocks.
-    z : float
+    """Two-sided cross-fitted score test of one difference (module docstring): ``cross_without``,
+    ``cross_with`` are X⁰_b and X_b (B,).  Returns p = 2·P(T ≥ |z|) (1 where the noise vanishes
+    or below two blocks) and z.
     """
     from scipy.stats import t as student
 
@@ -179,23 +121,9 @@ def score_test(cross_without, cross_with) -> tuple[float, float]:
 
 
 def named_size(signature_ss, cross_with, *, level: float, power: float = POWER) -> float | None:
-    """Smallest difference :func:`score_test` names with ``power`` at ``level``: ``δ·√(ΣX_b²)/ΣS_b``.
-
-    Parameters
-    ----------
-    signature_ss : array_like (B,)
-        S_b, the column's held-out sum of squares per block after the model's
-        other columns, per unit of the parameter squared.
-    cross_with : array_like (B,)
-        X_b, that column against the residual of the model with it, per unit
-        of the parameter.
-    level : float
-        Two-sided level the p-value must pass.
-
-    Returns
-    -------
-    float or None
-        The parameter's unit; None where the column vanishes.
+    """Smallest difference :func:`score_test` names with ``power`` at two-sided ``level``:
+    δ·√(ΣX_b²)/ΣS_b from ``signature_ss`` S_b and ``cross_with`` X_b (per unit of the
+    parameter); None where the column vanishes.
     """
     S, X = np.asarray(signature_ss, float), np.asarray(cross_with, float)
     if len(S) < 2 or not S.sum() > 0:
@@ -205,11 +133,8 @@ def named_size(signature_ss, cross_with, *, level: float, power: float = POWER) 
 
 def predicted_gain(size: float, residual_rms: float, signature_rms: float, se: float,
                    n_folds: int) -> float:
-    """The held-out gain of modelling a difference of ``size``: ``1 − σ/√(σ² − e² + Δ²s²)``.
-
-    ``σ``: OTHER's held-out RMS with the difference modelled, ``s``: its
-    column's after the other columns per unit of the parameter, ``se`` its
-    standard error, ``e² = K/(K−1)·s²·se²`` (``size``: Δ, the parameter's unit).
+    """The held-out gain of modelling a difference Δ = ``size``: 1 − σ/√(σ² − e² + Δ²s²), σ =
+    ``residual_rms``, s = ``signature_rms``, e² = K/(K−1)·s²·se².
     """
     e2 = n_folds / (n_folds - 1.0) * (signature_rms * se) ** 2
     return 1.0 - residual_rms / math.sqrt(max(residual_rms ** 2 - e2 + (size * signature_rms) ** 2, 1e-300))
@@ -217,30 +142,9 @@ def predicted_gain(size: float, residual_rms: float, signature_rms: float, se: f
 
 def heldout_signature_rms(GL: np.ndarray, fold_log: np.ndarray, GO: np.ndarray, fold_other: np.ndarray,
                           count_other: np.ndarray, others: list, col: int) -> float:
-    """Held-out RMS of column ``col`` on OTHER's rows after the columns ``others`` (both rides).
-
-    For each fold f the ``others`` are fitted to the column on both rides'
-    blocks outside f (how the model without the difference absorbs its
-    signature), and the remainder is scored on OTHER's blocks of fold f: the
-    systematic error a unit difference leaves in OTHER's held-out residuals.
-
-    Parameters
-    ----------
-    GL, GO : ndarray (n_blocks, p, p)
-        Per-block Gram matrices of LOG's and OTHER's rows
-        (:func:`euc_sim.rides.compare.differences_fit.block_grams`).
-    fold_log, fold_other : ndarray (n_blocks,)
-        Each block's fold.
-    count_other : ndarray (n_blocks,)
-        OTHER's rows per block.
-    others : list of int
-        The model's other columns.
-    col : int
-        The difference's column (its coefficient's unit).
-
-    Returns
-    -------
-    float
+    """Held-out RMS of column ``col`` on OTHER's rows after the columns ``others``, each fold's
+    ``others`` fitted on both rides' blocks outside it (``GL``, ``GO``: per-block Gram
+    matrices; ``fold_*``, ``count_other`` per block): the error a unit difference leaves.
     """
     sse, n = 0.0, 0
     for f in np.unique(fold_other):
@@ -257,27 +161,9 @@ def heldout_signature_rms(GL: np.ndarray, fold_log: np.ndarray, GO: np.ndarray, 
 def detectable_difference(name: str, ci95, residual_rms: float | None = None,
                           signature_rms: float | None = None, *, blocks: tuple | None = None,
                           level: float = 0.05, n_folds: int = 5) -> Resolution:
-    """The smallest difference of ``name`` the pair can name: the interval's half-width or the test's size.
-
-    Parameters
-    ----------
-    name : str
-    ci95 : (lo, hi) or None
-        The difference's 95 % interval, the parameter's unit.
-    residual_rms, signature_rms : float, optional
-        OTHER's held-out RMS with the difference modelled and its column's
-        after the other columns (reported).
-    blocks : (signature_ss, cross_with), optional
-        :func:`named_size`'s per-block parts, per unit of the parameter;
-        without them (a shift) only the interval resolves.
-    level : float
-        Level the p-value must pass (the false-name rate over the
-        candidates: the level of the smallest of their p-values).
-    n_folds : int
-
-    Returns
-    -------
-    Resolution
+    """The smallest difference of ``name`` the pair can name: the 95 % interval's half-width or
+    the test's size (:func:`named_size` of ``blocks``; without them, a shift, the interval
+    alone), at ``level`` (the false-name rate over the candidates).
     """
     sd = None if blocks is None else float(math.sqrt(np.sum(np.asarray(blocks[1], float) ** 2)))
     if ci95 is None:

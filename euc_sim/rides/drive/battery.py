@@ -1,23 +1,12 @@
 """The battery's internal resistance of one ride, normalised to 25 °C, and a health verdict.
 
-The resistance itself is the drivetrain's ``internal_resistance`` term
-(:func:`euc_sim.rides.drive.drivetrain.fit_battery`: V = E₀ − k_Q·Q − R_int·I over the
-ride, the voltage sag against current with the open-circuit voltage's fall with
-charge taken out, and a moving-block bootstrap interval).  This module computes
-no second resistance: it reads that one (from the ride JSON, or by calling the same
-function) and adds
-
-- the normalisation to 25 °C where the battery's temperature is logged
-  (:func:`to_25C`, an Arrhenius law; docs/summary.md gives the source and the
-  sensitivity), and
-- a verdict in a rider's words ("as new", "worn: +35 % resistance", "cannot tell")
-  against the resistance a new pack of the spec's layout has (:meth:`PackSpec.expected`):
-  n_series × R_cell / n_parallel from the cell's figures in ``data/cells.csv`` (each
-  row names its datasheet or test), plus the interconnects, BMS and leads
-  (:data:`INTERCONNECT_OHM`, :data:`FIXED_OHM`).  The resistance EUC World is set to
-  use for its sag compensation (``euc.batteryCircuitResistance``, a setting, not a
-  measurement) is shown beside it for comparison, never used as the specification;
-- across rides, :func:`trend_words`: the first ride's resistance against the last's.
+The resistance is the drivetrain's ``internal_resistance`` term
+(:func:`euc_sim.rides.drive.drivetrain.fit_battery`: V = E₀ − k_Q·Q − R_int·I); this module
+adds its Arrhenius normalisation to 25 °C (:func:`to_25C`), a verdict in a rider's words
+against a new pack of the spec's layout (:meth:`PackSpec.expected`: cells from
+``data/cells.csv`` plus interconnects, BMS and leads) and the trend across rides
+(:func:`trend_words`).  EUC World's sag-compensation setting is shown for comparison only.
+See docs/summary.md.
 """
 
 from __future__ import annotations
@@ -46,25 +35,14 @@ SOC_SPREAD = 1.4
 #: Per series step, the welds, nickel strips or busbars between cell groups, Ω (an allowance
 #: of 0.2-1.0 mΩ a step: a few 0.1 mΩ of strip and weld per joint; our estimate, not a datasheet).
 INTERCONNECT_OHM = (0.2e-3, 1.0e-3)
-#: Once per pack: the BMS's MOSFETs, fuse, connectors and the leads to the controller, Ω
-#: (5-30 mΩ: a few mΩ of MOSFETs and of each connector, about 3 mΩ a metre of 10 AWG lead;
-#: our estimate, not a datasheet).
+#: Once per pack: BMS MOSFETs, fuse, connectors and leads, Ω (our estimate, not a datasheet).
 FIXED_OHM = (5e-3, 30e-3)
 
 
 @dataclass(frozen=True)
 class CellFigures:
-    """One cell's published figures (``data/cells.csv``).
-
-    Attributes
-    ----------
-    cell : str
-        The cell's full name.
-    capacity_mAh : float or None
-    ac_ohm, dc_ohm : float or None
-        AC (1 kHz) impedance and DC (pulse, mid-charge) resistance, Ω.
-    source : str
-        Where each figure is published.
+    """One cell's published figures (``data/cells.csv``): name, capacity (mAh), AC (1 kHz) and
+    DC (pulse, mid-charge) resistance (Ω), and their source.
     """
 
     cell: str
@@ -95,21 +73,9 @@ def cell_figures(text: str) -> CellFigures | None:
 
 @dataclass(frozen=True)
 class PackSpec:
-    """The battery pack as its specification gives it.
-
-    Attributes
-    ----------
-    series, parallel : int or None
-        Cells in series and in parallel (``Battery architecture| 20s2p``).
-    cell : str
-        The cell model as written.
-    cell_resistance_ohm : float or None
-        One cell's DC resistance where the spec gives it (``Cell resistance| 15 mOhm``), Ω;
-        else the cell table's (:func:`cell_figures`).
-    energy_Wh : float or None
-        The pack's energy (``Battery| 750 Wh``).
-    name : str
-        The wheel's name.
+    """The battery pack as its specification gives it: cells in ``series`` and ``parallel``,
+    the ``cell`` model, one cell's DC resistance (Ω; the spec's, else :func:`cell_figures`),
+    ``energy_Wh`` and the wheel's ``name``.
     """
 
     series: int | None = None
@@ -120,11 +86,10 @@ class PackSpec:
     name: str = ""
 
     def expected(self) -> tuple[tuple[float, float] | None, str]:
-        """The resistance of this pack when new, Ω, as [lo, hi], and its source (or why none).
+        """The resistance of this pack when new, [lo, hi] Ω, and its source (or why none).
 
-        lo = n_s·(R_cell/n_p + 0.2 mΩ) + 5 mΩ and hi = n_s·(1.4·R_cell/n_p + 1.0 mΩ) + 30 mΩ:
-        the cells at mid-charge to full (:data:`SOC_SPREAD`) plus the interconnects
-        (:data:`INTERCONNECT_OHM`) and the BMS and leads (:data:`FIXED_OHM`).
+        lo = n_s·(R_cell/n_p + 0.2 mΩ) + 5 mΩ and hi = n_s·(1.4·R_cell/n_p + 1.0 mΩ) + 30 mΩ
+        (:data:`SOC_SPREAD`, :data:`INTERCONNECT_OHM`, :data:`FIXED_OHM`).
         """
         if not (self.series and self.parallel):
             return None, "the spec gives no pack layout (cells in series and in parallel)"
@@ -151,40 +116,31 @@ def pack_spec(spec) -> PackSpec | None:
 
 
 def to_25C(r_ohm: float, temp_C: float, ea: float = EA_J_PER_MOL) -> float:
-    """A resistance measured at ``temp_C`` expressed at 25 °C (Arrhenius), Ω.
-
-    R(T) = R₂₅·exp[(E_a/R_gas)·(1/T − 1/T₂₅)], so R₂₅ = R(T)·exp[−(E_a/R_gas)·(1/T − 1/T₂₅)].
-    """
+    """A resistance measured at ``temp_C`` expressed at 25 °C, Ω: R₂₅ = R(T)·exp[−(E_a/R_gas)·(1/T − 1/T₂₅)]."""
     T = temp_C + 273.15
     return r_ohm * math.exp(-(ea / GAS_CONSTANT) * (1.0 / T - 1.0 / T25_K))
 
 
 @dataclass(frozen=True)
 class BatteryHealth:
-    """The ``battery`` object of the ride JSON (Ω and °C; the page shows mΩ).
+    """The ``battery`` object of the ride JSON (Ω and °C).
 
     Attributes
     ----------
     resistance_ohm, resistance_ci95 : float, tuple or None
-        As measured on the ride (the drivetrain's ``internal_resistance``).
+        As measured on the ride.
     temperature_C : float or None
-        The battery's median logged temperature; None where not logged.
+        The battery's median logged temperature.
     resistance_25C_ohm, resistance_25C_ci95 : float, tuple or None
-        Normalised to 25 °C; None without a battery temperature.
+        Normalised to 25 °C; None without a temperature.
     per_cell_ohm : float or None
-        The pack's resistance × parallel / series: one cell's share, Ω.
-    expected_ohm : tuple or None
-        The resistance of the spec's pack when new, [lo, hi] Ω (:meth:`PackSpec.expected`).
-    expected_source : str or None
-        The cell's datasheet or test and the pack's layout.
+        One cell's share: resistance × parallel / series.
+    expected_ohm, expected_source : tuple, str or None
+        A new pack's [lo, hi] Ω and its source.
     app_setting_ohm : float or None
-        The resistance EUC World's sag compensation is set to (for comparison only).
-    verdict : str
-        ``"as new"``, ``"worn: +NN % resistance"``, ``"cannot tell"`` or ``"not measured"``
-        (:func:`health_verdict`).
-    sentence : str
-    verdict_why : str
-        Why the verdict, in one clause.
+        EUC World's sag-compensation setting (comparison only).
+    verdict, sentence, verdict_why : str
+        :func:`health_verdict`'s verdict, the page's sentence, and why in one clause.
     """
 
     resistance_ohm: float | None
@@ -209,22 +165,11 @@ class BatteryHealth:
 
 
 def health_verdict(r: float, ci, expected) -> tuple[str, str]:
-    """A pack's resistance against a new one's, in a rider's words, and why in one clause.
+    """A pack's resistance ``r`` (Ω, 95 % interval ``ci``) against a new one's [lo, hi], and why.
 
-    Parameters
-    ----------
-    r, ci : float, tuple or None
-        The ride's resistance and its 95 % interval, Ω.
-    expected : tuple or None
-        A new pack's [lo, hi], Ω.
-
-    Returns
-    -------
-    verdict : str
-        ``"worn: +NN % resistance"`` (the interval above the new pack's range; NN against its
-        upper end), ``"cannot tell"`` (no expected range, or an interval reaching past
-        :data:`AGED_RATIO` × its upper end), else ``"as new"``.
-    why : str
+    ``"worn: +NN % resistance"`` when the interval lies above the range (NN against its upper
+    end), ``"cannot tell"`` without a range or with an interval reaching past
+    :data:`AGED_RATIO` × its upper end, else ``"as new"``.
     """
     if expected is None:
         return "cannot tell", "no resistance of a new pack to judge it against"
@@ -239,10 +184,8 @@ def health_verdict(r: float, ci, expected) -> tuple[str, str]:
 
 
 def trend_words(values, cis) -> str:
-    """The resistance from the first ride to the last, in a rider's words (no p-value).
-
-    ``"resistance unchanged across N rides"`` where the first and the last ride's 95 %
-    intervals overlap, else ``"rising: +NN % from first to last"`` or ``"falling: −NN % ..."``.
+    """The resistance from the first ride to the last, in a rider's words: unchanged where their
+    95 % intervals overlap, else rising or falling by NN %.
     """
     n = len(values)
     (a0, b0), (a1, b1) = cis[0], cis[-1]
@@ -255,20 +198,9 @@ def trend_words(values, cis) -> str:
 def battery_health(r_ohm: float | None, ci95, temp_C: float | None = None,
                    pack: PackSpec | None = None, wheel_reported_ohm: float | None = None,
                    why: str | None = None) -> BatteryHealth:
-    """The health verdict of one ride's measured resistance.
-
-    Parameters
-    ----------
-    r_ohm, ci95 : float, tuple
-        The drivetrain's ``internal_resistance`` and its 95 % interval, Ω.
-    temp_C : float, optional
-        The battery's temperature during the ride, °C (normalises to 25 °C; without it the
-        verdict compares the resistance as measured, and says so).
-    pack : PackSpec, optional
-    wheel_reported_ohm : float, optional
-        The resistance EUC World's sag compensation is set to, Ω (shown for comparison).
-    why : str, optional
-        Why the resistance is not measured (when ``r_ohm`` is None).
+    """The health verdict of one ride's ``internal_resistance`` ``r_ohm`` (Ω, with ``ci95``), at
+    ``temp_C`` (°C, normalised to 25 °C where given), against ``pack``; ``why`` says why there
+    is no resistance.
     """
     expected, source = pack.expected() if pack else (None, "no wheel specification given")
     if r_ohm is None or not math.isfinite(r_ohm) or r_ohm <= 0:
@@ -295,11 +227,7 @@ def battery_health(r_ohm: float | None, ci95, temp_C: float | None = None,
 
 
 def measure_resistance(log, n_boot: int = 100, seed: int = 0) -> tuple[float, tuple | None]:
-    """The drivetrain's ``internal_resistance`` of one log, Ω, with its 95 % interval.
-
-    The same computation ``euc-sim ride`` reports (:func:`euc_sim.rides.drive.drivetrain.fit_battery`
-    on :func:`euc_sim.rides.grids.power.power_signals`), for commands that read many logs.
-    """
+    """The drivetrain's ``internal_resistance`` of one log, Ω, with its 95 % interval (as ``euc-sim ride`` computes it)."""
     from euc_sim.rides.drive.drivetrain import fit_battery  # deferred: loads scipy (1.1 s)
     from euc_sim.rides.grids.power import MassSettings, power_signals  # deferred: loads scipy (1.1 s)
 
@@ -309,11 +237,7 @@ def measure_resistance(log, n_boot: int = 100, seed: int = 0) -> tuple[float, tu
 
 
 def battery_health_of(term, log=None, counters=None, pack: PackSpec | None = None) -> BatteryHealth:
-    """:func:`battery_health` of the drivetrain's ``internal_resistance`` term (not recomputed).
-
-    ``term``: a :class:`~euc_sim.rides.drive.drivetrain.Term` (``estimate`` Ω, ``ci95``, ``why``),
-    or None when the drivetrain has none.
-    """
+    """:func:`battery_health` of the drivetrain's ``internal_resistance`` ``term`` (or None), not recomputed."""
     temp = getattr(counters, "battery_temp_C", None)
     wheel = getattr(counters, "battery_circuit_ohm", None)
     if term is None:

@@ -1,19 +1,13 @@
 """The energy balance over a window: one linear filter on both sides of the mass regression.
 
-Integrating the power balance ``P = m·d/dt(v²/2) + m·g·ḣ + c₁·v + c₃·v³ +
-k_cu·I_ph² + P₀`` over a window of length T centred on t gives, exactly::
+Integrating the power balance over a window T centred on t gives exactly::
 
     mean_T(P) = m·Δ_T(v²/2)/T + m·g·Δ_T(h)/T + c₁·mean_T(v) + c₃·mean_T(v³)
                 + k_cu·mean_T(I_ph²) + P₀
 
-with ``Δ_T x = x(t + T/2) − x(t − T/2)``.  The moving mean is one linear filter
-applied to every term, and the moving mean of a derivative *is* the window's
-difference over T: no derivative of a noisy speed is taken and the filter
-cannot bias the coefficients (the state-variable-filter idea, docs/identification.md).
-If the model were complete every window would return the same mass; what
-differs between windows is dynamics the model leaves out (logging latency, the
-apps' own smoothing of current and speed), and :func:`euc_sim.rides.drive.mass.fit_mass`
-carries that spread into the mass interval instead of choosing one window.
+with Δ_T x = x(t + T/2) − x(t − T/2): the moving mean of a derivative is the window's
+difference over T, so no noisy speed is differentiated and the filter cannot bias the
+coefficients (docs/identification.md).
 """
 
 from __future__ import annotations
@@ -41,26 +35,10 @@ def _segments(segment: np.ndarray):
 
 
 def window_mean(x: np.ndarray, segment: np.ndarray, n: int) -> np.ndarray:
-    """Centred moving mean over ``n`` samples (odd), trapezoidal, segment by segment.
+    """Centred trapezoidal moving mean of ``x`` over ``n`` samples (odd), segment by segment.
 
-    The trapezoidal mean over T = (n − 1)/rate is exact for the piecewise-linear
-    signals of the resampled grid, so the window mean of a derivative equals
-    :func:`window_difference` to rounding.
-
-    Parameters
-    ----------
-    x : array_like
-        Signal on the uniform grid (any unit).
-    segment : array_like of int
-        Segment label of each sample; a window never crosses a boundary.
-    n : int
-        Window length in samples (odd).
-
-    Returns
-    -------
-    numpy.ndarray
-        Same unit as ``x``; NaN where the window holds a non-finite value or
-        leaves its segment.
+    Exact for the grid's piecewise-linear signals, so the window mean of a derivative equals
+    :func:`window_difference`.  NaN where the window holds a non-finite value or leaves its segment.
     """
     x = np.asarray(x, float)
     out = np.full(x.shape, np.nan)
@@ -80,23 +58,8 @@ def window_mean(x: np.ndarray, segment: np.ndarray, n: int) -> np.ndarray:
 
 
 def window_difference(x: np.ndarray, segment: np.ndarray, n: int, rate: float) -> np.ndarray:
-    """``(x(t + T/2) − x(t − T/2))/T`` with T = (n − 1)/rate: the window mean of dx/dt.
-
-    Parameters
-    ----------
-    x : array_like
-        Signal on the uniform grid.
-    segment : array_like of int
-        Segment labels (a window never crosses a boundary).
-    n : int
-        Window length in samples (odd).
-    rate : float
-        Grid rate, Hz.
-
-    Returns
-    -------
-    numpy.ndarray
-        Unit of x per second; NaN at segment ends and where an end is not finite.
+    """``(x(t + T/2) − x(t − T/2))/T``, T = (n − 1)/``rate``: the window mean of dx/dt (unit of x
+    per s), segment by segment; NaN at segment ends and where an end is not finite.
     """
     x = np.asarray(x, float)
     out = np.full(x.shape, np.nan)

@@ -1,17 +1,10 @@
 """The road's grade as the battery-power balance sees it, against GPS altitude.
 
-Whatever battery power the fitted balance does not explain without its grade
-term is, to first order, the power of climbing::
-
-    g·ḣ_implied = (P − P̂_without grade) / m            (W/kg; m the fitted mass)
-
-Integrated over the ride it gives the altitude the battery says the rider
-climbed: the grade the fit sees, which the ride page draws against GPS
-altitude over distance (:func:`euc_sim.rides.render.drivetrain_page.plot_grade`).  Where the two part, the balance
-is missing something that varies along the road (wind, a loss it leaves out)
-or the altitude is wrong.  The fitted grade term itself is ``β_h·g·ḣ_GPS``
-with ``β_h`` below m where altitude noise attenuates it; its altitude
-``(β_h/m)·h_GPS`` is drawn too.
+The power the fitted balance leaves unexplained without its grade term is, to first
+order, the power of climbing, g·ḣ_implied = (P − P̂_without grade)/m (W/kg); integrated it
+gives the altitude the battery says was climbed, drawn against GPS altitude over
+distance.  Where they part, the balance misses something along the road or the altitude
+is wrong.  The fitted grade term's own altitude (β_h/m)·h_GPS is drawn too.
 """
 
 from __future__ import annotations
@@ -37,22 +30,17 @@ class GradeProfile:
     Attributes
     ----------
     distance : numpy.ndarray
-        km from the start (∫v dt over the grid; nothing across gaps).
+        km from the start (nothing across gaps).
     segment : numpy.ndarray
         Segment of each sample (the implied altitude restarts at each).
-    gps : numpy.ndarray
-        GPS altitude, m (NaN where the log has none).
-    implied : numpy.ndarray
-        Altitude the battery-power balance implies, m, each segment started at
-        its GPS altitude.
+    gps, implied : numpy.ndarray
+        GPS altitude and the balance's, m, each segment started at its GPS altitude.
     fitted : numpy.ndarray or None
-        Altitude of the fitted grade term, (β_h/m)·(h_GPS − its segment's start)
-        plus that start, m; None when the fit kept no grade term.
+        Altitude of the fitted grade term, m; None when the fit kept none.
     rms_m : float
         RMS of implied − GPS altitude, m.
     climb_gps_m, climb_implied_m : float
-        Total ascent, m, of the GPS altitude and of the implied one (both after
-        a 30 s moving mean, so noise does not count as climbing).
+        Total ascent after a 30 s moving mean, m.
     """
 
     distance: np.ndarray
@@ -83,21 +71,8 @@ def _ascent(h: np.ndarray, t: np.ndarray, segment: np.ndarray, span: float = 30.
 
 def grade_profile(sig: PowerSignals, fit: MassFit, gps_t: np.ndarray,
                   gps_alt: np.ndarray) -> GradeProfile | None:
-    """The altitude the fitted balance implies, beside the GPS altitude.
-
-    Parameters
-    ----------
-    sig : PowerSignals
-        The fitted ride's signals.
-    fit : MassFit
-        Its mass fit (the mass and every accepted term).
-    gps_t, gps_alt : numpy.ndarray
-        The log's time stamps, s, and GPS altitude, m (NaN where missing).
-
-    Returns
-    -------
-    GradeProfile or None
-        None when the mass is not identified or the log has no GPS altitude.
+    """The altitude the fitted balance implies beside the GPS altitude (``gps_t`` s, ``gps_alt`` m);
+    None when the mass is not identified or there is no altitude.
     """
     ok_alt = np.isfinite(gps_alt)
     if fit.estimate is None or not fit.signed or ok_alt.sum() < 2:

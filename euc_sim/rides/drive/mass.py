@@ -1,57 +1,17 @@
 """The total mass (rider plus wheel) found blind from a ride log's battery power.
 
-Physics
--------
-The battery gives the road's mechanical power plus the drivetrain's losses
-(``m`` the translating mass of rider and wheel plus the wheel's rotating
-inertia J/R², kg)::
+The battery gives the road's mechanical power plus the drivetrain's losses::
 
     P = V·I = m·a·v + m·g·ḣ + c₁·v + c₃·v³ + k_cu·I_ph² + P₀
 
-``a·v = d/dt(v²/2)`` (kinetic energy), ``g·ḣ`` the climb (potential energy, from
-GPS altitude where logged), ``c₁·v`` rolling resistance plus every loss linear
-in speed (bearings, the motor's no-load loss), ``c₃ = ½·ρ·C_dA`` plus losses
-growing with v³, ``k_cu·I_ph²`` the copper loss in the winding resistance (with
-the logged phase current; without it, its proxy ``a²``, since
-``I_ph ∝ F ≈ m·a`` + slowly varying terms) and ``P₀`` a constant drain.  The
-losses are **added**: the same copper loss is paid driving and braking, and
-regeneration is simply ``P < 0``.  Energy conservation then fixes the
-coefficient of ``a·v`` to the mass itself — no efficiency multiplies it — and
-accelerations are nearly uncorrelated with the speed-only terms, which is what
-makes ``m`` identifiable from a free ride.  (A single efficiency,
-``P = m·a·v/η``, cannot tell mass from efficiency; that is the baseline this
-replaces.)
-
-Signals
--------
-- speed is the wheel's; its scale against GPS speed (:func:`euc_sim.rides.grids.power.speed_scale`)
-  corrects every speed (a 6 % optimistic speedometer makes m 12 % low, since
-  ``a·v`` scales with the square);
-- the balance is integrated over windows (:mod:`euc_sim.rides.drive.energy`): the
-  window mean of power against the window difference of v²/2 over T, one linear
-  filter on both sides, no derivative of the speed.  A complete model would give
-  the same mass on every window; the real logs do not quite (logging latency,
-  the apps' own smoothing), so the mass is fitted on 2, 4 and 8 s windows, the
-  estimate is their median and the interval pools their bootstrap replicates:
-  no window is chosen (the former 1 s Savitzky–Golay regression was, after
-  looking at the truth, and read 98/122/149 kg on one ride at 0.5/1/2 s);
-- the logging delay between the speed and the current is found by the best fit
-  over ±1 s (:func:`fit_mass`, on the 1 s Savitzky–Golay signals that the
-  drivetrain's fits also use).
-
-What a log lacks
-----------------
-- no signed current (a battery current never negative, e.g. Begode through
-  WheelLog): braking cannot be told from driving; the log is taken to carry
-  ``|P|`` and the model ``|P̂|`` is fitted (a weaker, stated assumption);
-- no GPS speed: the speedometer's scale is unknown; taken as 1 with a 5 %
-  standard deviation (the spread of the scales measured on rides that have
-  GPS), propagated into the interval;
-- no GPS altitude: grade cannot be identified; it stays in the residual.
-
-The 95 % interval is a moving-block bootstrap over 30 s blocks (the residual is
-autocorrelated; the same blocks for every window) with the speed scale drawn from
-its own uncertainty, pooled over the windows.
+(m the translating mass plus J/R², kg; g·ḣ the climb from GPS altitude; c₁·v rolling and
+losses linear in speed; c₃ = ½ρC_dA plus losses growing with v³; k_cu·I_ph² the copper
+loss, with the proxy a² or the drive force² without phase current; P₀ a constant drain).
+The losses are added, regeneration is P < 0, so no efficiency multiplies the mass.  The
+balance is fitted over 2, 4 and 8 s windows (:mod:`euc_sim.rides.drive.energy`); the
+estimate is their median and the 95 % interval pools their 30 s moving-block bootstrap
+replicates, widened by :mod:`euc_sim.rides.source.systematic`.  A log without signed
+current fits |P̂| and gives no mass.  See docs/drivetrain.md.
 """
 
 from __future__ import annotations
@@ -143,24 +103,19 @@ class MassFit:
     Attributes
     ----------
     estimate : float or None
-        Mass of the ``a·v`` term, kg: the paper's m_eq (eq. 6, rider + wheel +
-        the wheel's rotating inertia J_w/R²) as :func:`fit_mass` returns it, the
-        rider plus wheel once :func:`euc_sim.rides.drive.rotating.without_rotating_inertia`
-        has taken J_w/R² out (then ``equivalent`` keeps m_eq); None when the fit
-        gives β₊·β₋ ≤ 0 (see ``why``).
-    ci95 : tuple of float or None
-        2.5 and 97.5 % bootstrap percentiles, kg.
-    coef : dict
-        Coefficient of every accepted term, SI (see :data:`ENERGY_TERMS`).
-    coef_ci95 : dict
-        Their 95 % intervals.
+        Mass of the ``a·v`` term, kg: m_eq (eq. 6) as :func:`fit_mass` returns it, rider plus
+        wheel once :func:`~euc_sim.rides.drive.rotating.without_rotating_inertia` took J_w/R²
+        out; None when not identified (``why``).
+    ci95, stat_ci95 : tuple of float or None
+        95 % interval, kg, with and without ``systematic``.
+    coef, coef_ci95 : dict
+        Coefficient of every accepted term (SI, :data:`ENERGY_TERMS`) and its interval.
     terms : list of str
         Accepted terms in order of acceptance.
     history : list of dict
-        ``{"term", "heldout_rmse"}`` (W) after each step, the first the inertia
-        alone: the balance before and after each accepted term.
+        ``{"term", "heldout_rmse"}`` (W) after each step, the first the inertia alone.
     lag : float
-        Delay of the speed signals against the current, s (positive: speed later).
+        Delay of the speed signals against the current, s.
     scale : SpeedScale
     signed : bool
     n_samples : int
@@ -169,20 +124,13 @@ class MassFit:
     why : str
         Why ``estimate`` is None, else "".
     by_window : dict
-        Energy-balance window (s) -> the mass it gives, kg (the spread the
-        interval carries); empty when the mass is not identified.
+        Energy-balance window (s) -> its mass, kg.
     equivalent : dict
-        ``{"estimate", "ci95", "rotating_inertia"}`` (kg): m_eq and the J_w/R²
-        taken from it, once it has been; empty before.
+        ``{"estimate", "ci95", "rotating_inertia"}`` (kg) once J_w/R² is taken out.
     copper_column : str
-        The copper loss's column: ``"phase_current"`` (I_ph², A²), ``"force"``
-        ((m·a + c₁ + c₃v²)², N²) or ``"accel"`` (the proxy a², (m/s²)²).
+        ``"phase_current"`` (I_ph²), ``"force"`` ((m·a + c₁ + c₃v²)²) or ``"accel"`` (a²).
     systematic : dict
-        Source -> kg, the 95 % half-width each part the log cannot calibrate
-        adds to the interval in quadrature (:mod:`euc_sim.rides.source.systematic`).
-    stat_ci95 : tuple of float or None
-        The bootstrap's own 95 % interval, kg, before ``systematic`` is added
-        (``ci95`` is both).
+        Source -> 95 % half-width, kg (:mod:`euc_sim.rides.source.systematic`).
     """
 
     estimate: float | None
@@ -264,30 +212,12 @@ def _mass(beta: dict) -> float:
 
 def energy_regressors(sig: PowerSignals, lag: int, n: int, rate: float,
                       force: tuple | None = None) -> tuple[np.ndarray, dict]:
-    """Both sides of the energy balance over windows of ``n`` samples (:mod:`euc_sim.rides.drive.energy`).
+    """Both sides of the energy balance over windows of ``n`` samples (odd; T = (n − 1)/``rate``).
 
-    Parameters
-    ----------
-    sig : PowerSignals
-    lag : int
-        Delay of the speed signals against the current, samples.
-    n : int
-        Window length, samples (odd); T = (n − 1)/rate.
-    rate : float
-        Grid rate, Hz.
-    force : (m, c₁, c₃), optional
-        Without phase current, the copper column is the window mean of the
-        squared drive force (m·a + c₁ + c₃·v²)², N² (kg, N, kg/m), instead of
-        the proxy a²: a copper loss κF² has a cross term 2κ·m·a·F_res that
-        a² cannot absorb and that the a·v column then counts as mass.
-
-    Returns
-    -------
-    y : numpy.ndarray
-        Window mean of battery power, W.
-    cols : dict
-        The columns of :func:`mass_regressors`, in the same units, as window
-        means (``inertia`` and ``grade`` as window differences over T).
+    ``lag`` delays the speed signals (samples); with ``force`` (m kg, c₁ N, c₃ kg/m) and no
+    phase current the copper column is the squared drive force, not a².  Returns the window
+    mean of battery power (W) and the :func:`mass_regressors` columns as window means
+    (``inertia`` and ``grade`` as window differences over T).
     """
     seg = sig.segment
     v = _shift(sig.raw["v"], lag)
@@ -331,12 +261,8 @@ def _design(sig: PowerSignals, lag: int, window: float, settings: MassSettings,
 
 
 def _bootstrap(designs: list, names, signed, settings: MassSettings, mid: int):
-    """Moving-block bootstrap, the same blocks for every window.
-
-    Returns the masses of every replicate and window pooled (the window spread
-    is carried into the interval) and the replicates' coefficients at window ``mid``.
-    The speed scale is not drawn here: it is the same on every replicate, and
-    :mod:`euc_sim.rides.source.systematic` carries it.
+    """Moving-block bootstrap, the same blocks for every window: the masses of every replicate
+    and window pooled, and the replicates' coefficients at window ``mid``.
     """
     rng = np.random.default_rng(settings.seed)
     t0 = min(d.t[0] for d in designs)
@@ -374,27 +300,9 @@ def _ci(x: np.ndarray) -> tuple[float, float] | None:
 def fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | None = None) -> MassFit:
     """Estimate the total mass from a log alone (never from a stated rider weight).
 
-    The energy balance is fitted over each window of ``settings.windows``
-    (:func:`energy_regressors`); the terms are selected on the middle window;
-    the estimate is the median of the windows' masses and the 95 % interval
-    pools the block-bootstrap replicates of every window.
-
-    Parameters
-    ----------
-    log : Ride
-    settings : MassSettings
-    sig : PowerSignals, optional
-        Already computed by :func:`power_signals` (saves the resampling).
-
-    Returns
-    -------
-    MassFit
-
-    Raises
-    ------
-    RideDataError
-        naming the file and the column, for a log without voltage or current
-        or one that was never ridden.
+    The terms are selected on the middle window of ``settings.windows``; ``sig`` reuses
+    :func:`power_signals`.  :class:`RideDataError` naming file and column for a log without
+    voltage or current, or never ridden.
     """
     with one_blas_thread():
         return _fit_mass(log, settings, sig)
@@ -465,11 +373,8 @@ def _grade_kg(d: "_Design", names, sig: PowerSignals, m: float, settings: MassSe
 
 def _force_copper(sig: PowerSignals, lag: int, settings: MassSettings, names, betas,
                   iterations: int = 4):
-    """The copper loss as κ·F², F = m·a + c₁ + c₃v² from the fit itself, iterated per window.
-
-    Each window's fit gives (m, c₁, c₃), which give its F² column, which gives
-    the next fit; four rounds settle the mass to well under 0.1 kg on the
-    shared rides.  Returns the final designs and coefficients.
+    """The copper loss as κ·F², F = m·a + c₁ + c₃v² from the fit itself, iterated per window;
+    the final designs and coefficients.
     """
     designs = []
     for k, w in enumerate(sorted(settings.windows)):
@@ -508,10 +413,8 @@ def _unidentified(log: Ride, sig: PowerSignals) -> dict:
 
 
 def predict_power(sig: PowerSignals, fit: MassFit, v_min: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
-    """Battery power predicted by ``fit`` on the signals ``sig`` (possibly another ride), and the logged one, W.
-
-    Only samples faster than ``v_min`` (m/s) where every regressor exists.
-    For an unsigned log the prediction is ``|P̂|`` (what such a log records).
+    """Battery power predicted by ``fit`` on ``sig`` (possibly another ride) and the logged one, W,
+    on the samples faster than ``v_min`` m/s; |P̂| for an unsigned log.
     """
     lag = int(round(fit.lag * (1.0 / np.median(np.diff(sig.t)))))
     c = fit.coef

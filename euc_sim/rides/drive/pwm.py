@@ -1,29 +1,10 @@
 """The duty (PWM) a wheel's controller applies: the volts it needs, over the battery's.
 
-The basic model (:mod:`euc_sim.rides.drive.drivetrain`) is a DC motor's::
-
-    d·V = K_v·v + r_F·F                       (V)
-
-back-EMF plus resistive drop.  A field-oriented controller on a real wheel adds
-two effects that the logged duty of the Leaperkim Lynx shows plainly (and the
-InMotion V9's less so):
-
-- **dead time** ``c_dt·V·sign F``: while both switches of a bridge leg are off
-  the phase current's own direction sets the leg's voltage, so the controller
-  must add a duty ``c_dt = 2·t_dead·f_sw`` (a few %) in the direction of the
-  current: on the Lynx the applied volts jump by about 14 V where the current
-  changes sign, at any speed;
-- **flux weakening** ``−c_fw·v·min(v, v_fw)``: at speed the controller drives a
-  d-axis current against the magnets' flux, so the back-EMF per unit speed
-  falls as speed rises, ``K_v − c_fw·v`` (Lynx at low current: 7.6 V/(m/s) at
-  3 m/s, 5.9 at 19 m/s).  ``v_fw`` is the fastest speed of the fitted ride:
-  beyond it the fall is not extrapolated (the controller's current limit,
-  not in the log, bounds it), which keeps the envelope and the simulator's
-  voltage limit on the safe side.
-
-Each extra term is kept only when it lowers the blocked held-out RMS error of
-the applied volts (10 contiguous blocks, each predicted from the other nine) by
-``MIN_GAIN``, the selection :mod:`euc_sim.rides.drive.mass` uses for the mass's terms.
+The DC motor's d·V = K_v·v + r_F·F (back-EMF plus resistive drop), with two
+field-oriented-controller terms kept when they lower the blocked held-out RMS error of
+the applied volts by :data:`MIN_GAIN`: dead time ``c_dt·V·sign F`` (c_dt = 2·t_dead·f_sw)
+and flux weakening ``−c_fw·v·min(v, v_fw)`` (the back-EMF per speed falling with speed;
+v_fw the fitted ride's fastest speed, not extrapolated beyond).  See docs/drivetrain.md.
 """
 
 from __future__ import annotations
@@ -51,26 +32,8 @@ MIN_GAIN = 0.005
 
 def pwm_columns(v: np.ndarray, F: np.ndarray, V: np.ndarray,
                 names=BASE + tuple(EXTRA), v_fw: float = np.inf) -> np.ndarray:
-    """The model's columns, volts per unit coefficient, one per name.
-
-    Parameters
-    ----------
-    v : numpy.ndarray
-        The wheel's speed reading, m/s.
-    F : numpy.ndarray
-        Wheel force from battery power, P/v, N.
-    V : numpy.ndarray
-        Battery voltage, V.
-    names : sequence of str
-        Of :data:`BASE` and :data:`EXTRA`.
-    v_fw : float
-        Speed, m/s, above which the flux weakening no longer grows.
-
-    Returns
-    -------
-    numpy.ndarray
-        rows × len(names): ``K_v`` → v, ``r_F`` → F, ``dead_time`` → V·sign F
-        (with the coefficient, a duty), ``flux_weakening`` → −v·min(v, v_fw).
+    """The model's columns, volts per unit coefficient: ``K_v`` → v (m/s), ``r_F`` → F (P/v, N),
+    ``dead_time`` → V·sign F, ``flux_weakening`` → −v·min(v, ``v_fw``); rows × len(names).
     """
     make = {"K_v": lambda: v, "r_F": lambda: F, "dead_time": lambda: V * np.sign(F),
             "flux_weakening": lambda: -v * np.minimum(v, v_fw)}
@@ -79,14 +42,8 @@ def pwm_columns(v: np.ndarray, F: np.ndarray, V: np.ndarray,
 
 def select_pwm_terms(v: np.ndarray, F: np.ndarray, V: np.ndarray, duty: np.ndarray,
                      t: np.ndarray) -> tuple[list[str], list[dict]]:
-    """Forward selection of :data:`EXTRA` by blocked held-out RMSE of the applied volts d·V.
-
-    Returns
-    -------
-    names : list of str
-        :data:`BASE` plus the kept terms, in the order kept.
-    history : list of dict
-        ``{"term", "heldout_rmse"}`` (V) after each step, the base model first.
+    """Forward selection of :data:`EXTRA` by blocked held-out RMSE of the applied volts d·V: the
+    names kept (:data:`BASE` first) and ``{"term", "heldout_rmse"}`` (V) after each step.
     """
     y = duty * V
     return select_by_heldout(lambda names: heldout_rmse(pwm_columns(v, F, V, names), y, t, True),

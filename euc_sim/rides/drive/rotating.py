@@ -1,22 +1,9 @@
 """The wheel's rotating inertia, taken out of the mass a ride's energy balance finds.
 
-Battery power balances the change of kinetic energy, and the kinetic energy of
-the paper's model (Appendix, eq. 6) is ``½·m_eq·ẋ²`` with
-
-    m_eq = m + m_0 + m_w + J_w/R²                                   # eq. (6), m_11
-
-so the coefficient of ``a·v`` that :func:`euc_sim.rides.drive.mass.fit_mass` estimates
-is m_eq, not the rider plus the wheel: the tyre, rim and outer rotor of a hub
-motor also store ``½·J_w·(v/R)²``.  A maker's specification gives the net
-weight, not J_w, so J_w/R² is taken as a share of the net weight:
-
-- Table 3: J_w/R² = 0.12 kg·m² / (0.2 m)² = 3 kg of a 16 kg EUC, a share of 0.19;
-- a hub-motor wheel turns its tyre and rim (a hoop at R) and its outer rotor
-  (magnets and shell near 0.6 R): with 25–45 % of the net weight turning,
-  J_w/R² is 0.10–0.28 of it, the range carried into the interval.
-
-Without a net weight the correction cannot be made, and the estimate stays m_eq,
-said so in ``unidentified``.
+The coefficient of a·v is m_eq = m + m_0 + m_w + J_w/R² (eq. 6, m_11), not rider plus
+wheel.  A spec gives the net weight, not J_w, so J_w/R² is a share of it: 0.19 in Table 3
+(:data:`ROTATING_SHARE`), 0.10–0.28 for hub-motor wheels (25–45 % of the net weight
+turning; :data:`ROTATING_SHARE_RANGE`, carried into the interval).
 """
 
 from __future__ import annotations
@@ -36,25 +23,11 @@ ROTATING_SHARE_RANGE = (0.10, 0.28)
 
 
 def without_rotating_inertia(fit: MassFit, wheel_mass: float | None) -> MassFit:
-    """Rider plus wheel from m_eq: subtract J_w/R² estimated from the net weight.
+    """Rider plus wheel from m_eq: subtract J_w/R² = :data:`ROTATING_SHARE` × ``wheel_mass`` (kg).
 
-    Parameters
-    ----------
-    fit : MassFit
-        As :func:`euc_sim.rides.drive.mass.fit_mass` returns it (``estimate`` = m_eq, kg).
-        Not modified.
-    wheel_mass : float or None
-        The wheel's net weight, kg (the spec's); None leaves m_eq and says why.
-
-    Returns
-    -------
-    MassFit
-        A copy whose ``estimate`` is m_eq − 0.19·wheel_mass, whose
-        ``systematic`` gains ``rotating_share`` (half the share's range,
-        0.09·wheel_mass, kg) and whose ``ci95`` is recombined with it
-        (:func:`euc_sim.rides.source.systematic.combined_interval`); ``equivalent``
-        keeps m_eq, its interval and the J_w/R² subtracted, kg.  ``by_window``
-        is shifted by the same J_w/R².
+    Returns a copy of ``fit`` with the estimate and ``by_window`` shifted, ``systematic``
+    gaining ``rotating_share`` (half the share's range × wheel_mass), ``ci95`` recombined and
+    ``equivalent`` keeping m_eq.  Without a net weight, m_eq stays and ``unidentified`` says why.
     """
     if fit.equivalent:
         raise ValueError("fit: the rotating inertia has already been taken out of this mass")

@@ -1,21 +1,12 @@
-"""The riding rows a wheel's balance law is read from: pitch, its rate, speed,
-acceleration and motor torque along a log's uneven time stamps.
+"""The riding rows a wheel's balance law is read from: pitch, its rate, speed, acceleration
+and motor torque, on the log's own (uneven) time stamps.
 
-A log of EUC World (InMotion, Leaperkim, Nosfet) has the wheel's pitch (``tilt``)
-and, on many wheels, the phase current; WheelLog's InMotion logs carry the
-wheel's ``torque``.  The motor torque is the phase current times the torque
-constant K_t = K_e (the back-EMF constant the drivetrain fit identifies,
-:mod:`euc_sim.rides.drive.drivetrain`), or the logged torque.  :func:`law_rows` keeps
-the riding rows (speed above :data:`V_MIN`, pitch within :data:`MAX_PITCH` of its
-riding median) with the pitch rate and acceleration as exact mean rates over the
-stamps' intervals, a leaky integral of the pitch, and each channel at the
-neighbouring rows (Simpson's weights) so that the law can be fitted between
-interval means (:mod:`euc_sim.rides.law.controller_law` fits it).  The rows stay on
-the log's own stamps (the differences and weights are exact there, a grid's
-interpolation would smear them); an interval longer than the ride's one gap
-threshold (:data:`GAP`, the ``bridge`` of :data:`euc_sim.rides.source.gaps.GAP_POLICY`)
-breaks every derivative, mean and integral, as it splits the grids.  It raises
-:class:`LawUnavailable` when the log has no pitch, no torque or too few riding rows.
+The torque is the logged ``torque`` or the phase current times K_t = K_e
+(:mod:`euc_sim.rides.drive.drivetrain`).  :func:`law_rows` keeps the riding rows (speed
+above :data:`V_MIN`, pitch within :data:`MAX_PITCH` of its riding median) with exact
+mean rates over the stamps' intervals, a leaky pitch integral and each channel at the
+neighbouring rows (Simpson's weights) for :mod:`euc_sim.rides.law.controller_law`.  An
+interval longer than :data:`GAP` breaks every derivative, mean and integral.
 """
 
 from __future__ import annotations
@@ -54,36 +45,31 @@ class LawUnavailable(InputError):
 
 @dataclass(frozen=True)
 class LawRows:
-    """The riding rows a law is fitted on (or scored on).
+    """The riding rows a law is fitted or scored on.
 
     Attributes
     ----------
     t : numpy.ndarray
-        Time, s.
+        s.
     tilt, tilt_dot : numpy.ndarray
-        Logged pitch, rad, in the log's own convention, and its rate, rad/s.
+        Logged pitch (the log's convention), rad, and its rate, rad/s.
     v, a : numpy.ndarray
-        Wheel speed, m/s, and acceleration, m/s².
+        Wheel speed m/s, acceleration m/s².
     z : numpy.ndarray
         Leaky integral of (tilt − median riding tilt), rad·s.
     y : numpy.ndarray
-        Motor torque, N·m (``unit``), or phase current, A, where no torque constant is known.
+        Motor torque N·m, or phase current A without a torque constant (``unit``).
     channel : str
-        The logged channel ``y`` comes from (``"phase_current"`` or ``"torque"``).
-    unit : str
-        Unit of ``y``.
+        ``"phase_current"`` or ``"torque"``.
     scale : float
-        ``y`` = scale × the logged channel (the torque constant K_t, N·m/A, or 1).
-    pitch_step : float
-        Smallest step of the logged pitch, rad (its quantisation).
-    dt_median : float
-        Median sample interval, s.
+        ``y`` = scale × the logged channel (K_t N·m/A, or 1).
+    pitch_step, dt_median : float
+        The logged pitch's quantisation, rad; median sample interval, s.
     w3 : numpy.ndarray
-        (n, 3) weights of the previous, this and the next log row giving each
-        channel's mean over [t₋₁, t₊₁] (Simpson's rule on the uneven stamps): the
-        interval whose mean rate the central differences ``tilt_dot`` and ``a`` are.
+        (n, 3) Simpson weights of the previous, this and the next row giving each channel's
+        mean over [t₋₁, t₊₁], the interval of the central differences.
     tilt3, v3, z3, y3 : numpy.ndarray
-        (n, 3) the channels at the previous, this and the next log row.
+        (n, 3) the channels at the previous, this and the next row.
     """
 
     t: np.ndarray
@@ -175,21 +161,9 @@ def _leaky_integral(x: np.ndarray, t: np.ndarray, tau: float = INTEGRAL_TAU) -> 
 
 
 def law_rows(log: Ride, k_t: float | None = None, v_min: float = V_MIN) -> LawRows:
-    """The riding rows of ``log`` with pitch, its rate, speed, acceleration and torque.
-
-    Parameters
-    ----------
-    log : Ride
-    k_t : float, optional
-        Torque constant, N·m/A (phase current → torque).  Without it the phase
-        current is used in A; a logged ``torque`` is used as it is.
-    v_min : float
-        Riding speed threshold, m/s.
-
-    Raises
-    ------
-    LawUnavailable
-        no pitch or no torque channel, or too few riding rows.
+    """The riding rows of ``log`` (speed above ``v_min`` m/s) with pitch, its rate, speed,
+    acceleration and torque (phase current × ``k_t`` N·m/A, or in A without it).
+    :class:`LawUnavailable` without pitch or torque, or with too few riding rows.
     """
     d = log.data
     d = d.loc[~spin_rows(d)].reset_index(drop=True)       # the wheel off the ground: no law

@@ -1,14 +1,10 @@
 """Battery power and speed of a ride log on one grid: the signals every energy fit reads.
 
-The log is resampled to the ride's one grid (:func:`euc_sim.rides.grids.signals.ride_grid`
-under :data:`euc_sim.rides.source.gaps.GAP_POLICY`: gaps up to its ``bridge`` bridged, longer
-ones splitting the ride into segments), the wheel's speed corrected by its scale
-against GPS speed (:func:`speed_scale`: a 6 % optimistic speedometer makes the
-mass 12 % low, since ``a·v`` scales with the square), and every channel filtered
-alike (Savitzky–Golay, one window).  Battery power is V·I; the climb rate comes
-from GPS altitude over 10 s where it is logged.  :mod:`euc_sim.rides.drive.mass`,
-:mod:`euc_sim.rides.drive.drivetrain`, :mod:`euc_sim.rides.drive.pwm` and
-:mod:`euc_sim.rides.drive.grade` all start from :func:`power_signals`.
+The ride's one grid (:func:`~euc_sim.rides.grids.signals.ride_grid`), the wheel speed
+corrected by its GPS scale (:func:`speed_scale`; a 6 % optimistic speedometer makes the
+mass 12 % low, a·v scaling with its square), every channel filtered alike, battery power
+V·I and the climb rate from GPS altitude over 10 s.  The mass, drivetrain, PWM and grade
+fits of :mod:`euc_sim.rides.drive` start from :func:`power_signals`.
 """
 
 from __future__ import annotations
@@ -44,41 +40,26 @@ class MassSettings:
 
     Attributes
     ----------
-    rate : float
-        Grid rate, Hz.
-    window : float
-        Savitzky–Golay window, s (quadratic), of the filtered signals the
-        drivetrain's fits, the delay search and the a² proxy use; the mass
-        itself comes from the energy balance over ``windows``.
-    max_gap : float
-        Longest interval bridged by interpolation, s; longer ones split the ride
-        (the gap policy's ``bridge``, :data:`euc_sim.rides.source.gaps.GAP_POLICY`).
+    rate, window, max_gap : float
+        Grid rate (Hz), Savitzky–Golay window (s) of the filtered signals, longest interval
+        bridged (s, the gap policy's ``bridge``).
     v_min : float
-        Samples slower than this, m/s, are not fitted (standing, walking).
+        Samples slower than this, m/s, are not fitted.
     max_lag : float
         Largest delay between current and speed searched, s.
     windows : tuple of float
-        Energy-balance windows, s (:mod:`euc_sim.rides.drive.energy`): the mass is
-        fitted on each and the interval pools them.  From 5× the longest
-        routine logging interval (0.4 s) to about a manoeuvre's length.
+        Energy-balance windows, s (:mod:`euc_sim.rides.drive.energy`); the interval pools them.
     block : float
         Bootstrap block, s.
     scale_method : {"doppler", "mean", "track"}
-        The speed scale from GPS Doppler speed, from GPS track distance, or
-        their mean (:func:`speed_scale`); Doppler gives the lowest median error
-        on the shared rides (a choice the leave-one-wheel-out study re-makes).
+        The GPS speed scale (:func:`speed_scale`).
     copper_model : {"force", "accel"}
-        Without phase current, the copper loss's column: the squared drive
-        force (m·a + c₁ + c₃v²)² from the fit itself (iterated), or its proxy a²
-        (which cannot absorb the cross term 2κ·m·a·F_res, counted as mass).
+        Without phase current, the copper loss's column: the squared drive force
+        (m·a + c₁ + c₃v²)² (iterated) or its proxy a².
     current_scale_sd, grade_share : float
-        Priors of :mod:`euc_sim.rides.source.systematic` (relative sd of the current
-        sensor's scale; without GPS altitude, the grade's 95 % half-width as a
-        share of the mass).
-    n_boot : int
-        Bootstrap replicates.
-    seed : int
-        Seed of every random draw.
+        Priors of :mod:`euc_sim.rides.source.systematic`.
+    n_boot, seed : int
+        Bootstrap replicates; seed of every random draw.
     """
 
     rate: float = GAP_POLICY.rate
@@ -98,15 +79,7 @@ class MassSettings:
 
 @dataclass(frozen=True)
 class SpeedScale:
-    """True speed over logged wheel speed.
-
-    Attributes
-    ----------
-    estimate, sd : float
-        The ratio and its standard deviation (relative to 1).
-    source : str
-        ``"gps"`` or ``"assumed"``.
-    """
+    """True over logged wheel speed: ``estimate``, its relative ``sd``, ``source`` (``"gps"``, ``"assumed"``, ...)."""
 
     estimate: float
     sd: float
@@ -119,16 +92,10 @@ class PowerSignals:
 
     Attributes
     ----------
-    t : numpy.ndarray
-        s.
-    segment : numpy.ndarray
-        Segment label (ride split at gaps longer than ``max_gap``).
-    v : numpy.ndarray
-        Corrected speed, m/s.
-    a : numpy.ndarray
-        Acceleration, m/s².
-    av : numpy.ndarray
-        d/dt(v²/2), W/kg.
+    t, segment : numpy.ndarray
+        s; segment label (split at gaps).
+    v, a, av : numpy.ndarray
+        Corrected speed m/s, acceleration m/s², d/dt(v²/2) W/kg.
     P : numpy.ndarray
         Battery power V·I, W.
     climb : numpy.ndarray or None
@@ -139,9 +106,8 @@ class PowerSignals:
     extra : dict
         Other filtered channels (``voltage``, ``current``, ``pwm``, ``phase_current``).
     raw : dict
-        Unfiltered grid channels for the energy balance: ``v`` (corrected, m/s),
-        ``P`` (W), ``h`` (GPS altitude smoothed over 10 s, m, where logged) and
-        ``phase_current`` (A, where used).
+        Unfiltered: ``v`` (corrected, m/s), ``P`` (W), ``h`` (GPS altitude over 10 s, m) and
+        ``phase_current`` (A), where present.
     """
 
     t: np.ndarray
@@ -160,27 +126,10 @@ class PowerSignals:
 def speed_scale(log: Ride, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
     """True speed over logged wheel speed, from GPS.
 
-    Two measurements: the Doppler speed (least squares through the origin of
-    GPS speed on wheel speed) and the track (the distance between successive
-    GPS fixes over the wheel's ∫v dt between them, both moving).  On the
-    shared rides the track reads 0.2–4.5 % above the Doppler ratio (integrated
-    Doppler speed reads low at city speeds; docs/drivetrain.md); neither is known to be
-    right, so the standard deviation covers both: √(0.01² + (difference/2)²).
-    ``method`` picks the estimate (:class:`MassSettings`'s ``scale_method``).
-
-    Parameters
-    ----------
-    log : Ride
-    v_min : float
-        Both speeds above this, m/s (GPS speed is poor when slow).
-    method : {"mean", "doppler", "track"}
-
-    Returns
-    -------
-    SpeedScale
-        ``source="assumed"`` (1 ± :data:`NO_GPS_SCALE_SD`) without GPS speed;
-        ``"gps"`` (Doppler), ``"gps track"`` or ``"gps doppler+track"``; the sd
-        is 1 % with Doppler alone, √(0.01² + (difference/2)²) with both.
+    Doppler: least squares through the origin of GPS speed on wheel speed (both above
+    ``v_min`` m/s); track: :func:`track_scale`.  ``method`` picks the estimate; the sd is 1 %
+    with Doppler alone, √(0.01² + (difference/2)²) with both (docs/drivetrain.md).  Without
+    GPS speed: 1 ± :data:`NO_GPS_SCALE_SD`, ``source="assumed"``.
     """
     if method not in ("mean", "doppler", "track"):
         raise ValueError(f"method must be 'mean', 'doppler' or 'track', got {method!r}")
@@ -207,11 +156,8 @@ def speed_scale(log: Ride, v_min: float = 4.0, method: str = "doppler") -> Speed
 
 
 def track_scale(log: Ride, v_min: float = 4.0, max_dt: float = GAP_POLICY.gps_pair) -> float | None:
-    """GPS track distance over the wheel's distance, between successive fixes while moving.
-
-    Distances by the haversine formula (:func:`euc_sim.geo.haversine`) between distinct
-    successive fixes at most ``max_dt`` s apart with the wheel faster than
-    ``v_min`` (m/s) at both; None without 50 such pairs.
+    """GPS track distance (haversine) over the wheel's ∫v dt between successive distinct fixes
+    at most ``max_dt`` s apart, both above ``v_min`` m/s; None without 50 such pairs.
     """
     d = log.data
     if "latitude" not in d or "longitude" not in d:
@@ -233,20 +179,10 @@ def track_scale(log: Ride, v_min: float = 4.0, max_dt: float = GAP_POLICY.gps_pa
 
 
 def power_signals(log: Ride, settings: MassSettings = MassSettings()) -> PowerSignals:
-    """Resample, correct the speed scale and filter every channel alike.
+    """Resample, correct the speed scale and filter every channel alike (kept on ``log``).
 
-    Parameters
-    ----------
-    log : Ride
-        It keeps the signals (built once per grid, filter and speed-scale setting) and
-        shares its grid with the balance fit.
-    settings : MassSettings
-
-    Raises
-    ------
-    RideDataError
-        naming the file and the column: no voltage or current column, or a
-        speed that never exceeds ``settings.v_min``.
+    ``RideDataError`` naming file and column: no voltage or current, or a speed never above
+    ``settings.v_min``.
     """
     for col in ("voltage", "current"):
         if col not in log.data:

@@ -10,7 +10,7 @@ import pandas as pd
 
 from euc_sim.errors import InputError
 from euc_sim.rides.grids.power import G
-from euc_sim.rides.grids.signals import resample, sg
+from euc_sim.rides.grids.signals import battery_power_of, resample, sg
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
 
@@ -18,19 +18,13 @@ __all__ = ["speed_profile", "rider_plan", "PLAN_WINDOW", "unpaid_spikes",
            "SPIN_POWER_FACTOR", "SPIN_POWER_MARGIN", "SPIN_GRADE", "SPIN_MIN_DT",
            "SPIN_MAX_SPAN", "SPIN_BACK"]
 
-#: The rider's plan: the logged speed smoothed over this many seconds.  The logged speed
-#: holds the rider's own sway; a simulated rider told to follow it corrects every wobble
-#: as if intended.  Value: see docs/rider_calibration.md#proof-on-a-concealed-rider.
+#: The rider's plan: the logged speed smoothed over this many s (it holds the rider's own
+#: sway).  Value: docs/rider_calibration.md#proof-on-a-concealed-rider.
 PLAN_WINDOW = 6.0
 
-#: A wheel-speed rise counts as paid for while its kinetic energy ½m(v₁² − v₀²) is at most
-#: SPIN_POWER_FACTOR × the battery energy over the span + (SPIN_POWER_MARGIN + m g SPIN_GRADE v̄)
-#: × the span (:func:`unpaid_spikes`).  The rider and wheel speeding up together cannot gain
-#: more kinetic energy than the battery gives plus what a descent gives (efficiency ≤ 1, the
-#: wheel's own inertia and the resistances only add to what is needed); the factor and the
-#: margin allow for power samples that miss part of the span, SPIN_GRADE for the steepest
-#: descent allowed (15 %: 1.47 m/s² with no power at all).  Values: see
-#: docs/ride_falls.md#the-measured-cause.
+#: A wheel-speed rise is paid for while ½m(v₁² − v₀²) ≤ SPIN_POWER_FACTOR × the battery energy
+#: + (SPIN_POWER_MARGIN W + m g SPIN_GRADE v̄) × the span (:func:`unpaid_spikes`; the steepest
+#: descent allowed 15 %).  Values: docs/ride_falls.md#the-measured-cause.
 SPIN_POWER_FACTOR = 2.0
 SPIN_POWER_MARGIN = 500.0
 SPIN_GRADE = 0.15
@@ -38,39 +32,20 @@ SPIN_GRADE = 0.15
 #: apart on master_pro_V2/6) would turn a 0.1 m/s step into 5 m/s².
 SPIN_MIN_DT = 0.3
 UNKNOWN_POWER = 1e6       # W: a row without battery power pays for any rise
-#: The longest a wheel spinning free is followed after the top of the unpaid rise, s; it ends
-#: where its speed is back within SPIN_BACK (m/s) of where it rose from (a wheel that spins up
-#: and holds is followed past its plateau).  Values: see docs/ride_falls.md.
+#: A free spin is followed at most SPIN_MAX_SPAN s after its top, ending where the speed is back
+#: within SPIN_BACK m/s of where it rose from.  Values: docs/ride_falls.md.
 SPIN_MAX_SPAN = 5.0
 SPIN_BACK = 0.5
 
 
 def speed_profile(log: Ride, rate: float = GAP_POLICY.rate, window: float = 1.5, polyorder: int = 2,
                   total_mass: float | None = None) -> pd.DataFrame:
-    """The logged wheel speed as a simulator input: ``DataFrame(t, v)``.
+    """The logged wheel speed as a simulator input: ``DataFrame(t, v)`` (s, m/s).
 
-    Uniform grid at ``rate`` Hz from t = 0, speed in m/s smoothed by the same
-    Savitzky–Golay fit as :func:`ride_signals`.  **Every gap is bridged** by linear
-    interpolation here (a simulation needs a continuous profile); the gaps
-    bridged are listed in ``result.attrs["notes"]``.  With ``total_mass``, the
-    wheel-speed spikes the battery power cannot pay for (:func:`unpaid_spikes`: the
-    wheel off the ground or slipping) are bridged the same way, and a note says so.
-
-    Parameters
-    ----------
-    log : Ride
-    rate : float
-        Hz.
-    window : float
-        s.
-    polyorder : int
-    total_mass : float, optional
-        Rider and wheel, kg (:func:`unpaid_spikes`); None: the speed as logged.
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns ``t`` (s, strictly increasing) and ``v`` (m/s).
+    A uniform grid at ``rate`` Hz from t = 0, smoothed by the Savitzky–Golay fit of
+    :func:`~euc_sim.rides.grids.signals.ride_signals` (``window`` s, ``polyorder``).  Every
+    gap is bridged linearly (a simulation needs a continuous profile); with ``total_mass``
+    (kg) the spikes of :func:`unpaid_spikes` are bridged too.  ``attrs["notes"]`` says both.
     """
     t = log.data["t"].to_numpy()
     gaps = np.flatnonzero(np.diff(t) > GAP_POLICY.gap)
@@ -100,53 +75,27 @@ def speed_profile(log: Ride, rate: float = GAP_POLICY.rate, window: float = 1.5,
     return out
 
 
-def _battery_power(data: pd.DataFrame) -> np.ndarray | None:
-    """Battery power per row, W (voltage × current, else the logged power), or None."""
-    if "voltage" in data and "current" in data:
-        return (data["voltage"] * data["current"]).to_numpy(float)
-    return data["power"].to_numpy(float) if "power" in data else None
-
-
 def unpaid_spikes(log: Ride, total_mass: float, factor: float = SPIN_POWER_FACTOR,
                   margin: float = SPIN_POWER_MARGIN, grade: float = SPIN_GRADE,
                   max_span: float = SPIN_MAX_SPAN) -> list[tuple[int, int]]:
     """Wheel-speed spikes the battery cannot pay for: the wheel, not the rider, sped up.
 
-    A rise of the logged speed |v| from a row k to the first row j at least
-    :data:`SPIN_MIN_DT` s later is *unpaid* when its kinetic energy exceeds what the
-    battery and a descent can give over that span:
+    A rise of |v| from row k to the first row j at least :data:`SPIN_MIN_DT` s later is
+    unpaid when
 
         ½ m (v_j² − v_k²) > ``factor``·∫ max(P, 0) dt + (``margin`` + m g ``grade`` v̄)(t_j − t_k)
 
-    (m = ``total_mass``, P the battery power, trapezoids over the rows k..j, v̄ the mean of
-    v_k and v_j): the rider and the wheel speeding up together need at least that much
-    electrical energy or height, so a faster rise is the wheel spinning up unloaded (off
-    the ground, or slipping).  A spike runs from the first unpaid row through the top of
-    the rise and the fall after it, to the first row where the speed is back within
-    :data:`SPIN_BACK` of where it rose from, at most
-    ``max_span`` s after the top (else the slowest row in that time).  Only rises are tested: braking has no such bound (a
-    motor can brake at no battery power), so a wheel locking is not found.
-
-    Parameters
-    ----------
-    log : Ride
-    total_mass : float
-        kg, positive.
-    factor, margin, grade : float
-        1, W and 1 (:data:`SPIN_POWER_FACTOR`, :data:`SPIN_POWER_MARGIN`, :data:`SPIN_GRADE`).
-    max_span : float
-        s.
-
-    Returns
-    -------
-    list of (int, int)
-        (a, b): row indices of ``log.data`` before the spike and where it ends; the rows
-        strictly between are the spike.  Empty without battery power.
+    (m = ``total_mass`` kg, P battery power W, v̄ the mean of v_k and v_j).  A spike runs
+    from the first unpaid row through the top of the rise to where the speed is back within
+    :data:`SPIN_BACK` of its start, at most ``max_span`` s after the top.  Only rises are
+    tested (a motor can brake at no battery power).  Returns (a, b) row indices of
+    ``log.data`` around each spike (the rows strictly between are the spike); empty without
+    battery power.
     """
     if not (math.isfinite(total_mass) and total_mass > 0):
         raise InputError(f"total_mass must be a positive number of kg, got {total_mass!r}")
     d = log.data
-    P = _battery_power(d)
+    P = battery_power_of(d)[0]
     if P is None or len(d) < 3:
         return []
     t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
@@ -183,22 +132,8 @@ def unpaid_spikes(log: Ride, total_mass: float, factor: float = SPIN_POWER_FACTO
 
 
 def rider_plan(t: np.ndarray, v: np.ndarray, window: float = PLAN_WINDOW) -> np.ndarray:
-    """The speed the rider means to ride: the logged speed smoothed by a quadratic
-    Savitzky–Golay fit over ``window`` s.
-
-    Parameters
-    ----------
-    t : numpy.ndarray
-        Uniform time grid, s.
-    v : numpy.ndarray
-        Logged speed on ``t``, m/s.
-    window : float
-        Smoothing window, s (default :data:`PLAN_WINDOW`).
-
-    Returns
-    -------
-    numpy.ndarray
-        The planned speed on ``t``, m/s.
+    """The speed the rider means to ride, m/s: ``v`` on the uniform grid ``t`` smoothed by a
+    quadratic Savitzky–Golay fit over ``window`` s.
     """
     t = np.asarray(t, float)
     rate = 1.0 / float(np.median(np.diff(t)))

@@ -15,17 +15,15 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.errors import InputError
-from euc_sim.rides.grids.signals import RideAssumptions, ride_grid, sg
+from euc_sim.rides.grids.signals import RideAssumptions, battery_power_of, ride_grid, sg
 from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
 from euc_sim.rides.source.ride import Ride
 
 __all__ = ["BAND_WINDOWS", "RiderFitError", "log_channels", "reading_step", "band_features", "band_ratio_db",
            "fit_windows"]
 
-#: Savitzky–Golay windows, s, whose differences split a channel into bands (steps of about √2:
-#: eight leaky bands from ~2 Hz down to ~0.1 Hz; a 2 Hz sway peaks in the third, a 0.12 Hz one
-#: in the last.  Four bands of 0.7-6 s left the delay and the bandwidth on a ridge,
-#: docs/rider_calibration.md).
+#: Savitzky–Golay windows, s, whose differences split a channel into eight leaky bands, ~2 Hz
+#: down to ~0.1 Hz (docs/rider_calibration.md).
 BAND_WINDOWS = (0.5, 0.7, 1.0, 1.5, 2.1, 3.0, 4.2, 6.0)
 
 
@@ -35,37 +33,21 @@ class RiderFitError(InputError):
 
 def log_channels(log: Ride, assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
                  max_gap: float = GAP_POLICY.bridge) -> pd.DataFrame:
-    """The log's rider channels on a uniform grid (split at gaps over ``max_gap`` s).
-
-    Parameters
-    ----------
-    log : Ride
-        It lends its grid (:func:`euc_sim.rides.grids.signals.ride_grid`).
-    assumptions : RideAssumptions
-        ``torque_constant`` (N·m/A) turns phase current into torque.
-    rate : float
-        Grid rate, Hz (the ride's gap policy's).
-    max_gap : float
-        Longest interval between readings bridged, s (the gap policy's ``bridge``).
+    """The log's rider channels on the ride's grid (``rate`` Hz, split at gaps over ``max_gap`` s).
 
     Returns
     -------
     pandas.DataFrame
-        ``t`` s, ``segment``, ``v`` m/s, ``P`` W (battery power), and where the log has
-        them ``M`` N·m (``torque`` column, else phase current × k_t) and ``pitch`` rad
-        (``tilt``, any sign and offset).  ``attrs["stamps"]``: the log's time stamps, s;
-        ``attrs["quantum"]``: the step each of ``M`` and ``pitch`` is written in (channel
-        units, :func:`reading_step`), where the log writes it in steps; ``attrs["gaps"]``:
-        ``max_gap`` s, the ``count`` of intervals between readings longer (the ride is split
-        there) and their ``median`` length, s.
+        ``t`` s, ``segment``, ``v`` m/s, ``P`` W, and where logged ``M`` N·m (``torque``,
+        else phase current × ``assumptions.torque_constant``) and ``pitch`` rad (``tilt``).
+        ``attrs``: ``stamps`` (the log's times, s), ``quantum`` (the step ``M`` and ``pitch``
+        are written in, :func:`reading_step`), ``gaps`` (``max_gap``, ``count`` and ``median``
+        of the longer intervals, s).
     """
     raw, _ = ride_grid(log, GapPolicy(bridge=max_gap, rate=rate))
     out = {"t": raw["t"].to_numpy(), "segment": raw["segment"].to_numpy(), "v": raw["v"].to_numpy()}
-    if log.has("voltage") and log.has("current"):
-        out["P"] = raw["voltage"].to_numpy() * raw["current"].to_numpy()
-    elif log.has("power"):
-        out["P"] = raw["power"].to_numpy()
-    else:
+    out["P"] = battery_power_of(raw)[0]
+    if out["P"] is None:
         raise RiderFitError(f"{log.path}: no voltage and current and no power column: the rider is "
                             f"fitted to battery power")
     if log.has("torque"):
@@ -89,11 +71,8 @@ def log_channels(log: Ride, assumptions: RideAssumptions = RideAssumptions(), ra
 
 
 def reading_step(x: np.ndarray, share: float = 0.99) -> float | None:
-    """The step a logged column is written in (0.1° pitch, 0.1 A current), or None.
-
-    The smallest difference between the column's distinct values, accepted when at least
-    ``share`` of the finite readings are whole multiples of it (to 10⁻⁶ of a step): a
-    column written in steps.  Units of the column.
+    """The step a column is written in (0.1° pitch), or None: the smallest difference between
+    distinct values, when at least ``share`` of the readings are whole multiples of it.
     """
     x = np.asarray(x, float)
     x = x[np.isfinite(x)]
@@ -111,28 +90,13 @@ def band_features(y: np.ndarray, segment: np.ndarray, rate: float, rows: np.ndar
                   block: np.ndarray | None = None, windows: tuple | None = None) -> np.ndarray:
     """Log RMS of a channel's :data:`BAND_WINDOWS` bands over ``rows`` (or per block).
 
-    Band k is S_{k-1} − S_k, the difference of successive smoothers (S_{-1} the channel
-    itself).
-
-    Parameters
-    ----------
-    y : numpy.ndarray
-        Channel on the uniform grid (any unit u).
-    segment : numpy.ndarray of int
-        Segment labels (the smoothers never cross one).
-    rate : float
-        Hz.
-    rows : numpy.ndarray of bool
-        Rows the RMS is taken over.
-    block : numpy.ndarray of int, optional
-        Block label of each row: then the mean squares per block are returned.
-    windows : tuple of float, optional
-        Smoother windows, s (default :data:`BAND_WINDOWS`).
+    Band k is S_{k-1} − S_k, the difference of successive Savitzky–Golay smoothers (S_{-1}
+    the channel ``y`` itself, unit u), never crossing a ``segment``; ``rate`` Hz.
 
     Returns
     -------
     numpy.ndarray
-        (bands,) log RMS (log of u), or (n_blocks, bands) mean squares (u²) with ``block``.
+        (bands,) log RMS (log of u), or with ``block`` labels (n_blocks, bands) mean squares (u²).
     """
     bands = _bands(y, segment, rate, windows)
     ok = rows & np.isfinite(bands).all(axis=1)
@@ -200,24 +164,11 @@ def _bands(y: np.ndarray, segment: np.ndarray, rate: float, windows: tuple | Non
 
 def fit_windows(channels: pd.DataFrame, n: int = 3, length: float = 60.0, v_min: float = 2.0,
                 lead: float = 8.0, spacing: float = 1.5) -> list[tuple[float, float]]:
-    """Up to ``n`` windows of the ride, tiled one after the other, for the rider to ride.
+    """Up to ``n`` windows (t0, t1) s of the ride, in time order, for the rider to ride.
 
-    A window is ``length`` s of one unbroken segment in which the speed stays above
-    ``v_min`` m/s, at least ``lead`` s after the log's start (the simulation's run-in).
-    The ride is tiled from its start: each window begins at the first sample at least
-    ``spacing`` s after the previous window's end (a window's simulation is read from 1 s
-    before it to 0.5 s after) from which such a stretch follows.  When more than ``n``
-    tiles fit, ``n`` of them spread evenly over the ride are kept.
-
-    Returns
-    -------
-    list of (t0, t1)
-        s, in time order; fewer than ``n`` when the ride has fewer such stretches.
-
-    Raises
-    ------
-    RiderFitError
-        when no window fits.
+    A window is ``length`` s of one segment with the speed above ``v_min`` m/s, at least
+    ``lead`` s after the start; the ride is tiled from its start, ``spacing`` s between
+    tiles, and ``n`` tiles spread evenly are kept.  :class:`RiderFitError` when none fits.
     """
     t, v, seg = (channels[c].to_numpy() for c in ("t", "v", "segment"))
     rate = 1.0 / float(np.median(np.diff(t)))

@@ -34,37 +34,17 @@ def distance_along(t: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 def gps_grade(raw: pd.DataFrame, length: float = GRADE_LENGTH_M) -> np.ndarray:
-    """The road's grade sin α at each grid row, from GPS altitude over distance.
+    """The road's grade sin α at each grid row, from GPS altitude read over distance (not time).
 
-    The altitude is placed on a grid of :data:`GRADE_STEP_M` along the distance
-    ridden (:func:`distance_along`; rows at one place are averaged, rows without a
-    fix interpolated) and its slope dh/ds read by a local straight-line fit over
-    ``length`` of road (scipy's Savitzky–Golay derivative).  Where that slope
-exceeds :data:`MAX_GRADE` (a fix settling at the start of a ride, a jump), the
-altitude is not the road's: the grade there, and over ``length`` either side,
-is unknown and read as 0.  Read over time
-    instead, the metres of GPS error become climb rates of the order of the true
-    ones and a fitted gain on them falls to 0.2–0.3 (docs/ride_model.md).
+    The altitude is put on a :data:`GRADE_STEP_M` grid along the distance ridden
+    (:func:`distance_along`) and its slope dh/ds read by a straight-line fit over ``length``
+    m of road (a Savitzky–Golay derivative).  Where the slope exceeds :data:`MAX_GRADE` (a fix
+    settling, a jump) the grade there and ``length`` either side is unknown, read as 0.  Read
+    over time, GPS noise would dominate the climb rate (docs/ride_model.md).
 
-    Parameters
-    ----------
-    raw : pandas.DataFrame
-        A ride's grid (:attr:`RideSignals.raw`): ``t`` (s), ``v`` (m/s), ``gps_alt`` (m).
-    length : float
-        Road over which one slope is read, m.
-
-    Returns
-    -------
-    numpy.ndarray
-        sin α (dh/ds, 1), one per row; 0 where it is unknown (above) or the ride
-        covers less than two grid steps, a single straight-line slope where it
-        covers less than ``length``.
-
-    Raises
-    ------
-    ValueError
-        if ``raw`` has no ``gps_alt`` column, or fewer than two finite altitudes, or
-        ``length`` is not positive.
+    ``raw``: a ride's grid with ``t`` (s), ``v`` (m/s), ``gps_alt`` (m).  Returns sin α per
+    row: 0 where unknown or under two grid steps, one slope under ``length``.  ValueError
+    without ``gps_alt``, under two finite altitudes, or a non-positive ``length``.
     """
     from scipy.signal import savgol_filter
 

@@ -1,34 +1,13 @@
 """A ride log on a uniform grid: resampled, smoothed alike, battery power and torque.
 
-A ride log (:mod:`euc_sim.rides.source.logs`) has wheel speed and battery voltage and
-current at ~5 Hz, irregularly, and no rider lean.  This module
-
-1. resamples it onto a uniform grid (:func:`resample`, :func:`ride_grid`) under
-   the ride's one gap policy (:data:`euc_sim.rides.source.gaps.GAP_POLICY`):
-   interpolating linearly across gaps up to ``bridge`` s and **splitting** the
-   ride into segments at longer gaps (never bridging them);
-2. smooths and differentiates with one Savitzky–Golay fit (:func:`sg`), the same
-   linear filter applied to every term of the balance equation (the
-   state-variable-filter idea of docs/identification.md);
-3. computes battery power P = V·I and infers the motor torque
-   (:func:`wheel_torque`), stating which method was used.
-
-The balance itself is fitted by :mod:`euc_sim.rides.balance.design` and
-:mod:`euc_sim.rides.balance.fit`.  Wheel radius and masses are unknown for real rides:
-:class:`RideAssumptions` takes Table 3's (R = 0.2 m, m + m0 + mw = 81 kg,
-m_eq = 84 kg), overridable.
-
-Window choice
--------------
-WheelLog rows arrive at ~5 Hz (median interval 0.2 s, up to ~0.3 s, occasional
-1 s gaps).  The grid is 10 Hz so no sample is lost, and the default
-Savitzky–Golay fit is quadratic over 1.5 s (15 grid points, ~7 raw samples): by
-Schafer's rule its −3 dB frequency is ≈ (p+1)/(3.2·N − 4.6)·f_s ≈ 0.7 Hz, above
-the ~0.1–0.5 Hz of a rider's speed changes and well below the 2.5 Hz Nyquist
-frequency of the raw data, so interpolation artefacts and the 0.01 km/h speed
-quantisation are suppressed while accelerations are kept.  A longer window
-lowers noise but biases accelerations (docs/identification.md); filtering every term
-alike cancels most of that bias in the regression.
+The log is resampled onto a uniform grid under the gap policy (:func:`resample`,
+:func:`ride_grid`; split, never bridged, at long gaps), smoothed and differentiated by
+one Savitzky–Golay fit applied to every term of the balance (:func:`sg`; the
+state-variable-filter idea of docs/identification.md), with battery power P = V·I and
+the inferred motor torque (:func:`wheel_torque`).  Unknown radius and masses default to
+Table 3 (:class:`RideAssumptions`).  The default window, quadratic over 1.5 s on the
+10 Hz grid, has its −3 dB point near 0.7 Hz: above a rider's 0.1–0.5 Hz speed changes,
+below the 2.5 Hz Nyquist frequency of 5 Hz logs.
 """
 
 from __future__ import annotations
@@ -50,12 +29,9 @@ from euc_sim.rides.source.sanity import SPEED_SCALE_RANGE
 from euc_sim.stats import distinct
 
 __all__ = ["RideAssumptions", "RideSignals", "with_found_values", "resample", "ride_grid", "sg", "window_samples",
-           "wheel_torque", "ride_signals", "break_at_gaps", "check_readings", "split_at_gaps"]
+           "wheel_torque", "ride_signals", "battery_power_of", "break_at_gaps", "check_readings", "split_at_gaps"]
 
 
-# --------------------------------------------------------------------------------------
-# Assumptions
-# --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class RideAssumptions:
     """What a ride log does not say, with Table 3 / CONTRACT defaults.
@@ -63,26 +39,21 @@ class RideAssumptions:
     Attributes
     ----------
     R : float
-        Wheel radius, m (Table 3: 0.2).
+        Wheel radius, m.
     total_mass : float
-        m + m0 + mw, kg: rider, EUC body and wheel (Table 3: 81); the normal load
-        is N = total_mass·g.
+        m + m0 + mw, kg (rider, body, wheel); the normal load is total_mass·g.
     m_eq : float
-        Equivalent translating mass m + m0 + mw + Jw/R², kg (eq. 13; Table 3: 84).
+        Equivalent translating mass m + m0 + mw + Jw/R², kg (eq. 13).
     g : float
         m/s².
     efficiency : float
-        Drivetrain efficiency η used only to *infer* torque from power
-        (:func:`wheel_torque`); the balance fit has none.
+        Drivetrain efficiency η, used only to infer torque from power.
     torque_constant : float or None
-        Motor torque constant k_t, N·m/A; with a phase-current channel it gives
-        M = k_t·I_phase.  None: not known, torque comes from power.
+        Motor torque constant k_t, N·m/A (M = k_t·I_phase); None: torque from power.
     v_min : float
-        Speeds below this, m/s, leave the torque undefined (P/ω blows up).
+        Speeds below this, m/s, leave the torque undefined.
     sources : tuple of (str, str)
-        Where ``R`` and ``total_mass`` (with ``m_eq``) came from, as
-        ``(("R", "spec ..."), ("total_mass", "found from this log"))``; a value
-        not listed is Table 3's default.
+        Where ``R`` and ``total_mass`` came from; a value not listed is Table 3's.
     """
 
     R: float = TABLE3.R
@@ -115,15 +86,8 @@ class RideAssumptions:
         return dict(self.sources).get(name, "default (Table 3)")
 
 
-# --------------------------------------------------------------------------------------
-# Resampling and filtering
-# --------------------------------------------------------------------------------------
 def ride_grid(log: Ride, policy: GapPolicy = GAP_POLICY) -> tuple[pd.DataFrame, list[str]]:
-    """:func:`resample` under ``policy``, kept on the :class:`~euc_sim.rides.source.ride.Ride` (built once).
-
-    Every grid of a ride (the balance fit's, the mass and drivetrain's) is this one;
-    the frame returned must not be modified (a copy is the caller's to make).
-    """
+    """:func:`resample` under ``policy``, kept on the ride (built once); do not modify the frame."""
     frame, notes = log.derived(("grid", policy), lambda: resample(log, policy.rate, policy.bridge))
     return frame, list(notes)
 
@@ -138,18 +102,15 @@ def resample(log: Ride, rate: float = GAP_POLICY.rate,
     rate : float
         Grid rate, Hz; grid points are multiples of 1/rate from the log's start.
     max_gap : float
-        Longest interval between samples, s, bridged by linear interpolation.
-        Longer gaps end a segment; the next one starts after the gap.
+        Longest interval between samples bridged by linear interpolation, s.
 
     Returns
     -------
     frame : pandas.DataFrame
-        Columns ``t`` (s), ``segment`` (int, 0-based) and every numeric channel
-        of the log linearly interpolated (channels with empty cells, e.g. GPS,
-        are interpolated between their finite samples; NaN where a segment has
-        fewer than two).
+        ``t`` (s), ``segment`` (0-based) and every numeric channel interpolated between its
+        finite samples (NaN where a segment has fewer than two); free spins left out.
     notes : list of str
-        One line per gap split.
+        One line per split.
     """
     if rate <= 0 or max_gap <= 0:
         raise InputError(f"rate and max_gap must be positive, got rate={rate}, max_gap={max_gap}")
@@ -196,27 +157,11 @@ def _spin_notes(t: np.ndarray, spin: np.ndarray, max_gap: float) -> list[str]:
 
 def sg(x: np.ndarray, segment: np.ndarray, rate: float, window: float = 1.5,
        polyorder: int = 2, deriv: int = 0) -> np.ndarray:
-    """Savitzky–Golay smoothing or derivative, applied segment by segment.
+    """Savitzky–Golay smoothing (``deriv=0``) or d/dt (``deriv=1``, per s), segment by segment.
 
-    Parameters
-    ----------
-    x : array_like
-        Signal on the uniform grid.
-    segment : array_like of int
-        Segment label of each sample; the filter never crosses a boundary.
-    rate : float
-        Grid rate, Hz.
-    window : float
-        Window length, s (rounded to an odd number of samples ≥ polyorder + 2).
-    polyorder : int
-        Degree of the local polynomial.
-    deriv : int
-        0 smooths, 1 gives d/dt (unit of x per s), from the same polynomial fit.
-
-    Returns
-    -------
-    numpy.ndarray
-        NaN in segments shorter than the window or holding a non-finite value.
+    ``x`` on the uniform grid at ``rate`` Hz; ``window`` s is rounded to an odd number of
+    samples ≥ polyorder + 2 and never crosses a ``segment`` boundary.  NaN in segments
+    shorter than the window or holding a non-finite value.
     """
     x = np.asarray(x, float)
     segment = np.asarray(segment)
@@ -247,36 +192,13 @@ def _interior(segment: np.ndarray, half: int) -> np.ndarray:
     return keep
 
 
-# --------------------------------------------------------------------------------------
-# Torque
-# --------------------------------------------------------------------------------------
 def wheel_torque(v: np.ndarray, power: np.ndarray, assumptions: RideAssumptions = RideAssumptions(),
                  phase_current: np.ndarray | None = None) -> tuple[np.ndarray, str]:
     """Motor torque on the wheel, N·m, and how it was obtained.
 
-    With a phase-current channel *and* a known torque constant:
-    ``M = k_t·I_phase`` (method ``"phase_current"``).  Otherwise from battery power
-    over wheel angular speed ω = v/R with the assumed efficiency η:
-    ``M = η·P/ω`` when motoring (P·v > 0 … P > 0) and ``M = P/(η·ω)`` when
-    regenerating (P < 0); undefined (NaN) where |v| < ``v_min``
-    (method ``"power_efficiency"``).
-
-    Parameters
-    ----------
-    v : array_like
-        Wheel speed, m/s.
-    power : array_like
-        Battery power, W (positive drawn from the battery).
-    assumptions : RideAssumptions
-    phase_current : array_like, optional
-        Motor phase current, A.
-
-    Returns
-    -------
-    M : numpy.ndarray
-        N·m.
-    method : str
-        ``"phase_current"`` or ``"power_efficiency"``.
+    ``"phase_current"``: M = k_t·I_phase, when both are known.  Else ``"power_efficiency"``:
+    from battery power ``power`` (W) over ω = v/R, M = η·P/ω motoring and P/(η·ω)
+    regenerating; NaN where |v| < ``v_min`` (``v`` in m/s).
     """
     v = np.asarray(v, float)
     if phase_current is not None and assumptions.torque_constant is not None:
@@ -290,31 +212,21 @@ def wheel_torque(v: np.ndarray, power: np.ndarray, assumptions: RideAssumptions 
     return M, "power_efficiency"
 
 
-# --------------------------------------------------------------------------------------
-# Signals
-# --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class RideSignals:
     """A ride on a uniform grid, raw and consistently smoothed.
 
     Attributes
     ----------
-    path : str
     raw : pandas.DataFrame
-        Resampled, unfiltered: ``t, segment, v, P`` (battery power, W) and the
-        log's other channels.
+        Resampled, unfiltered: ``t, segment, v, P`` (battery power, W) and other channels.
     frame : pandas.DataFrame
-        ``t`` s, ``segment``, ``interior`` (bool: far enough from a segment end
-        for the filter to be centred), ``v`` m/s, ``a`` m/s², ``P`` W (all
-        smoothed by the same Savitzky–Golay fit), ``M`` N·m (inferred torque).
-    rate, window : float
-        Hz, s.
-    polyorder : int
-    power_source : str
-        ``"voltage*current"`` or ``"power column"``.
-    torque_method : str
-        See :func:`wheel_torque`.
-    assumptions : RideAssumptions
+        ``t`` s, ``segment``, ``interior`` (the filter centred), ``v`` m/s, ``a`` m/s², ``P`` W
+        (all by the same filter) and ``M`` N·m (inferred torque).
+    rate, window, polyorder : float, float, int
+        The filter's grid rate (Hz), window (s) and degree.
+    power_source, torque_method : str
+        ``"voltage*current"`` or ``"power column"``; see :func:`wheel_torque`.
     notes : tuple of str
         Reader warnings and resampling notes.
     """
@@ -337,14 +249,8 @@ class RideSignals:
 
 
 def check_readings(log: Ride) -> None:
-    """Raise ``InputError`` naming the file, channel and time of an impossible reading.
-
-    The per-log checks of ``euc-sim ride`` and ``euc-sim rides`` alike: a value outside its
-    channel's range (:data:`euc_sim.rides.source.bounds.CHANNEL_BOUNDS`, which
-    :func:`~euc_sim.rides.source.logs.read_log` has already applied to a file; this holds
-    a log built in code to it), infinite values included (empty cells, NaN, stay: they are
-    interpolated over or left out), and a speed that disagrees with the log's own odometer
-    (:func:`odometer_scale`).
+    """Raise ``InputError`` naming file, channel and time of a reading outside :data:`CHANNEL_BOUNDS`
+    (infinite included; NaN stays) or a speed disagreeing with the odometer (:func:`odometer_scale`).
     """
     t = log.data["t"].to_numpy(float)
     for ch, (lo, hi, unit, si) in CHANNEL_BOUNDS.items():
@@ -369,9 +275,8 @@ MIN_ODOMETER = 200.0
 def odometer_scale(log: Ride) -> float | None:
     """∫|v| dt over the distance the wheel's odometer counted, on the same rows; None without one.
 
-    A log whose speed is in the units the reader assumed gives about 1 (0.97–1.0 on
-    the logs in ``/work/shared/data``); one in mph read as km/h gives 0.62.  Rows
-    across a gap over the gap policy's ``odometer``, or where the odometer jumps or resets, are left out.
+    About 1 for a speed in the assumed units, 0.62 for mph read as km/h.  Rows across a gap
+    over the policy's ``odometer``, or where the odometer jumps or resets, are left out.
     """
     d = log.data
     col = next((c for c in ("total_distance", "distance") if c in d), None)
@@ -400,29 +305,10 @@ def ride_signals(log: Ride, assumptions: RideAssumptions = RideAssumptions(), ra
                  max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2) -> RideSignals:
     """Resample, smooth and differentiate a ride; battery power and inferred torque.
 
-    Parameters
-    ----------
-    log : Ride
-        The ride keeps the grid and the filtered signals (built once; only the torque,
-        which depends on ``assumptions``, is redone).
-    assumptions : RideAssumptions
-    rate : float
-        Grid rate, Hz (the gap policy's).
-    max_gap : float
-        Longest gap bridged, s (the gap policy's ``bridge``; see :func:`resample`).
-    window : float
-        Savitzky–Golay window, s (module docstring: why 1.5 s for ~5 Hz logs).
-    polyorder : int
-
-    Returns
-    -------
-    RideSignals
-
-    Raises
-    ------
-    ValueError
-        when the log has neither voltage and current nor a power column, or no
-        segment is as long as the filter window.
+    The grid and filtered signals are kept on ``log``; only the torque, which depends on
+    ``assumptions``, is redone.  ``rate`` Hz, ``max_gap`` s and the Savitzky–Golay
+    ``window`` s and ``polyorder`` as in :func:`resample` and :func:`sg`.  ``InputError``
+    without voltage and current or a power column, or when no segment fills the window.
     """
     key = ("balance", rate, max_gap, window, polyorder)
     build = lambda: _balance_grid(log, rate, max_gap, window, polyorder)   # noqa: E731
@@ -454,13 +340,8 @@ def _balance_grid(log: Ride, rate: float, max_gap: float, window: float, polyord
     """The balance fit's filtered grid, everything of :func:`ride_signals` but the torque."""
     check_readings(log)
     raw, notes = ride_grid(log, GapPolicy(bridge=max_gap, rate=rate))
-    if log.has("voltage") and log.has("current"):
-        P = raw["voltage"].to_numpy() * raw["current"].to_numpy()
-        source = "voltage*current"
-    elif log.has("power"):
-        P = raw["power"].to_numpy()
-        source = "power column"
-    else:
+    P, source = battery_power_of(raw)
+    if P is None:
         lacking = [c for c in ("voltage", "current") if not log.has(c)]
         raise InputError(f"{log.path}: column {' and '.join(map(repr, lacking))}: absent, empty "
                          f"or all zero, and no 'power' column: battery power is needed")
@@ -486,6 +367,13 @@ def _balance_grid(log: Ride, rate: float, max_gap: float, window: float, polyord
                         has_gps_alt="gps_alt" in raw and np.isfinite(raw["gps_alt"]).mean() > 0.5)
 
 
+def battery_power_of(frame: pd.DataFrame) -> tuple[np.ndarray | None, str | None]:
+    """Battery power per row, W, and its source: ``voltage × current``, else the ``power`` column, else None."""
+    if "voltage" in frame and "current" in frame:
+        return (frame["voltage"] * frame["current"]).to_numpy(float), "voltage*current"
+    return (frame["power"].to_numpy(float), "power column") if "power" in frame else (None, None)
+
+
 def break_at_gaps(t: np.ndarray, *ys: np.ndarray):
     """Insert NaN where rows are missing so a line plot does not bridge them."""
     t = np.asarray(t, float)
@@ -498,26 +386,10 @@ def break_at_gaps(t: np.ndarray, *ys: np.ndarray):
 
 
 def with_found_values(assumptions, spec, total_mass: float | None, m_eq: float | None = None):
-    """The balance fit's assumptions with the spec's radius and the mass this log gives.
+    """The balance fit's assumptions with the spec's radius and the mass this log gives (kg).
 
-    A value given on the command line stays; otherwise the radius comes from the
-    spec and the total mass (with m_eq, eq. 6) from ``total_mass`` (found from the
-    log), and only what neither gives keeps Table 3's default.  ``sources`` says which
-    is which.
-
-    Parameters
-    ----------
-    assumptions : RideAssumptions
-    spec : WheelSpec or None
-    total_mass : float or None
-        The log's total mass, kg (None when not identified).
-    m_eq : float, optional
-        The mass the energy balance accelerates (eq. 6), kg; default ``total_mass``.
-
-    Returns
-    -------
-    RideAssumptions
-        A new object.
+    A value given on the command line stays; else R comes from ``spec`` and total mass
+    (m_eq, eq. 6, defaulting to it) from the log; ``sources`` says which is which.
     """
     src = dict(assumptions.sources)
     new = {}
@@ -532,23 +404,7 @@ def with_found_values(assumptions, spec, total_mass: float | None, m_eq: float |
 
 
 def split_at_gaps(windows, t: np.ndarray, min_len: float = 0.0) -> list[list[float]]:
-    """Cut windows where the rows they span have a gap, so none claims time without data.
-
-    Parameters
-    ----------
-    windows : sequence of [t0, t1]
-        s.
-    t : array_like
-        Times of the rows, s, increasing; a gap is a step over the gap policy's ``plot_steps``
-        × the median step.
-    min_len : float
-        Pieces shorter than this, s, are dropped.
-
-    Returns
-    -------
-    list of [t0, t1]
-        s, each inside one gap-free run of rows.
-    """
+    """Cut windows ``[t0, t1]`` (s) where their rows ``t`` have a gap; pieces under ``min_len`` s dropped."""
     t = np.asarray(t, float)
     if t.size < 2:
         return [list(map(float, w)) for w in windows]

@@ -1,12 +1,8 @@
 """The wheel spinning off the ground in a ride log: lifted at a stop, or fallen with the motor on.
 
-Such rows are no part of the ride.  :func:`free_spin` finds them from the log's own
-stamps and speed (no mass, no power): every grid of a ride leaves them out
-(:func:`euc_sim.rides.grids.signals.resample` splits the ride there, the balance law's
-rows skip them), and the ride's summary leaves them out of its top speed and PWM peak
-and says them apart (:func:`spin_json`).  On the shared rides a free spin of 2.5 s
-(Apex 0: 0 → 122 km/h in 0.8 s at a stop) was enough to put the balance fit's held-out
-error at 2,321 W; without it, 344 W (docs/ride_model.md, "The wheel spinning free").
+:func:`free_spin` finds such rows from the log's stamps and speed alone; every grid of a
+ride leaves them out and the summary says them apart (:func:`spin_json`).  See
+docs/ride_model.md, "The wheel spinning free".
 """
 
 from __future__ import annotations
@@ -17,22 +13,16 @@ from euc_sim.rides.source.gaps import GAP_POLICY
 
 __all__ = ["free_spin", "spin_rows", "spin_json", "SPIN_ACCEL", "SPIN_TOL_MPS"]
 
-#: Acceleration or braking no tyre on the road carries, m/s² (grip μ ≈ 1: 1 g): a wheel
-#: speed reached from (or left to) its neighbours faster than this, by more than
-#: :data:`SPIN_TOL_MPS`, is the wheel spinning off the ground (lifted, or fallen with the
-#: motor on), not the ride.
+#: Acceleration or braking no tyre on the road carries, m/s² (grip μ ≈ 1).
 SPIN_ACCEL = 9.81
 #: Speed beyond the tyre's reach, m/s, that makes a row a free spin (timestamp jitter stays below).
 SPIN_TOL_MPS = 2.5
 
 
 def _reach(t: np.ndarray, v: np.ndarray, bridge_s: float) -> np.ndarray:
-    """The highest speed a tyre reaches at each row from the rows before it, m/s (starting
-    again after an interval longer than ``bridge_s``, s).
-
-    Row by row that is r_i = min(v_i, r_{i−1} + a·(t_i − t_{i−1})), a = :data:`SPIN_ACCEL`,
-    unrolled: r_i = a·t_i + min_{j ≤ i} (v_j − a·t_j) over the finite v_j of the piece, a
-    running minimum (no Python loop over rows).
+    """The highest speed a tyre reaches at each row from the rows before it, m/s (restarting
+    after an interval over ``bridge_s`` s): r_i = a·t_i + min_{j ≤ i}(v_j − a·t_j), a =
+    :data:`SPIN_ACCEL`, a running minimum.
     """
     x = np.where(np.isfinite(v), v - SPIN_ACCEL * t, np.inf)
     starts = np.flatnonzero(np.r_[True, np.diff(t) > bridge_s])
@@ -43,25 +33,10 @@ def _reach(t: np.ndarray, v: np.ndarray, bridge_s: float) -> np.ndarray:
 
 
 def free_spin(t: np.ndarray, v: np.ndarray, bridge_s: float = GAP_POLICY.bridge) -> np.ndarray:
-    """Rows where the wheel spins off the ground.
-
-    A spin shows as a speed no tyre reaches from the rows before or after it (more than
-    :data:`SPIN_TOL_MPS` beyond :data:`SPIN_ACCEL` of acceleration or braking); around
-    those rows, the spin-up before them and the coast-down after them (the speed rising
-    into it, then falling, above the speed it started from or ended at) belong to it.
-
-    Parameters
-    ----------
-    t : numpy.ndarray
-        s, increasing.
-    v : numpy.ndarray
-        |wheel speed|, m/s.
-    bridge_s : float
-        s; across a longer interval the wheel's state is unknown (no reach carried over).
-
-    Returns
-    -------
-    numpy.ndarray of bool
+    """Rows where the wheel spins off the ground: a speed (``v`` |m/s| at ``t`` s) no tyre
+    reaches from the rows before or after it (more than :data:`SPIN_TOL_MPS` beyond
+    :data:`SPIN_ACCEL`), with the spin-up before and the coast-down after; no reach carried
+    across an interval over ``bridge_s`` s.
     """
     t, v = np.asarray(t, float), np.asarray(v, float)
     if v.size == 0:

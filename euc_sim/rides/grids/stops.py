@@ -1,21 +1,10 @@
 """Stops: where a logged wheel stands still long enough that nobody is balancing on it.
 
-A real rider who stops for more than a moment puts a foot down (or has not stepped on
-yet: most logs begin with the wheel switched on and standing).  The logs say so
-(``python studies/stop_power.py``, docs/ride_simulation.md): at the stops of
-:data:`T_STOP` s or more of the 20 shared logs that have them, the battery power's median
-is 0–1 W (8–10 W on the four V9 logs, whose wheel draws that idling), its 90th percentile
-at most 32 W, while at the shorter stands of the Begode and V9 logs the median is 9–31 W
-(the motor works: somebody balances) and riding 190–3,200 W.  The Leaperkim and Nosfet
-logs read 0 W at any stand, so they neither confirm nor refute it.
-
-The simulated rider therefore does not balance through a stop: the ride is split at the
-stops (:func:`find_stops`, :func:`moving_segments`); he rides each moving stretch from
-rest with his memory (speed-error integral, delay buffer, predictor history) cleared, and
-through the stop the wheel stands at rest, foot down, with no motor or ankle torque
-(:func:`rest_rows`).  Without this a rider with a speed-error integral winds it up
-against the rolling resistance through a long stop and rides the distance back and forth
-(docs/ride_simulation.md, the calibrated Lynx 0 → 2 fall).
+At stands of :data:`T_STOP` s or more the shared logs' battery power is near idle (the
+rider has a foot down); see docs/ride_simulation.md.  So the simulated rider does not
+balance through a stop: the ride is split at the stops (:func:`find_stops`,
+:func:`moving_segments`), each moving stretch ridden from rest with the rider's memory
+cleared, and through the stop the wheel stands at rest with no torque (:func:`rest_rows`).
 """
 
 from __future__ import annotations
@@ -38,23 +27,8 @@ T_STOP = 3.0
 
 def find_stops(t: np.ndarray, v: np.ndarray, v_max: float = V_STOP,
                min_duration: float = T_STOP) -> list[tuple[int, int]]:
-    """The stops of a profile: maximal runs of rows with |v| < ``v_max`` lasting ``min_duration`` or more.
-
-    Parameters
-    ----------
-    t : array_like
-        s, increasing.
-    v : array_like
-        m/s.
-    v_max : float
-        m/s, positive.
-    min_duration : float
-        s, non-negative: the run's span from its first to its last row.
-
-    Returns
-    -------
-    list of (int, int)
-        Index pairs (first, last) of each stop's rows, inclusive, in order.
+    """The stops of a profile: (first, last) inclusive row pairs of maximal runs with
+    |v| < ``v_max`` (m/s) spanning ``min_duration`` s or more (``t`` s, increasing).
     """
     t, v = np.asarray(t, float), np.asarray(v, float)
     if not (math.isfinite(v_max) and v_max > 0):
@@ -68,43 +42,16 @@ def find_stops(t: np.ndarray, v: np.ndarray, v_max: float = V_STOP,
 
 
 def moving_segments(n: int, stops: list[tuple[int, int]]) -> list[tuple[int, int]]:
-    """The stretches between stops, each from the last row of a stop to the first of the next.
-
-    Parameters
-    ----------
-    n : int
-        Rows of the profile.
-    stops : list of (int, int)
-        :func:`find_stops`.
-
-    Returns
-    -------
-    list of (int, int)
-        (first, last) row of each stretch, inclusive, with at least two rows; a stretch
-        starts and ends at rest except at the profile's own ends.
+    """(first, last) inclusive rows of the ``n``-row profile's stretches between ``stops``
+    (each from a stop's last row to the next's first), at least two rows each.
     """
     ends = [0] + [i for stop in stops for i in stop] + [n - 1]
     return [(a, b) for a, b in zip(ends[0::2], ends[1::2]) if b > a]
 
 
 def rest_rows(t: np.ndarray, x: float, gamma: float, phi: float, v_ref: np.ndarray) -> pd.DataFrame:
-    """The simulator's frame (:func:`euc_sim.simulation.engine.simulate` columns) of a wheel at rest, foot down.
-
-    Parameters
-    ----------
-    t : array_like
-        s, the control steps of the stop.
-    x : float
-        Where the wheel stands, m.
-    gamma, phi : float
-        Body and rider pitch held, rad (the rest trim).
-    v_ref : array_like
-        The plan at those steps, m/s (as the rider's frame records it).
-
-    Returns
-    -------
-    pandas.DataFrame
-        ``t, x, gamma, phi, x_dot, gamma_dot, phi_dot, M_d, M_h, v_ref``: rates and torques 0.
+    """The simulator's frame of a wheel at rest at ``x`` m, foot down: pitches ``gamma``, ``phi``
+    (rad) held, ``v_ref`` (m/s) recorded, every rate and torque 0, on the steps ``t`` (s).
     """
     t = np.asarray(t, float)
     zero = np.zeros(t.size)

@@ -1,45 +1,14 @@
 """The wheel's own balance law, read from a log that has pitch and motor torque.
 
-The paper's motor law (Section 3) is a PD on the body pitch,
-
-    M_d = K_p (γ − γ_ref) + K_d γ̇                                   (the paper's PD, nominal)
-
-The riding rows it is fitted on (pitch, its rate, speed, acceleration and the
-motor torque: the phase current times the torque constant K_t = K_e, or a logged
-torque) come from :func:`euc_sim.rides.grids.law_signals.law_rows`; this module holds
-the term catalogue, the fit, the held-out selection and the bootstrap intervals.
-
-The logged pitch is ``tilt = s·γ + tilt₀``: the sign convention ``s`` (±1) and the
-zero ``tilt₀`` differ between brands and are found from the data (``K_p > 0``
-fixes ``s``).  The nominal regression on the riding rows (speed above
-:data:`V_MIN`) is ``y = c₀ + c_P·tilt + c_D·tilt'`` (``y`` the torque), so
-``s = sign c_P``, ``K_p = |c_P|``, ``K_d = s·c_D``, ``tilt₀ = −c₀/c_P``.
-
-Catalogued terms the nominal leaves out (:data:`CATALOG`), each kept only when it
-lowers the blocked held-out RMS error (10 contiguous time blocks, each predicted
-from the other nine, non-linear settings re-found in each fold) by
-:data:`MIN_GAIN` (:func:`euc_sim.stats.forward_select`):
-
-``tiltback``
-    γ_ref = −k_tb (|ẋ| − v_tb)⁺: the set-point tilts back above v_tb (column
-    (v − v_tb)⁺, coefficient K_p·k_tb; v_tb found on a grid of the ride's speeds).
-``accel_setpoint``
-    γ_ref = k_a·ẍ: the set-point moves with acceleration (column ẍ, −K_p·k_a).
-``integral``
-    K_i ∫γ dt, the integral taken with a leak of :data:`INTEGRAL_TAU` s so it
-    stays bounded over a long ride (column s·∫(tilt − tilt₀)).
-``brake_gain``
-    a different K_p while braking (pitch on the braking side of its zero):
-    ΔK_p·γ·[s·(tilt − tilt₀) < 0].
-``torque_limit``
-    |M_d| ≤ M_max: the prediction clipped; rows at the limit are left out of
-    the linear fit; M_max found on a grid of the upper quantiles of |y|.
-
-Intervals: moving-block bootstrap (30 s blocks), the whole fit (grids included)
-repeated on each replicate.  :func:`fit_law` raises :class:`LawUnavailable`
-(a ``ValueError``) with the numbers when a log cannot show the law (no pitch,
-no torque, too short, quantised pitch, coarse time stamps, or a pitch that does
-not explain the torque).
+The nominal law is the paper's PD (Section 3), M_d = K_p (γ − γ_ref) + K_d γ̇, fitted on the
+riding rows of :func:`~euc_sim.rides.grids.law_signals.law_rows`.  The logged pitch is
+tilt = s·γ + tilt₀, so the nominal regression y = c₀ + c_P·tilt + c_D·tilt' gives s = sign
+c_P, K_p = |c_P|, K_d = s·c_D, tilt₀ = −c₀/c_P.  The catalogued terms (:data:`CATALOG`:
+``tiltback``, ``accel_setpoint``, ``integral`` with a :data:`INTEGRAL_TAU` leak,
+``brake_gain``, ``torque_limit``) are each kept when they lower the blocked held-out RMS
+error by :data:`MIN_GAIN`; intervals by a 30 s moving-block bootstrap of the whole fit.
+:class:`LawUnavailable` says, with numbers, why a log cannot show the law.  See
+docs/controller.md.
 """
 
 from __future__ import annotations
@@ -89,16 +58,11 @@ _TB_GRID = np.linspace(0.30, 0.95, 14)       # tilt-back onset: quantiles of the
 _LIM_GRID = (0.9, 0.95, 0.98, 0.99, 0.995, 0.999)   # torque limit: quantiles of |y|
 
 
-# --------------------------------------------------------------------------------------
 def _columns(rows: LawRows, names, p: dict, mean3: bool = False) -> np.ndarray:
-    """Columns of the law, torque = X·c, one per name (``torque_limit`` has none);
-    ``p`` gives ``v_tb`` and, for ``brake_gain``, the nominal ``sign`` and ``tilt0``.
-
-    ``mean3``: each column as its mean over [t₋₁, t₊₁] (the weights ``rows.w3``,
-    :func:`euc_sim.rides.grids.law_signals._simpson_weights`), the interval whose mean rate
-    the pitch rate and acceleration columns are, so that the law holds between the
-    columns exactly as between the signals (compare :func:`_target`); the rate columns
-    are already such means."""
+    """Columns of the law, torque = X·c, one per name (``torque_limit`` has none); ``p`` gives
+    ``v_tb`` and, for ``brake_gain``, the nominal ``sign`` and ``tilt0``.  ``mean3``: each
+    column as its mean over [t₋₁, t₊₁] (``rows.w3``), the interval of the rate columns.
+    """
     tilt, v, z = (rows.tilt3, rows.v3, rows.z3) if mean3 else (rows.tilt, rows.v, rows.z)
     make = {"offset": lambda: np.ones_like(tilt), "P": lambda: tilt,
             "D": lambda: rows.tilt_dot,
@@ -128,14 +92,9 @@ def _lstsq(X: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 def _censored_lstsq(X: np.ndarray, y: np.ndarray, M: float, at_limit: np.ndarray,
                     n_iter: int = CENSOR_ITER) -> np.ndarray:
-    """Least squares of ``y`` on ``X`` leaving out the rows the limit ``M`` touches.
-
-    A row is out when its torque is at the limit (``at_limit``) or the law would
-    command beyond it (|X·β| ≥ M, β of the previous pass), and so are its
-    :data:`CENSOR_GUARD` neighbours on either side: a logged value is a mean over
-    the telemetry period and the pitch rate a difference across neighbours, so a
-    row next to a clipped one carries the clipped torque or the pitch excursion
-    that the limit let through.  ``M = inf``: plain least squares.
+    """Least squares of ``y`` on ``X`` leaving out the rows the limit ``M`` touches (at the
+    limit, or commanded beyond it by the previous pass) and their :data:`CENSOR_GUARD`
+    neighbours; ``M = inf``: plain least squares.
     """
     if not np.isfinite(M):
         return _lstsq(X, y)
@@ -260,11 +219,9 @@ def _without_pitch_r2(rows: LawRows, n_blocks: int = 10, accel: bool = True,
 
 
 def _select_with_pairs(score, candidates: list) -> tuple[list, list]:
-    """Forward selection from ``BASE`` (:func:`select_by_heldout`); when no single term
-    earns :data:`MIN_GAIN`, the best pair of the terms left is tried as one step, and
-    the selection goes on after it.  Two terms can be needed together: with a torque
-    limit hit often, a tilt-back alone fits the clipped rows worse than no term, and a
-    limit alone does not explain the set-point that drives the torque to it."""
+    """Forward selection from ``BASE``; when no single term earns :data:`MIN_GAIN`, the best pair
+    left is tried as one step (a tilt-back and a torque limit may be needed together).
+    """
     names, history = select_by_heldout(score, list(BASE), candidates, MIN_GAIN)
     while True:
         left = [c for c in candidates if c not in names]
@@ -288,26 +245,23 @@ class Law:
     Attributes
     ----------
     names : list of str
-        ``BASE`` plus the kept catalogued terms, in the order kept.
+        ``BASE`` plus the kept catalogued terms, in order.
     fit : dict
         :func:`fit_params` on the whole log.
     terms : dict
-        Physical term → ``(estimate, ci95 or None, unit)``, paper's signs (γ forward positive).
+        Physical term → ``(estimate, ci95 or None, unit)``, paper's signs.
     sign : int
-        +1 when the logged pitch grows as the body leans forward, −1 otherwise.
+        +1 when the logged pitch grows as the body leans forward.
     heldout_rmse : float
-        Blocked held-out RMS error of the torque (unit), the selection's score.
-    heldout_r2 : float
-        Blocked held-out R² of the torque predicted from the pitch, within this log.
-    nominal_r2 : float
-        The same for the nominal PD alone.
-    blind_r2 : float
-        The same from speed and acceleration without the pitch.
+        Blocked held-out RMS error of the torque, the selection's score.
+    heldout_r2, nominal_r2, blind_r2 : float
+        Blocked held-out R² of the torque from the kept law, the nominal PD alone, and speed
+        and acceleration without the pitch.
     history : list of dict
-        The selection's steps, ``{"term", "heldout_rmse"}``.
+        ``{"term", "heldout_rmse"}`` per step.
     channel, unit : str
     scale : float
-        N·m per unit of the logged channel (K_t, or 1).
+        N·m per unit of the logged channel.
     sign_share : float
         Share of bootstrap replicates agreeing on the sign.
     """
@@ -361,16 +315,9 @@ def _bootstrap(rows: LawRows, names, n_boot: int, seed: int, block: float = 30.0
 
 def fit_law(rows: LawRows, n_boot: int = 100, seed: int = 0) -> Law:
     """Identify the balance law on ``rows``: nominal PD, catalogued terms kept by held-out
-    validation, 95 % block-bootstrap intervals.
-
-    Raises
-    ------
-    LawUnavailable
-        when the pitch is too quantised, the time stamps too coarse, or the pitch
-        does not explain the torque: the held-out R² of the kept law without its
-        acceleration column (acceleration is the ride's physics' own column: the
-        torque follows it whatever the firmware) below :data:`R2_MIN`; the message
-        gives the numbers.
+    validation, 95 % block-bootstrap intervals.  :class:`LawUnavailable` when the pitch is
+    too quantised, the stamps too coarse, or the held-out R² without the acceleration
+    column is below :data:`R2_MIN`.
     """
     spread = float(np.subtract(*np.percentile(rows.tilt, [95, 5])))
     deg = math.degrees

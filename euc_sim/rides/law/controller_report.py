@@ -1,11 +1,7 @@
-"""The ride JSON's ``controller`` object and its section of the ride page.
-
-:func:`controller_fit` reads the wheel's balance law from LOG
-(:mod:`euc_sim.rides.law.controller_law`), with the torque constant the drivetrain fit
-identified (K_t = K_e, the back-EMF constant, N·m/A), and with a compare ride
-predicts that ride's phase current (or torque) from its pitch: the CONTRACT's
-``heldout``.  :func:`controller_entry` is the CONTRACT's ``controller`` object, which the
-firmware (:mod:`euc_sim.controllers.firmware`) reads.
+"""The ride JSON's ``controller`` object: :func:`controller_fit` reads the wheel's balance
+law from LOG with the drivetrain's K_t = K_e (N·m/A) and predicts a compare ride's phase
+current or torque from its pitch (CONTRACT ``heldout``); :func:`controller_entry` is what
+the firmware (:mod:`euc_sim.controllers.firmware`) reads.
 """
 
 from __future__ import annotations
@@ -32,17 +28,15 @@ class ControllerFit:
     Attributes
     ----------
     law : Law or None
-        :func:`~euc_sim.rides.law.controller_law.fit_law`'s result.
     why : str or None
         Why there is no law.
     torque_constant : float or None
-        K_t, N·m/A, the law was read with (None: the law is in A of phase current).
+        K_t, N·m/A (None: the law is in A of phase current).
     largest_measured : float or None
-        The largest |torque| (or current) of the fitted rows: what the wheel gave.
-    heldout_r2 : float or None
-        R² of the law's prediction on the compared ride's rows (or blocked, within the ride).
-    heldout_ride : str or None
-        Where ``heldout_r2`` was measured.
+        The largest |torque| (or current) of the fitted rows.
+    heldout_r2, heldout_ride : float, str or None
+        R² of the law's prediction on the compared ride's rows (or blocked, within the ride),
+        and where it was measured.
     compare_why : str or None
         Why the compared ride could not be predicted.
     """
@@ -81,21 +75,9 @@ def describe(law: Law) -> str:
 
 def controller_fit(log_path, compare_path=None, k_t: float | None = None,
                    n_boot: int = 100, seed: int = 0) -> ControllerFit:
-    """The wheel's balance law read from LOG (and its prediction of COMPARE's current or torque).
-
-    Parameters
-    ----------
-    log_path, compare_path : Ride
-        Ride logs of one wheel; the law is fitted on ``log_path``.
-    k_t : float, optional
-        Torque constant, N·m/A (:func:`torque_constant`); without it the law is
-        in A of phase current.
-    n_boot, seed : int
-        Block-bootstrap replicates and seed.
-
-    Returns
-    -------
-    ControllerFit
+    """The wheel's balance law read from LOG, with ``k_t`` (N·m/A; without it, in A of phase
+    current), and its prediction of COMPARE's current or torque; ``n_boot``, ``seed`` of the
+    block bootstrap.
     """
     try:
         rows = law_rows(log_path, k_t)

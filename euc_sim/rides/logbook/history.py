@@ -1,18 +1,10 @@
 """Many rides of one wheel: the battery's resistance over time, consumption against speed.
 
-:func:`ride_entry` reads one log into a :class:`RideEntry` (its summary and its
-battery resistance, the same numbers ``euc-sim ride`` reports);
-:func:`ride_history` joins the entries of one wheel into a :class:`RideHistory`
-with
-
-- a change test (:func:`change_test`): is the latest ride's resistance different
-  from the earlier ones?  The ride-to-ride spread (charge, temperature, load) is
-  larger than one ride's bootstrap interval, so the latest ride is compared with
-  the earlier rides' prediction interval for a new ride (Student's t);
-- the slope of Wh/km against the mean moving speed (least squares, t interval).
-
-Resistances are compared at 25 °C where every ride logs the battery temperature,
-else as measured (said in ``basis``).
+:func:`ride_entry` reads one log (its summary and battery resistance, as ``euc-sim ride``
+reports them); :func:`ride_history` joins one wheel's entries with a change test of the
+latest ride's resistance against the earlier rides' prediction interval
+(:func:`change_test`) and the slope of Wh/km against mean moving speed.  Resistances are
+compared at 25 °C where every ride logs the battery temperature (``basis``).
 """
 
 from __future__ import annotations
@@ -49,29 +41,23 @@ class RideEntry:
 
     Attributes
     ----------
-    path : str
+    path, layout : str
     start : str
-        ISO wall-clock time of the log's first sample: UTC where the log names its zone,
-        else the phone's local clock (:attr:`~euc_sim.rides.source.ride.Ride.start`).
-    layout : str
-    summary : dict
-        :meth:`euc_sim.rides.summary.summary.RideSummary.to_json`.
-    battery : dict
-        :meth:`euc_sim.rides.drive.battery.BatteryHealth.to_json`.
+        ISO wall-clock time of the first sample (UTC where the log names its zone).
+    summary, battery : dict
+        The ride's RideSummary and BatteryHealth as JSON.
     model : str or None
-        The wheel's model and serial where the app wrote them (EUC World ``extra``).
+        The wheel's model and serial where the app wrote them.
     series : tuple of int
         Cell counts in series the ride's voltages allow (:func:`series_cells`).
-    temperature_C : float or None
+    temperature_C, temperature_source : float, str or None
         Battery temperature where logged, else the median controller temperature.
-    temperature_source : str or None
     full_charge_V : float or None
-        The pack's full-charge voltage the ride's voltage and battery % imply
-        (:func:`full_charge`), V; None without both channels.
+        :func:`full_charge`, V.
     repairs : tuple of str
-        What the reader changed in the log (:attr:`~euc_sim.rides.source.ride.Ride.repairs`).
+        What the reader changed in the log.
     utc_offset_s : float or None
-        The log's zone, s east of UTC; None where it names none.
+        The log's zone, s east of UTC.
     """
 
     path: str
@@ -97,22 +83,10 @@ class RideEntry:
 
 @dataclass(frozen=True)
 class ChangeTest:
-    """Latest ride against the earlier ones (Ω).
-
-    Attributes
-    ----------
-    latest, latest_se : float
-        The latest ride's resistance and its standard error.
-    earlier_mean, earlier_se, between_ride_sd : float
-        The earlier rides' pooled resistance, its standard error and the ride-to-ride spread.
-    difference, difference_ci95 : float, tuple
-        Latest minus the prediction for a new ride, with a 95 % interval.
-    z, p_value : float
-        The test statistic (t, or z with one earlier ride) and its two-sided p-value.
-    verdict : str
-        ``"changed"`` (p < 0.05) or ``"no change shown"``.
-    n_earlier : int
-    note : str
+    """Latest ride against the earlier ones (Ω): ``latest`` ± ``latest_se``; the earlier rides'
+    ``earlier_mean`` ± ``earlier_se`` and ``between_ride_sd``; ``difference`` from the
+    prediction for a new ride with ``difference_ci95``; ``z``, ``p_value``; ``verdict``
+    (``"changed"`` at p < 0.05, else ``"no change shown"``); ``n_earlier``; ``note``.
     """
 
     latest: float
@@ -142,17 +116,16 @@ class RideHistory:
     Attributes
     ----------
     rides : tuple of RideEntry
-        In time order: the instant each started (:func:`utc_start`).
+        In order of their start (:func:`utc_start`).
     basis : str
-        ``"25C"`` or ``"as measured"``: which resistance the change test compares.
+        ``"25C"`` or ``"as measured"``.
     change : ChangeTest or None
-        None with fewer than two rides with a resistance (``why`` says so).
+        None under two rides with a resistance (``why``).
     whkm_slope, whkm_slope_ci95 : float or None
         Wh/km per (m/s) of mean moving speed, least squares over the rides.
     why : dict
     trend : str or None
-        The resistance from the first ride to the last in words
-        (:func:`euc_sim.rides.drive.battery.trend_words`); None under two rides with one.
+        :func:`~euc_sim.rides.drive.battery.trend_words` of the resistances.
     """
 
     rides: tuple
@@ -173,31 +146,17 @@ class RideHistory:
                 "trend": self.trend, "why": dict(self.why)}
 
 
-# --------------------------------------------------------------------------------------
 def shared_offset(offsets) -> float | None:
-    """The zone most of the logs naming one give, s east of UTC (the first of equals); None
-    where none names one.
-
-    The rides are shown in it, and a log naming none (WheelLog, DarknessBot: the phone's
-    clock) is taken to be in it.
-
-    Parameters
-    ----------
-    offsets : iterable of float or None
-        Each log's ``utc_offset_s``.
+    """The zone (s east of UTC) most of the logs naming one give, the first of equals; None
+    where none does.  Logs naming none are taken to be in it.
     """
     offs = Counter(o for o in offsets if o is not None)
     return offs.most_common(1)[0][0] if offs else None
 
 
 def utc_start(start: str, utc_offset_s: float | None, shared: float | None):
-    """The instant a ride started, naive UTC: ``start`` itself where its log names its zone
-    (``utc_offset_s`` not None: the reader's start is UTC), else the phone's clock taken in the
-    ``shared`` zone (:func:`shared_offset`; as logged without one).
-
-    Returns
-    -------
-    datetime.datetime
+    """The instant a ride started, naive UTC: ``start`` where its log names its zone, else the
+    phone's clock taken in the ``shared`` zone (as logged without one).
     """
     t = datetime.fromisoformat(start)
     return t if utc_offset_s is not None or shared is None else t - timedelta(seconds=shared)
@@ -208,19 +167,15 @@ def series_cells(v_max: float, v_min: float) -> tuple[int, ...]:
     return tuple(n for n in SERIES_COUNTS if 3.0 * n <= v_min and v_max <= 4.25 * n)
 
 
-#: Two rides whose full-charge voltages (:func:`full_charge`) differ by more than this
-#: fraction are of different packs: the shared rides of one wheel agree within 3 %, and
-#: the nearest common packs (30 and 32 cells) are 6.7 % apart.
+#: Full-charge voltages (:func:`full_charge`) differing by more than this fraction: different
+#: packs (one wheel's rides agree within 3 %; 30 and 32 cells are 6.7 % apart).
 FULL_CHARGE_SPREAD = 0.05
 
 
 def full_charge(log) -> float | None:
-    """The full-charge voltage the log's voltage and battery % imply, V (None without both).
-
-    Each row at a small current (|I| < 5 A where logged: little sag) gives V·4.2 / (3.3 +
-    0.9·b/100): the apps' battery % runs about linearly from 3.3 V a cell (0 %) to 4.2 V
-    (100 %); the median over the rows.  On the shared rides it is within 3 % of the pack's
-    nominal full charge.
+    """The full-charge voltage the log's voltage and battery % imply, V (None without both): the
+    median over low-current rows of V·4.2/(3.3 + 0.9·b/100), the apps' % running about
+    linearly from 3.3 V (0 %) to 4.2 V (100 %) a cell.
     """
     d = log.data
     if not {"voltage", "battery"} <= set(d.columns):
@@ -235,13 +190,7 @@ def full_charge(log) -> float | None:
 
 
 def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
-    """Read one log: its summary and its battery resistance (the drivetrain's ``fit_battery``).
-
-    Raises
-    ------
-    LogFormatError, RideDataError, FileNotFoundError
-        (``ValueError`` / ``OSError``) for a log that cannot be read; the message names the file.
-    """
+    """Read one log: its summary and battery resistance; the reader's errors name the file."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         log = read_log(path, emit_warnings=False)
@@ -293,23 +242,11 @@ def _se(ci) -> float:
 
 
 def change_test(values, cis) -> ChangeTest:
-    """Is the last value different from the earlier ones?
+    """Is the last of ``values`` (Ω, time order, 95 % intervals ``cis``) different from the earlier ones?
 
-    Parameters
-    ----------
-    values : sequence of float
-        Per-ride resistances, Ω, in time order (at least two).
-    cis : sequence of (lo, hi)
-        Their 95 % intervals.
-
-    Returns
-    -------
-    ChangeTest
-        A prediction test: with k ≥ 2 earlier rides of mean x̄ and sample variance s²
-        (which holds the ride-to-ride spread and each ride's own error),
-        t = (R_last − x̄) / √(s²·(1 + 1/k) + max(0, se_last² − mean se²)), Student's t with
-        k − 1 degrees of freedom, two-sided.  With one earlier ride the spread is
-        unknown: a z test on the two rides' own errors (liberal, said in ``note``).
+    With k ≥ 2 earlier rides (mean x̄, variance s²): t = (R_last − x̄)/√(s²·(1 + 1/k) +
+    max(0, se_last² − mean se²)), Student's t with k − 1 degrees of freedom, two-sided.  With
+    one earlier ride, a z test on the rides' own errors (liberal, said in ``note``).
     """
     from scipy.stats import norm
     from scipy.stats import t as student
@@ -359,12 +296,8 @@ def _slope(x, y) -> tuple[float | None, tuple | None]:
 
 
 def ride_history(entries) -> RideHistory:
-    """The history of one wheel's rides (entries from :func:`ride_entry`, any order).
-
-    Raises
-    ------
-    WheelMismatch
-        when the logs are not of one wheel.
+    """The history of one wheel's rides (:func:`ride_entry`'s, any order); WheelMismatch when
+    the logs are not of one wheel.
     """
     entries = list(entries)
     zone = shared_offset(e.utc_offset_s for e in entries)

@@ -21,18 +21,8 @@ def quad_terms(X: np.ndarray) -> np.ndarray:
 
 
 def surface(X: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """Least-squares quadratic coefficients of each feature (columns of F) in the points X.
-
-    Parameters
-    ----------
-    X : numpy.ndarray, (n, d)
-        Design points (scaled parameters, 1).
-    F : numpy.ndarray, (n, m)
-        Features at the points.
-
-    Returns
-    -------
-    numpy.ndarray, (1 + d + d(d+1)/2, m)
+    """Least-squares quadratic coefficients (1 + d + d(d+1)/2, m) of each feature (columns of
+    ``F``, n × m) in the scaled design points ``X`` (n × d).
     """
     coef, *_ = np.linalg.lstsq(quad_terms(X), F, rcond=None)
     return coef

@@ -1,45 +1,16 @@
 """The simulated rider calibrated on a ride log: reaction delay, feedback bandwidth, motor noise.
 
-The default rider (:func:`euc_sim.controllers.design.design_rider`, 0.15 s, Bryson's weights, no
-noise) corrects harder than real riders: along real rides its battery power peaks at
-2–2.5 kW where the log shows about 1 kW.  Here the rider's three free settings are fitted
-to what the log shows of the rider:
-
-``delay`` τ, s
-    the reaction delay (the predictor is tuned to it, :mod:`euc_sim.controllers.rider`);
-``bandwidth`` ρ, 1
-    the LQR's state/input weight ratio relative to Bryson's :data:`DEFAULT_SCALES`
-    (R = 1/(ρ^½ M_h,scale)²; ρ > 1 a stiffer, faster rider, ρ < 1 a softer one);
-``noise_std`` σ, N·m
-    the Ornstein–Uhlenbeck motor noise on the ankle torque.  Its correlation time is
-    kept at the rider's 0.05 s: its corner (3.2 Hz) lies above a 5 Hz log's 2.5 Hz
-    Nyquist frequency, where only σ²·τ_c is seen.
-
-**What is matched.**  A log shows the rider through the fast part of its signals: the
-battery power P (always), the motor torque M (a ``torque`` column, or phase current
-times a known torque constant) and the body pitch (``tilt``) where logged.  Each
-channel, on the log's 10 Hz grid, is split by Savitzky–Golay smoothers of
-:data:`BAND_WINDOWS` (0.5 … 6 s) into eight leaky bands from ~2 Hz down to ~0.1 Hz; the
-features are the bands' log RMS: level and spectrum
-(:mod:`euc_sim.rides.grids.rider_features`).  Every input of the rider reaches the wheel through
-his ankle torque, so the ratio of two logged channels is the plant's, not the rider's:
-what the log shows of the rider is the spectrum of that torque, and the bands resolve it
-(four bands left the delay and the bandwidth on a ridge, docs/rider_calibration.md).
-
-**How.**  The rider rides windows tiled along the *fit* ride's speed profile in MuJoCo
-(:func:`euc_sim.simulation.engine.simulate`, :func:`~euc_sim.rides.grids.rider_features.fit_windows`),
-the simulation is read as the log is written (each reading the mean over the 0.2 s before
-the log's own time stamps, in the log's own steps: 0.1° pitch, 0.1 A current) and gets
-the same features, the log's cut at the same window edges; each design point rides noise
-draws of its own (``repeats`` draws averaged), the surface's least squares averaging them.
-The method of simulated moments: a quadratic response surface of each feature in the
-(scaled) parameters is fitted on design points in three rounds of shrinking boxes, and
-the weighted squared feature distance minimised on it
-(``scipy.optimize.minimize``); the weights are 1/(variance of the log's feature +
-the simulation's), both from a block bootstrap over 10 s blocks.  The intervals
-(95 %) re-minimise the surface for each bootstrap replicate of the log's and the
-simulation's features.  A parameter ending on its search bound is flagged
-(``at_bound``) and warned about in the notes.
+The fitted settings: ``delay`` τ (s, the predictor tuned to it), ``bandwidth`` ρ (the LQR's
+state/input weight ratio relative to Bryson's, R = 1/(ρ^½ M_h,scale)²; ρ > 1 stiffer) and
+``noise_std`` σ (N·m, Ornstein–Uhlenbeck ankle-torque noise, correlation time held at
+0.05 s).  The features are the log RMS of the battery power, motor torque and pitch in
+the :data:`BAND_WINDOWS` bands (:mod:`euc_sim.rides.grids.rider_features`).  Method of
+simulated moments: the rider rides windows of the fit ride in MuJoCo, read as the log is
+written (:mod:`euc_sim.rides.sim.reading`); a quadratic response surface of each feature
+is fitted on design points in shrinking boxes and the weighted squared distance to the
+log's features minimised on it, weights 1/(variance of the log's + the simulation's
+features) from a 10 s block bootstrap, which also gives the 95 % intervals.  See
+docs/rider_calibration.md.
 """
 
 from __future__ import annotations
@@ -76,9 +47,6 @@ __all__ = ["BAND_WINDOWS", "RiderFitError", "RiderFit",
 BLOCK = 10.0
 
 
-# --------------------------------------------------------------------------------------
-# The simulated rider read like the log
-# --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class _Setup:
     """Everything a window simulation needs but the rider."""
@@ -127,8 +95,9 @@ def _window_span(t: np.ndarray, windows) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _windowed_log(setup: _Setup) -> pd.DataFrame:
-    """The log's channels cut as the simulation is: NaN outside the windows, one segment per
-    window, so that the smoothers of the bands meet the same window edges on both sides."""
+    """The log's channels cut as the simulation is (NaN outside the windows, one segment each),
+    so the band smoothers meet the same edges on both sides.
+    """
     ch = setup.channels
     inside, seg = _window_span(ch["t"].to_numpy(), setup.windows)
     out = {c: np.where(inside, ch[c].to_numpy(), np.nan) for c in setup.names}
@@ -136,12 +105,10 @@ def _windowed_log(setup: _Setup) -> pd.DataFrame:
 
 
 def _simulated_channels(setup: _Setup, rider: Rider, draw: int = 0) -> pd.DataFrame | None:
-    """The rider along the windows, read like the log: None when he falls.
-
-    Each reading is the mean over :data:`euc_sim.rides.sim.reading.READING_MEAN` s before the
-    log's own stamp (:func:`~euc_sim.rides.sim.reading.stamp_readings`), written in the log's
-    steps where it has them (``channels.attrs["quantum"]``: 0.1° pitch, 0.1 A current), then put on the log's grid as the log is.  ``draw`` picks the motor noise
-    and the steps' zero (seed ``setup.seed + 1000 draw + window``)."""
+    """The rider along the windows, read like the log (:mod:`euc_sim.rides.sim.reading`, in the
+    log's steps ``channels.attrs["quantum"]``); None when he falls.  Seeds
+    ``setup.seed + 1000 draw + window``.
+    """
     ch = setup.channels
     t = ch["t"].to_numpy()
     stamps = ch.attrs["stamps"]
@@ -198,9 +165,6 @@ def _log_rms(ms: np.ndarray) -> np.ndarray:
     return 0.5 * np.log(ms.mean(axis=0))
 
 
-# --------------------------------------------------------------------------------------
-# The fit
-# --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class RiderFit:
     """The rider calibrated on a ride.
@@ -208,24 +172,20 @@ class RiderFit:
     Attributes
     ----------
     rider : Rider
-        The calibrated rider (gains designed for the fit's params and motor).
+        Gains designed for the fit's params and motor.
     params : dict
-        name → ``{"value", "lo", "hi"`` (95 % block-bootstrap interval), ``"bound"``
-        ([lower, upper] searched), ``"at_bound"`` (bool), ``"nominal"``, ``"unit"}``.
-    objective : float
-        Weighted squared feature distance of the calibrated rider (simulated), 1.
-    objective_nominal : float
-        The same for the default rider (τ 0.15 s, ρ 1, σ 3 N·m).
+        name → ``{"value", "lo", "hi"`` (95 %), ``"bound"``, ``"at_bound"``, ``"nominal"``, ``"unit"}``.
+    objective, objective_nominal : float
+        Weighted squared feature distance of the calibrated and the default rider.
     features : dict
-        ``names``, ``log``, ``fitted``, ``nominal`` (log RMS, log of the channel's unit).
+        ``names``, ``log``, ``fitted``, ``nominal`` (log RMS).
     windows : tuple of (t0, t1)
-        s, the fit ride's stretches ridden.
+        s, the stretches ridden.
     simulations : int
         Closed-loop window sets simulated (falls included).
     notes : tuple of str
     falls : tuple of dict
-        The design points at which the rider fell (``delay``, ``bandwidth``, ``noise_std``):
-        where this plant cannot be ridden.
+        The design points at which the rider fell.
     """
 
     rider: Rider
@@ -253,30 +213,13 @@ def _values_of(x: np.ndarray) -> dict:
 def _round(setup: _Setup, rows, block, F_log, w, npts, center, level, pool, rng):
     """One response-surface round around ``center`` with box level ``level``.
 
-    Simulates ``npts`` design points (``center`` and a Latin hypercube of the box, half-width
-    0.5, 0.2, 0.08 of the scaled range by level), each on noise draws of its own (seed +
-    :data:`POINT_SEED` × its rank), into ``pool`` (lists X, F, all points drawn and those that
-    fell), fits the quadratic surface on the pool's points near ``center`` and minimises it in
-    the box.
-
-    A point at which the rider falls bounds the region the plant can be ridden in: it moves
-    halfway back to the round's center, up to :data:`HALVINGS` times (:func:`_ride_or_halve`);
-    a center at which he falls (an optimum beyond the points that rode) moves so towards the
-    nearest point that rode, or onto it, and the box goes there; fresh points of the box top
-    the round up to ``npts`` that rode (at most :data:`ROUND_BUDGET` × ``npts`` more
-    simulations).  The surface is fitted where he rides.
-
-    Returns
-    -------
-    tuple
-        New center, surface coefficients, hull of the points used (3 × 2), next level,
-        whether the optimum ended on the box's own edge.
-
-    Raises
-    ------
-    RiderFitError
-        when fewer than :data:`MIN_POINTS` points near ``center`` rode (a quadratic in the
-        three settings has that many coefficients).
+    Simulates ``npts`` design points (``center`` and a Latin hypercube of the box) into
+    ``pool`` (X, F, drawn, fell); a point where the rider falls moves halfway back towards
+    one that rode (:func:`_ride_or_halve`), and fresh points top the round up.  Fits the
+    quadratic surface on the points near ``center`` and minimises it in the box.  Returns
+    the new center, the surface, the hull of its points (3 × 2), the next level and whether
+    the optimum is on the box's edge; :class:`RiderFitError` with fewer than
+    :data:`MIN_POINTS` points that rode.
     """
     X, F, drawn, fell = pool
     half = _HALVES[min(level, len(_HALVES) - 1)]
@@ -325,10 +268,8 @@ def _ride_or_halve(setup: _Setup, rows, block, x: np.ndarray, anchor: np.ndarray
 
 #: Offset of the noise seeds on which the search's paths are compared.
 CHECK_SEED = 100_000
-#: Step of the design points' noise seeds.  Common draws at every point let the search end
-#: where one realisation happens to match the log (scoring seed 32: 0.309 s, weighted distance
-#: 2.9 on the design's draws, 25 on others against 12 for the truth); independent draws leave
-#: that noise to the surface's least squares.
+#: Step of the design points' noise seeds: independent draws leave their noise to the surface's
+#: least squares (common draws let the search end where one realisation matches the log).
 POINT_SEED = 10_007
 #: Half-widths of the search boxes by level, in the scaled [0, 1] coordinates.
 _HALVES = (0.5, 0.2, 0.08)
@@ -343,22 +284,11 @@ ROUND_BUDGET = 2
 def _search(setup: _Setup, rows, block, F_log, w, rounds, rng, say) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Response-surface rounds in shrinking boxes, from two starts along the delay.
 
-    The first round spans half the scaled range around the nominal rider.  The delay and the
-    bandwidth trade off along a curved valley that one quadratic over that box does not
-    follow, so the later rounds run twice: from the first round's optimum, and from the
-    first round's best simulated design point among those whose delay lies more than the
-    next box's half-width from it.  Each path's optimum is simulated on noise draws of its
-    own (seed + :data:`CHECK_SEED`) and the one nearer the log's features (weighted
-    distance) is kept.  Along a path a box shrinks
-    (half-widths 0.5, 0.2, 0.08) only when the optimum found in it is inside it or on a
-    search bound; an optimum on the box's own edge moves the next box, the same size, there.
-
-    Returns
-    -------
-    tuple
-        Optimum in [0, 1]³, its path's last surface's coefficients, the box its design
-        points span (3 × 2), the number of simulations, and the design points at which the
-        rider fell (k × 3, scaled).
+    Delay and bandwidth trade off along a curved valley, so the later rounds run from the
+    first round's optimum and from its best point farther along the delay; each path's
+    optimum is scored on draws of its own (:data:`CHECK_SEED`) and the nearer to the log
+    kept.  A box shrinks only when its optimum is inside it.  Returns the optimum in [0, 1]³,
+    the surface, the hull of its points, the number of simulations and the points that fell.
     """
     X, F, drawn, fell = [], [], [], []
     J = lambda f: float(np.sum(w * (f - F_log) ** 2))                 # noqa: E731
@@ -433,57 +363,41 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
     log : Ride
         The fit ride (never the held-out one).
     params : Params
-        The simulated ride's parameters (:func:`euc_sim.rides.sim.simulate.ride_params`).
+        The simulated ride's parameters.
     motor : MotorPD, optional
-        The wheel's law (default the paper's PD; the measured one from
-        :func:`euc_sim.controllers.firmware.firmware_motor` where the ride shows it).
+        The wheel's law (default the paper's PD).
     effects : mapping, optional
-        Effects injected as physics (drag, rolling resistance, slope; CONTRACT units).
+        Effects injected as physics (CONTRACT units).
     drivetrain : mapping, optional
-        ``copper_loss`` (W/N²), ``drivetrain_idle_loss`` (W) of the battery-power
-        model (:func:`euc_sim.rides.sim.simulate.battery_power`); default 0, 0.
+        ``copper_loss`` (W/N²), ``drivetrain_idle_loss`` (W) of the battery-power model.
     assumptions : RideAssumptions
-        For the torque constant (phase current → torque).
+        For the torque constant.
     channels : sequence of str, optional
-        Subset of ``P``, ``M``, ``pitch`` (default: every one the log has).
+        Subset of ``P``, ``M``, ``pitch`` (default every one the log has).
     windows, window_length : int, float
-        Stretches of the ride ridden at each evaluation, and their length, s.
+        Stretches ridden at each evaluation, and their length, s.
     plan_window : float
-        s: the rider's plan is the logged speed smoothed over this window
-        (:func:`euc_sim.rides.grids.profile.rider_plan`).
+        The rider's plan is the logged speed smoothed over this many s.
     max_gap : float
-        s: the log's readings are bridged over gaps up to this long (longer: the
-        ride is split there, and a window never spans a split).
+        Longest gap bridged in the log's readings, s.
     rounds : sequence of int
-        Design points per response-surface round (boxes of half-width 0.5, 0.2, 0.08
-        of the scaled search range, around the previous round's optimum; see
-        :func:`_search`).  The interval's replicates are minimised on the last surface
-        within the box its design points span: an interval reaching that box's edge
-        says the surface was not explored further.
+        Design points per response-surface round (:func:`_search`).
     n_boot : int
         Block-bootstrap replicates of the interval.
     repeats : int
-        Motor-noise draws each design point is simulated with; the bands' mean squares
-        are averaged over them (the simulation's share of the features' noise falls as
-        1/repeats, the cost grows as repeats).
+        Motor-noise draws per design point, their mean squares averaged.
     seed : int
-        Seed of the design and the bootstrap; the simulation's noise seeds are
-        seed + 1000 draw + window.
+        Seed of the design and the bootstrap.
     dt : float
         Simulation step, s.
     progress : callable, optional
         Called with a short line per round.
 
-    Returns
-    -------
-    RiderFit
-
     Raises
     ------
     RiderFitError
-        for a log without battery power, without a window to ride, a rider that
-        falls at every design point, or a bad ``windows``, ``window_length``, ``rounds``
-        or ``n_boot`` (named before any simulation).
+        No battery power or window to ride, a rider falling at every design point, or a bad
+        setting (named before any simulation).
     """
     for name, value, least in (("windows", windows, 1), ("n_boot", n_boot, 2), ("repeats", repeats, 1)):
         if not (isinstance(value, Integral) and value >= least):

@@ -50,22 +50,8 @@ RIDER_PARAMS = (RiderParam("delay", 0.15, 0.03, 0.40, "s", False),
 
 
 def rider_from(values: Mapping[str, float], params: Params, motor: MotorPD) -> Rider:
-    """The rider with the given ``delay`` (s), ``bandwidth`` (1) and ``noise_std`` (N·m).
-
-    Parameters
-    ----------
-    values : mapping
-        ``{"delay", "bandwidth", "noise_std"}``.
-    params : Params
-        The rider's model of the system (the simulated ride's parameters).
-    motor : MotorPD
-        The wheel's law the gains are designed against.
-
-    Returns
-    -------
-    Rider
-        LQR gains from :func:`euc_sim.controllers.design.design_rider` with the ankle-torque
-        scale of Bryson's rule multiplied by √bandwidth.
+    """The rider with the given ``delay`` (s), ``bandwidth`` (1) and ``noise_std`` (N·m): LQR
+    gains designed against ``motor`` on ``params``, Bryson's ankle-torque scale × √bandwidth.
     """
     bw = float(values["bandwidth"])
     if not (math.isfinite(bw) and bw > 0):

@@ -19,22 +19,9 @@ __all__ = ["calibrated_rider_step", "RIDER_STEPS"]
 
 
 def calibrated_rider_step(prev, inp):
-    """The ``calibrated_rider`` step of :mod:`euc_sim.rides.sim.sim_steps`: the rider fitted on the fit ride.
-
-    The rider is fitted (:func:`fit_rider`, default settings) on ``inp.fit_log`` with the
-    previous step's motor law (the measured one where the fit ride showed it), the
-    accepted effects as physics and the augmented fit's battery-power model, and rides
-    :data:`PLAN_WINDOW`'s plan; a ride it cannot be fitted on skips the step (``why``).
-
-    Parameters
-    ----------
-    prev : SimStep
-        The last step that ran.
-    inp : StepInputs
-
-    Returns
-    -------
-    SimStep
+    """The ``calibrated_rider`` step: the rider fitted on ``inp.fit_log`` with ``prev``'s motor law,
+    the accepted effects and the augmented power model, riding :data:`PLAN_WINDOW`'s plan;
+    skipped (``why``) where he cannot be fitted.
     """
     name, what = "calibrated_rider", "the rider calibrated on the fit ride"
     if inp.fit_log is None:

@@ -24,35 +24,16 @@ from euc_sim.simulation.engine import FALL_BOUNDS
 __all__ = ["LEAN_SHARE", "limit_acceleration", "moving_average", "plan_band_limit",
            "rider_acceleration_limit", "resisting_acceleration"]
 
-#: Share of the fall bound |φ| ≤ φ_max that the rider's steady lean φ*(a) may use: the
-#: profile's acceleration is limited to the a where |φ*(a)| = LEAN_SHARE·φ_max
-#: (:func:`rider_acceleration_limit`, 1.5 m/s² for Table 3).  Starting or stopping an
-#: acceleration makes the rider's lean overshoot its trim about twice over (the plant is
-#: non-minimum-phase in speed: to lean back, the wheel must first run ahead), so the rest of
-#: the range is the transient's.  Value: see docs/ride_falls.md#the-fix.
+#: Share of the fall bound |φ| ≤ φ_max the rider's steady lean φ*(a) may use (1.5 m/s² for
+#: Table 3; the rest is the lean's overshoot).  Value: docs/ride_falls.md#the-fix.
 LEAN_SHARE = 0.3
 
 
 def limit_acceleration(t: np.ndarray, v: np.ndarray, a_max: float) -> np.ndarray:
-    """A speed profile whose slope never exceeds ±``a_max``, close to ``v``.
+    """A speed profile ``v`` (m/s, at ``t`` s) whose slope never exceeds ±``a_max`` m/s².
 
-    A rate limiter run forwards and one run backwards over time, averaged: each
-    has |dv/dt| ≤ a_max, so their mean does too, and the lag of one cancels the
-    lead of the other (no net time shift).  ``v`` is not modified.
-
-    Parameters
-    ----------
-    t : array_like
-        s, strictly increasing.
-    v : array_like
-        m/s.
-    a_max : float
-        m/s², positive.
-
-    Returns
-    -------
-    numpy.ndarray
-        m/s, same shape as ``v``.
+    The mean of a rate limiter run forwards and one run backwards: each keeps the bound,
+    and the lag of one cancels the lead of the other (no net time shift).
     """
     if not (math.isfinite(a_max) and a_max > 0):
         raise InputError(f"a_max must be a positive number of m/s², got {a_max!r}")
@@ -74,26 +55,8 @@ def limit_acceleration(t: np.ndarray, v: np.ndarray, a_max: float) -> np.ndarray
 def moving_average(t: np.ndarray, v: np.ndarray, width: float) -> np.ndarray:
     """Centred moving average of a uniformly sampled profile over ``width`` s (no time shift).
 
-    The window is the odd number of samples nearest ``width`` (at least 1: then ``v``);
-    the ends are padded with the first and last values.  Each output is a mean of
-    consecutive samples, so a profile whose slope stays within ±a keeps it, and the
-    mean's slope changes by at most 2a over the window: an acceleration step becomes a
-    ramp as long as the window.  Its gain falls to 1/√2 at ω = 2.783/width rad/s
-    (|sin(ωT/2)/(ωT/2)| = 1/√2).
-
-    Parameters
-    ----------
-    t : array_like
-        s, uniform.
-    v : array_like
-        m/s (any unit).
-    width : float
-        s, non-negative.
-
-    Returns
-    -------
-    numpy.ndarray
-        Same shape as ``v``.
+    The window is the odd number of samples nearest ``width``, the ends padded with their
+    values; a slope within ±a stays within it.  The gain falls to 1/√2 at ω = 2.783/width rad/s.
     """
     t = np.asarray(t, float)
     v = np.asarray(v, float)
@@ -115,22 +78,12 @@ _BOX_HALF_POWER = 2.0 * 1.3916
 
 
 def plan_band_limit(params: Params, motor=None) -> tuple[float, float]:
-    """The width, s, of the moving average that band-limits the rider's plan to ω_B = z/2.
+    """(width s, z rad/s): the moving average band-limiting the rider's plan to ω_B = z/2.
 
-    The wheel speed's response to the rider's ankle torque has a right-half-plane zero z
-    (:func:`euc_sim.controllers.plant.speed_zero`: to speed up the wheel must first run back under
-    the leaning rider), which bounds the bandwidth of any speed tracking to ω_B < z/2
-    (Skogestad and Postlethwaite, *Multivariable Feedback Control*, 2nd ed., 2005, §5.6).  A
-    plan with faster content (the acceleration envelope's corners: an acceleration step of
-    the plan steps the rider's trim lean φ*(a), and his stiff lean gain turns it into an
-    ankle-torque step) is asked of a rider who cannot follow it.  The width is the one
-    whose centred moving average (:func:`moving_average`) has its half-power gain at z/2.
-    From the model, not fitted to any ride.
-
-    Returns
-    -------
-    (width, z) : tuple of float
-        s, and the zero z, rad/s.  Width 0 when the response has no such zero.
+    z is the right-half-plane zero of the wheel speed's response to the ankle torque
+    (:func:`~euc_sim.controllers.plant.speed_zero`), which bounds any speed tracking to
+    ω_B < z/2 (Skogestad and Postlethwaite, 2005, §5.6); the width puts the average's
+    half-power gain there.  Width 0 without such a zero.
     """
     z = speed_zero(params, motor)
     if not (math.isfinite(z) and z > 0):
@@ -140,24 +93,8 @@ def plan_band_limit(params: Params, motor=None) -> tuple[float, float]:
 
 def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEAN_SHARE,
                              phi_max: float | None = None) -> float:
-    """The largest |a|, m/s², whose steady lean |φ*(a)| (:func:`euc_sim.controllers.rider.trim`) stays
-    within ``lean_share``·φ_max, braking and accelerating alike (the smaller of the two).
-
-    Parameters
-    ----------
-    params : Params
-        The simulated rider and wheel.
-    motor : MotorPD, optional
-        The wheel's balance law (default: the paper's PD).
-    lean_share : float
-        In (0, 1).
-    phi_max : float, optional
-        rad (default the simulator's fall bound on φ).
-
-    Returns
-    -------
-    float
-        m/s², positive.
+    """The largest |a|, m/s², whose steady lean |φ*(a)| (:func:`~euc_sim.controllers.rider.trim`)
+    stays within ``lean_share``·φ_max (rad, default the fall bound), braking and accelerating alike.
     """
     from scipy.optimize import brentq
 
@@ -173,23 +110,8 @@ def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEA
 
 
 def resisting_acceleration(params: Params, effects: Mapping[str, float]) -> float:
-    """The speed-independent resistance as an acceleration the rider's lean must add, m/s².
-
-    ``rolling_resistance`` C_rr·g·cos α and ``road_slope`` g·|sin α|: in steady riding the
-    rider leans for a + these (aerodynamic drag, growing with speed, is not counted), so the
-    profile's acceleration limit is :func:`rider_acceleration_limit` minus this.
-
-    Parameters
-    ----------
-    params : Params
-        The simulated rider and wheel (g, m/s²).
-    effects : mapping
-        ``rolling_resistance`` C_rr (1) and ``road_slope`` α (rad), as CONTRACT's catalog; others ignored.
-
-    Returns
-    -------
-    float
-        m/s², non-negative.
+    """The speed-independent resistance the rider's lean must add, m/s²: C_rr·g·cos α + g·|sin α|
+    from ``effects`` ``rolling_resistance`` and ``road_slope`` (rad); drag is not counted.
     """
     alpha = float(effects.get("road_slope", 0.0))
     return params.g * (float(effects.get("rolling_resistance", 0.0)) * math.cos(alpha) + abs(math.sin(alpha)))

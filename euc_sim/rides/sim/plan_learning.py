@@ -1,20 +1,11 @@
 """The simulated rider's plan learned from his own run: the closed loop inverted up to the log's band.
 
-The LQR rider of :mod:`euc_sim.controllers.rider` does not ride his plan v_ref(t) as planned: his
-speed answers the plan's slow changes one to one but amplifies its quicker ones (the
-closed loop's gain from plan to speed, measured on real profiles, is 1.7–2.3 at 0.2–0.3 Hz
-and 3.3–3.4 at 0.5–0.7 Hz; with a sine of 0.3 m/s at 1 Hz he rides 1.9 m/s).  A real rider
-is not given his speed as a plan: the logged speed is the *output* of his riding.  So to
-ride the logged speed, the simulated rider needs the plan whose output is the log: the
-closed loop inverted (model-inverting iterative learning control).
-
-:func:`closed_loop_response` measures the loop's response H(f) from one run (Welch cross
-spectrum of plan and simulated speed, their 30 s trend removed), and
-:func:`inverse_correction` turns the run's speed error e(t) into the plan correction
-F⁻¹[E(f)/H(f)], up to the band :func:`filter_band` the log's own smoothing passes (above
-it the logged speed carries nothing of the rider's to follow) and only where plan and
-speed are coherent; the slow error (below the spectrum's resolution) is added as it is.
-:func:`euc_sim.rides.sim.tracking.simulate_profile` rides the corrected plan again.
+The rider's speed amplifies his plan's quicker changes (2–3× at 0.2–0.7 Hz), and the
+logged speed is the output of a real rider's riding, not his plan.  So the plan is
+learned (model-inverting iterative learning control): :func:`closed_loop_response`
+measures H(f) from one run, and :func:`inverse_correction` turns the speed error e(t)
+into the plan correction F⁻¹[E(f)/H(f)] up to :func:`filter_band`, where plan and speed
+are coherent.
 """
 
 from __future__ import annotations
@@ -41,21 +32,8 @@ SEGMENT_S = 51.2
 
 
 def filter_band(rate: float = 10.0, window: float = 1.5, polyorder: int = 2) -> float:
-    """Half-power frequency, Hz, of the Savitzky–Golay smoothing the log gets (:func:`euc_sim.rides.grids.signals.sg`).
-
-    Parameters
-    ----------
-    rate : float
-        Grid rate, Hz.
-    window : float
-        Filter window, s.
-    polyorder : int
-
-    Returns
-    -------
-    float
-        The lowest frequency where the filter's gain falls below 1/√2, Hz (0.72 Hz for
-        the ride defaults 10 Hz, 1.5 s, order 2).
+    """Half-power frequency, Hz, of the log's Savitzky–Golay smoothing (``rate`` Hz, ``window`` s;
+    0.72 Hz for the ride defaults).
     """
     n = window_samples(window, rate, polyorder)
     w, h = freqz(savgol_coeffs(n, polyorder), worN=8192, fs=rate)
@@ -68,23 +46,8 @@ def _detrend(x: np.ndarray, rate: float) -> np.ndarray:
 
 
 def closed_loop_response(t: np.ndarray, plan: np.ndarray, v_sim: np.ndarray):
-    """The rider's closed-loop response from plan to speed, measured on one run.
-
-    Parameters
-    ----------
-    t : array_like
-        s, uniform.
-    plan, v_sim : array_like
-        The plan ridden and the simulated speed on ``t``, m/s.
-
-    Returns
-    -------
-    f : numpy.ndarray
-        Hz.
-    H : numpy.ndarray of complex
-        Speed over plan (1).
-    coherence : numpy.ndarray
-        Squared coherence (0–1).
+    """The rider's closed-loop response from ``plan`` to ``v_sim`` (m/s, on uniform ``t`` s): f (Hz),
+    H (complex, speed over plan) and the squared coherence, by Welch spectra of the detrended series.
     """
     t = np.asarray(t, float)
     rate = 1.0 / float(np.median(np.diff(t)))
@@ -102,30 +65,11 @@ def closed_loop_response(t: np.ndarray, plan: np.ndarray, v_sim: np.ndarray):
 
 def inverse_correction(t: np.ndarray, plan: np.ndarray, v_sim: np.ndarray, error: np.ndarray,
                        band: float) -> np.ndarray:
-    """The plan correction that removes ``error`` through the inverted closed loop, m/s.
+    """The plan correction removing ``error`` (target − simulated, m/s) through the inverted loop, m/s.
 
-    Below the spectrum's resolution the error is added as it is (the loop follows slow
-    plans one to one); from there up to ``band`` Hz it is divided by the measured
-    response H(f) (:func:`closed_loop_response`) where plan and speed are coherent
-    (:data:`COHERENCE_MIN`), tapered to zero between ``band`` and 1.5·``band``.  The
-    error is mirrored before the FFT so that its ends do not wrap around.
-
-    Parameters
-    ----------
-    t : array_like
-        s, uniform.
-    plan, v_sim : array_like
-        The plan ridden and the simulated speed, m/s.
-    error : array_like
-        The speed error to remove (target − simulated), m/s; zero where it should not be
-        learned (the wheel standing).
-    band : float
-        Hz, positive.
-
-    Returns
-    -------
-    numpy.ndarray
-        m/s, the shape of ``t``.
+    Below the spectrum's resolution the error is added as it is; up to ``band`` Hz it is
+    divided by H(f) where coherent (:data:`COHERENCE_MIN`), tapered to zero at 1.5·``band``.
+    The error is mirrored before the FFT so its ends do not wrap.
     """
     if not (math.isfinite(band) and band > 0):
         raise InputError(f"band must be a positive number of Hz, got {band!r}")

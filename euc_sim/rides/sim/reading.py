@@ -1,14 +1,9 @@
 """The simulation read as a ride log is written: a reading at each of the log's own time stamps.
 
-A wheel app writes a reading every 0.2 s or so, at irregular stamps, and the ride's grid is
-interpolated between them (:func:`euc_sim.rides.grids.signals.resample`).  A simulated channel
-(sampled every step, 1 ms) compared with such a log must be read the same way, or its fast
-part reaches the comparison where the log's never does: sampled on the 10 Hz grid directly,
-a simulated rider's battery power carries up to 7 dB more in the fastest band (~2 Hz) than
-read at the log's stamps and interpolated as the log is (the linear interpolation between
-5 Hz readings alone passes 0.57 of a 2 Hz swing).  The rider fit
-(:mod:`euc_sim.rides.rider.rider_fit`) and the simulated ride (:mod:`euc_sim.rides.sim.simulate`)
-both read through :func:`stamp_readings` and :func:`read_as_logged`.
+A simulated channel (1 ms steps) compared with a log (a reading every ~0.2 s, interpolated
+onto the grid) must be read the same way, or its fast part reaches the comparison where
+the log's never does (up to 7 dB more in the ~2 Hz band for battery power).  The rider fit
+and the simulated ride both read through :func:`read_as_logged`.
 """
 
 from __future__ import annotations
@@ -24,25 +19,10 @@ READING_MEAN = 0.2
 
 def stamp_readings(t_sim: np.ndarray, y: np.ndarray, stamps: np.ndarray,
                    mean: float = READING_MEAN) -> np.ndarray:
-    """The readings of a uniformly sampled simulated channel at the log's stamps.
+    """The readings of a uniformly sampled channel ``y`` (at ``t_sim`` s) at the log's ``stamps`` (s).
 
-    Parameters
-    ----------
-    t_sim, y : array_like
-        The simulation's time, s (uniform step), and channel (any unit).
-    stamps : array_like
-        The log's time stamps, s, increasing.
-    mean : float
-        s: each reading is the mean of the samples over this long ending at its stamp (at
-        least one sample).
-
-    Returns
-    -------
-    numpy.ndarray
-        (len(stamps),) readings, the channel's unit.  A stamp within ``mean`` of the
-        simulation's start reads the first full mean, one within ``mean`` after its end the
-        last (a simulation run to the grid's end stops short of the log's last stamp); NaN
-        at a stamp further outside.
+    Each is the mean over ``mean`` s ending at its stamp.  A stamp within ``mean`` before the
+    start or after the end reads the first or last full mean; NaN further outside.
     """
     t_sim = np.asarray(t_sim, float)
     y = np.asarray(y, float)
@@ -60,21 +40,8 @@ def stamp_readings(t_sim: np.ndarray, y: np.ndarray, stamps: np.ndarray,
 
 
 def quantise(x: np.ndarray, quantum: float, rng: np.random.Generator) -> np.ndarray:
-    """Readings written in a log's steps (0.1° pitch, 0.1 A current), from an unknown zero.
-
-    Parameters
-    ----------
-    x : array_like
-        Readings (any unit).
-    quantum : float
-        The log's step, the readings' unit (:func:`euc_sim.rides.grids.rider_features.reading_step`).
-    rng : numpy.random.Generator
-        Draws the steps' zero, uniform over one step.
-
-    Returns
-    -------
-    numpy.ndarray
-        A new array: each reading rounded to the nearest step.
+    """Readings ``x`` rounded to the log's step ``quantum`` (same unit) from a zero drawn by ``rng``
+    uniformly over one step.
     """
     off = rng.uniform()
     return quantum * (np.round(np.asarray(x, float) / quantum + off) - off)
@@ -85,25 +52,10 @@ def read_as_logged(t_sim: np.ndarray, y: np.ndarray, stamps: np.ndarray, t_grid:
                    rng: np.random.Generator | None = None) -> np.ndarray:
     """A simulated channel read at the log's stamps and put on the ride's grid as the log is.
 
-    Parameters
-    ----------
-    t_sim, y, mean :
-        As :func:`stamp_readings`.
-    stamps : array_like
-        The log's time stamps, s (repeated stamps are read once).
-    t_grid : array_like
-        The ride's grid, s.
-    quantum : float, optional
-        The step the log writes this channel in (:func:`quantise`): the readings are
-        written in it too.
-    rng : numpy.random.Generator, optional
-        For the steps' zero (default seed 0).
-
-    Returns
-    -------
-    numpy.ndarray
-        (len(t_grid),) the channel on the grid, linearly interpolated between its readings;
-        NaN outside the readings' span (before the simulation starts or after it ends).
+    ``t_sim``, ``y``, ``mean`` as :func:`stamp_readings`; ``stamps`` the log's (repeats read
+    once); written in the log's step ``quantum`` where given (:func:`quantise`, zero from
+    ``rng``, default seed 0).  Returns the channel on ``t_grid`` (s), linearly interpolated
+    between readings, NaN outside their span.
     """
     t_grid = np.asarray(t_grid, float)
     st = np.unique(np.asarray(stamps, float))

@@ -1,33 +1,14 @@
 """The simulation of a ride as an ordered list of modelled steps (the ride JSON's ``simulation.steps``).
 
-The simulator rides the held-out log's speed profile once per step,
-each step adding one modelled piece to the one before it, so the held-out error
-after each step shows what that piece bought (locate, name, model, show the fit improve):
-
-``nominal``
-    the paper's PD motor law (600 / 40 N·m/rad), the default LQR rider, no effects,
-    the inertia-only balance (battery power = mechanical power, no loss);
-``measured_law``
-    the wheel's own balance law measured on the fit ride (the ride JSON's
-    ``controller``, :func:`euc_sim.controllers.firmware.firmware_motor`), the rider redesigned
-    for it; skipped with a ``why`` when the fit ride shows no law;
-``drivetrain``
-    the voltage-limited motor of the fit ride's drivetrain fit (back-EMF, resistive
-    drop, dead time, flux weakening: :func:`euc_sim.controllers.firmware.voltage_limit_settings`),
-    the accepted balance effects injected as physics and the augmented fit's
-    accepted losses (copper loss, idle drain) added to the battery power.
-
-A step is data (:class:`SimStep`: motor law, rider, effects, battery-power model);
-:data:`STEP_BUILDERS` makes each from the one before it and the fit ride's results
-(:class:`StepInputs`).  A new modelled piece is one more builder in that tuple, e.g. a
-rider calibrated on the log between ``measured_law`` and ``drivetrain``::
-
-    def calibrated_rider_step(prev, inp):
-        fit = fit_rider(inp.fit_log, ...)
-        return replace(prev, name="calibrated_rider", what="...", rider=fit.rider, notes=())
-
-:class:`LogChannels` maps the simulated state onto a log's channels (phase current,
-pitch, PWM) so each step is scored on every channel the held-out log carries.
+The held-out log's speed profile is ridden once per step, each adding one modelled piece
+to the one before, so the held-out error after each step shows what that piece bought:
+``nominal`` (the paper's PD, the default LQR rider, no effects, no loss),
+``measured_law`` (the wheel's balance law measured on the fit ride, the rider redesigned
+for it) and ``drivetrain`` (the voltage-limited motor, the accepted effects as physics,
+the augmented fit's losses in the battery power).  A step is data (:class:`SimStep`);
+:data:`STEP_BUILDERS` makes each from the last one that ran and :class:`StepInputs`; a new
+piece is one more builder.  :class:`LogChannels` maps the simulated state onto the log's
+phase current, pitch and PWM.
 """
 
 from __future__ import annotations
@@ -66,19 +47,7 @@ _VOLTAGE_EXTRAS = ("dead_time", "flux_weakening", "fw_speed")
 
 
 def motor_from_law(law: Mapping[str, float]) -> MotorPD:
-    """The motor a step's JSON ``motor`` describes (the inverse of :meth:`SimStep.describe`'s law).
-
-    Parameters
-    ----------
-    law : mapping
-        ``K_p`` (N·m/rad), ``K_d`` (N·m·s/rad), ``torque_limit`` (N·m), and where the step
-        had them ``tiltback_speed``, ``tiltback_gain``, ``voltage``, ``back_emf``, ``drop``,
-        ``dead_time``, ``flux_weakening``, ``fw_speed`` (:class:`euc_sim.controllers.motor.MotorPD`).
-
-    Returns
-    -------
-    MotorPD
-    """
+    """The motor a step's JSON ``motor`` describes (the inverse of :meth:`SimStep.describe`'s law)."""
     extra = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop") + _VOLTAGE_EXTRAS
     return MotorPD(Kp=law["K_p"], Kd=law["K_d"], torque_limit=law["torque_limit"],
                    **{k: law[k] for k in extra if k in law})
@@ -90,15 +59,12 @@ class SimStep:
 
     Attributes
     ----------
-    name : str
-        ``nominal``, ``measured_law``, ``drivetrain``, ...
-    what : str
-        What this step adds, for people (one line).
+    name, what : str
+        ``nominal``, ``measured_law``, ...; what the step adds, one line.
     motor : MotorPD
-        The wheel's balance law (``MotorPD()``: the paper's PD).
+        The wheel's balance law.
     rider : controllers.rider.Rider or None
-        The rider; None: the LQR rider designed for ``motor``
-        (:func:`euc_sim.simulation.engine.default_rider`).
+        None: the LQR rider designed for ``motor``.
     effects : mapping
         CONTRACT effect values injected as physics.
     power : mapping
@@ -106,15 +72,13 @@ class SimStep:
     notes : tuple of str
         What the step could not carry, and why.
     why : str or None
-        Not None: the step is skipped (its reason); it is listed, not run.
+        Not None: the step is skipped (listed, not run).
     plan_window : float or None
-        s: the rider's plan is the logged speed smoothed over this window
-        (:func:`euc_sim.rides.grids.profile.rider_plan`; the calibrated rider's); None: the profile.
+        The rider's plan is the logged speed smoothed over this many s; None: the profile.
     rider_fit : mapping
-        The values the rider was fitted with, where he was (``delay`` s, ``bandwidth`` 1,
-        ``noise_std`` N·m: :func:`euc_sim.rides.rider.rider_params.rider_from` rebuilds him); empty otherwise.
+        The fitted rider's values (``delay`` s, ``bandwidth``, ``noise_std`` N·m), where fitted.
     physics : tuple of str
-        Names of the ride's accepted parameters (the JSON's ``parameters``) this step simulates.
+        The ride's accepted parameters this step simulates.
     """
 
     name: str
@@ -158,21 +122,18 @@ class StepInputs:
     Attributes
     ----------
     params : Params
-        The simulator's parameters for the ride (:func:`euc_sim.rides.sim.simulate.ride_params`).
     nominal, augmented : mapping
-        The inertia-only and augmented balance fits' estimates (``CrossRide``).
+        The inertia-only and augmented balance fits' estimates.
     accepted : sequence of str
         Accepted balance effects.
     parameters : sequence of Parameter
-        The ride's one parameter set (:func:`euc_sim.rides.balance.parameters.parameter_list`).
+        The ride's one parameter set.
     law : ControllerFit or None
-        The wheel's balance law (:func:`euc_sim.rides.law.controller_report.controller_fit`).
     drivetrain : mapping of str -> Term
-        The drivetrain's terms (:func:`euc_sim.rides.balance.parameters.drivetrain_view`).
     voltage : float or None
-        The battery's full-charge voltage, V (the envelope's, else the fitted open-circuit voltage).
+        The battery's full-charge voltage, V.
     fit_log : path or None
-        The fit ride's log (for steps fitted on it, e.g. a calibrated rider).
+        The fit ride's log (for steps fitted on it).
     """
 
     params: Params
@@ -271,17 +232,8 @@ STEP_BUILDERS: tuple[Callable[[SimStep | None, StepInputs], SimStep], ...] = (
 
 
 def build_steps(inp: StepInputs, builders: Sequence[Callable] = STEP_BUILDERS) -> list[SimStep]:
-    """The ordered steps; a skipped step (``why``) is listed and the next builds on the last run one.
-
-    Parameters
-    ----------
-    inp : StepInputs
-    builders : sequence of callable
-        ``builder(previous_step_that_ran, inp) -> SimStep``; the first gets None.
-
-    Returns
-    -------
-    list of SimStep
+    """The ordered steps: ``builder(last_step_that_ran, inp)`` each (the first gets None); a
+    skipped step is listed and the next builds on the last one run.
     """
     steps, last = [], None
     for make in builders:
@@ -298,23 +250,11 @@ SIM_EFFECTS = tuple(e.name for e in RECORDS.having("balance") if e.force is not 
 
 
 def effects_to_inject(estimates: Mapping[str, float], accepted: Sequence[str]) -> tuple[dict, list]:
-    """The accepted balance effects as ``simulate(effects=...)`` values.
+    """The accepted balance effects as ``simulate(effects=...)`` values, in the catalog's unit.
 
-    Parameters
-    ----------
-    estimates : mapping
-        Fitted values (units of :data:`euc_sim.rides.balance.design.CANDIDATES`).
-    accepted : sequence of str
-        Accepted effect names.
-
-    Returns
-    -------
-    effects : dict
-        Those with a generalised force, in the catalog's unit: ``rolling_resistance``
-        C_rr (1), ``aerodynamic_drag`` k (kg/m), ``road_slope`` α (rad, from sin α).
-    notes : list of str
-        Accepted effects that are not physics of the simulator and how they are
-        used instead.
+    Returns the effects with a generalised force (C_rr, k kg/m, slope α rad from sin α) and
+    notes on the accepted ones that are not simulator physics (electrical terms go to the
+    battery power).
     """
     eff, notes = {}, []
     for name in accepted:
@@ -340,15 +280,13 @@ class LogChannels:
     Attributes
     ----------
     k_t : float or None
-        Torque constant, N·m/A: simulated phase current M_d/k_t.
+        Torque constant, N·m/A: phase current M_d/k_t.
     pwm : dict or None
-        Duty model coefficients (:func:`euc_sim.rides.drive.pwm.pwm_columns`: ``K_v``, ``r_F``,
-        ``dead_time``, ``flux_weakening``, ``v_fw``) from the fit ride's drivetrain.
+        Duty model coefficients (:func:`~euc_sim.rides.drive.pwm.pwm_columns`).
     pitch_sign, pitch_zero : float or None
-        The log's pitch is ``tilt = s·γ + tilt₀`` (rad; the fit ride's measured law);
-        None: not known (the pitch is then compared about each series' mean, sign +1).
+        ``tilt = s·γ + tilt₀`` (rad) from the measured law; None: unknown.
     balance_heldout : float or None
-        The balance fit's held-out battery-power error, W: a step's ratio is its error over it.
+        The balance fit's held-out battery-power error, W.
     """
 
     k_t: float | None = None
@@ -365,17 +303,7 @@ def _estimates(terms: Mapping) -> dict[str, float]:
 
 
 def log_channels(drivetrain: Mapping | None = None, law=None, balance_heldout: float | None = None) -> LogChannels:
-    """:class:`LogChannels` from the fit ride's drivetrain terms and balance law.
-
-    Parameters
-    ----------
-    drivetrain : mapping of str -> Term, optional
-        :func:`euc_sim.rides.balance.parameters.drivetrain_view`.
-    law : ControllerFit, optional
-        :func:`euc_sim.rides.law.controller_report.controller_fit`.
-    balance_heldout : float, optional
-        The balance fit's held-out error, W.
-    """
+    """:class:`LogChannels` from the fit ride's drivetrain terms, balance law and held-out error (W)."""
     est = _estimates(drivetrain)
     pwm = None
     if "back_emf_per_speed" in est and "resistive_drop" in est:
@@ -395,22 +323,10 @@ def log_channels(drivetrain: Mapping | None = None, law=None, balance_heldout: f
 
 def simulated_pwm(coef: Mapping[str, float], v: np.ndarray, F: np.ndarray,
                   V: np.ndarray) -> np.ndarray:
-    """Duty, %, the drivetrain's model gives for a speed and wheel force at a battery voltage.
+    """Duty, %: 100·(K_v·v + r_F·F + c_dt·V·sign F − c_fw·v·min(v, v_fw))/V.
 
-    Parameters
-    ----------
-    coef : mapping
-        :func:`euc_sim.rides.drive.pwm.pwm_columns` coefficients (``K_v``, ``r_F``, optional extras).
-    v : array, m/s
-    F : array, N
-        Wheel force M_d/R.
-    V : array, V
-        Battery voltage (the held-out log's).
-
-    Returns
-    -------
-    numpy.ndarray
-        100·(K_v·v + r_F·F + c_dt·V·sign F − c_fw·v·min(v, v_fw))/V.
+    ``coef`` of :func:`~euc_sim.rides.drive.pwm.pwm_columns`, ``v`` m/s, ``F`` = M_d/R N,
+    ``V`` battery voltage V.
     """
     names = [n for n in BASE + tuple(EXTRA) if n in coef]
     V = np.asarray(V, float)

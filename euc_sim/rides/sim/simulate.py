@@ -1,30 +1,16 @@
 """The closed-loop simulator driven along a real ride's speed profile.
 
-A ride log gives the wheel speed v(t) and the battery power P(t), nothing about
-the rider.  Here the simulator's rider (:func:`euc_sim.simulation.engine.simulate`,
-maneuver ``profile``) rides the logged speed profile
-(:func:`euc_sim.rides.grids.profile.speed_profile`); the simulation then *predicts* the motor
-torque M_d the ride needed and, through the drivetrain model of
-:mod:`euc_sim.rides.balance.design`, the battery power:
+The simulator's rider rides the logged speed profile
+(:func:`~euc_sim.rides.grids.profile.speed_profile`) once per modelled step
+(:mod:`euc_sim.rides.sim.sim_steps`), predicting the motor torque M_d and the battery power
 
-    P_mech = M_d·(ẋ/R − γ̇)                    (motor torque × wheel speed relative to the body)
-    P̂ = P₀ + P_mech + k_cu·(M_d/R)²          (both regimes: losses added, no efficiency)
+    P̂ = P₀ + M_d·(ẋ/R − γ̇) + k_cu·(M_d/R)²
 
-with the accepted k_cu, P₀ fitted by :func:`euc_sim.rides.balance.crossride.cross_ride` (on the fit ride: on
-a compare ride the prediction is out of sample).  One simulation is run per modelled
-step (:mod:`euc_sim.rides.sim.sim_steps`: ``nominal``, ``measured_law``, ``drivetrain``, ...),
-each adding one piece to the one before it.
-
-Every step is compared with the log on the log's 10 Hz grid after the *same*
-Savitzky–Golay smoothing the log gets (:meth:`RideSignals.filt`), so filtering
-does not count as model error: battery power, motor torque and speed always, and
-phase current (M_d/k_t), body pitch (``tilt = s·γ + tilt₀``) and PWM duty
-(:func:`euc_sim.rides.sim.sim_steps.simulated_pwm`) where the log has them.  The
-``nominal`` and ``augmented`` errors of CONTRACT are the first and the last step that ran.
-
-When the rider falls (:class:`~euc_sim.simulation.errors.FallError`), that run stops
-at the fall, which is reported once (``falls``: time and cause); the profile is never
-ridden again after a fall, and every step is scored on the rows all of them rode.
+with the accepted k_cu, P₀ of :func:`~euc_sim.rides.balance.crossride.cross_ride`.  Each step
+is compared with the log on its grid after the same Savitzky–Golay smoothing the log gets:
+battery power, torque and speed, and phase current (M_d/k_t), pitch (s·γ + tilt₀) and PWM
+where logged.  A fall ends its run; every step is scored on the rows all of them rode.
+See docs/ride_simulation.md.
 """
 
 from __future__ import annotations
@@ -65,11 +51,7 @@ __all__ = ["SIM_EFFECTS", "simulation_obstacle", "ride_params", "effects_to_inje
 LOG_COLUMNS = {"I": "phase_current", "pitch": "tilt", "pwm": "pwm"}
 
 def simulation_obstacle(sig: RideSignals, max_gap: float = GAP_POLICY.simulate) -> str | None:
-    """Why a ride cannot be simulated as one profile, or None.
-
-    The simulation rides the whole log as one continuous profile, every gap
-    bridged; a gap of hours would be hours of 1 kHz simulation (and memory).
-    """
+    """Why a ride cannot be simulated as one profile (a gap over ``max_gap`` s), or None."""
     t = sig.raw["t"].to_numpy(float)
     gaps = np.diff(t)
     long = np.flatnonzero(gaps > max_gap)
@@ -82,16 +64,8 @@ def simulation_obstacle(sig: RideSignals, max_gap: float = GAP_POLICY.simulate) 
 
 
 def ride_params(assumptions: RideAssumptions, base: Params = TABLE3) -> Params:
-    """Simulator parameters matching a ride's assumed radius and total mass.
-
-    The wheel radius is ``assumptions.R``; the rider's mass m is set so that
-    m + m0 + mw equals ``assumptions.total_mass`` (the EUC's own m0, mw from
-    ``base``).  Everything else is ``base`` (Table 3).
-
-    Raises
-    ------
-    ValueError
-        when the total mass does not exceed the EUC's own mass m0 + mw.
+    """Simulator parameters with the ride's radius R and a rider mass m making m + m0 + mw the
+    assumed total mass (m0, mw and the rest from ``base``); InputError when m ≤ 0.
     """
     m = assumptions.total_mass - base.m0 - base.mw
     if m <= 0:
@@ -102,29 +76,10 @@ def ride_params(assumptions: RideAssumptions, base: Params = TABLE3) -> Params:
 
 def battery_power(M_d: np.ndarray, x_dot: np.ndarray, gamma_dot: np.ndarray, R: float,
                   copper: float = 0.0, idle: float = 0.0) -> np.ndarray:
-    """Battery power, W, from the motor torque through :mod:`euc_sim.rides.balance.design`'s energy balance.
+    """Battery power, W: P₀ + M_d·(ẋ/R − γ̇) + k_cu·(M_d/R)² in both regimes.
 
-    Parameters
-    ----------
-    M_d : array_like
-        Motor torque, wheel on body, N·m (CONTRACT sign).
-    x_dot : array_like
-        Wheel-centre speed, m/s.
-    gamma_dot : array_like
-        Body pitch rate, rad/s.
-    R : float
-        Wheel radius, m.
-    copper : float
-        Copper-loss coefficient k_cu, W/N² (the balance's ``copper_loss``).
-    idle : float
-        Constant electrical drain P₀, W.
-
-    Returns
-    -------
-    numpy.ndarray
-        P₀ + P_mech + k_cu·(M_d/R)² in both regimes, P_mech = M_d·(ẋ/R − γ̇), W
-        (the copper loss of the motor's whole force M_d/R; the balance fit reads
-        it from the accelerating force m_eq·a, the part it can separate).
+    ``M_d`` N·m (wheel on body, CONTRACT sign), ``x_dot`` m/s, ``gamma_dot`` rad/s, ``R`` m,
+    ``copper`` k_cu W/N², ``idle`` P₀ W.
     """
     M = np.asarray(M_d, float)
     P_mech = M * (np.asarray(x_dot, float) / R - np.asarray(gamma_dot, float))
@@ -138,33 +93,22 @@ class RideSimulation:
     Attributes
     ----------
     label : str
-        The simulated ride.
     table : pandas.DataFrame
-        ``t`` s, ``scored`` (bool: the rows the errors are measured on), and per
-        source (``log`` and each step that ran, e.g. ``nominal``): ``v_<src>`` m/s,
-        ``M_<src>`` N·m (the log's inferred, see ``errors["M_log_method"]``),
-        ``P_<src>`` W, and where the log has them ``I_<src>`` A (phase current),
-        ``pitch_<src>`` rad (in the log's convention), ``pwm_<src>`` %.
+        ``t`` s, ``scored`` (bool), and per source (``log`` and each step that ran):
+        ``v_<src>`` m/s, ``M_<src>`` N·m, ``P_<src>`` W and where logged ``I_<src>`` A,
+        ``pitch_<src>`` rad (the log's convention), ``pwm_<src>`` %.
     errors : dict
-        RMS over the scored rows per step that ran ``{name: {"P_W", "M_Nm", "v_mps",
-        "I_phase_A", "pitch_rad", "pwm_pct"}}`` (channels the log lacks omitted);
-        ``nominal`` and ``augmented`` are the first and last step that ran (CONTRACT);
-        the pitch on the riding rows only (``pitch_scored_rows`` in the JSON);
-        ``ratio_P`` = augmented / nominal battery-power error.
-    effects : dict
-        Effects injected into the last step.
-    parameters : dict
-        Battery-power model per step ``{name: {copper_loss, drivetrain_idle_loss}}``.
+        RMS over the scored rows per step ``{name: {"P_W", "M_Nm", "v_mps", "I_phase_A",
+        "pitch_rad", "pwm_pct"}}``; ``nominal``/``augmented`` the first and last step
+        (CONTRACT); ``ratio_P`` their battery-power ratio.
+    effects, parameters : dict
+        Effects injected into the last step; each step's power model.
     falls : list of dict
-        ``{"t": s, "cause": str, "run": step}`` of each step that ended in a fall
-        (CONTRACT's ``simulation.falls``).
+        ``{"t", "cause", "run"}`` per fall (CONTRACT ``simulation.falls``).
     localisation : dict
-        :func:`euc_sim.diagnosis.localise.localise` on the last step's power error (W):
-        windows (s), share, correlations.
+        :func:`euc_sim.diagnosis.localise.localise` of the last step's power error.
     steps : list of dict
-        CONTRACT's ``simulation.steps``: each step's description
-        (:meth:`SimStep.describe`), ``heldout_rmse``, ``ratio_to_balance`` (battery-power
-        error over the balance fit's held-out error) and ``fell``.
+        CONTRACT ``simulation.steps``.
     notes : tuple of str
     """
 
@@ -204,8 +148,7 @@ def _rms(x: np.ndarray) -> float:
 
 @dataclass(frozen=True)
 class _StepRun:
-    """One step ridden and read onto the log's grid (:func:`_ride_step`): what
-    :func:`simulate_ride` keeps of it (the 1 kHz frame is dropped once read)."""
+    """One step ridden and read onto the log's grid (the 1 kHz frame dropped)."""
 
     falls: tuple
     notes: tuple
@@ -230,12 +173,8 @@ class _StepJob:
 
 
 def _ride_step(job: _StepJob, cancel=None, pool=None) -> _StepRun:
-    """:func:`simulate_profile` along the step's plan (its stretches on ``pool`` when given),
-    then :func:`_on_grid`.
-
-    Depends on nothing but ``job``: its reading draws come from its own generator
-    (``default_rng([seed, index])``), so steps run in any order, or side by side, give the
-    results they give in order.
+    """:func:`simulate_profile` along the step's plan, then :func:`_on_grid`; its draws come from
+    ``default_rng([seed, index])``, so steps give the same results in any order.
     """
     res = simulate_profile(*job.profile, cancel=cancel, pool=pool)
     cols, raw = _on_grid(res.frame, job.sig, job.step, job.R, job.channels, job.logged, job.stamps,
@@ -254,18 +193,11 @@ def _prefixed(progress, name: str):
 
 def _run_steps(jobs: Sequence[_StepJob], params: Params, workers: int,
                progress: Callable[[str], None] | None = None) -> list[_StepRun]:
-    """:func:`_ride_step` on each job, ridden on ``workers`` threads when more than 1.
+    """:func:`_ride_step` on each job, the rides (stretches between stops) queued for ``workers``
+    threads when more than 1 (the native loop releases the GIL).
 
-    The native closed loop (:mod:`euc_sim.simulation.native`) steps in C without the GIL,
-    so rides run side by side on threads.  With ``workers`` > 1 every step has a thread of
-    its own that only orders its work, and the rides themselves (each stretch between the
-    log's stops, :func:`simulate_profile`'s ``pool``) queue for ``workers`` riding threads:
-    three steps on two threads keep both busy to the end, not the third alone.  The
-    callback is compiled and the default rider designed here first, once, not by racing
-    threads.  BLAS is held to one thread either way (the steps' linear algebra is small; a
-    BLAS pool would only spin against the rides), so one thread and several give the same
-    numbers.  An interruption ends the running rides within a rider block
-    (:func:`euc_sim.rides.sim.pool.run_threads`).
+    The callback is compiled and the default rider designed here once; BLAS is held to one
+    thread, so the numbers do not depend on ``workers``.
     """
     say = progress or (lambda msg: None)
     riders = None
@@ -284,11 +216,7 @@ def _run_steps(jobs: Sequence[_StepJob], params: Params, workers: int,
 
 
 def _pitch_rows(table: pd.DataFrame, ok: np.ndarray) -> np.ndarray:
-    """Scored rows where the logged pitch is the wheel's riding pitch.
-
-    As :func:`euc_sim.rides.grids.law_signals.law_rows`: speed above ``V_MIN`` and pitch within
-    ``MAX_PITCH`` of its riding median (a wheel standing, lying or carried is not balancing).
-    """
+    """Scored rows where the logged pitch is the riding pitch (as :func:`~euc_sim.rides.grids.law_signals.law_rows`)."""
     if "pitch_log" not in table:
         return ok
     pitch = table["pitch_log"].to_numpy()
@@ -347,15 +275,10 @@ def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
              fell: bool = False) -> tuple[dict, dict]:
     """A run's channels read as the log is written and put on its grid, smoothed like the log.
 
-    Each channel is read at the log's own ``stamps`` (s), written in the log's steps where
-    ``quanta`` gives them (``I`` A, ``pitch`` rad; the steps' zero drawn from ``rng``) and
-    interpolated onto the grid as the log is (:func:`euc_sim.rides.sim.reading.read_as_logged`).
-    Speed, torque and battery power always; phase current (M_d/k_t), pitch (s·γ + tilt₀)
-    and duty where the log has them and ``channels`` can map them.  A run that ended in a fall (``fell``) is
-    kept up to one smoothing window before the fall (the falling itself is not riding)
-    and is NaN after it.  Also returns the battery power read but not smoothed, W (for
-    its bands, :func:`euc_sim.rides.grids.rider_features.band_ratio_db`), and so phase current and
-    pitch where they are simulated: ``{column: grid array}``.
+    Each channel is read at the log's ``stamps`` (s), in the log's steps ``quanta``
+    (:func:`euc_sim.rides.sim.reading.read_as_logged`).  A run that ``fell`` is kept up to one
+    window before the fall, NaN after.  Returns the smoothed columns and the unsmoothed reads
+    (battery power, phase current, pitch) for the band errors.
     """
     t = sig.frame["t"].to_numpy()
     name = step.name
@@ -396,8 +319,9 @@ def _on_grid(df: pd.DataFrame | None, sig: RideSignals, step: SimStep, R: float,
 
 def _align_pitch(table: pd.DataFrame, ok: np.ndarray,
                  names: Sequence[str]) -> tuple[pd.DataFrame, str | None]:
-    """Without the log's pitch convention, each simulated pitch moved to the log's mean (scored rows):
-    a new table (``table`` itself unchanged) and the note saying so (None without a logged pitch)."""
+    """Without the log's pitch convention, each simulated pitch moved to the log's riding mean;
+    a new table and the note saying so (None without a logged pitch).
+    """
     if "pitch_log" not in table:
         return table, None
     ok = _pitch_rows(table, ok)
@@ -436,9 +360,7 @@ def _band_errors(sig: RideSignals, reads: Mapping[str, Mapping[str, np.ndarray]]
 
 def _step_entries(steps: Sequence[SimStep], errors: dict, falls: list,
                   balance: float | None, bands: Mapping[str, dict] | None = None) -> list[dict]:
-    """CONTRACT's ``simulation.steps``: description, held-out errors, ratio to the balance fit,
-    and the held-out bands of battery power, phase current and pitch (``heldout_bands``,
-    :func:`_band_errors`)."""
+    """CONTRACT's ``simulation.steps``: description, held-out errors and bands, ratio to the balance fit."""
     out = []
     for step in steps:
         entry = step.describe()
@@ -466,41 +388,24 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
     Parameters
     ----------
     sig : RideSignals
-        The ride (:func:`euc_sim.rides.grids.signals.ride_signals`).
     steps : sequence of SimStep
-        The modelled steps in order (:func:`euc_sim.rides.sim.sim_steps.build_steps`); those
-        with a ``why`` are listed, not run.  At least one must run.
+        In order (:func:`~euc_sim.rides.sim.sim_steps.build_steps`); those with a ``why`` are
+        listed, not run.  At least one must run (else ValueError).
     log : Ride
-        The same ride, for :func:`euc_sim.rides.grids.profile.speed_profile`.
+        The same ride, for the speed profile.
     scored : array of bool, optional
-        Grid rows the errors are measured on (default: every row where the
-        log's smoothed signals are defined).
+        Grid rows the errors are measured on (default: where the log's signals are defined).
     label : str, optional
     seed, dt, track_iterations :
         See :func:`simulate_profile`.
-    workers : int
-        Threads for the steps (the results do not depend on it: ``tests/rides/
-        test_step_threads.py``); an interruption ends them within a rider block.
-    channels : LogChannels
-        How the simulated state maps onto the log's phase current, pitch and PWM
-        (:func:`euc_sim.rides.sim.sim_steps.log_channels`), and the balance fit's held-out
-        error the steps are compared with.
-    progress : callable, optional
-        Called with a short line as each run starts and ends (from the steps'
-        threads too); a progress bar over the ride's seconds is then shown on stderr too.
     window_smooth, window_min : float
-        s: ``smooth`` and ``min_len`` of :func:`euc_sim.diagnosis.localise.localise`
-        (longer than its 1 s / 0.5 s defaults: a ride is minutes long and
-        sampled at 5 Hz).
-
-    Returns
-    -------
-    RideSimulation
-
-    Raises
-    ------
-    ValueError
-        when no step runs.
+        ``smooth`` and ``min_len`` of :func:`~euc_sim.diagnosis.localise.localise`, s.
+    workers : int
+        Threads for the steps; the results do not depend on it.
+    channels : LogChannels
+        How the simulated state maps onto the log's channels, and the balance fit's held-out error.
+    progress : callable, optional
+        Called with a short line as each run starts and ends.
     """
     run = [s for s in steps if s.why is None]
     if not run:

@@ -1,14 +1,10 @@
 """The simulated rider riding a logged speed profile: acceleration limits, plan corrections, the log's grid.
 
-:func:`simulate_profile` drives the closed-loop simulator's rider
-(:func:`euc_sim.simulation.engine.simulate`, maneuver ``profile``) along a ride's speed,
-with a progress bar over the ride's seconds, its acceleration first limited to what the
-simulated rider can ride (:func:`euc_sim.rides.sim.envelope.rider_acceleration_limit`); when he falls, the run stops there and the
-fall is reported once (the profile is never ridden again after a fall); otherwise his
-plan is corrected so that the simulated speed tracks the logged one.  Where the log
-stands still (:mod:`euc_sim.rides.grids.stops`) the rider stands, foot down, and rides each
-stretch between stops from rest.  :func:`to_grid`
-brings the 1 kHz simulation onto the log's grid.
+:func:`simulate_profile` drives the closed-loop rider along a ride's speed, within his
+acceleration envelope (:mod:`euc_sim.rides.sim.envelope`), standing foot down at the
+log's stops (:mod:`euc_sim.rides.grids.stops`), stopping at a fall, and otherwise
+correcting his plan until his speed tracks the logged one.  :func:`to_grid` brings the
+1 kHz simulation onto the log's grid.
 """
 
 from __future__ import annotations
@@ -37,19 +33,8 @@ from euc_sim.simulation.maneuvers import Maneuver
 __all__ = ["to_grid", "ProfileRun", "simulate_profile", "RideCancelled"]
 
 def to_grid(t_fine: np.ndarray, y: np.ndarray, t_grid: np.ndarray) -> np.ndarray:
-    """Mean of a fine signal over each grid interval centred on ``t_grid``.
-
-    Parameters
-    ----------
-    t_fine, y : array_like
-        Uniformly sampled fine signal (s, any unit).
-    t_grid : array_like
-        Uniform grid, s, coarser than ``t_fine``.
-
-    Returns
-    -------
-    numpy.ndarray
-        Same unit as ``y``; NaN where the interval holds no fine sample.
+    """Mean of the uniformly sampled ``y`` (at ``t_fine``, s) over each interval of the coarser
+    uniform grid ``t_grid`` (s) centred on its points; NaN where an interval holds no sample.
     """
     t_fine = np.asarray(t_fine, float)
     y = np.asarray(y, float)
@@ -71,12 +56,10 @@ class ProfileRun:
     Attributes
     ----------
     frame : pandas.DataFrame or None
-        :func:`euc_sim.simulation.engine.simulate`'s output (1/dt Hz), up to the fall
-        when the rider fell; None when he fell before the first step.  At the log's
-        stops, rows of the wheel at rest (:func:`euc_sim.rides.grids.stops.rest_rows`).
+        The simulator's output (1/dt Hz) up to the fall, rest rows at the stops; None when
+        the rider fell before the first step.
     falls : tuple of dict
-        ``{"t": s, "cause": str}`` of the fall that ended the run (at most one: the
-        profile is never ridden again after a fall).
+        ``{"t": s, "cause": str}`` of the fall that ended the run (at most one).
     notes : tuple of str
         The fall and the plan corrections, in order.
     """
@@ -110,12 +93,10 @@ class _RideClock:
 
 
 class _Stretches:
-    """The rides of a run's stretches between stops: each ridden when asked for (``pool`` None),
-    or all submitted at once to ``pool`` (threads) and collected in order.
-
-    Stretch i is ridden from rest with its own seed, so it is the same ride either way.
-    :meth:`abandon` (after a fall, the later stretches are not ridden) cancels those not
-    started and ends those riding at their next rider block."""
+    """The rides of a run's stretches between stops, each from rest with its own seed: ridden
+    when asked for, or all submitted to ``pool`` and collected in order (the same rides).
+    :meth:`abandon` (after a fall) cancels those not started and ends those riding.
+    """
 
     def __init__(self, t, v_plan, segments, params, effects, seed, dt, clock, motor, rider, pool):
         self.quit = threading.Event()
@@ -150,17 +131,14 @@ class _Stretches:
 
 def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=None, rider=None, stops=(),
            pool=None):
-    """One run along the plan v_plan; its speed on the profile grid, m/s, and RMS error.
+    """One run along the plan ``v_plan``; its frame, its speed on the profile grid (m/s) and
+    its RMS error to ``v_target``.
 
-    ``motor`` (default the paper's PD) and ``rider`` (default the LQR rider designed for
-    that motor, :func:`euc_sim.simulation.engine.default_rider`).  With ``stops``
-    (:func:`euc_sim.rides.grids.stops.find_stops`), each stretch between them is ridden from rest
-    on its own (a fresh rider: his memory cleared; stretch i > 0 draws its motor noise
-    from seed (``seed``, i)) and the wheel stands, foot down, through each stop
-    (:func:`euc_sim.rides.grids.stops.rest_rows`); the frame's ``attrs["step_off"]`` is the
-    largest |ẋ| at which a stretch ended at a stop, m/s.  A fall in a stretch raises
-    :class:`FallError` at the ride's time with the ride up to it as ``trajectory``.  With
-    ``pool`` (a thread pool), the stretches ride side by side (:class:`_Stretches`)."""
+    With ``stops``, each stretch between them is ridden from rest by a fresh rider (stretch
+    i > 0 seeded from (``seed``, i)) and the wheel stands through each stop;
+    ``attrs["step_off"]`` is the largest |ẋ| (m/s) at which a stretch ended at a stop.  A
+    fall raises :class:`FallError` at the ride's time with the ride up to it as ``trajectory``.
+    """
     segments = moving_segments(t.size, list(stops)) if stops else [(0, t.size - 1)]
     pieces, x_end, t_end, step_off, attrs = [], 0.0, None, 0.0, {}
     rest_pose = _rest_pose(params, motor) if stops else (0.0, 0.0)
@@ -208,7 +186,7 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
 
 
 def _ride(t, v_plan, params, effects, seed, dt, clock, motor, rider) -> pd.DataFrame:
-    """:func:`euc_sim.simulation.engine.simulate` along the plan (t from 0, s; m/s) from its trim."""
+    """:func:`~euc_sim.simulation.engine.simulate` along the plan (t from 0, s; m/s) from its trim."""
     man = Maneuver("profile", float(v_plan[0]), (), (tuple(t.tolist()), tuple(v_plan.tolist())))
     df = simulate(man, float(t[-1]), params=params, motor=motor,
                   rider=rider if rider is not None else default_rider(params, motor), seed=seed,
@@ -239,11 +217,9 @@ def _correct_plan(t, target, plan, run, params, effects, seed, dt, iterations: i
                   notes: list, say, clock_of, motor=None, rider=None, stops=(), pool=None) -> pd.DataFrame:
     """Iterative learning: the plan corrected through the inverted closed loop, ridden again.
 
-    Each correction is :func:`euc_sim.rides.sim.plan_learning.inverse_correction` of the speed
-    error on the riding rows (|target| > ``V_MIN``) up to ``band`` Hz.  A corrected run is kept
-    when it rides closer to ``target`` on those rows; one that falls is discarded (the notes
-    say so) and the last kept run stands.  Returns the frame of the run kept; appends to
-    ``notes``.
+    Each correction is :func:`~euc_sim.rides.sim.plan_learning.inverse_correction` of the speed
+    error on the riding rows (|target| > ``V_MIN``) up to ``band`` Hz; a run that rides closer
+    is kept, one that falls is discarded.  Returns the kept run's frame; appends to ``notes``.
     """
     df, v_sim, _ = run
     riding = np.abs(target) > V_MIN
@@ -283,85 +259,44 @@ def simulate_profile(t: np.ndarray, v: np.ndarray, params: Params, effects: Mapp
                      stops: Sequence[tuple[int, int]] | None = None, cancel=None, pool=None) -> ProfileRun:
     """Ride the speed profile (t, v) in closed loop (MuJoCo); stop where the rider falls.
 
-    The simulated rider does not ride his plan as planned: a resisting force (drag,
-    rolling resistance, a climb) makes him lag it, and his closed loop amplifies the
-    plan's quicker changes (2–3× at 0.2–0.7 Hz, :mod:`euc_sim.rides.sim.plan_learning`).  The
-    logged speed is what a real rider rode, not what he planned, so after the first run
-    the plan is learned (iterative learning): the speed error on the riding rows is passed
-    through the inverted closed loop measured on that run, up to ``learn_band`` Hz
-    (:func:`euc_sim.rides.sim.plan_learning.inverse_correction`), added to the plan, and the
-    ride is run again, ``track_iterations`` times.  The first run rides the profile within
-    the rider's envelope (``lean_share``); the learned plans aim at the profile as logged,
-    and a learned run that falls is discarded.  The run closest to the profile while
-    riding is kept, and the notes say what each correction did.
-
-    When the rider falls, the run ends there: its frame stops at the fall, the fall's
-    time and cause are reported once (``falls``), and the profile is not ridden again
-    (no correction either).
+    The first run rides the profile limited to the rider's envelope and band; the plan is
+    then learned ``track_iterations`` times (:func:`_correct_plan`) aiming at the profile as
+    logged, and the run closest to it while riding is kept.  A fall ends the run, is
+    reported once, and the profile is not ridden again.
 
     Parameters
     ----------
     t, v : array_like
-        Profile, s and m/s, uniform, t starting at 0.
+        Profile, s and m/s, uniform, t from 0.
     params : Params
     effects : mapping
         CONTRACT effect values injected as physics.
     seed : int
-        Seed of the simulation (the default rider has no motor noise).
     dt : float
         Control period and MuJoCo step, s.
     track_iterations : int
-        Plan corrections after the first run (0: the plan is the profile).
+        Plan corrections after the first run.
     learn_band : float, optional
-        Hz: the highest frequency the plan learns (default :func:`plan_learning.filter_band`
-        of the ride defaults, the band the log's smoothing passes, 0.72 Hz).
+        Highest frequency the plan learns, Hz (default :func:`plan_learning.filter_band`).
     progress : callable, optional
-        Called with a short line before each closed-loop run; when given, a progress
-        bar over the ride's seconds is shown on stderr too.
-    label : str
-        The bar's name (the run: ``nominal``, ``augmented``).
-    position : int
-        The bar's line (0 first): runs side by side (threads) keep their own line.
-    motor : controllers.motor.MotorPD, optional
-        The wheel's balance law (default the paper's PD), e.g. a ride's measured law
-        (:func:`euc_sim.controllers.firmware.firmware_motor`).
-    rider : controllers.rider.Rider, optional
-        The rider (default the LQR rider designed for ``motor``).
+        Called with a short line before each run; a progress bar is then shown on stderr.
+    label, position : str, int
+        The bar's name and line.
+    motor, rider : optional
+        The wheel's balance law (default the paper's PD) and the rider (default the LQR rider
+        designed for ``motor``).
     lean_share : float or None
-        The profile's acceleration is limited to what the simulated rider can ride,
-        :func:`rider_acceleration_limit` (``lean_share`` of the fall bound for his steady
-        lean) less :func:`resisting_acceleration` (:func:`limit_acceleration`), before it is
-        first ridden; the notes say where the limit changed the profile.  The plan
-        corrections aim at the profile as logged.  None: the profile as logged.
+        The profile's acceleration is first limited to :func:`rider_acceleration_limit` less
+        :func:`resisting_acceleration`; None: the profile as logged.
     band_limit : bool or None
-        The rider's first plan (after the envelope) is band-limited to what he can track,
-        ω_B = z/2 with z the right-half-plane zero of his speed response
-        (:func:`plan_band_limit`, a centred moving average: no time shift, and the envelope's
-        |a| is kept).  A note gives the width and how far the plan moved.  The learned plans
-        are not band-limited (a learned run that falls is discarded).  False: no band limit.
-        None (default): band-limited when the envelope is on (``lean_share`` not None), so
-        that ``lean_share=None`` still rides the profile as logged.
+        Band-limit the first plan to ω_B = z/2, z the right-half-plane zero of the rider's
+        speed response (:func:`plan_band_limit`); None: when ``lean_share`` is not None.
     stops : sequence of (int, int), optional
-        The log's stops, (first, last) rows of ``t`` (:func:`euc_sim.rides.grids.stops.find_stops`);
-        default: found on ``v`` (standing still for :data:`euc_sim.rides.grids.stops.T_STOP` s or more).
-        Through each stop the rider stands, foot down, and he rides each stretch between
-        stops from rest with his memory cleared (:mod:`euc_sim.rides.grids.stops`: the logs draw no
-        power at such stops).  A note counts them.  ``()``: one run through, no stop.
+        The log's stops, (first, last) rows of ``t``; default found on ``v``; ``()``: none.
     cancel : threading.Event, optional
-        Once set, the run raises :class:`RideCancelled` within one rider block (its caller
-        was interrupted: :func:`euc_sim.rides.sim.pool.run_threads`).
+        Once set, the run raises :class:`RideCancelled` within one rider block.
     pool : concurrent.futures.ThreadPoolExecutor, optional
-        The stretches between stops ride on it side by side (the same rides as one by one:
-        each from rest with its own seed); None: one by one in this thread.
-
-    Returns
-    -------
-    ProfileRun
-
-    Raises
-    ------
-    RideCancelled
-        when ``cancel`` is set during the run.
+        The stretches between stops ride on it side by side.
     """
     say = progress or (lambda msg: None)
     t = np.asarray(t, float)

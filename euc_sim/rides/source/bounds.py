@@ -1,27 +1,11 @@
 """The physical range of every ride-log channel, and what the reader does with values outside it.
 
-One table, :data:`CHANNEL_BOUNDS`, in the units a person reads a log in (km/h, V, A, %,
-degrees).  :func:`bound_channel` applies it to one channel as :func:`euc_sim.rides.source.logs.read_log`
-reads it:
-
-- no value outside: nothing happens;
-- a few outside (at most :data:`FEW` of the channel's values, or :data:`FEW_ROWS` rows):
-  a repair, said in one line — the speed's rows are dropped (a row without its speed is no
-  sample), any other channel's cells are emptied (the rest of the row is kept);
-- more: the whole log is refused (:class:`~euc_sim.rides.source.logs.LogFormatError`,
-  exit 2), one line naming the file, the column, the first row outside and the bound.  A
-  channel this far out of range is another quantity, other units or a broken logger, and
-  no repair would make its numbers true.
-
-The bounds were checked against every shared ride (the euc_core trips and the WheelLog
-logs): none of their values lies outside, so no real ride loses a row to them.  The
-widest seen: speed 122 km/h, voltage 151 V, current −32 to 87 A, phase current ±173 A,
-PWM 104.5 % (a Begode's firmware logs a little above 100), tilt 68°.
-
-:func:`speed_sign` finds the speed's sign errors: a log whose moving speeds are mostly
-negative is refused (its sign convention is reversed, or the column is no speed), and an
-isolated row at −v between neighbours near +v (a logger's sign glitch) is turned back,
-said, or the log refused when there are more than :data:`FEW` of them.
+:data:`CHANNEL_BOUNDS` is in the units a person reads a log in (km/h, V, A, %, degrees);
+no shared ride has a value outside it.  :func:`bound_channel`: a few values outside
+(:data:`FEW` of them or :data:`FEW_ROWS` rows) are repaired and said (speed rows dropped,
+other cells emptied); more refuse the log (another quantity, other units or a broken
+logger).  :func:`speed_sign` refuses a log whose moving speeds are mostly negative and
+turns isolated sign flips back.
 """
 
 from __future__ import annotations
@@ -32,10 +16,7 @@ import numpy as np
 
 __all__ = ["CHANNEL_BOUNDS", "FEW", "FEW_ROWS", "MAX_ROWS", "bound_channel", "speed_sign"]
 
-#: Most data rows a log may have.  The longest shared ride has 37 780 rows, and 90 min
-#: at the fastest logger's 37 Hz is 200 000: two million admits ten times that, and the
-#: reader holds it in 1.2 GB (measured: text cells, then floats); a longer log is refused
-#: after counting its lines, before it is parsed.
+#: Most data rows a log may have: ten times 90 min at the fastest logger's 37 Hz (1.2 GB read).
 MAX_ROWS = 2_000_000
 
 #: Fraction of a channel's values that may lie out of range and be repaired (dropped or
@@ -82,30 +63,20 @@ def bound_channel(name: str, column: str, values: np.ndarray, refuse, repairs: l
 
     Parameters
     ----------
-    name : str
-        Canonical channel (a key of :data:`CHANNEL_BOUNDS`).
-    column : str
-        The file's column, named in messages.
+    name, column : str
+        Canonical channel (a key of :data:`CHANNEL_BOUNDS`); the file's column, for messages.
     values : numpy.ndarray
-        In SI units; NaN for empty cells (left alone).  Row ``i`` is line ``i + 2``.
+        SI units, NaN for empty cells; row ``i`` is line ``i + 2``.
     refuse : callable
-        ``refuse(message, column=, line=)`` → the exception that refuses the log, naming its
-        file (:class:`~euc_sim.rides.source.logs.LogFormatError` bound to the path).
+        ``refuse(message, column=, line=)`` → the exception refusing the log (LogFormatError).
     repairs : list of str
         A repair's sentence is appended here.
 
     Returns
     -------
-    numpy.ndarray
-        The values, out-of-range cells emptied (NaN); for the speed ``v`` they stay, and the
-        rows to drop are those with ``~keep``.
-    numpy.ndarray of bool
-        ``keep``: False for the rows to drop (only the speed drops rows).
-
-    Raises
-    ------
-    LogFormatError
-        (from ``refuse``) when more than a few values lie out of range.
+    values, keep : numpy.ndarray
+        Out-of-range cells emptied (NaN), except for the speed ``v`` whose bad rows get
+        ``keep`` False instead.
     """
     lo, hi, unit, si = CHANNEL_BOUNDS[name]
     shown = values / si
@@ -135,13 +106,8 @@ def bound_channel(name: str, column: str, values: np.ndarray, refuse, repairs: l
 def speed_sign(v: np.ndarray, t: np.ndarray, column: str, refuse, repairs: list[str]) -> np.ndarray:
     """The speed (m/s, rows in time order, stamps ``t`` in s) with isolated sign flips undone.
 
-    ``refuse`` and ``repairs`` as for :func:`bound_channel`.
-
-    Raises
-    ------
-    LogFormatError
-        (from ``refuse``) when most moving speeds are negative, or more than a few rows are
-        sign flips.
+    ``refuse`` and ``repairs`` as for :func:`bound_channel`; refused when most moving speeds
+    are negative or more than a few rows are flips.
     """
     moving = np.abs(v) > MOVING
     neg = moving & (v < 0)

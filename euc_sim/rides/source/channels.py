@@ -16,10 +16,8 @@ __all__ = ["current_from_phase", "duty_from_speed", "power_not_measured"]
 
 
 def current_from_phase(log: Ride) -> bool:
-    """True when the battery current is the app's duty × phase current, not a measurement.
-
-    Then the phase current carries no information beyond the battery power and
-    its square cannot stand for the copper loss (it is dropped).
+    """True when the battery current is the app's duty × phase current, not a measurement (then
+    the phase current adds nothing and is not used for the copper loss).
     """
     d = log.data
     if not {"current", "phase_current", "pwm"} <= set(d.columns):
@@ -32,11 +30,8 @@ def current_from_phase(log: Ride) -> bool:
 
 
 def duty_from_speed(log: Ride) -> float | None:
-    """The app's constant K (V per m/s) when its logged duty is K·v/V, not a measurement; else None.
-
-    A measured duty carries the resistive drop R·I_ph beside the back-EMF; a
-    duty the app derives from speed and voltage follows K·v/V exactly.  Taken as
-    derived when K·v explains duty × voltage to 1 % RMS on moving samples.
+    """The app's constant K (V per m/s) when its logged duty is K·v/V to 1 % RMS on moving
+    samples (derived, not measured: no resistive drop); else None.
     """
     d = log.data
     if not {"pwm", "voltage"} <= set(d.columns):

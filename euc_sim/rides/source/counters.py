@@ -20,37 +20,30 @@ __all__ = ["LogCounters", "log_counters", "rises", "counter_steps", "integrate_s
 
 @dataclass(frozen=True)
 class LogCounters:
-    """What the app wrote beside the channels: alarm rows and its own trip counters.
+    """What the app wrote beside the channels; None where the layout has no such column.
 
     Attributes
     ----------
-    alarm_rows : int or None
-        Rows with an alarm or alert flag set; None where the log has no such column.
-    alarm_episodes : int or None
-        Runs of consecutive flagged rows.
+    alarm_rows, alarm_episodes : int or None
+        Rows with an alarm or alert flag set; runs of consecutive flagged rows.
     duration_s, moving_s : float or None
-        The app's trip clock and riding clock at the end (EUC World), s.
-    distance_m : float or None
-        The app's trip distance (wheel odometer) over the log, m: the counter's increase,
-        resets and bogus rows left out (:func:`counter_steps`).
-    gps_distance_m : float or None
-        The app's GPS trip distance, m.
+        The app's trip and riding clocks at the end, s.
+    distance_m, gps_distance_m : float or None
+        The app's trip distance (its increase, :func:`counter_steps`) and GPS distance, m.
     speed_max_mps : float or None
         The app's top speed, m/s.
     energy_Wh : float or None
-        The app's energy counter at the end (EUC World ``energy_consumed``), Wh.
+        The app's energy counter at the end, Wh.
     battery_start_pct, battery_end_pct : float or None
         The battery reading in the first and last row, %.
     battery_temp_C : float or None
-        Median battery temperature (EUC World ``temp_batt``), °C.
+        Median battery temperature, °C.
     power_Wh_drawn : float or None
-        The app's ``power`` column integrated like the summary integrates V·I
-        (:func:`integrate_split`), Wh.
+        The app's ``power`` column integrated as the summary integrates V·I, Wh.
     battery_circuit_ohm : float or None
-        The battery resistance the wheel reports (EUC World ``euc.batteryCircuitResistance``), Ω.
+        EUC World's battery-resistance setting, Ω.
     speed_limit_mps : float or None
-        The speed limit (tilt-back) set in the wheel, the highest the log's ``speed_limit``
-        column (EUC World, km/h) reads, m/s.
+        The tilt-back speed set in the wheel, m/s.
     wheel_model : str or None
         ``euc.model`` and ``euc.serial`` of EUC World's ``extra`` notes.
     """
@@ -102,19 +95,8 @@ def _span(x: np.ndarray | None, scale: float = 1.0) -> float | None:
 
 
 def log_counters(raw: pd.DataFrame, data: pd.DataFrame) -> LogCounters:
-    """The alarm flags and the app's own counters of a log.
-
-    Parameters
-    ----------
-    raw : pandas.DataFrame
-        The file's cells as text, column names stripped (what the reader parsed).
-    data : pandas.DataFrame
-        The reader's table in SI units (``t``, ``v``, ``distance``, ``power``, ...).
-
-    Returns
-    -------
-    LogCounters
-        Fields ``None`` where the layout has no such column.
+    """The alarm flags and the app's own counters of a log, from the file's ``raw`` cells and
+    the reader's SI table ``data``.
     """
     flag = None
     for col in ("alarm", "alert", "Alarm", "Alert"):
@@ -175,15 +157,11 @@ def _wheel_model(raw: pd.DataFrame) -> str | None:
 def rises(t: np.ndarray, x: np.ndarray, top_mps: float) -> np.ndarray:
     """Per-interval increase of a counter read ``x`` at times ``t`` (s), in its unit.
 
-    Readings one or two rows off their neighbours (a bogus row) are taken out by a
-    5-reading running median; a fall below half the reading before (and by more than
-    50) is a reset, after which the counter counts again from its new value; a small
-    fall (readings out of order) counts nothing until the counter passes its highest
-    reading; a rise faster than ``top_mps`` (+ 50) over the ten intervals on each side of
-    it, and over the time since the reading before it was first read, is bogus (NaN): a
-    counter read late lags a gap in the rows by a row, or repeats its last reading through
-    it.  An interval ending on an empty reading is NaN; the increase across empty readings
-    lands on the interval ending on the next reading.
+    A 5-reading running median removes bogus rows; a fall below half the previous reading
+    (by more than 50) is a reset; a small fall counts nothing until the counter passes its
+    highest reading; a rise faster than ``top_mps`` (+ 50) over ten intervals each side is
+    bogus (NaN).  An interval ending on an empty reading is NaN; the increase across empty
+    readings lands on the next reading's interval.
     """
     out = np.full(max(t.size - 1, 0), np.nan)
     idx = np.flatnonzero(np.isfinite(x))

@@ -1,17 +1,8 @@
 """The one gap policy of the ride side: every interval threshold between a log's rows.
 
-A ride log's rows arrive every 0.1-0.5 s, with dropouts of the phone's Bluetooth link
-(1-2.5 s, hundreds a ride), pauses of the logging and, now and then, a log left running
-for hours.  What each part of the ride side does across an interval between two rows
-is decided here, in :data:`GAP_POLICY`, and nowhere else: every user reads its number
-from this object.
-
-The grids (the balance fit's, the mass fit's, the law's rows, the free-spin search)
-bridge an interval of at most :attr:`GapPolicy.bridge` by linear interpolation on the
-:attr:`GapPolicy.rate` grid; a longer one splits the ride into pieces that no filter,
-derivative or integral crosses; a piece shorter than a filter's window gets no filtered
-value.  Why 2.5 s: split at 1 s, the V9 rides fall into pieces shorter than the mass's
-8 s energy windows (docs/ride_model.md, "One gap policy").
+Grids bridge an interval up to :attr:`GapPolicy.bridge` by linear interpolation on the
+:attr:`GapPolicy.rate` grid; a longer one splits the ride into pieces no filter,
+derivative or integral crosses.  See docs/ride_model.md ("One gap policy").
 """
 
 from __future__ import annotations
@@ -26,54 +17,37 @@ __all__ = ["GapPolicy", "GAP_POLICY"]
 
 @dataclass(frozen=True)
 class GapPolicy:
-    """Every gap number of the ride side, s unless said (module docstring).
+    """Every gap number of the ride side, s unless said.
 
     Attributes
     ----------
     bridge : float
-        Longest interval bridged by linear interpolation on a grid, or integrated across
-        (the summary's energy and distance, the free-spin search); a longer one splits the
-        ride: the loggers' Bluetooth dropouts (1-2.5 s) are bridged, a stop of the logging is not.
+        Longest interval interpolated or integrated across; longer splits the ride.
     rate : float
-        Grid rate, Hz: the rows' own rate (2-10 Hz) without inventing detail between them.
+        Grid rate, Hz.
     gap : float
-        An interval the data-quality facts count as a gap (the reader's sampling warning, the
-        summary's ``gaps``): longer than the slowest fixed logging interval (WheelLog 1 Hz).
+        An interval the data-quality facts count as a gap (WheelLog logs at 1 Hz).
     app_gap : tuple of (str, float)
-        ``(layout, s)``: apps whose normal writing is slower than :attr:`gap`: EUC World writes
-        when the wheel's frames arrive, in bursts up to 1.7 s apart (docs/summary.md).
+        ``(layout, s)`` for apps writing slower than :attr:`gap` (EUC World, docs/summary.md).
     distance : float
-        Longest interval the wheel's speed is integrated across for the ride's distance where
-        the log has no usable counter: on the one shared log with longer gaps and a trip counter
-        (WheelLog, InMotion V9), the speed integrated over its 33 gaps of 2.5-60 s is 1 % above
-        the counter's increase, over its 8 gaps of 60-300 s 28 % above (docs/summary.md).
+        Longest interval the speed is integrated across for the distance (docs/summary.md).
     pause : float
-        An interval this long is a pause of the log, left out of the ride's duration: the app
-        stopped writing, no rows were lost while riding.
+        An interval this long is a pause, left out of the duration.
     charge : float
-        Longest interval the battery's drawn charge is integrated across (the battery fit, the
-        two rides' voltage design, the concealed sag): a longer one adds no charge, as the
-        current across it is unknown and the fits need it row by row.
+        Longest interval the drawn charge is integrated across.
     profile : float
-        Longest interval bridged in the speed profile the simulator rides: every one (the
-        profile is one continuous run; :attr:`simulate` refuses the logs it cannot ride).
+        Longest interval bridged in the simulator's speed profile.
     simulate : float
-        Longest interval the simulation bridges; a log with a longer one (the app left running
-        for hours) is not simulated: bridging would be hours of 1 kHz simulation.
+        Longest interval the simulation bridges; a log with a longer one is not simulated.
     rider : float
-        Longest interval bridged in the rider's channels (the rider fit): its planner needs the
-        rows' own detail, so only the 1 Hz logging is bridged.
-    gps_pair : float
-        Longest interval between two GPS fixes whose distance is compared with the wheel's
-        (the speed scale's track): a fix a second or two late still pairs, a lost fix does not.
-    gps_hop : float
-        Longest interval between GPS fixes whose hop counts in the ride's GPS distance; a longer
-        hop is filled with the wheel's distance (the phone lost the sky for a while).
+        Longest interval bridged in the rider fit's channels.
+    gps_pair, gps_hop : float
+        Longest interval between GPS fixes compared with the wheel's distance / counted in
+        the GPS distance.
     odometer : float
-        Longest interval over which the speed is checked against the wheel's odometer: the
-        odometer counts whole metres, so only short intervals compare row by row.
+        Longest interval over which speed is checked against the odometer (whole metres).
     plot_steps : float
-        A line on a figure breaks at an interval over this many median intervals (a missing row).
+        A plotted line breaks at an interval over this many median intervals.
     """
 
     bridge: float = 2.5

@@ -1,62 +1,19 @@
-"""Readers for electric-unicycle telemetry logs (WheelLog CSV and relatives).
+"""Readers for electric-unicycle telemetry logs (WheelLog, EUC World, DarknessBot CSV).
 
-Every layout is read **by column name, never by position**.  The result is one
-:class:`~euc_sim.rides.source.ride.Ride`: a table in SI units (time from the first sample in s, speeds in
-m/s, angles in rad, distances in m) plus the list of everything the reader had to
-do to the file (``warnings``) and the channels it found missing (``absent``).
+Every layout is read by column name, never by position, into one
+:class:`~euc_sim.rides.source.ride.Ride`: a table in SI units (t from the first sample
+in s, m/s, rad, m), the reader's notes (``warnings``), what it changed in the data
+(``repairs``) and the channels found missing (``absent``).  :data:`LAYOUTS` gives each
+layout's columns and units; EUC World and DarknessBot come from third-party parsers
+(best effort).
 
-Layouts
--------
-``wheellog``
-    The WheelLog Android app (``date,time,speed,voltage,current,power,...``).  The
-    older layout has ``system_temp,cpu_temp,tilt,roll,mode,alert``; the newer one
-    adds ``latitude,longitude,gps_speed,gps_alt,gps_heading,gps_distance`` after
-    ``time`` and ``phase_current,torque,pwm`` after ``voltage`` (and may call
-    ``cpu_temp`` ``temp2``).  Units as the app writes them (its ``LoggingService``):
-    speed and gps_speed km/h, voltage V, currents A, power W, distances m,
-    gps_alt m, tilt/roll/gps_heading degrees.  GPS fields are empty strings while
-    the phone has no fix.
-``eucworld``
-    EUC World CSV export (``datetime,speed,voltage,current,current_phase,power,
-    pwm|safety_margin,battery,distance,distance_total,temp,tilt,roll,gps_lat,
-    gps_lon,gps_speed,gps_alt,gps_bearing,gps_distance,...``): km/h, V, A, W, km,
-    degrees, m.  **Layout taken from a third-party parser, not from the app's own
-    documentation** (none was found); treat as best effort.
-``darknessbot``
-    DarknessBot CSV export (``Date,Speed,Voltage,PWM,Current,Power,Battery level,
-    Total mileage,Temperature,Pitch,Roll,Latitude,Longitude,Altitude``), ``Date``
-    ISO 8601 or ``DD.MM.YYYY HH:MM:SS.fff``; km/h, V, A, W, km, degrees, m.
-    **Also from third-party parsers only**; the speed unit is assumed km/h.
-
-What the reader does about problems
------------------------------------
-- Missing required column (time, speed), a non-numeric value, an unreadable time,
-  an empty file, a file with a header and no rows: :class:`LogFormatError` (a
-  ``ValueError``) naming the file, the column and the line.
-- Repeated timestamps: rows sharing a timestamp are averaged into one row; the
-  number of rows merged is a counted warning.
-- Time running backwards: rows are put in time order; counted warning.
-- Irregular sampling: summarised in one warning (median and extreme intervals,
-  number of gaps longer than the gap policy's ``gap``, :mod:`euc_sim.rides.source.gaps`).
-- Tilt/roll missing or all zero: reported absent (not put in the table) with a
-  warning; the same for any other optional channel that is all zero or empty.
-- Empty GPS fields: kept as NaN, counted in a warning.
-- A truncated last line (missing required cells, as when the app is killed while
-  writing): dropped, with a warning naming the line.
-- A folder, more than :data:`~euc_sim.rides.source.bounds.MAX_ROWS` rows, or a column
-  name given twice: :class:`LogFormatError`.
-- A value outside its channel's physical range (:mod:`euc_sim.rides.source.bounds`):
-  a few are dropped (speed) or emptied (other channels), said; more refuse the log.
-  The same for the speed's sign: mostly negative refuses the log, an isolated flip is
-  turned back, said.
-
-The file is read once: its bytes are counted, checked and parsed from memory; the app's
-own counters (:mod:`euc_sim.rides.source.counters`) come from the same parsed table.
-
-Each problem is a string in :attr:`Ride.warnings`; :func:`read_log` also issues
-each through :mod:`warnings` as a :class:`RideLogWarning` unless told not to.  What the
-reader changed in the data (merged, sorted, dropped, emptied, flipped) is also in
-:attr:`Ride.repairs`, which the commands say on stderr.
+Bad input (no time or speed column, a non-numeric cell, an unreadable time stamp, an
+empty file, a column named twice, more than :data:`~euc_sim.rides.source.bounds.MAX_ROWS`
+rows, values out of physical range beyond a few) is a :class:`LogFormatError` naming
+file, column and line.  Repeated stamps are averaged, backward time sorted, a truncated
+last line dropped, out-of-range values dropped or emptied
+(:mod:`~euc_sim.rides.source.bounds`), all-zero or empty optional channels reported
+absent; each is a note, also issued as a :class:`RideLogWarning` unless told not to.
 """
 
 from __future__ import annotations
@@ -95,17 +52,7 @@ _EMPTY = ("nan", "null", "none")
 
 
 class LogFormatError(BadInputFile):
-    """A log file that cannot be read; the message names file, column and line.
-
-    Attributes
-    ----------
-    path : str
-        The file.
-    column : str or None
-        The offending column, where there is one.
-    line : int or None
-        1-based line number in the file (the header is line 1), where there is one.
-    """
+    """A log file that cannot be read; the message names file, column and line (1-based, header = 1)."""
 
     def __init__(self, path, message: str, column: str | None = None, line: int | None = None):
         self.path = str(path)
@@ -126,15 +73,7 @@ class RideLogWarning(UserWarning):
 
 @dataclass(frozen=True)
 class Channel:
-    """Where a canonical channel comes from in one layout.
-
-    Attributes
-    ----------
-    columns : tuple of str
-        Source column names, first present wins.
-    scale : float
-        Factor from the file's unit to SI.
-    """
+    """Where a canonical channel comes from: ``columns`` (first present wins), ``scale`` to SI."""
 
     columns: tuple[str, ...]
     scale: float = 1.0
@@ -223,15 +162,8 @@ LAYOUTS: dict[str, Layout] = {
 }
 
 
-# --------------------------------------------------------------------------------------
 def detect_layout(columns, path="<log>") -> Layout:
-    """The layout whose signature columns are all among ``columns``.
-
-    Raises
-    ------
-    LogFormatError
-        naming the missing required column when no layout fits.
-    """
+    """The layout whose signature columns are all among ``columns``; LogFormatError naming the missing one."""
     cols = set(columns)
     if {"date", "time"} <= cols or "speed" in cols and ("date" in cols or "time" in cols):
         lay = LAYOUTS["wheellog"]
@@ -256,11 +188,7 @@ def detect_layout(columns, path="<log>") -> Layout:
 
 
 def _numeric(raw: pd.Series, column: str, path, required: bool) -> np.ndarray:
-    """A column as floats; empty cells -> NaN; anything else non-numeric -> error.
-
-    A column the parser already read as numbers is taken as it is; one it kept as text
-    (a cell that is not a number) is converted cell by cell, to name the first bad cell.
-    """
+    """A column as floats (empty cells NaN); the first non-numeric cell is a LogFormatError."""
     if raw.dtype.kind in "iuf":
         vals = raw.to_numpy(dtype=float)
         empty = np.isnan(vals)
@@ -340,11 +268,7 @@ def _check_header(path: Path, header: list[str]) -> None:
 
 
 def _check_field_counts(path: Path, data: bytes, text: str, n_head: int) -> None:
-    """A row with more (non-empty) fields than the header is an error, not a silent cut.
-
-    The commas of every line are counted at once; only a line with more than the header's
-    is split into fields (all lines are when the file quotes a field).
-    """
+    """A row with more non-empty fields than the header is an error (commas counted at once; only longer lines split)."""
     if '"' in text:
         rows = enumerate(csv.reader(io.StringIO(text)), start=1)
     else:
@@ -396,10 +320,9 @@ def read_log(path, *, layout: str | None = None, emit_warnings: bool = True) -> 
     path : str or path
         The CSV file.
     layout : str, optional
-        Force a layout (one of :data:`LAYOUTS`); by default it is recognised from
-        the header.
+        Force a layout (one of :data:`LAYOUTS`); by default recognised from the header.
     emit_warnings : bool
-        Also issue each warning as a :class:`RideLogWarning` (default True).
+        Also issue each note as a :class:`RideLogWarning`.
 
     Returns
     -------
@@ -409,11 +332,9 @@ def read_log(path, *, layout: str | None = None, emit_warnings: bool = True) -> 
     Raises
     ------
     LogFormatError
-        (a ``ValueError``) for an empty file, a missing required column, a
-        non-numeric value, an unreadable time stamp; the message names the file,
-        the column and the line.
+        Bad input, naming file, column and line.
     FileNotFoundError
-        when ``path`` does not exist.
+        When ``path`` does not exist.
     """
     path = Path(path)
     raw = whole = _read_table(path)

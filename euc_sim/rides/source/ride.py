@@ -1,10 +1,5 @@
 """A ride log read once: its columns in SI units, its data-quality facts, the app's own
-counters, and the grids built on it.
-
-:func:`euc_sim.rides.source.logs.read_log` builds the one :class:`Ride` of a file; every
-analysis, the summary and the API take the ride and none reads the file again.  The
-grid of a ride (:func:`euc_sim.rides.grids.signals.ride_grid`) and the filtered signals
-built on it are kept on the ride (:meth:`Ride.derived`): one run builds each once per log.
+counters, and the grids built on it (:meth:`Ride.derived`, each built once per log).
 """
 
 from __future__ import annotations
@@ -36,21 +31,9 @@ CHANNEL_UNITS: dict[str, str] = {
 
 @dataclass(frozen=True)
 class RideQuality:
-    """What the log says about its own data.
-
-    Attributes
-    ----------
-    duration_s : float
-        First to last sample, s.
-    rate_hz : float
-        Median sampling rate, Hz.
-    gaps : tuple of (float, float)
-        ``(t, length)`` of every interval that splits the ride (longer than
-        :attr:`~euc_sim.rides.source.gaps.GapPolicy.bridge`), s.
-    zero_channels : tuple of str
-        Channels absent, or present only as zeros or empty cells.
-    notes : tuple of str
-        What the reader handled (merged stamps, sorting, units suspected).
+    """What the log says about its own data: ``duration_s`` (s), ``rate_hz`` (median, Hz),
+    ``gaps`` (``(t, length)`` s of each interval splitting the ride), ``zero_channels``
+    (absent, zero or empty), ``notes`` (what the reader handled).
     """
 
     duration_s: float
@@ -66,39 +49,26 @@ class Ride:
 
     Attributes
     ----------
-    path : str
-        The file read.
-    layout : str
-        ``"wheellog"``, ``"eucworld"`` or ``"darknessbot"``; :attr:`variant` tells
-        the WheelLog layouts apart.
+    path, layout : str
+        The file read; ``"wheellog"``, ``"eucworld"`` or ``"darknessbot"``.
     variant : str
-        ``"old"`` / ``"new"`` for WheelLog (``"new"`` when GPS or phase-current
-        columns are present), else ``""``.
+        WheelLog ``"old"`` / ``"new"`` (GPS or phase-current columns), else ``""``.
     data : pandas.DataFrame
-        One row per distinct time stamp, sorted, columns ``t`` (s from the first
-        sample), ``v`` (wheel speed, m/s) and whichever optional channels are
-        present (units in :attr:`units`); empty GPS cells are NaN.
+        One row per distinct time stamp, sorted: ``t`` (s from the first sample), ``v``
+        (m/s) and the optional channels present (:data:`CHANNEL_UNITS`); empty cells NaN.
     start : pandas.Timestamp
-        Wall-clock time of ``t = 0``, naive: UTC where the log's stamps carry their zone
-        (EUC World), else the phone's local time (WheelLog, DarknessBot).
+        Wall-clock time of ``t = 0``, naive: UTC where the stamps carry a zone, else the
+        phone's local time.
     absent : tuple of str
-        Canonical channels the file lacks, or has only as zeros or empty cells.
-    warnings : tuple of str
-        One line per problem handled.
-    n_rows_read : int
-        Data rows in the file.
-    n_rows_merged : int
-        Rows removed by averaging repeated time stamps.
-    units : mapping
-        Channel -> SI unit (:data:`CHANNEL_UNITS`).
-    repairs : tuple of str
-        The warnings that changed the data (rows merged, sorted, dropped, cells emptied,
-        signs turned back), one line each.
+        Channels the file lacks, or has only as zeros or empty cells.
+    warnings, repairs : tuple of str
+        Every problem handled; those that changed the data.
+    n_rows_read, n_rows_merged : int
+        Data rows in the file; rows removed by averaging repeated stamps.
     counters : LogCounters
-        The app's alarm flags and own trip counters (:mod:`euc_sim.rides.source.counters`).
+        The app's alarm flags and trip counters.
     utc_offset_s : float or None
-        The zone of the log's first stamp, s east of UTC, where its stamps carry one; None
-        where they do not (then :attr:`start` is the phone's local clock, its zone unknown).
+        The first stamp's zone, s east of UTC, where the stamps carry one.
     """
 
     path: str
@@ -142,11 +112,7 @@ class Ride:
                            zero_channels=tuple(self.absent), notes=tuple(self.warnings))
 
     def derived(self, key: tuple, build):
-        """What ``build()`` returns, built the first time ``key`` is asked for and kept.
-
-        The grids and filtered signals of this ride are keyed by their kind and settings;
-        callers must not modify what they get.
-        """
+        """What ``build()`` returns, built the first time ``key`` is asked for and kept; do not modify it."""
         if key not in self._grids:
             self._grids[key] = build()
         return self._grids[key]

@@ -1,19 +1,11 @@
 """Suspicions about a ride's input, said plainly instead of a confident absurd mass.
 
-A spec whose weight or voltage is absurd, or a log in the wrong units
-(mph read as km/h, mA read as A), must give one line and exit 2, or a warning
-naming the suspicion; never a confident, absurd mass.  The spec's own values are
-refused by :func:`euc_sim.rides.source.spec.read_spec` (:data:`SPEC_RANGE`, defined there); what only
-shows against the log is found here:
-
-- :func:`input_warnings`: what the log says against the spec
-  (:func:`euc_sim.rides.source.spec.log_contradictions`: the pack's voltage, the top
-  speed), and the wheel's speed against GPS speed (a speedometer reading 0.62 of GPS
-  speed is a log in mph read as km/h; beyond :data:`TYRE_SCALE_RANGE`, a tyre the
-  wheel's own diameter setting does not match);
-- :func:`mass_suspicion`: a total mass no rider with a wheel has (outside
-  :data:`TOTAL_MASS_RANGE`), which a log in the wrong units gives (mass ∝ I and
-  ∝ 1/v²).  The mass is then withheld, with the reason.
+The spec's own values are refused by :func:`~euc_sim.rides.source.spec.read_spec`; what
+shows only against the log is found here: :func:`input_warnings` (the log against the
+spec, and the wheel's speed against GPS: 0.62 is mph read as km/h, beyond
+:data:`TYRE_SCALE_RANGE` a mismatched tyre) and :func:`mass_suspicion` (a total mass
+outside :data:`TOTAL_MASS_RANGE`, as wrong units give: m ∝ I and ∝ 1/v²), which withholds
+the mass with the reason.
 """
 
 from __future__ import annotations
@@ -30,21 +22,14 @@ __all__ = ["SPEC_RANGE", "TOTAL_MASS_RANGE", "SPEED_SCALE_RANGE", "TYRE_SCALE_RA
 TOTAL_MASS_RANGE = (35.0, 350.0)
 #: The wheel's speed against GPS speed: beyond this, the speed column is suspect.
 SPEED_SCALE_RANGE = (0.75, 1.33)
-#: GPS speed over the wheel's, beyond which (its whole 95 % interval) the tyre is not the one
-#: the wheel's speed assumes: 8 % slow (a tyre's tolerance) to 15 % fast (makers' speedometers
-#: read high by design: 10-13 % on the shared V9 and Master Pro V2 rides).
+#: GPS speed over the wheel's beyond which (its whole 95 % interval) the tyre is not the one the
+#: wheel assumes: 8 % slow (tyre tolerance) to 15 % fast (speedometers read high by design).
 TYRE_SCALE_RANGE = (1 / 1.15, 1.08)
 
 
 def input_warnings(log, spec, scale) -> list[str]:
-    """What the log and the spec say against each other, one sentence each.
-
-    Parameters
-    ----------
-    log : Ride
-    spec : WheelSpec
-    scale : SpeedScale
-        The wheel's speed scale against GPS (:func:`euc_sim.rides.grids.power.speed_scale`).
+    """What the log, the spec and the GPS speed ``scale`` (SpeedScale) say against each other,
+    one sentence each.
     """
     name = Path(str(log.path)).name                 # no machine path in outputs
     out = []

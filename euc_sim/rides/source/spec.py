@@ -1,29 +1,12 @@
 """A wheel maker's specification: the few numbers a ride analysis can use.
 
-The format is that of EUC_core's ``specs/MODEL.csv``: a header ``Field|Data`` and
-one ``Field| value unit`` row per line, e.g.::
-
-    Field|Data
-    Brand| InMotion
-    Model| V9
-    Wheel diameter| 16 inches
-    Net weight| 23.5 kg
-    Tension| 84 V
-
-The fields read: ``Wheel diameter`` (inches, converted to the wheel's radius in m),
-``Net weight`` (kg, the wheel without rider), ``Tension`` (the battery's full-charge
-voltage, V), and where given ``Max speed`` (km/h), ``Motor power`` (W), ``Battery`` (Wh),
-``Battery architecture`` (``20s2p``), ``Cells``, ``Tire dimension`` and ``Cell resistance``
-(one cell's, ``15 mOhm``).  Every one of the first three can be given or overridden on
-its own (:func:`wheel_spec`), so a ride without a spec still runs and says what it
-could not pin down (:attr:`WheelSpec.missing`).
-
-Wheels by name: ``data/wheels.csv`` ships the makers' published figures of the
-wheels of the shared rides (one row a wheel, with the ``source`` of its figures);
-:func:`find_wheel` resolves a name or alias (``v9``, ``InMotion V9``), and
-:func:`wheel_spec` takes a name or a file alike.  :func:`log_contradictions` says
-where a ride's log contradicts its spec (pack voltage, top speed), and refuses a spec
-whose voltage class the log cannot have.
+The format is EUC_core's ``specs/MODEL.csv``: a ``Field|Data`` header and one
+``Field| value unit`` row a line (``Wheel diameter| 16 inches``, ``Net weight| 23.5 kg``,
+``Tension| 84 V``; optionally ``Max speed``, ``Motor power``, ``Battery``, ``Battery
+architecture`` ``20s2p``, ``Cells``, ``Tire dimension``, ``Cell resistance``).  Each of
+the first three can be given or overridden alone (:func:`wheel_spec`); what is still
+unknown is :attr:`WheelSpec.missing`.  ``data/wheels.csv`` ships the makers' figures of
+the shared rides' wheels, found by name or alias (:func:`find_wheel`).
 """
 
 from __future__ import annotations
@@ -61,9 +44,7 @@ SPEC_RANGE = {"radius": (0.1, 0.4, "m"), "wheel_mass": (5.0, 100.0, "kg"),
               "battery_voltage": (24.0, 250.0, "V"), "top_speed": (10.0 / 3.6, 250.0 / 3.6, "m/s")}
 #: A Li-ion cell's voltage over a ride, V: from empty under load (2.5) to just above full (4.25).
 CELL_V_RANGE = (2.5, 4.25)
-#: A log whose highest voltage (99th percentile) stays below this per cell rode a pack that
-#: was nearly empty the whole ride, which no wheel allows (it tilts back near 3.3 V a cell),
-#: or has fewer cells than the spec; above this it has more: the spec's voltage class is impossible.
+#: The log's 99th-percentile voltage per cell outside this, V: the spec's voltage class is impossible.
 CELL_V_IMPOSSIBLE = (3.4, 4.35)
 #: The log's wheel speed (99.9th percentile) above this × the spec's top speed contradicts it.
 TOP_SPEED_MARGIN = 1.15
@@ -80,29 +61,23 @@ class WheelSpec:
     Attributes
     ----------
     radius : float or None
-        Wheel (tyre) radius, m: half the nominal wheel diameter.
+        Wheel radius, m (half the nominal diameter).
     wheel_mass : float or None
-        The wheel's net weight, kg.
+        Net weight, kg.
     battery_voltage : float or None
-        Full-charge battery voltage, V (the maker's "Tension").
-    name : str
-        Brand and model, or the file name.
-    source : str
-        Where the numbers came from.
+        Full-charge battery voltage ("Tension"), V.
+    name, source : str
+        Brand and model (or the file name); where the numbers came from.
     top_speed : float or None
-        The maker's top speed, m/s ("Max speed"; left out where it cannot be read).
-    motor_power : float or None
-        Rated motor power, W.
-    energy_Wh : float or None
-        The pack's energy, Wh.
+        The maker's top speed, m/s.
+    motor_power, energy_Wh : float or None
+        Rated motor power, W; pack energy, Wh.
     series, parallel : int or None
-        The pack's cells in series and in parallel (``20s2p``).
-    cell : str
-        The cell model as written (``Samsung 50S (21700)``).
+        Cells in series and in parallel (``20s2p``).
+    cell, tyre : str
+        Cell model and tyre, as written.
     cell_resistance : float or None
-        One cell's DC resistance where the spec gives it, Ω (else the cell table's).
-    tyre : str
-        The tyre as written.
+        One cell's DC resistance, Ω.
     """
 
     radius: float | None = None
@@ -172,25 +147,14 @@ def _layout(where: str, text: str) -> tuple[int, int]:
 
 
 def read_spec(path) -> WheelSpec:
-    """Read a ``Field|Data`` specification file.
-
-    Parameters
-    ----------
-    path : str or path
-
-    Returns
-    -------
-    WheelSpec
-        With ``radius`` (m), ``wheel_mass`` (kg), ``battery_voltage`` (V).
+    """Read a ``Field|Data`` specification file into a :class:`WheelSpec` (SI units).
 
     Raises
     ------
     SpecError
-        (a ``ValueError``) naming the file and the field: not a text file, no
-        ``Field|Data`` header, a field without a number, or no ``Net weight``
-        (the one field the rider's own mass needs).
+        Naming file and field: not text, no header, a field without a number, no ``Net weight``.
     FileNotFoundError
-        when the file does not exist.
+        When the file does not exist.
     """
     path = Path(path)
     if not path.is_file():
@@ -293,18 +257,17 @@ def wheel_spec(path=None, *, radius: float | None = None, wheel_mass: float | No
     Parameters
     ----------
     path : str or path, optional
-        A ``Field|Data`` file (:func:`read_spec`), or the name or alias of a shipped
-        wheel (:func:`find_wheel`; ``v9``, ``inmotion v9``).
+        A ``Field|Data`` file, or a shipped wheel's name or alias (``v9``).
     radius, wheel_mass, battery_voltage : float, optional
-        m, kg, V; each replaces the file's value (checked by the ride's request,
-        :func:`euc_sim.rides.request.ride_request`, against :data:`SPEC_RANGE`).
+        m, kg, V; each replaces the file's value (checked by
+        :func:`euc_sim.rides.request.ride_request` against :data:`SPEC_RANGE`).
 
     Raises
     ------
     SpecError
-        for an unknown wheel name (listing the known ones).
+        An unknown wheel name.
     FileNotFoundError
-        for a path (a name with a suffix or a folder) that does not exist.
+        A path (with a suffix or a folder) that does not exist.
     """
     spec = _resolve(path) if path is not None else WheelSpec()
     over = {key: float(val) for key, val in (("radius", radius), ("wheel_mass", wheel_mass),
@@ -316,27 +279,12 @@ def wheel_spec(path=None, *, radius: float | None = None, wheel_mass: float | No
 
 
 def log_contradictions(spec: WheelSpec, data) -> list[str]:
-    """Where a ride's log contradicts its spec, one sentence each (pack voltage, top speed).
+    """Where a ride's log contradicts its spec, one sentence each.
 
-    Parameters
-    ----------
-    spec : WheelSpec
-    data : pandas.DataFrame
-        The log's channels (``voltage``, V; ``v``, the wheel's speed, m/s).
-
-    Returns
-    -------
-    list of str
-        The log's voltage outside the pack's n_series × [2.5, 4.25] V (:data:`CELL_V_RANGE`;
-        1st and 99th percentiles), or its wheel speed (99.9th percentile) above
-        :data:`TOP_SPEED_MARGIN` × the spec's top speed.
-
-    Raises
-    ------
-    SpecError
-        when the log's voltage class is impossible for the spec's pack: its 99th percentile
-        below 3.4 V or above 4.35 V a cell (:data:`CELL_V_IMPOSSIBLE`), e.g. an 84 V
-        (20-cell) spec for a log at 60-67 V.
+    The log's voltage (1st/99th percentiles) outside n_series × :data:`CELL_V_RANGE`, or its
+    speed (99.9th percentile, ``data["v"]`` m/s) above :data:`TOP_SPEED_MARGIN` × the top
+    speed.  A voltage class the pack cannot have (:data:`CELL_V_IMPOSSIBLE` a cell) raises
+    :class:`SpecError`.
     """
     out = []
     n = spec.n_series

@@ -1,28 +1,10 @@
 """What a ride log cannot calibrate, carried into the total mass's interval.
 
-The block bootstrap of :mod:`euc_sim.rides.drive.mass` measures how much the mass
-moves with the ride's own noise.  It cannot see the parts of the answer that
-are the same on every replicate:
-
-- ``speed_scale``: m ∝ 1/k², k the true over the logged speed; from GPS with
-  its own standard deviation (:func:`euc_sim.rides.grids.power.speed_scale`), else
-  1 ± :data:`~euc_sim.rides.grids.power.NO_GPS_SCALE_SD`;
-- ``current_scale``: m ∝ the current sensor's scale, which no log calibrates
-  (a prior, :data:`CURRENT_SCALE_SD`);
-- ``rotating_share``: J_w/R² taken as 0.10–0.28 of the net weight
-  (:mod:`euc_sim.rides.drive.rotating`);
-- ``efficiency_model``: the mass's change between the copper-loss models
-  (κF² and the proxy κa², logs without phase current);
-- ``grade``: the mass's change when the GPS-altitude grade term is dropped, or,
-  without altitude, a prior share of the mass (:data:`GRADE_SHARE`).
-
-Each is a 95 % half-width in kg; they are added in quadrature to each side of
-the bootstrap interval (:func:`combined_interval`).
-
-The two priors are fixed constants, not fitted per ride.  They were set from
-the shared rides (``scripts/tables/real_rides_study.py`` re-chooses both from the
-other wheels when it scores a wheel, leaving that wheel out, as it does the
-speed-scale method and the copper-loss model).
+The block bootstrap (:mod:`euc_sim.rides.drive.mass`) cannot see parts common to
+every replicate: ``speed_scale`` (m ∝ 1/k²), ``current_scale`` (m ∝ I, a prior),
+``rotating_share`` (J_w/R², :mod:`euc_sim.rides.drive.rotating`), ``efficiency_model``
+(κF² vs κa²) and ``grade``.  Each is a 95 % half-width in kg, added in quadrature to
+each side of the bootstrap interval.  Priors: docs/drivetrain.md.
 """
 
 from __future__ import annotations
@@ -55,21 +37,9 @@ def current_scale_kg(mass: float, current_sd: float = CURRENT_SCALE_SD) -> float
 
 
 def combined_interval(estimate: float, stat_ci95, systematic: dict) -> tuple[float, float] | None:
-    """The bootstrap interval with every systematic half-width added in quadrature.
+    """The bootstrap interval ``stat_ci95`` (kg) widened by every systematic half-width in quadrature.
 
-    Parameters
-    ----------
-    estimate : float
-        kg.
-    stat_ci95 : (lo, hi) or None
-        The bootstrap's 95 % interval, kg.
-    systematic : dict
-        Source -> 95 % half-width, kg.
-
-    Returns
-    -------
-    (lo, hi) or None
-        ``estimate ∓ √((estimate − lo)² + Σ s²)``; always contains ``estimate``.
+    Returns ``estimate ∓ √((estimate − lo)² + Σ s²)`` or None without a bootstrap interval.
     """
     if stat_ci95 is None:
         return None
@@ -81,20 +51,11 @@ def combined_interval(estimate: float, stat_ci95, systematic: dict) -> tuple[flo
 
 @dataclass(frozen=True)
 class MassDifference:
-    """The compared ride's total mass minus this one's.
+    """The compared ride's total mass minus this one's, kg, with its 95 % interval.
 
-    Attributes
-    ----------
-    estimate : float or None
-        kg; None when either mass is not identified.
-    ci95 : tuple of float or None
-        Its 95 % interval, kg.
-    verdict : {"heavier", "lighter", "cannot tell"}
-        "heavier": the interval above zero (the compared ride carried more).
-    why : str or None
-        Why there is no estimate.
-    cancelled : tuple of str
-        The systematic parts the two rides share, which cancel.
+    ``verdict`` is "heavier" (interval above zero: the compared ride carried more), "lighter"
+    or "cannot tell"; ``why`` says why there is no estimate; ``cancelled`` the systematic
+    parts both rides share.
     """
 
     estimate: float | None
@@ -107,24 +68,10 @@ class MassDifference:
 
 
 def mass_difference(a, b) -> MassDifference:
-    """Total mass of ride ``b`` minus ride ``a`` of the same wheel, with its 95 % interval.
+    """Total mass of ride ``b`` minus ride ``a`` (two :class:`MassFit` of one wheel), with its 95 % interval.
 
-    The bootstrap intervals of the two rides are independent, and so are the
-    parts each ride measures on its own (grade, the copper-loss model, a GPS
-    speed scale); the wheel's current-sensor scale and rotating inertia are the
-    same on both rides and cancel (:data:`SHARED_BY_A_WHEEL`), as does an
-    assumed speed scale when neither ride has GPS (one speedometer).  All are
-    added in quadrature.
-
-    Parameters
-    ----------
-    a, b : MassFit
-        The two rides' fits (:mod:`euc_sim.rides.drive.mass`), the rotating inertia
-        taken out or not, alike.
-
-    Returns
-    -------
-    MassDifference
+    Independent parts add in quadrature; :data:`SHARED_BY_A_WHEEL` (and an assumed speed
+    scale on both) cancel.
     """
     if a.estimate is None or b.estimate is None or not a.stat_ci95 or not b.stat_ci95:
         which = "this ride" if a.estimate is None else "the compared ride"

@@ -1,10 +1,6 @@
-"""The ride's distance and duration: the app's own counters where the log has them.
-
-:func:`_distance` follows the app's GPS distance, else the GPS track, else the wheel's
-trip counter (or odometer), else the wheel's speed integrated; :func:`_duration` follows
-the app's trip clock, else the time from the wheel's first turn to the last row.  Each
-says, in words, which it follows (the summary's ``distance_follows`` and
-``duration_follows``, docs/summary.md).  Used by :mod:`euc_sim.rides.summary.summary`.
+"""The ride's distance and duration: the app's own counters where the log has them, else
+GPS, the wheel's counters or the integrated speed; each says which it follows
+(``distance_follows``, ``duration_follows``, docs/summary.md).
 """
 
 from __future__ import annotations
@@ -62,11 +58,8 @@ def _gap_distance(d: pd.DataFrame) -> tuple[float, float]:
 
 
 def _gps_distance(d: pd.DataFrame, w: np.ndarray) -> tuple[float | None, str | None]:
-    """The GPS track's length while moving, m, or None with the reason it is not used.
-
-    Fixes are taken where latitude/longitude change; a hop between fixes more than
-    :attr:`GapPolicy.gps_hop` apart is filled with the wheel's distance ``w`` (per interval, m, as
-    :func:`_distance` counts it) scaled by the track/wheel ratio of the rest.
+    """The GPS track's length while moving, m, or None with why; hops longer than
+    :attr:`GapPolicy.gps_hop` filled with the wheel's distance ``w`` scaled by the track/wheel ratio.
     """
     if "latitude" not in d or "longitude" not in d:
         return None, "no GPS position in the log"
@@ -133,17 +126,13 @@ def _gps_counter(d: pd.DataFrame, w: np.ndarray, layout: str | None) -> tuple[fl
 
 
 def _distance(d: pd.DataFrame, layout: str | None = None):
-    """The wheel's distance, its part over the bridged intervals (the stretch the energy
-    covers), the GPS distance (or None), why GPS is not used (or None), m; and what the
-    wheel's and the GPS distance follow, in words.
+    """The wheel's distance, its part over the bridged intervals, the GPS distance (or None),
+    why GPS is not used (or None), m; and what the two follow, in words.
 
-    The wheel's distance is the log's own trip counter, else its odometer (it counts every
-    turn of the wheel, sampled or not), with the trip before the log's first row where the
-    app counts trips (:func:`_trip_start`); where it agrees with the speed integral within
-    :data:`COUNTER_AGREE` over the intervals up to :data:`BRIDGE_S` away from longer ones
-    (a counter in another unit or broken does not).  Else the speed integrated over every
-    interval up to :data:`DISTANCE_BRIDGE_S`.  The GPS distance is the app's own GPS counter
-    (:func:`_gps_counter`), else the GPS track (:func:`_gps_distance`).
+    The wheel's distance is its trip counter or odometer (with the trip before the first
+    row, :func:`_trip_start`) where it agrees with the speed integral within
+    :data:`COUNTER_AGREE`, else the speed integrated over intervals up to
+    :data:`DISTANCE_BRIDGE_S`.  The GPS distance is the app's counter, else the track.
     """
     t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
     dt, ok = _steps(t)

@@ -29,19 +29,9 @@ def zone_words(offset_s: float | None) -> str:
 
 @dataclass(frozen=True)
 class Clock:
-    """When a ride ran, in its own zone.
-
-    Attributes
-    ----------
-    start : str
-        ISO 8601 clock time of the log's first row in the ride's own zone (with the offset where
-        the log gives one).
-    utc_offset_s : float or None
-        s east of UTC; None where the log names no zone (WheelLog writes the phone's local clock).
-    zone : str
-        The zone in words (:func:`zone_words`).
-    pauses : tuple of (float, float)
-        s from the log's start: the intervals the summary leaves out of the duration.
+    """When a ride ran, in its own zone: ``start`` (ISO, with the offset where the log gives
+    one), ``utc_offset_s`` (s east of UTC, or None), ``zone`` in words, and the ``pauses``
+    (s from the start) left out of the duration.
     """
 
     start: str
@@ -64,25 +54,9 @@ def ride_clock(log: Ride) -> Clock:
 
 
 def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: float | None = None) -> tuple:
-    """The summary, the mass check, the battery's health and the clock of one ride.
-
-    Parameters
-    ----------
-    log : Ride
-        The ride.
-    total_mass : MassFit or None
-        The ride's total mass as reported, read, never recomputed.
-    drivetrain : mapping of str -> Term
-        The ride's drivetrain terms (its ``internal_resistance``), read, never recomputed.
-    spec : WheelSpec, optional
-        The wheel's weight (for the mass check) and pack (for the battery's verdict).
-    rider_weight : float, optional
-        The rider's declared weight, kg.
-
-    Returns
-    -------
-    tuple
-        (RideSummary, MassCheck, BatteryHealth, Clock).
+    """(RideSummary, MassCheck, BatteryHealth, Clock) of one ride, from ``total_mass`` and the
+    ``drivetrain`` terms as reported (never recomputed), the ``spec``'s wheel weight and pack,
+    and the rider's declared weight (kg).
     """
     from euc_sim.rides.drive.battery import battery_health_of, pack_spec  # deferred: loads euc_sim.rides.drive.battery (0.003 s), not loaded by --help
     from euc_sim.rides.summary.summary import mass_check, ride_summary  # deferred: loads scipy (1.1 s)

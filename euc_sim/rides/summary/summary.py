@@ -1,21 +1,11 @@
 """The ride as a rider reads it: distance, time, speed, energy, battery, PWM, alarms, gaps.
 
-:func:`ride_summary` is a pure function of a parsed log (:func:`euc_sim.rides.source.logs.read_log`),
-its columns and the app's own counters the reader took beside them (its ``counters``,
-:class:`~euc_sim.rides.source.counters.LogCounters`: alarm flags, trip counters).  Its
-:class:`RideSummary` is the ride JSON's ``summary`` object (docs/summary.md).
-
-- Duration and distance: the app's own counters where the log has them, else computed
-  from the log (:mod:`euc_sim.rides.summary.distance`); ``distance_follows`` and
-  ``duration_follows`` say which.  The whole log's span is ``logged_s``.
-- Energy: battery voltage × current integrated over time (trapezoid); intervals
-  longer than the gap policy's ``bridge`` (:mod:`euc_sim.rides.source.gaps`) are not integrated across (the wheel's state in
-  between is unknown).  Drawn is the positive part, regenerated the negative one.
-- Battery used: the log's battery percentage near the start minus near the end,
-  each the median of the readings at the lowest currents of the first and last
-  :data:`BATTERY_WINDOW_S` (a voltage-based percentage sags under current).
-
-A quantity the log cannot give is ``None``.
+:func:`ride_summary` is a pure function of a parsed log and its counters; its
+:class:`RideSummary` is the ride JSON's ``summary`` (docs/summary.md).  Energy is V·I
+integrated (trapezoid, not across intervals over the gap policy's ``bridge``), drawn the
+positive part and regenerated the negative; battery used is the start minus end
+percentage at the lowest currents of :data:`BATTERY_WINDOW_S`.  What the log cannot give
+is ``None``.
 """
 
 from __future__ import annotations
@@ -153,14 +143,10 @@ def _pwm(d: pd.DataFrame, skip: np.ndarray | None = None) -> tuple[float | None,
 
 
 def _quality(t: np.ndarray, lim: float) -> tuple[str, str, float | None]:
-    """``"good"``, ``"fair"`` or ``"poor"``, one sentence on the sampling and the gaps, and the
-    samples per second, all over the log without its pauses (intervals over :data:`PAUSE_S`,
-    left out of the duration too: the log was stopped, not losing rows).
-
-    A gap is an interval over ``lim`` (:meth:`~euc_sim.rides.source.gaps.GapPolicy.gap_of`: what
-    the app normally writes).
-    Poor: more than 20 % of the ride in gaps or under 1 sample/s; fair: over 5 %
-    or under 2 samples/s.  A poor log weakens every verdict drawn from it.
+    """``"good"``, ``"fair"`` or ``"poor"``, a sentence on the sampling and gaps, and the samples
+    per second, over the log without its pauses (intervals over :data:`PAUSE_S`).  A gap is an
+    interval over ``lim``; poor: over 20 % of the ride in gaps or under 1 sample/s; fair:
+    over 5 % or under 2 samples/s.
     """
     dt = np.diff(t)
     pause = dt[dt > PAUSE_S]
@@ -189,20 +175,8 @@ def _quality(t: np.ndarray, lim: float) -> tuple[str, str, float | None]:
 
 
 def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
-    """The ride's summary from its parsed log.
-
-    Parameters
-    ----------
-    log : Ride
-        From :func:`euc_sim.rides.source.logs.read_log` (SI units); its ``counters`` give
-        the alarm count (``alarms`` None without an alarm column) and the speed limit set
-        in the wheel.
-    top_speed_mps : float, optional
-        The spec's top speed, m/s: the ``limits``' speed limit where the log has none.
-
-    Returns
-    -------
-    RideSummary
+    """The ride's summary from its parsed log; ``top_speed_mps`` (the spec's, m/s) is the
+    ``limits``' speed limit where the log has none.
     """
     d = log.data
     t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
@@ -266,20 +240,12 @@ def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
 # --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class MassCheck:
-    """The log's total mass against the rider's declared weight plus the wheel's.
+    """The log's total mass against the rider's declared weight plus the wheel's (kg).
 
-    Attributes
-    ----------
-    declared_rider_kg, wheel_kg, declared_total_kg : float or None
-    log_total_kg : float or None
-        The total mass found from the log (the ride JSON's ``total_mass``).
-    log_ci95 : tuple or None
-    difference_kg : float or None
-        Log minus declared, kg; ``difference_ci95`` its interval.
-    verdict : str
-        ``"consistent"``, ``"heavier"``, ``"lighter"`` or ``"cannot tell"``.
-    sentence : str
-        One line a rider reads.
+    ``declared_rider_kg``, ``wheel_kg``, ``declared_total_kg``; ``log_total_kg`` with
+    ``log_ci95``; ``difference_kg`` (log minus declared) with ``difference_ci95``;
+    ``verdict`` (``"consistent"``, ``"heavier"``, ``"lighter"``, ``"cannot tell"``);
+    ``sentence``.
     """
 
     declared_rider_kg: float | None
@@ -294,21 +260,8 @@ class MassCheck:
 
 
 def mass_check(total_mass, rider_kg: float | None, wheel_kg: float | None) -> MassCheck:
-    """Test the declared weight against the log's total mass; the declaration is never the answer.
-
-    Parameters
-    ----------
-    total_mass : MassFit or None
-        The log's total mass as reported (``estimate``, ``ci95`` kg, ``why``).
-    rider_kg : float or None
-        The rider's declared weight, kg (with the gear worn).
-    wheel_kg : float or None
-        The wheel's net weight from its spec, kg.
-
-    Returns
-    -------
-    MassCheck
-        ``consistent`` when the declared total lies inside the log's 95 % interval.
+    """Test the declared weight (rider with gear + the spec's wheel, kg) against the log's
+    total mass: ``consistent`` when it lies inside the 95 % interval; never the answer.
     """
     est = getattr(total_mass, "estimate", None)
     ci = getattr(total_mass, "ci95", None)

@@ -1,15 +1,10 @@
 """Rides with a concealed firmware balance law, written as real logs are written.
 
-:func:`law_ride` rides a speed profile in closed loop (MuJoCo, the LQR rider with
-a reaction delay and motor noise) under a known motor law (``LAW``: a PD of a
-few thousand N·m/rad, tilt-back above 30 km/h, a torque limit);
-:func:`eucworld_log` writes it as EUC World does (rows every 0.18-0.22 s at
-irregular times, pitch in 0.1° steps in the brand's sign convention and with a
-mounting offset, phase current = M_d/K_t in 0.1 A steps with noise);
-:func:`wheellog_log` as WheelLog does (0.2 s rows, a third of the time stamps
-repeated, pitch in 0.01°, the wheel's ``torque`` in 0.01 N·m).  The truth is
-returned, never written beside the log.  :func:`draw_law` draws a concealed law
-for the blind study (``scripts/tables/blind_study.py --laws N``).
+:func:`law_ride` rides a speed profile in closed loop under a known motor law
+(:data:`LAW`); :func:`eucworld_log` and :func:`wheellog_log` write it as those apps do
+(irregular stamps, quantised pitch with a brand's sign and mounting offset, noisy
+current or torque).  The truth is never written beside the log; :func:`draw_law` draws a
+concealed law for the blind study.
 """
 
 from __future__ import annotations
@@ -52,19 +47,8 @@ def draw_law(rng: np.random.Generator) -> dict:
 
 
 def profile(seed: int, duration: float) -> tuple[np.ndarray, np.ndarray]:
-    """A speed plan 0 → up to about 45 km/h and back, m/s on a 0.5 s grid.
-
-    Parameters
-    ----------
-    seed : int
-        Seed of the sines' phases.
-    duration : float
-        Length of the plan, s.
-
-    Returns
-    -------
-    (t, v) : tuple of numpy.ndarray
-        Times, s, and planned speeds, m/s (0 at both ends, ramped over 20 s).
+    """A speed plan 0 → about 45 km/h and back on a 0.5 s grid: (t s, v m/s), 0 at both ends
+    (20 s ramps), sine phases from ``seed``.
     """
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, duration, 0.5)
@@ -76,26 +60,9 @@ def profile(seed: int, duration: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def law_ride(seed: int = 1, duration: float = 300.0, law=LAW) -> pd.DataFrame:
-    """The closed-loop ride at 1 kHz under a concealed law.
-
-    Parameters
-    ----------
-    seed : int
-        Seed of the speed plan (:func:`profile`) and of the rider's motor noise.
-    duration : float
-        Length of the ride, s.
-    law : mapping
-        :class:`euc_sim.controllers.motor.MotorPD` keywords, SI (default :data:`LAW`).
-
-    Returns
-    -------
-    pandas.DataFrame
-        Columns ``t`` s, ``x_dot`` m/s, ``gamma`` rad, ``gamma_dot`` rad/s, ``M_d`` N·m.
-
-    Raises
-    ------
-    FallError
-        when the rider falls under this law and plan.
+    """The closed-loop ride at 1 kHz under the concealed ``law`` (MotorPD keywords, SI):
+    ``t`` s, ``x_dot`` m/s, ``gamma`` rad, ``gamma_dot`` rad/s, ``M_d`` N·m; FallError if the
+    rider falls.
     """
     motor = MotorPD(**law)
     rider = default_rider(TABLE3, motor, **RIDER)
@@ -120,27 +87,8 @@ def _sample(ride: pd.DataFrame, ts: np.ndarray, mean_over: float = 0.2) -> dict:
 
 def eucworld_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = -1,
                  offset_deg: float = -2.0, k_t: float = K_T) -> Path:
-    """EUC World CSV: irregular 5 Hz rows, 0.1° pitch steps, 0.1 A phase current with noise.
-
-    Parameters
-    ----------
-    ride : pandas.DataFrame
-        :func:`law_ride`'s columns (SI).
-    path : Path
-        The CSV to write.
-    seed : int
-        Seed of the row times and the current noise (0.5 A).
-    sign : int
-        The brand's pitch sign, ±1.
-    offset_deg : float
-        Mounting offset added to the written pitch, degrees.
-    k_t : float
-        Torque constant of the written phase current, N·m/A.
-
-    Returns
-    -------
-    Path
-        ``path``.
+    """EUC World CSV at ``path``: irregular 5 Hz rows, pitch in 0.1° steps (``sign``, ``offset_deg``),
+    phase current M_d/``k_t`` in 0.1 A steps with 0.5 A noise (``seed``).
     """
     rng = np.random.default_rng(seed)
     T = float(ride["t"].iloc[-1])
@@ -160,26 +108,8 @@ def eucworld_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = -1,
 
 def wheellog_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = 1,
                  offset_deg: float = 0.5) -> Path:
-    """WheelLog CSV (newer layout): 0.2 s rows, a third of them sharing the previous stamp
-    (written a few ms later by the app), pitch in 0.01°, torque in 0.01 N·m with noise.
-
-    Parameters
-    ----------
-    ride : pandas.DataFrame
-        :func:`law_ride`'s columns (SI).
-    path : Path
-        The CSV to write.
-    seed : int
-        Seed of the repeated stamps and the torque noise (0.8 N·m).
-    sign : int
-        The brand's pitch sign, ±1.
-    offset_deg : float
-        Mounting offset added to the written pitch, degrees.
-
-    Returns
-    -------
-    Path
-        ``path``.
+    """WheelLog CSV (newer layout) at ``path``: 0.2 s rows, a third sharing the previous stamp,
+    pitch in 0.01° (``sign``, ``offset_deg``), torque in 0.01 N·m with 0.8 N·m noise (``seed``).
     """
     rng = np.random.default_rng(seed)
     T = float(ride["t"].iloc[-1])
