@@ -192,7 +192,8 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider:
         scored = t >= an.cross.test_design.t.min()      # the test half's first row
     cr = an.cross
     ocv = drivetrain.get("ocv_start")
-    voltage = (mass.envelope.get("full") or {}).get("voltage") or (None if ocv is None else ocv.estimate)
+    full = mass.envelope.full
+    voltage = full.voltage if full is not None else (None if ocv is None else ocv.estimate)
     steps = build_steps(StepInputs(ride_params(sig.assumptions), cr.nominal.estimate,
                                    cr.augmented.estimate, cr.accepted, parameters, law, drivetrain,
                                    voltage, log),

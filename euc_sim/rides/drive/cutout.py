@@ -17,9 +17,12 @@ the ground speed is ``s·v``, ``s`` the speedometer's scale)::
     V_t   = (V_ocv + sqrt(V_ocv² − 4·R_int·P)) / 2            terminal voltage: V_t·(V_ocv − V_t)/R_int = P
     d     = (e(v) + r_F·P/v) / V_t + c_dt                      the fitted duty model, e the back-EMF
 
-The cut-out speed is the lowest speed with ``d = 1`` (:func:`scipy.optimize.brentq`
-in the first bracket of a speed grid where ``d − 1`` changes sign); where the battery
-cannot give ``P`` at all (``V_ocv² < 4·R_int·P``) the duty is taken as above 1.
+The cut-out speed is the lowest speed with ``d = 1`` (:func:`limit_speed`, any other duty
+alike); where the battery cannot give ``P`` at all (``V_ocv² < 4·R_int·P``) the duty is taken
+as above 1.  The page's envelope (:func:`envelope`: the steady duty and the acceleration left
+against speed at full and empty charge) is the same model, so it ends where the chart does.
+The model is the fit's own: ``r_F`` multiplies ``P/v`` as in :func:`~euc_sim.rides.drive.drivetrain.fit_pwm`,
+so the losses and the sag stay in; it is fitted, and said, from 2 m/s up.
 """
 
 from __future__ import annotations
@@ -33,7 +36,8 @@ from euc_sim.rides.drive.drivetrain import _pwm_rows, fit_pwm, predict_pwm
 from euc_sim.rides.drive.pwm import back_emf
 
 __all__ = ["Limits", "ride_limits", "OcvLine", "ocv_line", "Condition", "CONDITIONS", "DutyModel",
-           "duty_model", "ride_cutout", "duty", "cutout_speed", "Curve", "Cutout", "cutout_curves", "danger_sentence",
+           "duty_model", "duty", "limit_speed", "full_duty_accel", "Curve",
+           "Cutout", "cutout_curves", "ChargeEnvelope", "Envelope", "envelope", "danger_sentence",
            "headroom_words", "heldout_pwm_rmse", "CHARGE_GRID", "CELL_FULL", "CELL_EMPTY"]
 
 G = 9.81
@@ -249,44 +253,70 @@ class DutyModel:
     scale: float = 1.0
 
 
-def _power(m: DutyModel, v: np.ndarray, c: Condition) -> np.ndarray:
-    """Battery power, W, riding at reading ``v`` (m/s) in condition ``c``."""
+def _power(m: DutyModel, v: np.ndarray, accel, grade) -> np.ndarray:
+    """Battery power, W, riding at reading ``v`` (m/s), accelerating at ``accel`` (m/s²) up ``grade``."""
     vg = m.scale * v
-    F = m.m_eq * c.accel + m.mass * G * math.sin(math.atan(c.grade)) + m.c1 + m.c3 * vg ** 2
-    basis = {"phase_current": F * m.scale / m.pwm["K_v"], "force": F}.get(m.copper_column, c.accel)
+    F = m.m_eq * accel + m.mass * G * np.sin(np.arctan(grade)) + m.c1 + m.c3 * vg ** 2
+    basis = {"phase_current": F * m.scale / m.pwm["K_v"], "force": F}.get(m.copper_column, accel)
     return F * vg + m.p0 + m.copper * basis ** 2
 
 
-def duty(m: DutyModel, v, charge: float, c: Condition) -> np.ndarray:
-    """The duty, 1 = 100 %, riding at reading ``v`` (m/s) at ``charge`` (%) in condition ``c``.
+def duty(m: DutyModel, v, volts: float, accel=0.0, grade=0.0) -> np.ndarray:
+    """The duty, 1 = 100 %, riding at reading ``v`` (m/s) on a pack of open-circuit ``volts`` (V),
+    accelerating at ``accel`` (m/s²) up ``grade`` (rise over run).
 
-    ``inf`` where the battery cannot give the power at all.
+    The battery power ``P`` (road, slope, inertia and losses) sags the terminal voltage,
+    ``V_t·(volts − V_t) = R_int·P``; the duty is the fitted model's volts over it,
+    ``(e(v) + r_F·P/v)/V_t + c_dt``.  ``inf`` where the battery cannot give ``P`` at all;
+    NaN below :data:`SPEED_RANGE`'s slowest speed, where the model is not fitted (``P/v``
+    stands for the wheel's force only when moving).
     """
-    v = np.maximum(np.asarray(v, float), 1e-3)
-    P = _power(m, v, c)
-    V = float(m.ocv(charge))
-    disc = V * V - 4.0 * max(m.R_int, 0.0) * P
-    Vt = 0.5 * (V + np.sqrt(np.maximum(disc, 0.0)))
-    d = (back_emf(m.pwm, v) + m.pwm["r_F"] * P / v) / Vt + m.pwm.get("dead_time", 0.0) * np.sign(P)
-    return np.where(disc >= 0.0, d, np.inf)
+    v = np.asarray(v, float)
+    P = _power(m, v, accel, grade)
+    disc = volts * volts - 4.0 * max(m.R_int, 0.0) * P
+    Vt = 0.5 * (volts + np.sqrt(np.maximum(disc, 0.0)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        d = (back_emf(m.pwm, v) + m.pwm["r_F"] * P / v) / Vt + m.pwm.get("dead_time", 0.0) * np.sign(P)
+    return np.where(v < SPEED_RANGE[0], np.nan, np.where(disc >= 0.0, d, np.inf))
 
 
-def cutout_speed(m: DutyModel, charge: float, c: Condition, speeds=SPEED_RANGE, n: int = 233) -> float:
-    """The lowest speed reading, m/s, at which the duty reaches 100 %.
-
-    0 when it is reached at the slowest speed searched; NaN when not before the fastest.
+def limit_speed(m: DutyModel, volts: float, c: Condition, fraction: float = 1.0, speeds=SPEED_RANGE,
+                n: int = 233) -> float:
+    """The lowest speed reading, m/s, at which the duty reaches ``fraction`` (1: the cut-out) on a pack
+    of open-circuit ``volts`` (V) in condition ``c``: the first of ``n`` ``speeds`` (m/s) past it, then
+    :func:`scipy.optimize.brentq`.  0 when reached at the slowest speed searched; NaN when not before the fastest.
     """
     from scipy.optimize import brentq
 
     grid = np.linspace(speeds[0], speeds[1], n)
-    over = duty(m, grid, charge, c) >= 1.0
+    over = duty(m, grid, volts, c.accel, c.grade) >= fraction
     if over[0]:
         return 0.0
     if not over.any():
         return float("nan")
     k = int(np.argmax(over))
-    f = lambda v: min(float(duty(m, v, charge, c)), 10.0) - 1.0           # noqa: E731
+    f = lambda v: min(float(duty(m, v, volts, c.accel, c.grade)), 10.0) - fraction     # noqa: E731
     return float(brentq(f, grid[k - 1], grid[k], xtol=1e-4))
+
+
+def full_duty_accel(m: DutyModel, v, volts: float, iterations: int = 60) -> np.ndarray:
+    """The acceleration, m/s², at which the duty reaches 100 % at speed reading ``v`` (m/s) on the level:
+    what the voltage leaves for speeding up (NaN where the duty is 100 % already at a steady speed).
+
+    The duty rises with the acceleration (more force, more power, more sag), so it is found by
+    bisection between 0 and the acceleration the back-EMF alone would leave without sag or losses.
+    """
+    v = np.asarray(v, float)
+    vs = np.maximum(v, SPEED_RANGE[0])                    # below it the duty is NaN: so is the answer
+    keep = 1.0 - m.pwm.get("dead_time", 0.0)
+    hi = np.maximum((keep * volts - back_emf(m.pwm, vs)) / m.pwm["r_F"] / m.scale
+                    + (abs(m.p0) / vs + abs(m.c1)) / m.scale, 0.0) / m.m_eq
+    lo = np.zeros_like(vs)
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        over = duty(m, vs, volts, mid) >= 1.0
+        lo, hi = np.where(over, lo, mid), np.where(over, mid, hi)
+    return np.where(duty(m, v, volts) < 1.0, lo, np.nan)
 
 
 @dataclass(frozen=True)
@@ -344,10 +374,83 @@ class Cutout:
 def cutout_curves(m: DutyModel, limits: Limits, heldout: float | None = None,
                   conditions=CONDITIONS, charge=CHARGE_GRID) -> Cutout:
     """Every condition's cut-out speed at every charge, and the danger they make with the limit."""
-    curves = tuple(Curve(c, np.asarray(charge, float), np.array([cutout_speed(m, q, c) for q in charge]))
+    curves = tuple(Curve(c, np.asarray(charge, float), np.array([limit_speed(m, float(m.ocv(q)), c) for q in charge]))
                    for c in conditions)
     return Cutout(curves, heldout, danger_sentence(curves, limits, m.ocv.charge_range), m.ocv.source,
                   m.ocv.charge_range)
+
+
+@dataclass(frozen=True)
+class ChargeEnvelope:
+    """What the voltage leaves at one charge, against the envelope's speeds.
+
+    Attributes
+    ----------
+    voltage : float
+        The pack's open-circuit voltage at the charge, V.
+    accel : numpy.ndarray
+        The acceleration on the level at which the duty reaches 100 %, m/s² (:func:`full_duty_accel`).
+    pwm_pct : numpy.ndarray
+        The duty that holds each speed steady on the level, %.
+    v_limit : float or None
+        The speed, m/s, at which the duty reaches 100 % steadily on the level (the cut-out chart's at
+        this charge): above it nothing is left; None when the envelope's speeds end first.
+    """
+
+    voltage: float
+    accel: np.ndarray
+    pwm_pct: np.ndarray
+    v_limit: float | None
+
+    @property
+    def lean(self) -> np.ndarray:
+        """The forward lean :attr:`accel` takes, rad."""
+        return np.arctan(self.accel / G)
+
+
+@dataclass(frozen=True)
+class Envelope:
+    """The ride JSON's ``envelope``: the acceleration and the steady duty the voltage leaves against
+    speed at full and empty charge, or why there are none.
+
+    Attributes
+    ----------
+    speed : numpy.ndarray or None
+        The speed readings, m/s.
+    full, low : ChargeEnvelope or None
+        At 100 % and 0 % of the battery reading.
+    voltage_source : str or None
+        How the charge gives the voltage (:attr:`OcvLine.source`).
+    ride_top_speed : float or None
+        The ride's top speed, m/s.
+    why : str or None
+        Why there is no envelope.
+    """
+
+    speed: np.ndarray | None = None
+    full: ChargeEnvelope | None = None
+    low: ChargeEnvelope | None = None
+    voltage_source: str | None = None
+    ride_top_speed: float | None = None
+    why: str | None = None
+
+
+def envelope(m: DutyModel, ride_top_speed: float, n: int = 61) -> Envelope:
+    """The :class:`Envelope` of the duty model ``m`` on ``n`` speeds from 0 to 10 % past the full charge's
+    ``v_limit`` (to twice ``ride_top_speed``, m/s, where there is none).
+
+    The model is :func:`duty`'s, the cut-out chart's: its ``v_limit`` at full charge is the chart's
+    level speed at 100 %.  Below :data:`SPEED_RANGE`'s slowest speed the values are NaN.
+    """
+    cut = {q: limit_speed(m, float(m.ocv(q)), CONDITIONS[0]) for q in (100.0, 0.0)}
+    speed = np.linspace(0.0, 1.1 * cut[100.0] if cut[100.0] > 0 else 2.0 * ride_top_speed, n)
+
+    def at(q: float) -> ChargeEnvelope:
+        V = float(m.ocv(q))
+        return ChargeEnvelope(V, full_duty_accel(m, speed, V), 100.0 * duty(m, speed, V),
+                              cut[q] if cut[q] <= speed[-1] else None)
+
+    return Envelope(speed, at(100.0), at(0.0), m.ocv.source, ride_top_speed)
 
 
 def danger_sentence(curves, limits: Limits, charge_range: tuple | None = None) -> str | None:
@@ -443,37 +546,3 @@ def duty_model(dt, mass, ocv: OcvLine) -> DutyModel:
                      c3=float(c.get("drag", 0.0)), p0=float(c.get("no_load", 0.0)),
                      copper=float(c.get("copper", 0.0)), copper_column=mass.copper_column,
                      scale=float(mass.scale.estimate))
-
-
-def ride_cutout(sig, dt, mass, charge: np.ndarray | None, limits: Limits,
-                spec_voltage: float | None = None, why: str | None = None) -> Cutout:
-    """The ride's :class:`Cutout`, or one saying why there is none.
-
-    Parameters
-    ----------
-    sig : PowerSignals
-        The ride on its grid (voltage, current, pwm).
-    dt : Drivetrain
-    mass : MassFit
-    charge : numpy.ndarray or None
-        The log's battery reading on ``sig.t``, %.
-    limits : Limits
-    spec_voltage : float, optional
-        The pack's full-charge voltage, V.
-    why : str, optional
-        Why the logged duty cannot be modelled (an app's computed duty): no curves.
-    """
-    if dt.pwm_coef is None:
-        return Cutout(why=dt.unidentified.get("pwm") or "no PWM in the log")
-    heldout = heldout_pwm_rmse(sig)
-    if why is not None:
-        return Cutout(heldout_pwm_rmse_pct=heldout, why=why)
-    if not dt.mass or not dt.battery_coef:
-        return Cutout(heldout_pwm_rmse_pct=heldout, why="needs the mass and the battery found from the log")
-    line = ocv_line(sig.extra["voltage"], sig.extra.get("current"), charge, dt.battery_coef["R_int"],
-                    spec_voltage)
-    if line is None:
-        return Cutout(heldout_pwm_rmse_pct=heldout,
-                      why="no battery reading in the log and no battery voltage in the spec: the charge "
-                          "cannot be turned into volts")
-    return cutout_curves(duty_model(dt, mass, line), limits, heldout)

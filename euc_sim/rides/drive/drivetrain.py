@@ -20,10 +20,9 @@ Motor and controller (permanent-magnet motor under PWM)::
 drop ``R_w·I_ph`` with the phase current proportional to the wheel's force
 ``F = K_t·I_ph/R``, here taken from battery power, ``F = P/v`` (N).  Where the log
 has the phase current the winding resistance is fitted directly,
-``d·V = K_v·v + R_w·I_ph``.  At ``d = 1`` nothing is left for more torque: the
-largest force the motor can give at speed v and battery voltage V is
-``F_max = (V − K_v·v)/r_F`` (:func:`envelope`), which falls with speed and
-with charge.  A rider who asks for more falls (a cut-out).
+``d·V = K_v·v + R_w·I_ph``.  At ``d = 1`` nothing is left for more torque: a rider
+who asks for more falls (a cut-out; where, against speed and charge:
+:mod:`euc_sim.rides.drive.cutout`).
 
 Each fit is linear least squares on the 1 s Savitzky–Golay-filtered signals of
 :func:`euc_sim.rides.grids.power.power_signals`, with a moving-block bootstrap 95 %
@@ -37,16 +36,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from euc_sim.rides.drive.mass import MassFit
-from euc_sim.rides.drive.pwm import BASE, EXTRA, full_duty_force, pwm_columns, select_pwm_terms
+from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns, select_pwm_terms
 from euc_sim.rides.grids.power import G, RHO_AIR, PowerSignals
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.stats import block_labels, draw_blocks, gram_lstsq_many, label_grams, one_blas_thread, percentile_interval
 
-__all__ = ["Term", "Drivetrain", "fit_battery", "charge_drawn", "fit_pwm", "predict_pwm", "fit_drivetrain",
-           "envelope", "max_force", "CELL_FULL", "CELL_LOW"]
-
-CELL_FULL = 4.2     # V per Li-ion cell, full
-CELL_LOW = 3.3      # V per Li-ion cell, nearly empty (under light load)
+__all__ = ["Term", "Drivetrain", "fit_battery", "charge_drawn", "fit_pwm", "predict_pwm", "fit_drivetrain"]
 
 
 @dataclass(frozen=True)
@@ -282,63 +277,3 @@ def _fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = Non
         why["pwm"] = "no PWM or safety-margin column: back-EMF and the duty limit cannot be identified"
     return Drivetrain(terms=terms, unidentified=why, pwm_coef=pcoef, battery_coef=bcoef,
                       mass=m, road=road)
-
-
-def envelope(dt: Drivetrain, voltage_full: float, n_cells: int | None = None,
-             v_max: float = 30.0, n: int = 61) -> dict:
-    """The highest sustained acceleration, and the lean it takes, against speed.
-
-    At full duty ``V_t = K_v·v + r_F·F`` (plus the kept dead-time and
-    flux-weakening terms) with the terminal voltage sagging under the battery
-    current, ``V_t = V_ocv − R_int·F·v/V_ocv`` (the drivetrain's losses are left
-    out of the sag), so (:func:`euc_sim.rides.drive.pwm.full_duty_force`)::
-
-        F_max = (V_ocv − K_v·v) / (r_F + R_int·v/V_ocv)
-        a_max = (F_max − c₁ − c₃·v²)/m,   lean φ = atan(a_max/g)
-
-    Parameters
-    ----------
-    dt : Drivetrain
-    voltage_full : float
-        Full-charge open-circuit voltage, V.
-    n_cells : int, optional
-        Cells in series; by default ``round(voltage_full/4.2)``.  Low charge is
-        :data:`CELL_LOW` V per cell.
-    v_max : float
-        Largest speed, m/s.
-
-    Returns
-    -------
-    dict
-        ``speed`` (m/s), and for ``full`` and ``low``: ``voltage`` (V),
-        ``accel`` (m/s², NaN past the speed where nothing is left), ``lean``
-        (rad), ``v_limit`` (m/s, the highest speed with any acceleration left:
-        above it the motor cannot even hold the speed; None when the grid ends first).
-
-    Raises
-    ------
-    ValueError
-        when the drivetrain has no PWM model or no mass.
-    """
-    if dt.pwm_coef is None or not dt.mass:
-        raise ValueError("envelope: needs the PWM model and the total mass; this ride has "
-                         f"pwm={dt.pwm_coef is not None}, mass={dt.mass}")
-    cells = n_cells or max(1, round(voltage_full / CELL_FULL))
-    speed = np.linspace(0.0, v_max, n)
-    R_int = max(dt.battery_coef["R_int"], 0.0) if dt.battery_coef else 0.0
-    out = {"speed": speed.tolist()}
-    for name, V in (("full", voltage_full), ("low", cells * CELL_LOW)):
-        F = full_duty_force(dt.pwm_coef, speed, V, R_int)
-        a = (F - dt.road["c1"] - dt.road["c3"] * speed ** 2) / dt.mass
-        a = np.where(a > 0, a, np.nan)
-        ok = np.isfinite(a)
-        out[name] = {"voltage": float(V), "accel": a.tolist(),
-                     "lean": np.arctan(a / G).tolist(),
-                     "v_limit": (float(speed[ok][-1]) if ok.any() else 0.0) if not ok[-1] else None}
-    return out
-
-
-def max_force(dt: Drivetrain, speed: float, voltage: float) -> float:
-    """Largest wheel force, N, the motor can give at ``speed`` (m/s) and open-circuit ``voltage`` (V)."""
-    R_int = max(dt.battery_coef["R_int"], 0.0) if dt.battery_coef else 0.0
-    return max(float(full_duty_force(dt.pwm_coef, speed, voltage, R_int)), 0.0)

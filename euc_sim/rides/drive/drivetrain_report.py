@@ -15,11 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from euc_sim.rides.drive.cutout import ride_cutout
-from euc_sim.rides.drive.drivetrain import Drivetrain, Term, envelope, fit_drivetrain, predict_pwm
+from euc_sim.rides.drive.cutout import (Cutout, DutyModel, Envelope, cutout_curves, duty_model, envelope,
+                                        heldout_pwm_rmse, ocv_line)
+from euc_sim.rides.drive.drivetrain import Drivetrain, Term, fit_drivetrain, predict_pwm
 from euc_sim.rides.drive.grade import GradeProfile, grade_profile
 from euc_sim.rides.drive.mass import MassFit, fit_mass, predict_power
-from euc_sim.rides.drive.pwm import no_force_speed
 from euc_sim.rides.drive.rotating import without_rotating_inertia
 from euc_sim.rides.grids.power import MassSettings, PowerSignals, power_signals
 from euc_sim.rides.source.ride import Ride
@@ -28,7 +28,7 @@ from euc_sim.rides.source.spec import WheelSpec
 from euc_sim.rides.source.systematic import MassDifference, mass_difference
 
 __all__ = ["RideDrivetrain", "MassDrivetrain", "analyse", "mass_drivetrain", "ride_drivetrain",
-           "reported_mass", "reported_terms", "cutout_of", "COMPUTED_PWM_RMS", "computed_pwm_note"]
+           "reported_mass", "reported_terms", "duty_model_of", "cutout_of", "COMPUTED_PWM_RMS", "computed_pwm_note"]
 
 #: A logged duty that its model explains better than this, percentage points, is
 #: taken to be computed by the app from speed and voltage, not measured.
@@ -99,21 +99,39 @@ def reported_terms(r: RideDrivetrain, computed_note: str | None = None) -> dict[
     return terms
 
 
-def _envelope(r: RideDrivetrain, computed_note: str | None) -> dict:
+def duty_model_of(r: RideDrivetrain, log) -> DutyModel | str:
+    """The ride's :class:`~euc_sim.rides.drive.cutout.DutyModel` (the cut-out chart's and the envelope's),
+    its charge turned into volts by the log's battery reading (``log``: the same ride parsed) or the
+    spec's voltage (:func:`~euc_sim.rides.drive.cutout.ocv_line`); or why there is none."""
+    dt, d, charge = r.drivetrain, log.data, None
+    if dt.pwm_coef is None:
+        return dt.unidentified.get("pwm") or "no PWM in the log"
+    if not dt.mass or not dt.battery_coef:
+        return "needs the mass and the battery found from the log"
+    if "battery" in d:
+        ok = np.isfinite(d["battery"].to_numpy(float))
+        if ok.sum() > 1:
+            charge = np.interp(r.sig.t, d["t"].to_numpy(float)[ok], d["battery"].to_numpy(float)[ok])
+    line = ocv_line(r.sig.extra["voltage"], r.sig.extra.get("current"), charge, dt.battery_coef["R_int"],
+                    r.spec.battery_voltage)
+    if line is None:
+        return ("no battery reading in the log and no battery voltage in the spec: the charge cannot be turned "
+                "into volts")
+    return duty_model(dt, r.mass, line)
+
+
+def _envelope(r: RideDrivetrain, log, computed_note: str | None) -> Envelope:
     """The cut-out envelope, or why there is none (``computed_note``: :func:`computed_pwm_note`)."""
     dt = r.drivetrain
     if dt.pwm_coef is None or not dt.mass:
-        return {"why": "needs the PWM model and the mass: "
-                       + (dt.unidentified.get("pwm") or r.mass.why or "unavailable")}
+        return Envelope(why="needs the PWM model and the mass: "
+                            + (dt.unidentified.get("pwm") or r.mass.why or "unavailable"))
     if computed_note:
-        return {"why": computed_note}
-    V = r.spec.battery_voltage or (dt.battery_coef["E0"] if dt.battery_coef else None)
-    src = "spec" if r.spec.battery_voltage else "open-circuit voltage fitted at the ride's start"
-    v_zero = no_force_speed(dt.pwm_coef, V)
-    env = envelope(dt, V, v_max=1.05 * v_zero if v_zero else 2.0 * float(np.nanmax(r.sig.v)))
-    env["voltage_source"] = src
-    env["ride_top_speed"] = float(np.nanmax(r.sig.v))
-    return env
+        return Envelope(why=computed_note)
+    m = duty_model_of(r, log)
+    if isinstance(m, str):
+        return Envelope(why=m)
+    return envelope(m, float(np.nanmax(r.sig.v)))
 
 
 @dataclass(frozen=True)
@@ -130,9 +148,8 @@ class MassDrivetrain:
         The total mass as reported (:func:`reported_mass`).
     terms : dict of str -> Term
         The drivetrain's terms as reported (:func:`reported_terms`).
-    envelope : dict
-        The acceleration the voltage leaves against speed (``speed``, ``full``, ``low``,
-        ``voltage_source``, ``ride_top_speed``), or ``{"why"}``.
+    envelope : Envelope
+        What the voltage leaves against speed at full and empty charge, or why there is none.
     input_warnings : list of str
         What the log and the spec say against each other.
     pwm_note : str or None
@@ -153,7 +170,7 @@ class MassDrivetrain:
     test: RideDrivetrain | None
     mass: MassFit
     terms: dict
-    envelope: dict
+    envelope: Envelope
     input_warnings: list
     pwm_note: str | None = None
     mass_difference: MassDifference | None = None
@@ -192,7 +209,7 @@ def mass_drivetrain(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
     r = fitted or analyse(log, spec, settings)
     note = computed_pwm_note(r)
     out = dict(fit=r, test=None, mass=reported_mass(r), terms=reported_terms(r, note),
-               envelope=_envelope(r, note), input_warnings=input_warnings(log, r.spec, r.mass.scale),
+               envelope=_envelope(r, log, note), input_warnings=input_warnings(log, r.spec, r.mass.scale),
                pwm_note=note)
     if compare is None:
         return MassDrivetrain(**out)
@@ -208,8 +225,10 @@ def mass_drivetrain(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
     return MassDrivetrain(**out)
 
 
-def cutout_of(r: RideDrivetrain, log, limits):
-    """The ride's :class:`euc_sim.rides.drive.cutout.Cutout` (the JSON's ``cutout``).
+def cutout_of(r: RideDrivetrain, log, limits) -> Cutout:
+    """The ride's :class:`euc_sim.rides.drive.cutout.Cutout` (the JSON's ``cutout``), or one saying why
+    there is none: an app's computed duty has neither curves nor a held-out error (the model fits the
+    app's formula, whatever the load: it checks nothing).
 
     Parameters
     ----------
@@ -219,15 +238,14 @@ def cutout_of(r: RideDrivetrain, log, limits):
     limits : Limits
         The wheel's limits (the summary's).
     """
-    d = log.data
-    charge = None
-    if "battery" in d:
-        ok = np.isfinite(d["battery"].to_numpy(float))
-        if ok.sum() > 1:
-            charge = np.interp(r.sig.t, d["t"].to_numpy(float)[ok], d["battery"].to_numpy(float)[ok])
-    why = ("the log's PWM is the app's computation from speed and voltage, not a measurement: it does "
-           "not show the load, so neither does a model of it") if computed_pwm_note(r) else None
-    return ride_cutout(r.sig, r.drivetrain, r.mass, charge, limits, r.spec.battery_voltage, why)
+    if computed_pwm_note(r):
+        return Cutout(why="the log's PWM is the app's computation from speed and voltage, not a measurement: "
+                          "it does not show the load, so neither does a model of it")
+    m = duty_model_of(r, log)
+    if r.drivetrain.pwm_coef is None:
+        return Cutout(why=m)
+    heldout = heldout_pwm_rmse(r.sig)
+    return Cutout(heldout_pwm_rmse_pct=heldout, why=m) if isinstance(m, str) else cutout_curves(m, limits, heldout)
 
 
 def ride_drivetrain(log, compare=None, spec=None, n_boot: int = 200, seed: int = 0) -> MassDrivetrain:

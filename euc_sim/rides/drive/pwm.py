@@ -16,8 +16,7 @@ import numpy as np
 from euc_sim.stats import forward_select as select_by_heldout
 from euc_sim.rides.drive.mass import heldout_rmse
 
-__all__ = ["BASE", "EXTRA", "MIN_GAIN", "pwm_columns", "select_pwm_terms", "full_duty_force",
-           "no_force_speed", "back_emf"]
+__all__ = ["BASE", "EXTRA", "MIN_GAIN", "pwm_columns", "select_pwm_terms", "back_emf"]
 
 #: Always in the model: back-EMF (K_v, V per m/s) and resistive drop (r_F, V/N).
 BASE = ("K_v", "r_F")
@@ -51,42 +50,8 @@ def select_pwm_terms(v: np.ndarray, F: np.ndarray, V: np.ndarray, duty: np.ndarr
                           list(BASE), list(EXTRA), MIN_GAIN)
 
 
-def full_duty_force(coef: Mapping[str, float], speed: np.ndarray, voltage: float,
-                    R_int: float = 0.0) -> np.ndarray:
-    """Largest forward wheel force at duty 1, N (negative: nothing left).
-
-    With V_t = V − R_int·F·v/V and V_t·(1 − c_dt) = e(v) + r_F·F::
-
-        F_max = ((1 − c_dt)·V − e(v)) / (r_F + (1 − c_dt)·R_int·v/V)
-
-    ``coef`` as :func:`back_emf`, ``speed`` m/s, ``voltage`` open-circuit V, ``R_int`` Ω.
-    """
-    v = np.abs(np.asarray(speed, float))
-    keep = 1.0 - coef.get("dead_time", 0.0)
-    return (keep * voltage - back_emf(coef, v)) / (coef["r_F"] + keep * R_int * v / voltage)
-
-
 def back_emf(coef: Mapping[str, float], speed) -> np.ndarray:
     """The back-EMF at ``speed`` (m/s, magnitude used), V: K_v·v − c_fw·v·min(v, v_fw)."""
     v = np.abs(np.asarray(speed, float))
     c = coef.get("flux_weakening", 0.0)
     return coef["K_v"] * v - c * v * np.minimum(v, coef.get("v_fw", np.inf))
-
-
-def no_force_speed(coef: Mapping[str, float], voltage: float) -> float | None:
-    """Speed, m/s, where the back-EMF alone takes the whole duty (smallest positive root of
-    back_emf(v) = (1 − c_dt)·V), or None.
-    """
-    K, c = coef["K_v"], coef.get("flux_weakening", 0.0)
-    v_fw = coef.get("v_fw", np.inf)
-    need = (1.0 - coef.get("dead_time", 0.0)) * voltage
-    if c != 0:
-        disc = K * K - 4.0 * c * need
-        if disc >= 0:
-            root = (K - np.sqrt(disc)) / (2.0 * c)
-            if 0 < root <= v_fw:
-                return float(root)
-    slope = K - c * v_fw                      # beyond v_fw the back-EMF is linear again
-    if not np.isfinite(v_fw) or slope <= 0:
-        return need / K if c == 0 and K > 0 else None
-    return float(v_fw + (need - float(back_emf(coef, v_fw))) / slope)

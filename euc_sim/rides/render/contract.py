@@ -23,8 +23,8 @@ from euc_sim.rides.sim.sim_steps import TARGET_RATIO, VOLTAGE_EXTRAS
 
 __all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json",
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
-           "spec_json", "grade_json", "cutout_json", "simulation_json", "trace_json", "resolution_json",
-           "difference_json", "differences_json", "clock_json", "mass_difference_json", "mass_check_json",
+           "spec_json", "grade_json", "cutout_json", "envelope_json", "simulation_json", "trace_json",
+           "resolution_json", "difference_json", "differences_json", "clock_json", "mass_difference_json", "mass_check_json",
            "error_measure", "summary_json", "battery_json", "history_json",
            "controller_json", "rider_fit_json", "sim_step_json", "step_score_json", "simulation_errors_json",
            "simulation_drivetrain_json"]
@@ -85,6 +85,18 @@ def cutout_json(c) -> dict:
             "heldout_pwm_rmse_pct": c.heldout_pwm_rmse_pct, "danger": c.danger,
             "ocv_source": c.ocv_source,
             "ride_charge_pct": list(c.charge_range) if c.charge_range else None}
+
+
+def envelope_json(e) -> dict:
+    """The ride JSON's ``envelope`` of a :class:`~euc_sim.rides.drive.cutout.Envelope` (SI, NaN as null):
+    ``speed`` and, for ``full`` and ``low`` charge, ``voltage``, ``accel``, ``lean``, ``v_limit`` and
+    ``pwm_pct``; ``voltage_source``, ``ride_top_speed``; ``{"why"}`` without one."""
+    if e.why is not None:
+        return {"why": e.why}
+    side = lambda c: {"voltage": c.voltage, "accel": c.accel, "lean": c.lean, "v_limit": c.v_limit,   # noqa: E731
+                      "pwm_pct": c.pwm_pct}
+    return to_jsonable({"speed": e.speed, "full": side(e.full), "low": side(e.low),
+                        "voltage_source": e.voltage_source, "ride_top_speed": e.ride_top_speed})
 
 
 def simulation_json(sim) -> dict:
@@ -309,7 +321,7 @@ def physics_json(md) -> dict:
     :class:`~euc_sim.rides.drive.drivetrain_report.MassDrivetrain`."""
     fit = md.fit
     rep = {"total_mass": total_mass_json(md.mass, fit.spec),
-           "drivetrain": {k: term_json(t) for k, t in md.terms.items()}, "envelope": md.envelope,
+           "drivetrain": {k: term_json(t) for k, t in md.terms.items()}, "envelope": envelope_json(md.envelope),
            "input_warnings": md.input_warnings, "wheel": spec_json(fit.spec), "unidentified": dict(md.unidentified),
            "grade": grade_json(fit.grade)}
     if md.test is None:

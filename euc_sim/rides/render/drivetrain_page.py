@@ -25,17 +25,17 @@ __all__ = ["plot_envelope", "envelope_figure", "plot_grade", "grade_figure", "pa
 TYRE_MU = 1.0
 
 
-def plot_envelope(env: dict, path, title: str = "") -> Path:
+def plot_envelope(env, path, title: str = "") -> Path:
     """Write :func:`envelope_figure` to ``path`` (PNG, atomically)."""
     return save_figure(envelope_figure(env, title), path)
 
 
-def envelope_figure(env: dict, title: str = ""):
+def envelope_figure(env, title: str = ""):
     """The acceleration the battery voltage allows (and the lean it takes) against speed.
 
-    Full and low charge.  The voltage limit is drawn only where it is below what the
-    tyre can carry (a ≤ :data:`TYRE_MU`·g, lean atan(μ)); above, the model says
-    nothing (the controller's current limit, not in the log, or the tyre's grip
+    Full and low charge, of an :class:`~euc_sim.rides.drive.cutout.Envelope`.  The voltage limit is
+    drawn only where it is below what the tyre can carry (a ≤ :data:`TYRE_MU`·g, lean atan(μ)); above,
+    the model says nothing (the controller's current limit, not in the log, or the tyre's grip
     decides) and the figure says so.
 
     Returns
@@ -44,22 +44,22 @@ def envelope_figure(env: dict, title: str = ""):
     """
     from matplotlib.figure import Figure
 
-    v = np.asarray(env["speed"]) * 3.6
+    v = env.speed * 3.6
     a_tyre = TYRE_MU * G
     fig = Figure(figsize=(9, 4.6), layout="constrained")
     ax = fig.add_subplot()
     clipped = False
-    for name, style in (("full", "-"), ("low", "--")):
-        a = np.asarray(env[name]["accel"], float)
+    for name, side, style in (("full", env.full, "-"), ("low", env.low, "--")):
+        a = side.accel
         clipped |= bool(np.any(a > a_tyre))
         ax.plot(v, np.where(a <= a_tyre, a, np.nan), style,
-                label=f"{name} charge ({env[name]['voltage']:.0f} V): voltage limit")
+                label=f"{name} charge ({side.voltage:.0f} V): voltage limit")
     ax.axhline(a_tyre, color="k", lw=1.0, ls=":",
                label=f"tyre grip, μ ≈ {TYRE_MU:g}: at most {a_tyre:.1f} m/s²")
     if clipped:
         ax.axhspan(a_tyre, 1.15 * a_tyre, color="tab:red", alpha=0.08, lw=0,
                    label="above the tyre's grip: the model\nsays nothing, not drawn")
-    top = env.get("ride_top_speed")
+    top = env.ride_top_speed
     if top is not None and top * 3.6 < v[-1]:
         ax.axvspan(top * 3.6, v[-1], color="grey", alpha=0.15,
                    label="faster than this ride: extrapolated")
@@ -122,15 +122,6 @@ def grade_figure(g, title: str = ""):
     ax.grid(alpha=0.3)
     fig.legend(loc="outside lower center", fontsize=8)
     return fig
-
-
-def _level_cutout(cut) -> tuple[float, float] | None:
-    """The :class:`~euc_sim.rides.drive.cutout.Cutout`'s speed on the level at 100 % and at 0 %
-    charge, km/h; None without both."""
-    c = next((c for c in cut.curves if c.condition.name == "level"), None)
-    q = [] if c is None else list(c.charge_pct)
-    ends = [float(c.speed_mps[q.index(x)]) if x in q else np.nan for x in (100.0, 0.0)]
-    return None if c is None or np.isnan(ends).any() else (3.6 * ends[0], 3.6 * ends[1])
 
 
 #: A systematic part of the mass's interval (the mass fit's ``systematic``) in people's words:
@@ -234,33 +225,29 @@ def page_section(res, figures: dict, shown=frozenset()) -> list[str]:
     if mass.test is not None:
         md += ["", "PWM of the other ride predicted from this one: "
                    + ("in 'Your wheel's limit and the cut-out' above" if "pwm_heldout" in shown else
+                      f"no check: {mass.pwm_note}" if mass.pwm_note else
                       f"**{mass.pwm_heldout:.1f} percentage points RMS**" if mass.pwm_heldout
                       is not None else f"not available ({mass.pwm_why or ''})")]
     if "pwm" in figures:
         md += ["", f"![PWM predicted against logged]({figures['pwm']})"]
     env = mass.envelope
-    if "speed" in env:
-        end = env["speed"][-1] * 3.6
+    if env.speed is not None:
+        end = env.speed[-1] * 3.6
 
         def left(name):
-            x = env[name]["v_limit"]
-            return (f"none is left above {x * 3.6:.0f} km/h" if x is not None else
-                    f"some is still left at {end:.0f} km/h, the figure's end")
-        level = _level_cutout(res.cutout)
-        said = (f"at full charge ({env['full']['voltage']:.0f} V) {left('full')}; at low charge "
-                f"({env['low']['voltage']:.0f} V) {left('low')}. " if level is None else
-                f"the acceleration left at full duty with the pack at {env['full']['voltage']:.0f} V and at "
-                f"{env['low']['voltage']:.0f} V. The speed at which none is left on the level is the page's "
-                f"cut-out chart's, at the charge as this log reads it ("
-                f"{res.cutout.ocv_source or 'its battery reading'}): {level[0]:.0f} km/h at 100 %, "
-                f"{level[1]:.0f} km/h at 0 %. ")
+            x = getattr(env, name).v_limit
+            return f"{x * 3.6:.0f} km/h" if x is not None else f"above {end:.0f} km/h (the figure's end)"
+        said = (f"the acceleration left at full duty with the pack at {env.full.voltage:.0f} V (100 % "
+                f"charge) and at {env.low.voltage:.0f} V (0 %), the charge as this log reads it "
+                f"({env.voltage_source}). The speed at which none is left on the level is the cut-out "
+                f"chart's: {left('full')} at 100 %, {left('low')} at 0 %. ")
         md += ["", "Envelope (voltage limit): " + said
                    + ("Faster than this ride's top speed (in the key figures above)" if "top_speed" in shown
-                      else f"This ride's top speed was {env.get('ride_top_speed', float('nan')) * 3.6:.0f} "
+                      else f"This ride's top speed was {(env.ride_top_speed or float('nan')) * 3.6:.0f} "
                            f"km/h: faster than that")
                    + " the envelope is extrapolated (shaded)."]
     else:
-        md += ["", f"Envelope: {env.get('why', 'not available')}."]
+        md += ["", f"Envelope: {env.why or 'not available'}."]
     if "envelope" in figures:
         md += ["", f"![cut-out envelope]({figures['envelope']})"]
     for name, why in mass.unidentified.items():

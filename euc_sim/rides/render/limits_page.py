@@ -16,30 +16,21 @@ import numpy as np
 
 from euc_sim.report.figures import YL_OR_RD, Line, plain_values, thin, xy_figure
 from euc_sim.rides.drive.cutout import CONDITIONS, headroom_words
-from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
 from euc_sim.rides.render.series import MOST_POINTS, RideSeries, max_pwm_mark, number
 
 __all__ = ["limit_sentences", "limits_paragraph", "cutout_figure", "limits_md", "LIMITS_TITLE", "CUTOUT_LABELS",
            "envelope_figure", "pwm_check"]
 
 
-def _steady_pwm(dt, speed: np.ndarray, voltage: float) -> np.ndarray:
-    """PWM, %, that holds ``speed`` (m/s) on the level at ``voltage`` (V): the fitted duty model
-    (:func:`euc_sim.rides.drive.pwm.pwm_columns`) at the road force c₁ + c₃·v²."""
-    coef = dt.pwm_coef
-    names = [n for n in BASE + tuple(EXTRA) if n in coef]
-    F = dt.road["c1"] + dt.road["c3"] * speed ** 2
-    V = np.full(speed.shape, float(voltage))
-    X = pwm_columns(speed, F, V, names, coef.get("v_fw", np.inf))
-    return X @ np.array([coef[n] for n in names]) / V * 100.0
-
-
 def pwm_check(res) -> tuple[str, str, float] | None:
     """The one check of the duty model a ride's pages state: (kind, on what, RMS error in points).
 
     On the compared ride where there is one (the figure the terminal gives too), else on the
-    ride's second half fitted on its first (the cut-out's); None without.
+    ride's second half fitted on its first (the cut-out's); None without, and None where the logged
+    duty is the app's computation (the model fits its formula).
     """
+    if res.mass.pwm_note:
+        return None
     other = res.mass.pwm_heldout
     if other is not None and math.isfinite(other):
         return "compared", f"the compared ride ({Path(str(res.balance.compare or '')).name}), fitted on this one", other
@@ -169,18 +160,19 @@ def limits_md(res, series: RideSeries | None) -> list[str]:
 
 
 def envelope_figure(res, series: RideSeries):
-    """The PWM a steady speed takes at full and low charge, with the ride's own points."""
-    env, dt = res.mass.envelope, res.mass.fit.drivetrain
+    """The PWM a steady speed takes on the level at full and empty charge (the envelope: the cut-out
+    chart's model), with the ride's own points."""
+    env = res.mass.envelope
     c = series.channels
-    if "speed" not in env or dt.pwm_coef is None or "pwm_pct" not in c:
+    if env.speed is None or "pwm_pct" not in c:
         return None
-    v = np.asarray(env["speed"], float)
+    v = np.asarray(env.speed, float)
     keep = thin(series.t.size, MOST_POINTS)
     lines = [Line("this ride", c["speed_kmh"][keep], c["pwm_pct"][keep])]
     for name, dash in (("full", "solid"), ("low", "dash")):
-        V = env[name]["voltage"]
-        lines.append(Line(f"steady speed, the pack at {V:.0f} V", v * 3.6, _steady_pwm(dt, v, V),
-                          "lines", dash))
+        side = getattr(env, name)
+        lines.append(Line(f"steady speed, the pack at {side.voltage:.0f} V", v * 3.6,
+                          np.asarray(side.pwm_pct, float), "lines", dash))
     lines.append(Line("100 %: no voltage left", np.array([0.0, v[-1] * 3.6]), np.array([100.0, 100.0]),
                       "lines", "dot"))
     left = _peak(res, series)

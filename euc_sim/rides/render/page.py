@@ -21,7 +21,7 @@ from euc_sim.io import write_text
 from euc_sim.rides.balance.residual import SLOW_S
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.law.controller_report import describe
-from euc_sim.rides.render.contract import effect_entries, error_measure
+from euc_sim.rides.render.contract import effect_entries, error_measure, simulation_errors_json, step_score_json
 from euc_sim.rides.render.differences_page import difference_section
 from euc_sim.rides.render.drivetrain_page import page_section
 from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend, when
@@ -335,7 +335,7 @@ def _simulation_md(res: RideResult, figures: Mapping[str, str]) -> list[str]:
     sim, an = res.simulation, res.balance
     md = ["## Simulation against the ride", ""]
     if sim is not None:
-        e, steps = sim.errors, sim.steps
+        e, steps = simulation_errors_json(sim), [step_score_json(s) for s in sim.steps]
         balance = an.cross.heldout_augmented if an.error_unit == "W" else None
 
         target = steps[0]["target_ratio"] if steps else TARGET_RATIO
@@ -465,7 +465,7 @@ def missing_spec_effect(missing) -> str:
     if "net weight" in missing:
         out.append("the mass found is m_eq, the wheel's rotating inertia not taken out")
     if "battery voltage" in missing:
-        out.append("the envelope takes the open-circuit voltage fitted at the ride's start")
+        out.append("the cut-out chart and the envelope turn the charge into volts from the log's voltage alone")
     return "; ".join(out)
 
 

@@ -89,12 +89,13 @@ def _distance_note(s) -> str:
     return note
 
 
-def _spin_note(clock, spin: Mapping | None) -> str:
-    """The summary's ``free_spin`` (the wheel spinning off the ground) in a few words, or ''."""
-    v, n = number((spin or {}).get("speed_max_mps")), (spin or {}).get("count")
+def _spin_note(clock, spin) -> str:
+    """The summary's ``free_spin`` (:class:`~euc_sim.rides.grids.spin.FreeSpins`: the wheel spinning
+    off the ground) in a few words, or ''."""
+    v, n = number(getattr(spin, "speed_max_mps", None)), getattr(spin, "count", 0)
     if v is None or not n:
         return ""
-    at = number(spin.get("at_s"))
+    at = number(spin.at_s)
     return (f"the wheel spun free (off the ground) at {v * 3.6:.0f} km/h"
             + (f" at {when(clock, at)}" if n == 1 and at is not None else f" and {n - 1} more time(s)" if n > 1 else "")
             + ": left out")
@@ -341,7 +342,7 @@ def _figure_sections(res: RideResult, figs: dict) -> list[str]:
     out.append(H.section(LIMITS_TITLE, (
         H.figure(figs["cutout"], "cutout", 460) if "cutout" in figs else
         H.paragraph(f"Cut-out speeds: not available ({why_cut}).")) + H.paragraph(limits_paragraph(res))))
-    why_env = res.mass.envelope.get("why", "needs the logged PWM and its fitted model")
+    why_env = res.mass.envelope.why or "needs the logged PWM and its fitted model"
     out.append(H.section("The battery and the limit", H.columns(
         H.figure(figs["sag"], "sag", 420) if "sag" in figs else
         H.paragraph("Battery sag: not available (no battery current logged)."),

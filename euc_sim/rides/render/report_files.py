@@ -84,6 +84,6 @@ def _drivetrain_figures(res: RideResult, out: Path) -> dict:
         figs["grade"] = plot_grade(fit.grade, out / "ride_grade.png",
                                    title=f"{Path(fit.path).name}: the altitude the battery-power "
                                          f"balance implies, against GPS altitude").name
-    if "speed" in env:
+    if env.why is None:
         figs["envelope"] = plot_envelope(env, out / "ride_envelope.png").name
     return figs

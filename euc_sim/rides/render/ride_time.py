@@ -34,6 +34,12 @@ def _into(seconds: float) -> str:
     return f"{s // 60} min {s % 60:02d} s" if s >= 60 else f"{s} s"
 
 
+def _minute_of_day(hh_mm: str) -> int:
+    """"16:48" -> 1008."""
+    h, m = hh_mm.split(":")[:2]
+    return 60 * int(h) + int(m)
+
+
 def _min_s(seconds: float) -> str:
     """Time into the ride as a stopwatch shows it: "2:58" (min:s), "1:02:05" (h:min:s)."""
     s = int(round(seconds))
@@ -85,9 +91,15 @@ def when(clock, t: float, also: str = "") -> str:
 
 def span_words(clock, s) -> str:
     """When the log ran, clock times in the ride's own zone, "logged 17:21–17:43 in UTC+02:00",
-    with its length where the summary ``s``'s duration (another clock) rounds to another; '' without."""
+    with its length where the summary ``s``'s duration (another clock) rounds to another; '' without.
+
+    The clock's minutes (as a clock shows them, not rounded) are said only where they are as many as
+    the length's (:func:`hm`): else to the second, "logged 16:48:42–17:10:11 (21 min)", never a span
+    that reads 22 min beside a length of 21."""
     logged = float(s.logged_s or 0.0)
     t0, t1 = clock_at(clock, 0.0), clock_at(clock, logged)
+    if t0 and t1 and (_minute_of_day(t1) - _minute_of_day(t0)) % 1440 != round(logged / 60.0) % 1440:
+        t0, t1 = clock_at(clock, 0.0, True), clock_at(clock, logged, True)
     dur = number(s.duration_s)
     own = f" ({hm(logged)})" if dur is not None and hm(logged) != hm(dur) else ""
     return f"logged {t0}–{t1}{own} in {clock.zone}" if t0 and t1 and clock.zone else ""

@@ -14,7 +14,7 @@ from typing import Mapping
 
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
-from euc_sim.rides.render.contract import effect_entries, error_measure
+from euc_sim.rides.render.contract import effect_entries, error_measure, simulation_errors_json, step_score_json
 from euc_sim.rides.render.page import falls_sentence
 from euc_sim.rides.render.page_html import key_figure_lines
 from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend
@@ -43,7 +43,9 @@ def _mass_lines(res: RideResult) -> list[str]:
             lines.append(f"  rider (with gear): {m.estimate - wheel:.0f} kg")
     for name, why in res.mass.unidentified.items():
         lines.append(f"  not identified: {name}: {why}")
-    if res.mass.pwm_heldout is not None:
+    if res.mass.test is not None and res.mass.pwm_note:
+        lines.append(f"  PWM held out: no check, {res.mass.pwm_note}")
+    elif res.mass.pwm_heldout is not None:
         lines.append(f"  PWM held out: {res.mass.pwm_heldout:.1f} percentage points RMS")
     if res.differences is not None and res.differences.sentence:   # "this ride" is the compared one: named as the page does
         other, said = Path(str(res.balance.compare or "")).name, res.differences.sentence
@@ -84,12 +86,12 @@ def _simulation_lines(res: RideResult) -> list[str]:
     sim = res.simulation
     if sim is None:
         return [f"  simulated replay: {res.simulation_why or 'not run'}"]
-    e, lines = sim.errors, []
+    e, lines = simulation_errors_json(sim), []
     if sim.scored_rows:
         lines.append(f"  simulation along {sim.label}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
                      f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
         lines += [f"    step {st['step']}: " + (_step_line(st) if st["ran"] else f"not run ({st['why']})")
-                  for st in sim.steps]
+                  for st in map(step_score_json, sim.steps)]
     fell = falls_sentence(sim.falls, sim.scored_rows, clock_of(res, sim.label))
     if fell:
         lines.append(f"  simulation along {sim.label}: {fell}")

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from euc_sim.controllers.motor import MotorError, MotorPD
-from euc_sim.rides.drive.pwm import (BASE, back_emf, full_duty_force, no_force_speed, pwm_columns,
-                               select_pwm_terms)
+from euc_sim.rides.drive.cutout import DutyModel, OcvLine, full_duty_accel
+from euc_sim.rides.drive.pwm import BASE, back_emf, pwm_columns, select_pwm_terms
 
 TRUE = {"K_v": 7.4, "r_F": 0.03, "dead_time": 0.03, "flux_weakening": 0.09}
 
@@ -41,19 +41,18 @@ def test_a_plain_dc_motor_keeps_neither():
     assert names == list(BASE) and len(history) == 1
 
 
-def test_full_duty_force_is_where_the_duty_reaches_one():
-    speed = np.array([0.0, 5.0, 12.0, 18.0])
-    F = full_duty_force(TRUE, speed, 140.0, R_int=0.1)
-    V_t = 140.0 - 0.1 * F * speed / 140.0                      # the sagging terminal voltage
-    volts = pwm_columns(speed, F, V_t, list(TRUE)) @ np.array(list(TRUE.values()))
-    np.testing.assert_allclose(volts / V_t, 1.0, rtol=1e-12)
+def _force_left(coef, speed, volts):
+    """The wheel force, N, the duty model leaves at ``speed`` (m/s) without sag, losses or road load
+    (:func:`euc_sim.rides.drive.cutout.full_duty_accel` on a 1 kg wheel); 0 where none is left."""
+    m = DutyModel(pwm=coef, R_int=0.0, ocv=OcvLine(volts, 0.0, "x"), m_eq=1.0, mass=1.0)
+    return np.nan_to_num(full_duty_accel(m, np.asarray(speed, float), volts, iterations=80))
 
 
-def test_no_force_speed_is_the_root_and_none_when_weakening_wins():
-    v0 = no_force_speed(TRUE, 140.0)
-    assert full_duty_force(TRUE, np.array([v0]), 140.0)[0] == pytest.approx(0.0, abs=1e-9)
-    assert no_force_speed({"K_v": 7.0, "r_F": 0.03}, 140.0) == pytest.approx(20.0)
-    assert no_force_speed({"K_v": 7.0, "r_F": 0.03, "flux_weakening": 0.2}, 140.0) is None
+def test_no_force_is_left_where_the_back_emf_takes_the_whole_duty():
+    """7 V/(m/s) against 140 V: none left from 20 m/s; with 3 % dead time, from 140·0.97/7 = 19.4 m/s."""
+    assert _force_left({"K_v": 7.0, "r_F": 0.03}, [19.99, 20.01], 140.0).tolist() == [
+        pytest.approx(0.01 * 7.0 / 0.03, rel=1e-6), 0.0]
+    assert _force_left({"K_v": 7.0, "r_F": 0.03, "dead_time": 0.03}, [19.41], 140.0)[0] == 0.0
 
 
 def test_flux_weakening_is_not_extrapolated_past_the_fitted_speeds():
@@ -61,8 +60,6 @@ def test_flux_weakening_is_not_extrapolated_past_the_fitted_speeds():
     e = back_emf(coef, np.array([5.0, 10.0, 20.0]))
     K, c = TRUE["K_v"], TRUE["flux_weakening"]
     np.testing.assert_allclose(e, [K * 5 - c * 25, K * 10 - c * 100, K * 20 - c * 200])
-    v0 = no_force_speed(coef, 140.0)
-    assert v0 > 10.0 and full_duty_force(coef, np.array([v0]), 140.0)[0] == pytest.approx(0, abs=1e-9)
     cols = pwm_columns(np.array([20.0]), np.array([0.0]), np.array([1.0]), ["flux_weakening"], 10.0)
     assert cols[0, 0] == -200.0
 
@@ -72,9 +69,8 @@ def test_the_simulators_motor_has_the_same_limit():
     motor = MotorPD(voltage=140.0, back_emf=coef["K_v"], drop=coef["r_F"] / R,
                     dead_time=coef["dead_time"], flux_weakening=coef["flux_weakening"],
                     fw_speed=coef["v_fw"])
-    for v in (0.0, 6.0, 12.0, 18.0):
-        want = max(full_duty_force(coef, np.array([v]), 140.0)[0], 0.0) * R
-        assert motor.voltage_torque(v) == pytest.approx(want, rel=1e-12)
+    for v in (2.0, 6.0, 12.0, 18.0):       # the duty model is fitted from 2 m/s up
+        assert motor.voltage_torque(v) == pytest.approx(_force_left(coef, [v], 140.0)[0] * R, rel=1e-12)
     assert "fw_speed" not in MotorPD().as_dict() and motor.as_dict()["fw_speed"] == 12.0
     with pytest.raises(MotorError, match="dead_time"):
         MotorPD(voltage=140.0, drop=0.1, dead_time=1.5)

@@ -25,7 +25,7 @@ def test_euc_world_stamps_keep_their_zone_and_the_peak_reads_as_clock_and_time_i
     rider = rider_of(as_layout(src, tmp_path / "e.csv", "eucworld"))
     tiles = _tiles(rider)
     assert "least margin 26 % at 18:30 (15 min 25 s into the ride; marked on the map)" in tiles["Max PWM"].note
-    assert "logged 18:15–18:35 (21 min) in UTC+02:00" in tiles["Riding time"].note
+    assert "logged 18:15:00–18:35:40 (21 min) in UTC+02:00" in tiles["Riding time"].note
     assert rider.clock.zone == "UTC+02:00" and rider.clock.utc_offset_s == 7200.0
     assert rider.clock.start.startswith("2024-06-01T18:15:00")
     lines = "\n".join(key_figure_lines(replace(ride_result, rider=rider)))   # index.md's and the terminal's first lines
@@ -139,9 +139,36 @@ def test_the_riding_time_says_which_clock_gives_each_length(ride_result):
                                        duration_follows="the app's trip and riding clocks"),
                     clock=Clock("2025-07-17T16:48:42.819000+02:00", 7200.0, "UTC+02:00"))
     note = _tiles(rider)["Riding time"].note
-    assert note == "of 19 min; the app's trip and riding clocks; logged 16:48–17:10 (21 min) in UTC+02:00"
+    assert note == "of 19 min; the app's trip and riding clocks; logged 16:48:42–17:10:11 (21 min) in UTC+02:00"
     same = replace(rider, summary=replace(rider.summary, logged_s=1120.0))
     assert _tiles(same)["Riding time"].note.endswith("; logged 16:48–17:07 in UTC+02:00")
+
+
+def test_a_logged_span_never_reads_longer_or_shorter_than_its_length(ride_result):
+    """Blitz 2 said "logged 16:48–17:10 (21 min)": a clock's minutes, 22 apart, beside the length rounded,
+    21 (21.5 min).  Over random starts and lengths, minutes are said only where they are as many as the
+    length; else seconds, within half a minute of it."""
+    import re
+    from datetime import datetime, timedelta
+
+    import numpy as np
+
+    from euc_sim.rides.render.ride_time import span_words
+
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        start, logged = rng.uniform(0, 86400), rng.uniform(60, 7200)
+        summary = replace(ride_result.rider.summary, logged_s=logged, duration_s=0.0)
+        clock = Clock(f"{datetime(2025, 7, 17) + timedelta(seconds=start):%Y-%m-%dT%H:%M:%S.%f}", 0.0, "UTC")
+        words = span_words(clock, summary)
+        t0, t1, h, m = re.fullmatch(r"logged (\S+)–(\S+) \((?:(\d+) h )?(\d+) min\) in UTC", words).groups()
+        said = 60 * int(h or 0) + int(m)
+        secs = [sum(int(x) * f for x, f in zip(t.split(":"), (3600, 60, 1))) for t in (t0, t1)]
+        span = (secs[1] - secs[0]) % 86400
+        if t0.count(":") == 1:
+            assert span // 60 == said, words
+        else:
+            assert abs(span - 60 * said) <= 31, words
 
 
 def test_the_residual_figure_draws_the_windows_on_the_minutes_the_page_says():
