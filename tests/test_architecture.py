@@ -270,11 +270,7 @@ def test_the_json_read_check_sees_a_violation():
 
 #: Functions of ``euc_sim.rides`` outside ``render`` still returning a bare ``dict`` -> why; to
 #: shrink to empty.
-BARE_DICT_PENDING = {
-    "euc_sim.rides.drive.cutout:Limits.as_json": "h-envelope retypes the cut-out and its limits",
-    "euc_sim.rides.drive.drivetrain:envelope": "h-envelope retypes the drivetrain's envelope",
-    "euc_sim.rides.drive.drivetrain_report:_envelope": "wraps drivetrain.envelope: typed with it (h-envelope)",
-}
+BARE_DICT_PENDING: dict[str, str] = {}
 
 
 def _bare_dict_returns(source: str) -> list[str]:

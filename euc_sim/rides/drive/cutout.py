@@ -73,12 +73,6 @@ class Limits:
     pwm_alarm_pct: float | None
     why: str | None = None
 
-    def as_json(self) -> dict:
-        """``{"speed_limit_mps", "source", "pwm_alarm_pct"}`` (and ``why`` when something is missing)."""
-        out = {"speed_limit_mps": self.speed_limit_mps, "source": self.source,
-               "pwm_alarm_pct": self.pwm_alarm_pct}
-        return out if self.why is None else {**out, "why": self.why}
-
     def words(self) -> str:
         """The limit as a rider reads it: "35 km/h (the tilt-back speed set in the wheel, from the log)"."""
         if self.speed_limit_mps is None:

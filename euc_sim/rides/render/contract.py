@@ -25,7 +25,7 @@ __all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assump
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
            "spec_json", "grade_json", "cutout_json", "envelope_json", "simulation_json", "trace_json",
            "resolution_json", "difference_json", "differences_json", "clock_json", "mass_difference_json", "mass_check_json",
-           "error_measure", "summary_json", "battery_json", "history_json",
+           "error_measure", "limits_json", "summary_json", "battery_json", "history_json",
            "controller_json", "rider_fit_json", "sim_step_json", "step_score_json", "simulation_errors_json",
            "simulation_drivetrain_json"]
 
@@ -415,11 +415,18 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
     return rep
 
 
+def limits_json(lim) -> dict:
+    """``summary.limits`` of a :class:`~euc_sim.rides.drive.cutout.Limits`: ``speed_limit_mps``, ``source``,
+    ``pwm_alarm_pct`` (and ``why`` when something is missing)."""
+    out = {"speed_limit_mps": lim.speed_limit_mps, "source": lim.source, "pwm_alarm_pct": lim.pwm_alarm_pct}
+    return out if lim.why is None else {**out, "why": lim.why}
+
+
 def summary_json(s) -> dict:
     """CONTRACT's ``summary`` of a :class:`~euc_sim.rides.summary.summary.RideSummary` (plain floats,
     None for what is unknown)."""
     out = asdict(s)
-    out["limits"] = None if s.limits is None else s.limits.as_json()
+    out["limits"] = None if s.limits is None else limits_json(s.limits)
     return to_jsonable(out)
 
 

@@ -5,6 +5,7 @@ held-out duty error on a twin, and the page's chart in a browser."""
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 import math
 import re
 import sys
@@ -15,7 +16,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from euc_sim.rides.drive.cutout import (CONDITIONS, Condition, Curve, DutyModel, Limits, OcvLine,
+from euc_sim.rides.render.contract import limits_json
+from euc_sim.rides.drive.cutout import (CONDITIONS, Curve, DutyModel, Limits, OcvLine,
                                         cutout_curves, danger_sentence, duty, envelope, full_duty_accel,
                                         headroom_words, limit_speed, ocv_line, ride_limits)
 
@@ -157,7 +159,6 @@ def _random_curves(rng):
 
 def test_no_sentence_gives_speed_beyond_the_limit(ride_result):
     """Property over random rides: every speed said (but the rider's own) is at most the limit."""
-    from dataclasses import replace
 
     from euc_sim.rides.drive.cutout import Cutout
     from euc_sim.rides.render.limits_page import limit_sentences
@@ -185,10 +186,10 @@ def test_no_sentence_gives_speed_beyond_the_limit(ride_result):
 
 
 def test_limits_prefer_the_log_then_the_spec():
-    assert ride_limits(35 / 3.6, 45 / 3.6).as_json()["source"] == "log"
+    assert limits_json(ride_limits(35 / 3.6, 45 / 3.6))["source"] == "log"
     s = ride_limits(None, 45 / 3.6)
     assert (s.source, round(s.speed_limit_mps * 3.6)) == ("spec", 45)
-    none = ride_limits(float("nan"), None).as_json()
+    none = limits_json(ride_limits(float("nan"), None))
     assert none["speed_limit_mps"] is None and none["source"] is None and "spec" in none["why"]
 
 
@@ -294,13 +295,13 @@ def test_the_envelope_and_the_cutout_chart_state_one_speed(twin):
     assert env["low"]["v_limit"] == pytest.approx(level["speed_mps"][0], abs=1e-6)
 
 
-def test_an_apps_computed_pwm_is_not_called_a_check(tmp_path):
+def test_an_apps_computed_pwm_is_not_called_a_check(tmp_path, ride_result):
     """Z10 and MTen4: the app computes the PWM from speed and voltage, so the duty model fits its formula
     and the page said "to 0.0 points RMS", a check of nothing.  Neither the JSON nor the page gives one."""
     from drivesynth import drive_log
 
     from euc_sim.cli import main
-    from euc_sim.rides.render.contract import pwm_check
+    from euc_sim.rides.render.limits_page import pwm_check
 
     log = drive_log(tmp_path / "app.csv", seed=4, duration=300.0)
     t = pd.read_csv(log, dtype=str, keep_default_na=False)
@@ -315,9 +316,10 @@ def test_an_apps_computed_pwm_is_not_called_a_check(tmp_path):
     assert "app's computation" in rep["cutout"]["why"] and rep["cutout"]["heldout_pwm_rmse_pct"] is None
     md = (tmp_path / "r" / "index.md").read_text()
     assert "app's computation" in md and "points RMS" not in md
-    assert pwm_check({"pwm": {"heldout_rmse": 0.0, "unit": "%", "note": "the app computes it"},
-                      "cutout": {"heldout_pwm_rmse_pct": 0.01}}) is None
-    assert pwm_check({"pwm": {"heldout_rmse": 1.5, "unit": "%"}})[2] == 1.5
+    m = ride_result.mass
+    assert pwm_check(replace(ride_result, mass=replace(m, pwm_heldout=0.0, pwm_note="the app computes it"),
+                             cutout=replace(ride_result.cutout, heldout_pwm_rmse_pct=0.01))) is None
+    assert pwm_check(replace(ride_result, mass=replace(m, pwm_heldout=1.5, pwm_note=None)))[2] == 1.5
 
 
 def test_the_spec_gives_its_top_speed_and_an_unreadable_one_is_left_out(tmp_path):

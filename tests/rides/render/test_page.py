@@ -14,7 +14,8 @@ from pathlib import Path
 import pandas as pd
 
 from euc_sim.rides.render.page import _simulation_md, said_once
-from euc_sim.rides.sim.simulate import RideSimulation
+from euc_sim.rides.sim.sim_steps import SimStep
+from euc_sim.rides.sim.simulate import RideSimulation, StepScore
 
 sys.path.append(str(Path(__file__).resolve().parents[2] / "report"))
 import pagenumbers as P  # noqa: E402
@@ -22,9 +23,11 @@ import pagenumbers as P  # noqa: E402
 
 def _report(res, notes):
     """``res`` simulated along b.csv (4828 rows scored), with the simulation's ``notes``."""
+    steps = [StepScore(SimStep(name, name), {"P_W": p}, None, None, None) for name, p in (("nominal", 300.0),
+                                                                                          ("augmented", 99.0))]
     sim = RideSimulation("b.csv", pd.DataFrame({"scored": [True] * 4828}),
-                         {"ratio_P": 0.33, "M_log_method": "power_efficiency"},
-                         {"rolling_resistance": 0.0251, "aerodynamic_drag": 0.553}, {}, [], {}, [], tuple(notes))
+                         {"nominal": {"P_W": 300.0}, "augmented": {"P_W": 99.0}}, "power_efficiency",
+                         {"rolling_resistance": 0.0251, "aerodynamic_drag": 0.553}, [], {}, steps, tuple(notes))
     an = res.balance
     return replace(res, simulation=sim, balance=replace(an, assumptions=replace(an.assumptions, efficiency=0.8)))
 

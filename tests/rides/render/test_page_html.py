@@ -151,7 +151,7 @@ def test_distance_and_time_tiles_say_which_counter_they_follow(tmp_path):
     t = _tiles(rider_of(_eucworld_with_counters(tmp_path, gps_scale=0.9)))
     assert t["Distance"].value == "3.8 km"
     assert t["Distance"].note == "the app's GPS distance; the wheel's own count 4.2 km (+11 %)"
-    assert t["Riding time"].note.startswith("of 10 min; the app's trip and riding clocks; logged 10:00–10:10")
+    assert t["Riding time"].note.startswith("of 10 min; the app's trip and riding clocks; logged 10:00:00–10:10:40 (11 min)")
     wl = _tiles(rider_of(synth_summary_log(tmp_path / "b.csv", gps=False)))
     assert wl["Distance"].note == "the wheel's trip counter"
     assert wl["Riding time"].note.startswith("of 10 min; the wheel's first turn to the last row; logged 10:00")

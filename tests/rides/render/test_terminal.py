@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import copy
 import json
 from dataclasses import replace
 from pathlib import Path
@@ -10,18 +9,25 @@ from pathlib import Path
 import pandas as pd
 
 from euc_sim.rides.render.terminal import history_lines, summary_lines
-from euc_sim.rides.sim.simulate import RideSimulation
+from euc_sim.rides.sim.sim_steps import SimStep
+from euc_sim.rides.sim.simulate import RideSimulation, StepScore
 from euc_sim.rides.summary.rider_view import Clock
 
 RIDE = Path(__file__).resolve().parents[3] / "docs" / "ride" / "ride.json"
 
 
-def _simulated(res, steps=None):
-    """``res`` with the simulation of the documented ride (docs/ride/ride.json)."""
+def _simulated(res, skip_last: str | None = None):
+    """``res`` with the simulation of the documented ride (docs/ride/ride.json); its last step not run,
+    saying ``skip_last``, where given."""
     sim = json.loads(RIDE.read_text())["simulation"]
+    steps = [StepScore(SimStep(s["step"], s["what"], why=None if s["ran"] else s["why"]), s["heldout_rmse"] or {},
+                       None, s["ratio_to_balance"], s["fell"]) for s in sim["steps"]]
+    if skip_last:
+        steps[-1] = replace(steps[-1], step=replace(steps[-1].step, why=skip_last))
+    errors = {k: v for k, v in sim["errors"].items() if isinstance(v, dict)}
     table = pd.DataFrame({"scored": [True] * sim["scored_rows"]})
-    return replace(res, simulation=RideSimulation(sim["ride"], table, sim["errors"], sim["effects_injected"],
-                                                  sim["drivetrain"], sim["falls"], {}, steps or sim["steps"],
+    return replace(res, simulation=RideSimulation(sim["ride"], table, errors, sim["errors"]["M_log_method"],
+                                                  sim["effects_injected"], sim["falls"], {}, steps,
                                                   tuple(sim["notes"])), simulation_why=None)
 
 
@@ -30,11 +36,10 @@ def test_each_simulated_step_has_its_line_and_a_step_not_run_says_why(ride_resul
     steps = res.simulation.steps
     lines = summary_lines(res)
     assert all("\n" not in line for line in lines)
-    assert [ln.strip().split(":")[0] for ln in lines if ln.startswith("    step ")] == [f"step {s['step']}" for s in steps]
-    skipped = copy.deepcopy(steps)
-    skipped[-1].update(ran=False, why="no time left")
-    assert summary_lines(_simulated(ride_result, skipped))[-1].endswith(
-        f"step {steps[-1]['step']}: not run (no time left)")
+    assert [ln.strip().split(":")[0] for ln in lines if ln.startswith("    step ")] == [f"step {s.step.name}"
+                                                                                      for s in steps]
+    assert summary_lines(_simulated(ride_result, "no time left"))[-1].endswith(
+        f"step {steps[-1].step.name}: not run (no time left)")
 
 
 def test_a_ride_not_simulated_says_why_in_its_last_line(ride_result):
