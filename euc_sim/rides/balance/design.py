@@ -313,9 +313,12 @@ def _conv(x: np.ndarray, segment: np.ndarray, kernel: np.ndarray) -> np.ndarray:
 
 #: Short pre-filter L₁ applied to every regressor before the regime switch, s.
 PRE_WINDOW = 0.5
+#: ``road_slope`` is offered only when the speed changes sign on this share of the moving
+#: samples; otherwise it aliases rolling resistance (docs/diagnosis.md).
+SIGN_CHANGE_FRACTION = 0.02
 
 
-def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
+def _regressors(sig: RideSignals, L1):
     """The L₁-filtered regressor columns of a ride and the candidates they support.
 
     A record whose ``regressor`` gives a reason instead of a column adds a note and its
@@ -329,7 +332,7 @@ def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
     fwd = float((v_raw[moving] > 0.3).mean()) if moving.any() else 0.0
     b = SimpleNamespace(v=v_raw, mg=A.total_mass * A.g, m_eq=A.m_eq, L1=L1,
                         gps_grade=gps_grade(raw) if sig.has_gps_alt else None,
-                        sign_change=min(back, fwd), sign_change_fraction=sign_change_fraction)
+                        sign_change=min(back, fwd), sign_change_fraction=SIGN_CHANGE_FRACTION)
     cols = {"inertia": A.m_eq * L1(0.5 * v_raw ** 2, 1)}       # m_eq·a·v = m_eq·d/dt(v²/2)
     cands: list[str] = []
     aliases: dict[str, tuple[str, ...]] = {}
@@ -364,8 +367,7 @@ def standstill_power(v: np.ndarray, P: np.ndarray, rate: float) -> float | None:
     return float(np.percentile(P[still], 75))
 
 
-def balance_design(sig: RideSignals, domain: str = "power",
-                   sign_change_fraction: float = 0.02, pre_window: float = PRE_WINDOW) -> Design:
+def balance_design(sig: RideSignals, domain: str = "power") -> Design:
     """The longitudinal balance of a ride, every term filtered alike.
 
     Parameters
@@ -374,11 +376,6 @@ def balance_design(sig: RideSignals, domain: str = "power",
         Its ``window`` and ``polyorder`` give the main filter L₂.
     domain : {"power", "torque"}
         Residuals in W, or divided by ω = v/R (|v| ≥ v_min) in N·m.
-    sign_change_fraction : float
-        ``road_slope`` is offered only when the speed changes sign on this share of the
-        moving samples; otherwise it aliases rolling resistance (docs/diagnosis.md).
-    pre_window : float
-        Window of the short pre-filter L₁, s.
     """
     from scipy.signal import savgol_coeffs
 
@@ -389,13 +386,13 @@ def balance_design(sig: RideSignals, domain: str = "power",
     seg = raw["segment"].to_numpy()
     v_raw = raw["v"].to_numpy()
     p1 = min(2, sig.polyorder)
-    L1 = lambda x, d=0: sg(x, seg, sig.rate, pre_window, p1, d)  # noqa: E731
+    L1 = lambda x, d=0: sg(x, seg, sig.rate, PRE_WINDOW, p1, d)  # noqa: E731
     n2 = window_samples(sig.window, sig.rate, sig.polyorder)
     kernel = savgol_coeffs(n2, sig.polyorder)
     dkernel = savgol_coeffs(n2, sig.polyorder, deriv=1, delta=1.0 / sig.rate)
     d2kernel = savgol_coeffs(n2, sig.polyorder, deriv=2, delta=1.0 / sig.rate)
     L2 = lambda x: _conv(x, seg, kernel)  # noqa: E731
-    cols, cands, aliases, notes = _regressors(sig, L1, sign_change_fraction)
+    cols, cands, aliases, notes = _regressors(sig, L1)
     X = pd.DataFrame(cols)
     P = L2(L1(raw["P"].to_numpy()))
     v = L2(L1(v_raw))

@@ -62,12 +62,12 @@ class BalanceFit:
     unit: str = "W"
     boot_corr: Mapping[tuple[str, str], float] = None
 
-    def confounded(self, name: str, threshold: float = 0.8) -> tuple[str, ...]:
-        """Parameters whose bootstrap replicates correlate with ``name``'s beyond ±threshold."""
+    def confounded(self, name: str) -> tuple[str, ...]:
+        """Parameters whose bootstrap replicates correlate with ``name``'s beyond ±0.8."""
         if not self.boot_corr:
             return ()
         return tuple(b for (a, b), r in self.boot_corr.items()
-                     if a == name and b != name and abs(r) >= threshold)
+                     if a == name and b != name and abs(r) >= 0.8)
 
     def rmse_on(self, design: Design) -> float:
         """RMS weighted residual of this fit on another design, W or N·m."""

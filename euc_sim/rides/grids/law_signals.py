@@ -160,8 +160,8 @@ def _leaky_integral(x: np.ndarray, t: np.ndarray, tau: float = INTEGRAL_TAU) -> 
     return out
 
 
-def law_rows(log: Ride, k_t: float | None = None, v_min: float = V_MIN) -> LawRows:
-    """The riding rows of ``log`` (speed above ``v_min`` m/s) with pitch, its rate, speed,
+def law_rows(log: Ride, k_t: float | None = None) -> LawRows:
+    """The riding rows of ``log`` (speed above :data:`V_MIN`) with pitch, its rate, speed,
     acceleration and torque (phase current × ``k_t`` N·m/A, or in A without it).
     :class:`LawUnavailable` without pitch or torque, or with too few riding rows.
     """
@@ -182,10 +182,10 @@ def law_rows(log: Ride, k_t: float | None = None, v_min: float = V_MIN) -> LawRo
     tilt = d["tilt"].to_numpy(float)
     v = d["v"].to_numpy(float)
     y = d[channel].to_numpy(float) * scale
-    riding = (np.abs(v) > v_min) & np.isfinite(tilt) & np.isfinite(y)
+    riding = (np.abs(v) > V_MIN) & np.isfinite(tilt) & np.isfinite(y)
     if riding.sum() < MIN_ROWS:
         raise LawUnavailable(f"{int(riding.sum())} riding rows with pitch and {channel} "
-                             f"(speed above {v_min:g} m/s); at least {MIN_ROWS} are needed")
+                             f"(speed above {V_MIN:g} m/s); at least {MIN_ROWS} are needed")
     level = float(np.median(tilt[riding]))
     riding &= np.abs(tilt - level) < MAX_PITCH
     finite = np.isfinite(tilt)
