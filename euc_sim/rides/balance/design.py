@@ -27,7 +27,7 @@ import pandas as pd
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.rides.grids.route import gps_grade
 from euc_sim.simulation.effects import RECORDS
-from euc_sim.stats import distinct
+from euc_sim.stats import label_rows
 from euc_sim.rides.grids.signals import RideSignals, sg, window_samples
 
 __all__ = ["RHO_AIR", "CANDIDATES", "term_role", "role_index", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDOW", "Design",
@@ -300,8 +300,7 @@ def _conv(x: np.ndarray, segment: np.ndarray, kernel: np.ndarray) -> np.ndarray:
     """Convolve each segment with ``kernel``; NaN where the kernel overhangs an end."""
     out = np.full(x.shape, np.nan)
     half = len(kernel) // 2
-    for s in distinct(segment):
-        idx = np.flatnonzero(segment == s)
+    for idx in label_rows(segment):
         if idx.size < len(kernel):
             continue
         y = np.convolve(x[idx], kernel, mode="same")
