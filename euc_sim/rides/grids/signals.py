@@ -239,10 +239,6 @@ class RideSignals:
     notes: tuple[str, ...]
     has_gps_alt: bool = False
 
-    def filt(self, x, deriv: int = 0) -> np.ndarray:
-        """The signals' Savitzky–Golay filter applied to another grid signal."""
-        return sg(x, self.raw["segment"].to_numpy(), self.rate, self.window, self.polyorder, deriv)
-
 
 def check_readings(log: Ride) -> None:
     """Raise ``InputError`` naming file, channel and time of a reading outside :data:`CHANNEL_BOUNDS`
