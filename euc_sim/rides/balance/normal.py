@@ -44,30 +44,20 @@ def coefficients(columns: Sequence[str], names: Sequence[str], theta: np.ndarray
         Their values.
     """
     names = list(names)
-    p = _SLOTS * len(columns) + 2
-    v, dv = np.zeros(p), np.zeros((p, len(names)))
-    v[-1] = 1.0
     lag = role_index(names, "lag")
     tau = float(theta[lag]) if lag is not None else 0.0
-    filt = np.array([1.0, -tau, tau ** 2])               # L₂ − τ·L₂′ + τ²·L₂″
-    scale_of = {"inertia": 1.0}
-    for j, n in enumerate(names):
-        col = CANDIDATES[n][3]
-        if col is not None:
-            scale_of[col] = float(theta[j])
-            i = columns.index(col)
-            dv[_SLOTS * i:_SLOTS * i + _SLOTS, j] = -filt
-        elif term_role(n) == "constant":
-            v[-2] = -float(theta[j])
-            dv[-2, j] = -1.0
-    for col, th in scale_of.items():
-        i = columns.index(col)
-        v[_SLOTS * i:_SLOTS * i + _SLOTS] = -th * filt
-        if lag is not None:
-            dv[_SLOTS * i + 1, lag] = th
-            dv[_SLOTS * i + 2, lag] = -2.0 * tau * th
+    linear = [j for j in range(len(names)) if j != lag]
+    v0, D = _affine(columns, [names[j] for j in linear], np.array([tau]))
+    v = v0[0] + D[0] @ np.asarray(theta, float)[linear]
+    dv = np.zeros((len(v), len(names)))
+    dv[:, linear] = D[0]
+    if lag is not None:                                  # d/dτ of −θ_c·(L₂ − τ·L₂′ + τ²·L₂″)[c]
+        scaled = [("inertia", 1.0)] + [(CANDIDATES[names[j]][3], float(theta[j])) for j in linear
+                                       if CANDIDATES[names[j]][3] is not None]
+        for col, th in scaled:
+            i = _SLOTS * columns.index(col)
+            dv[i + 1, lag], dv[i + 2, lag] = th, -2.0 * tau * th
     return v, dv
-
 
 def scale(names: Sequence[str]) -> np.ndarray:
     """Typical size of each parameter: the fit's variables are the parameters over it."""
