@@ -355,7 +355,7 @@ def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, estimat
     """
     ci = estimate[1]
     if c == DELAY:
-        return detectable_difference(c, ci, level=level, n_folds=g.n_folds)
+        return detectable_difference(c, ci, level=level)
     cols = g.cols(terms)
     col = g.names.index(c)
     others = [i for i in cols if i != col]
@@ -364,10 +364,9 @@ def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, estimat
     fn = transform.get(c, lambda co: co[c])
     slope = abs(fn({**coef, c: coef[c] + 1.0}) - fn(coef))
     if not slope > 0:
-        return detectable_difference(c, ci, level=level, n_folds=g.n_folds)
+        return detectable_difference(c, ci, level=level)
     S, X, _ = _block_parts(g, terms, c)
-    return detectable_difference(c, ci, residual, s / slope, blocks=(S / slope ** 2, X / slope), level=level,
-                                 n_folds=g.n_folds)
+    return detectable_difference(c, ci, residual, s / slope, blocks=(S / slope ** 2, X / slope), level=level)
 
 
 def _block_parts(g: _Grams, terms, c: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -298,14 +298,10 @@ def _coef(params: list) -> dict[str, float]:
     return {p.name: p.estimate for p in params if p.name in assumed and p.estimate is not None}
 
 
-def _signatures(sig, coef: dict) -> dict[str, np.ndarray]:
-    cur = sig.extra.get("current")
-    return signature_columns(sig.v, sig.av, sig.P, sig.t, cur, sig.climb, coef)
-
-
 def pair_aliases(fit, test, coef: dict) -> tuple[dict, dict]:
     """:func:`alias_table` over both rides' moving rows; the climb unseen without GPS altitude."""
-    a, b = _signatures(fit.sig, coef), _signatures(test.sig, coef)
+    a, b = (signature_columns(s.v, s.av, s.P, s.t, s.extra.get("current"), s.climb, coef)
+            for s in (fit.sig, test.sig))
     keep = [n for n in a if n in b]
     ma, mb = fit.sig.v > V_MIN, test.sig.v > V_MIN
     both = {n: np.r_[a[n][ma], b[n][mb]] for n in keep}
@@ -320,7 +316,6 @@ def pair_differences(physics, log_path, compare_path, n_boot: int = 200, seed: i
     OTHER's analysis), both rides, the pair fits' ``n_boot`` and ``seed``, and the ``channels``
     beside battery power (:func:`pair_tests`).
     """
-
     fit, test = physics.fit, physics.test
     log_params = parameters_from_fit(physics.mass, physics.terms)
     other_params = parameters_from_fit(reported_mass(test), reported_terms(test, computed_pwm_note(test)))
