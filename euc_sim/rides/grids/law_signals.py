@@ -12,7 +12,7 @@ interval longer than :data:`GAP` breaks every derivative, mean and integral.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -92,10 +92,8 @@ class LawRows:
 
     def take(self, idx: np.ndarray) -> "LawRows":
         """The rows ``idx`` (an index or boolean array)."""
-        cols = {k: getattr(self, k)[idx] for k in ("t", "tilt", "tilt_dot", "v", "a", "z", "y",
-                                                   "w3", "tilt3", "v3", "z3", "y3")}
-        return LawRows(**cols, channel=self.channel, unit=self.unit, scale=self.scale,
-                       pitch_step=self.pitch_step, dt_median=self.dt_median)
+        return replace(self, **{k: getattr(self, k)[idx] for k in ("t", "tilt", "tilt_dot", "v", "a", "z", "y",
+                                                                   "w3", "tilt3", "v3", "z3", "y3")})
 
 
 def _rate(x: np.ndarray, t: np.ndarray) -> np.ndarray:
