@@ -59,12 +59,12 @@ def role_index(names: Sequence[str], role: str) -> int | None:
     return next((j for j, n in enumerate(names) if term_role(n) == role), None)
 
 
-def on_bound(name: str, value: float, rel: float = 1e-6) -> bool:
+def on_bound(name: str, value: float) -> bool:
     """True when ``value`` sits on a bound of :data:`BOUNDS` that is not "absent" (0): the most
     plausible physics gives (docs/ride_model.md, "accepted on the edge").
     """
     lo, hi = BOUNDS.get(name, (-np.inf, np.inf))
-    tol = rel * max(abs(hi - lo), 1.0) if np.isfinite(hi - lo) else 0.0
+    tol = 1e-6 * max(abs(hi - lo), 1.0) if np.isfinite(hi - lo) else 0.0
     return bool((value >= hi - tol) or (lo != 0.0 and value <= lo + tol))
 
 
@@ -187,48 +187,30 @@ class Design:
         Z = self.basis.Z
         return Z.T @ Z
 
-    def demand(self, names: Sequence[str], Theta: np.ndarray) -> np.ndarray:
-        """D + k_cu·F² of B parameter sets (``Theta``: len(names) × B; unnamed terms 0), W; support × B."""
+    def predict(self, params: Mapping[str, float]) -> np.ndarray:
+        """Battery power P̂ = P₀ + (L₂ − τ_I·L₂′ + τ_I²·L₂″)[D], W, on the rows in use; D the demand
+        inertia + Σ θ·column (missing resistances are 0).
+        """
+        names = list(params)
+        theta = np.array([params[k] for k in names], float)[:, None]      # one parameter set
         op = self.operator
-        Theta = _as_sets(Theta)
-        D = np.repeat(op.columns["inertia"][:, None], Theta.shape[1], axis=1)
+        D = op.columns["inertia"][:, None].copy()
         for j, name in enumerate(names):
             col = CANDIDATES[name][3] if name in CANDIDATES else None
             if col is not None:
-                D += op.columns[col][:, None] * Theta[j]
-        return D
-
-    def predict_many(self, names: Sequence[str], Theta: np.ndarray,
-                     D: np.ndarray | None = None) -> np.ndarray:
-        """Battery power P̂ of B parameter sets on the rows in use, W (rows × B); ``D`` reuses :meth:`demand`."""
-        names = list(names)
-        Theta = _as_sets(Theta)
-        D = self.demand(names, Theta) if D is None else D
-        op = self.operator
+                D += op.columns[col][:, None] * theta[j]
         P_hat = np.asarray(op.K @ D)
         lag, const = role_index(names, "lag"), role_index(names, "constant")
         if lag is not None:
-            tau = Theta[lag]
+            tau = theta[lag]
             P_hat += -tau * np.asarray(op.Kd @ D) + tau ** 2 * np.asarray(op.Kdd @ D)
         if const is not None:
-            P_hat += Theta[const]
-        return P_hat
-
-    def predict(self, params: Mapping[str, float]) -> np.ndarray:
-        """Battery power P̂, W, on the rows in use (missing resistances are 0)."""
-        names = list(params)
-        return self.predict_many(names, np.array([[params[k]] for k in names], float))[:, 0]
+            P_hat += theta[const]
+        return P_hat[:, 0]
 
     def residual(self, params: Mapping[str, float], target: np.ndarray | None = None) -> np.ndarray:
-        """Weighted residual (measured − predicted) on the rows in use, W or N·m."""
-        P = self.P if target is None else target
-        return self.weight * (P - self.predict(params))
-
-
-def _as_sets(Theta) -> np.ndarray:
-    """Parameter sets as parameters × B (a 1-D array is one set; no parameter, one empty set)."""
-    Theta = np.asarray(Theta, float)
-    return Theta[:, None] if Theta.ndim == 1 else Theta
+        """Weighted residual (measured, or ``target``, − predicted) on the rows in use, W or N·m."""
+        return self.weight * ((self.P if target is None else target) - self.predict(params))
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """The balance's cost as a quadratic form: fits from the Gram matrices of its basis.
 
-The prediction :meth:`~euc_sim.rides.balance.design.Design.predict_many` is
+The prediction :meth:`~euc_sim.rides.balance.design.Design.predict` is
 
     P̂ = Σ_j θ_j·(L₂ − τ_I·L₂′ + τ_I²·L₂″)[c_j] + P₀,  θ_inertia = 1,
 
