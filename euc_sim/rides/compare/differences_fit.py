@@ -19,7 +19,7 @@ import numpy as np
 
 from euc_sim.rides.compare.resolution import (detectable_difference, heldout_signature_rms, paired_test,
                                                score_test)
-from euc_sim.stats import gram_lstsq, jackknife_interval, label_grams, percentile_interval, time_blocks
+from euc_sim.stats import draw_blocks, gram_lstsq, jackknife_interval, label_grams, percentile_interval, time_blocks
 
 __all__ = ["PairDesign", "PairFit", "Step", "DELAY", "block_grams", "pair_fit"]
 
@@ -228,10 +228,10 @@ def _draws(g: _Grams, terms, cands, transform, n_boot: int, rng) -> dict[str, li
     """Bootstrap draws of each candidate's value, each ride's blocks drawn independently."""
     cols = g.cols(terms)
     out = {c: [] for c in cands}
+    weights = lambda n: np.bincount(draw_blocks(n, rng), minlength=n).astype(float)   # noqa: E731
     for _ in range(n_boot):
-        wL = np.bincount(rng.integers(0, len(g.fL), len(g.fL)), minlength=len(g.fL)).astype(float)
-        wO = np.bincount(rng.integers(0, len(g.fO), len(g.fO)), minlength=len(g.fO)).astype(float)
-        beta, k, sse = g.fit(wL, wO, terms)
+        wL = weights(len(g.fL))
+        beta, k, sse = g.fit(wL, weights(len(g.fO)), terms)
         vals = _values(g, cols, beta, k, sse, terms, transform)
         for c in cands:
             out[c].append(vals[c])
