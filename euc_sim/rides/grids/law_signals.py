@@ -20,6 +20,7 @@ from euc_sim.errors import InputError
 from euc_sim.rides.grids.spin import spin_rows
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
+from euc_sim.stats import label_rows
 
 __all__ = ["LawUnavailable", "LawRows", "law_rows", "V_MIN", "MAX_PITCH", "MIN_ROWS", "GAP",
            "ACCEL_HALF", "INTEGRAL_TAU"]
@@ -147,14 +148,9 @@ def _leaky_integral(x: np.ndarray, t: np.ndarray, tau: float = INTEGRAL_TAU) -> 
     from scipy.signal import lfilter
 
     out = np.empty_like(x)
-    dt = np.r_[0.0, np.diff(t)]
-    starts = np.r_[0, np.flatnonzero(GAP_POLICY.splits(dt))]
-    ends = np.r_[starts[1:], x.size]
-    for s0, e0 in zip(starts, ends):
-        h = float(np.median(dt[s0 + 1:e0])) if e0 - s0 > 1 else 0.2
-        lam = math.exp(-h / tau)
-        xs = np.nan_to_num(x[s0:e0])
-        out[s0:e0] = lfilter([h], [1.0, -lam], xs)
+    for idx in label_rows(GAP_POLICY.pieces(t)):
+        h = float(np.median(np.diff(t[idx]))) if idx.size > 1 else 0.2
+        out[idx] = lfilter([h], [1.0, -math.exp(-h / tau)], np.nan_to_num(x[idx]))
     return out
 
 
