@@ -86,12 +86,6 @@ def snap_to_bounds(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, size: np.ndarr
     return np.where(np.abs(hi - x) <= _BOUND_SNAP * size, hi, x)
 
 
-def _root(G: np.ndarray) -> np.ndarray:
-    """S with SᵀS = G (G symmetric positive semi-definite): the residual in few rows."""
-    lam, U = np.linalg.eigh(0.5 * (G + G.T))
-    return np.sqrt(np.clip(lam, 0.0, None))[:, None] * U.T
-
-
 def _affine(columns: Sequence[str], linear: Sequence[str], tau: np.ndarray):
     """``v0`` (n, p) and ``D`` (n, p, k) with ``v = v0 + D·θ`` for the linear ``θ`` at lags ``tau`` (n,)."""
     n, p = len(tau), _SLOTS * len(columns) + 2
@@ -275,10 +269,9 @@ def solve_grams(G: np.ndarray, columns: Sequence[str], names: Sequence[str]) -> 
 
 def solve_gram(G: np.ndarray, columns: Sequence[str], names: Sequence[str]):
     """The bounded least-squares fit of one Gram matrix ``G`` = ZᵀZ (:func:`solve_grams`):
-    ``x`` (snapped estimate), ``cost`` (half the sum of squared residuals), ``jac`` (a
-    Jacobian with the rows' JᵀJ).
+    ``x`` (snapped estimate) and ``cost`` (half the sum of squared residuals).
     """
     names = list(names)
     x = solve_grams(np.asarray(G)[None], columns, names)[0]
-    v, dv = coefficients(columns, names, x)
-    return SimpleNamespace(x=x, cost=0.5 * float(v @ G @ v), jac=_root(G) @ dv)
+    v, _ = coefficients(columns, names, x)
+    return SimpleNamespace(x=x, cost=0.5 * float(v @ G @ v))
