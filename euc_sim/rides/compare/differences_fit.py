@@ -21,23 +21,12 @@ from euc_sim.rides.compare.resolution import (detectable_difference, heldout_sig
                                                score_test)
 from euc_sim.stats import draw_blocks, gram_lstsq, jackknife_interval, label_grams, percentile_interval, time_blocks
 
-__all__ = ["PairDesign", "PairFit", "Step", "DELAY", "block_grams", "pair_fit"]
+__all__ = ["PairDesign", "PairFit", "DELAY", "block_grams", "pair_fit"]
 
 #: The name of the shift candidate (OTHER's current delay beyond LOG's).
 DELAY = "current_delay"
 #: |correlation| of two differences' estimates beyond which the pair cannot tell them apart.
 ALIAS_SET_CORRELATION = 0.98
-
-
-@dataclass(frozen=True)
-class Step:
-    """One step of the forward selection: the ``term`` added ("" for none), OTHER's blocked
-    held-out RMS after it, and the term's p-value (None for the first step).
-    """
-
-    term: str
-    heldout_rmse: float
-    p_value: float | None = None
 
 
 @dataclass(frozen=True)
@@ -76,7 +65,6 @@ class PairFit:
     ----------
     selected : list of str
         The differences kept (each the smallest p-value left, below ``level``).
-    history : list of Step
     estimates : dict of str -> (estimate, (lo, hi)) or None
         Each candidate in the selected model (plus itself), with its 95 % interval; the
         shift in s.
@@ -93,7 +81,6 @@ class PairFit:
     """
 
     selected: list
-    history: list
     estimates: dict
     gains: dict
     correlations: dict
@@ -269,10 +256,9 @@ def _values(g: _Grams, cols, beta, k, sse, terms, transform) -> dict[str, float]
     return vals
 
 
-def _select(g: _Grams, cands: list, level: float) -> tuple[list, list]:
+def _select(g: _Grams, cands: list, level: float) -> list:
     """Forward selection by the naming test: the candidate of smallest p-value added while below ``level``."""
     selected, left = [], list(cands)
-    history = [Step("", g.score([]))]
     while left:
         ps = {c: g.test(selected, c) for c in left}
         best = min(left, key=ps.get)
@@ -280,8 +266,7 @@ def _select(g: _Grams, cands: list, level: float) -> tuple[list, list]:
             break
         selected.append(best)
         left.remove(best)
-        history.append(Step(best, g.score(selected), ps[best]))
-    return selected, history
+    return selected
 
 
 def _alias_set(g: _Grams, selected: list, c: str, cands: list, corr: dict, level: float) -> list:
@@ -321,7 +306,7 @@ def pair_fit(design: PairDesign, *, level: float = 0.05, family: int = 1, transf
     """
     g = _Grams(design, n_folds, block)
     cands = list(design.deltas) + ([DELAY] if len(design.Z_other) > 1 else [])
-    selected, history = _select(g, cands, level)
+    selected = _select(g, cands, level)
     transform = transform or {}
     rng = np.random.default_rng(seed)
     estimates, gains, resolutions, p_values = {}, {}, {}, {}
@@ -345,7 +330,7 @@ def pair_fit(design: PairDesign, *, level: float = 0.05, family: int = 1, transf
                                      gain_se=g.gain_se(terms, c))
     corr = _correlations(g)
     alias_sets = {c: a for c in selected if (a := _alias_set(g, selected, c, cands, corr, level))}
-    return PairFit(selected, history, estimates, gains, corr, resolutions, p_values, alias_sets)
+    return PairFit(selected, estimates, gains, corr, resolutions, p_values, alias_sets)
 
 
 def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, estimate, residual: float,
