@@ -24,7 +24,7 @@ except ImportError:
 
 __all__ = ["gram_lstsq", "gram_lstsq_many", "one_blas_thread",
            "label_grams", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
-           "basic_interval", "block_bootstrap_indices", "wild_block_signs", "blocks_by_length", "block_labels",
+           "basic_interval", "block_bootstrap_indices", "wild_block_signs", "blocks_by_length", "block_labels", "label_rows",
            "draw_blocks", "distinct", "moving_block_starts", "jackknife_interval"]
 
 
@@ -139,10 +139,15 @@ def block_labels(t: np.ndarray, block: float, t0: float | None = None) -> np.nda
     return np.floor((t - (t[0] if t0 is None else t0)) / block).astype(int)
 
 
+def label_rows(label) -> list[np.ndarray]:
+    """Row indices of each distinct value of ``label`` (e.g. a grid's segment), in label order."""
+    label = np.asarray(label)
+    return [np.flatnonzero(label == b) for b in distinct(label)]
+
+
 def blocks_by_length(t: np.ndarray, block: float) -> list[np.ndarray]:
     """Row indices of consecutive ``block``-second stretches of ``t`` (s), in order."""
-    label = block_labels(t, block)
-    return [np.flatnonzero(label == b) for b in distinct(label)]
+    return label_rows(block_labels(t, block))
 
 
 def draw_blocks(n_blocks: int, rng: np.random.Generator) -> np.ndarray:

@@ -75,59 +75,49 @@ class RideAnalysis:
         return "W" if self.domain == "power" else "N·m"
 
 
-def ride_analysis(log_path, compare_path=None, *,
-                  assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
-                  max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2,
-                  domain: str = "power", n_boot: int = 200, block_s: float = 10.0,
+def ride_analysis(log_path, compare_path=None, *, assumptions: RideAssumptions = RideAssumptions(),
+                  max_gap: float = GAP_POLICY.bridge, domain: str = "power", n_boot: int = 200,
                   seed: int = 0, progress: Callable[[str], None] | None = None) -> RideAnalysis:
     """Diagnose a ride's longitudinal balance.
 
     Fits the inertia-only and the augmented balance on ``log_path`` and measures both on
-    ``compare_path`` (without one: the first half fits, the second tests).  ``rate``,
-    ``max_gap``, ``window``, ``polyorder`` as :func:`ride_signals`; ``n_boot``, ``block_s``,
-    ``seed`` as :func:`fit_balance`; ``progress`` is called with a short line at each step.
+    ``compare_path`` (without one: the first half fits, the second tests).  ``max_gap`` as
+    :func:`ride_signals`, ``n_boot`` and ``seed`` as :func:`fit_balance`, the rest
+    :class:`BalanceSettings`' defaults; ``progress`` is called with a short line at each step.
     """
+    settings = BalanceSettings(max_gap=max_gap, n_boot=n_boot, seed=seed)
+    rate, window, polyorder, block_s = settings.rate, settings.window, settings.polyorder, settings.block_s
     with one_blas_thread():
-        return _ride_analysis(log_path, compare_path, assumptions=assumptions, rate=rate, max_gap=max_gap,
-                              window=window, polyorder=polyorder, domain=domain, n_boot=n_boot,
-                              block_s=block_s, seed=seed, progress=progress)
-
-
-def _ride_analysis(log_path, compare_path=None, *,
-                   assumptions: RideAssumptions = RideAssumptions(), rate: float = GAP_POLICY.rate,
-                   max_gap: float = GAP_POLICY.bridge, window: float = 1.5, polyorder: int = 2,
-                   domain: str = "power", n_boot: int = 200, block_s: float = 10.0,
-                   seed: int = 0, progress: Callable[[str], None] | None = None) -> RideAnalysis:
-    say = progress or (lambda msg: None)
-    say(f"reading {log_path.name}" + ("" if compare_path is None else
-                                            f" and {compare_path.name}"))
-    sig_fit = ride_signals(log_path, assumptions, rate, max_gap, window, polyorder)
-    sig_test = (None if compare_path is None else
-                ride_signals(compare_path, assumptions, rate, max_gap, window, polyorder))
-    d_all, d_fit, d_test, fit_label, test_label = _fit_and_test(sig_fit, sig_test, log_path, compare_path,
-                                                                domain)
-    cr = cross_ride(d_fit, d_test, n_boot, block_s, seed, fit_label, test_label, progress=say)
-    notes = _notes(sig_fit, sig_test, d_fit, assumptions, test_label)
-    blocks = len(d_fit.P) / (block_s * rate)
-    if n_boot and blocks < FEW_BLOCKS:
-        notes.append(_few_blocks(fit_label, blocks, block_s))
-        warnings.warn(notes[-1], stacklevel=3)
-    return RideAnalysis(cross=cr, sig_fit=sig_fit, sig_test=sig_test,
-                        designs=(d_all, None if sig_test is None else d_test), notes=tuple(notes),
-                        domain=domain, assumptions=assumptions,
-                        settings=BalanceSettings(rate, window, polyorder, max_gap, n_boot, block_s, seed),
-                        recording=log_path.name, compare=None if compare_path is None else compare_path.name)
+        say = progress or (lambda msg: None)
+        say(f"reading {log_path.name}" + ("" if compare_path is None else
+                                                f" and {compare_path.name}"))
+        sig_fit = ride_signals(log_path, assumptions, rate, max_gap, window, polyorder)
+        sig_test = (None if compare_path is None else
+                    ride_signals(compare_path, assumptions, rate, max_gap, window, polyorder))
+        d_all, d_fit, d_test, fit_label, test_label = _fit_and_test(sig_fit, sig_test, log_path, compare_path,
+                                                                    domain)
+        cr = cross_ride(d_fit, d_test, n_boot, block_s, seed, fit_label, test_label, progress=say)
+        notes = _notes(sig_fit, sig_test, d_fit, assumptions, test_label)
+        blocks = len(d_fit.P) / (block_s * rate)
+        if n_boot and blocks < FEW_BLOCKS:
+            notes.append(_few_blocks(fit_label, blocks, block_s))
+            warnings.warn(notes[-1], stacklevel=2)
+        return RideAnalysis(cross=cr, sig_fit=sig_fit, sig_test=sig_test,
+                            designs=(d_all, None if sig_test is None else d_test), notes=tuple(notes),
+                            domain=domain, assumptions=assumptions,
+                            settings=settings,
+                            recording=log_path.name, compare=None if compare_path is None else compare_path.name)
 
 
 def check_data(log_path, compare_path=None, *, assumptions: RideAssumptions = RideAssumptions(),
-               domain: str = "power", block_s: float = 10.0) -> None:
+               domain: str = "power") -> None:
     """Fail early, naming the file, on a log :func:`ride_analysis` cannot use: the fit part
     must hold enough rows for the bootstrap (:func:`block_rows`).
     """
     sig_fit = ride_signals(log_path, assumptions)
     sig_test = None if compare_path is None else ride_signals(compare_path, assumptions)
     _, d_fit, d_test, _, _ = _fit_and_test(sig_fit, sig_test, log_path, compare_path, domain)
-    block_rows(d_fit, block_s)
+    block_rows(d_fit, BalanceSettings.block_s)
     if len(d_test.P) == 0:
         raise InputError(f"{d_test.path}: no usable rows to test on")
 

@@ -27,7 +27,7 @@ import pandas as pd
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.rides.grids.route import gps_grade
 from euc_sim.simulation.effects import RECORDS
-from euc_sim.stats import distinct
+from euc_sim.stats import label_rows
 from euc_sim.rides.grids.signals import RideSignals, sg, window_samples
 
 __all__ = ["RHO_AIR", "CANDIDATES", "term_role", "role_index", "NOMINAL", "PLAUSIBLE", "BOUNDS", "PRE_WINDOW", "Design",
@@ -59,12 +59,12 @@ def role_index(names: Sequence[str], role: str) -> int | None:
     return next((j for j, n in enumerate(names) if term_role(n) == role), None)
 
 
-def on_bound(name: str, value: float, rel: float = 1e-6) -> bool:
+def on_bound(name: str, value: float) -> bool:
     """True when ``value`` sits on a bound of :data:`BOUNDS` that is not "absent" (0): the most
     plausible physics gives (docs/ride_model.md, "accepted on the edge").
     """
     lo, hi = BOUNDS.get(name, (-np.inf, np.inf))
-    tol = rel * max(abs(hi - lo), 1.0) if np.isfinite(hi - lo) else 0.0
+    tol = 1e-6 * max(abs(hi - lo), 1.0) if np.isfinite(hi - lo) else 0.0
     return bool((value >= hi - tol) or (lo != 0.0 and value <= lo + tol))
 
 
@@ -187,48 +187,30 @@ class Design:
         Z = self.basis.Z
         return Z.T @ Z
 
-    def demand(self, names: Sequence[str], Theta: np.ndarray) -> np.ndarray:
-        """D + k_cu·F² of B parameter sets (``Theta``: len(names) × B; unnamed terms 0), W; support × B."""
+    def predict(self, params: Mapping[str, float]) -> np.ndarray:
+        """Battery power P̂ = P₀ + (L₂ − τ_I·L₂′ + τ_I²·L₂″)[D], W, on the rows in use; D the demand
+        inertia + Σ θ·column (missing resistances are 0).
+        """
+        names = list(params)
+        theta = np.array([params[k] for k in names], float)[:, None]      # one parameter set
         op = self.operator
-        Theta = _as_sets(Theta)
-        D = np.repeat(op.columns["inertia"][:, None], Theta.shape[1], axis=1)
+        D = op.columns["inertia"][:, None].copy()
         for j, name in enumerate(names):
             col = CANDIDATES[name][3] if name in CANDIDATES else None
             if col is not None:
-                D += op.columns[col][:, None] * Theta[j]
-        return D
-
-    def predict_many(self, names: Sequence[str], Theta: np.ndarray,
-                     D: np.ndarray | None = None) -> np.ndarray:
-        """Battery power P̂ of B parameter sets on the rows in use, W (rows × B); ``D`` reuses :meth:`demand`."""
-        names = list(names)
-        Theta = _as_sets(Theta)
-        D = self.demand(names, Theta) if D is None else D
-        op = self.operator
+                D += op.columns[col][:, None] * theta[j]
         P_hat = np.asarray(op.K @ D)
         lag, const = role_index(names, "lag"), role_index(names, "constant")
         if lag is not None:
-            tau = Theta[lag]
+            tau = theta[lag]
             P_hat += -tau * np.asarray(op.Kd @ D) + tau ** 2 * np.asarray(op.Kdd @ D)
         if const is not None:
-            P_hat += Theta[const]
-        return P_hat
-
-    def predict(self, params: Mapping[str, float]) -> np.ndarray:
-        """Battery power P̂, W, on the rows in use (missing resistances are 0)."""
-        names = list(params)
-        return self.predict_many(names, np.array([[params[k]] for k in names], float))[:, 0]
+            P_hat += theta[const]
+        return P_hat[:, 0]
 
     def residual(self, params: Mapping[str, float], target: np.ndarray | None = None) -> np.ndarray:
-        """Weighted residual (measured − predicted) on the rows in use, W or N·m."""
-        P = self.P if target is None else target
-        return self.weight * (P - self.predict(params))
-
-
-def _as_sets(Theta) -> np.ndarray:
-    """Parameter sets as parameters × B (a 1-D array is one set; no parameter, one empty set)."""
-    Theta = np.asarray(Theta, float)
-    return Theta[:, None] if Theta.ndim == 1 else Theta
+        """Weighted residual (measured, or ``target``, − predicted) on the rows in use, W or N·m."""
+        return self.weight * ((self.P if target is None else target) - self.predict(params))
 
 
 @dataclass(frozen=True)
@@ -300,8 +282,7 @@ def _conv(x: np.ndarray, segment: np.ndarray, kernel: np.ndarray) -> np.ndarray:
     """Convolve each segment with ``kernel``; NaN where the kernel overhangs an end."""
     out = np.full(x.shape, np.nan)
     half = len(kernel) // 2
-    for s in distinct(segment):
-        idx = np.flatnonzero(segment == s)
+    for idx in label_rows(segment):
         if idx.size < len(kernel):
             continue
         y = np.convolve(x[idx], kernel, mode="same")
@@ -313,9 +294,12 @@ def _conv(x: np.ndarray, segment: np.ndarray, kernel: np.ndarray) -> np.ndarray:
 
 #: Short pre-filter L₁ applied to every regressor before the regime switch, s.
 PRE_WINDOW = 0.5
+#: ``road_slope`` is offered only when the speed changes sign on this share of the moving
+#: samples; otherwise it aliases rolling resistance (docs/diagnosis.md).
+SIGN_CHANGE_FRACTION = 0.02
 
 
-def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
+def _regressors(sig: RideSignals, L1):
     """The L₁-filtered regressor columns of a ride and the candidates they support.
 
     A record whose ``regressor`` gives a reason instead of a column adds a note and its
@@ -329,7 +313,7 @@ def _regressors(sig: RideSignals, L1, sign_change_fraction: float):
     fwd = float((v_raw[moving] > 0.3).mean()) if moving.any() else 0.0
     b = SimpleNamespace(v=v_raw, mg=A.total_mass * A.g, m_eq=A.m_eq, L1=L1,
                         gps_grade=gps_grade(raw) if sig.has_gps_alt else None,
-                        sign_change=min(back, fwd), sign_change_fraction=sign_change_fraction)
+                        sign_change=min(back, fwd), sign_change_fraction=SIGN_CHANGE_FRACTION)
     cols = {"inertia": A.m_eq * L1(0.5 * v_raw ** 2, 1)}       # m_eq·a·v = m_eq·d/dt(v²/2)
     cands: list[str] = []
     aliases: dict[str, tuple[str, ...]] = {}
@@ -364,8 +348,7 @@ def standstill_power(v: np.ndarray, P: np.ndarray, rate: float) -> float | None:
     return float(np.percentile(P[still], 75))
 
 
-def balance_design(sig: RideSignals, domain: str = "power",
-                   sign_change_fraction: float = 0.02, pre_window: float = PRE_WINDOW) -> Design:
+def balance_design(sig: RideSignals, domain: str = "power") -> Design:
     """The longitudinal balance of a ride, every term filtered alike.
 
     Parameters
@@ -374,11 +357,6 @@ def balance_design(sig: RideSignals, domain: str = "power",
         Its ``window`` and ``polyorder`` give the main filter L₂.
     domain : {"power", "torque"}
         Residuals in W, or divided by ω = v/R (|v| ≥ v_min) in N·m.
-    sign_change_fraction : float
-        ``road_slope`` is offered only when the speed changes sign on this share of the
-        moving samples; otherwise it aliases rolling resistance (docs/diagnosis.md).
-    pre_window : float
-        Window of the short pre-filter L₁, s.
     """
     from scipy.signal import savgol_coeffs
 
@@ -389,13 +367,13 @@ def balance_design(sig: RideSignals, domain: str = "power",
     seg = raw["segment"].to_numpy()
     v_raw = raw["v"].to_numpy()
     p1 = min(2, sig.polyorder)
-    L1 = lambda x, d=0: sg(x, seg, sig.rate, pre_window, p1, d)  # noqa: E731
+    L1 = lambda x, d=0: sg(x, seg, sig.rate, PRE_WINDOW, p1, d)  # noqa: E731
     n2 = window_samples(sig.window, sig.rate, sig.polyorder)
     kernel = savgol_coeffs(n2, sig.polyorder)
     dkernel = savgol_coeffs(n2, sig.polyorder, deriv=1, delta=1.0 / sig.rate)
     d2kernel = savgol_coeffs(n2, sig.polyorder, deriv=2, delta=1.0 / sig.rate)
     L2 = lambda x: _conv(x, seg, kernel)  # noqa: E731
-    cols, cands, aliases, notes = _regressors(sig, L1, sign_change_fraction)
+    cols, cands, aliases, notes = _regressors(sig, L1)
     X = pd.DataFrame(cols)
     P = L2(L1(raw["P"].to_numpy()))
     v = L2(L1(v_raw))

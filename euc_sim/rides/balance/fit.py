@@ -37,8 +37,6 @@ class BalanceFit:
         Fitted parameters (keys of :data:`CANDIDATES`).
     estimate, ci95 : dict
         Value of each (unit of :data:`CANDIDATES`) and its 95 % wild block bootstrap interval.
-    se_naive : dict
-        Jacobian standard errors assuming independent residuals (comparison only).
     rmse : float
         In-sample RMS weighted residual, W or N·m.
     n : int
@@ -53,7 +51,6 @@ class BalanceFit:
     names: tuple[str, ...]
     estimate: Mapping[str, float]
     ci95: Mapping[str, tuple[float, float]]
-    se_naive: Mapping[str, float]
     rmse: float
     n: int
     n_boot: int
@@ -62,12 +59,12 @@ class BalanceFit:
     unit: str = "W"
     boot_corr: Mapping[tuple[str, str], float] = None
 
-    def confounded(self, name: str, threshold: float = 0.8) -> tuple[str, ...]:
-        """Parameters whose bootstrap replicates correlate with ``name``'s beyond ±threshold."""
+    def confounded(self, name: str) -> tuple[str, ...]:
+        """Parameters whose bootstrap replicates correlate with ``name``'s beyond ±0.8."""
         if not self.boot_corr:
             return ()
         return tuple(b for (a, b), r in self.boot_corr.items()
-                     if a == name and b != name and abs(r) >= threshold)
+                     if a == name and b != name and abs(r) >= 0.8)
 
     def rmse_on(self, design: Design) -> float:
         """RMS weighted residual of this fit on another design, W or N·m."""
@@ -184,20 +181,12 @@ def fit_balance(design: Design, names: Sequence[str] | None = None, n_boot: int 
     # Unweighted residuals in P units are what gets resampled.
     e_P = design.P - fitted_P
     e = design.weight * e_P                 # design.residual(est), its prediction not redone
-    J = res.jac
-    dof = max(n - len(names), 1)
-    try:
-        cov = (e @ e) / dof * np.linalg.pinv(J.T @ J)
-        se = np.sqrt(np.clip(np.diag(cov), 0, None))
-    except np.linalg.LinAlgError:
-        se = np.full(len(names), np.nan)
     lo, hi, corr = _bootstrap(design, names, fitted_P, e_P, L, n_boot, seed)
     # a bounded estimate's replicates can pile up on one side of it (on or near its bound):
     # the interval reaches out to the estimate, widened, never narrowed
     lo, hi = np.fmin(lo, theta), np.fmax(hi, theta)
     return BalanceFit(names=tuple(names), estimate=est,
                       ci95={k: (float(a), float(b)) for k, a, b in zip(names, lo, hi)},
-                      se_naive=dict(zip(names, map(float, se))),
                       rmse=float(np.sqrt(np.mean(e ** 2))), n=n, n_boot=n_boot,
                       block_s=block_s, seed=seed, unit=design.unit, boot_corr=corr)
 

@@ -1,6 +1,6 @@
 """The balance's cost as a quadratic form: fits from the Gram matrices of its basis.
 
-The prediction :meth:`~euc_sim.rides.balance.design.Design.predict_many` is
+The prediction :meth:`~euc_sim.rides.balance.design.Design.predict` is
 
     P̂ = Σ_j θ_j·(L₂ − τ_I·L₂′ + τ_I²·L₂″)[c_j] + P₀,  θ_inertia = 1,
 
@@ -44,30 +44,20 @@ def coefficients(columns: Sequence[str], names: Sequence[str], theta: np.ndarray
         Their values.
     """
     names = list(names)
-    p = _SLOTS * len(columns) + 2
-    v, dv = np.zeros(p), np.zeros((p, len(names)))
-    v[-1] = 1.0
     lag = role_index(names, "lag")
     tau = float(theta[lag]) if lag is not None else 0.0
-    filt = np.array([1.0, -tau, tau ** 2])               # L₂ − τ·L₂′ + τ²·L₂″
-    scale_of = {"inertia": 1.0}
-    for j, n in enumerate(names):
-        col = CANDIDATES[n][3]
-        if col is not None:
-            scale_of[col] = float(theta[j])
-            i = columns.index(col)
-            dv[_SLOTS * i:_SLOTS * i + _SLOTS, j] = -filt
-        elif term_role(n) == "constant":
-            v[-2] = -float(theta[j])
-            dv[-2, j] = -1.0
-    for col, th in scale_of.items():
-        i = columns.index(col)
-        v[_SLOTS * i:_SLOTS * i + _SLOTS] = -th * filt
-        if lag is not None:
-            dv[_SLOTS * i + 1, lag] = th
-            dv[_SLOTS * i + 2, lag] = -2.0 * tau * th
+    linear = [j for j in range(len(names)) if j != lag]
+    v0, D = _affine(columns, [names[j] for j in linear], np.array([tau]))
+    v = v0[0] + D[0] @ np.asarray(theta, float)[linear]
+    dv = np.zeros((len(v), len(names)))
+    dv[:, linear] = D[0]
+    if lag is not None:                                  # d/dτ of −θ_c·(L₂ − τ·L₂′ + τ²·L₂″)[c]
+        scaled = [("inertia", 1.0)] + [(CANDIDATES[names[j]][3], float(theta[j])) for j in linear
+                                       if CANDIDATES[names[j]][3] is not None]
+        for col, th in scaled:
+            i = _SLOTS * columns.index(col)
+            dv[i + 1, lag], dv[i + 2, lag] = th, -2.0 * tau * th
     return v, dv
-
 
 def scale(names: Sequence[str]) -> np.ndarray:
     """Typical size of each parameter: the fit's variables are the parameters over it."""
@@ -94,12 +84,6 @@ def snap_to_bounds(x: np.ndarray, lo: np.ndarray, hi: np.ndarray, size: np.ndarr
     x = np.array(x, dtype=float)
     x = np.where(np.abs(x - lo) <= _BOUND_SNAP * size, lo, x)
     return np.where(np.abs(hi - x) <= _BOUND_SNAP * size, hi, x)
-
-
-def _root(G: np.ndarray) -> np.ndarray:
-    """S with SᵀS = G (G symmetric positive semi-definite): the residual in few rows."""
-    lam, U = np.linalg.eigh(0.5 * (G + G.T))
-    return np.sqrt(np.clip(lam, 0.0, None))[:, None] * U.T
 
 
 def _affine(columns: Sequence[str], linear: Sequence[str], tau: np.ndarray):
@@ -285,10 +269,9 @@ def solve_grams(G: np.ndarray, columns: Sequence[str], names: Sequence[str]) -> 
 
 def solve_gram(G: np.ndarray, columns: Sequence[str], names: Sequence[str]):
     """The bounded least-squares fit of one Gram matrix ``G`` = ZᵀZ (:func:`solve_grams`):
-    ``x`` (snapped estimate), ``cost`` (half the sum of squared residuals), ``jac`` (a
-    Jacobian with the rows' JᵀJ).
+    ``x`` (snapped estimate) and ``cost`` (half the sum of squared residuals).
     """
     names = list(names)
     x = solve_grams(np.asarray(G)[None], columns, names)[0]
-    v, dv = coefficients(columns, names, x)
-    return SimpleNamespace(x=x, cost=0.5 * float(v @ G @ v), jac=_root(G) @ dv)
+    v, _ = coefficients(columns, names, x)
+    return SimpleNamespace(x=x, cost=0.5 * float(v @ G @ v))

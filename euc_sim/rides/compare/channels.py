@@ -38,12 +38,11 @@ def _over(cols: dict, v: np.ndarray, keep=None) -> dict[str, np.ndarray]:
     return {n: (c / v if keep is None or n in keep else np.zeros_like(c)) for n, c in cols.items()}
 
 
-def _sag(r, y) -> tuple | None:
+def _sag(r) -> tuple | None:
     V, I = r.sig.extra.get("voltage"), r.sig.extra.get("current")
     b = r.drivetrain.battery_coef
     if V is None or I is None or not b or not b.get("R_int", 0.0) > 0:
         return None
-
     E = b["E0"] - b["k_Q"] * charge_drawn(r.sig.t, I)
     return V * (E - V) / b["R_int"], None, {}, None
 
@@ -66,7 +65,6 @@ def _phase(r, cols: dict, v: np.ndarray, coef: dict, calib: tuple | None):
 
 
 def _duty(r, y, coef: dict | None):
-
     d, V = r.sig.extra.get("pwm"), r.sig.extra.get("voltage")
     if d is None or V is None or not coef or not coef.get("r_F", 0.0) > 0 or computed_pwm_note(r):
         return None
@@ -104,7 +102,7 @@ def readings(fit, test, sides: list, channels=CHANNELS) -> dict[str, list[tuple]
         for k, (r, (sh, de, y)) in enumerate(zip((fit, test), sides)):
             v = np.where(np.abs(r.sig.v) > 1e-3, r.sig.v, np.nan)
             if c == "sag":
-                got = _sag(r, y)
+                got = _sag(r)
             elif c == "phase_current":
                 got = _phase(r, sh, v, fit.mass.coef, calib)
                 calib = None if got is None else got[2].pop("calib")
@@ -130,7 +128,6 @@ def _heldout_residuals(t: np.ndarray, Z: np.ndarray, scale: np.ndarray | None = 
     """Each channel's held-out residual (C, n) over 5 time folds: each channel alone, or with
     ``scale`` all fitted together with one coefficient per column.
     """
-
     fold = time_blocks(t, 5)
     E = np.zeros(Z.shape[:2])
     for f in range(5):

@@ -197,9 +197,9 @@ def signature_columns(v, av, P, t, current=None, climb=None, coef=None) -> dict[
     return {n: col for n, col in cols.items() if col is not None}
 
 
-def alias_table(columns: dict, threshold: float = ALIAS_CORRELATION) -> tuple[dict, dict]:
+def alias_table(columns: dict) -> tuple[dict, dict]:
     """Which signatures (:func:`signature_columns` over both rides) a pair cannot tell apart:
-    each name's partners with |correlation| above ``threshold``, and the names whose
+    each name's partners with |correlation| above :data:`ALIAS_CORRELATION`, and the names whose
     signature is constant or absent, with why.
     """
     names = list(columns)
@@ -212,7 +212,7 @@ def alias_table(columns: dict, threshold: float = ALIAS_CORRELATION) -> tuple[di
     aliases = {n: [] for n in names}
     for a, i in enumerate(live):
         for b, j in enumerate(live):
-            if a != b and abs(R[a, b]) > threshold:
+            if a != b and abs(R[a, b]) > ALIAS_CORRELATION:
                 aliases[names[i]].append(names[j])
     return aliases, cannot
 

@@ -19,25 +19,14 @@ import numpy as np
 
 from euc_sim.rides.compare.resolution import (detectable_difference, heldout_signature_rms, paired_test,
                                                score_test)
-from euc_sim.stats import gram_lstsq, jackknife_interval, label_grams, percentile_interval, time_blocks
+from euc_sim.stats import draw_blocks, gram_lstsq, jackknife_interval, label_grams, percentile_interval, time_blocks
 
-__all__ = ["PairDesign", "PairFit", "Step", "DELAY", "block_grams", "pair_fit"]
+__all__ = ["PairDesign", "PairFit", "DELAY", "block_grams", "pair_fit"]
 
 #: The name of the shift candidate (OTHER's current delay beyond LOG's).
 DELAY = "current_delay"
 #: |correlation| of two differences' estimates beyond which the pair cannot tell them apart.
 ALIAS_SET_CORRELATION = 0.98
-
-
-@dataclass(frozen=True)
-class Step:
-    """One step of the forward selection: the ``term`` added ("" for none), OTHER's blocked
-    held-out RMS after it, and the term's p-value (None for the first step).
-    """
-
-    term: str
-    heldout_rmse: float
-    p_value: float | None = None
 
 
 @dataclass(frozen=True)
@@ -76,7 +65,6 @@ class PairFit:
     ----------
     selected : list of str
         The differences kept (each the smallest p-value left, below ``level``).
-    history : list of Step
     estimates : dict of str -> (estimate, (lo, hi)) or None
         Each candidate in the selected model (plus itself), with its 95 % interval; the
         shift in s.
@@ -93,7 +81,6 @@ class PairFit:
     """
 
     selected: list
-    history: list
     estimates: dict
     gains: dict
     correlations: dict
@@ -228,10 +215,10 @@ def _draws(g: _Grams, terms, cands, transform, n_boot: int, rng) -> dict[str, li
     """Bootstrap draws of each candidate's value, each ride's blocks drawn independently."""
     cols = g.cols(terms)
     out = {c: [] for c in cands}
+    weights = lambda n: np.bincount(draw_blocks(n, rng), minlength=n).astype(float)   # noqa: E731
     for _ in range(n_boot):
-        wL = np.bincount(rng.integers(0, len(g.fL), len(g.fL)), minlength=len(g.fL)).astype(float)
-        wO = np.bincount(rng.integers(0, len(g.fO), len(g.fO)), minlength=len(g.fO)).astype(float)
-        beta, k, sse = g.fit(wL, wO, terms)
+        wL = weights(len(g.fL))
+        beta, k, sse = g.fit(wL, weights(len(g.fO)), terms)
         vals = _values(g, cols, beta, k, sse, terms, transform)
         for c in cands:
             out[c].append(vals[c])
@@ -269,10 +256,9 @@ def _values(g: _Grams, cols, beta, k, sse, terms, transform) -> dict[str, float]
     return vals
 
 
-def _select(g: _Grams, cands: list, level: float) -> tuple[list, list]:
+def _select(g: _Grams, cands: list, level: float) -> list:
     """Forward selection by the naming test: the candidate of smallest p-value added while below ``level``."""
     selected, left = [], list(cands)
-    history = [Step("", g.score([]))]
     while left:
         ps = {c: g.test(selected, c) for c in left}
         best = min(left, key=ps.get)
@@ -280,8 +266,7 @@ def _select(g: _Grams, cands: list, level: float) -> tuple[list, list]:
             break
         selected.append(best)
         left.remove(best)
-        history.append(Step(best, g.score(selected), ps[best]))
-    return selected, history
+    return selected
 
 
 def _alias_set(g: _Grams, selected: list, c: str, cands: list, corr: dict, level: float) -> list:
@@ -321,7 +306,7 @@ def pair_fit(design: PairDesign, *, level: float = 0.05, family: int = 1, transf
     """
     g = _Grams(design, n_folds, block)
     cands = list(design.deltas) + ([DELAY] if len(design.Z_other) > 1 else [])
-    selected, history = _select(g, cands, level)
+    selected = _select(g, cands, level)
     transform = transform or {}
     rng = np.random.default_rng(seed)
     estimates, gains, resolutions, p_values = {}, {}, {}, {}
@@ -345,7 +330,7 @@ def pair_fit(design: PairDesign, *, level: float = 0.05, family: int = 1, transf
                                      gain_se=g.gain_se(terms, c))
     corr = _correlations(g)
     alias_sets = {c: a for c in selected if (a := _alias_set(g, selected, c, cands, corr, level))}
-    return PairFit(selected, history, estimates, gains, corr, resolutions, p_values, alias_sets)
+    return PairFit(selected, estimates, gains, corr, resolutions, p_values, alias_sets)
 
 
 def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, estimate, residual: float,
@@ -355,7 +340,7 @@ def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, estimat
     """
     ci = estimate[1]
     if c == DELAY:
-        return detectable_difference(c, ci, level=level, n_folds=g.n_folds)
+        return detectable_difference(c, ci, level=level)
     cols = g.cols(terms)
     col = g.names.index(c)
     others = [i for i in cols if i != col]
@@ -364,10 +349,9 @@ def _resolution(g: _Grams, terms, c: str, k: int, beta, transform: dict, estimat
     fn = transform.get(c, lambda co: co[c])
     slope = abs(fn({**coef, c: coef[c] + 1.0}) - fn(coef))
     if not slope > 0:
-        return detectable_difference(c, ci, level=level, n_folds=g.n_folds)
+        return detectable_difference(c, ci, level=level)
     S, X, _ = _block_parts(g, terms, c)
-    return detectable_difference(c, ci, residual, s / slope, blocks=(S / slope ** 2, X / slope), level=level,
-                                 n_folds=g.n_folds)
+    return detectable_difference(c, ci, residual, s / slope, blocks=(S / slope ** 2, X / slope), level=level)
 
 
 def _block_parts(g: _Grams, terms, c: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -19,6 +19,7 @@ from euc_sim.rides.compare.resolution import with_floor
 from euc_sim.rides.drive.drivetrain import charge_drawn
 from euc_sim.rides.drive.drivetrain_report import computed_pwm_note, reported_mass, reported_terms
 from euc_sim.rides.drive.mass import mass_regressors
+from euc_sim.rides.grids.power import GPS_V_MIN
 from euc_sim.rides.source.channels import current_from_phase
 from euc_sim.simulation.effects import RECORDS
 
@@ -26,9 +27,6 @@ __all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_des
 
 #: Speed above which rows enter the held-out tests, m/s.
 V_MIN = 1.0
-#: Speed above which GPS and wheel speed are compared (both), m/s: the speed scale's own rule
-#: (:func:`euc_sim.rides.grids.power.speed_scale`'s ``v_min``).
-V_GPS = 4.0
 
 
 #: The shared power terms (:func:`euc_sim.rides.drive.mass.mass_regressors`, and ``no_load`` whose difference,
@@ -232,7 +230,7 @@ def gps_design(log_path, compare_path):
         if "gps_speed" not in d:
             return None
         v, g = d["v"].to_numpy(float), d["gps_speed"].to_numpy(float)
-        ok = np.isfinite(g) & np.isfinite(v) & (v > V_GPS) & (g > V_GPS)
+        ok = np.isfinite(g) & np.isfinite(v) & (v > GPS_V_MIN) & (g > GPS_V_MIN)
         if ok.sum() < 200:
             return None
         rides.append((d["t"].to_numpy(float)[ok], v[ok], g[ok]))
@@ -300,14 +298,10 @@ def _coef(params: list) -> dict[str, float]:
     return {p.name: p.estimate for p in params if p.name in assumed and p.estimate is not None}
 
 
-def _signatures(sig, coef: dict) -> dict[str, np.ndarray]:
-    cur = sig.extra.get("current")
-    return signature_columns(sig.v, sig.av, sig.P, sig.t, cur, sig.climb, coef)
-
-
 def pair_aliases(fit, test, coef: dict) -> tuple[dict, dict]:
     """:func:`alias_table` over both rides' moving rows; the climb unseen without GPS altitude."""
-    a, b = _signatures(fit.sig, coef), _signatures(test.sig, coef)
+    a, b = (signature_columns(s.v, s.av, s.P, s.t, s.extra.get("current"), s.climb, coef)
+            for s in (fit.sig, test.sig))
     keep = [n for n in a if n in b]
     ma, mb = fit.sig.v > V_MIN, test.sig.v > V_MIN
     both = {n: np.r_[a[n][ma], b[n][mb]] for n in keep}
@@ -322,7 +316,6 @@ def pair_differences(physics, log_path, compare_path, n_boot: int = 200, seed: i
     OTHER's analysis), both rides, the pair fits' ``n_boot`` and ``seed``, and the ``channels``
     beside battery power (:func:`pair_tests`).
     """
-
     fit, test = physics.fit, physics.test
     log_params = parameters_from_fit(physics.mass, physics.terms)
     other_params = parameters_from_fit(reported_mass(test), reported_terms(test, computed_pwm_note(test)))

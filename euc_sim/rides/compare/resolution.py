@@ -94,15 +94,15 @@ def bh_qvalues(p) -> np.ndarray:
     return p if p.size == 0 else false_discovery_control(p, method="bh")
 
 
-def noncentrality(level: float, df: int, power: float = POWER) -> float:
+def noncentrality(level: float, df: int) -> float:
     """δ: a noncentral t with ``df`` degrees of freedom exceeds its one-sided ``level``
-    critical value with probability ``power``."""
+    critical value with probability :data:`POWER`."""
     from scipy.optimize import brentq
     from scipy.stats import nct
     from scipy.stats import t as student
 
     crit = student.isf(level, df)
-    return float(brentq(lambda nc: nct.sf(crit, df, nc) - power, 0.0, 200.0))
+    return float(brentq(lambda nc: nct.sf(crit, df, nc) - POWER, 0.0, 200.0))
 
 
 def score_test(cross_without, cross_with) -> tuple[float, float]:
@@ -120,15 +120,15 @@ def score_test(cross_without, cross_with) -> tuple[float, float]:
     return float(min(1.0, 2.0 * student.sf(abs(z), len(x) - 1))), z
 
 
-def named_size(signature_ss, cross_with, *, level: float, power: float = POWER) -> float | None:
-    """Smallest difference :func:`score_test` names with ``power`` at two-sided ``level``:
+def named_size(signature_ss, cross_with, *, level: float) -> float | None:
+    """Smallest difference :func:`score_test` names with :data:`POWER` at two-sided ``level``:
     δ·√(ΣX_b²)/ΣS_b from ``signature_ss`` S_b and ``cross_with`` X_b (per unit of the
     parameter); None where the column vanishes.
     """
     S, X = np.asarray(signature_ss, float), np.asarray(cross_with, float)
     if len(S) < 2 or not S.sum() > 0:
         return None
-    return noncentrality(level / 2.0, len(S) - 1, power) * math.sqrt(float(np.sum(X ** 2))) / float(S.sum())
+    return noncentrality(level / 2.0, len(S) - 1) * math.sqrt(float(np.sum(X ** 2))) / float(S.sum())
 
 
 def predicted_gain(size: float, residual_rms: float, signature_rms: float, se: float,
@@ -160,7 +160,7 @@ def heldout_signature_rms(GL: np.ndarray, fold_log: np.ndarray, GO: np.ndarray, 
 
 def detectable_difference(name: str, ci95, residual_rms: float | None = None,
                           signature_rms: float | None = None, *, blocks: tuple | None = None,
-                          level: float = 0.05, n_folds: int = 5) -> Resolution:
+                          level: float = 0.05) -> Resolution:
     """The smallest difference of ``name`` the pair can name: the 95 % interval's half-width or
     the test's size (:func:`named_size` of ``blocks``; without them, a shift, the interval
     alone), at ``level`` (the false-name rate over the candidates).

@@ -15,7 +15,8 @@ from __future__ import annotations
 import numpy as np
 
 from euc_sim.errors import InputError
-from euc_sim.stats import distinct
+from euc_sim.rides.grids.signals import window_samples
+from euc_sim.stats import label_rows
 
 __all__ = ["window_mean", "window_difference", "window_samples_odd"]
 
@@ -24,14 +25,7 @@ def window_samples_odd(window: float, rate: float) -> int:
     """Samples in a window of ``window`` s at ``rate`` Hz, rounded to an odd number ≥ 3."""
     if not (window > 0 and rate > 0):
         raise InputError(f"window and rate must be positive, got window={window!r} s, rate={rate!r} Hz")
-    n = max(3, int(round(window * rate)))
-    return n + 1 if n % 2 == 0 else n
-
-
-def _segments(segment: np.ndarray):
-    seg = np.asarray(segment)
-    for s in distinct(seg):
-        yield np.flatnonzero(seg == s)
+    return window_samples(window, rate, 1)
 
 
 def window_mean(x: np.ndarray, segment: np.ndarray, n: int) -> np.ndarray:
@@ -43,7 +37,7 @@ def window_mean(x: np.ndarray, segment: np.ndarray, n: int) -> np.ndarray:
     x = np.asarray(x, float)
     out = np.full(x.shape, np.nan)
     h = n // 2
-    for idx in _segments(segment):
+    for idx in label_rows(segment):
         if idx.size < n:
             continue
         xs = x[idx]
@@ -65,7 +59,7 @@ def window_difference(x: np.ndarray, segment: np.ndarray, n: int, rate: float) -
     out = np.full(x.shape, np.nan)
     h = n // 2
     T = (n - 1) / rate
-    for idx in _segments(segment):
+    for idx in label_rows(segment):
         if idx.size < n:
             continue
         xs = x[idx]

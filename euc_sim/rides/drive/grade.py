@@ -15,7 +15,7 @@ import numpy as np
 
 from euc_sim.rides.drive.mass import MassFit, mass_regressors
 from euc_sim.rides.grids.power import G, PowerSignals
-from euc_sim.stats import distinct
+from euc_sim.stats import label_rows
 
 __all__ = ["GradeProfile", "grade_profile", "V_STILL"]
 
@@ -58,8 +58,8 @@ def _ascent(h: np.ndarray, t: np.ndarray, segment: np.ndarray, span: float = 30.
     total = 0.0
     dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
     w = max(1, int(round(span / dt)))
-    for s in distinct(segment):
-        x = h[segment == s]
+    for idx in label_rows(segment):
+        x = h[idx]
         x = x[np.isfinite(x)]
         if x.size < 2:
             continue
@@ -89,8 +89,7 @@ def grade_profile(sig: PowerSignals, fit: MassFit, gps_t: np.ndarray,
     dt[new_seg] = 0.0
     implied, fitted = np.empty_like(h_gps), np.empty_like(h_gps)
     beta = fit.coef.get("grade")
-    for s in distinct(sig.segment):
-        idx = np.flatnonzero(sig.segment == s)
+    for idx in label_rows(sig.segment):
         start = h_gps[idx[0]]
         implied[idx] = start + np.cumsum(rate[idx] * dt[idx])
         if beta is not None:

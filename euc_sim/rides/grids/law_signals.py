@@ -12,7 +12,7 @@ interval longer than :data:`GAP` breaks every derivative, mean and integral.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -20,6 +20,7 @@ from euc_sim.errors import InputError
 from euc_sim.rides.grids.spin import spin_rows
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
+from euc_sim.stats import label_rows
 
 __all__ = ["LawUnavailable", "LawRows", "law_rows", "V_MIN", "MAX_PITCH", "MIN_ROWS", "GAP",
            "ACCEL_HALF", "INTEGRAL_TAU"]
@@ -92,10 +93,8 @@ class LawRows:
 
     def take(self, idx: np.ndarray) -> "LawRows":
         """The rows ``idx`` (an index or boolean array)."""
-        cols = {k: getattr(self, k)[idx] for k in ("t", "tilt", "tilt_dot", "v", "a", "z", "y",
-                                                   "w3", "tilt3", "v3", "z3", "y3")}
-        return LawRows(**cols, channel=self.channel, unit=self.unit, scale=self.scale,
-                       pitch_step=self.pitch_step, dt_median=self.dt_median)
+        return replace(self, **{k: getattr(self, k)[idx] for k in ("t", "tilt", "tilt_dot", "v", "a", "z", "y",
+                                                                   "w3", "tilt3", "v3", "z3", "y3")})
 
 
 def _rate(x: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -149,19 +148,14 @@ def _leaky_integral(x: np.ndarray, t: np.ndarray, tau: float = INTEGRAL_TAU) -> 
     from scipy.signal import lfilter
 
     out = np.empty_like(x)
-    dt = np.r_[0.0, np.diff(t)]
-    starts = np.r_[0, np.flatnonzero(GAP_POLICY.splits(dt))]
-    ends = np.r_[starts[1:], x.size]
-    for s0, e0 in zip(starts, ends):
-        h = float(np.median(dt[s0 + 1:e0])) if e0 - s0 > 1 else 0.2
-        lam = math.exp(-h / tau)
-        xs = np.nan_to_num(x[s0:e0])
-        out[s0:e0] = lfilter([h], [1.0, -lam], xs)
+    for idx in label_rows(GAP_POLICY.pieces(t)):
+        h = float(np.median(np.diff(t[idx]))) if idx.size > 1 else 0.2
+        out[idx] = lfilter([h], [1.0, -math.exp(-h / tau)], np.nan_to_num(x[idx]))
     return out
 
 
-def law_rows(log: Ride, k_t: float | None = None, v_min: float = V_MIN) -> LawRows:
-    """The riding rows of ``log`` (speed above ``v_min`` m/s) with pitch, its rate, speed,
+def law_rows(log: Ride, k_t: float | None = None) -> LawRows:
+    """The riding rows of ``log`` (speed above :data:`V_MIN`) with pitch, its rate, speed,
     acceleration and torque (phase current × ``k_t`` N·m/A, or in A without it).
     :class:`LawUnavailable` without pitch or torque, or with too few riding rows.
     """
@@ -182,10 +176,10 @@ def law_rows(log: Ride, k_t: float | None = None, v_min: float = V_MIN) -> LawRo
     tilt = d["tilt"].to_numpy(float)
     v = d["v"].to_numpy(float)
     y = d[channel].to_numpy(float) * scale
-    riding = (np.abs(v) > v_min) & np.isfinite(tilt) & np.isfinite(y)
+    riding = (np.abs(v) > V_MIN) & np.isfinite(tilt) & np.isfinite(y)
     if riding.sum() < MIN_ROWS:
         raise LawUnavailable(f"{int(riding.sum())} riding rows with pitch and {channel} "
-                             f"(speed above {v_min:g} m/s); at least {MIN_ROWS} are needed")
+                             f"(speed above {V_MIN:g} m/s); at least {MIN_ROWS} are needed")
     level = float(np.median(tilt[riding]))
     riding &= np.abs(tilt - level) < MAX_PITCH
     finite = np.isfinite(tilt)

@@ -28,6 +28,8 @@ __all__ = ["G", "RHO_AIR", "NO_GPS_SCALE_SD", "RideDataError", "MassSettings", "
 
 #: Speedometer-scale standard deviation, when no GPS speed measures it (relative).
 NO_GPS_SCALE_SD = 0.05
+#: Speed above which GPS and wheel speed are compared (both), m/s.
+GPS_V_MIN = 4.0
 
 
 class RideDataError(BadInputFile):
@@ -123,11 +125,11 @@ class PowerSignals:
     raw: Mapping[str, np.ndarray] = field(default_factory=dict)
 
 
-def speed_scale(log: Ride, v_min: float = 4.0, method: str = "doppler") -> SpeedScale:
+def speed_scale(log: Ride, method: str = "doppler") -> SpeedScale:
     """True speed over logged wheel speed, from GPS.
 
     Doppler: least squares through the origin of GPS speed on wheel speed (both above
-    ``v_min`` m/s); track: :func:`track_scale`.  ``method`` picks the estimate; the sd is 1 %
+    :data:`GPS_V_MIN` m/s); track: :func:`track_scale`.  ``method`` picks the estimate; the sd is 1 %
     with Doppler alone, √(0.01² + (difference/2)²) with both (docs/drivetrain.md).  Without
     GPS speed: 1 ± :data:`NO_GPS_SCALE_SD`, ``source="assumed"``.
     """
@@ -137,11 +139,11 @@ def speed_scale(log: Ride, v_min: float = 4.0, method: str = "doppler") -> Speed
     if "gps_speed" not in d:
         return SpeedScale(1.0, NO_GPS_SCALE_SD, "assumed")
     v, g = d["v"].to_numpy(float), d["gps_speed"].to_numpy(float)
-    ok = np.isfinite(g) & (v > v_min) & (g > v_min)
+    ok = np.isfinite(g) & (v > GPS_V_MIN) & (g > GPS_V_MIN)
     if ok.sum() < 50:
         return SpeedScale(1.0, NO_GPS_SCALE_SD, "assumed")
     k = float(np.sum(g[ok] * v[ok]) / np.sum(v[ok] ** 2))
-    k_track = track_scale(log, v_min)
+    k_track = track_scale(log)
     if k_track is None:
         # GPS speed is good to about 1 % in the mean (Doppler); the scatter of
         # single samples is averaged over thousands of them.
@@ -155,9 +157,9 @@ def speed_scale(log: Ride, v_min: float = 4.0, method: str = "doppler") -> Speed
     return SpeedScale(0.5 * (k + k_track), sd, "gps doppler+track")
 
 
-def track_scale(log: Ride, v_min: float = 4.0, max_dt: float = GAP_POLICY.gps_pair) -> float | None:
+def track_scale(log: Ride) -> float | None:
     """GPS track distance (haversine) over the wheel's ∫v dt between successive distinct fixes
-    at most ``max_dt`` s apart, both above ``v_min`` m/s; None without 50 such pairs.
+    at most :attr:`GapPolicy.gps_pair` s apart, both above :data:`GPS_V_MIN`; None without 50 such pairs.
     """
     d = log.data
     if "latitude" not in d or "longitude" not in d:
@@ -170,7 +172,7 @@ def track_scale(log: Ride, v_min: float = 4.0, max_dt: float = GAP_POLICY.gps_pa
     idx = idx[np.r_[True, (np.diff(lat[idx]) != 0) | (np.diff(lon[idx]) != 0)]]
     run = np.r_[0.0, np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))]
     a, b = idx[:-1], idx[1:]
-    use = (v[a] > v_min) & (v[b] > v_min) & (t[b] - t[a] < max_dt)
+    use = (v[a] > GPS_V_MIN) & (v[b] > GPS_V_MIN) & (t[b] - t[a] < GAP_POLICY.gps_pair)
     if use.sum() < 50:
         return None
     dist = haversine(lat[a], lon[a], lat[b], lon[b])

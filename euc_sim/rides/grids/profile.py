@@ -75,19 +75,18 @@ def speed_profile(log: Ride, rate: float = GAP_POLICY.rate, window: float = 1.5,
     return out
 
 
-def unpaid_spikes(log: Ride, total_mass: float, factor: float = SPIN_POWER_FACTOR,
-                  margin: float = SPIN_POWER_MARGIN, grade: float = SPIN_GRADE,
-                  max_span: float = SPIN_MAX_SPAN) -> list[tuple[int, int]]:
+def unpaid_spikes(log: Ride, total_mass: float) -> list[tuple[int, int]]:
     """Wheel-speed spikes the battery cannot pay for: the wheel, not the rider, sped up.
 
     A rise of |v| from row k to the first row j at least :data:`SPIN_MIN_DT` s later is
     unpaid when
 
-        ½ m (v_j² − v_k²) > ``factor``·∫ max(P, 0) dt + (``margin`` + m g ``grade`` v̄)(t_j − t_k)
+        ½ m (v_j² − v_k²) > f·∫ max(P, 0) dt + (P_m + m g s v̄)(t_j − t_k)
 
-    (m = ``total_mass`` kg, P battery power W, v̄ the mean of v_k and v_j).  A spike runs
+    (m = ``total_mass`` kg, P battery power W, v̄ the mean of v_k and v_j; f, P_m, s:
+    :data:`SPIN_POWER_FACTOR`, :data:`SPIN_POWER_MARGIN`, :data:`SPIN_GRADE`).  A spike runs
     from the first unpaid row through the top of the rise to where the speed is back within
-    :data:`SPIN_BACK` of its start, at most ``max_span`` s after the top.  Only rises are
+    :data:`SPIN_BACK` of its start, at most :data:`SPIN_MAX_SPAN` s after the top.  Only rises are
     tested (a motor can brake at no battery power).  Returns (a, b) row indices of
     ``log.data`` around each spike (the rows strictly between are the spike); empty without
     battery power.
@@ -105,7 +104,7 @@ def unpaid_spikes(log: Ride, total_mass: float, factor: float = SPIN_POWER_FACTO
     j = np.minimum(np.searchsorted(t, t + SPIN_MIN_DT), n - 1)          # first row ≥ SPIN_MIN_DT later
     span = t[j] - t
     gain = 0.5 * total_mass * (v[j] ** 2 - v ** 2)
-    paid = factor * (E[j] - E) + (margin + total_mass * G * grade * 0.5 * (v + v[j])) * span
+    paid = SPIN_POWER_FACTOR * (E[j] - E) + (SPIN_POWER_MARGIN + total_mass * G * SPIN_GRADE * 0.5 * (v + v[j])) * span
     unpaid = (span > 0) & (gain > paid)
     out, k = [], 0
     while k < n - 1:
@@ -120,10 +119,10 @@ def unpaid_spikes(log: Ride, total_mass: float, factor: float = SPIN_POWER_FACTO
         top = start + int(np.argmax(v[start:last + 1]))              # the top of the rise
         back = v[start] + SPIN_BACK
         after = np.arange(top + 1, n)
-        after = after[t[after] - t[top] <= max_span]
+        after = after[t[after] - t[top] <= SPIN_MAX_SPAN]
         home = after[v[after] <= back]
         # the spike ends where the speed is back near where it rose from; a wheel that does
-        # not come back within max_span ends at its slowest row in that time
+        # not come back within SPIN_MAX_SPAN ends at its slowest row in that time
         end = int(home[0]) if home.size else (int(after[np.argmin(v[after])]) if after.size else top)
         end = max(end, last)
         out.append((start, end))

@@ -33,23 +33,22 @@ def distance_along(t: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(step)])
 
 
-def gps_grade(raw: pd.DataFrame, length: float = GRADE_LENGTH_M) -> np.ndarray:
+def gps_grade(raw: pd.DataFrame) -> np.ndarray:
     """The road's grade sin α at each grid row, from GPS altitude read over distance (not time).
 
     The altitude is put on a :data:`GRADE_STEP_M` grid along the distance ridden
-    (:func:`distance_along`) and its slope dh/ds read by a straight-line fit over ``length``
-    m of road (a Savitzky–Golay derivative).  Where the slope exceeds :data:`MAX_GRADE` (a fix
-    settling, a jump) the grade there and ``length`` either side is unknown, read as 0.  Read
-    over time, GPS noise would dominate the climb rate (docs/ride_model.md).
+    (:func:`distance_along`) and its slope dh/ds read by a straight-line fit over
+    :data:`GRADE_LENGTH_M` of road (a Savitzky–Golay derivative).  Where the slope exceeds
+    :data:`MAX_GRADE` (a fix settling, a jump) the grade there and that length either side is
+    unknown, read as 0.  Read over time, GPS noise would dominate the climb rate
+    (docs/ride_model.md).
 
     ``raw``: a ride's grid with ``t`` (s), ``v`` (m/s), ``gps_alt`` (m).  Returns sin α per
-    row: 0 where unknown or under two grid steps, one slope under ``length``.  ValueError
-    without ``gps_alt``, under two finite altitudes, or a non-positive ``length``.
+    row: 0 where unknown or under two grid steps, one slope under that length.  ValueError
+    without ``gps_alt`` or under two finite altitudes.
     """
     from scipy.signal import savgol_filter
 
-    if not length > 0:
-        raise ValueError(f"length must be positive (m), got {length!r}")
     if "gps_alt" not in raw:
         raise ValueError("gps_grade needs a gps_alt column")
     s = distance_along(raw["t"].to_numpy(float), raw["v"].to_numpy(float))
@@ -64,11 +63,11 @@ def gps_grade(raw: pd.DataFrame, length: float = GRADE_LENGTH_M) -> np.ndarray:
     grid = np.linspace(0.0, s[-1], int(np.ceil(s[-1] / GRADE_STEP_M)) + 1)
     step = grid[1]
     h_grid = np.interp(grid, at, h_at)
-    n = int(round(length / step)) // 2 * 2 + 1
+    n = int(round(GRADE_LENGTH_M / step)) // 2 * 2 + 1
     if len(grid) < n:
         slope = np.full(len(grid), np.polyfit(grid, h_grid, 1)[0])
     else:
         slope = savgol_filter(h_grid, n, 1, deriv=1, delta=step, mode="interp")
-    bad = (np.abs(slope) > MAX_GRADE).astype(float)           # and ``length`` either side:
+    bad = (np.abs(slope) > MAX_GRADE).astype(float)           # and GRADE_LENGTH_M either side:
     wrong = np.convolve(bad, np.ones(2 * n - 1))[n - 1:n - 1 + len(bad)] > 0
     return np.interp(s, grid, np.where(wrong, 0.0, slope))

@@ -26,7 +26,7 @@ from euc_sim.rides.source.bounds import CHANNEL_BOUNDS
 from euc_sim.rides.source.gaps import GAP_POLICY, GapPolicy
 from euc_sim.rides.source.ride import Ride
 from euc_sim.rides.source.sanity import SPEED_SCALE_RANGE
-from euc_sim.stats import distinct
+from euc_sim.stats import label_rows
 
 __all__ = ["RideAssumptions", "RideSignals", "with_found_values", "resample", "ride_grid", "sg", "window_samples",
            "wheel_torque", "ride_signals", "battery_power_of", "break_at_gaps", "check_readings", "split_at_gaps"]
@@ -164,12 +164,10 @@ def sg(x: np.ndarray, segment: np.ndarray, rate: float, window: float = 1.5,
     shorter than the window or holding a non-finite value.
     """
     x = np.asarray(x, float)
-    segment = np.asarray(segment)
     n = window_samples(window, rate, polyorder)
     out = np.full(x.shape, np.nan)
-    for s in distinct(segment):
-        m = segment == s
-        if m.sum() < n or not np.isfinite(x[m]).all():    # e.g. a segment without GPS fix
+    for m in label_rows(segment):
+        if m.size < n or not np.isfinite(x[m]).all():    # e.g. a segment without GPS fix
             continue
         out[m] = savgol_filter(x[m], n, polyorder, deriv=deriv, delta=1.0 / rate, mode="interp")
     return out
@@ -183,10 +181,8 @@ def window_samples(window: float, rate: float, polyorder: int) -> int:
 
 def _interior(segment: np.ndarray, half: int) -> np.ndarray:
     """True for samples at least ``half`` samples from their segment's ends."""
-    segment = np.asarray(segment)
-    keep = np.zeros(segment.shape, bool)
-    for s in distinct(segment):
-        idx = np.flatnonzero(segment == s)
+    keep = np.zeros(np.shape(segment), bool)
+    for idx in label_rows(segment):
         if idx.size > 2 * half:
             keep[idx[half: idx.size - half]] = True
     return keep
@@ -242,10 +238,6 @@ class RideSignals:
     assumptions: RideAssumptions
     notes: tuple[str, ...]
     has_gps_alt: bool = False
-
-    def filt(self, x, deriv: int = 0) -> np.ndarray:
-        """The signals' Savitzky–Golay filter applied to another grid signal."""
-        return sg(x, self.raw["segment"].to_numpy(), self.rate, self.window, self.polyorder, deriv)
 
 
 def check_readings(log: Ride) -> None:

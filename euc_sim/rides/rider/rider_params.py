@@ -33,14 +33,13 @@ class RiderParam:
 
     def to_unit(self, value: float) -> float:
         """The value in the search's [0, 1] coordinate."""
-        f = math.log if self.log else (lambda z: z)
+        f = math.log if self.log else float
         return (f(value) - f(self.lo)) / (f(self.hi) - f(self.lo))
 
     def from_unit(self, u: float) -> float:
         """The value at the search coordinate u ∈ [0, 1]."""
-        if self.log:
-            return math.exp(math.log(self.lo) + u * (math.log(self.hi) - math.log(self.lo)))
-        return self.lo + u * (self.hi - self.lo)
+        f, back = (math.log, math.exp) if self.log else (float, float)
+        return back(f(self.lo) + u * (f(self.hi) - f(self.lo)))
 
 
 #: The rider's fitted settings (default rider: 0.15 s, ρ = 1; generated recordings: 3 N·m).

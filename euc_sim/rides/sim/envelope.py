@@ -91,17 +91,16 @@ def plan_band_limit(params: Params, motor=None) -> tuple[float, float]:
     return _BOX_HALF_POWER / (0.5 * z), z
 
 
-def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEAN_SHARE,
-                             phi_max: float | None = None) -> float:
+def rider_acceleration_limit(params: Params, motor=None, lean_share: float = LEAN_SHARE) -> float:
     """The largest |a|, m/s², whose steady lean |φ*(a)| (:func:`~euc_sim.controllers.rider.trim`)
-    stays within ``lean_share``·φ_max (rad, default the fall bound), braking and accelerating alike.
+    stays within ``lean_share`` × the fall bound φ_max (rad), braking and accelerating alike.
     """
     from scipy.optimize import brentq
 
     if not (math.isfinite(lean_share) and 0 < lean_share < 1):
         raise InputError(f"lean_share must be in (0, 1), got {lean_share!r}")
     motor = motor or MotorPD()
-    target = lean_share * (FALL_BOUNDS["phi"] if phi_max is None else phi_max)
+    target = lean_share * FALL_BOUNDS["phi"]
 
     def excess(a: float) -> float:
         return abs(float(trim(params, motor, a)[1])) - target

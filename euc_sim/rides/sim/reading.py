@@ -17,13 +17,13 @@ __all__ = ["READING_MEAN", "stamp_readings", "quantise", "read_as_logged"]
 READING_MEAN = 0.2
 
 
-def stamp_readings(t_sim: np.ndarray, y: np.ndarray, stamps: np.ndarray,
-                   mean: float = READING_MEAN) -> np.ndarray:
+def stamp_readings(t_sim: np.ndarray, y: np.ndarray, stamps: np.ndarray) -> np.ndarray:
     """The readings of a uniformly sampled channel ``y`` (at ``t_sim`` s) at the log's ``stamps`` (s).
 
-    Each is the mean over ``mean`` s ending at its stamp.  A stamp within ``mean`` before the
-    start or after the end reads the first or last full mean; NaN further outside.
+    Each is the mean over :data:`READING_MEAN` s ending at its stamp.  A stamp within that
+    before the start or after the end reads the first or last full mean; NaN further outside.
     """
+    mean = READING_MEAN
     t_sim = np.asarray(t_sim, float)
     y = np.asarray(y, float)
     stamps = np.asarray(stamps, float)
@@ -48,24 +48,22 @@ def quantise(x: np.ndarray, quantum: float, rng: np.random.Generator) -> np.ndar
 
 
 def read_as_logged(t_sim: np.ndarray, y: np.ndarray, stamps: np.ndarray, t_grid: np.ndarray,
-                   mean: float = READING_MEAN, quantum: float | None = None,
-                   rng: np.random.Generator | None = None) -> np.ndarray:
+                   quantum: float | None = None, rng: np.random.Generator | None = None) -> np.ndarray:
     """A simulated channel read at the log's stamps and put on the ride's grid as the log is.
 
-    ``t_sim``, ``y``, ``mean`` as :func:`stamp_readings`; ``stamps`` the log's (repeats read
-    once); written in the log's step ``quantum`` where given (:func:`quantise`, zero from
-    ``rng``, default seed 0).  Returns the channel on ``t_grid`` (s), linearly interpolated
+    ``t_sim``, ``y`` as :func:`stamp_readings`; ``stamps`` the log's (repeats read once);
+    written in the log's step ``quantum`` where given (:func:`quantise`, zero from ``rng``).  Returns the channel on ``t_grid`` (s), linearly interpolated
     between readings, NaN outside their span.
     """
     t_grid = np.asarray(t_grid, float)
     st = np.unique(np.asarray(stamps, float))
-    r = stamp_readings(t_sim, y, st, mean)
+    r = stamp_readings(t_sim, y, st)
     ok = np.isfinite(r)
     if ok.sum() < 2:
         return np.full(t_grid.size, np.nan)
     st, r = st[ok], r[ok]
     if quantum:
-        r = quantise(r, quantum, rng if rng is not None else np.random.default_rng(0))
+        r = quantise(r, quantum, rng)
     out = np.interp(t_grid, st, r)
     out[(t_grid < st[0]) | (t_grid > st[-1])] = np.nan
     return out

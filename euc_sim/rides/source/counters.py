@@ -109,7 +109,7 @@ def log_counters(raw: pd.DataFrame, data: pd.DataFrame) -> LogCounters:
     tb = _num(raw, "temp_batt")
     lim = _num(raw, "speed_limit")
     lim = lim[np.isfinite(lim) & (lim > 0)] if lim is not None else np.array([])
-    inc = counter_steps(data)
+    inc = counter_steps(data)[0]
     power = (integrate_split(data["t"].to_numpy(float), data["power"].to_numpy(float))[0]
              if "power" in data else None)
     return LogCounters(
@@ -193,17 +193,17 @@ def _median5(x: np.ndarray) -> np.ndarray:
     return out
 
 
-def counter_steps(d: pd.DataFrame, with_column: bool = False):
+def counter_steps(d: pd.DataFrame) -> tuple[np.ndarray | None, str | None]:
     """Per-interval increase of the log's own trip counter (else its odometer), m, NaN where
-    it is unusable (:func:`rises`, rises faster than twice the top speed bogus); with
-    ``with_column`` also the column's name.  None where the log has no usable counter."""
+    it is unusable (:func:`rises`, rises faster than twice the top speed bogus), and the
+    column's name; (None, None) where the log has no usable counter."""
     top = 2.0 * max(float(np.nanmax(np.abs(d["v"]))), 1.0)
     for col in ("distance", "total_distance"):
         if col in d:
             inc = rises(d["t"].to_numpy(float), d[col].to_numpy(float), top)
             if np.nansum(inc) > 0:
-                return (inc, col) if with_column else inc
-    return (None, None) if with_column else None
+                return inc, col
+    return None, None
 
 
 def integrate_split(t: np.ndarray, p: np.ndarray) -> tuple[float | None, float | None]:

@@ -51,7 +51,7 @@ def _wheel_distance(t: np.ndarray, v: np.ndarray) -> float:
 def _gap_distance(d: pd.DataFrame) -> tuple[float, float]:
     """Distance the log's counter adds over the intervals not bridged, m, and their total time, s."""
     dt, ok = _steps(d["t"].to_numpy(float))
-    inc = _counter_steps(d)
+    inc = _counter_steps(d)[0]
     if inc is None or ok.all():
         return 0.0, float(dt[~ok].sum())
     return float(np.nansum(inc[~ok])), float(dt[~ok].sum())
@@ -137,7 +137,7 @@ def _distance(d: pd.DataFrame, layout: str | None = None):
     t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
     dt, ok = _steps(t)
     trap = 0.5 * (v[1:] + v[:-1]) * dt
-    inc, col = _counter_steps(d, with_column=True)
+    inc, col = _counter_steps(d)
     follows = f"the wheel's speed integrated, gaps up to {DISTANCE_BRIDGE_S:.0f} s bridged"
     start = 0.0
     if inc is not None:

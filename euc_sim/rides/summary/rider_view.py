@@ -62,7 +62,6 @@ def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: fl
     from euc_sim.rides.summary.summary import mass_check, ride_summary  # deferred: loads scipy (1.1 s)
 
     summary = ride_summary(log, getattr(spec, "top_speed", None))
-    wheel_kg = getattr(spec, "wheel_mass", None) if spec is not None else None
-    mc = mass_check(total_mass, rider_weight, wheel_kg)
+    mc = mass_check(total_mass, rider_weight, getattr(spec, "wheel_mass", None))
     bh = battery_health_of((drivetrain or {}).get("internal_resistance"), log, log.counters, pack_spec(spec))
     return summary, mc, bh, ride_clock(log)

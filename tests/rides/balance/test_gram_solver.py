@@ -6,13 +6,19 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from euc_sim.rides.balance.normal import (_root, bounds, box_qp, coefficients, scale, snap_to_bounds,
+from euc_sim.rides.balance.normal import (bounds, box_qp, coefficients, scale, snap_to_bounds,
                                           solve_gram, solve_grams)
 
 COLUMNS = ["inertia", "rolling", "drag", "copper"]
 NAMES = [["rolling_resistance", "aerodynamic_drag", "copper_loss", "drivetrain_idle_loss", "current_lag"],
          ["copper_loss", "rolling_resistance", "current_lag", "aerodynamic_drag"],
          ["rolling_resistance", "drivetrain_idle_loss"], ["current_lag"], []]
+
+
+def _root(G):
+    """S with SᵀS = G (G symmetric positive semi-definite): the residual in few rows."""
+    lam, U = np.linalg.eigh(0.5 * (G + G.T))
+    return np.sqrt(np.clip(lam, 0.0, None))[:, None] * U.T
 
 
 def _trf(G, names, x0):

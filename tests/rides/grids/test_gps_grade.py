@@ -117,8 +117,6 @@ def test_short_rides_and_bad_arguments():
                         "gps_alt": 10.0 + 0.02 * np.arange(200) * 0.1})
     assert np.allclose(gps_grade(raw), 0.02, atol=1e-9)         # 20 m of road: one straight line
     assert np.all(gps_grade(raw.iloc[:50]) == 0.0)              # 5 m: too short to read
-    with pytest.raises(ValueError, match="length"):
-        gps_grade(raw, length=0.0)
     with pytest.raises(ValueError, match="gps_alt"):
         gps_grade(raw.drop(columns="gps_alt"))
     with pytest.raises(ValueError, match="two finite altitudes"):
