@@ -1,10 +1,7 @@
-"""The public API's functions: simulate, read and write recordings, identify h, diagnose,
-read and analyse a ride log, render, cross-check.  Each returns a typed result of
-:mod:`euc_sim.api.results`; the command line parses its arguments and calls these.
+"""The public API's functions; each returns a typed result of :mod:`euc_sim.api.results`.
 
-Imports of the heavy packages (MuJoCo, scipy, pandas) happen inside the functions, so
-``import euc_sim`` stays fast.  Bad input raises ``ValueError`` (or ``OSError``) with
-one line naming the file, column or parameter.
+Heavy packages (MuJoCo, scipy, pandas) load inside the functions, so ``import euc_sim`` stays
+fast.  Bad input raises ``ValueError`` (or ``OSError``), one line naming the file, column or parameter.
 """
 
 from __future__ import annotations
@@ -46,17 +43,13 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, seed: int = 0
              variant: str = "ideal", hide_torques: bool = False, motor=None,
              rider_noise: float | None = None, rider_delay: float = 0.15, rolling_model: str = "moment",
              drift_shape=None, name: str = "recording") -> Recording:
-    """Closed-loop simulation of a rider on the EUC, sampled as a motion-capture recording.
-
-    The planar 3-DoF model (the paper's eqs. 5-8) in MuJoCo at 1 kHz with the motor's PD
-    balance law and an LQR rider with reaction delay and motor noise, sampled at 120 Hz
-    with the paper's measurement noise.
+    """Closed-loop simulation (the paper's eqs. 5-8, MuJoCo at 1 kHz), sampled at 120 Hz as a recording.
 
     Parameters
     ----------
     maneuver : str or Maneuver
-        ``"constant_speed"``, ``"acceleration"``, ``"deceleration"``, ``"stop_and_go"``,
-        or a :class:`euc_sim.simulation.maneuvers.Maneuver` (a speed profile).
+        ``"constant_speed"``, ``"acceleration"``, ``"deceleration"``, ``"stop_and_go"`` or a
+        :class:`euc_sim.simulation.maneuvers.Maneuver`.
     duration : float
         Length, s.
     seed : int
@@ -64,7 +57,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, seed: int = 0
     params : Params or mapping, optional
         Table 3 values (default Table 3, h = 0.6 m); a mapping overrides some of them.
     effects : mapping, optional
-        Effects of CONTRACT's catalog to inject, name → value in the catalog's unit.
+        CONTRACT catalog effects, name → value in the catalog's unit.
     noise : {"paper", "none"}
         Measurement noise (0.2 mm, 0.5°) or none.
     engine : {"mujoco", "analytic"}
@@ -73,9 +66,9 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, seed: int = 0
     hide_torques : bool
         Leave ``M_d``, ``M_h`` out of the recording.
     motor : MotorPD, optional
-        The EUC's balance law (default K_p = 600 N·m/rad, K_d = 40 N·m·s/rad).
+        Balance law (default K_p = 600 N·m/rad, K_d = 40 N·m·s/rad).
     rider_noise : float, optional
-        Rider's motor noise, N·m (default :data:`euc_sim.controllers.rider.DEFAULT_RIDER_NOISE`).
+        Rider's motor noise, N·m (default :data:`~euc_sim.controllers.rider.DEFAULT_RIDER_NOISE`).
     rider_delay : float
         Rider's reaction delay, s.
     rolling_model : {"moment", "contact"}
@@ -87,7 +80,6 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, seed: int = 0
     Returns
     -------
     Recording
-        The table (CONTRACT columns, SI), its sidecar and its truth.
 
     Examples
     --------
@@ -117,14 +109,7 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, seed: int = 0
 
 
 def write_recording(recording: Recording, path) -> Path:
-    """Write a recording as ``NAME.csv`` (or ``.parquet``) with ``NAME.json`` and, for a
-    simulation, ``NAME.truth.json``; atomically (a failure leaves none of them).
-
-    Parameters
-    ----------
-    recording : Recording
-    path : path
-        ``NAME.csv`` or ``NAME.parquet``.
+    """Write ``NAME.csv`` (or ``.parquet``), ``NAME.json`` and, for a simulation, ``NAME.truth.json``, atomically.
 
     Returns
     -------
@@ -146,20 +131,9 @@ def write_recording(recording: Recording, path) -> Path:
 
 
 def read_recording(path) -> Recording:
-    """Read and validate a recording (CSV or Parquet) and its sidecar ``NAME.json``.
+    """Read and validate a recording (CSV or Parquet) and its sidecar; ``NAME.truth.json`` is never read.
 
-    ``NAME.truth.json`` is never read.  Gaps of a few samples are repaired (with a
-    warning); a missing column, a non-increasing time or an implausible value is a
-    ``ValueError`` naming the file and the column.
-
-    Parameters
-    ----------
-    path : path
-
-    Returns
-    -------
-    Recording
-        With ``truth`` None.
+    Gaps of a few samples are repaired with a warning.
 
     Examples
     --------
@@ -177,31 +151,23 @@ def read_recording(path) -> Recording:
 def identify(recordings: Sequence, *, bounds: tuple[float, float] = (0.1, 1.5), n_boot: int = 400,
              block: float | None = None, seed: int = 0, n_noise: int | None = None,
              params=None) -> Identification:
-    """Identify the rider's centre-of-gravity height h with the 3-DoF and the reduced
-    2-DoF model: h minimises RMSE(M_d,1 − M_d,2) (eqs. 9-10 and 13), per recording and
-    pooled, with a 95 % interval and an identifiability verdict.
+    """Identify the centre-of-gravity height h with the 3-DoF and 2-DoF models (eqs. 9-10, 13).
 
     Parameters
     ----------
     recordings : sequence of path or loaded recordings
-        CONTRACT recordings (paths), or recordings already loaded with
-        :func:`euc_sim.identification.h_fit.load`.
+        Paths, or recordings loaded with :func:`euc_sim.identification.h_fit.load`.
     bounds : (float, float)
         Search interval of h, m.
     n_boot : int
-        Block-bootstrap replicates of the interval.
+        Block-bootstrap replicates of the 95 % interval.
     block : float, optional
         Bootstrap block, s (default 1 s).
     seed : int
-        Seed of the bootstrap and noise replicates.
     n_noise : int, optional
         Replicates with fresh measurement noise that widen the interval (default 40).
     params : Params or mapping, optional
         Parameters of paths given (default: each sidecar's, else Table 3).
-
-    Returns
-    -------
-    Identification
 
     Examples
     --------
@@ -224,9 +190,7 @@ def identify(recordings: Sequence, *, bounds: tuple[float, float] = (0.1, 1.5), 
 
 def diagnose(recording, *, params=None, resimulate: bool = True, calibrate: bool = True, seed: int = 0,
              progress: Callable[[str], None] | None = None) -> Diagnosis:
-    """Find the physics the nominal model leaves out of a recording: where the residual
-    M_d,1 − M_d,2 concentrates, which effects of CONTRACT's catalog explain it (with
-    estimates, 95 % intervals and aliases), and whether anything remains unexplained.
+    """Find the physics the nominal model leaves out of a recording (residual M_d,1 − M_d,2).
 
     Parameters
     ----------
@@ -242,10 +206,6 @@ def diagnose(recording, *, params=None, resimulate: bool = True, calibrate: bool
         Seed of the noise-floor draw.
     progress : callable, optional
         Receives a short line at each step.
-
-    Returns
-    -------
-    Diagnosis
 
     Examples
     --------
@@ -270,19 +230,9 @@ def diagnose(recording, *, params=None, resimulate: bool = True, calibrate: bool
 
 
 def read_ride(path, *, layout: str | None = None) -> Ride:
-    """Read an EUC telemetry log (WheelLog, EUC World or DarknessBot CSV) into SI units.
+    """Read a WheelLog, EUC World or DarknessBot log into a :class:`~euc_sim.rides.source.ride.Ride` (SI units).
 
-    Parameters
-    ----------
-    path : path
-    layout : str, optional
-        Force ``"wheellog"``, ``"eucworld"`` or ``"darknessbot"`` (default: from the header).
-
-    Returns
-    -------
-    Ride
-        The log parsed once (:class:`euc_sim.rides.source.ride.Ride`): columns in SI units,
-        data-quality facts (``quality``), the app's own counters (``counters``).
+    ``layout`` forces ``"wheellog"``, ``"eucworld"`` or ``"darknessbot"`` (default: from the header).
 
     Examples
     --------
@@ -300,35 +250,22 @@ def read_ride(path, *, layout: str | None = None) -> Ride:
 
 def analyse_ride(log, compare=None, *, report_dir=None, simulate: bool = False, jobs: int = 1,
                  progress: Callable[[str], None] | None = None, **options) -> RideAnalysis:
-    """Everything ``euc-sim ride`` finds in a ride log: total mass, drivetrain, rolling
-    resistance, drag, grade, the wheel's balance law, the ride's summary and, with
-    ``compare``, the held-out error on another ride and what differs between the two.
-
-    The request is the command's (:func:`euc_sim.rides.request.ride_request`): a bad value is
-    refused with the line ``euc-sim ride`` prints, naming the option (``--n-boot`` for ``n_boot``).
+    """Everything ``euc-sim ride`` finds in a ride log, optionally tested on ``compare``.
 
     Parameters
     ----------
-    log : path
-        The ride to fit (read once).
-    compare : path, optional
-        A ride of the same wheel to test on (read once).
+    log, compare : path
+        The ride to fit and, optionally, a ride of the same wheel to test on.
     report_dir : path, optional
         Folder for the report page and figures.
     simulate : bool
-        Also replay the ride: the closed-loop simulation along the tested ride (minutes;
-        off unless asked; ``calibrate_rider`` needs it).
+        Also replay the ride (minutes; ``calibrate_rider`` needs it).
     jobs : int
-        Threads for that simulation.
+        Threads for that replay.
     progress : callable, optional
     **options
-        The command's other options (:func:`~euc_sim.rides.request.ride_request`): ``wheel``,
-        ``domain``, ``n_boot``, ``seed``, ``rider_weight``, ``mass``, ``radius``, ``wheel_mass``,
-        ``battery_voltage``, ``efficiency``, ``calibrate_rider``.
-
-    Returns
-    -------
-    RideAnalysis
+        :func:`~euc_sim.rides.request.ride_request`'s keywords; a bad value is refused with the
+        command's line, naming the option (``--n-boot`` for ``n_boot``).
 
     Examples
     --------
@@ -344,19 +281,8 @@ def analyse_ride(log, compare=None, *, report_dir=None, simulate: bool = False, 
     return analyse_request(ride_request(log, compare, simulate=simulate, **options), report_dir, jobs, progress)
 
 
-def run_ride(log, compare=None, *, report_dir=None, jobs: int = 1, progress=None, **request) -> dict:
-    """:func:`~euc_sim.rides.pipeline.ride_pipeline` on rides already parsed (a
-    :class:`~euc_sim.rides.request.RideRequest` of ``request``'s fields, unchecked), the report
-    folder written when given; returns the ride JSON (:func:`~euc_sim.rides.render.contract.ride_json`)."""
-    from euc_sim.rides.render.contract import ride_json  # deferred: loads scipy (1.1 s)
-
-    done = analyse_request(RideRequest(log, compare, **request), report_dir, jobs, progress)
-    return ride_json(done.result, done.files)
-
-
 def analyse_request(req: RideRequest, report_dir=None, jobs: int = 1, progress=None) -> RideAnalysis:
-    """The pipeline on a request (:func:`~euc_sim.rides.request.ride_request`), then the report
-    folder when asked (every file at the end: an interrupted run writes none)."""
+    """The pipeline on a :class:`~euc_sim.rides.request.RideRequest`, then the report folder when asked (written at the end)."""
     from euc_sim.rides.pipeline import ride_pipeline  # deferred: loads scipy (1.1 s)
     from euc_sim.rides.render.report_files import write_report  # deferred: loads scipy, plotly (1.2 s)
 
@@ -376,21 +302,17 @@ def render(recording, out, *, fps: float = 30.0, width: int = 640, height: int =
     Parameters
     ----------
     recording : path
-        A recording with ``psi``, ``theta``, ``gamma`` and the C (or E) marker columns.
+        With ``psi``, ``theta``, ``gamma`` and the C (or E) marker columns.
     out : path
         ``.mp4`` or ``.gif`` (a video) or ``.png`` (one frame at ``time``).
     fps : float
-        Frames per second, 1/s, in [1, 120].
+        Frames per second, in [1, 120].
     width, height : int
         Pixels.
     time : float, optional
-        With ``.png``: the time of the frame, s (default: the middle).
+        The ``.png`` frame's time, s (default: the middle).
     progress : bool
         A progress bar on stderr.
-
-    Returns
-    -------
-    Rendering
 
     Examples
     --------
@@ -415,8 +337,7 @@ def render(recording, out, *, fps: float = 30.0, width: int = 640, height: int =
 
 def crosscheck(samples: int = 2500, *, params=None, mjcf=None,
                progress: Callable[[str], None] | None = None) -> Crosscheck:
-    """Prove the MuJoCo model against the analytic equations (5)-(8): accelerations,
-    inverse dynamics and energy on random states and trajectories, each against a bound.
+    """Check the MuJoCo model against the analytic equations (5)-(8) on random states and trajectories.
 
     Parameters
     ----------
@@ -427,10 +348,6 @@ def crosscheck(samples: int = 2500, *, params=None, mjcf=None,
     mjcf : path, optional
         An MJCF file (default ``mjcf/euc_planar.xml``).
     progress : callable, optional
-
-    Returns
-    -------
-    Crosscheck
 
     Examples
     --------

@@ -23,7 +23,6 @@ def _shared_root():
 def bench_ride_mass() -> dict:
     """A 64-minute real ride (Blitz 4): mass + drivetrain, and the whole ride command without simulation."""
     import warnings
-    from pathlib import Path
 
     from euc_sim.rides.drive.drivetrain_report import analyse
     from euc_sim.rides.source.logs import read_log
@@ -40,8 +39,9 @@ def bench_ride_mass() -> dict:
     t_mass = timed(lambda: analyse(read_log(log, emit_warnings=False), spec), repeat=1) - t_read
 
     def whole():
-        from euc_sim.api.functions import run_ride
-        return run_ride(read_log(log, emit_warnings=False), simulate=False, spec=spec)
+        from euc_sim.api.functions import analyse_request
+        from euc_sim.rides.request import RideRequest
+        return analyse_request(RideRequest(read_log(log, emit_warnings=False), spec=spec)).to_json()
 
     cpu0 = time.process_time()
     t_all = timed(whole, repeat=1)
@@ -141,14 +141,15 @@ def _warm_up() -> float:
 
 
 def bench_ride_page(fit=None, held=None, spec_path=None, workers: int = 2) -> dict:
-    """The full ride page (run_ride LOG --compare OTHER, every step) against one bare simulation of OTHER's profile."""
+    """The full ride page (analyse_request LOG --compare OTHER, every step) against one bare simulation of OTHER's profile."""
     import os
     import tempfile
     import warnings
     from pathlib import Path
 
     from euc_sim.rides.grids.signals import ride_signals
-    from euc_sim.api.functions import run_ride
+    from euc_sim.api.functions import analyse_request
+    from euc_sim.rides.request import RideRequest
     from euc_sim.rides.sim.sim_steps import StepInputs, build_steps, nominal_step
     from euc_sim.rides.sim.simulate import ride_params, simulate_ride
     from euc_sim.rides.source.logs import read_log
@@ -168,10 +169,9 @@ def bench_ride_page(fit=None, held=None, spec_path=None, workers: int = 2) -> di
     steps_seen = []
     with tempfile.TemporaryDirectory() as out:
         cpu0 = time.process_time()
-        t_page = timed(lambda: steps_seen.append(run_ride(read_log(fit, emit_warnings=False),
-                                                          read_log(held, emit_warnings=False),
-                                                          report_dir=out, spec=spec, jobs=workers, simulate=True)),
-                       repeat=1)
+        t_page = timed(lambda: steps_seen.append(analyse_request(
+            RideRequest(read_log(fit, emit_warnings=False), read_log(held, emit_warnings=False), spec, simulate=True),
+            out, workers).to_json()), repeat=1)
         cpu_page = time.process_time() - cpu0
     ride = read_log(held, emit_warnings=False)
     sig = ride_signals(ride)
@@ -247,7 +247,8 @@ def bench_ride_fast() -> dict:
 
     import pandas as pd
 
-    from euc_sim.api.functions import run_ride
+    from euc_sim.api.functions import analyse_request
+    from euc_sim.rides.request import RideRequest
     from euc_sim.rides.source.logs import read_log
 
     root = _shared_root()
@@ -263,8 +264,8 @@ def bench_ride_fast() -> dict:
 
     def one_page(out):
         marks[:] = [("read_log", time.perf_counter())]
-        run_ride(read_log(log, emit_warnings=False), simulate=False, report_dir=out,
-                 progress=lambda step: marks.append((step, time.perf_counter())))
+        analyse_request(RideRequest(read_log(log, emit_warnings=False)), out,
+                        progress=lambda step: marks.append((step, time.perf_counter()))).to_json()
         marks.append(("end", time.perf_counter()))
 
     with tempfile.TemporaryDirectory() as out:

@@ -303,7 +303,8 @@ def test_real_rides_done_criterion(tmp_path, capsys):
 def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, monkeypatch, tmp_path):
     """The ride JSON's simulation.falls (CONTRACT) and a common scored span after a fall."""
     import euc_sim.rides.sim.simulate as simulate_mod
-    from euc_sim.api.functions import run_ride
+    from euc_sim.api.functions import analyse_request
+    from euc_sim.rides.request import RideRequest
     from euc_sim.rides.sim.tracking import ProfileRun
 
     real = simulate_mod.simulate_profile
@@ -321,8 +322,8 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
                           (f"rider fell at t = {t_fall} s ({cause}): the simulation stops there",))
 
     monkeypatch.setattr(simulate_mod, "simulate_profile", nominal_falls)
-    rep = run_ride(read_log(logs[1], emit_warnings=False), n_boot=20, seed=3, jobs=1, report_dir=tmp_path / "rep",
-                   simulate=True)
+    req = RideRequest(read_log(logs[1], emit_warnings=False), n_boot=20, seed=3, simulate=True)
+    rep = analyse_request(req, tmp_path / "rep").to_json()
     sim = rep["simulation"]
     page = (tmp_path / "rep" / "index.md").read_text()
     from euc_sim.rides.render.ride_time import clock_at

@@ -222,11 +222,12 @@ needs_shared = pytest.mark.skipif(not SHARED.is_dir(), reason=f"{SHARED} absent 
 @needs_shared
 @pytest.mark.parametrize("fit, test", [(RIDE_A, RIDE_B), (RIDE_B, RIDE_A)], ids=["16to28", "28to16"])
 def test_real_rides_cross_prediction(tmp_path, fit, test):
-    from euc_sim.api.functions import run_ride
+    from euc_sim.api.functions import analyse_request
+    from euc_sim.rides.request import RideRequest
 
     # the whole pipeline: the balance fit takes the mass this log's energy balance finds
-    rep = run_ride(read_log(fit, emit_warnings=False), read_log(test, emit_warnings=False), report_dir=tmp_path,
-                   n_boot=100, simulate=False)
+    req = RideRequest(read_log(fit, emit_warnings=False), read_log(test, emit_warnings=False), n_boot=100)
+    rep = analyse_request(req, tmp_path).to_json()
     assert rep["aliases"]["rolling_resistance"] == ["road_slope"]   # speed never < 0
     assert rep["power_source"] == "voltage*current"
     assert rep["torque_method"] == "power_efficiency"
