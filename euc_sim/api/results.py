@@ -1,10 +1,5 @@
-"""The typed results of the public API (:mod:`euc_sim.api`): frozen dataclasses, each
-with ``to_json()`` giving the JSON object of CONTRACT.md that the matching command writes.
-
-Where a pipeline returns a large dictionary (the diagnosis), the result keeps CONTRACT's
-keys as fields, every other key of the dictionary as a typed field or under ``details``,
-and the order of the keys, so that ``to_json()`` gives back the command's JSON object
-byte for byte.  The ride analysis holds the pipeline's typed result and renders its JSON.
+"""The public API's typed results: frozen dataclasses whose ``to_json()`` gives the CONTRACT.md
+object the matching command writes (a diagnosis keeps its dictionary's key order, byte for byte).
 """
 
 from __future__ import annotations
@@ -24,16 +19,11 @@ __all__ = ["Recording", "Identification", "Diagnosis", "RideAnalysis", "Renderin
 
 
 class _KeyedResult:
-    """Mixin of a result built from a pipeline's dictionary: fields plus ``details``.
-
-    A subclass is a dataclass with a ``details`` mapping (keys without a field of their
-    own) and ``key_order`` (the dictionary's keys in their order).
-    """
+    """Mixin of a dataclass built from a pipeline's dictionary: fields, ``details`` (the other keys), ``key_order``."""
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], **extra):
-        """The result of the pipeline's dictionary ``d`` (keys starting with ``_`` are
-        private to the pipeline and go to ``extra``'s fields, never to the JSON)."""
+        """The result of ``d``; keys starting with ``_`` are private (to ``extra``'s fields, never the JSON)."""
         names = {f.name for f in dataclasses.fields(cls)} - {"details", "key_order"}
         public = [k for k in d if not k.startswith("_")]
         kw = {k: d[k] for k in public if k in names}
@@ -41,14 +31,14 @@ class _KeyedResult:
         return cls(**kw, details=details, key_order=tuple(public), **extra)
 
     def to_json(self) -> dict:
-        """The command's JSON object, its keys in the pipeline's order (plain Python types)."""
+        """The command's JSON object, keys in the pipeline's order."""
         out = {}
         for k in self.key_order:
             out[k] = self.details[k] if k in self.details else getattr(self, k)
         return to_jsonable(out)
 
     def get(self, key: str, default=None):
-        """The value of a JSON key, whether a field or one of :attr:`details`."""
+        """The value of a JSON key, a field or one of :attr:`details`."""
         if key in self.details:
             return self.details[key]
         return getattr(self, key) if key in self.key_order else default
@@ -56,21 +46,18 @@ class _KeyedResult:
 
 @dataclass(frozen=True, eq=False)
 class Recording:
-    """A recording (CONTRACT's "A recording"): the table, its sidecar and, for a
-    simulation, its truth.
+    """A recording (CONTRACT's "A recording"): the table, its sidecar and, for a simulation, its truth.
 
     Attributes
     ----------
     name : str
-        The file stem (``NAME`` of ``NAME.csv``), or the path read.
+        The file stem, or the path read.
     data : pandas.DataFrame
-        One row a sample: ``t`` s, ``x`` m, ``gamma`` and ``phi`` rad, and where present
-        ``psi``, ``theta`` rad, ``M_d``, ``M_h`` N·m and the motion-capture columns, m.
+        CONTRACT columns, SI (``t`` s, ``x`` m, ``gamma``, ``phi`` rad, ``M_d``, ``M_h`` N·m, ...).
     meta : mapping
-        The ``NAME.json`` sidecar (``params``, ``maneuver``, ``source``, ...).
+        The ``NAME.json`` sidecar.
     truth : mapping or None
-        The ``NAME.truth.json`` content of a simulation (injected effects, true
-        parameters); None for a recording read from a file (the truth is never read).
+        A simulation's ``NAME.truth.json``; None when read from a file.
     """
 
     name: str
@@ -91,20 +78,17 @@ class Recording:
 
 @dataclass(frozen=True, eq=False)
 class Identification:
-    """h identified by the 3-DoF and the reduced 2-DoF model (the paper's Section 4).
+    """h identified by the 3-DoF and the 2-DoF model (the paper's Section 4).
 
     Attributes
     ----------
     recordings : tuple of str
-        The recordings, as given.
     models : mapping of str to HFit
-        Pooled over the recordings: ``"3dof"`` and ``"2dof"`` → :class:`euc_sim.identification.h_fit.HFit`
-        (``h`` m, ``h_ci95`` m, ``rmse`` N·m, ``identifiable``, the RMSE(h) curve).
+        Pooled: ``"3dof"``, ``"2dof"`` → :class:`~euc_sim.identification.h_fit.HFit` (h, m).
     per_recording : tuple of mapping
-        The same per recording, in order.
+        The same per recording.
     loaded : tuple
-        The loaded recordings (:class:`euc_sim.identification.h_fit.Recording`: data,
-        parameters, kinematics), for figures and further fits.
+        The loaded recordings (:class:`euc_sim.identification.h_fit.Recording`).
     """
 
     recordings: tuple[str, ...]
@@ -118,7 +102,7 @@ class Identification:
         return float(self.models["3dof"].h)
 
     def to_json(self) -> dict:
-        """CONTRACT's ``euc-sim identify`` object (``recordings``, ``models``, ``per_recording``)."""
+        """CONTRACT's ``euc-sim identify`` object."""
         return to_jsonable({
             "recordings": list(self.recordings),
             "models": {m: f.as_json() for m, f in self.models.items()},
@@ -133,33 +117,20 @@ class Diagnosis(_KeyedResult):
 
     Attributes
     ----------
-    recording : str
-    nominal_rmse : float
-        Held-out residual RMSE of the nominal model, N·m.
+    nominal_rmse, augmented_rmse, noise_floor : float
+        Held-out residual RMSE without and with the accepted effects; the measurement noise's, N·m.
     effects : list of dict
-        Accepted effects, strongest first: ``name``, ``estimate`` (the catalog's unit),
-        ``unit``, ``ci95``, ``rmse_after`` N·m, ``aliases``, ``evidence``.
+        Accepted effects, strongest first (``name``, ``estimate``, ``unit``, ``ci95``, ...).
     unexplained : bool
         Structure remains that no catalogued effect explains.
     windows : list of [float, float]
         Where the mismatch concentrates, s.
-    augmented_rmse : float
-        Held-out residual RMSE with the accepted effects, N·m.
     h_nominal, h_augmented : float
         h identified without and with the effects, m.
-    noise_floor : float
-        RMS of the residual that the measurement noise alone gives, N·m.
-    verdict : str
-        One sentence.
-    notes : list of str
     tentative : list of dict
         Effects seen but not accepted.
-    details : mapping
-        Every other key of the diagnosis object (limits, visibility, history, ...).
-    key_order : tuple of str
-        The JSON object's keys in order.
     series : mapping
-        The time series behind the report's figures (not part of the JSON).
+        The time series behind the report's figures (not in the JSON).
     """
 
     recording: str
@@ -179,19 +150,19 @@ class Diagnosis(_KeyedResult):
     series: Mapping[str, Any] = field(default_factory=dict, repr=False)
 
     def as_result(self) -> dict:
-        """The pipeline's dictionary (its series under ``_series``), for :mod:`euc_sim.diagnosis.report`."""
+        """The pipeline's dictionary (series under ``_series``), for :mod:`euc_sim.diagnosis.report`."""
         out = {k: (self.details[k] if k in self.details else getattr(self, k)) for k in self.key_order}
         out["_series"] = dict(self.series)
         return out
 
     def summary(self) -> str:
-        """The diagnosis in a few lines, as ``euc-sim diagnose`` prints it."""
+        """The diagnosis as ``euc-sim diagnose`` prints it."""
         from euc_sim.diagnosis.report import summary  # deferred: loads plotly (0.03 s)
 
         return summary(self.as_result())
 
     def write_report(self, folder) -> Path:
-        """Write the report (``index.html``, its plain text ``index.md`` and the figures) to ``folder``; returns ``index.md``."""
+        """Write ``index.html``, ``index.md`` and the figures to ``folder``; returns ``index.md``."""
         from euc_sim.diagnosis.report import write_report  # deferred: loads plotly (0.03 s)
 
         return write_report(self.as_result(), folder)
@@ -199,9 +170,7 @@ class Diagnosis(_KeyedResult):
 
 @dataclass(frozen=True, eq=False)
 class RideAnalysis:
-    """What ``euc-sim ride`` finds in a log: the pipeline's typed ``result``
-    (:class:`~euc_sim.rides.result.RideResult`) and the report folder's ``files`` (None without one);
-    the properties read the typed tree, ``to_json()`` renders CONTRACT's object from it."""
+    """What ``euc-sim ride`` finds: the typed :class:`~euc_sim.rides.result.RideResult` and the report's ``files`` (or None)."""
 
     result: RideResult = field(repr=False)
     files: Any = None
@@ -221,7 +190,7 @@ class RideAnalysis:
                        doc="The ride as a rider reads it (:class:`~euc_sim.rides.summary.summary.RideSummary`).")
 
     def to_json(self) -> dict:
-        """CONTRACT's ``euc-sim ride`` object (plain Python types), as the command writes it."""
+        """CONTRACT's ``euc-sim ride`` object."""
         from euc_sim.rides.render.contract import ride_json  # deferred: loads scipy (1.1 s)
 
         return to_jsonable(ride_json(self.result, self.files))
@@ -229,18 +198,7 @@ class RideAnalysis:
 
 @dataclass(frozen=True)
 class Rendering:
-    """A recording replayed in the 3-D model.
-
-    Attributes
-    ----------
-    path : str
-        The file written (.mp4, .gif or .png).
-    frames : int
-    fps : float
-        Frames per second, 1/s.
-    width, height : int
-        Pixels.
-    """
+    """A recording replayed in the 3-D model: the file written, frames, fps (1/s), width and height (pixels)."""
 
     path: str
     frames: int
@@ -265,20 +223,13 @@ class CrosscheckRow:
 
 @dataclass(frozen=True)
 class Crosscheck:
-    """The MuJoCo model proved against the analytic equations (5)-(8).
-
-    Attributes
-    ----------
-    ok : bool
-        Every bound holds.
-    checks : tuple of CrosscheckRow
-    """
+    """The MuJoCo model checked against equations (5)-(8): ``ok`` when every bound holds."""
 
     ok: bool
     checks: tuple[CrosscheckRow, ...]
 
     def to_json(self) -> dict:
-        """CONTRACT's ``euc-sim crosscheck`` object: ``ok`` and ``checks``."""
+        """CONTRACT's ``euc-sim crosscheck`` object."""
         return to_jsonable({"ok": self.ok, "checks": [
             {"name": c.name, "value": c.value, "bound": c.bound, "detail": c.detail, "ok": c.ok}
             for c in self.checks]})

@@ -1,17 +1,10 @@
-"""The ride pipeline: one log (and optionally another) in, one typed result out.
+"""The ride pipeline: a validated :class:`~euc_sim.rides.request.RideRequest` in, a typed
+:class:`~euc_sim.rides.result.RideResult` out, no file written.
 
-:func:`ride_pipeline` takes the validated request (:class:`~euc_sim.rides.request.RideRequest`:
-each log parsed once, the wheel's spec, the options), then runs the analyses in order on it: mass and drivetrain
-(:mod:`euc_sim.rides.drive.drivetrain_report`), the bounded balance fit with its
-held-out selection (:mod:`euc_sim.rides.balance.analysis`), the balance law
-(:mod:`euc_sim.rides.law.controller_report`), the one parameter set
-(:mod:`euc_sim.rides.balance.parameters`), the residual's localisation, the simulated
-rider (:mod:`euc_sim.rides.sim.sim_steps`) and the verdict.  It returns a
-:class:`~euc_sim.rides.result.RideResult` and writes no file: the JSON
-(:func:`euc_sim.rides.render.contract.ride_json`) and the report folder
-(:func:`euc_sim.rides.render.report_files.write_report`) are renderers at the edge.
-``euc-sim ride`` (:mod:`euc_sim.cli.ride`) and :func:`euc_sim.analyse_ride` build the request
-(:func:`~euc_sim.rides.request.ride_request`) and call it, then them.
+The steps, in order: mass and drivetrain, the bounded balance fit with its held-out selection,
+the balance law, the one parameter set, the residual's localisation, the simulated rider, the
+verdict.  The JSON (:func:`euc_sim.rides.render.contract.ride_json`) and the report folder
+(:func:`euc_sim.rides.render.report_files.write_report`) render the result.
 """
 
 from __future__ import annotations
@@ -54,11 +47,11 @@ class BalanceOnMass:
     Attributes
     ----------
     physics : MassDrivetrain
-        :func:`euc_sim.rides.drive.drivetrain_report.ride_drivetrain`'s result.
+        :func:`~euc_sim.rides.drive.drivetrain_report.ride_drivetrain`'s result.
     assumptions : RideAssumptions
-        The assumptions handed to the balance fit (the log's total mass, the spec's radius).
+        Those handed to the balance fit (the log's total mass, the spec's radius).
     analysis : RideAnalysis
-        :func:`euc_sim.rides.balance.analysis.ride_analysis`'s result.
+        :func:`~euc_sim.rides.balance.analysis.ride_analysis`'s result.
     """
 
     physics: tuple
@@ -69,26 +62,20 @@ class BalanceOnMass:
 def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: str = "power",
                     n_boot: int = 200, seed: int = 0, n_boot_mass: int | None = None,
                     progress=None) -> BalanceOnMass:
-    """The total mass from the log's energy balance, then the balance fit given it.
-
-    What :func:`ride_pipeline` runs first, for scripts that need only these two fits.
+    """The total mass from the log's energy balance, then the balance fit given it (:func:`ride_pipeline`'s first steps).
 
     Parameters
     ----------
     log, compare : Ride
     spec : WheelSpec, optional
     assumptions : RideAssumptions, optional
-        Values given on the command line; the spec's radius and the log's mass fill the rest.
+        Values given by the user; the spec's radius and the log's mass fill the rest.
     domain : {"power", "torque"}
     n_boot, seed : int
-        Bootstrap replicates of the balance fit and the seed of every draw.
+        Bootstrap replicates of the balance fit; the seed of every draw.
     n_boot_mass : int, optional
         Replicates of the mass fit (default ``n_boot``).
     progress : callable, optional
-
-    Returns
-    -------
-    BalanceOnMass
     """
     say = progress or (lambda s: None)
     say("finding the total mass and the drivetrain")
@@ -103,10 +90,7 @@ def balance_on_mass(log, compare=None, spec=None, *, assumptions=None, domain: s
 
 
 def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResult:
-    """Everything ``euc-sim ride`` computes, in order, on the request's rides
-    (:func:`euc_sim.rides.request.ride_request`); no file is written.  ``jobs``: threads of the
-    simulation's steps (the results do not depend on it); ``progress`` receives a short line at each step.
-    """
+    """Everything ``euc-sim ride`` computes on ``req``; ``jobs`` threads the simulation (results do not depend on it)."""
     log, compare, spec, n_boot, seed = req.log, req.compare, req.spec, req.n_boot, req.seed
     say = progress or (lambda s: None)
     # each grid is built once and kept on its ride; bad logs fail in the mass fit, before any output
@@ -160,8 +144,7 @@ def _localise(an, domain: str, log, compare) -> list:
 
 def _simulation(an, log, compare, seed: int, jobs: int, progress, simulate: bool,
                 calibrate_rider: bool, law, parameters, drivetrain, mass):
-    """The simulated rider and None, or None and why there is none (not asked, or the ride cannot
-    be simulated: a warning then says why)."""
+    """The simulated rider and None, or None and why there is none (a warning when the ride cannot be simulated)."""
     if not simulate:
         return None, REPLAY_NOT_ASKED
     why = simulation_obstacle(an.sig_test if an.sig_test is not None else an.sig_fit)
@@ -182,8 +165,7 @@ def _mass_grid_note(fit) -> str:
 
 def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider: bool, law, parameters,
               drivetrain, mass):
-    """The closed-loop rider along the tested ride, once per modelled step (:mod:`euc_sim.rides.sim.sim_steps`),
-    built from the fit ride's results; the second half scored without compare."""
+    """The closed-loop rider along the tested ride, once per modelled step; without compare, the second half scored."""
     sig = an.sig_test if an.sig_test is not None else an.sig_fit
     ride_path = compare if compare is not None else log
     scored = None

@@ -1,11 +1,7 @@
-"""What ``euc-sim ride`` computed on one log (and the ride it is compared with): a typed tree.
+"""The typed result of :func:`euc_sim.rides.pipeline.ride_pipeline`: the analyses' own objects, no file.
 
-:func:`euc_sim.rides.pipeline.ride_pipeline` returns a :class:`RideResult`; it holds the
-analyses' own objects (the balance fit, the mass and drivetrain fits, the balance law, the
-simulated rider, the differences between two rides, the summary, the verdict) and writes no
-file.  The JSON CONTRACT.md describes is one rendering of it
-(:func:`euc_sim.rides.render.contract.ride_json`), the report folder another
-(:func:`euc_sim.rides.render.report_files.write_report`).
+CONTRACT's JSON (:func:`euc_sim.rides.render.contract.ride_json`) and the report folder
+(:func:`euc_sim.rides.render.report_files.write_report`) are renderings of it.
 """
 
 from __future__ import annotations
@@ -35,7 +31,7 @@ class RiderNumbers:
     Attributes
     ----------
     summary : RideSummary
-        Distance, time, speed, energy, battery, limits (:mod:`euc_sim.rides.summary.summary`).
+        Distance, time, speed, energy, battery, limits.
     mass_check : MassCheck
         The declared rider weight against the log's total mass.
     battery : BatteryHealth
@@ -52,18 +48,7 @@ class RiderNumbers:
 
 @dataclass(frozen=True)
 class ComparedRide:
-    """The compared ride's own numbers, beside the fit ride's.
-
-    Attributes
-    ----------
-    recording : str
-        The compared log's file name.
-    drivetrain : RideDrivetrain
-        Its own mass and drivetrain analysis.
-    mass : MassFit
-        Its total mass as reported.
-    rider : RiderNumbers
-    """
+    """The compared ride's own numbers: file name, mass and drivetrain analysis, reported mass, :class:`RiderNumbers`."""
 
     recording: str
     drivetrain: RideDrivetrain
@@ -78,33 +63,27 @@ class RideResult:
     Attributes
     ----------
     balance : RideAnalysis
-        The bounded balance fit with its held-out selection
-        (:class:`~euc_sim.rides.balance.crossride.CrossRide` inside).
+        The bounded balance fit with its held-out selection (``balance.cross``).
     notes : tuple of str
-        The ride's notes: the balance fit's, the mass fit's grid, why the ride cannot be
-        simulated.
+        The balance fit's notes, the mass fit's grid, why the ride cannot be simulated.
     mass : MassDrivetrain
-        Total mass, drivetrain, PWM model and envelope
-        (:func:`~euc_sim.rides.drive.drivetrain_report.mass_drivetrain`).
+        Total mass, drivetrain, PWM model and envelope.
     law : ControllerFit
-        The wheel's balance law (:func:`~euc_sim.rides.law.controller_report.controller_fit`).
+        The wheel's balance law.
     parameters : tuple of Parameter
-        Every fitted quantity once (:func:`~euc_sim.rides.balance.parameters.parameter_list`).
+        Every fitted quantity once.
     drivetrain : dict of str -> Term
-        The drivetrain with the balance fit's road and loss terms
-        (:func:`~euc_sim.rides.balance.parameters.drivetrain_view`).
+        The drivetrain with the balance fit's road and loss terms.
     differences : Differences or None
         What differs between the two rides (None without ``compare``).
     traces : tuple of ResidualTrace
-        The inertia-only and augmented residuals of the fit ride (and the compared ride),
-        with where they concentrate.
+        The inertia-only and augmented residuals of each ride, with where they concentrate.
     simulation : RideSimulation or None
-        The simulated rider along the tested ride.
     simulation_why : str or None
         Why there is no simulation.
     verdict : Verdict
     rider : RiderNumbers
-        The fit ride's summary, mass check, battery and clock.
+        The fit ride's.
     compared : ComparedRide or None
     cutout : Cutout
         The speed at which the wheel runs out of duty, against its charge.
