@@ -1,13 +1,9 @@
-"""One option name per idea across the commands, and the old names kept for one release.
+"""One option name per idea across the commands, and old names kept for one release.
 
-The names: ``--workers N`` (processes), ``--quiet`` (no progress on stderr), ``--n-boot N``
-(bootstrap replicates), ``--report DIR`` (the folder a command writes its figures or page
-into), ``--out FILE`` (always a file) and ``--out-dir DIR`` (always a folder), ``--effect``
-(repeatable).  Every numeric option is declared with :func:`bounded` (a finite number in a
-stated range, the range shown in ``--help`` by :class:`BoundsHelpFormatter`); ``--workers``
-with :func:`workers`, bounded by this machine's cores.  An old name is registered by :func:`deprecated`: hidden from ``--help``, and
-using it prints one line on stderr (``euc-sim: --jobs is deprecated; use --workers``).
-tests/cli/test_option_names.py reads every parser and holds the commands to these names.
+``--workers N``, ``--quiet``, ``--n-boot N``, ``--report DIR``, ``--out FILE``, ``--out-dir DIR``,
+``--effect`` (repeatable).  Numeric options use :func:`bounded` (range shown in ``--help`` by
+:class:`BoundsHelpFormatter`); an old name is registered by :func:`deprecated`.
+tests/cli/test_option_names.py holds the commands to these names.
 """
 
 from __future__ import annotations
@@ -25,10 +21,8 @@ __all__ = ["DeprecatedOption", "deprecated", "one_of", "bounded", "workers", "ma
 def bounded(lo: float, hi: float, integer: bool = False, unit: str = "", checked: bool = True):
     """An argparse type: a finite number (an integer with ``integer``) in ``[lo, hi]``.
 
-    The error (one line, exit 2) names the option, the range and the value; the range is
-    kept as ``parse.bounds`` and ``parse.span`` (e.g. ``[0, 1] s``) for ``--help``
-    (:class:`BoundsHelpFormatter`).  With ``checked=False`` only the number is parsed: the
-    command checks the range where the API checks it too (``euc-sim ride``'s request).
+    The error names the range and the value; ``parse.bounds`` and ``parse.span`` feed ``--help``.
+    With ``checked=False`` only the number is parsed (the command checks the range, as the API does).
     """
     what = "an integer" if integer else "a number"
     span = f"[{lo:g}, {hi:g}]{' ' + unit if unit else ''}"
@@ -49,11 +43,7 @@ def bounded(lo: float, hi: float, integer: bool = False, unit: str = "", checked
 
 
 def max_workers() -> int:
-    """Most worker processes or threads a command starts: this machine's cores (at least 2).
-
-    More CPU-bound workers than cores only multiply memory (each holds its own model and
-    data) without finishing sooner.
-    """
+    """Most worker processes or threads a command starts: this machine's cores (at least 2)."""
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:          # not on Linux
@@ -80,10 +70,8 @@ class BoundsHelpFormatter(argparse.HelpFormatter):
 class DeprecatedOption(argparse.Action):
     """An old option name, hidden from ``--help``: prints the deprecation note, then acts.
 
-    With a ``target`` (the replacement's action) each value is handed to it, so the old
-    name does exactly what the new one does; without, the value is stored under the old
-    option's own ``dest`` (an old option whose meaning the new one does not keep, such as
-    ``--plot FILE`` beside ``--report DIR``).
+    With a ``target`` (the replacement's action) each value is handed to it; without, the value
+    is stored under the old option's own ``dest``.
     """
 
     def __init__(self, option_strings, dest, replacement: str, target: argparse.Action | None = None,
@@ -106,26 +94,19 @@ class DeprecatedOption(argparse.Action):
 
 def deprecated(p, old: str, replacement: str, *, convert: Callable[[object], Iterable] | None = None,
                **own) -> argparse.Action:
-    """Register ``old`` on ``p`` (a parser or one of its groups) as a deprecated name.
+    """Register ``old`` on ``p`` (a parser or argument group) as a deprecated name of ``replacement``.
 
     Parameters
     ----------
     p : argparse.ArgumentParser or argument group
-        Where ``replacement`` is registered.
     old, replacement : str
         Option strings, e.g. ``"--jobs"`` and ``"--workers"``.
     convert : callable, optional
         Old value → the values handed one by one to the replacement (``--effects A,B`` →
         ``--effect A``, ``--effect B``).
     **own
-        ``add_argument`` keywords (``dest``, ``metavar``, ``type``, ``nargs=0`` for a flag, and
-        ``note``, the text after "is deprecated;") of an old option that keeps its own value
-        instead of forwarding it.
-
-    Returns
-    -------
-    argparse.Action
-        The registered :class:`DeprecatedOption`.
+        ``add_argument`` keywords (and ``note``, the text after "is deprecated;") of an old option
+        that keeps its own value instead of forwarding it.
     """
     if own:
         return p.add_argument(old, action=DeprecatedOption, replacement=replacement, **own)
@@ -136,9 +117,5 @@ def deprecated(p, old: str, replacement: str, *, convert: Callable[[object], Ite
 
 
 def one_of(values: Iterable[str]) -> str:
-    """Metavar that shows a fixed set of values in ``--help``, as argparse shows ``choices``.
-
-    For options whose value the command checks itself (one line naming the option, exit 2),
-    so ``--help`` never shows a bare placeholder such as ``NOISE``: ``{paper,none}``.
-    """
+    """Metavar showing a fixed set of values, ``{paper,none}``, for an option the command checks itself."""
     return "{" + ",".join(values) + "}"
