@@ -1,8 +1,6 @@
-"""The public API of euc-sim: the functions a script calls and the typed results they return.
+"""The public API of euc-sim: functions a script calls and the typed results they return.
 
-Each function returns a frozen dataclass with ``to_json()`` giving the JSON object the
-matching ``euc-sim`` command writes (CONTRACT.md).  ``import euc_sim`` re-exports all
-of them; the command line parses its arguments and calls these.
+Each result's ``to_json()`` gives the JSON object the matching ``euc-sim`` command writes (CONTRACT.md).
 """
 
 from euc_sim.api.functions import (analyse_ride, crosscheck, diagnose, identify, read_recording, read_ride,

@@ -1,9 +1,7 @@
 """The demo job (``euc-sim demo``, :func:`run_demo`): the main job on embedded defaults, told as a story.
 
-Simulate the paper's maneuvers (Table 1 plus stop-and-go, 15 s, 120 Hz, the paper's
-noise); identify h pooled per maneuver and draw Fig. 8; conceal one seeded effect in a
-stop-and-go ride and diagnose it blind; write the page from a :class:`Story`.  Every
-draw comes from ``seed``.
+Simulate the paper's maneuvers (Table 1 plus stop-and-go, 15 s, 120 Hz); identify h per maneuver
+(Fig. 8); conceal one seeded effect in a stop-and-go ride and diagnose it blind; write the page.
 """
 
 from __future__ import annotations
@@ -100,16 +98,8 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
              progress: Callable[[str], None] | None = None, workers: int | None = 2) -> Path:
     """Run the demo and write ``out/index.html`` and ``out/index.md``; returns the index page.
 
-    Parameters
-    ----------
-    out : path
-        Output folder (created).
-    seed : int
-        Seed of every draw.
-    progress : callable, optional
-        Receives one plain line per step.
-    workers : int, optional
-        Processes for the simulations.
+    ``seed`` seeds every draw; ``progress`` receives one plain line per step; ``workers``: processes
+    for the simulations.
     """
     say = progress or (lambda s: None)
     out = Path(out)
