@@ -1,4 +1,4 @@
-"""Helpers shared by the command modules: usage errors, messages to people, ``--param`` parsing."""
+"""Helpers shared by the command modules: usage errors, messages to people, ``--param`` parsing, output checks."""
 
 from __future__ import annotations
 
@@ -13,8 +13,6 @@ import time
 import traceback
 from pathlib import Path
 from typing import Sequence
-
-import numpy as np
 
 from euc_sim import __version__
 from euc_sim.errors import BadInputFile, BadOutputPath, InputError
@@ -37,34 +35,6 @@ def seed(text: str) -> int:
     if value < 0:
         raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
     return value
-
-
-def format_eigenvalues(ev, digits: int = 3) -> str:
-    """Eigenvalues (complex, or (re, im) pairs), 1/s, for people: ``-4.22, 0, ±5.86j, -30.1 ± 5.41j``.
-
-    Parts below 1e-9 of the largest magnitude print as 0; a conjugate pair prints once, with ±.
-    """
-    z = np.array([complex(*e) if isinstance(e, (tuple, list)) else complex(e) for e in ev])
-    tol = 1e-9 * max(1.0, float(np.abs(z).max(initial=0.0)))
-    re = np.where(np.abs(z.real) < tol, 0.0, z.real) + 0.0     # + 0.0 turns -0.0 into 0.0
-    im = np.where(np.abs(z.imag) < tol, 0.0, z.imag) + 0.0
-    out, used = [], np.zeros(len(z), bool)
-    for i in np.argsort(re, kind="stable"):
-        if used[i] or im[i] < 0 and any(not used[j] and im[j] == -im[i] and re[j] == re[i]
-                                        for j in range(len(z)) if j != i):
-            continue
-        used[i] = True
-        r = f"{re[i]:.{digits}g}"
-        if im[i] == 0:
-            out.append(r)
-            continue
-        pair = [j for j in range(len(z)) if not used[j] and re[j] == re[i] and im[j] == -im[i]]
-        sign = "±" if pair else ("+" if im[i] > 0 else "−")
-        for j in pair[:1]:
-            used[j] = True
-        mag = f"{abs(im[i]):.{digits}g}j"
-        out.append(f"{sign}{mag}" if re[i] == 0 else f"{r} {sign} {mag}")
-    return ", ".join(out)
 
 
 def say(msg: str) -> None:

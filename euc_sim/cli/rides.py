@@ -9,7 +9,7 @@ import stat
 import sys
 from pathlib import Path
 
-from euc_sim.cli.common import check_report_folder, seed
+from euc_sim.cli.common import check_report_folder, say, seed
 from euc_sim.cli.options import bounded, workers
 from euc_sim.errors import BadInputFile, InputError
 from euc_sim.io import check_writable, file_kind, shown, write_json
@@ -99,10 +99,9 @@ def _cmd_rides(args: argparse.Namespace) -> int:
         check_writable(args.json)
     if args.report:
         check_report_folder(args.report, ("index.html",))
-    say = None if args.quiet else (lambda m: (sys.stderr.write(m + "\n"), sys.stderr.flush()))
     from euc_sim.rides.render.contract import history_json  # deferred: loads the balance fit (0.3 s)
 
-    hist = history_json(run_rides(paths, pack, args.n_boot, args.seed, args.workers, say))
+    hist = history_json(run_rides(paths, pack, args.n_boot, args.seed, args.workers, None if args.quiet else say))
     if args.report:
         from euc_sim.report.html import write_page  # deferred: loads plotly (0.05 s)
         from euc_sim.rides.render.history_page import history_page  # deferred: loads scipy, plotly (1.2 s)

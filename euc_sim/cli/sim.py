@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from euc_sim import api
-from euc_sim.cli.common import format_eigenvalues as eig_text, parse_params, say, seed
+from euc_sim.cli.common import parse_params, say, seed
 from euc_sim.cli.options import bounded, deprecated, one_of, workers
 from euc_sim.cli.spatial import simulate_3d_command
 from euc_sim.controllers.motor import MotorPD
@@ -37,6 +37,34 @@ DURATION = bounded(0.1, 3600.0, unit="s")
 #: ``--rider-noise``: the rider's motor noise, N·m; beyond 100 N·m (a third of the motor's
 #: torque) no rider stays on the wheel.
 RIDER_NOISE = bounded(0.0, 100.0, unit="N·m")
+
+
+def format_eigenvalues(ev, digits: int = 3) -> str:
+    """Eigenvalues (complex, or (re, im) pairs), 1/s, for people: ``-4.22, 0, ±5.86j, -30.1 ± 5.41j``.
+
+    Parts below 1e-9 of the largest magnitude print as 0; a conjugate pair prints once, with ±.
+    """
+    z = np.array([complex(*e) if isinstance(e, (tuple, list)) else complex(e) for e in ev])
+    tol = 1e-9 * max(1.0, float(np.abs(z).max(initial=0.0)))
+    re = np.where(np.abs(z.real) < tol, 0.0, z.real) + 0.0     # + 0.0 turns -0.0 into 0.0
+    im = np.where(np.abs(z.imag) < tol, 0.0, z.imag) + 0.0
+    out, used = [], np.zeros(len(z), bool)
+    for i in np.argsort(re, kind="stable"):
+        if used[i] or im[i] < 0 and any(not used[j] and im[j] == -im[i] and re[j] == re[i]
+                                        for j in range(len(z)) if j != i):
+            continue
+        used[i] = True
+        r = f"{re[i]:.{digits}g}"
+        if im[i] == 0:
+            out.append(r)
+            continue
+        pair = [j for j in range(len(z)) if not used[j] and re[j] == re[i] and im[j] == -im[i]]
+        sign = "±" if pair else ("+" if im[i] > 0 else "−")
+        for j in pair[:1]:
+            used[j] = True
+        mag = f"{abs(im[i]):.{digits}g}j"
+        out.append(f"{sign}{mag}" if re[i] == 0 else f"{r} {sign} {mag}")
+    return ", ".join(out)
 
 
 def _effects(items) -> dict[str, float]:
@@ -203,7 +231,7 @@ def _cmd_stability(args: argparse.Namespace) -> int:
     print(f"rider gains K on (ẋ−v, γ−γ*, φ−φ*, γ̇, φ̇, ∫(ẋ−v)): {', '.join(f'{k:.4g}' for k in rider.K)}")
     for key, label in (("open_loop", "open loop (no torques)"), ("motor_pd", "motor PD only"),
                        ("motor_pd_and_rider", "motor PD + rider, no delay")):
-        print(f"eigenvalues, {label} [1/s]: {eig_text(rep['eigenvalues'][key])}")
+        print(f"eigenvalues, {label} [1/s]: {format_eigenvalues(rep['eigenvalues'][key])}")
     rl = rep["rider_loop"]
     print(f"rider loop: delay margin without prediction {rl['delay_margin_without_predictor']:.3f} s "
           f"(crossover {rl['crossover_frequency']:.2f} rad/s); reaction delay {rl['reaction_delay']:g} s")

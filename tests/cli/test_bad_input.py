@@ -149,7 +149,7 @@ def test_version_and_help_texts(capsys):
 
 
 def test_stability_eigenvalues_for_people():
-    from euc_sim.cli.common import format_eigenvalues
+    from euc_sim.cli.sim import format_eigenvalues
     text = format_eigenvalues([(-4.22, 0), (0, 0), (-0.0, 0), (4.44e-16, -5.86), (4.44e-16, 5.86)])
     assert text == "-4.22, 0, 0, ±5.86j"
     assert format_eigenvalues([(-30.1, -5.41), (-30.1, 5.41)]) == "-30.1 ± 5.41j"
