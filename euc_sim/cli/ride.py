@@ -1,10 +1,7 @@
 """``euc-sim ride LOG.csv [--compare OTHER.csv] --report DIR --json OUT.json``.
 
-Registered into :func:`euc_sim.cli.app.build_parser` by :func:`add_ride_parser`; the options
-are :func:`euc_sim.analyse_ride`'s request (:func:`euc_sim.rides.request.ride_request`).  Bad
-input (a missing or malformed log, an unusable option, an unwritable output) raises ``ValueError``
-or ``OSError``: one line, exit 2.  Outputs are checked writable before any work and written
-atomically (:mod:`euc_sim.io`), the JSON last.
+The options are :func:`euc_sim.rides.request.ride_request`'s; bad input is one line, exit 2.
+Outputs are checked writable before any work and written atomically, the JSON last.
 """
 
 from __future__ import annotations
