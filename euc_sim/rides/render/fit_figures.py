@@ -146,10 +146,8 @@ def balance_figure(cr, sig_fit=None, sig_test=None):
 
 
 def residuals_figure(traces):
-    """The balance residuals over time, one panel per ride, the windows where they concentrate shaded.
-
-    Each panel: the inertia-only and augmented residuals and the augmented one's moving
-    mean (slow: a hill, wind), in the trace's unit (W or N·m).
+    """The balance residuals over time (trace's unit), one panel per ride, the windows where they
+    concentrate shaded: inertia-only, augmented and the augmented one's moving mean.
 
     Parameters
     ----------

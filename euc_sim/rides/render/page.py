@@ -1,12 +1,7 @@
 """The ride's report page in Markdown: :func:`write_page` writes ``DIR/index.md``.
 
-Where the balance residual concentrates is :mod:`euc_sim.rides.balance.residual`'s; the page
-draws it (:func:`euc_sim.rides.render.fit_figures.residuals_figure`).  The notes are said for
-people, each once, beside the tile that counts it: :func:`summarise_notes` folds a ride's gaps,
-too-short pieces and empty cells into one line each (the JSON keeps every one); :func:`said_once`
-drops from a simulation note the fitted values the page's tables already give;
-:func:`as_the_tile` words the reader's sampling note as the Data quality tile counts;
-:func:`missing_spec_effect` says what a value the wheel's specification lacks changes.
+The notes are said for people, each once, beside the tile that counts it (:func:`summarise_notes`,
+:func:`said_once`, :func:`as_the_tile`); the JSON keeps every one.
 """
 
 from __future__ import annotations
@@ -120,12 +115,9 @@ def _verdict_lines(res: RideResult) -> list[str]:
 
 def markdown_sections(res: RideResult, figures: Mapping[str, str],
                       shown=frozenset()) -> list[tuple[str, list[str]]]:
-    """The plain-text page's content in the HTML page's folded parts: (title, Markdown lines).
+    """:func:`write_page`'s sections grouped as the HTML page's folded parts: (title, Markdown lines).
 
-    The same builders as :func:`write_page`'s, grouped as a reader looks for them: the
-    balance model and its diagnosis, the mass and drivetrain, the firmware's law, the
-    simulation's steps, the assumptions.  ``shown``: quantities the first screen already
-    gives (:func:`euc_sim.rides.render.drivetrain_page.page_section`), not repeated.
+    ``shown``: quantities the first screen already gives, not repeated.
     """
     return [("The balance model and the diagnosis", _verdict_lines(res) + _cross_ride_md(figures)
              + _estimates_md(res) + _aliases_md(res) + _localisation_md(res, figures)),
