@@ -159,6 +159,7 @@ def rows(results: list[dict]) -> list[str]:
 
 def band_rows(results: list[dict]) -> list[str]:
     """The level-and-spectrum table: per pair and step, the band ratios to the log's."""
+    from euc_sim.rides.grids.rider_features import BandRatio
     from euc_sim.rides.render.page import bands_cell
 
     md = ["| wheel | fit → held out | " + " | ".join(f"{s} dB" for s in STEPS) + " |",
@@ -169,7 +170,8 @@ def band_rows(results: list[dict]) -> list[str]:
         by = {s["step"]: s for s in ((r.get("json") or {}).get("simulation") or {}).get("steps", [])}
         cells = []
         for name in STEPS:
-            cells.append(bands_cell((by.get(name) or {}).get("heldout_bands")))
+            bands = (by.get(name) or {}).get("heldout_bands")
+            cells.append(bands_cell(bands and {k: BandRatio(**b) for k, b in bands.items()}))
         md.append(f"| {p['wheel']} | {label} | " + " | ".join(cells) + " |")
     return md
 

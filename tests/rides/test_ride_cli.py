@@ -363,18 +363,21 @@ def test_the_falls_are_said_once_with_the_runs_they_ended():
 
 
 def test_the_page_says_when_the_last_step_sways_less_or_more_than_the_log():
+    from euc_sim.rides.grids.rider_features import BandRatio
     from euc_sim.rides.render.page import SWAY_DB, sway_sentence
+    from euc_sim.rides.sim.sim_steps import SimStep
+    from euc_sim.rides.sim.simulate import StepScore
 
-    def step(name, fast):
-        return {"step": name, "ran": True,
-                "heldout_bands": {"P_W": {"ratio_dB": [fast, 0.0], "rms_dB": abs(fast) / 2 ** 0.5}}}
+    def step(name, fast, bands=True):
+        b = {"P_W": BandRatio([1.0, 2.0], [fast, 0.0], abs(fast) / 2 ** 0.5)} if bands else None
+        return StepScore(SimStep(name, name), {}, b, None, None)
 
     quiet = sway_sentence([step("nominal", 0.0), step("drivetrain", -12.0)])
     assert "(drivetrain)" in quiet and "4.0× less" in quiet and "-12 dB" in quiet
     assert "sway is missing" in quiet
     assert "2.5× more" in sway_sentence([step("drivetrain", 8.0)])
     assert sway_sentence([step("drivetrain", -SWAY_DB + 0.5)]) is None
-    assert sway_sentence([{"step": "drivetrain", "ran": True, "heldout_bands": None}]) is None
+    assert sway_sentence([step("drivetrain", 0.0, bands=False)]) is None
     assert sway_sentence([]) is None
 
 

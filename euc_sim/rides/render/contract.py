@@ -23,7 +23,7 @@ from euc_sim.rides.sim.sim_steps import TARGET_RATIO, VOLTAGE_EXTRAS
 
 __all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json",
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
-           "spec_json", "grade_json", "cutout_json", "envelope_json", "simulation_json", "trace_json",
+           "spec_json", "grade_json", "cutout_json", "envelope_json", "simulation_json", "rms", "trace_json",
            "resolution_json", "difference_json", "differences_json", "clock_json", "mass_difference_json", "mass_check_json",
            "error_measure", "limits_json", "summary_json", "battery_json", "history_json",
            "controller_json", "rider_fit_json", "sim_step_json", "step_score_json", "simulation_errors_json",
@@ -111,15 +111,19 @@ def simulation_json(sim) -> dict:
             "pitch_scored_rows": sim.pitch_scored_rows, "notes": list(sim.notes)}
 
 
+def rms(x) -> float:
+    """Root mean square of ``x`` (its unit)."""
+    return float(np.sqrt(np.mean(x ** 2)))
+
+
 def trace_json(tr) -> dict:
     """One of CONTRACT's ``residual_traces``: a :class:`~euc_sim.rides.balance.residual.ResidualTrace`'s
     windows and RMS values (its arrays are drawn, not written)."""
     loc = tr.localisation
     return {"ride": tr.label, "in_sample": tr.in_sample, "unit": tr.unit,
             "windows": loc["windows"], "share": loc["share"], "correlations": loc["correlations"],
-            "rms_nominal": float(np.sqrt(np.mean(tr.nominal ** 2))),
-            "rms_augmented": float(np.sqrt(np.mean(tr.augmented ** 2))),
-            "slow_rms_augmented": float(np.sqrt(np.mean(tr.slow() ** 2)))}
+            "rms_nominal": rms(tr.nominal), "rms_augmented": rms(tr.augmented),
+            "slow_rms_augmented": rms(tr.slow())}
 
 
 def resolution_json(r) -> dict | None:

@@ -17,7 +17,7 @@ from euc_sim.report.figures import Line, plain_values, thin, with_breaks, xy_fig
 from euc_sim.rides.balance.design import CANDIDATES
 from euc_sim.rides.balance.residual import SLOW_S
 from euc_sim.rides.drive.drivetrain import predict_pwm
-from euc_sim.rides.render.contract import trace_json
+from euc_sim.rides.render.contract import rms
 
 __all__ = ["balance_figure", "residuals_figure", "residuals_height", "pwm_figure", "write_balance", "MOST_POINTS",
            "BALANCE_HEIGHT", "PWM_HEIGHT"]
@@ -146,10 +146,8 @@ def balance_figure(cr, sig_fit=None, sig_test=None):
 
 
 def residuals_figure(traces):
-    """The balance residuals over time, one panel per ride, the windows where they concentrate shaded.
-
-    Each panel: the inertia-only and augmented residuals and the augmented one's moving
-    mean (slow: a hill, wind), in the trace's unit (W or N·m).
+    """The balance residuals over time (trace's unit), one panel per ride, the windows where they
+    concentrate shaded: inertia-only, augmented and the augmented one's moving mean.
 
     Parameters
     ----------
@@ -161,12 +159,11 @@ def residuals_figure(traces):
               for tr in traces]
     fig = _stack(titles, residuals_height(len(traces)))
     for row, tr in enumerate(traces, start=1):
-        j = trace_json(tr)
         _lines(fig, row, np.asarray(tr.t, float), [
-            (f"inertia only: RMS {j['rms_nominal']:.0f} {tr.unit}", tr.nominal, {"width": 0.7, "color": _NOMINAL}),
-            (f"augmented: RMS {j['rms_augmented']:.0f} {tr.unit}", tr.augmented,
+            (f"inertia only: RMS {rms(tr.nominal):.0f} {tr.unit}", tr.nominal, {"width": 0.7, "color": _NOMINAL}),
+            (f"augmented: RMS {rms(tr.augmented):.0f} {tr.unit}", tr.augmented,
              {"width": 0.7, "color": _AUGMENTED}),
-            (f"augmented, {SLOW_S:.0f} s moving mean: RMS {j['slow_rms_augmented']:.0f} {tr.unit}", tr.slow(),
+            (f"augmented, {SLOW_S:.0f} s moving mean: RMS {rms(tr.slow()):.0f} {tr.unit}", tr.slow(),
              {"width": 1.6, "color": _LOG})], _gap(np.asarray(tr.t, float)))
         for i, (a, b) in enumerate(tr.localisation["windows"]):
             _shade(fig, row, a, b, (f"shaded: where the inertia-only residual concentrates "

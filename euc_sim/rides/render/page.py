@@ -1,12 +1,7 @@
 """The ride's report page in Markdown: :func:`write_page` writes ``DIR/index.md``.
 
-Where the balance residual concentrates is :mod:`euc_sim.rides.balance.residual`'s; the page
-draws it (:func:`euc_sim.rides.render.fit_figures.residuals_figure`).  The notes are said for
-people, each once, beside the tile that counts it: :func:`summarise_notes` folds a ride's gaps,
-too-short pieces and empty cells into one line each (the JSON keeps every one); :func:`said_once`
-drops from a simulation note the fitted values the page's tables already give;
-:func:`as_the_tile` words the reader's sampling note as the Data quality tile counts;
-:func:`missing_spec_effect` says what a value the wheel's specification lacks changes.
+The notes are said for people, each once, beside the tile that counts it (:func:`summarise_notes`,
+:func:`said_once`, :func:`as_the_tile`); the JSON keeps every one.
 """
 
 from __future__ import annotations
@@ -21,13 +16,15 @@ from euc_sim.io import write_text
 from euc_sim.rides.balance.residual import SLOW_S
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.law.controller_report import describe
-from euc_sim.rides.render.contract import effect_entries, error_measure, simulation_errors_json, step_score_json
+from euc_sim.rides.render.contract import effect_entries, error_measure, rms
 from euc_sim.rides.render.differences_page import difference_section
 from euc_sim.rides.render.drivetrain_page import page_section
 from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend, when
 from euc_sim.rides.render.series import number
 from euc_sim.rides.result import RideResult
+from euc_sim.rides.grids.rider_features import BandRatio
 from euc_sim.rides.sim.sim_steps import TARGET_RATIO
+from euc_sim.rides.sim.simulate import StepScore
 from euc_sim.rides.source.gaps import GAP_POLICY
 
 __all__ = ["write_page", "falls_sentence", "markdown_sections", "law_md", "summarise_notes", "said_once", "as_the_tile",
@@ -118,12 +115,9 @@ def _verdict_lines(res: RideResult) -> list[str]:
 
 def markdown_sections(res: RideResult, figures: Mapping[str, str],
                       shown=frozenset()) -> list[tuple[str, list[str]]]:
-    """The plain-text page's content in the HTML page's folded parts: (title, Markdown lines).
+    """:func:`write_page`'s sections grouped as the HTML page's folded parts: (title, Markdown lines).
 
-    The same builders as :func:`write_page`'s, grouped as a reader looks for them: the
-    balance model and its diagnosis, the mass and drivetrain, the firmware's law, the
-    simulation's steps, the assumptions.  ``shown``: quantities the first screen already
-    gives (:func:`euc_sim.rides.render.drivetrain_page.page_section`), not repeated.
+    ``shown``: quantities the first screen already gives, not repeated.
     """
     return [("The balance model and the diagnosis", _verdict_lines(res) + _cross_ride_md(figures)
              + _estimates_md(res) + _aliases_md(res) + _localisation_md(res, figures)),
@@ -222,10 +216,6 @@ def torque_words(method: str, efficiency: float) -> str:
     return str(method)
 
 
-def _rms(x) -> float:
-    return float(np.sqrt(np.mean(x ** 2)))
-
-
 def _localisation_md(res: RideResult, figures: Mapping[str, str]) -> list[str]:
     """Where the inertia-only residual concentrates, with its figure."""
     loc = res.traces[0].localisation
@@ -242,11 +232,11 @@ def _localisation_md(res: RideResult, figures: Mapping[str, str]) -> list[str]:
         md.append("Correlation of that residual with: " + ", ".join(
             f"{k} {v:+.2f}" for k, v in loc["correlations"].items()) + ".")
     for tr in res.traces:        # the held-out ride's RMS: the verdict's errors
-        rms = ("RMS as in the verdict's held-out errors, augmented" if not tr.in_sample else
+        said = ("RMS as in the verdict's held-out errors, augmented" if not tr.in_sample else
                f"RMS of the fit itself, not held out: inertia-only "
-               f"{_rms(tr.nominal):.0f} {tr.unit}, augmented {_rms(tr.augmented):.0f}")
-        md.append(f"- {tr.label} ({'in sample' if tr.in_sample else 'held out'}): {rms}, of which the "
-                  f"{SLOW_S:.0f} s moving mean (slow: hills, wind) {_rms(tr.slow()):.0f} {tr.unit}.")
+               f"{rms(tr.nominal):.0f} {tr.unit}, augmented {rms(tr.augmented):.0f}")
+        md.append(f"- {tr.label} ({'in sample' if tr.in_sample else 'held out'}): {said}, of which the "
+                  f"{SLOW_S:.0f} s moving mean (slow: hills, wind) {rms(tr.slow()):.0f} {tr.unit}.")
     if "residuals" in figures:
         md += ["", f"![residual over time]({figures['residuals']})", ""]
     return md
@@ -268,7 +258,7 @@ def falls_sentence(falls: list, scored_rows: int, clock=None) -> str | None:
     return f"the simulated rider fell {said}; the profile was not ridden again, and {tail}"
 
 
-def bands_cell(bands: Mapping | None) -> str:
+def bands_cell(bands: Mapping[str, BandRatio] | None) -> str:
     """A step's ``heldout_bands`` in a cell: battery power's band RMS ratio in dB with its fastest
     and slowest band, then phase current's and pitch's where scored; '–' without any."""
     if not bands:
@@ -277,8 +267,8 @@ def bands_cell(bands: Mapping | None) -> str:
     for key, label in (("P_W", "P"), ("I_phase_A", "I"), ("pitch_rad", "pitch")):
         b = bands.get(key)
         if b is not None:
-            out.append(f"{label} {b['rms_dB']:.1f} dB" + (f" ({b['ratio_dB'][0]:+.0f} … {b['ratio_dB'][-1]:+.0f})"
-                                                         if key == "P_W" else ""))
+            out.append(f"{label} {b.rms_dB:.1f} dB" + (f" ({b.ratio_dB[0]:+.0f} … {b.ratio_dB[-1]:+.0f})"
+                                                     if key == "P_W" else ""))
     return "; ".join(out) or "–"
 
 
@@ -286,45 +276,43 @@ def bands_cell(bands: Mapping | None) -> str:
 SWAY_DB = 6.0
 
 
-def sway_sentence(ran: list) -> str | None:
+def sway_sentence(ran: Sequence[StepScore]) -> str | None:
     """What the last step's fastest battery-power band says of the rider's sway, or None.
 
-    ``ran``: the steps that ran (the simulation's ``steps``).  Said when that band (~2 Hz) is more
-    than :data:`SWAY_DB` from the log's: the simulated rider sways less (or more) than the
-    logged one, which an RMS error does not show.
+    ``ran``: the steps that ran.  Said when that band (~2 Hz) is more than :data:`SWAY_DB` from
+    the log's: the simulated rider sways less (or more) than the logged one, which an RMS error
+    does not show.
     """
-    last = ran[-1] if ran else None
-    b = ((last or {}).get("heldout_bands") or {}).get("P_W")
-    if b is None or abs(b["ratio_dB"][0]) <= SWAY_DB:
+    b = (ran[-1].heldout_bands or {}).get("P_W") if ran else None
+    if b is None or abs(b.ratio_dB[0]) <= SWAY_DB:
         return None
-    r = b["ratio_dB"][0]
+    r, name = b.ratio_dB[0], ran[-1].step.name
     times = 10 ** (abs(r) / 20)
     if r < 0:
-        return (f"In the last step ({last['step']}) the battery power's fastest band (~2 Hz) swings "
+        return (f"In the last step ({name}) the battery power's fastest band (~2 Hz) swings "
                 f"{times:.1f}× less than the log's ({r:+.0f} dB): the logged rider's own sway is "
                 f"missing from the simulated one (`--calibrate-rider` fits his delay, bandwidth and "
                 f"motor noise); the RMS error favours leaving it out, since a sway drawn "
                 f"independently of the logged one adds to it.")
-    return (f"In the last step ({last['step']}) the battery power's fastest band (~2 Hz) swings "
+    return (f"In the last step ({name}) the battery power's fastest band (~2 Hz) swings "
             f"{times:.1f}× more than the log's ({r:+.0f} dB): the simulated rider sways more than "
             f"the logged one.")
 
 
-def _step_row(st: dict, balance, clock=None) -> str:
+def _step_row(st: StepScore, clock=None) -> str:
     """One row of the steps' table: what the step adds, its held-out errors and its fall (when:
     the simulated ride's ``clock``)."""
-    if not st["ran"]:
-        return f"| {st['step']} | not run: {st['why']} |" + " – |" * 9
-    h = st["heldout_rmse"]
+    step, h, ratio = st.step, st.heldout_rmse, st.ratio_to_balance
+    if step.why is not None:
+        return f"| {step.name} | not run: {step.why} |" + " – |" * 9
 
     def cell(key, fmt, unit, scale=1.0):
         return f"{h[key] * scale:{fmt}} {unit}" if key in h else "–"
 
-    ratio = st.get("ratio_to_balance")
-    rc = "–" if ratio is None else (f"**{ratio:.2f}**" if ratio <= st["target_ratio"] else f"{ratio:.2f}")
-    fell = "–" if not st.get("fell") else when(clock, st["fell"]["t"])
-    bands = bands_cell(st.get("heldout_bands"))
-    return (f"| {st['step']} | {st['what']} | {cell('P_W', '.0f', 'W')} | {rc} | {bands} | "
+    rc = "–" if ratio is None else (f"**{ratio:.2f}**" if ratio <= TARGET_RATIO else f"{ratio:.2f}")
+    fell = "–" if not st.fell else when(clock, st.fell["t"])
+    bands = bands_cell(st.heldout_bands)
+    return (f"| {step.name} | {step.what} | {cell('P_W', '.0f', 'W')} | {rc} | {bands} | "
             f"{cell('I_phase_A', '.1f', 'A')} | {cell('pitch_rad', '.2f', '°', float(np.degrees(1.0)))} | "
             f"{cell('pwm_pct', '.1f', '%')} | {cell('M_Nm', '.1f', 'N·m')} | {cell('v_mps', '.2f', 'm/s')} "
             f"| {fell} |")
@@ -335,10 +323,7 @@ def _simulation_md(res: RideResult, figures: Mapping[str, str]) -> list[str]:
     sim, an = res.simulation, res.balance
     md = ["## Simulation against the ride", ""]
     if sim is not None:
-        e, steps = simulation_errors_json(sim), [step_score_json(s) for s in sim.steps]
         balance = an.cross.heldout_augmented if an.error_unit == "W" else None
-
-        target = steps[0]["target_ratio"] if steps else TARGET_RATIO
         md += [f"The simulator's rider rode the logged speed profile of **{sim.label}** "
                f"(MuJoCo, 1 kHz) once per modelled step, each step adding one piece to the one "
                f"before; its motor torque gave the battery power through the fitted drivetrain, "
@@ -352,24 +337,24 @@ def _simulation_md(res: RideResult, figures: Mapping[str, str]) -> list[str]:
                f"and the fastest and slowest band's ratio (0 dB: the log's level and spectrum, "
                f"+6 dB twice its swing); unlike the RMS error it does not count a noise drawn "
                f"independently of the log's as an error"
-               + (f"; a step meets the target when its error is within {target:g}× the balance fit's "
+               + (f"; a step meets the target when its error is within {TARGET_RATIO:g}× the balance fit's "
                   f"held-out battery-power error (the verdict's augmented one; bold)" if balance else "")
                + ":", "",
                "| step | what it adds | battery power RMS | × balance fit | bands, dB (P: fast … slow) "
                "| phase current RMS | pitch RMS | PWM RMS | torque RMS | speed RMS | fell |",
                "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
         clock = clock_of(res, sim.label)
-        md += [_step_row(st, balance, clock) for st in steps]
+        md += [_step_row(st, clock) for st in sim.steps]
         inj = (", ".join(sim.effects) + " at their estimates above") if sim.effects else "none"
-        md += ["", f"Last / first step battery-power error: **{e['ratio_P']:.2f}** "
+        md += ["", f"Last / first step battery-power error: **{sim.ratio_P:.2f}** "
                f"(effects injected as physics in the last step: {inj}). The torque column scores "
-               f"against a logged torque from {torque_words(e['M_log_method'], an.assumptions.efficiency)}.", ""]
-        sway = sway_sentence([st for st in steps if st["ran"]])
+               f"against a logged torque from {torque_words(sim.torque_method, an.assumptions.efficiency)}.", ""]
+        sway = sway_sentence([st for st in sim.steps if st.step.why is None])
         if sway:
             md += [sway, ""]
         windows = sim.localisation.get("windows", [])
         if windows:
-            md.append(f"Windows where the last step's ({steps[-1]['step'] if steps else 'augmented'}) "
+            md.append(f"Windows where the last step's ({sim.steps[-1].step.name if sim.steps else 'augmented'}) "
                       f"power error concentrates, {spans_legend(clock)}: "
                       + ", ".join(span_at(clock, a, b) for a, b in windows) + ".")
         fell = falls_sentence(sim.falls, sim.scored_rows, clock)

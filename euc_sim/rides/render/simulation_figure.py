@@ -1,11 +1,7 @@
 """The figure of a simulated ride (``ride_simulation.png``): where the modelled steps part.
 
-A ride is minutes long and the steps' simulations overlap nearly everywhere, so the
-figure shows the whole ride once (speed), then a zoomed window where the first and
-last steps differ most (battery power, and phase current, pitch and PWM where the
-log has them), and each step's battery-power error over time as a moving RMS.  :func:`ride_simulation_figure` builds it from a
-:class:`euc_sim.rides.sim.simulate.RideSimulation`; :func:`zoom_window` picks the window;
-:func:`plot_ride_simulation` writes it.
+The whole ride's speed once, then a zoomed window where the first and last steps differ most
+(:func:`zoom_window`), and each step's battery-power error as a moving RMS.
 """
 
 from __future__ import annotations

@@ -14,21 +14,22 @@ from typing import Mapping
 
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
-from euc_sim.rides.render.contract import effect_entries, error_measure, simulation_errors_json, step_score_json
+from euc_sim.rides.render.contract import effect_entries, error_measure
 from euc_sim.rides.render.page import falls_sentence
 from euc_sim.rides.render.page_html import key_figure_lines
 from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend
 from euc_sim.rides.result import RideResult
+from euc_sim.rides.sim.sim_steps import TARGET_RATIO
+from euc_sim.rides.sim.simulate import StepScore
 
 __all__ = ["summary_lines", "history_lines"]
 
 
-def _step_line(st: Mapping) -> str:
+def _step_line(st: StepScore) -> str:
     """One step's held-out battery-power error and its ratio to the balance fit's."""
-    p = st["heldout_rmse"].get("P_W")
-    r = st.get("ratio_to_balance")
+    p, r = st.heldout_rmse.get("P_W"), st.ratio_to_balance
     return (f"battery-power RMS {p:.0f} W" if p is not None else "no battery-power error") + \
-        (f", {r:.2f}x the balance fit's held-out error (target {st['target_ratio']:g}x)" if r else "")
+        (f", {r:.2f}x the balance fit's held-out error (target {TARGET_RATIO:g}x)" if r else "")
 
 
 def _mass_lines(res: RideResult) -> list[str]:
@@ -86,12 +87,13 @@ def _simulation_lines(res: RideResult) -> list[str]:
     sim = res.simulation
     if sim is None:
         return [f"  simulated replay: {res.simulation_why or 'not run'}"]
-    e, lines = simulation_errors_json(sim), []
+    lines = []
     if sim.scored_rows:
-        lines.append(f"  simulation along {sim.label}: battery-power RMS nominal {e['nominal']['P_W']:.0f} W, "
-                     f"augmented {e['augmented']['P_W']:.0f} W (ratio {e['ratio_P']:.2f})")
-        lines += [f"    step {st['step']}: " + (_step_line(st) if st["ran"] else f"not run ({st['why']})")
-                  for st in map(step_score_json, sim.steps)]
+        first, last = sim.errors[sim.ran[0]]["P_W"], sim.errors[sim.ran[-1]]["P_W"]
+        lines.append(f"  simulation along {sim.label}: battery-power RMS nominal {first:.0f} W, "
+                     f"augmented {last:.0f} W (ratio {sim.ratio_P:.2f})")
+        lines += [f"    step {st.step.name}: " + (_step_line(st) if st.step.why is None else f"not run ({st.step.why})")
+                  for st in sim.steps]
     fell = falls_sentence(sim.falls, sim.scored_rows, clock_of(res, sim.label))
     if fell:
         lines.append(f"  simulation along {sim.label}: {fell}")
