@@ -197,7 +197,7 @@ def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
     dist, source, follows = (gps, "gps", gps_follows) if gps is not None else (wheel, "wheel", wheel_follows)
     # energy is integrated over the bridged intervals only: so is the distance it is divided by
     covered_dist = covered * (dist / wheel if wheel > 0 else 1.0)
-    integral_m = _wheel_distance(t, v) + _gap_distance(d)[0]
+    integral_m = _wheel_distance(t, v) + _gap_distance(d)
     if gps_why:
         why["distance_gps_m"] = gps_why
     drawn = regen = None
