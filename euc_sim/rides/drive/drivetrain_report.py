@@ -29,7 +29,7 @@ from euc_sim.rides.source.systematic import MassDifference, mass_difference
 from euc_sim.stats import rms
 
 __all__ = ["RideDrivetrain", "MassDrivetrain", "analyse", "mass_drivetrain", "ride_drivetrain",
-           "reported_mass", "reported_terms", "duty_model_of", "cutout_of", "COMPUTED_PWM_RMS", "computed_pwm_note"]
+           "reported_mass", "reported_terms", "cutout_of", "computed_pwm_note"]
 
 #: A logged duty that its model explains better than this, percentage points, is
 #: taken to be computed by the app from speed and voltage, not measured.
