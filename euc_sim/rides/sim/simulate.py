@@ -197,13 +197,9 @@ def _ride_step(job: _StepJob, cancel=None, pool=None) -> _StepRun:
     return _StepRun(res.falls, res.notes, cols, raw)
 
 
-def _say_prefixed(progress: Callable[[str], None], prefix: str, msg: str) -> None:
-    progress(f"{prefix}: {msg}")
-
-
 def _prefixed(progress, name: str):
     """``progress`` with the run's name in front, or None."""
-    return None if progress is None else partial(_say_prefixed, progress, name)
+    return None if progress is None else (lambda msg: progress(f"{name}: {msg}"))
 
 
 def _run_steps(jobs: Sequence[_StepJob], params: Params, workers: int,
