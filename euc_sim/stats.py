@@ -25,7 +25,7 @@ except ImportError:
 __all__ = ["gram_lstsq", "gram_lstsq_many", "one_blas_thread",
            "label_grams", "time_blocks", "span_blocks", "interleaved_folds", "forward_select", "percentile_interval",
            "basic_interval", "block_bootstrap_indices", "wild_block_signs", "blocks_by_length", "block_labels", "label_rows",
-           "draw_blocks", "distinct", "moving_block_starts", "jackknife_interval"]
+           "draw_blocks", "distinct", "moving_block_starts", "jackknife_interval", "rms"]
 
 
 def gram_lstsq(G: np.ndarray, cols=None) -> tuple[np.ndarray, float]:
@@ -123,6 +123,13 @@ def interleaved_folds(t: np.ndarray, n_folds: int, block: float,
         near[order] = np.minimum(left, right) <= guard
         folds.append((np.flatnonzero(~test_mask & ~near), test))
     return folds
+
+
+def rms(x) -> float:
+    """Root mean square of the finite values of ``x``; NaN when there are none."""
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x ** 2))) if x.size else float("nan")
 
 
 def distinct(a) -> np.ndarray:

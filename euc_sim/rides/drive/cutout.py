@@ -1,15 +1,7 @@
-"""The wheel's own limits and the speed at which its motor runs out of voltage (the cut-out).
+"""The wheel's speed limit and the speed at which its motor runs out of voltage (the cut-out).
 
-A wheel tilts its rider back at its speed limit (set in the wheel; EUC World logs it as
-``speed_limit``, else the maker's top speed stands for it).  It cuts out, unwarned,
-where the duty (PWM) its controller needs reaches 100 %: there is no voltage left
-to push the rider back up.  This module says, for a few riding conditions, at which
-speed that happens against the battery's charge, from the ride's fitted drivetrain
-(:mod:`euc_sim.rides.drive.drivetrain`, :mod:`euc_sim.rides.drive.pwm`) and energy
-balance (:mod:`euc_sim.rides.drive.mass`).
-
-Model, at the wheel's speed reading ``v`` (what the app shows and the tilt-back uses;
-the ground speed is ``s·v``, ``s`` the speedometer's scale)::
+The cut-out is the lowest speed reading ``v`` where the fitted duty reaches 1 (:func:`limit_speed`);
+the envelope (:func:`envelope`) uses the same model.  With ground speed ``s·v``::
 
     F     = m_eq·a + m·g·sin(atan(grade)) + c₁ + c₃·(s·v)²     road, slope and inertia, N
     P     = F·s·v + P₀ + copper loss                          battery power, W
@@ -17,12 +9,8 @@ the ground speed is ``s·v``, ``s`` the speedometer's scale)::
     V_t   = (V_ocv + sqrt(V_ocv² − 4·R_int·P)) / 2            terminal voltage: V_t·(V_ocv − V_t)/R_int = P
     d     = (e(v) + r_F·P/v) / V_t + c_dt                      the fitted duty model, e the back-EMF
 
-The cut-out speed is the lowest speed with ``d = 1`` (:func:`limit_speed`, any other duty
-alike); where the battery cannot give ``P`` at all (``V_ocv² < 4·R_int·P``) the duty is taken
-as above 1.  The page's envelope (:func:`envelope`: the steady duty and the acceleration left
-against speed at full and empty charge) is the same model, so it ends where the chart does.
-The model is the fit's own: ``r_F`` multiplies ``P/v`` as in :func:`~euc_sim.rides.drive.drivetrain.fit_pwm`,
-so the losses and the sag stay in; it is fitted, and said, from 2 m/s up.
+Where ``V_ocv² < 4·R_int·P`` the duty is taken as above 1; below 2 m/s (the fit's range) it is NaN.
+See docs/cutout.md.
 """
 
 from __future__ import annotations
@@ -34,6 +22,7 @@ import numpy as np
 
 from euc_sim.rides.drive.drivetrain import _pwm_rows, fit_pwm, predict_pwm
 from euc_sim.rides.drive.pwm import back_emf
+from euc_sim.stats import rms
 
 __all__ = ["Limits", "ride_limits", "OcvLine", "ocv_line", "Condition", "CONDITIONS", "DutyModel",
            "duty_model", "duty", "limit_speed", "full_duty_accel", "Curve",
@@ -259,11 +248,8 @@ def duty(m: DutyModel, v, volts: float, accel=0.0, grade=0.0) -> np.ndarray:
     """The duty, 1 = 100 %, riding at reading ``v`` (m/s) on a pack of open-circuit ``volts`` (V),
     accelerating at ``accel`` (m/s²) up ``grade`` (rise over run).
 
-    The battery power ``P`` (road, slope, inertia and losses) sags the terminal voltage,
-    ``V_t·(volts − V_t) = R_int·P``; the duty is the fitted model's volts over it,
-    ``(e(v) + r_F·P/v)/V_t + c_dt``.  ``inf`` where the battery cannot give ``P`` at all;
-    NaN below :data:`SPEED_RANGE`'s slowest speed, where the model is not fitted (``P/v``
-    stands for the wheel's force only when moving).
+    The model of the module docstring: ``inf`` where the battery cannot give ``P``; NaN below
+    :data:`SPEED_RANGE`'s slowest speed.
     """
     v = np.asarray(v, float)
     P = _power(m, v, accel, grade)
@@ -274,15 +260,15 @@ def duty(m: DutyModel, v, volts: float, accel=0.0, grade=0.0) -> np.ndarray:
     return np.where(v < SPEED_RANGE[0], np.nan, np.where(disc >= 0.0, d, np.inf))
 
 
-def limit_speed(m: DutyModel, volts: float, c: Condition, fraction: float = 1.0, speeds=SPEED_RANGE,
-                n: int = 233) -> float:
+def limit_speed(m: DutyModel, volts: float, c: Condition, fraction: float = 1.0, n: int = 233) -> float:
     """The lowest speed reading, m/s, at which the duty reaches ``fraction`` (1: the cut-out) on a pack
-    of open-circuit ``volts`` (V) in condition ``c``: the first of ``n`` ``speeds`` (m/s) past it, then
-    :func:`scipy.optimize.brentq`.  0 when reached at the slowest speed searched; NaN when not before the fastest.
+    of open-circuit ``volts`` (V) in condition ``c``: the first of ``n`` speeds in :data:`SPEED_RANGE`
+    past it, then :func:`scipy.optimize.brentq`.  0 when reached at the slowest speed; NaN when not
+    before the fastest.
     """
     from scipy.optimize import brentq
 
-    grid = np.linspace(speeds[0], speeds[1], n)
+    grid = np.linspace(*SPEED_RANGE, n)
     over = duty(m, grid, volts, c.accel, c.grade) >= fraction
     if over[0]:
         return 0.0
@@ -365,11 +351,10 @@ class Cutout:
     why: str | None = None
 
 
-def cutout_curves(m: DutyModel, limits: Limits, heldout: float | None = None,
-                  conditions=CONDITIONS, charge=CHARGE_GRID) -> Cutout:
+def cutout_curves(m: DutyModel, limits: Limits, heldout: float | None = None, charge=CHARGE_GRID) -> Cutout:
     """Every condition's cut-out speed at every charge, and the danger they make with the limit."""
     curves = tuple(Curve(c, np.asarray(charge, float), np.array([limit_speed(m, float(m.ocv(q)), c) for q in charge]))
-                   for c in conditions)
+                   for c in CONDITIONS)
     return Cutout(curves, heldout, danger_sentence(curves, limits, m.ocv.charge_range), m.ocv.source,
                   m.ocv.charge_range)
 
@@ -431,10 +416,7 @@ class Envelope:
 
 def envelope(m: DutyModel, ride_top_speed: float, n: int = 61) -> Envelope:
     """The :class:`Envelope` of the duty model ``m`` on ``n`` speeds from 0 to 10 % past the full charge's
-    ``v_limit`` (to twice ``ride_top_speed``, m/s, where there is none).
-
-    The model is :func:`duty`'s, the cut-out chart's: its ``v_limit`` at full charge is the chart's
-    level speed at 100 %.  Below :data:`SPEED_RANGE`'s slowest speed the values are NaN.
+    ``v_limit`` (to twice ``ride_top_speed``, m/s, where there is none); NaN below :data:`SPEED_RANGE`.
     """
     cut = {q: limit_speed(m, float(m.ocv(q)), CONDITIONS[0]) for q in (100.0, 0.0)}
     speed = np.linspace(0.0, 1.1 * cut[100.0] if cut[100.0] > 0 else 2.0 * ride_top_speed, n)
@@ -503,7 +485,7 @@ def headroom_words(speed_kmh: float, limits: Limits, cutout_kmh: float | None) -
     return f"at or past {name} ({top:.0f} km/h)" if gap < 0.5 else f"{gap:.0f} km/h under {name} ({top:.0f} km/h)"
 
 
-def heldout_pwm_rmse(sig, n_boot: int = 0) -> float | None:
+def heldout_pwm_rmse(sig) -> float | None:
     """The duty model fitted on the ride's first half, its RMS error on the second, percentage points.
 
     The halves split the rows the duty model uses at their middle time.  None when either
@@ -516,9 +498,9 @@ def heldout_pwm_rmse(sig, n_boot: int = 0) -> float | None:
     pwm = sig.extra["pwm"]
     first = replace(sig, extra={**sig.extra, "pwm": np.where(sig.t < mid, pwm, np.nan)})
     second = replace(sig, extra={**sig.extra, "pwm": np.where(sig.t >= mid, pwm, np.nan)})
-    coef, _ = fit_pwm(first, n_boot=n_boot)
+    coef, _ = fit_pwm(first, n_boot=0)
     pred, obs = predict_pwm(second, coef)
-    return float(np.sqrt(np.mean((pred - obs) ** 2))) if pred.size else None
+    return rms(pred - obs) if pred.size else None
 
 
 def duty_model(dt, mass, ocv: OcvLine) -> DutyModel:

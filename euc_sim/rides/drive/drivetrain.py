@@ -1,32 +1,14 @@
 """The drivetrain between the road and the battery: battery, motor, controller, PWM.
 
-The paper's model ends at the wheel's torque.  A real wheel's limit is
-electrical: the controller can apply at most the battery's voltage to the motor.
+Battery (Thevenin, no RC branch) and motor under PWM::
 
-Battery (Thevenin model, one RC-free branch)::
+    V   = E₀ − k_Q·Q − R_int·I          Q = ∫I dt, Ah (coulomb counting)
+    d·V = K_v·v + r_F·F                 K_v = K_e/R, V per m/s; F = P/v, N
 
-    V = E₀ − k_Q·Q − R_int·I                       (V)
-
-with ``Q = ∫I dt`` the charge drawn since the start, Ah (coulomb counting from
-the log), ``E₀`` the open-circuit voltage at the start, ``k_Q`` its fall per
-ampere-hour and ``R_int`` the internal resistance (voltage sag under current).
-
-Motor and controller (permanent-magnet motor under PWM)::
-
-    d·V = K_v·v + r_F·F          (volts the controller applies)
-
-``d`` the duty (PWM, 0–1), ``K_v·v`` the back-EMF (``K_v = K_e/R``, V per m/s,
-``K_e`` the back-EMF constant, R the wheel radius) and ``r_F·F`` the resistive
-drop ``R_w·I_ph`` with the phase current proportional to the wheel's force
-``F = K_t·I_ph/R``, here taken from battery power, ``F = P/v`` (N).  Where the log
-has the phase current the winding resistance is fitted directly,
-``d·V = K_v·v + R_w·I_ph``.  At ``d = 1`` nothing is left for more torque: a rider
-who asks for more falls (a cut-out; where, against speed and charge:
-:mod:`euc_sim.rides.drive.cutout`).
-
-Each fit is linear least squares on the 1 s Savitzky–Golay-filtered signals of
-:func:`euc_sim.rides.grids.power.power_signals`, with a moving-block bootstrap 95 %
-interval (30 s blocks).
+``d`` the duty (0–1); with a logged phase current ``d·V = K_v·v + R_w·I_ph``.  At ``d = 1``
+no torque is left (the cut-out: :mod:`euc_sim.rides.drive.cutout`).  Each fit is least squares
+on :func:`euc_sim.rides.grids.power.power_signals` with a moving-block bootstrap 95 % interval
+(30 s blocks).  See docs/drivetrain.md.
 """
 
 from __future__ import annotations

@@ -26,9 +26,10 @@ from euc_sim.rides.source.ride import Ride
 from euc_sim.rides.source.sanity import input_warnings, mass_suspicion
 from euc_sim.rides.source.spec import WheelSpec
 from euc_sim.rides.source.systematic import MassDifference, mass_difference
+from euc_sim.stats import rms
 
 __all__ = ["RideDrivetrain", "MassDrivetrain", "analyse", "mass_drivetrain", "ride_drivetrain",
-           "reported_mass", "reported_terms", "duty_model_of", "cutout_of", "COMPUTED_PWM_RMS", "computed_pwm_note"]
+           "reported_mass", "reported_terms", "cutout_of", "computed_pwm_note"]
 
 #: A logged duty that its model explains better than this, percentage points, is
 #: taken to be computed by the app from speed and voltage, not measured.
@@ -60,18 +61,14 @@ def analyse(log: Ride, spec: WheelSpec = WheelSpec(), settings: MassSettings = M
     return RideDrivetrain(log.path, sig, without_rotating_inertia(m_eq, spec.wheel_mass), dt, spec, grade)
 
 
-def _rms(x: np.ndarray) -> float:
-    return float(np.sqrt(np.mean(np.square(x)))) if x.size else float("nan")
-
-
 def computed_pwm_note(r: RideDrivetrain) -> str | None:
     """Why the logged duty of ``r`` is taken as computed by the app, or None if measured."""
     if r.drivetrain.pwm_coef is None:
         return None
     pred, obs = predict_pwm(r.sig, r.drivetrain.pwm_coef)
-    rms = _rms(pred - obs)
-    if rms < COMPUTED_PWM_RMS:
-        return (f"the logged duty follows speed and voltage to {rms:.2f} percentage points: "
+    err = rms(pred - obs)
+    if err < COMPUTED_PWM_RMS:
+        return (f"the logged duty follows speed and voltage to {err:.2f} percentage points: "
                 f"the app computes it, it is not measured; the resistive drop is not identified")
     return None
 
@@ -216,10 +213,10 @@ def mass_drivetrain(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
     test = analyse(compare, spec, settings)
     pred, obs = predict_power(test.sig, r.mass)
     out.update(test=test, mass_difference=mass_difference(r.mass, test.mass),
-               power_heldout=(_rms(pred - obs), _rms(obs)))
+               power_heldout=(rms(pred - obs), rms(obs)))
     if r.drivetrain.pwm_coef is not None and "pwm" in test.sig.extra:
         pp, po = predict_pwm(test.sig, r.drivetrain.pwm_coef)
-        out["pwm_heldout"] = _rms(pp - po)
+        out["pwm_heldout"] = rms(pp - po)
     else:
         out["pwm_why"] = "no PWM or safety-margin column in " + (compare.name if r.drivetrain.pwm_coef else log.name)
     return MassDrivetrain(**out)

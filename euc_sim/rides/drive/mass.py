@@ -192,9 +192,7 @@ def heldout_rmse(X: np.ndarray, y: np.ndarray, t: np.ndarray, signed: bool,
     err = np.empty_like(y)
     for b in range(n_blocks):
         test = label == b
-        beta = _solve(X[~test], y[~test], signed)
-        pred = X[test] @ beta
-        err[test] = y[test] - (pred if signed else np.abs(pred))
+        err[test] = y[test] - np.abs(X[test] @ _solve(X[~test], y[~test], signed))
     return float(np.sqrt(np.mean(err ** 2)))
 
 

@@ -86,8 +86,7 @@ def _target(rows: LawRows) -> np.ndarray:
 
 
 def _lstsq(X: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Least-squares β of y ≈ X·β (LAPACK's pivoted QR, ``gelsy``: a fit of a few columns on
-    thousands of rows runs some 10⁴ times per ride, and the SVD driver took 4× as long)."""
+    """Least-squares β of y ≈ X·β by LAPACK's pivoted QR (``gelsy``, faster than the SVD driver)."""
     return scipy.linalg.lstsq(X, y, lapack_driver="gelsy", check_finite=False)[0]
 
 

@@ -190,7 +190,7 @@ def ride_entry(path, pack=None, n_boot: int = 100, seed: int = 0) -> RideEntry:
     vf = volt[np.isfinite(volt) & (volt > 0)]
     series = series_cells(float(vf.max()), float(np.quantile(vf, 0.01))) if vf.size else ()
     return RideEntry(path=str(path), start=log.start.isoformat(), layout=log.layout,
-                     summary=summary, battery=bh, model=log.counters.wheel_model,
+                     summary=summary, battery=bh, model=counters.wheel_model,
                      series=series, temperature_C=temp, temperature_source=tsrc,
                      full_charge_V=full_charge(log), repairs=tuple(log.repairs), utc_offset_s=log.utc_offset_s)
 
@@ -263,10 +263,9 @@ def _slope(x, y) -> tuple[float | None, tuple | None]:
     if x.size < 3 or np.ptp(x) <= 0:
         return None, None
     X = np.column_stack([np.ones_like(x), x])
-    beta, res, *_ = np.linalg.lstsq(X, y, rcond=None)
+    beta, *_ = np.linalg.lstsq(X, y, rcond=None)
     dof = x.size - 2
-    s2 = float(np.sum((y - X @ beta) ** 2) / dof) if dof > 0 else float("nan")
-    se = math.sqrt(s2 / np.sum((x - x.mean()) ** 2)) if dof > 0 else float("nan")
+    se = math.sqrt(float(np.sum((y - X @ beta) ** 2) / dof) / np.sum((x - x.mean()) ** 2))
     if not math.isfinite(se):
         return float(beta[1]), None
     h = float(student.ppf(0.975, dof)) * se

@@ -26,6 +26,7 @@ import pandas as pd
 
 from euc_sim.diagnosis.localise import Localisation, localise
 from euc_sim.errors import InputError
+from euc_sim.stats import rms
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.grids.profile import rider_plan, speed_profile
 from euc_sim.rides.grids.law_signals import MAX_PITCH, V_MIN
@@ -160,12 +161,6 @@ class RideSimulation:
         return int(_pitch_rows(self.table, self.table["scored"].to_numpy()).sum())
 
 
-def _rms(x: np.ndarray) -> float:
-    x = np.asarray(x, float)
-    x = x[np.isfinite(x)]
-    return float(np.sqrt(np.mean(x ** 2))) if x.size else float("nan")
-
-
 @dataclass(frozen=True)
 class _StepRun:
     """One step ridden and read onto the log's grid (the 1 kHz frame dropped)."""
@@ -202,13 +197,9 @@ def _ride_step(job: _StepJob, cancel=None, pool=None) -> _StepRun:
     return _StepRun(res.falls, res.notes, cols, raw)
 
 
-def _say_prefixed(progress: Callable[[str], None], prefix: str, msg: str) -> None:
-    progress(f"{prefix}: {msg}")
-
-
 def _prefixed(progress, name: str):
     """``progress`` with the run's name in front, or None."""
-    return None if progress is None else partial(_say_prefixed, progress, name)
+    return None if progress is None else (lambda msg: progress(f"{name}: {msg}"))
 
 
 def _run_steps(jobs: Sequence[_StepJob], params: Params, workers: int,
@@ -254,7 +245,7 @@ def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict[s
     errors = {}
     rows = {col: ok for col in CHANNELS} | {"pitch": _pitch_rows(table, ok)}
     for name in names:
-        errors[name] = {key: _rms((table[f"{col}_log"] - table[f"{col}_{name}"])[rows[col]])
+        errors[name] = {key: rms((table[f"{col}_log"] - table[f"{col}_{name}"])[rows[col]])
                         for col, (key, _, _) in CHANNELS.items()
                         if f"{col}_log" in table and f"{col}_{name}" in table}
     return errors

@@ -48,13 +48,13 @@ def _wheel_distance(t: np.ndarray, v: np.ndarray) -> float:
     return float(seg[ok].sum())
 
 
-def _gap_distance(d: pd.DataFrame) -> tuple[float, float]:
-    """Distance the log's counter adds over the intervals not bridged, m, and their total time, s."""
-    dt, ok = _steps(d["t"].to_numpy(float))
+def _gap_distance(d: pd.DataFrame) -> float:
+    """Distance the log's counter adds over the intervals not bridged, m."""
+    ok = _steps(d["t"].to_numpy(float))[1]
     inc = _counter_steps(d)[0]
     if inc is None or ok.all():
-        return 0.0, float(dt[~ok].sum())
-    return float(np.nansum(inc[~ok])), float(dt[~ok].sum())
+        return 0.0
+    return float(np.nansum(inc[~ok]))
 
 
 def _gps_distance(d: pd.DataFrame, w: np.ndarray) -> tuple[float | None, str | None]:

@@ -92,10 +92,6 @@ class RideSummary:
     duration_follows: str = ""
 
 
-# --------------------------------------------------------------------------------------
-# --------------------------------------------------------------------------------------
-
-
 def _gaps(t: np.ndarray, limit: float) -> Gaps:
     """The intervals of ``t`` longer than ``limit``, s."""
     dt = np.diff(t)
@@ -192,12 +188,11 @@ def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
     if _near(c.moving_s, moving_own):                       # the app's riding clock
         moving_s = float(c.moving_s)
         duration_follows = duration_follows.replace("trip clock", "trip and riding clocks")
-    layout = log.layout
-    wheel, covered, gps, gps_why, wheel_follows, gps_follows = _distance(d, layout)
+    wheel, covered, gps, gps_why, wheel_follows, gps_follows = _distance(d, log.layout)
     dist, source, follows = (gps, "gps", gps_follows) if gps is not None else (wheel, "wheel", wheel_follows)
     # energy is integrated over the bridged intervals only: so is the distance it is divided by
     covered_dist = covered * (dist / wheel if wheel > 0 else 1.0)
-    integral_m = _wheel_distance(t, v) + _gap_distance(d)[0]
+    integral_m = _wheel_distance(t, v) + _gap_distance(d)
     if gps_why:
         why["distance_gps_m"] = gps_why
     drawn = regen = None
@@ -239,7 +234,6 @@ def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
         distance_follows=follows, duration_follows=duration_follows)
 
 
-# --------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class MassCheck:
     """The log's total mass against the rider's declared weight plus the wheel's (kg).
@@ -271,16 +265,17 @@ def mass_check(total_mass, rider_kg: float | None, wheel_kg: float | None) -> Ma
     base = dict(declared_rider_kg=rider_kg, wheel_kg=wheel_kg, declared_total_kg=declared,
                 log_total_kg=est, log_ci95=tuple(ci) if ci else None)
     if rider_kg is None:
-        return MassCheck(**base, difference_kg=None, difference_ci95=None, verdict="cannot tell",
-                         sentence="No rider weight declared (--rider-weight KG).")
-    if wheel_kg is None:
-        return MassCheck(**base, difference_kg=None, difference_ci95=None, verdict="cannot tell",
-                         sentence="The wheel's weight is unknown (--wheel SPEC.csv or --wheel-mass): "
-                                  "the declared weight cannot be checked.")
-    if est is None or not ci:
-        return MassCheck(**base, difference_kg=None, difference_ci95=None, verdict="cannot tell",
-                         sentence=f"The log does not give the total mass ({total_mass.why if est is None else 'not identified'}); "
-                                  f"the declared {rider_kg:.0f} kg is not checked.")
+        why = "No rider weight declared (--rider-weight KG)."
+    elif wheel_kg is None:
+        why = ("The wheel's weight is unknown (--wheel SPEC.csv or --wheel-mass): "
+               "the declared weight cannot be checked.")
+    elif est is None or not ci:
+        why = (f"The log does not give the total mass ({total_mass.why if est is None else 'not identified'}); "
+               f"the declared {rider_kg:.0f} kg is not checked.")
+    else:
+        why = None
+    if why:
+        return MassCheck(**base, difference_kg=None, difference_ci95=None, verdict="cannot tell", sentence=why)
     diff, dci = est - declared, (ci[0] - declared, ci[1] - declared)
     if dci[0] <= 0 <= dci[1]:
         verdict = "consistent"
