@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from euc_sim.stats import basic_interval, interleaved_folds, percentile_interval, span_blocks
+from euc_sim.stats import basic_interval, interleaved_folds, percentile_interval, rms, span_blocks
 
 
 def test_span_blocks_are_contiguous_and_of_equal_duration():
@@ -88,3 +88,8 @@ def test_one_blas_thread_holds_blas_to_one_thread_and_gives_the_pool_back():
     with one_blas_thread():
         assert blas() and set(blas()) == {1}
     assert blas() == before
+
+
+def test_rms_is_over_the_finite_values_and_nan_without_any():
+    assert rms(np.array([3.0, -4.0, np.nan, np.inf])) == pytest.approx(np.sqrt(12.5))
+    assert np.isnan(rms(np.array([np.nan]))) and np.isnan(rms([]))

@@ -13,6 +13,7 @@ from dataclasses import asdict, dataclass, field, fields
 import numpy as np
 
 from euc_sim.io import to_jsonable
+from euc_sim.stats import rms
 
 from euc_sim.rides.balance.design import NOMINAL
 from euc_sim.rides.balance.verdict import unit_label
@@ -23,7 +24,7 @@ from euc_sim.rides.sim.sim_steps import TARGET_RATIO, VOLTAGE_EXTRAS
 
 __all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json",
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
-           "spec_json", "grade_json", "cutout_json", "envelope_json", "simulation_json", "rms", "trace_json",
+           "spec_json", "grade_json", "cutout_json", "envelope_json", "simulation_json", "trace_json",
            "resolution_json", "difference_json", "differences_json", "clock_json", "mass_difference_json", "mass_check_json",
            "error_measure", "limits_json", "summary_json", "battery_json", "history_json",
            "controller_json", "rider_fit_json", "sim_step_json", "step_score_json", "simulation_errors_json",
@@ -109,11 +110,6 @@ def simulation_json(sim) -> dict:
             "windows": loc.get("windows", []), "windows_share": loc.get("share"),
             "correlations": loc.get("correlations", {}), "scored_rows": sim.scored_rows,
             "pitch_scored_rows": sim.pitch_scored_rows, "notes": list(sim.notes)}
-
-
-def rms(x) -> float:
-    """Root mean square of ``x`` (its unit)."""
-    return float(np.sqrt(np.mean(x ** 2)))
 
 
 def trace_json(tr) -> dict:

@@ -17,7 +17,7 @@ from euc_sim.report.figures import Line, plain_values, thin, with_breaks, xy_fig
 from euc_sim.rides.balance.design import CANDIDATES
 from euc_sim.rides.balance.residual import SLOW_S
 from euc_sim.rides.drive.drivetrain import predict_pwm
-from euc_sim.rides.render.contract import rms
+from euc_sim.stats import rms
 
 __all__ = ["balance_figure", "residuals_figure", "residuals_height", "pwm_figure", "write_balance", "MOST_POINTS",
            "BALANCE_HEIGHT", "PWM_HEIGHT"]

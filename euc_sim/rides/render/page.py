@@ -16,7 +16,8 @@ from euc_sim.io import write_text
 from euc_sim.rides.balance.residual import SLOW_S
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.law.controller_report import describe
-from euc_sim.rides.render.contract import effect_entries, error_measure, rms
+from euc_sim.rides.render.contract import effect_entries, error_measure
+from euc_sim.stats import rms
 from euc_sim.rides.render.differences_page import difference_section
 from euc_sim.rides.render.drivetrain_page import page_section
 from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend, when
