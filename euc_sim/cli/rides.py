@@ -99,9 +99,7 @@ def _cmd_rides(args: argparse.Namespace) -> int:
         check_writable(args.json)
     if args.report:
         check_report_folder(args.report, ("index.html",))
-    from euc_sim.rides.render.contract import history_json  # deferred: loads the balance fit (0.3 s)
-
-    hist = history_json(run_rides(paths, pack, args.n_boot, args.seed, args.workers, None if args.quiet else say))
+    hist = run_rides(paths, pack, args.n_boot, args.seed, args.workers, None if args.quiet else say)
     if args.report:
         from euc_sim.report.html import write_page  # deferred: loads plotly (0.05 s)
         from euc_sim.rides.render.history_page import history_page  # deferred: loads scipy, plotly (1.2 s)
@@ -109,7 +107,9 @@ def _cmd_rides(args: argparse.Namespace) -> int:
         title = f"Rides of {pack.name}" if pack and pack.name else "Rides of one wheel"
         write_page(args.report, history_page(hist, title))
     if args.json:
-        write_json(args.json, hist)
+        from euc_sim.rides.render.contract import history_json  # deferred: loads the balance fit (0.3 s)
+
+        write_json(args.json, history_json(hist))
     from euc_sim.rides.render.terminal import history_lines  # deferred: loads pandas, scipy, plotly (1.5 s)
 
     for line in history_lines(hist, verdicts=pack is not None):

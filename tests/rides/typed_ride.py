@@ -41,6 +41,27 @@ def battery(resistance_ohm=None, verdict: str = "cannot tell", **kw) -> BatteryH
     return BatteryHealth(resistance_ohm=resistance_ohm, verdict=verdict, **{**out, **kw})
 
 
+def ride_entry_of(path: str, start: str, utc_offset_s=None, summary_fields=None, health=None, **kw):
+    """A :class:`~euc_sim.rides.logbook.history.RideEntry` of the log ``path`` started at ``start``
+    (ISO): its summary's ``summary_fields`` (:func:`summary`), its ``health`` (:func:`battery`, no
+    resistance by default), no model, no temperature."""
+    from euc_sim.rides.logbook.history import RideEntry
+
+    out = dict(layout="eucworld" if utc_offset_s is not None else "wheellog", model=None, series=(),
+               temperature_C=None, temperature_source=None)
+    return RideEntry(path=path, start=start, utc_offset_s=utc_offset_s, summary=summary(**(summary_fields or {})),
+                     battery=health or battery(), **{**out, **kw})
+
+
+def history_of(rides, basis: str = "as measured", **kw):
+    """A :class:`~euc_sim.rides.logbook.history.RideHistory` of the entries ``rides`` (no change
+    test, no Wh/km slope, no trend unless given in ``kw``)."""
+    from euc_sim.rides.logbook.history import RideHistory
+
+    return RideHistory(rides=tuple(rides), basis=basis, **{"change": None, "whkm_slope": None,
+                                                           "whkm_slope_ci95": None, **kw})
+
+
 def with_summary(res, **summary):
     """``res`` (a RideResult) with its summary's fields replaced."""
     return replace(res, rider=replace(res.rider, summary=replace(res.rider.summary, **summary)))

@@ -10,7 +10,6 @@ commands print the lines; nothing here writes.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Mapping
 
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
@@ -18,6 +17,7 @@ from euc_sim.rides.render.contract import effect_entries, error_measure
 from euc_sim.rides.render.page import falls_sentence
 from euc_sim.rides.render.page_html import key_figure_lines
 from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend
+from euc_sim.rides.render.series import number
 from euc_sim.rides.result import RideResult
 from euc_sim.rides.sim.sim_steps import TARGET_RATIO
 from euc_sim.rides.sim.simulate import StepScore
@@ -122,13 +122,13 @@ def summary_lines(res: RideResult) -> list[str]:
     return lines + _simulation_lines(res)
 
 
-def history_lines(hist: Mapping, verdicts: bool = False) -> list[str]:
+def history_lines(hist, verdicts: bool = False) -> list[str]:
     """The terminal's table of one wheel's rides, one string a line (no newlines).
 
     Parameters
     ----------
-    hist : mapping
-        The ``euc-sim rides`` JSON object (CONTRACT).
+    hist : RideHistory
+        The ``euc-sim rides`` result (:class:`~euc_sim.rides.logbook.history.RideHistory`).
     verdicts : bool
         Whether the battery's pack is known (``--wheel``): each ride's resistance then carries
         its verdict.
@@ -139,19 +139,20 @@ def history_lines(hist: Mapping, verdicts: bool = False) -> list[str]:
     """
     off, zone = table_zone(hist)
     lines = [f"start times in {zone}"]
-    for e in hist["rides"]:
-        s, b = e["summary"], e["battery"]
-        r = b["resistance_25C_ohm"] if hist["basis"] == "25C" else b["resistance_ohm"]
-        lines.append(f"{start_in(e, off)}  {Path(e['path']).name}: {(s['distance_m'] or 0) / 1000:.1f} km, "
-                     f"{s['Wh_per_km'] or float('nan'):.1f} Wh/km, battery {s['battery_used_pct'] or 0:.0f} %, "
-                     f"max PWM {pwm_cell(s['pwm_max_pct'], ' %')}, "
+    for e in hist.rides:
+        s, b = e.summary, e.battery
+        r = b.resistance_25C_ohm if hist.basis == "25C" else b.resistance_ohm
+        lines.append(f"{start_in(e, off)}  {Path(e.path).name}: {(number(s.distance_m) or 0) / 1000:.1f} km, "
+                     f"{number(s.Wh_per_km) or float('nan'):.1f} Wh/km, "
+                     f"battery {number(s.battery_used_pct) or 0:.0f} %, "
+                     f"max PWM {pwm_cell(number(s.pwm_max_pct), ' %')}, "
                      f"resistance {'–' if r is None else f'{1e3 * r:.0f} mΩ'}"
-                     + (f" ({b['verdict']})" if verdicts and r is not None else ""))
-    if hist.get("trend"):
-        lines.append(f"battery: {hist['trend']}")
-    ch = hist["change"]
+                     + (f" ({b.verdict})" if verdicts and r is not None else ""))
+    if hist.trend:
+        lines.append(f"battery: {hist.trend}")
+    ch = hist.change
     if ch:
-        lines.append(f"latest ride's resistance against the earlier {ch['n_earlier']}: {ch['verdict']} "
-                     f"(difference {1e3 * ch['difference']:+.0f} mΩ, 95% [{1e3 * ch['difference_ci95'][0]:+.0f}, "
-                     f"{1e3 * ch['difference_ci95'][1]:+.0f}], p = {ch['p_value']:.2g})")
+        lines.append(f"latest ride's resistance against the earlier {ch.n_earlier}: {ch.verdict} "
+                     f"(difference {1e3 * ch.difference:+.0f} mΩ, 95% [{1e3 * ch.difference_ci95[0]:+.0f}, "
+                     f"{1e3 * ch.difference_ci95[1]:+.0f}], p = {ch.p_value:.2g})")
     return lines

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 from euc_sim.rides.render.history_page import _key_figures
+from tests.rides.typed_ride import history_of, ride_entry_of
 
 
-def _history(speeds_kmh, slope, ci) -> dict:
-    rides = [{"start": f"2025-07-{10 + i}T08:00", "summary": {"distance_m": 10000.0, "energy_drawn_Wh": 400.0,
-                                                              "speed_mean_moving_mps": v / 3.6}}
+def _history(speeds_kmh, slope, ci):
+    rides = [ride_entry_of(f"/x/{i}.csv", f"2025-07-{10 + i}T08:00",
+                           summary_fields={"distance_m": 10000.0, "energy_drawn_Wh": 400.0,
+                                           "speed_mean_moving_mps": v / 3.6})
              for i, v in enumerate(speeds_kmh)]
-    return {"rides": rides, "change": None, "Wh_per_km_vs_speed": {"slope": slope, "ci95": ci}}
+    return history_of(rides, whkm_slope=slope, whkm_slope_ci95=tuple(ci))
 
 
 def test_a_consumption_trend_the_rides_cannot_show_is_not_a_headline_number():

@@ -99,18 +99,12 @@ def test_windows_and_falls_read_as_clock_and_time_into_the_ride(ride_result):
 
 
 def _entry(name: str, start: str, offset):
-    from euc_sim.rides.drive.battery import BatteryHealth
-    from euc_sim.rides.logbook.history import RideEntry
-    from euc_sim.rides.summary.summary import Gaps, RideSummary
+    from tests.rides.typed_ride import battery, ride_entry_of
 
-    summary = RideSummary(duration_s=1000.0, moving_s=900.0, distance_m=5000.0, distance_source="wheel",
-                          speed_max_mps=10.0, speed_mean_moving_mps=6.0, energy_drawn_Wh=100.0, energy_regen_Wh=None,
-                          Wh_per_km=20.0, battery_used_pct=10.0, range_m_at_this_rate=None, pwm_max_pct=60.0,
-                          pwm_max_at_s=None, alarms=None, gaps=Gaps(0, 0.0, 0.0, 2.0))
-    battery = BatteryHealth(0.15, (0.14, 0.16), None, None, None, None, None, None, None, "cannot tell", "")
-    return RideEntry(path=f"/x/{name}", start=start, layout="eucworld" if offset is not None else "wheellog",
-                     summary=summary, battery=battery, model=None, series=(), temperature_C=None,
-                     temperature_source=None, utc_offset_s=offset)
+    summary = {"duration_s": 1000.0, "moving_s": 900.0, "distance_m": 5000.0, "distance_source": "wheel",
+               "speed_max_mps": 10.0, "speed_mean_moving_mps": 6.0, "energy_drawn_Wh": 100.0, "Wh_per_km": 20.0,
+               "battery_used_pct": 10.0, "pwm_max_pct": 60.0}
+    return ride_entry_of(f"/x/{name}", start, offset, summary, battery(0.15, resistance_ci95=(0.14, 0.16)))
 
 
 def test_the_rides_are_in_the_order_they_were_ridden_whatever_zone_their_log_keeps():
@@ -119,15 +113,14 @@ def test_the_rides_are_in_the_order_they_were_ridden_whatever_zone_their_log_kee
     later EUC World ride came first.  Sorted on the instant (the phone's clock taken in the
     zone the table shows), the table reads down in time, in one zone."""
     from euc_sim.rides.logbook.history import ride_history
-    from euc_sim.rides.render.contract import history_json
     from euc_sim.rides.render.history_page import history_page, start_in, table_zone
 
-    h = history_json(ride_history([_entry("euc_world.csv", "2024-06-01T08:00:00", 7200.0),
-                                   _entry("wheellog.csv", "2024-06-01T09:00:00", None),
-                                   _entry("later.csv", "2024-06-01T09:30:00", 7200.0)]))
-    assert [e["path"][3:] for e in h["rides"]] == ["wheellog.csv", "euc_world.csv", "later.csv"]
+    h = ride_history([_entry("euc_world.csv", "2024-06-01T08:00:00", 7200.0),
+                      _entry("wheellog.csv", "2024-06-01T09:00:00", None),
+                      _entry("later.csv", "2024-06-01T09:30:00", 7200.0)])
+    assert [e.path[3:] for e in h.rides] == ["wheellog.csv", "euc_world.csv", "later.csv"]
     off, zone = table_zone(h)
-    assert [start_in(e, off) for e in h["rides"]] == ["2024-06-01 09:00", "2024-06-01 10:00", "2024-06-01 11:30"]
+    assert [start_in(e, off) for e in h.rides] == ["2024-06-01 09:00", "2024-06-01 10:00", "2024-06-01 11:30"]
     page = history_page(h)
     assert page.index("wheellog.csv") < page.index("euc_world.csv") < page.index("later.csv")
     assert f"start ({zone})" in page and zone.startswith("UTC+02:00")

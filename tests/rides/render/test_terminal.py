@@ -47,11 +47,13 @@ def test_a_ride_not_simulated_says_why_in_its_last_line(ride_result):
     assert summary_lines(res)[-1] == "  simulated replay: --no-simulate"
 
 
-def _history(verdict: str = "as new") -> dict:
-    ride = {"path": "/logs/2.csv", "start": "2025-07-17T14:48:00", "utc_offset_s": 7200.0,
-            "summary": {"distance_m": 12200.0, "Wh_per_km": 37.8, "battery_used_pct": 10.0, "pwm_max_pct": 91.0},
-            "battery": {"resistance_ohm": 0.148, "resistance_25C_ohm": None, "verdict": verdict}}
-    return {"rides": [ride], "basis": "as logged", "trend": None, "change": None}
+def _history(verdict: str = "as new", **summary_fields):
+    from tests.rides.typed_ride import battery, history_of, ride_entry_of
+
+    fields = {"distance_m": 12200.0, "Wh_per_km": 37.8, "battery_used_pct": 10.0, "pwm_max_pct": 91.0,
+              **summary_fields}
+    ride = ride_entry_of("/logs/2.csv", "2025-07-17T14:48:00", 7200.0, fields, battery(0.148, verdict))
+    return history_of([ride], basis="as logged")
 
 
 def test_the_rides_table_is_in_the_one_zone_and_says_a_verdict_only_with_a_pack():
@@ -60,6 +62,13 @@ def test_the_rides_table_is_in_the_one_zone_and_says_a_verdict_only_with_a_pack(
                      "2025-07-17 16:48  2.csv: 12.2 km, 37.8 Wh/km, battery 10 %, "
                      "max PWM 91 % BAD (≥ 90 %: close to a cut-out), resistance 148 mΩ"]
     assert history_lines(_history(), verdicts=True)[-1].endswith("resistance 148 mΩ (as new)")
+
+
+def test_a_ride_number_not_known_reads_as_the_json_writes_it():
+    """A summary's NaN is null in the JSON: the table says it as unknown, never "nan"."""
+    nan = float("nan")
+    line = history_lines(_history(distance_m=nan, Wh_per_km=nan, battery_used_pct=nan, pwm_max_pct=nan))[-1]
+    assert line == "2025-07-17 16:48  2.csv: 0.0 km, nan Wh/km, battery 0 %, max PWM –, resistance 148 mΩ"
 
 
 def test_the_windows_and_the_compared_ride_read_as_the_page_says_them(compared_result):
