@@ -120,7 +120,7 @@ def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResu
         test, test_mass = mass.test, reported_mass(mass.test)
         compared = ComparedRide(Path(compare.path).name, test, test_mass, _rider_numbers(
             compare, test_mass, reported_terms(test, computed_pwm_note(test)), spec, req.compare_rider_weight))
-    cutout = cutout_of(mass.fit, log, rider.summary.limits)
+    cutout = cutout_of(mass, rider.summary.limits)
     return RideResult(balance=an, notes=notes, mass=mass, law=law, parameters=parameters,
                       drivetrain=drivetrain, differences=differences, traces=tuple(traces),
                       simulation=sim, simulation_why=why, verdict=verdict, rider=rider,

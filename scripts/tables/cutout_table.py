@@ -27,7 +27,7 @@ def row(log_path: Path, spec_path: Path | None) -> str | None:
     """One Markdown row, or None when the log has no PWM."""
     from euc_sim.rides.drive.cutout import ride_limits
     from euc_sim.rides.grids.power import MassSettings
-    from euc_sim.rides.drive.drivetrain_report import analyse, cutout_of
+    from euc_sim.rides.drive.drivetrain_report import analyse, cutout_of, mass_drivetrain
     from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.source.spec import WheelSpec, read_spec
 
@@ -37,7 +37,7 @@ def row(log_path: Path, spec_path: Path | None) -> str | None:
     spec = read_spec(spec_path) if spec_path else WheelSpec()
     r = analyse(log, spec, MassSettings(n_boot=20))
     lim = ride_limits(log.counters.speed_limit_mps, spec.top_speed)
-    c = cutout_of(r, log, lim)
+    c = cutout_of(mass_drivetrain(log, spec, fitted=r), lim)
     held = "–" if c.heldout_pwm_rmse_pct is None else f"{c.heldout_pwm_rmse_pct:.2f}"
     limit = f"{lim.speed_limit_mps * 3.6:.0f} ({lim.source})" if lim.speed_limit_mps else "–"
     if c.curves:

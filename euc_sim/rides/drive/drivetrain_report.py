@@ -117,18 +117,15 @@ def duty_model_of(r: RideDrivetrain, log) -> DutyModel | str:
     return duty_model(dt, r.mass, line)
 
 
-def _envelope(r: RideDrivetrain, log, computed_note: str | None) -> Envelope:
-    """The cut-out envelope, or why there is none (``computed_note``: :func:`computed_pwm_note`)."""
+def _envelope(r: RideDrivetrain, duty: DutyModel | str) -> Envelope:
+    """The cut-out envelope of the ride's ``duty`` model (:func:`duty_model_of`), or why there is none."""
     dt = r.drivetrain
     if dt.pwm_coef is None or not dt.mass:
         return Envelope(why="needs the PWM model and the mass: "
                             + (dt.unidentified.get("pwm") or r.mass.why or "unavailable"))
-    if computed_note:
-        return Envelope(why=computed_note)
-    m = duty_model_of(r, log)
-    if isinstance(m, str):
-        return Envelope(why=m)
-    return envelope(m, float(np.nanmax(r.sig.v)))
+    if isinstance(duty, str):
+        return Envelope(why=duty)
+    return envelope(duty, float(np.nanmax(r.sig.v)))
 
 
 @dataclass(frozen=True)
@@ -151,6 +148,9 @@ class MassDrivetrain:
         What the log and the spec say against each other.
     pwm_note : str or None
         Why the logged duty is the app's computation (:func:`computed_pwm_note`).
+    duty : DutyModel or str
+        The duty model the envelope and the cut-out chart share (:func:`duty_model_of`), or why there is
+        none (the computed-duty note first).
     mass_difference : MassDifference or None
         The compared ride's mass minus this one's
         (:func:`euc_sim.rides.source.systematic.mass_difference`).
@@ -170,6 +170,7 @@ class MassDrivetrain:
     envelope: Envelope
     input_warnings: list
     pwm_note: str | None = None
+    duty: DutyModel | str = "not computed"
     mass_difference: MassDifference | None = None
     power_heldout: tuple | None = None
     pwm_heldout: float | None = None
@@ -205,9 +206,10 @@ def mass_drivetrain(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
     """
     r = fitted or analyse(log, spec, settings)
     note = computed_pwm_note(r)
+    duty = note or duty_model_of(r, log)
     out = dict(fit=r, test=None, mass=reported_mass(r), terms=reported_terms(r, note),
-               envelope=_envelope(r, log, note), input_warnings=input_warnings(log, r.spec, r.mass.scale),
-               pwm_note=note)
+               envelope=_envelope(r, duty), input_warnings=input_warnings(log, r.spec, r.mass.scale),
+               pwm_note=note, duty=duty)
     if compare is None:
         return MassDrivetrain(**out)
     test = analyse(compare, spec, settings)
@@ -222,27 +224,27 @@ def mass_drivetrain(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
     return MassDrivetrain(**out)
 
 
-def cutout_of(r: RideDrivetrain, log, limits) -> Cutout:
+def cutout_of(md: MassDrivetrain, limits) -> Cutout:
     """The ride's :class:`euc_sim.rides.drive.cutout.Cutout` (the JSON's ``cutout``), or one saying why
     there is none: an app's computed duty has neither curves nor a held-out error (the model fits the
     app's formula, whatever the load: it checks nothing).
 
     Parameters
     ----------
-    r : RideDrivetrain
-    log : Ride
-        The same ride parsed: its battery reading (%) gives the charge.
+    md : MassDrivetrain
+        The ride's fit (:func:`mass_drivetrain`): its duty model and computed-duty note.
     limits : Limits
         The wheel's limits (the summary's).
     """
-    if computed_pwm_note(r):
+    if md.pwm_note:
         return Cutout(why="the log's PWM is the app's computation from speed and voltage, not a measurement: "
                           "it does not show the load, so neither does a model of it")
-    m = duty_model_of(r, log)
-    if r.drivetrain.pwm_coef is None:
-        return Cutout(why=m)
-    heldout = heldout_pwm_rmse(r.sig)
-    return Cutout(heldout_pwm_rmse_pct=heldout, why=m) if isinstance(m, str) else cutout_curves(m, limits, heldout)
+    if md.fit.drivetrain.pwm_coef is None:
+        return Cutout(why=md.duty)
+    heldout = heldout_pwm_rmse(md.fit.sig)
+    if isinstance(md.duty, str):
+        return Cutout(heldout_pwm_rmse_pct=heldout, why=md.duty)
+    return cutout_curves(md.duty, limits, heldout)
 
 
 def ride_drivetrain(log, compare=None, spec=None, n_boot: int = 200, seed: int = 0) -> MassDrivetrain:
