@@ -146,11 +146,11 @@ class MassDrivetrain:
         What the voltage leaves against speed at full and empty charge, or why there is none.
     input_warnings : list of str
         What the log and the spec say against each other.
-    pwm_note : str or None
-        Why the logged duty is the app's computation (:func:`computed_pwm_note`).
     duty : DutyModel or str
         The duty model the envelope and the cut-out chart share (:func:`duty_model_of`), or why there is
         none (the computed-duty note first).
+    pwm_note : str or None
+        Why the logged duty is the app's computation (:func:`computed_pwm_note`).
     mass_difference : MassDifference or None
         The compared ride's mass minus this one's
         (:func:`euc_sim.rides.source.systematic.mass_difference`).
@@ -169,8 +169,8 @@ class MassDrivetrain:
     terms: dict
     envelope: Envelope
     input_warnings: list
+    duty: DutyModel | str
     pwm_note: str | None = None
-    duty: DutyModel | str = "not computed"
     mass_difference: MassDifference | None = None
     power_heldout: tuple | None = None
     pwm_heldout: float | None = None
