@@ -177,6 +177,12 @@ class MassDrivetrain:
     pwm_why: str | None = None
 
     @property
+    def pwm_unchecked(self) -> str | None:
+        """Why the compared ride's duty predicted from this one checks nothing (this ride's logged duty
+        is the app's computation), or None: said only where that prediction was made."""
+        return self.pwm_note if self.test is not None and self.pwm_why is None else None
+
+    @property
     def unidentified(self) -> dict[str, str]:
         """Term -> why this log cannot identify it."""
         return self.fit.drivetrain.unidentified

@@ -330,8 +330,8 @@ def physics_json(md) -> dict:
     rep["power_heldout"] = {"rmse": md.power_heldout[0], "rms_power": md.power_heldout[1], "unit": "W"}
     if md.pwm_why is None:
         rep["pwm"] = {"heldout_rmse": md.pwm_heldout, "unit": "%"}
-        if md.pwm_note:
-            rep["pwm"]["note"] = md.pwm_note
+        if md.pwm_unchecked:
+            rep["pwm"]["note"] = md.pwm_unchecked
     else:
         rep["pwm"] = {"heldout_rmse": None, "unit": "%", "why": md.pwm_why}
     return rep

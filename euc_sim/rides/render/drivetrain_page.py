@@ -225,7 +225,7 @@ def page_section(res, figures: dict, shown=frozenset()) -> list[str]:
     if mass.test is not None:
         md += ["", "PWM of the other ride predicted from this one: "
                    + ("in 'Your wheel's limit and the cut-out' above" if "pwm_heldout" in shown else
-                      f"no check: {mass.pwm_note}" if mass.pwm_note else
+                      f"no check: {mass.pwm_unchecked}" if mass.pwm_unchecked else
                       f"**{mass.pwm_heldout:.1f} percentage points RMS**" if mass.pwm_heldout
                       is not None else f"not available ({mass.pwm_why or ''})")]
     if "pwm" in figures:

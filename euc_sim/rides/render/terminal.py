@@ -44,8 +44,8 @@ def _mass_lines(res: RideResult) -> list[str]:
             lines.append(f"  rider (with gear): {m.estimate - wheel:.0f} kg")
     for name, why in res.mass.unidentified.items():
         lines.append(f"  not identified: {name}: {why}")
-    if res.mass.test is not None and res.mass.pwm_note:
-        lines.append(f"  PWM held out: no check, {res.mass.pwm_note}")
+    if res.mass.pwm_unchecked:
+        lines.append(f"  PWM held out: no check, {res.mass.pwm_unchecked}")
     elif res.mass.pwm_heldout is not None:
         lines.append(f"  PWM held out: {res.mass.pwm_heldout:.1f} percentage points RMS")
     if res.differences is not None and res.differences.sentence:   # "this ride" is the compared one: named as the page does
