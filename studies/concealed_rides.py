@@ -78,7 +78,7 @@ def _concealed(data: Path, label: str, case: str, work: Path) -> Path:
 def _run(data: Path, label: str, case: str, work: Path) -> dict:
     """The ``differences`` of CLEAN against the copy (the two rides' drivetrain fits cached)."""
     from euc_sim.rides.compare.differences_report import pair_differences
-    from euc_sim.rides.render.contract import differences_json
+    from euc_sim.report.ride.contract import differences_json
     from euc_sim.rides.source.logs import read_log
     from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
 

@@ -18,8 +18,8 @@ from pathlib import Path
 
 from euc_sim.io import write_json
 from euc_sim.rides.balance.analysis import ride_analysis
-from euc_sim.rides.render.contract import balance_json
-from euc_sim.rides.render.fit_figures import write_balance
+from euc_sim.report.ride.contract import balance_json
+from euc_sim.report.ride.fit_figures import write_balance
 from euc_sim.rides.source.logs import read_log
 
 SHARED = Path(__file__).resolve().parents[2] / "shared" / "data" / "wheellog"

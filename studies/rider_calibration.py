@@ -89,7 +89,7 @@ def real(wheel: str, seed: int, windows: int, length: float, rider: list | None 
     import dataclasses
 
     from euc_sim.rides.grids.profile import PLAN_WINDOW
-    from euc_sim.rides.render.contract import rider_fit_json
+    from euc_sim.report.ride.contract import rider_fit_json
     from euc_sim.rides.rider.rider_fit import fit_rider
     from euc_sim.rides.sim.simulate import effects_to_inject, ride_params, simulate_ride
 

@@ -53,7 +53,7 @@ def fit_inputs(ride: dict) -> dict:
 def run(ride_json: Path, fit_log: Path, **kw) -> dict:
     """The fit with every design point recorded: ``points`` (values, ``fell``, ``fall``), ``fit`` or ``error``."""
     import euc_sim.simulation.engine as engine
-    from euc_sim.rides.render.contract import rider_fit_json
+    from euc_sim.report.ride.contract import rider_fit_json
     from euc_sim.rides.rider import rider_fit as rf
     from euc_sim.rides.source.logs import read_log
     from euc_sim.simulation.errors import FallError

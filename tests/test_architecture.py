@@ -10,14 +10,14 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 #: Layers, lowest first: a module may import from its own layer or any layer below it
 #: (a tuple is one layer of several modules: the exceptions beside the file helpers).
-LAYERS = [("euc_sim.errors", "euc_sim.io", "euc_sim.geo"), "euc_sim.stats", "euc_sim.report", "euc_sim.model",
+LAYERS = [("euc_sim.errors", "euc_sim.io", "euc_sim.geo"), "euc_sim.stats", "euc_sim.model",
           "euc_sim.controllers", "euc_sim.simulation", "euc_sim.identification", "euc_sim.diagnosis",
-          "euc_sim.rides", "euc_sim.api", "euc_sim.cli"]
+          "euc_sim.rides", "euc_sim.report", "euc_sim.api", "euc_sim.cli"]
 #: Inside ``euc_sim.rides``: its subpackages, lowest first (docs/architecture.md#rides-by-idea),
-#: then the typed result (``result.py``) its renderers read, ``render`` on top;
+#: then the typed result (``result.py``) its renderers (``euc_sim.report.ride``) read;
 #: ``euc_sim.rides.pipeline`` and the request it runs (``request.py``) sit above them all.
 RIDES_LAYERS = ["source", "grids", "drive", "summary", "balance", "law", "sim", "rider", "compare",
-                "logbook", "synth", "result", "render"]
+                "logbook", "synth", "result"]
 RIDES_FLAT = {"__init__", "result", "pipeline", "request"}
 #: Upward imports allowed (none).
 UPWARD_ALLOWED: set = set()
@@ -99,7 +99,7 @@ def _rides_layer(module: str) -> int | None:
     parts = module.split(".")
     if parts[:2] != ["euc_sim", "rides"] or len(parts) == 2:
         return None
-    if len(parts) == 3 and parts[2] in RIDES_FLAT:     # the result sits below its renderers
+    if len(parts) == 3 and parts[2] in RIDES_FLAT:     # the result sits below the pipeline
         return RIDES_LAYERS.index(parts[2]) if parts[2] in RIDES_LAYERS else len(RIDES_LAYERS)
     return RIDES_LAYERS.index(parts[2]) if parts[2] in RIDES_LAYERS else -1
 
@@ -149,17 +149,17 @@ def test_no_relative_imports():
 
 
 def test_the_rides_layering_check_sees_a_violation():
-    graph = {"euc_sim.rides.grids.signals": {"euc_sim.rides.render.page"},
-             "euc_sim.rides.render.page": {"euc_sim.rides.grids.signals"},
+    graph = {"euc_sim.rides.grids.signals": {"euc_sim.rides.compare.channels"},
+             "euc_sim.rides.compare.channels": {"euc_sim.rides.grids.signals"},
              "euc_sim.rides.pipeline": {"euc_sim.rides.sim.simulate"},
              "euc_sim.rides.sim.simulate": {"euc_sim.rides.pipeline", "euc_sim.stats"}}
-    assert _rides_upward(graph) == [("euc_sim.rides.grids.signals", "euc_sim.rides.render.page"),
+    assert _rides_upward(graph) == [("euc_sim.rides.grids.signals", "euc_sim.rides.compare.channels"),
                                     ("euc_sim.rides.sim.simulate", "euc_sim.rides.pipeline")]
-    assert _rides_subpackage_cycles(graph) == [("grids", "render"), ("pipeline", "sim")]
+    assert _rides_subpackage_cycles(graph) == [("compare", "grids"), ("pipeline", "sim")]
 
 
-#: The rendering subpackage: pages, figures and the terminal's lines, drawn from results.
-RENDER = "euc_sim.rides.render"
+#: The rendering layer: pages, figures, the terminal's lines and the JSON, drawn from results.
+RENDER = "euc_sim.report"
 #: The log readers: rendering renders results, it never reads a log.
 LOG_READERS = "euc_sim.rides.source.logs"
 #: The ride side's faces: from ``euc_sim.rides`` they build the validated request, call the
@@ -184,10 +184,9 @@ def _within(module: str, package: str) -> bool:
 
 
 def _analysis_imports_render(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
-    """(importer, imported): a module of euc_sim.rides outside rendering, the pipeline included,
-    importing rendering."""
+    """(importer, imported): a module of euc_sim.rides, the pipeline included, importing rendering."""
     return sorted((m, d) for m, deps in graph.items() for d in deps
-                  if _within(m, "euc_sim.rides") and not _within(m, RENDER) and _within(d, RENDER))
+                  if _within(m, "euc_sim.rides") and _within(d, RENDER))
 
 
 def _render_reads_logs(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
@@ -217,18 +216,18 @@ def test_the_faces_call_only_the_pipeline_and_the_renderers():
 
 
 def test_the_rendering_rules_see_a_violation():
-    graph = {"euc_sim.rides.pipeline": {"euc_sim.rides.render.page"},
-             "euc_sim.rides.balance.fit": {"euc_sim.rides.render"},
-             "euc_sim.rides.render.page": {"euc_sim.rides.source.logs", "euc_sim.rides.balance.fit"},
-             "euc_sim.rides.render.terminal": {"euc_sim.rides.source.spec"},
-             "euc_sim.rides.renderer": {"euc_sim.rides.render.page"},
-             "euc_sim.cli.ride": {"euc_sim.rides.pipeline", "euc_sim.rides.render.terminal",
+    graph = {"euc_sim.rides.pipeline": {"euc_sim.report.ride.page"},
+             "euc_sim.rides.balance.fit": {"euc_sim.report.ride"},
+             "euc_sim.report.ride.page": {"euc_sim.rides.source.logs", "euc_sim.rides.balance.fit"},
+             "euc_sim.report.ride.terminal": {"euc_sim.rides.source.spec"},
+             "euc_sim.rides.renderer": {"euc_sim.report.ride.page"},
+             "euc_sim.cli.ride": {"euc_sim.rides.pipeline", "euc_sim.report.ride.terminal",
                                   "euc_sim.rides.balance.fit", "euc_sim.io"},
              "euc_sim.cli.rides": {"euc_sim.rides.logbook.history"}}
-    assert _analysis_imports_render(graph) == [("euc_sim.rides.balance.fit", "euc_sim.rides.render"),
-                                               ("euc_sim.rides.pipeline", "euc_sim.rides.render.page"),
-                                               ("euc_sim.rides.renderer", "euc_sim.rides.render.page")]
-    assert _render_reads_logs(graph) == [("euc_sim.rides.render.page", "euc_sim.rides.source.logs")]
+    assert _analysis_imports_render(graph) == [("euc_sim.rides.balance.fit", "euc_sim.report.ride"),
+                                               ("euc_sim.rides.pipeline", "euc_sim.report.ride.page"),
+                                               ("euc_sim.rides.renderer", "euc_sim.report.ride.page")]
+    assert _render_reads_logs(graph) == [("euc_sim.report.ride.page", "euc_sim.rides.source.logs")]
     assert _faces_beyond_pipeline(graph) == [("euc_sim.cli.ride", "euc_sim.rides.balance.fit"),
                                              ("euc_sim.cli.rides", "euc_sim.rides.logbook.history")]
 
@@ -258,7 +257,7 @@ def _json_reads(source: str) -> list[tuple[int, str]]:
 def test_no_analysis_reads_the_ride_json():
     """Analyses take the typed result (:mod:`euc_sim.rides.result`); only rendering reads the JSON back."""
     reads = [(m, line, key) for m, path in sorted(_modules().items())
-             if _within(m, "euc_sim.rides") and not _within(m, RENDER)
+             if _within(m, "euc_sim.rides")
              for line, key in _json_reads(path.read_text())]
     assert reads == []
 
@@ -268,7 +267,7 @@ def test_the_json_read_check_sees_a_violation():
     assert _json_reads(src) == [(2, "drivetrain"), (3, "controller")]
 
 
-#: Functions of ``euc_sim.rides`` outside ``render`` still returning a bare ``dict`` -> why; to
+#: Functions of ``euc_sim.rides`` still returning a bare ``dict`` -> why; to
 #: shrink to empty.
 BARE_DICT_PENDING: dict[str, str] = {}
 
@@ -276,7 +275,7 @@ BARE_DICT_PENDING: dict[str, str] = {}
 def _bare_dict_returns(source: str) -> list[str]:
     """Functions (``Class.method``) annotated ``-> dict`` (``dict | None``), or unannotated
     returning a dict literal: a structure with no type, or a JSON object spelled outside
-    ``render`` (a name -> value lookup says so: ``dict[str, float]``)."""
+    ``euc_sim.report`` (a name -> value lookup says so: ``dict[str, float]``)."""
     def bare(a) -> bool:
         return (isinstance(a, ast.Name) and a.id == "dict"
                 or isinstance(a, ast.BinOp) and (bare(a.left) or bare(a.right)))
@@ -297,8 +296,8 @@ def _bare_dict_returns(source: str) -> list[str]:
 
 
 def test_no_bare_dict_returns_in_the_analyses():
-    """An analysis returns its typed object; the ride JSON is spelled in ``render`` alone."""
-    found = {f"{m}:{f}" for m, path in _modules().items() if _within(m, "euc_sim.rides") and not _within(m, RENDER)
+    """An analysis returns its typed object; the ride JSON is spelled in ``euc_sim.report`` alone."""
+    found = {f"{m}:{f}" for m, path in _modules().items() if _within(m, "euc_sim.rides")
              for f in _bare_dict_returns(path.read_text())}
     assert sorted(found - set(BARE_DICT_PENDING)) == []
     assert sorted(set(BARE_DICT_PENDING) - found) == [], "done: remove from BARE_DICT_PENDING"

@@ -145,7 +145,7 @@ def test_before_after_labels_every_bar_against_the_floor(demo):
 
 def test_before_after_null_case_keeps_the_floor_off_the_frame(demo):
     from euc_sim.diagnosis.pipeline import diagnose
-    from euc_sim.diagnosis.report import before_after_figure
+    from euc_sim.report.diagnosis import before_after_figure
 
     rec = sorted((demo[0] / "recordings").glob("stop_and_go*.csv"))[0]
     with warnings.catch_warnings():           # a short recording's notes are not under test
@@ -161,7 +161,7 @@ def test_before_after_null_case_keeps_the_floor_off_the_frame(demo):
 
 def test_drift_figure_is_readable():
     """``drift.png`` (only with cog_height_drift named): h(t), its band, the windows."""
-    from euc_sim.diagnosis.report import drift_figure
+    from euc_sim.report.diagnosis import drift_figure
 
     t = np.linspace(0.0, 20.0, 400)
     h = 0.6 + 0.05 * np.clip((t - 8.0) / 4.0, 0.0, 1.0)
@@ -226,7 +226,7 @@ def test_ride_figures_on_two_real_rides_with_the_simulation(tmp_path, monkeypatc
     """The README's ``ride LOG --compare OTHER --simulate`` on 2-minute cuts of two real WheelLog
     rides: the simulation (item 12: a zoom and the error over time; the fits' figures are the
     page's Plotly figures, tests/report/test_pages.py)."""
-    from euc_sim.rides.render.simulation_figure import ZOOM_S
+    from euc_sim.report.ride.simulation_figure import ZOOM_S
 
     wl = SHARED / "wheellog"
     fit = _cut(wl / "2020_05_16_08_02_06.csv", slice(1, 600), tmp_path / "a.csv")
@@ -247,7 +247,7 @@ def test_ride_figures_with_the_drivetrain(tmp_path, monkeypatch):
     """A real ride with PWM and GPS altitude, split in halves: envelope (item 11), grade; the
     balance's Plotly figure labels the whole ride as such (item 13)."""
     from euc_sim.rides.grids.power import G
-    from euc_sim.rides.render.drivetrain_page import TYRE_MU
+    from euc_sim.report.ride.drivetrain_page import TYRE_MU
 
     core = SHARED / "euc_core"
     saved, written = _ride(["ride", core / "trips/inmotion/v9/2/2.csv", "--wheel", core / "specs/v9.csv",

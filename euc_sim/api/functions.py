@@ -284,7 +284,7 @@ def analyse_ride(log, compare=None, *, report_dir=None, simulate: bool = False, 
 def analyse_request(req: RideRequest, report_dir=None, jobs: int = 1, progress=None) -> RideAnalysis:
     """The pipeline on a :class:`~euc_sim.rides.request.RideRequest`, then the report folder when asked (written at the end)."""
     from euc_sim.rides.pipeline import ride_pipeline  # deferred: loads scipy (1.1 s)
-    from euc_sim.rides.render.report_files import write_report  # deferred: loads scipy, plotly (1.2 s)
+    from euc_sim.report.ride.report_files import write_report  # deferred: loads scipy, plotly (1.2 s)
 
     res = ride_pipeline(req, jobs=jobs, progress=progress)
     files = None

@@ -150,20 +150,20 @@ class Diagnosis(_KeyedResult):
     series: Mapping[str, Any] = field(default_factory=dict, repr=False)
 
     def as_result(self) -> dict:
-        """The pipeline's dictionary (series under ``_series``), for :mod:`euc_sim.diagnosis.report`."""
+        """The pipeline's dictionary (series under ``_series``), for :mod:`euc_sim.report.diagnosis`."""
         out = {k: (self.details[k] if k in self.details else getattr(self, k)) for k in self.key_order}
         out["_series"] = dict(self.series)
         return out
 
     def summary(self) -> str:
         """The diagnosis as ``euc-sim diagnose`` prints it."""
-        from euc_sim.diagnosis.report import summary  # deferred: loads plotly (0.03 s)
+        from euc_sim.report.diagnosis import summary  # deferred: loads plotly (0.03 s)
 
         return summary(self.as_result())
 
     def write_report(self, folder) -> Path:
         """Write ``index.html``, ``index.md`` and the figures to ``folder``; returns ``index.md``."""
-        from euc_sim.diagnosis.report import write_report  # deferred: loads plotly (0.03 s)
+        from euc_sim.report.diagnosis import write_report  # deferred: loads plotly (0.03 s)
 
         return write_report(self.as_result(), folder)
 
@@ -191,7 +191,7 @@ class RideAnalysis:
 
     def to_json(self) -> dict:
         """CONTRACT's ``euc-sim ride`` object."""
-        from euc_sim.rides.render.contract import ride_json  # deferred: loads scipy (1.1 s)
+        from euc_sim.report.ride.contract import ride_json  # deferred: loads scipy (1.1 s)
 
         return to_jsonable(ride_json(self.result, self.files))
 

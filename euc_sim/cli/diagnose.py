@@ -14,7 +14,7 @@ __all__ = ["add_commands"]
 
 
 def _cmd_diagnose(args: argparse.Namespace) -> int:
-    from euc_sim.diagnosis.report import report_paths  # deferred: loads plotly (0.03 s)
+    from euc_sim.report.diagnosis import report_paths  # deferred: loads plotly (0.03 s)
 
     # every output is checked before any work, so a bad path costs no minute of work
     for path in ([args.json] if args.json else []) + (report_paths(args.report) if args.report else []):

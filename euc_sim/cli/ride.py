@@ -37,7 +37,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     for r in (req.log, req.compare):         # each repair of the reader, one line, whatever --quiet
         for line in r.repairs if r else ():
             say(f"euc-sim ride: note: {r.name}: {line}")
-    from euc_sim.rides.render.contract import ride_json  # deferred: loads pandas, scipy (1.2 s)
+    from euc_sim.report.ride.contract import ride_json  # deferred: loads pandas, scipy (1.2 s)
 
     done = analyse_request(req, args.report, args.workers, None if args.quiet else _progress)
     where = None
@@ -46,7 +46,7 @@ def _cmd_ride(args: argparse.Namespace) -> int:
     rep = ride_json(done.result, done.files, where)
     if args.json:
         write_json(args.json, rep)
-    from euc_sim.rides.render.terminal import summary_lines  # deferred: loads pandas, scipy, plotly (1.5 s)
+    from euc_sim.report.ride.terminal import summary_lines  # deferred: loads pandas, scipy, plotly (1.5 s)
 
     for line in summary_lines(done.result):
         print(line)

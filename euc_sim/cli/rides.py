@@ -102,15 +102,15 @@ def _cmd_rides(args: argparse.Namespace) -> int:
     hist = run_rides(paths, pack, args.n_boot, args.seed, args.workers, None if args.quiet else say)
     if args.report:
         from euc_sim.report.html import write_page  # deferred: loads plotly (0.05 s)
-        from euc_sim.rides.render.history_page import history_page  # deferred: loads scipy, plotly (1.2 s)
+        from euc_sim.report.ride.history_page import history_page  # deferred: loads scipy, plotly (1.2 s)
 
         title = f"Rides of {pack.name}" if pack and pack.name else "Rides of one wheel"
         write_page(args.report, history_page(hist, title))
     if args.json:
-        from euc_sim.rides.render.contract import history_json  # deferred: loads the balance fit (0.3 s)
+        from euc_sim.report.ride.contract import history_json  # deferred: loads the balance fit (0.3 s)
 
         write_json(args.json, history_json(hist))
-    from euc_sim.rides.render.terminal import history_lines  # deferred: loads pandas, scipy, plotly (1.5 s)
+    from euc_sim.report.ride.terminal import history_lines  # deferred: loads pandas, scipy, plotly (1.5 s)
 
     for line in history_lines(hist, verdicts=pack is not None):
         print(line)

@@ -11,7 +11,7 @@ face              read by                                     holds
 ``balance``       rides.balance (fit), rides.sim (power)      regressor column, bounds, plausible
 ``conceal``       studies/conceal.py                          how a log hides it (a mechanism)
 ``compare``       rides.compare                               power signature, pair-fit column
-``words``         rides.compare sentence, rides.render page   what a rider reads
+``words``         rides.compare sentence, report.ride page     what a rider reads
 ================  ==========================================  =====================================
 
 A face's callables take plain arrays or a namespace of arrays, so this module stays free

@@ -1,1 +1,1 @@
-"""Renderers at the edge: the one HTML page template every report uses."""
+"""The rendering layer: the one HTML page template, shared figures, and the ride and diagnosis renderers."""

@@ -3,8 +3,8 @@
 
 The steps, in order: mass and drivetrain, the bounded balance fit with its held-out selection,
 the balance law, the one parameter set, the residual's localisation, the simulated rider, the
-verdict.  The JSON (:func:`euc_sim.rides.render.contract.ride_json`) and the report folder
-(:func:`euc_sim.rides.render.report_files.write_report`) render the result.
+verdict.  The JSON (:func:`euc_sim.report.ride.contract.ride_json`) and the report folder
+(:func:`euc_sim.report.ride.report_files.write_report`) render the result.
 """
 
 from __future__ import annotations

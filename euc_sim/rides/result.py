@@ -1,7 +1,7 @@
 """The typed result of :func:`euc_sim.rides.pipeline.ride_pipeline`: the analyses' own objects, no file.
 
-CONTRACT's JSON (:func:`euc_sim.rides.render.contract.ride_json`) and the report folder
-(:func:`euc_sim.rides.render.report_files.write_report`) are renderings of it.
+CONTRACT's JSON (:func:`euc_sim.report.ride.contract.ride_json`) and the report folder
+(:func:`euc_sim.report.ride.report_files.write_report`) are renderings of it.
 """
 
 from __future__ import annotations

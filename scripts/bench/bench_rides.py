@@ -119,7 +119,7 @@ def _warm_up() -> float:
 
     t0 = time.perf_counter()
     import euc_sim.rides.balance.analysis  # noqa: F401  (the page's heavy imports: scipy.signal, pandas)
-    import euc_sim.rides.render.page_html  # noqa: F401
+    import euc_sim.report.ride.page_html  # noqa: F401
     import euc_sim.rides.pipeline  # noqa: F401
     import importlib
     import pkgutil

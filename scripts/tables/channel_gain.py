@@ -35,7 +35,7 @@ def run(path: Path) -> dict:
     """Each road difference's ``resolvable`` and ``named``, battery power alone and every channel."""
     from euc_sim.rides.compare.channels import CHANNELS
     from euc_sim.rides.compare.differences_report import pair_differences
-    from euc_sim.rides.render.contract import differences_json
+    from euc_sim.report.ride.contract import differences_json
     from euc_sim.rides.drive.drivetrain_report import computed_pwm_note
     from euc_sim.rides.source.channels import current_from_phase
 

@@ -19,7 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
 from euc_sim.rides.law.controller_report import controller_fit, torque_constant  # noqa: E402
-from euc_sim.rides.render.contract import controller_json  # noqa: E402
+from euc_sim.report.ride.contract import controller_json  # noqa: E402
 from euc_sim.rides.drive.drivetrain_report import mass_drivetrain                  # noqa: E402
 from euc_sim.rides.grids.power import MassSettings                                  # noqa: E402
 from euc_sim.rides.source.logs import read_log                                        # noqa: E402

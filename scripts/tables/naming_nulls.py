@@ -83,7 +83,7 @@ def run(label: str, a: Path, b, work: Path, channels=()) -> dict:
     """The named differences of one null pair (drivetrain fits cached in ``work``; ``channels``
     stacked beside battery power, :mod:`euc_sim.rides.compare.channels`)."""
     from euc_sim.rides.compare.differences_report import pair_differences
-    from euc_sim.rides.render.contract import differences_json
+    from euc_sim.report.ride.contract import differences_json
     from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
     from euc_sim.rides.source.logs import read_log
 

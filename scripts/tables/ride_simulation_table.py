@@ -160,7 +160,7 @@ def rows(results: list[dict]) -> list[str]:
 def band_rows(results: list[dict]) -> list[str]:
     """The level-and-spectrum table: per pair and step, the band ratios to the log's."""
     from euc_sim.rides.grids.rider_features import BandRatio
-    from euc_sim.rides.render.page import bands_cell
+    from euc_sim.report.ride.page import bands_cell
 
     md = ["| wheel | fit → held out | " + " | ".join(f"{s} dB" for s in STEPS) + " |",
           "|" + " --- |" * (2 + len(STEPS))]

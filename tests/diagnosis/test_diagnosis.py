@@ -297,7 +297,7 @@ def test_one_floor_ratio_named_wherever_it_is_printed(study):
     (the reported model's held-out RMSE over the floor); the unexplained test's own ratio is
     named as the one that counts tentative effects too."""
     from euc_sim.diagnosis.common import h_at_bound
-    from euc_sim.diagnosis.report import summary
+    from euc_sim.report.diagnosis import summary
 
     out, results = study
     for name, r in results.items():
@@ -319,7 +319,7 @@ def test_one_floor_ratio_named_wherever_it_is_printed(study):
 
 
 def test_the_summary_marks_quantities_on_their_search_bound():
-    from euc_sim.diagnosis.report import summary
+    from euc_sim.report.diagnosis import summary
 
     eff = {"name": "sensor_time_offset", "estimate": 0.05, "unit": "s", "ci95": [0.04, 0.06],
            "aliases": [], "rmse_after": 0.2, "evidence": "."}

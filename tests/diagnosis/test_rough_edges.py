@@ -7,7 +7,7 @@ import warnings
 import pytest
 
 from euc_sim.diagnosis import pipeline as diagnosis
-from euc_sim.diagnosis.report import summary
+from euc_sim.report.diagnosis import summary
 
 
 def _recording(name, maneuver="stop_and_go", effects=(), hide=True, seed=8, duration=15.0, **opts):
@@ -96,7 +96,7 @@ def test_an_unwritable_report_is_found_before_any_work(recording_file, tmp_path,
 
 def test_a_failing_report_leaves_no_json(recording_file, tmp_path, capsys, monkeypatch):
     from euc_sim.cli import main
-    from euc_sim.diagnosis import report
+    from euc_sim.report import diagnosis as report
 
     def broken(result):
         raise ValueError("figure: cannot be drawn (simulated failure)")
@@ -114,7 +114,7 @@ def test_a_failing_report_leaves_no_json(recording_file, tmp_path, capsys, monke
 def test_the_report_reads_as_text_for_people(tmp_path):
     """No raw Python dict, no broken table markup, ranges with units, no citation of a
     file users do not have, and the re-simulation's gain explained."""
-    from euc_sim.diagnosis.report import write_report
+    from euc_sim.report.diagnosis import write_report
     rec, meta = _recording("opt", effects=(("aerodynamic_drag", 0.5),), duration=12.0, v=3.0)
     assert meta.get("maneuver_options")
     with warnings.catch_warnings():
@@ -159,7 +159,7 @@ def test_a_wrong_sidecar_mass_is_an_error_naming_the_sidecar_and_field(recording
 ])
 def test_the_resimulation_sentence_follows_its_number(change, says, never):
     """Issue 19, item 5: a −80 % change is not called small by nature."""
-    from euc_sim.diagnosis.report import resimulation_change_text
+    from euc_sim.report.diagnosis import resimulation_change_text
 
     text = resimulation_change_text(change)
     assert says in text

@@ -172,8 +172,8 @@ def compared(ride, tmp_path_factory):
     from euc_sim.rides.grids.signals import ride_signals
     from euc_sim.rides.pipeline import ride_pipeline
     from euc_sim.rides.request import ride_request
-    from euc_sim.rides.render.page_html import write_ride_html
-    from euc_sim.rides.render.series import RideSeries
+    from euc_sim.report.ride.page_html import write_ride_html
+    from euc_sim.report.ride.series import RideSeries
 
     log, other, _, spec = ride
     (log.parent / "meta.csv").write_text(

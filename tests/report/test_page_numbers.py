@@ -27,7 +27,7 @@ from drivesynth import drive_log  # noqa: E402
 import conceal as cc  # noqa: E402
 
 from euc_sim.rides.compare.differences import Difference, Differences  # noqa: E402
-from euc_sim.rides.render.differences_page import TITLE, difference_lines, recorded_metadata  # noqa: E402
+from euc_sim.report.ride.differences_page import TITLE, difference_lines, recorded_metadata  # noqa: E402
 from euc_sim.rides.grids.power import RHO_AIR  # noqa: E402
 
 WHEELLOG = Path(__file__).resolve().parents[3] / "shared" / "data" / "wheellog"
@@ -39,8 +39,8 @@ LEAD_BOTTOM = "document.querySelector('.lead').getBoundingClientRect().bottom"
 def _compare(log, other, out: Path) -> tuple:
     """``ride LOG --compare OTHER --no-simulate --report``: the folder, the ride JSON and the typed result."""
     from euc_sim.rides.pipeline import ride_pipeline
-    from euc_sim.rides.render.contract import ride_json
-    from euc_sim.rides.render.report_files import write_report
+    from euc_sim.report.ride.contract import ride_json
+    from euc_sim.report.ride.report_files import write_report
     from euc_sim.rides.request import ride_request
 
     with warnings.catch_warnings():
@@ -88,7 +88,7 @@ def test_a_poor_log_and_a_high_pwm_are_said_once(synthetic, tmp_path):
     """The tiles' data quality and max PWM are not repeated by the lead or the notes."""
     from typed_ride import summary
 
-    from euc_sim.rides.render.page_html import write_ride_html
+    from euc_sim.report.ride.page_html import write_ride_html
 
     res = synthetic[2]
     s = summary(duration_s=400.0, moving_s=380.0, pwm_max_pct=93.0, pwm_max_at_s=120.0,

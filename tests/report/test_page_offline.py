@@ -18,8 +18,8 @@ from drivesynth import drive_log  # noqa: E402
 
 from euc_sim.cli import main  # noqa: E402
 from euc_sim.report import html as H  # noqa: E402
-from euc_sim.rides.render.page_html import over_time  # noqa: E402
-from euc_sim.rides.render.series import RideSeries  # noqa: E402
+from euc_sim.report.ride.page_html import over_time  # noqa: E402
+from euc_sim.report.ride.series import RideSeries  # noqa: E402
 
 READY = "document.querySelectorAll('.fig').length === document.querySelectorAll('.fig.js-plotly-plot').length"
 #: s the page is left to settle: longer than the page gives a map to draw a tile (html.MAP_WAIT_S).

@@ -87,8 +87,8 @@ def with_summary(drive, tmp_path_factory):
     from euc_sim.rides.grids.signals import ride_signals
     from euc_sim.rides.pipeline import ride_pipeline
     from euc_sim.rides.request import ride_request
-    from euc_sim.rides.render.page_html import figure_specs, write_ride_html
-    from euc_sim.rides.render.series import RideSeries
+    from euc_sim.report.ride.page_html import figure_specs, write_ride_html
+    from euc_sim.report.ride.series import RideSeries
 
     log = drive[0]
     sig = ride_signals(read_log(log, emit_warnings=False))
@@ -160,7 +160,7 @@ def test_tiles_show_the_summary_in_peoples_units(with_summary):
 def test_data_quality_is_the_summarys_verdict_and_its_tone():
     from typed_ride import summary
 
-    from euc_sim.rides.render.page_html import data_quality
+    from euc_sim.report.ride.page_html import data_quality
 
     assert data_quality(summary(quality="fair", quality_sentence="Data quality fair: x.")) == \
         ("Data quality fair: x.", "warn")
@@ -221,7 +221,7 @@ def test_ride_figures_have_titles_and_axes_with_units(with_summary):
 
 def test_diagnosis_figures_have_titles_and_axes_with_units(diagnosed):
     from euc_sim.diagnosis.pipeline import diagnose
-    from euc_sim.diagnosis.report_html import figure_specs
+    from euc_sim.report.diagnosis_html import figure_specs
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -270,7 +270,7 @@ def test_a_battery_gauge_that_never_moved_says_so(ride_result):
 
     from typed_ride import summary
 
-    from euc_sim.rides.render.page_html import key_figure_lines
+    from euc_sim.report.ride.page_html import key_figure_lines
 
     s = summary(energy_drawn_Wh=19.1, battery_used_pct=0.0, battery_start_pct=100.0, battery_end_pct=100.0)
     res = replace(ride_result, rider=replace(ride_result.rider, summary=s))

@@ -26,8 +26,8 @@ from euc_sim.rides.compare import differences as df
 from euc_sim.rides.compare.differences_fit import PairDesign, pair_fit
 from euc_sim.rides.compare.differences_report import _power_columns, _stack
 from euc_sim.rides.grids.signals import ride_signals
-from euc_sim.rides.render.contract import effect_entries
-from euc_sim.rides.render.differences_page import difference_lines
+from euc_sim.report.ride.contract import effect_entries
+from euc_sim.report.ride.differences_page import difference_lines
 from euc_sim.rides.sim import sim_steps
 from euc_sim.rides.sim.simulate import _on_grid
 from euc_sim.rides.source.logs import read_log

@@ -12,7 +12,7 @@ from euc_sim.rides.drive.drivetrain import Term
 from euc_sim.rides.drive.drivetrain_report import MassDrivetrain
 from euc_sim.rides.law.controller_report import ControllerFit
 from euc_sim.rides.pipeline import REPLAY_NOT_ASKED, ride_pipeline
-from euc_sim.rides.render.contract import ride_json
+from euc_sim.report.ride.contract import ride_json
 from euc_sim.rides.request import RideRequest
 from euc_sim.rides.result import RideResult
 from euc_sim.rides.source.logs import read_log

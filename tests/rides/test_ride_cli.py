@@ -293,7 +293,7 @@ def test_real_rides_done_criterion(tmp_path, capsys):
         assert (tmp_path / "rep" / name).stat().st_size > 2_000
     assert "verdict:" in out
     a, b = rep["windows"][0]                # the terminal says the windows as the page does
-    from euc_sim.rides.render.ride_time import span_at
+    from euc_sim.report.ride.ride_time import span_at
     from euc_sim.rides.summary.rider_view import Clock
 
     assert "  windows, clock time in the phone's local time (time into the ride, min:s): " \
@@ -326,7 +326,7 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
     rep = analyse_request(req, tmp_path / "rep").to_json()
     sim = rep["simulation"]
     page = (tmp_path / "rep" / "index.md").read_text()
-    from euc_sim.rides.render.ride_time import clock_at
+    from euc_sim.report.ride.ride_time import clock_at
     from euc_sim.rides.summary.rider_view import Clock
 
     at = clock_at(Clock(**rep["clock"]), t_fall)          # clock time of the ride's own zone
@@ -349,7 +349,7 @@ def test_a_fall_in_one_run_is_listed_and_both_runs_are_scored_up_to_it(logs, mon
 
 
 def test_the_falls_are_said_once_with_the_runs_they_ended():
-    from euc_sim.rides.render.page import falls_sentence
+    from euc_sim.report.ride.page import falls_sentence
 
     cause = "|phi| = 0.700 rad exceeds the bound 0.7 rad"
     both = [{"t": 842.921, "cause": cause, "run": "nominal"}, {"t": 842.921, "cause": cause, "run": "augmented"}]
@@ -364,7 +364,7 @@ def test_the_falls_are_said_once_with_the_runs_they_ended():
 
 def test_the_page_says_when_the_last_step_sways_less_or_more_than_the_log():
     from euc_sim.rides.grids.rider_features import BandRatio
-    from euc_sim.rides.render.page import SWAY_DB, sway_sentence
+    from euc_sim.report.ride.page import SWAY_DB, sway_sentence
     from euc_sim.rides.sim.sim_steps import SimStep
     from euc_sim.rides.sim.simulate import StepScore
 

@@ -2,7 +2,7 @@
 
 :func:`ride_analysis` builds the ride(s)' balance designs and runs the cross-ride
 comparison (:mod:`euc_sim.rides.balance.crossride`); the JSON is rendered from its
-:class:`RideAnalysis` (:func:`euc_sim.rides.render.contract.balance_json`).
+:class:`RideAnalysis` (:func:`euc_sim.report.ride.contract.balance_json`).
 """
 
 from __future__ import annotations

@@ -59,7 +59,7 @@ class Drivetrain:
     Attributes
     ----------
     terms : dict of str -> Term
-        By name (the JSON's ``drivetrain``: :func:`euc_sim.rides.render.contract.term_json`).
+        By name (the JSON's ``drivetrain``: :func:`euc_sim.report.ride.contract.term_json`).
     unidentified : dict of str -> str
         Term -> why this log cannot identify it.
     pwm_coef : dict or None

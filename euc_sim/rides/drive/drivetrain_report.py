@@ -4,8 +4,8 @@
 :mod:`euc_sim.rides.drive.drivetrain` on a log (and, with ``compare``, predicts the
 other ride's battery power and PWM from this one's fit) and returns a
 :class:`MassDrivetrain` (the JSON's ``total_mass``, ``drivetrain``, ``pwm`` and
-``envelope``: :mod:`euc_sim.rides.render.contract`; drawn and worded by
-:mod:`euc_sim.rides.render.drivetrain_page`).  The rider's stated weight is never read.
+``envelope``: :mod:`euc_sim.report.ride.contract`; drawn and worded by
+:mod:`euc_sim.report.ride.drivetrain_page`).  The rider's stated weight is never read.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The ride JSON's ``controller`` object: :func:`controller_fit` reads the wheel's balance
 law from LOG with the drivetrain's K_t = K_e (N·m/A) and predicts a compare ride's phase
 current or torque from its pitch (CONTRACT ``heldout``; the JSON:
-:func:`euc_sim.rides.render.contract.controller_json`); :func:`firmware_terms` hands the law to
+:func:`euc_sim.report.ride.contract.controller_json`); :func:`firmware_terms` hands the law to
 the firmware (:mod:`euc_sim.controllers.firmware`).
 """
 

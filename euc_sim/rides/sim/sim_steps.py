@@ -48,7 +48,7 @@ VOLTAGE_EXTRAS = ("dead_time", "flux_weakening", "fw_speed")
 
 def motor_from_law(law: Mapping[str, float]) -> MotorPD:
     """The motor a step's JSON ``motor`` describes (the inverse of
-    :func:`euc_sim.rides.render.contract.sim_step_json`'s law)."""
+    :func:`euc_sim.report.ride.contract.sim_step_json`'s law)."""
     extra = ("tiltback_speed", "tiltback_gain", "voltage", "back_emf", "drop") + VOLTAGE_EXTRAS
     return MotorPD(Kp=law["K_p"], Kd=law["K_d"], torque_limit=law["torque_limit"],
                    **{k: law[k] for k in extra if k in law})

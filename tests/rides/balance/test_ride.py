@@ -18,9 +18,9 @@ from euc_sim.rides.balance.crossride import cross_ride
 from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.balance.fit import fit_balance, plausibility
 from euc_sim.rides.grids.profile import speed_profile
-from euc_sim.rides.render.contract import balance_json
+from euc_sim.report.ride.contract import balance_json
 from euc_sim.rides.grids.signals import RideAssumptions, resample, ride_signals, sg, wheel_torque
-from euc_sim.rides.render.fit_figures import write_balance
+from euc_sim.report.ride.fit_figures import write_balance
 from euc_sim.rides.source.logs import read_log
 from euc_sim.simulation.maneuvers import load_speed_profile
 

@@ -21,7 +21,7 @@ from euc_sim.rides.balance.normal import coefficients
 from euc_sim.rides.balance.parameters import Parameter, drivetrain_view, parameter_list
 from euc_sim.rides.balance.verdict import ride_verdict, verdict_of
 from euc_sim.rides.grids.signals import ride_signals
-from euc_sim.rides.render.contract import effect_entries
+from euc_sim.report.ride.contract import effect_entries
 from euc_sim.stats import forward_select, percentile_interval, time_blocks, wild_block_signs
 from euc_sim.rides.source.logs import read_log
 

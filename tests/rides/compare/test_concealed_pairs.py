@@ -15,7 +15,7 @@ from drivesynth import drive_log
 import conceal as cc
 
 from euc_sim.rides.compare.differences_report import pair_differences
-from euc_sim.rides.render.contract import differences_json
+from euc_sim.report.ride.contract import differences_json
 from euc_sim.rides.grids.power import RHO_AIR
 from euc_sim.rides.source.logs import read_log
 from euc_sim.rides.drive.drivetrain_report import ride_drivetrain

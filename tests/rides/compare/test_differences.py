@@ -8,7 +8,7 @@ import pytest
 
 from euc_sim.rides.compare import differences as df
 from euc_sim.rides.grids.power import RHO_AIR
-from euc_sim.rides.render.contract import difference_json, differences_json
+from euc_sim.report.ride.contract import difference_json, differences_json
 
 
 def _ride(seed, n=4000):
@@ -200,7 +200,7 @@ def test_a_delay_within_the_logs_resolution_is_not_named():
 
 
 def test_the_page_names_the_alias_set():
-    from euc_sim.rides.render.differences_page import difference_lines
+    from euc_sim.report.ride.differences_page import difference_lines
 
     a, b = _params(100.0, 0.5, 0.01, 0.2, 1.0), _params(100.0, 0.5, 0.01, 0.2, 1.0)
     tested = _tested(aerodynamic_drag=(0.18, 0.1, 0.26, True), rolling_resistance=(0.01, -0.01, 0.03, False))

@@ -13,7 +13,7 @@ from drivesynth import DRIVE, drive_log
 
 from euc_sim.rides.compare.channels import CHANNELS, whitening
 from euc_sim.rides.compare.differences_report import pair_differences
-from euc_sim.rides.render.contract import differences_json
+from euc_sim.report.ride.contract import differences_json
 from euc_sim.rides.drive.drivetrain_report import ride_drivetrain
 from euc_sim.rides.source.logs import read_log
 

@@ -6,7 +6,7 @@ import pytest
 
 from euc_sim.rides.compare import differences_fit as pf
 from euc_sim.rides.compare import resolution as rs
-from euc_sim.rides.render.contract import differences_json
+from euc_sim.report.ride.contract import differences_json
 from test_differences_fit import _design, _power, _ride
 
 
@@ -103,7 +103,7 @@ def test_a_difference_well_above_its_predicted_resolution_is_named_and_well_belo
 
 def test_the_json_and_the_page_carry_the_pairs_resolution():
     from euc_sim.rides.compare import differences as df
-    from euc_sim.rides.render.differences_page import difference_lines
+    from euc_sim.report.ride.differences_page import difference_lines
 
     det = {"total_mass": rs.detectable_difference("total_mass", (-2.0, 28.0), 60.0, 1.5,
                                                   blocks=(np.full(20, 4.0), np.full(20, 14.0))),
@@ -131,7 +131,7 @@ def test_a_difference_of_the_rides_own_fits_that_the_pair_does_not_name_is_expla
     from dataclasses import replace
 
     from euc_sim.rides.compare.differences import Difference, Differences
-    from euc_sim.rides.render.differences_page import difference_lines
+    from euc_sim.report.ride.differences_page import difference_lines
 
     entry = Difference("internal_resistance", 0.0146, (-0.015, 0.044), "ohm", False,
                        "not significant on the compared ride's held-out blocks (p = 0.021, q = 0.11 after the "

@@ -10,7 +10,7 @@ import pytest
 from euc_sim.rides.drive.battery import (PackSpec, battery_health, battery_health_of,
                                    measure_resistance, pack_spec, to_25C)
 from euc_sim.rides.drive.drivetrain import Term
-from euc_sim.rides.render.contract import battery_json
+from euc_sim.report.ride.contract import battery_json
 from euc_sim.rides.source.spec import read_spec
 from euc_sim.rides.source.logs import read_log
 from tests.rides.summarysynth import synth_summary_log

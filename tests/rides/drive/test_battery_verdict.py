@@ -9,7 +9,7 @@ import pytest
 
 from euc_sim.rides.drive.battery import (AGED_RATIO, PackSpec, battery_health, cell_figures, health_verdict,
                                          pack_spec, trend_words)
-from euc_sim.rides.render.contract import battery_json
+from euc_sim.report.ride.contract import battery_json
 from euc_sim.rides.source.spec import find_wheel
 
 
@@ -72,7 +72,7 @@ def test_trend_words():
 
 
 def test_summary_battery_carries_the_contract_keys(tmp_path):
-    from euc_sim.rides.render.contract import rider_json
+    from euc_sim.report.ride.contract import rider_json
     from euc_sim.rides.summary.rider_view import rider_numbers
     from euc_sim.rides.result import RiderNumbers
     from euc_sim.rides.source.logs import read_log

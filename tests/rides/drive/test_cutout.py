@@ -16,7 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from euc_sim.rides.render.contract import limits_json
+from euc_sim.report.ride.contract import limits_json
 from euc_sim.rides.drive.cutout import (CONDITIONS, Curve, DutyModel, Limits, OcvLine,
                                         cutout_curves, danger_sentence, duty, envelope, full_duty_accel,
                                         headroom_words, limit_speed, ocv_line, ride_limits)
@@ -161,7 +161,7 @@ def test_no_sentence_gives_speed_beyond_the_limit(ride_result):
     """Property over random rides: every speed said (but the rider's own) is at most the limit."""
 
     from euc_sim.rides.drive.cutout import Cutout
-    from euc_sim.rides.render.limits_page import limit_sentences
+    from euc_sim.report.ride.limits_page import limit_sentences
 
     rng = np.random.default_rng(11)
     for _ in range(400):
@@ -301,7 +301,7 @@ def test_an_apps_computed_pwm_is_not_called_a_check(tmp_path, ride_result):
     from drivesynth import drive_log
 
     from euc_sim.cli import main
-    from euc_sim.rides.render.limits_page import pwm_check
+    from euc_sim.report.ride.limits_page import pwm_check
 
     log = drive_log(tmp_path / "app.csv", seed=4, duration=300.0)
     t = pd.read_csv(log, dtype=str, keep_default_na=False)
@@ -323,7 +323,7 @@ def test_an_apps_computed_pwm_is_not_called_a_check(tmp_path, ride_result):
 
 
 def test_the_spec_gives_its_top_speed_and_an_unreadable_one_is_left_out(tmp_path):
-    from euc_sim.rides.render.contract import spec_json
+    from euc_sim.report.ride.contract import spec_json
     from euc_sim.rides.source.spec import read_spec
 
     p = tmp_path / "w.csv"

@@ -17,7 +17,7 @@ from euc_sim.cli import main
 from euc_sim.rides.drive.mass import fit_mass
 from euc_sim.rides.drive.rotating import ROTATING_SHARE, without_rotating_inertia
 from euc_sim.rides.grids.power import MassSettings, RideDataError, power_signals, speed_scale
-from euc_sim.rides.render.contract import physics_json
+from euc_sim.report.ride.contract import physics_json
 from euc_sim.rides.drive.drivetrain_report import analyse, mass_drivetrain
 from euc_sim.rides.source.logs import LogFormatError, read_log
 from euc_sim.rides.source.spec import SpecError, read_spec, wheel_spec

@@ -20,8 +20,8 @@ import pytest
 from euc_sim.rides.grids.law_signals import LawUnavailable, law_rows
 from euc_sim.rides.law.controller_law import BASE, fit_law, fit_params, predict, r2
 from euc_sim.rides.law.controller_report import controller_fit
-from euc_sim.rides.render import contract
-from euc_sim.rides.render.page import law_md
+from euc_sim.report.ride import contract
+from euc_sim.report.ride.page import law_md
 from euc_sim.rides.source.logs import read_log
 
 SHARED = Path(__file__).resolve().parents[4] / "shared" / "data" / "euc_core" / "trips"

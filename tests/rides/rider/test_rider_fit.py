@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from euc_sim.rides.render.contract import rider_fit_json
+from euc_sim.report.ride.contract import rider_fit_json
 from euc_sim.rides.rider import rider_fit as rf
 from euc_sim.rides.source.logs import read_log
 

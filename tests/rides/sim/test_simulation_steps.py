@@ -20,7 +20,7 @@ from euc_sim.controllers.motor import MotorPD
 from euc_sim.model.parameters import TABLE3
 from euc_sim.rides.drive.drivetrain import Term
 from euc_sim.rides.law.controller_report import ControllerFit
-from euc_sim.rides.render.contract import sim_step_json, simulation_json
+from euc_sim.report.ride.contract import sim_step_json, simulation_json
 from euc_sim.rides.sim.sim_steps import (STEP_BUILDERS, LogChannels, StepInputs, build_steps,
                                      drivetrain_step, log_channels, measured_law_step, nominal_step,
                                      simulated_pwm)
@@ -179,7 +179,7 @@ def test_a_figure_per_step_with_the_logs_channels(law_log, tmp_path):
 
     from euc_sim.rides.grids.signals import RideAssumptions, ride_signals
     from euc_sim.rides.sim.sim_steps import SimStep
-    from euc_sim.rides.render.simulation_figure import plot_ride_simulation, ride_simulation_figure
+    from euc_sim.report.ride.simulation_figure import plot_ride_simulation, ride_simulation_figure
     from euc_sim.rides.sim.simulate import simulate_ride
 
     path, ls, law = law_log

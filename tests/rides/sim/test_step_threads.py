@@ -16,7 +16,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from ridesynth import synth_log  # noqa: E402
 
 from euc_sim.controllers.motor import MotorPD  # noqa: E402
-from euc_sim.rides.render.contract import simulation_json  # noqa: E402
+from euc_sim.report.ride.contract import simulation_json  # noqa: E402
 from euc_sim.rides.source.logs import read_log
 
 NOM = {"copper_loss": 0.004, "drivetrain_idle_loss": 10.0}

@@ -8,7 +8,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from euc_sim.rides.render.contract import summary_json
+from euc_sim.report.ride.contract import summary_json
 from euc_sim.rides.summary.summary import BRIDGE_S, Gaps, mass_check, ride_summary
 from euc_sim.rides.source.logs import read_log
 from tests.rides.summarysynth import as_layout, synth_summary_log
@@ -187,7 +187,7 @@ def test_other_layouts_give_the_same_summary(tmp_path, layout):
 
 
 def test_rider_numbers_reads_the_reports_terms(tmp_path):
-    from euc_sim.rides.render.contract import rider_json
+    from euc_sim.report.ride.contract import rider_json
     from euc_sim.rides.summary.rider_view import rider_numbers
     from euc_sim.rides.result import RiderNumbers
     from euc_sim.rides.source.spec import WheelSpec

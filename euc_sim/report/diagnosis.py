@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from euc_sim.diagnosis.report_html import diagnosis_html
+from euc_sim.report.diagnosis_html import diagnosis_html
 from euc_sim.io import atomic_write, figure_png, write_text
 from euc_sim.report.html import write_page
 from euc_sim.simulation.effects import CATALOG

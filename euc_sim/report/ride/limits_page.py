@@ -16,7 +16,7 @@ import numpy as np
 
 from euc_sim.report.figures import YL_OR_RD, Line, plain_values, thin, xy_figure
 from euc_sim.rides.drive.cutout import CONDITIONS, headroom_words
-from euc_sim.rides.render.series import MOST_POINTS, RideSeries, max_pwm_mark, number
+from euc_sim.report.ride.series import MOST_POINTS, RideSeries, max_pwm_mark, number
 
 __all__ = ["limit_sentences", "limits_paragraph", "cutout_figure", "limits_md", "LIMITS_TITLE", "CUTOUT_LABELS",
            "envelope_figure", "pwm_check"]

@@ -3,7 +3,7 @@
 The verdict first, in sentences; then the residual over time with the windows where
 the mismatch concentrates and the held-out error before and after (interactive);
 the effects found in a table; then, folded, everything the plain-text page
-(``index.md``, :func:`euc_sim.diagnosis.report.write_report`) says, its PNG figures
+(``index.md``, :func:`euc_sim.report.diagnosis.write_report`) says, its PNG figures
 linked.
 """
 

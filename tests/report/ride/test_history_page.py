@@ -1,8 +1,8 @@
-"""The many-rides page's tiles (euc_sim.rides.render.history_page)."""
+"""The many-rides page's tiles (euc_sim.report.ride.history_page)."""
 
 from __future__ import annotations
 
-from euc_sim.rides.render.history_page import _key_figures
+from euc_sim.report.ride.history_page import _key_figures
 from tests.rides.typed_ride import history_of, ride_entry_of
 
 

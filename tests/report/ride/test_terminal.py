@@ -1,4 +1,4 @@
-"""The terminal's summary of a ride (euc_sim.rides.render.terminal): lines from the result alone."""
+"""The terminal's summary of a ride (euc_sim.report.ride.terminal): lines from the result alone."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from euc_sim.rides.render.terminal import history_lines, summary_lines
+from euc_sim.report.ride.terminal import history_lines, summary_lines
 from euc_sim.rides.sim.sim_steps import SimStep
 from euc_sim.rides.sim.simulate import RideSimulation, StepScore
 from euc_sim.rides.summary.rider_view import Clock
@@ -74,7 +74,7 @@ def test_a_ride_number_not_known_reads_as_the_json_writes_it():
 def test_the_windows_and_the_compared_ride_read_as_the_page_says_them(compared_result):
     """The terminal said "windows (s): 76.6-96.3, …" beside tiles in clock time, and "compared:
     this ride needed …" under this ride's own figures, meaning the compared one."""
-    from euc_sim.rides.render.ride_time import span_at
+    from euc_sim.report.ride.ride_time import span_at
 
     rep = json.loads(RIDE.read_text())
     clock = Clock(**rep["clock"])

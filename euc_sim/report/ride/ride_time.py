@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from euc_sim.report.figures import plain_values
-from euc_sim.rides.render.series import number
+from euc_sim.report.ride.series import number
 
 __all__ = ["hm", "clock_at", "when", "span_words", "pause_words", "clock_of", "spans_legend", "span_at",
            "TimeAxis", "PAUSE_SHOWN"]

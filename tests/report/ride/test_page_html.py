@@ -1,4 +1,4 @@
-"""The ride page's first screen as a rider reads it (euc_sim.rides.render.page_html): what each
+"""The ride page's first screen as a rider reads it (euc_sim.report.ride.page_html): what each
 tile says beside its number, built from a synthetic log's summary."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import pytest
 
-from euc_sim.rides.render.page_html import key_figures
+from euc_sim.report.ride.page_html import key_figures
 from tests.rides.summary.test_summary import _with_spin
 from tests.rides.summarysynth import synth_summary_log
 from tests.rides.typed_ride import battery, mass_fit, rider_of, with_summary
@@ -35,7 +35,7 @@ def test_the_top_speed_tile_says_a_free_spin_was_left_out(tmp_path):
 def test_the_lead_says_when_named_physics_sits_on_its_edge(monkeypatch, ride_result):
     """Blitz 1: C_rr, k and P₀ all on their plausible edges; the verdict said 'the rest is not
     explained' while the first screen said only 'shows what the standard model lacks'."""
-    from euc_sim.rides.render import page_html
+    from euc_sim.report.ride import page_html
 
     def lead(accepted, edge):
         cross = replace(ride_result.balance.cross, accepted=tuple(accepted))
@@ -63,7 +63,7 @@ def test_the_pwm_peak_is_marked_on_the_map_only_with_gps(tmp_path):
 
 def test_a_tile_gives_a_reason_whole_not_cut_mid_word(rider):
     """Mten4 0's mass tile read 'the battery current is never negative: braking cannot be tol'."""
-    from euc_sim.rides.render.page_html import short
+    from euc_sim.report.ride.page_html import short
 
     why = ("the battery current is never negative: braking cannot be told from driving, so the "
            "acceleration power's sign is lost and the mass is not identified")
@@ -112,8 +112,8 @@ def test_the_pwm_panel_shows_the_logged_peak_the_tile_gives(ride_result):
     the line is the 10 Hz grid's mean. The panel now carries the logged peak as a point."""
     import numpy as np
 
-    from euc_sim.rides.render.page_html import over_time
-    from euc_sim.rides.render.series import RideSeries
+    from euc_sim.report.ride.page_html import over_time
+    from euc_sim.report.ride.series import RideSeries
 
     t = np.arange(0.0, 600.0, 0.1)
     series = RideSeries(t=t, gap_s=0.15, channels={"speed_kmh": np.full(t.size, 30.0),
@@ -128,7 +128,7 @@ def test_the_pwm_panel_shows_the_logged_peak_the_tile_gives(ride_result):
 def test_no_battery_figures_where_the_logs_power_is_not_the_batterys(ride_result):
     """A WheelLog on a Begode: the app computes the current, so V·I is no battery power and
     neither energy, consumption nor resistance is shown as the battery's."""
-    from euc_sim.rides.render.page_html import NOT_POWER, key_figure_lines
+    from euc_sim.report.ride.page_html import NOT_POWER, key_figure_lines
 
     res = with_summary(ride_result, energy_drawn_Wh=309.0, energy_regen_Wh=5.0, Wh_per_km=20.4, distance_m=15000.0)
     res = replace(res, rider=replace(res.rider, battery=battery(0.196, "as new")))

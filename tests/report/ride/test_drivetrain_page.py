@@ -1,4 +1,4 @@
-"""The mass and drivetrain section of the ride page and its figures (euc_sim.rides.render.drivetrain_page)."""
+"""The mass and drivetrain section of the ride page and its figures (euc_sim.report.ride.drivetrain_page)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ from dataclasses import replace
 from euc_sim.rides.drive.drivetrain import Term
 from euc_sim.rides.drive.grade import grade_profile
 from euc_sim.rides.drive.mass import MassFit
-from euc_sim.rides.render.drivetrain_page import _mass_md, plot_grade
+from euc_sim.report.ride.drivetrain_page import _mass_md, plot_grade
 from tests.rides.drive.test_grade import _ride
 from tests.rides.typed_ride import mass_fit
 
@@ -33,7 +33,7 @@ def test_the_mass_interval_names_its_parts_without_an_efficiency(ride_result):
 def test_the_mass_fits_own_terms_are_said_apart_from_the_balance_model():
     """Lynx pages showed winding_resistance 0.44 ohm and phase_resistance_pwm 0.074 ohm, and V9
     pages a grade ratio of 0.44 beside the balance's GPS gain 0.56, without saying which is which."""
-    from euc_sim.rides.render.drivetrain_page import _nuisance_note
+    from euc_sim.report.ride.drivetrain_page import _nuisance_note
 
     both = " ".join(_nuisance_note(_terms(winding_resistance=0.44, phase_resistance_pwm=0.074, grade_mass=50.0)))
     assert ("winding_resistance and grade_mass are the mass fit's own terms (how its energy balance "

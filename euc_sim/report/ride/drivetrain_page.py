@@ -4,7 +4,7 @@
 (:mod:`euc_sim.rides.drive.drivetrain_report`) for the page;
 :func:`plot_envelope` draws the envelope's figure and :func:`plot_grade` the altitude the
 balance implies (:mod:`euc_sim.rides.drive.grade`); the page draws the PWM model's
-(:func:`euc_sim.rides.render.fit_figures.pwm_figure`).
+(:func:`euc_sim.report.ride.fit_figures.pwm_figure`).
 """
 
 from __future__ import annotations

@@ -37,8 +37,8 @@ def _logs() -> list[tuple[Path, Path | None]]:
 def pages(tmp_path_factory):
     """(log, spec, report, page text) for each of the 21 logs."""
     from euc_sim.rides.pipeline import ride_pipeline
-    from euc_sim.rides.render.contract import ride_json
-    from euc_sim.rides.render.page import write_page
+    from euc_sim.report.ride.contract import ride_json
+    from euc_sim.report.ride.page import write_page
     from euc_sim.rides.request import ride_request
     from euc_sim.rides.source.spec import read_spec
 

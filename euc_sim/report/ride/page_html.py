@@ -4,7 +4,7 @@ First screen: the ride's numbers (distance, time, speeds, energy, Wh/km, battery
 PWM, alarms, data quality, mass, battery health) read from the ride's
 :class:`~euc_sim.rides.result.RiderNumbers` and total mass (never computed here); a tile whose
 number is unknown says "not available"; with ``--compare``, right under them, what
-differs in the compared ride (:mod:`euc_sim.rides.render.differences_page`).  Then the ride over time on one shared
+differs in the compared ride (:mod:`euc_sim.report.ride.differences_page`).  Then the ride over time on one shared
 axis, the track, the wheel's limits with the speed at which its motor would run out of voltage
 against the battery's charge (its :class:`~euc_sim.rides.drive.cutout.Cutout`), the battery's sag and the PWM
 envelope with the ride's own points.  Then, folded, the physics the plain-text page (``index.md``) carries.
@@ -23,13 +23,13 @@ from euc_sim.report import html as H
 from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
 from euc_sim.rides.balance.fit import plausibility
 from euc_sim.rides.drive.drivetrain import charge_drawn
-from euc_sim.rides.render.limits_page import pwm_check
-from euc_sim.rides.render.differences_page import TITLE, difference_lines
-from euc_sim.rides.render.limits_page import (LIMITS_TITLE, cutout_figure, envelope_figure, limit_sentences,
+from euc_sim.report.ride.limits_page import pwm_check
+from euc_sim.report.ride.differences_page import TITLE, difference_lines
+from euc_sim.report.ride.limits_page import (LIMITS_TITLE, cutout_figure, envelope_figure, limit_sentences,
                                               limits_paragraph)
-from euc_sim.rides.render.page import markdown_sections
-from euc_sim.rides.render.series import MOST_POINTS, RideSeries, max_pwm_mark, number
-from euc_sim.rides.render.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
+from euc_sim.report.ride.page import markdown_sections
+from euc_sim.report.ride.series import MOST_POINTS, RideSeries, max_pwm_mark, number
+from euc_sim.report.ride.ride_time import TimeAxis, hm as _hm, pause_words, span_words, when
 from euc_sim.rides.result import RideResult, RiderNumbers
 from euc_sim.rides.source.gaps import GAP_POLICY
 

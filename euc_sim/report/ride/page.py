@@ -16,12 +16,12 @@ from euc_sim.io import write_text
 from euc_sim.rides.balance.residual import SLOW_S
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.law.controller_report import describe
-from euc_sim.rides.render.contract import effect_entries, error_measure
+from euc_sim.report.ride.contract import effect_entries, error_measure
 from euc_sim.stats import rms
-from euc_sim.rides.render.differences_page import difference_section
-from euc_sim.rides.render.drivetrain_page import page_section
-from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend, when
-from euc_sim.rides.render.series import number
+from euc_sim.report.ride.differences_page import difference_section
+from euc_sim.report.ride.drivetrain_page import page_section
+from euc_sim.report.ride.ride_time import clock_of, span_at, spans_legend, when
+from euc_sim.report.ride.series import number
 from euc_sim.rides.result import RideResult
 from euc_sim.rides.grids.rider_features import BandRatio
 from euc_sim.rides.sim.sim_steps import TARGET_RATIO
@@ -61,7 +61,7 @@ def write_page(res: RideResult, out_dir, figures: Mapping[str, str], key_lines: 
         The fitted quantities those figures give, said later without their numbers.
     limits : sequence of str
         The wheel's limit and the cut-out, Markdown lines with their heading (the HTML page's
-        sentences: :func:`euc_sim.rides.render.limits_page.limits_md`), after the verdict.
+        sentences: :func:`euc_sim.report.ride.limits_page.limits_md`), after the verdict.
 
     Returns
     -------

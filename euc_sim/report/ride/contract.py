@@ -375,7 +375,7 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
     ----------
     res : RideResult
     files : ReportFiles, optional
-        The report folder's files (:func:`euc_sim.rides.render.report_files.write_report`).
+        The report folder's files (:func:`euc_sim.report.ride.report_files.write_report`).
     report_dir : str, optional
         Where the report folder is, from the JSON's folder (``report_dir``).
 

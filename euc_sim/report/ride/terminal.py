@@ -12,12 +12,12 @@ from __future__ import annotations
 from pathlib import Path
 
 from euc_sim.rides.balance.verdict import unit_label
-from euc_sim.rides.render.history_page import pwm_cell, start_in, table_zone
-from euc_sim.rides.render.contract import effect_entries, error_measure
-from euc_sim.rides.render.page import falls_sentence
-from euc_sim.rides.render.page_html import key_figure_lines
-from euc_sim.rides.render.ride_time import clock_of, span_at, spans_legend
-from euc_sim.rides.render.series import number
+from euc_sim.report.ride.history_page import pwm_cell, start_in, table_zone
+from euc_sim.report.ride.contract import effect_entries, error_measure
+from euc_sim.report.ride.page import falls_sentence
+from euc_sim.report.ride.page_html import key_figure_lines
+from euc_sim.report.ride.ride_time import clock_of, span_at, spans_legend
+from euc_sim.report.ride.series import number
 from euc_sim.rides.result import RideResult
 from euc_sim.rides.sim.sim_steps import TARGET_RATIO
 from euc_sim.rides.sim.simulate import StepScore

@@ -1,4 +1,4 @@
-"""The ride page's folded parts (euc_sim.rides.render.page): every fitted value said once.
+"""The ride page's folded parts (euc_sim.report.ride.page): every fitted value said once.
 
 The Lynx ride 2 page gave C_rr 0.0251 and k 0.553 kg/m in 'Estimates' and again in the
 simulation's section ("effects injected ...: rolling_resistance = 0.0251, ..."), k_cu in a
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from euc_sim.rides.render.page import _simulation_md, said_once
+from euc_sim.report.ride.page import _simulation_md, said_once
 from euc_sim.rides.sim.sim_steps import SimStep
 from euc_sim.rides.sim.simulate import RideSimulation, StepScore
 
@@ -61,7 +61,7 @@ def test_said_once_keeps_what_the_tables_do_not_give():
 def test_the_sampling_note_agrees_with_the_tiles_rate(ride_result):
     """V9 0: the Data quality tile gave '2.9 samples/s', the notes 'about 37.0 Hz' (the median
     interval of rows that come in bursts between 409 gaps)."""
-    from euc_sim.rides.render.page import _assumptions_md
+    from euc_sim.report.ride.page import _assumptions_md
 
     note = ("irregular sampling: intervals 0.008-5.072 s (median 0.027 s, about 37.0 Hz); 409 gap(s) "
             "longer than 1 s; 883 interval(s) shorter than 20 ms (near-repeats, kept)")
@@ -79,7 +79,7 @@ def test_the_sampling_note_agrees_with_the_tiles_rate(ride_result):
 def test_the_torque_inferred_from_power_is_said_as_an_assumption_for_the_torque_only(ride_result):
     """The pages read 'Logged torque from power_efficiency (assumed efficiency 0.8)' and, among
     the balance fit's assumptions, 'torque from power_efficiency', beside a balance with no efficiency."""
-    from euc_sim.rides.render.page import _assumptions_md
+    from euc_sim.report.ride.page import _assumptions_md
 
     rep = _report(ride_result, [])
     md = "\n".join(_simulation_md(rep, {}))
@@ -99,7 +99,7 @@ def test_the_mass_fits_delay_says_it_is_not_the_balances_current_lag(ride_result
     one lag of the logged current, two figures, neither saying what it is.  The mass section says
     its delay is a shift and where the balance's first-order lag is."""
     from euc_sim.rides.balance.parameters import Parameter
-    from euc_sim.rides.render.drivetrain_page import _mass_md
+    from euc_sim.report.ride.drivetrain_page import _mass_md
     from tests.rides.typed_ride import mass_fit
 
     lag = Parameter("current_lag", 0.3, None, "s", True, True, None, "balance")

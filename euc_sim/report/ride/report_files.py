@@ -1,7 +1,7 @@
 """The report folder of a ride: figures, tables, ``index.md`` and ``index.html``.
 
 :func:`write_report` renders a :class:`~euc_sim.rides.result.RideResult` into a folder and
-returns the files' names (:class:`~euc_sim.rides.render.contract.ReportFiles`), which the
+returns the files' names (:class:`~euc_sim.report.ride.contract.ReportFiles`), which the
 JSON then names.
 """
 
@@ -13,15 +13,15 @@ import tempfile
 from pathlib import Path
 
 from euc_sim.io import atomic_write
-from euc_sim.rides.render import fit_figures as F
-from euc_sim.rides.render.contract import ReportFiles
-from euc_sim.rides.render.drivetrain_page import plot_envelope, plot_grade
-from euc_sim.rides.render.fit_figures import write_balance
-from euc_sim.rides.render.page import write_page
-from euc_sim.rides.render.limits_page import limits_md
-from euc_sim.rides.render.page_html import first_screen, key_figure_lines, write_ride_html
-from euc_sim.rides.render.series import RideSeries
-from euc_sim.rides.render.simulation_figure import plot_ride_simulation
+from euc_sim.report.ride import fit_figures as F
+from euc_sim.report.ride.contract import ReportFiles
+from euc_sim.report.ride.drivetrain_page import plot_envelope, plot_grade
+from euc_sim.report.ride.fit_figures import write_balance
+from euc_sim.report.ride.page import write_page
+from euc_sim.report.ride.limits_page import limits_md
+from euc_sim.report.ride.page_html import first_screen, key_figure_lines, write_ride_html
+from euc_sim.report.ride.series import RideSeries
+from euc_sim.report.ride.simulation_figure import plot_ride_simulation
 from euc_sim.rides.result import RideResult
 
 __all__ = ["write_report"]

@@ -1,7 +1,7 @@
 """What the ride's page draws over time: the log's curves on the ride's grid, in people's units.
 
 :class:`RideSeries` is built once from the grid the balance fit parsed and shared by every page
-figure (:mod:`euc_sim.rides.render.page_html`, :mod:`euc_sim.rides.render.limits_page`).
+figure (:mod:`euc_sim.report.ride.page_html`, :mod:`euc_sim.report.ride.limits_page`).
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from euc_sim.cli import main
-from euc_sim.rides.render.page_html import key_figure_lines, key_figures
+from euc_sim.report.ride.page_html import key_figure_lines, key_figures
 from euc_sim.rides.summary.rider_view import Clock
 from tests.rides.summarysynth import as_layout, synth_summary_log
 from tests.rides.typed_ride import mass_fit, rider_of
@@ -72,8 +72,8 @@ def test_windows_and_falls_read_as_clock_and_time_into_the_ride(ride_result):
     """The residual's windows read "182.1-186.9" (s into the ride) and a fall "at t = 842.9 s"
     while the tiles give clock times of the ride's zone: they now read as the tiles do; a fall
     on the compared ride is said in that ride's clock."""
-    from euc_sim.rides.render.page import _localisation_md, falls_sentence
-    from euc_sim.rides.render.ride_time import clock_of
+    from euc_sim.report.ride.page import _localisation_md, falls_sentence
+    from euc_sim.report.ride.ride_time import clock_of
     from euc_sim.rides.result import ComparedRide
 
     clock = Clock("2025-07-26T13:51:01.613000+02:00", 7200.0, "UTC+02:00")
@@ -113,7 +113,7 @@ def test_the_rides_are_in_the_order_they_were_ridden_whatever_zone_their_log_kee
     later EUC World ride came first.  Sorted on the instant (the phone's clock taken in the
     zone the table shows), the table reads down in time, in one zone."""
     from euc_sim.rides.logbook.history import ride_history
-    from euc_sim.rides.render.history_page import history_page, start_in, table_zone
+    from euc_sim.report.ride.history_page import history_page, start_in, table_zone
 
     h = ride_history([_entry("euc_world.csv", "2024-06-01T08:00:00", 7200.0),
                       _entry("wheellog.csv", "2024-06-01T09:00:00", None),
@@ -149,7 +149,7 @@ def test_a_logged_span_never_reads_longer_or_shorter_than_its_length(ride_result
 
     import numpy as np
 
-    from euc_sim.rides.render.ride_time import span_words
+    from euc_sim.report.ride.ride_time import span_words
 
     rng = np.random.default_rng(5)
     for _ in range(300):
@@ -173,7 +173,7 @@ def test_the_residual_figure_draws_the_windows_on_the_minutes_the_page_says():
     import numpy as np
 
     from euc_sim.rides.balance.residual import ResidualTrace
-    from euc_sim.rides.render.fit_figures import residuals_figure
+    from euc_sim.report.ride.fit_figures import residuals_figure
 
     t = np.arange(0.0, 600.0, 0.1)
     r = np.sin(t / 10.0)

@@ -1,9 +1,9 @@
-"""The ride page's notes for people (euc_sim.rides.render.page.summarise_notes): one line for a
+"""The ride page's notes for people (euc_sim.report.ride.page.summarise_notes): one line for a
 ride's hundreds of logging gaps, the JSON keeping every one."""
 
 from __future__ import annotations
 
-from euc_sim.rides.render.page import summarise_notes
+from euc_sim.report.ride.page import summarise_notes
 
 
 def test_gaps_and_short_pieces_become_one_line_each_per_ride():
@@ -54,7 +54,7 @@ def test_the_sampling_note_gives_no_second_rate_beside_the_tiles():
     """Z10 0: the Data quality tile read 12.2 samples/s and the notes "(median 0.077 s, about
     13.0 Hz)": one rate, two values.  The note keeps its median interval; a median rate far
     above the tile's is said as the rate within bursts, as before."""
-    from euc_sim.rides.render.page import as_the_tile
+    from euc_sim.report.ride.page import as_the_tile
 
     note = ("irregular sampling: intervals 0.007-0.522 s (median 0.077 s, about 13.0 Hz); "
             "0 gap(s) longer than 1 s; 422 interval(s) shorter than 20 ms (near-repeats, kept)")
@@ -69,7 +69,7 @@ def test_the_gaps_are_said_at_their_moments_in_each_rides_clock(ride_result):
     the page says each gap's clock time and time into the ride, a compared ride's in its own."""
     from dataclasses import replace
 
-    from euc_sim.rides.render.page import _assumptions_md
+    from euc_sim.report.ride.page import _assumptions_md
     from euc_sim.rides.result import ComparedRide
     from euc_sim.rides.summary.rider_view import Clock
 

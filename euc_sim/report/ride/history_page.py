@@ -11,8 +11,8 @@ from pathlib import Path
 
 from euc_sim.report.html import KeyFigure, figure, key_figures, page, paragraph, section, table
 from euc_sim.rides.logbook.history import shared_offset
-from euc_sim.rides.render.page_html import PWM_BAD, PWM_WARN
-from euc_sim.rides.render.series import number
+from euc_sim.report.ride.page_html import PWM_BAD, PWM_WARN
+from euc_sim.report.ride.series import number
 from euc_sim.rides.summary.rider_view import zone_words
 
 __all__ = ["history_page", "table_zone", "start_in", "pwm_cell"]
