@@ -20,7 +20,7 @@ from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
 from euc_sim.rides.balance.residual import residual_windows
 from euc_sim.rides.balance.verdict import verdict_of
 from euc_sim.rides.compare.differences_report import pair_differences
-from euc_sim.rides.drive.drivetrain_report import (computed_pwm_note, cutout_of, reported_mass, reported_terms,
+from euc_sim.rides.drive.drivetrain_report import (cutout_of, reported_mass, reported_terms,
                                                    ride_drivetrain)
 from euc_sim.rides.grids.power import MassSettings
 from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
@@ -119,7 +119,7 @@ def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResu
     if compare is not None:         # the compared ride's own numbers, beside LOG's on the page
         test, test_mass = mass.test, reported_mass(mass.test)
         compared = ComparedRide(Path(compare.path).name, test, test_mass, _rider_numbers(
-            compare, test_mass, reported_terms(test, computed_pwm_note(test)), spec, req.compare_rider_weight))
+            compare, test_mass, reported_terms(test), spec, req.compare_rider_weight))
     cutout = cutout_of(mass, rider.summary.limits)
     return RideResult(balance=an, notes=notes, mass=mass, law=law, parameters=parameters,
                       drivetrain=drivetrain, differences=differences, traces=tuple(traces),
