@@ -106,7 +106,7 @@ def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResu
         # ride's terms from its own energy-balance fit, so both sides are read alike
         differences = pair_differences(mass, log, compare)
     say("locating the residual")
-    traces = _localise(an, req.domain, log, compare)
+    traces = _localise(an, log, compare)
     notes = tuple(an.notes) + (_mass_grid_note(mass.fit),)
     sim, why = _simulation(an, log, compare, seed, jobs, progress, req.simulate, req.calibrate_rider,
                            law, parameters, drivetrain, mass)
@@ -132,13 +132,13 @@ def _rider_numbers(log, total_mass, drivetrain, spec, rider_weight) -> RiderNumb
     return RiderNumbers(*rider_numbers(log, total_mass, drivetrain, spec, rider_weight))
 
 
-def _localise(an, domain: str, log, compare) -> list:
+def _localise(an, log, compare) -> list:
     """Where the inertia-only residual concentrates: the residual traces of the fit (and test) ride."""
     nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
     d_fit, d_test = an.designs
-    traces = [residual_windows(an.sig_fit, nom, aug, domain, log.name, True, design=d_fit)]
+    traces = [residual_windows(d_fit, nom, aug, log.name, True)]
     if an.sig_test is not None:
-        traces.append(residual_windows(an.sig_test, nom, aug, domain, compare.name, False, design=d_test))
+        traces.append(residual_windows(d_test, nom, aug, compare.name, False))
     return traces
 
 
