@@ -34,11 +34,6 @@ def _into(seconds: float) -> str:
     return f"{s // 60} min {s % 60:02d} s" if s >= 60 else f"{s} s"
 
 
-def _minute_of_day(at: datetime) -> int:
-    """The minute of the day a clock shows at ``at`` (16:48:42 -> 1008)."""
-    return 60 * at.hour + at.minute
-
-
 def _min_s(seconds: float) -> str:
     """Time into the ride as a stopwatch shows it: "2:58" (min:s), "1:02:05" (h:min:s)."""
     s = int(round(seconds))
@@ -105,7 +100,8 @@ def span_words(clock, s) -> str:
     a, b = _clock_time(clock, 0.0), _clock_time(clock, logged)
     if a is None or b is None or not clock.zone:
         return ""
-    fmt = "%H:%M" if (_minute_of_day(b) - _minute_of_day(a)) % 1440 == round(logged / 60.0) % 1440 else "%H:%M:%S"
+    shown = (60 * (b.hour - a.hour) + b.minute - a.minute) % 1440       # minutes between the HH:MM shown
+    fmt = "%H:%M" if shown == round(logged / 60.0) % 1440 else "%H:%M:%S"
     dur = number(s.duration_s)
     own = f" ({hm(logged)})" if dur is not None and hm(logged) != hm(dur) else ""
     return f"logged {a:{fmt}}–{b:{fmt}}{own} in {clock.zone}"
