@@ -185,7 +185,7 @@ def identify(recordings: Sequence, *, bounds: tuple[float, float] = (0.1, 1.5), 
     res = identify_recordings(recs, bounds=bounds, n_boot=n_boot,
                               block=BOOTSTRAP_BLOCK if block is None else block, seed=seed, n_noise=n_noise)
     return Identification(recordings=tuple(r.name for r in recs), models=res["pooled"],
-                          per_recording=tuple(res["per_recording"]), loaded=tuple(recs))
+                          per_recording=tuple(res["per_recording"]))
 
 
 def diagnose(recording, *, params=None, resimulate: bool = True, calibrate: bool = True, seed: int = 0,

@@ -87,14 +87,11 @@ class Identification:
         Pooled: ``"3dof"``, ``"2dof"`` → :class:`~euc_sim.identification.h_fit.HFit` (h, m).
     per_recording : tuple of mapping
         The same per recording.
-    loaded : tuple
-        The loaded recordings (:class:`euc_sim.identification.h_fit.Recording`).
     """
 
     recordings: tuple[str, ...]
     models: Mapping[str, Any]
     per_recording: tuple[Mapping[str, Any], ...]
-    loaded: tuple = field(default=(), repr=False)
 
     @property
     def h(self) -> float:

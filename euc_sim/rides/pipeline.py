@@ -20,7 +20,7 @@ from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
 from euc_sim.rides.balance.residual import residual_windows
 from euc_sim.rides.balance.verdict import verdict_of
 from euc_sim.rides.compare.differences_report import pair_differences
-from euc_sim.rides.drive.drivetrain_report import (computed_pwm_note, cutout_of, reported_mass, reported_terms,
+from euc_sim.rides.drive.drivetrain_report import (cutout_of, reported_mass, reported_terms,
                                                    ride_drivetrain)
 from euc_sim.rides.grids.power import MassSettings
 from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
@@ -106,7 +106,7 @@ def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResu
         # ride's terms from its own energy-balance fit, so both sides are read alike
         differences = pair_differences(mass, log, compare)
     say("locating the residual")
-    traces = _localise(an, req.domain, log, compare)
+    traces = _localise(an, log, compare)
     notes = tuple(an.notes) + (_mass_grid_note(mass.fit),)
     sim, why = _simulation(an, log, compare, seed, jobs, progress, req.simulate, req.calibrate_rider,
                            law, parameters, drivetrain, mass)
@@ -119,7 +119,7 @@ def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResu
     if compare is not None:         # the compared ride's own numbers, beside LOG's on the page
         test, test_mass = mass.test, reported_mass(mass.test)
         compared = ComparedRide(Path(compare.path).name, test, test_mass, _rider_numbers(
-            compare, test_mass, reported_terms(test, computed_pwm_note(test)), spec, req.compare_rider_weight))
+            compare, test_mass, reported_terms(test), spec, req.compare_rider_weight))
     cutout = cutout_of(mass, rider.summary.limits)
     return RideResult(balance=an, notes=notes, mass=mass, law=law, parameters=parameters,
                       drivetrain=drivetrain, differences=differences, traces=tuple(traces),
@@ -132,13 +132,13 @@ def _rider_numbers(log, total_mass, drivetrain, spec, rider_weight) -> RiderNumb
     return RiderNumbers(*rider_numbers(log, total_mass, drivetrain, spec, rider_weight))
 
 
-def _localise(an, domain: str, log, compare) -> list:
+def _localise(an, log, compare) -> list:
     """Where the inertia-only residual concentrates: the residual traces of the fit (and test) ride."""
     nom, aug = an.cross.nominal.estimate, an.cross.augmented.estimate
     d_fit, d_test = an.designs
-    traces = [residual_windows(an.sig_fit, nom, aug, domain, log.name, True, design=d_fit)]
+    traces = [residual_windows(d_fit, nom, aug, log.name, True)]
     if an.sig_test is not None:
-        traces.append(residual_windows(an.sig_test, nom, aug, domain, compare.name, False, design=d_test))
+        traces.append(residual_windows(d_test, nom, aug, compare.name, False))
     return traces
 
 

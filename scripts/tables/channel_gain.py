@@ -36,7 +36,6 @@ def run(path: Path) -> dict:
     from euc_sim.rides.compare.channels import CHANNELS
     from euc_sim.rides.compare.differences_report import pair_differences
     from euc_sim.report.ride.contract import differences_json
-    from euc_sim.rides.drive.drivetrain_report import computed_pwm_note
     from euc_sim.rides.source.channels import current_from_phase
 
     log, other, physics = pickle.loads(path.read_bytes())
@@ -44,7 +43,7 @@ def run(path: Path) -> dict:
     has = {"sag": all(current_from_phase(x) for x in (log, other)),
            "phase_current": all("phase_current" in r.sig.extra for r in (fit, test)),
            "pwm": fit.drivetrain.pwm_coef is not None and all(
-               "pwm" in r.sig.extra and not computed_pwm_note(r) for r in (fit, test))}
+               "pwm" in r.sig.extra and not r.pwm_note for r in (fit, test))}
     used = [c for c in CHANNELS if has[c]]
     out = {"pair": path.stem, "channels": used}
     for key, ch in (("power", ()), ("all", CHANNELS)):

@@ -40,7 +40,7 @@ from euc_sim.io import write_json
 from euc_sim.rides.drive.drivetrain import predict_pwm
 from euc_sim.rides.drive.mass import predict_power
 from euc_sim.rides.grids.power import MassSettings
-from euc_sim.rides.drive.drivetrain_report import analyse, computed_pwm_note
+from euc_sim.rides.drive.drivetrain_report import analyse
 from euc_sim.rides.source.logs import read_log
 from euc_sim.rides.source.spec import read_spec
 
@@ -96,7 +96,7 @@ def study(n_boot: int, seed: int, progress=print) -> list[dict]:
                      "scale_source": m.scale.source, "signed": m.signed,
                      "power_heldout_W": float(np.mean(p_err)) if p_err else None,
                      "pwm_heldout_pp": float(np.mean(pwm_err)) if pwm_err else None,
-                     "pwm_computed": computed_pwm_note(r) is not None,
+                     "pwm_computed": r.pwm_note is not None,
                      "by_window": {f"{w:g}": x for w, x in m.by_window.items()},
                      "terms": m.terms, "unidentified": list(r.drivetrain.unidentified)})
     return rows

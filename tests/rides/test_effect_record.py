@@ -21,12 +21,11 @@ from euc_sim.model.catalog import CATALOG, Balance, Compare, Conceal, Effect, Wo
 from euc_sim.rides.balance.crossride import cross_ride, select_effects
 from euc_sim.rides.balance.design import CANDIDATES, balance_design
 from euc_sim.rides.balance.fit import fit_balance, plausibility
-from euc_sim.rides.balance.parameters import parameter_list
+from euc_sim.rides.balance.parameters import effect_estimates, parameter_list
 from euc_sim.rides.compare import differences as df
 from euc_sim.rides.compare.differences_fit import PairDesign, pair_fit
 from euc_sim.rides.compare.differences_report import _power_columns, _stack
 from euc_sim.rides.grids.signals import ride_signals
-from euc_sim.report.ride.contract import effect_entries
 from euc_sim.report.ride.differences_page import difference_lines
 from euc_sim.rides.sim import sim_steps
 from euc_sim.rides.sim.simulate import _on_grid
@@ -74,7 +73,7 @@ def test_the_record_is_selected_and_sized_by_the_balance_fit(eddy, tmp_path, mon
     selected, _, _ = select_effects(design, design.candidates)
     assert NAME in selected
     cr = cross_ride(design, held, n_boot=20)          # the ride JSON's ``parameters`` and ``effects``
-    assert NAME in cr.accepted and NAME in [e["name"] for e in effect_entries(cr)]
+    assert NAME in cr.accepted and NAME in [e.name for e in effect_estimates(cr)]
     entry = next(p for p in parameter_list(cr, None, {}) if p.name == NAME)
     assert entry.accepted and entry.unit == UNIT
 

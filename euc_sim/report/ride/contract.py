@@ -16,13 +16,13 @@ from euc_sim.io import to_jsonable
 from euc_sim.stats import rms
 
 from euc_sim.rides.balance.design import NOMINAL
-from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.balance.fit import plausibility
+from euc_sim.rides.balance.parameters import effect_estimates
 from euc_sim.rides.law.controller_report import describe
 from euc_sim.rides.result import RideResult, RiderNumbers
 from euc_sim.rides.sim.sim_steps import TARGET_RATIO, VOLTAGE_EXTRAS
 
-__all__ = ["ReportFiles", "ride_json", "balance_json", "effect_entries", "assumptions_json",
+__all__ = ["ReportFiles", "ride_json", "balance_json", "effect_json", "assumptions_json",
            "verdict_json", "rider_json", "physics_json", "total_mass_json", "term_json", "parameter_json",
            "spec_json", "grade_json", "cutout_json", "envelope_json", "simulation_json", "trace_json",
            "resolution_json", "difference_json", "differences_json", "clock_json", "mass_difference_json", "mass_check_json",
@@ -151,49 +151,11 @@ def differences_json(res) -> dict:
             "differences_interval": res.interval_method}
 
 
-def effect_entries(cr) -> list[dict]:
-    """CONTRACT's ``effects``: an entry for each effect a
-    :class:`~euc_sim.rides.balance.crossride.CrossRide` accepted, in the order kept, with its evidence in words."""
-    out = []
-    cum = list(NOMINAL)
-    phys = plausibility(cr.augmented)
-    for c in cr.accepted:
-        cum.append(c)
-        rmse_after = cr.fit_design_rmse(cum)
-        ph = phys[c]
-        exact = list(cr.fit_design.aliases.get(c, ()))
-        confounded = [x for x in cr.full.confounded(c) if x not in exact]
-        aliases = exact + confounded
-        step = next((h for h in cr.selection[1:] if c in h["term"].split("+")), None)
-        before = cr.selection[max(0, list(cr.selection).index(step) - 1)] if step else None
-        ev = (f"adding {ph['symbol']} ({ph['meaning']}) lowers the blocked held-out RMS error "
-              f"on {cr.fit_label} from {before['heldout_rmse']:.0f} to {step['heldout_rmse']:.0f} "
-              f"{cr.nominal.unit}" if step else f"{ph['symbol']} ({ph['meaning']})")
-        ev += f", 95% interval {ph['ci95'][0]:.3g} to {ph['ci95'][1]:.3g} {unit_label(ph['unit'])}"
-        if exact:
-            ev += (f"; the speed never changes sign, so it is the sum of this and "
-                   f"{' and '.join(exact)} (a constant road grade looks the same)")
-        if confounded:
-            ev += (f"; in the fit with every candidate its estimate trades off against "
-                   f"{' and '.join(confounded)} (bootstrap correlation beyond ±0.8): this ride "
-                   f"cannot tell them apart")
-        if ph["on_bound"]:
-            lo, hi = ph["plausible_range"]
-            ev += (f"; ON THE EDGE of its plausible range {lo:g} to {hi:g} "
-                   f"{unit_label(ph['unit'])}: the ride asks for more than plausible "
-                   f"{ph['symbol']} gives, and something the model lacks supplies the rest")
-        if not ph["plausible"]:
-            ev += (f"; OUTSIDE the plausible range {ph['plausible_range'][0]:g} to "
-                   f"{ph['plausible_range'][1]:g} {unit_label(ph['unit'])}: it also absorbs something else")
-        entry = {"name": c, "estimate": ph["estimate"], "unit": ph["unit"], "ci95": ph["ci95"],
-                 "rmse_after": rmse_after, "aliases": aliases, "evidence": ev,
-                 "plausible": ph["plausible"], "plausible_range": ph["plausible_range"],
-                 "on_bound": ph["on_bound"]}
-        for extra in ("drag_area_m2", "drag_area_m2_ci95", "angle_rad"):
-            if extra in ph:
-                entry[extra] = ph[extra]
-        out.append(entry)
-    return out
+def effect_json(e) -> dict:
+    """One of CONTRACT's ``effects``: a Parameter of :func:`~euc_sim.rides.balance.parameters.effect_estimates`."""
+    return {"name": e.name, "estimate": e.estimate, "unit": e.unit, "ci95": e.ci95,
+            "rmse_after": e.rmse_after, "aliases": list(e.aliases), "evidence": e.evidence,
+            "plausible": e.plausible, "plausible_range": e.plausible_range, "on_bound": e.on_bound, **e.extra}
 
 
 def assumptions_json(a) -> dict:
@@ -217,11 +179,10 @@ def balance_json(an) -> dict:
     (``recording`` ... ``notes``, ``table`` None), in the command's order."""
     cr, st = an.cross, an.settings
     d_fit, d_test = cr.fit_design, cr.test_design
-    aug_phys = plausibility(cr.augmented)
     return {
         "recording": an.recording,
         "compare": an.compare,
-        "effects": effect_entries(cr),
+        "effects": [effect_json(e) for e in effect_estimates(cr)],
         "heldout_error_nominal": cr.heldout_nominal,
         "heldout_error_augmented": cr.heldout_augmented,
         "error_unit": an.error_unit,
@@ -232,7 +193,7 @@ def balance_json(an) -> dict:
         "selected_not_accepted": [c for c in cr.selected if c not in cr.accepted],
         "insample_error_nominal": cr.nominal.rmse,
         "insample_error_augmented": cr.augmented.rmse,
-        "nominal_parameters": {k: aug_phys[k] for k in NOMINAL},
+        "nominal_parameters": {k: plausibility(cr.augmented)[k] for k in NOMINAL},
         "inertia_only_parameters": plausibility(cr.nominal),
         "all_estimates": plausibility(cr.full),
         "aliases": {k: list(v) for k, v in d_fit.aliases.items()},

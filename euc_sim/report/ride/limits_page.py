@@ -29,7 +29,7 @@ def pwm_check(res) -> tuple[str, str, float] | None:
     ride's second half fitted on its first (the cut-out's); None without, and None where the logged
     duty is the app's computation (the model fits its formula).
     """
-    if res.mass.pwm_note:
+    if res.mass.fit.pwm_note:
         return None
     other = res.mass.pwm_heldout
     if other is not None and math.isfinite(other):

@@ -14,9 +14,10 @@ import numpy as np
 
 from euc_sim.io import write_text
 from euc_sim.rides.balance.residual import SLOW_S
+from euc_sim.rides.balance.parameters import effect_estimates
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.law.controller_report import describe
-from euc_sim.report.ride.contract import effect_entries, error_measure
+from euc_sim.report.ride.contract import error_measure
 from euc_sim.stats import rms
 from euc_sim.report.ride.differences_page import difference_section
 from euc_sim.report.ride.drivetrain_page import page_section
@@ -157,11 +158,11 @@ def _estimates_md(res: RideResult) -> list[str]:
                       f"{_interval(p.ci95)} | {_interval(p.plausible_range)} | "
                       f"{'yes' if p.accepted else 'no'} | {p.why or '–'} |")
     md.append("")
-    for e in effect_entries(res.balance.cross):
-        md += [f"- **{e['name']}**: {e['evidence']}."]
-        if "drag_area_m2" in e:
-            md[-1] += (f" As a drag area C_dA = {_fmt(e['drag_area_m2'])} m² "
-                       f"(95 % {_interval(e['drag_area_m2_ci95'])}); a standing rider is 0.3–1 m².")
+    for e in effect_estimates(res.balance.cross):
+        md += [f"- **{e.name}**: {e.evidence}."]
+        if "drag_area_m2" in e.extra:
+            md[-1] += (f" As a drag area C_dA = {_fmt(e.extra['drag_area_m2'])} m² "
+                       f"(95 % {_interval(e.extra['drag_area_m2_ci95'])}); a standing rider is 0.3–1 m².")
     full = res.balance.cross.heldout_full
     if full is not None:
         md += ["", f"The fit with every candidate (bounded alike) predicts {res.balance.compare or 'the held-out half'} "

@@ -21,7 +21,6 @@ import numpy as np
 
 from euc_sim.report import html as H
 from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
-from euc_sim.rides.balance.fit import plausibility
 from euc_sim.rides.drive.drivetrain import charge_drawn
 from euc_sim.report.ride.limits_page import pwm_check
 from euc_sim.report.ride.differences_page import TITLE, difference_lines
@@ -241,8 +240,7 @@ def _lead(res: RideResult, series=None) -> list[str]:
     elif v.named:
         out.append("The ride's energy balance shows what the standard model lacks: "
                    + ", ".join(n.replace("_", " ") for n in v.named) + " (details below).")
-        phys = plausibility(res.balance.cross.augmented)
-        edge = [c.replace("_", " ") for c in res.balance.cross.accepted if phys[c]["on_bound"] and c in v.named]
+        edge = [p.name.replace("_", " ") for p in res.parameters if p.name in v.named and p.on_bound]
         if edge:
             out.append(f"Even at the most that is plausible ({', '.join(edge)} on the edge of "
                        f"{'its' if len(edge) == 1 else 'their'} plausible range), the ride asks for more "

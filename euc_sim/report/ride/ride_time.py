@@ -34,12 +34,6 @@ def _into(seconds: float) -> str:
     return f"{s // 60} min {s % 60:02d} s" if s >= 60 else f"{s} s"
 
 
-def _minute_of_day(hh_mm: str) -> int:
-    """"16:48" -> 1008."""
-    h, m = hh_mm.split(":")[:2]
-    return 60 * int(h) + int(m)
-
-
 def _min_s(seconds: float) -> str:
     """Time into the ride as a stopwatch shows it: "2:58" (min:s), "1:02:05" (h:min:s)."""
     s = int(round(seconds))
@@ -49,11 +43,17 @@ def _min_s(seconds: float) -> str:
 def clock_at(clock, t: float, seconds: bool = False) -> str | None:
     """The clock time, "HH:MM" (or "HH:MM:SS" with ``seconds``) in the ride's own zone, ``t`` s
     after the log's start (its :class:`~euc_sim.rides.summary.rider_view.Clock`); None without it."""
+    at = _clock_time(clock, t)
+    return None if at is None else f"{at:{'%H:%M:%S' if seconds else '%H:%M'}}"
+
+
+def _clock_time(clock, t: float) -> datetime | None:
+    """The time in the ride's own zone ``t`` s after the log's start (its clock's), or None without it."""
     try:
         start = datetime.fromisoformat(str(clock.start))
     except (AttributeError, TypeError, ValueError):
         return None
-    return f"{start + timedelta(seconds=float(t)):{'%H:%M:%S' if seconds else '%H:%M'}}"
+    return start + timedelta(seconds=float(t))
 
 
 def clock_of(res, recording):
@@ -97,12 +97,14 @@ def span_words(clock, s) -> str:
     the length's (:func:`hm`): else to the second, "logged 16:48:42–17:10:11 (21 min)", never a span
     that reads 22 min beside a length of 21."""
     logged = float(s.logged_s or 0.0)
-    t0, t1 = clock_at(clock, 0.0), clock_at(clock, logged)
-    if t0 and t1 and (_minute_of_day(t1) - _minute_of_day(t0)) % 1440 != round(logged / 60.0) % 1440:
-        t0, t1 = clock_at(clock, 0.0, True), clock_at(clock, logged, True)
+    a, b = _clock_time(clock, 0.0), _clock_time(clock, logged)
+    if a is None or b is None or not clock.zone:
+        return ""
+    shown = (60 * (b.hour - a.hour) + b.minute - a.minute) % 1440       # minutes between the HH:MM shown
+    fmt = "%H:%M" if shown == round(logged / 60.0) % 1440 else "%H:%M:%S"
     dur = number(s.duration_s)
     own = f" ({hm(logged)})" if dur is not None and hm(logged) != hm(dur) else ""
-    return f"logged {t0}–{t1}{own} in {clock.zone}" if t0 and t1 and clock.zone else ""
+    return f"logged {a:{fmt}}–{b:{fmt}}{own} in {clock.zone}"
 
 
 def pause_words(clock) -> str:

@@ -11,9 +11,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from euc_sim.rides.balance.parameters import effect_estimates
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.report.ride.history_page import pwm_cell, start_in, table_zone
-from euc_sim.report.ride.contract import effect_entries, error_measure
+from euc_sim.report.ride.contract import error_measure
 from euc_sim.report.ride.page import falls_sentence
 from euc_sim.report.ride.page_html import key_figure_lines
 from euc_sim.report.ride.ride_time import clock_of, span_at, spans_legend
@@ -73,12 +74,12 @@ def _effect_lines(res: RideResult) -> list[str]:
              f"{cr.heldout_nominal:.1f} {u}, augmented {cr.heldout_augmented:.1f} "
              f"{u}, ratio {cr.ratio:.2f}",
              f"  verdict: {v.text}"]
-    for e in effect_entries(cr):
-        kind = "named" if e["name"] in v.named else "candidate"
-        flag = "" if e["plausible"] else "  IMPLAUSIBLE"
-        al = f"  aliases: {', '.join(e['aliases'])}" if e["aliases"] else ""
-        lines.append(f"  {kind}: {e['name']} = {e['estimate']:.4g} {unit_label(e['unit'])} "
-                     f"95% [{e['ci95'][0]:.4g}, {e['ci95'][1]:.4g}]{flag}{al}")
+    for e in effect_estimates(cr):
+        kind = "named" if e.name in v.named else "candidate"
+        flag = "" if e.plausible else "  IMPLAUSIBLE"
+        al = f"  aliases: {', '.join(e.aliases)}" if e.aliases else ""
+        lines.append(f"  {kind}: {e.name} = {e.estimate:.4g} {unit_label(e.unit)} "
+                     f"95% [{e.ci95[0]:.4g}, {e.ci95[1]:.4g}]{flag}{al}")
     return lines
 
 

@@ -10,16 +10,18 @@ fit's numbers (the energy balance's own are nuisance terms of the mass).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Mapping
 
 from euc_sim.rides.balance.crossride import CrossRide
+from euc_sim.rides.balance.design import NOMINAL
 from euc_sim.rides.balance.fit import plausibility
+from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.drive.drivetrain import Term
 from euc_sim.rides.grids.power import RHO_AIR
 
-__all__ = ["Parameter", "parameter_list", "drivetrain_view", "DRIVETRAIN_PLAUSIBLE",
-           "MASS_NUISANCE"]
+__all__ = ["Parameter", "parameter_list", "effect_estimates", "drivetrain_view",
+           "DRIVETRAIN_PLAUSIBLE", "MASS_NUISANCE"]
 
 #: Plausible ranges of the battery and motor terms (the drivetrain view's names), SI.
 DRIVETRAIN_PLAUSIBLE: dict[str, tuple[float, float]] = {
@@ -58,6 +60,9 @@ class Parameter:
     source : {"balance", "energy balance", "drivetrain", "controller"}
     plausible_range, on_bound : sequence of float, bool or None
         The balance's terms only.
+    rmse_after, aliases, evidence, extra : float, tuple of str, str, dict or None
+        An accepted effect's (:func:`effect_estimates`): the fit ride's RMS error once it is kept (the
+        fit's unit), the terms it cannot be told from, why it is kept, its ``json_extra`` (other units).
     """
 
     name: str
@@ -70,6 +75,10 @@ class Parameter:
     source: str
     plausible_range: tuple | None = None
     on_bound: bool | None = None
+    rmse_after: float | None = None
+    aliases: tuple | None = None
+    evidence: str | None = None
+    extra: dict | None = None
 
 
 def _balance_entries(cr: CrossRide) -> list[Parameter]:
@@ -95,6 +104,47 @@ def _balance_entries(cr: CrossRide) -> list[Parameter]:
         out.append(Parameter(name, e["estimate"], e["ci95"], e["unit"], bool(e["plausible"]), bool(accepted),
                              why, "balance", e["plausible_range"], bool(e["on_bound"])))
     return out
+
+
+def _evidence(cr: CrossRide, name: str, ph: dict, exact: list, confounded: list) -> str:
+    """Why ``cr`` keeps ``name`` (``ph``: its :func:`plausibility` entry, with these aliases), in words."""
+    step = next((h for h in cr.selection[1:] if name in h["term"].split("+")), None)
+    before = cr.selection[max(0, list(cr.selection).index(step) - 1)] if step else None
+    ev = (f"adding {ph['symbol']} ({ph['meaning']}) lowers the blocked held-out RMS error "
+          f"on {cr.fit_label} from {before['heldout_rmse']:.0f} to {step['heldout_rmse']:.0f} "
+          f"{cr.nominal.unit}" if step else f"{ph['symbol']} ({ph['meaning']})")
+    ev += f", 95% interval {ph['ci95'][0]:.3g} to {ph['ci95'][1]:.3g} {unit_label(ph['unit'])}"
+    if exact:
+        ev += (f"; the speed never changes sign, so it is the sum of this and "
+               f"{' and '.join(exact)} (a constant road grade looks the same)")
+    if confounded:
+        ev += (f"; in the fit with every candidate its estimate trades off against "
+               f"{' and '.join(confounded)} (bootstrap correlation beyond ±0.8): this ride "
+               f"cannot tell them apart")
+    if ph["on_bound"]:
+        lo, hi = ph["plausible_range"]
+        ev += (f"; ON THE EDGE of its plausible range {lo:g} to {hi:g} "
+               f"{unit_label(ph['unit'])}: the ride asks for more than plausible "
+               f"{ph['symbol']} gives, and something the model lacks supplies the rest")
+    if not ph["plausible"]:
+        ev += (f"; OUTSIDE the plausible range {ph['plausible_range'][0]:g} to "
+               f"{ph['plausible_range'][1]:g} {unit_label(ph['unit'])}: it also absorbs something else")
+    return ev
+
+
+def effect_estimates(cr: CrossRide) -> tuple[Parameter, ...]:
+    """Each effect ``cr`` accepted, in the order kept, with its evidence (the ride JSON's ``effects``)."""
+    params = {p.name: p for p in _balance_entries(cr)}
+    phys = plausibility(cr.augmented)
+    out = []
+    for i, c in enumerate(cr.accepted):
+        exact = list(cr.fit_design.aliases.get(c, ()))
+        confounded = [x for x in cr.full.confounded(c) if x not in exact]
+        extra = {k: phys[c][k] for k in ("drag_area_m2", "drag_area_m2_ci95", "angle_rad") if k in phys[c]}
+        out.append(replace(params[c], rmse_after=cr.fit_design_rmse([*NOMINAL, *cr.accepted[:i + 1]]),
+                           aliases=tuple(exact + confounded), evidence=_evidence(cr, c, phys[c], exact, confounded),
+                           extra=extra))
+    return tuple(out)
 
 
 def _mass_entry(mass) -> Parameter:

@@ -10,8 +10,8 @@ from typing import Mapping
 import numpy as np
 
 from euc_sim.diagnosis.localise import Localisation, localise
-from euc_sim.rides.balance.design import balance_design
-from euc_sim.rides.grids.signals import RideSignals, split_at_gaps
+from euc_sim.rides.balance.design import Design
+from euc_sim.rides.grids.signals import split_at_gaps
 
 __all__ = ["ResidualTrace", "residual_windows", "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
@@ -40,9 +40,9 @@ class ResidualTrace:
     localisation: Localisation
     in_sample: bool
 
-    def slow(self, which: str = "augmented", span: float = SLOW_S) -> np.ndarray:
-        """Moving mean of a residual over ``span`` s (same unit), its slow part."""
-        r = getattr(self, which)
+    def slow(self, span: float = SLOW_S) -> np.ndarray:
+        """Moving mean of the augmented residual over ``span`` s (same unit), its slow part."""
+        r = self.augmented
         dt = float(np.median(np.diff(self.t))) if self.t.size > 1 else 1.0
         w = max(1, min(r.size, int(round(span / dt))))     # "same" keeps r's length
         num = np.convolve(r, np.ones(w), mode="same")
@@ -51,24 +51,19 @@ class ResidualTrace:
 
 
 
-def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
-                     augmented: Mapping[str, float], domain: str = "power",
-                     label: str | None = None, in_sample: bool = True,
-                     smooth: float = WINDOW_SMOOTH, min_len: float = WINDOW_MIN,
-                     design=None) -> ResidualTrace:
-    """The inertia-only and augmented residuals of a whole ride, and where they concentrate.
+def residual_windows(d: Design, nominal: Mapping[str, float], augmented: Mapping[str, float], label: str,
+                     in_sample: bool) -> ResidualTrace:
+    """The inertia-only and augmented residuals of a whole ride's balance design ``d``, and where they concentrate.
 
-    ``nominal``, ``augmented``: fitted parameters; ``smooth``, ``min_len`` (s) go to
-    ``localise``; ``design`` reuses a built one.  Its windows are cut at the gaps where the
-    ride was split (:func:`split_at_gaps`).
+    ``nominal``, ``augmented``: fitted parameters; ``localise`` smooths over :data:`WINDOW_SMOOTH` and
+    keeps windows of :data:`WINDOW_MIN` s, cut at the gaps where the ride was split (:func:`split_at_gaps`).
     """
-    d = design if design is not None else balance_design(sig, domain)
     r_nom = d.residual(nominal)
     r_aug = d.residual(augmented)
     v = d.v
     loc = localise(d.t, r_nom, {"speed": v, "speed_cubed": np.abs(v) ** 3,
                                 "inertial_power": d.columns_full["inertia"].to_numpy()[d.use]},
-                   smooth=smooth, min_len=min_len)
-    loc = dict(loc, windows=split_at_gaps(loc["windows"], d.t, min_len))
-    return ResidualTrace(label=label or str(sig.path), t=d.t, nominal=r_nom, augmented=r_aug,
+                   smooth=WINDOW_SMOOTH, min_len=WINDOW_MIN)
+    loc = dict(loc, windows=split_at_gaps(loc["windows"], d.t, WINDOW_MIN))
+    return ResidualTrace(label=label, t=d.t, nominal=r_nom, augmented=r_aug,
                          unit=d.unit, localisation=loc, in_sample=in_sample)

@@ -15,7 +15,6 @@ from __future__ import annotations
 import numpy as np
 
 from euc_sim.rides.drive.drivetrain import charge_drawn
-from euc_sim.rides.drive.drivetrain_report import computed_pwm_note
 from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
 from euc_sim.stats import time_blocks
 
@@ -66,7 +65,7 @@ def _phase(r, cols: dict, v: np.ndarray, coef: dict, calib: tuple | None):
 
 def _duty(r, y, coef: dict | None):
     d, V = r.sig.extra.get("pwm"), r.sig.extra.get("voltage")
-    if d is None or V is None or not coef or not coef.get("r_F", 0.0) > 0 or computed_pwm_note(r):
+    if d is None or V is None or not coef or not coef.get("r_F", 0.0) > 0 or r.pwm_note:
         return None
     v = r.sig.v / r.sig.scale.estimate
     names = [n for n in BASE + tuple(EXTRA) if n in coef and n != "r_F"]

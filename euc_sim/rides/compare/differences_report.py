@@ -17,7 +17,7 @@ from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RAT
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
 from euc_sim.rides.compare.resolution import with_floor
 from euc_sim.rides.drive.drivetrain import charge_drawn
-from euc_sim.rides.drive.drivetrain_report import computed_pwm_note, reported_mass, reported_terms
+from euc_sim.rides.drive.drivetrain_report import reported_mass, reported_terms
 from euc_sim.rides.drive.mass import mass_regressors
 from euc_sim.rides.grids.power import GPS_V_MIN
 from euc_sim.rides.source.channels import current_from_phase
@@ -318,7 +318,7 @@ def pair_differences(physics, log_path, compare_path, n_boot: int = 200, seed: i
     """
     fit, test = physics.fit, physics.test
     log_params = parameters_from_fit(physics.mass, physics.terms)
-    other_params = parameters_from_fit(reported_mass(test), reported_terms(test, computed_pwm_note(test)))
+    other_params = parameters_from_fit(reported_mass(test), reported_terms(test))
     coef = _coef(log_params)
     aliases, cannot = pair_aliases(fit, test, coef)
     start = log_path.start

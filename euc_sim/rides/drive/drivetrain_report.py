@@ -29,7 +29,7 @@ from euc_sim.rides.source.systematic import MassDifference, mass_difference
 from euc_sim.stats import rms
 
 __all__ = ["RideDrivetrain", "MassDrivetrain", "analyse", "mass_drivetrain", "ride_drivetrain",
-           "reported_mass", "reported_terms", "cutout_of", "computed_pwm_note"]
+           "reported_mass", "reported_terms", "cutout_of"]
 
 #: A logged duty that its model explains better than this, percentage points, is
 #: taken to be computed by the app from speed and voltage, not measured.
@@ -38,7 +38,8 @@ COMPUTED_PWM_RMS = 0.3
 
 @dataclass(frozen=True)
 class RideDrivetrain:
-    """Everything identified on one ride (see :func:`analyse`)."""
+    """Everything identified on one ride (see :func:`analyse`); ``pwm_note`` says why its logged
+    duty is taken as the app's computation (:func:`_computed_pwm_note`), None where measured."""
 
     path: str
     sig: PowerSignals
@@ -46,6 +47,7 @@ class RideDrivetrain:
     drivetrain: Drivetrain
     spec: WheelSpec
     grade: GradeProfile | None = None
+    pwm_note: str | None = None
 
 
 def analyse(log: Ride, spec: WheelSpec = WheelSpec(), settings: MassSettings = MassSettings()
@@ -58,14 +60,16 @@ def analyse(log: Ride, spec: WheelSpec = WheelSpec(), settings: MassSettings = M
                         seed=settings.seed)
     alt = log.data["gps_alt"].to_numpy(float) if "gps_alt" in log.data else None
     grade = None if alt is None else grade_profile(sig, m_eq, log.data["t"].to_numpy(float), alt)
-    return RideDrivetrain(log.path, sig, without_rotating_inertia(m_eq, spec.wheel_mass), dt, spec, grade)
+    return RideDrivetrain(log.path, sig, without_rotating_inertia(m_eq, spec.wheel_mass), dt, spec, grade,
+                          _computed_pwm_note(sig, dt.pwm_coef))
 
 
-def computed_pwm_note(r: RideDrivetrain) -> str | None:
-    """Why the logged duty of ``r`` is taken as computed by the app, or None if measured."""
-    if r.drivetrain.pwm_coef is None:
+def _computed_pwm_note(sig: PowerSignals, pwm_coef: dict | None) -> str | None:
+    """Why the logged duty of ``sig`` is taken as computed by the app (its model ``pwm_coef``
+    explains it within :data:`COMPUTED_PWM_RMS`), or None if measured."""
+    if pwm_coef is None:
         return None
-    pred, obs = predict_pwm(r.sig, r.drivetrain.pwm_coef)
+    pred, obs = predict_pwm(sig, pwm_coef)
     err = rms(pred - obs)
     if err < COMPUTED_PWM_RMS:
         return (f"the logged duty follows speed and voltage to {err:.2f} percentage points: "
@@ -83,15 +87,15 @@ def reported_mass(r: RideDrivetrain) -> MassFit:
                                equivalent={})
 
 
-def reported_terms(r: RideDrivetrain, computed_note: str | None = None) -> dict[str, Term]:
+def reported_terms(r: RideDrivetrain) -> dict[str, Term]:
     """The drivetrain's terms as reported, by name: the identified ones, then each term the log
-    cannot identify (estimate None, with why); with ``computed_note`` (:func:`computed_pwm_note`)
-    the resistive drop is not identified and the winding resistance left out."""
+    cannot identify (estimate None, with why); where the logged duty is the app's computation
+    (``r.pwm_note``) the resistive drop is not identified and the winding resistance left out."""
     terms = dict(r.drivetrain.terms)
     for k, why in r.drivetrain.unidentified.items():
         terms.setdefault(k, Term(None, None, None, why=why))
-    if computed_note:
-        terms["resistive_drop"] = Term(None, None, "V/N", why=computed_note)
+    if r.pwm_note:
+        terms["resistive_drop"] = Term(None, None, "V/N", why=r.pwm_note)
         terms.pop("winding_resistance", None)
     return terms
 
@@ -149,8 +153,6 @@ class MassDrivetrain:
     duty : DutyModel or str
         The duty model the envelope and the cut-out chart share (:func:`duty_model_of`), or why there is
         none (the computed-duty note first).
-    pwm_note : str or None
-        Why the logged duty is the app's computation (:func:`computed_pwm_note`).
     mass_difference : MassDifference or None
         The compared ride's mass minus this one's
         (:func:`euc_sim.rides.source.systematic.mass_difference`).
@@ -170,7 +172,6 @@ class MassDrivetrain:
     envelope: Envelope
     input_warnings: list
     duty: DutyModel | str
-    pwm_note: str | None = None
     mass_difference: MassDifference | None = None
     power_heldout: tuple | None = None
     pwm_heldout: float | None = None
@@ -180,7 +181,7 @@ class MassDrivetrain:
     def pwm_unchecked(self) -> str | None:
         """Why the compared ride's duty predicted from this one checks nothing (this ride's logged duty
         is the app's computation), or None: said only where that prediction was made."""
-        return self.pwm_note if self.test is not None and self.pwm_why is None else None
+        return self.fit.pwm_note if self.test is not None and self.pwm_why is None else None
 
     @property
     def unidentified(self) -> dict[str, str]:
@@ -211,11 +212,9 @@ def mass_drivetrain(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
     MassDrivetrain
     """
     r = fitted or analyse(log, spec, settings)
-    note = computed_pwm_note(r)
-    duty = note or duty_model_of(r, log)
-    out = dict(fit=r, test=None, mass=reported_mass(r), terms=reported_terms(r, note),
-               envelope=_envelope(r, duty), input_warnings=input_warnings(log, r.spec, r.mass.scale),
-               pwm_note=note, duty=duty)
+    duty = r.pwm_note or duty_model_of(r, log)
+    out = dict(fit=r, test=None, mass=reported_mass(r), terms=reported_terms(r),
+               envelope=_envelope(r, duty), input_warnings=input_warnings(log, r.spec, r.mass.scale), duty=duty)
     if compare is None:
         return MassDrivetrain(**out)
     test = analyse(compare, spec, settings)
@@ -242,7 +241,7 @@ def cutout_of(md: MassDrivetrain, limits) -> Cutout:
     limits : Limits
         The wheel's limits (the summary's).
     """
-    if md.pwm_note:
+    if md.fit.pwm_note:
         return Cutout(why="the log's PWM is the app's computation from speed and voltage, not a measurement: "
                           "it does not show the load, so neither does a model of it")
     if md.fit.drivetrain.pwm_coef is None:

@@ -32,16 +32,17 @@ def test_the_top_speed_tile_says_a_free_spin_was_left_out(tmp_path):
     assert "spun" not in plain.note and plain.note.startswith("average 25 km/h")
 
 
-def test_the_lead_says_when_named_physics_sits_on_its_edge(monkeypatch, ride_result):
+def test_the_lead_says_when_named_physics_sits_on_its_edge(ride_result):
     """Blitz 1: C_rr, k and P₀ all on their plausible edges; the verdict said 'the rest is not
     explained' while the first screen said only 'shows what the standard model lacks'."""
     from euc_sim.report.ride import page_html
+    from euc_sim.rides.balance.parameters import Parameter
 
     def lead(accepted, edge):
-        cross = replace(ride_result.balance.cross, accepted=tuple(accepted))
-        res = replace(ride_result, balance=replace(ride_result.balance, cross=cross),
+        params = tuple(Parameter(c, 1.0, (0.5, 1.5), "1", True, True, None, "balance", (0.0, 1.0), c in edge)
+                       for c in accepted)
+        res = replace(ride_result, parameters=params,
                       verdict=replace(ride_result.verdict, battery_power=True, named=tuple(accepted)))
-        monkeypatch.setattr(page_html, "plausibility", lambda fit: {c: {"on_bound": c in edge} for c in accepted})
         return " ".join(page_html._lead(res))
 
     named = ["aerodynamic_drag", "rolling_resistance", "copper_loss"]

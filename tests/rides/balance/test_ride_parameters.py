@@ -18,10 +18,9 @@ from euc_sim.rides.balance.design import (BOUNDS, CANDIDATES, NOMINAL, PLAUSIBLE
                                           on_bound)
 from euc_sim.rides.balance.fit import fit_balance, plausibility
 from euc_sim.rides.balance.normal import coefficients
-from euc_sim.rides.balance.parameters import Parameter, drivetrain_view, parameter_list
+from euc_sim.rides.balance.parameters import Parameter, drivetrain_view, effect_estimates, parameter_list
 from euc_sim.rides.balance.verdict import ride_verdict, verdict_of
 from euc_sim.rides.grids.signals import ride_signals
-from euc_sim.report.ride.contract import effect_entries
 from euc_sim.stats import forward_select, percentile_interval, time_blocks, wild_block_signs
 from euc_sim.rides.source.logs import read_log
 
@@ -132,8 +131,8 @@ def test_a_drag_beyond_its_plausible_range_is_accepted_on_its_edge_and_said(desi
     assert plausibility(full)["aerodynamic_drag"]["on_bound"]
     assert np.isfinite(heldout_score(heavy, list(NOMINAL) + kept, admit="plausible"))
     cr = cross_ride(heavy, heavy, n_boot=0)
-    entry = next(e for e in effect_entries(cr) if e["name"] == "aerodynamic_drag")
-    assert entry["on_bound"] and "ON THE EDGE" in entry["evidence"]
+    entry = next(e for e in effect_estimates(cr) if e.name == "aerodynamic_drag")
+    assert entry.on_bound and "ON THE EDGE" in entry.evidence
     params = {p.name: p for p in parameter_list(cr, None, {})}
     assert params["aerodynamic_drag"].accepted and "edge" in params["aerodynamic_drag"].why
     verdict = verdict_of(cr, parameter_list(cr, None, {}))
