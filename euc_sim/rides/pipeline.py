@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from euc_sim.rides.balance.analysis import ride_analysis
-from euc_sim.rides.balance.parameters import drivetrain_view, parameter_list
+from euc_sim.rides.balance.parameters import drivetrain_view, effect_estimates, parameter_list
 from euc_sim.rides.balance.residual import residual_windows
 from euc_sim.rides.balance.verdict import verdict_of
 from euc_sim.rides.compare.differences_report import pair_differences
@@ -122,7 +122,7 @@ def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResu
             compare, test_mass, reported_terms(test), spec, req.compare_rider_weight))
     cutout = cutout_of(mass, rider.summary.limits)
     return RideResult(balance=an, notes=notes, mass=mass, law=law, parameters=parameters,
-                      drivetrain=drivetrain, differences=differences, traces=tuple(traces),
+                      effects=effect_estimates(an.cross), drivetrain=drivetrain, differences=differences, traces=tuple(traces),
                       simulation=sim, simulation_why=why, verdict=verdict, rider=rider,
                       compared=compared, cutout=cutout)
 

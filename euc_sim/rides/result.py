@@ -72,6 +72,8 @@ class RideResult:
         The wheel's balance law.
     parameters : tuple of Parameter
         Every fitted quantity once.
+    effects : tuple of Parameter
+        The effects the balance fit accepted, in the order kept, with their evidence.
     drivetrain : dict of str -> Term
         The drivetrain with the balance fit's road and loss terms.
     differences : Differences or None
@@ -94,6 +96,7 @@ class RideResult:
     mass: MassDrivetrain
     law: ControllerFit
     parameters: tuple[Parameter, ...]
+    effects: tuple[Parameter, ...]
     drivetrain: dict
     differences: Differences | None
     traces: tuple[ResidualTrace, ...]

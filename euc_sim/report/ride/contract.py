@@ -17,7 +17,6 @@ from euc_sim.stats import rms
 
 from euc_sim.rides.balance.design import NOMINAL
 from euc_sim.rides.balance.fit import plausibility
-from euc_sim.rides.balance.parameters import effect_estimates
 from euc_sim.rides.law.controller_report import describe
 from euc_sim.rides.result import RideResult, RiderNumbers
 from euc_sim.rides.sim.sim_steps import TARGET_RATIO, VOLTAGE_EXTRAS
@@ -174,15 +173,15 @@ def error_measure(an) -> str:
             f"on {cr.test_label}, parameters fitted on {cr.fit_label}")
 
 
-def balance_json(an) -> dict:
+def balance_json(an, effects) -> dict:
     """CONTRACT's balance keys of a :class:`~euc_sim.rides.balance.analysis.RideAnalysis`
-    (``recording`` ... ``notes``, ``table`` None), in the command's order."""
+    and its accepted ``effects`` (``recording`` ... ``notes``, ``table`` None), in the command's order."""
     cr, st = an.cross, an.settings
     d_fit, d_test = cr.fit_design, cr.test_design
     return {
         "recording": an.recording,
         "compare": an.compare,
-        "effects": [effect_json(e) for e in effect_estimates(cr)],
+        "effects": [effect_json(e) for e in effects],
         "heldout_error_nominal": cr.heldout_nominal,
         "heldout_error_augmented": cr.heldout_augmented,
         "error_unit": an.error_unit,
@@ -344,7 +343,7 @@ def ride_json(res: RideResult, files: ReportFiles | None = None, report_dir: str
     -------
     dict
     """
-    rep = balance_json(res.balance)
+    rep = balance_json(res.balance, res.effects)
     rep["notes"] = list(res.notes)
     rep["table"] = files.table if files else None
     rep.update(physics_json(res.mass))

@@ -14,7 +14,6 @@ import numpy as np
 
 from euc_sim.io import write_text
 from euc_sim.rides.balance.residual import SLOW_S
-from euc_sim.rides.balance.parameters import effect_estimates
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.law.controller_report import describe
 from euc_sim.report.ride.contract import error_measure
@@ -158,7 +157,7 @@ def _estimates_md(res: RideResult) -> list[str]:
                       f"{_interval(p.ci95)} | {_interval(p.plausible_range)} | "
                       f"{'yes' if p.accepted else 'no'} | {p.why or '–'} |")
     md.append("")
-    for e in effect_estimates(res.balance.cross):
+    for e in res.effects:
         md += [f"- **{e.name}**: {e.evidence}."]
         if "drag_area_m2" in e.extra:
             md[-1] += (f" As a drag area C_dA = {_fmt(e.extra['drag_area_m2'])} m² "

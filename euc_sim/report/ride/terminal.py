@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from euc_sim.rides.balance.parameters import effect_estimates
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.report.ride.history_page import pwm_cell, start_in, table_zone
 from euc_sim.report.ride.contract import error_measure
@@ -74,7 +73,7 @@ def _effect_lines(res: RideResult) -> list[str]:
              f"{cr.heldout_nominal:.1f} {u}, augmented {cr.heldout_augmented:.1f} "
              f"{u}, ratio {cr.ratio:.2f}",
              f"  verdict: {v.text}"]
-    for e in effect_estimates(cr):
+    for e in res.effects:
         kind = "named" if e.name in v.named else "candidate"
         flag = "" if e.plausible else "  IMPLAUSIBLE"
         al = f"  aliases: {', '.join(e.aliases)}" if e.aliases else ""
