@@ -104,7 +104,7 @@ def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResu
     differences = None
     if compare is not None:     # what differs between the two rides (rides.compare.differences), each
         # ride's terms from its own energy-balance fit, so both sides are read alike
-        differences = pair_differences(mass, log, compare)
+        differences = pair_differences(mass, log, compare, n_boot, seed)
     say("locating the residual")
     traces = _localise(an, log, compare)
     notes = tuple(an.notes) + (_mass_grid_note(mass.fit),)

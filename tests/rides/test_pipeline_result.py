@@ -37,3 +37,18 @@ def test_the_pipeline_returns_the_typed_result_and_writes_no_file(tmp_path, monk
     assert rep["total_mass"]["estimate"] == res.mass.mass.estimate
     assert rep["notes"] == list(res.notes) and rep["report"] is None and "figures" not in rep
     assert ride_json(res) == rep                                    # rendering changes nothing
+
+
+def test_the_requests_replicates_and_seed_reach_the_pair_fits(tmp_path, monkeypatch):
+    """``--n-boot`` and ``--seed`` hold for every draw of a compared ride, the pair fits' included."""
+    import euc_sim.rides.pipeline as pipeline
+    seen = []
+    real = pipeline.pair_differences
+    monkeypatch.setattr(pipeline, "pair_differences",
+                        lambda *a, **k: seen.append(a[3:] + tuple(k.values())) or real(*a, **k))
+    log = read_log(synth_log(tmp_path / "fit.csv", seed=3), emit_warnings=False)
+    other = read_log(synth_log(tmp_path / "test.csv", seed=4), emit_warnings=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = ride_pipeline(RideRequest(log, other, n_boot=12, seed=7))
+    assert seen == [(12, 7)] and res.differences is not None
