@@ -70,20 +70,18 @@ OUTPUT_OPTIONS = ("out", "json")
 WRITES_RECORDING = ("simulate",)
 #: The file in a ``--report`` folder (and ``demo``'s) listing what euc-sim wrote there.
 MANIFEST = ".euc-sim-manifest.json"
-
-
-def _option(name: str) -> str:
-    positional = {"recording": "recording", "recordings": "recording", "log": "log", "logs": "log"}
-    return positional.get(name) or "--" + name.replace("_", "-")
+#: How the positional arguments are named in messages.
+_POSITIONAL = {"recording": "recording", "recordings": "recording", "log": "log", "logs": "log"}
 
 
 def _named(args, names) -> list[tuple[str, Path]]:
+    """The paths given to the options ``names`` (argparse dests), as ``(option as typed, path)``."""
     out = []
     for name in names:
         value = getattr(args, name, None)
         for v in value if isinstance(value, (list, tuple)) else [value]:
             if v is not None and str(v) != "":
-                out.append((_option(name), Path(v)))
+                out.append((_POSITIONAL.get(name) or "--" + name.replace("_", "-"), Path(v)))
     return out
 
 
