@@ -265,8 +265,6 @@ def _same_file(rng):
         (["diagnose", "decel.csv", "--json", "decel.json"], ["decel.csv"]),
         (["ride", "LOG.csv", "--json", "LOG.csv"], ["LOG.csv"]),
         (["simulate", "--duration", "1", "--profile", "decel.csv", "--out", "decel.csv"], ["decel.csv"]),
-        (["identify", "decel.csv", "--json", "x.png", "--plot", "x.png"], ["decel.csv"]),
-        (["design", "--json", "d.json", "--plot", "d.docx"], []),
     ])
     return Run("malformed", case[0], [], case[1])
 

@@ -89,7 +89,7 @@ def test_diagnosis_json_is_the_pipelines_without_private_keys(braking):
     from euc_sim.io import to_jsonable
     # the same object, key for key and in the same order, as the CLI writes
     assert json.dumps(js) == json.dumps(to_jsonable(pipeline.json_view(raw)))
-    assert d.effects[0]["name"] == "road_slope" and d.get("verdict") == d.verdict
+    assert d.effects[0]["name"] == "road_slope"
     assert "residual_nominal" in d.series and "_series" in d.as_result()
 
 

@@ -114,7 +114,8 @@ def run_demo(out: str | Path = "euc-sim-demo", seed: int = 1,
     say("4/4 writing the index page")
     p = specs[0].params
     story = Story("euc-sim demo", _opening(seed, len(paths)),
-                  (_identification_section(groups, p), _models_section(groups, p), _paper_section(groups),
+                  (_identification_section(groups, p), Section("2. Which model is right, and why", tuple(_order_sentences(groups, p))),
+                   _paper_section(groups),
                    _concealed_section(concealed)))
     html.write_page(out, story.to_html(out))
     return io.write_text(out / "index.md", story.to_markdown())
@@ -186,11 +187,6 @@ def _identification_section(groups: list[tuple], p) -> Section:
     return Section(f"1. h identified with both models (true h = {true_h:.2f} m)", tuple(says), tuple(rows),
                    (("identification.png", "RMSE between M_d,1 and M_d,2 against h, pooled per maneuver, "
                      "both models (cf. the paper's Fig. 8); vector version: identification.svg"),))
-
-
-def _models_section(groups: list[tuple], p) -> Section:
-    """Which model is right against the truth, and why the two come out in their order."""
-    return Section("2. Which model is right, and why", tuple(_order_sentences(groups, p)))
 
 
 def _holds(ci, h: float) -> bool:

@@ -18,32 +18,6 @@ __all__ = ["Recording", "Identification", "Diagnosis", "RideAnalysis", "Renderin
            "Crosscheck", "CrosscheckRow"]
 
 
-class _KeyedResult:
-    """Mixin of a dataclass built from a pipeline's dictionary: fields, ``details`` (the other keys), ``key_order``."""
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any], **extra):
-        """The result of ``d``; keys starting with ``_`` are private (to ``extra``'s fields, never the JSON)."""
-        names = {f.name for f in dataclasses.fields(cls)} - {"details", "key_order"}
-        public = [k for k in d if not k.startswith("_")]
-        kw = {k: d[k] for k in public if k in names}
-        details = {k: d[k] for k in public if k not in names}
-        return cls(**kw, details=details, key_order=tuple(public), **extra)
-
-    def to_json(self) -> dict:
-        """The command's JSON object, keys in the pipeline's order."""
-        out = {}
-        for k in self.key_order:
-            out[k] = self.details[k] if k in self.details else getattr(self, k)
-        return to_jsonable(out)
-
-    def get(self, key: str, default=None):
-        """The value of a JSON key, a field or one of :attr:`details`."""
-        if key in self.details:
-            return self.details[key]
-        return getattr(self, key) if key in self.key_order else default
-
-
 @dataclass(frozen=True, eq=False)
 class Recording:
     """A recording (CONTRACT's "A recording"): the table, its sidecar and, for a simulation, its truth.
@@ -109,7 +83,7 @@ class Identification:
 
 
 @dataclass(frozen=True, eq=False)
-class Diagnosis(_KeyedResult):
+class Diagnosis:
     """What the nominal model leaves out of a recording (CONTRACT's "Diagnosis output").
 
     Attributes
@@ -146,11 +120,26 @@ class Diagnosis(_KeyedResult):
     key_order: tuple[str, ...] = field(default=(), repr=False)
     series: Mapping[str, Any] = field(default_factory=dict, repr=False)
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any], series: Mapping[str, Any]) -> Diagnosis:
+        """The result of the pipeline's dictionary ``d``: its public keys (not starting with ``_``) as fields, the
+        rest in :attr:`details`, their order in :attr:`key_order`; ``series`` never reaches the JSON."""
+        names = {f.name for f in dataclasses.fields(cls)} - {"details", "key_order"}
+        public = [k for k in d if not k.startswith("_")]
+        return cls(**{k: d[k] for k in public if k in names}, details={k: d[k] for k in public if k not in names},
+                   key_order=tuple(public), series=series)
+
+    def _public(self) -> dict:
+        """The pipeline's public keys, in its order."""
+        return {k: self.details[k] if k in self.details else getattr(self, k) for k in self.key_order}
+
+    def to_json(self) -> dict:
+        """CONTRACT's ``euc-sim diagnose`` object, keys in the pipeline's order."""
+        return to_jsonable(self._public())
+
     def as_result(self) -> dict:
         """The pipeline's dictionary (series under ``_series``), for :mod:`euc_sim.report.diagnosis`."""
-        out = {k: (self.details[k] if k in self.details else getattr(self, k)) for k in self.key_order}
-        out["_series"] = dict(self.series)
-        return out
+        return {**self._public(), "_series": dict(self.series)}
 
     def summary(self) -> str:
         """The diagnosis as ``euc-sim diagnose`` prints it."""

@@ -19,7 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
-from euc_sim import __version__
+from euc_sim import __version__, api
 from euc_sim.cli.common import (EXIT_FAIL, EXIT_OK, EXIT_USAGE, UsageError, check_outputs, internal_error_report,
                                  parse_params, record_outputs, say)
 from euc_sim.cli.design import add_commands as add_design_commands
@@ -51,28 +51,22 @@ class OneLineParser(argparse.ArgumentParser):
 
 # --- crosscheck ---------------------------------------------------------------------
 def _cmd_crosscheck(args: argparse.Namespace) -> int:
-    from euc_sim.model import crosscheck  # deferred: loads scipy (0.5 s)
-
     if args.json:
         check_writable(args.json)
     if args.mjcf is not None:
         load_model(mjcf=args.mjcf)          # fail early on a bad file
-    sets = dict(crosscheck.PARAMETER_SETS)
-    if args.param:
-        sets = {"user": parse_params(args.param)}
-    checks = crosscheck.run_all(args.samples, progress=lambda s: say(f"crosscheck: {s} ..."),
-                                sets=sets, mjcf=args.mjcf)
-    width = max(len(c.name) for c in checks)
+    res = api.crosscheck(args.samples, params=parse_params(args.param) if args.param else None, mjcf=args.mjcf,
+                         progress=lambda s: say(f"crosscheck: {s} ..."))
+    width = max(len(c.name) for c in res.checks)
     print(f"{'check':<{width}}  {'worst':>10}  {'bound':>8}  ok")
-    for c in checks:
+    for c in res.checks:
         print(f"{c.name:<{width}}  {c.value:10.2e}  {c.bound:8.0e}  {'yes' if c.ok else 'NO'}")
         if c.detail:
             print(f"{'':<{width}}    {c.detail}")
-    ok = all(c.ok for c in checks)
-    print("all bounds hold" if ok else "BOUND BROKEN: see the rows marked NO")
+    print("all bounds hold" if res.ok else "BOUND BROKEN: see the rows marked NO")
     if args.json:
-        write_json(args.json, {"ok": ok, "checks": [c.as_json() for c in checks]})
-    return EXIT_OK if ok else EXIT_FAIL
+        write_json(args.json, res.to_json())
+    return EXIT_OK if res.ok else EXIT_FAIL
 
 
 # --- dynamics --------------------------------------------------------------------------

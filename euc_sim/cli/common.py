@@ -64,28 +64,24 @@ def param_values(items: Sequence[str] | None) -> dict[str, float]:
 
 #: Options that name a file (or, for ``rides``, a folder of logs) the command reads.
 INPUT_OPTIONS = ("recording", "recordings", "log", "logs", "compare", "profile", "drivetrain", "wheel", "mjcf")
-#: Options that name a file the command writes (``--out`` of ``dataset`` and ``demo`` is a folder).
-OUTPUT_OPTIONS = ("out", "json", "plot", "effects_plot")
-#: Commands whose ``--out`` is a folder.
-FOLDER_OUT = ("dataset", "demo")
+#: Options that name a file the command writes.
+OUTPUT_OPTIONS = ("out", "json")
 #: Commands that write a recording and its sidecars (``NAME.json``, ``NAME.truth.json``).
 WRITES_RECORDING = ("simulate",)
 #: The file in a ``--report`` folder (and ``demo``'s) listing what euc-sim wrote there.
 MANIFEST = ".euc-sim-manifest.json"
-
-
-def _option(name: str) -> str:
-    positional = {"recording": "recording", "recordings": "recording", "log": "log", "logs": "log"}
-    return positional.get(name) or "--" + name.replace("_", "-")
+#: How the positional arguments are named in messages.
+_POSITIONAL = {"recording": "recording", "recordings": "recording", "log": "log", "logs": "log"}
 
 
 def _named(args, names) -> list[tuple[str, Path]]:
+    """The paths given to the options ``names`` (argparse dests), as ``(option as typed, path)``."""
     out = []
     for name in names:
         value = getattr(args, name, None)
         for v in value if isinstance(value, (list, tuple)) else [value]:
             if v is not None and str(v) != "":
-                out.append((_option(name), Path(v)))
+                out.append((_POSITIONAL.get(name) or "--" + name.replace("_", "-"), Path(v)))
     return out
 
 
@@ -102,12 +98,6 @@ def _identity(path: Path):
 def _inside(path: Path, folder: Path) -> bool:
     p, f = os.path.realpath(path), os.path.realpath(folder)
     return p == f or p.startswith(f.rstrip(os.sep) + os.sep)
-
-
-def output_files(args) -> list[tuple[str, Path]]:
-    """The files a command will write, as ``(option, path)``."""
-    names = [n for n in OUTPUT_OPTIONS if not (n == "out" and args.command in FOLDER_OUT)]
-    return _named(args, names)
 
 
 def report_folders(args) -> list[tuple[str, Path]]:
@@ -140,13 +130,13 @@ def check_outputs(args) -> list:
     An output may not be an input (by name or link), a file in an input folder, an input's
     sidecar, another output, nor lie inside a ``--report`` folder; it must pass
     :func:`euc_sim.io.check_output`.  A report folder must pass :func:`check_folder_is_ours`.
-    ``simulate`` does not replace a ``NAME.json`` that is not an euc-sim sidecar; figures need
-    a format matplotlib writes; an existing input must be a regular file or a folder.
+    ``simulate`` does not replace a ``NAME.json`` that is not an euc-sim sidecar; an existing input
+    must be a regular file or a folder.
     Returns the report folders' states for :func:`record_outputs`; raises BadOutputPath.
     """
     _check_inputs_are_files(args)
     guarded = _guarded(args)
-    outputs, folders = output_files(args), report_folders(args)
+    outputs, folders = _named(args, OUTPUT_OPTIONS), report_folders(args)
     for i, (opt, path) in enumerate(outputs):
         check_output(path)
         what = guarded.get(_identity(path), (None,))[0]
@@ -159,10 +149,6 @@ def check_outputs(args) -> list:
             if _inside(path, folder):
                 raise BadOutputPath(f"{opt} {shown(path)} lies inside {fopt} {shown(folder)}, the folder "
                                     f"{fopt} writes; choose a path outside it")
-        if opt in ("--plot", "--effects-plot"):
-            from euc_sim.identification.plots import check_figure_path  # deferred: loads matplotlib (0.2 s)
-
-            check_figure_path(path)
     if args.command in WRITES_RECORDING and getattr(args, "out", None):
         _check_foreign_sidecars(Path(args.out))
     states = []
@@ -267,11 +253,7 @@ def _check_foreign_sidecars(out: Path) -> None:
 
 def internal_error_report(args, exc: BaseException) -> Path | None:
     """Write ``exc``'s traceback beside the command's first output (else in the temp folder); its path, or None."""
-    folders = []
-    for _, path in output_files(args) if hasattr(args, "command") else []:
-        folders.append(path.parent if str(path.parent) else Path("."))
-    if getattr(args, "command", None) in FOLDER_OUT and getattr(args, "out", None):
-        folders.append(Path(args.out))
+    folders = [path.parent for _, path in _named(args, OUTPUT_OPTIONS)]
     folders = [f for f in folders if f.is_dir()] + [Path(tempfile.gettempdir())]
     text = (f"euc-sim {__version__} {getattr(args, 'command', '')}: internal error\n"
             f"command line: {' '.join(sys.argv)}\npython {platform.python_version()} on "

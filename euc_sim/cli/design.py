@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from euc_sim.cli.common import parse_params, say, seed
-from euc_sim.cli.options import bounded, deprecated, workers
+from euc_sim.cli.options import bounded, workers
 from euc_sim.cli.sim import RIDER_NOISE
 from euc_sim.errors import InputError
 from euc_sim.identification.design import DESIGN_MANEUVERS, design, design_figure
@@ -26,10 +26,9 @@ def _floats(text: str, option: str) -> list[float]:
 def _cmd_design(args: argparse.Namespace) -> int:
     from euc_sim.simulation.runner import check_backend  # deferred: loads multiprocessing, tqdm (0.02 s)
 
-    if args.report:             # the figures as DIR/design.png and DIR/design_effects.png
-        args.plot = str(Path(args.report) / "design.png")
-        args.effects_plot = str(Path(args.report) / "design_effects.png") if args.effect else None
-    for path in (args.json, args.plot, args.effects_plot):
+    plot = Path(args.report) / "design.png" if args.report else None
+    effects_plot = Path(args.report) / "design_effects.png" if args.report and args.effect else None
+    for path in (args.json, plot, effects_plot):
         if path:
             check_writable(path)
     check_backend(args.scheduler, args.workers)
@@ -54,20 +53,20 @@ def _cmd_design(args: argparse.Namespace) -> int:
     print(res["recommendation"])
     out = {k: v for k, v in res.items() if k != "curves"}
     if args.effect:
-        eff = _effects(args, res)
+        eff = _effects(args, res, effects_plot)
         for row in out["maneuvers"]:
             row["effects"] = eff["by_maneuver"][row["maneuver"]]
         out["effects_design"] = {k: v for k, v in eff.items() if k != "by_maneuver"}
     if args.json:
         write_json(args.json, out)
-    if args.plot:
-        save_figure(design_figure(res), args.plot)
-        say(f"design: wrote {args.plot}")
+    if plot:
+        save_figure(design_figure(res), plot)
+        say(f"design: wrote {plot}")
     return 0
 
 
-def _effects(args: argparse.Namespace, res: dict) -> dict:
-    """The catalog effects' part of ``design``: run, print a table, draw the figure."""
+def _effects(args: argparse.Namespace, res: dict, figure: Path | None) -> dict:
+    """The catalog effects' part of ``design``: run, print a table, draw the figure into ``figure``."""
     from euc_sim.diagnosis.design import effects_design, effects_design_figure, parse_effects  # deferred: loads scipy.optimize, tqdm (0.4 s)
 
     eff = effects_design([r["maneuver"] for r in res["maneuvers"]], parse_effects(",".join(args.effect)),
@@ -91,9 +90,9 @@ def _effects(args: argparse.Namespace, res: dict) -> dict:
             cells.append(f"{c['sd']:.2g}/{c['sd_cov']:.2g} n={c['recordings_for']['0.1']},{c['recordings_to_detect']}"
                          if c.get("sd") is not None else c.get("why", c.get("failed", "-"))[:28])
         print(head + "".join(f"{x:>30}" for x in cells))
-    if args.effects_plot:
-        save_figure(effects_design_figure(eff), args.effects_plot)
-        say(f"design: wrote {args.effects_plot}")
+    if figure:
+        save_figure(effects_design_figure(eff), figure)
+        say(f"design: wrote {figure}")
     return eff
 
 
@@ -121,7 +120,6 @@ def add_commands(sub) -> None:
     p.add_argument("--report", metavar="DIR",
                    help="write the figures into DIR: design.png (RMSE(h) curves and h's sd across noise "
                         "levels) and, with --effect, design_effects.png (each effect's sd per maneuver)")
-    deprecated(p, "--plot", "--report DIR", dest="plot", metavar="FILE.png", default=None)
     p.add_argument("--workers", type=workers(), default=None, metavar="N",
                    help="processes (default: all cores; 1: in this process)")
     p.add_argument("--scheduler", default=None, metavar="local|ADDRESS",
@@ -130,12 +128,9 @@ def add_commands(sub) -> None:
                    help="also this catalog effect (repeatable; 'all' for every one): how precisely each "
                         "maneuver measures it, by Monte Carlo with the effect present and by the "
                         f"diagnosis's covariance; NAME one of all, {', '.join(effect_names())}")
-    deprecated(p, "--effects", "--effect", convert=lambda text: [e for e in text.split(",") if e.strip()] or [""])
     p.add_argument("--effect-rides", type=bounded(3, 10_000, integer=True), default=10, metavar="N",
                    help="Monte Carlo rides per maneuver and effect (default 10)")
     p.add_argument("--with-torques", action="store_true",
                    help="effects: the recordings carry M_d and M_h (default: motion capture only, as the paper)")
-    deprecated(p, "--effects-plot", "--report DIR", dest="effects_plot", metavar="FILE.png", default=None)
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    deprecated(p, "--no-progress", "--quiet")
     p.set_defaults(func=_cmd_design)

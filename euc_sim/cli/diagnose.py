@@ -7,7 +7,6 @@ import time
 
 from euc_sim import api
 from euc_sim.cli.common import parse_params, say, seed
-from euc_sim.cli.options import deprecated
 from euc_sim.io import check_writable, write_json
 
 __all__ = ["add_commands"]
@@ -54,12 +53,9 @@ def add_commands(sub) -> None:
     p.add_argument("--no-calibrate", action="store_true",
                    help="on a 3-D ride, skip calibrating lateral_dynamics on a simulated twin of the ride")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr (shown by default)")
-    deprecated(p, "--verbose", "--quiet", nargs=0, dest="verbose", default=False,
-               note="progress is shown unless --quiet")
     p.set_defaults(func=_cmd_diagnose)
 
     p = sub.add_parser("demo", help="the main job on embedded defaults: simulate, identify, diagnose")
     p.add_argument("--out-dir", default="euc-sim-demo", metavar="DIR", help="output folder (default ./euc-sim-demo)")
-    deprecated(p, "--out", "--out-dir")
     p.add_argument("--seed", type=seed, default=1, metavar="N", help="seed of every random draw (default 1)")
     p.set_defaults(func=_cmd_demo)

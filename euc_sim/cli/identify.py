@@ -10,7 +10,7 @@ import numpy as np
 
 from euc_sim import api
 from euc_sim.cli.common import UsageError, param_values, parse_params, seed
-from euc_sim.cli.options import bounded, deprecated
+from euc_sim.cli.options import bounded
 from euc_sim.identification.base_params import identify_base_parameters
 from euc_sim.identification.controller_fit import identify_controller, identify_rider_delay
 from euc_sim.identification.h_fit import BOOTSTRAP_BLOCK, load
@@ -18,13 +18,12 @@ from euc_sim.identification.processing import MAX_ORDER, Smoothing
 from euc_sim.identification.recordings import params_from_meta, read_sidecar
 from euc_sim.identification.torques import torques
 from euc_sim.io import FLOAT_FORMAT, atomic_write, check_writable, save_figure, sidecar_paths, write_json
-from euc_sim.model.parameters import PLAUSIBLE, UNITS
+from euc_sim.model.parameters import PLAUSIBLE
 
-__all__ = ["add_smoothing_arguments", "add_torques_parser", "add_identify_parser",
-           "cmd_torques", "cmd_identify", "smoothing_from_args"]
+__all__ = ["add_torques_parser", "add_identify_parser", "cmd_torques", "cmd_identify"]
 
 
-def add_smoothing_arguments(p: argparse.ArgumentParser) -> None:
+def _add_smoothing_arguments(p: argparse.ArgumentParser) -> None:
     """Options shared by ``torques`` and ``identify``."""
     g = p.add_argument_group("smoothing and processing")
     g.add_argument("--smoothing", choices=("consistent", "savgol"), default="consistent",
@@ -48,12 +47,6 @@ def add_smoothing_arguments(p: argparse.ArgumentParser) -> None:
                    help="override a parameter (else the sidecar's, else Table 3)")
 
 
-def smoothing_from_args(args: argparse.Namespace):
-    """The :class:`euc_sim.identification.processing.Smoothing` of the command line."""
-    return Smoothing(method=args.smoothing, window=args.window, order=args.order,
-                     term_sigma=args.term_sigma)
-
-
 def _load(path: str, args: argparse.Namespace, h: float | None = None):
     meta = read_sidecar(path)
     params_from_meta(meta, sidecar_paths(path)[0])     # the sidecar's values, naming it
@@ -63,16 +56,9 @@ def _load(path: str, args: argparse.Namespace, h: float | None = None):
     if h is not None:
         values["h"] = h
     p = params_from_meta({"params": values}, path)
-    return load(path, smoothing_from_args(args), params=p, d_CE=args.d_ce,
+    smoothing = Smoothing(method=args.smoothing, window=args.window, order=args.order, term_sigma=args.term_sigma)
+    return load(path, smoothing, params=p, d_CE=args.d_ce,
                 phi_from=args.phi_from, source=args.source)
-
-
-def _check_option(option: str, name: str, value: float) -> None:
-    """A parameter given as an option, against its plausible range (message names the option)."""
-    lo, hi = PLAUSIBLE[name]
-    if not lo <= value <= hi:
-        raise UsageError(f"{option} must lie in [{lo:g}, {hi:g}] {UNITS[name]} for a rider, "
-                         f"got {value:g} {UNITS[name]}")
 
 
 # --- torques -----------------------------------------------------------------------------
@@ -85,7 +71,7 @@ def add_torques_parser(sub) -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, metavar="FILE",
                    help="CSV with t, M_d1, M_d2, M_h, M_d1_2dof, M_d2_2dof (N·m) and valid "
                         "(0 on the edge samples where the filters lack support, 1 elsewhere)")
-    add_smoothing_arguments(p)
+    _add_smoothing_arguments(p)
     p.set_defaults(func=cmd_torques)
     return p
 
@@ -94,8 +80,6 @@ def cmd_torques(args: argparse.Namespace) -> int:
     """Write the five torque estimates of one recording as CSV, ``valid`` 0 within a filter's half-width of either
     end (:attr:`Kinematics.interior`)."""
     check_writable(args.out)
-    if args.h is not None:
-        _check_option("--h", "h", args.h)
     rec = _load(args.recording, args, h=args.h)
     T = torques(rec.kin, rec.params)
     sl = rec.kin.interior
@@ -116,13 +100,11 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
     p = sub.add_parser("identify", help="identify the rider's CoG height h (and more) from recordings")
     p.add_argument("recordings", nargs="+", help="CONTRACT recordings (CSV or Parquet)")
     p.add_argument("--json", metavar="FILE", help="write the results (CONTRACT's identify form)")
-    fig = p.add_mutually_exclusive_group()
-    fig.add_argument("--report", metavar="DIR",
-                     help="write the figures into DIR: Fig. 8 (RMSE against h) as identify.png; "
-                          "ALSO writes Figs. 6/7 beside it, identify-torques.png (one recording) "
-                          "or identify-torques-REC.png (one per recording); every file written "
-                          "is printed")
-    deprecated(fig, "--plot", "--report DIR", dest="plot", metavar="FILE", default=None)
+    p.add_argument("--report", metavar="DIR",
+                   help="write the figures into DIR: Fig. 8 (RMSE against h) as identify.png; "
+                        "ALSO writes Figs. 6/7 beside it, identify-torques.png (one recording) "
+                        "or identify-torques-REC.png (one per recording); every file written "
+                        "is printed")
 
     p.add_argument("--h-min", type=bounded(*PLAUSIBLE["h"], unit="m"), default=0.1, metavar="M",
                    help="search bound, m")
@@ -130,7 +112,6 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
                    help="search bound, m")
     p.add_argument("--n-boot", type=bounded(0, 100_000, integer=True), default=400, metavar="N",
                    help="block-bootstrap replicates for the 95%% interval (default 400, at most 100000)")
-    deprecated(p, "--bootstrap", "--n-boot")
     p.add_argument("--block", type=bounded(0.01, 3600.0, unit="s"), default=None, metavar="S",
                    help="bootstrap block, s (default 1 s, about the correlation time of the "
                         "filtered residual)")
@@ -144,47 +125,33 @@ def add_identify_parser(sub) -> argparse.ArgumentParser:
                         "also h by the simulation error of 1 s MuJoCo rollouts with free initial "
                         "states, where the recordings carry M_d and M_h (3-DoF model); sysid: the "
                         "same fit done by MuJoCo's mujoco.sysid (needs the euc-sim[sysid] extra)")
-    add_smoothing_arguments(p)
+    _add_smoothing_arguments(p)
     p.set_defaults(func=cmd_identify)
     return p
 
 
-def _figure_paths(plot: str, names: list[str]) -> list[Path]:
-    """Figs. 6/7 beside the Fig. 8 file (``--report DIR``'s identify.png): ``STEM-torques.png`` for one recording,
-    ``STEM-torques-REC.png`` (numbered where two recordings share a name) for several."""
-    base = Path(plot)
-    suffix = base.suffix or ".png"
+def _figure_paths(report: Path, names: list[str]) -> list[Path]:
+    """Figs. 6/7 in ``--report DIR``: ``identify-torques.png`` for one recording, ``identify-torques-REC.png``
+    (numbered where two recordings share a name) for several."""
     if len(names) == 1:
-        return [base.with_name(f"{base.stem}-torques{suffix}")]
+        return [report / "identify-torques.png"]
     stems = [Path(n).stem for n in names]
     tags = [s if stems.count(s) == 1 else f"{s}-{i + 1}" for i, s in enumerate(stems)]
-    return [base.with_name(f"{base.stem}-torques-{t}{suffix}") for t in tags]
+    return [report / f"identify-torques-{t}.png" for t in tags]
 
 
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify h (both models, per recording and pooled), the controller and the rider."""
     if args.json:
         check_writable(args.json)
-    if args.report:             # Fig. 8 as DIR/identify.png, Figs. 6/7 beside it
-        args.plot = str(Path(args.report) / "identify.png")
-    if args.plot:
-        from euc_sim.identification.plots import check_figure_path  # deferred: loads matplotlib (0.2 s)
-
-        check_figure_path(args.plot)
-        check_writable(args.plot)
-    if args.n_boot < 0:
-        raise UsageError(f"--n-boot must be non-negative, got {args.n_boot}")
+    report = Path(args.report) if args.report else None
+    if report:
+        check_writable(report / "identify.png")
     from euc_sim.identification.noise_bootstrap import N_REPLICATES  # deferred: loads scipy.signal (1.0 s)
     n_noise = N_REPLICATES if args.noise_replicates is None else args.noise_replicates
-    if n_noise < 0:
-        raise UsageError(f"--noise-replicates must be non-negative, got {n_noise}")
     block = BOOTSTRAP_BLOCK if args.block is None else args.block
-    if not block > 0:
-        raise UsageError(f"--block must be positive seconds, got {args.block}")
-    if not (0 < args.h_min < args.h_max):
+    if not args.h_min < args.h_max:
         raise UsageError(f"need 0 < --h-min < --h-max, got {args.h_min} and {args.h_max}")
-    _check_option("--h-min", "h", args.h_min)
-    _check_option("--h-max", "h", args.h_max)
     if args.method == "sysid":
         from euc_sim.identification.sysid_fit import MISSING_EXTRA, sysid_available  # deferred: loads scipy.signal (0.9 s)
 
@@ -198,11 +165,11 @@ def cmd_identify(args: argparse.Namespace) -> int:
                        block=block, seed=args.seed, n_noise=n_noise)
     pooled, per = res.models, list(res.per_recording)
 
-    per_json, riders, figures = _per_recording(args, names, recs, per)
-    if args.plot:
+    per_json, riders, figures = _per_recording(report, names, recs, per)
+    if report:
         from euc_sim.identification.plots import rmse_curves_figure  # deferred: loads matplotlib (0.2 s)
 
-        figures.insert(0, str(save_figure(rmse_curves_figure(names, per, pooled), args.plot)))
+        figures.insert(0, str(save_figure(rmse_curves_figure(names, per, pooled), report / "identify.png")))
 
     h_per = [rec.params.replace(h=fits["3dof"].h) for rec, fits in zip(recs, per)]
     controller = identify_controller([r.kin for r in recs], h_per)
@@ -220,7 +187,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         "at_bound": [key for key, _ in bound_hits],
     }
     if args.method in ("rollout", "sysid"):
-        _rollout(args, recs, per, pooled, per_json, out)
+        _rollout(args, report, recs, per, per_json, out)
         for prefix, entry in [(f"per_recording[{i}].", e) for i, e in enumerate(per_json)] + [("", out)]:
             out["at_bound"] += [f"{prefix}models.3dof.{q}" for q in entry["models"]["3dof"]["at_bound"]
                                 if q.startswith(f"{args.method}.")]
@@ -234,11 +201,11 @@ def cmd_identify(args: argparse.Namespace) -> int:
     return 0
 
 
-def _per_recording(args: argparse.Namespace, names: list[str], recs: list, per: list[dict]):
+def _per_recording(report: Path | None, names: list[str], recs: list, per: list[dict]):
     """Each recording's JSON entry (models, controller, rider, base parameters), its rider
-    fit, and the Figs. 6/7 written beside Fig. 8 (``--report``): (entries, rider fits, figure paths)."""
+    fit, and the Figs. 6/7 written into ``report``: (entries, rider fits, figure paths)."""
     per_json, riders, figures = [], [], []
-    fig_paths = _figure_paths(args.plot, names) if args.plot else [None] * len(recs)
+    fig_paths = _figure_paths(report, names) if report else [None] * len(recs)
     for rec, fits, fig_path in zip(recs, per, fig_paths):
         p_h = rec.params.replace(h=fits["3dof"].h)
         riders.append(identify_rider_delay(rec.kin, p_h))
@@ -286,9 +253,9 @@ def _at_bound(names: list[str], per: list[dict], pooled: dict, riders: list) -> 
     return hits
 
 
-def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dict], out: dict) -> None:
+def _rollout(args, report: Path | None, recs: list, per: list[dict], per_json: list[dict], out: dict) -> None:
     """``--method rollout`` / ``sysid``: h by simulation error per recording, pooled by inverse variance, into the
-    JSON, printed and drawn."""
+    JSON, printed and drawn into ``report``."""
     from euc_sim.identification.rollout_fit import fit_rollout  # deferred: loads scipy.signal (1.0 s)
     from euc_sim.identification.sysid_fit import fit_sysid  # deferred: loads scipy.signal (0.9 s)
 
@@ -312,13 +279,12 @@ def _rollout(args, recs: list, per: list[dict], pooled: dict, per_json: list[dic
         print(f"{Path(rec.name).name}: {label} h = {r.h:.4f} m [{r.h_ci95[0]:.4f}, {r.h_ci95[1]:.4f}] "
               f"({r.windows} windows of 1 s, {r.seconds:.1f} s; largest |correlation| of h with a "
               f"window state {m[key]['max_abs_correlation_h']:.2f}){warn}")
-        if args.plot:
+        if report:
             from euc_sim.identification.plots import rollout_figure  # deferred: loads matplotlib (0.2 s)
 
-            base = Path(args.plot)
             tag = "" if len(recs) == 1 else f"-{Path(rec.name).stem}"
             fig = save_figure(rollout_figure(rec.name, r, tool="MuJoCo" if key == "rollout" else "mujoco.sysid"),
-                              base.with_name(f"{base.stem}-{key}{tag}{base.suffix or '.png'}"))
+                              report / f"identify-{key}{tag}.png")
             out["figures"].append(str(fig))
     w = [1.0 / max(((r.h_ci95[1] - r.h_ci95[0]) / 3.92) ** 2, 1e-18) for r in fits]
     h = sum(wi * r.h for wi, r in zip(w, fits)) / sum(w)

@@ -12,7 +12,7 @@ import argparse
 import math
 import os
 import sys
-from typing import Callable, Iterable
+from typing import Iterable
 
 __all__ = ["DeprecatedOption", "deprecated", "one_of", "bounded", "workers", "max_workers",
            "BoundsHelpFormatter"]
@@ -68,51 +68,32 @@ class BoundsHelpFormatter(argparse.HelpFormatter):
 
 
 class DeprecatedOption(argparse.Action):
-    """An old option name, hidden from ``--help``: prints the deprecation note, then acts.
+    """An old option name, hidden from ``--help``: prints the deprecation note, then hands its value to ``target``
+    (the replacement's action)."""
 
-    With a ``target`` (the replacement's action) each value is handed to it; without, the value
-    is stored under the old option's own ``dest``.
-    """
-
-    def __init__(self, option_strings, dest, replacement: str, target: argparse.Action | None = None,
-                 convert: Callable[[object], Iterable] | None = None, note: str | None = None, **kwargs):
+    def __init__(self, option_strings, dest, replacement: str, target: argparse.Action, **kwargs):
         kwargs["help"] = argparse.SUPPRESS
         super().__init__(option_strings, dest, **kwargs)
         self.replacement = replacement
         self.target = target
-        self.convert = convert
-        self.note = note or f"use {replacement}"
 
     def __call__(self, parser, namespace, values, option_string=None):
-        print(f"euc-sim: {option_string} is deprecated; {self.note}", file=sys.stderr)
-        if self.target is None:
-            setattr(namespace, self.dest, True if self.nargs == 0 else values)
-            return
-        for value in (self.convert(values) if self.convert else [values]):
-            self.target(parser, namespace, value, self.replacement)
+        print(f"euc-sim: {option_string} is deprecated; use {self.replacement}", file=sys.stderr)
+        self.target(parser, namespace, values, self.replacement)
 
 
-def deprecated(p, old: str, replacement: str, *, convert: Callable[[object], Iterable] | None = None,
-               **own) -> argparse.Action:
+def deprecated(p, old: str, replacement: str) -> argparse.Action:
     """Register ``old`` on ``p`` (a parser or argument group) as a deprecated name of ``replacement``.
 
     Parameters
     ----------
     p : argparse.ArgumentParser or argument group
     old, replacement : str
-        Option strings, e.g. ``"--jobs"`` and ``"--workers"``.
-    convert : callable, optional
-        Old value → the values handed one by one to the replacement (``--effects A,B`` →
-        ``--effect A``, ``--effect B``).
-    **own
-        ``add_argument`` keywords (and ``note``, the text after "is deprecated;") of an old option
-        that keeps its own value instead of forwarding it.
+        Option strings, e.g. ``"--out"`` and ``"--out-dir"``.
     """
-    if own:
-        return p.add_argument(old, action=DeprecatedOption, replacement=replacement, **own)
     target = p._option_string_actions[replacement]
     return p.add_argument(old, action=DeprecatedOption, replacement=replacement, target=target,
-                          convert=convert, dest=target.dest, nargs=target.nargs, type=target.type,
+                          dest=target.dest, nargs=target.nargs, type=target.type,
                           metavar=target.metavar, default=argparse.SUPPRESS)
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 
 from euc_sim.api.functions import analyse_request
 from euc_sim.cli.common import check_report_folder, say, seed
-from euc_sim.cli.options import bounded, deprecated, one_of, workers
+from euc_sim.cli.options import bounded, one_of, workers
 from euc_sim.io import check_writable, write_json
 from euc_sim.rides.request import BOUNDS, DOMAINS, ride_request
 
@@ -92,7 +92,6 @@ def add_ride_parser(sub) -> None:
     p.add_argument("--seed", type=seed, default=0, metavar="N", help="seed of every random draw (default 0)")
     p.add_argument("--workers", type=workers(), default=2, metavar="N",
                    help="threads for the simulation's steps (default 2)")
-    deprecated(p, "--jobs", "--workers")
     p.add_argument("--calibrate-rider", action="store_true",
                    help="add the step 'calibrated_rider': the simulated rider's delay, bandwidth and "
                         "motor noise fitted on LOG (minutes of simulation)")
@@ -101,6 +100,4 @@ def add_ride_parser(sub) -> None:
                         "profile, once per modelled step (minutes; by default run with --compare only, "
                         "--no-simulate skips it; --calibrate-rider turns it on)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    deprecated(p, "--verbose", "--quiet", nargs=0, dest="verbose", default=False,
-               note="progress is shown unless --quiet")
     p.set_defaults(func=_cmd_ride)

@@ -59,11 +59,11 @@ def find_logs(items) -> list[Path]:
     return list(dict.fromkeys(out))
 
 
-def _entry(args):
+def _entry(job: tuple):
+    """:func:`euc_sim.rides.logbook.history.ride_entry` of ``(path, pack, n_boot, seed)`` (picklable for the pool)."""
     from euc_sim.rides.logbook.history import ride_entry  # deferred: loads scipy (1.1 s)
 
-    path, pack, n_boot, sd = args
-    return ride_entry(path, pack, n_boot, sd)
+    return ride_entry(*job)
 
 
 def run_rides(paths, pack=None, n_boot: int = 100, seed: int = 0, workers: int = 1, say=None):

@@ -82,50 +82,35 @@ def _check_choice(option: str, value: str, valid) -> None:
         raise InputError(f"{option}: unknown value {value!r}; valid: {', '.join(valid)}")
 
 
-def _voltage_limit(path, R: float, voltage: float | None) -> dict:
-    """``MotorPD`` voltage-limit settings from a ride JSON
-    (:func:`euc_sim.controllers.firmware.voltage_limit_settings`)."""
-    from euc_sim.controllers.firmware import FirmwareError, voltage_limit_settings  # deferred: loads scipy.optimize (0.4 s)
-
-    try:
-        rep = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise InputError(f"--drivetrain {path}: not a readable ride JSON ({exc})") from None
-    try:
-        return voltage_limit_settings(rep, R, voltage)
-    except FirmwareError as exc:
-        raise InputError(f"--drivetrain {path}: {exc}") from None
-
-
 def _motor(args, R: float = 0.2, p=None):
+    """The balance law: the options' PD or, with ``--drivetrain RIDE.json``, the PD under the ride's voltage limit
+    (:func:`euc_sim.controllers.firmware.voltage_limit_settings`), replaced by the wheel's measured law where the
+    ride shows one (its ``controller``, :func:`euc_sim.controllers.firmware.firmware_motor`)."""
     lim = {}
     if getattr(args, "drivetrain", None):
-        lim = _voltage_limit(args.drivetrain, R, args.battery_voltage)
-        measured = _firmware(args.drivetrain, lim, p)
-        if measured is not None:
-            return measured
+        from euc_sim.controllers.firmware import FirmwareError, firmware_motor, law_terms, voltage_limit_settings  # deferred: loads scipy.optimize (0.4 s)
+
+        path = args.drivetrain
+        try:
+            rep = json.loads(Path(path).read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+            raise InputError(f"--drivetrain {path}: not a readable ride JSON ({exc})") from None
+        try:
+            lim = voltage_limit_settings(rep, R, args.battery_voltage)
+            ctrl = rep.get("controller")
+            law = isinstance(ctrl, dict) and ctrl.get("law") is not None
+            motor, notes = firmware_motor(law_terms(ctrl), p, **lim) if law else (None, ())
+        except FirmwareError as exc:
+            raise InputError(f"--drivetrain {path}: {exc}") from None
+        if motor is not None:
+            say(f"simulate: the wheel's measured law replaces the PD gains: K_p = {motor.Kp:.0f} N·m/rad, "
+                f"K_d = {motor.Kd:.0f} N·m·s/rad" + "".join(f"; {n}" for n in notes))
+            return motor
     elif getattr(args, "battery_voltage", None) is not None:
         raise InputError("--battery-voltage needs --drivetrain RIDE.json")
     return MotorPD(Kp=args.kp, Kd=args.kd, torque_limit=args.motor_limit,
                    tiltback_speed=math.inf if args.tiltback_speed is None else args.tiltback_speed,
                    **lim)
-
-
-def _firmware(path, lim: dict, p=None):
-    """The wheel's measured balance law (the ride JSON's ``controller``, :mod:`euc_sim.controllers.firmware`)
-    with the voltage limit, or None when the ride shows no law (the paper's PD is then used)."""
-    from euc_sim.controllers.firmware import FirmwareError, firmware_motor, law_terms  # deferred: loads scipy.optimize (0.4 s)
-
-    ctrl = json.loads(Path(path).read_text(encoding="utf-8")).get("controller")
-    if not isinstance(ctrl, dict) or ctrl.get("law") is None:
-        return None
-    try:
-        motor, notes = firmware_motor(law_terms(ctrl), p, **lim)
-    except FirmwareError as exc:
-        raise InputError(f"--drivetrain {path}: {exc}") from None
-    say(f"simulate: the wheel's measured law replaces the PD gains: K_p = {motor.Kp:.0f} N·m/rad, "
-        f"K_d = {motor.Kd:.0f} N·m·s/rad" + "".join(f"; {n}" for n in notes))
-    return motor
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
@@ -134,10 +119,9 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         raise InputError(f"--out must end in .csv or .parquet, got {str(out)!r}")
     check_writable(out)
     _check_choice("--model", args.model, ("planar", "3d"))
-    if args.model == "3d":          # the spatial model
-        _check_choice("--noise", args.noise, tuple(NOISE_LEVELS))
-        return simulate_3d_command(args, _motor(args))
     _check_choice("--noise", args.noise, tuple(NOISE_LEVELS))
+    if args.model == "3d":          # the spatial model
+        return simulate_3d_command(args, _motor(args))
     _check_choice("--engine", args.engine, ENGINES)
     _check_choice("--variant", args.variant, VARIANTS)
     _check_choice("--rolling-model", args.rolling_model, ("moment", "contact"))
@@ -188,9 +172,9 @@ def _cmd_dataset(args: argparse.Namespace) -> int:
     _check_choice("--format", args.format, ("csv", "parquet"))
     from euc_sim.simulation.runner import check_backend  # deferred: loads multiprocessing, tqdm (0.02 s)
     check_backend(args.scheduler, args.workers)
-    effects = _effects(args.effect)
-    _drift_shape(None, effects, parse_params(args.param).h, args.duration)
-    specs = dataset_plan(args.seed, args.duration, params=parse_params(args.param), noise=args.noise,
+    effects, params = _effects(args.effect), parse_params(args.param)
+    _drift_shape(None, effects, params.h, args.duration)
+    specs = dataset_plan(args.seed, args.duration, params=params, noise=args.noise,
                          rider_noise=args.rider_noise, engine=args.engine, effects=effects)
     settings = {"seed": args.seed, "duration": args.duration, "noise": args.noise, "engine": args.engine,
                 "rider_noise": args.rider_noise, "effects": effects, "param": list(args.param or ()),

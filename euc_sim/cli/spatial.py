@@ -8,7 +8,7 @@ from pathlib import Path
 
 from euc_sim import api
 from euc_sim.cli.common import parse_params, say
-from euc_sim.cli.options import bounded, deprecated
+from euc_sim.cli.options import bounded
 from euc_sim.errors import InputError
 from euc_sim.simulation.lateral import LATERAL_WINDOW, min_duration
 from euc_sim.simulation.spatial import PATHS, write_spatial
@@ -66,5 +66,4 @@ def add_render_parser(sub) -> None:
     p.add_argument("--time", type=bounded(0.0, 86_400.0, unit="s"), default=None, metavar="S",
                    help="with .png: the time of the frame, s (default: middle)")
     p.add_argument("--quiet", action="store_true", help="no progress bar (shown on stderr by default)")
-    deprecated(p, "--no-progress", "--quiet")
     p.set_defaults(func=_cmd_render)

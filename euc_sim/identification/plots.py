@@ -13,27 +13,12 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 from matplotlib.ticker import FixedLocator, FormatStrFormatter, LogLocator, NullFormatter, NullLocator
 
-from euc_sim.errors import InputError
 from euc_sim.identification.h_fit import MIN_RISE
 from euc_sim.identification.processing import term_filter
 from euc_sim.io import save_figure
 
 __all__ = ["recording_figure", "rmse_curves_figure",
-           "plot_maneuver_curves", "maneuver_curves_figure", "verdict_label", "rollout_figure", "check_figure_path", "plain_log_ticks"]
-
-
-def check_figure_path(path) -> Path:
-    """Refuse, before any work, a figure name whose extension matplotlib cannot write (naming path and supported
-    ones)."""
-    from matplotlib.backend_bases import FigureCanvasBase
-
-    path = Path(path)
-    kinds = FigureCanvasBase.get_supported_filetypes()
-    suffix = path.suffix.lstrip(".").lower()
-    if suffix and suffix not in kinds:
-        raise InputError(f"figure {path}: unknown format {suffix!r}; expected one of "
-                         f"{', '.join(sorted(kinds))} (e.g. .png)")
-    return path
+           "plot_maneuver_curves", "maneuver_curves_figure", "verdict_label", "rollout_figure", "plain_log_ticks"]
 
 
 def recording_figure(rec, torques_df, fit):

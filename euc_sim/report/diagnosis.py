@@ -52,7 +52,8 @@ def summary(result: dict) -> str:
         at = " (AT ITS SEARCH BOUND)" if f"effects.{e['name']}" in bound else ""
         lines.append("  found: " + _fmt_effect(e) + at)
     if r["unexplained"]:
-        lines.append(f"  UNEXPLAINED: structure is left that no catalogued effect explains ({_unexplained_why(r)})")
+        lines.append(f"  UNEXPLAINED: structure is left that no catalogued effect explains (a generic periodic term "
+                     f"gains {100 * r['generic']['gain']:.0f}% held-out; {_floor_ratio_text(r)})")
     if found or r["unexplained"]:
         lines += _where(r)
     lines += _calibration_lines(r)
@@ -103,11 +104,6 @@ def _floor_ratio_text(r: dict) -> str:
              "the noise floor and the lateral term's remainder on its simulated twin"
              + (f" (its rider's motor noise {noisy['level']:.2f} N·m, read from M_h)" if noisy.get("floor") else ""))
     return f"held-out RMSE over {floor} {r['generic']['floor_ratio']:.1f}× {whose}"
-
-
-def _unexplained_why(r: dict) -> str:
-    """The two statistics of the ``unexplained`` test."""
-    return f"a generic periodic term gains {100 * r['generic']['gain']:.0f}% held-out; {_floor_ratio_text(r)}"
 
 
 def _where(r: dict) -> list[str]:

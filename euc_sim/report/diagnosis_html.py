@@ -9,6 +9,7 @@ linked.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -131,16 +132,10 @@ def _effects_table(r: dict) -> str:
 
 def _folded(markdown_text: str) -> list[str]:
     """The plain-text page, one folded section per heading (its title skipped)."""
-    parts, title, lines = [], None, []
-    for line in markdown_text.split("\n"):
-        if line.startswith("## "):
-            if title:
-                parts.append(H.section(title, f"<div>{H.markdown(lines)}</div>", folded=True))
-            title, lines = line[3:].strip(), []
-        elif not line.startswith("# "):
-            lines.append(line)
-    if title:
-        parts.append(H.section(title, f"<div>{H.markdown(lines)}</div>", folded=True))
+    parts = []
+    for title, *lines in (chunk.split("\n") for chunk in re.split(r"^## ", markdown_text, flags=re.M)[1:]):
+        body = H.markdown([line for line in lines if not line.startswith("# ")])
+        parts.append(H.section(title.strip(), f"<div>{body}</div>", folded=True))
     return parts
 
 

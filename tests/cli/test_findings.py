@@ -158,8 +158,6 @@ def test_an_output_that_is_an_input_is_refused(rec, capsys, tmp_path):
     _refused(["identify", rec, "--json", tmp_path / "REC.truth.json"], r"is the sidecar of", capsys, tmp_path)
     log = _wheellog(tmp_path / "LOG.csv", 1.0)
     _refused(["ride", log, "--json", log], r"--json .*LOG\.csv: is the input log", capsys, tmp_path)
-    _refused(["identify", rec, "--json", tmp_path / "o.png", "--plot", tmp_path / "o.png"],
-             r"--plot .*o\.png: --json writes the same file", capsys, tmp_path)
 
 
 def test_simulate_keeps_a_foreign_sidecar(capsys, tmp_path):
@@ -192,11 +190,6 @@ def test_no_folder_is_made_for_a_refused_command(capsys, tmp_path):
 def test_a_file_in_the_way_of_a_folder_is_named(rec, capsys, tmp_path):
     _refused(["torques", rec, "--out", tmp_path / "REC.json" / "T.csv"],
              r"error: cannot write .*REC\.json/T\.csv: .*REC\.json is not a folder$", capsys, tmp_path)
-
-
-def test_design_checks_every_output_before_writing_one(capsys, tmp_path):
-    _refused(["design", "--json", tmp_path / "d.json", "--plot", tmp_path / "d.docx"],
-             r"figure .*d\.docx: unknown format 'docx'", capsys, tmp_path)
 
 
 def _unbounded_drag(monkeypatch):

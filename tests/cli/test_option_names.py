@@ -79,7 +79,7 @@ def test_deprecated_names_are_hidden_and_name_their_replacement():
         assert action.help == argparse.SUPPRESS, (command, name)
         assert action.replacement.split()[0] in parser._option_string_actions, (command, name)
         assert f"--{name} " not in parser.format_help(), (command, name)
-    assert {"jobs", "no-progress", "bootstrap", "plot", "effects", "effects-plot", "out"} <= seen
+    assert {"no-progress", "out"} <= seen
 
 
 def _help_line(parser: argparse.ArgumentParser, action: argparse.Action) -> str:
@@ -140,17 +140,8 @@ def test_no_bare_placeholder_for_a_string_option():
 
 
 @pytest.mark.parametrize("old, argv, dest, value", [
-    ("--jobs", ["ride", "LOG.csv", "--jobs", "2"], "workers", 2),
     ("--no-progress", ["dataset", "--out-dir", "D", "--no-progress"], "quiet", True),
     ("--out", ["dataset", "--out", "D"], "out_dir", "D"),
-    ("--out", ["demo", "--out", "D"], "out_dir", "D"),
-    ("--no-progress", ["render", "R.csv", "--out", "r.mp4", "--no-progress"], "quiet", True),
-    ("--bootstrap", ["identify", "R.csv", "--bootstrap", "7"], "n_boot", 7),
-    ("--plot", ["identify", "R.csv", "--plot", "f.png"], "plot", "f.png"),
-    ("--effects", ["design", "--effects", "road_slope,rider_mass"], "effect", ["road_slope", "rider_mass"]),
-    ("--effects-plot", ["design", "--effects-plot", "e.png"], "effects_plot", "e.png"),
-    ("--plot", ["design", "--plot", "d.png"], "plot", "d.png"),
-    ("--verbose", ["diagnose", "R.csv", "--verbose"], "verbose", True),
 ])
 def test_old_names_still_work_with_one_line_note(old, argv, dest, value, capsys):
     args = build_parser().parse_args(argv)
@@ -166,18 +157,3 @@ def test_dataset_needs_a_folder_and_takes_one_name_for_it(capsys):
     with pytest.raises(SystemExit):
         build_parser().parse_args(["dataset", "--out-dir", "A", "--out", "B"])
     assert "not allowed with" in capsys.readouterr().err
-
-
-def test_deprecated_plot_keeps_its_meaning(tmp_path, capsys):
-    """``identify --plot F.xyz`` still names the figure file, and a format matplotlib lacks is refused."""
-    import numpy as np
-    import pandas as pd
-
-    t = np.arange(360) / 120.0
-    rec = tmp_path / "rec.csv"
-    pd.DataFrame({"t": t, "x": 2.0 * t, "gamma": 0.02 * np.sin(3 * t), "phi": 0.05 * np.sin(2 * t)}) \
-        .to_csv(rec, index=False)
-    assert main(["identify", str(rec), "--plot", str(tmp_path / "f.xyz")]) == 2
-    err = capsys.readouterr().err.splitlines()
-    assert err[0] == "euc-sim: --plot is deprecated; use --report DIR"
-    assert re.search(r"figure .*f\.xyz: unknown format 'xyz'", err[1]) and len(err) == 2

@@ -194,7 +194,7 @@ def _ours(folder: Path, names=("index.html", "index.md")) -> None:
 
     from euc_sim.cli.common import check_outputs, record_outputs
 
-    args = Namespace(command="design", report=str(folder), json=None, plot=None, effects_plot=None)
+    args = Namespace(command="design", report=str(folder), json=None)
     states = check_outputs(args)
     folder.mkdir(exist_ok=True)
     for name in names:

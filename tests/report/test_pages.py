@@ -65,7 +65,7 @@ def simulated(tmp_path_factory):
     """The WheelLog twin (no GPS, no PWM) with a short simulation."""
     d = tmp_path_factory.mktemp("sim")
     log = synth_log(d / "short.csv", seed=2, duration=60.0, gap_at=None)
-    _ride(["ride", log, "--n-boot", "10", "--jobs", "1", "--report", d / "rep", "--quiet", "--simulate"])
+    _ride(["ride", log, "--n-boot", "10", "--workers", "1", "--report", d / "rep", "--quiet", "--simulate"])
     return d / "rep"
 
 
