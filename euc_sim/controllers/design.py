@@ -88,8 +88,7 @@ def delayed_closed_loop_matrix(p: Params, motor: MotorPD, rider: Rider, dt: floa
     return T
 
 
-def delayed_closed_loop_radius(p: Params = TABLE3, motor: MotorPD | None = None,
-                               rider: Rider | None = None, speed: float = 0.0,
+def delayed_closed_loop_radius(p: Params = TABLE3, motor: MotorPD | None = None, rider: Rider | None = None,
                                dt: float = 0.005, true_delay: float | None = None) -> float:
     """Spectral radius of :func:`delayed_closed_loop_matrix` (< 1: stable); ``dt`` 5 ms keeps it small."""
     motor = motor or MotorPD()
@@ -106,7 +105,7 @@ def delay_tolerance(p: Params = TABLE3, motor: MotorPD | None = None, rider: Rid
     motor = motor or MotorPD()
     rider = rider or design_rider(p, motor)
     n = int(round(rider.delay / dt))
-    stable = lambda D: delayed_closed_loop_radius(p, motor, rider, 0.0, dt, D * dt) < 1.0  # noqa: E731
+    stable = lambda D: delayed_closed_loop_radius(p, motor, rider, dt, D * dt) < 1.0  # noqa: E731
     if not stable(n):
         return (math.nan, math.nan)
     lo = n

@@ -116,9 +116,9 @@ def euler_discretize(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarra
 CHECK_POINT = ((0.0, 0.02, 0.05, 2.0, 0.1, -0.1), (10.0, 5.0))
 
 
-def check_against_mujoco(p: Params = TABLE3, y=None, u=None, dt: float = 1e-3,
-                         eps: float = 1e-6) -> dict:
-    """Compare the analytic Jacobians with MuJoCo's ``mjd_transitionFD`` (ideal variant).
+def check_against_mujoco(p: Params = TABLE3) -> dict:
+    """Compare the analytic Jacobians with MuJoCo's ``mjd_transitionFD`` (ideal variant) at
+    :data:`CHECK_POINT`, 1 ms step.
 
     MuJoCo's semi-implicit Euler transition (it does not differentiate RK4), mapped to the
     paper's state (qvel = T q̇, q = S qpos), against :func:`euler_discretize` of (A, B).
@@ -129,8 +129,7 @@ def check_against_mujoco(p: Params = TABLE3, y=None, u=None, dt: float = 1e-3,
 
     from euc_sim.model.mujoco_model import EucMujoco  # deferred: loads mujoco (0.1 s)
 
-    y = np.asarray(CHECK_POINT[0] if y is None else y, dtype=float)
-    u = CHECK_POINT[1] if u is None else tuple(u)
+    y, u, dt = np.asarray(CHECK_POINT[0], dtype=float), CHECK_POINT[1], 1e-3
     sim = EucMujoco(p, "ideal", timestep=dt)
     sim.model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
     sim.set_state(y[:3], y[3:])
@@ -139,7 +138,7 @@ def check_against_mujoco(p: Params = TABLE3, y=None, u=None, dt: float = 1e-3,
     nv, nu = sim.model.nv, sim.model.nu
     Amj = np.zeros((2 * nv, 2 * nv))
     Bmj = np.zeros((2 * nv, nu))
-    mujoco.mjd_transitionFD(sim.model, sim.data, eps, True, Amj, Bmj, None, None)
+    mujoco.mjd_transitionFD(sim.model, sim.data, 1e-6, True, Amj, Bmj, None, None)
     T = sim.T                                             # qvel = T q̇ (and qpos tangent)
     S = np.zeros((3, nv))                                  # q = S qpos: x, γ, γ + rider_pitch
     d = sim.index.dof

@@ -63,20 +63,9 @@ def _check_effects(effects: Mapping[str, float] | None) -> dict[str, float]:
     out = {}
     for name, value in dict(effects or {}).items():
         try:
-            e = fx.get(name)                            # unknown name: lists the valid ones
+            out[name] = fx.checked_value(name, value)
         except ValueError as exc:
             raise SimulationError(str(exc)) from None
-        try:
-            v = float(value)
-        except (TypeError, ValueError):
-            raise SimulationError(f"effect {name}: expected a number, got {value!r}") from None
-        if not math.isfinite(v):
-            raise SimulationError(f"effect {name}: value must be finite, got {value!r}")
-        lo, hi = e.bounds
-        if not lo <= v <= hi:
-            unit = "" if e.unit == "1" else f" {e.unit}"
-            raise SimulationError(f"effect {name}: expected a value in [{lo:g}, {hi:g}]{unit}, got {v!r}")
-        out[name] = v
     return out
 
 
