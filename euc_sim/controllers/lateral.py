@@ -110,7 +110,7 @@ def lateral_plant(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3,
 
 
 def design_lateral(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3,
-                   tyre=None, scales: dict | None = None, delay: float = 0.0) -> LateralRider:
+                   tyre=None, delay: float = 0.0) -> LateralRider:
     """LQR lateral rider on :func:`lateral_plant`; with a reaction ``delay``, s, the rider
     predicts the present state (:func:`lateral_predictor_rows`).  ``InputError`` for a bad
     speed or delay.
@@ -119,8 +119,7 @@ def design_lateral(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3
 
     if not (math.isfinite(speed) and speed > 0):
         raise InputError(f"design speed must be positive, got {speed!r} m/s")
-    sc = dict(LATERAL_SCALES)
-    sc.update(scales or {})
+    sc = LATERAL_SCALES
     Phi, Gam = lateral_plant(params, speed, dt, tyre)
     Q = np.diag([0.0 if sc[n] is None else 1.0 / sc[n] ** 2 for n in LATERAL_STATE])
     Rm = np.diag([1.0 / sc["M_lean"] ** 2, 1.0 / sc["M_twist"] ** 2])
@@ -152,11 +151,12 @@ def lateral_predictor_rows(Phi: np.ndarray, Gam: np.ndarray, K: np.ndarray, n: i
 
 
 def lateral_delay_margin(Phi: np.ndarray, Gam: np.ndarray, K: np.ndarray, dt: float,
-                         block: int = 5, max_delay: float = 0.5, delay: float = 0.0) -> float:
-    """Largest common input delay τ, s (on a ``block·dt`` grid), for which z⁺ = Φ z + Γ u(t − τ),
-    u = −K ẑ stays stable (spectral radius < 1); with a reaction ``delay`` predicted, the
+                         delay: float = 0.0) -> float:
+    """Largest common input delay τ ≤ 0.5 s (on a 5·dt grid) for which z⁺ = Φ z + Γ u(t − τ),
+    u = −K ẑ stays stable (spectral radius < 1); with a reaction ``delay``, s, predicted, the
     margin beyond it.
     """
+    block, max_delay = 5, 0.5
     Pb = np.linalg.matrix_power(Phi, block)
     Gb = sum(np.linalg.matrix_power(Phi, i) for i in range(block)) @ Gam
     S = int(round(delay / (block * dt)))

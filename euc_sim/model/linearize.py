@@ -176,14 +176,14 @@ def loop_transfer(A: np.ndarray, B: np.ndarray, K: np.ndarray, w: np.ndarray) ->
     return np.array([(K @ np.linalg.solve(1j * wi * eye - A, B))[0, 0] for wi in np.asarray(w)])
 
 
-def delay_margin(A: np.ndarray, B: np.ndarray, K: np.ndarray,
-                 w_min: float = 1e-2, w_max: float = 1e3, n: int = 4000) -> tuple[float, float]:
+def delay_margin(A: np.ndarray, B: np.ndarray, K: np.ndarray) -> tuple[float, float]:
     """Delay margin of the loop u = −K s around ṡ = A s + B u: (τ [s], ω_c [rad/s]).
 
     The smallest τ = ((arg L(jω_c) + π) mod 2π) / ω_c over the gain crossovers |L(jω_c)| = 1
-    (the closed loop without delay stable); ``(inf, nan)`` when |L| never crosses 1.
+    (the closed loop without delay stable), searched over 4000 ω from 1e-2 to 1e3 rad/s;
+    ``(inf, nan)`` when |L| never crosses 1.
     """
-    w = np.logspace(math.log10(w_min), math.log10(w_max), n)
+    w = np.logspace(math.log10(1e-2), math.log10(1e3), 4000)
     mag = np.abs(loop_transfer(A, B, K, w)) - 1.0
     best = (math.inf, math.nan)
     for i in np.nonzero(np.diff(np.sign(mag)))[0]:

@@ -386,7 +386,7 @@ class EucMujoco:
             self.settle()
 
     # -- state --------------------------------------------------------------------
-    def set_state(self, q, qd=None, time: float = 0.0) -> None:
+    def set_state(self, q, qd=None) -> None:
         """Set the state from paper coordinates (pure rolling) and run ``mj_forward``."""
         q = np.asarray(q, dtype=float)
         qd = np.zeros(3) if qd is None else np.asarray(qd, dtype=float)
@@ -401,7 +401,7 @@ class EucMujoco:
         self.data.qpos[:] = qpos
         self.data.qvel[:] = qvel
         self.data.qacc_warmstart[:] = 0.0
-        self.data.time = time
+        self.data.time = 0.0
         mujoco.mj_forward(self.model, self.data)
 
     def settle(self) -> None:

@@ -87,14 +87,14 @@ def bounds_text() -> str:
 SIGN_SPEED = 0.01
 
 
-def smooth_sign(v: np.ndarray, scale: float = SIGN_SPEED) -> np.ndarray:
-    """tanh(v / scale): sign(v) made continuous within ±scale."""
-    return np.tanh(np.asarray(v, dtype=float) / scale)
+def smooth_sign(v: np.ndarray) -> np.ndarray:
+    """tanh(v / :data:`SIGN_SPEED`): sign(v) made continuous within ±SIGN_SPEED."""
+    return np.tanh(np.asarray(v, dtype=float) / SIGN_SPEED)
 
 
-def normal_load(p: Params, alpha: float = 0.0) -> float:
-    """Static normal load of the wheel on the road, (m + m0 + mw)·g·cos α, N."""
-    return p.total_mass * p.g * np.cos(alpha)
+def normal_load(p: Params) -> float:
+    """Static normal load of the wheel on level road, (m + m0 + mw)·g, N."""
+    return p.total_mass * p.g
 
 
 def held_forces(x_dot: float, k_drag: float, C_rr: float, N_load: float, R: float,

@@ -380,31 +380,28 @@ def _rows(states: list) -> np.ndarray:
 
 
 class _EffectsRow:
-    """The external inputs held over step k, from the state at its start (for ``set_effects``)."""
+    """The external inputs held over step k, from the state at its start (for ``set_effects``),
+    from the tables of :func:`_moving`.
+    """
 
     def __init__(self, ext: _ExternalInputs, p: Params, dt: float):
         self.ext, self.p, self.dt = ext, p, dt
-        self.h_list = None if ext.h_t is None else ext.h_t.tolist()
-        if self.h_list is not None:
-            self.h_d, self.h_dd = (a.tolist() for a in drift.drift_rates(ext.h_t, dt))
-        lat = ext.lat
-        if lat is not None:
-            self.lat_s, self.lat_c = np.sin(lat.theta).tolist(), np.cos(lat.theta).tolist()
-            self.th_d, self.ps_d, self.ps_dd = lat.theta_d.tolist(), lat.psi_d.tolist(), lat.psi_dd.tolist()
+        self.table3, lat, _, h = _moving(ext, p, dt) or (None, None, None, None)
+        self.lat = None if lat is None else lat.tolist()
+        self.h = None if h is None else h.tolist()
 
     def __call__(self, k: int, y) -> tuple:
         """(F_x at G [N], wheel moment [N·m], h [m] or None, Q [paper coordinates] or None)."""
         ext, p = self.ext, self.p
         x_, g_, f_, xd_, gd_, fd_ = y
         Q_lat = None
-        if ext.lat is not None:  # effects.lateral_forces, held over the step
-            Q_lat = [ext.lat_scale * v for v in fx.lateral_force_rows(
-                p, math.sin(g_), math.cos(g_), math.sin(f_), math.cos(f_), xd_, gd_, fd_,
-                self.lat_s[k], self.lat_c[k], self.th_d[k], self.ps_d[k], self.ps_dd[k])]
+        if self.lat is not None:  # effects.lateral_forces, held over the step
+            Q_lat = [ext.lat_scale * v for v in fx.lateral_force_row(
+                *self.table3, math.sin(g_), math.cos(g_), math.sin(f_), math.cos(f_), xd_, gd_, fd_, *self.lat[k])]
         h = None
-        if self.h_list is not None:   # G moving along the rider's axis: drift.drift_forces
-            h = self.h_list[k]
-            Q_h = drift.drift_force_row(p.m, p.l0, h, self.h_d[k], self.h_dd[k], g_, f_, fd_)
+        if self.h is not None:   # G moving along the rider's axis: drift.drift_forces
+            h, h_d, h_dd = self.h[k]
+            Q_h = drift.drift_force_row(p.m, p.l0, h, h_d, h_dd, g_, f_, fd_)
             Q_lat = list(Q_h) if Q_lat is None else [a + b for a, b in zip(Q_lat, Q_h)]
         return (*fx.held_forces(xd_, ext.k_drag, ext.C_rr, ext.N_load, p.R, float(ext.push(k * self.dt))),
                 h, Q_lat)
