@@ -77,6 +77,22 @@ def instability(data) -> str | None:
     return ", ".join(parts) or None
 
 
+def settle_height(model, data, qpos_index: int, dof_index: int, lo: float, hi: float, steps: int) -> None:
+    """Bisect the height ``data.qpos[qpos_index]``, m, in [lo, hi] over ``steps`` halvings until the
+    contact carries the weight (``qacc`` of ``dof_index`` changes sign), then ``mj_forward``.
+    """
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        data.qpos[qpos_index] = mid
+        mujoco.mj_forward(model, data)
+        if data.qacc[dof_index] > 0:
+            lo = mid
+        else:
+            hi = mid
+    data.qpos[qpos_index] = 0.5 * (lo + hi)
+    mujoco.mj_forward(model, data)
+
+
 class ModelError(BadInputFile):
     """The MJCF file is missing, unreadable, lacks a named element, or does not compile."""
 
@@ -115,7 +131,8 @@ def check_settings(settings, what: str, non_negative: tuple = ()) -> None:
     """
     for field in dataclasses.fields(settings):
         value, floor_ok = getattr(settings, field.name), field.name in non_negative
-        if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value) and (value >= 0 if floor_ok else value > 0)):
+        ok = isinstance(value, (int, float, np.floating)) and math.isfinite(value)
+        if not (ok and (value >= 0 if floor_ok else value > 0)):
             raise ModelError(f"{what} setting {field.name!r} must be {'non-negative' if floor_ok else 'positive'} "
                              f"and finite, got {value!r}")
 
@@ -406,20 +423,9 @@ class EucMujoco:
 
     def settle(self) -> None:
         """Contact variant: put the wheel centre at the static sinkage of the soft contact."""
-        zi = self.index.qpos["z"]
-        lo, hi = -0.01, 0.0
-        for _ in range(60):  # bisect z until the contact carries the total weight
-            mid = 0.5 * (lo + hi)
-            self.data.qpos[:] = 0.0
-            self.data.qpos[zi] = mid
-            self.data.qvel[:] = 0.0
-            mujoco.mj_forward(self.model, self.data)
-            if self.data.qacc[self.index.dof["z"]] > 0:
-                lo = mid
-            else:
-                hi = mid
-        self.data.qpos[zi] = 0.5 * (lo + hi)
-        mujoco.mj_forward(self.model, self.data)
+        self.data.qpos[:] = 0.0
+        self.data.qvel[:] = 0.0
+        settle_height(self.model, self.data, self.index.qpos["z"], self.index.dof["z"], -0.01, 0.0, 60)
 
     @property
     def q(self) -> np.ndarray:

@@ -17,7 +17,8 @@ import mujoco
 import numpy as np
 
 from euc_sim.errors import InputError
-from euc_sim.model.mujoco_model import ModelError, _find, check_settings, compile_spec, load_spec, set_bodies
+from euc_sim.model.mujoco_model import (ModelError, _find, check_settings, compile_spec, load_spec, set_bodies,
+                                       settle_height)
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["MJCF_3D_PATH", "TyreContact", "build_spatial_spec", "load_spatial_model",
@@ -172,27 +173,11 @@ class EucSpatial:
         mujoco.mju_mat2Quat(quat, mat)
         d.qpos[a["root"] + 3:a["root"] + 7] = quat
         d.qpos[a["rider_pitch"]] = phi - gamma
-        self._settle()
+        settle_height(self.model, d, a["root"] + 2, v["root"] + 2, self.params.R - 0.01, self.params.R, 50)
         d.qvel[v["root"]:v["root"] + 2] = speed * math.cos(heading), speed * math.sin(heading)
         d.qvel[v["wheel_spin"]] = speed / self.params.R
         d.qacc_warmstart[:] = 0.0
         d.time = 0.0
-        mujoco.mj_forward(self.model, self.data)
-
-    def _settle(self) -> None:
-        """Bisect the height of C until the contact carries the weight (velocities zero)."""
-        zi, zv = self.qadr["root"] + 2, self.vadr["root"] + 2
-        R = self.params.R
-        lo, hi = R - 0.01, R
-        for _ in range(50):
-            mid = 0.5 * (lo + hi)
-            self.data.qpos[zi] = mid
-            mujoco.mj_forward(self.model, self.data)
-            if self.data.qacc[zv] > 0:
-                lo = mid
-            else:
-                hi = mid
-        self.data.qpos[zi] = 0.5 * (lo + hi)
         mujoco.mj_forward(self.model, self.data)
 
     # -- readouts ----------------------------------------------------------------------
