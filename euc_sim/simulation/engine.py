@@ -95,54 +95,14 @@ def default_rider(params: Params = TABLE3, motor: MotorPD | None = None,
 
 
 # --- the simulation ----------------------------------------------------------------
-def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Params = TABLE3,
-             motor: MotorPD | None = None, rider: Rider | None = None, seed: int = 0,
-             engine: str = "mujoco", variant: str = "ideal",
-             effects: Mapping[str, float] | None = None, dt: float = DEFAULT_DT,
-             fall_bounds: Mapping[str, float] | None = None, contact=None,
-             rolling_model: str = "moment", external_force=None,
-             lateral_motion: LateralMotion | None = None, drift_shape=None,
-             progress: Callable[[float], None] | None = None,
-             native: bool = True) -> pd.DataFrame:
+def simulate(maneuver="constant_speed", duration: float = 15.0, *,
+             progress: Callable[[float], None] | None = None, native: bool = True, **request) -> pd.DataFrame:
     """Run one maneuver in closed loop and return the true trajectory.
 
     Parameters
     ----------
-    maneuver : str or Maneuver
-        A name of :data:`MANEUVERS` (not ``profile``), or a :class:`Maneuver`.
-    duration : float
-        Length of the run, s.
-    params : Params
-        Nominal parameters; with the effects applied (:func:`true_params`) they are the
-        simulated physics and the rider's model of his own body.
-    motor : MotorPD, optional
-        The EUC's controller (default gains when omitted).
-    rider : Rider, optional
-        Default: :func:`default_rider` of the true parameters (0.15 s delay, no noise).
-    seed : int
-        Seed of the rider's motor noise (the only randomness).
-    engine : {"mujoco", "analytic"}
-    variant : {"ideal", "contact"}
-        MuJoCo ground model (the analytic engine is pure rolling).
-    effects : mapping, optional
-        ``{name: value}`` in the units of CONTRACT's effect catalog.
-    dt : float
-        Control period and MuJoCo timestep, s.
-    fall_bounds : mapping, optional
-        ``{"phi": rad, "gamma": rad}`` (default :data:`FALL_BOUNDS`).
-    contact : ContactSettings, optional
-        MuJoCo contact variant settings.
-    rolling_model : {"moment", "contact"}
-        ``rolling_resistance`` as the applied moment −C_rr N R sign(ẋ) (CONTRACT), or as
-        MuJoCo's rolling friction of the tyre contact (coefficient C_rr·R, m; contact variant).
-    external_force : callable, optional
-        ``F(t)``, N, along +x at the rider's G, held over each step; for disturbances outside
-        the catalog (e.g. :class:`euc_sim.simulation.effects.PeriodicPush`).
-    lateral_motion : LateralMotion, optional
-        With ``lateral_dynamics``: tilt and yaw on the run's grid instead of the built-in
-        slalom; the coupling is scaled by (value / max|ϑ|)².
-    drift_shape : euc_sim.simulation.drift.DriftShape, optional
-        With ``cog_height_drift``: the shape of h(t) (default the catalog's 12 s sine).
+    maneuver, duration, **request
+        The run, as :func:`prepare`.
     progress : callable, optional
         ``progress(t)`` with the simulated time, s, every rider block.
     native : bool
@@ -164,15 +124,14 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     SimulationError
         For an unknown engine, maneuver, effect or a bad duration.
     """
-    ride = prepare(maneuver, duration, params=params, motor=motor, rider=rider, seed=seed, engine=engine,
-                   variant=variant, effects=effects, dt=dt, fall_bounds=fall_bounds, contact=contact,
-                   rolling_model=rolling_model, external_force=external_force,
-                   lateral_motion=lateral_motion, drift_shape=drift_shape)
+    ride = prepare(maneuver, duration, **request)
     stepper, run, ext, N, y0, bounds, motor = ride.stepper, ride.run, ride.ext, ride.N, ride.y0, ride.bounds, ride.motor
+    engine, dt = ride.attrs["engine"], ride.attrs["dt"]
     try:
         result = None
         if native and engine == "mujoco":
-            forces = (ext.k_drag, ext.C_rr, ext.N_load, ride.p_true.R, external_force) if ext.per_step else None
+            forces = (ext.k_drag, ext.C_rr, ext.N_load, ride.p_true.R, request.get("external_force")) \
+                if ext.per_step else None
             result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress, forces,
                                  _moving(ext, ride.p_true, dt))
         if result is None:
@@ -228,7 +187,46 @@ def prepare(maneuver="constant_speed", duration: float = 15.0, *, params: Params
             fall_bounds: Mapping[str, float] | None = None, contact=None,
             rolling_model: str = "moment", external_force=None,
             lateral_motion: LateralMotion | None = None, drift_shape=None) -> PreparedRun:
-    """Check a :func:`simulate` request (same arguments) and set the run up; ``SimulationError`` as :func:`simulate`."""
+    """Check a :func:`simulate` request and set the run up; ``SimulationError`` as :func:`simulate`.
+
+    Parameters
+    ----------
+    maneuver : str or Maneuver
+        A name of :data:`MANEUVERS` (not ``profile``), or a :class:`Maneuver`.
+    duration : float
+        Length of the run, s.
+    params : Params
+        Nominal parameters; with the effects applied (:func:`true_params`) they are the
+        simulated physics and the rider's model of his own body.
+    motor : MotorPD, optional
+        The EUC's controller (default gains when omitted).
+    rider : Rider, optional
+        Default: :func:`default_rider` of the true parameters (0.15 s delay, no noise).
+    seed : int
+        Seed of the rider's motor noise (the only randomness).
+    engine : {"mujoco", "analytic"}
+    variant : {"ideal", "contact"}
+        MuJoCo ground model (the analytic engine is pure rolling).
+    effects : mapping, optional
+        ``{name: value}`` in the units of CONTRACT's effect catalog.
+    dt : float
+        Control period and MuJoCo timestep, s.
+    fall_bounds : mapping, optional
+        ``{"phi": rad, "gamma": rad}`` (default :data:`FALL_BOUNDS`).
+    contact : ContactSettings, optional
+        MuJoCo contact variant settings.
+    rolling_model : {"moment", "contact"}
+        ``rolling_resistance`` as the applied moment −C_rr N R sign(ẋ) (CONTRACT), or as
+        MuJoCo's rolling friction of the tyre contact (coefficient C_rr·R, m; contact variant).
+    external_force : callable, optional
+        ``F(t)``, N, along +x at the rider's G, held over each step; for disturbances outside
+        the catalog (e.g. :class:`euc_sim.simulation.effects.PeriodicPush`).
+    lateral_motion : LateralMotion, optional
+        With ``lateral_dynamics``: tilt and yaw on the run's grid instead of the built-in
+        slalom; the coupling is scaled by (value / max|ϑ|)².
+    drift_shape : euc_sim.simulation.drift.DriftShape, optional
+        With ``cog_height_drift``: the shape of h(t) (default the catalog's 12 s sine).
+    """
     _check_request(engine, duration, dt, variant, rolling_model)
     man = as_maneuver(maneuver)
     eff = _check_effects(effects)

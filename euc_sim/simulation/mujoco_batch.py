@@ -12,6 +12,7 @@ cannot carry (other effects, ``engine="analytic"``) run through ``simulate``.  A
 
 from __future__ import annotations
 
+import inspect
 import queue
 import sys
 import threading
@@ -45,9 +46,7 @@ _MAGIC = 23.0625                       # slot S_MAGIC: this simulation is one of
  S_AM, S_AA, S_BR, S_BW, S_SPIN, S_PHI, S_GAM, S_HMD, S_HMH, S_EFF, S_KDRAG, S_CRR, S_R,
  S_NLOAD, S_PUSH, S_MAGIC) = range(30)
 S_LAW = 32                             # 32 … 42: MotorPD.law_args()
-_SIM_KEYS = ("maneuver", "duration", "params", "motor", "rider", "seed", "engine", "variant",
-             "effects", "dt", "fall_bounds", "contact", "rolling_model", "external_force",
-             "lateral_motion", "drift_shape")
+_SIM_KEYS = tuple(inspect.signature(engine.prepare).parameters)
 _CALLBACK = None
 _UNUSABLE_REASON = ""
 
