@@ -132,6 +132,16 @@ def simulate_mujoco(sim: EucMujoco, q0, qd0, duration: float, torques=(0.0, 0.0)
     return np.array(t), np.array(y), np.array(e)
 
 
+def _pitch_gap(sim: EucMujoco, p: Params, case: str, duration: float):
+    """MuJoCo's and scipy's states (N, 6) of a :data:`TRAJECTORY_CASES` case over ``duration`` s and
+    their worst |Δγ|, |Δφ|, rad.
+    """
+    q0, qd0, torques = TRAJECTORY_CASES[case]
+    t, y_mj, _ = simulate_mujoco(sim, q0, qd0, duration, torques)
+    y_an = simulate_analytic(p, np.array(q0), np.array(qd0), t, torques)
+    return y_mj, y_an, float(np.max(np.abs(y_mj[:, 1:3] - y_an[:, 1:3])))
+
+
 def simulate_analytic(p: Params, q0, qd0, t_eval, torques=(0.0, 0.0)) -> np.ndarray:
     """Integrate eq. (5) with ``solve_ivp`` (DOP853, rtol = atol = 1e-12); states (N, 6)."""
     M_d, M_h = torques
@@ -155,10 +165,8 @@ def check_forward(p: Params = TABLE3, duration: float = 5.0, mjcf=None) -> list[
     """MuJoCo (RK4, 1 kHz, ideal) against scipy on eq. (5): worst |Δγ|, |Δφ| over 5 s."""
     sim = EucMujoco(p, "ideal", mjcf)
     checks = []
-    for case, (q0, qd0, torques) in TRAJECTORY_CASES.items():
-        t, y_mj, _ = simulate_mujoco(sim, q0, qd0, duration, torques)
-        y_an = simulate_analytic(p, np.array(q0), np.array(qd0), t, torques)
-        ang = float(np.max(np.abs(y_mj[:, 1:3] - y_an[:, 1:3])))
+    for case in TRAJECTORY_CASES:
+        y_mj, y_an, ang = _pitch_gap(sim, p, case, duration)
         dx = float(np.max(np.abs(y_mj[:, 0] - y_an[:, 0])))
         checks.append(Check(f"forward_{case}_ideal", ang, TRAJECTORY_BOUND,
                             f"max |Δγ|,|Δφ| in rad over {duration:g} s; max |Δx| = {dx:.2e} m; "
@@ -189,14 +197,8 @@ def contact_convergence(p: Params = TABLE3, duration: float = 2.0,
                         timeconsts: Iterable[float] = CONTACT_TIMECONSTS,
                         mjcf=None) -> list[tuple[float, float]]:
     """(timeconst, max |Δγ|,|Δφ|) of the contact variant against pure rolling, stiffer and stiffer, on the constant-torque case."""
-    q0, qd0, torques = TRAJECTORY_CASES["constant_torques"]
-    rows = []
-    for tc in timeconsts:
-        sim = EucMujoco(p, "contact", mjcf, contact=ContactSettings(timeconst=tc))
-        t, y_mj, _ = simulate_mujoco(sim, q0, qd0, duration, torques)
-        y_an = simulate_analytic(p, np.array(q0), np.array(qd0), t, torques)
-        rows.append((tc, float(np.max(np.abs(y_mj[:, 1:3] - y_an[:, 1:3])))))
-    return rows
+    return [(tc, _pitch_gap(EucMujoco(p, "contact", mjcf, contact=ContactSettings(timeconst=tc)), p,
+                             "constant_torques", duration)[2]) for tc in timeconsts]
 
 
 def check_contact(p: Params = TABLE3, mjcf=None) -> list[Check]:

@@ -34,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from itertools import chain
 from typing import Callable, Mapping
 
@@ -77,21 +78,19 @@ def true_params(params: Params, effects: Mapping[str, float] | None) -> Params:
     return p
 
 
-_RIDERS: dict = {}
-
-
 def default_rider(params: Params = TABLE3, motor: MotorPD | None = None,
                   noise_std: float = 0.0, delay: float = 0.15) -> Rider:
     """The LQR rider of :func:`euc_sim.controllers.design.design_rider`, cached per (params,
     motor), with motor noise ``noise_std``, N·m, and reaction ``delay``, s.
     """
+    return _designed_rider(params, motor or MotorPD()).replace(noise_std=noise_std, delay=delay)
+
+
+@lru_cache(maxsize=None)
+def _designed_rider(params: Params, motor: MotorPD) -> Rider:
     from euc_sim.controllers.design import design_rider  # deferred: loads scipy.linalg (0.3 s)
 
-    motor = motor or MotorPD()
-    key = (params, motor)
-    if key not in _RIDERS:
-        _RIDERS[key] = design_rider(params, motor)
-    return _RIDERS[key].replace(noise_std=noise_std, delay=delay)
+    return design_rider(params, motor)
 
 
 # --- the simulation ----------------------------------------------------------------
@@ -227,9 +226,7 @@ def prepare(maneuver="constant_speed", duration: float = 15.0, *, params: Params
     drift_shape : euc_sim.simulation.drift.DriftShape, optional
         With ``cog_height_drift``: the shape of h(t) (default the catalog's 12 s sine).
     """
-    _check_request(engine, duration, dt, variant, rolling_model)
-    man = as_maneuver(maneuver)
-    eff = _check_effects(effects)
+    man, eff = _check_request(maneuver, duration, engine, variant, effects, dt, rolling_model, external_force)
     bounds = dict(FALL_BOUNDS)
     bounds.update(fall_bounds or {})
     motor = motor or MotorPD()
@@ -260,8 +257,12 @@ def prepare(maneuver="constant_speed", duration: float = 15.0, *, params: Params
     return PreparedRun(stepper, run, ext, motor, rider, p_true, N, t, v_ref, y0, bounds, attrs)
 
 
-def _check_request(engine: str, duration, dt: float, variant: str, rolling_model: str) -> None:
-    """Refuse an engine, duration, step or ground model :func:`simulate` cannot run, naming it."""
+def _check_request(maneuver, duration, engine: str, variant: str, effects, dt: float, rolling_model: str,
+                   external_force, **_setup) -> tuple:
+    """The checks of :func:`prepare` that set nothing up (its arguments; the others, ``_setup``, are
+    not read): ``SimulationError`` naming what :func:`simulate` cannot run, else the maneuver and
+    the effects, checked.
+    """
     if engine not in ENGINES:
         raise SimulationError(f"unknown engine {engine!r}; valid engines: {', '.join(ENGINES)}")
     if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
@@ -275,6 +276,9 @@ def _check_request(engine: str, duration, dt: float, variant: str, rolling_model
     if rolling_model == "contact" and (engine != "mujoco" or variant != "contact"):
         raise SimulationError("rolling_model 'contact' needs engine 'mujoco' and variant 'contact', "
                               f"got engine {engine!r}, variant {variant!r}")
+    if external_force is not None and not callable(external_force):
+        raise SimulationError(f"external_force must be a callable F(t) in N, got {external_force!r}")
+    return as_maneuver(maneuver), _check_effects(effects)
 
 
 @dataclass(frozen=True)
@@ -320,8 +324,6 @@ def _external_inputs(p_true: Params, eff: dict, t: np.ndarray, v_ref: np.ndarray
         contact = dataclasses.replace(contact or ContactSettings(), rolling_friction=C_rr * p_true.R)
         C_rr = 0.0                              # the contact itself resists the rolling
     k_drag = eff.get("aerodynamic_drag", 0.0)
-    if external_force is not None and not callable(external_force):
-        raise SimulationError(f"external_force must be a callable F(t) in N, got {external_force!r}")
     per_step = bool(C_rr or k_drag or h_t is not None or lat is not None or external_force is not None)
     return _ExternalInputs(C_rr=C_rr, N_load=fx.normal_load(p_true) if C_rr else 0.0, k_drag=k_drag,
                            push=external_force or (lambda _t: 0.0), h_t=h_t, lat=lat, lat_scale=lat_scale,

@@ -217,14 +217,9 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int 
 
 def _check(request: Mapping) -> None:
     """The checks of :func:`engine.prepare` that set nothing up (raise ``SimulationError``)."""
-    engine._check_request(request.get("engine", "mujoco"), request.get("duration", 15.0),
-                          request.get("dt", engine.DEFAULT_DT), request.get("variant", "ideal"),
-                          request.get("rolling_model", "moment"))
-    engine.as_maneuver(request.get("maneuver", "constant_speed"))
-    engine._check_effects(request.get("effects"))
-    force = request.get("external_force")
-    if force is not None and not callable(force):
-        raise engine.SimulationError(f"external_force must be a callable F(t) in N, got {force!r}")
+    bound = inspect.signature(engine.prepare).bind(**request)
+    bound.apply_defaults()
+    engine._check_request(**bound.arguments)
 
 
 def _prepared_batches(requests: Sequence[Mapping], ids: list, size: int):

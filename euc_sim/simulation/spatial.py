@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 import pandas as pd
@@ -151,15 +152,10 @@ def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-_LATERAL: dict = {}
-
-
+@lru_cache(maxsize=None)
 def default_lateral(params: Params, speed: float, dt: float, tyre=None, delay: float = 0.0) -> LateralRider:
     """:func:`euc_sim.controllers.lateral.design_lateral`, cached per (params, speed, dt, tyre, delay)."""
-    key = (params, round(speed, 6), dt, tyre, round(delay, 6))
-    if key not in _LATERAL:
-        _LATERAL[key] = design_lateral(params, speed, dt, tyre, delay=delay)
-    return _LATERAL[key]
+    return design_lateral(params, speed, dt, tyre, delay=delay)
 
 
 def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: Params = TABLE3,
