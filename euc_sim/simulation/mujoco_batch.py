@@ -47,8 +47,6 @@ _MAGIC = 23.0625                       # slot S_MAGIC: this simulation is one of
  S_NLOAD, S_PUSH, S_MAGIC) = range(30)
 S_LAW = 32                             # 32 … 42: MotorPD.law_args()
 _SIM_KEYS = tuple(inspect.signature(engine.prepare).parameters)
-_CALLBACK = None
-_UNUSABLE_REASON = ""
 
 
 def batchable(request: Mapping) -> bool:
@@ -60,13 +58,16 @@ def batchable(request: Mapping) -> bool:
 
 def available() -> bool:
     """Whether the batch's native callback compiles here (compiles it on first call)."""
-    global _CALLBACK, _UNUSABLE_REASON
-    if _CALLBACK is None:
-        try:
-            _CALLBACK = _compile()
-        except Exception as exc:  # noqa: BLE001 - any failure means: simulate() one by one
-            _CALLBACK, _UNUSABLE_REASON = False, f"{type(exc).__name__}: {exc}".splitlines()[0]
-    return bool(_CALLBACK)
+    return _callback()[0] is not None
+
+
+@lru_cache(maxsize=1)
+def _callback() -> tuple:
+    """(the batch's compiled callback, "") once per process, or (None, why it cannot be built)."""
+    try:
+        return _compile(), ""
+    except Exception as exc:  # noqa: BLE001 - any failure means: simulate() one by one
+        return None, f"{type(exc).__name__}: {exc}".splitlines()[0]
 
 
 def _compile():
@@ -178,7 +179,7 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int 
     out: list = [None] * len(requests)
     in_batch = [i for i, r in enumerate(requests) if batchable(r)]
     if in_batch and not available():
-        print(f"euc-sim: MuJoCo batch unavailable ({_UNUSABLE_REASON}); simulating ride by ride",
+        print(f"euc-sim: MuJoCo batch unavailable ({_callback()[1]}); simulating ride by ride",
               file=sys.stderr)
         in_batch = []
     batched = set(in_batch)
@@ -198,7 +199,7 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int 
             progress(done)
 
     if in_batch:                        # BLAS on one thread: its idle threads spin against the batch's
-        with one_blas_thread(), exclusive(_CALLBACK):
+        with one_blas_thread(), exclusive(_callback()[0]):
             batches = _prepared_batches(requests, in_batch, batch)
             if nthread >= 2 and len(in_batch) >= PIPELINE_BATCHES * nthread * batch:
                 _pipeline(batches, nthread, finished)
