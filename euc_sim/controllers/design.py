@@ -13,6 +13,7 @@ import math
 import numpy as np
 
 from euc_sim.controllers.motor import MotorPD
+from euc_sim.controllers.lateral import delayed_loop
 from euc_sim.controllers.rider import Rider
 from euc_sim.controllers.plant import has_integral, predictor_rows, rider_plant
 from euc_sim.errors import InputError
@@ -54,7 +55,8 @@ def design_rider(p: Params = TABLE3, motor: MotorPD | None = None, delay: float 
 
 def delayed_closed_loop_matrix(p: Params, motor: MotorPD, rider: Rider, dt: float,
                                true_delay: float | None = None) -> np.ndarray:
-    """Transition matrix of the sampled loop with the delay buffer and the predictor.
+    """Transition matrix of the sampled loop with the delay buffer and the predictor
+    (:func:`~euc_sim.controllers.lateral.delayed_loop`).
 
     State (s_k, …, s_{k−D}, δu_{k−1}, …, δu_{k−n}), D = ``true_delay``/dt (default the
     rider's) and n = rider.delay/dt; ``dt``: control period, s.
@@ -62,34 +64,16 @@ def delayed_closed_loop_matrix(p: Params, motor: MotorPD, rider: Rider, dt: floa
     K = np.asarray(rider.K, dtype=float)
     A, B = rider_plant(p, motor, has_integral(K))
     Phi, Gam = discretize(A, B, dt)
-    m = len(K)
     n = int(round(rider.delay / dt))
     D = n if true_delay is None else int(round(true_delay / dt))
     if rider.predictor and n > 0:
         KPn, KG = predictor_rows(p, motor, K, dt, n)
     else:
         KPn, KG = K, np.zeros(n)
-    ns = m * (D + 1)
-    N = ns + n
-    T = np.zeros((N, N))
-    # u_k = −KPn s_{k−D} − Σ KG_i δu_{k−n+i}
-    u_row = np.zeros(N)
-    u_row[m * D:m * D + m] = -KPn
-    for i in range(n):                               # δu_{k−n+i} sits at ns + (n−1−i)
-        u_row[ns + (n - 1 - i)] -= KG[i]
-    T[0:m, 0:m] = Phi
-    T[0:m, :] += Gam @ u_row[None, :]
-    for d in range(1, D + 1):                        # shift the state buffer
-        T[m * d:m * d + m, m * (d - 1):m * d] = np.eye(m)
-    if n:
-        T[ns, :] = u_row                             # newest δu
-        for i in range(1, n):
-            T[ns + i, ns + i - 1] = 1.0
-    return T
+    return delayed_loop(Phi, Gam, KPn.reshape(1, -1), KG.reshape(1, -1), D, 0)
 
 
-def delayed_closed_loop_radius(p: Params = TABLE3, motor: MotorPD | None = None,
-                               rider: Rider | None = None, speed: float = 0.0,
+def delayed_closed_loop_radius(p: Params = TABLE3, motor: MotorPD | None = None, rider: Rider | None = None,
                                dt: float = 0.005, true_delay: float | None = None) -> float:
     """Spectral radius of :func:`delayed_closed_loop_matrix` (< 1: stable); ``dt`` 5 ms keeps it small."""
     motor = motor or MotorPD()
@@ -98,21 +82,22 @@ def delayed_closed_loop_radius(p: Params = TABLE3, motor: MotorPD | None = None,
     return float(np.max(np.abs(np.linalg.eigvals(T))))
 
 
-def delay_tolerance(p: Params = TABLE3, motor: MotorPD | None = None, rider: Rider | None = None,
-                    dt: float = 0.005, max_delay: float = 0.6) -> tuple[float, float]:
-    """(lo, hi), s: the actual delays on a ``dt`` grid the rider (his predictor tuned to rider.delay)
-    survives, searched outward from his own; NaNs if unstable at it.
+def delay_tolerance(p: Params = TABLE3, motor: MotorPD | None = None,
+                    rider: Rider | None = None) -> tuple[float, float]:
+    """(lo, hi), s: the actual delays up to 0.6 s on a 5 ms grid the rider (his predictor tuned to
+    rider.delay) survives, searched outward from his own; NaNs if unstable at it.
     """
     motor = motor or MotorPD()
     rider = rider or design_rider(p, motor)
+    dt = 0.005
     n = int(round(rider.delay / dt))
-    stable = lambda D: delayed_closed_loop_radius(p, motor, rider, 0.0, dt, D * dt) < 1.0  # noqa: E731
+    stable = lambda D: delayed_closed_loop_radius(p, motor, rider, dt, D * dt) < 1.0  # noqa: E731
     if not stable(n):
         return (math.nan, math.nan)
     lo = n
     while lo > 0 and stable(lo - 1):
         lo -= 1
     hi = n
-    while (hi + 1) * dt <= max_delay and stable(hi + 1):
+    while (hi + 1) * dt <= 0.6 and stable(hi + 1):
         hi += 1
     return lo * dt, hi * dt

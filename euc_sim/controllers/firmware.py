@@ -55,12 +55,11 @@ def law_terms(ctrl) -> dict[str, LawTerm]:
             for t in ctrl.get("terms", []) if isinstance(t, dict)}
 
 
-def firmware_settings(terms: Mapping[str, LawTerm], p: Params | None = None,
-                      zeta: float = ZETA_UNRESOLVED) -> tuple[dict, list[str]]:
+def firmware_settings(terms: Mapping[str, LawTerm], p: Params | None = None) -> tuple[dict, list[str]]:
     """MotorPD settings from a measured law's terms by name (:func:`law_terms`), and notes.
 
     ``p``: the ride's parameters for the damping of an unresolved K_d (default Table 3),
-    given the pitch-mode damping ratio ``zeta``.  Returns ``settings`` (``Kp`` N·m/rad,
+    given the pitch-mode damping ratio :data:`~euc_sim.controllers.damping.ZETA_UNRESOLVED`.  Returns ``settings`` (``Kp`` N·m/rad,
     ``Kd`` N·m·s/rad, and where identified ``torque_limit`` N·m, ``tiltback_speed`` m/s,
     ``tiltback_gain`` rad per m/s) and ``notes`` (what was not carried, or changed).
     ``FirmwareError`` for a law not in N·m, or a non-finite term.
@@ -79,6 +78,7 @@ def firmware_settings(terms: Mapping[str, LawTerm], p: Params | None = None,
             raise FirmwareError(f"controller: term {name!r} estimate must be a finite number, got {val!r}")
         settings[key] = float(val)
     if not kd_resolved(terms.get("K_d")):
+        zeta = ZETA_UNRESOLVED
         floor = damping_floor(p or TABLE3, settings["Kp"], zeta)
         est = settings.get("Kd")
         kd = max(floor, est if est is not None else 0.0)

@@ -23,7 +23,7 @@ from euc_sim.errors import InputError
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["LATERAL_SCALES", "LATERAL_STATE", "LateralRider", "lateral_plant", "design_lateral",
-           "lateral_delay_margin", "lateral_predictor_rows"]
+           "lateral_delay_margin", "lateral_predictor_rows", "delayed_loop"]
 
 LATERAL_STATE = ("e_y", "e_psi", "theta", "lean", "twist", "e_y_dot", "theta_dot", "psi_dot",
                  "lean_dot", "twist_dot", "e_y_int")
@@ -110,7 +110,7 @@ def lateral_plant(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3,
 
 
 def design_lateral(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3,
-                   tyre=None, scales: dict | None = None, delay: float = 0.0) -> LateralRider:
+                   tyre=None, delay: float = 0.0) -> LateralRider:
     """LQR lateral rider on :func:`lateral_plant`; with a reaction ``delay``, s, the rider
     predicts the present state (:func:`lateral_predictor_rows`).  ``InputError`` for a bad
     speed or delay.
@@ -119,8 +119,7 @@ def design_lateral(params: Params = TABLE3, speed: float = 2.5, dt: float = 1e-3
 
     if not (math.isfinite(speed) and speed > 0):
         raise InputError(f"design speed must be positive, got {speed!r} m/s")
-    sc = dict(LATERAL_SCALES)
-    sc.update(scales or {})
+    sc = LATERAL_SCALES
     Phi, Gam = lateral_plant(params, speed, dt, tyre)
     Q = np.diag([0.0 if sc[n] is None else 1.0 / sc[n] ** 2 for n in LATERAL_STATE])
     Rm = np.diag([1.0 / sc["M_lean"] ** 2, 1.0 / sc["M_twist"] ** 2])
@@ -152,47 +151,50 @@ def lateral_predictor_rows(Phi: np.ndarray, Gam: np.ndarray, K: np.ndarray, n: i
 
 
 def lateral_delay_margin(Phi: np.ndarray, Gam: np.ndarray, K: np.ndarray, dt: float,
-                         block: int = 5, max_delay: float = 0.5, delay: float = 0.0) -> float:
-    """Largest common input delay τ, s (on a ``block·dt`` grid), for which z⁺ = Φ z + Γ u(t − τ),
-    u = −K ẑ stays stable (spectral radius < 1); with a reaction ``delay`` predicted, the
+                         delay: float = 0.0) -> float:
+    """Largest common input delay τ ≤ 0.5 s (on a 5·dt grid) for which z⁺ = Φ z + Γ u(t − τ),
+    u = −K ẑ stays stable (spectral radius < 1); with a reaction ``delay``, s, predicted, the
     margin beyond it.
     """
+    block, max_delay = 5, 0.5
     Pb = np.linalg.matrix_power(Phi, block)
     Gb = sum(np.linalg.matrix_power(Phi, i) for i in range(block)) @ Gam
     S = int(round(delay / (block * dt)))
     K_pred, K_hist = lateral_predictor_rows(Pb, Gb, K, S)
     best = -1
     for D in range(int(max_delay / (block * dt)) + 1):
-        if np.max(np.abs(np.linalg.eigvals(_delayed_loop(Pb, Gb, K_pred, K_hist, S, D)))) >= 1.0:
+        if np.max(np.abs(np.linalg.eigvals(delayed_loop(Pb, Gb, K_pred, K_hist, S, D)))) >= 1.0:
             break
         best = D
     return best * block * dt if best >= 0 else 0.0
 
 
-def _delayed_loop(Pb, Gb, K_pred, K_hist, S: int, D: int) -> np.ndarray:
-    """Transition matrix of the sampled loop with sensing delay S (predicted) and input delay D,
-    blocks; state (z_k, …, z_{k−S}, u_{k−1}, …, u_{k−S−D}).
+def delayed_loop(Phi, Gam, K_pred, K_hist, S: int, D: int) -> np.ndarray:
+    """Transition matrix of the sampled loop z⁺ = Φ z + Γ u_{k−D} under a controller that senses z
+    S steps late and predicts it over its last h commands, u_k = −K_pred z_{k−S} − Σ_{i<h} K_hist,i
+    u_{k−h+i} (:func:`lateral_predictor_rows`; h = K_hist's columns / inputs); state (z_k, …,
+    z_{k−S}, u_{k−1}, …, u_{k−h−D}).
     """
-    n, m = Gb.shape
-    H = max(S + D, 1)                              # commands kept
+    n, m = Gam.shape
+    h = K_hist.shape[1] // m
+    H = h + D                                      # commands kept
     N = n * (S + 1) + m * H
     T = np.zeros((N, N))
     u0 = n * (S + 1)                               # offset of u_{k−1}
-    # u_k = −K_pred z_{k−S} − K_hist (u_{k−S}, …, u_{k−1})
     u_row = np.zeros((m, N))
     u_row[:, n * S:n * (S + 1)] = -K_pred
-    for i in range(S):                             # K_hist pair i weights u_{k−S+i}
-        lag = S - i                                # u_{k−lag}
+    for i in range(h):                             # K_hist pair i weights u_{k−h+i}
+        lag = h - i                                # u_{k−lag}
         u_row[:, u0 + m * (lag - 1):u0 + m * lag] -= K_hist[:, m * i:m * (i + 1)]
-    # plant: z_{k+1} = Pb z_k + Gb u_{k−D}
-    T[:n, :n] = Pb
+    T[:n, :n] = Phi
     if D == 0:
-        T[:n] += Gb @ u_row
+        T[:n] += Gam @ u_row
     else:
-        T[:n, u0 + m * (D - 1):u0 + m * D] += Gb
+        T[:n, u0 + m * (D - 1):u0 + m * D] += Gam
     for j in range(S):                             # shift the sensed states
         T[n * (j + 1):n * (j + 2), n * j:n * (j + 1)] = np.eye(n)
-    T[u0:u0 + m] = u_row                           # newest command
+    if H:
+        T[u0:u0 + m] = u_row                       # newest command
     for j in range(1, H):                          # shift the commands
         T[u0 + m * j:u0 + m * (j + 1), u0 + m * (j - 1):u0 + m * j] = np.eye(m)
     return T

@@ -61,7 +61,7 @@ def predictor_rows(p: Params, motor: MotorPD, K, dt: float, n: int) -> tuple[np.
     return KPn.ravel(), KG.ravel()
 
 
-def speed_zero(p: Params = TABLE3, motor: MotorPD | None = None, speed: float = 0.0) -> float:
+def speed_zero(p: Params = TABLE3, motor: MotorPD | None = None) -> float:
     """The right-half-plane zero z of the wheel speed's response to the ankle torque, rad/s.
 
     To speed up, the wheel must first run back under the rider: M_h → ẋ of
@@ -71,7 +71,7 @@ def speed_zero(p: Params = TABLE3, motor: MotorPD | None = None, speed: float = 
     """
     from scipy.linalg import eigvals
 
-    A, B = linear_plant(p, motor, speed)
+    A, B = linear_plant(p, motor)
     n = A.shape[0]
     C = np.zeros((1, n))
     C[0, 0] = 1.0                                            # ẋ

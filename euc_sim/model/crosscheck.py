@@ -17,8 +17,7 @@ from euc_sim.model import analytic
 from euc_sim.model.mujoco_model import ContactSettings, EucMujoco
 from euc_sim.model.parameters import Params, TABLE3
 
-__all__ = ["Check", "PARAMETER_SETS", "random_states", "check_mass_matrix", "check_bias",
-           "check_inverse", "simulate_mujoco", "simulate_analytic", "check_forward",
+__all__ = ["Check", "PARAMETER_SETS", "random_states", "STATIC_CHECKS", "check_static", "simulate_mujoco", "simulate_analytic", "check_forward",
            "check_energy", "contact_convergence", "check_contact", "run_all"]
 
 #: Parameter sets of the cross-check: Table 3, a light tall rider, a heavy short one
@@ -78,26 +77,34 @@ def _static_pass(p: Params, q, qd, qdd, what: str, mjcf=None) -> tuple[np.ndarra
     sim = EucMujoco(p, "ideal", mjcf)
     out = []
     for i in range(len(q)):
-        if what == "mass":
-            sim.set_state(q[i], qd[i])
-            out.append(sim.mass_matrix())
-        elif what == "bias":
-            sim.set_state(q[i], qd[i])
-            out.append(sim.bias())
-        else:
+        if what == "inverse":
             out.append(sim.inverse(q[i], qd[i], qdd[i]))
-    mj = np.array(out)
+        else:
+            sim.set_state(q[i], qd[i])
+            out.append(sim.mass_matrix() if what == "mass" else sim.bias())
     if what == "mass":
         an = analytic.mass_matrix(p, q)
     elif what == "bias":
         an = analytic.nonlinear_terms(p, q, qd) - analytic.gravity_forces(p, q)
     else:
         an = analytic.inverse_dynamics(p, q, qd, qdd)
-    return mj, an
+    return np.array(out), an
 
 
-def _static_check(what: str, label: str, sets: dict[str, Params], n: int, seed: int,
-                  mjcf=None) -> Check:
+#: The static checks: ``mass``, MuJoCo's mass matrix mapped to (x, γ, φ) against eq. (6);
+#: ``bias``, its bias forces against h − (gravity part of Q), eqs. (7)-(8); ``inverse``,
+#: ``mj_inverse`` against M q̈ + h − Q_gravity.  Each: (check name, seed of the random states,
+#: stage named to ``progress``).
+STATIC_CHECKS = {"mass": ("mass_matrix_eq6", 0, "mass matrix"),
+                 "bias": ("bias_forces_eq7_eq8", 100, "bias forces"),
+                 "inverse": ("inverse_dynamics", 200, "inverse dynamics")}
+
+
+def check_static(what: str, sets=PARAMETER_SETS, n: int = 2500, mjcf=None) -> Check:
+    """The static check ``what`` of :data:`STATIC_CHECKS` on ``n`` random states of each of
+    ``sets``: the worst relative error.
+    """
+    label, seed, _ = STATIC_CHECKS[what]
     worst, where = 0.0, ""
     for k, (name, p) in enumerate(sets.items()):
         q, qd, qdd = random_states(n, seed + k)
@@ -108,21 +115,6 @@ def _static_check(what: str, label: str, sets: dict[str, Params], n: int, seed: 
     total = n * len(sets)
     return Check(label, worst, STATIC_BOUND,
                  f"{total} random states over {len(sets)} parameter sets; worst in {where!r}")
-
-
-def check_mass_matrix(sets=PARAMETER_SETS, n: int = 2500, seed: int = 0, mjcf=None) -> Check:
-    """MuJoCo's mass matrix mapped to (x, γ, φ) against eq. (6), worst relative error."""
-    return _static_check("mass", "mass_matrix_eq6", sets, n, seed, mjcf)
-
-
-def check_bias(sets=PARAMETER_SETS, n: int = 2500, seed: int = 100, mjcf=None) -> Check:
-    """MuJoCo's bias forces against h − (gravity part of Q), eqs. (7)-(8)."""
-    return _static_check("bias", "bias_forces_eq7_eq8", sets, n, seed, mjcf)
-
-
-def check_inverse(sets=PARAMETER_SETS, n: int = 2500, seed: int = 200, mjcf=None) -> Check:
-    """``mj_inverse`` against the analytic inverse dynamics M q̈ + h − Q_gravity."""
-    return _static_check("inverse", "inverse_dynamics", sets, n, seed, mjcf)
 
 
 # --- trajectories -------------------------------------------------------------------
@@ -138,6 +130,16 @@ def simulate_mujoco(sim: EucMujoco, q0, qd0, duration: float, torques=(0.0, 0.0)
         y.append(np.concatenate([sim.q, sim.qd]))
         e.append(sim.energy())
     return np.array(t), np.array(y), np.array(e)
+
+
+def _pitch_gap(sim: EucMujoco, p: Params, case: str, duration: float):
+    """MuJoCo's and scipy's states (N, 6) of a :data:`TRAJECTORY_CASES` case over ``duration`` s and
+    their worst |Δγ|, |Δφ|, rad.
+    """
+    q0, qd0, torques = TRAJECTORY_CASES[case]
+    t, y_mj, _ = simulate_mujoco(sim, q0, qd0, duration, torques)
+    y_an = simulate_analytic(p, np.array(q0), np.array(qd0), t, torques)
+    return y_mj, y_an, float(np.max(np.abs(y_mj[:, 1:3] - y_an[:, 1:3])))
 
 
 def simulate_analytic(p: Params, q0, qd0, t_eval, torques=(0.0, 0.0)) -> np.ndarray:
@@ -163,10 +165,8 @@ def check_forward(p: Params = TABLE3, duration: float = 5.0, mjcf=None) -> list[
     """MuJoCo (RK4, 1 kHz, ideal) against scipy on eq. (5): worst |Δγ|, |Δφ| over 5 s."""
     sim = EucMujoco(p, "ideal", mjcf)
     checks = []
-    for case, (q0, qd0, torques) in TRAJECTORY_CASES.items():
-        t, y_mj, _ = simulate_mujoco(sim, q0, qd0, duration, torques)
-        y_an = simulate_analytic(p, np.array(q0), np.array(qd0), t, torques)
-        ang = float(np.max(np.abs(y_mj[:, 1:3] - y_an[:, 1:3])))
+    for case in TRAJECTORY_CASES:
+        y_mj, y_an, ang = _pitch_gap(sim, p, case, duration)
         dx = float(np.max(np.abs(y_mj[:, 0] - y_an[:, 0])))
         checks.append(Check(f"forward_{case}_ideal", ang, TRAJECTORY_BOUND,
                             f"max |Δγ|,|Δφ| in rad over {duration:g} s; max |Δx| = {dx:.2e} m; "
@@ -197,14 +197,8 @@ def contact_convergence(p: Params = TABLE3, duration: float = 2.0,
                         timeconsts: Iterable[float] = CONTACT_TIMECONSTS,
                         mjcf=None) -> list[tuple[float, float]]:
     """(timeconst, max |Δγ|,|Δφ|) of the contact variant against pure rolling, stiffer and stiffer, on the constant-torque case."""
-    q0, qd0, torques = TRAJECTORY_CASES["constant_torques"]
-    rows = []
-    for tc in timeconsts:
-        sim = EucMujoco(p, "contact", mjcf, contact=ContactSettings(timeconst=tc))
-        t, y_mj, _ = simulate_mujoco(sim, q0, qd0, duration, torques)
-        y_an = simulate_analytic(p, np.array(q0), np.array(qd0), t, torques)
-        rows.append((tc, float(np.max(np.abs(y_mj[:, 1:3] - y_an[:, 1:3])))))
-    return rows
+    return [(tc, _pitch_gap(EucMujoco(p, "contact", mjcf, contact=ContactSettings(timeconst=tc)), p,
+                             "constant_torques", duration)[2]) for tc in timeconsts]
 
 
 def check_contact(p: Params = TABLE3, mjcf=None) -> list[Check]:
@@ -230,12 +224,9 @@ def run_all(n_per_set: int = 2500, progress: Callable[[str], None] | None = None
     sets = sets or PARAMETER_SETS
     p0 = next(iter(sets.values()))
     checks = []
-    say("mass matrix")
-    checks.append(check_mass_matrix(sets, n_per_set, mjcf=mjcf))
-    say("bias forces")
-    checks.append(check_bias(sets, n_per_set, mjcf=mjcf))
-    say("inverse dynamics")
-    checks.append(check_inverse(sets, n_per_set, mjcf=mjcf))
+    for what, (_, _, stage) in STATIC_CHECKS.items():
+        say(stage)
+        checks.append(check_static(what, sets, n_per_set, mjcf=mjcf))
     say("forward simulation (ideal)")
     checks += check_forward(p0, mjcf=mjcf)
     say("energy")

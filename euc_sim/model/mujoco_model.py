@@ -20,6 +20,8 @@ joint           meaning                           paper coordinates
 from __future__ import annotations
 
 import copy
+import dataclasses
+import math
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
@@ -75,6 +77,22 @@ def instability(data) -> str | None:
     return ", ".join(parts) or None
 
 
+def settle_height(model, data, qpos_index: int, dof_index: int, lo: float, hi: float, steps: int) -> None:
+    """Bisect the height ``data.qpos[qpos_index]``, m, in [lo, hi] over ``steps`` halvings until the
+    contact carries the weight (``qacc`` of ``dof_index`` changes sign), then ``mj_forward``.
+    """
+    for _ in range(steps):
+        mid = 0.5 * (lo + hi)
+        data.qpos[qpos_index] = mid
+        mujoco.mj_forward(model, data)
+        if data.qacc[dof_index] > 0:
+            lo = mid
+        else:
+            hi = mid
+    data.qpos[qpos_index] = 0.5 * (lo + hi)
+    mujoco.mj_forward(model, data)
+
+
 class ModelError(BadInputFile):
     """The MJCF file is missing, unreadable, lacks a named element, or does not compile."""
 
@@ -104,13 +122,19 @@ class ContactSettings:
     impratio: float = 100.0
 
     def __post_init__(self) -> None:
-        for name in ("timeconst", "dampratio", "friction", "impratio"):
-            value = getattr(self, name)
-            if not np.isfinite(value) or value <= 0:
-                raise ModelError(f"contact setting {name!r} must be positive and finite, got {value!r}")
-        if not np.isfinite(self.rolling_friction) or self.rolling_friction < 0:
-            raise ModelError(
-                f"contact setting 'rolling_friction' must be non-negative, got {self.rolling_friction!r}")
+        check_settings(self, "contact", non_negative=("rolling_friction",))
+
+
+def check_settings(settings, what: str, non_negative: tuple = ()) -> None:
+    """``ModelError`` unless each field of the dataclass ``settings`` is a finite number, positive
+    (≥ 0 for the fields in ``non_negative``); ``what`` names it in the message.
+    """
+    for field in dataclasses.fields(settings):
+        value, floor_ok = getattr(settings, field.name), field.name in non_negative
+        ok = isinstance(value, (int, float, np.floating)) and math.isfinite(value)
+        if not (ok and (value >= 0 if floor_ok else value > 0)):
+            raise ModelError(f"{what} setting {field.name!r} must be {'non-negative' if floor_ok else 'positive'} "
+                             f"and finite, got {value!r}")
 
 
 def _find(spec: mujoco.MjSpec, kind: str, name: str, path: Path):
@@ -156,23 +180,7 @@ def build_spec(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path
     path = Path(mjcf) if mjcf is not None else MJCF_PATH
     spec = load_spec(path)
     p = params
-    euc = _find(spec, "body", "euc", path)
-    wheel = _find(spec, "body", "wheel", path)
-    rider = _find(spec, "body", "rider", path)
-    for name in JOINTS:
-        _find(spec, "joint", name, path)
-    for name in ACTUATORS:
-        _find(spec, "actuator", name, path)
-
-    spec.option.gravity = [0.0, 0.0, -p.g]
-    euc.pos = [0.0, 0.0, p.R]
-    euc.mass, euc.ipos = p.m0, [0.0, 0.0, p.h0]
-    euc.inertia = [p.J0, p.J0, 0.2 * p.J0]
-    wheel.mass, wheel.ipos = p.mw, [0.0, 0.0, 0.0]
-    wheel.inertia = [0.6 * p.Jw, p.Jw, 0.6 * p.Jw]
-    rider.pos = [0.0, 0.0, -p.l0]
-    rider.mass, rider.ipos = p.m, [0.0, 0.0, p.h]
-    rider.inertia = [p.J, p.J, 0.2 * p.J]
+    set_bodies(spec, p, path, JOINTS, ACTUATORS)
     _find(spec, "geom", "wheel_contact", path).size = [p.R, 0.0, 0.0]
     tyre = spec.geom("tyre")
     if tyre is not None:
@@ -188,6 +196,24 @@ def build_spec(params: Params = TABLE3, variant: str = "ideal", mjcf: str | Path
     else:
         _make_contact(spec, p, contact or ContactSettings(), path)
     return spec
+
+
+def set_bodies(spec: mujoco.MjSpec, p: Params, path: Path, joints: tuple, actuators: tuple) -> None:
+    """Check that ``joints`` and ``actuators`` exist and set gravity and the bodies ``euc``, ``wheel``
+    and ``rider`` from ``p``: pitch inertias J0, Jw, J (Table 3), the wheel's diametral 0.6 Jw, the
+    EUC's and rider's yaw 0.2 J0, 0.2 J.
+    """
+    euc, wheel, rider = (_find(spec, "body", n, path) for n in ("euc", "wheel", "rider"))
+    for name in joints:
+        _find(spec, "joint", name, path)
+    for name in actuators:
+        _find(spec, "actuator", name, path)
+    spec.option.gravity = [0.0, 0.0, -p.g]
+    euc.pos = [0.0, 0.0, p.R]
+    euc.mass, euc.ipos, euc.inertia = p.m0, [0.0, 0.0, p.h0], [p.J0, p.J0, 0.2 * p.J0]
+    wheel.mass, wheel.ipos, wheel.inertia = p.mw, [0.0, 0.0, 0.0], [0.6 * p.Jw, p.Jw, 0.6 * p.Jw]
+    rider.pos = [0.0, 0.0, -p.l0]
+    rider.mass, rider.ipos, rider.inertia = p.m, [0.0, 0.0, p.h], [p.J, p.J, 0.2 * p.J]
 
 
 def _make_reduced(spec: mujoco.MjSpec, p: Params, path: Path) -> None:
@@ -377,7 +403,7 @@ class EucMujoco:
             self.settle()
 
     # -- state --------------------------------------------------------------------
-    def set_state(self, q, qd=None, time: float = 0.0) -> None:
+    def set_state(self, q, qd=None) -> None:
         """Set the state from paper coordinates (pure rolling) and run ``mj_forward``."""
         q = np.asarray(q, dtype=float)
         qd = np.zeros(3) if qd is None else np.asarray(qd, dtype=float)
@@ -392,25 +418,14 @@ class EucMujoco:
         self.data.qpos[:] = qpos
         self.data.qvel[:] = qvel
         self.data.qacc_warmstart[:] = 0.0
-        self.data.time = time
+        self.data.time = 0.0
         mujoco.mj_forward(self.model, self.data)
 
     def settle(self) -> None:
         """Contact variant: put the wheel centre at the static sinkage of the soft contact."""
-        zi = self.index.qpos["z"]
-        lo, hi = -0.01, 0.0
-        for _ in range(60):  # bisect z until the contact carries the total weight
-            mid = 0.5 * (lo + hi)
-            self.data.qpos[:] = 0.0
-            self.data.qpos[zi] = mid
-            self.data.qvel[:] = 0.0
-            mujoco.mj_forward(self.model, self.data)
-            if self.data.qacc[self.index.dof["z"]] > 0:
-                lo = mid
-            else:
-                hi = mid
-        self.data.qpos[zi] = 0.5 * (lo + hi)
-        mujoco.mj_forward(self.model, self.data)
+        self.data.qpos[:] = 0.0
+        self.data.qvel[:] = 0.0
+        settle_height(self.model, self.data, self.index.qpos["z"], self.index.dof["z"], -0.01, 0.0, 60)
 
     @property
     def q(self) -> np.ndarray:
@@ -426,15 +441,6 @@ class EucMujoco:
     def qdd(self) -> np.ndarray:
         """(ẍ, γ̈, φ̈) of the last ``mj_forward``/step, SI."""
         return from_mujoco(self.index, self.data.qpos, self.data.qvel, self.data.qacc)[2]
-
-    @property
-    def wheel_angle(self) -> float:
-        """The wheel's absolute angle about +y, rad: x/R (ideal), gamma + wheel_spin (contact)."""
-        i = self.index.qpos
-        qp = self.data.qpos
-        if not self.index.has_spin:
-            return float(qp[i["x"]] / self.params.R)
-        return float(qp[i["euc_pitch"]] + qp[i["wheel_spin"]])
 
     def set_bearing_damping(self, c: float) -> None:
         """Viscous bearing friction, N·m·s/rad, on the rotor speed ẋ/R − γ̇ (damping of

@@ -17,7 +17,8 @@ import mujoco
 import numpy as np
 
 from euc_sim.errors import InputError
-from euc_sim.model.mujoco_model import ModelError, _find, compile_spec, load_spec
+from euc_sim.model.mujoco_model import (ModelError, _find, check_settings, compile_spec, load_spec, set_bodies,
+                                       settle_height)
 from euc_sim.model.parameters import Params, TABLE3
 
 __all__ = ["MJCF_3D_PATH", "TyreContact", "build_spatial_spec", "load_spatial_model",
@@ -57,38 +58,21 @@ class TyreContact:
     torsional: float = 0.02
 
     def __post_init__(self) -> None:
-        for name in ("crown_radius", "timeconst", "dampratio", "friction", "impratio"):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ModelError(f"tyre setting {name!r} must be positive and finite, got {value!r}")
-        if not (isinstance(self.torsional, (int, float)) and math.isfinite(self.torsional)
-                and self.torsional >= 0):
-            raise ModelError(f"tyre setting 'torsional' must be non-negative, got {self.torsional!r}")
+        check_settings(self, "tyre", non_negative=("torsional",))
 
 
 def build_spatial_spec(params: Params = TABLE3, tyre: TyreContact | None = None,
                        mjcf: str | Path | None = None) -> mujoco.MjSpec:
     """Load ``mjcf/euc_3d.xml`` and apply the parameters and the tyre through MjSpec.
 
-    The rider's lateral inertia about G is J, his yaw inertia 0.2 J; the EUC body's x
-    inertia J0; the wheel's diametral inertia 0.6 Jw.  ``ModelError`` for a missing or
-    unparsable file or a missing named element.
+    Bodies as :func:`~euc_sim.model.mujoco_model.set_bodies` (the rider's and EUC's lateral
+    inertias J, J0).  ``ModelError`` for a missing or unparsable file or a missing named element.
     """
     tyre = tyre or TyreContact()
     path = Path(mjcf) if mjcf is not None else MJCF_3D_PATH
     spec = load_spec(path)
     p = params
-    euc, wheel, rider = (_find(spec, "body", n, path) for n in ("euc", "wheel", "rider"))
-    for name in ("root",) + HINGES:
-        _find(spec, "joint", name, path)
-    for name in ACTUATORS:
-        _find(spec, "actuator", name, path)
-    spec.option.gravity = [0.0, 0.0, -p.g]
-    euc.pos = [0.0, 0.0, p.R]
-    euc.mass, euc.ipos, euc.inertia = p.m0, [0.0, 0.0, p.h0], [p.J0, p.J0, 0.2 * p.J0]
-    wheel.mass, wheel.ipos, wheel.inertia = p.mw, [0.0, 0.0, 0.0], [0.6 * p.Jw, p.Jw, 0.6 * p.Jw]
-    rider.pos = [0.0, 0.0, -p.l0]
-    rider.mass, rider.ipos, rider.inertia = p.m, [0.0, 0.0, p.h], [p.J, p.J, 0.2 * p.J]
+    set_bodies(spec, p, path, ("root",) + HINGES, ACTUATORS)
     _find(spec, "site", "G", path).pos = [0.0, 0.0, p.h]
     geom = _find(spec, "geom", "tyre_contact", path)
     geom.size = [p.R, math.sqrt(tyre.crown_radius * p.R), p.R]   # crown radius w²/R = r_c
@@ -189,27 +173,11 @@ class EucSpatial:
         mujoco.mju_mat2Quat(quat, mat)
         d.qpos[a["root"] + 3:a["root"] + 7] = quat
         d.qpos[a["rider_pitch"]] = phi - gamma
-        self._settle()
+        settle_height(self.model, d, a["root"] + 2, v["root"] + 2, self.params.R - 0.01, self.params.R, 50)
         d.qvel[v["root"]:v["root"] + 2] = speed * math.cos(heading), speed * math.sin(heading)
         d.qvel[v["wheel_spin"]] = speed / self.params.R
         d.qacc_warmstart[:] = 0.0
         d.time = 0.0
-        mujoco.mj_forward(self.model, self.data)
-
-    def _settle(self) -> None:
-        """Bisect the height of C until the contact carries the weight (velocities zero)."""
-        zi, zv = self.qadr["root"] + 2, self.vadr["root"] + 2
-        R = self.params.R
-        lo, hi = R - 0.01, R
-        for _ in range(50):
-            mid = 0.5 * (lo + hi)
-            self.data.qpos[zi] = mid
-            mujoco.mj_forward(self.model, self.data)
-            if self.data.qacc[zv] > 0:
-                lo = mid
-            else:
-                hi = mid
-        self.data.qpos[zi] = 0.5 * (lo + hi)
         mujoco.mj_forward(self.model, self.data)
 
     # -- readouts ----------------------------------------------------------------------

@@ -129,6 +129,12 @@ def _sampled(spec: RecordingSpec, run):
     return rec, meta, truth
 
 
+#: The ranges each maneuver's options are drawn from, m/s and s (others: ``v`` in [2, 3] m/s).
+_OPTION_DRAWS = {"constant_speed": {"v": (2.0, 4.0)},
+                 "acceleration": {"v0": (0.5, 1.5), "v1": (3.0, 4.5), "start": (2.0, 4.0), "ramp": (3.0, 5.0)},
+                 "deceleration": {"v0": (3.0, 4.5), "v1": (0.3, 1.0), "start": (2.0, 4.0), "ramp": (3.0, 5.0)}}
+
+
 def dataset_plan(seed: int = 0, duration: float = 15.0, counts=PAPER_SET, params: Params = TABLE3,
                  noise: str = "paper", rider_noise: float = DEFAULT_RIDER_NOISE,
                  engine: str = "mujoco", effects: Mapping[str, float] | None = None) -> list[RecordingSpec]:
@@ -145,16 +151,8 @@ def dataset_plan(seed: int = 0, duration: float = 15.0, counts=PAPER_SET, params
         for j in range(count):
             rng = np.random.default_rng(children[i])
             rec_seed = int(children[i].generate_state(1)[0])
-            if name == "constant_speed":
-                man = make_maneuver(name, v=float(rng.uniform(2.0, 4.0)))
-            elif name == "acceleration":
-                man = make_maneuver(name, v0=float(rng.uniform(0.5, 1.5)), v1=float(rng.uniform(3.0, 4.5)),
-                                    start=float(rng.uniform(2.0, 4.0)), ramp=float(rng.uniform(3.0, 5.0)))
-            elif name == "deceleration":
-                man = make_maneuver(name, v0=float(rng.uniform(3.0, 4.5)), v1=float(rng.uniform(0.3, 1.0)),
-                                    start=float(rng.uniform(2.0, 4.0)), ramp=float(rng.uniform(3.0, 5.0)))
-            else:
-                man = make_maneuver(name, v=float(rng.uniform(2.0, 3.0)))
+            draws = _OPTION_DRAWS.get(name, {"v": (2.0, 3.0)})      # drawn in this order
+            man = make_maneuver(name, **{key: float(rng.uniform(*span)) for key, span in draws.items()})
             specs.append(RecordingSpec(f"{name}_{j + 1:02d}", man, duration, rec_seed, params,
                                        tuple(sorted(dict(effects or {}).items())), noise, engine,
                                        motor=motor, rider=rider))

@@ -27,7 +27,7 @@ from euc_sim.simulation.lateral import (LATERAL_INPUTS, LATERAL_WINDOW, LEAN_INP
                                         lateral_force_row, lateral_force_rows, lateral_forces,
                                         rider_lean_forces, rider_spatial_correction, upright_slender_moment)
 
-__all__ = ["PeriodicPush", "Effect", "CATALOG", "RECORDS", "names", "get", "parse_assignment", "bounds_text", "SIGN_SPEED",
+__all__ = ["PeriodicPush", "Effect", "CATALOG", "RECORDS", "names", "get", "parse_assignment", "checked_value", "bounds_text", "SIGN_SPEED",
            "smooth_sign", "normal_load", "held_forces", "generalized_force", "lateral_forces", "lateral_force_rows", "lateral_force_row", "LATERAL_INPUTS", "LEAN_INPUTS", "RIDER_MARKER_INPUTS", "rider_spatial_correction",
            "LATERAL_WINDOW", "band_peak_tilt",
            "RIDER_YAW_INERTIA_RATIO", "rider_lean_forces", "upright_slender_moment", "apply_to_params"]
@@ -55,16 +55,26 @@ def parse_assignment(text: str) -> tuple[str, float]:
     name = name.strip()
     if not sep:
         raise InputError(f"effect must be given as NAME=VALUE, got {text!r}")
-    get(name)
+    return name, checked_value(name, value)
+
+
+def checked_value(name: str, value) -> float:
+    """The value (a number or its text) of effect ``name`` as a float, in its unit; ``InputError``
+    naming both for an unknown effect or a value outside its ``bounds``.
+    """
+    e = get(name)
     try:
         v = float(value)
-    except ValueError:
-        raise InputError(f"effect {name}: expected a number in {CATALOG[name].unit}, got {value!r}") from None
-    lo, hi = CATALOG[name].bounds
-    if not (np.isfinite(v) and lo <= v <= hi):
-        unit = "" if CATALOG[name].unit == "1" else f" {CATALOG[name].unit}"
-        raise InputError(f"effect {name}: expected a value in [{lo:g}, {hi:g}]{unit}, got {value.strip()}")
-    return name, v
+    except (TypeError, ValueError):
+        raise InputError(f"effect {name}: expected a number in {e.unit}, got {value!r}") from None
+    if not math.isfinite(v):
+        raise InputError(f"effect {name}: value must be finite, got {value!r}")
+    lo, hi = e.bounds
+    if not lo <= v <= hi:
+        unit = "" if e.unit == "1" else f" {e.unit}"
+        shown = value.strip() if isinstance(value, str) else repr(v)
+        raise InputError(f"effect {name}: expected a value in [{lo:g}, {hi:g}]{unit}, got {shown}")
+    return v
 
 
 def bounds_text() -> str:
@@ -77,14 +87,14 @@ def bounds_text() -> str:
 SIGN_SPEED = 0.01
 
 
-def smooth_sign(v: np.ndarray, scale: float = SIGN_SPEED) -> np.ndarray:
-    """tanh(v / scale): sign(v) made continuous within ±scale."""
-    return np.tanh(np.asarray(v, dtype=float) / scale)
+def smooth_sign(v: np.ndarray) -> np.ndarray:
+    """tanh(v / :data:`SIGN_SPEED`): sign(v) made continuous within ±SIGN_SPEED."""
+    return np.tanh(np.asarray(v, dtype=float) / SIGN_SPEED)
 
 
-def normal_load(p: Params, alpha: float = 0.0) -> float:
-    """Static normal load of the wheel on the road, (m + m0 + mw)·g·cos α, N."""
-    return p.total_mass * p.g * np.cos(alpha)
+def normal_load(p: Params) -> float:
+    """Static normal load of the wheel on level road, (m + m0 + mw)·g, N."""
+    return p.total_mass * p.g
 
 
 def held_forces(x_dot: float, k_drag: float, C_rr: float, N_load: float, R: float,

@@ -34,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 from itertools import chain
 from typing import Callable, Mapping
 
@@ -63,20 +64,9 @@ def _check_effects(effects: Mapping[str, float] | None) -> dict[str, float]:
     out = {}
     for name, value in dict(effects or {}).items():
         try:
-            e = fx.get(name)                            # unknown name: lists the valid ones
+            out[name] = fx.checked_value(name, value)
         except ValueError as exc:
             raise SimulationError(str(exc)) from None
-        try:
-            v = float(value)
-        except (TypeError, ValueError):
-            raise SimulationError(f"effect {name}: expected a number, got {value!r}") from None
-        if not math.isfinite(v):
-            raise SimulationError(f"effect {name}: value must be finite, got {value!r}")
-        lo, hi = e.bounds
-        if not lo <= v <= hi:
-            unit = "" if e.unit == "1" else f" {e.unit}"
-            raise SimulationError(f"effect {name}: expected a value in [{lo:g}, {hi:g}]{unit}, got {v!r}")
-        out[name] = v
     return out
 
 
@@ -88,72 +78,30 @@ def true_params(params: Params, effects: Mapping[str, float] | None) -> Params:
     return p
 
 
-_RIDERS: dict = {}
-
-
 def default_rider(params: Params = TABLE3, motor: MotorPD | None = None,
                   noise_std: float = 0.0, delay: float = 0.15) -> Rider:
     """The LQR rider of :func:`euc_sim.controllers.design.design_rider`, cached per (params,
     motor), with motor noise ``noise_std``, N·m, and reaction ``delay``, s.
     """
+    return _designed_rider(params, motor or MotorPD()).replace(noise_std=noise_std, delay=delay)
+
+
+@lru_cache(maxsize=None)
+def _designed_rider(params: Params, motor: MotorPD) -> Rider:
     from euc_sim.controllers.design import design_rider  # deferred: loads scipy.linalg (0.3 s)
 
-    motor = motor or MotorPD()
-    key = (params, motor)
-    if key not in _RIDERS:
-        _RIDERS[key] = design_rider(params, motor)
-    return _RIDERS[key].replace(noise_std=noise_std, delay=delay)
+    return design_rider(params, motor)
 
 
 # --- the simulation ----------------------------------------------------------------
-def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Params = TABLE3,
-             motor: MotorPD | None = None, rider: Rider | None = None, seed: int = 0,
-             engine: str = "mujoco", variant: str = "ideal",
-             effects: Mapping[str, float] | None = None, dt: float = DEFAULT_DT,
-             fall_bounds: Mapping[str, float] | None = None, contact=None,
-             rolling_model: str = "moment", external_force=None,
-             lateral_motion: LateralMotion | None = None, drift_shape=None,
-             progress: Callable[[float], None] | None = None,
-             native: bool = True) -> pd.DataFrame:
+def simulate(maneuver="constant_speed", duration: float = 15.0, *,
+             progress: Callable[[float], None] | None = None, native: bool = True, **request) -> pd.DataFrame:
     """Run one maneuver in closed loop and return the true trajectory.
 
     Parameters
     ----------
-    maneuver : str or Maneuver
-        A name of :data:`MANEUVERS` (not ``profile``), or a :class:`Maneuver`.
-    duration : float
-        Length of the run, s.
-    params : Params
-        Nominal parameters; with the effects applied (:func:`true_params`) they are the
-        simulated physics and the rider's model of his own body.
-    motor : MotorPD, optional
-        The EUC's controller (default gains when omitted).
-    rider : Rider, optional
-        Default: :func:`default_rider` of the true parameters (0.15 s delay, no noise).
-    seed : int
-        Seed of the rider's motor noise (the only randomness).
-    engine : {"mujoco", "analytic"}
-    variant : {"ideal", "contact"}
-        MuJoCo ground model (the analytic engine is pure rolling).
-    effects : mapping, optional
-        ``{name: value}`` in the units of CONTRACT's effect catalog.
-    dt : float
-        Control period and MuJoCo timestep, s.
-    fall_bounds : mapping, optional
-        ``{"phi": rad, "gamma": rad}`` (default :data:`FALL_BOUNDS`).
-    contact : ContactSettings, optional
-        MuJoCo contact variant settings.
-    rolling_model : {"moment", "contact"}
-        ``rolling_resistance`` as the applied moment −C_rr N R sign(ẋ) (CONTRACT), or as
-        MuJoCo's rolling friction of the tyre contact (coefficient C_rr·R, m; contact variant).
-    external_force : callable, optional
-        ``F(t)``, N, along +x at the rider's G, held over each step; for disturbances outside
-        the catalog (e.g. :class:`euc_sim.simulation.effects.PeriodicPush`).
-    lateral_motion : LateralMotion, optional
-        With ``lateral_dynamics``: tilt and yaw on the run's grid instead of the built-in
-        slalom; the coupling is scaled by (value / max|ϑ|)².
-    drift_shape : euc_sim.simulation.drift.DriftShape, optional
-        With ``cog_height_drift``: the shape of h(t) (default the catalog's 12 s sine).
+    maneuver, duration, **request
+        The run, as :func:`prepare`.
     progress : callable, optional
         ``progress(t)`` with the simulated time, s, every rider block.
     native : bool
@@ -175,15 +123,14 @@ def simulate(maneuver="constant_speed", duration: float = 15.0, *, params: Param
     SimulationError
         For an unknown engine, maneuver, effect or a bad duration.
     """
-    ride = prepare(maneuver, duration, params=params, motor=motor, rider=rider, seed=seed, engine=engine,
-                   variant=variant, effects=effects, dt=dt, fall_bounds=fall_bounds, contact=contact,
-                   rolling_model=rolling_model, external_force=external_force,
-                   lateral_motion=lateral_motion, drift_shape=drift_shape)
+    ride = prepare(maneuver, duration, **request)
     stepper, run, ext, N, y0, bounds, motor = ride.stepper, ride.run, ride.ext, ride.N, ride.y0, ride.bounds, ride.motor
+    engine, dt = ride.attrs["engine"], ride.attrs["dt"]
     try:
         result = None
         if native and engine == "mujoco":
-            forces = (ext.k_drag, ext.C_rr, ext.N_load, ride.p_true.R, external_force) if ext.per_step else None
+            forces = (ext.k_drag, ext.C_rr, ext.N_load, ride.p_true.R, request.get("external_force")) \
+                if ext.per_step else None
             result = native_loop(stepper, motor, run, dt, N, y0, bounds, _raise_fall, progress, forces,
                                  _moving(ext, ride.p_true, dt))
         if result is None:
@@ -239,10 +186,47 @@ def prepare(maneuver="constant_speed", duration: float = 15.0, *, params: Params
             fall_bounds: Mapping[str, float] | None = None, contact=None,
             rolling_model: str = "moment", external_force=None,
             lateral_motion: LateralMotion | None = None, drift_shape=None) -> PreparedRun:
-    """Check a :func:`simulate` request (same arguments) and set the run up; ``SimulationError`` as :func:`simulate`."""
-    _check_request(engine, duration, dt, variant, rolling_model)
-    man = as_maneuver(maneuver)
-    eff = _check_effects(effects)
+    """Check a :func:`simulate` request and set the run up; ``SimulationError`` as :func:`simulate`.
+
+    Parameters
+    ----------
+    maneuver : str or Maneuver
+        A name of :data:`MANEUVERS` (not ``profile``), or a :class:`Maneuver`.
+    duration : float
+        Length of the run, s.
+    params : Params
+        Nominal parameters; with the effects applied (:func:`true_params`) they are the
+        simulated physics and the rider's model of his own body.
+    motor : MotorPD, optional
+        The EUC's controller (default gains when omitted).
+    rider : Rider, optional
+        Default: :func:`default_rider` of the true parameters (0.15 s delay, no noise).
+    seed : int
+        Seed of the rider's motor noise (the only randomness).
+    engine : {"mujoco", "analytic"}
+    variant : {"ideal", "contact"}
+        MuJoCo ground model (the analytic engine is pure rolling).
+    effects : mapping, optional
+        ``{name: value}`` in the units of CONTRACT's effect catalog.
+    dt : float
+        Control period and MuJoCo timestep, s.
+    fall_bounds : mapping, optional
+        ``{"phi": rad, "gamma": rad}`` (default :data:`FALL_BOUNDS`).
+    contact : ContactSettings, optional
+        MuJoCo contact variant settings.
+    rolling_model : {"moment", "contact"}
+        ``rolling_resistance`` as the applied moment −C_rr N R sign(ẋ) (CONTRACT), or as
+        MuJoCo's rolling friction of the tyre contact (coefficient C_rr·R, m; contact variant).
+    external_force : callable, optional
+        ``F(t)``, N, along +x at the rider's G, held over each step; for disturbances outside
+        the catalog (e.g. :class:`euc_sim.simulation.effects.PeriodicPush`).
+    lateral_motion : LateralMotion, optional
+        With ``lateral_dynamics``: tilt and yaw on the run's grid instead of the built-in
+        slalom; the coupling is scaled by (value / max|ϑ|)².
+    drift_shape : euc_sim.simulation.drift.DriftShape, optional
+        With ``cog_height_drift``: the shape of h(t) (default the catalog's 12 s sine).
+    """
+    man, eff = _check_request(maneuver, duration, engine, variant, effects, dt, rolling_model, external_force)
     bounds = dict(FALL_BOUNDS)
     bounds.update(fall_bounds or {})
     motor = motor or MotorPD()
@@ -273,8 +257,12 @@ def prepare(maneuver="constant_speed", duration: float = 15.0, *, params: Params
     return PreparedRun(stepper, run, ext, motor, rider, p_true, N, t, v_ref, y0, bounds, attrs)
 
 
-def _check_request(engine: str, duration, dt: float, variant: str, rolling_model: str) -> None:
-    """Refuse an engine, duration, step or ground model :func:`simulate` cannot run, naming it."""
+def _check_request(maneuver, duration, engine: str, variant: str, effects, dt: float, rolling_model: str,
+                   external_force, **_setup) -> tuple:
+    """The checks of :func:`prepare` that set nothing up (its arguments; the others, ``_setup``, are
+    not read): ``SimulationError`` naming what :func:`simulate` cannot run, else the maneuver and
+    the effects, checked.
+    """
     if engine not in ENGINES:
         raise SimulationError(f"unknown engine {engine!r}; valid engines: {', '.join(ENGINES)}")
     if not (isinstance(duration, (int, float)) and math.isfinite(duration) and duration > 0):
@@ -288,6 +276,9 @@ def _check_request(engine: str, duration, dt: float, variant: str, rolling_model
     if rolling_model == "contact" and (engine != "mujoco" or variant != "contact"):
         raise SimulationError("rolling_model 'contact' needs engine 'mujoco' and variant 'contact', "
                               f"got engine {engine!r}, variant {variant!r}")
+    if external_force is not None and not callable(external_force):
+        raise SimulationError(f"external_force must be a callable F(t) in N, got {external_force!r}")
+    return as_maneuver(maneuver), _check_effects(effects)
 
 
 @dataclass(frozen=True)
@@ -333,8 +324,6 @@ def _external_inputs(p_true: Params, eff: dict, t: np.ndarray, v_ref: np.ndarray
         contact = dataclasses.replace(contact or ContactSettings(), rolling_friction=C_rr * p_true.R)
         C_rr = 0.0                              # the contact itself resists the rolling
     k_drag = eff.get("aerodynamic_drag", 0.0)
-    if external_force is not None and not callable(external_force):
-        raise SimulationError(f"external_force must be a callable F(t) in N, got {external_force!r}")
     per_step = bool(C_rr or k_drag or h_t is not None or lat is not None or external_force is not None)
     return _ExternalInputs(C_rr=C_rr, N_load=fx.normal_load(p_true) if C_rr else 0.0, k_drag=k_drag,
                            push=external_force or (lambda _t: 0.0), h_t=h_t, lat=lat, lat_scale=lat_scale,
@@ -391,31 +380,28 @@ def _rows(states: list) -> np.ndarray:
 
 
 class _EffectsRow:
-    """The external inputs held over step k, from the state at its start (for ``set_effects``)."""
+    """The external inputs held over step k, from the state at its start (for ``set_effects``),
+    from the tables of :func:`_moving`.
+    """
 
     def __init__(self, ext: _ExternalInputs, p: Params, dt: float):
         self.ext, self.p, self.dt = ext, p, dt
-        self.h_list = None if ext.h_t is None else ext.h_t.tolist()
-        if self.h_list is not None:
-            self.h_d, self.h_dd = (a.tolist() for a in drift.drift_rates(ext.h_t, dt))
-        lat = ext.lat
-        if lat is not None:
-            self.lat_s, self.lat_c = np.sin(lat.theta).tolist(), np.cos(lat.theta).tolist()
-            self.th_d, self.ps_d, self.ps_dd = lat.theta_d.tolist(), lat.psi_d.tolist(), lat.psi_dd.tolist()
+        self.table3, lat, _, h = _moving(ext, p, dt) or (None, None, None, None)
+        self.lat = None if lat is None else lat.tolist()
+        self.h = None if h is None else h.tolist()
 
     def __call__(self, k: int, y) -> tuple:
         """(F_x at G [N], wheel moment [N·m], h [m] or None, Q [paper coordinates] or None)."""
         ext, p = self.ext, self.p
         x_, g_, f_, xd_, gd_, fd_ = y
         Q_lat = None
-        if ext.lat is not None:  # effects.lateral_forces, held over the step
-            Q_lat = [ext.lat_scale * v for v in fx.lateral_force_rows(
-                p, math.sin(g_), math.cos(g_), math.sin(f_), math.cos(f_), xd_, gd_, fd_,
-                self.lat_s[k], self.lat_c[k], self.th_d[k], self.ps_d[k], self.ps_dd[k])]
+        if self.lat is not None:  # effects.lateral_forces, held over the step
+            Q_lat = [ext.lat_scale * v for v in fx.lateral_force_row(
+                *self.table3, math.sin(g_), math.cos(g_), math.sin(f_), math.cos(f_), xd_, gd_, fd_, *self.lat[k])]
         h = None
-        if self.h_list is not None:   # G moving along the rider's axis: drift.drift_forces
-            h = self.h_list[k]
-            Q_h = drift.drift_force_row(p.m, p.l0, h, self.h_d[k], self.h_dd[k], g_, f_, fd_)
+        if self.h is not None:   # G moving along the rider's axis: drift.drift_forces
+            h, h_d, h_dd = self.h[k]
+            Q_h = drift.drift_force_row(p.m, p.l0, h, h_d, h_dd, g_, f_, fd_)
             Q_lat = list(Q_h) if Q_lat is None else [a + b for a, b in zip(Q_lat, Q_h)]
         return (*fx.held_forces(xd_, ext.k_drag, ext.C_rr, ext.N_load, p.R, float(ext.push(k * self.dt))),
                 h, Q_lat)

@@ -43,9 +43,9 @@ def band_peak_tilt(theta, dt: float, window: float = LATERAL_WINDOW) -> float:
     return float(np.max(np.abs(savgol_filter(theta, w, 3, mode="interp")[e:theta.size - e])))
 
 
-def min_duration(dt: float = 1e-3, window: float = LATERAL_WINDOW) -> float:
-    """Shortest record, s, whose tilt :func:`band_peak_tilt` can read (two windows at ``dt``)."""
-    return (2 * (int(round(window / dt)) | 1) - 1) * dt
+def min_duration() -> float:
+    """Shortest record, s, whose tilt :func:`band_peak_tilt` can read (two windows at 1 kHz)."""
+    return (2 * (int(round(LATERAL_WINDOW / 1e-3)) | 1) - 1) * 1e-3
 
 
 def lateral_forces(p: Params, q, qd, theta, theta_d, psi_d, psi_dd) -> np.ndarray:

@@ -55,9 +55,8 @@ def _rotate(psi, theta, r):
 
 
 def motion_capture(run: pd.DataFrame, params: Params, *, noise: str = "paper", seed: int = 0,
-                   effects: Mapping[str, float] | None = None, rate: float = RATE,
-                   hide_torques: bool = False) -> pd.DataFrame:
-    """Sample a simulated run at ``rate``, Hz, with seeded noise, in CONTRACT's columns.
+                   effects: Mapping[str, float] | None = None, hide_torques: bool = False) -> pd.DataFrame:
+    """Sample a simulated run at :data:`RATE` with seeded noise, in CONTRACT's columns.
 
     Parameters
     ----------
@@ -88,7 +87,7 @@ def motion_capture(run: pd.DataFrame, params: Params, *, noise: str = "paper", s
     sig_pos, sig_ang = NOISE_LEVELS[noise] if isinstance(noise, str) else (float(v) for v in noise)
     tau = float(dict(effects or {}).get("sensor_time_offset", 0.0))
     ts = run["t"].to_numpy()
-    t = sample_times(float(ts[-1]), rate)
+    t = sample_times(float(ts[-1]))
     n = len(t)
     x = _hermite(ts, run["x"].to_numpy(), run["x_dot"].to_numpy(), t)
     gamma = _hermite(ts, run["gamma"].to_numpy(), run["gamma_dot"].to_numpy(), t)

@@ -12,6 +12,7 @@ cannot carry (other effects, ``engine="analytic"``) run through ``simulate``.  A
 
 from __future__ import annotations
 
+import inspect
 import queue
 import sys
 import threading
@@ -45,11 +46,7 @@ _MAGIC = 23.0625                       # slot S_MAGIC: this simulation is one of
  S_AM, S_AA, S_BR, S_BW, S_SPIN, S_PHI, S_GAM, S_HMD, S_HMH, S_EFF, S_KDRAG, S_CRR, S_R,
  S_NLOAD, S_PUSH, S_MAGIC) = range(30)
 S_LAW = 32                             # 32 … 42: MotorPD.law_args()
-_SIM_KEYS = ("maneuver", "duration", "params", "motor", "rider", "seed", "engine", "variant",
-             "effects", "dt", "fall_bounds", "contact", "rolling_model", "external_force",
-             "lateral_motion", "drift_shape")
-_CALLBACK = None
-_UNUSABLE_REASON = ""
+_SIM_KEYS = tuple(inspect.signature(engine.prepare).parameters)
 
 
 def batchable(request: Mapping) -> bool:
@@ -61,13 +58,16 @@ def batchable(request: Mapping) -> bool:
 
 def available() -> bool:
     """Whether the batch's native callback compiles here (compiles it on first call)."""
-    global _CALLBACK, _UNUSABLE_REASON
-    if _CALLBACK is None:
-        try:
-            _CALLBACK = _compile()
-        except Exception as exc:  # noqa: BLE001 - any failure means: simulate() one by one
-            _CALLBACK, _UNUSABLE_REASON = False, f"{type(exc).__name__}: {exc}".splitlines()[0]
-    return bool(_CALLBACK)
+    return _callback()[0] is not None
+
+
+@lru_cache(maxsize=1)
+def _callback() -> tuple:
+    """(the batch's compiled callback, "") once per process, or (None, why it cannot be built)."""
+    try:
+        return _compile(), ""
+    except Exception as exc:  # noqa: BLE001 - any failure means: simulate() one by one
+        return None, f"{type(exc).__name__}: {exc}".splitlines()[0]
 
 
 def _compile():
@@ -179,7 +179,7 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int 
     out: list = [None] * len(requests)
     in_batch = [i for i, r in enumerate(requests) if batchable(r)]
     if in_batch and not available():
-        print(f"euc-sim: MuJoCo batch unavailable ({_UNUSABLE_REASON}); simulating ride by ride",
+        print(f"euc-sim: MuJoCo batch unavailable ({_callback()[1]}); simulating ride by ride",
               file=sys.stderr)
         in_batch = []
     batched = set(in_batch)
@@ -199,7 +199,7 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int 
             progress(done)
 
     if in_batch:                        # BLAS on one thread: its idle threads spin against the batch's
-        with one_blas_thread(), exclusive(_CALLBACK):
+        with one_blas_thread(), exclusive(_callback()[0]):
             batches = _prepared_batches(requests, in_batch, batch)
             if nthread >= 2 and len(in_batch) >= PIPELINE_BATCHES * nthread * batch:
                 _pipeline(batches, nthread, finished)
@@ -218,14 +218,9 @@ def simulate_rides(requests: Sequence[Mapping], *, nthread: int = 2, batch: int 
 
 def _check(request: Mapping) -> None:
     """The checks of :func:`engine.prepare` that set nothing up (raise ``SimulationError``)."""
-    engine._check_request(request.get("engine", "mujoco"), request.get("duration", 15.0),
-                          request.get("dt", engine.DEFAULT_DT), request.get("variant", "ideal"),
-                          request.get("rolling_model", "moment"))
-    engine.as_maneuver(request.get("maneuver", "constant_speed"))
-    engine._check_effects(request.get("effects"))
-    force = request.get("external_force")
-    if force is not None and not callable(force):
-        raise engine.SimulationError(f"external_force must be a callable F(t) in N, got {force!r}")
+    bound = inspect.signature(engine.prepare).bind(**request)
+    bound.apply_defaults()
+    engine._check_request(**bound.arguments)
 
 
 def _prepared_batches(requests: Sequence[Mapping], ids: list, size: int):

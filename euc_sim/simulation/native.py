@@ -44,7 +44,24 @@ def native_loop(stepper, motor: MotorPD, run: RiderRun, dt: float, N: int, y0: t
     """
     if nc.callback() is None:
         return None
-    return _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress, forces, moving)
+    n = run.n
+    ctx, P, M_d, M_h = planar_context(stepper, motor, run, N, y0, bounds, forces, dt, moving)
+    phi_max, gam_max = bounds["phi"], bounds["gamma"]
+    if progress is None:
+        nc.ride(stepper.m, stepper.d, ctx, N)
+    else:
+        nc.ride(stepper.m, stepper.d, ctx, N, chunk=n + 1, progress=lambda k: progress(k * dt))
+    run.z = ctx.rider_z(lay.P_RIDER)
+    LAST_RUN.update(rows=int(ctx.c[lay.C_K]), calls=int(ctx.c[lay.C_CALLS]), per=int(ctx.c[lay.C_PER]))
+    k = int(ctx.c[lay.C_FALL])
+    y = P[n + k]
+    if k >= 0 and not (abs(y[2]) <= phi_max and abs(y[1]) <= gam_max and np.isfinite(y).all()):
+        try:
+            raise_fall(k * dt, tuple(y.tolist()), phi_max, gam_max)
+        except FallError as exc:          # the states and torques of steps 0 … k − 1
+            exc.partial = (P[n:n + k].copy(), np.column_stack([M_d[:k], M_h[:k]]))
+            raise
+    return P[n:], np.column_stack([M_d, M_h])
 
 
 def planar_context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bounds, forces=None,
@@ -80,32 +97,3 @@ def planar_context(stepper, motor: MotorPD, run: RiderRun, N: int, y0: tuple, bo
             ctx.put(lay.P_DRIFT, np.ascontiguousarray(h, dtype=np.float64).reshape(-1, 3))
             ctx.c[lay.P_SITE_G] = stepper.site_G
     return ctx, P, M_d, M_h
-
-
-def _run(stepper, motor, run, dt, N, y0, bounds, raise_fall, progress=None, forces=None, moving=None):
-    """:func:`native_loop` with the callback built."""
-    n = run.n
-    ctx, P, M_d, M_h = planar_context(stepper, motor, run, N, y0, bounds, forces, dt, moving)
-    phi_max, gam_max = bounds["phi"], bounds["gamma"]
-    if progress is None:
-        nc.ride(stepper.m, stepper.d, ctx, N)
-    else:
-        nc.ride(stepper.m, stepper.d, ctx, N, chunk=n + 1, progress=lambda k: progress(k * dt))
-    run.z = ctx.rider_z(lay.P_RIDER)
-    LAST_RUN.update(rows=int(ctx.c[lay.C_K]), calls=int(ctx.c[lay.C_CALLS]), per=int(ctx.c[lay.C_PER]))
-    if ctx.c[lay.C_FALL] >= 0:
-        k = int(ctx.c[lay.C_FALL])
-        try:
-            _check_falls(P[n + k:n + k + 1], k, dt, phi_max, gam_max, raise_fall)
-        except FallError as exc:          # the states and torques of steps 0 … k − 1
-            exc.partial = (P[n:n + k].copy(), np.column_stack([M_d[:k], M_h[:k]]))
-            raise
-    return P[n:], np.column_stack([M_d, M_h])
-
-
-def _check_falls(rows: np.ndarray, k0: int, dt: float, phi_max: float, gam_max: float, raise_fall) -> None:
-    """Raise at the first row with |φ| > φ_max, |γ| > γ_max or a non-finite value."""
-    ok = (np.abs(rows[:, 2]) <= phi_max) & (np.abs(rows[:, 1]) <= gam_max) & np.isfinite(rows).all(axis=1)
-    if not ok.all():
-        j = int(np.argmin(ok))
-        raise_fall((k0 + j) * dt, tuple(rows[j].tolist()), phi_max, gam_max)

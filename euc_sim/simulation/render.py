@@ -109,7 +109,7 @@ def poses(df: pd.DataFrame, p: Params = TABLE3, name: str = "recording") -> dict
 
 
 def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, height: int = 480,
-                     frame_time: float | None = None, params: Params = TABLE3, progress: bool = True) -> int:
+                     frame_time: float | None = None, progress: bool = True) -> int:
     """Render ``recording`` (CSV or Parquet) to ``out``: .mp4, .gif, or .png for one frame.
 
     Parameters
@@ -120,8 +120,6 @@ def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, hei
         Frame size, pixels.
     frame_time : float, optional
         With ``.png``: the frame's time, s (default: the middle).
-    params : Params
-        The model drawn.
     progress : bool
         A progress bar on stderr.
 
@@ -137,7 +135,7 @@ def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, hei
         raise RenderError(f"frame size must be 16-4096 pixels, got {width} x {height}")
     io.check_writable(out)             # before the rendering, not after it
     df = _read(recording)
-    pose = poses(df, params, str(recording))
+    pose = poses(df, TABLE3, str(recording))
     t = df["t"].to_numpy(dtype=float)
     if out.suffix.lower() == ".png":
         ft = float(t[len(t) // 2]) if frame_time is None else frame_time
@@ -146,7 +144,7 @@ def render_recording(recording, out, *, fps: float = 30.0, width: int = 640, hei
         frames_at = [int(np.searchsorted(t, ft))]
     else:
         frames_at = np.unique(np.searchsorted(t, np.arange(t[0], t[-1], 1.0 / fps))).tolist()
-    sim = EucSpatial(params)
+    sim = EucSpatial(TABLE3)
     m, d = sim.model, sim.data
     m.vis.global_.offwidth, m.vis.global_.offheight = max(width, 640), max(height, 480)
     try:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 import pandas as pd
@@ -27,7 +28,7 @@ from euc_sim.simulation.engine import FALL_BOUNDS, default_rider
 from euc_sim.simulation.errors import FallError, SimulationError, check_stable
 from euc_sim.simulation.maneuvers import make_maneuver
 from euc_sim.simulation.mocap import E_HEIGHT, NOISE_LEVELS, sample_times
-from euc_sim.simulation.native_spatial import native_ride
+from euc_sim.simulation.native_spatial import ROW_COLUMNS, native_ride
 
 __all__ = ["PATHS", "PATH_SPEEDS", "TILT_BOUND", "Path3D", "make_path", "simulate_3d",
            "spatial_recording", "TURNING_PATHS", "RIDEABLE_SPEEDS", "RIDEABLE_RADII", "RIDEABLE_LATERAL_ACCEL",
@@ -151,15 +152,10 @@ def _wrap(a: float) -> float:
     return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
-_LATERAL: dict = {}
-
-
+@lru_cache(maxsize=None)
 def default_lateral(params: Params, speed: float, dt: float, tyre=None, delay: float = 0.0) -> LateralRider:
     """:func:`euc_sim.controllers.lateral.design_lateral`, cached per (params, speed, dt, tyre, delay)."""
-    key = (params, round(speed, 6), dt, tyre, round(delay, 6))
-    if key not in _LATERAL:
-        _LATERAL[key] = design_lateral(params, speed, dt, tyre, delay=delay)
-    return _LATERAL[key]
+    return design_lateral(params, speed, dt, tyre, delay=delay)
 
 
 def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: Params = TABLE3,
@@ -236,10 +232,7 @@ def simulate_3d(path: str = "figure_eight", duration: float = 15.0, *, params: P
     if rows is None:
         rows = _ride(sim, run, motor, lateral, _Tracker(route), v_ref.tolist(), N, dt, y0, external_force)
     check_stable(sim.data, N * dt)
-    cols = ("t", "x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot", "M_d", "M_h", "v_ref", "psi",
-            "theta", "psi_dot", "theta_dot", "M_lean", "M_twist", "e_y",
-            "C_X", "C_Y", "C_Z", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z")
-    df = pd.DataFrame(rows, columns=cols)
+    df = pd.DataFrame(rows, columns=ROW_COLUMNS)
     df["psi"] = np.unwrap(df["psi"].to_numpy())
     df.attrs.update({"path": path, "speed": speed, "duration": float(duration), "dt": dt,
                      "seed": int(seed), "params": params.as_dict(), "motor": motor.as_dict(),

@@ -37,23 +37,16 @@ def stability_report(p: Params = TABLE3, motor=None, rider=None, speed: float = 
     As, Bs = rider_plant(p, motor, K.size == 6, speed)
     Acl = As - Bs @ K
     tau, wc = delay_margin(As, Bs, K)
-    rho = delayed_closed_loop_radius(p, motor, rider, speed=speed)
+    rho = delayed_closed_loop_radius(p, motor, rider)
+    eig = {"open_loop": _eig_list(A), "motor_pd": _eig_list(As[:5, :5]), "motor_pd_and_rider": _eig_list(Acl)}
     out = {
         "operating_point": {"speed": speed, "gamma": 0.0, "phi": 0.0},
         "state_order": ["x", "gamma", "phi", "x_dot", "gamma_dot", "phi_dot"],
         "reduced_state_order": ["x_dot", "gamma", "phi", "gamma_dot", "phi_dot", "x_int"][:K.size],
         "motor": motor.as_dict(),
         "rider": rider.as_dict(),
-        "eigenvalues": {
-            "open_loop": _eig_list(A),
-            "motor_pd": _eig_list(As[:5, :5]),
-            "motor_pd_and_rider": _eig_list(Acl),
-        },
-        "max_real_part": {
-            "open_loop": float(np.max(np.linalg.eigvals(A).real)),
-            "motor_pd": float(np.max(np.linalg.eigvals(As[:5, :5]).real)),
-            "motor_pd_and_rider": float(np.max(np.linalg.eigvals(Acl).real)),
-        },
+        "eigenvalues": eig,
+        "max_real_part": {k: max(e[0] for e in ev) for k, ev in eig.items()},
         "rider_loop": {
             "delay_margin_without_predictor": tau,
             "crossover_frequency": wc,

@@ -49,8 +49,6 @@ class _MujocoStepper:
             self.sim.set_bearing_damping(eff["wheel_bearing_friction"])
         self.p = p
         self.spin = idx.has_spin
-        # views into MjData, cached: attribute access costs more than the step's arithmetic
-        self._ctrl, self._qpos, self._qvel = self.d.ctrl, self.d.qpos, self.d.qvel
         self.step = self._make_step()
 
     def reset(self, y) -> None:
@@ -75,17 +73,11 @@ class _MujocoStepper:
             qf[self.vg] = Q_lat[1] + Q_lat[2]
             qf[self.vr] = Q_lat[2]
 
-    def state(self) -> tuple:
-        """(x, γ, φ, ẋ, γ̇, φ̇) now, as ``step`` returns it."""
-        qp, qv = self._qpos.tolist(), self._qvel.tolist()
-        g, gd = qp[self.ig], qv[self.vg]
-        return (qp[self.ix], g, g + qp[self.ir], qv[self.vx], gd, gd + qv[self.vr])
-
     def _make_step(self):
         """``step(M_d, M_h)`` as a closure over MjData's views: attribute look-ups cost more
         than the step's own arithmetic at 1 kHz."""
         mj_step = partial(self.mj.mj_step, self.m, self.d)
-        ctrl, qpos, qvel = self._ctrl, self._qpos, self._qvel
+        ctrl, qpos, qvel = self.d.ctrl, self.d.qpos, self.d.qvel
         a_motor, a_ankle = self.a_motor, self.a_ankle
         ix, ig, ir, vx, vg, vr = self.ix, self.ig, self.ir, self.vx, self.vg, self.vr
 

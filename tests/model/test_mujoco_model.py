@@ -109,10 +109,6 @@ def test_named_readouts_and_state():
     sim.set_state([0.3, 0.02, -0.05], [1.2, 0.1, -0.2])
     np.testing.assert_allclose(sim.q, [0.3, 0.02, -0.05])
     np.testing.assert_allclose(sim.qd, [1.2, 0.1, -0.2])
-    assert sim.wheel_angle == pytest.approx(0.3 / TABLE3.R)
-    contact = EucMujoco(variant="contact")
-    contact.set_state([0.3, 0.02, -0.05], [1.2, 0.1, -0.2])
-    assert contact.wheel_angle == pytest.approx(0.3 / TABLE3.R)
     with pytest.raises(ValueError, match="state must be finite"):
         sim.set_state([0.0, np.nan, 0.0])
 

@@ -106,7 +106,7 @@ def test_the_lateral_predictor_restores_the_undelayed_loop():
     """With the reaction delay predicted on the design plant, the sampled loop has the
     undelayed closed loop's poles (and zeros for the delay line); an extra
     unpredicted delay beyond the margin destabilises it."""
-    from euc_sim.controllers.lateral import _delayed_loop, design_lateral, lateral_plant, lateral_predictor_rows
+    from euc_sim.controllers.lateral import delayed_loop, design_lateral, lateral_plant, lateral_predictor_rows
 
     Phi, Gam = lateral_plant(speed=2.0)
     lat = design_lateral(speed=2.0)
@@ -116,9 +116,9 @@ def test_the_lateral_predictor_restores_the_undelayed_loop():
     rho0 = np.max(np.abs(np.linalg.eigvals(Pb - Gb @ lat.K)))
     for S in (3, 8):
         K_pred, K_hist = lateral_predictor_rows(Pb, Gb, lat.K, S)
-        rho = np.max(np.abs(np.linalg.eigvals(_delayed_loop(Pb, Gb, K_pred, K_hist, S, 0))))
+        rho = np.max(np.abs(np.linalg.eigvals(delayed_loop(Pb, Gb, K_pred, K_hist, S, 0))))
         assert rho == pytest.approx(rho0, abs=1e-6)
-        assert np.max(np.abs(np.linalg.eigvals(_delayed_loop(Pb, Gb, K_pred, K_hist, S, 10)))) > 1.0
+        assert np.max(np.abs(np.linalg.eigvals(delayed_loop(Pb, Gb, K_pred, K_hist, S, 10)))) > 1.0
     with pytest.raises(ValueError, match="lateral reaction delay"):
         design_lateral(speed=2.0, delay=-0.1)
 
