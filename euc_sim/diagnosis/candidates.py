@@ -88,8 +88,7 @@ def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[r
     more, more_info = _parameter_candidates(prep, p, h0, vis, has_w)
     cands.update(more)
     info.update(more_info)
-    t = prep.t[prep.keep]
-    time = np.concatenate([t, t]) if has_w else t
+    time = prep.stacked_time(has_w)
     validity = validity_rules(p, (float(prep.t[0]), float(prep.t[-1])), info.get("cog_height_drift", {}).get("drift"))
     drift_shape = info.get("cog_height_drift", {}).get("drift") or {}
     span = (float(prep.t[0]), float(prep.t[-1]))
@@ -202,11 +201,9 @@ def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w
     cands["sensor_time_offset"] = -_sensitivity(prep, p, h0, vary_tau, None) / dtau
     info["sensor_time_offset"] = {"scale": 1.0, "offset": 0.0}
     # h drift of any smooth shape: splines of Δh(t), with the ḣ terms (drift_term)
-    dh = 1e-4
     model = residual_model(prep, p)
-    drdh = (model(h0 + dh) - model(h0 - dh)) / (2 * dh)
-    t = prep.t[k]
-    time = np.concatenate([t, t]) if has_w else t
+    drdh = model.slope(h0)
+    time = prep.stacked_time(has_w)
     shape = drift_term.choose_shape(time, model(h0), drdh, max(time.size / 10.0, 5.0))
     cands["cog_height_drift"] = drift_term.drift_columns(prep, p, h0, drdh, has_w, shape)
     info["cog_height_drift"] = {"scale": 1.0, "offset": 0.0, "drift": shape,
@@ -225,12 +222,10 @@ class DriftGiven:
     def __init__(self, prep: Prepared, p: Params, h0: float, cands: dict, span: tuple):
         self.prep, self.p, self.h0, self.cands, self.span = prep, p, h0, cands, span
         model = residual_model(prep, p)
-        dh = 1e-4
-        self.drdh = (model(h0 + dh) - model(h0 - dh)) / (2 * dh)
+        self.drdh = model.slope(h0)
         self.y = model(h0)
         self.has_w = model.W is not None
-        t = prep.t[prep.keep]
-        self.time = np.concatenate([t, t]) if self.has_w else t
+        self.time = prep.stacked_time(self.has_w)
         self._cache: dict = {}
 
     def shape(self, others: tuple) -> dict:

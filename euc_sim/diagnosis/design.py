@@ -24,7 +24,7 @@ from euc_sim.diagnosis.estimates import estimate_of, sub_cov
 from euc_sim.diagnosis.prepare import prepare
 from euc_sim.errors import InputError
 from euc_sim.identification import regression as reg
-from euc_sim.identification.design import DESIGN_MANEUVERS
+from euc_sim.identification.design import check_maneuvers, check_rides, recordings_needed
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation import effects as fx
 from euc_sim.simulation.dataset import RecordingSpec, simulated_recordings
@@ -39,8 +39,6 @@ __all__ = ["nominal_magnitude", "effect_estimate", "effect_study", "effects_desi
 
 #: Target standard deviations as fractions of the effect's magnitude.
 RELATIVE_TARGETS = (0.25, 0.1)
-#: Cluster length of the diagnosis's covariance, s (as its detection limits).
-CLUSTER = 2.0
 #: Columns of a recording with (without) the torques, for the visibility rules.
 _COLUMNS = ("t", "x", "gamma", "phi")
 #: The design's maneuvers are planar: the lateral effect's tilt and yaw come from its
@@ -85,7 +83,7 @@ def effect_estimate(recording, meta: dict, name: str, params: Params, h0: float)
         raise InputError(f"effect {name!r}: not a candidate of this recording "
                          f"(candidates: {', '.join(problem.candidates)})")
     fit = reg.fit_set(problem, (name,))
-    cov, dof = reg.covariance(problem, fit, cluster=CLUSTER)
+    cov, dof = reg.covariance(problem, fit)
     est, _, se = estimate_of(info[name], fit.theta[name], sub_cov(problem, (name,), cov, name), dof)
     return float(est), float(se)
 
@@ -113,10 +111,6 @@ def effect_study(args) -> dict:
         est.append(e)
         ses.append(se)
     return {"estimates": est, "se": ses, "fell": fell}
-
-
-def _recordings(sd: float, magnitude: float, fraction: float) -> int:
-    return max(1, int(math.ceil((sd / (fraction * magnitude)) ** 2)))
 
 
 def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rides: int = 10,
@@ -154,7 +148,7 @@ def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rid
         ``by_maneuver`` (maneuver → effect → ``sd``, ``sd_cov``, ``bias``, ``recordings_for``,
         ``recordings_to_detect``, ``rides``, ``fell``), ``best`` and the settings.
     """
-    _check(maneuvers, effect_names, rides, duration, noise_scale, DESIGN_MANEUVERS)
+    _check(maneuvers, effect_names, rides, duration, noise_scale)
     cols = _COLUMNS + (("M_d", "M_h") if with_torques else ())
     table = {}
     for e in effect_names:
@@ -196,21 +190,15 @@ def _summary(res: dict, entry: dict, effect: str, rides: int) -> dict:
     sd = float(np.std(est, ddof=1))
     a = entry["magnitude"]
     out.update({"sd": sd, "sd_cov": float(np.sqrt(np.mean(se ** 2))), "bias": float(np.mean(est) - entry["nominal"]),
-                "recordings_for": {f"{f:g}": _recordings(sd, a, f) for f in RELATIVE_TARGETS},
-                "recordings_to_detect": _recordings(sd, a, 1.0 / THRESHOLDS.min_t)})
+                "recordings_for": {f"{f:g}": recordings_needed(sd, f * a) for f in RELATIVE_TARGETS},
+                "recordings_to_detect": recordings_needed(sd, 1.0 / THRESHOLDS.min_t * a)})
     return out
 
 
-def _check(maneuvers, effect_names, rides, duration, noise_scale, valid_maneuvers) -> None:
-    bad = [m for m in maneuvers if m not in valid_maneuvers]
-    if not maneuvers or bad:
-        raise InputError(f"--maneuvers: unknown {', '.join(bad) or '(none given)'}; "
-                         f"valid: {', '.join(valid_maneuvers)}")
+def _check(maneuvers, effect_names, rides, duration, noise_scale) -> None:
+    check_maneuvers(maneuvers)
     parse_effects(",".join(effect_names))
-    if not (isinstance(rides, int) and rides >= 3):
-        raise InputError(f"--effect-rides must be an integer of at least 3, got {rides!r}")
-    if not (math.isfinite(duration) and duration >= 5.0):
-        raise InputError(f"--duration must be at least 5 s (the fit's filters need it), got {duration!r}")
+    check_rides(rides, duration, "--effect-rides")
     if not (math.isfinite(noise_scale) and noise_scale > 0):
         raise InputError(f"noise_scale must be positive, got {noise_scale!r}")
 

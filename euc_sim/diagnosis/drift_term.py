@@ -74,13 +74,12 @@ def shape_profile(shape: dict, t: np.ndarray, derivative: int = 0) -> np.ndarray
             base = [-w * w * np.sin(w * t), -w * w * np.cos(w * t)]
         return 0.5 * np.column_stack(base)
     L = shape["length"]
+    if derivative == 0:
+        return _unit_profiles(kind, L, np.array([shape["start"]], float), t)
     u = (t - shape["start"]) / L
     inside = (u > 0.0) & (u < 1.0)
     f = np.pi if kind == "ramp" else 2.0 * np.pi
-    if derivative == 0:
-        g = 0.5 * (1.0 - np.cos(f * np.clip(u, 0.0, 1.0)))
-        g = g if kind == "ramp" else np.where(inside, g, 0.0)
-    elif derivative == 1:
+    if derivative == 1:
         g = np.where(inside, 0.5 * f / L * np.sin(f * u), 0.0)
     else:
         g = np.where(inside, 0.5 * (f / L) ** 2 * np.cos(f * u), 0.0)

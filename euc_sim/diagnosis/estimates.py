@@ -82,7 +82,7 @@ def alias_estimates(problem: reg.Problem, selected, name: str, aliases, info: di
         if info[a].get("drift") or a in NONLINEAR or problem.candidates[a].shape[1] != 1:
             continue
         f = reg.fit_set(problem, without + (a,))
-        cov, _ = reg.covariance(problem, f, cluster=2.0)
+        cov, _ = reg.covariance(problem, f)
         est, ci, se = estimate_of(info[a], f.theta[a], sub_cov(problem, without + (a,), cov, a), dof)
         out[a] = {"estimate": est, "unit": effects.get(a).unit, "ci95": ci,
                   "t": abs(est) / se if se > 0 else float("inf"), "rss": f.rss}
@@ -161,7 +161,7 @@ def detection_limits(problem: reg.Problem, info: dict, s, vis: dict, thresholds)
     for c in problem.candidates:
         base_set = tuple(x for x in s.selected if x != c) + (c,)
         f1 = reg.fit_set(problem, base_set)
-        cov1, _ = reg.covariance(problem, f1, cluster=2.0)
+        cov1, _ = reg.covariance(problem, f1)
         C = sub_cov(problem, base_set, cov1, c)
         se_theta = float(np.sqrt(np.trace(C) / C.shape[0]))
         if info[c].get("drift"):     # the shape this recording shows (its single fit), scaled

@@ -90,7 +90,7 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
     vis = visibility(prep.raw.columns)
     model = residual_model(prep)                                                    # 2 residual
     _check_excitation(prep, model)
-    time = _stacked_time(prep, model)
+    time = prep.stacked_time(model.W is not None)
     h0 = reg.fit_set(reg.Problem(model, {}, time, H_BOUNDS), ()).h
     say(f"2/6 residual: nominal h = {h0:.3f} m; the noise floor")
     floor = noise_floor(prep, h0, seed)
@@ -151,12 +151,6 @@ def _twin_summary(twin: dict, noise_floor: float, floor_test: float) -> dict:
     return {"done": True, "plan": twin["plan"], "twin_truth": twin["truth"], "twin_estimate": twin["item"]["estimate"],
             "twin_h": twin["h"], "twin_heldout_rmse": twin["heldout"], "noise_floor": noise_floor,
             "unexplained_floor": floor_test, "rider_noise": twin.get("noisy")}
-
-
-def _stacked_time(prep: Prepared, model: ResidualModel) -> np.ndarray:
-    """Time of each residual sample, s: the kinematic row, then the wheel row with M_d."""
-    t = prep.t[prep.keep]
-    return np.concatenate([t, t]) if model.W is not None else t
 
 
 def _check_excitation(prep: Prepared, model: ResidualModel) -> None:
@@ -232,8 +226,7 @@ def _add_blind_windows(limits: dict, model: ResidualModel, time: np.ndarray, h: 
     drift's limits."""
     if "cog_height_drift" not in limits:
         return
-    dh = 1e-4
-    drdh = (model(h + dh) - model(h - dh)) / (2 * dh)
+    drdh = model.slope(h)
     lim = limits["cog_height_drift"]
     lim["analysed_span"] = [float(np.min(time)), float(np.max(time))]
     lim["blind_windows"] = drift_term.blind_windows(time, drdh, floor["rms_stacked"], floor["tau_int"],
@@ -270,7 +263,7 @@ def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limi
     """CONTRACT's diagnosis object, with the private ``_series`` for the report's figures."""
     has_w = model.W is not None
     prob_f, fit_f, cv_after_all = reported
-    cov_nom, _ = reg.covariance(problem, s.nominal, cluster=2.0)
+    cov_nom, _ = reg.covariance(problem, s.nominal)
     h_se = float(np.sqrt(cov_nom[-1, -1]))
     h_se_f = float(np.sqrt(max(fin.cov[-1, -1], 0.0)))
     loc, loc_row = _localisation(prep, model, s.nominal.h)

@@ -92,6 +92,11 @@ class Prepared:
         """The same recording with other (q, q̇, q̈) (for noise propagation)."""
         return replace(self, kin=replace(self.kin, q=q, qd=qd, qdd=qdd))
 
+    def stacked_time(self, wheel_row: bool) -> np.ndarray:
+        """Time of each residual sample, s: the kept samples, twice with the wheel row (M_d recorded)."""
+        t = self.t[self.keep]
+        return np.concatenate([t, t]) if wheel_row else t
+
     def filtered(self, y: np.ndarray, sigma: float | None = None) -> np.ndarray:
         """The consistent term filter applied along the last axis, at the kept samples."""
         return processing.term_filter(y, self.sigma if sigma is None else sigma, axis=-1)[..., self.keep]
@@ -129,7 +134,7 @@ def _nominal_params(params, meta: dict, source, name: str) -> Params:
 
 
 def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None = None,
-            smoothing=None, rate: float = SELECT_RATE) -> Prepared:
+            smoothing=None) -> Prepared:
     """Read, validate and differentiate a recording by the consistent recipe.
 
     Parameters
@@ -142,8 +147,6 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
         Metadata for a DataFrame source.
     smoothing : processing.Smoothing, optional
         Default ``processing.DEFAULT_SMOOTHING``.
-    rate : float
-        Residual samples kept per second, Hz.
 
     Raises
     ------
@@ -164,7 +167,7 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
                              f"least {(2 * edge) * dt + 2.0:.1f} s for the filters")
     M_d = df["M_d"].to_numpy(float) if "M_d" in df.columns else None
     lateral = lateral_inputs(df, kin.q[:, 1], p.l0, dt, q=kin.q, R=p.R) if {"theta", "psi"} <= set(df.columns) else None
-    step = max(1, int(round(1.0 / (dt * rate))))
+    step = max(1, int(round(1.0 / (dt * SELECT_RATE))))
     keep = np.arange(edge, t.size - edge, step)
     noise = {c: noise_sd(ch) for c, ch in _raw_channels(df).items()}
     return Prepared(kin, sm.sigma_samples(dt), M_d, lateral, keep, p, meta, name, noise, df)

@@ -143,6 +143,6 @@ def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress=No
         if progress:
             progress("4/6 refine: 1-D search of the nonlinear estimates")
         _, prob_f, info_f, fit_f, slopes = refine(prep, problem, selected, estimates, s.fit.h, given)
-    cov_f, dof_f = reg.covariance(prob_f, fit_f, cluster=2.0)
+    cov_f, dof_f = reg.covariance(prob_f, fit_f)
     cv = reg.heldout_rmse(prob_f, selected) if selected else s.cv_nominal
     return Final(prob_f, info_f, fit_f, slopes, cov_f, dof_f, cv)

@@ -36,46 +36,32 @@ class ResidualModel:
     def wheel(self, h: float) -> np.ndarray | None:
         return None if self.W is None else self.W[0] + h * self.W[1]
 
-    def kappa(self, h: float, R: float, m11: float) -> np.ndarray:
-        """κ = R m_11 / D(h), the gain of analytic.residual_gain."""
-        return R * m11 / (self.D[0] + h * self.D[1])
-
     def __call__(self, h: float) -> np.ndarray:
         r = self.kinematic(h)
         w = self.wheel(h)
         return r if w is None else np.concatenate([r, w])
 
+    def slope(self, h: float) -> np.ndarray:
+        """∂r/∂h at ``h`` (m) by a central difference of 0.1 mm, N·m/m."""
+        dh = 1e-4
+        return (self(h + dh) - self(h - dh)) / (2 * dh)
 
-_H_NODES = np.array([0.5, 1.0, 1.5])
+
+#: Values of h (m) at which the wheel row is evaluated to recover its coefficients in h.
+_H_NODES = np.array([0.5, 1.0])
 
 
 def residual_model(prep: Prepared, p: Params | None = None, sigma: float | None = None) -> ResidualModel:
-    """Build r(h) (and r_w(h)) on the kept samples; another term filter ``sigma`` (samples) rebuilds the
-    polynomial on the full length."""
+    """Build r(h) (and r_w(h)) on the kept samples, term-filtered with ``sigma`` (samples; default the
+    recording's)."""
     p = prep.params if p is None else p
     kin = prep.kin
-    if sigma is None:
-        rp = ident.residual_poly(kin, p)
-        start = kin.interior.start
-        idx = prep.keep - start
-        P, D = rp.P[:, idx], rp.D[:, idx]
-    else:
-        num, den = [], []
-        for h in _H_NODES:
-            ph = p.replace(h=float(h))
-            M = analytic.mass_matrix(ph, kin.q)
-            Dh = M[..., 0, 0] * ph.R + M[..., 1, 0] + M[..., 2, 0]
-            num.append((analytic.driving_torque_1(ph, kin.q, kin.qd, kin.qdd)
-                        - analytic.driving_torque_2(ph, kin.q, kin.qd, kin.qdd)) * Dh)
-            den.append(Dh)
-        V = np.vander(_H_NODES, 3, increasing=True)
-        P = prep.filtered(np.linalg.solve(V, np.array(num)), sigma)
-        D1 = (den[1] - den[0]) / (_H_NODES[1] - _H_NODES[0])
-        D = np.array([den[0] - _H_NODES[0] * D1, D1])[:, prep.keep]
+    P, D = ident.residual_coefficients(kin, p)
+    P, D = prep.filtered(P, sigma), D[:, prep.keep]
     W = None
     if prep.M_d is not None:
         w = [analytic.driving_torque_1(p.replace(h=float(h)), kin.q, kin.qd, kin.qdd) - prep.M_d
-             for h in _H_NODES[:2]]
+             for h in _H_NODES]
         w1 = (w[1] - w[0]) / (_H_NODES[1] - _H_NODES[0])
         W = prep.filtered(np.array([w[0] - _H_NODES[0] * w1, w1]), sigma)
     return ResidualModel(P, D, W)

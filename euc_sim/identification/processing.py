@@ -11,7 +11,7 @@ Motion-capture files (:func:`mocap_state`): C from the pivot E, r_CG by eqs. (1)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -21,7 +21,7 @@ from euc_sim.identification.recordings import RecordingError, check_length, is_m
 from euc_sim.model.parameters import Params
 
 __all__ = [
-    "Smoothing", "Kinematics", "DEFAULT_SMOOTHING", "PAPER_SMOOTHING", "savgol_derivatives",
+    "Smoothing", "Kinematics", "DEFAULT_SMOOTHING", "savgol_derivatives",
     "term_filter", "T_psi", "T_theta", "T_pitch", "moving_frame", "wheel_centre",
     "mocap_state", "kinematics", "sample_period",
 ]
@@ -95,15 +95,9 @@ class Smoothing:
         return {"method": self.method, "window_s": self.window, "order": self.order,
                 "term_sigma_s": self.term_sigma}
 
-    def replace(self, **changes) -> "Smoothing":
-        """A copy with some settings changed."""
-        return replace(self, **changes)
-
 
 #: The default: consistent filtering.
 DEFAULT_SMOOTHING = Smoothing()
-#: The paper's recipe.
-PAPER_SMOOTHING = Smoothing(method="savgol")
 
 
 @dataclass(frozen=True)

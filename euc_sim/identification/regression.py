@@ -19,8 +19,8 @@ from scipy.optimize import minimize_scalar
 from euc_sim.errors import InputError
 from euc_sim.stats import interleaved_folds, span_blocks
 
-__all__ = ["SelectionError", "Problem", "Adapted", "Fit", "time_blocks", "correlation_time", "fit_set",
-           "heldout_rmse", "covariance", "BLOCK_LENGTH"]
+__all__ = ["SelectionError", "Problem", "Adapted", "Fit", "correlation_time", "fit_set",
+           "heldout_rmse", "covariance", "BLOCK_LENGTH", "HELDOUT_FOLDS", "GUARD", "CLUSTER"]
 
 
 class SelectionError(InputError):
@@ -160,19 +160,12 @@ class Fit:
         return np.concatenate([self.theta[c] for c in self.names])
 
 
-def time_blocks(time: np.ndarray, n_blocks: int) -> np.ndarray:
-    """Index 0..n_blocks-1 of the contiguous time block of each sample (``n_blocks`` ≥ 2)."""
-    if n_blocks < 2:
-        raise SelectionError(f"n_blocks must be at least 2, got {n_blocks}")
-    return span_blocks(time, n_blocks)
-
-
-def correlation_time(e: np.ndarray, max_lag: int | None = None) -> float:
-    """Integrated autocorrelation time τ_int = 1 + 2 Σ ρ_k up to the first ρ_k ≤ 0, samples (≥ 1)."""
+def correlation_time(e: np.ndarray) -> float:
+    """Integrated autocorrelation time τ_int = 1 + 2 Σ ρ_k up to the first ρ_k ≤ 0 (lags up to n/4), samples (≥ 1)."""
     e = np.asarray(e, dtype=float)
     e = e - e.mean()
     n = e.size
-    max_lag = min(n // 4, max_lag or n // 4)
+    max_lag = n // 4
     if n < 8 or not np.any(e):
         return 1.0
     f = np.fft.rfft(e, 2 * n)
@@ -242,20 +235,22 @@ def fit_set(problem: Problem, names: Sequence[str], idx: np.ndarray | None = Non
 
 #: Length of the contiguous held-out blocks, s (several correlation times of the residual).
 BLOCK_LENGTH = 2.0
+#: Folds of the held-out validation: blocks of :data:`BLOCK_LENGTH` s dealt to them in turn.
+HELDOUT_FOLDS = 10
+#: Time dropped from training on each side of a held-out block, s.
+GUARD = 0.5
+#: Cluster length of the sandwich covariance, s.
+CLUSTER = 2.0
 
 
-def heldout_rmse(problem: Problem, names: Sequence[str], n_blocks: int = 10,
-                 guard: float = 0.5, extra: Callable | None = None) -> float:
-    """Held-out RMSE of a candidate set, blocked in time, h re-identified per fold.
+def heldout_rmse(problem: Problem, names: Sequence[str], extra: Callable | None = None) -> float:
+    """Held-out RMSE of a candidate set, blocked in time (:data:`HELDOUT_FOLDS`, :data:`GUARD`), h re-identified
+    per fold.
 
     Parameters
     ----------
     problem : Problem
     names : sequence of str
-    n_blocks : int
-        Folds: blocks of :data:`BLOCK_LENGTH` s dealt to the folds in turn.
-    guard : float
-        Time dropped from training on each side of a held-out block, s.
     extra : callable, optional
         ``extra(train_idx, train_residual, h) -> (n, k)`` columns built from the training
         samples only, added to that fold's design (:func:`~euc_sim.identification.selection.generic_gain`).
@@ -269,9 +264,10 @@ def heldout_rmse(problem: Problem, names: Sequence[str], n_blocks: int = 10,
     X = problem.design(names)
     w = np.ones(problem.n) if problem.weights is None else problem.weights
     sse, cnt = 0.0, 0
-    for train, test in interleaved_folds(problem.time, n_blocks, BLOCK_LENGTH, guard):
+    for train, test in interleaved_folds(problem.time, HELDOUT_FOLDS, BLOCK_LENGTH, GUARD):
         if train.size < 10:
-            raise SelectionError(f"n_blocks={n_blocks} and guard={guard} leave a fold without training samples")
+            raise SelectionError(f"{HELDOUT_FOLDS} folds and a guard of {GUARD} s leave a fold without training "
+                                 f"samples")
         h, theta, _ = _profile(problem, X, train)
         Xf = X
         if extra is not None:
@@ -291,11 +287,11 @@ def _jacobian_h(problem: Problem, h: float, step: float = 1e-4) -> np.ndarray:
     return (problem.y(h + step) - problem.y(h - step)) / (2 * step)
 
 
-def covariance(problem: Problem, fit: Fit, cluster: float) -> tuple[np.ndarray, float]:
+def covariance(problem: Problem, fit: Fit) -> tuple[np.ndarray, float]:
     """Covariance of (θ, h): the cluster sandwich, each variance raised to at least the conventional one.
 
     J = [X, −∂y/∂h] at the optimum; robust = (JᵀJ)⁻¹ (Σ_b J_bᵀ e_b e_bᵀ J_b) (JᵀJ)⁻¹ · G/(G−1)
-    over G clusters of ``cluster`` s; each standard error is raised, where lower, to that of
+    over G clusters of :data:`CLUSTER` s; each standard error is raised, where lower, to that of
     s² (JᵀJ)⁻¹ τ_int, keeping the sandwich's correlations (Angrist & Pischke 2009, §8.2.3:
     with G ≈ 10 the sandwich is biased low for slowly varying columns).
 
@@ -314,8 +310,8 @@ def covariance(problem: Problem, fit: Fit, cluster: float) -> tuple[np.ndarray, 
     J = J * np.sqrt(w)[:, None]
     e = e * np.sqrt(w)
     span = problem.time.max() - problem.time.min()
-    G = int(max(2, np.floor(span / max(cluster, 1e-9))))
-    blk = time_blocks(problem.time, G)
+    G = int(max(2, np.floor(span / CLUSTER)))
+    blk = span_blocks(problem.time, G)
     A = J.T @ J
     try:
         Ainv = np.linalg.inv(A)

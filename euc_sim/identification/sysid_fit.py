@@ -18,9 +18,8 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from euc_sim.identification.noise_bootstrap import split_noise
-from euc_sim.identification.processing import Kinematics, sample_period
-from euc_sim.identification.rollout_fit import BOUND_TOL, WINDOW, RolloutError, RolloutFit
+from euc_sim.identification.processing import Kinematics
+from euc_sim.identification.rollout_fit import BOUND_TOL, WINDOW, RolloutError, RolloutFit, rollout_windows
 from euc_sim.model.mujoco_model import JointIndex, build_spec, from_mujoco, to_mujoco
 from euc_sim.model.parameters import Params
 from euc_sim.stats import one_blas_thread
@@ -108,31 +107,16 @@ class _Problem:
 
     def __init__(self, ms, df, kin: Kinematics, p: Params, h_start: float, lo: float, hi: float,
                  window: float, fast: bool):
-        need = [c for c in ("M_d", "M_h", "x", "gamma", "phi") if c not in df.columns]
-        if need:
-            raise RolloutError(f"the sysid fit needs the recorded column {need[0]!r} "
-                               f"(both torques M_d, M_h and the states x, gamma, phi)")
+        win = rollout_windows(df, kin, window, "sysid")
         self.ms, self.R = ms, p.R
-        t = self.t = df["t"].to_numpy(dtype=float)
-        dt = sample_period(t)
-        L = int(round(window / dt)) + 1
-        self.n_win = n_win = (len(t) - 1) // (L - 1)
-        if n_win < 1:
-            raise RolloutError(f"the recording ({t[-1] - t[0]:.2f} s) is shorter than one rollout "
-                               f"window ({window:g} s)")
-        Q = df[["x", "gamma", "phi"]].to_numpy(dtype=float)
-        self.sig = np.array([max(split_noise(Q[:, i], dt)[1], floor)
-                             for i, floor in enumerate((1e-5, 1e-4, 1e-4))])
-        starts = np.arange(n_win) * (L - 1)
-        self.idx = starts[:, None] + np.arange(L)[None, :]
-        self.q_rec = Q[self.idx]
+        self.t, self.idx, self.q_rec, self.sig, s0 = win.t, win.idx, win.q_rec, win.sig, win.s0
+        self.n_win = len(win.idx)
         self.spec = build_spec(p.replace(h=h_start), "ideal")
-        self.spec.option.timestep = dt
+        self.spec.option.timestep = win.dt
         self.model0 = self.spec.compile()
         self.index = JointIndex.of(self.model0)
         self.nstate = mujoco.mj_stateSize(self.model0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         self.data0 = mujoco.MjData(self.model0)
-        s0 = np.concatenate([kin.q[starts], kin.qd[starts]], axis=1)
         self.windows = self._sequences(df[["M_d", "M_h"]].to_numpy(dtype=float), s0)
         self.params = ms.ParameterDict()
         self.params.add(ms.Parameter("h", h_start, lo, hi, modifier=_set_h))

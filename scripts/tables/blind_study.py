@@ -44,6 +44,7 @@ import os
 import sys
 import time
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -356,7 +357,7 @@ def _work(args):
         case = {**case, "value": truth["peak_tilt_rad"]}
     t1 = time.perf_counter()
     res = diagnosis.diagnose(path, resimulate=resimulate,       # the CSV and its sidecar only
-                             smoothing=DEFAULT_SMOOTHING.replace(term_sigma=term_sigma))
+                             smoothing=replace(DEFAULT_SMOOTHING, term_sigma=term_sigma))
     t2 = time.perf_counter()
     view = diagnosis.json_view(res)
     (out / f"{case['name']}.diagnosis.json").write_text(json.dumps(to_jsonable(view), indent=1))
