@@ -89,9 +89,9 @@ def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[r
     cands.update(more)
     info.update(more_info)
     time = prep.stacked_time(has_w)
-    validity = validity_rules(p, (float(prep.t[0]), float(prep.t[-1])), info.get("cog_height_drift", {}).get("drift"))
+    validity = validity_rules(p, (float(prep.kin.t[0]), float(prep.kin.t[-1])), info.get("cog_height_drift", {}).get("drift"))
     drift_shape = info.get("cog_height_drift", {}).get("drift") or {}
-    span = (float(prep.t[0]), float(prep.t[-1]))
+    span = (float(prep.kin.t[0]), float(prep.kin.t[-1]))
     fixed = {c: v for c, v in cands.items() if c != "cog_height_drift"}
     adaptive = {"cog_height_drift": DriftGiven(prep, p, h0, fixed, span)} if "cog_height_drift" in cands else {}
     problem = reg.Problem(target=model, candidates=cands, time=time, bounds=H_BOUNDS,
@@ -207,7 +207,7 @@ def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w
     shape = drift_term.choose_shape(time, model(h0), drdh, max(time.size / 10.0, 5.0))
     cands["cog_height_drift"] = drift_term.drift_columns(prep, p, h0, drdh, has_w, shape)
     info["cog_height_drift"] = {"scale": 1.0, "offset": 0.0, "drift": shape,
-                                "span": (float(prep.t[0]), float(prep.t[-1]))}
+                                "span": (float(prep.kin.t[0]), float(prep.kin.t[-1]))}
     return cands, info
 
 

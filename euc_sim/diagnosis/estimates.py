@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from euc_sim.diagnosis import drift_term
-from euc_sim.diagnosis.common import NONLINEAR, plausible_range
+from euc_sim.diagnosis.common import NONLINEAR, THRESHOLDS, plausible_range
 from euc_sim.identification import regression as reg
 from euc_sim.identification import selection as sel
 from euc_sim.model.parameters import Params
@@ -111,9 +111,8 @@ def evidence(name: str, est: float, unit: str, before: float, after: float, t_st
 
 
 
-def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, thresholds) -> list[dict]:
+def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float) -> list[dict]:
     """CONTRACT's ``effects`` list of the selected set: estimate, interval, aliases, evidence."""
-    th = thresholds
     selected = tuple(s.selected)
     out = []
     for i, c in enumerate(selected):
@@ -124,7 +123,7 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
         else:
             est, ci, se = estimate_of(fin.info[c], fin.fit.theta[c], C, fin.dof)
         aliases = sel.find_aliases(problem, selected, c, list(problem.candidates), n_eff,
-                                   max_bic=th.alias_bic, cosine=th.alias_cosine)
+                                   max_bic=THRESHOLDS.alias_bic, cosine=THRESHOLDS.alias_cosine)
         before = s.cv_nominal if i == 0 else s.cv_path[i - 1]
         after = s.cv_path[i] if i < len(selected) - 1 else fin.cv
         ref = effects.RECORDS.absent_value(c, prep.params)     # the value of "no effect"
@@ -154,7 +153,7 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
     return out
 
 
-def detection_limits(problem: reg.Problem, info: dict, s, vis: dict, thresholds) -> dict:
+def detection_limits(problem: reg.Problem, info: dict, s, vis: dict) -> dict:
     """Per effect, the smallest value this recording would name (``min_t`` × its se, the estimate's unit), against
     the plausible range; invisible ones with the reason."""
     limits = {}
@@ -166,11 +165,11 @@ def detection_limits(problem: reg.Problem, info: dict, s, vis: dict, thresholds)
         se_theta = float(np.sqrt(np.trace(C) / C.shape[0]))
         if info[c].get("drift"):     # the shape this recording shows (its single fit), scaled
             lim = drift_term.unit_shape_limit(info[c]["drift"], info[c]["span"], np.asarray(f1.theta[c], float),
-                                              C, thresholds.min_t)
+                                              C, THRESHOLDS.min_t)
         elif info[c].get("sqrt"):      # lateral: the coupling grows as tilt², the limit is a tilt
-            lim = info[c]["scale"] * math.sqrt(thresholds.min_t * se_theta)
+            lim = info[c]["scale"] * math.sqrt(THRESHOLDS.min_t * se_theta)
         else:
-            lim = thresholds.min_t * se_theta * abs(info[c]["scale"])
+            lim = THRESHOLDS.min_t * se_theta * abs(info[c]["scale"])
         lo, hi = plausible_range(c)
         status = ("detectable" if lim <= lo else "only large values" if lim <= hi else "not detectable")
         limits[c] = {"detectable_above": lim, "unit": effects.get(c).unit, "plausible": [lo, hi],

@@ -45,7 +45,7 @@ def plan_of(prep: Prepared) -> dict | None:
     if path not in PATHS or path == "straight" or prep.lateral is None or not set(MARKERS) <= set(prep.raw.columns):
         return None
     opts = prep.meta.get("maneuver_options") or {}
-    v = np.abs(prep.qd[:, 0])
+    v = np.abs(prep.kin.qd[:, 0])
     speed = float(opts["speed"]) if opts.get("speed") else float(np.mean(v))
     radius = None
     if path != "slalom":

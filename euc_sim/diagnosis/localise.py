@@ -75,8 +75,8 @@ def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
 
 def signals_of(prep: Prepared) -> dict[str, np.ndarray]:
     k = prep.keep
-    out = {"speed": prep.qd[k, 0], "acceleration": prep.qdd[k, 0], "lean_phi": prep.q[k, 2],
-           "pitch_gamma": prep.q[k, 1]}
+    out = {"speed": prep.kin.qd[k, 0], "acceleration": prep.kin.qdd[k, 0], "lean_phi": prep.kin.q[k, 2],
+           "pitch_gamma": prep.kin.q[k, 1]}
     if prep.lateral is not None:
         out["tilt_theta"] = prep.lateral["theta"][k]
         out["yaw_rate"] = prep.lateral["psi_d"][k]

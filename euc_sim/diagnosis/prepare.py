@@ -62,22 +62,6 @@ class Prepared:
     noise_sd: dict
     raw: pd.DataFrame
 
-    @property
-    def t(self) -> np.ndarray:
-        return self.kin.t
-
-    @property
-    def q(self) -> np.ndarray:
-        return self.kin.q
-
-    @property
-    def qd(self) -> np.ndarray:
-        return self.kin.qd
-
-    @property
-    def qdd(self) -> np.ndarray:
-        return self.kin.qdd
-
     def shifted(self, tau: float) -> "Prepared":
         """The rider channel advanced by τ s: φ(t + τ), φ̇, φ̈ likewise (undoes a lag τ)."""
         k = self.kin
@@ -94,7 +78,7 @@ class Prepared:
 
     def stacked_time(self, wheel_row: bool) -> np.ndarray:
         """Time of each residual sample, s: the kept samples, twice with the wheel row (M_d recorded)."""
-        t = self.t[self.keep]
+        t = self.kin.t[self.keep]
         return np.concatenate([t, t]) if wheel_row else t
 
     def filtered(self, y: np.ndarray, sigma: float | None = None) -> np.ndarray:

@@ -98,7 +98,7 @@ def relinearised(prep: Prepared, h: float, state: dict) -> tuple[reg.Problem, di
         return prob.y(hh) + shift
 
     info = {**info, **{c: {**info[c], "offset": nominal[c]} for c in nominal if c in info}}
-    rules = validity_rules(p, (float(prep.t[0]), float(prep.t[-1])), None)    # θ is v − v_0 again
+    rules = validity_rules(p, (float(prep.kin.t[0]), float(prep.kin.t[-1])), None)    # θ is v − v_0 again
     validity = {**prob.validity, **{c: rules[c] for c in nominal if c in prob.validity}}
     return reg.Problem(target, prob.candidates, prob.time, prob.bounds, validity, prob.weights,
                        prob.shape_params, prob.adaptive), info

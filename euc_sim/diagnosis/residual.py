@@ -76,13 +76,13 @@ def noise_floor(prep: Prepared, h: float, seed: int = 0) -> dict:
     ``tau_int`` (samples, for n_eff) and ``noise`` (the stacked samples).
     """
     rng = np.random.default_rng(seed)
-    n = prep.t.size
+    n = prep.kin.t.size
     sm = prep.kin.smoothing
     dt = prep.kin.dt
     Z = np.column_stack([rng.normal(0.0, prep.noise_sd[c], n) for c in ("x", "gamma", "phi")])
     dq, dqd, dqdd = processing.savgol_derivatives(Z, dt, sm.samples(dt), sm.order, axis=0)
     base = residual_model(prep)(h)
-    pert = residual_model(prep.with_kin(prep.q + dq, prep.qd + dqd, prep.qdd + dqdd))(h)
+    pert = residual_model(prep.with_kin(prep.kin.q + dq, prep.kin.qd + dqd, prep.kin.qdd + dqdd))(h)
     r = pert - base
     nk = prep.keep.size
     return {"rms": float(np.sqrt(np.mean(r[:nk] ** 2))), "rms_stacked": float(np.sqrt(np.mean(r ** 2))),

@@ -274,7 +274,7 @@ def design_figure(result: dict):
         text = "\n".join(f"{r['maneuver']}: {r['h_sd'] * 1000:.1f} mm (MC), {r['h_sd_fisher'] * 1000:.1f} mm "
                          f"(Fisher); n for ±10 mm: {recordings_for(r['h_sd'], [0.01])['0.01']}"
                          for r in result["maneuvers"])
-        axes[1, 1].text(0.0, 0.95, "At the paper's noise:\n" + text + "\n\n" + _wrap(result["recommendation"]),
+        axes[1, 1].text(0.0, 0.95, "At the paper's noise:\n" + text + "\n\n" + textwrap.fill(result["recommendation"], 70),
                         va="top", fontsize=8, transform=axes[1, 1].transAxes)
     handles = [Line2D([], [], color=colors[i % len(colors)], label=r["maneuver"])
                for i, r in enumerate(result["maneuvers"])]
@@ -284,7 +284,3 @@ def design_figure(result: dict):
     fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 4), fontsize=8)
     fig.suptitle("Experiment design: how precisely each maneuver identifies h")
     return fig
-
-
-def _wrap(text: str, width: int = 70) -> str:
-    return "\n".join(textwrap.wrap(text, width))

@@ -283,10 +283,6 @@ def heldout_rmse(problem: Problem, names: Sequence[str], extra: Callable | None 
     return float(np.sqrt(sse / cnt))
 
 
-def _jacobian_h(problem: Problem, h: float, step: float = 1e-4) -> np.ndarray:
-    return (problem.y(h + step) - problem.y(h - step)) / (2 * step)
-
-
 def covariance(problem: Problem, fit: Fit) -> tuple[np.ndarray, float]:
     """Covariance of (θ, h): the cluster sandwich, each variance raised to at least the conventional one.
 
@@ -305,7 +301,8 @@ def covariance(problem: Problem, fit: Fit) -> tuple[np.ndarray, float]:
     X = problem.design(fit.names)
     y = problem.y(fit.h)
     e = y - X @ fit.coef_vector()
-    J = np.hstack([X, -_jacobian_h(problem, fit.h)[:, None]])
+    dh = 1e-4
+    J = np.hstack([X, -((problem.y(fit.h + dh) - problem.y(fit.h - dh)) / (2 * dh))[:, None]])
     w = np.ones(problem.n) if problem.weights is None else problem.weights
     J = J * np.sqrt(w)[:, None]
     e = e * np.sqrt(w)

@@ -106,19 +106,19 @@ class Windows:
     s0: np.ndarray
 
 
-def rollout_windows(df, kin: Kinematics, window: float, fit: str) -> Windows:
-    """Cut a recording with ``t, x, gamma, phi, M_d, M_h`` into windows of ``window`` s (RolloutError naming the
-    ``fit``: without those columns or shorter than one window)."""
+def rollout_windows(df, kin: Kinematics, fit: str) -> Windows:
+    """Cut a recording with ``t, x, gamma, phi, M_d, M_h`` into windows of :data:`WINDOW` s (RolloutError naming
+    the ``fit``: without those columns or shorter than one window)."""
     need = [c for c in ("M_d", "M_h", "x", "gamma", "phi") if c not in df.columns]
     if need:
         raise RolloutError(f"the {fit} fit needs the recorded column {need[0]!r} "
                            f"(both torques M_d, M_h and the states x, gamma, phi)")
     t = df["t"].to_numpy(dtype=float)
     dt = sample_period(t)
-    L = int(round(window / dt)) + 1
+    L = int(round(WINDOW / dt)) + 1
     n_win = (len(t) - 1) // (L - 1)
     if n_win < 1:
-        raise RolloutError(f"the recording ({t[-1] - t[0]:.2f} s) is shorter than one rollout window ({window:g} s)")
+        raise RolloutError(f"the recording ({t[-1] - t[0]:.2f} s) is shorter than one rollout window ({WINDOW:g} s)")
     Q = df[["x", "gamma", "phi"]].to_numpy(dtype=float)
     sig = np.array([max(split_noise(Q[:, i], dt)[1], floor) for i, floor in enumerate((1e-5, 1e-4, 1e-4))])
     starts = np.arange(n_win) * (L - 1)
@@ -186,9 +186,8 @@ class _Roller:
         return np.concatenate([q0, q], axis=1)
 
 
-def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
-                window: float = WINDOW) -> RolloutFit:
-    """Identify h by the simulation error of windowed rollouts with free initial states.
+def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5)) -> RolloutFit:
+    """Identify h by the simulation error of rollouts over windows of :data:`WINDOW` s with free initial states.
 
     Parameters
     ----------
@@ -202,8 +201,6 @@ def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
         Starting h, m.
     bounds : (float, float)
         Search bounds of h, m.
-    window : float
-        Window length, s.
 
     Raises
     ------
@@ -211,7 +208,7 @@ def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
         without the torque or state columns, or shorter than one window.
     """
     t0 = time.perf_counter()
-    win = rollout_windows(df, kin, window, "rollout")
+    win = rollout_windows(df, kin, "rollout")
     n_win, L = win.idx.shape
     q_rec, sig, s0 = win.q_rec, win.sig, win.s0
     roller = _Roller(p, win.dt, df[["M_d", "M_h"]].to_numpy(dtype=float), n_win, L)

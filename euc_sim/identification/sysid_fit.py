@@ -19,7 +19,7 @@ import numpy as np
 from mujoco import rollout as mj_rollout
 
 from euc_sim.identification.processing import Kinematics
-from euc_sim.identification.rollout_fit import BOUND_TOL, WINDOW, RolloutError, RolloutFit, rollout_windows
+from euc_sim.identification.rollout_fit import BOUND_TOL, RolloutError, RolloutFit, rollout_windows
 from euc_sim.model.mujoco_model import JointIndex, build_spec, from_mujoco, to_mujoco
 from euc_sim.model.parameters import Params
 from euc_sim.stats import one_blas_thread
@@ -47,18 +47,16 @@ def sysid_available() -> bool:
     return hasattr(ms, "optimize") and hasattr(ms, "calculate_intervals")
 
 
-def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
-              window: float = WINDOW, fast: bool = True, max_iter: int = MAX_ITER) -> RolloutFit:
-    """Identify h with ``mujoco.sysid`` over windows with free initial states.
+def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5), fast: bool = True) -> RolloutFit:
+    """Identify h with ``mujoco.sysid`` over windows of :data:`~euc_sim.identification.rollout_fit.WINDOW` s with
+    free initial states, at most :data:`MAX_ITER` iterations.
 
     Parameters
     ----------
-    df, kin, p, h0, bounds, window
+    df, kin, p, h0, bounds
         As :func:`~euc_sim.identification.rollout_fit.fit_rollout`.
     fast : bool
         Memoise the compiled model by h (False: recompile for every column of every window).
-    max_iter : int
-        Optimizer iterations at most.
 
     Returns
     -------
@@ -79,14 +77,13 @@ def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
 
     t0 = time.perf_counter()
     lo, hi = map(float, bounds)
-    prob = _Problem(ms, df, kin, p, min(max(h0, lo + 1e-6), hi - 1e-6), lo, hi, window, fast)
+    prob = _Problem(ms, df, kin, p, min(max(h0, lo + 1e-6), hi - 1e-6), lo, hi, fast)
     x_scale = np.concatenate([[_SCALE_H], np.tile(_SCALE_S, prob.n_win)])
     # the backend's full verbosity is what puts the end point's Jacobian in the result;
-    # one BLAS thread: on a shared machine the backend's dense JᵀJ (W·3L × (1 + 6W)) took
-    # 0.36 s per iteration with the default thread pool, 2.5 ms with one thread
+    # one BLAS thread: the backend's dense JᵀJ (W·3L × (1 + 6W)) is too small to gain from a pool
     with one_blas_thread():
         opt, res = ms.optimize(prob.params, prob.residual_fn, optimizer="mujoco", verbose=False,
-                               max_iters=max_iter, x_scale=x_scale, output=io.StringIO())
+                               max_iters=MAX_ITER, x_scale=x_scale, output=io.StringIO())
         r_star, preds, _ = prob.residual_fn(opt.as_vector(), opt.copy(), return_pred_all=True)
         cov, half = ms.calculate_intervals(r_star, np.asarray(res.jac))
     h = float(opt["h"].value[0])
@@ -105,9 +102,8 @@ def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
 class _Problem:
     """The windowed fit in the toolbox's terms: its data, parameters and three hooks."""
 
-    def __init__(self, ms, df, kin: Kinematics, p: Params, h_start: float, lo: float, hi: float,
-                 window: float, fast: bool):
-        win = rollout_windows(df, kin, window, "sysid")
+    def __init__(self, ms, df, kin: Kinematics, p: Params, h_start: float, lo: float, hi: float, fast: bool):
+        win = rollout_windows(df, kin, "sysid")
         self.ms, self.R = ms, p.R
         self.t, self.idx, self.q_rec, self.sig, s0 = win.t, win.idx, win.q_rec, win.sig, win.s0
         self.n_win = len(win.idx)
@@ -121,7 +117,7 @@ class _Problem:
         self.params = ms.ParameterDict()
         self.params.add(ms.Parameter("h", h_start, lo, hi, modifier=_set_h))
         # all window states in one Parameter: the toolbox deep-copies the ParameterDict for
-        # every column of every window, and a Parameter per window made that the main cost
+        # every column of every window
         self.params.add(ms.Parameter("window_states", s0, s0 - STATE_SPAN, s0 + STATE_SPAN))
         self.build = self._build_memo if fast else ms.apply_param_modifiers
         self._built, self._memo, self.n_eval = {}, {}, 0

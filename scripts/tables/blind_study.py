@@ -212,7 +212,7 @@ def floor_ratio(path: Path) -> dict:
     from euc_sim.identification import regression as reg
     prep = prepare(path, None, None)
     model = residual_model(prep)
-    t = prep.t[prep.keep]
+    t = prep.kin.t[prep.keep]
     time_ = np.concatenate([t, t]) if model.W is not None else t
     problem = reg.Problem(model, {}, time_, H_BOUNDS)
     h0 = reg.fit_set(problem, ()).h
