@@ -46,23 +46,22 @@ def visibility(columns) -> dict[str, dict]:
 
 
 # --- the candidate library ---------------------------------------------------------------
-def _force_columns(name: str, prep: Prepared, p: Params, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """(kinematic, wheel-row) columns of a force effect per unit estimate: κ(q)·F[R Q_e,x + Q_e,γ + Q_e,φ] and F[R
-    Q_e,x], F the term filter."""
+def _force_column(name: str, prep: Prepared, p: Params, h: float, has_w: bool) -> np.ndarray:
+    """The stacked column of a force effect per unit estimate: κ(q)·F[R Q_e,x + Q_e,γ + Q_e,φ], then with M_d
+    (``has_w``) F[R Q_e,x], F the term filter."""
     ph = p.replace(h=h)
     kin = prep.kin
     ref = effects.get(name).ref        # the column's reference magnitude (linear forces: exact)
     Q = effects.generalized_force(name, ref, ph, kin.q, kin.qd, prep.lateral) / ref
-    kappa = analytic.residual_gain(ph, kin.q[prep.keep])
-    return kappa * prep.filtered(analytic.moment_about_contact(ph, Q)), p.R * prep.filtered(Q[:, 0])
+    col = analytic.residual_gain(ph, kin.q[prep.keep]) * prep.filtered(analytic.moment_about_contact(ph, Q))
+    return np.concatenate([col, p.R * prep.filtered(Q[:, 0])]) if has_w else col
 
 
-def _sensitivity(prep: Prepared, p: Params, h: float, vary: Callable[[float], tuple],
-                 sigma: float | None) -> np.ndarray:
+def _sensitivity(prep: Prepared, p: Params, h: float, vary: Callable[[float], tuple]) -> np.ndarray:
     """Central difference of the stacked residual for a perturbed (params, prep)."""
     pa, pra = vary(-1.0)
     pb, prb = vary(1.0)
-    return (residual_model(prb, pb, sigma)(h) - residual_model(pra, pa, sigma)(h)) / 2.0
+    return (residual_model(prb, pb)(h) - residual_model(pra, pa)(h)) / 2.0
 
 
 def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[reg.Problem, dict]:
@@ -108,8 +107,7 @@ def _force_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bo
     for name in (e.name for e in effects.CATALOG.values() if e.force is not None):
         if not vis[name]["visible"]:
             continue
-        kin, wh = _force_columns(name, prep, p, h0)
-        col = np.concatenate([kin, wh]) if has_w else kin
+        col = _force_column(name, prep, p, h0, has_w)
         if not np.any(np.abs(col) > 1e-9):
             continue
         cands[name] = col
@@ -139,9 +137,8 @@ def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: 
     gains, labels = [1.0], ["column"]
     for w in (LATERAL_WINDOW / 2, LATERAL_WINDOW * 2):
         labels.append(f"window {w:g} s")
-        alt = replace(prep, lateral=lateral_inputs(df, prep.kin.q[:, 1], p.l0, dt, w, q=prep.kin.q, R=p.R))
-        kin, wh = _force_columns("lateral_dynamics", alt, p, h0)
-        c_w = np.concatenate([kin, wh]) if has_w else kin
+        alt = replace(prep, lateral=lateral_inputs(df, prep.kin.q, p, dt, w))
+        c_w = _force_column("lateral_dynamics", alt, p, h0, has_w)
         gains.append(float(c_w @ col / (c_w @ c_w)))
     if prep.lateral.get("lean") is not None:      # the slender rider's upright term added
         lat, q = prep.lateral, prep.kin.q
@@ -187,7 +184,7 @@ def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w
         # visible only with M_d (see visibility): the wheel row sees m_11 ẍ plainly; the
         # kinematic row's sensitivity to m is mostly the noise's, so the term is the
         # wheel row's alone
-        col = -_sensitivity(prep, p, h0, vary_m, None) / dm
+        col = -_sensitivity(prep, p, h0, vary_m) / dm
         col[:k.size] = 0.0
         cands["rider_mass"] = col
         info["rider_mass"] = {"scale": 1.0, "offset": p.m}
@@ -198,7 +195,7 @@ def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w
     def vary_tau(s):
         return p, prep.shifted(s * dtau)
 
-    cands["sensor_time_offset"] = -_sensitivity(prep, p, h0, vary_tau, None) / dtau
+    cands["sensor_time_offset"] = -_sensitivity(prep, p, h0, vary_tau) / dtau
     info["sensor_time_offset"] = {"scale": 1.0, "offset": 0.0}
     # h drift of any smooth shape: splines of Δh(t), with the ḣ terms (drift_term)
     model = residual_model(prep, p)

@@ -10,7 +10,6 @@ from euc_sim.diagnosis import drift_term
 from euc_sim.diagnosis.common import NONLINEAR, THRESHOLDS, plausible_range
 from euc_sim.identification import regression as reg
 from euc_sim.identification import selection as sel
-from euc_sim.model.parameters import Params
 from euc_sim.simulation import effects
 
 __all__ = ["estimate_of", "coupling_of", "sub_cov", "is_plausible", "alias_estimates", "plausible_alias", "evidence", "effect_items",
@@ -57,7 +56,7 @@ def sub_cov(problem: reg.Problem, names, cov: np.ndarray, name: str) -> np.ndarr
     raise KeyError(name)
 
 
-def is_plausible(name: str, est: float, p: Params) -> bool:
+def is_plausible(name: str, est: float) -> bool:
     """Whether an estimate lies in the catalog's plausible range (|α| for the slope)."""
     e = effects.get(name)
     lo, hi = e.plausible
@@ -89,9 +88,9 @@ def alias_estimates(problem: reg.Problem, selected, name: str, aliases, info: di
     return out
 
 
-def plausible_alias(swapped: dict, p: Params):
+def plausible_alias(swapped: dict):
     """The best-fitting alias (of :func:`alias_estimates`) whose estimate is plausible, or None."""
-    ok = [(v["rss"], a) for a, v in swapped.items() if is_plausible(a, v["estimate"], p)]
+    ok = [(v["rss"], a) for a, v in swapped.items() if is_plausible(a, v["estimate"])]
     if not ok:
         return None
     a = min(ok)[1]
@@ -136,8 +135,8 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float) -
         if fin.info[c].get("sqrt"):
             item["coupling"] = coupling_of(fin.info[c], fin.fit.theta[c], C, fin.dof)
         swapped = alias_estimates(problem, selected, c, aliases, info, fin.dof)
-        if aliases and not is_plausible(c, est, prep.params):
-            swap = plausible_alias(swapped, prep.params)
+        if aliases and not is_plausible(c, est):
+            swap = plausible_alias(swapped)
             if swap is not None:
                 item = {**swap, "rmse_after": after,
                         "aliases": [c] + [a for a in aliases if a != swap["name"]]}

@@ -51,19 +51,18 @@ class ResidualModel:
 _H_NODES = np.array([0.5, 1.0])
 
 
-def residual_model(prep: Prepared, p: Params | None = None, sigma: float | None = None) -> ResidualModel:
-    """Build r(h) (and r_w(h)) on the kept samples, term-filtered with ``sigma`` (samples; default the
-    recording's)."""
+def residual_model(prep: Prepared, p: Params | None = None) -> ResidualModel:
+    """Build r(h) (and r_w(h)) on the kept samples, term-filtered, with ``p`` (default the nominal parameters)."""
     p = prep.params if p is None else p
     kin = prep.kin
     P, D = ident.residual_coefficients(kin, p)
-    P, D = prep.filtered(P, sigma), D[:, prep.keep]
+    P, D = prep.filtered(P), D[:, prep.keep]
     W = None
     if prep.M_d is not None:
         w = [analytic.driving_torque_1(p.replace(h=float(h)), kin.q, kin.qd, kin.qdd) - prep.M_d
              for h in _H_NODES]
         w1 = (w[1] - w[0]) / (_H_NODES[1] - _H_NODES[0])
-        W = prep.filtered(np.array([w[0] - _H_NODES[0] * w1, w1]), sigma)
+        W = prep.filtered(np.array([w[0] - _H_NODES[0] * w1, w1]))
     return ResidualModel(P, D, W)
 
 

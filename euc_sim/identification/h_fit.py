@@ -159,16 +159,14 @@ class HFit:
             out.append("h_ci95")
         return out
 
-    def as_json(self, curve: bool = True) -> dict:
-        """The CONTRACT form (``h, h_ci95, rmse, identifiable``) plus extras."""
-        out = {"h": self.h, "h_ci95": list(self.h_ci95), "rmse": self.rmse,
-               "identifiable": bool(self.identifiable), "flatness": self.flatness,
-               "n_samples": self.n_samples, "reason": self.reason,
-               "h_ci95_block": list(self.h_ci95_block), "noise_sd": self.noise_sd,
-               "noise_bias": self.noise_bias, "at_bound": self.at_bound()}
-        if curve:
-            out["curve"] = {"h": self.h_grid, "rmse": self.rmse_grid}
-        return out
+    def as_json(self) -> dict:
+        """The CONTRACT form (``h, h_ci95, rmse, identifiable``) plus extras and the RMSE(h) ``curve``."""
+        return {"h": self.h, "h_ci95": list(self.h_ci95), "rmse": self.rmse,
+                "identifiable": bool(self.identifiable), "flatness": self.flatness,
+                "n_samples": self.n_samples, "reason": self.reason,
+                "h_ci95_block": list(self.h_ci95_block), "noise_sd": self.noise_sd,
+                "noise_bias": self.noise_bias, "at_bound": self.at_bound(),
+                "curve": {"h": self.h_grid, "rmse": self.rmse_grid}}
 
 
 def _parabolic_min(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
