@@ -181,15 +181,12 @@ def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w
         return effects.apply_to_params(p, "rider_mass", p.m + s * dm), prep
 
     if vis["rider_mass"]["visible"]:
-        # visible only with M_d (see visibility): the wheel row sees m_11 ẍ plainly; the
-        # kinematic row's sensitivity to m is mostly the noise's, so the term is the
-        # wheel row's alone
+        # the wheel row's alone (build_problem's Notes)
         col = -_sensitivity(prep, p, h0, vary_m) / dm
         col[:k.size] = 0.0
         cands["rider_mass"] = col
         info["rider_mass"] = {"scale": 1.0, "offset": p.m}
     # time offset of the rider channel: φ_rec(t) = φ(t − τ) ⇒ r(0) ≈ −∂r/∂τ · τ
-    # (the plain filter here: a shift does not scale the noise)
     dtau = 0.005
 
     def vary_tau(s):

@@ -1,7 +1,7 @@
 """Experiment design for the catalog effects: how precisely each maneuver measures each one.
 
 For each maneuver and effect, R recordings are simulated with the effect at
-:func:`nominal_magnitude` and the paper's sensor noise (times a scale), and fitted as the
+:func:`nominal_magnitude` and the paper's sensor noise, and fitted as the
 diagnosis would (nominal model plus that effect's term, jointly with h): ``sd`` is the
 spread of the R estimates, ``bias`` their mean minus the truth, ``sd_cov`` the root mean of
 the predicted variances (the diagnosis's cluster covariance).  Recordings needed:
@@ -91,13 +91,12 @@ def effect_estimate(recording, meta: dict, name: str, params: Params, h0: float)
 def effect_study(args) -> dict:
     """One (maneuver, effect) task of :func:`effects_design`: ``estimates`` and ``se`` per ride that did not fall,
     and ``fell``."""
-    name, effect, value, rides, duration, scale, (seed, i, j), p, rider_noise, with_torques = args
+    name, effect, value, rides, duration, (seed, i, j), p, rider_noise, with_torques = args
     seeds = [int(c.generate_state(1)[0])
              for c in np.random.SeedSequence(seed, spawn_key=(1, i, j)).spawn(rides)]
     rider = default_rider(true_params(p, {effect: value}), noise_std=rider_noise)   # he knows his weight
-    sig_pos, sig_ang = NOISE_LEVELS["paper"]
     specs = [RecordingSpec(f"{name}-{effect}-{s}", make_maneuver(name), duration, s, params=p,
-                           effects=((effect, value),), noise=(scale * sig_pos, scale * sig_ang),
+                           effects=((effect, value),), noise=NOISE_LEVELS["paper"],
                            hide_torques=not with_torques, rider=rider) for s in seeds]
     est, ses, fell = [], [], 0
     for made in simulated_recordings(specs):        # the R rides as one MuJoCo batch
@@ -114,7 +113,7 @@ def effect_study(args) -> dict:
 
 
 def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rides: int = 10,
-                   duration: float = 15.0, noise_scale: float = 1.0, seed: int = 0,
+                   duration: float = 15.0, seed: int = 0,
                    params: Params = TABLE3, rider_noise: float = 3.0, with_torques: bool = False,
                    scheduler: str | None = None, workers: int | None = None,
                    progress: bool = True) -> dict:
@@ -129,8 +128,6 @@ def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rid
         Recordings per (maneuver, effect), at least 3.
     duration : float
         Length of each recording, s.
-    noise_scale : float
-        Sensor noise as a multiple of the paper's.
     seed : int
     params : Params
         Nominal parameters (h: the truth).
@@ -148,7 +145,7 @@ def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rid
         ``by_maneuver`` (maneuver → effect → ``sd``, ``sd_cov``, ``bias``, ``recordings_for``,
         ``recordings_to_detect``, ``rides``, ``fell``), ``best`` and the settings.
     """
-    _check(maneuvers, effect_names, rides, duration, noise_scale)
+    _check(maneuvers, effect_names, rides, duration)
     cols = _COLUMNS + (("M_d", "M_h") if with_torques else ())
     table = {}
     for e in effect_names:
@@ -156,7 +153,7 @@ def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rid
         value = nominal_magnitude(e, params)
         table[e] = {"nominal": value, "magnitude": _magnitude(e, value, params), "unit": fx.get(e).unit,
                     "visible": vis["visible"], "reason": vis["reason"]}
-    tasks = [(f"{m}/{e}", (m, e, table[e]["nominal"], rides, float(duration), float(noise_scale),
+    tasks = [(f"{m}/{e}", (m, e, table[e]["nominal"], rides, float(duration),
                            (int(seed), i, j), params, rider_noise, bool(with_torques)))
              for i, m in enumerate(maneuvers) for j, e in enumerate(effect_names) if table[e]["visible"]]
     rep = run_tasks(effect_study, tasks, scheduler=scheduler, workers=workers, progress=progress,
@@ -175,7 +172,7 @@ def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rid
         if scored:
             best[e] = min(scored)[1]
     return {"effects": table, "by_maneuver": by_maneuver, "best": best, "rides": rides,
-            "duration": float(duration), "noise_scale": float(noise_scale), "with_torques": bool(with_torques),
+            "duration": float(duration), "noise_scale": 1.0, "with_torques": bool(with_torques),
             "min_t": THRESHOLDS.min_t, "relative_targets": list(RELATIVE_TARGETS), "seed": int(seed)}
 
 
@@ -195,12 +192,10 @@ def _summary(res: dict, entry: dict, effect: str, rides: int) -> dict:
     return out
 
 
-def _check(maneuvers, effect_names, rides, duration, noise_scale) -> None:
+def _check(maneuvers, effect_names, rides, duration) -> None:
     check_maneuvers(maneuvers)
     parse_effects(",".join(effect_names))
     check_rides(rides, duration, "--effect-rides")
-    if not (math.isfinite(noise_scale) and noise_scale > 0):
-        raise InputError(f"noise_scale must be positive, got {noise_scale!r}")
 
 
 def effects_design_figure(result: dict):

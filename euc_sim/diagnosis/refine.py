@@ -100,8 +100,8 @@ def relinearised(prep: Prepared, h: float, state: dict) -> tuple[reg.Problem, di
     info = {**info, **{c: {**info[c], "offset": nominal[c]} for c in nominal if c in info}}
     rules = validity_rules(p, (float(prep.kin.t[0]), float(prep.kin.t[-1])), None)    # θ is v − v_0 again
     validity = {**prob.validity, **{c: rules[c] for c in nominal if c in prob.validity}}
-    return reg.Problem(target, prob.candidates, prob.time, prob.bounds, validity, prob.weights,
-                       prob.shape_params, prob.adaptive), info
+    return reg.Problem(target, prob.candidates, prob.time, prob.bounds, validity, prob.shape_params,
+                       prob.adaptive), info
 
 
 @dataclass(frozen=True)

@@ -43,8 +43,6 @@ class Problem:
         Search interval of h.
     validity : mapping of str to callable, optional
         ``validity[name](theta) -> None | str``: a reason to refuse the estimate.
-    weights : numpy.ndarray, optional
-        (n,) non-negative sample weights (default 1).
     shape_params : mapping of str to int, optional
         Parameters the data chose for a candidate before the fit, counted in the BIC.
     adaptive : mapping of str to callable, optional
@@ -57,7 +55,6 @@ class Problem:
     time: np.ndarray
     bounds: tuple[float, float]
     validity: Mapping[str, Callable[[np.ndarray], str | None]] = field(default_factory=dict)
-    weights: np.ndarray | None = None
     shape_params: Mapping[str, int] = field(default_factory=dict)
     adaptive: Mapping[str, Callable[[tuple], "Adapted"]] = field(default_factory=dict)
 
@@ -80,11 +77,6 @@ class Problem:
             cols[name] = X
         object.__setattr__(self, "candidates", cols)
         object.__setattr__(self, "time", t)
-        if self.weights is not None:
-            w = np.asarray(self.weights, dtype=float)
-            if w.shape != t.shape or np.any(w < 0) or not np.all(np.isfinite(w)):
-                raise SelectionError(f"weights must be {t.shape} non-negative, got shape {w.shape}")
-            object.__setattr__(self, "weights", w)
 
     @property
     def n(self) -> int:
@@ -121,7 +113,7 @@ class Problem:
             cands[c], shape[c] = a.columns, a.n_shape
             if a.check is not None:
                 valid[c] = a.check
-        return Problem(self.target, cands, self.time, self.bounds, valid, self.weights, shape)
+        return Problem(self.target, cands, self.time, self.bounds, valid, shape)
 
     def y(self, h: float) -> np.ndarray:
         y = np.asarray(self.target(h), dtype=float)
@@ -142,7 +134,7 @@ class Adapted:
 @dataclass(frozen=True)
 class Fit:
     """A least-squares fit of one candidate set with h profiled: ``names``, ``h``, ``theta`` per candidate,
-    weighted ``rss``, ``n`` samples."""
+    ``rss``, ``n`` samples."""
 
     names: tuple[str, ...]
     h: float
@@ -180,17 +172,15 @@ def correlation_time(e: np.ndarray) -> float:
 
 
 def _profile(problem: Problem, X: np.ndarray, idx: np.ndarray, n_grid: int = 13):
-    """Minimise over h the weighted RSS of y(h) − Xθ on samples idx; returns (h, θ, rss)."""
-    w = np.ones(problem.n) if problem.weights is None else problem.weights
-    sw = np.sqrt(w[idx])
-    Xi = X[idx] * sw[:, None]
+    """Minimise over h the RSS of y(h) − Xθ on samples idx; returns (h, θ, rss)."""
+    Xi = X[idx]
     if Xi.shape[1]:
         Qm, Rm = np.linalg.qr(Xi)
     else:
         Qm = Rm = None
 
     def rss(h: float) -> float:
-        yi = problem.y(h)[idx] * sw
+        yi = problem.y(h)[idx]
         if Qm is not None:
             yi = yi - Qm @ (Qm.T @ yi)
         return float(yi @ yi)
@@ -202,7 +192,7 @@ def _profile(problem: Problem, X: np.ndarray, idx: np.ndarray, n_grid: int = 13)
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, n_grid - 1)]
     res = minimize_scalar(rss, bounds=(a, b), method="bounded", options={"xatol": 1e-5})
     h = float(res.x) if res.fun <= vals[k] else float(grid[k])
-    yi = problem.y(h)[idx] * sw
+    yi = problem.y(h)[idx]
     if Qm is not None:
         theta = np.linalg.solve(Rm, Qm.T @ yi) if np.all(np.abs(np.diag(Rm)) > 1e-12) else \
             np.linalg.lstsq(Xi, yi, rcond=None)[0]
@@ -258,11 +248,10 @@ def heldout_rmse(problem: Problem, names: Sequence[str], extra: Callable | None 
     Returns
     -------
     float
-        sqrt(Σ w e² / n) over the held-out samples, the residual's unit.
+        sqrt(Σ e² / n) over the held-out samples, the residual's unit.
     """
     names = tuple(names)
     X = problem.design(names)
-    w = np.ones(problem.n) if problem.weights is None else problem.weights
     sse, cnt = 0.0, 0
     for train, test in interleaved_folds(problem.time, HELDOUT_FOLDS, BLOCK_LENGTH, GUARD):
         if train.size < 10:
@@ -278,7 +267,7 @@ def heldout_rmse(problem: Problem, names: Sequence[str], extra: Callable | None 
                 Xf = np.hstack([X, E])
                 h, theta, _ = _profile(problem, Xf, train)
         e = problem.y(h)[test] - Xf[test] @ theta
-        sse += float(np.sum(w[test] * e * e))
+        sse += float(np.sum(e * e))
         cnt += int(test.size)
     return float(np.sqrt(sse / cnt))
 
@@ -303,9 +292,6 @@ def covariance(problem: Problem, fit: Fit) -> tuple[np.ndarray, float]:
     e = y - X @ fit.coef_vector()
     dh = 1e-4
     J = np.hstack([X, -((problem.y(fit.h + dh) - problem.y(fit.h - dh)) / (2 * dh))[:, None]])
-    w = np.ones(problem.n) if problem.weights is None else problem.weights
-    J = J * np.sqrt(w)[:, None]
-    e = e * np.sqrt(w)
     span = problem.time.max() - problem.time.min()
     G = int(max(2, np.floor(span / CLUSTER)))
     blk = span_blocks(problem.time, G)

@@ -144,7 +144,7 @@ def forward_select(problem: Problem, *, min_bic_drop: float = 10.0, min_cv_gain:
             break
         current, cur_fit, cur_cv, cur_bic = f.names, f, best["cv_rmse"], best["bic"]
         if not pairs:
-            pool = [c for c in pool if c not in refused_names(refused)]
+            pool = [c for c in pool if c not in {r.split(":", 1)[0] for r in refused}]   # refused on physics
             continue
         # swap: a member that another candidate replaces decisively, given the rest (an alias
         # chosen before the set's other members were known)
@@ -290,11 +290,6 @@ def invalid_terms(problem: Problem, f: Fit) -> list[str]:
     return out
 
 
-def refused_names(refused: list[str]) -> set[str]:
-    """Names of candidates refused on physics in one step (not offered again)."""
-    return {r.split(":", 1)[0] for r in refused}
-
-
 def _judge(problem: Problem, f: Fit, d: dict, cur_bic: float, cur_cv: float,
            min_bic_drop: float, min_cv_gain: float, min_t: float) -> list[str]:
     """Reasons to refuse the trial ``d`` (fit ``f``); empty when it is accepted."""
@@ -369,7 +364,7 @@ def project_out(problem: Problem, P: np.ndarray | None) -> Problem:
         return adapted
 
     return Problem(target, {c: proj(X) for c, X in problem.candidates.items()}, problem.time, problem.bounds,
-                   problem.validity, problem.weights, problem.shape_params,
+                   problem.validity, problem.shape_params,
                    {c: wrap(hk) for c, hk in problem.adaptive.items()})
 
 
