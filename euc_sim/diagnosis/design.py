@@ -66,11 +66,6 @@ def parse_effects(text: str) -> list[str]:
     return names
 
 
-def _magnitude(name: str, value: float, params: Params) -> float:
-    """|value − no effect|: the size the precision is relative to."""
-    return abs(value - fx.RECORDS.absent_value(name, params))
-
-
 def effect_estimate(recording, meta: dict, name: str, params: Params, h0: float) -> tuple[float, float]:
     """The diagnosis's estimate of one effect on one recording and its standard error, in the effect's unit.
 
@@ -151,8 +146,8 @@ def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rid
     for e in effect_names:
         vis = visibility(cols + (_LATERAL_COLUMNS if e == "lateral_dynamics" else ()))[e]
         value = nominal_magnitude(e, params)
-        table[e] = {"nominal": value, "magnitude": _magnitude(e, value, params), "unit": fx.get(e).unit,
-                    "visible": vis["visible"], "reason": vis["reason"]}
+        table[e] = {"nominal": value, "magnitude": abs(value - fx.RECORDS.absent_value(e, params)),
+                    "unit": fx.get(e).unit, "visible": vis["visible"], "reason": vis["reason"]}
     tasks = [(f"{m}/{e}", (m, e, table[e]["nominal"], rides, float(duration),
                            (int(seed), i, j), params, rider_noise, bool(with_torques)))
              for i, m in enumerate(maneuvers) for j, e in enumerate(effect_names) if table[e]["visible"]]

@@ -426,8 +426,7 @@ def identify_recordings(recs: list[Recording], bounds=(0.1, 1.5), n_boot: int = 
     Returns
     -------
     dict
-        ``{"pooled": {model: HFit}, "per_recording": [{model: HFit}, ...],
-        "polys": [{model: ResidualPoly}, ...]}``.
+        ``{"pooled": {model: HFit}, "per_recording": [{model: HFit}, ...]}``.
     """
     kw = dict(bounds=bounds, n_boot=n_boot, block=block)
     polys = [{m: residual_poly(r.kin, r.params, m) for m in MODELS} for r in recs]
@@ -460,4 +459,4 @@ def identify_recordings(recs: list[Recording], bounds=(0.1, 1.5), n_boot: int = 
                for fits, c, pp in zip(per, curves, polys)]
         pooled = ({m: widen(f, curves, [pp[m] for pp in polys]) for m, f in pooled.items()}
                   if len(recs) > 1 else per[0])
-    return {"pooled": pooled, "per_recording": per, "polys": polys}
+    return {"pooled": pooled, "per_recording": per}
