@@ -18,7 +18,7 @@ from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 from euc_sim.simulation import drift
 
-__all__ = ["WANDER_RESOLUTION", "wander_basis", "shape_profile", "candidate_shapes", "choose_shape",
+__all__ = ["WANDER_RESOLUTION", "wander_basis", "shape_profile", "choose_shape",
            "drift_columns", "drift_curve", "peak_to_peak", "unit_shape_limit", "drift_windows",
            "blind_windows"]
 
@@ -86,16 +86,6 @@ def shape_profile(shape: dict, t: np.ndarray, derivative: int = 0) -> np.ndarray
     return g[:, None]
 
 
-def candidate_shapes(t0: float, t1: float) -> list[dict]:
-    """The shapes scanned: ramps and dips of every start and length, the sine, a wander."""
-    out = [{"kind": "sine"}, {"kind": "smooth", "span": (t0, t1)}]
-    for kind in ("ramp", "dip"):
-        for L in SHAPE_LENGTHS:
-            for s in np.arange(t0, t1 - L + 1e-9, START_STEP):
-                out.append({"kind": kind, "start": float(s), "length": float(L)})
-    return out
-
-
 def choose_shape(t: np.ndarray, y: np.ndarray, drdh: np.ndarray, n_eff: float,
                  given: np.ndarray | None = None) -> dict:
     """The shape whose first-order term −∂r/∂h·g(t) best explains ``y`` with h free, by BIC with ``n_eff``.
@@ -110,7 +100,7 @@ def choose_shape(t: np.ndarray, y: np.ndarray, drdh: np.ndarray, n_eff: float,
     y_r = y - Qb @ (Qb.T @ y)
     yy = float(y_r @ y_r)
     best, best_crit = None, np.inf
-    for shape in candidate_shapes(t0, t1)[:2]:          # the sine and the wander: groups of columns
+    for shape in ({"kind": "sine"}, {"kind": "smooth", "span": (t0, t1)}):     # groups of columns
         G = -drdh[:, None] * shape_profile(shape, t)
         G_r = G - Qb @ (Qb.T @ G)
         coef, *_ = np.linalg.lstsq(G_r, y_r, rcond=None)

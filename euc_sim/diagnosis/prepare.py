@@ -220,10 +220,7 @@ def _raw_channels(df: pd.DataFrame) -> dict[str, np.ndarray]:
     """Unsmoothed x, γ, φ for the noise estimate (motion capture: φ the lean of C→G in the heading plane, x as C_X)."""
     out = {}
     base = "C" if {"C_X", "C_Y", "C_Z"} <= set(df.columns) else "E"
-    if "x" in df.columns:
-        out["x"] = df["x"].to_numpy(float)
-    else:
-        out["x"] = df[f"{base}_X"].to_numpy(float)
+    out["x"] = df["x" if "x" in df.columns else f"{base}_X"].to_numpy(float)
     out["gamma"] = df["gamma"].to_numpy(float)
     if "phi" in df.columns:
         out["phi"] = df["phi"].to_numpy(float)

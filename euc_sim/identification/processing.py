@@ -244,18 +244,16 @@ def mocap_state(df: pd.DataFrame, p: Params, smoothing: Smoothing, d_CE: float |
     theta, _, _ = savgol_derivatives(ang["theta"], dt, w, o)
     G0 = savgol_derivatives(G, dt, w, o, axis=0)[0]
     r_CG = moving_frame(G0 - C0, psi, theta)                                  # eq. (1)
-    gamma_raw = ang["gamma"]
+    gam = savgol_derivatives(ang["gamma"], dt, w, o)
     if phi_from == "C":
         phi_raw = np.arctan2(r_CG[:, 0], r_CG[:, 2])                           # eq. (3)
     else:
-        g0 = savgol_derivatives(gamma_raw, dt, w, o)[0]
-        phi_raw = np.arctan2(r_CG[:, 0] + p.l0 * np.sin(g0), r_CG[:, 2] + p.l0 * np.cos(g0))
+        phi_raw = np.arctan2(r_CG[:, 0] + p.l0 * np.sin(gam[0]), r_CG[:, 2] + p.l0 * np.cos(gam[0]))
     v_C = moving_frame(C1, psi, theta)                                        # v_Cx
     a_C = moving_frame(C2, psi, theta)                                        # a_Cx
     from scipy.integrate import cumulative_trapezoid
 
     x = cumulative_trapezoid(v_C[:, 0], t, initial=0.0)
-    gam = savgol_derivatives(gamma_raw, dt, w, o)
     phi = savgol_derivatives(phi_raw, dt, w, o)
     q = np.column_stack([x, gam[0], phi[0]])
     qd = np.column_stack([v_C[:, 0], gam[1], phi[1]])
