@@ -281,20 +281,13 @@ def read_recording(path: str | Path) -> tuple[pd.DataFrame, dict[str, Any]]:
     if not path.is_file():
         raise FileNotFoundError(f"{name}: no such recording")
     suffix = path.suffix.lower()
+    if suffix not in (".parquet", ".pq", ".csv", ".txt", ""):
+        raise RecordingError(f"{name}: unknown recording format {suffix!r}; expected .csv or .parquet")
     try:
-        if suffix in (".parquet", ".pq"):
-            df = pd.read_parquet(path)
-        elif suffix in (".csv", ".txt", ""):
-            df = pd.read_csv(path)
-        else:
-            raise RecordingError(f"{name}: unknown recording format {suffix!r}; expected .csv or .parquet")
-    except RecordingError:
-        raise
+        df = pd.read_parquet(path) if suffix in (".parquet", ".pq") else pd.read_csv(path)
     except (ValueError, OSError, pd.errors.ParserError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise RecordingError(f"{name}: cannot read as {suffix.lstrip('.') or 'csv'}: {msg}") from None
     df.columns = [str(c).strip() for c in df.columns]
     df = validate_recording(df, name)
-    meta = read_sidecar(path)
-    meta = dict(meta, path=name)
-    return df, meta
+    return df, dict(read_sidecar(path), path=name)
