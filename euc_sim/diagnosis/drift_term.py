@@ -160,14 +160,10 @@ def drift_columns(prep: Prepared, p: Params, h0: float, drdh: np.ndarray, has_w:
     return np.column_stack(cols)
 
 
-def drift_curve(t: np.ndarray, shape: dict, theta: np.ndarray,
-                cov: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-    """Δh(t) (m) and, with θ's covariance, its standard error at each time (m)."""
+def drift_curve(t: np.ndarray, shape: dict, theta: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Δh(t) (m) and, from θ's covariance, its standard error at each time (m)."""
     B = shape_profile(shape, t)
-    dh = B @ theta
-    if cov is None:
-        return dh, None
-    return dh, np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", B, cov, B), 0.0))
+    return B @ theta, np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", B, cov, B), 0.0))
 
 
 def peak_to_peak(shape: dict, span: tuple, theta: np.ndarray, cov: np.ndarray) -> tuple[float, float]:

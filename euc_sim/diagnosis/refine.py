@@ -18,7 +18,7 @@ from euc_sim.simulation import effects
 __all__ = ["refine", "relinearised", "Final", "final_model"]
 
 
-def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: float, given=None):
+def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: float, given):
     """Estimate nonlinear effects (time offset, rider mass) by a 1-D search each over the value itself, h and the
     linear effects profiled out.
 
@@ -132,16 +132,15 @@ class Final:
     cv: float
 
 
-def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress=None, given=None) -> Final:
-    """The selection ``s``'s model, its nonlinear effects refined; ``given``: columns fitted beside every set, or
-    None."""
+def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress, given=None) -> Final:
+    """The selection ``s``'s model, its nonlinear effects refined (``progress`` told); ``given``: columns fitted
+    beside every set, or None."""
     selected = tuple(s.selected)
     estimates = {c: info[c]["offset"] + info[c]["scale"] * float(s.fit.theta[c][0])
                  for c in selected if not info[c].get("drift")}
     prob_f, info_f, fit_f, slopes = problem, info, s.fit, {}
     if any(c in selected for c in NONLINEAR):
-        if progress:
-            progress("4/6 refine: 1-D search of the nonlinear estimates")
+        progress("4/6 refine: 1-D search of the nonlinear estimates")
         _, prob_f, info_f, fit_f, slopes = refine(prep, problem, selected, estimates, s.fit.h, given)
     cov_f, dof_f = reg.covariance(prob_f, fit_f)
     cv = reg.heldout_rmse(prob_f, selected) if selected else s.cv_nominal

@@ -211,13 +211,13 @@ def _split_theta(problem: Problem, names: Sequence[str], theta: np.ndarray) -> d
     return out
 
 
-def fit_set(problem: Problem, names: Sequence[str], idx: np.ndarray | None = None) -> Fit:
-    """Fit the candidate set ``names`` (may be empty) jointly with h, on samples ``idx`` (default all)."""
+def fit_set(problem: Problem, names: Sequence[str]) -> Fit:
+    """Fit the candidate set ``names`` (may be empty) jointly with h, on all samples."""
     names = tuple(names)
     unknown = [c for c in names if c not in problem.candidates]
     if unknown:
         raise SelectionError(f"unknown candidate {unknown[0]!r}; expected one of {', '.join(problem.candidates)}")
-    idx = np.arange(problem.n) if idx is None else np.asarray(idx)
+    idx = np.arange(problem.n)
     X = problem.design(names)
     h, theta, rss = _profile(problem, X, idx)
     return Fit(names, h, _split_theta(problem, names, theta), rss, int(idx.size))

@@ -125,11 +125,10 @@ def forward_select(problem: Problem, *, min_bic_drop: float = 10.0, min_cv_gain:
             if not reasons:
                 accepted, chosen, best = True, d["name"], d
                 break
+            refused.append(f"{d['name']}: " + "; ".join(reasons))
             if d["bic"] > cur_bic - min_bic_drop or d.get("cv_gain", 0.0) < min_cv_gain:
                 chosen, best = d["name"], d          # the best plausible one is not good enough
-                refused.append(f"{d['name']}: " + "; ".join(reasons))
-                break
-            refused.append(f"{d['name']}: " + "; ".join(reasons))   # refused on physics: try the next
+                break                                # (else refused on physics: try the next)
         reason = "accepted" + (f" (refused before it: {' | '.join(refused)})" if refused else "") \
             if accepted else " | ".join(refused) or reason
         if not accepted and pairs and len(current) + 2 <= MAX_TERMS:
