@@ -292,7 +292,7 @@ def part2(run, params, truth_inputs: bool, truth_q: bool = False, wheel_row: boo
     rec = spatial_recording(run, noise="none", seed=0, hide_torques=not wheel_row)
     prep = prepare(rec, params.replace(h=0.6), {"name": "ablation"})
     if truth_inputs:
-        t = prep.t
+        t = prep.kin.t
         ts = run["t"].to_numpy()
         tr = {"theta": run["theta"].to_numpy(), "theta_d": run["theta_dot"].to_numpy(),
               "psi_d": run["psi_dot"].to_numpy()}
@@ -304,10 +304,10 @@ def part2(run, params, truth_inputs: bool, truth_q: bool = False, wheel_row: boo
         ts = run["t"].to_numpy()
         qs = run[["x", "gamma", "phi"]].to_numpy()
         qds = run[["x_dot", "gamma_dot", "phi_dot"]].to_numpy()
-        at = lambda a: np.column_stack([np.interp(prep.t, ts, a[:, i]) for i in range(3)])   # noqa: E731
+        at = lambda a: np.column_stack([np.interp(prep.kin.t, ts, a[:, i]) for i in range(3)])   # noqa: E731
         prep = prep.with_kin(at(qs), at(qds), at(np.gradient(qds, ts, axis=0)))
     model = residual_model(prep)
-    time_ = np.concatenate([prep.t[prep.keep]] * (2 if model.W is not None else 1))
+    time_ = np.concatenate([prep.kin.t[prep.keep]] * (2 if model.W is not None else 1))
     h = reg.fit_set(reg.Problem(model, {}, time_, H_BOUNDS), ()).h
     for _ in range(4):                          # columns at the augmented h, as diagnose does
         problem, info = build_problem(prep, h)

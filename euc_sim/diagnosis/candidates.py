@@ -46,23 +46,22 @@ def visibility(columns) -> dict[str, dict]:
 
 
 # --- the candidate library ---------------------------------------------------------------
-def _force_columns(name: str, prep: Prepared, p: Params, h: float) -> tuple[np.ndarray, np.ndarray]:
-    """(kinematic, wheel-row) columns of a force effect per unit estimate: κ(q)·F[R Q_e,x + Q_e,γ + Q_e,φ] and F[R
-    Q_e,x], F the term filter."""
+def _force_column(name: str, prep: Prepared, p: Params, h: float, has_w: bool) -> np.ndarray:
+    """The stacked column of a force effect per unit estimate: κ(q)·F[R Q_e,x + Q_e,γ + Q_e,φ], then with M_d
+    (``has_w``) F[R Q_e,x], F the term filter."""
     ph = p.replace(h=h)
     kin = prep.kin
     ref = effects.get(name).ref        # the column's reference magnitude (linear forces: exact)
     Q = effects.generalized_force(name, ref, ph, kin.q, kin.qd, prep.lateral) / ref
-    kappa = analytic.residual_gain(ph, kin.q[prep.keep])
-    return kappa * prep.filtered(analytic.moment_about_contact(ph, Q)), p.R * prep.filtered(Q[:, 0])
+    col = analytic.residual_gain(ph, kin.q[prep.keep]) * prep.filtered(analytic.moment_about_contact(ph, Q))
+    return np.concatenate([col, p.R * prep.filtered(Q[:, 0])]) if has_w else col
 
 
-def _sensitivity(prep: Prepared, p: Params, h: float, vary: Callable[[float], tuple],
-                 sigma: float | None) -> np.ndarray:
+def _sensitivity(prep: Prepared, p: Params, h: float, vary: Callable[[float], tuple]) -> np.ndarray:
     """Central difference of the stacked residual for a perturbed (params, prep)."""
     pa, pra = vary(-1.0)
     pb, prb = vary(1.0)
-    return (residual_model(prb, pb, sigma)(h) - residual_model(pra, pa, sigma)(h)) / 2.0
+    return (residual_model(prb, pb)(h) - residual_model(pra, pa)(h)) / 2.0
 
 
 def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[reg.Problem, dict]:
@@ -88,11 +87,10 @@ def build_problem(prep: Prepared, h0: float, p: Params | None = None) -> tuple[r
     more, more_info = _parameter_candidates(prep, p, h0, vis, has_w)
     cands.update(more)
     info.update(more_info)
-    t = prep.t[prep.keep]
-    time = np.concatenate([t, t]) if has_w else t
-    validity = validity_rules(p, (float(prep.t[0]), float(prep.t[-1])), info.get("cog_height_drift", {}).get("drift"))
+    time = prep.stacked_time(has_w)
+    validity = validity_rules(p, (float(prep.kin.t[0]), float(prep.kin.t[-1])), info.get("cog_height_drift", {}).get("drift"))
     drift_shape = info.get("cog_height_drift", {}).get("drift") or {}
-    span = (float(prep.t[0]), float(prep.t[-1]))
+    span = (float(prep.kin.t[0]), float(prep.kin.t[-1]))
     fixed = {c: v for c, v in cands.items() if c != "cog_height_drift"}
     adaptive = {"cog_height_drift": DriftGiven(prep, p, h0, fixed, span)} if "cog_height_drift" in cands else {}
     problem = reg.Problem(target=model, candidates=cands, time=time, bounds=H_BOUNDS,
@@ -109,8 +107,7 @@ def _force_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w: bo
     for name in (e.name for e in effects.CATALOG.values() if e.force is not None):
         if not vis[name]["visible"]:
             continue
-        kin, wh = _force_columns(name, prep, p, h0)
-        col = np.concatenate([kin, wh]) if has_w else kin
+        col = _force_column(name, prep, p, h0, has_w)
         if not np.any(np.abs(col) > 1e-9):
             continue
         cands[name] = col
@@ -140,9 +137,8 @@ def _lateral_info(prep: Prepared, p: Params, h0: float, col: np.ndarray, has_w: 
     gains, labels = [1.0], ["column"]
     for w in (LATERAL_WINDOW / 2, LATERAL_WINDOW * 2):
         labels.append(f"window {w:g} s")
-        alt = replace(prep, lateral=lateral_inputs(df, prep.kin.q[:, 1], p.l0, dt, w, q=prep.kin.q, R=p.R))
-        kin, wh = _force_columns("lateral_dynamics", alt, p, h0)
-        c_w = np.concatenate([kin, wh]) if has_w else kin
+        alt = replace(prep, lateral=lateral_inputs(df, prep.kin.q, p, dt, w))
+        c_w = _force_column("lateral_dynamics", alt, p, h0, has_w)
         gains.append(float(c_w @ col / (c_w @ c_w)))
     if prep.lateral.get("lean") is not None:      # the slender rider's upright term added
         lat, q = prep.lateral, prep.kin.q
@@ -185,32 +181,27 @@ def _parameter_candidates(prep: Prepared, p: Params, h0: float, vis: dict, has_w
         return effects.apply_to_params(p, "rider_mass", p.m + s * dm), prep
 
     if vis["rider_mass"]["visible"]:
-        # visible only with M_d (see visibility): the wheel row sees m_11 ẍ plainly; the
-        # kinematic row's sensitivity to m is mostly the noise's, so the term is the
-        # wheel row's alone
-        col = -_sensitivity(prep, p, h0, vary_m, None) / dm
+        # the wheel row's alone (build_problem's Notes)
+        col = -_sensitivity(prep, p, h0, vary_m) / dm
         col[:k.size] = 0.0
         cands["rider_mass"] = col
         info["rider_mass"] = {"scale": 1.0, "offset": p.m}
     # time offset of the rider channel: φ_rec(t) = φ(t − τ) ⇒ r(0) ≈ −∂r/∂τ · τ
-    # (the plain filter here: a shift does not scale the noise)
     dtau = 0.005
 
     def vary_tau(s):
         return p, prep.shifted(s * dtau)
 
-    cands["sensor_time_offset"] = -_sensitivity(prep, p, h0, vary_tau, None) / dtau
+    cands["sensor_time_offset"] = -_sensitivity(prep, p, h0, vary_tau) / dtau
     info["sensor_time_offset"] = {"scale": 1.0, "offset": 0.0}
     # h drift of any smooth shape: splines of Δh(t), with the ḣ terms (drift_term)
-    dh = 1e-4
     model = residual_model(prep, p)
-    drdh = (model(h0 + dh) - model(h0 - dh)) / (2 * dh)
-    t = prep.t[k]
-    time = np.concatenate([t, t]) if has_w else t
+    drdh = model.slope(h0)
+    time = prep.stacked_time(has_w)
     shape = drift_term.choose_shape(time, model(h0), drdh, max(time.size / 10.0, 5.0))
     cands["cog_height_drift"] = drift_term.drift_columns(prep, p, h0, drdh, has_w, shape)
     info["cog_height_drift"] = {"scale": 1.0, "offset": 0.0, "drift": shape,
-                                "span": (float(prep.t[0]), float(prep.t[-1]))}
+                                "span": (float(prep.kin.t[0]), float(prep.kin.t[-1]))}
     return cands, info
 
 
@@ -225,12 +216,10 @@ class DriftGiven:
     def __init__(self, prep: Prepared, p: Params, h0: float, cands: dict, span: tuple):
         self.prep, self.p, self.h0, self.cands, self.span = prep, p, h0, cands, span
         model = residual_model(prep, p)
-        dh = 1e-4
-        self.drdh = (model(h0 + dh) - model(h0 - dh)) / (2 * dh)
+        self.drdh = model.slope(h0)
         self.y = model(h0)
         self.has_w = model.W is not None
-        t = prep.t[prep.keep]
-        self.time = np.concatenate([t, t]) if self.has_w else t
+        self.time = prep.stacked_time(self.has_w)
         self._cache: dict = {}
 
     def shape(self, others: tuple) -> dict:

@@ -1,7 +1,7 @@
 """Experiment design for the catalog effects: how precisely each maneuver measures each one.
 
 For each maneuver and effect, R recordings are simulated with the effect at
-:func:`nominal_magnitude` and the paper's sensor noise (times a scale), and fitted as the
+:func:`nominal_magnitude` and the paper's sensor noise, and fitted as the
 diagnosis would (nominal model plus that effect's term, jointly with h): ``sd`` is the
 spread of the R estimates, ``bias`` their mean minus the truth, ``sd_cov`` the root mean of
 the predicted variances (the diagnosis's cluster covariance).  Recordings needed:
@@ -24,7 +24,7 @@ from euc_sim.diagnosis.estimates import estimate_of, sub_cov
 from euc_sim.diagnosis.prepare import prepare
 from euc_sim.errors import InputError
 from euc_sim.identification import regression as reg
-from euc_sim.identification.design import DESIGN_MANEUVERS
+from euc_sim.identification.design import check_maneuvers, check_rides, recordings_needed
 from euc_sim.model.parameters import Params, TABLE3
 from euc_sim.simulation import effects as fx
 from euc_sim.simulation.dataset import RecordingSpec, simulated_recordings
@@ -39,8 +39,6 @@ __all__ = ["nominal_magnitude", "effect_estimate", "effect_study", "effects_desi
 
 #: Target standard deviations as fractions of the effect's magnitude.
 RELATIVE_TARGETS = (0.25, 0.1)
-#: Cluster length of the diagnosis's covariance, s (as its detection limits).
-CLUSTER = 2.0
 #: Columns of a recording with (without) the torques, for the visibility rules.
 _COLUMNS = ("t", "x", "gamma", "phi")
 #: The design's maneuvers are planar: the lateral effect's tilt and yaw come from its
@@ -68,11 +66,6 @@ def parse_effects(text: str) -> list[str]:
     return names
 
 
-def _magnitude(name: str, value: float, params: Params) -> float:
-    """|value − no effect|: the size the precision is relative to."""
-    return abs(value - fx.RECORDS.absent_value(name, params))
-
-
 def effect_estimate(recording, meta: dict, name: str, params: Params, h0: float) -> tuple[float, float]:
     """The diagnosis's estimate of one effect on one recording and its standard error, in the effect's unit.
 
@@ -85,7 +78,7 @@ def effect_estimate(recording, meta: dict, name: str, params: Params, h0: float)
         raise InputError(f"effect {name!r}: not a candidate of this recording "
                          f"(candidates: {', '.join(problem.candidates)})")
     fit = reg.fit_set(problem, (name,))
-    cov, dof = reg.covariance(problem, fit, cluster=CLUSTER)
+    cov, dof = reg.covariance(problem, fit)
     est, _, se = estimate_of(info[name], fit.theta[name], sub_cov(problem, (name,), cov, name), dof)
     return float(est), float(se)
 
@@ -93,13 +86,12 @@ def effect_estimate(recording, meta: dict, name: str, params: Params, h0: float)
 def effect_study(args) -> dict:
     """One (maneuver, effect) task of :func:`effects_design`: ``estimates`` and ``se`` per ride that did not fall,
     and ``fell``."""
-    name, effect, value, rides, duration, scale, (seed, i, j), p, rider_noise, with_torques = args
+    name, effect, value, rides, duration, (seed, i, j), p, rider_noise, with_torques = args
     seeds = [int(c.generate_state(1)[0])
              for c in np.random.SeedSequence(seed, spawn_key=(1, i, j)).spawn(rides)]
     rider = default_rider(true_params(p, {effect: value}), noise_std=rider_noise)   # he knows his weight
-    sig_pos, sig_ang = NOISE_LEVELS["paper"]
     specs = [RecordingSpec(f"{name}-{effect}-{s}", make_maneuver(name), duration, s, params=p,
-                           effects=((effect, value),), noise=(scale * sig_pos, scale * sig_ang),
+                           effects=((effect, value),), noise=NOISE_LEVELS["paper"],
                            hide_torques=not with_torques, rider=rider) for s in seeds]
     est, ses, fell = [], [], 0
     for made in simulated_recordings(specs):        # the R rides as one MuJoCo batch
@@ -115,12 +107,8 @@ def effect_study(args) -> dict:
     return {"estimates": est, "se": ses, "fell": fell}
 
 
-def _recordings(sd: float, magnitude: float, fraction: float) -> int:
-    return max(1, int(math.ceil((sd / (fraction * magnitude)) ** 2)))
-
-
 def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rides: int = 10,
-                   duration: float = 15.0, noise_scale: float = 1.0, seed: int = 0,
+                   duration: float = 15.0, seed: int = 0,
                    params: Params = TABLE3, rider_noise: float = 3.0, with_torques: bool = False,
                    scheduler: str | None = None, workers: int | None = None,
                    progress: bool = True) -> dict:
@@ -135,8 +123,6 @@ def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rid
         Recordings per (maneuver, effect), at least 3.
     duration : float
         Length of each recording, s.
-    noise_scale : float
-        Sensor noise as a multiple of the paper's.
     seed : int
     params : Params
         Nominal parameters (h: the truth).
@@ -154,15 +140,15 @@ def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rid
         ``by_maneuver`` (maneuver → effect → ``sd``, ``sd_cov``, ``bias``, ``recordings_for``,
         ``recordings_to_detect``, ``rides``, ``fell``), ``best`` and the settings.
     """
-    _check(maneuvers, effect_names, rides, duration, noise_scale, DESIGN_MANEUVERS)
+    _check(maneuvers, effect_names, rides, duration)
     cols = _COLUMNS + (("M_d", "M_h") if with_torques else ())
     table = {}
     for e in effect_names:
         vis = visibility(cols + (_LATERAL_COLUMNS if e == "lateral_dynamics" else ()))[e]
         value = nominal_magnitude(e, params)
-        table[e] = {"nominal": value, "magnitude": _magnitude(e, value, params), "unit": fx.get(e).unit,
-                    "visible": vis["visible"], "reason": vis["reason"]}
-    tasks = [(f"{m}/{e}", (m, e, table[e]["nominal"], rides, float(duration), float(noise_scale),
+        table[e] = {"nominal": value, "magnitude": abs(value - fx.RECORDS.absent_value(e, params)),
+                    "unit": fx.get(e).unit, "visible": vis["visible"], "reason": vis["reason"]}
+    tasks = [(f"{m}/{e}", (m, e, table[e]["nominal"], rides, float(duration),
                            (int(seed), i, j), params, rider_noise, bool(with_torques)))
              for i, m in enumerate(maneuvers) for j, e in enumerate(effect_names) if table[e]["visible"]]
     rep = run_tasks(effect_study, tasks, scheduler=scheduler, workers=workers, progress=progress,
@@ -181,7 +167,7 @@ def effects_design(maneuvers: Sequence[str], effect_names: Sequence[str], *, rid
         if scored:
             best[e] = min(scored)[1]
     return {"effects": table, "by_maneuver": by_maneuver, "best": best, "rides": rides,
-            "duration": float(duration), "noise_scale": float(noise_scale), "with_torques": bool(with_torques),
+            "duration": float(duration), "noise_scale": 1.0, "with_torques": bool(with_torques),
             "min_t": THRESHOLDS.min_t, "relative_targets": list(RELATIVE_TARGETS), "seed": int(seed)}
 
 
@@ -196,23 +182,15 @@ def _summary(res: dict, entry: dict, effect: str, rides: int) -> dict:
     sd = float(np.std(est, ddof=1))
     a = entry["magnitude"]
     out.update({"sd": sd, "sd_cov": float(np.sqrt(np.mean(se ** 2))), "bias": float(np.mean(est) - entry["nominal"]),
-                "recordings_for": {f"{f:g}": _recordings(sd, a, f) for f in RELATIVE_TARGETS},
-                "recordings_to_detect": _recordings(sd, a, 1.0 / THRESHOLDS.min_t)})
+                "recordings_for": {f"{f:g}": recordings_needed(sd, f * a) for f in RELATIVE_TARGETS},
+                "recordings_to_detect": recordings_needed(sd, 1.0 / THRESHOLDS.min_t * a)})
     return out
 
 
-def _check(maneuvers, effect_names, rides, duration, noise_scale, valid_maneuvers) -> None:
-    bad = [m for m in maneuvers if m not in valid_maneuvers]
-    if not maneuvers or bad:
-        raise InputError(f"--maneuvers: unknown {', '.join(bad) or '(none given)'}; "
-                         f"valid: {', '.join(valid_maneuvers)}")
+def _check(maneuvers, effect_names, rides, duration) -> None:
+    check_maneuvers(maneuvers)
     parse_effects(",".join(effect_names))
-    if not (isinstance(rides, int) and rides >= 3):
-        raise InputError(f"--effect-rides must be an integer of at least 3, got {rides!r}")
-    if not (math.isfinite(duration) and duration >= 5.0):
-        raise InputError(f"--duration must be at least 5 s (the fit's filters need it), got {duration!r}")
-    if not (math.isfinite(noise_scale) and noise_scale > 0):
-        raise InputError(f"noise_scale must be positive, got {noise_scale!r}")
+    check_rides(rides, duration, "--effect-rides")
 
 
 def effects_design_figure(result: dict):

@@ -18,7 +18,7 @@ from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 from euc_sim.simulation import drift
 
-__all__ = ["WANDER_RESOLUTION", "wander_basis", "shape_profile", "candidate_shapes", "choose_shape",
+__all__ = ["WANDER_RESOLUTION", "wander_basis", "shape_profile", "choose_shape",
            "drift_columns", "drift_curve", "peak_to_peak", "unit_shape_limit", "drift_windows",
            "blind_windows"]
 
@@ -74,27 +74,16 @@ def shape_profile(shape: dict, t: np.ndarray, derivative: int = 0) -> np.ndarray
             base = [-w * w * np.sin(w * t), -w * w * np.cos(w * t)]
         return 0.5 * np.column_stack(base)
     L = shape["length"]
+    if derivative == 0:
+        return _unit_profiles(kind, L, np.array([shape["start"]], float), t)
     u = (t - shape["start"]) / L
     inside = (u > 0.0) & (u < 1.0)
     f = np.pi if kind == "ramp" else 2.0 * np.pi
-    if derivative == 0:
-        g = 0.5 * (1.0 - np.cos(f * np.clip(u, 0.0, 1.0)))
-        g = g if kind == "ramp" else np.where(inside, g, 0.0)
-    elif derivative == 1:
+    if derivative == 1:
         g = np.where(inside, 0.5 * f / L * np.sin(f * u), 0.0)
     else:
         g = np.where(inside, 0.5 * (f / L) ** 2 * np.cos(f * u), 0.0)
     return g[:, None]
-
-
-def candidate_shapes(t0: float, t1: float) -> list[dict]:
-    """The shapes scanned: ramps and dips of every start and length, the sine, a wander."""
-    out = [{"kind": "sine"}, {"kind": "smooth", "span": (t0, t1)}]
-    for kind in ("ramp", "dip"):
-        for L in SHAPE_LENGTHS:
-            for s in np.arange(t0, t1 - L + 1e-9, START_STEP):
-                out.append({"kind": kind, "start": float(s), "length": float(L)})
-    return out
 
 
 def choose_shape(t: np.ndarray, y: np.ndarray, drdh: np.ndarray, n_eff: float,
@@ -111,7 +100,7 @@ def choose_shape(t: np.ndarray, y: np.ndarray, drdh: np.ndarray, n_eff: float,
     y_r = y - Qb @ (Qb.T @ y)
     yy = float(y_r @ y_r)
     best, best_crit = None, np.inf
-    for shape in candidate_shapes(t0, t1)[:2]:          # the sine and the wander: groups of columns
+    for shape in ({"kind": "sine"}, {"kind": "smooth", "span": (t0, t1)}):     # groups of columns
         G = -drdh[:, None] * shape_profile(shape, t)
         G_r = G - Qb @ (Qb.T @ G)
         coef, *_ = np.linalg.lstsq(G_r, y_r, rcond=None)
@@ -171,14 +160,10 @@ def drift_columns(prep: Prepared, p: Params, h0: float, drdh: np.ndarray, has_w:
     return np.column_stack(cols)
 
 
-def drift_curve(t: np.ndarray, shape: dict, theta: np.ndarray,
-                cov: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray | None]:
-    """Δh(t) (m) and, with θ's covariance, its standard error at each time (m)."""
+def drift_curve(t: np.ndarray, shape: dict, theta: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Δh(t) (m) and, from θ's covariance, its standard error at each time (m)."""
     B = shape_profile(shape, t)
-    dh = B @ theta
-    if cov is None:
-        return dh, None
-    return dh, np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", B, cov, B), 0.0))
+    return B @ theta, np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", B, cov, B), 0.0))
 
 
 def peak_to_peak(shape: dict, span: tuple, theta: np.ndarray, cov: np.ndarray) -> tuple[float, float]:

@@ -7,10 +7,9 @@ import math
 import numpy as np
 
 from euc_sim.diagnosis import drift_term
-from euc_sim.diagnosis.common import NONLINEAR, plausible_range
+from euc_sim.diagnosis.common import NONLINEAR, THRESHOLDS, plausible_range
 from euc_sim.identification import regression as reg
 from euc_sim.identification import selection as sel
-from euc_sim.model.parameters import Params
 from euc_sim.simulation import effects
 
 __all__ = ["estimate_of", "coupling_of", "sub_cov", "is_plausible", "alias_estimates", "plausible_alias", "evidence", "effect_items",
@@ -57,7 +56,7 @@ def sub_cov(problem: reg.Problem, names, cov: np.ndarray, name: str) -> np.ndarr
     raise KeyError(name)
 
 
-def is_plausible(name: str, est: float, p: Params) -> bool:
+def is_plausible(name: str, est: float) -> bool:
     """Whether an estimate lies in the catalog's plausible range (|α| for the slope)."""
     e = effects.get(name)
     lo, hi = e.plausible
@@ -82,16 +81,16 @@ def alias_estimates(problem: reg.Problem, selected, name: str, aliases, info: di
         if info[a].get("drift") or a in NONLINEAR or problem.candidates[a].shape[1] != 1:
             continue
         f = reg.fit_set(problem, without + (a,))
-        cov, _ = reg.covariance(problem, f, cluster=2.0)
+        cov, _ = reg.covariance(problem, f)
         est, ci, se = estimate_of(info[a], f.theta[a], sub_cov(problem, without + (a,), cov, a), dof)
         out[a] = {"estimate": est, "unit": effects.get(a).unit, "ci95": ci,
                   "t": abs(est) / se if se > 0 else float("inf"), "rss": f.rss}
     return out
 
 
-def plausible_alias(swapped: dict, p: Params):
+def plausible_alias(swapped: dict):
     """The best-fitting alias (of :func:`alias_estimates`) whose estimate is plausible, or None."""
-    ok = [(v["rss"], a) for a, v in swapped.items() if is_plausible(a, v["estimate"], p)]
+    ok = [(v["rss"], a) for a, v in swapped.items() if is_plausible(a, v["estimate"])]
     if not ok:
         return None
     a = min(ok)[1]
@@ -111,9 +110,8 @@ def evidence(name: str, est: float, unit: str, before: float, after: float, t_st
 
 
 
-def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, thresholds) -> list[dict]:
+def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float) -> list[dict]:
     """CONTRACT's ``effects`` list of the selected set: estimate, interval, aliases, evidence."""
-    th = thresholds
     selected = tuple(s.selected)
     out = []
     for i, c in enumerate(selected):
@@ -124,7 +122,7 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
         else:
             est, ci, se = estimate_of(fin.info[c], fin.fit.theta[c], C, fin.dof)
         aliases = sel.find_aliases(problem, selected, c, list(problem.candidates), n_eff,
-                                   max_bic=th.alias_bic, cosine=th.alias_cosine)
+                                   max_bic=THRESHOLDS.alias_bic, cosine=THRESHOLDS.alias_cosine)
         before = s.cv_nominal if i == 0 else s.cv_path[i - 1]
         after = s.cv_path[i] if i < len(selected) - 1 else fin.cv
         ref = effects.RECORDS.absent_value(c, prep.params)     # the value of "no effect"
@@ -137,8 +135,8 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
         if fin.info[c].get("sqrt"):
             item["coupling"] = coupling_of(fin.info[c], fin.fit.theta[c], C, fin.dof)
         swapped = alias_estimates(problem, selected, c, aliases, info, fin.dof)
-        if aliases and not is_plausible(c, est, prep.params):
-            swap = plausible_alias(swapped, prep.params)
+        if aliases and not is_plausible(c, est):
+            swap = plausible_alias(swapped)
             if swap is not None:
                 item = {**swap, "rmse_after": after,
                         "aliases": [c] + [a for a in aliases if a != swap["name"]]}
@@ -154,23 +152,23 @@ def effect_items(prep, problem: reg.Problem, info: dict, s, fin, n_eff: float, t
     return out
 
 
-def detection_limits(problem: reg.Problem, info: dict, s, vis: dict, thresholds) -> dict:
+def detection_limits(problem: reg.Problem, info: dict, s, vis: dict) -> dict:
     """Per effect, the smallest value this recording would name (``min_t`` × its se, the estimate's unit), against
     the plausible range; invisible ones with the reason."""
     limits = {}
     for c in problem.candidates:
         base_set = tuple(x for x in s.selected if x != c) + (c,)
         f1 = reg.fit_set(problem, base_set)
-        cov1, _ = reg.covariance(problem, f1, cluster=2.0)
+        cov1, _ = reg.covariance(problem, f1)
         C = sub_cov(problem, base_set, cov1, c)
         se_theta = float(np.sqrt(np.trace(C) / C.shape[0]))
         if info[c].get("drift"):     # the shape this recording shows (its single fit), scaled
             lim = drift_term.unit_shape_limit(info[c]["drift"], info[c]["span"], np.asarray(f1.theta[c], float),
-                                              C, thresholds.min_t)
+                                              C, THRESHOLDS.min_t)
         elif info[c].get("sqrt"):      # lateral: the coupling grows as tilt², the limit is a tilt
-            lim = info[c]["scale"] * math.sqrt(thresholds.min_t * se_theta)
+            lim = info[c]["scale"] * math.sqrt(THRESHOLDS.min_t * se_theta)
         else:
-            lim = thresholds.min_t * se_theta * abs(info[c]["scale"])
+            lim = THRESHOLDS.min_t * se_theta * abs(info[c]["scale"])
         lo, hi = plausible_range(c)
         status = ("detectable" if lim <= lo else "only large values" if lim <= hi else "not detectable")
         limits[c] = {"detectable_above": lim, "unit": effects.get(c).unit, "plausible": [lo, hi],

@@ -45,7 +45,7 @@ def plan_of(prep: Prepared) -> dict | None:
     if path not in PATHS or path == "straight" or prep.lateral is None or not set(MARKERS) <= set(prep.raw.columns):
         return None
     opts = prep.meta.get("maneuver_options") or {}
-    v = np.abs(prep.qd[:, 0])
+    v = np.abs(prep.kin.qd[:, 0])
     speed = float(opts["speed"]) if opts.get("speed") else float(np.mean(v))
     radius = None
     if path != "slalom":
@@ -151,7 +151,7 @@ def model_floor(noise_floor: float, twin_heldout: float) -> float:
     return float(math.hypot(noise_floor, twin_heldout))
 
 
-def calibrate_lateral(prep: Prepared, h: float, diagnose, draws: int | None = None) -> dict:
+def calibrate_lateral(prep: Prepared, h: float, diagnose) -> dict:
     """Ride, record and diagnose the twin of a 3-D ride.
 
     Parameters
@@ -161,8 +161,6 @@ def calibrate_lateral(prep: Prepared, h: float, diagnose, draws: int | None = No
         The fitted h with the named effects, m.
     diagnose : callable
         :func:`euc_sim.diagnosis.pipeline.diagnose` (passed in: no import cycle).
-    draws : int, optional
-        Noisy twins (default :data:`NOISE_DRAWS`; 0: the floor is the noise-free twin's).
 
     Returns
     -------
@@ -184,7 +182,7 @@ def calibrate_lateral(prep: Prepared, h: float, diagnose, draws: int | None = No
     others = {e["name"]: e["estimate"] for e in res["effects"] + res["tentative"] if e["name"] != "lateral_dynamics"}
     out = {"done": True, "plan": plan, "truth": truth, "item": items[0], "heldout": float(res["augmented_rmse"]),
            "h": float(res["h_augmented"]), "names": others}
-    out["noisy"] = noisy_twins(prep, plan, h, diagnose, NOISE_DRAWS if draws is None else draws)
+    out["noisy"] = noisy_twins(prep, plan, h, diagnose)
     return out
 
 
@@ -193,8 +191,8 @@ def _diagnose_twin(rec: pd.DataFrame, meta: dict, prep: Prepared, diagnose) -> d
                     smoothing=prep.kin.smoothing)
 
 
-def noisy_twins(prep: Prepared, plan: dict, h: float, diagnose, draws: int = NOISE_DRAWS) -> dict:
-    """Twins whose rider carries the motor noise read from the recorded M_h.
+def noisy_twins(prep: Prepared, plan: dict, h: float, diagnose) -> dict:
+    """:data:`NOISE_DRAWS` twins whose rider carries the motor noise read from the recorded M_h.
 
     Returns
     -------
@@ -204,14 +202,14 @@ def noisy_twins(prep: Prepared, plan: dict, h: float, diagnose, draws: int = NOI
         ``floor``, their RMS (None when none), N·m.
     """
     out = {"level": None, "seeds": [], "heldout": [], "failed": 0, "floor": None}
-    if "M_h" not in prep.raw.columns or draws <= 0:
+    if "M_h" not in prep.raw.columns:
         return out
     tau = default_rider(prep.params).noise_tau
     level = motor_noise_level(prep.raw["t"].to_numpy(float), prep.raw["M_h"].to_numpy(float), tau)
     if not math.isfinite(level):
         return out
     out["level"] = level
-    for k in range(draws):
+    for k in range(NOISE_DRAWS):
         seed = recording_seed(prep.raw, k)
         out["seeds"].append(seed)
         try:

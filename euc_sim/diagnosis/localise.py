@@ -30,8 +30,8 @@ def hot_windows(t: np.ndarray, hot: np.ndarray, min_len: float) -> list[list[flo
 
 
 def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
-             smooth: float = 1.0, factor: float = 2.0, min_len: float = 0.5) -> Localisation:
-    """Where the residual concentrates and what it moves with.
+             smooth: float = 1.0, min_len: float = 0.5) -> Localisation:
+    """Where the residual concentrates (its smoothed power above twice its median) and what it moves with.
 
     Parameters
     ----------
@@ -41,8 +41,6 @@ def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
         Signals to correlate with, same length.
     smooth : float
         Moving-average length of the residual's power, s.
-    factor : float
-        A window is where the smoothed power exceeds ``factor`` × its median.
     min_len : float
         Shortest window, s.
 
@@ -57,7 +55,7 @@ def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
     dt = float(np.median(np.diff(t)))
     w = max(1, int(round(smooth / dt)))
     power = np.convolve(r ** 2, np.ones(w) / w, mode="same")
-    thr = factor * max(float(np.median(power)), 1e-12)
+    thr = 2.0 * max(float(np.median(power)), 1e-12)
     windows = hot_windows(t, power > thr, min_len)
     inside = np.zeros(t.size, bool)
     for a, b in windows:
@@ -75,8 +73,8 @@ def localise(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray],
 
 def signals_of(prep: Prepared) -> dict[str, np.ndarray]:
     k = prep.keep
-    out = {"speed": prep.qd[k, 0], "acceleration": prep.qdd[k, 0], "lean_phi": prep.q[k, 2],
-           "pitch_gamma": prep.q[k, 1]}
+    out = {"speed": prep.kin.qd[k, 0], "acceleration": prep.kin.qdd[k, 0], "lean_phi": prep.kin.q[k, 2],
+           "pitch_gamma": prep.kin.q[k, 1]}
     if prep.lateral is not None:
         out["tilt_theta"] = prep.lateral["theta"][k]
         out["yaw_rate"] = prep.lateral["psi_d"][k]

@@ -28,7 +28,7 @@ import numpy as np
 
 from euc_sim.diagnosis import drift_term
 from euc_sim.diagnosis.candidates import build_problem, freeze, visibility
-from euc_sim.diagnosis.common import DiagnosisError, COLUMN_H_TOL, COLUMN_ITERATIONS, H_BOUNDS, NONLINEAR, THRESHOLDS, Thresholds
+from euc_sim.diagnosis.common import DiagnosisError, COLUMN_H_TOL, COLUMN_ITERATIONS, H_BOUNDS, NONLINEAR, THRESHOLDS
 from euc_sim.diagnosis.common import h_at_bound, heldout_over_floor
 from euc_sim.diagnosis.estimates import detection_limits, effect_items
 from euc_sim.diagnosis.lateral_calibration import (calibrate_item, calibrate_lateral, model_floor, twin_artifacts,
@@ -52,10 +52,10 @@ RELINEARISE_TOL = {"sensor_time_offset": 0.002, "rider_mass": 0.5}
 
 
 def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | None = None,
-             thresholds: Thresholds = THRESHOLDS, resimulate: bool = True, seed: int = 0,
+             resimulate: bool = True, seed: int = 0,
              smoothing=None, progress: Callable[[str], None] | None = None, calibrate: bool = True) -> dict:
     """Diagnose a recording: where the nominal model fails, which catalogued physics is missing, with estimates,
-    intervals, aliases and the improvement.
+    intervals, aliases and the improvement; decided by :data:`~euc_sim.diagnosis.common.THRESHOLDS`.
 
     Parameters
     ----------
@@ -65,7 +65,6 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
         Nominal parameters (default the sidecar's, else Table 3); h is always identified.
     meta : mapping, optional
         Metadata when ``source`` is a DataFrame.
-    thresholds : Thresholds
     resimulate : bool
         Re-simulate the maneuver with the accepted effects injected.
     seed : int
@@ -84,18 +83,17 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
         ``noise_floor``, ``decidable``, ``verdict``, ``limits``, ``history`` and more.
     """
     say = progress or (lambda s: None)
-    th = thresholds
     say("1/6 prepare: filtering and differentiating the recording")
     prep = prepare(source, params, meta, smoothing=smoothing)                       # 1 prepare
     vis = visibility(prep.raw.columns)
     model = residual_model(prep)                                                    # 2 residual
     _check_excitation(prep, model)
-    time = _stacked_time(prep, model)
+    time = prep.stacked_time(model.W is not None)
     h0 = reg.fit_set(reg.Problem(model, {}, time, H_BOUNDS), ()).h
     say(f"2/6 residual: nominal h = {h0:.3f} m; the noise floor")
     floor = noise_floor(prep, h0, seed)
     n_eff = max(time.size / floor["tau_int"], 5.0)
-    problem, info, s = _select(prep, h0, n_eff, th, say)                            # 3-4 candidates, select
+    problem, info, s = _select(prep, h0, n_eff, say)                            # 3-4 candidates, select
     say("4/6 refine: estimates and intervals")
     fin = final_model(prep, problem, info, s, say)                                  # 5 refine
     twin = None
@@ -103,28 +101,27 @@ def diagnose(source, *, params: Params | Mapping | None = None, meta: Mapping | 
         say("4/6 refine: the lateral term calibrated on a simulated twin of the ride")
         twin = calibrate_lateral(prep, fin.fit.h, diagnose)
     floor_test = model_floor(floor["rms_stacked"], twin_floor(twin)) if twin and twin["done"] else floor["rms_stacked"]
-    left = leftover(fin, tuple(s.selected), floor_test, th)                         # 6 verdict
+    left = leftover(fin, tuple(s.selected), floor_test)                         # 6 verdict
     cv_nominal, periodic = s.cv_nominal, None
-    if left["gain"] >= th.generic_gain:
+    if left["gain"] >= THRESHOLDS.generic_gain:
         # a periodic structure no candidate explains: select again with it fitted beside
         # every set, so that it masks no catalogued effect
         periodic = _periodic_columns(fin, problem.time)
         say("3/6 selection again, beside the periodic structure left")
-        problem, info, s = _select(prep, h0, n_eff, th, say, periodic)
+        problem, info, s = _select(prep, h0, n_eff, say, periodic)
         fin = final_model(prep, problem, info, s, say, periodic)
-    eff_out = effect_items(prep, problem, info, s, fin, n_eff, th)
+    eff_out = effect_items(prep, problem, info, s, fin, n_eff)
     if twin and twin["done"]:
         eff_out = [(calibrate_item(e, twin["item"], twin["truth"]) or e) if e["name"] == "lateral_dynamics" else e
                    for e in eff_out]
-    limits = detection_limits(problem, info, s, vis, th)
-    _add_blind_windows(limits, model, time, s.fit.h, floor, th)
+    limits = detection_limits(problem, info, s, vis)
+    _add_blind_windows(limits, model, time, s.fit.h, floor)
     say("5/6 verdict: detection limits, testing what is left")
-    decision = judge(eff_out, cv_nominal, fin, limits, vis, left, model.W is not None, th,
-                     beside_structure=periodic is not None)
+    decision = judge(eff_out, cv_nominal, fin, limits, vis, left, beside_structure=periodic is not None)
     if twin and twin["done"]:
         twin_artifacts(decision, twin)
     reported = _reported_model(problem, s, fin, decision)
-    result = _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limits, vis, left, th)
+    result = _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limits, vis, left)
     if twin is not None:
         result["lateral_calibration"] = _twin_summary(twin, floor["rms_stacked"], floor_test)
     if periodic is not None:       # held-out RMSEs of the recording itself, the structure not removed
@@ -153,24 +150,18 @@ def _twin_summary(twin: dict, noise_floor: float, floor_test: float) -> dict:
             "unexplained_floor": floor_test, "rider_noise": twin.get("noisy")}
 
 
-def _stacked_time(prep: Prepared, model: ResidualModel) -> np.ndarray:
-    """Time of each residual sample, s: the kinematic row, then the wheel row with M_d."""
-    t = prep.t[prep.keep]
-    return np.concatenate([t, t]) if model.W is not None else t
-
-
 def _check_excitation(prep: Prepared, model: ResidualModel) -> None:
     """Refuse (DiagnosisError) a recording whose residual is zero at every h: nothing to select on."""
     lo, hi = H_BOUNDS
     rms = max(float(np.sqrt(np.mean(model(h) ** 2))) for h in (lo, 0.5 * (lo + hi), hi))
     if rms < 1e-9:
-        ptp = ", ".join(f"{c} {np.ptp(prep.q[:, i]):.2g}" for i, c in enumerate(("x", "γ", "φ")))
+        ptp = ", ".join(f"{c} {np.ptp(prep.kin.q[:, i]):.2g}" for i, c in enumerate(("x", "γ", "φ")))
         raise DiagnosisError(f"{prep.name}: too little excitation to diagnose anything: the residual "
                              f"M_d,1 − M_d,2 is zero at every h (range over the recording: {ptp}; "
                              "a motionless recording)")
 
 
-def _nonlinear_hint(problem: reg.Problem, info: dict, s, n_eff: float, th: Thresholds) -> dict | None:
+def _nonlinear_hint(problem: reg.Problem, info: dict, s, n_eff: float) -> dict | None:
     """``{name: value}`` of a rider mass or time offset the last step refused though it dropped the BIC by
     ``min_bic_drop`` (its linear column is poor far from nominal); None otherwise."""
     last = s.history[-1]
@@ -180,7 +171,7 @@ def _nonlinear_hint(problem: reg.Problem, info: dict, s, n_eff: float, th: Thres
     best = None
     for d in last.trials:
         c = d.get("name")
-        if c in NONLINEAR and base - d["bic"] >= th.min_bic_drop and (best is None or d["bic"] < best[0]):
+        if c in NONLINEAR and base - d["bic"] >= THRESHOLDS.min_bic_drop and (best is None or d["bic"] < best[0]):
             lo, hi = NONLINEAR[c]
             v = info[c]["offset"] + info[c]["scale"] * float(d["theta"][0])
             if lo <= v <= hi:
@@ -194,7 +185,7 @@ def _periodic_columns(fin: Final, time: np.ndarray) -> np.ndarray:
     return sel.sinusoid_basis(time)(np.arange(time.size), y, fin.fit.h)
 
 
-def _select(prep: Prepared, h0: float, n_eff: float, th: Thresholds, say, given=None):
+def _select(prep: Prepared, h0: float, n_eff: float, say, given=None):
     """Candidates and selection, the columns rebuilt at the augmented h (and about refined nonlinear values) until
     it settles."""
     h_cols, state = h0, None
@@ -203,10 +194,10 @@ def _select(prep: Prepared, h0: float, n_eff: float, th: Thresholds, say, given=
         problem = sel.project_out(problem, given)
         say(f"3/6 candidates and selection: {len(problem.candidates)} candidate terms "
             f"(columns at h = {h_cols:.3f} m)")
-        s = sel.forward_select(problem, min_bic_drop=th.min_bic_drop, min_cv_gain=th.min_cv_gain,
-                               min_t=th.min_t, n_eff=n_eff, pairs=True)
+        s = sel.forward_select(problem, min_bic_drop=THRESHOLDS.min_bic_drop, min_cv_gain=THRESHOLDS.min_cv_gain,
+                               min_t=THRESHOLDS.min_t, n_eff=n_eff, pairs=True)
         nonlin = [c for c in s.selected if c in NONLINEAR]
-        hint = _nonlinear_hint(problem, info, s, n_eff, th) if not nonlin and state is None else None
+        hint = _nonlinear_hint(problem, info, s, n_eff) if not nonlin and state is None else None
         if hint and it < COLUMN_ITERATIONS + RELINEARISE - 1:
             # refused only where its linear column is poor: select again about its trial value
             state, h_cols = {"sensor_time_offset": 0.0, "rider_mass": prep.params.m, **hint}, s.fit.h
@@ -226,18 +217,16 @@ def _select(prep: Prepared, h0: float, n_eff: float, th: Thresholds, say, given=
     return problem, info, s
 
 
-def _add_blind_windows(limits: dict, model: ResidualModel, time: np.ndarray, h: float, floor: dict,
-                       th: Thresholds) -> None:
+def _add_blind_windows(limits: dict, model: ResidualModel, time: np.ndarray, h: float, floor: dict) -> None:
     """Add ``blind_windows`` (:func:`euc_sim.diagnosis.drift_term.blind_windows`) and ``analysed_span`` (s) to the
     drift's limits."""
     if "cog_height_drift" not in limits:
         return
-    dh = 1e-4
-    drdh = (model(h + dh) - model(h - dh)) / (2 * dh)
+    drdh = model.slope(h)
     lim = limits["cog_height_drift"]
     lim["analysed_span"] = [float(np.min(time)), float(np.max(time))]
     lim["blind_windows"] = drift_term.blind_windows(time, drdh, floor["rms_stacked"], floor["tau_int"],
-                                                    th.min_t, lim["plausible"][1])
+                                                    THRESHOLDS.min_t, lim["plausible"][1])
 
 
 def _reported_model(problem: reg.Problem, s, fin: Final, decision: dict) -> tuple:
@@ -263,14 +252,14 @@ def _localisation(prep: Prepared, model: ResidualModel, h: float) -> tuple[dict,
         r_w = model.wheel(h)
         if np.sqrt(np.mean(r_w ** 2)) > np.sqrt(np.mean(r_loc ** 2)):
             r_loc, loc_row = r_w, "M_d,1 - M_d (wheel row)"
-    return localise(prep.t[prep.keep], r_loc, signals_of(prep)), loc_row
+    return localise(prep.kin.t[prep.keep], r_loc, signals_of(prep)), loc_row
 
 
-def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limits, vis, left, th) -> dict:
+def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limits, vis, left) -> dict:
     """CONTRACT's diagnosis object, with the private ``_series`` for the report's figures."""
     has_w = model.W is not None
     prob_f, fit_f, cv_after_all = reported
-    cov_nom, _ = reg.covariance(problem, s.nominal, cluster=2.0)
+    cov_nom, _ = reg.covariance(problem, s.nominal)
     h_se = float(np.sqrt(cov_nom[-1, -1]))
     h_se_f = float(np.sqrt(max(fin.cov[-1, -1], 0.0)))
     loc, loc_row = _localisation(prep, model, s.nominal.h)
@@ -309,7 +298,7 @@ def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limi
         "history": [{"step": st.step, "base": list(st.base), "chosen": st.chosen,
                      "accepted": st.accepted, "reason": st.reason, "trials": st.trials}
                     for st in s.history],
-        "thresholds": th.__dict__,
+        "thresholds": THRESHOLDS.__dict__,
     }
     hits = _at_bound(s.nominal.h, fit_f.h, fin, decision)
     result["at_bound"] = [key for key, _ in hits]
@@ -317,7 +306,7 @@ def _result(prep, model, problem, s, fin, reported, decision, floor, n_eff, limi
     nk = prep.keep.size
     y_fin = prob_f.y(fit_f.h) - prob_f.design(fit_f.names) @ fit_f.coef_vector()
     result["_series"] = {
-        "t": prep.t[prep.keep],
+        "t": prep.kin.t[prep.keep],
         "residual_nominal": model.kinematic(s.nominal.h),
         "residual_augmented": y_fin[:nk],
         "wheel_nominal": model.wheel(s.nominal.h),

@@ -62,22 +62,6 @@ class Prepared:
     noise_sd: dict
     raw: pd.DataFrame
 
-    @property
-    def t(self) -> np.ndarray:
-        return self.kin.t
-
-    @property
-    def q(self) -> np.ndarray:
-        return self.kin.q
-
-    @property
-    def qd(self) -> np.ndarray:
-        return self.kin.qd
-
-    @property
-    def qdd(self) -> np.ndarray:
-        return self.kin.qdd
-
     def shifted(self, tau: float) -> "Prepared":
         """The rider channel advanced by τ s: φ(t + τ), φ̇, φ̈ likewise (undoes a lag τ)."""
         k = self.kin
@@ -92,9 +76,14 @@ class Prepared:
         """The same recording with other (q, q̇, q̈) (for noise propagation)."""
         return replace(self, kin=replace(self.kin, q=q, qd=qd, qdd=qdd))
 
-    def filtered(self, y: np.ndarray, sigma: float | None = None) -> np.ndarray:
+    def stacked_time(self, wheel_row: bool) -> np.ndarray:
+        """Time of each residual sample, s: the kept samples, twice with the wheel row (M_d recorded)."""
+        t = self.kin.t[self.keep]
+        return np.concatenate([t, t]) if wheel_row else t
+
+    def filtered(self, y: np.ndarray) -> np.ndarray:
         """The consistent term filter applied along the last axis, at the kept samples."""
-        return processing.term_filter(y, self.sigma if sigma is None else sigma, axis=-1)[..., self.keep]
+        return processing.term_filter(y, self.sigma, axis=-1)[..., self.keep]
 
 
 def _read(source, meta: Mapping | None):
@@ -129,7 +118,7 @@ def _nominal_params(params, meta: dict, source, name: str) -> Params:
 
 
 def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None = None,
-            smoothing=None, rate: float = SELECT_RATE) -> Prepared:
+            smoothing=None) -> Prepared:
     """Read, validate and differentiate a recording by the consistent recipe.
 
     Parameters
@@ -142,8 +131,6 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
         Metadata for a DataFrame source.
     smoothing : processing.Smoothing, optional
         Default ``processing.DEFAULT_SMOOTHING``.
-    rate : float
-        Residual samples kept per second, Hz.
 
     Raises
     ------
@@ -163,23 +150,22 @@ def prepare(source, params: Params | Mapping | None = None, meta: Mapping | None
         raise DiagnosisError(f"recording {name}: duration {t[-1] - t[0]:.2f} s too short; expected at "
                              f"least {(2 * edge) * dt + 2.0:.1f} s for the filters")
     M_d = df["M_d"].to_numpy(float) if "M_d" in df.columns else None
-    lateral = lateral_inputs(df, kin.q[:, 1], p.l0, dt, q=kin.q, R=p.R) if {"theta", "psi"} <= set(df.columns) else None
-    step = max(1, int(round(1.0 / (dt * rate))))
+    lateral = lateral_inputs(df, kin.q, p, dt) if {"theta", "psi"} <= set(df.columns) else None
+    step = max(1, int(round(1.0 / (dt * SELECT_RATE))))
     keep = np.arange(edge, t.size - edge, step)
     noise = {c: noise_sd(ch) for c, ch in _raw_channels(df).items()}
     return Prepared(kin, sm.sigma_samples(dt), M_d, lateral, keep, p, meta, name, noise, df)
 
 
-def lateral_inputs(df: pd.DataFrame, gamma, l0: float, dt: float, window: float = LATERAL_WINDOW,
-                   q=None, R: float | None = None) -> dict:
+def lateral_inputs(df: pd.DataFrame, q: np.ndarray, p: Params, dt: float, window: float = LATERAL_WINDOW) -> dict:
     """The lateral term's inputs from a recording's ``theta`` and ``psi`` (and C, E, G).
 
     A longer cubic Savitzky–Golay fit (``window``, s) keeps their noise out of the column
     (errors in variables).  Keys :data:`euc_sim.simulation.effects.LATERAL_INPUTS`, with the
-    markers also ``LEAN_INPUTS``, and with ``q`` ((N, 3)) and ``R`` (m) also
-    ``RIDER_MARKER_INPUTS``; (N,) arrays in rad, rad/s, rad/s² (m/s² for accelerations).
-    ``gamma`` the EUC's pitch, rad; ``l0``, m; ``dt``, s.
+    markers also ``LEAN_INPUTS`` and ``RIDER_MARKER_INPUTS``; (N,) arrays in rad, rad/s, rad/s²
+    (m/s² for accelerations).  ``q`` (N, 3): x, γ, φ (m, rad, rad); ``p``: l0 and R; ``dt``, s.
     """
+    gamma, l0 = q[:, 1], p.l0
     w = int(round(window / dt)) | 1
     o = 3
     theta, theta_d, theta_dd = processing.savgol_derivatives(df["theta"].to_numpy(float), dt, w, o)
@@ -188,14 +174,14 @@ def lateral_inputs(df: pd.DataFrame, gamma, l0: float, dt: float, window: float 
     lean = _rider_lean(df, psi, gamma, l0, dt, w, o)
     if lean is not None:
         lateral.update(lean=lean[0], lean_d=lean[1], lean_dd=lean[2], theta_dd=theta_dd)
-        if q is not None and R is not None:   # G's own acceleration, ẍ and G in the plane through the same fit
-            G = df[["G_X", "G_Y", "G_Z"]].to_numpy(float)
-            C = df[["C_X", "C_Y", "C_Z"]].to_numpy(float)
-            xi, zeta = plane_coordinates(G, C, psi, marker_tilt(df, psi), R, gamma, lean[0], l0)
-            lateral.update(psi=psi, G_dd=processing.savgol_derivatives(G, dt, w, o)[2],
-                           x_dd=processing.savgol_derivatives(np.asarray(q, dtype=float)[:, 0], dt, w, o)[2],
-                           xi_dd=processing.savgol_derivatives(xi, dt, w, o)[2],
-                           zeta_dd=processing.savgol_derivatives(zeta, dt, w, o)[2])
+        # G's own acceleration, ẍ and G in the plane through the same fit
+        G = df[["G_X", "G_Y", "G_Z"]].to_numpy(float)
+        C = df[["C_X", "C_Y", "C_Z"]].to_numpy(float)
+        xi, zeta = plane_coordinates(G, C, psi, marker_tilt(df, psi), p.R, gamma, lean[0], l0)
+        lateral.update(psi=psi, G_dd=processing.savgol_derivatives(G, dt, w, o)[2],
+                       x_dd=processing.savgol_derivatives(np.asarray(q, dtype=float)[:, 0], dt, w, o)[2],
+                       xi_dd=processing.savgol_derivatives(xi, dt, w, o)[2],
+                       zeta_dd=processing.savgol_derivatives(zeta, dt, w, o)[2])
     return lateral
 
 
@@ -234,10 +220,7 @@ def _raw_channels(df: pd.DataFrame) -> dict[str, np.ndarray]:
     """Unsmoothed x, γ, φ for the noise estimate (motion capture: φ the lean of C→G in the heading plane, x as C_X)."""
     out = {}
     base = "C" if {"C_X", "C_Y", "C_Z"} <= set(df.columns) else "E"
-    if "x" in df.columns:
-        out["x"] = df["x"].to_numpy(float)
-    else:
-        out["x"] = df[f"{base}_X"].to_numpy(float)
+    out["x"] = df["x" if "x" in df.columns else f"{base}_X"].to_numpy(float)
     out["gamma"] = df["gamma"].to_numpy(float)
     if "phi" in df.columns:
         out["phi"] = df["phi"].to_numpy(float)

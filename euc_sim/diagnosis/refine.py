@@ -18,7 +18,7 @@ from euc_sim.simulation import effects
 __all__ = ["refine", "relinearised", "Final", "final_model"]
 
 
-def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: float, given=None):
+def refine(prep: Prepared, problem: reg.Problem, selected, estimates: dict, h: float, given):
     """Estimate nonlinear effects (time offset, rider mass) by a 1-D search each over the value itself, h and the
     linear effects profiled out.
 
@@ -98,10 +98,10 @@ def relinearised(prep: Prepared, h: float, state: dict) -> tuple[reg.Problem, di
         return prob.y(hh) + shift
 
     info = {**info, **{c: {**info[c], "offset": nominal[c]} for c in nominal if c in info}}
-    rules = validity_rules(p, (float(prep.t[0]), float(prep.t[-1])), None)    # θ is v − v_0 again
+    rules = validity_rules(p, (float(prep.kin.t[0]), float(prep.kin.t[-1])), None)    # θ is v − v_0 again
     validity = {**prob.validity, **{c: rules[c] for c in nominal if c in prob.validity}}
-    return reg.Problem(target, prob.candidates, prob.time, prob.bounds, validity, prob.weights,
-                       prob.shape_params, prob.adaptive), info
+    return reg.Problem(target, prob.candidates, prob.time, prob.bounds, validity, prob.shape_params,
+                       prob.adaptive), info
 
 
 @dataclass(frozen=True)
@@ -132,17 +132,16 @@ class Final:
     cv: float
 
 
-def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress=None, given=None) -> Final:
-    """The selection ``s``'s model, its nonlinear effects refined; ``given``: columns fitted beside every set, or
-    None."""
+def final_model(prep: Prepared, problem: reg.Problem, info: dict, s, progress, given=None) -> Final:
+    """The selection ``s``'s model, its nonlinear effects refined (``progress`` told); ``given``: columns fitted
+    beside every set, or None."""
     selected = tuple(s.selected)
     estimates = {c: info[c]["offset"] + info[c]["scale"] * float(s.fit.theta[c][0])
                  for c in selected if not info[c].get("drift")}
     prob_f, info_f, fit_f, slopes = problem, info, s.fit, {}
     if any(c in selected for c in NONLINEAR):
-        if progress:
-            progress("4/6 refine: 1-D search of the nonlinear estimates")
+        progress("4/6 refine: 1-D search of the nonlinear estimates")
         _, prob_f, info_f, fit_f, slopes = refine(prep, problem, selected, estimates, s.fit.h, given)
-    cov_f, dof_f = reg.covariance(prob_f, fit_f, cluster=2.0)
+    cov_f, dof_f = reg.covariance(prob_f, fit_f)
     cv = reg.heldout_rmse(prob_f, selected) if selected else s.cv_nominal
     return Final(prob_f, info_f, fit_f, slopes, cov_f, dof_f, cv)

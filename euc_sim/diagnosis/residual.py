@@ -36,48 +36,33 @@ class ResidualModel:
     def wheel(self, h: float) -> np.ndarray | None:
         return None if self.W is None else self.W[0] + h * self.W[1]
 
-    def kappa(self, h: float, R: float, m11: float) -> np.ndarray:
-        """κ = R m_11 / D(h), the gain of analytic.residual_gain."""
-        return R * m11 / (self.D[0] + h * self.D[1])
-
     def __call__(self, h: float) -> np.ndarray:
         r = self.kinematic(h)
         w = self.wheel(h)
         return r if w is None else np.concatenate([r, w])
 
+    def slope(self, h: float) -> np.ndarray:
+        """∂r/∂h at ``h`` (m) by a central difference of 0.1 mm, N·m/m."""
+        dh = 1e-4
+        return (self(h + dh) - self(h - dh)) / (2 * dh)
 
-_H_NODES = np.array([0.5, 1.0, 1.5])
+
+#: Values of h (m) at which the wheel row is evaluated to recover its coefficients in h.
+_H_NODES = np.array([0.5, 1.0])
 
 
-def residual_model(prep: Prepared, p: Params | None = None, sigma: float | None = None) -> ResidualModel:
-    """Build r(h) (and r_w(h)) on the kept samples; another term filter ``sigma`` (samples) rebuilds the
-    polynomial on the full length."""
+def residual_model(prep: Prepared, p: Params | None = None) -> ResidualModel:
+    """Build r(h) (and r_w(h)) on the kept samples, term-filtered, with ``p`` (default the nominal parameters)."""
     p = prep.params if p is None else p
     kin = prep.kin
-    if sigma is None:
-        rp = ident.residual_poly(kin, p)
-        start = kin.interior.start
-        idx = prep.keep - start
-        P, D = rp.P[:, idx], rp.D[:, idx]
-    else:
-        num, den = [], []
-        for h in _H_NODES:
-            ph = p.replace(h=float(h))
-            M = analytic.mass_matrix(ph, kin.q)
-            Dh = M[..., 0, 0] * ph.R + M[..., 1, 0] + M[..., 2, 0]
-            num.append((analytic.driving_torque_1(ph, kin.q, kin.qd, kin.qdd)
-                        - analytic.driving_torque_2(ph, kin.q, kin.qd, kin.qdd)) * Dh)
-            den.append(Dh)
-        V = np.vander(_H_NODES, 3, increasing=True)
-        P = prep.filtered(np.linalg.solve(V, np.array(num)), sigma)
-        D1 = (den[1] - den[0]) / (_H_NODES[1] - _H_NODES[0])
-        D = np.array([den[0] - _H_NODES[0] * D1, D1])[:, prep.keep]
+    P, D = ident.residual_coefficients(kin, p)
+    P, D = prep.filtered(P), D[:, prep.keep]
     W = None
     if prep.M_d is not None:
         w = [analytic.driving_torque_1(p.replace(h=float(h)), kin.q, kin.qd, kin.qdd) - prep.M_d
-             for h in _H_NODES[:2]]
+             for h in _H_NODES]
         w1 = (w[1] - w[0]) / (_H_NODES[1] - _H_NODES[0])
-        W = prep.filtered(np.array([w[0] - _H_NODES[0] * w1, w1]), sigma)
+        W = prep.filtered(np.array([w[0] - _H_NODES[0] * w1, w1]))
     return ResidualModel(P, D, W)
 
 
@@ -90,13 +75,13 @@ def noise_floor(prep: Prepared, h: float, seed: int = 0) -> dict:
     ``tau_int`` (samples, for n_eff) and ``noise`` (the stacked samples).
     """
     rng = np.random.default_rng(seed)
-    n = prep.t.size
+    n = prep.kin.t.size
     sm = prep.kin.smoothing
     dt = prep.kin.dt
     Z = np.column_stack([rng.normal(0.0, prep.noise_sd[c], n) for c in ("x", "gamma", "phi")])
     dq, dqd, dqdd = processing.savgol_derivatives(Z, dt, sm.samples(dt), sm.order, axis=0)
     base = residual_model(prep)(h)
-    pert = residual_model(prep.with_kin(prep.q + dq, prep.qd + dqd, prep.qdd + dqdd))(h)
+    pert = residual_model(prep.with_kin(prep.kin.q + dq, prep.kin.qd + dqd, prep.kin.qdd + dqdd))(h)
     r = pert - base
     nk = prep.keep.size
     return {"rms": float(np.sqrt(np.mean(r[:nk] ** 2))), "rms_stacked": float(np.sqrt(np.mean(r ** 2))),

@@ -33,9 +33,9 @@ def _maneuver_of(prep: Prepared):
             return maneuvers.make_maneuver(name, **opts), f"the sidecar's {name} ({args})"
         except ValueError:
             pass
-    t = prep.t
+    t = prep.kin.t
     tt = np.arange(t[0], t[-1], 0.1)
-    v = np.interp(tt, t, prep.qd[:, 0])
+    v = np.interp(tt, t, prep.kin.qd[:, 0])
     return (maneuvers.Maneuver("profile", float(v[0]), (), (tuple((tt - t[0]).tolist()), tuple(v.tolist()))),
             "profile: the recording's own speed")
 
@@ -48,7 +48,7 @@ def resimulate_recording(prep: Prepared, result: dict, engine: str = "mujoco") -
     effects injected as physics.  Returns ``done``; per run the RMSE of φ, γ (rad) and ẋ (m/s)
     against the recording; ``series`` for the figure; or ``reason``.
     """
-    t = prep.t
+    t = prep.kin.t
     k = prep.keep
     man, how = _maneuver_of(prep)
     duration = float(t[-1] - t[0])
@@ -57,7 +57,7 @@ def resimulate_recording(prep: Prepared, result: dict, engine: str = "mujoco") -
             "augmented": (_sim_params(prep.params, result["h_augmented"]), eff)}
     out = {"done": True, "engine": engine, "maneuver": how,
            "effects_injected": eff, "sensor_time_offset_applied": tau}
-    rec_phi, rec_gam, rec_v = prep.q[k, 2], prep.q[k, 1], prep.qd[k, 0]
+    rec_phi, rec_gam, rec_v = prep.kin.q[k, 2], prep.kin.q[k, 1], prep.kin.qd[k, 0]
     series = {"t": t[k], "recording_phi": rec_phi, "recording_speed": rec_v, "recording_gamma": rec_gam}
     sim_dt = simulation.DEFAULT_DT
     lat_motion = _lateral_motion(prep, duration, sim_dt) if "lateral_dynamics" in eff else None
@@ -105,7 +105,7 @@ def _lateral_motion(prep: Prepared, duration: float, sim_dt: float):
     :data:`~euc_sim.simulation.lateral.LATERAL_INPUTS`)."""
     from scipy.integrate import cumulative_trapezoid
 
-    t = prep.t
+    t = prep.kin.t
     grid = np.arange(int(round(duration / sim_dt)) + 1) * sim_dt + t[0]
     on = {key: np.interp(grid, t, prep.lateral[key]) for key in LATERAL_INPUTS}
     return maneuvers.LateralMotion(on["theta"], on["theta_d"],

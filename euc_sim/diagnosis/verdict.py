@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from euc_sim.diagnosis.common import h_at_bound as _h_at_bound, heldout_over_floor
+from euc_sim.diagnosis.common import THRESHOLDS, h_at_bound as _h_at_bound, heldout_over_floor
 from euc_sim.identification import selection as sel
 
 __all__ = ["leftover", "judge", "cannot_see"]
 
 
-def leftover(fin, selected, floor_stacked: float, thresholds) -> dict:
+def leftover(fin, selected, floor_stacked: float) -> dict:
     """Structure left after the selected set: a generic periodic basis against the noise floor.
 
     ``floor_stacked``: noise floor of all residual rows, N·m.  Returns ``heldout_without``,
@@ -26,7 +26,7 @@ def leftover(fin, selected, floor_stacked: float, thresholds) -> dict:
     gain = 1.0 - cv_gen / cv_wo
     ratio = heldout_over_floor(fin.cv, floor_stacked)
     return {"heldout_without": cv_wo, "heldout_with": cv_gen, "gain": gain, "floor_ratio": ratio,
-            "unexplained": bool(gain >= thresholds.generic_gain or ratio >= thresholds.floor_ratio)}
+            "unexplained": bool(gain >= THRESHOLDS.generic_gain or ratio >= THRESHOLDS.floor_ratio)}
 
 
 def _h_notes(fin, h_ok: bool, periodic: bool, h_at_bound: bool) -> list[str]:
@@ -41,8 +41,8 @@ def _h_notes(fin, h_ok: bool, periodic: bool, h_at_bound: bool) -> list[str]:
 
 
 def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: dict, left: dict,
-          has_w: bool, thresholds, beside_structure: bool = False) -> dict:
-    """The verdict, the effects named and those only tentative, and the notes.
+          beside_structure: bool = False) -> dict:
+    """The verdict, the effects named and those only tentative, and the notes (by :data:`THRESHOLDS`).
 
     Parameters
     ----------
@@ -54,9 +54,6 @@ def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: di
     limits, vis, left : dict
         :func:`~euc_sim.diagnosis.estimates.detection_limits`,
         :func:`~euc_sim.diagnosis.candidates.visibility`, :func:`leftover`.
-    has_w : bool
-        Whether M_d is recorded.
-    thresholds : common.Thresholds
     beside_structure : bool
         The effects were selected beside the periodic structure, so are named beside
         ``unexplained``.
@@ -67,13 +64,12 @@ def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: di
         ``verdict``, ``effects``, ``tentative``, ``unexplained``, ``decidable``, ``notes``,
         ``cannot_see``.
     """
-    th = thresholds
     unexplained = left["unexplained"]
     detectable = [c for c, v in limits.items() if v["status"] in ("detectable", "only large values")]
     h_se_f = float(np.sqrt(max(fin.cov[-1, -1], 0.0)))      # h with the accepted effects
     h_at_bound = _h_at_bound(fin.fit.h)
-    h_ok = (1.96 * h_se_f <= th.max_h_halfwidth) and not h_at_bound
-    periodic = left["gain"] >= th.generic_gain      # a periodic structure is a finding in itself
+    h_ok = (1.96 * h_se_f <= THRESHOLDS.max_h_halfwidth) and not h_at_bound
+    periodic = left["gain"] >= THRESHOLDS.generic_gain      # a periodic structure is a finding in itself
     decidable = bool(detectable) and (h_ok or periodic)
     notes = _h_notes(fin, h_ok, periodic, h_at_bound)
     unseen = cannot_see(limits, vis)
@@ -84,7 +80,7 @@ def judge(effects_out: list[dict], cv_nominal: float, fin, limits: dict, vis: di
         keep_eff = []
         for i, e in enumerate(eff_out):
             before = cv_nominal if i == 0 else eff_out[i - 1]["rmse_after"]
-            (keep_eff if e["rmse_after"] <= th.unexplained_keep * before else tentative).append(e)
+            (keep_eff if e["rmse_after"] <= THRESHOLDS.unexplained_keep * before else tentative).append(e)
         eff_out = keep_eff
         if tentative:
             notes.append("with structure left unexplained, not named (each explained less than half "

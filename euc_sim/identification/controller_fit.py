@@ -7,22 +7,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from euc_sim.errors import InputError
 from euc_sim.model import analytic
 from euc_sim.model.parameters import Params
 from euc_sim.identification.processing import Kinematics, term_filter
 
 
 # --- beyond the paper: the EUC's controller and the rider's law ------------------------------
-#: Regressors available to the controller and rider fits.
+#: Regressors of the controller and rider fits.
 _TERMS = {
     "gamma": lambda kin: kin.q[:, 1], "gamma_d": lambda kin: kin.qd[:, 1],
     "phi": lambda kin: kin.q[:, 2], "phi_d": lambda kin: kin.qd[:, 2],
-    "x_d": lambda kin: kin.qd[:, 0], "x_dd": lambda kin: kin.qdd[:, 0],
     "const": lambda kin: np.ones(len(kin.t)),
 }
-_UNITS = {"gamma": "N·m/rad", "gamma_d": "N·m·s/rad", "phi": "N·m/rad", "phi_d": "N·m·s/rad",
-          "x_d": "N·s", "x_dd": "N·s²", "const": "N·m"}
+_UNITS = {"gamma": "N·m/rad", "gamma_d": "N·m·s/rad", "phi": "N·m/rad", "phi_d": "N·m·s/rad", "const": "N·m"}
+#: The EUC controller's terms (K_p γ + K_d γ̇) and the rider's delayed law's.
+CONTROLLER_TERMS = ("gamma", "gamma_d")
+RIDER_TERMS = ("phi", "phi_d", "const")
+#: Longest rider delay searched, s.
+MAX_DELAY = 0.5
 
 
 @dataclass
@@ -60,12 +62,6 @@ def _lstsq_fit(y: np.ndarray, X: np.ndarray) -> tuple[np.ndarray, float, float]:
     return coef, r2, float(np.sqrt(np.mean(res**2)))
 
 
-def _check_terms(terms, what: str) -> None:
-    unknown = [t for t in terms if t not in _TERMS]
-    if unknown:
-        raise InputError(f"unknown {what} term {unknown[0]!r}; expected {', '.join(_TERMS)}")
-
-
 def _filtered_rows(kin: Kinematics, y: np.ndarray, terms) -> tuple[np.ndarray, np.ndarray]:
     """Target y and the named regressors through the same term filter, interior samples."""
     sig = kin.smoothing.sigma_samples(kin.dt)
@@ -74,27 +70,21 @@ def _filtered_rows(kin: Kinematics, y: np.ndarray, terms) -> tuple[np.ndarray, n
     return term_filter(y, sig)[sl], X
 
 
-def _controller_rows(kin: Kinematics, p: Params, terms) -> tuple[np.ndarray, np.ndarray]:
-    """Filtered M_d,2 and regressors of one recording, interior samples."""
-    return _filtered_rows(kin, analytic.driving_torque_2(p, kin.q, kin.qd, kin.qdd), terms)
-
-
-def identify_controller(kin, p, terms=("gamma", "gamma_d")) -> ControllerFit:
-    """The EUC's controller: M_d,2 (eq. 10) ≈ Σ K_k · term_k (default K_p γ + K_d γ̇), target and regressors
+def identify_controller(kin, p) -> ControllerFit:
+    """The EUC's controller: M_d,2 (eq. 10) ≈ K_p γ + K_d γ̇ (:data:`CONTROLLER_TERMS`), target and regressors
     term-filtered alike.
 
-    ``kin``, ``p``: one recording or lists pooled into one fit (``p.h`` the rider height used);
-    ``terms`` from ``gamma, gamma_d, x_d, x_dd, phi, phi_d, const``.
+    ``kin``, ``p``: one recording or lists pooled into one fit (``p.h`` the rider height used).
     """
-    _check_terms(terms, "controller")
     kins = kin if isinstance(kin, (list, tuple)) else [kin]
     ps = p if isinstance(p, (list, tuple)) else [p] * len(kins)
-    rows = [_controller_rows(k, pp, terms) for k, pp in zip(kins, ps)]
+    rows = [_filtered_rows(k, analytic.driving_torque_2(pp, k.q, k.qd, k.qdd), CONTROLLER_TERMS)
+            for k, pp in zip(kins, ps)]
     y = np.concatenate([r[0] for r in rows])
     X = np.concatenate([r[1] for r in rows])
     coef, r2, rmse = _lstsq_fit(y, X)
-    return ControllerFit(gains={t: float(c) for t, c in zip(terms, coef)},
-                         units={t: _UNITS[t] for t in terms}, r2=r2, rmse=rmse)
+    return ControllerFit(gains={t: float(c) for t, c in zip(CONTROLLER_TERMS, coef)},
+                         units={t: _UNITS[t] for t in CONTROLLER_TERMS}, r2=r2, rmse=rmse)
 
 
 @dataclass
@@ -112,16 +102,14 @@ class RiderFit(ControllerFit):
         return out
 
 
-def identify_rider_delay(kin: Kinematics, p: Params, terms=("phi", "phi_d", "const"),
-                         max_delay: float = 0.5) -> RiderFit:
-    """M_h (row 3 of eq. 5) ≈ Σ k_j · term_j(t − τ): a delayed PD law, τ searched from 0 to ``max_delay`` s
-    (:func:`fit_delayed_law`)."""
-    _check_terms(terms, "rider")
-    y, X = _filtered_rows(kin, analytic.rider_torque(p, kin.q, kin.qd, kin.qdd), terms)
-    fit = fit_delayed_law(y, X, kin.dt, max_delay)
+def identify_rider_delay(kin: Kinematics, p: Params) -> RiderFit:
+    """M_h (row 3 of eq. 5) ≈ Σ k_j · term_j(t − τ) (:data:`RIDER_TERMS`): a delayed PD law, τ searched from 0 to
+    :data:`MAX_DELAY` s (:func:`fit_delayed_law`)."""
+    y, X = _filtered_rows(kin, analytic.rider_torque(p, kin.q, kin.qd, kin.qdd), RIDER_TERMS)
+    fit = fit_delayed_law(y, X, kin.dt, MAX_DELAY)
     coef = fit.pop("coef")
-    return RiderFit(gains={t: float(c) for t, c in zip(terms, coef)},
-                    units={t: _UNITS[t] for t in terms}, **fit)
+    return RiderFit(gains={t: float(c) for t, c in zip(RIDER_TERMS, coef)},
+                    units={t: _UNITS[t] for t in RIDER_TERMS}, **fit)
 
 
 def fit_delayed_law(y: np.ndarray, X: np.ndarray, dt: float, max_delay: float) -> dict:

@@ -115,9 +115,14 @@ def maneuver_study(args) -> dict:
     return {k: (np.asarray(v) if k not in ("fell", "h_grid") else v) for k, v in out.items()}
 
 
+def recordings_needed(sd: float, target: float) -> int:
+    """Recordings that pool an estimate of spread ``sd`` to ``target`` (same unit): n = ⌈(sd/target)²⌉, at least 1."""
+    return max(1, int(math.ceil((sd / target) ** 2)))
+
+
 def recordings_for(h_sd: float, targets: Sequence[float]) -> dict:
-    """``{"σ*": n}``: recordings of one maneuver that pool to σ* m, n = ⌈(h_sd/σ*)²⌉."""
-    return {f"{t:g}": max(1, int(math.ceil((h_sd / t) ** 2))) for t in targets}
+    """``{"σ*": n}``: recordings of one maneuver that pool to σ* m (:func:`recordings_needed`)."""
+    return {f"{t:g}": recordings_needed(h_sd, t) for t in targets}
 
 
 def design(maneuvers: Sequence[str], *, rides: int = 40, duration: float = 15.0,
@@ -188,17 +193,27 @@ def design(maneuvers: Sequence[str], *, rides: int = 40, duration: float = 15.0,
     return out
 
 
-def _check(maneuvers, rides, duration, noise_scales, targets) -> None:
+def check_maneuvers(maneuvers: Sequence[str]) -> None:
+    """InputError (naming ``--maneuvers``) unless every maneuver is one of :data:`DESIGN_MANEUVERS`."""
     bad = [m for m in maneuvers if m not in DESIGN_MANEUVERS]
     if not maneuvers or bad:
         raise InputError(f"--maneuvers: unknown {', '.join(bad) or '(none given)'}; "
                          f"valid: {', '.join(DESIGN_MANEUVERS)}")
-    if len(set(maneuvers)) != len(maneuvers):
-        raise InputError(f"--maneuvers: a maneuver is listed twice in {','.join(maneuvers)}")
+
+
+def check_rides(rides, duration: float, option: str) -> None:
+    """InputError unless ``rides`` (naming ``option``) is an integer of at least 3 and ``duration`` (s) at least 5."""
     if not (isinstance(rides, int) and rides >= 3):
-        raise InputError(f"--rides must be an integer of at least 3, got {rides!r}")
+        raise InputError(f"{option} must be an integer of at least 3, got {rides!r}")
     if not (math.isfinite(duration) and duration >= 5.0):
         raise InputError(f"--duration must be at least 5 s (the fit's filters need it), got {duration!r}")
+
+
+def _check(maneuvers, rides, duration, noise_scales, targets) -> None:
+    check_maneuvers(maneuvers)
+    if len(set(maneuvers)) != len(maneuvers):
+        raise InputError(f"--maneuvers: a maneuver is listed twice in {','.join(maneuvers)}")
+    check_rides(rides, duration, "--rides")
     if not all(math.isfinite(s) and 0 < s <= 100 for s in noise_scales) or 1.0 not in noise_scales:
         raise InputError(f"--noise-scales must lie in (0, 100] and include 1 (the paper's noise), "
                          f"got {list(noise_scales)}")
@@ -259,7 +274,7 @@ def design_figure(result: dict):
         text = "\n".join(f"{r['maneuver']}: {r['h_sd'] * 1000:.1f} mm (MC), {r['h_sd_fisher'] * 1000:.1f} mm "
                          f"(Fisher); n for ±10 mm: {recordings_for(r['h_sd'], [0.01])['0.01']}"
                          for r in result["maneuvers"])
-        axes[1, 1].text(0.0, 0.95, "At the paper's noise:\n" + text + "\n\n" + _wrap(result["recommendation"]),
+        axes[1, 1].text(0.0, 0.95, "At the paper's noise:\n" + text + "\n\n" + textwrap.fill(result["recommendation"], 70),
                         va="top", fontsize=8, transform=axes[1, 1].transAxes)
     handles = [Line2D([], [], color=colors[i % len(colors)], label=r["maneuver"])
                for i, r in enumerate(result["maneuvers"])]
@@ -269,7 +284,3 @@ def design_figure(result: dict):
     fig.legend(handles=handles, loc="outside lower center", ncol=min(len(handles), 4), fontsize=8)
     fig.suptitle("Experiment design: how precisely each maneuver identifies h")
     return fig
-
-
-def _wrap(text: str, width: int = 70) -> str:
-    return "\n".join(textwrap.wrap(text, width))

@@ -82,6 +82,15 @@ def residual_poly(kin: Kinematics, p: Params, model: str = "3dof") -> ResidualPo
     -------
     ResidualPoly
     """
+    P, D = residual_coefficients(kin, p, model)
+    P = term_filter(P, kin.smoothing.sigma_samples(kin.dt), axis=-1)
+    sl = kin.interior
+    return ResidualPoly(model=model, P=P[..., sl], D=D[..., sl], t=kin.t[sl])
+
+
+def residual_coefficients(kin: Kinematics, p: Params, model: str = "3dof") -> tuple[np.ndarray, np.ndarray]:
+    """Unfiltered coefficients in h of M_d,1 − M_d,2 = P(h)/D(h) at every sample: P (3, N), N·m·kg·m per power of
+    h, and D (2, N), kg·m (:func:`residual_poly`)."""
     md1, md2, mass_params = model_functions(model)
     num, den = [], []
     for h in _H_NODES:
@@ -90,12 +99,8 @@ def residual_poly(kin: Kinematics, p: Params, model: str = "3dof") -> ResidualPo
         D = M[..., 0, 0] * ph.R + M[..., 1, 0] + M[..., 2, 0]
         num.append((md1(ph, kin.q, kin.qd, kin.qdd) - md2(ph, kin.q, kin.qd, kin.qdd)) * D)
         den.append(D)
-    P = _lagrange_coefficients(_H_NODES, np.array(num))
     D1 = (den[1] - den[0]) / (_H_NODES[1] - _H_NODES[0])
-    D = np.array([den[0] - _H_NODES[0] * D1, D1])
-    P = term_filter(P, kin.smoothing.sigma_samples(kin.dt), axis=-1)
-    sl = kin.interior
-    return ResidualPoly(model=model, P=P[..., sl], D=D[..., sl], t=kin.t[sl])
+    return _lagrange_coefficients(_H_NODES, np.array(num)), np.array([den[0] - _H_NODES[0] * D1, D1])
 
 
 # --- identifying h ---------------------------------------------------------------------------
@@ -154,16 +159,14 @@ class HFit:
             out.append("h_ci95")
         return out
 
-    def as_json(self, curve: bool = True) -> dict:
-        """The CONTRACT form (``h, h_ci95, rmse, identifiable``) plus extras."""
-        out = {"h": self.h, "h_ci95": list(self.h_ci95), "rmse": self.rmse,
-               "identifiable": bool(self.identifiable), "flatness": self.flatness,
-               "n_samples": self.n_samples, "reason": self.reason,
-               "h_ci95_block": list(self.h_ci95_block), "noise_sd": self.noise_sd,
-               "noise_bias": self.noise_bias, "at_bound": self.at_bound()}
-        if curve:
-            out["curve"] = {"h": self.h_grid, "rmse": self.rmse_grid}
-        return out
+    def as_json(self) -> dict:
+        """The CONTRACT form (``h, h_ci95, rmse, identifiable``) plus extras and the RMSE(h) ``curve``."""
+        return {"h": self.h, "h_ci95": list(self.h_ci95), "rmse": self.rmse,
+                "identifiable": bool(self.identifiable), "flatness": self.flatness,
+                "n_samples": self.n_samples, "reason": self.reason,
+                "h_ci95_block": list(self.h_ci95_block), "noise_sd": self.noise_sd,
+                "noise_bias": self.noise_bias, "at_bound": self.at_bound(),
+                "curve": {"h": self.h_grid, "rmse": self.rmse_grid}}
 
 
 def _parabolic_min(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
@@ -194,15 +197,16 @@ MAX_CI_WIDTH = 0.15
 MIN_BOOT = 50
 #: Fewest bootstrap blocks (over all recordings) for the interval to mean anything.
 MIN_BLOCKS = 8
+#: Spacing of the grid of h on which RMSE(h) is kept, m.
+GRID_STEP = 0.02
 
 
-def identify_h(polys: list[ResidualPoly], bounds=(0.1, 1.5), grid_step: float = 0.02,
-               n_boot: int = 400, block: float = BOOTSTRAP_BLOCK, seed: int = 0,
-               max_ci_width: float = MAX_CI_WIDTH, min_rise: float = MIN_RISE) -> HFit:
+def identify_h(polys: list[ResidualPoly], bounds=(0.1, 1.5), n_boot: int = 400, block: float = BOOTSTRAP_BLOCK,
+               seed: int = 0) -> HFit:
     """Minimise the pooled RMSE(M_d,1 − M_d,2) over h in ``bounds``.
 
-    A grid search keeps the whole curve and a bounded Brent search refines its minimum;
-    the 95 % interval is the basic interval of a moving-block bootstrap over time.
+    A grid search (:data:`GRID_STEP`) keeps the whole curve and a bounded Brent search refines
+    its minimum; the 95 % interval is the basic interval of a moving-block bootstrap over time.
 
     Parameters
     ----------
@@ -210,17 +214,11 @@ def identify_h(polys: list[ResidualPoly], bounds=(0.1, 1.5), grid_step: float = 
         One per recording, same model.
     bounds : (float, float)
         Search interval for h, m.
-    grid_step : float
-        Grid spacing, m.
     n_boot : int
         Bootstrap replicates (fewer than :data:`MIN_BOOT`: never identifiable).
     block : float
         Block length, s.
     seed : int
-    max_ci_width : float
-        Widest 95 % interval still called identifiable, m.
-    min_rise : float
-        Smallest ``flatness`` still called identifiable (:data:`MIN_RISE`).
 
     Returns
     -------
@@ -231,7 +229,7 @@ def identify_h(polys: list[ResidualPoly], bounds=(0.1, 1.5), grid_step: float = 
         raise InputError(f"h bounds must satisfy 0 < lo < hi, got {bounds!r}")
     if not polys:
         raise ValueError("no recordings to identify h from")
-    grid = np.linspace(lo, hi, int(round((hi - lo) / grid_step)) + 1)
+    grid = np.linspace(lo, hi, int(round((hi - lo) / GRID_STEP)) + 1)
     n_tot = sum(rp.n for rp in polys)
     J, boot_tot, draws = _curve_and_draws(polys, grid, n_boot, block, seed)
     h_opt, rmse = _refined_minimum(polys, grid, J)
@@ -242,14 +240,12 @@ def identify_h(polys: list[ResidualPoly], bounds=(0.1, 1.5), grid_step: float = 
     side = [np.interp(h_opt + d, grid, curve) for d in (-0.1, 0.1) if lo <= h_opt + d <= hi]
     flatness = float(min(side) / rmse - 1.0) if side and rmse > 0 else math.inf
     blocks = sum(int(math.ceil(rp.n / L)) for rp, (L, _) in zip(polys, draws))
-    ok, why = _verdict(h_opt, ci, flatness, (lo, hi), 2 * grid_step, n_boot, block, blocks,
-                       max_ci_width, min_rise)
+    ok, why = _verdict(h_opt, ci, flatness, (lo, hi), 2 * GRID_STEP, n_boot, block, blocks)
     return HFit(model=polys[0].model, h=h_opt, rmse=rmse, h_ci95=ci, identifiable=ok, flatness=flatness,
                 h_grid=grid, rmse_grid=curve, boot=boot, n_samples=n_tot, reason=why, h_ci95_block=ci)
 
 
-def with_noise(fit: HFit, spread, n_boot: int, block: float, blocks: int,
-               max_ci_width: float = MAX_CI_WIDTH, min_rise: float = MIN_RISE) -> HFit:
+def with_noise(fit: HFit, spread, n_boot: int, block: float, blocks: int) -> HFit:
     """``fit`` with its interval widened by what the measurement noise does to ĥ.
 
     The interval becomes the union of the block bootstrap's and ĥ − b ± 1.96 s, s and b
@@ -264,9 +260,7 @@ def with_noise(fit: HFit, spread, n_boot: int, block: float, blocks: int,
     c = fit.h - b
     blo, bhi = fit.h_ci95_block
     ci = (max(lo, float(np.fmin(blo, c - 1.96 * sd))), min(hi, float(np.fmax(bhi, c + 1.96 * sd))))
-    step = float(fit.h_grid[1] - fit.h_grid[0])
-    ok, why = _verdict(fit.h, ci, fit.flatness, (lo, hi), 2 * step, n_boot, block, blocks,
-                       max_ci_width, min_rise)
+    ok, why = _reverdict(fit, ci, n_boot, block, blocks)
     return dataclasses.replace(fit, h_ci95=ci, identifiable=ok, reason=why, noise_sd=sd, noise_bias=b)
 
 
@@ -274,8 +268,7 @@ def with_noise(fit: HFit, spread, n_boot: int, block: float, blocks: int,
 REDUCED, FULL = "2dof", "3dof"
 
 
-def with_full_block(reduced: HFit, full: HFit, n_boot: int, block: float, blocks: int,
-                    max_ci_width: float = MAX_CI_WIDTH, min_rise: float = MIN_RISE) -> HFit:
+def with_full_block(reduced: HFit, full: HFit, n_boot: int, block: float, blocks: int) -> HFit:
     """The reduced model's fit with the full model's block-bootstrap replicates.
 
     The replicates become ĥ̄ + (ĥ* − ĥ), ĥ* the full model's replicates on the same draws,
@@ -286,11 +279,8 @@ def with_full_block(reduced: HFit, full: HFit, n_boot: int, block: float, blocks
     if full.boot.size == 0:
         return reduced
     boot = reduced.h + (np.asarray(full.boot, dtype=float) - full.h)
-    lo, hi = float(reduced.h_grid[0]), float(reduced.h_grid[-1])
-    ci = _basic_interval(boot, reduced.h, lo, hi)
-    step = float(reduced.h_grid[1] - reduced.h_grid[0])
-    ok, why = _verdict(reduced.h, ci, reduced.flatness, (lo, hi), 2 * step, n_boot, block, blocks,
-                       max_ci_width, min_rise)
+    ci = _basic_interval(boot, reduced.h, float(reduced.h_grid[0]), float(reduced.h_grid[-1]))
+    ok, why = _reverdict(reduced, ci, n_boot, block, blocks)
     return dataclasses.replace(reduced, h_ci95=ci, h_ci95_block=ci, boot=boot, identifiable=ok, reason=why)
 
 
@@ -352,10 +342,17 @@ def _basic_interval(boot: np.ndarray, h: float, lo: float, hi: float) -> tuple[f
     return float(max(lo, b_lo)), float(min(hi, b_hi))
 
 
+def _reverdict(fit: HFit, ci: tuple[float, float], n_boot: int, block: float, blocks: int) -> tuple[bool, str]:
+    """:func:`_verdict` of ``fit`` with another interval ``ci`` (m), on its own grid."""
+    lo, hi = float(fit.h_grid[0]), float(fit.h_grid[-1])
+    step = float(fit.h_grid[1] - fit.h_grid[0])
+    return _verdict(fit.h, ci, fit.flatness, (lo, hi), 2 * step, n_boot, block, blocks)
+
+
 def _verdict(h_opt: float, ci: tuple[float, float], flatness: float, bounds: tuple[float, float],
-             margin: float, n_boot: int, block: float, blocks: int, max_ci_width: float,
-             min_rise: float) -> tuple[bool, str]:
-    """Identifiable or not, and why, by the rules of :func:`identify_h`'s docstring."""
+             margin: float, n_boot: int, block: float, blocks: int) -> tuple[bool, str]:
+    """Identifiable or not, and why: an interior minimum, :data:`MIN_BOOT` replicates over :data:`MIN_BLOCKS`
+    blocks, an interval clear of the bounds and at most :data:`MAX_CI_WIDTH` wide, a rise of :data:`MIN_RISE`."""
     lo, hi = bounds
     if h_opt < lo + margin or h_opt > hi - margin:
         return False, f"the minimum lies at the search bound ({h_opt:.3f} m in [{lo}, {hi}] m)"
@@ -368,15 +365,15 @@ def _verdict(h_opt: float, ci: tuple[float, float], flatness: float, bounds: tup
     if ci[0] < lo + margin or ci[1] > hi - margin:
         return False, (f"the 95% interval [{ci[0]:.3f}, {ci[1]:.3f}] m reaches the search "
                        f"bound: the RMSE curve is flat")
-    if ci[1] - ci[0] > max_ci_width:
-        return False, (f"the 95% interval is {ci[1] - ci[0]:.3f} m wide (> {max_ci_width} m): "
+    if ci[1] - ci[0] > MAX_CI_WIDTH:
+        return False, (f"the 95% interval is {ci[1] - ci[0]:.3f} m wide (> {MAX_CI_WIDTH} m): "
                        f"the RMSE curve is too shallow")
-    if flatness < min_rise:
+    if flatness < MIN_RISE:
         return False, (f"the RMSE rises only {100 * flatness:.1f}% within ±0.1 m of the minimum "
-                       f"(identifiable from {100 * min_rise:.0f}%, as braking and accelerating "
+                       f"(identifiable from {100 * MIN_RISE:.0f}%, as braking and accelerating "
                        f"rides): too shallow, the noise moves h")
     return True, (f"interior minimum, RMSE rises {100 * flatness:.1f}% within ±0.1 m "
-                  f"(≥ {100 * min_rise:.0f}%), 95% interval {ci[1] - ci[0]:.3f} m wide")
+                  f"(≥ {100 * MIN_RISE:.0f}%), 95% interval {ci[1] - ci[0]:.3f} m wide")
 
 
 # --- recordings, end to end ------------------------------------------------------------------
@@ -419,9 +416,8 @@ def load(path, smoothing: Smoothing = DEFAULT_SMOOTHING, params: Params | None =
     return Recording(name=str(path), df=df, meta=meta, params=p, kin=kin, kin_kw=kin_kw)
 
 
-def identify_recordings(recs: list[Recording], bounds=(0.1, 1.5), grid_step: float = 0.02,
-                        n_boot: int = 400, block: float = BOOTSTRAP_BLOCK, seed: int = 0,
-                        max_ci_width: float = MAX_CI_WIDTH, n_noise: int | None = None) -> dict:
+def identify_recordings(recs: list[Recording], bounds=(0.1, 1.5), n_boot: int = 400,
+                        block: float = BOOTSTRAP_BLOCK, seed: int = 0, n_noise: int | None = None) -> dict:
     """Per-recording and pooled h for both models.
 
     Intervals: :func:`with_full_block` for the reduced model, then :func:`with_noise` with
@@ -430,11 +426,9 @@ def identify_recordings(recs: list[Recording], bounds=(0.1, 1.5), grid_step: flo
     Returns
     -------
     dict
-        ``{"pooled": {model: HFit}, "per_recording": [{model: HFit}, ...],
-        "polys": [{model: ResidualPoly}, ...]}``.
+        ``{"pooled": {model: HFit}, "per_recording": [{model: HFit}, ...]}``.
     """
-    kw = dict(bounds=bounds, grid_step=grid_step, n_boot=n_boot, block=block,
-              max_ci_width=max_ci_width)
+    kw = dict(bounds=bounds, n_boot=n_boot, block=block)
     polys = [{m: residual_poly(r.kin, r.params, m) for m in MODELS} for r in recs]
     per = [{m: identify_h([pp[m]], seed=seed + i, **kw) for m in MODELS}
            for i, pp in enumerate(polys)]
@@ -445,8 +439,7 @@ def identify_recordings(recs: list[Recording], bounds=(0.1, 1.5), grid_step: flo
         return sum(int(math.ceil(rp.n / max(1, round(block / float(rp.t[1] - rp.t[0]))))) for rp in rps)
 
     def borrow(fits, rps):                     # the reduced model's replicates: the full model's
-        return {**fits, REDUCED: with_full_block(fits[REDUCED], fits[FULL], n_boot, block, blocks(rps),
-                                                 max_ci_width=max_ci_width)}
+        return {**fits, REDUCED: with_full_block(fits[REDUCED], fits[FULL], n_boot, block, blocks(rps))}
 
     per = [borrow(fits, [pp[REDUCED]]) for fits, pp in zip(per, polys)]
     pooled = borrow(pooled, [pp[REDUCED] for pp in polys]) if len(recs) > 1 else per[0]
@@ -460,11 +453,10 @@ def identify_recordings(recs: list[Recording], bounds=(0.1, 1.5), grid_step: flo
                   for i, (r, fits) in enumerate(zip(recs, per))]
 
         def widen(fit, cs, rps):
-            return with_noise(fit, nb.noise_spread(cs, fit.model), n_boot, block, blocks(rps),
-                              max_ci_width=max_ci_width)
+            return with_noise(fit, nb.noise_spread(cs, fit.model), n_boot, block, blocks(rps))
 
         per = [{m: widen(f, [c], [pp[m]]) for m, f in fits.items()}
                for fits, c, pp in zip(per, curves, polys)]
         pooled = ({m: widen(f, curves, [pp[m] for pp in polys]) for m, f in pooled.items()}
                   if len(recs) > 1 else per[0])
-    return {"pooled": pooled, "per_recording": per, "polys": polys}
+    return {"pooled": pooled, "per_recording": per}

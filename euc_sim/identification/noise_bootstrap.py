@@ -111,12 +111,11 @@ def grid_minimum(grid: np.ndarray, J: np.ndarray) -> np.ndarray:
 @dataclass(frozen=True)
 class NoiseCurves:
     """Σ residual² (N²·m²) on a grid of h (m) of one recording's smooth part (``base``, per model) and its
-    replicates (``reps``, (n_rep, K)); ``sigma``: noise σ per column."""
+    replicates (``reps``, (n_rep, K))."""
 
     grid: np.ndarray
     base: dict
     reps: dict
-    sigma: dict
 
 
 def noise_curves(df: pd.DataFrame, p: Params, smoothing: Smoothing, grid: np.ndarray, h_ref: dict,
@@ -158,7 +157,7 @@ def noise_curves(df: pd.DataFrame, p: Params, smoothing: Smoothing, grid: np.nda
             noisy = {c: smooth[c] + rng.normal(0.0, sigma[c], len(t)) for c in cols if sigma[c] > 0}
             for m, ss in curves(df.assign(**noisy)).items():
                 reps[m][j] = ss
-    return NoiseCurves(grid=np.asarray(grid, dtype=float), base=base, reps=reps, sigma=sigma)
+    return NoiseCurves(grid=np.asarray(grid, dtype=float), base=base, reps=reps)
 
 
 @dataclass(frozen=True)

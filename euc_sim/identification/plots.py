@@ -104,7 +104,9 @@ def rmse_curves_figure(names, per_recording, pooled):
         ax.set_xlabel("h [m]")
         ax.set_ylabel("RMSE / its minimum")
         ax.grid(alpha=0.3)
-    _relative_log_axis(axes[0, 0], top)
+    axes[0, 0].set_yscale("log")              # a ratio axis from 0.9 with plain tick labels
+    axes[0, 0].set_ylim(0.9, max(top, 2.0) * 1.1)
+    plain_log_ticks(axes[0, 0].yaxis, [1, 1.5, 2, 3, 5, 10, 20])
     for ax in list(axes.flat)[n:]:
         ax.set_visible(False)
     handles = [Line2D([], [], color=c, label=lab) for c, lab in _STYLE.values()]
@@ -188,13 +190,6 @@ def maneuver_curves_figure(groups, true_h: float | None = None):
 
 #: Colour and name of each model in the figures.
 _STYLE = {"3dof": ("tab:blue", "3 DoF"), "2dof": ("tab:orange", "2 DoF")}
-
-
-def _relative_log_axis(ax, top: float) -> None:
-    """A logarithmic ratio axis from 0.9 to ``top`` with plain tick labels (1, 1.5, 2, 5, ...)."""
-    ax.set_yscale("log")
-    ax.set_ylim(0.9, max(top, 2.0) * 1.1)
-    plain_log_ticks(ax.yaxis, [1, 1.5, 2, 3, 5, 10, 20])
 
 
 def plain_log_ticks(axis, ticks=None) -> None:

@@ -11,7 +11,7 @@ Motion-capture files (:func:`mocap_state`): C from the pivot E, r_CG by eqs. (1)
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -21,7 +21,7 @@ from euc_sim.identification.recordings import RecordingError, check_length, is_m
 from euc_sim.model.parameters import Params
 
 __all__ = [
-    "Smoothing", "Kinematics", "DEFAULT_SMOOTHING", "PAPER_SMOOTHING", "savgol_derivatives",
+    "Smoothing", "Kinematics", "DEFAULT_SMOOTHING", "savgol_derivatives",
     "term_filter", "T_psi", "T_theta", "T_pitch", "moving_frame", "wheel_centre",
     "mocap_state", "kinematics", "sample_period",
 ]
@@ -95,15 +95,9 @@ class Smoothing:
         return {"method": self.method, "window_s": self.window, "order": self.order,
                 "term_sigma_s": self.term_sigma}
 
-    def replace(self, **changes) -> "Smoothing":
-        """A copy with some settings changed."""
-        return replace(self, **changes)
-
 
 #: The default: consistent filtering.
 DEFAULT_SMOOTHING = Smoothing()
-#: The paper's recipe.
-PAPER_SMOOTHING = Smoothing(method="savgol")
 
 
 @dataclass(frozen=True)
@@ -250,18 +244,16 @@ def mocap_state(df: pd.DataFrame, p: Params, smoothing: Smoothing, d_CE: float |
     theta, _, _ = savgol_derivatives(ang["theta"], dt, w, o)
     G0 = savgol_derivatives(G, dt, w, o, axis=0)[0]
     r_CG = moving_frame(G0 - C0, psi, theta)                                  # eq. (1)
-    gamma_raw = ang["gamma"]
+    gam = savgol_derivatives(ang["gamma"], dt, w, o)
     if phi_from == "C":
         phi_raw = np.arctan2(r_CG[:, 0], r_CG[:, 2])                           # eq. (3)
     else:
-        g0 = savgol_derivatives(gamma_raw, dt, w, o)[0]
-        phi_raw = np.arctan2(r_CG[:, 0] + p.l0 * np.sin(g0), r_CG[:, 2] + p.l0 * np.cos(g0))
+        phi_raw = np.arctan2(r_CG[:, 0] + p.l0 * np.sin(gam[0]), r_CG[:, 2] + p.l0 * np.cos(gam[0]))
     v_C = moving_frame(C1, psi, theta)                                        # v_Cx
     a_C = moving_frame(C2, psi, theta)                                        # a_Cx
     from scipy.integrate import cumulative_trapezoid
 
     x = cumulative_trapezoid(v_C[:, 0], t, initial=0.0)
-    gam = savgol_derivatives(gamma_raw, dt, w, o)
     phi = savgol_derivatives(phi_raw, dt, w, o)
     q = np.column_stack([x, gam[0], phi[0]])
     qd = np.column_stack([v_C[:, 0], gam[1], phi[1]])

@@ -21,15 +21,13 @@ from euc_sim.errors import BadInputFile
 from euc_sim.model.parameters import Params, check_plausible
 
 __all__ = [
-    "RecordingError", "RecordingWarning", "STATE_COLUMNS", "MOCAP_COLUMNS", "ANGLE_COLUMNS",
+    "RecordingError", "RecordingWarning", "STATE_COLUMNS", "ANGLE_COLUMNS",
     "read_recording", "read_sidecar", "params_from_meta", "validate_recording",
     "check_time", "check_finite", "check_angles", "check_magnitudes", "check_length", "is_mocap",
 ]
 
 #: The generalized coordinates every state-level recording carries.
 STATE_COLUMNS = ("t", "x", "gamma", "phi")
-#: The motion-capture level columns of Section 2 (C may be replaced by E).
-MOCAP_COLUMNS = ("t", "E_X", "E_Y", "E_Z", "G_X", "G_Y", "G_Z", "psi", "theta", "gamma")
 #: Columns holding angles, rad.
 ANGLE_COLUMNS = ("gamma", "phi", "psi", "theta")
 #: Largest |pitch, lean or tilt|, rad: beyond it (0.52, i.e. 0.52° if in degrees) the column looks like degrees.
@@ -150,8 +148,8 @@ def check_time(df: pd.DataFrame, name: str) -> None:
                              f"to a uniform rate")
 
 
-def check_finite(df: pd.DataFrame, name: str, columns, max_gap: int = MAX_GAP) -> pd.DataFrame:
-    """Interpolate runs of NaN/inf up to ``max_gap`` samples in ``columns`` (with a RecordingWarning), refuse
+def check_finite(df: pd.DataFrame, name: str, columns) -> pd.DataFrame:
+    """Interpolate runs of NaN/inf up to :data:`MAX_GAP` samples in ``columns`` (with a RecordingWarning), refuse
     longer ones or gaps at an end; returns a new frame."""
     out = df.copy()
     repaired = 0
@@ -163,11 +161,11 @@ def check_finite(df: pd.DataFrame, name: str, columns, max_gap: int = MAX_GAP) -
         edges = np.diff(np.concatenate([[0], bad.astype(int), [0]]))
         starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
         for s, e in zip(starts, ends):
-            if e - s > max_gap or s == 0 or e == len(y):
+            if e - s > MAX_GAP or s == 0 or e == len(y):
                 where = "at the start" if s == 0 else "at the end" if e == len(y) else "long"
                 raise RecordingError(
                     f"{name}: column {col!r} row {s + 1}: {e - s} missing or non-finite "
-                    f"value(s) ({where} gap; at most {max_gap} inside the recording are "
+                    f"value(s) ({where} gap; at most {MAX_GAP} inside the recording are "
                     f"interpolated)")
         idx = np.arange(len(y))
         y[bad] = np.interp(idx[bad], idx[~bad], y[~bad])
@@ -221,7 +219,7 @@ def check_length(df: pd.DataFrame, name: str, min_samples: int, why: str = "the 
                              f"too short for {why} (needs at least {min_samples})")
 
 
-def validate_recording(df: pd.DataFrame, name: str = "recording", max_gap: int = MAX_GAP) -> pd.DataFrame:
+def validate_recording(df: pd.DataFrame, name: str = "recording") -> pd.DataFrame:
     """Check a recording's columns (state ``t, x, gamma, phi`` or motion capture), time, values and angles;
     returns a repaired copy."""
     cols = set(df.columns)
@@ -257,20 +255,20 @@ def validate_recording(df: pd.DataFrame, name: str = "recording", max_gap: int =
                                      f"{df[c].iloc[row - 1]!r}")
             df = df.assign(**{c: conv})
     check_time(df, name)
-    df = check_finite(df, name, [c for c in numeric if c != "t"], max_gap=max_gap)
+    df = check_finite(df, name, [c for c in numeric if c != "t"])
     check_angles(df, name)
     check_magnitudes(df, name)
     check_length(df, name, 8, "any derivative")
     return df
 
 
-def read_recording(path: str | Path, max_gap: int = MAX_GAP) -> tuple[pd.DataFrame, dict[str, Any]]:
+def read_recording(path: str | Path) -> tuple[pd.DataFrame, dict[str, Any]]:
     """Read and validate a recording (``NAME.csv`` or ``NAME.parquet``) and its sidecar.
 
     Returns
     -------
     df : pandas.DataFrame
-        The validated columns (short gaps, up to ``max_gap`` samples, interpolated).
+        The validated columns (short gaps, up to :data:`MAX_GAP` samples, interpolated).
     meta : dict
         The sidecar ``NAME.json`` (``{}`` when absent) plus ``"path"``.
 
@@ -283,20 +281,13 @@ def read_recording(path: str | Path, max_gap: int = MAX_GAP) -> tuple[pd.DataFra
     if not path.is_file():
         raise FileNotFoundError(f"{name}: no such recording")
     suffix = path.suffix.lower()
+    if suffix not in (".parquet", ".pq", ".csv", ".txt", ""):
+        raise RecordingError(f"{name}: unknown recording format {suffix!r}; expected .csv or .parquet")
     try:
-        if suffix in (".parquet", ".pq"):
-            df = pd.read_parquet(path)
-        elif suffix in (".csv", ".txt", ""):
-            df = pd.read_csv(path)
-        else:
-            raise RecordingError(f"{name}: unknown recording format {suffix!r}; expected .csv or .parquet")
-    except RecordingError:
-        raise
+        df = pd.read_parquet(path) if suffix in (".parquet", ".pq") else pd.read_csv(path)
     except (ValueError, OSError, pd.errors.ParserError) as exc:
         msg = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise RecordingError(f"{name}: cannot read as {suffix.lstrip('.') or 'csv'}: {msg}") from None
     df.columns = [str(c).strip() for c in df.columns]
-    df = validate_recording(df, name, max_gap=max_gap)
-    meta = read_sidecar(path)
-    meta = dict(meta, path=name)
-    return df, meta
+    df = validate_recording(df, name)
+    return df, dict(read_sidecar(path), path=name)

@@ -19,8 +19,8 @@ from scipy.optimize import minimize_scalar
 from euc_sim.errors import InputError
 from euc_sim.stats import interleaved_folds, span_blocks
 
-__all__ = ["SelectionError", "Problem", "Adapted", "Fit", "time_blocks", "correlation_time", "fit_set",
-           "heldout_rmse", "covariance", "BLOCK_LENGTH"]
+__all__ = ["SelectionError", "Problem", "Adapted", "Fit", "correlation_time", "fit_set",
+           "heldout_rmse", "covariance", "BLOCK_LENGTH", "HELDOUT_FOLDS", "GUARD", "CLUSTER"]
 
 
 class SelectionError(InputError):
@@ -43,8 +43,6 @@ class Problem:
         Search interval of h.
     validity : mapping of str to callable, optional
         ``validity[name](theta) -> None | str``: a reason to refuse the estimate.
-    weights : numpy.ndarray, optional
-        (n,) non-negative sample weights (default 1).
     shape_params : mapping of str to int, optional
         Parameters the data chose for a candidate before the fit, counted in the BIC.
     adaptive : mapping of str to callable, optional
@@ -57,7 +55,6 @@ class Problem:
     time: np.ndarray
     bounds: tuple[float, float]
     validity: Mapping[str, Callable[[np.ndarray], str | None]] = field(default_factory=dict)
-    weights: np.ndarray | None = None
     shape_params: Mapping[str, int] = field(default_factory=dict)
     adaptive: Mapping[str, Callable[[tuple], "Adapted"]] = field(default_factory=dict)
 
@@ -80,11 +77,6 @@ class Problem:
             cols[name] = X
         object.__setattr__(self, "candidates", cols)
         object.__setattr__(self, "time", t)
-        if self.weights is not None:
-            w = np.asarray(self.weights, dtype=float)
-            if w.shape != t.shape or np.any(w < 0) or not np.all(np.isfinite(w)):
-                raise SelectionError(f"weights must be {t.shape} non-negative, got shape {w.shape}")
-            object.__setattr__(self, "weights", w)
 
     @property
     def n(self) -> int:
@@ -121,7 +113,7 @@ class Problem:
             cands[c], shape[c] = a.columns, a.n_shape
             if a.check is not None:
                 valid[c] = a.check
-        return Problem(self.target, cands, self.time, self.bounds, valid, self.weights, shape)
+        return Problem(self.target, cands, self.time, self.bounds, valid, shape)
 
     def y(self, h: float) -> np.ndarray:
         y = np.asarray(self.target(h), dtype=float)
@@ -142,7 +134,7 @@ class Adapted:
 @dataclass(frozen=True)
 class Fit:
     """A least-squares fit of one candidate set with h profiled: ``names``, ``h``, ``theta`` per candidate,
-    weighted ``rss``, ``n`` samples."""
+    ``rss``, ``n`` samples."""
 
     names: tuple[str, ...]
     h: float
@@ -160,19 +152,12 @@ class Fit:
         return np.concatenate([self.theta[c] for c in self.names])
 
 
-def time_blocks(time: np.ndarray, n_blocks: int) -> np.ndarray:
-    """Index 0..n_blocks-1 of the contiguous time block of each sample (``n_blocks`` ≥ 2)."""
-    if n_blocks < 2:
-        raise SelectionError(f"n_blocks must be at least 2, got {n_blocks}")
-    return span_blocks(time, n_blocks)
-
-
-def correlation_time(e: np.ndarray, max_lag: int | None = None) -> float:
-    """Integrated autocorrelation time τ_int = 1 + 2 Σ ρ_k up to the first ρ_k ≤ 0, samples (≥ 1)."""
+def correlation_time(e: np.ndarray) -> float:
+    """Integrated autocorrelation time τ_int = 1 + 2 Σ ρ_k up to the first ρ_k ≤ 0 (lags up to n/4), samples (≥ 1)."""
     e = np.asarray(e, dtype=float)
     e = e - e.mean()
     n = e.size
-    max_lag = min(n // 4, max_lag or n // 4)
+    max_lag = n // 4
     if n < 8 or not np.any(e):
         return 1.0
     f = np.fft.rfft(e, 2 * n)
@@ -187,17 +172,15 @@ def correlation_time(e: np.ndarray, max_lag: int | None = None) -> float:
 
 
 def _profile(problem: Problem, X: np.ndarray, idx: np.ndarray, n_grid: int = 13):
-    """Minimise over h the weighted RSS of y(h) − Xθ on samples idx; returns (h, θ, rss)."""
-    w = np.ones(problem.n) if problem.weights is None else problem.weights
-    sw = np.sqrt(w[idx])
-    Xi = X[idx] * sw[:, None]
+    """Minimise over h the RSS of y(h) − Xθ on samples idx; returns (h, θ, rss)."""
+    Xi = X[idx]
     if Xi.shape[1]:
         Qm, Rm = np.linalg.qr(Xi)
     else:
         Qm = Rm = None
 
     def rss(h: float) -> float:
-        yi = problem.y(h)[idx] * sw
+        yi = problem.y(h)[idx]
         if Qm is not None:
             yi = yi - Qm @ (Qm.T @ yi)
         return float(yi @ yi)
@@ -209,7 +192,7 @@ def _profile(problem: Problem, X: np.ndarray, idx: np.ndarray, n_grid: int = 13)
     a, b = grid[max(k - 1, 0)], grid[min(k + 1, n_grid - 1)]
     res = minimize_scalar(rss, bounds=(a, b), method="bounded", options={"xatol": 1e-5})
     h = float(res.x) if res.fun <= vals[k] else float(grid[k])
-    yi = problem.y(h)[idx] * sw
+    yi = problem.y(h)[idx]
     if Qm is not None:
         theta = np.linalg.solve(Rm, Qm.T @ yi) if np.all(np.abs(np.diag(Rm)) > 1e-12) else \
             np.linalg.lstsq(Xi, yi, rcond=None)[0]
@@ -228,13 +211,13 @@ def _split_theta(problem: Problem, names: Sequence[str], theta: np.ndarray) -> d
     return out
 
 
-def fit_set(problem: Problem, names: Sequence[str], idx: np.ndarray | None = None) -> Fit:
-    """Fit the candidate set ``names`` (may be empty) jointly with h, on samples ``idx`` (default all)."""
+def fit_set(problem: Problem, names: Sequence[str]) -> Fit:
+    """Fit the candidate set ``names`` (may be empty) jointly with h, on all samples."""
     names = tuple(names)
     unknown = [c for c in names if c not in problem.candidates]
     if unknown:
         raise SelectionError(f"unknown candidate {unknown[0]!r}; expected one of {', '.join(problem.candidates)}")
-    idx = np.arange(problem.n) if idx is None else np.asarray(idx)
+    idx = np.arange(problem.n)
     X = problem.design(names)
     h, theta, rss = _profile(problem, X, idx)
     return Fit(names, h, _split_theta(problem, names, theta), rss, int(idx.size))
@@ -242,20 +225,22 @@ def fit_set(problem: Problem, names: Sequence[str], idx: np.ndarray | None = Non
 
 #: Length of the contiguous held-out blocks, s (several correlation times of the residual).
 BLOCK_LENGTH = 2.0
+#: Folds of the held-out validation: blocks of :data:`BLOCK_LENGTH` s dealt to them in turn.
+HELDOUT_FOLDS = 10
+#: Time dropped from training on each side of a held-out block, s.
+GUARD = 0.5
+#: Cluster length of the sandwich covariance, s.
+CLUSTER = 2.0
 
 
-def heldout_rmse(problem: Problem, names: Sequence[str], n_blocks: int = 10,
-                 guard: float = 0.5, extra: Callable | None = None) -> float:
-    """Held-out RMSE of a candidate set, blocked in time, h re-identified per fold.
+def heldout_rmse(problem: Problem, names: Sequence[str], extra: Callable | None = None) -> float:
+    """Held-out RMSE of a candidate set, blocked in time (:data:`HELDOUT_FOLDS`, :data:`GUARD`), h re-identified
+    per fold.
 
     Parameters
     ----------
     problem : Problem
     names : sequence of str
-    n_blocks : int
-        Folds: blocks of :data:`BLOCK_LENGTH` s dealt to the folds in turn.
-    guard : float
-        Time dropped from training on each side of a held-out block, s.
     extra : callable, optional
         ``extra(train_idx, train_residual, h) -> (n, k)`` columns built from the training
         samples only, added to that fold's design (:func:`~euc_sim.identification.selection.generic_gain`).
@@ -263,15 +248,15 @@ def heldout_rmse(problem: Problem, names: Sequence[str], n_blocks: int = 10,
     Returns
     -------
     float
-        sqrt(Σ w e² / n) over the held-out samples, the residual's unit.
+        sqrt(Σ e² / n) over the held-out samples, the residual's unit.
     """
     names = tuple(names)
     X = problem.design(names)
-    w = np.ones(problem.n) if problem.weights is None else problem.weights
     sse, cnt = 0.0, 0
-    for train, test in interleaved_folds(problem.time, n_blocks, BLOCK_LENGTH, guard):
+    for train, test in interleaved_folds(problem.time, HELDOUT_FOLDS, BLOCK_LENGTH, GUARD):
         if train.size < 10:
-            raise SelectionError(f"n_blocks={n_blocks} and guard={guard} leave a fold without training samples")
+            raise SelectionError(f"{HELDOUT_FOLDS} folds and a guard of {GUARD} s leave a fold without training "
+                                 f"samples")
         h, theta, _ = _profile(problem, X, train)
         Xf = X
         if extra is not None:
@@ -282,20 +267,16 @@ def heldout_rmse(problem: Problem, names: Sequence[str], n_blocks: int = 10,
                 Xf = np.hstack([X, E])
                 h, theta, _ = _profile(problem, Xf, train)
         e = problem.y(h)[test] - Xf[test] @ theta
-        sse += float(np.sum(w[test] * e * e))
+        sse += float(np.sum(e * e))
         cnt += int(test.size)
     return float(np.sqrt(sse / cnt))
 
 
-def _jacobian_h(problem: Problem, h: float, step: float = 1e-4) -> np.ndarray:
-    return (problem.y(h + step) - problem.y(h - step)) / (2 * step)
-
-
-def covariance(problem: Problem, fit: Fit, cluster: float) -> tuple[np.ndarray, float]:
+def covariance(problem: Problem, fit: Fit) -> tuple[np.ndarray, float]:
     """Covariance of (θ, h): the cluster sandwich, each variance raised to at least the conventional one.
 
     J = [X, −∂y/∂h] at the optimum; robust = (JᵀJ)⁻¹ (Σ_b J_bᵀ e_b e_bᵀ J_b) (JᵀJ)⁻¹ · G/(G−1)
-    over G clusters of ``cluster`` s; each standard error is raised, where lower, to that of
+    over G clusters of :data:`CLUSTER` s; each standard error is raised, where lower, to that of
     s² (JᵀJ)⁻¹ τ_int, keeping the sandwich's correlations (Angrist & Pischke 2009, §8.2.3:
     with G ≈ 10 the sandwich is biased low for slowly varying columns).
 
@@ -309,13 +290,11 @@ def covariance(problem: Problem, fit: Fit, cluster: float) -> tuple[np.ndarray, 
     X = problem.design(fit.names)
     y = problem.y(fit.h)
     e = y - X @ fit.coef_vector()
-    J = np.hstack([X, -_jacobian_h(problem, fit.h)[:, None]])
-    w = np.ones(problem.n) if problem.weights is None else problem.weights
-    J = J * np.sqrt(w)[:, None]
-    e = e * np.sqrt(w)
+    dh = 1e-4
+    J = np.hstack([X, -((problem.y(fit.h + dh) - problem.y(fit.h - dh)) / (2 * dh))[:, None]])
     span = problem.time.max() - problem.time.min()
-    G = int(max(2, np.floor(span / max(cluster, 1e-9))))
-    blk = time_blocks(problem.time, G)
+    G = int(max(2, np.floor(span / CLUSTER)))
+    blk = span_blocks(problem.time, G)
     A = J.T @ J
     try:
         Ainv = np.linalg.inv(A)

@@ -92,6 +92,41 @@ class RolloutFit:
                 "max_abs_correlation_h": float(np.max(np.abs(c))) if c.size else math.nan}
 
 
+@dataclass(frozen=True)
+class Windows:
+    """A recording cut into rollout windows sharing their end samples: time ``t`` (N,) and ``dt``, s; the samples
+    ``idx`` (W, L) of each window; the recorded (x, γ, φ) ``q_rec`` (W, L, 3); their noise
+    ``sig`` (3,), m, rad, rad; the starting states ``s0`` (W, 6) from the kinematics."""
+
+    t: np.ndarray
+    dt: float
+    idx: np.ndarray
+    q_rec: np.ndarray
+    sig: np.ndarray
+    s0: np.ndarray
+
+
+def rollout_windows(df, kin: Kinematics, fit: str) -> Windows:
+    """Cut a recording with ``t, x, gamma, phi, M_d, M_h`` into windows of :data:`WINDOW` s (RolloutError naming
+    the ``fit``: without those columns or shorter than one window)."""
+    need = [c for c in ("M_d", "M_h", "x", "gamma", "phi") if c not in df.columns]
+    if need:
+        raise RolloutError(f"the {fit} fit needs the recorded column {need[0]!r} "
+                           f"(both torques M_d, M_h and the states x, gamma, phi)")
+    t = df["t"].to_numpy(dtype=float)
+    dt = sample_period(t)
+    L = int(round(WINDOW / dt)) + 1
+    n_win = (len(t) - 1) // (L - 1)
+    if n_win < 1:
+        raise RolloutError(f"the recording ({t[-1] - t[0]:.2f} s) is shorter than one rollout window ({WINDOW:g} s)")
+    Q = df[["x", "gamma", "phi"]].to_numpy(dtype=float)
+    sig = np.array([max(split_noise(Q[:, i], dt)[1], floor) for i, floor in enumerate((1e-5, 1e-4, 1e-4))])
+    starts = np.arange(n_win) * (L - 1)
+    idx = starts[:, None] + np.arange(L)[None, :]
+    s0 = np.concatenate([kin.q[starts], kin.qd[starts]], axis=1)
+    return Windows(t=t, dt=dt, idx=idx, q_rec=Q[idx], sig=sig, s0=s0)
+
+
 class _Roller:
     """Batched rollouts of the windows: states and controls at the substep rate."""
 
@@ -151,9 +186,8 @@ class _Roller:
         return np.concatenate([q0, q], axis=1)
 
 
-def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
-                window: float = WINDOW) -> RolloutFit:
-    """Identify h by the simulation error of windowed rollouts with free initial states.
+def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5)) -> RolloutFit:
+    """Identify h by the simulation error of rollouts over windows of :data:`WINDOW` s with free initial states.
 
     Parameters
     ----------
@@ -167,8 +201,6 @@ def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
         Starting h, m.
     bounds : (float, float)
         Search bounds of h, m.
-    window : float
-        Window length, s.
 
     Raises
     ------
@@ -176,24 +208,10 @@ def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
         without the torque or state columns, or shorter than one window.
     """
     t0 = time.perf_counter()
-    need = [c for c in ("M_d", "M_h", "x", "gamma", "phi") if c not in df.columns]
-    if need:
-        raise RolloutError(f"the rollout fit needs the recorded column {need[0]!r} "
-                           f"(both torques M_d, M_h and the states x, gamma, phi)")
-    t = df["t"].to_numpy(dtype=float)
-    dt = sample_period(t)
-    L = int(round(window / dt)) + 1
-    n_win = (len(t) - 1) // (L - 1)
-    if n_win < 1:
-        raise RolloutError(f"the recording ({t[-1] - t[0]:.2f} s) is shorter than one rollout window ({window:g} s)")
-    Q = df[["x", "gamma", "phi"]].to_numpy(dtype=float)
-    sig = np.array([max(split_noise(Q[:, i], dt)[1], floor) for i, floor in enumerate((1e-5, 1e-4, 1e-4))])
-    M = df[["M_d", "M_h"]].to_numpy(dtype=float)
-    starts = np.arange(n_win) * (L - 1)
-    idx = starts[:, None] + np.arange(L)[None, :]
-    q_rec = Q[idx]                                                      # (W, L, 3)
-    roller = _Roller(p, dt, M, n_win, L)
-    s0 = np.concatenate([kin.q[starts], kin.qd[starts]], axis=1)        # (W, 6)
+    win = rollout_windows(df, kin, "rollout")
+    n_win, L = win.idx.shape
+    q_rec, sig, s0 = win.q_rec, win.sig, win.s0
+    roller = _Roller(p, win.dt, df[["M_d", "M_h"]].to_numpy(dtype=float), n_win, L)
     lo, hi = map(float, bounds)
     theta0 = np.concatenate([[min(max(h0, lo + 1e-6), hi - 1e-6)], s0.ravel()])
     wins = np.arange(n_win)
@@ -219,14 +237,13 @@ def fit_rollout(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
 
     h, S, r, cost, nfev = _levenberg_marquardt(fun, jac, float(theta0[0]), s0.copy(), lo, hi)
     corr, sd_h = _correlation(*jac(h, S), cost, r.size)
-    sd = np.array([sd_h])
     q_fit = roller.run(np.full(n_win, h), S, wins)
     tol = BOUND_TOL * (hi - lo)
     at_bound = ["h"] if (h - lo < tol or hi - h < tol) else []
-    ci = (max(lo, h - 1.96 * sd[0]), min(hi, h + 1.96 * sd[0]))
+    ci = (max(lo, h - 1.96 * sd_h), min(hi, h + 1.96 * sd_h))
     rms = np.sqrt(np.mean((q_fit - q_rec) ** 2, axis=(0, 1)))
     return RolloutFit(h=h, h_ci95=ci, seconds=time.perf_counter() - t0, windows=n_win,
-                      at_bound=at_bound, correlation=corr, t=t[idx], q_rec=q_rec, q_fit=q_fit,
+                      at_bound=at_bound, correlation=corr, t=win.t[win.idx], q_rec=q_rec, q_fit=q_fit,
                       rms=rms, nfev=nfev)
 
 

@@ -69,30 +69,26 @@ def bic(rss: float, n: int, n_eff: float, n_params: int) -> float:
     return float(n_eff * np.log(max(rss, 1e-300) / n) + n_params * np.log(n_eff))
 
 
-def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
-                   min_bic_drop: float = 10.0, min_cv_gain: float = 0.10,
-                   min_t: float = 4.0, cluster: float = 2.0, max_terms: int = 3,
-                   allowed: Sequence[str] | None = None, n_eff: float | None = None,
-                   pairs: bool = False, progress: Callable[[str], None] | None = None) -> Selection:
+#: Most candidates a selection accepts.
+MAX_TERMS = 3
+
+
+def forward_select(problem: Problem, *, min_bic_drop: float = 10.0, min_cv_gain: float = 0.10,
+                   min_t: float = 4.0, n_eff: float | None = None, pairs: bool = False) -> Selection:
     """Forward stepwise selection with blocked held-out validation and BIC.
 
     Each step adds every remaining candidate in turn (h re-identified); the lowest-BIC one
-    is accepted when the BIC drops by ``min_bic_drop``, the held-out RMSE by the fraction
-    ``min_cv_gain``, each coefficient group has |θ|/se ≥ ``min_t`` (cluster sandwich) and
-    ``problem.validity`` has no objection.  Otherwise selection stops.
+    is accepted when the BIC drops by ``min_bic_drop``, the held-out RMSE
+    (:func:`~euc_sim.identification.regression.heldout_rmse`) by the fraction
+    ``min_cv_gain``, each coefficient group has |θ|/se ≥ ``min_t`` (cluster sandwich of
+    :data:`~euc_sim.identification.regression.CLUSTER` s) and ``problem.validity`` has no
+    objection; at most :data:`MAX_TERMS` are accepted.  Otherwise selection stops.
 
     Parameters
     ----------
     problem : Problem
-    n_blocks, guard : int, float
-        Held-out validation (:func:`~euc_sim.identification.regression.heldout_rmse`).
     min_bic_drop, min_cv_gain, min_t : float
         Acceptance thresholds.
-    cluster : float
-        Cluster length for standard errors, s.
-    max_terms : int
-    allowed : sequence of str, optional
-        Eligible candidates (default all).
     n_eff : float, optional
         Effective sample count for the BIC (default n / τ_int of the nominal residual).
     pairs : bool
@@ -103,26 +99,24 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
     -------
     Selection
     """
-    say = progress or (lambda s: None)
-    pool = [c for c in (allowed if allowed is not None else problem.candidates)]
+    pool = list(problem.candidates)
     nominal = fit_set(problem, ())
     y0 = problem.y(nominal.h)
     tau = correlation_time(y0)
     n_eff = max(problem.n / tau, 5.0) if n_eff is None else float(n_eff)
-    cv_nom = heldout_rmse(problem, (), n_blocks, guard)
+    cv_nom = heldout_rmse(problem, ())
     current, cur_fit, cur_cv = (), nominal, cv_nom
     cur_bic = bic(nominal.rss, nominal.n, n_eff, 1)
     history: list[Step] = [Step(0, (), [{"name": None, "bic": cur_bic, "cv_rmse": cv_nom,
                                          "rmse": nominal.rmse, "h": nominal.h}], None, True,
                                 "nominal model: h only")]
-    judge = dict(min_bic_drop=min_bic_drop, min_cv_gain=min_cv_gain, min_t=min_t, cluster=cluster)
+    judge = dict(min_bic_drop=min_bic_drop, min_cv_gain=min_cv_gain, min_t=min_t)
     dropped: tuple = ()
-    for step in range(1, 2 * max_terms + 2):
+    for step in range(1, 2 * MAX_TERMS + 2):
         remaining = [c for c in pool if c not in current and c not in dropped]
-        if not remaining or len(current) >= max_terms:
+        if not remaining or len(current) >= MAX_TERMS:
             break
-        trials, fits = _trials(problem, current, remaining, n_eff, n_blocks, guard,
-                               lambda m: say(f"step {step}: {m}"))
+        trials, fits = _trials(problem, current, remaining, n_eff)
         accepted, chosen, reason, f, best = False, None, "no candidate left", None, None
         refused = []
         for d in trials:
@@ -131,16 +125,15 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
             if not reasons:
                 accepted, chosen, best = True, d["name"], d
                 break
+            refused.append(f"{d['name']}: " + "; ".join(reasons))
             if d["bic"] > cur_bic - min_bic_drop or d.get("cv_gain", 0.0) < min_cv_gain:
                 chosen, best = d["name"], d          # the best plausible one is not good enough
-                refused.append(f"{d['name']}: " + "; ".join(reasons))
-                break
-            refused.append(f"{d['name']}: " + "; ".join(reasons))   # refused on physics: try the next
+                break                                # (else refused on physics: try the next)
         reason = "accepted" + (f" (refused before it: {' | '.join(refused)})" if refused else "") \
             if accepted else " | ".join(refused) or reason
-        if not accepted and pairs and len(current) + 2 <= max_terms:
+        if not accepted and pairs and len(current) + 2 <= MAX_TERMS:
             # no single term earns its place: two that only show together (each masks the other)
-            pair = _pair_step(problem, current, remaining, n_eff, cur_bic, cur_cv, n_blocks, guard, judge)
+            pair = _pair_step(problem, current, remaining, n_eff, cur_bic, cur_cv, judge)
             if pair is not None:
                 accepted, chosen, f, best = True, "+".join(pair["names"]), pair["_fit"], pair
                 reason = f"accepted as a pair (alone: {' | '.join(refused)})"
@@ -150,49 +143,46 @@ def forward_select(problem: Problem, *, n_blocks: int = 10, guard: float = 0.5,
             break
         current, cur_fit, cur_cv, cur_bic = f.names, f, best["cv_rmse"], best["bic"]
         if not pairs:
-            pool = [c for c in pool if c not in refused_names(refused)]
+            pool = [c for c in pool if c not in {r.split(":", 1)[0] for r in refused}]   # refused on physics
             continue
         # swap: a member that another candidate replaces decisively, given the rest (an alias
         # chosen before the set's other members were known)
-        swap = _swap(problem, cur_fit, cur_bic, [c for c in pool if c not in current], n_eff, min_bic_drop,
-                     min_t, cluster)
+        swap = _swap(problem, cur_fit, cur_bic, [c for c in pool if c not in current], n_eff, min_bic_drop, min_t)
         if swap is not None:
             old_name, g, b_new = swap
             history.append(Step(step, current, [], g.names[-1], True,
                                 f"swapped {old_name} for {g.names[-1]}: BIC {cur_bic:.1f} -> {b_new:.1f}"))
             current, cur_fit, cur_bic = g.names, g, b_new
-            cur_cv = heldout_rmse(problem, current, n_blocks, guard)
+            cur_cv = heldout_rmse(problem, current)
         # backward: a term that the later ones made redundant leaves the set
-        gone, why = _backward(problem, cur_fit, cur_bic, n_eff, min_bic_drop, min_t, cluster)
+        gone, why = _backward(problem, cur_fit, cur_bic, n_eff, min_bic_drop, min_t)
         dropped = (gone,) if gone else ()
         if gone:
             current = tuple(c for c in current if c != gone)
             cur_fit = fit_set(problem, current)
             cur_bic = bic(cur_fit.rss, cur_fit.n, n_eff, n_params(problem, current))
-            cur_cv = heldout_rmse(problem, current, n_blocks, guard)
+            cur_cv = heldout_rmse(problem, current)
             history.append(Step(step, f.names, [], gone, False, f"dropped {gone}: {why}"))
-    cv_path = [heldout_rmse(problem, current[:i + 1], n_blocks, guard) for i in range(len(current) - 1)] + \
+    cv_path = [heldout_rmse(problem, current[:i + 1]) for i in range(len(current) - 1)] + \
         ([cur_cv] if current else [])
     return Selection(current, cur_fit, nominal, cv_nom, cur_cv, cv_path, n_eff, tau, history)
 
 
-def _trials(problem: Problem, current: tuple, remaining: list, n_eff: float, n_blocks: int,
-            guard: float, say) -> tuple[list[dict], dict]:
+def _trials(problem: Problem, current: tuple, remaining: list, n_eff: float) -> tuple[list[dict], dict]:
     """Every remaining candidate added to the current set: BIC and held-out RMSE, best BIC first."""
     trials = []
     for c in remaining:
         f = fit_set(problem, current + (c,))
         b = bic(f.rss, f.n, n_eff, n_params(problem, f.names))
-        cv = heldout_rmse(problem, f.names, n_blocks, guard)
+        cv = heldout_rmse(problem, f.names)
         trials.append({"name": c, "bic": b, "cv_rmse": cv, "rmse": f.rmse, "h": f.h,
                        "theta": f.theta[c].tolist(), "_fit": f})
-        say(f"{c}: BIC {b:.1f}, held-out RMSE {cv:.3f}")
     trials.sort(key=lambda d: d["bic"])
     return trials, {d["name"]: d.pop("_fit") for d in trials}
 
 
 def _pair_step(problem: Problem, current: tuple, remaining: list, n_eff: float, cur_bic: float, cur_cv: float,
-               n_blocks: int, guard: float, judge: dict) -> dict | None:
+               judge: dict) -> dict | None:
     """The best pair of remaining candidates added together when it passes :func:`forward_select`'s tests and each
     member drops the BIC by ``min_bic_drop`` given the other."""
     tried = []
@@ -206,7 +196,7 @@ def _pair_step(problem: Problem, current: tuple, remaining: list, n_eff: float, 
             return None
         if invalid_terms(problem, f):
             continue
-        cov, _ = covariance(problem, f, judge["cluster"])
+        cov, _ = covariance(problem, f)
         t = {c: group_t(problem, f, cov, c) for c in (a, b)}
         if min(t.values()) < judge["min_t"]:
             continue
@@ -216,7 +206,7 @@ def _pair_step(problem: Problem, current: tuple, remaining: list, n_eff: float, 
             alone[c] = bic(g.rss, g.n, n_eff, n_params(problem, g.names)) - b_ab
         if min(alone.values()) < judge["min_bic_drop"]:
             continue
-        cv = heldout_rmse(problem, f.names, n_blocks, guard)
+        cv = heldout_rmse(problem, f.names)
         gain = 1.0 - cv / cur_cv if cur_cv > 0 else 0.0
         if gain < judge["min_cv_gain"]:
             continue
@@ -227,7 +217,7 @@ def _pair_step(problem: Problem, current: tuple, remaining: list, n_eff: float, 
 
 
 def _swap(problem: Problem, f: Fit, cur_bic: float, others: list, n_eff: float, min_bic_drop: float,
-          min_t: float, cluster: float):
+          min_t: float):
     """The best replacement of one member by an outsider lowering the BIC by ``min_bic_drop`` (valid, newcomer
     |θ|/se ≥ ``min_t``): (replaced name, fit, BIC), or None."""
     if len(f.names) < 2:
@@ -239,19 +229,19 @@ def _swap(problem: Problem, f: Fit, cur_bic: float, others: list, n_eff: float, 
             g = fit_set(problem, rest + (a,))
             b = bic(g.rss, g.n, n_eff, n_params(problem, g.names))
             if cur_bic - b >= min_bic_drop and (best is None or b < best[2]) and not invalid_terms(problem, g):
-                cov, _ = covariance(problem, g, cluster)
+                cov, _ = covariance(problem, g)
                 if group_t(problem, g, cov, a) >= min_t:
                     best = (c, g, b)
     return best
 
 
-def _backward(problem: Problem, f: Fit, cur_bic: float, n_eff: float, min_bic_drop: float, min_t: float,
-              cluster: float) -> tuple[str | None, str]:
+def _backward(problem: Problem, f: Fit, cur_bic: float, n_eff: float, min_bic_drop: float,
+              min_t: float) -> tuple[str | None, str]:
     """The member whose removal costs the least BIC, when below ``min_bic_drop`` or its |θ|/se below ``min_t``,
     and why; (None, "") otherwise."""
     if len(f.names) < 2:
         return None, ""
-    cov, _ = covariance(problem, f, cluster)
+    cov, _ = covariance(problem, f)
     worst, why, worst_cost = None, "", np.inf
     for c in f.names:
         rest = tuple(n for n in f.names if n != c)
@@ -299,16 +289,11 @@ def invalid_terms(problem: Problem, f: Fit) -> list[str]:
     return out
 
 
-def refused_names(refused: list[str]) -> set[str]:
-    """Names of candidates refused on physics in one step (not offered again)."""
-    return {r.split(":", 1)[0] for r in refused}
-
-
 def _judge(problem: Problem, f: Fit, d: dict, cur_bic: float, cur_cv: float,
-           min_bic_drop: float, min_cv_gain: float, min_t: float, cluster: float) -> list[str]:
+           min_bic_drop: float, min_cv_gain: float, min_t: float) -> list[str]:
     """Reasons to refuse the trial ``d`` (fit ``f``); empty when it is accepted."""
     name = d["name"]
-    cov, _ = covariance(problem, f, cluster)
+    cov, _ = covariance(problem, f)
     t_new = group_t(problem, f, cov, name)
     d["t"] = t_new
     d["cv_gain"] = 1.0 - d["cv_rmse"] / cur_cv if cur_cv > 0 else 0.0     # a zero residual: no gain
@@ -378,7 +363,7 @@ def project_out(problem: Problem, P: np.ndarray | None) -> Problem:
         return adapted
 
     return Problem(target, {c: proj(X) for c, X in problem.candidates.items()}, problem.time, problem.bounds,
-                   problem.validity, problem.weights, problem.shape_params,
+                   problem.validity, problem.shape_params,
                    {c: wrap(hk) for c, hk in problem.adaptive.items()})
 
 
@@ -403,9 +388,6 @@ def sinusoid_basis(time: np.ndarray, fmin: float = 0.1, fmax: float = 3.0, n_fre
     return extra
 
 
-def generic_gain(problem: Problem, selected: Sequence[str], extra: Callable,
-                 n_blocks: int = 10, guard: float = 0.5) -> tuple[float, float]:
+def generic_gain(problem: Problem, selected: Sequence[str], extra: Callable) -> tuple[float, float]:
     """Held-out RMSE ``(without, with)`` a generic basis ``extra`` on top of ``selected``."""
-    a = heldout_rmse(problem, selected, n_blocks, guard)
-    b = heldout_rmse(problem, selected, n_blocks, guard, extra=extra)
-    return a, b
+    return heldout_rmse(problem, selected), heldout_rmse(problem, selected, extra=extra)

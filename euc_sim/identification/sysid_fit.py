@@ -18,9 +18,8 @@ import mujoco
 import numpy as np
 from mujoco import rollout as mj_rollout
 
-from euc_sim.identification.noise_bootstrap import split_noise
-from euc_sim.identification.processing import Kinematics, sample_period
-from euc_sim.identification.rollout_fit import BOUND_TOL, WINDOW, RolloutError, RolloutFit
+from euc_sim.identification.processing import Kinematics
+from euc_sim.identification.rollout_fit import BOUND_TOL, RolloutError, RolloutFit, rollout_windows
 from euc_sim.model.mujoco_model import JointIndex, build_spec, from_mujoco, to_mujoco
 from euc_sim.model.parameters import Params
 from euc_sim.stats import one_blas_thread
@@ -48,18 +47,16 @@ def sysid_available() -> bool:
     return hasattr(ms, "optimize") and hasattr(ms, "calculate_intervals")
 
 
-def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
-              window: float = WINDOW, fast: bool = True, max_iter: int = MAX_ITER) -> RolloutFit:
-    """Identify h with ``mujoco.sysid`` over windows with free initial states.
+def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5), fast: bool = True) -> RolloutFit:
+    """Identify h with ``mujoco.sysid`` over windows of :data:`~euc_sim.identification.rollout_fit.WINDOW` s with
+    free initial states, at most :data:`MAX_ITER` iterations.
 
     Parameters
     ----------
-    df, kin, p, h0, bounds, window
+    df, kin, p, h0, bounds
         As :func:`~euc_sim.identification.rollout_fit.fit_rollout`.
     fast : bool
         Memoise the compiled model by h (False: recompile for every column of every window).
-    max_iter : int
-        Optimizer iterations at most.
 
     Returns
     -------
@@ -80,14 +77,13 @@ def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
 
     t0 = time.perf_counter()
     lo, hi = map(float, bounds)
-    prob = _Problem(ms, df, kin, p, min(max(h0, lo + 1e-6), hi - 1e-6), lo, hi, window, fast)
+    prob = _Problem(ms, df, kin, p, min(max(h0, lo + 1e-6), hi - 1e-6), lo, hi, fast)
     x_scale = np.concatenate([[_SCALE_H], np.tile(_SCALE_S, prob.n_win)])
     # the backend's full verbosity is what puts the end point's Jacobian in the result;
-    # one BLAS thread: on a shared machine the backend's dense JᵀJ (W·3L × (1 + 6W)) took
-    # 0.36 s per iteration with the default thread pool, 2.5 ms with one thread
+    # one BLAS thread: the backend's dense JᵀJ (W·3L × (1 + 6W)) is too small to gain from a pool
     with one_blas_thread():
         opt, res = ms.optimize(prob.params, prob.residual_fn, optimizer="mujoco", verbose=False,
-                               max_iters=max_iter, x_scale=x_scale, output=io.StringIO())
+                               max_iters=MAX_ITER, x_scale=x_scale, output=io.StringIO())
         r_star, preds, _ = prob.residual_fn(opt.as_vector(), opt.copy(), return_pred_all=True)
         cov, half = ms.calculate_intervals(r_star, np.asarray(res.jac))
     h = float(opt["h"].value[0])
@@ -106,38 +102,22 @@ def fit_sysid(df, kin: Kinematics, p: Params, h0: float, bounds=(0.1, 1.5),
 class _Problem:
     """The windowed fit in the toolbox's terms: its data, parameters and three hooks."""
 
-    def __init__(self, ms, df, kin: Kinematics, p: Params, h_start: float, lo: float, hi: float,
-                 window: float, fast: bool):
-        need = [c for c in ("M_d", "M_h", "x", "gamma", "phi") if c not in df.columns]
-        if need:
-            raise RolloutError(f"the sysid fit needs the recorded column {need[0]!r} "
-                               f"(both torques M_d, M_h and the states x, gamma, phi)")
+    def __init__(self, ms, df, kin: Kinematics, p: Params, h_start: float, lo: float, hi: float, fast: bool):
+        win = rollout_windows(df, kin, "sysid")
         self.ms, self.R = ms, p.R
-        t = self.t = df["t"].to_numpy(dtype=float)
-        dt = sample_period(t)
-        L = int(round(window / dt)) + 1
-        self.n_win = n_win = (len(t) - 1) // (L - 1)
-        if n_win < 1:
-            raise RolloutError(f"the recording ({t[-1] - t[0]:.2f} s) is shorter than one rollout "
-                               f"window ({window:g} s)")
-        Q = df[["x", "gamma", "phi"]].to_numpy(dtype=float)
-        self.sig = np.array([max(split_noise(Q[:, i], dt)[1], floor)
-                             for i, floor in enumerate((1e-5, 1e-4, 1e-4))])
-        starts = np.arange(n_win) * (L - 1)
-        self.idx = starts[:, None] + np.arange(L)[None, :]
-        self.q_rec = Q[self.idx]
+        self.t, self.idx, self.q_rec, self.sig, s0 = win.t, win.idx, win.q_rec, win.sig, win.s0
+        self.n_win = len(win.idx)
         self.spec = build_spec(p.replace(h=h_start), "ideal")
-        self.spec.option.timestep = dt
+        self.spec.option.timestep = win.dt
         self.model0 = self.spec.compile()
         self.index = JointIndex.of(self.model0)
         self.nstate = mujoco.mj_stateSize(self.model0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         self.data0 = mujoco.MjData(self.model0)
-        s0 = np.concatenate([kin.q[starts], kin.qd[starts]], axis=1)
         self.windows = self._sequences(df[["M_d", "M_h"]].to_numpy(dtype=float), s0)
         self.params = ms.ParameterDict()
         self.params.add(ms.Parameter("h", h_start, lo, hi, modifier=_set_h))
         # all window states in one Parameter: the toolbox deep-copies the ParameterDict for
-        # every column of every window, and a Parameter per window made that the main cost
+        # every column of every window
         self.params.add(ms.Parameter("window_states", s0, s0 - STATE_SPAN, s0 + STATE_SPAN))
         self.build = self._build_memo if fast else ms.apply_param_modifiers
         self._built, self._memo, self.n_eval = {}, {}, 0

@@ -44,6 +44,7 @@ import os
 import sys
 import time
 import warnings
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -211,7 +212,7 @@ def floor_ratio(path: Path) -> dict:
     from euc_sim.identification import regression as reg
     prep = prepare(path, None, None)
     model = residual_model(prep)
-    t = prep.t[prep.keep]
+    t = prep.kin.t[prep.keep]
     time_ = np.concatenate([t, t]) if model.W is not None else t
     problem = reg.Problem(model, {}, time_, H_BOUNDS)
     h0 = reg.fit_set(problem, ()).h
@@ -356,7 +357,7 @@ def _work(args):
         case = {**case, "value": truth["peak_tilt_rad"]}
     t1 = time.perf_counter()
     res = diagnosis.diagnose(path, resimulate=resimulate,       # the CSV and its sidecar only
-                             smoothing=DEFAULT_SMOOTHING.replace(term_sigma=term_sigma))
+                             smoothing=replace(DEFAULT_SMOOTHING, term_sigma=term_sigma))
     t2 = time.perf_counter()
     view = diagnosis.json_view(res)
     (out / f"{case['name']}.diagnosis.json").write_text(json.dumps(to_jsonable(view), indent=1))

@@ -19,7 +19,7 @@ from euc_sim.identification.h_fit import MIN_RISE, identify_h, residual_poly
 from euc_sim.io import write_recording
 from euc_sim.model.mujoco_model import EucMujoco
 from euc_sim.model.parameters import TABLE3, Params
-from euc_sim.identification.processing import PAPER_SMOOTHING, Smoothing, kinematics
+from euc_sim.identification.processing import Smoothing, kinematics
 from euc_sim.simulation.engine import simulate
 
 EXACT = Smoothing(window=9 / 120, order=6, term_sigma=0.0)   # noise-free: near-exact derivatives
@@ -117,7 +117,7 @@ def test_paper_noise_gives_h_within_2cm(maneuver):
     fit = _fit(rec)
     assert abs(fit.h - H_TRUE) < 0.02, fit.h
     assert fit.identifiable
-    paper = _fit(rec, PAPER_SMOOTHING)       # NOTES.md item 4: the paper's recipe is biased
+    paper = _fit(rec, Smoothing(method="savgol"))       # NOTES.md item 4: the paper's recipe is biased
     assert abs(paper.h - H_TRUE) > abs(fit.h - H_TRUE)
 
 

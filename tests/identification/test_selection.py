@@ -56,14 +56,6 @@ def test_correlation_time_white_and_correlated():
     assert reg.correlation_time(x) == pytest.approx(19.0, rel=0.15)
 
 
-def test_time_blocks_contiguous_and_validated():
-    b = reg.time_blocks(T, 5)
-    assert set(b) == {0, 1, 2, 3, 4}
-    assert np.all(np.diff(b) >= 0)
-    with pytest.raises(ValueError, match="n_blocks"):
-        reg.time_blocks(T, 1)
-
-
 def test_fit_set_recovers_nuisance_and_coefficient():
     prob = _problem({"quad": 0.3}, seed=2)
     f = reg.fit_set(prob, ("quad",))
@@ -77,7 +69,7 @@ def test_forward_select_finds_the_term_and_its_interval_covers_truth():
     prob = _problem({"quad": 0.3}, seed=3)
     s = sel.forward_select(prob, n_eff=N / reg.correlation_time(_noise(103)))
     assert s.selected == ("quad",)
-    cov, dof = reg.covariance(prob, s.fit, cluster=2.0)
+    cov, dof = reg.covariance(prob, s.fit)
     se = np.sqrt(cov[0, 0])
     assert abs(s.fit.theta["quad"][0] - 0.3) < 3 * se
     assert s.cv_final < 0.5 * s.cv_nominal
@@ -106,7 +98,7 @@ def test_interval_covers_when_the_residual_is_correlated_beyond_the_blocks():
 
         prob = reg.Problem(target, {"quad": X}, T, (0.2, 1.2))
         f = reg.fit_set(prob, ("quad",))
-        cov, dof = reg.covariance(prob, f, cluster=2.0)
+        cov, dof = reg.covariance(prob, f)
         covered += int(abs(f.theta["quad"][0] - 0.05) <= stats.t.ppf(0.975, dof) * np.sqrt(cov[0, 0]))
     assert covered / n >= 0.88
 
