@@ -54,15 +54,16 @@ def design_rider(p: Params = TABLE3, motor: MotorPD | None = None, delay: float 
 
 
 def delayed_closed_loop_matrix(p: Params, motor: MotorPD, rider: Rider, dt: float,
-                               true_delay: float | None = None) -> np.ndarray:
+                               true_delay: float | None = None, speed: float = 0.0) -> np.ndarray:
     """Transition matrix of the sampled loop with the delay buffer and the predictor
     (:func:`~euc_sim.controllers.lateral.delayed_loop`).
 
     State (s_k, …, s_{k−D}, δu_{k−1}, …, δu_{k−n}), D = ``true_delay``/dt (default the
-    rider's) and n = rider.delay/dt; ``dt``: control period, s.
+    rider's) and n = rider.delay/dt; ``dt``: control period, s.  The plant is linearised at
+    ``speed``, m/s; the rider's predictor keeps his own model (as :mod:`euc_sim.controllers.rider`).
     """
     K = np.asarray(rider.K, dtype=float)
-    A, B = rider_plant(p, motor, has_integral(K))
+    A, B = rider_plant(p, motor, has_integral(K), speed)
     Phi, Gam = discretize(A, B, dt)
     n = int(round(rider.delay / dt))
     D = n if true_delay is None else int(round(true_delay / dt))
@@ -74,11 +75,12 @@ def delayed_closed_loop_matrix(p: Params, motor: MotorPD, rider: Rider, dt: floa
 
 
 def delayed_closed_loop_radius(p: Params = TABLE3, motor: MotorPD | None = None, rider: Rider | None = None,
-                               dt: float = 0.005, true_delay: float | None = None) -> float:
-    """Spectral radius of :func:`delayed_closed_loop_matrix` (< 1: stable); ``dt`` 5 ms keeps it small."""
+                               dt: float = 0.005, true_delay: float | None = None, speed: float = 0.0) -> float:
+    """Spectral radius of :func:`delayed_closed_loop_matrix` at ``speed``, m/s (< 1: stable); ``dt``
+    5 ms keeps it small."""
     motor = motor or MotorPD()
     rider = rider or design_rider(p, motor)
-    T = delayed_closed_loop_matrix(p, motor, rider, dt, true_delay)
+    T = delayed_closed_loop_matrix(p, motor, rider, dt, true_delay, speed)
     return float(np.max(np.abs(np.linalg.eigvals(T))))
 
 

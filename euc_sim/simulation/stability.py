@@ -37,7 +37,7 @@ def stability_report(p: Params = TABLE3, motor=None, rider=None, speed: float = 
     As, Bs = rider_plant(p, motor, K.size == 6, speed)
     Acl = As - Bs @ K
     tau, wc = delay_margin(As, Bs, K)
-    rho = delayed_closed_loop_radius(p, motor, rider)
+    rho = delayed_closed_loop_radius(p, motor, rider, speed=speed)
     eig = {"open_loop": _eig_list(A), "motor_pd": _eig_list(As[:5, :5]), "motor_pd_and_rider": _eig_list(Acl)}
     out = {
         "operating_point": {"speed": speed, "gamma": 0.0, "phi": 0.0},
