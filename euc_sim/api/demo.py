@@ -153,7 +153,7 @@ def _conceal_and_diagnose(folder: Path, seed: int, say: Callable[[str], None]) -
                            effects={effect: k_true}, hide_torques=True, name="concealed")
     rec = Recording(rec.name, rec.data, {**rec.meta, "maneuver_options": {"v": v}}, rec.truth)
     conc = write_recording(rec, folder / "concealed.csv")
-    found = diagnose(conc, progress=lambda s: say(f"    diagnose: {s}"))
+    found = diagnose(conc, seed=seed, progress=lambda s: say(f"    diagnose: {s}"))
     io.write_json(folder / "diagnosis.json", found.to_json())
     found.write_report(folder / "report")
     return {"effect": effect, "value": k_true, "unit": effects.get(effect).unit, "diagnosis": found}

@@ -108,7 +108,7 @@ def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResu
     say("locating the residual")
     traces = _localise(an, log, compare)
     notes = tuple(an.notes) + (_mass_grid_note(mass.fit),)
-    sim, why = _simulation(an, log, compare, seed, jobs, progress, req.simulate, req.calibrate_rider,
+    sim, why = _simulation(an, log, compare, n_boot, seed, jobs, progress, req.simulate, req.calibrate_rider,
                            law, parameters, drivetrain, mass)
     if sim is None and why != REPLAY_NOT_ASKED:
         notes += (why,)
@@ -142,7 +142,7 @@ def _localise(an, log, compare) -> list:
     return traces
 
 
-def _simulation(an, log, compare, seed: int, jobs: int, progress, simulate: bool,
+def _simulation(an, log, compare, n_boot: int, seed: int, jobs: int, progress, simulate: bool,
                 calibrate_rider: bool, law, parameters, drivetrain, mass):
     """The simulated rider and None, or None and why there is none (a warning when the ride cannot be simulated)."""
     if not simulate:
@@ -151,7 +151,7 @@ def _simulation(an, log, compare, seed: int, jobs: int, progress, simulate: bool
     if why is not None:
         warnings.warn(why, stacklevel=3)
         return None, why
-    return _simulate(an, log, compare, seed, jobs, progress, calibrate_rider, law, parameters,
+    return _simulate(an, log, compare, n_boot, seed, jobs, progress, calibrate_rider, law, parameters,
                      drivetrain, mass), None
 
 
@@ -163,7 +163,7 @@ def _mass_grid_note(fit) -> str:
             f"ride ({n} piece(s))")
 
 
-def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider: bool, law, parameters,
+def _simulate(an, log, compare, n_boot: int, seed: int, jobs: int, progress, calibrate_rider: bool, law, parameters,
               drivetrain, mass):
     """The closed-loop rider along the tested ride, once per modelled step; without compare, the second half scored."""
     sig = an.sig_test if an.sig_test is not None else an.sig_fit
@@ -178,7 +178,7 @@ def _simulate(an, log, compare, seed: int, jobs: int, progress, calibrate_rider:
     voltage = full.voltage if full is not None else (None if ocv is None else ocv.estimate)
     steps = build_steps(StepInputs(ride_params(sig.assumptions), cr.nominal.estimate,
                                    cr.augmented.estimate, cr.accepted, parameters, law, drivetrain,
-                                   voltage, log),
+                                   voltage, log, n_boot, seed),
                         RIDER_STEPS if calibrate_rider else STEP_BUILDERS)
     ran = [s.name for s in steps if s.why is None]
     # the steps' battery-power errors are compared with the balance fit's held-out error (in W)

@@ -88,3 +88,24 @@ def test_the_story_as_a_page_inlines_its_figures(tmp_path):
     page = story.to_html(tmp_path)
     assert '<a href="r/index.html">the report</a>' in page and "<td>1</td>" in page
     assert "data:image/png;base64," in page and 'src="f.png"' not in page
+
+
+def test_the_seed_reaches_the_concealed_rides_diagnosis(tmp_path, monkeypatch):
+    """``--seed`` holds for every draw of the demo, the diagnosis's noise floor included."""
+    import euc_sim.api.demo as demo
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def spy(conc, **kw):
+        seen.append(kw.get("seed"))
+        raise Stop
+
+    monkeypatch.setattr(demo, "diagnose", spy)
+    try:
+        demo._conceal_and_diagnose(tmp_path, 5, lambda s: None)
+    except Stop:
+        pass
+    assert seen == [5]

@@ -52,3 +52,26 @@ def test_the_requests_replicates_and_seed_reach_the_pair_fits(tmp_path, monkeypa
         warnings.simplefilter("ignore")
         res = ride_pipeline(RideRequest(log, other, n_boot=12, seed=7))
     assert seen == [(12, 7)] and res.differences is not None
+
+
+def test_the_requests_replicates_and_seed_reach_the_simulated_steps(tmp_path, monkeypatch):
+    """``--n-boot`` and ``--seed`` reach the steps of the simulated ride (the calibrated rider's fit)."""
+    import euc_sim.rides.pipeline as pipeline
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def spy(inp, builders):
+        seen.append((inp.n_boot, inp.seed))
+        raise Stop
+
+    monkeypatch.setattr(pipeline, "build_steps", spy)
+    log = read_log(synth_log(tmp_path / "fit.csv", seed=3), emit_warnings=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            ride_pipeline(RideRequest(log, n_boot=12, seed=7, simulate=True, calibrate_rider=True))
+        except Stop:
+            pass
+    assert seen == [(12, 7)]

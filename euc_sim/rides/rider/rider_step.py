@@ -32,7 +32,7 @@ def calibrated_rider_step(prev, inp):
     k_t = torque_constant(inp.drivetrain)
     try:
         fit = fit_rider(inp.fit_log, params=inp.params, motor=prev.motor, effects=eff, drivetrain=power,
-                        assumptions=RideAssumptions(torque_constant=k_t))
+                        assumptions=RideAssumptions(torque_constant=k_t), n_boot=inp.n_boot, seed=inp.seed)
     except (RiderFitError, ValueError) as exc:
         return replace(prev, name=name, what=what, notes=(), why=f"the rider cannot be calibrated: {exc}")
     got = ", ".join(f"{k} {v['value']:.3g} {v['unit']}" for k, v in fit.params.items())

@@ -114,6 +114,8 @@ class StepInputs:
         The battery's full-charge voltage, V.
     fit_log : path or None
         The fit ride's log (for steps fitted on it).
+    n_boot, seed : int
+        Bootstrap replicates and seed of the steps fitted on it.
     """
 
     params: Params
@@ -125,6 +127,8 @@ class StepInputs:
     drivetrain: Mapping = field(default_factory=dict)
     voltage: float | None = None
     fit_log: object = None
+    n_boot: int = 200
+    seed: int = 0
 
     @property
     def accepted_parameters(self) -> tuple[str, ...]:
