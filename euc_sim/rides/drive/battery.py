@@ -41,13 +41,12 @@ FIXED_OHM = (5e-3, 30e-3)
 
 @dataclass(frozen=True)
 class CellFigures:
-    """One cell's published figures (``data/cells.csv``): name, capacity (mAh), AC (1 kHz) and
-    DC (pulse, mid-charge) resistance (Ω), and their source.
+    """One cell's published figures (``data/cells.csv``): name, capacity (mAh), DC (pulse,
+    mid-charge) resistance (Ω), and their source.
     """
 
     cell: str
     capacity_mAh: float | None
-    ac_ohm: float | None
     dc_ohm: float | None
     source: str
 
@@ -57,8 +56,7 @@ def _cells() -> tuple[tuple[tuple[str, ...], CellFigures], ...]:
     text = files("euc_sim.rides.drive").joinpath("data", "cells.csv").read_text(encoding="utf-8")
     num = (lambda x, k=1.0: float(x) * k if x else None)
     return tuple((tuple(a.upper() for a in r["aliases"].split(";") if a),
-                  CellFigures(r["cell"], num(r["capacity_mAh"]), num(r["ac_1kHz_mohm"], 1e-3),
-                              num(r["dc_mohm"], 1e-3), r["source"]))
+                  CellFigures(r["cell"], num(r["capacity_mAh"]), num(r["dc_mohm"], 1e-3), r["source"]))
                  for r in csv.DictReader(text.splitlines()))
 
 

@@ -68,8 +68,6 @@ class Drivetrain:
         ``{"E0": V, "k_Q": V/Ah, "R_int": Ω}``.
     mass : float or None
         Total mass, kg.
-    road : dict
-        ``{"c1": N, "c3": kg/m}`` (0 where not accepted).
     """
 
     terms: dict
@@ -77,7 +75,6 @@ class Drivetrain:
     pwm_coef: dict | None
     battery_coef: dict | None
     mass: float | None
-    road: dict
 
 
 def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: int,
@@ -257,5 +254,4 @@ def _fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = Non
             terms["phase_resistance_pwm"] = Term(r, rci, "ohm")
     else:
         why["pwm"] = "no PWM or safety-margin column: back-EMF and the duty limit cannot be identified"
-    return Drivetrain(terms=terms, unidentified=why, pwm_coef=pcoef, battery_coef=bcoef,
-                      mass=m, road=road)
+    return Drivetrain(terms=terms, unidentified=why, pwm_coef=pcoef, battery_coef=bcoef, mass=m)
