@@ -13,7 +13,7 @@ from euc_sim.diagnosis.localise import Localisation, localise
 from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.grids.signals import RideSignals, split_at_gaps
 
-__all__ = ["ResidualTrace", "residual_windows", "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
+__all__ = ["ResidualTrace", "localise_residual", "residual_windows", "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
 #: localise() smoothing and shortest window for minutes-long 5 Hz rides, s (its defaults are
 #: for 120 Hz motion capture).
@@ -51,24 +51,28 @@ class ResidualTrace:
 
 
 
+def localise_residual(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray]) -> Localisation:
+    """Where the residual ``r`` (at ``t``, s) concentrates: :func:`~euc_sim.diagnosis.localise.localise`
+    against ``signals`` with :data:`WINDOW_SMOOTH` and :data:`WINDOW_MIN`, its windows cut at the
+    gaps where the ride was split (:func:`split_at_gaps`)."""
+    loc = localise(t, r, signals, smooth=WINDOW_SMOOTH, min_len=WINDOW_MIN)
+    return dict(loc, windows=split_at_gaps(loc["windows"], t, WINDOW_MIN))
+
+
 def residual_windows(sig: RideSignals, nominal: Mapping[str, float],
                      augmented: Mapping[str, float], domain: str = "power",
                      label: str | None = None, in_sample: bool = True,
-                     smooth: float = WINDOW_SMOOTH, min_len: float = WINDOW_MIN,
                      design=None) -> ResidualTrace:
-    """The inertia-only and augmented residuals of a whole ride, and where they concentrate.
+    """The inertia-only and augmented residuals of a whole ride, and where they concentrate
+    (:func:`localise_residual`).
 
-    ``nominal``, ``augmented``: fitted parameters; ``smooth``, ``min_len`` (s) go to
-    ``localise``; ``design`` reuses a built one.  Its windows are cut at the gaps where the
-    ride was split (:func:`split_at_gaps`).
+    ``nominal``, ``augmented``: fitted parameters; ``design`` reuses a built one.
     """
     d = design if design is not None else balance_design(sig, domain)
     r_nom = d.residual(nominal)
     r_aug = d.residual(augmented)
     v = d.v
-    loc = localise(d.t, r_nom, {"speed": v, "speed_cubed": np.abs(v) ** 3,
-                                "inertial_power": d.columns_full["inertia"].to_numpy()[d.use]},
-                   smooth=smooth, min_len=min_len)
-    loc = dict(loc, windows=split_at_gaps(loc["windows"], d.t, min_len))
+    loc = localise_residual(d.t, r_nom, {"speed": v, "speed_cubed": np.abs(v) ** 3,
+                                         "inertial_power": d.columns_full["inertia"].to_numpy()[d.use]})
     return ResidualTrace(label=label or str(sig.path), t=d.t, nominal=r_nom, augmented=r_aug,
                          unit=d.unit, localisation=loc, in_sample=in_sample)

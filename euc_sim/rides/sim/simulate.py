@@ -24,14 +24,15 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from euc_sim.diagnosis.localise import Localisation, localise
+from euc_sim.diagnosis.localise import Localisation
 from euc_sim.errors import InputError
 from euc_sim.stats import rms
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.grids.profile import rider_plan, speed_profile
 from euc_sim.rides.grids.law_signals import MAX_PITCH, V_MIN
 from euc_sim.rides.grids.rider_features import BandRatio, RiderFitError, band_ratio_db, reading_step
-from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, sg, split_at_gaps
+from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, sg
+from euc_sim.rides.balance.residual import localise_residual
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.sim.plan_learning import filter_band
 from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, LogChannels, SimStep, electrical_power,
@@ -252,17 +253,14 @@ def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict[s
 
 
 def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, name: str) -> Localisation:
-    """Where step ``name``'s battery-power error concentrates: windows (s) of 3 s or more, the
-    error smoothed over 5 s (:func:`~euc_sim.diagnosis.localise.localise`)."""
+    """Where step ``name``'s battery-power error concentrates (:func:`localise_residual`)."""
     t = table["t"].to_numpy()
     r = (table["P_log"] - table[f"P_{name}"]).to_numpy()
     good = ok & np.isfinite(r)
     if good.sum() < 4:
         return Localisation(windows=[], share=None, correlations={})
-    loc = localise(t[good], r[good], {"speed": table["v_log"].to_numpy()[good],
-                                      "acceleration": a[good]},
-                   smooth=5.0, min_len=3.0)
-    return dict(loc, windows=split_at_gaps(loc["windows"], t[good], 3.0))
+    return localise_residual(t[good], r[good], {"speed": table["v_log"].to_numpy()[good],
+                                                "acceleration": a[good]})
 
 
 def _logged(sig: RideSignals) -> dict[str, np.ndarray]:
