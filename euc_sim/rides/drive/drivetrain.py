@@ -77,15 +77,14 @@ class Drivetrain:
     mass: float | None
 
 
-def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: int,
-                block: float = 30.0):
-    """Least squares and moving-block bootstrap percentiles of each coefficient.
+def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: int):
+    """Least squares and moving-block (30 s) bootstrap percentiles of each coefficient.
 
     A replicate's fit is from its blocks' Gram matrices summed (each block once per draw).
     """
     beta, *_ = np.linalg.lstsq(X, y, rcond=None)
     rng = np.random.default_rng(seed)
-    _, label = np.unique(block_labels(t, block), return_inverse=True)
+    _, label = np.unique(block_labels(t, 30.0), return_inverse=True)
     G = label_grams(np.column_stack([X, y]), label, int(label.max()) + 1)
     flat, p1 = G.reshape(len(G), -1), G.shape[-1]
     summed = np.empty((n_boot, p1, p1))
