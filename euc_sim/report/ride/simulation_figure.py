@@ -25,8 +25,8 @@ def _rows(t: np.ndarray, span: float) -> int:
     return max(1, min(t.size, int(round(span / dt))))
 
 
-def moving_rms(t: np.ndarray, e: np.ndarray, span: float = RMS_S) -> np.ndarray:
-    """Centred moving RMS of ``e`` over ``span`` seconds of rows; NaN rows are left out.
+def moving_rms(t: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """Centred moving RMS of ``e`` over :data:`RMS_S` seconds of rows; NaN rows are left out.
 
     Parameters
     ----------
@@ -34,7 +34,6 @@ def moving_rms(t: np.ndarray, e: np.ndarray, span: float = RMS_S) -> np.ndarray:
         Grid times (rows missing at gaps).
     e : array
         The error, any unit.
-    span : float, s
 
     Returns
     -------
@@ -43,16 +42,16 @@ def moving_rms(t: np.ndarray, e: np.ndarray, span: float = RMS_S) -> np.ndarray:
     """
     e = np.asarray(e, float)
     ok = np.isfinite(e)
-    w = np.ones(_rows(np.asarray(t, float), span))
+    w = np.ones(_rows(np.asarray(t, float), RMS_S))
     num = np.convolve(np.where(ok, e * e, 0.0), w, mode="same")
     den = np.convolve(ok.astype(float), w, mode="same")
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(den > 0, np.sqrt(num / np.maximum(den, 1.0)), np.nan)
 
 
-def zoom_window(t: np.ndarray, a: np.ndarray, b: np.ndarray, scored: np.ndarray | None = None,
-                span: float = ZOOM_S) -> tuple[float, float]:
-    """The ``span``-second window where ``a`` and ``b`` differ most (largest mean square).
+def zoom_window(t: np.ndarray, a: np.ndarray, b: np.ndarray,
+                scored: np.ndarray | None = None) -> tuple[float, float]:
+    """The :data:`ZOOM_S`-second window where ``a`` and ``b`` differ most (largest mean square).
 
     Parameters
     ----------
@@ -61,22 +60,21 @@ def zoom_window(t: np.ndarray, a: np.ndarray, b: np.ndarray, scored: np.ndarray 
         Two series on ``t`` (e.g. the nominal and the augmented battery power).
     scored : array of bool, optional
         Rows that may be chosen (default: all).
-    span : float, s
 
     Returns
     -------
     (start, end) : float, s
-        The whole of ``t`` when it is shorter than ``span``.
+        The whole of ``t`` when it is shorter than :data:`ZOOM_S`.
     """
     t = np.asarray(t, float)
-    if t[-1] - t[0] <= span:
+    if t[-1] - t[0] <= ZOOM_S:
         return float(t[0]), float(t[-1])
     d = np.asarray(a, float) - np.asarray(b, float)
     ok = np.isfinite(d) & (np.ones(t.size, bool) if scored is None else np.asarray(scored, bool))
-    score = np.convolve(np.where(ok, d * d, 0.0), np.ones(_rows(t, span)), mode="same")
+    score = np.convolve(np.where(ok, d * d, 0.0), np.ones(_rows(t, ZOOM_S)), mode="same")
     centre = float(t[int(np.argmax(score))])
-    start = min(max(centre - span / 2, t[0]), t[-1] - span)
-    return float(start), float(start + span)
+    start = min(max(centre - ZOOM_S / 2, t[0]), t[-1] - ZOOM_S)
+    return float(start), float(start + ZOOM_S)
 
 
 #: Line style of each source: the log, then the steps in order.
