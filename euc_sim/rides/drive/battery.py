@@ -227,10 +227,10 @@ def measure_resistance(log, n_boot: int = 100, seed: int = 0) -> tuple[float, tu
     return coef["R_int"], ci["R_int"]
 
 
-def battery_health_of(term, log=None, counters=None, pack: PackSpec | None = None) -> BatteryHealth:
-    """:func:`battery_health` of the drivetrain's ``internal_resistance`` ``term`` (or None), not recomputed."""
+def battery_health_of(term, counters=None, pack: PackSpec | None = None) -> BatteryHealth:
+    """:func:`battery_health` of the drivetrain's ``internal_resistance`` ``term`` (or None), not
+    recomputed, at the log's ``counters``' battery temperature."""
     temp = getattr(counters, "battery_temp_C", None)
     wheel = getattr(counters, "battery_circuit_ohm", None)
-    if term is None:
-        return battery_health(None, None, temp, pack, wheel, None)
-    return battery_health(term.estimate, term.ci95, temp, pack, wheel, term.why)
+    est, ci, why = (None, None, None) if term is None else (term.estimate, term.ci95, term.why)
+    return battery_health(est, ci, temp, pack, wheel, why)
