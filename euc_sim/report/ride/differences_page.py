@@ -98,11 +98,10 @@ def recorded_metadata(compare: str | None, log_path=None) -> dict[str, str]:
 
 
 def _aliases(d) -> str:
+    names = " or ".join(SHOWN[a].label if a in SHOWN else a.replace("_", " ") for a in d.alias_set or d.aliases)
     if d.alias_set:
-        said = [SHOWN[a].label if a in SHOWN else a.replace("_", " ") for a in d.alias_set]
-        return f"{' or '.join(said)}: this pair cannot tell them apart"
-    names = [SHOWN[a].label if a in SHOWN else a.replace("_", " ") for a in d.aliases]
-    return ("cannot be told apart from " + " or ".join(names) + " on these two rides" if names
+        return f"{names}: this pair cannot tell them apart"
+    return (f"cannot be told apart from {names} on these two rides" if names
             else "told apart from the other physics on these two rides")
 
 

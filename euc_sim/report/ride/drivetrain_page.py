@@ -2,22 +2,19 @@
 
 :func:`page_section` words a ride's total mass, drivetrain, PWM check, grade and envelope
 (:mod:`euc_sim.rides.drive.drivetrain_report`) for the page;
-:func:`plot_envelope` draws the envelope's figure and :func:`plot_grade` the altitude the
+:func:`envelope_figure` draws the envelope and :func:`grade_figure` the altitude the
 balance implies (:mod:`euc_sim.rides.drive.grade`); the page draws the PWM model's
 (:func:`euc_sim.report.ride.fit_figures.pwm_figure`).
 """
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
-from euc_sim.io import save_figure
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.grids.power import G
 
-__all__ = ["plot_envelope", "envelope_figure", "plot_grade", "grade_figure", "page_section", "TYRE_MU"]
+__all__ = ["envelope_figure", "grade_figure", "page_section", "TYRE_MU"]
 
 
 #: Tyre-road friction coefficient the envelope figure assumes (dry asphalt, about 1):
@@ -25,12 +22,7 @@ __all__ = ["plot_envelope", "envelope_figure", "plot_grade", "grade_figure", "pa
 TYRE_MU = 1.0
 
 
-def plot_envelope(env, path, title: str = "") -> Path:
-    """Write :func:`envelope_figure` to ``path`` (PNG, atomically)."""
-    return save_figure(envelope_figure(env, title), path)
-
-
-def envelope_figure(env, title: str = ""):
+def envelope_figure(env):
     """The acceleration the battery voltage allows (and the lean it takes) against speed.
 
     Full and low charge, of an :class:`~euc_sim.rides.drive.cutout.Envelope`.  The voltage limit is
@@ -73,16 +65,10 @@ def envelope_figure(env, title: str = ""):
     ax.set_title("Upper bound only: the controller's current limit is not in the log and can be "
                  "lower;\nwhere the voltage would allow more than the tyre carries, the model says "
                  "nothing (not drawn)", fontsize=8)
-    fig.suptitle(title or "Cut-out envelope: the acceleration left at full duty (100 %) against speed",
-                 fontsize=10)
+    fig.suptitle("Cut-out envelope: the acceleration left at full duty (100 %) against speed", fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(loc="upper left", bbox_to_anchor=(1.12, 1.0), fontsize=8, borderaxespad=0.0)
     return fig
-
-
-def plot_grade(g, path, title: str = "") -> Path:
-    """Write :func:`grade_figure` to ``path`` (PNG, atomically)."""
-    return save_figure(grade_figure(g, title), path)
 
 
 def grade_figure(g, title: str = ""):

@@ -178,24 +178,23 @@ def residuals_height(n: int) -> int:
     return 360 * n + 160
 
 
-def pwm_figure(r, coef: dict | None = None, title: str = ""):
+def pwm_figure(r, coef: dict, title: str):
     """PWM predicted by the drivetrain model against the logged one, %, with the line of equality.
 
     Parameters
     ----------
     r : RideDrivetrain
-    coef : dict, optional
-        The PWM model (default the ride's own).
+    coef : dict
+        The PWM model (:func:`~euc_sim.rides.drive.drivetrain.fit_pwm`).
     title : str
     """
-    pred, obs = predict_pwm(r.sig, coef or r.drivetrain.pwm_coef)
+    pred, obs = predict_pwm(r.sig, coef)
     keep = thin(obs.size, MOST_POINTS)
     rms = float(np.sqrt(np.mean((pred - obs) ** 2))) if obs.size else float("nan")
     top = max(100.0, float(np.nanmax(obs))) if obs.size else 100.0
     return xy_figure([Line(f"log samples: RMS {rms:.1f} points", obs[keep], pred[keep]),
                       Line("equal", np.array([0.0, top]), np.array([0.0, top]), mode="lines")],
-                     title or "PWM: (back-EMF + resistive drop) / battery voltage", "logged PWM, %",
-                     "predicted PWM, %")
+                     title, "logged PWM, %", "predicted PWM, %")
 
 
 def write_balance(an, report_dir) -> Path:

@@ -140,8 +140,7 @@ def limits_paragraph(res, limit: bool = True) -> str:
     :func:`pwm_check`); ``limit`` False: the speed limit left to the sentences before it."""
     lim, cut = res.rider.summary.limits, res.cutout
     check = pwm_check(res)
-    return ((f"Speed limit: {lim.words()}. " if limit else "") + "PWM alarm: "
-            + (f"{lim.pwm_alarm_pct:.0f} %." if lim.pwm_alarm_pct is not None else "not in the log.")
+    return ((f"Speed limit: {lim.words()}. " if limit else "") + "PWM alarm: not in the log."
             + (f" The PWM model predicts the logged PWM of {check[1]}, to {check[2]:.1f} points RMS."
                if check else "")
             + (f" Charge to volts: {cut.ocv_source}." if cut.ocv_source else "")

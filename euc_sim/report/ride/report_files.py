@@ -12,16 +12,16 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from euc_sim.io import atomic_write
+from euc_sim.io import atomic_write, save_figure
 from euc_sim.report.ride import fit_figures as F
 from euc_sim.report.ride.contract import ReportFiles
-from euc_sim.report.ride.drivetrain_page import plot_envelope, plot_grade
+from euc_sim.report.ride.drivetrain_page import envelope_figure, grade_figure
 from euc_sim.report.ride.fit_figures import write_balance
 from euc_sim.report.ride.page import write_page
 from euc_sim.report.ride.limits_page import limits_md
 from euc_sim.report.ride.page_html import first_screen, key_figure_lines, write_ride_html
 from euc_sim.report.ride.series import RideSeries
-from euc_sim.report.ride.simulation_figure import plot_ride_simulation
+from euc_sim.report.ride.simulation_figure import ride_simulation_figure
 from euc_sim.rides.result import RideResult
 
 __all__ = ["write_report"]
@@ -52,7 +52,7 @@ def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
     figures = _drivetrain_figures(res, out)        # PNG files
     sim_files = {}
     if sim is not None:
-        figures["simulation"] = plot_ride_simulation(sim, out / "ride_simulation.png").name
+        figures["simulation"] = save_figure(ride_simulation_figure(sim), out / "ride_simulation.png", dpi=100).name
         atomic_write(out / "ride_simulation.csv",
                      lambda p: sim.table.to_csv(p, index=False, float_format="%.6g"))
         sim_files = {"table": "ride_simulation.csv", "figure": figures["simulation"]}
@@ -81,9 +81,8 @@ def _drivetrain_figures(res: RideResult, out: Path) -> dict:
     fit, env = res.mass.fit, res.mass.envelope
     figs = {}
     if fit.grade is not None:
-        figs["grade"] = plot_grade(fit.grade, out / "ride_grade.png",
-                                   title=f"{Path(fit.path).name}: the altitude the battery-power "
-                                         f"balance implies, against GPS altitude").name
+        title = f"{Path(fit.path).name}: the altitude the battery-power balance implies, against GPS altitude"
+        figs["grade"] = save_figure(grade_figure(fit.grade, title), out / "ride_grade.png").name
     if env.why is None:
-        figs["envelope"] = plot_envelope(env, out / "ride_envelope.png").name
+        figs["envelope"] = save_figure(envelope_figure(env), out / "ride_envelope.png").name
     return figs

@@ -10,10 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
-from euc_sim.io import save_figure
 from euc_sim.rides.grids.signals import break_at_gaps
 
-__all__ = ["plot_ride_simulation", "ride_simulation_figure", "zoom_window", "moving_rms", "ZOOM_S", "RMS_S", "PANELS"]
+__all__ = ["ride_simulation_figure", "zoom_window", "moving_rms", "ZOOM_S", "RMS_S", "PANELS"]
 
 #: s: length of the zoomed window.
 ZOOM_S = 60.0
@@ -50,7 +49,12 @@ def moving_rms(t: np.ndarray, e: np.ndarray) -> np.ndarray:
         return np.where(den > 0, np.sqrt(num / np.maximum(den, 1.0)), np.nan)
 
 
+<<<<<<< HEAD
 def zoom_window(t: np.ndarray, a: np.ndarray, b: np.ndarray, scored: np.ndarray | None = None) -> tuple[float, float]:
+=======
+def zoom_window(t: np.ndarray, a: np.ndarray, b: np.ndarray,
+                scored: np.ndarray | None = None) -> tuple[float, float]:
+>>>>>>> h-ridetrim
     """The :data:`ZOOM_S`-second window where ``a`` and ``b`` differ most (largest mean square).
 
     Parameters
@@ -168,8 +172,3 @@ def _error_panel(ax, t, tb, sim, e, names, styles, letter) -> None:
            title=f"({letter}) battery-power error of each step over time; last / first step = "
                  f"{sim.ratio_P:.2f}")
     _legend_right(ax)
-
-
-def plot_ride_simulation(sim, path) -> Path:
-    """Write :func:`ride_simulation_figure` to ``path`` (PNG, atomically)."""
-    return save_figure(ride_simulation_figure(sim), path, dpi=100)

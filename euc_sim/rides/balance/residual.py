@@ -13,7 +13,7 @@ from euc_sim.diagnosis.localise import Localisation, localise
 from euc_sim.rides.balance.design import Design
 from euc_sim.rides.grids.signals import split_at_gaps
 
-__all__ = ["ResidualTrace", "residual_windows", "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
+__all__ = ["ResidualTrace", "localise_residual", "residual_windows", "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
 
 #: localise() smoothing and shortest window for minutes-long 5 Hz rides, s (its defaults are
 #: for 120 Hz motion capture).
@@ -50,20 +50,23 @@ class ResidualTrace:
         return num / (np.minimum(k, r.size - 1) - np.maximum(0, k - w + 1) + 1)
 
 
+def localise_residual(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray]) -> Localisation:
+    """Where the residual ``r`` (at ``t``, s) concentrates: :func:`~euc_sim.diagnosis.localise.localise`
+    against ``signals`` with :data:`WINDOW_SMOOTH` and :data:`WINDOW_MIN`, its windows cut at the
+    gaps where the ride was split (:func:`split_at_gaps`)."""
+    loc = localise(t, r, signals, smooth=WINDOW_SMOOTH, min_len=WINDOW_MIN)
+    return dict(loc, windows=split_at_gaps(loc["windows"], t, WINDOW_MIN))
+
 
 def residual_windows(d: Design, nominal: Mapping[str, float], augmented: Mapping[str, float], label: str,
                      in_sample: bool) -> ResidualTrace:
-    """The inertia-only and augmented residuals of a whole ride's balance design ``d``, and where they concentrate.
-
-    ``nominal``, ``augmented``: fitted parameters; ``localise`` smooths over :data:`WINDOW_SMOOTH` and
-    keeps windows of :data:`WINDOW_MIN` s, cut at the gaps where the ride was split (:func:`split_at_gaps`).
+    """The inertia-only and augmented residuals of a whole ride's balance design ``d``, and where they
+    concentrate (:func:`localise_residual`); ``nominal``, ``augmented``: fitted parameters.
     """
     r_nom = d.residual(nominal)
     r_aug = d.residual(augmented)
     v = d.v
-    loc = localise(d.t, r_nom, {"speed": v, "speed_cubed": np.abs(v) ** 3,
-                                "inertial_power": d.columns_full["inertia"].to_numpy()[d.use]},
-                   smooth=WINDOW_SMOOTH, min_len=WINDOW_MIN)
-    loc = dict(loc, windows=split_at_gaps(loc["windows"], d.t, WINDOW_MIN))
+    loc = localise_residual(d.t, r_nom, {"speed": v, "speed_cubed": np.abs(v) ** 3,
+                                         "inertial_power": d.columns_full["inertia"].to_numpy()[d.use]})
     return ResidualTrace(label=label, t=d.t, nominal=r_nom, augmented=r_aug,
                          unit=d.unit, localisation=loc, in_sample=in_sample)

@@ -41,13 +41,12 @@ FIXED_OHM = (5e-3, 30e-3)
 
 @dataclass(frozen=True)
 class CellFigures:
-    """One cell's published figures (``data/cells.csv``): name, capacity (mAh), AC (1 kHz) and
-    DC (pulse, mid-charge) resistance (Ω), and their source.
+    """One cell's published figures (``data/cells.csv``): name, capacity (mAh), DC (pulse,
+    mid-charge) resistance (Ω), and their source.
     """
 
     cell: str
     capacity_mAh: float | None
-    ac_ohm: float | None
     dc_ohm: float | None
     source: str
 
@@ -57,8 +56,7 @@ def _cells() -> tuple[tuple[tuple[str, ...], CellFigures], ...]:
     text = files("euc_sim.rides.drive").joinpath("data", "cells.csv").read_text(encoding="utf-8")
     num = (lambda x, k=1.0: float(x) * k if x else None)
     return tuple((tuple(a.upper() for a in r["aliases"].split(";") if a),
-                  CellFigures(r["cell"], num(r["capacity_mAh"]), num(r["ac_1kHz_mohm"], 1e-3),
-                              num(r["dc_mohm"], 1e-3), r["source"]))
+                  CellFigures(r["cell"], num(r["capacity_mAh"]), num(r["dc_mohm"], 1e-3), r["source"]))
                  for r in csv.DictReader(text.splitlines()))
 
 
@@ -229,10 +227,10 @@ def measure_resistance(log, n_boot: int = 100, seed: int = 0) -> tuple[float, tu
     return coef["R_int"], ci["R_int"]
 
 
-def battery_health_of(term, log=None, counters=None, pack: PackSpec | None = None) -> BatteryHealth:
-    """:func:`battery_health` of the drivetrain's ``internal_resistance`` ``term`` (or None), not recomputed."""
+def battery_health_of(term, counters=None, pack: PackSpec | None = None) -> BatteryHealth:
+    """:func:`battery_health` of the drivetrain's ``internal_resistance`` ``term`` (or None), not
+    recomputed, at the log's ``counters``' battery temperature."""
     temp = getattr(counters, "battery_temp_C", None)
     wheel = getattr(counters, "battery_circuit_ohm", None)
-    if term is None:
-        return battery_health(None, None, temp, pack, wheel, None)
-    return battery_health(term.estimate, term.ci95, temp, pack, wheel, term.why)
+    est, ci, why = (None, None, None) if term is None else (term.estimate, term.ci95, term.why)
+    return battery_health(est, ci, temp, pack, wheel, why)

@@ -71,9 +71,9 @@ class Limits:
         return f"{self.speed_limit_mps * 3.6:.0f} km/h ({src})"
 
 
-def ride_limits(log_limit_mps: float | None, spec_top_mps: float | None,
-                pwm_alarm_pct: float | None = None) -> Limits:
-    """The log's speed limit where it has one, else the spec's top speed.
+def ride_limits(log_limit_mps: float | None, spec_top_mps: float | None) -> Limits:
+    """The log's speed limit where it has one, else the spec's top speed; no PWM alarm threshold
+    (the logs carry the alarm flags, not their thresholds).
 
     Parameters
     ----------
@@ -81,17 +81,12 @@ def ride_limits(log_limit_mps: float | None, spec_top_mps: float | None,
         The log's speed-limit column (EUC World ``speed_limit``), m/s.
     spec_top_mps : float or None
         The specification's top speed, m/s.
-    pwm_alarm_pct : float or None
-        The PWM alarm threshold, %, where some source gives it.
     """
     ok = [x is not None and math.isfinite(x) and x > 0 for x in (log_limit_mps, spec_top_mps)]
     speed, source = ((log_limit_mps, "log") if ok[0] else (spec_top_mps, "spec") if ok[1] else (None, None))
-    why = []
-    if speed is None:
-        why.append("no speed-limit column in the log and no top speed in the wheel's spec (--wheel)")
-    if pwm_alarm_pct is None:
-        why.append("no PWM alarm setting: the logs carry the alarm flags, not their thresholds")
-    return Limits(None if speed is None else float(speed), source, pwm_alarm_pct, "; ".join(why) or None)
+    why = ["no speed-limit column in the log and no top speed in the wheel's spec (--wheel)"] if speed is None else []
+    why.append("no PWM alarm setting: the logs carry the alarm flags, not their thresholds")
+    return Limits(None if speed is None else float(speed), source, None, "; ".join(why))
 
 
 @dataclass(frozen=True)

@@ -68,8 +68,6 @@ class Drivetrain:
         ``{"E0": V, "k_Q": V/Ah, "R_int": Ω}``.
     mass : float or None
         Total mass, kg.
-    road : dict
-        ``{"c1": N, "c3": kg/m}`` (0 where not accepted).
     """
 
     terms: dict
@@ -77,18 +75,16 @@ class Drivetrain:
     pwm_coef: dict | None
     battery_coef: dict | None
     mass: float | None
-    road: dict
 
 
-def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: int,
-                block: float = 30.0):
-    """Least squares and moving-block bootstrap percentiles of each coefficient.
+def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: int):
+    """Least squares and moving-block (30 s) bootstrap percentiles of each coefficient.
 
     A replicate's fit is from its blocks' Gram matrices summed (each block once per draw).
     """
     beta, *_ = np.linalg.lstsq(X, y, rcond=None)
     rng = np.random.default_rng(seed)
-    _, label = np.unique(block_labels(t, block), return_inverse=True)
+    _, label = np.unique(block_labels(t, 30.0), return_inverse=True)
     G = label_grams(np.column_stack([X, y]), label, int(label.max()) + 1)
     flat, p1 = G.reshape(len(G), -1), G.shape[-1]
     summed = np.empty((n_boot, p1, p1))
@@ -257,5 +253,4 @@ def _fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = Non
             terms["phase_resistance_pwm"] = Term(r, rci, "ohm")
     else:
         why["pwm"] = "no PWM or safety-margin column: back-EMF and the duty limit cannot be identified"
-    return Drivetrain(terms=terms, unidentified=why, pwm_coef=pcoef, battery_coef=bcoef,
-                      mass=m, road=road)
+    return Drivetrain(terms=terms, unidentified=why, pwm_coef=pcoef, battery_coef=bcoef, mass=m)

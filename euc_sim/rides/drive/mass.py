@@ -320,7 +320,7 @@ def _fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | 
     copper_column = "phase_current" if "phase_current" in sig.raw else "accel"
     efficiency_model = 0.0
     if "copper" in names and "phase_current" not in sig.raw:
-        f_designs, f_betas = _force_copper(sig, lag, settings, names, list(betas))
+        f_designs, f_betas = _force_copper(sig, lag, settings, names, betas)
         m_a = np.median([_mass(b) for b in betas])
         m_f = np.median([_mass(b) for b in f_betas])
         efficiency_model = abs(float(m_f - m_a))
@@ -369,21 +369,20 @@ def _grade_kg(d: "_Design", names, sig: PowerSignals, m: float, settings: MassSe
     return float(dm) if math.isfinite(dm) else 0.0
 
 
-def _force_copper(sig: PowerSignals, lag: int, settings: MassSettings, names, betas,
-                  iterations: int = 4):
-    """The copper loss as κ·F², F = m·a + c₁ + c₃v² from the fit itself, iterated per window;
-    the final designs and coefficients.
+def _force_copper(sig: PowerSignals, lag: int, settings: MassSettings, names, betas):
+    """The copper loss as κ·F², F = m·a + c₁ + c₃v² from the fit itself, iterated 4 times per
+    window from its coefficients ``betas``; the final designs and coefficients.
     """
-    designs = []
+    designs, out = [], []
     for k, w in enumerate(sorted(settings.windows)):
         b = betas[k]
-        for _ in range(iterations):
+        for _ in range(4):
             m = b["inertia"] if np.isfinite(b["inertia"]) and b["inertia"] > 0 else 100.0
             d = _design(sig, lag, w, settings, (m, b.get("rolling", 0.0), b.get("drag", 0.0)))
             b = dict(zip(names, _solve(d.X(names), d.y, sig.signed)))
         designs.append(d)
-        betas[k] = b
-    return designs, betas
+        out.append(b)
+    return designs, out
 
 
 def _unidentified(log: Ride, sig: PowerSignals) -> dict[str, str]:

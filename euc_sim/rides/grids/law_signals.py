@@ -6,7 +6,7 @@ The torque is the logged ``torque`` or the phase current times K_t = K_e
 above :data:`V_MIN`, pitch within :data:`MAX_PITCH` of its riding median) with exact
 mean rates over the stamps' intervals, a leaky pitch integral and each channel at the
 neighbouring rows (Simpson's weights) for :mod:`euc_sim.rides.law.controller_law`.  An
-interval longer than :data:`GAP` breaks every derivative, mean and integral.
+interval the gap policy splits at breaks every derivative, mean and integral.
 """
 
 from __future__ import annotations
@@ -22,8 +22,7 @@ from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
 from euc_sim.stats import label_rows
 
-__all__ = ["LawUnavailable", "LawRows", "law_rows", "V_MIN", "MAX_PITCH", "MIN_ROWS", "GAP",
-           "ACCEL_HALF", "INTEGRAL_TAU"]
+__all__ = ["LawUnavailable", "LawRows", "law_rows", "V_MIN", "MAX_PITCH", "MIN_ROWS", "ACCEL_HALF", "INTEGRAL_TAU"]
 
 #: Speed above which a row counts as riding, m/s.
 V_MIN = 1.0
@@ -36,8 +35,6 @@ ACCEL_HALF = 1.0
 INTEGRAL_TAU = 5.0
 #: Fewer riding rows than this: too short.
 MIN_ROWS = 300
-#: Intervals longer than this, s, break a derivative (a gap in the log): the gap policy's bridge.
-GAP = GAP_POLICY.bridge
 
 
 class LawUnavailable(InputError):

@@ -20,8 +20,7 @@ __all__ = ["V_STOP", "T_STOP", "find_stops", "moving_segments", "rest_rows"]
 
 #: |v| below this is standing still, m/s (0.36 km/h; the logs read 0.00–0.02 m/s at a stop).
 V_STOP = 0.1
-#: A stand this long or longer is a stop, s.  Set from the battery power at stands (module
-#: docstring), before the stop model was ridden on any pair: not fitted to the table.
+#: A stand this long or longer is a stop, s: from the battery power at stands (module docstring).
 T_STOP = 3.0
 
 

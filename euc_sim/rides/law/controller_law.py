@@ -90,8 +90,7 @@ def _lstsq(X: np.ndarray, y: np.ndarray) -> np.ndarray:
     return scipy.linalg.lstsq(X, y, lapack_driver="gelsy", check_finite=False)[0]
 
 
-def _censored_lstsq(X: np.ndarray, y: np.ndarray, M: float, at_limit: np.ndarray,
-                    n_iter: int = CENSOR_ITER) -> np.ndarray:
+def _censored_lstsq(X: np.ndarray, y: np.ndarray, M: float, at_limit: np.ndarray) -> np.ndarray:
     """Least squares of ``y`` on ``X`` leaving out the rows the limit ``M`` touches (at the
     limit, or commanded beyond it by the previous pass) and their :data:`CENSOR_GUARD`
     neighbours; ``M = inf``: plain least squares.
@@ -100,7 +99,7 @@ def _censored_lstsq(X: np.ndarray, y: np.ndarray, M: float, at_limit: np.ndarray
         return _lstsq(X, y)
     bad = at_limit.copy()
     beta, last = None, None
-    for _ in range(n_iter):
+    for _ in range(CENSOR_ITER):
         if beta is not None:
             bad = bad | (np.abs(X @ beta) >= M)
         out = bad.copy()
@@ -196,34 +195,35 @@ def r2(y: np.ndarray, pred: np.ndarray) -> float:
     return float(1.0 - np.sum((y - pred) ** 2) / np.sum((y - np.mean(y)) ** 2))
 
 
-def heldout_score(rows: LawRows, names, n_blocks: int = 10) -> tuple[float, float]:
-    """Blocked held-out RMS error (unit of y) and R² of the torque (its mean over
-    [t₋₁, t₊₁], :func:`_target`, the fitted quantity): each of ``n_blocks`` contiguous
-    time blocks predicted from a fit on the others (grids re-found per fold)."""
-    label = time_blocks(rows.t, n_blocks)
+def _heldout(rows: LawRows, predict_block) -> tuple[np.ndarray, np.ndarray]:
+    """The torque (its mean over [t₋₁, t₊₁], :func:`_target`, the fitted quantity) and its
+    blocked held-out prediction: each of 10 contiguous time blocks (rows ``test``) predicted
+    by ``predict_block(test, y)`` from a fit on the others."""
+    label = time_blocks(rows.t, 10)
     y = _target(rows)
     pred = np.empty_like(y)
-    for b in range(n_blocks):
+    for b in range(10):
         test = label == b
-        pred[test] = predict(rows.take(test), fit_params(rows.take(~test), names), mean3=True)
+        pred[test] = predict_block(test, y)
+    return y, pred
+
+
+def heldout_score(rows: LawRows, names) -> tuple[float, float]:
+    """Blocked held-out RMS error (unit of y) and R² of the torque (:func:`_heldout`; grids
+    re-found per fold)."""
+    y, pred = _heldout(rows, lambda test, y: predict(rows.take(test), fit_params(rows.take(~test), names),
+                                                     mean3=True))
     return float(np.sqrt(np.mean((y - pred) ** 2))), r2(y, pred)
 
 
-def _without_pitch_r2(rows: LawRows, n_blocks: int = 10, accel: bool = True,
-                      v_tb: float = np.inf) -> float:
-    """Blocked held-out R² of the torque from speed (1, v, v², (v − v_tb)⁺) and, with
-    ``accel``, acceleration: what the ride explains without the pitch."""
+def _without_pitch_r2(rows: LawRows, accel: bool = True, v_tb: float = np.inf) -> float:
+    """Blocked held-out R² of the torque (:func:`_heldout`) from speed (1, v, v², (v − v_tb)⁺)
+    and, with ``accel``, acceleration: what the ride explains without the pitch."""
     cols = [np.ones_like(rows.v), rows.v, rows.v ** 2]
     if np.isfinite(v_tb):
         cols.append(np.maximum(rows.v - v_tb, 0.0))
     X = np.column_stack(cols + ([rows.a] if accel else []))
-    label = time_blocks(rows.t, n_blocks)
-    y = _target(rows)
-    pred = np.empty_like(y)
-    for b in range(n_blocks):
-        test = label == b
-        pred[test] = X[test] @ _lstsq(X[~test], y[~test])
-    return r2(y, pred)
+    return r2(*_heldout(rows, lambda test, y: X[test] @ _lstsq(X[~test], y[~test])))
 
 
 def _select_with_pairs(score, candidates: list) -> tuple[list, list]:

@@ -214,11 +214,6 @@ def check_one_wheel(entries) -> None:
                                 f"in series) does not fit {first.path}'s; give the logs of one wheel")
 
 
-def _se(ci) -> float:
-    """Standard error from a 95 % interval (half-width / 1.96)."""
-    return max((ci[1] - ci[0]) / (2 * 1.959964), 1e-12)
-
-
 def change_test(values, cis) -> ChangeTest:
     """Is the last of ``values`` (Ω, time order, 95 % intervals ``cis``) different from the earlier ones?
 
@@ -230,7 +225,7 @@ def change_test(values, cis) -> ChangeTest:
     from scipy.stats import t as student
 
     x = np.asarray(values, float)
-    se = np.array([_se(c) for c in cis])
+    se = np.array([max((c[1] - c[0]) / (2 * 1.959964), 1e-12) for c in cis])     # half-width / 1.96
     xe, se_e = x[:-1], se[:-1]
     k = xe.size
     mu = float(xe.mean())

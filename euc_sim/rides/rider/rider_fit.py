@@ -312,7 +312,7 @@ def _search(setup: _Setup, rows, block, F_log, w, rounds, rng, say) -> tuple[np.
             f = None                    # rides the check's draws but falls on the fit's own: not kept
         n_sims += 2 * (len(starts) > 1)
         finals.append((J(f) if f is not None else (0.0 if len(starts) == 1 else math.inf), k, c, cf, hl))
-    j_best, k, center, coef, hull = min(finals, key=lambda z: z[0])
+    _, k, center, coef, hull = min(finals, key=lambda z: z[0])
     if len(finals) > 1:
         say("rider fit: the paths end at " + "; ".join(f"{_values_of(z[2])} (distance {z[0]:.1f})"
                                                          for z in finals) + f": start {k + 1} kept")
@@ -403,8 +403,7 @@ def fit_rider(log, *, params: Params, motor: MotorPD | None = None,
                             f"at least 2, got {tuple(rounds)!r}")
     say = progress or (lambda s: None)
     motor = motor or MotorPD()
-    dtv = {"copper_loss": 0.0, "drivetrain_idle_loss": 0.0}
-    dtv.update(drivetrain or {})
+    dtv = {"copper_loss": 0.0, "drivetrain_idle_loss": 0.0} | dict(drivetrain or {})
     ch = log_channels(log, assumptions, max_gap=max_gap)
     have = [c for c in ("P", "M", "pitch") if c in ch]
     names = tuple(have if channels is None else channels)

@@ -130,14 +130,9 @@ class StepInputs:
     n_boot: int = 200
     seed: int = 0
 
-    @property
-    def accepted_parameters(self) -> tuple[str, ...]:
-        """Names of the accepted entries of the ride's ``parameters`` (empty without them)."""
-        return tuple(p.name for p in self.parameters if p.accepted)
-
     def physics(self, *names: str) -> tuple[str, ...]:
-        """Those of ``names`` that are accepted parameters, in order."""
-        ok = self.accepted_parameters
+        """Those of ``names`` that are accepted entries of the ride's ``parameters``, in order."""
+        ok = {p.name for p in self.parameters if p.accepted}
         return tuple(n for n in names if n in ok)
 
 

@@ -24,14 +24,15 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from euc_sim.diagnosis.localise import Localisation, localise
+from euc_sim.diagnosis.localise import Localisation
 from euc_sim.errors import InputError
 from euc_sim.stats import rms
 from euc_sim.model.parameters import TABLE3, Params
 from euc_sim.rides.grids.profile import rider_plan, speed_profile
 from euc_sim.rides.grids.law_signals import MAX_PITCH, V_MIN
 from euc_sim.rides.grids.rider_features import BandRatio, RiderFitError, band_ratio_db, reading_step
-from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, sg, split_at_gaps
+from euc_sim.rides.grids.signals import RideAssumptions, RideSignals, sg
+from euc_sim.rides.balance.residual import localise_residual
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.sim.plan_learning import filter_band
 from euc_sim.rides.sim.sim_steps import (CHANNELS, SIM_EFFECTS, LogChannels, SimStep, electrical_power,
@@ -251,18 +252,15 @@ def _errors(table: pd.DataFrame, ok: np.ndarray, names: Sequence[str]) -> dict[s
     return errors
 
 
-def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, smooth: float,
-                    min_len: float, name: str) -> Localisation:
-    """Where step ``name``'s battery-power error concentrates (windows in s)."""
+def _localise_error(table: pd.DataFrame, a: np.ndarray, ok: np.ndarray, name: str) -> Localisation:
+    """Where step ``name``'s battery-power error concentrates (:func:`localise_residual`)."""
     t = table["t"].to_numpy()
     r = (table["P_log"] - table[f"P_{name}"]).to_numpy()
     good = ok & np.isfinite(r)
     if good.sum() < 4:
         return Localisation(windows=[], share=None, correlations={})
-    loc = localise(t[good], r[good], {"speed": table["v_log"].to_numpy()[good],
-                                      "acceleration": a[good]},
-                   smooth=smooth, min_len=min_len)
-    return dict(loc, windows=split_at_gaps(loc["windows"], t[good], min_len))
+    return localise_residual(t[good], r[good], {"speed": table["v_log"].to_numpy()[good],
+                                                "acceleration": a[good]})
 
 
 def _logged(sig: RideSignals) -> dict[str, np.ndarray]:
@@ -367,7 +365,7 @@ def _band_errors(sig: RideSignals, reads: Mapping[str, Mapping[str, np.ndarray]]
 
 
 def _scores(steps: Sequence[SimStep], errors: Mapping[str, Mapping[str, float]], falls: list,
-            balance: float | None, bands: Mapping[str, dict] | None = None) -> list[StepScore]:
+            balance: float | None, bands: Mapping[str, dict]) -> list[StepScore]:
     """Each step's :class:`StepScore` (``balance``: the balance fit's held-out error, W)."""
     out = []
     for step in steps:
@@ -375,7 +373,7 @@ def _scores(steps: Sequence[SimStep], errors: Mapping[str, Mapping[str, float]],
         rmse = {k: v for k, v in ((errors.get(step.name) if ran else None) or {}).items() if np.isfinite(v)}
         p = rmse.get("P_W")
         fell = [f for f in falls if f["run"] == step.name]
-        out.append(StepScore(step, rmse, (bands or {}).get(step.name) if ran else None,
+        out.append(StepScore(step, rmse, bands.get(step.name) if ran else None,
                              p / balance if p is not None and balance and balance > 0 else None,
                              fell[0] if fell else None))
     return out
@@ -383,9 +381,7 @@ def _scores(steps: Sequence[SimStep], errors: Mapping[str, Mapping[str, float]],
 
 def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.ndarray | None = None,
                   label: str | None = None, seed: int = 0, dt: float = 1e-3,
-                  track_iterations: int = 1,
-                  window_smooth: float = 5.0, window_min: float = 3.0,
-                  workers: int = 1, channels: LogChannels = LogChannels(),
+                  track_iterations: int = 1, workers: int = 1, channels: LogChannels = LogChannels(),
                   progress: Callable[[str], None] | None = None) -> RideSimulation:
     """Simulate a ride's speed profile once per modelled step and compare each with its log.
 
@@ -402,8 +398,6 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
     label : str, optional
     seed, dt, track_iterations :
         See :func:`simulate_profile`.
-    window_smooth, window_min : float
-        ``smooth`` and ``min_len`` of :func:`~euc_sim.diagnosis.localise.localise`, s.
     workers : int
         Threads for the steps; the results do not depend on it.
     channels : LogChannels
@@ -456,7 +450,7 @@ def simulate_ride(sig: RideSignals, steps: Sequence[SimStep], log, scored: np.nd
         notes += [note] if note else []
     errors = _errors(table, ok, names)
     bands = _band_errors(sig, reads, {"P": ok, "I": ok, "pitch": _pitch_rows(table, ok)})
-    loc = _localise_error(table, sig.frame["a"].to_numpy(), ok, window_smooth, window_min, names[-1])
+    loc = _localise_error(table, sig.frame["a"].to_numpy(), ok, names[-1])
     return RideSimulation(label=label or str(sig.path), table=table, errors=errors, torque_method=sig.torque_method,
                           effects=dict(run[-1].effects), falls=falls, localisation=loc,
                           steps=_scores(steps, errors, falls, channels.balance_heldout, bands), notes=tuple(notes))

@@ -113,7 +113,7 @@ class _Stretches:
                     clock(t0 + s)
 
             return _ride(t[a:b + 1] - t0, v_plan[a:b + 1], params, effects,
-                         seed if i == 0 else _stretch_seed(seed, i), dt,
+                         seed if i == 0 else int(np.random.SeedSequence((int(seed), i)).generate_state(1)[0]), dt,
                          None if clock is None and pool is None else seg_clock, motor, rider)
 
         self.one = one
@@ -135,7 +135,7 @@ def _track(t, v_target, v_plan, params, effects, seed, dt, clock=None, motor=Non
     its RMS error to ``v_target``.
 
     With ``stops``, each stretch between them is ridden from rest by a fresh rider (stretch
-    i > 0 seeded from (``seed``, i)) and the wheel stands through each stop;
+    i > 0 seeded by one draw of SeedSequence((``seed``, i))) and the wheel stands through each stop;
     ``attrs["step_off"]`` is the largest |ẋ| (m/s) at which a stretch ended at a stop.  A
     fall raises :class:`FallError` at the ride's time with the ride up to it as ``trajectory``.
     """
@@ -200,11 +200,6 @@ def _ride(t, v_plan, params, effects, seed, dt, clock, motor, rider) -> pd.DataF
 def _shifted(df: pd.DataFrame, t0: float, x0: float) -> pd.DataFrame:
     """A stretch's frame on the ride's clock and road: t + t0, x + x0 (a new frame)."""
     return df.assign(t=df["t"] + t0, x=df["x"] + x0)
-
-
-def _stretch_seed(seed: int, i: int) -> int:
-    """The motor-noise seed of stretch i > 0 of a ride run with ``seed``: one draw of SeedSequence((seed, i))."""
-    return int(np.random.SeedSequence((int(seed), int(i))).generate_state(1)[0])
 
 
 def _rest_pose(params: Params, motor) -> tuple[float, float]:

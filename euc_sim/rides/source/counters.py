@@ -28,8 +28,8 @@ class LogCounters:
         Rows with an alarm or alert flag set; runs of consecutive flagged rows.
     duration_s, moving_s : float or None
         The app's trip and riding clocks at the end, s.
-    distance_m, gps_distance_m : float or None
-        The app's trip distance (its increase, :func:`counter_steps`) and GPS distance, m.
+    distance_m : float or None
+        The app's trip distance (its increase, :func:`counter_steps`), m.
     speed_max_mps : float or None
         The app's top speed, m/s.
     energy_Wh : float or None
@@ -53,7 +53,6 @@ class LogCounters:
     duration_s: float | None = None
     moving_s: float | None = None
     distance_m: float | None = None
-    gps_distance_m: float | None = None
     speed_max_mps: float | None = None
     energy_Wh: float | None = None
     battery_start_pct: float | None = None
@@ -87,13 +86,6 @@ def _last(x: np.ndarray | None, scale: float = 1.0) -> float | None:
     return float(f[-1]) * scale if f.size else None
 
 
-def _span(x: np.ndarray | None, scale: float = 1.0) -> float | None:
-    if x is None:
-        return None
-    f = x[np.isfinite(x)]
-    return float(f.max() - f.min()) * scale if f.size else None
-
-
 def log_counters(raw: pd.DataFrame, data: pd.DataFrame) -> LogCounters:
     """The alarm flags and the app's own counters of a log, from the file's ``raw`` cells and
     the reader's SI table ``data``.
@@ -103,7 +95,6 @@ def log_counters(raw: pd.DataFrame, data: pd.DataFrame) -> LogCounters:
         if col in raw.columns:
             flag = _raised(raw[col]) if flag is None else flag | _raised(raw[col])
     eucworld = "datetime" in raw.columns
-    km = 1000.0 if eucworld else 1.0
     bat = _num(raw, "battery") if eucworld else _num(raw, "battery_level")
     bf = bat[np.isfinite(bat)] if bat is not None else np.array([])
     tb = _num(raw, "temp_batt")
@@ -117,7 +108,6 @@ def log_counters(raw: pd.DataFrame, data: pd.DataFrame) -> LogCounters:
         alarm_episodes=None if flag is None else _episodes(flag),
         duration_s=_last(_num(raw, "duration")), moving_s=_last(_num(raw, "duration_riding")),
         distance_m=None if inc is None else float(np.nansum(inc)),
-        gps_distance_m=_span(_num(raw, "gps_distance"), km) if eucworld else None,
         speed_max_mps=_last(_num(raw, "speed_max"), 1 / 3.6),
         energy_Wh=_last(_num(raw, "energy_consumed")),
         battery_start_pct=float(bf[0]) if bf.size else None,

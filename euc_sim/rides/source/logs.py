@@ -91,7 +91,6 @@ class Layout:
     time_formats: tuple[str | None, ...]    # tried in order; None = ISO 8601
     speed: Channel
     channels: Mapping[str, Channel]
-    signature: tuple[str, ...]              # columns whose presence identifies it
     source: str
 
 
@@ -115,7 +114,6 @@ LAYOUTS: dict[str, Layout] = {
             "gps_heading": Channel(("gps_heading",), DEG),
             "gps_distance": Channel(("gps_distance",)),
         },
-        signature=("date", "time"),
         source="WheelLog Android app, LoggingService (Wheellog/Wheellog.Android)",
     ),
     "eucworld": Layout(
@@ -137,7 +135,6 @@ LAYOUTS: dict[str, Layout] = {
             "gps_heading": Channel(("gps_bearing",), DEG),
             "gps_distance": Channel(("gps_distance",), KM),
         },
-        signature=("datetime",),
         source="EUC World CSV export, as read by third-party parsers (unofficial)",
     ),
     "darknessbot": Layout(
@@ -156,7 +153,6 @@ LAYOUTS: dict[str, Layout] = {
             "gps_speed": Channel(("GPS Speed", "GPS speed"), KMH),
             "gps_alt": Channel(("Altitude",)),
         },
-        signature=("Date", "Speed"),
         source="DarknessBot CSV export, as read by third-party parsers (unofficial)",
     ),
 }

@@ -1,21 +1,17 @@
-"""A ride log read once: its columns in SI units, its data-quality facts, the app's own
+"""A ride log read once: its columns in SI units, what the reader did, the app's own
 counters, and the grids built on it (:meth:`Ride.derived`, each built once per log).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from functools import cached_property
 from pathlib import Path
-from typing import Mapping
 
-import numpy as np
 import pandas as pd
 
 from euc_sim.rides.source.counters import LogCounters
-from euc_sim.rides.source.gaps import GAP_POLICY
 
-__all__ = ["Ride", "RideQuality", "CHANNEL_UNITS"]
+__all__ = ["Ride", "CHANNEL_UNITS"]
 
 #: Canonical channel -> SI unit (in :attr:`Ride.data`).
 CHANNEL_UNITS: dict[str, str] = {
@@ -26,20 +22,6 @@ CHANNEL_UNITS: dict[str, str] = {
     "latitude": "deg", "longitude": "deg", "gps_speed": "m/s", "gps_alt": "m",
     "gps_heading": "rad", "gps_distance": "m",
 }
-
-
-@dataclass(frozen=True)
-class RideQuality:
-    """What the log says about its own data: ``duration_s`` (s), ``rate_hz`` (median, Hz),
-    ``gaps`` (``(t, length)`` s of each interval splitting the ride), ``zero_channels``
-    (absent, zero or empty), ``notes`` (what the reader handled).
-    """
-
-    duration_s: float
-    rate_hz: float
-    gaps: tuple
-    zero_channels: tuple
-    notes: tuple
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,7 +61,6 @@ class Ride:
     warnings: tuple[str, ...] = field(repr=False)
     n_rows_read: int
     n_rows_merged: int
-    units: Mapping[str, str] = field(default_factory=lambda: dict(CHANNEL_UNITS), repr=False)
     repairs: tuple[str, ...] = field(default=(), repr=False)
     counters: LogCounters = field(default_factory=LogCounters, repr=False)
     utc_offset_s: float | None = None
@@ -98,17 +79,6 @@ class Ride:
     def duration(self) -> float:
         """Time from the first to the last sample, s."""
         return float(self.data["t"].iloc[-1]) if len(self.data) else 0.0
-
-    @cached_property
-    def quality(self) -> RideQuality:
-        """The data-quality facts, gaps as :data:`~euc_sim.rides.source.gaps.GAP_POLICY` splits them."""
-        t = self.data["t"].to_numpy(float)
-        dt = np.diff(t)
-        long = np.flatnonzero(GAP_POLICY.splits(dt))
-        rate = float(1.0 / np.median(dt)) if dt.size and np.median(dt) > 0 else float("nan")
-        return RideQuality(duration_s=float(t[-1] - t[0]) if t.size else 0.0, rate_hz=rate,
-                           gaps=tuple((float(t[i]), float(dt[i])) for i in long),
-                           zero_channels=tuple(self.absent), notes=tuple(self.warnings))
 
     def derived(self, key: tuple, build):
         """What ``build()`` returns, built the first time ``key`` is asked for and kept; do not modify it."""

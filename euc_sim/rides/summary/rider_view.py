@@ -63,5 +63,5 @@ def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: fl
 
     summary = ride_summary(log, getattr(spec, "top_speed", None))
     mc = mass_check(total_mass, rider_weight, getattr(spec, "wheel_mass", None))
-    bh = battery_health_of((drivetrain or {}).get("internal_resistance"), log, log.counters, pack_spec(spec))
+    bh = battery_health_of((drivetrain or {}).get("internal_resistance"), log.counters, pack_spec(spec))
     return summary, mc, bh, ride_clock(log)

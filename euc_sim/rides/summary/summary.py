@@ -118,14 +118,12 @@ def _battery(d: pd.DataFrame, t0: float, t_move: float, t1: float) -> tuple[floa
     return out[0], out[1]
 
 
-def _pwm(d: pd.DataFrame, skip: np.ndarray | None = None) -> tuple[float | None, float | None, dict | None]:
+def _pwm(d: pd.DataFrame, skip: np.ndarray) -> tuple[float | None, float | None, dict | None]:
     """The largest logged duty, %, when, s, and where (nearest GPS fix within 10 s); rows
     ``skip`` (a free spin) left out."""
     if "pwm" not in d:
         return None, None, None
-    p = d["pwm"].to_numpy(float)
-    if skip is not None:
-        p = np.where(skip, np.nan, p)
+    p = np.where(skip, np.nan, d["pwm"].to_numpy(float))
     if not np.isfinite(p).any():
         return None, None, None
     i = int(np.nanargmax(p))

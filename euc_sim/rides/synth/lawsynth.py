@@ -85,9 +85,8 @@ def _sample(ride: pd.DataFrame, ts: np.ndarray, mean_over: float = 0.2) -> dict[
     return out
 
 
-def eucworld_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = -1,
-                 offset_deg: float = -2.0, k_t: float = K_T) -> Path:
-    """EUC World CSV at ``path``: irregular 5 Hz rows, pitch in 0.1° steps (``sign``, ``offset_deg``),
+def eucworld_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = -1, k_t: float = K_T) -> Path:
+    """EUC World CSV at ``path``: irregular 5 Hz rows, pitch in 0.1° steps (``sign``, zero at −2°),
     phase current M_d/``k_t`` in 0.1 A steps with 0.5 A noise (``seed``).
     """
     rng = np.random.default_rng(seed)
@@ -95,7 +94,7 @@ def eucworld_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = -1,
     ts = np.cumsum(rng.uniform(0.18, 0.22, int(T / 0.18)))
     ts = ts[ts < T - 0.5]
     s = _sample(ride, ts)
-    tilt = np.round(sign * np.degrees(s["gamma"]) + offset_deg, 1)
+    tilt = np.round(sign * np.degrees(s["gamma"]) - 2.0, 1)
     I_ph = np.round(s["M_d"] / k_t + rng.normal(0.0, 0.5, ts.size), 1)
     stamps = pd.Timestamp("2025-07-01 10:00:00") + pd.to_timedelta(np.round(ts, 3), unit="s")
     lines = [EW_HEADER]
@@ -106,10 +105,9 @@ def eucworld_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = -1,
     return path
 
 
-def wheellog_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = 1,
-                 offset_deg: float = 0.5) -> Path:
+def wheellog_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = 1) -> Path:
     """WheelLog CSV (newer layout) at ``path``: 0.2 s rows, a third sharing the previous stamp,
-    pitch in 0.01° (``sign``, ``offset_deg``), torque in 0.01 N·m with 0.8 N·m noise (``seed``).
+    pitch in 0.01° (``sign``, zero at 0.5°), torque in 0.01 N·m with 0.8 N·m noise (``seed``).
     """
     rng = np.random.default_rng(seed)
     T = float(ride["t"].iloc[-1])
@@ -119,7 +117,7 @@ def wheellog_log(ride: pd.DataFrame, path: Path, seed: int, sign: int = 1,
     rep = np.flatnonzero(rng.uniform(size=ts.size) < 1 / 3)
     rep = rep[rep > 0]
     stamp_t[rep] = stamp_t[rep - 1]                      # the app's repeated time stamps
-    tilt = np.round(sign * np.degrees(s["gamma"]) + offset_deg, 2)
+    tilt = np.round(sign * np.degrees(s["gamma"]) + 0.5, 2)
     torque = np.round(s["M_d"] + rng.normal(0.0, 0.8, ts.size), 2)
     stamps = pd.Timestamp("2025-07-01 10:00:00") + pd.to_timedelta(np.round(stamp_t, 3), unit="s")
     lines = [WL_HEADER]

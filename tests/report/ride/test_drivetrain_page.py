@@ -7,7 +7,8 @@ from dataclasses import replace
 from euc_sim.rides.drive.drivetrain import Term
 from euc_sim.rides.drive.grade import grade_profile
 from euc_sim.rides.drive.mass import MassFit
-from euc_sim.report.ride.drivetrain_page import _mass_md, plot_grade
+from euc_sim.io import save_figure
+from euc_sim.report.ride.drivetrain_page import _mass_md, grade_figure
 from tests.rides.drive.test_grade import _ride
 from tests.rides.typed_ride import mass_fit
 
@@ -51,5 +52,5 @@ def test_grade_figure_is_written(tmp_path):
     fit = MassFit(**{**fit.__dict__, "coef": {**fit.coef, "grade": 80.0}})
     g = grade_profile(sig, fit, t, h)
     assert g.fitted is not None
-    out = plot_grade(g, tmp_path / "grade.png")
+    out = save_figure(grade_figure(g), tmp_path / "grade.png")
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

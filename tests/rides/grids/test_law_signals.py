@@ -7,14 +7,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from euc_sim.rides.grids.law_signals import GAP, LawUnavailable, _rate, _simpson_weights, law_rows
+from euc_sim.rides.grids.law_signals import LawUnavailable, _rate, _simpson_weights, law_rows
+from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.logs import Ride
 
 
 def test_rate_is_the_mean_rate_on_uneven_stamps_and_nan_at_a_gap():
     rng = np.random.default_rng(3)
     t = np.cumsum(rng.uniform(0.1, 0.3, 40))
-    t[20:] += 2 * GAP                                   # a gap between rows 19 and 20
+    t[20:] += 2 * GAP_POLICY.bridge                                   # a gap between rows 19 and 20
     x = 0.7 * t ** 2                                    # d/dt = 1.4 t; central mean rate = 0.7 (t₊₁ + t₋₁)
     d = _rate(x, t)
     inner = np.r_[1:18, 21:39]

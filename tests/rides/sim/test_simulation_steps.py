@@ -179,7 +179,8 @@ def test_a_figure_per_step_with_the_logs_channels(law_log, tmp_path):
 
     from euc_sim.rides.grids.signals import RideAssumptions, ride_signals
     from euc_sim.rides.sim.sim_steps import SimStep
-    from euc_sim.report.ride.simulation_figure import plot_ride_simulation, ride_simulation_figure
+    from euc_sim.io import save_figure
+    from euc_sim.report.ride.simulation_figure import ride_simulation_figure
     from euc_sim.rides.sim.simulate import simulate_ride
 
     path, ls, law = law_log
@@ -196,7 +197,7 @@ def test_a_figure_per_step_with_the_logs_channels(law_log, tmp_path):
     for ax in fig.axes[1:]:
         names = [ln.get_label() for ln in ax.get_lines()]
         assert any("measured_law" in n for n in names) and any("nominal" in n for n in names)
-    assert plot_ride_simulation(sim, tmp_path / "s.png").stat().st_size > 20_000
+    assert save_figure(fig, tmp_path / "s.png", dpi=100).stat().st_size > 20_000
 
 
 def _table_script():
