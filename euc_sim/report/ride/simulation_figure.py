@@ -49,12 +49,7 @@ def moving_rms(t: np.ndarray, e: np.ndarray) -> np.ndarray:
         return np.where(den > 0, np.sqrt(num / np.maximum(den, 1.0)), np.nan)
 
 
-<<<<<<< HEAD
 def zoom_window(t: np.ndarray, a: np.ndarray, b: np.ndarray, scored: np.ndarray | None = None) -> tuple[float, float]:
-=======
-def zoom_window(t: np.ndarray, a: np.ndarray, b: np.ndarray,
-                scored: np.ndarray | None = None) -> tuple[float, float]:
->>>>>>> h-ridetrim
     """The :data:`ZOOM_S`-second window where ``a`` and ``b`` differ most (largest mean square).
 
     Parameters
