@@ -80,13 +80,12 @@ def own_lag(sig, y, K: int, force, mass: float) -> int:
     return best[1]
 
 
-def _valid(sig, y, lag: int, K: int, force, mass: float) -> np.ndarray:
-    """Rows with every column finite at every shift ``lag − K … lag + K``: one rule for both
-    rides, so a ride against itself fits the same rows.
+def _valid(sig, y, columns: dict) -> np.ndarray:
+    """Rows with every column finite at every shift of ``columns`` (shift -> :func:`_power_columns`):
+    one rule for both rides, so a ride against itself fits the same rows.
     """
     arrays = [y]
-    for j in range(-K, K + 1):
-        sh, de = _power_columns(sig, lag + j, force, mass)
+    for sh, de in columns.values():
         arrays += [*sh.values(), *de.values()]
     return _rows(sig, arrays)
 
@@ -146,8 +145,8 @@ def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tup
 
 def power_rows(fit, test, mass: float) -> tuple | None:
     """What both of :func:`power_design`'s designs share: ``(rate, K, force, lag, yL, sL, dL, okL, yO,
-    okO)``, LOG's delay, shared columns and differences, each ride's signed power and valid rows; None
-    without a balance fitted on LOG.
+    okO, shiftedO)``, LOG's delay, shared columns and differences, each ride's signed power and valid
+    rows, OTHER's columns at each shift ``−K … K`` beyond LOG's delay; None without a balance fitted on LOG.
     """
     mf = fit.mass
     if "inertia" not in (mf.coef or {}) or mf.lag is None:
@@ -158,11 +157,11 @@ def power_rows(fit, test, mass: float) -> tuple | None:
     force = (c["inertia"], c.get("rolling", 0.0), c.get("drag", 0.0)) if mf.copper_column == "force" else None
     yL = _signed_power(fit.sig, mf, int(round(mf.lag * rate)), force)
     lag = own_lag(fit.sig, yL, K, force, mass)
-    sL, dL = _power_columns(fit.sig, lag, force, mass)
-    okL = _valid(fit.sig, yL, lag, K, force, mass)
+    colsL, colsO = ({j: _power_columns(sig, lag + j, force, mass) for j in range(-K, K + 1)}
+                    for sig in (fit.sig, test.sig))
     yO = _signed_power(test.sig, mf, lag, force)
-    okO = _valid(test.sig, yO, lag, K, force, mass)
-    return rate, K, force, lag, yL, sL, dL, okL, yO, okO
+    return (rate, K, force, lag, yL, *colsL[0], _valid(fit.sig, yL, colsL), yO,
+            _valid(test.sig, yO, colsO), colsO)
 
 
 def power_design(fit, test, mass: float, rows, shifts=None, window: float | None = None, channels=()):
@@ -190,9 +189,9 @@ def power_design(fit, test, mass: float, rows, shifts=None, window: float | None
     """
     if rows is None:
         return None
-    rate, K, force, lag, yL, sL, dL, okL, yO, okO = rows
+    rate, K, force, lag, yL, sL, dL, okL, yO, okO, colsO = rows
     shifts = list(range(-K, K + 1)) if shifts is None else list(shifts)
-    shifted = [_power_columns(test.sig, lag + j, force, mass) for j in shifts]
+    shifted = [colsO.get(j) or _power_columns(test.sig, lag + j, force, mass) for j in shifts]
     if okL.sum() < 200 or okO.sum() < 200:
         return None
     scale = {n: float(np.sqrt(np.mean(sL[n][okL] ** 2))) or 1.0 for n in sL}
