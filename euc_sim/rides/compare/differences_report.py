@@ -64,13 +64,12 @@ def _rows(sig, arrays) -> np.ndarray:
     return ok
 
 
-def own_lag(sig, y, K: int, force, mass: float) -> int:
-    """LOG's delay, samples (−K … K), by the pair fit's own criterion (best RMS of its power on
-    the shared terms), so that a ride against itself shifts by nothing.
+def own_lag(sig, y, columns: dict) -> int:
+    """LOG's delay, samples (a key of ``columns``, lag -> :func:`_power_columns`), by the pair fit's own
+    criterion (best RMS of its power on the shared terms), so that a ride against itself shifts by nothing.
     """
     best = (np.inf, 0)
-    for lag in range(-K, K + 1):
-        sh, _ = _power_columns(sig, lag, force, mass)
+    for lag, (sh, _) in columns.items():
         ok = _rows(sig, [y, *sh.values()])
         if ok.sum() < 200:
             continue
@@ -145,7 +144,7 @@ def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tup
 
 def power_rows(fit, test, mass: float) -> tuple | None:
     """What both of :func:`power_design`'s designs share: ``(rate, K, force, lag, yL, sL, dL, okL, yO,
-    okO, shiftedO)``, LOG's delay, shared columns and differences, each ride's signed power and valid
+    okO, colsO)``, LOG's delay, shared columns and differences, each ride's signed power and valid
     rows, OTHER's columns at each shift ``−K … K`` beyond LOG's delay; None without a balance fitted on LOG.
     """
     mf = fit.mass
@@ -156,9 +155,10 @@ def power_rows(fit, test, mass: float) -> tuple | None:
     c = mf.coef
     force = (c["inertia"], c.get("rolling", 0.0), c.get("drag", 0.0)) if mf.copper_column == "force" else None
     yL = _signed_power(fit.sig, mf, int(round(mf.lag * rate)), force)
-    lag = own_lag(fit.sig, yL, K, force, mass)
-    colsL, colsO = ({j: _power_columns(sig, lag + j, force, mass) for j in range(-K, K + 1)}
-                    for sig in (fit.sig, test.sig))
+    near = {j: _power_columns(fit.sig, j, force, mass) for j in range(-K, K + 1)}
+    lag = own_lag(fit.sig, yL, near)
+    colsL = {j: near.get(lag + j) or _power_columns(fit.sig, lag + j, force, mass) for j in range(-K, K + 1)}
+    colsO = {j: _power_columns(test.sig, lag + j, force, mass) for j in range(-K, K + 1)}
     yO = _signed_power(test.sig, mf, lag, force)
     return (rate, K, force, lag, yL, *colsL[0], _valid(fit.sig, yL, colsL), yO,
             _valid(test.sig, yO, colsO), colsO)

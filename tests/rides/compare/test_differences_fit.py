@@ -101,13 +101,13 @@ def test_the_interval_counts_the_fitted_rides_noise_too():
 def test_the_fitted_rides_own_delay_by_the_pair_fits_criterion():
     from types import SimpleNamespace
 
-    from euc_sim.rides.compare.differences_report import own_lag
+    from euc_sim.rides.compare.differences_report import _power_columns, own_lag
 
     t, v, av = _ride(9, n=4000)
     a = np.gradient(v, t)
     P = np.roll(_power(v, av, seed=9), 3)               # the current 0.3 s late
     sig = SimpleNamespace(t=t, v=v, a=a, av=av, P=P, climb=None, extra={}, signed=True)
-    assert own_lag(sig, P, 10, None, 90.0) == 3
+    assert own_lag(sig, P, {lag: _power_columns(sig, lag, None, 90.0) for lag in range(-10, 11)}) == 3
 
 
 def test_rolling_and_drag_alias_on_a_steady_pair_not_mass():
