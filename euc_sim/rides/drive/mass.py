@@ -32,7 +32,7 @@ from euc_sim.rides.grids.power import (G, NO_GPS_SCALE_SD, MassSettings, PowerSi
 from euc_sim.rides.source.systematic import combined_interval, current_scale_kg, speed_scale_kg
 
 __all__ = ["MassFit", "mass_regressors", "energy_regressors", "fit_mass", "predict_power",
-           "heldout_rmse"]
+           "heldout_folds", "heldout_rmse"]
 
 def _shift(x: np.ndarray, lag: int) -> np.ndarray:
     """x delayed by ``lag`` samples (x(t − lag)); NaN where undefined."""
@@ -174,14 +174,15 @@ def _best_lag(sig: PowerSignals, settings: MassSettings) -> int:
     return best[1]
 
 
-def heldout_rmse(X: np.ndarray, y: np.ndarray, t: np.ndarray, signed: bool,
-                 n_blocks: int | None = None) -> float:
-    """RMS error, W, predicting each of ``n_blocks`` contiguous time blocks from the rest.
+def heldout_folds(t: np.ndarray, signed: bool) -> np.ndarray:
+    """Each row's block for :func:`heldout_rmse`: 10 contiguous blocks of the times ``t`` (s), or 4
+    for an unsigned log (whose fits are nonlinear)."""
+    return time_blocks(t, 10 if signed else 4)
 
-    ``n_blocks`` defaults to 10, or 4 for an unsigned log (whose fits are nonlinear).
-    """
-    n_blocks = n_blocks or (10 if signed else 4)
-    label = time_blocks(t, n_blocks)
+
+def heldout_rmse(X: np.ndarray, y: np.ndarray, label: np.ndarray, signed: bool) -> float:
+    """RMS error, W, predicting each contiguous time block (``label``, :func:`heldout_folds`) from the rest."""
+    n_blocks = int(label.max()) + 1
     if signed:                  # linear: each fold's fit from the other blocks' Gram matrices
         grams = label_grams(np.column_stack([X, y]), label, n_blocks)
         sse = 0.0
@@ -200,7 +201,8 @@ def _select(cols: dict, y: np.ndarray, t: np.ndarray, signed: bool,
             min_gain: float = 0.005) -> tuple[list, list]:
     """Forward selection of speed-only terms by blocked held-out RMSE."""
     X = lambda names: np.column_stack([cols[c] for c in names])   # noqa: E731
-    return select_by_heldout(lambda names: heldout_rmse(X(names), y, t, signed), ["inertia"],
+    label = heldout_folds(t, signed)
+    return select_by_heldout(lambda names: heldout_rmse(X(names), y, label, signed), ["inertia"],
                           [c for c in ENERGY_TERMS if c in cols], min_gain)
 
 
