@@ -128,9 +128,9 @@ class _Grams:
     def __init__(self, d: PairDesign, n_folds: int, block: float):
         self.names, self._deltas = list(d.names), tuple(d.deltas)
         self.GL, self.fL, _ = block_grams(d.t_log, d.Z_log, n_folds, block)
-        grams = [block_grams(d.t_other, Z, n_folds, block) for Z in d.Z_other]
-        self.GO = np.stack([g[0] for g in grams])
-        self.fO, self.nO = grams[0][1], grams[0][2]
+        ids, self.fO = _block_ids(d.t_other, n_folds, block)      # OTHER's blocks, one set for every shift
+        self.GO = np.stack([label_grams(Z, ids, len(self.fO)) for Z in d.Z_other])
+        self.nO = np.bincount(ids, minlength=len(self.fO))
         self.mid = len(d.Z_other) // 2
         self.step = d.shift_step
         self.n_folds = n_folds
