@@ -20,7 +20,6 @@ from euc_sim.rides.drive.drivetrain import charge_drawn
 from euc_sim.rides.drive.drivetrain_report import reported_mass, reported_terms
 from euc_sim.rides.drive.mass import mass_regressors
 from euc_sim.rides.grids.power import GPS_V_MIN
-from euc_sim.rides.source.channels import current_from_phase
 from euc_sim.simulation.effects import RECORDS
 
 __all__ = ["own_lag", "window_means", "power_rows", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "pair_differences"]
@@ -287,7 +286,7 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     fitted = lambda made: None if made is None else pair_fit(   # noqa: E731
         made[0], level=FALSE_NAME_RATE, family=len(physics()), transform=made[1], n_boot=n_boot, seed=seed)
     out = {}
-    if not all(current_from_phase(p) for p in (log_path, compare_path)):
+    if not (fit.sig.current_from_phase and test.sig.current_from_phase):
         channels = tuple(c for c in channels if c != "sag")     # a measured current: sag repeats it
     rows = power_rows(fit, test, mass)
     delay = fitted(power_design(fit, test, mass, rows))

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from euc_sim.rides.drive.energy import window_difference, window_mean, window_samples_odd
-from euc_sim.rides.source.channels import current_from_phase, power_not_measured
+from euc_sim.rides.source.channels import power_not_measured
 from euc_sim.stats import block_labels, distinct, draw_blocks, gram_lstsq_many, label_grams, percentile_interval
 from euc_sim.stats import forward_select as select_by_heldout
 from euc_sim.stats import one_blas_thread, time_blocks
@@ -338,8 +338,8 @@ def _fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | 
         m, why = float("nan"), ("the battery current is never negative: braking cannot be told "
                                 "from driving, so the acceleration power's sign is lost and the "
                                 "mass is not identified")
-        if power_not_measured(log):
-            why += "; " + power_not_measured(log)
+        if derived := power_not_measured(log):
+            why += "; " + derived
     ok = math.isfinite(m)
     systematic, stat = {}, _ci(masses) if ok else None
     if ok:
@@ -400,9 +400,9 @@ def _unidentified(log: Ride, sig: PowerSignals) -> dict[str, str]:
     if sig.scale.source == "assumed":
         out["speed_scale"] = (f"no GPS speed: speedometer scale assumed 1 ± "
                               f"{NO_GPS_SCALE_SD:.0%}, propagated into the mass interval")
-    if power_not_measured(log):
-        out["battery_power"] = power_not_measured(log)
-    if current_from_phase(log):
+    if why := power_not_measured(log):
+        out["battery_power"] = why
+    if sig.current_from_phase:
         out["phase_current"] = ("the battery current is the app's duty × phase current (to 3 %), "
                                 "not measured: the phase current is not used for the copper loss")
     if "phase_current" not in sig.extra:
