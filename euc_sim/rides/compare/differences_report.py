@@ -296,7 +296,7 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
         floor, det = _delay_resolution(fit, log_path, compare_path), out[DELAY].detectable
         out[DELAY] = replace(out[DELAY], resolution=floor, detectable=None if det is None else with_floor(det, floor))
         if DELAY in delay.selected:
-            shift = int(round(delay.estimates[DELAY][0] * (1.0 / np.median(np.diff(fit.sig.t)))))
+            shift = int(round(delay.estimates[DELAY][0] * rows[0]))     # s -> samples of LOG's grid
     for res in (fitted(power_design(fit, test, mass, rows, [shift], ROAD_WINDOW, channels)),
                 fitted(voltage_design(fit, test)), fitted(gps_design(log_path, compare_path))):
         if res is not None:
