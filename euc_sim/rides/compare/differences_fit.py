@@ -106,11 +106,12 @@ def _block_ids(t: np.ndarray, n_folds: int, block: float) -> tuple[np.ndarray, n
     return ids, np.array(folds)
 
 
-def block_grams(t: np.ndarray, Z: np.ndarray, n_folds: int = 5, block: float = 30.0
+def block_grams(t: np.ndarray, Zs, n_folds: int = 5, block: float = 30.0
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-block Gram matrices (n_blocks, p, p) of ``Z`` (rows × columns), each block's fold and row count."""
+    """Per-block Gram matrices (len(Zs), n_blocks, p, p) of each of ``Zs`` (rows × columns, their rows at
+    the times ``t``, s, cut into blocks once), each block's fold and row count."""
     ids, fold = _block_ids(t, n_folds, block)
-    return label_grams(Z, ids, len(fold)), fold, np.bincount(ids, minlength=len(fold))
+    return np.stack([label_grams(Z, ids, len(fold)) for Z in Zs]), fold, np.bincount(ids, minlength=len(fold))
 
 
 def _parabola(sse: np.ndarray, k: int) -> float:
@@ -127,10 +128,8 @@ class _Grams:
 
     def __init__(self, d: PairDesign, n_folds: int, block: float):
         self.names, self._deltas = list(d.names), tuple(d.deltas)
-        self.GL, self.fL, _ = block_grams(d.t_log, d.Z_log, n_folds, block)
-        ids, self.fO = _block_ids(d.t_other, n_folds, block)      # OTHER's blocks, one set for every shift
-        self.GO = np.stack([label_grams(Z, ids, len(self.fO)) for Z in d.Z_other])
-        self.nO = np.bincount(ids, minlength=len(self.fO))
+        (self.GL,), self.fL, _ = block_grams(d.t_log, [d.Z_log], n_folds, block)
+        self.GO, self.fO, self.nO = block_grams(d.t_other, d.Z_other, n_folds, block)
         self.mid = len(d.Z_other) // 2
         self.step = d.shift_step
         self.n_folds = n_folds

@@ -48,7 +48,7 @@ def _design(log, other, P_log, P_other, shifts=None):
 def test_block_grams_add_up_and_follow_the_time_folds():
     t, v, av = _ride(0, n=3000)
     Z = _rows(True, v, av, _power(v, av))
-    G, fold, count = pf.block_grams(t, Z, n_folds=5, block=30.0)
+    (G,), fold, count = pf.block_grams(t, [Z], n_folds=5, block=30.0)
     assert np.allclose(G.sum(axis=0), Z.T @ Z, rtol=1e-10)
     assert count.sum() == len(t)
     labels = time_blocks(t, 5)
