@@ -19,7 +19,7 @@ from pathlib import Path
 from euc_sim.io import write_json
 from euc_sim.rides.balance.analysis import ride_analysis
 from euc_sim.report.ride.contract import balance_json
-from euc_sim.rides.balance.parameters import effect_estimates
+from euc_sim.rides.balance.parameters import effect_estimates, parameter_list
 from euc_sim.report.ride.fit_figures import write_balance
 from euc_sim.rides.source.logs import read_log
 
@@ -41,7 +41,8 @@ def main(argv=None) -> int:
         d = out / f"{Path(fit).stem}_to_{Path(test).stem}_{args.domain}"
         an = ride_analysis(read_log(SHARED / fit), read_log(SHARED / test), domain=args.domain,
                            n_boot=args.n_boot)
-        rep = dict(balance_json(an, effect_estimates(an.cross)), table=write_balance(an, d).name)
+        effects = effect_estimates(an.cross, parameter_list(an.cross, None, {}))
+        rep = dict(balance_json(an, effects), table=write_balance(an, d).name)
         write_json(d / "report.json", rep)
         print(f"fit {fit} -> test {test} ({args.domain}): held-out RMS inertia-only "
               f"{rep['heldout_error_nominal']:.1f} {rep['error_unit']}, augmented "

@@ -73,7 +73,7 @@ def test_the_record_is_selected_and_sized_by_the_balance_fit(eddy, tmp_path, mon
     selected, _, _ = select_effects(design, design.candidates)
     assert NAME in selected
     cr = cross_ride(design, held, n_boot=20)          # the ride JSON's ``parameters`` and ``effects``
-    assert NAME in cr.accepted and NAME in [e.name for e in effect_estimates(cr)]
+    assert NAME in cr.accepted and NAME in [e.name for e in effect_estimates(cr, parameter_list(cr, None, {}))]
     entry = next(p for p in parameter_list(cr, None, {}) if p.name == NAME)
     assert entry.accepted and entry.unit == UNIT
 

@@ -211,12 +211,11 @@ def test_slow_part_of_a_trace_shorter_than_its_span():
     """Found by the fuzz test: a 25 s trace and a 30 s moving mean broke the residual figure."""
     import numpy as np
 
-    from euc_sim.rides.balance.residual import ResidualTrace
+    from euc_sim.rides.balance.residual import moving_mean
 
     t = np.arange(250) * 0.1
     r = np.sin(t)
-    tr = ResidualTrace("x", t, r, r, "W", {"windows": [], "share": None, "correlations": {}}, True)
-    slow = tr.slow(span=30.0)
+    slow = moving_mean(t, r, span=30.0)
     assert slow.shape == r.shape
     assert np.all(np.isfinite(slow)) and np.all((slow >= r.min()) & (slow <= r.max()))
 
@@ -251,13 +250,13 @@ def test_the_residuals_slow_part_is_its_moving_mean_over_the_samples_each_window
     import numpy as np
     import pytest
 
-    from euc_sim.rides.balance.residual import ResidualTrace
+    from euc_sim.rides.balance.residual import moving_mean
 
     r = np.random.default_rng(0).normal(size=301) * 100.0
-    tr = ResidualTrace("x", np.arange(301) * 0.1, r, r, "W", {}, True)
+    t = np.arange(301) * 0.1
     for span in (0.1, 3.0, 30.0, 1e3):
         w = max(1, min(301, round(span / 0.1)))
         held = np.convolve(np.ones(301), np.ones(w), mode="same")          # samples in each window
-        assert np.array_equal(tr.slow(span=span), np.convolve(r, np.ones(w), mode="same") / held)
-    assert tr.slow(span=0.3)[0] == pytest.approx((r[0] + r[1]) / 2)          # an end: two samples
-    assert tr.slow(span=0.3)[5] == pytest.approx((r[4] + r[5] + r[6]) / 3)
+        assert np.array_equal(moving_mean(t, r, span=span), np.convolve(r, np.ones(w), mode="same") / held)
+    assert moving_mean(t, r, span=0.3)[0] == pytest.approx((r[0] + r[1]) / 2)          # an end: two samples
+    assert moving_mean(t, r, span=0.3)[5] == pytest.approx((r[4] + r[5] + r[6]) / 3)

@@ -118,7 +118,7 @@ def trace_json(tr) -> dict:
     return {"ride": tr.label, "in_sample": tr.in_sample, "unit": tr.unit,
             "windows": loc["windows"], "share": loc["share"], "correlations": loc["correlations"],
             "rms_nominal": rms(tr.nominal), "rms_augmented": rms(tr.augmented),
-            "slow_rms_augmented": rms(tr.slow())}
+            "slow_rms_augmented": rms(tr.slow)}
 
 
 def resolution_json(r) -> dict | None:

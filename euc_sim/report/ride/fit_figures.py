@@ -163,7 +163,7 @@ def residuals_figure(traces):
             (f"inertia only: RMS {rms(tr.nominal):.0f} {tr.unit}", tr.nominal, {"width": 0.7, "color": _NOMINAL}),
             (f"augmented: RMS {rms(tr.augmented):.0f} {tr.unit}", tr.augmented,
              {"width": 0.7, "color": _AUGMENTED}),
-            (f"augmented, {SLOW_S:.0f} s moving mean: RMS {rms(tr.slow()):.0f} {tr.unit}", tr.slow(),
+            (f"augmented, {SLOW_S:.0f} s moving mean: RMS {rms(tr.slow):.0f} {tr.unit}", tr.slow,
              {"width": 1.6, "color": _LOG})], _gap(np.asarray(tr.t, float)))
         for i, (a, b) in enumerate(tr.localisation["windows"]):
             _shade(fig, row, a, b, (f"shaded: where the inertia-only residual concentrates "

@@ -237,7 +237,7 @@ def _localisation_md(res: RideResult, figures: Mapping[str, str]) -> list[str]:
                f"RMS of the fit itself, not held out: inertia-only "
                f"{rms(tr.nominal):.0f} {tr.unit}, augmented {rms(tr.augmented):.0f}")
         md.append(f"- {tr.label} ({'in sample' if tr.in_sample else 'held out'}): {said}, of which the "
-                  f"{SLOW_S:.0f} s moving mean (slow: hills, wind) {rms(tr.slow()):.0f} {tr.unit}.")
+                  f"{SLOW_S:.0f} s moving mean (slow: hills, wind) {rms(tr.slow):.0f} {tr.unit}.")
     if "residuals" in figures:
         md += ["", f"![residual over time]({figures['residuals']})", ""]
     return md

@@ -132,9 +132,10 @@ def _evidence(cr: CrossRide, name: str, ph: dict, exact: list, confounded: list)
     return ev
 
 
-def effect_estimates(cr: CrossRide) -> tuple[Parameter, ...]:
-    """Each effect ``cr`` accepted, in the order kept, with its evidence (the ride JSON's ``effects``)."""
-    params = {p.name: p for p in _balance_entries(cr)}
+def effect_estimates(cr: CrossRide, parameters) -> tuple[Parameter, ...]:
+    """Each effect ``cr`` accepted, in the order kept, with its evidence (the ride JSON's ``effects``),
+    from its entry in ``parameters`` (:func:`parameter_list` of ``cr``)."""
+    params = {p.name: p for p in parameters}
     phys = plausibility(cr.augmented)
     out = []
     for i, c in enumerate(cr.accepted):

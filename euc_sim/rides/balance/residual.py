@@ -13,7 +13,8 @@ from euc_sim.diagnosis.localise import Localisation, localise
 from euc_sim.rides.balance.design import Design
 from euc_sim.rides.grids.signals import split_at_gaps
 
-__all__ = ["ResidualTrace", "localise_residual", "residual_windows", "WINDOW_SMOOTH", "WINDOW_MIN", "SLOW_S"]
+__all__ = ["ResidualTrace", "localise_residual", "residual_windows", "moving_mean", "WINDOW_SMOOTH", "WINDOW_MIN",
+           "SLOW_S"]
 
 #: localise() smoothing and shortest window for minutes-long 5 Hz rides, s (its defaults are
 #: for 120 Hz motion capture).
@@ -23,13 +24,23 @@ WINDOW_MIN = 3.0
 SLOW_S = 30.0
 
 
+def moving_mean(t: np.ndarray, r: np.ndarray, span: float = SLOW_S) -> np.ndarray:
+    """Moving mean of ``r`` (rows at times ``t``, s) over ``span`` s, each window averaged over the samples it holds."""
+    dt = float(np.median(np.diff(t))) if t.size > 1 else 1.0
+    w = max(1, min(r.size, int(round(span / dt))))     # "same" keeps r's length
+    num = np.convolve(r, np.ones(w), mode="same")
+    k = np.arange(r.size) + (w - 1) // 2                # the samples under each window: counted
+    return num / (np.minimum(k, r.size - 1) - np.maximum(0, k - w + 1) + 1)
+
+
 @dataclass(frozen=True)
 class ResidualTrace:
     """A ride's balance residual over time under two parameter sets.
 
     ``t`` (s) the design's rows; ``nominal``, ``augmented`` measured − predicted power (W, or
     N·m in the torque domain); ``localisation`` (:class:`~euc_sim.diagnosis.localise.Localisation`)
-    of ``nominal``; ``in_sample`` when fitted on this ride.
+    of ``nominal``; ``in_sample`` when fitted on this ride; ``slow`` the augmented residual's
+    :data:`SLOW_S` s :func:`moving_mean` (hills, wind, temperature; same unit).
     """
 
     label: str
@@ -39,15 +50,7 @@ class ResidualTrace:
     unit: str
     localisation: Localisation
     in_sample: bool
-
-    def slow(self, span: float = SLOW_S) -> np.ndarray:
-        """Moving mean of the augmented residual over ``span`` s (same unit), its slow part."""
-        r = self.augmented
-        dt = float(np.median(np.diff(self.t))) if self.t.size > 1 else 1.0
-        w = max(1, min(r.size, int(round(span / dt))))     # "same" keeps r's length
-        num = np.convolve(r, np.ones(w), mode="same")
-        k = np.arange(r.size) + (w - 1) // 2                # the samples under each window: counted
-        return num / (np.minimum(k, r.size - 1) - np.maximum(0, k - w + 1) + 1)
+    slow: np.ndarray
 
 
 def localise_residual(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray]) -> Localisation:
@@ -69,4 +72,4 @@ def residual_windows(d: Design, nominal: Mapping[str, float], augmented: Mapping
     loc = localise_residual(d.t, r_nom, {"speed": v, "speed_cubed": np.abs(v) ** 3,
                                          "inertial_power": d.columns_full["inertia"].to_numpy()[d.use]})
     return ResidualTrace(label=label, t=d.t, nominal=r_nom, augmented=r_aug,
-                         unit=d.unit, localisation=loc, in_sample=in_sample)
+                         unit=d.unit, localisation=loc, in_sample=in_sample, slow=moving_mean(d.t, r_aug))

@@ -106,11 +106,12 @@ def _block_ids(t: np.ndarray, n_folds: int, block: float) -> tuple[np.ndarray, n
     return ids, np.array(folds)
 
 
-def block_grams(t: np.ndarray, Z: np.ndarray, n_folds: int = 5, block: float = 30.0
+def block_grams(t: np.ndarray, Zs, n_folds: int = 5, block: float = 30.0
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per-block Gram matrices (n_blocks, p, p) of ``Z`` (rows × columns), each block's fold and row count."""
+    """Per-block Gram matrices (len(Zs), n_blocks, p, p) of each of ``Zs`` (rows × columns, their rows at
+    the times ``t``, s, cut into blocks once), each block's fold and row count."""
     ids, fold = _block_ids(t, n_folds, block)
-    return label_grams(Z, ids, len(fold)), fold, np.bincount(ids, minlength=len(fold))
+    return np.stack([label_grams(Z, ids, len(fold)) for Z in Zs]), fold, np.bincount(ids, minlength=len(fold))
 
 
 def _parabola(sse: np.ndarray, k: int) -> float:
@@ -127,10 +128,8 @@ class _Grams:
 
     def __init__(self, d: PairDesign, n_folds: int, block: float):
         self.names, self._deltas = list(d.names), tuple(d.deltas)
-        self.GL, self.fL, _ = block_grams(d.t_log, d.Z_log, n_folds, block)
-        grams = [block_grams(d.t_other, Z, n_folds, block) for Z in d.Z_other]
-        self.GO = np.stack([g[0] for g in grams])
-        self.fO, self.nO = grams[0][1], grams[0][2]
+        (self.GL,), self.fL, _ = block_grams(d.t_log, [d.Z_log], n_folds, block)
+        self.GO, self.fO, self.nO = block_grams(d.t_other, d.Z_other, n_folds, block)
         self.mid = len(d.Z_other) // 2
         self.step = d.shift_step
         self.n_folds = n_folds

@@ -20,10 +20,9 @@ from euc_sim.rides.drive.drivetrain import charge_drawn
 from euc_sim.rides.drive.drivetrain_report import reported_mass, reported_terms
 from euc_sim.rides.drive.mass import mass_regressors
 from euc_sim.rides.grids.power import GPS_V_MIN
-from euc_sim.rides.source.channels import current_from_phase
 from euc_sim.simulation.effects import RECORDS
 
-__all__ = ["own_lag", "window_means", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "pair_differences"]
+__all__ = ["own_lag", "window_means", "power_rows", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "pair_differences"]
 
 #: Speed above which rows enter the held-out tests, m/s.
 V_MIN = 1.0
@@ -64,13 +63,12 @@ def _rows(sig, arrays) -> np.ndarray:
     return ok
 
 
-def own_lag(sig, y, K: int, force, mass: float) -> int:
-    """LOG's delay, samples (−K … K), by the pair fit's own criterion (best RMS of its power on
-    the shared terms), so that a ride against itself shifts by nothing.
+def own_lag(sig, y, columns: dict) -> int:
+    """LOG's delay, samples (a key of ``columns``, lag -> :func:`_power_columns`), by the pair fit's own
+    criterion (best RMS of its power on the shared terms), so that a ride against itself shifts by nothing.
     """
     best = (np.inf, 0)
-    for lag in range(-K, K + 1):
-        sh, _ = _power_columns(sig, lag, force, mass)
+    for lag, (sh, _) in columns.items():
         ok = _rows(sig, [y, *sh.values()])
         if ok.sum() < 200:
             continue
@@ -80,13 +78,12 @@ def own_lag(sig, y, K: int, force, mass: float) -> int:
     return best[1]
 
 
-def _valid(sig, y, lag: int, K: int, force, mass: float) -> np.ndarray:
-    """Rows with every column finite at every shift ``lag − K … lag + K``: one rule for both
-    rides, so a ride against itself fits the same rows.
+def _valid(sig, y, columns: dict) -> np.ndarray:
+    """Rows with every column finite at every shift of ``columns`` (shift -> :func:`_power_columns`):
+    one rule for both rides, so a ride against itself fits the same rows.
     """
     arrays = [y]
-    for j in range(-K, K + 1):
-        sh, de = _power_columns(sig, lag + j, force, mass)
+    for sh, de in columns.values():
         arrays += [*sh.values(), *de.values()]
     return _rows(sig, arrays)
 
@@ -144,7 +141,29 @@ def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tup
     return tm[keep], sums[keep] / n[keep, None]
 
 
-def power_design(fit, test, mass: float, shifts=None, window: float | None = None, channels=()):
+def power_rows(fit, test, mass: float) -> tuple | None:
+    """What both of :func:`power_design`'s designs share: ``(rate, K, force, lag, yL, sL, dL, okL, yO,
+    okO, colsO)``, LOG's delay, shared columns and differences, each ride's signed power and valid
+    rows, OTHER's columns at each shift ``−K … K`` beyond LOG's delay; None without a balance fitted on LOG.
+    """
+    mf = fit.mass
+    if "inertia" not in (mf.coef or {}) or mf.lag is None:
+        return None
+    rate = 1.0 / np.median(np.diff(fit.sig.t))
+    K = int(round(MAX_SHIFT * rate))
+    c = mf.coef
+    force = (c["inertia"], c.get("rolling", 0.0), c.get("drag", 0.0)) if mf.copper_column == "force" else None
+    yL = _signed_power(fit.sig, mf, int(round(mf.lag * rate)), force)
+    near = {j: _power_columns(fit.sig, j, force, mass) for j in range(-K, K + 1)}
+    lag = own_lag(fit.sig, yL, near)
+    colsL = {j: near.get(lag + j) or _power_columns(fit.sig, lag + j, force, mass) for j in range(-K, K + 1)}
+    colsO = {j: _power_columns(test.sig, lag + j, force, mass) for j in range(-K, K + 1)}
+    yO = _signed_power(test.sig, mf, lag, force)
+    return (rate, K, force, lag, yL, *colsL[0], _valid(fit.sig, yL, colsL), yO,
+            _valid(test.sig, yO, colsO), colsO)
+
+
+def power_design(fit, test, mass: float, rows, shifts=None, window: float | None = None, channels=()):
     """Both rides' battery power: LOG's terms shared, a constant each; OTHER's differences and shift.
 
     Parameters
@@ -152,6 +171,8 @@ def power_design(fit, test, mass: float, shifts=None, window: float | None = Non
     fit, test : RideDrivetrain
     mass : float
         LOG's total mass, kg (the rolling signature's weight).
+    rows : tuple or None
+        :func:`power_rows` of ``fit``, ``test`` and ``mass``.
     shifts : sequence of int, optional
         OTHER's extra delays, samples beyond LOG's lag (default ±:data:`MAX_SHIFT`: the
         delay's design); one shift: the mass, rolling and drag differences there.
@@ -165,21 +186,11 @@ def power_design(fit, test, mass: float, shifts=None, window: float | None = Non
     (PairDesign, transform) or None
         None without a balance fitted on LOG.
     """
-    mf = fit.mass
-    if "inertia" not in (mf.coef or {}) or mf.lag is None:
+    if rows is None:
         return None
-    rate = 1.0 / np.median(np.diff(fit.sig.t))
-    K = int(round(MAX_SHIFT * rate))
+    rate, K, force, lag, yL, sL, dL, okL, yO, okO, colsO = rows
     shifts = list(range(-K, K + 1)) if shifts is None else list(shifts)
-    c = mf.coef
-    force = (c["inertia"], c.get("rolling", 0.0), c.get("drag", 0.0)) if mf.copper_column == "force" else None
-    yL = _signed_power(fit.sig, mf, int(round(mf.lag * rate)), force)
-    lag = own_lag(fit.sig, yL, K, force, mass)
-    sL, dL = _power_columns(fit.sig, lag, force, mass)
-    okL = _valid(fit.sig, yL, lag, K, force, mass)
-    shifted = [_power_columns(test.sig, lag + j, force, mass) for j in shifts]
-    yO = _signed_power(test.sig, mf, lag, force)
-    okO = _valid(test.sig, yO, lag, K, force, mass)
+    shifted = [colsO.get(j) or _power_columns(test.sig, lag + j, force, mass) for j in shifts]
     if okL.sum() < 200 or okO.sum() < 200:
         return None
     scale = {n: float(np.sqrt(np.mean(sL[n][okL] ** 2))) or 1.0 for n in sL}
@@ -275,17 +286,18 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     fitted = lambda made: None if made is None else pair_fit(   # noqa: E731
         made[0], level=FALSE_NAME_RATE, family=len(physics()), transform=made[1], n_boot=n_boot, seed=seed)
     out = {}
-    if not all(current_from_phase(p) for p in (log_path, compare_path)):
+    if not (fit.sig.current_from_phase and test.sig.current_from_phase):
         channels = tuple(c for c in channels if c != "sag")     # a measured current: sag repeats it
-    delay = fitted(power_design(fit, test, mass))
+    rows = power_rows(fit, test, mass)
+    delay = fitted(power_design(fit, test, mass, rows))
     shift = 0
     if delay is not None:
         out.update(_entries(delay))
         floor, det = _delay_resolution(fit, log_path, compare_path), out[DELAY].detectable
         out[DELAY] = replace(out[DELAY], resolution=floor, detectable=None if det is None else with_floor(det, floor))
         if DELAY in delay.selected:
-            shift = int(round(delay.estimates[DELAY][0] * (1.0 / np.median(np.diff(fit.sig.t)))))
-    for res in (fitted(power_design(fit, test, mass, [shift], ROAD_WINDOW, channels)),
+            shift = int(round(delay.estimates[DELAY][0] * rows[0]))     # s -> samples of LOG's grid
+    for res in (fitted(power_design(fit, test, mass, rows, [shift], ROAD_WINDOW, channels)),
                 fitted(voltage_design(fit, test)), fitted(gps_design(log_path, compare_path))):
         if res is not None:
             out.update(_entries(res))

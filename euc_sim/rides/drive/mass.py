@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from euc_sim.rides.drive.energy import window_difference, window_mean, window_samples_odd
-from euc_sim.rides.source.channels import current_from_phase, power_not_measured
+from euc_sim.rides.source.channels import power_not_measured
 from euc_sim.stats import block_labels, distinct, draw_blocks, gram_lstsq_many, label_grams, percentile_interval
 from euc_sim.stats import forward_select as select_by_heldout
 from euc_sim.stats import one_blas_thread, time_blocks
@@ -32,7 +32,7 @@ from euc_sim.rides.grids.power import (G, NO_GPS_SCALE_SD, MassSettings, PowerSi
 from euc_sim.rides.source.systematic import combined_interval, current_scale_kg, speed_scale_kg
 
 __all__ = ["MassFit", "mass_regressors", "energy_regressors", "fit_mass", "predict_power",
-           "heldout_rmse"]
+           "heldout_folds", "heldout_rmse"]
 
 def _shift(x: np.ndarray, lag: int) -> np.ndarray:
     """x delayed by ``lag`` samples (x(t − lag)); NaN where undefined."""
@@ -174,14 +174,15 @@ def _best_lag(sig: PowerSignals, settings: MassSettings) -> int:
     return best[1]
 
 
-def heldout_rmse(X: np.ndarray, y: np.ndarray, t: np.ndarray, signed: bool,
-                 n_blocks: int | None = None) -> float:
-    """RMS error, W, predicting each of ``n_blocks`` contiguous time blocks from the rest.
+def heldout_folds(t: np.ndarray, signed: bool) -> np.ndarray:
+    """Each row's block for :func:`heldout_rmse`: 10 contiguous blocks of the times ``t`` (s), or 4
+    for an unsigned log (whose fits are nonlinear)."""
+    return time_blocks(t, 10 if signed else 4)
 
-    ``n_blocks`` defaults to 10, or 4 for an unsigned log (whose fits are nonlinear).
-    """
-    n_blocks = n_blocks or (10 if signed else 4)
-    label = time_blocks(t, n_blocks)
+
+def heldout_rmse(X: np.ndarray, y: np.ndarray, label: np.ndarray, signed: bool) -> float:
+    """RMS error, W, predicting each contiguous time block (``label``, :func:`heldout_folds`) from the rest."""
+    n_blocks = int(label.max()) + 1
     if signed:                  # linear: each fold's fit from the other blocks' Gram matrices
         grams = label_grams(np.column_stack([X, y]), label, n_blocks)
         sse = 0.0
@@ -200,7 +201,8 @@ def _select(cols: dict, y: np.ndarray, t: np.ndarray, signed: bool,
             min_gain: float = 0.005) -> tuple[list, list]:
     """Forward selection of speed-only terms by blocked held-out RMSE."""
     X = lambda names: np.column_stack([cols[c] for c in names])   # noqa: E731
-    return select_by_heldout(lambda names: heldout_rmse(X(names), y, t, signed), ["inertia"],
+    label = heldout_folds(t, signed)
+    return select_by_heldout(lambda names: heldout_rmse(X(names), y, label, signed), ["inertia"],
                           [c for c in ENERGY_TERMS if c in cols], min_gain)
 
 
@@ -336,8 +338,8 @@ def _fit_mass(log, settings: MassSettings = MassSettings(), sig: PowerSignals | 
         m, why = float("nan"), ("the battery current is never negative: braking cannot be told "
                                 "from driving, so the acceleration power's sign is lost and the "
                                 "mass is not identified")
-        if power_not_measured(log):
-            why += "; " + power_not_measured(log)
+        if derived := power_not_measured(log):
+            why += "; " + derived
     ok = math.isfinite(m)
     systematic, stat = {}, _ci(masses) if ok else None
     if ok:
@@ -397,9 +399,9 @@ def _unidentified(log: Ride, sig: PowerSignals) -> dict[str, str]:
     if sig.scale.source == "assumed":
         out["speed_scale"] = (f"no GPS speed: speedometer scale assumed 1 ± "
                               f"{NO_GPS_SCALE_SD:.0%}, propagated into the mass interval")
-    if power_not_measured(log):
-        out["battery_power"] = power_not_measured(log)
-    if current_from_phase(log):
+    if why := power_not_measured(log):
+        out["battery_power"] = why
+    if sig.current_from_phase:
         out["phase_current"] = ("the battery current is the app's duty × phase current (to 3 %), "
                                 "not measured: the phase current is not used for the copper loss")
     if "phase_current" not in sig.extra:

@@ -14,7 +14,7 @@ from typing import Mapping
 import numpy as np
 
 from euc_sim.stats import forward_select as select_by_heldout
-from euc_sim.rides.drive.mass import heldout_rmse
+from euc_sim.rides.drive.mass import heldout_folds, heldout_rmse
 
 __all__ = ["BASE", "EXTRA", "MIN_GAIN", "pwm_columns", "select_pwm_terms", "back_emf"]
 
@@ -45,8 +45,8 @@ def select_pwm_terms(v: np.ndarray, F: np.ndarray, V: np.ndarray, duty: np.ndarr
     """Forward selection of :data:`EXTRA` by blocked held-out RMSE of the applied volts d·V: the
     names kept (:data:`BASE` first) and ``{"term", "heldout_rmse"}`` (V) after each step.
     """
-    y = duty * V
-    return select_by_heldout(lambda names: heldout_rmse(pwm_columns(v, F, V, names), y, t, True),
+    y, label = duty * V, heldout_folds(t, True)
+    return select_by_heldout(lambda names: heldout_rmse(pwm_columns(v, F, V, names), y, label, True),
                           list(BASE), list(EXTRA), MIN_GAIN)
 
 

@@ -110,6 +110,8 @@ class PowerSignals:
     raw : dict
         Unfiltered: ``v`` (corrected, m/s), ``P`` (W), ``h`` (GPS altitude over 10 s, m) and
         ``phase_current`` (A), where present.
+    current_from_phase : bool
+        The log's :func:`~euc_sim.rides.source.channels.current_from_phase` (then no ``phase_current`` in ``extra``).
     """
 
     t: np.ndarray
@@ -123,6 +125,7 @@ class PowerSignals:
     scale: SpeedScale
     extra: Mapping[str, np.ndarray] = field(default_factory=dict)
     raw: Mapping[str, np.ndarray] = field(default_factory=dict)
+    current_from_phase: bool = False
 
 
 def speed_scale(log: Ride, method: str = "doppler") -> SpeedScale:
@@ -215,11 +218,12 @@ def _filtered(log: Ride, settings: MassSettings) -> PowerSignals:
         raw["h"] = np.where(np.isfinite(alt), sg(np.nan_to_num(alt), seg, settings.rate, 10.0, 2), np.nan)
     extra = {c: f(frame[c].to_numpy(float)) for c in
              ("voltage", "current", "pwm", "phase_current") if c in frame}
-    if current_from_phase(log):
+    from_phase = current_from_phase(log)
+    if from_phase:
         extra.pop("phase_current")
     elif "phase_current" in frame:
         raw["phase_current"] = frame["phase_current"].to_numpy(float)
     signed = bool((log.data["current"] < -0.5).mean() > 0.005)
     return PowerSignals(t=frame["t"].to_numpy(float), segment=seg, v=f(v_raw),
                         a=f(v_raw, 1), av=f(0.5 * v_raw ** 2, 1), P=f(P), climb=climb,
-                        signed=signed, scale=k, extra=extra, raw=raw)
+                        signed=signed, scale=k, extra=extra, raw=raw, current_from_phase=from_phase)

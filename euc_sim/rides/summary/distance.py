@@ -9,7 +9,6 @@ import numpy as np
 import pandas as pd
 
 from euc_sim.geo import haversine
-from euc_sim.rides.source.counters import counter_steps as _counter_steps
 from euc_sim.rides.source.counters import rises as _rises
 from euc_sim.rides.source.gaps import GAP_POLICY
 
@@ -48,10 +47,10 @@ def _wheel_distance(t: np.ndarray, v: np.ndarray) -> float:
     return float(seg[ok].sum())
 
 
-def _gap_distance(d: pd.DataFrame) -> float:
-    """Distance the log's counter adds over the intervals not bridged, m."""
+def _gap_distance(d: pd.DataFrame, inc: np.ndarray | None) -> float:
+    """Distance the log's counter adds (``inc``, :func:`~euc_sim.rides.source.counters.counter_steps`)
+    over the intervals not bridged, m."""
     ok = _steps(d["t"].to_numpy(float))[1]
-    inc = _counter_steps(d)[0]
     if inc is None or ok.all():
         return 0.0
     return float(np.nansum(inc[~ok]))
@@ -125,9 +124,10 @@ def _gps_counter(d: pd.DataFrame, w: np.ndarray, layout: str | None) -> tuple[fl
     return _trip_start(g, layout) + float(np.nansum(inc)), None
 
 
-def _distance(d: pd.DataFrame, layout: str | None = None):
+def _distance(d: pd.DataFrame, steps: tuple, layout: str | None = None):
     """The wheel's distance, its part over the bridged intervals, the GPS distance (or None),
-    why GPS is not used (or None), m; and what the two follow, in words.
+    why GPS is not used (or None), m; and what the two follow, in words; ``steps``: the log's
+    :func:`~euc_sim.rides.source.counters.counter_steps`.
 
     The wheel's distance is its trip counter or odometer (with the trip before the first
     row, :func:`_trip_start`) where it agrees with the speed integral within
@@ -137,7 +137,7 @@ def _distance(d: pd.DataFrame, layout: str | None = None):
     t, v = d["t"].to_numpy(float), np.abs(d["v"].to_numpy(float))
     dt, ok = _steps(t)
     trap = 0.5 * (v[1:] + v[:-1]) * dt
-    inc, col = _counter_steps(d)
+    inc, col = steps
     follows = f"the wheel's speed integrated, gaps up to {DISTANCE_BRIDGE_S:.0f} s bridged"
     start = 0.0
     if inc is not None:

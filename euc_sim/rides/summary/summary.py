@@ -19,7 +19,7 @@ from euc_sim.rides.drive.cutout import Limits, ride_limits
 from euc_sim.rides.grids.spin import FreeSpins, free_spin, spin_stats
 from euc_sim.rides.summary.distance import (_distance, _duration, _gap_distance, _near, _steps,
                                           _wheel_distance)
-from euc_sim.rides.source.counters import integrate_split as _integrate_split
+from euc_sim.rides.source.counters import counter_steps as _counter_steps, integrate_split as _integrate_split
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
 
@@ -186,11 +186,12 @@ def ride_summary(log: Ride, top_speed_mps: float | None = None) -> RideSummary:
     if _near(c.moving_s, moving_own):                       # the app's riding clock
         moving_s = float(c.moving_s)
         duration_follows = duration_follows.replace("trip clock", "trip and riding clocks")
-    wheel, covered, gps, gps_why, wheel_follows, gps_follows = _distance(d, log.layout)
+    steps = _counter_steps(d)
+    wheel, covered, gps, gps_why, wheel_follows, gps_follows = _distance(d, steps, log.layout)
     dist, source, follows = (gps, "gps", gps_follows) if gps is not None else (wheel, "wheel", wheel_follows)
     # energy is integrated over the bridged intervals only: so is the distance it is divided by
     covered_dist = covered * (dist / wheel if wheel > 0 else 1.0)
-    integral_m = _wheel_distance(t, v) + _gap_distance(d)
+    integral_m = _wheel_distance(t, v) + _gap_distance(d, steps[0])
     if gps_why:
         why["distance_gps_m"] = gps_why
     drawn = regen = None

@@ -172,13 +172,13 @@ def test_the_residual_figure_draws_the_windows_on_the_minutes_the_page_says():
     178–183 s: the figure's time axis is in minutes, as the ride-over-time figure's."""
     import numpy as np
 
-    from euc_sim.rides.balance.residual import ResidualTrace
+    from euc_sim.rides.balance.residual import ResidualTrace, moving_mean
     from euc_sim.report.ride.fit_figures import residuals_figure
 
     t = np.arange(0.0, 600.0, 0.1)
     r = np.sin(t / 10.0)
     loc = {"windows": [[177.8, 183.2]], "share": 0.57, "correlations": {}}
-    fig = residuals_figure([ResidualTrace("4.csv", t, r, 0.5 * r, "W", loc, True)])
+    fig = residuals_figure([ResidualTrace("4.csv", t, r, 0.5 * r, "W", loc, True, moving_mean(t, 0.5 * r))])
     shade = fig["layout"]["shapes"][0]
     assert (shade["x0"], shade["x1"]) == (177.8 / 60.0, 183.2 / 60.0)
     assert fig["layout"]["xaxis"]["title"]["text"] == "time from the start of the log, min"

@@ -19,7 +19,7 @@ from euc_sim.rides.balance.design import balance_design
 from euc_sim.rides.balance.fit import fit_balance, plausibility
 from euc_sim.rides.grids.profile import speed_profile
 from euc_sim.report.ride.contract import balance_json
-from euc_sim.rides.balance.parameters import effect_estimates
+from euc_sim.rides.balance.parameters import effect_estimates, parameter_list
 from euc_sim.rides.grids.signals import RideAssumptions, resample, ride_signals, sg, wheel_torque
 from euc_sim.report.ride.fit_figures import write_balance
 from euc_sim.rides.source.logs import read_log
@@ -193,7 +193,7 @@ def test_fit_is_reproducible_with_seed(twin_fit):
 
 def test_ride_report_contract_form_and_files(twin, tmp_path):
     an = ride_analysis(read_log(twin[0], emit_warnings=False), read_log(twin[1], emit_warnings=False), n_boot=50)
-    rep = balance_json(an, effect_estimates(an.cross))
+    rep = balance_json(an, effect_estimates(an.cross, parameter_list(an.cross, None, {})))
     write_balance(an, tmp_path / "rep")
     for key in ("effects", "heldout_error_nominal", "heldout_error_augmented", "error_unit"):
         assert key in rep
@@ -208,7 +208,7 @@ def test_ride_report_contract_form_and_files(twin, tmp_path):
 
 def test_ride_report_without_compare_splits_halves(twin):
     an = ride_analysis(read_log(twin[0], emit_warnings=False), n_boot=20)
-    rep = balance_json(an, effect_estimates(an.cross))
+    rep = balance_json(an, effect_estimates(an.cross, parameter_list(an.cross, None, {})))
     assert "second half" in rep["error_measure"]
 
 

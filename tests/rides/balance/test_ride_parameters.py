@@ -131,7 +131,7 @@ def test_a_drag_beyond_its_plausible_range_is_accepted_on_its_edge_and_said(desi
     assert plausibility(full)["aerodynamic_drag"]["on_bound"]
     assert np.isfinite(heldout_score(heavy, list(NOMINAL) + kept, admit="plausible"))
     cr = cross_ride(heavy, heavy, n_boot=0)
-    entry = next(e for e in effect_estimates(cr) if e.name == "aerodynamic_drag")
+    entry = next(e for e in effect_estimates(cr, parameter_list(cr, None, {})) if e.name == "aerodynamic_drag")
     assert entry.on_bound and "ON THE EDGE" in entry.evidence
     params = {p.name: p for p in parameter_list(cr, None, {})}
     assert params["aerodynamic_drag"].accepted and "edge" in params["aerodynamic_drag"].why

@@ -48,7 +48,7 @@ def _design(log, other, P_log, P_other, shifts=None):
 def test_block_grams_add_up_and_follow_the_time_folds():
     t, v, av = _ride(0, n=3000)
     Z = _rows(True, v, av, _power(v, av))
-    G, fold, count = pf.block_grams(t, Z, n_folds=5, block=30.0)
+    (G,), fold, count = pf.block_grams(t, [Z], n_folds=5, block=30.0)
     assert np.allclose(G.sum(axis=0), Z.T @ Z, rtol=1e-10)
     assert count.sum() == len(t)
     labels = time_blocks(t, 5)
@@ -101,13 +101,13 @@ def test_the_interval_counts_the_fitted_rides_noise_too():
 def test_the_fitted_rides_own_delay_by_the_pair_fits_criterion():
     from types import SimpleNamespace
 
-    from euc_sim.rides.compare.differences_report import own_lag
+    from euc_sim.rides.compare.differences_report import _power_columns, own_lag
 
     t, v, av = _ride(9, n=4000)
     a = np.gradient(v, t)
     P = np.roll(_power(v, av, seed=9), 3)               # the current 0.3 s late
     sig = SimpleNamespace(t=t, v=v, a=a, av=av, P=P, climb=None, extra={}, signed=True)
-    assert own_lag(sig, P, 10, None, 90.0) == 3
+    assert own_lag(sig, P, {lag: _power_columns(sig, lag, None, 90.0) for lag in range(-10, 11)}) == 3
 
 
 def test_rolling_and_drag_alias_on_a_steady_pair_not_mass():

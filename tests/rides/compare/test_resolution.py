@@ -69,8 +69,8 @@ def test_the_column_through_the_model_is_what_the_other_columns_leave():
     # columns: shared (a on LOG, b on OTHER), OTHER's own (b), the difference (2b + noise), y
     ZL = np.column_stack([a, nil, nil, a])
     ZO = np.column_stack([b, b, 2.0 * b + 0.5 * rng.standard_normal(3000), b])
-    GL, fL, _ = pf.block_grams(t, ZL)
-    GO, fO, nO = pf.block_grams(t, ZO)
+    (GL,), fL, _ = pf.block_grams(t, [ZL])
+    (GO,), fO, nO = pf.block_grams(t, [ZO])
     alone = rs.heldout_signature_rms(GL, fL, GO, fO, nO, [], 2)
     assert alone == pytest.approx(np.sqrt(np.mean(ZO[:, 2] ** 2)), rel=1e-9)
     # a shared column fitted on both rides takes about half of 2b (LOG's rows pull it to zero): √(1 + 0.25)

@@ -66,4 +66,4 @@ def test_blocked_heldout_error_from_grams_is_the_refit_on_each_fold():
         test = label == b
         beta = np.linalg.lstsq(X[~test], y[~test], rcond=None)[0]
         err[test] = y[test] - X[test] @ beta
-    assert heldout_rmse(X, y, t, True) == pytest.approx(float(np.sqrt(np.mean(err ** 2))), rel=1e-9)
+    assert heldout_rmse(X, y, label, True) == pytest.approx(float(np.sqrt(np.mean(err ** 2))), rel=1e-9)
