@@ -88,11 +88,8 @@ def analyse(log: Ride, spec: WheelSpec = WheelSpec(), settings: MassSettings = M
 def _computed_pwm_note(own: DutyCheck | None) -> str | None:
     """Why the logged duty is taken as computed by the app (its model's check on the ride, ``own``,
     within :data:`COMPUTED_PWM_RMS`), or None if measured."""
-    if own is None:
-        return None
-    err = own.rmse
-    if err < COMPUTED_PWM_RMS:
-        return (f"the logged duty follows speed and voltage to {err:.2f} percentage points: "
+    if own is not None and own.rmse < COMPUTED_PWM_RMS:
+        return (f"the logged duty follows speed and voltage to {own.rmse:.2f} percentage points: "
                 f"the app computes it, it is not measured; the resistive drop is not identified")
     return None
 
