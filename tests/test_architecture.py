@@ -232,6 +232,39 @@ def test_the_rendering_rules_see_a_violation():
                                              ("euc_sim.cli.rides", "euc_sim.rides.logbook.history")]
 
 
+#: Analysis functions (fits, predictions, statistics) rendering once called again: it draws the
+#: value the analysis keeps on its typed result.
+RENDER_MUST_NOT_CALL = frozenset({"predict_pwm", "predict_power", "fit_pwm", "fit_battery", "fit_drivetrain",
+                                  "fit_mass", "charge_drawn", "rms", "shared_offset"})
+
+
+def _analysis_calls(source: str) -> list[tuple[int, str]]:
+    """(line, name): where ``source`` imports or calls (``f(...)``, ``m.f(...)``) one of
+    :data:`RENDER_MUST_NOT_CALL`."""
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom):
+            out += [(node.lineno, a.name) for a in node.names if a.name in RENDER_MUST_NOT_CALL]
+        elif isinstance(node, ast.Call):
+            f = node.func
+            name = f.id if isinstance(f, ast.Name) else f.attr if isinstance(f, ast.Attribute) else None
+            if name in RENDER_MUST_NOT_CALL:
+                out.append((node.lineno, name))
+    return out
+
+
+def test_rendering_calls_no_analysis():
+    calls = [(m, line, name) for m, path in sorted(_modules().items()) if _within(m, RENDER)
+             for line, name in _analysis_calls(path.read_text())]
+    assert calls == []
+
+
+def test_the_analysis_call_check_sees_a_violation():
+    src = ("from euc_sim.stats import rms\nimport euc_sim.rides.drive.drivetrain as D\n"
+           "def f(tr, sig):\n    return rms(tr.nominal), D.predict_pwm(sig, {}), tr.rms_nominal\n")
+    assert _analysis_calls(src) == [(1, "rms"), (4, "rms"), (4, "predict_pwm")]
+
+
 #: Objects of the ride JSON (CONTRACT) an analysis once read back instead of the typed result.
 RIDE_JSON_OBJECTS = frozenset({"summary", "drivetrain", "controller", "parameters", "effects", "verdict",
                                "envelope", "cutout", "selection", "selected_not_accepted", "simulation",

@@ -55,11 +55,12 @@ def ride_entry_of(path: str, start: str, utc_offset_s=None, summary_fields=None,
 
 def history_of(rides, basis: str = "as measured", **kw):
     """A :class:`~euc_sim.rides.logbook.history.RideHistory` of the entries ``rides`` (no change
-    test, no Wh/km slope, no trend unless given in ``kw``)."""
-    from euc_sim.rides.logbook.history import RideHistory
+    test, no Wh/km slope, no trend unless given in ``kw``; the zone :func:`shared_offset`'s)."""
+    from euc_sim.rides.logbook.history import RideHistory, shared_offset
 
-    return RideHistory(rides=tuple(rides), basis=basis, **{"change": None, "whkm_slope": None,
-                                                           "whkm_slope_ci95": None, **kw})
+    rides = tuple(rides)
+    return RideHistory(rides=rides, basis=basis, **{"change": None, "whkm_slope": None, "whkm_slope_ci95": None,
+                                                    "zone": shared_offset(e.utc_offset_s for e in rides), **kw})
 
 
 def with_summary(res, **summary):

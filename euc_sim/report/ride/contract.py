@@ -13,7 +13,6 @@ from dataclasses import asdict, dataclass, field, fields
 import numpy as np
 
 from euc_sim.io import to_jsonable
-from euc_sim.stats import rms
 
 from euc_sim.rides.balance.design import NOMINAL
 from euc_sim.rides.balance.fit import plausibility
@@ -117,8 +116,8 @@ def trace_json(tr) -> dict:
     loc = tr.localisation
     return {"ride": tr.label, "in_sample": tr.in_sample, "unit": tr.unit,
             "windows": loc["windows"], "share": loc["share"], "correlations": loc["correlations"],
-            "rms_nominal": rms(tr.nominal), "rms_augmented": rms(tr.augmented),
-            "slow_rms_augmented": rms(tr.slow)}
+            "rms_nominal": tr.rms_nominal, "rms_augmented": tr.rms_augmented,
+            "slow_rms_augmented": tr.rms_slow}
 
 
 def resolution_json(r) -> dict | None:

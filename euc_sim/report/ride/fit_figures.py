@@ -16,8 +16,6 @@ from euc_sim.io import write_text
 from euc_sim.report.figures import Line, plain_values, thin, with_breaks, xy_figure
 from euc_sim.rides.balance.design import CANDIDATES
 from euc_sim.rides.balance.residual import SLOW_S
-from euc_sim.rides.drive.drivetrain import predict_pwm
-from euc_sim.stats import rms
 
 __all__ = ["balance_figure", "residuals_figure", "residuals_height", "pwm_figure", "write_balance", "MOST_POINTS",
            "BALANCE_HEIGHT", "PWM_HEIGHT"]
@@ -160,10 +158,10 @@ def residuals_figure(traces):
     fig = _stack(titles, residuals_height(len(traces)))
     for row, tr in enumerate(traces, start=1):
         _lines(fig, row, np.asarray(tr.t, float), [
-            (f"inertia only: RMS {rms(tr.nominal):.0f} {tr.unit}", tr.nominal, {"width": 0.7, "color": _NOMINAL}),
-            (f"augmented: RMS {rms(tr.augmented):.0f} {tr.unit}", tr.augmented,
+            (f"inertia only: RMS {tr.rms_nominal:.0f} {tr.unit}", tr.nominal, {"width": 0.7, "color": _NOMINAL}),
+            (f"augmented: RMS {tr.rms_augmented:.0f} {tr.unit}", tr.augmented,
              {"width": 0.7, "color": _AUGMENTED}),
-            (f"augmented, {SLOW_S:.0f} s moving mean: RMS {rms(tr.slow):.0f} {tr.unit}", tr.slow,
+            (f"augmented, {SLOW_S:.0f} s moving mean: RMS {tr.rms_slow:.0f} {tr.unit}", tr.slow,
              {"width": 1.6, "color": _LOG})], _gap(np.asarray(tr.t, float)))
         for i, (a, b) in enumerate(tr.localisation["windows"]):
             _shade(fig, row, a, b, (f"shaded: where the inertia-only residual concentrates "
@@ -178,21 +176,19 @@ def residuals_height(n: int) -> int:
     return 360 * n + 160
 
 
-def pwm_figure(r, coef: dict, title: str):
+def pwm_figure(check, title: str):
     """PWM predicted by the drivetrain model against the logged one, %, with the line of equality.
 
     Parameters
     ----------
-    r : RideDrivetrain
-    coef : dict
-        The PWM model (:func:`~euc_sim.rides.drive.drivetrain.fit_pwm`).
+    check : DutyCheck
+        The prediction (:func:`~euc_sim.rides.drive.drivetrain_report.duty_check`).
     title : str
     """
-    pred, obs = predict_pwm(r.sig, coef)
+    pred, obs = check.predicted, check.logged
     keep = thin(obs.size, MOST_POINTS)
-    rms = float(np.sqrt(np.mean((pred - obs) ** 2))) if obs.size else float("nan")
     top = max(100.0, float(np.nanmax(obs))) if obs.size else 100.0
-    return xy_figure([Line(f"log samples: RMS {rms:.1f} points", obs[keep], pred[keep]),
+    return xy_figure([Line(f"log samples: RMS {check.rmse:.1f} points", obs[keep], pred[keep]),
                       Line("equal", np.array([0.0, top]), np.array([0.0, top]), mode="lines")],
                      title, "logged PWM, %", "predicted PWM, %")
 

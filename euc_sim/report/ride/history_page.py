@@ -10,7 +10,6 @@ from datetime import datetime, timedelta
 from pathlib import Path
 
 from euc_sim.report.html import KeyFigure, figure, key_figures, page, paragraph, section, table
-from euc_sim.rides.logbook.history import shared_offset
 from euc_sim.report.ride.page_html import PWM_BAD, PWM_WARN
 from euc_sim.report.ride.series import number
 from euc_sim.rides.summary.rider_view import zone_words
@@ -25,7 +24,7 @@ def table_zone(h) -> tuple[float | None, str]:
     one give (s east of UTC, and in words: :func:`~euc_sim.rides.logbook.history.shared_offset`,
     the zone the rides are sorted in), logs naming none (WheelLog: the phone's clock) taken
     as already in it; the phone's local time where no log names a zone."""
-    off = shared_offset(e.utc_offset_s for e in h.rides)
+    off = h.zone
     if off is None:
         return None, zone_words(None)
     bare = any(e.utc_offset_s is None for e in h.rides)

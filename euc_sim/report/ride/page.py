@@ -17,7 +17,6 @@ from euc_sim.rides.balance.residual import SLOW_S
 from euc_sim.rides.balance.verdict import unit_label
 from euc_sim.rides.law.controller_report import describe
 from euc_sim.report.ride.contract import error_measure
-from euc_sim.stats import rms
 from euc_sim.report.ride.differences_page import difference_section
 from euc_sim.report.ride.drivetrain_page import page_section
 from euc_sim.report.ride.ride_time import clock_of, span_at, spans_legend, when
@@ -235,9 +234,9 @@ def _localisation_md(res: RideResult, figures: Mapping[str, str]) -> list[str]:
     for tr in res.traces:        # the held-out ride's RMS: the verdict's errors
         said = ("RMS as in the verdict's held-out errors, augmented" if not tr.in_sample else
                f"RMS of the fit itself, not held out: inertia-only "
-               f"{rms(tr.nominal):.0f} {tr.unit}, augmented {rms(tr.augmented):.0f}")
+               f"{tr.rms_nominal:.0f} {tr.unit}, augmented {tr.rms_augmented:.0f}")
         md.append(f"- {tr.label} ({'in sample' if tr.in_sample else 'held out'}): {said}, of which the "
-                  f"{SLOW_S:.0f} s moving mean (slow: hills, wind) {rms(tr.slow):.0f} {tr.unit}.")
+                  f"{SLOW_S:.0f} s moving mean (slow: hills, wind) {tr.rms_slow:.0f} {tr.unit}.")
     if "residuals" in figures:
         md += ["", f"![residual over time]({figures['residuals']})", ""]
     return md

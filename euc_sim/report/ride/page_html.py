@@ -21,7 +21,6 @@ import numpy as np
 
 from euc_sim.report import html as H
 from euc_sim.report.figures import Line, Panel, thin, time_panels, track_map, track_plain, xy_figure
-from euc_sim.rides.drive.drivetrain import charge_drawn
 from euc_sim.report.ride.limits_page import pwm_check
 from euc_sim.report.ride.differences_page import TITLE, difference_lines
 from euc_sim.report.ride.limits_page import (LIMITS_TITLE, cutout_figure, envelope_figure, limit_sentences,
@@ -301,7 +300,7 @@ def sag_figure(res: RideResult):
         return None
     V, I = sig.extra["voltage"], sig.extra["current"]
     ok = np.isfinite(V) & np.isfinite(I)
-    y = V + bc["k_Q"] * charge_drawn(sig.t, I)          # the voltage at the start's charge
+    y = V + bc["k_Q"] * fit.drivetrain.charge          # the voltage at the start's charge
     keep = thin(int(ok.sum()), 4000)
     Ix, Vy = I[ok][keep], y[ok][keep]
     R = number(res.rider.battery.resistance_ohm) or bc["R_int"]       # the same fit's value, as reported

@@ -66,12 +66,12 @@ def _write_report_files(res: RideResult, out: Path) -> ReportFiles:
 
 def _fit_plots(res: RideResult) -> dict:
     """The fits' figures the page draws (Plotly), by key (the markdown's figure key, the element id)."""
-    an, fit, test = res.balance, res.mass.fit, res.mass.test
+    an, fit = res.balance, res.mass.fit
     plots = {"cross_ride": (F.balance_figure(an.cross, an.sig_fit, an.sig_test), F.BALANCE_HEIGHT),
              "residuals": (F.residuals_figure(list(res.traces)), F.residuals_height(len(res.traces)))}
-    if fit.drivetrain.pwm_coef is not None:
-        target = test if test is not None and "pwm" in test.sig.extra else fit
-        plots["pwm"] = (F.pwm_figure(target, fit.drivetrain.pwm_coef, f"PWM of {Path(target.path).name}, "
+    if res.mass.duty_shown is not None:
+        shown = res.mass.duty_shown
+        plots["pwm"] = (F.pwm_figure(shown, f"PWM of {Path(shown.path).name}, "
                                      f"model fitted on {Path(fit.path).name}"), F.PWM_HEIGHT)
     return plots
 

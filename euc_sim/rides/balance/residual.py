@@ -4,7 +4,7 @@ inertia-only residual over the whole ride to :func:`euc_sim.diagnosis.localise.l
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Mapping
 
 import numpy as np
@@ -12,6 +12,7 @@ import numpy as np
 from euc_sim.diagnosis.localise import Localisation, localise
 from euc_sim.rides.balance.design import Design
 from euc_sim.rides.grids.signals import split_at_gaps
+from euc_sim.stats import rms
 
 __all__ = ["ResidualTrace", "localise_residual", "residual_windows", "moving_mean", "WINDOW_SMOOTH", "WINDOW_MIN",
            "SLOW_S"]
@@ -40,7 +41,8 @@ class ResidualTrace:
     ``t`` (s) the design's rows; ``nominal``, ``augmented`` measured − predicted power (W, or
     N·m in the torque domain); ``localisation`` (:class:`~euc_sim.diagnosis.localise.Localisation`)
     of ``nominal``; ``in_sample`` when fitted on this ride; ``slow`` the augmented residual's
-    :data:`SLOW_S` s :func:`moving_mean` (hills, wind, temperature; same unit).
+    :data:`SLOW_S` s :func:`moving_mean` (hills, wind, temperature; same unit); ``rms_nominal``,
+    ``rms_augmented``, ``rms_slow`` their RMS values (same unit), taken when the trace is made.
     """
 
     label: str
@@ -51,6 +53,13 @@ class ResidualTrace:
     localisation: Localisation
     in_sample: bool
     slow: np.ndarray
+    rms_nominal: float = field(init=False)
+    rms_augmented: float = field(init=False)
+    rms_slow: float = field(init=False)
+
+    def __post_init__(self):
+        for k in ("nominal", "augmented", "slow"):
+            object.__setattr__(self, f"rms_{k}", rms(getattr(self, k)))
 
 
 def localise_residual(t: np.ndarray, r: np.ndarray, signals: Mapping[str, np.ndarray]) -> Localisation:

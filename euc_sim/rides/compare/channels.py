@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from euc_sim.rides.drive.drivetrain import charge_drawn
 from euc_sim.rides.drive.pwm import BASE, EXTRA, pwm_columns
 from euc_sim.stats import time_blocks
 
@@ -42,7 +41,7 @@ def _sag(r) -> tuple | None:
     b = r.drivetrain.battery_coef
     if V is None or I is None or not b or not b.get("R_int", 0.0) > 0:
         return None
-    E = b["E0"] - b["k_Q"] * charge_drawn(r.sig.t, I)
+    E = b["E0"] - b["k_Q"] * r.drivetrain.charge
     return V * (E - V) / b["R_int"], None, {}, None
 
 

@@ -16,7 +16,6 @@ from euc_sim.rides.compare.differences import (ALIAS_CORRELATION, FALSE_NAME_RAT
                                                signature_columns)
 from euc_sim.rides.compare.differences_fit import DELAY, PairDesign, pair_fit
 from euc_sim.rides.compare.resolution import with_floor
-from euc_sim.rides.drive.drivetrain import charge_drawn
 from euc_sim.rides.drive.drivetrain_report import reported_mass, reported_terms
 from euc_sim.rides.drive.mass import mass_regressors
 from euc_sim.rides.grids.power import GPS_V_MIN
@@ -215,11 +214,10 @@ def power_design(fit, test, mass: float, rows, shifts=None, window: float | None
 def voltage_design(fit, test):
     """Both rides' terminal voltage: own open-circuit voltage and charge slope, a shared R, ΔR on OTHER."""
     rides = []
-    for sig in (fit.sig, test.sig):
+    for sig, Q in ((fit.sig, fit.drivetrain.charge), (test.sig, test.drivetrain.charge)):
         V, I = sig.extra.get("voltage"), sig.extra.get("current")
         if V is None or I is None:
             return None
-        Q = charge_drawn(sig.t, I)
         ok = np.isfinite(V) & np.isfinite(I)
         if ok.sum() < 200:
             return None

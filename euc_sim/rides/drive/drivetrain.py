@@ -68,6 +68,8 @@ class Drivetrain:
         ``{"E0": V, "k_Q": V/Ah, "R_int": Ω}``.
     mass : float or None
         Total mass, kg.
+    charge : numpy.ndarray or None
+        The battery fit's charge drawn at each sample (:func:`charge_drawn`), Ah.
     """
 
     terms: dict
@@ -75,6 +77,7 @@ class Drivetrain:
     pwm_coef: dict | None
     battery_coef: dict | None
     mass: float | None
+    charge: np.ndarray | None = None
 
 
 def _lstsq_boot(X: np.ndarray, y: np.ndarray, t: np.ndarray, n_boot: int, seed: int):
@@ -112,8 +115,9 @@ def charge_drawn(t: np.ndarray, current: np.ndarray) -> np.ndarray:
     return np.cumsum(np.nan_to_num(current) * dt) / 3600.0
 
 
-def fit_battery(sig: PowerSignals, n_boot: int = 100, seed: int = 0):
-    """Open-circuit voltage falling with charge, and internal resistance.
+def fit_battery(sig: PowerSignals, n_boot: int = 100, seed: int = 0, charge: np.ndarray | None = None):
+    """Open-circuit voltage falling with charge, and internal resistance; ``charge`` the charge drawn
+    (:func:`charge_drawn` of the log's current, Ah) where already known.
 
     Returns
     -------
@@ -123,7 +127,7 @@ def fit_battery(sig: PowerSignals, n_boot: int = 100, seed: int = 0):
         Their 95 % intervals.
     """
     V, I = sig.extra["voltage"], sig.extra["current"]
-    Q = charge_drawn(sig.t, I)
+    Q = charge_drawn(sig.t, I) if charge is None else charge
     ok = np.isfinite(V) & np.isfinite(I)
     X = np.column_stack([np.ones(ok.sum()), -Q[ok], -I[ok]])
     beta, ci = _lstsq_boot(X, V[ok], sig.t[ok], n_boot, seed)
@@ -230,7 +234,8 @@ def _fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = Non
     terms["speed_scale"] = Term(mass.scale.estimate,
                                 (mass.scale.estimate - 1.96 * mass.scale.sd,
                                  mass.scale.estimate + 1.96 * mass.scale.sd), "dimensionless")
-    bcoef, bci = fit_battery(sig, n_boot, seed)
+    charge = charge_drawn(sig.t, sig.extra["current"])
+    bcoef, bci = fit_battery(sig, n_boot, seed, charge)
     for k, unit in (("E0", "V"), ("k_Q", "V/Ah"), ("R_int", "ohm")):
         terms[{"E0": "ocv_start", "k_Q": "ocv_per_Ah", "R_int": "internal_resistance"}[k]] = \
             Term(bcoef[k], bci[k], unit)
@@ -253,4 +258,5 @@ def _fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = Non
             terms["phase_resistance_pwm"] = Term(r, rci, "ohm")
     else:
         why["pwm"] = "no PWM or safety-margin column: back-EMF and the duty limit cannot be identified"
-    return Drivetrain(terms=terms, unidentified=why, pwm_coef=pcoef, battery_coef=bcoef, mass=m)
+    return Drivetrain(terms=terms, unidentified=why, pwm_coef=pcoef, battery_coef=bcoef, mass=m,
+                      charge=charge)

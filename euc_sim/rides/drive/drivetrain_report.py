@@ -28,7 +28,7 @@ from euc_sim.rides.source.spec import WheelSpec
 from euc_sim.rides.source.systematic import MassDifference, mass_difference
 from euc_sim.stats import rms
 
-__all__ = ["RideDrivetrain", "MassDrivetrain", "analyse", "mass_drivetrain", "ride_drivetrain",
+__all__ = ["DutyCheck", "RideDrivetrain", "MassDrivetrain", "analyse", "mass_drivetrain", "ride_drivetrain",
            "reported_mass", "reported_terms", "cutout_of"]
 
 #: A logged duty that its model explains better than this, percentage points, is
@@ -37,9 +37,28 @@ COMPUTED_PWM_RMS = 0.3
 
 
 @dataclass(frozen=True)
+class DutyCheck:
+    """A PWM model's duty on ride ``path`` against the logged one where both exist
+    (:func:`~euc_sim.rides.drive.drivetrain.predict_pwm`): ``predicted``, ``logged`` (%) and their
+    RMS difference ``rmse`` (percentage points)."""
+
+    path: str
+    predicted: np.ndarray
+    logged: np.ndarray
+    rmse: float
+
+
+def duty_check(path: str, sig: PowerSignals, pwm_coef: dict) -> DutyCheck:
+    """The duty of ``sig`` (ride ``path``) predicted by the PWM model ``pwm_coef``, checked against the log."""
+    pred, obs = predict_pwm(sig, pwm_coef)
+    return DutyCheck(path, pred, obs, rms(pred - obs))
+
+
+@dataclass(frozen=True)
 class RideDrivetrain:
     """Everything identified on one ride (see :func:`analyse`); ``pwm_note`` says why its logged
-    duty is taken as the app's computation (:func:`_computed_pwm_note`), None where measured."""
+    duty is taken as the app's computation (:func:`_computed_pwm_note`), None where measured;
+    ``duty`` its PWM model's check on itself (None without a model)."""
 
     path: str
     sig: PowerSignals
@@ -48,6 +67,7 @@ class RideDrivetrain:
     spec: WheelSpec
     grade: GradeProfile | None = None
     pwm_note: str | None = None
+    duty: DutyCheck | None = None
 
 
 def analyse(log: Ride, spec: WheelSpec = WheelSpec(), settings: MassSettings = MassSettings()
@@ -60,19 +80,16 @@ def analyse(log: Ride, spec: WheelSpec = WheelSpec(), settings: MassSettings = M
                         seed=settings.seed)
     alt = log.data["gps_alt"].to_numpy(float) if "gps_alt" in log.data else None
     grade = None if alt is None else grade_profile(sig, m_eq, log.data["t"].to_numpy(float), alt)
+    own = None if dt.pwm_coef is None else duty_check(log.path, sig, dt.pwm_coef)
     return RideDrivetrain(log.path, sig, without_rotating_inertia(m_eq, spec.wheel_mass), dt, spec, grade,
-                          _computed_pwm_note(sig, dt.pwm_coef))
+                          _computed_pwm_note(own), own)
 
 
-def _computed_pwm_note(sig: PowerSignals, pwm_coef: dict | None) -> str | None:
-    """Why the logged duty of ``sig`` is taken as computed by the app (its model ``pwm_coef``
-    explains it within :data:`COMPUTED_PWM_RMS`), or None if measured."""
-    if pwm_coef is None:
-        return None
-    pred, obs = predict_pwm(sig, pwm_coef)
-    err = rms(pred - obs)
-    if err < COMPUTED_PWM_RMS:
-        return (f"the logged duty follows speed and voltage to {err:.2f} percentage points: "
+def _computed_pwm_note(own: DutyCheck | None) -> str | None:
+    """Why the logged duty is taken as computed by the app (its model's check on the ride, ``own``,
+    within :data:`COMPUTED_PWM_RMS`), or None if measured."""
+    if own is not None and own.rmse < COMPUTED_PWM_RMS:
+        return (f"the logged duty follows speed and voltage to {own.rmse:.2f} percentage points: "
                 f"the app computes it, it is not measured; the resistive drop is not identified")
     return None
 
@@ -161,6 +178,8 @@ class MassDrivetrain:
         RMS power), W.
     pwm_heldout : float or None
         The compared ride's duty predicted from this ride's PWM model, RMS percentage points.
+    duty_heldout : DutyCheck or None
+        That prediction (``pwm_heldout`` its ``rmse``).
     pwm_why : str or None
         Why there is no ``pwm_heldout`` (with a compared ride).
     """
@@ -176,6 +195,12 @@ class MassDrivetrain:
     power_heldout: tuple | None = None
     pwm_heldout: float | None = None
     pwm_why: str | None = None
+    duty_heldout: DutyCheck | None = None
+
+    @property
+    def duty_shown(self) -> DutyCheck | None:
+        """The PWM model's check the page draws: on the compared ride where it was made, else on this one."""
+        return self.duty_heldout or self.fit.duty
 
     @property
     def pwm_unchecked(self) -> str | None:
@@ -222,8 +247,8 @@ def mass_drivetrain(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
     out.update(test=test, mass_difference=mass_difference(r.mass, test.mass),
                power_heldout=(rms(pred - obs), rms(obs)))
     if r.drivetrain.pwm_coef is not None and "pwm" in test.sig.extra:
-        pp, po = predict_pwm(test.sig, r.drivetrain.pwm_coef)
-        out["pwm_heldout"] = rms(pp - po)
+        out["duty_heldout"] = duty_check(test.path, test.sig, r.drivetrain.pwm_coef)
+        out["pwm_heldout"] = out["duty_heldout"].rmse
     else:
         out["pwm_why"] = "no PWM or safety-margin column in " + (compare.name if r.drivetrain.pwm_coef else log.name)
     return MassDrivetrain(**out)

@@ -113,6 +113,8 @@ class RideHistory:
     why : dict
     trend : str or None
         :func:`~euc_sim.rides.drive.battery.trend_words` of the resistances.
+    zone : float or None
+        The zone the rides are sorted in (:func:`shared_offset`), s east of UTC.
     """
 
     rides: tuple
@@ -122,6 +124,7 @@ class RideHistory:
     whkm_slope_ci95: tuple | None
     why: dict = field(default_factory=dict)
     trend: str | None = None
+    zone: float | None = None
 
 
 def shared_offset(offsets) -> float | None:
@@ -292,4 +295,4 @@ def ride_history(entries) -> RideHistory:
     if slope is None:
         why["Wh_per_km_vs_speed"] = "fewer than three rides with a consumption and a speed"
     return RideHistory(rides=rides, basis="25C" if all25 else "as measured", change=change,
-                       whkm_slope=slope, whkm_slope_ci95=sci, why=why, trend=trend)
+                       whkm_slope=slope, whkm_slope_ci95=sci, why=why, trend=trend, zone=zone)
