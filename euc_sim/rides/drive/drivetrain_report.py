@@ -176,10 +176,8 @@ class MassDrivetrain:
     power_heldout : tuple of float or None
         The compared ride's battery power predicted from this ride's mass fit: (RMS error,
         RMS power), W.
-    pwm_heldout : float or None
-        The compared ride's duty predicted from this ride's PWM model, RMS percentage points.
     duty_heldout : DutyCheck or None
-        That prediction (``pwm_heldout`` its ``rmse``).
+        The compared ride's duty predicted from this ride's PWM model.
     pwm_why : str or None
         Why there is no ``pwm_heldout`` (with a compared ride).
     """
@@ -193,9 +191,13 @@ class MassDrivetrain:
     duty: DutyModel | str
     mass_difference: MassDifference | None = None
     power_heldout: tuple | None = None
-    pwm_heldout: float | None = None
     pwm_why: str | None = None
     duty_heldout: DutyCheck | None = None
+
+    @property
+    def pwm_heldout(self) -> float | None:
+        """The compared ride's duty predicted from this ride's PWM model, RMS percentage points."""
+        return None if self.duty_heldout is None else self.duty_heldout.rmse
 
     @property
     def duty_shown(self) -> DutyCheck | None:
@@ -248,7 +250,6 @@ def mass_drivetrain(log: Ride, spec: WheelSpec = WheelSpec(), compare=None,
                power_heldout=(rms(pred - obs), rms(obs)))
     if r.drivetrain.pwm_coef is not None and "pwm" in test.sig.extra:
         out["duty_heldout"] = duty_check(test.path, test.sig, r.drivetrain.pwm_coef)
-        out["pwm_heldout"] = out["duty_heldout"].rmse
     else:
         out["pwm_why"] = "no PWM or safety-margin column in " + (compare.name if r.drivetrain.pwm_coef else log.name)
     return MassDrivetrain(**out)

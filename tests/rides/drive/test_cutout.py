@@ -17,6 +17,7 @@ import pandas as pd
 import pytest
 
 from euc_sim.report.ride.contract import limits_json
+from euc_sim.rides.drive.drivetrain_report import DutyCheck
 from euc_sim.rides.drive.cutout import (CONDITIONS, Curve, DutyModel, Limits, OcvLine,
                                         cutout_curves, danger_sentence, duty, envelope, full_duty_accel,
                                         headroom_words, limit_speed, ocv_line, ride_limits)
@@ -317,10 +318,11 @@ def test_an_apps_computed_pwm_is_not_called_a_check(tmp_path, ride_result):
     md = (tmp_path / "r" / "index.md").read_text()
     assert "app's computation" in md and "points RMS" not in md
     m = ride_result.mass
-    computed = replace(m, pwm_heldout=0.0, fit=replace(m.fit, pwm_note="the app computes it"))
+    held = lambda rmse: DutyCheck("other.csv", np.zeros(3), np.zeros(3), rmse)  # noqa: E731
+    computed = replace(m, duty_heldout=held(0.0), fit=replace(m.fit, pwm_note="the app computes it"))
     assert pwm_check(replace(ride_result, mass=computed,
                              cutout=replace(ride_result.cutout, heldout_pwm_rmse_pct=0.01))) is None
-    assert pwm_check(replace(ride_result, mass=replace(m, pwm_heldout=1.5, fit=replace(m.fit, pwm_note=None))))[2] == 1.5
+    assert pwm_check(replace(ride_result, mass=replace(m, duty_heldout=held(1.5), fit=replace(m.fit, pwm_note=None))))[2] == 1.5
 
 
 def test_the_spec_gives_its_top_speed_and_an_unreadable_one_is_left_out(tmp_path):
