@@ -109,13 +109,11 @@ def ride_analysis(log_path, compare_path=None, *, assumptions: RideAssumptions =
                             recording=log_path.name, compare=None if compare_path is None else compare_path.name)
 
 
-def check_data(log_path, compare_path=None, *, assumptions: RideAssumptions = RideAssumptions(),
-               domain: str = "power") -> None:
-    """Fail early, naming the file, on a log :func:`ride_analysis` cannot use: the fit part
-    must hold enough rows for the bootstrap (:func:`block_rows`).
-    """
-    sig_fit = ride_signals(log_path, assumptions)
-    sig_test = None if compare_path is None else ride_signals(compare_path, assumptions)
+def check_data(log_path, compare_path=None, *, domain: str = "power") -> None:
+    """Fail early, naming the file, on a log :func:`ride_analysis` cannot use: the fit part must hold
+    enough rows for the bootstrap (:func:`block_rows`); the rows it counts do not depend on mass or radius."""
+    sig_fit = ride_signals(log_path)
+    sig_test = None if compare_path is None else ride_signals(compare_path)
     _, d_fit, d_test, _, _ = _fit_and_test(sig_fit, sig_test, log_path, compare_path, domain)
     block_rows(d_fit, BalanceSettings.block_s)
     if len(d_test.P) == 0:
