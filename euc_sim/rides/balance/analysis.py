@@ -100,7 +100,9 @@ def ride_analysis(log_path, compare_path=None, *, assumptions: RideAssumptions =
         notes = _notes(sig_fit, sig_test, d_fit, assumptions, test_label)
         blocks = len(d_fit.P) / (block_s * rate)
         if n_boot and blocks < FEW_BLOCKS:
-            notes.append(_few_blocks(fit_label, blocks, block_s))
+            notes.append(f"{fit_label} gives only {blocks:.1f} bootstrap blocks of {block_s:g} s: the 95 % "
+                         f"intervals are rough (fewer than {FEW_BLOCKS} blocks); a longer ride gives "
+                         f"firmer ones")
             warnings.warn(notes[-1], stacklevel=2)
         return RideAnalysis(cross=cr, sig_fit=sig_fit, sig_test=sig_test,
                             designs=(d_all, None if sig_test is None else d_test), notes=tuple(notes),
@@ -118,12 +120,6 @@ def check_data(log_path, compare_path=None, *, domain: str = "power") -> None:
     block_rows(d_fit, BalanceSettings.block_s)
     if len(d_test.P) == 0:
         raise InputError(f"{d_test.path}: no usable rows to test on")
-
-
-def _few_blocks(fit_label: str, blocks: float, block_s: float) -> str:
-    return (f"{fit_label} gives only {blocks:.1f} bootstrap blocks of {block_s:g} s: the 95 % "
-            f"intervals are rough (fewer than {FEW_BLOCKS} blocks); a longer ride gives "
-            f"firmer ones")
 
 
 def split_time(t) -> float:
