@@ -26,7 +26,7 @@ from euc_sim.rides.grids.power import MassSettings
 from euc_sim.rides.grids.signals import RideAssumptions, with_found_values
 from euc_sim.rides.law.controller_report import controller_fit, torque_constant
 from euc_sim.rides.request import RideRequest
-from euc_sim.rides.result import ComparedRide, RideResult, RiderNumbers
+from euc_sim.rides.result import ComparedRide, RideResult
 from euc_sim.rides.rider.rider_step import RIDER_STEPS
 from euc_sim.rides.sim.sim_steps import STEP_BUILDERS, StepInputs, build_steps, log_channels
 from euc_sim.rides.sim.simulate import ride_params, simulate_ride, simulation_obstacle
@@ -114,22 +114,17 @@ def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResu
         notes += (why,)
     verdict = verdict_of(an.cross, parameters, mass.unidentified.get("battery_power"), an.error_unit)
     # the rider's numbers (summary, mass check, battery health), from the log as parsed here
-    rider = _rider_numbers(log, mass.mass, drivetrain, spec, req.rider_weight)
+    rider = rider_numbers(log, mass.mass, drivetrain, spec, req.rider_weight)
     compared = None
     if compare is not None:         # the compared ride's own numbers, beside LOG's on the page
         test, test_mass = mass.test, reported_mass(mass.test)
-        compared = ComparedRide(Path(compare.path).name, test, test_mass, _rider_numbers(
+        compared = ComparedRide(Path(compare.path).name, test, test_mass, rider_numbers(
             compare, test_mass, reported_terms(test), spec, req.compare_rider_weight))
     cutout = cutout_of(mass, rider.summary.limits)
     return RideResult(balance=an, notes=notes, mass=mass, law=law, parameters=parameters,
                       effects=effect_estimates(an.cross, parameters), drivetrain=drivetrain, differences=differences, traces=tuple(traces),
                       simulation=sim, simulation_why=why, verdict=verdict, rider=rider,
                       compared=compared, cutout=cutout)
-
-
-def _rider_numbers(log, total_mass, drivetrain, spec, rider_weight) -> RiderNumbers:
-    """The summary, mass check, battery and clock of one ride (:mod:`euc_sim.rides.summary.rider_view`)."""
-    return RiderNumbers(*rider_numbers(log, total_mass, drivetrain, spec, rider_weight))
 
 
 def _localise(an, log, compare) -> list:

@@ -132,6 +132,6 @@ def ride_request(log, compare=None, *, wheel=None, radius: float | None = None, 
                 r is None or log_contradictions(spec, r.data)
             except SpecError as exc:
                 raise SpecError(f"{path}: {exc} (--wheel {wheel})") from None
-    check_data(ride, other, assumptions=assumptions, domain=domain)
+    check_data(ride, other, domain=domain)
     return RideRequest(ride, other, spec, assumptions, domain, given["n_boot"], seed, simulate, calibrate_rider,
                        weights[0] if weights else None, weights[-1] if weights and compare else None)

@@ -11,39 +11,15 @@ from euc_sim.rides.balance.analysis import RideAnalysis
 from euc_sim.rides.balance.parameters import Parameter
 from euc_sim.rides.balance.verdict import Verdict
 from euc_sim.rides.compare.differences import Differences
-from euc_sim.rides.drive.battery import BatteryHealth
 from euc_sim.rides.drive.cutout import Cutout
 from euc_sim.rides.drive.mass import MassFit
 from euc_sim.rides.law.controller_report import ControllerFit
 from euc_sim.rides.drive.drivetrain_report import MassDrivetrain, RideDrivetrain
 from euc_sim.rides.balance.residual import ResidualTrace
-from euc_sim.rides.summary.rider_view import Clock
-from euc_sim.rides.summary.summary import MassCheck, RideSummary
+from euc_sim.rides.summary.rider_view import RiderNumbers
 from euc_sim.rides.sim.simulate import RideSimulation
 
 __all__ = ["RideResult", "RiderNumbers", "ComparedRide"]
-
-
-@dataclass(frozen=True)
-class RiderNumbers:
-    """The numbers a rider reads first, of one ride.
-
-    Attributes
-    ----------
-    summary : RideSummary
-        Distance, time, speed, energy, battery, limits.
-    mass_check : MassCheck
-        The declared rider weight against the log's total mass.
-    battery : BatteryHealth
-        The pack's internal resistance against what its cells give.
-    clock : Clock
-        When the ride ran, in its zone.
-    """
-
-    summary: RideSummary
-    mass_check: MassCheck
-    battery: BatteryHealth
-    clock: Clock
 
 
 @dataclass(frozen=True)

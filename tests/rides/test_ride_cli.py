@@ -406,7 +406,7 @@ def test_with_compare_the_replay_runs_unless_refused(logs, tmp_path, capsys, mon
 
     asked = []
 
-    def not_run(an, log, compare, seed, jobs, progress, simulate, calibrate_rider, *fitted):
+    def not_run(an, log, compare, n_boot, seed, jobs, progress, simulate, calibrate_rider, *fitted):
         asked.append(simulate)
         return None, "stubbed"
 

@@ -23,7 +23,7 @@ def read(path):
 def rider_of(path, **summary) -> RiderNumbers:
     """The summary, mass check, battery and clock of the log at ``path`` (no mass, no drivetrain),
     the summary's fields in ``summary`` replaced."""
-    r = RiderNumbers(*rider_numbers(read(path), None, {}))
+    r = rider_numbers(read(path), None, {})
     return replace(r, summary=replace(r.summary, **summary)) if summary else r
 
 

@@ -100,7 +100,9 @@ def ride_analysis(log_path, compare_path=None, *, assumptions: RideAssumptions =
         notes = _notes(sig_fit, sig_test, d_fit, assumptions, test_label)
         blocks = len(d_fit.P) / (block_s * rate)
         if n_boot and blocks < FEW_BLOCKS:
-            notes.append(_few_blocks(fit_label, blocks, block_s))
+            notes.append(f"{fit_label} gives only {blocks:.1f} bootstrap blocks of {block_s:g} s: the 95 % "
+                         f"intervals are rough (fewer than {FEW_BLOCKS} blocks); a longer ride gives "
+                         f"firmer ones")
             warnings.warn(notes[-1], stacklevel=2)
         return RideAnalysis(cross=cr, sig_fit=sig_fit, sig_test=sig_test,
                             designs=(d_all, None if sig_test is None else d_test), notes=tuple(notes),
@@ -109,23 +111,15 @@ def ride_analysis(log_path, compare_path=None, *, assumptions: RideAssumptions =
                             recording=log_path.name, compare=None if compare_path is None else compare_path.name)
 
 
-def check_data(log_path, compare_path=None, *, assumptions: RideAssumptions = RideAssumptions(),
-               domain: str = "power") -> None:
-    """Fail early, naming the file, on a log :func:`ride_analysis` cannot use: the fit part
-    must hold enough rows for the bootstrap (:func:`block_rows`).
-    """
-    sig_fit = ride_signals(log_path, assumptions)
-    sig_test = None if compare_path is None else ride_signals(compare_path, assumptions)
+def check_data(log_path, compare_path=None, *, domain: str = "power") -> None:
+    """Fail early, naming the file, on a log :func:`ride_analysis` cannot use: the fit part must hold
+    enough rows for the bootstrap (:func:`block_rows`); the rows it counts do not depend on mass or radius."""
+    sig_fit = ride_signals(log_path)
+    sig_test = None if compare_path is None else ride_signals(compare_path)
     _, d_fit, d_test, _, _ = _fit_and_test(sig_fit, sig_test, log_path, compare_path, domain)
     block_rows(d_fit, BalanceSettings.block_s)
     if len(d_test.P) == 0:
         raise InputError(f"{d_test.path}: no usable rows to test on")
-
-
-def _few_blocks(fit_label: str, blocks: float, block_s: float) -> str:
-    return (f"{fit_label} gives only {blocks:.1f} bootstrap blocks of {block_s:g} s: the 95 % "
-            f"intervals are rough (fewer than {FEW_BLOCKS} blocks); a longer ride gives "
-            f"firmer ones")
 
 
 def split_time(t) -> float:

@@ -15,7 +15,7 @@ import numpy as np
 from euc_sim.rides.source.gaps import GAP_POLICY
 from euc_sim.rides.source.ride import Ride
 
-__all__ = ["Clock", "rider_numbers", "ride_clock", "zone_words"]
+__all__ = ["Clock", "RiderNumbers", "rider_numbers", "ride_clock", "zone_words"]
 
 
 def zone_words(offset_s: float | None) -> str:
@@ -53,8 +53,30 @@ def ride_clock(log: Ride) -> Clock:
     return Clock(start.isoformat(), off, zone_words(off), tuple((float(t[k]), float(t[k + 1])) for k in i))
 
 
-def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: float | None = None) -> tuple:
-    """(RideSummary, MassCheck, BatteryHealth, Clock) of one ride, from ``total_mass`` and the
+@dataclass(frozen=True)
+class RiderNumbers:
+    """The numbers a rider reads first, of one ride.
+
+    Attributes
+    ----------
+    summary : RideSummary
+        Distance, time, speed, energy, battery, limits.
+    mass_check : MassCheck
+        The declared rider weight against the log's total mass.
+    battery : BatteryHealth
+        The pack's internal resistance against what its cells give.
+    clock : Clock
+        When the ride ran, in its zone.
+    """
+
+    summary: RideSummary
+    mass_check: MassCheck
+    battery: BatteryHealth
+    clock: Clock
+
+
+def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: float | None = None) -> RiderNumbers:
+    """The rider's numbers of one ride, from ``total_mass`` and the
     ``drivetrain`` terms as reported (never recomputed), the ``spec``'s wheel weight and pack,
     and the rider's declared weight (kg).
     """
@@ -64,4 +86,4 @@ def rider_numbers(log: Ride, total_mass, drivetrain, spec=None, rider_weight: fl
     summary = ride_summary(log, getattr(spec, "top_speed", None))
     mc = mass_check(total_mass, rider_weight, getattr(spec, "wheel_mass", None))
     bh = battery_health_of((drivetrain or {}).get("internal_resistance"), log.counters, pack_spec(spec))
-    return summary, mc, bh, ride_clock(log)
+    return RiderNumbers(summary, mc, bh, ride_clock(log))

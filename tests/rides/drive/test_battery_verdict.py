@@ -74,7 +74,6 @@ def test_trend_words():
 def test_summary_battery_carries_the_contract_keys(tmp_path):
     from euc_sim.report.ride.contract import rider_json
     from euc_sim.rides.summary.rider_view import rider_numbers
-    from euc_sim.rides.result import RiderNumbers
     from euc_sim.rides.source.logs import read_log
     from tests.rides.summarysynth import synth_summary_log
 
@@ -84,7 +83,7 @@ def test_summary_battery_carries_the_contract_keys(tmp_path):
     rep = {"drivetrain": {"internal_resistance": Term(0.4, (0.38, 0.42), "ohm")}}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        out = rider_json(RiderNumbers(*rider_numbers(log, None, rep["drivetrain"], find_wheel("v9"))))
+        out = rider_json(rider_numbers(log, None, rep["drivetrain"], find_wheel("v9")))
     sb = out["summary"]["battery"]
     assert set(sb) == {"verdict", "expected_ohm", "expected_source"}
     assert sb["verdict"].startswith("worn: +") and len(sb["expected_ohm"]) == 2

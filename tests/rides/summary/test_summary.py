@@ -189,7 +189,6 @@ def test_other_layouts_give_the_same_summary(tmp_path, layout):
 def test_rider_numbers_reads_the_reports_terms(tmp_path):
     from euc_sim.report.ride.contract import rider_json
     from euc_sim.rides.summary.rider_view import rider_numbers
-    from euc_sim.rides.result import RiderNumbers
     from euc_sim.rides.source.spec import WheelSpec
 
     path = synth_summary_log(tmp_path / "a.csv")
@@ -200,13 +199,13 @@ def test_rider_numbers_reads_the_reports_terms(tmp_path):
     rep = {"total_mass": SimpleNamespace(estimate=100.0, ci95=(90.0, 110.0), why=None),
            "drivetrain": {"internal_resistance": Term(0.2, (0.19, 0.21), "ohm")}}
     log = read_log(path, emit_warnings=False)
-    out = rider_json(RiderNumbers(*rider_numbers(log, rep["total_mass"], rep["drivetrain"], WheelSpec(wheel_mass=25.0), 90.0)))
+    out = rider_json(rider_numbers(log, rep["total_mass"], rep["drivetrain"], WheelSpec(wheel_mass=25.0), 90.0))
     assert out["summary"]["distance_m"] == pytest.approx(25 / 3.6 * 600, rel=0.005)
     assert out["mass_check"]["verdict"] == "lighter" and out["mass_check"]["difference_kg"] == pytest.approx(-15.0)
     assert "15 kg less than declared" in out["mass_check"]["sentence"]
     assert out["battery"]["resistance_ohm"] == 0.2
-    assert summary_json(rider_numbers(log, rep["total_mass"], rep["drivetrain"])[0]) == summary_json(rider_numbers(
-        log, rep["total_mass"], rep["drivetrain"], WheelSpec(wheel_mass=25.0), 90.0)[0])
+    assert summary_json(rider_numbers(log, rep["total_mass"], rep["drivetrain"]).summary) == summary_json(rider_numbers(
+        log, rep["total_mass"], rep["drivetrain"], WheelSpec(wheel_mass=25.0), 90.0).summary)
 
 
 def test_a_pause_of_the_log_does_not_make_its_data_poor(tmp_path):
