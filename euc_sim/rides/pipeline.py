@@ -122,9 +122,9 @@ def ride_pipeline(req: RideRequest, *, jobs: int = 1, progress=None) -> RideResu
             compare, test_mass, reported_terms(test), spec, req.compare_rider_weight))
     cutout = cutout_of(mass, rider.summary.limits)
     return RideResult(balance=an, notes=notes, mass=mass, law=law, parameters=parameters,
-                      effects=effect_estimates(an.cross, parameters), drivetrain=drivetrain, differences=differences, traces=tuple(traces),
-                      simulation=sim, simulation_why=why, verdict=verdict, rider=rider,
-                      compared=compared, cutout=cutout)
+                      effects=effect_estimates(an.cross, parameters), drivetrain=drivetrain,
+                      differences=differences, traces=tuple(traces), simulation=sim, simulation_why=why,
+                      verdict=verdict, rider=rider, compared=compared, cutout=cutout)
 
 
 def _localise(an, log, compare) -> list:
