@@ -6,7 +6,7 @@ correlations say what the pair cannot tell apart.
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -21,7 +21,8 @@ from euc_sim.rides.drive.mass import mass_regressors
 from euc_sim.rides.grids.power import GPS_V_MIN
 from euc_sim.simulation.effects import RECORDS
 
-__all__ = ["own_lag", "window_means", "power_rows", "power_design", "voltage_design", "gps_design", "pair_tests", "pair_aliases", "pair_differences"]
+__all__ = ["own_lag", "window_means", "PowerRows", "power_rows", "power_design", "voltage_design", "gps_design",
+           "pair_tests", "pair_aliases", "pair_differences"]
 
 #: Speed above which rows enter the held-out tests, m/s.
 V_MIN = 1.0
@@ -140,11 +141,34 @@ def window_means(t: np.ndarray, Z: np.ndarray, width: float, rate: float) -> tup
     return tm[keep], sums[keep] / n[keep, None]
 
 
-def power_rows(fit, test, mass: float) -> tuple | None:
-    """What both of :func:`power_design`'s designs share: ``(rate, K, force, lag, yL, sL, dL, okL, yO,
-    okO, colsO)``, LOG's delay, shared columns and differences, each ride's signed power and valid
-    rows, OTHER's columns at each shift ``−K … K`` beyond LOG's delay; None without a balance fitted on LOG.
+@dataclass(frozen=True)
+class PowerRows:
+    """What both of :func:`power_design`'s designs share.
+
+    ``rate`` (Hz) LOG's grid, ``K`` the shifts searched (samples), ``mass`` LOG's total mass (kg),
+    ``force`` the copper loss's force terms (or None), ``lag`` LOG's delay (samples); ``yL``,
+    ``sL``, ``dL``, ``okL`` LOG's signed power, shared columns, differences and valid rows; ``yO``,
+    ``okO`` OTHER's signed power and valid rows, ``colsO`` its columns at each shift ``−K … K``
+    beyond LOG's delay.
     """
+
+    rate: float
+    K: int
+    mass: float
+    force: tuple | None
+    lag: int
+    yL: np.ndarray
+    sL: dict
+    dL: dict
+    okL: np.ndarray
+    yO: np.ndarray
+    okO: np.ndarray
+    colsO: dict
+
+
+def power_rows(fit, test, mass: float) -> PowerRows | None:
+    """LOG's delay and both rides' power rows (:class:`PowerRows`), once for both power designs;
+    None without a balance fitted on LOG."""
     mf = fit.mass
     if "inertia" not in (mf.coef or {}) or mf.lag is None:
         return None
@@ -158,20 +182,18 @@ def power_rows(fit, test, mass: float) -> tuple | None:
     colsL = {j: near.get(lag + j) or _power_columns(fit.sig, lag + j, force, mass) for j in range(-K, K + 1)}
     colsO = {j: _power_columns(test.sig, lag + j, force, mass) for j in range(-K, K + 1)}
     yO = _signed_power(test.sig, mf, lag, force)
-    return (rate, K, force, lag, yL, *colsL[0], _valid(fit.sig, yL, colsL), yO,
-            _valid(test.sig, yO, colsO), colsO)
+    return PowerRows(rate, K, mass, force, lag, yL, *colsL[0], _valid(fit.sig, yL, colsL), yO,
+                     _valid(test.sig, yO, colsO), colsO)
 
 
-def power_design(fit, test, mass: float, rows, shifts=None, window: float | None = None, channels=()):
+def power_design(fit, test, rows: PowerRows | None, shifts=None, window: float | None = None, channels=()):
     """Both rides' battery power: LOG's terms shared, a constant each; OTHER's differences and shift.
 
     Parameters
     ----------
     fit, test : RideDrivetrain
-    mass : float
-        LOG's total mass, kg (the rolling signature's weight).
-    rows : tuple or None
-        :func:`power_rows` of ``fit``, ``test`` and ``mass``.
+    rows : PowerRows or None
+        :func:`power_rows` of ``fit`` and ``test``.
     shifts : sequence of int, optional
         OTHER's extra delays, samples beyond LOG's lag (default ±:data:`MAX_SHIFT`: the
         delay's design); one shift: the mass, rolling and drag differences there.
@@ -187,9 +209,9 @@ def power_design(fit, test, mass: float, rows, shifts=None, window: float | None
     """
     if rows is None:
         return None
-    rate, K, force, lag, yL, sL, dL, okL, yO, okO, colsO = rows
-    shifts = list(range(-K, K + 1)) if shifts is None else list(shifts)
-    shifted = [colsO.get(j) or _power_columns(test.sig, lag + j, force, mass) for j in shifts]
+    rate, yL, sL, dL, okL, yO, okO = rows.rate, rows.yL, rows.sL, rows.dL, rows.okL, rows.yO, rows.okO
+    shifts = list(range(-rows.K, rows.K + 1)) if shifts is None else list(shifts)
+    shifted = [rows.colsO.get(j) or _power_columns(test.sig, rows.lag + j, rows.force, rows.mass) for j in shifts]
     if okL.sum() < 200 or okO.sum() < 200:
         return None
     scale = {n: float(np.sqrt(np.mean(sL[n][okL] ** 2))) or 1.0 for n in sL}
@@ -287,15 +309,15 @@ def pair_tests(fit, test, log_path, compare_path, mass: float, n_boot: int = 200
     if not (fit.sig.current_from_phase and test.sig.current_from_phase):
         channels = tuple(c for c in channels if c != "sag")     # a measured current: sag repeats it
     rows = power_rows(fit, test, mass)
-    delay = fitted(power_design(fit, test, mass, rows))
+    delay = fitted(power_design(fit, test, rows))
     shift = 0
     if delay is not None:
         out.update(_entries(delay))
         floor, det = _delay_resolution(fit, log_path, compare_path), out[DELAY].detectable
         out[DELAY] = replace(out[DELAY], resolution=floor, detectable=None if det is None else with_floor(det, floor))
         if DELAY in delay.selected:
-            shift = int(round(delay.estimates[DELAY][0] * rows[0]))     # s -> samples of LOG's grid
-    for res in (fitted(power_design(fit, test, mass, rows, [shift], ROAD_WINDOW, channels)),
+            shift = int(round(delay.estimates[DELAY][0] * rows.rate))     # s -> samples of LOG's grid
+    for res in (fitted(power_design(fit, test, rows, [shift], ROAD_WINDOW, channels)),
                 fitted(voltage_design(fit, test)), fitted(gps_design(log_path, compare_path))):
         if res is not None:
             out.update(_entries(res))
