@@ -219,11 +219,11 @@ def battery_health(r_ohm: float | None, ci95, temp_C: float | None = None,
 
 def measure_resistance(log, n_boot: int = 100, seed: int = 0) -> tuple[float, tuple | None]:
     """The drivetrain's ``internal_resistance`` of one log, Ω, with its 95 % interval (as ``euc-sim ride`` computes it)."""
-    from euc_sim.rides.drive.drivetrain import fit_battery  # deferred: loads scipy (1.1 s)
+    from euc_sim.rides.drive.drivetrain import charge_drawn, fit_battery  # deferred: loads scipy (1.1 s)
     from euc_sim.rides.grids.power import MassSettings, power_signals  # deferred: loads scipy (1.1 s)
 
     sig = power_signals(log, MassSettings(n_boot=n_boot, seed=seed))
-    coef, ci = fit_battery(sig, n_boot, seed)
+    coef, ci = fit_battery(sig, charge_drawn(sig.t, sig.extra["current"]), n_boot, seed)
     return coef["R_int"], ci["R_int"]
 
 

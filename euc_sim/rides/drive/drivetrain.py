@@ -115,9 +115,9 @@ def charge_drawn(t: np.ndarray, current: np.ndarray) -> np.ndarray:
     return np.cumsum(np.nan_to_num(current) * dt) / 3600.0
 
 
-def fit_battery(sig: PowerSignals, n_boot: int = 100, seed: int = 0, charge: np.ndarray | None = None):
-    """Open-circuit voltage falling with charge, and internal resistance; ``charge`` the charge drawn
-    (:func:`charge_drawn` of the log's current, Ah) where already known.
+def fit_battery(sig: PowerSignals, charge: np.ndarray, n_boot: int = 100, seed: int = 0):
+    """Open-circuit voltage falling with ``charge``, the charge drawn at each sample
+    (:func:`charge_drawn` of the log's current, Ah), and internal resistance.
 
     Returns
     -------
@@ -127,9 +127,8 @@ def fit_battery(sig: PowerSignals, n_boot: int = 100, seed: int = 0, charge: np.
         Their 95 % intervals.
     """
     V, I = sig.extra["voltage"], sig.extra["current"]
-    Q = charge_drawn(sig.t, I) if charge is None else charge
     ok = np.isfinite(V) & np.isfinite(I)
-    X = np.column_stack([np.ones(ok.sum()), -Q[ok], -I[ok]])
+    X = np.column_stack([np.ones(ok.sum()), -charge[ok], -I[ok]])
     beta, ci = _lstsq_boot(X, V[ok], sig.t[ok], n_boot, seed)
     names = ("E0", "k_Q", "R_int")
     return dict(zip(names, map(float, beta))), dict(zip(names, ci))
@@ -235,7 +234,7 @@ def _fit_drivetrain(sig: PowerSignals, mass: MassFit, radius: float | None = Non
                                 (mass.scale.estimate - 1.96 * mass.scale.sd,
                                  mass.scale.estimate + 1.96 * mass.scale.sd), "dimensionless")
     charge = charge_drawn(sig.t, sig.extra["current"])
-    bcoef, bci = fit_battery(sig, n_boot, seed, charge)
+    bcoef, bci = fit_battery(sig, charge, n_boot, seed)
     for k, unit in (("E0", "V"), ("k_Q", "V/Ah"), ("R_int", "ohm")):
         terms[{"E0": "ocv_start", "k_Q": "ocv_per_Ah", "R_int": "internal_resistance"}[k]] = \
             Term(bcoef[k], bci[k], unit)
